@@ -1,0 +1,34 @@
+# One command sets everything up and runs the job: `make demo`; the tests: `make test`.
+PYTHON ?= python3
+VENV   := .venv
+BIN    := $(VENV)/bin
+STAMP  := $(VENV)/.installed
+
+.PHONY: install demo test lint bench urdf firmware clean
+
+$(STAMP): pyproject.toml
+	$(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install -q --upgrade pip
+	$(BIN)/python -m pip install -q -e '.[dev]'
+	touch $(STAMP)
+
+install: $(STAMP)
+
+demo: $(STAMP)
+	$(BIN)/python -m mearm.fk --config configs/sim.yaml --joints 120,93,-132
+
+test: $(STAMP)
+	$(BIN)/python -m pytest -q
+
+lint: $(STAMP)
+	$(BIN)/ruff check mearm tools tests
+	$(BIN)/ruff format --check mearm tools tests
+
+bench: $(STAMP)
+	$(BIN)/python tools/bench.py
+
+urdf: $(STAMP)
+	$(BIN)/python tools/dh_to_urdf.py --config configs/lab.yaml
+
+clean:
+	rm -rf $(VENV) .pytest_cache .ruff_cache

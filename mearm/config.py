@@ -1,0 +1,443 @@
+"""Typed configuration: one pydantic model tree, loaded from YAML.
+
+The defaults of :class:`Config` *are* the simulated rig (``configs/sim.yaml`` writes them
+out with comments); ``configs/lab.yaml`` is the paper's real rig. Every number's source in
+the paper is given in the YAML files and in ``../shared/SPEC.md`` (cited as SPEC §n).
+
+Loading is strict: unknown keys are rejected and each bad field is reported with its
+dotted path, the value given and what is allowed (:class:`~mearm.exceptions.ConfigError`).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated, Any, Literal
+
+import yaml
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    ValidationError,
+    field_validator,
+    model_validator,
+)
+
+from mearm.exceptions import ConfigError
+
+Color = Literal["red", "green", "blue"]
+COLORS: tuple[Color, ...] = ("red", "green", "blue")
+JOINT_NAMES: tuple[str, ...] = ("joint1", "joint2", "joint3", "joint4")
+ACTUATED_JOINTS: tuple[str, ...] = ("joint1", "joint2", "joint3")
+
+Finite = Annotated[float, Field(allow_inf_nan=False)]
+Positive = Annotated[float, Field(gt=0, allow_inf_nan=False)]
+NonNegative = Annotated[float, Field(ge=0, allow_inf_nan=False)]
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+# --------------------------------------------------------------------------- robot
+
+
+class DHRow(_Strict):
+    """One standard Denavit–Hartenberg row, T = Rz(θ)·Tz(d)·Tx(a)·Rx(α) (SPEC §2, eq. 1)."""
+
+    a_cm: Finite
+    alpha_deg: Finite
+    d_cm: Finite
+
+
+class Range(_Strict):
+    """A closed interval [min, max] with min < max."""
+
+    min: Finite
+    max: Finite
+
+    @model_validator(mode="after")
+    def _ordered(self) -> Range:
+        if not self.min < self.max:
+            raise ValueError(f"min ({self.min:g}) must be below max ({self.max:g})")
+        return self
+
+    def contains(self, value: float, tol: float = 0.0) -> bool:
+        """Whether ``min - tol <= value <= max + tol``."""
+        return self.min - tol <= value <= self.max + tol
+
+
+class JointLimits(_Strict):
+    """Limits of the three actuated joints [deg] (SPEC §3, Table 4 as the project reads it).
+
+    Joint 4 has no servo: θ4 = −(θ2+θ3), so its limits follow from these.
+    """
+
+    joint1: Range = Range(min=20, max=160)
+    joint2: Range = Range(min=30, max=135)
+    joint3: Range = Range(min=-160, max=-20)
+
+    def as_list(self) -> list[Range]:
+        """Limits of joints 1–4 in order; joint 4's is derived from the coupling."""
+        j2, j3 = self.joint2, self.joint3
+        j4 = Range(min=-(j2.max + j3.max), max=-(j2.min + j3.min))
+        return [self.joint1, j2, j3, j4]
+
+
+class TargetBox(_Strict):
+    """The end-effector target box in the base frame [cm] (SPEC §3, Table 3)."""
+
+    x_cm: Range = Range(min=-40, max=40)
+    y_cm: Range = Range(min=20, max=60)
+    z_cm: Range = Range(min=10, max=60)
+
+
+class GripperConfig(_Strict):
+    """The gripper arm (joint 5, servo 4) and the gripper (SPEC §2, §4)."""
+
+    a4_cm: Positive = 9.0
+    a5_cm: Positive = 10.0
+    travel_angle_deg: Finite = 30.0
+    grip_angle_deg: Finite = -60.0
+    home_angle_deg: Finite = 60.0
+    pick_height_cm: Finite = 12.76
+    """EE target height for a pick: 1.5 + |13·sin(−60°)| (the paper uses a5 = 13 here)."""
+    gripper_arm_limits_deg: Range = Range(min=-90, max=90)
+
+
+class RobotConfig(_Strict):
+    """Arm geometry, limits and poses."""
+
+    dh: list[DHRow] = Field(
+        default_factory=lambda: [
+            DHRow(a_cm=3.0, alpha_deg=90.0, d_cm=17.5),
+            DHRow(a_cm=22.3, alpha_deg=0.0, d_cm=0.0),
+            DHRow(a_cm=31.5, alpha_deg=0.0, d_cm=0.0),
+            DHRow(a_cm=14.0, alpha_deg=0.0, d_cm=0.0),
+        ],
+        min_length=4,
+        max_length=4,
+    )
+    joint_limits_deg: JointLimits = JointLimits()
+    home_deg: tuple[Finite, Finite, Finite] = (120.0, 93.0, -132.0)
+    target_box: TargetBox = TargetBox()
+    gripper: GripperConfig = GripperConfig()
+
+    @model_validator(mode="after")
+    def _home_within_limits(self) -> RobotConfig:
+        for name, value, rng in zip(
+            ACTUATED_JOINTS, self.home_deg, self.joint_limits_deg.as_list(), strict=False
+        ):
+            if not rng.contains(value):
+                raise ValueError(
+                    f"home_deg: {name} = {value:g} is outside its limits [{rng.min:g}, {rng.max:g}]"
+                )
+        return self
+
+    @property
+    def home_joints_deg(self) -> tuple[float, float, float, float]:
+        """Home pose (θ1, θ2, θ3, θ4) with θ4 from the coupling."""
+        t1, t2, t3 = self.home_deg
+        return (t1, t2, t3, -(t2 + t3))
+
+
+# --------------------------------------------------------------------------- camera & vision
+
+
+class CameraConfig(_Strict):
+    """Where frames come from.
+
+    ``device``: a USB camera through ``cv2.VideoCapture``; ``file``/``folder``: saved frames
+    replayed in order; ``sim``: the simulated table rendered from the world model.
+    """
+
+    kind: Literal["device", "file", "folder", "sim"] = "sim"
+    device_index: int = Field(default=0, ge=0)
+    path: str | None = None
+    width_px: int = Field(default=640, gt=0)
+    height_px: int = Field(default=480, gt=0)
+    open_timeout_s: Positive = 5.0
+    loop: bool = False
+    # sim renderer
+    noise_std: NonNegative = 2.0
+    brightness: Positive = 1.0
+    gradient: NonNegative = 0.15
+    seed: int = 0
+
+    @model_validator(mode="after")
+    def _path_for_replay(self) -> CameraConfig:
+        if self.kind in ("file", "folder") and not self.path:
+            raise ValueError(f"camera.kind '{self.kind}' needs camera.path")
+        return self
+
+
+class CalibrationConfig(_Strict):
+    """Pixel → table homography, base frame, cm (SPEC §4).
+
+    The default is the paper's measured rig: x = 0.0625·u − 20.5, y = 59.0 − 0.0625·v.
+    """
+
+    homography: tuple[
+        tuple[Finite, Finite, Finite],
+        tuple[Finite, Finite, Finite],
+        tuple[Finite, Finite, Finite],
+    ] = ((0.0625, 0.0, -20.5), (0.0, -0.0625, 59.0), (0.0, 0.0, 1.0))
+    reprojection_error_cm: NonNegative | None = None
+
+    @field_validator("homography")
+    @classmethod
+    def _invertible(cls, h: Any) -> Any:
+        a, b, c = h
+        det = (
+            a[0] * (b[1] * c[2] - b[2] * c[1])
+            - a[1] * (b[0] * c[2] - b[2] * c[0])
+            + a[2] * (b[0] * c[1] - b[1] * c[0])
+        )
+        if abs(det) < 1e-12:
+            raise ValueError("homography is singular (determinant 0): recalibrate")
+        return h
+
+
+class HueBand(_Strict):
+    """A hue interval in degrees [0, 360); ``lo > hi`` wraps through 0 (red)."""
+
+    lo_deg: Annotated[float, Field(ge=0, le=360)]
+    hi_deg: Annotated[float, Field(ge=0, le=360)]
+
+
+class VisionConfig(_Strict):
+    """HSV colour segmentation (SPEC §4).
+
+    ``preset`` chooses the bands and floors; any field set here overrides the preset's.
+    """
+
+    preset: Literal["default", "paper"] = "default"
+    bands: dict[Color, list[HueBand]] | None = None
+    saturation_min: Annotated[float, Field(ge=0, le=1)] | None = None
+    value_min: Annotated[float, Field(ge=0, le=1)] | None = None
+    median_kernel: int = Field(default=3, ge=1)
+    min_area_px: int = Field(default=100, ge=1)
+
+    @field_validator("median_kernel")
+    @classmethod
+    def _odd(cls, k: int) -> int:
+        if k % 2 == 0:
+            raise ValueError(f"must be odd, got {k}")
+        return k
+
+
+# --------------------------------------------------------------------------- controller
+
+
+class ControllerConfig(_Strict):
+    """The PD-PIJ solver (SPEC §3)."""
+
+    solver: Literal["pdpij", "mink", "analytic"] = "pdpij"
+    mode: Literal["paper", "coupled"] = "coupled"
+    kp: Positive = 0.1
+    kd: NonNegative = 0.01
+    tolerance_cm2: Positive = 1e-3
+    max_iterations: int = Field(default=1000, ge=1)
+    singular_value_cutoff: Positive = 1e-6
+    """Singular values below this times the largest are treated as zero in J⁺."""
+    damping: NonNegative = 0.0
+    """> 0 selects damped least squares, J^T (J J^T + λ² I)^-1, λ in cm."""
+
+
+# --------------------------------------------------------------------------- servos
+
+
+class ServoChannel(_Strict):
+    """Mapping of one joint's DH angle to a servo pulse.
+
+    pulse_us = zero_us + direction · us_per_deg · angle_deg, which must stay in
+    [min_us, max_us].
+    """
+
+    channel: int = Field(ge=0, le=31)
+    zero_us: Positive = 1500.0
+    direction: Literal[1, -1] = 1
+    us_per_deg: Positive = 10.0
+    min_us: Positive = 500.0
+    max_us: Positive = 2500.0
+
+    @model_validator(mode="after")
+    def _pulse_range(self) -> ServoChannel:
+        if not self.min_us < self.max_us:
+            raise ValueError(f"min_us ({self.min_us:g}) must be below max_us ({self.max_us:g})")
+        return self
+
+
+class GripperServo(_Strict):
+    """The gripper's open/close servo (MG996R in the paper)."""
+
+    channel: int = Field(default=4, ge=0, le=31)
+    open_us: Positive = 1000.0
+    closed_us: Positive = 1900.0
+
+
+class SimErrorModel(_Strict):
+    """How the simulated servos miss their commands (SPEC §5)."""
+
+    quantization: Literal["none", "degree", "microsecond"] = "microsecond"
+    offset_deg: tuple[Finite, Finite, Finite] = (0.0, 0.0, 0.0)
+    noise_std_deg: NonNegative = 0.0
+    seed: int = 0
+
+
+class ServoConfig(_Strict):
+    """The servo link (SPEC §1: an Arduino Uno over USB serial)."""
+
+    backend: Literal["sim", "serial", "ssc32"] = "sim"
+    port: str = "/dev/ttyACM0"
+    baud: int = Field(default=115200, gt=0)
+    rate_hz: Positive = 50.0
+    ack_timeout_s: Positive = 0.5
+    banner_timeout_s: Positive = 3.0
+    retries: int = Field(default=3, ge=0)
+    joints: dict[str, ServoChannel] = Field(
+        default_factory=lambda: {
+            "joint1": ServoChannel(channel=0, zero_us=500.0),
+            "joint2": ServoChannel(channel=1, zero_us=500.0),
+            "joint3": ServoChannel(channel=2, zero_us=2300.0),
+            "joint5": ServoChannel(channel=3, zero_us=1500.0),
+        }
+    )
+    gripper: GripperServo = GripperServo()
+    grip_tolerance_cm: Positive = 1.2
+    error_model: SimErrorModel = SimErrorModel()
+
+    @field_validator("joints")
+    @classmethod
+    def _joint_names(cls, joints: dict[str, ServoChannel]) -> dict[str, ServoChannel]:
+        expected = {"joint1", "joint2", "joint3", "joint5"}
+        if set(joints) != expected:
+            missing = sorted(expected - set(joints))
+            extra = sorted(set(joints) - expected)
+            raise ValueError(
+                f"needs exactly {sorted(expected)}; missing {missing}, unknown {extra}"
+            )
+        return joints
+
+
+# --------------------------------------------------------------------------- task
+
+
+class SceneObject(_Strict):
+    """One object on the (simulated) table, base frame [cm]."""
+
+    color: Color
+    x: Finite
+    y: Finite
+
+
+def _paper_layout() -> list[SceneObject]:
+    # SPEC §4, the paper's demo layout (M = red, H = green, B = blue).
+    rows = [
+        ("red", -10.99, 49.70), ("red", -0.75, 53.72), ("red", -0.40, 42.01),
+        ("red", 8.08, 46.71), ("green", -8.31, 53.81), ("green", -4.57, 47.58),
+        ("green", 5.15, 53.38), ("green", 11.74, 42.88), ("blue", -10.08, 44.03),
+        ("blue", 2.03, 48.57), ("blue", 6.93, 41.11), ("blue", 12.15, 51.86),
+    ]  # fmt: skip
+    return [SceneObject(color=c, x=x, y=y) for c, x, y in rows]
+
+
+class TaskConfig(_Strict):
+    """The sorting task (SPEC §1, Table 2)."""
+
+    color_order: list[Color] = Field(default_factory=lambda: list(COLORS), min_length=1)
+    bins_cm: dict[Color, tuple[Finite, Finite, Finite]] = Field(
+        default_factory=lambda: {
+            "red": (-20.0, 35.0, 20.0),
+            "green": (-20.0, 45.0, 20.0),
+            "blue": (-20.0, 55.0, 20.0),
+        }
+    )
+    pick_retries: int = Field(default=2, ge=0)
+    scene: list[SceneObject] = Field(default_factory=_paper_layout)
+
+    @field_validator("color_order")
+    @classmethod
+    def _unique(cls, order: list[Color]) -> list[Color]:
+        if len(set(order)) != len(order):
+            raise ValueError(f"colours repeat in {order}")
+        return order
+
+
+# --------------------------------------------------------------------------- root
+
+
+class Config(_Strict):
+    """The whole configuration. Its defaults are the simulated rig."""
+
+    robot: RobotConfig = RobotConfig()
+    camera: CameraConfig = CameraConfig()
+    calibration: CalibrationConfig = CalibrationConfig()
+    vision: VisionConfig = VisionConfig()
+    controller: ControllerConfig = ControllerConfig()
+    servo: ServoConfig = ServoConfig()
+    task: TaskConfig = TaskConfig()
+
+    @model_validator(mode="after")
+    def _bins_for_colors(self) -> Config:
+        missing = [c for c in self.task.color_order if c not in self.task.bins_cm]
+        if missing:
+            raise ValueError(f"task.bins_cm has no bin for {missing}")
+        return self
+
+
+def _describe(err: dict[str, Any]) -> str:
+    loc = ".".join(str(p) for p in err["loc"]) or "(top level)"
+    kind = err["type"]
+    if kind == "extra_forbidden":
+        return f"{loc}: unknown key (check the spelling; see configs/sim.yaml for every key)"
+    if kind == "missing":
+        return f"{loc}: required but missing"
+    msg = err["msg"]
+    if msg.startswith("Value error, "):
+        msg = msg[len("Value error, ") :]
+    value = err.get("input")
+    shown = "" if isinstance(value, dict) else f" (got {value!r})"
+    return f"{loc}: {msg}{shown}"
+
+
+def config_from_dict(data: Any, *, source: str | None = None) -> Config:
+    """Validate a mapping into a :class:`Config`.
+
+    Raises:
+        ConfigError: one line per bad field.
+    """
+    if data is None:
+        data = {}
+    if not isinstance(data, dict):
+        raise ConfigError(source, [f"top level must be a mapping, got {type(data).__name__}"])
+    try:
+        return Config.model_validate(data)
+    except ValidationError as exc:
+        raise ConfigError(source, [_describe(e) for e in exc.errors()]) from None
+
+
+def load_config(path: str | Path | None = None) -> Config:
+    """Read a YAML config file; ``None`` gives the embedded default (the simulated rig).
+
+    Raises:
+        ConfigError: the file is missing, unreadable, not YAML, or has bad fields.
+    """
+    if path is None:
+        return Config()
+    p = Path(path)
+    try:
+        text = p.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise ConfigError(str(p), ["file not found"]) from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ConfigError(str(p), [f"cannot read: {exc}"]) from None
+    try:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        where = f"line {mark.line + 1}, column {mark.column + 1}: " if mark else ""
+        problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
+        raise ConfigError(str(p), [f"malformed YAML at {where}{problem}"]) from None
+    return config_from_dict(data, source=str(p))
+

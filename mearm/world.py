@@ -1,0 +1,80 @@
+"""The simulated table: objects with a colour and a position, and the colour bins.
+
+One :class:`World` is shared by the simulated camera (which renders what lies on the
+table) and the simulated arm (which picks objects up and drops them into bins), so a pick
+really removes an object from the next frame.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+from mearm.config import Color, Config, SceneObject
+
+#: Object size, SPEC §1: cylinders 2 cm in diameter, 1 cm high.
+OBJECT_DIAMETER_CM = 2.0
+OBJECT_HEIGHT_CM = 1.0
+
+
+@dataclass
+class WorldObject:
+    """One object. ``held`` while in the gripper; ``bin`` once dropped into a bin."""
+
+    id: str
+    color: Color
+    x_cm: float
+    y_cm: float
+    held: bool = False
+    bin: Color | None = None
+
+    @property
+    def on_table(self) -> bool:
+        """Whether the object lies on the table (not held, not in a bin)."""
+        return not self.held and self.bin is None
+
+
+@dataclass
+class World:
+    """The table's objects and the bins (base frame, cm)."""
+
+    objects: list[WorldObject] = field(default_factory=list)
+    bins_cm: dict[Color, tuple[float, float, float]] = field(default_factory=dict)
+
+    @classmethod
+    def from_scene(
+        cls, scene: list[SceneObject], bins_cm: dict[Color, tuple[float, float, float]]
+    ) -> World:
+        """Objects named by colour and index (``red1``, ``red2``, …) in scene order."""
+        counts: dict[str, int] = {}
+        objects = []
+        for obj in scene:
+            counts[obj.color] = counts.get(obj.color, 0) + 1
+            objects.append(WorldObject(f"{obj.color}{counts[obj.color]}", obj.color, obj.x, obj.y))
+        return cls(objects=objects, bins_cm=dict(bins_cm))
+
+    @classmethod
+    def from_config(cls, config: Config) -> World:
+        """The world of ``config.task.scene`` with ``config.task.bins_cm``."""
+        return cls.from_scene(config.task.scene, config.task.bins_cm)
+
+    def table_objects(self) -> list[WorldObject]:
+        """Objects lying on the table, in scene order."""
+        return [o for o in self.objects if o.on_table]
+
+    def held_object(self) -> WorldObject | None:
+        """The object in the gripper, if any."""
+        return next((o for o in self.objects if o.held), None)
+
+    def nearest_on_table(self, x_cm: float, y_cm: float) -> tuple[WorldObject | None, float]:
+        """The table object nearest to (x, y) in the plane and its distance [cm]."""
+        best, best_d = None, math.inf
+        for o in self.table_objects():
+            d = math.hypot(o.x_cm - x_cm, o.y_cm - y_cm)
+            if d < best_d:
+                best, best_d = o, d
+        return best, best_d
+
+    def in_bin(self, color: Color) -> list[WorldObject]:
+        """Objects dropped into the bin of ``color``."""
+        return [o for o in self.objects if o.bin == color]
