@@ -39,7 +39,9 @@ def float_list(n: int | None = None, name: str = "values") -> Callable[[str], li
                 f"{name} must be comma-separated numbers, got {text!r}"
             ) from None
         if n is not None and len(values) != n:
-            raise argparse.ArgumentTypeError(f"{name} needs {n} numbers, got {len(values)}: {text!r}")
+            raise argparse.ArgumentTypeError(
+                f"{name} needs {n} numbers, got {len(values)}: {text!r}"
+            )
         if not all(v == v and abs(v) != float("inf") for v in values):
             raise argparse.ArgumentTypeError(f"{name} must be finite numbers, got {text!r}")
         return values

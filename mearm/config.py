@@ -440,4 +440,3 @@ def load_config(path: str | Path | None = None) -> Config:
         problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
         raise ConfigError(str(p), [f"malformed YAML at {where}{problem}"]) from None
     return config_from_dict(data, source=str(p))
-

@@ -34,8 +34,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     model.check_limits(np.radians(q_deg))
     ee_cm = model.fk_cm(np.radians(q_deg))
     if args.json:
-        print(json.dumps({"joints_deg": [round(v, 9) for v in q_deg.tolist()],
-                          "ee_cm": [round(v, 9) for v in ee_cm.tolist()]}))
+        print(
+            json.dumps(
+                {
+                    "joints_deg": [round(v, 9) for v in q_deg.tolist()],
+                    "ee_cm": [round(v, 9) for v in ee_cm.tolist()],
+                }
+            )
+        )
     else:
         joints = ", ".join(f"{v:.2f}" for v in q_deg)
         x, y, z = ee_cm

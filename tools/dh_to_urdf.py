@@ -1,6 +1,6 @@
 """Write the arm's URDF generated from the DH table of a config.
 
-    python tools/dh_to_urdf.py [--config configs/lab.yaml] [--output robot_description/mearm.urdf]
+python tools/dh_to_urdf.py [--config configs/lab.yaml] [--output robot_description/mearm.urdf]
 """
 
 from __future__ import annotations

@@ -73,11 +73,14 @@ def analytic_ik_deg(target_cm: npt.ArrayLike, robot: RobotConfig) -> np.ndarray:
     theta3 = -math.acos(min(1.0, max(-1.0, cos3)))
     theta2 = math.atan2(h, r) - math.atan2(a3 * math.sin(theta3), a2 + a3 * math.cos(theta3))
     q_deg = np.degrees([theta1, theta2, theta3])
-    for name, value, lim in zip(ACTUATED_JOINTS, q_deg, robot.joint_limits_deg.as_list(), strict=False):
+    for name, value, lim in zip(
+        ACTUATED_JOINTS, q_deg, robot.joint_limits_deg.as_list(), strict=False
+    ):
         if not lim.contains(value, tol=1e-9):
             raise UnreachableTargetError(
                 (x, y, z),
-                f"needs {name} = {value:.2f} deg, outside its limits [{lim.min:g}, {lim.max:g}] deg",
+                f"needs {name} = {value:.2f} deg, "
+                f"outside its limits [{lim.min:g}, {lim.max:g}] deg",
             )
     return np.array([q_deg[0], q_deg[1], q_deg[2], -(q_deg[1] + q_deg[2])])
 

@@ -60,9 +60,11 @@ class ArmModel:
         self.data = self.model.createData()
         self.ee_frame_id = self.model.getFrameId("ee")
         limits = robot.joint_limits_deg.as_list()
-        #: Joint limits [rad], (4,) each; joint 4's follow from the coupling.
-        self.lower_rad = np.radians([lim.min for lim in limits])
-        self.upper_rad = np.radians([lim.max for lim in limits])
+        #: Joint limits [deg] and [rad], (4,) each; joint 4's follow from the coupling.
+        self.lower_deg = np.array([lim.min for lim in limits])
+        self.upper_deg = np.array([lim.max for lim in limits])
+        self.lower_rad = np.radians(self.lower_deg)
+        self.upper_rad = np.radians(self.upper_deg)
 
     @property
     def home_rad(self) -> np.ndarray:
@@ -84,9 +86,7 @@ class ArmModel:
         q = np.asarray(q_rad, dtype=float)
         pin.computeJointJacobians(self.model, self.data, q)
         pin.updateFramePlacement(self.model, self.data, self.ee_frame_id)
-        J = pin.getFrameJacobian(
-            self.model, self.data, self.ee_frame_id, pin.LOCAL_WORLD_ALIGNED
-        )
+        J = pin.getFrameJacobian(self.model, self.data, self.ee_frame_id, pin.LOCAL_WORLD_ALIGNED)
         return self.data.oMf[self.ee_frame_id].translation * CM_PER_M, J[:3] * CM_PER_M
 
     def jacobian(self, q_rad: npt.ArrayLike) -> np.ndarray:
@@ -110,9 +110,4 @@ class ArmModel:
         q = np.asarray(q_rad, dtype=float)
         for i, name in enumerate(JOINT_NAMES[: len(q)]):
             if not (self.lower_rad[i] - tol_rad <= q[i] <= self.upper_rad[i] + tol_rad):
-                raise JointLimitError(
-                    name,
-                    np.degrees(q[i]),
-                    np.degrees(self.lower_rad[i]),
-                    np.degrees(self.upper_rad[i]),
-                )
+                raise JointLimitError(name, np.degrees(q[i]), self.lower_deg[i], self.upper_deg[i])

@@ -94,7 +94,9 @@ def dh_to_urdf(robot: RobotConfig, name: str = "mearm") -> str:
         "     Lengths in metres, angles in radians. -->\n",
         f'<robot name="{escape(name)}">\n',
     ]
-    parts += [f'  <material name="{k}"><color rgba="{v}"/></material>\n' for k, v in _COLORS.items()]
+    parts += [
+        f'  <material name="{k}"><color rgba="{v}"/></material>\n' for k, v in _COLORS.items()
+    ]
     width = 0.018
     parts.append('  <link name="base_link">\n')
     base = '<cylinder radius="0.06" length="0.02"/>'

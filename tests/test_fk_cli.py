@@ -1,0 +1,34 @@
+import json
+
+from conftest import run_cli
+
+
+def test_home_json():
+    """python -m mearm.fk --joints 120,93,-132 gives SPEC §2's check value."""
+    r = run_cli(
+        "-m", "mearm.fk", "--config", "configs/lab.yaml", "--joints", "120,93,-132", "--json"
+    )
+    assert r.returncode == 0, r.stderr
+    out = json.loads(r.stdout)
+    assert out["joints_deg"] == [120, 93, -132, 39]
+    for got, want in zip(out["ee_cm"], [-20.16, 34.91, 19.95], strict=True):
+        assert abs(got - want) < 0.01
+
+
+def test_home_text_default_config():
+    r = run_cli("-m", "mearm.fk", "--joints", "120,93,-132")
+    assert r.returncode == 0
+    assert "ee = (-20.16, 34.91, 19.95) cm" in r.stdout
+
+
+def test_bad_joints_exit_2_one_line():
+    for joints, needle in [
+        ("120,93", "needs 3 numbers"),
+        ("a,b,c", "comma-separated numbers"),
+        ("120,93,nan", "finite"),
+        ("10,93,-132", "joint1 = 10 deg is outside its limits [20, 160] deg"),
+    ]:
+        r = run_cli("-m", "mearm.fk", "--joints", joints)
+        assert r.returncode == 2, joints
+        lines = r.stderr.strip().splitlines()
+        assert len(lines) == 1 and needle in lines[0], r.stderr
