@@ -98,3 +98,79 @@ class TargetOutsideBoxError(TargetError):
 
 class UnreachableTargetError(TargetError):
     """The target is inside the box but the arm cannot reach it within its joint limits."""
+
+
+class RunLogError(MearmError):
+    """A run log cannot be opened, appended to or written in the order asked.
+
+    Attributes:
+        path: The log file.
+    """
+
+    def __init__(self, path: object, message: str):
+        self.path = str(path)
+        super().__init__(f"{self.path}: {message}")
+
+
+class RunLogFormatError(RunLogError):
+    """One line of a run log is not a valid record (torn, not JSON, a field missing or wrong).
+
+    :func:`mearm.runlog.read_runlog` returns this (it does not raise it unless asked to)
+    together with every record before the bad line.
+
+    Attributes:
+        path: The log file.
+        line: The bad line's number, counting from 1.
+        reason: What is wrong with it.
+        text: The start of the bad line (at most 80 characters).
+    """
+
+    def __init__(self, path: object, line: int, reason: str, text: str = ""):
+        self.line = int(line)
+        self.reason = reason
+        self.text = text
+        super().__init__(path, f"line {self.line}: {reason}")
+
+
+class AnalysisError(MearmError):
+    """The data cannot be analysed as asked (no routes, too few errors to fit, ...)."""
+
+
+class ImageError(MearmError):
+    """An image cannot be used: missing, unreadable, or not an 8-bit BGR frame.
+
+    Attributes:
+        source: Where the image came from (a path, or a description such as ``"frame"``).
+        reason: What is wrong with it.
+    """
+
+    def __init__(self, source: str, reason: str):
+        self.source = source
+        self.reason = reason
+        super().__init__(f"{source}: {reason}")
+
+
+class CalibrationError(MearmError):
+    """A pixel ↔ table calibration cannot be fitted or used (SPEC §4).
+
+    Attributes:
+        reason: What is wrong and what to do.
+    """
+
+    def __init__(self, reason: str):
+        self.reason = reason
+        super().__init__(reason)
+
+
+class CameraError(MearmError):
+    """A camera source cannot be opened or stopped delivering frames.
+
+    Attributes:
+        source: The source, e.g. ``"device 0"``, ``"folder frames/"``, ``"sim"``.
+        reason: What went wrong and what to check.
+    """
+
+    def __init__(self, source: str, reason: str):
+        self.source = source
+        self.reason = reason
+        super().__init__(f"camera ({source}): {reason}")
