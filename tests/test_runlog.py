@@ -1,0 +1,345 @@
+"""The run log: what is written reads back; bad lines stop the reader and are reported."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from mearm.config import Config
+from mearm.exceptions import RunLogError, RunLogFormatError
+from mearm.runlog import (
+    FORMAT_VERSION,
+    HeaderRecord,
+    RouteRecord,
+    RunLog,
+    SummaryRecord,
+    library_versions,
+    read_runlog,
+)
+
+
+def route_fields(**over: object) -> dict[str, object]:
+    fields: dict[str, object] = dict(
+        object_id="red1",
+        color="red",
+        step="pick",
+        attempt=1,
+        target_cm=np.array([-10.99, 49.70, 12.76]),
+        start_joints_deg=np.array([120.0, 93.0, -132.0, 39.0]),
+        end_joints_deg=np.array([102.4, 68.1, -95.2, 27.1]),
+        iterations=np.int64(82),
+        status="converged",
+        initial_error_cm=24.99,
+        final_error_cm=0.0305,
+        ee_cm=np.array([-10.5, 49.9, 12.1]),
+        success=np.bool_(True),
+        elapsed_s=0.05,
+        motion_s=6.0,
+    )
+    fields.update(over)
+    return fields
+
+
+def write_trial(log: RunLog, trial: int | None, n_routes: int = 2) -> None:
+    log.header(Config(), trial=trial, seed=7)
+    for i in range(n_routes):
+        step = "pick" if i % 2 == 0 else "place"
+        log.route(**route_fields(step=step, object_id=f"red{i // 2 + 1}"))
+    log.skip(object_id="blue9", color="blue", target_cm=[70.0, 50.0, 12.76], reason="unreachable")
+    log.summary()
+
+
+def test_round_trip_keeps_every_field(tmp_path: Path) -> None:
+    """Records written by RunLog read back equal, numpy values included."""
+    path = tmp_path / "run.jsonl"
+    with RunLog(path) as log:
+        header = log.header(Config(), trial=None, seed=None, argv=["--seed", "0"])
+        route = log.route(**route_fields())
+        fault = log.fault("servo link dropped", last_joints_deg=np.array([1.0, 90, -90, 0]))
+        summary = log.summary()
+    contents = read_runlog(path)
+    assert contents.complete and contents.problem is None
+    assert contents.records == (header, route, fault, summary)
+    assert header.format == FORMAT_VERSION
+    assert header.versions["python"] and "numpy" in header.versions
+    assert header.model_extra == {"argv": ["--seed", "0"]}
+    assert header.load_config() == Config()
+    np.testing.assert_allclose(route.error_cm, np.subtract(route.ee_cm, route.target_cm))
+    assert route.error_norm_cm == pytest.approx(np.linalg.norm(route.error_cm))
+    assert fault.trial is None
+    assert summary.ok is False  # a fault was written in this trial
+
+
+def test_every_line_is_one_json_object_with_a_type(tmp_path: Path) -> None:
+    path = tmp_path / "run.jsonl"
+    with RunLog(path) as log:
+        write_trial(log, trial=0)
+    lines = path.read_text().splitlines()
+    assert [json.loads(line)["type"] for line in lines] == [
+        "header", "route", "route", "skip", "summary"
+    ]  # fmt: skip
+
+
+def test_summary_fills_in_counts_and_means(tmp_path: Path) -> None:
+    with RunLog(tmp_path / "run.jsonl") as log:
+        log.header(Config(), trial=3)
+        log.route(**route_fields(iterations=80, final_error_cm=0.03, motion_s=5.0))
+        log.route(**route_fields(step="place", iterations=90, final_error_cm=0.02, motion_s=6.5))
+        log.route(**route_fields(object_id="green1", color="green", success=False, iterations=70))
+        log.skip(object_id="blue1", color="blue", target_cm=None, reason="outside box")
+        summary = log.summary(ok=True)
+    assert isinstance(summary, SummaryRecord)
+    assert summary.trial == 3
+    assert summary.sorted == {"red": 1, "green": 0}
+    assert (summary.failures, summary.skipped, summary.routes) == (1, 1, 3)
+    assert summary.mean_iterations == pytest.approx(80.0)
+    assert summary.mean_final_error_cm == pytest.approx((0.03 + 0.02 + 0.0305) / 3)
+    assert summary.motion_s == pytest.approx(5.0 + 6.5 + 6.0)
+    assert summary.ok is True
+
+
+def test_several_trials_group_by_header(tmp_path: Path) -> None:
+    path = tmp_path / "trials.jsonl"
+    with RunLog(path) as log:
+        for trial in range(3):
+            write_trial(log, trial=trial, n_routes=2 + trial)
+    contents = read_runlog(path)
+    assert [t.number for t in contents.trials] == [0, 1, 2]
+    assert [len(t.routes) for t in contents.trials] == [2, 3, 4]
+    assert [t.line for t in contents.trials] == [1, 6, 12]
+    assert all(t.summary is not None and len(t.skips) == 1 for t in contents.trials)
+    assert len(contents.routes) == 9 and len(contents.skips) == 3
+
+
+def test_opening_an_existing_log_appends(tmp_path: Path) -> None:
+    """A second run keeps the first one's records and adds its own header."""
+    path = tmp_path / "run.jsonl"
+    with RunLog(path) as log:
+        write_trial(log, trial=None)
+    before = path.read_bytes()
+    with RunLog(path) as log:
+        write_trial(log, trial=None)
+    assert path.read_bytes().startswith(before)
+    contents = read_runlog(path)
+    assert contents.complete and len(contents.trials) == 2
+
+
+def test_exclusive_refuses_an_existing_log(tmp_path: Path) -> None:
+    path = tmp_path / "run.jsonl"
+    path.write_text("keep me\n")
+    with pytest.raises(RunLogError, match="exists") as info:
+        RunLog(path, exclusive=True)
+    assert info.value.path == str(path)
+    assert path.read_text() == "keep me\n"
+
+
+def test_a_torn_log_is_not_appended_to(tmp_path: Path) -> None:
+    path = tmp_path / "run.jsonl"
+    with RunLog(path) as log:
+        write_trial(log, trial=None)
+    with path.open("ab") as f:
+        f.write(b'{"type":"route","tri')
+    before = path.read_bytes()
+    with pytest.raises(RunLogError, match="middle of a line"):
+        RunLog(path)
+    assert path.read_bytes() == before
+
+
+def test_records_need_a_header_first(tmp_path: Path) -> None:
+    with RunLog(tmp_path / "run.jsonl") as log, pytest.raises(RunLogError, match="before a header"):
+        log.route(**route_fields())
+
+
+def test_writer_refuses_a_record_of_another_trial(tmp_path: Path) -> None:
+    with RunLog(tmp_path / "run.jsonl") as log:
+        log.header(Config(), trial=1)
+        with pytest.raises(RunLogError, match="trial 2 under the header of trial 1"):
+            log.route(**route_fields(trial=2))
+
+
+def test_writer_refuses_records_after_the_summary(tmp_path: Path) -> None:
+    with RunLog(tmp_path / "run.jsonl") as log:
+        log.header(Config(), trial=0)
+        log.summary()
+        with pytest.raises(RunLogError, match="already has its summary"):
+            log.route(**route_fields())
+        log.header(Config(), trial=1)
+        log.route(**route_fields())
+
+
+def test_writer_validates_like_the_reader(tmp_path: Path) -> None:
+    """A bad record is refused before it reaches the file, with the field named."""
+    path = tmp_path / "run.jsonl"
+    with RunLog(path) as log:
+        log.header(Config())
+        with pytest.raises(RunLogError, match="field 'step'"):
+            log.route(**route_fields(step="drop"))
+        with pytest.raises(RunLogError, match="field 'iterations' is missing"):
+            log.route(**{k: v for k, v in route_fields().items() if k != "iterations"})
+        with pytest.raises(RunLogError, match="not ee_cm − target_cm"):
+            log.route(**route_fields(error_cm=[1.0, 0.0, 0.0]))
+        with pytest.raises(RunLogError, match="JSON"):
+            log.route(**route_fields(final_error_cm=float("nan")))
+    assert len(path.read_text().splitlines()) == 1
+
+
+def test_closed_log_refuses_writes(tmp_path: Path) -> None:
+    log = RunLog(tmp_path / "run.jsonl")
+    log.header(Config())
+    log.close()
+    assert log.closed
+    with pytest.raises(RunLogError, match="closed"):
+        log.route(**route_fields())
+
+
+def test_each_record_is_on_disk_before_the_next_call(tmp_path: Path) -> None:
+    """Flushed per record: another reader sees it while the log is still open."""
+    path = tmp_path / "run.jsonl"
+    with RunLog(path) as log:
+        log.header(Config(), trial=0)
+        log.route(**route_fields())
+        contents = read_runlog(path)
+        assert contents.complete and len(contents.routes) == 1
+
+
+def test_versions_name_the_main_libraries() -> None:
+    versions = library_versions()
+    for key in ("python", "numpy", "pinocchio", "mink", "mujoco", "opencv"):
+        assert versions[key], key
+
+
+# --------------------------------------------------------------------------- bad logs
+
+
+@pytest.fixture()
+def good_log(tmp_path: Path) -> Path:
+    path = tmp_path / "run.jsonl"
+    with RunLog(path) as log:
+        write_trial(log, trial=0, n_routes=4)
+    return path
+
+
+def corrupt(path: Path, line_no: int, new: str | bytes | None, *, newline: bool = True) -> Path:
+    """Replace line ``line_no`` (from 1) with ``new``; drop everything after it if no newline."""
+    lines = path.read_bytes().splitlines(keepends=True)
+    if new is not None:
+        data = new if isinstance(new, bytes) else new.encode()
+        lines[line_no - 1] = data + (b"\n" if newline else b"")
+    if not newline:
+        lines = lines[:line_no]
+    path.write_bytes(b"".join(lines))
+    return path
+
+
+def edited(path: Path, line_no: int, **changes: object) -> str:
+    obj = json.loads(path.read_text().splitlines()[line_no - 1])
+    for key, value in changes.items():
+        if value is KeyError:
+            del obj[key]
+        else:
+            obj[key] = value
+    return json.dumps(obj)
+
+
+def expect_problem(path: Path, line_no: int, pattern: str) -> RunLogFormatError:
+    contents = read_runlog(path)
+    problem = contents.problem
+    assert isinstance(problem, RunLogFormatError), "the bad line was not reported"
+    assert problem.line == line_no
+    assert pattern in problem.reason, problem.reason
+    assert str(path) in str(problem) and f"line {line_no}" in str(problem)
+    assert len(contents.records) == line_no - 1, "records before the bad line were lost"
+    assert contents.lines_read == line_no - 1
+    return problem
+
+
+def test_crash_mid_line_keeps_everything_before(good_log: Path) -> None:
+    text = good_log.read_text().splitlines()[3]
+    corrupt(good_log, 4, text[: len(text) // 2], newline=False)
+    problem = expect_problem(good_log, 4, "torn last line")
+    assert problem.text == text[: len(text) // 2][:80]
+    assert len(read_runlog(good_log).routes) == 2
+
+
+def test_missing_field_is_named(good_log: Path) -> None:
+    corrupt(good_log, 3, edited(good_log, 3, iterations=KeyError))
+    expect_problem(good_log, 3, "route record: field 'iterations' is missing")
+
+
+def test_wrong_type_is_named(good_log: Path) -> None:
+    corrupt(good_log, 2, edited(good_log, 2, iterations="82"))
+    expect_problem(good_log, 2, "field 'iterations'")
+    corrupt(good_log, 2, edited(good_log, 2, iterations=82, success=1))
+    expect_problem(good_log, 2, "field 'success'")
+    corrupt(good_log, 2, edited(good_log, 2, success=True, target_cm=[1.0, 2.0]))
+    expect_problem(good_log, 2, "field 'target_cm.2' is missing")
+
+
+def test_garbage_lines(good_log: Path) -> None:
+    corrupt(good_log, 5, "not json at all")
+    expect_problem(good_log, 5, "not valid JSON")
+    corrupt(good_log, 5, "[1, 2, 3]")
+    expect_problem(good_log, 5, "must be a JSON object, got list")
+    corrupt(good_log, 5, '{"type": "teleport"}')
+    expect_problem(good_log, 5, "unknown record type 'teleport'")
+    corrupt(good_log, 5, b"\xff\xfe{}")
+    expect_problem(good_log, 5, "not UTF-8")
+
+
+def test_unsupported_format(good_log: Path) -> None:
+    corrupt(good_log, 1, edited(good_log, 1, format=99))
+    expect_problem(good_log, 1, "format 99 is not supported")
+
+
+def test_record_before_any_header(good_log: Path) -> None:
+    corrupt(good_log, 1, good_log.read_text().splitlines()[1])
+    expect_problem(good_log, 1, "route record before any header")
+
+
+def test_record_of_another_trial(good_log: Path) -> None:
+    corrupt(good_log, 3, edited(good_log, 3, trial=5))
+    expect_problem(good_log, 3, "route record of trial 5 under the header of trial 0")
+
+
+def test_record_after_summary(good_log: Path) -> None:
+    with good_log.open("a") as f:
+        f.write(good_log.read_text().splitlines()[1] + "\n")
+    expect_problem(good_log, 8, "after the summary of trial 0")
+
+
+def test_strict_reading_raises(good_log: Path) -> None:
+    corrupt(good_log, 2, "{")
+    with pytest.raises(RunLogFormatError) as info:
+        read_runlog(good_log, strict=True)
+    assert info.value.line == 2
+
+
+def test_blank_lines_are_ignored(good_log: Path) -> None:
+    lines = good_log.read_text().splitlines()
+    good_log.write_text("\n".join([lines[0], "", *lines[1:]]) + "\n\n")
+    contents = read_runlog(good_log)
+    assert contents.complete and len(contents.records) == 7
+
+
+def test_missing_file_is_an_error(tmp_path: Path) -> None:
+    with pytest.raises(RunLogError, match="no such run log"):
+        read_runlog(tmp_path / "nope.jsonl")
+
+
+def test_header_model_rejects_bad_time() -> None:
+    text = json.dumps(
+        {"type": "header", "format": 1, "mearm_version": "0", "started": "yesterday",
+         "config": {}, "versions": {}, "trial": None, "seed": None}
+    )  # fmt: skip
+    with pytest.raises(ValueError, match="ISO 8601"):
+        HeaderRecord.model_validate_json(text)
+
+
+def test_route_model_is_strict_about_booleans() -> None:
+    fields = {k: (v.tolist() if hasattr(v, "tolist") else v) for k, v in route_fields().items()}
+    fields.update(type="route", trial=None, success=1, error_cm=[0.49, 0.2, -0.66])
+    with pytest.raises(ValueError, match="success"):
+        RouteRecord.model_validate_json(json.dumps(fields))
