@@ -1,0 +1,192 @@
+"""A run log analysed as a whole: every statistic of SPEC §5 in one record.
+
+:func:`analyze` turns what :func:`mearm.runlog.read_runlog` found into an
+:class:`Analysis`; :func:`to_json` gives it as plain data. The tables beside the
+paper's figures are in :mod:`mearm.analysis.tables`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+from typing import Any, Literal
+
+import numpy as np
+
+from mearm.analysis.stats import (
+    ErrorTable,
+    IterationStats,
+    Step,
+    error_table,
+    iteration_stats,
+    route_errors_cm,
+    select_routes,
+)
+from mearm.analysis.success import (
+    Rate,
+    SuccessTable,
+    SuccessVsError,
+    pick_outcomes,
+    success_table,
+    success_vs_error,
+)
+from mearm.analysis.weibull import WeibullFit, fit_weibull
+from mearm.exceptions import AnalysisError, RunLogFormatError
+from mearm.runlog import RunLogContents
+
+
+@dataclass(frozen=True)
+class Analysis:
+    """Everything measured on one run log.
+
+    Attributes:
+        source: The log file.
+        problem: The log's first bad line, or ``None``: the analysis covers the records
+            before it.
+        trials: Trials (headers) read.
+        routes: Route records read.
+        skips: Skip records read.
+        faults: Fault records read.
+        step: Which routes Table 8 and the Weibull fit cover (``"all"``: picks and places).
+        first_attempt: Whether they cover first attempts only.
+        table8: Error statistics of those routes.
+        weibull: Weibull fit of their Euclidean errors, or ``None`` (see ``weibull_problem``).
+        weibull_problem: Why there is no fit.
+        table9: First-attempt pick and place success per colour.
+        attempts: Which picks the success-against-error analysis covers.
+        success: Success against error of those picks, or ``None`` when there are none.
+        table6: Iteration and solver-error statistics for all routes, picks and places.
+    """
+
+    source: str
+    problem: RunLogFormatError | None
+    trials: int
+    routes: int
+    skips: int
+    faults: int
+    step: Step
+    first_attempt: bool
+    table8: ErrorTable
+    weibull: WeibullFit | None
+    weibull_problem: str | None
+    table9: SuccessTable
+    attempts: Literal["first", "all"]
+    success: SuccessVsError | None
+    table6: dict[str, IterationStats]
+
+
+def analyze(
+    contents: RunLogContents,
+    *,
+    step: Step = "all",
+    first_attempt: bool = False,
+    attempts: Literal["first", "all"] = "first",
+) -> Analysis:
+    """Analyse a read run log.
+
+    Args:
+        contents: What :func:`~mearm.runlog.read_runlog` returned.
+        step: Routes for Table 8 and the Weibull fit: ``"all"`` (the paper's 2 400
+            picks and places), ``"pick"`` or ``"place"``.
+        first_attempt: Table 8 and the fit over first attempts only.
+        attempts: Picks for success against error: ``"first"`` (as Table 9) or ``"all"``.
+
+    Raises:
+        AnalysisError: No route matches ``step`` / ``first_attempt``.
+    """
+    routes = contents.routes
+    chosen = select_routes(routes, step=step, first_attempt=first_attempt)
+    if not chosen:
+        what = "routes" if step == "all" else f"{step} routes"
+        raise AnalysisError(
+            f"{contents.path}: no {what}{' (first attempts)' if first_attempt else ''} "
+            f"to analyse in {contents.lines_read} lines"
+        )
+    errors = route_errors_cm(chosen)
+    norms = np.linalg.norm(errors, axis=1)
+    weibull: WeibullFit | None
+    try:
+        weibull, weibull_problem = fit_weibull(norms), None
+    except AnalysisError as exc:
+        weibull, weibull_problem = None, str(exc)
+    pick_errors, pick_success = pick_outcomes(routes, attempts=attempts)
+    success = success_vs_error(pick_errors, pick_success, weibull) if pick_errors.size else None
+    table6 = {
+        name: iteration_stats(subset)
+        for name in ("all", "pick", "place")
+        if (subset := select_routes(routes, step=name))  # type: ignore[arg-type]
+    }
+    return Analysis(
+        source=str(contents.path),
+        problem=contents.problem,
+        trials=len(contents.trials),
+        routes=len(routes),
+        skips=len(contents.skips),
+        faults=len(contents.faults),
+        step=step,
+        first_attempt=first_attempt,
+        table8=error_table(errors),
+        weibull=weibull,
+        weibull_problem=weibull_problem,
+        table9=success_table(routes),
+        attempts=attempts,
+        success=success,
+        table6=table6,
+    )
+
+
+def jsonable(value: Any) -> Any:
+    """Dataclasses, numpy values and errors → JSON-ready data; ``nan`` and ``inf`` → ``None``."""
+    if isinstance(value, Rate):
+        return {
+            "successes": value.successes,
+            "n": value.n,
+            "rate": jsonable(value.rate),
+        }
+    if isinstance(value, RunLogFormatError):
+        return {"line": value.line, "reason": value.reason, "text": value.text}
+    if dataclasses.is_dataclass(value) and not isinstance(value, type):
+        return {f.name: jsonable(getattr(value, f.name)) for f in dataclasses.fields(value)}
+    if isinstance(value, dict):
+        return {str(k): jsonable(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [jsonable(v) for v in value]
+    if isinstance(value, np.ndarray):
+        return jsonable(value.tolist())
+    if isinstance(value, np.generic):
+        return jsonable(value.item())
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
+
+
+def to_json(analysis: Analysis) -> dict[str, Any]:
+    """The analysis as plain data, with the paper's figures under ``"paper"``."""
+    from mearm.analysis import paper
+
+    data = jsonable(analysis)
+    data["paper"] = {
+        "table8_cm": {
+            k: dict(zip(("mean", "std", "max", "min"), v, strict=True))
+            for k, v in paper.TABLE8_CM.items()
+        },
+        "weibull": {"shape": paper.WEIBULL_SHAPE, "scale": paper.WEIBULL_SCALE_CM},
+        "table9_pick_percent": {
+            **paper.TABLE9_PICK_PERCENT,
+            "total": paper.TABLE9_PICK_TOTAL_PERCENT,
+        },
+        "table9_place_percent": paper.TABLE9_PLACE_PERCENT,
+        "success_bound_cm": paper.SUCCESS_BOUND_CM,
+        "failure_above_percent": paper.FAILURE_ABOVE_PERCENT,
+        "picks_above_bound": paper.PICKS_ABOVE_BOUND,
+        "p_below_bound_percent": paper.P_BELOW_BOUND_PERCENT,
+        "table6": {
+            "mean_iterations": paper.TABLE6_MEAN_ITERATIONS,
+            "min_iterations": paper.TABLE6_MIN_ITERATIONS,
+            "max_iterations": paper.TABLE6_MAX_ITERATIONS,
+            "mean_initial_error_cm": paper.TABLE6_MEAN_INITIAL_ERROR_CM,
+            "mean_final_error_cm": paper.TABLE6_MEAN_FINAL_ERROR_CM,
+        },
+    }
+    return data

@@ -1,0 +1,193 @@
+"""Pick and place success: the paper's Table 9 and success against error (SPEC §5).
+
+The error of a route is the Euclidean distance between where the arm really ended and
+the target, ‖ee − target‖, the error of Table 8 (not the solver's ideal final error).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+
+from mearm.analysis.stats import select_routes
+from mearm.analysis.weibull import WeibullFit
+from mearm.config import COLORS
+from mearm.exceptions import AnalysisError
+from mearm.runlog import RouteRecord
+
+
+@dataclass(frozen=True)
+class Rate:
+    """k successes out of n tries.
+
+    Attributes:
+        successes: Tries that succeeded.
+        n: Tries.
+    """
+
+    successes: int
+    n: int
+
+    @property
+    def failures(self) -> int:
+        """Tries that failed."""
+        return self.n - self.successes
+
+    @property
+    def rate(self) -> float:
+        """Share of tries that succeeded, successes / n [-] (``nan`` when there were no tries)."""
+        return self.successes / self.n if self.n else math.nan
+
+    @property
+    def failure_rate(self) -> float:
+        """Share of tries that failed, failures / n [-] (``nan`` when there were no tries)."""
+        return self.failures / self.n if self.n else math.nan
+
+    @classmethod
+    def of(cls, outcomes: Iterable[bool]) -> Rate:
+        """Count the ``True`` outcomes."""
+        flags = list(outcomes)
+        return cls(successes=sum(1 for f in flags if f), n=len(flags))
+
+
+@dataclass(frozen=True)
+class SuccessTable:
+    """Table 9: first-attempt success per colour.
+
+    Attributes:
+        pick: First-attempt picks per colour.
+        pick_total: All colours together.
+        place: First-attempt places per colour.
+        place_total: All colours together.
+    """
+
+    pick: dict[str, Rate]
+    pick_total: Rate
+    place: dict[str, Rate]
+    place_total: Rate
+
+
+def success_table(routes: Iterable[RouteRecord], colors: Sequence[str] = COLORS) -> SuccessTable:
+    """First-attempt pick and place success per colour (Table 9).
+
+    Colours beyond ``colors`` that occur in the routes are added after them.
+    """
+    first = [r for r in routes if r.attempt == 1]
+    order = list(dict.fromkeys([*colors, *(r.color for r in first)]))
+
+    def per_color(step: str) -> tuple[dict[str, Rate], Rate]:
+        rows = [r for r in first if r.step == step]
+        table = {c: Rate.of(r.success for r in rows if r.color == c) for c in order}
+        return table, Rate.of(r.success for r in rows)
+
+    pick, pick_total = per_color("pick")
+    place, place_total = per_color("place")
+    return SuccessTable(pick=pick, pick_total=pick_total, place=place, place_total=place_total)
+
+
+@dataclass(frozen=True)
+class ErrorBin:
+    """Picks whose error is in [lo_cm, hi_cm)."""
+
+    lo_cm: float
+    hi_cm: float
+    picks: Rate
+
+
+@dataclass(frozen=True)
+class SuccessVsError:
+    """How pick success depends on the EE error.
+
+    Attributes:
+        picks: All picks analysed.
+        bound_cm: The smallest error of a failed pick: every pick with a smaller error
+            succeeded. ``None`` when no pick failed.
+        above: The picks with error ≥ ``bound_cm`` (their ``failure_rate`` is the
+            paper's "51.88 % of 133 picks failed"). Empty when no pick failed.
+        p_below: P(error < ``bound_cm``) from the fitted Weibull density, or ``None``.
+        max_error_cm: The largest pick error [cm].
+        bins: Success per error bin, for the plot.
+    """
+
+    picks: Rate
+    bound_cm: float | None
+    above: Rate
+    p_below: float | None
+    max_error_cm: float
+    bins: tuple[ErrorBin, ...]
+
+
+def pick_outcomes(
+    routes: Iterable[RouteRecord], *, attempts: Literal["first", "all"] = "first"
+) -> tuple[np.ndarray, np.ndarray]:
+    """Errors ‖ee − target‖ [cm], (N,), and success flags, (N,), of the picks.
+
+    Raises:
+        AnalysisError: ``attempts`` is not ``"first"`` or ``"all"``.
+    """
+    if attempts not in ("first", "all"):
+        raise AnalysisError(f"attempts must be 'first' or 'all', got {attempts!r}")
+    picks = select_routes(routes, step="pick", first_attempt=attempts == "first")
+    errors = np.array([r.error_norm_cm for r in picks], dtype=float)
+    success = np.array([r.success for r in picks], dtype=bool)
+    return errors, success
+
+
+def success_vs_error(
+    errors_cm: Sequence[float] | np.ndarray,
+    success: Sequence[bool] | np.ndarray,
+    fit: WeibullFit | None = None,
+    *,
+    bin_width_cm: float = 0.1,
+) -> SuccessVsError:
+    """Where picks start to fail (SPEC §5: all picks under 1.2 cm succeeded).
+
+    Args:
+        errors_cm: Each pick's Euclidean error [cm], (N,).
+        success: Whether each pick gripped its object, (N,).
+        fit: The Weibull fit of the errors, for P(error < bound); ``None`` to skip it.
+        bin_width_cm: Width of the error bins of :attr:`SuccessVsError.bins` [cm].
+
+    Raises:
+        AnalysisError: No picks, mismatched lengths, or a bin width that is not > 0.
+    """
+    e = np.asarray(errors_cm, dtype=float).ravel()
+    ok = np.asarray(success, dtype=bool).ravel()
+    if e.size == 0:
+        raise AnalysisError("no picks: success against error needs at least one pick")
+    if e.shape != ok.shape:
+        raise AnalysisError(f"{e.size} errors but {ok.size} success flags")
+    if not bin_width_cm > 0:
+        raise AnalysisError(f"bin width must be > 0 cm, got {bin_width_cm!r}")
+    failed = e[~ok]
+    if failed.size:
+        bound: float | None = float(failed.min())
+        mask = e >= bound
+        above = Rate(successes=int(ok[mask].sum()), n=int(mask.sum()))
+        p_below = fit.prob_below(bound) if fit is not None else None
+    else:
+        bound, above, p_below = None, Rate(0, 0), None
+    edges = np.arange(0.0, float(e.max()) + bin_width_cm, bin_width_cm)
+    if edges.size < 2 or edges[-1] <= e.max():
+        edges = np.append(edges, edges[-1] + bin_width_cm)
+    index = np.digitize(e, edges) - 1
+    bins = tuple(
+        ErrorBin(
+            lo_cm=float(edges[i]),
+            hi_cm=float(edges[i + 1]),
+            picks=Rate(successes=int(ok[index == i].sum()), n=int((index == i).sum())),
+        )
+        for i in range(edges.size - 1)
+    )
+    return SuccessVsError(
+        picks=Rate(successes=int(ok.sum()), n=int(e.size)),
+        bound_cm=bound,
+        above=above,
+        p_below=p_below,
+        max_error_cm=float(e.max()),
+        bins=bins,
+    )
