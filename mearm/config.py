@@ -248,36 +248,50 @@ class ControllerConfig(_Strict):
 
 
 class ServoChannel(_Strict):
-    """Mapping of one joint's DH angle to a servo pulse.
+    r"""Mapping of one joint's DH angle to a servo pulse (hardware issue, SPEC §1).
 
-    pulse_us = zero_us + direction · us_per_deg · angle_deg, which must stay in
-    [min_us, max_us].
+    .. math:: p = p_0 + s \, k \, \theta
+
+    with ``zero_us`` = p0 [µs], ``direction`` = s (±1), ``us_per_deg`` = k [µs/deg] and θ
+    the DH angle [deg]. An angle whose pulse leaves [min_us, max_us] is refused, never
+    clamped. The servo's own 0–180° scale (what ``Servo.write`` takes) spans
+    [min_us, max_us], as after ``Servo.attach(pin, min_us, max_us)``.
     """
 
     channel: int = Field(ge=0, le=31)
-    zero_us: Positive = 1500.0
+    zero_us: Finite = 1500.0
+    """Pulse at DH angle 0 [µs]; may lie outside [min_us, max_us]."""
     direction: Literal[1, -1] = 1
     us_per_deg: Positive = 10.0
-    min_us: Positive = 500.0
-    max_us: Positive = 2500.0
+    min_us: int = Field(default=600, ge=500, le=2500)
+    """Lowest pulse this servo may get [µs] (the firmware and the SSC-32 allow 500–2500)."""
+    max_us: int = Field(default=2400, ge=500, le=2500)
+    """Highest pulse this servo may get [µs]."""
 
     @model_validator(mode="after")
     def _pulse_range(self) -> ServoChannel:
         if not self.min_us < self.max_us:
-            raise ValueError(f"min_us ({self.min_us:g}) must be below max_us ({self.max_us:g})")
+            raise ValueError(f"min_us ({self.min_us}) must be below max_us ({self.max_us})")
         return self
 
 
 class GripperServo(_Strict):
-    """The gripper's open/close servo (MG996R in the paper)."""
+    """The gripper's open/close servo (MG996R in the paper), driven by two fixed pulses."""
 
     channel: int = Field(default=4, ge=0, le=31)
-    open_us: Positive = 1000.0
-    closed_us: Positive = 1900.0
+    open_us: int = Field(default=1000, ge=500, le=2500)
+    closed_us: int = Field(default=1900, ge=500, le=2500)
 
 
 class SimErrorModel(_Strict):
-    """How the simulated servos miss their commands (SPEC §5)."""
+    """How the simulated servos miss their commands (SPEC §5).
+
+    ``quantization``: ``microsecond`` — the integer-µs pulse the serial backends send;
+    ``degree`` — a whole degree of the servo's 0–180° scale, as ``Servo.write`` does (one
+    step is (max_us − min_us)/180 µs, 1 DH degree with the default mapping); ``none``.
+    The realised angle is the quantised one plus ``offset_deg`` (static, per joint) plus
+    Gaussian noise of ``noise_std_deg`` drawn per move and joint.
+    """
 
     quantization: Literal["none", "degree", "microsecond"] = "microsecond"
     offset_deg: tuple[Finite, Finite, Finite] = (0.0, 0.0, 0.0)
@@ -286,25 +300,35 @@ class SimErrorModel(_Strict):
 
 
 class ServoConfig(_Strict):
-    """The servo link (SPEC §1: an Arduino Uno over USB serial)."""
+    """The servo link (SPEC §1: an Arduino Uno over USB serial) and the simulated arm."""
 
     backend: Literal["sim", "serial", "ssc32"] = "sim"
     port: str = "/dev/ttyACM0"
+    """Serial device, or a pyserial URL (``socket://host:port``, ``rfc2217://…``)."""
     baud: int = Field(default=115200, gt=0)
     rate_hz: Positive = 50.0
+    """Commands per second at most (the servo frame rate); lower if the baud rate demands."""
     ack_timeout_s: Positive = 0.5
     banner_timeout_s: Positive = 3.0
     retries: int = Field(default=3, ge=0)
+    """Resends of a command that failed its checksum, after the first try."""
     joints: dict[str, ServoChannel] = Field(
         default_factory=lambda: {
-            "joint1": ServoChannel(channel=0, zero_us=500.0),
-            "joint2": ServoChannel(channel=1, zero_us=500.0),
-            "joint3": ServoChannel(channel=2, zero_us=2300.0),
+            "joint1": ServoChannel(channel=0, zero_us=600.0),
+            "joint2": ServoChannel(channel=1, zero_us=600.0),
+            "joint3": ServoChannel(channel=2, zero_us=2400.0),
             "joint5": ServoChannel(channel=3, zero_us=1500.0),
         }
     )
     gripper: GripperServo = GripperServo()
     grip_tolerance_cm: Positive = 1.2
+    """Sim: a pick succeeds if the EE is this close to the object in the plane and to
+    the pick height in z (SPEC §5: picks under 1.2 cm error always succeeded)."""
+    bin_radius_cm: Positive = 4.0
+    """Sim: an object released within this distance (in the plane) of a bin falls into
+    it; farther away it drops onto the table under the EE."""
+    sim_realtime: bool = False
+    """Sim: pace moves at ``rate_hz`` like the real link (default: as fast as it can)."""
     error_model: SimErrorModel = SimErrorModel()
 
     @field_validator("joints")
@@ -318,6 +342,16 @@ class ServoConfig(_Strict):
                 f"needs exactly {sorted(expected)}; missing {missing}, unknown {extra}"
             )
         return joints
+
+    @model_validator(mode="after")
+    def _distinct_channels(self) -> ServoConfig:
+        used: dict[int, str] = {}
+        owners = [(n, c.channel) for n, c in sorted(self.joints.items())]
+        for name, channel in [*owners, ("gripper", self.gripper.channel)]:
+            if channel in used:
+                raise ValueError(f"{name} and {used[channel]} share servo channel {channel}")
+            used[channel] = name
+        return self
 
 
 # --------------------------------------------------------------------------- task

@@ -3,6 +3,9 @@
 One :class:`World` is shared by the simulated camera (which renders what lies on the
 table) and the simulated arm (which picks objects up and drops them into bins), so a pick
 really removes an object from the next frame.
+
+The world only keeps state; the rules (how close the gripper must be to pick, which bin
+catches a released object) live in :class:`mearm.hardware.sim.SimArm`.
 """
 
 from __future__ import annotations
@@ -11,6 +14,7 @@ import math
 from dataclasses import dataclass, field
 
 from mearm.config import Color, Config, SceneObject
+from mearm.exceptions import WorldError
 
 #: Object size, SPEC §1: cylinders 2 cm in diameter, 1 cm high.
 OBJECT_DIAMETER_CM = 2.0
@@ -78,3 +82,56 @@ class World:
     def in_bin(self, color: Color) -> list[WorldObject]:
         """Objects dropped into the bin of ``color``."""
         return [o for o in self.objects if o.bin == color]
+
+    def nearest_bin(self, x_cm: float, y_cm: float) -> tuple[Color | None, float]:
+        """The bin nearest to (x, y) in the plane and its distance [cm]."""
+        best: Color | None = None
+        best_d = math.inf
+        for color, (bx, by, _bz) in self.bins_cm.items():
+            d = math.hypot(bx - x_cm, by - y_cm)
+            if d < best_d:
+                best, best_d = color, d
+        return best, best_d
+
+    def grip(self, obj: WorldObject) -> None:
+        """Take a table object into the gripper.
+
+        Raises:
+            WorldError: the object is not on the table, or something is already held.
+        """
+        held = self.held_object()
+        if held is not None:
+            raise WorldError(f"cannot grip {obj.id}: {held.id} is already held")
+        if obj not in self.objects or not obj.on_table:
+            raise WorldError(f"cannot grip {obj.id}: it is not on the table")
+        obj.held = True
+
+    def release_into_bin(self, color: Color) -> WorldObject:
+        """Drop the held object into the bin of ``color``; returns it.
+
+        Raises:
+            WorldError: nothing is held, or there is no such bin.
+        """
+        if color not in self.bins_cm:
+            raise WorldError(f"no bin {color!r}; bins: {sorted(self.bins_cm)}")
+        obj = self._take_held()
+        obj.bin = color
+        obj.x_cm, obj.y_cm = self.bins_cm[color][:2]
+        return obj
+
+    def release_on_table(self, x_cm: float, y_cm: float) -> WorldObject:
+        """Put the held object down on the table at (x, y) [cm]; returns it.
+
+        Raises:
+            WorldError: nothing is held.
+        """
+        obj = self._take_held()
+        obj.x_cm, obj.y_cm = float(x_cm), float(y_cm)
+        return obj
+
+    def _take_held(self) -> WorldObject:
+        obj = self.held_object()
+        if obj is None:
+            raise WorldError("nothing is held")
+        obj.held = False
+        return obj

@@ -1,0 +1,239 @@
+"""Our protocol on a serial port: the board running ``tools/arduino/mearm_servo``.
+
+Connecting opens the port, which resets an Uno (DTR), waits for its ``READY`` banner
+(``servo.banner_timeout_s``), then asks ``V`` for the firmware name, version, servo count
+and pulse range and checks them against the config. Each command then waits
+``servo.ack_timeout_s`` for its ``OK``; a checksum failure in either direction is resent
+with the same sequence number up to ``servo.retries`` times, each failed try logged; no
+acknowledgement, a numbered board error, a lost link or a board reset stops the bus with
+a named error carrying the last acknowledged pose.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from dataclasses import dataclass
+
+from mearm.config import Config
+from mearm.exceptions import (
+    BannerTimeoutError,
+    BoardError,
+    BoardResetError,
+    ChecksumError,
+    HandshakeError,
+    NoAckError,
+)
+from mearm.hardware.bus import ArmCommand
+from mearm.hardware.mearm_protocol import (
+    ERR_CHECKSUM,
+    ERROR_CODES,
+    FIRMWARE_NAME,
+    PROTOCOL_MAJOR,
+    SEQ_MODULO,
+    BadChecksum,
+    FirmwareInfo,
+    Reply,
+    Unparseable,
+    decode_line,
+    encode_command,
+    parse_firmware_info,
+)
+from mearm.hardware.serial_bus import SerialServoBus
+
+log = logging.getLogger(__name__)
+
+#: Bytes of an ``OK <seq>*HH\n`` acknowledgement, at most.
+_ACK_BYTES = 10
+
+
+@dataclass(frozen=True)
+class BoardStatus:
+    """The board's answer to ``Q``.
+
+    Attributes:
+        mode: ``IDLE`` (no pulses yet), ``RUN`` or ``HOLD`` (stopped or watchdog).
+        pulses_us: Current pulse of each channel [µs], 0 = none.
+    """
+
+    mode: str
+    pulses_us: tuple[int, ...]
+
+
+class ArduinoBus(SerialServoBus):
+    """The serial backend (``servo.backend: serial``) for our firmware and protocol.
+
+    Args:
+        config: The whole configuration.
+        port: Override ``servo.port``.
+
+    Attributes:
+        banner: The banner line the board printed, once connected.
+        firmware: What the board reported to ``V``, once connected.
+    """
+
+    def __init__(self, config: Config, *, port: str | None = None):
+        super().__init__(config, port=port)
+        self.banner: bytes | None = None
+        self.firmware: FirmwareInfo | None = None
+        self._seq = -1
+
+    @property
+    def wire_bytes_per_move(self) -> int:
+        """An ``M`` frame with every channel at 4 digits, plus its acknowledgement."""
+        count = self.firmware.servo_count if self.firmware else len(self.servo_map.channels)
+        return len(encode_command(SEQ_MODULO - 1, "M", [2500] * count)) + _ACK_BYTES
+
+    # ----------------------------------------------------------------- public extras
+
+    def query(self) -> BoardStatus:
+        """Ask the board for its mode and current pulses (``Q``).
+
+        Raises:
+            ServoError: as :meth:`move` does.
+        """
+        self._require_ready()
+        reply = self._guarded(self._transact, "Q")
+        mode, *pulses = reply.fields or ("?",)
+        return BoardStatus(mode, tuple(int(p) for p in pulses if p.isdigit()))
+
+    # ----------------------------------------------------------------- backend hooks
+
+    def _connect(self) -> None:
+        self._open_port()
+        try:
+            self.banner = self._await_banner()
+            self.firmware = self._handshake()
+        except BaseException:
+            self._close()
+            raise
+        log.info(
+            "%s: %s %s, %d servos", self.port, self.firmware.name, self.firmware.version,
+            self.firmware.servo_count,
+        )  # fmt: skip
+
+    def _send_move(self, command: ArmCommand, pulses_us: dict[int, int]) -> None:
+        assert self.firmware is not None
+        args = [pulses_us.get(ch, 0) for ch in range(self.firmware.servo_count)]
+        self._transact("M", args)
+
+    def _stop(self) -> None:
+        self._transact("S")
+
+    # ----------------------------------------------------------------- protocol
+
+    def _await_banner(self) -> bytes:
+        timeout = self.config.servo.banner_timeout_s
+        deadline = time.monotonic() + timeout
+        seen = bytearray()
+        while True:
+            line = self._read_line(deadline)
+            if line is None:
+                raise BannerTimeoutError(self.port, timeout, bytes(seen) + self._drain())
+            decoded = decode_line(line)
+            if isinstance(decoded, Reply) and decoded.kind == "READY":
+                log.info("%s: banner %r", self.port, line)
+                return line
+            seen += line + b"\n"
+            log.debug("%s: skipped before the banner: %r", self.port, line)
+
+    def _handshake(self) -> FirmwareInfo:
+        reply = self._transact("V")
+        info = parse_firmware_info(reply)
+        if info is None or info.name != FIRMWARE_NAME:
+            raise HandshakeError(
+                f"{self.port}: the board is not running {FIRMWARE_NAME} "
+                f"(its V reply was {reply.raw!r}); flash tools/arduino/mearm_servo"
+            )
+        if info.major != PROTOCOL_MAJOR:
+            raise HandshakeError(
+                f"{self.port}: firmware {info.version} speaks protocol {info.major}, "
+                f"this host speaks {PROTOCOL_MAJOR}; flash tools/arduino/mearm_servo "
+                "from this checkout"
+            )
+        highest = max(self.servo_map.channels)
+        if highest >= info.servo_count:
+            raise HandshakeError(
+                f"{self.port}: the config uses servo channel {highest}, the board drives "
+                f"channels 0..{info.servo_count - 1}; fix servo.joints/servo.gripper"
+            )
+        for j in self.servo_map.all_joints:
+            if j.min_us < info.min_us or j.max_us > info.max_us:
+                raise HandshakeError(
+                    f"{self.port}: {j.name}'s pulse range [{j.min_us}, {j.max_us}] µs is "
+                    f"wider than the board's [{info.min_us}, {info.max_us}] µs"
+                )
+        return info
+
+    def _next_seq(self) -> int:
+        self._seq = (self._seq + 1) % SEQ_MODULO
+        return self._seq
+
+    def _transact(self, command: str, args: list[int] | None = None) -> Reply:
+        """Send a command and return its ``OK``, resending it after checksum failures.
+
+        Raises:
+            NoAckError: no reply in time.
+            BoardError: a numbered error other than a checksum failure.
+            ChecksumError: every try failed its checksum.
+            BoardResetError: the board printed its banner instead.
+            LinkDroppedError: the port failed.
+        """
+        frame = encode_command(self._next_seq(), command, args or [])
+        tries = 1 + self.config.servo.retries
+        bad = b""
+        for attempt in range(1, tries + 1):
+            self._write(frame)
+            reply = self._await_reply(self._seq, frame)
+            if isinstance(reply, Reply) and reply.kind == "OK":
+                return reply
+            if isinstance(reply, Reply) and reply.seq is not None and reply.code != ERR_CHECKSUM:
+                raise BoardError(
+                    reply.code,
+                    ERROR_CODES.get(reply.code, "unknown error number"),
+                    reply.detail,
+                    frame,
+                    last_state=self.state,
+                )
+            bad = reply.raw
+            why = "the board saw a bad checksum" if isinstance(reply, Reply) else "bad reply"
+            log.warning(
+                "%s: try %d/%d of %r failed: %s (%r)", self.port, attempt, tries, frame, why, bad
+            )
+        raise ChecksumError(frame, tries, bad, "checksum failure", last_state=self.state)
+
+    def _await_reply(self, seq: int, frame: bytes) -> Reply | BadChecksum:
+        """The reply to ``seq``: an OK or ERR for it, an ``ERR -``, or a corrupted line."""
+        timeout = self.config.servo.ack_timeout_s
+        deadline = time.monotonic() + timeout
+        garbage = bytearray()
+        while True:
+            line = self._read_line(deadline)
+            if line is None:
+                raise NoAckError(
+                    self.port, frame, timeout, bytes(garbage) + self._drain(),
+                    last_state=self.state,
+                )  # fmt: skip
+            decoded = decode_line(line)
+            if isinstance(decoded, Unparseable):
+                if decoded.raw:
+                    garbage += decoded.raw + b"\n"
+                    log.warning("%s: ignored garbage %r", self.port, decoded.raw)
+                continue
+            if isinstance(decoded, BadChecksum):
+                return decoded
+            if decoded.kind == "READY":
+                raise BoardResetError(
+                    f"{self.port}: the board restarted (banner {line!r}) and stopped its "
+                    "pulses: a brown-out? Power the servos separately from the board",
+                    last_state=self.state,
+                )
+            if decoded.kind == "NOTE":
+                log.info("%s: board notice %r", self.port, line)
+                continue
+            if decoded.kind == "ERR" and decoded.seq is None:
+                return decoded
+            if decoded.seq != seq:
+                log.warning("%s: ignored a stale reply %r (waiting for %d)", self.port, line, seq)
+                continue
+            return decoded

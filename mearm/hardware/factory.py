@@ -1,0 +1,41 @@
+"""Choose the servo backend the config names (``servo.backend``)."""
+
+from __future__ import annotations
+
+from mearm.config import Config
+from mearm.exceptions import ConfigError
+from mearm.hardware.arduino import ArduinoBus
+from mearm.hardware.bus import ServoBus
+from mearm.hardware.sim import SimArm
+from mearm.hardware.ssc32 import SSC32Bus
+from mearm.world import World
+
+
+def open_bus(config: Config, world: World | None = None, *, port: str | None = None) -> ServoBus:
+    """The backend of ``config.servo.backend``, not yet connected.
+
+    Args:
+        config: The whole configuration.
+        world: The simulated table; required by the ``sim`` backend, ignored otherwise.
+        port: Override ``servo.port`` (serial backends).
+
+    Returns:
+        A :class:`SimArm`, :class:`ArduinoBus` (``serial``) or :class:`SSC32Bus`
+        (``ssc32``); call ``connect()`` or use it as a context manager.
+
+    Raises:
+        ConfigError: ``sim`` without a world.
+    """
+    backend = config.servo.backend
+    if backend == "sim":
+        if world is None:
+            raise ConfigError(
+                None,
+                ["servo.backend: 'sim' needs the simulated world: open_bus(config, world=...)"],
+            )
+        return SimArm(config, world)
+    if backend == "serial":
+        return ArduinoBus(config, port=port)
+    if backend == "ssc32":
+        return SSC32Bus(config, port=port)
+    raise ConfigError(None, [f"servo.backend: {backend!r} is not one of sim, serial, ssc32"])

@@ -1,0 +1,168 @@
+"""Shared pyserial plumbing of the serial backends (lerobot's ``SerialMotorsBus`` idea).
+
+Opening, line and byte reads with a deadline, writes, and turning every pyserial or OS
+failure into a named :class:`~mearm.exceptions.LinkError` that carries the last
+acknowledged pose. The subclasses (:class:`~mearm.hardware.arduino.ArduinoBus`,
+:class:`~mearm.hardware.ssc32.SSC32Bus`) speak their protocol on top of it.
+
+Pacing: commands go at most ``servo.rate_hz`` per second, and never faster than the baud
+rate carries one command and its reply (8N1: 10 bits a byte).
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from abc import abstractmethod
+
+import serial
+
+from mearm.config import Config
+from mearm.exceptions import LinkDroppedError, LinkError
+from mearm.hardware.bus import ServoBus
+
+log = logging.getLogger(__name__)
+
+#: Longest single blocking read [s]; deadlines are checked between reads.
+POLL_S = 0.005
+#: Bits on the wire per byte: start + 8 data + stop (8N1).
+BITS_PER_BYTE = 10
+
+
+class SerialServoBus(ServoBus):
+    """A servo bus on a serial port (device path or pyserial URL).
+
+    Args:
+        config: The whole configuration; ``servo.port`` and ``servo.baud`` are used.
+        port: Override ``servo.port``.
+    """
+
+    def __init__(self, config: Config, *, port: str | None = None):
+        super().__init__(config, paced=True)
+        self.port = port if port is not None else config.servo.port
+        self.baud = config.servo.baud
+        self._serial: serial.SerialBase | None = None
+        self._rx = bytearray()
+
+    # ----------------------------------------------------------------- pacing
+
+    @property
+    @abstractmethod
+    def wire_bytes_per_move(self) -> int:
+        """Bytes one move puts on the wire, command and reply together."""
+
+    @property
+    def wire_time_s(self) -> float:
+        """Time the baud rate needs to carry one move and its reply [s]."""
+        return BITS_PER_BYTE * self.wire_bytes_per_move / self.baud
+
+    @property
+    def period_s(self) -> float:
+        """Time between moves [s]: 1 / ``rate_hz``, or the wire time if that is longer."""
+        return max(1.0 / self.config.servo.rate_hz, self.wire_time_s)
+
+    # ----------------------------------------------------------------- port
+
+    def _open_port(self) -> None:
+        """Open the port (asserting DTR, which resets an Uno) and empty the buffers."""
+        try:
+            ser = serial.serial_for_url(self.port, do_not_open=True)
+            ser.baudrate = self.baud
+            ser.timeout = POLL_S
+            ser.write_timeout = self.config.servo.ack_timeout_s
+            ser.open()
+        except (serial.SerialException, OSError, ValueError) as exc:
+            raise LinkError(
+                self.port,
+                f"cannot open at {self.baud} baud: {exc}. Is the board plugged in and "
+                "servo.port right? (Linux: the user must be in the dialout group)",
+            ) from None
+        self._serial = ser
+        self._rx.clear()
+        if self.wire_time_s > 1.0 / self.config.servo.rate_hz:
+            log.warning(
+                "%s: %d baud carries one move in %.1f ms: %.1f Hz at most, not the %.1f Hz "
+                "of servo.rate_hz",
+                self.port,
+                self.baud,
+                1e3 * self.wire_time_s,
+                1.0 / self.wire_time_s,
+                self.config.servo.rate_hz,
+            )
+
+    def _close(self) -> None:
+        if self._serial is not None:
+            try:
+                self._serial.close()
+            except (serial.SerialException, OSError) as exc:
+                log.warning("%s: error while closing: %s", self.port, exc)
+            self._serial = None
+
+    def _dropped(self, what: str, exc: BaseException) -> LinkDroppedError:
+        return LinkDroppedError(
+            self.port,
+            f"link lost while {what} ({exc}): cable, USB hub or board power?",
+            last_state=self.state,
+        )
+
+    def _write(self, data: bytes) -> None:
+        """Write all of ``data``.
+
+        Raises:
+            LinkDroppedError: the port failed.
+        """
+        assert self._serial is not None
+        try:
+            self._serial.write(data)
+            self._serial.flush()
+        except (serial.SerialException, OSError) as exc:
+            raise self._dropped(f"sending {data!r}", exc) from None
+        log.debug("%s > %r", self.port, data)
+
+    def _fill(self) -> None:
+        """Read what has arrived (waiting at most :data:`POLL_S`) into the buffer."""
+        assert self._serial is not None
+        try:
+            chunk = self._serial.read(1)
+            if chunk:
+                waiting = self._serial.in_waiting
+                if waiting:
+                    chunk += self._serial.read(waiting)
+        except (serial.SerialException, OSError) as exc:
+            raise self._dropped("reading", exc) from None
+        if chunk:
+            log.debug("%s < %r", self.port, chunk)
+            self._rx += chunk
+
+    def _read_line(self, deadline: float, terminators: bytes = b"\n") -> bytes | None:
+        """The next line (terminator stripped), or ``None`` at the monotonic ``deadline``.
+
+        Raises:
+            LinkDroppedError: the port failed.
+        """
+        while True:
+            ends = [i for i in (self._rx.find(t) for t in terminators) if i >= 0]
+            if ends:
+                end = min(ends)
+                line = bytes(self._rx[:end])
+                del self._rx[: end + 1]
+                return line
+            if time.monotonic() >= deadline:
+                return None
+            self._fill()
+
+    def _read_byte(self, deadline: float) -> bytes | None:
+        """The next byte, or ``None`` at the monotonic ``deadline``."""
+        while not self._rx:
+            if time.monotonic() >= deadline:
+                return None
+            self._fill()
+        byte = bytes(self._rx[:1])
+        del self._rx[:1]
+        return byte
+
+    def _drain(self) -> bytes:
+        """Take everything received and not yet consumed."""
+        data = bytes(self._rx)
+        self._rx.clear()
+        return data

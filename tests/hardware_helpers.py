@@ -1,0 +1,36 @@
+"""Configs and commands shared by the hardware tests."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from mearm.config import Config, config_from_dict
+from mearm.hardware import ArmCommand
+
+HOME = ArmCommand((120.0, 93.0, -132.0), 60.0, False)
+#: Pulses of HOME with the default mapping: θ1 600+1200, θ2 600+930, θ3 2400-1320,
+#: θ5 1500+600, gripper open 1000.
+HOME_PULSES = [1800, 1530, 1080, 2100, 1000]
+
+
+def fast_config(backend: str, port: str = "/dev/null", **servo: Any) -> Config:
+    """The default config on ``port`` with short timeouts, so fault tests stay fast."""
+    section = {
+        "backend": backend,
+        "port": port,
+        "ack_timeout_s": 0.15,
+        "banner_timeout_s": 0.4,
+        "rate_hz": 1000.0,
+        "retries": 2,
+    }
+    section.update(servo)
+    return config_from_dict({"servo": section})
+
+
+def route(n: int = 5) -> list[ArmCommand]:
+    """``n`` small steps from home, as a PD-PIJ route sends them."""
+    return [ArmCommand((120.0 - i, 93.0 + 0.5 * i, -132.0 + i), 60.0, False) for i in range(n)]
+
+
+def is_default(config: Config) -> bool:
+    return config == Config()
