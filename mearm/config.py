@@ -158,11 +158,17 @@ class CameraConfig(_Strict):
     height_px: int = Field(default=480, gt=0)
     open_timeout_s: Positive = 5.0
     loop: bool = False
-    # sim renderer
+    # sim renderer (mearm.vision.render)
     noise_std: NonNegative = 2.0
+    """Sensor noise, standard deviation in 8-bit levels."""
     brightness: Positive = 1.0
+    """Overall light level, a factor on every pixel (1 = nominal)."""
     gradient: NonNegative = 0.15
+    """Lighting gradient: ±this fraction of the light from one corner to the other."""
+    table: Literal["wood", "grey"] = "wood"
+    """Table surface the sim renders."""
     seed: int = 0
+    """Seed of the texture and of the noise sequence (frame i uses seed + i)."""
 
     @model_validator(mode="after")
     def _path_for_replay(self) -> CameraConfig:
@@ -217,6 +223,12 @@ class VisionConfig(_Strict):
     value_min: Annotated[float, Field(ge=0, le=1)] | None = None
     median_kernel: int = Field(default=3, ge=1)
     min_area_px: int = Field(default=100, ge=1)
+    object_diameter_cm: Positive = 2.0
+    """Diameter of one object (SPEC §1); sets the expected area for the merged test."""
+    merged_area_ratio: Annotated[float, Field(gt=1, allow_inf_nan=False)] = 1.6
+    """A region larger than this times one object's expected area is flagged merged."""
+    merged_elongation: Annotated[float, Field(gt=1, allow_inf_nan=False)] = 1.5
+    """A region whose major/minor axis ratio exceeds this is flagged merged."""
 
     @field_validator("median_kernel")
     @classmethod

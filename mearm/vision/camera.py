@@ -1,0 +1,274 @@
+"""Camera sources, chosen by ``camera.kind`` in the config (SPEC §1: one USB camera).
+
+- ``device``: a USB camera through ``cv2.VideoCapture``; opening (and the first frame)
+  must finish within ``camera.open_timeout_s`` and give the configured resolution.
+- ``file``: one image (every read returns it) or a video (frames in order).
+- ``folder``: the images of a folder in name order.
+- ``sim``: the simulated table (:class:`SimCamera`), rendered afresh on every read.
+
+Replayed frames must have the configured size, because the calibration is in pixels of
+that size. Every failure is a :class:`~mearm.exceptions.CameraError` naming the source;
+nothing blocks longer than the open timeout on opening.
+"""
+
+from __future__ import annotations
+
+import threading
+from abc import ABC, abstractmethod
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import cv2
+import numpy as np
+
+from mearm.config import CameraConfig, Config
+from mearm.exceptions import CameraError
+from mearm.vision.calibration import Calibration
+from mearm.vision.render import OBJECT_BGR, Disc, Extra, TableRenderer
+
+if TYPE_CHECKING:
+    from mearm.world import World
+
+IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".webp", ".ppm", ".pgm")
+
+
+@contextmanager
+def quiet_opencv() -> Iterator[None]:
+    """Silence OpenCV's own log lines (e.g. V4L2 warnings) inside the block."""
+    level = cv2.utils.logging.getLogLevel()
+    cv2.utils.logging.setLogLevel(cv2.utils.logging.LOG_LEVEL_SILENT)
+    try:
+        yield
+    finally:
+        cv2.utils.logging.setLogLevel(level)
+
+
+class Camera(ABC):
+    """A source of BGR frames; use as a context manager or call :meth:`close`.
+
+    Attributes:
+        source: What the frames come from, for messages (e.g. ``"device 0"``).
+        size_px: Expected frame size (width, height) [px].
+    """
+
+    def __init__(self, source: str, size_px: tuple[int, int]):
+        self.source = source
+        self.size_px = size_px
+        self._closed = False
+
+    def read(self) -> np.ndarray:
+        """The next frame, (H, W, 3) uint8 BGR.
+
+        Raises:
+            CameraError: closed, no more frames, or the source failed.
+        """
+        if self._closed:
+            raise CameraError(self.source, "read after close")
+        frame = self._read()
+        if frame.ndim == 2:
+            frame = cv2.cvtColor(frame, cv2.COLOR_GRAY2BGR)
+        h, w = frame.shape[:2]
+        if (w, h) != self.size_px:
+            raise CameraError(
+                self.source,
+                f"frame is {w}x{h} px but the config says {self.size_px[0]}x{self.size_px[1]}"
+                " (camera.width_px, camera.height_px): the calibration is for that size",
+            )
+        return frame
+
+    @abstractmethod
+    def _read(self) -> np.ndarray: ...
+
+    def close(self) -> None:
+        """Release the source; further reads raise."""
+        self._closed = True
+
+    def __enter__(self) -> Camera:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+class DeviceCamera(Camera):
+    """A camera device through ``cv2.VideoCapture`` (``camera.kind: device``)."""
+
+    def __init__(self, camera: CameraConfig):
+        super().__init__(f"device {camera.device_index}", (camera.width_px, camera.height_px))
+        self._cap = self._open(camera)
+
+    def _open(self, camera: CameraConfig) -> Any:
+        box: dict[str, Any] = {}
+        abandoned = threading.Event()
+
+        def work() -> None:
+            with quiet_opencv():
+                cap = cv2.VideoCapture(camera.device_index)
+                ok = cap.isOpened()
+                if ok:
+                    cap.set(cv2.CAP_PROP_FRAME_WIDTH, camera.width_px)
+                    cap.set(cv2.CAP_PROP_FRAME_HEIGHT, camera.height_px)
+                    ok, box["frame"] = cap.read()
+            box["ok"] = ok
+            if abandoned.is_set() or not ok:
+                cap.release()
+            else:
+                box["cap"] = cap
+
+        thread = threading.Thread(target=work, name=self.source, daemon=True)
+        thread.start()
+        thread.join(camera.open_timeout_s)
+        if thread.is_alive():
+            abandoned.set()
+            raise CameraError(
+                self.source,
+                f"did not open within {camera.open_timeout_s:g} s (camera.open_timeout_s): "
+                "is it plugged in and free?",
+            )
+        if not box.get("ok"):
+            raise CameraError(
+                self.source,
+                "cannot open or read it: check camera.device_index (ls /dev/video*) and that "
+                "no other program holds the camera",
+            )
+        h, w = box["frame"].shape[:2]
+        if (w, h) != self.size_px:
+            box["cap"].release()
+            raise CameraError(
+                self.source,
+                f"gives {w}x{h} px, not the {self.size_px[0]}x{self.size_px[1]} asked for",
+            )
+        return box["cap"]
+
+    def _read(self) -> np.ndarray:
+        ok, frame = self._cap.read()
+        if not ok or frame is None:
+            raise CameraError(self.source, "read failed: camera unplugged or stopped?")
+        return frame
+
+    def close(self) -> None:  # noqa: D102
+        if not self._closed:
+            self._cap.release()
+        super().close()
+
+
+class FileCamera(Camera):
+    """One image (returned by every read) or a video file (``camera.kind: file``)."""
+
+    def __init__(self, camera: CameraConfig):
+        path = Path(str(camera.path))
+        super().__init__(f"file {path}", (camera.width_px, camera.height_px))
+        self.loop = camera.loop
+        self._still: np.ndarray | None = None
+        self._cap: Any = None
+        if not path.is_file():
+            raise CameraError(self.source, "no such file (camera.path)")
+        with quiet_opencv():
+            if cv2.haveImageReader(str(path)):
+                self._still = cv2.imread(str(path), cv2.IMREAD_COLOR)
+                if self._still is None:
+                    raise CameraError(self.source, "cannot decode the image")
+            else:
+                self._cap = cv2.VideoCapture(str(path))
+                if not self._cap.isOpened():
+                    raise CameraError(self.source, "neither an image nor a video OpenCV can read")
+
+    def _read(self) -> np.ndarray:
+        if self._still is not None:
+            return self._still.copy()
+        ok, frame = self._cap.read()
+        if not ok and self.loop:
+            self._cap.set(cv2.CAP_PROP_POS_FRAMES, 0)
+            ok, frame = self._cap.read()
+        if not ok:
+            raise CameraError(self.source, "end of video (set camera.loop: true to replay)")
+        return frame
+
+    def close(self) -> None:  # noqa: D102
+        if self._cap is not None and not self._closed:
+            self._cap.release()
+        super().close()
+
+
+class FolderCamera(Camera):
+    """The images of a folder, in name order (``camera.kind: folder``)."""
+
+    def __init__(self, camera: CameraConfig):
+        folder = Path(str(camera.path))
+        super().__init__(f"folder {folder}", (camera.width_px, camera.height_px))
+        self.loop = camera.loop
+        if not folder.is_dir():
+            raise CameraError(self.source, "no such folder (camera.path)")
+        self.paths = sorted(p for p in folder.iterdir() if p.suffix.lower() in IMAGE_SUFFIXES)
+        if not self.paths:
+            raise CameraError(self.source, f"holds no images ({', '.join(IMAGE_SUFFIXES)})")
+        self._next = 0
+
+    def _read(self) -> np.ndarray:
+        if self._next >= len(self.paths):
+            if not self.loop:
+                raise CameraError(
+                    self.source,
+                    f"no more frames after {len(self.paths)} (set camera.loop: true to replay)",
+                )
+            self._next = 0
+        path = self.paths[self._next]
+        self._next += 1
+        with quiet_opencv():
+            frame = cv2.imread(str(path), cv2.IMREAD_COLOR)
+        if frame is None:
+            raise CameraError(self.source, f"cannot decode {path.name}")
+        return frame
+
+
+class SimCamera(Camera):
+    """The simulated camera: renders the objects on the world's table at every read.
+
+    Args:
+        config: The whole config: ``camera`` (size, noise, light, table, seed) and
+            ``calibration`` (objects are drawn through its inverse).
+        world: The table; its current ``table_objects()`` are drawn (held objects and
+            objects in bins are not).
+        extras: Distractors drawn in every frame (see :mod:`mearm.vision.render`).
+    """
+
+    def __init__(self, config: Config, world: World, extras: Sequence[Extra] = ()):
+        cam = config.camera
+        super().__init__("sim", (cam.width_px, cam.height_px))
+        self.world = world
+        calibration = Calibration.from_config(config.calibration)
+        self.renderer = TableRenderer.from_config(cam, calibration, extras)
+        self.frames_read = 0
+
+    def _read(self) -> np.ndarray:
+        discs = [Disc(OBJECT_BGR[o.color], o.x_cm, o.y_cm) for o in self.world.table_objects()]
+        frame = self.renderer.render(discs, frame_index=self.frames_read)
+        self.frames_read += 1
+        return frame
+
+
+def open_camera(config: Config, world: World | None = None) -> Camera:
+    """Open the source ``config.camera.kind`` names.
+
+    Args:
+        config: The whole config.
+        world: The table the ``sim`` camera shows; ``None`` builds one from
+            ``config.task.scene``. Ignored by the other kinds.
+
+    Raises:
+        CameraError: the source cannot be opened.
+    """
+    kind = config.camera.kind
+    if kind == "device":
+        return DeviceCamera(config.camera)
+    if kind == "file":
+        return FileCamera(config.camera)
+    if kind == "folder":
+        return FolderCamera(config.camera)
+    if world is None:
+        from mearm.world import World
+
+        world = World.from_config(config)
+    return SimCamera(config, world)

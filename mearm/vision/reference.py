@@ -1,0 +1,59 @@
+"""The paper's recipe in plain NumPy/SciPy, for cross-checks and the benchmark (SPEC §4).
+
+Per colour: float64 HSV thresholds, ``scipy.ndimage.median_filter`` (borders replicated,
+as OpenCV's ``medianBlur``), ``scipy.ndimage.label`` with 8-connectivity, regions under
+the minimum area dropped, centroid = mean pixel position. No shortcuts: every step runs
+on the whole frame, as the paper's MATLAB did. Needs SciPy (the ``dev`` extra).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy import ndimage
+
+from mearm.config import COLORS, VisionConfig
+from mearm.vision.classify import COLOR_CODE, classify_hsv, hsv_exact
+from mearm.vision.detector import Detection
+from mearm.vision.presets import resolve_thresholds
+
+_EIGHT = np.ones((3, 3), dtype=bool)
+
+
+def detect_reference(frame_bgr: np.ndarray, vision: VisionConfig) -> list[Detection]:
+    """Detections of ``frame_bgr`` ((H, W, 3) uint8 BGR) without OpenCV, in detector order.
+
+    ``merged`` is left False: the merged test is the detector's addition, not the recipe.
+    """
+    thr = resolve_thresholds(vision)
+    codes = classify_hsv(*hsv_exact(frame_bgr), thr)
+    k = vision.median_kernel
+    rows, cols = np.indices(codes.shape)
+    found: list[Detection] = []
+    for color in COLORS:
+        mask = (codes == COLOR_CODE[color]).astype(np.uint8)
+        if k > 1:
+            mask = ndimage.median_filter(mask, size=k, mode="nearest")
+        labels, n = ndimage.label(mask, structure=_EIGHT)
+        if n == 0:
+            continue
+        flat = labels.ravel()
+        area = np.bincount(flat, minlength=n + 1)
+        sum_u = np.bincount(flat, weights=cols.ravel(), minlength=n + 1)
+        sum_v = np.bincount(flat, weights=rows.ravel(), minlength=n + 1)
+        boxes = ndimage.find_objects(labels)
+        per_color = []
+        for lab in range(1, n + 1):
+            if area[lab] < vision.min_area_px:
+                continue
+            sv, su = boxes[lab - 1]
+            per_color.append(
+                Detection(
+                    color=color,
+                    centroid_px=np.array([sum_u[lab], sum_v[lab]]) / area[lab],
+                    area_px=int(area[lab]),
+                    bbox_px=(su.start, sv.start, su.stop - su.start, sv.stop - sv.start),
+                )
+            )
+        per_color.sort(key=lambda d: (d.centroid_px[1], d.centroid_px[0]))
+        found.extend(per_color)
+    return found

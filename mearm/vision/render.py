@@ -1,0 +1,268 @@
+"""The simulated camera's picture of the table (SPEC §1, §4).
+
+A frame is drawn in the image through the inverse of the calibration, so an object at
+(x, y) cm appears exactly where the calibration says that point is:
+
+1. a table texture: light wood with grain, or grey with mottling (fixed per seed);
+2. white paper sheets, if asked for;
+3. for each object a soft drop shadow and then a 2 cm disc: its coverage of each pixel
+   from 4×4 samples mapped to the table (anti-aliased, exact for any homography), its
+   top shaded darker towards the rim (radially symmetric, so its centroid is unbiased);
+4. shadows, if asked for (a soft darkening);
+5. light: ``brightness`` × a linear gradient of ±``gradient`` from the top-left to the
+   bottom-right corner;
+6. specular highlights, if asked for (white added, so saturation drops);
+7. Gaussian sensor noise of ``noise_std`` levels, seeded by (seed, frame index);
+8. rounded and clipped to 8 bits.
+
+The discs are flat: the calibration is taken to hold in the plane of the objects' tops,
+as the paper's was measured on the objects (SPEC §4), so there is no parallax to add.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from mearm.config import CameraConfig
+from mearm.vision.calibration import Calibration
+
+#: Object colours as a webcam sees painted objects under white light (BGR, 8-bit).
+OBJECT_BGR: dict[str, tuple[int, int, int]] = {
+    "red": (45, 40, 200),  # H ≈ 358°
+    "green": (70, 160, 50),  # H ≈ 131°
+    "blue": (180, 90, 30),  # H ≈ 216°
+}
+#: Colours the detector must ignore (BGR, 8-bit).
+DISTRACTOR_BGR: dict[str, tuple[int, int, int]] = {
+    "yellow": (40, 210, 230),  # H ≈ 54°
+    "orange": (30, 130, 240),  # H ≈ 29°
+    "purple": (150, 50, 130),  # H ≈ 288°: red under the printed bands
+}
+WOOD_BGR = (95.0, 145.0, 195.0)  # H = 30°, S = 0.51
+GREY_BGR = (128.0, 128.0, 128.0)
+PAPER_BGR = (238.0, 240.0, 242.0)
+_SAMPLES = 4  # per pixel side, for disc coverage
+
+
+@dataclass(frozen=True)
+class Disc:
+    """A flat disc on the table: an object or a distractor.
+
+    Attributes:
+        bgr: Its top's colour (8-bit BGR) in nominal light.
+        x_cm: Centre, base frame [cm].
+        y_cm: Centre, base frame [cm].
+        diameter_cm: Diameter [cm] (objects: 2, SPEC §1).
+    """
+
+    bgr: tuple[int, int, int]
+    x_cm: float
+    y_cm: float
+    diameter_cm: float = 2.0
+
+
+@dataclass(frozen=True)
+class Paper:
+    """A white sheet lying on the table: centre, size [cm] and rotation [deg]."""
+
+    x_cm: float
+    y_cm: float
+    width_cm: float = 21.0
+    height_cm: float = 14.8
+    angle_deg: float = 0.0
+
+
+@dataclass(frozen=True)
+class Shadow:
+    """A soft shadow: light times (1 − depth) inside ``radius_cm``, fading over ``soft_cm``."""
+
+    x_cm: float
+    y_cm: float
+    radius_cm: float = 4.0
+    depth: float = 0.4
+    soft_cm: float = 1.5
+
+
+@dataclass(frozen=True)
+class Highlight:
+    """A specular highlight: ``strength`` × 255 levels of white, Gaussian of ``sigma_cm``."""
+
+    x_cm: float
+    y_cm: float
+    sigma_cm: float = 1.0
+    strength: float = 0.6
+
+
+Extra = Disc | Paper | Shadow | Highlight
+
+
+class TableRenderer:
+    """Draw table scenes as the camera sees them.
+
+    Args:
+        calibration: Pixel ↔ table map; objects are drawn through its inverse.
+        width_px: Frame width [px].
+        height_px: Frame height [px].
+        table: ``"wood"`` or ``"grey"``.
+        noise_std: Sensor noise, standard deviation [8-bit levels].
+        brightness: Light level factor [-].
+        gradient: Lighting gradient, ± this fraction corner to corner [-].
+        seed: Texture seed; frame *i*'s noise uses (seed, i).
+        extras: Distractors drawn in every frame: discs of other colours, paper,
+            shadows, highlights.
+    """
+
+    def __init__(
+        self,
+        calibration: Calibration,
+        width_px: int = 640,
+        height_px: int = 480,
+        *,
+        table: str = "wood",
+        noise_std: float = 2.0,
+        brightness: float = 1.0,
+        gradient: float = 0.15,
+        seed: int = 0,
+        extras: Sequence[Extra] = (),
+    ):
+        if table not in ("wood", "grey"):
+            raise ValueError(f"table must be 'wood' or 'grey', got {table!r}")
+        self.calibration = calibration
+        self.size = (int(height_px), int(width_px))
+        self.table = table
+        self.noise_std = float(noise_std)
+        self.brightness = float(brightness)
+        self.gradient = float(gradient)
+        self.seed = int(seed)
+        self.extras = tuple(extras)
+        h, w = self.size
+        u, v = np.meshgrid(np.arange(w, dtype=float), np.arange(h, dtype=float))
+        xy = calibration.pixel_to_table(np.stack([u.ravel(), v.ravel()], axis=1))
+        self._x_cm = xy[:, 0].reshape(h, w).astype(np.float32)
+        self._y_cm = xy[:, 1].reshape(h, w).astype(np.float32)
+        ramp = (u / max(w - 1, 1) + v / max(h - 1, 1) - 1.0).astype(np.float32)
+        self._light = (self.brightness * (1.0 + self.gradient * ramp))[..., None]
+        self._texture = self._make_texture()
+
+    @classmethod
+    def from_config(
+        cls, camera: CameraConfig, calibration: Calibration, extras: Sequence[Extra] = ()
+    ) -> TableRenderer:
+        """A renderer with the sim settings of the ``camera`` section."""
+        return cls(
+            calibration,
+            camera.width_px,
+            camera.height_px,
+            table=camera.table,
+            noise_std=camera.noise_std,
+            brightness=camera.brightness,
+            gradient=camera.gradient,
+            seed=camera.seed,
+            extras=extras,
+        )
+
+    def _lowfreq(self, rng: np.random.Generator, cells: tuple[int, int]) -> np.ndarray:
+        h, w = self.size
+        grid = rng.standard_normal(cells).astype(np.float32)
+        return cv2.resize(grid, (w, h), interpolation=cv2.INTER_CUBIC)
+
+    def _make_texture(self) -> np.ndarray:
+        rng = np.random.default_rng([self.seed, 7])
+        h, w = self.size
+        if self.table == "grey":
+            shade = 1.0 + 0.04 * self._lowfreq(rng, (8, 10)) + 0.02 * self._lowfreq(rng, (48, 64))
+            base = np.array(GREY_BGR, np.float32)
+        else:
+            # Grain: bands across the image, wavy, of varying darkness.
+            v = np.arange(h, dtype=np.float32)[:, None]
+            warp = 6.0 * self._lowfreq(rng, (4, 6)) + 2.0 * self._lowfreq(rng, (12, 16))
+            phase = 2 * np.pi * (v + warp) / 23.0
+            grain = 0.5 + 0.5 * np.sin(phase + 0.8 * np.sin(phase / 3.1))
+            shade = 1.0 - 0.14 * grain**3 + 0.03 * self._lowfreq(rng, (60, 80))
+            shade += 0.05 * self._lowfreq(rng, (6, 8))
+            base = np.array(WOOD_BGR, np.float32)
+        return shade[..., None] * base
+
+    def render(self, discs: Iterable[Disc], frame_index: int = 0) -> np.ndarray:
+        """One frame with ``discs`` (and the renderer's extras) on the table.
+
+        Returns:
+            The frame, (H, W, 3) uint8 BGR.
+        """
+        img = self._texture.copy()
+        extras = self.extras
+        for e in extras:
+            if isinstance(e, Paper):
+                self._paper(img, e)
+        all_discs = [e for e in extras if isinstance(e, Disc)] + list(discs)
+        for d in all_discs:
+            self._soft(img, d.x_cm + 0.25, d.y_cm - 0.25, d.diameter_cm / 2 + 0.1, 0.3, 0.5)
+        for d in all_discs:
+            self._disc(img, d)
+        for e in extras:
+            if isinstance(e, Shadow):
+                self._soft(img, e.x_cm, e.y_cm, e.radius_cm, e.depth, e.soft_cm)
+        img *= self._light
+        for e in extras:
+            if isinstance(e, Highlight):
+                r2 = (self._x_cm - e.x_cm) ** 2 + (self._y_cm - e.y_cm) ** 2
+                img += (255.0 * e.strength * np.exp(-0.5 * r2 / e.sigma_cm**2))[..., None]
+        if self.noise_std > 0:
+            rng = np.random.default_rng([self.seed, int(frame_index)])
+            img += rng.normal(0.0, self.noise_std, img.shape).astype(np.float32)
+        return np.clip(np.rint(img), 0, 255).astype(np.uint8)
+
+    def _paper(self, img: np.ndarray, p: Paper) -> None:
+        a = np.radians(p.angle_deg)
+        dx, dy = self._x_cm - p.x_cm, self._y_cm - p.y_cm
+        along = np.cos(a) * dx + np.sin(a) * dy
+        across = -np.sin(a) * dx + np.cos(a) * dy
+        inside = (np.abs(along) <= p.width_cm / 2) & (np.abs(across) <= p.height_cm / 2)
+        img[inside] = PAPER_BGR
+
+    def _roi(self, x: float, y: float, reach_cm: float) -> tuple[slice, slice] | None:
+        """Pixel box holding the table square of half-side ``reach_cm`` around (x, y)."""
+        h, w = self.size
+        corners = [[x + sx * reach_cm, y + sy * reach_cm] for sx in (-1, 1) for sy in (-1, 1)]
+        px = self.calibration.table_to_pixel(np.array(corners))
+        u0, v0 = np.floor(px.min(axis=0)).astype(int) - 2
+        u1, v1 = np.ceil(px.max(axis=0)).astype(int) + 3
+        u0, v0, u1, v1 = max(u0, 0), max(v0, 0), min(u1, w), min(v1, h)
+        if u0 >= u1 or v0 >= v1:
+            return None
+        return slice(v0, v1), slice(u0, u1)
+
+    def _soft(self, img: np.ndarray, x: float, y: float, r: float, depth: float, soft: float):
+        roi = self._roi(x, y, r + soft)
+        if roi is None:
+            return
+        dist = np.sqrt((self._x_cm[roi] - x) ** 2 + (self._y_cm[roi] - y) ** 2)
+        t = np.clip((r + soft / 2 - dist) / max(soft, 1e-6), 0.0, 1.0)
+        img[roi] *= (1.0 - depth * t * t * (3 - 2 * t))[..., None]
+
+    def _disc(self, img: np.ndarray, d: Disc) -> None:
+        r = d.diameter_cm / 2.0
+        roi = self._roi(d.x_cm, d.y_cm, r)
+        if roi is None:
+            return
+        (v0, v1), (u0, u1) = (roi[0].start, roi[0].stop), (roi[1].start, roi[1].stop)
+        n = _SAMPLES
+        offs = (np.arange(n) + 0.5) / n - 0.5
+        us = (np.arange(u0, u1)[:, None] + offs).ravel()  # (W·n,)
+        vs = (np.arange(v0, v1)[:, None] + offs).ravel()  # (H·n,)
+        uu, vv = np.meshgrid(us, vs)
+        xy = self.calibration.pixel_to_table(np.stack([uu.ravel(), vv.ravel()], axis=1))
+        rho = np.hypot(xy[:, 0] - d.x_cm, xy[:, 1] - d.y_cm).reshape(uu.shape) / r
+        inside = rho <= 1.0
+        shade = np.where(inside, 1.0 - 0.12 * rho**2 - 0.15 * (rho > 0.88), 0.0)
+        bh, bw = v1 - v0, u1 - u0
+        cover = inside.reshape(bh, n, bw, n).mean(axis=(1, 3)).astype(np.float32)
+        tone = shade.reshape(bh, n, bw, n).mean(axis=(1, 3)).astype(np.float32)
+        color = np.array(d.bgr, np.float32)
+        patch = img[v0:v1, u0:u1]
+        patch *= (1.0 - cover)[..., None]
+        patch += tone[..., None] * color
