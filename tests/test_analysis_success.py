@@ -156,6 +156,11 @@ def test_whole_analysis_of_the_hand_log(hand_log: Path) -> None:
     assert data["table8"]["xyz"]["max"] == pytest.approx(2.0)
     assert data["paper"]["weibull"] == {"shape": 2.045, "scale": 0.7059}
     assert data["problem"] is None
+    # the paper's way, over all 13 routes: 1.3, 1.4, 1.5, 2.0 are at or above the bound
+    assert data["around_bound"] == {
+        "routes": 13, "above": 4, "failed_picks": 2, "failed_share_above": 0.5,
+        "empirical_p_below": pytest.approx(9 / 13),
+    }  # fmt: skip
 
 
 def test_analysis_of_places_only(hand_log: Path) -> None:

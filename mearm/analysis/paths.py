@@ -29,6 +29,7 @@ class SolvedRoute:
         label: Legend text, e.g. ``"pick red1"`` or ``"kp = 0.1"``.
         kp: Proportional gain used [-].
         kd: Derivative gain used [-].
+        mode: PD-PIJ mode used, ``"paper"`` or ``"coupled"``.
         status: The solver's status.
         iterations: Updates applied [-].
         target_cm: Target [cm], (3,).
@@ -42,6 +43,7 @@ class SolvedRoute:
     label: str
     kp: float
     kd: float
+    mode: str
     status: str
     iterations: int
     target_cm: np.ndarray
@@ -115,6 +117,7 @@ def solve_route(
         label=label,
         kp=controller.kp,
         kd=controller.kd,
+        mode=controller.mode,
         status=str(result.status),
         iterations=int(result.iterations),
         target_cm=np.asarray(target_cm, dtype=float),

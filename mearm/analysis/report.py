@@ -25,9 +25,11 @@ from mearm.analysis.stats import (
 )
 from mearm.analysis.success import (
     Rate,
+    RoutesAroundBound,
     SuccessTable,
     SuccessVsError,
     pick_outcomes,
+    routes_around_bound,
     success_table,
     success_vs_error,
 )
@@ -56,6 +58,7 @@ class Analysis:
         table9: First-attempt pick and place success per colour.
         attempts: Which picks the success-against-error analysis covers.
         success: Success against error of those picks, or ``None`` when there are none.
+        around_bound: The same bound counted over the Table 8 routes, the paper's way.
         table6: Iteration and solver-error statistics for all routes, picks and places.
     """
 
@@ -73,6 +76,7 @@ class Analysis:
     table9: SuccessTable
     attempts: Literal["first", "all"]
     success: SuccessVsError | None
+    around_bound: RoutesAroundBound | None
     table6: dict[str, IterationStats]
 
 
@@ -132,6 +136,7 @@ def analyze(
         table9=success_table(routes),
         attempts=attempts,
         success=success,
+        around_bound=routes_around_bound(norms, success) if success else None,
         table6=table6,
     )
 
@@ -143,6 +148,14 @@ def jsonable(value: Any) -> Any:
             "successes": value.successes,
             "n": value.n,
             "rate": jsonable(value.rate),
+        }
+    if isinstance(value, RoutesAroundBound):
+        return {
+            "routes": value.routes,
+            "above": value.above,
+            "failed_picks": value.failed_picks,
+            "failed_share_above": jsonable(value.failed_share_above),
+            "empirical_p_below": jsonable(value.empirical_p_below),
         }
     if isinstance(value, RunLogFormatError):
         return {"line": value.line, "reason": value.reason, "text": value.text}

@@ -156,41 +156,59 @@ def table9(a: Analysis) -> Table:
 
 def success_table(a: Analysis) -> Table:
     """Success against error, ours and the paper's."""
+    from scipy import stats
+
     s = a.success
     attempts = "first-attempt picks" if a.attempts == "first" else "pick attempts"
     if s is None:
         return Table(
             "Pick success against error", ("", "this run", "paper"), ((attempts, "0", DASH),)
         )
-    p_12 = a.weibull.prob_below(paper.SUCCESS_BOUND_CM) if a.weibull else None
+    has_bound = s.bound_cm is not None
+    r = a.around_bound
+    fit = a.weibull
+    paper_fit = stats.weibull_min(paper.WEIBULL_SHAPE, scale=paper.WEIBULL_SCALE_CM)
+    paper_fit_below = 100 * float(paper_fit.cdf(paper.SUCCESS_BOUND_CM))
+    bound = paper.SUCCESS_BOUND_CM
     rows = (
         (attempts, str(s.picks.n), str(3 * paper.TABLE9_PICKS_PER_COLOR)),
-        ("failed picks", str(s.picks.failures), DASH),
-        ("every pick below [cm] succeeded", _num(s.bound_cm, 3), f"{paper.SUCCESS_BOUND_CM:g}"),
+        ("failed picks", str(s.picks.failures), str(paper.FAILED_PICKS)),
+        ("every pick below [cm] succeeded", _num(s.bound_cm, 3), f"{bound:g}"),
+        ("picks at or above it", str(s.above.n) if has_bound else DASH, DASH),
+        ("  failed [%]", _num(100 * s.above.failure_rate, 2) if has_bound else DASH, DASH),
+        ("routes at or above it", str(r.above) if r else DASH, str(paper.PICKS_ABOVE_BOUND)),
         (
-            "picks at or above that",
-            str(s.above.n) if s.bound_cm is not None else DASH,
-            str(paper.PICKS_ABOVE_BOUND),
+            "  failed picks / those routes [%]",
+            _num(100 * r.failed_share_above, 2) if r else DASH,
+            f"{paper.FAILURE_ABOVE_PERCENT:.2f}",
         ),
         (
-            "  of which failed [%]",
-            _num(100 * s.above.failure_rate, 2) if s.bound_cm is not None else DASH,
-            f"{paper.FAILURE_ABOVE_PERCENT:.2f}",
+            "P(error < bound), share of routes [%]",
+            _num(100 * r.empirical_p_below, 2) if r else DASH,
+            f"{paper.P_BELOW_BOUND_PERCENT:.2f}",
         ),
         (
             "P(error < bound), fitted [%]",
             _num(100 * s.p_below, 2) if s.p_below is not None else DASH,
-            f"{paper.P_BELOW_BOUND_PERCENT:.2f}",
+            f"{paper_fit_below:.2f}",
         ),
         (
-            f"P(error < {paper.SUCCESS_BOUND_CM:g} cm), fitted [%]",
-            _num(100 * p_12, 2) if p_12 is not None else DASH,
-            f"{paper.P_BELOW_BOUND_PERCENT:.2f}",
+            f"P(error < {bound:g} cm), fitted [%]",
+            _num(100 * fit.prob_below(bound), 2) if fit else DASH,
+            f"{paper_fit_below:.2f}",
         ),
         ("largest pick error [cm]", _num(s.max_error_cm, 3), DASH),
     )
-    notes = ["bound = the smallest error of a failed pick; no failure, no bound"]
-    if a.weibull is None:
+    notes = [
+        "bound = the smallest error of a failed pick (no failure, no bound); routes = the "
+        "Table 8 routes, picks and places",
+        f"paper: '{paper.FAILURE_ABOVE_PERCENT} % of {paper.PICKS_ABOVE_BOUND} picks failed' "
+        f"and 'P = {paper.P_BELOW_BOUND_PERCENT} %' only add up over routes: "
+        f"{paper.FAILED_PICKS} failed picks / {paper.PICKS_ABOVE_BOUND} routes, and "
+        f"1 − {paper.PICKS_ABOVE_BOUND}/{paper.TABLE8_ROUTES}; its own Weibull fit gives "
+        f"{paper_fit_below:.2f} % (its failed picks: 1 200 × 5.75 %)",
+    ]
+    if fit is None:
         notes.append("no Weibull fit, so no fitted probabilities")
     return Table("Pick success against error", ("", "this run", "paper"), rows, tuple(notes))
 
@@ -257,6 +275,11 @@ def gain_table(routes: Sequence[SolvedRoute], title: str) -> Table:
         )
         for r in routes
     )
+    if routes:
+        r0 = routes[0]
+        start = ", ".join(f"{v:.4g}" for v in r0.ee_path_cm[0])
+        target = ", ".join(f"{v:.4g}" for v in r0.target_cm)
+        title = f"{title}: PD-PIJ, {r0.mode} mode, ({start}) → ({target}) cm"
     return Table(
         title=title,
         header=("", "kp", "kd", "iterations", "status", "final error [cm]", "largest detour [cm]"),

@@ -1,0 +1,307 @@
+"""``python -m mearm.analyze``: the paper's statistics and plots for a run log (SPEC §5).
+
+Examples::
+
+    python -m mearm.analyze trials.jsonl                  # tables beside the paper's
+    python -m mearm.analyze trials.jsonl --out report/    # + PNG plots and report.md
+    python -m mearm.analyze trials.jsonl --json           # everything as JSON
+    python -m mearm.analyze --gains --out gains/          # kp and kd sweeps of one route
+
+A damaged log (a crash mid-line, a missing field) is analysed up to the bad line, which
+is reported on stderr (``--strict`` makes it an error instead).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from mearm.cli import (
+    EXIT_BAD_INPUT,
+    ArgumentParser,
+    add_config_argument,
+    config_from_args,
+    float_list,
+    run,
+)
+from mearm.config import Config
+from mearm.runlog import HeaderRecord, RouteRecord, RunLogContents, read_runlog
+
+DEFAULT_KP = "0.01,0.1,0.5"
+DEFAULT_KD = "0,0.01,0.1,0.5"
+#: The gain sweeps' default route: home to the paper's first object, M1 (SPEC §4).
+DEFAULT_TARGET_XY_CM = (-10.99, 49.70)
+
+
+def _parser() -> ArgumentParser:
+    parser = ArgumentParser(prog="python -m mearm.analyze", description=__doc__.splitlines()[0])
+    parser.add_argument("log", nargs="?", type=Path, help="run log (JSON lines) to analyse")
+    parser.add_argument("--out", type=Path, help="write PNG plots and report.md into this folder")
+    parser.add_argument("--json", action="store_true", help="print everything as JSON")
+    parser.add_argument(
+        "--step",
+        choices=("all", "pick", "place"),
+        default="all",
+        help="routes for Table 8 and the Weibull fit (default: all, as the paper's 2 400)",
+    )
+    parser.add_argument(
+        "--first-attempt", action="store_true", help="Table 8 and the fit over first attempts only"
+    )
+    parser.add_argument(
+        "--attempts",
+        choices=("first", "all"),
+        default="first",
+        help="picks for success against error (default: first attempts, as Table 9)",
+    )
+    parser.add_argument("--strict", action="store_true", help="a damaged log is an error")
+    gains = parser.add_argument_group("gain sweeps (--gains)")
+    gains.add_argument("--gains", action="store_true", help="sweep kp and kd on one route")
+    add_config_argument(gains)
+    gains.add_argument(
+        "--kp",
+        type=float_list(None, "--kp"),
+        default=DEFAULT_KP,
+        help=f"kp values, kd from the config (default {DEFAULT_KP})",
+    )
+    gains.add_argument(
+        "--kd",
+        type=float_list(None, "--kd"),
+        default=DEFAULT_KD,
+        help=f"kd values, kp from the config (default {DEFAULT_KD})",
+    )
+    gains.add_argument(
+        "--mode",
+        choices=("paper", "coupled"),
+        help="PD-PIJ mode for the sweeps (default: the config's controller.mode)",
+    )
+    gains.add_argument(
+        "--start", type=float_list(3, "--start"), help="start θ1,θ2,θ3 [deg] (default: home)"
+    )
+    gains.add_argument(
+        "--target",
+        type=float_list(3, "--target"),
+        help="target x,y,z [cm] (default: the paper's M1 at the pick height)",
+    )
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Analyse a run log and / or sweep the gains; print tables or JSON, write plots."""
+    parser = _parser()
+    args = parser.parse_args(argv)
+    if args.log is None and not args.gains:
+        parser.error("give a run log to analyse, --gains, or both")
+    try:
+        import scipy  # noqa: F401
+    except ImportError:
+        print(
+            "python -m mearm.analyze: error: needs SciPy and Matplotlib: "
+            "pip install 'mearm[analysis]'",
+            file=sys.stderr,
+        )
+        return EXIT_BAD_INPUT
+
+    from mearm.analysis.report import analyze, jsonable, to_json
+    from mearm.analysis.tables import analysis_tables, gain_table, render_text
+
+    result: dict[str, Any] = {}
+    images: dict[str, Path] = {}
+    text: list[str] = []
+    analysis = None
+    contents: RunLogContents | None = None
+    if args.log is not None:
+        contents = read_runlog(args.log, strict=args.strict)
+        if contents.problem is not None:
+            p = contents.problem
+            print(
+                f"warning: {p}; analysed the {len(contents.records)} records before it",
+                file=sys.stderr,
+            )
+        analysis = analyze(
+            contents, step=args.step, first_attempt=args.first_attempt, attempts=args.attempts
+        )
+        result["analysis"] = to_json(analysis)
+        text += [render_text(t) for t in analysis_tables(analysis)]
+    path_routes: list[Any] = []
+    if contents is not None and args.out is not None:
+        images.update(_log_plots(contents, analysis, args))
+        path_routes = _path_routes(contents)
+        if path_routes:
+            images.update(_path_plots(path_routes, args.out))
+    gains_kp: list[Any] = []
+    gains_kd: list[Any] = []
+    if args.gains:
+        gains_kp, gains_kd = _gain_sweeps(config_from_args(args), args)
+        result["gains"] = {
+            "kp": jsonable(_gain_rows(gains_kp)),
+            "kd": jsonable(_gain_rows(gains_kd)),
+        }
+        text += [
+            render_text(gain_table(gains_kp, "Proportional gain kp")),
+            render_text(gain_table(gains_kd, "Derivative gain kd")),
+        ]
+        if args.out is not None:
+            images.update(_gain_plots(gains_kp, gains_kd, args.out))
+    if args.out is not None:
+        from mearm.analysis.document import report_markdown
+
+        report = args.out / "report.md"
+        rig = _rig(contents) if contents is not None else None
+        report.write_text(
+            report_markdown(
+                args.out,
+                images,
+                analysis=analysis,
+                rig=rig,
+                path_routes=path_routes,
+                gains_kp=gains_kp,
+                gains_kd=gains_kd,
+            ),
+            encoding="utf-8",
+        )
+        result["report"] = str(report)
+        result["plots"] = {k: str(v) for k, v in images.items()}
+        text.append(f"wrote {report} and {len(images)} plots into {args.out}/")
+    if args.json:
+        print(json.dumps(result, indent=1, allow_nan=False))
+    else:
+        print("\n\n".join(text))
+    return 0
+
+
+def _rig(contents: RunLogContents) -> str | None:
+    if not contents.trials:
+        return None
+    if (contents.trials[0].header.model_extra or {}).get("synthetic"):
+        return "synthetic data from mearm.analysis.synthetic: neither a simulation nor hardware"
+    servo = contents.trials[0].header.config.get("servo", {})
+    backend = servo.get("backend")
+    if backend == "sim":
+        quant = servo.get("error_model", {}).get("quantization")
+        return f"the simulated arm (servo backend 'sim', quantization '{quant}'): not hardware"
+    return f"servo backend {backend!r}" if backend else None
+
+
+def _log_plots(
+    contents: RunLogContents, analysis: Any, args: argparse.Namespace
+) -> dict[str, Path]:
+    from mearm.analysis import plots
+    from mearm.analysis.stats import route_errors_cm, select_routes
+    from mearm.analysis.success import pick_outcomes
+
+    chosen = select_routes(contents.routes, step=args.step, first_attempt=args.first_attempt)
+    norms = np.linalg.norm(route_errors_cm(chosen), axis=1)
+    images = {
+        "histogram": plots.error_histogram(norms, analysis.weibull, args.out / "histogram.png")
+    }
+    if analysis.success is not None:
+        errors, success = pick_outcomes(contents.routes, attempts=args.attempts)
+        images["success"] = plots.success_against_error(
+            errors, success, analysis.success, args.out / "success_vs_error.png"
+        )
+    return images
+
+
+def _first_pick_and_place(contents: RunLogContents) -> tuple[Config, list[RouteRecord]] | None:
+    """The first gripped pick and its place, preferring a pair whose paths do not overlap.
+
+    The first red object's place goes back to where its pick started (the red bin is
+    home, SPEC §4), which would draw one path on top of the other.
+    """
+    first: tuple[HeaderRecord, list[RouteRecord]] | None = None
+    for trial in contents.trials:
+        for pick in (r for r in trial.routes if r.step == "pick" and r.success):
+            place = next(
+                (r for r in trial.routes if r.step == "place" and r.object_id == pick.object_id),
+                None,
+            )
+            if place is None:
+                continue
+            if np.abs(np.subtract(pick.start_joints_deg, place.end_joints_deg)).max() > 5.0:
+                return trial.header.load_config(), [pick, place]
+            first = first or (trial.header, [pick, place])
+    return (first[0].load_config(), first[1]) if first else None
+
+
+def _path_routes(contents: RunLogContents) -> list[Any]:
+    from mearm.analysis.paths import resolve_logged_route
+    from mearm.kinematics import ArmModel
+
+    found = _first_pick_and_place(contents)
+    if found is None:
+        return []
+    config, routes = found
+    model = ArmModel(config.robot)
+    return [resolve_logged_route(r, config, model=model) for r in routes]
+
+
+def _path_plots(routes: list[Any], out: Path) -> dict[str, Path]:
+    from mearm.analysis import plots
+
+    title = "EE path of a pick and the place after it"
+    return {
+        "path3d": plots.ee_paths_3d(routes, out / "ee_path_3d.png", title=title),
+        "joints": plots.joint_angles(routes, out / "joint_angles.png"),
+    }
+
+
+def _gain_sweeps(config: Config, args: argparse.Namespace) -> tuple[list[Any], list[Any]]:
+    from mearm.analysis.paths import gain_sweep
+    from mearm.kinematics import ArmModel, couple
+
+    if args.mode is not None:
+        controller = config.controller.model_copy(update={"mode": args.mode})
+        config = config.model_copy(update={"controller": controller})
+
+    start_deg = couple(args.start if args.start is not None else config.robot.home_deg)
+    ArmModel(config.robot).check_limits(np.radians(start_deg))
+    if args.target is not None:
+        target = np.array(args.target)
+    else:
+        target = np.array([*DEFAULT_TARGET_XY_CM, config.robot.gripper.pick_height_cm])
+    kp0, kd0 = config.controller.kp, config.controller.kd
+    q0 = np.radians(start_deg)
+    by_kp = gain_sweep(config, q0, target, [(kp, kd0) for kp in args.kp], vary="kp")
+    by_kd = gain_sweep(config, q0, target, [(kp0, kd) for kd in args.kd], vary="kd")
+    return by_kp, by_kd
+
+
+def _gain_rows(routes: list[Any]) -> list[dict[str, Any]]:
+    return [
+        {
+            "mode": r.mode,
+            "kp": r.kp,
+            "kd": r.kd,
+            "iterations": r.iterations,
+            "status": r.status,
+            "final_error_cm": r.final_error_cm,
+            "path_deviation_cm": r.path_deviation_cm,
+            "target_cm": r.target_cm,
+            "start_joints_deg": np.degrees(r.q_path_rad[0]),
+        }
+        for r in routes
+    ]
+
+
+def _gain_plots(by_kp: list[Any], by_kd: list[Any], out: Path) -> dict[str, Path]:
+    from mearm.analysis import plots
+
+    kd, kp, mode = by_kp[0].kd, by_kd[0].kp, by_kp[0].mode
+    return {
+        "gains_kp": plots.gain_sweep(
+            by_kp, out / "gains_kp.png", title=f"PD-PIJ ({mode} mode) with several kp (kd = {kd:g})"
+        ),
+        "gains_kd": plots.gain_sweep(
+            by_kd, out / "gains_kd.png", title=f"PD-PIJ ({mode} mode) with several kd (kp = {kp:g})"
+        ),
+    }
+
+
+if __name__ == "__main__":
+    run(main)
