@@ -23,6 +23,17 @@ from mearm.hardware.bus import ServoBus
 
 log = logging.getLogger(__name__)
 
+try:  # pyserial's POSIX flush() lets termios.error (not an OSError) through
+    import termios
+
+    _IO_ERRORS: tuple[type[BaseException], ...] = (
+        serial.SerialException,
+        OSError,
+        termios.error,
+    )
+except ImportError:  # pragma: no cover - Windows
+    _IO_ERRORS = (serial.SerialException, OSError)
+
 #: Longest single blocking read [s]; deadlines are checked between reads.
 POLL_S = 0.005
 #: Bits on the wire per byte: start + 8 data + stop (8N1).
@@ -94,7 +105,7 @@ class SerialServoBus(ServoBus):
         if self._serial is not None:
             try:
                 self._serial.close()
-            except (serial.SerialException, OSError) as exc:
+            except _IO_ERRORS as exc:
                 log.warning("%s: error while closing: %s", self.port, exc)
             self._serial = None
 
@@ -115,7 +126,7 @@ class SerialServoBus(ServoBus):
         try:
             self._serial.write(data)
             self._serial.flush()
-        except (serial.SerialException, OSError) as exc:
+        except _IO_ERRORS as exc:
             raise self._dropped(f"sending {data!r}", exc) from None
         log.debug("%s > %r", self.port, data)
 
@@ -128,7 +139,7 @@ class SerialServoBus(ServoBus):
                 waiting = self._serial.in_waiting
                 if waiting:
                     chunk += self._serial.read(waiting)
-        except (serial.SerialException, OSError) as exc:
+        except _IO_ERRORS as exc:
             raise self._dropped("reading", exc) from None
         if chunk:
             log.debug("%s < %r", self.port, chunk)

@@ -111,12 +111,7 @@ class SSC32Bus(SerialServoBus):
     # ----------------------------------------------------------------- backend hooks
 
     def _connect(self) -> None:
-        for j in self.servo_map.all_joints:
-            if j.min_us < SSC32_MIN_US or j.max_us > SSC32_MAX_US:
-                raise HandshakeError(
-                    f"{j.name}'s pulse range [{j.min_us}, {j.max_us}] µs is wider than the "
-                    f"SSC-32's [{SSC32_MIN_US}, {SSC32_MAX_US}] µs"
-                )
+        # The config already keeps every pulse within the SSC-32's 500..2500 µs.
         self._open_port()
         try:
             self.version = self._handshake()
@@ -178,7 +173,10 @@ class SSC32Bus(SerialServoBus):
         )
 
     def _stop(self) -> None:
-        """Hold every servo at its current pulse (``QP`` each, then a move without ``T``)."""
+        """Hold every servo at its current pulse: ``QP`` each, a move without ``T``, a ``Q``.
+
+        ``QP`` reports in 10 µs steps, so a servo may shift by up to 10 µs.
+        """
         timeout = self.config.servo.ack_timeout_s
         here: dict[int, int] = {}
         for ch in self.servo_map.channels:
@@ -188,4 +186,6 @@ class SSC32Bus(SerialServoBus):
             if byte is None:
                 raise NoAckError(self.port, query, timeout, last_state=self.state)
             here[ch] = min(SSC32_MAX_US, max(SSC32_MIN_US, 10 * byte[0]))
-        self._write(encode_group_move(here))
+        hold = encode_group_move(here)
+        self._write(hold)
+        self._query_movement(hold)
