@@ -31,6 +31,7 @@ from mearm.cli import (
     run,
 )
 from mearm.config import Config
+from mearm.exceptions import MearmError
 from mearm.runlog import HeaderRecord, RouteRecord, RunLogContents, read_runlog
 
 DEFAULT_KP = "0.01,0.1,0.5"
@@ -233,12 +234,16 @@ def _path_routes(contents: RunLogContents) -> list[Any]:
     from mearm.analysis.paths import resolve_logged_route
     from mearm.kinematics import ArmModel
 
-    found = _first_pick_and_place(contents)
-    if found is None:
+    try:
+        found = _first_pick_and_place(contents)
+        if found is None:
+            return []
+        config, routes = found
+        model = ArmModel(config.robot)
+        return [resolve_logged_route(r, config, model=model) for r in routes]
+    except MearmError as exc:  # the tables and the other plots are still worth having
+        print(f"warning: path plots skipped: {exc}", file=sys.stderr)
         return []
-    config, routes = found
-    model = ArmModel(config.robot)
-    return [resolve_logged_route(r, config, model=model) for r in routes]
 
 
 def _path_plots(routes: list[Any], out: Path) -> dict[str, Path]:
