@@ -411,3 +411,34 @@ class BoardResetError(ServoError):
 
 
 # (end of servo I/O errors)
+
+
+class InvalidJointsError(MearmError):
+    """A joint vector cannot be used as a start: wrong length, not finite, or uncoupled.
+
+    Attributes:
+        joints: The values given (as floats where possible).
+        reason: What is wrong and what is allowed.
+    """
+
+    def __init__(self, joints: Sequence[float], reason: str):
+        self.joints = tuple(joints)
+        self.reason = reason
+        super().__init__(f"joints {list(self.joints)!r}: {reason}")
+
+
+class QPSolverError(MearmError):
+    """The QP backend asked for the mink cross-check is not installed.
+
+    Attributes:
+        name: The backend asked for.
+        available: The installed qpsolvers backends.
+    """
+
+    def __init__(self, name: str, available: Sequence[str]):
+        self.name = name
+        self.available = list(available)
+        super().__init__(
+            f"QP solver {name!r} is not installed; available: {self.available} "
+            "(set controller.qp_solver)"
+        )
