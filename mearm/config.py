@@ -242,18 +242,57 @@ class VisionConfig(_Strict):
 
 
 class ControllerConfig(_Strict):
-    """The PD-PIJ solver (SPEC §3)."""
+    """The IK solver: PD-PIJ (SPEC §3), or mink / the closed form as cross-checks.
+
+    The gains must keep the linearised loop e_{t+1} = (1−kp−kd)·e_t + kd·e_{t−1} stable:
+    kp > 0, 0 ≤ kd < 1 and kp + 2·kd < 2 (Jury's test on its characteristic polynomial).
+    """
 
     solver: Literal["pdpij", "mink", "analytic"] = "pdpij"
+    """Which solver :func:`mearm.ik.solve_ik` runs."""
     mode: Literal["paper", "coupled"] = "coupled"
+    """paper: θ ∈ R⁴, 3×4 J, coupling re-imposed after each update; coupled: J·C."""
     kp: Positive = 0.1
+    """Proportional gain [-]."""
     kd: NonNegative = 0.01
+    """Derivative gain [-]."""
     tolerance_cm2: Positive = 1e-3
+    """Stop when |e|² is below this [cm²] (SPEC §3, eq. 6)."""
     max_iterations: int = Field(default=1000, ge=1)
+    """Give up (status ``max_iterations``) after this many updates."""
     singular_value_cutoff: Positive = 1e-6
-    """Singular values below this times the largest are treated as zero in J⁺."""
+    """Singular values at or below this times the largest are treated as zero in J⁺ [-]."""
     damping: NonNegative = 0.0
-    """> 0 selects damped least squares, J^T (J J^T + λ² I)^-1, λ in cm."""
+    """> 0 selects damped least squares, Jᵀ(J Jᵀ + λ² I)⁻¹, with this λ [cm/rad]."""
+    safeguard: bool = True
+    """Reject an update that would raise |e| and retry along the clamped exact step."""
+    stall_iterations: int = Field(default=50, ge=1)
+    """Status ``stalled`` when |e| fell by under a relative 1e-6 over this many updates."""
+    qp_solver: str = "daqp"
+    """qpsolvers backend of the mink cross-check."""
+
+    @model_validator(mode="after")
+    def _stable_gains(self) -> ControllerConfig:
+        if self.kd >= 1:
+            raise ValueError(f"kd = {self.kd:g} must be below 1 (the PD loop is unstable)")
+        if self.kp + 2 * self.kd >= 2:
+            raise ValueError(
+                f"kp + 2·kd = {self.kp + 2 * self.kd:g} must be below 2 "
+                "(the PD loop is unstable); the paper uses kp = 0.1, kd = 0.01"
+            )
+        return self
+
+    def updated(self, **changes: Any) -> ControllerConfig:
+        """A copy with ``changes`` applied and validated.
+
+        Raises:
+            ConfigError: a changed value is invalid; the message names it.
+        """
+        try:
+            return ControllerConfig.model_validate({**self.model_dump(), **changes})
+        except ValidationError as exc:
+            problems = [_describe({**e, "loc": ("controller", *e["loc"])}) for e in exc.errors()]
+            raise ConfigError(None, problems) from None
 
 
 # --------------------------------------------------------------------------- servos

@@ -1,0 +1,52 @@
+"""Choose a solver by config: ``controller.solver`` is ``pdpij``, ``mink`` or ``analytic``."""
+
+from __future__ import annotations
+
+import numpy.typing as npt
+
+from mearm.config import ControllerConfig
+from mearm.ik.analytic import AnalyticSolver
+from mearm.ik.pdpij import PdPij
+from mearm.ik.result import IKResult
+from mearm.ik.solver import IKSolver
+from mearm.kinematics import ArmModel
+
+
+def make_solver(model: ArmModel, config: ControllerConfig) -> IKSolver:
+    """The solver ``config.solver`` names, built for ``model``.
+
+    The mink solver imports MuJoCo, so it is only loaded when asked for.
+    """
+    if config.solver == "pdpij":
+        return PdPij(model, config)
+    if config.solver == "mink":
+        from mearm.ik.mink_solver import MinkSolver  # noqa: PLC0415 (MuJoCo is heavy)
+
+        return MinkSolver(model, config)
+    return AnalyticSolver(model, config)
+
+
+def solve_ik(
+    model: ArmModel,
+    q_start_rad: npt.ArrayLike,
+    target_cm: npt.ArrayLike,
+    config: ControllerConfig,
+) -> IKResult:
+    """Solve once with the solver ``config.solver`` names.
+
+    Args:
+        model: The arm model.
+        q_start_rad: Start (θ1, θ2, θ3) or (θ1..θ4) [rad].
+        target_cm: Target (x, y, z) in the base frame [cm].
+        config: The controller section of the config.
+
+    Returns:
+        The :class:`IKResult`.
+
+    Raises:
+        TargetOutsideBoxError, UnreachableTargetError: the target, before anything moves.
+        JointLimitError, InvalidJointsError: the start.
+
+    To solve many targets, build the solver once with :func:`make_solver` instead.
+    """
+    return make_solver(model, config).solve(q_start_rad, target_cm)
