@@ -151,9 +151,11 @@ class PixelClassifier:
         sv = cv2.bitwise_and(cv2.LUT(s, self._sat_lut), cv2.LUT(v, self._val_lut))
         codes = cv2.bitwise_and(codes, sv)  # sure k & pass = k; anything & unsure = unsure
         x, y, w, h_ = cv2.boundingRect(codes)
+        if w == 0 or h_ == 0:  # no pixel passes: nothing to refine
+            return codes, (0, 0, 0, 0)
         box = codes[y : y + h_, x : x + w]  # a view: the exact pass writes through
         unsure = cv2.compare(box, _UNSURE, cv2.CMP_EQ)
-        if unsure.size and cv2.countNonZero(unsure):
+        if cv2.countNonZero(unsure):
             xy = cv2.findNonZero(unsure).reshape(-1, 2) + (x, y)  # (N, 2) u, v
             us, vs = xy[:, 0], xy[:, 1]
             codes[vs, us] = classify_exact(frame_bgr[vs, us], self.thresholds)

@@ -32,7 +32,7 @@ the centroid.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import cv2
 import numpy as np
@@ -177,12 +177,7 @@ class ColorDetector:
             region = (labels[roi] == lab).view(np.uint8)
             lo, hi, _, _ = cv2.minMaxLoc(index[roi], mask=region)
             if lo == hi:  # one colour: the union region is that colour's region
-                color = COLORS[int(lo) - 1]
-                found.append(
-                    self._detection(
-                        color, region, centroids[lab] + (ox, oy), area, (x + ox, y + oy)
-                    )
-                )
+                found.append(self._detection(int(lo), region, centroids[lab], area, (x, y)))
                 continue
             for i in range(int(lo), int(hi) + 1):  # different colours touch: split them
                 sub = cv2.compare(index[roi], i, cv2.CMP_EQ)
@@ -190,43 +185,43 @@ class ColorDetector:
                 m, sub_labels, sub_stats, sub_centroids = _label(sub)
                 for s in range(1, m):
                     sx, sy, sw, sh, sarea = (int(v) for v in sub_stats[s])
-                    if sarea < min_area:
-                        continue
-                    piece = (sub_labels[sy : sy + sh, sx : sx + sw] == s).view(np.uint8)
-                    found.append(
-                        self._detection(
-                            COLORS[i - 1],
-                            piece,
-                            sub_centroids[s] + (x + ox, y + oy),
-                            sarea,
-                            (x + sx + ox, y + sy + oy),
-                        )
-                    )
+                    if sarea >= min_area:
+                        piece = (sub_labels[sy : sy + sh, sx : sx + sw] == s).view(np.uint8)
+                        centroid = sub_centroids[s] + (x, y)
+                        found.append(self._detection(i, piece, centroid, sarea, (x + sx, y + sy)))
+        found = [self._shifted(d, ox, oy) for d in found]
         order = {c: i for i, c in enumerate(COLORS)}
         found.sort(key=lambda d: (order[d.color], d.centroid_px[1], d.centroid_px[0]))
-        return found
+        return self._flag_by_area(found)
 
     def _detection(
-        self,
-        color: Color,
-        region: np.ndarray,
-        centroid: np.ndarray,
-        area: int,
-        origin: tuple[int, int],
+        self, index: int, region: np.ndarray, centroid: np.ndarray, area: int, xy: tuple[int, int]
     ) -> Detection:
+        """A detection from a region (0/1 image of its bounding box) in working-box pixels."""
         elongation = _elongation(region)
-        merged = elongation > self.vision.merged_elongation
-        if self.calibration is not None:
-            expected = self.calibration.expected_disc_area_px(
-                centroid, self.vision.object_diameter_cm
-            )[0]
-            merged = merged or area > self.vision.merged_area_ratio * expected
         h, w = region.shape
         return Detection(
-            color=color,
-            centroid_px=np.asarray(centroid, dtype=float),
+            color=COLORS[index - 1],
+            centroid_px=centroid,
             area_px=int(area),
-            bbox_px=(int(origin[0]), int(origin[1]), int(w), int(h)),
-            merged=bool(merged),
-            elongation=float(elongation),
+            bbox_px=(xy[0], xy[1], w, h),
+            merged=elongation > self.vision.merged_elongation,
+            elongation=elongation,
         )
+
+    @staticmethod
+    def _shifted(d: Detection, ox: int, oy: int) -> Detection:
+        x, y, w, h = d.bbox_px
+        return replace(d, centroid_px=d.centroid_px + (ox, oy), bbox_px=(x + ox, y + oy, w, h))
+
+    def _flag_by_area(self, found: list[Detection]) -> list[Detection]:
+        """Apply the area rule of the merged test (needs the calibration)."""
+        if self.calibration is None or not found:
+            return found
+        centroids = np.array([d.centroid_px for d in found])
+        expected = self.calibration.expected_disc_area_px(centroids, self.vision.object_diameter_cm)
+        limit = self.vision.merged_area_ratio * expected
+        return [
+            d if d.merged or d.area_px <= lim else replace(d, merged=True)
+            for d, lim in zip(found, limit, strict=True)
+        ]

@@ -1,0 +1,224 @@
+r"""Fit the camera → table calibration and write it into a config file (SPEC §4).
+
+From an image showing four (or more) ArUco markers whose centres' table positions you
+measured (base frame, cm; the marker's top edge towards +y)::
+
+    python tools/calibrate_camera.py --config configs/lab.yaml --image table.png \
+        --marker 0:-17,56 --marker 1:16,56 --marker 2:16,32 --marker 3:-17,32 \
+        [--marker-side-cm 4] [--dictionary DICT_4X4_50]
+
+or from pixel ↔ table point pairs ``U,V:X,Y``::
+
+    python tools/calibrate_camera.py --config configs/lab.yaml \
+        --point 0,0:-20.5,59 --point 640,0:19.5,59 --point 640,480:19.5,29 --point 0,480:-20.5,29
+
+It replaces ``calibration.homography`` and ``calibration.reprojection_error_cm`` in the
+file, keeping everything else and its comments, and prints the reprojection error. The
+new file is validated before it replaces the old one (atomically; on any failure the
+old file is untouched). ``--output`` writes elsewhere, ``--dry-run`` writes nothing.
+Print markers with ``tools/aruco_sheet.py``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import io
+import os
+import sys
+import tempfile
+from collections.abc import Sequence
+from datetime import date
+from pathlib import Path
+
+from ruamel.yaml import YAML, YAMLError
+from ruamel.yaml.comments import CommentedMap, CommentedSeq
+
+from mearm.cli import ArgumentParser, run
+from mearm.config import config_from_dict
+from mearm.exceptions import ConfigError, MearmError
+from mearm.vision.aruco import DEFAULT_DICTIONARY, calibration_from_markers
+from mearm.vision.calibration import Calibration
+
+
+def _numbers(text: str, n: int, what: str) -> list[float]:
+    try:
+        values = [float(v) for v in text.split(",")]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{what} must be numbers, got {text!r}") from None
+    if len(values) != n or not all(abs(v) < float("inf") for v in values):
+        raise argparse.ArgumentTypeError(f"{what} needs {n} finite numbers, got {text!r}")
+    return values
+
+
+def parse_point(text: str) -> tuple[list[float], list[float]]:
+    """``U,V:X,Y`` → ((u, v) [px], (x, y) [cm])."""
+    if text.count(":") != 1:
+        raise argparse.ArgumentTypeError(f"--point wants U,V:X,Y, got {text!r}")
+    px, cm = text.split(":")
+    return _numbers(px, 2, "--point pixel U,V"), _numbers(cm, 2, "--point table X,Y")
+
+
+def parse_marker(text: str) -> tuple[int, tuple[float, float]]:
+    """``ID:X,Y`` → (id, (x, y) [cm])."""
+    if text.count(":") != 1:
+        raise argparse.ArgumentTypeError(f"--marker wants ID:X,Y, got {text!r}")
+    ident, cm = text.split(":")
+    try:
+        marker_id = int(ident)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"--marker id must be an integer, got {ident!r}") from None
+    x, y = _numbers(cm, 2, "--marker table X,Y")
+    return marker_id, (x, y)
+
+
+def _yaml() -> YAML:
+    y = YAML()  # round-trip: keeps comments, order and flow style
+    y.preserve_quotes = True
+    y.width = 4096  # never fold a line
+    y.indent(mapping=2, sequence=4, offset=2)  # the style of configs/*.yaml
+    y.representer.add_representer(
+        type(None), lambda r, _: r.represent_scalar("tag:yaml.org,2002:null", "null")
+    )
+    return y
+
+
+def update_config_text(text: str, calibration: Calibration, note: str, source: str) -> str:
+    """``text`` (a YAML config) with its calibration block replaced; comments kept.
+
+    Raises:
+        ConfigError: the text is not YAML, or the result is not a valid config.
+    """
+    y = _yaml()
+    try:
+        data = y.load(text)
+    except YAMLError as exc:
+        raise ConfigError(source, [f"malformed YAML: {str(exc).splitlines()[0]}"]) from None
+    if data is None:
+        data = CommentedMap()
+    if not isinstance(data, CommentedMap):
+        raise ConfigError(source, ["top level must be a mapping"])
+    section = data.get("calibration")
+    if not isinstance(section, CommentedMap):
+        section = CommentedMap()
+        data["calibration"] = section
+    rows = [[float(v) for v in row] for row in calibration.H]
+    old = section.get("homography")
+    if (
+        isinstance(old, list)
+        and len(old) == 3
+        and all(isinstance(r, list) and len(r) == 3 for r in old)
+    ):
+        for i in range(3):  # in place, so the rows keep their style and comments
+            for j in range(3):
+                old[i][j] = rows[i][j]
+    else:
+        seq = CommentedSeq()
+        for row in rows:
+            r = CommentedSeq(row)
+            r.fa.set_flow_style()
+            seq.append(r)
+        section["homography"] = seq
+    err = calibration.reprojection_error_cm
+    section["reprojection_error_cm"] = None if err is None else float(err)
+    section.yaml_add_eol_comment(note, "homography")
+    out = io.StringIO()
+    y.dump(data, out)
+    result = out.getvalue()
+    config_from_dict(YAML(typ="safe").load(result), source=source)  # must still load
+    return result
+
+
+def write_atomically(path: Path, text: str) -> None:
+    """Replace ``path`` with ``text`` in one step; on failure the old file stays."""
+    mode = path.stat().st_mode & 0o777 if path.exists() else 0o644
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as f:
+            f.write(text)
+            f.flush()
+            os.fsync(f.fileno())
+        os.chmod(tmp, mode)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = ArgumentParser(
+        prog="calibrate_camera.py", description="Fit pixel → table calibration into a config."
+    )
+    parser.add_argument("--config", type=Path, required=True, help="config file to update")
+    parser.add_argument("--output", type=Path, help="write here instead of --config")
+    parser.add_argument("--image", type=Path, help="image showing the ArUco markers")
+    parser.add_argument(
+        "--marker", type=parse_marker, action="append", default=[], metavar="ID:X,Y",
+        help="a marker's id and its centre's table position [cm] (4 or more)",
+    )  # fmt: skip
+    parser.add_argument(
+        "--marker-side-cm", type=float, help="printed marker side [cm]: use the corners too"
+    )
+    parser.add_argument("--dictionary", default=DEFAULT_DICTIONARY, help="ArUco dictionary")
+    parser.add_argument(
+        "--point", type=parse_point, action="append", default=[], metavar="U,V:X,Y",
+        help="a pixel and its table position [cm] (4 or more)",
+    )  # fmt: skip
+    parser.add_argument("--dry-run", action="store_true", help="fit and print; write nothing")
+    args = parser.parse_args(argv)
+    if bool(args.point) == bool(args.image or args.marker):
+        parser.error("give either --image with --marker, or --point (not both, not neither)")
+    if args.image and not args.marker:
+        parser.error("--image needs --marker ID:X,Y for each marker (4 or more)")
+    if args.marker and not args.image:
+        parser.error("--marker needs --image")
+    if args.marker_side_cm is not None and not args.marker_side_cm > 0:
+        parser.error(f"--marker-side-cm must be positive, got {args.marker_side_cm:g}")
+
+    try:
+        text = args.config.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise ConfigError(str(args.config), [f"cannot read: {exc.strerror or exc}"]) from None
+
+    if args.point:
+        pixels = [p for p, _ in args.point]
+        table = [c for _, c in args.point]
+        calibration = Calibration.fit(pixels, table)
+        n_pairs = len(pixels)
+        how = f"{n_pairs} point pairs"
+    else:
+        from mearm.detect import read_image
+
+        centers = dict(args.marker)
+        if len(centers) != len(args.marker):
+            parser.error("each --marker id may be given once")
+        frame = read_image(args.image)
+        calibration = calibration_from_markers(
+            frame, centers, side_cm=args.marker_side_cm, dictionary=args.dictionary
+        )
+        corners = " and corners" if args.marker_side_cm else ""
+        n_pairs = len(centers) * (5 if args.marker_side_cm else 1)
+        how = f"{len(centers)} ArUco marker centres{corners} in {args.image.name}"
+
+    rms, worst = calibration.reprojection_error_cm, calibration.max_error_cm
+    print(f"fitted from {how}")
+    print(f"reprojection error: rms {rms:.4f} cm, max {worst:.4f} cm")
+    if n_pairs == 4:
+        print("note: 4 pairs fit exactly, so the error is 0 by construction; add points (or")
+        print("      --marker-side-cm) for an error that measures something")
+    for row in calibration.H:
+        print("  [" + ", ".join(f"{v: .9g}" for v in row) + "]")
+    if args.dry_run:
+        return 0
+    target = args.output or args.config
+    note = f"fitted {date.today().isoformat()} by tools/calibrate_camera.py from {how}"
+    new_text = update_config_text(text, calibration, note, str(args.config))
+    try:
+        write_atomically(target, new_text)
+    except OSError as exc:
+        raise MearmError(f"cannot write {target}: {exc.strerror or exc}") from None
+    print(f"wrote the calibration into {target}", file=sys.stderr)
+    return 0
+
+
+if __name__ == "__main__":
+    run(main)
