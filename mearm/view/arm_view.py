@@ -1,0 +1,455 @@
+"""The 3-D view of the rig in the browser: arm, table, bins, objects, camera frame, routes.
+
+The arm is the URDF's visual geometry drawn by Pinocchio's ``MeshcatVisualizer``; the
+rest is plain meshcat geometry. Everything lives under ``/meshcat`` in the robot base
+frame (z up); meshcat works in metres, so centimetres from the config are divided by
+100 here and nowhere else.
+
+Scene tree (below ``/meshcat``)::
+
+    table                       a thin slab whose top is the plane z = 0
+    bins/<colour>/…             an open box on the table under each bin's drop point
+    arm/visuals/…               the URDF arm (Pinocchio)
+    objects/<id>                2 cm × 1 cm cylinders (SPEC §1) at their table positions
+    camera_frame                the last camera frame, lying where the calibration puts it
+    target                      the current target
+    paths/route<k>              the EE path of each route, kept until clear_paths()
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections.abc import Iterable
+from dataclasses import dataclass
+from types import TracebackType
+from typing import Any
+
+import cv2
+import meshcat
+import meshcat.geometry as mg
+import meshcat.transformations as tf
+import numpy as np
+import numpy.typing as npt
+import pinocchio as pin
+from pinocchio.visualize import MeshcatVisualizer
+
+from mearm.config import COLORS, Color, Config
+from mearm.exceptions import ViewError, ViewInputError
+from mearm.kinematics import ArmModel, couple
+from mearm.view.camera import DEFAULT_CAMERA, M_PER_CM, ViewCamera
+from mearm.view.frame_plane import FramePlane, PixelToTable, frame_plane
+from mearm.view.server import MeshcatServer
+
+log = logging.getLogger(__name__)
+
+#: Object size, SPEC §1: cylinders 2 cm in diameter, 1 cm high.
+OBJECT_DIAMETER_CM = 2.0
+OBJECT_HEIGHT_CM = 1.0
+
+#: Colours by name, 0xRRGGBB. Objects use red / green / blue; the bins a darker shade.
+PALETTE: dict[str, int] = {
+    "red": 0xD81B1B,
+    "green": 0x1BA83A,
+    "blue": 0x1F48E0,
+    "yellow": 0xF2C500,
+    "magenta": 0xC02CC0,
+    "black": 0x202020,
+    "grey": 0x808080,
+    "white": 0xF0F0F0,
+}
+BIN_SHADE: dict[Color, int] = {"red": 0x9C2A2A, "green": 0x2A7A3E, "blue": 0x2D4296}
+TABLE_RGB = 0xD8D5CE
+TARGET_RGB = PALETTE["yellow"]
+BACKGROUND_TOP = [0.96, 0.97, 0.98]
+BACKGROUND_BOTTOM = [0.80, 0.82, 0.85]
+
+#: The table slab: x, y extent [cm] (covers the Table 3 box's x, the base and the bins).
+TABLE_X_CM = (-45.0, 45.0)
+TABLE_Y_CM = (-15.0, 68.0)
+TABLE_THICKNESS_CM = 2.0
+#: Open bins: square footprint, wall height and thickness [cm].
+BIN_SIDE_CM = 8.0
+BIN_WALL_HEIGHT_CM = 5.0
+BIN_WALL_CM = 0.4
+#: The camera frame floats this far above the table top so the two do not z-fight [cm].
+FRAME_LIFT_CM = 0.05
+TARGET_RADIUS_CM = 0.8
+
+
+@dataclass(frozen=True)
+class ViewObject:
+    """An object as drawn: its id, colour and table position [cm]."""
+
+    id: str
+    color: Color
+    x_cm: float
+    y_cm: float
+
+
+class _PlaneGeometry(mg.Geometry):
+    """three.js ``PlaneGeometry``: a width × height rectangle in the local xy plane [m]."""
+
+    def __init__(self, width_m: float, height_m: float):
+        super().__init__()
+        self.width_m = width_m
+        self.height_m = height_m
+
+    def lower(self, object_data: Any) -> dict[str, Any]:
+        return {
+            "uuid": self.uuid,
+            "type": "PlaneGeometry",
+            "width": self.width_m,
+            "height": self.height_m,
+            "widthSegments": 1,
+            "heightSegments": 1,
+        }
+
+
+def _color_value(color: str | int, argument: str = "color") -> int:
+    if isinstance(color, str) and color in PALETTE:
+        return PALETTE[color]
+    if isinstance(color, int) and not isinstance(color, bool) and 0 <= color <= 0xFFFFFF:
+        return color
+    raise ViewInputError(argument, color, f"one of {sorted(PALETTE)} or an int 0xRRGGBB")
+
+
+def _finite_array(value: npt.ArrayLike, argument: str, allowed: str) -> np.ndarray:
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise ViewInputError(argument, value, allowed) from None
+    if not np.all(np.isfinite(arr)):
+        raise ViewInputError(argument, value, allowed)
+    return arr
+
+
+def _view_object(item: Any) -> ViewObject:
+    """A ``(id, colour, x_cm, y_cm)`` tuple, or anything with those attributes."""
+    if isinstance(item, ViewObject):
+        fields = (item.id, item.color, item.x_cm, item.y_cm)
+    elif all(hasattr(item, a) for a in ("id", "color", "x_cm", "y_cm")):
+        fields = (item.id, item.color, item.x_cm, item.y_cm)
+    elif isinstance(item, (tuple, list)) and len(item) == 4:
+        fields = tuple(item)
+    else:
+        raise ViewInputError("objects[...]", item, "(id, colour, x_cm, y_cm)")
+    obj_id, color, x, y = fields
+    if not isinstance(obj_id, str) or not obj_id or "/" in obj_id:
+        raise ViewInputError("object id", obj_id, "a non-empty string without '/'")
+    if color not in COLORS:
+        raise ViewInputError(f"colour of {obj_id}", color, f"one of {list(COLORS)}")
+    xy = _finite_array((x, y), f"position of {obj_id}", "finite x_cm, y_cm")
+    return ViewObject(obj_id, color, float(xy[0]), float(xy[1]))
+
+
+def _png(bgra: np.ndarray) -> bytes:
+    ok, buf = cv2.imencode(".png", bgra)
+    if not ok:  # pragma: no cover - OpenCV encodes any uint8 BGRA image
+        raise ViewError("OpenCV could not encode the camera frame as PNG")
+    return buf.tobytes()
+
+
+class ArmView:
+    """The meshcat view of the rig, served on 127.0.0.1.
+
+    Args:
+        model: The arm; its URDF's visual geometry is what is drawn.
+        config: Provides the bins (``task.bins_cm``).
+        port: Web port; ``None`` takes the first free one from 7000.
+        camera: The fixed viewpoint; see :mod:`mearm.view.camera`.
+
+    Attributes:
+        url: The address to open in a browser, ``http://127.0.0.1:<port>/static/``.
+        viewer: The ``meshcat.Visualizer`` at ``/meshcat`` (base frame, metres), for
+            anything else a caller wants to draw.
+        camera: The viewpoint set.
+
+    Raises:
+        ViewPortError: ``port`` is in use.
+        ViewError: The server did not start.
+    """
+
+    def __init__(
+        self,
+        model: ArmModel,
+        config: Config,
+        *,
+        port: int | None = None,
+        camera: ViewCamera = DEFAULT_CAMERA,
+    ):
+        self.model = model
+        self.config = config
+        self.camera = camera
+        self._server = MeshcatServer(port=port)
+        self._closed = False
+        try:
+            self._window = self._server.window()
+            self.viewer = meshcat.Visualizer(window=self._window)
+            self.url: str = self._server.web_url
+            self._objects: dict[str, ViewObject] = {}
+            self._paths: list[str] = []
+            self._target_shown = False
+            self.frame_plane: FramePlane | None = None
+            self._setup_scene()
+            visual = pin.buildGeomFromUrdfString(model.model, model.urdf, pin.GeometryType.VISUAL)
+            self._viz = MeshcatVisualizer(model.model, None, visual)
+            self._viz.initViewer(viewer=self.viewer)
+            self._viz.loadViewerModel(rootNodeName="arm")
+            self.joints_rad = model.home_rad
+            self._viz.display(self.joints_rad)
+        except BaseException:
+            self.close()
+            raise
+        log.info("meshcat view at %s", self.url)
+
+    # ------------------------------------------------------------------ lifecycle
+
+    @property
+    def port(self) -> int:
+        """The web port."""
+        return self._server.port
+
+    @property
+    def closed(self) -> bool:
+        """Whether :meth:`close` was called."""
+        return self._closed
+
+    @property
+    def browsers(self) -> int:
+        """How many browsers are connected now."""
+        return self._server.browsers
+
+    def close(self) -> None:
+        """Stop the server; the view cannot be used afterwards. Safe to call twice."""
+        if self._closed:
+            return
+        self._closed = True
+        window = getattr(self, "_window", None)
+        if window is not None:
+            window.close()
+        self._server.close()
+
+    def __enter__(self) -> ArmView:
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        self.close()
+
+    def _check_open(self) -> None:
+        if self._closed:
+            raise ViewError(f"the view at {self.url} is closed")
+
+    # ------------------------------------------------------------------ static scene
+
+    def _setup_scene(self) -> None:
+        vis = self.viewer
+        vis["/Background"].set_property("top_color", BACKGROUND_TOP)
+        vis["/Background"].set_property("bottom_color", BACKGROUND_BOTTOM)
+        vis["/Grid"].set_property("visible", False)
+        vis["/Axes"].set_property("visible", False)
+        self.camera.apply(vis)
+
+        (x0, x1), (y0, y1) = TABLE_X_CM, TABLE_Y_CM
+        size_m = np.array([x1 - x0, y1 - y0, TABLE_THICKNESS_CM]) * M_PER_CM
+        center_m = np.array([(x0 + x1) / 2, (y0 + y1) / 2, -TABLE_THICKNESS_CM / 2]) * M_PER_CM
+        vis["table"].set_object(mg.Box(size_m.tolist()), mg.MeshLambertMaterial(color=TABLE_RGB))
+        vis["table"].set_transform(tf.translation_matrix(center_m))
+
+        for color, (bx, by, _bz) in self.config.task.bins_cm.items():
+            self._draw_bin(color, bx, by)
+
+    def _draw_bin(self, color: Color, x_cm: float, y_cm: float) -> None:
+        """An open box standing on the table under the drop point (x, y, ·)."""
+        s, h, t = BIN_SIDE_CM, BIN_WALL_HEIGHT_CM, BIN_WALL_CM
+        material = mg.MeshLambertMaterial(color=BIN_SHADE.get(color, PALETTE["grey"]))
+        parts = {  # name: (size, centre) relative to the bin's footprint centre [cm]
+            "floor": ((s, s, t), (0, 0, t / 2)),
+            "wall_xn": ((t, s, h), (-(s - t) / 2, 0, h / 2)),
+            "wall_xp": ((t, s, h), ((s - t) / 2, 0, h / 2)),
+            "wall_yn": ((s - 2 * t, t, h), (0, -(s - t) / 2, h / 2)),
+            "wall_yp": ((s - 2 * t, t, h), (0, (s - t) / 2, h / 2)),
+        }
+        for name, (size, (cx, cy, cz)) in parts.items():
+            node = self.viewer[f"bins/{color}/{name}"]
+            node.set_object(mg.Box([v * M_PER_CM for v in size]), material)
+            node.set_transform(
+                tf.translation_matrix(np.array([x_cm + cx, y_cm + cy, cz]) * M_PER_CM)
+            )
+
+    # ------------------------------------------------------------------ arm
+
+    def show_joints(self, q_rad: npt.ArrayLike) -> None:
+        """Draw the arm at joint angles ``q_rad`` [rad].
+
+        Args:
+            q_rad: (θ1, θ2, θ3, θ4), (4,); or (θ1, θ2, θ3), (3,), with θ4 = −(θ2 + θ3)
+                filled in (SPEC §2).
+
+        Raises:
+            ViewInputError: Not 3 or 4 finite numbers.
+        """
+        self._check_open()
+        q = _finite_array(q_rad, "q_rad", "3 or 4 finite joint angles [rad]")
+        if q.shape == (3,):
+            q = couple(q)
+        elif q.shape != (4,):
+            raise ViewInputError("q_rad", q_rad, "3 or 4 finite joint angles [rad]")
+        self._viz.display(q)
+        self.joints_rad = q
+
+    # ------------------------------------------------------------------ objects
+
+    @property
+    def objects(self) -> dict[str, ViewObject]:
+        """The objects drawn now, by id."""
+        return dict(self._objects)
+
+    def set_objects(self, objects: Iterable[Any]) -> None:
+        """Draw exactly these objects, and remove those no longer listed.
+
+        New ids are added, moved or recoloured ones updated, missing ones deleted.
+
+        Args:
+            objects: ``(id, colour, x_cm, y_cm)`` tuples (or objects with those
+                attributes, e.g. :class:`mearm.world.WorldObject`); colour is
+                ``"red"``, ``"green"`` or ``"blue"``; position on the table [cm].
+
+        Raises:
+            ViewInputError: A malformed item, an unknown colour or a repeated id; nothing
+                is changed then.
+        """
+        self._check_open()
+        wanted: dict[str, ViewObject] = {}
+        for item in objects:
+            obj = _view_object(item)
+            if obj.id in wanted:
+                raise ViewInputError("objects", obj.id, "each id at most once")
+            wanted[obj.id] = obj
+        for obj_id in [i for i in self._objects if i not in wanted]:
+            self.viewer[f"objects/{obj_id}"].delete()
+            del self._objects[obj_id]
+        for obj in wanted.values():
+            old = self._objects.get(obj.id)
+            node = self.viewer[f"objects/{obj.id}"]
+            if old is None or old.color != obj.color:
+                geometry = mg.Cylinder(
+                    OBJECT_HEIGHT_CM * M_PER_CM, radius=OBJECT_DIAMETER_CM / 2 * M_PER_CM
+                )
+                node.set_object(geometry, mg.MeshLambertMaterial(color=PALETTE[obj.color]))
+            if (
+                old is None
+                or (old.x_cm, old.y_cm) != (obj.x_cm, obj.y_cm)
+                or old.color != obj.color
+            ):
+                # three.js cylinders stand along y: turn them to stand along z
+                pose = tf.translation_matrix(
+                    np.array([obj.x_cm, obj.y_cm, OBJECT_HEIGHT_CM / 2]) * M_PER_CM
+                ) @ tf.rotation_matrix(math.pi / 2, [1, 0, 0])
+                node.set_transform(pose)
+            self._objects[obj.id] = obj
+
+    # ------------------------------------------------------------------ camera frame
+
+    def set_camera_frame(self, frame_bgr: npt.ArrayLike, pixel_to_table: PixelToTable) -> None:
+        """Lay the camera frame on the table where the calibration puts it.
+
+        Args:
+            frame_bgr: The frame, (H, W, 3) BGR or (H, W) grey, uint8.
+            pixel_to_table: Maps (N, 2) pixels [px] to (N, 2) table points [cm], e.g.
+                ``mearm.vision.Calibration.pixel_to_table``; see
+                :func:`mearm.view.frame_plane.frame_plane`.
+
+        Raises:
+            ViewInputError: Not an 8-bit image, or a calibration that does not map the
+                image to a convex quadrilateral.
+        """
+        self._check_open()
+        plane = frame_plane(frame_bgr, pixel_to_table)
+        width_m, height_m = plane.size_cm * M_PER_CM
+        texture = mg.ImageTexture(image=mg.PngImage(_png(plane.texture_bgra)))
+        material = mg.MeshBasicMaterial(map=texture, transparent=True)
+        node = self.viewer["camera_frame"]
+        node.set_object(mg.Mesh(_PlaneGeometry(width_m, height_m), material))
+        cx, cy = plane.center_cm
+        node.set_transform(tf.translation_matrix(np.array([cx, cy, FRAME_LIFT_CM]) * M_PER_CM))
+        self.frame_plane = plane
+
+    def clear_camera_frame(self) -> None:
+        """Remove the camera frame."""
+        self._check_open()
+        self.viewer["camera_frame"].delete()
+        self.frame_plane = None
+
+    # ------------------------------------------------------------------ target, paths
+
+    def set_target(self, target_cm: npt.ArrayLike | None) -> None:
+        """Mark the current target with a small yellow sphere, or remove the mark.
+
+        Args:
+            target_cm: (x, y, z) in the base frame [cm], (3,); ``None`` removes it.
+
+        Raises:
+            ViewInputError: Not 3 finite numbers.
+        """
+        self._check_open()
+        node = self.viewer["target"]
+        if target_cm is None:
+            if self._target_shown:
+                node.delete()
+                self._target_shown = False
+            return
+        target = _finite_array(target_cm, "target_cm", "3 finite numbers (x, y, z) [cm]")
+        if target.shape != (3,):
+            raise ViewInputError("target_cm", target_cm, "3 finite numbers (x, y, z) [cm]")
+        if not self._target_shown:
+            node.set_object(
+                mg.Sphere(TARGET_RADIUS_CM * M_PER_CM), mg.MeshLambertMaterial(color=TARGET_RGB)
+            )
+            self._target_shown = True
+        node.set_transform(tf.translation_matrix(target * M_PER_CM))
+
+    @property
+    def paths(self) -> list[str]:
+        """Names of the route lines drawn, oldest first (``route1``, ``route2``, …)."""
+        return list(self._paths)
+
+    def add_path(self, ee_path_cm: npt.ArrayLike, color: str | int = "black") -> str:
+        """Draw a route's EE path as a line; it stays until :meth:`clear_paths`.
+
+        Args:
+            ee_path_cm: EE positions along the route, base frame [cm], (N, 3), N ≥ 2.
+            color: A :data:`PALETTE` name or an int 0xRRGGBB.
+
+        Returns:
+            The line's name, ``route<k>``.
+
+        Raises:
+            ViewInputError: Not an (N, 3) array of finite numbers with N ≥ 2, or an
+                unknown colour.
+        """
+        self._check_open()
+        allowed = "an (N, 3) array of finite EE positions [cm] with N >= 2"
+        points = _finite_array(ee_path_cm, "ee_path_cm", allowed)
+        if points.ndim != 2 or points.shape[1] != 3 or points.shape[0] < 2:
+            raise ViewInputError("ee_path_cm", f"array of shape {points.shape}", allowed)
+        rgb = _color_value(color)
+        name = f"route{len(self._paths) + 1}"
+        line = mg.Line(
+            mg.PointsGeometry((points * M_PER_CM).T.astype(np.float32)),
+            mg.LineBasicMaterial(color=rgb, linewidth=2.0),
+        )
+        self.viewer[f"paths/{name}"].set_object(line)
+        self._paths.append(name)
+        return name
+
+    def clear_paths(self) -> None:
+        """Remove every route line."""
+        self._check_open()
+        self.viewer["paths"].delete()
+        self._paths.clear()

@@ -1,0 +1,228 @@
+"""A meshcat server that listens on 127.0.0.1 only, run in a background thread.
+
+meshcat-python's own server (``meshcat.servers.zmqserver``) binds its web port on every
+interface and runs as a separate process. This module reuses its ZMQ ↔ WebSocket bridge
+(the scene tree it keeps and replays to every browser that connects, the static viewer
+files) but listens on the loopback interface only and runs in a daemon thread of the
+calling process, so it starts in milliseconds and cannot outlive the program.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import threading
+from typing import Any
+
+import tornado.httpserver
+import tornado.ioloop
+import tornado.web
+import zmq
+from meshcat.servers.tree import SceneTree
+from meshcat.servers.zmqserver import (
+    VIEWER_HTML,
+    VIEWER_ROOT,
+    StaticFileHandlerNoCache,
+    WebSocketHandler,
+    ZMQWebSocketBridge,
+)
+from meshcat.visualizer import ViewerWindow
+
+from mearm.exceptions import ViewError, ViewPortError
+
+LOOPBACK = "127.0.0.1"
+#: First web port tried when none is given (meshcat's own default), and how many after it.
+DEFAULT_PORT = 7000
+PORT_ATTEMPTS = 100
+
+
+class _QuietWebSocketHandler(WebSocketHandler):
+    """meshcat's handler without its ``opened: <…>`` / ``closed: <…>`` lines on stderr."""
+
+    def open(self) -> None:  # noqa: D102
+        self.bridge.websocket_pool.add(self)
+        self.bridge.send_scene(self)
+
+    def on_close(self) -> None:  # noqa: D102
+        self.bridge.websocket_pool.discard(self)
+
+
+def _listen(app: tornado.web.Application, port: int | None) -> tuple[Any, int]:
+    """Start ``app`` on 127.0.0.1: on ``port``, or on the first free one from 7000."""
+    if port is not None:
+        try:
+            return app.listen(port, address=LOOPBACK), port
+        except OSError as exc:
+            raise ViewPortError(port, exc.strerror or str(exc)) from None
+    for candidate in range(DEFAULT_PORT, DEFAULT_PORT + PORT_ATTEMPTS):
+        try:
+            return app.listen(candidate, address=LOOPBACK), candidate
+        except OSError:
+            continue
+    raise ViewError(
+        f"no free port in {DEFAULT_PORT}..{DEFAULT_PORT + PORT_ATTEMPTS - 1} on {LOOPBACK}; "
+        "pass a port explicitly"
+    )
+
+
+class LoopbackBridge(ZMQWebSocketBridge):
+    """meshcat's ZMQ ↔ WebSocket bridge, bound to 127.0.0.1 only.
+
+    The ZMQ command socket takes an ephemeral loopback port; the web server takes
+    ``port`` (or the first free port from 7000). Must be built in the thread whose
+    event loop will run it.
+
+    Args:
+        port: Web port, or ``None`` for the first free one from 7000.
+
+    Raises:
+        ViewPortError: ``port`` is in use or not allowed.
+    """
+
+    def __init__(self, port: int | None = None):  # the parent's __init__ binds everywhere
+        self.host = LOOPBACK
+        self.websocket_pool: set[WebSocketHandler] = set()
+        self.tree = SceneTree()
+        self.ioloop = tornado.ioloop.IOLoop.current()
+        self.app = self.make_app()
+        self.http_server, self.fileserver_port = _listen(self.app, port)
+        self.zmq_socket, self.zmq_stream, _ = self.setup_zmq(f"tcp://{LOOPBACK}:*")
+        self.zmq_url = self.zmq_socket.getsockopt_string(zmq.LAST_ENDPOINT)
+        self.web_url = f"http://{LOOPBACK}:{self.fileserver_port}/static/"
+
+    def make_app(self) -> tornado.web.Application:
+        """The viewer's static files and the WebSocket the browser connects to."""
+        return tornado.web.Application(
+            [
+                (
+                    r"/static/(.*)",
+                    StaticFileHandlerNoCache,
+                    {"path": VIEWER_ROOT, "default_filename": VIEWER_HTML},
+                ),
+                (r"/", _QuietWebSocketHandler, {"bridge": self}),
+            ],
+            log_function=lambda handler: None,  # no access log lines on our stderr
+        )
+
+    def shutdown(self) -> None:
+        """Stop listening and close every socket (call in the loop's thread)."""
+        self.http_server.stop()
+        for ws in list(self.websocket_pool):
+            ws.close()
+        self.zmq_stream.close(linger=0)
+
+
+class _Window(ViewerWindow):
+    """The client end of the ZMQ link, with a reply timeout.
+
+    meshcat's window blocks forever when the server does not answer; this one raises
+    :class:`ViewError` after ``timeout_s``.
+    """
+
+    def __init__(self, zmq_url: str, web_url: str, timeout_s: float):  # no server, no print
+        self.server_proc = None
+        self.zmq_url = zmq_url
+        self.web_url = web_url
+        self.timeout_ms = int(timeout_s * 1000)
+        self.connect_zmq()
+
+    def connect_zmq(self) -> None:  # noqa: D102
+        self.zmq_socket = self.context.socket(zmq.REQ)
+        self.zmq_socket.setsockopt(zmq.RCVTIMEO, self.timeout_ms)
+        self.zmq_socket.setsockopt(zmq.SNDTIMEO, self.timeout_ms)
+        self.zmq_socket.setsockopt(zmq.LINGER, 0)
+        self.zmq_socket.connect(self.zmq_url)
+
+    def send(self, command: Any) -> None:  # noqa: D102
+        try:
+            super().send(command)
+        except zmq.ZMQError as exc:
+            raise ViewError(
+                f"the meshcat server at {self.web_url} did not answer within "
+                f"{self.timeout_ms / 1000:g} s ({exc}); was the view closed?"
+            ) from None
+
+    def get_scene(self) -> str:  # noqa: D102
+        try:
+            return super().get_scene()
+        except zmq.ZMQError as exc:
+            raise ViewError(
+                f"the meshcat server at {self.web_url} did not answer ({exc})"
+            ) from None
+
+    def close(self) -> None:
+        """Close the client socket."""
+        self.zmq_socket.close(linger=0)
+
+
+class MeshcatServer:
+    """A :class:`LoopbackBridge` serving from a daemon thread.
+
+    Args:
+        port: Web port, or ``None`` for the first free one from 7000.
+        timeout_s: How long to wait for the server to start, and for each reply [s].
+
+    Attributes:
+        web_url: The viewer's address, ``http://127.0.0.1:<port>/static/``.
+        zmq_url: The command socket's address, ``tcp://127.0.0.1:<port>``.
+        port: The web port.
+
+    Raises:
+        ViewPortError: ``port`` is in use.
+        ViewError: The server did not start.
+    """
+
+    def __init__(self, port: int | None = None, timeout_s: float = 10.0):
+        self.timeout_s = timeout_s
+        self._ready = threading.Event()
+        self._error: BaseException | None = None
+        self._bridge: LoopbackBridge | None = None
+        self._thread = threading.Thread(
+            target=self._serve, args=(port,), name="meshcat-server", daemon=True
+        )
+        self._thread.start()
+        if not self._ready.wait(timeout_s):
+            raise ViewError(f"the meshcat server did not start within {timeout_s:g} s")
+        if self._error is not None:
+            raise self._error
+        assert self._bridge is not None
+        self.web_url: str = self._bridge.web_url
+        self.zmq_url: str = self._bridge.zmq_url
+        self.port: int = self._bridge.fileserver_port
+
+    def _serve(self, port: int | None) -> None:
+        loop = asyncio.new_event_loop()
+        asyncio.set_event_loop(loop)
+        try:
+            self._bridge = LoopbackBridge(port)
+        except BaseException as exc:  # handed to the starting thread
+            self._error = exc
+            self._ready.set()
+            loop.close()
+            return
+        self._ready.set()
+        ioloop = self._bridge.ioloop
+        try:
+            ioloop.start()
+        finally:
+            self._bridge.shutdown()
+            ioloop.close(all_fds=True)
+
+    @property
+    def running(self) -> bool:
+        """Whether the server thread is alive."""
+        return self._thread.is_alive()
+
+    @property
+    def browsers(self) -> int:
+        """How many browsers are connected now."""
+        return len(self._bridge.websocket_pool) if self._bridge and self.running else 0
+
+    def window(self) -> _Window:
+        """A new client connection for ``meshcat.Visualizer(window=...)``."""
+        return _Window(self.zmq_url, self.web_url, self.timeout_s)
+
+    def close(self) -> None:
+        """Stop the server and free its ports; safe to call twice."""
+        if self._bridge is not None and self._thread.is_alive():
+            self._bridge.ioloop.add_callback(self._bridge.ioloop.stop)
+            self._thread.join(self.timeout_s)
