@@ -248,3 +248,13 @@ def test_any_frame_size_is_accepted() -> None:
     (d,) = ColorDetector(CONFIG.vision).detect(frame)
     assert d.color == "green" and d.area_px == 900 - 4
     np.testing.assert_allclose(d.centroid_px, [34.5, 44.5])
+
+
+@pytest.mark.parametrize("shape", [(1, 1, 3), (1, 3, 3), (2, 2, 3), (4, 1, 3), (1, 7, 3)])
+def test_tiny_frames_work(shape: tuple[int, int, int]) -> None:
+    """Frames of a few pixels (OpenCV reads ≤ 4-element arrays as scalars) still work."""
+    frame = np.zeros(shape, np.uint8)
+    frame[...] = OBJECT_BGR["red"]
+    (d,) = ColorDetector(VisionConfig(min_area_px=1, median_kernel=1)).detect(frame)
+    assert d.color == "red" and d.area_px == shape[0] * shape[1]
+    assert ColorDetector(VisionConfig(min_area_px=1)).detect(np.zeros(shape, np.uint8)) == []

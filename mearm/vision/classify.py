@@ -40,6 +40,18 @@ _HUE_SLACK_DEG = 1.0
 _S_SLACK = 1.0
 
 
+def equal_mask(a: np.ndarray, value: int) -> np.ndarray:
+    """0/255 uint8 mask of ``a == value`` (OpenCV takes arrays of ≤ 4 elements for scalars)."""
+    if a.size > 4:
+        return cv2.compare(a, value, cv2.CMP_EQ)
+    return np.where(a == value, 255, 0).astype(np.uint8)
+
+
+def and_scalar(a: np.ndarray, value: int) -> np.ndarray:
+    """``a & value`` for a uint8 array (see :func:`equal_mask` for why not always OpenCV)."""
+    return cv2.bitwise_and(a, value) if a.size > 4 else a & np.uint8(value)
+
+
 def hsv_exact(frame_bgr: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Exact H [deg, 0–360), S [-] and V [-] of 8-bit BGR pixels, float64, shape (...)."""
     px = np.asarray(frame_bgr)
@@ -154,7 +166,7 @@ class PixelClassifier:
         if w == 0 or h_ == 0:  # no pixel passes: nothing to refine
             return codes, (0, 0, 0, 0)
         box = codes[y : y + h_, x : x + w]  # a view: the exact pass writes through
-        unsure = cv2.compare(box, _UNSURE, cv2.CMP_EQ)
+        unsure = equal_mask(box, _UNSURE)
         if cv2.countNonZero(unsure):
             xy = cv2.findNonZero(unsure).reshape(-1, 2) + (x, y)  # (N, 2) u, v
             us, vs = xy[:, 0], xy[:, 1]

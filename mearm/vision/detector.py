@@ -40,7 +40,7 @@ import numpy as np
 from mearm.config import COLORS, Color, VisionConfig
 from mearm.exceptions import ImageError
 from mearm.vision.calibration import Calibration
-from mearm.vision.classify import COLOR_CODE, PixelClassifier
+from mearm.vision.classify import COLOR_CODE, PixelClassifier, and_scalar, equal_mask
 from mearm.vision.presets import resolve_thresholds
 
 
@@ -99,7 +99,9 @@ def _elongation(region: np.ndarray) -> float:
     a, b, c = m["mu20"], m["mu11"], m["mu02"]
     root = math.sqrt(max((a - c) ** 2 + 4.0 * b * b, 0.0))
     lam_max, lam_min = (a + c + root) / 2.0, (a + c - root) / 2.0
-    if lam_min <= 1e-12:
+    if lam_max <= 1e-12:  # a single pixel
+        return 1.0
+    if lam_min <= 1e-12:  # a line
         return math.inf
     return math.sqrt(lam_max / lam_min)
 
@@ -136,7 +138,7 @@ class ColorDetector:
         box = codes[y0:y1, x0:x1]
         out: dict[Color, np.ndarray] = {}
         for color in COLORS:
-            mask = cv2.compare(box, COLOR_CODE[color], cv2.CMP_EQ)
+            mask = equal_mask(box, COLOR_CODE[color])
             out[color] = cv2.medianBlur(mask, k) if k > 1 else mask
         return out, x0, y0
 
@@ -163,9 +165,9 @@ class ColorDetector:
         """
         masks, ox, oy = self._filtered(frame_bgr)
         # One image of colour indices 1..3 (0 = none); the filtered masks are disjoint.
-        index = cv2.bitwise_and(masks["red"], 1)
-        index = cv2.bitwise_or(index, cv2.bitwise_and(masks["green"], 2))
-        index = cv2.bitwise_or(index, cv2.bitwise_and(masks["blue"], 3))
+        index = and_scalar(masks["red"], 1)
+        index = cv2.bitwise_or(index, and_scalar(masks["green"], 2))
+        index = cv2.bitwise_or(index, and_scalar(masks["blue"], 3))
         n, labels, stats, centroids = _label(index)
         min_area = self.vision.min_area_px
         found: list[Detection] = []
@@ -180,7 +182,7 @@ class ColorDetector:
                 found.append(self._detection(int(lo), region, centroids[lab], area, (x, y)))
                 continue
             for i in range(int(lo), int(hi) + 1):  # different colours touch: split them
-                sub = cv2.compare(index[roi], i, cv2.CMP_EQ)
+                sub = equal_mask(index[roi], i)
                 sub = cv2.bitwise_and(sub, sub, mask=region)
                 m, sub_labels, sub_stats, sub_centroids = _label(sub)
                 for s in range(1, m):

@@ -1,0 +1,152 @@
+"""Pixel classification: the bands as printed (SPEC §4), exactly, and the fast path."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from mearm.config import VisionConfig
+from mearm.vision.classify import COLOR_CODE, PixelClassifier, classify_exact, hsv_exact
+from mearm.vision.presets import DEFAULT, PAPER, resolve_thresholds
+
+RED, GREEN, BLUE = (COLOR_CODE[c] for c in ("red", "green", "blue"))
+
+
+def rgb(r: int, g: int, b: int) -> tuple[int, int, int]:
+    return (b, g, r)  # BGR
+
+
+# (pixel, its exact hue [deg], class under the bands as printed: red H ≤ 20 or H ≥ 280,
+# blue 90..120, green 130..160; S and V in [0.1, 1])
+PAPER_EDGES = [
+    (rgb(255, 85, 0), 20.0, RED),  # H = 60·85/255 = 20 exactly: included
+    (rgb(255, 86, 0), 60 * 86 / 255, 0),  # 20.24°: outside
+    (rgb(170, 0, 255), 280.0, RED),  # 240 + 60·170/255 = 280: included
+    (rgb(169, 0, 255), 240 + 60 * 169 / 255, 0),  # 279.76°: outside
+    (rgb(255, 0, 0), 0.0, RED),
+    (rgb(255, 0, 255), 300.0, RED),  # magenta is "red" as printed
+    (rgb(127, 254, 0), 90.0, BLUE),  # 120 − 60·127/254 = 90: included
+    (rgb(128, 254, 0), 120 - 60 * 128 / 254, 0),  # 89.76°
+    (rgb(0, 255, 0), 120.0, BLUE),  # pure green is "blue" as printed
+    (rgb(0, 255, 2), 120 + 60 * 2 / 255, 0),  # 120.47°: the gap between blue and green
+    (rgb(0, 252, 42), 130.0, GREEN),  # 120 + 60·42/252 = 130: included
+    (rgb(0, 255, 42), 120 + 60 * 42 / 255, 0),  # 129.88°
+    (rgb(0, 255, 170), 160.0, GREEN),  # included
+    (rgb(0, 255, 171), 120 + 60 * 171 / 255, 0),  # 160.24°
+    (rgb(0, 0, 255), 240.0, 0),  # pure blue is nothing as printed
+]
+
+
+@pytest.mark.parametrize(("px", "hue", "code"), PAPER_EDGES)
+def test_paper_bands_as_printed(px: tuple[int, int, int], hue: float, code: int) -> None:
+    """Each band edge of SPEC §4 is inclusive, and a hair outside is out, on both paths."""
+    frame = np.array([[px]], np.uint8)
+    h, s, v = hsv_exact(frame)
+    assert h[0, 0] == pytest.approx(hue, abs=1e-12)
+    assert classify_exact(frame, PAPER)[0, 0] == code
+    assert PixelClassifier(PAPER).classify(frame)[0, 0] == code
+
+
+@pytest.mark.parametrize(
+    ("px", "code"),
+    [
+        (rgb(100, 90, 90), RED),  # S = 0.1 exactly: in
+        (rgb(100, 91, 91), 0),  # S = 0.09: out
+        (rgb(26, 0, 0), RED),  # V = 26/255 = 0.102: in
+        (rgb(25, 0, 0), 0),  # V = 0.098: out
+        (rgb(128, 128, 128), 0),  # grey: S = 0
+        (rgb(0, 0, 0), 0),
+    ],
+)
+def test_paper_floors_as_printed(px: tuple[int, int, int], code: int) -> None:
+    """S and V must lie in [0.1, 1] (SPEC §4)."""
+    frame = np.array([[px]], np.uint8)
+    assert classify_exact(frame, PAPER)[0, 0] == code
+    assert PixelClassifier(PAPER).classify(frame)[0, 0] == code
+
+
+def all_colours() -> np.ndarray:
+    c = np.arange(2**24, dtype=np.uint32)
+    bgr = np.stack([(c >> 16) & 255, (c >> 8) & 255, c & 255], axis=-1).astype(np.uint8)
+    return bgr.reshape(4096, 4096, 3)
+
+
+def test_fast_path_is_exact_on_every_colour() -> None:
+    """The 8-bit LUT path with exact refinement equals float64 on all 2²⁴ colours (paper)."""
+    frame = all_colours()
+    fast = PixelClassifier(PAPER).classify(frame)
+    assert np.array_equal(fast, classify_exact(frame, PAPER))
+
+
+def test_fast_path_is_exact_for_the_default_preset() -> None:
+    """Same for the default preset, on every 7th colour of the cube."""
+    frame = all_colours().reshape(-1, 3)[::7][: 1536 * 1536].reshape(1536, 1536, 3)
+    fast = PixelClassifier(DEFAULT).classify(frame)
+    assert np.array_equal(fast, classify_exact(frame, DEFAULT))
+
+
+@given(
+    lo=st.floats(0, 360, allow_nan=False),
+    hi=st.floats(0, 360, allow_nan=False),
+    s_min=st.floats(0, 1),
+    v_min=st.floats(0, 1),
+)
+def test_fast_path_is_exact_for_any_thresholds(lo: float, hi: float, s_min: float, v_min: float):
+    """Whatever the bands and floors (wrapping or not), the fast path is exact."""
+    vision = VisionConfig(
+        bands={"red": [{"lo_deg": lo, "hi_deg": hi}]}, saturation_min=s_min, value_min=v_min
+    )
+    thr = resolve_thresholds(vision)
+    rng = np.random.default_rng(int(lo * 1000 + hi))
+    frame = rng.integers(0, 256, (64, 64, 3), dtype=np.uint8)
+    assert np.array_equal(PixelClassifier(thr).classify(frame), classify_exact(frame, thr))
+
+
+def test_default_preset_ignores_what_it_must() -> None:
+    """Wood, grey, white paper, a highlight, shadowed wood, yellow, orange, purple: no class."""
+    ignored = {
+        "wood": (95, 145, 195),
+        "dark wood grain": (70, 110, 160),
+        "wood in shadow": (40, 62, 85),
+        "grey table": (128, 128, 128),
+        "white paper": (238, 240, 242),
+        "highlight on wood": (200, 230, 250),
+        "yellow": (40, 210, 230),
+        "orange": (30, 130, 240),
+        "purple": (150, 50, 130),
+        "black": (10, 10, 10),
+    }
+    frame = np.array([list(ignored.values())], np.uint8)
+    codes = classify_exact(frame, DEFAULT)[0]
+    assert dict(zip(ignored, codes.tolist(), strict=True)) == dict.fromkeys(ignored, 0)
+
+
+def test_default_preset_finds_real_colours_in_any_light() -> None:
+    """Painted red, green, blue at 0.6×–1.5× light (clipped to 8 bits) keep their class."""
+    objects = {RED: (45, 40, 200), GREEN: (70, 160, 50), BLUE: (180, 90, 30)}
+    for code, bgr in objects.items():
+        for gain in (0.6, 0.8, 1.0, 1.2, 1.5):
+            px = np.clip(np.rint(np.array(bgr) * gain), 0, 255).astype(np.uint8)
+            assert classify_exact(px[None, None], DEFAULT)[0, 0] == code, (bgr, gain)
+
+
+def test_overlapping_bands_go_to_the_first_colour() -> None:
+    """Red, green, blue are tried in that order (documented in classify.py)."""
+    vision = VisionConfig(bands={"green": [{"lo_deg": 0, "hi_deg": 360}]})
+    thr = resolve_thresholds(vision)
+    frame = np.array([[rgb(255, 0, 0), rgb(0, 0, 255)]], np.uint8)
+    assert classify_exact(frame, thr)[0].tolist() == [RED, GREEN]
+
+
+def test_overrides_keep_the_rest_of_the_preset() -> None:
+    """Overriding one colour's bands keeps the others' and the floors."""
+    thr = resolve_thresholds(
+        VisionConfig(preset="paper", bands={"blue": [{"lo_deg": 200, "hi_deg": 250}]})
+    )
+    assert thr.bands_deg["blue"] == ((200.0, 250.0),)
+    assert thr.bands_deg["red"] == PAPER.bands_deg["red"]
+    assert (thr.saturation_min, thr.value_min) == (0.1, 0.1)
+    thr = resolve_thresholds(VisionConfig(saturation_min=0.2))
+    assert thr.saturation_min == 0.2 and thr.value_min == DEFAULT.value_min
