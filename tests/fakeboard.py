@@ -21,6 +21,7 @@ import os
 import re
 import select
 import struct
+import subprocess
 import termios
 import threading
 import time
@@ -394,3 +395,91 @@ class FakeSSC32Board(FakeBoard):
             self.pulses_us.update(move)
             self.moves.append((move, time_ms))
             self._move_end = time.monotonic() + (time_ms or 0) / 1000.0
+
+
+# --------------------------------------------------------------------------- the real firmware
+
+
+class SimavrBoard(FakeBoard):
+    """The real ``mearm_servo`` firmware on a simulated ATmega328P behind the pty.
+
+    ``tools/arduino/sim/mearm_sim`` runs the ELF in simavr with UART0 on its stdin/stdout;
+    this board forwards the host's lines to it and its output to the host. Opening the
+    port restarts the simulator, as DTR resets an Uno. Every pulse the firmware generates
+    is measured in CPU cycles and collected in :attr:`pulses`.
+
+    Args:
+        sim: The ``mearm_sim`` executable.
+        elf: The firmware.
+
+    Attributes:
+        pulses: (channel, width [µs], simulated time [ms]) of every pulse, in order.
+    """
+
+    def __init__(self, sim: str, elf: str):
+        self._cmd = [str(sim), str(elf)]
+        self._proc: subprocess.Popen[bytes] | None = None
+        self.pulses: list[tuple[int, float, int]] = []
+        self.stderr: list[str] = []
+        super().__init__()
+
+    def on_open(self) -> None:
+        self._stop_sim()
+        self.pulses = []
+        proc = subprocess.Popen(
+            self._cmd, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE
+        )
+        self._proc = proc
+        threading.Thread(target=self._pump_out, args=(proc,), daemon=True).start()
+        threading.Thread(target=self._pump_err, args=(proc,), daemon=True).start()
+
+    def on_line(self, line: bytes) -> None:
+        if self._proc is not None and self._proc.stdin is not None:
+            self._proc.stdin.write(line + b"\n")
+            self._proc.stdin.flush()
+
+    def _pump_out(self, proc: subprocess.Popen[bytes]) -> None:
+        assert proc.stdout is not None
+        try:
+            while True:
+                chunk = os.read(proc.stdout.fileno(), 4096)
+                if not chunk:
+                    return
+                if proc is self._proc:
+                    self.send(chunk)
+        except (OSError, ValueError):  # the simulator was stopped, or the link dropped
+            return
+
+    def _pump_err(self, proc: subprocess.Popen[bytes]) -> None:
+        assert proc.stderr is not None
+        try:
+            for raw in proc.stderr:
+                text = raw.decode("ascii", "replace").split()
+                if len(text) == 4 and text[0] == "pulse":
+                    self.pulses.append((int(text[1]), int(text[2]) / 10.0, int(text[3])))
+                else:
+                    self.stderr.append(" ".join(text))
+        except (OSError, ValueError):  # the simulator was stopped
+            return
+
+    def widths_us(self, channel: int, after_ms: int = 0) -> list[float]:
+        """Widths of the channel's pulses generated after simulated time ``after_ms``."""
+        return [w for ch, w, t in list(self.pulses) if ch == channel and t > after_ms]
+
+    @property
+    def now_ms(self) -> int:
+        """Simulated time of the last pulse [ms] (0 before any)."""
+        return self.pulses[-1][2] if self.pulses else 0
+
+    def _stop_sim(self) -> None:
+        proc, self._proc = self._proc, None
+        if proc is not None:
+            proc.kill()
+            proc.wait(timeout=5)
+            for stream in (proc.stdin, proc.stdout, proc.stderr):
+                if stream is not None:
+                    stream.close()
+
+    def close(self) -> None:
+        self._stop_sim()
+        super().close()

@@ -1,20 +1,29 @@
-"""The Uno firmware builds with Debian's toolchain, fits the Uno, and boots with its banner.
+"""The Uno firmware: builds with Debian's toolchain, fits the Uno, and — run on a
+simulated ATmega328P (simavr) — speaks the protocol exactly as the fake board does and
+generates the commanded pulses.
 
-Needs gcc-avr, avr-libc and arduino-core-avr (and make); simavr for the boot test.
-Skipped without them, but failed when MEARM_REQUIRE_TOOLS=1 (CI).
+Needs gcc-avr, avr-libc, arduino-core-avr and make to build; simavr, libsimavr-dev,
+libelf-dev and a C compiler for the simulated runs. Skipped without them, but failed
+when MEARM_REQUIRE_TOOLS=1 (CI).
 """
 
 from __future__ import annotations
 
 import os
 import re
+import statistics
 import subprocess
+import time
 from pathlib import Path
 
 import pytest
+import serial
 from conftest import ROOT, require_tool
+from fakeboard import FakeMearmBoard, MearmFaults, SimavrBoard
+from hardware_helpers import HOME, HOME_PULSES, fast_config
 
-from mearm.hardware.mearm_protocol import decode_line, encode_line
+from mearm.hardware import ArduinoBus, ArmCommand
+from mearm.hardware.mearm_protocol import decode_line, encode_command, encode_line
 
 ARDUINO = ROOT / "tools" / "arduino"
 CORE_H = Path("/usr/share/arduino/hardware/arduino/avr/cores/arduino/Arduino.h")
@@ -87,3 +96,129 @@ def test_firmware_boots_with_banner_in_simavr(firmware):
     banner = encode_line("READY mearm_servo 1.0 5").rstrip(b"\n")
     assert banner in text, text[:500]
     assert decode_line(banner).kind == "READY"
+
+
+# --------------------------------------------------------------------------- in simavr
+
+SIMAVR_H = Path("/usr/include/simavr/sim_avr.h")
+
+
+@pytest.fixture(scope="module")
+def simulator(firmware) -> Path:
+    """``tools/arduino/sim/mearm_sim`` built next to the firmware (needs libsimavr-dev)."""
+    require_tool("cc", "gcc")
+    if not SIMAVR_H.is_file():
+        msg = f"libsimavr-dev is not installed ({SIMAVR_H} missing)"
+        if os.environ.get("MEARM_REQUIRE_TOOLS") == "1":
+            pytest.fail(f"{msg}, and MEARM_REQUIRE_TOOLS=1 says it must be")
+        pytest.skip(msg)
+    build = firmware.parent
+    result = subprocess.run(
+        ["make", "-C", str(ARDUINO), f"BUILD_DIR={build}", "sim"],
+        capture_output=True, text=True, timeout=120,
+    )  # fmt: skip
+    assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-3000:]
+    return build / "mearm_sim"
+
+
+@pytest.fixture
+def chip(simulator, firmware):
+    with SimavrBoard(str(simulator), str(firmware)) as board:
+        yield board
+
+
+def sim_config(port: str):
+    return fast_config("serial", port, banner_timeout_s=5.0, ack_timeout_s=1.0, rate_hz=50.0)
+
+
+def wait_for_pulses(chip: SimavrBoard, after_ms: int, frames: int = 5) -> list[list[float]]:
+    """Widths of every channel over ``frames`` servo frames generated after ``after_ms``."""
+    deadline = time.monotonic() + 5.0
+    while time.monotonic() < deadline:
+        widths = [chip.widths_us(ch, after_ms) for ch in range(5)]
+        if all(len(w) >= frames for w in widths):
+            return widths
+        time.sleep(0.02)
+    raise AssertionError(f"no pulses after {after_ms} ms: {chip.pulses[-10:]} {chip.stderr}")
+
+
+def test_host_drives_the_firmware(chip):
+    """The real ArduinoBus drives the real firmware: handshake, moves, query, stop; the
+    Timer1 pulses measured in CPU cycles are the commanded ones to within 1 µs."""
+    with ArduinoBus(sim_config(chip.port)) as bus:
+        assert bus.banner == b"READY mearm_servo 1.0 5*25"
+        assert (bus.firmware.version, bus.firmware.servo_count) == ("1.0", 5)
+        assert chip.pulses == []  # no pulses before the first move
+        bus.move(HOME)
+        widths = wait_for_pulses(chip, chip.now_ms)
+        for ch, expected in enumerate(HOME_PULSES):
+            assert abs(statistics.median(widths[ch]) - expected) <= 1.0, (ch, widths[ch])
+        closed = ArmCommand(HOME.joints_deg, 60.0, True)
+        bus.move(closed)
+        t = chip.now_ms + 25  # the next full frame carries the new command
+        assert abs(statistics.median(wait_for_pulses(chip, t)[4]) - 1900) <= 1.0
+        status = bus.query()
+        assert status.mode == "RUN" and status.pulses_us == (*HOME_PULSES[:4], 1900)
+        bus.stop()
+        assert bus.query().mode == "HOLD"
+
+
+def _exchange(port: str, lines: list[bytes]) -> list[bytes]:
+    """Open the port raw (a reset), wait for the banner, send each line, read one reply each."""
+    replies = []
+    with serial.Serial(port, 115200, timeout=2.0) as link:
+        banner = link.readline()
+        while b"READY" not in banner:
+            banner = link.readline()
+            assert banner, "no banner"
+        for line in lines:
+            link.write(line + b"\n")
+            replies.append(link.readline().rstrip(b"\n"))
+    return replies
+
+
+CONFORMANCE = [
+    b"0 V*46",
+    encode_command(1, "M", [1500, 1500, 1500, 1500, 1500]).rstrip(),
+    encode_command(1, "M", [1500, 1500, 1500, 1500, 1500]).rstrip(),  # resend
+    encode_command(2, "Q").rstrip(),
+    b"3 M 1500 1500 1500 1500 1500*00",  # bad checksum
+    b"3 S",  # no checksum
+    encode_command(4, "M", [3000, 0, 0, 0, 0]).rstrip(),  # pulse out of range
+    encode_command(5, "M", [1500]).rstrip(),  # argument count
+    encode_command(6, "X").rstrip(),  # unknown command
+    encode_line("7 M 15x0 1 1 1 1").rstrip(),  # not a number
+    b"8 M " + b"1" * 90,  # too long
+    encode_line("300 V").rstrip(),  # seq out of range
+    encode_command(9, "M", [0, 2500, 500, 0, 1200]).rstrip(),
+    encode_command(10, "S").rstrip(),
+    encode_command(11, "Q").rstrip(),
+]
+
+
+def test_firmware_and_fake_board_answer_alike(chip):
+    """Byte for byte, the firmware answers every frame, good or bad, as the fake Uno the
+    backend's fault tests use does: the fake is a faithful stand-in."""
+    firmware_replies = _exchange(chip.port, CONFORMANCE)
+    with FakeMearmBoard(MearmFaults(boot_noise=b"")) as fake:
+        fake_replies = _exchange(fake.port, CONFORMANCE)
+    assert firmware_replies == fake_replies
+    codes = [decode_line(r) for r in firmware_replies]
+    assert [c.kind for c in codes[:4]] == ["OK"] * 4 and firmware_replies[1] == firmware_replies[2]
+    assert [c.code for c in codes[4:12]] == [1, 2, 5, 4, 3, 2, 6, 2]
+    assert firmware_replies[-1].startswith(b"OK 11 HOLD 0 2500 500 0 1200*")
+
+
+def test_firmware_holds_when_commands_stop(chip):
+    """No valid command for 1 s: '! HOLD', and the last pulses go on (stiff, not limp)."""
+    with serial.Serial(chip.port, 115200, timeout=3.0) as link:
+        while b"READY" not in link.readline():
+            pass
+        link.write(encode_command(0, "M", HOME_PULSES))
+        assert link.readline().startswith(b"OK 0*")
+        t0 = chip.now_ms
+        assert link.readline() == encode_line("! HOLD")
+        after = chip.now_ms
+        assert after - t0 >= 900  # the watchdog waited its second (simulated time)
+        widths = wait_for_pulses(chip, after)
+        assert abs(statistics.median(widths[0]) - HOME_PULSES[0]) <= 1.0

@@ -42,6 +42,10 @@ static const uint8_t SERVO_PINS[SERVO_COUNT] = {3, 5, 6, 9, 10};
 #define TICKS_PER_US (F_CPU / 8000000UL)
 #define FRAME_TICKS ((uint16_t)(FRAME_US * TICKS_PER_US))
 #define EMPTY_SLOT_TICKS ((uint16_t)(50 * TICKS_PER_US))
+// From the compare match to the pin going low the ISR takes ~4.5 us (entry + prologue),
+// so each pulse is timed that much short. Measured on the simulated ATmega328P by
+// tests/test_firmware.py, which checks every channel's width to within 1 us.
+#define PULSE_TRIM_TICKS 9
 
 // ---------------------------------------------------------------- pulse generation
 
@@ -67,7 +71,7 @@ ISR(TIMER1_COMPA_vect) {
     uint16_t ticks = active_ticks[slot];
     if (ticks) {
       *pin_port[slot] |= pin_mask[slot];
-      OCR1A = TCNT1 + ticks;
+      OCR1A = TCNT1 + ticks - PULSE_TRIM_TICKS;
     } else {
       OCR1A = TCNT1 + EMPTY_SLOT_TICKS;
     }

@@ -1,0 +1,139 @@
+/*
+ * mearm_sim: run the mearm_servo firmware on a simulated ATmega328P (simavr) and talk to
+ * it through stdin/stdout, as if through the Uno's USB serial port.
+ *
+ *   mearm_sim build/mearm_servo.elf
+ *
+ * stdin bytes go to UART0's receiver (with the UART's own flow control), UART0's
+ * transmitter goes to stdout. Every servo pulse is reported on stderr as
+ * "pulse <channel> <width in 0.1 us> <simulated ms>", measured in CPU cycles between the
+ * pin's rising and falling edge. Simulated time is kept in step with the
+ * wall clock (never ahead), so the firmware's timeouts mean what they say.
+ * Exits when stdin closes. Build: make -C tools/arduino sim (needs libsimavr-dev, libelf-dev).
+ */
+#include <errno.h>
+#include <fcntl.h>
+#include <poll.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+#include <unistd.h>
+
+#include <simavr/avr_ioport.h>
+#include <simavr/avr_uart.h>
+#include <simavr/sim_avr.h>
+#include <simavr/sim_elf.h>
+#include <simavr/sim_irq.h>
+
+#define F_CPU 16000000UL
+#define SERVO_COUNT 5
+
+/* Uno pins D3, D5, D6, D9, D10 = PD3, PD5, PD6, PB1, PB2 (mearm_servo.ino SERVO_PINS). */
+static const char SERVO_PORT[SERVO_COUNT] = {'D', 'D', 'D', 'B', 'B'};
+static const int SERVO_BIT[SERVO_COUNT] = {3, 5, 6, 1, 2};
+
+static avr_t *avr;
+static avr_cycle_count_t rise[SERVO_COUNT];
+static int xoff = 0;
+
+static void on_uart_out(struct avr_irq_t *irq, uint32_t value, void *param) {
+  (void)irq;
+  (void)param;
+  uint8_t byte = (uint8_t)value;
+  if (write(STDOUT_FILENO, &byte, 1) < 0) exit(0);
+}
+
+static void on_xon(struct avr_irq_t *irq, uint32_t value, void *param) {
+  (void)irq; (void)value; (void)param;
+  xoff = 0;
+}
+
+static void on_xoff(struct avr_irq_t *irq, uint32_t value, void *param) {
+  (void)irq; (void)value; (void)param;
+  xoff = 1;
+}
+
+static void on_pin(struct avr_irq_t *irq, uint32_t value, void *param) {
+  (void)irq;
+  int ch = (int)(intptr_t)param;
+  if (value) {
+    rise[ch] = avr->cycle;
+    return;
+  }
+  if (!rise[ch]) return;
+  /* width in 0.1 us: cycles * 10 / 16 */
+  long width = (long)((avr->cycle - rise[ch]) * 10 / (F_CPU / 1000000UL));
+  rise[ch] = 0;
+  fprintf(stderr, "pulse %d %ld %lu\n", ch, width,
+          (unsigned long)(avr->cycle / (F_CPU / 1000UL)));
+  fflush(stderr);
+}
+
+static double wall_s(void) {
+  struct timespec ts;
+  clock_gettime(CLOCK_MONOTONIC, &ts);
+  return ts.tv_sec + ts.tv_nsec * 1e-9;
+}
+
+int main(int argc, char **argv) {
+  if (argc != 2) {
+    fprintf(stderr, "usage: %s FIRMWARE.elf\n", argv[0]);
+    return 2;
+  }
+  elf_firmware_t fw;
+  memset(&fw, 0, sizeof(fw));
+  if (elf_read_firmware(argv[1], &fw) != 0) {
+    fprintf(stderr, "%s: cannot read %s\n", argv[0], argv[1]);
+    return 2;
+  }
+  avr = avr_make_mcu_by_name("atmega328p");
+  if (!avr) return 2;
+  avr_init(avr);
+  avr->frequency = F_CPU;
+  avr_load_firmware(avr, &fw);
+
+  uint32_t flags = 0;
+  avr_ioctl(avr, AVR_IOCTL_UART_GET_FLAGS('0'), &flags);
+  flags &= ~AVR_UART_FLAG_STDIO;
+  avr_ioctl(avr, AVR_IOCTL_UART_SET_FLAGS('0'), &flags);
+  avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_OUTPUT),
+                          on_uart_out, NULL);
+  avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_OUT_XON),
+                          on_xon, NULL);
+  avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_OUT_XOFF),
+                          on_xoff, NULL);
+  avr_irq_t *uart_in = avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_INPUT);
+  for (int ch = 0; ch < SERVO_COUNT; ch++) {
+    avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_IOPORT_GETIRQ(SERVO_PORT[ch]),
+                                          SERVO_BIT[ch]),
+                            on_pin, (void *)(intptr_t)ch);
+  }
+
+  fcntl(STDIN_FILENO, F_SETFL, fcntl(STDIN_FILENO, F_GETFL) | O_NONBLOCK);
+  uint8_t queue[4096];
+  size_t head = 0, tail = 0;
+  int stdin_open = 1;
+  double start = wall_s();
+  for (;;) {
+    for (int i = 0; i < 2000; i++) {
+      int state = avr_run(avr);
+      if (state == cpu_Done || state == cpu_Crashed) {
+        fprintf(stderr, "mearm_sim: the AVR stopped (state %d)\n", state);
+        return 1;
+      }
+    }
+    if (stdin_open && tail < sizeof(queue)) {
+      ssize_t n = read(STDIN_FILENO, queue + tail, sizeof(queue) - tail);
+      if (n > 0) tail += (size_t)n;
+      else if (n == 0) stdin_open = 0;
+      else if (errno != EAGAIN && errno != EWOULDBLOCK) stdin_open = 0;
+    }
+    if (!stdin_open && head == tail) return 0;
+    if (head < tail && !xoff) avr_raise_irq(uart_in, queue[head++]);
+    if (head == tail) head = tail = 0;
+    double ahead = (double)avr->cycle / F_CPU - (wall_s() - start);
+    if (ahead > 0.002) usleep((useconds_t)(ahead * 1e6));
+  }
+}
