@@ -147,8 +147,9 @@ class RobotConfig(_Strict):
 class CameraConfig(_Strict):
     """Where frames come from.
 
-    ``device``: a USB camera through ``cv2.VideoCapture``; ``file``/``folder``: saved frames
-    replayed in order; ``sim``: the simulated table rendered from the world model.
+    ``device``: a USB camera through ``cv2.VideoCapture`` (``device_index``, or ``path``
+    when set); ``file``/``folder``: saved frames replayed in order (``path``); ``sim``: the
+    simulated table rendered from the world model (mearm.vision.camera).
     """
 
     kind: Literal["device", "file", "folder", "sim"] = "sim"

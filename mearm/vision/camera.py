@@ -1,7 +1,9 @@
 """Camera sources, chosen by ``camera.kind`` in the config (SPEC §1: one USB camera).
 
-- ``device``: a USB camera through ``cv2.VideoCapture``; opening (and the first frame)
-  must finish within ``camera.open_timeout_s`` and give the configured resolution.
+- ``device``: a USB camera through ``cv2.VideoCapture``, by ``camera.device_index`` or,
+  when ``camera.path`` is set, by path (e.g. a stable ``/dev/v4l/by-id/...`` name);
+  opening (and the first frame) must finish within ``camera.open_timeout_s`` and give
+  the configured resolution.
 - ``file``: one image (every read returns it) or a video (frames in order).
 - ``folder``: the images of a folder in name order.
 - ``sim``: the simulated table (:class:`SimCamera`), rendered afresh on every read.
@@ -96,7 +98,8 @@ class DeviceCamera(Camera):
     """A camera device through ``cv2.VideoCapture`` (``camera.kind: device``)."""
 
     def __init__(self, camera: CameraConfig):
-        super().__init__(f"device {camera.device_index}", (camera.width_px, camera.height_px))
+        self.target: int | str = camera.path if camera.path else camera.device_index
+        super().__init__(f"device {self.target}", (camera.width_px, camera.height_px))
         self._cap = self._open(camera)
 
     def _open(self, camera: CameraConfig) -> Any:
@@ -105,7 +108,7 @@ class DeviceCamera(Camera):
 
         def work() -> None:
             with quiet_opencv():
-                cap = cv2.VideoCapture(camera.device_index)
+                cap = cv2.VideoCapture(self.target)
                 ok = cap.isOpened()
                 if ok:
                     cap.set(cv2.CAP_PROP_FRAME_WIDTH, camera.width_px)
@@ -130,8 +133,8 @@ class DeviceCamera(Camera):
         if not box.get("ok"):
             raise CameraError(
                 self.source,
-                "cannot open or read it: check camera.device_index (ls /dev/video*) and that "
-                "no other program holds the camera",
+                "cannot open or read it: check camera.device_index or camera.path "
+                "(ls /dev/video* /dev/v4l/by-id) and that no other program holds the camera",
             )
         h, w = box["frame"].shape[:2]
         if (w, h) != self.size_px:
