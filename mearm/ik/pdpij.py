@@ -23,15 +23,22 @@ iteration, which keeps θ4 where it was. The comparisons are written so that a N
 component also fails them and is held: no joint vector the solver produces, intermediate
 or returned, is outside the limits or non-finite.
 
-Beyond the paper (``safeguard``, on by default): an update that would not lower |e|
-(the paper's 4-joint step can point the wrong way once θ4 is overwritten, or a held
-joint can spoil a step) is rejected and replaced by the exact clamped step: a
-least-squares step :math:`k_p J_c^+ e` over the joints that are not at a limit, halved
-until |e| falls. If none does, the solve stops as ``stalled``. On the paper's 24 demo
-routes the safeguard never triggers, so ``paper`` mode reproduces the bare algorithm.
+Beyond the paper (``safeguard``, on by default; ``false`` runs the bare algorithm):
+
+1. When the rule holds a joint, the update becomes the bounded least-squares step for
+   the same Δs (:func:`~mearm.ik.bounded.bounded_lstsq` on :math:`J_c`): joints stop on
+   their limits and the others make up what they can, instead of freezing a joint whose
+   full update would overshoot (which can leave the arm stuck at an error of tens of cm).
+2. An update that would not lower |e| (the paper's 4-joint step can point the wrong way
+   once θ4's share is overwritten) is rejected and replaced by the bounded step along
+   :math:`k_p e`, halved until |e| falls. If none does, the solve stops as ``stalled``.
+
+So |e| never rises. On the paper's 24 demo routes neither case occurs, and ``paper``
+mode reproduces the bare algorithm iteration for iteration.
 
 Cost: one Pinocchio pass (``computeFrameJacobian``, which also places the EE frame) and
-one 3×4 SVD per iteration, on preallocated paths; about 10 µs per iteration.
+one 3×4 SVD per iteration, scalars in Python floats, the paths in flat C arrays: under
+10 µs per iteration (``tools/bench.py``).
 """
 
 from __future__ import annotations
@@ -43,6 +50,7 @@ import numpy.typing as npt
 import pinocchio as pin
 
 from mearm.config import ControllerConfig
+from mearm.ik.bounded import bounded_lstsq
 from mearm.ik.pseudoinverse import PseudoInverse
 from mearm.ik.result import IKResult, Status
 from mearm.ik.solver import IKSolver
@@ -80,7 +88,6 @@ class PdPij(IKSolver):
         damping_m = config.damping / CM_PER_M
         cols = 4 if self.mode == "paper" else 3
         self._pinv = PseudoInverse(3, cols, config.singular_value_cutoff, damping_m)
-        self._pinv_coupled = PseudoInverse(3, 3, config.singular_value_cutoff, damping_m)
         # a view into Pinocchio's data: the EE position after each call on self._data
         self._ee_translation = self._data.oMf[self._frame_id].translation
         self._lower = model.lower_rad.tolist()
@@ -94,44 +101,47 @@ class PdPij(IKSolver):
         J = pin.computeFrameJacobian(self._pin_model, self._data, q, self._frame_id, _LWA)
         return self._data.oMf[self._frame_id].translation, J[:3]
 
-    def _fallback(
+    def _bounded_step(self, q: list[float], J: np.ndarray, ds: np.ndarray) -> list[float]:
+        """``q`` moved by the bounded least-squares step for ``J_c Δθ ≈ ds`` (safeguard).
+
+        Joints that would cross a limit stop on it and the others make up what they can,
+        instead of the paper's rule freezing them. Returns ``q`` itself when even that
+        would take θ4 out of its limits (possible only with non-derived θ4 limits).
+        """
+        lo, hi = self._lower, self._upper
+        x = bounded_lstsq(
+            J @ COUPLING, ds, [lo[i] - q[i] for i in range(3)], [hi[i] - q[i] for i in range(3)]
+        ).tolist()
+        # clip again: q + (hi − q) may round one ulp past hi
+        a, b, c = (min(max(q[i] + x[i], lo[i]), hi[i]) for i in range(3))
+        d = -(b + c)
+        return [a, b, c, d] if lo[3] <= d <= hi[3] else list(q)
+
+    def _descent_step(
         self, q: list[float], J: np.ndarray, e: np.ndarray, err2: float, target_m: np.ndarray
     ) -> tuple[list[float], list[float], np.ndarray, float] | None:
-        """The safeguard's step: clamped exact least squares along kp·e, backtracked.
+        """The safeguard's step when an update would not lower |e|.
 
-        Returns the accepted ``(q, p [m], J, |e|² [m²])`` or ``None`` when nothing lowers
-        |e|.
+        The bounded least-squares step along ``kp·e`` (the steepest the limits allow),
+        halved until |e| falls. Returns the accepted ``(q, p [m], J, |e|² [m²])``, or
+        ``None`` when no step lowers |e|: a stall against the limits.
         """
-        Jc = J @ COUPLING
-        free = np.ones(3)
-        ds = self.config.kp * e
+        full = np.array(self._bounded_step(q, J, self.config.kp * e))
+        start = np.array(q)
         lo, hi = self._lower, self._upper
-        for _ in range(4):
-            dq = self._pinv_coupled.solve(Jc * free, ds)
-            new = [q[i] + dq[i] for i in range(3)] + [-(q[1] + dq[1] + q[2] + dq[2])]
-            out = [not lo[i] <= new[i] <= hi[i] for i in range(4)]
-            if out[3]:
-                out[1] = out[2] = True
-            if not any(out[:3]):
-                break
-            free[np.array(out[:3])] = 0.0
-        else:
-            return None
-        if not np.all(np.isfinite(dq)):
-            return None
-        step = COUPLING @ dq
         alpha = 1.0
         for _ in range(_MAX_HALVINGS + 1):
-            cand = np.array(q) + alpha * step
-            cand[3] = -(cand[1] + cand[2])
+            cand = (start + alpha * (full - start)).tolist()
             alpha *= 0.5
-            if not all(lo[i] <= cand[i] <= hi[i] for i in range(4)):
-                continue  # only by rounding at a limit: a shorter step is inside
-            p, Jn = self._fk_jacobian(cand)
+            a, b, c = (min(max(cand[i], lo[i]), hi[i]) for i in range(3))
+            cand = [a, b, c, -(b + c)]
+            if not lo[3] <= cand[3] <= hi[3] or cand == q:
+                continue
+            p, Jn = self._fk_jacobian(np.array(cand))
             en = target_m - p
             en2 = float(en @ en)
             if en2 < err2:
-                return cand.tolist(), p.tolist(), Jn, en2
+                return cand, p.tolist(), Jn, en2
         return None
 
     def solve(self, q_start_rad: npt.ArrayLike, target_cm: npt.ArrayLike) -> IKResult:
@@ -205,14 +215,17 @@ class PdPij(IKSolver):
             d = -(b + c)
             if not lo3 <= d <= hi3:  # only with non-derived θ4 limits: hold θ2, θ3
                 b, c, d, held = q[1], q[2], q[3], True
-            blocked += held
             cand = [a, b, c, d]
+            if held:
+                blocked += 1
+                if safeguard:  # slide along the limit instead of freezing the joint
+                    cand = self._bounded_step(q, J, ds)
             J_c = frame_jacobian(model, data, array(cand), frame_id, _LWA)[:3]
             p = p_view.tolist()
             fx, fy, fz = tx - p[0], ty - p[1], tz - p[2]
             err2_c = fx * fx + fy * fy + fz * fz
             if safeguard and not err2_c < err2:
-                step = self._fallback(q, J, array((ex, ey, ez)), err2, t)
+                step = self._descent_step(q, J, array((ex, ey, ez)), err2, t)
                 if step is None:
                     status = "stalled"
                     break

@@ -8,7 +8,7 @@ import numpy as np
 import numpy.typing as npt
 
 from mearm.config import ControllerConfig
-from mearm.exceptions import InvalidJointsError
+from mearm.exceptions import InvalidJointsError, InvalidTargetError
 from mearm.ik.result import IKResult
 from mearm.kinematics import ArmModel, check_target
 
@@ -96,8 +96,13 @@ class IKSolver(abc.ABC):
             InvalidJointsError: see :func:`start_joints`.
             JointLimitError: the start is outside the joint limits.
         """
-        q_solution = np.radians(check_target(target_cm, self.model.robot))
-        target = np.array(target_cm, dtype=float)
+        try:
+            target = np.array(target_cm, dtype=float)
+        except (TypeError, ValueError):
+            raise InvalidTargetError(
+                f"a target is three finite numbers (x, y, z) in cm, got {target_cm!r}"
+            ) from None
+        q_solution = np.radians(check_target(target, self.model.robot))
         return start_joints(q_start_rad, self.model), target, q_solution
 
     @abc.abstractmethod

@@ -1,0 +1,99 @@
+"""Properties of PD-PIJ for any target in the box and any start within the limits."""
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from mearm.config import Config
+from mearm.exceptions import UnreachableTargetError
+from mearm.ik import STATUSES, PdPij
+from mearm.kinematics import COUPLING, ArmModel, check_target
+
+CONFIG = Config()
+MODEL = ArmModel(CONFIG.robot)
+BOX = CONFIG.robot.target_box
+LOWER, UPPER = MODEL.lower_rad, MODEL.upper_rad
+SOLVERS = {
+    (mode, damping, safeguard): PdPij(
+        MODEL, CONFIG.controller.updated(mode=mode, damping=damping, safeguard=safeguard)
+    )
+    for mode in ("paper", "coupled")
+    for damping in (0.0, 3.0)
+    for safeguard in (True, False)
+}
+
+
+def joint(i: int) -> st.SearchStrategy[float]:
+    """Angles of actuated joint i, its limits drawn often (hypothesis would rarely)."""
+    lo, hi = float(LOWER[i]), float(UPPER[i])
+    return st.one_of(st.sampled_from([lo, hi]), st.floats(lo, hi))
+
+
+targets = st.tuples(
+    st.floats(BOX.x_cm.min, BOX.x_cm.max),
+    st.floats(BOX.y_cm.min, BOX.y_cm.max),
+    st.floats(BOX.z_cm.min, BOX.z_cm.max),
+)
+starts = st.tuples(joint(0), joint(1), joint(2)).map(lambda q: COUPLING @ np.array(q))
+settings_ = settings(max_examples=100, deadline=None)
+
+
+def solve_or_unreachable(solver, q0, target):
+    """The result, or None when the target is out of reach (which check_target agrees on)."""
+    try:
+        check_target(target, CONFIG.robot)
+        reachable = True
+    except UnreachableTargetError:
+        reachable = False
+    if not reachable:
+        with pytest.raises(UnreachableTargetError):
+            solver.solve(q0, target)
+        return None
+    return solver.solve(q0, target)
+
+
+def assert_safe(result):
+    assert result.status in STATUSES
+    for array in (result.q_path_rad, result.ee_path_cm, result.error_path_cm):
+        assert np.all(np.isfinite(array))
+    assert np.all(result.q_path_rad >= LOWER) and np.all(result.q_path_rad <= UPPER)
+    assert np.abs(result.q_path_rad[:, 1:].sum(axis=1)).max() < 1e-9
+    assert result.iterations <= CONFIG.controller.max_iterations
+
+
+@settings_
+@given(
+    target=targets,
+    q0=starts,
+    mode=st.sampled_from(["paper", "coupled"]),
+    damping=st.sampled_from([0.0, 3.0]),
+)
+def test_returns_a_status_within_limits_with_error_never_rising(target, q0, mode, damping):
+    """Any target in the box, any start within limits: a status, no NaN, no limit left,
+    and (with the safeguard) |e| never rises."""
+    result = solve_or_unreachable(SOLVERS[(mode, damping, True)], q0, target)
+    if result is None:
+        return
+    assert_safe(result)
+    assert np.all(np.diff(result.error_path_cm) <= 0.0)
+    if result.converged:
+        assert result.final_error_cm**2 < CONFIG.controller.tolerance_cm2
+
+
+@settings_
+@given(target=targets, q0=starts, mode=st.sampled_from(["paper", "coupled"]))
+def test_bare_paper_algorithm_is_still_safe(target, q0, mode):
+    """Without the safeguard the error may rise, but limits, coupling and finiteness hold."""
+    result = solve_or_unreachable(SOLVERS[(mode, 0.0, False)], q0, target)
+    if result is not None:
+        assert_safe(result)
+
+
+@settings_
+@given(target=targets, mode=st.sampled_from(["paper", "coupled"]))
+def test_from_home_every_reachable_target_converges(target, mode):
+    """From home (where every route of the demo starts) the solver always gets there."""
+    result = solve_or_unreachable(SOLVERS[(mode, 0.0, True)], MODEL.home_rad, target)
+    if result is not None:
+        assert result.converged, (target, result.status, result.final_error_cm)

@@ -1,0 +1,129 @@
+"""The paper's demo (SPEC §1, §4): its 24 routes, straight paths, and the two tools."""
+
+import json
+
+import numpy as np
+import pytest
+from conftest import run_cli
+
+from mearm.ik import PdPij, demo_routes, run_routes
+from mearm.ik.reference import numpy_port_solve
+
+
+@pytest.fixture(scope="module")
+def routes(config):
+    return demo_routes(config)
+
+
+@pytest.fixture(scope="module")
+def results(model, config, routes):
+    return {
+        mode: run_routes(PdPij(model, config.controller.updated(mode=mode)), model.home_rad, routes)
+        for mode in ("paper", "coupled")
+    }
+
+
+def test_demo_routes(config, routes):
+    """Reds, then greens, then blues; pick at 12.76 cm, place in the colour's bin."""
+    assert len(routes) == 24
+    names = [r.object_name for r in routes[::2]]
+    assert names == [f"{c}{i}" for c in "MHB" for i in range(1, 5)]
+    assert [r.action for r in routes] == ["pick", "place"] * 12
+    assert routes[0].target_cm == (-10.99, 49.70, 12.76)
+    for route in routes[1::2]:
+        assert route.target_cm == tuple(config.task.bins_cm[route.color])
+    assert routes[-2].target_cm == (12.15, 51.86, 12.76)  # B4
+
+
+@pytest.mark.parametrize("mode", ["paper", "coupled"])
+def test_every_route_converges_like_the_paper(results, mode):
+    """All 24 converge, final errors just under √1e-3 cm like the paper's 0.0297–0.0315."""
+    final = np.array([r.final_error_cm for r in results[mode]])
+    assert all(r.converged for r in results[mode])
+    assert np.all(final < np.sqrt(1e-3)) and np.all(final > 0.025)
+
+
+def test_routes_chain(model, results):
+    """Each route starts where the previous one ended; the first at home."""
+    for mode in results:
+        rs = results[mode]
+        np.testing.assert_allclose(rs[0].q_path_rad[0], model.home_rad)
+        for prev, nxt in zip(rs, rs[1:], strict=False):
+            np.testing.assert_array_equal(nxt.q_path_rad[0], prev.q_rad)
+
+
+def test_coupled_paths_stay_within_half_a_cm_of_straight(results):
+    """kp = 0.1 in coupled mode: every EE path within 0.5 cm of its straight segment."""
+    deviations = [r.path_deviation_cm for r in results["coupled"]]
+    assert max(deviations) < 0.5
+
+
+def test_path_deviation_measures_distance_to_the_segment(results):
+    r = results["coupled"][0]
+    a, b = r.ee_path_cm[0], r.target_cm
+    # brute force over a fine sampling of the segment
+    seg = a + np.linspace(0, 1, 20001)[:, None] * (b - a)
+    brute = max(np.min(np.linalg.norm(seg - p, axis=1)) for p in r.ee_path_cm)
+    assert r.path_deviation_cm == pytest.approx(brute, abs=1e-3)
+
+
+def test_paper_mode_is_the_bare_paper_algorithm_on_the_demo(model, config, routes, results):
+    """The safeguard never acts on the demo: the whole chain equals the NumPy port's."""
+    q = model.home_rad
+    for route, result in zip(routes, results["paper"], strict=True):
+        assert result.blocked_steps == result.fallback_steps == 0
+        _, q_path, _ = numpy_port_solve(q, route.target_cm, config.robot, config.controller)
+        assert len(q_path) == len(result.q_path_rad)
+        np.testing.assert_allclose(result.q_path_rad, q_path, atol=1e-9)
+        q = q_path[-1]
+
+
+def test_coupled_iterations_follow_the_linear_prediction(config, results):
+    """n ≈ ln(e0/√tol)/−ln r with r the PD loop's dominant root: within 2 iterations."""
+    kp, kd = config.controller.kp, config.controller.kd
+    r = max(np.roots([1.0, -(1 - kp - kd), -kd]).real)
+    for result in results["coupled"]:
+        predicted = np.log(result.initial_error_cm / np.sqrt(1e-3)) / -np.log(r)
+        assert predicted - 0.5 <= result.iterations <= predicted + 2
+
+
+def test_reproduce_paper_json():
+    r = run_cli("tools/reproduce_paper.py", "--mode", "paper", "--json")
+    assert r.returncode == 0, r.stderr
+    report = json.loads(r.stdout)
+    assert report["mode"] == "paper" and len(report["rows"]) == 24
+    summary = report["summary"]
+    assert summary["converged"] == 24
+    assert summary["min_iterations"] <= summary["mean_iterations"] <= summary["max_iterations"]
+    assert report["paper"]["mean_iterations"] == 82
+    assert abs(summary["mean_initial_error_cm"] - 24.99) < 0.1  # the same 24 routes
+
+
+def test_reproduce_paper_text_coupled():
+    r = run_cli("tools/reproduce_paper.py", "--mode", "coupled")
+    assert r.returncode == 0, r.stderr
+    assert "mean iterations" in r.stdout and "paper: 82 (73–93)" in r.stdout
+    assert r.stdout.count("converged") >= 24
+
+
+def test_reproduce_paper_needs_a_scene():
+    r = run_cli("tools/reproduce_paper.py", "--config", "configs/lab.yaml")
+    assert r.returncode == 2
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and "task.scene is empty" in lines[0]
+
+
+def test_bench_ik_section_runs():
+    """The benchmark runs its ik section and reports figures (never asserted on)."""
+    r = run_cli("tools/bench.py", "--only", "ik", "--repeat", "1", "--json", timeout=300)
+    assert r.returncode == 0, r.stderr
+    out = json.loads(r.stdout)
+    names = {row["name"] for row in out["rows"]}
+    assert "PD-PIJ paper: per iteration" in names
+    assert "numpy port / PD-PIJ paper, per iteration" in names
+    assert all(row["section"] == "ik" for row in out["rows"])
+
+
+def test_bench_rejects_unknown_section():
+    r = run_cli("tools/bench.py", "--only", "nope")
+    assert r.returncode == 2 and "invalid choice" in r.stderr
