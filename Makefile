@@ -30,5 +30,8 @@ bench: $(STAMP)
 urdf: $(STAMP)
 	$(BIN)/python tools/dh_to_urdf.py --config configs/lab.yaml
 
+firmware:
+	$(MAKE) -C tools/arduino
+
 clean:
 	rm -rf $(VENV) .pytest_cache .ruff_cache
