@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import functools
 
 import numpy as np
 import pytest
@@ -40,10 +41,15 @@ DISTRACTORS = (
 )
 
 
+@functools.lru_cache(maxsize=32)
+def renderer(extras: tuple, options: tuple) -> TableRenderer:
+    return TableRenderer(CAL, 640, 480, extras=extras, **dict(options))
+
+
 def render(objects=LAYOUT, extras=(), **kw) -> np.ndarray:
     opts = {"noise_std": 2.0, "brightness": 1.0, "gradient": 0.15, "seed": 0} | kw
-    renderer = TableRenderer(CAL, 640, 480, extras=extras, **opts)
-    return renderer.render([Disc(OBJECT_BGR[c], x, y) for c, x, y in objects])
+    r = renderer(tuple(extras), tuple(sorted(opts.items())))
+    return r.render([Disc(OBJECT_BGR[c], x, y) for c, x, y in objects])
 
 
 def match(found: list[Detection], objects=LAYOUT, tol_cm: float = 0.1) -> float:

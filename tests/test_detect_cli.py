@@ -1,0 +1,137 @@
+"""``python -m mearm.detect``: JSON, text, annotation, and one-line errors (exit 2)."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+from mearm import detect
+from mearm.config import Config
+from mearm.vision import OBJECT_BGR, Calibration, Disc, TableRenderer
+
+ROOT = Path(__file__).resolve().parent.parent
+CONFIG = Config()
+CAL = Calibration.from_config(CONFIG.calibration)
+
+
+@pytest.fixture(scope="module")
+def images(tmp_path_factory) -> list[Path]:
+    d = tmp_path_factory.mktemp("frames")
+    renderer = TableRenderer(CAL)
+    layout = renderer.render([Disc(OBJECT_BGR[o.color], o.x, o.y) for o in CONFIG.task.scene])
+    empty = renderer.render([], frame_index=1)
+    paths = [d / "layout.png", d / "empty.png"]
+    cv2.imwrite(str(paths[0]), layout)
+    cv2.imwrite(str(paths[1]), empty)
+    return paths
+
+
+def run_cli(capsys, *args: str) -> tuple[int, str, str]:
+    with pytest.raises(SystemExit) as info:
+        detect.run(detect.main, list(args))
+    out = capsys.readouterr()
+    return int(info.value.code), out.out, out.err
+
+
+def test_json_one_list_per_image(capsys, images: list[Path]) -> None:
+    """Each image gives one JSON line; the layout's 12 objects at their cm positions."""
+    code, out, err = run_cli(capsys, "--config", "configs/lab.yaml", "--json", *map(str, images))
+    assert code == 0 and err == ""
+    layout, empty = (json.loads(line) for line in out.splitlines())
+    assert empty == []
+    assert [r["color"] for r in layout] == ["red"] * 4 + ["green"] * 4 + ["blue"] * 4
+    truth = {(o.color, o.x, o.y) for o in CONFIG.task.scene}
+    for r in layout:
+        assert set(r) == {"color", "px", "cm", "area_px", "merged"}
+        assert (
+            min(np.hypot(r["cm"][0] - x, r["cm"][1] - y) for c, x, y in truth if c == r["color"])
+            < 0.1
+        )
+        np.testing.assert_allclose(CAL.pixel_to_table(r["px"]), r["cm"], atol=2e-3)
+        assert 700 < r["area_px"] < 900 and r["merged"] is False
+
+
+def test_text_output(capsys, images: list[Path]) -> None:
+    code, out, _ = run_cli(capsys, str(images[0]))
+    assert code == 0
+    lines = out.splitlines()
+    assert lines[0].endswith("layout.png: 12 object(s)") and len(lines) == 13
+    assert lines[1].split()[0] == "red" and "cm (" in lines[1] and "area" in lines[1]
+
+
+def test_annotate_one_image(capsys, images: list[Path], tmp_path: Path) -> None:
+    """--annotate OUT.png writes OUT.png: the frame with drawings on it."""
+    out = tmp_path / "ann.png"
+    code, _, _ = run_cli(capsys, str(images[0]), "--annotate", str(out))
+    assert code == 0
+    drawn, frame = cv2.imread(str(out)), cv2.imread(str(images[0]))
+    assert drawn.shape == frame.shape
+    changed = np.any(drawn != frame, axis=2).mean()
+    assert 0.005 < changed < 0.2  # contours, crosses, labels; not a new picture
+
+
+def test_annotate_several_images_gets_an_index(capsys, images: list[Path], tmp_path: Path) -> None:
+    """With several images, OUT.png becomes OUT-0.png, OUT-1.png in argument order."""
+    out = tmp_path / "ann.png"
+    code, _, _ = run_cli(capsys, "--json", *map(str, images), "--annotate", str(out))
+    assert code == 0
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["ann-0.png", "ann-1.png"]
+    empty = cv2.imread(str(images[1]))
+    assert np.array_equal(cv2.imread(str(tmp_path / "ann-1.png")), empty)  # nothing to draw
+
+
+def test_camera_frame_from_the_sim(capsys) -> None:
+    """--camera grabs one frame of the configured camera: the sim table."""
+    code, out, _ = run_cli(capsys, "--config", "configs/sim.yaml", "--camera", "--json")
+    assert code == 0 and len(json.loads(out)) == 12
+
+
+def test_size_mismatch_warns(capsys, tmp_path: Path) -> None:
+    small = tmp_path / "small.png"
+    cv2.imwrite(str(small), np.full((240, 320, 3), 128, np.uint8))
+    code, out, err = run_cli(capsys, "--json", str(small))
+    assert code == 0 and json.loads(out) == []
+    assert "small.png is 320x240 px; the calibration is for 640x480" in err
+
+
+@pytest.mark.parametrize(
+    ("args", "words"),
+    [
+        (["{missing}"], "missing.png: no such file"),
+        (["{garbage}"], "garbage.png: cannot read it as an image"),
+        (["{layout}", "{missing}"], "missing.png: no such file"),
+        (["{folder}"], "not a file"),
+        ([], "give IMAGE paths or --camera"),
+        (["{layout}", "--camera"], "give IMAGE paths or --camera"),
+        (["{layout}", "--annotate", "out.xyz"], "unknown image type"),
+        (["--config", "configs/lab.yaml", "--camera"], "camera (device 0): cannot open"),
+    ],
+)
+def test_bad_input_exits_2_with_one_line(capsys, images, tmp_path: Path, args, words) -> None:
+    """Missing/unreadable images and bad options: exit 2, one line, nothing on stdout."""
+    garbage = tmp_path / "garbage.png"
+    garbage.write_bytes(b"definitely not a png")
+    names = {
+        "missing": str(tmp_path / "missing.png"),
+        "garbage": str(garbage),
+        "layout": str(images[0]),
+        "folder": str(tmp_path),
+    }
+    code, out, err = run_cli(capsys, *[a.format(**names) for a in args])
+    assert code == 2 and out == ""
+    assert words in err and len(err.strip().splitlines()) == 1
+
+
+def test_module_runs_as_a_script(images: list[Path]) -> None:
+    result = subprocess.run(
+        [sys.executable, "-m", "mearm.detect", "--json", str(images[1]), str(images[1]) + "x"],
+        capture_output=True, text=True, timeout=60, cwd=ROOT,
+    )  # fmt: skip
+    assert result.returncode == 2 and result.stdout == ""
+    assert result.stderr.strip().endswith("empty.pngx: no such file")
