@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -11,7 +13,8 @@ from mearm.config import CalibrationConfig, Config, load_config
 from mearm.exceptions import CalibrationError
 from mearm.vision import Calibration
 
-LAB = Calibration.from_config(load_config("configs/lab.yaml").calibration)
+ROOT = Path(__file__).resolve().parent.parent
+LAB = Calibration.from_config(load_config(ROOT / "configs" / "lab.yaml").calibration)
 LAYOUT_CM = np.array([(o.x, o.y) for o in Config().task.scene])  # (12, 2)
 CORNERS_PX = np.array([[0.0, 0.0], [640.0, 0.0], [640.0, 480.0], [0.0, 480.0]])
 

@@ -18,6 +18,7 @@ from mearm.vision import OBJECT_BGR, Calibration, Disc, TableRenderer
 ROOT = Path(__file__).resolve().parent.parent
 CONFIG = Config()
 CAL = Calibration.from_config(CONFIG.calibration)
+LAB_YAML, SIM_YAML = str(ROOT / "configs" / "lab.yaml"), str(ROOT / "configs" / "sim.yaml")
 
 
 @pytest.fixture(scope="module")
@@ -41,7 +42,7 @@ def run_cli(capsys, *args: str) -> tuple[int, str, str]:
 
 def test_json_one_list_per_image(capsys, images: list[Path]) -> None:
     """Each image gives one JSON line; the layout's 12 objects at their cm positions."""
-    code, out, err = run_cli(capsys, "--config", "configs/lab.yaml", "--json", *map(str, images))
+    code, out, err = run_cli(capsys, "--config", LAB_YAML, "--json", *map(str, images))
     assert code == 0 and err == ""
     layout, empty = (json.loads(line) for line in out.splitlines())
     assert empty == []
@@ -88,7 +89,7 @@ def test_annotate_several_images_gets_an_index(capsys, images: list[Path], tmp_p
 
 def test_camera_frame_from_the_sim(capsys) -> None:
     """--camera grabs one frame of the configured camera: the sim table."""
-    code, out, _ = run_cli(capsys, "--config", "configs/sim.yaml", "--camera", "--json")
+    code, out, _ = run_cli(capsys, "--config", SIM_YAML, "--camera", "--json")
     assert code == 0 and len(json.loads(out)) == 12
 
 
@@ -110,7 +111,7 @@ def test_size_mismatch_warns(capsys, tmp_path: Path) -> None:
         ([], "give IMAGE paths or --camera"),
         (["{layout}", "--camera"], "give IMAGE paths or --camera"),
         (["{layout}", "--annotate", "out.xyz"], "unknown image type"),
-        (["--config", "configs/lab.yaml", "--camera"], "camera (device 0): cannot open"),
+        (["--config", LAB_YAML, "--camera"], "camera (device 0): cannot open"),
     ],
 )
 def test_bad_input_exits_2_with_one_line(capsys, images, tmp_path: Path, args, words) -> None:

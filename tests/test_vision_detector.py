@@ -17,28 +17,14 @@ from mearm.vision import (
     ColorDetector,
     Detection,
     Disc,
-    Highlight,
-    Paper,
-    Shadow,
     TableRenderer,
 )
 from mearm.vision.reference import detect_reference
+from mearm.vision.scenes import BASE_OPTIONS, CONDITIONS, DISTRACTORS, match_detections
 
 CONFIG = Config()
 CAL = Calibration.from_config(CONFIG.calibration)
 LAYOUT = [(o.color, o.x, o.y) for o in CONFIG.task.scene]
-
-DISTRACTORS = (
-    Disc(DISTRACTOR_BGR["yellow"], -16.0, 55.0),
-    Disc(DISTRACTOR_BGR["orange"], 16.0, 56.0),
-    Disc(DISTRACTOR_BGR["purple"], 16.0, 33.0),
-    Disc(DISTRACTOR_BGR["orange"], -4.0, 38.5, diameter_cm=3.0),
-    Paper(-13.0, 33.5, width_cm=10.0, height_cm=6.0, angle_deg=8.0),
-    Shadow(3.0, 47.0, radius_cm=5.0, depth=0.45),  # over red, green and blue objects
-    Shadow(-15.0, 42.0, radius_cm=3.0, depth=0.6),
-    Highlight(10.0, 36.0, sigma_cm=1.5, strength=0.7),  # on the table
-    Highlight(-0.40, 42.3, sigma_cm=0.25, strength=0.8),  # on red M3
-)
 
 
 @functools.lru_cache(maxsize=32)
@@ -47,35 +33,16 @@ def renderer(extras: tuple, options: tuple) -> TableRenderer:
 
 
 def render(objects=LAYOUT, extras=(), **kw) -> np.ndarray:
-    opts = {"noise_std": 2.0, "brightness": 1.0, "gradient": 0.15, "seed": 0} | kw
-    r = renderer(tuple(extras), tuple(sorted(opts.items())))
+    r = renderer(tuple(extras), tuple(sorted((BASE_OPTIONS | kw).items())))
     return r.render([Disc(OBJECT_BGR[c], x, y) for c, x, y in objects])
 
 
 def match(found: list[Detection], objects=LAYOUT, tol_cm: float = 0.1) -> float:
     """Assert a one-to-one match of colours within tol_cm; return the worst error [cm]."""
-    assert len(found) == len(objects), [(d.color, d.centroid_px) for d in found]
-    worst = 0.0
-    remaining = list(objects)
-    for d in found:
-        xy = CAL.pixel_to_table(d.centroid_px)
-        errs = [np.hypot(xy[0] - x, xy[1] - y) if c == d.color else np.inf for c, x, y in remaining]
-        k = int(np.argmin(errs))
-        assert errs[k] < tol_cm, (d.color, xy, remaining[k])
-        worst = max(worst, errs[k])
-        remaining.pop(k)
-    return worst
-
-
-CONDITIONS = {
-    "nominal": {},
-    "brightness -30%": {"brightness": 0.7},
-    "brightness +30%": {"brightness": 1.3},
-    "strong gradient": {"gradient": 0.3},
-    "noise 5 levels": {"noise_std": 5.0},
-    "grey table": {"table": "grey"},
-    "dim, grey, noisy": {"brightness": 0.7, "table": "grey", "noise_std": 4.0, "seed": 3},
-}
+    errors = match_detections(found, objects, CAL)
+    assert errors is not None, [(d.color, CAL.pixel_to_table(d.centroid_px)) for d in found]
+    assert errors.max() < tol_cm, errors
+    return float(errors.max())
 
 
 @pytest.mark.parametrize("name", list(CONDITIONS))
