@@ -17,6 +17,7 @@ Sections:
 from __future__ import annotations
 
 import json
+import os
 import platform
 import sys
 import time
@@ -83,7 +84,7 @@ def best_seconds(
 
 
 def machine() -> str:
-    """CPU model (as ``lscpu`` prints it), Python and NumPy versions."""
+    """CPU model (as ``lscpu`` prints it), Python and NumPy versions, current load."""
     cpu = platform.processor() or platform.machine()
     try:
         with open("/proc/cpuinfo", encoding="utf-8") as f:
@@ -93,7 +94,11 @@ def machine() -> str:
                     break
     except OSError:
         pass
-    return f"{cpu}; Python {platform.python_version()}; NumPy {np.__version__}"
+    try:
+        load = f"; load average {os.getloadavg()[0]:.2f} on {os.cpu_count()} CPUs"
+    except OSError:
+        load = ""
+    return f"{cpu}; Python {platform.python_version()}; NumPy {np.__version__}{load}"
 
 
 # --------------------------------------------------------------------------- ik
@@ -143,7 +148,7 @@ def bench_ik(options: BenchOptions) -> list[Row]:
                 q, t
             )
         calls[f"numpy port/{i}"] = lambda q=starts["paper"][i], t=route.target_cm: port(q, t)
-    tries = {"paper": 4, "coupled": 4, "mink": 2, "numpy port": 1}  # per round
+    tries = {"paper": 4, "coupled": 4, "mink": 2, "numpy port": 2}  # per round
     best = best_seconds(calls, options.repeat, {k: tries[k.split("/")[0]] for k in calls})
     seconds = {key: sum(best[f"{key}/{i}"] for i in range(len(routes))) for key in tries}
 

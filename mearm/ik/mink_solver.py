@@ -149,7 +149,12 @@ class MinkSolver(IKSolver):
                 status = "stalled"
                 break
             conf.integrate_inplace(v, _DT)
-            q_path.append(data.qpos.copy())
+            q = data.qpos.copy()
+            if not self.model.within_limits(q, tol_rad=0.0):
+                # the QP meets its limit rows to its solver's tolerance only (~1e-9 rad)
+                q = np.clip(q, self.model.lower_rad, self.model.upper_rad)
+                conf.update(q)
+            q_path.append(q)
             ee_path.append(data.site_xpos[self._site_id].copy())
             err2 = float(np.sum((t - ee_path[-1]) ** 2))
             if k - mark_k >= cfg.stall_iterations:
