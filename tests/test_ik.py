@@ -420,3 +420,13 @@ def test_bounded_lstsq_singular_and_bad_input():
     np.testing.assert_allclose(x, [1.0, 0.0, 0.0])
     with pytest.raises(ValueError, match="feasible"):
         bounded_lstsq(A, [1.0, 0, 0], [0.1, -1, -1], [1, 1, 1])
+
+
+def test_all_names_exist():
+    """Every name in mearm.ik.__all__ is importable (MinkSolver lazily)."""
+    import mearm.ik
+
+    for name in mearm.ik.__all__:
+        assert getattr(mearm.ik, name) is not None
+    with pytest.raises(AttributeError):
+        mearm.ik.NoSuchSolver  # noqa: B018

@@ -18,7 +18,7 @@ def _frozen(a: npt.ArrayLike) -> np.ndarray:
     return a
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)  # arrays inside: compare fields, not records
 class IKResult:
     """One solve from a start pose to a target (SPEC §3).
 
