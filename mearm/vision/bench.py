@@ -12,7 +12,8 @@ Never asserted: timings depend on the machine. Needs SciPy (the ``dev`` extra).
 It also reports the detector's accuracy on the standard scenes
 (:mod:`mearm.vision.scenes`): every condition, with and without distractors, several
 noise seeds — how many scenes gave exactly the 12 objects with the right colours, and
-the worst and mean position error.
+the worst and mean position error; and how well calibrations recover the rig
+(:func:`run_calibration_study`).
 """
 
 from __future__ import annotations
@@ -133,6 +134,51 @@ def run_vision_accuracy(seeds: int = 3) -> list[dict]:
     ]
 
 
+def run_calibration_study(draws: int = 200) -> list[dict]:
+    """How well a calibration recovers the rig: noisy point pairs, and rendered markers.
+
+    Four pairs at the field corners with Gaussian noise on the pixels and on the table
+    positions: the worst error over the whole field, median and maximum over ``draws``
+    draws. Then ArUco markers (4 cm, at the field's corners) drawn into a rendered view
+    from a tilted camera: the worst error over the field using the 4 centres, and the
+    centres plus the 16 corners.
+    """
+    from mearm.vision.aruco import calibration_from_markers, draw_marker_on_table
+
+    lab = Calibration.from_config(Config().calibration)
+    u, v = np.meshgrid(np.linspace(0, 639, 41), np.linspace(0, 479, 41))
+    grid = np.stack([u.ravel(), v.ravel()], axis=1)
+    corners = np.array([[0.0, 0.0], [640.0, 0.0], [640.0, 480.0], [0.0, 480.0]])
+    rows = []
+    for sigma_px, sigma_cm in ((0.1, 0.01), (0.3, 0.01), (0.3, 0.05)):
+        worst = []
+        for seed in range(draws):
+            rng = np.random.default_rng(seed)
+            px = corners + rng.normal(0.0, sigma_px, corners.shape)
+            cm = lab.pixel_to_table(corners) + rng.normal(0.0, sigma_cm, corners.shape)
+            fit = Calibration.fit(px, cm)
+            err = np.linalg.norm(fit.pixel_to_table(grid) - lab.pixel_to_table(grid), axis=1)
+            worst.append(float(err.max()))
+        label = f"4 pairs, noise {sigma_px:g} px + {sigma_cm:g} cm: field error"
+        rows.append((f"{label} (median)", statistics.median(worst), "cm", f"{draws} draws"))
+        rows.append((f"{label} (max)", max(worst), "cm", ""))
+    tilt = np.array([[1.0, 0.02, 0.0], [0.01, 1.0, 0.0], [1e-5, 2e-5, 1.0]])
+    tilted = Calibration(lab.H @ tilt)
+    markers = {0: (-17.0, 56.0), 1: (16.0, 56.0), 2: (16.0, 32.0), 3: (-17.0, 32.0)}
+    frame = TableRenderer(tilted).render([])
+    for marker_id, center in markers.items():
+        draw_marker_on_table(frame, tilted, marker_id, center, 4.0)
+    for side, what in ((None, "4 centres"), (4.0, "4 centres + 16 corners")):
+        fit = calibration_from_markers(frame, markers, side_cm=side)
+        err = np.linalg.norm(fit.pixel_to_table(grid) - tilted.pixel_to_table(grid), axis=1)
+        rows.append((f"ArUco, tilted camera, {what}: field error (max)", float(err.max()), "cm",
+                     "rendered 640x480, 4 cm markers"))  # fmt: skip
+    return [
+        {"section": "vision", "name": n, "value": float(val), "unit": un, "note": note}
+        for n, val, un, note in rows
+    ]
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Print the vision rows as a table."""
     import argparse
@@ -141,9 +187,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--repeat", type=int, default=50, help="timing rounds (50)")
     parser.add_argument("--seeds", type=int, default=3, help="noise seeds per scene (3)")
     args = parser.parse_args(argv)
-    for row in run_vision_bench(args.repeat) + run_vision_accuracy(args.seeds):
+    rows = run_vision_bench(args.repeat) + run_vision_accuracy(args.seeds)
+    for row in rows + run_calibration_study():
         note = f"  ({row['note']})" if row["note"] else ""
-        print(f"{row['name']:<36} {row['value']:10.3f} {row['unit']:<9}{note}")
+        print(f"{row['name']:<62} {row['value']:9.3f} {row['unit']:<9}{note}")
     return 0
 
 
