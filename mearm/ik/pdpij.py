@@ -71,10 +71,11 @@ class PdPij(IKSolver):
         model: The arm model (Pinocchio model, ``ee`` frame, joint limits).
         config: Gains, tolerance, iteration cap, mode, SVD cutoff / damping, safeguard.
 
-    Example:
-        >>> solver = PdPij(ArmModel(config.robot), config.controller)
-        >>> result = solver.solve(model.home_rad, [-10.99, 49.70, 12.76])
-        >>> result.status, result.iterations
+    Example::
+
+        model = ArmModel(config.robot)
+        result = PdPij(model, config.controller).solve(model.home_rad, [-10.99, 49.70, 12.76])
+        result.status, result.iterations  # ('converged', 62)
     """
 
     def __init__(self, model: ArmModel, config: ControllerConfig):
