@@ -123,18 +123,21 @@ def test_place_in_bin_and_on_table():
 
 
 def test_offset_and_noise():
-    """A static offset shifts every realised joint; noise differs per move, seeded."""
+    """A static offset shifts every realised joint; noise differs per new pose, seeded."""
     bus = sim(error_model={"quantization": "none", "offset_deg": [1.0, -0.5, 0.25]})
     bus.move(HOME)
     np.testing.assert_allclose(bus.actual_joints_deg, [121.0, 92.5, -131.75])
     noisy = [sim(error_model={"noise_std_deg": 0.5, "seed": 7}) for _ in range(2)]
     draws = []
+    step = ArmCommand((121.0, 93.0, -132.0), 60.0, False)
     for bus in noisy:
         bus.move(HOME)
         first = bus.actual_joints_deg.copy()
-        bus.move(HOME)
-        draws.append((first, bus.actual_joints_deg.copy()))
-    assert not np.allclose(draws[0][0], draws[0][1])  # per move
+        bus.move(ArmCommand(HOME.joints_deg, 30.0, True))  # joints held: no new error
+        np.testing.assert_array_equal(bus.actual_joints_deg, first)
+        bus.move(step)
+        draws.append((first, bus.actual_joints_deg.copy() - [1.0, 0.0, 0.0]))
+    assert not np.allclose(draws[0][0], draws[0][1])  # a new pose draws new noise
     np.testing.assert_array_equal(draws[0][0], draws[1][0])  # seeded
     assert 0 < np.max(np.abs(draws[0][0] - HOME.joints_deg)) < 3.0
 

@@ -152,7 +152,10 @@ class SimArm(ServoBus):
         )
 
     def _send_move(self, command: ArmCommand, pulses_us: dict[int, int]) -> None:
-        self.actual_joints_deg = self.realise_deg(command)
+        # A servo told to hold its angle stays where it is: only a new joint command
+        # draws a new error (else gripping would re-roll the pose the route ended in).
+        if self.state is None or self.state.joints_deg != command.joints_deg:
+            self.actual_joints_deg = self.realise_deg(command)
         self.actual_gripper_arm_deg = quantize_deg(
             self.servo_map.gripper_arm, command.gripper_arm_deg, self.error_model.quantization
         )

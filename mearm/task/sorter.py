@@ -131,8 +131,8 @@ class Sorter:
         self.bus = bus
         self.model = model if model is not None else ArmModel(config.robot)
         self.solver = make_solver(self.model, config.controller)
-        self.detector = ColorDetector(config.vision)
         self.calibration = Calibration.from_config(config.calibration)
+        self.detector = ColorDetector(config.vision, self.calibration)
         self.log = log
         self.view = view
         self.echo = echo or (lambda _line: None)
