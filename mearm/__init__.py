@@ -1,36 +1,103 @@
 """mearm: a vision-guided colour-sorting robot arm (the MeArm of Agustian et al.).
 
-config → kinematics → (vision, ik) → hardware → task. See README.md.
+The data flows one way: config → kinematics → (vision, ik) → hardware → task.
+See README.md; ``mearm.analysis`` (SciPy, matplotlib) is imported on its own.
 """
 
 from mearm.config import Config, config_from_dict, load_config
 from mearm.exceptions import (
+    AnalysisError,
+    BannerTimeoutError,
+    BoardError,
+    BoardResetError,
+    CalibrationError,
+    CameraError,
+    ChecksumError,
     ConfigError,
+    GarbledReplyError,
+    HandshakeError,
+    ImageError,
+    InvalidCommandError,
+    InvalidJointsError,
     InvalidTargetError,
     JointLimitError,
+    LinkDroppedError,
+    LinkError,
     MearmError,
     ModelError,
+    NoAckError,
+    PulseRangeError,
+    QPSolverError,
+    RunLogError,
+    RunLogFormatError,
+    ServoError,
+    ServoFaultedError,
+    ServoNotConnectedError,
     TargetError,
     TargetOutsideBoxError,
     UnreachableTargetError,
+    WorldError,
 )
+from mearm.hardware import ArmCommand, ArmState, ServoBus, SimArm, open_bus
+from mearm.ik import IKResult, PdPij, make_solver, solve_ik
 from mearm.kinematics import ArmModel, analytic_ik_deg, check_target, dh_fk, dh_to_urdf
+from mearm.runlog import RunLog, RunLogContents, read_runlog
+from mearm.task import SortAborted, Sorter, SortReport, open_rig, random_scene
+from mearm.vision import Calibration, ColorDetector, Detection, SimCamera, open_camera
 from mearm.world import World, WorldObject
 
 __version__ = "0.1.0"
 
 __all__ = [
+    "AnalysisError",
+    "ArmCommand",
     "ArmModel",
+    "ArmState",
+    "BannerTimeoutError",
+    "BoardError",
+    "BoardResetError",
+    "Calibration",
+    "CalibrationError",
+    "CameraError",
+    "ChecksumError",
+    "ColorDetector",
     "Config",
     "ConfigError",
+    "Detection",
+    "GarbledReplyError",
+    "HandshakeError",
+    "IKResult",
+    "ImageError",
+    "InvalidCommandError",
+    "InvalidJointsError",
     "InvalidTargetError",
     "JointLimitError",
+    "LinkDroppedError",
+    "LinkError",
     "MearmError",
     "ModelError",
+    "NoAckError",
+    "PdPij",
+    "PulseRangeError",
+    "QPSolverError",
+    "RunLog",
+    "RunLogContents",
+    "RunLogError",
+    "RunLogFormatError",
+    "ServoBus",
+    "ServoError",
+    "ServoFaultedError",
+    "ServoNotConnectedError",
+    "SimArm",
+    "SimCamera",
+    "SortAborted",
+    "SortReport",
+    "Sorter",
     "TargetError",
     "TargetOutsideBoxError",
     "UnreachableTargetError",
     "World",
+    "WorldError",
     "WorldObject",
     "__version__",
     "analytic_ik_deg",
@@ -39,4 +106,11 @@ __all__ = [
     "dh_fk",
     "dh_to_urdf",
     "load_config",
+    "make_solver",
+    "open_bus",
+    "open_camera",
+    "open_rig",
+    "random_scene",
+    "read_runlog",
+    "solve_ik",
 ]

@@ -2,7 +2,16 @@ import importlib
 
 import pytest
 
-PACKAGES = ["mearm", "mearm.kinematics"]
+PACKAGES = [
+    "mearm",
+    "mearm.kinematics",
+    "mearm.ik",
+    "mearm.vision",
+    "mearm.hardware",
+    "mearm.task",
+    "mearm.analysis",
+    "mearm.view",
+]
 
 
 @pytest.mark.parametrize("name", PACKAGES)
