@@ -37,13 +37,11 @@ So |e| never rises. On the paper's 24 demo routes neither case occurs, and ``pap
 mode reproduces the bare algorithm iteration for iteration.
 
 Cost: one Pinocchio pass (``computeFrameJacobian``, which also places the EE frame) and
-one 3×4 SVD per iteration, scalars in Python floats, the paths in flat C arrays: under
+one 3×4 SVD per iteration, scalars in Python floats, the paths in flat lists: under
 10 µs per iteration (``tools/bench.py``).
 """
 
 from __future__ import annotations
-
-from array import array as array_d
 
 import numpy as np
 import numpy.typing as npt
@@ -186,8 +184,8 @@ class PdPij(IKSolver):
         p = p_view.tolist()
         ex, ey, ez = tx - p[0], ty - p[1], tz - p[2]
         err2 = ex * ex + ey * ey + ez * ez
-        # flat C doubles: appending is cheap and the array is taken over without a copy
-        q_path, ee_path = array_d("d", q), array_d("d", p)
+        # flat lists: extending one is the cheapest append; one conversion at the end
+        q_path, ee_path = list(q), list(p)
         q_extend, ee_extend = q_path.extend, ee_path.extend
         px, py, pz = ex, ey, ez  # e_{-1} = e_0: no derivative kick
         mark_k, mark_err2 = 0, err2
@@ -201,7 +199,7 @@ class PdPij(IKSolver):
             if k == n_max:
                 break
             ds = array((kpd * ex - kd * px, kpd * ey - kd * py, kpd * ez - kd * pz))
-            Jm = J if paper else J @ C
+            Jm = J if paper else J.dot(C)  # .dot: a third of @'s overhead at 3×4
             dq = svd.compute(Jm).solve(ds) if svd is not None else pinv(Jm, ds)
             da, db, dc = dq.tolist()[:3]
             # the paper's limit rule; a NaN fails the comparison and is held too
@@ -247,8 +245,8 @@ class PdPij(IKSolver):
             status,
             self.name,
             target_cm,
-            np.frombuffer(q_path).reshape(-1, 4),
-            np.frombuffer(ee_path).reshape(-1, 3) * CM_PER_M,
+            np.array(q_path).reshape(-1, 4),
+            np.array(ee_path).reshape(-1, 3) * CM_PER_M,
             blocked_steps=blocked,
             fallback_steps=fallbacks,
         )

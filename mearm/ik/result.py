@@ -71,13 +71,15 @@ class IKResult:
     ) -> IKResult:
         """Build the record from the joint and EE paths (the errors follow from them).
 
-        The arrays given become the record's own, read-only: pass fresh ones.
+        The arrays given (target included) become the record's own, read-only: pass
+        fresh ones.
         """
-        target = _frozen(np.array(target_cm, dtype=float))  # a copy: the caller's stays
+        target = _frozen(target_cm)
         q_path = _frozen(q_path_rad)
         ee_path = _frozen(ee_path_cm)
         diff = ee_path - target
-        errors = _frozen(np.sqrt(np.einsum("ij,ij->i", diff, diff)))
+        errors = np.sqrt(np.einsum("ij,ij->i", diff, diff))
+        errors.flags.writeable = False
         return cls(
             status=status,
             solver=solver,

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import abc
+import math
 
 import numpy as np
 import numpy.typing as npt
@@ -35,24 +36,24 @@ def start_joints(q_start_rad: npt.ArrayLike, model: ArmModel) -> np.ndarray:
         JointLimitError: a joint is outside its limits.
     """
     try:
-        q = np.array(q_start_rad, dtype=float).reshape(-1)
+        q = np.asarray(q_start_rad, dtype=float).ravel().tolist()
     except (TypeError, ValueError):
         raise InvalidJointsError(
             (), f"expected 3 or 4 joint angles in rad, got {q_start_rad!r}"
         ) from None
-    if q.shape not in ((3,), (4,)):
-        raise InvalidJointsError(q.tolist(), f"expected 3 or 4 joint angles, got {q.size}")
-    if not np.all(np.isfinite(q)):
-        raise InvalidJointsError(q.tolist(), "joint angles must be finite")
-    if q.shape == (4,):
-        residual = q[1] + q[2] + q[3]
+    if len(q) not in (3, 4):
+        raise InvalidJointsError(q, f"expected 3 or 4 joint angles, got {len(q)}")
+    if not all(map(math.isfinite, q)):
+        raise InvalidJointsError(q, "joint angles must be finite")
+    a, b, c = q[:3]
+    if len(q) == 4:
+        residual = b + c + q[3]
         if abs(residual) > COUPLING_TOLERANCE_RAD:
             raise InvalidJointsError(
-                q.tolist(),
+                q,
                 f"θ2 + θ3 + θ4 = {residual:.3g} rad; the parallelogram holds it at 0 "
                 f"(within {COUPLING_TOLERANCE_RAD:g} rad): pass θ4 = −(θ2 + θ3) or 3 angles",
             )
-    a, b, c = q[:3].tolist()
     q4 = [a, b, c, -(b + c)]
     lower, upper = model.lower_rad.tolist(), model.upper_rad.tolist()
     tol = _LIMIT_TOL_RAD
