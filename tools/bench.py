@@ -141,6 +141,10 @@ def bench_ik(options: BenchOptions) -> list[Row]:
     def port(q: np.ndarray, target: tuple[float, float, float]) -> object:
         return numpy_port_solve(q, target, config.robot, config.controller)
 
+    one_step = {
+        key: PdPij(model, config.controller.updated(mode=key, max_iterations=1))
+        for key in ("paper", "coupled")
+    }
     calls: dict[str, Callable[[], object]] = {}
     for i, route in enumerate(routes):
         for key, solver in solvers.items():
@@ -148,13 +152,21 @@ def bench_ik(options: BenchOptions) -> list[Row]:
                 q, t
             )
         calls[f"numpy port/{i}"] = lambda q=starts["paper"][i], t=route.target_cm: port(q, t)
-    tries = {"paper": 4, "coupled": 4, "mink": 2, "numpy port": 2}  # per round
+        for key in ("paper", "coupled"):  # a 1-iteration solve: the cost per solve
+            calls[f"{key} x1/{i}"] = lambda s=one_step[key], q=starts[key][i], t=route.target_cm: (
+                s.solve(q, t)
+            )
+    tries = {"paper": 4, "coupled": 4, "mink": 2, "numpy port": 2, "paper x1": 4, "coupled x1": 4}
     best = best_seconds(calls, options.repeat, {k: tries[k.split("/")[0]] for k in calls})
     seconds = {key: sum(best[f"{key}/{i}"] for i in range(len(routes))) for key in tries}
 
     n = len(routes)
-    per_it = {k: seconds[k] / iterations[k] for k in seconds}
+    per_it = {k: seconds[k] / iterations[k] for k in ("paper", "coupled", "numpy port", "mink")}
     per_route = {k: seconds[k] / n for k in seconds}
+    # route time = per-solve cost (target check, first FK, record) + n × loop iteration
+    loop_it = {
+        k: (seconds[k] - seconds[f"{k} x1"]) / (iterations[k] - n) for k in ("paper", "coupled")
+    }
     note = f"{n} demo routes, each timed alone, best of {options.repeat} rounds"
     rows = []
     for key in ("paper", "coupled", "numpy port", "mink"):
@@ -166,10 +178,31 @@ def bench_ik(options: BenchOptions) -> list[Row]:
         rows.append(
             Row(
                 "ik",
+                f"PD-PIJ {key}: cost per solve",
+                per_route[f"{key} x1"] * 1e6,
+                "µs",
+                "a 1-iteration solve: target check, start check, 2 FK, 1 SVD, record",
+            )
+        )
+        rows.append(Row("ik", f"PD-PIJ {key}: per further iteration", loop_it[key] * 1e6, "µs", ""))
+    for key in ("paper", "coupled"):
+        same = "same algorithm, iteration for iteration" if key == "paper" else ""
+        rows.append(
+            Row(
+                "ik",
                 f"numpy port / PD-PIJ {key}, per iteration",
                 per_it["numpy port"] / per_it[key],
                 "×",
-                "same algorithm as paper mode, iteration for iteration",
+                same,
+            )
+        )
+        rows.append(
+            Row(
+                "ik",
+                f"numpy port / PD-PIJ {key}, per further iteration",
+                per_it["numpy port"] / loop_it[key],
+                "×",
+                "the loop alone, without the per-solve cost",
             )
         )
         rows.append(
