@@ -7,6 +7,7 @@ Every CLI exits 2 on bad input with a single line on stderr (never a traceback),
 from __future__ import annotations
 
 import argparse
+import re
 import sys
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -22,10 +23,35 @@ EXIT_INTERRUPTED = 130
 
 
 class ArgumentParser(argparse.ArgumentParser):
-    """An ``argparse`` parser whose errors are one line on stderr and exit 2."""
+    """An ``argparse`` parser whose errors are one line on stderr and exit 2.
+
+    It also accepts option values that start with a minus sign, such as
+    ``--target -10.99,49.70,12.76`` (plain argparse takes that for an option).
+    """
 
     def error(self, message: str) -> NoReturn:  # noqa: D102
         self.exit(EXIT_BAD_INPUT, f"{self.prog}: error: {message}\n")
+
+    def parse_known_args(  # type: ignore[override]  # noqa: D102
+        self, args: Sequence[str] | None = None, namespace: argparse.Namespace | None = None
+    ) -> tuple[argparse.Namespace, list[str]]:
+        argv = list(sys.argv[1:] if args is None else args)
+        return super().parse_known_args(self._attach_negative_values(argv), namespace)
+
+    def _attach_negative_values(self, argv: list[str]) -> list[str]:
+        """``--opt -1.5,2`` → ``--opt=-1.5,2`` for options that take a value."""
+        out: list[str] = []
+        i = 0
+        while i < len(argv):
+            action = self._option_string_actions.get(argv[i])
+            nxt = argv[i + 1] if i + 1 < len(argv) else ""
+            if action is not None and action.nargs != 0 and re.match(r"^-[\d.]", nxt):
+                out.append(f"{argv[i]}={nxt}")
+                i += 2
+            else:
+                out.append(argv[i])
+                i += 1
+        return out
 
 
 def float_list(n: int | None = None, name: str = "values") -> Callable[[str], list[float]]:
@@ -64,9 +90,17 @@ def config_from_args(args: argparse.Namespace) -> Config:
     return load_config(args.config)
 
 
+def _program_name() -> str:
+    """``python -m mearm.ik`` for a module run with -m, else the script's name."""
+    spec = getattr(sys.modules.get("__main__"), "__spec__", None)
+    if spec is not None and spec.name:
+        return "python -m " + spec.name.removesuffix(".__main__")
+    return Path(sys.argv[0]).name if sys.argv and sys.argv[0] else "mearm"
+
+
 def run(main: Callable[[Sequence[str] | None], int], argv: Sequence[str] | None = None) -> NoReturn:
     """Run a CLI ``main``; turn :class:`MearmError` into exit 2 and Ctrl-C into 130."""
-    prog = Path(sys.argv[0]).stem if sys.argv and sys.argv[0] else "mearm"
+    prog = _program_name()
     try:
         code = main(argv)
     except MearmError as exc:

@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import sys
 from collections.abc import Sequence
 
 import numpy as np
@@ -41,24 +40,6 @@ def _positive(text: str) -> float:
     return value
 
 
-def _attach_negative_values(argv: Sequence[str], options: Sequence[str]) -> list[str]:
-    """Turn ``--target -10.99,49.7,12.76`` into ``--target=-10.99,49.7,12.76``.
-
-    argparse takes a value starting with '-' that is not a plain number for an option.
-    """
-    out: list[str] = []
-    args = list(argv)
-    i = 0
-    while i < len(args):
-        if args[i] in options and i + 1 < len(args) and args[i + 1][:1] == "-":
-            out.append(f"{args[i]}={args[i + 1]}")
-            i += 2
-        else:
-            out.append(args[i])
-            i += 1
-    return out
-
-
 def main(argv: Sequence[str] | None = None) -> int:
     """Solve, print the result; see the module docstring."""
     parser = ArgumentParser(prog="python -m mearm.ik", description=__doc__.splitlines()[0])
@@ -78,9 +59,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         "--tolerance", type=_positive, metavar="CM2", help="stop when |e|² < CM2 [cm²]"
     )
     parser.add_argument("--json", action="store_true", help="print JSON")
-    if argv is None:
-        argv = sys.argv[1:]
-    args = parser.parse_args(_attach_negative_values(argv, ("--start", "--target")))
+    args = parser.parse_args(argv)
     config = config_from_args(args)
     changes = {
         key: value

@@ -26,7 +26,12 @@ _EPS = 1e-12
 
 
 def _target3(target_cm: npt.ArrayLike) -> np.ndarray:
-    t = np.asarray(target_cm, dtype=float)
+    try:
+        t = np.asarray(target_cm, dtype=float)
+    except (TypeError, ValueError):
+        raise InvalidTargetError(
+            f"a target is three finite numbers (x, y, z) in cm, got {target_cm!r}"
+        ) from None
     if t.shape != (3,) or not np.all(np.isfinite(t)):
         raise InvalidTargetError(
             f"a target is three finite numbers (x, y, z) in cm, got {t.tolist()!r}"
@@ -73,8 +78,9 @@ def analytic_ik_deg(target_cm: npt.ArrayLike, robot: RobotConfig) -> np.ndarray:
     theta3 = -math.acos(min(1.0, max(-1.0, cos3)))
     theta2 = math.atan2(h, r) - math.atan2(a3 * math.sin(theta3), a2 + a3 * math.cos(theta3))
     q_deg = np.degrees([theta1, theta2, theta3])
+    jl = robot.joint_limits_deg
     for name, value, lim in zip(
-        ACTUATED_JOINTS, q_deg, robot.joint_limits_deg.as_list(), strict=False
+        ACTUATED_JOINTS, q_deg, (jl.joint1, jl.joint2, jl.joint3), strict=True
     ):
         if not lim.contains(value, tol=1e-9):
             raise UnreachableTargetError(
