@@ -14,6 +14,7 @@ the run log and raises :class:`SortAborted`.
 
 from __future__ import annotations
 
+import contextlib
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -31,6 +32,8 @@ from mearm.vision import Calibration, Camera, ColorDetector, Detection
 
 #: A detection within this distance of a known object is that object [cm].
 SAME_OBJECT_CM = 1.5
+#: After a missed grip the EE rises this much before the retry [cm].
+RETRY_LIFT_CM = 5.0
 
 
 class SortAborted(MearmError):
@@ -323,6 +326,10 @@ class Sorter:
         if not gripped:
             if self.bus.state is not None and self.bus.state.gripper_closed:
                 self._gripper(self._travel_deg, False)
+            # back off upwards so the retry approaches afresh (from the same pose the
+            # servos would land where they just missed)
+            with contextlib.suppress(TargetError):  # at the edge of reach: retry from here
+                self._route(target + [0.0, 0.0, RETRY_LIFT_CM], self._travel_deg, False)
             obj.failed_picks += 1
             if obj.failed_picks > self.config.task.pick_retries:
                 obj.skipped = f"pick failed {obj.failed_picks} times"
