@@ -12,6 +12,9 @@ Sections:
     ik: PD-PIJ per iteration and per route (``paper`` and ``coupled`` modes) on the
         paper's 24 demo routes, next to a plain NumPy port of the paper's loop
         (:mod:`mearm.ik.reference`) and to the mink cross-check, with ratios.
+    vision: ms per 640x480 frame with 12 objects, OpenCV detector next to a plain
+        NumPy/SciPy port of the same recipe (:mod:`mearm.vision.bench`) and the paper's
+        0.263 s; detection accuracy on rendered scenes; calibration recovery.
 """
 
 from __future__ import annotations
@@ -228,6 +231,23 @@ def bench_ik(options: BenchOptions) -> list[Row]:
     )
     rows.append(Row("ik", "pinocchio", 0.0, "", f"pin {pin.__version__}"))
     return rows
+
+
+# --------------------------------------------------------------------------- vision
+
+
+@section("vision")
+def bench_vision(options: BenchOptions) -> list[Row]:
+    """Detector ms per 640x480 frame vs a NumPy/SciPy port of the recipe; accuracy."""
+    from mearm.vision.bench import (  # noqa: PLC0415
+        run_calibration_study,
+        run_vision_accuracy,
+        run_vision_bench,
+    )
+
+    rows = run_vision_bench(max(20, 10 * options.repeat))
+    rows += run_vision_accuracy() + run_calibration_study()
+    return [Row(**r) for r in rows]
 
 
 # --------------------------------------------------------------------------- main
