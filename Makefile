@@ -4,7 +4,7 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: install demo test lint bench urdf firmware clean
+.PHONY: install demo test lint bench urdf firmware preview clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -15,7 +15,7 @@ $(STAMP): pyproject.toml
 install: $(STAMP)
 
 demo: $(STAMP)
-	$(BIN)/python -m mearm.fk --config configs/sim.yaml --joints 120,93,-132
+	$(BIN)/python -m mearm.sort --config configs/sim.yaml
 
 test: $(STAMP)
 	$(BIN)/python -m pytest -q
@@ -26,6 +26,9 @@ lint: $(STAMP)
 
 bench: $(STAMP)
 	$(BIN)/python tools/bench.py
+
+preview: $(STAMP)
+	$(BIN)/python tools/preview.py
 
 urdf: $(STAMP)
 	$(BIN)/python tools/dh_to_urdf.py --config configs/lab.yaml
