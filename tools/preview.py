@@ -25,7 +25,7 @@ import numpy as np
 from mearm.cli import ArgumentParser, add_config_argument, config_from_args, float_list, run
 from mearm.config import ACTUATED_JOINTS
 from mearm.kinematics import ArmModel, couple
-from mearm.view import ArmView, screenshot
+from mearm.view import ArmView
 
 
 def _window_size(text: str) -> tuple[int, int]:
@@ -95,7 +95,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--screenshot", type=Path, metavar="OUT.png", help="render to a PNG, exit")
     parser.add_argument("--size", type=_window_size, default=(1280, 800), help="PNG size WxH")
     parser.add_argument("--hold", action="store_true", help="keep serving after --screenshot")
-    parser.add_argument("--port", type=int, default=None, help="web port (default: 7000 or next)")
+    parser.add_argument(
+        "--port", type=int, default=None, help="web port (default: 7000 or the next free; 0: any)"
+    )
     args = parser.parse_args(argv)
 
     config = config_from_args(args)
@@ -123,7 +125,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             if args.sweep:
                 sweep(pace=False)
             w, h = args.size
-            out = screenshot(view.url, args.screenshot, width_px=w, height_px=h)
+            out = view.screenshot(args.screenshot, width_px=w, height_px=h)
             print(f"wrote {out}", flush=True)
             if not args.hold:
                 return 0

@@ -4,11 +4,18 @@
 in headless Chromium. Layer: after kinematics and vision, before the task loop.
 """
 
-from mearm.view.arm_view import PALETTE, ArmView, ViewObject
-from mearm.view.browser import find_browser, screenshot
-from mearm.view.camera import DEFAULT_CAMERA, ViewCamera
-from mearm.view.frame_plane import FramePlane, frame_plane
-from mearm.view.server import MeshcatServer
+import warnings
+
+# meshcat 0.3.2 imports pyzmq's deprecated zmq.eventloop.ioloop; nothing for us to act on.
+warnings.filterwarnings(
+    "ignore", message="zmq.eventloop.ioloop is deprecated", category=DeprecationWarning
+)
+
+from mearm.view.arm_view import PALETTE, ArmView, ViewObject  # noqa: E402
+from mearm.view.browser import SceneCounts, find_browser, screenshot  # noqa: E402
+from mearm.view.camera import DEFAULT_CAMERA, ViewCamera  # noqa: E402
+from mearm.view.frame_plane import FramePlane, frame_plane  # noqa: E402
+from mearm.view.server import MeshcatServer  # noqa: E402
 
 __all__ = [
     "DEFAULT_CAMERA",
@@ -16,6 +23,7 @@ __all__ = [
     "ArmView",
     "FramePlane",
     "MeshcatServer",
+    "SceneCounts",
     "ViewCamera",
     "ViewObject",
     "find_browser",

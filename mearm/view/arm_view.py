@@ -22,6 +22,7 @@ import logging
 import math
 from collections.abc import Iterable
 from dataclasses import dataclass
+from pathlib import Path
 from types import TracebackType
 from typing import Any
 
@@ -37,6 +38,7 @@ from pinocchio.visualize import MeshcatVisualizer
 from mearm.config import COLORS, Color, Config
 from mearm.exceptions import ViewError, ViewInputError
 from mearm.kinematics import ArmModel, couple
+from mearm.view.browser import screenshot
 from mearm.view.camera import DEFAULT_CAMERA, M_PER_CM, ViewCamera
 from mearm.view.frame_plane import FramePlane, PixelToTable, frame_plane
 from mearm.view.server import MeshcatServer
@@ -156,7 +158,7 @@ class ArmView:
     Args:
         model: The arm; its URDF's visual geometry is what is drawn.
         config: Provides the bins (``task.bins_cm``).
-        port: Web port; ``None`` takes the first free one from 7000.
+        port: Web port; 0 takes any free one, ``None`` the first free one from 7000.
         camera: The fixed viewpoint; see :mod:`mearm.view.camera`.
 
     Attributes:
@@ -219,6 +221,27 @@ class ArmView:
     def browsers(self) -> int:
         """How many browsers are connected now."""
         return self._server.browsers
+
+    def screenshot(
+        self, out_png: str | Path, *, width_px: int = 1280, height_px: int = 800, **kwargs: Any
+    ) -> Path:
+        """Render the view as it is now in headless Chromium and save it as a PNG.
+
+        Waits until the browser has drawn everything the server holds (see
+        :func:`mearm.view.browser.screenshot`, which takes the other keyword arguments).
+
+        Returns:
+            The PNG's path.
+
+        Raises:
+            BrowserNotFoundError: No Chromium-family browser.
+            ViewError: The browser failed or did not draw the scene in time.
+        """
+        self._check_open()
+        expect = self._server.scene_counts()
+        return screenshot(
+            self.url, out_png, width_px=width_px, height_px=height_px, expect=expect, **kwargs
+        )
 
     def close(self) -> None:
         """Stop the server; the view cannot be used afterwards. Safe to call twice."""

@@ -1,19 +1,30 @@
-"""Render the meshcat view to a PNG in headless Chromium.
+"""Render the meshcat view to a PNG in headless Chromium, driven over the DevTools protocol.
 
-The browser loads the viewer page, connects its WebSocket to the server and receives the
-whole scene tree (the server replays it to every new browser), so a screenshot shows the
-scene as it is when the browser connects. ``--virtual-time-budget`` lets the page run
-(three.js, the WebSocket messages, texture decoding) before the picture is taken.
-WebGL runs on SwiftShader, the CPU renderer, so no GPU or display is needed.
+The browser loads the viewer page, whose WebSocket receives the whole scene from the
+server (the server replays its scene tree to every browser that connects). A plain
+``chromium --screenshot`` may fire before everything is drawn: meshcat adds a textured
+object only once its image has been decoded, which virtual time does not wait for. So
+the page is driven over the DevTools protocol instead: the picture is taken once the
+viewer has received the expected number of messages, holds the expected number of
+objects, and has drawn two more frames. WebGL runs on SwiftShader, the CPU
+renderer, so no GPU or display is needed.
 """
 
 from __future__ import annotations
 
+import asyncio
+import base64
+import json
 import os
 import shutil
 import subprocess
 import tempfile
+import time
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
+
+import tornado.websocket
 
 from mearm.exceptions import BrowserNotFoundError, ViewError, ViewInputError
 
@@ -26,7 +37,7 @@ BROWSER_NAMES: tuple[str, ...] = (
 )
 
 #: Flags for a quiet, reproducible headless run: no sandbox (containers, root), CPU
-#: WebGL, no network traffic of its own, a throwaway profile.
+#: WebGL, no network traffic of its own; the profile is a fresh temporary folder.
 HEADLESS_FLAGS: tuple[str, ...] = (
     "--headless",
     "--no-sandbox",
@@ -39,7 +50,43 @@ HEADLESS_FLAGS: tuple[str, ...] = (
     "--enable-unsafe-swiftshader",
     "--use-angle=swiftshader",
     "--hide-scrollbars",
+    "--remote-debugging-address=127.0.0.1",
+    "--remote-debugging-port=0",
 )
+
+# [socket state, messages received, objects drawn under /meshcat]. meshcat keeps each
+# object in a scene-tree node named "<object>", created only once the object is added
+# (for a textured one, after its image has loaded).
+_STATE_JS = """(() => {
+  const v = window.viewer;
+  if (!v || !v.connection || !v.scene_tree) return null;
+  let objects = 0;
+  const walk = (node) => {
+    for (const [name, child] of Object.entries(node.children)) {
+      if (name === "<object>") objects += 1;
+      walk(child);
+    }
+  };
+  const root = v.scene_tree.children["meshcat"];
+  if (root) walk(root);
+  return [v.connection.readyState, v.num_messages_received, objects];
+})()"""
+_TWO_FRAMES_JS = (
+    "new Promise(r => requestAnimationFrame(() => requestAnimationFrame(() => r(true))))"
+)
+
+
+@dataclass(frozen=True)
+class SceneCounts:
+    """What a browser must have received before the picture is taken.
+
+    Attributes:
+        messages: Commands the server replays to a new browser.
+        objects: Objects among them under ``/meshcat`` (the scene's own root).
+    """
+
+    messages: int
+    objects: int
 
 
 def find_browser() -> str:
@@ -57,25 +104,111 @@ def find_browser() -> str:
     raise BrowserNotFoundError(names)
 
 
+class _DevTools:
+    """A minimal DevTools-protocol client over the browser's WebSocket."""
+
+    def __init__(self, conn: tornado.websocket.WebSocketClientConnection):
+        self.conn = conn
+        self.next_id = 0
+
+    async def call(self, method: str, session: str | None = None, **params: Any) -> dict:
+        self.next_id += 1
+        msg: dict[str, Any] = {"id": self.next_id, "method": method, "params": params}
+        if session is not None:
+            msg["sessionId"] = session
+        await self.conn.write_message(json.dumps(msg))
+        while True:
+            raw = await self.conn.read_message()
+            if raw is None:
+                raise ViewError(f"the browser closed its DevTools connection during {method}")
+            reply = json.loads(raw)
+            if reply.get("id") == self.next_id:
+                if "error" in reply:
+                    raise ViewError(f"DevTools {method} failed: {reply['error'].get('message')}")
+                return reply.get("result", {})
+
+
+def _devtools_url(profile: Path, proc: subprocess.Popen, deadline: float) -> str:
+    """The browser's DevTools WebSocket address, from the file it writes on start."""
+    port_file = profile / "DevToolsActivePort"
+    while time.monotonic() < deadline:
+        if proc.poll() is not None:
+            raise ViewError(f"the browser exited ({proc.returncode}) before it was ready")
+        try:
+            port, path = port_file.read_text().split()[:2]
+            return f"ws://127.0.0.1:{port}{path}"
+        except (OSError, ValueError):
+            time.sleep(0.05)
+    raise ViewError("the browser did not open its DevTools port in time")
+
+
+async def _capture(
+    ws_url: str, url: str, size: tuple[int, int], expect: SceneCounts | None, deadline: float
+) -> bytes:
+    conn = await tornado.websocket.websocket_connect(ws_url, max_message_size=256 * 2**20)
+    tools = _DevTools(conn)
+    try:
+        target = await tools.call("Target.createTarget", url="about:blank")
+        attached = await tools.call(
+            "Target.attachToTarget", targetId=target["targetId"], flatten=True
+        )
+        sid = attached["sessionId"]
+        width, height = size
+        await tools.call(
+            "Emulation.setDeviceMetricsOverride",
+            sid,
+            width=width,
+            height=height,
+            deviceScaleFactor=1,
+            mobile=False,
+        )
+        await tools.call("Page.navigate", sid, url=url)
+        want = expect or SceneCounts(messages=1, objects=0)
+        state = None
+        while True:
+            result = await tools.call(
+                "Runtime.evaluate", sid, expression=_STATE_JS, returnByValue=True
+            )
+            state = result.get("result", {}).get("value")
+            if state and state[0] == 1 and state[1] >= want.messages and state[2] >= want.objects:
+                break
+            if time.monotonic() > deadline:
+                raise ViewError(
+                    f"the view at {url} was not drawn in time: [socket state, messages, "
+                    f"objects] = {state}, expected at least {want.messages} messages and "
+                    f"{want.objects} objects"
+                )
+            await asyncio.sleep(0.1)
+        if expect is None:  # no counts to wait for: let the messages settle a little
+            await asyncio.sleep(0.5)
+        await tools.call("Runtime.evaluate", sid, expression=_TWO_FRAMES_JS, awaitPromise=True)
+        shot = await tools.call("Page.captureScreenshot", sid, format="png")
+        return base64.b64decode(shot["data"])
+    finally:
+        conn.close()
+
+
 def screenshot(
     url: str,
     out_png: str | Path,
     *,
     width_px: int = 1280,
     height_px: int = 800,
-    budget_ms: int = 4000,
+    expect: SceneCounts | None = None,
     timeout_s: float = 60.0,
     browser: str | None = None,
 ) -> Path:
-    """Render ``url`` in headless Chromium and save a ``width_px`` × ``height_px`` PNG.
+    """Render the meshcat page ``url`` in headless Chromium to a ``width_px`` × ``height_px`` PNG.
 
     Args:
-        url: The page, e.g. ``ArmView.url``.
+        url: The viewer page, e.g. ``ArmView.url``.
         out_png: Where to write the PNG; its folder must exist.
-        width_px: Window width [px].
-        height_px: Window height [px].
-        budget_ms: Virtual time the page runs before the picture is taken [ms].
-        timeout_s: Give up on the browser after this long [s].
+        width_px: View width [px].
+        height_px: View height [px].
+        expect: Wait until the page has this much of the scene (see
+            ``ArmView.screenshot``, which knows); ``None`` waits for the first message
+            and half a second more.
+        timeout_s: Give up after this long [s].
         browser: The browser executable; default :func:`find_browser`.
 
     Returns:
@@ -83,9 +216,8 @@ def screenshot(
 
     Raises:
         BrowserNotFoundError: No browser.
-        ViewInputError: A size or budget out of range, or the folder of ``out_png``
-            does not exist.
-        ViewError: The browser failed, timed out or wrote no picture.
+        ViewInputError: A size out of range, or no folder for ``out_png``.
+        ViewError: The browser failed, or the scene was not drawn within ``timeout_s``.
     """
     out = Path(out_png).resolve()
     if not out.parent.is_dir():
@@ -93,33 +225,35 @@ def screenshot(
     for name, value in (("width_px", width_px), ("height_px", height_px)):
         if not 16 <= value <= 8192:
             raise ViewInputError(name, value, "a size in [16, 8192] px")
-    if budget_ms < 0:
-        raise ViewInputError("budget_ms", budget_ms, "a virtual time budget >= 0 ms")
     exe = browser or find_browser()
-    out.unlink(missing_ok=True)
-    with tempfile.TemporaryDirectory(prefix="mearm-chromium-") as profile:
+    deadline = time.monotonic() + timeout_s
+    with tempfile.TemporaryDirectory(
+        prefix="mearm-chromium-", ignore_cleanup_errors=True
+    ) as profile:
         cmd = [
             exe,
             *HEADLESS_FLAGS,
             f"--user-data-dir={profile}",
             f"--window-size={width_px},{height_px}",
-            f"--virtual-time-budget={budget_ms}",
-            f"--screenshot={out}",
-            url,
+            "about:blank",
         ]
         try:
-            proc = subprocess.run(
-                cmd, capture_output=True, text=True, timeout=timeout_s, check=False
+            proc = subprocess.Popen(
+                cmd, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL
             )
-        except subprocess.TimeoutExpired:
-            raise ViewError(
-                f"{exe} did not finish rendering {url} within {timeout_s:g} s"
-            ) from None
         except OSError as exc:
             raise ViewError(f"cannot run {exe}: {exc}") from None
-    if proc.returncode != 0 or not out.is_file() or out.stat().st_size == 0:
-        tail = " | ".join(line for line in proc.stderr.strip().splitlines()[-3:])
-        raise ViewError(
-            f"{exe} exited {proc.returncode} without a screenshot of {url}: {tail or 'no output'}"
-        )
+        try:
+            ws_url = _devtools_url(Path(profile), proc, deadline)
+            png = asyncio.run(_capture(ws_url, url, (width_px, height_px), expect, deadline))
+        except (OSError, tornado.websocket.WebSocketClosedError) as exc:
+            raise ViewError(f"lost the browser while rendering {url}: {exc}") from None
+        finally:
+            proc.terminate()
+            try:
+                proc.wait(timeout=10)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+                proc.wait()
+    out.write_bytes(png)
     return out

@@ -10,14 +10,16 @@ calling process, so it starts in milliseconds and cannot outlive the program.
 from __future__ import annotations
 
 import asyncio
+import socket
 import threading
 from typing import Any
 
 import tornado.httpserver
 import tornado.ioloop
+import tornado.netutil
 import tornado.web
 import zmq
-from meshcat.servers.tree import SceneTree
+from meshcat.servers.tree import SceneTree, walk
 from meshcat.servers.zmqserver import (
     VIEWER_HTML,
     VIEWER_ROOT,
@@ -28,6 +30,7 @@ from meshcat.servers.zmqserver import (
 from meshcat.visualizer import ViewerWindow
 
 from mearm.exceptions import ViewError, ViewPortError
+from mearm.view.browser import SceneCounts
 
 LOOPBACK = "127.0.0.1"
 #: First web port tried when none is given (meshcat's own default), and how many after it.
@@ -46,22 +49,35 @@ class _QuietWebSocketHandler(WebSocketHandler):
         self.bridge.websocket_pool.discard(self)
 
 
+def _bind(port: int) -> list[socket.socket]:
+    if not 0 <= port <= 65535:  # getaddrinfo would silently take it modulo 65536
+        raise ViewPortError(port, "not a TCP port (0..65535)")
+    try:
+        return tornado.netutil.bind_sockets(port, address=LOOPBACK)
+    except (OSError, OverflowError) as exc:
+        reason = getattr(exc, "strerror", None) or str(exc)
+        raise ViewPortError(port, reason) from None
+
+
 def _listen(app: tornado.web.Application, port: int | None) -> tuple[Any, int]:
-    """Start ``app`` on 127.0.0.1: on ``port``, or on the first free one from 7000."""
+    """Serve ``app`` on 127.0.0.1: on ``port`` (0: any free one), or the first free from 7000."""
     if port is not None:
-        try:
-            return app.listen(port, address=LOOPBACK), port
-        except OSError as exc:
-            raise ViewPortError(port, exc.strerror or str(exc)) from None
-    for candidate in range(DEFAULT_PORT, DEFAULT_PORT + PORT_ATTEMPTS):
-        try:
-            return app.listen(candidate, address=LOOPBACK), candidate
-        except OSError:
-            continue
-    raise ViewError(
-        f"no free port in {DEFAULT_PORT}..{DEFAULT_PORT + PORT_ATTEMPTS - 1} on {LOOPBACK}; "
-        "pass a port explicitly"
-    )
+        sockets = _bind(port)
+    else:
+        for candidate in range(DEFAULT_PORT, DEFAULT_PORT + PORT_ATTEMPTS):
+            try:
+                sockets = _bind(candidate)
+                break
+            except ViewPortError:
+                continue
+        else:
+            raise ViewError(
+                f"no free port in {DEFAULT_PORT}..{DEFAULT_PORT + PORT_ATTEMPTS - 1} on "
+                f"{LOOPBACK}; pass a port explicitly"
+            )
+    server = tornado.httpserver.HTTPServer(app)
+    server.add_sockets(sockets)
+    return server, sockets[0].getsockname()[1]
 
 
 class LoopbackBridge(ZMQWebSocketBridge):
@@ -72,10 +88,10 @@ class LoopbackBridge(ZMQWebSocketBridge):
     event loop will run it.
 
     Args:
-        port: Web port, or ``None`` for the first free one from 7000.
+        port: Web port; 0 for any free one; ``None`` for the first free one from 7000.
 
     Raises:
-        ViewPortError: ``port`` is in use or not allowed.
+        ViewPortError: ``port`` is in use or not a port.
     """
 
     def __init__(self, port: int | None = None):  # the parent's __init__ binds everywhere
@@ -158,7 +174,7 @@ class MeshcatServer:
     """A :class:`LoopbackBridge` serving from a daemon thread.
 
     Args:
-        port: Web port, or ``None`` for the first free one from 7000.
+        port: Web port; 0 for any free one; ``None`` for the first free one from 7000.
         timeout_s: How long to wait for the server to start, and for each reply [s].
 
     Attributes:
@@ -216,6 +232,18 @@ class MeshcatServer:
     def browsers(self) -> int:
         """How many browsers are connected now."""
         return len(self._bridge.websocket_pool) if self._bridge and self.running else 0
+
+    def scene_counts(self) -> SceneCounts:
+        """How many commands a browser connecting now receives, and objects under /meshcat."""
+        if self._bridge is None or not self.running:
+            raise ViewError(f"the meshcat server at {self.web_url} is not running")
+        messages = 0
+        for node in walk(self._bridge.tree):
+            messages += (node.object is not None) + len(node.properties)
+            messages += (node.transform is not None) + (node.animation is not None)
+        root = self._bridge.tree.get("meshcat")
+        objects = sum(node.object is not None for node in walk(root)) if root is not None else 0
+        return SceneCounts(messages=messages, objects=objects)
 
     def window(self) -> _Window:
         """A new client connection for ``meshcat.Visualizer(window=...)``."""

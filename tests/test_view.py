@@ -1,0 +1,608 @@
+"""The meshcat view: scene bookkeeping on a real server, the frame texture, Chromium renders.
+
+The browser tests render the view in real headless Chromium and look for the arm's and
+the objects' colours where the camera model (:meth:`ViewCamera.project`, checked
+against the render here) says they are. They are skipped when no Chromium-family
+browser exists, and fail instead when MEARM_REQUIRE_TOOLS=1 (CI).
+"""
+
+from __future__ import annotations
+
+import base64
+import importlib.util
+import os
+import re
+import signal
+import socket
+import subprocess
+import sys
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pinocchio as pin
+import pytest
+import umsgpack
+from conftest import ROOT, run_cli
+
+from mearm.cli import run
+from mearm.config import Config
+from mearm.exceptions import (
+    BrowserNotFoundError,
+    ViewError,
+    ViewInputError,
+    ViewPortError,
+)
+from mearm.kinematics import ArmModel, couple
+from mearm.view import (
+    DEFAULT_CAMERA,
+    PALETTE,
+    ArmView,
+    ViewCamera,
+    find_browser,
+    frame_plane,
+    screenshot,
+)
+from mearm.view.frame_plane import FramePlane
+from mearm.vision import Calibration, SimCamera
+from mearm.world import World
+
+CONFIG = Config()
+CAL = Calibration.from_config(CONFIG.calibration)
+W, H = 960, 600  # screenshot size [px]
+
+
+# --------------------------------------------------------------------------- helpers
+
+
+@pytest.fixture
+def view(model: ArmModel):
+    with ArmView(model, CONFIG) as v:
+        yield v
+
+
+def scene(view: ArmView) -> dict[str, dict]:
+    """The server's scene tree, as a browser connecting now would receive it.
+
+    Returns ``{path: {"object": …, "transform": 4x4 array, …}}`` decoded from the
+    commands the server replays (meshcat's ``get_scene``).
+    """
+    html = view.viewer.static_html()
+    out: dict[str, dict] = {}
+    for blob in re.findall(r"data:application/octet-binary;base64,([A-Za-z0-9+/=]+)", html):
+        cmd = umsgpack.unpackb(base64.b64decode(blob))
+        node = out.setdefault(cmd["path"], {})
+        if cmd["type"] == "set_object":
+            node["object"] = cmd["object"]
+        elif cmd["type"] == "set_transform":
+            node["transform"] = np.array(cmd["matrix"], dtype=float).reshape(4, 4).T
+        elif cmd["type"] == "set_property":
+            node.setdefault("properties", {})[cmd["property"]] = cmd["value"]
+    return out
+
+
+def drawn(view: ArmView, prefix: str) -> set[str]:
+    """Names of the objects drawn directly under ``/meshcat/<prefix>/``."""
+    head = f"/meshcat/{prefix}/"
+    return {p[len(head) :] for p, n in scene(view).items() if p.startswith(head) and "object" in n}
+
+
+def object_color(node: dict) -> int:
+    return node["object"]["materials"][0]["color"]
+
+
+def browser_or_skip() -> str:
+    try:
+        return find_browser()
+    except BrowserNotFoundError as exc:
+        if os.environ.get("MEARM_REQUIRE_TOOLS") == "1":
+            pytest.fail(f"{exc}; MEARM_REQUIRE_TOOLS=1 says it must be there")
+        pytest.skip(str(exc))
+
+
+def hsv_mask(img_bgr: np.ndarray, name: str) -> np.ndarray:
+    """Pixels of a named colour (OpenCV HSV, H in 0..179)."""
+    h, s, v = cv2.split(cv2.cvtColor(img_bgr, cv2.COLOR_BGR2HSV))
+    sat = (s >= 150) & (v >= 60)
+    bands = {
+        "red": (h <= 6) | (h >= 174),
+        "green": (h >= 55) & (h <= 80),
+        "blue": (h >= 105) & (h <= 125),
+        "orange": (h >= 10) & (h <= 22),
+        "yellow": (h >= 23) & (h <= 35),
+    }
+    return bands[name] & sat
+
+
+def fraction(mask: np.ndarray, uv: np.ndarray, half: int = 2) -> float:
+    """Share of a (2·half+1)² window around pixel ``uv`` that is set in ``mask``."""
+    u, v = np.round(uv).astype(int)
+    return float(mask[v - half : v + half + 1, u - half : u + half + 1].mean())
+
+
+# --------------------------------------------------------------------------- server
+
+
+def _listening_addresses(port: int) -> list[str]:
+    """Local addresses of the TCP sockets listening on ``port`` (Linux /proc)."""
+    found = []
+    for table in ("/proc/net/tcp", "/proc/net/tcp6"):
+        if not os.path.exists(table):
+            continue
+        for line in Path(table).read_text().splitlines()[1:]:
+            local, state = line.split()[1], line.split()[3]
+            addr, port_hex = local.split(":")
+            if state == "0A" and int(port_hex, 16) == port:  # 0A: LISTEN
+                found.append(addr)
+    return found
+
+
+def test_server_listens_on_loopback_only(view: ArmView):
+    """The web port is bound to 127.0.0.1 alone, and so is the command socket."""
+    assert view.url == f"http://127.0.0.1:{view.port}/static/"
+    if not os.path.exists("/proc/net/tcp"):
+        pytest.skip("no /proc/net/tcp to read listening sockets from")
+    assert _listening_addresses(view.port) == ["0100007F"]  # 127.0.0.1, no IPv6, no 0.0.0.0
+    zmq_port = int(view._server.zmq_url.rsplit(":", 1)[1])
+    assert _listening_addresses(zmq_port) == ["0100007F"]
+
+
+def test_view_page_is_served(view: ArmView):
+    """The URL serves meshcat's viewer page."""
+    with socket.create_connection(("127.0.0.1", view.port), timeout=5) as s:
+        s.sendall(b"GET /static/ HTTP/1.0\r\nHost: 127.0.0.1\r\n\r\n")
+        reply = b"".join(iter(lambda: s.recv(65536), b""))
+    assert reply.startswith(b"HTTP/1.1 200")
+    assert b"MeshCat" in reply
+
+
+def test_port_in_use_is_a_named_error(view: ArmView, model: ArmModel):
+    """Asking for a taken port raises ViewPortError naming it; nothing is left running."""
+    with pytest.raises(ViewPortError, match=f"port {view.port} on 127.0.0.1") as err:
+        ArmView(model, CONFIG, port=view.port)
+    assert err.value.port == view.port
+
+
+def test_close_frees_the_port_and_is_final(model: ArmModel):
+    """close() stops the server (the port can be taken again), twice is fine, use after
+    close is an error."""
+    v = ArmView(model, CONFIG)
+    port = v.port
+    v.close()
+    v.close()
+    assert v.closed
+    assert _listening_addresses(port) == [] or not os.path.exists("/proc/net/tcp")
+    with pytest.raises(ViewError, match="closed"):
+        v.show_joints(model.home_rad)
+    with ArmView(model, CONFIG, port=port) as again:
+        assert again.port == port
+
+
+# --------------------------------------------------------------------------- static scene
+
+
+def test_static_scene_has_table_bins_and_arm(view: ArmView):
+    """The table's top is z = 0, each bin stands on it under its drop point, the arm is
+    the URDF's visuals."""
+    tree = scene(view)
+    table = tree["/meshcat/table"]
+    size = table["object"]["geometries"][0]
+    top = table["transform"][2, 3] + size["depth"] / 2
+    assert top == pytest.approx(0.0, abs=1e-12)
+    for color, (x, y, _z) in CONFIG.task.bins_cm.items():
+        floor = tree[f"/meshcat/bins/{color}/floor"]
+        assert floor["transform"][:2, 3] == pytest.approx([x / 100, y / 100])
+        assert floor["transform"][2, 3] > 0
+    visuals = drawn(view, "arm/visuals")
+    assert len(visuals) == 12
+    assert {"base_link_0", "link2_0", "link3_0", "ee_0"} <= visuals
+
+
+def test_camera_looks_at_its_target(view: ArmView):
+    """The scene is shifted by −target and the camera sits at position − target, in
+    three.js's y-up axes."""
+    tree = scene(view)
+    shift = tree["/meshcat"]["transform"][:3, 3]
+    assert shift == pytest.approx(-np.array(DEFAULT_CAMERA.target_cm) / 100)
+    props = tree["/Cameras/default/rotated/<object>"]["properties"]
+    rel = (np.array(DEFAULT_CAMERA.position_cm) - DEFAULT_CAMERA.target_cm) / 100
+    assert props["position"] == pytest.approx([rel[0], rel[2], -rel[1]])
+    assert props["fov"] == DEFAULT_CAMERA.fov_deg
+
+
+def test_camera_projection_basics():
+    """The target projects to the view's centre, points behind the camera to NaN, and
+    +x (towards the camera's right here) moves a point right."""
+    cam = ViewCamera((0.0, -100.0, 50.0), (0.0, 0.0, 0.0), 40.0)
+    uv = cam.project([[0, 0, 0], [10, 0, 0], [0, -200, 0]], 800, 600)
+    assert uv[0] == pytest.approx([400, 300])
+    assert uv[1, 0] > 400
+    assert np.isnan(uv[2]).all()
+    with pytest.raises(ViewInputError, match="straight above"):
+        ViewCamera((0, 0, 100), (0, 0, 0))
+    with pytest.raises(ViewInputError, match="fov_deg"):
+        ViewCamera((0, -1, 1), (0, 0, 0), fov_deg=0.5)
+
+
+# --------------------------------------------------------------------------- arm
+
+
+def test_show_joints_places_the_urdf_geometry(view: ArmView, model: ArmModel):
+    """After show_joints(q) every arm visual sits where Pinocchio puts it for q; (3,)
+    input gets θ4 from the coupling."""
+    q3 = np.radians([70.0, 60.0, -100.0])
+    view.show_joints(q3)
+    q = couple(q3)
+    assert view.joints_rad == pytest.approx(q)
+    geom = pin.buildGeomFromUrdfString(model.model, model.urdf, pin.GeometryType.VISUAL)
+    gdata = geom.createData()
+    data = model.model.createData()
+    pin.forwardKinematics(model.model, data, q)
+    pin.updateGeometryPlacements(model.model, data, geom, gdata)
+    tree = scene(view)
+    for i, obj in enumerate(geom.geometryObjects):
+        shown = tree[f"/meshcat/arm/visuals/{obj.name}"]["transform"]
+        assert shown == pytest.approx(gdata.oMg[i].homogeneous, abs=1e-9), obj.name
+
+
+@pytest.mark.parametrize("bad", [[1.0, 2.0], [0.0, 0.0, float("nan")], "abc", np.zeros((2, 4))])
+def test_show_joints_rejects_bad_input(view: ArmView, bad):
+    with pytest.raises(ViewInputError, match="q_rad") as err:
+        view.show_joints(bad)
+    assert err.value.argument == "q_rad"
+    assert "3 or 4 finite joint angles" in str(err.value)
+
+
+# --------------------------------------------------------------------------- objects
+
+
+def test_objects_are_added_moved_recoloured_and_removed(view: ArmView):
+    """set_objects leaves exactly the listed objects on the server, each at its place,
+    standing on the table, in its colour."""
+    world = World.from_config(CONFIG)
+    view.set_objects(world.objects)
+    assert drawn(view, "objects") == {o.id for o in world.objects}
+    tree = scene(view)
+    for o in world.objects:
+        node = tree[f"/meshcat/objects/{o.id}"]
+        assert node["transform"][:3, 3] == pytest.approx([o.x_cm / 100, o.y_cm / 100, 0.005])
+        assert node["transform"][:3, 1] == pytest.approx([0, 0, 1])  # cylinder axis up
+        assert object_color(node) == PALETTE[o.color]
+
+    # red1 moves, green1 turns blue, blue4 is new, everything else but red2 disappears
+    view.set_objects(
+        [
+            ("red1", "red", 1.0, 40.0),
+            ("red2", "red", world.objects[1].x_cm, world.objects[1].y_cm),
+            ("green1", "blue", -8.31, 53.81),
+            ("blue9", "blue", 5.0, 30.0),
+        ]
+    )
+    assert drawn(view, "objects") == {"red1", "red2", "green1", "blue9"}
+    assert set(view.objects) == {"red1", "red2", "green1", "blue9"}
+    tree = scene(view)
+    assert tree["/meshcat/objects/red1"]["transform"][:2, 3] == pytest.approx([0.01, 0.40])
+    assert object_color(tree["/meshcat/objects/green1"]) == PALETTE["blue"]
+    view.set_objects([])
+    assert drawn(view, "objects") == set()
+
+
+@pytest.mark.parametrize(
+    ("objects", "match"),
+    [
+        ([("a", "purple", 0, 40)], "colour of a = 'purple'"),
+        ([("a", "red", 0, 40), ("a", "blue", 1, 40)], "each id at most once"),
+        ([("a/b", "red", 0, 40)], "without '/'"),
+        ([("a", "red", float("nan"), 40)], "finite x_cm, y_cm"),
+        ([("a", "red", 0)], r"\(id, colour, x_cm, y_cm\)"),
+    ],
+)
+def test_bad_objects_are_refused_and_change_nothing(view: ArmView, objects, match):
+    view.set_objects([("keep", "green", 0.0, 45.0)])
+    with pytest.raises(ViewInputError, match=match):
+        view.set_objects(objects)
+    assert drawn(view, "objects") == {"keep"}
+
+
+# --------------------------------------------------------------------------- camera frame
+
+
+def test_frame_plane_with_the_paper_calibration_is_the_frame_itself():
+    """With the paper's axis-aligned calibration (0.0625 cm/px) the texture at 16 px/cm is
+    the frame pixel for pixel, and its corners are the image's outer edges."""
+    frame = SimCamera(CONFIG, World.from_config(CONFIG)).read()
+    plane = frame_plane(frame, CAL.pixel_to_table)
+    expected = [
+        [-20.53125, 59.03125],
+        [19.46875, 59.03125],
+        [19.46875, 29.03125],
+        [-20.53125, 29.03125],
+    ]
+    assert plane.corners_cm == pytest.approx(np.array(expected))
+    assert plane.texture_bgra.shape == (480, 640, 4)
+    assert np.abs(plane.texture_bgra[:, :, :3].astype(int) - frame).max() <= 1
+    assert (plane.texture_bgra[:, :, 3] == 255).all()
+
+
+def test_frame_plane_puts_every_pixel_where_the_calibration_maps_it():
+    """Under a perspective calibration, marks drawn in the frame land in the texture at
+    pixel_to_table(mark); outside the image's outline the texture is transparent."""
+    pixels = np.array([[0, 0], [640, 0], [640, 480], [0, 480]], float)
+    table = np.array([[-18, 60], [22, 56], [17, 28], [-22, 32]], float)  # a tilted, skewed field
+    cal = Calibration.fit(pixels, table)
+    frame = np.full((480, 640, 3), 128, np.uint8)
+    marks = {(100, 80): (0, 0, 255), (500, 120): (0, 255, 0), (320, 400): (255, 0, 0)}
+    for (u, v), bgr in marks.items():
+        cv2.circle(frame, (u, v), 6, bgr, -1)
+    plane = frame_plane(frame, cal.pixel_to_table)
+    for (u, v), bgr in marks.items():
+        c, r = np.round(plane.table_to_texture(cal.pixel_to_table([[u, v]]))[0]).astype(int)
+        assert tuple(plane.texture_bgra[r, c, :3]) == pytest.approx(bgr, abs=10), (u, v)
+    assert plane.texture_bgra[0, 0, 3] == 0  # the bounding box's corner is off the image
+    assert (
+        plane.texture_bgra[plane.texture_bgra.shape[0] // 2, plane.texture_bgra.shape[1] // 2, 3]
+        == 255
+    )
+
+
+@pytest.mark.parametrize(
+    ("frame", "p2t", "match"),
+    [
+        (np.zeros((48, 64, 3), np.float32), CAL.pixel_to_table, "8-bit"),
+        (np.zeros((48, 64, 4), np.uint8), CAL.pixel_to_table, r"\(H, W, 3\)"),
+        (np.zeros((48, 64, 3), np.uint8), lambda px: px[:, :1], r"4 finite \(x, y\) points"),
+        (np.zeros((48, 64, 3), np.uint8), lambda px: 1 / 0, "it raised division by zero"),
+        (np.zeros((48, 64, 3), np.uint8), lambda px: px[[0, 2, 1, 3]], "convex quadrilateral"),
+        (np.zeros((48, 64, 3), np.uint8), lambda px: px * 0, "convex quadrilateral"),
+    ],
+)
+def test_frame_plane_rejects_bad_frames_and_calibrations(frame, p2t, match):
+    with pytest.raises(ViewInputError, match=match):
+        frame_plane(frame, p2t)
+
+
+def test_set_camera_frame_lays_the_texture_on_the_table(view: ArmView):
+    """The plane lies just above the table top, centred and sized as the frame's outline."""
+    frame = SimCamera(CONFIG, World.from_config(CONFIG)).read()
+    view.set_camera_frame(frame, CAL.pixel_to_table)
+    assert isinstance(view.frame_plane, FramePlane)
+    node = scene(view)["/meshcat/camera_frame"]
+    geometry = node["object"]["geometries"][0]
+    assert geometry["type"] == "PlaneGeometry"
+    assert [geometry["width"], geometry["height"]] == pytest.approx([0.40, 0.30])
+    assert node["transform"][:3, 3] == pytest.approx([-0.0053125, 0.4403125, 0.0005])
+    assert node["object"]["images"][0]["url"].startswith("data:image/png;base64,")
+    view.clear_camera_frame()
+    assert "object" not in scene(view).get("/meshcat/camera_frame", {})
+
+
+# --------------------------------------------------------------------------- target, paths
+
+
+def test_target_marker_appears_moves_and_goes(view: ArmView):
+    view.set_target((-20.0, 35.0, 20.0))
+    view.set_target([1.0, 50.0, 12.76])
+    node = scene(view)["/meshcat/target"]
+    assert node["transform"][:3, 3] == pytest.approx([0.01, 0.50, 0.1276])
+    view.set_target(None)
+    assert "object" not in scene(view).get("/meshcat/target", {})
+    with pytest.raises(ViewInputError, match="target_cm"):
+        view.set_target((1.0, 2.0))
+
+
+def test_paths_accumulate_until_cleared(view: ArmView):
+    """Each add_path adds a line holding the route's points; clear_paths removes all."""
+    first = np.array([[-20.16, 34.91, 19.95], [-10.0, 45.0, 15.0], [-0.75, 53.72, 12.76]])
+    assert view.add_path(first, "red") == "route1"
+    assert view.add_path(first[::-1] + 1.0, 0x123456) == "route2"
+    assert view.paths == ["route1", "route2"]
+    tree = scene(view)
+    assert drawn(view, "paths") == {"route1", "route2"}
+    line = tree["/meshcat/paths/route1"]["object"]
+    assert line["object"]["type"] == "Line"
+    stored = line["geometries"][0]["data"]["attributes"]["position"]
+    points = np.frombuffer(stored["array"].data, np.float32).reshape(-1, 3)
+    assert points == pytest.approx(first / 100, abs=1e-6)
+    assert object_color(tree["/meshcat/paths/route2"]) == 0x123456
+    view.clear_paths()
+    assert view.paths == []
+    assert drawn(view, "paths") == set()
+    assert view.add_path(first) == "route1"
+
+
+@pytest.mark.parametrize(
+    ("points", "color", "match"),
+    [
+        ([[0, 0, 0]], "red", "N >= 2"),
+        ([[0, 0], [1, 1]], "red", "shape"),
+        ([[0, 0, 0], [1, float("inf"), 1]], "red", "finite"),
+        ([[0, 0, 0], [1, 1, 1]], "chartreuse", "color = 'chartreuse'"),
+        ([[0, 0, 0], [1, 1, 1]], 0x1000000, "0xRRGGBB"),
+    ],
+)
+def test_add_path_rejects_bad_input(view: ArmView, points, color, match):
+    with pytest.raises(ViewInputError, match=match):
+        view.add_path(points, color)
+    assert view.paths == []
+
+
+# --------------------------------------------------------------------------- browser
+
+
+def test_no_browser_is_a_named_error(monkeypatch, tmp_path):
+    monkeypatch.setenv("PATH", str(tmp_path))
+    monkeypatch.setenv("MEARM_CHROMIUM", str(tmp_path / "nope"))
+    with pytest.raises(BrowserNotFoundError, match="apt-get install chromium") as err:
+        find_browser()
+    assert "chromium" in err.value.candidates
+
+
+def test_screenshot_checks_its_arguments(tmp_path):
+    with pytest.raises(ViewInputError, match="existing folder"):
+        screenshot("http://127.0.0.1:1/", tmp_path / "no" / "x.png", browser="unused")
+    with pytest.raises(ViewInputError, match="width_px"):
+        screenshot("http://127.0.0.1:1/", tmp_path / "x.png", width_px=4, browser="unused")
+
+
+def test_render_shows_the_arm_and_objects_where_they_are(model: ArmModel, tmp_path):
+    """In Chromium's render of the arm at home, the 12 paper objects, the bins, the
+    target and the camera frame, each thing's colour is at its projected place."""
+    browser = browser_or_skip()
+    world = World.from_config(CONFIG)
+    frame = SimCamera(CONFIG, world).read()
+    target_cm = np.array([12.0, 30.0, 12.76])
+    with ArmView(model, CONFIG) as v:
+        v.set_objects(world.objects)
+        v.set_camera_frame(frame, CAL.pixel_to_table)
+        v.set_target(target_cm)
+        png = v.screenshot(tmp_path / "view.png", width_px=W, height_px=H, browser=browser)
+    img = cv2.imread(str(png))
+    assert img.shape == (H, W, 3)
+    cam = DEFAULT_CAMERA
+
+    # every object: its colour at its projected centre, and one blob of it right there
+    for color in ("red", "green", "blue"):
+        mask = hsv_mask(img, color)
+        n, _, stats, centroids = cv2.connectedComponentsWithStats(mask.astype(np.uint8))
+        objects = [o for o in world.objects if o.color == color]
+        expected = cam.project([[o.x_cm, o.y_cm, 0.5] for o in objects], W, H)
+        for o, uv in zip(objects, expected, strict=True):
+            assert fraction(mask, uv) > 0.9, f"{o.id} not {color} at {uv.round()}"
+            d = np.linalg.norm(centroids[1:] - uv, axis=1)
+            k = int(np.argmin(d))
+            assert d[k] < 4.0, f"{o.id}: nearest {color} blob {d[k]:.1f} px away"
+            assert 30 <= stats[1 + k, cv2.CC_STAT_AREA] <= 600, o.id
+        # blob centroids ordered as the layout is, left to right and top to bottom
+        blobs = np.array(
+            [
+                centroids[1:][np.argmin(np.linalg.norm(centroids[1:] - uv, axis=1))]
+                for uv in expected
+            ]
+        )
+        assert list(np.argsort(blobs[:, 0])) == list(np.argsort(expected[:, 0]))
+        assert list(np.argsort(blobs[:, 1])) == list(np.argsort(expected[:, 1]))
+
+    # the arm: orange along links 2 and 3 (joint origins from Pinocchio at home)
+    orange = hsv_mask(img, "orange")
+    data = model.model.createData()
+    pin.forwardKinematics(model.model, data, model.home_rad)
+    joints = [data.oMi[i].translation * 100 for i in (2, 3, 4)]
+    for a, b in ((0, 1), (1, 2)):
+        for t in (0.3, 0.5, 0.7):
+            uv = cam.project(joints[a] * (1 - t) + joints[b] * t, W, H)[0]
+            assert fraction(orange, uv) > 0.9, f"no arm at link {a + 2}, t={t}: {uv.round()}"
+
+    # the bins' floors in their colour, the target in yellow
+    for color, (x, y, _z) in CONFIG.task.bins_cm.items():
+        uv = cam.project([x, y, 0.4], W, H)[0]
+        assert fraction(hsv_mask(img, color), uv) > 0.9, f"{color} bin"
+    assert fraction(hsv_mask(img, "yellow"), cam.project(target_cm, W, H)[0], 1) > 0.9
+
+    # the camera frame: the texture's own colour where it lies; the bare table elsewhere
+    plane = frame_plane(frame, CAL.pixel_to_table)
+    for xy in ([15.0, 32.0], [-8.0, 31.0], [16.0, 57.0]):
+        uv = cam.project([*xy, 0.05], W, H)[0]
+        c, r = np.round(plane.table_to_texture(xy)[0]).astype(int)
+        tex = plane.texture_bgra[r - 8 : r + 9, c - 8 : c + 9, :3].reshape(-1, 3).mean(axis=0)
+        u, v = np.round(uv).astype(int)
+        shown = img[v - 1 : v + 2, u - 1 : u + 2].reshape(-1, 3).mean(axis=0)
+        assert np.abs(shown - tex).max() < 25, (xy, shown, tex)
+    u, v = np.round(cam.project([30.0, 10.0, 0.0], W, H)[0]).astype(int)
+    table = cv2.cvtColor(img[v : v + 1, u : u + 1], cv2.COLOR_BGR2HSV)[0, 0]
+    assert table[1] < 40, "the bare table is grey"
+
+
+# --------------------------------------------------------------------------- preview CLI
+
+
+def _load_preview():
+    spec = importlib.util.spec_from_file_location("preview", ROOT / "tools" / "preview.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+PREVIEW = _load_preview()
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--joints", "120,20,-132"], "joint2 = 20 deg is outside its limits [30, 135] deg"),
+        (["--joints", "120,93"], "--joints needs 3 numbers"),
+        (["--sweep", "joint4"], "invalid choice: 'joint4'"),
+        (["--size", "10x10"], "--size sides must be in [16, 8192] px"),
+        (["--step-deg", "0"], "must be a positive number, got '0'"),
+        (["--port", "70000"], "port 70000 on 127.0.0.1"),
+    ],
+)
+def test_preview_refuses_bad_arguments_in_one_line(args, message, capsys):
+    """Bad input ends with exit 2 and one line on stderr, before anything is served."""
+    with pytest.raises(SystemExit) as exit_:
+        run(PREVIEW.main, args)
+    assert exit_.value.code == 2
+    out, err = capsys.readouterr()
+    assert message in err
+    assert len(err.strip().splitlines()) == 1
+    assert out == ""
+
+
+def test_sweep_poses_cover_each_joint_range_in_small_steps():
+    """The sweep visits both limits of each chosen joint, never leaves them, moves one
+    joint at a time by at most the step, and ends at the start."""
+    start, lower, upper = [120.0, 93.0, -132.0], [20.0, 30.0, -160.0], [160.0, 135.0, -20.0]
+    poses = np.array(list(PREVIEW.sweep_poses_deg(start, lower, upper, [0, 2], 1.5)))
+    path = np.vstack([start, poses])
+    steps = np.abs(np.diff(path, axis=0))
+    assert (steps <= 1.5 + 1e-9).all()
+    assert ((steps > 0).sum(axis=1) <= 1).all()
+    assert poses[:, 0].min() == 20.0 and poses[:, 0].max() == 160.0
+    assert poses[:, 2].min() == -160.0 and poses[:, 2].max() == -20.0
+    assert (poses[:, 1] == 93.0).all()
+    assert poses[-1] == pytest.approx(start)
+
+
+def test_preview_serves_until_ctrl_c():
+    """The tool prints a 127.0.0.1 URL, keeps serving, and exits 130 without a traceback
+    on SIGINT."""
+    proc = subprocess.Popen(
+        [sys.executable, "tools/preview.py", "--sweep", "joint1", "--port", "0"],
+        cwd=ROOT,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        line = proc.stdout.readline()
+        match = re.search(r"http://127\.0\.0\.1:(\d+)/static/", line)
+        assert match, line
+        with socket.create_connection(("127.0.0.1", int(match.group(1))), timeout=5):
+            pass
+        proc.send_signal(signal.SIGINT)
+        out, err = proc.communicate(timeout=15)
+    finally:
+        proc.kill()
+        proc.wait()
+    assert proc.returncode == 130
+    assert "Traceback" not in err
+    assert err.strip().endswith(": interrupted")
+    assert len(err.strip().splitlines()) == 1
+
+
+def test_preview_screenshot_renders_the_arm(tmp_path):
+    """--screenshot writes a PNG showing the arm (orange) and exits 0."""
+    browser_or_skip()
+    out = tmp_path / "arm.png"
+    proc = run_cli(
+        "tools/preview.py", "--joints", "90,60,-100", "--screenshot", str(out), "--size", f"{W}x{H}"
+    )
+    assert proc.returncode == 0, proc.stderr
+    assert f"wrote {out}" in proc.stdout
+    img = cv2.imread(str(out))
+    assert img.shape == (H, W, 3)
+    model = ArmModel(CONFIG.robot)
+    data = model.model.createData()
+    pin.forwardKinematics(model.model, data, np.radians(couple([90.0, 60.0, -100.0])))
+    middle_of_link3 = (data.oMi[3].translation + data.oMi[4].translation) / 2 * 100
+    uv = DEFAULT_CAMERA.project(middle_of_link3, W, H)[0]
+    assert fraction(hsv_mask(img, "orange"), uv) > 0.9
