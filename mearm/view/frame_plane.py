@@ -84,12 +84,16 @@ def _as_bgr(frame: npt.ArrayLike) -> np.ndarray:
     return img
 
 
-def _table_corners(pixel_to_table: PixelToTable, width: int, height: int) -> np.ndarray:
-    px = np.array(
+def _image_corners_px(width: int, height: int) -> np.ndarray:
+    """The image's outer corners, top-left, top-right, bottom-right, bottom-left [px], (4, 2)."""
+    return np.array(
         [[-0.5, -0.5], [width - 0.5, -0.5], [width - 0.5, height - 0.5], [-0.5, height - 0.5]]
     )
+
+
+def _table_corners(pixel_to_table: PixelToTable, width: int, height: int) -> np.ndarray:
     try:
-        corners = np.asarray(pixel_to_table(px), dtype=float)
+        corners = np.asarray(pixel_to_table(_image_corners_px(width, height)), dtype=float)
     except Exception as exc:  # any callable may be given; report what it raised
         raise ViewInputError(
             "pixel_to_table",
@@ -148,11 +152,10 @@ def frame_plane(
         x_range_cm=(float(x0), float(x1)),
         y_range_cm=(float(y0), float(y1)),
     )
-    src = np.array(
-        [[-0.5, -0.5], [width - 0.5, -0.5], [width - 0.5, height - 0.5], [-0.5, height - 0.5]],
-        np.float32,
+    H = cv2.getPerspectiveTransform(
+        _image_corners_px(width, height).astype(np.float32),
+        outline.table_to_texture(corners).astype(np.float32),
     )
-    H = cv2.getPerspectiveTransform(src, outline.table_to_texture(corners).astype(np.float32))
     texture = cv2.warpPerspective(
         cv2.cvtColor(img, cv2.COLOR_BGR2BGRA),
         H,
