@@ -36,6 +36,7 @@ from mearm.exceptions import (
     TargetError,
     TargetOutsideBoxError,
     UnreachableTargetError,
+    ViewError,
     WorldError,
 )
 from mearm.hardware import ArmCommand, ArmState, ServoBus, SimArm, open_bus
@@ -96,6 +97,7 @@ __all__ = [
     "TargetError",
     "TargetOutsideBoxError",
     "UnreachableTargetError",
+    "ViewError",
     "World",
     "WorldError",
     "WorldObject",

@@ -236,7 +236,9 @@ class Sorter:
 
     # ----------------------------------------------------------------- motion
 
-    def _route(self, target_cm: np.ndarray, gripper_arm_deg: float, closed: bool) -> IKResult:
+    def _route(
+        self, target_cm: np.ndarray, gripper_arm_deg: float, closed: bool, color: str = "black"
+    ) -> IKResult:
         """Solve from where the arm is and stream every iteration to the bus."""
         result = self.solver.solve(self._q_now_rad(), target_cm)
         if self.view is not None:
@@ -244,7 +246,7 @@ class Sorter:
         for q in result.q_path_rad[1:]:
             self._send(np.degrees(q[:3]), gripper_arm_deg, closed)
         if self.view is not None:
-            self.view.add_path(result.ee_path_cm, "black")
+            self.view.add_path(result.ee_path_cm, color)
         return result
 
     def _record(
@@ -310,7 +312,7 @@ class Sorter:
         t0 = time.perf_counter()
         q0 = self._q_now_rad()
         try:
-            result = self._route(target, self._travel_deg, False)
+            result = self._route(target, self._travel_deg, False, obj.color)
         except TargetError as exc:
             obj.skipped = exc.reason
             self._skip(obj, target)
@@ -339,7 +341,7 @@ class Sorter:
         bin_cm = np.array(self.config.task.bins_cm[obj.color], dtype=float)
         t0 = time.perf_counter()
         q0 = self._q_now_rad()
-        result = self._route(bin_cm, self._travel_deg, True)
+        result = self._route(bin_cm, self._travel_deg, True, obj.color)
         self._gripper(self._travel_deg, False)
         release = getattr(self.bus, "last_release", None)
         placed = result.converged and (release is None or release.bin == obj.color)
