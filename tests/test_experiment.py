@@ -1,10 +1,13 @@
 """Repeated trials (SPEC §5) and their analysis, on the simulated rig."""
 
 import json
+import subprocess
+import sys
 
+import cv2
 import numpy as np
 import pytest
-from conftest import run_cli
+from conftest import ROOT, run_cli
 
 from mearm.experiment import trial_config, trial_seed
 from mearm.runlog import read_runlog
@@ -72,3 +75,25 @@ def test_bad_input_exits_2(args, needle, tmp_path):
     assert r.returncode == 2
     lines = r.stderr.strip().splitlines()
     assert len(lines) == 1 and needle in lines[0], r.stderr
+
+
+def test_real_rig_waits_for_the_user_each_trial(tmp_path, config):
+    """With a camera that is not simulated, every trial waits for Enter before it starts."""
+    from mearm.vision import SimCamera
+    from mearm.world import World
+
+    frames = tmp_path / "frames"
+    frames.mkdir()
+    empty = SimCamera(config, World(bins_cm=config.task.bins_cm)).read()
+    cv2.imwrite(str(frames / "table.png"), empty)  # an empty table: each trial ends at once
+    cfg = tmp_path / "rig.yaml"
+    cfg.write_text(f"camera:\n  kind: folder\n  path: {frames}\n  loop: true\n")
+    log = tmp_path / "trials.jsonl"
+    r = subprocess.run(
+        [sys.executable, "-m", "mearm.experiment", "--config", str(cfg), "--trials", "2",
+         "--log", str(log)],
+        input="\n\n", capture_output=True, text=True, timeout=60, cwd=ROOT,
+    )  # fmt: skip
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.count("lay out the objects, then press Enter") == 2
+    assert len(read_runlog(log).trials) == 2
