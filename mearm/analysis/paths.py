@@ -17,6 +17,7 @@ from pydantic import ValidationError
 
 from mearm.config import Config, ControllerConfig
 from mearm.exceptions import AnalysisError
+from mearm.ik.result import path_deviation_cm
 from mearm.kinematics import ArmModel
 from mearm.runlog import RouteRecord
 
@@ -59,18 +60,8 @@ class SolvedRoute:
 
     @property
     def path_deviation_cm(self) -> float:
-        r"""Largest distance of the EE path from the straight segment start → target [cm].
-
-        .. math:: \max_k \min_{\lambda \in [0, 1]} \| s_k - (s_0 + \lambda (s_d - s_0)) \|
-        """
-        start = self.ee_path_cm[0]
-        seg = self.target_cm - start
-        rel = self.ee_path_cm - start
-        length2 = float(seg @ seg)
-        if length2 == 0.0:
-            return float(np.linalg.norm(rel, axis=1).max())
-        lam = np.clip(rel @ seg / length2, 0.0, 1.0)
-        return float(np.linalg.norm(rel - lam[:, None] * seg, axis=1).max())
+        """Largest distance of the EE path from the straight segment start → target [cm]."""
+        return path_deviation_cm(self.ee_path_cm, self.target_cm)
 
 
 def solve_route(

@@ -18,6 +18,26 @@ def _frozen(a: npt.ArrayLike) -> np.ndarray:
     return a
 
 
+def path_deviation_cm(ee_path_cm: npt.ArrayLike, target_cm: npt.ArrayLike) -> float:
+    r"""Largest distance of an EE path from the straight segment start → target [cm].
+
+    .. math:: \max_k \min_{\lambda \in [0, 1]} \| s_k - (s_0 + \lambda (s_d - s_0)) \|
+
+    Args:
+        ee_path_cm: The path, first row the start [cm], (N+1, 3).
+        target_cm: The target [cm], (3,).
+    """
+    path = np.asarray(ee_path_cm, dtype=float)
+    start = path[0]
+    seg = np.asarray(target_cm, dtype=float) - start
+    rel = path - start
+    length2 = float(seg @ seg)
+    if length2 == 0.0:
+        return float(np.linalg.norm(rel, axis=1).max())
+    lam = np.clip(rel @ seg / length2, 0.0, 1.0)
+    return float(np.linalg.norm(rel - lam[:, None] * seg, axis=1).max())
+
+
 @dataclass(frozen=True, eq=False)  # arrays inside: compare fields, not records
 class IKResult:
     """One solve from a start pose to a target (SPEC §3).
@@ -108,18 +128,8 @@ class IKResult:
 
     @property
     def path_deviation_cm(self) -> float:
-        r"""Largest distance of the EE path from the straight segment start → target [cm].
-
-        .. math:: \max_k \min_{\lambda \in [0, 1]} \| s_k - (s_0 + \lambda (s_d - s_0)) \|
-        """
-        start = self.ee_path_cm[0]
-        seg = self.target_cm - start
-        rel = self.ee_path_cm - start
-        length2 = float(seg @ seg)
-        if length2 == 0.0:
-            return float(np.linalg.norm(rel, axis=1).max())
-        lam = np.clip(rel @ seg / length2, 0.0, 1.0)
-        return float(np.linalg.norm(rel - lam[:, None] * seg, axis=1).max())
+        """Largest distance of the EE path from the straight segment start → target [cm]."""
+        return path_deviation_cm(self.ee_path_cm, self.target_cm)
 
     def summary(self) -> dict[str, object]:
         """The CLI's JSON record: status, iterations, errors [cm], joints [deg], EE [cm]."""

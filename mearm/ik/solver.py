@@ -9,9 +9,9 @@ import numpy as np
 import numpy.typing as npt
 
 from mearm.config import ControllerConfig
-from mearm.exceptions import InvalidJointsError, InvalidTargetError
+from mearm.exceptions import InvalidJointsError
 from mearm.ik.result import IKResult
-from mearm.kinematics import ArmModel, check_target
+from mearm.kinematics import ArmModel, as_target_cm, check_target
 
 #: A start's θ2 + θ3 + θ4 may differ from 0 by this much [rad] (SPEC §2: the
 #: parallelogram holds it at 0; 1e-6 rad moves the EE by under 1e-4 cm).
@@ -97,12 +97,7 @@ class IKSolver(abc.ABC):
             InvalidJointsError: see :func:`start_joints`.
             JointLimitError: the start is outside the joint limits.
         """
-        try:
-            target = np.array(target_cm, dtype=float)
-        except (TypeError, ValueError):
-            raise InvalidTargetError(
-                f"a target is three finite numbers (x, y, z) in cm, got {target_cm!r}"
-            ) from None
+        target = as_target_cm(target_cm).copy()
         q_solution = np.radians(check_target(target, self.model.robot))
         return start_joints(q_start_rad, self.model), target, q_solution
 

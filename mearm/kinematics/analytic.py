@@ -25,7 +25,8 @@ from mearm.exceptions import InvalidTargetError, TargetOutsideBoxError, Unreacha
 _EPS = 1e-12
 
 
-def _target3(target_cm: npt.ArrayLike) -> np.ndarray:
+def as_target_cm(target_cm: npt.ArrayLike) -> np.ndarray:
+    """A target as a (3,) float array [cm]; :class:`InvalidTargetError` if it is not one."""
     try:
         t = np.asarray(target_cm, dtype=float)
     except (TypeError, ValueError):
@@ -53,7 +54,7 @@ def analytic_ik_deg(target_cm: npt.ArrayLike, robot: RobotConfig) -> np.ndarray:
         UnreachableTargetError: the point is beyond the arm's reach, too close to it, or
             needs a joint outside its limits; the message says which.
     """
-    x, y, z = _target3(target_cm)
+    x, y, z = as_target_cm(target_cm)
     r1, r2, r3, r4 = robot.dh
     if (r1.alpha_deg, r2.alpha_deg, r3.alpha_deg, r4.alpha_deg) != (90.0, 0.0, 0.0, 0.0):
         raise UnreachableTargetError(
@@ -93,7 +94,7 @@ def analytic_ik_deg(target_cm: npt.ArrayLike, robot: RobotConfig) -> np.ndarray:
 
 def check_in_box(target_cm: Sequence[float] | np.ndarray, robot: RobotConfig) -> None:
     """Raise :class:`TargetOutsideBoxError` if the target leaves the Table 3 box."""
-    t = _target3(target_cm)
+    t = as_target_cm(target_cm)
     box = robot.target_box
     for axis, value, rng in zip("xyz", t, (box.x_cm, box.y_cm, box.z_cm), strict=True):
         if not rng.contains(float(value)):
