@@ -169,7 +169,7 @@ def test_the_script_runs(tmp_path: Path) -> None:
     )  # fmt: skip
     assert result.returncode == 2
     assert result.stderr.strip() == (
-        "calibrate_camera: error: a homography needs at least 4 point pairs, got 3: add points "
+        "calibrate_camera.py: error: a homography needs at least 4 point pairs, got 3: add points "
         "spread over the field (e.g. its four corners)"
     )
 
