@@ -14,6 +14,7 @@ Ctrl-C. The run log is written per route, so a failure loses nothing written bef
 from __future__ import annotations
 
 import sys
+import time
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -59,6 +60,16 @@ def scene_from_args(args: object, config: Config) -> list[SceneObject] | None:
     return None
 
 
+def _hold(url: str) -> None:
+    """Keep serving the view until Ctrl-C."""
+    print(f"meshcat view stays open at {url}; Ctrl-C to close", flush=True)
+    try:
+        while True:
+            time.sleep(1.0)
+    except KeyboardInterrupt:
+        pass
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the sort; see the module docstring."""
     parser = ArgumentParser(prog="python -m mearm.sort", description=__doc__.splitlines()[0])
@@ -66,8 +77,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     add_scene_arguments(parser)
     parser.add_argument("--log", type=Path, help="append a JSON-lines run log here")
     parser.add_argument("--view", action="store_true", help="show the run in meshcat")
+    parser.add_argument(
+        "--hold", action="store_true", help="with --view: keep the view open after the run (Ctrl-C)"
+    )
     parser.add_argument("--quiet", action="store_true", help="print only the summary")
     args = parser.parse_args(argv)
+    if args.hold and not args.view:
+        parser.error("--hold keeps the view open: use it with --view")
     config = config_from_args(args)
     scene = scene_from_args(args, config)
     lines: list[str] = []
@@ -99,6 +115,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             )
             try:
                 sorter.run()
+                if view is not None and args.hold:
+                    _hold(view.url)
             except SortAborted as exc:
                 if args.quiet:
                     print("\n".join(lines))

@@ -239,6 +239,7 @@ def test_scene_file_and_random_flags(tmp_path):
         (["--scene", "missing.yaml"], "scene file not found"),
         (["--config", "configs/lab.yaml", "--random", "3"], "camera is 'device', not 'sim'"),
         (["--random", "3", "--scene", "x.yaml"], "not allowed with argument"),
+        (["--hold"], "--hold keeps the view open: use it with --view"),
     ],
 )
 def test_bad_input_exits_2_with_one_line(args, needle):
