@@ -23,6 +23,7 @@ test: $(STAMP)
 lint: $(STAMP)
 	$(BIN)/ruff check mearm tools tests
 	$(BIN)/ruff format --check mearm tools tests
+	$(BIN)/mypy mearm
 
 bench: $(STAMP)
 	$(BIN)/python tools/bench.py
@@ -37,4 +38,4 @@ firmware:
 	$(MAKE) -C tools/arduino
 
 clean:
-	rm -rf $(VENV) .pytest_cache .ruff_cache
+	rm -rf $(VENV) .pytest_cache .ruff_cache .mypy_cache

@@ -11,7 +11,7 @@ import re
 import sys
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import NoReturn
+from typing import Any, NoReturn, Protocol
 
 from mearm.config import Config, load_config
 from mearm.exceptions import MearmError
@@ -75,8 +75,14 @@ def float_list(n: int | None = None, name: str = "values") -> Callable[[str], li
     return parse
 
 
-def add_config_argument(parser: argparse.ArgumentParser) -> None:
-    """Add ``--config PATH`` (default: the embedded simulated rig)."""
+class ArgumentContainer(Protocol):
+    """What takes arguments: an ``argparse`` parser or an argument group of one."""
+
+    def add_argument(self, *args: Any, **kwargs: Any) -> argparse.Action: ...  # noqa: D102
+
+
+def add_config_argument(parser: ArgumentContainer) -> None:
+    """Add ``--config PATH`` (default: the embedded simulated rig) to a parser or group."""
     parser.add_argument(
         "--config",
         type=Path,

@@ -11,7 +11,7 @@ dotted path, the value given and what is allowed (:class:`~mearm.exceptions.Conf
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated, Any, Literal
+from typing import TYPE_CHECKING, Annotated, Any, Literal
 
 import yaml
 from pydantic import (
@@ -24,6 +24,9 @@ from pydantic import (
 )
 
 from mearm.exceptions import ConfigError
+
+if TYPE_CHECKING:
+    from pydantic_core import ErrorDetails
 
 Color = Literal["red", "green", "blue"]
 COLORS: tuple[Color, ...] = ("red", "green", "blue")
@@ -419,7 +422,7 @@ class SceneObject(_Strict):
 
 def _paper_layout() -> list[SceneObject]:
     # SPEC §4, the paper's demo layout (M = red, H = green, B = blue).
-    rows = [
+    rows: list[tuple[Color, float, float]] = [
         ("red", -10.99, 49.70), ("red", -0.75, 53.72), ("red", -0.40, 42.01),
         ("red", 8.08, 46.71), ("green", -8.31, 53.81), ("green", -4.57, 47.58),
         ("green", 5.15, 53.38), ("green", 11.74, 42.88), ("blue", -10.08, 44.03),
@@ -428,17 +431,19 @@ def _paper_layout() -> list[SceneObject]:
     return [SceneObject(color=c, x=x, y=y) for c, x, y in rows]
 
 
+def _default_bins() -> dict[Color, tuple[float, float, float]]:
+    return {
+        "red": (-20.0, 35.0, 20.0),
+        "green": (-20.0, 45.0, 20.0),
+        "blue": (-20.0, 55.0, 20.0),
+    }
+
+
 class TaskConfig(_Strict):
     """The sorting task (SPEC §1, Table 2)."""
 
     color_order: list[Color] = Field(default_factory=lambda: list(COLORS), min_length=1)
-    bins_cm: dict[Color, tuple[Finite, Finite, Finite]] = Field(
-        default_factory=lambda: {
-            "red": (-20.0, 35.0, 20.0),
-            "green": (-20.0, 45.0, 20.0),
-            "blue": (-20.0, 55.0, 20.0),
-        }
-    )
+    bins_cm: dict[Color, tuple[Finite, Finite, Finite]] = Field(default_factory=_default_bins)
     pick_retries: int = Field(default=2, ge=0)
     scene: list[SceneObject] = Field(default_factory=_paper_layout)
 
@@ -472,7 +477,7 @@ class Config(_Strict):
         return self
 
 
-def _describe(err: dict[str, Any]) -> str:
+def _describe(err: ErrorDetails) -> str:
     loc = ".".join(str(p) for p in err["loc"]) or "(top level)"
     kind = err["type"]
     if kind == "extra_forbidden":

@@ -375,7 +375,7 @@ class _TrialBuilder:
         """Why ``record`` cannot come next in this trial, or ``None``."""
         if self.summary is not None:
             return f"{record.type} record after the summary of trial {self.header.trial}"
-        trial = record.trial  # type: ignore[union-attr]
+        trial = record.trial
         if isinstance(record, FaultRecord) and trial is None:
             return None
         if trial != self.header.trial:
@@ -466,9 +466,9 @@ def read_runlog(path: str | Path, *, strict: bool = False) -> RunLogContents:
                 problem = RunLogFormatError(p, number, why, excerpt)
                 break
             else:
-                why = trials[-1].check(record)
-                if why is not None:
-                    problem = RunLogFormatError(p, number, why, excerpt)
+                out_of_order = trials[-1].check(record)
+                if out_of_order is not None:
+                    problem = RunLogFormatError(p, number, out_of_order, excerpt)
                     break
                 trials[-1].add(record)
             records.append(record)

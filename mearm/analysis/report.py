@@ -119,7 +119,7 @@ def analyze(
     table6 = {
         name: iteration_stats(subset)
         for name in ("all", "pick", "place")
-        if (subset := select_routes(routes, step=name))  # type: ignore[arg-type]
+        if (subset := select_routes(routes, step=name))
     }
     return Analysis(
         source=str(contents.path),

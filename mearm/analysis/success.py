@@ -163,8 +163,9 @@ def success_vs_error(
     if not bin_width_cm > 0:
         raise AnalysisError(f"bin width must be > 0 cm, got {bin_width_cm!r}")
     failed = e[~ok]
+    bound: float | None
     if failed.size:
-        bound: float | None = float(failed.min())
+        bound = float(failed.min())
         mask = e >= bound
         above = Rate(successes=int(ok[mask].sum()), n=int(mask.sum()))
         p_below = fit.prob_below(bound) if fit is not None else None

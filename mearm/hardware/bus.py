@@ -17,7 +17,7 @@ from abc import ABC, abstractmethod
 from collections.abc import Callable
 from dataclasses import dataclass
 from types import TracebackType
-from typing import TypeVar
+from typing import Any, TypeVar
 
 import numpy.typing as npt
 
@@ -46,7 +46,9 @@ def _finite(value: float, what: str) -> float:
 
 def _joints3(joints_deg: npt.ArrayLike) -> tuple[float, float, float]:
     try:
-        values = list(joints_deg)  # type: ignore[arg-type]
+        # An array-like may be a scalar: list() raises TypeError then (caught below). The
+        # items can be anything; _finite checks each one.
+        values: list[Any] = list(joints_deg)  # type: ignore[arg-type]
     except TypeError:
         raise InvalidCommandError(
             f"joints_deg must be (θ1, θ2, θ3) in DH degrees, got {joints_deg!r}"

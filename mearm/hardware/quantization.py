@@ -18,9 +18,9 @@ from collections.abc import Sequence
 import numpy as np
 
 from mearm.cli import ArgumentParser, add_config_argument, config_from_args, run
-from mearm.hardware.sim import quantization_ee_error_cm
+from mearm.hardware.sim import Quantization, quantization_ee_error_cm
 
-MODES = ("degree", "microsecond", "none")
+MODES: tuple[Quantization, ...] = ("degree", "microsecond", "none")
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -14,7 +14,6 @@ iterative solvers and the instant reachability test used before anything moves.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
 
 import numpy as np
 import numpy.typing as npt
@@ -92,7 +91,7 @@ def analytic_ik_deg(target_cm: npt.ArrayLike, robot: RobotConfig) -> np.ndarray:
     return np.array([q_deg[0], q_deg[1], q_deg[2], -(q_deg[1] + q_deg[2])])
 
 
-def check_in_box(target_cm: Sequence[float] | np.ndarray, robot: RobotConfig) -> None:
+def check_in_box(target_cm: npt.ArrayLike, robot: RobotConfig) -> None:
     """Raise :class:`TargetOutsideBoxError` if the target leaves the Table 3 box."""
     t = as_target_cm(target_cm)
     box = robot.target_box

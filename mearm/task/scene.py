@@ -116,5 +116,5 @@ def random_scene(
                 continue
             placed.append(SceneObject(color=color, x=x, y=y))
             break
-    rng.shuffle(placed)  # type: ignore[arg-type]
+    rng.shuffle(placed)
     return placed

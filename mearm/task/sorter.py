@@ -16,11 +16,12 @@ from __future__ import annotations
 
 import contextlib
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
 import numpy as np
+import numpy.typing as npt
 
 from mearm.config import Color, Config
 from mearm.exceptions import CameraError, MearmError, ServoError, TargetError
@@ -53,13 +54,19 @@ class SortAborted(MearmError):
 
 
 class View(Protocol):
-    """What the loop calls on the meshcat view (:class:`mearm.view.ArmView`)."""
+    """What the loop calls on the meshcat view (:class:`mearm.view.ArmView`).
 
-    def show_joints(self, q_rad: np.ndarray) -> None: ...  # noqa: D102
-    def set_objects(self, objects: list[tuple[str, str, float, float]]) -> None: ...  # noqa: D102
-    def set_camera_frame(self, frame_bgr: np.ndarray, pixel_to_table: Any) -> None: ...  # noqa: D102
-    def set_target(self, target_cm: Any) -> None: ...  # noqa: D102
-    def add_path(self, ee_path_cm: np.ndarray, color: str) -> None: ...  # noqa: D102
+    :class:`~mearm.view.ArmView` satisfies it structurally: its methods take array-likes,
+    and ``add_path`` returns the line's name, which the loop does not use (hence ``object``).
+    """
+
+    def show_joints(self, q_rad: npt.ArrayLike) -> None: ...  # noqa: D102
+    def set_objects(self, objects: Iterable[tuple[str, str, float, float]]) -> None: ...  # noqa: D102
+    def set_camera_frame(  # noqa: D102
+        self, frame_bgr: npt.ArrayLike, pixel_to_table: Callable[[np.ndarray], npt.ArrayLike]
+    ) -> None: ...
+    def set_target(self, target_cm: npt.ArrayLike | None) -> None: ...  # noqa: D102
+    def add_path(self, ee_path_cm: npt.ArrayLike, color: str) -> object: ...  # noqa: D102
 
 
 @dataclass
@@ -86,7 +93,7 @@ class SortReport:
     """
 
     routes: list[dict[str, Any]] = field(default_factory=list)
-    skipped: list[tuple[str, str, str]] = field(default_factory=list)
+    skipped: list[tuple[str, Color, str]] = field(default_factory=list)
     fault: str | None = None
 
     def sorted_per_color(self) -> dict[str, int]:
@@ -164,7 +171,8 @@ class Sorter:
         return self.model.fk_cm(self._q_now_rad())
 
     def _send(self, joints_deg: Any, gripper_arm_deg: float, closed: bool) -> None:
-        q3 = tuple(float(v) for v in joints_deg)
+        j1, j2, j3 = (float(v) for v in joints_deg)
+        q3 = (j1, j2, j3)
         self.bus.move(ArmCommand(q3, gripper_arm_deg, closed))
         if self.view is not None:
             self.view.show_joints(np.radians(couple(q3)))

@@ -43,13 +43,17 @@ _S_SLACK = 1.0
 def equal_mask(a: np.ndarray, value: int) -> np.ndarray:
     """0/255 uint8 mask of ``a == value`` (OpenCV takes arrays of ≤ 4 elements for scalars)."""
     if a.size > 4:
-        return cv2.compare(a, value, cv2.CMP_EQ)
+        # OpenCV takes a Python number as a Scalar; its stubs list only array overloads.
+        return cv2.compare(a, value, cv2.CMP_EQ)  # type: ignore[call-overload]
     return np.where(a == value, 255, 0).astype(np.uint8)
 
 
 def and_scalar(a: np.ndarray, value: int) -> np.ndarray:
     """``a & value`` for a uint8 array (see :func:`equal_mask` for why not always OpenCV)."""
-    return cv2.bitwise_and(a, value) if a.size > 4 else a & np.uint8(value)
+    if a.size > 4:
+        # OpenCV takes a Python number as a Scalar; its stubs list only array overloads.
+        return cv2.bitwise_and(a, value)  # type: ignore[call-overload]
+    return a & np.uint8(value)
 
 
 def hsv_exact(frame_bgr: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
