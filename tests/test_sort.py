@@ -282,3 +282,13 @@ def test_home_at_the_end(config):
     _, _, bus = _sort(config, [SceneObject(color="red", x=0.0, y=45.0)])
     assert bus.state.joints_deg == tuple(config.robot.home_deg)
     assert not bus.state.gripper_closed
+
+
+def test_a_table_that_never_clears_is_reported(config):
+    """After max_rounds pick attempts the rest is reported, not attempted forever."""
+    scene = [SceneObject(color="red", x=-6.0 + 6 * i, y=45.0) for i in range(3)]
+    with open_rig(config, scene) as rig:
+        sorter = Sorter(config, rig.camera, rig.bus, model=rig.model, echo=None, max_rounds=1)
+        report = sorter.run()
+    assert len(report.sorted_per_color()) == 1 and report.sorted_per_color()["red"] == 1
+    assert [r for _, _, r in report.skipped] == ["still on the table after 1 pick rounds"] * 2

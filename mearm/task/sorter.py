@@ -122,6 +122,8 @@ class Sorter:
         view: Meshcat view to update, or ``None``.
         echo: Called with one line per route and the summary (default: print).
         trial: Trial number for the run log.
+        max_rounds: Pick attempts before the run gives up on a table that never clears
+            (default: four per expected object and retry, at least 80 × (retries + 1)).
     """
 
     def __init__(
@@ -135,6 +137,7 @@ class Sorter:
         view: View | None = None,
         echo: Callable[[str], None] | None = print,
         trial: int | None = None,
+        max_rounds: int | None = None,
     ):
         self.config = config
         self.camera = camera
@@ -147,6 +150,8 @@ class Sorter:
         self.view = view
         self.echo = echo or (lambda _line: None)
         self.trial = trial
+        retries = config.task.pick_retries + 1
+        self.max_rounds = max_rounds or 4 * (len(config.task.scene) + 20) * retries
         self.report = SortReport()
         self._objects: list[TrackedObject] = []
         g = config.robot.gripper
@@ -374,14 +379,17 @@ class Sorter:
             if not self.bus.is_connected:
                 self.bus.connect()
             self._send(self.config.robot.home_deg, self.config.robot.gripper.home_angle_deg, False)
-            max_rounds = (
-                4 * (len(self.config.task.scene) + 20) * (self.config.task.pick_retries + 1)
-            )
+            max_rounds = self.max_rounds
             for _ in range(max_rounds):
                 obj = self._choose(self._look())
                 if obj is None:
                     break
                 self._pick_and_place(obj)
+            else:  # a table that never clears (flickering detections?): stop, say so
+                for obj in self._objects:
+                    if obj.skipped is None and not obj.sorted:
+                        obj.skipped = f"still on the table after {max_rounds} pick rounds"
+                        self._skip(obj, None)
             self._home()
         except (CameraError, ServoError) as exc:
             self._abort(str(exc), park=isinstance(exc, CameraError))
