@@ -30,7 +30,7 @@ from mearm.cli import (
 from mearm.config import Config, SceneObject
 from mearm.exceptions import CameraError, MearmError, ServoError
 from mearm.runlog import RunLog
-from mearm.task import SortAborted, Sorter, load_scene, open_rig, random_scene
+from mearm.task import SortAborted, Sorter, load_scene, open_rig, random_scene, scene_layout
 
 #: Objects per colour in a random trial layout (SPEC §5: 12 objects, 4 of each).
 PER_COLOR = 4
@@ -86,14 +86,8 @@ def run_trials(
             layout = random_scene(cfg, {"red": PER_COLOR, "green": PER_COLOR, "blue": PER_COLOR}, s)
         if wait_for_user is not None:
             wait_for_user(k)
+        log.header(cfg, trial=k, seed=s, scene=scene_layout(cfg, layout))
         with open_rig(cfg, layout) as rig:
-            placed = rig.world.objects if rig.world else []
-            log.header(
-                cfg,
-                trial=k,
-                seed=s,
-                scene=[{"id": o.id, "color": o.color, "x": o.x_cm, "y": o.y_cm} for o in placed],
-            )
             sorter = Sorter(cfg, rig.camera, rig.bus, model=rig.model, log=log, echo=None, trial=k)
             try:
                 sorter.run()

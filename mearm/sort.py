@@ -29,7 +29,7 @@ from mearm.cli import (
 from mearm.config import Config, SceneObject
 from mearm.exceptions import CameraError, MearmError, ServoError
 from mearm.runlog import RunLog
-from mearm.task import SortAborted, Sorter, load_scene, open_rig, random_scene
+from mearm.task import SortAborted, Sorter, load_scene, open_rig, random_scene, scene_layout
 
 
 def add_scene_arguments(parser: ArgumentParser) -> None:
@@ -90,20 +90,18 @@ def main(argv: Sequence[str] | None = None) -> int:
     echo = lines.append if args.quiet else print
 
     log = RunLog(args.log) if args.log else None
+    if log is not None:
+        log.header(
+            config,
+            trial=None,
+            seed=args.seed if args.random is not None else None,
+            argv=list(sys.argv[1:] if argv is None else argv),
+            scene=scene_layout(config, scene),
+        )
     view = None
+    started = False
     try:
         with open_rig(config, scene) as rig:
-            if log is not None:
-                placed = rig.world.objects if rig.world else []
-                log.header(
-                    config,
-                    trial=None,
-                    seed=args.seed if args.random is not None else None,
-                    argv=list(sys.argv[1:] if argv is None else argv),
-                    scene=[
-                        {"id": o.id, "color": o.color, "x": o.x_cm, "y": o.y_cm} for o in placed
-                    ],
-                )
             if args.view:
                 from mearm.view import ArmView
 
@@ -113,6 +111,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             sorter = Sorter(
                 config, rig.camera, rig.bus, model=rig.model, log=log, view=view, echo=echo
             )
+            started = True  # from here on the sorter logs its own faults
             try:
                 sorter.run()
                 if view is not None and args.hold:
@@ -122,9 +121,15 @@ def main(argv: Sequence[str] | None = None) -> int:
                     print("\n".join(lines))
                 print(f"mearm.sort: stopped: {exc.reason}", file=sys.stderr)
                 return EXIT_INTERRUPTED if exc.interrupted else EXIT_FAILURE
-    except (CameraError, ServoError) as exc:
-        print(f"mearm.sort: {exc}", file=sys.stderr)
-        return EXIT_FAILURE
+    except (MearmError, KeyboardInterrupt) as exc:
+        if log is not None and not started:
+            reason = str(exc) if isinstance(exc, MearmError) else "interrupted (Ctrl-C)"
+            log.fault(f"before the sort started: {reason}")
+            log.summary(ok=False)
+        if isinstance(exc, (CameraError, ServoError)):
+            print(f"mearm.sort: {exc}", file=sys.stderr)
+            return EXIT_FAILURE
+        raise
     finally:
         if view is not None:
             view.close()

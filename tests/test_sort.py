@@ -292,3 +292,17 @@ def test_a_table_that_never_clears_is_reported(config):
         report = sorter.run()
     assert len(report.sorted_per_color()) == 1 and report.sorted_per_color()["red"] == 1
     assert [r for _, _, r in report.skipped] == ["still on the table after 1 pick rounds"] * 2
+
+
+def test_camera_that_cannot_open_is_logged(tmp_path):
+    """No camera at all: exit 1 with one line, and the log says why the sort never started."""
+    cfg = tmp_path / "nocam.yaml"
+    cfg.write_text("camera:\n  kind: device\n  path: /dev/nonexistent-camera\n")
+    log = tmp_path / "run.jsonl"
+    r = run_cli("-m", "mearm.sort", "--config", str(cfg), "--log", str(log))
+    assert r.returncode == 1
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and "camera" in lines[0], r.stderr
+    trial = read_runlog(log).trials[0]
+    assert "before the sort started: camera" in trial.faults[0].reason
+    assert trial.summary is not None and not trial.summary.ok

@@ -1,6 +1,6 @@
 """The sorting task: the loop of SPEC §1 and the simulated scenes it runs on."""
 
-from mearm.task.rig import Rig, open_rig
+from mearm.task.rig import Rig, open_rig, scene_layout
 from mearm.task.scene import SceneError, camera_field_cm, load_scene, random_scene
 from mearm.task.sorter import SortAborted, Sorter, SortReport, TrackedObject
 
@@ -15,4 +15,5 @@ __all__ = [
     "load_scene",
     "open_rig",
     "random_scene",
+    "scene_layout",
 ]

@@ -40,6 +40,17 @@ def uses_world(config: Config) -> bool:
     return config.camera.kind == "sim" or config.servo.backend == "sim"
 
 
+def scene_layout(config: Config, scene: list[SceneObject] | None = None) -> list[dict[str, object]]:
+    """The simulated table as run-log entries ``{id, color, x, y}``; empty on a real rig.
+
+    Ids are the ones :class:`~mearm.world.World` gives (``red1``, ``red2``, …).
+    """
+    if not uses_world(config):
+        return []
+    world = World.from_scene(config.task.scene if scene is None else scene, config.task.bins_cm)
+    return [{"id": o.id, "color": o.color, "x": o.x_cm, "y": o.y_cm} for o in world.objects]
+
+
 @contextlib.contextmanager
 def open_rig(config: Config, scene: list[SceneObject] | None = None) -> Iterator[Rig]:
     """Open camera and servo bus (and the world, if simulated); close them on exit.
