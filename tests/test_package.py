@@ -10,6 +10,7 @@ PACKAGES = [
     "mearm.hardware",
     "mearm.task",
     "mearm.analysis",
+    "mearm.runlog",
     "mearm.view",
 ]
 

@@ -1,0 +1,247 @@
+"""The run-log records: one pydantic model per line type, and :func:`parse_record`.
+
+The format is described in :mod:`mearm.runlog`.
+"""
+
+from __future__ import annotations
+
+import functools
+import json
+import math
+from collections.abc import Mapping
+from datetime import datetime
+from importlib import metadata
+from typing import Annotated, Any, Literal
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+
+from mearm.config import Color, Config
+
+FORMAT_VERSION = 1
+
+#: Distributions whose versions go into every header (key → PyPI name).
+VERSIONED_PACKAGES: dict[str, str] = {
+    "numpy": "numpy",
+    "pinocchio": "pin",
+    "mink": "mink",
+    "mujoco": "mujoco",
+    "opencv": "opencv-python-headless",
+    "pydantic": "pydantic",
+    "pyserial": "pyserial",
+    "scipy": "scipy",
+    "matplotlib": "matplotlib",
+}
+
+_Finite = Annotated[float, Field(allow_inf_nan=False)]
+_NonNegative = Annotated[float, Field(ge=0, allow_inf_nan=False)]
+Vec3 = tuple[_Finite, _Finite, _Finite]
+Joints4 = tuple[_Finite, _Finite, _Finite, _Finite]
+
+#: Largest allowed |error_cm − (ee_cm − target_cm)| on any axis [cm].
+ERROR_CONSISTENCY_CM = 1e-6
+
+
+class _Record(BaseModel):
+    # strict: a string is not an int, 1 is not true, 1.0 is not an iteration count.
+    # extra="allow": a later writer may add fields; readers keep them.
+    model_config = ConfigDict(extra="allow", frozen=True, strict=True)
+
+
+class HeaderRecord(_Record):
+    """Starts a trial: how it was configured, with what software, and its seed."""
+
+    type: Literal["header"] = "header"
+    format: int
+    mearm_version: str
+    started: str
+    """Wall-clock start, ISO 8601 with the UTC offset."""
+    config: dict[str, Any]
+    """``Config.model_dump(mode="json")``; :meth:`load_config` turns it back."""
+    versions: dict[str, str | None]
+    trial: int | None
+    seed: int | None
+
+    @field_validator("started")
+    @classmethod
+    def _iso(cls, value: str) -> str:
+        try:
+            datetime.fromisoformat(value)
+        except ValueError:
+            raise ValueError(f"not an ISO 8601 time: {value!r}") from None
+        return value
+
+    def load_config(self) -> Config:
+        """The trial's configuration as a :class:`~mearm.config.Config`.
+
+        Raises:
+            ConfigError: The stored config does not validate with this version of mearm.
+        """
+        from mearm.config import config_from_dict
+
+        return config_from_dict(self.config, source="run-log header")
+
+
+class RouteRecord(_Record):
+    """One route of the arm to a pick or place point (SPEC §1 steps 4–5).
+
+    ``final_error_cm`` is the solver's, on ideal kinematics; ``ee_cm`` is where the arm
+    really ended (for the simulated arm, the FK of its quantised / noisy joints) and
+    ``error_cm = ee_cm − target_cm`` the error the paper's Table 8 measures.
+    """
+
+    type: Literal["route"] = "route"
+    trial: int | None
+    object_id: str = Field(min_length=1)
+    color: Color
+    step: Literal["pick", "place"]
+    attempt: int = Field(ge=1)
+    """1 for the first attempt at this object's pick (or place)."""
+    target_cm: Vec3
+    start_joints_deg: Joints4
+    end_joints_deg: Joints4
+    """Commanded joint angles at the end of the route [deg]."""
+    iterations: int = Field(ge=0)
+    status: str
+    initial_error_cm: _NonNegative
+    final_error_cm: _NonNegative
+    ee_cm: Vec3
+    error_cm: Vec3
+    success: bool
+    """Pick: the object was gripped. Place: it landed in its bin."""
+    elapsed_s: _NonNegative
+    motion_s: _NonNegative
+
+    @model_validator(mode="after")
+    def _error_is_ee_minus_target(self) -> RouteRecord:
+        expected = np.subtract(self.ee_cm, self.target_cm)
+        worst = float(np.max(np.abs(np.subtract(self.error_cm, expected))))
+        if worst > ERROR_CONSISTENCY_CM:
+            raise ValueError(
+                f"error_cm {list(self.error_cm)} is not ee_cm − target_cm "
+                f"{[round(v, 9) for v in expected.tolist()]} (off by {worst:.3g} cm)"
+            )
+        return self
+
+    @property
+    def error_norm_cm(self) -> float:
+        """Euclidean xyz error |ee − target| [cm]."""
+        return math.hypot(*self.error_cm)
+
+
+class SkipRecord(_Record):
+    """An object that was not sorted: unreachable, outside the box, retries exhausted."""
+
+    type: Literal["skip"] = "skip"
+    trial: int | None
+    object_id: str = Field(min_length=1)
+    color: Color
+    target_cm: Vec3 | None
+    reason: str
+
+
+class FaultRecord(_Record):
+    """A camera or servo failure, or Ctrl-C: the run stopped here."""
+
+    type: Literal["fault"] = "fault"
+    trial: int | None = None
+    reason: str
+    last_joints_deg: Joints4 | None
+
+
+class SummaryRecord(_Record):
+    """Closes a trial: what it sorted and how its routes went."""
+
+    type: Literal["summary"] = "summary"
+    trial: int | None
+    sorted: dict[str, Annotated[int, Field(ge=0)]]
+    """Objects placed in their bin, per colour."""
+    failures: int = Field(ge=0)
+    skipped: int = Field(ge=0)
+    routes: int = Field(ge=0)
+    mean_iterations: _NonNegative | None
+    mean_final_error_cm: _NonNegative | None
+    motion_s: _NonNegative
+    ok: bool
+
+
+Record = HeaderRecord | RouteRecord | SkipRecord | FaultRecord | SummaryRecord
+
+RECORD_TYPES: dict[str, type[_Record]] = {
+    "header": HeaderRecord,
+    "route": RouteRecord,
+    "skip": SkipRecord,
+    "fault": FaultRecord,
+    "summary": SummaryRecord,
+}
+
+
+def library_versions() -> dict[str, str | None]:
+    """Python's and the main libraries' versions (``None`` for one not installed)."""
+    return dict(_library_versions())
+
+
+@functools.cache
+def _library_versions() -> dict[str, str | None]:
+    # Reading package metadata costs ~7 ms a package; a run's versions do not change.
+    import platform
+
+    versions: dict[str, str | None] = {"python": platform.python_version()}
+    for key, dist in VERSIONED_PACKAGES.items():
+        try:
+            versions[key] = metadata.version(dist)
+        except metadata.PackageNotFoundError:
+            versions[key] = None
+    return versions
+
+
+def mearm_version() -> str:
+    """The installed mearm version (``"unknown"`` when run from an uninstalled tree)."""
+    try:
+        return metadata.version("mearm")
+    except metadata.PackageNotFoundError:
+        return "unknown"
+
+
+def _describe(err: Mapping[str, Any]) -> str:
+    loc = ".".join(str(p) for p in err["loc"])
+    if err["type"] == "missing":
+        return f"field '{loc}' is missing"
+    msg = str(err["msg"])
+    if msg.startswith("Value error, "):
+        msg = msg[len("Value error, ") :]
+    if not loc:
+        return msg
+    return f"field '{loc}': {msg} (got {err.get('input')!r})"
+
+
+def _validation_reason(kind: str, exc: ValidationError) -> str:
+    problems = [_describe(e) for e in exc.errors()]
+    more = f" (+{len(problems) - 1} more)" if len(problems) > 1 else ""
+    return f"{kind} record: {problems[0]}{more}"
+
+
+def parse_record(text: str) -> Record:
+    """One line of a run log → its record.
+
+    Raises:
+        ValueError: The line is not a valid record; the message says why.
+    """
+    try:
+        obj = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"not valid JSON ({exc.msg} at column {exc.colno})") from None
+    if not isinstance(obj, dict):
+        raise ValueError(f"a record must be a JSON object, got {type(obj).__name__}")
+    kind = obj.get("type")
+    if kind not in RECORD_TYPES:
+        raise ValueError(f"unknown record type {kind!r}; known: {sorted(RECORD_TYPES)}")
+    if kind == "header" and obj.get("format") != FORMAT_VERSION:
+        raise ValueError(
+            f"header format {obj.get('format')!r} is not supported "
+            f"(this mearm reads format {FORMAT_VERSION})"
+        )
+    try:
+        return RECORD_TYPES[kind].model_validate_json(text)  # type: ignore[return-value]
+    except ValidationError as exc:
+        raise ValueError(_validation_reason(kind, exc)) from None

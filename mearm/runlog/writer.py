@@ -1,0 +1,267 @@
+"""Writing a run log: :class:`RunLog`, one durable line per record.
+
+The format is described in :mod:`mearm.runlog`.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from collections.abc import Mapping
+from datetime import datetime, timezone
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from pydantic import ValidationError
+
+from mearm.config import Config
+from mearm.exceptions import RunLogError
+from mearm.runlog.reader import _TrialBuilder
+from mearm.runlog.records import (
+    FORMAT_VERSION,
+    RECORD_TYPES,
+    FaultRecord,
+    HeaderRecord,
+    Record,
+    RouteRecord,
+    SkipRecord,
+    SummaryRecord,
+    _validation_reason,
+    library_versions,
+    mearm_version,
+)
+
+
+def _plain(value: Any) -> Any:
+    """Numpy arrays and scalars, tuples and mappings → JSON-ready Python values."""
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, Mapping):
+        return {str(k): _plain(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_plain(v) for v in value]
+    return value
+
+
+class RunLog:
+    """Writes a run log, one durable line per record.
+
+    Use it as a context manager; write a header per trial, then its records, then its
+    summary::
+
+        with RunLog("trials.jsonl") as log:
+            log.header(config, trial=0, seed=1234)
+            log.route(object_id="red1", color="red", step="pick", attempt=1, ...)
+            log.skip(object_id="blue4", color="blue", target_cm=t, reason="unreachable: ...")
+            log.summary(ok=True)          # counts and means filled in from this trial
+
+    Every method validates its record with the same model the reader uses, so whatever
+    is written reads back; numpy arrays and scalars are accepted anywhere. ``trial`` may
+    be left out of the records: it is taken from the current header (and a different
+    one is refused).
+
+    Args:
+        path: The log file. Created (with its folder) if missing; appended to if it exists.
+        exclusive: Refuse an existing file instead of appending to it.
+        fsync: ``fsync`` after every record (keep this on for real runs; tests that
+            write thousands of records may turn it off).
+
+    Raises:
+        RunLogError: ``exclusive`` and the file exists; the file ends in a torn line;
+            it cannot be opened.
+    """
+
+    def __init__(self, path: str | Path, *, exclusive: bool = False, fsync: bool = True):
+        self.path = Path(path)
+        self._fsync = fsync
+        self._trial: _TrialBuilder | None = None
+        self.records_written = 0
+        if self.path.exists():
+            if exclusive:
+                raise RunLogError(self.path, "exists (exclusive=True refuses to append)")
+            self._refuse_torn_file()
+        try:
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+            self._file = self.path.open("ab")
+        except OSError as exc:
+            raise RunLogError(self.path, f"cannot open for writing: {exc}") from None
+
+    def _refuse_torn_file(self) -> None:
+        try:
+            with self.path.open("rb") as f:
+                f.seek(0, os.SEEK_END)
+                if f.tell() == 0:
+                    return
+                f.seek(-1, os.SEEK_END)
+                last = f.read(1)
+        except OSError as exc:
+            raise RunLogError(self.path, f"cannot read: {exc}") from None
+        if last != b"\n":
+            raise RunLogError(
+                self.path,
+                "ends in the middle of a line (a crash while writing?), so it cannot be "
+                "appended to; read it with mearm.analyze and write the new run to another file",
+            )
+
+    # -- context manager
+
+    def __enter__(self) -> RunLog:
+        return self
+
+    def __exit__(self, *exc_info: object) -> None:
+        self.close()
+
+    @property
+    def closed(self) -> bool:
+        """Whether :meth:`close` was called."""
+        return self._file.closed
+
+    def close(self) -> None:
+        """Close the file (records are already on disk)."""
+        self._file.close()
+
+    # -- records
+
+    def header(
+        self,
+        config: Config | Mapping[str, Any],
+        *,
+        trial: int | None = None,
+        seed: int | None = None,
+        started: datetime | str | None = None,
+        **extra: Any,
+    ) -> HeaderRecord:
+        """Start a trial.
+
+        Args:
+            config: The run's configuration (a :class:`Config` or its JSON dump).
+            trial: Trial number (``None`` for a lone sort run).
+            seed: The seed the trial's layout / noise was drawn from, if any.
+            started: Start time (default: now, UTC).
+            **extra: More fields to store in the header (e.g. ``argv``, ``scene``).
+        """
+        if isinstance(config, Config):
+            config = config.model_dump(mode="json")
+        if started is None:
+            started = datetime.now(timezone.utc)
+        if isinstance(started, datetime):
+            started = started.isoformat()
+        record = self._write(
+            "header",
+            {
+                "format": FORMAT_VERSION,
+                "mearm_version": mearm_version(),
+                "started": started,
+                "config": config,
+                "versions": library_versions(),
+                "trial": trial,
+                "seed": seed,
+                **extra,
+            },
+        )
+        assert isinstance(record, HeaderRecord)
+        self._trial = _TrialBuilder(record, self.records_written)
+        return record
+
+    def route(self, **fields: Any) -> RouteRecord:
+        """Write one route (fields of :class:`RouteRecord`).
+
+        ``error_cm`` may be left out: it is computed as ``ee_cm − target_cm``.
+        """
+        if "error_cm" not in fields and "ee_cm" in fields and "target_cm" in fields:
+            fields["error_cm"] = np.subtract(
+                np.asarray(fields["ee_cm"], dtype=float),
+                np.asarray(fields["target_cm"], dtype=float),
+            )
+        return self._write_in_trial("route", fields)  # type: ignore[return-value]
+
+    def skip(self, **fields: Any) -> SkipRecord:
+        """Write an object that was not sorted (fields of :class:`SkipRecord`)."""
+        return self._write_in_trial("skip", fields)  # type: ignore[return-value]
+
+    def fault(self, reason: str, last_joints_deg: Any = None, **extra: Any) -> FaultRecord:
+        """Write a fault: the reason the run stopped and the last joint angles [deg]."""
+        fields = {"reason": reason, "last_joints_deg": last_joints_deg, **extra}
+        return self._write_in_trial("fault", fields)  # type: ignore[return-value]
+
+    def summary(self, **fields: Any) -> SummaryRecord:
+        """Close the trial with its summary.
+
+        Fields not given are computed from the records written since the header:
+        ``sorted`` (successful places per colour), ``failures`` (routes whose
+        ``success`` is false), ``skipped``, ``routes``, ``mean_iterations``,
+        ``mean_final_error_cm`` (the solver's), ``motion_s`` (sum over routes) and
+        ``ok`` (no fault was written).
+        """
+        trial = self._current("summary")
+        routes = trial.routes
+        computed: dict[str, Any] = {
+            "sorted": {
+                c: sum(1 for r in routes if r.step == "place" and r.success and r.color == c)
+                for c in dict.fromkeys(r.color for r in routes)
+            },
+            "failures": sum(1 for r in routes if not r.success),
+            "skipped": len(trial.skips),
+            "routes": len(routes),
+            "mean_iterations": float(np.mean([r.iterations for r in routes])) if routes else None,
+            "mean_final_error_cm": (
+                float(np.mean([r.final_error_cm for r in routes])) if routes else None
+            ),
+            "motion_s": float(sum(r.motion_s for r in routes)),
+            "ok": not trial.faults,
+        }
+        return self._write_in_trial("summary", {**computed, **fields})  # type: ignore[return-value]
+
+    # -- plumbing
+
+    def _current(self, kind: str) -> _TrialBuilder:
+        if self.closed:
+            raise RunLogError(self.path, f"cannot write a {kind} record: the log is closed")
+        if self._trial is None:
+            raise RunLogError(self.path, f"cannot write a {kind} record before a header")
+        return self._trial
+
+    def _write_in_trial(self, kind: str, fields: dict[str, Any]) -> Record:
+        trial = self._current(kind)
+        fields = dict(fields)
+        number = fields.setdefault("trial", trial.header.trial)
+        if trial.summary is not None:
+            raise RunLogError(
+                self.path,
+                f"trial {trial.header.trial} already has its summary; write a header "
+                f"for the next trial before any {kind} record",
+            )
+        if number != trial.header.trial:
+            raise RunLogError(
+                self.path,
+                f"{kind} record of trial {number} under the header of trial {trial.header.trial}",
+            )
+        record = self._write(kind, fields)
+        trial.add(record)
+        return record
+
+    def _write(self, kind: str, fields: Mapping[str, Any]) -> Record:
+        if self.closed:
+            raise RunLogError(self.path, f"cannot write a {kind} record: the log is closed")
+        try:
+            text = json.dumps({"type": kind, **_plain(fields)}, allow_nan=False)
+        except (TypeError, ValueError) as exc:
+            why = f"{kind} record cannot be written as JSON: {exc}"
+            raise RunLogError(self.path, why) from None
+        try:
+            record = RECORD_TYPES[kind].model_validate_json(text)
+        except ValidationError as exc:
+            raise RunLogError(self.path, _validation_reason(kind, exc)) from None
+        line = record.model_dump_json().encode("utf-8") + b"\n"
+        try:
+            self._file.write(line)
+            self._file.flush()
+            if self._fsync:
+                os.fsync(self._file.fileno())
+        except OSError as exc:
+            raise RunLogError(self.path, f"cannot write: {exc}") from None
+        self.records_written += 1
+        return record  # type: ignore[return-value]
