@@ -28,7 +28,79 @@ def lab_config() -> Config:
 
 @pytest.fixture(scope="session")
 def model(config: Config) -> ArmModel:
-    return ArmModel(config.robot)
+    return ArmModel(config.arm)
+
+
+#: The reference configs, each a different arm or class set (their arms' URDFs are in
+#: robot_description/).
+REFERENCE_CONFIGS = ("sim.yaml", "sim_mearm_v1.yaml", "sim_5dof.yaml", "sim_4colours.yaml")
+
+
+@pytest.fixture(scope="session", params=REFERENCE_CONFIGS)
+def reference_config(request: pytest.FixtureRequest) -> Config:
+    return load_config(ROOT / "configs" / request.param)
+
+
+def planar_yaw_arm_data(*, rail: bool = False) -> dict:
+    """A new arm written in the test itself: base yaw + two planar links (+ a rail).
+
+    With ``rail`` a prismatic joint lifts the whole arm first (a linear rail).
+    """
+
+    def servo(channel: int, zero_us: float, k: float = 10.0) -> dict:
+        return {"channel": channel, "zero_us": zero_us, "us_per_unit": k}
+
+    joints = [
+        {
+            "name": "yaw",
+            "dh": {"alpha_deg": 90.0, "d_cm": 10.0},
+            "limits": {"min": 10.0, "max": 170.0},
+            "home": 90.0,
+            "servo": servo(0, 600.0),
+        },
+        {
+            "name": "upper",
+            "dh": {"a_cm": 14.0},
+            "limits": {"min": 0.0, "max": 150.0},
+            "home": 80.0,
+            "servo": servo(1, 600.0),
+        },
+        {
+            "name": "fore",
+            "dh": {"a_cm": 12.0},
+            "limits": {"min": -150.0, "max": -5.0},
+            "home": -100.0,
+            "servo": servo(2, 2400.0),
+        },
+    ]
+    if rail:
+        joints.insert(
+            0,
+            {
+                "name": "rail",
+                "type": "prismatic",
+                "dh": {"alpha_deg": 0.0},
+                "limits": {"min": 0.0, "max": 10.0},
+                "home": 2.0,
+                "servo": servo(6, 1000.0, 100.0),
+            },
+        )
+    return {
+        "name": "planar_yaw",
+        "joints": joints,
+        "tool": {
+            "gripper": {
+                "servo": {"channel": 4, "zero_us": 2200.0, "direction": -1, "us_per_unit": 300.0},
+                "open_cm": 4.0,
+                "closed_cm": 1.0,
+            },
+        },
+        "target_box": {
+            "x_cm": {"min": -30, "max": 30},
+            "y_cm": {"min": 0, "max": 30},
+            "z_cm": {"min": 0, "max": 40},
+        },
+    }
 
 
 def run_cli(*args: str, timeout: float = 60, cwd: Path = ROOT) -> subprocess.CompletedProcess:

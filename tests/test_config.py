@@ -16,16 +16,15 @@ def test_lab_yaml_is_the_real_rig():
     lab = load_config(ROOT / "configs" / "lab.yaml")
     assert lab.camera.kind == "device" and lab.camera.device_index == 0
     assert lab.servo.backend == "serial" and lab.servo.port == "/dev/ttyACM0"
-    assert lab.robot == Config().robot
+    assert lab.arm == Config().arm
 
 
-def test_table4_reading_of_spec_section3():
-    lim = Config().robot.joint_limits_deg
-    assert (lim.joint1.min, lim.joint1.max) == (20, 160)
-    assert (lim.joint2.min, lim.joint2.max) == (30, 135)
-    assert (lim.joint3.min, lim.joint3.max) == (-160, -20)
-    j4 = lim.as_list()[3]
-    assert (j4.min, j4.max) == (-115, 130)
+def test_table4_reading_of_the_paper():
+    lim = Config().arm.joint_limits()
+    assert (lim["base"].min, lim["base"].max) == (20, 160)
+    assert (lim["shoulder"].min, lim["shoulder"].max) == (30, 135)
+    assert (lim["elbow"].min, lim["elbow"].max) == (-160, -20)
+    assert (lim["wrist"].min, lim["wrist"].max) == (-115, 130)  # from the coupling
 
 
 def _write(tmp_path: Path, text: str) -> Path:
@@ -48,18 +47,107 @@ def test_wrong_type_names_value_and_path(tmp_path):
     assert "controller.max_iterations" in msg and "'many'" in msg and "integer" in msg
 
 
-def test_min_above_max_limit(tmp_path):
-    text = "robot:\n  joint_limits_deg:\n    joint2: {min: 30, max: -80}\n"
+def test_min_above_max_limit():
     with pytest.raises(ConfigError) as exc:
-        load_config(_write(tmp_path, text))
+        load_config(None, ["arm.joints.shoulder.limits={min: 30, max: -80}"])
     msg = str(exc.value)
-    assert "robot.joint_limits_deg.joint2" in msg and "min (30) must be below max (-80)" in msg
+    assert "arm.joints.1.limits" in msg and "min (30) must be below max (-80)" in msg
 
 
-def test_home_outside_limits(tmp_path):
-    text = "robot:\n  joint_limits_deg:\n    joint3: {min: -80, max: -20}\n"
-    with pytest.raises(ConfigError, match=r"joint3 = -132 is outside its limits \[-80, -20\]"):
-        load_config(_write(tmp_path, text))
+def test_home_outside_limits():
+    with pytest.raises(
+        ConfigError, match=r"arm.joints.2.home: -132 is outside the limits \[-80, -20\]"
+    ):
+        load_config(None, ["arm.joints.elbow.limits={min: -80, max: -20}"])
+
+
+BAD_ARMS = [
+    # (override, what the one line must say)
+    (
+        ["arm.joints.wrist.coupling.terms={shoulder: -1, knee: -1}"],
+        "arm.joints.3.coupling.terms: 'knee' is not an actuated joint of this arm "
+        "(actuated: base, shoulder, elbow)",
+    ),
+    (["arm.joints=[]"], "arm.joints: List should have at least 1 item"),
+    (
+        [f"arm.joints.{i}.dh={{a_cm: 0, d_cm: 0}}" for i in range(4)],
+        "arm.joints: singular chain",
+    ),
+    (
+        ["arm.joints.base.limits.max=200"],
+        "arm.joints.0.limits.max: 200 needs a 2600 µs pulse, outside the servo's "
+        "[600, 2400] µs, which allows [0, 180]",
+    ),
+    (
+        ["task.classes.green.bin_cm=[-20, 35, 20]"],
+        "task.classes: 'green' and 'red' share the bin at [-20.0, 35.0, 20.0] cm",
+    ),
+    (["task.scene.0.color=pink"], "task.scene.0.color: 'pink' is not a class"),
+    (["arm.joints.elbow.servo=null"], "arm.joints.2: joint 'elbow' needs exactly one of"),
+    (["arm.joints.base.servo.channel=4"], "arm.joints: gripper and base share servo channel 4"),
+    (["arm.closed_form=nonsense"], None),  # the name is valid data; the model refuses it
+]
+
+
+@pytest.mark.parametrize(("overrides", "message"), BAD_ARMS)
+def test_bad_arm_descriptions_refused_at_load(overrides, message):
+    """Each bad description is refused when the config loads, naming the field."""
+    if message is None:
+        from mearm.exceptions import ModelError
+        from mearm.kinematics import closed_form_for
+
+        with pytest.raises(ModelError, match="unknown closed form 'nonsense'"):
+            closed_form_for(load_config(None, overrides).arm)
+        return
+    with pytest.raises(ConfigError) as exc:
+        load_config(None, overrides)
+    assert message in str(exc.value)
+
+
+def test_bad_arm_description_cli_exits_2_one_line(tmp_path):
+    """A bad arm file: exit 2, one line naming the field, no traceback."""
+    bad = _write(
+        tmp_path,
+        "arm:\n  name: x\n  joints:\n    - {name: a, coupling: {terms: {b: 1}}}\n"
+        "  tool: {gripper: {servo: {channel: 4}, open_cm: 4, closed_cm: 1}}\n",
+    )
+    r = run_cli("tools/dh_to_urdf.py", "--config", str(bad), "--output", str(tmp_path / "o"))
+    assert r.returncode == 2, r.stderr
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and "arm.joints" in lines[0] and "Traceback" not in r.stderr
+
+
+def test_set_overrides_before_validation():
+    """--set reaches list items by name or index and parses the value as YAML."""
+    c = load_config(
+        ROOT / "configs" / "sim.yaml",
+        ["arm.joints.shoulder.dh.a_cm=25", "task.classes.1.bin_cm=[-20, 46, 20]"],
+    )
+    assert c.arm.joints[1].dh.a_cm == 25
+    assert c.task.classes[1].bin_cm == (-20, 46, 20)
+    c = load_config(ROOT / "configs" / "sim_4colours.yaml", ["arm.joints.base.home=100"])
+    assert c.arm.home()["base"] == 100  # the arm comes from the defaults, then changes
+
+
+@pytest.mark.parametrize(
+    ("override", "message"),
+    [
+        ("nokey", "expected dotted.key=value"),
+        (
+            "arm.joints.knee.home=1",
+            "arm.joints.knee: no item named 'knee' (choices: base, shoulder, elbow, wrist)",
+        ),
+        ("arm.joints.9.home=1", "arm.joints.9: no such item (0…3)"),
+        ("controller.kp=[1", "controller.kp: value '[1' is not valid YAML"),
+        ("controller.kp.x=1", "controller.kp: is a value, not a section"),
+        ("controller.kpp=1", "controller.kpp: unknown key"),
+    ],
+)
+def test_bad_set_is_one_line(override, message):
+    with pytest.raises(ConfigError) as exc:
+        load_config(None, [override])
+    assert message in str(exc.value)
+    assert len(str(exc.value).splitlines()) == 1
 
 
 def test_missing_file(tmp_path):

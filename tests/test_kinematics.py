@@ -1,98 +1,130 @@
-"""DH reference vs Pinocchio vs yourdfpy; Jacobians vs finite differences (SPEC §2)."""
+import io
 
 import numpy as np
 import pytest
 import yourdfpy
-from conftest import ROOT
+from conftest import planar_yaw_arm_data
 
-from mearm.config import JOINT_NAMES
+from mearm.config import ArmDescription
 from mearm.exceptions import JointLimitError, ModelError
-from mearm.kinematics import COUPLING, ArmModel, couple, dh_fk, dh_jacobian
-
-URDF = ROOT / "robot_description" / "mearm.urdf"
+from mearm.kinematics import ArmModel, Chain, dh_fk, dh_jacobian, generate_urdf
 
 
-def random_q(model: ArmModel, n: int, seed: int) -> np.ndarray:
-    """n coupled joint vectors (θ4 = −(θ2+θ3)) within the actuated limits, (n, 4) rad."""
+def _random_poses(chain: Chain, n: int, seed: int = 0) -> np.ndarray:
     rng = np.random.default_rng(seed)
-    q3 = rng.uniform(model.lower_rad[:3], model.upper_rad[:3], size=(n, 3))
-    return q3 @ COUPLING.T
+    act = rng.uniform(chain.actuated_lower, chain.actuated_upper, size=(n, chain.m))
+    return np.array([chain.full(a) for a in act])
 
 
-def test_home_check_value(model):
-    """SPEC §2: the DH product at home is (−20.16, 34.91, 19.95) cm."""
-    ee = model.fk_cm(model.home_rad)
-    np.testing.assert_allclose(ee, [-20.16, 34.91, 19.95], atol=0.01)
+@pytest.fixture(scope="module", params=["reference", "rail"])
+def arm(request, reference_config) -> ArmDescription:
+    if request.param == "rail":
+        return ArmDescription.model_validate(planar_yaw_arm_data(rail=True))
+    return reference_config.arm
 
 
-def test_fk_agrees_pinocchio_dh_yourdfpy(model, config):
-    """1 000 random poses: Pinocchio, the DH product and yourdfpy agree within 1e-9 cm."""
-    urdf = yourdfpy.URDF.load(str(URDF), load_meshes=False, build_collision_scene_graph=False)
-    rng = np.random.default_rng(1)
-    # all four joints free (coupled or not): the URDF must equal the DH product everywhere
-    qs = rng.uniform(model.lower_rad, model.upper_rad, size=(1000, 4))
-    worst = 0.0
-    for q in qs:
+def test_paper_home_check_value(model):
+    """The paper's check value: the DH product at home is (-20.16, 34.91, 19.95) cm."""
+    np.testing.assert_allclose(model.fk_cm(model.home), [-20.16, 34.91, 19.95], atol=0.005)
+
+
+def test_fk_agrees_pinocchio_dh_yourdfpy(arm):
+    """Pinocchio, the DH product and yourdfpy give the same TCP within 1e-9 cm."""
+    model = ArmModel(arm)
+    urdf = yourdfpy.URDF.load(io.StringIO(model.urdf), build_scene_graph=True, load_meshes=False)
+    for q in _random_poses(model.chain, 200):
         p_pin = model.fk_cm(q)
-        p_dh = dh_fk(q, config.robot.dh)
-        urdf.update_cfg(dict(zip(JOINT_NAMES, q, strict=True)))
-        p_yd = urdf.get_transform("ee", "base_link")[:3, 3] * 100.0
-        worst = max(worst, np.abs(p_pin - p_dh).max(), np.abs(p_yd - p_dh).max())
-    assert worst < 1e-9
+        np.testing.assert_allclose(p_pin, dh_fk(arm, q), atol=1e-9)
+        urdf.update_cfg(dict(zip(model.chain.names, q, strict=True)))
+        p_yd = urdf.get_transform("tcp")[:3, 3] * 100.0
+        np.testing.assert_allclose(p_pin, p_yd, atol=1e-9)
 
 
-def _central_difference(f, q, eps=1e-6):
-    cols = []
-    for i in range(len(q)):
-        dq = np.zeros_like(q)
-        dq[i] = eps
-        cols.append((f(q + dq) - f(q - dq)) / (2 * eps))
-    return np.stack(cols, axis=1)
+def test_jaws_are_joints_in_both_readers(arm):
+    """The gripper's jaws are joints: the right one a mimic of the left."""
+    urdf = yourdfpy.URDF.load(io.StringIO(generate_urdf(arm)), load_meshes=False)
+    g = arm.tool.gripper.name
+    assert f"{g}_jaw_left" in urdf.actuated_joint_names
+    assert urdf.joint_map[f"{g}_jaw_right"].mimic.joint == f"{g}_jaw_left"
+    import pinocchio as pin
+
+    full = pin.buildModelFromXML(generate_urdf(arm))
+    assert full.existJointName(f"{g}_jaw_left") and full.existJointName(f"{g}_jaw_right")
 
 
-def test_jacobian_matches_finite_differences(model):
-    """200 random poses: the 3×4 Jacobian matches central differences within 1e-6."""
-    for q in random_q(model, 200, seed=2):
-        J_fd = _central_difference(model.fk_cm, q)
-        np.testing.assert_allclose(model.jacobian(q), J_fd, atol=1e-6, rtol=0)
+def test_jacobian_matches_finite_differences(arm):
+    """Pinocchio's position Jacobian equals central differences within 1e-5."""
+    model = ArmModel(arm)
+    h = 1e-6
+    for q in _random_poses(model.chain, 20, seed=1):
+        J = model.jacobian(q)
+        fd = np.stack(
+            [(model.fk_cm(q + h * e) - model.fk_cm(q - h * e)) / (2 * h) for e in np.eye(len(q))],
+            axis=1,
+        )
+        np.testing.assert_allclose(J, fd, atol=1e-5 * max(1.0, np.abs(fd).max()))
+        np.testing.assert_allclose(J, dh_jacobian(arm, q), atol=1e-9)
 
 
-def test_coupled_jacobian_matches_finite_differences(model):
-    """200 random poses: J·C matches central differences of FK(couple(θ1..θ3))."""
-    for q in random_q(model, 200, seed=3):
-        J_fd = _central_difference(lambda q3: model.fk_cm(couple(q3)), q[:3])
-        Jc = model.coupled_jacobian(q)
-        assert Jc.shape == (3, 3)
-        np.testing.assert_allclose(Jc, J_fd, atol=1e-6, rtol=0)
+def test_coupled_and_approach_jacobians_match_finite_differences(arm):
+    """J·C over the actuated joints and the approach-axis Jacobian match central differences."""
+    model = ArmModel(arm)
+    ch = model.chain
+    h = 1e-6
+    for q in _random_poses(ch, 10, seed=2):
+        qa = ch.actuated_of(q)
+        fd = np.stack(
+            [
+                (model.fk_cm(ch.full(qa + h * e)) - model.fk_cm(ch.full(qa - h * e))) / (2 * h)
+                for e in np.eye(ch.m)
+            ],
+            axis=1,
+        )
+        np.testing.assert_allclose(model.coupled_jacobian(q), fd, atol=1e-4)
+        _, Ja = model.approach_jacobian(q)
+        fda = np.stack(
+            [
+                (model.approach(q + h * e) - model.approach(q - h * e)) / (2 * h)
+                for e in np.eye(ch.n)
+            ],
+            axis=1,
+        )
+        np.testing.assert_allclose(Ja, fda, atol=1e-6)
 
 
-def test_pinocchio_jacobian_equals_eq9(model, config):
-    """The Pinocchio Jacobian is the paper's eq. 9 Jacobian."""
-    for q in random_q(model, 200, seed=4):
-        np.testing.assert_allclose(model.jacobian(q), dh_jacobian(q, config.robot.dh), atol=1e-10)
-
-
-def test_fk_and_jacobian_one_pass(model):
-    q = random_q(model, 1, seed=5)[0]
-    ee, J = model.fk_and_jacobian(q)
-    np.testing.assert_allclose(ee, model.fk_cm(q), atol=1e-12)
-    np.testing.assert_allclose(J, model.jacobian(q), atol=1e-12)
+def test_chain_coupling_and_names(config):
+    """The paper arm: wrist = -(shoulder + elbow); names round-trip; passive limits derived."""
+    ch = Chain.from_description(config.arm)
+    assert ch.names == ("base", "shoulder", "elbow", "wrist")
+    assert ch.actuated == ("base", "shoulder", "elbow")
+    np.testing.assert_array_equal(ch.C[3], [0.0, -1.0, -1.0])
+    np.testing.assert_allclose(np.degrees([ch.lower[3], ch.upper[3]]), [-115, 130])
+    q = ch.from_named({"base": 120.0, "shoulder": 93.0, "elbow": -132.0})
+    assert ch.named(q) == pytest.approx({"base": 120, "shoulder": 93, "elbow": -132, "wrist": 39})
 
 
 def test_check_limits_names_joint_value_and_range(model):
-    q = np.radians([120.0, 140.0, -132.0, -8.0])
-    with pytest.raises(JointLimitError) as exc:
+    q = model.home
+    q[1] = np.radians(140)
+    with pytest.raises(JointLimitError) as info:
         model.check_limits(q)
-    e = exc.value
-    assert (e.joint, round(e.value_deg), e.lower_deg, e.upper_deg) == ("joint2", 140, 30, 135)
-    assert "joint2 = 140 deg is outside its limits [30, 135] deg" in str(e)
-    assert not model.within_limits(q) and model.within_limits(model.home_rad)
+    assert info.value.joint == "shoulder"
+    assert "shoulder = 140 deg is outside its limits [30, 135] deg" in str(info.value)
+
+
+def test_prismatic_limit_error_in_cm():
+    arm = ArmDescription.model_validate(planar_yaw_arm_data(rail=True))
+    model = ArmModel(arm)
+    q = model.home
+    q[0] = 0.2  # 20 cm, beyond the rail's 10
+    with pytest.raises(JointLimitError, match=r"rail = 20 cm is outside its limits \[0, 10\] cm"):
+        model.check_limits(q)
 
 
 def test_bad_urdf_is_a_model_error(config, tmp_path):
     bad = tmp_path / "bad.urdf"
-    bad.write_text('<robot name="x"><link name="a"/></robot>')
+    bad.write_text("<robot name='x'><link name='a'/></robot>")
     with pytest.raises(ModelError, match="URDF joints are"):
-        ArmModel(config.robot, urdf_path=bad)
+        ArmModel(config.arm, urdf_path=bad)
     with pytest.raises(ModelError, match="cannot read URDF"):
-        ArmModel(config.robot, urdf_path=tmp_path / "missing.urdf")
+        ArmModel(config.arm, urdf_path=tmp_path / "missing.urdf")

@@ -1,0 +1,75 @@
+"""Typed configuration: one pydantic model tree, loaded from YAML.
+
+The defaults of :class:`Config` *are* the simulated rig with the paper's arm
+(``configs/sim.yaml`` writes them out with comments). The arm (:class:`ArmDescription`)
+and the colour classes (:class:`ColorClass`) are data: any hobby arm and any set of
+classes is a config file, not code.
+
+Loading is strict: unknown keys are rejected and each bad field is reported with its
+dotted path, the value given and what is allowed (:class:`~mearm.exceptions.ConfigError`).
+"""
+
+from mearm.config.arm import (
+    ArmDescription,
+    Coupling,
+    DHRow,
+    Gripper,
+    Joint,
+    JointType,
+    ServoCalibration,
+    TargetBox,
+    Tool,
+    ToolActuator,
+)
+from mearm.config.base import Finite, Name, NonNegative, Positive, Range, Strict
+from mearm.config.classes import ColorClass, HueBand
+from mearm.config.defaults import default_classes, paper_arm, paper_classes
+from mearm.config.loader import apply_overrides, config_from_dict, load_config, read_yaml
+from mearm.config.rig import (
+    CalibrationConfig,
+    CameraConfig,
+    ControllerConfig,
+    SceneObject,
+    ServoConfig,
+    SimErrorModel,
+    TaskConfig,
+    VisionConfig,
+)
+from mearm.config.root import Config
+
+__all__ = [
+    "ArmDescription",
+    "CalibrationConfig",
+    "CameraConfig",
+    "ColorClass",
+    "Config",
+    "ControllerConfig",
+    "Coupling",
+    "DHRow",
+    "Finite",
+    "Gripper",
+    "HueBand",
+    "Joint",
+    "JointType",
+    "Name",
+    "NonNegative",
+    "Positive",
+    "Range",
+    "SceneObject",
+    "ServoCalibration",
+    "ServoConfig",
+    "SimErrorModel",
+    "Strict",
+    "TargetBox",
+    "TaskConfig",
+    "Tool",
+    "ToolActuator",
+    "VisionConfig",
+    "apply_overrides",
+    "config_from_dict",
+    "default_classes",
+    "load_config",
+    "paper_arm",
+    "paper_classes",
+    "read_yaml",
+]

@@ -1,0 +1,419 @@
+r"""The arm as data: joints, their actuators or couplings, the tool, the target box.
+
+An arm is an ordered list of joints, each one standard Denavit–Hartenberg row
+
+.. math:: T_{i-1,i} = R_z(\theta_i)\,T_z(d_i)\,T_x(a_i)\,R_x(\alpha_i)
+
+whose variable is θ (``revolute``, degrees) or d (``prismatic``, centimetres). A joint is
+either *actuated* — it has a ``servo`` with its pulse calibration, its limits and its home
+value — or *passive*: an affine function of the actuated joints,
+
+.. math:: q_p = \sum_j c_{pj}\, q_j + c_p
+
+(the paper's parallelogram: θ4 = −θ2 − θ3). The tool sits on the last frame: the tool
+centre point (TCP), the axis it approaches along, the gripper (a named actuator with its
+own calibration, open/closed settings and jaw geometry) and any tool actuators that do not
+move the TCP (the paper's gripper-arm servo).
+
+Everything is checked when the config loads: names unique, couplings naming actuated
+joints, every limit and setting inside its servo's pulse range, a chain that can move
+the TCP in three directions.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Literal
+
+import numpy as np
+from pydantic import Field, model_validator
+
+from mearm.config.base import Finite, Name, NonNegative, Positive, Range, Strict, Vector3
+
+JointType = Literal["revolute", "prismatic"]
+
+
+class DHRow(Strict):
+    r"""One standard DH row, :math:`R_z(\theta)\,T_z(d)\,T_x(a)\,R_x(\alpha)`.
+
+    For a revolute joint the variable is added to ``theta_deg``; for a prismatic joint
+    it is added to ``d_cm``.
+    """
+
+    a_cm: Finite = 0.0
+    alpha_deg: Finite = 0.0
+    d_cm: Finite = 0.0
+    theta_deg: Finite = 0.0
+    """Constant offset of θ [deg] (the joint variable of a revolute joint adds to it)."""
+
+    def transform(self, value: float, joint_type: JointType = "revolute") -> np.ndarray:
+        """The (4, 4) transform of this row at joint value ``value``.
+
+        Args:
+            value: θ [rad] for a revolute joint, d [cm] for a prismatic one.
+            joint_type: ``revolute`` or ``prismatic``.
+
+        Returns:
+            The homogeneous transform, translation in cm.
+        """
+        theta = math.radians(self.theta_deg)
+        d = self.d_cm
+        if joint_type == "revolute":
+            theta += value
+        else:
+            d += value
+        ct, st = math.cos(theta), math.sin(theta)
+        alpha = math.radians(self.alpha_deg)
+        ca, sa = math.cos(alpha), math.sin(alpha)
+        return np.array(
+            [
+                [ct, -ca * st, sa * st, self.a_cm * ct],
+                [st, ca * ct, -sa * ct, self.a_cm * st],
+                [0.0, sa, ca, d],
+                [0.0, 0.0, 0.0, 1.0],
+            ]
+        )
+
+
+class ServoCalibration(Strict):
+    r"""One actuator's pulse calibration: value ↔ pulse width.
+
+    .. math:: p = p_0 + s\,k\,v
+
+    with ``zero_us`` = p0 [µs], ``direction`` = s (±1), ``us_per_unit`` = k [µs per deg,
+    or per cm for a prismatic joint or a gripper opening] and v the value. A value whose
+    pulse leaves [min_us, max_us] is refused, never clamped.
+    """
+
+    channel: int = Field(ge=0, le=31)
+    zero_us: Finite = 1500.0
+    """Pulse at value 0 [µs]; may lie outside [min_us, max_us]."""
+    direction: Literal[1, -1] = 1
+    us_per_unit: Positive = 10.0
+    """Pulse change per unit of the value [µs/deg or µs/cm]."""
+    min_us: int = Field(default=600, ge=500, le=2500)
+    """Lowest pulse this servo may get [µs] (the firmware and the SSC-32 allow 500–2500)."""
+    max_us: int = Field(default=2400, ge=500, le=2500)
+    """Highest pulse this servo may get [µs]."""
+
+    @model_validator(mode="after")
+    def _pulse_range(self) -> ServoCalibration:
+        if not self.min_us < self.max_us:
+            raise ValueError(f"min_us ({self.min_us}) must be below max_us ({self.max_us})")
+        return self
+
+    def pulse_us(self, value: float) -> float:
+        """Exact pulse for a value [µs]."""
+        return self.zero_us + self.direction * self.us_per_unit * value
+
+    def value_range(self) -> tuple[float, float]:
+        """The values at ``min_us`` and ``max_us``, ascending."""
+        a = (self.min_us - self.zero_us) / (self.direction * self.us_per_unit)
+        b = (self.max_us - self.zero_us) / (self.direction * self.us_per_unit)
+        return (min(a, b), max(a, b))
+
+    def check_value(self, value: float, what: str) -> None:
+        """Raise ``ValueError`` naming ``what`` if ``value``'s pulse leaves the range."""
+        p = self.pulse_us(value)
+        if not self.min_us - 1e-6 <= p <= self.max_us + 1e-6:
+            lo, hi = self.value_range()
+            raise ValueError(
+                f"@{what}: {value:g} needs a {p:.0f} µs pulse, outside the servo's "
+                f"[{self.min_us}, {self.max_us}] µs, which allows [{lo:.4g}, {hi:.4g}]"
+            )
+
+
+class Coupling(Strict):
+    """A passive joint's value as an affine function of actuated joints.
+
+    ``terms`` maps actuated joint names to coefficients [-]; ``offset`` is in the
+    joint's unit (deg or cm). The paper arm's parallelogram: ``terms: {shoulder: -1,
+    elbow: -1}``.
+    """
+
+    terms: dict[Name, Finite] = Field(min_length=1)
+    offset: Finite = 0.0
+
+
+class Joint(Strict):
+    """One joint of the chain: its DH row and either a servo (actuated) or a coupling."""
+
+    name: Name
+    type: JointType = "revolute"
+    dh: DHRow = DHRow()
+    limits: Range | None = None
+    """[deg] or [cm]; required for an actuated joint; a passive joint's default is the
+    range its coupling gives over the actuated joints' limits."""
+    home: Finite | None = None
+    """Home value of an actuated joint [deg] or [cm]."""
+    servo: ServoCalibration | None = None
+    coupling: Coupling | None = None
+
+    @model_validator(mode="after")
+    def _actuated_or_passive(self) -> Joint:
+        if (self.servo is None) == (self.coupling is None):
+            raise ValueError(
+                f"joint '{self.name}' needs exactly one of 'servo' (actuated) or "
+                "'coupling' (passive)"
+            )
+        if self.servo is not None:
+            if self.limits is None:
+                raise ValueError("@limits: required for an actuated joint")
+            if self.home is None:
+                raise ValueError("@home: required for an actuated joint")
+            if not self.limits.contains(self.home):
+                raise ValueError(
+                    f"@home: {self.home:g} is outside the limits "
+                    f"[{self.limits.min:g}, {self.limits.max:g}]"
+                )
+            for end in ("min", "max"):
+                self.servo.check_value(getattr(self.limits, end), f"limits.{end}")
+        elif self.home is not None:
+            raise ValueError("@home: a passive joint takes no home: its coupling gives it")
+        return self
+
+    @property
+    def actuated(self) -> bool:
+        """Whether a servo drives this joint."""
+        return self.servo is not None
+
+    @property
+    def unit(self) -> str:
+        """``deg`` or ``cm``."""
+        return "deg" if self.type == "revolute" else "cm"
+
+
+class ToolActuator(Strict):
+    """A tool servo that does not move the TCP, set per phase of a pick.
+
+    The paper's gripper arm (θ5) is one: 60° at home, 30° while travelling, −60° to grip.
+    """
+
+    name: Name
+    servo: ServoCalibration
+    limits: Range
+    home: Finite
+    travel: Finite
+    grip: Finite
+
+    @model_validator(mode="after")
+    def _settings(self) -> ToolActuator:
+        for end in ("min", "max"):
+            self.servo.check_value(getattr(self.limits, end), f"limits.{end}")
+        for key in ("home", "travel", "grip"):
+            value = getattr(self, key)
+            if not self.limits.contains(value):
+                raise ValueError(
+                    f"@{key}: {value:g} is outside the limits "
+                    f"[{self.limits.min:g}, {self.limits.max:g}]"
+                )
+        return self
+
+    def setting(self, phase: Literal["home", "travel", "grip"]) -> float:
+        """The value for a phase of the pick [deg]."""
+        return float(getattr(self, phase))
+
+
+class Gripper(Strict):
+    """The gripper: a named actuator that sets the opening between two parallel jaws.
+
+    Its calibration maps the opening [cm] to a pulse. The URDF draws the jaws as two
+    prismatic joints, the second a ``mimic`` of the first.
+    """
+
+    name: Name = "gripper"
+    servo: ServoCalibration
+    open_cm: Positive
+    """Opening between the jaws when open [cm]."""
+    closed_cm: NonNegative
+    """Opening when closed on nothing [cm]."""
+    jaw_length_cm: Positive = 3.0
+    """How far the jaws reach beyond the TCP frame's origin along the approach axis [cm]."""
+    jaw_thickness_cm: Positive = 0.5
+
+    @model_validator(mode="after")
+    def _settings(self) -> Gripper:
+        if not self.closed_cm < self.open_cm:
+            raise ValueError(
+                f"@closed_cm: {self.closed_cm:g} must be below open_cm ({self.open_cm:g})"
+            )
+        self.servo.check_value(self.open_cm, "open_cm")
+        self.servo.check_value(self.closed_cm, "closed_cm")
+        return self
+
+    def opening_cm(self, closed: bool) -> float:
+        """The opening for closed or open [cm]."""
+        return self.closed_cm if closed else self.open_cm
+
+
+class Tool(Strict):
+    """What sits on the last frame of the chain."""
+
+    tcp_cm: Vector3 = (0.0, 0.0, 0.0)
+    """The tool centre point in the last DH frame [cm]: what IK targets move."""
+    approach_axis: Vector3 = (0.0, 0.0, 1.0)
+    """The tool's approach axis in the last DH frame (normalised when used)."""
+    pick_approach: Vector3 | None = None
+    """Direction (base frame) the approach axis must point in when picking and placing,
+    e.g. ``[0, 0, -1]`` for a wrist that picks from above; ``null``: position only."""
+    tcp_above_grip_cm: NonNegative = 0.0
+    """How far above the point where the jaws close the TCP is when picking [cm]."""
+    gripper: Gripper
+    actuators: list[ToolActuator] = Field(default_factory=list)
+
+    @model_validator(mode="after")
+    def _axes(self) -> Tool:
+        for key in ("approach_axis", "pick_approach"):
+            v = getattr(self, key)
+            if v is not None and math.hypot(*v) < 1e-9:
+                raise ValueError(f"@{key}: must be a non-zero vector, got {list(v)}")
+        return self
+
+
+class TargetBox(Strict):
+    """Where TCP targets may lie, base frame [cm] (the paper's Table 3 for its arm)."""
+
+    x_cm: Range = Range(min=-40, max=40)
+    y_cm: Range = Range(min=20, max=60)
+    z_cm: Range = Range(min=10, max=60)
+
+
+def _interval(terms: dict[str, float], offset: float, limits: dict[str, Range]) -> Range:
+    lo = hi = offset
+    for name, c in terms.items():
+        a, b = c * limits[name].min, c * limits[name].max
+        lo, hi = lo + min(a, b), hi + max(a, b)
+    if not lo < hi:
+        hi = lo + 1e-9
+    return Range(min=lo, max=hi)
+
+
+#: Seeded poses tried by the chain's rank check.
+_RANK_POSES = 24
+
+
+class ArmDescription(Strict):
+    """The whole arm: the chain, the tool and the target box.
+
+    Attributes:
+        name: The arm's name (the URDF's robot name).
+        joints: The chain, base first.
+        tool: TCP, approach axis, gripper and tool actuators.
+        target_box: Where targets may lie.
+        closed_form: A registered closed-form IK plug-in for this arm, or ``null``.
+    """
+
+    name: Name
+    joints: list[Joint] = Field(min_length=1, max_length=12)
+    tool: Tool
+    target_box: TargetBox = TargetBox()
+    closed_form: Name | None = None
+
+    @model_validator(mode="after")
+    def _consistent(self) -> ArmDescription:
+        names = [j.name for j in self.joints]
+        tool_names = [a.name for a in self.tool.actuators] + [self.tool.gripper.name]
+        seen: set[str] = set()
+        for n in names + tool_names:
+            if n in seen:
+                raise ValueError(f"name '{n}' is used twice (joints and tool actuators)")
+            seen.add(n)
+        actuated = [j.name for j in self.joints if j.actuated]
+        if not actuated:
+            raise ValueError("@joints: no joint is actuated: give at least one a 'servo'")
+        for i, j in enumerate(self.joints):
+            if j.coupling is None:
+                continue
+            for term in j.coupling.terms:
+                if term not in actuated:
+                    allowed = ", ".join(actuated)
+                    raise ValueError(
+                        f"@joints.{i}.coupling.terms: '{term}' is not an actuated joint of "
+                        f"this arm (actuated: {allowed})"
+                    )
+        channels: dict[int, str] = {}
+        servos = [(j.name, j.servo) for j in self.joints if j.servo is not None]
+        servos += [(a.name, a.servo) for a in self.tool.actuators]
+        servos.append((self.tool.gripper.name, self.tool.gripper.servo))
+        for name, servo in servos:
+            if servo.channel in channels:
+                raise ValueError(
+                    f"@joints: {name} and {channels[servo.channel]} share servo channel "
+                    f"{servo.channel}"
+                )
+            channels[servo.channel] = name
+        self._check_rank()
+        return self
+
+    # ----------------------------------------------------------------- derived
+
+    def actuated_joints(self) -> list[Joint]:
+        """The actuated joints, in chain order."""
+        return [j for j in self.joints if j.actuated]
+
+    def joint_limits(self) -> dict[str, Range]:
+        """Every joint's limits; a passive joint without its own, from its coupling."""
+        limits = {j.name: j.limits for j in self.joints if j.limits is not None}
+        out: dict[str, Range] = {}
+        for j in self.joints:
+            if j.limits is not None:
+                out[j.name] = j.limits
+            else:
+                assert j.coupling is not None
+                out[j.name] = _interval(j.coupling.terms, j.coupling.offset, limits)
+        return out
+
+    def full_values(self, actuated: dict[str, float]) -> dict[str, float]:
+        """Every joint's value from the actuated ones [deg or cm]."""
+        out: dict[str, float] = {}
+        for j in self.joints:
+            if j.coupling is None:
+                out[j.name] = float(actuated[j.name])
+            else:
+                out[j.name] = j.coupling.offset + sum(
+                    c * float(actuated[n]) for n, c in j.coupling.terms.items()
+                )
+        return out
+
+    def home(self) -> dict[str, float]:
+        """Home of the actuated joints [deg or cm]."""
+        return {j.name: float(j.home) for j in self.joints if j.home is not None}
+
+    def tcp_cm(self, values: dict[str, float]) -> np.ndarray:
+        """TCP position [cm], (3,), by the DH product (values of every joint, deg or cm)."""
+        T = np.eye(4)
+        for j in self.joints:
+            v = values[j.name]
+            T = T @ j.dh.transform(math.radians(v) if j.type == "revolute" else v, j.type)
+        return (T @ np.array([*self.tool.tcp_cm, 1.0]))[:3]
+
+    def _check_rank(self) -> None:
+        """Refuse a chain that cannot move the TCP in three independent directions."""
+        act = self.actuated_joints()
+        limits = {j.name: j.limits for j in act}
+        rng = np.random.default_rng(0)
+        need = min(3, len(act))
+        best = 0
+        for k in range(_RANK_POSES):
+            if k == 0:
+                base = self.home()
+            else:
+                base = {
+                    n: float(rng.uniform(r.min, r.max)) for n, r in limits.items() if r is not None
+                }
+            p0 = self.tcp_cm(self.full_values(base))
+            cols = []
+            for n in base:
+                h = 1e-4
+                moved = dict(base)
+                moved[n] += h
+                cols.append((self.tcp_cm(self.full_values(moved)) - p0) / h)
+            rank = int(np.linalg.matrix_rank(np.stack(cols, axis=1), tol=1e-6))
+            best = max(best, rank)
+            if best >= need:
+                return
+        raise ValueError(
+            f"@joints: singular chain: the TCP moves in at most {best} independent direction(s) "
+            f"at {_RANK_POSES} poses within the limits; a sorting arm needs {need}"
+            " (check the DH rows: lengths a_cm/d_cm and twists alpha_deg)"
+        )

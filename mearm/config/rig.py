@@ -1,0 +1,261 @@
+"""The rig around the arm: camera, calibration, vision, controller, servo link, task."""
+
+from __future__ import annotations
+
+from typing import Annotated, Any, Literal
+
+from pydantic import Field, ValidationError, field_validator, model_validator
+
+from mearm.config.base import Finite, Name, NonNegative, Positive, Strict, describe_error
+from mearm.config.classes import ColorClass
+from mearm.config.defaults import PAPER_LAYOUT, default_classes
+from mearm.exceptions import ConfigError
+
+
+class CameraConfig(Strict):
+    """Where frames come from.
+
+    ``device``: a USB camera through ``cv2.VideoCapture`` (``device_index``, or ``path``
+    when set); ``file``/``folder``: saved frames replayed in order (``path``); ``sim``: the
+    simulated table rendered from the world model (mearm.vision.camera).
+    """
+
+    kind: Literal["device", "file", "folder", "sim"] = "sim"
+    device_index: int = Field(default=0, ge=0)
+    path: str | None = None
+    width_px: int = Field(default=640, gt=0)
+    height_px: int = Field(default=480, gt=0)
+    open_timeout_s: Positive = 5.0
+    loop: bool = False
+    # sim renderer (mearm.vision.render)
+    noise_std: NonNegative = 2.0
+    """Sensor noise, standard deviation in 8-bit levels."""
+    brightness: Positive = 1.0
+    """Overall light level, a factor on every pixel (1 = nominal)."""
+    gradient: NonNegative = 0.15
+    """Lighting gradient: ±this fraction of the light from one corner to the other."""
+    table: Literal["wood", "grey"] = "wood"
+    """Table surface the sim renders."""
+    seed: int = 0
+    """Seed of the texture and of the noise sequence (frame i uses seed + i)."""
+
+    @model_validator(mode="after")
+    def _path_for_replay(self) -> CameraConfig:
+        if self.kind in ("file", "folder") and not self.path:
+            raise ValueError(f"camera.kind '{self.kind}' needs camera.path")
+        return self
+
+
+class CalibrationConfig(Strict):
+    """Pixel → table homography, base frame, cm (paper §4).
+
+    The default is the paper's measured rig: x = 0.0625·u − 20.5, y = 59.0 − 0.0625·v.
+    """
+
+    homography: tuple[
+        tuple[Finite, Finite, Finite],
+        tuple[Finite, Finite, Finite],
+        tuple[Finite, Finite, Finite],
+    ] = ((0.0625, 0.0, -20.5), (0.0, -0.0625, 59.0), (0.0, 0.0, 1.0))
+    reprojection_error_cm: NonNegative | None = None
+
+    @field_validator("homography")
+    @classmethod
+    def _invertible(cls, h: Any) -> Any:
+        a, b, c = h
+        det = (
+            a[0] * (b[1] * c[2] - b[2] * c[1])
+            - a[1] * (b[0] * c[2] - b[2] * c[0])
+            + a[2] * (b[0] * c[1] - b[1] * c[0])
+        )
+        if abs(det) < 1e-12:
+            raise ValueError("homography is singular (determinant 0): recalibrate")
+        return h
+
+
+class VisionConfig(Strict):
+    """HSV colour segmentation; each class's hue bands are in ``task.classes``.
+
+    A pixel counts when its saturation and value reach the floors and its hue lies in a
+    band of a class. The floors' defaults reject white paper, a grey table and specular
+    highlights (S < 0.15) and deep shadows (V < 0.25); the paper used 0.1 for both.
+    """
+
+    saturation_min: Annotated[float, Field(ge=0, le=1)] = 0.4
+    value_min: Annotated[float, Field(ge=0, le=1)] = 0.25
+    median_kernel: int = Field(default=3, ge=1)
+    min_area_px: int = Field(default=100, ge=1)
+    merged_area_ratio: Annotated[float, Field(gt=1, allow_inf_nan=False)] = 1.6
+    """A region larger than this times one object's expected area is flagged merged."""
+    merged_elongation: Annotated[float, Field(gt=1, allow_inf_nan=False)] = 1.5
+    """A region whose major/minor axis ratio exceeds this is flagged merged."""
+
+    @field_validator("median_kernel")
+    @classmethod
+    def _odd(cls, k: int) -> int:
+        if k % 2 == 0:
+            raise ValueError(f"must be odd, got {k}")
+        return k
+
+
+# --------------------------------------------------------------------------- controller
+
+
+class ControllerConfig(Strict):
+    """The IK solver: PD-PIJ (paper §3), or mink / the closed form as cross-checks.
+
+    The gains must keep the linearised loop e_{t+1} = (1−kp−kd)·e_t + kd·e_{t−1} stable:
+    kp > 0, 0 ≤ kd < 1 and kp + 2·kd < 2 (Jury's test on its characteristic polynomial).
+    """
+
+    solver: Literal["pdpij", "mink", "analytic"] = "pdpij"
+    """Which solver :func:`mearm.ik.solve_ik` runs."""
+    mode: Literal["paper", "coupled"] = "coupled"
+    """paper: θ ∈ R⁴, 3×4 J, coupling re-imposed after each update; coupled: J·C."""
+    kp: Positive = 0.1
+    """Proportional gain [-]."""
+    kd: NonNegative = 0.01
+    """Derivative gain [-]."""
+    tolerance_cm2: Positive = 1e-3
+    """Stop when |e|² is below this [cm²] (paper §3, eq. 6)."""
+    max_iterations: int = Field(default=1000, ge=1)
+    """Give up (status ``max_iterations``) after this many updates."""
+    singular_value_cutoff: Positive = 1e-6
+    """Singular values at or below this times the largest are treated as zero in J⁺ [-]."""
+    damping: NonNegative = 0.0
+    """> 0 selects damped least squares, Jᵀ(J Jᵀ + λ² I)⁻¹, with this λ [cm/rad]."""
+    safeguard: bool = True
+    """Reject an update that would raise |e| and retry along the clamped exact step."""
+    stall_iterations: int = Field(default=50, ge=1)
+    """Status ``stalled`` when |e| fell by under a relative 1e-6 over this many updates."""
+    qp_solver: str = "daqp"
+    """qpsolvers backend of the mink cross-check."""
+
+    @model_validator(mode="after")
+    def _stable_gains(self) -> ControllerConfig:
+        if self.kd >= 1:
+            raise ValueError(f"kd = {self.kd:g} must be below 1 (the PD loop is unstable)")
+        if self.kp + 2 * self.kd >= 2:
+            raise ValueError(
+                f"kp + 2·kd = {self.kp + 2 * self.kd:g} must be below 2 "
+                "(the PD loop is unstable); the paper uses kp = 0.1, kd = 0.01"
+            )
+        return self
+
+    def updated(self, **changes: Any) -> ControllerConfig:
+        """A copy with ``changes`` applied and validated.
+
+        Raises:
+            ConfigError: a changed value is invalid; the message names it.
+        """
+        try:
+            return ControllerConfig.model_validate({**self.model_dump(), **changes})
+        except ValidationError as exc:
+            problems = [describe_error({**e, "loc": ("controller", *e["loc"])}) for e in exc.errors()]
+            raise ConfigError(None, problems) from None
+
+
+# --------------------------------------------------------------------------- servos
+
+
+class SimErrorModel(Strict):
+    """How the simulated servos miss their commands (paper §5).
+
+    ``quantization``: ``microsecond`` — the integer-µs pulse the serial backends send;
+    ``degree`` — a whole degree of the servo's 0–180° scale, as ``Servo.write`` does (one
+    step is (max_us − min_us)/180 µs, 1 DH degree with the default mapping); ``none``.
+    The realised angle is the quantised one plus ``offset_deg`` (static, per joint) plus
+    Gaussian noise of ``noise_std_deg`` drawn per move and joint.
+    """
+
+    quantization: Literal["none", "degree", "microsecond"] = "microsecond"
+    offset_deg: dict[Name, Finite] = Field(default_factory=dict)
+    """Static offset per actuated joint [deg or cm], by joint name; unnamed joints: 0."""
+    noise_std_deg: NonNegative = 0.0
+    seed: int = 0
+
+
+class ServoConfig(Strict):
+    """The servo link (paper §1: an Arduino Uno over USB serial) and the simulated arm."""
+
+    backend: Literal["sim", "serial", "ssc32"] = "sim"
+    port: str = "/dev/ttyACM0"
+    """Serial device, or a pyserial URL (``socket://host:port``, ``rfc2217://…``)."""
+    baud: int = Field(default=115200, gt=0)
+    rate_hz: Positive = 50.0
+    """Commands per second at most (the servo frame rate); lower if the baud rate demands."""
+    ack_timeout_s: Positive = 0.5
+    banner_timeout_s: Positive = 3.0
+    retries: int = Field(default=3, ge=0)
+    """Resends of a command that failed its checksum, after the first try."""
+    grip_tolerance_cm: Positive = 1.2
+    """Sim: a pick succeeds if the EE is this close to the object in the plane and to
+    the pick height in z (paper §5: picks under 1.2 cm error always succeeded)."""
+    bin_radius_cm: Positive = 4.0
+    """Sim: an object released within this distance (in the plane) of a bin falls into
+    it; farther away it drops onto the table under the EE."""
+    sim_realtime: bool = False
+    """Sim: pace moves at ``rate_hz`` like the real link (default: as fast as it can)."""
+    error_model: SimErrorModel = SimErrorModel()
+
+
+
+# --------------------------------------------------------------------------- task
+
+
+class SceneObject(Strict):
+    """One object on the (simulated) table, base frame [cm]; ``color`` names its class."""
+
+    color: Name
+    x: Finite
+    y: Finite
+
+
+class TaskConfig(Strict):
+    """The sorting task: the colour classes in sort order, retries and the simulated table."""
+
+    classes: list[ColorClass] = Field(default_factory=default_classes, min_length=1)
+    pick_retries: int = Field(default=2, ge=0)
+    scene: list[SceneObject] = Field(
+        default_factory=lambda: [SceneObject(color=c, x=x, y=y) for c, x, y in PAPER_LAYOUT]
+    )
+
+    @model_validator(mode="after")
+    def _classes_distinct(self) -> TaskConfig:
+        names: set[str] = set()
+        bins: dict[tuple[float, float, float], str] = {}
+        for c in self.classes:
+            if c.name in names:
+                raise ValueError(f"@classes: '{c.name}' is listed twice")
+            names.add(c.name)
+            if c.bin_cm in bins:
+                raise ValueError(
+                    f"@classes: '{c.name}' and '{bins[c.bin_cm]}' share the bin at "
+                    f"{list(c.bin_cm)} cm; each class needs its own bin"
+                )
+            bins[c.bin_cm] = c.name
+        for i, obj in enumerate(self.scene):
+            if obj.color not in names:
+                raise ValueError(
+                    f"@scene.{i}.color: '{obj.color}' is not a class "
+                    f"(classes: {', '.join(c.name for c in self.classes)})"
+                )
+        return self
+
+    def class_named(self, name: str) -> ColorClass:
+        """The class called ``name``.
+
+        Raises:
+            KeyError: no such class.
+        """
+        for c in self.classes:
+            if c.name == name:
+                return c
+        raise KeyError(name)
+
+    @property
+    def class_names(self) -> list[str]:
+        """Class names in sort order."""
+        return [c.name for c in self.classes]
+
+
