@@ -41,20 +41,24 @@ class JointLimitError(MearmError):
     """A joint angle is outside its limits.
 
     Attributes:
-        joint: Joint name, e.g. ``"joint2"``.
-        value_deg: The offending angle [deg].
-        lower_deg: Lower limit [deg].
-        upper_deg: Upper limit [deg].
+        joint: Joint name, e.g. ``"shoulder"``.
+        value_deg: The offending value [deg, or cm for a prismatic joint].
+        lower_deg: Lower limit [same unit].
+        upper_deg: Upper limit [same unit].
+        unit: ``deg`` or ``cm``.
     """
 
-    def __init__(self, joint: str, value_deg: float, lower_deg: float, upper_deg: float):
+    def __init__(
+        self, joint: str, value_deg: float, lower_deg: float, upper_deg: float, unit: str = "deg"
+    ):
         self.joint = joint
         self.value_deg = float(value_deg)
         self.lower_deg = float(lower_deg)
         self.upper_deg = float(upper_deg)
+        self.unit = unit
         super().__init__(
-            f"{joint} = {self.value_deg:.4g} deg is outside its limits "
-            f"[{self.lower_deg:.4g}, {self.upper_deg:.4g}] deg"
+            f"{joint} = {self.value_deg:.4g} {unit} is outside its limits "
+            f"[{self.lower_deg:.4g}, {self.upper_deg:.4g}] {unit}"
         )
 
 
@@ -78,7 +82,7 @@ class TargetError(MearmError):
 
 
 class TargetOutsideBoxError(TargetError):
-    """The target lies outside the end-effector target box (SPEC §3, Table 3).
+    """The target lies outside the end-effector target box (paper §3, Table 3).
 
     Attributes:
         axis: The violated axis, ``"x"``, ``"y"`` or ``"z"``.
@@ -151,7 +155,7 @@ class ImageError(MearmError):
 
 
 class CalibrationError(MearmError):
-    """A pixel ↔ table calibration cannot be fitted or used (SPEC §4).
+    """A pixel ↔ table calibration cannot be fitted or used (paper §4).
 
     Attributes:
         reason: What is wrong and what to do.
@@ -240,7 +244,8 @@ class WorldError(MearmError):
 
 
 class InvalidCommandError(MearmError):
-    """An arm command is not three finite joint angles, a finite gripper-arm angle and a bool."""
+    """An arm command does not name exactly the arm's actuated joints and tool actuators
+    with finite values, or its gripper flag is not a bool."""
 
 
 class PulseRangeError(JointLimitError):
@@ -266,6 +271,7 @@ class PulseRangeError(JointLimitError):
         pulse_us: float,
         min_us: float,
         max_us: float,
+        unit: str = "deg",
     ):
         self.joint = joint
         self.value_deg = float(value_deg)
@@ -275,12 +281,13 @@ class PulseRangeError(JointLimitError):
         self.pulse_us = float(pulse_us)
         self.min_us = float(min_us)
         self.max_us = float(max_us)
+        self.unit = unit
         MearmError.__init__(
             self,
-            f"{joint} = {self.value_deg:.4g} deg needs a {self.pulse_us:.1f} µs pulse on "
+            f"{joint} = {self.value_deg:.4g} {unit} needs a {self.pulse_us:.1f} µs pulse on "
             f"channel {channel}, outside its [{self.min_us:g}, {self.max_us:g}] µs: the "
-            f"pulse range allows {joint} in [{self.lower_deg:.4g}, {self.upper_deg:.4g}] deg "
-            "(servo.joints in the config)",
+            f"pulse range allows {joint} in [{self.lower_deg:.4g}, {self.upper_deg:.4g}] {unit} "
+            "(its servo calibration in arm: in the config)",
         )
 
 
@@ -495,3 +502,41 @@ class QPSolverError(MearmError):
             f"QP solver {name!r} is not installed; available: {self.available} "
             "(set controller.qp_solver)"
         )
+
+__all__ = [
+    "AnalysisError",
+    "BannerTimeoutError",
+    "BoardError",
+    "BoardResetError",
+    "BrowserNotFoundError",
+    "CalibrationError",
+    "CameraError",
+    "ChecksumError",
+    "ConfigError",
+    "GarbledReplyError",
+    "HandshakeError",
+    "ImageError",
+    "InvalidCommandError",
+    "InvalidJointsError",
+    "InvalidTargetError",
+    "JointLimitError",
+    "LinkDroppedError",
+    "LinkError",
+    "MearmError",
+    "ModelError",
+    "NoAckError",
+    "PulseRangeError",
+    "QPSolverError",
+    "RunLogError",
+    "RunLogFormatError",
+    "ServoError",
+    "ServoFaultedError",
+    "ServoNotConnectedError",
+    "TargetError",
+    "TargetOutsideBoxError",
+    "UnreachableTargetError",
+    "ViewError",
+    "ViewInputError",
+    "ViewPortError",
+    "WorldError",
+]

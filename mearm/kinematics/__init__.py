@@ -1,21 +1,38 @@
-"""Kinematics: the DH reference, the URDF it generates, the Pinocchio model, the closed form."""
+"""Kinematics of any arm described as data: the chain, the DH reference, the URDF, the
+Pinocchio model, and closed forms as plug-ins."""
 
-from mearm.kinematics.analytic import analytic_ik_deg, as_target_cm, check_in_box, check_target
-from mearm.kinematics.dh import dh_fk, dh_frames, dh_jacobian, dh_transform
-from mearm.kinematics.model import COUPLING, ArmModel, couple
-from mearm.kinematics.urdf import dh_to_urdf
+from mearm.kinematics.chain import Chain
+from mearm.kinematics.closed_form import (
+    CLOSED_FORMS,
+    ClosedForm,
+    PlanarWrist,
+    as_target_cm,
+    check_in_box,
+    check_target,
+    closed_form_for,
+    register_closed_form,
+)
+from mearm.kinematics.dh import dh_fk, dh_frames, dh_jacobian, dh_tcp_frame
+from mearm.kinematics.model import CM_PER_M, ArmModel
+from mearm.kinematics.urdf import TCP_FRAME, generate_urdf, jaw_joint_names
 
 __all__ = [
-    "COUPLING",
+    "CLOSED_FORMS",
+    "CM_PER_M",
+    "TCP_FRAME",
     "ArmModel",
-    "analytic_ik_deg",
+    "Chain",
+    "ClosedForm",
+    "PlanarWrist",
     "as_target_cm",
     "check_in_box",
     "check_target",
-    "couple",
+    "closed_form_for",
     "dh_fk",
     "dh_frames",
     "dh_jacobian",
-    "dh_to_urdf",
-    "dh_transform",
+    "dh_tcp_frame",
+    "generate_urdf",
+    "jaw_joint_names",
+    "register_closed_form",
 ]

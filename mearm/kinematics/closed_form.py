@@ -1,25 +1,38 @@
-r"""Closed-form inverse kinematics of the arm, and the target check built on it.
+r"""Closed-form IK as plug-ins, registered for the arms that have one; the target checks.
 
-The parallelogram keeps link 4 horizontal (θ2 + θ3 + θ4 = 0, SPEC §2), so the EE sits at
+An arm description may name a closed form (``arm.closed_form``); :func:`closed_form_for`
+builds it, checking that the arm really has the structure the formula assumes. The
+generic solvers never need one: it seeds and cross-checks them where it exists.
+
+``planar_wrist`` — a base yaw joint (α = 90°), two planar links and a passive wrist held
+level by a parallelogram (wrist = −shoulder − elbow): the paper's arm and the MeArm.
+The TCP then sits at
 
 .. math::
-    \rho = a_1 + a_2\cos\theta_2 + a_3\cos(\theta_2+\theta_3) + a_4, \qquad
-    z = d_1 + a_2\sin\theta_2 + a_3\sin(\theta_2+\theta_3)
+    \rho = a_1 + a_2\cos\theta_2 + a_3\cos(\theta_2+\theta_3) + a_4 + t_x, \qquad
+    z = d_1 + a_2\sin\theta_2 + a_3\sin(\theta_2+\theta_3) + t_y
 
-along the horizontal direction θ1. With θ3 < 0 (every pose within the limits, the
-elbow-up branch) the solution is unique, which makes this both an oracle for the
-iterative solvers and the instant reachability test used before anything moves.
+along the horizontal direction θ1 (``t`` the TCP offset in the last frame). With θ3 < 0
+(the elbow-up branch) the solution is unique.
 """
 
 from __future__ import annotations
 
+import abc
 import math
+from collections.abc import Callable
 
 import numpy as np
 import numpy.typing as npt
 
-from mearm.config import ACTUATED_JOINTS, RobotConfig
-from mearm.exceptions import InvalidTargetError, TargetOutsideBoxError, UnreachableTargetError
+from mearm.config import ArmDescription
+from mearm.exceptions import (
+    InvalidTargetError,
+    ModelError,
+    TargetOutsideBoxError,
+    UnreachableTargetError,
+)
+from mearm.kinematics.chain import Chain
 
 _EPS = 1e-12
 
@@ -39,76 +52,161 @@ def as_target_cm(target_cm: npt.ArrayLike) -> np.ndarray:
     return t
 
 
-def analytic_ik_deg(target_cm: npt.ArrayLike, robot: RobotConfig) -> np.ndarray:
-    """Joint angles (θ1, θ2, θ3, θ4) [deg] that put the EE at ``target_cm``.
-
-    Args:
-        target_cm: (x, y, z) in the base frame [cm].
-        robot: Geometry and joint limits.
-
-    Returns:
-        (4,) joint angles in degrees, θ4 = −(θ2 + θ3), all within the limits.
-
-    Raises:
-        UnreachableTargetError: the point is beyond the arm's reach, too close to it, or
-            needs a joint outside its limits; the message says which.
-    """
-    x, y, z = as_target_cm(target_cm)
-    r1, r2, r3, r4 = robot.dh
-    if (r1.alpha_deg, r2.alpha_deg, r3.alpha_deg, r4.alpha_deg) != (90.0, 0.0, 0.0, 0.0):
-        raise UnreachableTargetError(
-            (x, y, z), "the closed form needs the MeArm DH structure α = (90, 0, 0, 0) deg"
-        )
-    a2, a3 = r2.a_cm, r3.a_cm
-    rho = math.hypot(x, y)
-    if rho < _EPS:
-        raise UnreachableTargetError((x, y, z), "on the base axis, where θ1 is undefined")
-    theta1 = math.atan2(y, x)
-    r = rho - r1.a_cm - r4.a_cm
-    h = z - r1.d_cm - r2.d_cm - r3.d_cm - r4.d_cm
-    dist = math.hypot(r, h)
-    reach_max, reach_min = a2 + a3, abs(a2 - a3)
-    if dist > reach_max + _EPS or dist < reach_min - _EPS:
-        raise UnreachableTargetError(
-            (x, y, z),
-            f"out of reach: the wrist point is {dist:.3f} cm from joint 2, "
-            f"the arm reaches [{reach_min:.3f}, {reach_max:.3f}] cm",
-        )
-    cos3 = (dist * dist - a2 * a2 - a3 * a3) / (2.0 * a2 * a3)
-    theta3 = -math.acos(min(1.0, max(-1.0, cos3)))
-    theta2 = math.atan2(h, r) - math.atan2(a3 * math.sin(theta3), a2 + a3 * math.cos(theta3))
-    q_deg = np.degrees([theta1, theta2, theta3])
-    jl = robot.joint_limits_deg
-    for name, value, lim in zip(
-        ACTUATED_JOINTS, q_deg, (jl.joint1, jl.joint2, jl.joint3), strict=True
-    ):
-        if not lim.contains(value, tol=1e-9):
-            raise UnreachableTargetError(
-                (x, y, z),
-                f"needs {name} = {value:.2f} deg, "
-                f"outside its limits [{lim.min:g}, {lim.max:g}] deg",
-            )
-    return np.array([q_deg[0], q_deg[1], q_deg[2], -(q_deg[1] + q_deg[2])])
-
-
-def check_in_box(target_cm: npt.ArrayLike, robot: RobotConfig) -> None:
-    """Raise :class:`TargetOutsideBoxError` if the target leaves the Table 3 box."""
+def check_in_box(target_cm: npt.ArrayLike, arm: ArmDescription) -> None:
+    """Raise :class:`TargetOutsideBoxError` if the target leaves the arm's target box."""
     t = as_target_cm(target_cm)
-    box = robot.target_box
+    box = arm.target_box
     for axis, value, rng in zip("xyz", t, (box.x_cm, box.y_cm, box.z_cm), strict=True):
         if not rng.contains(float(value)):
             raise TargetOutsideBoxError(tuple(t), axis, (rng.min, rng.max))
 
 
-def check_target(target_cm: npt.ArrayLike, robot: RobotConfig) -> np.ndarray:
-    """Validate a target before any motion: inside the box and reachable within limits.
+class ClosedForm(abc.ABC):
+    """A closed-form IK for one family of arms.
 
-    Returns:
-        The closed-form joint solution (θ1..θ4) [deg], (4,).
+    Args:
+        arm: The description; the constructor raises :class:`ModelError` if the arm does
+            not have the structure the formula needs.
+    """
+
+    #: The name an arm description gives in ``closed_form``.
+    name: str = ""
+
+    def __init__(self, arm: ArmDescription):
+        self.arm = arm
+        self.chain = Chain.from_description(arm)
+
+    @abc.abstractmethod
+    def solve(self, target_cm: npt.ArrayLike) -> np.ndarray:
+        """Every joint, model units, (n,), putting the TCP at ``target_cm``; within limits.
+
+        Raises:
+            UnreachableTargetError: out of reach, or needs a joint outside its limits.
+        """
+
+    def _check_limits(self, target: tuple[float, float, float], q: np.ndarray) -> None:
+        ch = self.chain
+        for i, name in enumerate(ch.names):
+            if not ch.lower[i] - 1e-9 <= q[i] <= ch.upper[i] + 1e-9:
+                s = ch.scale[i]
+                raise UnreachableTargetError(
+                    target,
+                    f"needs {name} = {q[i] / s:.2f} {ch.unit(i)}, outside its limits "
+                    f"[{ch.lower[i] / s:g}, {ch.upper[i] / s:g}] {ch.unit(i)}",
+                )
+
+
+CLOSED_FORMS: dict[str, type[ClosedForm]] = {}
+
+
+def register_closed_form(cls: type[ClosedForm]) -> type[ClosedForm]:
+    """Class decorator: make ``cls`` available under ``cls.name``."""
+    CLOSED_FORMS[cls.name] = cls
+    return cls
+
+
+def closed_form_for(arm: ArmDescription) -> ClosedForm | None:
+    """The closed form ``arm.closed_form`` names, built for ``arm``; ``None`` if none.
 
     Raises:
-        TargetOutsideBoxError: outside SPEC §3 Table 3.
-        UnreachableTargetError: inside the box but out of reach.
+        ModelError: an unknown name, or an arm without the structure it needs.
     """
-    check_in_box(target_cm, robot)
-    return analytic_ik_deg(target_cm, robot)
+    if arm.closed_form is None:
+        return None
+    cls = CLOSED_FORMS.get(arm.closed_form)
+    if cls is None:
+        raise ModelError(
+            f"arm.closed_form: unknown closed form {arm.closed_form!r} "
+            f"(registered: {', '.join(sorted(CLOSED_FORMS))}); or set it to null"
+        )
+    return cls(arm)
+
+
+@register_closed_form
+class PlanarWrist(ClosedForm):
+    """Base yaw, two planar links, a wrist levelled by a parallelogram (module docstring)."""
+
+    name = "planar_wrist"
+
+    def __init__(self, arm: ArmDescription):
+        super().__init__(arm)
+        j = arm.joints
+        problems = []
+        if len(j) != 4 or any(x.type != "revolute" for x in j):
+            problems.append("four revolute joints")
+        elif not (j[0].actuated and j[1].actuated and j[2].actuated and not j[3].actuated):
+            problems.append("three actuated joints and a passive fourth")
+        else:
+            c = j[3].coupling
+            assert c is not None
+            if c.terms != {j[1].name: -1.0, j[2].name: -1.0} or c.offset != 0.0:
+                problems.append(f"{j[3].name} = -{j[1].name} - {j[2].name}")
+            if (j[0].dh.alpha_deg, j[1].dh.alpha_deg, j[2].dh.alpha_deg, j[3].dh.alpha_deg) != (
+                90.0,
+                0.0,
+                0.0,
+                0.0,
+            ):
+                problems.append("alpha = (90, 0, 0, 0) deg")
+            if any(x.dh.theta_deg != 0.0 for x in j) or any(x.dh.d_cm != 0.0 for x in j[1:]):
+                problems.append("no theta offsets and d = 0 after the base")
+            if arm.tool.tcp_cm[2] != 0.0:
+                problems.append("a TCP in the arm's plane (tcp_cm z = 0)")
+        if problems:
+            raise ModelError(
+                f"arm.closed_form: {self.name!r} needs {'; '.join(problems)}; "
+                "this arm has another structure (set closed_form to null)"
+            )
+        tx, ty, _ = arm.tool.tcp_cm
+        self._a1, self._d1 = j[0].dh.a_cm, j[0].dh.d_cm
+        self._a2, self._a3 = j[1].dh.a_cm, j[2].dh.a_cm
+        self._radial = j[0].dh.a_cm + j[3].dh.a_cm + tx
+        self._height = j[0].dh.d_cm + ty
+
+    def solve(self, target_cm: npt.ArrayLike) -> np.ndarray:
+        """Joints (model units, (4,)) putting the TCP at ``target_cm``; see the module."""
+        x, y, z = (float(v) for v in as_target_cm(target_cm))
+        target = (x, y, z)
+        rho = math.hypot(x, y)
+        if rho < _EPS:
+            raise UnreachableTargetError(target, "on the base axis, where the base is undefined")
+        theta1 = math.atan2(y, x)
+        r = rho - self._radial
+        h = z - self._height
+        a2, a3 = self._a2, self._a3
+        dist = math.hypot(r, h)
+        reach_max, reach_min = a2 + a3, abs(a2 - a3)
+        if dist > reach_max + _EPS or dist < reach_min - _EPS:
+            raise UnreachableTargetError(
+                target,
+                f"out of reach: the wrist point is {dist:.3f} cm from the shoulder, "
+                f"the arm reaches [{reach_min:.3f}, {reach_max:.3f}] cm",
+            )
+        cos3 = (dist * dist - a2 * a2 - a3 * a3) / (2.0 * a2 * a3)
+        theta3 = -math.acos(min(1.0, max(-1.0, cos3)))
+        theta2 = math.atan2(h, r) - math.atan2(a3 * math.sin(theta3), a2 + a3 * math.cos(theta3))
+        q = np.array([theta1, theta2, theta3, -(theta2 + theta3)])
+        self._check_limits(target, q)
+        return np.clip(q, self.chain.lower, self.chain.upper)
+
+
+def check_target(
+    target_cm: npt.ArrayLike,
+    arm: ArmDescription,
+    closed_form: ClosedForm | Callable[..., np.ndarray] | None = None,
+) -> np.ndarray | None:
+    """Validate a target before any motion: inside the box and, where a closed form
+    exists, reachable within the limits.
+
+    Returns:
+        The closed-form joints (model units, (n,)), or ``None`` for an arm without one.
+
+    Raises:
+        TargetOutsideBoxError: outside the arm's target box.
+        UnreachableTargetError: inside the box but out of reach (closed form only).
+    """
+    check_in_box(target_cm, arm)
+    if closed_form is None:
+        return None
+    solve = closed_form.solve if isinstance(closed_form, ClosedForm) else closed_form
+    return solve(target_cm)

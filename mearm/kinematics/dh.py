@@ -1,69 +1,61 @@
-"""The paper's own kinematics: the DH product and the eq. 9 Jacobian (SPEC §2).
+r"""The DH product written the way the paper writes it: the independent reference.
 
-This is the independent reference the Pinocchio model is checked against, written the
-way the paper writes it, in centimetres.
+.. math:: T_{0,n} = \prod_i R_z(\theta_i)\,T_z(d_i)\,T_x(a_i)\,R_x(\alpha_i)
+
+followed by the tool's TCP offset. The Pinocchio model is checked against this, in
+centimetres, for every arm.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-
 import numpy as np
 import numpy.typing as npt
 
-from mearm.config import DHRow
+from mearm.config import ArmDescription
 
 
-def dh_transform(theta_rad: float, row: DHRow) -> np.ndarray:
-    r"""One DH link transform (SPEC §2, eq. 1).
-
-    .. math:: T_{i-1,i} = R_z(\theta_i)\,T_z(d_i)\,T_x(a_i)\,R_x(\alpha_i)
+def dh_frames(arm: ArmDescription, q: npt.ArrayLike) -> list[np.ndarray]:
+    """Frames T(0→0), T(0→1), …, T(0→n), each (4, 4), cm.
 
     Args:
-        theta_rad: Joint angle θi [rad].
-        row: The link's a [cm], α [deg] and d [cm].
-
-    Returns:
-        The (4, 4) homogeneous transform, translation in cm.
+        arm: The description.
+        q: Every joint in model units (rad, or m for a prismatic joint), (n,).
     """
-    ct, st = np.cos(theta_rad), np.sin(theta_rad)
-    alpha = np.radians(row.alpha_deg)
-    ca, sa = np.cos(alpha), np.sin(alpha)
-    return np.array(
-        [
-            [ct, -ca * st, sa * st, row.a_cm * ct],
-            [st, ca * ct, -sa * ct, row.a_cm * st],
-            [0.0, sa, ca, row.d_cm],
-            [0.0, 0.0, 0.0, 1.0],
-        ]
-    )
-
-
-def dh_frames(joints_rad: npt.ArrayLike, rows: Sequence[DHRow]) -> list[np.ndarray]:
-    """Frames T(0→0), T(0→1), …, T(0→n) (SPEC §2, eq. 2), each (4, 4), cm."""
-    q = np.asarray(joints_rad, dtype=float)
-    if q.shape != (len(rows),):
-        raise ValueError(f"expected {len(rows)} joint angles, got shape {q.shape}")
+    values = np.asarray(q, dtype=float)
+    if values.shape != (len(arm.joints),):
+        raise ValueError(f"expected {len(arm.joints)} joint values, got shape {values.shape}")
     frames = [np.eye(4)]
-    for theta, row in zip(q, rows, strict=True):
-        frames.append(frames[-1] @ dh_transform(float(theta), row))
+    for v, joint in zip(values.tolist(), arm.joints, strict=True):
+        value = v * 100.0 if joint.type == "prismatic" else v
+        frames.append(frames[-1] @ joint.dh.transform(value, joint.type))
     return frames
 
 
-def dh_fk(joints_rad: npt.ArrayLike, rows: Sequence[DHRow]) -> np.ndarray:
-    """EE position, the last column of T(0→n) (SPEC §2, eq. 3). Returns (3,) [cm]."""
-    return dh_frames(joints_rad, rows)[-1][:3, 3].copy()
+def dh_tcp_frame(arm: ArmDescription, q: npt.ArrayLike) -> np.ndarray:
+    """The TCP frame: T(0→n) moved by the tool's ``tcp_cm``, (4, 4), cm."""
+    T = dh_frames(arm, q)[-1].copy()
+    T[:3, 3] += T[:3, :3] @ np.asarray(arm.tool.tcp_cm, dtype=float)
+    return T
 
 
-def dh_jacobian(joints_rad: npt.ArrayLike, rows: Sequence[DHRow]) -> np.ndarray:
-    r"""Position Jacobian of the EE for revolute joints (SPEC §2, eq. 9).
+def dh_fk(arm: ArmDescription, q: npt.ArrayLike) -> np.ndarray:
+    """TCP position [cm], (3,)."""
+    return dh_tcp_frame(arm, q)[:3, 3].copy()
 
-    .. math:: J_i = Z_{i-1} \times (O_n - O_{i-1})
+
+def dh_jacobian(arm: ArmDescription, q: npt.ArrayLike) -> np.ndarray:
+    r"""Position Jacobian of the TCP over every joint (the paper's eq. 9 and eq. 10).
+
+    .. math:: J_i = Z_{i-1} \times (O_{tcp} - O_{i-1}) \ \text{(revolute)}, \qquad
+              J_i = Z_{i-1} \ \text{(prismatic)}
 
     Returns:
-        (3, n) array [cm/rad].
+        (3, n) [cm/rad] for revolute columns, [cm/m] for prismatic ones.
     """
-    frames = dh_frames(joints_rad, rows)
-    o_n = frames[-1][:3, 3]
-    cols = [np.cross(T[:3, 2], o_n - T[:3, 3]) for T in frames[:-1]]
+    frames = dh_frames(arm, q)
+    o_tcp = dh_tcp_frame(arm, q)[:3, 3]
+    cols = []
+    for T, joint in zip(frames[:-1], arm.joints, strict=True):
+        z = T[:3, 2]
+        cols.append(z * 100.0 if joint.type == "prismatic" else np.cross(z, o_tcp - T[:3, 3]))
     return np.stack(cols, axis=1)

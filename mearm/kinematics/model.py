@@ -1,8 +1,9 @@
-"""The arm model on Pinocchio: FK of the ``ee`` frame and its position Jacobians.
+r"""The arm model on Pinocchio: FK of the ``tcp`` frame, its Jacobians, the approach axis.
 
-Joint vectors are in radians and hold all four DH joints, ``q = (θ1, θ2, θ3, θ4)``,
-with θ4 = −(θ2 + θ3) on the real arm (SPEC §2). Positions are in centimetres, the unit
-of the DH table, although the URDF itself is in metres.
+Built from the URDF the arm description generates. The gripper's jaw joints are locked
+(Pinocchio's ``buildReducedModel``), so the model's joints are exactly the chain's, in
+order, and ``q`` is the full joint vector in model units (rad, or m for a prismatic
+joint; see :class:`~mearm.kinematics.chain.Chain`). Positions are in centimetres.
 """
 
 from __future__ import annotations
@@ -13,101 +14,149 @@ import numpy as np
 import numpy.typing as npt
 import pinocchio as pin
 
-from mearm.config import JOINT_NAMES, RobotConfig
+from mearm.config import ArmDescription
 from mearm.exceptions import JointLimitError, ModelError
-from mearm.kinematics.urdf import dh_to_urdf
+from mearm.kinematics.chain import Chain
+from mearm.kinematics.urdf import TCP_FRAME, generate_urdf, jaw_joint_names
 
 CM_PER_M = 100.0
 
-#: Coupling matrix, q = C · (θ1, θ2, θ3): θ4 = −(θ2 + θ3) (SPEC §3, ``coupled`` mode).
-COUPLING = np.array(
-    [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, -1.0]]
-)  # (4, 3)
-
-
-def couple(q3: npt.ArrayLike) -> np.ndarray:
-    """Full joint vector (θ1..θ4) from the actuated (θ1, θ2, θ3); works in rad or deg."""
-    return COUPLING @ np.asarray(q3, dtype=float)
-
 
 class ArmModel:
-    """Pinocchio model of the arm, built from the URDF the DH table generates.
+    """Pinocchio model of an arm, built from its description's URDF.
 
     Args:
-        robot: Geometry and limits (the ``robot`` section of the config).
-        urdf_path: Load this URDF instead of generating one from ``robot``. Its joint
-            names must be ``joint1``..``joint4`` and it must have an ``ee`` frame.
+        arm: The arm description (``config.arm``).
+        urdf_path: Load this URDF instead of generating one. Its chain joints must carry
+            the description's names, in order, and it must have a ``tcp`` frame.
+
+    Attributes:
+        arm: The description.
+        chain: Joint order, units, limits and coupling.
+        urdf: The URDF text.
+        model: The Pinocchio model of the chain (jaws locked).
+        data: Its data (for this object's own calls).
+        tcp_frame_id: The ``tcp`` frame's id.
+        approach_axis: The tool's approach axis in the tcp frame, unit, (3,).
     """
 
-    def __init__(self, robot: RobotConfig, urdf_path: str | Path | None = None):
-        self.robot = robot
+    def __init__(self, arm: ArmDescription, urdf_path: str | Path | None = None):
+        self.arm = arm
+        self.chain = Chain.from_description(arm)
         if urdf_path is None:
-            self.urdf = dh_to_urdf(robot)
+            self.urdf = generate_urdf(arm)
         else:
             try:
                 self.urdf = Path(urdf_path).read_text(encoding="utf-8")
             except OSError as exc:
                 raise ModelError(f"cannot read URDF {urdf_path}: {exc}") from None
         try:
-            self.model = pin.buildModelFromXML(self.urdf)
+            full = pin.buildModelFromXML(self.urdf)
         except (RuntimeError, ValueError) as exc:
             raise ModelError(f"Pinocchio could not parse the URDF: {exc}") from None
-        names = list(self.model.names)[1:]
-        if names != list(JOINT_NAMES):
-            raise ModelError(f"URDF joints are {names}; expected {list(JOINT_NAMES)}")
-        if not self.model.existFrame("ee"):
-            raise ModelError("URDF has no 'ee' frame")
+        locked = [full.getJointId(n) for n in jaw_joint_names(arm) if full.existJointName(n)]
+        self.model = (
+            pin.buildReducedModel(full, locked, pin.neutral(full)) if locked else full
+        )
+        names = tuple(self.model.names)[1:]
+        if names != self.chain.names:
+            raise ModelError(
+                f"URDF joints are {list(names)}; the description has {list(self.chain.names)}"
+            )
+        if not self.model.existFrame(TCP_FRAME):
+            raise ModelError(f"URDF has no '{TCP_FRAME}' frame")
         self.data = self.model.createData()
-        self.ee_frame_id = self.model.getFrameId("ee")
-        limits = robot.joint_limits_deg.as_list()
-        #: Joint limits [deg] and [rad], (4,) each; joint 4's follow from the coupling.
-        self.lower_deg = np.array([lim.min for lim in limits])
-        self.upper_deg = np.array([lim.max for lim in limits])
-        self.lower_rad = np.radians(self.lower_deg)
-        self.upper_rad = np.radians(self.upper_deg)
+        self.tcp_frame_id = self.model.getFrameId(TCP_FRAME)
+        axis = np.asarray(arm.tool.approach_axis, dtype=float)
+        self.approach_axis = axis / np.linalg.norm(axis)
+
+    # ----------------------------------------------------------------- shortcuts
 
     @property
-    def home_rad(self) -> np.ndarray:
-        """Home pose (θ1..θ4) [rad], (4,)."""
-        return np.radians(self.robot.home_joints_deg)
+    def lower(self) -> np.ndarray:
+        """Lower joint limits, model units, (n,)."""
+        return self.chain.lower
 
-    def fk_cm(self, q_rad: npt.ArrayLike) -> np.ndarray:
-        """Position of the ``ee`` frame in the base frame [cm], (3,)."""
-        q = np.asarray(q_rad, dtype=float)
-        pin.framesForwardKinematics(self.model, self.data, q)
-        return self.data.oMf[self.ee_frame_id].translation * CM_PER_M
+    @property
+    def upper(self) -> np.ndarray:
+        """Upper joint limits, model units, (n,)."""
+        return self.chain.upper
 
-    def fk_and_jacobian(self, q_rad: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray]:
-        r"""EE position [cm], (3,), and position Jacobian [cm/rad], (3, 4), in one pass.
+    @property
+    def home(self) -> np.ndarray:
+        """Home pose, model units, (n,)."""
+        return self.chain.home.copy()
 
-        The Jacobian is expressed in the base frame (``LOCAL_WORLD_ALIGNED``),
-        :math:`\dot s = J \dot q`, equal to the paper's eq. 9.
+    # ----------------------------------------------------------------- kinematics
+
+    def tcp_pose(self, q: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+        """TCP position [cm], (3,), and rotation, (3, 3), in the base frame."""
+        pin.framesForwardKinematics(self.model, self.data, np.asarray(q, dtype=float))
+        M = self.data.oMf[self.tcp_frame_id]
+        return M.translation * CM_PER_M, M.rotation.copy()
+
+    def fk_cm(self, q: npt.ArrayLike) -> np.ndarray:
+        """TCP position in the base frame [cm], (3,)."""
+        return self.tcp_pose(q)[0]
+
+    def approach(self, q: npt.ArrayLike) -> np.ndarray:
+        """The tool's approach axis in the base frame, unit, (3,)."""
+        return self.tcp_pose(q)[1] @ self.approach_axis
+
+    def fk_and_jacobian(self, q: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+        r"""TCP position [cm], (3,), and position Jacobian, (3, n), in one pass.
+
+        The Jacobian is in the base frame (``LOCAL_WORLD_ALIGNED``), :math:`\dot s = J
+        \dot q` [cm per rad, or cm per m for a prismatic joint]: the paper's eq. 9.
         """
-        q = np.asarray(q_rad, dtype=float)
-        pin.computeJointJacobians(self.model, self.data, q)
-        pin.updateFramePlacement(self.model, self.data, self.ee_frame_id)
-        J = pin.getFrameJacobian(self.model, self.data, self.ee_frame_id, pin.LOCAL_WORLD_ALIGNED)
-        return self.data.oMf[self.ee_frame_id].translation * CM_PER_M, J[:3] * CM_PER_M
+        J = pin.computeFrameJacobian(
+            self.model,
+            self.data,
+            np.asarray(q, dtype=float),
+            self.tcp_frame_id,
+            pin.LOCAL_WORLD_ALIGNED,
+        )
+        return self.data.oMf[self.tcp_frame_id].translation * CM_PER_M, J[:3] * CM_PER_M
 
-    def jacobian(self, q_rad: npt.ArrayLike) -> np.ndarray:
-        """Position Jacobian over all four joints [cm/rad], (3, 4) (``paper`` mode)."""
-        return self.fk_and_jacobian(q_rad)[1]
+    def jacobian(self, q: npt.ArrayLike) -> np.ndarray:
+        """Position Jacobian over every joint, (3, n) (the paper mode's J)."""
+        return self.fk_and_jacobian(q)[1]
 
-    def coupled_jacobian(self, q_rad: npt.ArrayLike) -> np.ndarray:
-        r"""Jacobian over (θ1, θ2, θ3) through the coupling [cm/rad], (3, 3).
+    def coupled_jacobian(self, q: npt.ArrayLike) -> np.ndarray:
+        r"""Jacobian over the actuated joints through the coupling, (3, m).
 
         .. math:: J_c = J \, C
         """
-        return self.jacobian(q_rad) @ COUPLING
+        return self.jacobian(q) @ self.chain.C
 
-    def within_limits(self, q_rad: npt.ArrayLike, tol_rad: float = 1e-9) -> bool:
+    def approach_jacobian(self, q: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+        r"""Approach axis ``a`` (3,) and its Jacobian (3, n): :math:`\dot a = \omega \times a`.
+
+        .. math:: J_a = -[a]_\times J_\omega
+        """
+        J6 = pin.computeFrameJacobian(
+            self.model,
+            self.data,
+            np.asarray(q, dtype=float),
+            self.tcp_frame_id,
+            pin.LOCAL_WORLD_ALIGNED,
+        )
+        a = self.data.oMf[self.tcp_frame_id].rotation @ self.approach_axis
+        return a, -pin.skew(a) @ J6[3:]
+
+    # ----------------------------------------------------------------- limits
+
+    def within_limits(self, q: npt.ArrayLike, tol: float = 1e-9) -> bool:
         """Whether every joint is within its limits (with a small tolerance)."""
-        q = np.asarray(q_rad, dtype=float)
-        return bool(np.all(q >= self.lower_rad - tol_rad) and np.all(q <= self.upper_rad + tol_rad))
+        return self.chain.within_limits(q, tol)
 
-    def check_limits(self, q_rad: npt.ArrayLike, tol_rad: float = 1e-9) -> None:
+    def check_limits(self, q: npt.ArrayLike, tol: float = 1e-9) -> None:
         """Raise :class:`JointLimitError` for the first joint outside its limits."""
-        q = np.asarray(q_rad, dtype=float)
-        for i, name in enumerate(JOINT_NAMES[: len(q)]):
-            if not (self.lower_rad[i] - tol_rad <= q[i] <= self.upper_rad[i] + tol_rad):
-                raise JointLimitError(name, np.degrees(q[i]), self.lower_deg[i], self.upper_deg[i])
+        values = np.asarray(q, dtype=float)
+        ch = self.chain
+        for i, name in enumerate(ch.names):
+            if not (ch.lower[i] - tol <= values[i] <= ch.upper[i] + tol):
+                s = ch.scale[i]
+                raise JointLimitError(
+                    name, values[i] / s, ch.lower[i] / s, ch.upper[i] / s, unit=ch.unit(i)
+                )
