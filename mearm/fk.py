@@ -3,6 +3,9 @@
 Example::
 
     python -m mearm.fk --config configs/lab.yaml --joints 120,93,-132 --json
+
+``--joints`` lists the actuated joints in the config's order and units (deg, or cm for a
+prismatic joint); passive joints follow from their couplings.
 """
 
 from __future__ import annotations
@@ -10,42 +13,51 @@ from __future__ import annotations
 import json
 from collections.abc import Sequence
 
-import numpy as np
-
 from mearm.cli import ArgumentParser, add_config_argument, config_from_args, float_list, run
-from mearm.kinematics import ArmModel, couple
+from mearm.exceptions import InvalidJointsError
+from mearm.kinematics import ArmModel
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Print the EE position for the given θ1, θ2, θ3 (θ4 from the coupling)."""
+    """Print every joint and the TCP position for the given actuated joints."""
     parser = ArgumentParser(prog="python -m mearm.fk", description=__doc__.splitlines()[0])
     add_config_argument(parser)
     parser.add_argument(
         "--joints",
-        type=float_list(3, "--joints"),
+        type=float_list(None, "--joints"),
         required=True,
-        help="θ1,θ2,θ3 in degrees (θ4 = −(θ2+θ3) is filled in)",
+        help="the actuated joints in deg (cm if prismatic), in the config's order",
     )
     parser.add_argument("--json", action="store_true", help="print JSON")
     args = parser.parse_args(argv)
     config = config_from_args(args)
-    model = ArmModel(config.robot)
-    q_deg = couple(args.joints)
-    model.check_limits(np.radians(q_deg))
-    ee_cm = model.fk_cm(np.radians(q_deg))
+    model = ArmModel(config.arm)
+    chain = model.chain
+    if len(args.joints) != chain.m:
+        raise InvalidJointsError(
+            args.joints,
+            f"--joints needs {chain.m} numbers, the actuated joints "
+            f"({', '.join(chain.actuated)}), got {len(args.joints)}",
+        )
+    q = chain.from_named(dict(zip(chain.actuated, args.joints, strict=True)))
+    model.check_limits(q)
+    ee_cm = model.fk_cm(q)
+    approach = model.approach(q)
+    named = chain.named(q)
     if args.json:
         print(
             json.dumps(
                 {
-                    "joints_deg": [round(v, 9) for v in q_deg.tolist()],
+                    "joints": {k: round(v, 9) for k, v in named.items()},
                     "ee_cm": [round(v, 9) for v in ee_cm.tolist()],
+                    "approach": [round(v, 9) for v in approach.tolist()],
                 }
             )
         )
     else:
-        joints = ", ".join(f"{v:.2f}" for v in q_deg)
+        joints = ", ".join(f"{k} {v:.2f} {chain.unit(i)}" for i, (k, v) in enumerate(named.items()))
         x, y, z = ee_cm
-        print(f"joints (θ1..θ4) = ({joints}) deg")
+        print(f"joints: {joints}")
         print(f"ee = ({x:.2f}, {y:.2f}, {z:.2f}) cm")
     return 0
 

@@ -10,7 +10,7 @@ def test_home_json():
     )
     assert r.returncode == 0, r.stderr
     out = json.loads(r.stdout)
-    assert out["joints_deg"] == [120, 93, -132, 39]
+    assert out["joints"] == {"base": 120, "shoulder": 93, "elbow": -132, "wrist": 39}
     for got, want in zip(out["ee_cm"], [-20.16, 34.91, 19.95], strict=True):
         assert abs(got - want) < 0.01
 
@@ -19,14 +19,31 @@ def test_home_text_default_config():
     r = run_cli("-m", "mearm.fk", "--joints", "120,93,-132")
     assert r.returncode == 0
     assert "ee = (-20.16, 34.91, 19.95) cm" in r.stdout
+    assert "base 120.00 deg, shoulder 93.00 deg, elbow -132.00 deg, wrist 39.00 deg" in r.stdout
+
+
+def test_any_arm_from_its_config():
+    """The 5-DOF desk arm: five actuated joints by name, the approach axis printed."""
+    r = run_cli(
+        "-m", "mearm.fk", "--config", "configs/sim_5dof.yaml", "--joints", "90,100,-110,-80,0",
+        "--json",
+    )  # fmt: skip
+    assert r.returncode == 0, r.stderr
+    out = json.loads(r.stdout)
+    assert list(out["joints"]) == ["base_yaw", "shoulder", "elbow", "wrist_pitch", "wrist_roll"]
+    for got, want in zip(out["approach"], [0, 0, -1], strict=True):
+        assert abs(got - want) < 1e-9
+    r = run_cli("-m", "mearm.fk", "--config", "configs/sim_5dof.yaml", "--joints", "90,100,-110")
+    assert r.returncode == 2
+    assert "--joints needs 5 numbers, the actuated joints (base_yaw, shoulder" in r.stderr
 
 
 def test_bad_joints_exit_2_one_line():
     for joints, needle in [
-        ("120,93", "needs 3 numbers"),
+        ("120,93", "--joints needs 3 numbers"),
         ("a,b,c", "comma-separated numbers"),
         ("120,93,nan", "finite"),
-        ("10,93,-132", "joint1 = 10 deg is outside its limits [20, 160] deg"),
+        ("10,93,-132", "base = 10 deg is outside its limits [20, 160] deg"),
     ]:
         r = run_cli("-m", "mearm.fk", "--joints", joints)
         assert r.returncode == 2, joints

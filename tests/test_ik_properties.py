@@ -8,12 +8,13 @@ from hypothesis import strategies as st
 from mearm.config import Config
 from mearm.exceptions import UnreachableTargetError
 from mearm.ik import STATUSES, PdPij
-from mearm.kinematics import COUPLING, ArmModel, check_target
+from mearm.kinematics import ArmModel, check_target, closed_form_for
 
 CONFIG = Config()
-MODEL = ArmModel(CONFIG.robot)
-BOX = CONFIG.robot.target_box
-LOWER, UPPER = MODEL.lower_rad, MODEL.upper_rad
+MODEL = ArmModel(CONFIG.arm)
+CLOSED_FORM = closed_form_for(CONFIG.arm)
+BOX = CONFIG.arm.target_box
+LOWER, UPPER = MODEL.lower, MODEL.upper
 SOLVERS = {
     (mode, damping, safeguard): PdPij(
         MODEL, CONFIG.controller.updated(mode=mode, damping=damping, safeguard=safeguard)
@@ -35,14 +36,14 @@ targets = st.tuples(
     st.floats(BOX.y_cm.min, BOX.y_cm.max),
     st.floats(BOX.z_cm.min, BOX.z_cm.max),
 )
-starts = st.tuples(joint(0), joint(1), joint(2)).map(lambda q: COUPLING @ np.array(q))
+starts = st.tuples(joint(0), joint(1), joint(2)).map(MODEL.chain.full)
 settings_ = settings(max_examples=100, deadline=None)
 
 
 def solve_or_unreachable(solver, q0, target):
     """The result, or None when the target is out of reach (which check_target agrees on)."""
     try:
-        check_target(target, CONFIG.robot)
+        check_target(target, CONFIG.arm, CLOSED_FORM)
         reachable = True
     except UnreachableTargetError:
         reachable = False
@@ -55,10 +56,10 @@ def solve_or_unreachable(solver, q0, target):
 
 def assert_safe(result):
     assert result.status in STATUSES
-    for array in (result.q_path_rad, result.ee_path_cm, result.error_path_cm):
+    for array in (result.q_path, result.ee_path_cm, result.error_path_cm):
         assert np.all(np.isfinite(array))
-    assert np.all(result.q_path_rad >= LOWER) and np.all(result.q_path_rad <= UPPER)
-    assert np.abs(result.q_path_rad[:, 1:].sum(axis=1)).max() < 1e-9
+    assert np.all(result.q_path >= LOWER) and np.all(result.q_path <= UPPER)
+    assert np.abs(result.q_path[:, 1:].sum(axis=1)).max() < 1e-9
     assert result.iterations <= CONFIG.controller.max_iterations
 
 
@@ -94,6 +95,6 @@ def test_bare_paper_algorithm_is_still_safe(target, q0, mode):
 @given(target=targets, mode=st.sampled_from(["paper", "coupled"]))
 def test_from_home_every_reachable_target_converges(target, mode):
     """From home (where every route of the demo starts) the solver always gets there."""
-    result = solve_or_unreachable(SOLVERS[(mode, 0.0, True)], MODEL.home_rad, target)
+    result = solve_or_unreachable(SOLVERS[(mode, 0.0, True)], MODEL.home, target)
     if result is not None:
         assert result.converged, (target, result.status, result.final_error_cm)

@@ -4,10 +4,17 @@ import json
 
 import numpy as np
 import pytest
-from conftest import run_cli
+from conftest import ROOT, run_cli
 
+from mearm.config import load_config
 from mearm.ik import PdPij, demo_routes, run_routes
 from mearm.ik.reference import numpy_port_solve
+from mearm.kinematics import ArmModel
+
+
+@pytest.fixture(scope="module")
+def model(config):
+    return ArmModel(config.arm)
 
 
 @pytest.fixture(scope="module")
@@ -18,20 +25,21 @@ def routes(config):
 @pytest.fixture(scope="module")
 def results(model, config, routes):
     return {
-        mode: run_routes(PdPij(model, config.controller.updated(mode=mode)), model.home_rad, routes)
+        mode: run_routes(PdPij(model, config.controller.updated(mode=mode)), model.home, routes)
         for mode in ("paper", "coupled")
     }
 
 
 def test_demo_routes(config, routes):
-    """Reds, then greens, then blues; pick at 12.76 cm, place in the colour's bin."""
+    """Reds, then greens, then blues; pick at 12.76 cm, place in the class's bin."""
     assert len(routes) == 24
-    names = [r.object_name for r in routes[::2]]
-    assert names == [f"{c}{i}" for c in "MHB" for i in range(1, 5)]
+    names = [r.name for r in routes[::2]]
+    assert names == [f"{c}{i}" for c in ("red", "green", "blue") for i in range(1, 5)]
     assert [r.action for r in routes] == ["pick", "place"] * 12
     assert routes[0].target_cm == (-10.99, 49.70, 12.76)
     for route in routes[1::2]:
-        assert route.target_cm == tuple(config.task.bins_cm[route.color])
+        assert route.target_cm == config.task.class_named(route.class_name).bin_cm
+    assert all(r.target.approach is None for r in routes)  # the paper arm: position only
     assert routes[-2].target_cm == (12.15, 51.86, 12.76)  # B4
 
 
@@ -47,9 +55,9 @@ def test_routes_chain(model, results):
     """Each route starts where the previous one ended; the first at home."""
     for mode in results:
         rs = results[mode]
-        np.testing.assert_allclose(rs[0].q_path_rad[0], model.home_rad)
+        np.testing.assert_allclose(rs[0].q_path[0], model.home)
         for prev, nxt in zip(rs, rs[1:], strict=False):
-            np.testing.assert_array_equal(nxt.q_path_rad[0], prev.q_rad)
+            np.testing.assert_array_equal(nxt.q_path[0], prev.q)
 
 
 def test_coupled_paths_stay_within_half_a_cm_of_straight(results):
@@ -69,12 +77,12 @@ def test_path_deviation_measures_distance_to_the_segment(results):
 
 def test_paper_mode_is_the_bare_paper_algorithm_on_the_demo(model, config, routes, results):
     """The safeguard never acts on the demo: the whole chain equals the NumPy port's."""
-    q = model.home_rad
+    q = model.home
     for route, result in zip(routes, results["paper"], strict=True):
         assert result.blocked_steps == result.fallback_steps == 0
-        _, q_path, _ = numpy_port_solve(q, route.target_cm, config.robot, config.controller)
-        assert len(q_path) == len(result.q_path_rad)
-        np.testing.assert_allclose(result.q_path_rad, q_path, atol=1e-9)
+        _, q_path, _ = numpy_port_solve(q, route.target_cm, config.arm, config.controller)
+        assert len(q_path) == len(result.q_path)
+        np.testing.assert_allclose(result.q_path, q_path, atol=1e-9)
         q = q_path[-1]
 
 
@@ -127,3 +135,39 @@ def test_bench_ik_section_runs():
 def test_bench_rejects_unknown_section():
     r = run_cli("tools/bench.py", "--only", "nope")
     assert r.returncode == 2 and "invalid choice" in r.stderr
+
+
+def test_demo_routes_follow_the_config(config):
+    """Class order, grip height, TCP height above the grip and pick approach are data."""
+    desk = load_config(ROOT / "configs" / "sim_5dof.yaml")
+    routes = demo_routes(desk)
+    assert len(routes) == 2 * len(desk.task.scene)
+    assert [r.class_name for r in routes[::2]] == [
+        o.color for c in desk.task.classes for o in desk.task.scene if o.color == c.name
+    ]
+    first = desk.task.classes[0]
+    obj = next(o for o in desk.task.scene if o.color == first.name)
+    z = first.grip_z_cm + desk.arm.tool.tcp_above_grip_cm
+    assert routes[0].target_cm == (obj.x, obj.y, z)
+    assert all(r.target.approach == (0.0, 0.0, -1.0) for r in routes)
+    reordered = config.model_copy(
+        update={"task": config.task.model_copy(update={"classes": config.task.classes[::-1]})}
+    )
+    assert demo_routes(reordered)[0].name == "blue1"
+
+
+def test_desk_arm_runs_its_demo_from_above():
+    """The 5-DOF arm's demo: every route converges with the gripper pointing down."""
+    desk = load_config(ROOT / "configs" / "sim_5dof.yaml")
+    model = ArmModel(desk.arm)
+    results = run_routes(PdPij(model, desk.controller), model.home, demo_routes(desk))
+    for r in results:
+        assert r.converged and r.final_approach_error_deg < 0.5
+
+
+def test_demo_iteration_counts_are_the_papers_arms(results):
+    """The generic solver reproduces the 4-joint one: 64.25 (coupled) and 86.83 (paper)."""
+    coupled = [r.iterations for r in results["coupled"]]
+    paper = [r.iterations for r in results["paper"]]
+    assert sum(coupled) == 1542 and (min(coupled), max(coupled)) == (58, 67)
+    assert sum(paper) == 2084 and (min(paper), max(paper)) == (78, 98)

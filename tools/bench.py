@@ -118,9 +118,9 @@ def bench_ik(options: BenchOptions) -> list[Row]:
     from mearm.kinematics import ArmModel  # noqa: PLC0415
 
     config = Config()
-    model = ArmModel(config.robot)
+    model = ArmModel(config.arm)
     routes = demo_routes(config)
-    home = model.home_rad
+    home = model.home
 
     solvers = {
         "paper": PdPij(model, config.controller.updated(mode="paper")),
@@ -132,17 +132,17 @@ def bench_ik(options: BenchOptions) -> list[Row]:
     starts, iterations = {}, {}
     for key, solver in solvers.items():
         results = run_routes(solver, home, routes)
-        starts[key] = [home] + [r.q_rad for r in results[:-1]]
+        starts[key] = [home] + [r.q for r in results[:-1]]
         iterations[key] = sum(r.iterations for r in results)
     starts["numpy port"] = starts["paper"]  # the same algorithm: the same chain
     port_iterations = 0
     for q, route in zip(starts["paper"], routes, strict=True):
-        _, q_path, _ = numpy_port_solve(q, route.target_cm, config.robot, config.controller)
+        _, q_path, _ = numpy_port_solve(q, route.target_cm, config.arm, config.controller)
         port_iterations += len(q_path) - 1
     iterations["numpy port"] = port_iterations
 
     def port(q: np.ndarray, target: tuple[float, float, float]) -> object:
-        return numpy_port_solve(q, target, config.robot, config.controller)
+        return numpy_port_solve(q, target, config.arm, config.controller)
 
     one_step = {
         key: PdPij(model, config.controller.updated(mode=key, max_iterations=1))
@@ -226,7 +226,7 @@ def bench_ik(options: BenchOptions) -> list[Row]:
             "paper (MATLAB R2018a, i5-2410M) / PD-PIJ paper, per iteration",
             0.072 / per_it["paper"],
             "×",
-            "SPEC §3: 0.072 s per iteration",
+            "paper §3: 0.072 s per iteration",
         )
     )
     rows.append(Row("ik", "pinocchio", 0.0, "", f"pin {pin.__version__}"))

@@ -2,11 +2,13 @@
 
     python tools/reproduce_paper.py [--config configs/sim.yaml] [--mode paper|coupled] [--json]
 
-From home: pick M1 at z = 12.76, place it in the red bin, pick M2 from there, …, the reds,
-then the greens, then the blues (SPEC §1, §4); each route starts where the last ended.
+From home: pick red1 at z = 12.76, place it in the red bin, pick red2 from there, …, the
+reds, then the greens, then the blues (paper §1, §4: the paper's M1…, H1…, B1…); each
+route starts where the last ended. Any config with a scene works; the paper's figures
+are for the default one.
 Prints one row per route (object, pick/place, iterations, initial and final error, the
 largest distance of the EE path from the straight start→target segment), the means next
-to the paper's (SPEC §3: 82 iterations, 73–93; initial error 24.99 cm; final error
+to the paper's (paper §3: 82 iterations, 73–93; initial error 24.99 cm; final error
 0.0305 cm) and the x, y, z range along all paths.
 """
 
@@ -23,7 +25,7 @@ from mearm.exceptions import ConfigError
 from mearm.ik import PdPij, demo_routes, run_routes
 from mearm.kinematics import ArmModel
 
-#: The paper's figures for its 24 routes (SPEC §3).
+#: The paper's figures for its 24 routes (paper §3).
 PAPER = {
     "mean_iterations": 82,
     "min_iterations": 73,
@@ -43,12 +45,12 @@ def reproduce(config, mode: str) -> dict:
             None, ["task.scene is empty: the demo needs the paper's layout (configs/sim.yaml)"]
         )
     controller = config.controller.updated(mode=mode, solver="pdpij")
-    model = ArmModel(config.robot)
-    results = run_routes(PdPij(model, controller), model.home_rad, routes)
+    model = ArmModel(config.arm)
+    results = run_routes(PdPij(model, controller), model.home, routes)
     rows = [
         {
             "route": i,
-            "object": route.object_name,
+            "object": route.name,
             "action": route.action,
             "target_cm": list(route.target_cm),
             "status": r.status,
@@ -100,14 +102,14 @@ def print_table(report: dict) -> None:
         f"stop when |e|² < {report['tolerance_cm2']:g} cm²; {s['routes']} routes from home"
     )
     print(
-        f"{'#':>2}  {'object':<6} {'action':<6} {'target (cm)':<24} {'iter':>5} "
+        f"{'#':>2}  {'object':<8} {'action':<6} {'target (cm)':<24} {'iter':>5} "
         f"{'e0 (cm)':>8} {'e_end (cm)':>10} {'dev (cm)':>8}  status"
     )
     for r in report["rows"]:
         x, y, z = r["target_cm"]
         target = f"({x:.2f}, {y:.2f}, {z:.2f})"
         print(
-            f"{r['route']:>2}  {r['object']:<6} {r['action']:<6} {target:<24} "
+            f"{r['route']:>2}  {r['object']:<8} {r['action']:<6} {target:<24} "
             f"{r['iterations']:>5} {r['initial_error_cm']:>8.3f} {r['final_error_cm']:>10.4f} "
             f"{r['path_deviation_cm']:>8.3f}  {r['status']}"
         )

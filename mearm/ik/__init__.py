@@ -1,11 +1,14 @@
-"""Inverse kinematics: PD-PIJ (SPEC §3) on Pinocchio; mink and the closed form cross-check.
+"""Inverse kinematics for any arm: PD-PIJ (paper §3), cross-checked by mink and closed forms.
+
+mink runs on MuJoCo; a closed form exists only for the arms that register one.
 
 Example::
 
-    from mearm.ik import PdPij
-    solver = PdPij(ArmModel(config.robot), config.controller)
-    result = solver.solve(model.home_rad, [-10.99, 49.70, 12.76])
-    result.status, result.iterations, result.q_path_rad  # (N+1, 4)
+    from mearm.ik import IKTarget, PdPij
+    model = ArmModel(config.arm)
+    solver = PdPij(model, config.controller)
+    result = solver.solve(model.home, IKTarget((-10.99, 49.70, 12.76)))
+    result.status, result.iterations, result.q_path  # (N+1, n), model units
 
 The mink solver (:mod:`mearm.ik.mink_solver`) imports MuJoCo and is loaded on first use.
 """
@@ -16,14 +19,23 @@ from mearm.ik.pdpij import PdPij
 from mearm.ik.pseudoinverse import PseudoInverse
 from mearm.ik.result import STATUSES, IKResult, Status
 from mearm.ik.routes import DemoRoute, demo_routes, run_routes
-from mearm.ik.solver import IKSolver, start_joints
+from mearm.ik.solver import (
+    APPROACH_TOLERANCE_DEG,
+    APPROACH_WEIGHT_CM,
+    IKSolver,
+    start_joints,
+)
+from mearm.ik.target import IKTarget
 
 __all__ = [
+    "APPROACH_TOLERANCE_DEG",
+    "APPROACH_WEIGHT_CM",
     "STATUSES",
     "AnalyticSolver",
     "DemoRoute",
     "IKResult",
     "IKSolver",
+    "IKTarget",
     "MinkSolver",
     "PdPij",
     "PseudoInverse",

@@ -9,6 +9,7 @@ from mearm.ik.analytic import AnalyticSolver
 from mearm.ik.pdpij import PdPij
 from mearm.ik.result import IKResult
 from mearm.ik.solver import IKSolver
+from mearm.ik.target import IKTarget
 from mearm.kinematics import ArmModel
 
 
@@ -16,6 +17,10 @@ def make_solver(model: ArmModel, config: ControllerConfig) -> IKSolver:
     """The solver ``config.solver`` names, built for ``model``.
 
     The mink solver imports MuJoCo, so it is only loaded when asked for.
+
+    Raises:
+        ModelError: ``analytic`` for an arm without a closed form.
+        QPSolverError: ``mink`` with a QP backend that is not installed.
     """
     if config.solver == "pdpij":
         return PdPij(model, config)
@@ -28,16 +33,16 @@ def make_solver(model: ArmModel, config: ControllerConfig) -> IKSolver:
 
 def solve_ik(
     model: ArmModel,
-    q_start_rad: npt.ArrayLike,
-    target_cm: npt.ArrayLike,
+    q_start: npt.ArrayLike,
+    target: IKTarget | npt.ArrayLike,
     config: ControllerConfig,
 ) -> IKResult:
     """Solve once with the solver ``config.solver`` names.
 
     Args:
         model: The arm model.
-        q_start_rad: Start (θ1, θ2, θ3) or (θ1..θ4) [rad].
-        target_cm: Target (x, y, z) in the base frame [cm].
+        q_start: Every joint (n,) or the actuated ones (m,), model units.
+        target: An :class:`IKTarget`, or (x, y, z) in the base frame [cm].
         config: The controller section of the config.
 
     Returns:
@@ -49,4 +54,4 @@ def solve_ik(
 
     To solve many targets, build the solver once with :func:`make_solver` instead.
     """
-    return make_solver(model, config).solve(q_start_rad, target_cm)
+    return make_solver(model, config).solve(q_start, target)

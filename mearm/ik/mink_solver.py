@@ -1,16 +1,24 @@
-"""The mink cross-check: the same URDF in MuJoCo, solved as a QP with the coupling exact.
+r"""The mink cross-check: the same URDF in MuJoCo, solved as a QP with the coupling exact.
 
-An independent route to the same joint solution as :class:`~mearm.ik.PdPij`: the
-generated URDF (:func:`mearm.kinematics.dh_to_urdf`) loaded by MuJoCo, a
-:class:`mink.FrameTask` on the ``ee`` site (position only), :class:`mink.ConfigurationLimit`
-for the joint limits and the coupling θ2 + θ3 + θ4 = 0 (SPEC §2) as an equality
-constraint of every QP. MuJoCo equalities cannot express a three-joint sum, so the
-coupling is a small custom task, :class:`CouplingTask`, passed to :func:`mink.solve_ik`
-as a constraint: ``A Δq = −e`` restores the sum to 0 after every step.
+An independent route to the joint solution :class:`~mearm.ik.PdPij` finds, for any arm:
+the generated URDF (:func:`mearm.kinematics.generate_urdf`) loaded by MuJoCo, a
+:class:`mink.FrameTask` on a ``tcp`` site, :class:`mink.ConfigurationLimit` for the joint
+limits and every passive joint's coupling as an equality constraint of every QP. MuJoCo
+equalities cannot express an affine function of several joints, so the coupling is a
+small custom task, :class:`CouplingTask`, passed to :func:`mink.solve_ik` as a
+constraint: ``A Δq = −e`` restores it after every step.
 
-MuJoCo's URDF import fuses the fixed ``ee`` link into ``link4``; an ``ee`` site is added
-at that link's origin through :class:`mujoco.MjSpec` before compiling, so the site sits at
-the DH end exactly where Pinocchio's ``ee`` frame is.
+The gripper's jaw joints are made fixed in the URDF before MuJoCo reads it, so the
+MuJoCo joints are exactly the chain's, in order. MuJoCo fuses the fixed ``tcp`` link
+into its parent; the ``tcp`` site added on it through :class:`mujoco.MjSpec` before
+compiling moves with it, so the site sits where Pinocchio's ``tcp`` frame is.
+
+Orientation. The site's z axis is the tool's approach axis. Without an approach the frame
+task's orientation cost is zero. With one, the target rotation is the site's current
+rotation turned by the smallest rotation taking the approach axis onto the desired
+direction, so the orientation error is that rotation alone; its cost is zero about the
+site's z axis, so a roll about the approach axis is free (and, as the QP's least-norm
+step, stays where it starts).
 
 The frame task runs dead-beat steps (gain 1, ``dt`` = 1): this solver is a cross-check of
 where PD-PIJ arrives, not of its path, and converges in a handful of QPs.
@@ -18,76 +26,128 @@ where PD-PIJ arrives, not of its path, and converges in a handful of QPs.
 
 from __future__ import annotations
 
+import math
+import xml.etree.ElementTree as ET
+
 import mink
 import mujoco
 import numpy as np
 import numpy.typing as npt
 import qpsolvers
 
-from mearm.config import JOINT_NAMES, ControllerConfig
+from mearm.config import ControllerConfig
 from mearm.exceptions import ModelError, QPSolverError
 from mearm.ik.result import IKResult, Status
-from mearm.ik.solver import IKSolver
-from mearm.kinematics import ArmModel
+from mearm.ik.solver import APPROACH_TOLERANCE_DEG, APPROACH_WEIGHT_CM, IKSolver
+from mearm.ik.target import IKTarget
+from mearm.kinematics import TCP_FRAME, ArmModel, Chain, jaw_joint_names
 from mearm.kinematics.model import CM_PER_M
 
-EE_SITE = "ee"
+TCP_SITE = TCP_FRAME
 _DT = 1.0  # mink returns Δq / dt; with dt = 1 the velocity is the step
 
 
+def _without_jaws(urdf: str, jaws: tuple[str, ...]) -> str:
+    """The URDF text with the named joints made fixed (axis, limit and mimic dropped)."""
+    root = ET.fromstring(urdf)
+    for joint in root.iter("joint"):
+        if joint.get("name") in jaws:
+            joint.set("type", "fixed")
+            for tag in ("axis", "limit", "mimic"):
+                for child in joint.findall(tag):
+                    joint.remove(child)
+    return ET.tostring(root, encoding="unicode")
+
+
 def mujoco_model(model: ArmModel) -> mujoco.MjModel:
-    """Compile the arm's URDF into MuJoCo, with an ``ee`` site at the DH end.
+    """Compile the arm's URDF into MuJoCo, jaws fixed, with a ``tcp`` site.
 
     Raises:
-        ModelError: MuJoCo cannot load the URDF, or it has no ``ee`` link.
+        ModelError: MuJoCo cannot load the URDF, it has no ``tcp`` link, or its joints
+            are not the chain's.
     """
+    urdf = _without_jaws(model.urdf, jaw_joint_names(model.arm))
     try:
-        spec = mujoco.MjSpec.from_string(model.urdf)
+        spec = mujoco.MjSpec.from_string(urdf)
     except ValueError as exc:
         raise ModelError(f"MuJoCo could not parse the URDF: {exc}") from None
-    ee = spec.body(EE_SITE)
-    if ee is None:
-        raise ModelError("URDF has no 'ee' link to put the ee site on")
-    ee.add_site(name=EE_SITE, pos=[0.0, 0.0, 0.0])
+    tcp = spec.body(TCP_FRAME)
+    if tcp is None:
+        raise ModelError(f"URDF has no '{TCP_FRAME}' link to put the {TCP_SITE} site on")
+    # the site's z axis is the tool's approach axis, so a roll about it is one cost entry
+    quat = np.zeros(4)
+    mujoco.mju_mat2Quat(quat, _turn_onto(np.array([0.0, 0.0, 1.0]), model.approach_axis).ravel())
+    tcp.add_site(name=TCP_SITE, pos=[0.0, 0.0, 0.0], quat=quat)
     mj_model = spec.compile()
-    names = [mj_model.joint(i).name for i in range(mj_model.njnt)]
-    if names != list(JOINT_NAMES):
-        raise ModelError(f"MuJoCo model joints are {names}; expected {list(JOINT_NAMES)}")
+    names = tuple(mj_model.joint(i).name for i in range(mj_model.njnt))
+    if names != model.chain.names:
+        raise ModelError(
+            f"MuJoCo model joints are {list(names)}; expected {list(model.chain.names)}"
+        )
     return mj_model
 
 
 class CouplingTask(mink.Task):
-    r"""The parallelogram's coupling θ2 + θ3 + θ4 = 0 as a one-row task (SPEC §2).
+    r"""Every passive joint's coupling as one task row each.
 
-    .. math:: e(q) = \theta_2 + \theta_3 + \theta_4, \qquad J = [0, 1, 1, 1]
+    .. math:: e(q) = q_p - C_p\,q_a - c_p, \qquad J = [\,I_p \text{ at } p\,;\,
+              -C_p \text{ at } a\,]
 
-    Passed in ``constraints`` of :func:`mink.solve_ik` it is met exactly by every step.
+    (the paper's wrist: e = θ4 + θ2 + θ3, J = [0, 1, 1, 1]). Passed in ``constraints``
+    of :func:`mink.solve_ik` it is met exactly by every step.
 
     Args:
-        model: MuJoCo model with hinge joints ``joint2``..``joint4``.
+        model: MuJoCo model whose joints are the chain's, in order.
+        chain: The chain (coupling matrix in model units).
         gain: Task gain in [0, 1]; 1 closes any residual in one step.
     """
 
-    k: int = 1
-
-    def __init__(self, model: mujoco.MjModel, gain: float = 1.0):
+    def __init__(self, model: mujoco.MjModel, chain: Chain, gain: float = 1.0):
+        passive = chain.passive_index.tolist()
+        self.k = len(passive)
         super().__init__(cost=np.ones(self.k), gain=gain)
-        joints = [model.joint(name) for name in JOINT_NAMES[1:]]
-        self._qpos_ids = np.array([int(j.qposadr[0]) for j in joints])
+        qpos = [int(model.joint(name).qposadr[0]) for name in chain.names]
+        dof = [int(model.joint(name).dofadr[0]) for name in chain.names]
+        act = chain.actuated_index.tolist()
+        self._qpos_ids = np.array(qpos)
+        self._passive = passive
+        # e = A q − c_p with A the passive rows of (I − C S), S selecting the actuated
+        self._A = np.zeros((self.k, chain.n))
+        for r, i in enumerate(passive):
+            self._A[r, i] = 1.0
+            for k, j in enumerate(act):
+                self._A[r, j] -= chain.C[i, k]
+        self._offset = chain.c[passive]
         self._jacobian = np.zeros((self.k, model.nv))
-        self._jacobian[0, [int(j.dofadr[0]) for j in joints]] = 1.0
+        self._jacobian[:, dof] = self._A
 
     def compute_error(self, configuration: mink.Configuration) -> np.ndarray:
-        """θ2 + θ3 + θ4 [rad], (1,)."""
-        return np.array([configuration.data.qpos[self._qpos_ids].sum()])
+        """Each passive joint's distance from its coupling [model units], (k,)."""
+        return self._A @ configuration.data.qpos[self._qpos_ids] - self._offset
 
     def compute_jacobian(self, configuration: mink.Configuration) -> np.ndarray:
-        """(1, nv): ones on the three coupled joints."""
+        """(k, nv): 1 on the passive joint, −C on the actuated ones."""
         return self._jacobian
 
 
+def _turn_onto(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The smallest rotation (3, 3) taking unit vector ``a`` onto unit vector ``b``."""
+    axis = np.cross(a, b)
+    s, c = float(np.linalg.norm(axis)), float(np.dot(a, b))
+    if s < 1e-12:
+        if c > 0:
+            return np.eye(3)
+        # opposite: half a turn about any axis across a
+        perp = np.cross(a, [1.0, 0.0, 0.0])
+        if np.linalg.norm(perp) < 1e-6:
+            perp = np.cross(a, [0.0, 1.0, 0.0])
+        perp /= np.linalg.norm(perp)
+        return 2.0 * np.outer(perp, perp) - np.eye(3)
+    return mink.SO3.exp(axis / s * math.atan2(s, c)).as_matrix()
+
+
 class MinkSolver(IKSolver):
-    """Position IK with mink on MuJoCo, coupling held exactly, joint limits respected.
+    """IK with mink on MuJoCo: coupling held exactly, joint limits respected.
 
     Args:
         model: The arm model; its URDF is what MuJoCo loads.
@@ -105,34 +165,53 @@ class MinkSolver(IKSolver):
             raise QPSolverError(config.qp_solver, qpsolvers.available_solvers)
         self.mj_model = mujoco_model(model)
         self.configuration = mink.Configuration(self.mj_model)
-        self._site_id = self.mj_model.site(EE_SITE).id
-        self._task = mink.FrameTask(
-            EE_SITE, "site", position_cost=1.0, orientation_cost=0.0, gain=1.0
+        self._site_id = self.mj_model.site(TCP_SITE).id
+        self._position_task = mink.FrameTask(
+            TCP_SITE, "site", position_cost=1.0, orientation_cost=0.0, gain=1.0
+        )
+        # one radian of approach weighs as much as APPROACH_WEIGHT_CM of position; a roll
+        # about the approach axis (the site's z) costs nothing
+        w = APPROACH_WEIGHT_CM / CM_PER_M
+        self._approach_task = mink.FrameTask(
+            TCP_SITE, "site", position_cost=1.0, orientation_cost=[w, w, 0.0], gain=1.0
         )
         self._limits = [mink.ConfigurationLimit(self.mj_model)]
-        self._coupling = CouplingTask(self.mj_model)
+        coupling = CouplingTask(self.mj_model, self.chain)
+        self._constraints = [coupling] if coupling.k else []
 
-    def solve(self, q_start_rad: npt.ArrayLike, target_cm: npt.ArrayLike) -> IKResult:
-        """Iterate mink QPs from ``q_start_rad`` to ``target_cm``; see :class:`IKSolver`."""
-        q0, target_cm, _ = self.prepare(q_start_rad, target_cm)
+    def solve(self, q_start: npt.ArrayLike, target: IKTarget | npt.ArrayLike) -> IKResult:
+        """Iterate mink QPs from ``q_start`` to ``target``; see :class:`IKSolver`."""
+        q0, target, _ = self.prepare(q_start, target)
         cfg = self.config
-        t = target_cm / CM_PER_M
+        t = target.position / CM_PER_M
         tol2 = cfg.tolerance_cm2 / CM_PER_M**2
-        conf, data, task = self.configuration, self.configuration.data, self._task
+        a_d = None if target.approach is None else np.array(target.approach)
+        cos_tol = math.cos(math.radians(APPROACH_TOLERANCE_DEG))
+        z = np.array([0.0, 0.0, 1.0])  # the approach axis in the site frame
+        conf, data = self.configuration, self.configuration.data
+        task = self._position_task if a_d is None else self._approach_task
+        lower, upper = self.chain.lower, self.chain.upper
         conf.update(q0)
+
+        def measure() -> tuple[float, bool, np.ndarray]:
+            R = data.site_xmat[self._site_id].reshape(3, 3)
+            err2 = float(np.sum((t - data.site_xpos[self._site_id]) ** 2))
+            met = a_d is None or float(R[:, 2] @ a_d) >= cos_tol
+            return err2, met, R.copy()
+
         q_path, ee_path = [q0], [data.site_xpos[self._site_id].copy()]
-        err2 = float(np.sum((t - ee_path[0]) ** 2))
+        err2, met, R = measure()
         mark_k, mark_err2 = 0, err2
         status: Status = "max_iterations"
         for k in range(1, cfg.max_iterations + 2):
-            if err2 < tol2:
+            if err2 < tol2 and met:
                 status = "converged"
                 break
             if k > cfg.max_iterations:
                 break
-            # the target turns with the site, so the task error is the position error only
-            rotation = mink.SO3.from_matrix(data.site_xmat[self._site_id].reshape(3, 3))
-            task.set_target(mink.SE3.from_rotation_and_translation(rotation, t))
+            if a_d is not None:
+                R = _turn_onto(R @ z, a_d) @ R
+            task.set_target(mink.SE3.from_rotation_and_translation(mink.SO3.from_matrix(R), t))
             try:
                 v = mink.solve_ik(
                     conf,
@@ -140,7 +219,7 @@ class MinkSolver(IKSolver):
                     _DT,
                     cfg.qp_solver,
                     limits=self._limits,
-                    constraints=[self._coupling],
+                    constraints=self._constraints,
                 )
             except mink.NoSolutionFound:
                 status = "stalled"
@@ -150,18 +229,16 @@ class MinkSolver(IKSolver):
                 break
             conf.integrate_inplace(v, _DT)
             q = data.qpos.copy()
-            if not self.model.within_limits(q, tol_rad=0.0):
+            if not self.chain.within_limits(q, 0.0):
                 # the QP meets its limit rows to its solver's tolerance only (~1e-9 rad)
-                q = np.clip(q, self.model.lower_rad, self.model.upper_rad)
+                q = np.clip(q, lower, upper)
                 conf.update(q)
             q_path.append(q)
             ee_path.append(data.site_xpos[self._site_id].copy())
-            err2 = float(np.sum((t - ee_path[-1]) ** 2))
+            err2, met, R = measure()
             if k - mark_k >= cfg.stall_iterations:
                 if err2 > (1.0 - 1e-6) ** 2 * mark_err2:
                     status = "stalled"
                     break
                 mark_k, mark_err2 = k, err2
-        return IKResult.from_paths(
-            status, self.name, target_cm, np.array(q_path), np.array(ee_path) * CM_PER_M
-        )
+        return self._result(status, target, np.array(q_path), np.array(ee_path) * CM_PER_M)

@@ -1,4 +1,4 @@
-r"""PD-PIJ: the paper's PD-controlled pseudoinverse-Jacobian IK (SPEC §3), on Pinocchio.
+r"""PD-PIJ: the paper's PD-controlled pseudoinverse-Jacobian IK (paper §3), for any arm.
 
 At iteration t, with target :math:`s_d`:
 
@@ -7,41 +7,59 @@ At iteration t, with target :math:`s_d`:
     \Delta s = k_p e_t + k_d (e_t - e_{t-1}) \quad (e_{-1} = e_0), \qquad
     \Delta\theta = J^+(\theta_t)\, \Delta s, \qquad \theta_{t+1} = \theta_t + \Delta\theta
 
-until :math:`|e|^2` is below the tolerance. Two modes (SPEC §3):
+until :math:`|e|^2` is below the tolerance. With ``n`` joints of which ``m`` are actuated
+and the coupling :math:`q = C q_a + c` (:class:`~mearm.kinematics.Chain`), two modes:
 
-- ``paper``: θ ∈ R⁴ and J is the 3×4 Jacobian of all four DH joints; after each update
-  the coupling θ4 = −(θ2 + θ3) is imposed again, overwriting θ4's own update.
-- ``coupled``: θ = (θ1, θ2, θ3) and :math:`J_c = J C`, the exact Jacobian through the
-  coupling (:data:`mearm.kinematics.COUPLING`).
+- ``paper``: θ holds all n joints and J is the 3×n Jacobian; after each update every
+  passive joint is set from its coupling again, overwriting its own update (the paper's
+  θ4 = −(θ2 + θ3)).
+- ``coupled``: θ = :math:`q_a` and :math:`J_c = J C`, the exact Jacobian through the
+  coupling.
 
-Limits. The paper's rule: a joint whose update would take it outside its limits gets
-Δθ = 0 for that iteration. θ4 has no servo: its limits are derived from θ2's and θ3's
-(``JointLimits.as_list``: [−(max2 + max3), −(min2 + min3)]), i.e. exactly the range of
-−(θ2 + θ3) over their box, so once θ2 and θ3 pass the rule the re-imposed θ4 is within
-its limits too. Should custom limits ever make it not so, θ2 and θ3 are held for that
-iteration, which keeps θ4 where it was. The comparisons are written so that a NaN
-component also fails them and is held: no joint vector the solver produces, intermediate
-or returned, is outside the limits or non-finite.
+Approach. A target with an approach direction :math:`a_d` (the tool's approach axis
+:math:`a(\theta)` must point along it) stacks a weighted direction error under the
+position error, and the approach Jacobian :math:`J_a` (:meth:`ArmModel.approach_jacobian`)
+under J:
+
+.. math:: e = \begin{bmatrix} s_d - s \\ w (a_d - a) \end{bmatrix}, \qquad
+          J = \begin{bmatrix} J_s \\ w J_a \end{bmatrix}
+
+with w = :data:`~mearm.ik.solver.APPROACH_WEIGHT_CM` [cm]. It has converged when
+:math:`|s_d - s|^2` is below the tolerance and the angle between a and :math:`a_d` below
+:data:`~mearm.ik.solver.APPROACH_TOLERANCE_DEG`. A rotation about the approach axis
+changes neither error, so J⁺ (the least-norm step) leaves such a joint (a wrist roll)
+where it starts.
+
+Limits. The paper's rule: an actuated joint whose update would take it outside its limits
+gets Δθ = 0 for that iteration. A passive joint's limits default to the range of its
+coupling over the actuated joints' box, so once they pass the rule it is within its
+limits too. Should custom limits make it not so, the actuated joints it depends on are
+held for that iteration, which keeps it where it was. The comparisons are written so that
+a NaN component also fails them and is held: no joint vector the solver produces,
+intermediate or returned, is outside the limits or non-finite.
 
 Beyond the paper (``safeguard``, on by default; ``false`` runs the bare algorithm):
 
 1. When the rule holds a joint, the update becomes the bounded least-squares step for
-   the same Δs (:func:`~mearm.ik.bounded.bounded_lstsq` on :math:`J_c`): joints stop on
+   the same Δs (:func:`~mearm.ik.bounded.bounded_lstsq` on :math:`J C`): joints stop on
    their limits and the others make up what they can, instead of freezing a joint whose
    full update would overshoot (which can leave the arm stuck at an error of tens of cm).
-2. An update that would not lower |e| (the paper's 4-joint step can point the wrong way
-   once θ4's share is overwritten) is rejected and replaced by the bounded step along
-   :math:`k_p e`, halved until |e| falls. If none does, the solve stops as ``stalled``.
+2. An update that would not lower |e| (the paper's n-joint step can point the wrong way
+   once the passive joints' share is overwritten) is rejected and replaced by the bounded
+   step along :math:`k_p e`, halved until |e| falls. If none does, the solve stops as
+   ``stalled``.
 
 So |e| never rises. On the paper's 24 demo routes neither case occurs, and ``paper``
 mode reproduces the bare algorithm iteration for iteration.
 
-Cost: one Pinocchio pass (``computeFrameJacobian``, which also places the EE frame) and
-one 3×4 SVD per iteration, scalars in Python floats, the paths in flat lists: under
+Cost: one Pinocchio pass (``computeFrameJacobian``, which also places the TCP frame) and
+one small SVD per iteration, scalars in Python floats, the paths in flat lists: about
 10 µs per iteration (``tools/bench.py``).
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 import numpy.typing as npt
@@ -51,8 +69,14 @@ from mearm.config import ControllerConfig
 from mearm.ik.bounded import bounded_lstsq
 from mearm.ik.pseudoinverse import PseudoInverse
 from mearm.ik.result import IKResult, Status
-from mearm.ik.solver import IKSolver
-from mearm.kinematics import COUPLING, ArmModel
+from mearm.ik.solver import (
+    APPROACH_TOLERANCE_DEG,
+    APPROACH_WEIGHT_CM,
+    IKSolver,
+    coupling_terms,
+)
+from mearm.ik.target import IKTarget
+from mearm.kinematics import ArmModel
 from mearm.kinematics.model import CM_PER_M
 
 _LWA = pin.LOCAL_WORLD_ALIGNED
@@ -61,18 +85,22 @@ _MAX_HALVINGS = 9
 #: A stall is less than this relative fall of |e| over ``stall_iterations`` updates.
 _STALL_RELATIVE = 1e-6
 
+#: One evaluation: TCP [m] (list), stacked J, stacked error e (list), |e_pos|² [m²],
+#: |e|² [m²] (the safeguard's merit) and whether the approach is met.
+_Measure = tuple[list[float], np.ndarray, list[float], float, float, bool]
+
 
 class PdPij(IKSolver):
-    """The PD-PIJ solver (SPEC §3) in ``paper`` or ``coupled`` mode.
+    """The PD-PIJ solver (paper §3) in ``paper`` or ``coupled`` mode, for any arm.
 
     Args:
-        model: The arm model (Pinocchio model, ``ee`` frame, joint limits).
+        model: The arm model (Pinocchio model, ``tcp`` frame, chain, limits).
         config: Gains, tolerance, iteration cap, mode, SVD cutoff / damping, safeguard.
 
     Example::
 
-        model = ArmModel(config.robot)
-        result = PdPij(model, config.controller).solve(model.home_rad, [-10.99, 49.70, 12.76])
+        model = ArmModel(config.arm)
+        result = PdPij(model, config.controller).solve(model.home, [-10.99, 49.70, 12.76])
         result.status, result.iterations  # ('converged', 62)
     """
 
@@ -82,170 +110,216 @@ class PdPij(IKSolver):
         self.name = f"pdpij-{self.mode}"
         self._pin_model = model.model
         self._data = model.model.createData()  # own data: solvers never share state
-        self._frame_id = model.ee_frame_id
+        self._frame_id = model.tcp_frame_id
+        chain = self.chain
         # Pinocchio works in metres: J [m/rad], so λ [cm/rad] becomes λ/100.
         damping_m = config.damping / CM_PER_M
-        cols = 4 if self.mode == "paper" else 3
-        self._pinv = PseudoInverse(3, cols, config.singular_value_cutoff, damping_m)
-        # a view into Pinocchio's data: the EE position after each call on self._data
-        self._ee_translation = self._data.oMf[self._frame_id].translation
-        self._lower = model.lower_rad.tolist()
-        self._upper = model.upper_rad.tolist()
+        cols = chain.n if self.mode == "paper" else chain.m
+        self._pinv = {
+            rows: PseudoInverse(rows, cols, config.singular_value_cutoff, damping_m)
+            for rows in (3, 6)
+        }
+        # views into Pinocchio's data: the TCP pose after each call on self._data
+        self._tcp_translation = self._data.oMf[self._frame_id].translation
+        self._tcp_rotation = self._data.oMf[self._frame_id].rotation
+        self._axis = model.approach_axis
+        self._C = chain.C
+        self._lower = chain.lower.tolist()
+        self._upper = chain.upper.tolist()
+        self._act = chain.actuated_index.tolist()
+        self._passive = coupling_terms(chain)
 
-    def _fk_jacobian(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """EE position [m], (3,), and the 3×4 position Jacobian [m/rad] at ``q``.
+    # ----------------------------------------------------------------- pieces
 
-        The position is a view into Pinocchio's data, valid until the next call.
+    def _measure(self, q: np.ndarray, t: list[float], a_d: tuple[float, ...] | None) -> _Measure:
+        """Evaluate the TCP, the (stacked) Jacobian and error at ``q``; see ``_Measure``."""
+        J6 = pin.computeFrameJacobian(self._pin_model, self._data, q, self._frame_id, _LWA)
+        p = self._tcp_translation.tolist()
+        ex, ey, ez = t[0] - p[0], t[1] - p[1], t[2] - p[2]
+        err2 = ex * ex + ey * ey + ez * ez
+        if a_d is None:
+            return p, J6[:3], [ex, ey, ez], err2, err2, True
+        w = APPROACH_WEIGHT_CM / CM_PER_M
+        a = self._tcp_rotation.dot(self._axis)
+        J = np.vstack((J6[:3], (-w) * pin.skew(a).dot(J6[3:])))
+        al = a.tolist()
+        fx, fy, fz = w * (a_d[0] - al[0]), w * (a_d[1] - al[1]), w * (a_d[2] - al[2])
+        cos = al[0] * a_d[0] + al[1] * a_d[1] + al[2] * a_d[2]
+        met = cos >= math.cos(math.radians(APPROACH_TOLERANCE_DEG))
+        return p, J, [ex, ey, ez, fx, fy, fz], err2, err2 + fx * fx + fy * fy + fz * fz, met
+
+    def _couple(self, cand: list[float], q: list[float]) -> tuple[list[float], bool]:
+        """Set the passive joints of ``cand`` from its actuated ones, in place.
+
+        A passive joint leaving its limits holds the actuated joints it depends on
+        (their values in ``q``). Returns ``(cand, held)``; ``cand`` is ``q`` itself if
+        even that cannot keep every passive joint within its limits.
         """
-        J = pin.computeFrameJacobian(self._pin_model, self._data, q, self._frame_id, _LWA)
-        return self._data.oMf[self._frame_id].translation, J[:3]
+        lo, hi = self._lower, self._upper
+        held = False
+        for _ in range(len(self._passive) + 1):
+            bad = None
+            for i, offset, terms in self._passive:
+                v = offset
+                for j, coef in terms:
+                    v += coef * cand[j]
+                cand[i] = v
+                if not lo[i] <= v <= hi[i]:
+                    bad = terms
+                    break
+            if bad is None:
+                return cand, held
+            held = True
+            if all(cand[j] == q[j] for j, _ in bad):
+                break
+            for j, _ in bad:
+                cand[j] = q[j]
+        return list(q), True
 
     def _bounded_step(self, q: list[float], J: np.ndarray, ds: np.ndarray) -> list[float]:
-        """``q`` moved by the bounded least-squares step for ``J_c Δθ ≈ ds`` (safeguard).
+        """``q`` moved by the bounded least-squares step for ``J C Δq_a ≈ ds`` (safeguard).
 
         Joints that would cross a limit stop on it and the others make up what they can,
         instead of the paper's rule freezing them. Returns ``q`` itself when even that
-        would take θ4 out of its limits (possible only with non-derived θ4 limits).
+        would take a passive joint out of its limits (possible only with custom limits).
         """
-        lo, hi = self._lower, self._upper
+        lo, hi, act = self._lower, self._upper, self._act
         x = bounded_lstsq(
-            J @ COUPLING, ds, [lo[i] - q[i] for i in range(3)], [hi[i] - q[i] for i in range(3)]
+            J @ self._C, ds, [lo[i] - q[i] for i in act], [hi[i] - q[i] for i in act]
         ).tolist()
-        # clip again: q + (hi − q) may round one ulp past hi
-        a, b, c = (min(max(q[i] + x[i], lo[i]), hi[i]) for i in range(3))
-        d = -(b + c)
-        return [a, b, c, d] if lo[3] <= d <= hi[3] else list(q)
+        cand = list(q)
+        for k, i in enumerate(act):  # clip again: q + (hi − q) may round one ulp past hi
+            cand[i] = min(max(q[i] + x[k], lo[i]), hi[i])
+        cand, held = self._couple(cand, q)
+        return list(q) if held else cand
 
     def _descent_step(
-        self, q: list[float], J: np.ndarray, e: np.ndarray, err2: float, target_m: np.ndarray
-    ) -> tuple[list[float], list[float], np.ndarray, float] | None:
+        self,
+        q: list[float],
+        J: np.ndarray,
+        e: list[float],
+        merit: float,
+        t: list[float],
+        a_d: tuple[float, ...] | None,
+    ) -> tuple[list[float], _Measure] | None:
         """The safeguard's step when an update would not lower |e|.
 
         The bounded least-squares step along ``kp·e`` (the steepest the limits allow),
-        halved until |e| falls. Returns the accepted ``(q, p [m], J, |e|² [m²])``, or
-        ``None`` when no step lowers |e|: a stall against the limits.
+        halved until |e| falls. Returns the accepted ``(q, measure)``, or ``None`` when no
+        step lowers |e|: a stall against the limits.
         """
-        full = np.array(self._bounded_step(q, J, self.config.kp * e))
-        start = np.array(q)
+        full = self._bounded_step(q, J, self.config.kp * np.array(e))
         lo, hi = self._lower, self._upper
         alpha = 1.0
         for _ in range(_MAX_HALVINGS + 1):
-            cand = (start + alpha * (full - start)).tolist()
+            cand = list(q)
+            for i in self._act:
+                cand[i] = min(max(q[i] + alpha * (full[i] - q[i]), lo[i]), hi[i])
             alpha *= 0.5
-            a, b, c = (min(max(cand[i], lo[i]), hi[i]) for i in range(3))
-            cand = [a, b, c, -(b + c)]
-            if not lo[3] <= cand[3] <= hi[3] or cand == q:
+            cand, held = self._couple(cand, q)
+            if held or cand == q:
                 continue
-            p, Jn = self._fk_jacobian(np.array(cand))
-            en = target_m - p
-            en2 = float(en @ en)
-            if en2 < err2:
-                return cand, p.tolist(), Jn, en2
+            measure = self._measure(np.array(cand), t, a_d)
+            if measure[4] < merit:
+                return cand, measure
         return None
 
-    def solve(self, q_start_rad: npt.ArrayLike, target_cm: npt.ArrayLike) -> IKResult:
-        """Run PD-PIJ from ``q_start_rad`` to ``target_cm``.
+    # ----------------------------------------------------------------- solve
+
+    def solve(self, q_start: npt.ArrayLike, target: IKTarget | npt.ArrayLike) -> IKResult:
+        """Run PD-PIJ from ``q_start`` to ``target``.
 
         Args:
-            q_start_rad: Start (θ1, θ2, θ3) or (θ1..θ4) [rad]; θ4 must be −(θ2 + θ3).
-            target_cm: Target (x, y, z) in the base frame [cm].
+            q_start: Every joint (n,) or the actuated ones (m,), model units; passive
+                values must agree with their coupling.
+            target: An :class:`IKTarget` (position [cm] and optional approach), or
+                (x, y, z) [cm].
 
         Returns:
-            The :class:`IKResult`, with the joint and EE path of every iteration.
+            The :class:`IKResult`, with the joint and TCP path of every iteration.
 
         Raises:
-            TargetOutsideBoxError: the target is outside the Table 3 box.
-            UnreachableTargetError: the target is in the box but out of reach.
+            TargetOutsideBoxError: the target is outside the arm's target box.
+            UnreachableTargetError: out of reach (arms with a closed form).
             JointLimitError: the start is outside the joint limits.
             InvalidJointsError, InvalidTargetError: malformed input.
         """
-        q0, target_cm, _ = self.prepare(q_start_rad, target_cm)
+        q0, target, _ = self.prepare(q_start, target)
         cfg = self.config
-        t = target_cm / CM_PER_M
-        tx, ty, tz = t.tolist()
+        t = (target.position / CM_PER_M).tolist()
+        a_d = target.approach
+        rows = 3 if a_d is None else 6
         tol2 = cfg.tolerance_cm2 / CM_PER_M**2
         kpd, kd = cfg.kp + cfg.kd, cfg.kd
         n_max, window, safeguard = cfg.max_iterations, cfg.stall_iterations, cfg.safeguard
         stall_factor = (1.0 - _STALL_RELATIVE) ** 2
         paper = self.mode == "paper"
-        lo0, lo1, lo2, lo3 = self._lower
-        hi0, hi1, hi2, hi3 = self._upper
+        lo, hi, act = self._lower, self._upper, self._act
         # Hot loop: scalars in Python floats, one Pinocchio call and one SVD per
         # iteration; every small NumPy operation avoided here saves about a microsecond.
-        model, data, frame_id = self._pin_model, self._data, self._frame_id
-        frame_jacobian, C, array = pin.computeFrameJacobian, COUPLING, np.array
+        C, array, measure, couple = self._C, np.array, self._measure, self._couple
         # plain J⁺: Eigen's SVD called directly (its threshold is the cutoff); damped: DLS
-        svd = None if cfg.damping > 0 else self._pinv.svd
-        pinv = self._pinv.solve
-        p_view = self._ee_translation  # follows every Pinocchio call on self._data
+        svd = None if cfg.damping > 0 else self._pinv[rows].svd
+        pinv = self._pinv[rows].solve
+        steps = range(rows)
 
         q = q0.tolist()
-        J = frame_jacobian(model, data, q0, frame_id, _LWA)[:3]
-        p = p_view.tolist()
-        ex, ey, ez = tx - p[0], ty - p[1], tz - p[2]
-        err2 = ex * ex + ey * ey + ez * ez
+        p, J, e, err2, merit, met = measure(q0, t, a_d)
         # flat lists: extending one is the cheapest append; one conversion at the end
         q_path, ee_path = list(q), list(p)
         q_extend, ee_extend = q_path.extend, ee_path.extend
-        px, py, pz = ex, ey, ez  # e_{-1} = e_0: no derivative kick
-        mark_k, mark_err2 = 0, err2
+        e_prev = e  # e_{-1} = e_0: no derivative kick
+        mark_k, mark_merit = 0, merit
         blocked = fallbacks = 0
         status: Status = "max_iterations"
         k = 0
         while True:
-            if err2 < tol2:
+            if err2 < tol2 and met:
                 status = "converged"
                 break
             if k == n_max:
                 break
-            ds = array((kpd * ex - kd * px, kpd * ey - kd * py, kpd * ez - kd * pz))
+            ds = array([kpd * e[i] - kd * e_prev[i] for i in steps])
             Jm = J if paper else J.dot(C)  # .dot: a third of @'s overhead at 3×4
-            dq = svd.compute(Jm).solve(ds) if svd is not None else pinv(Jm, ds)
-            da, db, dc = dq.tolist()[:3]
+            dq = (svd.compute(Jm).solve(ds) if svd is not None else pinv(Jm, ds)).tolist()
             # the paper's limit rule; a NaN fails the comparison and is held too
-            a, b, c = q[0] + da, q[1] + db, q[2] + dc
+            cand = list(q)
             held = False
-            if not lo0 <= a <= hi0:
-                a, held = q[0], True
-            if not lo1 <= b <= hi1:
-                b, held = q[1], True
-            if not lo2 <= c <= hi2:
-                c, held = q[2], True
-            d = -(b + c)
-            if not lo3 <= d <= hi3:  # only with non-derived θ4 limits: hold θ2, θ3
-                b, c, d, held = q[1], q[2], q[3], True
-            cand = [a, b, c, d]
-            if held:
+            for j, i in enumerate(act):
+                v = q[i] + (dq[i] if paper else dq[j])
+                if lo[i] <= v <= hi[i]:
+                    cand[i] = v
+                else:
+                    held = True
+            cand, held_passive = couple(cand, q)
+            if held or held_passive:
                 blocked += 1
                 if safeguard:  # slide along the limit instead of freezing the joint
                     cand = self._bounded_step(q, J, ds)
-            J_c = frame_jacobian(model, data, array(cand), frame_id, _LWA)[:3]
-            p = p_view.tolist()
-            fx, fy, fz = tx - p[0], ty - p[1], tz - p[2]
-            err2_c = fx * fx + fy * fy + fz * fz
-            if safeguard and not err2_c < err2:
-                step = self._descent_step(q, J, array((ex, ey, ez)), err2, t)
+            new = measure(array(cand), t, a_d)
+            if safeguard and not new[4] < merit:
+                step = self._descent_step(q, J, e, merit, t, a_d)
                 if step is None:
                     status = "stalled"
                     break
-                cand, p, J_c, err2_c = step
-                fx, fy, fz = tx - p[0], ty - p[1], tz - p[2]
+                cand, new = step
                 fallbacks += 1
             k += 1
             q_extend(cand)
-            ee_extend(p)
-            px, py, pz, ex, ey, ez = ex, ey, ez, fx, fy, fz
-            q, J, err2 = cand, J_c, err2_c
+            ee_extend(new[0])
+            e_prev = e
+            q = cand
+            _, J, e, err2, merit, met = new
             if k - mark_k >= window:
-                if err2 > stall_factor * mark_err2:
+                if merit > stall_factor * mark_merit:
                     status = "stalled"
                     break
-                mark_k, mark_err2 = k, err2
-        return IKResult.from_paths(
+                mark_k, mark_merit = k, merit
+        n = self.chain.n
+        return self._result(
             status,
-            self.name,
-            target_cm,
-            np.array(q_path).reshape(-1, 4),
+            target,
+            np.array(q_path).reshape(-1, n),
             np.array(ee_path).reshape(-1, 3) * CM_PER_M,
             blocked_steps=blocked,
             fallback_steps=fallbacks,

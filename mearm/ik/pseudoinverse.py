@@ -1,4 +1,4 @@
-r"""The Moore–Penrose pseudoinverse by SVD (SPEC §3, eq. 13), and its damped variant.
+r"""The Moore–Penrose pseudoinverse by SVD (paper §3, eq. 13), and its damped variant.
 
 With :math:`J = U \Sigma V^T`,
 

@@ -19,7 +19,7 @@ def _frozen(a: npt.ArrayLike) -> np.ndarray:
 
 
 def path_deviation_cm(ee_path_cm: npt.ArrayLike, target_cm: npt.ArrayLike) -> float:
-    r"""Largest distance of an EE path from the straight segment start → target [cm].
+    r"""Largest distance of a TCP path from the straight segment start → target [cm].
 
     .. math:: \max_k \min_{\lambda \in [0, 1]} \| s_k - (s_0 + \lambda (s_d - s_0)) \|
 
@@ -40,27 +40,33 @@ def path_deviation_cm(ee_path_cm: npt.ArrayLike, target_cm: npt.ArrayLike) -> fl
 
 @dataclass(frozen=True, eq=False)  # arrays inside: compare fields, not records
 class IKResult:
-    """One solve from a start pose to a target (SPEC §3).
+    """One solve from a start pose to a target.
 
     Row ``k`` of each path is the state after ``k`` updates; row 0 is the start, the last
     row the result. Every row is a pose the arm may be commanded to: within the joint
-    limits and with θ2 + θ3 + θ4 = 0.
+    limits and with every passive joint on its coupling.
 
     Attributes:
-        status: ``converged`` (|e|² below the tolerance), ``max_iterations`` or
-            ``stalled`` (no update could lower the error any more).
+        status: ``converged`` (|e|² below the tolerance and, with an approach, the approach
+            angle below its tolerance), ``max_iterations`` or ``stalled`` (no update could
+            lower the error any more).
         solver: Which solver produced it, e.g. ``"pdpij-paper"``, ``"mink"``.
         iterations: Number of updates applied [-].
-        initial_error_cm: |e| at the start [cm].
-        final_error_cm: |e| at the end [cm].
-        target_cm: The target (x, y, z) in the base frame [cm], (3,).
-        q_rad: Final joints (θ1..θ4) [rad], (4,).
-        ee_cm: Final EE position [cm], (3,).
-        q_path_rad: Joints after every update, start included [rad], (N+1, 4).
-        ee_path_cm: EE after every update [cm], (N+1, 3).
+        initial_error_cm: Position error |e| at the start [cm].
+        final_error_cm: Position error |e| at the end [cm].
+        target_cm: The TCP target (x, y, z) in the base frame [cm], (3,).
+        q: Final joints in model units (rad, or m for a prismatic joint), (n,).
+        ee_cm: Final TCP position [cm], (3,).
+        q_path: Joints after every update, start included, model units, (N+1, n).
+        ee_path_cm: TCP after every update [cm], (N+1, 3).
         error_path_cm: |e| after every update [cm], (N+1,).
+        joint_names: The chain's joint names, the order of ``q`` (n,).
+        scale: Model units per config unit of each joint (π/180 or 0.01), (n,).
+        approach: The required approach direction (base frame, unit), (3,), or ``None``.
+        final_approach_error_deg: Angle between the tool's approach axis and ``approach``
+            at the end [deg]; ``None`` without an approach.
         blocked_steps: Updates in which the limit rule held at least one joint [-].
-        fallback_steps: Updates the safeguard replaced by the clamped exact step [-].
+        fallback_steps: Updates the safeguard replaced by the bounded step [-].
     """
 
     status: Status
@@ -69,11 +75,15 @@ class IKResult:
     initial_error_cm: float
     final_error_cm: float
     target_cm: np.ndarray
-    q_rad: np.ndarray
+    q: np.ndarray
     ee_cm: np.ndarray
-    q_path_rad: np.ndarray
+    q_path: np.ndarray
     ee_path_cm: np.ndarray
     error_path_cm: np.ndarray
+    joint_names: tuple[str, ...]
+    scale: np.ndarray
+    approach: np.ndarray | None = None
+    final_approach_error_deg: float | None = None
     blocked_steps: int = 0
     fallback_steps: int = 0
 
@@ -83,19 +93,23 @@ class IKResult:
         status: Status,
         solver: str,
         target_cm: np.ndarray,
-        q_path_rad: np.ndarray,
+        q_path: np.ndarray,
         ee_path_cm: np.ndarray,
         *,
+        joint_names: tuple[str, ...],
+        scale: npt.ArrayLike,
+        approach: npt.ArrayLike | None = None,
+        final_approach_error_deg: float | None = None,
         blocked_steps: int = 0,
         fallback_steps: int = 0,
     ) -> IKResult:
-        """Build the record from the joint and EE paths (the errors follow from them).
+        """Build the record from the joint and TCP paths (the errors follow from them).
 
         The arrays given (target included) become the record's own, read-only: pass
         fresh ones.
         """
         target = _frozen(target_cm)
-        q_path = _frozen(q_path_rad)
+        q_path = _frozen(q_path)
         ee_path = _frozen(ee_path_cm)
         diff = ee_path - target
         errors = np.sqrt(np.einsum("ij,ij->i", diff, diff))
@@ -107,11 +121,15 @@ class IKResult:
             initial_error_cm=float(errors[0]),
             final_error_cm=float(errors[-1]),
             target_cm=target,
-            q_rad=q_path[-1],
+            q=q_path[-1],
             ee_cm=ee_path[-1],
-            q_path_rad=q_path,
+            q_path=q_path,
             ee_path_cm=ee_path,
             error_path_cm=errors,
+            joint_names=tuple(joint_names),
+            scale=_frozen(scale),
+            approach=None if approach is None else _frozen(approach),
+            final_approach_error_deg=final_approach_error_deg,
             blocked_steps=blocked_steps,
             fallback_steps=fallback_steps,
         )
@@ -122,22 +140,32 @@ class IKResult:
         return self.status == "converged"
 
     @property
-    def q_deg(self) -> np.ndarray:
-        """Final joints (θ1..θ4) [deg], (4,)."""
-        return np.degrees(self.q_rad)
+    def q_config(self) -> np.ndarray:
+        """Final joints in config units (deg, or cm for a prismatic joint), (n,)."""
+        return self.q / self.scale
+
+    @property
+    def joints(self) -> dict[str, float]:
+        """Final joints by name [deg, or cm for a prismatic joint]."""
+        return {n: float(v) for n, v in zip(self.joint_names, self.q_config, strict=True)}
 
     @property
     def path_deviation_cm(self) -> float:
-        """Largest distance of the EE path from the straight segment start → target [cm]."""
+        """Largest distance of the TCP path from the straight segment start → target [cm]."""
         return path_deviation_cm(self.ee_path_cm, self.target_cm)
 
     def summary(self) -> dict[str, object]:
-        """The CLI's JSON record: status, iterations, errors [cm], joints [deg], EE [cm]."""
+        """The CLI's JSON record: status, iterations, errors, joints by name, TCP [cm].
+
+        Joints are in degrees (centimetres for a prismatic joint); the approach error in
+        degrees, ``None`` without an approach.
+        """
         return {
             "status": self.status,
             "iterations": self.iterations,
             "initial_error_cm": self.initial_error_cm,
             "final_error_cm": self.final_error_cm,
-            "joints_deg": [float(v) for v in self.q_deg],
+            "final_approach_error_deg": self.final_approach_error_deg,
+            "joints": self.joints,
             "ee_cm": [float(v) for v in self.ee_cm],
         }

@@ -1,9 +1,9 @@
-"""The paper's demo as a list of IK routes (SPEC §1, §4), and running a solver along them.
+"""The demo as a list of IK routes (paper §1, §4), and running a solver along them.
 
-From home the arm picks every object of the first colour in turn, dropping each into its
-bin, then the next colour: pick M1 at the pick height, place in the red bin, pick M2 from
-there, … The arm never returns home in between, so each route starts where the last one
-ended: 12 objects give 24 routes.
+From home the arm picks every object of the first class in turn, dropping each into its
+bin, then the next class: pick the first object at its grip height, place it in the
+class's bin, pick the second from there, … The arm never returns home in between, so
+each route starts where the last one ended: the paper's 12 objects give 24 routes.
 """
 
 from __future__ import annotations
@@ -15,12 +15,10 @@ from typing import Literal
 import numpy as np
 import numpy.typing as npt
 
-from mearm.config import Color, Config
+from mearm.config import Config
 from mearm.ik.result import IKResult
 from mearm.ik.solver import IKSolver
-
-#: The paper's object names by colour (SPEC §4): merah, hijau, biru.
-PAPER_LETTERS: dict[str, str] = {"red": "M", "green": "H", "blue": "B"}
+from mearm.ik.target import IKTarget
 
 
 @dataclass(frozen=True)
@@ -28,53 +26,61 @@ class DemoRoute:
     """One motion of the demo.
 
     Attributes:
-        object_name: The paper's name of the object, e.g. ``"M1"``.
-        color: Its colour.
-        action: ``"pick"`` (to the object) or ``"place"`` (to the colour's bin).
-        target_cm: The EE target (x, y, z) in the base frame [cm].
+        name: The object's name, its class and its rank in the class, e.g. ``"red1"``.
+        class_name: Its class.
+        action: ``"pick"`` (to the object) or ``"place"`` (to the class's bin).
+        target: The TCP target, with the arm's pick approach (or none).
     """
 
-    object_name: str
-    color: Color
+    name: str
+    class_name: str
     action: Literal["pick", "place"]
-    target_cm: tuple[float, float, float]
+    target: IKTarget
+
+    @property
+    def target_cm(self) -> tuple[float, float, float]:
+        """The TCP target position (x, y, z) in the base frame [cm]."""
+        return self.target.position_cm
 
 
 def demo_routes(config: Config) -> list[DemoRoute]:
-    """The routes of ``config.task.scene`` in the task's colour order (24 for the paper).
+    """The routes of ``config.task.scene``, classes in ``config.task.classes`` order.
 
-    Objects of one colour keep their scene order; a pick targets the object at the pick
-    height (SPEC §4: 12.76 cm), a place the colour's bin (SPEC Table 2).
+    Objects of one class keep their scene order. A pick puts the TCP at the object, at
+    ``grip_z_cm + arm.tool.tcp_above_grip_cm`` (the paper: 1.5 + 11.26 = 12.76 cm); a
+    place at the class's bin; both with the approach ``arm.tool.pick_approach``.
     """
-    z = config.robot.gripper.pick_height_cm
+    tool = config.arm.tool
+    approach = tool.pick_approach
     routes: list[DemoRoute] = []
-    for color in config.task.color_order:
-        objects = [o for o in config.task.scene if o.color == color]
-        bin_cm = tuple(float(v) for v in config.task.bins_cm[color])
+    for cls in config.task.classes:
+        z = cls.grip_z_cm + tool.tcp_above_grip_cm
+        place = IKTarget(tuple(float(v) for v in cls.bin_cm), approach)  # type: ignore[arg-type]
+        objects = [o for o in config.task.scene if o.color == cls.name]
         for i, obj in enumerate(objects, start=1):
-            name = f"{PAPER_LETTERS[color]}{i}"
-            routes.append(DemoRoute(name, color, "pick", (obj.x, obj.y, z)))
-            routes.append(DemoRoute(name, color, "place", bin_cm))  # type: ignore[arg-type]
+            name = f"{cls.name}{i}"
+            routes.append(DemoRoute(name, cls.name, "pick", IKTarget((obj.x, obj.y, z), approach)))
+            routes.append(DemoRoute(name, cls.name, "place", place))
     return routes
 
 
 def run_routes(
-    solver: IKSolver, q_start_rad: npt.ArrayLike, routes: Sequence[DemoRoute]
+    solver: IKSolver, q_start: npt.ArrayLike, routes: Sequence[DemoRoute]
 ) -> list[IKResult]:
     """Solve the routes in order, each from where the previous one ended.
 
     Args:
         solver: Any IK solver.
-        q_start_rad: Where the first route starts (θ1..θ4) [rad], usually home.
+        q_start: Where the first route starts, model units (n,) or (m,), usually home.
         routes: The routes, e.g. :func:`demo_routes`.
 
     Returns:
         One :class:`IKResult` per route.
     """
-    q = np.asarray(q_start_rad, dtype=float)
+    q = np.asarray(q_start, dtype=float)
     results = []
     for route in routes:
-        result = solver.solve(q, route.target_cm)
+        result = solver.solve(q, route.target)
         results.append(result)
-        q = result.q_rad
+        q = result.q
     return results

@@ -1,4 +1,4 @@
-"""What every IK solver shares: the checks made before anything moves."""
+"""What every IK solver shares: the checks made before anything moves, and the record."""
 
 from __future__ import annotations
 
@@ -10,68 +10,116 @@ import numpy.typing as npt
 
 from mearm.config import ControllerConfig
 from mearm.exceptions import InvalidJointsError
-from mearm.ik.result import IKResult
-from mearm.kinematics import ArmModel, as_target_cm, check_target
+from mearm.ik.result import IKResult, Status
+from mearm.ik.target import IKTarget, approach_error_deg
+from mearm.kinematics import ArmModel, Chain, check_target, closed_form_for
 
-#: A start's θ2 + θ3 + θ4 may differ from 0 by this much [rad] (SPEC §2: the
-#: parallelogram holds it at 0; 1e-6 rad moves the EE by under 1e-4 cm).
-COUPLING_TOLERANCE_RAD = 1e-6
-#: A start this close outside a limit [rad] counts as on it (as ArmModel.check_limits).
-_LIMIT_TOL_RAD = 1e-9
+#: A start's passive joints may differ from their coupling by this much [model units]
+#: (1e-6 rad moves the TCP by under 1e-4 cm).
+COUPLING_TOLERANCE = 1e-6
+#: A start this close outside a limit [model units] counts as on it.
+LIMIT_TOLERANCE = 1e-9
+#: Weight of the approach error against the position error [cm per unit of the unit
+#: vector difference]: 10 cm ≈ 0.17 cm per degree. Belongs in ``controller``.
+APPROACH_WEIGHT_CM = 10.0
+#: An approach target is met when the approach axis is within this angle [deg].
+#: Belongs in ``controller``.
+APPROACH_TOLERANCE_DEG = 0.5
 
 
-def start_joints(q_start_rad: npt.ArrayLike, model: ArmModel) -> np.ndarray:
+def start_joints(q_start: npt.ArrayLike, model: ArmModel) -> np.ndarray:
     """Validate a start pose and return it as a full, exactly coupled joint vector.
 
     Args:
-        q_start_rad: (θ1, θ2, θ3) or (θ1, θ2, θ3, θ4) [rad].
-        model: The arm (its joint limits).
+        q_start: Every joint (n,) or the actuated ones (m,), model units (rad, or m for a
+            prismatic joint).
+        model: The arm (its chain: coupling and limits).
 
     Returns:
-        (4,) joints [rad] within the limits, θ4 = −(θ2 + θ3). A start within the
-        limits' 1e-9 rad tolerance is moved onto the limit.
+        (n,) joints, model units, within the limits, passive joints from their coupling.
+        A start within the limits' 1e-9 tolerance is moved onto the limit.
 
     Raises:
-        InvalidJointsError: not 3 or 4 finite numbers, or θ2 + θ3 + θ4 ≠ 0.
+        InvalidJointsError: not n or m finite numbers, or a passive value off its coupling.
         JointLimitError: a joint is outside its limits.
     """
+    chain: Chain = model.chain
+    n, m = chain.n, chain.m
     try:
-        q = np.asarray(q_start_rad, dtype=float).ravel().tolist()
+        q = np.asarray(q_start, dtype=float).ravel()
     except (TypeError, ValueError):
         raise InvalidJointsError(
-            (), f"expected 3 or 4 joint angles in rad, got {q_start_rad!r}"
+            (), f"expected {n} or {m} joint values in model units, got {q_start!r}"
         ) from None
-    if len(q) not in (3, 4):
-        raise InvalidJointsError(q, f"expected 3 or 4 joint angles, got {len(q)}")
-    if not all(map(math.isfinite, q)):
-        raise InvalidJointsError(q, "joint angles must be finite")
-    a, b, c = q[:3]
-    if len(q) == 4:
-        residual = b + c + q[3]
-        if abs(residual) > COUPLING_TOLERANCE_RAD:
-            raise InvalidJointsError(
-                q,
-                f"θ2 + θ3 + θ4 = {residual:.3g} rad; the parallelogram holds it at 0 "
-                f"(within {COUPLING_TOLERANCE_RAD:g} rad): pass θ4 = −(θ2 + θ3) or 3 angles",
-            )
-    q4 = [a, b, c, -(b + c)]
-    lower, upper = model.lower_rad.tolist(), model.upper_rad.tolist()
-    tol = _LIMIT_TOL_RAD
-    if not all(lo - tol <= v <= hi + tol for v, lo, hi in zip(q4, lower, upper, strict=True)):
-        model.check_limits(q4, tol_rad=tol)  # raises, naming the joint
-    # within the tolerance counts as on the limit; θ4's limits are degrees converted, so
-    # clip it too rather than trust −(θ2 + θ3) to the last bit
-    a, b, c = (min(max(v, lo), hi) for v, lo, hi in zip(q4[:3], lower[:3], upper[:3], strict=True))
-    d = min(max(-(b + c), lower[3]), upper[3])
-    return np.array((a, b, c, d))
+    values = q.tolist()
+    if len(values) not in (n, m):
+        names = ", ".join(chain.names)
+        raise InvalidJointsError(
+            values,
+            f"expected {n} joint values ({names}) or the {m} actuated ones "
+            f"({', '.join(chain.actuated)}), got {len(values)}",
+        )
+    if not all(map(math.isfinite, values)):
+        raise InvalidJointsError(values, "joint values must be finite")
+    q_act = q if len(values) == m and n != m else chain.actuated_of(q)
+    if len(values) == n:
+        coupled = chain.full(q_act)
+        for i in chain.passive_index.tolist():
+            residual = q[i] - coupled[i]
+            if abs(residual) > COUPLING_TOLERANCE:
+                raise InvalidJointsError(
+                    values,
+                    f"passive joint {chain.names[i]} = {q[i]:.6g} is {residual:.3g} off its "
+                    f"coupling (tolerance {COUPLING_TOLERANCE:g}): pass {coupled[i]:.6g} or "
+                    f"only the {m} actuated joints",
+                )
+    full = chain.full(q_act)
+    if not chain.within_limits(full, LIMIT_TOLERANCE):
+        model.check_limits(full, LIMIT_TOLERANCE)  # raises, naming the joint
+    q_act = np.clip(q_act, chain.actuated_lower, chain.actuated_upper)
+    # passive limits may be degrees converted: clip rather than trust the product's last bit
+    return np.clip(couple(chain, q_act.tolist()), chain.lower, chain.upper)
+
+
+def coupling_terms(chain: Chain) -> list[tuple[int, float, list[tuple[int, float]]]]:
+    """Each passive joint as ``(index, offset, [(actuated index in q, coefficient)])``.
+
+    Only the non-zero coefficients, so the sum is the exact one a person would write
+    (the paper's wrist: ``0 + (−1)·θ2 + (−1)·θ3``, bit for bit −(θ2 + θ3)).
+    """
+    out = []
+    for i in chain.passive_index.tolist():
+        terms = [
+            (int(chain.actuated_index[k]), float(chain.C[i, k]))
+            for k in range(chain.m)
+            if chain.C[i, k] != 0.0
+        ]
+        out.append((i, float(chain.c[i]), terms))
+    return out
+
+
+def couple(chain: Chain, q_act: list[float]) -> np.ndarray:
+    """Full joint vector (n,) from the actuated values (m,), sums as :func:`coupling_terms`."""
+    q = [0.0] * chain.n
+    for k, i in enumerate(chain.actuated_index.tolist()):
+        q[i] = q_act[k]
+    for i, offset, terms in coupling_terms(chain):
+        v = offset
+        for j, coef in terms:
+            v += coef * q[j]
+        q[i] = v
+    return np.array(q)
 
 
 class IKSolver(abc.ABC):
-    """Base class: a solver moves the EE from a start pose to a Cartesian target.
+    """Base class: a solver moves the TCP from a start pose to a target.
 
     Args:
-        model: The arm model (geometry and limits).
+        model: The arm model (geometry, chain, limits).
         config: The controller section of the config.
+
+    Attributes:
+        closed_form: The arm's closed form (built once), or ``None`` for an arm without.
     """
 
     #: Short name recorded in :attr:`IKResult.solver`.
@@ -79,31 +127,62 @@ class IKSolver(abc.ABC):
 
     def __init__(self, model: ArmModel, config: ControllerConfig):
         self.model = model
+        self.chain = model.chain
         self.config = config
+        self.closed_form = closed_form_for(model.arm)
 
     def prepare(
-        self, q_start_rad: npt.ArrayLike, target_cm: npt.ArrayLike
-    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        self, q_start: npt.ArrayLike, target: IKTarget | npt.ArrayLike
+    ) -> tuple[np.ndarray, IKTarget, np.ndarray | None]:
         """Check the target and the start before anything moves.
 
         Returns:
-            ``(q_start, target, q_solution)``: the start (4,) [rad], the target (3,) [cm]
-            and the closed-form solution (4,) [rad].
+            ``(q_start, target, q_closed_form)``: the full start (n,) in model units, the
+            target, and the closed-form solution (n,) — ``None`` for an arm without one.
 
         Raises:
-            InvalidTargetError: the target is not three finite numbers.
-            TargetOutsideBoxError: outside the Table 3 box (SPEC §3).
-            UnreachableTargetError: in the box but out of reach within the limits.
+            InvalidTargetError: the target is not three finite numbers (or a bad approach).
+            TargetOutsideBoxError: outside the arm's target box.
+            UnreachableTargetError: out of reach within the limits (closed form only).
             InvalidJointsError: see :func:`start_joints`.
             JointLimitError: the start is outside the joint limits.
         """
-        target = as_target_cm(target_cm).copy()
-        q_solution = np.radians(check_target(target, self.model.robot))
-        return start_joints(q_start_rad, self.model), target, q_solution
+        target = IKTarget.of(target)
+        q_solution = check_target(target.position_cm, self.model.arm, self.closed_form)
+        return start_joints(q_start, self.model), target, q_solution
+
+    def _result(
+        self,
+        status: Status,
+        target: IKTarget,
+        q_path: np.ndarray,
+        ee_path_cm: np.ndarray,
+        **counts: int,
+    ) -> IKResult:
+        """The record, with the final approach error when the target has an approach."""
+        error_deg = None
+        if target.approach is not None:
+            error_deg = approach_error_deg(self.model.approach(q_path[-1]), target.approach)
+        return IKResult.from_paths(
+            status,
+            self.name,
+            target.position,
+            q_path,
+            ee_path_cm,
+            joint_names=self.chain.names,
+            scale=self.chain.scale,
+            approach=None if target.approach is None else np.array(target.approach),
+            final_approach_error_deg=error_deg,
+            **counts,
+        )
 
     @abc.abstractmethod
-    def solve(self, q_start_rad: npt.ArrayLike, target_cm: npt.ArrayLike) -> IKResult:
-        """Move from ``q_start_rad`` (θ1..θ3 or θ1..θ4) [rad] to ``target_cm`` [cm].
+    def solve(self, q_start: npt.ArrayLike, target: IKTarget | npt.ArrayLike) -> IKResult:
+        """Move from ``q_start`` (n,) or (m,) [model units] to ``target``.
+
+        Args:
+            q_start: Every joint or the actuated ones, model units.
+            target: An :class:`IKTarget`, or (x, y, z) [cm] for position only.
 
         Raises:
             MearmError: a bad target or start (see :meth:`prepare`); never for numerics.
