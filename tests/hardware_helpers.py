@@ -1,4 +1,4 @@
-"""Configs and commands shared by the hardware tests."""
+"""Configs and commands shared by the hardware tests (the paper arm, default config)."""
 
 from __future__ import annotations
 
@@ -7,9 +7,19 @@ from typing import Any
 from mearm.config import Config, config_from_dict
 from mearm.hardware import ArmCommand
 
-HOME = ArmCommand((120.0, 93.0, -132.0), 60.0, False)
-#: Pulses of HOME with the default mapping: θ1 600+1200, θ2 600+930, θ3 2400-1320,
-#: θ5 1500+600, gripper open 1000.
+
+def command(
+    base: float, shoulder: float, elbow: float, gripper_arm: float = 60.0, closed: bool = False
+) -> ArmCommand:
+    """A command to the paper arm (the default config's arm) by its joint names."""
+    return ArmCommand(
+        {"base": base, "shoulder": shoulder, "elbow": elbow}, {"gripper_arm": gripper_arm}, closed
+    )
+
+
+HOME = command(120.0, 93.0, -132.0, 60.0, False)
+#: Pulses of HOME with the default calibration: base 600+1200, shoulder 600+930,
+#: elbow 2400-1320, gripper_arm 1500+600, gripper open (4 cm) 2200-1200.
 HOME_PULSES = [1800, 1530, 1080, 2100, 1000]
 
 
@@ -29,7 +39,7 @@ def fast_config(backend: str, port: str = "/dev/null", **servo: Any) -> Config:
 
 def route(n: int = 5) -> list[ArmCommand]:
     """``n`` small steps from home, as a PD-PIJ route sends them."""
-    return [ArmCommand((120.0 - i, 93.0 + 0.5 * i, -132.0 + i), 60.0, False) for i in range(n)]
+    return [command(120.0 - i, 93.0 + 0.5 * i, -132.0 + i) for i in range(n)]
 
 
 def is_default(config: Config) -> bool:

@@ -153,7 +153,7 @@ def test_host_drives_the_firmware(chip):
         widths = wait_for_pulses(chip, chip.now_ms)
         for ch, expected in enumerate(HOME_PULSES):
             assert abs(statistics.median(widths[ch]) - expected) <= 1.0, (ch, widths[ch])
-        closed = ArmCommand(HOME.joints_deg, 60.0, True)
+        closed = ArmCommand(HOME.joints, HOME.tool, True)
         bus.move(closed)
         t = chip.now_ms + 25  # the next full frame carries the new command
         assert abs(statistics.median(wait_for_pulses(chip, t)[4]) - 1900) <= 1.0

@@ -2,12 +2,13 @@
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import time
 
 import pytest
 from fakeboard import FakeMearmBoard, MearmFaults
-from hardware_helpers import HOME, HOME_PULSES, fast_config, route
+from hardware_helpers import HOME, HOME_PULSES, command, fast_config, route
 
 from mearm.config import Config
 from mearm.exceptions import (
@@ -16,6 +17,7 @@ from mearm.exceptions import (
     BoardResetError,
     ChecksumError,
     HandshakeError,
+    InvalidCommandError,
     JointLimitError,
     LinkDroppedError,
     LinkError,
@@ -65,8 +67,10 @@ def test_move_sends_byte_exact_frame_and_confirms(board):
         bus.move(HOME)
         assert board.received[-1] == b"1 M 1800 1530 1080 2100 1000*79"
         assert board.pulses_us == HOME_PULSES
-        assert bus.state == ArmState((120.0, 93.0, -132.0), 60.0, False)
-        bus.move(ArmCommand((120.0, 93.0, -132.0), 60.0, True))
+        assert bus.state == ArmState(
+            {"base": 120.0, "shoulder": 93.0, "elbow": -132.0}, {"gripper_arm": 60.0}, False
+        )
+        bus.move(command(120.0, 93.0, -132.0, 60.0, closed=True))
         assert board.received[-1] == b"2 M 1800 1530 1080 2100 1900*73"
 
 
@@ -106,7 +110,8 @@ def test_watchdog_hold_notice_is_tolerated():
         time.sleep(0.1)
         assert board.mode == "HOLD"
         bus.move(route(2)[1])
-        assert board.mode == "RUN" and bus.state.joints_deg == (119.0, 93.5, -131.0)
+        assert board.mode == "RUN"
+        assert dict(bus.state.joints) == {"base": 119.0, "shoulder": 93.5, "elbow": -131.0}
 
 
 def test_reconnect_resets_board(board):
@@ -124,32 +129,54 @@ def test_reconnect_resets_board(board):
 
 
 def test_out_of_limit_angle_refused_before_sending(board):
-    """θ2 = 140° (limit 135°) is refused with joint, value and limits; nothing is sent."""
+    """shoulder = 140° (limit 135°) is refused with joint, value and limits; nothing is sent."""
     with connected(board) as bus:
         bus.move(HOME)
         before = list(board.received)
         with pytest.raises(JointLimitError) as err:
-            bus.move(ArmCommand((120.0, 140.0, -132.0), 60.0))
-        assert (err.value.joint, err.value.value_deg) == ("joint2", 140.0)
-        assert "joint2 = 140 deg" in str(err.value) and "[30, 135]" in str(err.value)
+            bus.move(command(120.0, 140.0, -132.0))
+        assert (err.value.joint, err.value.value_deg) == ("shoulder", 140.0)
+        assert "shoulder = 140 deg" in str(err.value) and "[30, 135]" in str(err.value)
         assert board.received == before
         bus.move(HOME)  # a refusal is not a fault
 
 
 def test_pulse_range_refused_before_sending(board):
-    """An angle within the joint limits whose pulse leaves [min_us, max_us] is refused."""
-    cfg = {"joints": {
-        "joint1": {"channel": 0, "zero_us": 600.0, "min_us": 900, "max_us": 2400},
-        "joint2": {"channel": 1, "zero_us": 600.0},
-        "joint3": {"channel": 2, "zero_us": 2400.0},
-        "joint5": {"channel": 3, "zero_us": 1500.0},
-    }}  # fmt: skip
-    with connected(board, **cfg) as bus:
+    """A value within the limits whose pulse leaves [min_us, max_us] is refused. (A config
+    cannot say so — it refuses such limits when it loads — so the map is narrowed here.)"""
+    with connected(board) as bus:
+        smap = bus.servo_map
+        narrow = dataclasses.replace(smap.joints[0], min_us=900)
+        bus.servo_map = dataclasses.replace(smap, joints=(narrow, *smap.joints[1:]))
         with pytest.raises(PulseRangeError) as err:
-            bus.move(ArmCommand((25.0, 93.0, -132.0), 60.0))
-        assert err.value.joint == "joint1" and err.value.pulse_us == 850.0
+            bus.move(command(25.0, 93.0, -132.0))
+        assert err.value.joint == "base" and err.value.pulse_us == 850.0
         assert "[900, 2400] µs" in str(err.value) and "[30, 180] deg" in str(err.value)
         assert board.received == [b"0 V*46"]
+
+
+@pytest.mark.parametrize(
+    ("joints", "tool", "match"),
+    [
+        ({"base": 120.0, "shoulder": 93.0}, {"gripper_arm": 60.0}, "joints misses elbow"),
+        (
+            {"base": 120.0, "shoulder": 93.0, "elbow": -132.0, "wrist": 39.0},
+            {"gripper_arm": 60.0},
+            "joints names unknown wrist",
+        ),
+        ({"base": 120.0, "shoulder": 93.0, "elbow": -132.0}, {}, "misses gripper_arm"),
+    ],
+)
+def test_misnamed_command_refused_before_sending(board, joints, tool, match):
+    """A command missing a joint or naming one the arm lacks is refused before a byte
+    goes out: the board sees only the handshake and the move before it."""
+    with connected(board) as bus:
+        bus.move(HOME)
+        before = list(board.received)
+        with pytest.raises(InvalidCommandError, match=match):
+            bus.move(ArmCommand(joints, tool))
+        assert board.received == before and bus.state == ArmState.from_command(HOME)
+        bus.move(HOME)  # a refusal is not a fault
 
 
 def test_not_connected():
@@ -195,7 +222,7 @@ def test_wrong_protocol_version_refused():
 
 
 def test_too_few_servos_refused():
-    """The config's gripper on channel 4 needs a board with at least 5 channels."""
+    """The paper arm's gripper on channel 4 needs a board with at least 5 channels."""
     with FakeMearmBoard(servo_count=4) as board:
         with pytest.raises(HandshakeError, match="channel 4"):
             connected(board)

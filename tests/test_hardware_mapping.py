@@ -1,138 +1,225 @@
-"""Angle ↔ pulse mapping, refusals before sending, command records."""
+"""Value ↔ pulse mapping by actuator name, refusals before sending, command records."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import pytest
+from conftest import ROOT, planar_yaw_arm_data
+from hardware_helpers import HOME, command
 from hypothesis import given
 from hypothesis import strategies as st
 
-from mearm.config import Config, config_from_dict
-from mearm.exceptions import InvalidCommandError, JointLimitError, PulseRangeError
-from mearm.hardware import ArmCommand, ArmState, ServoMap
-from mearm.hardware.sim import quantize_deg
+from mearm.config import Config, config_from_dict, load_config
+from mearm.exceptions import ConfigError, InvalidCommandError, JointLimitError, PulseRangeError
+from mearm.hardware import ActuatorMap, ArmCommand, ArmState, ServoMap
+from mearm.sim import quantize_deg
 
 SMAP = ServoMap.from_config(Config())
-J1, J2, J3 = SMAP.joints
-J5 = SMAP.gripper_arm
+BASE, SHOULDER, ELBOW = SMAP.joints
+GRIPPER_ARM = SMAP["gripper_arm"]
 
 
-@pytest.mark.parametrize(
-    ("jmap", "lower_us", "upper_us"),
-    [(J1, 800, 2200), (J2, 900, 1950), (J3, 800, 2200), (J5, 600, 2400)],
-)
-def test_pulses_at_the_joint_limits(jmap, lower_us, upper_us):
-    """Each joint's limits map to the documented pulses (configs/sim.yaml comments)."""
-    assert jmap.command_us(jmap.lower_deg) == lower_us
-    assert jmap.command_us(jmap.upper_deg) == upper_us
-    jmap.check(jmap.lower_deg)
-    jmap.check(jmap.upper_deg)
-
-
-@pytest.mark.parametrize(("jmap", "name"), [(J1, "joint1"), (J2, "joint2"), (J3, "joint3")])
-@pytest.mark.parametrize("side", [-1, 1])
-def test_just_past_a_limit_is_refused(jmap, name, side):
-    """0.01° past either limit is refused with joint, value and limits in the message."""
-    value = (jmap.upper_deg + 0.01) if side > 0 else (jmap.lower_deg - 0.01)
-    with pytest.raises(JointLimitError) as err:
-        jmap.check(value)
-    e = err.value
-    assert (e.joint, e.value_deg, e.lower_deg, e.upper_deg) == (
-        name, value, jmap.lower_deg, jmap.upper_deg,
-    )  # fmt: skip
-    assert f"{name} = {value:.4g} deg is outside its limits" in str(e)
-
-
-def test_gripper_arm_limit_refused():
-    with pytest.raises(JointLimitError, match=r"joint5 = 95 deg .* \[-90, 90\]"):
-        SMAP.pulses_us(ArmCommand((120.0, 93.0, -132.0), 95.0))
-
-
-def test_reversed_channel_pulse_range():
-    """direction −1: angles of the pulse range come out ascending; an angle inside the
-    joint limits but past the pulse range is a PulseRangeError naming both ranges."""
-    cfg = config_from_dict(
-        {"servo": {"joints": {
-            "joint1": {"channel": 0, "zero_us": 2600.0, "direction": -1, "min_us": 1100},
-            "joint2": {"channel": 1, "zero_us": 600.0},
-            "joint3": {"channel": 2, "zero_us": 2400.0},
-            "joint5": {"channel": 3, "zero_us": 1500.0},
-        }}}
-    )  # fmt: skip
-    j1 = ServoMap.from_config(cfg).joints[0]
-    assert j1.command_us(20.0) == 2400 and j1.command_us(150.0) == 1100
-    assert j1.pulse_limits_deg == (20.0, 150.0)
-    j1.check(150.0)
-    with pytest.raises(PulseRangeError) as err:
-        j1.check(155.0)
-    e = err.value
-    assert isinstance(e, JointLimitError)
-    assert (e.joint, e.value_deg, e.lower_deg, e.upper_deg) == ("joint1", 155.0, 20.0, 150.0)
-    assert (e.channel, e.pulse_us, e.min_us, e.max_us) == (0, 1050.0, 1100.0, 2400.0)
-    assert "joint1 = 155 deg needs a 1050.0 µs pulse on channel 0" in str(e)
-    assert "[1100, 2400] µs" in str(e) and "[20, 150] deg" in str(e)
-
-
-def test_pulses_of_a_command():
-    """All five channels, gripper open or closed, in channel order."""
-    home = ArmCommand((120, 93, -132), 60)
-    assert SMAP.pulses_us(home) == {0: 1800, 1: 1530, 2: 1080, 3: 2100, 4: 1000}
-    closed = ArmCommand((120, 93, -132), 60, gripper_closed=True)
-    assert SMAP.pulses_us(closed)[4] == 1900
+def test_paper_arm_channels():
+    """The paper arm: base, shoulder, elbow on 0-2, gripper_arm on 3, the gripper on 4."""
+    assert SMAP.joint_names == ("base", "shoulder", "elbow")
+    assert SMAP.tool_names == ("gripper_arm",)
+    assert [a.channel for a in SMAP.actuators] == [0, 1, 2, 3, 4]
+    assert SMAP.gripper.name == "gripper" and SMAP.gripper.unit == "cm"
     assert SMAP.channels == (0, 1, 2, 3, 4)
 
 
-def test_shared_channel_rejected_by_config():
-    from mearm.exceptions import ConfigError
+@pytest.mark.parametrize(
+    ("amap", "lower_us", "upper_us"),
+    [(BASE, 800, 2200), (SHOULDER, 900, 1950), (ELBOW, 800, 2200), (GRIPPER_ARM, 600, 2400)],
+)
+def test_pulses_at_the_limits(amap, lower_us, upper_us):
+    """Each actuator's limits map to the documented pulses (configs/sim.yaml comments)."""
+    assert amap.command_us(amap.lower) == lower_us
+    assert amap.command_us(amap.upper) == upper_us
+    amap.check(amap.lower)
+    amap.check(amap.upper)
 
+
+@pytest.mark.parametrize("amap", [BASE, SHOULDER, ELBOW])
+@pytest.mark.parametrize("side", [-1, 1])
+def test_just_past_a_limit_is_refused(amap, side):
+    """0.01° past either limit is refused with joint, value, limits and unit in the message."""
+    value = (amap.upper + 0.01) if side > 0 else (amap.lower - 0.01)
+    with pytest.raises(JointLimitError) as err:
+        amap.check(value)
+    e = err.value
+    assert (e.joint, e.value_deg, e.lower_deg, e.upper_deg, e.unit) == (
+        amap.name, value, amap.lower, amap.upper, "deg",
+    )  # fmt: skip
+    assert f"{amap.name} = {value:.4g} deg is outside its limits" in str(e)
+
+
+def test_tool_actuator_limit_refused():
+    with pytest.raises(JointLimitError, match=r"gripper_arm = 95 deg .* \[-90, 90\]"):
+        SMAP.pulses_us(command(120.0, 93.0, -132.0, 95.0))
+
+
+def test_prismatic_limit_names_its_unit():
+    """A prismatic joint (a rail) is limited in cm and the error says so."""
+    rail = ServoMap.from_config(config_from_dict({"arm": planar_yaw_arm_data(rail=True)}))["rail"]
+    assert rail.unit == "cm" and rail.command_us(2.0) == 1200
+    with pytest.raises(JointLimitError, match=r"rail = 11 cm is outside its limits \[0, 10\] cm"):
+        rail.check(11.0)
+
+
+def test_reversed_channel_pulse_range():
+    """direction −1: values of the pulse range come out ascending; a value inside the
+    limits but past the pulse range is a PulseRangeError naming both ranges."""
+    base = ActuatorMap("base", 0, 2600.0, -1, 10.0, 1100, 2400, lower=20.0, upper=160.0, unit="deg")
+    assert base.command_us(20.0) == 2400 and base.command_us(150.0) == 1100
+    assert base.pulse_limits == (20.0, 150.0)
+    base.check(150.0)
+    with pytest.raises(PulseRangeError) as err:
+        base.check(155.0)
+    e = err.value
+    assert isinstance(e, JointLimitError)
+    assert (e.joint, e.value_deg, e.lower_deg, e.upper_deg) == ("base", 155.0, 20.0, 150.0)
+    assert (e.channel, e.pulse_us, e.min_us, e.max_us) == (0, 1050.0, 1100.0, 2400.0)
+    assert "base = 155 deg needs a 1050.0 µs pulse on channel 0" in str(e)
+    assert "[1100, 2400] µs" in str(e) and "[20, 150] deg" in str(e)
+
+
+def test_config_refuses_limits_past_the_pulse_range():
+    """The same narrow pulse range in a config is refused when it loads, naming the limit."""
+    with pytest.raises(ConfigError, match=r"limits.min: 20 needs a 2400 µs pulse"):
+        config_from_dict({"arm": {**Config().arm.model_dump(), "joints": [
+            {**Config().arm.joints[0].model_dump(), "servo": {
+                "channel": 0, "zero_us": 2600.0, "direction": -1, "min_us": 1100,
+                "max_us": 2300}},
+            *[j.model_dump() for j in Config().arm.joints[1:]],
+        ]}})  # fmt: skip
+
+
+def test_pulses_of_a_command():
+    """All five channels, gripper open or closed, in channel order: today's exact pulses."""
+    assert SMAP.pulses_us(HOME) == {0: 1800, 1: 1530, 2: 1080, 3: 2100, 4: 1000}
+    closed = command(120, 93, -132, 60, closed=True)
+    assert SMAP.pulses_us(closed)[4] == 1900
+    assert SMAP.gripper.command_us(SMAP.gripper_opening_cm(False)) == 1000
+    assert ArmCommand.home(Config().arm) == HOME
+
+
+def test_shared_channel_rejected_by_config():
+    arm = Config().arm.model_dump()
+    arm["tool"]["gripper"]["servo"]["channel"] = 3
     with pytest.raises(ConfigError, match="share servo channel 3"):
-        config_from_dict({"servo": {"gripper": {"channel": 3}}})
+        config_from_dict({"arm": arm})
+
+
+@pytest.mark.parametrize(
+    ("joints", "tool", "match"),
+    [
+        ({"base": 120.0, "shoulder": 93.0}, {"gripper_arm": 60.0}, "joints misses elbow"),
+        (
+            {"base": 120.0, "shoulder": 93.0, "elbow": -132.0, "wrist": 39.0},
+            {"gripper_arm": 60.0},
+            "joints names unknown wrist",
+        ),
+        (
+            {"base": 120.0, "shoulder": 93.0, "elbow": -132.0},
+            {},
+            "tool actuators misses gripper_arm",
+        ),
+        (
+            {"base": 120.0, "shoulder": 93.0, "elbow": -132.0},
+            {"gripper_arm": 60.0, "wrist_roll": 0.0},
+            "tool actuators names unknown wrist_roll",
+        ),
+    ],
+)
+def test_missing_or_unknown_names_refused(joints, tool, match):
+    """A command must name every actuated joint and tool actuator, and only those; the
+    message names the culprits and lists the arm's names."""
+    with pytest.raises(InvalidCommandError, match=match) as err:
+        SMAP.pulses_us(ArmCommand(joints, tool))
+    assert "(this arm's joints: base, shoulder, elbow)" in str(err.value) or (
+        "(this arm's tool actuators: gripper_arm)" in str(err.value)
+    )
+
+
+def test_names_checked_before_values():
+    """A misnamed command is refused as such even when a value is out of its limits."""
+    with pytest.raises(InvalidCommandError, match="misses elbow"):
+        SMAP.check(ArmCommand({"base": 500.0, "shoulder": 93.0}, {"gripper_arm": 60.0}))
 
 
 @given(st.floats(20, 160), st.floats(30, 135), st.floats(-160, -20), st.floats(-90, 90))
-def test_accepted_angles_give_pulses_in_range(t1, t2, t3, t5):
-    """Any angle within the limits maps to an integer pulse within its channel's range,
-    and the pulse maps back to within half a microsecond's angle."""
-    pulses = SMAP.pulses_us(ArmCommand((t1, t2, t3), t5))
-    for jmap, angle in zip(SMAP.all_joints, (t1, t2, t3, t5), strict=True):
-        us = pulses[jmap.channel]
-        assert isinstance(us, int) and jmap.min_us <= us <= jmap.max_us
-        assert abs(jmap.angle_deg(us) - angle) <= 0.5 / jmap.us_per_deg + 1e-9
+def test_accepted_values_give_pulses_in_range(base, shoulder, elbow, gripper_arm):
+    """Any value within the limits maps to an integer pulse within its channel's range,
+    and the pulse maps back to within half a microsecond's worth of the value."""
+    cmd = command(base, shoulder, elbow, gripper_arm)
+    pulses = SMAP.pulses_us(cmd)
+    values = {**cmd.joints, **cmd.tool}
+    for amap in (*SMAP.joints, *SMAP.tool):
+        us = pulses[amap.channel]
+        assert isinstance(us, int) and amap.min_us <= us <= amap.max_us
+        assert abs(amap.value_of(us) - values[amap.name]) <= 0.5 / amap.us_per_unit + 1e-9
+
+
+def test_five_joint_arm_channels():
+    """The 5-joint desk arm (configs/sim_5dof.yaml): five joints and the gripper, each on
+    its own channel, every home pulse within its servo's range."""
+    cfg = load_config(ROOT / "configs" / "sim_5dof.yaml")
+    smap = ServoMap.from_config(cfg)
+    assert smap.joint_names == ("base_yaw", "shoulder", "elbow", "wrist_pitch", "wrist_roll")
+    assert smap.tool_names == ()
+    assert smap.channels == (0, 1, 2, 3, 4, 5)
+    pulses = smap.pulses_us(ArmCommand.home(cfg.arm))
+    assert pulses == {0: 1500, 1: 1600, 2: 1300, 3: 700, 4: 1500, 5: 1000}
+
+
+def test_mearm_v1_home_pulses_in_range():
+    """The MeArm v1 (configs/sim_mearm_v1.yaml, 544..2400 µs servos): home and both
+    gripper settings give pulses within each servo's range."""
+    cfg = load_config(ROOT / "configs" / "sim_mearm_v1.yaml")
+    smap = ServoMap.from_config(cfg)
+    home = ArmCommand.home(cfg.arm)
+    for closed in (False, True):
+        pulses = smap.pulses_us(dataclasses.replace(home, gripper_closed=closed))
+        assert sorted(pulses) == list(smap.channels)
+        for amap in smap.actuators:
+            assert amap.min_us <= pulses[amap.channel] <= amap.max_us, amap.name
+    assert all(a.min_us == 544 for a in smap.actuators)
 
 
 def test_servo_write_degrees_are_whole_dh_degrees():
     """With 600..2400 µs over 0..180° and 10 µs/deg, Servo.write's grid is whole DH degrees."""
-    assert J1.servo_step_us == 10.0
-    assert J1.servo_degree(120.4) == 120 and J3.servo_degree(-132.0) == 48
-    assert quantize_deg(J1, 120.4, "degree") == 120.0
-    assert quantize_deg(J3, -132.6, "degree") == -133.0
-    assert quantize_deg(J1, 120.04, "microsecond") == pytest.approx(120.0)
-    assert quantize_deg(J1, 120.04, "none") == 120.04
+    assert BASE.servo_step_us == 10.0
+    assert BASE.servo_degree(120.4) == 120 and ELBOW.servo_degree(-132.0) == 48
+    assert quantize_deg(BASE, 120.4, "degree") == 120.0
+    assert quantize_deg(ELBOW, -132.6, "degree") == -133.0
+    assert quantize_deg(BASE, 120.04, "microsecond") == pytest.approx(120.0)
+    assert quantize_deg(BASE, 120.04, "none") == 120.04
+    with pytest.raises(ValueError, match="none, degree or microsecond"):
+        quantize_deg(BASE, 120.0, "bogus")  # type: ignore[arg-type]
 
 
 def test_servo_write_uses_arduino_integer_map():
     """A 544..2400 µs channel (the Servo library's default) truncates like map()."""
-    cfg = config_from_dict({"servo": {"joints": {
-        "joint1": {"channel": 0, "zero_us": 544.0, "us_per_deg": 1856 / 180, "min_us": 544},
-        "joint2": {"channel": 1, "zero_us": 600.0},
-        "joint3": {"channel": 2, "zero_us": 2400.0},
-        "joint5": {"channel": 3, "zero_us": 1500.0},
-    }}})  # fmt: skip
-    j1 = ServoMap.from_config(cfg).joints[0]
-    assert j1.servo_degree_us(1) == 544 + 1856 // 180 == 554  # 554.3 truncated
-    assert j1.servo_degree_us(180) == 2400
+    base = dataclasses.replace(BASE, zero_us=544.0, us_per_unit=1856 / 180, min_us=544)
+    assert base.servo_degree_us(1) == 544 + 1856 // 180 == 554  # 554.3 truncated
+    assert base.servo_degree_us(180) == 2400
 
 
 @pytest.mark.parametrize(
     ("kwargs", "match"),
     [
-        ({"joints_deg": (1.0, 2.0), "gripper_arm_deg": 0.0}, "got 2 values"),
-        ({"joints_deg": (1.0, math.nan, 2.0), "gripper_arm_deg": 0.0}, "θ2 must be finite"),
-        ({"joints_deg": (1.0, 2.0, 3.0), "gripper_arm_deg": math.inf}, "θ5 must be finite"),
-        ({"joints_deg": 5, "gripper_arm_deg": 0.0}, "joints_deg must be"),
-        ({"joints_deg": (1, 2, "x"), "gripper_arm_deg": 0.0}, "θ3 must be a number"),
-        ({"joints_deg": (1, 2, 3), "gripper_arm_deg": 0.0, "gripper_closed": 1}, "True or False"),
+        ({"joints": [1.0, 2.0, 3.0]}, "joints must be a mapping"),
+        ({"joints": {}}, "at least one actuated joint"),
+        ({"joints": {"base": math.nan}}, r"joints\['base'\] must be finite"),
+        ({"joints": {"base": 1.0}, "tool": {"gripper_arm": math.inf}}, "must be finite"),
+        ({"joints": {"base": "x"}}, r"joints\['base'\] must be a number"),
+        ({"joints": {"base": True}}, "must be a number, got True"),
+        ({"joints": {1: 2.0}}, "names must be non-empty strings"),
+        ({"joints": {"base": 1.0}, "tool": 5}, "tool must be a mapping"),
+        ({"joints": {"base": 1.0}, "gripper_closed": 1}, "True or False"),
     ],
 )
 def test_bad_commands(kwargs, match):
@@ -141,10 +228,24 @@ def test_bad_commands(kwargs, match):
 
 
 def test_records():
-    cmd = ArmCommand([120, 93, -132], 60, True)
-    assert cmd.joints_deg == (120.0, 93.0, -132.0) and cmd.angles_deg[-1] == 60.0
+    """Commands are read-only, equal and hashed by value (name order aside), readable."""
+    cmd = command(120, 93, -132, 60, True)
+    assert dict(cmd.joints) == {"base": 120.0, "shoulder": 93.0, "elbow": -132.0}
+    assert cmd.tool["gripper_arm"] == 60.0 and isinstance(cmd.joints["base"], float)
+    with pytest.raises(TypeError):
+        cmd.joints["base"] = 1.0  # type: ignore[index]
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        cmd.gripper_closed = False  # type: ignore[misc]
+    shuffled = ArmCommand({"elbow": -132, "base": 120, "shoulder": 93}, {"gripper_arm": 60}, True)
+    assert shuffled == cmd and hash(shuffled) == hash(cmd) and len({cmd, shuffled}) == 1
+    assert cmd != command(120, 93, -132, 60, False)
     state = ArmState.from_command(cmd)
-    assert state.to_command() == cmd
+    assert state.to_command() == cmd and state != cmd
+    assert (state.joints, state.tool, state.gripper_closed) == (cmd.joints, cmd.tool, True)
     assert (
-        str(state) == "joints (120.00, 93.00, -132.00) deg, gripper arm 60.00 deg, gripper closed"
+        str(state) == "base=120.00 shoulder=93.00 elbow=-132.00; gripper_arm=60.00; gripper closed"
     )
+    source = {"base": 1.0}
+    held = ArmCommand(source)
+    source["base"] = 2.0
+    assert held.joints["base"] == 1.0  # a copy, not a view of the caller's dict

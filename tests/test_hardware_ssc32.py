@@ -6,11 +6,12 @@ import logging
 
 import pytest
 from fakeboard import FakeSSC32Board, SSC32Faults
-from hardware_helpers import HOME, fast_config, route
+from hardware_helpers import HOME, command, fast_config, route
 
 from mearm.exceptions import (
     GarbledReplyError,
     HandshakeError,
+    InvalidCommandError,
     LinkDroppedError,
     NoAckError,
     ServoFaultedError,
@@ -60,10 +61,19 @@ def test_handshake_and_move():
 def test_stop_holds_at_queried_pulses():
     """stop() reads every channel with QP and commands those pulses without T."""
     with FakeSSC32Board() as board, connected(board) as bus:
-        bus.move(ArmCommand((120.0, 93.0, -132.0), 60.0, True))
+        bus.move(command(120.0, 93.0, -132.0, 60.0, closed=True))
         bus.stop()
         assert board.received[-7:-2] == [b"QP0", b"QP1", b"QP2", b"QP3", b"QP4"]
         assert board.received[-2:] == [b"#0P1800#1P1530#2P1080#3P2100#4P1900", b"Q"]
+
+
+def test_misnamed_command_refused_before_sending():
+    """A command naming a joint the arm lacks sends nothing to the SSC-32 either."""
+    with FakeSSC32Board() as board, connected(board) as bus:
+        before = list(board.received)
+        with pytest.raises(InvalidCommandError, match="names unknown wrist_roll"):
+            bus.move(ArmCommand({**HOME.joints, "wrist_roll": 0.0}, HOME.tool))
+        assert board.received == before == [b"VER"] and bus.state is None
 
 
 def test_silent_board():

@@ -155,9 +155,10 @@ class ArduinoBus(SerialServoBus):
         if highest >= info.servo_count:
             raise HandshakeError(
                 f"{self.port}: the config uses servo channel {highest}, the board drives "
-                f"channels 0..{info.servo_count - 1}; fix servo.joints/servo.gripper"
+                f"channels 0..{info.servo_count - 1}; fix the servo channels in arm "
+                "(joints' and tool actuators' servo.channel)"
             )
-        for j in self.servo_map.all_joints:
+        for j in self.servo_map.actuators:
             if j.min_us < info.min_us or j.max_us > info.max_us:
                 raise HandshakeError(
                     f"{self.port}: {j.name}'s pulse range [{j.min_us}, {j.max_us}] µs is "

@@ -1,11 +1,14 @@
 """The servo-bus interface every backend implements, and the command and state records.
 
-Joint angles are DH degrees at this interface (SPEC §2); each backend maps them to servo
-units with :class:`~mearm.hardware.mapping.ServoMap`. The base class owns what every
-backend shares (lerobot's ``MotorsBus`` pattern): the connection state, checked in one
-place; refusal of out-of-limit angles before anything is sent; pacing at
-``servo.rate_hz``; and the fault latch — after a link or board fault nothing more is
-sent, and every later call raises :class:`~mearm.exceptions.ServoFaultedError`.
+Commands name their actuators: each actuated joint of the arm by its name (its value in
+degrees, or centimetres for a prismatic joint), each tool actuator by its name [deg], and
+whether the gripper is closed. Each backend maps them to pulses with
+:class:`~mearm.hardware.mapping.ServoMap`. The base class owns what every backend shares
+(lerobot's ``MotorsBus`` pattern): the connection state, checked in one place; refusal of
+a command that misses or misnames an actuator or leaves a limit, before anything is
+sent; pacing at ``servo.rate_hz``; and the fault latch — after a link or board fault
+nothing more is sent, and every later call raises
+:class:`~mearm.exceptions.ServoFaultedError`.
 """
 
 from __future__ import annotations
@@ -14,14 +17,12 @@ import logging
 import math
 import time
 from abc import ABC, abstractmethod
-from collections.abc import Callable
-from dataclasses import dataclass
-from types import TracebackType
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from types import MappingProxyType, TracebackType
 from typing import Any, TypeVar
 
-import numpy.typing as npt
-
-from mearm.config import Config
+from mearm.config import ArmDescription, Config
 from mearm.exceptions import (
     InvalidCommandError,
     ServoError,
@@ -34,7 +35,9 @@ log = logging.getLogger(__name__)
 _T = TypeVar("_T")
 
 
-def _finite(value: float, what: str) -> float:
+def _finite(value: Any, what: str) -> float:
+    if isinstance(value, bool):
+        raise InvalidCommandError(f"{what} must be a number, got {value!r}")
     try:
         v = float(value)
     except (TypeError, ValueError):
@@ -44,85 +47,104 @@ def _finite(value: float, what: str) -> float:
     return v
 
 
-def _joints3(joints_deg: npt.ArrayLike) -> tuple[float, float, float]:
-    try:
-        # An array-like may be a scalar: list() raises TypeError then (caught below). The
-        # items can be anything; _finite checks each one.
-        values: list[Any] = list(joints_deg)  # type: ignore[arg-type]
-    except TypeError:
-        raise InvalidCommandError(
-            f"joints_deg must be (θ1, θ2, θ3) in DH degrees, got {joints_deg!r}"
-        ) from None
-    if len(values) != 3:
-        raise InvalidCommandError(
-            f"joints_deg must be (θ1, θ2, θ3) in DH degrees (θ4 follows from the "
-            f"parallelogram), got {len(values)} values: {values!r}"
-        )
-    a, b, c = (_finite(v, f"θ{i + 1}") for i, v in enumerate(values))
-    return (a, b, c)
+def _values(values: Any, what: str, example: str) -> Mapping[str, float]:
+    """A read-only ``{name: float}`` copy of ``values``, each checked finite."""
+    if not isinstance(values, Mapping):
+        raise InvalidCommandError(f"{what} must be a mapping {example}, got {values!r}")
+    out: dict[str, float] = {}
+    for name, value in values.items():
+        if not isinstance(name, str) or not name:
+            raise InvalidCommandError(f"{what}: names must be non-empty strings, got {name!r}")
+        out[name] = _finite(value, f"{what}[{name!r}]")
+    return MappingProxyType(out)
 
 
-def _describe(joints: tuple[float, float, float], arm: float, closed: bool) -> str:
-    j = ", ".join(f"{v:.2f}" for v in joints)
-    return f"joints ({j}) deg, gripper arm {arm:.2f} deg, gripper {'closed' if closed else 'open'}"
+def _describe(joints: Mapping[str, float], tool: Mapping[str, float], closed: bool) -> str:
+    parts = [" ".join(f"{n}={v:.2f}" for n, v in joints.items())]
+    if tool:
+        parts.append(" ".join(f"{n}={v:.2f}" for n, v in tool.items()))
+    parts.append(f"gripper {'closed' if closed else 'open'}")
+    return "; ".join(parts)
 
 
 @dataclass(frozen=True)
-class ArmCommand:
-    """One atomic command to the whole arm.
+class _ArmValues:
+    """Named actuator values and the gripper's state; validated, read-only, hashable."""
 
-    Attributes:
-        joints_deg: (θ1, θ2, θ3) in DH degrees; θ4 is the parallelogram, never commanded.
-        gripper_arm_deg: The gripper-arm angle θ5 [deg] (SPEC §2).
-        gripper_closed: Close (True) or open (False) the gripper.
-    """
-
-    joints_deg: tuple[float, float, float]
-    gripper_arm_deg: float
+    joints: Mapping[str, float]
+    tool: Mapping[str, float] = field(default_factory=dict)
     gripper_closed: bool = False
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "joints_deg", _joints3(self.joints_deg))
-        object.__setattr__(self, "gripper_arm_deg", _finite(self.gripper_arm_deg, "θ5"))
+        object.__setattr__(
+            self, "joints", _values(self.joints, "joints", "{joint name: deg or cm, ...}")
+        )
+        if not self.joints:
+            raise InvalidCommandError("joints must name at least one actuated joint, got {}")
+        object.__setattr__(
+            self, "tool", _values(self.tool, "tool", "{tool actuator name: deg, ...}")
+        )
         if not isinstance(self.gripper_closed, bool):
             raise InvalidCommandError(
                 f"gripper_closed must be True or False, got {self.gripper_closed!r}"
             )
 
-    @property
-    def angles_deg(self) -> tuple[float, float, float, float]:
-        """(θ1, θ2, θ3, θ5) [deg]."""
-        return (*self.joints_deg, self.gripper_arm_deg)
+    def __hash__(self) -> int:
+        return hash(
+            (frozenset(self.joints.items()), frozenset(self.tool.items()), self.gripper_closed)
+        )
 
     def __str__(self) -> str:
-        return _describe(self.joints_deg, self.gripper_arm_deg, self.gripper_closed)
+        return _describe(self.joints, self.tool, self.gripper_closed)
 
 
-@dataclass(frozen=True)
-class ArmState:
+@dataclass(frozen=True, eq=True)
+class ArmCommand(_ArmValues):
+    """One atomic command to the whole arm.
+
+    Equal commands have equal values by name (order does not matter); the mappings are
+    read-only copies, kept in the order given.
+
+    Attributes:
+        joints: Actuated joint name → value [deg, or cm for a prismatic joint]; passive
+            joints follow from their couplings and are never commanded.
+        tool: Tool actuator name → angle [deg] (the paper's ``gripper_arm``).
+        gripper_closed: Close (True) or open (False) the gripper.
+
+    Raises:
+        InvalidCommandError: a value that is not a finite number, a name that is not a
+            string, no joints, or ``gripper_closed`` not a bool. Whether the names are the
+            arm's is checked by :meth:`ServoMap.check` before anything is sent.
+    """
+
+    __hash__ = _ArmValues.__hash__
+
+    @classmethod
+    def home(cls, arm: ArmDescription) -> ArmCommand:
+        """Every actuated joint and tool actuator at its home value, the gripper open."""
+        return cls(arm.home(), {a.name: a.home for a in arm.tool.actuators}, False)
+
+
+@dataclass(frozen=True, eq=True)
+class ArmState(_ArmValues):
     """The last command a backend confirmed (acknowledged by the board).
 
     Attributes:
-        joints_deg: (θ1, θ2, θ3) [deg].
-        gripper_arm_deg: θ5 [deg].
+        joints: Actuated joint name → value [deg or cm].
+        tool: Tool actuator name → angle [deg].
         gripper_closed: Whether the gripper was told to close.
     """
 
-    joints_deg: tuple[float, float, float]
-    gripper_arm_deg: float
-    gripper_closed: bool
+    __hash__ = _ArmValues.__hash__
 
     @classmethod
     def from_command(cls, command: ArmCommand) -> ArmState:
         """The state a confirmed command leaves."""
-        return cls(command.joints_deg, command.gripper_arm_deg, command.gripper_closed)
+        return cls(command.joints, command.tool, command.gripper_closed)
 
     def to_command(self) -> ArmCommand:
         """The command that would reproduce this state."""
-        return ArmCommand(self.joints_deg, self.gripper_arm_deg, self.gripper_closed)
-
-    def __str__(self) -> str:
-        return _describe(self.joints_deg, self.gripper_arm_deg, self.gripper_closed)
+        return ArmCommand(self.joints, self.tool, self.gripper_closed)
 
 
 class RateLimiter:
@@ -167,7 +189,7 @@ class ServoBus(ABC):
     :class:`~mearm.exceptions.ServoError` they raise latches the bus as faulted.
 
     Args:
-        config: The whole configuration (``servo`` and ``robot`` sections are used).
+        config: The whole configuration (``arm`` and ``servo`` sections are used).
         paced: Whether :meth:`move` waits to keep ``servo.rate_hz``.
     """
 
@@ -220,13 +242,15 @@ class ServoBus(ABC):
     def move(self, command: ArmCommand) -> None:
         """Send one atomic command and wait for its confirmation.
 
-        Every angle is checked first; nothing is sent if one is out of its limits.
+        The command is checked first (:meth:`ServoMap.check`); nothing is sent if it
+        misses or misnames an actuator or a value is out of range.
 
         Raises:
             ServoNotConnectedError: not connected.
             ServoFaultedError: an earlier fault stopped the bus.
-            JointLimitError: an angle outside its joint limits (nothing sent).
-            PulseRangeError: an angle whose pulse leaves its channel's range (nothing sent).
+            InvalidCommandError: a missing or unknown actuator name (nothing sent).
+            JointLimitError: a value outside its limits (nothing sent).
+            PulseRangeError: a value whose pulse leaves its channel's range (nothing sent).
             ServoError: the link or board failed; the bus is stopped from then on.
         """
         self._require_ready()

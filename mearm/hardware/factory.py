@@ -2,13 +2,16 @@
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from mearm.config import Config
 from mearm.exceptions import ConfigError
 from mearm.hardware.arduino import ArduinoBus
 from mearm.hardware.bus import ServoBus
-from mearm.hardware.sim import SimArm
 from mearm.hardware.ssc32 import SSC32Bus
-from mearm.world import World
+
+if TYPE_CHECKING:
+    from mearm.sim.world import World
 
 
 def open_bus(config: Config, world: World | None = None, *, port: str | None = None) -> ServoBus:
@@ -20,8 +23,8 @@ def open_bus(config: Config, world: World | None = None, *, port: str | None = N
         port: Override ``servo.port`` (serial backends).
 
     Returns:
-        A :class:`SimArm`, :class:`ArduinoBus` (``serial``) or :class:`SSC32Bus`
-        (``ssc32``); call ``connect()`` or use it as a context manager.
+        A :class:`~mearm.sim.SimArm` (``sim``), :class:`ArduinoBus` (``serial``) or
+        :class:`SSC32Bus` (``ssc32``); call ``connect()`` or use it as a context manager.
 
     Raises:
         ConfigError: ``sim`` without a world.
@@ -33,6 +36,9 @@ def open_bus(config: Config, world: World | None = None, *, port: str | None = N
                 None,
                 ["servo.backend: 'sim' needs the simulated world: open_bus(config, world=...)"],
             )
+        # The simulator is the layer above hardware: imported only when it is asked for.
+        from mearm.sim.servo_bus import SimArm
+
         return SimArm(config, world)
     if backend == "serial":
         return ArduinoBus(config, port=port)

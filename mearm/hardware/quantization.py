@@ -1,9 +1,10 @@
-"""``python -m mearm.hardware.quantization``: EE error caused by servo command quantisation.
+"""``python -m mearm.hardware.quantization``: TCP error caused by servo command quantisation.
 
-SPEC §5: whole-degree commands (``Servo.write``) cost about 0.4 cm of EE error at this
-reach; 1 µs pulses are about ten times finer. This measures both (and ``none``) over random
-reachable poses with the config's channel mapping. Simulated figures: FK of the quantised
-joints against FK of the exact ones, nothing else (no offset, no noise).
+paper §5: whole-degree commands (``Servo.write``) cost about 0.4 cm of TCP error at the
+paper arm's reach; 1 µs pulses are about ten times finer. This measures both (and
+``none``) over random reachable poses of the config's arm with its channel mapping.
+Simulated figures: FK of the quantised joints against FK of the exact ones, nothing else
+(no offset, no noise).
 
 Example::
 
@@ -18,13 +19,13 @@ from collections.abc import Sequence
 import numpy as np
 
 from mearm.cli import ArgumentParser, add_config_argument, config_from_args, run
-from mearm.hardware.sim import Quantization, quantization_ee_error_cm
+from mearm.hardware.mapping import Quantization
 
 MODES: tuple[Quantization, ...] = ("degree", "microsecond", "none")
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Print mean, std, 95th percentile and max EE error per quantisation mode."""
+    """Print mean, std, 95th percentile and max TCP error per quantisation mode."""
     parser = ArgumentParser(
         prog="python -m mearm.hardware.quantization", description=__doc__.splitlines()[0]
     )
@@ -36,6 +37,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.poses < 1:
         parser.error(f"--poses must be at least 1, got {args.poses}")
     config = config_from_args(args)
+    # The measurement runs on the simulated arm, the layer above: imported only here.
+    from mearm.sim.servo_bus import quantization_ee_error_cm
+
     rows = {}
     for mode in MODES:
         e = quantization_ee_error_cm(config, mode, n=args.poses, seed=args.seed)
@@ -48,7 +52,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.json:
         print(json.dumps({"poses": args.poses, "seed": args.seed, "modes": rows}))
         return 0
-    print(f"EE error from command quantisation alone, {args.poses} random reachable poses")
+    print(f"TCP error from command quantisation alone, {args.poses} random reachable poses")
     print(f"{'mode':<12} {'mean':>8} {'std':>8} {'p95':>8} {'max':>8}   [cm, simulated]")
     for mode, r in rows.items():
         print(

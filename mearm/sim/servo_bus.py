@@ -1,0 +1,296 @@
+"""The simulated servo bus: a backend that moves a model arm over a :class:`World`.
+
+Each move realises the command per actuated joint the way a real servo would miss it
+(paper §5, ``servo.error_model``):
+
+1. quantisation — ``microsecond``: the integer-µs pulse the serial backends send;
+   ``degree``: the whole servo degree of ``Servo.write`` (its 0–180° scale spans the
+   channel's [min_us, max_us]; Arduino's integer ``map()`` gives the pulse); ``none``;
+2. the pulse is mapped back to the joint's value through its calibration;
+3. a static offset per joint (``offset_deg``, by name) and per-move Gaussian noise are
+   added.
+
+The TCP is the forward kinematics of the realised joints (passive joints from their
+couplings). Closing the gripper grips the table object nearest the TCP if it lies within
+``servo.grip_tolerance_cm`` in the plane and the TCP's height is within that tolerance of
+the object class's grip height plus ``tool.tcp_above_grip_cm``; otherwise the pick fails
+and the object stays. Opening it drops the held object into the nearest bin within
+``servo.bin_radius_cm`` (in the plane), or, with no bin that close, onto the table under
+the TCP. Tool actuators are quantised but do not move the TCP.
+
+The sim does not sleep unless ``servo.sim_realtime`` is set.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+
+from mearm.config import Config
+from mearm.exceptions import MearmError, TargetError, WorldError
+from mearm.hardware.bus import ArmCommand, ServoBus
+from mearm.hardware.mapping import ActuatorMap, Quantization, ServoMap
+from mearm.kinematics import ArmModel, check_target, closed_form_for
+from mearm.sim.world import World
+
+log = logging.getLogger(__name__)
+
+#: Random poses drawn per requested pose before :func:`random_reachable_joints` gives up.
+_DRAWS_PER_POSE = 10_000
+
+
+def quantize_deg(amap: ActuatorMap, value: float, mode: Quantization) -> float:
+    """The value a servo realises for a commanded one after command quantisation.
+
+    Args:
+        amap: The actuator's channel mapping.
+        value: Commanded value [deg, or cm], within the actuator's limits.
+        mode: ``none``, ``microsecond`` (integer-µs pulse) or ``degree`` (``Servo.write``).
+    """
+    return amap.realised(value, mode)
+
+
+@dataclass(frozen=True)
+class GripResult:
+    """What closing the gripper did.
+
+    Attributes:
+        success: Whether an object was gripped.
+        object_id: The nearest table object (gripped or not), or ``None`` if the table is empty.
+        distance_cm: TCP to that object in the plane [cm] (∞ if the table is empty).
+        dz_cm: TCP height minus the height it grips that object at [cm] (NaN if empty).
+    """
+
+    success: bool
+    object_id: str | None
+    distance_cm: float
+    dz_cm: float
+
+
+@dataclass(frozen=True)
+class ReleaseResult:
+    """What opening the gripper with an object did.
+
+    Attributes:
+        object_id: The released object.
+        bin: The class name of the bin it fell into, or ``None`` if it landed on the table.
+        x_cm: Where it ended, x [cm].
+        y_cm: Where it ended, y [cm].
+    """
+
+    object_id: str
+    bin: str | None
+    x_cm: float
+    y_cm: float
+
+
+class SimArm(ServoBus):
+    """Simulated servos, arm and gripper acting on a shared :class:`World`.
+
+    Args:
+        config: The whole configuration.
+        world: The table the simulated camera renders.
+        model: Arm model for the TCP (built from ``config.arm`` if omitted).
+
+    Attributes:
+        world: The shared world.
+        model: The arm model.
+        actual_joints: Realised actuated joints, name → deg or cm; home before the first
+            move.
+        actual_tool: Realised tool actuators, name → deg.
+        gripper_closed: Whether the gripper is closed.
+        last_grip: The outcome of the last close, or ``None``.
+        last_release: The outcome of the last release of an object, or ``None``.
+    """
+
+    def __init__(self, config: Config, world: World, model: ArmModel | None = None):
+        super().__init__(config, paced=config.servo.sim_realtime)
+        self.world = world
+        self.model = model if model is not None else ArmModel(config.arm)
+        self.error_model = config.servo.error_model
+        self._rng = np.random.default_rng(self.error_model.seed)
+        self.actual_joints: dict[str, float] = config.arm.home()
+        self.actual_tool: dict[str, float] = {a.name: a.home for a in config.arm.tool.actuators}
+        self.gripper_closed = False
+        self.last_grip: GripResult | None = None
+        self.last_release: ReleaseResult | None = None
+
+    @property
+    def ee_cm(self) -> np.ndarray:
+        """The realised TCP position in the base frame [cm], (3,)."""
+        return ee_from_joints_cm(self.model, self.actual_joints)
+
+    def realise(self, command: ArmCommand) -> dict[str, float]:
+        """Realised actuated joints for a command: quantised, offset, noisy [deg or cm].
+
+        Draws the noise (one value per actuated joint, in chain order), so each call is
+        one move's worth of it.
+        """
+        em = self.error_model
+        out = {
+            j.name: j.realised(command.joints[j.name], em.quantization)
+            + em.offset_deg.get(j.name, 0.0)
+            for j in self.servo_map.joints
+        }
+        if em.noise_std_deg > 0:
+            noise = self._rng.normal(0.0, em.noise_std_deg, size=len(out))
+            out = {n: v + float(e) for (n, v), e in zip(out.items(), noise, strict=True)}
+        return out
+
+    # ----------------------------------------------------------------- backend hooks
+
+    def _connect(self) -> None:
+        log.info(
+            "sim arm: %d objects on the table, quantization %s",
+            len(self.world.table_objects()),
+            self.error_model.quantization,
+        )
+
+    def _send_move(self, command: ArmCommand, pulses_us: dict[int, int]) -> None:
+        # A servo told to hold its value stays where it is: only a new joint command
+        # draws a new error (else gripping would re-roll the pose the route ended in).
+        if self.state is None or self.state.joints != command.joints:
+            self.actual_joints = self.realise(command)
+        q = self.error_model.quantization
+        self.actual_tool = {
+            a.name: a.realised(command.tool[a.name], q) for a in self.servo_map.tool
+        }
+        if command.gripper_closed and not self.gripper_closed:
+            self.gripper_closed = True
+            self.last_grip = self._close_gripper()
+        elif not command.gripper_closed and self.gripper_closed:
+            self.gripper_closed = False
+            self._open_gripper()
+
+    def _stop(self) -> None:
+        """Moves are instantaneous in the sim: nothing is in progress to stop."""
+
+    def _close(self) -> None:
+        """Nothing to release."""
+
+    # ----------------------------------------------------------------- gripper
+
+    def grip_height_cm(self, class_name: str) -> float:
+        """TCP height at which an object of this class is gripped [cm].
+
+        Raises:
+            WorldError: the class is not in ``task.classes``.
+        """
+        try:
+            cls = self.config.task.class_named(class_name)
+        except KeyError:
+            names = ", ".join(self.config.task.class_names)
+            raise WorldError(
+                f"object class {class_name!r} is not in task.classes ({names})"
+            ) from None
+        return cls.grip_z_cm + self.config.arm.tool.tcp_above_grip_cm
+
+    def _close_gripper(self) -> GripResult:
+        x, y, z = (float(v) for v in self.ee_cm)
+        obj, dist = self.world.nearest_on_table(x, y)
+        if obj is None:
+            log.info("sim grip: nothing on the table")
+            return GripResult(False, None, math.inf, math.nan)
+        dz = z - self.grip_height_cm(obj.color)
+        tol = self.config.servo.grip_tolerance_cm
+        ok = dist <= tol and abs(dz) <= tol
+        if ok:
+            self.world.grip(obj)
+        log.info(
+            "sim grip %s: %s at %.2f cm in the plane, dz %.2f cm (tolerance %.2f cm)",
+            "gripped" if ok else "missed",
+            obj.id,
+            dist,
+            dz,
+            tol,
+        )
+        return GripResult(ok, obj.id, float(dist), dz)
+
+    def _open_gripper(self) -> None:
+        if self.world.held_object() is None:
+            return
+        x, y, _ = (float(v) for v in self.ee_cm)
+        name, dist = self.world.nearest_bin(x, y)
+        if name is not None and dist <= self.config.servo.bin_radius_cm:
+            obj = self.world.release_into_bin(name)
+            self.last_release = ReleaseResult(obj.id, name, obj.x_cm, obj.y_cm)
+        else:
+            obj = self.world.release_on_table(x, y)
+            self.last_release = ReleaseResult(obj.id, None, obj.x_cm, obj.y_cm)
+        log.info("sim release %s: %s", obj.id, f"bin {obj.bin}" if obj.bin else "on the table")
+
+
+def ee_from_joints_cm(model: ArmModel, joints: Mapping[str, float]) -> np.ndarray:
+    """TCP position [cm], (3,), of the actuated joints ``{name: deg or cm}``."""
+    return model.fk_cm(model.chain.from_named(joints))
+
+
+def random_reachable_joints(
+    config: Config, n: int, seed: int = 0, model: ArmModel | None = None
+) -> np.ndarray:
+    """Actuated joints of ``n`` random poses whose TCP lies in the target box, (n, m).
+
+    Values in deg / cm, columns in chain order (``model.chain.actuated``). With a
+    registered closed form, targets are drawn uniformly in the box and solved (those out
+    of reach are redrawn); without one, poses are drawn uniformly within the joint limits
+    and kept when their TCP lies in the box.
+
+    Raises:
+        MearmError: the box is (almost) never reached from within the limits.
+    """
+    rng = np.random.default_rng(seed)
+    model = model if model is not None else ArmModel(config.arm)
+    chain = model.chain
+    box = config.arm.target_box
+    lo = np.array([box.x_cm.min, box.y_cm.min, box.z_cm.min])
+    hi = np.array([box.x_cm.max, box.y_cm.max, box.z_cm.max])
+    closed_form = closed_form_for(config.arm)
+    out: list[np.ndarray] = []
+    for _ in range(_DRAWS_PER_POSE * n):
+        if len(out) == n:
+            break
+        if closed_form is not None:
+            try:
+                q = check_target(rng.uniform(lo, hi), config.arm, closed_form)
+            except TargetError:
+                continue
+            assert q is not None
+        else:
+            q = chain.full(rng.uniform(chain.actuated_lower, chain.actuated_upper))
+            if not chain.within_limits(q):
+                continue
+            tcp = model.fk_cm(q)
+            if not (np.all(tcp >= lo) and np.all(tcp <= hi)):
+                continue
+        out.append(chain.to_config_units(q)[chain.actuated_index])
+    if len(out) < n:
+        raise MearmError(
+            f"found {len(out)} of {n} poses with the TCP in the target box after "
+            f"{_DRAWS_PER_POSE * n} draws: check arm.target_box against the joint limits"
+        )
+    return np.array(out)
+
+
+def quantization_ee_error_cm(
+    config: Config, mode: Quantization, n: int = 2000, seed: int = 0
+) -> np.ndarray:
+    """TCP error caused by command quantisation alone over random reachable poses [cm], (n,).
+
+    Each pose's actuated joints are quantised as :func:`quantize_deg` does; the error is
+    the distance between the FK of the quantised and of the exact joints.
+    """
+    smap = ServoMap.from_config(config)
+    model = ArmModel(config.arm)
+    names = model.chain.actuated
+    errors = np.empty(n)
+    for i, values in enumerate(random_reachable_joints(config, n, seed, model)):
+        exact = dict(zip(names, values.tolist(), strict=True))
+        quantised = {j.name: j.realised(exact[j.name], mode) for j in smap.joints}
+        errors[i] = np.linalg.norm(
+            ee_from_joints_cm(model, quantised) - ee_from_joints_cm(model, exact)
+        )
+    return errors
