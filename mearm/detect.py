@@ -1,4 +1,4 @@
-"""``python -m mearm.detect``: find the red, green and blue objects in images (SPEC §4).
+"""``python -m mearm.detect``: find the objects of each colour class in images (paper §4).
 
 Examples::
 
@@ -6,10 +6,11 @@ Examples::
     python -m mearm.detect --config configs/sim.yaml --camera --annotate out.png
 
 With ``--json`` each image gives one line: a JSON list of
-``{"color", "px": [u, v], "cm": [x, y], "area_px", "merged"}``, in the detector's order
-(red, green, blue; each by image row). ``--annotate OUT.png`` draws each region's
-contour, centroid, colour and table position; with several images the i-th (from 0, in
-the order given) goes to ``OUT-i.png``. A missing or unreadable image stops the run
+``{"color", "px": [u, v], "cm": [x, y], "area_px", "merged"}`` (``color`` is the class
+name), in the detector's order (the classes of ``task.classes`` in order; each by image
+row). ``--annotate OUT.png`` draws each region's contour, centroid, class and table
+position in its class's ``draw_rgb``; with several images the i-th (from 0, in the
+order given) goes to ``OUT-i.png``. A missing or unreadable image stops the run
 before anything is printed: exit 2 with one line on stderr.
 """
 
@@ -28,9 +29,6 @@ from mearm.exceptions import ImageError
 from mearm.vision.calibration import Calibration
 from mearm.vision.camera import open_camera, quiet_opencv
 from mearm.vision.detector import ColorDetector, Detection
-
-#: Drawing colours (BGR) per detected colour.
-DRAW_BGR = {"red": (0, 0, 255), "green": (0, 200, 0), "blue": (255, 80, 0)}
 
 
 def read_image(path: Path) -> np.ndarray:
@@ -54,7 +52,7 @@ def annotation_paths(out: Path, count: int) -> list[Path]:
 
 
 def to_records(detections: Sequence[Detection], calibration: Calibration) -> list[dict]:
-    """The JSON records of detections: colour, pixel and table position, area, merged."""
+    """The JSON records of detections: class, pixel and table position, area, merged."""
     if not detections:
         return []
     cm = calibration.pixel_to_table(np.array([d.centroid_px for d in detections]))
@@ -73,13 +71,17 @@ def to_records(detections: Sequence[Detection], calibration: Calibration) -> lis
 def annotate(
     frame: np.ndarray, detector: ColorDetector, records: list[dict], detections: list[Detection]
 ) -> np.ndarray:
-    """A copy of ``frame`` with contours, centroids, colours and table positions drawn."""
+    """A copy of ``frame`` with contours, centroids, classes and table positions drawn.
+
+    Each class is drawn in its ``draw_rgb``.
+    """
     out = frame.copy()
+    draw_bgr = {c.name: tuple(reversed(c.draw_rgb)) for c in detector.classes}
     masks = detector.masks(frame)
     for color, mask in masks.items():
         contours, _ = cv2.findContours(mask, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
         big = [c for c in contours if cv2.contourArea(c) >= detector.vision.min_area_px / 2]
-        cv2.drawContours(out, big, -1, DRAW_BGR[color], 1, cv2.LINE_AA)
+        cv2.drawContours(out, big, -1, draw_bgr[color], 1, cv2.LINE_AA)
     for rec, det in zip(records, detections, strict=True):
         u, v = det.centroid_px
         center = (round(u), round(v))
@@ -90,7 +92,7 @@ def annotate(
         org = (x, max(y - 4, 10))
         cv2.putText(out, label, org, cv2.FONT_HERSHEY_SIMPLEX, 0.35, (0, 0, 0), 3, cv2.LINE_AA)
         cv2.putText(
-            out, label, org, cv2.FONT_HERSHEY_SIMPLEX, 0.35, DRAW_BGR[rec["color"]], 1, cv2.LINE_AA
+            out, label, org, cv2.FONT_HERSHEY_SIMPLEX, 0.35, draw_bgr[rec["color"]], 1, cv2.LINE_AA
         )
     return out
 
@@ -117,7 +119,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.error(f"--annotate {args.annotate}: unknown image type (use .png or .jpg)")
     config = config_from_args(args)
     calibration = Calibration.from_config(config.calibration)
-    detector = ColorDetector(config.vision, calibration)
+    detector = ColorDetector(config.vision, calibration, config.task.classes)
 
     if args.camera:
         with open_camera(config) as camera:
@@ -126,6 +128,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         frames = [(str(p), read_image(p)) for p in args.images]  # all readable, or exit 2
 
     expected = (config.camera.width_px, config.camera.height_px)
+    width = max(len(name) for name in config.task.class_names)
     outs = annotation_paths(args.annotate, len(frames)) if args.annotate else []
     for i, (name, frame) in enumerate(frames):
         h, w = frame.shape[:2]
@@ -145,7 +148,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                 (u, v), (x, y) = r["px"], r["cm"]
                 flag = "  merged" if r["merged"] else ""
                 print(
-                    f"  {r['color']:<5} px ({u:7.2f}, {v:7.2f})  cm ({x:7.2f}, {y:6.2f})"
+                    f"  {r['color']:<{width}} px ({u:7.2f}, {v:7.2f})  cm ({x:7.2f}, {y:6.2f})"
                     f"  area {r['area_px']:5d}{flag}"
                 )
         if outs:

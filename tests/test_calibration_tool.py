@@ -15,7 +15,8 @@ import pytest
 
 from mearm.config import Config, load_config
 from mearm.exceptions import CalibrationError
-from mearm.vision import Calibration, TableRenderer
+from mearm.sim import TableRenderer
+from mearm.vision import Calibration
 from mearm.vision.aruco import (
     calibration_from_markers,
     detect_markers,
@@ -238,10 +239,10 @@ def test_a_config_that_would_not_load_is_not_written(tmp_path: Path, capsys) -> 
 
 def test_a_file_without_a_calibration_gets_one(tmp_path: Path) -> None:
     path = tmp_path / "small.yaml"
-    path.write_text("# only a comment\nvision: {preset: paper}  # keep me\n")
+    path.write_text("# only a comment\nvision: {saturation_min: 0.1}  # keep me\n")
     assert calibrate.main(["--config", str(path), *point_args()]) == 0
     text = path.read_text()
-    assert text.startswith("# only a comment\nvision: {preset: paper}  # keep me\n")
+    assert text.startswith("# only a comment\nvision: {saturation_min: 0.1}  # keep me\n")
     np.testing.assert_allclose(load_config(path).calibration.homography, LAB.H, atol=1e-9)
 
 

@@ -12,16 +12,14 @@ import pytest
 
 from mearm.config import Config, config_from_dict
 from mearm.exceptions import CameraError, ConfigError
+from mearm.sim import SimCamera, World
 from mearm.vision import (
-    Calibration,
     ColorDetector,
     DeviceCamera,
     FileCamera,
     FolderCamera,
-    SimCamera,
     open_camera,
 )
-from mearm.world import World
 
 
 def cfg(**camera) -> Config:
@@ -36,7 +34,7 @@ def test_sim_camera_shows_the_current_table() -> None:
     """Picked objects vanish from the next frame; bins are never drawn."""
     config = Config()
     world = World.from_config(config)
-    detector = ColorDetector(config.vision, Calibration.from_config(config.calibration))
+    detector = ColorDetector.from_config(config)
     with SimCamera(config, world) as cam:
         assert len(detector.detect(cam.read())) == 12
         world.objects[0].held = True
@@ -69,6 +67,25 @@ def test_open_camera_builds_the_sim_world_from_the_scene() -> None:
     with open_camera(config) as cam:
         assert isinstance(cam, SimCamera)
         assert len(cam.world.table_objects()) == 12
+
+
+def test_open_camera_shows_the_world_given() -> None:
+    """kind sim with a world: that world is on the table."""
+    config = Config()
+    world = World.from_config(config)
+    world.objects[0].bin = "red"
+    with open_camera(config, world) as cam:
+        assert cam.world is world
+        assert len(ColorDetector.from_config(config).detect(cam.read())) == 11
+
+
+def test_sim_object_of_an_unknown_class_is_an_error() -> None:
+    """An object whose class is not in task.classes cannot be drawn: CameraError naming it."""
+    config = Config()
+    world = World.from_config(config)
+    world.objects[3].color = "purple"
+    with pytest.raises(CameraError, match=r"red4 is of class 'purple'.*\(red, green, blue\)"):
+        SimCamera(config, world).read()
 
 
 def test_read_after_close_is_an_error() -> None:

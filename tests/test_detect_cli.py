@@ -12,8 +12,9 @@ import numpy as np
 import pytest
 
 from mearm import detect
-from mearm.config import Config
-from mearm.vision import OBJECT_BGR, Calibration, Disc, TableRenderer
+from mearm.config import Config, load_config
+from mearm.sim import TableRenderer, class_discs
+from mearm.vision import Calibration, open_camera
 
 ROOT = Path(__file__).resolve().parent.parent
 CONFIG = Config()
@@ -25,7 +26,9 @@ LAB_YAML, SIM_YAML = str(ROOT / "configs" / "lab.yaml"), str(ROOT / "configs" / 
 def images(tmp_path_factory) -> list[Path]:
     d = tmp_path_factory.mktemp("frames")
     renderer = TableRenderer(CAL)
-    layout = renderer.render([Disc(OBJECT_BGR[o.color], o.x, o.y) for o in CONFIG.task.scene])
+    layout = renderer.render(
+        class_discs(CONFIG.task.classes, [(o.color, o.x, o.y) for o in CONFIG.task.scene])
+    )
     empty = renderer.render([], frame_index=1)
     paths = [d / "layout.png", d / "empty.png"]
     cv2.imwrite(str(paths[0]), layout)
@@ -91,6 +94,44 @@ def test_camera_frame_from_the_sim(capsys) -> None:
     """--camera grabs one frame of the configured camera: the sim table."""
     code, out, _ = run_cli(capsys, "--config", SIM_YAML, "--camera", "--json")
     assert code == 0 and len(json.loads(out)) == 12
+
+
+FOUR_CLASSES_YAML = """
+camera: {table: grey}
+task:
+  classes:
+    - {name: red, hue_bands_deg: [{lo_deg: 330, hi_deg: 15}], draw_rgb: [200, 30, 35],
+       bin_cm: [-20, 35, 20]}
+    - {name: green, hue_bands_deg: [{lo_deg: 75, hi_deg: 165}], draw_rgb: [30, 160, 60],
+       bin_cm: [-20, 45, 20]}
+    - {name: blue, hue_bands_deg: [{lo_deg: 190, hi_deg: 255}], draw_rgb: [35, 60, 200],
+       bin_cm: [-20, 55, 20]}
+    - {name: yellow, hue_bands_deg: [{lo_deg: 45, hi_deg: 65}], draw_rgb: [230, 200, 30],
+       bin_cm: [-20, 25, 20]}
+  scene:
+    - {color: yellow, x: 0.0, y: 35.0}
+    - {color: red, x: -5.0, y: 45.0}
+    - {color: yellow, x: 10.0, y: 50.0}
+"""
+
+
+def test_classes_come_from_the_config(capsys, tmp_path: Path) -> None:
+    """A fourth class is found in class order; --annotate draws each in its draw_rgb."""
+    path = tmp_path / "four.yaml"
+    path.write_text(FOUR_CLASSES_YAML)
+    out = tmp_path / "ann.png"
+    code, text, _ = run_cli(capsys, "--config", str(path), "--camera", "--json", "--annotate",
+                            str(out))  # fmt: skip
+    assert code == 0
+    assert [r["color"] for r in json.loads(text)] == ["red", "yellow", "yellow"]
+    with open_camera(load_config(path)) as camera:
+        frame = camera.read()  # the same seeded frame the CLI grabbed
+    drawn = cv2.imread(str(out))
+    changed = drawn[np.any(drawn != frame, axis=2)].astype(int)  # (N, 3) BGR
+    for c in load_config(path).task.classes:
+        near = np.abs(changed - c.draw_rgb[::-1]).max(axis=1) <= 10
+        found = c.name in ("red", "yellow")  # no green or blue object in the scene
+        assert (near.sum() > 20) if found else not near.any(), c.name
 
 
 def test_size_mismatch_warns(capsys, tmp_path: Path) -> None:

@@ -7,11 +7,23 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from mearm.config import VisionConfig
-from mearm.vision.classify import COLOR_CODE, PixelClassifier, classify_exact, hsv_exact
-from mearm.vision.presets import DEFAULT, PAPER, resolve_thresholds
+from mearm.config import ColorClass, HueBand, VisionConfig, default_classes, paper_classes
+from mearm.config.defaults import PAPER_HUE_BANDS_DEG
+from mearm.exceptions import ConfigError
+from mearm.vision.classify import PixelClassifier, classify_exact, hsv_exact
+from mearm.vision.thresholds import MAX_CLASSES, Thresholds
 
-RED, GREEN, BLUE = (COLOR_CODE[c] for c in ("red", "green", "blue"))
+#: The paper's printed bands with its floors, S, V ≥ 0.1 (SPEC §4).
+PAPER_VISION = VisionConfig(saturation_min=0.1, value_min=0.1)
+PAPER = Thresholds.from_config(paper_classes(), PAPER_VISION)
+DEFAULT = Thresholds.from_config(default_classes(), VisionConfig())
+RED, GREEN, BLUE = (DEFAULT.codes[c] for c in ("red", "green", "blue"))
+
+
+def with_bands(classes: list[ColorClass], name: str, *bands: tuple[float, float]):
+    """``classes`` with the bands of class ``name`` replaced."""
+    new = [HueBand(lo_deg=lo, hi_deg=hi) for lo, hi in bands]
+    return [c.model_copy(update={"hue_bands_deg": new}) if c.name == name else c for c in classes]
 
 
 def rgb(r: int, g: int, b: int) -> tuple[int, int, int]:
@@ -81,6 +93,18 @@ def test_fast_path_is_exact_on_every_colour() -> None:
         assert np.array_equal(classifier.classify(frame), classify_exact(frame, PAPER))
 
 
+def test_paper_thresholds_are_the_printed_ones() -> None:
+    """paper_classes() + floors 0.1 resolve to the printed bands, codes in class order."""
+    assert PAPER.bands_deg == {
+        "red": ((280.0, 20.0),),
+        "green": ((130.0, 160.0),),
+        "blue": ((90.0, 120.0),),
+    }
+    assert PAPER.bands_deg == PAPER_HUE_BANDS_DEG
+    assert (PAPER.saturation_min, PAPER.value_min) == (0.1, 0.1)
+    assert PAPER.codes == {"red": 1, "green": 2, "blue": 3} == DEFAULT.codes
+
+
 def test_fast_path_is_exact_for_the_default_preset() -> None:
     """Same for the default preset, on every 5th blue level (all r, g)."""
     classifier = PixelClassifier(DEFAULT)
@@ -98,10 +122,8 @@ def test_fast_path_is_exact_for_the_default_preset() -> None:
 )
 def test_fast_path_is_exact_for_any_thresholds(lo: float, hi: float, s_min: float, v_min: float):
     """Whatever the bands and floors (wrapping or not), the fast path is exact."""
-    vision = VisionConfig(
-        bands={"red": [{"lo_deg": lo, "hi_deg": hi}]}, saturation_min=s_min, value_min=v_min
-    )
-    thr = resolve_thresholds(vision)
+    vision = VisionConfig(saturation_min=s_min, value_min=v_min)
+    thr = Thresholds.from_config(with_bands(default_classes(), "red", (lo, hi)), vision)
     rng = np.random.default_rng(int(lo * 1000 + hi))
     frame = rng.integers(0, 256, (64, 64, 3), dtype=np.uint8)
     assert np.array_equal(PixelClassifier(thr).classify(frame), classify_exact(frame, thr))
@@ -127,29 +149,79 @@ def test_default_preset_ignores_what_it_must() -> None:
 
 
 def test_default_preset_finds_real_colours_in_any_light() -> None:
-    """Painted red, green, blue at 0.6×–1.5× light (clipped to 8 bits) keep their class."""
-    objects = {RED: (45, 40, 200), GREEN: (70, 160, 50), BLUE: (180, 90, 30)}
-    for code, bgr in objects.items():
+    """Painted and drawn red, green, blue at 0.6×–1.5× light (clipped) keep their class."""
+    painted = {RED: (45, 40, 200), GREEN: (70, 160, 50), BLUE: (180, 90, 30)}  # webcam, BGR
+    drawn = {DEFAULT.codes[c.name]: c.draw_rgb[::-1] for c in default_classes()}  # sim, BGR
+    for code, bgr in [*painted.items(), *drawn.items()]:
         for gain in (0.6, 0.8, 1.0, 1.2, 1.5):
             px = np.clip(np.rint(np.array(bgr) * gain), 0, 255).astype(np.uint8)
             assert classify_exact(px[None, None], DEFAULT)[0, 0] == code, (bgr, gain)
 
 
-def test_overlapping_bands_go_to_the_first_colour() -> None:
-    """Red, green, blue are tried in that order (documented in classify.py)."""
-    vision = VisionConfig(bands={"green": [{"lo_deg": 0, "hi_deg": 360}]})
-    thr = resolve_thresholds(vision)
+def test_overlapping_bands_go_to_the_first_class() -> None:
+    """Classes are tried in their configured order (documented in classify.py)."""
+    thr = Thresholds.from_config(with_bands(default_classes(), "green", (0, 360)), VisionConfig())
     frame = np.array([[rgb(255, 0, 0), rgb(0, 0, 255)]], np.uint8)
     assert classify_exact(frame, thr)[0].tolist() == [RED, GREEN]
+    assert PixelClassifier(thr).classify(frame)[0].tolist() == [RED, GREEN]
+    reordered = Thresholds.from_config(default_classes()[::-1], VisionConfig())
+    assert reordered.codes == {"blue": 1, "green": 2, "red": 3}
+    assert classify_exact(frame, reordered)[0].tolist() == [3, 1]
 
 
-def test_overrides_keep_the_rest_of_the_preset() -> None:
-    """Overriding one colour's bands keeps the others' and the floors."""
-    thr = resolve_thresholds(
-        VisionConfig(preset="paper", bands={"blue": [{"lo_deg": 200, "hi_deg": 250}]})
-    )
+def test_bands_come_from_the_classes_and_floors_from_vision() -> None:
+    """Changing one class's bands keeps the others'; the floors are vision's."""
+    thr = Thresholds.from_config(with_bands(paper_classes(), "blue", (200, 250)), PAPER_VISION)
     assert thr.bands_deg["blue"] == ((200.0, 250.0),)
     assert thr.bands_deg["red"] == PAPER.bands_deg["red"]
     assert (thr.saturation_min, thr.value_min) == (0.1, 0.1)
-    thr = resolve_thresholds(VisionConfig(saturation_min=0.2))
+    thr = Thresholds.from_config(default_classes(), VisionConfig(saturation_min=0.2))
     assert thr.saturation_min == 0.2 and thr.value_min == DEFAULT.value_min
+
+
+def test_a_class_may_have_several_bands() -> None:
+    """A pixel in any of a class's bands is that class, on both paths."""
+    thr = Thresholds.from_config(
+        with_bands(default_classes(), "blue", (200, 210), (240, 250)), VisionConfig()
+    )
+    hues = [rgb(0, 149, 255), rgb(0, 85, 255), rgb(21, 0, 255), rgb(85, 0, 255)]
+    frame = np.array([hues], np.uint8)
+    want = [BLUE, 0, BLUE, 0]  # 205°, 220°, 245°, 260°
+    assert classify_exact(frame, thr)[0].tolist() == want
+    assert PixelClassifier(thr).classify(frame)[0].tolist() == want
+
+
+def test_any_number_of_classes() -> None:
+    """One class, or four with a yellow between red and green: codes 1..N, fast = exact."""
+    (blue,) = [c for c in default_classes() if c.name == "blue"]
+    one = Thresholds.from_config([blue], VisionConfig())
+    frame = np.array([[rgb(35, 60, 200), rgb(200, 30, 35), rgb(230, 200, 30)]], np.uint8)
+    assert one.codes == {"blue": 1}
+    assert classify_exact(frame, one)[0].tolist() == [1, 0, 0]
+    yellow = ColorClass(
+        name="yellow",
+        hue_bands_deg=[HueBand(lo_deg=45, hi_deg=65)],
+        draw_rgb=(230, 200, 30),
+        bin_cm=(-20.0, 25.0, 20.0),
+    )
+    four = Thresholds.from_config([*default_classes(), yellow], VisionConfig())
+    assert four.codes == {"red": 1, "green": 2, "blue": 3, "yellow": 4}
+    assert classify_exact(frame, four)[0].tolist() == [3, 1, 4]
+    for thr in (one, four):
+        classifier = PixelClassifier(thr)
+        for start in range(0, 256, 128):
+            slab = colour_slab(range(start, start + 128, 9))
+            assert np.array_equal(classifier.classify(slab), classify_exact(slab, thr))
+
+
+def test_bad_class_lists_are_named_errors() -> None:
+    """No classes, a name twice, or more classes than codes: ConfigError saying so."""
+    with pytest.raises(ConfigError, match="no classes; give at least one"):
+        Thresholds.from_config([], VisionConfig())
+    red = default_classes()[0]
+    with pytest.raises(ConfigError, match="'red' is listed twice"):
+        Thresholds.from_config([red, red], VisionConfig())
+    many = [red.model_copy(update={"name": f"c{i}"}) for i in range(MAX_CLASSES + 1)]
+    with pytest.raises(ConfigError, match=f"{MAX_CLASSES + 1} classes, .* at most {MAX_CLASSES}"):
+        Thresholds.from_config(many, VisionConfig())
+    assert len(Thresholds.from_config(many[:MAX_CLASSES], VisionConfig()).codes) == MAX_CLASSES

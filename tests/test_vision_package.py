@@ -2,14 +2,63 @@
 
 from __future__ import annotations
 
+import ast
+import re
+import subprocess
+import sys
+from pathlib import Path
+
 import mearm.vision
 from mearm.vision.bench import run_vision_bench
+
+VISION = Path(mearm.vision.__file__).parent
 
 
 def test_every_exported_name_exists() -> None:
     for name in mearm.vision.__all__:
         assert getattr(mearm.vision, name) is not None, name
     assert sorted(mearm.vision.__all__) == sorted(set(mearm.vision.__all__))
+
+
+def test_vision_does_not_import_the_simulator() -> None:
+    """Importing vision loads no part of mearm.sim (the layer above) ..."""
+    code = "import sys, mearm.vision; print(sorted(m for m in sys.modules if 'mearm.sim' in m))"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]"
+
+
+def test_no_vision_module_imports_the_simulator_at_module_level() -> None:
+    """... and no vision module imports it at its top level (only inside functions)."""
+    for path in sorted(VISION.glob("*.py")):
+        tree = ast.parse(path.read_text(encoding="utf-8"))
+        for node in tree.body:
+            if isinstance(node, ast.If):  # ``if TYPE_CHECKING:`` blocks are not run
+                continue
+            names = []
+            if isinstance(node, ast.Import):
+                names = [a.name for a in node.names]
+            elif isinstance(node, ast.ImportFrom):
+                names = [node.module or ""]
+            assert not any(n == "mearm.sim" or n.startswith("mearm.sim.") for n in names), path
+
+
+def test_no_colour_is_named_in_vision_or_sim() -> None:
+    """Classes come from the config: no vision or sim module names a colour in code."""
+    colour = re.compile(r"\b(red|green|blue|yellow|orange|purple|magenta|cyan)\b")
+    for path in sorted([*VISION.glob("*.py"), *(VISION.parent / "sim").glob("*.py")]):
+        tree = ast.parse(path.read_text(encoding="utf-8"))
+        docstrings = {
+            id(n.body[0].value)
+            for n in ast.walk(tree)
+            if isinstance(n, (ast.Module, ast.ClassDef, ast.FunctionDef))
+            and n.body
+            and isinstance(n.body[0], ast.Expr)
+        }
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Constant) and isinstance(node.value, str):
+                if id(node) in docstrings:
+                    continue
+                assert not colour.search(node.value.lower()), (path.name, node.value)
 
 
 def test_bench_rows_have_the_shape_tools_bench_expects() -> None:

@@ -6,9 +6,14 @@ import numpy as np
 import pytest
 
 from mearm.config import Config
-from mearm.vision import OBJECT_BGR, Calibration, ColorDetector, Disc, Highlight, TableRenderer
+from mearm.exceptions import ConfigError
+from mearm.sim import Disc, Highlight, TableRenderer, class_bgr, class_discs
+from mearm.vision import Calibration, ColorDetector
+from mearm.vision.classify import hsv_exact
 
-CAL = Calibration.from_config(Config().calibration)
+CONFIG = Config()
+CAL = Calibration.from_config(CONFIG.calibration)
+RED = CONFIG.task.class_named("red")
 
 
 def test_disc_is_drawn_through_the_inverse_calibration() -> None:
@@ -20,7 +25,7 @@ def test_disc_is_drawn_through_the_inverse_calibration() -> None:
     tilted = Calibration(CAL.H @ np.array([[1.0, 0.03, 0.0], [0.02, 1.0, 0.0], [2e-4, 1e-4, 1.0]]))
     for cal, tol in ((CAL, 0.005), (tilted, 0.1)):
         r = TableRenderer(cal, noise_std=0.0, gradient=0.0, table="grey")
-        frame = r.render([Disc(OBJECT_BGR["red"], 5.3, 44.1)]).astype(float)
+        frame = r.render([Disc.of_class(RED, 5.3, 44.1)]).astype(float)
         redness = np.clip(frame[..., 2] - frame[..., 1], 0, None)  # 0 on grey
         v, u = np.indices(redness.shape)
         centre = np.array([(u * redness).sum(), (v * redness).sum()]) / redness.sum()
@@ -50,8 +55,8 @@ def test_noise_has_the_configured_spread() -> None:
 def test_highlight_washes_out_saturation() -> None:
     """A strong highlight on a disc leaves a hole in its mask but the centre holds."""
     hl = Highlight(0.3, 45.2, sigma_cm=0.2, strength=1.0)
-    frame = TableRenderer(CAL, extras=[hl]).render([Disc(OBJECT_BGR["red"], 0.0, 45.0)])
-    (d,) = ColorDetector(Config().vision, CAL).detect(frame)
+    frame = TableRenderer(CAL, extras=[hl]).render([Disc.of_class(RED, 0.0, 45.0)])
+    (d,) = ColorDetector.from_config(CONFIG).detect(frame)
     assert d.area_px < 780
     assert np.linalg.norm(CAL.pixel_to_table(d.centroid_px) - [0.0, 45.0]) < 0.1
 
@@ -59,3 +64,23 @@ def test_highlight_washes_out_saturation() -> None:
 def test_bad_table_name() -> None:
     with pytest.raises(ValueError, match="'wood' or 'grey'"):
         TableRenderer(CAL, table="marble")
+
+
+def test_objects_are_drawn_in_their_class_colour_and_size() -> None:
+    """A class's disc has its draw_rgb (BGR in the frame) and its diameter_cm."""
+    r = TableRenderer(CAL, noise_std=0.0, gradient=0.0, table="grey")
+    for name, diameter_cm in (("green", 2.0), ("blue", 3.5)):
+        cls = CONFIG.task.class_named(name).model_copy(update={"diameter_cm": diameter_cm})
+        frame = r.render(class_discs([cls], [(name, 0.0, 45.0)]))
+        u, v = np.rint(CAL.table_to_pixel([0.0, 45.0])).astype(int)
+        assert tuple(frame[v, u]) == class_bgr(cls)  # the centre is unshaded
+        assert class_bgr(cls) == tuple(reversed(cls.draw_rgb))
+        _, sat, _ = hsv_exact(frame)
+        coloured = sat > 0.4  # the grey table and the disc's drop shadow have S ≈ 0
+        radius_px = diameter_cm / 2 / 0.0625
+        assert np.count_nonzero(coloured) == pytest.approx(np.pi * radius_px**2, rel=0.03)
+
+
+def test_unknown_class_is_a_named_error() -> None:
+    with pytest.raises(ConfigError, match="'purple': not a class \\(classes: red, green, blue\\)"):
+        class_discs(CONFIG.task.classes, [("purple", 0.0, 45.0)])

@@ -2,11 +2,14 @@
 
 from __future__ import annotations
 
+import importlib.util
+
 import pytest
 
-from mearm.config import Config, SceneObject
+import mearm.sim
+from mearm.config import ColorClass, Config, HueBand, SceneObject, TaskConfig, default_classes
 from mearm.exceptions import WorldError
-from mearm.world import World
+from mearm.sim import World
 
 
 @pytest.fixture
@@ -14,12 +17,35 @@ def world() -> World:
     return World.from_config(Config())
 
 
-def test_from_config_names_objects_by_colour(world):
+def test_from_config_names_objects_by_class(world):
     """The paper's 12 objects, named red1..blue4 in scene order, all on the table."""
     assert [o.id for o in world.objects[:5]] == ["red1", "red2", "red3", "red4", "green1"]
     assert len(world.table_objects()) == 12 and world.held_object() is None
     assert (world.objects[0].x_cm, world.objects[0].y_cm) == (-10.99, 49.70)
     assert set(world.bins_cm) == {"red", "green", "blue"}
+    assert world.bins_cm == {c.name: c.bin_cm for c in Config().task.classes}
+
+
+def test_any_classes_get_their_bins():
+    """A fourth class from the config has its bin and its objects; one class works too."""
+    yellow = ColorClass(
+        name="yellow",
+        hue_bands_deg=[HueBand(lo_deg=45, hi_deg=65)],
+        draw_rgb=(230, 200, 30),
+        bin_cm=(-20.0, 25.0, 20.0),
+    )
+    scene = [SceneObject(color="yellow", x=0, y=35), SceneObject(color="red", x=1, y=40)]
+    w = World.from_config(
+        Config(task=TaskConfig(classes=[*default_classes(), yellow], scene=scene))
+    )
+    assert list(w.bins_cm) == ["red", "green", "blue", "yellow"]
+    assert [o.id for o in w.objects] == ["yellow1", "red1"]
+    w.grip(w.objects[0])
+    assert w.release_into_bin("yellow").bin == "yellow"
+    assert (w.objects[0].x_cm, w.objects[0].y_cm) == (-20.0, 25.0)
+    (blue,) = default_classes()[2:]
+    one = Config(task=TaskConfig(classes=[blue], scene=[SceneObject(color="blue", x=0, y=40)]))
+    assert World.from_config(one).bins_cm == {"blue": blue.bin_cm}
 
 
 def test_nearest_on_table(world):
@@ -59,7 +85,7 @@ def test_impossible_changes(world):
     with pytest.raises(WorldError, match="red1 is already held"):
         world.grip(b)
     with pytest.raises(WorldError, match="no bin 'purple'"):
-        world.release_into_bin("purple")  # type: ignore[arg-type]
+        world.release_into_bin("purple")
     world.release_into_bin("red")
     with pytest.raises(WorldError, match="not on the table"):
         world.grip(a)
@@ -68,3 +94,20 @@ def test_impossible_changes(world):
 def test_from_scene():
     w = World.from_scene([SceneObject(color="blue", x=1, y=2)], {"blue": (0.0, 0.0, 0.0)})
     assert [(o.id, o.x_cm) for o in w.objects] == [("blue1", 1.0)]
+
+
+def test_sim_package_exports():
+    """Every name of mearm.sim.__all__ exists; the servo bus's are loaded on first access."""
+    lazy = {"SimArm", "GripResult", "ReleaseResult", "quantize_deg"}
+    assert lazy <= set(mearm.sim.__all__)
+    assert sorted(mearm.sim.__all__) == sorted(set(mearm.sim.__all__))
+    for name in sorted(set(mearm.sim.__all__) - lazy):
+        assert getattr(mearm.sim, name) is not None, name
+    if importlib.util.find_spec("mearm.sim.servo_bus") is None:
+        with pytest.raises(ModuleNotFoundError, match="mearm.sim.servo_bus"):
+            mearm.sim.SimArm  # noqa: B018
+    else:
+        for name in sorted(lazy):
+            assert getattr(mearm.sim, name) is not None, name
+    with pytest.raises(AttributeError, match="no attribute 'Nope'"):
+        mearm.sim.Nope  # noqa: B018

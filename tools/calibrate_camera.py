@@ -1,4 +1,4 @@
-r"""Fit the camera → table calibration and write it into a config file (SPEC §4).
+r"""Fit the camera → table calibration and write it into a config file (paper §4).
 
 From an image showing four (or more) ArUco markers whose centres' table positions you
 measured (base frame, cm; the marker's top edge towards +y)::

@@ -1,7 +1,12 @@
-"""Vision: colour detection, camera → table calibration, camera sources (SPEC §4).
+"""Vision: colour detection, camera → table calibration, camera sources (paper §4).
 
-``mearm.vision.reference`` (the plain NumPy/SciPy recipe) and ``mearm.vision.bench``
-need SciPy and are not imported here.
+Everything is keyed by colour class (``task.classes``): build a detector with
+``ColorDetector(config.vision, calibration, config.task.classes)`` or
+``ColorDetector.from_config(config)``. The simulated camera lives in :mod:`mearm.sim`.
+
+``mearm.vision.reference`` (the plain NumPy/SciPy recipe), ``mearm.vision.scenes`` and
+``mearm.vision.bench`` (rendered test scenes, the benchmark) need SciPy or the simulator
+and are not imported here.
 """
 
 from mearm.vision.aruco import calibration_from_markers, detect_markers
@@ -11,44 +16,24 @@ from mearm.vision.camera import (
     DeviceCamera,
     FileCamera,
     FolderCamera,
-    SimCamera,
     open_camera,
 )
 from mearm.vision.classify import PixelClassifier, classify_exact
 from mearm.vision.detector import ColorDetector, Detection
-from mearm.vision.presets import PRESETS, Thresholds, resolve_thresholds
-from mearm.vision.render import (
-    DISTRACTOR_BGR,
-    OBJECT_BGR,
-    Disc,
-    Highlight,
-    Paper,
-    Shadow,
-    TableRenderer,
-)
+from mearm.vision.thresholds import Thresholds
 
 __all__ = [
-    "DISTRACTOR_BGR",
-    "OBJECT_BGR",
-    "PRESETS",
     "Calibration",
     "Camera",
     "ColorDetector",
     "Detection",
     "DeviceCamera",
-    "Disc",
     "FileCamera",
     "FolderCamera",
-    "Highlight",
-    "Paper",
     "PixelClassifier",
-    "Shadow",
-    "SimCamera",
-    "TableRenderer",
     "Thresholds",
     "calibration_from_markers",
     "classify_exact",
     "detect_markers",
     "open_camera",
-    "resolve_thresholds",
 ]

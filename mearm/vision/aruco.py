@@ -1,4 +1,4 @@
-"""ArUco markers for calibration: find them, draw them, print them (SPEC §4).
+"""ArUco markers for calibration: find them, draw them, print them (paper §4).
 
 A marker lies flat on the table with its top edge towards +y of the base frame. Its
 centre is the intersection of its image diagonals (exact under any homography, unlike

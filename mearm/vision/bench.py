@@ -1,4 +1,4 @@
-"""Vision benchmark: ms per 640×480 frame with the paper's 12 objects (SPEC §4).
+"""Vision benchmark: ms per 640×480 frame with the paper's 12 objects (paper §4).
 
     python -m mearm.vision.bench [--repeat N] [--seeds N]
 
@@ -11,9 +11,12 @@ Never asserted: timings depend on the machine. Needs SciPy (the ``dev`` extra).
 
 It also reports the detector's accuracy on the standard scenes
 (:mod:`mearm.vision.scenes`): every condition, with and without distractors, several
-noise seeds — how many scenes gave exactly the 12 objects with the right colours, and
+noise seeds — how many scenes gave exactly the 12 objects with the right classes, and
 the worst and mean position error; and how well calibrations recover the rig
 (:func:`run_calibration_study`).
+
+Scenes are drawn by the simulator's renderer (:mod:`mearm.sim.renderer`); this script
+sits on top of both layers and imports it where it draws.
 """
 
 from __future__ import annotations
@@ -29,10 +32,9 @@ from mearm.config import Config
 from mearm.vision.calibration import Calibration
 from mearm.vision.detector import ColorDetector
 from mearm.vision.reference import detect_reference
-from mearm.vision.render import OBJECT_BGR, Disc, TableRenderer
-from mearm.vision.scenes import BASE_OPTIONS, CONDITIONS, DISTRACTORS, match_detections
+from mearm.vision.scenes import BASE_OPTIONS, CONDITIONS, distractors, match_detections
 
-PAPER_DETECT_S = 0.263  # SPEC §4: 12 objects, 640×480, MATLAB
+PAPER_DETECT_S = 0.263  # paper §4: 12 objects, 640×480, MATLAB
 
 
 def _times(fns: dict[str, Callable[[], object]], rounds: int) -> dict[str, list[float]]:
@@ -52,13 +54,16 @@ def run_vision_bench(repeat: int = 50) -> list[dict]:
         repeat: Rounds; each round times every contender once (the OpenCV detector
             ten times, to resolve its short time).
     """
-    config = Config()  # the simulated rig: 640×480, paper calibration, default preset
+    from mearm.sim.renderer import TableRenderer, class_discs
+
+    config = Config()  # the simulated rig: 640×480, paper calibration, default classes
+    classes = config.task.classes
     calibration = Calibration.from_config(config.calibration)
     renderer = TableRenderer.from_config(config.camera, calibration)
-    discs = [Disc(OBJECT_BGR[o.color], o.x, o.y) for o in config.task.scene]
+    discs = class_discs(classes, [(o.color, o.x, o.y) for o in config.task.scene])
     frame = renderer.render(discs)
-    detector = ColorDetector(config.vision, calibration)
-    found, expected = detector.detect(frame), detect_reference(frame, config.vision)
+    detector = ColorDetector(config.vision, calibration, classes)
+    found, expected = detector.detect(frame), detect_reference(frame, classes, config.vision)
     same = len(found) == len(expected) == 12 and all(
         a.color == b.color
         and a.area_px == b.area_px
@@ -74,7 +79,7 @@ def run_vision_bench(repeat: int = 50) -> list[dict]:
     times = _times(
         {
             "opencv": opencv,
-            "numpy": lambda: detect_reference(frame, config.vision),
+            "numpy": lambda: detect_reference(frame, classes, config.vision),
             "render": lambda: renderer.render(discs, frame_index=1),
         },
         max(1, repeat),
@@ -91,7 +96,7 @@ def run_vision_bench(repeat: int = 50) -> list[dict]:
         ("detect, NumPy/SciPy recipe (best)", best["numpy"], "ms/frame",
          "median_filter + label, float64 HSV, whole frame"),
         ("NumPy/SciPy ÷ OpenCV", best["numpy"] / best["opencv"], "x", "same run"),
-        ("paper (MATLAB)", 1e3 * PAPER_DETECT_S, "ms/frame", "SPEC §4, MATLAB R2018a, i5-2410M"),
+        ("paper (MATLAB)", 1e3 * PAPER_DETECT_S, "ms/frame", "paper §4, MATLAB R2018a, i5-2410M"),
         ("paper ÷ OpenCV", 1e3 * PAPER_DETECT_S / best["opencv"], "x", "different machines"),
         ("sim camera render (best)", best["render"], "ms/frame",
          "textured table, 12 shaded discs, noise"),
@@ -103,15 +108,17 @@ def run_vision_bench(repeat: int = 50) -> list[dict]:
 
 
 def run_vision_accuracy(seeds: int = 3) -> list[dict]:
-    """Accuracy rows on the standard scenes (sim rig, default preset)."""
+    """Accuracy rows on the standard scenes (sim rig, default classes)."""
+    from mearm.sim.renderer import TableRenderer, class_discs
+
     config = Config()
     calibration = Calibration.from_config(config.calibration)
-    detector = ColorDetector(config.vision, calibration)
+    detector = ColorDetector.from_config(config)
     objects = [(o.color, o.x, o.y) for o in config.task.scene]
-    discs = [Disc(OBJECT_BGR[c], x, y) for c, x, y in objects]
+    discs = class_discs(config.task.classes, objects)
     errors, scenes, exact = [], 0, 0
     for options in CONDITIONS.values():
-        for extras in ((), DISTRACTORS):
+        for extras in ((), distractors()):
             for seed in range(seeds):
                 opts = BASE_OPTIONS | options | {"seed": options.get("seed", 0) + seed}
                 frame = TableRenderer(calibration, extras=extras, **opts).render(discs)
@@ -143,6 +150,7 @@ def run_calibration_study(draws: int = 200) -> list[dict]:
     from a tilted camera: the worst error over the field using the 4 centres, and the
     centres plus the 16 corners.
     """
+    from mearm.sim.renderer import TableRenderer
     from mearm.vision.aruco import calibration_from_markers, draw_marker_on_table
 
     lab = Calibration.from_config(Config().calibration)

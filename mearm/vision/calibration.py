@@ -1,4 +1,4 @@
-r"""Camera → table calibration: a plane homography, pixels ↔ base-frame cm (SPEC §4).
+r"""Camera → table calibration: a plane homography, pixels ↔ base-frame cm (paper §4).
 
 A pixel (u, v) maps to the table point (x, y) [cm] in the robot base frame through
 
@@ -172,9 +172,17 @@ class Calibration:
         w = px @ self.H[2, :2] + self.H[2, 2]
         return self._abs_det / np.abs(w) ** 3  # type: ignore[attr-defined]
 
-    def expected_disc_area_px(self, pixels_px: npt.ArrayLike, diameter_cm: float) -> np.ndarray:
-        """Image area [px] of a disc of ``diameter_cm`` centred at each image point, (N,)."""
-        return math.pi * (diameter_cm / 2.0) ** 2 / self.pixel_area_cm2(pixels_px)
+    def expected_disc_area_px(
+        self, pixels_px: npt.ArrayLike, diameter_cm: npt.ArrayLike
+    ) -> np.ndarray:
+        """Image area [px] of a disc centred at each image point, (N,).
+
+        Args:
+            pixels_px: Disc centres (u, v) [px], (N, 2) or (2,).
+            diameter_cm: The discs' diameter [cm]: one for all, or one per centre (N,).
+        """
+        radius_cm = np.asarray(diameter_cm, dtype=float) / 2.0
+        return math.pi * radius_cm**2 / self.pixel_area_cm2(pixels_px)
 
     def to_config(self) -> CalibrationConfig:
         """This calibration as the ``calibration`` section of a config."""

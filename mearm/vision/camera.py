@@ -1,4 +1,4 @@
-"""Camera sources, chosen by ``camera.kind`` in the config (SPEC §1: one USB camera).
+"""Camera sources, chosen by ``camera.kind`` in the config (paper §1: one USB camera).
 
 - ``device``: a USB camera through ``cv2.VideoCapture``, by ``camera.device_index`` or,
   when ``camera.path`` is set, by path (e.g. a stable ``/dev/v4l/by-id/...`` name);
@@ -6,7 +6,8 @@
   the configured resolution.
 - ``file``: one image (every read returns it) or a video (frames in order).
 - ``folder``: the images of a folder in name order.
-- ``sim``: the simulated table (:class:`SimCamera`), rendered afresh on every read.
+- ``sim``: the simulated table (:class:`mearm.sim.SimCamera`), rendered afresh on every
+  read; :func:`open_camera` imports it on demand (the simulator is the layer above).
 
 Replayed frames must have the configured size, because the calibration is in pixels of
 that size. Every failure is a :class:`~mearm.exceptions.CameraError` naming the source;
@@ -17,7 +18,7 @@ from __future__ import annotations
 
 import threading
 from abc import ABC, abstractmethod
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -27,11 +28,9 @@ import numpy as np
 
 from mearm.config import CameraConfig, Config
 from mearm.exceptions import CameraError
-from mearm.vision.calibration import Calibration
-from mearm.vision.render import OBJECT_BGR, Disc, Extra, TableRenderer
 
 if TYPE_CHECKING:
-    from mearm.world import World
+    from mearm.sim.world import World
 
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".webp", ".ppm", ".pgm")
 
@@ -226,32 +225,6 @@ class FolderCamera(Camera):
         return frame
 
 
-class SimCamera(Camera):
-    """The simulated camera: renders the objects on the world's table at every read.
-
-    Args:
-        config: The whole config: ``camera`` (size, noise, light, table, seed) and
-            ``calibration`` (objects are drawn through its inverse).
-        world: The table; its current ``table_objects()`` are drawn (held objects and
-            objects in bins are not).
-        extras: Distractors drawn in every frame (see :mod:`mearm.vision.render`).
-    """
-
-    def __init__(self, config: Config, world: World, extras: Sequence[Extra] = ()):
-        cam = config.camera
-        super().__init__("sim", (cam.width_px, cam.height_px))
-        self.world = world
-        calibration = Calibration.from_config(config.calibration)
-        self.renderer = TableRenderer.from_config(cam, calibration, extras)
-        self.frames_read = 0
-
-    def _read(self) -> np.ndarray:
-        discs = [Disc(OBJECT_BGR[o.color], o.x_cm, o.y_cm) for o in self.world.table_objects()]
-        frame = self.renderer.render(discs, frame_index=self.frames_read)
-        self.frames_read += 1
-        return frame
-
-
 def open_camera(config: Config, world: World | None = None) -> Camera:
     """Open the source ``config.camera.kind`` names.
 
@@ -259,6 +232,10 @@ def open_camera(config: Config, world: World | None = None) -> Camera:
         config: The whole config.
         world: The table the ``sim`` camera shows; ``None`` builds one from
             ``config.task.scene``. Ignored by the other kinds.
+
+    Returns:
+        A :class:`DeviceCamera`, :class:`FileCamera`, :class:`FolderCamera`, or for
+        ``sim`` a :class:`mearm.sim.SimCamera`.
 
     Raises:
         CameraError: the source cannot be opened.
@@ -270,8 +247,6 @@ def open_camera(config: Config, world: World | None = None) -> Camera:
         return FileCamera(config.camera)
     if kind == "folder":
         return FolderCamera(config.camera)
-    if world is None:
-        from mearm.world import World
+    from mearm import sim  # the layer above vision: imported only when asked for
 
-        world = World.from_config(config)
-    return SimCamera(config, world)
+    return sim.SimCamera(config, sim.World.from_config(config) if world is None else world)

@@ -1,4 +1,4 @@
-r"""Pixel classification by HSV thresholds (SPEC §4), exact and fast.
+r"""Pixel classification by HSV thresholds (paper §4), exact and fast.
 
 The paper's definition, for an 8-bit pixel (r, g, b) with v = max, m = min, d = v − m:
 
@@ -9,9 +9,12 @@ The paper's definition, for an 8-bit pixel (r, g, b) with v = max, m = min, d = 
         (g - b)/d \bmod 6 & v = r \\ (b - r)/d + 2 & v = g \\ (r - g)/d + 4 & v = b
     \end{cases}
 
-(H = 0 when d = 0), then colour *c* when S ≥ S_min, V ≥ V_min and H lies in one of *c*'s
-bands; colours are tried in the order red, green, blue, so overlapping bands go to the
-first. :func:`classify_exact` computes this in float64 (exact at integer band edges:
+(H = 0 when d = 0), then class *c* when S ≥ S_min, V ≥ V_min and H lies in one of *c*'s
+bands; classes are tried in their configured order, so overlapping bands go to the
+first. A class map holds code *i* + 1 for class *i* and 0 for no class
+(:attr:`~mearm.vision.thresholds.Thresholds.codes`).
+
+:func:`classify_exact` computes this in float64 (exact at integer band edges:
 ``60·k/d`` is correctly rounded). :class:`PixelClassifier` gets the same answer about
 10× faster: OpenCV's 8-bit HSV (hue in 2° bins, S within ±1.5 levels of 255·S) decides
 every pixel whose bin lies wholly inside or outside the bands, and only the few pixels
@@ -27,12 +30,13 @@ import cv2
 import numpy as np
 import numpy.typing as npt
 
-from mearm.config import COLORS
-from mearm.vision.presets import Thresholds, in_band
+from mearm.vision.thresholds import Thresholds, in_band
 
-#: Class codes in a class map: 0 is no colour, ``COLOR_CODE[c]`` is colour c.
-COLOR_CODE = {color: 0x80 | (i + 1) for i, color in enumerate(COLORS)}
-_UNSURE = 0x80
+# The fast path's 8-bit codes carry this flag: ``_SURE | k`` is surely class k, ``_SURE``
+# alone is unsure. ANDed with the floors' 0xFF (pass), 0 (fail) or ``_SURE`` (unsure),
+# a sure class stays, fails to 0 or becomes unsure, all in one bitwise AND.
+_SURE = 0x80
+_UNSURE = _SURE
 # Slack on the 8-bit conversion: hue bin b holds true hues within 2b ± (1 + _HUE_SLACK)
 # degrees, S level s holds true S within (s ± (0.5 + _S_SLACK)) / 255. OpenCV's
 # fixed-point rounding stays well inside these (checked on all 2^24 colours by a test).
@@ -76,15 +80,22 @@ def hsv_exact(frame_bgr: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndar
 def classify_hsv(
     hue_deg: npt.ArrayLike, sat: npt.ArrayLike, val: npt.ArrayLike, thr: Thresholds
 ) -> np.ndarray:
-    """Class codes (``COLOR_CODE`` or 0), uint8, for HSV values in the paper's units."""
+    """Class codes (*i* + 1 for class *i*, 0 for none), uint8, of HSV in the paper's units.
+
+    Args:
+        hue_deg: Hue [deg], in [0, 360).
+        sat: Saturation [-], in [0, 1].
+        val: Value [-], in [0, 1].
+        thr: Bands and floors.
+    """
     h = np.asarray(hue_deg, dtype=float)
     ok = (np.asarray(sat) >= thr.saturation_min) & (np.asarray(val) >= thr.value_min)
     out = np.zeros(h.shape, np.uint8)
-    for color in reversed(COLORS):  # earlier colours win: written last
-        hit = np.zeros(h.shape, bool)
-        for lo, hi in thr.bands_deg[color]:
+    for code, bands in reversed(list(enumerate(thr.bands_deg.values(), start=1))):
+        hit = np.zeros(h.shape, bool)  # earlier classes win: written last
+        for lo, hi in bands:
             hit |= ((h >= lo) & (h <= hi)) if lo <= hi else ((h >= lo) | (h <= hi))
-        out[ok & hit] = COLOR_CODE[color]
+        out[ok & hit] = code
     return out
 
 
@@ -94,14 +105,17 @@ def classify_exact(frame_bgr: npt.ArrayLike, thr: Thresholds) -> np.ndarray:
 
 
 def _class_of_hue(hue_deg: float, thr: Thresholds) -> int:
-    for color in COLORS:
-        if any(in_band(hue_deg, band) for band in thr.bands_deg[color]):
-            return COLOR_CODE[color]
+    for code, bands in enumerate(thr.bands_deg.values(), start=1):
+        if any(in_band(hue_deg, band) for band in bands):
+            return code
     return 0
 
 
 def _hue_lut(thr: Thresholds) -> np.ndarray:
-    """Per OpenCV hue bin (0–179): the class if every hue the bin may hold agrees, else unsure."""
+    """Per OpenCV hue bin (0–179): the class if every hue the bin may hold agrees.
+
+    ``_SURE | code`` for surely that class, 0 for surely none, else ``_UNSURE``.
+    """
     edges = sorted({e for bands in thr.bands_deg.values() for band in bands for e in band})
     lut = np.zeros(256, np.uint8)
     for b in range(180):
@@ -112,7 +126,11 @@ def _hue_lut(thr: Thresholds) -> np.ndarray:
         crit.sort()
         probes = crit + [(a + c) / 2 for a, c in zip(crit, crit[1:], strict=False)]
         classes = {_class_of_hue(p % 360.0, thr) for p in probes}
-        lut[b] = classes.pop() if len(classes) == 1 else _UNSURE
+        if len(classes) == 1:
+            code = classes.pop()
+            lut[b] = _SURE | code if code else 0
+        else:
+            lut[b] = _UNSURE
     return lut
 
 
@@ -139,7 +157,7 @@ class PixelClassifier:
     """Fast exact classification of 8-bit BGR frames (see the module docstring).
 
     Args:
-        thresholds: Bands and floors, e.g. from :func:`~mearm.vision.presets.resolve_thresholds`.
+        thresholds: Bands and floors, e.g. ``Thresholds.from_config(classes, vision)``.
     """
 
     def __init__(self, thresholds: Thresholds):
@@ -151,7 +169,11 @@ class PixelClassifier:
         self.value_min_level = math.ceil(255.0 * thresholds.value_min - 1e-9)
 
     def classify(self, frame_bgr: np.ndarray) -> np.ndarray:
-        """Class codes (``COLOR_CODE[c]`` or 0) of a (H, W, 3) uint8 BGR frame, uint8 (H, W)."""
+        """Class codes (*i* + 1 for class *i*, 0 for none) of a (H, W, 3) uint8 BGR frame.
+
+        Returns:
+            The class map, uint8 (H, W).
+        """
         return self.classify_with_box(frame_bgr)[0]
 
     def classify_with_box(
@@ -169,8 +191,8 @@ class PixelClassifier:
         x, y, w, h_ = cv2.boundingRect(codes)
         if w == 0 or h_ == 0:  # no pixel passes: nothing to refine
             return codes, (0, 0, 0, 0)
-        box = codes[y : y + h_, x : x + w]  # a view: the exact pass writes through
-        unsure = equal_mask(box, _UNSURE)
+        unsure = equal_mask(codes[y : y + h_, x : x + w], _UNSURE)
+        codes = and_scalar(codes, 0xFF ^ _SURE)  # drop the flag: unsure → 0, sure → code
         if cv2.countNonZero(unsure):
             xy = cv2.findNonZero(unsure).reshape(-1, 2) + (x, y)  # (N, 2) u, v
             us, vs = xy[:, 0], xy[:, 1]

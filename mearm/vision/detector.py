@@ -1,55 +1,60 @@
-r"""Colour object detection: the paper's HSV recipe on OpenCV (SPEC §4).
+r"""Colour object detection: the paper's HSV recipe on OpenCV (paper §4).
 
-For each colour: classify pixels (:mod:`mearm.vision.classify`), a k×k median filter on
-the colour's mask (3×3 in the paper), 8-connected regions, regions under
-``min_area_px`` dropped; each remaining region is one :class:`Detection` with its pixel
-area, bounding box and sub-pixel centroid (the mean of its pixel centres, i.e. the
-image moments m10/m00, m01/m00).
+For each colour class (``task.classes``, in their order): classify pixels
+(:mod:`mearm.vision.classify`), a k×k median filter on the class's mask (3×3 in the
+paper), 8-connected regions, regions under ``min_area_px`` dropped; each remaining region
+is one :class:`Detection` with its pixel area, bounding box and sub-pixel centroid (the
+mean of its pixel centres, i.e. the image moments m10/m00, m01/m00).
 
 Two shortcuts make this fast without changing the result. Work is confined to the box
 around every classified pixel (grown by the median's reach), outside which every mask
-is 0. Regions are labelled once on the union of the three filtered masks (after the
-median the masks are disjoint: a pixel needs 5 of its 9 neighbours in a mask to stay in
-it): a union region holding one colour *is* that colour's region, and the rare union
-region holding several (objects of different colours touching) is split by labelling
-each colour inside its box. A test checks the result against a plain per-colour
-NumPy/SciPy implementation (:mod:`mearm.vision.reference`).
+is 0. Regions are labelled once on the union of the filtered masks (after the median
+the masks are disjoint: a pixel needs 5 of its 9 neighbours in a mask to stay in it): a
+union region holding one class *is* that class's region, and the rare union region
+holding several (objects of different classes touching) is split by labelling each
+class inside its box. A test checks the result against a plain per-class NumPy/SciPy
+implementation (:mod:`mearm.vision.reference`).
 
-Touching objects of one colour form one region. It is reported once, with its real
-area and centroid, and flagged ``merged`` (the caller must not pick at that centroid,
-which lies between the objects) when any of these holds:
+Touching objects of one class form one region. It is reported once, with its real area
+and centroid, and flagged ``merged`` (the caller must not pick at that centroid, which
+lies between the objects) when any of these holds:
 
-- its area exceeds ``merged_area_ratio`` (1.6) × the area of one object
-  (``object_diameter_cm``, 2 cm) at the calibration's scale at that place — only when
-  the detector was given a calibration;
+- its area exceeds ``merged_area_ratio`` (1.6) × the area of one object of its class (a
+  disc of the class's ``diameter_cm``) at the calibration's scale at that place — only
+  when the detector was given a calibration;
 - the ratio of its principal axes (from the second central moments) exceeds
   ``merged_elongation`` (1.5): one disc gives 1.0, two touching discs √5 ≈ 2.24.
 
-Detections come in a fixed order: red, green, blue, each by image row then column of
-the centroid.
+Detections come in a fixed order: by class in the configured order, each class by
+image row then column of the centroid.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
+from typing import TYPE_CHECKING
 
 import cv2
 import numpy as np
 
-from mearm.config import COLORS, Color, VisionConfig
+from mearm.config import ColorClass, VisionConfig
 from mearm.exceptions import ImageError
 from mearm.vision.calibration import Calibration
-from mearm.vision.classify import COLOR_CODE, PixelClassifier, and_scalar, equal_mask
-from mearm.vision.presets import resolve_thresholds
+from mearm.vision.classify import PixelClassifier, and_scalar, equal_mask
+from mearm.vision.thresholds import Thresholds
+
+if TYPE_CHECKING:
+    from mearm.config import Config
 
 
 @dataclass(frozen=True)
 class Detection:
-    """One coloured region.
+    """One region of one colour class.
 
     Attributes:
-        color: ``"red"``, ``"green"`` or ``"blue"``.
+        color: The name of its class (one of ``task.classes``).
         centroid_px: Mean (u, v) of the region's pixel centres [px], (2,), read-only.
         area_px: Number of pixels in the region [px].
         bbox_px: Bounding box (x, y, w, h) [px].
@@ -57,7 +62,7 @@ class Detection:
         elongation: Ratio of the region's principal axes [-] (1 for a disc).
     """
 
-    color: Color
+    color: str
     centroid_px: np.ndarray = field(compare=False)
     area_px: int
     bbox_px: tuple[int, int, int, int]
@@ -107,21 +112,41 @@ def _elongation(region: np.ndarray) -> float:
 
 
 class ColorDetector:
-    """Find red, green and blue objects in BGR frames.
+    """Find the objects of each colour class in BGR frames.
 
     Args:
-        vision: Thresholds and filter settings (the ``vision`` section of the config).
+        vision: Floors and filter settings (the ``vision`` section of the config).
         calibration: Enables the area rule of the merged test (the expected area of one
-            object at each place). Without it only the elongation rule applies.
+            object at each place); ``None``: only the elongation rule applies.
+        classes: The colour classes (``task.classes``): their hue bands, their order
+            (class, then row, then column is the order of the detections) and their
+            objects' diameter (the area rule of the merged test).
+
+    Raises:
+        ConfigError: no classes, too many, or a name listed twice.
     """
 
-    def __init__(self, vision: VisionConfig, calibration: Calibration | None = None):
+    def __init__(
+        self,
+        vision: VisionConfig,
+        calibration: Calibration | None,
+        classes: Sequence[ColorClass],
+    ):
+        self.classes = tuple(classes)
         self.vision = vision
         self.calibration = calibration
-        self.thresholds = resolve_thresholds(vision)
+        self.thresholds = Thresholds.from_config(self.classes, vision)
         self.classifier = PixelClassifier(self.thresholds)
+        self.class_names = self.thresholds.class_names
+        self._diameter_cm = {c.name: float(c.diameter_cm) for c in self.classes}
 
-    def _filtered(self, frame_bgr: np.ndarray) -> tuple[dict[Color, np.ndarray], int, int]:
+    @classmethod
+    def from_config(cls, config: Config) -> ColorDetector:
+        """The detector of a whole config: ``task.classes``, ``vision``, ``calibration``."""
+        calibration = Calibration.from_config(config.calibration)
+        return cls(config.vision, calibration, config.task.classes)
+
+    def _filtered(self, frame_bgr: np.ndarray) -> tuple[dict[str, np.ndarray], int, int]:
         """Filtered masks of the box around every classified pixel, and the box origin.
 
         Outside that box (grown by the median's reach) every mask is 0, so working
@@ -136,25 +161,25 @@ class ColorDetector:
         x0, y0 = max(x - reach, 0), max(y - reach, 0)
         x1, y1 = min(x + w + reach, codes.shape[1]), min(y + h + reach, codes.shape[0])
         box = codes[y0:y1, x0:x1]
-        out: dict[Color, np.ndarray] = {}
-        for color in COLORS:
-            mask = equal_mask(box, COLOR_CODE[color])
-            out[color] = cv2.medianBlur(mask, k) if k > 1 else mask
+        out: dict[str, np.ndarray] = {}
+        for code, name in enumerate(self.class_names, start=1):
+            mask = equal_mask(box, code)
+            out[name] = cv2.medianBlur(mask, k) if k > 1 else mask
         return out, x0, y0
 
-    def masks(self, frame_bgr: np.ndarray) -> dict[Color, np.ndarray]:
-        """Per colour, its median-filtered mask over the whole frame (uint8 0/255, (H, W)).
+    def masks(self, frame_bgr: np.ndarray) -> dict[str, np.ndarray]:
+        """Per class name, its median-filtered mask over the whole frame (uint8 0/255, (H, W)).
 
         Raises:
             ImageError: the frame is not an 8-bit 3-channel image.
         """
         frame = check_frame(frame_bgr)
         boxed, x0, y0 = self._filtered(frame)
-        out: dict[Color, np.ndarray] = {}
-        for color, m in boxed.items():
+        out: dict[str, np.ndarray] = {}
+        for name, m in boxed.items():
             full = np.zeros(frame.shape[:2], np.uint8)
             full[y0 : y0 + m.shape[0], x0 : x0 + m.shape[1]] = m
-            out[color] = full
+            out[name] = full
         return out
 
     def detect(self, frame_bgr: np.ndarray) -> list[Detection]:
@@ -164,24 +189,24 @@ class ColorDetector:
             ImageError: the frame is not an 8-bit 3-channel image.
         """
         masks, ox, oy = self._filtered(frame_bgr)
-        # One image of colour indices 1..3 (0 = none); the filtered masks are disjoint.
-        index = and_scalar(masks["red"], 1)
-        index = cv2.bitwise_or(index, and_scalar(masks["green"], 2))
-        index = cv2.bitwise_or(index, and_scalar(masks["blue"], 3))
+        # One image of class codes 1..N (0 = none); the filtered masks are disjoint.
+        index = np.zeros_like(next(iter(masks.values())))
+        for code, name in enumerate(self.class_names, start=1):
+            index = cv2.bitwise_or(index, and_scalar(masks[name], code))
         n, labels, stats, centroids = _label(index)
         min_area = self.vision.min_area_px
         found: list[Detection] = []
         for lab in range(1, n):
             x, y, w, h, area = (int(v) for v in stats[lab])
-            if area < min_area:  # its colour regions are smaller still
+            if area < min_area:  # its class regions are smaller still
                 continue
             roi = (slice(y, y + h), slice(x, x + w))
             region = (labels[roi] == lab).view(np.uint8)
             lo, hi, _, _ = cv2.minMaxLoc(index[roi], mask=region)
-            if lo == hi:  # one colour: the union region is that colour's region
+            if lo == hi:  # one class: the union region is that class's region
                 found.append(self._detection(int(lo), region, centroids[lab], area, (x, y)))
                 continue
-            for i in range(int(lo), int(hi) + 1):  # different colours touch: split them
+            for i in range(int(lo), int(hi) + 1):  # different classes touch: split them
                 sub = equal_mask(index[roi], i)
                 sub = cv2.bitwise_and(sub, sub, mask=region)
                 m, sub_labels, sub_stats, sub_centroids = _label(sub)
@@ -192,18 +217,18 @@ class ColorDetector:
                         centroid = sub_centroids[s] + (x, y)
                         found.append(self._detection(i, piece, centroid, sarea, (x + sx, y + sy)))
         found = [self._shifted(d, ox, oy) for d in found]
-        order = {c: i for i, c in enumerate(COLORS)}
+        order = {name: i for i, name in enumerate(self.class_names)}
         found.sort(key=lambda d: (order[d.color], d.centroid_px[1], d.centroid_px[0]))
         return self._flag_by_area(found)
 
     def _detection(
-        self, index: int, region: np.ndarray, centroid: np.ndarray, area: int, xy: tuple[int, int]
+        self, code: int, region: np.ndarray, centroid: np.ndarray, area: int, xy: tuple[int, int]
     ) -> Detection:
         """A detection from a region (0/1 image of its bounding box) in working-box pixels."""
         elongation = _elongation(region)
         h, w = region.shape
         return Detection(
-            color=COLORS[index - 1],
+            color=self.class_names[code - 1],
             centroid_px=centroid,
             area_px=int(area),
             bbox_px=(xy[0], xy[1], w, h),
@@ -221,7 +246,8 @@ class ColorDetector:
         if self.calibration is None or not found:
             return found
         centroids = np.array([d.centroid_px for d in found])
-        expected = self.calibration.expected_disc_area_px(centroids, self.vision.object_diameter_cm)
+        diameters_cm = np.array([self._diameter_cm[d.color] for d in found])
+        expected = self.calibration.expected_disc_area_px(centroids, diameters_cm)
         limit = self.vision.merged_area_ratio * expected
         return [
             d if d.merged or d.area_px <= lim else replace(d, merged=True)

@@ -1,6 +1,6 @@
-"""The paper's recipe in plain NumPy/SciPy, for cross-checks and the benchmark (SPEC §4).
+"""The paper's recipe in plain NumPy/SciPy, for cross-checks and the benchmark (paper §4).
 
-Per colour: float64 HSV thresholds, ``scipy.ndimage.median_filter`` (borders replicated,
+Per colour class: float64 HSV thresholds, ``scipy.ndimage.median_filter`` (borders replicated,
 as OpenCV's ``medianBlur``), ``scipy.ndimage.label`` with 8-connectivity, regions under
 the minimum area dropped, centroid = mean pixel position. No shortcuts: every step runs
 on the whole frame, as the paper's MATLAB did. Needs SciPy (the ``dev`` extra).
@@ -8,29 +8,38 @@ on the whole frame, as the paper's MATLAB did. Needs SciPy (the ``dev`` extra).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 from scipy import ndimage
 
-from mearm.config import COLORS, VisionConfig
-from mearm.vision.classify import COLOR_CODE, classify_hsv, hsv_exact
+from mearm.config import ColorClass, VisionConfig
+from mearm.vision.classify import classify_hsv, hsv_exact
 from mearm.vision.detector import Detection
-from mearm.vision.presets import resolve_thresholds
+from mearm.vision.thresholds import Thresholds
 
 _EIGHT = np.ones((3, 3), dtype=bool)
 
 
-def detect_reference(frame_bgr: np.ndarray, vision: VisionConfig) -> list[Detection]:
+def detect_reference(
+    frame_bgr: np.ndarray, classes: Sequence[ColorClass], vision: VisionConfig
+) -> list[Detection]:
     """Detections of ``frame_bgr`` ((H, W, 3) uint8 BGR) without OpenCV, in detector order.
 
     ``merged`` is left False: the merged test is the detector's addition, not the recipe.
+
+    Args:
+        frame_bgr: The frame, (H, W, 3) uint8 BGR.
+        classes: The colour classes (``task.classes``), in order.
+        vision: Floors and filter settings.
     """
-    thr = resolve_thresholds(vision)
+    thr = Thresholds.from_config(classes, vision)
     codes = classify_hsv(*hsv_exact(frame_bgr), thr)
     k = vision.median_kernel
     rows, cols = np.indices(codes.shape)
     found: list[Detection] = []
-    for color in COLORS:
-        mask = (codes == COLOR_CODE[color]).astype(np.uint8)
+    for color, code in thr.codes.items():
+        mask = (codes == code).astype(np.uint8)
         if k > 1:
             mask = ndimage.median_filter(mask, size=k, mode="nearest")
         labels, n = ndimage.label(mask, structure=_EIGHT)

@@ -1,31 +1,48 @@
 """Standard rendered scenes for checking the detector: conditions and distractors.
 
-The paper's 12-object layout (SPEC §4) under each of :data:`CONDITIONS`, with or without
-:data:`DISTRACTORS`, is what the tests and ``python -m mearm.vision.bench`` measure.
+The default config's layout (the paper's 12 objects, paper §4) under each of
+:data:`CONDITIONS`, with or without :func:`distractors`, is what the tests and
+``python -m mearm.vision.bench`` measure. The scenes are drawn by the simulator
+(:mod:`mearm.sim.renderer`), the layer above vision, which is imported only when a scene
+is asked for.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from mearm.vision.calibration import Calibration
 from mearm.vision.detector import Detection
-from mearm.vision.render import DISTRACTOR_BGR, Disc, Extra, Highlight, Paper, Shadow
 
-#: Things the detector must ignore, placed around and over the paper's layout.
-DISTRACTORS: tuple[Extra, ...] = (
-    Disc(DISTRACTOR_BGR["yellow"], -16.0, 55.0),
-    Disc(DISTRACTOR_BGR["orange"], 16.0, 56.0),
-    Disc(DISTRACTOR_BGR["purple"], 16.0, 33.0),
-    Disc(DISTRACTOR_BGR["orange"], -4.0, 38.5, diameter_cm=3.0),
-    Paper(-13.0, 33.5, width_cm=10.0, height_cm=6.0, angle_deg=8.0),
-    Shadow(3.0, 47.0, radius_cm=5.0, depth=0.45),  # over a red, a green and a blue object
-    Shadow(-15.0, 42.0, radius_cm=3.0, depth=0.6),
-    Highlight(10.0, 36.0, sigma_cm=1.5, strength=0.7),  # on the table
-    Highlight(-0.40, 42.3, sigma_cm=0.25, strength=0.8),  # on red object M3
-)
+if TYPE_CHECKING:
+    from mearm.sim.renderer import Extra
+
+
+def distractors() -> tuple[Extra, ...]:
+    """Things the default classes must ignore, placed around and over the paper's layout.
+
+    Discs of hues ≈ 54°, 29° and 288° (the last falls in the paper's printed first band,
+    280°–20°), a sheet of paper, shadows over objects and highlights on the table and on
+    an object (the paper's third object, at (−0.40, 42.01) cm).
+    """
+    from mearm.sim.renderer import Disc, Highlight, Paper, Shadow
+
+    hue_54, hue_29, hue_288 = (40, 210, 230), (30, 130, 240), (150, 50, 130)  # BGR
+    return (
+        Disc(hue_54, -16.0, 55.0),
+        Disc(hue_29, 16.0, 56.0),
+        Disc(hue_288, 16.0, 33.0),
+        Disc(hue_29, -4.0, 38.5, diameter_cm=3.0),
+        Paper(-13.0, 33.5, width_cm=10.0, height_cm=6.0, angle_deg=8.0),
+        Shadow(3.0, 47.0, radius_cm=5.0, depth=0.45),  # over objects of all three classes
+        Shadow(-15.0, 42.0, radius_cm=3.0, depth=0.6),
+        Highlight(10.0, 36.0, sigma_cm=1.5, strength=0.7),  # on the table
+        Highlight(-0.40, 42.3, sigma_cm=0.25, strength=0.8),  # on the third object
+    )
+
 
 #: Renderer settings (over noise 2, brightness 1, gradient 0.15, wood, seed 0).
 CONDITIONS: dict[str, dict] = {
@@ -48,10 +65,15 @@ def match_detections(
 ) -> np.ndarray | None:
     """Position error [cm] of each object if detections and objects match one to one.
 
-    Greedy by detection: each takes the nearest remaining object of its colour.
+    Greedy by detection: each takes the nearest remaining object of its class.
+
+    Args:
+        found: Detections.
+        objects: The true objects, (class name, x [cm], y [cm]).
+        calibration: Maps the detections' centroids to the table.
 
     Returns:
-        The errors, (N,), or ``None`` when the counts or colours do not match.
+        The errors [cm], (N,), or ``None`` when the counts or classes do not match.
     """
     if len(found) != len(objects):
         return None

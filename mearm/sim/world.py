@@ -1,11 +1,12 @@
-"""The simulated table: objects with a colour and a position, and the colour bins.
+"""The simulated table: objects with a colour class and a position, and one bin per class.
 
 One :class:`World` is shared by the simulated camera (which renders what lies on the
 table) and the simulated arm (which picks objects up and drops them into bins), so a pick
-really removes an object from the next frame.
+really removes an object from the next frame. Objects and bins are keyed by class name
+(``task.classes``); the world knows no colours.
 
 The world only keeps state; the rules (how close the gripper must be to pick, which bin
-catches a released object) live in :class:`mearm.hardware.sim.SimArm`.
+catches a released object) live in the simulated arm (``mearm.sim.SimArm``).
 """
 
 from __future__ import annotations
@@ -13,24 +14,31 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-from mearm.config import Color, Config, SceneObject
+from mearm.config import Config, SceneObject
 from mearm.exceptions import WorldError
 
-#: Object size, SPEC §1: cylinders 2 cm in diameter, 1 cm high.
-OBJECT_DIAMETER_CM = 2.0
-OBJECT_HEIGHT_CM = 1.0
+Vector3 = tuple[float, float, float]
 
 
 @dataclass
 class WorldObject:
-    """One object. ``held`` while in the gripper; ``bin`` once dropped into a bin."""
+    """One object on the table, in the gripper or in a bin.
+
+    Attributes:
+        id: Its name: class name and index, e.g. ``"red1"`` for the first of class red.
+        color: The name of its colour class.
+        x_cm: Position, base frame [cm].
+        y_cm: Position, base frame [cm].
+        held: Whether it is in the gripper.
+        bin: The class name of the bin it was dropped into, or ``None``.
+    """
 
     id: str
-    color: Color
+    color: str
     x_cm: float
     y_cm: float
     held: bool = False
-    bin: Color | None = None
+    bin: str | None = None
 
     @property
     def on_table(self) -> bool:
@@ -40,16 +48,19 @@ class WorldObject:
 
 @dataclass
 class World:
-    """The table's objects and the bins (base frame, cm)."""
+    """The table's objects and the bins.
+
+    Attributes:
+        objects: Every object, in scene order.
+        bins_cm: Per class name, where its bin is, base frame (x, y, z) [cm].
+    """
 
     objects: list[WorldObject] = field(default_factory=list)
-    bins_cm: dict[Color, tuple[float, float, float]] = field(default_factory=dict)
+    bins_cm: dict[str, Vector3] = field(default_factory=dict)
 
     @classmethod
-    def from_scene(
-        cls, scene: list[SceneObject], bins_cm: dict[Color, tuple[float, float, float]]
-    ) -> World:
-        """Objects named by colour and index (``red1``, ``red2``, …) in scene order."""
+    def from_scene(cls, scene: list[SceneObject], bins_cm: dict[str, Vector3]) -> World:
+        """Objects named by class and index (``red1``, ``red2``, …) in scene order."""
         counts: dict[str, int] = {}
         objects = []
         for obj in scene:
@@ -59,8 +70,9 @@ class World:
 
     @classmethod
     def from_config(cls, config: Config) -> World:
-        """The world of ``config.task.scene`` with ``config.task.bins_cm``."""
-        return cls.from_scene(config.task.scene, config.task.bins_cm)
+        """The world of ``config.task.scene`` with each class's bin (``task.classes``)."""
+        bins_cm = {c.name: c.bin_cm for c in config.task.classes}
+        return cls.from_scene(config.task.scene, bins_cm)
 
     def table_objects(self) -> list[WorldObject]:
         """Objects lying on the table, in scene order."""
@@ -79,13 +91,13 @@ class World:
                 best, best_d = o, d
         return best, best_d
 
-    def in_bin(self, color: Color) -> list[WorldObject]:
-        """Objects dropped into the bin of ``color``."""
+    def in_bin(self, color: str) -> list[WorldObject]:
+        """Objects dropped into the bin of class ``color``."""
         return [o for o in self.objects if o.bin == color]
 
-    def nearest_bin(self, x_cm: float, y_cm: float) -> tuple[Color | None, float]:
-        """The bin nearest to (x, y) in the plane and its distance [cm]."""
-        best: Color | None = None
+    def nearest_bin(self, x_cm: float, y_cm: float) -> tuple[str | None, float]:
+        """The class of the bin nearest to (x, y) in the plane and its distance [cm]."""
+        best: str | None = None
         best_d = math.inf
         for color, (bx, by, _bz) in self.bins_cm.items():
             d = math.hypot(bx - x_cm, by - y_cm)
@@ -106,8 +118,8 @@ class World:
             raise WorldError(f"cannot grip {obj.id}: it is not on the table")
         obj.held = True
 
-    def release_into_bin(self, color: Color) -> WorldObject:
-        """Drop the held object into the bin of ``color``; returns it.
+    def release_into_bin(self, color: str) -> WorldObject:
+        """Drop the held object into the bin of class ``color``; returns it.
 
         Raises:
             WorldError: nothing is held, or there is no such bin.

@@ -1,11 +1,12 @@
-"""The simulated camera's picture of the table (SPEC §1, §4).
+"""The simulated camera's picture of the table (paper §1, §4).
 
 A frame is drawn in the image through the inverse of the calibration, so an object at
 (x, y) cm appears exactly where the calibration says that point is:
 
 1. a table texture: light wood with grain, or grey with mottling (fixed per seed);
 2. white paper sheets, if asked for;
-3. for each object a soft drop shadow and then a 2 cm disc: its coverage of each pixel
+3. for each object a soft drop shadow and then a disc of its class's colour
+   (``draw_rgb``) and diameter (``diameter_cm``): its coverage of each pixel
    from 4×4 samples mapped to the table (anti-aliased, exact for any homography), its
    top shaded darker towards the rim (radially symmetric, so its centroid is unbiased);
 4. shadows, if asked for (a soft darkening);
@@ -16,7 +17,7 @@ A frame is drawn in the image through the inverse of the calibration, so an obje
 8. rounded and clipped to 8 bits.
 
 The discs are flat: the calibration is taken to hold in the plane of the objects' tops,
-as the paper's was measured on the objects (SPEC §4), so there is no parallax to add.
+as the paper's was measured on the objects (paper §4), so there is no parallax to add.
 """
 
 from __future__ import annotations
@@ -27,25 +28,20 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from mearm.config import CameraConfig
+from mearm.config import CameraConfig, ColorClass
+from mearm.exceptions import ConfigError
 from mearm.vision.calibration import Calibration
 
-#: Object colours as a webcam sees painted objects under white light (BGR, 8-bit).
-OBJECT_BGR: dict[str, tuple[int, int, int]] = {
-    "red": (45, 40, 200),  # H ≈ 358°
-    "green": (70, 160, 50),  # H ≈ 131°
-    "blue": (180, 90, 30),  # H ≈ 216°
-}
-#: Colours the detector must ignore (BGR, 8-bit).
-DISTRACTOR_BGR: dict[str, tuple[int, int, int]] = {
-    "yellow": (40, 210, 230),  # H ≈ 54°
-    "orange": (30, 130, 240),  # H ≈ 29°
-    "purple": (150, 50, 130),  # H ≈ 288°: red under the printed bands
-}
 WOOD_BGR = (95.0, 145.0, 195.0)  # H = 30°, S = 0.51
 GREY_BGR = (128.0, 128.0, 128.0)
 PAPER_BGR = (238.0, 240.0, 242.0)
 _SAMPLES = 4  # per pixel side, for disc coverage
+
+
+def class_bgr(color_class: ColorClass) -> tuple[int, int, int]:
+    """The colour a class's objects are drawn in, 8-bit BGR (OpenCV's order)."""
+    r, g, b = color_class.draw_rgb
+    return (b, g, r)
 
 
 @dataclass(frozen=True)
@@ -56,13 +52,38 @@ class Disc:
         bgr: Its top's colour (8-bit BGR) in nominal light.
         x_cm: Centre, base frame [cm].
         y_cm: Centre, base frame [cm].
-        diameter_cm: Diameter [cm] (objects: 2, SPEC §1).
+        diameter_cm: Diameter [cm] (the paper's objects: 2, paper §1).
     """
 
     bgr: tuple[int, int, int]
     x_cm: float
     y_cm: float
     diameter_cm: float = 2.0
+
+    @classmethod
+    def of_class(cls, color_class: ColorClass, x_cm: float, y_cm: float) -> Disc:
+        """An object of ``color_class`` at (x, y) [cm]: its ``draw_rgb`` and ``diameter_cm``."""
+        return cls(class_bgr(color_class), float(x_cm), float(y_cm), color_class.diameter_cm)
+
+
+def class_discs(
+    classes: Sequence[ColorClass], objects: Iterable[tuple[str, float, float]]
+) -> list[Disc]:
+    """Discs of objects given as (class name, x [cm], y [cm]).
+
+    Raises:
+        ConfigError: an object names a class not in ``classes``.
+    """
+    by_name = {c.name: c for c in classes}
+    discs = []
+    for name, x, y in objects:
+        if name not in by_name:
+            raise ConfigError(
+                None,
+                [f"object of class '{name}': not a class (classes: {', '.join(by_name)})"],
+            )
+        discs.append(Disc.of_class(by_name[name], x, y))
+    return discs
 
 
 @dataclass(frozen=True)

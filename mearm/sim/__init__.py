@@ -1,0 +1,72 @@
+"""The simulator: everything that stands in for the real rig behind the same interfaces.
+
+- :class:`World`: the table's objects and the bins, shared by the parts below;
+- :class:`TableRenderer`: the camera's picture of the table, and :class:`SimCamera`, a
+  :class:`~mearm.vision.camera.Camera` that renders the world at every read;
+- :class:`SimArm`: the servo bus over the world (``mearm.sim.servo_bus``).
+
+The simulator sits above vision and hardware: it may import them, they never import it
+(``mearm.vision.open_camera`` imports :class:`SimCamera` only when ``camera.kind`` is
+``sim``).
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import Any
+
+from mearm.sim.camera import SimCamera
+from mearm.sim.renderer import (
+    Disc,
+    Extra,
+    Highlight,
+    Paper,
+    Shadow,
+    TableRenderer,
+    class_bgr,
+    class_discs,
+)
+from mearm.sim.world import World, WorldObject
+
+# ---------------------------------------------------------------- simulated servo bus
+# ``mearm.sim.servo_bus`` (SimArm and its records) is imported on first access, so this
+# package imports without it and without loading the hardware layer.
+_SERVO_BUS = "mearm.sim.servo_bus"
+_LAZY: dict[str, str] = {
+    "GripResult": _SERVO_BUS,
+    "ReleaseResult": _SERVO_BUS,
+    "SimArm": _SERVO_BUS,
+    "quantize_deg": _SERVO_BUS,
+}
+# ----------------------------------------------------------------------------------
+
+__all__ = [
+    "Disc",
+    "Extra",
+    "GripResult",
+    "Highlight",
+    "Paper",
+    "ReleaseResult",
+    "Shadow",
+    "SimArm",
+    "SimCamera",
+    "TableRenderer",
+    "World",
+    "WorldObject",
+    "class_bgr",
+    "class_discs",
+    "quantize_deg",
+]
+
+
+def __getattr__(name: str) -> Any:
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'mearm.sim' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return __all__

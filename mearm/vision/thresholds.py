@@ -1,0 +1,92 @@
+"""Colour thresholds: each class's hue bands and the saturation/value floors (paper §4).
+
+A pixel is class *c* when its saturation and value are at least the floors and its hue
+lies in one of *c*'s bands. Hue is in degrees [0, 360) as the paper states it
+(MATLAB ``rgb2hsv`` × 360), S and V in [0, 1]; a band with ``lo > hi`` wraps through 0.
+Classes are tried in the order listed, so a hue in the bands of two classes goes to
+the first.
+
+The bands come from the classes (``task.classes``), the floors from ``vision``. The
+built-in classes (:func:`mearm.config.defaults.default_classes`) have bands chosen for
+real objects, with a margin to what they must ignore (wood, paper, highlights, shadows);
+:func:`mearm.config.defaults.paper_classes` has the bands as the paper printed them,
+whose floors were S, V ≥ 0.1.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+from mearm.config import ColorClass, VisionConfig
+from mearm.exceptions import ConfigError
+
+#: Class codes are 1..MAX_CLASSES (0 is no class); the fast classifier keeps a flag in
+#: the top bit of its 8-bit codes.
+MAX_CLASSES = 127
+
+Band = tuple[float, float]
+
+
+@dataclass(frozen=True)
+class Thresholds:
+    """Hue bands per class (in class order) and the floors on saturation and value.
+
+    Attributes:
+        bands_deg: Per class name, its hue intervals ``(lo, hi)`` [deg]; ``lo > hi``
+            wraps through 0. Its order is the class order: class *i* has code *i* + 1.
+        saturation_min: Floor on S [-], in [0, 1].
+        value_min: Floor on V [-], in [0, 1].
+    """
+
+    bands_deg: dict[str, tuple[Band, ...]]
+    saturation_min: float
+    value_min: float
+
+    def __post_init__(self) -> None:
+        if not self.bands_deg:
+            raise ConfigError(None, ["task.classes: no classes; give at least one"])
+        if len(self.bands_deg) > MAX_CLASSES:
+            raise ConfigError(
+                None,
+                [
+                    f"task.classes: {len(self.bands_deg)} classes, the detector handles at "
+                    f"most {MAX_CLASSES}"
+                ],
+            )
+
+    @classmethod
+    def from_config(cls, classes: Sequence[ColorClass], vision: VisionConfig) -> Thresholds:
+        """The bands of ``classes`` (``task.classes``) and the floors of ``vision``.
+
+        Raises:
+            ConfigError: no classes, more than :data:`MAX_CLASSES`, or a name listed twice.
+        """
+        bands: dict[str, tuple[Band, ...]] = {}
+        for c in classes:
+            if c.name in bands:
+                raise ConfigError(None, [f"task.classes: '{c.name}' is listed twice"])
+            bands[c.name] = tuple((float(b.lo_deg), float(b.hi_deg)) for b in c.hue_bands_deg)
+        return cls(
+            bands_deg=bands,
+            saturation_min=float(vision.saturation_min),
+            value_min=float(vision.value_min),
+        )
+
+    @property
+    def class_names(self) -> tuple[str, ...]:
+        """Class names in class order."""
+        return tuple(self.bands_deg)
+
+    @property
+    def codes(self) -> dict[str, int]:
+        """Class name → its code in a class map (*i* + 1 for class *i*; 0 is no class)."""
+        return {name: i + 1 for i, name in enumerate(self.bands_deg)}
+
+
+def in_band(hue_deg: float, band: Band) -> bool:
+    """Whether ``hue_deg`` lies in the closed band ``(lo, hi)`` (wrapping when lo > hi)."""
+    lo, hi = band
+    if lo <= hi:
+        return lo <= hue_deg <= hi
+    return hue_deg >= lo or hue_deg <= hi
