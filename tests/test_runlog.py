@@ -1,4 +1,8 @@
-"""The run log: what is written reads back; bad lines stop the reader and are reported."""
+"""The run log: what is written reads back; bad lines stop the reader and are reported.
+
+Format 2 is what is written; format-1 logs (joint lists, the ``robot:`` config) read into
+the same records.
+"""
 
 from __future__ import annotations
 
@@ -12,13 +16,25 @@ from mearm.config import Config
 from mearm.exceptions import RunLogError, RunLogFormatError
 from mearm.runlog import (
     FORMAT_VERSION,
+    FaultRecord,
     HeaderRecord,
     RouteRecord,
     RunLog,
+    SkipRecord,
     SummaryRecord,
     library_versions,
+    parse_record,
     read_runlog,
+    upgrade_v1_record,
 )
+
+ARM = Config().arm
+JOINTS = [j.name for j in ARM.joints]
+
+
+def named(values: list[float]) -> dict[str, object]:
+    """Joint values of the default arm by name, as numpy scalars (the writer takes them)."""
+    return {n: np.float64(v) for n, v in zip(JOINTS, values, strict=True)}
 
 
 def route_fields(**over: object) -> dict[str, object]:
@@ -28,8 +44,8 @@ def route_fields(**over: object) -> dict[str, object]:
         step="pick",
         attempt=1,
         target_cm=np.array([-10.99, 49.70, 12.76]),
-        start_joints_deg=np.array([120.0, 93.0, -132.0, 39.0]),
-        end_joints_deg=np.array([102.4, 68.1, -95.2, 27.1]),
+        start_joints=named([120.0, 93.0, -132.0, 39.0]),
+        end_joints=named([102.4, 68.1, -95.2, 27.1]),
         iterations=np.int64(82),
         status="converged",
         initial_error_cm=24.99,
@@ -58,16 +74,18 @@ def test_round_trip_keeps_every_field(tmp_path: Path) -> None:
     with RunLog(path) as log:
         header = log.header(Config(), trial=None, seed=None, argv=["--seed", "0"])
         route = log.route(**route_fields())
-        fault = log.fault("servo link dropped", last_joints_deg=np.array([1.0, 90, -90, 0]))
+        fault = log.fault("servo link dropped", last_joints=named([30.0, 90, -90, 0]))
         summary = log.summary()
     contents = read_runlog(path)
     assert contents.complete and contents.problem is None
     assert contents.records == (header, route, fault, summary)
-    assert header.format == FORMAT_VERSION
+    assert header.format == FORMAT_VERSION == 2
     assert header.versions["python"] and "numpy" in header.versions
     assert header.model_extra == {"argv": ["--seed", "0"]}
     assert header.load_config() == Config()
     np.testing.assert_allclose(route.error_cm, np.subtract(route.ee_cm, route.target_cm))
+    assert list(route.start_joints) == JOINTS and route.end_joints[JOINTS[1]] == 68.1
+    assert fault.last_joints == {n: float(v) for n, v in named([30.0, 90, -90, 0]).items()}
     assert route.error_norm_cm == pytest.approx(np.linalg.norm(route.error_cm))
     assert fault.trial is None
     assert summary.ok is False  # a fault was written in this trial
@@ -343,3 +361,247 @@ def test_route_model_is_strict_about_booleans() -> None:
     fields.update(type="route", trial=None, success=1, error_cm=[0.49, 0.2, -0.66])
     with pytest.raises(ValueError, match="success"):
         RouteRecord.model_validate_json(json.dumps(fields))
+
+
+# --------------------------------------------------------------------------- format 2 joints
+
+
+def test_route_joints_must_be_a_mapping(good_log: Path) -> None:
+    """A route whose start_joints is a list (format 1's shape) names the line and field."""
+    corrupt(good_log, 2, edited(good_log, 2, start_joints=[120.0, 93.0, -132.0, 39.0]))
+    expect_problem(good_log, 2, "route record: field 'start_joints': Input should be an object")
+
+
+def test_non_finite_joint_value_is_named(good_log: Path) -> None:
+    line = edited(good_log, 3, end_joints={**named([1.0, 2.0, 3.0, 4.0]), JOINTS[2]: 0.0})
+    corrupt(good_log, 3, line.replace('"' + JOINTS[2] + '": 0.0', '"' + JOINTS[2] + '": NaN'))
+    expect_problem(good_log, 3, f"field 'end_joints.{JOINTS[2]}': Input should be a finite number")
+
+
+def test_joint_names_must_be_the_header_arms(good_log: Path) -> None:
+    """Every joint of the header's arm, and no other, in each joint mapping."""
+    values = {n: 0.0 for n in JOINTS[:-1]}
+    corrupt(good_log, 4, edited(good_log, 4, start_joints={**values, "gripper_arm": 1.0}))
+    problem = expect_problem(good_log, 4, "field 'start_joints' names")
+    assert f"missing ['{JOINTS[-1]}'], unknown ['gripper_arm']" in problem.reason
+
+
+def test_empty_joint_mapping_is_refused(good_log: Path) -> None:
+    corrupt(good_log, 2, edited(good_log, 2, end_joints={}))
+    expect_problem(good_log, 2, "field 'end_joints': Dictionary should have at least 1 item")
+
+
+def test_empty_colour_is_refused(good_log: Path) -> None:
+    corrupt(good_log, 6, edited(good_log, 6, color=""))
+    expect_problem(good_log, 6, "skip record: field 'color'")
+
+
+def test_format_1_route_under_a_format_2_header(good_log: Path) -> None:
+    """A line is read in its header's format: a joint list under format 2 is an error."""
+    line = edited(good_log, 2, start_joints=KeyError, start_joints_deg=[120.0, 93.0, -132.0, 39.0])
+    corrupt(good_log, 2, line)
+    expect_problem(good_log, 2, "route record: field 'start_joints' is missing")
+
+
+def test_writer_refuses_joints_of_another_arm(tmp_path: Path) -> None:
+    """The writer runs the reader's checks: joint names must be the header's arm's."""
+    path = tmp_path / "run.jsonl"
+    with RunLog(path) as log:
+        log.header(Config())
+        actuated = {n: 1.0 for n in JOINTS[:-1]}
+        with pytest.raises(RunLogError, match=f"missing \\['{JOINTS[-1]}'\\]"):
+            log.route(**route_fields(end_joints=actuated))
+        with pytest.raises(RunLogError, match="field 'last_joints'"):
+            log.fault("stop", last_joints=[1.0, 2.0, 3.0, 4.0])
+        with pytest.raises(RunLogError, match="field 'last_joints' names"):
+            log.fault("stop", last_joints=actuated)
+        log.fault("stop", last_joints=None)
+    assert len(path.read_text().splitlines()) == 2
+
+
+def test_joints_are_not_checked_without_an_arm_in_the_header(tmp_path: Path) -> None:
+    """A header whose config leaves the arm out gives no names to check against."""
+    path = tmp_path / "run.jsonl"
+    with RunLog(path) as log:
+        log.header({})
+        log.route(**route_fields(start_joints={"a": 1.0}, end_joints={"b": 2.0}))
+    assert read_runlog(path).complete
+
+
+# --------------------------------------------------------------------------- format 1
+
+V1_CONFIG = {
+    "robot": {
+        "dh": [
+            {"a_cm": 3.0, "alpha_deg": 90.0, "d_cm": 17.5},
+            {"a_cm": 22.3, "alpha_deg": 0.0, "d_cm": 0.0},
+            {"a_cm": 31.5, "alpha_deg": 0.0, "d_cm": 0.0},
+            {"a_cm": 14.0, "alpha_deg": 0.0, "d_cm": 0.0},
+        ],
+        "joint_limits_deg": {
+            "joint1": {"min": 20.0, "max": 160.0},
+            "joint2": {"min": 30.0, "max": 135.0},
+            "joint3": {"min": -160.0, "max": -20.0},
+        },
+        "home_deg": [120.0, 93.0, -132.0],
+        "gripper": {"a4_cm": 9.0, "a5_cm": 10.0, "pick_height_cm": 12.76},
+    },
+    "vision": {"preset": "default", "bands": None, "object_diameter_cm": 2.0},
+    "servo": {
+        "backend": "sim",
+        "gripper": {"channel": 4, "open_us": 1000, "closed_us": 1900},
+        "error_model": {"quantization": "degree", "offset_deg": [0.5, 0.0, -0.25]},
+    },
+    "task": {
+        "color_order": ["red", "green", "blue"],
+        "bins_cm": {
+            "red": [-20.0, 35.0, 20.0],
+            "green": [-20.0, 45.0, 20.0],
+            "blue": [-20.0, 55.0, 20.0],
+        },
+        "scene": [{"color": "red", "x": -10.99, "y": 49.7}],
+    },
+}
+
+V1_ROUTE = {
+    "type": "route", "trial": 4, "object_id": "red1", "color": "red", "step": "pick",
+    "attempt": 1, "target_cm": [-10.99, 49.7, 12.76],
+    "start_joints_deg": [120.0, 93.0, -132.0, 39.0],
+    "end_joints_deg": [102.4, 68.1, -95.2, 27.1],
+    "iterations": 82, "status": "converged", "initial_error_cm": 24.99,
+    "final_error_cm": 0.0305, "ee_cm": [-10.5, 49.9, 12.1], "error_cm": [0.49, 0.2, -0.66],
+    "success": True, "elapsed_s": 0.05, "motion_s": 6.0,
+}  # fmt: skip
+
+
+def v1_log(path: Path, *, route: dict[str, object] | None = None) -> Path:
+    """A format-1 log as format 1 wrote it: header, 2 routes, skip, fault, summary."""
+    lines: list[dict[str, object]] = [
+        {"type": "header", "format": 1, "mearm_version": "0.1.0",
+         "started": "2026-01-02T03:04:05+00:00", "config": V1_CONFIG,
+         "versions": {"python": "3.11.9"}, "trial": 4, "seed": 11, "argv": ["--seed", "11"]},
+        route or V1_ROUTE,
+        {**V1_ROUTE, "step": "place", "target_cm": [-20.0, 35.0, 20.0],
+         "start_joints_deg": [102.4, 68.1, -95.2, 27.1],
+         "end_joints_deg": [120.0, 93.0, -132.0, 39.0],
+         "ee_cm": [-20.0, 35.5, 20.0], "error_cm": [0.0, 0.5, 0.0]},
+        {"type": "skip", "trial": 4, "object_id": "blue1", "color": "blue",
+         "target_cm": None, "reason": "outside box"},
+        {"type": "fault", "trial": 4, "reason": "servo link dropped",
+         "last_joints_deg": [120.0, 93.0, -132.0, 39.0]},
+        {"type": "summary", "trial": 4, "sorted": {"red": 1}, "failures": 0, "skipped": 1,
+         "routes": 2, "mean_iterations": 82.0, "mean_final_error_cm": 0.0305,
+         "motion_s": 12.0, "ok": False},
+    ]  # fmt: skip
+    path.write_text("".join(json.dumps(line) + "\n" for line in lines))
+    return path
+
+
+def test_format_1_log_reads_as_format_2_records(tmp_path: Path) -> None:
+    """Every line of a format-1 log comes back as the format-2 record it stands for."""
+    contents = read_runlog(v1_log(tmp_path / "old.jsonl"), strict=True)
+    header, pick, place, skip, fault, summary = contents.records
+    assert isinstance(header, HeaderRecord) and header.format == 1
+    assert header.model_extra == {"argv": ["--seed", "11"]}
+    assert isinstance(pick, RouteRecord) and isinstance(place, RouteRecord)
+    v1_names = ["joint1", "joint2", "joint3", "joint4"]
+    assert pick.start_joints == dict(zip(v1_names, [120.0, 93.0, -132.0, 39.0], strict=True))
+    assert pick.end_joints == dict(zip(v1_names, [102.4, 68.1, -95.2, 27.1], strict=True))
+    assert place.start_joints == pick.end_joints and place.step == "place"
+    assert "start_joints_deg" not in (pick.model_extra or {})
+    assert isinstance(skip, SkipRecord) and skip.color == "blue"
+    assert isinstance(fault, FaultRecord)
+    assert fault.last_joints == dict(zip(v1_names, [120.0, 93.0, -132.0, 39.0], strict=True))
+    assert isinstance(summary, SummaryRecord) and summary.sorted == {"red": 1}
+    assert [t.number for t in contents.trials] == [4] and len(contents.routes) == 2
+
+
+def test_format_1_header_config_loads(tmp_path: Path) -> None:
+    """load_config works on a format-1 header, and its arm agrees with the routes' joints."""
+    contents = read_runlog(v1_log(tmp_path / "old.jsonl"), strict=True)
+    config = contents.trials[0].header.load_config()
+    assert [j.name for j in config.arm.joints] == ["joint1", "joint2", "joint3", "joint4"]
+    assert config.task.class_names == ["red", "green", "blue"]
+    assert config.servo.error_model.offset_deg == {"joint1": 0.5, "joint2": 0.0, "joint3": -0.25}
+    assert config.servo.error_model.quantization == "degree"
+    home = contents.routes[0].start_joints
+    np.testing.assert_allclose(config.arm.tcp_cm(home), ARM.tcp_cm(ARM.full_values(ARM.home())))
+    np.testing.assert_allclose(config.arm.tcp_cm(home), [-20.16, 34.91, 19.95], atol=0.01)
+
+
+def test_format_2_trial_appended_to_a_format_1_log(tmp_path: Path) -> None:
+    """Appending to an old log starts a format-2 trial; each trial reads in its format."""
+    path = v1_log(tmp_path / "old.jsonl")
+    with RunLog(path) as log:
+        write_trial(log, trial=5)
+    contents = read_runlog(path, strict=True)
+    assert [t.header.format for t in contents.trials] == [1, 2]
+    assert list(contents.trials[0].routes[0].start_joints) == [
+        "joint1",
+        "joint2",
+        "joint3",
+        "joint4",
+    ]
+    assert list(contents.trials[1].routes[0].start_joints) == JOINTS
+
+
+def test_upgrade_v1_record_is_explicit() -> None:
+    """The conversion renames the joint lists to name-keyed mappings and nothing else."""
+    route = upgrade_v1_record(V1_ROUTE)
+    assert set(route) == set(V1_ROUTE) - {"start_joints_deg", "end_joints_deg"} | {
+        "start_joints", "end_joints"
+    }  # fmt: skip
+    assert route["end_joints"] == {"joint1": 102.4, "joint2": 68.1, "joint3": -95.2, "joint4": 27.1}
+    fault = upgrade_v1_record({"type": "fault", "reason": "x", "last_joints_deg": None})
+    assert fault == {"type": "fault", "reason": "x", "last_joints": None}
+    skip = {"type": "skip", "trial": None, "object_id": "a", "color": "red", "reason": "r"}
+    assert upgrade_v1_record(skip) == skip
+    header = upgrade_v1_record({"type": "header", "format": 1, "config": V1_CONFIG})
+    assert header["format"] == 1 and "arm" in header["config"] and "robot" not in header["config"]
+    assert V1_ROUTE["start_joints_deg"] == [120.0, 93.0, -132.0, 39.0], "input left as it was"
+
+
+def test_parse_record_reads_a_line_in_its_trials_format() -> None:
+    text = json.dumps(V1_ROUTE)
+    route = parse_record(text, trial_format=1)
+    assert isinstance(route, RouteRecord) and route.start_joints["joint4"] == 39.0
+    with pytest.raises(ValueError, match="field 'start_joints' is missing"):
+        parse_record(text)
+    with pytest.raises(ValueError, match="route record before any header"):
+        parse_record(text, trial_format=None)
+
+
+def test_bad_format_1_joint_list_is_named(tmp_path: Path) -> None:
+    path = v1_log(tmp_path / "old.jsonl", route={**V1_ROUTE, "end_joints_deg": [1.0, 2.0, 3.0]})
+    problem = expect_problem(path, 2, "route record (format 1, read as format 2): ")
+    assert "field 'end_joints_deg' must be a list of 4 joint angles" in problem.reason
+
+
+def test_missing_format_1_joint_list_is_named(tmp_path: Path) -> None:
+    route = {k: v for k, v in V1_ROUTE.items() if k != "start_joints_deg"}
+    expect_problem(
+        v1_log(tmp_path / "old.jsonl", route=route), 2, "field 'start_joints_deg' is missing"
+    )
+
+
+def test_bad_format_1_value_is_named_in_the_converted_field(tmp_path: Path) -> None:
+    route = {**V1_ROUTE, "start_joints_deg": [120.0, "93", -132.0, 39.0]}
+    path = v1_log(tmp_path / "old.jsonl", route=route)
+    expect_problem(path, 2, "(format 1, read as format 2): field 'start_joints.joint2'")
+
+
+def test_format_1_header_whose_config_cannot_migrate(tmp_path: Path) -> None:
+    path = v1_log(tmp_path / "old.jsonl")
+    lines = path.read_text().splitlines()
+    header = json.loads(lines[0])
+    header["config"]["servo"]["gripper"] = {"channel": 4, "open_us": 1500, "closed_us": 1500}
+    path.write_text("\n".join([json.dumps(header), *lines[1:]]) + "\n")
+    problem = expect_problem(path, 1, "header record (format 1, read as format 2): field 'config'")
+    assert "open_us and closed_us are both 1500" in problem.reason
+
+
+def test_format_1_record_before_any_header(tmp_path: Path) -> None:
+    """Today's rule: nothing but a header may come first, whatever its layout."""
+    path = tmp_path / "old.jsonl"
+    path.write_text(json.dumps(V1_ROUTE) + "\n")
+    expect_problem(path, 1, "route record before any header")

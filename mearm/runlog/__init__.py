@@ -4,15 +4,27 @@ The sort (``python -m mearm.sort --log run.jsonl``) and the experiment runner
 (``python -m mearm.experiment --log trials.jsonl``) write it through :class:`RunLog`;
 ``python -m mearm.analyze`` reads it through :func:`read_runlog`.
 
-Layout (format 1). Every line is an object with a ``"type"``:
+Layout (format 2). Every line is an object with a ``"type"``:
 
 - ``header`` starts a *trial*: ``format``, ``mearm_version``, ``started`` (ISO 8601),
   ``config`` (``Config.model_dump(mode="json")``), ``versions`` (library versions),
   ``trial`` (int, or null for a lone sort run) and ``seed`` (int or null).
-- ``route`` one PD-PIJ route (a pick or a place), see :class:`RouteRecord`.
+- ``route`` one PD-PIJ route (a pick or a place), see :class:`RouteRecord`; its
+  ``color`` is a class name of ``config.task.classes``, its ``start_joints`` and
+  ``end_joints`` map every joint of ``config.arm.joints`` by name to its value (deg for a
+  revolute joint, cm for a prismatic one).
 - ``skip`` an object that was not sorted, and why.
-- ``fault`` a camera / servo failure or Ctrl-C, with the last joint angles.
-- ``summary`` closes the trial.
+- ``fault`` a camera / servo failure or Ctrl-C, with the last joint values by name
+  (``last_joints``, or null).
+- ``summary`` closes the trial; ``sorted`` counts placed objects per class name.
+
+**Formats.** A header's ``format`` is the format of its trial's lines. This mearm
+writes format 2 and reads formats 1 and 2: a format-1 trial (joint values as lists
+``start_joints_deg`` …, the ``robot:`` config layout) is converted line by line into the
+format-2 records (:mod:`mearm.runlog.format1`): joints named ``joint1``..``joint4`` and the
+header's config migrated by :func:`mearm.config.migrate.migrate_v1_config`, so
+:meth:`HeaderRecord.load_config` works on old logs too. Appending to a format-1 file
+starts a format-2 trial with its own header.
 
 **One header per trial.** A file holds a sequence of trials; each is a header, its
 records and (unless the run crashed) one summary. Every record after a header carries
@@ -29,19 +41,22 @@ a record written after it would be read as part of the broken line.
 ``fsync``-ed, so a crash loses at most the record being written.
 
 **Reading.** :func:`read_runlog` returns every valid record up to the first bad line
-(torn, not JSON, unknown type, a field missing or of the wrong type, records out of
-order) and a :class:`~mearm.exceptions.RunLogFormatError` naming that line and why.
+(torn, not JSON, unknown type or format, a field missing or of the wrong type, joint
+names other than the header's arm's, records out of order) and a
+:class:`~mearm.exceptions.RunLogFormatError` naming that line and why.
 """
 
+from mearm.runlog.format1 import upgrade_v1_record
 from mearm.runlog.reader import RunLogContents, Trial, read_runlog
 from mearm.runlog.records import (
     ERROR_CONSISTENCY_CM,
     FORMAT_VERSION,
+    READABLE_FORMATS,
     RECORD_TYPES,
     VERSIONED_PACKAGES,
     FaultRecord,
     HeaderRecord,
-    Joints4,
+    JointValues,
     Record,
     RouteRecord,
     SkipRecord,
@@ -56,11 +71,12 @@ from mearm.runlog.writer import RunLog
 __all__ = [
     "ERROR_CONSISTENCY_CM",
     "FORMAT_VERSION",
+    "READABLE_FORMATS",
     "RECORD_TYPES",
     "VERSIONED_PACKAGES",
     "FaultRecord",
     "HeaderRecord",
-    "Joints4",
+    "JointValues",
     "Record",
     "RouteRecord",
     "RunLog",
@@ -73,4 +89,5 @@ __all__ = [
     "mearm_version",
     "parse_record",
     "read_runlog",
+    "upgrade_v1_record",
 ]

@@ -5,9 +5,10 @@ The format is described in :mod:`mearm.runlog`.
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 from mearm.exceptions import RunLogError, RunLogFormatError
 from mearm.runlog.records import (
@@ -86,6 +87,30 @@ class RunLogContents:
         return [r for t in self.trials for r in t.faults]
 
 
+def chain_joint_names(config: Mapping[str, Any]) -> tuple[str, ...] | None:
+    """The joint names of the arm in a header's config, or ``None`` if it gives none.
+
+    A config that leaves the arm out (the built-in arm) gives ``None``: nothing to check
+    joint values against without loading it.
+    """
+    arm = config.get("arm")
+    joints = arm.get("joints") if isinstance(arm, Mapping) else None
+    if not isinstance(joints, list) or not joints:
+        return None
+    names = [j.get("name") if isinstance(j, Mapping) else None for j in joints]
+    if not all(isinstance(n, str) for n in names):
+        return None
+    return tuple(names)  # type: ignore[arg-type]
+
+
+def _joint_values(record: Record) -> list[tuple[str, dict[str, float]]]:
+    if isinstance(record, RouteRecord):
+        return [("start_joints", record.start_joints), ("end_joints", record.end_joints)]
+    if isinstance(record, FaultRecord) and record.last_joints is not None:
+        return [("last_joints", record.last_joints)]
+    return []
+
+
 @dataclass
 class _TrialBuilder:
     header: HeaderRecord
@@ -94,19 +119,36 @@ class _TrialBuilder:
     skips: list[SkipRecord] = field(default_factory=list)
     faults: list[FaultRecord] = field(default_factory=list)
     summary: SummaryRecord | None = None
+    joint_names: tuple[str, ...] | None = None
+
+    def __post_init__(self) -> None:
+        self.joint_names = chain_joint_names(self.header.config)
 
     def check(self, record: Record) -> str | None:
         """Why ``record`` cannot come next in this trial, or ``None``."""
         if self.summary is not None:
             return f"{record.type} record after the summary of trial {self.header.trial}"
         trial = record.trial
-        if isinstance(record, FaultRecord) and trial is None:
-            return None
-        if trial != self.header.trial:
+        if trial != self.header.trial and not (isinstance(record, FaultRecord) and trial is None):
             return (
                 f"{record.type} record of trial {trial} under the header of trial "
                 f"{self.header.trial}"
             )
+        return self._check_joints(record)
+
+    def _check_joints(self, record: Record) -> str | None:
+        """Joint values must name every joint of the header's arm, and only those."""
+        if self.joint_names is None:
+            return None
+        for key, values in _joint_values(record):
+            missing = [n for n in self.joint_names if n not in values]
+            unknown = [n for n in values if n not in self.joint_names]
+            if missing or unknown:
+                return (
+                    f"{record.type} record: field '{key}' names {list(values)}, not the joints "
+                    f"of the header's arm {list(self.joint_names)} (missing {missing}, "
+                    f"unknown {unknown})"
+                )
         return None
 
     def add(self, record: Record) -> None:
@@ -144,7 +186,11 @@ def read_runlog(path: str | Path, *, strict: bool = False) -> RunLogContents:
     Blank lines are ignored. A line is bad when it is torn (no newline at the end of the
     file and not a valid record), not UTF-8 or JSON, of an unknown type or format, has a
     field missing or of the wrong type, comes before any header, carries another trial's
-    number, or follows its trial's summary.
+    number, names joints other than those of its header's arm, or follows its trial's
+    summary.
+
+    Each line is read in its trial's format (its header's ``format``); format-1 trials
+    come back as current records (:mod:`mearm.runlog.format1`).
 
     Args:
         path: The log file.
@@ -175,8 +221,9 @@ def read_runlog(path: str | Path, *, strict: bool = False) -> RunLogContents:
             if not text.strip():
                 lines_read = number
                 continue
+            trial_format = trials[-1].header.format if trials else None
             try:
-                record = parse_record(text)
+                record = parse_record(text, trial_format=trial_format)
             except ValueError as exc:
                 reason = str(exc)
                 if not ended:
@@ -185,10 +232,6 @@ def read_runlog(path: str | Path, *, strict: bool = False) -> RunLogContents:
                 break
             if isinstance(record, HeaderRecord):
                 trials.append(_TrialBuilder(record, number))
-            elif not trials:
-                why = f"{record.type} record before any header"
-                problem = RunLogFormatError(p, number, why, excerpt)
-                break
             else:
                 out_of_order = trials[-1].check(record)
                 if out_of_order is not None:

@@ -1,6 +1,7 @@
 """The run-log records: one pydantic model per line type, and :func:`parse_record`.
 
-The format is described in :mod:`mearm.runlog`.
+The format is described in :mod:`mearm.runlog`; format-1 lines are converted to these
+models by :mod:`mearm.runlog.format1`.
 """
 
 from __future__ import annotations
@@ -8,7 +9,7 @@ from __future__ import annotations
 import functools
 import json
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from datetime import datetime
 from importlib import metadata
 from typing import Annotated, Any, Literal
@@ -16,9 +17,13 @@ from typing import Annotated, Any, Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
-from mearm.config import Color, Config
+from mearm.config import Config
+from mearm.runlog.format1 import upgrade_v1_record
 
-FORMAT_VERSION = 1
+#: The format this mearm writes.
+FORMAT_VERSION = 2
+#: The formats it reads; older ones are converted to the current records on reading.
+READABLE_FORMATS: tuple[int, ...] = (1, 2)
 
 #: Distributions whose versions go into every header (key → PyPI name).
 VERSIONED_PACKAGES: dict[str, str] = {
@@ -35,8 +40,12 @@ VERSIONED_PACKAGES: dict[str, str] = {
 
 _Finite = Annotated[float, Field(allow_inf_nan=False)]
 _NonNegative = Annotated[float, Field(ge=0, allow_inf_nan=False)]
+_Name = Annotated[str, Field(min_length=1)]
 Vec3 = tuple[_Finite, _Finite, _Finite]
-Joints4 = tuple[_Finite, _Finite, _Finite, _Finite]
+#: Joint values by joint name, in chain order: deg for a revolute joint, cm for a
+#: prismatic one.
+JointValues = dict[_Name, _Finite]
+_Joints = Annotated[JointValues, Field(min_length=1)]
 
 #: Largest allowed |error_cm − (ee_cm − target_cm)| on any axis [cm].
 ERROR_CONSISTENCY_CM = 1e-6
@@ -53,14 +62,27 @@ class HeaderRecord(_Record):
 
     type: Literal["header"] = "header"
     format: int
+    """The format the trial was written in (:data:`READABLE_FORMATS`); its records are
+    read into the current models whatever it is."""
     mearm_version: str
     started: str
     """Wall-clock start, ISO 8601 with the UTC offset."""
     config: dict[str, Any]
-    """``Config.model_dump(mode="json")``; :meth:`load_config` turns it back."""
+    """``Config.model_dump(mode="json")`` (a format-1 header's, migrated to the current
+    layout on reading); :meth:`load_config` turns it back."""
     versions: dict[str, str | None]
     trial: int | None
     seed: int | None
+
+    @field_validator("format")
+    @classmethod
+    def _readable(cls, value: int) -> int:
+        if value not in READABLE_FORMATS:
+            raise ValueError(
+                f"format {value} is not supported (this mearm reads formats "
+                f"{', '.join(map(str, READABLE_FORMATS))})"
+            )
+        return value
 
     @field_validator("started")
     @classmethod
@@ -83,7 +105,7 @@ class HeaderRecord(_Record):
 
 
 class RouteRecord(_Record):
-    """One route of the arm to a pick or place point (SPEC §1 steps 4–5).
+    """One route of the arm to a pick or place point (paper §1 steps 4–5).
 
     ``final_error_cm`` is the solver's, on ideal kinematics; ``ee_cm`` is where the arm
     really ended (for the simulated arm, the FK of its quantised / noisy joints) and
@@ -93,14 +115,16 @@ class RouteRecord(_Record):
     type: Literal["route"] = "route"
     trial: int | None
     object_id: str = Field(min_length=1)
-    color: Color
+    color: str = Field(min_length=1)
+    """The object's colour class (a name of ``task.classes``)."""
     step: Literal["pick", "place"]
     attempt: int = Field(ge=1)
     """1 for the first attempt at this object's pick (or place)."""
     target_cm: Vec3
-    start_joints_deg: Joints4
-    end_joints_deg: Joints4
-    """Commanded joint angles at the end of the route [deg]."""
+    start_joints: _Joints
+    """Every joint of the chain at the start of the route, by name [deg or cm]."""
+    end_joints: _Joints
+    """Every joint of the chain as commanded at the end of the route, by name [deg or cm]."""
     iterations: int = Field(ge=0)
     status: str
     initial_error_cm: _NonNegative
@@ -135,7 +159,8 @@ class SkipRecord(_Record):
     type: Literal["skip"] = "skip"
     trial: int | None
     object_id: str = Field(min_length=1)
-    color: Color
+    color: str = Field(min_length=1)
+    """The object's colour class (a name of ``task.classes``)."""
     target_cm: Vec3 | None
     reason: str
 
@@ -146,7 +171,9 @@ class FaultRecord(_Record):
     type: Literal["fault"] = "fault"
     trial: int | None = None
     reason: str
-    last_joints_deg: Joints4 | None
+    last_joints: _Joints | None
+    """Every joint of the chain at the last confirmed pose, by name [deg or cm], or
+    ``None`` when the arm never reported one."""
 
 
 class SummaryRecord(_Record):
@@ -154,8 +181,8 @@ class SummaryRecord(_Record):
 
     type: Literal["summary"] = "summary"
     trial: int | None
-    sorted: dict[str, Annotated[int, Field(ge=0)]]
-    """Objects placed in their bin, per colour."""
+    sorted: dict[_Name, Annotated[int, Field(ge=0)]]
+    """Objects placed in their bin, per colour class (by name)."""
     failures: int = Field(ge=0)
     skipped: int = Field(ge=0)
     routes: int = Field(ge=0)
@@ -215,14 +242,33 @@ def _describe(err: Mapping[str, Any]) -> str:
     return f"field '{loc}': {msg} (got {err.get('input')!r})"
 
 
-def _validation_reason(kind: str, exc: ValidationError) -> str:
+#: Per older format, the conversion of one line's mapping to the current format.
+_UPGRADES: dict[int, Callable[[dict[str, Any]], dict[str, Any]]] = {1: upgrade_v1_record}
+
+
+def _validation_reason(kind: str, exc: ValidationError, fmt: int = FORMAT_VERSION) -> str:
     problems = [_describe(e) for e in exc.errors()]
     more = f" (+{len(problems) - 1} more)" if len(problems) > 1 else ""
-    return f"{kind} record: {problems[0]}{more}"
+    return f"{_label(kind, fmt)}: {problems[0]}{more}"
 
 
-def parse_record(text: str) -> Record:
-    """One line of a run log → its record.
+def _label(kind: str, fmt: int) -> str:
+    if fmt == FORMAT_VERSION:
+        return f"{kind} record"
+    return f"{kind} record (format {fmt}, read as format {FORMAT_VERSION})"
+
+
+def parse_record(text: str, *, trial_format: int | None = FORMAT_VERSION) -> Record:
+    """One line of a run log → its record, in the current format.
+
+    A line's format is its trial's: a header declares it (``format``) and the records
+    after it follow it. A format-1 line is converted by
+    :func:`~mearm.runlog.format1.upgrade_v1_record` before it is validated.
+
+    Args:
+        text: The line, without its newline.
+        trial_format: The ``format`` of the header the line follows; ``None`` when no
+            header came before it, which only a header may do. A header line ignores it.
 
     Raises:
         ValueError: The line is not a valid record; the message says why.
@@ -236,12 +282,23 @@ def parse_record(text: str) -> Record:
     kind = obj.get("type")
     if kind not in RECORD_TYPES:
         raise ValueError(f"unknown record type {kind!r}; known: {sorted(RECORD_TYPES)}")
-    if kind == "header" and obj.get("format") != FORMAT_VERSION:
-        raise ValueError(
-            f"header format {obj.get('format')!r} is not supported "
-            f"(this mearm reads format {FORMAT_VERSION})"
-        )
+    if kind == "header":
+        fmt = obj.get("format")
+        if type(fmt) is not int or fmt not in READABLE_FORMATS:
+            raise ValueError(
+                f"header format {fmt!r} is not supported (this mearm reads formats "
+                f"{', '.join(map(str, READABLE_FORMATS))})"
+            )
+    elif trial_format is None:
+        raise ValueError(f"{kind} record before any header")
+    else:
+        fmt = trial_format
+    if fmt != FORMAT_VERSION:
+        try:
+            text = json.dumps(_UPGRADES[fmt](obj))
+        except ValueError as exc:
+            raise ValueError(f"{_label(kind, fmt)}: {exc}") from None
     try:
         return RECORD_TYPES[kind].model_validate_json(text)  # type: ignore[return-value]
     except ValidationError as exc:
-        raise ValueError(_validation_reason(kind, exc)) from None
+        raise ValueError(_validation_reason(kind, exc, fmt)) from None

@@ -54,14 +54,16 @@ class RunLog:
 
         with RunLog("trials.jsonl") as log:
             log.header(config, trial=0, seed=1234)
-            log.route(object_id="red1", color="red", step="pick", attempt=1, ...)
-            log.skip(object_id="blue4", color="blue", target_cm=t, reason="unreachable: ...")
+            log.route(object_id="obj1", color=name, step="pick", attempt=1,
+                      start_joints={"base": 120.0, ...}, end_joints={...}, ...)
+            log.skip(object_id="obj4", color=name, target_cm=t, reason="unreachable: ...")
             log.summary(ok=True)          # counts and means filled in from this trial
 
-    Every method validates its record with the same model the reader uses, so whatever
-    is written reads back; numpy arrays and scalars are accepted anywhere. ``trial`` may
-    be left out of the records: it is taken from the current header (and a different
-    one is refused).
+    Every method validates its record with the same model and checks the reader uses, so
+    whatever is written reads back; numpy arrays and scalars are accepted anywhere. Joint
+    values are mappings by joint name and must name every joint of the header's arm
+    (``config.arm.joints``). ``trial`` may be left out of the records: it is taken from
+    the current header (and a different one is refused).
 
     Args:
         path: The log file. Created (with its folder) if missing; appended to if it exists.
@@ -182,9 +184,18 @@ class RunLog:
         """Write an object that was not sorted (fields of :class:`SkipRecord`)."""
         return self._write_in_trial("skip", fields)  # type: ignore[return-value]
 
-    def fault(self, reason: str, last_joints_deg: Any = None, **extra: Any) -> FaultRecord:
-        """Write a fault: the reason the run stopped and the last joint angles [deg]."""
-        fields = {"reason": reason, "last_joints_deg": last_joints_deg, **extra}
+    def fault(
+        self, reason: str, last_joints: Mapping[str, float] | None = None, **extra: Any
+    ) -> FaultRecord:
+        """Write a fault: the reason the run stopped and the last joint values.
+
+        Args:
+            reason: Why the run stopped.
+            last_joints: Every joint of the chain by name [deg or cm], or ``None`` when
+                no pose was confirmed.
+            **extra: More fields (``trial``, or anything to keep with the fault).
+        """
+        fields = {"reason": reason, "last_joints": last_joints, **extra}
         return self._write_in_trial("fault", fields)  # type: ignore[return-value]
 
     def summary(self, **fields: Any) -> SummaryRecord:
@@ -239,11 +250,20 @@ class RunLog:
                 self.path,
                 f"{kind} record of trial {number} under the header of trial {trial.header.trial}",
             )
-        record = self._write(kind, fields)
+        record = self._validate(kind, fields)
+        why = trial.check(record)
+        if why is not None:
+            raise RunLogError(self.path, why)
+        self._append(record)
         trial.add(record)
         return record
 
     def _write(self, kind: str, fields: Mapping[str, Any]) -> Record:
+        record = self._validate(kind, fields)
+        self._append(record)
+        return record
+
+    def _validate(self, kind: str, fields: Mapping[str, Any]) -> Record:
         if self.closed:
             raise RunLogError(self.path, f"cannot write a {kind} record: the log is closed")
         try:
@@ -252,9 +272,11 @@ class RunLog:
             why = f"{kind} record cannot be written as JSON: {exc}"
             raise RunLogError(self.path, why) from None
         try:
-            record = RECORD_TYPES[kind].model_validate_json(text)
+            return RECORD_TYPES[kind].model_validate_json(text)  # type: ignore[return-value]
         except ValidationError as exc:
             raise RunLogError(self.path, _validation_reason(kind, exc)) from None
+
+    def _append(self, record: Record) -> None:
         line = record.model_dump_json().encode("utf-8") + b"\n"
         try:
             self._file.write(line)
@@ -264,4 +286,3 @@ class RunLog:
         except OSError as exc:
             raise RunLogError(self.path, f"cannot write: {exc}") from None
         self.records_written += 1
-        return record  # type: ignore[return-value]
