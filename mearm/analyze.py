@@ -1,4 +1,4 @@
-"""``python -m mearm.analyze``: the paper's statistics and plots for a run log (SPEC §5).
+"""``python -m mearm.analyze``: the paper's statistics and plots for a run log (paper §5).
 
 Examples::
 
@@ -36,7 +36,7 @@ from mearm.runlog import HeaderRecord, RouteRecord, RunLogContents, read_runlog
 
 DEFAULT_KP = "0.01,0.1,0.5"
 DEFAULT_KD = "0,0.01,0.1,0.5"
-#: The gain sweeps' default route: home to the paper's first object, M1 (SPEC §4).
+#: The gain sweeps' default route: home to the paper's first object, M1 (paper §4).
 DEFAULT_TARGET_XY_CM = (-10.99, 49.70)
 
 
@@ -82,12 +82,16 @@ def _parser() -> ArgumentParser:
         help="PD-PIJ mode for the sweeps (default: the config's controller.mode)",
     )
     gains.add_argument(
-        "--start", type=float_list(3, "--start"), help="start θ1,θ2,θ3 [deg] (default: home)"
+        "--start",
+        type=float_list(None, "--start"),
+        help="start pose: the actuated joints in chain order [deg, or cm for a prismatic "
+        "joint], e.g. 120,93,-132 for the paper's base, shoulder, elbow (default: home)",
     )
     gains.add_argument(
         "--target",
         type=float_list(3, "--target"),
-        help="target x,y,z [cm] (default: the paper's M1 at the pick height)",
+        help="target x,y,z [cm] (default: the config's first scene object at its pick "
+        "height; the built-in config's is the paper's M1)",
     )
     return parser
 
@@ -138,7 +142,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     gains_kp: list[Any] = []
     gains_kd: list[Any] = []
     if args.gains:
-        gains_kp, gains_kd = _gain_sweeps(config_from_args(args), args)
+        config = config_from_args(args)
+        actuated = config.arm.actuated_joints()
+        if args.start is not None and len(args.start) != len(actuated):
+            parser.error(
+                f"--start needs {len(actuated)} numbers, one per actuated joint "
+                f"({', '.join(j.name for j in actuated)}), got {len(args.start)}"
+            )
+        gains_kp, gains_kd = _gain_sweeps(config, args)
         result["gains"] = {
             "kp": jsonable(_gain_rows(gains_kp)),
             "kd": jsonable(_gain_rows(gains_kd)),
@@ -209,11 +220,16 @@ def _log_plots(
     return images
 
 
+def _joint_distance(a: dict[str, float], b: dict[str, float]) -> float:
+    """Largest difference of the joints two poses both name [deg or cm]."""
+    return max((abs(a[name] - b[name]) for name in a.keys() & b.keys()), default=0.0)
+
+
 def _first_pick_and_place(contents: RunLogContents) -> tuple[Config, list[RouteRecord]] | None:
     """The first gripped pick and its place, preferring a pair whose paths do not overlap.
 
-    The first red object's place goes back to where its pick started (the red bin is
-    home, SPEC §4), which would draw one path on top of the other.
+    A place that ends where its pick started (a bin at home) would draw one path on top
+    of the other; the poses are compared joint by joint, by name.
     """
     first: tuple[HeaderRecord, list[RouteRecord]] | None = None
     for trial in contents.trials:
@@ -224,7 +240,7 @@ def _first_pick_and_place(contents: RunLogContents) -> tuple[Config, list[RouteR
             )
             if place is None:
                 continue
-            if np.abs(np.subtract(pick.start_joints_deg, place.end_joints_deg)).max() > 5.0:
+            if _joint_distance(pick.start_joints, place.end_joints) > 5.0:
                 return trial.header.load_config(), [pick, place]
             first = first or (trial.header, [pick, place])
     return (first[0].load_config(), first[1]) if first else None
@@ -239,7 +255,7 @@ def _path_routes(contents: RunLogContents) -> list[Any]:
         if found is None:
             return []
         config, routes = found
-        model = ArmModel(config.robot)
+        model = ArmModel(config.arm)
         return [resolve_logged_route(r, config, model=model) for r in routes]
     except MearmError as exc:  # the tables and the other plots are still worth having
         print(f"warning: path plots skipped: {exc}", file=sys.stderr)
@@ -258,22 +274,28 @@ def _path_plots(routes: list[Any], out: Path) -> dict[str, Path]:
 
 def _gain_sweeps(config: Config, args: argparse.Namespace) -> tuple[list[Any], list[Any]]:
     from mearm.analysis.paths import gain_sweep
-    from mearm.kinematics import ArmModel, couple
+    from mearm.kinematics import ArmModel
 
     if args.mode is not None:
         controller = config.controller.model_copy(update={"mode": args.mode})
         config = config.model_copy(update={"controller": controller})
-
-    start_deg = couple(args.start if args.start is not None else config.robot.home_deg)
-    ArmModel(config.robot).check_limits(np.radians(start_deg))
+    model = ArmModel(config.arm)
+    chain = model.chain
+    if args.start is not None:
+        q0 = chain.from_named(dict(zip(chain.actuated, args.start, strict=True)))
+    else:
+        q0 = model.home
+    model.check_limits(q0)
     if args.target is not None:
         target = np.array(args.target)
     else:
-        target = np.array([*DEFAULT_TARGET_XY_CM, config.robot.gripper.pick_height_cm])
+        scene = config.task.scene
+        xy_cm = (scene[0].x, scene[0].y) if scene else DEFAULT_TARGET_XY_CM
+        cls = config.task.class_named(scene[0].color) if scene else config.task.classes[0]
+        target = np.array([*xy_cm, cls.grip_z_cm + config.arm.tool.tcp_above_grip_cm])
     kp0, kd0 = config.controller.kp, config.controller.kd
-    q0 = np.radians(start_deg)
-    by_kp = gain_sweep(config, q0, target, [(kp, kd0) for kp in args.kp], vary="kp")
-    by_kd = gain_sweep(config, q0, target, [(kp0, kd) for kd in args.kd], vary="kd")
+    by_kp = gain_sweep(config, q0, target, [(kp, kd0) for kp in args.kp], vary="kp", model=model)
+    by_kd = gain_sweep(config, q0, target, [(kp0, kd) for kd in args.kd], vary="kd", model=model)
     return by_kp, by_kd
 
 
@@ -288,7 +310,7 @@ def _gain_rows(routes: list[Any]) -> list[dict[str, Any]]:
             "final_error_cm": r.final_error_cm,
             "path_deviation_cm": r.path_deviation_cm,
             "target_cm": r.target_cm,
-            "start_joints_deg": np.degrees(r.q_path_rad[0]),
+            "start_joints": r.start_joints,
         }
         for r in routes
     ]

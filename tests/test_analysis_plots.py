@@ -10,7 +10,7 @@ import pytest
 from mearm.analysis import fit_weibull, plots, success_vs_error
 from mearm.analysis.paths import SolvedRoute
 from mearm.config import Config
-from mearm.kinematics import ArmModel, analytic_ik_deg
+from mearm.kinematics import ArmModel, closed_form_for
 
 matplotlib_image = pytest.importorskip("matplotlib.image")
 
@@ -36,9 +36,11 @@ def pixels_of(rgb: np.ndarray, color: tuple[int, int, int], tol: float = 12) -> 
 def joint_path_route(label: str, target_cm: tuple[float, float, float], n: int = 60) -> SolvedRoute:
     """A real joint path: joints interpolated from home to the closed-form solution, FK'd."""
     config = Config()
-    model = ArmModel(config.robot)
-    q0 = model.home_rad
-    q1 = np.radians(analytic_ik_deg(target_cm, config.robot))
+    model = ArmModel(config.arm)
+    closed_form = closed_form_for(config.arm)
+    assert closed_form is not None
+    q0 = model.home
+    q1 = closed_form.solve(target_cm)
     s = (1 - np.cos(np.linspace(0, np.pi, n + 1))) / 2
     q_path = q0 + s[:, None] * (q1 - q0)
     ee_path = np.array([model.fk_cm(q) for q in q_path])
@@ -51,7 +53,9 @@ def joint_path_route(label: str, target_cm: tuple[float, float, float], n: int =
         status="converged",
         iterations=n,
         target_cm=target,
-        q_path_rad=q_path,
+        q_path=q_path,
+        joint_names=model.chain.names,
+        scale=model.chain.scale,
         ee_path_cm=ee_path,
         error_path_cm=np.linalg.norm(ee_path - target, axis=1),
         logged_ee_cm=target + [0.3, -0.2, 0.4],
@@ -106,6 +110,34 @@ def test_joint_angles_one_panel_per_route(tmp_path: Path) -> None:
     assert two.shape[0] > 1.7 * one.shape[0]
     for color in (BLUE, ORANGE, GREEN):
         assert pixels_of(two, color) > 100
+
+
+def test_joint_angles_any_number_of_joints(tmp_path: Path) -> None:
+    """A chain of seven joints, one prismatic, draws one curve per joint, each by name."""
+    n, names = 40, tuple(f"j{k}" for k in range(7))
+    scale = np.array([np.pi / 180] * 6 + [0.01])
+    q_path = np.linspace(0, 1, n + 1)[:, None] * np.arange(1, 8) * scale * 10
+    ee_path = np.cumsum(np.ones((n + 1, 3)), axis=0)
+    route = SolvedRoute(
+        label="seven",
+        kp=0.1,
+        kd=0.01,
+        mode="coupled",
+        status="converged",
+        iterations=n,
+        target_cm=ee_path[-1],
+        q_path=q_path,
+        joint_names=names,
+        scale=scale,
+        ee_path_cm=ee_path,
+        error_path_cm=np.linalg.norm(ee_path - ee_path[-1], axis=1),
+    )
+    assert route.joint_units == ("deg",) * 6 + ("cm",)
+    assert route.start_joints == dict.fromkeys(names, 0.0)
+    np.testing.assert_allclose(route.joint_path[-1], 10 * np.arange(1, 8))
+    rgb = read_png(plots.joint_angles([route], tmp_path / "j7.png"))
+    for color in (BLUE, ORANGE, GREEN):
+        assert pixels_of(rgb, color) > 100
 
 
 def test_gain_sweep(tmp_path: Path) -> None:

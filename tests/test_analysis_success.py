@@ -11,11 +11,11 @@ import pytest
 
 from mearm.analysis import Rate, fit_weibull, pick_outcomes, success_table, success_vs_error
 from mearm.analysis.report import analyze, to_json
-from mearm.config import Config
+from mearm.config import Config, TaskConfig, default_classes
 from mearm.exceptions import AnalysisError
 from mearm.runlog import RunLog, read_runlog
 
-HOME = (120.0, 93.0, -132.0, 39.0)
+HOME = Config().arm.full_values(Config().arm.home())  # every joint by name [deg]
 
 # object, colour, step, attempt, |error| [cm], success
 ROUTES = [
@@ -35,10 +35,10 @@ ROUTES = [
 ]
 
 
-def write_hand_log(path: Path, routes=ROUTES) -> Path:
+def write_hand_log(path: Path, routes=ROUTES, config: Config | None = None) -> Path:
     target = np.array([0.0, 45.0, 12.76])
     with RunLog(path, fsync=False) as log:
-        log.header(Config(), trial=0, seed=None)
+        log.header(config or Config(), trial=0, seed=None)
         for object_id, color, step, attempt, err, ok in routes:
             log.route(
                 object_id=object_id,
@@ -46,8 +46,8 @@ def write_hand_log(path: Path, routes=ROUTES) -> Path:
                 step=step,
                 attempt=attempt,
                 target_cm=target,
-                start_joints_deg=HOME,
-                end_joints_deg=HOME,
+                start_joints=HOME,
+                end_joints=HOME,
                 iterations=80,
                 status="converged",
                 initial_error_cm=20.0,
@@ -75,6 +75,21 @@ def test_table9_counts_first_attempts_per_colour(hand_log: Path) -> None:
     assert t.place_total == Rate(4, 5)
     assert t.pick_total.rate == pytest.approx(4 / 6)
     assert t.place["blue"].failure_rate == pytest.approx(0.5)
+
+
+def test_table9_rows_follow_the_configs_classes(tmp_path: Path) -> None:
+    """Table 9 lists the header config's classes in their order, a class without routes too."""
+    classes = [*reversed(default_classes()), default_classes()[0].model_copy(
+        update={"name": "yellow", "bin_cm": (-20.0, 65.0, 20.0)}
+    )]  # fmt: skip
+    config = Config(task=TaskConfig(classes=classes))
+    log = write_hand_log(tmp_path / "classes.jsonl", config=config)
+    t = analyze(read_runlog(log)).table9
+    assert list(t.pick) == ["blue", "green", "red", "yellow"] == list(t.place)
+    assert t.pick["yellow"] == Rate(0, 0) and t.pick["red"] == Rate(1, 2)
+    assert list(success_table(read_runlog(log).routes, ["green"]).pick) == [
+        "green", "red", "blue",
+    ]  # fmt: skip
 
 
 def test_rate_of_nothing_is_nan() -> None:

@@ -142,7 +142,10 @@ def test_gain_sweep_with_own_route(capsys) -> None:
     )
     (only_kp,) = data["gains"]["kp"]
     assert only_kp["kp"] == 0.2
-    np.testing.assert_allclose(only_kp["start_joints_deg"], [90, 90, -120, 30], atol=1e-9)
+    assert list(only_kp["start_joints"]) == ["base", "shoulder", "elbow", "wrist"]
+    np.testing.assert_allclose(
+        list(only_kp["start_joints"].values()), [90, 90, -120, 30], atol=1e-9
+    )
 
 
 def test_bad_gain_is_an_error() -> None:
@@ -188,3 +191,93 @@ def test_cli_strict_damaged_log_exits_2(log: Path, tmp_path: Path) -> None:
     )
     assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1
     assert "torn last line" in proc.stderr
+
+
+#: A format-1 header's config (the ``robot:`` layout), as format 1 wrote it.
+V1_CONFIG = {
+    "robot": {
+        "dh": [
+            {"a_cm": 3.0, "alpha_deg": 90.0, "d_cm": 17.5},
+            {"a_cm": 22.3, "alpha_deg": 0.0, "d_cm": 0.0},
+            {"a_cm": 31.5, "alpha_deg": 0.0, "d_cm": 0.0},
+            {"a_cm": 14.0, "alpha_deg": 0.0, "d_cm": 0.0},
+        ],
+        "joint_limits_deg": {
+            "joint1": {"min": 20.0, "max": 160.0},
+            "joint2": {"min": 30.0, "max": 135.0},
+            "joint3": {"min": -160.0, "max": -20.0},
+        },
+        "home_deg": [120.0, 93.0, -132.0],
+        "gripper": {"a4_cm": 9.0, "a5_cm": 10.0, "pick_height_cm": 12.76},
+    },
+    "vision": {"preset": "default", "bands": None, "object_diameter_cm": 2.0},
+    "servo": {"backend": "sim", "error_model": {"quantization": "degree"}},
+    "task": {
+        "color_order": ["red", "green", "blue"],
+        "bins_cm": {
+            "red": [-20.0, 35.0, 20.0],
+            "green": [-20.0, 45.0, 20.0],
+            "blue": [-20.0, 55.0, 20.0],
+        },
+        "scene": [{"color": "red", "x": -10.99, "y": 49.7}],
+    },
+}
+V1_HOME = [120.0, 93.0, -132.0, 39.0]
+V1_POSE = [102.4, 68.1, -95.2, 27.1]  # θ4 = −θ2 − θ3
+
+
+def v1_route(object_id, color, step, attempt, target, start, end, error, ok) -> dict:
+    return {
+        "type": "route", "trial": 0, "object_id": object_id, "color": color, "step": step,
+        "attempt": attempt, "target_cm": target, "start_joints_deg": start,
+        "end_joints_deg": end, "iterations": 82, "status": "converged",
+        "initial_error_cm": 24.99, "final_error_cm": 0.0305,
+        "ee_cm": [t + e for t, e in zip(target, error, strict=True)], "error_cm": error,
+        "success": ok, "elapsed_s": 0.05, "motion_s": 6.0,
+    }  # fmt: skip
+
+
+@pytest.fixture()
+def v1_log(tmp_path: Path) -> Path:
+    """A format-1 log written by hand: joint lists θ1..θ4 [deg], the ``robot:`` config."""
+    pick, place = [-10.99, 49.7, 12.76], [-20.0, 35.0, 20.0]
+    green, green_bin = [-8.31, 53.81, 12.76], [-20.0, 45.0, 20.0]
+    lines = [
+        {"type": "header", "format": 1, "mearm_version": "0.1.0",
+         "started": "2026-01-02T03:04:05+00:00", "config": V1_CONFIG,
+         "versions": {"python": "3.11.9"}, "trial": 0, "seed": 11},
+        v1_route("red1", "red", "pick", 1, pick, V1_HOME, V1_POSE, [0.49, 0.2, -0.66], True),
+        v1_route("red1", "red", "place", 1, place, V1_POSE, V1_HOME, [0.0, 0.5, 0.0], True),
+        v1_route("green1", "green", "pick", 1, green, V1_HOME, V1_POSE, [0.0, 1.5, 0.0], False),
+        v1_route("green1", "green", "pick", 2, green, V1_POSE, V1_POSE, [0.0, 0.3, 0.0], True),
+        v1_route("green1", "green", "place", 1, green_bin, V1_POSE, V1_HOME, [0.1, 0, 0], True),
+        {"type": "skip", "trial": 0, "object_id": "blue1", "color": "blue",
+         "target_cm": None, "reason": "outside box"},
+        {"type": "summary", "trial": 0, "sorted": {"red": 1, "green": 1}, "failures": 1,
+         "skipped": 1, "routes": 5, "mean_iterations": 82.0, "mean_final_error_cm": 0.0305,
+         "motion_s": 30.0, "ok": True},
+    ]  # fmt: skip
+    path = tmp_path / "v1.jsonl"
+    path.write_text("".join(json.dumps(line) + "\n" for line in lines))
+    return path
+
+
+def test_a_format_1_log_is_analysed_end_to_end(v1_log: Path, tmp_path: Path, capsys) -> None:
+    """A hand-written format-1 log: tables printed, Table 9 in its config's class order,
+    and its logged joints (named joint1..joint4 on reading) solved again for the plots."""
+    assert main([str(v1_log)]) == 0
+    captured = capsys.readouterr()
+    assert captured.err == ""
+    for title in ("Table 8", "Weibull fit", "Table 9", "Pick success against error", "Table 6"):
+        assert title in captured.out
+    assert re.search(r"^green .*\(0/1\)\s+94\.00 %", captured.out, re.M)
+    assert main([str(v1_log), "--out", str(tmp_path / "report"), "--json"]) == 0
+    captured = capsys.readouterr()
+    assert "path plots skipped" not in captured.err
+    data = json.loads(captured.out)
+    a = data["analysis"]
+    assert (a["trials"], a["routes"], a["skips"], a["problem"]) == (1, 5, 1, None)
+    assert list(a["table9"]["pick"]) == ["red", "green", "blue"]
+    assert a["table9"]["pick"]["green"] == {"successes": 0, "n": 1, "rate": 0.0}
+    assert a["table8"]["xyz"]["max"] == pytest.approx(1.5)
+    assert set(data["plots"]) == {"histogram", "success", "path3d", "joints"}

@@ -1,4 +1,4 @@
-"""Analysis of run logs: the paper's error, iteration and success statistics (SPEC §5).
+"""Analysis of run logs: the paper's error, iteration and success statistics (paper §5).
 
 Needs the ``analysis`` extra (SciPy; Matplotlib for :mod:`mearm.analysis.plots`).
 """

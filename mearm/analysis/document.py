@@ -52,7 +52,7 @@ def report_markdown(
         out += [f"# Analysis of `{Path(a.source).name}`", ""]
         out.append(
             f"{a.trials} trials, {a.routes} routes, {a.skips} skipped objects, "
-            f"{a.faults} faults. The paper's figures (SPEC §5) are its real arm's."
+            f"{a.faults} faults. The paper's figures (paper §5) are its real arm's."
         )
         if rig:
             out += ["", f"Produced by: {rig}."]

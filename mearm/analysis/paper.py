@@ -1,9 +1,11 @@
-"""The paper's own figures for its real arm (SPEC §5, §3), to print beside a run's.
+"""The paper's own figures for its real arm (paper §5, §3), to print beside a run's.
 
 100 trials × 12 objects = 1 200 picks + 1 200 places = 2 400 routes.
 """
 
 from __future__ import annotations
+
+from mearm.config.defaults import PAPER_CLASS_NAMES
 
 #: Table 8: final EE-to-target error of the real arm [cm], rows → (mean, std, max, min).
 TABLE8_CM: dict[str, tuple[float, float, float, float]] = {
@@ -19,11 +21,16 @@ TABLE8_ROUTES = 2400
 WEIBULL_SCALE_CM = 0.7059
 WEIBULL_SHAPE = 2.0450
 
-#: Table 9: first-attempt pick success [%] per colour and in total; every place succeeded.
-TABLE9_PICK_PERCENT: dict[str, float] = {"red": 96.00, "green": 94.00, "blue": 92.75}
+#: Table 9: first-attempt pick success [%] per class (the paper's classes, by name) and
+#: in total; every place succeeded.
+TABLE9_PICK_PERCENT: dict[str, float] = dict(
+    zip(PAPER_CLASS_NAMES, (96.00, 94.00, 92.75), strict=True)
+)
 TABLE9_PICK_TOTAL_PERCENT = 94.25
 TABLE9_PLACE_PERCENT = 100.0
-TABLE9_PICKS_PER_COLOR = 400
+TABLE9_PICKS_PER_CLASS = 400
+#: First-attempt picks of Table 9, all classes together.
+TABLE9_PICKS = len(PAPER_CLASS_NAMES) * TABLE9_PICKS_PER_CLASS
 
 #: Success against error: every pick below this error succeeded [cm] ...
 SUCCESS_BOUND_CM = 1.2
@@ -36,7 +43,7 @@ P_BELOW_BOUND_PERCENT = 94.46
 #: Failed first-attempt picks, derived: 1 200 × (100 − 94.25) % = 69 (= 51.88 % of 133).
 FAILED_PICKS = 69
 
-#: Table 6 summary (SPEC §3): 24 routes of the demo, solver on ideal kinematics.
+#: Table 6 summary (paper §3): 24 routes of the demo, solver on ideal kinematics.
 TABLE6_ROUTES = 24
 TABLE6_MEAN_ITERATIONS = 82.0
 TABLE6_MIN_ITERATIONS = 73
@@ -45,5 +52,5 @@ TABLE6_MEAN_INITIAL_ERROR_CM = 24.99
 TABLE6_MEAN_FINAL_ERROR_CM = 0.0305
 TABLE6_FINAL_ERROR_RANGE_CM = (0.0297, 0.0315)
 
-#: The gains the paper compared (SPEC §3): kp = 0.01 smoothest, 0.5 overshoots.
+#: The gains the paper compared (paper §3): kp = 0.01 smoothest, 0.5 overshoots.
 GAIN_SWEEP_KP: tuple[float, ...] = (0.01, 0.1, 0.5)

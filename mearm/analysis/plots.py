@@ -1,4 +1,4 @@
-"""The paper's analysis figures for any run, as PNG files (SPEC §5).
+"""The paper's analysis figures for any run, as PNG files (paper §5).
 
 Figures are drawn on :class:`matplotlib.figure.Figure` objects with the Agg canvas, never
 through ``pyplot``: no display is needed and no global state is touched. Matplotlib is
@@ -23,7 +23,6 @@ if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
 DPI = 120
-JOINT_LABELS = ("θ1", "θ2", "θ3", "θ4")
 
 
 def _figure(width_in: float, height_in: float) -> Figure:
@@ -140,14 +139,28 @@ def success_against_error(
     return _save(fig, path)
 
 
-def _path_axes(ax: Any, routes: Sequence[SolvedRoute], colors: Sequence[str]) -> None:
-    for route, color in zip(routes, colors, strict=False):
+_PALETTE = ("#3182bd", "#e6550d", "#31a354", "#756bb1", "#636363", "#d6616b")
+_LINESTYLES = ("-", "--", ":", "-.")
+
+
+def _style(i: int) -> dict[str, str]:
+    """Colour and line style of series ``i``: the colours first, then again dashed, ..."""
+    return {
+        "color": _PALETTE[i % len(_PALETTE)],
+        "ls": _LINESTYLES[(i // len(_PALETTE)) % len(_LINESTYLES)],
+    }
+
+
+def _path_axes(ax: Any, routes: Sequence[SolvedRoute]) -> None:
+    for i, route in enumerate(routes):
+        style = _style(i)
+        color = style["color"]
         p = route.ee_path_cm
         ax.plot(
             p[:, 0],
             p[:, 1],
             p[:, 2],
-            color=color,
+            **style,
             lw=1.5,
             label=f"{route.label} ({route.iterations} it.)",
         )
@@ -161,9 +174,6 @@ def _path_axes(ax: Any, routes: Sequence[SolvedRoute], colors: Sequence[str]) ->
     ax.set_aspect("equal")  # centimetres are centimetres on every axis
 
 
-_COLORS = ("#3182bd", "#e6550d", "#31a354", "#756bb1", "#636363", "#d6616b")
-
-
 def ee_paths_3d(routes: Sequence[SolvedRoute], path: str | Path, *, title: str) -> Path:
     """The EE path of each route in 3-D: start ●, target ×, logged real end ▲.
 
@@ -174,23 +184,28 @@ def ee_paths_3d(routes: Sequence[SolvedRoute], path: str | Path, *, title: str) 
     """
     fig = _figure(6.4, 5.2)
     ax = fig.add_subplot(projection="3d")
-    _path_axes(ax, routes, _COLORS)
+    _path_axes(ax, routes)
     ax.set_title(f"{title}\n● start   × target   ▲ where the arm really ended (log)")
     ax.legend(fontsize="small")
     return _save(fig, path)
 
 
 def joint_angles(routes: Sequence[SolvedRoute], path: str | Path) -> Path:
-    """Joint angles θ1..θ4 [deg] against iteration, one panel per route."""
+    """Every joint [deg, or cm for a prismatic one] against iteration, one panel per route.
+
+    Each joint is labelled by its name; the arm may have any number of joints.
+    """
     fig = _figure(6.4, 2.6 * len(routes) + 0.4)
     axes = fig.subplots(len(routes), 1, squeeze=False)[:, 0]
     for ax, route in zip(axes, routes, strict=True):
-        q_deg = np.degrees(route.q_path_rad)
-        for j in range(q_deg.shape[1]):
-            ax.plot(q_deg[:, j], color=_COLORS[j], label=JOINT_LABELS[j])
+        values = route.joint_path
+        units = route.joint_units
+        for j, name in enumerate(route.joint_names):
+            label = f"{name} [cm]" if units[j] == "cm" else name
+            ax.plot(values[:, j], **_style(j), label=label)
         ax.set_title(f"{route.label}: {route.iterations} iterations, {route.status}")
-        ax.set_ylabel("joint angle [deg]")
-        ax.legend(fontsize="small", ncols=4)
+        ax.set_ylabel("joint [" + " / ".join(dict.fromkeys(units)) + "]")
+        ax.legend(fontsize="small", ncols=min(4, len(route.joint_names)))
     axes[-1].set_xlabel("iteration")
     return _save(fig, path)
 
@@ -199,10 +214,10 @@ def gain_sweep(routes: Sequence[SolvedRoute], path: str | Path, *, title: str) -
     """Error against iteration (log scale) and the EE path, one curve per gain."""
     fig = _figure(11.0, 4.6)
     ax_err = fig.add_subplot(1, 2, 1)
-    for route, color in zip(routes, _COLORS, strict=False):
+    for i, route in enumerate(routes):
         ax_err.semilogy(
             route.error_path_cm,
-            color=color,
+            **_style(i),
             label=f"{route.label}: {route.iterations} it., {route.status}",
         )
     ax_err.set_xlabel("iteration")
@@ -210,6 +225,6 @@ def gain_sweep(routes: Sequence[SolvedRoute], path: str | Path, *, title: str) -
     ax_err.grid(True, which="both", alpha=0.3)
     ax_err.legend(fontsize="small")
     ax_path = fig.add_subplot(1, 2, 2, projection="3d")
-    _path_axes(ax_path, routes, _COLORS)
+    _path_axes(ax_path, routes)
     fig.suptitle(title)
     return _save(fig, path)

@@ -1,4 +1,4 @@
-"""A run log analysed as a whole: every statistic of SPEC §5 in one record.
+"""A run log analysed as a whole: every statistic of paper §5 in one record.
 
 :func:`analyze` turns what :func:`mearm.runlog.read_runlog` found into an
 :class:`Analysis`; :func:`to_json` gives it as plain data. The tables beside the
@@ -8,6 +8,7 @@ paper's figures are in :mod:`mearm.analysis.tables`.
 from __future__ import annotations
 
 import dataclasses
+import json
 import math
 from dataclasses import dataclass
 from typing import Any, Literal
@@ -34,7 +35,7 @@ from mearm.analysis.success import (
     success_vs_error,
 )
 from mearm.analysis.weibull import WeibullFit, fit_weibull
-from mearm.exceptions import AnalysisError, RunLogFormatError
+from mearm.exceptions import AnalysisError, MearmError, RunLogFormatError
 from mearm.runlog import RunLogContents
 
 
@@ -55,7 +56,7 @@ class Analysis:
         table8: Error statistics of those routes.
         weibull: Weibull fit of their Euclidean errors, or ``None`` (see ``weibull_problem``).
         weibull_problem: Why there is no fit.
-        table9: First-attempt pick and place success per colour.
+        table9: First-attempt pick and place success per class.
         attempts: Which picks the success-against-error analysis covers.
         success: Success against error of those picks, or ``None`` when there are none.
         around_bound: The same bound counted over the Table 8 routes, the paper's way.
@@ -78,6 +79,26 @@ class Analysis:
     success: SuccessVsError | None
     around_bound: RoutesAroundBound | None
     table6: dict[str, IterationStats]
+
+
+def class_names(contents: RunLogContents) -> list[str]:
+    """The class names of every trial's config (``task.class_names``), in order, once each.
+
+    A header whose config does not load adds none: its classes then appear in the order
+    the routes name them.
+    """
+    names: list[str] = []
+    seen: set[str] = set()
+    for trial in contents.trials:
+        key = json.dumps(trial.header.config, sort_keys=True)
+        if key in seen:  # loading a config validates the arm: once per distinct config
+            continue
+        seen.add(key)
+        try:
+            names += trial.header.load_config().task.class_names
+        except MearmError:
+            continue
+    return list(dict.fromkeys(names))
 
 
 def analyze(
@@ -133,7 +154,7 @@ def analyze(
         table8=error_table(errors),
         weibull=weibull,
         weibull_problem=weibull_problem,
-        table9=success_table(routes),
+        table9=success_table(routes, class_names(contents)),
         attempts=attempts,
         success=success,
         around_bound=routes_around_bound(norms, success) if success else None,

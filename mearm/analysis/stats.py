@@ -1,4 +1,4 @@
-"""Error and iteration statistics of routes: the paper's Table 8 and Table 6 (SPEC §5, §3).
+"""Error and iteration statistics of routes: the paper's Table 8 and Table 6 (paper §5, §3).
 
 Standard deviations are sample ones (``ddof=1``), as MATLAB's ``std``, which the paper used.
 """

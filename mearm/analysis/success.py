@@ -1,4 +1,4 @@
-"""Pick and place success: the paper's Table 9 and success against error (SPEC §5).
+"""Pick and place success: the paper's Table 9 and success against error (paper §5).
 
 The error of a route is the Euclidean distance between where the arm really ended and
 the target, ‖ee − target‖, the error of Table 8 (not the solver's ideal final error).
@@ -15,7 +15,6 @@ import numpy as np
 
 from mearm.analysis.stats import select_routes
 from mearm.analysis.weibull import WeibullFit
-from mearm.config import COLORS
 from mearm.exceptions import AnalysisError
 from mearm.runlog import RouteRecord
 
@@ -56,13 +55,13 @@ class Rate:
 
 @dataclass(frozen=True)
 class SuccessTable:
-    """Table 9: first-attempt success per colour.
+    """Table 9: first-attempt success per class.
 
     Attributes:
-        pick: First-attempt picks per colour.
-        pick_total: All colours together.
-        place: First-attempt places per colour.
-        place_total: All colours together.
+        pick: First-attempt picks per class name, in the config's class order.
+        pick_total: All classes together.
+        place: First-attempt places per class name.
+        place_total: All classes together.
     """
 
     pick: dict[str, Rate]
@@ -71,21 +70,25 @@ class SuccessTable:
     place_total: Rate
 
 
-def success_table(routes: Iterable[RouteRecord], colors: Sequence[str] = COLORS) -> SuccessTable:
-    """First-attempt pick and place success per colour (Table 9).
+def success_table(routes: Iterable[RouteRecord], class_names: Sequence[str] = ()) -> SuccessTable:
+    """First-attempt pick and place success per class (Table 9).
 
-    Colours beyond ``colors`` that occur in the routes are added after them.
+    Args:
+        routes: The routes to count.
+        class_names: The classes in their order (``config.task.class_names``); each gets
+            a row even with no route. Classes that occur in the routes but not here are
+            added after them, in order of appearance.
     """
     first = [r for r in routes if r.attempt == 1]
-    order = list(dict.fromkeys([*colors, *(r.color for r in first)]))
+    order = list(dict.fromkeys([*class_names, *(r.color for r in first)]))
 
-    def per_color(step: str) -> tuple[dict[str, Rate], Rate]:
+    def per_class(step: str) -> tuple[dict[str, Rate], Rate]:
         rows = [r for r in first if r.step == step]
-        table = {c: Rate.of(r.success for r in rows if r.color == c) for c in order}
+        table = {name: Rate.of(r.success for r in rows if r.color == name) for name in order}
         return table, Rate.of(r.success for r in rows)
 
-    pick, pick_total = per_color("pick")
-    place, place_total = per_color("place")
+    pick, pick_total = per_class("pick")
+    place, place_total = per_class("place")
     return SuccessTable(pick=pick, pick_total=pick_total, place=place, place_total=place_total)
 
 
@@ -143,7 +146,7 @@ def success_vs_error(
     *,
     bin_width_cm: float = 0.1,
 ) -> SuccessVsError:
-    """Where picks start to fail (SPEC §5: all picks under 1.2 cm succeeded).
+    """Where picks start to fail (paper §5: all picks under 1.2 cm succeeded).
 
     Args:
         errors_cm: Each pick's Euclidean error [cm], (N,).
@@ -197,7 +200,7 @@ def success_vs_error(
 class RoutesAroundBound:
     """The paper's way of counting around the bound: over all routes, picks and places.
 
-    SPEC §5's "above 1.2 cm, 51.88 % of 133 picks failed" and "P(error < 1.2 cm) =
+    paper §5's "above 1.2 cm, 51.88 % of 133 picks failed" and "P(error < 1.2 cm) =
     94.46 %" only add up this way: 133 of its 2 400 routes are at or above 1.2 cm
     (1 − 133/2400 = 94.46 %, the empirical share, not the fitted density's 94.82 %),
     and its 69 failed picks (5.75 % of 1 200) are 51.88 % of those 133.

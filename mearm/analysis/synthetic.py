@@ -1,28 +1,31 @@
 """Synthetic run logs with a known error distribution, to check the analysis against.
 
 Every route's error vector has a uniformly random direction and a Euclidean length
-drawn from a Weibull distribution (SPEC §5's by default: scale 0.7059 cm, shape 2.045),
+drawn from a Weibull distribution (paper §5's by default: scale 0.7059 cm, shape 2.045),
 so a correct analysis must recover that Weibull. Picks with an error under
 ``bound_cm`` always succeed; above it each fails with probability ``fail_above``
-(SPEC §5: 1.2 cm and about one half). Places always succeed.
+(paper §5: 1.2 cm and about one half). Places always succeed.
 
-Targets, joint angles and poses are real: objects are the paper's layout jittered by up
-to 2 cm, picks at the pick height, places at the colour's bin, joint angles from the
-closed form, each route starting where the last one ended. The solver figures
-(iterations, final error) are drawn in the paper's ranges and are not computed: this is
-a test fixture, not a simulation.
+Targets, joint values and poses are real: objects are the configured scene jittered by
+up to 2 cm, picks at their class's grip height, places at their class's bin, joint values
+from the arm's closed form (PD-PIJ for an arm without one), each route starting where the
+last one ended. Routes are written in the current run-log format: joint values by the
+names of ``config.arm``'s joints [deg or cm], ``color`` a name of ``config.task.classes``.
+The solver figures (iterations, final error) are drawn in the paper's ranges and are not
+computed: this is a test fixture, not a simulation.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 import numpy.typing as npt
 
 from mearm.analysis import paper
-from mearm.config import Config, RobotConfig
-from mearm.kinematics import analytic_ik_deg, dh_fk
+from mearm.config import Config
+from mearm.kinematics import Chain, closed_form_for
 from mearm.runlog import RunLog
 
 
@@ -33,6 +36,18 @@ def weibull_error_vectors(
     direction = rng.normal(size=(n, 3))
     direction /= np.linalg.norm(direction, axis=1, keepdims=True)
     return direction * (scale * rng.weibull(shape, size=n))[:, None]
+
+
+def _ik(config: Config) -> Callable[[np.ndarray, np.ndarray], np.ndarray]:
+    """(start, target [cm]) → end pose, full model-unit vectors (n,)."""
+    closed_form = closed_form_for(config.arm)
+    if closed_form is not None:
+        return lambda _start, target: closed_form.solve(target)
+    from mearm.ik import make_solver
+    from mearm.kinematics import ArmModel
+
+    solver = make_solver(ArmModel(config.arm), config.controller)
+    return lambda start, target: np.asarray(solver.solve(start, target).q, dtype=float)
 
 
 def write_synthetic_log(
@@ -47,7 +62,7 @@ def write_synthetic_log(
     config: Config | None = None,
     fsync: bool = False,
 ) -> np.ndarray:
-    """Write a log of exactly ``n_routes`` routes in trials of the 12 paper objects.
+    """Write a log of exactly ``n_routes`` routes in trials of the configured scene.
 
     A failed pick is retried once (attempt 2); a retry that fails too is logged as a
     skip. Each trial has a header and, unless cut short by ``n_routes``, a summary.
@@ -60,7 +75,7 @@ def write_synthetic_log(
         bound_cm: Picks with a smaller error always succeed [cm].
         fail_above: Probability that a pick at or above ``bound_cm`` fails [-].
         seed: Seed of everything random.
-        config: Robot, bins and scene (default: the simulated rig's).
+        config: Arm, classes and scene (default: the simulated rig's, the paper's).
         fsync: ``fsync`` per record (off: fixtures write thousands).
 
     Returns:
@@ -69,22 +84,24 @@ def write_synthetic_log(
     config = config or Config()
     rng = np.random.default_rng(seed)
     errors = weibull_error_vectors(n_routes, shape=shape, scale=scale, rng=rng)
-    robot = config.robot
-    home_deg = np.array(robot.home_joints_deg)
-    pick_z = robot.gripper.pick_height_cm
+    chain = Chain.from_description(config.arm)
+    ik = _ik(config)
+    tcp_above_grip_cm = config.arm.tool.tcp_above_grip_cm
     written = 0
     trial = 0
     with RunLog(path, fsync=fsync) as log:
         while written < n_routes:
             log.header(config, trial=trial, seed=seed, synthetic=True)
-            q_deg = home_deg
+            q = chain.home.copy()
             counts: dict[str, int] = {}
             for obj in config.task.scene:
                 if written >= n_routes:
                     break
-                counts[obj.color] = counts.get(obj.color, 0) + 1
-                object_id = f"{obj.color}{counts[obj.color]}"
+                cls = config.task.class_named(obj.color)
+                counts[cls.name] = counts.get(cls.name, 0) + 1
+                object_id = f"{cls.name}{counts[cls.name]}"
                 xy = np.array([obj.x, obj.y]) + rng.uniform(-2.0, 2.0, size=2)
+                pick_z = cls.grip_z_cm + tcp_above_grip_cm
                 steps = [("pick", (xy[0], xy[1], pick_z), 1)]
                 while steps and written < n_routes:
                     step, target, attempt = steps.pop(0)
@@ -92,28 +109,32 @@ def write_synthetic_log(
                     success = step == "place" or bool(
                         np.linalg.norm(e) < bound_cm or rng.random() >= fail_above
                     )
-                    q_deg = _route(
+                    target_cm = np.asarray(target, dtype=float)
+                    end = ik(q, target_cm)
+                    _route(
                         log,
-                        object_id,
-                        obj.color,
-                        step,
-                        attempt,
-                        target,
-                        q_deg,
-                        e,
-                        success,
-                        robot,
-                        rng,
+                        chain,
+                        object_id=object_id,
+                        class_name=cls.name,
+                        step=step,
+                        attempt=attempt,
+                        target_cm=target_cm,
+                        q_start=q,
+                        q_end=end,
+                        error_cm=e,
+                        success=success,
+                        rng=rng,
                     )
+                    q = end
                     written += 1
                     if step == "pick" and success:
-                        steps.append(("place", config.task.bins_cm[obj.color], 1))
+                        steps.append(("place", cls.bin_cm, 1))
                     elif step == "pick" and attempt == 1:
                         steps.append(("pick", target, 2))
                     elif step == "pick":
                         log.skip(
                             object_id=object_id,
-                            color=obj.color,
+                            color=cls.name,
                             target_cm=target,
                             reason="pick retries exhausted",
                         )
@@ -125,36 +146,36 @@ def write_synthetic_log(
 
 def _route(
     log: RunLog,
+    chain: Chain,
+    *,
     object_id: str,
-    color: str,
+    class_name: str,
     step: str,
     attempt: int,
-    target_cm: npt.ArrayLike,
-    start_deg: np.ndarray,
+    target_cm: np.ndarray,
+    q_start: npt.ArrayLike,
+    q_end: npt.ArrayLike,
     error_cm: np.ndarray,
     success: bool,
-    robot: RobotConfig,
     rng: np.random.Generator,
-) -> np.ndarray:
-    target = np.asarray(target_cm, dtype=float)
-    end_deg = analytic_ik_deg(target, robot)
-    start_ee = dh_fk(np.radians(start_deg), robot.dh)
+) -> None:
+    start_joints = chain.named(q_start)
+    start_ee_cm = chain.arm.tcp_cm(start_joints)
     log.route(
         object_id=object_id,
-        color=color,
+        color=class_name,
         step=step,
         attempt=attempt,
-        target_cm=target,
-        start_joints_deg=start_deg,
-        end_joints_deg=end_deg,
+        target_cm=target_cm,
+        start_joints=start_joints,
+        end_joints=chain.named(q_end),
         iterations=int(rng.integers(73, 94)),
         status="converged",
-        initial_error_cm=float(np.linalg.norm(target - start_ee)),
+        initial_error_cm=float(np.linalg.norm(target_cm - start_ee_cm)),
         final_error_cm=float(rng.uniform(0.0297, 0.0315)),
-        ee_cm=target + error_cm,
+        ee_cm=target_cm + error_cm,
         error_cm=error_cm,
         success=success,
         elapsed_s=float(rng.uniform(0.01, 0.05)),
         motion_s=float(rng.uniform(5.0, 7.0)),
     )
-    return end_deg

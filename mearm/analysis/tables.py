@@ -91,7 +91,7 @@ def table8(a: Analysis) -> Table:
         ),
         rows=tuple(rows),
         notes=(
-            f"paper: the real arm, {paper.TABLE8_ROUTES} routes (SPEC §5); std is the "
+            f"paper: the real arm, {paper.TABLE8_ROUTES} routes (paper §5); std is the "
             "sample std (ddof = 1)",
         ),
     )
@@ -123,19 +123,19 @@ def weibull_table(a: Analysis) -> Table:
 
 
 def table9(a: Analysis) -> Table:
-    """Table 9: first-attempt success per colour, ours and the paper's."""
+    """Table 9: first-attempt success per class, ours and the paper's (by class name)."""
     t = a.table9
     rows = [
         (
-            color,
-            _pct(t.pick[color]),
-            f"{paper.TABLE9_PICK_PERCENT[color]:.2f} %"
-            if color in paper.TABLE9_PICK_PERCENT
+            name,
+            _pct(t.pick[name]),
+            f"{paper.TABLE9_PICK_PERCENT[name]:.2f} %"
+            if name in paper.TABLE9_PICK_PERCENT
             else DASH,
-            _pct(t.place[color]),
+            _pct(t.place[name]),
             f"{paper.TABLE9_PLACE_PERCENT:.2f} %",
         )
-        for color in t.pick
+        for name in t.pick
     ]
     rows.append(
         (
@@ -147,7 +147,7 @@ def table9(a: Analysis) -> Table:
         )
     )
     return Table(
-        title="Table 9: first-attempt success per colour",
+        title="Table 9: first-attempt success per class",
         header=("", "pick", "paper pick", "place", "paper place"),
         rows=tuple(rows),
         notes=(f"skipped objects: {a.skips} (never attempted or retries exhausted)",),
@@ -171,7 +171,7 @@ def success_table(a: Analysis) -> Table:
     paper_fit_below = 100 * float(paper_fit.cdf(paper.SUCCESS_BOUND_CM))
     bound = paper.SUCCESS_BOUND_CM
     rows = (
-        (attempts, str(s.picks.n), str(3 * paper.TABLE9_PICKS_PER_COLOR)),
+        (attempts, str(s.picks.n), str(paper.TABLE9_PICKS)),
         ("failed picks", str(s.picks.failures), str(paper.FAILED_PICKS)),
         ("every pick below [cm] succeeded", _num(s.bound_cm, 3), f"{bound:g}"),
         ("picks at or above it", str(s.above.n) if has_bound else DASH, DASH),

@@ -1,4 +1,4 @@
-r"""Weibull fit of the Euclidean xyz error (SPEC §5: scale 0.7059 cm, shape 2.045).
+r"""Weibull fit of the Euclidean xyz error (paper §5: scale 0.7059 cm, shape 2.045).
 
 Two-parameter Weibull, location fixed at 0, fitted by maximum likelihood with
 ``scipy.stats.weibull_min.fit(errors, floc=0)``:
