@@ -1,6 +1,6 @@
-"""``python -m mearm.experiment``: repeated sorting trials, as in the paper's SPEC §5.
+"""``python -m mearm.experiment``: repeated sorting trials, as in the paper's experiments.
 
-Each trial sorts a new layout of 4 red, 4 green and 4 blue objects at least 1 cm apart
+Each trial sorts a new layout of 4 objects of each class at least 1 cm apart
 (or the same ``--scene`` every time) and appends its records, under one header per trial,
 to the run log; ``python -m mearm.analyze`` reads it back::
 
@@ -30,10 +30,10 @@ from mearm.cli import (
 from mearm.config import Config, SceneObject
 from mearm.exceptions import CameraError, MearmError, ServoError
 from mearm.runlog import RunLog
-from mearm.task import SortAborted, Sorter, load_scene, open_rig, random_scene, scene_layout
+from mearm.task import SortAborted, load_scene, random_scene, run_sort
 
-#: Objects per colour in a random trial layout (SPEC §5: 12 objects, 4 of each).
-PER_COLOR = 4
+#: Objects per class in a random trial layout (the paper: 12 objects, 4 of each colour).
+PER_CLASS = 4
 
 
 def trial_seed(seed: int, trial: int) -> int:
@@ -83,19 +83,16 @@ def run_trials(
         cfg = trial_config(config, s)
         layout = scene
         if layout is None and cfg.camera.kind == "sim":
-            layout = random_scene(cfg, {"red": PER_COLOR, "green": PER_COLOR, "blue": PER_COLOR}, s)
+            layout = random_scene(cfg, dict.fromkeys(cfg.task.class_names, PER_CLASS), s)
         if wait_for_user is not None:
             wait_for_user(k)
-        log.header(cfg, trial=k, seed=s, scene=scene_layout(cfg, layout))
-        with open_rig(cfg, layout) as rig:
-            sorter = Sorter(cfg, rig.camera, rig.bus, model=rig.model, log=log, echo=None, trial=k)
-            try:
-                sorter.run()
-                outcomes.append(None)
-            except SortAborted as exc:
-                if exc.interrupted:
-                    raise
-                outcomes.append(exc.reason)
+        try:
+            run_sort(cfg, scene=layout, log=log, trial=k, seed=s, echo=None)
+            outcomes.append(None)
+        except SortAborted as exc:
+            if exc.interrupted:
+                raise
+            outcomes.append(exc.reason)
         if progress is not None:
             progress(k + 1)
     return outcomes
@@ -113,7 +110,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.trials < 1:
         parser.error(f"--trials must be ≥ 1, got {args.trials}")
     config = config_from_args(args)
-    scene = load_scene(args.scene) if args.scene else None
+    scene = load_scene(args.scene, config.task.class_names) if args.scene else None
     if scene is not None and config.camera.kind != "sim":
         raise MearmError("--scene lays out the simulated table; this config's camera is not 'sim'")
 

@@ -29,14 +29,14 @@ from mearm.cli import (
 from mearm.config import Config, SceneObject
 from mearm.exceptions import CameraError, MearmError, ServoError
 from mearm.runlog import RunLog
-from mearm.task import SortAborted, Sorter, load_scene, open_rig, random_scene, scene_layout
+from mearm.task import Rig, SortAborted, load_scene, random_scene, run_sort
 
 
 def add_scene_arguments(parser: ArgumentParser) -> None:
     """``--scene FILE`` / ``--random N --seed S`` for the simulated table."""
     group = parser.add_mutually_exclusive_group()
     group.add_argument(
-        "--scene", type=Path, help="simulated table: a YAML list of {color, x, y} [cm]"
+        "--scene", type=Path, help="simulated table: a YAML list of {color, x, y} [cm] (color: a class name)"
     )
     group.add_argument("--random", type=int, metavar="N", help="simulated table: N random objects")
     parser.add_argument("--seed", type=int, default=0, help="seed for --random (default 0)")
@@ -52,7 +52,7 @@ def scene_from_args(args: object, config: Config) -> list[SceneObject] | None:
             f"'{config.camera.kind}', not 'sim'"
         )
     if scene_path is not None:
-        return load_scene(scene_path)
+        return load_scene(scene_path, config.task.class_names)
     if n is not None:
         if n < 0:
             raise MearmError(f"--random needs a number of objects ≥ 0, got {n}")
@@ -89,50 +89,34 @@ def main(argv: Sequence[str] | None = None) -> int:
     lines: list[str] = []
     echo = lines.append if args.quiet else print
 
+    def make_view(rig: Rig) -> object:
+        from mearm.view import ArmView
+
+        view = ArmView(rig.model, config)
+        print(f"meshcat view: {view.url}", flush=True)
+        return view
+
     log = RunLog(args.log) if args.log else None
-    if log is not None:
-        log.header(
+    try:
+        run_sort(
             config,
-            trial=None,
+            scene=scene,
+            log=log,
             seed=args.seed if args.random is not None else None,
             argv=list(sys.argv[1:] if argv is None else argv),
-            scene=scene_layout(config, scene),
+            echo=echo,
+            view_factory=make_view if args.view else None,
+            on_view=(lambda view: _hold(view.url)) if args.hold else None,
         )
-    view = None
-    started = False
-    try:
-        with open_rig(config, scene) as rig:
-            if args.view:
-                from mearm.view import ArmView
-
-                view = ArmView(rig.model, config)
-                print(f"meshcat view: {view.url}", flush=True)
-                rig.bus.paced = True  # let the eye follow the arm
-            sorter = Sorter(
-                config, rig.camera, rig.bus, model=rig.model, log=log, view=view, echo=echo
-            )
-            started = True  # from here on the sorter logs its own faults
-            try:
-                sorter.run()
-                if view is not None and args.hold:
-                    _hold(view.url)
-            except SortAborted as exc:
-                if args.quiet:
-                    print("\n".join(lines))
-                print(f"mearm.sort: stopped: {exc.reason}", file=sys.stderr)
-                return EXIT_INTERRUPTED if exc.interrupted else EXIT_FAILURE
-    except (MearmError, KeyboardInterrupt) as exc:
-        if log is not None and not started:
-            reason = str(exc) if isinstance(exc, MearmError) else "interrupted (Ctrl-C)"
-            log.fault(f"before the sort started: {reason}")
-            log.summary(ok=False)
-        if isinstance(exc, (CameraError, ServoError)):
-            print(f"mearm.sort: {exc}", file=sys.stderr)
-            return EXIT_FAILURE
-        raise
+    except SortAborted as exc:
+        if args.quiet:
+            print("\n".join(lines))
+        print(f"mearm sort: stopped: {exc.reason}", file=sys.stderr)
+        return EXIT_INTERRUPTED if exc.interrupted else EXIT_FAILURE
+    except (CameraError, ServoError) as exc:
+        print(f"mearm sort: {exc}", file=sys.stderr)
+        return EXIT_FAILURE
     finally:
-        if view is not None:
-            view.close()
         if log is not None:
             log.close()
     if args.quiet:

@@ -1,4 +1,4 @@
-"""The sorting task end to end on the simulated rig, and its faults (SPEC §1)."""
+"""The sorting task end to end on the simulated rig, for every reference arm, and its faults."""
 
 import json
 import signal
@@ -10,16 +10,15 @@ import cv2
 import numpy as np
 import pytest
 import yaml
-from conftest import ROOT, run_cli
+from conftest import ROOT, planar_yaw_arm_data, run_cli
 from fakeboard import FakeMearmBoard, MearmFaults
 
-from mearm.config import COLORS, SceneObject, config_from_dict
+from mearm.config import SceneObject, config_from_dict, load_config
 from mearm.exceptions import MearmError
 from mearm.hardware import open_bus
 from mearm.runlog import RunLog, read_runlog
+from mearm.sim import SimCamera, World
 from mearm.task import SortAborted, Sorter, open_rig, random_scene
-from mearm.vision import SimCamera
-from mearm.world import World
 
 
 def _sort(config, scene, log=None):
@@ -40,11 +39,11 @@ def test_cli_sorts_the_paper_layout(tmp_path):
     assert len(routes) == 24
     assert [r.step for r in routes] == ["pick", "place"] * 12
     assert all(r.success and r.status == "converged" for r in routes)
-    # all red first, then green, then blue (SPEC §1)
+    # all red first, then green, then blue (the paper's order, the classes' order)
     assert [r.color for r in routes[::2]] == ["red"] * 4 + ["green"] * 4 + ["blue"] * 4
     # each route starts where the last ended (no return home in between)
     for prev, nxt in zip(routes, routes[1:], strict=False):
-        np.testing.assert_allclose(nxt.start_joints_deg, prev.end_joints_deg, atol=1e-9)
+        assert nxt.start_joints == pytest.approx(prev.end_joints, abs=1e-9)
     summary = contents.trials[0].summary
     assert summary.sorted == {"red": 4, "green": 4, "blue": 4} and summary.ok
 
@@ -57,8 +56,8 @@ def test_random_scenes_are_sorted(config, seed):
     world, report, _ = _sort(config, scene)
     left = [o for o in world.objects if o.bin != o.color]
     assert len(left) == len(report.skipped)
-    assert all(reason for _, _, reason in report.skipped)
-    assert sum(report.sorted_per_color().values()) == n - len(left)
+    assert all(s.reason for s in report.skipped)
+    assert sum(report.sorted_per_class().values()) == n - len(left)
     assert report.fault is None
 
 
@@ -67,21 +66,21 @@ def test_unreachable_and_outside_box_objects_are_skipped(tmp_path):
     # an arm whose elbow cannot stretch past -85°, and a camera field reaching y = 64 cm
     config = config_from_dict(
         {
-            "robot": {"joint_limits_deg": {"joint3": {"min": -160, "max": -85}}},
             "calibration": {"homography": [[0.0625, 0, -20.5], [0, -0.0625, 64.0], [0, 0, 1]]},
-        }
+        },
+        overrides=["arm.joints.elbow.limits={min: -160, max: -85}"],
     )
     scene = [
         SceneObject(color="red", x=-5.0, y=40.0),
-        SceneObject(color="green", x=0.0, y=57.0),  # needs θ3 ≈ −80°: out of reach
+        SceneObject(color="green", x=0.0, y=57.0),  # needs elbow ≈ −80°: out of reach
         SceneObject(color="blue", x=5.0, y=62.0),  # y > 60: outside the target box
     ]
     with RunLog(tmp_path / "log.jsonl") as log:
         log.header(config)
         world, report, _ = _sort(config, scene, log)
     assert [o.bin for o in world.objects] == ["red", None, None]
-    reasons = {color: reason for _, color, reason in report.skipped}
-    assert "joint3" in reasons["green"] and "outside its limits" in reasons["green"]
+    reasons = {s.class_name: s.reason for s in report.skipped}
+    assert "elbow" in reasons["green"] and "outside its limits" in reasons["green"]
     assert "y = 62 is outside the target box" in reasons["blue"]
     skips = read_runlog(tmp_path / "log.jsonl").trials[0].skips
     assert {s.color for s in skips} == {"green", "blue"}
@@ -94,17 +93,19 @@ def test_failed_pick_is_retried_then_skipped(config):
             "servo": config.servo.model_copy(
                 update={
                     "error_model": config.servo.error_model.model_copy(
-                        update={"offset_deg": (3.0, 0.0, 0.0)}
+                        update={"offset_deg": {"base": 3.0}}
                     )
                 }
             )
         }
     )
     world, report, _ = _sort(cfg, [SceneObject(color="red", x=0.0, y=45.0)])
-    picks = [r for r in report.routes if r["step"] == "pick"]
-    assert [r["attempt"] for r in picks] == [1, 2, 3]
-    assert not any(r["success"] for r in picks)
-    assert report.skipped == [("red1", "red", "pick failed 3 times")]
+    picks = [r for r in report.routes if r.step == "pick"]
+    assert [r.attempt for r in picks] == [1, 2, 3]
+    assert not any(r.success for r in picks)
+    assert [(s.object_id, s.class_name, s.reason) for s in report.skipped] == [
+        ("red1", "red", "pick failed 3 times")
+    ]
     assert world.objects[0].on_table
 
 
@@ -116,7 +117,7 @@ def test_touching_objects_are_reported_not_guessed(config):
         SceneObject(color="blue", x=-8.0, y=40.0),
     ]
     world, report, _ = _sort(config, scene)
-    assert report.skipped and "touching" in report.skipped[0][2]
+    assert report.skipped and "touching" in report.skipped[0].reason
     assert [o.bin for o in world.objects] == [None, None, "blue"]
 
 
@@ -136,9 +137,9 @@ def test_camera_that_stops_delivering_frames(tmp_path, config):
         log.header(cfg)
         with pytest.raises(SortAborted) as exc:
             Sorter(cfg, rig.camera, rig.bus, model=rig.model, log=log, echo=None).run()
-        home = rig.bus.state.joints_deg
+        home = dict(rig.bus.state.joints)
     assert "no more frames after 2" in exc.value.reason and "parked at home" in exc.value.reason
-    np.testing.assert_allclose(home, config.robot.home_deg)
+    assert home == pytest.approx(config.arm.home())
     trial = read_runlog(log_path).trials[0]
     assert len(trial.routes) >= 1 and trial.faults and not trial.summary.ok
     assert "no more frames" in trial.faults[0].reason
@@ -170,11 +171,11 @@ def test_servo_link_dropped_mid_route(tmp_path, config):
                 bus.close()
         moves = [line for line in board.received if line.split()[1:2] == [b"M"]]
     assert "nothing more sent to the servos" in exc.value.reason
-    assert exc.value.last_joints_deg is not None
+    assert exc.value.last_joints is not None
     trial = read_runlog(log_path).trials[0]
     assert trial.routes, "the route before the fault is in the log"
     fault = trial.faults[0]
-    assert fault.last_joints_deg is not None and not trial.summary.ok
+    assert fault.last_joints is not None and not trial.summary.ok
     assert len(moves) == 90  # the 90th move met the pulled cable; nothing sent after it
 
 
@@ -207,7 +208,9 @@ def test_ctrl_c_parks_and_keeps_the_log(tmp_path):
     assert contents.problem is None
     trial = contents.trials[0]
     assert trial.routes and "interrupted" in trial.faults[0].reason
-    np.testing.assert_allclose(trial.faults[0].last_joints_deg, [120, 93, -132, 39], atol=1e-9)
+    assert trial.faults[0].last_joints == pytest.approx(
+        {"base": 120, "shoulder": 93, "elbow": -132, "wrist": 39}, abs=1e-9
+    )
 
 
 def test_scene_file_and_random_flags(tmp_path):
@@ -268,19 +271,20 @@ def test_random_scene_properties(config):
         random_scene(config, 400, seed=0, max_tries=2000)
 
 
-def test_colour_order_from_config(config):
+def test_class_order_from_config(config):
+    """The classes are sorted in the order the config lists them."""
+    classes = config.task.classes
     cfg = config.model_copy(
-        update={"task": config.task.model_copy(update={"color_order": ["blue", "red", "green"]})}
+        update={"task": config.task.model_copy(update={"classes": [classes[2], *classes[:2]]})}
     )
     _, report, _ = _sort(cfg, None)
-    picks = [r["color"] for r in report.routes if r["step"] == "pick"]
+    picks = [r.class_name for r in report.routes if r.step == "pick"]
     assert picks == ["blue"] * 4 + ["red"] * 4 + ["green"] * 4
-    assert set(COLORS) == set(picks)
 
 
 def test_home_at_the_end(config):
     _, _, bus = _sort(config, [SceneObject(color="red", x=0.0, y=45.0)])
-    assert bus.state.joints_deg == tuple(config.robot.home_deg)
+    assert dict(bus.state.joints) == pytest.approx(config.arm.home())
     assert not bus.state.gripper_closed
 
 
@@ -290,8 +294,8 @@ def test_a_table_that_never_clears_is_reported(config):
     with open_rig(config, scene) as rig:
         sorter = Sorter(config, rig.camera, rig.bus, model=rig.model, echo=None, max_rounds=1)
         report = sorter.run()
-    assert len(report.sorted_per_color()) == 1 and report.sorted_per_color()["red"] == 1
-    assert [r for _, _, r in report.skipped] == ["still on the table after 1 pick rounds"] * 2
+    assert report.sorted_per_class() == {"red": 1}
+    assert [s.reason for s in report.skipped] == ["still on the table after 1 pick rounds"] * 2
 
 
 def test_camera_that_cannot_open_is_logged(tmp_path):
@@ -306,3 +310,74 @@ def test_camera_that_cannot_open_is_logged(tmp_path):
     trial = read_runlog(log).trials[0]
     assert "before the sort started: camera" in trial.faults[0].reason
     assert trial.summary is not None and not trial.summary.ok
+
+
+@pytest.mark.parametrize("name", ["sim_mearm_v1", "sim_5dof", "sim_4colours"])
+def test_reference_arms_sort_every_object(name, tmp_path):
+    """Each reference config sorts every object into its class's bin, exit 0."""
+    config = load_config(ROOT / "configs" / f"{name}.yaml")
+    log = tmp_path / "run.jsonl"
+    r = run_cli("-m", "mearm.sort", "--config", f"configs/{name}.yaml", "--log", str(log))
+    assert r.returncode == 0, r.stderr
+    trial = read_runlog(log).trials[0]
+    expected = {
+        c.name: sum(o.color == c.name for o in config.task.scene) for c in config.task.classes
+    }
+    assert trial.summary.sorted == expected and trial.summary.ok
+    assert not trial.skips and all(r.success for r in trial.routes)
+    assert set(trial.routes[0].start_joints) == {j.name for j in config.arm.joints}
+
+
+def test_five_joint_arm_picks_pointing_down():
+    """The 5-joint arm's plans end with the tool's approach axis straight down."""
+    from mearm.kinematics import ArmModel
+
+    config = load_config(ROOT / "configs" / "sim_5dof.yaml")
+    world, report, _ = _sort(config, config.task.scene[:2])
+    assert all(o.bin == o.color for o in world.objects)
+    model = ArmModel(config.arm)
+    for route in report.routes:
+        np.testing.assert_allclose(model.approach(route.plan.q), [0, 0, -1], atol=0.01)
+
+
+def test_an_arm_defined_in_the_test_sorts_a_small_scene():
+    """A new arm and two new classes, written here as data, sort a scene: no code change."""
+    data = {
+        "arm": planar_yaw_arm_data(),
+        "calibration": {"homography": [[0.05, 0, -16.0], [0, -0.05, 28.0], [0, 0, 1]]},
+        "camera": {"table": "grey"},
+        "task": {
+            "classes": [
+                {
+                    "name": "orange",
+                    "hue_bands_deg": [{"lo_deg": 15, "hi_deg": 40}],
+                    "draw_rgb": [240, 130, 20],
+                    "bin_cm": [-14.0, 8.0, 10.0],
+                    "grip_height_cm": 1.0,
+                },
+                {
+                    "name": "violet",
+                    "hue_bands_deg": [{"lo_deg": 260, "hi_deg": 300}],
+                    "draw_rgb": [130, 40, 210],
+                    "bin_cm": [14.0, 8.0, 10.0],
+                    "grip_height_cm": 1.0,
+                },
+            ],
+            "scene": [
+                {"color": "violet", "x": -4.0, "y": 14.0},
+                {"color": "orange", "x": 5.0, "y": 16.0},
+                {"color": "violet", "x": 2.0, "y": 11.0},
+            ],
+        },
+    }
+    config = config_from_dict(data)
+    world, report, bus = _sort(config, None)
+    assert [(o.color, o.bin) for o in world.objects] == [
+        ("violet", "violet"),
+        ("orange", "orange"),
+        ("violet", "violet"),
+    ]
+    assert report.sorted_per_class() == {"orange": 1, "violet": 2}
+    picks = [r.class_name for r in report.routes if r.step == "pick"]
+    assert picks == ["orange", "violet", "violet"]  # the classes' order
+    assert dict(bus.state.joints) == pytest.approx(config.arm.home())

@@ -1,12 +1,23 @@
-"""The sorting task: the loop of SPEC §1 and the simulated scenes it runs on."""
+"""The sorting task: plan → execute → report around one route record, the loop that
+drives them, the rig it runs on, and simulated scenes."""
 
-from mearm.task.rig import Rig, open_rig, scene_layout
+from mearm.task.execute import Executor
+from mearm.task.plan import RETRY_LIFT_CM, Planner
+from mearm.task.report import Reporter, Skip, SortReport
+from mearm.task.rig import Rig, open_rig, run_sort, scene_layout
+from mearm.task.route import Route
 from mearm.task.scene import SceneError, camera_field_cm, load_scene, random_scene
-from mearm.task.sorter import SortAborted, Sorter, SortReport, TrackedObject
+from mearm.task.sorter import SortAborted, Sorter, TrackedObject
 
 __all__ = [
+    "RETRY_LIFT_CM",
+    "Executor",
+    "Planner",
+    "Reporter",
     "Rig",
+    "Route",
     "SceneError",
+    "Skip",
     "SortAborted",
     "SortReport",
     "Sorter",
@@ -15,5 +26,6 @@ __all__ = [
     "load_scene",
     "open_rig",
     "random_scene",
+    "run_sort",
     "scene_layout",
 ]

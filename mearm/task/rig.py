@@ -1,16 +1,22 @@
-"""Opening the rig a config describes: world (if simulated), camera and servo bus."""
+"""Opening the rig a config describes (world if simulated, camera, servo bus) and running
+one sort on it with its run-log records: what ``mearm sort`` and ``mearm experiment`` share."""
 
 from __future__ import annotations
 
 import contextlib
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
+from typing import Any
 
 from mearm.config import Config, SceneObject
 from mearm.hardware import ServoBus, open_bus
 from mearm.kinematics import ArmModel
+from mearm.sim import World
+from mearm.exceptions import MearmError
+from mearm.runlog import RunLog
+from mearm.task.report import SortReport
+from mearm.task.sorter import Sorter
 from mearm.vision import Camera, open_camera
-from mearm.world import World
 
 
 @dataclass
@@ -47,8 +53,13 @@ def scene_layout(config: Config, scene: list[SceneObject] | None = None) -> list
     """
     if not uses_world(config):
         return []
-    world = World.from_scene(config.task.scene if scene is None else scene, config.task.bins_cm)
+    world = _world(config, scene)
     return [{"id": o.id, "color": o.color, "x": o.x_cm, "y": o.y_cm} for o in world.objects]
+
+
+def _world(config: Config, scene: list[SceneObject] | None) -> World:
+    bins = {c.name: c.bin_cm for c in config.task.classes}
+    return World.from_scene(config.task.scene if scene is None else scene, bins)
 
 
 @contextlib.contextmanager
@@ -61,10 +72,71 @@ def open_rig(config: Config, scene: list[SceneObject] | None = None) -> Iterator
     """
     world = None
     if uses_world(config):
-        world = World.from_scene(config.task.scene if scene is None else scene, config.task.bins_cm)
-    model = ArmModel(config.robot)
+        world = _world(config, scene)
+    model = ArmModel(config.arm)
     with contextlib.ExitStack() as stack:
         camera = stack.enter_context(open_camera(config, world=world))
         bus = open_bus(config, world=world)
         stack.callback(bus.close)
         yield Rig(world=world, camera=camera, bus=bus, model=model)
+
+
+def run_sort(
+    config: Config,
+    *,
+    scene: list[SceneObject] | None = None,
+    log: RunLog | None = None,
+    trial: int | None = None,
+    seed: int | None = None,
+    argv: list[str] | None = None,
+    echo: Callable[[str], None] | None = print,
+    view_factory: Callable[[Rig], Any] | None = None,
+    on_view: Callable[[Any], None] | None = None,
+) -> SortReport:
+    """Write the trial's header, open the rig, sort, close everything.
+
+    A failure before the sort starts (a camera or servo that never opens) still leaves a
+    fault and a summary in the log after the header.
+
+    Args:
+        config: The whole configuration.
+        scene: The simulated table (default: ``config.task.scene``).
+        log: Run log, or ``None``.
+        trial: Trial number for the log.
+        seed: The seed the scene was drawn with, for the header.
+        argv: The command line, for the header.
+        echo: Called with each line the sort prints (``None``: silent).
+        view_factory: Builds a view for the opened rig (``None``: no view).
+        on_view: Called with the view after the sort (e.g. to keep it open).
+
+    Raises:
+        SortAborted: the sort stopped early (the log says why).
+        MearmError, KeyboardInterrupt: before the sort started (logged as a fault).
+    """
+    if log is not None:
+        log.header(config, trial=trial, seed=seed, argv=argv, scene=scene_layout(config, scene))
+    view = None
+    started = False
+    try:
+        with open_rig(config, scene) as rig:
+            if view_factory is not None:
+                view = view_factory(rig)
+                rig.bus.paced = True  # let the eye follow the arm
+            sorter = Sorter(
+                config, rig.camera, rig.bus, model=rig.model, log=log, view=view, echo=echo,
+                trial=trial,
+            )  # fmt: skip
+            started = True  # from here on the sorter logs its own faults
+            report = sorter.run()
+            if view is not None and on_view is not None:
+                on_view(view)
+            return report
+    except (MearmError, KeyboardInterrupt) as exc:
+        if log is not None and not started:
+            reason = str(exc) if isinstance(exc, MearmError) else "interrupted (Ctrl-C)"
+            log.fault(f"before the sort started: {reason}", trial=trial)
+            log.summary(trial=trial, ok=False)
+        raise
+    finally:
+        if view is not None:
+            view.close()

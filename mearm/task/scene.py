@@ -1,8 +1,8 @@
-"""Simulated table layouts: scene files and random scenes (SPEC §4, §5).
+"""Simulated table layouts: scene files and random scenes.
 
 A scene is a list of ``{color, x, y}`` objects in the base frame [cm]. Random scenes put
-objects at least 1 cm apart (edge to edge, so centres at least 3 cm apart for the 2 cm
-discs of SPEC §1) where the camera sees them whole and the arm can pick them.
+objects at least 1 cm apart (edge to edge, so centres at least 3 cm apart for the paper's
+2 cm discs) where the camera sees them whole and the arm can pick them.
 """
 
 from __future__ import annotations
@@ -14,12 +14,11 @@ import numpy as np
 import yaml
 from pydantic import TypeAdapter, ValidationError
 
-from mearm.config import COLORS, Color, Config, SceneObject
+from mearm.config import Config, SceneObject
 from mearm.exceptions import ConfigError, MearmError
-from mearm.kinematics import check_target
-from mearm.world import OBJECT_DIAMETER_CM
+from mearm.kinematics import check_in_box, closed_form_for
 
-#: Edge-to-edge gap between objects in a random scene [cm] (SPEC §5).
+#: Edge-to-edge gap between objects in a random scene [cm] (paper §5).
 MIN_GAP_CM = 1.0
 
 
@@ -27,8 +26,12 @@ class SceneError(MearmError):
     """A scene cannot be built (bad file, or no room for the objects asked for)."""
 
 
-def load_scene(path: str | Path) -> list[SceneObject]:
-    """Read a scene file: a YAML list of ``{color, x, y}`` [cm].
+def load_scene(path: str | Path, class_names: Sequence[str] | None = None) -> list[SceneObject]:
+    """Read a scene file: a YAML list of ``{color, x, y}`` [cm], ``color`` a class name.
+
+    Args:
+        path: The file.
+        class_names: The config's classes; an entry naming another is refused.
 
     Raises:
         ConfigError: the file is missing, not YAML, or an entry is malformed.
@@ -44,13 +47,22 @@ def load_scene(path: str | Path) -> list[SceneObject]:
     if not isinstance(data, list):
         raise ConfigError(str(p), ["a scene is a list of {color, x, y} entries"])
     try:
-        return TypeAdapter(list[SceneObject]).validate_python(data)
+        scene = TypeAdapter(list[SceneObject]).validate_python(data)
     except ValidationError as exc:
         problems = []
         for e in exc.errors():
             loc = ".".join(str(v) for v in e["loc"])
             problems.append(f"[{loc}]: {e['msg']} (got {e.get('input')!r})")
         raise ConfigError(str(p), problems) from None
+    if class_names is not None:
+        bad = [
+            f"[{i}.color]: {o.color!r} is not a class (classes: {', '.join(class_names)})"
+            for i, o in enumerate(scene)
+            if o.color not in class_names
+        ]
+        if bad:
+            raise ConfigError(str(p), bad)
+    return scene
 
 
 def camera_field_cm(config: Config, margin_cm: float) -> tuple[float, float, float, float]:
@@ -71,7 +83,7 @@ def camera_field_cm(config: Config, margin_cm: float) -> tuple[float, float, flo
 
 def random_scene(
     config: Config,
-    counts: dict[Color, int] | int,
+    counts: dict[str, int] | int,
     seed: int,
     *,
     max_tries: int = 20000,
@@ -80,7 +92,7 @@ def random_scene(
 
     Args:
         config: Supplies the camera field (calibration), the pick height and the arm.
-        counts: Objects per colour, or a total split over the colours in turn.
+        counts: Objects per class, or a total split over the classes in turn.
         seed: Random seed; the same seed gives the same scene.
         max_tries: Give up after this many rejected draws.
 
@@ -90,13 +102,18 @@ def random_scene(
     if isinstance(counts, int):
         if counts < 0:
             raise SceneError(f"the number of objects must be ≥ 0, got {counts}")
-        order: Sequence[Color] = [COLORS[i % len(COLORS)] for i in range(counts)]
+        names = config.task.class_names
+        order: Sequence[str] = [names[i % len(names)] for i in range(counts)]
     else:
-        order = [c for c in COLORS for _ in range(counts.get(c, 0))]
+        unknown = sorted(set(counts) - set(config.task.class_names))
+        if unknown:
+            raise SceneError(f"no class {unknown}; classes: {', '.join(config.task.class_names)}")
+        order = [c for c in config.task.class_names for _ in range(counts.get(c, 0))]
     rng = np.random.default_rng(seed)
-    x0, x1, y0, y1 = camera_field_cm(config, margin_cm=OBJECT_DIAMETER_CM)
-    z = config.robot.gripper.pick_height_cm
-    min_dist = OBJECT_DIAMETER_CM + MIN_GAP_CM
+    diameter = max(c.diameter_cm for c in config.task.classes)
+    x0, x1, y0, y1 = camera_field_cm(config, margin_cm=diameter)
+    closed_form = closed_form_for(config.arm)
+    min_dist = diameter + MIN_GAP_CM
     placed: list[SceneObject] = []
     tries = 0
     for color in order:
@@ -110,8 +127,12 @@ def random_scene(
             x, y = round(rng.uniform(x0, x1), 2), round(rng.uniform(y0, y1), 2)
             if any(np.hypot(o.x - x, o.y - y) < min_dist for o in placed):
                 continue
+            cls = config.task.class_named(color)
+            target = (x, y, cls.grip_z_cm + config.arm.tool.tcp_above_grip_cm)
             try:
-                check_target((x, y, z), config.robot)
+                check_in_box(target, config.arm)
+                if closed_form is not None:
+                    closed_form.solve(target)
             except MearmError:
                 continue
             placed.append(SceneObject(color=color, x=x, y=y))

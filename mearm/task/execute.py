@@ -1,0 +1,114 @@
+"""Execute: send a planned route to the servos, pose by pose, and set the tool.
+
+Only routes whose plan converged are sent (:attr:`Route.planned`); every command goes
+through the bus's own checks (limits, pulse ranges) before a byte is sent.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from typing import Literal, Protocol
+
+import numpy as np
+import numpy.typing as npt
+
+from mearm.config import Config
+from mearm.hardware import ArmCommand, ServoBus
+from mearm.kinematics import ArmModel
+from mearm.task.route import Route
+
+Phase = Literal["home", "travel", "grip"]
+
+
+class View(Protocol):
+    """What the executor and the loop call on the meshcat view (:class:`mearm.view.ArmView`)."""
+
+    def show_joints(self, q: npt.ArrayLike) -> None: ...  # noqa: D102
+    def set_objects(self, objects: object) -> None: ...  # noqa: D102
+    def set_camera_frame(  # noqa: D102
+        self, frame_bgr: npt.ArrayLike, pixel_to_table: Callable[[np.ndarray], npt.ArrayLike]
+    ) -> None: ...
+    def set_target(self, target_cm: npt.ArrayLike | None) -> None: ...  # noqa: D102
+    def add_path(self, ee_path_cm: npt.ArrayLike, color: str) -> object: ...  # noqa: D102
+
+
+class Executor:
+    """Streams plans to a servo bus and moves the tool.
+
+    Args:
+        config: The whole configuration.
+        bus: The servo bus (connected by the caller).
+        model: The arm model.
+        view: A view to follow the arm, or ``None``.
+    """
+
+    def __init__(self, config: Config, bus: ServoBus, model: ArmModel, view: View | None = None):
+        self.config = config
+        self.bus = bus
+        self.model = model
+        self.view = view
+        self.chain = model.chain
+        self._tool = config.arm.tool
+
+    # ----------------------------------------------------------------- state
+
+    def q_now(self) -> np.ndarray:
+        """The last confirmed joints (home before the first move), model units, (n,)."""
+        state = self.bus.state
+        if state is None:
+            return self.model.home
+        return self.chain.from_named(state.joints)
+
+    def ee_now_cm(self) -> np.ndarray:
+        """Where the TCP is [cm], (3,): the simulated arm's truth, else the FK of the command."""
+        actual = getattr(self.bus, "ee_cm", None)
+        if actual is not None:
+            return np.asarray(actual, dtype=float)
+        return self.model.fk_cm(self.q_now())
+
+    def tool_settings(self, phase: Phase) -> dict[str, float]:
+        """Every tool actuator's value for a phase of the pick [deg]."""
+        return {a.name: a.setting(phase) for a in self._tool.actuators}
+
+    # ----------------------------------------------------------------- commands
+
+    def send(self, q: npt.ArrayLike, phase: Phase, closed: bool) -> None:
+        """Command the joints ``q`` (full, model units) with the tool set for ``phase``."""
+        joints = self.chain.named_actuated(q)
+        self.bus.move(ArmCommand(joints, self.tool_settings(phase), closed))
+        if self.view is not None:
+            self.view.show_joints(self.chain.full(self.chain.actuated_of(np.asarray(q))))
+
+    def set_tool(self, phase: Phase, closed: bool) -> None:
+        """Hold the joints where they are; set the tool actuators and the gripper."""
+        self.send(self.q_now(), phase, closed)
+
+    def stream(self, route: Route, phase: Phase, closed: bool, color: str = "black") -> Route:
+        """Send every pose of a planned route; refuse one that is not fully planned.
+
+        Raises:
+            ValueError: the route's plan is missing or failed (a bug: callers check).
+        """
+        if not route.planned:
+            raise ValueError(f"route {route.step} {route.object_id} is not planned: not sent")
+        assert route.plan is not None
+        if self.view is not None:
+            self.view.set_target(route.target.position_cm)
+        for q in route.plan.q_path[1:]:
+            self.send(q, phase, closed)
+        route.executed = True
+        route.motion_s = route.plan.iterations / self.config.servo.rate_hz
+        if self.view is not None:
+            self.view.add_path(route.plan.ee_path_cm, color)
+        return route
+
+    def home_pose(self) -> None:
+        """Command the home joints, the tool's home settings and an open gripper."""
+        self.send(self.model.home, "home", False)
+
+    def finish(self, route: Route, t0: float) -> Route:
+        """Record where the TCP ended and how long the step took."""
+        route.ee_cm = self.ee_now_cm()
+        route.elapsed_s = time.perf_counter() - t0
+        return route

@@ -1,0 +1,58 @@
+"""The one record a route passes through plan → execute → report."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Literal
+
+import numpy as np
+
+from mearm.ik import IKResult, IKTarget
+
+Step = Literal["pick", "place", "lift", "home"]
+
+
+@dataclass
+class Route:
+    """One motion of the arm: planned in full, then (if the plan holds) executed.
+
+    Attributes:
+        object_id: The object it serves (``""`` for a move of the arm alone).
+        class_name: The object's class.
+        step: ``pick`` (to the object), ``place`` (to its class's bin), ``lift`` (back off
+            after a missed grip) or ``home``.
+        attempt: 1 for the first attempt at this object's pick (or place).
+        target: Where the TCP goes (position [cm], optional approach direction).
+        plan: The IK solve from the start pose, every row a pose the arm may take.
+        failure: Why the plan cannot be executed (unreachable, outside the box, limit,
+            stalled), or ``None``.
+        executed: Whether its poses were sent to the servos.
+        success: Pick: gripped; place: in its bin; lift/home: reached.
+        ee_cm: Where the TCP really ended [cm], (3,) (the simulated arm knows; a real
+            arm reports its commands).
+        elapsed_s: Wall time from planning to the end of the step [s].
+        motion_s: Commanded motion time: one command per pose at the servo rate [s].
+    """
+
+    object_id: str
+    class_name: str
+    step: Step
+    attempt: int
+    target: IKTarget
+    plan: IKResult | None = None
+    failure: str | None = None
+    executed: bool = False
+    success: bool = False
+    ee_cm: np.ndarray = field(default_factory=lambda: np.full(3, np.nan))
+    elapsed_s: float = 0.0
+    motion_s: float = 0.0
+
+    @property
+    def planned(self) -> bool:
+        """Whether the plan exists and converged: only then is it sent."""
+        return self.failure is None and self.plan is not None and self.plan.converged
+
+    @property
+    def error_cm(self) -> np.ndarray:
+        """Where the TCP ended minus the target [cm], (3,)."""
+        return self.ee_cm - self.target.position_cm
