@@ -1,118 +1,68 @@
-"""mearm: a vision-guided colour-sorting robot arm (the MeArm of Agustian et al.).
+"""mearm: a vision-guided colour-sorting robot arm, for any hobby arm described as data.
 
-The data flows one way: config → kinematics → (vision, ik) → hardware → task.
-See README.md; ``mearm.analysis`` (SciPy, matplotlib) is imported on its own.
+The data flows one way: config → kinematics → (vision, ik) → hardware → sim → task.
+See README.md. The top-level names are imported on first use, so ``import mearm`` (and
+every command) loads only what it needs; ``mearm.analysis`` (SciPy, matplotlib) is
+imported on its own.
 """
 
-from mearm.config import Config, config_from_dict, load_config
-from mearm.exceptions import (
-    AnalysisError,
-    BannerTimeoutError,
-    BoardError,
-    BoardResetError,
-    CalibrationError,
-    CameraError,
-    ChecksumError,
-    ConfigError,
-    GarbledReplyError,
-    HandshakeError,
-    ImageError,
-    InvalidCommandError,
-    InvalidJointsError,
-    InvalidTargetError,
-    JointLimitError,
-    LinkDroppedError,
-    LinkError,
-    MearmError,
-    ModelError,
-    NoAckError,
-    PulseRangeError,
-    QPSolverError,
-    RunLogError,
-    RunLogFormatError,
-    ServoError,
-    ServoFaultedError,
-    ServoNotConnectedError,
-    TargetError,
-    TargetOutsideBoxError,
-    UnreachableTargetError,
-    ViewError,
-    WorldError,
-)
-from mearm.hardware import ArmCommand, ArmState, ServoBus, SimArm, open_bus
-from mearm.ik import IKResult, PdPij, make_solver, solve_ik
-from mearm.kinematics import ArmModel, analytic_ik_deg, check_target, dh_fk, dh_to_urdf
-from mearm.runlog import RunLog, RunLogContents, read_runlog
-from mearm.task import SortAborted, Sorter, SortReport, open_rig, random_scene
-from mearm.vision import Calibration, ColorDetector, Detection, SimCamera, open_camera
-from mearm.world import World, WorldObject
+from __future__ import annotations
 
-__version__ = "0.1.0"
+import importlib
+from typing import Any
 
-__all__ = [
-    "AnalysisError",
-    "ArmCommand",
-    "ArmModel",
-    "ArmState",
-    "BannerTimeoutError",
-    "BoardError",
-    "BoardResetError",
-    "Calibration",
-    "CalibrationError",
-    "CameraError",
-    "ChecksumError",
-    "ColorDetector",
-    "Config",
-    "ConfigError",
-    "Detection",
-    "GarbledReplyError",
-    "HandshakeError",
-    "IKResult",
-    "ImageError",
-    "InvalidCommandError",
-    "InvalidJointsError",
-    "InvalidTargetError",
-    "JointLimitError",
-    "LinkDroppedError",
-    "LinkError",
-    "MearmError",
-    "ModelError",
-    "NoAckError",
-    "PdPij",
-    "PulseRangeError",
-    "QPSolverError",
-    "RunLog",
-    "RunLogContents",
-    "RunLogError",
-    "RunLogFormatError",
-    "ServoBus",
-    "ServoError",
-    "ServoFaultedError",
-    "ServoNotConnectedError",
-    "SimArm",
-    "SimCamera",
-    "SortAborted",
-    "SortReport",
-    "Sorter",
-    "TargetError",
-    "TargetOutsideBoxError",
-    "UnreachableTargetError",
-    "ViewError",
-    "World",
-    "WorldError",
-    "WorldObject",
-    "__version__",
-    "analytic_ik_deg",
-    "check_target",
-    "config_from_dict",
-    "dh_fk",
-    "dh_to_urdf",
-    "load_config",
-    "make_solver",
-    "open_bus",
-    "open_camera",
-    "open_rig",
-    "random_scene",
-    "read_runlog",
-    "solve_ik",
-]
+from mearm.exceptions import *  # noqa: F403 (the exception families are cheap and public)
+from mearm.exceptions import __all__ as _exception_names
+
+__version__ = "0.2.0"
+
+#: Public name → the module that defines it; imported on first access.
+_LAZY: dict[str, str] = {
+    "Config": "mearm.config",
+    "config_from_dict": "mearm.config",
+    "load_config": "mearm.config",
+    "ArmCommand": "mearm.hardware",
+    "ArmState": "mearm.hardware",
+    "ServoBus": "mearm.hardware",
+    "open_bus": "mearm.hardware",
+    "IKResult": "mearm.ik",
+    "IKTarget": "mearm.ik",
+    "PdPij": "mearm.ik",
+    "make_solver": "mearm.ik",
+    "solve_ik": "mearm.ik",
+    "ArmModel": "mearm.kinematics",
+    "Chain": "mearm.kinematics",
+    "dh_fk": "mearm.kinematics",
+    "generate_urdf": "mearm.kinematics",
+    "RunLog": "mearm.runlog",
+    "RunLogContents": "mearm.runlog",
+    "read_runlog": "mearm.runlog",
+    "SortAborted": "mearm.task",
+    "Sorter": "mearm.task",
+    "SortReport": "mearm.task",
+    "open_rig": "mearm.task",
+    "random_scene": "mearm.task",
+    "Calibration": "mearm.vision",
+    "ColorDetector": "mearm.vision",
+    "Detection": "mearm.vision",
+    "open_camera": "mearm.vision",
+    "SimArm": "mearm.sim",
+    "SimCamera": "mearm.sim",
+    "World": "mearm.sim",
+    "WorldObject": "mearm.sim",
+}
+
+__all__ = sorted([*_exception_names, *_LAZY, "__version__"])
+
+
+def __getattr__(name: str) -> Any:
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'mearm' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return __all__

@@ -82,24 +82,50 @@ class ArgumentContainer(Protocol):
 
 
 def add_config_argument(parser: ArgumentContainer) -> None:
-    """Add ``--config PATH`` (default: the embedded simulated rig) to a parser or group."""
+    """Add ``--config PATH`` and ``--set dotted.key=value`` to a parser or group."""
     parser.add_argument(
         "--config",
         type=Path,
         default=None,
         help="YAML config (default: the built-in simulated rig, as configs/sim.yaml)",
     )
+    parser.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="override one config value before validation, e.g. "
+        "--set arm.joints.shoulder.limits.max=140 (repeatable)",
+    )
 
 
 def config_from_args(args: argparse.Namespace) -> Config:
-    """Load the config named by ``--config``."""
-    return load_config(args.config)
+    """Load the config named by ``--config`` with every ``--set`` applied."""
+    return load_config(args.config, getattr(args, "set", None) or ())
+
+
+def write_text_atomic(path: Path, text: str) -> None:
+    """Write ``text`` to ``path`` through a temporary file in the same directory.
+
+    Raises:
+        MearmError: the directory cannot be made or the file written.
+    """
+    tmp = path.with_name(f".{path.name}.tmp")
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp.write_text(text, encoding="utf-8")
+        tmp.replace(path)
+    except OSError as exc:
+        tmp.unlink(missing_ok=True)
+        raise MearmError(f"cannot write {path}: {exc}") from None
 
 
 def _program_name() -> str:
     """``python -m mearm.ik`` for a module run with -m, else the script's name."""
+    if sys.argv and sys.argv[0].startswith("mearm "):
+        return sys.argv[0]  # a subcommand of the mearm command
     spec = getattr(sys.modules.get("__main__"), "__spec__", None)
-    if spec is not None and spec.name:
+    if spec is not None and spec.name and spec.name != "mearm.__main__":
         return "python -m " + spec.name.removesuffix(".__main__")
     return Path(sys.argv[0]).name if sys.argv and sys.argv[0] else "mearm"
 
