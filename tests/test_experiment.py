@@ -59,7 +59,7 @@ def test_trial_seeds_are_distinct_and_reseed_the_noise(config):
     assert len(seeds) == 200
     cfg = trial_config(config, 1234)
     assert cfg.servo.error_model.seed == 1234 and cfg.camera.seed == 1234
-    assert cfg.robot == config.robot and np.isclose(cfg.controller.kp, config.controller.kp)
+    assert cfg.arm == config.arm and np.isclose(cfg.controller.kp, config.controller.kp)
 
 
 @pytest.mark.parametrize(
@@ -79,12 +79,11 @@ def test_bad_input_exits_2(args, needle, tmp_path):
 
 def test_real_rig_waits_for_the_user_each_trial(tmp_path, config):
     """With a camera that is not simulated, every trial waits for Enter before it starts."""
-    from mearm.vision import SimCamera
-    from mearm.world import World
+    from mearm.sim import SimCamera, World
 
     frames = tmp_path / "frames"
     frames.mkdir()
-    empty = SimCamera(config, World(bins_cm=config.task.bins_cm)).read()
+    empty = SimCamera(config, World(bins_cm={c.name: c.bin_cm for c in config.task.classes})).read()
     cv2.imwrite(str(frames / "table.png"), empty)  # an empty table: each trial ends at once
     cfg = tmp_path / "rig.yaml"
     cfg.write_text(f"camera:\n  kind: folder\n  path: {frames}\n  loop: true\n")
