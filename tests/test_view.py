@@ -3,7 +3,8 @@
 The browser tests render the view in real headless Chromium and look for the arm's and
 the objects' colours where the camera model (:meth:`ViewCamera.project`, checked
 against the render here) says they are. They are skipped when no Chromium-family
-browser exists, and fail instead when MEARM_REQUIRE_TOOLS=1 (CI).
+browser exists, and fail instead when MEARM_REQUIRE_TOOLS=1 (CI). Every reference
+config's arm (any number of joints, the jaws as joints) is drawn and rendered too.
 """
 
 from __future__ import annotations
@@ -23,32 +24,33 @@ import numpy as np
 import pinocchio as pin
 import pytest
 import umsgpack
-from conftest import ROOT, run_cli
+from conftest import REFERENCE_CONFIGS, ROOT, run_cli
 
 from mearm.cli import run
-from mearm.config import Config
+from mearm.config import Config, load_config
 from mearm.exceptions import (
     BrowserNotFoundError,
     ViewError,
     ViewInputError,
     ViewPortError,
 )
-from mearm.kinematics import ArmModel, couple
+from mearm.kinematics import ArmModel, jaw_joint_names
+from mearm.sim import SimCamera, World
 from mearm.view import (
-    DEFAULT_CAMERA,
-    PALETTE,
     ArmView,
+    SceneLayout,
     ViewCamera,
     find_browser,
     frame_plane,
+    rgb_int,
     screenshot,
 )
 from mearm.view.frame_plane import FramePlane
-from mearm.vision import Calibration, SimCamera
-from mearm.world import World
+from mearm.vision import Calibration
 
 CONFIG = Config()
 CAL = Calibration.from_config(CONFIG.calibration)
+CLASSES = {c.name: c for c in CONFIG.task.classes}
 W, H = 960, 600  # screenshot size [px]
 
 
@@ -89,6 +91,22 @@ def drawn(view: ArmView, prefix: str) -> set[str]:
 
 def object_color(node: dict) -> int:
     return node["object"]["materials"][0]["color"]
+
+
+def urdf_visuals(model: ArmModel) -> tuple[pin.Model, pin.GeometryModel]:
+    """The URDF's model with its jaw joints free, and its visual geometry."""
+    full = pin.buildModelFromXML(model.urdf)
+    return full, pin.buildGeomFromUrdfString(full, model.urdf, pin.GeometryType.VISUAL)
+
+
+def urdf_q(full: pin.Model, model: ArmModel, q: np.ndarray, opening_cm: float) -> np.ndarray:
+    """The URDF's q for chain joints ``q`` and each jaw at half the opening [m]."""
+    out = pin.neutral(full)
+    for name, value in zip(model.chain.names, q, strict=True):
+        out[full.joints[full.getJointId(name)].idx_q] = value
+    for name in jaw_joint_names(model.arm):
+        out[full.joints[full.getJointId(name)].idx_q] = opening_cm / 200
+    return out
 
 
 def browser_or_skip() -> str:
@@ -173,7 +191,7 @@ def test_close_frees_the_port_and_is_final(model: ArmModel):
     assert v.closed
     assert _listening_addresses(port) == [] or not os.path.exists("/proc/net/tcp")
     with pytest.raises(ViewError, match="closed"):
-        v.show_joints(model.home_rad)
+        v.show_joints(model.home)
     with ArmView(model, CONFIG, port=port) as again:
         assert again.port == port
 
@@ -182,32 +200,52 @@ def test_close_frees_the_port_and_is_final(model: ArmModel):
 
 
 def test_static_scene_has_table_bins_and_arm(view: ArmView):
-    """The table's top is z = 0, each bin stands on it under its drop point, the arm is
-    the URDF's visuals."""
+    """The table's top is z = 0, each class's bin stands on it under its drop point in
+    the class's colour, the arm is the URDF's visuals (every link and both jaws)."""
     tree = scene(view)
     table = tree["/meshcat/table"]
     size = table["object"]["geometries"][0]
     top = table["transform"][2, 3] + size["depth"] / 2
     assert top == pytest.approx(0.0, abs=1e-12)
-    for color, (x, y, _z) in CONFIG.task.bins_cm.items():
-        floor = tree[f"/meshcat/bins/{color}/floor"]
+    for c in CONFIG.task.classes:
+        x, y, _z = c.bin_cm
+        floor = tree[f"/meshcat/bins/{c.name}/floor"]
         assert floor["transform"][:2, 3] == pytest.approx([x / 100, y / 100])
         assert floor["transform"][2, 3] > 0
+        assert object_color(floor) == rgb_int(c.draw_rgb)
+    assert {b.split("/")[0] for b in drawn(view, "bins")} == set(CLASSES)  # one per class
     visuals = drawn(view, "arm/visuals")
-    assert len(visuals) == 12
-    assert {"base_link_0", "link2_0", "link3_0", "ee_0"} <= visuals
+    _, geom = urdf_visuals(view.model)
+    assert visuals == {o.name for o in geom.geometryObjects}
+    links = {f"link_{n}_0" for n in view.model.chain.names}
+    jaws = {f"link_{n}_0" for n in jaw_joint_names(view.model.arm)}
+    assert {"base_link_0"} | links | jaws <= visuals
 
 
 def test_camera_looks_at_its_target(view: ArmView):
     """The scene is shifted by −target and the camera sits at position − target, in
     three.js's y-up axes."""
+    cam = view.camera
+    assert cam == view.layout.camera
     tree = scene(view)
     shift = tree["/meshcat"]["transform"][:3, 3]
-    assert shift == pytest.approx(-np.array(DEFAULT_CAMERA.target_cm) / 100)
+    assert shift == pytest.approx(-np.array(cam.target_cm) / 100)
     props = tree["/Cameras/default/rotated/<object>"]["properties"]
-    rel = (np.array(DEFAULT_CAMERA.position_cm) - DEFAULT_CAMERA.target_cm) / 100
+    rel = (np.array(cam.position_cm) - cam.target_cm) / 100
     assert props["position"] == pytest.approx([rel[0], rel[2], -rel[1]])
-    assert props["fov"] == DEFAULT_CAMERA.fov_deg
+    assert props["fov"] == cam.fov_deg
+
+
+def test_framing_keeps_every_point_in_view():
+    """The framing camera looks at the points' box centre and projects each point inside
+    the view."""
+    rng = np.random.default_rng(0)
+    points = rng.uniform([-30, -10, 0], [30, 60, 40], size=(50, 3))
+    cam = ViewCamera.framing(points)
+    lo, hi = points.min(axis=0), points.max(axis=0)
+    assert cam.target_cm == pytest.approx((lo + hi) / 2)
+    uv = cam.project(points, W, H)
+    assert (uv >= 0).all() and (uv[:, 0] <= W).all() and (uv[:, 1] <= H).all()
 
 
 def test_camera_projection_basics():
@@ -227,30 +265,61 @@ def test_camera_projection_basics():
 # --------------------------------------------------------------------------- arm
 
 
-def test_show_joints_places_the_urdf_geometry(view: ArmView, model: ArmModel):
-    """After show_joints(q) every arm visual sits where Pinocchio puts it for q; (3,)
-    input gets θ4 from the coupling."""
-    q3 = np.radians([70.0, 60.0, -100.0])
-    view.show_joints(q3)
-    q = couple(q3)
-    assert view.joints_rad == pytest.approx(q)
-    geom = pin.buildGeomFromUrdfString(model.model, model.urdf, pin.GeometryType.VISUAL)
+def assert_arm_drawn_at(view: ArmView, q: np.ndarray, opening_cm: float) -> None:
+    """Every arm visual, jaws included, sits where Pinocchio puts it for q and the opening."""
+    full, geom = urdf_visuals(view.model)
     gdata = geom.createData()
-    data = model.model.createData()
-    pin.forwardKinematics(model.model, data, q)
-    pin.updateGeometryPlacements(model.model, data, geom, gdata)
+    data = full.createData()
+    pin.forwardKinematics(full, data, urdf_q(full, view.model, q, opening_cm))
+    pin.updateGeometryPlacements(full, data, geom, gdata)
     tree = scene(view)
     for i, obj in enumerate(geom.geometryObjects):
         shown = tree[f"/meshcat/arm/visuals/{obj.name}"]["transform"]
         assert shown == pytest.approx(gdata.oMg[i].homogeneous, abs=1e-9), obj.name
 
 
+def test_show_joints_places_the_urdf_geometry(view: ArmView, model: ArmModel):
+    """After show_joints(q) every arm visual sits where Pinocchio puts it for q; the
+    actuated joints alone get the passive ones from the coupling."""
+    chain = model.chain
+    q_act = np.radians([70.0, 60.0, -100.0])
+    view.show_joints(q_act)
+    q = chain.full(q_act)
+    assert view.joints == pytest.approx(q)
+    assert_arm_drawn_at(view, q, CONFIG.arm.tool.gripper.open_cm)
+    view.show_joints(model.home)
+    assert view.joints == pytest.approx(model.home)
+
+
+def test_jaws_open_and_close(view: ArmView, model: ArmModel):
+    """The opening moves the jaws apart by it, along one axis; None keeps the last one."""
+    left, right = (f"/meshcat/arm/visuals/link_{n}_0" for n in jaw_joint_names(model.arm))
+    gaps = {}
+    for opening in (1.0, 3.0):
+        view.show_joints(model.home, opening)
+        tree = scene(view)
+        gaps[opening] = tree[left]["transform"][:3, 3] - tree[right]["transform"][:3, 3]
+        assert np.linalg.norm(gaps[opening]) == pytest.approx(opening / 100)
+        assert_arm_drawn_at(view, model.home, opening)
+    assert np.cross(gaps[1.0], gaps[3.0]) == pytest.approx(np.zeros(3), abs=1e-12)
+    view.show_joints(model.home)
+    assert view.opening_cm == 3.0
+
+
 @pytest.mark.parametrize("bad", [[1.0, 2.0], [0.0, 0.0, float("nan")], "abc", np.zeros((2, 4))])
 def test_show_joints_rejects_bad_input(view: ArmView, bad):
-    with pytest.raises(ViewInputError, match="q_rad") as err:
+    with pytest.raises(ViewInputError, match="q") as err:
         view.show_joints(bad)
-    assert err.value.argument == "q_rad"
-    assert "3 or 4 finite joint angles" in str(err.value)
+    assert err.value.argument == "q"
+    assert "4 or 3 finite joint values" in str(err.value) or "3 or 4 finite joint values" in str(
+        err.value
+    )
+    assert "base, shoulder, elbow, wrist" in str(err.value)
+
+
+def test_show_joints_rejects_a_bad_opening(view: ArmView, model: ArmModel):
+    with pytest.raises(ViewInputError, match="opening_cm"):
+        view.show_joints(model.home, float("nan"))
 
 
 # --------------------------------------------------------------------------- objects
@@ -258,16 +327,21 @@ def test_show_joints_rejects_bad_input(view: ArmView, bad):
 
 def test_objects_are_added_moved_recoloured_and_removed(view: ArmView):
     """set_objects leaves exactly the listed objects on the server, each at its place,
-    standing on the table, in its colour."""
+    standing on the table, in its class's colour and size."""
     world = World.from_config(CONFIG)
     view.set_objects(world.objects)
     assert drawn(view, "objects") == {o.id for o in world.objects}
     tree = scene(view)
     for o in world.objects:
         node = tree[f"/meshcat/objects/{o.id}"]
-        assert node["transform"][:3, 3] == pytest.approx([o.x_cm / 100, o.y_cm / 100, 0.005])
+        c = CLASSES[o.color]
+        z = c.height_cm / 200
+        assert node["transform"][:3, 3] == pytest.approx([o.x_cm / 100, o.y_cm / 100, z])
         assert node["transform"][:3, 1] == pytest.approx([0, 0, 1])  # cylinder axis up
-        assert object_color(node) == PALETTE[o.color]
+        assert object_color(node) == rgb_int(c.draw_rgb)
+        cylinder = node["object"]["geometries"][0]
+        assert cylinder["height"] == pytest.approx(c.height_cm / 100)
+        assert cylinder["radiusTop"] == pytest.approx(c.diameter_cm / 200)
 
     # red1 moves, green1 turns blue, blue4 is new, everything else but red2 disappears
     view.set_objects(
@@ -282,7 +356,7 @@ def test_objects_are_added_moved_recoloured_and_removed(view: ArmView):
     assert set(view.objects) == {"red1", "red2", "green1", "blue9"}
     tree = scene(view)
     assert tree["/meshcat/objects/red1"]["transform"][:2, 3] == pytest.approx([0.01, 0.40])
-    assert object_color(tree["/meshcat/objects/green1"]) == PALETTE["blue"]
+    assert object_color(tree["/meshcat/objects/green1"]) == rgb_int(CLASSES["blue"].draw_rgb)
     view.set_objects([])
     assert drawn(view, "objects") == set()
 
@@ -290,11 +364,11 @@ def test_objects_are_added_moved_recoloured_and_removed(view: ArmView):
 @pytest.mark.parametrize(
     ("objects", "match"),
     [
-        ([("a", "purple", 0, 40)], "colour of a = 'purple'"),
+        ([("a", "purple", 0, 40)], "class of a = 'purple'.*red, green, blue"),
         ([("a", "red", 0, 40), ("a", "blue", 1, 40)], "each id at most once"),
         ([("a/b", "red", 0, 40)], "without '/'"),
         ([("a", "red", float("nan"), 40)], "finite x_cm, y_cm"),
-        ([("a", "red", 0)], r"\(id, colour, x_cm, y_cm\)"),
+        ([("a", "red", 0)], r"\(id, class_name, x_cm, y_cm\)"),
     ],
 )
 def test_bad_objects_are_refused_and_change_nothing(view: ArmView, objects, match):
@@ -393,7 +467,7 @@ def test_target_marker_appears_moves_and_goes(view: ArmView):
 def test_paths_accumulate_until_cleared(view: ArmView):
     """Each add_path adds a line holding the route's points; clear_paths removes all."""
     first = np.array([[-20.16, 34.91, 19.95], [-10.0, 45.0, 15.0], [-0.75, 53.72, 12.76]])
-    assert view.add_path(first, "red") == "route1"
+    assert view.add_path(first, "#c81e23") == "route1"
     assert view.add_path(first[::-1] + 1.0, 0x123456) == "route2"
     assert view.paths == ["route1", "route2"]
     tree = scene(view)
@@ -413,10 +487,11 @@ def test_paths_accumulate_until_cleared(view: ArmView):
 @pytest.mark.parametrize(
     ("points", "color", "match"),
     [
-        ([[0, 0, 0]], "red", "N >= 2"),
-        ([[0, 0], [1, 1]], "red", "shape"),
-        ([[0, 0, 0], [1, float("inf"), 1]], "red", "finite"),
+        ([[0, 0, 0]], "#c81e23", "N >= 2"),
+        ([[0, 0], [1, 1]], "#c81e23", "shape"),
+        ([[0, 0, 0], [1, float("inf"), 1]], "#c81e23", "finite"),
         ([[0, 0, 0], [1, 1, 1]], "chartreuse", "color = 'chartreuse'"),
+        ([[0, 0, 0], [1, 1, 1]], "#12345", "#RRGGBB"),
         ([[0, 0, 0], [1, 1, 1]], 0x1000000, "0xRRGGBB"),
     ],
 )
@@ -456,9 +531,9 @@ def test_render_shows_the_arm_and_objects_where_they_are(model: ArmModel, tmp_pa
         v.set_camera_frame(frame, CAL.pixel_to_table)
         v.set_target(target_cm)
         png = v.screenshot(tmp_path / "view.png", width_px=W, height_px=H, browser=browser)
+        cam = v.camera
     img = cv2.imread(str(png))
     assert img.shape == (H, W, 3)
-    cam = DEFAULT_CAMERA
 
     # every object: its colour at its projected centre, and one blob of it right there
     for color in ("red", "green", "blue"):
@@ -485,7 +560,7 @@ def test_render_shows_the_arm_and_objects_where_they_are(model: ArmModel, tmp_pa
     # the arm: orange along links 2 and 3 (joint origins from Pinocchio at home)
     orange = hsv_mask(img, "orange")
     data = model.model.createData()
-    pin.forwardKinematics(model.model, data, model.home_rad)
+    pin.forwardKinematics(model.model, data, model.home)
     joints = [data.oMi[i].translation * 100 for i in (2, 3, 4)]
     for a, b in ((0, 1), (1, 2)):
         for t in (0.3, 0.5, 0.7):
@@ -493,9 +568,10 @@ def test_render_shows_the_arm_and_objects_where_they_are(model: ArmModel, tmp_pa
             assert fraction(orange, uv) > 0.9, f"no arm at link {a + 2}, t={t}: {uv.round()}"
 
     # the bins' floors in their colour, the target in yellow
-    for color, (x, y, _z) in CONFIG.task.bins_cm.items():
+    for c in CONFIG.task.classes:
+        x, y, _z = c.bin_cm
         uv = cam.project([x, y, 0.4], W, H)[0]
-        assert fraction(hsv_mask(img, color), uv) > 0.9, f"{color} bin"
+        assert fraction(hsv_mask(img, c.name), uv) > 0.9, f"{c.name} bin"
     assert fraction(hsv_mask(img, "yellow"), cam.project(target_cm, W, H)[0], 1) > 0.9
 
     # the camera frame: the texture's own colour where it lies; the bare table elsewhere
@@ -528,9 +604,15 @@ PREVIEW = _load_preview()
 @pytest.mark.parametrize(
     ("args", "message"),
     [
-        (["--joints", "120,20,-132"], "joint2 = 20 deg is outside its limits [30, 135] deg"),
-        (["--joints", "120,93"], "--joints needs 3 numbers"),
-        (["--sweep", "joint4"], "invalid choice: 'joint4'"),
+        (["--joints", "shoulder=20"], "shoulder = 20 deg is outside its limits [30, 135] deg"),
+        (["--joints", "120,93"], "--joints must be NAME=VALUE pairs"),
+        (["--joints", "hip=3"], "unknown joint(s) 'hip'; this arm's actuated joints: base, "),
+        (["--sweep", "wrist"], "unknown joint 'wrist'; this arm's actuated joints: base, "),
+        (
+            ["--config", "configs/sim_5dof.yaml", "--sweep", "base"],
+            "actuated joints: base_yaw, shoulder, elbow, wrist_pitch, wrist_roll",
+        ),
+        (["--set", "arm.joints.shoulder.home=20"], "home"),
         (["--size", "10x10"], "--size sides must be in [16, 8192] px"),
         (["--step-deg", "0"], "must be a positive number, got '0'"),
         (["--port", "70000"], "port 70000 on 127.0.0.1"),
@@ -550,6 +632,9 @@ def test_preview_refuses_bad_arguments_in_one_line(args, message, capsys):
 def test_sweep_poses_cover_each_joint_range_in_small_steps():
     """The sweep visits both limits of each chosen joint, never leaves them, moves one
     joint at a time by at most the step, and ends at the start."""
+    openings = list(PREVIEW.sweep_openings_cm(4.0, 1.0, 0.5))
+    assert min(openings) == 1.0 and openings[-1] == 4.0
+    assert (np.abs(np.diff([4.0, *openings])) <= 0.5 + 1e-9).all()
     start, lower, upper = [120.0, 93.0, -132.0], [20.0, 30.0, -160.0], [160.0, 135.0, -20.0]
     poses = np.array(list(PREVIEW.sweep_poses_deg(start, lower, upper, [0, 2], 1.5)))
     path = np.vstack([start, poses])
@@ -566,7 +651,7 @@ def test_preview_serves_until_ctrl_c():
     """The tool prints a 127.0.0.1 URL, keeps serving, and exits 130 without a traceback
     on SIGINT."""
     proc = subprocess.Popen(
-        [sys.executable, "tools/preview.py", "--sweep", "joint1", "--port", "0"],
+        [sys.executable, "tools/preview.py", "--sweep", "base", "--port", "0"],
         cwd=ROOT,
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
@@ -590,19 +675,96 @@ def test_preview_serves_until_ctrl_c():
 
 
 def test_preview_screenshot_renders_the_arm(tmp_path):
-    """--screenshot writes a PNG showing the arm (orange) and exits 0."""
+    """--screenshot writes a PNG showing the arm (orange) at the named joints and exits 0."""
     browser_or_skip()
     out = tmp_path / "arm.png"
     proc = run_cli(
-        "tools/preview.py", "--joints", "90,60,-100", "--screenshot", str(out), "--size", f"{W}x{H}"
+        "tools/preview.py",
+        "--joints",
+        "base=90,shoulder=60,elbow=-100",
+        "--screenshot",
+        str(out),
+        "--size",
+        f"{W}x{H}",
     )
     assert proc.returncode == 0, proc.stderr
     assert f"wrote {out}" in proc.stdout
     img = cv2.imread(str(out))
     assert img.shape == (H, W, 3)
-    model = ArmModel(CONFIG.robot)
+    model = ArmModel(CONFIG.arm)
+    q = model.chain.from_named({"base": 90.0, "shoulder": 60.0, "elbow": -100.0})
     data = model.model.createData()
-    pin.forwardKinematics(model.model, data, np.radians(couple([90.0, 60.0, -100.0])))
+    pin.forwardKinematics(model.model, data, q)
     middle_of_link3 = (data.oMi[3].translation + data.oMi[4].translation) / 2 * 100
-    uv = DEFAULT_CAMERA.project(middle_of_link3, W, H)[0]
+    uv = SceneLayout.of(model, CONFIG).camera.project(middle_of_link3, W, H)[0]
     assert fraction(hsv_mask(img, "orange"), uv) > 0.9
+
+
+# --------------------------------------------------------------------------- any arm
+
+
+@pytest.fixture(scope="module", params=REFERENCE_CONFIGS)
+def reference(request: pytest.FixtureRequest) -> tuple[str, Config, ArmModel]:
+    config = load_config(ROOT / "configs" / request.param)
+    return request.param, config, ArmModel(config.arm)
+
+
+def test_each_reference_arm_is_drawn_with_its_links_jaws_and_classes(reference):
+    """Every link and both jaws of each reference arm are in the scene tree where
+    Pinocchio puts them at home; one bin per class; the objects in their class colours."""
+    _, config, model = reference
+    with ArmView(model, config, port=0) as v:
+        v.set_objects(World.from_config(config).objects)
+        visuals = drawn(v, "arm/visuals")
+        for name in model.chain.names:
+            assert f"link_{name}_0" in visuals, name
+        for jaw in jaw_joint_names(model.arm):
+            assert f"link_{jaw}_0" in visuals, jaw
+        assert_arm_drawn_at(v, model.home, config.arm.tool.gripper.open_cm)
+        tree = scene(v)
+        for c in config.task.classes:
+            assert object_color(tree[f"/meshcat/bins/{c.name}/floor"]) == rgb_int(c.draw_rgb)
+        for o in config.task.scene:
+            assert o.color in config.task.class_names
+        colors = {object_color(tree[f"/meshcat/objects/{o}"]) for o in drawn(v, "objects")}
+        assert colors == {
+            rgb_int(c.draw_rgb)
+            for c in config.task.classes
+            if any(o.color == c.name for o in config.task.scene)
+        }
+        v.show_joints(model.home, config.arm.tool.gripper.closed_cm)
+        assert_arm_drawn_at(v, model.home, config.arm.tool.gripper.closed_cm)
+
+
+def test_each_reference_layout_keeps_bins_apart_and_on_the_table(reference):
+    """Bins do not overlap, and the table holds the base, every bin and every object."""
+    _, config, model = reference
+    layout = SceneLayout.of(model, config)
+    bins = np.array([c.bin_cm[:2] for c in config.task.classes])
+    d = np.abs(bins[:, None] - bins[None]).max(axis=2) + np.eye(len(bins)) * 1e9
+    assert (d > layout.bin_side_cm).all()
+    xy = np.vstack([[0.0, 0.0], bins, [[o.x, o.y] for o in config.task.scene]])
+    (x0, x1), (y0, y1) = layout.table_x_cm, layout.table_y_cm
+    assert (xy[:, 0] > x0).all() and (xy[:, 0] < x1).all()
+    assert (xy[:, 1] > y0).all() and (xy[:, 1] < y1).all()
+
+
+def test_each_reference_arm_renders(reference, tmp_path):
+    """A render of each reference arm at home with its scene is not empty: the arm's
+    orange shows along its links, and the whole arm is inside the picture."""
+    browser = browser_or_skip()
+    name, config, model = reference
+    with ArmView(model, config, port=0) as v:
+        v.set_objects(World.from_config(config).objects)
+        png = v.screenshot(tmp_path / "view.png", width_px=W, height_px=H, browser=browser)
+        cam = v.camera
+    img = cv2.imread(str(png))
+    assert img.shape == (H, W, 3)
+    assert img.reshape(-1, 3).std(axis=0).max() > 10, f"{name}: a blank picture"
+    orange = hsv_mask(img, "orange")
+    assert orange.sum() > 300, f"{name}: no arm ({orange.sum()} orange px)"
+    data = model.model.createData()
+    pin.forwardKinematics(model.model, data, model.home)
+    points = np.array([data.oMi[i].translation * 100 for i in range(1, model.model.njoints)])
+    uv = cam.project(np.vstack([points, model.fk_cm(model.home)]), W, H)
+    assert (uv > 0).all() and (uv[:, 0] < W).all() and (uv[:, 1] < H).all(), name

@@ -1,15 +1,18 @@
-"""Show the bare arm in the meshcat view (issue 6, item 3).
+"""Show the bare arm of any config in the meshcat view (issue 6, item 3).
 
 Serves the view on 127.0.0.1, prints its URL and keeps serving until Ctrl-C; or, with
---screenshot, renders it in headless Chromium to a PNG and exits.
+--screenshot, renders it in headless Chromium to a PNG and exits. Joints are named as in
+the config's ``arm.joints``; values in the config's units (deg, or cm for a prismatic
+joint); passive joints follow their coupling.
 
 Examples::
 
-    python tools/preview.py                          # home pose; open the printed URL
-    python tools/preview.py --joints 90,60,-100      # θ1,θ2,θ3 [deg]; θ4 = −(θ2+θ3)
-    python tools/preview.py --sweep                  # each joint through its limits, looping
-    python tools/preview.py --sweep joint2           # only joint 2
-    python tools/preview.py --screenshot arm.png     # render headless and exit
+    python tools/preview.py                                # home pose; open the printed URL
+    python tools/preview.py --config configs/sim_5dof.yaml # another arm
+    python tools/preview.py --joints shoulder=60,elbow=-100  # others stay at home
+    python tools/preview.py --sweep                        # each actuated joint, then the jaws
+    python tools/preview.py --sweep shoulder               # only the shoulder
+    python tools/preview.py --screenshot arm.png           # render headless and exit
 """
 
 from __future__ import annotations
@@ -22,10 +25,30 @@ from pathlib import Path
 
 import numpy as np
 
-from mearm.cli import ArgumentParser, add_config_argument, config_from_args, float_list, run
-from mearm.config import ACTUATED_JOINTS
-from mearm.kinematics import ArmModel, couple
+from mearm.cli import ArgumentParser, add_config_argument, config_from_args, run
+from mearm.kinematics import ArmModel
 from mearm.view import ArmView
+
+#: The --sweep argument meaning every actuated joint, then the gripper.
+SWEEP_ALL = "all"
+
+
+def _named_values(text: str) -> dict[str, float]:
+    """``shoulder=60,elbow=-100`` → ``{"shoulder": 60.0, "elbow": -100.0}``."""
+    out: dict[str, float] = {}
+    for item in text.split(","):
+        name, sep, value = item.partition("=")
+        try:
+            number = float(value)
+        except ValueError:
+            number = float("nan")
+        if not sep or not name.strip() or not np.isfinite(number):
+            raise argparse.ArgumentTypeError(
+                f"--joints must be NAME=VALUE pairs with finite values, e.g. "
+                f"shoulder=60,elbow=-100; got {text!r}"
+            )
+        out[name.strip()] = number
+    return out
 
 
 def _window_size(text: str) -> tuple[int, int]:
@@ -51,26 +74,37 @@ def _positive(text: str) -> float:
 
 
 def sweep_poses_deg(
-    start_deg: Sequence[float],
-    lower_deg: Sequence[float],
-    upper_deg: Sequence[float],
+    start: Sequence[float],
+    lower: Sequence[float],
+    upper: Sequence[float],
     joints: Sequence[int],
-    step_deg: float,
+    step: float,
 ) -> Iterator[np.ndarray]:
-    """(θ1, θ2, θ3) poses [deg] sweeping each joint in ``joints`` through its limits.
+    """Actuated poses (config units: deg or cm) sweeping joints through their limits.
 
     Each joint goes from its start to its lower limit, up to its upper limit and back to
-    the start, in steps of at most ``step_deg``; the others stay at the start.
+    the start, in steps of at most ``step``; the others stay at the start.
     """
-    start = np.asarray(start_deg, dtype=float)
+    start_values = np.asarray(start, dtype=float)
     for j in joints:
-        legs = [(start[j], lower_deg[j]), (lower_deg[j], upper_deg[j]), (upper_deg[j], start[j])]
+        legs = [
+            (start_values[j], lower[j]),
+            (lower[j], upper[j]),
+            (upper[j], start_values[j]),
+        ]
         for a, b in legs:
-            n = max(1, int(np.ceil(abs(b - a) / step_deg)))
+            n = max(1, int(np.ceil(abs(b - a) / step)))
             for value in np.linspace(a, b, n + 1)[1:]:
-                pose = start.copy()
+                pose = start_values.copy()
                 pose[j] = value
                 yield pose
+
+
+def sweep_openings_cm(open_cm: float, closed_cm: float, step_cm: float) -> Iterator[float]:
+    """Gripper openings [cm]: open to closed and back, steps of at most ``step_cm``."""
+    n = max(1, int(np.ceil(abs(open_cm - closed_cm) / step_cm)))
+    for a, b in ((open_cm, closed_cm), (closed_cm, open_cm)):
+        yield from (float(v) for v in np.linspace(a, b, n + 1)[1:])
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -79,18 +113,21 @@ def main(argv: Sequence[str] | None = None) -> int:
     add_config_argument(parser)
     parser.add_argument(
         "--joints",
-        type=float_list(3, "--joints"),
-        help="θ1,θ2,θ3 in degrees (θ4 = −(θ2+θ3) is filled in); default: home",
+        type=_named_values,
+        metavar="NAME=VALUE,...",
+        help="actuated joints [deg, or cm if prismatic]; those not named stay at home",
     )
     parser.add_argument(
         "--sweep",
         nargs="?",
-        const="all",
-        choices=["all", *ACTUATED_JOINTS],
+        const=SWEEP_ALL,
         metavar="JOINT",
-        help="sweep each joint (or only JOINT: joint1, joint2, joint3) through its limits",
+        help="sweep each actuated joint through its limits and open and close the jaws "
+        "(or sweep only JOINT, an actuated joint's name)",
     )
-    parser.add_argument("--step-deg", type=_positive, default=1.0, help="sweep step [deg]")
+    parser.add_argument(
+        "--step-deg", type=_positive, default=1.0, help="sweep step [deg, or cm if prismatic]"
+    )
     parser.add_argument("--rate-hz", type=_positive, default=50.0, help="sweep frame rate [Hz]")
     parser.add_argument("--screenshot", type=Path, metavar="OUT.png", help="render to a PNG, exit")
     parser.add_argument("--size", type=_window_size, default=(1280, 800), help="PNG size WxH")
@@ -101,26 +138,53 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
 
     config = config_from_args(args)
-    model = ArmModel(config.robot)
-    start_deg = np.asarray(args.joints if args.joints is not None else config.robot.home_deg)
-    model.check_limits(np.radians(couple(start_deg)))  # bad joints: exit 2 before serving
-    limits = config.robot.joint_limits_deg.as_list()[:3]
-    lower, upper = [r.min for r in limits], [r.max for r in limits]
-    joints = range(3) if args.sweep in (None, "all") else [ACTUATED_JOINTS.index(args.sweep)]
+    model = ArmModel(config.arm)
+    chain = model.chain
+    actuated = list(chain.actuated)
+    if args.sweep is not None and args.sweep not in (SWEEP_ALL, *actuated):
+        parser.error(
+            f"--sweep: unknown joint {args.sweep!r}; this arm's actuated joints: "
+            f"{', '.join(actuated)}"
+        )
+    unknown = [n for n in args.joints or {} if n not in actuated]
+    if unknown:
+        parser.error(
+            f"--joints: unknown joint(s) {', '.join(map(repr, unknown))}; this arm's "
+            f"actuated joints: {', '.join(actuated)}"
+        )
+    start_named = config.arm.home() | (args.joints or {})
+    q_start = chain.from_named(start_named)  # unknown names: exit 2 before serving
+    model.check_limits(q_start)  # joints out of their limits: exit 2 before serving
+    scale = chain.scale[chain.actuated_index]
+    start = chain.actuated_of(q_start) / scale
+    lower, upper = chain.actuated_lower / scale, chain.actuated_upper / scale
+    everything = args.sweep == SWEEP_ALL
+    joints = range(chain.m) if everything else [actuated.index(args.sweep)] if args.sweep else []
+    gripper = config.arm.tool.gripper
 
     def sweep(pace: bool) -> None:
         period = 1.0 / args.rate_hz
         deadline = time.monotonic()
-        for pose in sweep_poses_deg(start_deg, lower, upper, joints, args.step_deg):
-            q = np.radians(couple(pose))
-            model.check_limits(q)
-            view.show_joints(q)
+
+        def wait() -> None:
+            nonlocal deadline
             if pace:
                 deadline += period
                 time.sleep(max(0.0, deadline - time.monotonic()))
 
+        for pose in sweep_poses_deg(start, lower, upper, joints, args.step_deg):
+            q = chain.full(pose * scale)
+            model.check_limits(q)
+            view.show_joints(q)
+            wait()
+        if everything:
+            step_cm = max(0.05, (gripper.open_cm - gripper.closed_cm) / 40)
+            for opening in sweep_openings_cm(gripper.open_cm, gripper.closed_cm, step_cm):
+                view.show_joints(q_start, opening)
+                wait()
+
     with ArmView(model, config, port=args.port) as view:
-        view.show_joints(np.radians(couple(start_deg)))
+        view.show_joints(q_start, gripper.open_cm)
         if args.screenshot is not None:
             if args.sweep:
                 sweep(pace=False)

@@ -1,7 +1,8 @@
 """The meshcat view of the rig (issue 6, item 3) and its headless screenshots.
 
-:class:`ArmView` serves the scene on 127.0.0.1; :func:`screenshot` renders any view URL
-in headless Chromium. Layer: after kinematics and vision, before the task loop.
+:class:`ArmView` serves the scene of any arm and class set on 127.0.0.1;
+:func:`screenshot` renders any view URL in headless Chromium. Layer: after kinematics
+and vision, before the task loop.
 """
 
 import warnings
@@ -11,22 +12,24 @@ warnings.filterwarnings(
     "ignore", message="zmq.eventloop.ioloop is deprecated", category=DeprecationWarning
 )
 
-from mearm.view.arm_view import PALETTE, ArmView, ViewObject  # noqa: E402
+from mearm.view.arm_view import ArmView, ViewObject, rgb_int  # noqa: E402
 from mearm.view.browser import SceneCounts, find_browser, screenshot  # noqa: E402
 from mearm.view.camera import DEFAULT_CAMERA, ViewCamera  # noqa: E402
 from mearm.view.frame_plane import FramePlane, frame_plane  # noqa: E402
+from mearm.view.layout import SceneLayout  # noqa: E402
 from mearm.view.server import MeshcatServer  # noqa: E402
 
 __all__ = [
     "DEFAULT_CAMERA",
-    "PALETTE",
     "ArmView",
     "FramePlane",
     "MeshcatServer",
+    "SceneLayout",
     "SceneCounts",
     "ViewCamera",
     "ViewObject",
     "find_browser",
     "frame_plane",
+    "rgb_int",
     "screenshot",
 ]

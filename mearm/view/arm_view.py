@@ -1,25 +1,27 @@
 """The 3-D view of the rig in the browser: arm, table, bins, objects, camera frame, routes.
 
-The arm is the URDF's visual geometry drawn by Pinocchio's ``MeshcatVisualizer``; the
-rest is plain meshcat geometry. Everything lives under ``/meshcat`` in the robot base
-frame (z up); meshcat works in metres, so centimetres from the config are divided by
-100 here and nowhere else.
+The arm is its model's URDF drawn by Pinocchio's ``MeshcatVisualizer``, every link and
+both gripper jaws, whose joints open and close; the rest is plain meshcat geometry built
+from the config: one bin per colour class and each object in its class's ``draw_rgb``
+and size. Everything lives under ``/meshcat`` in the robot base frame (z up); meshcat
+works in metres, so centimetres from the config are divided by 100 here and nowhere else.
 
 Scene tree (below ``/meshcat``)::
 
     table                       a thin slab whose top is the plane z = 0
-    bins/<colour>/…             an open box on the table under each bin's drop point
-    arm/visuals/…               the URDF arm (Pinocchio)
-    objects/<id>                2 cm × 1 cm cylinders (SPEC §1) at their table positions
+    bins/<class>/…              an open box on the table under each class's drop point
+    arm/visuals/<link>_<k>      the URDF's visuals (Pinocchio), jaws included
+    objects/<id>                cylinders of their class's size at their table positions
     camera_frame                the last camera frame, lying where the calibration puts it
     target                      the current target
-    paths/route<k>              the EE path of each route, kept until clear_paths()
+    paths/route<k>              the TCP path of each route, kept until clear_paths()
 """
 
 from __future__ import annotations
 
 import logging
 import math
+import re
 from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
@@ -35,56 +37,40 @@ import numpy.typing as npt
 import pinocchio as pin
 from pinocchio.visualize import MeshcatVisualizer
 
-from mearm.config import COLORS, Color, Config
+from mearm.config import ColorClass, Config
 from mearm.exceptions import ViewError, ViewInputError
-from mearm.kinematics import ArmModel, couple
+from mearm.kinematics import ArmModel, jaw_joint_names
 from mearm.view.browser import screenshot
-from mearm.view.camera import DEFAULT_CAMERA, M_PER_CM, ViewCamera
+from mearm.view.camera import M_PER_CM, ViewCamera
 from mearm.view.frame_plane import FramePlane, PixelToTable, frame_plane
+from mearm.view.layout import SceneLayout
 from mearm.view.server import MeshcatServer
 
 log = logging.getLogger(__name__)
 
-#: Object size, SPEC §1: cylinders 2 cm in diameter, 1 cm high.
-OBJECT_DIAMETER_CM = 2.0
-OBJECT_HEIGHT_CM = 1.0
-
-#: Colours by name, 0xRRGGBB. Objects use red / green / blue; the bins a darker shade.
-PALETTE: dict[str, int] = {
-    "red": 0xD81B1B,
-    "green": 0x1BA83A,
-    "blue": 0x1F48E0,
-    "yellow": 0xF2C500,
-    "magenta": 0xC02CC0,
-    "black": 0x202020,
-    "grey": 0x808080,
-    "white": 0xF0F0F0,
-}
-BIN_SHADE: dict[Color, int] = {"red": 0x9C2A2A, "green": 0x2A7A3E, "blue": 0x2D4296}
 TABLE_RGB = 0xD8D5CE
-TARGET_RGB = PALETTE["yellow"]
+TARGET_RGB = 0xF2C500
+#: Route lines without a colour of their own.
+PATH_RGB = 0x202020
 BACKGROUND_TOP = [0.96, 0.97, 0.98]
 BACKGROUND_BOTTOM = [0.80, 0.82, 0.85]
 
-#: The table slab: x, y extent [cm] (covers the Table 3 box's x, the base and the bins).
-TABLE_X_CM = (-45.0, 45.0)
-TABLE_Y_CM = (-15.0, 68.0)
 TABLE_THICKNESS_CM = 2.0
-#: Open bins: square footprint, wall height and thickness [cm].
-BIN_SIDE_CM = 8.0
-BIN_WALL_HEIGHT_CM = 5.0
+#: Open bins: wall thickness [cm]; side and height come from the layout.
 BIN_WALL_CM = 0.4
 #: The camera frame floats this far above the table top so the two do not z-fight [cm].
 FRAME_LIFT_CM = 0.05
 TARGET_RADIUS_CM = 0.8
 
+_HEX = re.compile(r"^#?([0-9a-fA-F]{6})$")
+
 
 @dataclass(frozen=True)
 class ViewObject:
-    """An object as drawn: its id, colour and table position [cm]."""
+    """An object as drawn: its id, colour class and table position [cm]."""
 
     id: str
-    color: Color
+    class_name: str
     x_cm: float
     y_cm: float
 
@@ -108,12 +94,22 @@ class _PlaneGeometry(mg.Geometry):
         }
 
 
-def _color_value(color: str | int, argument: str = "color") -> int:
-    if isinstance(color, str) and color in PALETTE:
-        return PALETTE[color]
+def rgb_int(rgb: tuple[int, int, int]) -> int:
+    """A class's ``draw_rgb`` (0–255 each) as 0xRRGGBB."""
+    r, g, b = rgb
+    return (int(r) << 16) | (int(g) << 8) | int(b)
+
+
+def _color_value(color: str | int | None, argument: str = "color") -> int:
+    if color is None:
+        return PATH_RGB
     if isinstance(color, int) and not isinstance(color, bool) and 0 <= color <= 0xFFFFFF:
         return color
-    raise ViewInputError(argument, color, f"one of {sorted(PALETTE)} or an int 0xRRGGBB")
+    if isinstance(color, str):
+        match = _HEX.match(color)
+        if match:
+            return int(match.group(1), 16)
+    raise ViewInputError(argument, color, "a hex string '#RRGGBB' or an int 0xRRGGBB")
 
 
 def _finite_array(value: npt.ArrayLike, argument: str, allowed: str) -> np.ndarray:
@@ -126,23 +122,32 @@ def _finite_array(value: npt.ArrayLike, argument: str, allowed: str) -> np.ndarr
     return arr
 
 
-def _view_object(item: Any) -> ViewObject:
-    """A ``(id, colour, x_cm, y_cm)`` tuple, or anything with those attributes."""
+def _view_object(item: Any, classes: dict[str, ColorClass]) -> ViewObject:
+    """Validate one object to draw.
+
+    It is a ``(id, class_name, x_cm, y_cm)`` tuple, or anything with an ``id``, a
+    ``class_name`` (or ``color``), ``x_cm`` and ``y_cm``.
+    """
     if isinstance(item, ViewObject):
-        fields = (item.id, item.color, item.x_cm, item.y_cm)
-    elif all(hasattr(item, a) for a in ("id", "color", "x_cm", "y_cm")):
-        fields = (item.id, item.color, item.x_cm, item.y_cm)
+        fields = (item.id, item.class_name, item.x_cm, item.y_cm)
+    elif all(hasattr(item, a) for a in ("id", "x_cm", "y_cm")) and (
+        hasattr(item, "class_name") or hasattr(item, "color")
+    ):
+        name = item.class_name if hasattr(item, "class_name") else item.color
+        fields = (item.id, name, item.x_cm, item.y_cm)
     elif isinstance(item, (tuple, list)) and len(item) == 4:
         fields = tuple(item)
     else:
-        raise ViewInputError("objects[...]", item, "(id, colour, x_cm, y_cm)")
-    obj_id, color, x, y = fields
+        raise ViewInputError("objects[...]", item, "(id, class_name, x_cm, y_cm)")
+    obj_id, class_name, x, y = fields
     if not isinstance(obj_id, str) or not obj_id or "/" in obj_id:
         raise ViewInputError("object id", obj_id, "a non-empty string without '/'")
-    if color not in COLORS:
-        raise ViewInputError(f"colour of {obj_id}", color, f"one of {list(COLORS)}")
+    if class_name not in classes:
+        raise ViewInputError(
+            f"class of {obj_id}", class_name, f"one of task.classes: {', '.join(classes)}"
+        )
     xy = _finite_array((x, y), f"position of {obj_id}", "finite x_cm, y_cm")
-    return ViewObject(obj_id, color, float(xy[0]), float(xy[1]))
+    return ViewObject(obj_id, class_name, float(xy[0]), float(xy[1]))
 
 
 def _png(bgra: np.ndarray) -> bytes:
@@ -152,20 +157,47 @@ def _png(bgra: np.ndarray) -> bytes:
     return buf.tobytes()
 
 
+class _UrdfArm:
+    """The URDF with its jaw joints free, and where each joint's value goes in its q."""
+
+    def __init__(self, model: ArmModel):
+        self.full = pin.buildModelFromXML(model.urdf)
+        self.visual = pin.buildGeomFromUrdfString(self.full, model.urdf, pin.GeometryType.VISUAL)
+        self.chain_idx = np.array(
+            [self.full.joints[self.full.getJointId(n)].idx_q for n in model.chain.names]
+        )
+        jaws = [n for n in jaw_joint_names(model.arm) if self.full.existJointName(n)]
+        self.jaw_idx = np.array([self.full.joints[self.full.getJointId(n)].idx_q for n in jaws])
+
+    def q(self, q_chain: np.ndarray, opening_cm: float) -> np.ndarray:
+        """The URDF's q: the chain's joints, each jaw at half the opening [m]."""
+        q = pin.neutral(self.full)
+        q[self.chain_idx] = q_chain
+        for i in self.jaw_idx.tolist():
+            half = opening_cm / 2.0 * M_PER_CM
+            q[i] = min(max(half, self.full.lowerPositionLimit[i]), self.full.upperPositionLimit[i])
+        return q
+
+
 class ArmView:
     """The meshcat view of the rig, served on 127.0.0.1.
 
     Args:
-        model: The arm; its URDF's visual geometry is what is drawn.
-        config: Provides the bins (``task.bins_cm``).
+        model: The arm; its URDF (links and jaws) is what is drawn.
+        config: The rig and task: one bin per class (``task.classes``), objects drawn
+            in their class's colour and size, the table sized to hold them.
         port: Web port; 0 takes any free one, ``None`` the first free one from 7000.
-        camera: The fixed viewpoint; see :mod:`mearm.view.camera`.
+        camera: The fixed viewpoint (see :mod:`mearm.view.camera`); default: one that
+            frames the arm at home and everything on the table (:class:`SceneLayout`).
 
     Attributes:
         url: The address to open in a browser, ``http://127.0.0.1:<port>/static/``.
         viewer: The ``meshcat.Visualizer`` at ``/meshcat`` (base frame, metres), for
             anything else a caller wants to draw.
+        layout: The table, bin size and default viewpoint for this arm and config.
         camera: The viewpoint set.
+        joints: The chain's joints drawn now, model units, (n,).
+        opening_cm: The gripper opening drawn now [cm].
 
     Raises:
         ViewPortError: ``port`` is in use.
@@ -178,11 +210,13 @@ class ArmView:
         config: Config,
         *,
         port: int | None = None,
-        camera: ViewCamera = DEFAULT_CAMERA,
+        camera: ViewCamera | None = None,
     ):
         self.model = model
         self.config = config
-        self.camera = camera
+        self.layout = SceneLayout.of(model, config)
+        self.camera = camera if camera is not None else self.layout.camera
+        self._classes = {c.name: c for c in config.task.classes}
         self._server = MeshcatServer(port=port)
         self._closed = False
         try:
@@ -194,12 +228,13 @@ class ArmView:
             self._target_shown = False
             self.frame_plane: FramePlane | None = None
             self._setup_scene()
-            visual = pin.buildGeomFromUrdfString(model.model, model.urdf, pin.GeometryType.VISUAL)
-            self._viz = MeshcatVisualizer(model.model, None, visual)
+            self._urdf = _UrdfArm(model)
+            self._viz = MeshcatVisualizer(self._urdf.full, None, self._urdf.visual)
             self._viz.initViewer(viewer=self.viewer)
             self._viz.loadViewerModel(rootNodeName="arm")
-            self.joints_rad = model.home_rad
-            self._viz.display(self.joints_rad)
+            self.joints = model.home
+            self.opening_cm = float(config.arm.tool.gripper.open_cm)
+            self._viz.display(self._urdf.q(self.joints, self.opening_cm))
         except BaseException:
             self.close()
             raise
@@ -278,19 +313,19 @@ class ArmView:
         vis["/Axes"].set_property("visible", False)
         self.camera.apply(vis)
 
-        (x0, x1), (y0, y1) = TABLE_X_CM, TABLE_Y_CM
+        (x0, x1), (y0, y1) = self.layout.table_x_cm, self.layout.table_y_cm
         size_m = np.array([x1 - x0, y1 - y0, TABLE_THICKNESS_CM]) * M_PER_CM
         center_m = np.array([(x0 + x1) / 2, (y0 + y1) / 2, -TABLE_THICKNESS_CM / 2]) * M_PER_CM
         vis["table"].set_object(mg.Box(size_m.tolist()), mg.MeshLambertMaterial(color=TABLE_RGB))
         vis["table"].set_transform(tf.translation_matrix(center_m))
 
-        for color, (bx, by, _bz) in self.config.task.bins_cm.items():
-            self._draw_bin(color, bx, by)
+        for c in self.config.task.classes:
+            self._draw_bin(c, c.bin_cm[0], c.bin_cm[1])
 
-    def _draw_bin(self, color: Color, x_cm: float, y_cm: float) -> None:
-        """An open box standing on the table under the drop point (x, y, ·)."""
-        s, h, t = BIN_SIDE_CM, BIN_WALL_HEIGHT_CM, BIN_WALL_CM
-        material = mg.MeshLambertMaterial(color=BIN_SHADE.get(color, PALETTE["grey"]))
+    def _draw_bin(self, color_class: ColorClass, x_cm: float, y_cm: float) -> None:
+        """An open box in the class's colour standing on the table under (x, y, ·)."""
+        s, h, t = self.layout.bin_side_cm, self.layout.bin_height_cm, BIN_WALL_CM
+        material = mg.MeshLambertMaterial(color=rgb_int(color_class.draw_rgb))
         parts = {  # name: (size, centre) relative to the bin's footprint centre [cm]
             "floor": ((s, s, t), (0, 0, t / 2)),
             "wall_xn": ((t, s, h), (-(s - t) / 2, 0, h / 2)),
@@ -299,7 +334,7 @@ class ArmView:
             "wall_yp": ((s - 2 * t, t, h), (0, (s - t) / 2, h / 2)),
         }
         for name, (size, (cx, cy, cz)) in parts.items():
-            node = self.viewer[f"bins/{color}/{name}"]
+            node = self.viewer[f"bins/{color_class.name}/{name}"]
             node.set_object(mg.Box([v * M_PER_CM for v in size]), material)
             node.set_transform(
                 tf.translation_matrix(np.array([x_cm + cx, y_cm + cy, cz]) * M_PER_CM)
@@ -307,24 +342,40 @@ class ArmView:
 
     # ------------------------------------------------------------------ arm
 
-    def show_joints(self, q_rad: npt.ArrayLike) -> None:
-        """Draw the arm at joint angles ``q_rad`` [rad].
+    def show_joints(self, q: npt.ArrayLike, opening_cm: float | None = None) -> None:
+        """Draw the arm at joints ``q`` (model units: rad, or m for a prismatic joint).
 
         Args:
-            q_rad: (θ1, θ2, θ3, θ4), (4,); or (θ1, θ2, θ3), (3,), with θ4 = −(θ2 + θ3)
-                filled in (SPEC §2).
+            q: The full chain vector, (n,) in ``model.chain.names`` order; or, when the
+                arm has passive joints, the actuated ones, (m,), completed by the
+                coupling (``chain.full``).
+            opening_cm: The gripper opening [cm]; ``None`` keeps the last one (the
+                gripper's ``open_cm`` at first). Drawn within the jaws' limits.
 
         Raises:
-            ViewInputError: Not 3 or 4 finite numbers.
+            ViewInputError: Not n (or m) finite numbers, or a non-finite opening.
         """
         self._check_open()
-        q = _finite_array(q_rad, "q_rad", "3 or 4 finite joint angles [rad]")
-        if q.shape == (3,):
-            q = couple(q)
-        elif q.shape != (4,):
-            raise ViewInputError("q_rad", q_rad, "3 or 4 finite joint angles [rad]")
-        self._viz.display(q)
-        self.joints_rad = q
+        chain = self.model.chain
+        sizes = sorted({chain.n, chain.m})
+        allowed = (
+            f"{' or '.join(map(str, sizes))} finite joint values in model units "
+            f"(joints: {', '.join(chain.names)})"
+        )
+        values = _finite_array(q, "q", allowed)
+        if values.shape == (chain.n,):
+            full = values
+        elif values.shape == (chain.m,):
+            full = chain.full(values)
+        else:
+            raise ViewInputError("q", q, allowed)
+        if opening_cm is not None:
+            opening = _finite_array(opening_cm, "opening_cm", "a finite opening [cm]")
+            if opening.shape != ():
+                raise ViewInputError("opening_cm", opening_cm, "a finite opening [cm]")
+            self.opening_cm = float(opening)
+        self._viz.display(self._urdf.q(full, self.opening_cm))
+        self.joints = full.copy()
 
     # ------------------------------------------------------------------ objects
 
@@ -336,21 +387,23 @@ class ArmView:
     def set_objects(self, objects: Iterable[Any]) -> None:
         """Draw exactly these objects, and remove those no longer listed.
 
-        New ids are added, moved or recoloured ones updated, missing ones deleted.
+        New ids are added, moved or reclassed ones updated, missing ones deleted. Each is
+        a cylinder of its class's ``diameter_cm`` and ``height_cm`` in its ``draw_rgb``.
 
         Args:
-            objects: ``(id, colour, x_cm, y_cm)`` tuples (or objects with those
-                attributes, e.g. :class:`mearm.world.WorldObject`); colour is
-                ``"red"``, ``"green"`` or ``"blue"``; position on the table [cm].
+            objects: ``(id, class_name, x_cm, y_cm)`` tuples (or objects with an ``id``,
+                a ``class_name`` or ``color``, ``x_cm`` and ``y_cm``, e.g.
+                :class:`mearm.sim.WorldObject`); the class one of ``task.classes``;
+                position on the table [cm].
 
         Raises:
-            ViewInputError: A malformed item, an unknown colour or a repeated id; nothing
+            ViewInputError: A malformed item, an unknown class or a repeated id; nothing
                 is changed then.
         """
         self._check_open()
         wanted: dict[str, ViewObject] = {}
         for item in objects:
-            obj = _view_object(item)
+            obj = _view_object(item, self._classes)
             if obj.id in wanted:
                 raise ViewInputError("objects", obj.id, "each id at most once")
             wanted[obj.id] = obj
@@ -359,22 +412,20 @@ class ArmView:
             del self._objects[obj_id]
         for obj in wanted.values():
             old = self._objects.get(obj.id)
+            if old == obj:
+                continue
             node = self.viewer[f"objects/{obj.id}"]
-            if old is None or old.color != obj.color:
+            cls = self._classes[obj.class_name]
+            if old is None or old.class_name != obj.class_name:
                 geometry = mg.Cylinder(
-                    OBJECT_HEIGHT_CM * M_PER_CM, radius=OBJECT_DIAMETER_CM / 2 * M_PER_CM
+                    cls.height_cm * M_PER_CM, radius=cls.diameter_cm / 2 * M_PER_CM
                 )
-                node.set_object(geometry, mg.MeshLambertMaterial(color=PALETTE[obj.color]))
-            if (
-                old is None
-                or (old.x_cm, old.y_cm) != (obj.x_cm, obj.y_cm)
-                or old.color != obj.color
-            ):
-                # three.js cylinders stand along y: turn them to stand along z
-                pose = tf.translation_matrix(
-                    np.array([obj.x_cm, obj.y_cm, OBJECT_HEIGHT_CM / 2]) * M_PER_CM
-                ) @ tf.rotation_matrix(math.pi / 2, [1, 0, 0])
-                node.set_transform(pose)
+                node.set_object(geometry, mg.MeshLambertMaterial(color=rgb_int(cls.draw_rgb)))
+            # three.js cylinders stand along y: turn them to stand along z
+            pose = tf.translation_matrix(
+                np.array([obj.x_cm, obj.y_cm, cls.height_cm / 2]) * M_PER_CM
+            ) @ tf.rotation_matrix(math.pi / 2, [1, 0, 0])
+            node.set_transform(pose)
             self._objects[obj.id] = obj
 
     # ------------------------------------------------------------------ camera frame
@@ -412,7 +463,7 @@ class ArmView:
     # ------------------------------------------------------------------ target, paths
 
     def set_target(self, target_cm: npt.ArrayLike | None) -> None:
-        """Mark the current target with a small yellow sphere, or remove the mark.
+        """Mark the current target with a small sphere, or remove the mark.
 
         Args:
             target_cm: (x, y, z) in the base frame [cm], (3,); ``None`` removes it.
@@ -442,12 +493,13 @@ class ArmView:
         """Names of the route lines drawn, oldest first (``route1``, ``route2``, …)."""
         return list(self._paths)
 
-    def add_path(self, ee_path_cm: npt.ArrayLike, color: str | int = "black") -> str:
-        """Draw a route's EE path as a line; it stays until :meth:`clear_paths`.
+    def add_path(self, ee_path_cm: npt.ArrayLike, color: str | int | None = None) -> str:
+        """Draw a route's TCP path as a line; it stays until :meth:`clear_paths`.
 
         Args:
-            ee_path_cm: EE positions along the route, base frame [cm], (N, 3), N ≥ 2.
-            color: A :data:`PALETTE` name or an int 0xRRGGBB.
+            ee_path_cm: TCP positions along the route, base frame [cm], (N, 3), N ≥ 2.
+            color: ``"#RRGGBB"`` (e.g. a class's ``draw_rgb`` as hex) or an int
+                0xRRGGBB; ``None``: :data:`PATH_RGB`.
 
         Returns:
             The line's name, ``route<k>``.

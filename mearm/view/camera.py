@@ -88,6 +88,46 @@ class ViewCamera:
         uv[cam[:, 2] <= 0] = np.nan
         return uv
 
+    @classmethod
+    def framing(
+        cls,
+        points_cm: npt.ArrayLike,
+        direction: npt.ArrayLike | None = None,
+        fov_deg: float = 40.0,
+        margin: float = 1.05,
+    ) -> ViewCamera:
+        r"""A camera that sees every point.
+
+        It looks at the points' bounding box's centre from ``direction``, far enough that
+        the box's bounding sphere fills the view's height:
+
+        .. math:: d = \frac{m\,r}{\sin(\phi/2)}
+
+        with r the sphere's radius, φ the vertical field of view and m the margin.
+
+        Args:
+            points_cm: Points to keep in view, base frame [cm], (N, 3).
+            direction: From the target towards the camera (any length), (3,); default
+                :data:`DEFAULT_CAMERA`'s (from the front right, above).
+            fov_deg: Vertical field of view [deg].
+            margin: Distance factor beyond the tight fit [-].
+        """
+        p = np.atleast_2d(np.asarray(points_cm, dtype=float))
+        lo, hi = p.min(axis=0), p.max(axis=0)
+        target = (lo + hi) / 2.0
+        radius = max(float(np.linalg.norm(hi - lo)) / 2.0, 1.0)
+        if direction is None:
+            direction = np.subtract(DEFAULT_CAMERA.position_cm, DEFAULT_CAMERA.target_cm)
+        unit = np.asarray(direction, dtype=float)
+        unit = unit / np.linalg.norm(unit)
+        distance = margin * radius / np.sin(np.radians(fov_deg) / 2.0)
+        position = target + distance * unit
+        return cls(
+            tuple(float(v) for v in position),  # type: ignore[arg-type]
+            tuple(float(v) for v in target),  # type: ignore[arg-type]
+            fov_deg,
+        )
+
     def apply(self, vis: meshcat.Visualizer) -> None:
         """Point the browser camera of ``vis`` (its root, ``/meshcat``) at the target."""
         target_m = np.asarray(self.target_cm) * M_PER_CM

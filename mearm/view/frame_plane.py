@@ -1,6 +1,6 @@
 """The camera frame as a texture lying on the table where the calibration puts it.
 
-The calibration maps pixels to table points (SPEC §4), in general by a homography, so
+The calibration maps pixels to table points (paper §4), in general by a homography, so
 the image's outline on the table is a quadrilateral, not always a rectangle. A textured
 plane in meshcat is a rectangle with an affine texture, so the frame is resampled here
 into an axis-aligned, top-down texture of the quadrilateral's bounding box, transparent
