@@ -311,9 +311,7 @@ def test_show_joints_rejects_bad_input(view: ArmView, bad):
     with pytest.raises(ViewInputError, match="q") as err:
         view.show_joints(bad)
     assert err.value.argument == "q"
-    assert "4 or 3 finite joint values" in str(err.value) or "3 or 4 finite joint values" in str(
-        err.value
-    )
+    assert "3 or 4 finite joint values in model units" in str(err.value)
     assert "base, shoulder, elbow, wrist" in str(err.value)
 
 

@@ -84,7 +84,7 @@ class Executor:
         """Hold the joints where they are; set the tool actuators and the gripper."""
         self.send(self.q_now(), phase, closed)
 
-    def stream(self, route: Route, phase: Phase, closed: bool, color: str = "black") -> Route:
+    def stream(self, route: Route, phase: Phase, closed: bool, color: str = "#202020") -> Route:
         """Send every pose of a planned route; refuse one that is not fully planned.
 
         Raises:
