@@ -244,8 +244,11 @@ class WorldError(MearmError):
 
 
 class InvalidCommandError(MearmError):
-    """An arm command does not name exactly the arm's actuated joints and tool actuators
-    with finite values, or its gripper flag is not a bool."""
+    """An arm command is malformed.
+
+    It must name exactly the arm's actuated joints and tool actuators, with finite
+    values, and its gripper flag must be a bool.
+    """
 
 
 class PulseRangeError(JointLimitError):
@@ -502,6 +505,7 @@ class QPSolverError(MearmError):
             f"QP solver {name!r} is not installed; available: {self.available} "
             "(set controller.qp_solver)"
         )
+
 
 __all__ = [
     "AnalysisError",

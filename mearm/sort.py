@@ -36,7 +36,9 @@ def add_scene_arguments(parser: ArgumentParser) -> None:
     """``--scene FILE`` / ``--random N --seed S`` for the simulated table."""
     group = parser.add_mutually_exclusive_group()
     group.add_argument(
-        "--scene", type=Path, help="simulated table: a YAML list of {color, x, y} [cm] (color: a class name)"
+        "--scene",
+        type=Path,
+        help="simulated table: a YAML list of {color, x, y} [cm] (color: a class name)",
     )
     group.add_argument("--random", type=int, metavar="N", help="simulated table: N random objects")
     parser.add_argument("--seed", type=int, default=0, help="seed for --random (default 0)")

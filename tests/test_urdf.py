@@ -17,7 +17,9 @@ def test_committed_urdfs_are_not_stale(reference_config):
 
 
 def test_committed_urdfs_load_in_pinocchio(reference_config):
-    model = ArmModel(reference_config.arm, urdf_path=DESCRIPTIONS / f"{reference_config.arm.name}.urdf")
+    model = ArmModel(
+        reference_config.arm, urdf_path=DESCRIPTIONS / f"{reference_config.arm.name}.urdf"
+    )
     generated = ArmModel(reference_config.arm)
     np.testing.assert_allclose(model.fk_cm(model.home), generated.fk_cm(generated.home), atol=1e-12)
 

@@ -1,6 +1,6 @@
 """Write the URDF of an arm description (by default: every reference arm).
 
-python tools/dh_to_urdf.py                       # robot_description/<arm>.urdf for each reference config
+python tools/dh_to_urdf.py     # robot_description/<arm>.urdf for each reference config
 python tools/dh_to_urdf.py --config configs/lab.yaml [--output arm.urdf] [--set key=value ...]
 """
 

@@ -57,7 +57,6 @@ def _child(node: Any, default: Any, part: str, where: str) -> tuple[Any, Any]:
     raise ConfigError("--set", [f"{where}: is a value, not a section (cannot set {part!r})"])
 
 
-
 def _index(items: list[Any], part: str, where: str) -> int:
     if part.lstrip("-").isdigit():
         i = int(part)

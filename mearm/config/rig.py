@@ -151,7 +151,9 @@ class ControllerConfig(Strict):
         try:
             return ControllerConfig.model_validate({**self.model_dump(), **changes})
         except ValidationError as exc:
-            problems = [describe_error({**e, "loc": ("controller", *e["loc"])}) for e in exc.errors()]
+            problems = [
+                describe_error({**e, "loc": ("controller", *e["loc"])}) for e in exc.errors()
+            ]
             raise ConfigError(None, problems) from None
 
 
@@ -197,7 +199,6 @@ class ServoConfig(Strict):
     sim_realtime: bool = False
     """Sim: pace moves at ``rate_hz`` like the real link (default: as fast as it can)."""
     error_model: SimErrorModel = SimErrorModel()
-
 
 
 # --------------------------------------------------------------------------- task
@@ -257,5 +258,3 @@ class TaskConfig(Strict):
     def class_names(self) -> list[str]:
         """Class names in sort order."""
         return [c.name for c in self.classes]
-
-

@@ -1,5 +1,7 @@
-"""Kinematics of any arm described as data: the chain, the DH reference, the URDF, the
-Pinocchio model, and closed forms as plug-ins."""
+"""Kinematics of any arm described as data.
+
+The chain, the DH reference, the URDF, the Pinocchio model, and closed forms as plug-ins.
+"""
 
 from mearm.kinematics.chain import Chain
 from mearm.kinematics.closed_form import (

@@ -80,9 +80,10 @@ class Chain:
         limits = arm.joint_limits()
         lower = np.array([limits[nm].min for nm in names]) * scale
         upper = np.array([limits[nm].max for nm in names]) * scale
-        home_act = np.array([arm.home()[nm] for nm in actuated]) * scale[
-            [names.index(a) for a in actuated]
-        ]
+        home_act = (
+            np.array([arm.home()[nm] for nm in actuated])
+            * scale[[names.index(a) for a in actuated]]
+        )
         for a in (C, c, lower, upper, prismatic, scale):
             a.flags.writeable = False
         home = C @ home_act + c
@@ -143,7 +144,9 @@ class Chain:
     def named_actuated(self, q: npt.ArrayLike) -> dict[str, float]:
         """The actuated joints of a full model-unit vector, ``{name: deg or cm}``."""
         values = self.to_config_units(q)
-        return {a: float(values[i]) for a, i in zip(self.actuated, self.actuated_index)}
+        return {
+            a: float(values[i]) for a, i in zip(self.actuated, self.actuated_index, strict=True)
+        }
 
     def from_named(self, values: Mapping[str, float]) -> np.ndarray:
         """Model-unit full vector from ``{name: deg or cm}``.
@@ -163,13 +166,13 @@ class Chain:
             )
         missing = [a for a in self.actuated if a not in values]
         if missing:
-            raise InvalidJointsError(
-                list(values.values()), f"missing actuated joint(s) {missing}"
-            )
+            raise InvalidJointsError(list(values.values()), f"missing actuated joint(s) {missing}")
         try:
             act = np.array([float(values[a]) for a in self.actuated])
         except (TypeError, ValueError):
-            raise InvalidJointsError(list(values.values()), "joint values must be numbers") from None
+            raise InvalidJointsError(
+                list(values.values()), "joint values must be numbers"
+            ) from None
         if not np.all(np.isfinite(act)):
             raise InvalidJointsError(act.tolist(), "joint values must be finite")
         q = self.full(act * self.scale[self.actuated_index])

@@ -195,8 +195,10 @@ def check_target(
     arm: ArmDescription,
     closed_form: ClosedForm | Callable[..., np.ndarray] | None = None,
 ) -> np.ndarray | None:
-    """Validate a target before any motion: inside the box and, where a closed form
-    exists, reachable within the limits.
+    """Validate a target before any motion.
+
+    It must lie inside the box and, where a closed form exists, be reachable within the
+    limits.
 
     Returns:
         The closed-form joints (model units, (n,)), or ``None`` for an arm without one.

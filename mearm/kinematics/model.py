@@ -55,9 +55,7 @@ class ArmModel:
         except (RuntimeError, ValueError) as exc:
             raise ModelError(f"Pinocchio could not parse the URDF: {exc}") from None
         locked = [full.getJointId(n) for n in jaw_joint_names(arm) if full.existJointName(n)]
-        self.model = (
-            pin.buildReducedModel(full, locked, pin.neutral(full)) if locked else full
-        )
+        self.model = pin.buildReducedModel(full, locked, pin.neutral(full)) if locked else full
         names = tuple(self.model.names)[1:]
         if names != self.chain.names:
             raise ModelError(

@@ -1,5 +1,7 @@
-"""The sorting task: plan → execute → report around one route record, the loop that
-drives them, the rig it runs on, and simulated scenes."""
+"""The sorting task: plan → execute → report around one route record.
+
+Also the loop that drives them, the rig it runs on, and simulated scenes.
+"""
 
 from mearm.task.execute import Executor
 from mearm.task.plan import RETRY_LIFT_CM, Planner

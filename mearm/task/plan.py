@@ -6,7 +6,6 @@ typed reason (outside the box, unreachable, a joint limit, stalled) and nothing 
 
 from __future__ import annotations
 
-import numpy as np
 import numpy.typing as npt
 
 from mearm.config import ColorClass, Config
@@ -32,7 +31,7 @@ class Planner:
         self.model = model
         self.solver = make_solver(model, config.controller)
         tool = config.arm.tool
-        self._approach = None if tool.pick_approach is None else np.asarray(tool.pick_approach)
+        self._approach = tool.pick_approach
 
     # ----------------------------------------------------------------- targets
 
@@ -53,8 +52,11 @@ class Planner:
     def home_target(self) -> IKTarget:
         """The TCP at the home pose (with its approach axis, for an arm that needs one)."""
         home = self.model.home
-        approach = None if self._approach is None else self.model.approach(home)
-        return IKTarget(tuple(self.model.fk_cm(home)), approach)
+        x, y, z = (float(v) for v in self.model.fk_cm(home))
+        if self._approach is None:
+            return IKTarget((x, y, z))
+        ax, ay, az = (float(v) for v in self.model.approach(home))
+        return IKTarget((x, y, z), (ax, ay, az))
 
     # ----------------------------------------------------------------- plans
 

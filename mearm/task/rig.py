@@ -1,5 +1,8 @@
-"""Opening the rig a config describes (world if simulated, camera, servo bus) and running
-one sort on it with its run-log records: what ``mearm sort`` and ``mearm experiment`` share."""
+"""Opening the rig a config describes, and running one sort on it.
+
+The world (if simulated), camera and servo bus, and one sort with its run-log records:
+what ``mearm sort`` and ``mearm experiment`` share.
+"""
 
 from __future__ import annotations
 
@@ -9,11 +12,11 @@ from dataclasses import dataclass
 from typing import Any
 
 from mearm.config import Config, SceneObject
+from mearm.exceptions import MearmError
 from mearm.hardware import ServoBus, open_bus
 from mearm.kinematics import ArmModel
-from mearm.sim import World
-from mearm.exceptions import MearmError
 from mearm.runlog import RunLog
+from mearm.sim import World
 from mearm.task.report import SortReport
 from mearm.task.sorter import Sorter
 from mearm.vision import Camera, open_camera

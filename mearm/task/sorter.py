@@ -178,9 +178,7 @@ class Sorter:
         for cls in self.config.task.classes:
             of_class = [o for o in candidates if o.class_name == cls.name]
             if of_class:
-                return min(
-                    of_class, key=lambda o: (np.hypot(o.x_cm - ee[0], o.y_cm - ee[1]), o.id)
-                )
+                return min(of_class, key=lambda o: (np.hypot(o.x_cm - ee[0], o.y_cm - ee[1]), o.id))
         return None
 
     def _skip(self, obj: TrackedObject, reason: str, target: Route | None = None) -> None:
