@@ -60,6 +60,8 @@ def _load(target: str, name: str) -> Callable[[Sequence[str] | None], int]:
         spec = importlib.util.spec_from_file_location(f"mearm_tool_{path.stem}", path)
         assert spec is not None and spec.loader is not None
         module = importlib.util.module_from_spec(spec)
+        # registered first, as an import would: dataclasses and pickling look it up there
+        sys.modules[spec.name] = module
         spec.loader.exec_module(module)
     else:
         module = importlib.import_module(target)
@@ -70,9 +72,17 @@ def _load(target: str, name: str) -> Callable[[Sequence[str] | None], int]:
 def main(argv: Sequence[str] | None = None) -> None:
     """Dispatch to a subcommand (exit 2 with the list on an unknown one)."""
     args = list(sys.argv[1:] if argv is None else argv)
-    if not args or args[0] in ("-h", "--help", "help"):
+    if not args:
         print(_usage())
-        sys.exit(0 if args else EXIT_BAD_INPUT)
+        print(
+            "mearm: error: no subcommand given (usage: mearm SUBCOMMAND [ARGS ...]; "
+            "mearm --help lists them)",
+            file=sys.stderr,
+        )
+        sys.exit(EXIT_BAD_INPUT)
+    if args[0] in ("-h", "--help", "help"):
+        print(_usage())
+        sys.exit(0)
     if args[0] == "--version":
         from mearm import __version__
 

@@ -8,7 +8,17 @@ Examples::
     python -m mearm.analyze --gains --out gains/          # kp and kd sweeps of one route
 
 A damaged log (a crash mid-line, a missing field) is analysed up to the bad line, which
-is reported on stderr (``--strict`` makes it an error instead).
+is reported on stderr (``--strict`` makes it an error instead, and so it is when no route
+comes before it).
+
+**Repeated trial numbers.** A trial that ``mearm experiment`` ran again after it was cut
+off (killed before its summary) appears twice: its complete attempt is analysed and the
+cut-off one left out, with a note on stderr. A trial number that is *complete* twice —
+two runs written to one log — is refused (exit 2, naming the numbers): pooling them would
+count every such trial twice (:meth:`mearm.runlog.RunLogContents.latest`).
+
+Every file written under ``--out`` (the plots, ``report.md``) replaces the old one in a
+single step (:func:`mearm.fileio.write_atomic`).
 """
 
 from __future__ import annotations
@@ -29,6 +39,7 @@ from mearm.cli import (
     config_from_args,
     float_list,
     run,
+    write_text_atomic,
 )
 from mearm.config import Config
 from mearm.exceptions import MearmError
@@ -102,6 +113,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if args.log is None and not args.gains:
         parser.error("give a run log to analyse, --gains, or both")
+    if args.out is not None and args.out.exists() and not args.out.is_dir():
+        parser.error(f"--out {args.out} is not a folder")
     try:
         import scipy  # noqa: F401
     except ImportError:
@@ -122,6 +135,18 @@ def main(argv: Sequence[str] | None = None) -> int:
     contents: RunLogContents | None = None
     if args.log is not None:
         contents = read_runlog(args.log, strict=args.strict)
+        superseded = contents.superseded
+        contents = contents.latest()
+        if contents.problem is not None and not contents.routes:
+            raise contents.problem  # nothing before the bad line to analyse: it is the error
+        if superseded:
+            numbers = sorted({t.number for t in superseded if t.number is not None})
+            print(
+                f"note: left out {len(superseded)} cut-off attempt(s) of trial(s) "
+                f"{', '.join(map(str, numbers))} (header line(s) "
+                f"{', '.join(str(t.line) for t in superseded)}), which were run again",
+                file=sys.stderr,
+            )
         if contents.problem is not None:
             p = contents.problem
             print(
@@ -165,7 +190,8 @@ def main(argv: Sequence[str] | None = None) -> int:
 
         report = args.out / "report.md"
         rig = _rig(contents) if contents is not None else None
-        report.write_text(
+        write_text_atomic(
+            report,
             report_markdown(
                 args.out,
                 images,
@@ -175,7 +201,6 @@ def main(argv: Sequence[str] | None = None) -> int:
                 gains_kp=gains_kp,
                 gains_kd=gains_kd,
             ),
-            encoding="utf-8",
         )
         result["report"] = str(report)
         result["plots"] = {k: str(v) for k, v in images.items()}

@@ -1,14 +1,18 @@
 """Shared plumbing for the command-line tools.
 
 Every CLI exits 2 on bad input with a single line on stderr (never a traceback), and
-130 on Ctrl-C.
+130 on Ctrl-C. Anything unexpected is exit 1 with one line that says where the traceback
+was written (``--debug`` prints it instead).
 """
 
 from __future__ import annotations
 
 import argparse
+import datetime
+import os
 import re
 import sys
+import traceback
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any, NoReturn, Protocol
@@ -28,6 +32,14 @@ class ArgumentParser(argparse.ArgumentParser):
     It also accepts option values that start with a minus sign, such as
     ``--target -10.99,49.70,12.76`` (plain argparse takes that for an option).
     """
+
+    def __init__(self, *args: Any, **kwargs: Any):
+        super().__init__(*args, **kwargs)
+        self.add_argument(
+            "--debug",
+            action="store_true",
+            help="on an unexpected error, print the traceback (default: one line)",
+        )
 
     def error(self, message: str) -> NoReturn:  # noqa: D102
         self.exit(EXIT_BAD_INPUT, f"{self.prog}: error: {message}\n")
@@ -75,6 +87,44 @@ def float_list(n: int | None = None, name: str = "values") -> Callable[[str], li
     return parse
 
 
+def positive_number(lo: float, hi: float, unit: str = "") -> Callable[[str], float]:
+    """An argparse type: a positive finite number in [lo, hi] (e.g. a step, a rate).
+
+    A sweep in steps of 1e-300 would never end, nor one at 1e9 frames per second.
+    """
+    suffix = f" {unit}" if unit else ""
+
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            value = float("nan")
+        if not value > 0 or value == float("inf"):
+            raise argparse.ArgumentTypeError(
+                f"must be a positive number{suffix}, got {text[:40]!r}"
+            )
+        if not lo <= value <= hi:
+            raise argparse.ArgumentTypeError(
+                f"must be in [{lo:g}, {hi:g}]{suffix}, got {text[:40]!r}"
+            )
+        return value
+
+    return parse
+
+
+def seed_value(text: str) -> int:
+    """An argparse type for a random seed: an integer in [0, 2³²−1] (what NumPy takes)."""
+    from mearm.config.base import MAX_SEED
+
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"a seed is an integer, got {text[:40]!r}") from None
+    if not 0 <= value <= MAX_SEED:
+        raise argparse.ArgumentTypeError(f"the seed must be in [0, {MAX_SEED}], got {text[:40]}")
+    return value
+
+
 class ArgumentContainer(Protocol):
     """What takes arguments: an ``argparse`` parser or an argument group of one."""
 
@@ -105,18 +155,20 @@ def config_from_args(args: argparse.Namespace) -> Config:
 
 
 def write_text_atomic(path: Path, text: str) -> None:
-    """Write ``text`` to ``path`` through a temporary file in the same directory.
+    """Write ``text`` to ``path`` in one step (:func:`mearm.fileio.write_atomic`).
+
+    The folder is made if missing; a symbolic link is written through; on any failure
+    or signal the old file stays as it was and no temporary file is left.
 
     Raises:
         MearmError: the directory cannot be made or the file written.
     """
-    tmp = path.with_name(f".{path.name}.tmp")
+    from mearm.fileio import write_atomic
+
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
-        tmp.write_text(text, encoding="utf-8")
-        tmp.replace(path)
+        write_atomic(path, text)
     except OSError as exc:
-        tmp.unlink(missing_ok=True)
         raise MearmError(f"cannot write {path}: {exc}") from None
 
 
@@ -130,15 +182,67 @@ def _program_name() -> str:
     return Path(sys.argv[0]).name if sys.argv and sys.argv[0] else "mearm"
 
 
+def crash_log_path() -> Path:
+    """Where unexpected errors' tracebacks are appended.
+
+    ``$MEARM_STATE_DIR/crash.log``, else ``$XDG_STATE_HOME/mearm/crash.log``, else
+    ``~/.local/state/mearm/crash.log``.
+    """
+    base = os.environ.get("MEARM_STATE_DIR")
+    if base:
+        return Path(base) / "crash.log"
+    xdg = os.environ.get("XDG_STATE_HOME") or str(Path.home() / ".local" / "state")
+    return Path(xdg) / "mearm" / "crash.log"
+
+
+def _record_crash(prog: str, argv: Sequence[str]) -> str:
+    """Append the current exception's traceback to the crash log; say where it went."""
+    path = crash_log_path()
+    stamp = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
+    entry = f"--- {stamp} {prog} {' '.join(argv)}\n{traceback.format_exc()}\n"
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with path.open("a", encoding="utf-8") as fh:
+            fh.write(entry)
+    except OSError:
+        return "traceback not saved: the crash log is not writable; --debug prints it"
+    return f"traceback in {path}; --debug prints it"
+
+
+def _one_line(exc: BaseException) -> str:
+    text = " ".join(str(exc).split())
+    if len(text) > 300:
+        text = text[:297] + "..."
+    return text
+
+
 def run(main: Callable[[Sequence[str] | None], int], argv: Sequence[str] | None = None) -> NoReturn:
-    """Run a CLI ``main``; turn :class:`MearmError` into exit 2 and Ctrl-C into 130."""
+    """Run a CLI ``main`` under the one guard every command shares.
+
+    :class:`MearmError` (bad input) → exit 2; Ctrl-C → 130; any other exception → exit 1
+    with one line naming the error and where its traceback was written (``--debug`` or
+    ``MEARM_DEBUG=1``: the traceback itself).
+    """
     prog = _program_name()
+    args = list(sys.argv[1:] if argv is None else argv)
+    debug = "--debug" in args or os.environ.get("MEARM_DEBUG", "") not in ("", "0")
     try:
         code = main(argv)
     except MearmError as exc:
-        print(f"{prog}: error: {exc}", file=sys.stderr)
+        print(f"{prog}: error: {_one_line(exc)}", file=sys.stderr)
         code = EXIT_BAD_INPUT
     except KeyboardInterrupt:
         print(f"{prog}: interrupted", file=sys.stderr)
         code = EXIT_INTERRUPTED
+    except Exception as exc:
+        if debug:
+            traceback.print_exc()
+            print(f"{prog}: unexpected error: {type(exc).__name__}", file=sys.stderr)
+        else:
+            where = _record_crash(prog, args)
+            print(
+                f"{prog}: unexpected error: {type(exc).__name__}: {_one_line(exc)} ({where})",
+                file=sys.stderr,
+            )
+        code = EXIT_FAILURE
     sys.exit(code)

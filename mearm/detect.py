@@ -26,22 +26,38 @@ import numpy as np
 
 from mearm.cli import ArgumentParser, add_config_argument, config_from_args, run
 from mearm.exceptions import ImageError
+from mearm.fileio import write_atomic
 from mearm.vision.calibration import Calibration
-from mearm.vision.camera import open_camera, quiet_opencv
+from mearm.vision.camera import open_camera
 from mearm.vision.detector import ColorDetector, Detection
+from mearm.vision.image import quiet_opencv, read_image
+
+#: Decoded frames kept between checking every image and detecting in each [px]; the
+#: images past it are decoded twice (checked, dropped, read again) to bound the memory.
+KEEP_PIXELS = 100_000_000
 
 
-def read_image(path: Path) -> np.ndarray:
-    """Read an image as (H, W, 3) uint8 BGR, or raise ImageError naming the problem."""
-    if not path.exists():
-        raise ImageError(str(path), "no such file")
-    if not path.is_file():
-        raise ImageError(str(path), "not a file")
-    with quiet_opencv():
-        frame = cv2.imread(str(path), cv2.IMREAD_COLOR)
-    if frame is None:
-        raise ImageError(str(path), "cannot read it as an image (unsupported format or damaged)")
-    return frame
+def _read_all(paths: Sequence[Path]) -> list[tuple[str, np.ndarray | None]]:
+    """Decode every image, so a bad one stops the run before any output.
+
+    The first :data:`KEEP_PIXELS` worth of frames are kept; ``None`` stands for the rest.
+    """
+    out: list[tuple[str, np.ndarray | None]] = []
+    kept = 0
+    for path in paths:
+        frame = read_image(path)
+        kept += frame.shape[0] * frame.shape[1]
+        out.append((str(path), frame if kept <= KEEP_PIXELS else None))
+    return out
+
+
+def _identity(path: Path) -> tuple[int, int] | None:
+    """(device, inode) of an existing file, else ``None``: the same file by any name."""
+    try:
+        info = path.stat()
+    except (OSError, ValueError):
+        return None
+    return (info.st_dev, info.st_ino)
 
 
 def annotation_paths(out: Path, count: int) -> list[Path]:
@@ -115,22 +131,32 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if bool(args.images) == args.camera:
         parser.error("give IMAGE paths or --camera (one of the two)")
-    if args.annotate is not None and not cv2.haveImageWriter(str(args.annotate)):
-        parser.error(f"--annotate {args.annotate}: unknown image type (use .png or .jpg)")
+    if args.annotate is not None:
+        if not cv2.haveImageWriter(str(args.annotate)):
+            parser.error(f"--annotate {args.annotate}: unknown image type (use .png or .jpg)")
+        outs = annotation_paths(args.annotate, max(1, len(args.images)))
+        inputs = {_identity(p) for p in args.images} - {None}
+        for out in outs:
+            if _identity(out) in inputs:
+                parser.error(f"--annotate {out}: is one of the input images (write elsewhere)")
+            if out.exists() and not out.is_file():
+                parser.error(f"--annotate {out}: exists and is not a regular file")
     config = config_from_args(args)
     calibration = Calibration.from_config(config.calibration)
     detector = ColorDetector(config.vision, calibration, config.task.classes)
 
+    frames: list[tuple[str, np.ndarray | None]]
     if args.camera:
         with open_camera(config) as camera:
             frames = [("camera", camera.read())]
     else:
-        frames = [(str(p), read_image(p)) for p in args.images]  # all readable, or exit 2
+        frames = _read_all(args.images)  # all readable, or exit 2 before any output
 
     expected = (config.camera.width_px, config.camera.height_px)
     width = max(len(name) for name in config.task.class_names)
     outs = annotation_paths(args.annotate, len(frames)) if args.annotate else []
-    for i, (name, frame) in enumerate(frames):
+    for i, (name, kept) in enumerate(frames):
+        frame = kept if kept is not None else read_image(Path(name))
         h, w = frame.shape[:2]
         if (w, h) != expected:
             print(
@@ -152,8 +178,19 @@ def main(argv: Sequence[str] | None = None) -> int:
                     f"  area {r['area_px']:5d}{flag}"
                 )
         if outs:
-            if not cv2.imwrite(str(outs[i]), annotate(frame, detector, records, detections)):
-                raise ImageError(str(outs[i]), "cannot write the annotated image")
+            drawn = annotate(frame, detector, records, detections)
+            ext = outs[i].suffix.lower() or ".png"
+            try:
+                with quiet_opencv():
+                    encoded, data = cv2.imencode(ext, drawn)
+            except cv2.error:
+                encoded = False
+            if not encoded:
+                raise ImageError(str(outs[i]), f"cannot encode the annotated image as {ext}")
+            try:
+                write_atomic(outs[i], data.tobytes())
+            except OSError as exc:
+                raise ImageError(str(outs[i]), f"cannot write the annotated image: {exc}") from None
     return 0
 
 

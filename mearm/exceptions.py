@@ -7,7 +7,7 @@ values as attributes; their messages say what was wrong and what is allowed.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 
 
 class MearmError(Exception):
@@ -104,6 +104,45 @@ class UnreachableTargetError(TargetError):
     """The target is inside the box but the arm cannot reach it within its joint limits."""
 
 
+class JointLimitTargetError(UnreachableTargetError):
+    """The links reach the target, but only with a joint outside its limits.
+
+    Attributes:
+        joint: The joint that would leave its limits.
+        value: The value it would need [deg, or cm for a prismatic joint].
+        lower: Its lower limit [same unit].
+        upper: Its upper limit [same unit].
+        unit: ``deg`` or ``cm``.
+    """
+
+    def __init__(
+        self,
+        target_cm: Sequence[float],
+        joint: str,
+        value: float,
+        lower: float,
+        upper: float,
+        unit: str = "deg",
+    ):
+        self.joint = joint
+        self.value = float(value)
+        self.lower = float(lower)
+        self.upper = float(upper)
+        self.unit = unit
+        super().__init__(
+            target_cm,
+            f"needs {joint} = {self.value:.2f} {unit}, outside its limits "
+            f"[{self.lower:g}, {self.upper:g}] {unit}",
+        )
+
+
+class SingularTargetError(UnreachableTargetError):
+    """The target sits where the arm is singular (on the base axis: the base is undefined).
+
+    Belongs in :mod:`mearm.exceptions` beside :class:`UnreachableTargetError`.
+    """
+
+
 class RunLogError(MearmError):
     """A run log cannot be opened, appended to or written in the order asked.
 
@@ -114,6 +153,29 @@ class RunLogError(MearmError):
     def __init__(self, path: object, message: str):
         self.path = str(path)
         super().__init__(f"{self.path}: {message}")
+
+
+class RepeatedTrialError(RunLogError):
+    """A trial number is complete more than once in one log: two runs pooled in one file.
+
+    Attributes:
+        path: The log file.
+        lines: Per repeated trial number, the header lines of its complete attempts.
+    """
+
+    def __init__(self, path: object, lines: Mapping[int, Sequence[int]]):
+        self.lines = {k: tuple(v) for k, v in lines.items()}
+        numbers = sorted(self.lines)
+        shown = ", ".join(map(str, numbers[:10])) + (" …" if len(numbers) > 10 else "")
+        first = numbers[0]
+        where = " and ".join(map(str, self.lines[first]))
+        super().__init__(
+            path,
+            f"trial{'s' if len(numbers) > 1 else ''} {shown} "
+            f"{'are' if len(numbers) > 1 else 'is'} complete more than once (trial {first} "
+            f"at lines {where}): the file holds two runs of the same trials; analyse "
+            "each run's log on its own",
+        )
 
 
 class RunLogFormatError(RunLogError):
@@ -507,6 +569,20 @@ class QPSolverError(MearmError):
         )
 
 
+class InputFileError(MearmError):
+    """An input file cannot be read safely: missing, not a regular file, too large, not text.
+
+    Attributes:
+        path: The file.
+        reason: What is wrong with it and what to do.
+    """
+
+    def __init__(self, path: object, reason: str):
+        self.path = str(path)
+        self.reason = reason
+        super().__init__(f"{self.path}: {reason}")
+
+
 __all__ = [
     "AnalysisError",
     "BannerTimeoutError",
@@ -520,6 +596,7 @@ __all__ = [
     "GarbledReplyError",
     "HandshakeError",
     "ImageError",
+    "InputFileError",
     "InvalidCommandError",
     "InvalidJointsError",
     "InvalidTargetError",
@@ -533,14 +610,93 @@ __all__ = [
     "QPSolverError",
     "RunLogError",
     "RunLogFormatError",
+    "RepeatedTrialError",
     "ServoError",
     "ServoFaultedError",
     "ServoNotConnectedError",
     "TargetError",
     "TargetOutsideBoxError",
     "UnreachableTargetError",
+    "JointLimitTargetError",
+    "SingularTargetError",
     "ViewError",
     "ViewInputError",
     "ViewPortError",
     "WorldError",
 ]
+
+
+# --------------------------------------------------------------------------- serial safety
+
+
+class SerialPortError(MearmError, ValueError):
+    """``servo.port`` is neither a device path nor a URL of an allowed scheme.
+
+    pyserial's ``serial_for_url`` opens more than serial ports: ``spy://`` writes (and
+    truncates) a log file named in the URL, ``hwgrep://`` opens whichever device matches
+    a pattern. Only device paths and the schemes in ``allowed`` are opened. A
+    ``ValueError`` too, so a pydantic validator may raise it as it is.
+
+    Attributes:
+        port: The value given.
+        reason: What is wrong with it.
+        allowed: The URL schemes accepted besides device paths.
+    """
+
+    def __init__(self, port: object, reason: str, allowed: Sequence[str]):
+        self.port = port
+        self.reason = reason
+        self.allowed = tuple(allowed)
+        urls = ", ".join(f"{s}://" for s in self.allowed)
+        super().__init__(
+            f"servo.port {port!r}: {reason}; give a device path (e.g. /dev/ttyACM0, "
+            f"/dev/ttyUSB0, COM3) or a URL of {urls}"
+        )
+
+
+class MoveNotConfirmedError(ServoError):
+    """The board answered, but did not confirm the move: it did not reach the pulses sent.
+
+    Attributes:
+        port: The serial port or URL.
+        expected_us: Channel → the pulse commanded [µs].
+        reported_us: Channel → the pulse the board reported [µs]; empty if it was
+            still moving when the time ran out.
+        reason: What did not match.
+    """
+
+    def __init__(
+        self,
+        port: str,
+        reason: str,
+        expected_us: dict[int, int],
+        reported_us: dict[int, int],
+        *,
+        last_state: object | None = None,
+    ):
+        self.port = port
+        self.reason = reason
+        self.expected_us = dict(expected_us)
+        self.reported_us = dict(reported_us)
+        super().__init__(f"{port}: move not confirmed: {reason}", last_state=last_state)
+
+
+class UnsolicitedBytesError(ServoError):
+    """The board sent bytes no query asked for: a noisy link or a board talking out of turn.
+
+    Attributes:
+        port: The serial port or URL.
+        received: The bytes (at most the first 64).
+    """
+
+    def __init__(self, port: str, received: bytes, *, last_state: object | None = None):
+        self.port = port
+        self.received = bytes(received[:64])
+        super().__init__(
+            f"{port}: the board sent {self.received!r} unasked; an SSC-32 speaks only when "
+            "asked, so the link is noisy or another program shares the port",
+            last_state=last_state,
+        )
+
+
+__all__ += ["MoveNotConfirmedError", "SerialPortError", "UnsolicitedBytesError"]

@@ -7,15 +7,34 @@ to the run log; ``python -m mearm.analyze`` reads it back::
     python -m mearm.experiment --config configs/sim.yaml --trials 100 --seed 0 --log trials.jsonl
 
 On a real rig (camera not simulated) each trial waits for you to lay the objects out and
-press Enter. Simulated trials draw the layout, the servo noise and the camera noise from
-the trial's own seed, so any trial can be rerun alone.
+press Enter. That needs a terminal: without one (standard input not a terminal, or
+closed) the run stops with exit 2 before anything moves; ``--yes`` starts every trial
+without asking. Simulated trials draw the layout, the servo noise and the camera noise
+from the trial's own seed, so any trial can be rerun alone.
+
+**Resuming.** The log is only ever appended to. Running again with the same ``--log``
+continues the experiment: every trial already in it must have been written by this same
+run — trial k's header has the seed, config and layout that ``--config``, ``--set``,
+``--seed`` and ``--scene`` give trial k — else the run refuses with exit 2 and names the
+first difference. It then starts at the trial after the last *complete* one (a trial
+with its summary, which includes one that stopped early on a fault or Ctrl-C and said
+so). A trial cut off before its summary (the process was killed) is run again under the
+same number and seed: its partial records stay in the log, and ``mearm analyze`` leaves
+them out because the same trial comes back complete later
+(:meth:`~mearm.runlog.RunLogContents.latest`). A torn last line (killed mid-write) is
+moved into a side file ``<log>.torn-<offset>`` first (:mod:`mearm.runlog.repair`). A log
+damaged anywhere else is not resumed. When the log already holds the trials asked for,
+the run says so and exits 0.
 """
 
 from __future__ import annotations
 
+import json
 import sys
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -26,14 +45,30 @@ from mearm.cli import (
     add_config_argument,
     config_from_args,
     run,
+    seed_value,
 )
 from mearm.config import Config, SceneObject
-from mearm.exceptions import CameraError, MearmError, ServoError
-from mearm.runlog import RunLog
-from mearm.task import SortAborted, load_scene, random_scene, run_sort
+from mearm.exceptions import CameraError, MearmError, RunLogError, ServoError
+from mearm.runlog import (
+    HeaderRecord,
+    RunLog,
+    TornEnd,
+    end_line,
+    find_torn_end,
+    read_runlog,
+    set_aside_torn_end,
+)
+from mearm.task import SortAborted, load_scene, random_scene, run_sort, scene_layout
+from mearm.task.report import Outcome
 
 #: Objects per class in a random trial layout (the paper: 12 objects, 4 of each colour).
 PER_CLASS = 4
+
+#: Why a real rig's run cannot start without a terminal (and how to run it anyway).
+NEEDS_TERMINAL = (
+    "needs a terminal to confirm each layout (a real rig waits for Enter before every "
+    "trial); pass --yes to start every trial without asking"
+)
 
 
 def trial_seed(seed: int, trial: int) -> int:
@@ -50,6 +85,35 @@ def trial_config(config: Config, seed: int) -> Config:
     return config.model_copy(update={"servo": servo, "camera": camera})
 
 
+@dataclass(frozen=True)
+class TrialPlan:
+    """What trial ``number`` of an experiment is, before it runs.
+
+    Attributes:
+        number: The trial number (from 0).
+        seed: Its own seed (:func:`trial_seed`).
+        config: Its config (:func:`trial_config`).
+        layout: The simulated table it sorts, or ``None`` for the config's (a real rig).
+    """
+
+    number: int
+    seed: int
+    config: Config
+    layout: list[SceneObject] | None
+
+
+def plan_trial(
+    config: Config, seed: int, number: int, scene: list[SceneObject] | None = None
+) -> TrialPlan:
+    """Trial ``number`` of the experiment with base ``seed`` (and ``--scene``, if given)."""
+    s = trial_seed(seed, number)
+    cfg = trial_config(config, s)
+    layout = scene
+    if layout is None and cfg.camera.kind == "sim":
+        layout = random_scene(cfg, dict.fromkeys(cfg.task.class_names, PER_CLASS), s)
+    return TrialPlan(number, s, cfg, layout)
+
+
 def run_trials(
     config: Config,
     trials: int,
@@ -57,55 +121,249 @@ def run_trials(
     log: RunLog,
     *,
     scene: list[SceneObject] | None = None,
+    start: int = 0,
     wait_for_user: Callable[[int], None] | None = None,
     progress: Callable[[int], None] | None = None,
-) -> list[str | None]:
-    """Run ``trials`` sorts, one header per trial in ``log``.
+) -> dict[int, str | None]:
+    """Run trials ``start`` .. ``trials``−1, one header per trial in ``log``.
 
     Args:
         config: The rig.
-        trials: How many.
+        trials: How many in the whole experiment.
         seed: Base seed; trial k uses :func:`trial_seed` (seed, k).
         log: Where the records go.
         scene: The same layout every trial instead of a random one.
-        wait_for_user: Called before each trial on a real rig (to lay out the objects).
-        progress: Called after each trial with the number done.
+        start: The first trial to run (the ones before are in the log already).
+        wait_for_user: Called with the trial number before each trial on a real rig (to
+            lay out the objects).
+        progress: Called after each trial with the number of trials run so far.
 
     Returns:
-        Per trial, ``None`` if it cleared the table, else the reason it stopped.
+        Per trial run, ``None`` if it cleared the table, else the reason it stopped.
 
     Raises:
         SortAborted: a trial was interrupted with Ctrl-C (the log holds what was done).
     """
-    outcomes: list[str | None] = []
-    for k in range(trials):
-        s = trial_seed(seed, k)
-        cfg = trial_config(config, s)
-        layout = scene
-        if layout is None and cfg.camera.kind == "sim":
-            layout = random_scene(cfg, dict.fromkeys(cfg.task.class_names, PER_CLASS), s)
+    outcomes: dict[int, str | None] = {}
+    for k in range(start, trials):
+        plan = plan_trial(config, seed, k, scene)
         if wait_for_user is not None:
             wait_for_user(k)
         try:
-            run_sort(cfg, scene=layout, log=log, trial=k, seed=s, echo=None)
-            outcomes.append(None)
+            run_sort(plan.config, scene=plan.layout, log=log, trial=k, seed=plan.seed, echo=None)
+            outcomes[k] = None
         except SortAborted as exc:
             if exc.interrupted:
                 raise
-            outcomes.append(exc.reason)
+            outcomes[k] = exc.reason
         if progress is not None:
-            progress(k + 1)
+            progress(len(outcomes))
     return outcomes
+
+
+# -- resuming
+
+
+@dataclass(frozen=True)
+class Resume:
+    """Where an experiment continues its log.
+
+    Attributes:
+        done: Trials 0 .. ``done``−1 are complete in the log; the run starts at ``done``.
+        cut_off: Attempts of trial ``done`` in the log that stopped before their summary
+            (it is run again).
+        torn: The log's unfinished last line, or ``None``.
+        torn_is_record: Whether that line is a whole record missing only its newline.
+    """
+
+    done: int = 0
+    cut_off: int = 0
+    torn: TornEnd | None = None
+    torn_is_record: bool = False
+
+
+def ready_to_append(path: Path, resume: Resume) -> Path | None:
+    """Make a resumed log appendable: set its torn last line aside, or end its last line.
+
+    Returns:
+        The side file the torn line went to, or ``None``.
+
+    Raises:
+        RunLogError: The log cannot be changed (it is then as it was).
+    """
+    if resume.torn is None:
+        return None
+    if resume.torn_is_record:
+        end_line(path)
+        return None
+    return set_aside_torn_end(path, resume.torn)
+
+
+def resume_point(
+    path: Path, config: Config, seed: int, scene: list[SceneObject] | None = None
+) -> Resume:
+    """Check that ``path`` holds this experiment's trials; say where to continue.
+
+    Reads only; :func:`ready_to_append` then deals with a torn last line.
+
+    Args:
+        path: The ``--log``; a missing or empty file starts at trial 0.
+        config: The experiment's config.
+        seed: Its base seed.
+        scene: Its ``--scene``, if any.
+
+    Raises:
+        RunLogError: The log cannot be read, is damaged before its last line, holds a
+            lone sort run, trials out of order, or trials of another run (another config,
+            seed or layout); the message names the first such trial and what differs.
+    """
+    if not path.exists() or (path.is_file() and path.stat().st_size == 0):
+        return Resume()
+    contents = read_runlog(path)
+    torn = find_torn_end(path)
+    problem = contents.problem
+    if problem is not None and (torn is None or problem.line != torn.line):
+        raise RunLogError(
+            path,
+            f"line {problem.line}: {problem.reason}; a damaged log is not resumed (mearm "
+            "analyze reads it up to that line): write the new trials to another --log",
+        )
+    done = cut_off = 0
+    plans: dict[int, TrialPlan] = {}
+    for t in contents.trials:
+        if t.number is None:
+            raise RunLogError(
+                path,
+                f"line {t.line}: a sort run (trial null), not a trial of an experiment; "
+                "give the experiment its own --log",
+            )
+        if t.number != done:
+            raise RunLogError(
+                path,
+                f"line {t.line}: trial {t.number} where trial {done} comes next: not the "
+                "trials of one experiment in order; write to another --log",
+            )
+        if t.number not in plans:  # attempts of one trial share its plan
+            plans[t.number] = plan_trial(config, seed, t.number, scene)
+        why = _differs(t.header, plans[t.number], seed)
+        if why is not None:
+            raise RunLogError(
+                path,
+                f"trial {t.number} (line {t.line}) was written by another run: {why}; resume "
+                "with its --config, --set, --seed and --scene, or write to another --log",
+            )
+        if t.complete:
+            done, cut_off = done + 1, 0
+        else:
+            cut_off += 1
+    return Resume(done, cut_off, torn, torn_is_record=torn is not None and problem is None)
+
+
+def _differs(header: HeaderRecord, plan: TrialPlan, seed: int) -> str | None:
+    """How a logged trial's header differs from the trial this run would write, if it does."""
+    if header.seed != plan.seed:
+        return f"it was seeded {header.seed}; --seed {seed} seeds it {plan.seed}"
+    difference = _first_difference(header.config, _json(plan.config.model_dump(mode="json")))
+    if difference is not None:
+        key, logged, now = difference
+        return f"its config differs at {key or 'the top'} (log: {logged}; now: {now})"
+    logged_scene = (header.model_extra or {}).get("scene")
+    if logged_scene != _json(scene_layout(plan.config, plan.layout)):
+        return "its table layout differs (was --scene given to one run and not the other?)"
+    return None
+
+
+def _json(value: Any) -> Any:
+    """``value`` as it reads back from a log line (tuples → lists, keys → strings)."""
+    return json.loads(json.dumps(value))
+
+
+def _first_difference(logged: Any, now: Any, key: str = "") -> tuple[str, str, str] | None:
+    """The dotted key where two JSON values first differ, and both values (shortened)."""
+    if isinstance(logged, Mapping) and isinstance(now, Mapping):
+        for name in sorted(set(logged) | set(now), key=str):
+            sub = f"{key}.{name}" if key else str(name)
+            if name not in logged or name not in now:
+                return sub, _short(logged.get(name, "(none)")), _short(now.get(name, "(none)"))
+            found = _first_difference(logged[name], now[name], sub)
+            if found is not None:
+                return found
+        return None
+    if isinstance(logged, list) and isinstance(now, list) and len(logged) == len(now):
+        for i, (a, b) in enumerate(zip(logged, now, strict=True)):
+            found = _first_difference(a, b, f"{key}[{i}]")
+            if found is not None:
+                return found
+        return None
+    same_type = type(logged) is type(now) or (_number(logged) and _number(now))
+    if same_type and logged == now:
+        return None
+    return key, _short(logged), _short(now)
+
+
+def _number(value: Any) -> bool:
+    return isinstance(value, int | float) and not isinstance(value, bool)
+
+
+def _short(value: Any) -> str:
+    text = json.dumps(value)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+# -- the prompt
+
+
+def _has_terminal() -> bool:
+    stdin = sys.stdin
+    try:
+        return stdin is not None and stdin.isatty()
+    except (ValueError, OSError):  # a closed stream
+        return False
+
+
+def terminal_prompt(trials: int) -> Callable[[int], None]:
+    """The wait before each trial of a real rig: Enter on the terminal.
+
+    Raises:
+        MearmError: Standard input is not a terminal (checked now, before anything
+            moves), or it ends at a prompt (raised by the wait).
+    """
+    if not _has_terminal():
+        raise MearmError(NEEDS_TERMINAL)
+
+    def wait(k: int) -> None:
+        try:
+            input(f"trial {k + 1}/{trials}: lay out the objects, then press Enter ")
+        except EOFError:
+            raise MearmError(
+                f"input ended at the prompt of trial {k}: {NEEDS_TERMINAL}; the same --log "
+                f"resumes at trial {k}"
+            ) from None
+
+    return wait
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the trials; see the module docstring."""
     parser = ArgumentParser(prog="python -m mearm.experiment", description=__doc__.splitlines()[0])
     add_config_argument(parser)
-    parser.add_argument("--trials", type=int, default=100, help="number of trials (default 100)")
-    parser.add_argument("--seed", type=int, default=0, help="base seed (default 0)")
-    parser.add_argument("--log", type=Path, required=True, help="JSON-lines log to append to")
+    parser.add_argument(
+        "--trials", type=int, default=100, help="number of trials in all (default 100)"
+    )
+    parser.add_argument("--seed", type=seed_value, default=0, help="base seed (default 0)")
+    parser.add_argument(
+        "--log",
+        type=Path,
+        required=True,
+        help="JSON-lines log; one that holds trials of this run is continued",
+    )
     parser.add_argument("--scene", type=Path, help="use this layout in every trial")
+    parser.add_argument(
+        "--yes",
+        action="store_true",
+        help="real rig: start every trial without waiting for Enter (needed without a "
+        "terminal; lay the objects out beforehand)",
+    )
     args = parser.parse_args(argv)
     if args.trials < 1:
         parser.error(f"--trials must be ≥ 1, got {args.trials}")
@@ -113,18 +371,38 @@ def main(argv: Sequence[str] | None = None) -> int:
     scene = load_scene(args.scene, config.task.class_names) if args.scene else None
     if scene is not None and config.camera.kind != "sim":
         raise MearmError("--scene lays out the simulated table; this config's camera is not 'sim'")
-
     wait = None
-    if config.camera.kind != "sim":
+    if config.camera.kind != "sim" and not args.yes:
+        wait = terminal_prompt(args.trials)
 
-        def wait(k: int) -> None:
-            input(f"trial {k + 1}/{args.trials}: lay out the objects, then press Enter ")
+    resume = resume_point(args.log, config, args.seed, scene)
+    if resume.done >= args.trials:
+        print(
+            f"{args.log} already holds {resume.done} complete trials (--trials {args.trials}): "
+            "nothing to run"
+        )
+        return 0
+    if resume.done or resume.cut_off:
+        again = f"; trial {resume.done} again, it was cut off" if resume.cut_off else ""
+        print(
+            f"resuming {args.log}: {resume.done} complete trials there, running trials "
+            f"{resume.done}..{args.trials - 1}{again}"
+        )
+    set_aside = ready_to_append(args.log, resume)
+    if set_aside is not None:
+        print(
+            f"note: {args.log} ended in a torn line (killed mid-write); its "
+            f"{len(resume.torn.data) if resume.torn else 0} bytes were moved to {set_aside}",
+            file=sys.stderr,
+        )
 
     from tqdm import tqdm
 
     with (
         RunLog(args.log) as log,
-        tqdm(total=args.trials, unit="trial", file=sys.stderr, disable=None) as bar,
+        tqdm(
+            total=args.trials, initial=resume.done, unit="trial", file=sys.stderr, disable=None
+        ) as bar,
     ):
         try:
             outcomes = run_trials(
@@ -133,6 +411,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                 args.seed,
                 log,
                 scene=scene,
+                start=resume.done,
                 wait_for_user=wait,
                 progress=lambda done: bar.update(1),
             )
@@ -142,12 +421,38 @@ def main(argv: Sequence[str] | None = None) -> int:
         except (CameraError, ServoError) as exc:
             print(f"mearm.experiment: {exc}", file=sys.stderr)
             return EXIT_FAILURE
-    failed = [(k, r) for k, r in enumerate(outcomes) if r is not None]
+    failed = [(k, r) for k, r in outcomes.items() if r is not None]
     print(f"{len(outcomes)} trials written to {args.log}; {len(failed)} stopped early")
     for k, reason in failed:
         print(f"  trial {k}: {reason}")
     print(f"analyse: python -m mearm.analyze {args.log} --out report/")
+    print(_totals(args.log, args.trials))
     return EXIT_FAILURE if failed else 0
+
+
+def _totals(path: Path, trials: int) -> str:
+    """``sorted N of M objects over K trials (…reasons…)``, from the log's summaries.
+
+    Counts each trial number once (its complete attempt), resumed trials included. Objects
+    left in a trial are the experiment's data, not a failure of the command.
+    """
+    total = Outcome()
+    done: set[int] = set()
+    for trial in reversed(read_runlog(path).trials):
+        s = trial.summary
+        number = trial.header.trial
+        if s is None or number is None or number in done or number >= trials:
+            continue
+        done.add(number)
+        for name, n in (s.objects or s.sorted).items():
+            total.seen[name] = total.seen.get(name, 0) + n
+        for name, n in s.sorted.items():
+            total.sorted[name] = total.sorted.get(name, 0) + n
+        for kind, n in (s.left or {}).items():
+            total.left[kind] = total.left.get(kind, 0) + n
+    line = total.line()
+    head, _, rest = line.partition(" objects")
+    return f"{head} objects over {len(done)} trials{rest}"
 
 
 if __name__ == "__main__":

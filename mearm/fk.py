@@ -14,7 +14,6 @@ import json
 from collections.abc import Sequence
 
 from mearm.cli import ArgumentParser, add_config_argument, config_from_args, float_list, run
-from mearm.exceptions import InvalidJointsError
 from mearm.kinematics import ArmModel
 
 
@@ -33,11 +32,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     config = config_from_args(args)
     model = ArmModel(config.arm)
     chain = model.chain
-    if len(args.joints) != chain.m:
-        raise InvalidJointsError(
-            args.joints,
+    if len(args.joints) != chain.m:  # an argument error: its values need no echo
+        parser.error(
             f"--joints needs {chain.m} numbers, the actuated joints "
-            f"({', '.join(chain.actuated)}), got {len(args.joints)}",
+            f"({', '.join(chain.actuated)}), got {len(args.joints)}"
         )
     q = chain.from_named(dict(zip(chain.actuated, args.joints, strict=True)))
     model.check_limits(q)

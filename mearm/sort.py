@@ -6,9 +6,16 @@ the paper's 12-object layout unless ``--scene`` or ``--random`` says otherwise::
 
     python -m mearm.sort --config configs/sim.yaml --log run.jsonl [--view]
 
-Exit status: 0 when the table was cleared (objects out of reach are reported and
-skipped), 1 when a camera or servo failure stopped the run, 2 on bad input, 130 on
-Ctrl-C. The run log is written per route, so a failure loses nothing written before it.
+The last line printed is ``sorted N of M objects (…reasons…)``; the run log's summary
+record holds the same counts, per class and per reason. An object counts as sorted only
+when its place is confirmed (simulated: the world has it in its bin; real rig: the camera
+no longer sees it on the table).
+
+Exit status: 0 only when every object seen was sorted; 1 when the run ended with objects
+left (out of reach, failed picks, a camera or servo fault); 2 on bad input, found before
+anything moves (a camera or servo link that cannot be opened as configured included);
+130 on Ctrl-C (the arm is parked first). The run log is written per route, so a failure
+loses nothing written before it.
 """
 
 from __future__ import annotations
@@ -19,12 +26,15 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from mearm.cli import (
+    EXIT_BAD_INPUT,
     EXIT_FAILURE,
     EXIT_INTERRUPTED,
+    EXIT_OK,
     ArgumentParser,
     add_config_argument,
     config_from_args,
     run,
+    seed_value,
 )
 from mearm.config import Config, SceneObject
 from mearm.exceptions import CameraError, MearmError, ServoError
@@ -41,7 +51,7 @@ def add_scene_arguments(parser: ArgumentParser) -> None:
         help="simulated table: a YAML list of {color, x, y} [cm] (color: a class name)",
     )
     group.add_argument("--random", type=int, metavar="N", help="simulated table: N random objects")
-    parser.add_argument("--seed", type=int, default=0, help="seed for --random (default 0)")
+    parser.add_argument("--seed", type=seed_value, default=0, help="seed for --random (default 0)")
 
 
 def scene_from_args(args: object, config: Config) -> list[SceneObject] | None:
@@ -83,11 +93,20 @@ def main(argv: Sequence[str] | None = None) -> int:
         "--hold", action="store_true", help="with --view: keep the view open after the run (Ctrl-C)"
     )
     parser.add_argument("--quiet", action="store_true", help="print only the summary")
+    parser.add_argument(
+        "--save-mjcf",
+        type=Path,
+        metavar="PATH",
+        help="also write the whole scene (arm, table, bins, objects, camera) as one "
+        "self-contained MJCF for MuJoCo's own viewer",
+    )
     args = parser.parse_args(argv)
     if args.hold and not args.view:
         parser.error("--hold keeps the view open: use it with --view")
     config = config_from_args(args)
     scene = scene_from_args(args, config)
+    if args.save_mjcf is not None:
+        _save_mjcf(config, scene, args.save_mjcf)
     lines: list[str] = []
     echo = lines.append if args.quiet else print
 
@@ -99,8 +118,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         return view
 
     log = RunLog(args.log) if args.log else None
+    if log is not None:
+        print(f"run log: {args.log}", flush=True)
     try:
-        run_sort(
+        report = run_sort(
             config,
             scene=scene,
             log=log,
@@ -112,20 +133,48 @@ def main(argv: Sequence[str] | None = None) -> int:
         )
     except SortAborted as exc:
         if args.quiet:
-            print("\n".join(lines))
+            _print_summary(lines)
         print(f"mearm sort: stopped: {exc.reason}", file=sys.stderr)
         return EXIT_INTERRUPTED if exc.interrupted else EXIT_FAILURE
     except (CameraError, ServoError) as exc:
-        print(f"mearm sort: {exc}", file=sys.stderr)
-        return EXIT_FAILURE
+        # raised only before the sort started (inside it, a fault is SortAborted): a
+        # camera or link that cannot be opened as configured, found before any motion
+        print(f"mearm sort: error: {exc}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except KeyboardInterrupt:
+        # outside the sort's own loop (opening the rig or the view, closing them): the
+        # arm is at home or was parked by the sorter
+        print("mearm sort: interrupted (Ctrl-C)", file=sys.stderr)
+        return EXIT_INTERRUPTED
     finally:
         if log is not None:
             log.close()
     if args.quiet:
-        print("\n".join(lines[lines.index("") + 1 :] if "" in lines else lines))
-    if args.log:
-        print(f"run log: {args.log}")
-    return 0
+        _print_summary(lines)
+    if not report.complete:
+        print(f"mearm sort: {report.outcome.line()}", file=sys.stderr)
+        return EXIT_FAILURE
+    return EXIT_OK
+
+
+def _save_mjcf(config: Config, scene: list[SceneObject] | None, path: Path) -> None:
+    """Write the scene the sort will see as MJCF (before anything moves)."""
+    from mearm.sim.mjcf import save_mjcf
+
+    if scene is not None:
+        config = config.model_copy(
+            update={"task": config.task.model_copy(update={"scene": list(scene)})}
+        )
+    try:
+        save_mjcf(config, path)
+    except OSError as exc:
+        raise MearmError(f"--save-mjcf {path}: cannot write: {exc}") from None
+    print(f"MJCF: {path}", flush=True)
+
+
+def _print_summary(lines: list[str]) -> None:
+    """The summary part of the sort's output (after the blank line that opens it)."""
+    print("\n".join(lines[lines.index("") + 1 :] if "" in lines else lines))
 
 
 if __name__ == "__main__":

@@ -11,7 +11,9 @@ master in packet mode (``TIOCPKT``) the kernel reports that flush to the master 
 banner; the fake SSC-32, like the real one, does not reset.
 
 Faults are injected by the ``faults`` record of each board: no banner, silence, garbage,
-corrupted frames in either direction, numbered errors, a reset and a dropped link.
+corrupted frames in either direction, numbered errors, a reset and a dropped link; the
+fake SSC-32 also delays (in order, as a serial line does), loses and garbles answers,
+and talks unasked.
 """
 
 from __future__ import annotations
@@ -54,6 +56,8 @@ class FakeBoard:
     """
 
     terminator = b"\n"
+    #: Longest wait of the serving loop [s].
+    tick_s = 0.01
 
     def __init__(self) -> None:
         self._master, self._slave = os.openpty()
@@ -79,6 +83,9 @@ class FakeBoard:
     def on_idle(self) -> None:
         """Called about every 10 ms while nothing arrives."""
 
+    def on_tick(self) -> None:
+        """Called on every pass of the serving loop (at least every 10 ms)."""
+
     def send(self, data: bytes) -> None:
         """Write to the host (nothing once the link is dropped)."""
         if not self.dropped:
@@ -94,8 +101,9 @@ class FakeBoard:
 
     def _serve(self) -> None:
         while not self._stop.is_set() and not self.dropped:
+            self.on_tick()
             try:
-                ready, _, _ = select.select([self._master], [], [], 0.01)
+                ready, _, _ = select.select([self._master], [], [], self.tick_s)
                 if not ready:
                     self.on_idle()
                     continue
@@ -155,6 +163,9 @@ class MearmFaults:
         error_at_move: (move, error number): answer that move with the numbered error.
         drop_at_move: Pull the cable when this move arrives, before answering it.
         reset_at_move: Reboot (print the banner again) instead of answering this move.
+        raw_reply_from_move: (move, bytes): from this move on, send these bytes instead
+            of the reply (a truncated line, a NUL flood, a stale acknowledgement...).
+        v_reply: Bytes sent instead of the reply to ``V``.
     """
 
     banner: bool = True
@@ -167,6 +178,8 @@ class MearmFaults:
     error_at_move: tuple[int, int] | None = None
     drop_at_move: int | None = None
     reset_at_move: int | None = None
+    raw_reply_from_move: tuple[int, bytes] | None = None
+    v_reply: bytes | None = None
 
 
 class FakeMearmBoard(FakeBoard):
@@ -265,6 +278,9 @@ class FakeMearmBoard(FakeBoard):
             if f.garbage_from_move is not None and n >= f.garbage_from_move:
                 self.send(b"\x8f\x13garbage \xff\n")
                 return
+            if f.raw_reply_from_move is not None and n >= f.raw_reply_from_move[0]:
+                self.send(f.raw_reply_from_move[1])
+                return
             if f.error_at_move is not None and f.error_at_move[0] == n:
                 seq = line.split(b" ")[0].decode()
                 self._reply(f"ERR {seq} {f.error_at_move[1]} injected")
@@ -309,7 +325,9 @@ class FakeMearmBoard(FakeBoard):
         if len(values) != expected[command]:
             self._reply(f"ERR {seq} {ERR_ARGUMENT_COUNT} args")
             return
-        if command == "V":
+        if command == "V" and self.faults.v_reply is not None:
+            self.send(self.faults.v_reply)
+        elif command == "V":
             self._reply(f"OK {seq} {self.name} {self.version} {self.servo_count} 500 2500")
         elif command == "M":
             for ch, us in enumerate(values):
@@ -335,39 +353,172 @@ class FakeMearmBoard(FakeBoard):
 class SSC32Faults:
     """Faults of the fake SSC-32.
 
+    Answers are the one-byte replies to ``Q`` and ``QP``; the ``*_answers`` faults start
+    with the first answer after group move ``fault_at_move`` (counting from 1; ``None``:
+    at once) and each applies to that many answers, in this order: lost, late, garbage,
+    extra.
+
     Attributes:
         silent: Answer nothing at all.
-        version: What ``VER`` answers.
+        version: What ``VER`` answers (and the restart banner).
+        ver_reply: Raw bytes sent instead of the answer to ``VER``.
         garbage_q: The next n ``Q`` get a junk byte instead of ``.``/``+``.
         drop_at_move: Pull the cable when this group move arrives.
+        fault_at_move: The group move after which the answer faults start.
+        lost_answers: This many answers are never sent.
+        late_answers: This many answers are sent ``late_s`` late (and, the line being
+            in order, so is everything after them).
+        late_s: The delay of a late answer [s].
+        stale_late: A late answer is the one an earlier query would have had: ``+`` for
+            ``Q``, the pulse before the last move for ``QP``.
+        garbage_answers: This many answers are ``garbage`` instead.
+        garbage: The junk sent for a garbled answer.
+        extra_answers: This many answers are followed by ``extra`` (a byte too many).
+        extra: What follows them.
+        wrong_qp_us: Added to every ``QP`` answer after ``fault_at_move`` [µs].
+        mute_qp: After ``fault_at_move``, ``QP`` gets no answer (``Q`` still does): every
+            answer is cut short.
+        moving_forever: After ``fault_at_move``, ``Q`` always answers ``+``.
+        slow_s: Every timed move takes this much longer than its ``T`` [s].
+        reset_at_move: Restart when this group move arrives, instead of making it: every
+            channel goes limp (``QP`` answers 0) and the banner is printed.
+        banner_on_reset: Print the banner when restarting.
+        stray_after_move: (move, bytes): send these bytes unasked right after the answer
+            to the next ``QP`` of that group move's last channel.
     """
 
     silent: bool = False
     version: bytes = b"SSC32-V2.50USB"
+    ver_reply: bytes | None = None
     garbage_q: int = 0
     drop_at_move: int | None = None
+    fault_at_move: int | None = None
+    lost_answers: int = 0
+    late_answers: int = 0
+    late_s: float = 0.0
+    stale_late: bool = False
+    garbage_answers: int = 0
+    garbage: bytes = b"\x87"
+    extra_answers: int = 0
+    extra: bytes = b"."
+    wrong_qp_us: int = 0
+    mute_qp: bool = False
+    moving_forever: bool = False
+    slow_s: float = 0.0
+    reset_at_move: int | None = None
+    banner_on_reset: bool = True
+    stray_after_move: tuple[int, bytes] | None = None
 
 
 _SERVO = re.compile(rb"#(\d+)P(\d+)(?:S(\d+))?")
 _TIME = re.compile(rb"T(\d+)\s*$")
+_QP = re.compile(rb"QP\s*(\d+)$")
 
 
 class FakeSSC32Board(FakeBoard):
     """An SSC-32U: ``#<ch>P<µs>…T<ms>``, ``Q``, ``QP<ch>`` and ``VER``, lines ending ``\\r``.
 
+    A timed move glides: until it ends ``Q`` answers ``+`` and ``QP`` the pulse on the
+    way, then ``.`` and the target. ``QP`` answers pulse // 10, 0 for a channel never
+    set (limp). Replies leave in order through an outbox, so a late one delays the rest.
+
     Attributes:
-        pulses_us: Current target pulse per channel [µs].
-        moves: (pulses, time_ms) of every group move, in order.
+        pulses_us: Target pulse per channel [µs].
+        moves: (pulses, time_ms) of every group move made, in order.
+        move_lines: Index in :attr:`received` of every group move line, made or not.
+        fault_line: Index in :attr:`received` of the line at which the first fault
+            struck (``None`` before).
+        resets: How many times it restarted.
     """
 
     terminator = b"\r"
+    tick_s = 0.002
 
     def __init__(self, faults: SSC32Faults | None = None):
         self.faults = faults or SSC32Faults()
         self.pulses_us: dict[int, int] = {}
         self.moves: list[tuple[dict[int, int], int | None]] = []
+        self.move_lines: list[int] = []
+        self.fault_line: int | None = None
+        self.resets = 0
+        self._from_us: dict[int, int] = {}
+        self._before_us: dict[int, int] = {}
+        self._move_start = 0.0
         self._move_end = 0.0
+        self._outbox: list[tuple[float, bytes]] = []
+        self._stray: tuple[int, bytes] | None = None  # (after QP of this channel, bytes)
+        self._lock = threading.Lock()
         super().__init__()
+
+    # ----------------------------------------------------------------- replies, in order
+
+    def emit(self, data: bytes, delay_s: float = 0.0) -> None:
+        """Send ``data`` after ``delay_s``, never before anything sent earlier."""
+        with self._lock:
+            due = time.monotonic() + delay_s
+            if self._outbox:
+                due = max(due, self._outbox[-1][0])
+            self._outbox.append((due, data))
+        self.on_tick()
+
+    def on_tick(self) -> None:
+        now = time.monotonic()
+        with self._lock:
+            while self._outbox and self._outbox[0][0] <= now:
+                _, data = self._outbox.pop(0)
+                self.send(data)
+
+    # ----------------------------------------------------------------- the board
+
+    def _armed(self) -> bool:
+        f = self.faults
+        return f.fault_at_move is None or len(self.move_lines) >= f.fault_at_move
+
+    def current_us(self, channel: int) -> int:
+        """The pulse channel ``channel`` outputs now, part-way through a timed move [µs]."""
+        target = self.pulses_us.get(channel, 0)
+        start = self._from_us.get(channel, target)
+        now = time.monotonic()
+        if now >= self._move_end or start == 0:
+            return target
+        progress = (now - self._move_start) / (self._move_end - self._move_start)
+        return round(start + (target - start) * progress)
+
+    def _mark_fault(self) -> None:
+        if self.fault_line is None:
+            self.fault_line = len(self.received) - 1
+
+    def _answer(self, byte: bytes, stale: bytes, tail: bytes = b"") -> None:
+        """Send one answer byte through the armed faults (``stale``: an earlier answer),
+        then ``tail`` in the same write."""
+        f = self.faults
+        if not self._armed():
+            self.emit(byte + tail)
+        elif f.lost_answers > 0:
+            f.lost_answers -= 1
+            self._mark_fault()
+        elif f.late_answers > 0:
+            f.late_answers -= 1
+            self._mark_fault()
+            self.emit((stale if f.stale_late else byte) + tail, f.late_s)
+        elif f.garbage_answers > 0:
+            f.garbage_answers -= 1
+            self._mark_fault()
+            self.emit(f.garbage + tail)
+        elif f.extra_answers > 0:
+            f.extra_answers -= 1
+            self._mark_fault()
+            self.emit(byte + f.extra + tail)
+        else:
+            self.emit(byte + tail)
+
+    def _restart(self) -> None:
+        self.resets += 1
+        self.pulses_us = {}
+        self._from_us = {}
+        self._move_end = 0.0
+        if self.faults.banner_on_reset:
+            self.emit(self.faults.version + b"\r")
 
     def on_line(self, line: bytes) -> None:
         f = self.faults
@@ -375,26 +526,62 @@ class FakeSSC32Board(FakeBoard):
         if f.silent or not text:
             return
         if text == b"VER":
-            self.send(f.version + b"\r")
+            self.emit(f.version + b"\r" if f.ver_reply is None else f.ver_reply)
         elif text == b"Q":
             if f.garbage_q > 0:
                 f.garbage_q -= 1
-                self.send(b"\x87")
-            else:
-                self.send(b"+" if time.monotonic() < self._move_end else b".")
-        elif text.startswith(b"QP"):
-            ch = int(text[2:].strip())
-            self.send(bytes([self.pulses_us.get(ch, 0) // 10]))
+                self.emit(b"\x87")
+                return
+            moving = time.monotonic() < self._move_end
+            if f.moving_forever and self._armed():
+                self._mark_fault()
+                moving = True
+            self._answer(b"+" if moving else b".", b"+")
+        elif _QP.match(text):
+            ch = int(_QP.match(text).group(1))  # type: ignore[union-attr]
+            if f.mute_qp and self._armed():
+                self._mark_fault()
+                return
+            us = self.current_us(ch)
+            if us and f.wrong_qp_us and self._armed():
+                self._mark_fault()
+                us += f.wrong_qp_us
+            stale = self._before_us.get(ch, 0)
+            tail = b""
+            if self._stray is not None and self._stray[0] == ch:
+                self._mark_fault()
+                tail, self._stray = self._stray[1], None
+            self._answer(bytes([max(0, min(255, us // 10))]), bytes([stale // 10]), tail)
         elif text.startswith(b"#"):
-            if f.drop_at_move == len(self.moves) + 1:
+            self.move_lines.append(len(self.received) - 1)
+            n = len(self.move_lines)
+            if f.drop_at_move == n:
+                self._mark_fault()
                 self.drop()
+                return
+            if f.reset_at_move == n:
+                self._mark_fault()
+                self._restart()
                 return
             move = {int(c): int(p) for c, p, _s in _SERVO.findall(text)}
             t = _TIME.search(text)
             time_ms = int(t.group(1)) if t else None
+            self._before_us = {ch: self.pulses_us.get(ch, 0) for ch in move}
+            self._from_us = {ch: self.current_us(ch) for ch in move}
             self.pulses_us.update(move)
             self.moves.append((move, time_ms))
-            self._move_end = time.monotonic() + (time_ms or 0) / 1000.0
+            self._move_start = time.monotonic()
+            self._move_end = self._move_start + (time_ms or 0) / 1000.0
+            if time_ms:
+                self._move_end += f.slow_s
+            if f.stray_after_move is not None and f.stray_after_move[0] == n:
+                self._stray = (max(move), f.stray_after_move[1])
+
+    def moves_after_fault(self) -> list[bytes]:
+        """Group move lines received after the line the faults started at (or any, if the
+        faults never started)."""
+        after = -1 if self.fault_line is None else self.fault_line
+        return [self.received[i] for i in self.move_lines if i > after]
 
 
 # --------------------------------------------------------------------------- the real firmware

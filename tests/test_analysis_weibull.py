@@ -1,4 +1,4 @@
-"""The Weibull fit recovers a known distribution (SPEC §5: scale 0.7059 cm, shape 2.045)."""
+"""The Weibull fit recovers a known distribution (paper §5: scale 0.7059 cm, shape 2.045)."""
 
 from __future__ import annotations
 

@@ -2,9 +2,12 @@
 
 import numpy as np
 import pytest
+from conftest import ROOT
 
+from mearm.config import load_config
 from mearm.exceptions import InvalidTargetError, TargetOutsideBoxError, UnreachableTargetError
 from mearm.kinematics import ArmModel, check_target, closed_form_for
+from mearm.kinematics.closed_form import JointLimitTargetError, SingularTargetError
 
 
 @pytest.fixture(scope="module")
@@ -41,7 +44,7 @@ def test_round_trip_over_reachable_box(model, config, closed_form):
         reached += 1
         assert model.within_limits(q)
         assert np.abs(model.fk_cm(q) - p).max() < 1e-9
-    assert reached > 1000 and unreachable > 100  # the box is partly out of reach (SPEC §3)
+    assert reached > 1000 and unreachable > 100  # the box is partly out of reach (paper §3)
 
 
 def test_home_pose_recovered(closed_form):
@@ -61,10 +64,22 @@ def test_too_far_is_reported(closed_form):
 def test_needs_joint_outside_limits(closed_form):
     # close in front of the base and high: the elbow would have to fold past the shoulder's limit
     with pytest.raises(
-        UnreachableTargetError,
+        JointLimitTargetError,
         match=r"needs shoulder = 169.09 deg, outside its limits \[30, 135\] deg",
-    ):
+    ) as exc:
         closed_form.solve([5, 25, 30])
+    err = exc.value
+    assert isinstance(err, UnreachableTargetError)  # callers catching that still do
+    assert (err.joint, err.lower, err.upper, err.unit) == ("shoulder", 30.0, 135.0, "deg")
+    assert err.value == pytest.approx(169.09, abs=0.01)
+
+
+def test_on_the_base_axis_is_singular():
+    """The MeArm v1's box holds the base axis, where the base angle is undefined."""
+    config = load_config(ROOT / "configs" / "sim_mearm_v1.yaml")
+    with pytest.raises(SingularTargetError, match="on the base axis") as exc:
+        closed_form_for(config.arm).solve([0.0, 0.0, 10.0])
+    assert isinstance(exc.value, UnreachableTargetError)
 
 
 def test_check_target_box_first(config, closed_form):

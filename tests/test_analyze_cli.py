@@ -281,3 +281,51 @@ def test_a_format_1_log_is_analysed_end_to_end(v1_log: Path, tmp_path: Path, cap
     assert a["table9"]["pick"]["green"] == {"successes": 0, "n": 1, "rate": 0.0}
     assert a["table8"]["xyz"]["max"] == pytest.approx(1.5)
     assert set(data["plots"]) == {"histogram", "success", "path3d", "joints"}
+
+
+# --------------------------------------------------------------------------- repeated trials
+
+
+def test_a_cut_off_attempt_that_was_run_again_is_left_out(log: Path, tmp_path: Path, capsys):
+    """Trial 0 cut off before its summary, then run again: only the complete one counts."""
+    lines = log.read_text().splitlines(keepends=True)
+    first_summary = next(i for i, line in enumerate(lines) if '"type":"summary"' in line)
+    rerun = tmp_path / "rerun.jsonl"
+    rerun.write_text("".join(lines[:first_summary] + lines))
+    assert main([str(rerun), "--json"]) == 0
+    captured = capsys.readouterr()
+    assert json.loads(captured.out)["analysis"]["routes"] == 240
+    assert captured.err.startswith("note: left out 1 cut-off attempt(s) of trial(s) 0")
+
+
+def test_two_runs_in_one_log_are_refused(log: Path, tmp_path: Path) -> None:
+    twice = tmp_path / "twice.jsonl"
+    twice.write_bytes(log.read_bytes() * 2)
+    with pytest.raises(RunLogError, match=r"trials 0, 1, 2, .* are complete more than once"):
+        main([str(twice)])
+
+
+# --------------------------------------------------------------------------- writing --out
+
+
+def test_report_and_plots_replace_old_ones_through_links(log: Path, tmp_path: Path, capsys):
+    """report.md linked elsewhere is written through the link; no temp file is left."""
+    out, kept = tmp_path / "report", tmp_path / "kept"
+    out.mkdir()
+    kept.mkdir()
+    (kept / "report.md").write_text("old")
+    (out / "report.md").symlink_to(kept / "report.md")
+    (out / "histogram.png").write_bytes(b"old png")
+    assert main([str(log), "--out", str(out)]) == 0
+    capsys.readouterr()
+    assert (out / "report.md").is_symlink()
+    assert "histogram.png" in (kept / "report.md").read_text()
+    assert (out / "histogram.png").read_bytes()[:8] == PNG_MAGIC
+    assert not [p for d in (out, kept) for p in d.iterdir() if p.name.endswith(".tmp")]
+
+
+def test_out_that_is_a_file_is_refused(log: Path, tmp_path: Path) -> None:
+    (tmp_path / "file").write_text("keep")
+    with pytest.raises(SystemExit) as e:
+        main([str(log), "--out", str(tmp_path / "file")])
+    assert e.value.code == 2 and (tmp_path / "file").read_text() == "keep"

@@ -1,4 +1,4 @@
-"""Camera → table calibration: the paper's rig, fitting, degenerate point sets (SPEC §4)."""
+"""Camera → table calibration: the paper's rig, fitting, degenerate point sets (paper §4)."""
 
 from __future__ import annotations
 
@@ -25,7 +25,7 @@ def field_grid_px(n: int = 41) -> np.ndarray:
 
 
 def test_lab_calibration_is_the_papers_formula() -> None:
-    """x = 0.0625·u − 20.5, y = 59.0 − 0.0625·v (SPEC §4)."""
+    """x = 0.0625·u − 20.5, y = 59.0 − 0.0625·v (paper §4)."""
     px = field_grid_px(9)
     expected = np.stack([0.0625 * px[:, 0] - 20.5, 59.0 - 0.0625 * px[:, 1]], axis=1)
     np.testing.assert_allclose(LAB.pixel_to_table(px), expected, atol=1e-12)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import importlib.util
+import os
 import re
 import struct
 import subprocess
@@ -180,9 +181,9 @@ def test_the_script_runs(tmp_path: Path) -> None:
     [
         (point_args(CORNER_POINTS[:3]), "at least 4 point pairs, got 3"),
         (point_args([*CORNER_POINTS[:3], "320,0:0,59"]), "lie on one line"),
-        (["--point", "1,2,3:4,5"], "--point pixel U,V needs 2 finite numbers"),
+        (["--point", "1,2,3:4,5"], "--point pixel U,V needs 2 numbers within ±65535"),
         (["--point", "1,2"], "--point wants U,V:X,Y"),
-        (["--image", "nope.png", "--marker", "0:1,2"], "nope.png: no such file"),
+        (["--image", "nope.png", "--marker", "0:1,2"], "nope.png: image file not found"),
         (["--marker", "0:1,2"], "--marker needs --image"),
         ([], "give either --image with --marker, or --point"),
     ],
@@ -221,7 +222,7 @@ def test_a_failed_write_keeps_the_old_file(tmp_path: Path, monkeypatch) -> None:
     def refuse(src, dst):
         raise OSError(28, "No space left on device")
 
-    monkeypatch.setattr(calibrate.os, "replace", refuse)
+    monkeypatch.setattr(os, "replace", refuse)
     with pytest.raises(Exception, match="No space left"):
         calibrate.main(["--config", str(path), *point_args()])
     assert path.read_text() == text

@@ -151,13 +151,14 @@ def test_bad_set_is_one_line(override, message):
 
 
 def test_missing_file(tmp_path):
-    with pytest.raises(ConfigError, match="nope.yaml: file not found"):
+    with pytest.raises(ConfigError, match="nope.yaml: config file not found"):
         load_config(tmp_path / "nope.yaml")
 
 
 def test_malformed_yaml_gives_line(tmp_path):
     with pytest.raises(
-        ConfigError, match=r"malformed YAML at line \d+, column \d+: expected ',' or ']'"
+        ConfigError,
+        match=r"malformed YAML at line \d+, column \d+: (did not find )?expected ',' or ']'",
     ):
         load_config(_write(tmp_path, "controller:\n  kp: [0.1\n"))
 
@@ -184,8 +185,12 @@ def test_nan_rejected():
         config_from_dict({"controller": {"kp": float("nan")}})
 
 
-def test_empty_file_is_the_default(tmp_path):
-    assert load_config(_write(tmp_path, "")) == Config()
+def test_empty_file_is_refused(tmp_path):
+    """An empty file is a mistake, not the simulated rig; ``{}`` asks for the defaults."""
+    for text in ("", "# only a comment\n", "---\n"):
+        with pytest.raises(ConfigError, match="empty config: the file holds no YAML document"):
+            load_config(_write(tmp_path, text))
+    assert load_config(_write(tmp_path, "{}\n")) == Config()
 
 
 def test_cli_bad_config_exits_2_with_one_line(tmp_path):
@@ -196,3 +201,20 @@ def test_cli_bad_config_exits_2_with_one_line(tmp_path):
     lines = r.stderr.strip().splitlines()
     assert len(lines) == 1 and "controller.kpp: unknown key" in lines[0]
     assert "Traceback" not in r.stderr
+
+
+@pytest.mark.bad_input
+@pytest.mark.parametrize(
+    "port", ["spy:///dev/ttyACM0?file=/tmp/victim", "hwgrep://.*", "alt:///dev/ttyS0?class=X"]
+)
+def test_a_serial_port_outside_the_allow_list_is_refused_at_load(tmp_path, port):
+    """Refused when the config loads (exit 2, one line), before any port is opened."""
+    from badinput import check_bad_input
+
+    victim = tmp_path / "victim"
+    victim.write_text("kept")
+    out = check_bad_input(
+        ["sort", "--set", "servo.backend=serial", "--set", f"servo.port={port}"],
+        keep=[victim],
+    )
+    assert "servo.port" in out.line and "socket://" in out.line

@@ -145,10 +145,10 @@ def test_size_mismatch_warns(capsys, tmp_path: Path) -> None:
 @pytest.mark.parametrize(
     ("args", "words"),
     [
-        (["{missing}"], "missing.png: no such file"),
-        (["{garbage}"], "garbage.png: cannot read it as an image"),
-        (["{layout}", "{missing}"], "missing.png: no such file"),
-        (["{folder}"], "not a file"),
+        (["{missing}"], "missing.png: image file not found"),
+        (["{garbage}"], "garbage.png: not an image of a known format (PNG, JPEG"),
+        (["{layout}", "{missing}"], "missing.png: image file not found"),
+        (["{folder}"], "is a directory, not an image file"),
         ([], "give IMAGE paths or --camera"),
         (["{layout}", "--camera"], "give IMAGE paths or --camera"),
         (["{layout}", "--annotate", "out.xyz"], "unknown image type"),
@@ -176,4 +176,4 @@ def test_module_runs_as_a_script(images: list[Path]) -> None:
         capture_output=True, text=True, timeout=60, cwd=ROOT,
     )  # fmt: skip
     assert result.returncode == 2 and result.stdout == ""
-    assert result.stderr.strip().endswith("empty.pngx: no such file")
+    assert result.stderr.strip().endswith("empty.pngx: image file not found")

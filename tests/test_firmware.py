@@ -161,6 +161,9 @@ def test_host_drives_the_firmware(chip):
         assert status.mode == "RUN" and status.pulses_us == (*HOME_PULSES[:4], 1900)
         bus.stop()
         assert bus.query().mode == "HOLD"
+        held = wait_for_pulses(chip, chip.now_ms + 25)  # stop() changes no pulse
+        for ch, expected in enumerate((*HOME_PULSES[:4], 1900)):
+            assert abs(statistics.median(held[ch]) - expected) <= 1.0, (ch, held[ch])
 
 
 def _exchange(port: str, lines: list[bytes]) -> list[bytes]:

@@ -4,7 +4,7 @@ from conftest import run_cli
 
 
 def test_home_json():
-    """python -m mearm.fk --joints 120,93,-132 gives SPEC §2's check value."""
+    """python -m mearm.fk --joints 120,93,-132 gives paper §2's check value."""
     r = run_cli(
         "-m", "mearm.fk", "--config", "configs/lab.yaml", "--joints", "120,93,-132", "--json"
     )

@@ -103,6 +103,18 @@ def test_query_and_stop(board):
         assert board.received[-2].split(b"*")[0].endswith(b" S")
 
 
+def test_stop_holds_and_commands_no_move(board):
+    """stop() sends S alone: no M, no pulse changed, the confirmed state unchanged."""
+    with connected(board) as bus:
+        for cmd in route(3):
+            bus.move(cmd)
+        moves, pulses = list(board.moves), list(board.pulses_us)
+        bus.stop()
+        assert board.received[-1] == encode_command(4, "S")[:-1]
+        assert board.moves == moves and board.pulses_us == pulses == pulses_of(route(3)[-1])
+        assert bus.state == ArmState.from_command(route(3)[-1]) and board.mode == "HOLD"
+
+
 def test_watchdog_hold_notice_is_tolerated():
     """The board's '! HOLD' notice between commands is logged, not mistaken for a reply."""
     with FakeMearmBoard(hold_timeout_s=0.02) as board, connected(board) as bus:

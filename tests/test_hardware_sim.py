@@ -99,6 +99,16 @@ def test_starts_at_home_and_moves():
     np.testing.assert_allclose(bus.ee_cm, ee_from_joints_cm(MODEL, bus.actual_joints))
 
 
+def test_stop_holds_the_confirmed_pose():
+    """stop() changes neither the confirmed state nor the simulated arm's pose or grip."""
+    bus = sim(error_model={"noise_std_deg": 0.5, "seed": 7})
+    bus.move(ArmCommand(above(-0.40, 42.01, 12.76), {"gripper_arm": GRIP_DEG}, True))
+    state, joints, tool = bus.state, dict(bus.actual_joints), dict(bus.actual_tool)
+    bus.stop()
+    assert bus.state == state and bus.actual_joints == joints and bus.actual_tool == tool
+    assert bus.gripper_closed and bus.fault is None
+
+
 def test_limits_refused_in_sim():
     bus = sim()
     with pytest.raises(JointLimitError):
@@ -231,13 +241,13 @@ def test_sim_does_not_pace_by_default():
 
 
 def test_quantization_error_degree_vs_microsecond(config):
-    """SPEC §5: whole-degree commands cost a few mm of TCP error, 1 µs pulses ~10x less.
+    """paper §5: whole-degree commands cost a few mm of TCP error, 1 µs pulses ~10x less.
 
     Measured over 1000 random reachable poses (same poses for both).
     """
     degree = quantization_ee_error_cm(config, "degree", n=1000, seed=1)
     micro = quantization_ee_error_cm(config, "microsecond", n=1000, seed=1)
-    assert 0.2 < degree.mean() < 0.6  # "about 0.4 cm" (SPEC §5)
+    assert 0.2 < degree.mean() < 0.6  # "about 0.4 cm" (paper §5)
     assert degree.max() < 1.2  # never alone enough to miss a pick
     ratio = micro.mean() / degree.mean()
     assert 0.07 < ratio < 0.14

@@ -1,4 +1,4 @@
-"""PD-PIJ: the algorithm as SPEC §3 states it, its record, its limits and its errors."""
+"""PD-PIJ: the algorithm as paper §3 states it, its record, its limits and its errors."""
 
 import json
 from pathlib import Path
@@ -32,13 +32,26 @@ from mearm.ik.bounded import bounded_lstsq
 from mearm.ik.reference import numpy_port_solve
 from mearm.kinematics import ArmModel, check_target, closed_form_for
 
-M1 = (-10.99, 49.70, 12.76)  # SPEC §4, the first pick
+M1 = (-10.99, 49.70, 12.76)  # paper §4, the first pick
 #: From home this target needs θ3 to unfold from −132° to −78°; the paper's 4-joint step
 #: folds it towards −160° instead (found by random search, see test_safeguard_*).
 FOLDING_TARGET = (1.87477819, 23.55742561, 59.09713466)
 
 
 ROOT = Path(__file__).resolve().parent.parent
+#: The keys of IKResult.summary(), the CLI's JSON record.
+SUMMARY_KEYS = {
+    "status",
+    "method",
+    "failure_kind",
+    "failure",
+    "iterations",
+    "initial_error_cm",
+    "final_error_cm",
+    "final_approach_error_deg",
+    "joints",
+    "ee_cm",
+}
 
 
 @pytest.fixture(scope="module")
@@ -126,17 +139,12 @@ def test_result_record(model, config):
     assert result.final_error_cm == result.error_path_cm[-1]
     with pytest.raises(ValueError):
         result.q_path[0, 0] = 1.0  # read-only: a record, not a buffer
-    assert set(result.summary()) == {
-        "status",
-        "iterations",
-        "initial_error_cm",
-        "final_error_cm",
-        "final_approach_error_deg",
-        "joints",
-        "ee_cm",
-    }
+    assert set(result.summary()) == SUMMARY_KEYS
     assert list(result.summary()["joints"]) == ["base", "shoulder", "elbow", "wrist"]
     assert result.final_approach_error_deg is None and result.approach is None
+    assert result.method == "direct" and result.recovered_from is None
+    assert result.search_iterations == 0 and result.failure is None
+    assert result.summary()["method"] == "direct" and result.summary()["failure_kind"] is None
 
 
 def ee_home(model):
@@ -151,9 +159,12 @@ def test_start_may_be_three_angles(model, config):
 
 
 def test_max_iterations_status(model, config):
+    """The cap binds the recovery too: five updates reach nowhere, and the record says so."""
     result = solver(model, config, max_iterations=5).solve(model.home, M1)
     assert result.status == "max_iterations" and not result.converged
     assert result.iterations == 5 and len(result.q_path) == 6
+    assert result.method == "direct" and result.failure.kind == "stalled"
+    assert result.failure.message.startswith("the solver reached its iteration cap (5) ")
 
 
 # --------------------------------------------------------------------------- limits
@@ -165,6 +176,7 @@ def test_safeguard_turns_a_stall_into_convergence(model, config):
     bare = solver(model, config, mode="paper", safeguard=False).solve(model.home, FOLDING_TARGET)
     assert bare.status == "stalled" and bare.blocked_steps > 0
     assert bare.final_error_cm > 10
+    assert bare.method == "direct"  # safeguard false: the bare algorithm, no recovery
     guarded = solver(model, config, mode="paper").solve(model.home, FOLDING_TARGET)
     assert guarded.converged and guarded.blocked_steps > 0  # it slid along the limit
     assert np.all(np.diff(guarded.error_path_cm) < 0)
@@ -367,15 +379,7 @@ def test_cli_json_issue_example():
     )  # fmt: skip
     assert r.returncode == 0, r.stderr
     out = json.loads(r.stdout)
-    assert set(out) == {
-        "status",
-        "iterations",
-        "initial_error_cm",
-        "final_error_cm",
-        "final_approach_error_deg",
-        "joints",
-        "ee_cm",
-    }
+    assert set(out) == SUMMARY_KEYS
     assert out["status"] == "converged" and out["final_error_cm"] < 0.0316
     joints = out["joints"]
     assert list(joints) == ["base", "shoulder", "elbow", "wrist"]

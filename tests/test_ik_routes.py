@@ -1,4 +1,4 @@
-"""The paper's demo (SPEC §1, §4): its 24 routes, straight paths, and the two tools."""
+"""The paper's demo (paper §1, §4): its 24 routes, straight paths, and the two tools."""
 
 import json
 

@@ -16,15 +16,20 @@ from mearm.config import Config
 from mearm.exceptions import RunLogError, RunLogFormatError
 from mearm.runlog import (
     FORMAT_VERSION,
+    MAX_LINE_BYTES,
     FaultRecord,
     HeaderRecord,
+    RepeatedTrialError,
     RouteRecord,
     RunLog,
     SkipRecord,
     SummaryRecord,
+    end_line,
+    find_torn_end,
     library_versions,
     parse_record,
     read_runlog,
+    set_aside_torn_end,
     upgrade_v1_record,
 )
 
@@ -164,6 +169,39 @@ def test_a_torn_log_is_not_appended_to(tmp_path: Path) -> None:
     with pytest.raises(RunLogError, match="middle of a line"):
         RunLog(path)
     assert path.read_bytes() == before
+
+
+def test_opening_for_append_never_truncates(tmp_path: Path) -> None:
+    """Opening and closing an existing log, with or without writing, keeps every byte."""
+    path = tmp_path / "run.jsonl"
+    with RunLog(path) as log:
+        write_trial(log, trial=0)
+    before = path.read_bytes()
+    RunLog(path).close()
+    assert path.read_bytes() == before
+    with pytest.raises(RunLogError, match="exists"):
+        RunLog(path, exclusive=True)
+    assert path.read_bytes() == before
+
+
+def test_a_symlinked_log_is_appended_through_the_link(tmp_path: Path) -> None:
+    real = tmp_path / "real.jsonl"
+    with RunLog(real) as log:
+        write_trial(log, trial=0)
+    link = tmp_path / "link.jsonl"
+    link.symlink_to(real)
+    with RunLog(link) as log:
+        write_trial(log, trial=1)
+    assert link.is_symlink() and len(read_runlog(real).trials) == 2
+
+
+@pytest.mark.parametrize("kind", ["folder", "device"])
+def test_a_path_that_is_not_a_file_is_refused(tmp_path: Path, kind: str) -> None:
+    path = tmp_path / "logs" if kind == "folder" else Path("/dev/null")
+    if kind == "folder":
+        path.mkdir()
+    with pytest.raises(RunLogError, match="not a regular file"):
+        RunLog(path)
 
 
 def test_records_need_a_header_first(tmp_path: Path) -> None:
@@ -340,6 +378,18 @@ def test_blank_lines_are_ignored(good_log: Path) -> None:
     good_log.write_text("\n".join([lines[0], "", *lines[1:]]) + "\n\n")
     contents = read_runlog(good_log)
     assert contents.complete and len(contents.records) == 7
+
+
+def test_a_line_longer_than_the_limit_is_not_read_whole(good_log: Path) -> None:
+    with good_log.open("ab") as f:
+        f.write(b'{"type": "' + b"x" * (MAX_LINE_BYTES + 10) + b'"}\n')
+    expect_problem(good_log, 8, "longer than 4 MiB")
+
+
+def test_deeply_nested_json_is_a_bad_line(good_log: Path) -> None:
+    with good_log.open("ab") as f:
+        f.write(b"[" * 100_000 + b"]" * 100_000 + b"\n")
+    expect_problem(good_log, 8, "nested too deeply")
 
 
 def test_missing_file_is_an_error(tmp_path: Path) -> None:
@@ -605,3 +655,114 @@ def test_format_1_record_before_any_header(tmp_path: Path) -> None:
     path = tmp_path / "old.jsonl"
     path.write_text(json.dumps(V1_ROUTE) + "\n")
     expect_problem(path, 1, "route record before any header")
+
+
+# --------------------------------------------------------------------------- torn ends
+
+
+def test_a_torn_end_is_found_with_its_line(good_log: Path) -> None:
+    assert find_torn_end(good_log) is None
+    size = good_log.stat().st_size
+    with good_log.open("ab") as f:
+        f.write(b'{"type":"rou')
+    torn = find_torn_end(good_log)
+    assert torn is not None
+    assert (torn.offset, torn.line, torn.data) == (size, 8, b'{"type":"rou')
+
+
+def test_setting_a_torn_end_aside_keeps_its_bytes_and_the_log_appendable(good_log: Path) -> None:
+    """The fragment moves to a side file; the log is its whole lines again; nothing lost."""
+    whole = good_log.read_bytes()
+    with good_log.open("ab") as f:
+        f.write(b'{"type":"route","tri\xff')
+    torn = find_torn_end(good_log)
+    assert torn is not None
+    side = set_aside_torn_end(good_log, torn)
+    assert side == good_log.with_name(f"run.jsonl.torn-{len(whole)}")
+    assert side.read_bytes() == b'{"type":"route","tri\xff'
+    assert good_log.read_bytes() == whole
+    with RunLog(good_log) as log:  # appendable again
+        write_trial(log, trial=1)
+    assert read_runlog(good_log).complete
+
+
+def test_a_side_file_name_in_use_is_not_overwritten(good_log: Path) -> None:
+    with good_log.open("ab") as f:
+        f.write(b"partial")
+    torn = find_torn_end(good_log)
+    assert torn is not None
+    taken = good_log.with_name(f"run.jsonl.torn-{torn.offset}")
+    taken.write_bytes(b"something else")
+    side = set_aside_torn_end(good_log, torn)
+    assert side.name.endswith("-2") and side.read_bytes() == b"partial"
+    assert taken.read_bytes() == b"something else"
+
+
+def test_a_log_changed_meanwhile_is_not_cut(good_log: Path) -> None:
+    with good_log.open("ab") as f:
+        f.write(b"partial")
+    torn = find_torn_end(good_log)
+    assert torn is not None
+    with good_log.open("ab") as f:
+        f.write(b" and more")
+    before = good_log.read_bytes()
+    with pytest.raises(RunLogError, match="changed"):
+        set_aside_torn_end(good_log, torn)
+    assert good_log.read_bytes() == before
+
+
+def test_end_line_completes_a_whole_last_record(good_log: Path) -> None:
+    good_log.write_bytes(good_log.read_bytes()[:-1])
+    assert read_runlog(good_log).complete  # a whole record without its newline reads
+    end_line(good_log)
+    assert find_torn_end(good_log) is None and read_runlog(good_log).complete
+
+
+# --------------------------------------------------------------------------- repeated trials
+
+
+def test_a_cut_off_attempt_is_superseded_by_the_complete_one(tmp_path: Path) -> None:
+    path = tmp_path / "run.jsonl"
+    with RunLog(path) as log:
+        write_trial(log, trial=0)
+        log.header(Config(), trial=1, seed=7)  # cut off: no summary
+        log.route(**route_fields(trial=1))
+        log.header(Config(), trial=1, seed=7)  # cut off again
+        write_trial(log, trial=1)
+    contents = read_runlog(path)
+    assert [t.number for t in contents.trials] == [0, 1, 1, 1]
+    assert [t.line for t in contents.superseded] == [6, 8]
+    latest = contents.latest()
+    assert [(t.number, t.complete) for t in latest.trials] == [(0, True), (1, True)]
+    assert len(latest.routes) == 4 and len(latest.records) == 10
+    assert all(r.trial in (0, 1) for r in latest.records)
+
+
+def test_without_a_complete_attempt_the_last_one_is_kept(tmp_path: Path) -> None:
+    path = tmp_path / "run.jsonl"
+    with RunLog(path) as log:
+        for _ in range(2):
+            log.header(Config(), trial=3, seed=7)
+            log.route(**route_fields(trial=3))
+    latest = read_runlog(path).latest()
+    assert [t.line for t in latest.trials] == [3] and len(latest.routes) == 1
+
+
+def test_sort_runs_are_never_superseded(tmp_path: Path) -> None:
+    path = tmp_path / "run.jsonl"
+    with RunLog(path) as log:
+        write_trial(log, trial=None)
+        write_trial(log, trial=None)
+    contents = read_runlog(path)
+    assert contents.superseded == () and contents.latest() is contents
+
+
+def test_a_trial_complete_twice_is_refused_naming_it(tmp_path: Path) -> None:
+    path = tmp_path / "run.jsonl"
+    with RunLog(path) as log:
+        for trial in (0, 1, 0, 1, 2):
+            write_trial(log, trial=trial)
+    with pytest.raises(RepeatedTrialError, match=r"trials 0, 1 are complete more than once") as e:
+        read_runlog(path).latest()
+    assert e.value.lines == {0: (1, 11), 1: (6, 16)}
+    assert "trial 0 at lines 1 and 11" in str(e.value)

@@ -32,7 +32,8 @@ def test_cli_sorts_the_paper_layout(tmp_path):
     log = tmp_path / "run.jsonl"
     r = run_cli("-m", "mearm.sort", "--config", "configs/sim.yaml", "--log", str(log))
     assert r.returncode == 0, r.stderr
-    assert "red          4        0" in r.stdout and "blue         4        0" in r.stdout
+    assert r.stdout.splitlines()[-1] == "sorted 12 of 12 objects"
+    assert "red          4       4     0" in r.stdout and "blue         4       4     0" in r.stdout
     contents = read_runlog(log)
     assert contents.problem is None and contents.complete
     routes = contents.routes
@@ -46,6 +47,7 @@ def test_cli_sorts_the_paper_layout(tmp_path):
         assert nxt.start_joints == pytest.approx(prev.end_joints, abs=1e-9)
     summary = contents.trials[0].summary
     assert summary.sorted == {"red": 4, "green": 4, "blue": 4} and summary.ok
+    assert summary.objects == {"red": 4, "green": 4, "blue": 4} and summary.left == {}
 
 
 @pytest.mark.parametrize("seed", range(20))
@@ -299,12 +301,13 @@ def test_a_table_that_never_clears_is_reported(config):
 
 
 def test_camera_that_cannot_open_is_logged(tmp_path):
-    """No camera at all: exit 1 with one line, and the log says why the sort never started."""
+    """No camera at all: found before any motion, so exit 2 with one line; the log says why
+    the sort never started."""
     cfg = tmp_path / "nocam.yaml"
     cfg.write_text("camera:\n  kind: device\n  path: /dev/nonexistent-camera\n")
     log = tmp_path / "run.jsonl"
     r = run_cli("-m", "mearm.sort", "--config", str(cfg), "--log", str(log))
-    assert r.returncode == 1
+    assert r.returncode == 2
     lines = r.stderr.strip().splitlines()
     assert len(lines) == 1 and "camera" in lines[0], r.stderr
     trial = read_runlog(log).trials[0]

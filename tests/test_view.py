@@ -174,6 +174,87 @@ def test_view_page_is_served(view: ArmView):
     assert b"MeshCat" in reply
 
 
+def _status(port: int, head: str) -> str:
+    """The status line the server answers a raw request with."""
+    with socket.create_connection(("127.0.0.1", port), timeout=5) as s:
+        s.sendall(head.encode("latin-1") + b"\r\n")
+        reply = s.recv(4096)
+    return reply.split(b"\r\n", 1)[0].decode("latin-1")
+
+
+UPGRADE = (
+    "Upgrade: websocket\r\nConnection: Upgrade\r\n"
+    "Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nSec-WebSocket-Version: 13\r\n"
+)
+
+
+@pytest.mark.parametrize(
+    ("host", "origin"),
+    [
+        ("evil.example:{port}", None),  # DNS rebinding: the page's own name, our address
+        ("evil.example", None),
+        ("127.0.0.1.evil.example:{port}", None),
+        ("localhost.:{port}", None),
+        ("127.0.0.1:{other}", None),  # another port's name
+        ("", None),
+        ("127.0.0.1:{port}", "http://evil.example"),
+        ("127.0.0.1:{port}", "http://evil.example:{port}"),
+        ("127.0.0.1:{port}", "null"),
+        ("127.0.0.1:{port}", "https://127.0.0.1:{port}"),
+        ("127.0.0.1:{port}", "http://127.0.0.1:{other}"),
+        ("127.0.0.1:{port}", "http://127.0.0.1"),  # port 80
+        ("127.0.0.1:{port}", "http://user@127.0.0.1:{port}"),
+    ],
+)
+@pytest.mark.parametrize("path", ["/static/", "/static/main.min.js", "/", "/nothing-here"])
+def test_a_foreign_host_or_origin_gets_403(view: ArmView, host, origin, path):
+    """Every page, file and 404 answers 403 to a Host or Origin that is not this server."""
+    p, other = view.port, view.port + 1
+    head = f"GET {path} HTTP/1.1\r\nHost: {host.format(port=p, other=other)}\r\n"
+    if origin is not None:
+        head += f"Origin: {origin.format(port=p, other=other)}\r\n"
+    assert _status(p, head + "Connection: close\r\n") == "HTTP/1.1 403 Forbidden"
+
+
+@pytest.mark.parametrize(
+    ("host", "origin"),
+    [
+        ("evil.example:{port}", None),
+        ("evil.example:{port}", "http://evil.example:{port}"),
+        ("127.0.0.1:{port}", "http://evil.example"),
+        ("localhost:{port}", "http://attacker.test:{port}"),
+    ],
+)
+def test_a_foreign_websocket_upgrade_gets_403(view: ArmView, host, origin):
+    p = view.port
+    head = f"GET / HTTP/1.1\r\nHost: {host.format(port=p)}\r\n"
+    if origin is not None:
+        head += f"Origin: {origin.format(port=p)}\r\n"
+    assert _status(p, head + UPGRADE) == "HTTP/1.1 403 Forbidden"
+    assert view._server.browsers == 0
+
+
+@pytest.mark.parametrize(
+    ("host", "origin"),
+    [
+        ("127.0.0.1:{port}", "http://127.0.0.1:{port}"),
+        ("localhost:{port}", "http://localhost:{port}"),
+        ("[::1]:{port}", "http://[::1]:{port}"),
+        ("LOCALHOST:{port}", None),
+        ("127.0.0.1", None),
+    ],
+)
+def test_the_loopback_names_are_served(view: ArmView, host, origin):
+    """The page and the WebSocket answer requests for the loopback server."""
+    p = view.port
+    head = f"GET /static/ HTTP/1.1\r\nHost: {host.format(port=p)}\r\n"
+    if origin is not None:
+        head += f"Origin: {origin.format(port=p)}\r\n"
+    assert _status(p, head + "Connection: close\r\n") == "HTTP/1.1 200 OK"
+    upgrade = head.replace("/static/", "/", 1) + UPGRADE
+    assert _status(p, upgrade) == "HTTP/1.1 101 Switching Protocols"
+
+
 def test_port_in_use_is_a_named_error(view: ArmView, model: ArmModel):
     """Asking for a taken port raises ViewPortError naming it; nothing is left running."""
     with pytest.raises(ViewPortError, match=f"port {view.port} on 127.0.0.1") as err:

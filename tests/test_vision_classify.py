@@ -1,4 +1,4 @@
-"""Pixel classification: the bands as printed (SPEC §4), exactly, and the fast path."""
+"""Pixel classification: the bands as printed (paper §4), exactly, and the fast path."""
 
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ from mearm.exceptions import ConfigError
 from mearm.vision.classify import PixelClassifier, classify_exact, hsv_exact
 from mearm.vision.thresholds import MAX_CLASSES, Thresholds
 
-#: The paper's printed bands with its floors, S, V ≥ 0.1 (SPEC §4).
+#: The paper's printed bands with its floors, S, V ≥ 0.1 (paper §4).
 PAPER_VISION = VisionConfig(saturation_min=0.1, value_min=0.1)
 PAPER = Thresholds.from_config(paper_classes(), PAPER_VISION)
 DEFAULT = Thresholds.from_config(default_classes(), VisionConfig())
@@ -53,7 +53,7 @@ PAPER_EDGES = [
 
 @pytest.mark.parametrize(("px", "hue", "code"), PAPER_EDGES)
 def test_paper_bands_as_printed(px: tuple[int, int, int], hue: float, code: int) -> None:
-    """Each band edge of SPEC §4 is inclusive, and a hair outside is out, on both paths."""
+    """Each band edge of paper §4 is inclusive, and a hair outside is out, on both paths."""
     frame = np.array([[px]], np.uint8)
     h, s, v = hsv_exact(frame)
     assert h[0, 0] == pytest.approx(hue, abs=1e-12)
@@ -73,7 +73,7 @@ def test_paper_bands_as_printed(px: tuple[int, int, int], hue: float, code: int)
     ],
 )
 def test_paper_floors_as_printed(px: tuple[int, int, int], code: int) -> None:
-    """S and V must lie in [0.1, 1] (SPEC §4)."""
+    """S and V must lie in [0.1, 1] (paper §4)."""
     frame = np.array([[px]], np.uint8)
     assert classify_exact(frame, PAPER)[0, 0] == code
     assert PixelClassifier(PAPER).classify(frame)[0, 0] == code

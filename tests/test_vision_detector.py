@@ -1,4 +1,4 @@
-"""The detector on rendered scenes of the paper's layout (SPEC §4) and its error paths."""
+"""The detector on rendered scenes of the paper's layout (paper §4) and its error paths."""
 
 from __future__ import annotations
 
@@ -70,7 +70,7 @@ def match(found: list[Detection], objects=LAYOUT, tol_cm: float = 0.1) -> float:
 @pytest.mark.parametrize("name", list(CONDITIONS))
 @pytest.mark.parametrize("with_distractors", [False, True])
 def test_paper_layout_found_within_a_millimetre(name: str, with_distractors: bool) -> None:
-    """Every object found with its colour within 0.1 cm, nothing else (SPEC §4 layout)."""
+    """Every object found with its colour within 0.1 cm, nothing else (paper §4 layout)."""
     extras = DISTRACTORS if with_distractors else ()
     frame = render(extras=extras, **CONDITIONS[name])
     found = detector().detect(frame)
@@ -204,7 +204,7 @@ def test_regions_under_the_minimum_area_are_dropped() -> None:
 
 
 def test_paper_bands_misread_real_colours() -> None:
-    """As printed (SPEC §4): real blue (231°) is missed, purple (288°) is called red."""
+    """As printed (paper §4): real blue (231°) is missed, purple (288°) is called red."""
     paper = detector(paper_classes(), PAPER_VISION)
     frame = render([("red", -5.0, 45.0), ("green", 0.0, 45.0), ("blue", 5.0, 45.0)])
     assert [d.color for d in paper.detect(frame)] == ["red", "green"]

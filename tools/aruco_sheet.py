@@ -10,6 +10,7 @@ from the robot), and measure each centre's (x, y) in the base frame [cm].
 
 from __future__ import annotations
 
+import argparse
 import struct
 import sys
 import zlib
@@ -21,10 +22,13 @@ import numpy as np
 
 from mearm.cli import ArgumentParser, run
 from mearm.exceptions import MearmError
+from mearm.fileio import write_atomic
 from mearm.vision.aruco import DEFAULT_DICTIONARY, marker_image
 
 A4_CM = (21.0, 29.7)
 CM_PER_INCH = 2.54
+#: Printable marker sides [cm]: smaller is not detectable, larger does not fit on A4.
+SIDE_CM = (1.0, 20.0)
 
 
 def marker_sheet(
@@ -72,11 +76,12 @@ def png_with_dpi(image: np.ndarray, dpi: int) -> bytes:
 
 
 def _ids(text: str) -> list[int]:
-    try:
-        ids = [int(v) for v in text.split(",")]
-    except ValueError:
-        raise ValueError(f"--ids must be comma-separated integers, got {text!r}") from None
-    return ids
+    items = [v.strip() for v in text.split(",")]
+    if not all(v.isascii() and v.isdigit() and len(v) <= 6 for v in items) or len(items) > 64:
+        raise argparse.ArgumentTypeError(
+            f"--ids must be up to 64 comma-separated integers 0 … 999999, got {text[:40]!r}"
+        )
+    return [int(v) for v in items]
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -87,17 +92,21 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--dpi", type=int, default=300, help="print resolution (300)")
     parser.add_argument("--dictionary", default=DEFAULT_DICTIONARY, help="ArUco dictionary")
     args = parser.parse_args(argv)
-    if not args.side_cm > 0:
-        parser.error(f"--side-cm must be positive, got {args.side_cm:g}")
+    if not SIDE_CM[0] <= args.side_cm <= SIDE_CM[1]:
+        parser.error(
+            f"--side-cm must be in [{SIDE_CM[0]:g}, {SIDE_CM[1]:g}] cm, got {args.side_cm:g}"
+        )
     if not 72 <= args.dpi <= 2400:
         parser.error(f"--dpi must be in [72, 2400], got {args.dpi}")
     if len(set(args.ids)) != len(args.ids):
         parser.error(f"--ids repeat: {args.ids}")
     if args.output.suffix.lower() != ".png":
         parser.error(f"--output must be a .png file, got {args.output}")
+    if args.output.exists() and not args.output.is_file():
+        parser.error(f"--output {args.output}: exists and is not a regular file")
     page = marker_sheet(args.ids, args.side_cm, args.dpi, args.dictionary)
     try:
-        args.output.write_bytes(png_with_dpi(page, args.dpi))
+        write_atomic(args.output, png_with_dpi(page, args.dpi))
     except OSError as exc:
         raise MearmError(f"cannot write {args.output}: {exc.strerror or exc}") from None
     print(f"wrote {args.output}: print at 100 % and check the 5 cm bar", file=sys.stderr)

@@ -23,9 +23,8 @@ from __future__ import annotations
 
 import argparse
 import io
-import os
+import stat
 import sys
-import tempfile
 from collections.abc import Sequence
 from datetime import date
 from pathlib import Path
@@ -35,18 +34,28 @@ from ruamel.yaml.comments import CommentedMap, CommentedSeq
 
 from mearm.cli import ArgumentParser, run
 from mearm.config import config_from_dict
-from mearm.exceptions import ConfigError, MearmError
+from mearm.config.base import MAX_LENGTH_CM, short_repr
+from mearm.exceptions import ConfigError, InputFileError, MearmError
+from mearm.fileio import write_atomic
 from mearm.vision.aruco import DEFAULT_DICTIONARY, calibration_from_markers
 from mearm.vision.calibration import Calibration
+from mearm.vision.image import read_image
+from mearm.yamlio import load_yaml_text, read_text_file
+
+#: Largest pixel coordinate of a --point [px] (an image side is at most 65 535 px).
+MAX_PIXEL = 65_535.0
+#: Largest printed marker side [cm].
+MAX_MARKER_SIDE_CM = 100.0
 
 
-def _numbers(text: str, n: int, what: str) -> list[float]:
+def _numbers(text: str, n: int, what: str, limit: float) -> list[float]:
+    shown = short_repr(text, 40)
     try:
         values = [float(v) for v in text.split(",")]
     except ValueError:
-        raise argparse.ArgumentTypeError(f"{what} must be numbers, got {text!r}") from None
-    if len(values) != n or not all(abs(v) < float("inf") for v in values):
-        raise argparse.ArgumentTypeError(f"{what} needs {n} finite numbers, got {text!r}")
+        raise argparse.ArgumentTypeError(f"{what} must be numbers, got {shown}") from None
+    if len(values) != n or not all(abs(v) <= limit for v in values):
+        raise argparse.ArgumentTypeError(f"{what} needs {n} numbers within ±{limit:g}, got {shown}")
     return values
 
 
@@ -55,7 +64,10 @@ def parse_point(text: str) -> tuple[list[float], list[float]]:
     if text.count(":") != 1:
         raise argparse.ArgumentTypeError(f"--point wants U,V:X,Y, got {text!r}")
     px, cm = text.split(":")
-    return _numbers(px, 2, "--point pixel U,V"), _numbers(cm, 2, "--point table X,Y")
+    return (
+        _numbers(px, 2, "--point pixel U,V", MAX_PIXEL),
+        _numbers(cm, 2, "--point table X,Y", MAX_LENGTH_CM),
+    )
 
 
 def parse_marker(text: str) -> tuple[int, tuple[float, float]]:
@@ -63,11 +75,12 @@ def parse_marker(text: str) -> tuple[int, tuple[float, float]]:
     if text.count(":") != 1:
         raise argparse.ArgumentTypeError(f"--marker wants ID:X,Y, got {text!r}")
     ident, cm = text.split(":")
-    try:
-        marker_id = int(ident)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"--marker id must be an integer, got {ident!r}") from None
-    x, y = _numbers(cm, 2, "--marker table X,Y")
+    if not ident.strip().isascii() or not ident.strip().isdigit() or len(ident.strip()) > 6:
+        raise argparse.ArgumentTypeError(
+            f"--marker id must be an integer 0 … 999999, got {short_repr(ident, 20)}"
+        )
+    marker_id = int(ident)
+    x, y = _numbers(cm, 2, "--marker table X,Y", MAX_LENGTH_CM)
     return marker_id, (x, y)
 
 
@@ -86,15 +99,15 @@ def update_config_text(text: str, calibration: Calibration, note: str, source: s
     """``text`` (a YAML config) with its calibration block replaced; comments kept.
 
     Raises:
-        ConfigError: the text is not YAML, or the result is not a valid config.
+        ConfigError: the text is not YAML, or YAML that every config read refuses
+            (:func:`mearm.yamlio.load_yaml_text`), or the result is not a valid config.
     """
+    load_yaml_text(text, source=source)  # size, depth, aliases, tags, duplicate keys, empty
     y = _yaml()
     try:
         data = y.load(text)
     except YAMLError as exc:
         raise ConfigError(source, [f"malformed YAML: {str(exc).splitlines()[0]}"]) from None
-    if data is None:
-        data = CommentedMap()
     if not isinstance(data, CommentedMap):
         raise ConfigError(source, ["top level must be a mapping"])
     section = data.get("calibration")
@@ -124,24 +137,29 @@ def update_config_text(text: str, calibration: Calibration, note: str, source: s
     out = io.StringIO()
     y.dump(data, out)
     result = out.getvalue()
-    config_from_dict(YAML(typ="safe").load(result), source=source)  # must still load
+    config_from_dict(load_yaml_text(result, source=source), source=source)  # must still load
     return result
 
 
 def write_atomically(path: Path, text: str) -> None:
-    """Replace ``path`` with ``text`` in one step; on failure the old file stays."""
-    mode = path.stat().st_mode & 0o777 if path.exists() else 0o644
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    """Replace ``path`` with ``text`` in one step (:func:`mearm.fileio.write_atomic`).
+
+    A symlink is followed (the file it names is replaced, the link kept); anything but a
+    regular file (a device such as /dev/null, a FIFO, a directory) is refused, so no
+    write can block or land outside a file.
+
+    Raises:
+        MearmError: ``path`` exists and is not a regular file.
+        OSError: the write failed; the old file is untouched.
+    """
     try:
-        with os.fdopen(fd, "w", encoding="utf-8") as f:
-            f.write(text)
-            f.flush()
-            os.fsync(f.fileno())
-        os.chmod(tmp, mode)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+        info = path.stat()
+    except FileNotFoundError:
+        pass
+    else:
+        if not stat.S_ISREG(info.st_mode):
+            raise MearmError(f"{path}: not a regular file; write the calibration to a file")
+    write_atomic(path, text)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -171,13 +189,19 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.error("--image needs --marker ID:X,Y for each marker (4 or more)")
     if args.marker and not args.image:
         parser.error("--marker needs --image")
-    if args.marker_side_cm is not None and not args.marker_side_cm > 0:
-        parser.error(f"--marker-side-cm must be positive, got {args.marker_side_cm:g}")
+    if args.marker_side_cm is not None and not 0 < args.marker_side_cm <= MAX_MARKER_SIDE_CM:
+        parser.error(
+            f"--marker-side-cm must be in (0, {MAX_MARKER_SIDE_CM:g}] cm, "
+            f"got {args.marker_side_cm:g}"
+        )
 
     try:
-        text = args.config.read_text(encoding="utf-8")
-    except OSError as exc:
-        raise ConfigError(str(args.config), [f"cannot read: {exc.strerror or exc}"]) from None
+        text = read_text_file(args.config, what="config file")
+    except InputFileError as exc:
+        raise ConfigError(exc.path, [exc.reason]) from None
+    data = load_yaml_text(text, source=str(args.config))  # refused before any fitting
+    if not isinstance(data, dict):
+        raise ConfigError(str(args.config), ["top level must be a mapping"])
 
     if args.point:
         pixels = [p for p, _ in args.point]
@@ -186,8 +210,6 @@ def main(argv: Sequence[str] | None = None) -> int:
         n_pairs = len(pixels)
         how = f"{n_pairs} point pairs"
     else:
-        from mearm.detect import read_image
-
         centers = dict(args.marker)
         if len(centers) != len(args.marker):
             parser.error("each --marker id may be given once")
@@ -199,6 +221,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         n_pairs = len(centers) * (5 if args.marker_side_cm else 1)
         how = f"{len(centers)} ArUco marker centres{corners} in {args.image.name}"
 
+    note = f"fitted {date.today().isoformat()} by tools/calibrate_camera.py from {how}"
+    new_text = update_config_text(text, calibration, note, str(args.config))  # or exit 2
     rms, worst = calibration.reprojection_error_cm, calibration.max_error_cm
     print(f"fitted from {how}")
     print(f"reprojection error: rms {rms:.4f} cm, max {worst:.4f} cm")
@@ -210,8 +234,6 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.dry_run:
         return 0
     target = args.output or args.config
-    note = f"fitted {date.today().isoformat()} by tools/calibrate_camera.py from {how}"
-    new_text = update_config_text(text, calibration, note, str(args.config))
     try:
         write_atomically(target, new_text)
     except OSError as exc:

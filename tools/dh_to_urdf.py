@@ -29,6 +29,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         "--output", type=Path, help="URDF to write (default: robot_description/<arm name>.urdf)"
     )
     args = parser.parse_args(argv)
+    if args.output is not None and args.output.exists() and not args.output.is_file():
+        parser.error(f"--output {args.output}: exists and is not a regular file")
     if args.config is None and not args.set:
         if args.output is not None:
             parser.error("--output needs --config (without it every reference arm is written)")

@@ -25,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-from mearm.cli import ArgumentParser, add_config_argument, config_from_args, run
+from mearm.cli import ArgumentParser, add_config_argument, config_from_args, positive_number, run
 from mearm.kinematics import ArmModel
 from mearm.view import ArmView
 
@@ -61,16 +61,6 @@ def _window_size(text: str) -> tuple[int, int]:
     if not (16 <= w <= 8192 and 16 <= h <= 8192):
         raise argparse.ArgumentTypeError(f"--size sides must be in [16, 8192] px, got {text!r}")
     return w, h
-
-
-def _positive(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        value = float("nan")
-    if not value > 0 or value == float("inf"):
-        raise argparse.ArgumentTypeError(f"must be a positive number, got {text!r}")
-    return value
 
 
 def sweep_poses_deg(
@@ -126,9 +116,14 @@ def main(argv: Sequence[str] | None = None) -> int:
         "(or sweep only JOINT, an actuated joint's name)",
     )
     parser.add_argument(
-        "--step-deg", type=_positive, default=1.0, help="sweep step [deg, or cm if prismatic]"
+        "--step-deg",
+        type=positive_number(0.01, 360.0),
+        default=1.0,
+        help="sweep step [deg, or cm if prismatic], 0.01 … 360",
     )
-    parser.add_argument("--rate-hz", type=_positive, default=50.0, help="sweep frame rate [Hz]")
+    parser.add_argument(
+        "--rate-hz", type=positive_number(0.1, 1000.0), default=50.0, help="sweep frame rate [Hz]"
+    )
     parser.add_argument("--screenshot", type=Path, metavar="OUT.png", help="render to a PNG, exit")
     parser.add_argument("--size", type=_window_size, default=(1280, 800), help="PNG size WxH")
     parser.add_argument("--hold", action="store_true", help="keep serving after --screenshot")
@@ -136,6 +131,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         "--port", type=int, default=None, help="web port (default: 7000 or the next free; 0: any)"
     )
     args = parser.parse_args(argv)
+    shot = args.screenshot
+    if shot is not None and (shot.suffix.lower() != ".png" or shot.exists() and not shot.is_file()):
+        parser.error(f"--screenshot {shot}: must be a .png file (not a folder or a device)")
 
     config = config_from_args(args)
     model = ArmModel(config.arm)

@@ -7,6 +7,7 @@ imported only when a figure is drawn.
 
 from __future__ import annotations
 
+import io
 from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -18,6 +19,8 @@ from mearm.analysis import paper
 from mearm.analysis.paths import SolvedRoute
 from mearm.analysis.success import SuccessVsError
 from mearm.analysis.weibull import WeibullFit
+from mearm.exceptions import MearmError
+from mearm.fileio import write_atomic
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -35,9 +38,19 @@ def _figure(width_in: float, height_in: float) -> Figure:
 
 
 def _save(fig: Figure, path: str | Path) -> Path:
+    """Write the figure as a PNG in one step (:func:`mearm.fileio.write_atomic`).
+
+    Raises:
+        MearmError: The folder cannot be made or the file written.
+    """
     p = Path(path)
-    p.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(p, format="png")
+    png = io.BytesIO()
+    fig.savefig(png, format="png")
+    try:
+        p.parent.mkdir(parents=True, exist_ok=True)
+        write_atomic(p, png.getvalue())
+    except OSError as exc:
+        raise MearmError(f"cannot write {p}: {exc}") from None
     return p
 
 

@@ -68,7 +68,8 @@ def write_synthetic_log(
     skip. Each trial has a header and, unless cut short by ``n_routes``, a summary.
 
     Args:
-        path: The log to write (appended to if it exists).
+        path: The log to write (appended to if it exists: trials are numbered from 0
+            again, so a second run into one file is refused by ``mearm analyze``).
         n_routes: Routes to write.
         shape: Weibull shape of the error lengths [-].
         scale: Weibull scale of the error lengths [cm].

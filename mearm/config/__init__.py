@@ -7,6 +7,9 @@ classes is a config file, not code.
 
 Loading is strict: unknown keys are rejected and each bad field is reported with its
 dotted path, the value given and what is allowed (:class:`~mearm.exceptions.ConfigError`).
+Files are read through :mod:`mearm.yamlio` (no special files, duplicate keys, tags, alias
+bombs or deep nesting), and every number is bounded by physical sense, so a config that
+loads cannot overflow, hang or exhaust memory later.
 """
 
 from mearm.config.arm import (
@@ -21,7 +24,20 @@ from mearm.config.arm import (
     Tool,
     ToolActuator,
 )
-from mearm.config.base import Finite, Name, NonNegative, Positive, Range, Strict
+from mearm.config.base import (
+    Angle,
+    Finite,
+    Length,
+    Name,
+    NonNegative,
+    NonNegativeLength,
+    Positive,
+    PositiveLength,
+    Range,
+    Seed,
+    Strict,
+    short_repr,
+)
 from mearm.config.classes import ColorClass, HueBand
 from mearm.config.defaults import default_classes, paper_arm, paper_classes
 from mearm.config.loader import apply_overrides, config_from_dict, load_config, read_yaml
@@ -38,6 +54,7 @@ from mearm.config.rig import (
 from mearm.config.root import Config
 
 __all__ = [
+    "Angle",
     "ArmDescription",
     "CalibrationConfig",
     "CameraConfig",
@@ -51,11 +68,15 @@ __all__ = [
     "HueBand",
     "Joint",
     "JointType",
+    "Length",
     "Name",
     "NonNegative",
+    "NonNegativeLength",
     "Positive",
+    "PositiveLength",
     "Range",
     "SceneObject",
+    "Seed",
     "ServoCalibration",
     "ServoConfig",
     "SimErrorModel",
@@ -72,4 +93,5 @@ __all__ = [
     "paper_arm",
     "paper_classes",
     "read_yaml",
+    "short_repr",
 ]

@@ -23,12 +23,36 @@ the TCP in three directions.
 from __future__ import annotations
 
 import math
-from typing import Literal
+from typing import Annotated, Literal
 
 import numpy as np
 from pydantic import Field, model_validator
 
-from mearm.config.base import Finite, Name, NonNegative, Positive, Range, Strict, Vector3
+from mearm.config.base import (
+    MAX_ANGLE_DEG,
+    MAX_LENGTH_CM,
+    Angle,
+    Length,
+    Name,
+    NonNegativeLength,
+    PositiveLength,
+    Range,
+    Strict,
+    Vector3,
+)
+
+#: Pulse widths a calibration may name [µs]: a servo's zero may lie outside the pulses it
+#: is allowed, but not absurdly far.
+MAX_ZERO_US = 100_000.0
+#: Pulse change per unit [µs/deg or µs/cm]: 0.1 lets one servo sweep 20 000 units, 10 000
+#: moves 0.2 units over the whole pulse range.
+US_PER_UNIT_RANGE = (0.1, 10_000.0)
+#: Largest coupling coefficient [-].
+MAX_COUPLING = 100.0
+#: Jaws thinner or shorter than this cannot be drawn or gripped with [cm].
+MIN_JAW_CM = 0.01
+
+Coefficient = Annotated[float, Field(ge=-MAX_COUPLING, le=MAX_COUPLING, allow_inf_nan=False)]
 
 JointType = Literal["revolute", "prismatic"]
 
@@ -40,10 +64,10 @@ class DHRow(Strict):
     it is added to ``d_cm``.
     """
 
-    a_cm: Finite = 0.0
-    alpha_deg: Finite = 0.0
-    d_cm: Finite = 0.0
-    theta_deg: Finite = 0.0
+    a_cm: Length = 0.0
+    alpha_deg: Angle = 0.0
+    d_cm: Length = 0.0
+    theta_deg: Angle = 0.0
     """Constant offset of θ [deg] (the joint variable of a revolute joint adds to it)."""
 
     def transform(self, value: float, joint_type: JointType = "revolute") -> np.ndarray:
@@ -86,10 +110,12 @@ class ServoCalibration(Strict):
     """
 
     channel: int = Field(ge=0, le=31)
-    zero_us: Finite = 1500.0
+    zero_us: float = Field(default=1500.0, ge=-MAX_ZERO_US, le=MAX_ZERO_US, allow_inf_nan=False)
     """Pulse at value 0 [µs]; may lie outside [min_us, max_us]."""
     direction: Literal[1, -1] = 1
-    us_per_unit: Positive = 10.0
+    us_per_unit: float = Field(
+        default=10.0, ge=US_PER_UNIT_RANGE[0], le=US_PER_UNIT_RANGE[1], allow_inf_nan=False
+    )
     """Pulse change per unit of the value [µs/deg or µs/cm]."""
     min_us: int = Field(default=600, ge=500, le=2500)
     """Lowest pulse this servo may get [µs] (the firmware and the SSC-32 allow 500–2500)."""
@@ -131,8 +157,8 @@ class Coupling(Strict):
     elbow: -1}``.
     """
 
-    terms: dict[Name, Finite] = Field(min_length=1)
-    offset: Finite = 0.0
+    terms: dict[Name, Coefficient] = Field(min_length=1, max_length=12)
+    offset: Length = 0.0
 
 
 class Joint(Strict):
@@ -144,7 +170,7 @@ class Joint(Strict):
     limits: Range | None = None
     """[deg] or [cm]; required for an actuated joint; a passive joint's default is the
     range its coupling gives over the actuated joints' limits."""
-    home: Finite | None = None
+    home: Length | None = None
     """Home value of an actuated joint [deg] or [cm]."""
     servo: ServoCalibration | None = None
     coupling: Coupling | None = None
@@ -156,6 +182,13 @@ class Joint(Strict):
                 f"joint '{self.name}' needs exactly one of 'servo' (actuated) or "
                 "'coupling' (passive)"
             )
+        if self.type == "revolute" and self.limits is not None:
+            for end in ("min", "max"):
+                if abs(getattr(self.limits, end)) > MAX_ANGLE_DEG:
+                    raise ValueError(
+                        f"@limits.{end}: {getattr(self.limits, end):g} deg is more than a "
+                        f"turn; a revolute joint's limits lie within ±{MAX_ANGLE_DEG:g} deg"
+                    )
         if self.servo is not None:
             if self.limits is None:
                 raise ValueError("@limits: required for an actuated joint")
@@ -170,6 +203,12 @@ class Joint(Strict):
                 self.servo.check_value(getattr(self.limits, end), f"limits.{end}")
         elif self.home is not None:
             raise ValueError("@home: a passive joint takes no home: its coupling gives it")
+        elif self.type == "revolute" and self.coupling is not None:
+            if abs(self.coupling.offset) > MAX_ANGLE_DEG:
+                raise ValueError(
+                    f"@coupling.offset: {self.coupling.offset:g} deg is more than a turn; a "
+                    f"revolute joint's offset lies within ±{MAX_ANGLE_DEG:g} deg"
+                )
         return self
 
     @property
@@ -192,12 +231,18 @@ class ToolActuator(Strict):
     name: Name
     servo: ServoCalibration
     limits: Range
-    home: Finite
-    travel: Finite
-    grip: Finite
+    home: Angle
+    travel: Angle
+    grip: Angle
 
     @model_validator(mode="after")
     def _settings(self) -> ToolActuator:
+        for end in ("min", "max"):
+            if abs(getattr(self.limits, end)) > MAX_ANGLE_DEG:
+                raise ValueError(
+                    f"@limits.{end}: {getattr(self.limits, end):g} deg is more than a turn; "
+                    f"a tool actuator's limits lie within ±{MAX_ANGLE_DEG:g} deg"
+                )
         for end in ("min", "max"):
             self.servo.check_value(getattr(self.limits, end), f"limits.{end}")
         for key in ("home", "travel", "grip"):
@@ -223,13 +268,15 @@ class Gripper(Strict):
 
     name: Name = "gripper"
     servo: ServoCalibration
-    open_cm: Positive
+    open_cm: PositiveLength
     """Opening between the jaws when open [cm]."""
-    closed_cm: NonNegative
+    closed_cm: NonNegativeLength
     """Opening when closed on nothing [cm]."""
-    jaw_length_cm: Positive = 3.0
+    jaw_length_cm: float = Field(default=3.0, ge=MIN_JAW_CM, le=MAX_LENGTH_CM, allow_inf_nan=False)
     """How far the jaws reach beyond the TCP frame's origin along the approach axis [cm]."""
-    jaw_thickness_cm: Positive = 0.5
+    jaw_thickness_cm: float = Field(
+        default=0.5, ge=MIN_JAW_CM, le=MAX_LENGTH_CM, allow_inf_nan=False
+    )
 
     @model_validator(mode="after")
     def _settings(self) -> Gripper:
@@ -256,10 +303,10 @@ class Tool(Strict):
     pick_approach: Vector3 | None = None
     """Direction (base frame) the approach axis must point in when picking and placing,
     e.g. ``[0, 0, -1]`` for a wrist that picks from above; ``null``: position only."""
-    tcp_above_grip_cm: NonNegative = 0.0
+    tcp_above_grip_cm: NonNegativeLength = 0.0
     """How far above the point where the jaws close the TCP is when picking [cm]."""
     gripper: Gripper
-    actuators: list[ToolActuator] = Field(default_factory=list)
+    actuators: list[ToolActuator] = Field(default_factory=list, max_length=12)
 
     @model_validator(mode="after")
     def _axes(self) -> Tool:
@@ -285,7 +332,7 @@ def _interval(terms: dict[str, float], offset: float, limits: dict[str, Range]) 
         lo, hi = lo + min(a, b), hi + max(a, b)
     if not lo < hi:
         hi = lo + 1e-9
-    return Range(min=lo, max=hi)
+    return Range.model_construct(min=lo, max=hi)  # derived, may exceed a config's bounds
 
 
 #: Seeded poses tried by the chain's rank check.

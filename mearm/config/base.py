@@ -1,7 +1,12 @@
-"""Building blocks shared by every config section: strict models, bounded numbers, ranges."""
+"""Building blocks shared by every config section: strict models, bounded numbers, ranges.
+
+Every number a config holds is finite and bounded by physical sense (a hobby arm on a
+table), so that nothing the validator accepts can overflow, hang or exhaust memory later.
+"""
 
 from __future__ import annotations
 
+import reprlib
 from typing import TYPE_CHECKING, Annotated
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
@@ -14,7 +19,31 @@ Positive = Annotated[float, Field(gt=0, allow_inf_nan=False)]
 NonNegative = Annotated[float, Field(ge=0, allow_inf_nan=False)]
 #: A name used as a key (joint, actuator, colour class): letters, digits, ``_`` and ``-``.
 Name = Annotated[str, Field(pattern=r"^[A-Za-z][A-Za-z0-9_-]{0,39}$")]
-Vector3 = tuple[Finite, Finite, Finite]
+
+#: Largest length, position or distance anywhere in a config [cm]: 10 m, far beyond any
+#: hobby arm, table or bin.
+MAX_LENGTH_CM = 1000.0
+#: Largest angle [deg]: one turn either way (DH offsets and twists, revolute limits).
+MAX_ANGLE_DEG = 360.0
+#: Seeds are unsigned 32-bit integers (NumPy takes them; run logs store them as JSON).
+MAX_SEED = 2**32 - 1
+#: Longest path or port name [characters] (Linux's PATH_MAX).
+MAX_PATH_CHARS = 4096
+
+#: A length, position or offset [cm], within ±:data:`MAX_LENGTH_CM`.
+Length = Annotated[float, Field(ge=-MAX_LENGTH_CM, le=MAX_LENGTH_CM, allow_inf_nan=False)]
+#: A positive length [cm], at most :data:`MAX_LENGTH_CM`.
+PositiveLength = Annotated[float, Field(gt=0, le=MAX_LENGTH_CM, allow_inf_nan=False)]
+#: A length ≥ 0 [cm], at most :data:`MAX_LENGTH_CM`.
+NonNegativeLength = Annotated[float, Field(ge=0, le=MAX_LENGTH_CM, allow_inf_nan=False)]
+#: An angle [deg], within ±:data:`MAX_ANGLE_DEG`.
+Angle = Annotated[float, Field(ge=-MAX_ANGLE_DEG, le=MAX_ANGLE_DEG, allow_inf_nan=False)]
+#: A random seed, 0 … 2³² − 1.
+Seed = Annotated[int, Field(ge=0, le=MAX_SEED)]
+#: A file or device path: no NUL byte, at most :data:`MAX_PATH_CHARS` characters.
+PathText = Annotated[str, Field(min_length=1, max_length=MAX_PATH_CHARS, pattern=r"^[^\x00]*$")]
+#: A point or direction [cm], each coordinate a :data:`Length`.
+Vector3 = tuple[Length, Length, Length]
 
 
 class Strict(BaseModel):
@@ -24,10 +53,10 @@ class Strict(BaseModel):
 
 
 class Range(Strict):
-    """A closed interval [min, max] with min < max."""
+    """A closed interval [min, max] with min < max, each within ±:data:`MAX_LENGTH_CM`."""
 
-    min: Finite
-    max: Finite
+    min: Length
+    max: Length
 
     @model_validator(mode="after")
     def _ordered(self) -> Range:
@@ -40,16 +69,48 @@ class Range(Strict):
         return self.min - tol <= value <= self.max + tol
 
 
+_SHORT = reprlib.Repr()
+_SHORT.maxlevel, _SHORT.maxdict, _SHORT.maxlist, _SHORT.maxtuple = 2, 4, 4, 4
+_SHORT.maxstring, _SHORT.maxother, _SHORT.maxlong = 60, 60, 40
+
+
+def short_repr(value: object, limit: int = 80) -> str:
+    """A repr of ``value`` of at most ``limit`` characters, cheap for any value.
+
+    Containers are shown to two levels and four items, so a huge or alias-expanded
+    value is never rendered in full; an integer too long to print is summarised.
+    """
+    try:
+        text = _SHORT.repr(value)
+    except (ValueError, RecursionError):  # an int past Python's 4300-digit str limit
+        text = f"<{type(value).__name__}>"
+    text = text.replace("\n", " ")
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
+def _loc_part(part: object) -> str:
+    text = str(part)
+    return text if text.isprintable() and len(text) <= 40 else short_repr(text, 40)
+
+
+def loc_text(loc: tuple[int | str, ...]) -> str:
+    """A pydantic error location as a dotted path.
+
+    A key that is long or holds characters that would break the line is shown by its
+    (cut) repr.
+    """
+    return ".".join(_loc_part(p) for p in loc)
+
+
 def _shown(value: object) -> str:
     if isinstance(value, (dict, list, tuple)):
         return ""
-    text = repr(value)
-    return f" (got {text if len(text) <= 60 else text[:57] + '...'})"
+    return f" (got {short_repr(value, 60)})"
 
 
 def describe_error(err: ErrorDetails) -> str:
     """One line for one pydantic error: the dotted path, what is wrong, the value given."""
-    loc = ".".join(str(p) for p in err["loc"]) or "(top level)"
+    loc = loc_text(err["loc"]) or "(top level)"
     kind = err["type"]
     if kind == "extra_forbidden":
         return f"{loc}: unknown key (check the spelling; configs/sim.yaml shows every key)"

@@ -11,7 +11,18 @@ from typing import Annotated
 
 from pydantic import Field
 
-from mearm.config.base import Name, NonNegative, Positive, Strict, Vector3
+from mearm.config.base import Name, NonNegativeLength, Strict, Vector3
+
+#: Object sizes [cm]: from a 1 mm bead to a 1 m box.
+OBJECT_SIZE_CM = (0.1, 100.0)
+#: A bin's default inner width, in object diameters.
+BIN_DIAMETERS = 3.0
+#: Most hue bands per class.
+MAX_HUE_BANDS = 8
+
+ObjectSize = Annotated[
+    float, Field(ge=OBJECT_SIZE_CM[0], le=OBJECT_SIZE_CM[1], allow_inf_nan=False)
+]
 
 Rgb = tuple[
     Annotated[int, Field(ge=0, le=255)],
@@ -23,8 +34,8 @@ Rgb = tuple[
 class HueBand(Strict):
     """A hue interval in degrees [0, 360]; ``lo > hi`` wraps through 0."""
 
-    lo_deg: Annotated[float, Field(ge=0, le=360)]
-    hi_deg: Annotated[float, Field(ge=0, le=360)]
+    lo_deg: Annotated[float, Field(ge=0, le=360, allow_inf_nan=False)]
+    hi_deg: Annotated[float, Field(ge=0, le=360, allow_inf_nan=False)]
 
 
 class ColorClass(Strict):
@@ -39,15 +50,29 @@ class ColorClass(Strict):
         height_cm: The objects' height [cm].
         grip_height_cm: Height above the table at which the jaws close on one [cm]
             (default: half the height).
+        bin_width_cm: Inner width of the class's square bin, centred under ``bin_cm``
+            [cm] (default: three diameters). A camera that sees the bins counts what lies
+            inside one as sorted, not as on the table.
     """
 
     name: Name
-    hue_bands_deg: list[HueBand] = Field(min_length=1)
+    hue_bands_deg: list[HueBand] = Field(min_length=1, max_length=MAX_HUE_BANDS)
     draw_rgb: Rgb
     bin_cm: Vector3
-    diameter_cm: Positive = 2.0
-    height_cm: Positive = 1.0
-    grip_height_cm: NonNegative | None = None
+    diameter_cm: ObjectSize = 2.0
+    height_cm: ObjectSize = 1.0
+    grip_height_cm: NonNegativeLength | None = None
+    bin_width_cm: ObjectSize | None = None
+
+    @property
+    def bin_inner_width_cm(self) -> float:
+        """Inner width of the bin [cm]: ``bin_width_cm``, else :data:`BIN_DIAMETERS` diameters."""
+        return BIN_DIAMETERS * self.diameter_cm if self.bin_width_cm is None else self.bin_width_cm
+
+    def in_bin(self, x_cm: float, y_cm: float) -> bool:
+        """Whether a table point lies inside the bin's inner square (plane)."""
+        half = self.bin_inner_width_cm / 2
+        return abs(x_cm - self.bin_cm[0]) <= half and abs(y_cm - self.bin_cm[1]) <= half
 
     @property
     def grip_z_cm(self) -> float:

@@ -10,16 +10,21 @@ applied before validation, so a bad one gets the same one-line error as a bad fi
 from __future__ import annotations
 
 import copy
+import re
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-import yaml
 from pydantic import ValidationError
 
-from mearm.config.base import describe_error
+from mearm.config.base import describe_error, short_repr
 from mearm.config.root import Config
 from mearm.exceptions import ConfigError
+from mearm.yamlio import MAX_YAML_DEPTH, load_yaml_file, load_yaml_text
+
+#: Longest ``--set`` key [characters]; the longest real one has ~40.
+MAX_KEY_CHARS = 200
+_INDEX = re.compile(r"^-?[0-9]{1,9}$")
 
 
 def parse_override(text: str) -> tuple[list[str], Any]:
@@ -32,13 +37,28 @@ def parse_override(text: str) -> tuple[list[str], Any]:
     key = key.strip()
     if not sep or not key or any(not part for part in key.split(".")):
         raise ConfigError(
-            "--set", [f"{text!r}: expected dotted.key=value, e.g. arm.joints.base.home=90"]
+            "--set",
+            [f"{short_repr(text)}: expected dotted.key=value, e.g. arm.joints.base.home=90"],
         )
+    parts = key.split(".")
+    if len(key) > MAX_KEY_CHARS or len(parts) > MAX_YAML_DEPTH:
+        raise ConfigError(
+            "--set",
+            [
+                f"{short_repr(key)}: key too long (at most {MAX_KEY_CHARS} characters and "
+                f"{MAX_YAML_DEPTH} parts)"
+            ],
+        )
+    if not raw.strip():
+        return parts, ""
     try:
-        value = yaml.safe_load(raw) if raw.strip() else ""
-    except yaml.YAMLError:
-        raise ConfigError("--set", [f"{key}: value {raw!r} is not valid YAML"]) from None
-    return key.split("."), value
+        value = load_yaml_text(raw, source="--set", what="--set value", allow_empty=True)
+    except ConfigError as exc:
+        problem = exc.problems[0] if exc.problems else "?"
+        raise ConfigError(
+            "--set", [f"{key}: value {short_repr(raw, 40)} is not valid YAML ({problem})"]
+        ) from None
+    return parts, value
 
 
 def _child(node: Any, default: Any, part: str, where: str) -> tuple[Any, Any]:
@@ -52,13 +72,11 @@ def _child(node: Any, default: Any, part: str, where: str) -> tuple[Any, Any]:
         i = _index(node, part, where)
         same = isinstance(default, list) and i < len(default)
         return node[i], default[i] if same else None
-    if isinstance(node, list):
-        return node[_index(node, part, where)]
     raise ConfigError("--set", [f"{where}: is a value, not a section (cannot set {part!r})"])
 
 
 def _index(items: list[Any], part: str, where: str) -> int:
-    if part.lstrip("-").isdigit():
+    if _INDEX.match(part):
         i = int(part)
         if not 0 <= i < len(items):
             raise ConfigError("--set", [f"{where}.{part}: no such item (0…{len(items) - 1})"])
@@ -125,25 +143,13 @@ def _default_data() -> dict[str, Any]:
 
 
 def read_yaml(path: str | Path) -> Any:
-    """Read one YAML file.
+    """Read one YAML config file through :func:`mearm.yamlio.load_yaml_file`.
 
     Raises:
-        ConfigError: missing, unreadable or malformed; the message says where.
+        ConfigError: missing, not a regular file, too large, not UTF-8, empty, malformed
+            or refused YAML (duplicate keys, tags, aliases, depth); the message says where.
     """
-    p = Path(path)
-    try:
-        text = p.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise ConfigError(str(p), ["file not found"]) from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ConfigError(str(p), [f"cannot read: {exc}"]) from None
-    try:
-        return yaml.safe_load(text)
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        where = f"line {mark.line + 1}, column {mark.column + 1}: " if mark else ""
-        problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
-        raise ConfigError(str(p), [f"malformed YAML at {where}{problem}"]) from None
+    return load_yaml_file(path, what="config")
 
 
 def load_config(path: str | Path | None = None, overrides: Sequence[str] = ()) -> Config:

@@ -47,6 +47,7 @@ import copy
 from collections.abc import Mapping
 from typing import Any
 
+from mearm.config.base import short_repr
 from mearm.config.defaults import (
     PAPER_CLASS_NAMES,
     PAPER_HUE_BANDS_DEG,
@@ -167,7 +168,7 @@ class _Migration:
 
     def sequence(self, value: Any, where: str, length: int) -> list[Any]:
         if not isinstance(value, list | tuple) or len(value) != length:
-            raise self.fail(where, f"must be a list of {length} values, got {value!r}")
+            raise self.fail(where, f"must be a list of {length} values, got {short_repr(value)}")
         return list(value)
 
     def run(self) -> dict[str, Any]:
@@ -311,7 +312,9 @@ class _Migration:
         channel, open_us, closed_us = given["channel"], given["open_us"], given["closed_us"]
         for key, value in (("open_us", open_us), ("closed_us", closed_us)):
             if not _is_number(value):
-                raise self.fail(f"servo.gripper.{key}", f"must be a number, got {value!r}")
+                raise self.fail(
+                    f"servo.gripper.{key}", f"must be a number, got {short_repr(value)}"
+                )
         if open_us == closed_us:
             raise self.fail(
                 "servo.gripper",
@@ -338,7 +341,7 @@ class _Migration:
         preset = "default" if preset is None else preset
         if preset not in _V1_PRESET_FLOORS:
             raise self.fail(
-                "vision.preset", f"{preset!r} is not a format-1 preset (default, paper)"
+                "vision.preset", f"{short_repr(preset)} is not a format-1 preset (default, paper)"
             )
         bands = self.mapping(vision.pop("bands", None), "vision.bands")
         diameter_cm = vision.pop("object_diameter_cm", None)
@@ -359,7 +362,9 @@ class _Migration:
         order = task.pop("color_order", None)
         order = list(PAPER_CLASS_NAMES) if order is None else order
         if not isinstance(order, list | tuple) or not order:
-            raise self.fail("task.color_order", f"must be a non-empty list, got {order!r}")
+            raise self.fail(
+                "task.color_order", f"must be a non-empty list, got {short_repr(order)}"
+            )
         bins = task.pop("bins_cm", None)
         bins = (
             {c.name: list(c.bin_cm) for c in defaults.values()}
@@ -369,7 +374,7 @@ class _Migration:
         out = []
         for name in order:
             if name not in bins:
-                raise self.fail("task.bins_cm", f"has no bin for {name!r}")
+                raise self.fail("task.bins_cm", f"has no bin for {short_repr(name)}")
             out.append(
                 {
                     "name": name,
@@ -391,7 +396,9 @@ class _Migration:
             return [{"lo_deg": lo, "hi_deg": hi} for lo, hi in PAPER_HUE_BANDS_DEG[name]]
         if preset == "default" and name in defaults:
             return [b.model_dump(mode="json") for b in defaults[name].hue_bands_deg]
-        raise self.fail("vision.bands", f"the {preset!r} preset has no bands for {name!r}")
+        raise self.fail(
+            "vision.bands", f"the {short_repr(preset)} preset has no bands for {short_repr(name)}"
+        )
 
     def servo(self, servo: dict[str, Any]) -> dict[str, Any]:
         if "error_model" in servo:

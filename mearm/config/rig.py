@@ -6,10 +6,56 @@ from typing import Annotated, Any, Literal
 
 from pydantic import Field, ValidationError, field_validator, model_validator
 
-from mearm.config.base import Finite, Name, NonNegative, Positive, Strict, describe_error
+from mearm.config.base import (
+    MAX_ANGLE_DEG,
+    MAX_LENGTH_CM,
+    Length,
+    Name,
+    NonNegativeLength,
+    PathText,
+    Seed,
+    Strict,
+    describe_error,
+)
 from mearm.config.classes import ColorClass
 from mearm.config.defaults import PAPER_LAYOUT, default_classes
-from mearm.exceptions import ConfigError
+from mearm.config.port import check_port
+from mearm.exceptions import ConfigError, SerialPortError
+
+#: Largest camera frame side [px].
+MAX_FRAME_SIDE_PX = 4096
+#: Largest camera frame [px]: 4K UHD (3840×2160), the largest USB camera frame. The
+#: simulated camera needs ~80 bytes a pixel, 0.7 GB at this size.
+MAX_FRAME_PIXELS = 3840 * 2160
+#: Smallest camera frame side [px].
+MIN_FRAME_SIDE_PX = 16
+#: OpenCV reads a device number from 100 up as a capture backend plus an index.
+MAX_DEVICE_INDEX = 99
+#: Largest wait for a device or a board [s].
+MAX_TIMEOUT_S = 600.0
+#: Largest median filter [px] (OpenCV's 8-bit median takes at most 31 … and a 31 px median
+#: already wipes out a 2 cm object at the paper's 16 px/cm).
+MAX_MEDIAN_KERNEL = 31
+#: Largest homography entry (pixels → cm; the paper's are ≤ 59).
+MAX_HOMOGRAPHY_ENTRY = 1e6
+#: Most IK iterations per target (PD-PIJ needs ~100 on the paper's arm).
+MAX_ITERATIONS = 100_000
+#: Servo command rate [Hz]: one command per 10 s to 1 kHz (servos take 50–330 Hz).
+RATE_HZ = (0.1, 1000.0)
+#: Serial baud rates [Bd].
+BAUD = (300, 4_000_000)
+#: Most retries of anything.
+MAX_RETRIES = 100
+#: Most tries of one pick after the first (each is a full approach and grip).
+MAX_PICK_RETRIES = 10
+#: Most colour classes and most objects on the table.
+MAX_CLASSES = 32
+MAX_SCENE_OBJECTS = 500
+
+HomographyEntry = Annotated[
+    float, Field(ge=-MAX_HOMOGRAPHY_ENTRY, le=MAX_HOMOGRAPHY_ENTRY, allow_inf_nan=False)
+]
+Seconds = Annotated[float, Field(gt=0, le=MAX_TIMEOUT_S, allow_inf_nan=False)]
 
 
 class CameraConfig(Strict):
@@ -21,28 +67,33 @@ class CameraConfig(Strict):
     """
 
     kind: Literal["device", "file", "folder", "sim"] = "sim"
-    device_index: int = Field(default=0, ge=0)
-    path: str | None = None
-    width_px: int = Field(default=640, gt=0)
-    height_px: int = Field(default=480, gt=0)
-    open_timeout_s: Positive = 5.0
+    device_index: int = Field(default=0, ge=0, le=MAX_DEVICE_INDEX)
+    path: PathText | None = None
+    width_px: int = Field(default=640, ge=MIN_FRAME_SIDE_PX, le=MAX_FRAME_SIDE_PX)
+    height_px: int = Field(default=480, ge=MIN_FRAME_SIDE_PX, le=MAX_FRAME_SIDE_PX)
+    open_timeout_s: Seconds = 5.0
     loop: bool = False
     # sim renderer (mearm.vision.render)
-    noise_std: NonNegative = 2.0
+    noise_std: float = Field(default=2.0, ge=0, le=255, allow_inf_nan=False)
     """Sensor noise, standard deviation in 8-bit levels."""
-    brightness: Positive = 1.0
+    brightness: float = Field(default=1.0, gt=0, le=10, allow_inf_nan=False)
     """Overall light level, a factor on every pixel (1 = nominal)."""
-    gradient: NonNegative = 0.15
+    gradient: float = Field(default=0.15, ge=0, le=1, allow_inf_nan=False)
     """Lighting gradient: ±this fraction of the light from one corner to the other."""
     table: Literal["wood", "grey"] = "wood"
-    """Table surface the sim renders."""
-    seed: int = 0
+    """Table surface the sim renderer draws."""
+    seed: Seed = 0
     """Seed of the texture and of the noise sequence (frame i uses seed + i)."""
 
     @model_validator(mode="after")
     def _path_for_replay(self) -> CameraConfig:
         if self.kind in ("file", "folder") and not self.path:
             raise ValueError(f"camera.kind '{self.kind}' needs camera.path")
+        if self.width_px * self.height_px > MAX_FRAME_PIXELS:
+            raise ValueError(
+                f"@width_px: {self.width_px}x{self.height_px} px is more than "
+                f"{MAX_FRAME_PIXELS} pixels (4K UHD, 3840x2160)"
+            )
         return self
 
 
@@ -53,11 +104,14 @@ class CalibrationConfig(Strict):
     """
 
     homography: tuple[
-        tuple[Finite, Finite, Finite],
-        tuple[Finite, Finite, Finite],
-        tuple[Finite, Finite, Finite],
+        tuple[HomographyEntry, HomographyEntry, HomographyEntry],
+        tuple[HomographyEntry, HomographyEntry, HomographyEntry],
+        tuple[HomographyEntry, HomographyEntry, HomographyEntry],
     ] = ((0.0625, 0.0, -20.5), (0.0, -0.0625, 59.0), (0.0, 0.0, 1.0))
-    reprojection_error_cm: NonNegative | None = None
+    """Pixel (u, v, 1) → table (x w, y w, w) [cm]; checked against the camera's frame when
+    the whole config loads: the frame's corners must land on the table (within ±1000 cm),
+    on one side of the horizon (w of one sign)."""
+    reprojection_error_cm: NonNegativeLength | None = None
 
     @field_validator("homography")
     @classmethod
@@ -81,13 +135,13 @@ class VisionConfig(Strict):
     highlights (S < 0.15) and deep shadows (V < 0.25); the paper used 0.1 for both.
     """
 
-    saturation_min: Annotated[float, Field(ge=0, le=1)] = 0.4
-    value_min: Annotated[float, Field(ge=0, le=1)] = 0.25
-    median_kernel: int = Field(default=3, ge=1)
-    min_area_px: int = Field(default=100, ge=1)
-    merged_area_ratio: Annotated[float, Field(gt=1, allow_inf_nan=False)] = 1.6
+    saturation_min: Annotated[float, Field(ge=0, le=1, allow_inf_nan=False)] = 0.4
+    value_min: Annotated[float, Field(ge=0, le=1, allow_inf_nan=False)] = 0.25
+    median_kernel: int = Field(default=3, ge=1, le=MAX_MEDIAN_KERNEL)
+    min_area_px: int = Field(default=100, ge=1, le=MAX_FRAME_PIXELS)
+    merged_area_ratio: Annotated[float, Field(gt=1, le=100, allow_inf_nan=False)] = 1.6
     """A region larger than this times one object's expected area is flagged merged."""
-    merged_elongation: Annotated[float, Field(gt=1, allow_inf_nan=False)] = 1.5
+    merged_elongation: Annotated[float, Field(gt=1, le=100, allow_inf_nan=False)] = 1.5
     """A region whose major/minor axis ratio exceeds this is flagged merged."""
 
     @field_validator("median_kernel")
@@ -112,23 +166,23 @@ class ControllerConfig(Strict):
     """Which solver :func:`mearm.ik.solve_ik` runs."""
     mode: Literal["paper", "coupled"] = "coupled"
     """paper: θ ∈ R⁴, 3×4 J, coupling re-imposed after each update; coupled: J·C."""
-    kp: Positive = 0.1
+    kp: float = Field(default=0.1, gt=0, allow_inf_nan=False)
     """Proportional gain [-]."""
-    kd: NonNegative = 0.01
+    kd: float = Field(default=0.01, ge=0, allow_inf_nan=False)
     """Derivative gain [-]."""
-    tolerance_cm2: Positive = 1e-3
+    tolerance_cm2: float = Field(default=1e-3, ge=1e-12, le=100, allow_inf_nan=False)
     """Stop when |e|² is below this [cm²] (paper §3, eq. 6)."""
-    max_iterations: int = Field(default=1000, ge=1)
+    max_iterations: int = Field(default=1000, ge=1, le=MAX_ITERATIONS)
     """Give up (status ``max_iterations``) after this many updates."""
-    singular_value_cutoff: Positive = 1e-6
+    singular_value_cutoff: float = Field(default=1e-6, gt=0, lt=1, allow_inf_nan=False)
     """Singular values at or below this times the largest are treated as zero in J⁺ [-]."""
-    damping: NonNegative = 0.0
+    damping: float = Field(default=0.0, ge=0, le=MAX_LENGTH_CM, allow_inf_nan=False)
     """> 0 selects damped least squares, Jᵀ(J Jᵀ + λ² I)⁻¹, with this λ [cm/rad]."""
     safeguard: bool = True
     """Reject an update that would raise |e| and retry along the clamped exact step."""
-    stall_iterations: int = Field(default=50, ge=1)
+    stall_iterations: int = Field(default=50, ge=1, le=MAX_ITERATIONS)
     """Status ``stalled`` when |e| fell by under a relative 1e-6 over this many updates."""
-    qp_solver: str = "daqp"
+    qp_solver: Name = "daqp"
     """qpsolvers backend of the mink cross-check."""
 
     @model_validator(mode="after")
@@ -171,34 +225,44 @@ class SimErrorModel(Strict):
     """
 
     quantization: Literal["none", "degree", "microsecond"] = "microsecond"
-    offset_deg: dict[Name, Finite] = Field(default_factory=dict)
+    offset_deg: dict[Name, Length] = Field(default_factory=dict, max_length=12)
     """Static offset per actuated joint [deg or cm], by joint name; unnamed joints: 0."""
-    noise_std_deg: NonNegative = 0.0
-    seed: int = 0
+    noise_std_deg: float = Field(default=0.0, ge=0, le=MAX_ANGLE_DEG, allow_inf_nan=False)
+    seed: Seed = 0
 
 
 class ServoConfig(Strict):
     """The servo link (paper §1: an Arduino Uno over USB serial) and the simulated arm."""
 
     backend: Literal["sim", "serial", "ssc32"] = "sim"
-    port: str = "/dev/ttyACM0"
-    """Serial device, or a pyserial URL (``socket://host:port``, ``rfc2217://…``)."""
-    baud: int = Field(default=115200, gt=0)
-    rate_hz: Positive = 50.0
+    port: PathText = "/dev/ttyACM0"
+    """Serial device, or a pyserial URL of an allowed scheme: ``socket://host:port``,
+    ``rfc2217://host:port`` or ``loop://`` (no other: ``spy://`` writes files)."""
+    baud: int = Field(default=115200, ge=BAUD[0], le=BAUD[1])
+    rate_hz: float = Field(default=50.0, ge=RATE_HZ[0], le=RATE_HZ[1], allow_inf_nan=False)
     """Commands per second at most (the servo frame rate); lower if the baud rate demands."""
-    ack_timeout_s: Positive = 0.5
-    banner_timeout_s: Positive = 3.0
-    retries: int = Field(default=3, ge=0)
-    """Resends of a command that failed its checksum, after the first try."""
-    grip_tolerance_cm: Positive = 1.2
+    ack_timeout_s: Seconds = 0.5
+    banner_timeout_s: Seconds = 3.0
+    retries: int = Field(default=3, ge=0, le=MAX_RETRIES)
+    """Tries after the first of one exchange with the board: a command that failed its
+    checksum (Uno), a lost, late or garbled answer to a query (SSC-32)."""
+    grip_tolerance_cm: float = Field(default=1.2, ge=0.01, le=MAX_LENGTH_CM, allow_inf_nan=False)
     """Sim: a pick succeeds if the EE is this close to the object in the plane and to
     the pick height in z (paper §5: picks under 1.2 cm error always succeeded)."""
-    bin_radius_cm: Positive = 4.0
+    bin_radius_cm: float = Field(default=4.0, ge=0.1, le=MAX_LENGTH_CM, allow_inf_nan=False)
     """Sim: an object released within this distance (in the plane) of a bin falls into
     it; farther away it drops onto the table under the EE."""
     sim_realtime: bool = False
     """Sim: pace moves at ``rate_hz`` like the real link (default: as fast as it can)."""
     error_model: SimErrorModel = SimErrorModel()
+
+    @field_validator("port")
+    @classmethod
+    def _allowed_port(cls, value: str) -> str:
+        try:
+            return check_port(value)
+        except SerialPortError as exc:  # the loc and the value are added by the loader
+            raise ValueError(str(exc).split(": ", 1)[1]) from None
 
 
 # --------------------------------------------------------------------------- task
@@ -208,17 +272,25 @@ class SceneObject(Strict):
     """One object on the (simulated) table, base frame [cm]; ``color`` names its class."""
 
     color: Name
-    x: Finite
-    y: Finite
+    x: Length
+    y: Length
 
 
 class TaskConfig(Strict):
     """The sorting task: the colour classes in sort order, retries and the simulated table."""
 
-    classes: list[ColorClass] = Field(default_factory=default_classes, min_length=1)
-    pick_retries: int = Field(default=2, ge=0)
+    classes: list[ColorClass] = Field(
+        default_factory=default_classes, min_length=1, max_length=MAX_CLASSES
+    )
+    pick_retries: int = Field(default=2, ge=0, le=MAX_PICK_RETRIES)
+    approach_height_cm: float | None = Field(default=None, gt=0, le=50, allow_inf_nan=False)
+    """Picks go via a point this far above the object and lift back to it with the object
+    before the place, so the jaws neither sweep through other objects and bin walls nor
+    drag what they hold [cm]; ``null``: the paper's direct routes (what the kinematic
+    simulator, which has no collisions, reproduces)."""
     scene: list[SceneObject] = Field(
-        default_factory=lambda: [SceneObject(color=c, x=x, y=y) for c, x, y in PAPER_LAYOUT]
+        default_factory=lambda: [SceneObject(color=c, x=x, y=y) for c, x, y in PAPER_LAYOUT],
+        max_length=MAX_SCENE_OBJECTS,
     )
 
     @model_validator(mode="after")

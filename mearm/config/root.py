@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+from typing import Literal
+
 from pydantic import Field, model_validator
 
 from mearm.config.arm import ArmDescription
-from mearm.config.base import Strict
+from mearm.config.base import MAX_LENGTH_CM, Strict
 from mearm.config.defaults import paper_arm
 from mearm.config.rig import (
     CalibrationConfig,
@@ -15,6 +17,11 @@ from mearm.config.rig import (
     TaskConfig,
     VisionConfig,
 )
+
+#: A projective calibration may shrink the far side of the frame, but no pixel's w (its
+#: inverse depth) may be under this fraction of another's: 20:1 is a camera looking
+#: almost along the table.
+MIN_W_RATIO = 0.05
 
 
 class Config(Strict):
@@ -27,6 +34,22 @@ class Config(Strict):
     controller: ControllerConfig = ControllerConfig()
     servo: ServoConfig = ServoConfig()
     task: TaskConfig = TaskConfig()
+    simulator: Literal["kinematic", "mujoco"] = "kinematic"
+    """What simulates the rig when ``servo.backend`` and ``camera.kind`` are ``sim``:
+    ``kinematic`` (a grasp succeeds within ``servo.grip_tolerance_cm``; drawn camera) or
+    ``mujoco`` (the physical twin: servos, contacts and friction decide; rendered camera)."""
+
+    @model_validator(mode="after")
+    def _twin_simulates_both(self) -> Config:
+        if self.simulator == "mujoco" and (
+            self.servo.backend != "sim" or self.camera.kind != "sim"
+        ):
+            raise ValueError(
+                "@simulator: 'mujoco' simulates the servos and the camera together: it needs "
+                f"servo.backend: sim and camera.kind: sim (got {self.servo.backend!r}, "
+                f"{self.camera.kind!r})"
+            )
+        return self
 
     @model_validator(mode="after")
     def _names_known(self) -> Config:
@@ -36,5 +59,35 @@ class Config(Strict):
                 raise ValueError(
                     f"@servo.error_model.offset_deg.{name}: not an actuated joint "
                     f"(actuated: {', '.join(actuated)})"
+                )
+        return self
+
+    @model_validator(mode="after")
+    def _calibration_covers_frame(self) -> Config:
+        """Every pixel of the frame must map to a point on the table.
+
+        The map w·(x, y, 1) = H·(u, v, 1) has a horizon where w = 0; it must lie outside
+        the frame, and the frame's corners must land within ±MAX_LENGTH_CM.
+        """
+        H = self.calibration.homography
+        w_px, h_px = self.camera.width_px, self.camera.height_px
+        corners = ((0, 0), (w_px, 0), (w_px, h_px), (0, h_px))
+        ws = [H[2][0] * u + H[2][1] * v + H[2][2] for u, v in corners]
+        size = f"{w_px}x{h_px} px frame (camera.width_px, camera.height_px)"
+        if not (all(w > 0 for w in ws) or all(w < 0 for w in ws)) or min(map(abs, ws)) < (
+            MIN_W_RATIO * max(map(abs, ws))
+        ):
+            raise ValueError(
+                f"@calibration.homography: its horizon (w = 0) crosses or nears the {size}: "
+                "the third row must keep h31·u + h32·v + h33 of one sign (within 20:1) over "
+                "the frame; recalibrate with tools/calibrate_camera.py"
+            )
+        for (u, v), w in zip(corners, ws, strict=True):
+            x = (H[0][0] * u + H[0][1] * v + H[0][2]) / w
+            y = (H[1][0] * u + H[1][1] * v + H[1][2]) / w
+            if not (abs(x) <= MAX_LENGTH_CM and abs(y) <= MAX_LENGTH_CM):
+                raise ValueError(
+                    f"@calibration.homography: the corner ({u}, {v}) px of the {size} maps "
+                    f"to ({x:.4g}, {y:.4g}) cm, beyond ±{MAX_LENGTH_CM:g} cm: recalibrate"
                 )
         return self

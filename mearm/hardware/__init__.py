@@ -9,7 +9,9 @@
 - ``ssc32``: :class:`SSC32Bus`, the Lynxmotion SSC-32 / SSC-32U protocol.
 
 Commands (:class:`ArmCommand`) name every actuated joint and tool actuator of the arm;
-:class:`ServoMap` turns them into pulses per channel from the arm description.
+:class:`ServoMap` turns them into pulses per channel from the arm description. Ports are
+device paths or ``socket://``, ``rfc2217://`` and ``loop://`` URLs
+(:func:`~mearm.config.port.check_port`).
 """
 
 from mearm.hardware.arduino import ArduinoBus, BoardStatus

@@ -45,6 +45,8 @@ log = logging.getLogger(__name__)
 
 #: Bytes of an ``OK <seq>*HH\n`` acknowledgement, at most.
 _ACK_BYTES = 10
+#: Garbage kept for an error message [bytes]; a flood is cut here.
+_GARBAGE_KEPT = 256
 
 
 @dataclass(frozen=True)
@@ -118,6 +120,12 @@ class ArduinoBus(SerialServoBus):
         self._transact("M", args)
 
     def _stop(self) -> None:
+        """``S``: the board keeps its current pulses (mode ``HOLD``) and changes none.
+
+        Its current pulses are the last acknowledged ``M`` (a move whose ``OK`` never
+        came faults the bus, and nothing is sent after a fault), so the arm holds the
+        last confirmed pose.
+        """
         self._transact("S")
 
     # ----------------------------------------------------------------- protocol
@@ -134,8 +142,9 @@ class ArduinoBus(SerialServoBus):
             if isinstance(decoded, Reply) and decoded.kind == "READY":
                 log.info("%s: banner %r", self.port, line)
                 return line
-            seen += line + b"\n"
-            log.debug("%s: skipped before the banner: %r", self.port, line)
+            if len(seen) < _GARBAGE_KEPT:
+                seen += line[:_GARBAGE_KEPT] + b"\n"
+            log.debug("%s: skipped before the banner: %r", self.port, line[:80])
 
     def _handshake(self) -> FirmwareInfo:
         reply = self._transact("V")
@@ -218,8 +227,9 @@ class ArduinoBus(SerialServoBus):
             decoded = decode_line(line)
             if isinstance(decoded, Unparseable):
                 if decoded.raw:
-                    garbage += decoded.raw + b"\n"
-                    log.warning("%s: ignored garbage %r", self.port, decoded.raw)
+                    if len(garbage) < _GARBAGE_KEPT:
+                        garbage += decoded.raw[:_GARBAGE_KEPT] + b"\n"
+                    log.warning("%s: ignored garbage %r", self.port, decoded.raw[:80])
                 continue
             if isinstance(decoded, BadChecksum):
                 return decoded

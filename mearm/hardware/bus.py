@@ -260,8 +260,29 @@ class ServoBus(ABC):
         self._guarded(self._send_move, command, pulses)
         self._state = ArmState.from_command(command)
 
+    def hold(self, seconds: float) -> None:
+        """Let the last command take effect for ``seconds`` (a gripper closing).
+
+        Sends nothing: a paced bus waits; a simulated one runs its physics (``_hold``).
+
+        Raises:
+            ServoNotConnectedError, ServoFaultedError: as :meth:`move`.
+        """
+        self._require_ready()
+        if seconds > 0:
+            self._guarded(self._hold, float(seconds))
+
+    def _hold(self, seconds: float) -> None:
+        """Backend hook of :meth:`hold`: by default wait, if the bus is paced."""
+        if self.paced:
+            time.sleep(seconds)
+
     def stop(self) -> None:
-        """Stop motion and hold where the arm is. Sends nothing after a fault."""
+        """Hold the last confirmed pose; commands no move. Sends nothing after a fault.
+
+        Each backend either sends a hold command that changes no pulse or sends nothing
+        at all; never a fixed pulse, never a move. :attr:`state` is unchanged.
+        """
         if not self._connected or self._fault is not None:
             log.warning("stop(): bus not connected or faulted; nothing sent")
             return
@@ -321,7 +342,7 @@ class ServoBus(ABC):
 
     @abstractmethod
     def _stop(self) -> None:
-        """Stop motion and hold."""
+        """Hold the last confirmed pose: a hold command that changes no pulse, or nothing."""
 
     @abstractmethod
     def _close(self) -> None:

@@ -2,8 +2,11 @@
 
 Opening, line and byte reads with a deadline, writes, and turning every pyserial or OS
 failure into a named :class:`~mearm.exceptions.LinkError` that carries the last
-acknowledged pose. The subclasses (:class:`~mearm.hardware.arduino.ArduinoBus`,
-:class:`~mearm.hardware.ssc32.SSC32Bus`) speak their protocol on top of it.
+acknowledged pose. The port is checked by :func:`~mearm.config.port.check_port` before
+anything is opened: a device path, or a ``socket://``, ``rfc2217://`` or ``loop://`` URL
+(never ``spy://``, which writes a file). The subclasses
+(:class:`~mearm.hardware.arduino.ArduinoBus`, :class:`~mearm.hardware.ssc32.SSC32Bus`)
+speak their protocol on top of it.
 
 Pacing: commands go at most ``servo.rate_hz`` per second, and never faster than the baud
 rate carries one command and its reply (8N1: 10 bits a byte).
@@ -18,6 +21,7 @@ from abc import abstractmethod
 import serial
 
 from mearm.config import Config
+from mearm.config.port import check_port
 from mearm.exceptions import LinkDroppedError, LinkError
 from mearm.hardware.bus import ServoBus
 
@@ -38,6 +42,9 @@ except ImportError:  # pragma: no cover - Windows
 POLL_S = 0.005
 #: Bits on the wire per byte: start + 8 data + stop (8N1).
 BITS_PER_BYTE = 10
+#: Longest line kept whole [bytes]; a longer run without a terminator is cut into lines
+#: of this length, so a flood of bytes cannot grow the buffer without bound.
+MAX_LINE_BYTES = 256
 
 
 class SerialServoBus(ServoBus):
@@ -46,11 +53,14 @@ class SerialServoBus(ServoBus):
     Args:
         config: The whole configuration; ``servo.port`` and ``servo.baud`` are used.
         port: Override ``servo.port``.
+
+    Raises:
+        SerialPortError: the port is neither a device path nor an allowed URL.
     """
 
     def __init__(self, config: Config, *, port: str | None = None):
         super().__init__(config, paced=True)
-        self.port = port if port is not None else config.servo.port
+        self.port = check_port(port if port is not None else config.servo.port)
         self.baud = config.servo.baud
         self._serial: serial.SerialBase | None = None
         self._rx = bytearray()
@@ -75,7 +85,13 @@ class SerialServoBus(ServoBus):
     # ----------------------------------------------------------------- port
 
     def _open_port(self) -> None:
-        """Open the port (asserting DTR, which resets an Uno) and empty the buffers."""
+        """Open the port (asserting DTR, which resets an Uno) and empty the buffers.
+
+        Raises:
+            SerialPortError: the port is neither a device path nor an allowed URL.
+            LinkError: it cannot be opened.
+        """
+        check_port(self.port)  # again: the attribute may have been changed since
         try:
             ser = serial.serial_for_url(self.port, do_not_open=True)
             ser.baudrate = self.baud
@@ -145,8 +161,23 @@ class SerialServoBus(ServoBus):
             log.debug("%s < %r", self.port, chunk)
             self._rx += chunk
 
+    def _take_waiting(self) -> bytes:
+        """Read, without waiting, what has arrived; return everything not yet consumed."""
+        assert self._serial is not None
+        try:
+            waiting = self._serial.in_waiting
+            chunk = self._serial.read(waiting) if waiting else b""
+        except _IO_ERRORS as exc:
+            raise self._dropped("reading", exc) from None
+        if chunk:
+            log.debug("%s < %r", self.port, chunk)
+            self._rx += chunk
+        return bytes(self._rx)
+
     def _read_line(self, deadline: float, terminators: bytes = b"\n") -> bytes | None:
         """The next line (terminator stripped), or ``None`` at the monotonic ``deadline``.
+
+        A run of :data:`MAX_LINE_BYTES` without a terminator is returned as a line.
 
         Raises:
             LinkDroppedError: the port failed.
@@ -157,6 +188,10 @@ class SerialServoBus(ServoBus):
                 end = min(ends)
                 line = bytes(self._rx[:end])
                 del self._rx[: end + 1]
+                return line
+            if len(self._rx) >= MAX_LINE_BYTES:
+                line = bytes(self._rx[:MAX_LINE_BYTES])
+                del self._rx[:MAX_LINE_BYTES]
                 return line
             if time.monotonic() >= deadline:
                 return None

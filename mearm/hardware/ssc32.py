@@ -6,25 +6,61 @@ all of them start and arrive together::
     #0P1800#1P1530#2P1080#3P2100#4P1000T20\r     pulse [µs] per channel, T: move time [ms]
 
 ``Q\r`` answers one byte, ``.`` when the last move is done and ``+`` while it runs;
-``QP<ch>\r`` answers one byte, the channel's current pulse / 10; ``VER\r`` answers the
-firmware version, e.g. ``SSC32-V2.50USB\r``.
+``QP<ch>\r`` answers one byte, the channel's current pulse / 10 (0: no pulse); ``VER\r``
+answers the firmware version, e.g. ``SSC32-V2.50USB\r``, which the board also prints
+when it restarts.
 
-The board has no acknowledgement and no checksum, so each move is followed by a ``Q``:
-its answer confirms the board is there and has read the move (the link is in order).
-A byte other than ``.``/``+`` is logged and the ``Q`` resent, up to ``servo.retries``
-times. Each move's ``T`` is the command period, so the servos glide from one command to
-the next instead of jumping. The SSC-32 does not reset when the port opens and prints no
-banner: the handshake is ``VER``.
+The board has no acknowledgement, no checksum and no sequence numbers, so the host
+confirms each move with the board's own queries and keeps count of every byte:
+
+- **Confirmation.** After a group move the host asks ``Q`` and ``QP`` for every channel
+  in one write (:func:`encode_status_query`) and reads exactly ``1 + channels`` bytes. The
+  move is confirmed when ``Q`` says done and every ``QP`` reads the pulse sent, within
+  the 10 µs step of ``QP``. Only then does :attr:`~ServoBus.state` change.
+- **Accounting.** The board answers its queries once each, in order. An exchange that
+  got all its bytes leaves nothing owed; a byte that arrives when nothing is owed came
+  unasked (:class:`~mearm.exceptions.UnsolicitedBytesError`, or
+  :class:`~mearm.exceptions.BoardResetError` if it is the restart banner). An exchange
+  that timed out (a lost or late reply) or read junk may still owe bytes, so before the
+  next query the host **resynchronises**: it sends ``VER`` and discards everything up
+  to the version line. Answers come in order, so a late reply to the earlier query
+  arrives before that line and is discarded with it: it can never be read as the answer
+  to a later query. Each try is logged; after ``1 + servo.retries`` tries the bus faults
+  (:class:`~mearm.exceptions.NoAckError` or :class:`~mearm.exceptions.GarbledReplyError`).
+- **Verification.** ``QP`` reading other pulses than those sent (the board restarted and
+  went limp, junk in the reply, a move it did not make) is
+  :class:`~mearm.exceptions.MoveNotConfirmedError` at once, or
+  :class:`~mearm.exceptions.BoardResetError` when every channel reads 0 (limp) or the
+  restart banner is in the reply. A move still running ``servo.ack_timeout_s`` after its
+  ``T`` is :class:`~mearm.exceptions.MoveNotConfirmedError` too.
+
+After any fault the bus sends nothing more (:class:`~mearm.hardware.bus.ServoBus`), and
+:attr:`~ServoBus.state` stays the last confirmed pose. ``stop()`` sends nothing: every
+move returns only once the board has finished it and holds its pulses, which is the
+last confirmed pose.
+
+Each move's ``T`` is the command period, so the servos glide from one command to the
+next instead of jumping; the confirmation adds one exchange per move (about 30 bytes).
+The SSC-32 does not reset when the port opens and prints no banner then: the handshake
+is ``VER``.
 """
 
 from __future__ import annotations
 
 import logging
 import time
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
+from typing import NoReturn
 
 from mearm.config import Config
-from mearm.exceptions import GarbledReplyError, HandshakeError, NoAckError
+from mearm.exceptions import (
+    BoardResetError,
+    GarbledReplyError,
+    HandshakeError,
+    MoveNotConfirmedError,
+    NoAckError,
+    UnsolicitedBytesError,
+)
 from mearm.hardware.bus import ArmCommand
 from mearm.hardware.serial_bus import SerialServoBus
 
@@ -37,6 +73,16 @@ SSC32_MIN_US = 500
 SSC32_MAX_US = 2500
 MOVE_DONE = b"."
 MOVE_RUNNING = b"+"
+#: ``QP`` answers pulse // 10: a pulse read back within this of the one sent matches [µs].
+QP_STEP_US = 10
+#: Pause between two ``Q`` while a move still runs [s].
+POLL_MOVING_S = 0.002
+#: How long to wait for the rest of a restart banner after its first bytes [s].
+BANNER_WAIT_S = 0.05
+#: Text the restart banner (and the answer to ``VER``) starts with.
+BANNER_MARKS = (b"SSC32", b"SSC-32")
+#: Longest answer to ``VER`` taken for a version.
+MAX_VERSION_CHARS = 40
 
 
 def encode_group_move(pulses_us: Mapping[int, int], time_ms: int | None = None) -> bytes:
@@ -66,6 +112,20 @@ def encode_query_pulse(channel: int) -> bytes:
     return f"QP{channel}\r".encode("ascii")
 
 
+def encode_status_query(channels: Iterable[int]) -> bytes:
+    r"""``Q\rQP<ch>\r…``: is the move done, and each channel's pulse, in one write.
+
+    The board answers ``1 + len(channels)`` bytes, in this order.
+    """
+    return QUERY_MOVEMENT + b"".join(encode_query_pulse(ch) for ch in channels)
+
+
+def looks_like_banner(data: bytes) -> bool:
+    """Whether ``data`` holds the SSC-32's version text (its restart banner)."""
+    upper = data.upper()
+    return any(mark in upper for mark in BANNER_MARKS)
+
+
 class SSC32Bus(SerialServoBus):
     """The SSC-32 / SSC-32U backend.
 
@@ -80,6 +140,9 @@ class SSC32Bus(SerialServoBus):
     def __init__(self, config: Config, *, port: str | None = None):
         super().__init__(config, port=port)
         self.version: str | None = None
+        # True while a query may still owe bytes (a timeout, junk, an interruption):
+        # the next query resynchronises first.
+        self._owed = False
 
     @property
     def move_time_ms(self) -> int:
@@ -88,16 +151,21 @@ class SSC32Bus(SerialServoBus):
 
     @property
     def wire_bytes_per_move(self) -> int:
-        """A group move of every channel at 4 digits with ``T``, a ``Q`` and its byte."""
-        move = encode_group_move(dict.fromkeys(self.servo_map.channels, 2500), 65535)
-        return len(move) + len(QUERY_MOVEMENT) + 1
+        """A group move of every channel at 4 digits with ``T``, its status query and answer."""
+        channels = self.servo_map.channels
+        move = encode_group_move(dict.fromkeys(channels, 2500), 65535)
+        return len(move) + len(encode_status_query(channels)) + 1 + len(channels)
 
     # ----------------------------------------------------------------- public extras
 
     def is_moving(self) -> bool:
-        """Whether the last move is still running (``Q`` answers ``+``)."""
+        """Whether the last move is still running (``Q`` answers ``+``).
+
+        Every :meth:`move` returns once its move is done, so this is ``False`` between
+        moves unless the board was moved by someone else.
+        """
         self._require_ready()
-        return self._guarded(self._query_movement, b"") == MOVE_RUNNING
+        return self._guarded(self._query_movement) == MOVE_RUNNING
 
     def wait_until_done(self, timeout_s: float = 5.0) -> bool:
         """Poll ``Q`` until the last move is done; ``False`` if it still runs at the timeout."""
@@ -105,7 +173,7 @@ class SSC32Bus(SerialServoBus):
         while self.is_moving():
             if time.monotonic() >= deadline:
                 return False
-            time.sleep(0.005)
+            time.sleep(POLL_MOVING_S)
         return True
 
     # ----------------------------------------------------------------- backend hooks
@@ -113,6 +181,7 @@ class SSC32Bus(SerialServoBus):
     def _connect(self) -> None:
         # The config already keeps every pulse within the SSC-32's 500..2500 µs.
         self._open_port()
+        self._owed = False
         try:
             self.version = self._handshake()
         except BaseException:
@@ -130,62 +199,213 @@ class SSC32Bus(SerialServoBus):
             if line is None:
                 raise NoAckError(self.port, QUERY_VERSION, timeout, bytes(seen) + self._drain())
             text = line.decode("ascii", "replace").strip()
-            if text.upper().startswith("SSC32") or text.upper().startswith("SSC-32"):
+            printable = all(0x20 <= b < 0x7F for b in line.strip())
+            is_ssc32 = text.upper().startswith("SSC32") or text.upper().startswith("SSC-32")
+            if is_ssc32 and printable and len(text) <= MAX_VERSION_CHARS:
+                self._skip_line_feed()
                 return text
             if text and text != "VER":
                 raise HandshakeError(
-                    f"{self.port}: not an SSC-32: VER answered {line!r} (servo.backend "
+                    f"{self.port}: not an SSC-32: VER answered {line[:60]!r} (servo.backend "
                     "'serial' is for the Uno running tools/arduino/mearm_servo)"
                 )
             seen += line
 
     def _send_move(self, command: ArmCommand, pulses_us: dict[int, int]) -> None:
         move = encode_group_move(pulses_us, self.move_time_ms)
+        self._settle(move)
         self._write(move)
-        self._query_movement(move)
-
-    def _query_movement(self, after: bytes) -> bytes:
-        """Send ``Q`` and return its ``.``/``+``; resend after a garbled answer.
-
-        Raises:
-            NoAckError: no answer in time.
-            GarbledReplyError: every answer was something else.
-        """
-        timeout = self.config.servo.ack_timeout_s
-        tries = 1 + self.config.servo.retries
-        bad = b""
-        for attempt in range(1, tries + 1):
-            self._write(QUERY_MOVEMENT)
-            byte = self._read_byte(time.monotonic() + timeout)
-            if byte is None:
-                raise NoAckError(
-                    self.port, after + QUERY_MOVEMENT, timeout, bad, last_state=self.state
-                )
-            if byte in (MOVE_DONE, MOVE_RUNNING):
-                return byte
-            bad = byte + self._drain()
-            log.warning(
-                "%s: try %d/%d: Q after %r answered %r, not '.' or '+'",
-                self.port, attempt, tries, after, bad,
-            )  # fmt: skip
-        raise GarbledReplyError(
-            after + QUERY_MOVEMENT, tries, bad, "no '.'/'+' answer to Q", last_state=self.state
-        )
+        self._confirm(move, pulses_us, time.monotonic() + self.move_time_ms / 1000.0)
 
     def _stop(self) -> None:
-        """Hold every servo at its current pulse: ``QP`` each, a move without ``T``, a ``Q``.
+        """Send nothing: the last move was confirmed done, and the board holds its pulses.
 
-        ``QP`` reports in 10 µs steps, so a servo may shift by up to 10 µs.
+        The SSC-32 keeps sending each channel's last pulse, so the arm stays at the last
+        confirmed pose; any command here could only move it.
+        """
+
+    # ----------------------------------------------------------------- protocol
+
+    def _settle(self, before: bytes) -> None:
+        """Make sure nothing is owed or unasked before ``before`` is sent.
+
+        Raises:
+            BoardResetError: the restart banner arrived unasked.
+            UnsolicitedBytesError: other bytes arrived unasked.
+            NoAckError: a resynchronisation got no answer.
+        """
+        if self._owed:
+            self._resync(before)
+        elif self._take_waiting():
+            self._raise_if_reset(b"", before)
+            raise UnsolicitedBytesError(self.port, self._drain(), last_state=self.state)
+
+    def _resync(self, before: bytes) -> None:
+        """Send ``VER`` and discard everything up to its answer (late replies included).
+
+        Raises:
+            NoAckError: no version line within ``servo.ack_timeout_s``.
         """
         timeout = self.config.servo.ack_timeout_s
-        here: dict[int, int] = {}
-        for ch in self.servo_map.channels:
-            query = encode_query_pulse(ch)
-            self._write(query)
-            byte = self._read_byte(time.monotonic() + timeout)
+        assert self.version is not None
+        version = self.version.encode("ascii", "replace")
+        self._write(QUERY_VERSION)
+        deadline = time.monotonic() + timeout
+        discarded = bytearray()
+        while True:
+            line = self._read_line(deadline, terminators=b"\r")
+            if line is None:
+                late = bytes(discarded) + self._drain()
+                log.warning("%s: no answer to VER; received meanwhile %r", self.port, late[:60])
+                raise NoAckError(self.port, QUERY_VERSION, timeout, last_state=self.state)
+            if line.endswith(version):
+                discarded += line[: -len(version)]
+                self._skip_line_feed()
+                break
+            discarded += line + b"\r"
+        self._owed = False
+        if discarded:
+            log.warning(
+                "%s: resynchronised before %r: discarded %d late or stray bytes %r",
+                self.port, before, len(discarded), bytes(discarded[:60]),
+            )  # fmt: skip
+
+    def _skip_line_feed(self) -> None:
+        """Drop a line feed right after a version line's carriage return (CR LF)."""
+        if self._take_waiting()[:1] == b"\n":
+            del self._rx[:1]
+
+    def _ask(self, query: bytes, n: int, before: bytes) -> bytes | None:
+        """Send ``query`` and read its ``n`` answer bytes; ``None`` if they do not all come.
+
+        After ``None`` the bytes may still come: the next query resynchronises first.
+        """
+        self._settle(before)
+        self._owed = True
+        self._write(query)
+        deadline = time.monotonic() + self.config.servo.ack_timeout_s
+        reply = bytearray()
+        while len(reply) < n:
+            byte = self._read_byte(deadline)
             if byte is None:
-                raise NoAckError(self.port, query, timeout, last_state=self.state)
-            here[ch] = min(SSC32_MAX_US, max(SSC32_MIN_US, 10 * byte[0]))
-        hold = encode_group_move(here)
-        self._write(hold)
-        self._query_movement(hold)
+                self._rx[:0] = reply  # discarded by the resync
+                return None
+            reply += byte
+        self._owed = False
+        return bytes(reply)
+
+    def _reject(self, reply: bytes, after: bytes) -> None:
+        """A reply that cannot be used: raise if it is the restart banner, else resync next."""
+        self._owed = True  # junk may hide a shifted answer
+        self._raise_if_reset(reply, after)
+
+    def _raise_if_reset(self, reply: bytes, after: bytes) -> None:
+        """Raise :class:`BoardResetError` if ``reply`` and what follows it is the banner."""
+        rest = self._read_line(time.monotonic() + BANNER_WAIT_S, terminators=b"\r")
+        if rest is not None:
+            self._rx[:0] = rest + b"\r"
+        seen = reply + bytes(self._rx)
+        if looks_like_banner(seen):
+            self._owed = True
+            raise BoardResetError(
+                f"{self.port}: the SSC-32 restarted (it printed {seen[:40]!r} after "
+                f"{after[:60]!r}) and its servos went limp: a brown-out? Power the servos "
+                "separately from the board (VS and VL)",
+                last_state=self.state,
+            )
+
+    def _query_movement(self) -> bytes:
+        """Ask ``Q`` alone: ``.`` or ``+``, with the same tries as a confirmation."""
+        tries = 1 + self.config.servo.retries
+        reply: bytes | None = None
+        for attempt in range(1, tries + 1):
+            reply = self._ask(QUERY_MOVEMENT, 1, QUERY_MOVEMENT)
+            if reply is not None and reply in (MOVE_DONE, MOVE_RUNNING):
+                return reply
+            if reply is not None:
+                self._reject(reply, QUERY_MOVEMENT)
+            self._failed_try(attempt, tries, QUERY_MOVEMENT, reply)
+        self._give_up(QUERY_MOVEMENT, tries, reply)
+
+    def _confirm(self, move: bytes, pulses_us: dict[int, int], due: float) -> None:
+        """Wait for the move to finish and read back its pulses.
+
+        Args:
+            move: The group move as sent.
+            pulses_us: Channel → the pulse sent [µs].
+            due: When the move should be done (monotonic) [s].
+
+        Raises:
+            NoAckError: no complete answer on every try.
+            GarbledReplyError: ``Q`` answered something else than ``.``/``+`` on every try.
+            MoveNotConfirmedError: a pulse read back is not the one sent, or the move
+                still runs ``servo.ack_timeout_s`` after ``due``.
+            BoardResetError: the board restarted.
+        """
+        channels = sorted(pulses_us)
+        query = encode_status_query(channels)
+        timeout = self.config.servo.ack_timeout_s
+        give_up_at = due + timeout
+        tries = 1 + self.config.servo.retries
+        failures = 0
+        while True:
+            wait = due - time.monotonic()
+            if wait > 0:
+                time.sleep(wait)
+            reply = self._ask(query, 1 + len(channels), move)
+            if reply is None or reply[:1] not in (MOVE_DONE, MOVE_RUNNING):
+                if reply is not None:
+                    self._reject(reply, move)
+                failures += 1
+                self._failed_try(failures, tries, query, reply)
+                if failures >= tries:
+                    self._give_up(move + query, tries, reply)
+                continue
+            if reply[:1] == MOVE_RUNNING:
+                if time.monotonic() > give_up_at:
+                    raise MoveNotConfirmedError(
+                        self.port,
+                        f"still moving {timeout:g} s after its {self.move_time_ms} ms "
+                        f"({move!r})",
+                        pulses_us, {}, last_state=self.state,
+                    )  # fmt: skip
+                due = time.monotonic() + POLL_MOVING_S
+                continue
+            reported = {ch: QP_STEP_US * b for ch, b in zip(channels, reply[1:], strict=True)}
+            self._verify(move, reply, pulses_us, reported)
+            return
+
+    def _verify(
+        self, move: bytes, reply: bytes, pulses_us: dict[int, int], reported: dict[int, int]
+    ) -> None:
+        """Raise unless every channel reads back the pulse sent (within :data:`QP_STEP_US`)."""
+        wrong = {ch: us for ch, us in reported.items() if abs(us - pulses_us[ch]) > QP_STEP_US}
+        if not wrong:
+            return
+        self._reject(reply, move)
+        if all(us == 0 for us in reported.values()):
+            raise BoardResetError(
+                f"{self.port}: every channel reads no pulse after {move!r}: the SSC-32 "
+                "restarted and its servos went limp (a brown-out? Power the servos "
+                "separately from the board)",
+                last_state=self.state,
+            )
+        listing = ", ".join(
+            f"channel {ch} reads {us} µs, sent {pulses_us[ch]} µs" for ch, us in wrong.items()
+        )
+        raise MoveNotConfirmedError(
+            self.port, f"{listing} (after {move!r})", pulses_us, reported, last_state=self.state
+        )
+
+    def _failed_try(self, attempt: int, tries: int, frame: bytes, reply: bytes | None) -> None:
+        what = "no complete answer" if reply is None else f"answered {reply!r}"
+        log.warning("%s: try %d/%d of %r: %s", self.port, attempt, tries, frame, what)
+
+    def _give_up(self, frame: bytes, tries: int, reply: bytes | None) -> NoReturn:
+        if reply is None:  # a partial answer is not garbage: no hint about the baud rate
+            raise NoAckError(
+                self.port, frame, self.config.servo.ack_timeout_s, last_state=self.state
+            )
+        raise GarbledReplyError(
+            frame, tries, reply, "no '.'/'+' answer to Q", last_state=self.state
+        )

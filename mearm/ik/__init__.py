@@ -15,9 +15,10 @@ The mink solver (:mod:`mearm.ik.mink_solver`) imports MuJoCo and is loaded on fi
 
 from mearm.ik.analytic import AnalyticSolver
 from mearm.ik.factory import make_solver, solve_ik
+from mearm.ik.failure import FAILURE_KINDS, FailureKind, IKFailure, failure_of_error
 from mearm.ik.pdpij import PdPij
 from mearm.ik.pseudoinverse import PseudoInverse
-from mearm.ik.result import STATUSES, IKResult, Status
+from mearm.ik.result import METHODS, STATUSES, IKResult, Method, Status
 from mearm.ik.routes import DemoRoute, demo_routes, run_routes
 from mearm.ik.solver import (
     APPROACH_TOLERANCE_DEG,
@@ -30,17 +31,23 @@ from mearm.ik.target import IKTarget
 __all__ = [
     "APPROACH_TOLERANCE_DEG",
     "APPROACH_WEIGHT_CM",
+    "FAILURE_KINDS",
+    "METHODS",
     "STATUSES",
     "AnalyticSolver",
     "DemoRoute",
+    "FailureKind",
+    "IKFailure",
     "IKResult",
     "IKSolver",
     "IKTarget",
+    "Method",
     "MinkSolver",
     "PdPij",
     "PseudoInverse",
     "Status",
     "demo_routes",
+    "failure_of_error",
     "make_solver",
     "run_routes",
     "solve_ik",

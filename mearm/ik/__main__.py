@@ -27,22 +27,13 @@ from mearm.cli import (
     add_config_argument,
     config_from_args,
     float_list,
+    positive_number,
     run,
 )
 from mearm.exceptions import InvalidJointsError, InvalidTargetError
 from mearm.ik.factory import solve_ik
 from mearm.ik.target import IKTarget
 from mearm.kinematics import ArmModel
-
-
-def _positive(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        value = float("nan")
-    if not value > 0 or value == float("inf"):
-        raise argparse.ArgumentTypeError(f"must be a positive number (cm²), got {text!r}")
-    return value
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -66,7 +57,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--mode", choices=("paper", "coupled"), help="PD-PIJ mode")
     parser.add_argument("--solver", choices=("pdpij", "mink", "analytic"), help="solver")
     parser.add_argument(
-        "--tolerance", type=_positive, metavar="CM2", help="stop when |e|² < CM2 [cm²]"
+        "--tolerance",
+        type=positive_number(0.0, float("inf"), "cm²"),  # the range: controller.tolerance_cm2
+        metavar="CM2",
+        help="stop when |e|² < CM2 [cm²]",
     )
     parser.add_argument("--json", action="store_true", help="print JSON")
     args = parser.parse_args(argv)
@@ -116,6 +110,14 @@ def main(argv: Sequence[str] | None = None) -> int:
         )
         x, y, z = result.ee_cm
         print(f"{result.solver}: {result.status} after {result.iterations} iterations")
+        if result.recovered_from is not None:
+            print(
+                f"recovered ({result.method.replace('_', ' ')}): PD-PIJ alone "
+                f"{result.recovered_from.replace('_', ' ')}; {result.search_iterations} "
+                "updates searched, not in the path"
+            )
+        if result.failure is not None:
+            print(f"failure ({result.failure.kind}): {result.failure.message}")
         print(f"error {result.initial_error_cm:.4f} -> {result.final_error_cm:.4f} cm")
         if result.final_approach_error_deg is not None:
             print(f"approach error {result.final_approach_error_deg:.3f} deg")

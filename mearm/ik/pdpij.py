@@ -49,8 +49,20 @@ Beyond the paper (``safeguard``, on by default; ``false`` runs the bare algorith
    step along :math:`k_p e`, halved until |e| falls. If none does, the solve stops as
    ``stalled``.
 
-So |e| never rises. On the paper's 24 demo routes neither case occurs, and ``paper``
-mode reproduces the bare algorithm iteration for iteration.
+So along PD-PIJ's own updates |e| never rises. On the paper's 24 demo routes neither
+case occurs, and ``paper`` mode reproduces the bare algorithm iteration for iteration.
+
+Recovery (:mod:`mearm.ik.recovery`; on with the safeguard, or by the ``recover``
+argument). PD-PIJ is local: from a start against the limits the target can lie behind a
+corner of the joint box that no descent leaves, and the solve stops short (``stalled``,
+or ``max_iterations``). The attempt is then discarded — none of it is sent — and the
+path becomes a joint-space move from the start, at the controller's pace, to a
+solution: the closed form's where the arm registers one, else one PD-PIJ reaches from
+other starts (multi-start). The record says so (``method``, ``recovered_from``);
+``iterations`` counts the path's updates and ``search_iterations`` the discarded ones.
+A solve PD-PIJ converges on by itself is never touched, so the demo's iteration counts
+stay the paper's. If nothing reaches, the record is PD-PIJ's own, not converged, with
+its :class:`~mearm.ik.IKFailure`.
 
 Cost: one Pinocchio pass (``computeFrameJacobian``, which also places the TCP frame) and
 one small SVD per iteration, scalars in Python floats, the paths in flat lists: about
@@ -60,13 +72,16 @@ one small SVD per iteration, scalars in Python floats, the paths in flat lists: 
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 import numpy.typing as npt
 import pinocchio as pin
 
 from mearm.config import ControllerConfig
+from mearm.ik import recovery
 from mearm.ik.bounded import bounded_lstsq
+from mearm.ik.failure import IKFailure
 from mearm.ik.pseudoinverse import PseudoInverse
 from mearm.ik.result import IKResult, Status
 from mearm.ik.solver import (
@@ -90,12 +105,32 @@ _STALL_RELATIVE = 1e-6
 _Measure = tuple[list[float], np.ndarray, list[float], float, float, bool]
 
 
+class _Run(NamedTuple):
+    """PD-PIJ's own updates from one start.
+
+    The status, the flat joint [model units] and TCP [m] paths (row after row), and the
+    limit rule's and the safeguard's counts.
+    """
+
+    status: Status
+    q_path: list[float]
+    ee_path: list[float]
+    blocked: int
+    fallbacks: int
+
+
 class PdPij(IKSolver):
     """The PD-PIJ solver (paper §3) in ``paper`` or ``coupled`` mode, for any arm.
 
     Args:
         model: The arm model (Pinocchio model, ``tcp`` frame, chain, limits).
         config: Gains, tolerance, iteration cap, mode, SVD cutoff / damping, safeguard.
+        recover: Whether a solve that stops short is recovered (module docstring);
+            ``None`` (the default) follows ``config.safeguard``, so ``safeguard: false``
+            still runs the bare paper algorithm.
+
+    Attributes:
+        recover: Whether stops are recovered.
 
     Example::
 
@@ -104,8 +139,12 @@ class PdPij(IKSolver):
         result.status, result.iterations  # ('converged', 62)
     """
 
-    def __init__(self, model: ArmModel, config: ControllerConfig):
+    def __init__(self, model: ArmModel, config: ControllerConfig, *, recover: bool | None = None):
         super().__init__(model, config)
+        self.recover = config.safeguard if recover is None else recover
+        self._recovery = recovery.Recovery(
+            model.chain, model.home, model.arm.target_box.z_cm.min, config
+        )
         self.mode = config.mode
         self.name = f"pdpij-{self.mode}"
         self._pin_model = model.model
@@ -227,7 +266,7 @@ class PdPij(IKSolver):
     # ----------------------------------------------------------------- solve
 
     def solve(self, q_start: npt.ArrayLike, target: IKTarget | npt.ArrayLike) -> IKResult:
-        """Run PD-PIJ from ``q_start`` to ``target``.
+        """Run PD-PIJ from ``q_start`` to ``target``; recover if it stops short.
 
         Args:
             q_start: Every joint (n,) or the actuated ones (m,), model units; passive
@@ -236,7 +275,9 @@ class PdPij(IKSolver):
                 (x, y, z) [cm].
 
         Returns:
-            The :class:`IKResult`, with the joint and TCP path of every iteration.
+            The :class:`IKResult`, with the joint and TCP path of every update. Its
+            ``method`` says how the path was made: ``direct`` (PD-PIJ's own updates), or
+            ``closed_form`` / ``multi_start`` (the recovery, see :attr:`recover`).
 
         Raises:
             TargetOutsideBoxError: the target is outside the arm's target box.
@@ -244,14 +285,107 @@ class PdPij(IKSolver):
             JointLimitError: the start is outside the joint limits.
             InvalidJointsError, InvalidTargetError: malformed input.
         """
-        q0, target, _ = self.prepare(q_start, target)
-        cfg = self.config
+        q0, target, q_solution = self.prepare(q_start, target)
         t = (target.position / CM_PER_M).tolist()
+        run = self._iterate(q0, t, target.approach)
+        if run.status != "converged" and self.recover:
+            return self._recover(q0, t, target, q_solution, run)
+        return self._run_result(run, target)
+
+    def _run_result(
+        self, run: _Run, target: IKTarget, searched: int = 0, failure: IKFailure | None = None
+    ) -> IKResult:
+        """The record of PD-PIJ's own updates (``method`` ``direct``)."""
+        n = self.chain.n
+        return self._result(
+            run.status,
+            target,
+            np.array(run.q_path).reshape(-1, n),
+            np.array(run.ee_path).reshape(-1, 3) * CM_PER_M,
+            blocked_steps=run.blocked,
+            fallback_steps=run.fallbacks,
+            search_iterations=searched,
+            failure=failure,
+        )
+
+    # ----------------------------------------------------------------- recovery
+
+    def _met(self, t: list[float], a_d: tuple[float, ...] | None) -> recovery.Measure:
+        tol2 = self.config.tolerance_cm2 / CM_PER_M**2
+
+        def measure(q: np.ndarray) -> tuple[list[float], bool]:
+            p, _, _, err2, _, met = self._measure(q, t, a_d)
+            return p, err2 < tol2 and met
+
+        return measure
+
+    def _recover(
+        self,
+        q0: np.ndarray,
+        t: list[float],
+        target: IKTarget,
+        q_solution: np.ndarray | None,
+        run: _Run,
+    ) -> IKResult:
+        """The record of the recovery's move after PD-PIJ stopped short (``run``).
+
+        If no solution has a safe move (:class:`~mearm.ik.recovery.Recovery`), PD-PIJ's
+        own record, not converged, with its failure.
+        """
         a_d = target.approach
+        measure = self._met(t, a_d)
+        n = self.chain.n
+
+        def solve_from(seed: np.ndarray) -> tuple[np.ndarray | None, int]:
+            attempt = self._iterate(seed, t, a_d, safeguard=False)
+            goal = np.array(attempt.q_path[-n:]) if attempt.status == "converged" else None
+            return goal, len(attempt.q_path) // n - 1
+
+        closed = q_solution if q_solution is not None and measure(q_solution)[1] else None
+        tcp0 = self._measure(q0, t, a_d)[0]
+        found = self._recovery.find(
+            q0, tcp0[2] * CM_PER_M, t[2] * CM_PER_M, closed, measure, solve_from
+        )
+        searched = len(run.q_path) // n - 1 + found.searched
+        if found.path is None:
+            failure = self.stop_failure(run.status, run.q_path[-n:], target)
+            if found.floor_cm is not None:
+                failure = IKFailure(
+                    failure.kind,
+                    f"{failure.message}; every joint-space move to a solution would take the "
+                    f"TCP below z = {found.floor_cm:.4g} cm",
+                )
+            return self._run_result(run, target, searched, failure)
+        q_rows, tcp_rows = found.path
+        return self._result(
+            "converged",
+            target,
+            np.vstack([q0, *q_rows]),
+            np.array([tcp0, *tcp_rows]) * CM_PER_M,
+            method=found.method,
+            recovered_from=run.status,
+            search_iterations=searched,
+        )
+
+    # ----------------------------------------------------------------- iterate
+
+    def _iterate(
+        self,
+        q0: np.ndarray,
+        t: list[float],
+        a_d: tuple[float, ...] | None,
+        safeguard: bool | None = None,
+    ) -> _Run:
+        """PD-PIJ's own updates from ``q0`` (n,) towards ``t`` [m]: the paper's loop.
+
+        ``safeguard`` overrides the config's (the multi-start's seeds run without).
+        """
+        cfg = self.config
         rows = 3 if a_d is None else 6
         tol2 = cfg.tolerance_cm2 / CM_PER_M**2
         kpd, kd = cfg.kp + cfg.kd, cfg.kd
-        n_max, window, safeguard = cfg.max_iterations, cfg.stall_iterations, cfg.safeguard
+        n_max, window = cfg.max_iterations, cfg.stall_iterations
+        safeguard = cfg.safeguard if safeguard is None else safeguard
         stall_factor = (1.0 - _STALL_RELATIVE) ** 2
         paper = self.mode == "paper"
         lo, hi, act = self._lower, self._upper, self._act
@@ -315,12 +449,4 @@ class PdPij(IKSolver):
                     status = "stalled"
                     break
                 mark_k, mark_merit = k, merit
-        n = self.chain.n
-        return self._result(
-            status,
-            target,
-            np.array(q_path).reshape(-1, n),
-            np.array(ee_path).reshape(-1, 3) * CM_PER_M,
-            blocked_steps=blocked,
-            fallback_steps=fallbacks,
-        )
+        return _Run(status, q_path, ee_path, blocked, fallbacks)

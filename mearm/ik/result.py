@@ -8,8 +8,15 @@ from typing import Literal
 import numpy as np
 import numpy.typing as npt
 
+from mearm.ik.failure import IKFailure
+
 Status = Literal["converged", "max_iterations", "stalled"]
 STATUSES: tuple[Status, ...] = ("converged", "max_iterations", "stalled")
+#: How the path was made: by the solver's own updates from the start (``direct``), or,
+#: after they stopped short, as a joint-space move to a solution from the closed form
+#: (``closed_form``) or from the solver started elsewhere (``multi_start``).
+Method = Literal["direct", "closed_form", "multi_start"]
+METHODS: tuple[Method, ...] = ("direct", "closed_form", "multi_start")
 
 
 def _frozen(a: npt.ArrayLike) -> np.ndarray:
@@ -67,6 +74,17 @@ class IKResult:
             at the end [deg]; ``None`` without an approach.
         blocked_steps: Updates in which the limit rule held at least one joint [-].
         fallback_steps: Updates the safeguard replaced by the bounded step [-].
+        method: How the path was made (:data:`METHODS`): ``direct`` — the solver's own
+            updates; ``closed_form`` / ``multi_start`` — its own updates stopped short
+            (``recovered_from``) and were discarded, and the path is a joint-space move
+            from the start to a solution found that way.
+        recovered_from: With a recovery, the status the solver's own updates ended with;
+            else ``None``.
+        search_iterations: Updates computed but not in the path [-]: the discarded
+            attempt and every solve from another start. ``iterations`` counts only the
+            path's updates, the poses sent to the servos.
+        failure: Why the result cannot be sent (kind and message); ``None`` when
+            converged.
     """
 
     status: Status
@@ -86,6 +104,10 @@ class IKResult:
     final_approach_error_deg: float | None = None
     blocked_steps: int = 0
     fallback_steps: int = 0
+    method: Method = "direct"
+    recovered_from: Status | None = None
+    search_iterations: int = 0
+    failure: IKFailure | None = None
 
     @classmethod
     def from_paths(
@@ -102,6 +124,10 @@ class IKResult:
         final_approach_error_deg: float | None = None,
         blocked_steps: int = 0,
         fallback_steps: int = 0,
+        method: Method = "direct",
+        recovered_from: Status | None = None,
+        search_iterations: int = 0,
+        failure: IKFailure | None = None,
     ) -> IKResult:
         """Build the record from the joint and TCP paths (the errors follow from them).
 
@@ -132,6 +158,10 @@ class IKResult:
             final_approach_error_deg=final_approach_error_deg,
             blocked_steps=blocked_steps,
             fallback_steps=fallback_steps,
+            method=method,
+            recovered_from=recovered_from,
+            search_iterations=search_iterations,
+            failure=failure,
         )
 
     @property
@@ -155,13 +185,17 @@ class IKResult:
         return path_deviation_cm(self.ee_path_cm, self.target_cm)
 
     def summary(self) -> dict[str, object]:
-        """The CLI's JSON record: status, iterations, errors, joints by name, TCP [cm].
+        """The CLI's JSON record: status, method, iterations, errors, joints, TCP [cm].
 
         Joints are in degrees (centimetres for a prismatic joint); the approach error in
-        degrees, ``None`` without an approach.
+        degrees, ``None`` without an approach; ``failure_kind`` and ``failure`` ``None``
+        when converged.
         """
         return {
             "status": self.status,
+            "method": self.method,
+            "failure_kind": None if self.failure is None else self.failure.kind,
+            "failure": None if self.failure is None else self.failure.message,
             "iterations": self.iterations,
             "initial_error_cm": self.initial_error_cm,
             "final_error_cm": self.final_error_cm,

@@ -10,7 +10,8 @@ import numpy.typing as npt
 
 from mearm.config import ControllerConfig
 from mearm.exceptions import InvalidJointsError
-from mearm.ik.result import IKResult, Status
+from mearm.ik.failure import IKFailure, blocking_joints
+from mearm.ik.result import IKResult, Method, Status
 from mearm.ik.target import IKTarget, approach_error_deg
 from mearm.kinematics import ArmModel, Chain, check_target, closed_form_for
 
@@ -151,18 +152,67 @@ class IKSolver(abc.ABC):
         q_solution = check_target(target.position_cm, self.model.arm, self.closed_form)
         return start_joints(q_start, self.model), target, q_solution
 
+    def stop_failure(self, status: Status, q: npt.ArrayLike, target: IKTarget) -> IKFailure:
+        """Why a solve that ended at ``q`` (model units, (n,)) with ``status`` stopped short.
+
+        Classified by :func:`~mearm.ik.failure.blocking_joints` on the error the solvers
+        minimise (position [cm] and, with an approach, the weighted direction error).
+        """
+        model, chain = self.model, self.chain
+        q = np.asarray(q, dtype=float)
+        p, J = model.fk_and_jacobian(q)
+        e = target.position - p
+        error_cm = float(np.linalg.norm(e))
+        if target.approach is not None:
+            a, J_a = model.approach_jacobian(q)
+            J = np.vstack((J, APPROACH_WEIGHT_CM * J_a))
+            e = np.concatenate((e, APPROACH_WEIGHT_CM * (np.asarray(target.approach) - a)))
+        kind, blocked = blocking_joints(J @ chain.C, e, q, chain)
+        if status == "max_iterations":
+            text = (
+                f"the solver reached its iteration cap ({self.config.max_iterations}) "
+                f"{error_cm:.3f} cm from the target"
+            )
+        else:
+            text = f"the solver stalled {error_cm:.3f} cm from the target"
+        if target.approach is not None:
+            off = approach_error_deg(model.approach(q), target.approach)
+            if not off < APPROACH_TOLERANCE_DEG:
+                text += f", the approach {off:.1f} deg off"
+        if kind == "limit":
+            held = ", ".join(
+                f"{chain.names[i]} at {q[i] / chain.scale[i]:.4g} {chain.unit(i)}" for i in blocked
+            )
+            text += f": the joint limits block every way closer ({held})"
+        elif kind == "singular":
+            text += (
+                ": at a singular pose no joint motion reduces the error "
+                "(is the target out of reach?)"
+            )
+        return IKFailure(kind, text)
+
     def _result(
         self,
         status: Status,
         target: IKTarget,
         q_path: np.ndarray,
         ee_path_cm: np.ndarray,
+        *,
+        method: Method = "direct",
+        recovered_from: Status | None = None,
+        failure: IKFailure | None = None,
         **counts: int,
     ) -> IKResult:
-        """The record, with the final approach error when the target has an approach."""
+        """The record, with the final approach error when the target has an approach.
+
+        A result that did not converge carries its :class:`IKFailure` (classified here
+        unless given).
+        """
         error_deg = None
         if target.approach is not None:
             error_deg = approach_error_deg(self.model.approach(q_path[-1]), target.approach)
+        if status != "converged" and failure is None:
+            failure = self.stop_failure(status, q_path[-1], target)
         return IKResult.from_paths(
             status,
             self.name,
@@ -173,6 +223,9 @@ class IKSolver(abc.ABC):
             scale=self.chain.scale,
             approach=None if target.approach is None else np.array(target.approach),
             final_approach_error_deg=error_deg,
+            method=method,
+            recovered_from=recovered_from,
+            failure=None if status == "converged" else failure,
             **counts,
         )
 

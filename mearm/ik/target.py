@@ -37,7 +37,8 @@ class IKTarget:
                 a = np.asarray(self.approach, dtype=float)
             except (TypeError, ValueError):
                 a = np.array([np.nan])
-            norm = float(np.linalg.norm(a)) if a.shape == (3,) else float("nan")
+            # math.hypot scales: (1e308, 1e308, 1e308) has a finite norm, no overflow
+            norm = math.hypot(*a) if a.shape == (3,) and np.isfinite(a).all() else math.nan
             if not (math.isfinite(norm) and norm > 1e-9):
                 raise InvalidTargetError(
                     f"an approach is a finite non-zero 3-vector (base frame), got {self.approach!r}"

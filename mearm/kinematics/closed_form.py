@@ -28,7 +28,9 @@ import numpy.typing as npt
 from mearm.config import ArmDescription
 from mearm.exceptions import (
     InvalidTargetError,
+    JointLimitTargetError,
     ModelError,
+    SingularTargetError,
     TargetOutsideBoxError,
     UnreachableTargetError,
 )
@@ -81,18 +83,18 @@ class ClosedForm(abc.ABC):
         """Every joint, model units, (n,), putting the TCP at ``target_cm``; within limits.
 
         Raises:
-            UnreachableTargetError: out of reach, or needs a joint outside its limits.
+            UnreachableTargetError: out of reach; its subclasses
+                :class:`JointLimitTargetError` (needs a joint outside its limits) and
+                :class:`SingularTargetError` (where the formula is singular).
         """
 
     def _check_limits(self, target: tuple[float, float, float], q: np.ndarray) -> None:
         ch = self.chain
         for i, name in enumerate(ch.names):
             if not ch.lower[i] - 1e-9 <= q[i] <= ch.upper[i] + 1e-9:
-                s = ch.scale[i]
-                raise UnreachableTargetError(
-                    target,
-                    f"needs {name} = {q[i] / s:.2f} {ch.unit(i)}, outside its limits "
-                    f"[{ch.lower[i] / s:g}, {ch.upper[i] / s:g}] {ch.unit(i)}",
+                limits = self.arm.joint_limits()[name]  # as the config writes them
+                raise JointLimitTargetError(
+                    target, name, q[i] / ch.scale[i], limits.min, limits.max, ch.unit(i)
                 )
 
 
@@ -169,7 +171,7 @@ class PlanarWrist(ClosedForm):
         target = (x, y, z)
         rho = math.hypot(x, y)
         if rho < _EPS:
-            raise UnreachableTargetError(target, "on the base axis, where the base is undefined")
+            raise SingularTargetError(target, "on the base axis, where the base is undefined")
         theta1 = math.atan2(y, x)
         r = rho - self._radial
         h = z - self._height

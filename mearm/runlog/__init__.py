@@ -32,22 +32,37 @@ that header's ``trial`` number, so each trial is self-contained: its header alon
 how it was configured and seeded. A sort run is one trial with ``trial: null``; the
 experiment runner writes trials 0..N-1, one header each, into one file.
 
-**Appending.** Opening an existing log appends to it: what is there stays, and the new
-run starts with its own header. ``RunLog(path, exclusive=True)`` refuses an existing file
-instead. A file whose last line is torn (a crash mid-write) is refused either way, since
-a record written after it would be read as part of the broken line.
+**Appending.** Opening an existing log appends to it (it is never truncated or
+rewritten): what is there stays, and the new run starts with its own header.
+``RunLog(path, exclusive=True)`` refuses an existing file instead. A file whose last line
+is torn (a crash mid-write) is refused either way, since a record written after it would
+be read as part of the broken line; :func:`set_aside_torn_end` moves such a line into a
+side file first (:mod:`mearm.runlog.repair`). A path that is not a regular file (a
+folder, a device) is refused.
+
+**Repeated trial numbers.** The experiment runner runs a trial again under the same
+number when its last attempt was cut off before its summary. Reading keeps every attempt;
+:meth:`RunLogContents.latest` keeps the complete one (or, if none is, the last) and
+refuses a number that is complete twice (:class:`RepeatedTrialError`): that is two runs
+in one file, which ``mearm analyze`` will not pool.
 
 **Durability.** Each record is written as one ``write`` of one line, then flushed and
 ``fsync``-ed, so a crash loses at most the record being written.
 
 **Reading.** :func:`read_runlog` returns every valid record up to the first bad line
-(torn, not JSON, unknown type or format, a field missing or of the wrong type, joint
-names other than the header's arm's, records out of order) and a
-:class:`~mearm.exceptions.RunLogFormatError` naming that line and why.
+(torn, not JSON, not UTF-8, longer than :data:`MAX_LINE_BYTES`, unknown type or format,
+a field missing or of the wrong type, joint names other than the header's arm's, records
+out of order) and a :class:`~mearm.exceptions.RunLogFormatError` naming that line and why.
 """
 
 from mearm.runlog.format1 import upgrade_v1_record
-from mearm.runlog.reader import RunLogContents, Trial, read_runlog
+from mearm.runlog.reader import (
+    MAX_LINE_BYTES,
+    RepeatedTrialError,
+    RunLogContents,
+    Trial,
+    read_runlog,
+)
 from mearm.runlog.records import (
     ERROR_CONSISTENCY_CM,
     FORMAT_VERSION,
@@ -66,11 +81,13 @@ from mearm.runlog.records import (
     mearm_version,
     parse_record,
 )
+from mearm.runlog.repair import TornEnd, end_line, find_torn_end, set_aside_torn_end
 from mearm.runlog.writer import RunLog
 
 __all__ = [
     "ERROR_CONSISTENCY_CM",
     "FORMAT_VERSION",
+    "MAX_LINE_BYTES",
     "READABLE_FORMATS",
     "RECORD_TYPES",
     "VERSIONED_PACKAGES",
@@ -78,16 +95,21 @@ __all__ = [
     "HeaderRecord",
     "JointValues",
     "Record",
+    "RepeatedTrialError",
     "RouteRecord",
     "RunLog",
     "RunLogContents",
     "SkipRecord",
     "SummaryRecord",
+    "TornEnd",
     "Trial",
     "Vec3",
+    "end_line",
+    "find_torn_end",
     "library_versions",
     "mearm_version",
     "parse_record",
     "read_runlog",
+    "set_aside_torn_end",
     "upgrade_v1_record",
 ]

@@ -1,16 +1,18 @@
 """Reading a run log: :func:`read_runlog` groups its records by trial into :class:`Trial`.
 
-The format is described in :mod:`mearm.runlog`.
+The format is described in :mod:`mearm.runlog`, repeated trial numbers in
+:meth:`RunLogContents.latest`.
 """
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from mearm.exceptions import RunLogError, RunLogFormatError
+from mearm.exceptions import RepeatedTrialError, RunLogError, RunLogFormatError
 from mearm.runlog.records import (
     FaultRecord,
     HeaderRecord,
@@ -46,6 +48,17 @@ class Trial:
     def number(self) -> int | None:
         """The trial number of the header (``None`` for a lone sort run)."""
         return self.header.trial
+
+    @property
+    def complete(self) -> bool:
+        """Whether the trial has its summary (it ran to the end, or stopped and said so)."""
+        return self.summary is not None
+
+    @property
+    def records(self) -> tuple[Record, ...]:
+        """The header and every record under it (grouped by type, not in file order)."""
+        summary = () if self.summary is None else (self.summary,)
+        return (self.header, *self.routes, *self.skips, *self.faults, *summary)
 
 
 @dataclass(frozen=True)
@@ -85,6 +98,59 @@ class RunLogContents:
     def faults(self) -> list[FaultRecord]:
         """Every fault record, in file order."""
         return [r for t in self.trials for r in t.faults]
+
+    @property
+    def superseded(self) -> tuple[Trial, ...]:
+        """Attempts of a numbered trial that another attempt of it replaces.
+
+        The experiment runner runs a trial again, under the same number and seed, when
+        its last attempt was cut off before its summary (:mod:`mearm.experiment`). Per
+        trial number, the complete attempt is kept (when none is complete, the last one)
+        and every other attempt is superseded. Lone sort runs (``trial: null``) are
+        never superseded.
+        """
+        attempts: dict[int, list[Trial]] = {}
+        for t in self.trials:
+            if t.number is not None:
+                attempts.setdefault(t.number, []).append(t)
+        out: list[Trial] = []
+        for tries in attempts.values():
+            if len(tries) < 2:
+                continue
+            kept = next((t for t in tries if t.complete), tries[-1])
+            out += [t for t in tries if t is not kept]
+        return tuple(sorted(out, key=lambda t: t.line))
+
+    def repeated_trials(self) -> dict[int, tuple[int, ...]]:
+        """Trial numbers complete more than once → the header lines of those attempts."""
+        lines: dict[int, list[int]] = {}
+        for t in self.trials:
+            if t.number is not None and t.complete:
+                lines.setdefault(t.number, []).append(t.line)
+        return {k: tuple(v) for k, v in lines.items() if len(v) > 1}
+
+    def latest(self) -> RunLogContents:
+        """These contents without the :attr:`superseded` attempts.
+
+        A trial that is cut off and run again reads as the one trial it became. A trial
+        number that is *complete* twice cannot be told apart that way (two runs written
+        to one file, or a file copied onto its end): it is refused.
+
+        Raises:
+            RepeatedTrialError: A trial number is complete more than once.
+        """
+        repeated = self.repeated_trials()
+        if repeated:
+            raise RepeatedTrialError(self.path, repeated)
+        dropped = self.superseded
+        if not dropped:
+            return self
+        gone = {id(r) for t in dropped for r in t.records}
+        return dataclasses.replace(
+            self,
+            records=tuple(r for r in self.records if id(r) not in gone),
+            trials=tuple(t for t in self.trials if all(t is not d for d in dropped)),
+        )
 
 
 def chain_joint_names(config: Mapping[str, Any]) -> tuple[str, ...] | None:
@@ -172,12 +238,25 @@ class _TrialBuilder:
         )
 
 
+#: Longest line read [bytes]: a header with its whole config is some 10 kB; a longer
+#: line is not a record, and is not read into memory to find that out.
+MAX_LINE_BYTES = 4 * 1024 * 1024
+
+
 def _lines(path: Path) -> Iterator[tuple[int, bytes, bool]]:
-    """(number, bytes without the newline, whether the newline was there)."""
+    """(number, bytes without the newline, whether the newline was there).
+
+    A line longer than :data:`MAX_LINE_BYTES` comes back cut to one byte more than that,
+    and is the last.
+    """
     with path.open("rb") as f:
-        for number, raw in enumerate(f, start=1):
+        number = 0
+        while raw := f.readline(MAX_LINE_BYTES + 2):
+            number += 1
             ended = raw.endswith(b"\n")
             yield number, raw.rstrip(b"\r\n") if ended else raw, ended
+            if len(raw) > MAX_LINE_BYTES + 1:
+                return
 
 
 def read_runlog(path: str | Path, *, strict: bool = False) -> RunLogContents:
@@ -213,6 +292,10 @@ def read_runlog(path: str | Path, *, strict: bool = False) -> RunLogContents:
     try:
         for number, raw, ended in _lines(p):
             excerpt = raw[:80].decode("utf-8", errors="replace")
+            if len(raw) > MAX_LINE_BYTES:
+                why = f"longer than {MAX_LINE_BYTES // 2**20} MiB: not a run-log record"
+                problem = RunLogFormatError(p, number, why, excerpt)
+                break
             try:
                 text = raw.decode("utf-8")
             except UnicodeDecodeError as exc:

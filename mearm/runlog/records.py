@@ -127,6 +127,9 @@ class RouteRecord(_Record):
     """Every joint of the chain as commanded at the end of the route, by name [deg or cm]."""
     iterations: int = Field(ge=0)
     status: str
+    method: Literal["direct", "closed_form", "multi_start"] | None = None
+    """How the plan got there: PD-PIJ alone, or its stall recovered by a path to the
+    closed-form or a multi-start solution (``None`` in logs written before it existed)."""
     initial_error_cm: _NonNegative
     final_error_cm: _NonNegative
     ee_cm: Vec3
@@ -183,6 +186,10 @@ class SummaryRecord(_Record):
     trial: int | None
     sorted: dict[_Name, Annotated[int, Field(ge=0)]]
     """Objects placed in their bin, per colour class (by name)."""
+    objects: dict[_Name, Annotated[int, Field(ge=0)]] | None = None
+    """Objects seen on the table, per class (``None`` in logs written before it existed)."""
+    left: dict[str, Annotated[int, Field(ge=0)]] | None = None
+    """Objects not sorted, per reason (``out_of_reach``, ``pick_failed``, ``fault``, …)."""
     failures: int = Field(ge=0)
     skipped: int = Field(ge=0)
     routes: int = Field(ge=0)
@@ -277,6 +284,10 @@ def parse_record(text: str, *, trial_format: int | None = FORMAT_VERSION) -> Rec
         obj = json.loads(text)
     except json.JSONDecodeError as exc:
         raise ValueError(f"not valid JSON ({exc.msg} at column {exc.colno})") from None
+    except RecursionError:
+        raise ValueError("not a record: JSON nested too deeply") from None
+    except ValueError:  # an integer of more digits than Python converts
+        raise ValueError("not valid JSON (a number too long to read)") from None
     if not isinstance(obj, dict):
         raise ValueError(f"a record must be a JSON object, got {type(obj).__name__}")
     kind = obj.get("type")

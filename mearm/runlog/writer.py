@@ -72,8 +72,9 @@ class RunLog:
             write thousands of records may turn it off).
 
     Raises:
-        RunLogError: ``exclusive`` and the file exists; the file ends in a torn line;
-            it cannot be opened.
+        RunLogError: ``exclusive`` and the file exists; the file ends in a torn line
+            (:func:`~mearm.runlog.set_aside_torn_end` repairs that); it is not a regular
+            file; it cannot be opened.
     """
 
     def __init__(self, path: str | Path, *, exclusive: bool = False, fsync: bool = True):
@@ -84,10 +85,17 @@ class RunLog:
         if self.path.exists():
             if exclusive:
                 raise RunLogError(self.path, "exists (exclusive=True refuses to append)")
+            if not self.path.is_file():
+                raise RunLogError(
+                    self.path, "is not a regular file (a folder, device or pipe); give a file path"
+                )
             self._refuse_torn_file()
         try:
             self.path.parent.mkdir(parents=True, exist_ok=True)
-            self._file = self.path.open("ab")
+            # "a" never truncates: what is there stays; "x" refuses a file made meanwhile.
+            self._file = self.path.open("xb" if exclusive else "ab")
+        except FileExistsError:
+            raise RunLogError(self.path, "exists (exclusive=True refuses to append)") from None
         except OSError as exc:
             raise RunLogError(self.path, f"cannot open for writing: {exc}") from None
 
@@ -105,7 +113,8 @@ class RunLog:
             raise RunLogError(
                 self.path,
                 "ends in the middle of a line (a crash while writing?), so it cannot be "
-                "appended to; read it with mearm.analyze and write the new run to another file",
+                "appended to; read it with mearm.analyze and write the new run to another "
+                "file (mearm experiment sets the torn line aside when it resumes a log)",
             )
 
     # -- context manager

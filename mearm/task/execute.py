@@ -20,6 +20,15 @@ from mearm.task.route import Route
 
 Phase = Literal["home", "travel", "grip"]
 
+#: How long a tool setting (the gripper closing or opening, the gripper arm moving) is
+#: given to take effect before the arm moves on [s]: a micro servo's 0.1 s/60° over a
+#: full stroke, with room to settle.
+TOOL_SETTLE_S = 0.3
+
+#: The largest step of a joint-space move per command: [rad] for a revolute joint
+#: (2°), [m] for a prismatic one (0.5 cm).
+JOINT_STEP = {False: np.deg2rad(2.0), True: 0.005}
+
 
 class View(Protocol):
     """What the executor and the loop call on the meshcat view (:class:`mearm.view.ArmView`)."""
@@ -81,8 +90,9 @@ class Executor:
             self.view.show_joints(self.chain.full(self.chain.actuated_of(np.asarray(q))))
 
     def set_tool(self, phase: Phase, closed: bool) -> None:
-        """Hold the joints where they are; set the tool actuators and the gripper."""
+        """Hold the joints; set the tool and the gripper, given :data:`TOOL_SETTLE_S`."""
         self.send(self.q_now(), phase, closed)
+        self.bus.hold(TOOL_SETTLE_S)
 
     def stream(self, route: Route, phase: Phase, closed: bool, color: str = "#202020") -> Route:
         """Send every pose of a planned route; refuse one that is not fully planned.
@@ -103,9 +113,38 @@ class Executor:
             self.view.add_path(route.plan.ee_path_cm, color)
         return route
 
-    def home_pose(self) -> None:
-        """Command the home joints, the tool's home settings and an open gripper."""
-        self.send(self.model.home, "home", False)
+    def joint_path(self, q_to: npt.ArrayLike) -> np.ndarray:
+        """A straight line in joint space from the last confirmed pose to ``q_to``, (k, n).
+
+        Planned in full before anything is sent: each step moves an actuated joint by at
+        most :data:`JOINT_STEP`, passive joints follow their coupling, and every pose is
+        checked against the limits (a straight line between two poses within box-shaped
+        limits and a linear coupling stays inside them).
+
+        Raises:
+            ValueError: a pose of the path leaves the limits (a bug: both ends are
+                checked poses).
+        """
+        chain = self.chain
+        a0 = chain.actuated_of(self.q_now())
+        a1 = chain.actuated_of(np.asarray(q_to, dtype=float))
+        prismatic = chain.prismatic[chain.actuated_index]
+        step = np.where(prismatic, JOINT_STEP[True], JOINT_STEP[False])
+        k = max(1, int(np.ceil(np.max(np.abs(a1 - a0) / step))))
+        path = np.array([chain.full(a0 + (a1 - a0) * t) for t in np.linspace(0, 1, k + 1)])
+        for q in path:
+            if not chain.within_limits(q, tol=1e-6):
+                raise ValueError(f"joint path leaves the limits at {chain.named(q)}")
+        return path
+
+    def move_joints(self, q_to: npt.ArrayLike, phase: Phase, closed: bool) -> None:
+        """Go to ``q_to`` along :meth:`joint_path`, planned in full first."""
+        for q in self.joint_path(q_to)[1:]:
+            self.send(q, phase, closed)
+
+    def home_pose(self, closed: bool = False) -> None:
+        """Command the home joints and the tool's home settings (gripper open by default)."""
+        self.send(self.model.home, "home", closed)
 
     def finish(self, route: Route, t0: float) -> Route:
         """Record where the TCP ended and how long the step took."""

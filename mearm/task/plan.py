@@ -1,16 +1,19 @@
 """Plan: where each route goes and the whole IK solve to it, before anything moves.
 
-A route is sent to the servos only when its plan converged; otherwise it carries a
-typed reason (outside the box, unreachable, a joint limit, stalled) and nothing moves.
+A route is sent to the servos only when its plan converged and every pose of it passed
+the checks here (:attr:`Route.planned`); otherwise it carries a typed reason
+(:attr:`Route.failure_kind`: ``outside_box``, ``unreachable``, ``limit``, ``stalled``,
+``singular``; :attr:`Route.failure`: the line for people) and nothing of it moves.
 """
 
 from __future__ import annotations
 
+import numpy as np
 import numpy.typing as npt
 
 from mearm.config import ColorClass, Config
-from mearm.exceptions import TargetError
-from mearm.ik import IKTarget, make_solver
+from mearm.exceptions import JointLimitError, TargetError
+from mearm.ik import IKFailure, IKResult, IKTarget, failure_of_error, make_solver
 from mearm.kinematics import ArmModel
 from mearm.task.route import Route
 
@@ -49,6 +52,11 @@ class Planner:
         x, y, z = (float(v) for v in target.position_cm)
         return IKTarget((x, y, z + RETRY_LIFT_CM), target.approach)
 
+    def above_target(self, target: IKTarget, height_cm: float) -> IKTarget:
+        """``target`` raised by ``height_cm``, same approach."""
+        x, y, z = (float(v) for v in target.position_cm)
+        return IKTarget((x, y, z + height_cm), target.approach)
+
     def home_target(self) -> IKTarget:
         """The TCP at the home pose (with its approach axis, for an arm that needs one)."""
         home = self.model.home
@@ -61,15 +69,45 @@ class Planner:
     # ----------------------------------------------------------------- plans
 
     def plan(self, route: Route, q_start: npt.ArrayLike) -> Route:
-        """Solve ``route`` from ``q_start`` (full joints, model units); set its plan or failure."""
+        """Solve ``route`` from ``q_start`` (full joints, model units); set its plan or failure.
+
+        The whole solve runs first. A refused target or start (outside the box, out of
+        reach, a joint limit), a solve that did not converge, or a plan with a pose
+        outside the joint limits sets ``failure`` and ``failure_kind``, and the route is
+        not :attr:`~Route.planned`: nothing of it may be sent.
+        """
         try:
-            route.plan = self.solver.solve(q_start, route.target)
-        except TargetError as exc:
-            route.failure = exc.reason
-            return route
-        if not route.plan.converged:
-            route.failure = (
-                f"no plan: the solver {route.plan.status.replace('_', ' ')} "
-                f"{route.plan.final_error_cm:.3f} cm from the target"
-            )
+            result = self.solver.solve(q_start, route.target)
+        except (TargetError, JointLimitError) as exc:
+            return _fail(route, failure_of_error(exc))
+        route.plan = result
+        if not result.converged:
+            failure = result.failure or IKFailure("stalled", f"the solver {result.status}")
+            return _fail(route, IKFailure(failure.kind, f"no plan: {failure.message}"))
+        problem = self._outside_limits(result)
+        if problem is not None:
+            return _fail(route, problem)
         return route
+
+    def _outside_limits(self, plan: IKResult) -> IKFailure | None:
+        """The first pose of ``plan`` outside the joint limits (or not finite), if any."""
+        chain = self.model.chain
+        q = plan.q_path
+        tol = 1e-9
+        inside = (q >= chain.lower - tol) & (q <= chain.upper + tol)  # NaN fails both
+        if inside.all():
+            return None
+        k, i = (int(v) for v in np.argwhere(~inside)[0])
+        s, unit = chain.scale[i], chain.unit(i)
+        return IKFailure(
+            "limit",
+            f"plan rejected before sending: pose {k} of {len(q) - 1} puts {chain.names[i]} at "
+            f"{q[k, i] / s:.4g} {unit}, outside its limits "
+            f"[{chain.lower[i] / s:.4g}, {chain.upper[i] / s:.4g}] {unit}",
+        )
+
+
+def _fail(route: Route, failure: IKFailure) -> Route:
+    route.failure_kind = failure.kind
+    route.failure = failure.message
+    return route

@@ -12,15 +12,81 @@ from mearm.kinematics import Chain
 from mearm.runlog import RunLog
 from mearm.task.route import Route
 
+#: Why an object was left unsorted: each kind and the words the summary line uses.
+LEFT_REASONS: dict[str, str] = {
+    "unreachable": "out of reach",
+    "outside_box": "outside the target box",
+    "limit": "beyond a joint limit",
+    "stalled": "IK stalled",
+    "singular": "at a singularity",
+    "merged": "touching another object",
+    "cut": "cut by the image border",
+    "pick_failed": "pick failed",
+    "bin_unreachable": "bin out of reach",
+    "never_cleared": "table never cleared",
+    "not_confirmed": "not confirmed in its bin",
+    "fault": "stopped by a fault",
+    "interrupted": "interrupted",
+}
+
 
 @dataclass
 class Skip:
-    """An object left on the table, and why."""
+    """An object left on the table, and why.
+
+    Attributes:
+        object_id: The object.
+        class_name: Its class.
+        reason: One line for people.
+        target_cm: The target that could not be reached, if any.
+        kind: The reason's kind, a key of :data:`LEFT_REASONS`.
+    """
 
     object_id: str
     class_name: str
     reason: str
     target_cm: tuple[float, float, float] | None = None
+    kind: str = "unreachable"
+
+
+@dataclass
+class Outcome:
+    """How many objects the sort saw and sorted, per class, and why the rest were left.
+
+    An object counts as sorted only when its place was confirmed: by the world in
+    simulation (the object lies in its class's bin), by the camera on a real rig (it is
+    no longer on the table).
+
+    Attributes:
+        seen: Objects seen on the table, per class (classes in sort order).
+        sorted: Objects sorted, per class.
+        left: Objects not sorted, per reason kind (:data:`LEFT_REASONS`).
+    """
+
+    seen: dict[str, int] = field(default_factory=dict)
+    sorted: dict[str, int] = field(default_factory=dict)
+    left: dict[str, int] = field(default_factory=dict)
+
+    @property
+    def n_seen(self) -> int:
+        """Objects seen (M)."""
+        return sum(self.seen.values())
+
+    @property
+    def n_sorted(self) -> int:
+        """Objects sorted (N)."""
+        return sum(self.sorted.values())
+
+    @property
+    def complete(self) -> bool:
+        """Whether every object seen was sorted."""
+        return self.n_sorted == self.n_seen
+
+    def line(self) -> str:
+        """``sorted N of M objects (k out of reach, …)``: the run's last line."""
+        text = f"sorted {self.n_sorted} of {self.n_seen} objects"
+        reasons = [f"{n} {LEFT_REASONS.get(k, k)}" for k, n in self.left.items() if n]
+        return f"{text} ({', '.join(reasons)})" if reasons else text
 
 
 @dataclass
@@ -31,14 +97,21 @@ class SortReport:
         routes: Every pick and place route, in order.
         skipped: Objects left on the table, with the reason.
         fault: Why the run stopped early, or ``None``.
+        outcome: Objects seen, sorted and left (set when the run ends).
     """
 
     routes: list[Route] = field(default_factory=list)
     skipped: list[Skip] = field(default_factory=list)
     fault: str | None = None
+    outcome: Outcome = field(default_factory=Outcome)
+
+    @property
+    def complete(self) -> bool:
+        """Whether the run ended without a fault and with every object seen sorted."""
+        return self.fault is None and self.outcome.complete
 
     def sorted_per_class(self) -> dict[str, int]:
-        """Objects placed into their bin, per class."""
+        """Place routes that succeeded, per class (unconfirmed: see :attr:`outcome`)."""
         out: dict[str, int] = {}
         for r in self.routes:
             if r.step == "place" and r.success:
@@ -95,6 +168,7 @@ class Reporter:
                 end_joints=self.chain.named(plan.q),
                 iterations=int(plan.iterations),
                 status=plan.status,
+                method=plan.method,
                 initial_error_cm=float(plan.initial_error_cm),
                 final_error_cm=float(plan.final_error_cm),
                 ee_cm=route.ee_cm.tolist(),
@@ -131,18 +205,32 @@ class Reporter:
         if self.log is not None:
             self.log.fault(reason, last_joints, trial=self.trial)
 
-    def summary(self, ok: bool) -> None:
-        """Close the trial in the log and print the per-class table."""
-        if self.log is not None:
-            self.log.summary(trial=self.trial, ok=ok)
+    def summary(self, ok: bool, outcome: Outcome) -> None:
+        """Close the trial in the log and print the per-class table.
+
+        The last line printed is :meth:`Outcome.line`.
+
+        Args:
+            ok: Whether the run ended without a fault.
+            outcome: The objects seen, sorted and left.
+        """
         rep = self.report
-        per_class = rep.sorted_per_class()
+        rep.outcome = outcome
+        if self.log is not None:
+            self.log.summary(
+                trial=self.trial,
+                ok=ok,
+                sorted=dict(outcome.sorted),
+                objects=dict(outcome.seen),
+                left=dict(outcome.left),
+            )
         width = max(7, *(len(c.name) + 1 for c in self.config.task.classes))
         self.echo("")
-        self.echo(f"{'class':<{width}} sorted  skipped")
+        self.echo(f"{'class':<{width}}   seen  sorted  left")
         for cls in self.config.task.classes:
-            n_skip = sum(1 for s in rep.skipped if s.class_name == cls.name)
-            self.echo(f"{cls.name:<{width}} {per_class.get(cls.name, 0):6d}  {n_skip:7d}")
+            n_seen = outcome.seen.get(cls.name, 0)
+            n_sorted = outcome.sorted.get(cls.name, 0)
+            self.echo(f"{cls.name:<{width}} {n_seen:6d}  {n_sorted:6d}  {n_seen - n_sorted:4d}")
         routes = [r for r in rep.routes if r.plan is not None]
         if routes:
             its = np.array([r.plan.iterations for r in routes if r.plan is not None])
@@ -160,3 +248,4 @@ class Reporter:
             self.echo(f"not sorted: {s.object_id} ({s.class_name}): {s.reason}")
         if rep.fault:
             self.echo(f"stopped: {rep.fault}")
+        self.echo(outcome.line())

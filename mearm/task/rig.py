@@ -7,7 +7,7 @@ what ``mearm sort`` and ``mearm experiment`` share.
 from __future__ import annotations
 
 import contextlib
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -17,8 +17,9 @@ from mearm.hardware import ServoBus, open_bus
 from mearm.kinematics import ArmModel
 from mearm.runlog import RunLog
 from mearm.sim import World
+from mearm.task.check import check_consistency
 from mearm.task.report import SortReport
-from mearm.task.sorter import Sorter
+from mearm.task.sorter import SortAborted, Sorter
 from mearm.vision import Camera, open_camera
 
 
@@ -31,17 +32,20 @@ class Rig:
         camera: The frame source.
         bus: The servo bus (not yet connected).
         model: The arm model.
+        in_bins: In simulation, how many objects of each class lie in its bin (what a
+            place is confirmed against); ``None`` on a real rig.
     """
 
     world: World | None
     camera: Camera
     bus: ServoBus
     model: ArmModel
+    in_bins: Callable[[], Mapping[str, int]] | None = None
 
     @property
     def simulated(self) -> bool:
         """Whether any part of the rig is simulated."""
-        return self.world is not None
+        return self.in_bins is not None
 
 
 def uses_world(config: Config) -> bool:
@@ -73,15 +77,50 @@ def open_rig(config: Config, scene: list[SceneObject] | None = None) -> Iterator
         config: The whole configuration.
         scene: Objects for the simulated table (default: ``config.task.scene``).
     """
+    model = ArmModel(config.arm)
+    if config.simulator == "mujoco":
+        with _open_twin(config, scene, model) as rig:
+            yield rig
+        return
     world = None
     if uses_world(config):
         world = _world(config, scene)
-    model = ArmModel(config.arm)
     with contextlib.ExitStack() as stack:
         camera = stack.enter_context(open_camera(config, world=world))
         bus = open_bus(config, world=world)
         stack.callback(bus.close)
-        yield Rig(world=world, camera=camera, bus=bus, model=model)
+        in_bins = None
+        if world is not None:
+            names = config.task.class_names
+            in_bins = lambda: {c: len(world.in_bin(c)) for c in names}  # noqa: E731
+        yield Rig(world=world, camera=camera, bus=bus, model=model, in_bins=in_bins)
+
+
+@contextlib.contextmanager
+def _open_twin(config: Config, scene: list[SceneObject] | None, model: ArmModel) -> Iterator[Rig]:
+    """The physical twin (``simulator: mujoco``) behind the servo bus and the camera.
+
+    One MuJoCo scene; a place counts when the physics has the object at rest in its bin.
+    """
+    from mearm.sim.twin_bus import TwinArm
+    from mearm.sim.twin_camera import TwinCamera
+
+    if scene is not None:
+        config = config.model_copy(
+            update={"task": config.task.model_copy(update={"scene": list(scene)})}
+        )
+    twin = TwinArm(config)
+    with contextlib.ExitStack() as stack:
+        camera = stack.enter_context(TwinCamera(config, twin))
+        stack.callback(twin.close)
+
+        def in_bins() -> dict[str, int]:
+            counts = {c: 0 for c in config.task.class_names}
+            for name in twin.objects_in_bin().values():
+                counts[name] = counts.get(name, 0) + 1
+            return counts
+
+        yield Rig(world=None, camera=camera, bus=twin, model=model, in_bins=in_bins)
 
 
 def run_sort(
@@ -98,8 +137,10 @@ def run_sort(
 ) -> SortReport:
     """Write the trial's header, open the rig, sort, close everything.
 
-    A failure before the sort starts (a camera or servo that never opens) still leaves a
-    fault and a summary in the log after the header.
+    The config's consistency is checked first (:func:`~mearm.task.check.check_consistency`),
+    before any device opens. A failure before the sort starts (an inconsistent config, a
+    camera or servo that never opens) still leaves a fault and a summary in the log after
+    the header.
 
     Args:
         config: The whole configuration.
@@ -116,18 +157,22 @@ def run_sort(
         SortAborted: the sort stopped early (the log says why).
         MearmError, KeyboardInterrupt: before the sort started (logged as a fault).
     """
-    if log is not None:
-        log.header(config, trial=trial, seed=seed, argv=argv, scene=scene_layout(config, scene))
     view = None
     started = False
     try:
+        if log is not None:
+            log.header(config, trial=trial, seed=seed, argv=argv, scene=scene_layout(config, scene))
+        consistency = check_consistency(config)
+        if echo is not None:
+            for note in consistency.notes:
+                echo(note)
         with open_rig(config, scene) as rig:
             if view_factory is not None:
                 view = view_factory(rig)
                 rig.bus.paced = True  # let the eye follow the arm
             sorter = Sorter(
                 config, rig.camera, rig.bus, model=rig.model, log=log, view=view, echo=echo,
-                trial=trial,
+                trial=trial, in_bins=rig.in_bins,
             )  # fmt: skip
             started = True  # from here on the sorter logs its own faults
             report = sorter.run()
@@ -135,10 +180,17 @@ def run_sort(
                 on_view(view)
             return report
     except (MearmError, KeyboardInterrupt) as exc:
+        reason = str(exc) if isinstance(exc, MearmError) else "interrupted (Ctrl-C)"
         if log is not None and not started:
-            reason = str(exc) if isinstance(exc, MearmError) else "interrupted (Ctrl-C)"
-            log.fault(f"before the sort started: {reason}", trial=trial)
-            log.summary(trial=trial, ok=False)
+            with contextlib.suppress(MearmError):  # no header yet: nothing to close
+                log.fault(f"before the sort started: {reason}", trial=trial)
+                log.summary(trial=trial, ok=False, objects={}, left={})
+        elif log is not None and not isinstance(exc, SortAborted):
+            # after the sort's own records (e.g. Ctrl-C while closing the view): close the
+            # trial if the sort had not yet
+            with contextlib.suppress(MearmError):
+                log.fault(f"after the sort: {reason}", trial=trial)
+                log.summary(trial=trial, ok=False)
         raise
     finally:
         if view is not None:

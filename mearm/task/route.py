@@ -7,9 +7,9 @@ from typing import Literal
 
 import numpy as np
 
-from mearm.ik import IKResult, IKTarget
+from mearm.ik import FailureKind, IKResult, IKTarget
 
-Step = Literal["pick", "place", "lift", "home"]
+Step = Literal["pick", "place", "lift", "approach", "home"]
 
 
 @dataclass
@@ -20,12 +20,15 @@ class Route:
         object_id: The object it serves (``""`` for a move of the arm alone).
         class_name: The object's class.
         step: ``pick`` (to the object), ``place`` (to its class's bin), ``lift`` (back off
-            after a missed grip) or ``home``.
+            after a missed grip, or up with the object), ``approach`` (to above the object,
+            ``task.approach_height_cm``) or ``home``.
         attempt: 1 for the first attempt at this object's pick (or place).
         target: Where the TCP goes (position [cm], optional approach direction).
         plan: The IK solve from the start pose, every row a pose the arm may take.
-        failure: Why the plan cannot be executed (unreachable, outside the box, limit,
-            stalled), or ``None``.
+        failure: Why the plan cannot be executed, one line for people, or ``None``.
+        failure_kind: The reason's kind (:data:`~mearm.ik.FAILURE_KINDS`):
+            ``unreachable``, ``limit``, ``stalled``, ``singular`` or ``outside_box``;
+            ``None`` with ``failure``.
         executed: Whether its poses were sent to the servos.
         success: Pick: gripped; place: in its bin; lift/home: reached.
         ee_cm: Where the TCP really ended [cm], (3,) (the simulated arm knows; a real
@@ -41,6 +44,7 @@ class Route:
     target: IKTarget
     plan: IKResult | None = None
     failure: str | None = None
+    failure_kind: FailureKind | None = None
     executed: bool = False
     success: bool = False
     ee_cm: np.ndarray = field(default_factory=lambda: np.full(3, np.nan))

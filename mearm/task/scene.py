@@ -7,19 +7,25 @@ objects at least 1 cm apart (edge to edge, so centres at least 3 cm apart for th
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 import numpy as np
-import yaml
 from pydantic import TypeAdapter, ValidationError
 
-from mearm.config import Config, SceneObject
+from mearm.config import ColorClass, Config, SceneObject
+from mearm.config.base import MAX_SEED, loc_text, short_repr
+from mearm.config.rig import MAX_SCENE_OBJECTS
 from mearm.exceptions import ConfigError, MearmError
-from mearm.kinematics import check_in_box, closed_form_for
+from mearm.kinematics import ArmModel, check_in_box, closed_form_for
+from mearm.task.plan import Planner
+from mearm.task.route import Route
+from mearm.yamlio import load_yaml_file
 
 #: Edge-to-edge gap between objects in a random scene [cm] (paper §5).
 MIN_GAP_CM = 1.0
+
+_SCENE = TypeAdapter(list[SceneObject])
 
 
 class SceneError(MearmError):
@@ -34,25 +40,25 @@ def load_scene(path: str | Path, class_names: Sequence[str] | None = None) -> li
         class_names: The config's classes; an entry naming another is refused.
 
     Raises:
-        ConfigError: the file is missing, not YAML, or an entry is malformed.
+        ConfigError: the file is missing, not a regular file, too large, not YAML (read
+            as :func:`mearm.yamlio.load_yaml_file` reads a config), or an entry is
+            malformed; more than :data:`~mearm.config.rig.MAX_SCENE_OBJECTS` objects.
     """
     p = Path(path)
-    try:
-        data = yaml.safe_load(p.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise ConfigError(str(p), ["scene file not found"]) from None
-    except (OSError, UnicodeDecodeError, yaml.YAMLError) as exc:
-        first = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-        raise ConfigError(str(p), [f"cannot read scene: {first}"]) from None
+    data = load_yaml_file(p, what="scene")
     if not isinstance(data, list):
         raise ConfigError(str(p), ["a scene is a list of {color, x, y} entries"])
+    if len(data) > MAX_SCENE_OBJECTS:
+        raise ConfigError(
+            str(p), [f"{len(data)} objects: a scene holds at most {MAX_SCENE_OBJECTS}"]
+        )
     try:
-        scene = TypeAdapter(list[SceneObject]).validate_python(data)
+        scene = _SCENE.validate_python(data)
     except ValidationError as exc:
         problems = []
-        for e in exc.errors():
-            loc = ".".join(str(v) for v in e["loc"])
-            problems.append(f"[{loc}]: {e['msg']} (got {e.get('input')!r})")
+        for e in exc.errors()[:10]:
+            loc = loc_text(e["loc"])
+            problems.append(f"[{loc}]: {e['msg']} (got {short_repr(e.get('input'), 60)})")
         raise ConfigError(str(p), problems) from None
     if class_names is not None:
         bad = [
@@ -81,6 +87,48 @@ def camera_field_cm(config: Config, margin_cm: float) -> tuple[float, float, flo
     return (xs[1] + margin_cm, xs[2] - margin_cm, ys[1] + margin_cm, ys[2] - margin_cm)
 
 
+def _reach_check(config: Config) -> Callable[[ColorClass, float, float], bool]:
+    """A test whether an object of a class at (x, y) can be picked.
+
+    Its pick point (and, with ``task.approach_height_cm``, the point above it) must lie in
+    the box and be solved: by the closed form where the arm has one, else planned from
+    home by the default solver.
+    """
+    closed_form = closed_form_for(config.arm)
+    height = config.task.approach_height_cm
+    planner = None
+    model = ArmModel(config.arm)
+    if closed_form is None:
+        planner = Planner(config, model)
+
+    def reach(cls: ColorClass, x: float, y: float) -> bool:
+        z = cls.grip_z_cm + config.arm.tool.tcp_above_grip_cm
+        heights = [z] if height is None else [z, z + height]
+        for zz in heights:
+            try:
+                check_in_box((x, y, zz), config.arm)
+                if closed_form is not None:
+                    closed_form.solve((x, y, zz))
+            except MearmError:
+                return False
+            if planner is not None:
+                target = planner.pick_target(cls, x, y)
+                if zz != z:
+                    target = planner.above_target(target, zz - z)
+                route = Route("", cls.name, "pick", 1, target)
+                if not planner.plan(route, model.home).planned:
+                    return False
+        return True
+
+    return reach
+
+
+def _near_bin(cls: ColorClass, x: float, y: float, clearance_cm: float) -> bool:
+    """Whether (x, y) lies within ``clearance_cm`` of the bin's square footprint."""
+    half = cls.bin_inner_width_cm / 2 + clearance_cm
+    return abs(x - cls.bin_cm[0]) <= half and abs(y - cls.bin_cm[1]) <= half
+
+
 def random_scene(
     config: Config,
     counts: dict[str, int] | int,
@@ -90,6 +138,8 @@ def random_scene(
 ) -> list[SceneObject]:
     """Draw objects at least :data:`MIN_GAP_CM` apart in the reachable camera field.
 
+    Objects keep the same gap from every bin's footprint (``ColorClass.bin_inner_width_cm``).
+
     Args:
         config: Supplies the camera field (calibration), the pick height and the arm.
         counts: Objects per class, or a total split over the classes in turn.
@@ -97,11 +147,18 @@ def random_scene(
         max_tries: Give up after this many rejected draws.
 
     Raises:
-        SceneError: the objects do not fit.
+        SceneError: a count below 0, more than :data:`~mearm.config.rig.MAX_SCENE_OBJECTS`
+            objects, a seed outside [0, 2³² − 1], or the objects do not fit.
     """
+    wanted = [counts] if isinstance(counts, int) else list(counts.values())
+    if any(n < 0 for n in wanted) or sum(wanted) > MAX_SCENE_OBJECTS:
+        raise SceneError(
+            f"the number of objects must be ≥ 0 and at most {MAX_SCENE_OBJECTS} in all, "
+            f"got {short_repr(counts)}"
+        )
+    if not 0 <= seed <= MAX_SEED:
+        raise SceneError(f"the seed must be in [0, {MAX_SEED}], got {short_repr(seed)}")
     if isinstance(counts, int):
-        if counts < 0:
-            raise SceneError(f"the number of objects must be ≥ 0, got {counts}")
         names = config.task.class_names
         order: Sequence[str] = [names[i % len(names)] for i in range(counts)]
     else:
@@ -112,7 +169,13 @@ def random_scene(
     rng = np.random.default_rng(seed)
     diameter = max(c.diameter_cm for c in config.task.classes)
     x0, x1, y0, y1 = camera_field_cm(config, margin_cm=diameter)
-    closed_form = closed_form_for(config.arm)
+    if order and not (x0 < x1 and y0 < y1):
+        raise SceneError(
+            f"the camera sees no table area for {diameter:g} cm objects (a margin of one "
+            "diameter inside the calibrated frame): check camera.width_px, camera.height_px, "
+            "calibration.homography and the classes' diameter_cm"
+        )
+    reach = _reach_check(config)
     min_dist = diameter + MIN_GAP_CM
     placed: list[SceneObject] = []
     tries = 0
@@ -127,13 +190,9 @@ def random_scene(
             x, y = round(rng.uniform(x0, x1), 2), round(rng.uniform(y0, y1), 2)
             if any(np.hypot(o.x - x, o.y - y) < min_dist for o in placed):
                 continue
-            cls = config.task.class_named(color)
-            target = (x, y, cls.grip_z_cm + config.arm.tool.tcp_above_grip_cm)
-            try:
-                check_in_box(target, config.arm)
-                if closed_form is not None:
-                    closed_form.solve(target)
-            except MearmError:
+            if any(_near_bin(c, x, y, diameter / 2 + MIN_GAP_CM) for c in config.task.classes):
+                continue
+            if not reach(config.task.class_named(color), x, y):
                 continue
             placed.append(SceneObject(color=color, x=x, y=y))
             break

@@ -17,7 +17,7 @@ answers; otherwise nothing more is sent), writes the reason to the run log and r
 from __future__ import annotations
 
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -29,7 +29,7 @@ from mearm.kinematics import ArmModel
 from mearm.runlog import RunLog
 from mearm.task.execute import Executor, View
 from mearm.task.plan import Planner
-from mearm.task.report import Reporter, Skip, SortReport
+from mearm.task.report import Outcome, Reporter, Skip, SortReport
 from mearm.task.route import Route
 from mearm.vision import Calibration, Camera, ColorDetector, Detection
 
@@ -65,6 +65,7 @@ class TrackedObject:
     y_cm: float
     failed_picks: int = 0
     skipped: str | None = None
+    skip_kind: str | None = None
     sorted: bool = False
 
 
@@ -83,6 +84,9 @@ class Sorter:
         view: Meshcat view to update, or ``None``.
         echo: Called with one line per route and the summary (default: print).
         trial: Trial number for the run log.
+        in_bins: In simulation, how many objects of each class lie in its bin (the world,
+            or the twin's physics): a place counts only up to that many; ``None`` on a
+            real rig (the camera confirms: the object is no longer on the table).
         max_rounds: Pick attempts before the run gives up on a table that never clears
             (default: four per expected object and retry, at least 80 × (retries + 1)).
     """
@@ -98,6 +102,7 @@ class Sorter:
         view: View | None = None,
         echo: Callable[[str], None] | None = print,
         trial: int | None = None,
+        in_bins: Callable[[], Mapping[str, int]] | None = None,
         max_rounds: int | None = None,
     ):
         self.config = config
@@ -110,6 +115,7 @@ class Sorter:
         self.calibration = Calibration.from_config(config.calibration)
         self.detector = ColorDetector(config.vision, self.calibration, config.task.classes)
         self.view = view
+        self.in_bins = in_bins
         retries = config.task.pick_retries + 1
         self.max_rounds = max_rounds or 4 * (len(config.task.scene) + 20) * retries
         self._objects: list[TrackedObject] = []
@@ -121,15 +127,25 @@ class Sorter:
 
     # ----------------------------------------------------------------- vision
 
-    def _look(self) -> Seen:
+    def _look(self, *, track_new: bool = True) -> Seen:
+        """Read a frame: what lies on the table, whole, outside the bins.
+
+        Args:
+            track_new: Start following objects not seen before (off while the gripper
+                holds one: the camera sees the held object too, away from the table).
+        """
         frame = self.camera.read()
-        detections = self.detector.detect(frame)
+        h, w = frame.shape[:2]
+        # an object cut by the image border is not picked until seen whole
+        detections = [d for d in self.detector.detect(frame) if not _cut(d, w, h)]
         if detections:
             cm = self.calibration.pixel_to_table(np.array([d.centroid_px for d in detections]))
         else:
             cm = np.zeros((0, 2))
-        seen = list(zip(detections, cm, strict=True))
-        self._track(seen)
+        # an object seen in a bin is sorted, not on the table (a camera that sees the
+        # bins sees what was put in them)
+        seen = [(d, p) for d, p in zip(detections, cm, strict=True) if not self._in_a_bin(p)]
+        self._track(seen, track_new=track_new)
         if self.view is not None:
             self.view.set_camera_frame(frame, self.calibration.pixel_to_table)
             self.view.set_objects(
@@ -141,15 +157,25 @@ class Sorter:
             )
         return seen
 
-    def _track(self, seen: Seen) -> None:
+    def _in_a_bin(self, xy_cm: np.ndarray) -> bool:
+        """Whether a table point lies inside a class's bin (``ColorClass.in_bin``)."""
+        x, y = float(xy_cm[0]), float(xy_cm[1])
+        return any(c.in_bin(x, y) for c in self.config.task.classes)
+
+    def _track(self, seen: Seen, *, track_new: bool = True) -> None:
         for det, (x, y) in seen:
             known = self._match(det.color, x, y)
+            if known is None and not track_new:
+                continue
             if known is None:
                 n = sum(1 for o in self._objects if o.class_name == det.color) + 1
                 known = TrackedObject(f"{det.color}{n}", det.color, float(x), float(y))
                 self._objects.append(known)
                 if det.merged:
-                    self._skip(known, "touching objects of one class: no single centroid to pick")
+                    self._skip(
+                        known, "touching objects of one class: no single centroid to pick",
+                        kind="merged",
+                    )  # fmt: skip
             else:
                 known.x_cm, known.y_cm = float(x), float(y)
 
@@ -181,10 +207,13 @@ class Sorter:
                 return min(of_class, key=lambda o: (np.hypot(o.x_cm - ee[0], o.y_cm - ee[1]), o.id))
         return None
 
-    def _skip(self, obj: TrackedObject, reason: str, target: Route | None = None) -> None:
+    def _skip(
+        self, obj: TrackedObject, reason: str, target: Route | None = None, *, kind: str
+    ) -> None:
         obj.skipped = reason
+        obj.skip_kind = kind
         where = None if target is None else tuple(float(v) for v in target.target.position_cm)
-        self.reporter.skip(Skip(obj.id, obj.class_name, reason, where))  # type: ignore[arg-type]
+        self.reporter.skip(Skip(obj.id, obj.class_name, reason, where, kind))  # type: ignore[arg-type]
 
     # ----------------------------------------------------------------- one object
 
@@ -196,17 +225,28 @@ class Sorter:
             obj.id, obj.class_name, "pick", obj.failed_picks + 1,
             self.planner.pick_target(cls, obj.x_cm, obj.y_cm),
         )  # fmt: skip
-        self.planner.plan(pick, ex.q_now())
-        if not pick.planned:
-            self._skip(obj, pick.failure or "no plan", pick)
+        above = self._approach(obj, pick)  # planned in full with the pick, before either
+        if above is None:
+            self.planner.plan(pick, ex.q_now())
+        elif above.planned and above.plan is not None:
+            self.planner.plan(pick, above.plan.q)
+        failed = pick if above is None or above.planned else above
+        if not failed.planned:
+            self._skip(obj, failed.failure or "no plan", failed, kind=_failure_kind(failed))
             return
+        if above is not None:
+            ex.stream(above, "travel", False)
         ex.stream(pick, "travel", False, _hex(cls.draw_rgb))
         ex.set_tool("grip", False)
         ex.set_tool("grip", True)
         ex.set_tool("travel", True)
+        if above is not None:  # up with the object before anything else moves
+            up = Route(obj.id, obj.class_name, "lift", 1, above.target)
+            if self.planner.plan(up, ex.q_now()).planned:
+                ex.stream(up, "travel", True)
         # the paper re-reads the table after each object; here it also tells whether the
         # grip held
-        pick.success = not self._on_table(obj, self._look())
+        pick.success = not self._on_table(obj, self._look(track_new=False))
         self.reporter.route(ex.finish(pick, t0))
         if not pick.success:
             state = self.bus.state
@@ -219,7 +259,7 @@ class Sorter:
                 ex.stream(lift, "travel", False)
             obj.failed_picks += 1
             if obj.failed_picks > self.config.task.pick_retries:
-                self._skip(obj, f"pick failed {obj.failed_picks} times", pick)
+                self._skip(obj, f"pick failed {obj.failed_picks} times", pick, kind="pick_failed")
             return
 
         t0 = time.perf_counter()
@@ -227,7 +267,7 @@ class Sorter:
         self.planner.plan(place, ex.q_now())
         if not place.planned:
             # holding the object: nothing unplanned is sent, so put it back where it was
-            self._skip(obj, f"bin unreachable: {place.failure}", place)
+            self._skip(obj, f"bin unreachable: {place.failure}", place, kind="bin_unreachable")
             ex.set_tool("grip", True)
             ex.set_tool("grip", False)
             return
@@ -238,13 +278,30 @@ class Sorter:
         obj.sorted = place.success
         self.reporter.route(ex.finish(place, t0))
 
-    def _home(self) -> None:
+    def _approach(self, obj: TrackedObject, pick: Route) -> Route | None:
+        """The route to above the object (``task.approach_height_cm``), planned.
+
+        ``None`` when the config asks for the paper's direct routes.
+        """
+        h = self.config.task.approach_height_cm
+        if h is None:
+            return None
+        target = self.planner.above_target(pick.target, h)
+        above = Route(obj.id, obj.class_name, "approach", pick.attempt, target)
+        return self.planner.plan(above, self.executor.q_now())
+
+    def _home(self, *, keep_grip: bool = False) -> None:
+        """Go home along a straight line in joint space (no solve, inside the limits).
+
+        Args:
+            keep_grip: Keep the gripper as it is (parking while holding an object: it
+                is not dropped on the way); otherwise it opens at home.
+        """
         ex = self.executor
-        if np.linalg.norm(ex.ee_now_cm() - self.model.fk_cm(self.model.home)) > 1e-9:
-            route = Route("", "", "home", 1, self.planner.home_target())
-            if self.planner.plan(route, ex.q_now()).planned:
-                ex.stream(route, "travel", False)
-        ex.home_pose()
+        state = self.bus.state
+        closed = bool(state is not None and state.gripper_closed)
+        ex.move_joints(self.model.home, "travel", closed)
+        ex.home_pose(closed=closed and keep_grip)
 
     # ----------------------------------------------------------------- run
 
@@ -266,14 +323,48 @@ class Sorter:
             else:  # a table that never clears (flickering detections?): stop, say so
                 for obj in self._objects:
                     if obj.skipped is None and not obj.sorted:
-                        self._skip(obj, f"still on the table after {self.max_rounds} pick rounds")
+                        self._skip(
+                            obj, f"still on the table after {self.max_rounds} pick rounds",
+                            kind="never_cleared",
+                        )  # fmt: skip
             self._home()
         except (CameraError, ServoError) as exc:
             self._abort(str(exc), park=isinstance(exc, CameraError))
         except KeyboardInterrupt:
             self._abort("interrupted (Ctrl-C)", park=True, interrupted=True)
-        self.reporter.summary(ok=True)
+        self.reporter.summary(ok=True, outcome=self.outcome())
         return self.report
+
+    def outcome(self, stopped: str | None = None) -> Outcome:
+        """Objects seen, sorted (confirmed) and left, per class and per reason.
+
+        A place counts when the bus reported the release into the right bin and, in
+        simulation, the world holds that many objects of the class in its bin; an object
+        left for no recorded reason is put down to ``stopped`` (a fault or Ctrl-C) or,
+        after a complete run, to ``not_confirmed``.
+        """
+        out = Outcome()
+        for cls in self.config.task.classes:
+            out.seen[cls.name] = 0
+            out.sorted[cls.name] = 0
+        in_bin = None if self.in_bins is None else dict(self.in_bins())
+
+        def leave(kind: str) -> None:
+            out.left[kind] = out.left.get(kind, 0) + 1
+
+        for o in self._objects:
+            out.seen[o.class_name] = out.seen.get(o.class_name, 0) + 1
+            if o.sorted and (
+                in_bin is None or out.sorted.get(o.class_name, 0) < in_bin[o.class_name]
+            ):
+                out.sorted[o.class_name] = out.sorted.get(o.class_name, 0) + 1
+            elif o.skip_kind is not None:
+                leave(o.skip_kind)
+            elif stopped is not None and not o.sorted:
+                leave(stopped)
+            else:
+                leave("not_confirmed")
+        return out
 
     def _last_joints(self) -> dict[str, float] | None:
         state = self.bus.state
@@ -281,9 +372,12 @@ class Sorter:
 
     def _abort(self, reason: str, *, park: bool, interrupted: bool = False) -> None:
         bus = self.bus
+        # The view is for the eye; safety comes first: an interrupt may have cut a request
+        # to the view's server in half, so parking goes on without it.
+        self.view = self.executor.view = None
         if park and bus.is_connected and bus.fault is None and bus.state:
             try:
-                self._home()
+                self._home(keep_grip=True)
                 parked = "; arm parked at home"
             except (MearmError, KeyboardInterrupt) as exc:
                 parked = f"; parking failed ({exc})"
@@ -292,8 +386,22 @@ class Sorter:
             parked = "; nothing more sent to the servos"
         full = reason + parked
         self.reporter.fault(full, self._last_joints())
-        self.reporter.summary(ok=False)
+        self.reporter.summary(
+            ok=False, outcome=self.outcome("interrupted" if interrupted else "fault")
+        )
         raise SortAborted(full, interrupted=interrupted, last_joints=self._last_joints())
+
+
+def _cut(det: Detection, width_px: int, height_px: int) -> bool:
+    """Whether a detection's region touches the image border (only part of it is seen)."""
+    x, y, w, h = det.bbox_px
+    return x <= 0 or y <= 0 or x + w >= width_px or y + h >= height_px
+
+
+def _failure_kind(route: Route) -> str:
+    """The typed reason a route's plan failed (``unreachable`` when it gives none)."""
+    kind = getattr(route, "failure_kind", None)
+    return str(kind) if kind else "unreachable"
 
 
 def _hex(rgb: tuple[int, int, int]) -> str:

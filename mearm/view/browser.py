@@ -27,6 +27,7 @@ from typing import Any
 import tornado.websocket
 
 from mearm.exceptions import BrowserNotFoundError, ViewError, ViewInputError
+from mearm.fileio import write_atomic
 
 #: Executable names tried in order; ``$MEARM_CHROMIUM`` (a path or name) comes first.
 BROWSER_NAMES: tuple[str, ...] = (
@@ -217,7 +218,9 @@ def screenshot(
     Raises:
         BrowserNotFoundError: No browser.
         ViewInputError: A size out of range, or no folder for ``out_png``.
-        ViewError: The browser failed, or the scene was not drawn within ``timeout_s``.
+        ViewError: The browser failed, the scene was not drawn within ``timeout_s``, or
+            the PNG cannot be written (it is written in one step: an old file stays
+            whole until the new one replaces it).
     """
     out = Path(out_png).resolve()
     if not out.parent.is_dir():
@@ -255,5 +258,8 @@ def screenshot(
             except subprocess.TimeoutExpired:
                 proc.kill()
                 proc.wait()
-    out.write_bytes(png)
+    try:
+        write_atomic(out, png)
+    except OSError as exc:
+        raise ViewError(f"cannot write {out}: {exc}") from None
     return out

@@ -5,16 +5,26 @@ interface and runs as a separate process. This module reuses its ZMQ ↔ WebSock
 (the scene tree it keeps and replays to every browser that connects, the static viewer
 files) but listens on the loopback interface only and runs in a daemon thread of the
 calling process, so it starts in milliseconds and cannot outlive the program.
+
+Listening on the loopback is not enough: a web page from anywhere can make the browser
+send requests to 127.0.0.1 under a name it controls (DNS rebinding), or open a WebSocket
+to it from its own origin. So every request — page, static file or WebSocket upgrade —
+is answered 403 unless its ``Host`` names the loopback (``127.0.0.1``, ``localhost`` or
+``[::1]``, with this server's port or none) and its ``Origin``, when it has one, is
+``http://`` one of those names with this server's port (:func:`loopback_request`).
 """
 
 from __future__ import annotations
 
 import asyncio
+import re
 import socket
 import threading
 from typing import Any
+from urllib.parse import urlsplit
 
 import tornado.httpserver
+import tornado.httputil
 import tornado.ioloop
 import tornado.netutil
 import tornado.web
@@ -38,8 +48,69 @@ DEFAULT_PORT = 7000
 PORT_ATTEMPTS = 100
 
 
+#: The host names this server answers to (lower case); ``Host`` may add its port.
+LOOPBACK_NAMES = ("127.0.0.1", "localhost", "[::1]")
+_HOST = re.compile(r"(?P<name>\[[^\]]*\]|[^:\[\]]*)(?::(?P<port>[0-9]{1,5}))?")
+
+
+def loopback_request(headers: tornado.httputil.HTTPHeaders, port: int | None) -> bool:
+    """Whether a request's ``Host`` and ``Origin`` both name this loopback server.
+
+    Args:
+        headers: The request's headers.
+        port: The server's port (``None``: not known yet, any port).
+
+    Returns:
+        ``Host`` is present and is a name of :data:`LOOPBACK_NAMES` with ``port`` or no
+        port; ``Origin`` is absent or is ``http://`` such a name with ``port`` itself (an
+        origin without a port is port 80).
+    """
+    hosts = headers.get_list("Host")
+    if len(hosts) != 1 or not _loopback(hosts[0], port, default_port=None):
+        return False
+    origins = headers.get_list("Origin")
+    if not origins:
+        return True
+    if len(origins) != 1:
+        return False
+    parts = urlsplit(origins[0])
+    if parts.scheme.lower() != "http" or parts.path or parts.query or parts.fragment:
+        return False
+    return "@" not in parts.netloc and _loopback(parts.netloc, port, default_port=80)
+
+
+def _loopback(netloc: str, port: int | None, *, default_port: int | None) -> bool:
+    match = _HOST.fullmatch(netloc.strip())
+    if match is None or match["name"].lower() not in LOOPBACK_NAMES:
+        return False
+    given = int(match["port"]) if match["port"] is not None else default_port
+    return port is None or given is None or given == port
+
+
+class _LoopbackApplication(tornado.web.Application):
+    """A tornado application that answers 403 to any request not for the loopback server.
+
+    Attributes:
+        port: The port it is served on (set once listening).
+    """
+
+    port: int | None = None
+
+    def find_handler(  # noqa: D102
+        self, request: tornado.httputil.HTTPServerRequest, **kwargs: Any
+    ) -> Any:
+        if not loopback_request(request.headers, self.port):
+            forbidden = {"status_code": 403}
+            return self.get_handler_delegate(request, tornado.web.ErrorHandler, forbidden)
+        return super().find_handler(request, **kwargs)
+
+
 class _QuietWebSocketHandler(WebSocketHandler):
     """meshcat's handler without its ``opened: <…>`` / ``closed: <…>`` lines on stderr."""
+
+    def check_origin(self, origin: str) -> bool:
+        """The application has checked ``Host`` and ``Origin`` already (403 otherwise)."""
+        return True
 
     def open(self) -> None:  # noqa: D102
         self.bridge.websocket_pool.add(self)
@@ -101,13 +172,17 @@ class LoopbackBridge(ZMQWebSocketBridge):
         self.ioloop = tornado.ioloop.IOLoop.current()
         self.app = self.make_app()
         self.http_server, self.fileserver_port = _listen(self.app, port)
+        self.app.port = self.fileserver_port
         self.zmq_socket, self.zmq_stream, _ = self.setup_zmq(f"tcp://{LOOPBACK}:*")
         self.zmq_url = self.zmq_socket.getsockopt_string(zmq.LAST_ENDPOINT)
         self.web_url = f"http://{LOOPBACK}:{self.fileserver_port}/static/"
 
-    def make_app(self) -> tornado.web.Application:
-        """The viewer's static files and the WebSocket the browser connects to."""
-        return tornado.web.Application(
+    def make_app(self) -> _LoopbackApplication:
+        """The viewer's static files and the WebSocket the browser connects to.
+
+        Requests whose ``Host`` or ``Origin`` is not this loopback server get 403.
+        """
+        return _LoopbackApplication(
             [
                 (
                     r"/static/(.*)",

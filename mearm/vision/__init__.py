@@ -20,6 +20,7 @@ from mearm.vision.camera import (
 )
 from mearm.vision.classify import PixelClassifier, classify_exact
 from mearm.vision.detector import ColorDetector, Detection
+from mearm.vision.image import probe_image, read_image
 from mearm.vision.thresholds import Thresholds
 
 __all__ = [
@@ -36,4 +37,6 @@ __all__ = [
     "classify_exact",
     "detect_markers",
     "open_camera",
+    "probe_image",
+    "read_image",
 ]

@@ -24,6 +24,7 @@ import numpy as np
 import numpy.typing as npt
 
 from mearm.config import CalibrationConfig
+from mearm.config.base import short_repr
 from mearm.exceptions import CalibrationError
 
 #: Twice a triangle's area over its longest side squared below this is "on one line"
@@ -35,11 +36,11 @@ def _points(name: str, pts: npt.ArrayLike) -> np.ndarray:
     try:
         arr = np.asarray(pts, dtype=float)
     except (TypeError, ValueError):
-        raise CalibrationError(f"{name} points must be numbers, got {pts!r}") from None
+        raise CalibrationError(f"{name} points must be numbers, got {short_repr(pts)}") from None
     if arr.ndim != 2 or arr.shape[1] != 2:
         raise CalibrationError(f"{name} points must have shape (N, 2), got {arr.shape}")
     if not np.all(np.isfinite(arr)):
-        raise CalibrationError(f"{name} points must be finite, got {arr.tolist()}")
+        raise CalibrationError(f"{name} points must be finite, got {short_repr(arr.tolist())}")
     return arr
 
 
@@ -99,7 +100,9 @@ class Calibration:
     def __post_init__(self) -> None:
         H = np.array(self.H, dtype=float)
         if H.shape != (3, 3) or not np.all(np.isfinite(H)):
-            raise CalibrationError(f"homography must be a finite 3x3 matrix, got {H.tolist()}")
+            raise CalibrationError(
+                f"homography must be a finite 3x3 matrix, got {short_repr(H.tolist())}"
+            )
         if abs(H[2, 2]) > 1e-12:
             H = H / H[2, 2]
         if abs(np.linalg.det(H)) < 1e-12:

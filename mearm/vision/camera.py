@@ -16,10 +16,9 @@ nothing blocks longer than the open timeout on opening.
 
 from __future__ import annotations
 
+import stat
 import threading
 from abc import ABC, abstractmethod
-from collections.abc import Iterator
-from contextlib import contextmanager
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -27,23 +26,13 @@ import cv2
 import numpy as np
 
 from mearm.config import CameraConfig, Config
-from mearm.exceptions import CameraError
+from mearm.exceptions import CameraError, ImageError
+from mearm.vision.image import MAX_IMAGE_PIXELS, probe_image, quiet_opencv, read_image
 
 if TYPE_CHECKING:
     from mearm.sim.world import World
 
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".webp", ".ppm", ".pgm")
-
-
-@contextmanager
-def quiet_opencv() -> Iterator[None]:
-    """Silence OpenCV's own log lines (e.g. V4L2 warnings) inside the block."""
-    level = cv2.utils.logging.getLogLevel()
-    cv2.utils.logging.setLogLevel(cv2.utils.logging.LOG_LEVEL_SILENT)
-    try:
-        yield
-    finally:
-        cv2.utils.logging.setLogLevel(level)
 
 
 class Camera(ABC):
@@ -165,17 +154,35 @@ class FileCamera(Camera):
         self.loop = camera.loop
         self._still: np.ndarray | None = None
         self._cap: Any = None
-        if not path.is_file():
-            raise CameraError(self.source, "no such file (camera.path)")
+        try:
+            info = path.stat()
+        except (OSError, ValueError):
+            raise CameraError(self.source, "no such file (camera.path)") from None
+        if not stat.S_ISREG(info.st_mode):
+            raise CameraError(
+                self.source, "not a regular file (camera.path): give an image or video"
+            )
         with quiet_opencv():
-            if cv2.haveImageReader(str(path)):
-                self._still = cv2.imread(str(path), cv2.IMREAD_COLOR)
-                if self._still is None:
-                    raise CameraError(self.source, "cannot decode the image")
-            else:
-                self._cap = cv2.VideoCapture(str(path))
-                if not self._cap.isOpened():
-                    raise CameraError(self.source, "neither an image nor a video OpenCV can read")
+            still = path.suffix.lower() in IMAGE_SUFFIXES or cv2.haveImageReader(str(path))
+        if still:
+            try:
+                self._still = read_image(path)
+            except ImageError as exc:
+                raise CameraError(self.source, exc.reason) from None
+            return
+        with quiet_opencv():
+            self._cap = cv2.VideoCapture(str(path))
+            if not self._cap.isOpened():
+                raise CameraError(self.source, "neither an image nor a video OpenCV can read")
+            w = int(self._cap.get(cv2.CAP_PROP_FRAME_WIDTH))
+            h = int(self._cap.get(cv2.CAP_PROP_FRAME_HEIGHT))
+        if (w, h) != self.size_px or w * h > MAX_IMAGE_PIXELS:
+            self._cap.release()
+            raise CameraError(
+                self.source,
+                f"video is {w}x{h} px but the config says {self.size_px[0]}x{self.size_px[1]}"
+                " (camera.width_px, camera.height_px): the calibration is for that size",
+            )
 
     def _read(self) -> np.ndarray:
         if self._still is not None:
@@ -206,6 +213,11 @@ class FolderCamera(Camera):
         self.paths = sorted(p for p in folder.iterdir() if p.suffix.lower() in IMAGE_SUFFIXES)
         if not self.paths:
             raise CameraError(self.source, f"holds no images ({', '.join(IMAGE_SUFFIXES)})")
+        for path in self.paths:  # every header now, so a bad frame stops nothing midway
+            try:
+                probe_image(path)
+            except ImageError as exc:
+                raise CameraError(self.source, f"{path.name}: {exc.reason}") from None
         self._next = 0
 
     def _read(self) -> np.ndarray:
@@ -218,11 +230,10 @@ class FolderCamera(Camera):
             self._next = 0
         path = self.paths[self._next]
         self._next += 1
-        with quiet_opencv():
-            frame = cv2.imread(str(path), cv2.IMREAD_COLOR)
-        if frame is None:
-            raise CameraError(self.source, f"cannot decode {path.name}")
-        return frame
+        try:
+            return read_image(path)
+        except ImageError as exc:
+            raise CameraError(self.source, f"{path.name}: {exc.reason}") from None
 
 
 def open_camera(config: Config, world: World | None = None) -> Camera:

@@ -1,0 +1,231 @@
+"""Writing a file so that a crash, a signal or a full disk never leaves half of it.
+
+:func:`write_atomic` is how mearm writes every file it replaces (configs, URDFs, reports,
+plots, screenshots):
+
+1. A symbolic link is written *through*: the file it points to gets the new contents
+   and the link stays a link (a config kept elsewhere and linked into ``configs/`` stays
+   where it is).
+2. The data goes to a new, uniquely named temporary file ``.<name>.<random>.tmp`` in the
+   target's own folder (the same file system, so the rename below is atomic), which is
+   flushed and ``fsync``-ed.
+3. It takes the old file's permission bits (a new file: ``0o666`` less the umask, as
+   ``open`` would give it), then ``os.replace`` puts it in place in one step and the
+   folder is ``fsync``-ed, so the rename itself survives a power cut.
+
+A reader sees the old file or the new one, never a mixture. A path that names a device
+or a pipe (``/dev/stdout``) is not replaced but written to as a stream. On any exception the
+temporary file is removed and the old file is untouched. So it is on SIGTERM, SIGINT and
+SIGHUP: every temporary file being written is in a registry, and a handler installed
+with the first write (from the main thread) removes them before the signal takes its
+usual course — the previous handler is called, or the default action (ending the
+process) is taken again. Ctrl-C already unwinds through the ``except`` clause, which
+removes the file; a SIGKILL or a power cut can still leave a ``.tmp`` file behind, never
+a damaged target.
+
+Append-only files (the run log) are not written this way: they are only ever appended
+to, one ``fsync``-ed line at a time (:class:`mearm.runlog.RunLog`).
+"""
+
+from __future__ import annotations
+
+import errno
+import os
+import signal
+import stat
+import tempfile
+import threading
+from pathlib import Path
+from types import FrameType
+from typing import Any
+
+#: The signals after which no temporary file is left behind.
+CLEANUP_SIGNALS: tuple[signal.Signals, ...] = tuple(
+    getattr(signal, name) for name in ("SIGTERM", "SIGINT", "SIGHUP") if hasattr(signal, name)
+)
+
+#: Temporary files being written now (any thread).
+_live: set[str] = set()
+#: Per signal, the handler that was installed before ours.
+_previous: dict[int, Any] = {}
+_install_lock = threading.Lock()
+
+
+def write_atomic(path: str | os.PathLike[str], data: bytes | str) -> Path:
+    """Replace the file at ``path`` with ``data`` in one step (see the module docstring).
+
+    Args:
+        path: The file to write. Its folder must exist. A symbolic link is followed to
+            the file it names, which is the one replaced.
+        data: The new contents; text is written as UTF-8.
+
+    Returns:
+        The file actually written (``path`` with its symbolic links resolved).
+
+    Raises:
+        OSError: The folder is missing or not writable, the disk is full, ``path`` is a
+            folder or a loop of links, ...; the old file is unchanged and no temporary
+            file is left.
+    """
+    payload = data.encode("utf-8") if isinstance(data, str) else bytes(data)
+    try:
+        st: os.stat_result | None = os.stat(path)
+    except FileNotFoundError:
+        st = None
+    if st is not None and stat.S_ISDIR(st.st_mode):
+        raise IsADirectoryError(errno.EISDIR, os.strerror(errno.EISDIR), os.fspath(path))
+    if st is not None and not stat.S_ISREG(st.st_mode):  # a device or a pipe: a stream
+        with open(path, "wb") as stream:
+            stream.write(payload)
+        return Path(path)
+    target = resolve_target(path)
+    mode = _mode_for(target)
+    _install_handlers()
+    fd, tmp = _make_temp(target)
+    try:
+        with os.fdopen(fd, "wb") as f:
+            f.write(payload)
+            f.flush()
+            _fsync(f.fileno())
+        os.chmod(tmp, mode)
+        os.replace(tmp, target)
+        _fsync_folder(target.parent)
+    except BaseException:
+        _unlink_quietly(tmp)
+        raise
+    finally:
+        _live.discard(tmp)
+    return target
+
+
+def resolve_target(path: str | os.PathLike[str]) -> Path:
+    """The file a write to ``path`` should replace: ``path`` with every link followed.
+
+    A link to a file that does not exist yet resolves to that file (it will be created).
+
+    Raises:
+        OSError: The links form a loop.
+    """
+    try:
+        return Path(os.path.realpath(path, strict=True))
+    except FileNotFoundError:
+        return Path(os.path.realpath(path))
+
+
+def live_temp_files() -> frozenset[str]:
+    """The temporary files being written at this moment (for tests and diagnostics)."""
+    return frozenset(_live)
+
+
+# -- plumbing
+
+
+def _mode_for(target: Path) -> int:
+    """The permission bits the new file takes: the old file's, else 0o666 less the umask."""
+    try:
+        return target.stat().st_mode & 0o7777
+    except FileNotFoundError:
+        return 0o666 & ~_umask()
+
+
+def _umask() -> int:
+    # /proc tells the umask without changing it; os.umask can only read it by setting it,
+    # which would briefly affect files created by other threads.
+    try:
+        with open("/proc/self/status", encoding="ascii") as f:
+            for line in f:
+                if line.startswith("Umask:"):
+                    return int(line.split()[1], 8)
+    except (OSError, ValueError):
+        pass
+    with _install_lock:
+        mask = os.umask(0o022)
+        os.umask(mask)
+    return mask
+
+
+def _make_temp(target: Path) -> tuple[int, str]:
+    """Create the temporary file and register it, with the cleanup signals held off."""
+    held = _hold_signals()
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
+        _live.add(tmp)
+    finally:
+        _release_signals(held)
+    return fd, tmp
+
+
+def _hold_signals() -> set[int | signal.Signals] | None:
+    if not hasattr(signal, "pthread_sigmask"):  # not on Windows
+        return None
+    return signal.pthread_sigmask(signal.SIG_BLOCK, CLEANUP_SIGNALS)
+
+
+def _release_signals(previous: set[int | signal.Signals] | None) -> None:
+    if previous is not None:
+        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
+
+
+def _fsync(fd: int) -> None:
+    os.fsync(fd)
+
+
+def _fsync_folder(folder: Path) -> None:
+    """Make the rename durable; some systems cannot open or sync a folder (ignored)."""
+    try:
+        fd = os.open(folder, os.O_RDONLY | getattr(os, "O_DIRECTORY", 0))
+    except OSError:
+        return
+    try:
+        os.fsync(fd)
+    except OSError:
+        pass
+    finally:
+        os.close(fd)
+
+
+def _unlink_quietly(path: str) -> None:
+    try:
+        os.unlink(path)
+    except OSError:
+        pass
+
+
+def _install_handlers() -> None:
+    """Install the cleanup handler once, from the main thread (only it may)."""
+    if len(_previous) == len(CLEANUP_SIGNALS):
+        return
+    if threading.current_thread() is not threading.main_thread():
+        return
+    with _install_lock:
+        for sig in CLEANUP_SIGNALS:
+            if sig in _previous:
+                continue
+            previous = signal.getsignal(sig)
+            if previous is _on_signal:  # e.g. after this module was reloaded
+                continue
+            signal.signal(sig, _on_signal)
+            _previous[sig] = previous
+
+
+def _on_signal(signum: int, frame: FrameType | None) -> None:
+    """Remove the temporary files if the signal ends the process; else hand it on.
+
+    A Python handler before ours (Python's own Ctrl-C handler raises KeyboardInterrupt)
+    is called: if it raises, the write's ``except`` clause removes its file; if it
+    returns, the write goes on and needs its file. An ignored signal stays ignored. A
+    signal whose action was the default (end the process, no clean-up) removes every
+    temporary file, then is raised again with the default action.
+    """
+    previous = _previous.get(signum, signal.SIG_DFL)
+    if callable(previous):
+        previous(signum, frame)
+        return
+    if previous == signal.SIG_IGN:
+        return
+    for tmp in list(_live):
+        _unlink_quietly(tmp)
+    signal.signal(signum, signal.SIG_DFL)
+    if hasattr(signal, "pthread_sigmask"):  # the handler may run while it is held off
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, {signum})
+    os.kill(os.getpid(), signum)

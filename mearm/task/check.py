@@ -1,0 +1,164 @@
+"""Consistency at load: what a config promises, checked before any device opens.
+
+The validator checks each section on its own (a limit inside its servo's pulse range, a
+home inside its limits). This module checks what only the whole config can tell, by
+solving it: every class's bin is reached from home within the limits; the jaws close on
+the object (the grip height within the object's height plus the jaws' length); every
+class's pick height (derived from the object's height, the grip height and the tool's geometry) lies
+in the target box and is reached somewhere in it; and how much of the camera's
+view of the table the arm cannot reach, said once. Home itself needs no solve: the arm
+goes home along a straight line in joint space, inside the limits by construction.
+
+A failure is a :class:`~mearm.exceptions.ConfigError` naming the field and its value, so
+the CLIs end with exit 2 before anything moves.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from mearm.config import ColorClass, Config
+from mearm.exceptions import ConfigError
+from mearm.kinematics import ArmModel
+from mearm.task.plan import Planner
+from mearm.task.route import Route
+from mearm.vision import Calibration
+
+#: The camera's view is sampled on a grid of this many points across × down.
+VIEW_GRID = (7, 5)
+
+
+@dataclass
+class Consistency:
+    """What the check found besides failures.
+
+    Attributes:
+        pick_z_cm: Per class, the TCP height of its picks [cm].
+        unreachable_share: Per pick height [cm], the share of the camera's view of the
+            table the arm cannot pick from (0–1).
+        notes: Lines to show once before the run.
+    """
+
+    pick_z_cm: dict[str, float] = field(default_factory=dict)
+    unreachable_share: dict[float, float] = field(default_factory=dict)
+    notes: list[str] = field(default_factory=list)
+
+
+_CACHE: dict[str, Consistency] = {}
+
+
+def check_consistency(config: Config, model: ArmModel | None = None) -> Consistency:
+    """Solve what the config promises; raise on what cannot hold.
+
+    Results are cached per config (a run of many trials checks once).
+
+    Raises:
+        ConfigError: a bin that cannot be reached from home, or a class whose picks are
+            outside the target box or reached nowhere in it; one line per
+            problem, each naming the field and its value.
+    """
+    key = hashlib.sha256(config.model_dump_json().encode()).hexdigest()
+    if key in _CACHE:
+        return _CACHE[key]
+    model = model if model is not None else ArmModel(config.arm)
+    planner = Planner(config, model)
+    found = Consistency()
+    problems: list[str] = []
+    for cls in config.task.classes:
+        problems += _check_bin(planner, model, cls)
+    view_cm = _view_points_cm(config)
+    by_height: dict[float, list[str]] = {}
+    for cls in config.task.classes:
+        z = float(planner.pick_target(cls, 0.0, 0.0).position_cm[2])
+        found.pick_z_cm[cls.name] = z
+        by_height.setdefault(round(z, 6), []).append(cls.name)
+    jaw_cm = config.arm.tool.gripper.jaw_length_cm
+    for cls in config.task.classes:
+        if cls.grip_z_cm > cls.height_cm + jaw_cm:
+            problems.append(
+                f"{_pick_field(cls)}: the jaws would close {cls.grip_z_cm:g} cm above the "
+                f"table, above the object ({cls.height_cm:g} cm high) by more than the jaws "
+                f"are long ({jaw_cm:g} cm): at most {cls.height_cm + jaw_cm:g} cm"
+            )
+    box = config.arm.target_box
+    for z, names in by_height.items():
+        field_name = _pick_field(config.task.class_named(names[0]))
+        if not box.z_cm.contains(z):
+            problems.append(
+                f"{field_name}: picks of {', '.join(names)} put the TCP at z = {z:.2f} cm, "
+                f"outside arm.target_box.z_cm [{box.z_cm.min:g}, {box.z_cm.max:g}] "
+                "(pick height = grip height + arm.tool.tcp_above_grip_cm)"
+            )
+            continue
+        if not _reachable(planner, model, names[0], _box_points_cm(config)).any():
+            problems.append(
+                f"{field_name}: picks of {', '.join(names)} at z = {z:.2f} cm are reached "
+                "nowhere in arm.target_box within the joint limits: check the arm's reach, "
+                "the box and the pick height (grip height + arm.tool.tcp_above_grip_cm)"
+            )
+            continue
+        reached = _reachable(planner, model, names[0], view_cm)
+        share = 1.0 - float(np.mean(reached))
+        found.unreachable_share[z] = share
+        if share > 0:
+            lo, hi = view_cm.min(axis=0), view_cm.max(axis=0)
+            found.notes.append(
+                f"note: {share:.0%} of the camera's view of the table "
+                f"(x {lo[0]:.0f}…{hi[0]:.0f} cm, y {lo[1]:.0f}…{hi[1]:.0f} cm) is out of the "
+                f"arm's reach at the pick height {z:.2f} cm ({', '.join(names)}); objects "
+                "there are reported and left"
+            )
+    if problems:
+        raise ConfigError(None, problems)
+    _CACHE[key] = found
+    return found
+
+
+def _pick_field(cls: ColorClass) -> str:
+    what = "height_cm" if cls.grip_height_cm is None else "grip_height_cm"
+    return f"task.classes.{cls.name}.{what}"
+
+
+def _check_bin(planner: Planner, model: ArmModel, cls: ColorClass) -> list[str]:
+    route = Route("", cls.name, "place", 1, planner.place_target(cls))
+    planner.plan(route, model.home)
+    if route.planned:
+        return []
+    x, y, z = cls.bin_cm
+    return [
+        f"task.classes.{cls.name}.bin_cm: [{x:g}, {y:g}, {z:g}] cannot be reached from home "
+        f"within the joint limits: {route.failure}"
+    ]
+
+
+def _view_points_cm(config: Config) -> np.ndarray:
+    """Table points [cm] on a grid over the camera's image, (N, 2)."""
+    nu, nv = VIEW_GRID
+    w, h = config.camera.width_px, config.camera.height_px
+    u, v = np.meshgrid(np.linspace(0, w - 1, nu), np.linspace(0, h - 1, nv))
+    pixels = np.column_stack([u.ravel(), v.ravel()])
+    return Calibration.from_config(config.calibration).pixel_to_table(pixels)
+
+
+def _box_points_cm(config: Config) -> np.ndarray:
+    """Points (x, y) [cm] on a grid over the target box, (N, 2)."""
+    box = config.arm.target_box
+    nu, nv = VIEW_GRID
+    x, y = np.meshgrid(
+        np.linspace(box.x_cm.min, box.x_cm.max, nu), np.linspace(box.y_cm.min, box.y_cm.max, nv)
+    )
+    return np.column_stack([x.ravel(), y.ravel()])
+
+
+def _reachable(
+    planner: Planner, model: ArmModel, class_name: str, points_cm: np.ndarray
+) -> np.ndarray:
+    cls = planner.config.task.class_named(class_name)
+    out = np.zeros(len(points_cm), dtype=bool)
+    for i, (x, y) in enumerate(points_cm):
+        route = Route("", class_name, "pick", 1, planner.pick_target(cls, float(x), float(y)))
+        out[i] = planner.plan(route, model.home).planned
+    return out

@@ -1,0 +1,170 @@
+"""The bad-input corpus's one check: what every command promises on input it refuses.
+
+Each case runs one ``mearm`` subcommand in-process (fast: no interpreter start per case)
+and asserts, together:
+
+- the exit code (2 for bad input found before motion, unless the case says otherwise);
+- exactly one line on stderr, and no traceback anywhere in the output;
+- a time bound (a hang is cut off by a timer and fails the case);
+- every file that existed before the run is byte-for-byte intact afterwards.
+
+Tests that use it carry ``@pytest.mark.bad_input``; ``pytest -m bad_input
+--collect-only -q`` counts the corpus. :func:`check_bad_input_subprocess` runs the same
+check through a real ``python -m mearm`` process, for the cases whose harm is to the
+process itself (memory, recursion, hangs in C code).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import io
+import signal
+import subprocess
+import sys
+import time
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+class CaseTimeout(BaseException):  # noqa: N818 - not an Exception: the guard must not catch it
+    """A case ran past its time bound."""
+
+
+@dataclass
+class Outcome:
+    """What one run did."""
+
+    code: int
+    stdout: str
+    stderr: str
+    seconds: float
+
+    @property
+    def line(self) -> str:
+        """The one stderr line."""
+        return self.stderr.strip()
+
+
+def _snapshot(paths: Iterable[Path]) -> dict[Path, bytes | None]:
+    out: dict[Path, bytes | None] = {}
+    for p in paths:
+        p = Path(p)
+        files = sorted(q for q in p.rglob("*") if q.is_file()) if p.is_dir() else [p]
+        for f in files:
+            out[f] = hashlib.sha256(f.read_bytes()).digest() if f.is_file() else None
+    return out
+
+
+#: Promises checked and kept in this session (five per passing check); the suite's
+#: summary prints it (tests/conftest.py).
+KEPT = {"checks": 0, "promises": 0}
+
+
+def _assert_promises(
+    out: Outcome, argv: Sequence[str], code: int, within_s: float, before: dict
+) -> None:
+    what = f"mearm {' '.join(map(str, argv))}"
+    assert out.code == code, f"{what}: exit {out.code}, expected {code}; stderr: {out.stderr!r}"
+    assert "Traceback" not in out.stderr + out.stdout, f"{what}: traceback:\n{out.stderr}"
+    lines = out.stderr.strip().splitlines()
+    assert len(lines) == 1, f"{what}: expected one line on stderr, got {len(lines)}: {lines!r}"
+    assert out.seconds <= within_s, f"{what}: took {out.seconds:.2f} s (bound {within_s} s)"
+    after = _snapshot(before)
+    for path, digest in before.items():
+        assert after.get(path) == digest, f"{what}: {path} changed or vanished"
+    KEPT["checks"] += 1
+    KEPT["promises"] += 5  # exit code, one line, no traceback, time bound, files intact
+
+
+def run_in_process(argv: Sequence[str], *, within_s: float = 5.0) -> Outcome:
+    """Run ``mearm ARGV`` in this process; a run past ``within_s`` (+1 s) is cut off."""
+    from mearm.__main__ import main
+
+    saved_argv = sys.argv[:]
+    out, err = io.StringIO(), io.StringIO()
+
+    def on_alarm(_sig: int, _frame: object) -> None:
+        raise CaseTimeout(f"still running after {within_s + 1:g} s")
+
+    old = signal.signal(signal.SIGALRM, on_alarm)
+    signal.setitimer(signal.ITIMER_REAL, within_s + 1.0)
+    t0 = time.perf_counter()
+    code: int | str | None = 0
+    try:
+        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+            try:
+                main([str(a) for a in argv])
+            except SystemExit as exc:
+                code = exc.code
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, old)
+        sys.argv = saved_argv
+    elapsed = time.perf_counter() - t0
+    return Outcome(int(code or 0) if not isinstance(code, str) else 1, out.getvalue(),
+                   err.getvalue(), elapsed)  # fmt: skip
+
+
+def check_bad_input(
+    argv: Sequence[object],
+    *,
+    code: int = 2,
+    within_s: float = 5.0,
+    keep: Iterable[Path] = (),
+    stdin: str | None = None,
+) -> Outcome:
+    """Run ``mearm ARGV`` in-process and assert the promises (see the module docstring).
+
+    Args:
+        argv: Subcommand and its arguments, e.g. ``["sort", "--config", path]``.
+        code: The exit code the case must end with.
+        within_s: Time bound [s].
+        keep: Files or directories that must be unchanged afterwards.
+        stdin: Text on standard input (default: an empty, closed input, as without a
+            terminal).
+    """
+    argv = [str(a) for a in argv]
+    before = _snapshot(keep)
+    saved_stdin = sys.stdin
+    sys.stdin = io.StringIO(stdin or "")
+    try:
+        out = run_in_process(argv, within_s=within_s)
+    finally:
+        sys.stdin = saved_stdin
+    _assert_promises(out, argv, code, within_s, before)
+    return out
+
+
+def check_bad_input_subprocess(
+    argv: Sequence[object],
+    *,
+    code: int = 2,
+    within_s: float = 5.0,
+    keep: Iterable[Path] = (),
+    stdin: str | None = None,
+    cwd: Path = ROOT,
+) -> Outcome:
+    """As :func:`check_bad_input`, through ``python -m mearm`` in a child process.
+
+    The bound covers the command's own work: the interpreter's start-up (measured by a
+    ``--version`` run) is added to it.
+    """
+    argv = [str(a) for a in argv]
+    before = _snapshot(keep)
+    cmd = [sys.executable, "-m", "mearm"]
+    t0 = time.perf_counter()
+    subprocess.run([*cmd, "--version"], capture_output=True, check=True, cwd=cwd)
+    startup = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    proc = subprocess.run(
+        [*cmd, *argv], capture_output=True, text=True, input=stdin or "",
+        timeout=within_s + startup + 30, cwd=cwd,
+    )  # fmt: skip
+    elapsed = max(0.0, time.perf_counter() - t0 - startup)
+    out = Outcome(proc.returncode, proc.stdout, proc.stderr, elapsed)
+    _assert_promises(out, argv, code, within_s, before)
+    return out

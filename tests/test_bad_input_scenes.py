@@ -1,0 +1,177 @@
+"""Bad-input corpus: scene files (``--scene``) for ``sort`` and ``experiment``.
+
+A scene file is read as a config is (mearm.yamlio: no special files, size, depth,
+aliases, tags, duplicate keys), then each entry is validated: a class name and x, y
+within the table's physical range. Every case: exit 2, one line, nothing written.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import pytest
+from badinput import ROOT, check_bad_input, check_bad_input_subprocess, run_in_process
+
+from mearm.config.rig import MAX_SCENE_OBJECTS
+
+bad_input = pytest.mark.bad_input
+
+OBJ = "{color: red, x: -10.99, y: 49.70}"
+
+#: name → (file contents, words the one line must hold).
+BAD_SCENES: dict[str, tuple[str | bytes, str]] = {
+    "mapping": ("color: red\nx: 0\ny: 40\n", "a scene is a list of {color, x, y} entries"),
+    "scalar": ("12\n", "a scene is a list"),
+    "string": ("red at the left\n", "a scene is a list"),
+    "empty": ("", "empty scene"),
+    "comments_only": ("# layout to come\n", "empty scene"),
+    "null": ("~\n", "empty scene"),
+    "list_of_numbers": ("[1, 2, 3]\n", "[0]"),
+    "list_of_lists": ("- [red, 0, 40]\n", "[0]"),
+    "missing_color": ("- {x: 0, y: 40}\n", "[0.color]"),
+    "missing_x": ("- {color: red, y: 40}\n", "[0.x]"),
+    "extra_key": ("- {color: red, x: 0, y: 40, z: 3}\n", "[0.z]"),
+    "unknown_class": ("- {color: purple, x: 0, y: 40}\n", "'purple' is not a class"),
+    "color_number": ("- {color: 7, x: 0, y: 40}\n", "[0.color]"),
+    "color_bad_name": ("- {color: '../etc', x: 0, y: 40}\n", "[0.color]"),
+    "color_long": ("- {color: " + "r" * 5000 + ", x: 0, y: 40}\n", "[0.color]"),
+    "x_nan": ("- {color: red, x: .nan, y: 40}\n", "[0.x]"),
+    "x_inf": ("- {color: red, x: .inf, y: 40}\n", "[0.x]"),
+    "y_minus_inf": ("- {color: red, x: 0, y: -.inf}\n", "[0.y]"),
+    "x_huge": ("- {color: red, x: 1e308, y: 40}\n", "[0.x]"),
+    "x_past_range": ("- {color: red, x: 1000.5, y: 40}\n", "[0.x]"),
+    "y_text": ("- {color: red, x: 0, y: forty}\n", "[0.y]"),
+    "y_list": ("- {color: red, x: 0, y: [40]}\n", "[0.y]"),
+    "x_long_int": ("- {color: red, x: " + "9" * 5000 + ", y: 40}\n", "a number too long"),
+    "second_entry_bad": (f"- {OBJ}\n- {{color: red, x: 0}}\n", "[1.y]"),
+    "too_many": (
+        "[" + ", ".join([OBJ] * (MAX_SCENE_OBJECTS + 1)) + "]\n",
+        f"a scene holds at most {MAX_SCENE_OBJECTS}",
+    ),  # fmt: skip
+    "alias_bomb": (
+        "- &a [1, 1, 1, 1, 1, 1, 1, 1, 1, 1]\n"
+        + "".join(
+            f"- &a{i} [" + ", ".join([f"*a{i - 1}" if i else "*a"] * 10) + "]\n" for i in range(6)
+        ),
+        "aliases counted expanded",
+    ),  # fmt: skip
+    "deep": ("[" * 10_000 + "]" * 10_000 + "\n", "nested deeper than"),
+    "duplicate_key": ("- {color: red, x: 0, x: 1, y: 40}\n", "duplicate key 'x'"),
+    "python_tag": ("- !!python/object:builtins.dict {color: red}\n", "is not allowed"),
+    "latin1": ("- {color: r\xe9d, x: 0, y: 40}\n".encode("latin-1"), "not UTF-8 text"),
+    "nul": (b"- {color: red, x: 0, y: 40}\n\x00", "control characters are not allowed"),
+    "malformed": ("- {color: red, x: 0, y: 40\n", "malformed YAML"),
+    "two_documents": (f"- {OBJ}\n---\n- {OBJ}\n", "a second document"),
+    "too_large": ("# x\n" * (300_000), "too large"),
+}
+
+
+@pytest.fixture(scope="module")
+def scenes(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
+    d = tmp_path_factory.mktemp("bad_scenes")
+    paths = {}
+    for name, (content, _) in BAD_SCENES.items():
+        p = d / f"{name}.yaml"
+        p.write_bytes(content.encode() if isinstance(content, str) else content)
+        paths[name] = p
+    os.mkfifo(d / "fifo.yaml")
+    paths["fifo"] = d / "fifo.yaml"
+    (d / "folder.yaml").mkdir()
+    paths["folder"] = d / "folder.yaml"
+    paths["dev_zero"] = Path("/dev/zero")
+    paths["missing"] = d / "missing.yaml"
+    return paths
+
+
+SPECIAL = {
+    "fifo": "not a regular file",
+    "folder": "is a directory",
+    "dev_zero": "not a regular file",
+    "missing": "scene file not found",
+}
+ALL_SCENES = {**{k: v[1] for k, v in BAD_SCENES.items()}, **SPECIAL}
+
+
+@pytest.fixture(scope="module", autouse=True)
+def _imported() -> None:
+    for argv in (["sort", "--help"], ["experiment", "--help"]):
+        run_in_process(argv, within_s=60)
+
+
+@bad_input
+@pytest.mark.parametrize("name", list(ALL_SCENES))
+def test_sort_refuses_a_bad_scene(name: str, scenes: dict[str, Path], tmp_path: Path) -> None:
+    """sort --scene FILE: refused before the rig starts; the run log is not created."""
+    log = tmp_path / "run.jsonl"
+    out = check_bad_input(
+        ["sort", "--scene", scenes[name], "--log", log, "--quiet"],
+        within_s=2,
+        keep=[scenes["empty"].parent],
+    )
+    assert ALL_SCENES[name] in out.line
+    assert not log.exists()
+
+
+#: The harmful ones, for experiment too.
+FOR_EXPERIMENT = ("mapping", "empty", "unknown_class", "x_nan", "too_many", "alias_bomb", "deep",
+                  "duplicate_key", "latin1", "fifo", "dev_zero", "folder", "missing")  # fmt: skip
+
+
+@bad_input
+@pytest.mark.parametrize("name", FOR_EXPERIMENT)
+def test_experiment_refuses_a_bad_scene(name: str, scenes: dict[str, Path], tmp_path: Path) -> None:
+    """experiment --scene FILE: refused before the first trial."""
+    log = tmp_path / "trials.jsonl"
+    out = check_bad_input(
+        ["experiment", "--scene", scenes[name], "--log", log, "--trials", "2"],
+        within_s=2,
+        keep=[scenes["empty"].parent],
+    )
+    assert ALL_SCENES[name] in out.line
+
+
+@bad_input
+@pytest.mark.parametrize(
+    ("args", "words"),
+    [
+        (["--random", "-1"], "≥ 0"),
+        (["--random", str(MAX_SCENE_OBJECTS + 1)], f"at most {MAX_SCENE_OBJECTS}"),
+        (["--random", "99999999999999999999"], f"at most {MAX_SCENE_OBJECTS}"),
+        (["--random", "3", "--seed", "-1"], "the seed must be in [0, 4294967295]"),
+        (["--random", "3", "--seed", str(2**32)], "the seed must be in [0, 4294967295]"),
+        (["--random", "3", "--seed", "9" * 400], "the seed must be in"),
+        (["--random", "x"], "invalid int value"),
+        (["--random", "1e3"], "invalid int value"),
+        (["--random", "3", "--scene", "x.yaml"], "not allowed with argument"),
+        (["--random", "3", "--set", "camera.kind=device"], "not 'sim'"),
+        (["--random", "5", "--set", "camera.width_px=16", "--set", "camera.height_px=16"],
+         "the camera sees no table area"),
+        (["--random", "5", "--set", "task.classes.red.diameter_cm=100"],
+         "the camera sees no table area"),
+        (["--random", str(MAX_SCENE_OBJECTS), "--set", "task.classes.red.diameter_cm=5"],
+         "could not place"),
+    ],
+)  # fmt: skip
+def test_sort_refuses_a_bad_random_scene(args: list[str], words: str) -> None:
+    """--random N --seed S out of range, or no room for the objects: exit 2, one line."""
+    out = check_bad_input(["sort", "--quiet", *args], within_s=5)
+    assert words in out.line
+
+
+@bad_input
+@pytest.mark.parametrize("name", ["alias_bomb", "deep", "dev_zero", "too_large"])
+def test_harmful_scene_ends_fast_in_a_real_process(name: str, scenes: dict[str, Path]) -> None:
+    out = check_bad_input_subprocess(
+        ["sort", "--scene", scenes[name], "--quiet"], within_s=2, keep=[scenes["empty"].parent]
+    )
+    assert ALL_SCENES[name] in out.line
+
+
+def test_an_empty_list_is_a_valid_scene(tmp_path: Path) -> None:
+    """``[]`` is a table with nothing on it (not an empty file): the sort has nothing to do."""
+    scene = tmp_path / "none.yaml"
+    scene.write_text("[]\n")
+    out = run_in_process(["sort", "--scene", scene, "--quiet"], within_s=10)
+    assert out.code == 0, out.stderr
+    assert (ROOT / "configs").is_dir()

@@ -1,0 +1,71 @@
+"""Consistency at load: what only the whole config can tell, found before anything moves."""
+
+from __future__ import annotations
+
+import pytest
+from badinput import check_bad_input
+from conftest import REFERENCE_CONFIGS, ROOT
+
+from mearm.config import load_config
+from mearm.exceptions import ConfigError
+from mearm.runlog import read_runlog
+from mearm.task.check import check_consistency
+
+
+@pytest.mark.parametrize("name", REFERENCE_CONFIGS)
+def test_reference_configs_are_consistent(name):
+    found = check_consistency(load_config(ROOT / "configs" / name))
+    assert found.pick_z_cm and all(0 <= s < 0.6 for s in found.unreachable_share.values())
+
+
+def test_a_bin_out_of_reach_is_named_with_its_value():
+    config = load_config(None, ["task.classes.green.bin_cm=[0, 80, 20]"])
+    with pytest.raises(ConfigError, match=r"task\.classes\.green\.bin_cm: \[0, 80, 20\]"):
+        check_consistency(config)
+
+
+def test_a_pick_height_outside_the_box_is_named():
+    config = load_config(None, ["arm.target_box.z_cm={min: 15, max: 60}"])
+    with pytest.raises(ConfigError, match=r"task\.classes\.red\.grip_height_cm: .*z = 12\.76"):
+        check_consistency(config)
+
+
+def test_a_pick_height_reached_nowhere_is_named():
+    config = load_config(
+        None, ["arm.target_box.z_cm={min: 10, max: 100}", "arm.tool.tcp_above_grip_cm=90"]
+    )
+    with pytest.raises(ConfigError, match=r"task\.classes\.red\.grip_height_cm: .* nowhere"):
+        check_consistency(config)
+
+
+def test_the_unreachable_share_of_the_view_is_said_once(capsys):
+    from mearm.sort import main
+
+    code = main(["--random", "2", "--seed", "1"])
+    lines = capsys.readouterr().out.splitlines()
+    notes = [ln for ln in lines if ln.startswith("note:")]
+    assert code == 0 and len(notes) == 1
+    assert "of the camera's view of the table" in notes[0] and "12.76 cm" in notes[0]
+
+
+@pytest.mark.bad_input
+@pytest.mark.parametrize(
+    "override, field",
+    [
+        ("task.classes.red.bin_cm=[0, 80, 20]", "task.classes.red.bin_cm"),
+        ("task.classes.blue.bin_cm=[-40, 5, 10]", "task.classes.blue.bin_cm"),
+        ("arm.target_box.z_cm={min: 20, max: 60}", "task.classes.red.grip_height_cm"),
+        ("task.classes.green.grip_height_cm=45", "task.classes.green.grip_height_cm"),
+        ("arm.joints.shoulder.limits={min: 30, max: 200}", "arm.joints"),
+        ("arm.joints.base.limits.max=250", "arm.joints"),
+    ],
+)
+def test_inconsistent_configs_stop_before_motion_with_exit_2(tmp_path, override, field):
+    """Exit 2, one line naming the field; the run log holds the reason as a fault."""
+    log = tmp_path / "run.jsonl"
+    out = check_bad_input(["sort", "--set", override, "--log", log])
+    assert field in out.line
+    if log.exists():
+        trial = read_runlog(log).trials[-1]
+        assert trial.faults and field in trial.faults[0].reason
+        assert trial.summary is not None and not trial.summary.ok

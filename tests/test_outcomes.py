@@ -1,0 +1,137 @@
+"""Outcomes that never lie: exit 0 only when every object seen was sorted.
+
+The three runs that used to end "ok" with nothing sorted — an arm too small to reach the
+objects, a base servo 8° off, and a servo link to a board whose arm never moves — each
+end with exit 1, the last line ``sorted 0 of 12 objects (…)`` and the same counts in the
+run log's summary record.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+import yaml
+from fakeboard import FakeMearmBoard
+
+from mearm.config import config_from_dict
+from mearm.runlog import read_runlog
+from mearm.sort import main as sort_main
+from mearm.task.report import LEFT_REASONS, Outcome
+
+
+def _sort(capsys: pytest.CaptureFixture[str], *argv: object) -> tuple[int, list[str], str]:
+    code = sort_main([str(a) for a in argv])
+    out, err = capsys.readouterr()
+    return code, out.strip().splitlines(), err
+
+
+def _summary(log: Path):
+    contents = read_runlog(log)
+    assert contents.problem is None
+    summary = contents.trials[-1].summary
+    assert summary is not None
+    return summary
+
+
+def test_outcome_line_counts_and_reasons():
+    o = Outcome(
+        seen={"red": 2, "blue": 1},
+        sorted={"red": 1, "blue": 0},
+        left={"unreachable": 1, "pick_failed": 1},
+    )
+    assert (o.n_seen, o.n_sorted, o.complete) == (3, 1, False)
+    assert o.line() == "sorted 1 of 3 objects (1 out of reach, 1 pick failed)"
+    assert Outcome(seen={"red": 1}, sorted={"red": 1}).line() == "sorted 1 of 1 objects"
+    assert set(LEFT_REASONS) >= {"unreachable", "pick_failed", "fault", "interrupted"}
+
+
+def test_a_full_sort_exits_0_and_says_so(tmp_path, capsys):
+    log = tmp_path / "run.jsonl"
+    code, lines, err = _sort(capsys, "--config", "configs/sim.yaml", "--log", log, "--quiet")
+    assert code == 0, err
+    assert lines[-1] == "sorted 12 of 12 objects"
+    s = _summary(log)
+    assert s.objects == s.sorted == {"red": 4, "green": 4, "blue": 4} and s.left == {}
+
+
+def test_an_arm_that_cannot_reach_the_objects_exits_1(tmp_path, capsys):
+    """Links shortened so the table is out of reach; the bins moved within reach."""
+    log = tmp_path / "run.jsonl"
+    code, lines, err = _sort(
+        capsys, "--quiet", "--log", log,
+        "--set", "arm.joints.shoulder.dh.a_cm=12",
+        "--set", "arm.joints.elbow.dh.a_cm=14",
+        "--set", "arm.target_box.y_cm={min: 5, max: 60}",
+        *[a for c, x in (("red", -15), ("green", -10), ("blue", -5))
+          for a in ("--set", f"task.classes.{c}.bin_cm=[{x}, 25, 20]")],
+    )  # fmt: skip
+    assert code == 1, err
+    s = _summary(log)
+    assert sum(s.objects.values()) == 12 and sum(s.sorted.values()) == 0
+    # out of reach, or reachable only with a joint beyond its limits
+    assert set(s.left) <= {"unreachable", "limit"} and sum(s.left.values()) == 12
+    words = ", ".join(f"{s.left[k]} {LEFT_REASONS[k]}" for k in s.left)
+    assert lines[-1] == f"sorted 0 of 12 objects ({words})"
+    assert err.strip() == f"mearm sort: sorted 0 of 12 objects ({words})"
+
+
+def test_a_base_servo_8_degrees_off_exits_1(tmp_path, capsys):
+    log = tmp_path / "run.jsonl"
+    code, lines, err = _sort(
+        capsys, "--quiet", "--log", log, "--set", "servo.error_model.offset_deg.base=8"
+    )
+    assert code == 1, err
+    assert lines[-1] == "sorted 0 of 12 objects (12 pick failed)"
+    s = _summary(log)
+    assert s.left == {"pick_failed": 12} and sum(s.sorted.values()) == 0
+
+
+def test_a_board_whose_arm_never_moves_exits_1(tmp_path, capsys):
+    """The serial backend on a fake Uno that acknowledges every move but moves nothing:
+    the (simulated) camera still sees all 12 objects of the paper's layout, so nothing
+    counts as sorted."""
+    log = tmp_path / "run.jsonl"
+    cfg = tmp_path / "board.yaml"
+    with FakeMearmBoard() as board:
+        data = config_from_dict(
+            {
+                "servo": {
+                    "backend": "serial", "port": board.port, "ack_timeout_s": 0.5,
+                    "rate_hz": 1000.0,
+                },
+                "task": {"pick_retries": 0},
+            }
+        ).model_dump(mode="json")  # fmt: skip
+        cfg.write_text(yaml.safe_dump(data), encoding="utf-8")
+        code, lines, err = _sort(capsys, "--config", cfg, "--log", log, "--quiet")
+    assert code == 1, err
+    assert lines[-1] == "sorted 0 of 12 objects (12 pick failed)"
+    assert _summary(log).left == {"pick_failed": 12}
+    assert board.received  # the moves did reach the board
+
+
+def test_objects_left_by_a_fault_are_counted(tmp_path, capsys):
+    """A camera that dies mid-run: exit 1, the objects not yet sorted are left to the fault."""
+    from mearm.sim import SimCamera
+
+    calls = {"n": 0}
+    real_read = SimCamera.read
+
+    def failing_read(self):
+        calls["n"] += 1
+        if calls["n"] > 3:
+            from mearm.exceptions import CameraError
+
+            raise CameraError("sim", "unplugged (test)")
+        return real_read(self)
+
+    log = tmp_path / "run.jsonl"
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(SimCamera, "read", failing_read)
+        code, lines, err = _sort(capsys, "--log", log, "--quiet")
+    assert code == 1
+    s = _summary(log)
+    n_sorted = sum(s.sorted.values())
+    assert 0 < n_sorted < 12 and s.left == {"fault": 12 - n_sorted}
+    assert lines[-1] == f"sorted {n_sorted} of 12 objects ({12 - n_sorted} stopped by a fault)"
