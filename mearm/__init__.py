@@ -9,12 +9,25 @@ imported on its own.
 from __future__ import annotations
 
 import importlib
+import logging
+import os
+import sys
 from typing import Any
 
-from mearm.exceptions import *  # noqa: F403 (the exception families are cheap and public)
-from mearm.exceptions import __all__ as _exception_names
+# MuJoCo picks its OpenGL backend when it is first imported: without a display, render
+# offscreen with Mesa's EGL (the physical twin's camera) unless the user chose one.
+if sys.platform.startswith("linux") and not os.environ.get("DISPLAY"):
+    os.environ.setdefault("MUJOCO_GL", "egl")
+
+from mearm.exceptions import *  # noqa: E402, F403 (the exception families are cheap and public)
+from mearm.exceptions import __all__ as _exception_names  # noqa: E402
 
 __version__ = "0.2.0"
+
+# A library logs and lets the application choose where it goes: without a handler of its
+# own, Python's last-resort handler would print warnings (a retry, a fault) to stderr
+# beside the one line each command prints for an error.
+logging.getLogger(__name__).addHandler(logging.NullHandler())
 
 #: Public name → the module that defines it; imported on first access.
 _LAZY: dict[str, str] = {

@@ -1,0 +1,952 @@
+r"""Generate the physical twin's MJCF (MuJoCo) from the config: arm, table, bins, objects, camera.
+
+Never hand-written: :func:`generate_mjcf` builds one self-contained MJCF string (primitive
+geoms only, metres, kilograms, radians) from :class:`~mearm.config.Config`.
+
+**The chain.** Body ``link_<joint>`` carries joint i (``hinge`` for a revolute joint,
+``slide`` for a prismatic one, about its own z axis); its pose in the previous body is the
+fixed part of DH row i−1, ``DHRow.transform(0)`` = :math:`R_z(\theta_0)T_z(d)T_x(a)R_x(\alpha)`,
+exactly as in the URDF (:mod:`mearm.kinematics.urdf`), so the twin's FK is the DH product.
+A body ``tcp`` with a site ``tcp`` sits at the tool centre point; the gripper's two jaws
+(slide joints named as in the URDF) hang from it.
+
+**The jaws and the grip point.** The planner sends the TCP ``tcp_above_grip_cm`` above
+the height where the jaws are to close (:meth:`~mearm.task.plan.Planner.pick_target`),
+the tool's approach axis :math:`\hat a` pointing down when it picks from above. So the
+*grip point*, where the pads close on an object, is :math:`p_{tcp} + h\,\hat a` with
+:math:`h` = ``tcp_above_grip_cm`` (a site ``grip``). Each jaw is a plate
+``jaw_thickness_cm`` thick whose inner face is the jaw joint's position; along
+:math:`\hat a` it is ``jaw_length_cm`` long and ends in a pad (geom ``<jaw>_pad``,
+:func:`pad_length_m` long) centred on the grip point, so the tips reach
+:math:`h + \ell_{pad}/2` beyond the TCP and no further; the rest of the jaw (geom
+``<jaw>_finger``) runs back from the pad toward the wrist, and a plate ``<gripper>_mount``
+bridges the TCP to the jaws' roots when they start beyond it. The gripper's servo sits
+behind both the TCP and the jaws' roots; the last DH row's plates, which run to the DH
+end between the jaws, are drawn but do not collide. The pads have
+:data:`PAD_SOLREF`/:data:`PAD_SOLIMP` and ``priority`` 1, so their contact with an
+object is theirs alone (not mixed with the object's softer default): a closed jaw sinks
+less than 0.1 mm into the object under the servo's full force.
+
+**The passive coupling** :math:`q_p = \sum_j c_{pj} q_j + c_p` is a fixed tendon of length
+:math:`L = q_p - \sum_j c_{pj} q_j` held at :math:`c_p` by a tendon equality. Chosen over
+
+- a ``<connect>`` four-bar loop: the description has no bar geometry (the paper arm's
+  a = 14 cm row folds its gripper arm in; the MeArm's bars are not in the DH table), so
+  the loop would be invented; and it only exists for two-joint parallelograms;
+- a position actuator making the passive joint follow the sum: the load on the passive
+  joint would be carried by a fictitious motor instead of the shoulder and elbow servos,
+  and the coupling would only hold as stiffly as its gain.
+
+The tendon equality is an ideal massless linkage: its reaction acts along the coupling's
+Jacobian, so the servos feel exactly the load the real parallelogram hands them (virtual
+work), for any number of terms, prismatic or revolute. Its stiffness is the constraint's
+``solref``; :data:`COUPLING_SOLREF` holds it within 1e-3 rad under the arm's own weight.
+The jaw mimic is a joint equality (one other joint). What it leaves out: the bars' own
+mass and their compliance and play.
+
+**Masses** are estimated from sizes and materials: every DH segment (a and d) is a laser-
+cut acrylic plate :data:`LINK_THICKNESS_M` thick and as wide as the URDF draws it; each
+actuated joint's servo is a box of its datasheet size and mass at the joint, in the body
+before it (a real MeArm keeps its shoulder and elbow servos at the base: this errs
+heavy); the gripper's servo sits behind the TCP. Objects are solid PLA cylinders of their
+class's size.
+
+**The servos** are :class:`ServoSpec` records from typical datasheets
+(:data:`SERVO_CATALOGUE`). The config names no servo model, so the joints get the
+smallest catalogue servo whose stall torque is :data:`SERVO_LOAD_FACTOR` times the worst
+gravity load at home and at seeded poses; the gripper gets :data:`GRIPPER_SERVO`. The
+model records both by name (``<custom>`` texts :data:`JOINT_SERVO_TEXT` and
+:data:`GRIPPER_SERVO_TEXT`, read back by :func:`recorded_servo`). Each
+actuated joint has a ``position`` actuator: ``kp`` reaches the stall torque at
+:data:`FULL_TORQUE_ERROR_RAD` of error, ``forcerange`` is the stall torque, ``ctrlrange``
+the joint limits. The joint's ``armature`` is the motor's reflected inertia and its
+``damping`` the motor's back-EMF slope :math:`\tau_s/\omega_0` (so a saturated servo turns
+at its datasheet speed); the actuator's ``kv`` (the servo's D-term, inside the torque
+limit) makes each servo critically damped at home through the coupling: a 10° step
+settles without overshoot in about 0.05 s. The gripper is one ``position`` actuator on
+the left jaw with ``gear`` 2 (its ctrl is the opening [m]), the right jaw tied to it by a
+joint equality; a jaw's force limit is the servo's stall torque on :data:`SERVO_LEVER_M`.
+The speed limit, deadband, backlash and the bus's command quantisation are *not* in the MJCF: the
+twin's servo bus (next step) shapes ``ctrl`` with the :class:`ServoSpec` figures
+(``speed_rad_s``, ``deadband_us``) and the joints' pulse calibrations.
+
+**The scene**: a table whose top is z = 0 in the base frame; per class a bin (floor and
+four walls, inner width the class's ``bin_inner_width_cm``) under its
+``bin_cm``; one free body ``obj_<id>`` per scene object (ids as :class:`~mearm.sim.World`
+gives them); a camera ``camera`` looking straight down from :data:`CAMERA_HEIGHT_M` above
+the centre of the calibrated field, its ``fovy`` chosen so that it sees that field (the
+calibration stays true for the twin's pictures at ``camera.width_px × height_px``).
+"""
+
+from __future__ import annotations
+
+import math
+import xml.etree.ElementTree as ET
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+from mearm.config import Config, Joint
+from mearm.exceptions import ModelError
+from mearm.fileio import write_atomic
+from mearm.kinematics.chain import Chain
+from mearm.kinematics.urdf import TCP_FRAME, jaw_joint_names
+
+M_PER_CM = 0.01
+G = 9.81  # m/s²
+KGCM_TO_NM = 9.80665e-2  # 1 kg·cm of servo torque in N·m
+
+# --------------------------------------------------------------------------- materials
+#: Cast/extruded PMMA (acrylic) sheet: 1.19 g/cm³ (typical sheet datasheets) [kg/m³].
+ACRYLIC_DENSITY = 1190.0
+#: Laser-cut link plates: 3 mm acrylic, as the MeArm kits are cut from [m].
+LINK_THICKNESS_M = 0.003
+#: PLA filament: 1.24 g/cm³ (typical filament datasheets); objects printed solid [kg/m³].
+PLA_DENSITY = 1240.0
+#: Coulomb friction [-] (estimates: PLA on wood or acrylic 0.3–0.5; rubber jaw pads ~1).
+OBJECT_FRICTION = 0.4
+TABLE_FRICTION = 0.4
+JAW_FRICTION = 1.0
+#: Torsional and rolling friction of the objects [m] (small: they stand flat).
+OBJECT_SPIN_FRICTION = 0.005
+OBJECT_ROLL_FRICTION = 0.0001
+
+# --------------------------------------------------------------------------- servos
+
+
+@dataclass(frozen=True)
+class ServoSpec:
+    """A hobby servo's datasheet facts.
+
+    Attributes:
+        name: The model, e.g. ``"SG90"``.
+        mass_kg: Mass [kg].
+        stall_torque_nm: Stall torque at the rated voltage [N·m].
+        seconds_per_60deg: No-load speed at that voltage [s/60°].
+        deadband_us: Dead band width [µs] (for the servo bus).
+        size_m: Case length, width, height (height along the output shaft) [m].
+        source: Where the figures come from.
+    """
+
+    name: str
+    mass_kg: float
+    stall_torque_nm: float
+    seconds_per_60deg: float
+    deadband_us: float
+    size_m: tuple[float, float, float]
+    source: str
+
+    @property
+    def speed_rad_s(self) -> float:
+        """No-load speed [rad/s]."""
+        return math.radians(60.0) / self.seconds_per_60deg
+
+    @property
+    def kp(self) -> float:
+        """Position gain: the stall torque at :data:`FULL_TORQUE_ERROR_RAD` [N·m/rad]."""
+        return self.stall_torque_nm / FULL_TORQUE_ERROR_RAD
+
+    @property
+    def armature(self) -> float:
+        r"""The motor's inertia seen at the output [kg·m²].
+
+        A DC motor's mechanical time constant is :math:`t_m = J\,\omega_0/\tau_s`, so with
+        :data:`MOTOR_TIME_CONSTANT_S`, :math:`J = t_m \tau_s / \omega_0`.
+        """
+        return MOTOR_TIME_CONSTANT_S * self.stall_torque_nm / self.speed_rad_s
+
+    @property
+    def motor_damping(self) -> float:
+        r"""The motor's back-EMF damping seen at the output [N·m·s/rad].
+
+        The slope of a DC motor's torque–speed line, :math:`b = \tau_s/\omega_0`: with the
+        amplifier saturated the servo turns at its datasheet speed.
+        """
+        return self.stall_torque_nm / self.speed_rad_s
+
+
+SG90 = ServoSpec(
+    name="SG90",
+    mass_kg=0.009,
+    stall_torque_nm=1.8 * KGCM_TO_NM,
+    seconds_per_60deg=0.10,
+    deadband_us=10.0,
+    size_m=(0.0222, 0.0118, 0.031),
+    source=(
+        "typical TowerPro SG90 datasheet: 9 g, 1.8 kg·cm at 4.8 V, 0.1 s/60°, dead band 10 µs, "
+        "22.2 × 11.8 × 31 mm"
+    ),
+)
+MG90S = ServoSpec(
+    name="MG90S",
+    mass_kg=0.0134,
+    stall_torque_nm=1.8 * KGCM_TO_NM,
+    seconds_per_60deg=0.10,
+    deadband_us=5.0,
+    size_m=(0.0228, 0.0122, 0.0285),
+    source=(
+        "typical TowerPro MG90S datasheet: 13.4 g, 1.8 kg·cm at 4.8 V, 0.1 s/60°, dead band "
+        "5 µs, 22.8 × 12.2 × 28.5 mm"
+    ),
+)
+MG996R = ServoSpec(
+    name="MG996R",
+    mass_kg=0.055,
+    stall_torque_nm=9.4 * KGCM_TO_NM,
+    seconds_per_60deg=0.17,
+    deadband_us=5.0,
+    size_m=(0.0407, 0.0197, 0.0429),
+    source=(
+        "typical TowerPro MG996R datasheet: 55 g, 9.4 kg·cm at 4.8 V, 0.17 s/60°, dead band "
+        "5 µs, 40.7 × 19.7 × 42.9 mm"
+    ),
+)
+RDS3135 = ServoSpec(
+    name="RDS3135",
+    mass_kg=0.065,
+    stall_torque_nm=35.0 * KGCM_TO_NM,
+    seconds_per_60deg=0.15,
+    deadband_us=3.0,
+    size_m=(0.040, 0.020, 0.0405),
+    source=(
+        "approximate, from vendor listings (DSServo RDS3135, the paper's joint servo): "
+        "35 kg·cm at 6.8 V, about 0.15 s/60°, about 65 g, dead band about 3 µs, 40 × 20 × 40.5 mm"
+    ),
+)
+#: The servos the joints may get, weakest first.
+SERVO_CATALOGUE: tuple[ServoSpec, ...] = (SG90, MG90S, MG996R, RDS3135)
+#: The gripper's servo (a claw needs little torque; the MeArm's is an SG90).
+GRIPPER_SERVO = SG90
+#: A joint's servo must hold its worst static load with this margin (rule of thumb) [-].
+SERVO_LOAD_FACTOR = 3.0
+#: Error at which a hobby servo's amplifier saturates (estimate: ~1° for the digital and
+#: analogue servos above) [rad].
+FULL_TORQUE_ERROR_RAD = math.radians(1.0)
+#: Mechanical time constant of a small brushed DC motor (estimate: 20–30 ms) [s].
+MOTOR_TIME_CONSTANT_S = 0.025
+#: Lever turning a servo's torque into a linear force: a prismatic joint's drive and the
+#: gripper's jaw linkage (estimate: a 2 cm horn) [m].
+SERVO_LEVER_M = 0.02
+#: Damping ratio of each servo at home [-]: critical, so it settles without overshoot.
+SERVO_DAMPING_RATIO = 1.0
+#: Seeded poses at which the servo selection checks the gravity load.
+LOAD_POSES = 16
+
+# --------------------------------------------------------------------------- scene
+#: Bin inner width in object diameters, wall thickness, wall height in object heights.
+BIN_WALL_M = 0.003
+BIN_WALL_HEIGHT_PER_HEIGHT = 2.0
+BIN_MIN_WALL_HEIGHT_M = 0.02
+#: Table thickness and the margin it extends beyond everything on it [m].
+TABLE_THICKNESS_M = 0.02
+TABLE_MARGIN_M = 0.05
+#: Camera height above the table: "about 52 cm" (docs/paper.md §1) [m].
+CAMERA_HEIGHT_M = 0.52
+#: Time step [s] and the coupling's constraint time constant and damping ratio.
+TIMESTEP_S = 0.001
+COUPLING_SOLREF = (0.002, 1.0)
+COUPLING_SOLIMP = (0.99, 0.999, 0.001, 0.5, 2.0)
+
+#: A jaw pad's length along the approach axis, at most the jaw's (estimate: the rubber
+#: pads of hobby grippers are about 1 cm; 8 mm keeps the tips of pads closing on a 1 cm
+#: object at half its height 1 mm off the table) [m].
+JAW_PAD_LENGTH_M = 0.008
+#: The pads' contact: a 4 ms time constant (four time steps: at two, the stiffest MuJoCo
+#: nominally keeps stable, a squeezed object diverged in one of ten random twin sorts),
+#: critically damped, impedance 0.99–0.999 over 0.5 mm of penetration. Under an SG90's
+#: jaw force (8.8 N) a 2 cm PLA object reads 1.9975 cm between the pads.
+PAD_SOLREF = (0.004, 1.0)
+PAD_SOLIMP = (0.99, 0.999, 0.0005, 0.5, 2.0)
+#: Names of the ``<custom>`` texts recording the joints' and the gripper's servo models.
+JOINT_SERVO_TEXT = "mearm_joint_servo"
+GRIPPER_SERVO_TEXT = "mearm_gripper_servo"
+
+_ARM_CONTYPE, _ARM_CONAFFINITY = 2, 1  # arm geoms: touch the scene, never each other
+_SCENE_CONTYPE, _SCENE_CONAFFINITY = 1, 3
+
+
+def generate_mjcf(
+    config: Config,
+    servo: ServoSpec | None = None,
+    gripper_servo: ServoSpec = GRIPPER_SERVO,
+) -> str:
+    """Build the twin's MJCF: arm, table, bins, objects and camera.
+
+    Args:
+        config: The whole config (arm, task, camera, calibration).
+        servo: The joints' servo; ``None`` picks from :data:`SERVO_CATALOGUE` by load.
+        gripper_servo: The gripper's servo.
+
+    Returns:
+        The MJCF text (metres, kilograms, radians), loadable by
+        ``mujoco.MjModel.from_xml_string``; keyframe ``home`` holds the arm at home with
+        the jaws open and the objects on the table, ``ctrl`` at home.
+
+    Raises:
+        ModelError: the scene cannot be built (objects overlapping each other, a bin or
+            the arm's base; a bin too tall for the release height; no straight-down
+            camera sees the calibrated field; MuJoCo refuses the model); the message
+            names the parts.
+    """
+    _check_scene(config)
+    servos = (servo,) if servo is not None else SERVO_CATALOGUE
+    chosen = servos[-1]
+    for spec in servos:
+        load = _max_load(_compile(_build(config, spec, gripper_servo, None)), config)
+        capacity = np.array([_capacity(j, spec) for j in config.arm.actuated_joints()])
+        if servo is not None or np.all(SERVO_LOAD_FACTOR * load <= capacity):
+            chosen = spec
+            break
+    provisional = _compile(_build(config, chosen, gripper_servo, None))
+    kv = _servo_kv(provisional, config, chosen, gripper_servo)
+    xml = _build(config, chosen, gripper_servo, kv)
+    _compile(xml)
+    return xml
+
+
+def save_mjcf(config: Config, path: str | Path) -> Path:
+    """Write :func:`generate_mjcf` of ``config`` to ``path`` atomically; returns the file."""
+    return write_atomic(path, generate_mjcf(config))
+
+
+def pad_length_m(config: Config) -> float:
+    """A jaw pad's length along the approach axis: :data:`JAW_PAD_LENGTH_M` or the jaw's [m]."""
+    return min(JAW_PAD_LENGTH_M, config.arm.tool.gripper.jaw_length_cm * M_PER_CM)
+
+
+def recorded_servo(model: mujoco.MjModel, text: str) -> str | None:
+    """The servo model name a twin records in its ``<custom>`` text ``text``; None if absent."""
+    i = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_TEXT, text)
+    if i < 0:
+        return None
+    start, size = int(model.text_adr[i]), int(model.text_size[i])
+    return bytes(model.text_data[start : start + size]).rstrip(b"\0").decode()
+
+
+# --------------------------------------------------------------------------- checks
+
+
+def object_ids(config: Config) -> list[str]:
+    """Scene objects' ids in scene order (``red1``, ``red2``, … per class)."""
+    counts: dict[str, int] = {}
+    out = []
+    for obj in config.task.scene:
+        counts[obj.color] = counts.get(obj.color, 0) + 1
+        out.append(f"{obj.color}{counts[obj.color]}")
+    return out
+
+
+def _bin_half_outer_m(config: Config, color: str) -> float:
+    c = config.task.class_named(color)
+    return c.bin_inner_width_cm * M_PER_CM / 2 + BIN_WALL_M
+
+
+def _check_scene(config: Config) -> None:
+    task = config.task
+    ids = object_ids(config)
+    base_r = _base_radius_m(config)
+    placed: list[tuple[str, np.ndarray, float]] = []
+    for oid, obj in zip(ids, task.scene, strict=True):
+        c = task.class_named(obj.color)
+        xy = np.array([obj.x, obj.y]) * M_PER_CM
+        r = c.diameter_cm * M_PER_CM / 2
+        for other, oxy, orr in placed:
+            d = float(np.linalg.norm(xy - oxy))
+            if d < r + orr:
+                raise ModelError(
+                    f"scene objects {other} and {oid} overlap: centres {d * 100:.3g} cm apart, "
+                    f"less than their radii's sum {(r + orr) * 100:.3g} cm; move one "
+                    "(task.scene)"
+                )
+        if float(np.linalg.norm(xy)) < base_r + r:
+            raise ModelError(
+                f"scene object {oid} at ({obj.x:g}, {obj.y:g}) cm stands on the arm's base "
+                f"(radius {base_r * 100:.3g} cm around the origin); move it (task.scene)"
+            )
+        for b in task.classes:
+            h = _bin_half_outer_m(config, b.name)
+            bxy = np.array(b.bin_cm[:2]) * M_PER_CM
+            if np.all(np.abs(xy - bxy) < h + r):
+                raise ModelError(
+                    f"scene object {oid} at ({obj.x:g}, {obj.y:g}) cm lies on the bin of "
+                    f"class {b.name} (a {2 * h * 100:.3g} cm square around "
+                    f"({b.bin_cm[0]:g}, {b.bin_cm[1]:g}) cm); move it (task.scene)"
+                )
+        placed.append((oid, xy, r))
+    for c in task.classes:
+        wall = _wall_height_m(config, c.name)
+        release = (c.bin_cm[2] - config.arm.tool.tcp_above_grip_cm - c.grip_z_cm) * M_PER_CM
+        if release < wall:
+            raise ModelError(
+                f"class {c.name}: an object released at bin_cm z = {c.bin_cm[2]:g} cm has its "
+                f"bottom {release * 100:.3g} cm above the table, below the bin's "
+                f"{wall * 100:.3g} cm walls; raise bin_cm z (task.classes)"
+            )
+
+
+def _wall_height_m(config: Config, color: str) -> float:
+    """Walls that hold every object of the class in the scene, stacked, and one more."""
+    c = config.task.class_named(color)
+    n = max(1, sum(1 for o in config.task.scene if o.color == color))
+    per = max(BIN_WALL_HEIGHT_PER_HEIGHT, n + 1.0)
+    return max(BIN_MIN_WALL_HEIGHT_M, per * c.height_cm * M_PER_CM)
+
+
+def _capacity(joint: Joint, spec: ServoSpec) -> float:
+    """What a servo can hold on this joint [N·m, or N for a prismatic one]."""
+    if joint.type == "prismatic":
+        return spec.stall_torque_nm / SERVO_LEVER_M
+    return spec.stall_torque_nm
+
+
+def _compile(xml: str) -> mujoco.MjModel:
+    try:
+        return mujoco.MjModel.from_xml_string(xml)
+    except ValueError as exc:
+        raise ModelError(f"MuJoCo refused the generated MJCF: {exc}") from None
+
+
+def _arm_dofs(m: mujoco.MjModel, config: Config) -> np.ndarray:
+    return np.array([m.joint(j.name).dofadr[0] for j in config.arm.joints])
+
+
+def _home_data(m: mujoco.MjModel) -> mujoco.MjData:
+    d = mujoco.MjData(m)
+    mujoco.mj_resetDataKeyframe(m, d, m.key("home").id)
+    mujoco.mj_forward(m, d)
+    return d
+
+
+def _max_load(m: mujoco.MjModel, config: Config) -> np.ndarray:
+    """Worst gravity load on each actuated joint at home and seeded poses, (m,)."""
+    chain = Chain.from_description(config.arm)
+    dofs = _arm_dofs(m, config)
+    qadr = np.array([m.joint(j.name).qposadr[0] for j in config.arm.joints])
+    d = _home_data(m)
+    rng = np.random.default_rng(0)
+    lo, hi = chain.actuated_lower, chain.actuated_upper
+    worst = np.zeros(chain.m)
+    for k in range(LOAD_POSES + 1):
+        qa = chain.home[chain.actuated_index] if k == 0 else rng.uniform(lo, hi)
+        d.qpos[qadr] = chain.C @ qa + chain.c
+        d.qvel[:] = 0.0
+        mujoco.mj_forward(m, d)
+        worst = np.maximum(worst, np.abs(chain.C.T @ d.qfrc_bias[dofs]))
+    return worst
+
+
+def _servo_kv(
+    m: mujoco.MjModel, config: Config, spec: ServoSpec, gripper_spec: ServoSpec
+) -> dict[str, float]:
+    r"""Each servo's derivative gain for critical damping at home [N·m·s/rad or N·s/m].
+
+    .. math:: k_{v,k} = 2\zeta\sqrt{k_p\,(C^\top M C)_{kk}} - b_k
+
+    with M the mass matrix at home (armature included), C the coupling and b_k the
+    joint's own (motor) damping. Keyed by actuator name.
+    """
+    chain = Chain.from_description(config.arm)
+    d = _home_data(m)
+    M = np.zeros((m.nv, m.nv))
+    mujoco.mj_fullM(m, d, M)
+    dofs = _arm_dofs(m, config)
+    Meff = chain.C.T @ M[np.ix_(dofs, dofs)] @ chain.C
+    out = {}
+    for k, name in enumerate(chain.actuated):
+        lever2 = _lever2(config.arm.joints[chain.actuated_index[k]])
+        kp, b = spec.kp / lever2, spec.motor_damping / lever2
+        out[name] = max(0.0, 2 * SERVO_DAMPING_RATIO * math.sqrt(kp * Meff[k, k]) - b)
+    # gear 2 on the left jaw, the right one tied to it: stiffness 4 kp, inertia of both
+    left, right = (m.joint(n).dofadr[0] for n in jaw_joint_names(config.arm))
+    kp = 4 * gripper_spec.kp / SERVO_LEVER_M**2
+    b = 4 * gripper_spec.motor_damping / SERVO_LEVER_M**2
+    inertia = float(M[left, left] + M[right, right])
+    out[config.arm.tool.gripper.name] = max(
+        0.0, (2 * SERVO_DAMPING_RATIO * math.sqrt(kp * inertia) - b) / 4
+    )
+    return out
+
+
+def _lever2(joint: Joint) -> float:
+    """Squared lever from servo torque to joint force: 1 for a revolute joint [m²]."""
+    return SERVO_LEVER_M**2 if joint.type == "prismatic" else 1.0
+
+
+# --------------------------------------------------------------------------- building
+
+
+def _f(x: float) -> str:
+    x = float(x)
+    if abs(x) < 1e-15:
+        x = 0.0
+    return repr(x + 0.0)
+
+
+def _v(values: Sequence[float] | np.ndarray) -> str:
+    return " ".join(_f(x) for x in values)
+
+
+def _quat(R: np.ndarray) -> np.ndarray:
+    q = np.zeros(4)
+    mujoco.mju_mat2Quat(q, np.ascontiguousarray(R, dtype=float).reshape(9))
+    return q
+
+
+def _link_width_m(config: Config) -> float:
+    reach = sum(abs(j.dh.a_cm) + abs(j.dh.d_cm) for j in config.arm.joints) * M_PER_CM
+    return max(0.006, min(0.02, reach / 60))  # as the URDF draws it
+
+
+def _base_radius_m(config: Config) -> float:
+    return _link_width_m(config) * 3.3
+
+
+def _fixed(joint: Joint) -> np.ndarray:
+    """The fixed part of a DH row, (4, 4), translation in metres."""
+    T = joint.dh.transform(0.0, joint.type)
+    T[:3, 3] *= M_PER_CM
+    return T
+
+
+def _rgba(rgb: Sequence[int] | tuple[float, float, float], alpha: float = 1.0) -> str:
+    return _v([*(float(c) / 255 for c in rgb), alpha])
+
+
+def _geom(parent: ET.Element, name: str, kind: str, size: Sequence[float], **attrs: str) -> None:
+    ET.SubElement(parent, "geom", {"name": name, "type": kind, "size": _v(size), **attrs})
+
+
+def _arm_geom(parent: ET.Element, name: str, size: Sequence[float], mass: float, **a: str) -> None:
+    attrs = {"contype": str(_ARM_CONTYPE), "conaffinity": str(_ARM_CONAFFINITY), **a}
+    _geom(parent, name, "box", size, mass=_f(mass), **attrs)
+
+
+def _plate_mass(length_m: float, width_m: float) -> float:
+    return ACRYLIC_DENSITY * length_m * width_m * LINK_THICKNESS_M
+
+
+def _segments(
+    body: ET.Element, joint: Joint, width: float, material: str, collide: bool = True
+) -> None:
+    """Row i's plates, in joint i's moving frame: Tz(d) then Rz(θ0)·Tx(a)."""
+    a, dd = joint.dh.a_cm * M_PER_CM, joint.dh.d_cm * M_PER_CM
+    t0 = math.radians(joint.dh.theta_deg)
+    off = {} if collide else {"contype": "0", "conaffinity": "0"}
+    if abs(dd) > 1e-9:
+        _arm_geom(
+            body,
+            f"{joint.name}_d",
+            (width / 2, LINK_THICKNESS_M / 2, abs(dd) / 2),
+            _plate_mass(abs(dd), width),
+            pos=_v((0, 0, dd / 2)),
+            material=material,
+            **off,
+        )
+    if abs(a) > 1e-9:
+        _arm_geom(
+            body,
+            f"{joint.name}_a",
+            (abs(a) / 2, width / 2, LINK_THICKNESS_M / 2),
+            _plate_mass(abs(a), width),
+            pos=_v((a / 2 * math.cos(t0), a / 2 * math.sin(t0), dd)),
+            quat=_v((math.cos(t0 / 2), 0, 0, math.sin(t0 / 2))),
+            material=material,
+            **off,
+        )
+
+
+def _servo_box(
+    parent: ET.Element, name: str, spec: ServoSpec, pos: np.ndarray, R: np.ndarray
+) -> None:
+    length, wide, high = spec.size_m
+    _arm_geom(
+        parent,
+        name,
+        (length / 2, wide / 2, high / 2),
+        spec.mass_kg,
+        pos=_v(pos),
+        quat=_v(_quat(R)),
+        material="servo",
+    )
+
+
+def _frame(axis: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The approach axis, an opening axis across it and the third, unit, each (3,)."""
+    approach = axis / np.linalg.norm(axis)
+    for trial in (np.array([0.0, 1.0, 0.0]), np.array([1.0, 0.0, 0.0])):
+        v = np.cross(approach, trial)
+        if np.linalg.norm(v) > 1e-6:
+            across = np.cross(v, approach)
+            across /= np.linalg.norm(across)
+            return approach, across, np.cross(approach, across)
+    raise AssertionError("unreachable: two trial axes cannot both be parallel")
+
+
+def _build(
+    config: Config, spec: ServoSpec, gripper_spec: ServoSpec, kv: dict[str, float] | None
+) -> str:
+    arm, task = config.arm, config.task
+    chain = Chain.from_description(arm)
+    width = _link_width_m(config)
+    root = ET.Element("mujoco", model=f"{arm.name}_twin")
+    ET.SubElement(root, "compiler", angle="radian", autolimits="true")
+    ET.SubElement(
+        root,
+        "option",
+        timestep=_f(TIMESTEP_S),
+        integrator="implicitfast",
+        cone="pyramidal",  # elliptic cones left light objects rocking (~0.08°, 1e-2 rad/s)
+        impratio="10",
+        gravity=_v((0, 0, -G)),
+    )
+    visual = ET.SubElement(root, "visual")
+    ET.SubElement(
+        visual,
+        "global",
+        offwidth=str(config.camera.width_px),
+        offheight=str(config.camera.height_px),
+    )
+    asset = ET.SubElement(root, "asset")
+    # The arm is drawn in greys (black acrylic, black metal-gear servos): a saturated
+    # colour would be taken for an object of a class by the detector looking at the
+    # twin's camera, as it would be on a real table.
+    for name, rgba in (
+        ("base", "0.25 0.25 0.28 1"),
+        ("link", "0.18 0.18 0.20 1"),
+        ("gripper", "0.70 0.70 0.75 1"),
+        ("servo", "0.08 0.08 0.09 1"),
+        ("table", "0.62 0.46 0.30 1"),
+        ("bin", "0.85 0.85 0.85 1"),
+    ):
+        ET.SubElement(asset, "material", name=name, rgba=rgba)
+    world = ET.SubElement(root, "worldbody")
+    ET.SubElement(world, "light", name="top", pos="0 0 1.5", dir="0 0 -1", directional="true")
+    _table(world, config)
+    _camera(world, config)
+
+    # ---- the arm
+    base = ET.SubElement(world, "body", name="base_link")
+    _geom(
+        base,
+        "base_plate",
+        "cylinder",
+        (_base_radius_m(config), width / 2),
+        pos=_v((0, 0, width / 2)),
+        material="base",
+        contype="0",
+        conaffinity="0",
+    )
+    parent, T_prev = base, np.eye(4)
+    actuated = {j.name for j in arm.actuated_joints()}
+    limits = arm.joint_limits()
+    last = len(arm.joints) - 1
+    for i, joint in enumerate(arm.joints):
+        body = ET.SubElement(
+            parent,
+            "body",
+            name=f"link_{joint.name}",
+            pos=_v(T_prev[:3, 3]),
+            quat=_v(_quat(T_prev[:3, :3])),
+        )
+        scale = chain.scale[i]
+        attrs = {
+            "name": joint.name,
+            "type": "hinge" if joint.type == "revolute" else "slide",
+            "axis": "0 0 1",
+            "range": _v((limits[joint.name].min * scale, limits[joint.name].max * scale)),
+        }
+        if joint.name in actuated:
+            attrs["armature"] = _f(spec.armature / _lever2(joint))
+            attrs["damping"] = _f(spec.motor_damping / _lever2(joint))
+            if i > 0:
+                _servo_box(parent, f"{joint.name}_servo", spec, T_prev[:3, 3], T_prev[:3, :3])
+        ET.SubElement(body, "joint", attrs)
+        # the last row's plates run to the DH end, between the jaws: drawn, but the
+        # gripper's servo and jaws are what collides there
+        _segments(body, joint, width, "gripper" if i == last else "link", collide=i != last)
+        parent, T_prev = body, _fixed(joint)
+
+    # ---- the tool
+    tcp_pos = T_prev[:3, 3] + T_prev[:3, :3] @ (np.asarray(arm.tool.tcp_cm) * M_PER_CM)
+    tcp = ET.SubElement(
+        parent, "body", name=TCP_FRAME, pos=_v(tcp_pos), quat=_v(_quat(T_prev[:3, :3]))
+    )
+    ET.SubElement(tcp, "site", name=TCP_FRAME, size="0.004", rgba="1 0 1 1", group="4")
+    _tool(tcp, config, width, gripper_spec)
+
+    # ---- bins and objects
+    for c in task.classes:
+        _bin(world, config, c.name)
+    for oid, obj in zip(object_ids(config), task.scene, strict=True):
+        c = task.class_named(obj.color)
+        r, h = c.diameter_cm * M_PER_CM / 2, c.height_cm * M_PER_CM
+        body = ET.SubElement(
+            world, "body", name=f"obj_{oid}", pos=_v((obj.x * M_PER_CM, obj.y * M_PER_CM, h / 2))
+        )
+        ET.SubElement(body, "freejoint", name=f"obj_{oid}")
+        _geom(
+            body,
+            f"obj_{oid}",
+            "cylinder",
+            (r, h / 2),
+            mass=_f(PLA_DENSITY * math.pi * r * r * h),
+            friction=_v((OBJECT_FRICTION, OBJECT_SPIN_FRICTION, OBJECT_ROLL_FRICTION)),
+            condim="4",
+            rgba=_rgba(c.draw_rgb),
+            contype=str(_SCENE_CONTYPE),
+            conaffinity=str(_SCENE_CONAFFINITY),
+        )
+
+    # ---- contacts, coupling, actuators, home
+    contact = ET.SubElement(root, "contact")
+    ET.SubElement(contact, "exclude", body1="world", body2=f"link_{arm.joints[0].name}")
+    tendon = ET.SubElement(root, "tendon")
+    equality = ET.SubElement(root, "equality")
+    for i, joint in enumerate(arm.joints):
+        if joint.coupling is None:
+            continue
+        fixed = ET.SubElement(tendon, "fixed", name=f"{joint.name}_coupling")
+        ET.SubElement(fixed, "joint", joint=joint.name, coef="1")
+        for k, a in enumerate(chain.actuated):
+            if chain.C[i, k] != 0.0:
+                ET.SubElement(fixed, "joint", joint=a, coef=_f(-chain.C[i, k]))
+        ET.SubElement(
+            equality,
+            "tendon",
+            name=f"{joint.name}_coupling",
+            tendon1=f"{joint.name}_coupling",
+            polycoef=_v((chain.c[i], 0, 0, 0, 0)),
+            solref=_v(COUPLING_SOLREF),
+            solimp=_v(COUPLING_SOLIMP),
+        )
+    left, right = jaw_joint_names(arm)
+    ET.SubElement(
+        equality,
+        "joint",
+        name=f"{right}_mimic",
+        joint1=right,
+        joint2=left,
+        polycoef="0 1 0 0 0",
+        solref=_v(COUPLING_SOLREF),
+    )
+    actuator = ET.SubElement(root, "actuator")
+    for k, a in enumerate(chain.actuated):
+        i = int(chain.actuated_index[k])
+        joint = arm.joints[i]
+        cap = _capacity(joint, spec)
+        ET.SubElement(
+            actuator,
+            "position",
+            name=a,
+            joint=a,
+            kp=_f(spec.kp / _lever2(joint)),
+            kv=_f(kv[a] if kv else 0.0),
+            forcerange=_v((-cap, cap)),
+            ctrlrange=_v((chain.lower[i], chain.upper[i])),
+        )
+    g = arm.tool.gripper
+    lo, hi = g.servo.value_range()
+    jaw_force = gripper_spec.stall_torque_nm / SERVO_LEVER_M
+    ET.SubElement(
+        actuator,
+        "position",
+        name=g.name,
+        joint=left,
+        gear="2",
+        kp=_f(gripper_spec.kp / SERVO_LEVER_M**2),
+        kv=_f(kv[g.name] if kv else 0.0),
+        forcerange=_v((-jaw_force, jaw_force)),
+        ctrlrange=_v((max(lo, 0.0) * M_PER_CM, hi * M_PER_CM)),
+    )
+    custom = ET.SubElement(root, "custom")
+    ET.SubElement(custom, "text", name=JOINT_SERVO_TEXT, data=spec.name)
+    ET.SubElement(custom, "text", name=GRIPPER_SERVO_TEXT, data=gripper_spec.name)
+    keyframe = ET.SubElement(ET.SubElement(root, "keyframe"), "key", name="home")
+    half_open = g.open_cm * M_PER_CM / 2
+    qpos = list(chain.home) + [half_open, half_open]
+    for obj in task.scene:
+        h = task.class_named(obj.color).height_cm * M_PER_CM
+        qpos += [obj.x * M_PER_CM, obj.y * M_PER_CM, h / 2, 1, 0, 0, 0]
+    keyframe.set("qpos", _v(qpos))
+    keyframe.set("ctrl", _v([*chain.home[chain.actuated_index], g.open_cm * M_PER_CM]))
+    ET.indent(root)
+    header = (
+        "<!-- Generated by mearm.sim.mjcf from the config; do not edit: change the config "
+        f"and regenerate.\n     Joint servos: {spec.name} ({spec.source}).\n"
+        f"     Gripper servo: {gripper_spec.name}. Units: m, kg, rad. -->\n"
+    )
+    return header + ET.tostring(root, encoding="unicode") + "\n"
+
+
+def _tool(
+    tcp: ET.Element,
+    config: Config,
+    width: float,
+    gripper_spec: ServoSpec,
+) -> None:
+    """The gripper's servo(s) behind the TCP and its two jaws on slide joints.
+
+    Along the approach axis (distances from the TCP): the pad spans
+    ``grip ± pad/2``, the finger ``[tip − jaw_length, grip − pad/2]``, the mount
+    ``[0, tip − jaw_length]`` when the jaws start beyond the TCP.
+    """
+    arm = config.arm
+    g = arm.tool.gripper
+    approach, across, third = _frame(np.asarray(arm.tool.approach_axis, dtype=float))
+    grip = arm.tool.tcp_above_grip_cm * M_PER_CM
+    ET.SubElement(
+        tcp, "site", name="grip", pos=_v(approach * grip), size="0.003", rgba="0 1 1 1", group="4"
+    )  # group 4: not drawn by the camera
+    length, thick = g.jaw_length_cm * M_PER_CM, g.jaw_thickness_cm * M_PER_CM
+    pad = pad_length_m(config)
+    tip = grip + pad / 2
+    root = tip - length
+    R = np.column_stack([third, across, approach])  # servo shaft along the approach axis
+    behind = approach * (min(0.0, root) - gripper_spec.size_m[2] / 2)  # behind TCP and jaws
+    _servo_box(tcp, f"{g.name}_servo", gripper_spec, behind, R)
+    for k, act in enumerate(arm.tool.actuators):
+        offset = behind - approach * gripper_spec.size_m[2] * (k + 1)
+        _servo_box(tcp, f"{act.name}_servo", gripper_spec, offset, R)
+    if root > 1e-9:
+        _arm_geom(
+            tcp,
+            f"{g.name}_mount",
+            (root / 2, width / 2, LINK_THICKNESS_M / 2),
+            _plate_mass(root, width),
+            pos=_v(approach * root / 2),
+            quat=_v(_quat(np.column_stack([approach, third, -across]))),
+            material="gripper",
+        )
+    R_jaw = np.column_stack([approach, across, third])
+    hi = g.servo.value_range()[1] * M_PER_CM / 2
+    # the opening o = 2q: the servo's inertia and damping on o, J/r² and b/r², are 4×
+    # that on q, shared by the two jaws
+    jaw_armature = 2 * gripper_spec.armature / SERVO_LEVER_M**2
+    for name, sign in zip(jaw_joint_names(arm), (1.0, -1.0), strict=True):
+        body = ET.SubElement(tcp, "body", name=f"link_{name}")
+        ET.SubElement(
+            body,
+            "joint",
+            name=name,
+            type="slide",
+            axis=_v(across * sign),
+            range=_v((0.0, hi)),
+            armature=_f(jaw_armature),
+            damping=_f(2 * gripper_spec.motor_damping / SERVO_LEVER_M**2),
+        )
+        inner = across * sign * thick / 2  # the inner face on the joint's position
+        pieces = [("pad", grip, pad)]
+        if length - pad > 1e-9:
+            pieces.append(("finger", (root + grip - pad / 2) / 2, length - pad))
+        for part, centre, span in pieces:
+            attrs = {
+                "pos": _v(approach * centre + inner),
+                "quat": _v(_quat(R_jaw)),
+                "mass": _f(ACRYLIC_DENSITY * span * thick * width),
+                "friction": _v((JAW_FRICTION, OBJECT_SPIN_FRICTION, OBJECT_ROLL_FRICTION)),
+                "condim": "4",
+                "material": "gripper",
+                "contype": str(_ARM_CONTYPE),
+                "conaffinity": str(_ARM_CONAFFINITY),
+            }
+            if part == "pad":
+                attrs |= {
+                    "priority": "1",
+                    "solref": _v(PAD_SOLREF),
+                    "solimp": _v(PAD_SOLIMP),
+                }
+            _geom(body, f"{name}_{part}", "box", (span / 2, thick / 2, width / 2), **attrs)
+
+
+def _field_corners_m(config: Config) -> np.ndarray:
+    """The calibrated field's corners and centre on the table, (5, 2) [m]."""
+    H = np.asarray(config.calibration.homography, dtype=float)
+    w, h = config.camera.width_px, config.camera.height_px
+    px = np.array([[0, 0, 1], [w, 0, 1], [w, h, 1], [0, h, 1], [w / 2, h / 2, 1]], dtype=float)
+    xyw = px @ H.T
+    return xyw[:, :2] / xyw[:, 2:] * M_PER_CM
+
+
+def _table(world: ET.Element, config: Config) -> None:
+    pts = [np.zeros(2), *_field_corners_m(config)]
+    for c in config.task.classes:
+        h = _bin_half_outer_m(config, c.name)
+        centre = np.array(c.bin_cm[:2]) * M_PER_CM
+        pts += [centre - h, centre + h]
+    for obj in config.task.scene:
+        pts.append(np.array([obj.x, obj.y]) * M_PER_CM)
+    lo = np.min(pts, axis=0) - TABLE_MARGIN_M
+    hi = np.max(pts, axis=0) + TABLE_MARGIN_M
+    centre, half = (lo + hi) / 2, (hi - lo) / 2
+    _geom(
+        world,
+        "table",
+        "box",
+        (half[0], half[1], TABLE_THICKNESS_M / 2),
+        pos=_v((centre[0], centre[1], -TABLE_THICKNESS_M / 2)),
+        material="table",
+        friction=_v((TABLE_FRICTION, OBJECT_SPIN_FRICTION, OBJECT_ROLL_FRICTION)),
+        contype=str(_SCENE_CONTYPE),
+        conaffinity=str(_SCENE_CONAFFINITY),
+    )
+
+
+def _camera(world: ET.Element, config: Config) -> None:
+    """A camera straight down over the calibrated field's centre that sees that field."""
+    H = np.asarray(config.calibration.homography, dtype=float)
+    w, h = config.camera.width_px, config.camera.height_px
+
+    def table(u: float, v: float) -> np.ndarray:
+        x, y, s = H @ np.array([u, v, 1.0])
+        return np.array([x / s, y / s]) * M_PER_CM
+
+    centre = table(w / 2, h / 2)
+    right = table(w / 2 + 1, h / 2) - centre
+    down = table(w / 2, h / 2 + 1) - centre
+    yaw = math.atan2(right[1], right[0])
+    up_local = np.array([-math.sin(yaw), math.cos(yaw)])
+    if float(np.dot(down, up_local)) >= 0.0 or np.linalg.norm(right) < 1e-12:
+        raise ModelError(
+            "calibration.homography: the image is mirrored relative to the table (its v axis "
+            "runs along +90° from its u axis), which no camera looking down can see; "
+            "recalibrate"
+        )
+    extent = float(np.linalg.norm(table(w / 2, h) - table(w / 2, 0)))
+    fovy = 2 * math.degrees(math.atan(extent / 2 / CAMERA_HEIGHT_M))
+    ET.SubElement(
+        world,
+        "camera",
+        name="camera",
+        pos=_v((centre[0], centre[1], CAMERA_HEIGHT_M)),
+        quat=_v((math.cos(yaw / 2), 0, 0, math.sin(yaw / 2))),
+        fovy=_f(fovy),
+    )
+
+
+def _bin(world: ET.Element, config: Config, color: str) -> None:
+    """A bin on the table under ``bin_cm``: a floor and four walls."""
+    c = config.task.class_named(color)
+    inner = c.bin_inner_width_cm * M_PER_CM / 2
+    outer = inner + BIN_WALL_M
+    wall_h = _wall_height_m(config, color)
+    x, y = c.bin_cm[0] * M_PER_CM, c.bin_cm[1] * M_PER_CM
+    body = ET.SubElement(world, "body", name=f"bin_{color}", pos=_v((x, y, 0)))
+    common = {
+        "material": "bin",
+        "contype": str(_SCENE_CONTYPE),
+        "conaffinity": str(_SCENE_CONAFFINITY),
+    }
+    floor = (outer, outer, BIN_WALL_M / 2)
+    _geom(body, f"bin_{color}_floor", "box", floor, pos=_v((0, 0, BIN_WALL_M / 2)), **common)
+    t = BIN_WALL_M / 2
+    z = wall_h / 2
+    for name, pos, size in (
+        ("px", (inner + t, 0, z), (t, outer, z)),
+        ("nx", (-inner - t, 0, z), (t, outer, z)),
+        ("py", (0, inner + t, z), (inner, t, z)),
+        ("ny", (0, -inner - t, z), (inner, t, z)),
+    ):
+        _geom(body, f"bin_{color}_wall_{name}", "box", size, pos=_v(pos), **common)

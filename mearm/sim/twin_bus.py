@@ -1,0 +1,421 @@
+r"""The physical twin's servo bus: the real bus's pulses drive hobby-servo models in MuJoCo.
+
+:class:`TwinArm` takes the same checked, whole-µs pulses a serial backend sends
+(:meth:`~mearm.hardware.bus.ServoBus.move`) and runs the twin's physics
+(:func:`~mearm.sim.mjcf.generate_mjcf`) for one command period per move. Each actuator —
+every actuated joint and the gripper — is a :class:`ServoModel` built from its
+:class:`~mearm.sim.mjcf.ServoSpec` datasheet facts and its pulse calibration:
+
+1. **quantisation** — the pulse p is mapped back through the actuator's calibration,
+   :math:`v = (p - p_0)/(s\,k)`, so the bus's 1 µs step is the finest command there is;
+2. **dead band** — a servo ignores a target within ``deadband_us`` / ``us_per_unit`` of
+   where its potentiometer (the joint's measured position; the jaws' opening) says it
+   is, and keeps driving to the target it last accepted;
+3. **speed limit** — the motor's setpoint :math:`x` moves toward the accepted target at
+   most at the no-load speed, :math:`|\dot x| \le \omega_0` (``speed_rad_s``; a
+   prismatic joint and the jaws' opening turn it into a linear speed through
+   :data:`~mearm.sim.mjcf.SERVO_LEVER_M`), updated at every physics step;
+4. **backlash** — the setpoint the joint sees, :math:`y` (the actuator's ``ctrl``), follows
+   :math:`x` through a play of width :math:`b`: :math:`y \leftarrow \mathrm{clip}(y,\;
+   x - b/2,\; x + b/2)`, so it lags by up to b/2 after a reversal
+   (:data:`BACKLASH_DEG`);
+5. **torque limit** — the actuator's ``forcerange`` (the stall torque) in the MJCF; the
+   jaws stop on an object they close on (contact), their servo pushing at its limit.
+
+The servo's own position loop (its gain, damping, the motor's back-EMF) is the MJCF's
+position actuator. What is left out: the amplifier switching off inside the dead band
+while holding (the twin's servo stiffly holds its accepted target instead), the
+``error_model``'s offsets and noise (the twin's errors are its physics), ``Servo.write``'s
+whole-degree quantisation, and the tool actuators (the paper's ``gripper_arm``), which the
+MJCF has no joint for: their pulses are checked by the base class and not simulated.
+
+The sim does not sleep unless ``servo.sim_realtime`` is set.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from mearm.config import Config
+from mearm.exceptions import ModelError, ServoError, WorldError
+from mearm.hardware.bus import ArmCommand, ServoBus
+from mearm.hardware.mapping import ActuatorMap, ServoMap
+from mearm.kinematics.chain import Chain
+from mearm.kinematics.urdf import TCP_FRAME, jaw_joint_names
+from mearm.sim.mjcf import (
+    GRIPPER_SERVO,
+    GRIPPER_SERVO_TEXT,
+    JOINT_SERVO_TEXT,
+    M_PER_CM,
+    SERVO_CATALOGUE,
+    SERVO_LEVER_M,
+    ServoSpec,
+    generate_mjcf,
+    object_ids,
+    recorded_servo,
+)
+
+log = logging.getLogger(__name__)
+
+#: Gear play of a hobby servo at its output, seen at the joint [deg]. An estimate: plastic-
+#: gear micro servos (SG90 class) are commonly measured at 0.5–1° of play at the horn,
+#: metal-gear ones (MG996R class) at the low end; no datasheet states it.
+BACKLASH_DEG = 0.5
+#: An object is at rest when its centre moves slower than this [m/s].
+REST_SPEED_M_S = 1e-3
+#: The physics warnings that mean the twin diverged (MuJoCo resets the data on them).
+_DIVERGED = (
+    mujoco.mjtWarning.mjWARN_BADQPOS,
+    mujoco.mjtWarning.mjWARN_BADQVEL,
+    mujoco.mjtWarning.mjWARN_BADQACC,
+)
+
+
+@dataclass(frozen=True)
+class ServoModel:
+    """One actuator's servo as the twin models it, in the model's units (rad or m).
+
+    Attributes:
+        name: The actuator's name (the joint's, or the gripper's).
+        amap: Its pulse calibration and channel.
+        scale: Model units per command unit (π/180 per deg, 0.01 per cm) [-].
+        deadband: Targets this close to the potentiometer are ignored [rad or m].
+        backlash: Play between the motor's setpoint and the joint's [rad or m].
+        speed: Fastest the setpoint moves: the no-load speed [rad/s or m/s].
+        ctrl_index: Its actuator's index in ``data.ctrl``.
+        pot_qpos: The ``qpos`` entries whose sum the potentiometer reads (one joint; the
+            gripper's two jaws give its opening).
+    """
+
+    name: str
+    amap: ActuatorMap
+    scale: float
+    deadband: float
+    backlash: float
+    speed: float
+    ctrl_index: int
+    pot_qpos: tuple[int, ...]
+
+    def target_of(self, pulse_us: float) -> float:
+        """The setpoint a pulse asks for [rad or m]."""
+        return self.amap.value_of(pulse_us) * self.scale
+
+
+@dataclass(frozen=True)
+class ObjectPose:
+    """Where a scene object is in the twin.
+
+    Attributes:
+        object_id: Its id (``red1``, …).
+        position_cm: Its body's centre in the base frame [cm], (3,).
+        quat: Its orientation (w, x, y, z) [-], (4,).
+        speed_cm_s: Its centre's speed [cm/s].
+    """
+
+    object_id: str
+    position_cm: np.ndarray
+    quat: np.ndarray
+    speed_cm_s: float
+
+
+class TwinArm(ServoBus):
+    """The servo bus of the MuJoCo twin: pulses in, physics out.
+
+    Args:
+        config: The whole configuration.
+        model: The twin's model (:func:`~mearm.sim.mjcf.generate_mjcf` of ``config``);
+            built if omitted.
+        servo: The joints' servo; ``None`` takes the one the model records
+            (:data:`~mearm.sim.mjcf.JOINT_SERVO_TEXT`), looked up in
+            :data:`~mearm.sim.mjcf.SERVO_CATALOGUE`; for a model that records none, the
+            first catalogue servo with its actuator's stall torque and speed.
+        gripper_servo: The gripper's servo; ``None`` takes the one the model records
+            (:data:`~mearm.sim.mjcf.GRIPPER_SERVO_TEXT`), else
+            :data:`~mearm.sim.mjcf.GRIPPER_SERVO`.
+        backlash_deg: Each servo's gear play [deg] (:data:`BACKLASH_DEG`).
+
+    Attributes:
+        model: The MuJoCo model.
+        data: Its state, starting at the ``home`` keyframe.
+        servos: Each actuator's :class:`ServoModel`, joints in chain order then the gripper.
+
+    Raises:
+        ModelError: the model lacks an actuator or joint of ``config``'s arm, or it
+            records a servo the catalogue lacks (or, recording none, its joints' servos
+            match no catalogue servo) and ``servo``/``gripper_servo`` is not given.
+    """
+
+    def __init__(
+        self,
+        config: Config,
+        model: mujoco.MjModel | None = None,
+        *,
+        servo: ServoSpec | None = None,
+        gripper_servo: ServoSpec | None = None,
+        backlash_deg: float = BACKLASH_DEG,
+    ):
+        super().__init__(config, paced=config.servo.sim_realtime)
+        if model is None:
+            model = mujoco.MjModel.from_xml_string(
+                generate_mjcf(config, servo, gripper_servo or GRIPPER_SERVO)
+            )
+        self.model = model
+        self.data = mujoco.MjData(model)
+        self._chain = Chain.from_description(config.arm)
+        self.servos = _servo_models(model, config, self._chain, servo, gripper_servo, backlash_deg)
+        nu = len(self.servos)
+        self._ctrl = np.array([s.ctrl_index for s in self.servos])
+        self._speed = np.array([s.speed for s in self.servos])
+        self._half_play = np.array([s.backlash / 2 for s in self.servos])
+        self._deadband = np.array([s.deadband for s in self.servos])
+        self._pot = np.zeros((nu, model.nq))  # (nu, nq)
+        for k, s in enumerate(self.servos):
+            self._pot[k, list(s.pot_qpos)] = 1.0
+        self._object_ids = object_ids(config)
+        self.reset()
+
+    # ----------------------------------------------------------------- state
+
+    def reset(self) -> None:
+        """Back to the ``home`` keyframe: arm at home, jaws open, objects on the table."""
+        mujoco.mj_resetDataKeyframe(self.model, self.data, self.model.key("home").id)
+        mujoco.mj_forward(self.model, self.data)
+        ctrl = self.data.ctrl[self._ctrl].copy()
+        self._target = ctrl.copy()  # accepted targets [rad or m], (nu,)
+        self._motor = ctrl.copy()  # motor setpoints x, (nu,)
+        self._setpoint = ctrl.copy()  # joint setpoints y (ctrl), (nu,)
+
+    @property
+    def time_s(self) -> float:
+        """Simulated time since the keyframe [s]."""
+        return float(self.data.time)
+
+    @property
+    def ee_cm(self) -> np.ndarray:
+        """The TCP (the ``tcp`` site) in the base frame [cm], (3,)."""
+        return self.data.site(TCP_FRAME).xpos / M_PER_CM
+
+    @property
+    def pot(self) -> np.ndarray:
+        """Each servo's potentiometer reading [rad or m], (nu,)."""
+        return self._pot @ self.data.qpos
+
+    @property
+    def actual_joints(self) -> dict[str, float]:
+        """Measured actuated joints, name → deg or cm."""
+        pot = self.pot
+        return {
+            s.name: float(pot[k] / s.scale)
+            for k, s in enumerate(self.servos)
+            if s.name in self._chain.actuated
+        }
+
+    @property
+    def opening_cm(self) -> float:
+        """Measured jaw opening [cm]."""
+        return float(self.pot[-1] / M_PER_CM)
+
+    @property
+    def setpoint(self) -> np.ndarray:
+        """Each actuator's ``ctrl``: the setpoint after speed limit and backlash, (nu,)."""
+        return self._setpoint.copy()
+
+    def object_pose(self, object_id: str) -> ObjectPose:
+        """Where an object is.
+
+        Raises:
+            WorldError: no object has that id; the message lists them.
+        """
+        if object_id not in self._object_ids:
+            raise WorldError(
+                f"no object {object_id!r} in the twin; its objects: {', '.join(self._object_ids)}"
+            )
+        body = self.data.body(f"obj_{object_id}")
+        vel = np.zeros(6)
+        mujoco.mj_objectVelocity(self.model, self.data, mujoco.mjtObj.mjOBJ_BODY, body.id, vel, 0)
+        return ObjectPose(
+            object_id,
+            body.xpos / M_PER_CM,
+            body.xquat.copy(),
+            float(np.linalg.norm(vel[3:]) / M_PER_CM),
+        )
+
+    def objects_in_bin(self) -> dict[str, str]:
+        """Objects at rest in a bin: id → the bin's class name.
+
+        In a bin: the body's centre lies inside the bin's inner walls in the plane and
+        below their top, and moves slower than :data:`REST_SPEED_M_S`.
+        """
+        out = {}
+        for oid in self._object_ids:
+            pose = self.object_pose(oid)
+            if pose.speed_cm_s * M_PER_CM >= REST_SPEED_M_S:
+                continue
+            p = pose.position_cm * M_PER_CM
+            for name in self.config.task.class_names:
+                centre = self.data.body(f"bin_{name}").xpos
+                wall = self.model.geom(f"bin_{name}_wall_px")
+                inner = float(wall.pos[0] - wall.size[0])
+                top = float(centre[2] + wall.pos[2] + wall.size[2])
+                if np.all(np.abs(p[:2] - centre[:2]) < inner) and p[2] < top:
+                    out[oid] = name
+        return out
+
+    # ----------------------------------------------------------------- physics
+
+    def _hold(self, seconds: float) -> None:
+        """The bus's ``hold``: the physics runs on with the last command (a gripper closing)."""
+        self._run(seconds)
+
+    def settle(self, seconds: float) -> None:
+        """Run the physics for ``seconds`` with no new command (the servos keep driving)."""
+        self._run(seconds)
+
+    def _run(self, seconds: float) -> None:
+        m, d = self.model, self.data
+        n = max(0, round(seconds / m.opt.timestep))
+        step = self._speed * m.opt.timestep
+        before = [d.warning[w].number for w in _DIVERGED]
+        t0 = d.time  # MuJoCo resets the time with the rest of the state on divergence
+        for k in range(n):
+            if np.array_equal(self._motor, self._target):
+                d.ctrl[self._ctrl] = self._setpoint
+                mujoco.mj_step(m, d, nstep=n - k)
+                break
+            gap = self._target - self._motor
+            self._motor = np.where(
+                np.abs(gap) <= step, self._target, self._motor + np.sign(gap) * step
+            )
+            self._setpoint = np.clip(
+                self._setpoint, self._motor - self._half_play, self._motor + self._half_play
+            )
+            d.ctrl[self._ctrl] = self._setpoint
+            mujoco.mj_step(m, d)
+        if [d.warning[w].number for w in _DIVERGED] != before or not np.all(np.isfinite(d.qpos)):
+            raise ServoError(
+                f"the twin's physics diverged within {seconds:.3f} s of t = {t0:.3f} s "
+                "(MuJoCo reset its state); rebuild the TwinArm",
+                last_state=self.state,
+            )
+
+    # ----------------------------------------------------------------- backend hooks
+
+    def _connect(self) -> None:
+        log.info(
+            "twin arm: %d servos, %d objects, timestep %g s",
+            len(self.servos),
+            len(self._object_ids),
+            self.model.opt.timestep,
+        )
+
+    def _send_move(self, command: ArmCommand, pulses_us: dict[int, int]) -> None:
+        target = np.array([s.target_of(pulses_us[s.amap.channel]) for s in self.servos])
+        accept = np.abs(target - self.pot) > self._deadband
+        self._target = np.where(accept, target, self._target)
+        self._run(self.period_s)
+
+    def _stop(self) -> None:
+        """Hold: the accepted targets become the motors' current setpoints; nothing moves on."""
+        self._target = self._motor.copy()
+
+    def _close(self) -> None:
+        """Nothing to release."""
+
+
+def _catalogued(m: mujoco.MjModel, text: str, what: str) -> ServoSpec | None:
+    """The catalogue servo the model records in ``text``; None if it records none."""
+    name = recorded_servo(m, text)
+    if name is None:
+        return None
+    for spec in (*SERVO_CATALOGUE, GRIPPER_SERVO):
+        if spec.name == name:
+            return spec
+    raise ModelError(
+        f"the model's {what} servo {name!r} is none of the catalogue's "
+        f"({', '.join(s.name for s in SERVO_CATALOGUE)}); pass "
+        f"{'servo' if text == JOINT_SERVO_TEXT else 'gripper_servo'}=..."
+    )
+
+
+def _joint_servo(m: mujoco.MjModel, config: Config, chain: Chain) -> ServoSpec:
+    """The joints' servo the model records.
+
+    For a model without the record, the catalogue servo whose stall torque and speed the
+    first joint's actuator has.
+    """
+    recorded = _catalogued(m, JOINT_SERVO_TEXT, "joint")
+    if recorded is not None:
+        return recorded
+    name = chain.actuated[0]
+    joint = config.arm.joints[int(chain.actuated_index[0])]
+    lever = SERVO_LEVER_M if joint.type == "prismatic" else 1.0
+    stall = float(m.actuator(name).forcerange[1]) * lever
+    speed = stall / (float(m.joint(name).damping[0]) * lever**2)
+    for spec in SERVO_CATALOGUE:
+        if math.isclose(spec.stall_torque_nm, stall, rel_tol=1e-6) and math.isclose(
+            spec.speed_rad_s, speed, rel_tol=1e-6
+        ):
+            return spec
+    raise ModelError(
+        f"the model's servo on {name} ({stall:.3g} N·m, {speed:.3g} rad/s) is none of the "
+        f"catalogue's ({', '.join(s.name for s in SERVO_CATALOGUE)}); pass servo=..."
+    )
+
+
+def _servo_models(
+    m: mujoco.MjModel,
+    config: Config,
+    chain: Chain,
+    servo: ServoSpec | None,
+    gripper_servo: ServoSpec | None,
+    backlash_deg: float,
+) -> tuple[ServoModel, ...]:
+    smap = ServoMap.from_config(config)
+    play = math.radians(backlash_deg)
+    out = []
+    try:
+        spec = servo if servo is not None else _joint_servo(m, config, chain)
+        gripper_spec = gripper_servo or _catalogued(m, GRIPPER_SERVO_TEXT, "gripper")
+        gripper_spec = gripper_spec or GRIPPER_SERVO
+        for k, name in enumerate(chain.actuated):
+            i = int(chain.actuated_index[k])
+            lever = SERVO_LEVER_M if config.arm.joints[i].type == "prismatic" else 1.0
+            amap = smap[name]
+            scale = float(chain.scale[i])
+            out.append(
+                ServoModel(
+                    name,
+                    amap,
+                    scale,
+                    spec.deadband_us / amap.us_per_unit * scale,
+                    play * lever,
+                    spec.speed_rad_s * lever,
+                    m.actuator(name).id,
+                    (int(m.joint(name).qposadr[0]),),
+                )
+            )
+        g = smap.gripper
+        jaws = tuple(int(m.joint(j).qposadr[0]) for j in jaw_joint_names(config.arm))
+        out.append(
+            ServoModel(
+                g.name,
+                g,
+                M_PER_CM,
+                gripper_spec.deadband_us / g.us_per_unit * M_PER_CM,
+                play * SERVO_LEVER_M,
+                gripper_spec.speed_rad_s * SERVO_LEVER_M,
+                m.actuator(g.name).id,
+                jaws,
+            )
+        )
+    except KeyError as exc:
+        raise ModelError(
+            f"the model is not the twin of arm {config.arm.name}: {exc}; build it with "
+            "generate_mjcf(config)"
+        ) from None
+    return tuple(out)

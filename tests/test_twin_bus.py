@@ -1,0 +1,306 @@
+"""The twin's servo bus: pulses in, servo-limited physics out, the bus's contract kept."""
+
+from __future__ import annotations
+
+import math
+import re
+import time
+
+import mujoco
+import numpy as np
+import pytest
+from conftest import ROOT
+
+from mearm.config import Config, load_config
+from mearm.exceptions import ModelError, ServoError, ServoFaultedError, WorldError
+from mearm.hardware.bus import ArmCommand
+from mearm.ik import IKTarget
+from mearm.kinematics import ArmModel
+from mearm.sim.mjcf import (
+    JOINT_SERVO_TEXT,
+    M_PER_CM,
+    MG90S,
+    MG996R,
+    ServoSpec,
+    generate_mjcf,
+)
+from mearm.sim.twin_bus import BACKLASH_DEG, TwinArm
+from mearm.task.plan import RETRY_LIFT_CM, Planner
+
+#: Settling time after the last command of a route [s].
+SETTLE_S = 0.5
+
+
+@pytest.fixture(scope="module")
+def paper() -> tuple[Config, mujoco.MjModel]:
+    config = load_config(ROOT / "configs" / "sim.yaml")
+    return config, mujoco.MjModel.from_xml_string(generate_mjcf(config))
+
+
+@pytest.fixture(scope="module")
+def desk() -> tuple[Config, mujoco.MjModel]:
+    config = load_config(ROOT / "configs" / "sim_5dof.yaml")
+    return config, mujoco.MjModel.from_xml_string(generate_mjcf(config))
+
+
+def _twin(setup: tuple[Config, mujoco.MjModel]) -> TwinArm:
+    config, m = setup
+    arm = TwinArm(config, m)
+    arm.connect()
+    return arm
+
+
+def _command(config: Config, joints: dict[str, float], closed: bool = False) -> ArmCommand:
+    return ArmCommand(joints, {a.name: a.home for a in config.arm.tool.actuators}, closed)
+
+
+def _stream(arm: TwinArm, q_path: np.ndarray, closed: bool = False) -> None:
+    chain = ArmModel(arm.config.arm).chain
+    for q in q_path[1:]:
+        arm.move(_command(arm.config, chain.named_actuated(q), closed))
+
+
+def _go(arm: TwinArm, planner: Planner, q: np.ndarray, target: IKTarget, closed: bool):
+    """Plan from q to target, stream the route; returns the route's last pose."""
+    result = planner.solver.solve(q, target)
+    assert result.converged
+    _stream(arm, result.q_path, closed)
+    return result.q
+
+
+def test_planned_route_ends_within_the_servo_budget(paper):
+    """A PD-PIJ route ends within dead band + backlash + quantisation, the TCP at the FK."""
+    config, _ = paper
+    arm = _twin(paper)
+    model = ArmModel(config.arm)
+    planner = Planner(config, model)
+    obj = config.task.scene[0]
+    result = planner.solver.solve(
+        model.home, planner.pick_target(config.task.class_named(obj.color), obj.x, obj.y)
+    )
+    assert result.converged
+    t0, sim0 = time.perf_counter(), arm.time_s
+    _stream(arm, result.q_path)
+    wall, sim = time.perf_counter() - t0, arm.time_s - sim0
+    arm.settle(SETTLE_S)
+    commanded = model.chain.named_actuated(result.q)
+    errors = {n: arm.actual_joints[n] - v for n, v in commanded.items()}
+    tcp_error_cm = float(np.linalg.norm(arm.ee_cm - model.fk_cm(result.q)))
+    print(
+        f"\nroute of {len(result.q_path) - 1} commands, {sim:.2f} s simulated in {wall:.3f} s "
+        f"({sim / wall:.1f}x real time); joint errors [deg] "
+        + " ".join(f"{n}={e:+.3f}" for n, e in errors.items())
+        + f"; TCP {tcp_error_cm:.3f} cm from the FK of the command"
+    )
+    for s in arm.servos[:-1]:
+        budget = (s.deadband + s.backlash) / s.scale + 0.5 / s.amap.us_per_unit
+        assert abs(errors[s.name]) <= budget, (s.name, errors[s.name], budget)
+    assert tcp_error_cm <= 0.3
+
+
+def test_speed_limit_holds_on_a_big_step(paper):
+    """A 60° step takes at least the datasheet's seconds per 60°."""
+    config, _ = paper
+    arm = _twin(paper)
+    s = arm.servos[0]
+    joints = config.arm.home()
+    joints[s.name] -= 60.0
+    start = arm.time_s
+    for _ in range(200):
+        arm.move(_command(config, joints))
+        if abs(arm.actual_joints[s.name] - joints[s.name]) < 0.5:
+            break
+    took = arm.time_s - start
+    datasheet = math.radians(60.0) / s.speed
+    print(f"\n60° on {s.name} in {took:.3f} s (datasheet {datasheet:.3f} s/60°)")
+    assert abs(arm.actual_joints[s.name] - joints[s.name]) < 0.5
+    assert took >= datasheet
+
+
+def test_a_command_inside_the_dead_band_moves_nothing(paper):
+    """A target within the dead band of the pot is ignored; one beyond it is followed."""
+    config, _ = paper
+    arm = _twin(paper)
+    arm.move(ArmCommand.home(config.arm))
+    arm.settle(SETTLE_S)
+    s = arm.servos[0]
+    inside = 1.0 / s.amap.us_per_unit  # one µs [deg]
+    assert inside * s.scale < s.deadband
+    before, setpoint = arm.actual_joints[s.name], arm.setpoint
+    joints = config.arm.home()
+    joints[s.name] += inside
+    arm.move(_command(config, joints))
+    arm.settle(SETTLE_S)
+    assert arm.setpoint[0] == setpoint[0]
+    assert abs(arm.actual_joints[s.name] - before) < 1e-6
+    joints[s.name] += 2 * s.deadband / s.scale
+    arm.move(_command(config, joints))
+    arm.settle(SETTLE_S)
+    assert arm.actual_joints[s.name] - before > s.deadband / s.scale
+
+
+def test_backlash_lags_after_a_reversal(paper):
+    """Approached from either side, a joint without gravity load ends half the play apart."""
+    config, _ = paper
+    s_name = config.arm.actuated_joints()[0].name
+    ends = []
+    for sign in (1.0, -1.0):
+        arm = _twin(paper)
+        joints = config.arm.home()
+        joints[s_name] += 10.0 * sign
+        arm.move(_command(config, joints))
+        arm.settle(SETTLE_S)
+        arm.move(ArmCommand.home(config.arm))
+        arm.settle(SETTLE_S)
+        ends.append(arm.actual_joints[s_name])
+    np.testing.assert_allclose(ends[0] - ends[1], BACKLASH_DEG, atol=0.02)
+
+
+def test_twin_runs_faster_than_real_time(paper):
+    """Without rendering the twin outruns the clock (figure printed; 2x is a sanity bound)."""
+    config, _ = paper
+    arm = _twin(paper)
+    name = config.arm.actuated_joints()[0].name
+    t0, sim0 = time.perf_counter(), arm.time_s
+    for k in range(100):
+        joints = config.arm.home()
+        joints[name] += 20.0 * math.sin(k / 10)
+        arm.move(_command(config, joints))
+    ratio = (arm.time_s - sim0) / (time.perf_counter() - t0)
+    print(f"\ntwin: {arm.time_s - sim0:.2f} s of moves at {ratio:.1f}x real time")
+    assert ratio >= 2.0
+
+
+def test_stop_holds_the_current_setpoint(paper):
+    """stop() mid-move holds the setpoint where the speed limit had brought it."""
+    config, _ = paper
+    arm = _twin(paper)
+    joints = config.arm.home()
+    name = config.arm.actuated_joints()[0].name
+    joints[name] -= 60.0
+    arm.move(_command(config, joints))
+    arm.stop()
+    held = arm.setpoint
+    arm.settle(SETTLE_S)
+    np.testing.assert_array_equal(arm.setpoint, held)
+    assert abs(arm.actual_joints[name] - joints[name]) > 30.0
+    assert arm.state is not None and arm.state.joints[name] == joints[name]
+
+
+def test_stop_after_a_fault_sends_nothing(paper, tmp_path, monkeypatch):
+    """A diverged twin faults the bus; stop() then moves nothing, move() refuses."""
+    monkeypatch.chdir(tmp_path)  # MuJoCo writes its warning to MUJOCO_LOG.TXT here
+    config, _ = paper
+    arm = _twin(paper)
+    arm.data.qvel[:] = np.nan
+    with pytest.raises(ServoError, match="diverged"):
+        arm.move(ArmCommand.home(config.arm))
+    t, ctrl = arm.time_s, arm.data.ctrl.copy()
+    arm.stop()
+    assert arm.time_s == t
+    np.testing.assert_array_equal(arm.data.ctrl, ctrl)
+    with pytest.raises(ServoFaultedError):
+        arm.move(ArmCommand.home(config.arm))
+
+
+def test_objects_start_on_the_table(paper):
+    """At the keyframe no object is in a bin and each rests where the scene puts it."""
+    config, _ = paper
+    arm = _twin(paper)
+    arm.settle(0.2)
+    assert arm.objects_in_bin() == {}
+    pose = arm.object_pose("red1")
+    obj = config.task.scene[0]
+    np.testing.assert_allclose(pose.position_cm[:2], (obj.x, obj.y), atol=1e-3)
+    assert pose.speed_cm_s < 0.01
+
+
+def test_unknown_object_is_refused(paper):
+    """object_pose of an unknown id names the twin's objects."""
+    arm = _twin(paper)
+    with pytest.raises(WorldError, match="its objects: red1"):
+        arm.object_pose("purple9")
+
+
+def test_model_of_another_arm_is_refused(paper, desk):
+    """A model without this arm's actuators is refused, naming the fix."""
+    config, _ = paper
+    _, m = desk
+    with pytest.raises(ModelError, match="generate_mjcf"):
+        TwinArm(config, m)
+
+
+def test_unknown_servo_needs_to_be_named(paper):
+    """A model whose servos are not in the catalogue needs servo=; with it, it builds."""
+    config, _ = paper
+    odd = ServoSpec("odd", 0.06, 3.0, 0.2, 4.0, (0.04, 0.02, 0.04), "test")
+    m = mujoco.MjModel.from_xml_string(generate_mjcf(config, odd))
+    with pytest.raises(ModelError, match="pass servo="):
+        TwinArm(config, m)
+    arm = TwinArm(config, m, servo=odd)
+    assert arm.servos[0].deadband == pytest.approx(math.radians(0.4))
+
+
+def test_a_model_records_its_servos_and_the_twin_reads_them(desk):
+    """TwinArm takes the servos the model records, not a guess from torque and speed."""
+    config, _ = desk
+    m = mujoco.MjModel.from_xml_string(generate_mjcf(config, MG996R, gripper_servo=MG90S))
+    arm = TwinArm(config, m)
+    s, g = arm.servos[0], arm.servos[-1]
+    assert s.speed == pytest.approx(MG996R.speed_rad_s)
+    assert s.deadband == pytest.approx(MG996R.deadband_us / s.amap.us_per_unit * s.scale)
+    assert g.deadband == pytest.approx(MG90S.deadband_us / g.amap.us_per_unit * g.scale)
+
+
+def test_a_model_without_the_record_falls_back_to_matching(desk):
+    """A model without the servo record (a foreign one) gets the catalogue servo it matches."""
+    config, _ = desk
+    xml = generate_mjcf(config, MG996R)
+    foreign = re.sub(r"<custom>.*?</custom>", "", xml, flags=re.DOTALL)
+    assert JOINT_SERVO_TEXT not in foreign
+    arm = TwinArm(config, mujoco.MjModel.from_xml_string(foreign))
+    assert arm.servos[0].speed == pytest.approx(MG996R.speed_rad_s)
+
+
+def test_a_recorded_servo_outside_the_catalogue_is_refused(desk):
+    """A record naming no catalogue servo is refused, naming the argument to pass."""
+    config, _ = desk
+    xml = generate_mjcf(config).replace('data="SG90"', 'data="XY123"')
+    with pytest.raises(ModelError, match="gripper servo 'XY123' .* pass gripper_servo="):
+        TwinArm(config, mujoco.MjModel.from_xml_string(xml))
+
+
+def test_grasp_lifts_the_object_and_drops_it_in_its_bin(desk):
+    """Pick at the planner's target, close, lift: the jaws stop on the object's diameter
+    (within 0.3 mm), the object rises with them, then lands in its bin."""
+    config, _ = desk
+    arm = _twin(desk)
+    model = ArmModel(config.arm)
+    planner = Planner(config, model)
+    obj = config.task.scene[0]
+    cls = config.task.class_named(obj.color)
+    pick = planner.pick_target(cls, obj.x, obj.y)
+    q = _go(arm, planner, model.home, planner.lift_target(pick), closed=False)
+    q = _go(arm, planner, q, pick, closed=False)
+    arm.settle(0.2)
+    grip_z_cm = float(arm.data.site("grip").xpos[2] / M_PER_CM)
+    z0 = arm.object_pose("red1").position_cm[2]
+    _stream(arm, np.array([q] * 26), closed=True)
+    arm.settle(0.2)
+    opening_cm = arm.opening_cm
+    lift = planner.lift_target(pick)
+    q = _go(arm, planner, q, lift, closed=True)
+    rise_cm = arm.object_pose("red1").position_cm[2] - z0
+    print(
+        f"\ngrip point at z = {grip_z_cm:.3f} cm (class grip height {cls.grip_z_cm:g}); "
+        f"closed on the {cls.diameter_cm:g} cm object at {opening_cm:.4f} cm; "
+        f"lifted {rise_cm:.3f} of {RETRY_LIFT_CM:g} cm"
+    )
+    assert abs(grip_z_cm - cls.grip_z_cm) < 0.1  # within the servos' budget
+    assert abs(opening_cm - cls.diameter_cm) <= 0.03
+    assert rise_cm > 0.8 * RETRY_LIFT_CM
+    q = _go(arm, planner, q, planner.place_target(cls), closed=True)
+    arm.settle(0.2)
+    _stream(arm, np.array([q] * 26), closed=False)
+    arm.settle(1.0)
+    assert arm.objects_in_bin() == {"red1": "red"}
