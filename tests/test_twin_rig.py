@@ -77,9 +77,11 @@ def test_the_twin_needs_both_servos_and_camera_simulated():
 
 
 @pytest.mark.slow
-def test_the_5dof_scene_is_sorted_physically(capsys, tmp_path):
-    """configs/sim_5dof_mujoco.yaml: every object grasped, carried and resting in its bin
-    in the physics; the run says so and exits 0."""
+@pytest.mark.parametrize(("name", "n"), [("sim_mujoco", 12), ("sim_5dof_mujoco", 9)])
+def test_the_scene_is_sorted_physically(capsys, tmp_path, name, n):
+    """configs/sim_mujoco.yaml (the paper's arm and scene) and sim_5dof_mujoco.yaml:
+    every object grasped, carried and resting in its bin in the physics; the run says so
+    and exits 0."""
     from mearm.runlog import read_runlog
     from mearm.sim import twin_bus
     from mearm.sort import main
@@ -94,11 +96,32 @@ def test_the_5dof_scene_is_sorted_physically(capsys, tmp_path):
     log = tmp_path / "run.jsonl"
     with pytest.MonkeyPatch.context() as mp:
         mp.setattr(twin_bus.TwinArm, "__init__", spying_init)
-        code = main(["--config", str(ROOT / "configs" / "sim_5dof_mujoco.yaml"), "--quiet",
+        code = main(["--config", str(ROOT / "configs" / f"{name}.yaml"), "--quiet",
                      "--log", str(log)])  # fmt: skip
     lines = capsys.readouterr().out.splitlines()
-    assert code == 0 and lines[-1] == "sorted 9 of 9 objects"
+    assert code == 0 and lines[-1] == f"sorted {n} of {n} objects"
     in_bins = arms[-1].objects_in_bin()
-    assert len(in_bins) == 9 and all(oid.startswith(cls) for oid, cls in in_bins.items())
+    assert len(in_bins) == n and all(oid.startswith(cls) for oid, cls in in_bins.items())
     summary = read_runlog(log).trials[-1].summary
-    assert summary is not None and sum(summary.sorted.values()) == 9 and summary.left == {}
+    assert summary is not None and sum(summary.sorted.values()) == n and summary.left == {}
+
+
+def test_a_pick_whose_jaws_would_land_on_a_neighbour_waits(tmp_path):
+    """Two objects closer than the open jaws' reach: the sorter first takes an object
+    whose jaws come down clear (here a red one farther from the arm), then the others."""
+    from mearm.task.rig import run_sort
+
+    config = load_config(None)
+    g = config.arm.tool.gripper
+    reach = g.open_cm / 2 + g.jaw_thickness_cm + 1.0  # a 2 cm object's radius
+    scene = [SceneObject(color="red", x=0.0, y=45.0),
+             SceneObject(color="green", x=reach - 0.3, y=45.0),  # under the open jaws
+             SceneObject(color="red", x=10.0, y=55.0)]  # fmt: skip
+    report = run_sort(config, scene=scene, echo=None)
+    picks = [r for r in report.routes if r.step == "pick"]
+    assert [(r.class_name, round(float(r.target.position_cm[0]))) for r in picks] == [
+        ("red", 10),
+        ("red", 0),
+        ("green", round(reach - 0.3)),
+    ]
+    assert report.complete

@@ -76,6 +76,14 @@ _DIVERGED = (
 )
 
 
+def _mujoco_warning(text: str) -> None:
+    """MuJoCo's warnings go to this module's logger, not to MUJOCO_LOG.TXT in the cwd."""
+    log.warning("MuJoCo: %s", text)
+
+
+mujoco.set_mju_user_warning(_mujoco_warning)
+
+
 @dataclass(frozen=True)
 class ServoModel:
     """One actuator's servo as the twin models it, in the model's units (rad or m).
@@ -191,6 +199,11 @@ class TwinArm(ServoBus):
         self._setpoint = ctrl.copy()  # joint setpoints y (ctrl), (nu,)
 
     @property
+    def object_ids(self) -> tuple[str, ...]:
+        """The scene objects' ids (``red1``, …), in scene order."""
+        return tuple(self._object_ids)
+
+    @property
     def time_s(self) -> float:
         """Simulated time since the keyframe [s]."""
         return float(self.data.time)
@@ -275,6 +288,25 @@ class TwinArm(ServoBus):
     def settle(self, seconds: float) -> None:
         """Run the physics for ``seconds`` with no new command (the servos keep driving)."""
         self._run(seconds)
+
+    def settle_objects(self, max_s: float = 2.0, step_s: float = 0.05) -> bool:
+        """Run the physics until every object is at rest, for at most ``max_s`` seconds.
+
+        A dropped object bounces and slides for a moment before it rests in its bin; a
+        count taken while it moves would miss it.
+
+        Returns:
+            Whether every object came to rest in time.
+        """
+        waited = 0.0
+        while True:
+            speeds = [self.object_pose(oid).speed_cm_s * M_PER_CM for oid in self._object_ids]
+            if all(v < REST_SPEED_M_S for v in speeds):
+                return True
+            if waited >= max_s:
+                return False
+            self._run(step_s)
+            waited += step_s
 
     def _run(self, seconds: float) -> None:
         m, d = self.model, self.data

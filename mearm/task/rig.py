@@ -115,6 +115,7 @@ def _open_twin(config: Config, scene: list[SceneObject] | None, model: ArmModel)
         stack.callback(twin.close)
 
         def in_bins() -> dict[str, int]:
+            twin.settle_objects()  # a dropped object rests before it is counted
             counts = {c: 0 for c in config.task.class_names}
             for name in twin.objects_in_bin().values():
                 counts[name] = counts.get(name, 0) + 1

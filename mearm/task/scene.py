@@ -138,6 +138,10 @@ def random_scene(
 ) -> list[SceneObject]:
     """Draw objects at least :data:`MIN_GAP_CM` apart in the reachable camera field.
 
+    Centres are also at least ``open_cm / 2 + jaw_thickness_cm`` plus a radius apart, so
+    the open jaws around one object clear its neighbours (1.5 cm edge to edge for the
+    paper's 4 cm gripper).
+
     Objects keep the same gap from every bin's footprint (``ColorClass.bin_inner_width_cm``).
 
     Args:
@@ -176,7 +180,11 @@ def random_scene(
             "calibration.homography and the classes' diameter_cm"
         )
     reach = _reach_check(config)
-    min_dist = diameter + MIN_GAP_CM
+    # the open jaws come down around an object: a neighbour must stay clear of their
+    # outer faces (open_cm / 2 + jaw_thickness_cm from the centre), or picking one object
+    # pushes, tips or traps the next
+    g = config.arm.tool.gripper
+    min_dist = max(diameter + MIN_GAP_CM, g.open_cm / 2 + g.jaw_thickness_cm + diameter / 2)
     placed: list[SceneObject] = []
     tries = 0
     for color in order:
@@ -184,8 +192,8 @@ def random_scene(
             tries += 1
             if tries > max_tries:
                 raise SceneError(
-                    f"could not place {len(order)} objects {MIN_GAP_CM:g} cm apart in the "
-                    f"reachable camera field after {max_tries} draws; ask for fewer"
+                    f"could not place {len(order)} objects {min_dist - diameter:.3g} cm apart "
+                    f"in the reachable camera field after {max_tries} draws; ask for fewer"
                 )
             x, y = round(rng.uniform(x0, x1), 2), round(rng.uniform(y0, y1), 2)
             if any(np.hypot(o.x - x, o.y - y) < min_dist for o in placed):

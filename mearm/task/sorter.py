@@ -1,14 +1,18 @@
 """The sorting loop: look → choose → plan → execute → report, until the table is clear.
 
 The loop reads the table after every object, takes the classes in the order the config
-lists them, and starts each route where the last one ended (the arm does not go home
-between objects). Each route is planned in full first (:mod:`mearm.task.plan`); only a
-converged plan is sent to the servos (:mod:`mearm.task.execute`), pose by pose, paced
-by the bus; what happened goes to the screen and the run log (:mod:`mearm.task.report`).
+lists them (within a class, first an object whose open jaws come down clear of every
+neighbour, then the nearest), and starts each route where the last one ended (the arm
+does not go home between objects). Each route is planned in full first
+(:mod:`mearm.task.plan`); only a converged plan is sent to the servos
+(:mod:`mearm.task.execute`), pose by pose, paced by the bus; what happened goes to the
+screen and the run log (:mod:`mearm.task.report`).
 
 Objects whose pick cannot be planned (out of reach, outside the target box, no
 converged solve) are reported and skipped; a failed grip (the object is still on the
-table in the next frame) is retried ``task.pick_retries`` times. A camera or servo
+table in the frame taken once the arm is over the bin, where it hides nothing) is
+retried ``task.pick_retries`` times, whatever the jaws hold being let go back over its
+spot. A camera or servo
 failure, or Ctrl-C, parks the arm where it is safe to (home, if the servo link still
 answers; otherwise nothing more is sent), writes the reason to the run log and raises
 :class:`SortAborted`.
@@ -201,11 +205,38 @@ class Sorter:
             if o.skipped is None and not o.sorted and self._on_table(o, seen)
         ]
         ee = self.executor.ee_now_cm()
+
+        def nearest(objs: list[TrackedObject]) -> TrackedObject:
+            return min(objs, key=lambda o: (np.hypot(o.x_cm - ee[0], o.y_cm - ee[1]), o.id))
+
+        clear = [o for o in candidates if self._jaws_clear(o, candidates)]
         for cls in self.config.task.classes:
             of_class = [o for o in candidates if o.class_name == cls.name]
-            if of_class:
-                return min(of_class, key=lambda o: (np.hypot(o.x_cm - ee[0], o.y_cm - ee[1]), o.id))
+            if not of_class:
+                continue
+            clear_of_class = [o for o in of_class if o in clear]
+            if clear_of_class:
+                return nearest(clear_of_class)
+            if clear:  # each of this class has a neighbour under the open jaws: clear one
+                return nearest(clear)
+            return nearest(of_class)
         return None
+
+    def _jaws_clear(self, obj: TrackedObject, others: list[TrackedObject]) -> bool:
+        """Whether the open jaws, coming down around ``obj``, touch no other object.
+
+        A jaw's outer face is ``open_cm / 2 + jaw_thickness_cm`` from the object's centre
+        (the jaws close along a fixed direction of the wrist, so any side counts).
+        """
+        g = self.config.arm.tool.gripper
+        reach = g.open_cm / 2 + g.jaw_thickness_cm
+        for o in others:
+            if o is obj:
+                continue
+            r = self.config.task.class_named(o.class_name).diameter_cm / 2
+            if np.hypot(o.x_cm - obj.x_cm, o.y_cm - obj.y_cm) < reach + r:
+                return False
+        return True
 
     def _skip(
         self, obj: TrackedObject, reason: str, target: Route | None = None, *, kind: str
@@ -237,6 +268,7 @@ class Sorter:
         if above is not None:
             ex.stream(above, "travel", False)
         ex.stream(pick, "travel", False, _hex(cls.draw_rgb))
+        ex.finish(pick, t0)  # where the TCP is when the jaws close
         ex.set_tool("grip", False)
         ex.set_tool("grip", True)
         ex.set_tool("travel", True)
@@ -244,38 +276,42 @@ class Sorter:
             up = Route(obj.id, obj.class_name, "lift", 1, above.target)
             if self.planner.plan(up, ex.q_now()).planned:
                 ex.stream(up, "travel", True)
-        # the paper re-reads the table after each object; here it also tells whether the
-        # grip held
-        pick.success = not self._on_table(obj, self._look(track_new=False))
-        self.reporter.route(ex.finish(pick, t0))
-        if not pick.success:
-            state = self.bus.state
-            if state is not None and state.gripper_closed:
-                ex.set_tool("travel", False)
-            # back off upwards so the retry approaches afresh (from the same pose the
-            # servos would land where they just missed)
-            lift = Route(obj.id, obj.class_name, "lift", 1, self.planner.lift_target(pick.target))
-            if self.planner.plan(lift, ex.q_now()).planned:
-                ex.stream(lift, "travel", False)
-            obj.failed_picks += 1
-            if obj.failed_picks > self.config.task.pick_retries:
-                self._skip(obj, f"pick failed {obj.failed_picks} times", pick, kind="pick_failed")
-            return
-
-        t0 = time.perf_counter()
+        t1 = time.perf_counter()
         place = Route(obj.id, obj.class_name, "place", 1, self.planner.place_target(cls))
         self.planner.plan(place, ex.q_now())
         if not place.planned:
             # holding the object: nothing unplanned is sent, so put it back where it was
+            self.reporter.route(pick)
             self._skip(obj, f"bin unreachable: {place.failure}", place, kind="bin_unreachable")
             ex.set_tool("grip", True)
             ex.set_tool("grip", False)
             return
-        ex.stream(place, "travel", True, _hex(cls.draw_rgb))
+        # Whether the grip held is read once the arm is over the bin: there the camera sees
+        # the table unobstructed, and an object held over its own spot (in view of a camera
+        # above it) is not taken for one left there. (The paper re-reads the table after
+        # each object.) A fault on the way leaves the pick in the log, unconfirmed.
+        try:
+            ex.stream(place, "travel", True, _hex(cls.draw_rgb))
+            pick.success = not self._on_table(obj, self._look(track_new=False))
+        finally:
+            self.reporter.route(pick)
+        if not pick.success:
+            # the jaws hold nothing, or a neighbour: take it back over the spot (not into
+            # this bin) and let it go there
+            back = above.target if above is not None else self.planner.lift_target(pick.target)
+            back_route = Route(obj.id, obj.class_name, "lift", 1, back)
+            if self.planner.plan(back_route, ex.q_now()).planned:
+                ex.stream(back_route, "travel", True)
+            ex.set_tool("travel", False)
+            obj.failed_picks += 1
+            if obj.failed_picks > self.config.task.pick_retries:
+                self._skip(obj, f"pick failed {obj.failed_picks} times", pick, kind="pick_failed")
+            return
         ex.set_tool("travel", False)
         release = getattr(self.bus, "last_release", None)
         place.success = release is None or release.bin == obj.class_name
         obj.sorted = place.success
+        t0 = t1
         self.reporter.route(ex.finish(place, t0))
 
     def _approach(self, obj: TrackedObject, pick: Route) -> Route | None:
@@ -348,6 +384,7 @@ class Sorter:
             out.seen[cls.name] = 0
             out.sorted[cls.name] = 0
         in_bin = None if self.in_bins is None else dict(self.in_bins())
+        self.executor.show_world()  # the twin's objects, settled, in the view
 
         def leave(kind: str) -> None:
             out.left[kind] = out.left.get(kind, 0) + 1
