@@ -2,13 +2,20 @@
 
 Only routes whose plan converged are sent (:attr:`Route.planned`); every command goes
 through the bus's own checks (limits, pulse ranges) before a byte is sent.
+
+The executor also keeps the view (if any) in step with the arm. On a bus that measures
+the world — the physical twin (:class:`mearm.sim.twin_bus.TwinArm`), recognised by its
+``object_pose``, ``actual_joints`` and ``opening_cm`` — it pushes what the physics has
+(:meth:`Executor.show_world`): the measured joints and jaw opening and every object's
+pose, so a carried object moves with the jaws and a dropped one lands in its bin. On
+any other bus the view shows the commanded joints.
 """
 
 from __future__ import annotations
 
 import time
-from collections.abc import Callable
-from typing import Literal, Protocol
+from collections.abc import Callable, Iterable
+from typing import Any, Literal, Protocol
 
 import numpy as np
 import numpy.typing as npt
@@ -34,12 +41,32 @@ class View(Protocol):
     """What the executor and the loop call on the meshcat view (:class:`mearm.view.ArmView`)."""
 
     def show_joints(self, q: npt.ArrayLike) -> None: ...  # noqa: D102
+    def show_bodies(  # noqa: D102
+        self,
+        q: npt.ArrayLike,
+        opening_cm: float,
+        objects: Iterable[tuple[str, str, np.ndarray, np.ndarray]],
+    ) -> None: ...
     def set_objects(self, objects: object) -> None: ...  # noqa: D102
     def set_camera_frame(  # noqa: D102
         self, frame_bgr: npt.ArrayLike, pixel_to_table: Callable[[np.ndarray], npt.ArrayLike]
     ) -> None: ...
     def set_target(self, target_cm: npt.ArrayLike | None) -> None: ...  # noqa: D102
     def add_path(self, ee_path_cm: npt.ArrayLike, color: str) -> object: ...  # noqa: D102
+
+
+def twin_object_ids(bus: object) -> tuple[str, ...] | None:
+    """The ids of the objects a bus measures (the physical twin's), or ``None``.
+
+    Duck-typed, so nothing here imports the physics: a bus measures the world when it
+    has ``object_pose(id)``, ``actual_joints`` and ``opening_cm``; its objects are its
+    ``object_ids``.
+    """
+    if not callable(getattr(bus, "object_pose", None)):
+        return None
+    if not (hasattr(bus, "actual_joints") and hasattr(bus, "opening_cm")):
+        return None
+    return tuple(getattr(bus, "object_ids", ()))
 
 
 class Executor:
@@ -50,15 +77,36 @@ class Executor:
         bus: The servo bus (connected by the caller).
         model: The arm model.
         view: A view to follow the arm, or ``None``.
+        view_every: On a bus that measures the world (the twin), push the world to the
+            view after every this many moves; always at the end of a route or a joint
+            path, at home, and after a tool setting.
+
+    Attributes:
+        twin_ids: The objects the bus measures (:func:`twin_object_ids`), or ``None``:
+            then the view is shown the commanded joints.
     """
 
-    def __init__(self, config: Config, bus: ServoBus, model: ArmModel, view: View | None = None):
+    def __init__(
+        self,
+        config: Config,
+        bus: ServoBus,
+        model: ArmModel,
+        view: View | None = None,
+        *,
+        view_every: int = 1,
+    ):
+        if view_every < 1:
+            raise ValueError(f"view_every must be at least 1, not {view_every}")
         self.config = config
         self.bus = bus
         self.model = model
         self.view = view
+        self.view_every = view_every
         self.chain = model.chain
         self._tool = config.arm.tool
+        self.twin_ids = twin_object_ids(bus)
+        self._classes = {c.name for c in config.task.classes}
+        self._unshown = 0  # moves sent since the view was last shown the world
 
     # ----------------------------------------------------------------- state
 
@@ -76,6 +124,43 @@ class Executor:
             return np.asarray(actual, dtype=float)
         return self.model.fk_cm(self.q_now())
 
+    def world_now(self) -> tuple[np.ndarray, float, list[tuple[str, str, np.ndarray, np.ndarray]]]:
+        """What the twin measures: joints (full, model units), jaw opening [cm], objects.
+
+        Each object is ``(id, class_name, position_cm, quat)``: its body's centre in the
+        base frame [cm] and orientation (w, x, y, z); its class is its id's prefix
+        (``red3`` → ``red``); ids of no class are left out.
+
+        Raises:
+            ValueError: the bus does not measure the world (:attr:`twin_ids` is None).
+        """
+        if self.twin_ids is None:
+            raise ValueError("the bus measures no world: it is not the physical twin")
+        bus: Any = self.bus
+        q = self.chain.from_named(bus.actual_joints)
+        objects = []
+        for oid in self.twin_ids:
+            class_name = oid.rstrip("0123456789")
+            if class_name not in self._classes:
+                continue
+            pose = bus.object_pose(oid)
+            objects.append(
+                (oid, class_name, np.array(pose.position_cm, dtype=float), np.array(pose.quat))
+            )
+        return q, float(bus.opening_cm), objects
+
+    def show_world(self) -> None:
+        """Push the twin's world to the view now (nothing without a view or a twin)."""
+        if self.view is None or self.twin_ids is None:
+            return
+        self._unshown = 0
+        self.view.show_bodies(*self.world_now())
+
+    def _flush_view(self) -> None:
+        """Show the world if a move was sent since it was last shown."""
+        if self._unshown:
+            self.show_world()
+
     def tool_settings(self, phase: Phase) -> dict[str, float]:
         """Every tool actuator's value for a phase of the pick [deg]."""
         return {a.name: a.setting(phase) for a in self._tool.actuators}
@@ -86,13 +171,20 @@ class Executor:
         """Command the joints ``q`` (full, model units) with the tool set for ``phase``."""
         joints = self.chain.named_actuated(q)
         self.bus.move(ArmCommand(joints, self.tool_settings(phase), closed))
-        if self.view is not None:
+        if self.view is None:
+            return
+        if self.twin_ids is None:
             self.view.show_joints(self.chain.full(self.chain.actuated_of(np.asarray(q))))
+            return
+        self._unshown += 1
+        if self._unshown >= self.view_every:
+            self.show_world()
 
     def set_tool(self, phase: Phase, closed: bool) -> None:
         """Hold the joints; set the tool and the gripper, given :data:`TOOL_SETTLE_S`."""
         self.send(self.q_now(), phase, closed)
         self.bus.hold(TOOL_SETTLE_S)
+        self.show_world()  # the jaws closed or opened, and what they hold
 
     def stream(self, route: Route, phase: Phase, closed: bool, color: str = "#202020") -> Route:
         """Send every pose of a planned route; refuse one that is not fully planned.
@@ -107,6 +199,7 @@ class Executor:
             self.view.set_target(route.target.position_cm)
         for q in route.plan.q_path[1:]:
             self.send(q, phase, closed)
+        self._flush_view()
         route.executed = True
         route.motion_s = route.plan.iterations / self.config.servo.rate_hz
         if self.view is not None:
@@ -141,10 +234,12 @@ class Executor:
         """Go to ``q_to`` along :meth:`joint_path`, planned in full first."""
         for q in self.joint_path(q_to)[1:]:
             self.send(q, phase, closed)
+        self._flush_view()
 
     def home_pose(self, closed: bool = False) -> None:
         """Command the home joints and the tool's home settings (gripper open by default)."""
         self.send(self.model.home, "home", closed)
+        self._flush_view()
 
     def finish(self, route: Route, t0: float) -> Route:
         """Record where the TCP ended and how long the step took."""

@@ -12,7 +12,7 @@ warnings.filterwarnings(
     "ignore", message="zmq.eventloop.ioloop is deprecated", category=DeprecationWarning
 )
 
-from mearm.view.arm_view import ArmView, ViewObject, rgb_int  # noqa: E402
+from mearm.view.arm_view import ArmView, TwinBody, ViewObject, rgb_int  # noqa: E402
 from mearm.view.browser import SceneCounts, find_browser, screenshot  # noqa: E402
 from mearm.view.camera import DEFAULT_CAMERA, ViewCamera  # noqa: E402
 from mearm.view.frame_plane import FramePlane, frame_plane  # noqa: E402
@@ -26,6 +26,7 @@ __all__ = [
     "MeshcatServer",
     "SceneLayout",
     "SceneCounts",
+    "TwinBody",
     "ViewCamera",
     "ViewObject",
     "find_browser",

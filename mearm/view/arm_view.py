@@ -12,6 +12,8 @@ Scene tree (below ``/meshcat``)::
     bins/<class>/…              an open box on the table under each class's drop point
     arm/visuals/<link>_<k>      the URDF's visuals (Pinocchio), jaws included
     objects/<id>                cylinders of their class's size at their table positions
+                                (the detections; not drawn once the twin's bodies are)
+    twin/objects/<id>           the physical twin's objects where its physics has them
     camera_frame                the last camera frame, lying where the calibration puts it
     target                      the current target
     paths/route<k>              the TCP path of each route, kept until clear_paths()
@@ -73,6 +75,23 @@ class ViewObject:
     class_name: str
     x_cm: float
     y_cm: float
+
+
+@dataclass(frozen=True)
+class TwinBody:
+    """An object of the physical twin as drawn: its id, colour class and pose.
+
+    Attributes:
+        id: The object's id (``red1``, …).
+        class_name: Its colour class.
+        position_cm: Its body's centre in the base frame [cm], (x, y, z).
+        quat: Its orientation (w, x, y, z), unit [-]; the cylinder's axis is the body's z.
+    """
+
+    id: str
+    class_name: str
+    position_cm: tuple[float, float, float]
+    quat: tuple[float, float, float, float]
 
 
 class _PlaneGeometry(mg.Geometry):
@@ -140,14 +159,50 @@ def _view_object(item: Any, classes: dict[str, ColorClass]) -> ViewObject:
     else:
         raise ViewInputError("objects[...]", item, "(id, class_name, x_cm, y_cm)")
     obj_id, class_name, x, y = fields
-    if not isinstance(obj_id, str) or not obj_id or "/" in obj_id:
-        raise ViewInputError("object id", obj_id, "a non-empty string without '/'")
+    obj_id = _object_id(obj_id)
     if class_name not in classes:
         raise ViewInputError(
             f"class of {obj_id}", class_name, f"one of task.classes: {', '.join(classes)}"
         )
     xy = _finite_array((x, y), f"position of {obj_id}", "finite x_cm, y_cm")
     return ViewObject(obj_id, class_name, float(xy[0]), float(xy[1]))
+
+
+def _object_id(obj_id: Any) -> str:
+    if not isinstance(obj_id, str) or not obj_id or "/" in obj_id:
+        raise ViewInputError("object id", obj_id, "a non-empty string without '/'")
+    return obj_id
+
+
+def _twin_body(item: Any, classes: dict[str, ColorClass]) -> TwinBody:
+    """Validate one twin body to draw: ``(id, class_name, position_cm, quat)``."""
+    allowed = "(id, class_name, position_cm (x, y, z), quat (w, x, y, z))"
+    if isinstance(item, TwinBody):
+        fields: tuple[Any, ...] = (item.id, item.class_name, item.position_cm, item.quat)
+    elif isinstance(item, (tuple, list)) and len(item) == 4:
+        fields = tuple(item)
+    else:
+        raise ViewInputError("objects[...]", item, allowed)
+    obj_id = _object_id(fields[0])
+    class_name = fields[1]
+    if class_name not in classes:
+        raise ViewInputError(
+            f"class of {obj_id}", class_name, f"one of task.classes: {', '.join(classes)}"
+        )
+    pos = _finite_array(fields[2], f"position of {obj_id}", "3 finite numbers [cm]")
+    if pos.shape != (3,):
+        raise ViewInputError(f"position of {obj_id}", fields[2], "3 finite numbers [cm]")
+    quat = _finite_array(fields[3], f"orientation of {obj_id}", "a quaternion (w, x, y, z)")
+    norm = float(np.linalg.norm(quat)) if quat.shape == (4,) else 0.0
+    if norm < 1e-9:
+        raise ViewInputError(f"orientation of {obj_id}", fields[3], "a quaternion (w, x, y, z)")
+    quat = quat / norm
+    return TwinBody(
+        obj_id,
+        str(class_name),
+        (float(pos[0]), float(pos[1]), float(pos[2])),
+        (float(quat[0]), float(quat[1]), float(quat[2]), float(quat[3])),
+    )
 
 
 def _png(bgra: np.ndarray) -> bytes:
@@ -199,6 +254,12 @@ class ArmView:
         joints: The chain's joints drawn now, model units, (n,).
         opening_cm: The gripper opening drawn now [cm].
 
+    Two sources draw the objects: :meth:`set_objects` (what the camera detected, as
+    cylinders standing on the table) and :meth:`show_bodies` (the physical twin's
+    bodies, anywhere in space). Once the twin's bodies are shown they are the objects
+    drawn; detections are still recorded (:attr:`objects`) but no longer drawn, so one
+    object is never drawn twice, nor where the physics no longer has it.
+
     Raises:
         ViewPortError: ``port`` is in use.
         ViewError: The server did not start.
@@ -224,6 +285,8 @@ class ArmView:
             self.viewer = meshcat.Visualizer(window=self._window)
             self.url: str = self._server.web_url
             self._objects: dict[str, ViewObject] = {}
+            self._bodies: dict[str, TwinBody] = {}
+            self._twin_shown = False
             self._paths: list[str] = []
             self._target_shown = False
             self.frame_plane: FramePlane | None = None
@@ -381,7 +444,7 @@ class ArmView:
 
     @property
     def objects(self) -> dict[str, ViewObject]:
-        """The objects drawn now, by id."""
+        """The objects last set by :meth:`set_objects`, by id (drawn unless the twin is)."""
         return dict(self._objects)
 
     def set_objects(self, objects: Iterable[Any]) -> None:
@@ -389,6 +452,8 @@ class ArmView:
 
         New ids are added, moved or reclassed ones updated, missing ones deleted. Each is
         a cylinder of its class's ``diameter_cm`` and ``height_cm`` in its ``draw_rgb``.
+        Once the twin's bodies are shown (:meth:`show_bodies`) the objects are only
+        recorded, not drawn.
 
         Args:
             objects: ``(id, class_name, x_cm, y_cm)`` tuples (or objects with an ``id``,
@@ -407,6 +472,9 @@ class ArmView:
             if obj.id in wanted:
                 raise ViewInputError("objects", obj.id, "each id at most once")
             wanted[obj.id] = obj
+        if self._twin_shown:  # the twin's bodies are drawn instead (see show_bodies)
+            self._objects = wanted
+            return
         for obj_id in [i for i in self._objects if i not in wanted]:
             self.viewer[f"objects/{obj_id}"].delete()
             del self._objects[obj_id]
@@ -417,16 +485,78 @@ class ArmView:
             node = self.viewer[f"objects/{obj.id}"]
             cls = self._classes[obj.class_name]
             if old is None or old.class_name != obj.class_name:
-                geometry = mg.Cylinder(
-                    cls.height_cm * M_PER_CM, radius=cls.diameter_cm / 2 * M_PER_CM
-                )
-                node.set_object(geometry, mg.MeshLambertMaterial(color=rgb_int(cls.draw_rgb)))
+                node.set_object(*self._cylinder(cls))
             # three.js cylinders stand along y: turn them to stand along z
             pose = tf.translation_matrix(
                 np.array([obj.x_cm, obj.y_cm, cls.height_cm / 2]) * M_PER_CM
             ) @ tf.rotation_matrix(math.pi / 2, [1, 0, 0])
             node.set_transform(pose)
             self._objects[obj.id] = obj
+
+    @property
+    def twin_shown(self) -> bool:
+        """Whether the twin's bodies are drawn (:meth:`show_bodies` was called)."""
+        return self._twin_shown
+
+    @property
+    def bodies(self) -> dict[str, TwinBody]:
+        """The twin's objects drawn now, by id (empty until :meth:`show_bodies`)."""
+        return dict(self._bodies)
+
+    def show_bodies(self, q: npt.ArrayLike, opening_cm: float, objects: Iterable[Any]) -> None:
+        """Draw the world as the physical twin has it: the arm, its jaws and every object.
+
+        The objects are drawn under ``twin/objects/<id>``, exactly these (ids no longer
+        listed are removed; only those that moved are sent again); the detections of
+        :meth:`set_objects` are removed from the scene and no longer drawn.
+
+        Args:
+            q: The arm's joints, as :meth:`show_joints` takes them (measured ones).
+            opening_cm: The jaws' opening [cm] (measured).
+            objects: ``(id, class_name, position_cm, quat)`` tuples (or
+                :class:`TwinBody`): the body's centre in the base frame [cm], (3,), and
+                its orientation (w, x, y, z), (4,); its cylinder's axis is the body's z.
+
+        Raises:
+            ViewInputError: A malformed item, an unknown class, a repeated id, bad joints
+                or opening; nothing is changed then.
+        """
+        self._check_open()
+        wanted: dict[str, TwinBody] = {}
+        for item in objects:
+            body = _twin_body(item, self._classes)
+            if body.id in wanted:
+                raise ViewInputError("objects", body.id, "each id at most once")
+            wanted[body.id] = body
+        self.show_joints(q, opening_cm)  # validates q and the opening before any change
+        if not self._twin_shown:
+            self.viewer["objects"].delete()  # the detections: the twin's bodies replace them
+            self._twin_shown = True
+        for obj_id in [i for i in self._bodies if i not in wanted]:
+            self.viewer[f"twin/objects/{obj_id}"].delete()
+            del self._bodies[obj_id]
+        for body in wanted.values():
+            old = self._bodies.get(body.id)
+            if old == body:
+                continue
+            node = self.viewer[f"twin/objects/{body.id}"]
+            cls = self._classes[body.class_name]
+            if old is None or old.class_name != body.class_name:
+                node.set_object(*self._cylinder(cls))
+            # three.js cylinders stand along y: turn them to stand along the body's z
+            pose = (
+                tf.translation_matrix(np.array(body.position_cm) * M_PER_CM)
+                @ tf.quaternion_matrix(body.quat)
+                @ tf.rotation_matrix(math.pi / 2, [1, 0, 0])
+            )
+            node.set_transform(pose)
+            self._bodies[body.id] = body
+
+    @staticmethod
+    def _cylinder(cls: ColorClass) -> tuple[mg.Geometry, mg.Material]:
+        """A class's object: a cylinder of its size in its colour (along three.js y)."""
+        geometry = mg.Cylinder(cls.height_cm * M_PER_CM, radius=cls.diameter_cm / 2 * M_PER_CM)
+        return geometry, mg.MeshLambertMaterial(color=rgb_int(cls.draw_rgb))
 
     # ------------------------------------------------------------------ camera frame
 
