@@ -15,6 +15,11 @@ Sections:
     vision: ms per 640x480 frame with 12 objects, OpenCV detector next to a plain
         NumPy/SciPy port of the same recipe (:mod:`mearm.vision.bench`) and the paper's
         0.263 s; detection accuracy on rendered scenes; calibration recovery.
+    twin: the MuJoCo physical twin's real-time factor (simulated seconds per wall
+        second) on ``configs/sim_mujoco.yaml`` and ``configs/sim_5dof_mujoco.yaml``: its
+        physics alone during a whole sort, MuJoCo's bare stepping at rest, and the whole
+        sort with the rendered camera. A sort takes seconds: at most
+        :data:`TWIN_ROUNDS` rounds.
 """
 
 from __future__ import annotations
@@ -22,14 +27,23 @@ from __future__ import annotations
 import json
 import os
 import platform
+import statistics
 import sys
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
 from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from mearm.cli import ArgumentParser, run
+
+if TYPE_CHECKING:
+    from mearm.config import Config
+
+ROOT = Path(__file__).resolve().parent.parent
 
 
 @dataclass(frozen=True)
@@ -248,6 +262,229 @@ def bench_vision(options: BenchOptions) -> list[Row]:
     rows = run_vision_bench(max(20, 10 * options.repeat))
     rows += run_vision_accuracy() + run_calibration_study()
     return [Row(**r) for r in rows]
+
+
+# --------------------------------------------------------------------------- twin
+
+#: The twin's configs, by the name the rows show.
+TWIN_CONFIGS = ("sim_mujoco", "sim_5dof_mujoco")
+#: Most rounds the twin section runs, whatever ``--repeat`` says: each is a whole sort
+#: per config (about 10 s on the paper arm).
+TWIN_ROUNDS = 3
+#: Steps of bare ``mj_step`` timed at the home keyframe per round.
+BARE_STEPS = 2000
+
+
+@dataclass
+class TwinSort:
+    """What one sort on the twin cost.
+
+    Attributes:
+        physics_s: Wall time inside the twin's physics (``TwinArm._run``) [s].
+        physics_cpu_s: The thread's CPU time in there [s]: what other processes on a
+            busy machine do not inflate.
+        sim_s: Simulated time the physics advanced [s].
+        steps: Physics steps taken.
+        timestep_s: The model's timestep [s].
+        render_s: Wall time rendering camera frames [s].
+        frames: Frames rendered.
+        sort_s: Wall time of the whole sort: opening the rig (building the model, the
+            renderer), detection, IK, physics, rendering [s].
+        sorted_text: ``"sorted N of M"``.
+    """
+
+    physics_s: float = 0.0
+    physics_cpu_s: float = 0.0
+    sim_s: float = 0.0
+    steps: int = 0
+    timestep_s: float = 0.0
+    render_s: float = 0.0
+    frames: int = 0
+    sort_s: float = 0.0
+    sorted_text: str = ""
+
+
+@contextmanager
+def _timing_twin(into: TwinSort) -> Iterator[None]:
+    """Time the twin's physics and its camera's rendering into ``into`` while open."""
+    from unittest import mock  # noqa: PLC0415
+
+    from mearm.sim.twin_bus import TwinArm  # noqa: PLC0415
+    from mearm.sim.twin_camera import TwinCamera  # noqa: PLC0415
+
+    run_physics, read_frame = TwinArm._run, TwinCamera._read
+
+    def timed_run(self: TwinArm, seconds: float) -> None:
+        t_sim, t0, c0 = self.data.time, time.perf_counter(), time.thread_time()
+        run_physics(self, seconds)
+        into.physics_s += time.perf_counter() - t0
+        into.physics_cpu_s += time.thread_time() - c0
+        into.sim_s += self.data.time - t_sim
+        into.steps += max(0, round(seconds / self.model.opt.timestep))
+        into.timestep_s = self.model.opt.timestep
+
+    def timed_read(self: TwinCamera) -> np.ndarray:
+        t0 = time.perf_counter()
+        frame = read_frame(self)
+        into.render_s += time.perf_counter() - t0
+        into.frames += 1
+        return frame
+
+    with (
+        mock.patch.object(TwinArm, "_run", timed_run),
+        mock.patch.object(TwinCamera, "_read", timed_read),
+    ):
+        yield
+
+
+def twin_sort(config: Config) -> TwinSort:
+    """One whole sort on the twin (:func:`~mearm.task.rig.run_sort`), timed."""
+    from mearm.task.rig import run_sort  # noqa: PLC0415
+
+    out = TwinSort()
+    with _timing_twin(out):
+        t0 = time.perf_counter()
+        report = run_sort(config, echo=None)
+        out.sort_s = time.perf_counter() - t0
+    out.sorted_text = f"sorted {report.outcome.n_sorted} of {report.outcome.n_seen}"
+    return out
+
+
+def bare_step_seconds(config: Config, steps: int = BARE_STEPS) -> tuple[float, float]:
+    """Wall time of ``steps`` bare ``mj_step`` at the home keyframe [s], and the timestep [s].
+
+    MuJoCo's own stepping of the whole scene: no servo model, nothing moving.
+    """
+    import mujoco  # noqa: PLC0415
+
+    from mearm.sim.twin_bus import TwinArm  # noqa: PLC0415
+
+    twin = TwinArm(config)
+    t0 = time.perf_counter()
+    mujoco.mj_step(twin.model, twin.data, nstep=steps)
+    return time.perf_counter() - t0, float(twin.model.opt.timestep)
+
+
+def twin_rows(configs: dict[str, Config], rounds: int) -> list[Row]:
+    """The twin's rows for each named config: best (and median) of ``rounds`` rounds.
+
+    Each round sorts once on every config in turn (interleaved) and times bare stepping.
+    """
+    sorts: dict[str, list[TwinSort]] = {name: [] for name in configs}
+    bare: dict[str, list[float]] = {name: [] for name in configs}
+    for _ in range(rounds):
+        for name, config in configs.items():
+            sorts[name].append(twin_sort(config))
+            seconds, dt = bare_step_seconds(config)
+            bare[name].append(BARE_STEPS * dt / seconds)
+
+    def stats(
+        values: list[float], best: Callable[[list[float]], float], unit: str
+    ) -> tuple[float, str]:
+        """The best value, and a note: ``best of 3, median 8.1×``."""
+        if len(values) == 1:
+            return values[0], "1 round"
+        return best(values), f"best of {len(values)}, median {statistics.median(values):.1f}{unit}"
+
+    rows = []
+    for name, runs in sorts.items():
+        last = runs[-1]
+        rtf, how = stats([r.sim_s / r.physics_s for r in runs], max, "×")
+        steps_s = max(r.steps / r.physics_s for r in runs)
+        dt_ms = last.timestep_s * 1e3
+        rows.append(
+            Row(
+                "twin",
+                f"physics ({name}): real-time factor",
+                rtf,
+                "×",
+                f"{dt_ms:g} ms timestep, {steps_s:,.0f} steps/s; {last.sim_s:.1f} s simulated "
+                f"in a sort, no rendering; {how}; the bar: ≥ 10×",
+            )
+        )
+        value, how = stats([r.sim_s / r.physics_cpu_s for r in runs], max, "×")
+        rows.append(
+            Row(
+                "twin",
+                f"physics ({name}): real-time factor on the CPU",
+                value,
+                "×",
+                f"simulated s per s of the thread's CPU time, which a busy machine's other "
+                f"processes do not take; {how}",
+            )
+        )
+        rows.append(
+            Row(
+                "twin",
+                f"physics ({name}): steps per second",
+                steps_s,
+                "steps/s",
+                "mj_step and the servo model (speed limit, backlash)",
+            )
+        )
+        value, how = stats(bare[name], max, "×")
+        rows.append(
+            Row(
+                "twin",
+                f"bare mj_step at rest ({name}): real-time factor",
+                value,
+                "×",
+                f"{BARE_STEPS} steps at the home keyframe, no servo model; {how}",
+            )
+        )
+        value, how = stats([r.sort_s for r in runs], min, " s")
+        rows.append(
+            Row(
+                "twin",
+                f"whole sort ({name}): wall time",
+                value,
+                "s",
+                f"{last.sim_s:.1f} s simulated, {last.frames} frames rendered, "
+                f"{last.sorted_text}; {how}",
+            )
+        )
+        value, how = stats([r.sim_s / r.sort_s for r in runs], max, "×")
+        rows.append(
+            Row(
+                "twin",
+                f"whole sort ({name}): real-time factor",
+                value,
+                "×",
+                f"with rendering, detection, IK, opening the rig; {how}",
+            )
+        )
+        render = min((r.render_s / r.frames for r in runs if r.frames), default=0.0)
+        cam = configs[name].camera
+        size = f"{cam.width_px}x{cam.height_px}, offscreen"
+        rows.append(Row("twin", f"render ({name}): per frame", render * 1e3, "ms", size))
+        best = min(runs, key=lambda r: r.sort_s)
+        rows.append(
+            Row(
+                "twin",
+                f"whole sort ({name}): physics / rendering / rest",
+                0.0,
+                "",
+                " / ".join(
+                    f"{100 * part / best.sort_s:.0f} %"
+                    for part in (
+                        best.physics_s,
+                        best.render_s,
+                        best.sort_s - best.physics_s - best.render_s,
+                    )
+                )
+                + " of the fastest sort's wall time",
+            )
+        )
+    return rows
+
+
+@section("twin")
+def bench_twin(options: BenchOptions) -> list[Row]:
+    """The MuJoCo twin's real-time factor, physics alone and in a whole sort."""
+    from mearm.config import load_config  # noqa: PLC0415
+
+    configs = {name: load_config(ROOT / "configs" / f"{name}.yaml") for name in TWIN_CONFIGS}
+    return twin_rows(configs, min(options.repeat, TWIN_ROUNDS))
 
 
 # --------------------------------------------------------------------------- main

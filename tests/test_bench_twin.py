@@ -1,0 +1,41 @@
+"""The benchmark's twin section: its rows on a one-object sort (figures are not checked)."""
+
+from __future__ import annotations
+
+import importlib.util
+import sys
+
+from conftest import ROOT
+
+from mearm.config import load_config
+
+
+def _bench():
+    """tools/bench.py as a module (registered first, as ``mearm bench`` does)."""
+    spec = importlib.util.spec_from_file_location("bench_for_test", ROOT / "tools" / "bench.py")
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_twin_section_reports_physics_and_whole_sort():
+    """One round on the 5-DOF twin with one object: the section's rows, with positive
+    figures and the simulated time the sort covered in the notes."""
+    bench = _bench()
+    assert "twin" in bench.SECTIONS
+    config = load_config(
+        ROOT / "configs" / "sim_5dof_mujoco.yaml",
+        ["task.scene=[{color: red, x: 2.0, y: 22.0}]"],
+    )
+    rows = bench.twin_rows({"one": config}, rounds=1)
+    by_name = {r.name: r for r in rows}
+    assert all(r.section == "twin" for r in rows)
+    physics = by_name["physics (one): real-time factor"]
+    assert physics.value > 0 and physics.unit == "×"
+    assert "ms timestep" in physics.note and "s simulated" in physics.note
+    sort = by_name["whole sort (one): wall time"]
+    assert sort.value > 0 and "sorted 1 of 1" in sort.note
+    assert by_name["render (one): per frame"].value > 0
+    assert by_name["bare mj_step at rest (one): real-time factor"].value > 0
