@@ -28,7 +28,7 @@ from mearm.sim.mjcf import (
 )
 from mearm.task.plan import Planner
 
-CONFIGS = ("sim.yaml", "sim_mearm_v1.yaml", "sim_5dof.yaml")
+CONFIGS = ("sim.yaml", "sim_mujoco.yaml", "sim_mearm_v1.yaml", "sim_5dof.yaml")
 HOLD_S = 2.0
 
 
@@ -232,18 +232,60 @@ def test_jaw_pads_centre_on_the_grip_point(twin):
                 assert reach <= tip + 1e-9, (n, reach, tip)
 
 
+def _home_tool(m: mujoco.MjModel, config: Config) -> tuple[mujoco.MjData, np.ndarray]:
+    """The twin at its home keyframe and the approach axis there, unit, (3,)."""
+    d = mujoco.MjData(m)
+    mujoco.mj_resetDataKeyframe(m, d, m.key("home").id)
+    mujoco.mj_forward(m, d)
+    approach = d.site("tcp").xmat.reshape(3, 3) @ np.asarray(config.arm.tool.approach_axis)
+    return d, approach / np.linalg.norm(approach)
+
+
+def test_jaws_open_level_at_home(twin):
+    """The jaws open across the approach axis along a level line with the arm at home: they
+    close on objects standing on the table, so a claw pointing forward (sim.yaml's axis,
+    the MeArm's) opens sideways, not up and down."""
+    config, _, m = twin
+    d, approach = _home_tool(m, config)
+    left, right = (d.xaxis[m.joint(j).id] for j in jaw_joint_names(config.arm))
+    for axis in (left, right):
+        assert abs(axis[2]) < 1e-9 and abs(axis @ approach) < 1e-9
+    np.testing.assert_allclose(right, -left, atol=1e-12)
+
+
+def test_gripper_servo_lies_behind_the_jaws_shaft_along_the_approach(twin):
+    """The gripper's servo case: shaft (its height) along the approach axis, its long side
+    along the jaws' opening axis, wholly behind the TCP and the jaws' roots."""
+    config, _, m = twin
+    g = config.arm.tool.gripper
+    d, approach = _home_tool(m, config)
+    name = f"{g.name}_servo"
+    R = d.geom(name).xmat.reshape(3, 3)
+    length, _, high = (2 * s for s in m.geom(name).size)
+    assert (length, high) == pytest.approx((SG90.size_m[0], SG90.size_m[2]))
+    np.testing.assert_allclose(R[:, 2], approach, atol=1e-9)
+    opening = d.xaxis[m.joint(jaw_joint_names(config.arm)[0]).id]
+    assert abs(R[:, 0] @ opening) == pytest.approx(1.0, abs=1e-9)
+    pad = pad_length_m(config)
+    root = config.arm.tool.tcp_above_grip_cm * M_PER_CM + pad / 2 - g.jaw_length_cm * M_PER_CM
+    front = float((d.geom(name).xpos - d.site("tcp").xpos) @ approach) + high / 2
+    assert front == pytest.approx(min(0.0, root), abs=1e-9)
+
+
 def test_a_planned_pick_puts_the_grip_point_at_the_grip_height(twin):
     """Where the planner sends the TCP to pick, the twin's grip point is at the class's
-    grip height over the object (an arm that picks along pick_approach)."""
+    grip height over the object (an arm whose jaws point down when it picks: along
+    pick_approach, or held down by the arm's structure, as the paper arm's levelled wrist
+    holds sim_mujoco.yaml's)."""
     config, _, m = twin
-    if config.arm.tool.pick_approach is None:
-        pytest.skip("position-only pick: the gripper arm sets the jaws' direction")
     model = ArmModel(config.arm)
     planner = Planner(config, model)
     obj = config.task.scene[0]
     cls = config.task.class_named(obj.color)
     result = planner.solver.solve(model.home, planner.pick_target(cls, obj.x, obj.y))
     assert result.converged
+    if model.approach(result.q) @ np.array([0.0, 0.0, -1.0]) < np.cos(np.radians(1)):
+        pytest.skip("the jaws do not point down at the pick (the paper's sideways tool axis)")
     d = mujoco.MjData(m)
     _set_arm(m, d, config, result.q)
     grip = d.site("grip").xpos / M_PER_CM

@@ -373,14 +373,16 @@ def test_show_joints_places_the_urdf_geometry(view: ArmView, model: ArmModel):
 
 
 def test_jaws_open_and_close(view: ArmView, model: ArmModel):
-    """The opening moves the jaws apart by it, along one axis; None keeps the last one."""
+    """The opening moves the jaws' inner faces apart by it, along one axis."""
     left, right = (f"/meshcat/arm/visuals/link_{n}_0" for n in jaw_joint_names(model.arm))
     gaps = {}
     for opening in (1.0, 3.0):
         view.show_joints(model.home, opening)
         tree = scene(view)
         gaps[opening] = tree[left]["transform"][:3, 3] - tree[right]["transform"][:3, 3]
-        assert np.linalg.norm(gaps[opening]) == pytest.approx(opening / 100)
+        # the jaws' inner faces are the opening apart, so their centres one thickness more
+        thick = model.arm.tool.gripper.jaw_thickness_cm
+        assert np.linalg.norm(gaps[opening]) == pytest.approx((opening + thick) / 100)
         assert_arm_drawn_at(view, model.home, opening)
     assert np.cross(gaps[1.0], gaps[3.0]) == pytest.approx(np.zeros(3), abs=1e-12)
     view.show_joints(model.home)

@@ -273,10 +273,15 @@ class Gripper(Strict):
     closed_cm: NonNegativeLength
     """Opening when closed on nothing [cm]."""
     jaw_length_cm: float = Field(default=3.0, ge=MIN_JAW_CM, le=MAX_LENGTH_CM, allow_inf_nan=False)
-    """How far the jaws reach beyond the TCP frame's origin along the approach axis [cm]."""
+    """A jaw's length along the approach axis, measured from its root to its tip [cm]. The
+    jaws sit where they grip: each ends in a pad centred on the grip point
+    (``tcp_above_grip_cm`` beyond the TCP), so the tip is half a pad beyond it and the
+    root this much before the tip; a mount bridges the TCP to the roots when they start
+    beyond it."""
     jaw_thickness_cm: float = Field(
         default=0.5, ge=MIN_JAW_CM, le=MAX_LENGTH_CM, allow_inf_nan=False
     )
+    """A jaw's thickness along the opening axis; its inner face is at half the opening [cm]."""
 
     @model_validator(mode="after")
     def _settings(self) -> Gripper:

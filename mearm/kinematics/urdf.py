@@ -10,6 +10,15 @@ so the coupling (an affine function of several) is recorded in a comment beside 
 form a reader can parse (``mearm:coupling``); the solvers impose it. The gripper's two
 jaws are real prismatic joints on the ``tcp`` link, the second a ``mimic`` of the first.
 Lengths are written in metres and angles in radians, as URDF requires.
+
+The jaws are drawn where the physical twin (:mod:`mearm.sim.mjcf`) has them, where the
+grasp happens: along the tool's approach axis the grip point is ``tcp_above_grip_cm``
+beyond the TCP; a jaw, ``jaw_length_cm`` long from root to tip, ends in a pad
+(:func:`jaw_pad_length_m` long) centred on the grip point, so its tip is half a pad
+beyond the grip point and its root ``jaw_length_cm`` before the tip
+(:func:`jaw_span_m`). Its inner face is on the jaw joint's position, so the faces are the
+opening apart. A plate on the ``tcp`` link bridges the TCP to the roots when they start
+beyond it.
 """
 
 from __future__ import annotations
@@ -18,7 +27,9 @@ import math
 
 import numpy as np
 
-from mearm.config import ArmDescription, Joint
+from mearm.config import ArmDescription, Gripper, Joint, Tool
+from mearm.kinematics.chain import Chain
+from mearm.kinematics.dh import dh_tcp_frame
 
 CM = 0.01  # metres per centimetre
 
@@ -36,6 +47,12 @@ _COLORS = {
 
 #: Name of the tool-centre-point frame every model has.
 TCP_FRAME = "tcp"
+
+#: A jaw pad's length along the approach axis, at most the jaw's (estimate: the rubber
+#: pads of hobby grippers are about 1 cm; 8 mm keeps the tips of pads closing on a 1 cm
+#: object at half its height 1 mm off the table) [m]. The URDF and the twin's MJCF both
+#: place the jaws by it.
+JAW_PAD_LENGTH_M = 0.008
 
 
 def _f(x: float) -> str:
@@ -112,14 +129,57 @@ def _coupling_text(joint: Joint) -> str:
     return f"{joint.name} = {terms} + {joint.coupling.offset!r}"
 
 
-def _opening_axis(approach: np.ndarray) -> np.ndarray:
-    """A unit axis across the approach axis, along which the jaws open."""
+def jaw_frame(arm: ArmDescription) -> np.ndarray:
+    """The jaws' axes in the TCP frame, unit columns (3, 3).
+
+    The columns are the approach axis, the axis across it the left jaw opens along, and
+    their cross product. The jaws close on objects standing on the table, so they open
+    along a line that is level with the arm at home (a claw pointing forward and level
+    opens sideways, not up and down); with the approach axis vertical at home every axis
+    across it is level, and the first of the TCP frame's y and x made perpendicular to
+    the approach axis is taken. The physical twin (:mod:`mearm.sim.mjcf`) uses the same.
+    """
+    approach = np.asarray(arm.tool.approach_axis, dtype=float)
+    approach = approach / np.linalg.norm(approach)
     for trial in (np.array([0.0, 1.0, 0.0]), np.array([1.0, 0.0, 0.0])):
         v = np.cross(approach, trial)
         if np.linalg.norm(v) > 1e-6:
-            axis = np.cross(v, approach)
-            return axis / np.linalg.norm(axis)
-    raise AssertionError("unreachable: two trial axes cannot both be parallel")
+            across = np.cross(v, approach)
+            across /= np.linalg.norm(across)
+            break
+    else:  # pragma: no cover - two trial axes cannot both be parallel
+        raise AssertionError("unreachable: two trial axes cannot both be parallel")
+    R = dh_tcp_frame(arm, Chain.from_description(arm).home)[:3, :3]
+    up = R.T @ np.array([0.0, 0.0, 1.0])  # the vertical in the TCP frame at home
+    level = np.cross(approach, up)
+    if abs(float(across @ up)) > 1e-6 and np.linalg.norm(level) > 1e-6:
+        across = level / np.linalg.norm(level)
+    return np.column_stack([approach, across, np.cross(approach, across)])
+
+
+def jaw_pad_length_m(gripper: Gripper) -> float:
+    """A jaw pad's length along the approach axis: :data:`JAW_PAD_LENGTH_M` or the jaw's [m]."""
+    return min(JAW_PAD_LENGTH_M, gripper.jaw_length_cm * CM)
+
+
+def jaw_span_m(tool: Tool) -> tuple[float, float]:
+    """Where a jaw's root and tip are along the approach axis, from the TCP [m].
+
+    The pad is centred on the grip point (``tcp_above_grip_cm`` beyond the TCP), so the
+    tip is half a pad beyond it and the root ``jaw_length_cm`` before the tip.
+    """
+    tip = tool.tcp_above_grip_cm * CM + jaw_pad_length_m(tool.gripper) / 2
+    return tip - tool.gripper.jaw_length_cm * CM, tip
+
+
+def _rpy_of(R: np.ndarray) -> str:
+    """URDF's fixed-axis roll, pitch, yaw of rotation ``R`` (= Rz(y)·Ry(p)·Rx(r))."""
+    pitch = math.atan2(-R[2, 0], math.hypot(R[0, 0], R[1, 0]))
+    if math.hypot(R[0, 0], R[1, 0]) > 1e-9:
+        roll, yaw = math.atan2(R[2, 1], R[2, 2]), math.atan2(R[1, 0], R[0, 0])
+    else:  # pitch ±90°: only yaw ∓ roll is defined; take roll 0
+        roll, yaw = 0.0, math.atan2(-R[0, 1], R[1, 1])
+    return _xyz((roll, pitch, yaw))
 
 
 def jaw_joint_names(arm: ArmDescription) -> tuple[str, str]:
@@ -199,6 +259,7 @@ def generate_urdf(arm: ArmDescription) -> str:
         "  </joint>\n"
     )
     parts.append(f'  <link name="{TCP_FRAME}">\n')
+    parts.append(_mount(arm, width))
     parts.append(_inertial(0.02, "0 0 0"))
     parts.append("  </link>\n")
     parts.append(_jaws(arm, width))
@@ -207,22 +268,25 @@ def generate_urdf(arm: ArmDescription) -> str:
 
 
 def _jaws(arm: ArmDescription, width_m: float) -> str:
-    """The gripper's two jaws: prismatic joints on the tcp link, the right one a mimic."""
+    """The gripper's two jaws: prismatic joints on the tcp link, the right one a mimic.
+
+    Each jaw is a plate ``jaw_thickness_cm`` thick and ``width_m`` wide spanning
+    :func:`jaw_span_m` along the approach axis, its inner face on the joint's position
+    (the twin's pad and finger together); the joints, axes and limits do not depend on
+    where the plates are.
+    """
     g = arm.tool.gripper
-    approach = np.asarray(arm.tool.approach_axis, dtype=float)
-    approach /= np.linalg.norm(approach)
-    across = _opening_axis(approach)
+    R = jaw_frame(arm)
+    approach, across = R[:, 0], R[:, 1]
     half_open = g.servo.value_range()[1] / 2 * CM
-    length, thick = g.jaw_length_cm * CM, g.jaw_thickness_cm * CM
-    # a jaw: a plate reaching `length` along the approach axis from the tcp origin
-    centre = approach * length / 2
-    size = np.abs(approach) * length + np.abs(across) * thick
-    size += (1 - np.abs(approach) - np.abs(across)).clip(0) * width_m
-    size = np.maximum(size, thick)
+    thick = g.jaw_thickness_cm * CM
+    root, tip = jaw_span_m(arm.tool)
+    size = _xyz((tip - root, thick, width_m))
     out = ""
     left, right = jaw_joint_names(arm)
     for name, sign in ((left, 1.0), (right, -1.0)):
         mimic = f'    <mimic joint="{left}" multiplier="1" offset="0"/>\n' if sign < 0 else ""
+        centre = _xyz(approach * (root + tip) / 2 + across * sign * thick / 2)
         out += (
             f'  <joint name="{name}" type="prismatic">\n'
             f'    <parent link="{TCP_FRAME}"/>\n    <child link="link_{name}"/>\n'
@@ -232,8 +296,21 @@ def _jaws(arm: ArmDescription, width_m: float) -> str:
             f'velocity="{_f(0.1)}"/>\n'
             f"{mimic}  </joint>\n"
             f'  <link name="link_{name}">\n'
-            + _visual(f'<box size="{_xyz(size)}"/>', _xyz(centre), "0 0 0", "gripper")
-            + _inertial(0.01, _xyz(centre))
+            + _visual(f'<box size="{size}"/>', centre, _rpy_of(R), "gripper")
+            + _inertial(0.01, centre)
             + "  </link>\n"
         )
     return out
+
+
+def _mount(arm: ArmDescription, width_m: float) -> str:
+    """The tcp link's plate from the TCP to the jaws' roots.
+
+    Empty when the roots start at or before the TCP.
+    """
+    R = jaw_frame(arm)
+    root, _ = jaw_span_m(arm.tool)
+    if root <= 1e-9:
+        return ""
+    box = f'<box size="{_xyz((root, arm.tool.gripper.jaw_thickness_cm * CM, width_m))}"/>'
+    return _visual(box, _xyz(R[:, 0] * root / 2), _rpy_of(R), "gripper")

@@ -14,14 +14,19 @@ A body ``tcp`` with a site ``tcp`` sits at the tool centre point; the gripper's 
 the height where the jaws are to close (:meth:`~mearm.task.plan.Planner.pick_target`),
 the tool's approach axis :math:`\hat a` pointing down when it picks from above. So the
 *grip point*, where the pads close on an object, is :math:`p_{tcp} + h\,\hat a` with
-:math:`h` = ``tcp_above_grip_cm`` (a site ``grip``). Each jaw is a plate
-``jaw_thickness_cm`` thick whose inner face is the jaw joint's position; along
+:math:`h` = ``tcp_above_grip_cm`` (a site ``grip``). The jaws open along an axis
+across :math:`\hat a` that is level with the arm at home, since they close on objects
+standing on the table (a claw pointing forward and level opens sideways, not up and
+down); when :math:`\hat a` is vertical at home every axis across it is level, and the
+first of the TCP frame's y and x made perpendicular to :math:`\hat a` is taken. Each jaw
+is a plate ``jaw_thickness_cm`` thick whose inner face is the jaw joint's position; along
 :math:`\hat a` it is ``jaw_length_cm`` long and ends in a pad (geom ``<jaw>_pad``,
 :func:`pad_length_m` long) centred on the grip point, so the tips reach
 :math:`h + \ell_{pad}/2` beyond the TCP and no further; the rest of the jaw (geom
 ``<jaw>_finger``) runs back from the pad toward the wrist, and a plate ``<gripper>_mount``
 bridges the TCP to the jaws' roots when they start beyond it. The gripper's servo sits
-behind both the TCP and the jaws' roots; the last DH row's plates, which run to the DH
+behind both the TCP and the jaws' roots, its shaft along :math:`\hat a` and its case's
+long side along the opening axis; the last DH row's plates, which run to the DH
 end between the jaws, are drawn but do not collide. The pads have
 :data:`PAD_SOLREF`/:data:`PAD_SOLIMP` and ``priority`` 1, so their contact with an
 object is theirs alone (not mixed with the object's softer default): a closed jaw sinks
@@ -93,7 +98,7 @@ from mearm.config import Config, Joint
 from mearm.exceptions import ModelError
 from mearm.fileio import write_atomic
 from mearm.kinematics.chain import Chain
-from mearm.kinematics.urdf import TCP_FRAME, jaw_joint_names
+from mearm.kinematics.urdf import TCP_FRAME, jaw_frame, jaw_joint_names, jaw_pad_length_m
 
 M_PER_CM = 0.01
 G = 9.81  # m/s²
@@ -250,10 +255,6 @@ TIMESTEP_S = 0.001
 COUPLING_SOLREF = (0.002, 1.0)
 COUPLING_SOLIMP = (0.99, 0.999, 0.001, 0.5, 2.0)
 
-#: A jaw pad's length along the approach axis, at most the jaw's (estimate: the rubber
-#: pads of hobby grippers are about 1 cm; 8 mm keeps the tips of pads closing on a 1 cm
-#: object at half its height 1 mm off the table) [m].
-JAW_PAD_LENGTH_M = 0.008
 #: The pads' contact: a 4 ms time constant (four time steps: at two, the stiffest MuJoCo
 #: nominally keeps stable, a squeezed object diverged in one of ten random twin sorts),
 #: critically damped, impedance 0.99–0.999 over 0.5 mm of penetration. Under an SG90's
@@ -313,8 +314,8 @@ def save_mjcf(config: Config, path: str | Path) -> Path:
 
 
 def pad_length_m(config: Config) -> float:
-    """A jaw pad's length along the approach axis: :data:`JAW_PAD_LENGTH_M` or the jaw's [m]."""
-    return min(JAW_PAD_LENGTH_M, config.arm.tool.gripper.jaw_length_cm * M_PER_CM)
+    """A jaw pad's length: :func:`~mearm.kinematics.urdf.jaw_pad_length_m` of the gripper [m]."""
+    return jaw_pad_length_m(config.arm.tool.gripper)
 
 
 def recorded_servo(model: mujoco.MjModel, text: str) -> str | None:
@@ -573,16 +574,14 @@ def _servo_box(
     )
 
 
-def _frame(axis: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The approach axis, an opening axis across it and the third, unit, each (3,)."""
-    approach = axis / np.linalg.norm(axis)
-    for trial in (np.array([0.0, 1.0, 0.0]), np.array([1.0, 0.0, 0.0])):
-        v = np.cross(approach, trial)
-        if np.linalg.norm(v) > 1e-6:
-            across = np.cross(v, approach)
-            across /= np.linalg.norm(across)
-            return approach, across, np.cross(approach, across)
-    raise AssertionError("unreachable: two trial axes cannot both be parallel")
+def _jaw_frame(config: Config) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The approach axis, the jaws' opening axis and the third, in the TCP frame, unit, (3,).
+
+    The URDF's (:func:`~mearm.kinematics.urdf.jaw_frame`): the jaws open along a line
+    level with the arm at home.
+    """
+    R = jaw_frame(config.arm)
+    return R[:, 0], R[:, 1], R[:, 2]
 
 
 def _build(
@@ -795,7 +794,7 @@ def _tool(
     """
     arm = config.arm
     g = arm.tool.gripper
-    approach, across, third = _frame(np.asarray(arm.tool.approach_axis, dtype=float))
+    approach, across, third = _jaw_frame(config)
     grip = arm.tool.tcp_above_grip_cm * M_PER_CM
     ET.SubElement(
         tcp, "site", name="grip", pos=_v(approach * grip), size="0.003", rgba="0 1 1 1", group="4"
@@ -804,7 +803,9 @@ def _tool(
     pad = pad_length_m(config)
     tip = grip + pad / 2
     root = tip - length
-    R = np.column_stack([third, across, approach])  # servo shaft along the approach axis
+    # the case: long side along the opening axis, shaft along the approach axis (a rotation:
+    # third = approach × across)
+    R = np.column_stack([across, third, approach])
     behind = approach * (min(0.0, root) - gripper_spec.size_m[2] / 2)  # behind TCP and jaws
     _servo_box(tcp, f"{g.name}_servo", gripper_spec, behind, R)
     for k, act in enumerate(arm.tool.actuators):
