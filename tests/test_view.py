@@ -9,7 +9,6 @@ config's arm (any number of joints, the jaws as joints) is drawn and rendered to
 
 from __future__ import annotations
 
-import base64
 import importlib.util
 import os
 import re
@@ -23,8 +22,8 @@ import cv2
 import numpy as np
 import pinocchio as pin
 import pytest
-import umsgpack
 from conftest import REFERENCE_CONFIGS, ROOT, run_cli
+from viewscene import scene
 
 from mearm.cli import run
 from mearm.config import Config, load_config
@@ -61,26 +60,6 @@ W, H = 960, 600  # screenshot size [px]
 def view(model: ArmModel):
     with ArmView(model, CONFIG) as v:
         yield v
-
-
-def scene(view: ArmView) -> dict[str, dict]:
-    """The server's scene tree, as a browser connecting now would receive it.
-
-    Returns ``{path: {"object": …, "transform": 4x4 array, …}}`` decoded from the
-    commands the server replays (meshcat's ``get_scene``).
-    """
-    html = view.viewer.static_html()
-    out: dict[str, dict] = {}
-    for blob in re.findall(r"data:application/octet-binary;base64,([A-Za-z0-9+/=]+)", html):
-        cmd = umsgpack.unpackb(base64.b64decode(blob))
-        node = out.setdefault(cmd["path"], {})
-        if cmd["type"] == "set_object":
-            node["object"] = cmd["object"]
-        elif cmd["type"] == "set_transform":
-            node["transform"] = np.array(cmd["matrix"], dtype=float).reshape(4, 4).T
-        elif cmd["type"] == "set_property":
-            node.setdefault("properties", {})[cmd["property"]] = cmd["value"]
-    return out
 
 
 def drawn(view: ArmView, prefix: str) -> set[str]:

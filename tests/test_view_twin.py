@@ -7,7 +7,6 @@ recording what it draws at every push next to what the twin measures at that ins
 
 from __future__ import annotations
 
-import base64
 import os
 import re
 from dataclasses import dataclass
@@ -16,8 +15,8 @@ from typing import Any
 import cv2
 import numpy as np
 import pytest
-import umsgpack
 from conftest import ROOT
+from viewscene import scene
 
 from mearm.config import Config, SceneObject, load_config
 from mearm.exceptions import BrowserNotFoundError, ViewInputError
@@ -78,20 +77,6 @@ class RecordingView(ArmView):
             self.on_push(self, self.pushes[-1])
 
 
-def scene_tree(view: ArmView) -> dict[str, dict]:
-    """The server's scene as a browser connecting now receives it: path -> object, transform."""
-    out: dict[str, dict] = {}
-    html = view.viewer.static_html()
-    for blob in re.findall(r"data:application/octet-binary;base64,([A-Za-z0-9+/=]+)", html):
-        cmd = umsgpack.unpackb(base64.b64decode(blob))
-        node = out.setdefault(cmd["path"], {})
-        if cmd["type"] == "set_object":
-            node["object"] = cmd["object"]
-        elif cmd["type"] == "set_transform":
-            node["transform"] = np.array(cmd["matrix"], dtype=float).reshape(4, 4).T
-    return out
-
-
 def sort_on_the_twin(on_push: Any = None) -> tuple[RecordingView, dict[str, Any], Any]:
     """Sort SCENE on the twin with a recording view; its state and the twin's at the end."""
     with open_rig(TWIN, SCENE) as rig:
@@ -103,7 +88,7 @@ def sort_on_the_twin(on_push: Any = None) -> tuple[RecordingView, dict[str, Any]
                 "report": report,
                 "final": final,
                 "in_bin": rig.bus.objects_in_bin(),
-                "tree": scene_tree(view),
+                "tree": scene(view),
                 "bodies": view.bodies,
             }
     return view, end, rig
@@ -254,7 +239,7 @@ def test_without_the_twin_the_view_shows_the_commanded_joints():
             np.testing.assert_allclose(view.joints, q)
             view.set_objects([("red1", "red", -0.4, 42.0)])
             assert not view.twin_shown and view.bodies == {}
-            assert "/meshcat/objects/red1" in scene_tree(view)
+            assert "/meshcat/objects/red1" in scene(view)
 
 
 def test_twin_executor_pushes_at_most_every_nth_move_and_always_at_route_ends():
@@ -296,7 +281,7 @@ def test_show_bodies_refuses_bad_input_and_changes_nothing(model):
         with pytest.raises(ViewInputError):
             view.show_bodies([np.nan] * model.chain.n, 4.0, [good])
         assert not view.twin_shown and view.bodies == {}
-        assert "/meshcat/objects/red1" in scene_tree(view)
+        assert "/meshcat/objects/red1" in scene(view)
 
         # a tilted body, its quaternion normalised; the detections no longer drawn
         half = np.radians(30)
@@ -305,7 +290,7 @@ def test_show_bodies_refuses_bad_input_and_changes_nothing(model):
         assert view.twin_shown and view.opening_cm == 2.5
         body = view.bodies["red1"]
         np.testing.assert_allclose(body.quat, [np.cos(half), np.sin(half), 0, 0])
-        tree = scene_tree(view)
+        tree = scene(view)
         assert "object" not in tree.get("/meshcat/objects/red1", {})
         pose = tree["/meshcat/twin/objects/red1"]["transform"]
         np.testing.assert_allclose(pose[:3, 3], [0.01, 0.40, 0.03])
@@ -317,7 +302,7 @@ def test_show_bodies_refuses_bad_input_and_changes_nothing(model):
         view.set_objects([("green1", "green", 5.0, 45.0)])
         assert set(view.objects) == {"green1"}
         view.show_bodies(model.home, 2.5, [TwinBody("blue1", "blue", (0, 50, 0.5), (1, 0, 0, 0))])
-        tree = scene_tree(view)
+        tree = scene(view)
         assert set(view.bodies) == {"blue1"}
         assert "object" not in tree.get("/meshcat/twin/objects/red1", {})
         assert "object" not in tree.get("/meshcat/objects/green1", {})
