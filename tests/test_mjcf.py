@@ -7,6 +7,7 @@ import math
 import mujoco
 import numpy as np
 import pytest
+from badinput import check_bad_input
 from conftest import ROOT
 
 from mearm.config import Config, SceneObject, load_config
@@ -25,6 +26,7 @@ from mearm.sim.mjcf import (
     pad_length_m,
     recorded_servo,
     save_mjcf,
+    servo_named,
 )
 from mearm.task.plan import Planner
 
@@ -318,6 +320,31 @@ def test_explicit_servo_is_used(config):
     xml = generate_mjcf(config, servo=SG90)
     assert "Joint servos: SG90" in xml
     assert recorded_servo(mujoco.MjModel.from_xml_string(xml), JOINT_SERVO_TEXT) == "SG90"
+
+
+@pytest.mark.parametrize(
+    ("name", "joint", "gripper"),
+    [("sim_mearm_v1_mujoco", "SG90", "SG90"), ("sim_mujoco", "RDS3135", "SG90")],
+)
+def test_the_config_names_the_servos(name, joint, gripper):
+    """``twin.joint_servo`` / ``twin.gripper_servo`` pick the catalogue models, whose
+    datasheet figures (stall torque) become the actuators' force limits."""
+    config = load_config(ROOT / "configs" / f"{name}.yaml")
+    m = mujoco.MjModel.from_xml_string(generate_mjcf(config))
+    assert recorded_servo(m, JOINT_SERVO_TEXT) == joint
+    assert recorded_servo(m, GRIPPER_SERVO_TEXT) == gripper
+    stall = servo_named(joint).stall_torque_nm
+    base = config.arm.actuated_joints()[0].name
+    assert m.actuator(base).forcerange[1] == pytest.approx(stall)
+    other = load_config(ROOT / "configs" / f"{name}.yaml", ["twin.joint_servo=MG996R"])
+    m2 = mujoco.MjModel.from_xml_string(generate_mjcf(other))
+    assert recorded_servo(m2, JOINT_SERVO_TEXT) == "MG996R"
+
+
+@pytest.mark.bad_input
+def test_an_unknown_servo_model_is_refused():
+    out = check_bad_input(["sort", "--set", "twin.joint_servo=SG9O"])
+    assert "twin.joint_servo" in out.line and "SG90, MG90S, MG996R, RDS3135" in out.line
 
 
 # --------------------------------------------------------------------------- errors

@@ -51,7 +51,7 @@ from mearm.config.rig import (
     TaskConfig,
     VisionConfig,
 )
-from mearm.config.root import Config
+from mearm.config.root import Config, TwinConfig
 
 __all__ = [
     "Angle",
@@ -83,6 +83,7 @@ __all__ = [
     "Strict",
     "TargetBox",
     "TaskConfig",
+    "TwinConfig",
     "Tool",
     "ToolActuator",
     "VisionConfig",

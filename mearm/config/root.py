@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Literal
 
-from pydantic import Field, model_validator
+from pydantic import Field, field_validator, model_validator
 
 from mearm.config.arm import ArmDescription
 from mearm.config.base import MAX_LENGTH_CM, Strict
@@ -17,11 +17,33 @@ from mearm.config.rig import (
     TaskConfig,
     VisionConfig,
 )
+from mearm.config.servo_models import SERVO_NAMES
 
 #: A projective calibration may shrink the far side of the frame, but no pixel's w (its
 #: inverse depth) may be under this fraction of another's: 20:1 is a camera looking
 #: almost along the table.
 MIN_W_RATIO = 0.05
+
+
+class TwinConfig(Strict):
+    """The servo models the physical twin gives the arm (:mod:`mearm.config.servo_models`).
+
+    Each name is a catalogue model whose datasheet facts (mass, stall torque, speed, dead
+    band, size) and their source the catalogue holds.
+    """
+
+    joint_servo: str | None = None
+    """Every actuated joint's servo; ``null``: the lightest catalogue servo that holds 3×
+    the arm's worst gravity load."""
+    gripper_servo: str = "SG90"
+    """The gripper's servo."""
+
+    @field_validator("joint_servo", "gripper_servo")
+    @classmethod
+    def _known(cls, name: str | None) -> str | None:
+        if name is not None and name not in SERVO_NAMES:
+            raise ValueError(f"no servo model {name!r}; known: {', '.join(SERVO_NAMES)}")
+        return name
 
 
 class Config(Strict):
@@ -34,6 +56,8 @@ class Config(Strict):
     controller: ControllerConfig = ControllerConfig()
     servo: ServoConfig = ServoConfig()
     task: TaskConfig = TaskConfig()
+    twin: TwinConfig = TwinConfig()
+    """The physical twin's servo models (used when ``simulator`` is ``mujoco``)."""
     simulator: Literal["kinematic", "mujoco"] = "kinematic"
     """What simulates the rig when ``servo.backend`` and ``camera.kind`` are ``sim``:
     ``kinematic`` (a grasp succeeds within ``servo.grip_tolerance_cm``; drawn camera) or

@@ -88,13 +88,26 @@ from __future__ import annotations
 import math
 import xml.etree.ElementTree as ET
 from collections.abc import Sequence
-from dataclasses import dataclass
 from pathlib import Path
 
 import mujoco
 import numpy as np
 
 from mearm.config import Config, Joint
+from mearm.config.servo_models import (  # noqa: F401  (the twin's servos, re-exported)
+    FULL_TORQUE_ERROR_RAD,
+    GRIPPER_SERVO,
+    KGCM_TO_NM,
+    MG90S,
+    MG996R,
+    MOTOR_TIME_CONSTANT_S,
+    RDS3135,
+    SERVO_CATALOGUE,
+    SERVO_LOAD_FACTOR,
+    SG90,
+    ServoSpec,
+    servo_named,
+)
 from mearm.exceptions import ModelError
 from mearm.fileio import write_atomic
 from mearm.kinematics.chain import Chain
@@ -102,7 +115,6 @@ from mearm.kinematics.urdf import TCP_FRAME, jaw_frame, jaw_joint_names, jaw_pad
 
 M_PER_CM = 0.01
 G = 9.81  # m/s²
-KGCM_TO_NM = 9.80665e-2  # 1 kg·cm of servo torque in N·m
 
 # --------------------------------------------------------------------------- materials
 #: Cast/extruded PMMA (acrylic) sheet: 1.19 g/cm³ (typical sheet datasheets) [kg/m³].
@@ -122,116 +134,6 @@ OBJECT_ROLL_FRICTION = 0.0001
 # --------------------------------------------------------------------------- servos
 
 
-@dataclass(frozen=True)
-class ServoSpec:
-    """A hobby servo's datasheet facts.
-
-    Attributes:
-        name: The model, e.g. ``"SG90"``.
-        mass_kg: Mass [kg].
-        stall_torque_nm: Stall torque at the rated voltage [N·m].
-        seconds_per_60deg: No-load speed at that voltage [s/60°].
-        deadband_us: Dead band width [µs] (for the servo bus).
-        size_m: Case length, width, height (height along the output shaft) [m].
-        source: Where the figures come from.
-    """
-
-    name: str
-    mass_kg: float
-    stall_torque_nm: float
-    seconds_per_60deg: float
-    deadband_us: float
-    size_m: tuple[float, float, float]
-    source: str
-
-    @property
-    def speed_rad_s(self) -> float:
-        """No-load speed [rad/s]."""
-        return math.radians(60.0) / self.seconds_per_60deg
-
-    @property
-    def kp(self) -> float:
-        """Position gain: the stall torque at :data:`FULL_TORQUE_ERROR_RAD` [N·m/rad]."""
-        return self.stall_torque_nm / FULL_TORQUE_ERROR_RAD
-
-    @property
-    def armature(self) -> float:
-        r"""The motor's inertia seen at the output [kg·m²].
-
-        A DC motor's mechanical time constant is :math:`t_m = J\,\omega_0/\tau_s`, so with
-        :data:`MOTOR_TIME_CONSTANT_S`, :math:`J = t_m \tau_s / \omega_0`.
-        """
-        return MOTOR_TIME_CONSTANT_S * self.stall_torque_nm / self.speed_rad_s
-
-    @property
-    def motor_damping(self) -> float:
-        r"""The motor's back-EMF damping seen at the output [N·m·s/rad].
-
-        The slope of a DC motor's torque–speed line, :math:`b = \tau_s/\omega_0`: with the
-        amplifier saturated the servo turns at its datasheet speed.
-        """
-        return self.stall_torque_nm / self.speed_rad_s
-
-
-SG90 = ServoSpec(
-    name="SG90",
-    mass_kg=0.009,
-    stall_torque_nm=1.8 * KGCM_TO_NM,
-    seconds_per_60deg=0.10,
-    deadband_us=10.0,
-    size_m=(0.0222, 0.0118, 0.031),
-    source=(
-        "typical TowerPro SG90 datasheet: 9 g, 1.8 kg·cm at 4.8 V, 0.1 s/60°, dead band 10 µs, "
-        "22.2 × 11.8 × 31 mm"
-    ),
-)
-MG90S = ServoSpec(
-    name="MG90S",
-    mass_kg=0.0134,
-    stall_torque_nm=1.8 * KGCM_TO_NM,
-    seconds_per_60deg=0.10,
-    deadband_us=5.0,
-    size_m=(0.0228, 0.0122, 0.0285),
-    source=(
-        "typical TowerPro MG90S datasheet: 13.4 g, 1.8 kg·cm at 4.8 V, 0.1 s/60°, dead band "
-        "5 µs, 22.8 × 12.2 × 28.5 mm"
-    ),
-)
-MG996R = ServoSpec(
-    name="MG996R",
-    mass_kg=0.055,
-    stall_torque_nm=9.4 * KGCM_TO_NM,
-    seconds_per_60deg=0.17,
-    deadband_us=5.0,
-    size_m=(0.0407, 0.0197, 0.0429),
-    source=(
-        "typical TowerPro MG996R datasheet: 55 g, 9.4 kg·cm at 4.8 V, 0.17 s/60°, dead band "
-        "5 µs, 40.7 × 19.7 × 42.9 mm"
-    ),
-)
-RDS3135 = ServoSpec(
-    name="RDS3135",
-    mass_kg=0.065,
-    stall_torque_nm=35.0 * KGCM_TO_NM,
-    seconds_per_60deg=0.15,
-    deadband_us=3.0,
-    size_m=(0.040, 0.020, 0.0405),
-    source=(
-        "approximate, from vendor listings (DSServo RDS3135, the paper's joint servo): "
-        "35 kg·cm at 6.8 V, about 0.15 s/60°, about 65 g, dead band about 3 µs, 40 × 20 × 40.5 mm"
-    ),
-)
-#: The servos the joints may get, weakest first.
-SERVO_CATALOGUE: tuple[ServoSpec, ...] = (SG90, MG90S, MG996R, RDS3135)
-#: The gripper's servo (a claw needs little torque; the MeArm's is an SG90).
-GRIPPER_SERVO = SG90
-#: A joint's servo must hold its worst static load with this margin (rule of thumb) [-].
-SERVO_LOAD_FACTOR = 3.0
-#: Error at which a hobby servo's amplifier saturates (estimate: ~1° for the digital and
-#: analogue servos above) [rad].
-FULL_TORQUE_ERROR_RAD = math.radians(1.0)
-#: Mechanical time constant of a small brushed DC motor (estimate: 20–30 ms) [s].
-MOTOR_TIME_CONSTANT_S = 0.025
 #: Lever turning a servo's torque into a linear force: a prismatic joint's drive and the
 #: gripper's jaw linkage (estimate: a 2 cm horn) [m].
 SERVO_LEVER_M = 0.02
@@ -272,14 +174,16 @@ _SCENE_CONTYPE, _SCENE_CONAFFINITY = 1, 3
 def generate_mjcf(
     config: Config,
     servo: ServoSpec | None = None,
-    gripper_servo: ServoSpec = GRIPPER_SERVO,
+    gripper_servo: ServoSpec | None = None,
 ) -> str:
     """Build the twin's MJCF: arm, table, bins, objects and camera.
 
     Args:
         config: The whole config (arm, task, camera, calibration).
-        servo: The joints' servo; ``None`` picks from :data:`SERVO_CATALOGUE` by load.
-        gripper_servo: The gripper's servo.
+        servo: The joints' servo; ``None`` takes the config's ``twin.joint_servo`` or, if
+            that is null too, picks from :data:`SERVO_CATALOGUE` by load.
+        gripper_servo: The gripper's servo; ``None`` takes the config's
+            ``twin.gripper_servo``.
 
     Returns:
         The MJCF text (metres, kilograms, radians), loadable by
@@ -293,6 +197,10 @@ def generate_mjcf(
             names the parts.
     """
     _check_scene(config)
+    if servo is None and config.twin.joint_servo is not None:
+        servo = servo_named(config.twin.joint_servo)
+    if gripper_servo is None:
+        gripper_servo = servo_named(config.twin.gripper_servo)
     servos = (servo,) if servo is not None else SERVO_CATALOGUE
     chosen = servos[-1]
     for spec in servos:

@@ -169,9 +169,7 @@ class TwinArm(ServoBus):
     ):
         super().__init__(config, paced=config.servo.sim_realtime)
         if model is None:
-            model = mujoco.MjModel.from_xml_string(
-                generate_mjcf(config, servo, gripper_servo or GRIPPER_SERVO)
-            )
+            model = mujoco.MjModel.from_xml_string(generate_mjcf(config, servo, gripper_servo))
         self.model = model
         self.data = mujoco.MjData(model)
         self._chain = Chain.from_description(config.arm)
