@@ -23,7 +23,7 @@ import numpy as np
 from mearm.cli import ArgumentParser, run
 from mearm.exceptions import MearmError
 from mearm.fileio import write_atomic
-from mearm.vision.aruco import DEFAULT_DICTIONARY, marker_image
+from mearm.vision.aruco import DEFAULT_DICTIONARY, get_dictionary, marker_image
 
 A4_CM = (21.0, 29.7)
 CM_PER_INCH = 2.54
@@ -48,12 +48,17 @@ def marker_sheet(
         )
     x0 = (w - 2 * cell_w) // 2
     font, scale = cv2.FONT_HERSHEY_SIMPLEX, dpi / 200
+    # white quiet zone between a marker and its label: a module (0.3 … 0.8 cm), so the
+    # label's descenders stay clear of the edge the detector fits
+    modules = get_dictionary(dictionary).markerSize + 2
+    quiet = round(min(max(side_cm / modules, 0.3), 0.8) * px_per_cm)
     for k, marker_id in enumerate(ids):
         cx = x0 + (k % 2) * cell_w + (cell_w - side) // 2
         cy = round(1.5 * px_per_cm) + (k // 2) * cell_h + round(1.0 * px_per_cm)
         page[cy : cy + side, cx : cx + side] = marker_image(marker_id, side, dictionary)
         label = f"id {marker_id}  ({dictionary}, {side_cm:g} cm)  ^ +y"
-        cv2.putText(page, label, (cx, cy - round(0.3 * px_per_cm)), font, scale, 0, 2)
+        (_, _), descent = cv2.getTextSize(label, font, scale, 2)
+        cv2.putText(page, label, (cx, cy - quiet - descent), font, scale, 0, 2)
     # 5 cm scale bar at the bottom
     y = h - round(2 * px_per_cm)
     bar = round(5 * px_per_cm)
