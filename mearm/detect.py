@@ -9,9 +9,10 @@ With ``--json`` each image gives one line: a JSON list of
 ``{"color", "px": [u, v], "cm": [x, y], "area_px", "merged"}`` (``color`` is the class
 name), in the detector's order (the classes of ``task.classes`` in order; each by image
 row). ``--annotate OUT.png`` draws each region's contour, centroid, class and table
-position in its class's ``draw_rgb``; with several images the i-th (from 0, in the
-order given) goes to ``OUT-i.png``. A missing or unreadable image stops the run
-before anything is printed: exit 2 with one line on stderr.
+position in its class's ``draw_rgb`` (each label once, on a filled box); with several
+images the i-th (from 0, in the order given) goes to ``OUT-i.png``. A missing or
+unreadable image stops the run before anything is printed: exit 2 with one line on
+stderr.
 """
 
 from __future__ import annotations
@@ -84,12 +85,82 @@ def to_records(detections: Sequence[Detection], calibration: Calibration) -> lis
     ]
 
 
+#: Label text: font, scale, thickness [px] and the padding of its box [px].
+LABEL_FONT, LABEL_SCALE, LABEL_THICKNESS, LABEL_PAD = cv2.FONT_HERSHEY_SIMPLEX, 0.4, 1, 2
+
+
+def label_size(label: str) -> tuple[int, int, int]:
+    """(width, height, baseline) [px] of a label's text, without its box padding."""
+    (w, h), base = cv2.getTextSize(label, LABEL_FONT, LABEL_SCALE, LABEL_THICKNESS)
+    return w, h, base
+
+
+def label_box(
+    label: str,
+    bbox_px: tuple[int, int, int, int],
+    shape: tuple[int, ...],
+    taken: Sequence[tuple[int, int, int, int]] = (),
+) -> tuple[int, int, int, int]:
+    """Where a label's box goes: (x, y, w, h) [px], inside the frame.
+
+    Above the region's box, else below it; moved down a box height at a time past the
+    boxes already ``taken`` (as far as the frame allows), so labels do not cover one
+    another.
+    """
+    tw, th, base = label_size(label)
+    w, h = tw + 2 * LABEL_PAD, th + base + 2 * LABEL_PAD
+    fh, fw = shape[0], shape[1]
+    x, y, _, bh = bbox_px
+    bx = min(max(x, 0), max(fw - w, 0))
+    starts = [y - h - 1, y + bh + 1] + [y + bh + 1 + i * h for i in range(1, 8)]
+
+    def overlaps(by: int) -> bool:
+        return any(
+            bx < ox + ow and ox < bx + w and by < oy + oh and oy < by + h
+            for ox, oy, ow, oh in taken
+        )
+
+    for by in starts:
+        by = min(max(by, 0), max(fh - h, 0))
+        if not overlaps(by):
+            return bx, by, w, h
+    return bx, min(max(starts[0], 0), max(fh - h, 0)), w, h
+
+
+def text_bgr(box_bgr: Sequence[int]) -> tuple[int, int, int]:
+    """Black or white, whichever reads better on ``box_bgr`` (Rec. 601 luma)."""
+    b, g, r = box_bgr
+    return (0, 0, 0) if 0.114 * b + 0.587 * g + 0.299 * r >= 128 else (255, 255, 255)
+
+
+def draw_label(
+    out: np.ndarray, label: str, box: tuple[int, int, int, int], box_bgr: Sequence[int]
+) -> None:
+    """Draw ``label`` once in ``out``: a filled box of ``box_bgr``, the text on it."""
+    x, y, w, h = box
+    cv2.rectangle(out, (x, y), (x + w - 1, y + h - 1), tuple(int(c) for c in box_bgr), cv2.FILLED)
+    _, th, _ = label_size(label)
+    org = (x + LABEL_PAD, y + LABEL_PAD + th)
+    cv2.putText(
+        out, label, org, LABEL_FONT, LABEL_SCALE, text_bgr(box_bgr), LABEL_THICKNESS, cv2.LINE_AA
+    )
+
+
+def label_text(record: dict) -> str:
+    """A detection's label: class, table position [cm], ``merged`` if flagged."""
+    x_cm, y_cm = record["cm"]
+    return f"{record['color']} ({x_cm:.2f}, {y_cm:.2f})" + (" merged" if record["merged"] else "")
+
+
 def annotate(
     frame: np.ndarray, detector: ColorDetector, records: list[dict], detections: list[Detection]
 ) -> np.ndarray:
     """A copy of ``frame`` with contours, centroids, classes and table positions drawn.
 
-    Each class is drawn in its ``draw_rgb``.
+    Each class's contours are drawn in its ``draw_rgb``; each detection gets a cross at
+    its centroid and one label (class, table position, ``merged``), drawn once: dark or
+    light text on a filled box of its class's colour, placed clear of the other labels
+    (:func:`label_box`). Labels are drawn last, over everything else.
     """
     out = frame.copy()
     draw_bgr = {c.name: tuple(reversed(c.draw_rgb)) for c in detector.classes}
@@ -98,18 +169,17 @@ def annotate(
         contours, _ = cv2.findContours(mask, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
         big = [c for c in contours if cv2.contourArea(c) >= detector.vision.min_area_px / 2]
         cv2.drawContours(out, big, -1, draw_bgr[color], 1, cv2.LINE_AA)
-    for rec, det in zip(records, detections, strict=True):
+    for det in detections:
         u, v = det.centroid_px
-        center = (round(u), round(v))
-        cv2.drawMarker(out, center, (255, 255, 255), cv2.MARKER_CROSS, 9, 1, cv2.LINE_AA)
-        x_cm, y_cm = rec["cm"]
-        label = f"{rec['color']} ({x_cm:.2f}, {y_cm:.2f})" + (" merged" if rec["merged"] else "")
-        x, y, w, h = det.bbox_px
-        org = (x, max(y - 4, 10))
-        cv2.putText(out, label, org, cv2.FONT_HERSHEY_SIMPLEX, 0.35, (0, 0, 0), 3, cv2.LINE_AA)
-        cv2.putText(
-            out, label, org, cv2.FONT_HERSHEY_SIMPLEX, 0.35, draw_bgr[rec["color"]], 1, cv2.LINE_AA
+        cv2.drawMarker(
+            out, (round(u), round(v)), (255, 255, 255), cv2.MARKER_CROSS, 9, 1, cv2.LINE_AA
         )
+    taken: list[tuple[int, int, int, int]] = []
+    for rec, det in zip(records, detections, strict=True):
+        label = label_text(rec)
+        box = label_box(label, det.bbox_px, out.shape, taken)
+        taken.append(box)
+        draw_label(out, label, box, draw_bgr[rec["color"]])
     return out
 
 

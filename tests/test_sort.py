@@ -111,11 +111,24 @@ def test_failed_pick_is_retried_then_skipped(config):
     assert world.objects[0].on_table
 
 
-def test_touching_objects_are_reported_not_guessed(config):
-    """Two touching reds form one region: reported as merged and left alone."""
+def test_touching_objects_are_separated_and_sorted(config):
+    """Two touching reds form one region; the detector splits it and both are sorted."""
     scene = [
         SceneObject(color="red", x=0.0, y=45.0),
         SceneObject(color="red", x=1.9, y=45.0),
+        SceneObject(color="blue", x=-8.0, y=40.0),
+    ]
+    world, report, _ = _sort(config, scene)
+    assert not report.skipped
+    assert [o.bin for o in world.objects] == ["red", "red", "blue"]
+
+
+def test_a_region_that_cannot_be_split_is_reported_not_guessed(config):
+    """Two reds drawn overlapping (1.2 cm apart: no neck to cut) form one region the
+    detector cannot separate: reported as merged and left alone."""
+    scene = [
+        SceneObject(color="red", x=0.0, y=45.0),
+        SceneObject(color="red", x=1.2, y=45.0),
         SceneObject(color="blue", x=-8.0, y=40.0),
     ]
     world, report, _ = _sort(config, scene)

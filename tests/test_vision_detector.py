@@ -153,25 +153,32 @@ def test_centroids_are_sub_pixel() -> None:
         np.testing.assert_allclose(d.centroid_px, CAL.table_to_pixel([x, y]), atol=0.15)
 
 
-def test_touching_objects_of_one_colour_are_flagged_merged() -> None:
-    """Two touching red discs: one region, flagged, area about two objects'; no invention."""
-    (d,) = detector().detect(render([("red", -2.0, 45.0), ("red", 0.0, 45.0)]))
+def test_touching_objects_of_one_colour_are_separated() -> None:
+    """Two touching red discs: one region, split into two detections at their centres."""
+    found = detector().detect(render([("red", -2.0, 45.0), ("red", 0.0, 45.0)]))
+    assert len(found) == 2 and not any(d.merged for d in found)
+    xy = sorted(tuple(CAL.pixel_to_table(d.centroid_px)) for d in found)
+    np.testing.assert_allclose(xy, [(-2.0, 45.0), (0.0, 45.0)], atol=0.1)
+
+
+def test_a_region_too_big_for_one_object_and_too_tight_to_split_is_flagged() -> None:
+    """Two discs drawn overlapping (1.2 cm apart): no neck to cut, so one region, flagged
+    merged, centroid between them; nothing invented."""
+    (d,) = detector().detect(render([("red", 0.0, 45.0), ("red", 1.2, 45.0)]))
     assert d.merged and d.color == "red"
-    assert d.elongation > 2.0
-    one = np.pi * 16.0**2
-    assert 1.8 * one < d.area_px < 2.2 * one
-    np.testing.assert_allclose(CAL.pixel_to_table(d.centroid_px), [-1.0, 45.0], atol=0.05)
+    np.testing.assert_allclose(CAL.pixel_to_table(d.centroid_px), [0.6, 45.0], atol=0.05)
 
 
-def test_merged_needs_the_calibration_for_a_compact_cluster() -> None:
-    """Three touching discs in a triangle are round: only the area rule catches them."""
+def test_splitting_needs_the_calibration_for_a_compact_cluster() -> None:
+    """Three touching discs in a triangle are round: only the area rule (which needs the
+    calibration for one object's size) finds them; then they are split in three."""
     r3 = np.sqrt(3.0)
     cluster = [("green", 0.0, 45.0), ("green", 2.0, 45.0), ("green", 1.0, 45.0 + r3)]
     frame = render(cluster)
-    (with_cal,) = detector().detect(frame)
+    with_cal = detector().detect(frame)
     (without,) = detector(cal=None).detect(frame)
-    assert with_cal.elongation < CONFIG.vision.merged_elongation
-    assert with_cal.merged and not without.merged
+    assert len(with_cal) == 3 and not any(d.merged for d in with_cal)
+    assert without.elongation < CONFIG.vision.merged_elongation and not without.merged
 
 
 def test_single_objects_are_not_flagged() -> None:

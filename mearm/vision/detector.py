@@ -15,15 +15,38 @@ holding several (objects of different classes touching) is split by labelling ea
 class inside its box. A test checks the result against a plain per-class NumPy/SciPy
 implementation (:mod:`mearm.vision.reference`).
 
-Touching objects of one class form one region. It is reported once, with its real area
-and centroid, and flagged ``merged`` (the caller must not pick at that centroid, which
-lies between the objects) when any of these holds:
+Touching objects of one class form one region. With a calibration the detector knows
+the largest image area one object of the class can have at each place, ``A1`` (below);
+a region whose area exceeds ``merged_area_ratio`` (1.6) × ``A1`` holds more than one
+object and is split (:func:`split_region`): the distance transform of its mask, its
+*cores* (pixels deeper than :data:`CORE_DEPTH` × one object's radius: one per disc,
+as touching discs meet in a narrow neck), each pixel given to its nearest core. A
+split that gives ≥ 2 parts, each of one object's size (at least :data:`MIN_PART` × the
+flat disc's area, at most ``merged_area_ratio`` × ``A1``) and shape (elongation under
+the limit below), gives one detection per part, with the part's own area, box and
+centroid, not flagged. Otherwise the region is reported once, with its real area and
+centroid, and flagged ``merged`` (the caller must not pick at that centroid, which lies
+between the objects) when any of these holds:
 
-- its area exceeds ``merged_area_ratio`` (1.6) × the area of one object of its class (a
-  disc of the class's ``diameter_cm``) at the calibration's scale at that place — only
-  when the detector was given a calibration;
+- its area exceeds ``merged_area_ratio`` × ``A1`` — only with a calibration;
 - the ratio of its principal axes (from the second central moments) exceeds
-  ``merged_elongation`` (1.5): one disc gives 1.0, two touching discs √5 ≈ 2.24.
+  ``merged_elongation`` (1.5) × ``E1`` (``E1`` = 1 without perspective, below): one disc
+  gives 1.0, two touching discs √5 ≈ 2.24.
+
+``A1``, one object's largest image area. Without ``camera_height_cm`` the calibration is
+taken to hold in the plane of the objects' tops, which the camera sees and nothing else
+(the paper's rig, the flat sim camera): ``A1`` is the area of a disc of the class's
+``diameter_cm`` at the calibration's scale at that place, and ``E1`` = 1. With
+``camera_height_cm`` = *H* (a pinhole looking straight down at the point the frame's
+centre maps to, *pp*, with the calibration in the table plane, as a camera calibrated
+with markers lying on the table, or the twin's camera), an object of diameter *d* = 2*r*
+and height *h* (``height_cm``) whose base is at distance ρ from *pp* shows its top
+enlarged by *k* = *H*/(*H* − *h*) and pushed outwards by ρ(*k* − 1), and its side in
+between: its silhouette lies in the hull of the base disc and the top disc, whose area
+is at most π(*kr*)² + 2*kr*·ρ(*k* − 1) [cm², calibration plane] (the top disc plus the
+swept strip), and its principal-axis ratio at most ``E1`` = 1 + ρ(*k* − 1)/(2*r*) (its
+length over its width). ρ is taken at the region's centroid, which the perspective
+pushes outwards, so it over-estimates ρ: the bound stays a bound.
 
 Detections come in a fixed order: by class in the configured order, each class by
 image row then column of the centroid.
@@ -40,7 +63,7 @@ import cv2
 import numpy as np
 
 from mearm.config import ColorClass, VisionConfig
-from mearm.exceptions import ImageError
+from mearm.exceptions import ConfigError, ImageError
 from mearm.vision.calibration import Calibration
 from mearm.vision.classify import PixelClassifier, and_scalar, equal_mask
 from mearm.vision.thresholds import Thresholds
@@ -91,6 +114,12 @@ def check_frame(frame: object, source: str = "frame") -> np.ndarray:
     return np.ascontiguousarray(frame)
 
 
+#: A region's core: its pixels at least this × one object's radius from its edge.
+CORE_DEPTH = 0.6
+#: A split's part must have at least this × one flat object's expected area.
+MIN_PART = 0.5
+
+
 def _label(mask: np.ndarray) -> tuple[int, np.ndarray, np.ndarray, np.ndarray]:
     try:  # 16-bit labels are ~3x faster; OpenCV raises if there are too many regions
         return cv2.connectedComponentsWithStats(mask, connectivity=8, ltype=cv2.CV_16U)
@@ -100,7 +129,11 @@ def _label(mask: np.ndarray) -> tuple[int, np.ndarray, np.ndarray, np.ndarray]:
 
 def _elongation(region: np.ndarray) -> float:
     """Principal-axis ratio √(λ_max/λ_min) of a binary region's second central moments."""
-    m = cv2.moments(region, binaryImage=True)
+    return _axis_ratio(cv2.moments(region, binaryImage=True))
+
+
+def _axis_ratio(m: dict[str, float]) -> float:
+    """Principal-axis ratio √(λ_max/λ_min) from a region's image moments."""
     a, b, c = m["mu20"], m["mu11"], m["mu02"]
     root = math.sqrt(max((a - c) ** 2 + 4.0 * b * b, 0.0))
     lam_max, lam_min = (a + c + root) / 2.0, (a + c - root) / 2.0
@@ -109,6 +142,69 @@ def _elongation(region: np.ndarray) -> float:
     if lam_min <= 1e-12:  # a line
         return math.inf
     return math.sqrt(lam_max / lam_min)
+
+
+@dataclass(frozen=True)
+class Part:
+    """One object of a split region, in the region's box pixels.
+
+    Attributes:
+        area_px: Its pixel count.
+        centroid_px: Mean (u, v) of its pixel centres, in the box [px].
+        bbox_px: Its bounding box (x, y, w, h) in the box [px].
+        elongation: Its principal-axis ratio [-].
+    """
+
+    area_px: int
+    centroid_px: tuple[float, float]
+    bbox_px: tuple[int, int, int, int]
+    elongation: float
+
+
+def split_region(
+    region: np.ndarray,
+    radius_px: float,
+    min_area_px: float,
+    max_area_px: float,
+    max_elongation: float,
+) -> list[Part] | None:
+    """The objects of a region holding several touching ones, or ``None`` if not sure.
+
+    Args:
+        region: The region, 0/1 uint8 image of its bounding box.
+        radius_px: One object's radius there [px] (its flat disc's).
+        min_area_px: A part smaller than this is no object: no split.
+        max_area_px: A part larger than this is not one object: no split.
+        max_elongation: A part longer than this is not one object: no split.
+
+    Returns:
+        The parts (≥ 2, pixels given to the nearest core), or ``None`` when the region
+        has fewer than two cores or a part fails the size or shape test.
+    """
+    padded = cv2.copyMakeBorder(region, 1, 1, 1, 1, cv2.BORDER_CONSTANT, value=0)
+    depth = cv2.distanceTransform(padded, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+    cores = (depth >= CORE_DEPTH * radius_px).view(np.uint8)
+    n, _, _, _ = _label(cores)
+    if n < 3:  # background and one core (or none)
+        return None
+    _, nearest = cv2.distanceTransformWithLabels(
+        1 - cores, cv2.DIST_L2, cv2.DIST_MASK_5, labelType=cv2.DIST_LABEL_CCOMP
+    )
+    nearest = nearest[1:-1, 1:-1]
+    parts = []
+    for lab in np.unique(nearest[region.view(bool)]):
+        piece = ((nearest == lab) & region.view(bool)).view(np.uint8)
+        m = cv2.moments(piece, binaryImage=True)
+        area = m["m00"]
+        if not min_area_px <= area <= max_area_px:
+            return None
+        elongation = _axis_ratio(m)
+        if elongation > max_elongation:
+            return None
+        x, y, w, h = cv2.boundingRect(piece)
+        centroid = (m["m10"] / area, m["m01"] / area)
+        parts.append(Part(int(area), centroid, (x, y, w, h), elongation))
+    return parts if len(parts) >= 2 else None
 
 
 class ColorDetector:
@@ -120,10 +216,15 @@ class ColorDetector:
             object at each place); ``None``: only the elongation rule applies.
         classes: The colour classes (``task.classes``): their hue bands, their order
             (class, then row, then column is the order of the detections) and their
-            objects' diameter (the area rule of the merged test).
+            objects' diameter and height (one object's largest area, ``A1``).
+        camera_height_cm: The camera's height above the table [cm] when the
+            calibration holds in the table plane and the camera sees the objects in
+            perspective (see the module docstring); ``None``: the calibration holds in
+            the plane of the objects' tops (no perspective growth).
 
     Raises:
-        ConfigError: no classes, too many, or a name listed twice.
+        ConfigError: no classes, too many, or a name listed twice; a camera height
+            not above every class's objects.
     """
 
     def __init__(
@@ -131,6 +232,7 @@ class ColorDetector:
         vision: VisionConfig,
         calibration: Calibration | None,
         classes: Sequence[ColorClass],
+        camera_height_cm: float | None = None,
     ):
         self.classes = tuple(classes)
         self.vision = vision
@@ -139,6 +241,18 @@ class ColorDetector:
         self.classifier = PixelClassifier(self.thresholds)
         self.class_names = self.thresholds.class_names
         self._diameter_cm = {c.name: float(c.diameter_cm) for c in self.classes}
+        self._height_cm = {c.name: float(c.height_cm) for c in self.classes}
+        if camera_height_cm is not None:
+            tallest = max(self._height_cm.values(), default=0.0)
+            if not math.isfinite(camera_height_cm) or camera_height_cm <= tallest:
+                raise ConfigError(
+                    None,
+                    [
+                        f"camera height {camera_height_cm} cm: must be above the tallest "
+                        f"objects ({tallest} cm)"
+                    ],
+                )
+        self.camera_height_cm = camera_height_cm
 
     @classmethod
     def from_config(cls, config: Config) -> ColorDetector:
@@ -196,6 +310,7 @@ class ColorDetector:
         n, labels, stats, centroids = _label(index)
         min_area = self.vision.min_area_px
         found: list[Detection] = []
+        regions: list[np.ndarray] = []  # each detection's 0/1 mask of its box
         for lab in range(1, n):
             x, y, w, h, area = (int(v) for v in stats[lab])
             if area < min_area:  # its class regions are smaller still
@@ -205,6 +320,7 @@ class ColorDetector:
             lo, hi, _, _ = cv2.minMaxLoc(index[roi], mask=region)
             if lo == hi:  # one class: the union region is that class's region
                 found.append(self._detection(int(lo), region, centroids[lab], area, (x, y)))
+                regions.append(region)
                 continue
             for i in range(int(lo), int(hi) + 1):  # different classes touch: split them
                 sub = equal_mask(index[roi], i)
@@ -216,10 +332,12 @@ class ColorDetector:
                         piece = (sub_labels[sy : sy + sh, sx : sx + sw] == s).view(np.uint8)
                         centroid = sub_centroids[s] + (x, y)
                         found.append(self._detection(i, piece, centroid, sarea, (x + sx, y + sy)))
+                        regions.append(piece)
         found = [self._shifted(d, ox, oy) for d in found]
+        found = self._resolve(found, regions, frame_bgr.shape)
         order = {name: i for i, name in enumerate(self.class_names)}
         found.sort(key=lambda d: (order[d.color], d.centroid_px[1], d.centroid_px[0]))
-        return self._flag_by_area(found)
+        return found
 
     def _detection(
         self, code: int, region: np.ndarray, centroid: np.ndarray, area: int, xy: tuple[int, int]
@@ -241,15 +359,78 @@ class ColorDetector:
         x, y, w, h = d.bbox_px
         return replace(d, centroid_px=d.centroid_px + (ox, oy), bbox_px=(x + ox, y + oy, w, h))
 
-    def _flag_by_area(self, found: list[Detection]) -> list[Detection]:
-        """Apply the area rule of the merged test (needs the calibration)."""
+    def one_object_bounds(
+        self, centroids_px: np.ndarray, colors: Sequence[str], frame_shape: Sequence[int]
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """One object's flat area, largest area and largest elongation at each centroid.
+
+        Args:
+            centroids_px: Region centroids (u, v) in the frame [px], (N, 2).
+            colors: Each region's class name, (N,).
+            frame_shape: The frame's shape (H, W, ...): its centre is under the camera.
+
+        Returns:
+            ``(flat, A1, E1)``, each (N,): the flat disc's area [px], one object's largest
+            area ``A1`` [px] and its largest principal-axis ratio over
+            ``merged_elongation``, ``E1`` [-] (see the module docstring). Needs the
+            calibration.
+        """
+        assert self.calibration is not None
+        cal = self.calibration
+        diameter = np.array([self._diameter_cm[c] for c in colors])
+        flat = cal.expected_disc_area_px(centroids_px, diameter)
+        if self.camera_height_cm is None:
+            return flat, flat, np.ones(len(flat))
+        height = np.array([self._height_cm[c] for c in colors])
+        r = diameter / 2.0
+        k = self.camera_height_cm / (self.camera_height_cm - height)
+        h, w = frame_shape[0], frame_shape[1]
+        pp = cal.pixel_to_table(np.array([w / 2.0, h / 2.0]))
+        rho = np.linalg.norm(cal.pixel_to_table(centroids_px) - pp, axis=1)
+        sweep = rho * (k - 1.0)
+        area_cm2 = math.pi * (k * r) ** 2 + 2.0 * k * r * sweep
+        return flat, area_cm2 / cal.pixel_area_cm2(centroids_px), 1.0 + sweep / (2.0 * r)
+
+    def _resolve(
+        self, found: list[Detection], regions: list[np.ndarray], frame_shape: Sequence[int]
+    ) -> list[Detection]:
+        """Split the regions holding several objects; flag those that cannot be split.
+
+        Needs the calibration (one object's area); without it only the elongation rule
+        (applied in :meth:`_detection`) flags.
+        """
         if self.calibration is None or not found:
             return found
         centroids = np.array([d.centroid_px for d in found])
-        diameters_cm = np.array([self._diameter_cm[d.color] for d in found])
-        expected = self.calibration.expected_disc_area_px(centroids, diameters_cm)
-        limit = self.vision.merged_area_ratio * expected
-        return [
-            d if d.merged or d.area_px <= lim else replace(d, merged=True)
-            for d, lim in zip(found, limit, strict=True)
-        ]
+        flat, largest, stretch = self.one_object_bounds(
+            centroids, [d.color for d in found], frame_shape
+        )
+        ratio, elong = self.vision.merged_area_ratio, self.vision.merged_elongation
+        limit = ratio * largest
+        out: list[Detection] = []
+        for d, region, a_flat, a_max, e_max in zip(
+            found, regions, flat, limit, elong * stretch, strict=True
+        ):
+            if d.area_px <= a_max:
+                out.append(replace(d, merged=bool(d.elongation > e_max)))
+                continue
+            radius = math.sqrt(a_flat / math.pi)
+            lo = max(MIN_PART * a_flat, self.vision.min_area_px)
+            parts = split_region(region, radius, lo, a_max, e_max)
+            if parts is None:
+                out.append(replace(d, merged=True))
+                continue
+            x0, y0 = d.bbox_px[0], d.bbox_px[1]
+            for p in parts:
+                px, py, pw, ph = p.bbox_px
+                out.append(
+                    replace(
+                        d,
+                        centroid_px=np.add(p.centroid_px, (x0, y0)),
+                        area_px=p.area_px,
+                        bbox_px=(x0 + px, y0 + py, pw, ph),
+                        merged=False,
+                        elongation=p.elongation,
+                    )
+                )
+        return out
