@@ -147,8 +147,9 @@ LOAD_POSES = 16
 BIN_WALL_M = 0.003
 BIN_WALL_HEIGHT_PER_HEIGHT = 2.0
 BIN_MIN_WALL_HEIGHT_M = 0.02
-#: Table thickness and the margin it extends beyond everything on it [m].
-TABLE_THICKNESS_M = 0.02
+#: The table plane's drawn grid spacing, and the margin it is drawn beyond everything on
+#: it [m].
+TABLE_GRID_M = 0.05
 TABLE_MARGIN_M = 0.05
 #: Camera height above the table: "about 52 cm" (docs/paper.md §1) [m].
 CAMERA_HEIGHT_M = 0.52
@@ -601,7 +602,10 @@ def _build(
             (r, h / 2),
             mass=_f(PLA_DENSITY * math.pi * r * r * h),
             friction=_v((OBJECT_FRICTION, OBJECT_SPIN_FRICTION, OBJECT_ROLL_FRICTION)),
-            condim="4",
+            # sliding friction only against the table and bins (torsional friction there
+            # kept one object rocking on the table plane); against the pads the pads'
+            # condim 4 holds, so a held object does not spin
+            condim="3",
             rgba=_rgba(c.draw_rgb),
             contype=str(_SCENE_CONTYPE),
             conaffinity=str(_SCENE_CONAFFINITY),
@@ -790,12 +794,16 @@ def _table(world: ET.Element, config: Config) -> None:
     lo = np.min(pts, axis=0) - TABLE_MARGIN_M
     hi = np.max(pts, axis=0) + TABLE_MARGIN_M
     centre, half = (lo + hi) / 2, (hi - lo) / 2
+    # a plane: drawn over everything on the table and a margin, it collides everywhere
+    # (an object pushed past the drawn edge slides on out of view instead of falling);
+    # cylinder-plane contacts are analytic, and cost a third less per step than
+    # cylinder-box ones (the twin's physics runs 12x instead of 8x real time)
     _geom(
         world,
         "table",
-        "box",
-        (half[0], half[1], TABLE_THICKNESS_M / 2),
-        pos=_v((centre[0], centre[1], -TABLE_THICKNESS_M / 2)),
+        "plane",
+        (half[0], half[1], TABLE_GRID_M),
+        pos=_v((centre[0], centre[1], 0.0)),
         material="table",
         friction=_v((TABLE_FRICTION, OBJECT_SPIN_FRICTION, OBJECT_ROLL_FRICTION)),
         contype=str(_SCENE_CONTYPE),
