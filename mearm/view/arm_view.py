@@ -24,7 +24,7 @@ from __future__ import annotations
 import logging
 import math
 import re
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from pathlib import Path
 from types import TracebackType
@@ -475,23 +475,14 @@ class ArmView:
         if self._twin_shown:  # the twin's bodies are drawn instead (see show_bodies)
             self._objects = wanted
             return
-        for obj_id in [i for i in self._objects if i not in wanted]:
-            self.viewer[f"objects/{obj_id}"].delete()
-            del self._objects[obj_id]
-        for obj in wanted.values():
-            old = self._objects.get(obj.id)
-            if old == obj:
-                continue
-            node = self.viewer[f"objects/{obj.id}"]
-            cls = self._classes[obj.class_name]
-            if old is None or old.class_name != obj.class_name:
-                node.set_object(*self._cylinder(cls))
-            # three.js cylinders stand along y: turn them to stand along z
-            pose = tf.translation_matrix(
+        self._sync_cylinders(
+            self._objects,
+            wanted,
+            "objects",
+            lambda obj, cls: tf.translation_matrix(
                 np.array([obj.x_cm, obj.y_cm, cls.height_cm / 2]) * M_PER_CM
-            ) @ tf.rotation_matrix(math.pi / 2, [1, 0, 0])
-            node.set_transform(pose)
-            self._objects[obj.id] = obj
+            ),
+        )
 
     @property
     def twin_shown(self) -> bool:
@@ -532,25 +523,42 @@ class ArmView:
         if not self._twin_shown:
             self.viewer["objects"].delete()  # the detections: the twin's bodies replace them
             self._twin_shown = True
-        for obj_id in [i for i in self._bodies if i not in wanted]:
-            self.viewer[f"twin/objects/{obj_id}"].delete()
-            del self._bodies[obj_id]
-        for body in wanted.values():
-            old = self._bodies.get(body.id)
-            if old == body:
-                continue
-            node = self.viewer[f"twin/objects/{body.id}"]
-            cls = self._classes[body.class_name]
-            if old is None or old.class_name != body.class_name:
-                node.set_object(*self._cylinder(cls))
-            # three.js cylinders stand along y: turn them to stand along the body's z
-            pose = (
+        self._sync_cylinders(
+            self._bodies,
+            wanted,
+            "twin/objects",
+            lambda body, _cls: (
                 tf.translation_matrix(np.array(body.position_cm) * M_PER_CM)
                 @ tf.quaternion_matrix(body.quat)
-                @ tf.rotation_matrix(math.pi / 2, [1, 0, 0])
-            )
-            node.set_transform(pose)
-            self._bodies[body.id] = body
+            ),
+        )
+
+    def _sync_cylinders(
+        self,
+        drawn: dict[str, Any],
+        wanted: dict[str, Any],
+        prefix: str,
+        pose_of: Callable[[Any, ColorClass], np.ndarray],
+    ) -> None:
+        """Draw ``wanted`` (id → item with ``class_name``) as cylinders under ``prefix``.
+
+        What went is deleted and only what changed is (re)drawn; ``drawn`` is updated.
+        ``pose_of(item, cls)`` is the cylinder's pose with its axis along z.
+        """
+        for obj_id in [i for i in drawn if i not in wanted]:
+            self.viewer[f"{prefix}/{obj_id}"].delete()
+            del drawn[obj_id]
+        for obj_id, item in wanted.items():
+            old = drawn.get(obj_id)
+            if old == item:
+                continue
+            node = self.viewer[f"{prefix}/{obj_id}"]
+            cls = self._classes[item.class_name]
+            if old is None or old.class_name != item.class_name:
+                node.set_object(*self._cylinder(cls))
+            # three.js cylinders stand along y: turn them to stand along the pose's z
+            node.set_transform(pose_of(item, cls) @ tf.rotation_matrix(math.pi / 2, [1, 0, 0]))
+            drawn[obj_id] = item
 
     @staticmethod
     def _cylinder(cls: ColorClass) -> tuple[mg.Geometry, mg.Material]:
