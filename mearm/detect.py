@@ -28,7 +28,7 @@ import numpy as np
 from mearm.cli import ArgumentParser, add_config_argument, config_from_args, run
 from mearm.exceptions import ImageError
 from mearm.fileio import write_atomic
-from mearm.vision.calibration import Calibration
+from mearm.vision.calibration import camera_geometry
 from mearm.vision.camera import open_camera
 from mearm.vision.detector import ColorDetector, Detection
 from mearm.vision.image import quiet_opencv, read_image
@@ -68,20 +68,21 @@ def annotation_paths(out: Path, count: int) -> list[Path]:
     return [out.with_name(f"{out.stem}-{i}{out.suffix}") for i in range(count)]
 
 
-def to_records(detections: Sequence[Detection], calibration: Calibration) -> list[dict]:
-    """The JSON records of detections: class, pixel and table position, area, merged."""
-    if not detections:
-        return []
-    cm = calibration.pixel_to_table(np.array([d.centroid_px for d in detections]))
+def to_records(detections: Sequence[Detection]) -> list[dict]:
+    """The JSON records of detections: class, pixel and table position, area, merged.
+
+    The table position is the detector's (``Detection.table_cm``): the centroid's under
+    the paper's homography, the top face's centre under a perspective calibration.
+    """
     return [
         {
             "color": d.color,
             "px": [round(float(v), 3) for v in d.centroid_px],
-            "cm": [round(float(v), 3) for v in xy],
+            "cm": None if d.table_cm is None else [round(float(v), 3) for v in d.table_cm],
             "area_px": d.area_px,
             "merged": d.merged,
         }
-        for d, xy in zip(detections, cm, strict=True)
+        for d in detections
     ]
 
 
@@ -212,7 +213,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             if out.exists() and not out.is_file():
                 parser.error(f"--annotate {out}: exists and is not a regular file")
     config = config_from_args(args)
-    calibration = Calibration.from_config(config.calibration)
+    calibration = camera_geometry(config)
     detector = ColorDetector(config.vision, calibration, config.task.classes)
 
     frames: list[tuple[str, np.ndarray | None]]
@@ -235,7 +236,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                 file=sys.stderr,
             )
         detections = detector.detect(frame)
-        records = to_records(detections, calibration)
+        records = to_records(detections)
         if args.json:
             print(json.dumps(records))
         else:

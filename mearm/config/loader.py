@@ -166,4 +166,30 @@ def load_config(path: str | Path | None = None, overrides: Sequence[str] = ()) -
         if not overrides:
             return Config()
         return config_from_dict({}, source="--set", overrides=overrides)
-    return config_from_dict(read_yaml(path), source=str(path), overrides=overrides)
+    config = config_from_dict(read_yaml(path), source=str(path), overrides=overrides)
+    return _resolve_files(config, Path(path).parent, str(path))
+
+
+def _resolve_files(config: Config, folder: Path, source: str) -> Config:
+    """``config`` with its calibration files' relative paths made relative to ``folder``.
+
+    Raises:
+        ConfigError: a calibration file named by a perspective calibration does not exist.
+    """
+    cal = config.calibration
+    if cal.model != "perspective":
+        return config
+    changes: dict[str, str] = {}
+    for name in ("intrinsics_file", "extrinsics_file"):
+        text = getattr(cal, name)
+        resolved = folder / text if not Path(text).is_absolute() else Path(text)
+        if not resolved.is_file():
+            raise ConfigError(
+                source,
+                [
+                    f"calibration.{name}: {text!r} is not a file (looked for {resolved}); "
+                    "relative paths are relative to the config file's folder"
+                ],
+            )
+        changes[name] = str(resolved)
+    return config.model_copy(update={"calibration": cal.model_copy(update=changes)})

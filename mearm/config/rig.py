@@ -98,10 +98,26 @@ class CameraConfig(Strict):
 
 
 class CalibrationConfig(Strict):
-    """Pixel → table homography, base frame, cm (paper §4).
+    """How pixels map to the base frame [cm]: a plane homography (paper §4) or a calibrated camera.
 
-    The default is the paper's measured rig: x = 0.0625·u − 20.5, y = 59.0 − 0.0625·v.
+    ``homography`` (the paper's model, the default): one pixel → table homography, exact
+    for a distortion-free camera and points on the plane it was fitted in. The default
+    matrix is the paper's measured rig: x = 0.0625·u − 20.5, y = 59.0 − 0.0625·v.
+
+    ``perspective``: the camera's intrinsics (camera matrix, lens distortion; from
+    ``mearm calibrate-intrinsics``) and its pose in the base frame (from
+    ``mearm calibrate-camera --intrinsics``), each in its own calibration file; each
+    object is located by its top face at its class's ``height_cm``
+    (:mod:`mearm.vision.pinhole`). Relative file paths are relative to the config file's
+    folder.
     """
+
+    model: Literal["homography", "perspective"] = "homography"
+    """``homography`` (paper) or ``perspective`` (needs both files below)."""
+    intrinsics_file: PathText | None = None
+    """The camera's intrinsics file (``model: perspective``)."""
+    extrinsics_file: PathText | None = None
+    """The camera's pose file (``model: perspective``)."""
 
     homography: tuple[
         tuple[HomographyEntry, HomographyEntry, HomographyEntry],
@@ -125,6 +141,21 @@ class CalibrationConfig(Strict):
         if abs(det) < 1e-12:
             raise ValueError("homography is singular (determinant 0): recalibrate")
         return h
+
+    @model_validator(mode="after")
+    def _files_for_perspective(self) -> CalibrationConfig:
+        if self.model == "perspective":
+            missing = [
+                name
+                for name in ("intrinsics_file", "extrinsics_file")
+                if getattr(self, name) is None
+            ]
+            if missing:
+                raise ValueError(
+                    f"model 'perspective' needs {' and '.join(missing)} (make them with "
+                    "mearm calibrate-intrinsics and mearm calibrate-camera --intrinsics)"
+                )
+        return self
 
 
 class VisionConfig(Strict):

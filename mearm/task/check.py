@@ -25,7 +25,7 @@ from mearm.exceptions import ConfigError
 from mearm.kinematics import ArmModel
 from mearm.task.plan import Planner
 from mearm.task.route import Route
-from mearm.vision import Calibration
+from mearm.vision.calibration import camera_geometry
 
 #: The camera's view is sampled on a grid of this many points across × down.
 VIEW_GRID = (7, 5)
@@ -140,7 +140,7 @@ def _view_points_cm(config: Config) -> np.ndarray:
     w, h = config.camera.width_px, config.camera.height_px
     u, v = np.meshgrid(np.linspace(0, w - 1, nu), np.linspace(0, h - 1, nv))
     pixels = np.column_stack([u.ravel(), v.ravel()])
-    return Calibration.from_config(config.calibration).pixel_to_table(pixels)
+    return camera_geometry(config).pixel_to_table(pixels)
 
 
 def _box_points_cm(config: Config) -> np.ndarray:

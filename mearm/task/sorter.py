@@ -35,7 +35,8 @@ from mearm.task.execute import Executor, View
 from mearm.task.plan import Planner
 from mearm.task.report import Outcome, Reporter, Skip, SortReport
 from mearm.task.route import Route
-from mearm.vision import Calibration, Camera, ColorDetector, Detection
+from mearm.vision import Camera, ColorDetector, Detection
+from mearm.vision.calibration import camera_geometry
 
 #: A detection within this distance of a known object is that object [cm].
 SAME_OBJECT_CM = 1.5
@@ -116,7 +117,7 @@ class Sorter:
         self.planner = Planner(config, self.model)
         self.executor = Executor(config, bus, self.model, view)
         self.reporter = Reporter(config, self.model.chain, log, echo, trial)
-        self.calibration = Calibration.from_config(config.calibration)
+        self.calibration = camera_geometry(config)
         self.detector = ColorDetector(config.vision, self.calibration, config.task.classes)
         self.view = view
         self.in_bins = in_bins
@@ -142,10 +143,7 @@ class Sorter:
         h, w = frame.shape[:2]
         # an object cut by the image border is not picked until seen whole
         detections = [d for d in self.detector.detect(frame) if not _cut(d, w, h)]
-        if detections:
-            cm = self.calibration.pixel_to_table(np.array([d.centroid_px for d in detections]))
-        else:
-            cm = np.zeros((0, 2))
+        cm = [_table_cm(d) for d in detections]
         # an object seen in a bin is sorted, not on the table (a camera that sees the
         # bins sees what was put in them)
         seen = [(d, p) for d, p in zip(detections, cm, strict=True) if not self._in_a_bin(p)]
@@ -427,6 +425,12 @@ class Sorter:
             ok=False, outcome=self.outcome("interrupted" if interrupted else "fault")
         )
         raise SortAborted(full, interrupted=interrupted, last_joints=self._last_joints())
+
+
+def _table_cm(d: Detection) -> np.ndarray:
+    """Where the detector located a detection on the table [cm] (it has the calibration)."""
+    assert d.table_cm is not None
+    return d.table_cm
 
 
 def _cut(det: Detection, width_px: int, height_px: int) -> bool:

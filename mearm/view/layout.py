@@ -17,7 +17,7 @@ import pinocchio as pin
 from mearm.config import Config
 from mearm.kinematics import CM_PER_M, ArmModel
 from mearm.view.camera import ViewCamera
-from mearm.vision import Calibration
+from mearm.vision.calibration import camera_geometry
 
 #: Largest bin footprint side [cm] (bins 10 cm apart, the paper's Table 2, fit 8 cm).
 BIN_SIDE_MAX_CM = 8.0
@@ -93,7 +93,7 @@ def camera_field_cm(config: Config) -> np.ndarray:
     """Where the camera image's corners land on the table [cm], (4, 2)."""
     w, h = config.camera.width_px, config.camera.height_px
     corners = np.array([[0, 0], [w, 0], [w, h], [0, h]], dtype=float)
-    return Calibration.from_config(config.calibration).pixel_to_table(corners)
+    return camera_geometry(config).pixel_to_table(corners)
 
 
 def arm_points_cm(model: ArmModel, q: np.ndarray) -> np.ndarray:

@@ -64,8 +64,9 @@ import numpy as np
 
 from mearm.config import ColorClass, VisionConfig
 from mearm.exceptions import ConfigError, ImageError
-from mearm.vision.calibration import Calibration
+from mearm.vision.calibration import Calibration, CameraGeometry, camera_geometry
 from mearm.vision.classify import PixelClassifier, and_scalar, equal_mask
+from mearm.vision.pinhole import PerspectiveCamera
 from mearm.vision.thresholds import Thresholds
 
 if TYPE_CHECKING:
@@ -83,6 +84,10 @@ class Detection:
         bbox_px: Bounding box (x, y, w, h) [px].
         merged: The region looks like several touching objects (see the module docstring).
         elongation: Ratio of the region's principal axes [-] (1 for a disc).
+        table_cm: Where the object stands on the table (x, y), base frame [cm], (2,),
+            when the detector has a calibration: the centroid's table point under the
+            paper's homography; the centre of its top face's outline under a
+            perspective calibration (:meth:`PerspectiveCamera.locate_object`).
     """
 
     color: str
@@ -91,11 +96,16 @@ class Detection:
     bbox_px: tuple[int, int, int, int]
     merged: bool = False
     elongation: float = 1.0
+    table_cm: np.ndarray | None = field(default=None, compare=False)
 
     def __post_init__(self) -> None:
         c = np.array(self.centroid_px, dtype=float).reshape(2)
         c.setflags(write=False)
         object.__setattr__(self, "centroid_px", c)
+        if self.table_cm is not None:
+            t = np.array(self.table_cm, dtype=float).reshape(2)
+            t.setflags(write=False)
+            object.__setattr__(self, "table_cm", t)
 
 
 def check_frame(frame: object, source: str = "frame") -> np.ndarray:
@@ -153,12 +163,14 @@ class Part:
         centroid_px: Mean (u, v) of its pixel centres, in the box [px].
         bbox_px: Its bounding box (x, y, w, h) in the box [px].
         elongation: Its principal-axis ratio [-].
+        mask: Its pixels, a 0/1 uint8 image of its bounding box.
     """
 
     area_px: int
     centroid_px: tuple[float, float]
     bbox_px: tuple[int, int, int, int]
     elongation: float
+    mask: np.ndarray = field(repr=False, compare=False)
 
 
 def split_region(
@@ -203,7 +215,9 @@ def split_region(
             return None
         x, y, w, h = cv2.boundingRect(piece)
         centroid = (m["m10"] / area, m["m01"] / area)
-        parts.append(Part(int(area), centroid, (x, y, w, h), elongation))
+        parts.append(
+            Part(int(area), centroid, (x, y, w, h), elongation, piece[y : y + h, x : x + w])
+        )
     return parts if len(parts) >= 2 else None
 
 
@@ -230,7 +244,7 @@ class ColorDetector:
     def __init__(
         self,
         vision: VisionConfig,
-        calibration: Calibration | None,
+        calibration: CameraGeometry | None,
         classes: Sequence[ColorClass],
         camera_height_cm: float | None = None,
     ):
@@ -257,8 +271,7 @@ class ColorDetector:
     @classmethod
     def from_config(cls, config: Config) -> ColorDetector:
         """The detector of a whole config: ``task.classes``, ``vision``, ``calibration``."""
-        calibration = Calibration.from_config(config.calibration)
-        return cls(config.vision, calibration, config.task.classes)
+        return cls(config.vision, camera_geometry(config), config.task.classes)
 
     def _filtered(self, frame_bgr: np.ndarray) -> tuple[dict[str, np.ndarray], int, int]:
         """Filtered masks of the box around every classified pixel, and the box origin.
@@ -334,7 +347,8 @@ class ColorDetector:
                         found.append(self._detection(i, piece, centroid, sarea, (x + sx, y + sy)))
                         regions.append(piece)
         found = [self._shifted(d, ox, oy) for d in found]
-        found = self._resolve(found, regions, frame_bgr.shape)
+        found, regions = self._resolve(found, regions, frame_bgr.shape)
+        found = self._located(found, regions)
         order = {name: i for i, name in enumerate(self.class_names)}
         found.sort(key=lambda d: (order[d.color], d.centroid_px[1], d.centroid_px[0]))
         return found
@@ -379,6 +393,17 @@ class ColorDetector:
         cal = self.calibration
         diameter = np.array([self._diameter_cm[c] for c in colors])
         flat = cal.expected_disc_area_px(centroids_px, diameter)
+        if isinstance(cal, PerspectiveCamera):  # the calibrated camera's own outline
+            height = np.array([self._height_cm[c] for c in colors])
+            at = cal.pixel_to_plane(centroids_px, height / 2.0)
+            bounds = [
+                cal.object_image(p, d / 2.0, hh)
+                for p, d, hh in zip(at, diameter, height, strict=True)
+            ]
+            area, ratio = (
+                np.array(v, dtype=float).reshape(len(flat)) for v in zip(*bounds, strict=True)
+            )
+            return flat, area, ratio
         if self.camera_height_cm is None:
             return flat, flat, np.ones(len(flat))
         height = np.array([self._height_cm[c] for c in colors])
@@ -391,16 +416,31 @@ class ColorDetector:
         area_cm2 = math.pi * (k * r) ** 2 + 2.0 * k * r * sweep
         return flat, area_cm2 / cal.pixel_area_cm2(centroids_px), 1.0 + sweep / (2.0 * r)
 
+    def _located(self, found: list[Detection], regions: list[np.ndarray]) -> list[Detection]:
+        """``found`` with each detection's table position (``table_cm``)."""
+        cal = self.calibration
+        if cal is None or not found:
+            return found
+        if isinstance(cal, Calibration):
+            xy = cal.pixel_to_table(np.array([d.centroid_px for d in found]))
+            return [replace(d, table_cm=p) for d, p in zip(found, xy, strict=True)]
+        out = []
+        for d, region in zip(found, regions, strict=True):
+            x, y = d.bbox_px[:2]
+            r, h = self._diameter_cm[d.color] / 2.0, self._height_cm[d.color]
+            out.append(replace(d, table_cm=cal.locate_object(region, (x, y), r, h)))
+        return out
+
     def _resolve(
         self, found: list[Detection], regions: list[np.ndarray], frame_shape: Sequence[int]
-    ) -> list[Detection]:
+    ) -> tuple[list[Detection], list[np.ndarray]]:
         """Split the regions holding several objects; flag those that cannot be split.
 
         Needs the calibration (one object's area); without it only the elongation rule
-        (applied in :meth:`_detection`) flags.
+        (applied in :meth:`_detection`) flags. Returns the detections and their regions.
         """
         if self.calibration is None or not found:
-            return found
+            return found, regions
         centroids = np.array([d.centroid_px for d in found])
         flat, largest, stretch = self.one_object_bounds(
             centroids, [d.color for d in found], frame_shape
@@ -408,21 +448,25 @@ class ColorDetector:
         ratio, elong = self.vision.merged_area_ratio, self.vision.merged_elongation
         limit = ratio * largest
         out: list[Detection] = []
+        masks: list[np.ndarray] = []
         for d, region, a_flat, a_max, e_max in zip(
             found, regions, flat, limit, elong * stretch, strict=True
         ):
             if d.area_px <= a_max:
                 out.append(replace(d, merged=bool(d.elongation > e_max)))
+                masks.append(region)
                 continue
             radius = math.sqrt(a_flat / math.pi)
             lo = max(MIN_PART * a_flat, self.vision.min_area_px)
             parts = split_region(region, radius, lo, a_max, e_max)
             if parts is None:
                 out.append(replace(d, merged=True))
+                masks.append(region)
                 continue
             x0, y0 = d.bbox_px[0], d.bbox_px[1]
             for p in parts:
                 px, py, pw, ph = p.bbox_px
+                masks.append(p.mask)
                 out.append(
                     replace(
                         d,
@@ -433,4 +477,4 @@ class ColorDetector:
                         elongation=p.elongation,
                     )
                 )
-        return out
+        return out, masks

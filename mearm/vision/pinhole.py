@@ -1,0 +1,616 @@
+r"""The camera as a 3-D sensor: a calibrated pinhole with lens distortion, placed in the base frame.
+
+The paper maps pixels to the table with one plane homography (:mod:`mearm.vision.calibration`),
+exact for a distortion-free camera and points *on the table*. A real webcam bends lines
+(lens distortion) and sees the *top* of each object, which is nearer to it than the
+table: an object of height *h* seen at distance ρ from the camera's foot point shows
+its top pushed outwards by ρ·h/(H − h) (*H* the camera's height), 0.3 cm for a 1 cm
+object 15 cm from the foot of a camera 52 cm up.
+
+This module models the camera instead:
+
+- :class:`Intrinsics` — the camera matrix *K* and OpenCV's distortion coefficients
+  (k1, k2, p1, p2, k3), from views of a ChArUco board (:mod:`mearm.vision.charuco`);
+- :class:`Extrinsics` — the camera's pose in the robot base frame: the rotation
+  :math:`R` (camera → base; camera axes x right, y down, z forward as in OpenCV) and
+  its optical centre :math:`C` [cm], from ArUco markers lying on the table (solvePnP);
+- :class:`PerspectiveCamera` — both together: a pixel is undistorted, its ray
+  :math:`C + t\,R\,[x_n, y_n, 1]^T` cast into the base frame and cut with the plane
+  z = *h* of the object's top face; and the inverse, a base-frame point projected to a
+  pixel.
+
+**Locating an object** (:meth:`PerspectiveCamera.locate_object`). An upright cylinder
+(radius *r*, height *h*) is convex, so its image is the convex hull of the images of its
+two end discs. Cast back onto the plane of its top, z = *h*, the top disc is a circle
+of radius *r* around the object's axis and the base disc a smaller circle nearer the
+camera's foot point *N*; the side wall fills the hull between them. The half of the
+outline facing away from *N* is therefore always the top disc's rim: the object's
+centre is the centre of the circle fitted to that arc (the fit's radius is free, so a
+mask grown or shrunk by a fraction of a pixel all round does not move it). Whether the
+side wall is bright enough to be segmented does not matter.
+
+**Files.** Each calibration is its own YAML file (not a config section), versioned:
+``format: mearm-camera-calibration``, ``version: 1``, ``kind: intrinsics | extrinsics``,
+the camera's id, the frame size and the date, its numbers and its quality (``rms_px``,
+the RMS reprojection error). :func:`save_calibration` never replaces a file holding a
+better calibration of the same camera (lower ``rms_px``), a different camera's or
+resolution's, or anything that is not a calibration, unless forced; a replaced file is
+kept beside the new one as ``<name>.bak``.
+"""
+
+from __future__ import annotations
+
+import datetime
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Literal
+
+import cv2
+import numpy as np
+import numpy.typing as npt
+import yaml
+
+from mearm.config.base import short_repr
+from mearm.exceptions import CalibrationError, ConfigError
+from mearm.fileio import write_atomic
+from mearm.yamlio import load_yaml_file
+
+FORMAT = "mearm-camera-calibration"
+VERSION = 1
+Kind = Literal["intrinsics", "extrinsics"]
+
+#: Largest focal length or principal-point coordinate [px] (an image side is ≤ 4096 px).
+MAX_PIXELS = 1e5
+#: Largest distortion coefficient magnitude (webcams: |k1| < 1).
+MAX_DISTORTION = 100.0
+#: Largest distance of the camera from the base [cm].
+MAX_CAMERA_DISTANCE_CM = 1000.0
+#: Outline points on the far side of an object used for the top disc's circle: within
+#: this angle of the direction away from the camera's foot point [deg]. The top disc
+#: owns more than ±90° of the outline; ±80° keeps clear of the hull's straight sides.
+FAR_ARC_DEG = 80.0
+#: Undistortion iterations and tolerance (OpenCV's default 5 iterations leave up to
+#: 0.1 px at a webcam's corners).
+_UNDISTORT_CRITERIA = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 40, 1e-12)
+
+
+def _matrix(name: str, value: Any, shape: tuple[int, ...], limit: float) -> np.ndarray:
+    try:
+        arr = np.array(value, dtype=float)
+    except (TypeError, ValueError):
+        raise CalibrationError(f"{name} must be numbers, got {short_repr(value)}") from None
+    if arr.shape != shape:
+        raise CalibrationError(f"{name} must have shape {shape}, got {arr.shape}")
+    if not np.all(np.isfinite(arr)) or np.abs(arr).max(initial=0.0) > limit:
+        raise CalibrationError(
+            f"{name} must be finite numbers within ±{limit:g}, got {short_repr(arr.tolist())}"
+        )
+    arr.setflags(write=False)
+    return arr
+
+
+def today() -> str:
+    """Now, as the ISO 8601 timestamp calibration files record (UTC, seconds)."""
+    return datetime.datetime.now(datetime.timezone.utc).replace(microsecond=0).isoformat()
+
+
+@dataclass(frozen=True)
+class Intrinsics:
+    """The camera matrix and lens distortion of one camera at one resolution.
+
+    Attributes:
+        camera_matrix: *K* = [[fx, 0, cx], [0, fy, cy], [0, 0, 1]] [px], (3, 3).
+        distortion: OpenCV's (k1, k2, p1, p2, k3), (5,).
+        size_px: The frame size it holds for (width, height) [px].
+        rms_px: RMS reprojection error of the board corners [px].
+        views: How many board views it was fitted from.
+        camera_id: Which camera (a device path, a serial number, ``twin``).
+        date: When it was made (ISO 8601).
+    """
+
+    camera_matrix: np.ndarray
+    distortion: np.ndarray
+    size_px: tuple[int, int]
+    rms_px: float
+    views: int = 0
+    camera_id: str = "camera"
+    date: str = field(default_factory=today)
+
+    kind = "intrinsics"
+
+    def __post_init__(self) -> None:
+        K = _matrix("camera_matrix", self.camera_matrix, (3, 3), MAX_PIXELS)
+        if K[0, 0] <= 0 or K[1, 1] <= 0 or K[2, 2] != 1 or K[1, 0] or K[2, 0] or K[2, 1]:
+            raise CalibrationError(
+                "camera_matrix must be [[fx, s, cx], [0, fy, cy], [0, 0, 1]] with fx, fy > 0, "
+                f"got {short_repr(K.tolist())}"
+            )
+        dist = _matrix("distortion", self.distortion, (5,), MAX_DISTORTION)
+        w, h = (int(v) for v in self.size_px)
+        if not (0 < w <= 65535 and 0 < h <= 65535):
+            raise CalibrationError(f"size_px must be two sides in 1 … 65535 px, got {self.size_px}")
+        if not (math.isfinite(self.rms_px) and 0 <= self.rms_px <= 1e3):
+            raise CalibrationError(f"rms_px must be in 0 … 1000 px, got {self.rms_px!r}")
+        object.__setattr__(self, "camera_matrix", K)
+        object.__setattr__(self, "distortion", dist)
+        object.__setattr__(self, "size_px", (w, h))
+
+    def to_dict(self) -> dict[str, Any]:
+        """The file's fields (the header is added by :func:`save_calibration`)."""
+        return {
+            "camera_matrix": [[float(v) for v in row] for row in self.camera_matrix],
+            "distortion": [float(v) for v in self.distortion],
+            "rms_px": float(self.rms_px),
+            "views": int(self.views),
+        }
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any], header: Mapping[str, Any]) -> Intrinsics:
+        """Read the fields :meth:`to_dict` writes (``header``: id, size, date)."""
+        return cls(
+            camera_matrix=data["camera_matrix"],
+            distortion=data["distortion"],
+            size_px=tuple(header["resolution"]),
+            rms_px=float(data["rms_px"]),
+            views=int(data.get("views", 0)),
+            camera_id=str(header["camera_id"]),
+            date=str(header["date"]),
+        )
+
+    def undistort(self, pixels_px: npt.ArrayLike) -> np.ndarray:
+        """Normalised image coordinates (x/z, y/z) of pixels, (N, 2) → (N, 2)."""
+        px = np.asarray(pixels_px, dtype=np.float64).reshape(-1, 1, 2)
+        out = cv2.undistortPoints(
+            px, self.camera_matrix, self.distortion, None, None, None, _UNDISTORT_CRITERIA
+        )
+        return out.reshape(-1, 2)
+
+
+@dataclass(frozen=True)
+class Extrinsics:
+    """The camera's pose in the robot base frame.
+
+    Attributes:
+        rotation: Camera → base rotation *R*, (3, 3) (columns: the camera's x right,
+            y down, z forward axes in the base frame).
+        position_cm: The camera's optical centre in the base frame [cm], (3,).
+        rms_px: RMS reprojection error of the marker corners it was fitted to [px].
+        markers: How many markers it was fitted to.
+        camera_id: Which camera.
+        size_px: The frame size of the intrinsics it was fitted with.
+        date: When it was made (ISO 8601).
+        refined_by_arm: Whether the arm's check (:mod:`mearm.vision.armcheck`) refined it.
+    """
+
+    rotation: np.ndarray
+    position_cm: np.ndarray
+    rms_px: float
+    markers: int = 0
+    camera_id: str = "camera"
+    size_px: tuple[int, int] = (640, 480)
+    date: str = field(default_factory=today)
+    refined_by_arm: bool = False
+
+    kind = "extrinsics"
+
+    def __post_init__(self) -> None:
+        R = _matrix("rotation", self.rotation, (3, 3), 1.0 + 1e-6)
+        if np.abs(R @ R.T - np.eye(3)).max() > 1e-6 or np.linalg.det(R) < 0:
+            raise CalibrationError("rotation must be a rotation matrix (orthonormal, det +1)")
+        C = _matrix("position_cm", self.position_cm, (3,), MAX_CAMERA_DISTANCE_CM)
+        if not (math.isfinite(self.rms_px) and 0 <= self.rms_px <= 1e3):
+            raise CalibrationError(f"rms_px must be in 0 … 1000 px, got {self.rms_px!r}")
+        object.__setattr__(self, "rotation", R)
+        object.__setattr__(self, "position_cm", C)
+        object.__setattr__(self, "size_px", tuple(int(v) for v in self.size_px))
+
+    @classmethod
+    def from_rvec_tvec(cls, rvec: npt.ArrayLike, tvec: npt.ArrayLike, **kw: Any) -> Extrinsics:
+        """From OpenCV's pose of the base frame in the camera (solvePnP's rvec, tvec [cm])."""
+        R_cam_base, _ = cv2.Rodrigues(np.asarray(rvec, dtype=float).reshape(3, 1))
+        t = np.asarray(tvec, dtype=float).reshape(3)
+        R = R_cam_base.T
+        return cls(rotation=R, position_cm=-R @ t, **kw)
+
+    def rvec_tvec(self) -> tuple[np.ndarray, np.ndarray]:
+        """OpenCV's (rvec, tvec [cm]) of the base frame in the camera, for projectPoints."""
+        R_cam_base = self.rotation.T
+        rvec, _ = cv2.Rodrigues(R_cam_base)
+        return rvec.reshape(3), -R_cam_base @ self.position_cm
+
+    def to_dict(self) -> dict[str, Any]:
+        """The file's fields (the header is added by :func:`save_calibration`)."""
+        return {
+            "rotation": [[float(v) for v in row] for row in self.rotation],
+            "position_cm": [float(v) for v in self.position_cm],
+            "rms_px": float(self.rms_px),
+            "markers": int(self.markers),
+            "refined_by_arm": bool(self.refined_by_arm),
+        }
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any], header: Mapping[str, Any]) -> Extrinsics:
+        """Read the fields :meth:`to_dict` writes (``header``: id, size, date)."""
+        return cls(
+            rotation=data["rotation"],
+            position_cm=data["position_cm"],
+            rms_px=float(data["rms_px"]),
+            markers=int(data.get("markers", 0)),
+            camera_id=str(header["camera_id"]),
+            size_px=tuple(header["resolution"]),
+            date=str(header["date"]),
+            refined_by_arm=bool(data.get("refined_by_arm", False)),
+        )
+
+
+CalibrationFile = Intrinsics | Extrinsics
+_KINDS: dict[str, type[Intrinsics] | type[Extrinsics]] = {
+    "intrinsics": Intrinsics,
+    "extrinsics": Extrinsics,
+}
+
+
+def calibration_text(cal: CalibrationFile) -> str:
+    """The YAML text of a calibration file."""
+    header = {
+        "format": FORMAT,
+        "version": VERSION,
+        "kind": cal.kind,
+        "camera_id": cal.camera_id,
+        "resolution": list(cal.size_px),
+        "date": cal.date,
+    }
+    body = yaml.safe_dump(cal.to_dict(), sort_keys=False, default_flow_style=None, width=100)
+    head = yaml.safe_dump(header, sort_keys=False, default_flow_style=None)
+    return f"# mearm camera calibration ({cal.kind}); written by mearm, do not edit\n{head}{body}"
+
+
+def load_calibration(path: str | Path, kind: Kind | None = None) -> CalibrationFile:
+    """Read a calibration file.
+
+    Args:
+        path: The file.
+        kind: The kind it must be; ``None``: either.
+
+    Raises:
+        CalibrationError: the file is missing, not YAML, not a mearm camera calibration,
+            of a newer version, of the wrong kind, or its numbers are out of range; the
+            message names the file and the field.
+    """
+    try:
+        data = load_yaml_file(path, what="calibration")
+    except ConfigError as exc:
+        raise CalibrationError(str(exc)) from None
+    where = str(path)
+    if not isinstance(data, dict) or data.get("format") != FORMAT:
+        raise CalibrationError(f"{where}: not a mearm camera calibration (format: {FORMAT})")
+    version = data.get("version")
+    if version != VERSION:
+        raise CalibrationError(
+            f"{where}: calibration file version {short_repr(version)}; this mearm reads "
+            f"version {VERSION}"
+        )
+    found = data.get("kind")
+    if found not in _KINDS:
+        raise CalibrationError(f"{where}: kind must be intrinsics or extrinsics, got {found!r}")
+    if kind is not None and found != kind:
+        raise CalibrationError(f"{where}: holds {found}, but {kind} are needed here")
+    try:
+        return _KINDS[found].from_dict(data, data)
+    except KeyError as exc:
+        raise CalibrationError(f"{where}: missing field {exc.args[0]!r}") from None
+    except (TypeError, ValueError) as exc:
+        raise CalibrationError(f"{where}: {exc}") from None
+    except CalibrationError as exc:
+        raise CalibrationError(f"{where}: {exc.reason}") from None
+
+
+def save_calibration(path: str | Path, cal: CalibrationFile, *, force: bool = False) -> Path:
+    """Write ``cal`` to ``path`` unless that would lose a better calibration.
+
+    Without ``force`` an existing file is replaced only when it holds a calibration of
+    the same kind, camera and frame size whose ``rms_px`` is no lower than the new
+    one's. A replaced file is kept as ``<path>.bak``. The write is atomic.
+
+    Returns:
+        The path written.
+
+    Raises:
+        CalibrationError: the existing file is better, of another camera, kind or
+            resolution, or not a calibration file, and ``force`` is not set.
+    """
+    target = Path(path)
+    if target.exists():
+        old_text = target.read_bytes() if target.is_file() else None
+        if not force:
+            _check_replace(target, cal)
+        if old_text is not None:
+            write_atomic(target.with_name(target.name + ".bak"), old_text)
+    return write_atomic(target, calibration_text(cal))
+
+
+def _check_replace(target: Path, cal: CalibrationFile) -> None:
+    try:
+        old = load_calibration(target)
+    except CalibrationError as exc:
+        raise CalibrationError(
+            f"{target} exists and is not a readable camera calibration ({exc.reason}): "
+            "pass --force to replace it"
+        ) from None
+    if old.kind != cal.kind or old.camera_id != cal.camera_id or old.size_px != cal.size_px:
+        raise CalibrationError(
+            f"{target} holds the {old.kind} of camera {old.camera_id!r} at "
+            f"{old.size_px[0]}x{old.size_px[1]} px; the new one is the {cal.kind} of "
+            f"{cal.camera_id!r} at {cal.size_px[0]}x{cal.size_px[1]} px: pass --force to "
+            "replace it, or write elsewhere"
+        )
+    if cal.rms_px > old.rms_px:
+        raise CalibrationError(
+            f"{target} holds a better calibration (rms {old.rms_px:.3f} px, {old.date}) than "
+            f"the new one (rms {cal.rms_px:.3f} px): kept; pass --force to replace it"
+        )
+
+
+def _fit_circle(pts: np.ndarray) -> tuple[np.ndarray, float]:
+    """Least-squares circle through points (N ≥ 3, (N, 2)): centre, radius.
+
+    The algebraic (Kåsa) fit, refined by Gauss–Newton on the geometric distances.
+    """
+    A = np.column_stack([2 * pts, np.ones(len(pts))])
+    b = np.sum(pts**2, axis=1)
+    sol, *_ = np.linalg.lstsq(A, b, rcond=None)
+    c = sol[:2]
+    r = math.sqrt(max(sol[2] + c @ c, 1e-18))
+    for _ in range(10):
+        d = pts - c
+        dist = np.linalg.norm(d, axis=1)
+        dist = np.where(dist < 1e-12, 1e-12, dist)
+        J = np.column_stack([-d / dist[:, None], -np.ones(len(pts))])
+        res = dist - r
+        step, *_ = np.linalg.lstsq(J, -res, rcond=None)
+        c = c + step[:2]
+        r = r + step[2]
+        if np.abs(step).max() < 1e-10:
+            break
+    return c, float(r)
+
+
+class PerspectiveCamera:
+    """A calibrated camera placed in the base frame: pixels ↔ 3-D points [cm].
+
+    Args:
+        intrinsics: The camera matrix and distortion.
+        extrinsics: Its pose in the base frame.
+
+    Raises:
+        CalibrationError: the two were made for different frame sizes, or the camera is
+            not above the table (z ≤ 0).
+    """
+
+    def __init__(self, intrinsics: Intrinsics, extrinsics: Extrinsics):
+        if intrinsics.size_px != extrinsics.size_px:
+            raise CalibrationError(
+                f"the intrinsics are for {intrinsics.size_px[0]}x{intrinsics.size_px[1]} px "
+                f"frames but the extrinsics were fitted at {extrinsics.size_px[0]}x"
+                f"{extrinsics.size_px[1]} px: recalibrate the pose at this resolution"
+            )
+        if extrinsics.position_cm[2] <= 0:
+            raise CalibrationError(
+                f"the camera is at z = {extrinsics.position_cm[2]:.1f} cm, not above the "
+                "table: the extrinsics are wrong (mirrored marker positions?)"
+            )
+        self.intrinsics = intrinsics
+        self.extrinsics = extrinsics
+        self.size_px = intrinsics.size_px
+        self.centre_cm = extrinsics.position_cm
+        self._R = extrinsics.rotation
+        self._rvec, self._tvec = extrinsics.rvec_tvec()
+
+    @classmethod
+    def from_files(cls, intrinsics: str | Path, extrinsics: str | Path) -> PerspectiveCamera:
+        """The camera the two calibration files describe."""
+        i = load_calibration(intrinsics, "intrinsics")
+        e = load_calibration(extrinsics, "extrinsics")
+        assert isinstance(i, Intrinsics) and isinstance(e, Extrinsics)
+        return cls(i, e)
+
+    def with_extrinsics(self, extrinsics: Extrinsics) -> PerspectiveCamera:
+        """The same camera at another pose."""
+        return PerspectiveCamera(self.intrinsics, extrinsics)
+
+    # ------------------------------------------------------------------ geometry
+
+    def rays(self, pixels_px: npt.ArrayLike) -> np.ndarray:
+        """Base-frame directions of the rays through pixels, (N, 2) → (N, 3) (not unit length)."""
+        xn = self.intrinsics.undistort(pixels_px)
+        cam = np.column_stack([xn, np.ones(len(xn))])
+        return cam @ self._R.T
+
+    def pixel_to_plane(self, pixels_px: npt.ArrayLike, z_cm: npt.ArrayLike = 0.0) -> np.ndarray:
+        """Where each pixel's ray meets the plane z = ``z_cm`` [cm]: (x, y) [cm].
+
+        Shapes as :meth:`pixel_to_table`; ``z_cm`` is one height or one per pixel.
+
+        Raises:
+            CalibrationError: a ray does not come down to that plane (it points above
+                the horizon).
+        """
+        px = np.asarray(pixels_px, dtype=float)
+        d = self.rays(px.reshape(-1, 2))
+        z = np.broadcast_to(np.asarray(z_cm, dtype=float), (len(d),))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = (z - self.centre_cm[2]) / d[:, 2]
+        if not np.all(t > 0):
+            raise CalibrationError(
+                "a pixel's ray does not meet the table: it looks above the horizon"
+            )
+        xy = self.centre_cm[:2] + t[:, None] * d[:, :2]
+        return xy.reshape(px.shape)
+
+    def pixel_to_table(self, pixels_px: npt.ArrayLike) -> np.ndarray:
+        """Table points (z = 0) of pixels; (N, 2) → (N, 2), (2,) → (2,) [cm]."""
+        return self.pixel_to_plane(pixels_px, 0.0)
+
+    def project(self, points_cm: npt.ArrayLike) -> np.ndarray:
+        """Pixels of base-frame points (N, 3) [cm] → (N, 2) [px], distortion included."""
+        pts = np.asarray(points_cm, dtype=np.float64).reshape(-1, 1, 3)
+        px, _ = cv2.projectPoints(
+            pts, self._rvec, self._tvec, self.intrinsics.camera_matrix, self.intrinsics.distortion
+        )
+        return px.reshape(-1, 2)
+
+    def table_to_pixel(self, table_cm: npt.ArrayLike, z_cm: float = 0.0) -> np.ndarray:
+        """Pixels of points (x, y) on the plane z = ``z_cm``; (N, 2) → (N, 2), (2,) → (2,)."""
+        xy = np.asarray(table_cm, dtype=float)
+        flat = xy.reshape(-1, 2)
+        pts = np.column_stack([flat, np.full(len(flat), z_cm)])
+        return self.project(pts).reshape(xy.shape)
+
+    def pixel_area_cm2(self, pixels_px: npt.ArrayLike, z_cm: float = 0.0) -> np.ndarray:
+        """Area one pixel covers on the plane z = ``z_cm`` at each pixel [cm²], (N,)."""
+        px = np.asarray(pixels_px, dtype=float).reshape(-1, 2)
+        e = 0.5
+        p = self.pixel_to_plane(
+            np.concatenate([px - (e, 0), px + (e, 0), px - (0, e), px + (0, e)]), z_cm
+        ).reshape(4, -1, 2)
+        du, dv = (p[1] - p[0]) / (2 * e), (p[3] - p[2]) / (2 * e)
+        return np.abs(du[:, 0] * dv[:, 1] - du[:, 1] * dv[:, 0])
+
+    def expected_disc_area_px(
+        self, pixels_px: npt.ArrayLike, diameter_cm: npt.ArrayLike
+    ) -> np.ndarray:
+        """Image area [px] of a flat disc on the table centred at each pixel, (N,)."""
+        radius_cm = np.asarray(diameter_cm, dtype=float) / 2.0
+        return math.pi * radius_cm**2 / self.pixel_area_cm2(pixels_px)
+
+    def silhouette_px(
+        self, centre_cm: npt.ArrayLike, radius_cm: float, height_cm: float, n: int = 48
+    ) -> np.ndarray:
+        """The image outline of an upright cylinder standing at ``centre_cm`` (x, y), (M, 2) [px].
+
+        The convex hull of its two end discs' images (exact for a convex body).
+        """
+        a = np.linspace(0.0, 2 * math.pi, n, endpoint=False)
+        x, y = np.asarray(centre_cm, dtype=float)
+        ring = np.column_stack([x + radius_cm * np.cos(a), y + radius_cm * np.sin(a)])
+        pts = np.concatenate(
+            [np.column_stack([ring, np.zeros(n)]), np.column_stack([ring, np.full(n, height_cm)])]
+        )
+        px = self.project(pts).astype(np.float32)
+        return cv2.convexHull(px).reshape(-1, 2).astype(float)
+
+    def object_image(
+        self, centre_cm: npt.ArrayLike, radius_cm: float, height_cm: float
+    ) -> tuple[float, float]:
+        """Image area [px] and principal-axis ratio [-] of an upright cylinder's outline."""
+        hull = self.silhouette_px(centre_cm, radius_cm, height_cm).astype(np.float32)
+        m = cv2.moments(hull)
+        a, b, c = m["mu20"], m["mu11"], m["mu02"]
+        root = math.sqrt(max((a - c) ** 2 + 4.0 * b * b, 0.0))
+        lam_min = (a + c - root) / 2.0
+        ratio = math.sqrt((a + c + root) / 2.0 / lam_min) if lam_min > 1e-12 else math.inf
+        return float(m["m00"]), ratio
+
+    def locate_object(
+        self,
+        mask: np.ndarray,
+        origin_px: tuple[int, int],
+        radius_cm: float,
+        height_cm: float,
+    ) -> np.ndarray:
+        """The table position (x, y) [cm] of an upright cylinder from its image region.
+
+        Fits a circle to the far side of the region's outline cast onto the plane of the
+        object's top (module docstring).
+
+        Args:
+            mask: The region, a 0/1 (or 0/255) uint8 image of its bounding box.
+            origin_px: The box's top-left pixel (x, y) in the frame.
+            radius_cm: The object's radius [cm] (used when the arc is too short to fit).
+            height_cm: The object's height [cm]: the plane of its top face.
+        """
+        contours, _ = cv2.findContours(
+            (mask > 0).view(np.uint8), cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE
+        )
+        outline = max(contours, key=len).reshape(-1, 2).astype(float) + origin_px
+        pts = self.pixel_to_plane(outline, height_cm)
+        m = cv2.moments((mask > 0).view(np.uint8), binaryImage=True)
+        centroid_px = np.array([m["m10"] / m["m00"], m["m01"] / m["m00"]]) + origin_px
+        c = self.pixel_to_plane(centroid_px, height_cm)
+        foot = self.centre_cm[:2]
+        for _ in range(4):
+            away = c - foot
+            dist = float(np.linalg.norm(away))
+            if dist < 1e-6 * max(radius_cm, 1e-3):
+                chosen = pts  # under the camera: the whole outline is the top's rim
+            else:
+                u = away / dist
+                d = pts - c
+                cosang = (d @ u) / np.maximum(np.linalg.norm(d, axis=1), 1e-12)
+                chosen = pts[cosang >= math.cos(math.radians(FAR_ARC_DEG))]
+            if len(chosen) < 6:
+                break
+            c_new, _ = _fit_circle(chosen)
+            if not np.all(np.isfinite(c_new)):
+                break
+            moved = float(np.linalg.norm(c_new - c))
+            c = c_new
+            if moved < 1e-6:
+                break
+        return np.asarray(c, dtype=float)
+
+
+def solve_pose(
+    intrinsics: Intrinsics,
+    pixels_px: npt.ArrayLike,
+    points_cm: npt.ArrayLike,
+    **meta: Any,
+) -> Extrinsics:
+    """The camera's pose from base-frame points (N ≥ 4, (N, 3) [cm]) and their pixels.
+
+    The pixels are undistorted first; the pose is IPPE's for points on one plane (the
+    table), refined by Levenberg–Marquardt on all of them.
+
+    Raises:
+        CalibrationError: fewer than 4 points, or no pose puts the points in front of
+            the camera.
+    """
+    px = np.asarray(pixels_px, dtype=float).reshape(-1, 2)
+    pts = np.asarray(points_cm, dtype=float).reshape(-1, 3)
+    if len(px) != len(pts) or len(px) < 4:
+        raise CalibrationError(
+            f"a camera pose needs at least 4 point pairs, got {len(px)} pixels and "
+            f"{len(pts)} points"
+        )
+    xn = intrinsics.undistort(px)
+    eye, nodist = np.eye(3), np.zeros(5)
+    flat = bool(np.ptp(pts[:, 2]) < 1e-9)
+    method = cv2.SOLVEPNP_IPPE if flat else cv2.SOLVEPNP_ITERATIVE
+    ok, rvec, tvec = cv2.solvePnP(pts, xn, eye, nodist, flags=method)
+    if not ok:
+        raise CalibrationError("no camera pose fits these points: check the marker positions")
+    rvec, tvec = cv2.solvePnPRefineLM(
+        pts,
+        xn,
+        eye,
+        nodist,
+        rvec,
+        tvec,
+        (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 100, 1e-12),
+    )
+    proj, _ = cv2.projectPoints(pts, rvec, tvec, intrinsics.camera_matrix, intrinsics.distortion)
+    err = np.linalg.norm(proj.reshape(-1, 2) - px, axis=1)
+    rms = float(np.sqrt(np.mean(err**2)))
+    meta.setdefault("camera_id", intrinsics.camera_id)
+    meta.setdefault("size_px", intrinsics.size_px)
+    ext = Extrinsics.from_rvec_tvec(rvec, tvec, rms_px=rms, **meta)
+    depth = (pts - ext.position_cm) @ ext.rotation[:, 2]
+    if not np.all(depth > 0) or ext.position_cm[2] <= 0:
+        raise CalibrationError(
+            "the fitted pose puts the camera below the table or points behind it: the "
+            "marker positions do not "
+            "match the image (swapped ids or mirrored x/y?)"
+        )
+    return ext

@@ -1,0 +1,170 @@
+"""Ray-cast renders of upright cylinders on a table through a known pinhole camera with distortion.
+
+The ground truth of the perspective tests: every pixel (3 × 3 sub-samples) is undistorted
+with the true camera and its ray cut with the table (z = 0) and with each cylinder's top
+disc and side wall, nearest hit first. The top face takes the class's colour, the side
+wall the same colour darker (lit from above), the table a light grey; Gaussian sensor
+noise is added. Exact geometry, no texture: what these scenes test is the camera model.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from mearm.vision.pinhole import Extrinsics, Intrinsics, PerspectiveCamera
+
+#: The webcam of the issue: 640 × 480 px, ≈ 65° horizontal field of view.
+WIDTH, HEIGHT = 640, 480
+FOCAL_PX = (WIDTH / 2) / math.tan(math.radians(65.0 / 2))
+#: Mild barrel distortion, as a cheap webcam lens.
+DISTORTION = (-0.12, 0.05, 0.0008, -0.0006, 0.0)
+TABLE_BGR = (175, 178, 180)
+SIDE_SHADE = 0.6
+SUB = 3
+
+
+@dataclass(frozen=True)
+class Cylinder:
+    """An upright cylinder standing on the table at (x, y) [cm]."""
+
+    x: float
+    y: float
+    radius: float
+    height: float
+    bgr: tuple[int, int, int]
+
+
+def true_camera(
+    height_cm: float = 55.0,
+    tilt_deg: float = 0.0,
+    target_cm: Sequence[float] = (0.0, 44.0),
+    yaw_deg: float = 0.0,
+    distortion: Sequence[float] = DISTORTION,
+) -> PerspectiveCamera:
+    """A camera ``height_cm`` above the table, tilted about its x axis, aimed at ``target_cm``.
+
+    Untilted it looks straight down with the image's right along +x and its top along +y
+    (the paper's camera). Tilted, it moves towards −y and looks back at the target.
+    """
+    K = np.array([[FOCAL_PX, 0, (WIDTH - 1) / 2], [0, FOCAL_PX, (HEIGHT - 1) / 2], [0, 0, 1]])
+    intr = Intrinsics(K, distortion, (WIDTH, HEIGHT), 0.0, camera_id="truth")
+    down = np.array([[1.0, 0, 0], [0, -1.0, 0], [0, 0, -1.0]]).T  # columns: camera x, y, z
+    t = math.radians(tilt_deg)
+    tilt = np.array([[1, 0, 0], [0, math.cos(t), -math.sin(t)], [0, math.sin(t), math.cos(t)]])
+    y = math.radians(yaw_deg)
+    yaw = np.array([[math.cos(y), -math.sin(y), 0], [math.sin(y), math.cos(y), 0], [0, 0, 1]])
+    R = yaw @ tilt @ down
+    axis = R[:, 2]
+    centre = np.array([target_cm[0], target_cm[1], 0.0]) - axis * (height_cm / -axis[2])
+    ext = Extrinsics(R, centre, 0.0, camera_id="truth", size_px=(WIDTH, HEIGHT))
+    return PerspectiveCamera(intr, ext)
+
+
+_RAYS: dict[bytes, np.ndarray] = {}
+
+
+def _rays(camera: PerspectiveCamera) -> np.ndarray:
+    e, i = camera.extrinsics, camera.intrinsics
+    key = b"".join(a.tobytes() for a in (e.rotation, e.position_cm, i.camera_matrix, i.distortion))
+    if key not in _RAYS:
+        offs = (np.arange(SUB) + 0.5) / SUB - 0.5
+        u, v = np.meshgrid(np.arange(WIDTH, dtype=float), np.arange(HEIGHT, dtype=float))
+        su = (u[..., None, None] + offs[None, None, None, :]).repeat(SUB, axis=2)
+        sv = (v[..., None, None] + offs[None, None, :, None]).repeat(SUB, axis=3)
+        px = np.stack([su.ravel(), sv.ravel()], axis=1)
+        _RAYS.clear()
+        _RAYS[key] = camera.rays(px)
+    return _RAYS[key]
+
+
+@dataclass(frozen=True)
+class Texture:
+    """A picture lying on the table: grey uint8 image, its top-left corner at (x0, y1) [cm]."""
+
+    image: np.ndarray
+    x0: float
+    y1: float
+    px_per_cm: float
+
+
+def sheet(
+    markers: dict[int, tuple[float, float]], side_cm: float, px_per_cm: float = 40
+) -> Texture:
+    """White paper under ArUco markers (DICT_4X4_50) centred at ``markers`` [cm], top edge +y."""
+    import cv2
+
+    from mearm.vision.aruco import marker_image
+
+    xy = np.array(list(markers.values()))
+    margin = side_cm
+    x0, y0 = xy.min(axis=0) - side_cm / 2 - margin
+    x1, y1 = xy.max(axis=0) + side_cm / 2 + margin
+    w, h = round((x1 - x0) * px_per_cm), round((y1 - y0) * px_per_cm)
+    page = np.full((h, w), 255, np.uint8)
+    side = round(side_cm * px_per_cm)
+    for marker_id, (x, y) in markers.items():
+        u = (x - side_cm / 2 - x0) * px_per_cm
+        v = (y1 - (y + side_cm / 2)) * px_per_cm
+        M = np.float32([[1, 0, u], [0, 1, v]])
+        img = marker_image(marker_id, side)
+        placed = cv2.warpAffine(img, M, (w, h), flags=cv2.INTER_NEAREST, borderValue=255)
+        cover = cv2.warpAffine(
+            np.zeros_like(img), M, (w, h), flags=cv2.INTER_NEAREST, borderValue=255
+        )
+        page = np.where(cover == 0, placed, page)
+    return Texture(page, float(x0), float(y1), px_per_cm)
+
+
+def render(
+    camera: PerspectiveCamera,
+    cylinders: Sequence[Cylinder],
+    noise_std: float = 2.0,
+    seed: int = 0,
+    texture: Texture | None = None,
+) -> np.ndarray:
+    """The BGR uint8 frame the camera sees."""
+    d = _rays(camera)
+    o = camera.centre_cm
+    n = len(d)
+    best = (0.0 - o[2]) / d[:, 2]  # the table
+    colour = np.tile(np.array(TABLE_BGR, dtype=float), (n, 1))
+    if texture is not None:
+        p = o[:2] + best[:, None] * d[:, :2]
+        u = (p[:, 0] - texture.x0) * texture.px_per_cm - 0.5
+        v = (texture.y1 - p[:, 1]) * texture.px_per_cm - 0.5
+        h, w = texture.image.shape
+        inside = (u >= 0) & (v >= 0) & (u <= w - 1) & (v <= h - 1)
+        ui, vi = (
+            np.clip(np.rint(u), 0, w - 1).astype(int),
+            np.clip(np.rint(v), 0, h - 1).astype(int),
+        )
+        grey = texture.image[vi, ui].astype(float)
+        colour[inside] = np.repeat(grey[inside, None], 3, axis=1) * 0.9
+    for c in cylinders:
+        bgr = np.array(c.bgr, dtype=float)
+        # top disc
+        t = (c.height - o[2]) / d[:, 2]
+        p = o[:2] + t[:, None] * d[:, :2]
+        hit = (np.sum((p - (c.x, c.y)) ** 2, axis=1) <= c.radius**2) & (t < best)
+        best = np.where(hit, t, best)
+        colour[hit] = bgr
+        # side wall: |o + t d - c|_xy = r, nearest root with 0 <= z <= h
+        ox, oy = o[0] - c.x, o[1] - c.y
+        a = d[:, 0] ** 2 + d[:, 1] ** 2
+        b = 2 * (ox * d[:, 0] + oy * d[:, 1])
+        cc = ox**2 + oy**2 - c.radius**2
+        disc = b * b - 4 * a * cc
+        ok = disc >= 0
+        t = np.where(ok, (-b - np.sqrt(np.where(ok, disc, 0))) / (2 * a), np.inf)
+        z = o[2] + t * d[:, 2]
+        hit = ok & (z >= 0) & (z <= c.height) & (t < best) & (t > 0)
+        best = np.where(hit, t, best)
+        colour[hit] = bgr * SIDE_SHADE
+    img = colour.reshape(HEIGHT, WIDTH, SUB * SUB, 3).mean(axis=2)
+    if noise_std > 0:
+        img = img + np.random.default_rng(seed).normal(0.0, noise_std, img.shape)
+    return np.clip(np.rint(img), 0, 255).astype(np.uint8)

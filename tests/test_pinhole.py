@@ -1,0 +1,176 @@
+"""The camera as a 3-D sensor (mearm.vision.pinhole): rays, poses, files, objects' top faces."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from perspective_scene import Cylinder, render, true_camera
+
+from mearm.config import Config, load_config
+from mearm.exceptions import CalibrationError, ConfigError
+from mearm.vision.calibration import Calibration, camera_geometry
+from mearm.vision.detector import ColorDetector
+from mearm.vision.pinhole import (
+    Extrinsics,
+    Intrinsics,
+    PerspectiveCamera,
+    calibration_text,
+    load_calibration,
+    save_calibration,
+    solve_pose,
+)
+
+
+@pytest.mark.parametrize("tilt", [0.0, 8.0, 20.0])
+def test_pixel_and_table_round_trip_at_any_height(tilt: float) -> None:
+    cam = true_camera(tilt_deg=tilt)
+    rng = np.random.default_rng(0)
+    xy = rng.uniform((-18, 32), (18, 58), (50, 2))
+    for z in (0.0, 1.0, 2.5):
+        px = cam.table_to_pixel(xy, z)
+        assert np.abs(cam.pixel_to_plane(px, z) - xy).max() < 1e-9
+    # a raised point is seen farther from the camera's foot than its footprint
+    foot = cam.centre_cm[:2]
+    seen = cam.pixel_to_table(cam.table_to_pixel(xy, 2.5))
+    assert np.all(np.linalg.norm(seen - foot, axis=1) > np.linalg.norm(xy - foot, axis=1) - 1e-9)
+
+
+def test_a_ray_above_the_horizon_is_refused() -> None:
+    cam = true_camera(tilt_deg=0.0)
+    with pytest.raises(CalibrationError, match="horizon"):
+        cam.pixel_to_plane([320.0, 240.0], 60.0)  # above the camera
+
+
+@pytest.mark.parametrize("tilt", [0.0, 8.0])
+def test_solve_pose_recovers_the_camera_from_table_points(tilt: float) -> None:
+    cam = true_camera(tilt_deg=tilt)
+    rng = np.random.default_rng(1)
+    pts = np.column_stack([rng.uniform((-15, 35), (15, 55), (24, 2)), np.zeros(24)])
+    px = cam.project(pts) + rng.normal(0, 0.05, (24, 2))
+    pose = solve_pose(cam.intrinsics, px, pts, markers=6)
+    assert np.linalg.norm(pose.position_cm - cam.centre_cm) < 0.3
+    assert 0.01 < pose.rms_px < 0.1
+    fitted = cam.with_extrinsics(pose)
+    # what matters: where pixels land on the table and above it, over the markers' span
+    grid = cam.table_to_pixel(rng.uniform((-15, 35), (15, 55), (200, 2)))
+    for z in (0.0, 2.5):
+        assert np.abs(fitted.pixel_to_plane(grid, z) - cam.pixel_to_plane(grid, z)).max() < 0.015
+    with pytest.raises(CalibrationError, match="below the table"):
+        solve_pose(cam.intrinsics, px, pts * (1, -1, 1) + (0, 90, 0))  # y mirrored
+
+
+def _intrinsics(rms: float, camera_id: str = "cam") -> Intrinsics:
+    K = [[515.0, 0, 319.5], [0, 515.0, 239.5], [0, 0, 1]]
+    return Intrinsics(K, [-0.1, 0.05, 0, 0, 0], (640, 480), rms, views=12, camera_id=camera_id)
+
+
+def test_calibration_files_round_trip_and_are_versioned(tmp_path) -> None:
+    path = tmp_path / "cam.yaml"
+    save_calibration(path, _intrinsics(0.2))
+    back = load_calibration(path, "intrinsics")
+    assert isinstance(back, Intrinsics)
+    assert np.allclose(back.camera_matrix, _intrinsics(0.2).camera_matrix)
+    text = path.read_text()
+    assert "format: mearm-camera-calibration" in text and "version: 1" in text
+    assert "camera_id: cam" in text and "resolution: [640, 480]" in text
+    with pytest.raises(CalibrationError, match="holds intrinsics, but extrinsics"):
+        load_calibration(path, "extrinsics")
+    path.write_text(text.replace("version: 1", "version: 7"))
+    with pytest.raises(CalibrationError, match="version 7"):
+        load_calibration(path)
+    path.write_text(text.replace("rms_px: 0.2", "rms_px: -1"))
+    with pytest.raises(CalibrationError, match="rms_px"):
+        load_calibration(path)
+    path.write_text("a: 1\n")
+    with pytest.raises(CalibrationError, match="not a mearm camera calibration"):
+        load_calibration(path)
+
+
+def test_a_better_calibration_is_never_replaced_by_a_worse_one(tmp_path) -> None:
+    path = tmp_path / "cam.yaml"
+    save_calibration(path, _intrinsics(0.2))
+    good = path.read_bytes()
+    with pytest.raises(CalibrationError, match="holds a better calibration"):
+        save_calibration(path, _intrinsics(0.5))
+    assert path.read_bytes() == good
+    with pytest.raises(CalibrationError, match="camera 'cam'"):
+        save_calibration(path, _intrinsics(0.1, camera_id="other"))
+    assert path.read_bytes() == good
+    save_calibration(path, _intrinsics(0.1))  # better: replaced, the old kept aside
+    assert load_calibration(path).rms_px == 0.1
+    assert (tmp_path / "cam.yaml.bak").read_bytes() == good
+    save_calibration(path, _intrinsics(0.9), force=True)
+    assert load_calibration(path).rms_px == 0.9
+    junk = tmp_path / "notes.yaml"
+    junk.write_text("my notes\n")
+    with pytest.raises(CalibrationError, match="not a readable camera calibration"):
+        save_calibration(junk, _intrinsics(0.1))
+    assert junk.read_text() == "my notes\n"
+
+
+def _write_camera(tmp_path, cam: PerspectiveCamera) -> tuple[str, str]:
+    i, e = tmp_path / "intrinsics.yaml", tmp_path / "pose.yaml"
+    i.write_text(calibration_text(cam.intrinsics))
+    e.write_text(calibration_text(cam.extrinsics))
+    return str(i), str(e)
+
+
+def test_a_config_selects_the_perspective_model_by_its_files(tmp_path) -> None:
+    cam = true_camera(tilt_deg=8.0)
+    _write_camera(tmp_path, cam)
+    cfg = tmp_path / "rig.yaml"
+    cfg.write_text(
+        "calibration:\n  model: perspective\n  intrinsics_file: intrinsics.yaml\n"
+        "  extrinsics_file: pose.yaml\n"
+    )
+    config = load_config(cfg)
+    geometry = camera_geometry(config)
+    assert isinstance(geometry, PerspectiveCamera)
+    assert np.allclose(geometry.centre_cm, cam.centre_cm)
+    assert isinstance(camera_geometry(Config()), Calibration)
+    cfg.write_text("calibration:\n  model: perspective\n  intrinsics_file: intrinsics.yaml\n")
+    with pytest.raises(ConfigError, match="needs extrinsics_file"):
+        load_config(cfg)
+    cfg.write_text(
+        "calibration:\n  model: perspective\n  intrinsics_file: nowhere.yaml\n"
+        "  extrinsics_file: pose.yaml\n"
+    )
+    with pytest.raises(ConfigError, match="intrinsics_file: 'nowhere.yaml' is not a file"):
+        load_config(cfg)
+
+
+def _scene(rng: np.random.Generator, classes, height: float, n: int = 12) -> list[Cylinder]:
+    out: list[Cylinder] = []
+    while len(out) < n:
+        x, y = rng.uniform(-16, 16), rng.uniform(32, 56)
+        if all(math.hypot(x - c.x, y - c.y) > 3.0 for c in out):
+            k = classes[len(out) % len(classes)]
+            bgr = tuple(int(v) for v in k.draw_rgb[::-1])
+            out.append(Cylinder(x, y, k.diameter_cm / 2, height, bgr))
+    return out
+
+
+@pytest.mark.parametrize("tilt", [0.0, 8.0])
+@pytest.mark.parametrize("height", [1.0, 2.5])
+def test_objects_are_located_by_their_top_face(tilt: float, height: float) -> None:
+    """With the true camera, 12 objects of each height are located within 0.08 cm.
+
+    The paper's way (the blob's centroid cast onto the table) is off by the parallax,
+    0.2–0.7 cm on the same frames.
+    """
+    cam = true_camera(tilt_deg=tilt)
+    config = Config()
+    classes = [c.model_copy(update={"height_cm": height}) for c in config.task.classes]
+    detector = ColorDetector(config.vision, cam, classes)
+    cylinders = _scene(np.random.default_rng(int(tilt * 10 + height * 2)), classes, height)
+    found = detector.detect(render(cam, cylinders))
+    assert len(found) == len(cylinders) and not any(d.merged for d in found)
+    errors, naive = [], []
+    for c in cylinders:
+        d = min(found, key=lambda d: np.hypot(*(d.table_cm - (c.x, c.y))))
+        errors.append(np.hypot(*(d.table_cm - (c.x, c.y))))
+        naive.append(np.hypot(*(cam.pixel_to_table(d.centroid_px) - (c.x, c.y))))
+    assert max(errors) < 0.08 and np.mean(errors) < 0.04
+    assert np.mean(naive) > 4 * np.mean(errors)
