@@ -18,6 +18,7 @@ from mearm.config.rig import (
     VisionConfig,
 )
 from mearm.config.servo_models import SERVO_NAMES
+from mearm.config.twin_camera import TwinCameraConfig
 
 #: A projective calibration may shrink the far side of the frame, but no pixel's w (its
 #: inverse depth) may be under this fraction of another's: 20:1 is a camera looking
@@ -37,6 +38,10 @@ class TwinConfig(Strict):
     the arm's worst gravity load."""
     gripper_servo: str = "SG90"
     """The gripper's servo."""
+    camera: TwinCameraConfig | None = None
+    """The twin's camera as a real perspective camera (pose, field of view, lens
+    distortion: :class:`~mearm.config.twin_camera.TwinCameraConfig`); ``null``: straight
+    down from 52 cm over the calibrated field, so that ``calibration.homography`` holds."""
 
     @field_validator("joint_servo", "gripper_servo")
     @classmethod

@@ -80,7 +80,10 @@ four walls, inner width the class's ``bin_inner_width_cm``) under its
 ``bin_cm``; one free body ``obj_<id>`` per scene object (ids as :class:`~mearm.sim.World`
 gives them); a camera ``camera`` looking straight down from :data:`CAMERA_HEIGHT_M` above
 the centre of the calibrated field, its ``fovy`` chosen so that it sees that field (the
-calibration stays true for the twin's pictures at ``camera.width_px × height_px``).
+calibration stays true for the twin's pictures at ``camera.width_px × height_px``) or,
+with ``twin.camera`` set, a perspective camera placed, tilted and with the field of view
+it gives (:func:`mearm.sim.twin_camera.camera_pose`; the lens distortion is applied to
+the rendered frames).
 """
 
 from __future__ import annotations
@@ -812,34 +815,36 @@ def _table(world: ET.Element, config: Config) -> None:
 
 
 def _camera(world: ET.Element, config: Config) -> None:
-    """A camera straight down over the calibrated field's centre that sees that field."""
-    H = np.asarray(config.calibration.homography, dtype=float)
-    w, h = config.camera.width_px, config.camera.height_px
+    """The camera ``camera``: :func:`~mearm.sim.twin_camera.camera_pose` of the config.
 
-    def table(u: float, v: float) -> np.ndarray:
-        x, y, s = H @ np.array([u, v, 1.0])
-        return np.array([x / s, y / s]) * M_PER_CM
+    Unconfigured (``twin.camera`` null) it looks straight down over the calibrated field's
+    centre and sees that field; configured, it stands, tilts and sees as
+    ``twin.camera`` says (its lens distortion is applied to the rendered frames by
+    :class:`~mearm.sim.twin_camera.TwinCamera`).
+    """
+    from mearm.sim.twin_camera import camera_pose, homography_view  # it imports this module
 
-    centre = table(w / 2, h / 2)
-    right = table(w / 2 + 1, h / 2) - centre
-    down = table(w / 2, h / 2 + 1) - centre
-    yaw = math.atan2(right[1], right[0])
-    up_local = np.array([-math.sin(yaw), math.cos(yaw)])
-    if float(np.dot(down, up_local)) >= 0.0 or np.linalg.norm(right) < 1e-12:
-        raise ModelError(
-            "calibration.homography: the image is mirrored relative to the table (its v axis "
-            "runs along +90° from its u axis), which no camera looking down can see; "
-            "recalibrate"
+    if config.twin.camera is None:
+        centre, yaw, extent = homography_view(config)
+        fovy = 2 * math.degrees(math.atan(extent / 2 / CAMERA_HEIGHT_M))
+        ET.SubElement(
+            world,
+            "camera",
+            name="camera",
+            pos=_v((centre[0], centre[1], CAMERA_HEIGHT_M)),
+            quat=_v((math.cos(yaw / 2), 0, 0, math.sin(yaw / 2))),
+            fovy=_f(fovy),
         )
-    extent = float(np.linalg.norm(table(w / 2, h) - table(w / 2, 0)))
-    fovy = 2 * math.degrees(math.atan(extent / 2 / CAMERA_HEIGHT_M))
+        return
+    pose = camera_pose(config)
+    # MuJoCo's camera: x right and y up in the image, looking along its -z
     ET.SubElement(
         world,
         "camera",
         name="camera",
-        pos=_v((centre[0], centre[1], CAMERA_HEIGHT_M)),
-        quat=_v((math.cos(yaw / 2), 0, 0, math.sin(yaw / 2))),
-        fovy=_f(fovy),
+        pos=_v(pose.centre_m),
+        xyaxes=_v((*pose.R_base_mj[:, 0], *pose.R_base_mj[:, 1])),
+        fovy=_f(pose.fovy_deg),
     )
 
 

@@ -1,0 +1,255 @@
+"""The twin's camera: where it stands, its lens, and the calibration pictures it takes."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+from badinput import ROOT, check_bad_input, run_in_process
+
+from mearm.config import load_config
+from mearm.config.twin_camera import TwinCameraConfig
+from mearm.exceptions import CalibrationError
+from mearm.sim.calibration_scenes import (
+    board_poses,
+    default_sheet_layout,
+    render_board_views,
+    render_sheet,
+)
+from mearm.sim.twin_camera import _lens_maps, camera_pose, twin_camera_model
+from mearm.vision.aruco import detect_markers, diagonal_center, table_corners_cm
+from mearm.vision.calibration import Calibration
+from mearm.vision.charuco import DEFAULT_BOARD
+
+bad_input = pytest.mark.bad_input
+CONFIGS = ROOT / "configs"
+
+
+@pytest.fixture(scope="module")
+def default_config():
+    return load_config(CONFIGS / "sim_mujoco.yaml")
+
+
+@pytest.fixture(scope="module")
+def perspective():
+    return load_config(CONFIGS / "sim_mujoco_perspective.yaml")
+
+
+def _projected(config, markers, side_cm):
+    """Marker id → its true corners projected by the ground-truth camera, (4, 2) [px]."""
+    truth = twin_camera_model(config)
+    R_cam_base = truth.R_base_cam.T
+    rvec = cv2.Rodrigues(R_cam_base)[0]
+    tvec = -R_cam_base @ truth.camera_centre_cm
+    out = {}
+    for i, xy in markers.items():
+        corners = np.c_[table_corners_cm(xy, side_cm), np.zeros(4)]
+        px, _ = cv2.projectPoints(corners, rvec, tvec, truth.K, truth.dist)
+        out[i] = px.reshape(4, 2)
+    return out
+
+
+def test_default_camera_keeps_the_homography(default_config):
+    """Unconfigured, the twin renders table points where the homography maps them.
+
+    The homography's pixels have the frame's outer corner at (0, 0) (the twin's field
+    runs from u = 0 to u = w); OpenCV's have pixel (0, 0)'s centre there: ½ px apart.
+    """
+    assert default_config.twin.camera is None
+    layout = default_sheet_layout(default_config)
+    frame = render_sheet(default_config, layout, 4.0)
+    found = detect_markers(frame)
+    assert set(found) == set(layout)
+    cal = Calibration.from_config(default_config.calibration)
+    for i, xy in layout.items():
+        centre_px = diagonal_center(found[i]) + 0.5  # OpenCV's pixel centres → corners
+        expected = cal.table_to_pixel(np.array([xy]))[0]
+        assert np.abs(centre_px - expected).max() <= 0.2, (i, centre_px, expected)
+
+
+def test_default_pose_is_straight_down(default_config):
+    """The default camera looks straight down from 52 cm over the field's centre."""
+    truth = twin_camera_model(default_config)
+    assert np.allclose(truth.R_base_cam, np.diag([1.0, -1.0, -1.0]))
+    assert np.allclose(truth.camera_centre_cm, [-0.5, 44.0, 52.0])
+    assert np.allclose(truth.dist, 0.0)
+
+
+def test_tilted_axis_meets_the_target(perspective):
+    """Tilted, the camera stays height_cm up, looks down at tilt_deg, its axis on the target."""
+    cam = perspective.twin.camera
+    pose = camera_pose(perspective)
+    forward = -pose.R_base_mj[:, 2]
+    assert math.isclose(pose.centre_m[2], cam.height_cm / 100)
+    assert math.isclose(math.degrees(math.acos(-forward[2])), cam.tilt_deg, abs_tol=1e-9)
+    hit = pose.centre_m + forward * (pose.centre_m[2] / -forward[2])
+    assert np.allclose(hit[:2], [-0.005, 0.44]) and abs(hit[2]) < 1e-12
+    assert pose.centre_m[1] < 0.44 and forward[1] > 0  # on the robot's side, looking away
+    assert np.allclose(pose.R_base_mj.T @ pose.R_base_mj, np.eye(3))
+
+
+def test_configured_camera_renders_where_the_truth_projects(perspective):
+    """Markers on the table appear where the ground-truth camera (lens too) projects them.
+
+    Centres within 0.3 px; corners within 0.6 px: the detector's corners of a ~50 px
+    marker sit 0.2–0.3 px inside its true ones (blur), more where the lens bends its edges
+    (it fits straight lines), and this inward bias cancels in the diagonals' crossing.
+    """
+    side = 6.0
+    layout = {0: (-12.0, 52.0), 1: (0.0, 52.0), 2: (12.0, 52.0), 3: (-12.0, 36.0),
+              4: (0.0, 36.0), 5: (12.0, 36.0), 6: (24.0, 62.0), 7: (-28.0, 24.0)}  # fmt: skip
+    frame = render_sheet(perspective, layout, side)
+    found = detect_markers(frame)
+    assert set(found) == set(layout)
+    expected = _projected(perspective, layout, side)
+    for i in layout:
+        centre_err = diagonal_center(found[i]) - diagonal_center(expected[i])
+        assert np.abs(centre_err).max() <= 0.3, (i, centre_err)
+        assert np.abs(found[i] - expected[i]).max() <= 0.6, (i, found[i] - expected[i])
+
+
+def test_distortion_direction():
+    """Each distorted pixel takes the ideal pixel that projectPoints distorts onto it."""
+    K = np.array([[500.0, 0, 319.5], [0, 500.0, 239.5], [0, 0, 1]])
+    dist = np.array([-0.12, 0.05, 0.0005, -0.0003, -0.01])
+    map_x, map_y, mx, my = _lens_maps(K, dist, (640, 480))
+    for u, v in ((0, 0), (639, 0), (639, 479), (100, 300), (320, 240)):
+        p_u = np.array([map_x[v, u] - mx, map_y[v, u] - my])
+        ray = np.array([(p_u[0] - 319.5) / 500, (p_u[1] - 239.5) / 500, 1.0])
+        p_d, _ = cv2.projectPoints(ray[None], np.zeros(3), np.zeros(3), K, dist)
+        assert np.abs(p_d.ravel() - [u, v]).max() < 1e-2
+    # barrel: the frame's corner sees an ideal point further out than itself
+    assert map_x[0, 0] - mx < 0 and map_y[0, 0] - my < 0
+
+
+def test_folding_distortion_is_refused(default_config):
+    """A distortion with no inverse over the frame is a named error, not a garbled frame."""
+    from mearm.exceptions import CameraError
+
+    K = np.array([[300.0, 0, 319.5], [0, 300.0, 239.5], [0, 0, 1]])
+    with pytest.raises(CameraError, match="distortion"):
+        _lens_maps(K, np.array([-1.0, 0.0, 0.0, 0.0, 0.0]), (640, 480))
+
+
+def test_board_views_are_detected(perspective):
+    """Most board views show ≥ 12 ChArUco corners, at the pose the board was put."""
+    n = 8
+    frames = render_board_views(perspective, n, seed=3)
+    poses = board_poses(perspective, n, seed=3)
+    truth = twin_camera_model(perspective)
+    board = DEFAULT_BOARD.board()
+    detector = cv2.aruco.CharucoDetector(board)
+    good, errors_cm, errors_deg = 0, [], []
+    for frame, T in zip(frames, poses, strict=True):
+        corners, ids, _, _ = detector.detectBoard(cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY))
+        if ids is None or len(ids) < 12:
+            continue
+        good += 1
+        obj, img = board.matchImagePoints(corners, ids)
+        ok, rvec, tvec = cv2.solvePnP(obj, img, truth.K, truth.dist)
+        assert ok
+        R_true = truth.R_base_cam.T @ T[:3, :3]
+        t_true = truth.R_base_cam.T @ (T[:3, 3] * 100 - truth.camera_centre_cm)
+        R = cv2.Rodrigues(rvec)[0]
+        angle = math.degrees(math.acos(np.clip((np.trace(R.T @ R_true) - 1) / 2, -1, 1)))
+        errors_cm.append(np.linalg.norm(tvec.ravel() - t_true))
+        assert errors_cm[-1] <= 0.1  # mostly along the line of sight, 45 cm away
+        errors_deg.append(angle)
+        assert angle <= 0.3
+    assert good >= 0.75 * n
+    assert np.median(errors_cm) <= 0.05 and np.median(errors_deg) <= 0.1
+
+
+def test_renders_are_deterministic(perspective):
+    """One seed, one picture (noise included)."""
+    a = render_board_views(perspective, 1, seed=5, noise_std=2.0)[0]
+    b = render_board_views(perspective, 1, seed=5, noise_std=2.0)[0]
+    assert np.array_equal(a, b) and a.dtype == np.uint8
+
+
+def test_overlapping_markers_are_refused(default_config):
+    """Two markers laid over each other are a named error."""
+    with pytest.raises(CalibrationError, match="overlap"):
+        render_sheet(default_config, {0: (0.0, 40.0), 1: (2.0, 40.0)}, 4.0)
+
+
+def test_camera_config_is_bounded():
+    """Tilt beyond 45° and distortion beyond ±1 are refused."""
+    from pydantic import ValidationError
+
+    with pytest.raises(ValidationError):
+        TwinCameraConfig(tilt_deg=50)
+    with pytest.raises(ValidationError):
+        TwinCameraConfig(distortion=(2.0, 0, 0, 0, 0))
+
+
+def test_tool_writes_the_pictures(tmp_path: Path):
+    """``mearm render-calibration`` writes the views, the sheet and its marker list."""
+    out = tmp_path / "calib"
+    config = CONFIGS / "sim_mujoco_perspective.yaml"
+    res = run_in_process(
+        ["render-calibration", "--config", config, "--out", out, "--views", "2"], within_s=60
+    )
+    assert res.code == 0, res.stderr
+    assert sorted(p.name for p in out.iterdir()) == [
+        "board_00.png", "board_01.png", "sheet.png", "sheet_markers.txt"
+    ]  # fmt: skip
+    text = (out / "sheet_markers.txt").read_text()
+    assert "--marker 0:" in text and "--marker-side-cm 4" in text
+    assert cv2.imread(str(out / "sheet.png")).shape == (480, 640, 3)
+
+
+@bad_input
+@pytest.mark.parametrize(
+    ("extra", "words"),
+    [
+        (["--views", "0"], "--views"),
+        (["--views", "x"], "--views"),
+        (["--noise-std", "-1"], "--noise-std"),
+        (["--seed", "-3"], "seed"),
+    ],
+)
+def test_bad_arguments(tmp_path: Path, extra: list[str], words: str):
+    """Bad numbers are refused with one line naming the option."""
+    out = check_bad_input(
+        ["render-calibration", "--config", CONFIGS / "sim_mujoco.yaml", "--out", tmp_path / "o",
+         *extra],
+        keep=[CONFIGS],
+    )  # fmt: skip
+    assert words in out.line
+
+
+@bad_input
+def test_out_is_a_file(tmp_path: Path):
+    """An --out that is a file is refused and left alone."""
+    f = tmp_path / "file"
+    f.write_text("keep")
+    out = check_bad_input(
+        ["render-calibration", "--config", CONFIGS / "sim_mujoco.yaml", "--out", f], keep=[f]
+    )
+    assert "not a directory" in out.line
+
+
+@bad_input
+def test_unwritable_out(tmp_path: Path):
+    """An --out that cannot be made (under a file) is refused with one line."""
+    f = tmp_path / "file"
+    f.write_text("keep")
+    out = check_bad_input(
+        ["render-calibration", "--config", CONFIGS / "sim_mujoco.yaml", "--out", f / "sub"],
+        keep=[f],
+    )
+    assert "--out" in out.line
+
+
+@bad_input
+def test_not_a_twin_config(tmp_path: Path):
+    """A config that does not simulate the twin is refused with one line."""
+    out = check_bad_input(
+        ["render-calibration", "--config", CONFIGS / "sim.yaml", "--out", tmp_path / "o"],
+        keep=[CONFIGS],
+    )
+    assert "mujoco" in out.line
