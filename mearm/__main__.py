@@ -28,9 +28,18 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
     "urdf": ("tools/dh_to_urdf.py", "write the URDF of an arm description"),
     "preview": ("tools/preview.py", "show the arm in the meshcat 3-D view"),
     "calibrate-camera": ("tools/calibrate_camera.py", "fit pixel → table from markers or points"),
+    "calibrate-intrinsics": (
+        "tools/calibrate_intrinsics.py",
+        "fit camera matrix and lens distortion from ChArUco board views",
+    ),
+    "charuco-board": ("tools/charuco_board.py", "write the printable ChArUco calibration board"),
     "experiment": ("mearm.experiment", "repeated sorting trials into one run log"),
     "analyze": ("mearm.analyze", "tables, fits and plots from a run log"),
     "bench": ("tools/bench.py", "benchmarks, side by side with the peers"),
+    "render-calibration": (
+        "tools/render_calibration.py",
+        "render the twin camera's ChArUco views and marker sheet",
+    ),
 }
 
 _ROOT = Path(__file__).resolve().parent.parent
