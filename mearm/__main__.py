@@ -40,6 +40,7 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
         "tools/render_calibration.py",
         "render the twin camera's ChArUco views and marker sheet",
     ),
+    "check-camera": ("tools/check_camera.py", "check the camera calibration with the arm"),
 }
 
 _ROOT = Path(__file__).resolve().parent.parent

@@ -184,7 +184,7 @@ class Extrinsics:
         camera_id: Which camera.
         size_px: The frame size of the intrinsics it was fitted with.
         date: When it was made (ISO 8601).
-        refined_by_arm: Whether the arm's check (:mod:`mearm.vision.armcheck`) refined it.
+        refined_by_arm: Whether the arm's check (:mod:`mearm.task.armcheck`) refined it.
     """
 
     rotation: np.ndarray
