@@ -13,7 +13,6 @@ from mearm.exceptions import CalibrationError, ConfigError
 from mearm.vision.calibration import Calibration, camera_geometry
 from mearm.vision.detector import ColorDetector
 from mearm.vision.pinhole import (
-    Extrinsics,
     Intrinsics,
     PerspectiveCamera,
     calibration_text,

@@ -1,7 +1,7 @@
-"""Measure where the calibrated camera puts objects, in the twin, calibrated by the project's tools.
+r"""Measure where the calibrated camera puts objects in the twin, calibrated by mearm's own tools.
 
-    python tools/camera_accuracy.py --config configs/sim_mujoco_perspective.yaml \\
-        [--set twin.camera.tilt_deg=0] [--heights 1,2.5] [--scenes 5] [--objects 12] \\
+    python tools/camera_accuracy.py --config configs/sim_mujoco_perspective.yaml \
+        [--set twin.camera.tilt_deg=0] [--heights 1,2.5] [--scenes 5] [--objects 12] \
         [--noise-std 2] [--work DIR] [--json FILE]
 
 What a user does with a real camera, done with the twin's (a perspective camera with
