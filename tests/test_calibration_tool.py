@@ -275,3 +275,23 @@ def test_marker_sheet_rejects_what_does_not_fit(tmp_path: Path, capsys) -> None:
         sheet.run(sheet.main, args)
     assert info.value.code == 2 and "do not fit on one A4 page" in capsys.readouterr().err
     assert not (tmp_path / "s.png").exists()
+
+
+def test_a_worse_homography_does_not_replace_a_better_one_without_force(tmp_path: Path) -> None:
+    """The config records a 0.01 cm fit; a noisier one is refused (exit 2), --force takes it."""
+    path = tmp_path / "lab.yaml"
+    original = (ROOT / "configs" / "lab.yaml").read_text()
+    path.write_text(original.replace("reprojection_error_cm: null", "reprojection_error_cm: 0.01"))
+    before = path.read_bytes()
+    corners = [[0, 0], [640, 0], [640, 480], [0, 480], [320, 240]]
+    xy = LAB.pixel_to_table(corners) + [[0.3, 0], [0, 0], [0, 0], [0, 0], [0, 0]]
+    pts = [f"{u},{v}:{x!r},{y!r}" for (u, v), (x, y) in zip(corners, xy.tolist(), strict=True)]
+    cmd = [sys.executable, str(ROOT / "tools" / "calibrate_camera.py"), "--config", str(path)]
+    proc = subprocess.run([*cmd, *point_args(pts)], capture_output=True, text=True)
+    assert proc.returncode == 2
+    assert len(proc.stderr.strip().splitlines()) == 1
+    assert "holds a better calibration" in proc.stderr and "--force" in proc.stderr
+    assert path.read_bytes() == before
+    proc = subprocess.run([*cmd, *point_args(pts), "--force"], capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr
+    assert load_config(path).calibration.reprojection_error_cm > 0.01
