@@ -58,8 +58,8 @@ from mearm.fileio import write_atomic
 from mearm.vision.aruco import (
     DEFAULT_DICTIONARY,
     calibration_from_markers,
-    detect_markers,
     diagonal_center,
+    find_markers,
     table_corners_cm,
 )
 from mearm.vision.calibration import Calibration
@@ -127,12 +127,12 @@ def _yaml() -> YAML:
     return y
 
 
-def update_config_text(text: str, calibration: Calibration, note: str, source: str) -> str:
-    """``text`` (a YAML config) with its calibration block replaced; comments kept.
+def _calibration_section(text: str, source: str) -> tuple[YAML, CommentedMap, CommentedMap]:
+    """A config's text loaded for a round trip: the YAML, its top level, its calibration.
 
     Raises:
-        ConfigError: the text is not YAML, or YAML that every config read refuses
-            (:func:`mearm.yamlio.load_yaml_text`), or the result is not a valid config.
+        ConfigError: the text is not YAML, YAML that every config read refuses
+            (:func:`mearm.yamlio.load_yaml_text`), or not a mapping.
     """
     load_yaml_text(text, source=source)  # size, depth, aliases, tags, duplicate keys, empty
     y = _yaml()
@@ -146,6 +146,26 @@ def update_config_text(text: str, calibration: Calibration, note: str, source: s
     if not isinstance(section, CommentedMap):
         section = CommentedMap()
         data["calibration"] = section
+    return y, data, section
+
+
+def _dumped(y: YAML, data: CommentedMap, source: str) -> str:
+    """The config's new text, which must still load as a config (else ConfigError)."""
+    out = io.StringIO()
+    y.dump(data, out)
+    result = out.getvalue()
+    config_from_dict(load_yaml_text(result, source=source), source=source)
+    return result
+
+
+def update_config_text(text: str, calibration: Calibration, note: str, source: str) -> str:
+    """``text`` (a YAML config) with its calibration block replaced; comments kept.
+
+    Raises:
+        ConfigError: the text is not YAML, or YAML that every config read refuses
+            (:func:`mearm.yamlio.load_yaml_text`), or the result is not a valid config.
+    """
+    y, data, section = _calibration_section(text, source)
     rows = [[float(v) for v in row] for row in calibration.H]
     old = section.get("homography")
     if (
@@ -166,11 +186,7 @@ def update_config_text(text: str, calibration: Calibration, note: str, source: s
     err = calibration.reprojection_error_cm
     section["reprojection_error_cm"] = None if err is None else float(err)
     section.yaml_add_eol_comment(note, "homography")
-    out = io.StringIO()
-    y.dump(data, out)
-    result = out.getvalue()
-    config_from_dict(load_yaml_text(result, source=source), source=source)  # must still load
-    return result
+    return _dumped(y, data, source)
 
 
 def point_config_at_files(
@@ -183,18 +199,7 @@ def point_config_at_files(
     Raises:
         ConfigError: the text is not a config, or the result does not load.
     """
-    load_yaml_text(text, source=source)
-    y = _yaml()
-    try:
-        data = y.load(text)
-    except YAMLError as exc:
-        raise ConfigError(source, [f"malformed YAML: {str(exc).splitlines()[0]}"]) from None
-    if not isinstance(data, CommentedMap):
-        raise ConfigError(source, ["top level must be a mapping"])
-    section = data.get("calibration")
-    if not isinstance(section, CommentedMap):
-        section = CommentedMap()
-        data["calibration"] = section
+    y, data, section = _calibration_section(text, source)
     folder = config.resolve().parent
 
     def rel(p: Path) -> str:
@@ -207,11 +212,7 @@ def point_config_at_files(
     section["model"] = "perspective"
     section["intrinsics_file"] = rel(intrinsics)
     section["extrinsics_file"] = rel(extrinsics)
-    out = io.StringIO()
-    y.dump(data, out)
-    result = out.getvalue()
-    config_from_dict(load_yaml_text(result, source=source), source=source)  # must still load
-    return result
+    return _dumped(y, data, source)
 
 
 def fit_pose(
@@ -234,13 +235,7 @@ def fit_pose(
             f"the image is {w}x{h} px but the intrinsics are for "
             f"{intrinsics.size_px[0]}x{intrinsics.size_px[1]} px: take the picture at that size"
         )
-    found = detect_markers(frame, dictionary)
-    missing = sorted(set(centers) - set(found))
-    if missing:
-        raise CalibrationError(
-            f"markers {missing} not found in the image (found {sorted(found)}): check the "
-            "lighting, that each marker is flat, whole and in view, and --dictionary"
-        )
+    found = find_markers(frame, centers, dictionary)
     pixels, points = [], []
     for marker_id, centre in sorted(centers.items()):
         pixels.extend(found[marker_id])

@@ -41,6 +41,7 @@ from mearm.vision.charuco import (
     CalibrationReport,
     detect_board,
     fit_views,
+    same_size,
 )
 from mearm.vision.image import read_image
 from mearm.vision.pinhole import save_calibration
@@ -115,16 +116,12 @@ def views_from_images(paths: Sequence[Path]) -> tuple[list[BoardView], tuple[int
     """
     views: list[BoardView] = []
     size: tuple[int, int] | None = None
+    first = ""
     for path, required in image_files(paths):
         frame = read_image(path)
         h, w = frame.shape[:2]
-        if size is None:
-            size = (w, h)
-        elif (w, h) != size:
-            raise CalibrationError(
-                f"{path} is {w}x{h} px but {views[0].name} is {size[0]}x{size[1]} px: every "
-                "view must come from the same camera at the same resolution"
-            )
+        first = first or str(path)
+        size = same_size(str(path), (w, h), size, first)
         corners, ids = detect_board(frame, DEFAULT_BOARD)
         if len(ids) < MIN_CORNERS:
             what = f"only {len(ids)} board corners" if len(ids) else "no ChArUco board"

@@ -9,7 +9,7 @@ fits the pixel → table homography.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 
 import cv2
 import numpy as np
@@ -212,6 +212,24 @@ def detect_markers(
     return found
 
 
+def find_markers(
+    frame_bgr: np.ndarray, wanted: Iterable[int], dictionary: str = DEFAULT_DICTIONARY
+) -> dict[int, np.ndarray]:
+    """:func:`detect_markers`, with every id in ``wanted`` required.
+
+    Raises:
+        CalibrationError: a wanted marker is not in the image, or an id appears twice.
+    """
+    found = detect_markers(frame_bgr, dictionary)
+    missing = sorted(set(wanted) - set(found))
+    if missing:
+        raise CalibrationError(
+            f"markers {missing} not found in the image (found {sorted(found)}): check the "
+            "lighting, that each marker is flat, whole and in view, and --dictionary"
+        )
+    return found
+
+
 def calibration_from_markers(
     frame_bgr: np.ndarray,
     centers_cm: Mapping[int, tuple[float, float]],
@@ -231,13 +249,7 @@ def calibration_from_markers(
     Raises:
         CalibrationError: a marker is missing from the image, or the points are degenerate.
     """
-    found = detect_markers(frame_bgr, dictionary)
-    missing = sorted(set(centers_cm) - set(found))
-    if missing:
-        raise CalibrationError(
-            f"markers {missing} not found in the image (found {sorted(found)}): check the "
-            "lighting, that each marker is flat, whole and in view, and --dictionary"
-        )
+    found = find_markers(frame_bgr, centers_cm, dictionary)
     pixels, table = [], []
     for marker_id, center in sorted(centers_cm.items()):
         corners = found[marker_id]

@@ -385,6 +385,24 @@ def fit_views(
     return CalibrationReport(intrinsics, report_views, skipped, coverage)
 
 
+def same_size(
+    label: str, size_px: tuple[int, int], first_px: tuple[int, int] | None, first: str
+) -> tuple[int, int]:
+    """The views' common frame size: ``first_px``, or ``size_px`` for the first view.
+
+    Raises:
+        CalibrationError: ``label`` is not the size of the first view, ``first``.
+    """
+    if first_px is None or size_px == first_px:
+        return size_px
+    w, h = size_px
+    raise CalibrationError(
+        f"{label} is {w}x{h} px but the first view, {first}, is "
+        f"{first_px[0]}x{first_px[1]} px: every view must come from the same camera at the "
+        "same resolution"
+    )
+
+
 def calibrate_report(
     frames: Sequence[npt.ArrayLike],
     spec: BoardSpec = DEFAULT_BOARD,
@@ -416,13 +434,7 @@ def calibrate_report(
     for label, frame in zip(labels, frames, strict=True):
         grey = _grey(frame, label)
         h, w = grey.shape
-        if size is None:
-            size = (w, h)
-        elif (w, h) != size:
-            raise CalibrationError(
-                f"{label} is {w}x{h} px but the first frame is {size[0]}x{size[1]} px: every "
-                "view must come from the same camera at the same resolution"
-            )
+        size = same_size(label, (w, h), size, labels[0])
         corners, ids = detect_board(grey, spec)
         views.append(BoardView(label, corners, ids))
     assert size is not None
