@@ -1,49 +1,65 @@
 """``mearm``: one command, a subcommand per job.
 
-    mearm sort --config configs/sim.yaml [--set arm.joints.base.home=100]
+    mearm sort --config sim [--set arm.joints.base.home=100]
     mearm --help
 
-Each subcommand is the same program as its module or tool (``mearm sort`` is
-``python -m mearm.sort``, ``mearm urdf`` is ``python tools/dh_to_urdf.py``) and takes the
-same arguments; ``mearm SUBCOMMAND --help`` lists them.
+Each subcommand is the ``main`` of one module of the package (``mearm sort`` is
+``python -m mearm.sort``, ``mearm urdf`` is :mod:`mearm.tools.dh_to_urdf`, which the
+checkout's ``python tools/dh_to_urdf.py`` also runs) and takes the same arguments;
+``mearm SUBCOMMAND --help`` lists them. Every one of them ships in the wheel.
 """
 
 from __future__ import annotations
 
 import importlib
-import importlib.util
 import sys
+import textwrap
 from collections.abc import Callable, Sequence
-from pathlib import Path
 
 from mearm.cli import EXIT_BAD_INPUT, run
+from mearm.data import config_names
 
-#: subcommand → (where its ``main`` lives, one line of help). ``tools/X.py`` entries are
-#: scripts of the source checkout.
+#: subcommand → (the module whose ``main(argv) -> int`` it runs, one line of help), in
+#: the order ``mearm --help`` lists them. A new command is one more entry.
 SUBCOMMANDS: dict[str, tuple[str, str]] = {
     "sort": ("mearm.sort", "sort the objects on the table into their class's bins"),
     "detect": ("mearm.detect", "detect the objects in a frame (image file or camera)"),
     "fk": ("mearm.fk", "forward kinematics: joints → TCP position"),
     "ik": ("mearm.ik.__main__", "inverse kinematics: solve one target from a start pose"),
-    "urdf": ("tools/dh_to_urdf.py", "write the URDF of an arm description"),
-    "preview": ("tools/preview.py", "show the arm in the meshcat 3-D view"),
-    "calibrate-camera": ("tools/calibrate_camera.py", "fit pixel → table from markers or points"),
+    "urdf": ("mearm.tools.dh_to_urdf", "write the URDF of an arm description"),
+    "preview": ("mearm.tools.preview", "show the arm in the meshcat 3-D view"),
+    "calibrate-camera": (
+        "mearm.tools.calibrate_camera",
+        "fit pixel → table from markers or points",
+    ),
     "calibrate-intrinsics": (
-        "tools/calibrate_intrinsics.py",
+        "mearm.tools.calibrate_intrinsics",
         "fit camera matrix and lens distortion from ChArUco board views",
     ),
-    "charuco-board": ("tools/charuco_board.py", "write the printable ChArUco calibration board"),
+    "charuco-board": ("mearm.tools.charuco_board", "write the printable ChArUco calibration board"),
+    "aruco-sheet": ("mearm.tools.aruco_sheet", "write a printable sheet of ArUco markers"),
+    "check-camera": ("mearm.tools.check_camera", "check the camera calibration with the arm"),
     "experiment": ("mearm.experiment", "repeated sorting trials into one run log"),
     "analyze": ("mearm.analyze", "tables, fits and plots from a run log"),
-    "bench": ("tools/bench.py", "benchmarks, side by side with the peers"),
     "render-calibration": (
-        "tools/render_calibration.py",
+        "mearm.tools.render_calibration",
         "render the twin camera's ChArUco views and marker sheet",
     ),
-    "check-camera": ("tools/check_camera.py", "check the camera calibration with the arm"),
+    "twin-scenes": (
+        "mearm.tools.twin_scenes",
+        "sort seeded random scenes in the physical twin and count what lands",
+    ),
+    "camera-accuracy": (
+        "mearm.tools.camera_accuracy",
+        "calibrate the twin's camera with the tools above and score where it sees objects",
+    ),
+    "reproduce-paper": (
+        "mearm.tools.reproduce_paper",
+        "run the paper's 24 demo routes and compare with its figures",
+    ),
+    "ik-stalls": ("mearm.tools.ik_stalls", "how often the IK stops short, per arm and start"),
+    "bench": ("mearm.tools.bench", "benchmarks, side by side with the peers"),
 }
-
-_ROOT = Path(__file__).resolve().parent.parent
 
 
 def _usage() -> str:
@@ -53,29 +69,17 @@ def _usage() -> str:
         "usage: mearm SUBCOMMAND [ARGS ...]\n\n"
         "A vision-guided colour-sorting robot arm, for any hobby arm described as data.\n\n"
         f"subcommands:\n{rows}\n\n"
-        "Every subcommand that reads a config takes --config FILE and --set KEY=VALUE.\n"
-        "mearm SUBCOMMAND --help shows its arguments."
+        + textwrap.fill(
+            "Every subcommand that reads a config takes --config FILE and --set KEY=VALUE; "
+            f"FILE may also name a config shipped with mearm: {', '.join(config_names())}.",
+            width=88,
+        )
+        + "\nmearm SUBCOMMAND --help shows its arguments."
     )
 
 
-def _load(target: str, name: str) -> Callable[[Sequence[str] | None], int]:
-    if target.endswith(".py"):
-        path = _ROOT / target
-        if not path.is_file():
-            print(
-                f"mearm {name}: needs the source checkout ({target} is not installed)",
-                file=sys.stderr,
-            )
-            sys.exit(EXIT_BAD_INPUT)
-        spec = importlib.util.spec_from_file_location(f"mearm_tool_{path.stem}", path)
-        assert spec is not None and spec.loader is not None
-        module = importlib.util.module_from_spec(spec)
-        # registered first, as an import would: dataclasses and pickling look it up there
-        sys.modules[spec.name] = module
-        spec.loader.exec_module(module)
-    else:
-        module = importlib.import_module(target)
-    main: Callable[[Sequence[str] | None], int] = module.main
+def _load(target: str) -> Callable[[Sequence[str] | None], int]:
+    main: Callable[[Sequence[str] | None], int] = importlib.import_module(target).main
     return main
 
 
@@ -106,7 +110,7 @@ def main(argv: Sequence[str] | None = None) -> None:
         )
         sys.exit(EXIT_BAD_INPUT)
     sys.argv = [f"mearm {name}", *rest]
-    run(_load(SUBCOMMANDS[name][0], name), rest)
+    run(_load(SUBCOMMANDS[name][0]), rest)
 
 
 if __name__ == "__main__":

@@ -117,10 +117,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.error(f"--out {args.out} is not a folder")
     try:
         import scipy  # noqa: F401
-    except ImportError:
+
+        if args.out is not None:
+            import matplotlib  # noqa: F401
+    except ImportError as exc:
         print(
-            "python -m mearm.analyze: error: needs SciPy and Matplotlib: "
-            "pip install 'mearm[analysis]'",
+            f"{parser.prog}: error: {exc.name or 'SciPy or Matplotlib'} is not installed "
+            "(analyze needs SciPy, and Matplotlib for --out): pip install 'mearm[analysis]'",
             file=sys.stderr,
         )
         return EXIT_BAD_INPUT

@@ -20,24 +20,10 @@ NUMBER = r"[-+]?\d+\.\d+"
 
 
 def _run(argv: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, str]:
-    from tools_check_camera import main  # type: ignore[import-not-found]
+    from mearm.tools.check_camera import main
 
     code = main(argv)
     return code, capsys.readouterr().out
-
-
-@pytest.fixture(autouse=True)
-def _tool_on_path(monkeypatch: pytest.MonkeyPatch) -> None:
-    import importlib.util
-    import sys
-
-    spec = importlib.util.spec_from_file_location(
-        "tools_check_camera", ROOT / "tools" / "check_camera.py"
-    )
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    monkeypatch.setitem(sys.modules, "tools_check_camera", module)
-    spec.loader.exec_module(module)
 
 
 def _residuals(out: str, prefix: str) -> np.ndarray:

@@ -10,7 +10,6 @@ marker corners, found exactly in the page by template matching.
 
 from __future__ import annotations
 
-import importlib.util
 import math
 import subprocess
 import sys
@@ -21,6 +20,7 @@ import numpy as np
 import pytest
 
 from mearm.config import load_config
+from mearm.tools.aruco_sheet import marker_sheet
 from mearm.vision import Calibration
 from mearm.vision.aruco import detect_markers, marker_image
 
@@ -50,14 +50,7 @@ STRAIGHT = [v for v in VIEWS if v.startswith("straight")]
 TILTED = [v for v in VIEWS if v.startswith("tilted")]
 
 
-def _load_sheet_tool():
-    spec = importlib.util.spec_from_file_location("aruco_sheet", ROOT / "tools" / "aruco_sheet.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)  # type: ignore[union-attr]
-    return module
-
-
-PAGE = _load_sheet_tool().marker_sheet(IDS, SIDE_CM, DPI)
+PAGE = marker_sheet(IDS, SIDE_CM, DPI)
 
 
 def page_to_table(page_xy: np.ndarray) -> np.ndarray:

@@ -2,8 +2,7 @@
 
 from __future__ import annotations
 
-import importlib.util
-import sys
+import importlib
 
 from conftest import ROOT
 
@@ -11,13 +10,8 @@ from mearm.config import load_config
 
 
 def _bench():
-    """tools/bench.py as a module (registered first, as ``mearm bench`` does)."""
-    spec = importlib.util.spec_from_file_location("bench_for_test", ROOT / "tools" / "bench.py")
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module
-    spec.loader.exec_module(module)
-    return module
+    """The ``mearm bench`` command's module."""
+    return importlib.import_module("mearm.tools.bench")
 
 
 def test_twin_section_reports_physics_and_whole_sort():

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-import importlib.util
+import importlib
 import os
 import re
 import struct
@@ -34,10 +34,8 @@ MARKERS = {0: (-17.0, 56.0), 1: (16.0, 56.0), 2: (16.0, 32.0), 3: (-17.0, 32.0)}
 
 
 def load_tool(name: str):
-    spec = importlib.util.spec_from_file_location(name, ROOT / "tools" / f"{name}.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)  # type: ignore[union-attr]
-    return module
+    """The command module behind ``tools/<name>.py`` (``mearm.tools.<name>``)."""
+    return importlib.import_module(f"mearm.tools.{name}")
 
 
 calibrate = load_tool("calibrate_camera")

@@ -1,4 +1,6 @@
 import importlib
+import sys
+from pathlib import Path
 
 import pytest
 
@@ -12,6 +14,8 @@ PACKAGES = [
     "mearm.analysis",
     "mearm.runlog",
     "mearm.view",
+    "mearm.data",
+    "mearm.tools",
 ]
 
 
@@ -24,8 +28,155 @@ def test_all_names_exist(name):
 
 
 def test_py_typed_shipped():
-    from pathlib import Path
-
     import mearm
 
     assert (Path(mearm.__file__).parent / "py.typed").is_file()
+
+
+# ------------------------------------------------------------- the wheel's contents
+
+
+ROOT = Path(__file__).resolve().parent.parent
+#: tools/ scripts that stay scripts of the checkout: they regenerate the docs' pictures.
+DEVELOPER_SCRIPTS = {"screenshots.py", "calibration_pictures.py"}
+
+
+def _pyproject() -> dict:
+    import tomllib
+
+    return tomllib.loads((ROOT / "pyproject.toml").read_text())
+
+
+def _lowest_python(specifier: str) -> tuple[int, int]:
+    """The lowest Python 3.x a ``Requires-Python`` allows."""
+    from packaging.specifiers import SpecifierSet
+
+    spec = SpecifierSet(specifier)
+    return next((3, minor) for minor in range(0, 40) if spec.contains(f"3.{minor}.99"))
+
+
+def test_requires_python_is_what_the_dependencies_need():
+    """``requires-python`` is the highest lower bound of the dependencies' own (installed
+    versions' metadata), and this interpreter meets it."""
+    from importlib.metadata import distribution
+
+    from packaging.requirements import Requirement
+
+    project = _pyproject()["project"]
+    ours = _lowest_python(project["requires-python"])
+    needed = {}
+    for text in project["dependencies"] + project["optional-dependencies"]["analysis"]:
+        name = Requirement(text).name
+        requires = distribution(name).metadata.get("Requires-Python")
+        needed[name] = _lowest_python(requires) if requires else (3, 0)
+    assert ours == max(needed.values()), (ours, needed)
+    assert sys.version_info[:2] >= ours
+
+
+def test_every_subcommand_is_a_module_of_the_package():
+    """Each subcommand names an importable module with a ``main``: nothing loads a file."""
+    from mearm.__main__ import SUBCOMMANDS
+
+    for name, (target, help_text) in SUBCOMMANDS.items():
+        assert not target.endswith(".py"), name
+        assert callable(importlib.import_module(target).main), name
+        assert help_text and "\n" not in help_text
+
+
+def test_tools_scripts_run_the_package_commands():
+    """Every ``tools/X.py`` but the developer scripts only calls ``mearm.tools.X.main``."""
+    for script in sorted((ROOT / "tools").glob("*.py")):
+        if script.name in DEVELOPER_SCRIPTS:
+            continue
+        text = script.read_text()
+        assert f"from mearm.tools.{script.stem} import main" in text, script.name
+        assert len(text.splitlines()) < 15, f"{script.name} is not a thin script"
+
+
+def test_data_links_point_at_the_top_level_folders():
+    """In the checkout, mearm/data's links are the fixed top-level folders themselves."""
+    from mearm import data
+
+    assert data.source_checkout() == ROOT
+    assert data.CONFIGS_DIR.resolve() == ROOT / "configs"
+    assert data.URDF_DIR.resolve() == ROOT / "robot_description"
+    assert data.FIRMWARE_DIR.resolve() == ROOT / "tools" / "arduino"
+    assert (data.FIRMWARE_DIR / "mearm_servo" / "mearm_servo.ino").is_file()
+
+
+def test_config_by_name_is_the_packaged_file(tmp_path, monkeypatch):
+    """``sim`` and ``sim.yaml`` name the shipped configs/sim.yaml from any folder; its
+    calibration files resolve next to it."""
+    from mearm.config import load_config
+    from mearm.config.loader import resolve_config_path
+
+    monkeypatch.chdir(tmp_path)
+    shipped = ROOT / "configs" / "sim.yaml"
+    assert resolve_config_path("sim").resolve() == shipped
+    assert resolve_config_path("sim.yaml").resolve() == shipped
+    assert load_config("sim") == load_config(shipped)
+    config = load_config("sim_mujoco_perspective")
+    intrinsics = config.calibration.intrinsics_file
+    assert intrinsics is not None
+    assert Path(intrinsics).resolve() == ROOT / "configs" / "calibration" / "twin_intrinsics.yaml"
+
+
+def test_a_file_wins_over_a_packaged_name(tmp_path, monkeypatch):
+    from mearm.config import load_config
+
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "sim").write_text("task:\n  scene: []\n")
+    assert load_config("sim").task.scene == []
+    assert load_config("sim.yaml").task.scene != []
+
+
+@pytest.mark.parametrize("given", ["simm", "sim.yml", ".sim", "../sim"])
+def test_an_unknown_config_name_lists_the_packaged_ones(tmp_path, monkeypatch, given):
+    from mearm.config import load_config
+    from mearm.exceptions import ConfigError
+
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(ConfigError) as info:
+        load_config(given)
+    message = str(info.value)
+    assert "config file not found" in message
+    if "/" not in given:
+        assert f"no packaged config is named {given!r}" in message
+        assert "lab, sim, sim_4colours" in message
+
+
+def test_unknown_config_name_on_the_command_line(tmp_path):
+    """``mearm fk --config nope``: exit 2, one line naming the choices."""
+    import subprocess
+
+    r = subprocess.run(
+        [sys.executable, "-m", "mearm", "fk", "--config", "nope", "--joints", "90,90,-90"],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert r.returncode == 2
+    assert r.stderr.count("\n") == 1 and "packaged: lab, sim" in r.stderr
+
+
+def test_analyze_out_without_the_extra_names_it(tmp_path, monkeypatch, capsys):
+    """Without matplotlib, ``mearm analyze LOG --out DIR`` is one line naming the extra,
+    exit 2, and nothing is written."""
+    from mearm.__main__ import main
+
+    log = tmp_path / "run.jsonl"
+    scene = "task.scene=[{color: red, x: 0.0, y: 45.0}]"
+    with pytest.raises(SystemExit) as info:
+        main(["sort", "--config", "sim", "--set", scene, "--log", str(log)])
+    assert info.value.code == 0
+    capsys.readouterr()
+    for name in [m for m in sys.modules if m == "matplotlib" or m.startswith("matplotlib.")]:
+        monkeypatch.delitem(sys.modules, name)
+    monkeypatch.setitem(sys.modules, "matplotlib", None)
+    with pytest.raises(SystemExit) as info:
+        main(["analyze", str(log), "--out", str(tmp_path / "plots")])
+    err = capsys.readouterr().err
+    assert info.value.code == 2
+    assert err.count("\n") == 1 and "pip install 'mearm[analysis]'" in err
+    assert not (tmp_path / "plots").exists()

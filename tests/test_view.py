@@ -9,7 +9,7 @@ config's arm (any number of joints, the jaws as joints) is drawn and rendered to
 
 from __future__ import annotations
 
-import importlib.util
+import importlib
 import os
 import re
 import signal
@@ -652,10 +652,7 @@ def test_render_shows_the_arm_and_objects_where_they_are(model: ArmModel, tmp_pa
 
 
 def _load_preview():
-    spec = importlib.util.spec_from_file_location("preview", ROOT / "tools" / "preview.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return importlib.import_module("mearm.tools.preview")
 
 
 PREVIEW = _load_preview()

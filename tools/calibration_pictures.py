@@ -80,16 +80,10 @@ def board_page_picture(out: Path) -> None:
 
 
 def _tool(name: str):  # noqa: ANN202
-    import importlib.util
+    """The command module ``mearm.tools.<name>``."""
+    import importlib
 
-    key = f"mearm_tool_{name}"
-    if key not in sys.modules:
-        spec = importlib.util.spec_from_file_location(key, ROOT / "tools" / f"{name}.py")
-        assert spec is not None and spec.loader is not None
-        module = importlib.util.module_from_spec(spec)
-        sys.modules[key] = module
-        spec.loader.exec_module(module)
-    return sys.modules[key]
+    return importlib.import_module(f"mearm.tools.{name}")
 
 
 def board_views(config: Config, out: Path):  # noqa: ANN201

@@ -1,50 +1,10 @@
 """Write the URDF of an arm description (by default: every reference arm).
 
-python tools/dh_to_urdf.py     # robot_description/<arm>.urdf for each reference config
-python tools/dh_to_urdf.py --config configs/lab.yaml [--output arm.urdf] [--set key=value ...]
+``mearm urdf`` from the checkout; the code: :mod:`mearm.tools.dh_to_urdf`.
 """
 
-from __future__ import annotations
-
-import sys
-from collections.abc import Sequence
-from pathlib import Path
-
-from mearm.cli import ArgumentParser, add_config_argument, config_from_args, run, write_text_atomic
-from mearm.config import load_config
-from mearm.kinematics import ArmModel, generate_urdf
-
-ROOT = Path(__file__).resolve().parent.parent
-OUT_DIR = ROOT / "robot_description"
-#: The reference configs whose arms' URDFs are kept in robot_description/.
-REFERENCE_CONFIGS = ("sim.yaml", "sim_mearm_v1.yaml", "sim_5dof.yaml")
-
-
-def main(argv: Sequence[str] | None = None) -> int:
-    parser = ArgumentParser(
-        prog="dh_to_urdf.py", description="Arm description → URDF (metres, radians)."
-    )
-    add_config_argument(parser)
-    parser.add_argument(
-        "--output", type=Path, help="URDF to write (default: robot_description/<arm name>.urdf)"
-    )
-    args = parser.parse_args(argv)
-    if args.output is not None and args.output.exists() and not args.output.is_file():
-        parser.error(f"--output {args.output}: exists and is not a regular file")
-    if args.config is None and not args.set:
-        if args.output is not None:
-            parser.error("--output needs --config (without it every reference arm is written)")
-        configs = [load_config(ROOT / "configs" / name) for name in REFERENCE_CONFIGS]
-    else:
-        configs = [config_from_args(args)]
-    for config in configs:
-        arm = config.arm
-        ArmModel(arm)  # Pinocchio must accept what we write
-        output = args.output or OUT_DIR / f"{arm.name}.urdf"
-        write_text_atomic(output, generate_urdf(arm))
-        print(f"wrote {output}", file=sys.stderr)
-    return 0
-
+from mearm.cli import run
+from mearm.tools.dh_to_urdf import main
 
 if __name__ == "__main__":
     run(main)

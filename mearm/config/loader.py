@@ -19,6 +19,7 @@ from pydantic import ValidationError
 
 from mearm.config.base import describe_error, short_repr
 from mearm.config.root import Config
+from mearm.data import config_names, packaged_config
 from mearm.exceptions import ConfigError
 from mearm.yamlio import MAX_YAML_DEPTH, load_yaml_file, load_yaml_text
 
@@ -152,22 +153,53 @@ def read_yaml(path: str | Path) -> Any:
     return load_yaml_file(path, what="config")
 
 
+def resolve_config_path(path: str | Path) -> Path:
+    """The file a ``--config`` value names: a path, else the name of a packaged config.
+
+    An existing path wins; a bare name (no folder: ``sim`` or ``sim.yaml``) that is no
+    file here names one of the configs the package ships (:mod:`mearm.data`). Any other
+    missing path is returned as it is, for the reader's "config file not found".
+
+    Raises:
+        ConfigError: a bare name that is neither a file nor a packaged config; the
+            message lists the packaged names.
+    """
+    given = Path(path)
+    text = str(path)
+    if given.exists() or given.is_symlink() or "/" in text or "\\" in text:
+        return given
+    packaged = packaged_config(text)
+    if packaged is not None:
+        return packaged
+    names = ", ".join(config_names()) or "none"
+    raise ConfigError(
+        text,
+        [
+            f"config file not found, and no packaged config is named {text!r} "
+            f"(packaged: {names}); give a file's path or one of these names"
+        ],
+    )
+
+
 def load_config(path: str | Path | None = None, overrides: Sequence[str] = ()) -> Config:
     """Read a YAML config file; ``None`` gives the built-in default (the simulated rig).
 
     Args:
-        path: The file, or ``None``.
+        path: The file, or the name of a packaged config (``sim`` is the shipped
+            ``configs/sim.yaml``: :func:`resolve_config_path`), or ``None``.
         overrides: ``dotted.key=value`` strings applied before validation.
 
     Raises:
-        ConfigError: the file is missing, unreadable, not YAML, or has bad fields.
+        ConfigError: the file is missing (a bare name: nor packaged), unreadable, not
+            YAML, or has bad fields.
     """
     if path is None:
         if not overrides:
             return Config()
         return config_from_dict({}, source="--set", overrides=overrides)
+    path = resolve_config_path(path)
     config = config_from_dict(read_yaml(path), source=str(path), overrides=overrides)
-    return _resolve_files(config, Path(path).parent, str(path))
+    return _resolve_files(config, path.parent, str(path))
 
 
 def _resolve_files(config: Config, folder: Path, source: str) -> Config:

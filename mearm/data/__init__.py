@@ -1,0 +1,63 @@
+"""The data the package ships: the reference configs, their arms' URDFs, the firmware source.
+
+The project keeps them in its fixed top-level folders (``configs/``, ``robot_description/``,
+``tools/arduino/``); this folder links to them (``configs``, ``robot_description``,
+``firmware`` are relative symbolic links), so an editable install reads the checkout's
+files, and building the wheel copies the files the links point to into
+``mearm/data/`` (``[tool.setuptools.package-data]`` in pyproject.toml). One lookup serves
+both: :data:`DATA_DIR`.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+#: Where the shipped data lies (in the wheel: real folders; in the checkout: links).
+DATA_DIR = Path(__file__).parent
+#: The reference configs (``sim.yaml`` …) and their calibration files (``calibration/``).
+CONFIGS_DIR = DATA_DIR / "configs"
+#: The reference arms' URDFs (``mearm urdf`` writes them).
+URDF_DIR = DATA_DIR / "robot_description"
+#: The Uno's firmware source and its Makefile (``tools/arduino/`` of the checkout).
+FIRMWARE_DIR = DATA_DIR / "firmware"
+#: What a packaged config's file name ends with.
+CONFIG_SUFFIX = ".yaml"
+
+
+def config_names() -> list[str]:
+    """The names of the packaged configs (``sim``, ``lab`` …), sorted."""
+    if not CONFIGS_DIR.is_dir():
+        return []
+    return sorted(p.stem for p in CONFIGS_DIR.glob(f"*{CONFIG_SUFFIX}") if p.is_file())
+
+
+def packaged_config(name: str) -> Path | None:
+    """The packaged config called ``name`` (``sim`` or ``sim.yaml``), or ``None``."""
+    stem = name.removesuffix(CONFIG_SUFFIX)
+    if not stem or "/" in stem or "\\" in stem or stem.startswith("."):
+        return None
+    path = CONFIGS_DIR / f"{stem}{CONFIG_SUFFIX}"
+    return path if path.is_file() else None
+
+
+def source_checkout() -> Path | None:
+    """The source checkout the package runs from (an editable install), else ``None``.
+
+    In the checkout ``configs`` here is a link to the checkout's ``configs/``; in an
+    installed wheel it is a folder of copies.
+    """
+    if CONFIGS_DIR.is_symlink():
+        return CONFIGS_DIR.resolve().parent
+    return None
+
+
+__all__ = [
+    "CONFIGS_DIR",
+    "CONFIG_SUFFIX",
+    "DATA_DIR",
+    "FIRMWARE_DIR",
+    "URDF_DIR",
+    "config_names",
+    "packaged_config",
+    "source_checkout",
+]

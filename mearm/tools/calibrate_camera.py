@@ -1,0 +1,438 @@
+r"""Fit the camera → table calibration and write it into a config file (paper §4).
+
+From an image showing four (or more) ArUco markers whose centres' table positions you
+measured (base frame, cm; the marker's top edge towards +y)::
+
+    mearm calibrate-camera --config configs/lab.yaml --image table.png \
+        --marker 0:-17,56 --marker 1:16,56 --marker 2:16,32 --marker 3:-17,32 \
+        [--marker-side-cm 4] [--dictionary DICT_4X4_50]
+
+or from pixel ↔ table point pairs ``U,V:X,Y``::
+
+    mearm calibrate-camera --config configs/lab.yaml \
+        --point 0,0:-20.5,59 --point 640,0:19.5,59 --point 640,480:19.5,29 --point 0,480:-20.5,29
+
+It replaces ``calibration.homography`` and ``calibration.reprojection_error_cm`` in the
+file, keeping everything else and its comments, and prints the reprojection error. The
+new file is validated before it replaces the old one (atomically; on any failure the
+old file is untouched). ``--output`` writes elsewhere, ``--dry-run`` writes nothing.
+Print markers with ``mearm aruco-sheet``.
+
+A config that holds a calibration with a known error (``reprojection_error_cm``) is not
+given a worse one without ``--force``.
+
+**The camera's pose (perspective calibration).** With the camera's intrinsics file
+(``mearm calibrate-intrinsics``), the same image and markers give the camera's pose in
+the base frame instead, by solvePnP on the undistorted marker corners (tilted cameras
+included)::
+
+    mearm calibrate-camera --intrinsics camera_intrinsics.yaml --out camera_pose.yaml \
+        --image table.png --marker-side-cm 4 --marker 0:-17,56 --marker 1:16,56 ... \
+        [--config configs/lab.yaml]
+
+It writes the pose file (never over a better one without ``--force``), prints the
+reprojection error of the corners [px] and the marker centres' table error [cm], and,
+with ``--config``, points that config's ``calibration`` at the two files
+(``model: perspective``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import io
+import stat
+import sys
+from collections.abc import Sequence
+from datetime import date
+from pathlib import Path
+
+import numpy as np
+from ruamel.yaml import YAML, YAMLError
+from ruamel.yaml.comments import CommentedMap, CommentedSeq
+
+from mearm.cli import ArgumentParser, run
+from mearm.config import config_from_dict
+from mearm.config.base import MAX_LENGTH_CM, short_repr
+from mearm.exceptions import CalibrationError, ConfigError, InputFileError, MearmError
+from mearm.fileio import write_atomic
+from mearm.vision.aruco import (
+    DEFAULT_DICTIONARY,
+    calibration_from_markers,
+    diagonal_center,
+    find_markers,
+    table_corners_cm,
+)
+from mearm.vision.calibration import Calibration
+from mearm.vision.image import read_image
+from mearm.vision.pinhole import (
+    Extrinsics,
+    Intrinsics,
+    PerspectiveCamera,
+    load_calibration,
+    save_calibration,
+    solve_pose,
+)
+from mearm.yamlio import load_yaml_text, read_text_file
+
+#: Largest pixel coordinate of a --point [px] (an image side is at most 65 535 px).
+MAX_PIXEL = 65_535.0
+#: Largest printed marker side [cm].
+MAX_MARKER_SIDE_CM = 100.0
+
+
+def _numbers(text: str, n: int, what: str, limit: float) -> list[float]:
+    shown = short_repr(text, 40)
+    try:
+        values = [float(v) for v in text.split(",")]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{what} must be numbers, got {shown}") from None
+    if len(values) != n or not all(abs(v) <= limit for v in values):
+        raise argparse.ArgumentTypeError(f"{what} needs {n} numbers within ±{limit:g}, got {shown}")
+    return values
+
+
+def parse_point(text: str) -> tuple[list[float], list[float]]:
+    """``U,V:X,Y`` → ((u, v) [px], (x, y) [cm])."""
+    if text.count(":") != 1:
+        raise argparse.ArgumentTypeError(f"--point wants U,V:X,Y, got {text!r}")
+    px, cm = text.split(":")
+    return (
+        _numbers(px, 2, "--point pixel U,V", MAX_PIXEL),
+        _numbers(cm, 2, "--point table X,Y", MAX_LENGTH_CM),
+    )
+
+
+def parse_marker(text: str) -> tuple[int, tuple[float, float]]:
+    """``ID:X,Y`` → (id, (x, y) [cm])."""
+    if text.count(":") != 1:
+        raise argparse.ArgumentTypeError(f"--marker wants ID:X,Y, got {text!r}")
+    ident, cm = text.split(":")
+    if not ident.strip().isascii() or not ident.strip().isdigit() or len(ident.strip()) > 6:
+        raise argparse.ArgumentTypeError(
+            f"--marker id must be an integer 0 … 999999, got {short_repr(ident, 20)}"
+        )
+    marker_id = int(ident)
+    x, y = _numbers(cm, 2, "--marker table X,Y", MAX_LENGTH_CM)
+    return marker_id, (x, y)
+
+
+def _yaml() -> YAML:
+    y = YAML()  # round-trip: keeps comments, order and flow style
+    y.preserve_quotes = True
+    y.width = 4096  # never fold a line
+    y.indent(mapping=2, sequence=4, offset=2)  # the style of configs/*.yaml
+    y.representer.add_representer(
+        type(None), lambda r, _: r.represent_scalar("tag:yaml.org,2002:null", "null")
+    )
+    return y
+
+
+def _calibration_section(text: str, source: str) -> tuple[YAML, CommentedMap, CommentedMap]:
+    """A config's text loaded for a round trip: the YAML, its top level, its calibration.
+
+    Raises:
+        ConfigError: the text is not YAML, YAML that every config read refuses
+            (:func:`mearm.yamlio.load_yaml_text`), or not a mapping.
+    """
+    load_yaml_text(text, source=source)  # size, depth, aliases, tags, duplicate keys, empty
+    y = _yaml()
+    try:
+        data = y.load(text)
+    except YAMLError as exc:
+        raise ConfigError(source, [f"malformed YAML: {str(exc).splitlines()[0]}"]) from None
+    if not isinstance(data, CommentedMap):
+        raise ConfigError(source, ["top level must be a mapping"])
+    section = data.get("calibration")
+    if not isinstance(section, CommentedMap):
+        section = CommentedMap()
+        data["calibration"] = section
+    return y, data, section
+
+
+def _dumped(y: YAML, data: CommentedMap, source: str) -> str:
+    """The config's new text, which must still load as a config (else ConfigError)."""
+    out = io.StringIO()
+    y.dump(data, out)
+    result = out.getvalue()
+    config_from_dict(load_yaml_text(result, source=source), source=source)
+    return result
+
+
+def update_config_text(text: str, calibration: Calibration, note: str, source: str) -> str:
+    """``text`` (a YAML config) with its calibration block replaced; comments kept.
+
+    Raises:
+        ConfigError: the text is not YAML, or YAML that every config read refuses
+            (:func:`mearm.yamlio.load_yaml_text`), or the result is not a valid config.
+    """
+    y, data, section = _calibration_section(text, source)
+    rows = [[float(v) for v in row] for row in calibration.H]
+    old = section.get("homography")
+    if (
+        isinstance(old, list)
+        and len(old) == 3
+        and all(isinstance(r, list) and len(r) == 3 for r in old)
+    ):
+        for i in range(3):  # in place, so the rows keep their style and comments
+            for j in range(3):
+                old[i][j] = rows[i][j]
+    else:
+        seq = CommentedSeq()
+        for row in rows:
+            r = CommentedSeq(row)
+            r.fa.set_flow_style()
+            seq.append(r)
+        section["homography"] = seq
+    err = calibration.reprojection_error_cm
+    section["reprojection_error_cm"] = None if err is None else float(err)
+    section.yaml_add_eol_comment(note, "homography")
+    return _dumped(y, data, source)
+
+
+def point_config_at_files(
+    text: str, intrinsics: Path, extrinsics: Path, config: Path, source: str
+) -> str:
+    """``text`` with ``calibration`` set to ``model: perspective`` and the two files.
+
+    The paths are written relative to the config's folder when they lie under it.
+
+    Raises:
+        ConfigError: the text is not a config, or the result does not load.
+    """
+    y, data, section = _calibration_section(text, source)
+    folder = config.resolve().parent
+
+    def rel(p: Path) -> str:
+        full = p.resolve()
+        try:
+            return str(full.relative_to(folder))
+        except ValueError:
+            return str(full)
+
+    section["model"] = "perspective"
+    section["intrinsics_file"] = rel(intrinsics)
+    section["extrinsics_file"] = rel(extrinsics)
+    return _dumped(y, data, source)
+
+
+def fit_pose(
+    frame: object,
+    intrinsics: Intrinsics,
+    centers: dict[int, tuple[float, float]],
+    side_cm: float,
+    dictionary: str,
+) -> tuple[Extrinsics, float, float]:
+    """The camera's pose from the markers, and the centres' table error (rms, max) [cm].
+
+    Raises:
+        CalibrationError: the frame is not the intrinsics' size, a marker is missing, or
+            no pose fits.
+    """
+    assert isinstance(frame, np.ndarray)
+    h, w = frame.shape[:2]
+    if (w, h) != intrinsics.size_px:
+        raise CalibrationError(
+            f"the image is {w}x{h} px but the intrinsics are for "
+            f"{intrinsics.size_px[0]}x{intrinsics.size_px[1]} px: take the picture at that size"
+        )
+    found = find_markers(frame, centers, dictionary)
+    pixels: list[np.ndarray] = []
+    points: list[np.ndarray] = []
+    for marker_id, centre in sorted(centers.items()):
+        pixels.extend(found[marker_id])
+        points.extend(table_corners_cm(centre, side_cm))
+    pts3 = np.column_stack([np.array(points), np.zeros(len(points))])
+    pose = solve_pose(intrinsics, np.array(pixels), pts3, markers=len(centers))
+    camera = PerspectiveCamera(intrinsics, pose)
+    seen = camera.pixel_to_table(np.array([diagonal_center(found[i]) for i in sorted(centers)]))
+    err = np.linalg.norm(seen - np.array([centers[i] for i in sorted(centers)]), axis=1)
+    return pose, float(np.sqrt(np.mean(err**2))), float(err.max())
+
+
+def _homography_no_worse(data: dict[str, object], calibration: Calibration, where: Path) -> None:
+    section = data.get("calibration")
+    old = section.get("reprojection_error_cm") if isinstance(section, dict) else None
+    new = calibration.reprojection_error_cm
+    if isinstance(old, (int, float)) and new is not None and new > old:
+        raise CalibrationError(
+            f"{where} holds a better calibration (reprojection error {old:.4f} cm) than the "
+            f"new one ({new:.4f} cm): kept; pass --force to replace it"
+        )
+
+
+def write_atomically(path: Path, text: str) -> None:
+    """Replace ``path`` with ``text`` in one step (:func:`mearm.fileio.write_atomic`).
+
+    A symlink is followed (the file it names is replaced, the link kept); anything but a
+    regular file (a device such as /dev/null, a FIFO, a directory) is refused, so no
+    write can block or land outside a file.
+
+    Raises:
+        MearmError: ``path`` exists and is not a regular file.
+        OSError: the write failed; the old file is untouched.
+    """
+    try:
+        info = path.stat()
+    except FileNotFoundError:
+        pass
+    else:
+        if not stat.S_ISREG(info.st_mode):
+            raise MearmError(f"{path}: not a regular file; write the calibration to a file")
+    write_atomic(path, text)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Fit the calibration and write it; 0 on success, 1 if it fails, 2 on bad input."""
+    parser = ArgumentParser(
+        description="Fit pixel → table calibration into a config, or the camera's pose.",
+    )
+    parser.add_argument("--config", type=Path, help="config file to update")
+    parser.add_argument("--output", type=Path, help="write the config here instead of --config")
+    parser.add_argument("--image", type=Path, help="image showing the ArUco markers")
+    parser.add_argument(
+        "--marker", type=parse_marker, action="append", default=[], metavar="ID:X,Y",
+        help="a marker's id and its centre's table position [cm] (4 or more)",
+    )  # fmt: skip
+    parser.add_argument(
+        "--marker-side-cm", type=float, help="printed marker side [cm]: use the corners too"
+    )
+    parser.add_argument("--dictionary", default=DEFAULT_DICTIONARY, help="ArUco dictionary")
+    parser.add_argument(
+        "--point", type=parse_point, action="append", default=[], metavar="U,V:X,Y",
+        help="a pixel and its table position [cm] (4 or more)",
+    )  # fmt: skip
+    parser.add_argument(
+        "--intrinsics", type=Path,
+        help="the camera's intrinsics file: fit the camera's pose (perspective) instead",
+    )  # fmt: skip
+    parser.add_argument("--out", type=Path, help="with --intrinsics: the pose file to write")
+    parser.add_argument(
+        "--force", action="store_true", help="replace a better calibration than the new one"
+    )
+    parser.add_argument("--dry-run", action="store_true", help="fit and print; write nothing")
+    args = parser.parse_args(argv)
+    if args.intrinsics is None and args.config is None:
+        parser.error("the following arguments are required: --config (or --intrinsics)")
+    if bool(args.point) == bool(args.image or args.marker):
+        parser.error("give either --image with --marker, or --point (not both, not neither)")
+    if args.image and not args.marker:
+        parser.error("--image needs --marker ID:X,Y for each marker (4 or more)")
+    if args.marker and not args.image:
+        parser.error("--marker needs --image")
+    if args.marker_side_cm is not None and not 0 < args.marker_side_cm <= MAX_MARKER_SIDE_CM:
+        parser.error(
+            f"--marker-side-cm must be in (0, {MAX_MARKER_SIDE_CM:g}] cm, "
+            f"got {args.marker_side_cm:g}"
+        )
+    if args.intrinsics is not None:
+        if args.point:
+            parser.error("--intrinsics fits the pose from --image and --marker, not --point")
+        if args.marker_side_cm is None:
+            parser.error("--intrinsics needs --marker-side-cm (the pose is fitted to corners)")
+        if args.out is None and not args.dry_run:
+            parser.error("--intrinsics needs --out FILE (the camera pose file to write)")
+        return _pose(parser, args)
+    if args.out is not None:
+        parser.error("--out is for the camera pose (with --intrinsics); the config is --output")
+
+    try:
+        text = read_text_file(args.config, what="config file")
+    except InputFileError as exc:
+        raise ConfigError(exc.path, [exc.reason]) from None
+    data = load_yaml_text(text, source=str(args.config))  # refused before any fitting
+    if not isinstance(data, dict):
+        raise ConfigError(str(args.config), ["top level must be a mapping"])
+
+    if args.point:
+        pixels = [p for p, _ in args.point]
+        table = [c for _, c in args.point]
+        calibration = Calibration.fit(pixels, table)
+        n_pairs = len(pixels)
+        how = f"{n_pairs} point pairs"
+    else:
+        centers = dict(args.marker)
+        if len(centers) != len(args.marker):
+            parser.error("each --marker id may be given once")
+        frame = read_image(args.image)
+        calibration = calibration_from_markers(
+            frame, centers, side_cm=args.marker_side_cm, dictionary=args.dictionary
+        )
+        corners = " and corners" if args.marker_side_cm else ""
+        n_pairs = len(centers) * (5 if args.marker_side_cm else 1)
+        how = f"{len(centers)} ArUco marker centres{corners} in {args.image.name}"
+
+    note = f"fitted {date.today().isoformat()} by tools/calibrate_camera.py from {how}"
+    new_text = update_config_text(text, calibration, note, str(args.config))  # or exit 2
+    rms, worst = calibration.reprojection_error_cm, calibration.max_error_cm
+    print(f"fitted from {how}")
+    print(f"reprojection error: rms {rms:.4f} cm, max {worst:.4f} cm")
+    if n_pairs == 4:
+        print("note: 4 pairs fit exactly, so the error is 0 by construction; add points (or")
+        print("      --marker-side-cm) for an error that measures something")
+    for row in calibration.H:
+        print("  [" + ", ".join(f"{v: .9g}" for v in row) + "]")
+    if args.dry_run:
+        return 0
+    target = args.output or args.config
+    if not args.force and target.exists():
+        try:
+            old = load_yaml_text(read_text_file(target, what="config file"), source=str(target))
+        except (ConfigError, InputFileError):
+            old = None
+        if isinstance(old, dict):
+            _homography_no_worse(old, calibration, target)
+    try:
+        write_atomically(target, new_text)
+    except OSError as exc:
+        raise MearmError(f"cannot write {target}: {exc.strerror or exc}") from None
+    print(f"wrote the calibration into {target}", file=sys.stderr)
+    return 0
+
+
+def _pose(parser: ArgumentParser, args: argparse.Namespace) -> int:
+    """The camera pose mode (``--intrinsics``)."""
+    intrinsics = load_calibration(args.intrinsics, "intrinsics")
+    assert isinstance(intrinsics, Intrinsics)
+    centers = dict(args.marker)
+    if len(centers) != len(args.marker):
+        parser.error("each --marker id may be given once")
+    config_text = None
+    if args.config is not None:
+        try:
+            config_text = read_text_file(args.config, what="config file")
+        except InputFileError as exc:
+            raise ConfigError(exc.path, [exc.reason]) from None
+        load_yaml_text(config_text, source=str(args.config))  # refused before any fitting
+    frame = read_image(args.image)
+    pose, rms_cm, max_cm = fit_pose(
+        frame, intrinsics, centers, args.marker_side_cm, args.dictionary
+    )
+    c = pose.position_cm
+    tilt = float(np.degrees(np.arccos(np.clip(-pose.rotation[2, 2], -1.0, 1.0))))
+    print(f"fitted the camera's pose from {len(centers)} ArUco markers in {args.image.name}")
+    print(f"reprojection error of the corners: rms {pose.rms_px:.3f} px")
+    print(f"marker centres on the table: rms {rms_cm:.4f} cm, max {max_cm:.4f} cm")
+    print(
+        f"camera at ({c[0]:.2f}, {c[1]:.2f}, {c[2]:.2f}) cm, its axis {tilt:.2f} deg from vertical"
+    )
+    if args.dry_run:
+        return 0
+    new_config = None
+    if args.config is not None and config_text is not None:
+        new_config = point_config_at_files(
+            config_text, args.intrinsics, args.out, args.output or args.config, str(args.config)
+        )
+    save_calibration(args.out, pose, force=args.force)
+    print(f"wrote the camera pose to {args.out}", file=sys.stderr)
+    if new_config is not None:
+        target = args.output or args.config
+        try:
+            write_atomically(target, new_config)
+        except OSError as exc:
+            raise MearmError(f"cannot write {target}: {exc.strerror or exc}") from None
+        print(f"pointed {target} at {args.intrinsics} and {args.out}", file=sys.stderr)
+    return 0
+
+
+if __name__ == "__main__":
+    run(main)

@@ -1,0 +1,58 @@
+"""Write the URDF of an arm description (by default: every reference arm).
+
+    mearm urdf     # robot_description/<arm>.urdf for each reference config
+    mearm urdf --config configs/lab.yaml [--output arm.urdf] [--set key=value ...]
+
+Without ``--output`` the file goes to ``robot_description/``: the checkout's, when mearm
+runs from a source checkout (that is where the reference arms' URDFs are kept), else
+the one in the current folder.
+"""
+
+from __future__ import annotations
+
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+
+from mearm.cli import ArgumentParser, add_config_argument, config_from_args, run, write_text_atomic
+from mearm.config import load_config
+from mearm.data import source_checkout
+from mearm.kinematics import ArmModel, generate_urdf
+
+#: The reference configs (packaged names) whose arms' URDFs are kept in robot_description/.
+REFERENCE_CONFIGS = ("sim", "sim_mearm_v1", "sim_5dof")
+
+
+def output_folder() -> Path:
+    """Where URDFs go without ``--output``: the checkout's robot_description/, else ./."""
+    checkout = source_checkout()
+    return (checkout if checkout is not None else Path()) / "robot_description"
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Write the URDF(s); 0 on success."""
+    parser = ArgumentParser(description="Arm description → URDF (metres, radians).")
+    add_config_argument(parser)
+    parser.add_argument(
+        "--output", type=Path, help="URDF to write (default: robot_description/<arm name>.urdf)"
+    )
+    args = parser.parse_args(argv)
+    if args.output is not None and args.output.exists() and not args.output.is_file():
+        parser.error(f"--output {args.output}: exists and is not a regular file")
+    if args.config is None and not args.set:
+        if args.output is not None:
+            parser.error("--output needs --config (without it every reference arm is written)")
+        configs = [load_config(name) for name in REFERENCE_CONFIGS]
+    else:
+        configs = [config_from_args(args)]
+    for config in configs:
+        arm = config.arm
+        ArmModel(arm)  # Pinocchio must accept what we write
+        output = args.output or output_folder() / f"{arm.name}.urdf"
+        write_text_atomic(output, generate_urdf(arm))
+        print(f"wrote {output}", file=sys.stderr)
+    return 0
+
+
+if __name__ == "__main__":
+    run(main)

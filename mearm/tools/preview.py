@@ -1,0 +1,203 @@
+"""Show the bare arm of any config in the meshcat view (issue 6, item 3).
+
+Serves the view on 127.0.0.1, prints its URL and keeps serving until Ctrl-C; or, with
+--screenshot, renders it in headless Chromium to a PNG and exits. Joints are named as in
+the config's ``arm.joints``; values in the config's units (deg, or cm for a prismatic
+joint); passive joints follow their coupling.
+
+Examples::
+
+    mearm preview                                # home pose; open the printed URL
+    mearm preview --config configs/sim_5dof.yaml # another arm
+    mearm preview --joints shoulder=60,elbow=-100  # others stay at home
+    mearm preview --sweep                        # each actuated joint, then the jaws
+    mearm preview --sweep shoulder               # only the shoulder
+    mearm preview --screenshot arm.png           # render headless and exit
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from collections.abc import Iterator, Sequence
+from pathlib import Path
+
+import numpy as np
+
+from mearm.cli import ArgumentParser, add_config_argument, config_from_args, positive_number, run
+from mearm.kinematics import ArmModel
+from mearm.view import ArmView
+
+#: The --sweep argument meaning every actuated joint, then the gripper.
+SWEEP_ALL = "all"
+
+
+def _named_values(text: str) -> dict[str, float]:
+    """``shoulder=60,elbow=-100`` → ``{"shoulder": 60.0, "elbow": -100.0}``."""
+    out: dict[str, float] = {}
+    for item in text.split(","):
+        name, sep, value = item.partition("=")
+        try:
+            number = float(value)
+        except ValueError:
+            number = float("nan")
+        if not sep or not name.strip() or not np.isfinite(number):
+            raise argparse.ArgumentTypeError(
+                f"--joints must be NAME=VALUE pairs with finite values, e.g. "
+                f"shoulder=60,elbow=-100; got {text!r}"
+            )
+        out[name.strip()] = number
+    return out
+
+
+def _window_size(text: str) -> tuple[int, int]:
+    try:
+        w, h = (int(v) for v in text.lower().split("x"))
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"--size must be WxH, e.g. 1280x800, got {text!r}"
+        ) from None
+    if not (16 <= w <= 8192 and 16 <= h <= 8192):
+        raise argparse.ArgumentTypeError(f"--size sides must be in [16, 8192] px, got {text!r}")
+    return w, h
+
+
+def sweep_poses_deg(
+    start: Sequence[float],
+    lower: Sequence[float],
+    upper: Sequence[float],
+    joints: Sequence[int],
+    step: float,
+) -> Iterator[np.ndarray]:
+    """Actuated poses (config units: deg or cm) sweeping joints through their limits.
+
+    Each joint goes from its start to its lower limit, up to its upper limit and back to
+    the start, in steps of at most ``step``; the others stay at the start.
+    """
+    start_values = np.asarray(start, dtype=float)
+    for j in joints:
+        legs = [
+            (start_values[j], lower[j]),
+            (lower[j], upper[j]),
+            (upper[j], start_values[j]),
+        ]
+        for a, b in legs:
+            n = max(1, int(np.ceil(abs(b - a) / step)))
+            for value in np.linspace(a, b, n + 1)[1:]:
+                pose = start_values.copy()
+                pose[j] = value
+                yield pose
+
+
+def sweep_openings_cm(open_cm: float, closed_cm: float, step_cm: float) -> Iterator[float]:
+    """Gripper openings [cm]: open to closed and back, steps of at most ``step_cm``."""
+    n = max(1, int(np.ceil(abs(open_cm - closed_cm) / step_cm)))
+    for a, b in ((open_cm, closed_cm), (closed_cm, open_cm)):
+        yield from (float(v) for v in np.linspace(a, b, n + 1)[1:])
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Serve (or render) the bare arm; see the module docstring."""
+    parser = ArgumentParser(description=__doc__.splitlines()[0])
+    add_config_argument(parser)
+    parser.add_argument(
+        "--joints",
+        type=_named_values,
+        metavar="NAME=VALUE,...",
+        help="actuated joints [deg, or cm if prismatic]; those not named stay at home",
+    )
+    parser.add_argument(
+        "--sweep",
+        nargs="?",
+        const=SWEEP_ALL,
+        metavar="JOINT",
+        help="sweep each actuated joint through its limits and open and close the jaws "
+        "(or sweep only JOINT, an actuated joint's name)",
+    )
+    parser.add_argument(
+        "--step-deg",
+        type=positive_number(0.01, 360.0),
+        default=1.0,
+        help="sweep step [deg, or cm if prismatic], 0.01 … 360",
+    )
+    parser.add_argument(
+        "--rate-hz", type=positive_number(0.1, 1000.0), default=50.0, help="sweep frame rate [Hz]"
+    )
+    parser.add_argument("--screenshot", type=Path, metavar="OUT.png", help="render to a PNG, exit")
+    parser.add_argument("--size", type=_window_size, default=(1280, 800), help="PNG size WxH")
+    parser.add_argument("--hold", action="store_true", help="keep serving after --screenshot")
+    parser.add_argument(
+        "--port", type=int, default=None, help="web port (default: 7000 or the next free; 0: any)"
+    )
+    args = parser.parse_args(argv)
+    shot = args.screenshot
+    if shot is not None and (shot.suffix.lower() != ".png" or shot.exists() and not shot.is_file()):
+        parser.error(f"--screenshot {shot}: must be a .png file (not a folder or a device)")
+
+    config = config_from_args(args)
+    model = ArmModel(config.arm)
+    chain = model.chain
+    actuated = list(chain.actuated)
+    if args.sweep is not None and args.sweep not in (SWEEP_ALL, *actuated):
+        parser.error(
+            f"--sweep: unknown joint {args.sweep!r}; this arm's actuated joints: "
+            f"{', '.join(actuated)}"
+        )
+    unknown = [n for n in args.joints or {} if n not in actuated]
+    if unknown:
+        parser.error(
+            f"--joints: unknown joint(s) {', '.join(map(repr, unknown))}; this arm's "
+            f"actuated joints: {', '.join(actuated)}"
+        )
+    start_named = config.arm.home() | (args.joints or {})
+    q_start = chain.from_named(start_named)  # unknown names: exit 2 before serving
+    model.check_limits(q_start)  # joints out of their limits: exit 2 before serving
+    scale = chain.scale[chain.actuated_index]
+    start = chain.actuated_of(q_start) / scale
+    lower, upper = chain.actuated_lower / scale, chain.actuated_upper / scale
+    everything = args.sweep == SWEEP_ALL
+    joints = range(chain.m) if everything else [actuated.index(args.sweep)] if args.sweep else []
+    gripper = config.arm.tool.gripper
+
+    def sweep(pace: bool) -> None:
+        period = 1.0 / args.rate_hz
+        deadline = time.monotonic()
+
+        def wait() -> None:
+            nonlocal deadline
+            if pace:
+                deadline += period
+                time.sleep(max(0.0, deadline - time.monotonic()))
+
+        for pose in sweep_poses_deg(start, lower, upper, joints, args.step_deg):
+            q = chain.full(pose * scale)
+            model.check_limits(q)
+            view.show_joints(q)
+            wait()
+        if everything:
+            step_cm = max(0.05, (gripper.open_cm - gripper.closed_cm) / 40)
+            for opening in sweep_openings_cm(gripper.open_cm, gripper.closed_cm, step_cm):
+                view.show_joints(q_start, opening)
+                wait()
+
+    with ArmView(model, config, port=args.port) as view:
+        view.show_joints(q_start, gripper.open_cm)
+        if args.screenshot is not None:
+            if args.sweep:
+                sweep(pace=False)
+            w, h = args.size
+            out = view.screenshot(args.screenshot, width_px=w, height_px=h)
+            print(f"wrote {out}", flush=True)
+            if not args.hold:
+                return 0
+        print(f"meshcat view: {view.url}  (Ctrl-C to stop)", flush=True)
+        while True:
+            if args.sweep:
+                sweep(pace=True)
+            else:
+                time.sleep(3600)
+
+
+if __name__ == "__main__":
+    run(main, sys.argv[1:])

@@ -1,0 +1,130 @@
+r"""Render calibration pictures from the physical twin's camera: ChArUco views and a marker sheet.
+
+    mearm render-calibration --config configs/sim_mujoco_perspective.yaml \\
+        --out calib/ [--views 15] [--seed 0] [--noise-std 0]
+
+Writes ``OUT/board_00.png`` … (the default ChArUco board, 7 × 5 squares of 3 cm,
+DICT_5X5_100, held at ``--views`` seeded poses), ``OUT/sheet.png`` (4 cm DICT_4X4_50
+markers lying on the empty table, :func:`~mearm.sim.calibration_scenes.default_sheet_layout`)
+and ``OUT/sheet_markers.txt`` (the ``--marker ID:X,Y`` arguments and ``--marker-side-cm``
+for the calibration tool). The frames go through the twin camera's lens
+(``twin.camera``; unset, the default straight-down camera).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from mearm.cli import ArgumentParser, add_config_argument, config_from_args, run, seed_value
+from mearm.exceptions import MearmError
+from mearm.fileio import write_atomic
+
+#: Most board views one run renders.
+MAX_VIEWS = 200
+
+
+def _views(text: str) -> int:
+    import argparse
+
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"--views is an integer, got {text[:40]!r}") from None
+    if not 1 <= value <= MAX_VIEWS:
+        raise argparse.ArgumentTypeError(f"--views must be in [1, {MAX_VIEWS}], got {value}")
+    return value
+
+
+def _noise(text: str) -> float:
+    import argparse
+
+    try:
+        value = float(text)
+    except ValueError:
+        value = float("nan")
+    if not 0 <= value <= 255:
+        raise argparse.ArgumentTypeError(
+            f"--noise-std must be a number in [0, 255] (8-bit levels), got {text[:40]!r}"
+        )
+    return value
+
+
+def _write_png(path: Path, image: np.ndarray) -> None:
+    ok, buf = cv2.imencode(".png", image)
+    if not ok:
+        raise MearmError(f"PNG encoding of {path.name} failed")
+    try:
+        write_atomic(path, buf.tobytes())
+    except OSError as exc:
+        raise MearmError(f"cannot write {path}: {exc.strerror or exc}") from None
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Render the views and the sheet; 0 on success, 2 on bad input."""
+    parser = ArgumentParser(description=__doc__.splitlines()[0] if __doc__ else None)
+    add_config_argument(parser)
+    parser.add_argument("--out", type=Path, required=True, help="directory to write into")
+    parser.add_argument("--views", type=_views, default=15, help="ChArUco board views (15)")
+    parser.add_argument("--seed", type=seed_value, default=0, help="seed of poses and noise (0)")
+    parser.add_argument(
+        "--noise-std", type=_noise, default=0.0, help="Gaussian noise, 8-bit levels (0)"
+    )
+    args = parser.parse_args(argv)
+    if args.out.exists() and not args.out.is_dir():
+        parser.error(f"--out {args.out}: exists and is not a directory")
+    config = config_from_args(args)
+    if config.simulator != "mujoco":
+        raise MearmError(
+            f"{args.config or 'the default config'}: simulator is {config.simulator!r}; the "
+            "calibration pictures are the MuJoCo twin's (simulator: mujoco)"
+        )
+    try:
+        args.out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise MearmError(f"cannot make --out {args.out}: {exc.strerror or exc}") from None
+    probe = args.out / ".render_calibration_probe"
+    try:
+        probe.write_bytes(b"")
+        probe.unlink()
+    except OSError as exc:
+        raise MearmError(f"cannot write into --out {args.out}: {exc.strerror or exc}") from None
+
+    from mearm.sim.calibration_scenes import (
+        SHEET_SIDE_CM,
+        default_sheet_layout,
+        render_board_views,
+        render_sheet,
+    )
+
+    layout = default_sheet_layout(config)
+    sheet = render_sheet(config, layout, SHEET_SIDE_CM, noise_std=args.noise_std, seed=args.seed)
+    frames = render_board_views(config, args.views, args.seed, noise_std=args.noise_std)
+    written = []
+    for i, frame in enumerate(frames):
+        path = args.out / f"board_{i:02d}.png"
+        _write_png(path, frame)
+        written.append(path)
+    _write_png(args.out / "sheet.png", sheet)
+    written.append(args.out / "sheet.png")
+    lines = [f"--marker {i}:{x:g},{y:g}" for i, (x, y) in layout.items()]
+    lines.append(f"--marker-side-cm {SHEET_SIDE_CM:g}")
+    markers_txt = args.out / "sheet_markers.txt"
+    try:
+        write_atomic(markers_txt, "\n".join(lines) + "\n")
+    except OSError as exc:
+        raise MearmError(f"cannot write {markers_txt}: {exc.strerror or exc}") from None
+    written.append(markers_txt)
+    print(
+        f"wrote {len(frames)} board views ({args.out / 'board_00.png'} …), "
+        f"{args.out / 'sheet.png'} ({len(layout)} markers of {SHEET_SIDE_CM:g} cm) "
+        f"and {markers_txt}"
+    )
+    return 0
+
+
+if __name__ == "__main__":
+    run(main)
