@@ -1,0 +1,231 @@
+"""``mearm find-camera``: which cameras are there, and what does each one see?
+
+Tries every camera OpenCV can open — the ``/dev/video*`` devices on Linux and the
+indices 0 to ``--indices`` − 1 — reads one frame from each (within
+``camera.open_timeout_s`` of the config), prints its resolution and saves the frame as
+``camera<N>.png`` in ``--out`` (default ``camera_snapshots``), so you can tell the cameras
+apart and put the right one in your config (``camera.kind: device`` with
+``camera.device_index`` or ``camera.path``). ::
+
+    mearm find-camera
+    mearm find-camera --out snapshots --camera /dev/v4l/by-id/usb-046d_C310-video-index0
+
+``--camera SOURCE`` (repeatable) tries only the sources given: an index, a device path or
+a stream URL.
+
+Exit status: 0 when at least one camera gave a frame; 1 when none did (the command could
+not do its job: there is no snapshot to look at); 2 on bad input; 130 on Ctrl-C.
+"""
+
+from __future__ import annotations
+
+import glob
+import re
+import sys
+import threading
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from mearm.cli import (
+    EXIT_FAILURE,
+    EXIT_OK,
+    ArgumentParser,
+    add_config_argument,
+    config_from_args,
+    run,
+)
+from mearm.exceptions import MearmError
+
+#: Default number of indices tried besides the ``/dev/video*`` devices.
+DEFAULT_INDICES = 2
+#: Most indices tried (each failed index costs a backend probe).
+MAX_INDICES = 16
+
+
+@dataclass(frozen=True)
+class CameraReport:
+    """What one camera source gave.
+
+    Attributes:
+        source: The index or path tried.
+        ok: Whether a frame was read.
+        detail: ``W x H px`` and the snapshot's path, or why no frame came.
+        size_px: (width, height) of the frame [px], when one came.
+        snapshot: Where the frame was saved, when it was.
+    """
+
+    source: int | str
+    ok: bool
+    detail: str
+    size_px: tuple[int, int] | None = None
+    snapshot: Path | None = None
+
+
+def video_devices() -> list[str]:
+    """The ``/dev/video<N>`` devices (Linux), in number order."""
+    paths = [p for p in glob.glob("/dev/video*") if re.fullmatch(r"/dev/video\d+", p)]
+    return sorted(paths, key=lambda p: int(p.removeprefix("/dev/video")))
+
+
+def candidate_sources(indices: int) -> list[int | str]:
+    """Indices 0..``indices`` − 1, then each ``/dev/videoN`` whose N is not among them.
+
+    On Linux index N is ``/dev/videoN`` (OpenCV's V4L2 backend), so a device is tried once.
+    """
+    sources: list[int | str] = list(range(indices))
+    for path in video_devices():
+        if int(path.removeprefix("/dev/video")) >= indices:
+            sources.append(path)
+    return sources
+
+
+def grab_frame(source: int | str, timeout_s: float) -> tuple[Any, str]:
+    """One BGR frame from ``source`` (an index, a path or a URL), or (None, the reason).
+
+    Opening and reading run in a thread: a camera that hangs is abandoned after
+    ``timeout_s``.
+    """
+    import cv2
+
+    from mearm.vision.image import quiet_opencv
+
+    box: dict[str, Any] = {}
+
+    def work() -> None:
+        with quiet_opencv():
+            cap = cv2.VideoCapture(source)
+            try:
+                box["opened"] = cap.isOpened()
+                if box["opened"]:
+                    ok, frame = cap.read()
+                    box["frame"] = frame if ok and frame is not None else None
+            finally:
+                cap.release()
+
+    thread = threading.Thread(target=work, name=f"camera {source}", daemon=True)
+    thread.start()
+    thread.join(timeout_s)
+    if thread.is_alive():
+        return None, f"no frame within {timeout_s:g} s (camera.open_timeout_s)"
+    if not box.get("opened"):
+        return None, "cannot open it (absent, not a capture device, or held by another program)"
+    if box.get("frame") is None:
+        return None, "opened, but gave no frame (a metadata node, or held by another program)"
+    return box["frame"], ""
+
+
+def snapshot_name(source: int | str) -> str:
+    """``camera0.png`` for index 0, ``camera-dev-video3.png`` for ``/dev/video3``."""
+    if isinstance(source, int):
+        return f"camera{source}.png"
+    slug = re.sub(r"[^A-Za-z0-9]+", "-", source).strip("-")[:60] or "source"
+    return f"camera-{slug}.png"
+
+
+def probe_camera(source: int | str, timeout_s: float, out_dir: Path) -> CameraReport:
+    """Read a frame from ``source`` and save it in ``out_dir`` (made if missing).
+
+    Raises:
+        MearmError: the snapshot cannot be written.
+    """
+    import cv2
+
+    from mearm.fileio import write_atomic
+
+    frame, why = grab_frame(source, timeout_s)
+    if frame is None:
+        return CameraReport(source, False, why)
+    h, w = frame.shape[:2]
+    ok, png = cv2.imencode(".png", frame)
+    if not ok:
+        return CameraReport(source, False, f"{w}x{h} px, but the frame cannot be encoded")
+    path = out_dir / snapshot_name(source)
+    try:
+        out_dir.mkdir(parents=True, exist_ok=True)
+        write_atomic(path, png.tobytes())
+    except OSError as exc:
+        raise MearmError(f"cannot write the snapshot {path}: {exc}") from None
+    return CameraReport(source, True, f"{w}x{h} px, snapshot {path}", (w, h), path)
+
+
+def _source(text: str) -> int | str:
+    """``--camera``: an index, or a path or URL as given."""
+    text = text.strip()
+    if not text:
+        raise MearmError("--camera needs an index, a device path or a URL, got ''")
+    return int(text) if text.isdigit() else text
+
+
+def _config_hint(source: int | str) -> str:
+    if isinstance(source, int):
+        return f"camera.kind: device, camera.device_index: {source}"
+    kind = "file" if Path(source).is_file() else "device"  # a recorded video replays
+    return f"camera.kind: {kind}, camera.path: {source}"
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """List the cameras with a snapshot of each; see the module docstring."""
+    parser = ArgumentParser(
+        prog="mearm find-camera",
+        description="List the cameras OpenCV can open, with the resolution of each and a "
+        "snapshot to tell them apart.",
+        epilog="Exit status: 0 at least one camera gave a frame, 1 none did, 2 bad input.",
+    )
+    add_config_argument(parser)
+    parser.add_argument(
+        "--out",
+        type=Path,
+        default=Path("camera_snapshots"),
+        metavar="DIR",
+        help="folder for the snapshots (default camera_snapshots)",
+    )
+    parser.add_argument(
+        "--indices",
+        type=int,
+        default=DEFAULT_INDICES,
+        metavar="N",
+        help=f"also try camera indices 0 to N-1 (default {DEFAULT_INDICES}; at most "
+        f"{MAX_INDICES}); the /dev/video* devices are always tried",
+    )
+    parser.add_argument(
+        "--camera",
+        action="append",
+        default=[],
+        metavar="SOURCE",
+        help="try only this source: an index, a device path or a stream URL (repeatable)",
+    )
+    args = parser.parse_args(argv)
+    if not 0 <= args.indices <= MAX_INDICES:
+        parser.error(f"--indices must be in [0, {MAX_INDICES}], got {args.indices}")
+    config = config_from_args(args)
+    timeout_s = config.camera.open_timeout_s
+    if args.out.exists() and not args.out.is_dir():
+        raise MearmError(f"--out {args.out} exists and is not a folder")
+
+    sources = [_source(s) for s in args.camera] or candidate_sources(args.indices)
+    print(f"trying {len(sources)} camera source{'s' if len(sources) != 1 else ''}:")
+    reports = []
+    for source in sources:
+        report = probe_camera(source, timeout_s, args.out)
+        reports.append(report)
+        print(f"  {source!s:<14}  {'camera' if report.ok else 'no camera'}: {report.detail}")
+    found = [r for r in reports if r.ok]
+    if not found:
+        where = ", ".join(str(s) for s in sources) or "nothing to try"
+        print(
+            f"find-camera: no cameras found (tried {where}): is one plugged in, and not held "
+            "by another program? (Linux: ls /dev/video*; your user must be in the video group)",
+            file=sys.stderr,
+        )
+        return EXIT_FAILURE
+    for r in found:
+        w, h = r.size_px or (0, 0)
+        print(f"in your config: {_config_hint(r.source)}, camera.width_px: {w}, "
+              f"camera.height_px: {h}")  # fmt: skip
+    return EXIT_OK
+
+
+if __name__ == "__main__":
+    run(main)

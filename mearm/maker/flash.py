@@ -1,0 +1,286 @@
+"""``mearm flash``: build the Uno firmware and upload it, with Debian's tools and no IDE.
+
+Two commands, printed before they run::
+
+    make -C <firmware source> BUILD_DIR=<build dir>
+    avrdude -p atmega328p -c arduino -P <port> -b 115200 -D -U flash:w:<build dir>/mearm_servo.hex:i
+
+then the port is opened and the firmware's banner awaited, to show that the board runs
+it. The upload settings are the Arduino Uno's (the Arduino core's boards.txt:
+``upload.protocol=arduino``, ``upload.speed=115200``, ``build.mcu=atmega328p``); an old
+Uno or Nano bootloader needs ``--upload-baud 57600``.
+
+``--dry-run`` checks the tools, prints the two commands and runs neither: nothing is built
+and nothing is written (a missing tool is reported as a note; the exit status is 0).
+
+Tools: ``sudo apt-get install make gcc-avr avr-libc arduino-core-avr avrdude``. A missing
+one stops the command before anything runs, with one line naming its Debian package
+(exit 2). The build goes to ``--build-dir`` (default ``~/.cache/mearm/firmware``), so
+the firmware source may be read-only (an installed package).
+"""
+
+from __future__ import annotations
+
+import os
+import shlex
+import shutil
+import subprocess
+import sys
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+from mearm import data
+from mearm.cli import (
+    EXIT_FAILURE,
+    EXIT_OK,
+    ArgumentParser,
+    add_config_argument,
+    config_from_args,
+    run,
+)
+from mearm.exceptions import MearmError
+
+#: The sketch's name: ``<source>/mearm_servo/mearm_servo.ino`` → ``<build>/mearm_servo.hex``.
+SKETCH = "mearm_servo"
+#: The Arduino core the Makefile builds against (its ``ARDUINO_DIR``).
+ARDUINO_CORE_DIR = Path("/usr/share/arduino/hardware/arduino/avr")
+#: The Uno's upload settings (boards.txt: ``uno.build.mcu``, ``uno.upload.protocol``,
+#: ``uno.upload.speed``).
+MCU = "atmega328p"
+PROGRAMMER = "arduino"
+UPLOAD_BAUD = 115200
+#: Bootloaders answer at one of these [baud] (57600: Uno and Nano before optiboot).
+UPLOAD_BAUDS = (57600, 115200)
+#: Longest build and upload [s].
+BUILD_TIMEOUT_S = 600.0
+UPLOAD_TIMEOUT_S = 120.0
+
+
+def firmware_source_dir() -> Path:
+    """The folder holding the firmware's Makefile and ``mearm_servo/`` sketch.
+
+    :data:`mearm.data.FIRMWARE_DIR`: the checkout's ``tools/arduino`` (through its link),
+    or the copy an installed wheel ships.
+
+    Raises:
+        MearmError: the firmware source is not there.
+    """
+    folder = data.FIRMWARE_DIR.resolve()
+    if (folder / "Makefile").is_file() and (folder / SKETCH / f"{SKETCH}.ino").is_file():
+        return folder
+    raise MearmError(
+        f"the firmware source is not installed (looked in {folder}): reinstall mearm, or "
+        "run from the source checkout"
+    )
+
+
+def default_build_dir() -> Path:
+    """``$XDG_CACHE_HOME/mearm/firmware``, else ``~/.cache/mearm/firmware``."""
+    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    return Path(base) / "mearm" / "firmware"
+
+
+@dataclass(frozen=True)
+class Requirement:
+    """A tool or file the build or the upload needs.
+
+    Attributes:
+        what: The program name, or a file's description.
+        package: The Debian package that provides it.
+        path: A file that must exist; ``None``: ``what`` is a program looked up on PATH.
+        for_upload: Needed for the upload only (the build runs without it).
+    """
+
+    what: str
+    package: str
+    path: Path | None = None
+    for_upload: bool = False
+
+    def present(self) -> bool:
+        """Whether it is installed."""
+        if self.path is not None:
+            return self.path.is_file()
+        return shutil.which(self.what) is not None
+
+
+REQUIREMENTS: tuple[Requirement, ...] = (
+    Requirement("make", "make"),
+    Requirement("avr-gcc", "gcc-avr"),
+    Requirement("avr-objcopy", "binutils-avr"),
+    Requirement("avr-libc", "avr-libc", Path("/usr/lib/avr/include/avr/io.h")),
+    Requirement(
+        "the Arduino core", "arduino-core-avr", ARDUINO_CORE_DIR / "cores/arduino/Arduino.h"
+    ),
+    Requirement("avrdude", "avrdude", for_upload=True),
+)
+
+
+def missing_requirements(upload: bool = True) -> list[Requirement]:
+    """The requirements not installed (those of the upload only when ``upload``)."""
+    return [r for r in REQUIREMENTS if (upload or not r.for_upload) and not r.present()]
+
+
+def describe_missing(missing: Sequence[Requirement]) -> str:
+    """One line naming what is missing and the ``apt-get`` command that installs it."""
+    names = ", ".join(f"{r.what} ({r.package})" for r in missing)
+    packages = " ".join(dict.fromkeys(r.package for r in missing))
+    return f"not installed: {names}; install with: sudo apt-get install {packages}"
+
+
+@dataclass(frozen=True)
+class FlashPlan:
+    """The two commands of a flash.
+
+    Attributes:
+        build: The ``make`` command.
+        upload: The ``avrdude`` command.
+        hex_file: The firmware image the build writes and the upload reads.
+    """
+
+    build: tuple[str, ...]
+    upload: tuple[str, ...]
+    hex_file: Path
+
+
+def plan_flash(source: Path, build_dir: Path, port: str, upload_baud: int) -> FlashPlan:
+    """The build and upload commands for the firmware in ``source``, onto ``port``."""
+    build_dir = build_dir.resolve()
+    hex_file = build_dir / f"{SKETCH}.hex"
+    build = ("make", "-C", str(source), f"BUILD_DIR={build_dir}")
+    upload = (
+        "avrdude",
+        "-p", MCU,
+        "-c", PROGRAMMER,
+        "-P", port,
+        "-b", str(upload_baud),
+        "-D",
+        "-U", f"flash:w:{hex_file}:i",
+    )  # fmt: skip
+    return FlashPlan(build, upload, hex_file)
+
+
+def _check_port(text: str) -> str:
+    if not text or text != text.strip() or text.startswith("-") or "://" in text:
+        raise MearmError(
+            f"--port must be the board's device path, e.g. /dev/ttyACM0, got {text!r} "
+            "(mearm find-port lists them)"
+        )
+    return text
+
+
+def _run_step(what: str, command: Sequence[str], timeout_s: float) -> bool:
+    """Run ``command`` with its output on the terminal; ``False`` (said why) if it failed."""
+    print(f"$ {shlex.join(command)}", flush=True)
+    try:
+        result = subprocess.run(command, timeout=timeout_s, check=False)
+    except subprocess.TimeoutExpired:
+        print(f"flash: the {what} took longer than {timeout_s:g} s; stopped", file=sys.stderr)
+        return False
+    except OSError as exc:
+        print(f"flash: cannot run {command[0]}: {exc}", file=sys.stderr)
+        return False
+    if result.returncode != 0:
+        print(f"flash: the {what} failed (exit {result.returncode}; its output is above)",
+              file=sys.stderr)  # fmt: skip
+        return False
+    return True
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Build and upload the firmware; see the module docstring."""
+    parser = ArgumentParser(
+        prog="mearm flash",
+        description="Build the mearm firmware and upload it to an Arduino Uno with avrdude, "
+        "then check that the board prints the firmware's banner.",
+        epilog="Needs: sudo apt-get install make gcc-avr avr-libc arduino-core-avr avrdude. "
+        "Exit status: 0 flashed and answering (--dry-run: commands printed), 1 the build, "
+        "the upload or the check failed, 2 bad input or a missing tool.",
+    )
+    add_config_argument(parser)
+    parser.add_argument(
+        "--port",
+        default=None,
+        help="the board's serial port (default: servo.port of the config, /dev/ttyACM0); "
+        "mearm find-port lists them",
+    )
+    parser.add_argument(
+        "--upload-baud",
+        type=int,
+        choices=UPLOAD_BAUDS,
+        default=UPLOAD_BAUD,
+        help="the bootloader's baud rate (default 115200, the Uno's; 57600 for an old Uno "
+        "or Nano bootloader)",
+    )
+    parser.add_argument(
+        "--build-dir",
+        type=Path,
+        default=None,
+        metavar="DIR",
+        help="where to build (default ~/.cache/mearm/firmware)",
+    )
+    parser.add_argument(
+        "--dry-run",
+        action="store_true",
+        help="print the commands and run neither (nothing is built or uploaded)",
+    )
+    parser.add_argument(
+        "--no-check",
+        action="store_true",
+        help="after the upload, do not wait for the firmware's banner",
+    )
+    args = parser.parse_args(argv)
+    config = config_from_args(args)
+    port = _check_port(args.port if args.port is not None else config.servo.port)
+    source = firmware_source_dir()
+    build_dir = args.build_dir if args.build_dir is not None else default_build_dir()
+    plan = plan_flash(source, build_dir, port, args.upload_baud)
+    missing = missing_requirements()
+
+    if args.dry_run:
+        print(shlex.join(plan.build))
+        print(shlex.join(plan.upload))
+        if not args.no_check:
+            print(f"# then: wait for the firmware's banner on {port} at {config.servo.baud} baud")
+        if missing:
+            print(f"flash: note: {describe_missing(missing)}", file=sys.stderr)
+        return EXIT_OK
+
+    if missing:
+        raise MearmError(describe_missing(missing))
+    try:
+        build_dir.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise MearmError(f"cannot make the build folder {build_dir}: {exc}") from None
+    if not _run_step("build", plan.build, BUILD_TIMEOUT_S):
+        return EXIT_FAILURE
+    if not plan.hex_file.is_file():
+        print(f"flash: the build wrote no {plan.hex_file}", file=sys.stderr)
+        return EXIT_FAILURE
+    if not _run_step("upload", plan.upload, UPLOAD_TIMEOUT_S):
+        print(
+            "flash: check the port (mearm find-port), that no other program holds it, and "
+            "--upload-baud 57600 for an old bootloader",
+            file=sys.stderr,
+        )
+        return EXIT_FAILURE
+    if args.no_check:
+        print(f"uploaded {plan.hex_file} to {port}")
+        return EXIT_OK
+    from mearm.maker.find_port import SerialPort, format_report, probe_port
+
+    report = probe_port(SerialPort(port), config.servo.baud, config.servo.banner_timeout_s)
+    print(format_report(report, len(port)))
+    if report.status != "mearm":
+        print(
+            f"flash: avrdude reported success but the board on {port} does not print the "
+            "mearm banner",
+            file=sys.stderr,
+        )
+        return EXIT_FAILURE
+    print(f"the board on {port} runs the mearm firmware: set servo.port: {port} in your config")
+    return EXIT_OK
+
+
+if __name__ == "__main__":
+    run(main)

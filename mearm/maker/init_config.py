@@ -1,0 +1,390 @@
+"""``mearm init-config``: a starter config for one of the reference arms on your rig.
+
+Writes a commented YAML config to start from: the arm of a reference config (its joints,
+limits, servo calibration and the notes on where each number comes from) on the rig you
+choose, with the next steps to take written at the top. ::
+
+    mearm init-config --list
+    mearm init-config --arm mearm_v1 --rig uno my_arm.yaml
+    mearm sort --config my_arm.yaml
+
+The simulated rigs (``sim``, ``sim_mujoco``) write the reference config as it is. The real
+rigs (``uno``, ``ssc32``) replace its servo link and camera with a real board and a USB
+camera; the pixel-to-table calibration is then the reference's and must be redone for
+your camera. The file is checked to load before it is written; an existing file is only
+replaced with ``--force``.
+"""
+
+from __future__ import annotations
+
+import re
+import shlex
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+from mearm import __version__, data
+from mearm.cli import EXIT_OK, ArgumentParser, run, write_text_atomic
+from mearm.config import Config, config_from_dict
+from mearm.exceptions import ConfigError, MearmError
+from mearm.yamlio import load_yaml_text
+
+#: Servo channels the Uno firmware drives (``SERVO_COUNT`` in
+#: tools/arduino/mearm_servo/mearm_servo.ino; its ``V`` reply says so too).
+UNO_SERVO_COUNT = 5
+
+
+def reference_config_dir() -> Path:
+    """The folder of the reference configs.
+
+    :data:`mearm.data.CONFIGS_DIR`: the checkout's ``configs/`` through its link, or the
+    copies an installed wheel ships.
+
+    Raises:
+        MearmError: they are not there.
+    """
+    folder = data.CONFIGS_DIR.resolve()
+    if (folder / "sim.yaml").is_file():
+        return folder
+    raise MearmError(
+        f"the reference configs are not installed (looked in {folder}): reinstall mearm"
+    )
+
+
+@dataclass(frozen=True)
+class ArmChoice:
+    """A reference arm.
+
+    Attributes:
+        name: What ``--arm`` takes.
+        title: One line for ``--list`` and the file's header.
+        sim: Its reference config on the kinematic simulator (file name in configs/).
+        twin: Its reference config in the physical twin.
+        real: The reference config the real rigs start from.
+    """
+
+    name: str
+    title: str
+    sim: str
+    twin: str
+    real: str
+
+
+@dataclass(frozen=True)
+class RigChoice:
+    """A rig: what drives the servos and where the frames come from.
+
+    Attributes:
+        name: What ``--rig`` takes.
+        title: One line for ``--list`` and the file's header.
+        servo_block: The config's ``servo:`` section (``None``: the reference's).
+        camera_block: The config's ``camera:`` section (``None``: the reference's).
+        steps: What to do next, one command or sentence per item; ``{config}`` is the
+            written file.
+    """
+
+    name: str
+    title: str
+    servo_block: str | None
+    camera_block: str | None
+    steps: tuple[str, ...]
+
+    @property
+    def real(self) -> bool:
+        """Whether it drives a real arm (its servo link is replaced)."""
+        return self.servo_block is not None
+
+
+ARMS: dict[str, ArmChoice] = {
+    a.name: a
+    for a in (
+        ArmChoice(
+            "paper",
+            "the paper's arm (Agustian et al.): base, shoulder and elbow servos, a levelled "
+            "wrist, a gripper arm and a gripper",
+            "sim.yaml",
+            "sim_mujoco.yaml",
+            "lab.yaml",
+        ),
+        ArmChoice(
+            "mearm_v1",
+            "the MeArm v1 kit: four SG90 micro servos, acrylic links, a claw",
+            "sim_mearm_v1.yaml",
+            "sim_mearm_v1_mujoco.yaml",
+            "sim_mearm_v1.yaml",
+        ),
+        ArmChoice(
+            "desk_5dof",
+            "a 5-joint desk arm (base, shoulder, elbow, wrist pitch and roll) with a gripper: "
+            "six servos",
+            "sim_5dof.yaml",
+            "sim_5dof_mujoco.yaml",
+            "sim_5dof.yaml",
+        ),
+    )
+}
+
+_REAL_CAMERA = """\
+camera:
+  kind: device              # a USB camera; mearm find-camera lists them with a snapshot
+  device_index: 0           # which one; or path: /dev/v4l/by-id/... (stays the same on replug)
+  width_px: 640             # the frame size; the calibration is in pixels of this size
+  height_px: 480
+  open_timeout_s: 5.0       # opening and the first frame must take no longer
+"""
+
+_UNO_SERVO = """\
+servo:
+  backend: serial           # an Arduino Uno running the mearm firmware (mearm flash)
+  port: /dev/ttyACM0        # the board's port: mearm find-port names it
+  baud: 115200              # the firmware's baud rate
+  rate_hz: 50.0             # commands per second at most (the servos' 50 Hz frame rate)
+  ack_timeout_s: 0.5        # every command waits this long for the board's acknowledgement
+  banner_timeout_s: 3.0     # opening the port resets the Uno: wait this long for its banner
+  retries: 3                # resends of a command that failed its checksum
+  # Each servo's channel and pulse calibration (zero_us, us_per_unit, direction) is with
+  # its joint in arm: the Uno's channels 0..4 are its pins D3, D5, D6, D9 and D10.
+"""
+
+_SSC32_SERVO = """\
+servo:
+  backend: ssc32            # a Lynxmotion SSC-32 or SSC-32U servo controller
+  port: /dev/ttyUSB0        # the board's port: mearm find-port --replug finds it
+  baud: 9600                # as set on the board (SSC-32 jumpers; SSC-32U: 9600 unless changed)
+  rate_hz: 50.0             # commands per second at most; lowered if the baud rate demands
+  ack_timeout_s: 0.5        # every query waits this long for the board's answer
+  retries: 3                # queries asked again after a lost, late or garbled answer
+  # Each servo's channel (0..31) and pulse calibration (zero_us, us_per_unit, direction)
+  # is with its joint in arm.
+"""
+
+RIGS: dict[str, RigChoice] = {
+    r.name: r
+    for r in (
+        RigChoice(
+            "sim",
+            "everything simulated: a kinematic arm, the table rendered from above",
+            None,
+            None,
+            ("mearm sort --config {config}",),
+        ),
+        RigChoice(
+            "sim_mujoco",
+            "the physical twin (MuJoCo): servo, contact and friction models, a rendered "
+            "camera (needs the mujoco package)",
+            None,
+            None,
+            ("mearm sort --config {config}",),
+        ),
+        RigChoice(
+            "uno",
+            "an Arduino Uno running the mearm firmware drives the servos; a USB camera",
+            _UNO_SERVO,
+            _REAL_CAMERA,
+            (
+                "mearm flash --port /dev/ttyACM0 (puts the firmware on the Uno)",
+                "mearm find-port (names the board's port; set servo.port)",
+                "mearm calibrate-servos --config {config}",
+                "mearm find-camera (set camera.device_index or camera.path)",
+                "mearm calibrate-camera --config {config}",
+                "mearm sort --config {config}",
+            ),
+        ),
+        RigChoice(
+            "ssc32",
+            "a Lynxmotion SSC-32 servo controller drives the servos; a USB camera",
+            _SSC32_SERVO,
+            _REAL_CAMERA,
+            (
+                "mearm find-port --replug (names the board's port; set servo.port)",
+                "mearm calibrate-servos --config {config}",
+                "mearm find-camera (set camera.device_index or camera.path)",
+                "mearm calibrate-camera --config {config}",
+                "mearm sort --config {config}",
+            ),
+        ),
+    )
+}
+
+
+def reference_file(arm: ArmChoice, rig: RigChoice) -> str:
+    """The reference config (a file name in configs/) the starter config is made from."""
+    if rig.real:
+        return arm.real
+    return arm.twin if rig.name == "sim_mujoco" else arm.sim
+
+
+@dataclass(frozen=True)
+class Block:
+    """A top-level section of a YAML file: its key and its text, comments above it included.
+
+    Attributes:
+        key: The top-level key (``""`` for the file's header comment).
+        text: Its lines, each ending in a newline.
+    """
+
+    key: str
+    text: str
+
+
+_TOP_KEY = re.compile(r"^([A-Za-z_][A-Za-z0-9_]*):")
+
+
+def split_blocks(text: str) -> list[Block]:
+    """Cut a YAML file at its top-level keys; comment lines right above a key go with it.
+
+    The first block (key ``""``) is what comes before: the file's header comment.
+    """
+    lines = text.splitlines(keepends=True)
+    blocks: list[Block] = []
+    key, start = "", 0
+    for i, line in enumerate(lines):
+        match = _TOP_KEY.match(line)
+        if not match:
+            continue
+        head = i
+        while head > start and lines[head - 1].startswith("#"):
+            head -= 1
+        blocks.append(Block(key, "".join(lines[start:head])))
+        key, start = match.group(1), head
+    blocks.append(Block(key, "".join(lines[start:])))
+    return [b for b in blocks if b.key or b.text.strip()]
+
+
+def _commented(text: str) -> str:
+    return "".join(f"# {line}".rstrip() + "\n" for line in text.splitlines())
+
+
+def render_config(arm: ArmChoice, rig: RigChoice, config_name: str) -> str:
+    """The starter config's text (see the module docstring).
+
+    Raises:
+        MearmError: the arm cannot run on the rig (more servos than the board drives).
+    """
+    source = reference_file(arm, rig)
+    folder = reference_config_dir()
+    text = (folder / source).read_text(encoding="utf-8")
+    blocks = split_blocks(text)
+    if rig.name == "uno":
+        _check_uno_channels(arm, text, source)
+    header = _header(arm, rig, source, config_name)
+    replaced = {"servo": rig.servo_block, "camera": rig.camera_block} if rig.real else {}
+    body: list[str] = []
+    for block in blocks:
+        if block.key == "":
+            body.append(f"# --- the notes of {source}: ---\n" + block.text.rstrip("\n") + "\n\n")
+        elif block.key in replaced:
+            body.append(replaced.pop(block.key) or "")
+            body.append("\n")
+        elif rig.real and block.key in ("simulator", "twin"):
+            continue
+        elif rig.real and block.key == "calibration" and arm.real != "lab.yaml":
+            body.append(
+                f"# REDO THIS for your camera (mearm calibrate-camera --config {config_name}):\n"
+                f"# the homography below is for the simulated camera of {source}.\n" + block.text
+            )
+        else:
+            body.append(block.text)
+    for section in replaced.values():  # sections the reference leaves at their defaults
+        body.append("\n" + (section or ""))
+    return header + "".join(body).rstrip("\n") + "\n"
+
+
+def _header(arm: ArmChoice, rig: RigChoice, source: str, config_name: str) -> str:
+    steps = "".join(
+        f"#   {n}. {step.format(config=config_name)}\n" for n, step in enumerate(rig.steps, 1)
+    )
+    return (
+        f"# mearm config: {arm.name} on the {rig.name} rig.\n"
+        f"# Arm: {arm.title}.\n"
+        f"# Rig: {rig.title}.\n"
+        f"# Written by mearm init-config --arm {arm.name} --rig {rig.name} (mearm "
+        f"{__version__}) from configs/{source}.\n"
+        "# Every number is yours to change: measure your arm (link lengths, joint limits) and\n"
+        "# calibrate its servos. A key left out takes its default (configs/sim.yaml shows\n"
+        "# them all). Units: cm and degrees unless a key says otherwise.\n"
+        f"# Next steps:\n{steps}\n"
+    )
+
+
+def _check_uno_channels(arm: ArmChoice, text: str, source: str) -> None:
+    config = config_from_dict(load_yaml_text(text, source=source), source=source)
+    channels = sorted(_servo_channels(config))
+    if channels and channels[-1] >= UNO_SERVO_COUNT:
+        raise MearmError(
+            f"the {arm.name} arm uses servo channels {', '.join(map(str, channels))}; the Uno "
+            f"firmware drives channels 0..{UNO_SERVO_COUNT - 1}: choose --rig ssc32"
+        )
+
+
+def _servo_channels(config: Config) -> set[int]:
+    arm = config.arm
+    channels = {j.servo.channel for j in arm.joints if j.servo is not None}
+    channels |= {a.servo.channel for a in arm.tool.actuators}
+    if arm.tool.gripper is not None:
+        channels.add(arm.tool.gripper.servo.channel)
+    return channels
+
+
+def check_rendered(text: str, name: str) -> Config:
+    """Validate the starter config's text as the loader will read it.
+
+    Raises:
+        MearmError: it does not load (a bug in this module, not in the user's input).
+    """
+    try:
+        return config_from_dict(load_yaml_text(text, source=name), source=name)
+    except ConfigError as exc:
+        raise MearmError(f"the starter config would not load (please report this): {exc}") from None
+
+
+def list_choices() -> str:
+    """The ``--list`` text."""
+    width = max(map(len, [*ARMS, *RIGS]))
+    arms = "".join(f"  {a.name:<{width}}  {a.title}\n" for a in ARMS.values())
+    rigs = "".join(f"  {r.name:<{width}}  {r.title}\n" for r in RIGS.values())
+    return f"arms (--arm):\n{arms}rigs (--rig):\n{rigs}"
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Write a starter config; see the module docstring."""
+    parser = ArgumentParser(
+        prog="mearm init-config",
+        description="Write a starter config for a reference arm on your rig; "
+        "--list shows the choices.",
+        epilog="Exit status: 0 written, 2 bad input (an unknown choice, an arm with more "
+        "servos than the board drives, an existing file without --force).",
+    )
+    parser.add_argument(
+        "out", type=Path, nargs="?", metavar="FILE", help="the config file to write"
+    )
+    parser.add_argument("--arm", choices=list(ARMS), help="the reference arm closest to yours")
+    parser.add_argument("--rig", choices=list(RIGS), help="what drives the servos, and the camera")
+    parser.add_argument("--force", action="store_true", help="replace an existing file")
+    parser.add_argument("--list", action="store_true", help="list the arms and rigs and exit")
+    args = parser.parse_args(argv)
+    if args.list:
+        print(list_choices(), end="")
+        return EXIT_OK
+    missing = [
+        f for f, v in (("FILE", args.out), ("--arm", args.arm), ("--rig", args.rig)) if not v
+    ]
+    if missing:
+        parser.error(f"needs {', '.join(missing)} (mearm init-config --list shows the choices)")
+    out: Path = args.out
+    if out.is_dir():
+        raise MearmError(f"{out} is a folder: give the config file's name, e.g. {out}/my_arm.yaml")
+    if out.exists() and not args.force:
+        raise MearmError(f"{out} exists: pass --force to replace it")
+    arm, rig = ARMS[args.arm], RIGS[args.rig]
+    text = render_config(arm, rig, shlex.quote(str(out)))
+    check_rendered(text, str(out))
+    write_text_atomic(out, text)
+    print(f"wrote {out}: the {arm.name} arm on the {rig.name} rig. Next:")
+    for n, step in enumerate(rig.steps, 1):
+        print(f"  {n}. {step.format(config=shlex.quote(str(out)))}")
+    return EXIT_OK
+
+
+if __name__ == "__main__":
+    run(main)

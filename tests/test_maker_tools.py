@@ -1,0 +1,618 @@
+"""The maker's commands: find-port, flash, find-camera and init-config.
+
+find-port talks to pty-backed boards with real pyserial: the fake Uno of the backend's
+tests, and — when simavr and the AVR toolchain are installed — the real firmware in
+simavr. Its interactive ``--replug`` is driven through a pseudo-terminal with real
+keystrokes. flash is checked argument by argument against the Uno's upload settings and
+the firmware's Makefile, and run for real with a stand-in avrdude. find-camera runs where
+there is no camera, and on a recorded video given as the source.
+"""
+
+from __future__ import annotations
+
+import os
+import pty
+import re
+import select
+import shlex
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+from conftest import ROOT, require_tool
+from fakeboard import FakeMearmBoard, MearmFaults, SimavrBoard
+
+from mearm.config import load_config
+from mearm.exceptions import MearmError
+from mearm.maker import find_port, flash, init_config
+
+BOARDS_TXT = Path("/usr/share/arduino/hardware/arduino/avr/boards.txt")
+
+
+def run_tool(module: str, *args: str, env: dict[str, str] | None = None, cwd: Path = ROOT):
+    """``python -m mearm.maker.<module> ARGS`` as a user runs it, text output captured."""
+    return subprocess.run(
+        [sys.executable, "-m", f"mearm.maker.{module}", *args],
+        capture_output=True, text=True, timeout=120, cwd=cwd, env=env,
+    )  # fmt: skip
+
+
+def one_error_line(result: subprocess.CompletedProcess, code: int = 2) -> str:
+    """The single stderr line of a refused command (no traceback)."""
+    assert result.returncode == code, result.stdout + result.stderr
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in result.stderr, result.stderr
+    return lines[0]
+
+
+def line_of(stdout: str, port: str) -> str:
+    """The report line of ``port``."""
+    found = [ln for ln in stdout.splitlines() if ln.strip().startswith(port + " ")]
+    assert len(found) == 1, stdout
+    return found[0]
+
+
+# --------------------------------------------------------------------------- find-port
+
+
+def test_find_port_names_the_fake_board_and_says_what_the_others_are(tmp_path):
+    """The mearm board is named with its firmware; other ports say what they are."""
+    with (
+        FakeMearmBoard() as board,
+        FakeMearmBoard(name="grbl") as other_firmware,
+        FakeMearmBoard(
+            MearmFaults(banner=False, boot_noise=b"Grbl 1.1h ['$' for help]\r\n")
+        ) as chatty,
+    ):
+        silent_master, silent_slave = os.openpty()
+        silent = os.ttyname(silent_slave)
+        folder = tmp_path / "not_a_port"
+        folder.mkdir()
+        try:
+            t0 = time.monotonic()
+            result = run_tool(
+                "find_port", "--only", "--timeout", "1",
+                "--port", board.port, "--port", other_firmware.port, "--port", chatty.port,
+                "--port", silent, "--port", str(folder),
+            )  # fmt: skip
+            elapsed = time.monotonic() - t0
+        finally:
+            os.close(silent_master)
+            os.close(silent_slave)
+    assert result.returncode == 0, result.stderr
+    assert "Traceback" not in result.stderr
+    out = result.stdout
+    assert line_of(out, board.port).endswith(
+        "mearm board: mearm_servo 1.0, 5 servos, pulses 500..2500 µs"
+    )
+    assert "its banner names firmware 'grbl'" in line_of(out, other_firmware.port)
+    assert 'not a mearm board: no mearm banner in 1 s; heard b"Grbl 1.1h' in line_of(
+        out, chatty.port
+    )
+    assert "not a mearm board: silent for 1 s" in line_of(out, silent)
+    assert "cannot open:" in line_of(out, str(folder))
+    assert "Is a directory" in line_of(out, str(folder))
+    assert f"set servo.port: {board.port} in your config" in out
+    assert board.opens == 1 and board.received[-1].startswith(b"0 V*")
+    assert elapsed < 20  # the ports are listened to at once, not one after the other
+
+
+def test_find_port_without_a_mearm_board_exits_1():
+    """Only a board without the banner: the job was not done, exit 1 with one line."""
+    with FakeMearmBoard(MearmFaults(banner=False)) as board:
+        result = run_tool("find_port", "--only", "--timeout", "0.5", "--port", board.port)
+    assert "silent for 0.5 s" in line_of(result.stdout, board.port)
+    assert "no mearm board found" in one_error_line(result, code=1)
+
+
+def test_find_port_reports_missing_and_refused_ports():
+    """A port that does not exist is said so; a refused URL scheme is bad input (exit 2)."""
+    result = run_tool("find_port", "--only", "--port", "/dev/ttyNOPE9")
+    assert result.returncode == 1
+    assert "/dev/ttyNOPE9 does not exist" in result.stderr
+    assert "no serial ports found" in result.stderr
+    refused = one_error_line(run_tool("find_port", "--port", "spy:///tmp/log"))
+    assert "spy:///tmp/log" in refused and "not allowed" in refused
+    assert "--timeout" in one_error_line(run_tool("find_port", "--timeout", "0"))
+
+
+def test_list_serial_ports_adds_given_ports_that_exist(tmp_path):
+    """--port candidates join the list while their path exists; a link counts (by-id)."""
+    with FakeMearmBoard() as board:
+        link = tmp_path / "ttyLINK"
+        link.symlink_to(board.port)
+        dangling = tmp_path / "ttyGONE"
+        dangling.symlink_to(tmp_path / "nothing")
+        ports = find_port.list_serial_ports(
+            [board.port, str(link), str(dangling), "socket://localhost:9"], system=False
+        )
+    assert [p.device for p in ports] == [board.port, str(link), "socket://localhost:9"]
+
+
+def test_replug_finds_the_port_that_came_back_under_a_new_name():
+    """Unplug: ttyACM0 goes; replug: it comes back as ttyACM1 (the old one was held)."""
+    lists = iter([{"/dev/ttyS0", "/dev/ttyACM0"}, {"/dev/ttyS0"}, {"/dev/ttyS0"},
+                  {"/dev/ttyS0", "/dev/ttyACM1"}])  # fmt: skip
+    prompts: list[str] = []
+    result = find_port.replug(lambda: next(lists), prompts.append, wait_s=5, poll_s=0.01)
+    assert result == find_port.ReplugResult(gone=("/dev/ttyACM0",), new=("/dev/ttyACM1",))
+    assert [p.split(",")[0] for p in prompts] == [
+        "Unplug the board's USB cable", "Plug it back in"
+    ]  # fmt: skip
+
+
+def test_replug_with_nothing_changing_finds_nothing():
+    """No port went or came: nothing is found, after waiting the given time only."""
+    t0 = time.monotonic()
+    result = find_port.replug(lambda: {"/dev/ttyS0"}, lambda text: None, wait_s=0.3, poll_s=0.05)
+    assert result == find_port.ReplugResult(gone=(), new=())
+    assert 0.3 <= time.monotonic() - t0 < 3
+
+
+class Terminal:
+    """A command run on a pseudo-terminal (its controlling terminal), as a person runs it."""
+
+    def __init__(self, *args: str):
+        pid, fd = pty.fork()
+        if pid == 0:  # the child: becomes the command
+            os.chdir(ROOT)
+            os.execv(sys.executable, [sys.executable, *args])
+        self.pid, self.fd = pid, fd
+        self.output = ""
+
+    def expect(self, text: str, timeout: float = 20.0) -> None:
+        """Read the screen until ``text`` appears."""
+        deadline = time.monotonic() + timeout
+        while text not in self.output:
+            left = deadline - time.monotonic()
+            assert left > 0, f"{text!r} never appeared; the screen: {self.output!r}"
+            ready, _, _ = select.select([self.fd], [], [], left)
+            if ready:
+                try:
+                    chunk = os.read(self.fd, 4096)
+                except OSError:  # the command ended
+                    chunk = b""
+                assert chunk, f"ended before {text!r}; the screen: {self.output!r}"
+                self.output += chunk.decode("utf-8", "replace")
+
+    def type(self, keys: bytes) -> None:
+        """Press keys (``b"\\r"`` is Enter, ``b"\\x03"`` Ctrl-C)."""
+        os.write(self.fd, keys)
+
+    def wait(self, timeout: float = 30.0) -> int:
+        """Read to the end; the exit status (a signal: 128 + its number)."""
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            ready, _, _ = select.select([self.fd], [], [], 0.1)
+            if ready:
+                try:
+                    chunk = os.read(self.fd, 4096)
+                except OSError:
+                    chunk = b""
+                self.output += chunk.decode("utf-8", "replace")
+            pid, status = os.waitpid(self.pid, os.WNOHANG)
+            if pid:
+                os.close(self.fd)
+                return os.waitstatus_to_exitcode(status) % 256
+        os.kill(self.pid, signal.SIGKILL)
+        os.waitpid(self.pid, 0)
+        os.close(self.fd)
+        raise AssertionError(f"still running after {timeout} s; the screen: {self.output!r}")
+
+
+def test_replug_on_a_terminal_finds_the_board_that_was_unplugged_and_replugged(tmp_path):
+    """Keystrokes on a pty: unplug (the link goes), Enter, replug (a new board), Enter."""
+    link = tmp_path / "ttyUSB_by_id"
+    first = FakeMearmBoard()
+    link.symlink_to(first.port)
+    term = Terminal(
+        "-m", "mearm.maker.find_port", "--replug", "--only", "--port", str(link),
+        "--timeout", "2", "--wait", "5",
+    )  # fmt: skip
+    term.expect("Unplug the board's USB cable, then press Enter")
+    first.close()
+    link.unlink()
+    term.type(b"\r")
+    term.expect("Plug it back in, then press Enter")
+    with FakeMearmBoard() as second:
+        link.symlink_to(second.port)
+        term.type(b"\r")
+        code = term.wait()
+    assert code == 0, term.output
+    assert f"the board is on {link}" in term.output
+    assert "mearm board: mearm_servo 1.0, 5 servos" in term.output
+    assert second.opens == 1
+
+
+def test_replug_on_a_terminal_reports_a_board_without_firmware_and_how_to_flash_it(tmp_path):
+    """The replugged board is found even without the banner; flash is suggested."""
+    link = tmp_path / "ttyACM_link"
+    term = Terminal(
+        "-m", "mearm.maker.find_port", "--replug", "--only", "--port", str(link),
+        "--timeout", "0.5", "--wait", "5",
+    )  # fmt: skip
+    term.expect("Unplug")
+    term.type(b"\r")
+    term.expect("Plug it back in")
+    with FakeMearmBoard(MearmFaults(banner=False)) as board:
+        link.symlink_to(board.port)
+        term.type(b"\r")
+        code = term.wait()
+    assert code == 0, term.output
+    assert f"the board is on {link}" in term.output
+    assert f"mearm flash --port {link}" in term.output
+
+
+def test_replug_on_a_terminal_with_nothing_replugged_exits_1_and_ctrl_c_exits_130(tmp_path):
+    """Nothing came back: exit 1 with the reason. Ctrl-C at a prompt: exit 130."""
+    gone = tmp_path / "ttyGONE"
+    term = Terminal(
+        "-m", "mearm.maker.find_port", "--replug", "--only", "--port", str(gone), "--wait", "0.3"
+    )
+    term.expect("Unplug")
+    term.type(b"\r")
+    term.expect("Plug it back in")
+    term.type(b"\r")
+    assert term.wait() == 1
+    assert "no board found: no port went away or came back" in term.output
+    assert "Traceback" not in term.output
+
+    term = Terminal("-m", "mearm.maker.find_port", "--replug", "--only", "--port", str(gone))
+    term.expect("Unplug")
+    term.type(b"\x03")
+    assert term.wait() == 130
+    assert "interrupted" in term.output and "Traceback" not in term.output
+
+
+def test_replug_without_a_terminal_is_refused():
+    """Standard input not a terminal: exit 2 before any prompt, one line saying why."""
+    result = subprocess.run(
+        [sys.executable, "-m", "mearm.maker.find_port", "--replug", "--only"],
+        stdin=subprocess.DEVNULL, capture_output=True, text=True, timeout=60, cwd=ROOT,
+    )  # fmt: skip
+    assert "needs a terminal" in one_error_line(result)
+    assert "Unplug" not in result.stdout
+
+
+# --------------------------------------------------------------------------- the real firmware
+
+
+@pytest.fixture(scope="module")
+def built_firmware(tmp_path_factory) -> Path:
+    """The firmware built from the checkout, as flash builds it; the build folder."""
+    require_tool("make")
+    require_tool("avr-gcc")
+    if not (flash.ARDUINO_CORE_DIR / "cores/arduino/Arduino.h").is_file():
+        if os.environ.get("MEARM_REQUIRE_TOOLS") == "1":
+            pytest.fail("arduino-core-avr is not installed, and MEARM_REQUIRE_TOOLS=1")
+        pytest.skip("arduino-core-avr is not installed")
+    build = tmp_path_factory.mktemp("flash_build")
+    result = subprocess.run(
+        ["make", "-C", str(flash.firmware_source_dir()), f"BUILD_DIR={build}"],
+        capture_output=True, text=True, timeout=600,
+    )  # fmt: skip
+    assert result.returncode == 0, result.stdout[-2000:] + result.stderr[-2000:]
+    return build
+
+
+def test_find_port_names_the_real_firmware_in_simavr(built_firmware):
+    """The real firmware (simavr behind a pty): named by its banner and its V reply."""
+    require_tool("cc", "gcc")
+    if not Path("/usr/include/simavr/sim_avr.h").is_file():
+        if os.environ.get("MEARM_REQUIRE_TOOLS") == "1":
+            pytest.fail("libsimavr-dev is not installed, and MEARM_REQUIRE_TOOLS=1")
+        pytest.skip("libsimavr-dev is not installed")
+    result = subprocess.run(
+        ["make", "-C", str(flash.firmware_source_dir()), f"BUILD_DIR={built_firmware}", "sim"],
+        capture_output=True, text=True, timeout=300,
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr[-2000:]
+    sim, elf = built_firmware / "mearm_sim", built_firmware / "mearm_servo.elf"
+    with SimavrBoard(str(sim), str(elf)) as chip:
+        found = run_tool("find_port", "--only", "--timeout", "5", "--port", chip.port)
+    assert found.returncode == 0, found.stdout + found.stderr
+    assert line_of(found.stdout, chip.port).endswith(
+        "mearm board: mearm_servo 1.0, 5 servos, pulses 500..2500 µs"
+    )
+
+
+# --------------------------------------------------------------------------- flash
+
+
+def _boards_txt_uno() -> dict[str, str]:
+    values = {}
+    for line in BOARDS_TXT.read_text().splitlines():
+        m = re.match(r"^uno\.(build\.mcu|upload\.protocol|upload\.speed)=(.+)$", line)
+        if m:
+            values[m.group(1)] = m.group(2).strip()
+    return values
+
+
+def test_flash_dry_run_prints_the_uno_upload_command_and_builds_nothing(tmp_path):
+    """Every avrdude argument: the Uno's MCU, programmer, speed; the port; the hex built."""
+    build = tmp_path / "build"
+    result = run_tool("flash", "--dry-run", "--port", "/dev/ttyACM3", "--build-dir", str(build))
+    assert result.returncode == 0, result.stderr
+    lines = [ln for ln in result.stdout.splitlines() if not ln.startswith("#")]
+    make, avrdude = (shlex.split(ln) for ln in lines)
+    source = ROOT / "tools" / "arduino"
+    assert make == ["make", "-C", str(source), f"BUILD_DIR={build.resolve()}"]
+    hex_file = build.resolve() / "mearm_servo.hex"
+    assert avrdude == [
+        "avrdude", "-p", "atmega328p", "-c", "arduino", "-P", "/dev/ttyACM3", "-b", "115200",
+        "-D", "-U", f"flash:w:{hex_file}:i",
+    ]  # fmt: skip
+    assert not build.exists()  # nothing was built
+    if BOARDS_TXT.is_file():  # the Arduino core's own settings for the Uno
+        uno = _boards_txt_uno()
+        assert avrdude[avrdude.index("-p") + 1] == uno["build.mcu"]
+        assert avrdude[avrdude.index("-c") + 1] == uno["upload.protocol"]
+        assert avrdude[avrdude.index("-b") + 1] == uno["upload.speed"]
+
+
+def test_flash_dry_run_agrees_with_the_makefiles_upload_target(tmp_path):
+    """``make -n upload`` of tools/arduino prints the same avrdude command."""
+    require_tool("make")
+    build = tmp_path / "b"
+    ours = run_tool("flash", "--dry-run", "--port", "/dev/ttyUSB2", "--build-dir", str(build))
+    upload = shlex.split(ours.stdout.splitlines()[1])
+    made = subprocess.run(
+        ["make", "-n", "-C", str(ROOT / "tools" / "arduino"), "upload", "PORT=/dev/ttyUSB2",
+         f"BUILD_DIR={build.resolve()}", "-o", f"{build.resolve()}/mearm_servo.hex"],
+        capture_output=True, text=True, timeout=60,
+    )  # fmt: skip
+    theirs = [shlex.split(ln) for ln in made.stdout.splitlines() if ln.startswith("avrdude ")]
+    assert theirs == [upload]
+
+
+def test_flash_dry_run_takes_the_port_from_the_config_and_the_old_bootloader_baud():
+    """No --port: servo.port of the config; --upload-baud 57600 for old bootloaders."""
+    result = run_tool(
+        "flash", "--dry-run", "--set", "servo.port=/dev/ttyUSB7", "--upload-baud", "57600"
+    )
+    avrdude = shlex.split(result.stdout.splitlines()[1])
+    assert avrdude[avrdude.index("-P") + 1] == "/dev/ttyUSB7"
+    assert avrdude[avrdude.index("-b") + 1] == "57600"
+    assert "--upload-baud" in one_error_line(run_tool("flash", "--upload-baud", "9600"))
+
+
+def test_flash_refuses_a_port_that_is_not_a_device():
+    """A URL or an option-like port cannot be an avrdude port: exit 2, one line."""
+    for port in ("socket://localhost:5000", "-x"):
+        line = one_error_line(run_tool("flash", "--dry-run", f"--port={port}"))
+        assert "--port must be the board's device path" in line
+
+
+def test_flash_with_tools_missing_names_the_debian_packages(tmp_path):
+    """Nothing on PATH: one line naming every missing package, exit 2, nothing built."""
+    env = {**os.environ, "PATH": str(tmp_path)}
+    build = tmp_path / "build"
+    result = run_tool("flash", "--port", "/dev/ttyACM0", "--build-dir", str(build), env=env)
+    line = one_error_line(result)
+    assert "sudo apt-get install make gcc-avr binutils-avr" in line and "avrdude" in line
+    assert not build.exists()
+    dry = run_tool("flash", "--dry-run", "--build-dir", str(build), env=env)
+    assert dry.returncode == 0 and "note: not installed: make (make)" in dry.stderr
+
+
+FAKE_AVRDUDE = """#!/bin/sh
+# stands in for avrdude: records its arguments and checks the image is Intel hex
+printf '%s\\n' "$@" > "{log}"
+for a in "$@"; do case "$a" in flash:w:*:i) f="${{a#flash:w:}}"; f="${{f%:i}}";; esac; done
+head -c 1 "$f" | grep -q ':' || {{ echo "not an Intel hex file: $f" >&2; exit 1; }}
+exit {code}
+"""
+
+
+def _fake_avrdude(folder: Path, code: int) -> tuple[dict[str, str], Path]:
+    folder.mkdir()
+    log = folder / "argv.txt"
+    script = folder / "avrdude"
+    script.write_text(FAKE_AVRDUDE.format(log=log, code=code))
+    script.chmod(0o755)
+    return {**os.environ, "PATH": f"{folder}:{os.environ['PATH']}"}, log
+
+
+def test_flash_builds_uploads_and_checks_the_banner(built_firmware, tmp_path):
+    """The build runs, avrdude gets the built hex, then the board's banner is awaited."""
+    env, log = _fake_avrdude(tmp_path / "bin", 0)
+    with FakeMearmBoard() as board:
+        result = run_tool(
+            "flash", "--port", board.port, "--build-dir", str(built_firmware), env=env
+        )
+    assert result.returncode == 0, result.stdout[-2000:] + result.stderr[-2000:]
+    assert log.read_text().split("\n")[:-1] == [
+        "-p", "atmega328p", "-c", "arduino", "-P", board.port, "-b", "115200", "-D",
+        "-U", f"flash:w:{built_firmware.resolve()}/mearm_servo.hex:i",
+    ]  # fmt: skip
+    assert f"the board on {board.port} runs the mearm firmware" in result.stdout
+    assert board.opens == 1
+
+
+def test_flash_fails_when_the_upload_fails_or_no_banner_follows(built_firmware, tmp_path):
+    """avrdude failing → exit 1 with what to check; an upload without a banner → exit 1."""
+    env, _ = _fake_avrdude(tmp_path / "bin_fail", 1)
+    failed = run_tool("flash", "--port", "/dev/ttyACM0", "--build-dir", str(built_firmware),
+                      env=env)  # fmt: skip
+    assert failed.returncode == 1 and "the upload failed (exit 1" in failed.stderr
+    env, _ = _fake_avrdude(tmp_path / "bin_ok", 0)
+    with FakeMearmBoard(MearmFaults(banner=False)) as board:
+        silent = run_tool("flash", "--port", board.port, "--build-dir", str(built_firmware),
+                          "--set", "servo.banner_timeout_s=0.5", env=env)  # fmt: skip
+    assert silent.returncode == 1
+    assert "does not print the mearm banner" in silent.stderr
+
+
+def test_firmware_source_dir_is_the_checkouts():
+    """From the checkout, the firmware is tools/arduino (Makefile and sketch)."""
+    assert flash.firmware_source_dir() == ROOT / "tools" / "arduino"
+
+
+def test_missing_data_is_one_line_saying_where(tmp_path, monkeypatch):
+    """Without the shipped firmware or configs: a named error that says where it looked."""
+    from mearm import data
+
+    monkeypatch.setattr(data, "FIRMWARE_DIR", tmp_path / "firmware")
+    monkeypatch.setattr(data, "CONFIGS_DIR", tmp_path / "configs")
+    with pytest.raises(MearmError, match="firmware source is not installed"):
+        flash.firmware_source_dir()
+    with pytest.raises(MearmError, match="reference configs are not installed"):
+        init_config.reference_config_dir()
+
+
+# --------------------------------------------------------------------------- find-camera
+
+
+def test_find_camera_without_a_camera_exits_1(tmp_path):
+    """Sources that are no camera: each says why, exit 1, no snapshot folder made."""
+    out = tmp_path / "snaps"
+    result = run_tool(
+        "find_camera", "--out", str(out), "--camera", "/dev/video-none", "--camera", "15"
+    )
+    assert "no camera: cannot open it" in result.stdout
+    assert "no cameras found (tried /dev/video-none, 15)" in one_error_line(result, code=1)
+    assert not out.exists()
+
+
+@pytest.mark.skipif(
+    any(re.fullmatch(r"video\d+", p.name) for p in Path("/dev").glob("video*")),
+    reason="this machine has cameras",
+)
+def test_find_camera_scan_on_a_machine_without_cameras_exits_1(tmp_path):
+    """The default scan (indices 0, 1 and /dev/video*) finds nothing here: exit 1."""
+    result = run_tool("find_camera", "--out", str(tmp_path / "s"))
+    assert "trying 2 camera sources" in result.stdout
+    assert "no cameras found" in one_error_line(result, code=1)
+
+
+def test_find_camera_saves_a_snapshot_and_prints_the_resolution(tmp_path):
+    """A recorded video as the source: its size is printed and its first frame saved."""
+    video = tmp_path / "table.avi"
+    writer = cv2.VideoWriter(str(video), cv2.VideoWriter_fourcc(*"MJPG"), 10, (320, 240))
+    first = np.zeros((240, 320, 3), np.uint8)
+    first[:, :160] = (0, 0, 200)  # red left half, blue right half (BGR)
+    first[:, 160:] = (200, 0, 0)
+    writer.write(first)
+    writer.write(np.full((240, 320, 3), 255, np.uint8))
+    writer.release()
+    out = tmp_path / "snaps"
+    result = run_tool("find_camera", "--out", str(out), "--camera", str(video))
+    assert result.returncode == 0, result.stderr
+    assert "camera: 320x240 px, snapshot" in result.stdout
+    assert f"camera.kind: file, camera.path: {video}" in result.stdout
+    (snap,) = out.iterdir()
+    saved = cv2.imread(str(snap))
+    assert saved.shape == (240, 320, 3)
+    assert np.abs(saved.astype(int) - first).mean() < 8  # the first frame, not the white one
+
+
+def test_find_camera_refuses_bad_input(tmp_path):
+    """Too many indices, or --out naming a file: exit 2 with one line."""
+    assert "--indices" in one_error_line(run_tool("find_camera", "--indices", "99"))
+    file = tmp_path / "f"
+    file.write_text("x")
+    assert "not a folder" in one_error_line(run_tool("find_camera", "--out", str(file)))
+
+
+# --------------------------------------------------------------------------- init-config
+
+RIGS = init_config.RIGS
+VALID = [
+    (arm, rig)
+    for arm in init_config.ARMS
+    for rig in init_config.RIGS
+    if not (arm == "desk_5dof" and rig == "uno")
+]
+
+
+@pytest.mark.parametrize(("arm", "rig"), VALID)
+def test_init_config_writes_a_config_that_loads_with_the_reference_arm(tmp_path, arm, rig):
+    """Every arm on every rig it fits: loads, has the reference's arm, drives that rig."""
+    out = tmp_path / "mine.yaml"
+    assert init_config.main(["--arm", arm, "--rig", rig, str(out)]) == 0
+    config = load_config(out)
+    choice = init_config.ARMS[arm]
+    reference = load_config(ROOT / "configs" / init_config.reference_file(choice, RIGS[rig]))
+    assert config.arm == reference.arm
+    assert config.task == reference.task
+    backend = {"sim": "sim", "sim_mujoco": "sim", "uno": "serial", "ssc32": "ssc32"}[rig]
+    assert config.servo.backend == backend
+    assert config.simulator == ("mujoco" if rig == "sim_mujoco" else "kinematic")
+    assert config.camera.kind == ("sim" if rig.startswith("sim") else "device")
+    text = out.read_text()
+    assert f"--arm {arm} --rig {rig}" in text
+    assert sum(ln.lstrip().startswith("#") for ln in text.splitlines()) >= 15
+    if rig == "uno":
+        channels = init_config._servo_channels(config)
+        assert max(channels) < init_config.UNO_SERVO_COUNT
+        assert "mearm flash" in text
+
+
+def test_init_config_sim_is_the_reference_file_with_a_header(tmp_path):
+    """On the simulated rig the reference config is copied whole, comments included."""
+    out = tmp_path / "paper.yaml"
+    init_config.main(["--arm", "paper", "--rig", "sim", str(out)])
+    assert out.read_text().endswith((ROOT / "configs" / "sim.yaml").read_text())
+
+
+def test_init_config_refuses_an_arm_with_more_servos_than_the_uno_drives(tmp_path):
+    """desk_5dof has six servos, the Uno firmware five: exit 2 naming the way out."""
+    out = tmp_path / "desk.yaml"
+    result = run_tool("init_config", "--arm", "desk_5dof", "--rig", "uno", str(out))
+    line = one_error_line(result)
+    assert "channels 0, 1, 2, 3, 4, 5" in line and "--rig ssc32" in line
+    assert not out.exists()
+
+
+def test_init_config_refuses_to_overwrite_without_force(tmp_path):
+    """An existing file stays as it was unless --force; with it, it is replaced."""
+    out = tmp_path / "mine.yaml"
+    out.write_text("# my edits\n")
+    args = ("init_config", "--arm", "mearm_v1", "--rig", "ssc32", str(out))
+    line = one_error_line(run_tool(*args))
+    assert "exists: pass --force to replace it" in line
+    assert out.read_text() == "# my edits\n"
+    forced = run_tool(*args, "--force")
+    assert forced.returncode == 0, forced.stderr
+    assert load_config(out).servo.backend == "ssc32"
+    assert f"mearm calibrate-servos --config {out}" in forced.stdout
+
+
+def test_init_config_lists_the_choices_and_refuses_missing_ones():
+    """--list names every arm and rig; without --arm, --rig or a file: exit 2."""
+    listed = run_tool("init_config", "--list")
+    assert listed.returncode == 0
+    for name in [*init_config.ARMS, *init_config.RIGS]:
+        assert re.search(rf"^  {name}\s", listed.stdout, re.M), name
+    line = one_error_line(run_tool("init_config", "--arm", "paper"))
+    assert "needs FILE, --rig" in line
+    assert "invalid choice" in one_error_line(run_tool("init_config", "--arm", "x", "f.yaml"))
+
+
+def test_uno_servo_count_is_the_firmwares():
+    """The channel check uses the count the firmware is built with."""
+    ino = (flash.firmware_source_dir() / "mearm_servo" / "mearm_servo.ino").read_text()
+    assert f"#define SERVO_COUNT {init_config.UNO_SERVO_COUNT}\n" in ino
+
+
+def test_split_blocks_cuts_every_reference_config_without_losing_a_byte():
+    """Joined back, the blocks are the file; each key block starts at its comments."""
+    for path in sorted((ROOT / "configs").glob("*.yaml")):
+        text = path.read_text()
+        blocks = init_config.split_blocks(text)
+        assert "".join(b.text for b in blocks) == text, path.name
+        for b in blocks[1:] if blocks[0].key == "" else blocks:
+            first = next(ln for ln in b.text.splitlines() if not ln.startswith("#"))
+            assert first.startswith(f"{b.key}:"), (path.name, b.key)
+
+
+def test_reference_config_dir_is_the_checkouts():
+    """From the checkout, the reference configs are configs/."""
+    assert init_config.reference_config_dir() == ROOT / "configs"
+    with pytest.raises(MearmError, match="exists"):
+        init_config.main(["--arm", "paper", "--rig", "sim", str(ROOT / "configs" / "sim.yaml")])
