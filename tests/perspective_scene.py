@@ -144,26 +144,41 @@ def render(
         )
         grey = texture.image[vi, ui].astype(float)
         colour[inside] = np.repeat(grey[inside, None], 3, axis=1) * 0.9
+    # each cylinder is traced only through the pixels around its image
+    d_img = d.reshape(HEIGHT, WIDTH, SUB * SUB, 3)
+    best_img = best.reshape(HEIGHT, WIDTH, SUB * SUB)
+    colour_img = colour.reshape(HEIGHT, WIDTH, SUB * SUB, 3)
     for c in cylinders:
+        hull = camera.silhouette_px((c.x, c.y), c.radius, c.height)
+        u0, v0 = np.maximum(np.floor(hull.min(axis=0)).astype(int) - 3, 0)
+        u1, v1 = np.minimum(np.ceil(hull.max(axis=0)).astype(int) + 4, (WIDTH, HEIGHT))
+        if u0 >= u1 or v0 >= v1:
+            continue
+        dw = d_img[v0:v1, u0:u1].reshape(-1, 3)
+        bw = best_img[v0:v1, u0:u1].reshape(-1)
+        cw = colour_img[v0:v1, u0:u1].reshape(-1, 3)
         bgr = np.array(c.bgr, dtype=float)
         # top disc
-        t = (c.height - o[2]) / d[:, 2]
-        p = o[:2] + t[:, None] * d[:, :2]
-        hit = (np.sum((p - (c.x, c.y)) ** 2, axis=1) <= c.radius**2) & (t < best)
-        best = np.where(hit, t, best)
-        colour[hit] = bgr
+        t = (c.height - o[2]) / dw[:, 2]
+        p = o[:2] + t[:, None] * dw[:, :2]
+        hit = (np.sum((p - (c.x, c.y)) ** 2, axis=1) <= c.radius**2) & (t < bw)
+        bw = np.where(hit, t, bw)
+        cw[hit] = bgr
         # side wall: |o + t d - c|_xy = r, nearest root with 0 <= z <= h
         ox, oy = o[0] - c.x, o[1] - c.y
-        a = d[:, 0] ** 2 + d[:, 1] ** 2
-        b = 2 * (ox * d[:, 0] + oy * d[:, 1])
+        a = dw[:, 0] ** 2 + dw[:, 1] ** 2
+        b = 2 * (ox * dw[:, 0] + oy * dw[:, 1])
         cc = ox**2 + oy**2 - c.radius**2
         disc = b * b - 4 * a * cc
         ok = disc >= 0
         t = np.where(ok, (-b - np.sqrt(np.where(ok, disc, 0))) / (2 * a), np.inf)
-        z = o[2] + t * d[:, 2]
-        hit = ok & (z >= 0) & (z <= c.height) & (t < best) & (t > 0)
-        best = np.where(hit, t, best)
-        colour[hit] = bgr * SIDE_SHADE
+        z = o[2] + t * dw[:, 2]
+        hit = ok & (z >= 0) & (z <= c.height) & (t < bw) & (t > 0)
+        bw = np.where(hit, t, bw)
+        cw[hit] = bgr * SIDE_SHADE
+        best_img[v0:v1, u0:u1] = bw.reshape(v1 - v0, u1 - u0, SUB * SUB)
+        colour_img[v0:v1, u0:u1] = cw.reshape(v1 - v0, u1 - u0, SUB * SUB, 3)
+    colour = colour_img.reshape(-1, 3)
     img = colour.reshape(HEIGHT, WIDTH, SUB * SUB, 3).mean(axis=2)
     if noise_std > 0:
         img = img + np.random.default_rng(seed).normal(0.0, noise_std, img.shape)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from mearm.config import Config
 from mearm.sim import Disc, TableRenderer, class_bgr, class_discs
@@ -100,3 +101,44 @@ def test_tall_objects_in_perspective_are_not_flagged() -> None:
         (d,) = seen.detect(frame)
         assert not d.merged and d.color == name
     assert flagged_flat > 0  # the perspective really does matter in these scenes
+
+
+def _touching_pair(seed: int, classes, height: float):
+    """Two objects of one class, 0–0.5 mm apart, any orientation, anywhere in the field."""
+    from perspective_scene import Cylinder
+
+    rng = np.random.default_rng(1000 + seed)
+    cls = classes[seed % len(classes)]
+    x, y = rng.uniform(-18.0, 17.0), rng.uniform(32.0, 56.0)
+    gap, angle = rng.uniform(0.0, 0.05), rng.uniform(0.0, np.pi)
+    r = cls.diameter_cm / 2
+    dx, dy = (2 * r + gap) / 2 * np.cos(angle), (2 * r + gap) / 2 * np.sin(angle)
+    return [Cylinder(x - s * dx, y - s * dy, r, height, class_bgr(cls)) for s in (1, -1)]
+
+
+@pytest.mark.parametrize(("tilt", "height"), [(0.0, 1.0), (0.0, 2.5), (8.0, 1.0), (8.0, 2.5)])
+def test_touching_tall_pairs_in_perspective_are_two(tilt: float, height: float) -> None:
+    """Seen in perspective, one object's side wall can fill the neck between two touching
+    ones: they are told apart by fitting the camera's own silhouettes. 25 seeded pairs per
+    camera and height (100 in all), ray-cast with lens distortion and noise: two
+    detections, unflagged, each within 0.1 cm of its object, in ≥ 24 of each 25.
+    (Measured with ``--count 100`` per row in the closing note of issue 14: 100/100 in
+    every row, worst 0.05 cm.)"""
+    from perspective_scene import render, true_camera
+
+    cam = true_camera(tilt_deg=tilt)
+    classes = [c.model_copy(update={"height_cm": height}) for c in CLASSES]
+    detector = ColorDetector(CONFIG.vision, cam, classes)
+    good, failures = 0, []
+    for seed in range(25):
+        pair = _touching_pair(seed, classes, height)
+        found = detector.detect(render(cam, pair, seed=seed))
+        true = np.array([(c.x, c.y) for c in pair])
+        if len(found) == 2 and not any(d.merged for d in found):
+            got = np.array([d.table_cm for d in found])
+            err = min(np.linalg.norm(a - true, axis=1).max() for a in (got, got[::-1]))
+            if err < 0.1:
+                good += 1
+                continue
+        failures.append((seed, len(found)))
+    assert good >= 24, failures

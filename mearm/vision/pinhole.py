@@ -77,6 +77,13 @@ FAR_ARC_DEG = 89.0
 #: Undistortion iterations and tolerance (OpenCV's default 5 iterations leave up to
 #: 0.1 px at a webcam's corners).
 _UNDISTORT_CRITERIA = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 40, 1e-12)
+#: Sub-pixel bits of the silhouettes' anti-aliased fill (1/16 px).
+_SUBPIXEL_BITS = 4
+_SUBPIXEL = 1 << _SUBPIXEL_BITS
+#: The silhouette fit: its box's margin [px], iterations and derivative step [cm].
+_FIT_PAD_PX = 3
+_FIT_ITERATIONS = 20
+_FIT_STEP_CM = 0.01
 
 
 def _matrix(name: str, value: Any, shape: tuple[int, ...], limit: float) -> np.ndarray:
@@ -356,6 +363,73 @@ def _check_replace(target: Path, cal: CalibrationFile) -> None:
         )
 
 
+def _outward_normals(outline: np.ndarray, k: int = 3) -> np.ndarray:
+    """Unit normals (N, 2) of a closed pixel outline (N, 2), pointing out of the region.
+
+    The tangent at each point is the chord between its k-th neighbours either side; the
+    normal's sign is chosen to point away from the outline's mean.
+    """
+    tangent = np.roll(outline, -k, axis=0) - np.roll(outline, k, axis=0)
+    normal = np.column_stack([tangent[:, 1], -tangent[:, 0]])
+    length = np.linalg.norm(normal, axis=1, keepdims=True)
+    normal = normal / np.where(length < 1e-12, 1.0, length)
+    outward = np.sum(normal * (outline - outline.mean(axis=0)), axis=1) >= 0
+    return np.where(outward[:, None], normal, -normal)
+
+
+def subpixel_edges(frame: np.ndarray, outline: np.ndarray) -> np.ndarray:
+    """The outline of a region moved onto the image's colour edge, to a fraction of a pixel.
+
+    A mask's outline runs through the centres of its border pixels, up to a pixel from
+    the true edge and in steps of whole pixels. Along each point's outward normal the
+    frame is sampled (bilinear) from 3 px inside to 3 px outside; each sample's colour is
+    scored between the local inside colour (mean of the innermost samples) and the local
+    outside colour (outermost), 1 to 0, and the edge is where the score crosses one half
+    (linear interpolation between samples). A point whose profile has too little contrast
+    (under 12 levels) or no crossing near the outline keeps its pixel position plus half a
+    pixel outward, where a binary mask's edge lies on average.
+
+    Args:
+        frame: The image (H, W, 3) uint8 (or (H, W)).
+        outline: Outline points (N, 2) [px], ordered along the closed outline.
+
+    Returns:
+        The refined points (N, 2) [px].
+    """
+    pts = np.asarray(outline, dtype=float)
+    if len(pts) < 7:
+        return pts
+    normals = _outward_normals(pts)
+    steps = np.arange(-3.0, 3.0001, 0.25)
+    xy = pts[:, None, :] + steps[None, :, None] * normals[:, None, :]
+    samples = cv2.remap(
+        frame,
+        xy[..., 0].astype(np.float32),
+        xy[..., 1].astype(np.float32),
+        cv2.INTER_LINEAR,
+        borderMode=cv2.BORDER_REPLICATE,
+    ).astype(float)
+    if samples.ndim == 2:
+        samples = samples[..., None]
+    inner = samples[:, :3].mean(axis=1)  # t ∈ [-3, -2.5]
+    outer = samples[:, -3:].mean(axis=1)  # t ∈ [2.5, 3]
+    d = inner - outer
+    dd = np.sum(d * d, axis=1)
+    score = np.einsum("nkc,nc->nk", samples - outer[:, None, :], d) / np.maximum(dd, 1e-9)[:, None]
+    above = score >= 0.5
+    # the crossing nearest the pixel outline's own edge (t = +0.5) from inside to outside
+    cross = above[:, :-1] & ~above[:, 1:]
+    t_mid = (steps[:-1] + steps[1:]) / 2.0
+    dist = np.where(cross, np.abs(t_mid - 0.5)[None, :], np.inf)
+    j = np.argmin(dist, axis=1)
+    n = np.arange(len(pts))
+    ok = np.isfinite(dist[n, j]) & (np.sqrt(dd) >= 12.0)
+    s0, s1 = score[n, j], score[n, j + 1]
+    frac = np.clip((s0 - 0.5) / np.where(s0 - s1 == 0, 1.0, s0 - s1), 0.0, 1.0)
+    t = np.where(ok, steps[j] + frac * (steps[1] - steps[0]), 0.5)
+    return pts + t[:, None] * normals
+
+
 def _fit_circle(pts: np.ndarray) -> tuple[np.ndarray, float]:
     """Least-squares circle through points (N ≥ 3, (N, 2)): centre, radius.
 
@@ -489,18 +563,24 @@ class PerspectiveCamera:
         return math.pi * radius_cm**2 / self.pixel_area_cm2(pixels_px)
 
     def silhouette_px(
-        self, centre_cm: npt.ArrayLike, radius_cm: float, height_cm: float, n: int = 48
+        self,
+        centre_cm: npt.ArrayLike,
+        radius_cm: float,
+        height_cm: float,
+        n: int = 48,
+        *,
+        top_only: bool = False,
     ) -> np.ndarray:
         """The image outline of an upright cylinder standing at ``centre_cm`` (x, y), (M, 2) [px].
 
-        The convex hull of its two end discs' images (exact for a convex body).
+        The convex hull of its two end discs' images (exact for a convex body); with
+        ``top_only``, of its top disc's image alone.
         """
         a = np.linspace(0.0, 2 * math.pi, n, endpoint=False)
         x, y = np.asarray(centre_cm, dtype=float)
         ring = np.column_stack([x + radius_cm * np.cos(a), y + radius_cm * np.sin(a)])
-        pts = np.concatenate(
-            [np.column_stack([ring, np.zeros(n)]), np.column_stack([ring, np.full(n, height_cm)])]
-        )
+        top = np.column_stack([ring, np.full(n, height_cm)])
+        pts = top if top_only else np.concatenate([np.column_stack([ring, np.zeros(n)]), top])
         px = self.project(pts).astype(np.float32)
         return cv2.convexHull(px).reshape(-1, 2).astype(float)
 
@@ -516,12 +596,198 @@ class PerspectiveCamera:
         ratio = math.sqrt((a + c + root) / 2.0 / lam_min) if lam_min > 1e-12 else math.inf
         return float(m["m00"]), ratio
 
+    def silhouette_coverage(
+        self,
+        centres_cm: npt.ArrayLike,
+        radius_cm: float,
+        height_cm: float,
+        origin_px: tuple[int, int],
+        shape: tuple[int, int],
+        *,
+        top_only: bool = False,
+    ) -> np.ndarray:
+        """How much of each pixel of a box the cylinders at ``centres_cm`` cover.
+
+        Args:
+            centres_cm: Their positions (x, y) [cm], (N, 2).
+            radius_cm: Their radius [cm].
+            height_cm: Their height [cm].
+            origin_px: The box's top-left pixel (x, y) in the frame.
+            shape: The box's shape (rows, columns).
+            top_only: Cover with their top faces' images alone.
+
+        Returns:
+            (rows, columns) float, 0 (none) to 1 (whole pixel), edges anti-aliased.
+        """
+        canvas = np.zeros(shape, np.uint8)
+        for c in np.asarray(centres_cm, dtype=float).reshape(-1, 2):
+            hull = self.silhouette_px(c, radius_cm, height_cm, top_only=top_only) - origin_px
+            fixed = np.round(hull * _SUBPIXEL).astype(np.int32)
+            cv2.fillConvexPoly(canvas, fixed, 255, cv2.LINE_AA, _SUBPIXEL_BITS)
+        return canvas.astype(float) / 255.0
+
+    def fit_silhouettes(
+        self,
+        mask: np.ndarray,
+        origin_px: tuple[int, int],
+        radius_cm: float,
+        height_cm: float,
+        count: int,
+    ) -> tuple[np.ndarray, float]:
+        """Where ``count`` touching cylinders stand whose images together make ``mask``.
+
+        Two upright cylinders side by side need not leave a neck in their joint image:
+        seen from the side, one's wall fills the gap to the other. The camera knows the
+        outline of one (:meth:`silhouette_px`), so the region is explained instead: the
+        pixels are split into ``count`` clusters on the plane of the tops (k-means), and
+        the positions moved (Levenberg–Marquardt, numerical derivatives) until the mask
+        holds every top face (a top is never hidden: nothing of a neighbour of the same
+        height rises above it) and lies within the union of the silhouettes (the side
+        walls between may be segmented or not: a darker wall often is not). Both are
+        scored on anti-aliased coverage, so the fit moves by fractions of a pixel.
+
+        Args:
+            mask: The region, a 0/1 (or 0/255) uint8 image of its bounding box.
+            origin_px: The box's top-left pixel (x, y) in the frame.
+            radius_cm: One object's radius [cm].
+            height_cm: One object's height [cm].
+            count: How many objects to fit (≥ 1).
+
+        Returns:
+            ``(centres, wrong)``: the positions (count, 2) [cm] and the share of the
+            region's area that the fitted silhouettes get wrong (0 = exact).
+        """
+        region = (np.asarray(mask) > 0).astype(float)
+        pad = _FIT_PAD_PX
+        region = np.pad(region, pad)
+        origin = (origin_px[0] - pad, origin_px[1] - pad)
+        ys, xs = np.nonzero(region)
+        pixels = np.column_stack([xs + origin[0], ys + origin[1]]).astype(float)
+        on_top = self.pixel_to_plane(pixels, height_cm).astype(np.float32)
+        criteria = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_MAX_ITER, 30, 1e-4)
+        cv2.setRNGSeed(0)  # k-means++ seeding is random: the same region, the same fit
+        labels = np.zeros((len(on_top), 1), np.int32)
+        _, _, start = cv2.kmeans(on_top, count, labels, criteria, 3, cv2.KMEANS_PP_CENTERS)
+        p = start.astype(float).ravel()
+
+        def residual(q: np.ndarray) -> np.ndarray:
+            at = q.reshape(-1, 2)
+            hull = self.silhouette_coverage(at, radius_cm, height_cm, origin, region.shape)
+            tops = self.silhouette_coverage(
+                at, radius_cm, height_cm, origin, region.shape, top_only=True
+            )
+            return np.concatenate(
+                [np.maximum(tops - region, 0.0).ravel(), np.maximum(region - hull, 0.0).ravel()]
+            )
+
+        r = residual(p)
+        cost = float(r @ r)
+        damping = 1e-3
+        for _ in range(_FIT_ITERATIONS):
+            J = np.empty((len(r), len(p)))
+            for i in range(len(p)):
+                q = p.copy()
+                q[i] += _FIT_STEP_CM
+                J[:, i] = (residual(q) - r) / _FIT_STEP_CM
+            JtJ, Jtr = J.T @ J, J.T @ r
+            improved = False
+            for _ in range(8):
+                step = np.linalg.solve(JtJ + damping * np.diag(np.diag(JtJ) + 1e-9), -Jtr)
+                q = p + step
+                rq = residual(q)
+                cq = float(rq @ rq)
+                if cq < cost:
+                    p, r, cost, improved = q, rq, cq, True
+                    damping = max(damping / 3.0, 1e-7)
+                    break
+                damping *= 4.0
+            if not improved or np.abs(step).max() < 1e-4:
+                break
+        # pixels wrong by more than a pixel's blur: a top's pixel (over half covered) with
+        # no mask pixel within one pixel, or a mask pixel with no silhouette pixel within
+        # one (a mask's edge wanders by up to a pixel with the colour thresholds)
+        at = p.reshape(-1, 2)
+        hull = self.silhouette_coverage(at, radius_cm, height_cm, origin, region.shape)
+        tops = self.silhouette_coverage(
+            at, radius_cm, height_cm, origin, region.shape, top_only=True
+        )
+        near = np.ones((3, 3), np.uint8)
+        seen = region.astype(np.uint8)
+        seen_near = cv2.dilate(seen, near).view(bool)
+        hull_near = cv2.dilate((hull > 0.5).astype(np.uint8), near).view(bool)
+        bad = np.count_nonzero((tops > 0.5) & ~seen_near) + np.count_nonzero(
+            seen.view(bool) & ~hull_near
+        )
+        return at, bad / max(float(region.sum()), 1.0)
+
+    def rim_centres(
+        self,
+        mask: np.ndarray,
+        origin_px: tuple[int, int],
+        centres_cm: npt.ArrayLike,
+        radius_cm: float,
+        height_cm: float,
+        frame: np.ndarray | None = None,
+    ) -> np.ndarray:
+        """Touching objects' positions refined on their own top rims.
+
+        The silhouette fit (:meth:`fit_silhouettes`) places each object to a fraction of a
+        pixel on a binary mask; the rims are sharper. Each object keeps the outline points
+        of the region (on the colour edge with ``frame``: :func:`subpixel_edges`) that are
+        nearer to it than to the others, lie within a fifth of its radius of its top circle
+        and face away from the camera's foot point (the top's rim: module docstring); a
+        circle of the known radius is fitted to them (Gauss–Newton). An object with
+        fewer than 8 such points keeps its fitted position.
+
+        Args:
+            mask: The region, a 0/1 (or 0/255) uint8 image of its bounding box.
+            origin_px: The box's top-left pixel (x, y) in the frame.
+            centres_cm: The fitted positions (x, y) [cm], (N, 2).
+            radius_cm: The objects' radius [cm].
+            height_cm: Their height [cm].
+            frame: The whole image, for the sub-pixel outline.
+
+        Returns:
+            The positions (N, 2) [cm].
+        """
+        centres = np.array(centres_cm, dtype=float).reshape(-1, 2)
+        contours, _ = cv2.findContours(
+            (mask > 0).view(np.uint8), cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE
+        )
+        outline = max(contours, key=len).reshape(-1, 2).astype(float) + origin_px
+        if frame is not None:
+            outline = subpixel_edges(frame, outline)
+        pts = self.pixel_to_plane(outline, height_cm)
+        owner = np.argmin(np.linalg.norm(pts[:, None, :] - centres[None], axis=2), axis=1)
+        foot = self.centre_cm[:2]
+        far = math.cos(math.radians(FAR_ARC_DEG))
+        for i in range(len(centres)):
+            c = centres[i].copy()
+            away = c - foot
+            u = away / max(float(np.linalg.norm(away)), 1e-9)
+            d = pts - c
+            dist = np.linalg.norm(d, axis=1)
+            facing = (d @ u) >= far * np.maximum(dist, 1e-12)
+            rim = pts[(owner == i) & (np.abs(dist - radius_cm) < 0.2 * radius_cm) & facing]
+            if len(rim) < 8:
+                continue
+            for _ in range(10):
+                d = rim - c
+                dist = np.maximum(np.linalg.norm(d, axis=1), 1e-12)
+                step, *_ = np.linalg.lstsq(-d / dist[:, None], radius_cm - dist, rcond=None)
+                c = c + step
+                if np.abs(step).max() < 1e-7:
+                    break
+            centres[i] = c
+        return centres
+
     def locate_object(
         self,
         mask: np.ndarray,
         origin_px: tuple[int, int],
         radius_cm: float,
         height_cm: float,
+        frame: np.ndarray | None = None,
     ) -> np.ndarray:
         """The table position (x, y) [cm] of an upright cylinder from its image region.
 
@@ -533,11 +799,15 @@ class PerspectiveCamera:
             origin_px: The box's top-left pixel (x, y) in the frame.
             radius_cm: The object's radius [cm] (used when the arc is too short to fit).
             height_cm: The object's height [cm]: the plane of its top face.
+            frame: The whole image the region was found in; if given, the outline is
+                moved onto its colour edge to a fraction of a pixel (:func:`subpixel_edges`).
         """
         contours, _ = cv2.findContours(
             (mask > 0).view(np.uint8), cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE
         )
         outline = max(contours, key=len).reshape(-1, 2).astype(float) + origin_px
+        if frame is not None:
+            outline = subpixel_edges(frame, outline)
         pts = self.pixel_to_plane(outline, height_cm)
         m = cv2.moments((mask > 0).view(np.uint8), binaryImage=True)
         centroid_px = np.array([m["m10"] / m["m00"], m["m01"] / m["m00"]]) + origin_px
