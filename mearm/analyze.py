@@ -1,4 +1,4 @@
-"""``python -m mearm.analyze``: the paper's statistics and plots for a run log (paper §5).
+"""The paper's error statistics, fits and plots for a run log (mearm analyze).
 
 Examples::
 

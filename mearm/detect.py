@@ -1,4 +1,4 @@
-"""``python -m mearm.detect``: find the objects of each colour class in images (paper §4).
+"""Find the objects of each colour class in images or camera frames (mearm detect).
 
 Examples::
 

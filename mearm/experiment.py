@@ -1,4 +1,4 @@
-"""``python -m mearm.experiment``: repeated sorting trials, as in the paper's experiments.
+"""Run repeated sorting trials into one run log, as in the paper's experiments.
 
 Each trial sorts a new layout of 4 objects of each class at least 1 cm apart
 (or the same ``--scene`` every time) and appends its records, under one header per trial,

@@ -1,4 +1,4 @@
-"""``python -m mearm.fk``: forward kinematics of a joint pose.
+"""Forward kinematics: where the tool is for given joint angles (mearm fk).
 
 Example::
 

@@ -1,4 +1,4 @@
-"""``python -m mearm.sort``: sort the objects on the table into their colour bins.
+"""Sort the objects on the table into their colour bins (mearm sort).
 
 On the real rig (``configs/lab.yaml``) the camera and the Arduino do the work; on the
 simulated rig (``configs/sim.yaml``, the default) both are simulated and the table holds

@@ -1,4 +1,4 @@
-r"""``python -m mearm.ik``: solve one IK target from a start pose.
+r"""Inverse kinematics: solve one target position from a start pose (mearm ik).
 
 Example::
 

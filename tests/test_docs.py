@@ -1,0 +1,157 @@
+"""The docs match the code and point nowhere outside the repository; help is plain words."""
+
+from __future__ import annotations
+
+import json
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from mearm.__main__ import SUBCOMMANDS
+from mearm.config.reference import render
+
+ROOT = Path(__file__).resolve().parent.parent
+DOCS = sorted([ROOT / "README.md", *(ROOT / "docs").glob("*.md")])
+
+#: ``[text](target)`` and ``![alt](target)``; the target up to a space or ``)``.
+LINK = re.compile(r"!?\[[^\]]*\]\(\s*<?([^)\s>]+)>?(?:\s+\"[^\"]*\")?\s*\)")
+#: Raw reStructuredText a terminal shows as-is: ``literal``, :class:`x`, :func:`x`, …
+RST = re.compile(r"``|:(?:class|func|meth|mod|data|attr|obj|ref|math):`")
+#: References a user cannot follow: the project's internal spec, numbered sections.
+UNFOLLOWABLE = re.compile(r"\bSPEC\b|§")
+
+#: Subcommands whose help may not be fixed here (the module belongs to another
+#: engineer): name → reason. Each is an expected failure, strict.
+HELP_OWNED_ELSEWHERE: dict[str, str] = {}
+
+
+def _anchors(markdown: str) -> set[str]:
+    """GitHub's anchors of every heading in a Markdown file, and explicit ``id=``s."""
+    out = set(re.findall(r"<a\s+(?:id|name)=\"([^\"]+)\"", markdown))
+    in_code = False
+    for line in markdown.splitlines():
+        if line.startswith("```"):
+            in_code = not in_code
+        elif not in_code and (m := re.match(r"^#{1,6}\s+(.*?)\s*#*$", line)):
+            text = re.sub(r"[`*_]{2,}|`", "", m.group(1)).strip().lower()
+            out.add(re.sub(r"[^\w\- ]", "", text).replace(" ", "-"))
+    return out
+
+
+def _links(path: Path) -> list[str]:
+    text = re.sub(r"```.*?```", "", path.read_text(encoding="utf-8"), flags=re.DOTALL)
+    return LINK.findall(text)
+
+
+def test_configuration_reference_is_current() -> None:
+    """docs/configuration.md is what the config models generate today."""
+    written = (ROOT / "docs" / "configuration.md").read_text(encoding="utf-8")
+    assert written == render(), (
+        "docs/configuration.md is stale: run "
+        "python -m mearm.config.reference --output docs/configuration.md"
+    )
+
+
+def test_reference_covers_every_key() -> None:
+    """Every field of every config model reached from Config appears in the reference."""
+    from mearm.config.reference import walk
+
+    text = render()
+    keys = [d.path for _, _, docs in walk() for d in docs]
+    assert len(keys) > 100
+    for key in keys:
+        assert f"**`{key}`**" in text, key
+
+
+@pytest.mark.parametrize("doc", DOCS, ids=lambda p: str(p.relative_to(ROOT)))
+def test_relative_links_resolve(doc: Path) -> None:
+    """Every relative link names a file in the repository (and an anchor it has)."""
+    bad = []
+    for target in _links(doc):
+        if re.match(r"^[a-z][a-z0-9+.-]*:", target):  # https:, mailto:
+            continue
+        file_part, _, anchor = target.partition("#")
+        dest = (doc.parent / file_part).resolve() if file_part else doc
+        if not dest.is_relative_to(ROOT) or not dest.exists():
+            bad.append(f"{target}: no such file in the repository")
+        elif anchor and dest.suffix == ".md" and anchor not in _anchors(dest.read_text()):
+            bad.append(f"{target}: {dest.name} has no heading #{anchor}")
+    assert not bad, f"{doc.name}: " + "; ".join(bad)
+
+
+@pytest.mark.parametrize("doc", DOCS, ids=lambda p: str(p.relative_to(ROOT)))
+def test_nothing_points_outside_the_repository(doc: Path) -> None:
+    """No doc cites the internal spec or the shared folder the user does not have."""
+    text = doc.read_text(encoding="utf-8")
+    assert not re.search(r"\bSPEC\b", text), f"{doc.name} mentions SPEC"
+    assert "../shared" not in text, f"{doc.name} points into ../shared"
+
+
+def test_every_doc_page_is_reachable_from_the_readme() -> None:
+    """Each page of docs/ is linked from README.md or from a page it links to."""
+    reached, todo = set(), [ROOT / "README.md"]
+    while todo:
+        page = todo.pop()
+        for target in _links(page):
+            dest = (page.parent / target.partition("#")[0]).resolve()
+            if dest.suffix == ".md" and dest.is_file() and dest not in reached:
+                reached.add(dest)
+                todo.append(dest)
+    missing = [p.name for p in DOCS if p.name != "README.md" and p.resolve() not in reached]
+    assert not missing, f"not linked from the README: {missing}"
+
+
+#: Run in one fresh process: every subcommand's ``--help`` (and ``mearm --help``), as JSON.
+HELP_OF_EVERY_SUBCOMMAND = """
+import contextlib, io, json, sys
+from mearm.__main__ import SUBCOMMANDS, _load, _usage
+out = {"mearm": _usage()}
+for name, (target, _) in SUBCOMMANDS.items():
+    sys.argv = [f"mearm {name}"]
+    text = io.StringIO()
+    try:
+        with contextlib.redirect_stdout(text):
+            _load(target)(["--help"])
+    except SystemExit:
+        pass
+    out[name] = text.getvalue()
+print(json.dumps(out))
+"""
+
+
+@pytest.fixture(scope="module")
+def help_texts() -> dict[str, str]:
+    """``mearm --help`` and every ``mearm SUBCOMMAND --help``, from one process."""
+    r = subprocess.run(
+        [sys.executable, "-c", HELP_OF_EVERY_SUBCOMMAND],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        cwd=ROOT,
+    )
+    assert r.returncode == 0, r.stderr
+    texts: dict[str, str] = json.loads(r.stdout)
+    return texts
+
+
+@pytest.mark.parametrize(
+    "name",
+    [
+        pytest.param(
+            name,
+            marks=pytest.mark.xfail(strict=True, reason=HELP_OWNED_ELSEWHERE[name])
+            if name in HELP_OWNED_ELSEWHERE
+            else (),
+        )
+        for name in ["mearm", *SUBCOMMANDS]
+    ],
+)
+def test_help_is_plain_words(help_texts: dict[str, str], name: str) -> None:
+    """--help shows no raw reStructuredText and no SPEC or § references."""
+    text = help_texts[name]
+    assert text.startswith("usage: "), text[:80]
+    bad = [line for line in text.splitlines() if RST.search(line) or UNFOLLOWABLE.search(line)]
+    assert not bad, f"mearm {name} --help: {bad}"
