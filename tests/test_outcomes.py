@@ -135,3 +135,22 @@ def test_objects_left_by_a_fault_are_counted(tmp_path, capsys):
     n_sorted = sum(s.sorted.values())
     assert 0 < n_sorted < 12 and s.left == {"fault": 12 - n_sorted}
     assert lines[-1] == f"sorted {n_sorted} of 12 objects ({12 - n_sorted} stopped by a fault)"
+
+
+def test_an_object_cut_by_the_image_border_is_never_picked(tmp_path, capsys):
+    """The 12 objects and a 13th half outside the picture (its right edge, x = 19.5 cm;
+    the bins lie beyond the left edge): the 12 are sorted, the 13th is never picked and
+    is counted as left, exit 1."""
+    raw = yaml.safe_load(Path("configs/sim.yaml").read_text())
+    raw["task"]["scene"].append({"color": "green", "x": 19.5, "y": 38.0})
+    config = tmp_path / "cut.yaml"
+    config.write_text(yaml.safe_dump(raw))
+    log = tmp_path / "run.jsonl"
+    code, lines, err = _sort(capsys, "--config", config, "--log", log, "--quiet")
+    assert code == 1, err
+    assert lines[-1] == "sorted 12 of 13 objects (1 cut by the image border)"
+    s = _summary(log)
+    assert s.objects == {"red": 4, "green": 5, "blue": 4} and s.left == {"cut": 1}
+    routes = read_runlog(log).trials[-1].routes
+    picks = [r for r in routes if r.step == "pick"]
+    assert len(picks) == 12 and all(r.target_cm[0] < 18.0 for r in picks)

@@ -124,6 +124,9 @@ class Sorter:
         retries = config.task.pick_retries + 1
         self.max_rounds = max_rounds or 4 * (len(config.task.scene) + 20) * retries
         self._objects: list[TrackedObject] = []
+        #: The classes of the regions the last look found cut by the image border, on the
+        #: table (only part of each is seen: never picked, reported as left).
+        self._cut: list[str] = []
 
     @property
     def report(self) -> SortReport:
@@ -142,7 +145,12 @@ class Sorter:
         frame = self.camera.read()
         h, w = frame.shape[:2]
         # an object cut by the image border is not picked until seen whole
-        detections = [d for d in self.detector.detect(frame) if not _cut(d, w, h)]
+        found = self.detector.detect(frame)
+        detections = [d for d in found if not _cut(d, w, h)]
+        if track_new:  # (holding an object, the look is only for that object)
+            self._cut = [
+                d.color for d in found if _cut(d, w, h) and not self._in_a_bin(_table_cm(d))
+            ]
         cm = [_table_cm(d) for d in detections]
         # an object seen in a bin is sorted, not on the table (a camera that sees the
         # bins sees what was put in them)
@@ -399,6 +407,9 @@ class Sorter:
                 leave(stopped)
             else:
                 leave("not_confirmed")
+        for name in self._cut:  # seen in part at the last look, never picked
+            out.seen[name] = out.seen.get(name, 0) + 1
+            leave("cut")
         return out
 
     def _last_joints(self) -> dict[str, float] | None:
