@@ -10,6 +10,9 @@ master in packet mode (``TIOCPKT``) the kernel reports that flush to the master 
 ``TIOCPKT_FLUSHREAD`` status byte. The fake Uno treats it as its DTR reset and prints its
 banner; the fake SSC-32, like the real one, does not reset.
 
+``SimavrBoard`` is the real firmware in simavr: the package's
+:class:`~mearm.sim.virtual_uno.VirtualUno` (the virtual Uno), run from given executables.
+
 Faults are injected by the ``faults`` record of each board: no banner, silence, garbage,
 corrupted frames in either direction, numbered errors, a reset and a dropped link; the
 fake SSC-32 also delays (in order, as a serial line does), loses and garbles answers,
@@ -23,12 +26,12 @@ import os
 import re
 import select
 import struct
-import subprocess
 import termios
 import threading
 import time
 import tty
 from dataclasses import dataclass
+from pathlib import Path
 
 from mearm.hardware.mearm_protocol import (
     ERR_ARGUMENT_COUNT,
@@ -41,6 +44,7 @@ from mearm.hardware.mearm_protocol import (
     encode_line,
     split_frame,
 )
+from mearm.sim.virtual_uno import VirtualUno, VirtualUnoBuild
 
 TIOCPKT = getattr(termios, "TIOCPKT", 0x5420)
 TIOCPKT_FLUSHREAD = 0x01
@@ -587,86 +591,18 @@ class FakeSSC32Board(FakeBoard):
 # --------------------------------------------------------------------------- the real firmware
 
 
-class SimavrBoard(FakeBoard):
+class SimavrBoard(VirtualUno):
     """The real ``mearm_servo`` firmware on a simulated ATmega328P behind the pty.
 
-    ``tools/arduino/sim/mearm_sim`` runs the ELF in simavr with UART0 on its stdin/stdout;
-    this board forwards the host's lines to it and its output to the host. Opening the
-    port restarts the simulator, as DTR resets an Uno. Every pulse the firmware generates
-    is measured in CPU cycles and collected in :attr:`pulses`.
+    :class:`mearm.sim.virtual_uno.VirtualUno` run from the given executables, in real
+    time: opening the port restarts the simulator, as DTR resets an Uno, and every pulse
+    the firmware generates is measured in CPU cycles (:attr:`pulses`, :meth:`widths_us`,
+    :attr:`now_ms`).
 
     Args:
         sim: The ``mearm_sim`` executable.
         elf: The firmware.
-
-    Attributes:
-        pulses: (channel, width [µs], simulated time [ms]) of every pulse, in order.
     """
 
     def __init__(self, sim: str, elf: str):
-        self._cmd = [str(sim), str(elf)]
-        self._proc: subprocess.Popen[bytes] | None = None
-        self.pulses: list[tuple[int, float, int]] = []
-        self.stderr: list[str] = []
-        super().__init__()
-
-    def on_open(self) -> None:
-        self._stop_sim()
-        self.pulses = []
-        proc = subprocess.Popen(
-            self._cmd, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE
-        )
-        self._proc = proc
-        threading.Thread(target=self._pump_out, args=(proc,), daemon=True).start()
-        threading.Thread(target=self._pump_err, args=(proc,), daemon=True).start()
-
-    def on_line(self, line: bytes) -> None:
-        if self._proc is not None and self._proc.stdin is not None:
-            self._proc.stdin.write(line + b"\n")
-            self._proc.stdin.flush()
-
-    def _pump_out(self, proc: subprocess.Popen[bytes]) -> None:
-        assert proc.stdout is not None
-        try:
-            while True:
-                chunk = os.read(proc.stdout.fileno(), 4096)
-                if not chunk:
-                    return
-                if proc is self._proc:
-                    self.send(chunk)
-        except (OSError, ValueError):  # the simulator was stopped, or the link dropped
-            return
-
-    def _pump_err(self, proc: subprocess.Popen[bytes]) -> None:
-        assert proc.stderr is not None
-        try:
-            for raw in proc.stderr:
-                text = raw.decode("ascii", "replace").split()
-                if len(text) == 4 and text[0] == "pulse":
-                    self.pulses.append((int(text[1]), int(text[2]) / 10.0, int(text[3])))
-                else:
-                    self.stderr.append(" ".join(text))
-        except (OSError, ValueError):  # the simulator was stopped
-            return
-
-    def widths_us(self, channel: int, after_ms: int = 0) -> list[float]:
-        """Widths of the channel's pulses generated after simulated time ``after_ms``."""
-        return [w for ch, w, t in list(self.pulses) if ch == channel and t > after_ms]
-
-    @property
-    def now_ms(self) -> int:
-        """Simulated time of the last pulse [ms] (0 before any)."""
-        return self.pulses[-1][2] if self.pulses else 0
-
-    def _stop_sim(self) -> None:
-        proc, self._proc = self._proc, None
-        if proc is not None:
-            proc.kill()
-            proc.wait(timeout=5)
-            for stream in (proc.stdin, proc.stdout, proc.stderr):
-                if stream is not None:
-                    stream.close()
-
-    def close(self) -> None:
-        self._stop_sim()
-        super().close()
+        super().__init__(VirtualUnoBuild(firmware=Path(elf), simulator=Path(sim)), speed=1.0)

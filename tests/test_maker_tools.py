@@ -458,6 +458,7 @@ def test_missing_data_is_one_line_saying_where(tmp_path, monkeypatch):
     from mearm import data
 
     monkeypatch.setattr(data, "FIRMWARE_DIR", tmp_path / "firmware")
+    monkeypatch.setattr(flash, "firmware_source_dir", data.firmware_source_dir)
     monkeypatch.setattr(data, "CONFIGS_DIR", tmp_path / "configs")
     with pytest.raises(MearmError, match="firmware source is not installed"):
         flash.firmware_source_dir()

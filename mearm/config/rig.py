@@ -262,10 +262,46 @@ class SimErrorModel(Strict):
     seed: Seed = 0
 
 
+#: A compile-time option of a firmware variant: ``NAME`` or ``NAME=VALUE`` (a C macro;
+#: nothing a shell would read as more than one word).
+DEFINE_PATTERN = r"^[A-Z][A-Z0-9_]{0,39}(=[A-Za-z0-9_]{1,20})?$"
+FirmwareDefine = Annotated[str, Field(pattern=DEFINE_PATTERN, max_length=61)]
+#: Fastest virtual Uno: simulated seconds per wall-clock second.
+MAX_SIM_SPEED = 100.0
+
+
+class VirtualUnoConfig(Strict):
+    """The virtual Uno (``servo.backend: virtual_uno``): the project's firmware in simavr.
+
+    The firmware (``tools/arduino/mearm_servo``) and its simulator harness are built on
+    first use into ``~/.cache/mearm/virtual_uno`` (``$XDG_CACHE_HOME`` if set). The
+    serial backend drives it over a pseudo-terminal (``servo.port`` is not used), and the
+    simulated arm moves by the pulse widths the emulated pins produce, measured in CPU
+    cycles (:mod:`mearm.sim.virtual_uno`).
+    """
+
+    speed: float = Field(default=1.0, ge=0, le=MAX_SIM_SPEED, allow_inf_nan=False)
+    """Simulated seconds per wall-clock second; 0: as fast as the computer runs it. The
+    host paces its moves and waits in simulated time and the firmware's timeouts are
+    simulated time, so a run does the same at any speed."""
+    pulse_tolerance_us: float = Field(default=10.0, gt=0, le=100, allow_inf_nan=False)
+    """A measured pulse farther than this from the one sent faults the move [µs]. The
+    firmware's pulses are within 1 µs of the command but for the odd one an interrupt
+    (``millis``, the UART) stretches by up to ~6 µs (measured: max 6.2 µs over
+    10 000 pulses); a swapped or miswired channel is off by hundreds."""
+    defines: list[FirmwareDefine] = Field(default_factory=list, max_length=16)
+    """Compile-time options of a firmware variant, e.g. ``SERVO_PIN_1=6`` (channel 1 on
+    pin D6); each variant is built into its own cache folder. Empty: the shipped
+    firmware."""
+
+
 class ServoConfig(Strict):
     """The servo link (paper §1: an Arduino Uno over USB serial) and the simulated arm."""
 
-    backend: Literal["sim", "serial", "ssc32"] = "sim"
+    backend: Literal["sim", "serial", "ssc32", "virtual_uno"] = "sim"
+    """``sim``: the simulated arm, moved by the commands; ``serial``: a board running
+    ``tools/arduino/mearm_servo``; ``ssc32``: an SSC-32; ``virtual_uno``: that firmware
+    in simavr, the simulated arm moved by its measured pulses (section ``virtual_uno``)."""
     port: PathText = "/dev/ttyACM0"
     """Serial device, or a pyserial URL of an allowed scheme: ``socket://host:port``,
     ``rfc2217://host:port`` or ``loop://`` (no other: ``spy://`` writes files)."""
@@ -286,6 +322,8 @@ class ServoConfig(Strict):
     sim_realtime: bool = False
     """Sim: pace moves at ``rate_hz`` like the real link (default: as fast as it can)."""
     error_model: SimErrorModel = SimErrorModel()
+    virtual_uno: VirtualUnoConfig = VirtualUnoConfig()
+    """The virtual Uno (``backend: virtual_uno``)."""
 
     @field_validator("port")
     @classmethod

@@ -40,6 +40,28 @@ def packaged_config(name: str) -> Path | None:
     return path if path.is_file() else None
 
 
+#: What a firmware source folder holds: the Makefile, the sketch and the simavr harness.
+FIRMWARE_FILES = ("Makefile", "mearm_servo/mearm_servo.ino", "sim/mearm_sim.c")
+
+
+def firmware_source_dir() -> Path:
+    """The firmware's source folder (:data:`FIRMWARE_DIR`, resolved), checked whole.
+
+    Raises:
+        MearmError: a file of :data:`FIRMWARE_FILES` is missing there.
+    """
+    from mearm.exceptions import MearmError
+
+    folder = FIRMWARE_DIR.resolve()
+    missing = [f for f in FIRMWARE_FILES if not (folder / f).is_file()]
+    if missing:
+        raise MearmError(
+            f"the firmware source is not installed (looked in {folder}, missing "
+            f"{', '.join(missing)}): reinstall mearm, or run from the source checkout"
+        )
+    return folder
+
+
 def source_checkout() -> Path | None:
     """The source checkout the package runs from (an editable install), else ``None``.
 
@@ -56,8 +78,10 @@ __all__ = [
     "CONFIG_SUFFIX",
     "DATA_DIR",
     "FIRMWARE_DIR",
+    "FIRMWARE_FILES",
     "URDF_DIR",
     "config_names",
+    "firmware_source_dir",
     "packaged_config",
     "source_checkout",
 ]

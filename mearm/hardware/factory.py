@@ -23,11 +23,16 @@ def open_bus(config: Config, world: World | None = None, *, port: str | None = N
         port: Override ``servo.port`` (serial backends).
 
     Returns:
-        A :class:`~mearm.sim.SimArm` (``sim``), :class:`ArduinoBus` (``serial``) or
-        :class:`SSC32Bus` (``ssc32``); call ``connect()`` or use it as a context manager.
+        A :class:`~mearm.sim.SimArm` (``sim``), :class:`ArduinoBus` (``serial``),
+        :class:`SSC32Bus` (``ssc32``) or :class:`~mearm.sim.virtual_uno.VirtualUnoBus`
+        (``virtual_uno``: the firmware in simavr, its pulses moving a simulated arm over
+        ``world``, or over a table of its own laid out from ``task.scene`` when ``world``
+        is ``None``; ``port`` is ignored, the bus opens the virtual board's pty); call
+        ``connect()`` or use it as a context manager.
 
     Raises:
         ConfigError: ``sim`` without a world.
+        VirtualUnoError: ``virtual_uno`` whose firmware or simulator cannot be built.
     """
     backend = config.servo.backend
     if backend == "sim":
@@ -44,4 +49,10 @@ def open_bus(config: Config, world: World | None = None, *, port: str | None = N
         return ArduinoBus(config, port=port)
     if backend == "ssc32":
         return SSC32Bus(config, port=port)
-    raise ConfigError(None, [f"servo.backend: {backend!r} is not one of sim, serial, ssc32"])
+    if backend == "virtual_uno":
+        from mearm.sim.virtual_uno import VirtualUnoBus
+
+        return VirtualUnoBus(config, world)
+    raise ConfigError(
+        None, [f"servo.backend: {backend!r} is not one of sim, serial, ssc32, virtual_uno"]
+    )

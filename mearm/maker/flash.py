@@ -30,7 +30,6 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from mearm import data
 from mearm.cli import (
     EXIT_FAILURE,
     EXIT_OK,
@@ -39,6 +38,7 @@ from mearm.cli import (
     config_from_args,
     run,
 )
+from mearm.data import firmware_source_dir
 from mearm.exceptions import MearmError
 
 #: The sketch's name: ``<source>/mearm_servo/mearm_servo.ino`` → ``<build>/mearm_servo.hex``.
@@ -55,24 +55,6 @@ UPLOAD_BAUDS = (57600, 115200)
 #: Longest build and upload [s].
 BUILD_TIMEOUT_S = 600.0
 UPLOAD_TIMEOUT_S = 120.0
-
-
-def firmware_source_dir() -> Path:
-    """The folder holding the firmware's Makefile and ``mearm_servo/`` sketch.
-
-    :data:`mearm.data.FIRMWARE_DIR`: the checkout's ``tools/arduino`` (through its link),
-    or the copy an installed wheel ships.
-
-    Raises:
-        MearmError: the firmware source is not there.
-    """
-    folder = data.FIRMWARE_DIR.resolve()
-    if (folder / "Makefile").is_file() and (folder / SKETCH / f"{SKETCH}.ino").is_file():
-        return folder
-    raise MearmError(
-        f"the firmware source is not installed (looked in {folder}): reinstall mearm, or "
-        "run from the source checkout"
-    )
 
 
 def default_build_dir() -> Path:

@@ -150,21 +150,41 @@ class SimArm(ServoBus):
             self.error_model.quantization,
         )
 
+    def actuate(
+        self, joints: Mapping[str, float], tool: Mapping[str, float], gripper_closed: bool
+    ) -> None:
+        """Put the arm where its servos are: realised values, not commands.
+
+        Closing the gripper grips (or misses) the nearest object, opening it releases
+        the held one, as a move does. The virtual Uno
+        (:class:`~mearm.sim.virtual_uno.VirtualUnoBus`) drives the arm this way with the
+        values its measured pulses stand for.
+
+        Args:
+            joints: Realised actuated joints, name → deg or cm; joints not named stay.
+            tool: Realised tool actuators, name → deg; actuators not named stay.
+            gripper_closed: Whether the gripper is closed.
+        """
+        self.actual_joints = {**self.actual_joints, **joints}
+        self.actual_tool = {**self.actual_tool, **tool}
+        if gripper_closed and not self.gripper_closed:
+            self.gripper_closed = True
+            self.last_grip = self._close_gripper()
+        elif not gripper_closed and self.gripper_closed:
+            self.gripper_closed = False
+            self._open_gripper()
+
     def _send_move(self, command: ArmCommand, pulses_us: dict[int, int]) -> None:
         # A servo told to hold its value stays where it is: only a new joint command
         # draws a new error (else gripping would re-roll the pose the route ended in).
-        if self.state is None or self.state.joints != command.joints:
-            self.actual_joints = self.realise(command)
+        joints = (
+            self.realise(command)
+            if self.state is None or self.state.joints != command.joints
+            else {}
+        )
         q = self.error_model.quantization
-        self.actual_tool = {
-            a.name: a.realised(command.tool[a.name], q) for a in self.servo_map.tool
-        }
-        if command.gripper_closed and not self.gripper_closed:
-            self.gripper_closed = True
-            self.last_grip = self._close_gripper()
-        elif not command.gripper_closed and self.gripper_closed:
-            self.gripper_closed = False
-            self._open_gripper()
+        tool = {a.name: a.realised(command.tool[a.name], q) for a in self.servo_map.tool}
+        self.actuate(joints, tool, command.gripper_closed)
 
     def _stop(self) -> None:
         """Moves are instantaneous in the sim: nothing is in progress to stop."""

@@ -23,7 +23,25 @@
 #define SERVO_COUNT 5
 // Channel i drives pin SERVO_PINS[i]: 0 theta1, 1 theta2, 2 theta3, 3 theta5, 4 gripper
 // with the default config (servo.joints / servo.gripper choose the channels).
-static const uint8_t SERVO_PINS[SERVO_COUNT] = {3, 5, 6, 9, 10};
+// SERVO_PIN_<i> rewires channel i for a test build, e.g. two channels swapped:
+// make -C tools/arduino BUILD_DIR=/tmp/swapped EXTRA_DEFS="-DSERVO_PIN_1=6 -DSERVO_PIN_2=5"
+#ifndef SERVO_PIN_0
+#define SERVO_PIN_0 3
+#endif
+#ifndef SERVO_PIN_1
+#define SERVO_PIN_1 5
+#endif
+#ifndef SERVO_PIN_2
+#define SERVO_PIN_2 6
+#endif
+#ifndef SERVO_PIN_3
+#define SERVO_PIN_3 9
+#endif
+#ifndef SERVO_PIN_4
+#define SERVO_PIN_4 10
+#endif
+static const uint8_t SERVO_PINS[SERVO_COUNT] = {SERVO_PIN_0, SERVO_PIN_1, SERVO_PIN_2,
+                                                SERVO_PIN_3, SERVO_PIN_4};
 #define MIN_PULSE_US 500
 #define MAX_PULSE_US 2500
 #define FRAME_US 20000UL        // 50 Hz servo frame

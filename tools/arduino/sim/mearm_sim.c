@@ -2,13 +2,21 @@
  * mearm_sim: run the mearm_servo firmware on a simulated ATmega328P (simavr) and talk to
  * it through stdin/stdout, as if through the Uno's USB serial port.
  *
- *   mearm_sim build/mearm_servo.elf
+ *   mearm_sim [-x SPEED] [-t] build/mearm_servo.elf
  *
  * stdin bytes go to UART0's receiver (with the UART's own flow control), UART0's
  * transmitter goes to stdout. Every servo pulse is reported on stderr as
  * "pulse <channel> <width in 0.1 us> <simulated ms>", measured in CPU cycles between the
  * pin's rising and falling edge. Simulated time is kept in step with the
  * wall clock (never ahead), so the firmware's timeouts mean what they say.
+ *
+ *   -x SPEED  simulated seconds per wall-clock second (default 1: real time; 0: as fast
+ *             as the computer runs it). The firmware's timeouts are simulated time.
+ *   -t        timing events for a host that keeps simulated time (mearm.sim.virtual_uno):
+ *             each pulse line gets a fifth field, its rising edge [simulated us]; each
+ *             newline the UART transmits is reported as "line <simulated us>"; and
+ *             "time <simulated us>" every 5 ms of simulated time.
+ *
  * Exits when stdin closes. Build: make -C tools/arduino sim (needs libsimavr-dev, libelf-dev).
  */
 #include <errno.h>
@@ -37,12 +45,21 @@ static const int SERVO_BIT[SERVO_COUNT] = {3, 5, 6, 1, 2};
 static avr_t *avr;
 static avr_cycle_count_t rise[SERVO_COUNT];
 static int xoff = 0;
+static int timing = 0; /* -t */
+
+static unsigned long long sim_us(avr_cycle_count_t cycle) {
+  return (unsigned long long)(cycle / (F_CPU / 1000000UL));
+}
 
 static void on_uart_out(struct avr_irq_t *irq, uint32_t value, void *param) {
   (void)irq;
   (void)param;
   uint8_t byte = (uint8_t)value;
   if (write(STDOUT_FILENO, &byte, 1) < 0) exit(0);
+  if (timing && byte == '\n') {
+    fprintf(stderr, "line %llu\n", sim_us(avr->cycle));
+    fflush(stderr);
+  }
 }
 
 static void on_xon(struct avr_irq_t *irq, uint32_t value, void *param) {
@@ -65,9 +82,14 @@ static void on_pin(struct avr_irq_t *irq, uint32_t value, void *param) {
   if (!rise[ch]) return;
   /* width in 0.1 us: cycles * 10 / 16 */
   long width = (long)((avr->cycle - rise[ch]) * 10 / (F_CPU / 1000000UL));
+  if (timing) {
+    fprintf(stderr, "pulse %d %ld %lu %llu\n", ch, width,
+            (unsigned long)(avr->cycle / (F_CPU / 1000UL)), sim_us(rise[ch]));
+  } else {
+    fprintf(stderr, "pulse %d %ld %lu\n", ch, width,
+            (unsigned long)(avr->cycle / (F_CPU / 1000UL)));
+  }
   rise[ch] = 0;
-  fprintf(stderr, "pulse %d %ld %lu\n", ch, width,
-          (unsigned long)(avr->cycle / (F_CPU / 1000UL)));
   fflush(stderr);
 }
 
@@ -77,15 +99,34 @@ static double wall_s(void) {
   return ts.tv_sec + ts.tv_nsec * 1e-9;
 }
 
+static int usage(const char *prog) {
+  fprintf(stderr, "usage: %s [-x SPEED] [-t] FIRMWARE.elf\n", prog);
+  return 2;
+}
+
 int main(int argc, char **argv) {
-  if (argc != 2) {
-    fprintf(stderr, "usage: %s FIRMWARE.elf\n", argv[0]);
-    return 2;
+  double speed = 1.0;
+  int opt;
+  while ((opt = getopt(argc, argv, "x:t")) != -1) {
+    if (opt == 't') {
+      timing = 1;
+    } else if (opt == 'x') {
+      char *end;
+      speed = strtod(optarg, &end);
+      if (*end != '\0' || !(speed >= 0.0 && speed <= 1000.0)) {
+        fprintf(stderr, "%s: -x takes a speed from 0 to 1000, got %s\n", argv[0], optarg);
+        return 2;
+      }
+    } else {
+      return usage(argv[0]);
+    }
   }
+  if (optind != argc - 1) return usage(argv[0]);
+  const char *elf = argv[optind];
   elf_firmware_t fw;
   memset(&fw, 0, sizeof(fw));
-  if (elf_read_firmware(argv[1], &fw) != 0) {
-    fprintf(stderr, "%s: cannot read %s\n", argv[0], argv[1]);
+  if (elf_read_firmware(elf, &fw) != 0) {
+    fprintf(stderr, "%s: cannot read %s\n", argv[0], elf);
     return 2;
   }
   avr = avr_make_mcu_by_name("atmega328p");
@@ -116,6 +157,7 @@ int main(int argc, char **argv) {
   size_t head = 0, tail = 0;
   int stdin_open = 1;
   double start = wall_s();
+  avr_cycle_count_t next_tick = 0;
   for (;;) {
     for (int i = 0; i < 2000; i++) {
       int state = avr_run(avr);
@@ -133,7 +175,14 @@ int main(int argc, char **argv) {
     if (!stdin_open && head == tail) return 0;
     if (head < tail && !xoff) avr_raise_irq(uart_in, queue[head++]);
     if (head == tail) head = tail = 0;
-    double ahead = (double)avr->cycle / F_CPU - (wall_s() - start);
-    if (ahead > 0.002) usleep((useconds_t)(ahead * 1e6));
+    if (timing && avr->cycle >= next_tick) {
+      fprintf(stderr, "time %llu\n", sim_us(avr->cycle));
+      fflush(stderr);
+      next_tick = avr->cycle + 5 * (F_CPU / 1000UL);
+    }
+    if (speed > 0.0) {
+      double ahead = (double)avr->cycle / F_CPU / speed - (wall_s() - start);
+      if (ahead > 0.002) usleep((useconds_t)(ahead * 1e6));
+    }
   }
 }

@@ -1,0 +1,753 @@
+r"""The virtual Uno: the project's real firmware on a simulated ATmega328P, behind a pty.
+
+Three parts:
+
+- :func:`build_virtual_uno` builds ``tools/arduino/mearm_servo`` with Debian's avr-gcc
+  and the simulator harness ``tools/arduino/sim/mearm_sim.c`` against libsimavr, once,
+  into a cache folder (``~/.cache/mearm/virtual_uno/<hash of the sources>``);
+- :class:`VirtualUno` runs the firmware in the harness and serves it on a
+  pseudo-terminal: a serial port for pyserial, ``find-port``, ``jog``… Opening the port
+  restarts the simulated chip, as DTR resets a real Uno. Every servo pulse the emulated
+  pins produce is measured in CPU cycles and collected;
+- :class:`VirtualUnoBus` (``servo.backend: virtual_uno``) is the serial backend
+  (:class:`~mearm.hardware.arduino.ArduinoBus`) driving that board. After each
+  acknowledged move it takes the first servo frame the board generated after its
+  ``OK``, maps each measured pulse back through the actuator's calibration,
+
+  .. math:: v = (p_\text{measured} - p_0) / (s\,k),
+
+  moves the simulated arm (:class:`~mearm.sim.servo_bus.SimArm`) there, and faults the
+  move (:class:`~mearm.exceptions.MoveNotConfirmedError`) when a pulse is farther than
+  ``servo.virtual_uno.pulse_tolerance_us`` from the one sent: a firmware with two
+  channels swapped cannot pass for a working one.
+
+Time: the harness keeps simulated time (``servo.virtual_uno.speed`` simulated seconds per
+wall-clock second, 0 = as fast as the computer runs it) and reports it; the bus paces
+its moves and holds in simulated time, so the firmware sees the same command stream at
+any speed.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import fcntl
+import hashlib
+import logging
+import os
+import re
+import select
+import shutil
+import struct
+import subprocess
+import tempfile
+import termios
+import threading
+import time
+import tty
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import NamedTuple
+
+import numpy as np
+
+from mearm.config import Config
+from mearm.config.rig import DEFINE_PATTERN
+from mearm.data import FIRMWARE_FILES, firmware_source_dir
+from mearm.exceptions import MearmError, MoveNotConfirmedError, ServoError
+from mearm.hardware.arduino import ArduinoBus
+from mearm.hardware.bus import ArmCommand, RateLimiter
+from mearm.hardware.mapping import ActuatorMap
+from mearm.kinematics import ArmModel
+from mearm.sim.servo_bus import GripResult, ReleaseResult, SimArm
+from mearm.sim.world import World
+
+log = logging.getLogger(__name__)
+
+#: The sketch: ``<source>/mearm_servo/mearm_servo.ino``.
+SKETCH = "mearm_servo"
+#: The firmware's servo frame (``FRAME_US`` in ``mearm_servo.ino``) [µs].
+FRAME_US = 20_000
+#: A pause between two pulses longer than this ends a frame [µs] (within a frame the
+#: next pulse starts within 100 µs; the frame's idle tail is over 7 ms).
+FRAME_GAP_US = 2_000
+#: A move's pulses must show within this many frames after its ``OK``.
+FRAMES_TO_CONFIRM = 3
+#: Fastest simulation the harness accepts (``-x``) [simulated s per wall-clock s].
+MAX_SPEED = 1000.0
+#: Longest build [s].
+BUILD_TIMEOUT_S = 600.0
+#: Pulses kept for :attr:`VirtualUno.pulses` (about 3 minutes of 5 channels).
+MAX_PULSES = 50_000
+#: Line times kept for :meth:`VirtualUno.reply_time_us` (only the last is ever asked for).
+MAX_LINES = 1000
+#: Longest wall-clock wait for something the simulator must report [s] (a stalled or
+#: dead simulator is not waited for longer).
+WALL_TIMEOUT_S = 10.0
+
+_ARDUINO_CORE = Path("/usr/share/arduino/hardware/arduino/avr/cores/arduino/Arduino.h")
+_TIOCPKT = getattr(termios, "TIOCPKT", 0x5420)
+_TIOCPKT_FLUSHREAD = 0x01
+
+
+class VirtualUnoError(MearmError):
+    """The virtual Uno cannot be built or started.
+
+    Attributes:
+        packages: The Debian packages that would provide what is missing (empty when
+            something else failed).
+    """
+
+    def __init__(self, message: str, packages: Sequence[str] = ()):
+        self.packages = tuple(packages)
+        super().__init__(f"virtual Uno: {message}")
+
+
+# --------------------------------------------------------------------------- building
+
+
+@dataclass(frozen=True)
+class Requirement:
+    """A tool or header the build needs, and the Debian package that provides it.
+
+    Attributes:
+        what: The program (looked up on ``PATH``) or what the file is.
+        package: The Debian package.
+        path: The file that shows it is installed (``None``: ``what`` is a program).
+    """
+
+    what: str
+    package: str
+    path: Path | None = None
+
+    def present(self) -> bool:
+        """Whether it is installed."""
+        if self.path is not None:
+            return self.path.is_file()
+        return shutil.which(self.what) is not None
+
+
+REQUIREMENTS: tuple[Requirement, ...] = (
+    Requirement("make", "make"),
+    Requirement("avr-gcc", "gcc-avr"),
+    Requirement("avr-libc", "avr-libc", Path("/usr/lib/avr/include/avr/io.h")),
+    Requirement("the Arduino core", "arduino-core-avr", _ARDUINO_CORE),
+    Requirement("cc", "gcc"),
+    Requirement("libsimavr", "libsimavr-dev", Path("/usr/include/simavr/sim_avr.h")),
+    Requirement("libelf", "libelf-dev", Path("/usr/include/libelf.h")),
+)
+
+
+def missing_requirements() -> list[Requirement]:
+    """The build's requirements that are not installed."""
+    return [r for r in REQUIREMENTS if not r.present()]
+
+
+def cache_root() -> Path:
+    """Where builds are kept: ``$XDG_CACHE_HOME/mearm/virtual_uno`` or ``~/.cache/…``."""
+    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    return Path(base) / "mearm" / "virtual_uno"
+
+
+@dataclass(frozen=True)
+class VirtualUnoBuild:
+    """A built virtual Uno.
+
+    Attributes:
+        firmware: The firmware's ELF.
+        simulator: The harness executable, ``mearm_sim``.
+    """
+
+    firmware: Path
+    simulator: Path
+
+
+def build_virtual_uno(
+    defines: Sequence[str] = (), *, cache_dir: Path | None = None, source: Path | None = None
+) -> VirtualUnoBuild:
+    """Build the firmware and the harness, or find them already built.
+
+    Each combination of sources and ``defines`` is built once, into its own folder named
+    by their hash under ``cache_dir``; a build goes to a temporary folder first and is
+    renamed into place, so an interrupted or concurrent build leaves no half of one.
+
+    Args:
+        defines: Compile-time options of a firmware variant, ``NAME`` or ``NAME=VALUE``
+            (``SERVO_PIN_1=6``: channel 1 on pin D6); validated by the config.
+        cache_dir: Where builds are kept (default :func:`cache_root`).
+        source: The firmware source (default :func:`firmware_source_dir`).
+
+    Raises:
+        VirtualUnoError: a tool or header is missing (one line naming the Debian
+            packages to install), or the build failed (its last line of output).
+    """
+    bad = [d for d in defines if not re.fullmatch(DEFINE_PATTERN, d)]
+    if bad:
+        raise VirtualUnoError(
+            f"firmware defines must be NAME or NAME=VALUE (capitals, digits, _), got {bad}"
+        )
+    source = source if source is not None else firmware_source_dir()
+    root = cache_dir if cache_dir is not None else cache_root()
+    digest = hashlib.sha256()
+    for name in FIRMWARE_FILES:
+        digest.update((source / name).read_bytes())
+    digest.update("\0".join(defines).encode())
+    folder = root / digest.hexdigest()[:16]
+    built = VirtualUnoBuild(folder / f"{SKETCH}.elf", folder / "mearm_sim")
+    if built.firmware.is_file() and built.simulator.is_file():
+        return built
+    missing = missing_requirements()
+    if missing:
+        names = ", ".join(f"{r.what} ({r.package})" for r in missing)
+        packages = list(dict.fromkeys(r.package for r in missing))
+        raise VirtualUnoError(
+            f"cannot build the firmware and its simulator: not installed: {names}; install "
+            f"with: sudo apt-get install {' '.join(packages)}",
+            packages,
+        )
+    root.mkdir(parents=True, exist_ok=True)
+    work = Path(tempfile.mkdtemp(prefix="build-", dir=root))
+    command = ["make", "-C", str(source), f"BUILD_DIR={work}", "all", "sim"]
+    if defines:
+        command.append("EXTRA_DEFS=" + " ".join(f"-D{d}" for d in defines))
+    log.info("building the virtual Uno: %s", " ".join(command))
+    try:
+        result = subprocess.run(command, capture_output=True, text=True, timeout=BUILD_TIMEOUT_S)
+        if result.returncode != 0:
+            lines = (result.stderr or result.stdout).strip().splitlines() or ["no output"]
+            raise VirtualUnoError(
+                f"building the firmware and its simulator failed ({' '.join(command)}, exit "
+                f"{result.returncode}): {lines[-1]}"
+            )
+        with contextlib.suppress(OSError):  # another process built the same: keep theirs
+            os.replace(work, folder)
+    except subprocess.TimeoutExpired:
+        raise VirtualUnoError(f"the build took over {BUILD_TIMEOUT_S:.0f} s") from None
+    finally:
+        shutil.rmtree(work, ignore_errors=True)
+    if not (built.firmware.is_file() and built.simulator.is_file()):
+        raise VirtualUnoError(f"the build left no {built.firmware.name} and mearm_sim")
+    return built
+
+
+# --------------------------------------------------------------------------- the board
+
+
+class Pulse(NamedTuple):
+    """One servo pulse an emulated pin produced.
+
+    Attributes:
+        channel: The firmware's channel (its pin in ``SERVO_PINS``).
+        width_us: Rising to falling edge [µs], to 0.1 µs.
+        time_ms: Simulated time of the falling edge [ms].
+        rise_us: Simulated time of the rising edge [µs].
+    """
+
+    channel: int
+    width_us: float
+    time_ms: int
+    rise_us: int
+
+
+@dataclass(frozen=True)
+class Frame:
+    """One servo frame: the pulses of the channels in order, from one 20 ms period.
+
+    Attributes:
+        start_us: The rising edge of its first pulse [simulated µs].
+        widths_us: Channel → pulse width [µs]; a channel without a pulse is absent.
+    """
+
+    start_us: int
+    widths_us: Mapping[int, float] = field(default_factory=dict)
+
+
+class VirtualUno:
+    """The firmware on a simulated ATmega328P, served on a pseudo-terminal.
+
+    Give :attr:`port` to anything that opens a serial port — pyserial,
+    :class:`~mearm.hardware.arduino.ArduinoBus`, a ``mearm`` command run as a subprocess
+    with that port (``find-port``, ``calibrate-servos``, ``jog``): it is the board's USB
+    serial port. Opening it restarts the simulated chip, which prints its banner, as DTR
+    resets an Uno. The board runs until :meth:`close`; read what its pins did with
+    :meth:`widths_us`, or the frame after the last reply with :meth:`reply_time_us` and
+    :meth:`frame_after`::
+
+        from mearm.hardware import ArduinoBus, ArmCommand
+        from mearm.sim.virtual_uno import VirtualUno
+
+        with VirtualUno.start() as board:        # builds on first use (a few seconds)
+            print(board.port)                    # e.g. /dev/pts/7
+            with ArduinoBus(config, port=board.port) as bus:   # servo.backend: serial
+                bus.move(ArmCommand.home(config.arm))
+                frame = board.frame_after(board.reply_time_us(), range(5))
+            print(frame.widths_us)               # {0: 1800.1, 1: 1530.0, ...} [µs]
+            print(board.widths_us(channel=0))    # every pulse channel 0 produced [µs]
+
+    Commands run as a subprocess see the same board for as long as it runs (``speed``
+    1: real time, as a person at the keyboard expects).
+
+    Args:
+        build: The firmware and harness (:func:`build_virtual_uno`).
+        speed: Simulated seconds per wall-clock second; 0: as fast as it runs.
+
+    Attributes:
+        port: The pty's device path.
+        pulses: Every pulse since the last restart (the latest :data:`MAX_PULSES`).
+        stderr: Lines the simulator printed that are not events.
+        opens: How many times the port was opened (restarts).
+    """
+
+    def __init__(self, build: VirtualUnoBuild, *, speed: float = 1.0):
+        if not 0 <= speed <= MAX_SPEED:
+            raise VirtualUnoError(f"speed must be from 0 to {MAX_SPEED:g}, got {speed}")
+        for path in (build.firmware, build.simulator):
+            if not path.is_file():
+                raise VirtualUnoError(f"{path} is not there: build it (build_virtual_uno)")
+        self.build = build
+        self.speed = speed
+        self._master, self._slave = os.openpty()
+        tty.setraw(self._slave)
+        fcntl.ioctl(self._master, _TIOCPKT, struct.pack("i", 1))
+        self.port = os.ttyname(self._slave)
+        self.pulses: list[Pulse] = []
+        self.stderr: list[str] = []
+        self.opens = 0
+        self._cond = threading.Condition()
+        self._proc: subprocess.Popen[bytes] | None = None
+        self._reset_state()
+        self._closed = False
+        self._thread = threading.Thread(target=self._serve, name="virtual-uno", daemon=True)
+        self._thread.start()
+
+    @classmethod
+    def start(cls, defines: Sequence[str] = (), *, speed: float = 1.0) -> VirtualUno:
+        """Build (once, cached) the firmware with ``defines`` and start a board running it.
+
+        Raises:
+            VirtualUnoError: as :func:`build_virtual_uno`.
+        """
+        return cls(build_virtual_uno(defines), speed=speed)
+
+    # ----------------------------------------------------------------- measurements
+
+    @property
+    def now_ms(self) -> int:
+        """Simulated time of the last pulse's falling edge [ms] (0 before any)."""
+        with self._cond:
+            return self.pulses[-1].time_ms if self.pulses else 0
+
+    def widths_us(self, channel: int, after_ms: int = 0) -> list[float]:
+        """Widths of the channel's pulses that ended after simulated time ``after_ms``."""
+        with self._cond:
+            return [
+                p.width_us for p in self.pulses if p.channel == channel and p.time_ms > after_ms
+            ]
+
+    def clock_s(self) -> float:
+        """The simulated time [s] (0 until the simulator reports it)."""
+        with self._cond:
+            return self._now_us / 1e6
+
+    def sleep_s(self, seconds: float) -> None:
+        """Wait until ``seconds`` of simulated time have passed (or the simulator stopped)."""
+        with self._cond:
+            target = self._now_us + seconds * 1e6
+            self._wait(lambda: self._now_us >= target, WALL_TIMEOUT_S + 100 * seconds)
+
+    def reply_time_us(self) -> int | None:
+        """Simulated time the last line the host has received left the UART [µs].
+
+        Waits for the simulator's report of it; ``None`` if none came (no line sent yet,
+        or the simulator stopped).
+        """
+        with self._cond:
+            n = self._lines_out
+            if n == 0:
+                return None
+            ok = self._wait(lambda: self._line_base + len(self._line_us) >= n, WALL_TIMEOUT_S)
+            return self._line_us[n - 1 - self._line_base] if ok else None
+
+    def frame_after(self, t_us: int, channels: Sequence[int]) -> Frame | None:
+        """The first servo frame that started after simulated time ``t_us``.
+
+        Waits until it holds every channel of ``channels`` or the next frame began, at
+        most :data:`FRAMES_TO_CONFIRM` frames of simulated time.
+
+        Returns:
+            The frame, or ``None`` when no frame started in that time.
+        """
+        wanted = set(channels)
+        deadline_us = t_us + FRAMES_TO_CONFIRM * FRAME_US
+        found: list[Frame] = []
+
+        def ready() -> bool:
+            frames = [f for f in self._frames if f.start_us > t_us]
+            current = self._frame
+            if current is not None and current.start_us > t_us:
+                if not frames and wanted <= set(current.widths_us):
+                    found.append(current)
+                    return True
+            if frames:
+                found.append(frames[0])
+                return True
+            return self._now_us > deadline_us
+
+        with self._cond:
+            self._wait(ready, WALL_TIMEOUT_S)
+        return found[0] if found else None
+
+    @property
+    def stopped_because(self) -> str | None:
+        """Why the simulator is not running after an open (its last words), else ``None``."""
+        with self._cond:
+            if self._running or self.opens == 0:
+                return None
+            return self.stderr[-1] if self.stderr else "it exited without a word"
+
+    # ----------------------------------------------------------------- lifetime
+
+    def close(self) -> None:
+        """Stop the simulator and close the pty (the host's next read or write fails)."""
+        if self._closed:
+            return
+        self._closed = True
+        self._thread.join(timeout=2)
+        self._stop_sim()
+        for fd in (self._master, self._slave):
+            with contextlib.suppress(OSError):
+                os.close(fd)
+
+    def __enter__(self) -> VirtualUno:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    # ----------------------------------------------------------------- plumbing
+
+    def _reset_state(self) -> None:
+        self.pulses = []
+        self._frames: list[Frame] = []  # complete frames, the latest few
+        self._frame: Frame | None = None  # the frame being generated
+        self._last_fall_us = 0
+        self._line_us: list[int] = []  # when each line left the UART, from line _line_base
+        self._line_base = 0
+        self._lines_out = 0
+        self._now_us = 0
+        self._running = False
+
+    def _wait(self, predicate: Callable[[], bool], wall_s: float) -> bool:
+        """Wait (holding the condition) until ``predicate`` or the simulator stopped."""
+        deadline = time.monotonic() + wall_s
+        while not predicate():
+            left = deadline - time.monotonic()
+            if not self._running or left <= 0:
+                return predicate()
+            self._cond.wait(min(left, 0.1))
+        return True
+
+    def _restart(self) -> None:
+        """The host opened the port: a DTR reset, a fresh chip."""
+        self._stop_sim()
+        argv = [str(self.build.simulator), "-t", "-x", f"{self.speed:g}", str(self.build.firmware)]
+        with self._cond:
+            self._reset_state()
+            self.opens += 1
+            try:
+                proc = subprocess.Popen(
+                    argv, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE
+                )
+            except OSError as exc:  # the host sees no banner; the reason is kept here
+                self.stderr.append(f"cannot run {argv[0]}: {exc}")
+                log.error("virtual Uno: cannot run %s: %s", argv[0], exc)
+                return
+            self._proc = proc
+            self._running = True
+        threading.Thread(target=self._pump_out, args=(proc,), daemon=True).start()
+        threading.Thread(target=self._pump_events, args=(proc,), daemon=True).start()
+
+    def _stop_sim(self) -> None:
+        with self._cond:
+            proc, self._proc = self._proc, None
+            self._running = False
+            self._cond.notify_all()
+        if proc is not None:
+            proc.kill()
+            proc.wait(timeout=5)
+            for stream in (proc.stdin, proc.stdout, proc.stderr):
+                if stream is not None:
+                    with contextlib.suppress(OSError):
+                        stream.close()
+
+    def _serve(self) -> None:
+        """Forward the host's bytes to the UART; restart the chip when the port opens."""
+        while not self._closed:
+            try:
+                ready, _, _ = select.select([self._master], [], [], 0.05)
+                if not ready:
+                    continue
+                packet = os.read(self._master, 4096)
+            except (OSError, ValueError):
+                return
+            if not packet:
+                continue
+            status, data = packet[0], packet[1:]
+            if status:
+                if status & _TIOCPKT_FLUSHREAD:
+                    self._restart()
+                continue
+            proc = self._proc
+            if proc is not None and proc.stdin is not None:
+                try:
+                    proc.stdin.write(data)
+                    proc.stdin.flush()
+                except (OSError, ValueError):  # the simulator was stopped
+                    pass
+
+    def _pump_out(self, proc: subprocess.Popen[bytes]) -> None:
+        """The UART's transmitter → the host, counting the lines sent."""
+        assert proc.stdout is not None
+        try:
+            while True:
+                chunk = os.read(proc.stdout.fileno(), 4096)
+                if not chunk:
+                    break
+                with self._cond:
+                    if proc is not self._proc:
+                        return
+                    self._lines_out += chunk.count(b"\n")
+                os.write(self._master, chunk)
+        except (OSError, ValueError):  # the simulator was stopped, or the pty closed
+            pass
+        self._ended(proc)
+
+    def _pump_events(self, proc: subprocess.Popen[bytes]) -> None:
+        """The harness's reports: pulses, lines sent, the simulated clock.
+
+        Read in chunks and recorded under one lock per chunk, so the host's threads are
+        not woken for each of the thousand reports a second.
+        """
+        assert proc.stderr is not None
+        fd = proc.stderr.fileno()
+        pending = b""
+        try:
+            while True:
+                chunk = os.read(fd, 65536)
+                if not chunk:
+                    break
+                *lines, pending = (pending + chunk).split(b"\n")
+                with self._cond:
+                    if proc is not self._proc:
+                        return
+                    for raw in lines:
+                        self._event(raw.decode("ascii", "replace").split())
+                    self._cond.notify_all()
+        except (OSError, ValueError):  # the simulator was stopped
+            pass
+        self._ended(proc)
+
+    def _ended(self, proc: subprocess.Popen[bytes]) -> None:
+        with self._cond:
+            if proc is self._proc:
+                self._running = False
+                self._cond.notify_all()
+
+    def _event(self, words: list[str]) -> None:
+        """Record one report (holding the condition)."""
+        kind = words[0] if words else ""
+        if kind == "pulse" and len(words) == 5 and all(w.isdigit() for w in words[1:]):
+            pulse = Pulse(int(words[1]), int(words[2]) / 10.0, int(words[3]), int(words[4]))
+            self._add_pulse(pulse)
+        elif kind == "line" and len(words) == 2 and words[1].isdigit():
+            self._line_us.append(int(words[1]))
+            if len(self._line_us) > 2 * MAX_LINES:
+                del self._line_us[:MAX_LINES]
+                self._line_base += MAX_LINES
+            self._now_us = max(self._now_us, int(words[1]))
+        elif kind == "time" and len(words) == 2 and words[1].isdigit():
+            self._now_us = max(self._now_us, int(words[1]))
+        elif words:
+            self.stderr.append(" ".join(words))
+            log.debug("virtual Uno: %s", " ".join(words))
+
+    def _add_pulse(self, pulse: Pulse) -> None:
+        self.pulses.append(pulse)
+        if len(self.pulses) > 2 * MAX_PULSES:
+            del self.pulses[:MAX_PULSES]
+        self._now_us = max(self._now_us, pulse.rise_us + int(pulse.width_us))
+        # A frame's pulses follow one another within microseconds; frames are separated
+        # by the frame's idle tail (≥ 7 ms). Channel order is not assumed: a miswired
+        # firmware drives the pins in another order.
+        fall_us = pulse.rise_us + round(pulse.width_us)
+        frame = self._frame
+        if (
+            frame is None
+            or pulse.rise_us - self._last_fall_us > FRAME_GAP_US
+            or pulse.channel in frame.widths_us
+        ):
+            if frame is not None:
+                self._frames = [*self._frames[-(FRAMES_TO_CONFIRM + 1) :], frame]
+            frame = Frame(pulse.rise_us, {})
+        self._frame = Frame(frame.start_us, {**frame.widths_us, pulse.channel: pulse.width_us})
+        self._last_fall_us = fall_us
+
+
+# --------------------------------------------------------------------------- the bus
+
+
+class VirtualUnoBus(ArduinoBus):
+    """``servo.backend: virtual_uno``: the serial backend; the board's pulses move the arm.
+
+    The board is a :class:`VirtualUno`. Every move is sent as to a real board (``M``,
+    acknowledged by ``OK``); then the first servo frame that started after the ``OK`` left
+    the board's UART is measured, the simulated arm over the world is put where those
+    pulses put its servos, and the move is refused
+    (:class:`~mearm.exceptions.MoveNotConfirmedError`, which stops the bus with the last
+    confirmed pose) when any pulse is missing or farther than
+    ``servo.virtual_uno.pulse_tolerance_us`` from the one sent. The reason names the
+    actuator, the value its pulse stands for and the commanded one.
+
+    Args:
+        config: The whole configuration.
+        world: The table (shared with the simulated camera); ``None``: the board's own,
+            laid out from ``task.scene``.
+        model: Arm model for the TCP (built from ``config.arm`` if omitted).
+
+    Attributes:
+        arm: The simulated arm its pins drive.
+        board: The running virtual Uno, while connected.
+        last_frame: The frame that confirmed (or refused) the last move.
+
+    Raises:
+        VirtualUnoError: the firmware or the harness cannot be built (missing tools).
+    """
+
+    def __init__(self, config: Config, world: World | None = None, model: ArmModel | None = None):
+        settings = config.servo.virtual_uno
+        self.built = build_virtual_uno(settings.defines)
+        super().__init__(config)
+        self.arm = SimArm(config, world if world is not None else World.from_config(config), model)
+        self.board: VirtualUno | None = None
+        self.last_frame: Frame | None = None
+
+    # ----------------------------------------------------------------- the arm
+
+    @property
+    def world(self) -> World:
+        """The table the arm acts on."""
+        return self.arm.world
+
+    @property
+    def ee_cm(self) -> np.ndarray:
+        """Where the pulses put the TCP, base frame [cm], (3,)."""
+        return self.arm.ee_cm
+
+    @property
+    def actual_joints(self) -> dict[str, float]:
+        """The actuated joints the pulses stand for, name → deg or cm."""
+        return dict(self.arm.actual_joints)
+
+    @property
+    def last_grip(self) -> GripResult | None:
+        """What the last close of the gripper did."""
+        return self.arm.last_grip
+
+    @property
+    def last_release(self) -> ReleaseResult | None:
+        """What the last release of an object did."""
+        return self.arm.last_release
+
+    # ----------------------------------------------------------------- backend hooks
+
+    def _connect(self) -> None:
+        board = VirtualUno(self.built, speed=self.config.servo.virtual_uno.speed)
+        self.board = board
+        self.port = board.port
+        self._rate = RateLimiter(board.clock_s, board.sleep_s)  # simulated time
+        try:
+            super()._connect()
+        except ServoError as exc:
+            why = board.stopped_because
+            self._close()
+            if why is None:
+                raise
+            raise VirtualUnoError(f"the simulator stopped ({why}): {exc}") from None
+        except BaseException:
+            self._close()
+            raise
+
+    def _close(self) -> None:
+        super()._close()
+        if self.board is not None:
+            self.board.close()
+            self.board = None
+
+    def _hold(self, seconds: float) -> None:
+        assert self.board is not None
+        self.board.sleep_s(seconds)
+
+    def _send_move(self, command: ArmCommand, pulses_us: dict[int, int]) -> None:
+        super()._send_move(command, pulses_us)
+        assert self.board is not None
+        sent_at = self.board.reply_time_us()
+        frame = None if sent_at is None else self.board.frame_after(sent_at, sorted(pulses_us))
+        self.last_frame = frame
+        widths = dict(frame.widths_us) if frame is not None else {}
+        self._follow(widths)
+        problems = self._mismatches(command, pulses_us, widths)
+        if problems:
+            raise MoveNotConfirmedError(
+                self.port,
+                "; ".join(problems),
+                pulses_us,
+                {ch: round(w) for ch, w in widths.items()},
+                last_state=self.state,
+            )
+
+    # ----------------------------------------------------------------- measured pose
+
+    def _follow(self, widths_us: Mapping[int, float]) -> None:
+        """Put the simulated arm where the measured pulses put its servos."""
+        smap = self.servo_map
+        joints = {
+            j.name: j.value_of(widths_us[j.channel]) for j in smap.joints if j.channel in widths_us
+        }
+        tool = {
+            a.name: a.value_of(widths_us[a.channel]) for a in smap.tool if a.channel in widths_us
+        }
+        g = smap.gripper
+        closed = self.arm.gripper_closed
+        if g.channel in widths_us:
+            opening = g.value_of(widths_us[g.channel])
+            closed = abs(opening - smap.gripper_closed_cm) < abs(opening - smap.gripper_open_cm)
+        self.arm.actuate(joints, tool, closed)
+
+    def _mismatches(
+        self, command: ArmCommand, pulses_us: Mapping[int, int], widths_us: Mapping[int, float]
+    ) -> list[str]:
+        """One line per actuator whose measured pulse is missing or off the one sent."""
+        smap = self.servo_map
+        tol = self.config.servo.virtual_uno.pulse_tolerance_us
+        commanded: list[tuple[str, ActuatorMap, float]] = [
+            *(("joint", j, command.joints[j.name]) for j in smap.joints),
+            *(("tool actuator", a, command.tool[a.name]) for a in smap.tool),
+            ("gripper", smap.gripper, smap.gripper_opening_cm(command.gripper_closed)),
+        ]
+        problems = []
+        for kind, a, value in commanded:
+            sent = pulses_us[a.channel]
+            unit = "°" if a.unit == "deg" else " cm"
+            measured = widths_us.get(a.channel)
+            if measured is None:
+                problems.append(
+                    f"{kind} {a.name}: the board produced no pulse on channel {a.channel}, "
+                    f"the command was {value:.1f}{unit} ({sent} µs sent)"
+                )
+            elif abs(measured - sent) > tol:
+                problems.append(
+                    f"{kind} {a.name}: the board's pulses say {a.value_of(measured):.1f}{unit}, "
+                    f"the command was {value:.1f}{unit} (channel {a.channel}: {measured:.1f} µs "
+                    f"measured, {sent} µs sent, tolerance ±{tol:g} µs)"
+                )
+        return problems
