@@ -66,6 +66,11 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
         "mearm.maker.init_config",
         "write a starter config for a reference arm and rig",
     ),
+    "calibrate-servos": (
+        "mearm.maker.calibrate_servos",
+        "fit each servo's zero, µs per degree and direction with the keyboard",
+    ),
+    "jog": ("mearm.maker.jog", "move the arm with the keyboard, joint by joint or in x/y/z"),
 }
 
 

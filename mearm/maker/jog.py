@@ -1,0 +1,307 @@
+"""``mearm jog``: move the arm with the keyboard, in joint space or in x/y/z.
+
+    mearm jog --config my.yaml [--port /dev/ttyACM0] [--servo-calibration my.servos.yaml]
+
+The arm first goes home (as the sort's first move does). Then:
+
+- joint space: ``1``…``9`` or ←/→ select an actuated joint; ``+``/↑ and ``-``/↓ move it
+  by the step;
+- Cartesian: ``x``/``X``, ``y``/``Y``, ``z``/``Z`` move the TCP by −/+ the step along
+  the base frame's axis, solved with the config's IK (``controller.solver``); steps in a
+  row aim at the previous target, so small IK errors do not add up;
+- ``[``/``]`` make the step smaller/larger (joints 0.5–10°, or cm for a prismatic joint;
+  TCP 0.2–5 cm); ``g`` opens/closes the gripper; ``h`` goes home; ``?`` lists the keys;
+- ``q`` goes home and quits; ``Q`` quits and leaves the arm where it is (holding); Ctrl-C
+  stops at once and leaves the arm where it is (exit 130).
+
+After every key the screen shows every joint's value and its distance to each limit
+(passive joints too), the TCP's position by forward kinematics and the step.
+
+Every move goes through the sort's checks before anything is sent: a joint move is a
+straight line in joint space planned in full and checked against every limit
+(:meth:`~mearm.task.Executor.joint_path`); a Cartesian move is a route planned in full by
+the sort's :class:`~mearm.task.Planner` (target box, reach, convergence, every pose within
+the limits) and sent only if it is :attr:`~mearm.task.Route.planned`; every pose's pulses
+are checked against the servos' ranges before the first is sent. A refused move prints
+why and sends nothing.
+"""
+
+from __future__ import annotations
+
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+from typing import TextIO
+
+import numpy as np
+
+from mearm.cli import (
+    EXIT_FAILURE,
+    EXIT_OK,
+    ArgumentParser,
+    add_config_argument,
+    config_from_args,
+    run,
+)
+from mearm.config import Config
+from mearm.exceptions import MearmError, ServoError
+from mearm.hardware import ArmCommand, ServoBus
+from mearm.ik import IKTarget
+from mearm.kinematics import ArmModel
+from mearm.maker.calibrate_servos import hold_arm, open_arm_bus
+from mearm.maker.keys import KeyReader, require_terminal
+from mearm.maker.servo_calibration import apply_servo_calibration_file
+from mearm.task import Executor, Planner, Route
+from mearm.task.execute import Phase
+
+#: Joint steps [deg, or cm for a prismatic joint] and TCP steps [cm] the keys choose from.
+JOINT_STEPS = (0.5, 1.0, 2.0, 5.0, 10.0)
+CARTESIAN_STEPS_CM = (0.2, 0.5, 1.0, 2.0, 5.0)
+#: The tool settings while jogging: the tool actuators at home.
+PHASE: Phase = "home"
+AXES = {"x": 0, "y": 1, "z": 2}
+
+HELP = (
+    "keys: 1-9 or ←/→ select joint, +/↑ -/↓ move it; x/X y/Y z/Z move the TCP -/+; "
+    "[ ] step; g gripper; h home; q home and quit; Q quit here; Ctrl-C stop"
+)
+
+
+class Refused(MearmError):
+    """A move failed a check before anything was sent."""
+
+
+class Jogger:
+    """Keyboard teleoperation on a connected servo bus.
+
+    Args:
+        config: The whole configuration.
+        bus: The servo bus, connected.
+        out: Where the screen goes.
+    """
+
+    def __init__(self, config: Config, bus: ServoBus, out: TextIO):
+        self.config = config
+        self.bus = bus
+        self.out = out
+        self.model = ArmModel(config.arm)
+        self.chain = self.model.chain
+        self.planner = Planner(config, self.model)
+        self.executor = Executor(config, bus, self.model)
+        self.selected = 0
+        self.step_index = 2
+        self.closed = False
+        self.target_cm: np.ndarray | None = None
+
+    # ----------------------------------------------------------------- readout
+
+    def say(self, text: str) -> None:
+        """Print a line."""
+        self.out.write(text + "\n")
+        self.out.flush()
+
+    def readout(self) -> None:
+        """Every joint with its distance to each limit, the TCP, the step."""
+        q = self.executor.q_now()
+        c = self.chain
+        values = c.to_config_units(q)
+        lower, upper = c.to_config_units(c.lower), c.to_config_units(c.upper)
+        lines = []
+        for i, name in enumerate(c.names):
+            mark = "*" if i == c.actuated_index[self.selected] else " "
+            kind = "" if i in c.actuated_index else " (passive)"
+            unit = c.unit(i)
+            lines.append(
+                f"{mark} {name:<12} {values[i]:9.3f} {unit}   to limits "
+                f"-{values[i] - lower[i]:.3f} / +{upper[i] - values[i]:.3f} {unit}{kind}"
+            )
+        x, y, z = (float(v) for v in self.model.fk_cm(q))
+        lines.append(f"  TCP x {x:.3f}  y {y:.3f}  z {z:.3f} cm")
+        js = JOINT_STEPS[self.step_index]
+        cs = CARTESIAN_STEPS_CM[self.step_index]
+        lines.append(
+            f"  step {js:g} {c.unit(int(c.actuated_index[self.selected]))} / {cs:g} cm   "
+            f"gripper {'closed' if self.closed else 'open'}"
+        )
+        self.say("\n".join(lines))
+
+    # ----------------------------------------------------------------- checks
+
+    def _check_pulses(self, poses: np.ndarray, closed: bool) -> None:
+        """Refuse if any pose's pulses leave a servo's range (nothing sent yet)."""
+        tool = self.executor.tool_settings(PHASE)
+        for q in poses:
+            try:
+                self.bus.servo_map.check(ArmCommand(self.chain.named_actuated(q), tool, closed))
+            except MearmError as exc:
+                raise Refused(str(exc)) from None
+
+    def _limit_problem(self, q: np.ndarray) -> str | None:
+        c = self.chain
+        values = c.to_config_units(q)
+        lower, upper = c.to_config_units(c.lower), c.to_config_units(c.upper)
+        for i, name in enumerate(c.names):
+            if not lower[i] - 1e-9 <= values[i] <= upper[i] + 1e-9:
+                return (
+                    f"{name} would be at {values[i]:.4g} {c.unit(i)}, outside its limits "
+                    f"[{lower[i]:.4g}, {upper[i]:.4g}] {c.unit(i)}"
+                )
+        return None
+
+    # ----------------------------------------------------------------- moves
+
+    def move_joint(self, sign: int) -> None:
+        """Move the selected joint by one step (a straight joint-space path)."""
+        c = self.chain
+        i = int(c.actuated_index[self.selected])
+        a = c.actuated_of(self.executor.q_now()).copy()
+        a[self.selected] += sign * JOINT_STEPS[self.step_index] * c.scale[i]
+        self._go_joints(c.full(a))
+        self.target_cm = None
+
+    def _go_joints(self, q_to: np.ndarray) -> None:
+        problem = self._limit_problem(q_to)
+        if problem is not None:
+            raise Refused(problem)
+        path = self.executor.joint_path(q_to)
+        self._check_pulses(path, self.closed)
+        for q in path[1:]:
+            self.executor.send(q, PHASE, self.closed)
+
+    def move_tcp(self, axis: int, sign: int) -> None:
+        """Move the TCP one step along a base axis: a route planned in full, then sent."""
+        q0 = self.executor.q_now()
+        start = self.target_cm if self.target_cm is not None else self.model.fk_cm(q0)
+        target = np.array(start, dtype=float)
+        target[axis] += sign * CARTESIAN_STEPS_CM[self.step_index]
+        approach = self.config.arm.tool.pick_approach
+        route = Route("", "", "approach", 1, IKTarget(tuple(target), approach))
+        route = self.planner.plan(route, q0)
+        if not route.planned:
+            raise Refused(route.failure or "no plan")
+        assert route.plan is not None
+        self._check_pulses(route.plan.q_path, self.closed)
+        self.executor.stream(route, PHASE, self.closed)
+        self.target_cm = target
+
+    def home(self) -> None:
+        """Go home along a planned joint path, gripper as it is."""
+        self._go_joints(self.model.home)
+        self.target_cm = None
+
+    def toggle_gripper(self) -> None:
+        """Open or close the gripper where the arm is."""
+        q = self.executor.q_now()
+        self._check_pulses(q[None, :], not self.closed)
+        self.closed = not self.closed
+        self.executor.set_tool(PHASE, self.closed)
+
+    # ----------------------------------------------------------------- keys
+
+    def handle(self, key: str) -> bool:
+        """Act on one key; ``False`` when the session should end (``q``, ``Q``)."""
+        m = self.chain.m
+        if key.isdigit() and 1 <= int(key) <= min(9, m):
+            self.selected = int(key) - 1
+        elif key in ("right", "tab"):
+            self.selected = (self.selected + 1) % m
+        elif key == "left":
+            self.selected = (self.selected - 1) % m
+        elif key in ("+", "=", "up"):
+            self.move_joint(+1)
+        elif key in ("-", "_", "down"):
+            self.move_joint(-1)
+        elif key.lower() in AXES:
+            self.move_tcp(AXES[key.lower()], +1 if key.isupper() else -1)
+        elif key == "[":
+            self.step_index = max(0, self.step_index - 1)
+        elif key == "]":
+            self.step_index = min(len(JOINT_STEPS) - 1, self.step_index + 1)
+        elif key == "g":
+            self.toggle_gripper()
+        elif key == "h":
+            self.home()
+        elif key == "q":
+            self.say("going home")
+            self.home()
+            if self.closed:
+                self.toggle_gripper()
+            return False
+        elif key == "Q":
+            return False
+        else:
+            self.say(HELP)
+            return True
+        return True
+
+    def session(self, keys: KeyReader) -> None:
+        """Go home, then read keys until ``q`` or ``Q``."""
+        self.executor.home_pose()
+        self.say(HELP)
+        self.readout()
+        while True:
+            key = keys.read()
+            try:
+                going_on = self.handle(key)
+            except Refused as exc:
+                self.say(f"refused: {exc}; nothing sent")
+                continue
+            if not going_on:
+                return
+            self.readout()
+
+
+def build_parser() -> ArgumentParser:
+    """The command's arguments."""
+    parser = ArgumentParser(
+        prog="mearm jog",
+        description=(
+            "Move the arm with the keyboard, joint by joint or the TCP along x/y/z, with a "
+            "live readout of the joints, their limits and the TCP. Every move is checked "
+            "as the sort's are before anything is sent."
+        ),
+    )
+    add_config_argument(parser)
+    parser.add_argument("--port", default=None, help="serial port (default: servo.port)")
+    parser.add_argument(
+        "--servo-calibration",
+        type=Path,
+        default=None,
+        metavar="FILE",
+        help="use the servo calibrations in FILE (written by mearm calibrate-servos)",
+    )
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the command (see the module docstring); returns the exit status."""
+    args = build_parser().parse_args(argv)
+    config = config_from_args(args)
+    if args.servo_calibration is not None:
+        config = apply_servo_calibration_file(config, args.servo_calibration)
+    require_terminal("jog")
+    out = sys.stdout
+    bus = open_arm_bus(config, args.port)
+    try:
+        with KeyReader() as keys, bus:
+            jogger = Jogger(config, bus, out)
+            try:
+                jogger.session(keys)
+            except KeyboardInterrupt:
+                out.write("\ninterrupted: the arm stays where it is\n")
+                hold_arm(bus)
+                raise
+            except EOFError:
+                hold_arm(bus)
+                print("mearm jog: the terminal closed; the arm stays where it is", file=sys.stderr)
+                return EXIT_FAILURE
+            hold_arm(bus)
+    except ServoError as exc:
+        print(f"mearm jog: servo fault: {exc}", file=sys.stderr)
+        return EXIT_FAILURE
+    jogger.say("done")
+    return EXIT_OK
+
+
+if __name__ == "__main__":
+    run(main)

@@ -1,0 +1,371 @@
+r"""The servo calibration file: each actuator's fitted pulse map, with its provenance.
+
+Each actuator's pulse is linear in its value (:class:`~mearm.config.ServoCalibration`),
+
+.. math:: p = p_0 + s\,k\,v
+
+Two reference values :math:`v_1 \ne v_2` and the pulses :math:`p_1, p_2` that put the
+actuator there give the signed slope :math:`\kappa = (p_2 - p_1)/(v_2 - v_1)`, so
+:math:`k = |\kappa|` [µs/unit], :math:`s = \operatorname{sign}\kappa` and
+:math:`p_0 = p_1 - \kappa v_1` [µs]. With more points the line is the least-squares fit
+and ``residual_us`` the largest distance of a point from it.
+
+**The file** is versioned YAML, one per board and arm, beside the config that uses it
+(the camera's calibration files are kept the same way, :mod:`mearm.vision.pinhole`)::
+
+    format: mearm-servo-calibration
+    version: 1
+    kind: servos
+    arm: paper_mearm
+    board_id: mearm_servo 1.0, 5 channels
+    port: /dev/ttyACM0
+    date: '2026-11-23T23:10:00+00:00'
+    actuators:
+      shoulder:
+        {channel: 1, unit: deg, zero_us: 570.0, direction: 1, us_per_unit: 10.0,
+         min_us: 600, max_us: 2400, residual_us: 0.0,
+         points: [{value: 51.0, pulse_us: 1080}, {value: 114.0, pulse_us: 1710}]}
+
+:func:`save_servo_calibration` replaces a file only with ``force`` (the command asks
+first) and only if it is a servo calibration, and keeps the old one as ``<name>.bak``.
+:func:`apply_servo_calibration` puts a file's calibrations into a config and validates
+the result with the config's own checks (limits, home, tool settings inside each
+servo's pulse range).
+"""
+
+from __future__ import annotations
+
+import datetime
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+from pydantic import ValidationError
+
+from mearm.config import ArmDescription, Config, ServoCalibration
+from mearm.config.base import short_repr
+from mearm.config.loader import config_from_dict
+from mearm.exceptions import CalibrationError, ConfigError
+from mearm.fileio import write_atomic
+from mearm.yamlio import load_yaml_file
+
+FORMAT = "mearm-servo-calibration"
+VERSION = 1
+KIND = "servos"
+
+
+class ServoCalibrationError(CalibrationError):
+    """A servo calibration cannot be fitted, read, written or applied (names what and why)."""
+
+
+def now_iso() -> str:
+    """Now, as calibration files record it (ISO 8601, UTC, seconds)."""
+    return datetime.datetime.now(datetime.timezone.utc).replace(microsecond=0).isoformat()
+
+
+@dataclass(frozen=True)
+class CalibrationPoint:
+    """One reference: the actuator at ``value`` [deg or cm] took ``pulse_us`` [µs]."""
+
+    value: float
+    pulse_us: int
+
+
+@dataclass(frozen=True)
+class ActuatorFit:
+    """One actuator's fitted calibration and the points it was fitted to.
+
+    Attributes:
+        name: The actuator's name in the arm description.
+        unit: ``deg`` or ``cm``.
+        servo: The fitted calibration (channel and pulse range as configured).
+        points: The references it was fitted to.
+        residual_us: The largest distance of a point from the fitted line [µs].
+    """
+
+    name: str
+    unit: str
+    servo: ServoCalibration
+    points: tuple[CalibrationPoint, ...]
+    residual_us: float
+
+    def to_dict(self) -> dict[str, Any]:
+        """The actuator's entry in the file."""
+        s = self.servo
+        return {
+            "channel": s.channel,
+            "unit": self.unit,
+            "zero_us": round(s.zero_us, 4),
+            "direction": s.direction,
+            "us_per_unit": round(s.us_per_unit, 6),
+            "min_us": s.min_us,
+            "max_us": s.max_us,
+            "residual_us": round(self.residual_us, 4),
+            "points": [{"value": p.value, "pulse_us": p.pulse_us} for p in self.points],
+        }
+
+
+def fit_actuator(
+    name: str,
+    unit: str,
+    template: ServoCalibration,
+    points: Sequence[CalibrationPoint],
+) -> ActuatorFit:
+    """Fit zero, direction and µs per unit to two or more reference points.
+
+    Args:
+        name: The actuator's name.
+        unit: ``deg`` or ``cm``.
+        template: The actuator's present calibration: its channel and pulse range are kept.
+        points: At least two references at different values.
+
+    Raises:
+        ServoCalibrationError: fewer than two distinct values, equal pulses at different
+            values (the servo did not move), or a slope outside what a calibration allows.
+    """
+    values = np.array([p.value for p in points], dtype=float)
+    pulses = np.array([p.pulse_us for p in points], dtype=float)
+    if len(points) < 2 or np.ptp(values) <= 0:
+        raise ServoCalibrationError(
+            f"{name}: a fit needs two references at different values, got "
+            f"{short_repr(values.tolist())}"
+        )
+    slope, zero = np.polyfit(values, pulses, 1)
+    if np.ptp(pulses) == 0:
+        raise ServoCalibrationError(
+            f"{name}: the same pulse ({int(pulses[0])} µs) at {values.min():g} and "
+            f"{values.max():g} {unit}: the servo did not move; check its wiring and channel"
+        )
+    data = template.model_dump()
+    data.update(zero_us=float(zero), direction=1 if slope > 0 else -1, us_per_unit=abs(slope))
+    try:
+        servo = ServoCalibration.model_validate(data)
+    except ValidationError as exc:
+        err = exc.errors()[0]
+        raise ServoCalibrationError(
+            f"{name}: the fit gives {'.'.join(map(str, err['loc']))} = "
+            f"{short_repr(err.get('input'))}: {err['msg']}; redo the references"
+        ) from None
+    residual = float(np.max(np.abs(zero + slope * values - pulses)))
+    return ActuatorFit(name, unit, servo, tuple(points), residual)
+
+
+@dataclass(frozen=True)
+class ServoCalibrationFile:
+    """A whole calibration file.
+
+    Attributes:
+        arm: The arm description's name.
+        board_id: The board, as it introduced itself (firmware, version, channels).
+        port: Where it was connected.
+        date: When the calibration was made (ISO 8601, UTC).
+        actuators: The fitted actuators, in the order calibrated.
+    """
+
+    arm: str
+    board_id: str
+    port: str
+    date: str
+    actuators: tuple[ActuatorFit, ...]
+
+    def text(self) -> str:
+        """The file's YAML text."""
+        header = {
+            "format": FORMAT,
+            "version": VERSION,
+            "kind": KIND,
+            "arm": self.arm,
+            "board_id": self.board_id,
+            "port": self.port,
+            "date": self.date,
+        }
+        body = {"actuators": {a.name: a.to_dict() for a in self.actuators}}
+        head = yaml.safe_dump(header, sort_keys=False, allow_unicode=True)
+        rest = yaml.safe_dump(body, sort_keys=False, default_flow_style=None, width=100)
+        return f"# mearm servo calibration; written by mearm calibrate-servos\n{head}{rest}"
+
+
+def load_servo_calibration(path: str | Path) -> ServoCalibrationFile:
+    """Read a servo calibration file.
+
+    Raises:
+        ServoCalibrationError: missing, not YAML, not a mearm servo calibration, another
+            version, or a bad field; the message names the file and the field.
+    """
+    where = str(path)
+    try:
+        data = load_yaml_file(path, what="servo calibration")
+    except ConfigError as exc:
+        raise ServoCalibrationError(str(exc)) from None
+    if not isinstance(data, dict) or data.get("format") != FORMAT or data.get("kind") != KIND:
+        raise ServoCalibrationError(
+            f"{where}: not a mearm servo calibration (format: {FORMAT}, kind: {KIND})"
+        )
+    if data.get("version") != VERSION:
+        raise ServoCalibrationError(
+            f"{where}: servo calibration version {short_repr(data.get('version'))}; this "
+            f"mearm reads version {VERSION}"
+        )
+    try:
+        actuators = []
+        entries = data["actuators"]
+        if not isinstance(entries, dict) or not entries:
+            raise ValueError("actuators must be a non-empty mapping of name → calibration")
+        for name, entry in entries.items():
+            fields = dict(entry)
+            unit = str(fields.pop("unit"))
+            residual = float(fields.pop("residual_us", 0.0))
+            points = tuple(
+                CalibrationPoint(float(p["value"]), int(p["pulse_us"]))
+                for p in fields.pop("points", [])
+            )
+            servo = ServoCalibration.model_validate(fields)
+            actuators.append(ActuatorFit(str(name), unit, servo, points, residual))
+        return ServoCalibrationFile(
+            arm=str(data["arm"]),
+            board_id=str(data["board_id"]),
+            port=str(data.get("port", "")),
+            date=str(data["date"]),
+            actuators=tuple(actuators),
+        )
+    except KeyError as exc:
+        raise ServoCalibrationError(f"{where}: missing field {exc.args[0]!r}") from None
+    except ValidationError as exc:
+        err = exc.errors()[0]
+        loc = ".".join(map(str, err["loc"]))
+        raise ServoCalibrationError(f"{where}: {name}.{loc}: {err['msg']}") from None
+    except (TypeError, ValueError, AttributeError) as exc:
+        raise ServoCalibrationError(f"{where}: {exc}") from None
+
+
+def check_replace(path: Path) -> None:
+    """Refuse to replace ``path`` if it exists and is not a servo calibration.
+
+    Raises:
+        ServoCalibrationError: it is a folder, or a file that is not a servo calibration.
+    """
+    if not path.exists():
+        return
+    if path.is_dir():
+        raise ServoCalibrationError(f"{path} is a folder: name a file to write")
+    try:
+        load_servo_calibration(path)
+    except ServoCalibrationError as exc:
+        raise ServoCalibrationError(
+            f"{path} exists and is not a readable servo calibration ({exc.reason}): pass "
+            "--force to replace it, or write elsewhere with --output"
+        ) from None
+
+
+def save_servo_calibration(
+    path: str | Path, cal: ServoCalibrationFile, *, force: bool = False
+) -> Path:
+    """Write ``cal`` to ``path``; an existing file only with ``force``, kept as ``.bak``.
+
+    Returns:
+        The file written.
+
+    Raises:
+        ServoCalibrationError: the file exists and ``force`` is not set (the caller asks
+            the user first), or it cannot be written.
+    """
+    target = Path(path)
+    try:
+        if target.exists():
+            if not force:
+                raise ServoCalibrationError(
+                    f"{target} exists: pass --force to replace it (the old one is kept as "
+                    f"{target.name}.bak)"
+                )
+            if target.is_file():
+                write_atomic(target.with_name(target.name + ".bak"), target.read_bytes())
+        target.parent.mkdir(parents=True, exist_ok=True)
+        return write_atomic(target, cal.text())
+    except OSError as exc:
+        raise ServoCalibrationError(f"cannot write {target}: {exc}") from None
+
+
+def actuator_paths(arm: ArmDescription) -> dict[str, str]:
+    """Each actuator's name → the dotted config key of its ``servo`` (for ``--set``)."""
+    paths = {j.name: f"arm.joints.{j.name}.servo" for j in arm.actuated_joints()}
+    paths.update({a.name: f"arm.tool.actuators.{a.name}.servo" for a in arm.tool.actuators})
+    paths[arm.tool.gripper.name] = "arm.tool.gripper.servo"
+    return paths
+
+
+def servo_overrides(arm: ArmDescription, fits: Sequence[ActuatorFit]) -> list[str]:
+    """The ``--set KEY=VALUE`` overrides that give a config these calibrations.
+
+    Raises:
+        ServoCalibrationError: an actuator the arm does not have.
+    """
+    paths = actuator_paths(arm)
+    out = []
+    for fit in fits:
+        if fit.name not in paths:
+            raise ServoCalibrationError(
+                f"the calibration names {fit.name!r}, which this arm ({arm.name}) does not "
+                f"have; its actuators: {', '.join(paths)}"
+            )
+        s = fit.servo
+        value = (
+            f"{{channel: {s.channel}, zero_us: {s.zero_us:.4f}, direction: {s.direction}, "
+            f"us_per_unit: {s.us_per_unit:.6f}, min_us: {s.min_us}, max_us: {s.max_us}}}"
+        )
+        out.append(f"{paths[fit.name]}={value}")
+    return out
+
+
+def servo_of(arm: ArmDescription, name: str) -> ServoCalibration:
+    """The present calibration of the actuator called ``name`` (the gripper's if no other)."""
+    for j in arm.actuated_joints():
+        if j.name == name and j.servo is not None:
+            return j.servo
+    for a in arm.tool.actuators:
+        if a.name == name:
+            return a.servo
+    return arm.tool.gripper.servo
+
+
+def apply_servo_calibration(
+    config: Config, fits: Sequence[ActuatorFit], source: str = "servo calibration"
+) -> Config:
+    """``config`` with these actuators' calibrations, validated by the config's checks.
+
+    Raises:
+        ServoCalibrationError: an actuator the arm does not have, or on another channel.
+        ConfigError: the calibrated config is invalid (a limit, home or tool setting whose
+            pulse leaves the servo's range); the message names the field.
+    """
+    overrides = servo_overrides(config.arm, fits)
+    for fit in fits:
+        channel = servo_of(config.arm, fit.name).channel
+        if fit.servo.channel != channel:
+            raise ServoCalibrationError(
+                f"{source}: {fit.name} was calibrated on channel {fit.servo.channel}, the "
+                f"config drives it on channel {channel}: recalibrate, or fix the channel"
+            )
+    return config_from_dict(config.model_dump(mode="json"), source=source, overrides=overrides)
+
+
+def apply_servo_calibration_file(config: Config, path: str | Path) -> Config:
+    """:func:`apply_servo_calibration` of the file at ``path``, checked against the arm.
+
+    Raises:
+        ServoCalibrationError, ConfigError: as :func:`load_servo_calibration` and
+            :func:`apply_servo_calibration`.
+    """
+    cal = load_servo_calibration(path)
+    if cal.arm != config.arm.name:
+        raise ServoCalibrationError(
+            f"{path}: calibrates arm {cal.arm!r}, the config describes {config.arm.name!r}"
+        )
+    return apply_servo_calibration(config, cal.actuators, source=str(path))
+
+
+def fits_by_name(cal: ServoCalibrationFile) -> Mapping[str, ActuatorFit]:
+    """The file's actuators by name."""
+    return {a.name: a for a in cal.actuators}

@@ -1,0 +1,288 @@
+"""``mearm jog`` driven with real keystrokes through a pseudo-terminal.
+
+The test types keys and reads the readout; on the boards (the fake Uno and the real
+firmware in simavr, the ``board`` fixture of ``test_maker_calibrate``) it also reads the
+pulses the board outputs and turns them back into joints and a TCP position with the
+config's calibration and the arm model: the pose the arm really reached.
+"""
+
+from __future__ import annotations
+
+import re
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+import numpy as np
+import pytest
+from test_maker_calibrate import (  # noqa: F401  (virtual_uno_build: a fixture)
+    BOARD_TRUTH,
+    BOARDS,
+    ROOT,
+    BoardUnderTest,
+    PtyCommand,
+    make_board,
+    operate,
+    serial_args,
+    virtual_uno_build,
+)
+
+from mearm.config import load_config
+from mearm.hardware import ServoMap
+from mearm.kinematics import ArmModel
+from mearm.maker.jog import CARTESIAN_STEPS_CM, JOINT_STEPS
+
+SIM = ROOT / "configs" / "sim.yaml"
+
+
+@pytest.fixture(params=BOARDS)
+def board(request: pytest.FixtureRequest) -> Iterator[BoardUnderTest]:
+    """The fake Uno, or the real firmware in simavr (see ``test_maker_calibrate``)."""
+    yield from make_board(request)
+
+
+CONFIG = load_config(SIM)
+MODEL = ArmModel(CONFIG.arm)
+SMAP = ServoMap.from_config(CONFIG)
+#: Cartesian steps land within the IK tolerance of their target: |e|² < tolerance_cm2.
+IK_TOL_CM = float(np.sqrt(CONFIG.controller.tolerance_cm2))
+#: Default step index 2: 2° per joint step, 1 cm per TCP step.
+JOINT_STEP = JOINT_STEPS[2]
+TCP_STEP = CARTESIAN_STEPS_CM[2]
+
+
+READOUT = re.compile(
+    r"((?:[* ] \w+ +-?[\d.]+ deg.*\n)+)  TCP x (-?[\d.]+)  y (-?[\d.]+)  z (-?[\d.]+) cm"
+)
+
+
+def _parse(m: re.Match[str]) -> tuple[dict[str, float], np.ndarray]:
+    joints = {
+        j.group(1): float(j.group(2))
+        for j in re.finditer(r"[* ] (\w+) +(-?[\d.]+) deg", m.group(1))
+    }
+    return joints, np.array([float(m.group(k)) for k in (2, 3, 4)])
+
+
+def readout(cmd: PtyCommand) -> tuple[dict[str, float], np.ndarray]:
+    """Wait for the next full readout; its joints [deg] and TCP [cm]."""
+    return _parse(cmd.expect(READOUT.pattern))
+
+
+def last_readout(cmd: PtyCommand) -> tuple[dict[str, float], np.ndarray]:
+    """The last complete readout on the screen so far (no waiting)."""
+    found = list(READOUT.finditer(cmd.text))
+    assert found, cmd.text[-2000:]
+    return _parse(found[-1])
+
+
+def fk_of(joints: dict[str, float]) -> np.ndarray:
+    actuated = {n: joints[n] for n in MODEL.chain.actuated}
+    return MODEL.fk_cm(MODEL.chain.from_named(actuated))
+
+
+def jog_session(cmd: PtyCommand) -> tuple[dict[str, float], np.ndarray, np.ndarray]:
+    """Home; shoulder +3 steps, elbow -2 steps; then TCP +2 x and +1 z.
+
+    Returns the joints after the joint moves, the TCP then, and the final readout's TCP.
+    """
+    home, tcp_home = readout(cmd)
+    assert home == pytest.approx(
+        {**CONFIG.arm.home(), "wrist": -CONFIG.arm.home()["shoulder"] - CONFIG.arm.home()["elbow"]}
+    )
+    cmd.send("2+++")
+    cmd.send("3--")
+    for _ in range(7):
+        joints, tcp = readout(cmd)
+    expected = dict(CONFIG.arm.home())
+    expected["shoulder"] += 3 * JOINT_STEP
+    expected["elbow"] -= 2 * JOINT_STEP
+    for name, value in expected.items():
+        assert joints[name] == pytest.approx(value, abs=1e-3)
+    assert tcp == pytest.approx(fk_of(joints), abs=2e-3)
+    cmd.send("XXZ")
+    for _ in range(3):
+        final_joints, final_tcp = readout(cmd)
+    assert final_tcp == pytest.approx(fk_of(final_joints), abs=2e-3)
+    return joints, tcp, final_tcp
+
+
+@pytest.mark.slow
+def test_jog_on_the_sim_reaches_the_poses_keyed(tmp_path):
+    """Joint steps land exactly; TCP steps land within the IK tolerance of their targets
+    (aimed from the previous target, so errors do not add up); q parks at home."""
+    cmd = PtyCommand("jog", "--config", str(SIM))
+    try:
+        _, tcp, final_tcp = jog_session(cmd)
+        goal = tcp + np.array([2 * TCP_STEP, 0.0, TCP_STEP])
+        assert np.linalg.norm(final_tcp - goal) <= IK_TOL_CM + 2e-3
+        cmd.send("q")
+        cmd.expect("going home")
+        assert cmd.wait() == 0, cmd.text[-2000:]
+    finally:
+        cmd.close()
+    assert "done" in cmd.text
+
+
+def board_pose(board) -> tuple[dict[str, float], np.ndarray]:
+    """The joints the board's pulses give through the config's calibration, and their FK."""
+    joints = {a.name: a.value_of(board.pulse_us(a.channel)) for a in SMAP.joints}
+    return joints, MODEL.fk_cm(MODEL.chain.from_named(joints))
+
+
+def settled_pulses(board: BoardUnderTest) -> list[float]:
+    """Every joint's pulse after 0.3 s without keys [µs] (a move in flight has landed)."""
+    time.sleep(0.3)
+    return [board.pulse_us(a.channel) for a in SMAP.joints]
+
+
+def wait_board_joints(board, expected: dict[str, float]) -> None:
+    for a in SMAP.joints:
+        board.wait_pulse(a.channel, a.command_us(expected[a.name]))
+
+
+@pytest.mark.slow
+def test_jog_on_a_board_reaches_the_poses_and_parks(board):
+    """The pulses the board outputs are the readout's joints (to 1 µs plus the board's
+    accuracy); the TCP they give is the keyed target within the IK tolerance plus what
+    whole-µs pulses allow; q brings the board's pulses back to home."""
+    cmd = PtyCommand("jog", *serial_args(board.port))
+    try:
+        joints, tcp, final_tcp = jog_session(cmd)
+        final_joints, _ = last_readout(cmd)
+        assert fk_of(final_joints) == pytest.approx(final_tcp, abs=2e-3)
+        wait_board_joints(board, final_joints)
+        for a in SMAP.joints:
+            assert board.pulse_us(a.channel) == pytest.approx(
+                a.pulse_us(final_joints[a.name]), abs=0.5 + board.accuracy_us
+            )
+        _, reached = board_pose(board)
+        goal = tcp + np.array([2 * TCP_STEP, 0.0, TCP_STEP])
+        # 1.5 µs at 10 µs/deg is 0.15° per joint: under 0.15 cm at this arm's reach
+        assert np.linalg.norm(reached - goal) <= IK_TOL_CM + 0.15
+        cmd.send("q")
+        assert cmd.wait() == 0, cmd.text[-2000:]
+    finally:
+        cmd.close()
+    home = CONFIG.arm.home()
+    for a in SMAP.joints:
+        got = board.wait_pulse(a.channel, a.command_us(home[a.name]))
+        assert got == pytest.approx(a.command_us(home[a.name]), abs=board.accuracy_us)
+
+
+@pytest.mark.slow
+def test_a_move_past_a_limit_is_refused_and_sends_nothing(board):
+    """Shoulder at 93° in 10° steps: 133° goes, 143° is refused with its limits named, and
+    no frame reaches the board; a TCP step out of the target box is refused the same way."""
+    cmd = PtyCommand("jog", *serial_args(board.port))
+    try:
+        readout(cmd)
+        cmd.send("2]]" + "+" * 4)
+        for _ in range(7):
+            joints, _ = readout(cmd)
+        assert joints["shoulder"] == pytest.approx(133.0, abs=1e-3)
+        held, moves = settled_pulses(board), board.move_count()
+        cmd.send("+")
+        cmd.expect(
+            r"refused: shoulder would be at 143 deg, outside its limits \[30, 135\] deg; "
+            r"nothing sent"
+        )
+        assert settled_pulses(board) == pytest.approx(held, abs=board.accuracy_us)
+        assert board.move_count() == moves  # None == None on the simavr board
+        cmd.send("Z" * 6)  # 5 cm steps up: the box ends at z = 60 cm, the reach before
+        cmd.expect(r"refused: .*; nothing sent")
+        joints_after, tcp_after = last_readout(cmd)
+        assert tcp_after[2] > fk_of(joints)[2] + 4.0  # the Z steps before the refusal moved
+        held, moves = settled_pulses(board), board.move_count()
+        cmd.send("Z")
+        cmd.expect(r"refused: .*; nothing sent")
+        assert settled_pulses(board) == pytest.approx(held, abs=board.accuracy_us)
+        assert board.move_count() == moves
+        cmd.send("Q")
+        assert cmd.wait() == 0
+    finally:
+        cmd.close()
+    # Q leaves the arm where it was: the board still outputs the last readout's pose
+    for a in SMAP.joints:
+        assert board.pulse_us(a.channel) == pytest.approx(
+            a.pulse_us(joints_after[a.name]), abs=0.5 + board.accuracy_us
+        )
+
+
+@pytest.mark.slow
+def test_ctrl_c_stops_where_the_arm_is(board):
+    """Ctrl-C: exit 130, nothing more sent, the arm holds its pose."""
+    cmd = PtyCommand("jog", *serial_args(board.port))
+    try:
+        readout(cmd)
+        cmd.send("1++")
+        readout(cmd)
+        readout(cmd)
+        readout(cmd)
+        held, moves = settled_pulses(board), board.move_count()
+        cmd.send("\x03")
+        assert cmd.wait() == 130
+    finally:
+        cmd.close()
+    assert settled_pulses(board) == pytest.approx(held, abs=board.accuracy_us)
+    assert board.move_count() == moves  # None == None on the simavr board
+    base = SMAP["base"]
+    assert board.pulse_us(base.channel) == pytest.approx(
+        base.pulse_us(CONFIG.arm.home()["base"] + 2 * JOINT_STEP), abs=0.5 + board.accuracy_us
+    )
+    assert "interrupted" in cmd.text
+
+
+@pytest.mark.slow
+def test_calibrate_then_jog_puts_the_true_servo_at_the_angle(board, tmp_path):
+    """Calibrate base on the board's true servo, then jog with that file: at home the
+    board's pulse puts the true servo at the home angle (within the fit's error)."""
+    out = tmp_path / "servos.yaml"
+    cmd = PtyCommand(
+        "calibrate-servos", "--output", str(out), "--actuators", "base", *serial_args(board.port)
+    )
+    try:
+        operate(cmd, BOARD_TRUTH, 1)
+        assert cmd.wait() == 0, cmd.text[-2000:]
+    finally:
+        cmd.close()
+    cmd = PtyCommand("jog", *serial_args(board.port), "--servo-calibration", str(out))
+    try:
+        readout(cmd)
+        time.sleep(0.3)
+        base = SMAP["base"]
+        pulse = board.pulse_us(base.channel)
+        cmd.send("Q")
+        assert cmd.wait() == 0
+    finally:
+        cmd.close()
+    home = CONFIG.arm.home()["base"]
+    # the config alone would put it 4.6° off (640 vs 600 µs zero, 10.4 vs 10 µs/deg)
+    assert abs(BOARD_TRUTH["base"].value_of(SMAP["base"].pulse_us(home)) - home) > 3.0
+    assert BOARD_TRUTH["base"].value_of(pulse) == pytest.approx(home, abs=0.2)
+
+
+def test_jog_without_a_terminal_is_exit_2(tmp_path: Path):
+    """No terminal: exit 2 with one line."""
+    import subprocess
+    import sys
+
+    result = subprocess.run(
+        [sys.executable, "-m", "mearm.maker.jog", "--config", str(SIM)],
+        stdin=subprocess.DEVNULL, capture_output=True, text=True, timeout=60, cwd=ROOT,
+    )  # fmt: skip
+    assert result.returncode == 2
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and "needs a terminal" in lines[0], result.stderr
+
+
+def test_jog_with_a_bad_calibration_file_is_exit_2(tmp_path: Path):
+    """--servo-calibration naming something else: exit 2 naming the file."""
+    bad = tmp_path / "x.yaml"
+    bad.write_text("a: 1\n")
+    cmd = PtyCommand("jog", "--config", str(SIM), "--servo-calibration", str(bad))
+    try:
+        assert cmd.wait() == 2
+    finally:
+        cmd.close()
+    assert "not a mearm servo calibration" in cmd.text
