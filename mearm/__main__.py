@@ -71,6 +71,10 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
         "fit each servo's zero, µs per degree and direction with the keyboard",
     ),
     "jog": ("mearm.maker.jog", "move the arm with the keyboard, joint by joint or in x/y/z"),
+    "virtual-uno-pulses": (
+        "mearm.tools.virtual_uno_pulses",
+        "measure how closely the virtual Uno's pins follow the commands",
+    ),
 }
 
 

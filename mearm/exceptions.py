@@ -700,3 +700,10 @@ class UnsolicitedBytesError(ServoError):
 
 
 __all__ += ["MoveNotConfirmedError", "SerialPortError", "UnsolicitedBytesError"]
+
+
+class ServoCalibrationError(CalibrationError):
+    """A servo calibration cannot be fitted, read, written or applied (names what and why)."""
+
+
+__all__ += ["ServoCalibrationError"]

@@ -34,13 +34,13 @@ from conftest import require_tool
 from fakeboard import FakeMearmBoard, SimavrBoard
 
 from mearm.config import load_config
-from mearm.hardware import ServoMap
-from mearm.maker.calibrate_servos import STEPS_US, reference_values
-from mearm.maker.servo_calibration import (
+from mearm.config.servo_file import (
     apply_servo_calibration_file,
     load_servo_calibration,
     servo_overrides,
 )
+from mearm.hardware import ServoMap
+from mearm.maker.calibrate_servos import STEPS_US, reference_values
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -259,10 +259,19 @@ def test_calibrate_on_the_sim_fits_the_simulated_servos(tmp_path):
     assert lines == servo_overrides(config.arm, cal.actuators)
     via_set = load_config(ROOT / "configs" / "sim.yaml", lines)
     via_file = apply_servo_calibration_file(config, out)
+    # a config that names the file (relative to its folder) loads with the calibration
+    including = out.parent / "mine.yaml"
+    text = (ROOT / "configs" / "sim.yaml").read_text()
+    including.write_text(
+        re.sub(r"(?m)^servo:\n", f"servo:\n  calibration_file: {out.name}\n", text, count=1)
+    )
+    via_config = load_config(including)
+    names = [j.name for j in config.arm.joints]
     for a in cal.actuators:
-        assert via_set.arm.joints[[j.name for j in config.arm.joints].index(a.name)].servo == (
-            via_file.arm.joints[[j.name for j in config.arm.joints].index(a.name)].servo
-        )
+        i = names.index(a.name)
+        assert via_set.arm.joints[i].servo == via_file.arm.joints[i].servo
+        assert via_config.arm.joints[i].servo == via_file.arm.joints[i].servo
+        assert via_config.arm.joints[i].servo != config.arm.joints[i].servo
 
 
 # --------------------------------------------------------------------------- fake Uno
@@ -588,8 +597,8 @@ def _servo(channel: int = 1):
 def test_fit_recovers_a_line_and_refuses_what_is_no_line():
     """Two points give zero, slope and direction exactly; one value twice, or one pulse
     at two values, is refused with the reason."""
-    from mearm.maker.servo_calibration import CalibrationPoint as P
-    from mearm.maker.servo_calibration import ServoCalibrationError, fit_actuator
+    from mearm.config.servo_file import CalibrationPoint as P
+    from mearm.config.servo_file import ServoCalibrationError, fit_actuator
 
     fit = fit_actuator("shoulder", "deg", _servo(), [P(50.0, 1900), P(115.0, 1250)])
     assert (fit.servo.zero_us, fit.servo.direction) == (pytest.approx(2400.0), -1)
@@ -604,13 +613,13 @@ def test_apply_refuses_another_channel_and_limits_outside_the_pulse_range():
     """A fit on another channel, or one that maps a limit outside [min_us, max_us], is
     refused naming the actuator and the field."""
     from mearm.config import Config
-    from mearm.exceptions import ConfigError
-    from mearm.maker.servo_calibration import CalibrationPoint as P
-    from mearm.maker.servo_calibration import (
+    from mearm.config.servo_file import CalibrationPoint as P
+    from mearm.config.servo_file import (
         ServoCalibrationError,
         apply_servo_calibration,
         fit_actuator,
     )
+    from mearm.exceptions import ConfigError
 
     config = Config()
     wrong = fit_actuator("shoulder", "deg", _servo(channel=3), [P(50, 1100), P(115, 1750)])
@@ -623,8 +632,8 @@ def test_apply_refuses_another_channel_and_limits_outside_the_pulse_range():
 
 def test_save_refuses_to_replace_without_force_and_keeps_a_backup(tmp_path):
     """An existing file stays without force; with force the old one becomes .bak."""
-    from mearm.maker.servo_calibration import CalibrationPoint as P
-    from mearm.maker.servo_calibration import (
+    from mearm.config.servo_file import CalibrationPoint as P
+    from mearm.config.servo_file import (
         ServoCalibrationError,
         ServoCalibrationFile,
         fit_actuator,
@@ -648,7 +657,7 @@ def test_save_refuses_to_replace_without_force_and_keeps_a_backup(tmp_path):
 
 def test_load_names_a_missing_field(tmp_path):
     """A file without its board id is refused naming the field."""
-    from mearm.maker.servo_calibration import ServoCalibrationError
+    from mearm.config.servo_file import ServoCalibrationError
 
     path = tmp_path / "s.yaml"
     path.write_text(
@@ -657,3 +666,14 @@ def test_load_names_a_missing_field(tmp_path):
     )
     with pytest.raises(ServoCalibrationError, match="missing field 'board_id'"):
         load_servo_calibration(path)
+
+
+def test_a_config_naming_a_missing_servo_calibration_file_is_refused(tmp_path):
+    """``servo.calibration_file`` must name a file (relative to the config's folder)."""
+    text = (ROOT / "configs" / "sim.yaml").read_text()
+    config = tmp_path / "mine.yaml"
+    config.write_text(re.sub(r"(?m)^servo:\n", "servo:\n  calibration_file: gone.yaml\n", text))
+    from mearm.exceptions import ConfigError
+
+    with pytest.raises(ConfigError, match=r"servo\.calibration_file: 'gone.yaml' is not a file"):
+        load_config(config)

@@ -10,8 +10,7 @@ libelf-dev; skipped without them, but failed when MEARM_REQUIRE_TOOLS=1 (CI).
 from __future__ import annotations
 
 import os
-import random
-import statistics
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -24,7 +23,6 @@ from mearm.config import config_from_dict
 from mearm.config.rig import VirtualUnoConfig
 from mearm.exceptions import ConfigError, MoveNotConfirmedError, ServoFaultedError
 from mearm.hardware import ArmCommand, ArmState, open_bus
-from mearm.hardware.mearm_protocol import encode_command
 from mearm.sim import World
 from mearm.sim.virtual_uno import (
     VirtualUno,
@@ -80,8 +78,15 @@ def test_swapped_channels_stop_the_sort_with_the_mismatch(cache_home):
     r = _sort(cache_home, "--quiet", "--set", f"servo.virtual_uno.defines={SWAPPED}")
     assert r.returncode == 1, r.stdout + r.stderr
     # home: shoulder 93° → 1530 µs, elbow -132° → 1080 µs; swapped, each reads the other's
-    assert "joint shoulder: the board's pulses say 48.0°, the command was 93.0°" in r.stderr
-    assert "joint elbow: the board's pulses say -87.0°, the command was -132.0°" in r.stderr
+    # (a pulse may end up to a few µs late when another interrupt runs: 48.0° ± 0.5°)
+    said = re.search(
+        r"joint shoulder: the board's pulses say ([-\d.]+)°, the command was 93\.0°", r.stderr
+    )
+    assert said is not None and abs(float(said[1]) - 48.0) <= 0.5, r.stderr
+    said = re.search(
+        r"joint elbow: the board's pulses say ([-\d.]+)°, the command was -132\.0°", r.stderr
+    )
+    assert said is not None and abs(float(said[1]) + 87.0) <= 0.5, r.stderr
     assert "joint base" not in r.stderr  # channel 0 is where it should be
     assert "last acknowledged pose: none" in r.stderr
     assert "nothing more sent to the servos" in r.stderr
@@ -127,36 +132,15 @@ def test_bad_firmware_define_is_refused(define):
 def test_pulses_agree_with_the_commands(cache_home):
     """Over 150 random commands on every channel (500–2500 µs), the first frame after each
     OK: median |error| ≤ 0.5 µs, 99 % within the firmware's 1 µs, every pulse within the
-    tolerance the virtual Uno checks moves against."""
-    build = build_virtual_uno(cache_dir=cache_home / "mearm" / "virtual_uno")
-    rng = random.Random(0)
-    errors: list[float] = []
-    with (
-        VirtualUno(build, speed=0) as board,
-        serial.Serial(board.port, 115200, timeout=2.0) as link,
-    ):
-        while b"READY" not in link.readline():
-            pass
-        for seq in range(150):
-            pulses = [rng.randint(500, 2500) for _ in range(5)]
-            link.write(encode_command(seq, "M", pulses))
-            reply = link.readline()
-            while reply.startswith(b"!"):  # a watchdog notice on a loaded machine
-                reply = link.readline()
-            assert reply.startswith(b"OK"), reply
-            sent_at = board.reply_time_us()
-            assert sent_at is not None
-            frame = board.frame_after(sent_at, range(5))
-            assert frame is not None and sorted(frame.widths_us) == [0, 1, 2, 3, 4]
-            errors += [abs(frame.widths_us[ch] - us) for ch, us in enumerate(pulses)]
-    within_1us = sum(e <= 1.0 for e in errors) / len(errors)
-    print(
-        f"pulse error over {len(errors)} pulses: max {max(errors):.1f} µs, "
-        f"mean {statistics.mean(errors):.2f} µs, {100 * within_1us:.1f} % within 1 µs"
-    )
-    assert statistics.median(errors) <= 0.5
-    assert within_1us >= 0.99
-    assert max(errors) <= VirtualUnoConfig().pulse_tolerance_us
+    tolerance the virtual Uno checks moves against (``mearm virtual-uno-pulses``)."""
+    from mearm.tools.virtual_uno_pulses import pulse_errors, summary
+
+    s = summary(pulse_errors(150, cache_dir=cache_home / "mearm" / "virtual_uno"))
+    print(s)
+    assert s["pulses"] == 750
+    assert s["median_us"] <= 0.5
+    assert s["within_1us"] >= 0.99
+    assert s["max_us"] <= VirtualUnoConfig().pulse_tolerance_us
 
 
 def test_opening_the_port_resets_the_board(cache_home, monkeypatch):

@@ -203,25 +203,44 @@ def load_config(path: str | Path | None = None, overrides: Sequence[str] = ()) -
 
 
 def _resolve_files(config: Config, folder: Path, source: str) -> Config:
-    """``config`` with its calibration files' relative paths made relative to ``folder``.
+    """``config`` with its calibration files found and its servo calibration applied.
+
+    Relative paths are relative to ``folder``; the servo calibration file
+    (``servo.calibration_file``) replaces the calibrations of the actuators it names.
 
     Raises:
-        ConfigError: a calibration file named by a perspective calibration does not exist.
+        ConfigError: a calibration file the config names does not exist.
+        ServoCalibrationError: the servo calibration file is not one, or not this arm's.
     """
+    servo_file = config.servo.calibration_file
+    if servo_file is not None:
+        from mearm.config.servo_file import apply_servo_calibration_file
+
+        resolved = _existing(folder, servo_file, "servo.calibration_file", source)
+        servo = config.servo.model_copy(update={"calibration_file": str(resolved)})
+        config = apply_servo_calibration_file(config.model_copy(update={"servo": servo}), resolved)
     cal = config.calibration
     if cal.model != "perspective":
         return config
     changes: dict[str, str] = {}
     for name in ("intrinsics_file", "extrinsics_file"):
-        text = getattr(cal, name)
-        resolved = folder / text if not Path(text).is_absolute() else Path(text)
-        if not resolved.is_file():
-            raise ConfigError(
-                source,
-                [
-                    f"calibration.{name}: {text!r} is not a file (looked for {resolved}); "
-                    "relative paths are relative to the config file's folder"
-                ],
-            )
-        changes[name] = str(resolved)
+        changes[name] = str(_existing(folder, getattr(cal, name), f"calibration.{name}", source))
     return config.model_copy(update={"calibration": cal.model_copy(update=changes)})
+
+
+def _existing(folder: Path, text: str, key: str, source: str) -> Path:
+    """The file ``text`` names, relative to ``folder`` unless absolute.
+
+    Raises:
+        ConfigError: it is not a file.
+    """
+    resolved = folder / text if not Path(text).is_absolute() else Path(text)
+    if not resolved.is_file():
+        raise ConfigError(
+            source,
+            [
+                f"{key}: {text!r} is not a file (looked for {resolved}); relative paths are "
+                "relative to the config file's folder"
+            ],
+        )
+    return resolved

@@ -305,6 +305,10 @@ class ServoConfig(Strict):
     port: PathText = "/dev/ttyACM0"
     """Serial device, or a pyserial URL of an allowed scheme: ``socket://host:port``,
     ``rfc2217://host:port`` or ``loop://`` (no other: ``spy://`` writes files)."""
+    calibration_file: PathText | None = None
+    """A servo calibration file written by ``mearm calibrate-servos`` (relative to the
+    config file's folder): its fitted zero, µs per unit and direction replace those of
+    the arm's actuators it names, when the config loads. ``None``: the config's own."""
     baud: int = Field(default=115200, ge=BAUD[0], le=BAUD[1])
     rate_hz: float = Field(default=50.0, ge=RATE_HZ[0], le=RATE_HZ[1], allow_inf_nan=False)
     """Commands per second at most (the servo frame rate); lower if the baud rate demands."""

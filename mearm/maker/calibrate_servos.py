@@ -7,7 +7,7 @@ For each actuator (the actuated joints, the tool actuators, then the gripper) th
 shows two reference values chosen from its limits (a fifth of the range in from each
 end, on a 5° or 0.5 cm grid). Jog the actuator with the keys until it is at the shown
 value — by eye, a protractor or a ruler — and press Enter; after the second the zero,
-µs per unit and direction are fitted (:mod:`mearm.maker.servo_calibration`) and checked
+µs per unit and direction are fitted (:mod:`mearm.config.servo_file`) and checked
 with the config's own checks: the limits, home and tool settings must map into the
 servo's pulse range, else the actuator is done again.
 
@@ -27,8 +27,8 @@ was calibrated. An existing file is replaced only after a y/N question (or with
 ``<name>.bak``. Ctrl-C writes nothing and leaves the arm where it is (exit 130); ``q``
 writes nothing (exit 1). Needs a terminal: without one, exit 2 before anything opens.
 
-Configs cannot include the file yet; the command prints the ``--set`` overrides that
-apply it, and ``mearm jog --servo-calibration FILE`` uses it.
+A config uses the file through ``servo.calibration_file`` (relative to the config's
+folder); the command prints that line, and the equivalent ``--set`` overrides.
 """
 
 from __future__ import annotations
@@ -48,10 +48,7 @@ from mearm.cli import (
     run,
 )
 from mearm.config import Config
-from mearm.exceptions import ConfigError, MearmError, ServoError
-from mearm.hardware import ActuatorMap, ArmCommand, ServoBus, ServoMap, open_bus
-from mearm.maker.keys import KeyReader, require_terminal
-from mearm.maker.servo_calibration import (
+from mearm.config.servo_file import (
     ActuatorFit,
     CalibrationPoint,
     ServoCalibrationError,
@@ -64,6 +61,9 @@ from mearm.maker.servo_calibration import (
     servo_of,
     servo_overrides,
 )
+from mearm.exceptions import ConfigError, MearmError, ServoError
+from mearm.hardware import ActuatorMap, ArmCommand, ServoBus, ServoMap, open_bus
+from mearm.maker.keys import KeyReader, require_terminal
 
 #: The step sizes the keys choose from [µs].
 STEPS_US = (1, 5, 20)
@@ -434,8 +434,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     written = save_servo_calibration(output, cal, force=force)
     print(f"wrote {written} ({len(fits)} actuator{'s' if len(fits) != 1 else ''})")
     print(
-        "configs cannot include a servo calibration file yet: use it with "
-        f"mearm jog --servo-calibration {written}, or add these overrides to a command:"
+        f"to use it, add to the config's servo section:  calibration_file: {written}\n"
+        "(relative to the config's folder), or add these overrides to a command:"
     )
     for line in servo_overrides(config.arm, fits):
         print(f"  --set '{line}'")

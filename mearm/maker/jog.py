@@ -44,13 +44,13 @@ from mearm.cli import (
     run,
 )
 from mearm.config import Config
+from mearm.config.servo_file import apply_servo_calibration_file
 from mearm.exceptions import MearmError, ServoError
 from mearm.hardware import ArmCommand, ServoBus
 from mearm.ik import IKTarget
 from mearm.kinematics import ArmModel
 from mearm.maker.calibrate_servos import hold_arm, open_arm_bus
 from mearm.maker.keys import KeyReader, require_terminal
-from mearm.maker.servo_calibration import apply_servo_calibration_file
 from mearm.task import Executor, Planner, Route
 from mearm.task.execute import Phase
 

@@ -522,10 +522,7 @@ class ColorDetector:
         on_top = cal.pixel_to_plane(pixels, h)
         dist = np.linalg.norm(on_top[:, None, :] - centres[None, :, :], axis=2)
         covers = np.stack(
-            [
-                cal.silhouette_coverage(c, r, h, origin, region.shape)[ys, xs] > 0.5
-                for c in centres
-            ],
+            [cal.silhouette_coverage(c, r, h, origin, region.shape)[ys, xs] > 0.5 for c in centres],
             axis=1,
         )
         owner = np.argmin(np.where(covers, dist, dist + 1e6), axis=1)

@@ -48,17 +48,13 @@ from pydantic import ValidationError
 from mearm.config import ArmDescription, Config, ServoCalibration
 from mearm.config.base import short_repr
 from mearm.config.loader import config_from_dict
-from mearm.exceptions import CalibrationError, ConfigError
+from mearm.exceptions import ConfigError, ServoCalibrationError
 from mearm.fileio import write_atomic
 from mearm.yamlio import load_yaml_file
 
 FORMAT = "mearm-servo-calibration"
 VERSION = 1
 KIND = "servos"
-
-
-class ServoCalibrationError(CalibrationError):
-    """A servo calibration cannot be fitted, read, written or applied (names what and why)."""
 
 
 def now_iso() -> str:
