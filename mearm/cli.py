@@ -137,7 +137,8 @@ def add_config_argument(parser: ArgumentContainer) -> None:
         "--config",
         type=Path,
         default=None,
-        help="YAML config (default: the built-in simulated rig, as configs/sim.yaml)",
+        help="YAML config file, or the name of one shipped with mearm (sim, lab, virtual_uno, "
+        "...: mearm --help lists them; default: the built-in simulated rig, as sim)",
     )
     parser.add_argument(
         "--set",
