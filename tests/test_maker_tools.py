@@ -29,6 +29,7 @@ from fakeboard import FakeMearmBoard, MearmFaults, SimavrBoard
 
 from mearm.config import load_config
 from mearm.exceptions import MearmError
+from mearm.hardware import toolchain
 from mearm.maker import find_port, flash, init_config
 
 BOARDS_TXT = Path("/usr/share/arduino/hardware/arduino/avr/boards.txt")
@@ -287,7 +288,7 @@ def built_firmware(tmp_path_factory) -> Path:
     """The firmware built from the checkout, as flash builds it; the build folder."""
     require_tool("make")
     require_tool("avr-gcc")
-    if not (flash.ARDUINO_CORE_DIR / "cores/arduino/Arduino.h").is_file():
+    if not (toolchain.ARDUINO_CORE_DIR / "cores/arduino/Arduino.h").is_file():
         if os.environ.get("MEARM_REQUIRE_TOOLS") == "1":
             pytest.fail("arduino-core-avr is not installed, and MEARM_REQUIRE_TOOLS=1")
         pytest.skip("arduino-core-avr is not installed")

@@ -21,9 +21,7 @@ the firmware source may be read-only (an installed package).
 
 from __future__ import annotations
 
-import os
 import shlex
-import shutil
 import subprocess
 import sys
 from collections.abc import Sequence
@@ -40,11 +38,16 @@ from mearm.cli import (
 )
 from mearm.data import firmware_source_dir
 from mearm.exceptions import MearmError
+from mearm.hardware import toolchain
+from mearm.hardware.toolchain import (
+    FIRMWARE_BUILD,
+    UPLOAD,
+    cache_dir,
+    describe_missing,
+)
 
 #: The sketch's name: ``<source>/mearm_servo/mearm_servo.ino`` → ``<build>/mearm_servo.hex``.
 SKETCH = "mearm_servo"
-#: The Arduino core the Makefile builds against (its ``ARDUINO_DIR``).
-ARDUINO_CORE_DIR = Path("/usr/share/arduino/hardware/arduino/avr")
 #: The Uno's upload settings (boards.txt: ``uno.build.mcu``, ``uno.upload.protocol``,
 #: ``uno.upload.speed``).
 MCU = "atmega328p"
@@ -59,55 +62,7 @@ UPLOAD_TIMEOUT_S = 120.0
 
 def default_build_dir() -> Path:
     """``$XDG_CACHE_HOME/mearm/firmware``, else ``~/.cache/mearm/firmware``."""
-    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
-    return Path(base) / "mearm" / "firmware"
-
-
-@dataclass(frozen=True)
-class Requirement:
-    """A tool or file the build or the upload needs.
-
-    Attributes:
-        what: The program name, or a file's description.
-        package: The Debian package that provides it.
-        path: A file that must exist; ``None``: ``what`` is a program looked up on PATH.
-        for_upload: Needed for the upload only (the build runs without it).
-    """
-
-    what: str
-    package: str
-    path: Path | None = None
-    for_upload: bool = False
-
-    def present(self) -> bool:
-        """Whether it is installed."""
-        if self.path is not None:
-            return self.path.is_file()
-        return shutil.which(self.what) is not None
-
-
-REQUIREMENTS: tuple[Requirement, ...] = (
-    Requirement("make", "make"),
-    Requirement("avr-gcc", "gcc-avr"),
-    Requirement("avr-objcopy", "binutils-avr"),
-    Requirement("avr-libc", "avr-libc", Path("/usr/lib/avr/include/avr/io.h")),
-    Requirement(
-        "the Arduino core", "arduino-core-avr", ARDUINO_CORE_DIR / "cores/arduino/Arduino.h"
-    ),
-    Requirement("avrdude", "avrdude", for_upload=True),
-)
-
-
-def missing_requirements(upload: bool = True) -> list[Requirement]:
-    """The requirements not installed (those of the upload only when ``upload``)."""
-    return [r for r in REQUIREMENTS if (upload or not r.for_upload) and not r.present()]
-
-
-def describe_missing(missing: Sequence[Requirement]) -> str:
-    """One line naming what is missing and the ``apt-get`` command that installs it."""
-    names = ", ".join(f"{r.what} ({r.package})" for r in missing)
-    packages = " ".join(dict.fromkeys(r.package for r in missing))
-    return f"not installed: {names}; install with: sudo apt-get install {packages}"
+    return cache_dir("firmware")
 
 
 @dataclass(frozen=True)
@@ -217,7 +172,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     source = firmware_source_dir()
     build_dir = args.build_dir if args.build_dir is not None else default_build_dir()
     plan = plan_flash(source, build_dir, port, args.upload_baud)
-    missing = missing_requirements()
+    missing = toolchain.missing((*FIRMWARE_BUILD, *UPLOAD))
 
     if args.dry_run:
         print(shlex.join(plan.build))

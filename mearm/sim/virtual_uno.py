@@ -55,9 +55,17 @@ from mearm.config import Config
 from mearm.config.rig import DEFINE_PATTERN
 from mearm.data import FIRMWARE_FILES, firmware_source_dir
 from mearm.exceptions import MearmError, MoveNotConfirmedError, ServoError
+from mearm.hardware import toolchain
 from mearm.hardware.arduino import ArduinoBus
 from mearm.hardware.bus import ArmCommand, RateLimiter
 from mearm.hardware.mapping import ActuatorMap
+from mearm.hardware.toolchain import (
+    FIRMWARE_BUILD,
+    SIMULATOR,
+    Requirement,
+    cache_dir,
+    describe_missing,
+)
 from mearm.kinematics import ArmModel
 from mearm.sim.servo_bus import GripResult, ReleaseResult, SimArm
 from mearm.sim.world import World
@@ -85,7 +93,6 @@ MAX_LINES = 1000
 #: dead simulator is not waited for longer).
 WALL_TIMEOUT_S = 10.0
 
-_ARDUINO_CORE = Path("/usr/share/arduino/hardware/arduino/avr/cores/arduino/Arduino.h")
 _TIOCPKT = getattr(termios, "TIOCPKT", 0x5420)
 _TIOCPKT_FLUSHREAD = 0x01
 
@@ -106,47 +113,14 @@ class VirtualUnoError(MearmError):
 # --------------------------------------------------------------------------- building
 
 
-@dataclass(frozen=True)
-class Requirement:
-    """A tool or header the build needs, and the Debian package that provides it.
-
-    Attributes:
-        what: The program (looked up on ``PATH``) or what the file is.
-        package: The Debian package.
-        path: The file that shows it is installed (``None``: ``what`` is a program).
-    """
-
-    what: str
-    package: str
-    path: Path | None = None
-
-    def present(self) -> bool:
-        """Whether it is installed."""
-        if self.path is not None:
-            return self.path.is_file()
-        return shutil.which(self.what) is not None
-
-
-REQUIREMENTS: tuple[Requirement, ...] = (
-    Requirement("make", "make"),
-    Requirement("avr-gcc", "gcc-avr"),
-    Requirement("avr-libc", "avr-libc", Path("/usr/lib/avr/include/avr/io.h")),
-    Requirement("the Arduino core", "arduino-core-avr", _ARDUINO_CORE),
-    Requirement("cc", "gcc"),
-    Requirement("libsimavr", "libsimavr-dev", Path("/usr/include/simavr/sim_avr.h")),
-    Requirement("libelf", "libelf-dev", Path("/usr/include/libelf.h")),
-)
-
-
 def missing_requirements() -> list[Requirement]:
-    """The build's requirements that are not installed."""
-    return [r for r in REQUIREMENTS if not r.present()]
+    """What the build of the firmware and its simulator needs and is not installed."""
+    return toolchain.missing((*FIRMWARE_BUILD, *SIMULATOR))
 
 
 def cache_root() -> Path:
     """Where builds are kept: ``$XDG_CACHE_HOME/mearm/virtual_uno`` or ``~/.cache/…``."""
-    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
-    return Path(base) / "mearm" / "virtual_uno"
+    return cache_dir("virtual_uno")
 
 
 @dataclass(frozen=True)
@@ -198,12 +172,9 @@ def build_virtual_uno(
         return built
     missing = missing_requirements()
     if missing:
-        names = ", ".join(f"{r.what} ({r.package})" for r in missing)
-        packages = list(dict.fromkeys(r.package for r in missing))
         raise VirtualUnoError(
-            f"cannot build the firmware and its simulator: not installed: {names}; install "
-            f"with: sudo apt-get install {' '.join(packages)}",
-            packages,
+            f"cannot build the firmware and its simulator: {describe_missing(missing)}",
+            toolchain.packages(missing),
         )
     root.mkdir(parents=True, exist_ok=True)
     work = Path(tempfile.mkdtemp(prefix="build-", dir=root))

@@ -720,6 +720,22 @@ class PerspectiveCamera:
         )
         return at, bad / max(float(region.sum()), 1.0)
 
+    def _outline_on_plane(
+        self,
+        mask: np.ndarray,
+        origin_px: tuple[int, int],
+        height_cm: float,
+        frame: np.ndarray | None,
+    ) -> np.ndarray:
+        """A region's outer outline (on the colour edge with ``frame``) cast onto z = h."""
+        contours, _ = cv2.findContours(
+            (mask > 0).view(np.uint8), cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE
+        )
+        outline = max(contours, key=len).reshape(-1, 2).astype(float) + origin_px
+        if frame is not None:
+            outline = subpixel_edges(frame, outline)
+        return self.pixel_to_plane(outline, height_cm)
+
     def rim_centres(
         self,
         mask: np.ndarray,
@@ -751,13 +767,7 @@ class PerspectiveCamera:
             The positions (N, 2) [cm].
         """
         centres = np.array(centres_cm, dtype=float).reshape(-1, 2)
-        contours, _ = cv2.findContours(
-            (mask > 0).view(np.uint8), cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE
-        )
-        outline = max(contours, key=len).reshape(-1, 2).astype(float) + origin_px
-        if frame is not None:
-            outline = subpixel_edges(frame, outline)
-        pts = self.pixel_to_plane(outline, height_cm)
+        pts = self._outline_on_plane(mask, origin_px, height_cm, frame)
         owner = np.argmin(np.linalg.norm(pts[:, None, :] - centres[None], axis=2), axis=1)
         foot = self.centre_cm[:2]
         far = math.cos(math.radians(FAR_ARC_DEG))
@@ -802,13 +812,7 @@ class PerspectiveCamera:
             frame: The whole image the region was found in; if given, the outline is
                 moved onto its colour edge to a fraction of a pixel (:func:`subpixel_edges`).
         """
-        contours, _ = cv2.findContours(
-            (mask > 0).view(np.uint8), cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE
-        )
-        outline = max(contours, key=len).reshape(-1, 2).astype(float) + origin_px
-        if frame is not None:
-            outline = subpixel_edges(frame, outline)
-        pts = self.pixel_to_plane(outline, height_cm)
+        pts = self._outline_on_plane(mask, origin_px, height_cm, frame)
         m = cv2.moments((mask > 0).view(np.uint8), binaryImage=True)
         centroid_px = np.array([m["m10"] / m["m00"], m["m01"] / m["m00"]]) + origin_px
         c = self.pixel_to_plane(centroid_px, height_cm)
