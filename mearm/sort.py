@@ -12,9 +12,9 @@ when its place is confirmed (simulated: the world has it in its bin; real rig: t
 no longer sees it on the table).
 
 Exit status: 0 only when every object seen was sorted; 1 when the run ended with objects
-left (out of reach, failed picks, a camera or servo fault); 2 on bad input, found before
-anything moves (a camera or servo link that cannot be opened as configured included);
-130 on Ctrl-C (the arm is parked first). The run log is written per route, so a failure
+left (out of reach, failed picks, a camera or servo fault, a servo port that cannot be
+opened); 2 on bad input, found before anything moves (a camera that cannot be opened as
+configured included); 130 on Ctrl-C (the arm is parked first). The run log is written per route, so a failure
 loses nothing written before it.
 """
 
