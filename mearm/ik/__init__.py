@@ -11,11 +11,15 @@ Example::
     result.status, result.iterations, result.q_path  # (N+1, n), model units
 
 The mink solver (:mod:`mearm.ik.mink_solver`) imports MuJoCo and is loaded on first use.
+
+For joints alone (no path), :func:`fastest_solver` gives the fastest solve for an arm:
+its registered closed form, else the generic Gauss–Newton (:mod:`mearm.ik.fast`).
 """
 
 from mearm.ik.analytic import AnalyticSolver
 from mearm.ik.factory import make_solver, solve_ik
 from mearm.ik.failure import FAILURE_KINDS, FailureKind, IKFailure, failure_of_error
+from mearm.ik.fast import ClosedFormIK, FastIK, FastSolution, NewtonIK, fastest_solver
 from mearm.ik.pdpij import PdPij
 from mearm.ik.pseudoinverse import PseudoInverse
 from mearm.ik.result import METHODS, STATUSES, IKResult, Method, Status
@@ -35,19 +39,24 @@ __all__ = [
     "METHODS",
     "STATUSES",
     "AnalyticSolver",
+    "ClosedFormIK",
     "DemoRoute",
     "FailureKind",
+    "FastIK",
+    "FastSolution",
     "IKFailure",
     "IKResult",
     "IKSolver",
     "IKTarget",
     "Method",
     "MinkSolver",
+    "NewtonIK",
     "PdPij",
     "PseudoInverse",
     "Status",
     "demo_routes",
     "failure_of_error",
+    "fastest_solver",
     "make_solver",
     "run_routes",
     "solve_ik",

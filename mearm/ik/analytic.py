@@ -43,8 +43,7 @@ class AnalyticSolver(IKSolver):
         """Jump from ``q_start`` (model units) to the closed-form solution for ``target``."""
         q0, target, q_solution = self.prepare(q_start, target)
         assert q_solution is not None  # the constructor checked there is a closed form
-        q_solution = np.clip(q_solution, self.chain.lower, self.chain.upper)
-        q_path = np.stack([q0, q_solution])
+        q_path = np.stack([q0, q_solution])  # the closed form's joints are within limits
         ee_path = np.stack([self.model.fk_cm(q) for q in q_path])
         result = self._result("converged", target, q_path, ee_path)
         error = result.final_approach_error_deg

@@ -13,7 +13,7 @@ from mearm.exceptions import InvalidJointsError
 from mearm.ik.failure import IKFailure, blocking_joints
 from mearm.ik.result import IKResult, Method, Status
 from mearm.ik.target import IKTarget, approach_error_deg
-from mearm.kinematics import ArmModel, Chain, check_target, closed_form_for
+from mearm.kinematics import ArmModel, Chain, check_in_box, closed_form_for
 
 #: A start's passive joints may differ from their coupling by this much [model units]
 #: (1e-6 rad moves the TCP by under 1e-4 cm).
@@ -131,6 +131,15 @@ class IKSolver(abc.ABC):
         self.chain = model.chain
         self.config = config
         self.closed_form = closed_form_for(model.arm)
+        chain = self.chain
+        # the checks of every solve in Python floats, their constants computed once
+        self._solve_closed_form = getattr(self.closed_form, "solve_list", None)
+        self._n, self._m = chain.n, chain.m
+        self._act_index = chain.actuated_index.tolist()
+        self._terms = coupling_terms(chain)
+        self._lo, self._hi = chain.lower.tolist(), chain.upper.tolist()
+        box = model.arm.target_box
+        self._box = tuple((r.min, r.max) for r in (box.x_cm, box.y_cm, box.z_cm))
 
     def prepare(
         self, q_start: npt.ArrayLike, target: IKTarget | npt.ArrayLike
@@ -149,8 +158,51 @@ class IKSolver(abc.ABC):
             JointLimitError: the start is outside the joint limits.
         """
         target = IKTarget.of(target)
-        q_solution = check_target(target.position_cm, self.model.arm, self.closed_form)
-        return start_joints(q_start, self.model), target, q_solution
+        p = target.position_cm
+        (x0, x1), (y0, y1), (z0, z1) = self._box
+        if not (x0 <= p[0] <= x1 and y0 <= p[1] <= y1 and z0 <= p[2] <= z1):
+            check_in_box(p, self.model.arm)  # raises, naming the axis and the range
+        q_solution = None
+        if self._solve_closed_form is not None:
+            q_solution = np.array(self._solve_closed_form(p))
+        elif self.closed_form is not None:  # pragma: no cover (a plug-in without solve_list)
+            q_solution = self.closed_form.solve(p)
+        return self._start(q_start), target, q_solution
+
+    def _start(self, q_start: npt.ArrayLike) -> np.ndarray:
+        """:func:`start_joints` in Python floats for a valid start; itself otherwise.
+
+        The same values bit for bit (the same clipping, the same coupling sums); any start
+        that is not plainly valid goes to :func:`start_joints`, which raises or clips.
+        """
+        n, m, act, lo, hi = self._n, self._m, self._act_index, self._lo, self._hi
+        plain = isinstance(q_start, np.ndarray) and q_start.ndim == 1 and q_start.dtype == float
+        q = q_start.tolist() if plain else None  # type: ignore[union-attr]
+        if q is None or len(q) not in (n, m) or not math.isfinite(sum(q)):
+            return start_joints(q_start, self.model)
+        full = len(q) == n
+        out = list(q) if full else [0.0] * n
+        if not full:
+            for k, i in enumerate(act):
+                out[i] = q[k]
+        for i, offset, terms in self._terms:
+            v = offset
+            for j, coef in terms:
+                v += coef * out[j]
+            if full and abs(q[i] - v) > COUPLING_TOLERANCE:
+                return start_joints(q_start, self.model)
+            out[i] = v
+        for i in range(n):
+            if not lo[i] - LIMIT_TOLERANCE <= out[i] <= hi[i] + LIMIT_TOLERANCE:
+                return start_joints(q_start, self.model)
+        for i in act:
+            out[i] = min(max(out[i], lo[i]), hi[i])
+        for i, offset, terms in self._terms:
+            v = offset
+            for j, coef in terms:
+                v += coef * out[j]
+            out[i] = min(max(v, lo[i]), hi[i])
+        return np.array(out)
 
     def stop_failure(self, status: Status, q: npt.ArrayLike, target: IKTarget) -> IKFailure:
         """Why a solve that ended at ``q`` (model units, (n,)) with ``status`` stopped short.

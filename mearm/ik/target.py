@@ -9,7 +9,7 @@ import numpy as np
 import numpy.typing as npt
 
 from mearm.exceptions import InvalidTargetError
-from mearm.kinematics import as_target_cm
+from mearm.kinematics.closed_form import scalar_target_cm
 
 
 @dataclass(frozen=True)
@@ -30,8 +30,7 @@ class IKTarget:
     approach: tuple[float, float, float] | None = None
 
     def __post_init__(self) -> None:
-        p = as_target_cm(self.position_cm)
-        object.__setattr__(self, "position_cm", tuple(float(v) for v in p))
+        object.__setattr__(self, "position_cm", scalar_target_cm(self.position_cm))
         if self.approach is not None:
             try:
                 a = np.asarray(self.approach, dtype=float)

@@ -63,6 +63,20 @@ def check_in_box(target_cm: npt.ArrayLike, arm: ArmDescription) -> None:
             raise TargetOutsideBoxError(tuple(t), axis, (rng.min, rng.max))
 
 
+def scalar_target_cm(target_cm: npt.ArrayLike) -> tuple[float, float, float]:
+    """A target as three Python floats [cm]; a tuple, list or (3,) array without NumPy."""
+    t = target_cm
+    if isinstance(t, tuple | list) or (isinstance(t, np.ndarray) and t.shape == (3,)):
+        try:
+            x, y, z = float(t[0]), float(t[1]), float(t[2])
+            if len(t) == 3 and math.isfinite(x + y + z):
+                return x, y, z
+        except (TypeError, ValueError, IndexError):
+            pass
+    x, y, z = as_target_cm(t).tolist()  # raises InvalidTargetError, naming the value
+    return x, y, z
+
+
 class ClosedForm(abc.ABC):
     """A closed-form IK for one family of arms.
 
@@ -160,36 +174,55 @@ class PlanarWrist(ClosedForm):
                 "this arm has another structure (set closed_form to null)"
             )
         tx, ty, _ = arm.tool.tcp_cm
-        self._a1, self._d1 = j[0].dh.a_cm, j[0].dh.d_cm
-        self._a2, self._a3 = j[1].dh.a_cm, j[2].dh.a_cm
+        a2, a3 = j[1].dh.a_cm, j[2].dh.a_cm
+        # every constant of the formula and the checks, as Python floats, computed once:
+        # a solve is then scalar arithmetic and one small array (about 2 µs)
+        self._a2, self._a3 = a2, a3
+        self._a2a2_a3a3, self._inv_2a2a3 = a2 * a2 + a3 * a3, 1.0 / (2.0 * a2 * a3)
+        self._reach_max, self._reach_min = a2 + a3, abs(a2 - a3)
         self._radial = j[0].dh.a_cm + j[3].dh.a_cm + tx
         self._height = j[0].dh.d_cm + ty
+        self._lower = self.chain.lower.tolist()
+        self._upper = self.chain.upper.tolist()
 
     def solve(self, target_cm: npt.ArrayLike) -> np.ndarray:
         """Joints (model units, (4,)) putting the TCP at ``target_cm``; see the module."""
-        x, y, z = (float(v) for v in as_target_cm(target_cm))
-        target = (x, y, z)
+        return np.array(self.solve_list(target_cm))
+
+    def solve_list(self, target_cm: npt.ArrayLike) -> list[float]:
+        """:meth:`solve` as a list of Python floats [model units], without the array."""
+        x, y, z = scalar_target_cm(target_cm)
         rho = math.hypot(x, y)
         if rho < _EPS:
-            raise SingularTargetError(target, "on the base axis, where the base is undefined")
-        theta1 = math.atan2(y, x)
+            raise SingularTargetError((x, y, z), "on the base axis, where the base is undefined")
         r = rho - self._radial
         h = z - self._height
-        a2, a3 = self._a2, self._a3
         dist = math.hypot(r, h)
-        reach_max, reach_min = a2 + a3, abs(a2 - a3)
-        if dist > reach_max + _EPS or dist < reach_min - _EPS:
+        if dist > self._reach_max + _EPS or dist < self._reach_min - _EPS:
             raise UnreachableTargetError(
-                target,
+                (x, y, z),
                 f"out of reach: the wrist point is {dist:.3f} cm from the shoulder, "
-                f"the arm reaches [{reach_min:.3f}, {reach_max:.3f}] cm",
+                f"the arm reaches [{self._reach_min:.3f}, {self._reach_max:.3f}] cm",
             )
-        cos3 = (dist * dist - a2 * a2 - a3 * a3) / (2.0 * a2 * a3)
-        theta3 = -math.acos(min(1.0, max(-1.0, cos3)))
-        theta2 = math.atan2(h, r) - math.atan2(a3 * math.sin(theta3), a2 + a3 * math.cos(theta3))
-        q = np.array([theta1, theta2, theta3, -(theta2 + theta3)])
-        self._check_limits(target, q)
-        return np.clip(q, self.chain.lower, self.chain.upper)
+        cos3 = (dist * dist - self._a2a2_a3a3) * self._inv_2a2a3
+        theta3 = -math.acos(1.0 if cos3 > 1.0 else -1.0 if cos3 < -1.0 else cos3)
+        a3 = self._a3
+        theta2 = math.atan2(h, r) - math.atan2(
+            a3 * math.sin(theta3), self._a2 + a3 * math.cos(theta3)
+        )
+        q = [math.atan2(y, x), theta2, theta3, -(theta2 + theta3)]
+        lo, hi = self._lower, self._upper
+        for i in range(4):
+            v = q[i]
+            if v < lo[i]:
+                if v < lo[i] - 1e-9:
+                    self._check_limits((x, y, z), np.array(q))  # raises, naming the joint
+                q[i] = lo[i]
+            elif v > hi[i]:
+                if v > hi[i] + 1e-9:
+                    self._check_limits((x, y, z), np.array(q))
+                q[i] = hi[i]
+        return q
 
 
 def check_target(

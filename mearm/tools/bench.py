@@ -9,9 +9,14 @@ rounds (the least disturbed by other processes), and the sections being compared
 measured interleaved within each round so that a busy machine slows all of them alike.
 
 Sections:
-    ik: PD-PIJ per iteration and per route (``paper`` and ``coupled`` modes) on the
-        paper's 24 demo routes, next to a plain NumPy port of the paper's loop
-        (:mod:`mearm.ik.reference`) and to the mink cross-check, with ratios.
+    ik: the peers on the same 500 seeded reachable targets, each held to |e| < 0.01 cm
+        from home: Robotics Toolbox's C++ ``ik_LM`` on the same 3-joint kinematics
+        (skipped, in one line, without the ``bench`` extra), the fastest solve mearm
+        ships for the arm (:func:`mearm.ik.fast.fastest_solver`), its generic solve,
+        PD-PIJ (µs per iteration and fixed cost per solve) and the NumPy port of the
+        paper's loop (:mod:`mearm.ik.reference`), with ratios. Then PD-PIJ per iteration
+        and per route (``paper`` and ``coupled`` modes) on the paper's 24 demo routes,
+        next to the NumPy port and the mink cross-check.
     vision: ms per 640x480 frame with 12 objects, OpenCV detector next to a plain
         NumPy/SciPy port of the same recipe (:mod:`mearm.vision.bench`) and the paper's
         0.263 s; detection accuracy on rendered scenes; calibration recovery.
@@ -34,7 +39,7 @@ import time
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import asdict, dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -79,17 +84,30 @@ def section(name: str) -> Callable[[Section], Section]:
 
 
 def best_seconds(
-    fns: dict[str, Callable[[], object]], repeat: int, inner: dict[str, int] | None = None
+    fns: dict[str, Callable[[], object]],
+    repeat: int,
+    inner: dict[str, int] | None = None,
+    progress: str | None = None,
 ) -> dict[str, float]:
     """Best wall time of each callable [s] over ``repeat`` interleaved rounds.
 
     In each round callable ``key`` is timed ``inner[key]`` times (default 1): fast ones
     get more tries, so that the best of them escapes other processes' bursts as well as
-    the best of one slow call averages over them.
+    the best of one slow call averages over them. ``progress``: a tqdm bar with this
+    label on stderr, one tick a round (hidden when stderr is not a terminal).
     """
+    from tqdm import tqdm  # noqa: PLC0415
+
     inner = inner or {}
     best = dict.fromkeys(fns, float("inf"))
-    for _ in range(repeat):
+    rounds = tqdm(
+        range(repeat),
+        desc=progress,
+        unit="round",
+        file=sys.stderr,
+        disable=True if progress is None else None,
+    )
+    for _ in rounds:
         for key, fn in fns.items():
             for _ in range(inner.get(key, 1)):
                 t0 = time.perf_counter()
@@ -157,30 +175,20 @@ def bench_ik(options: BenchOptions) -> list[Row]:
     def port(q: np.ndarray, target: tuple[float, float, float]) -> object:
         return numpy_port_solve(q, target, config.arm, config.controller)
 
-    one_step = {
-        key: PdPij(model, config.controller.updated(mode=key, max_iterations=1))
-        for key in ("paper", "coupled")
-    }
     calls: dict[str, Callable[[], object]] = {}
     for i, route in enumerate(routes):
         for key, solver in solvers.items():
             calls[f"{key}/{i}"] = functools.partial(solver.solve, starts[key][i], route.target_cm)
         calls[f"numpy port/{i}"] = functools.partial(port, starts["paper"][i], route.target_cm)
-        for key in ("paper", "coupled"):  # a 1-iteration solve: the cost per solve
-            calls[f"{key} x1/{i}"] = functools.partial(
-                one_step[key].solve, starts[key][i], route.target_cm
-            )
-    tries = {"paper": 4, "coupled": 4, "mink": 2, "numpy port": 2, "paper x1": 4, "coupled x1": 4}
-    best = best_seconds(calls, options.repeat, {k: tries[k.split("/")[0]] for k in calls})
+    tries = {"paper": 4, "coupled": 4, "mink": 2, "numpy port": 2}
+    best = best_seconds(
+        calls, options.repeat, {k: tries[k.split("/")[0]] for k in calls}, "ik demo routes"
+    )
     seconds = {key: sum(best[f"{key}/{i}"] for i in range(len(routes))) for key in tries}
 
     n = len(routes)
     per_it = {k: seconds[k] / iterations[k] for k in ("paper", "coupled", "numpy port", "mink")}
     per_route = {k: seconds[k] / n for k in seconds}
-    # route time = per-solve cost (target check, first FK, record) + n × loop iteration
-    loop_it = {
-        k: (seconds[k] - seconds[f"{k} x1"]) / (iterations[k] - n) for k in ("paper", "coupled")
-    }
     note = f"{n} demo routes, each timed alone, best of {options.repeat} rounds"
     rows = []
     for key in ("paper", "coupled", "numpy port", "mink"):
@@ -188,17 +196,6 @@ def bench_ik(options: BenchOptions) -> list[Row]:
         rows.append(Row("ik", f"{label}: per iteration", per_it[key] * 1e6, "µs", note))
         rows.append(Row("ik", f"{label}: per route", per_route[key] * 1e3, "ms", note))
         rows.append(Row("ik", f"{label}: iterations per route", iterations[key] / n, "", ""))
-    for key in ("paper", "coupled"):
-        rows.append(
-            Row(
-                "ik",
-                f"PD-PIJ {key}: cost per solve",
-                per_route[f"{key} x1"] * 1e6,
-                "µs",
-                "a 1-iteration solve: target check, start check, 2 FK, 1 SVD, record",
-            )
-        )
-        rows.append(Row("ik", f"PD-PIJ {key}: per further iteration", loop_it[key] * 1e6, "µs", ""))
     for key in ("paper", "coupled"):
         same = "same algorithm, iteration for iteration" if key == "paper" else ""
         rows.append(
@@ -208,15 +205,6 @@ def bench_ik(options: BenchOptions) -> list[Row]:
                 per_it["numpy port"] / per_it[key],
                 "×",
                 same,
-            )
-        )
-        rows.append(
-            Row(
-                "ik",
-                f"numpy port / PD-PIJ {key}, per further iteration",
-                per_it["numpy port"] / loop_it[key],
-                "×",
-                "the loop alone, without the per-solve cost",
             )
         )
         rows.append(
@@ -241,6 +229,273 @@ def bench_ik(options: BenchOptions) -> list[Row]:
         )
     )
     rows.append(Row("ik", "pinocchio", 0.0, "", f"pin {pin.__version__}"))
+    return ik_peer_rows(config, options) + rows
+
+
+#: Targets of the peer comparison, their seed and the tolerance every solver is held to.
+PEER_TARGETS = 500
+PEER_SEED = 16
+PEER_TOLERANCE_CM = 0.01
+#: Targets the NumPy port of the paper's loop solves (about 5 ms each): the first ones.
+PORT_TARGETS = 50
+
+
+def reachable_targets(config: Config, n: int, seed: int) -> np.ndarray:
+    """``n`` targets uniform in the arm's target box that the arm reaches, (n, 3) [cm].
+
+    Reachable: the closed form solves it within the limits, or, for an arm without one,
+    it is the TCP of joints drawn uniformly within the limits (kept when in the box).
+    """
+    from mearm.exceptions import UnreachableTargetError  # noqa: PLC0415
+    from mearm.kinematics import ArmModel, closed_form_for  # noqa: PLC0415
+
+    rng = np.random.default_rng(seed)
+    box = config.arm.target_box
+    lo = np.array([box.x_cm.min, box.y_cm.min, box.z_cm.min])
+    hi = np.array([box.x_cm.max, box.y_cm.max, box.z_cm.max])
+    closed_form = closed_form_for(config.arm)
+    model = ArmModel(config.arm)
+    chain = model.chain
+    out: list[np.ndarray] = []
+    while len(out) < n:
+        if closed_form is not None:
+            t = rng.uniform(lo, hi)
+            try:
+                closed_form.solve(t)
+            except UnreachableTargetError:
+                continue
+        else:
+            t = model.fk_cm(chain.full(rng.uniform(chain.actuated_lower, chain.actuated_upper)))
+            if np.any(t < lo) or np.any(t > hi):
+                continue
+        out.append(t)
+    return np.array(out)
+
+
+def rtb_ets(config: Config) -> tuple[Any, str]:
+    r"""The arm's TCP position kinematics as a Robotics Toolbox ETS, and a note.
+
+    ``(None, why)`` when ``roboticstoolbox-python`` is not installed (the ``bench``
+    extra) or the arm has no 3-joint ETS here: only the ``planar_wrist`` arms, whose
+    levelled wrist makes the TCP offset a constant along the yawed radial direction,
+
+    .. math:: R_z(q_0)\,t_z(d_1)\,t_x(a_1 + a_4 + t_x)\,R_x(\alpha_1)\,t_y(t_y)\,
+              R_z(q_1)\,t_x(a_2)\,R_z(q_2)\,t_x(a_3)
+
+    in centimetres: the same map from the 3 actuated joints to the TCP position, with
+    the same limits (the bench checks FK against mearm's on random joints).
+    """
+    try:
+        import roboticstoolbox as rtb  # noqa: PLC0415
+    except ImportError:
+        return None, "roboticstoolbox-python not installed (pip install 'mearm[bench]')"
+    arm = config.arm
+    if arm.closed_form != "planar_wrist":
+        return None, f"no 3-joint ETS for arm {arm.name!r} (only planar_wrist arms)"
+    from mearm.kinematics import Chain  # noqa: PLC0415
+
+    chain = Chain.from_description(arm)
+    lo, hi = chain.actuated_lower, chain.actuated_upper
+    base, shoulder, elbow, wrist = (j.dh for j in arm.joints)
+    tx, ty, _ = arm.tool.tcp_cm
+    ET = rtb.ET
+    ets = (
+        ET.Rz(qlim=[lo[0], hi[0]])
+        * ET.tz(base.d_cm)
+        * ET.tx(base.a_cm + wrist.a_cm + tx)
+        * ET.Rx(np.radians(base.alpha_deg))
+        * ET.ty(ty)
+        * ET.Rz(qlim=[lo[1], hi[1]])
+        * ET.tx(shoulder.a_cm)
+        * ET.Rz(qlim=[lo[2], hi[2]])
+        * ET.tx(elbow.a_cm)
+    )
+    return ets, f"roboticstoolbox-python {rtb.__version__}, ETS built once"
+
+
+def ik_peer_rows(config: Config, options: BenchOptions, n_targets: int = PEER_TARGETS) -> list[Row]:
+    """The fastest solve mearm ships, its generic solve and PD-PIJ next to RTB ``ik_LM``.
+
+    Every solver starts from home and is held to |e| < :data:`PEER_TOLERANCE_CM` on the
+    same :data:`PEER_TARGETS` seeded reachable targets; a solve counts as a success when
+    an independent FK (Pinocchio) of its joints is that close and they are within the
+    limits. Rounds are interleaved; each solver's best round is kept.
+    """
+    from tqdm import tqdm  # noqa: PLC0415
+
+    from mearm.ik import AnalyticSolver, PdPij  # noqa: PLC0415
+    from mearm.ik.fast import ClosedFormIK, NewtonIK, fastest_solver  # noqa: PLC0415
+    from mearm.ik.reference import numpy_port_solve  # noqa: PLC0415
+    from mearm.kinematics import ArmModel  # noqa: PLC0415
+
+    model = ArmModel(config.arm)
+    chain = model.chain
+    home = model.home
+    targets = reachable_targets(config, n_targets, PEER_SEED)
+    n = len(targets)
+    n_port = min(PORT_TARGETS, n)
+    tol2 = PEER_TOLERANCE_CM**2
+    # PD-PIJ stops when |e|² < tolerance: just under 0.01² so that |e| < 0.01 cm
+    controller = config.controller.updated(tolerance_cm2=tol2 * (1 - 1e-9))
+    pdpij = PdPij(model, controller)
+    fast = fastest_solver(model)
+    newton = NewtonIK(model, tolerance_cm=PEER_TOLERANCE_CM)
+    analytic = AnalyticSolver(model, controller) if isinstance(fast, ClosedFormIK) else None
+    port_controller = controller.updated(mode="paper")
+    port_targets = targets[:n_port]
+    # a solve that starts at its own target: no iteration, the fixed cost alone
+    on_target = [(q, model.fk_cm(q)) for q in (fast.solve(t).q for t in targets)]
+
+    runs: dict[str, Callable[[], list[Any]]] = {
+        "fastest": lambda: [fast.solve(t) for t in targets],
+        "generic": lambda: [newton.solve(t) for t in targets],
+        "PD-PIJ": lambda: [pdpij.solve(home, t) for t in targets],
+        "PD-PIJ at target": lambda: [pdpij.solve(q, t) for q, t in on_target],
+        "numpy port": lambda: [
+            numpy_port_solve(home, t, config.arm, port_controller) for t in port_targets
+        ],
+    }
+    if analytic is not None:
+        runs["analytic"] = lambda: [analytic.solve(home, t) for t in targets]
+    ets, rtb_note = rtb_ets(config)
+    if ets is not None:
+        rng = np.random.default_rng(0)
+        for q in rng.uniform(chain.actuated_lower, chain.actuated_upper, (20, chain.m)):
+            gap = float(np.abs(ets.fkine(q).t - model.fk_cm(chain.full(q))).max())
+            if not gap < 1e-9:
+                ets, rtb_note = (
+                    None,
+                    f"its ETS is not this arm's kinematics (FK off by {gap:.3g} cm)",
+                )
+                break
+    if ets is not None:
+        q0 = chain.actuated_of(home)
+        poses = []
+        for t in targets:
+            T = np.eye(4)
+            T[:3, 3] = t
+            poses.append(T)
+        mask = np.array([1.0, 1.0, 1.0, 0.0, 0.0, 0.0])
+        # ik_LM stops when E = ½ eᵀ W e < tol: ½ · 0.01² for |e| < 0.01 cm
+        ik_lm = ets.ik_LM
+        runs["RTB ik_LM"] = lambda: [
+            ik_lm(T, q0=q0, tol=0.5 * tol2 * (1 - 1e-9), mask=mask, joint_limits=True)
+            for T in poses
+        ]
+
+    best = dict.fromkeys(runs, float("inf"))
+    out: dict[str, list[Any]] = {}
+    with tqdm(
+        total=options.repeat * len(runs), desc="ik peers", unit="run", file=sys.stderr, disable=None
+    ) as bar:
+        for _ in range(options.repeat):
+            for key, fn in runs.items():
+                t0 = time.perf_counter()
+                out[key] = fn()
+                best[key] = min(best[key], time.perf_counter() - t0)
+                bar.update()
+
+    def reached(q_act: np.ndarray, t: np.ndarray) -> bool:
+        q = chain.full(q_act)
+        return bool(
+            chain.within_limits(q) and np.linalg.norm(model.fk_cm(q) - t) < PEER_TOLERANCE_CM
+        )
+
+    act = chain.actuated_of
+    success = {
+        "fastest": sum(reached(act(r.q), t) for r, t in zip(out["fastest"], targets, strict=True)),
+        "generic": sum(
+            r.converged and reached(act(r.q), t)
+            for r, t in zip(out["generic"], targets, strict=True)
+        ),
+        "PD-PIJ": sum(
+            r.converged and reached(act(r.q), t)
+            for r, t in zip(out["PD-PIJ"], targets, strict=True)
+        ),
+        "numpy port": sum(
+            r[0] == "converged" and reached(act(r[1][-1]), t)
+            for r, t in zip(out["numpy port"], port_targets, strict=True)
+        ),
+    }
+    if analytic is not None:
+        success["analytic"] = sum(
+            r.converged and reached(act(r.q), t)
+            for r, t in zip(out["analytic"], targets, strict=True)
+        )
+    if ets is not None:
+        success["RTB ik_LM"] = sum(
+            bool(s.success) and reached(np.asarray(s.q), t)
+            for s, t in zip(out["RTB ik_LM"], targets, strict=True)
+        )
+    pd_iterations = sum(r.iterations + r.search_iterations for r in out["PD-PIJ"])
+    port_iterations = sum(len(r[1]) - 1 for r in out["numpy port"])
+    per_solve = {k: best[k] / (n_port if k == "numpy port" else n) for k in runs}
+    fixed = per_solve["PD-PIJ at target"]
+    pd_per_it = (best["PD-PIJ"] - n * fixed) / pd_iterations
+    note = (
+        f"{n} seeded reachable targets (seed {PEER_SEED}), from home, |e| < "
+        f"{PEER_TOLERANCE_CM} cm; best of {options.repeat} interleaved rounds"
+    )
+    rows = [Row("ik", "peers: setting", 0.0, "", note)]
+
+    def solve_row(key: str, label: str, extra: str = "") -> None:
+        count = n if key != "numpy port" else n_port
+        text = f"success {success[key]}/{count}" + (f"; {extra}" if extra else "")
+        rows.append(Row("ik", f"{label}: per solve", per_solve[key] * 1e6, "µs", text))
+
+    if ets is not None:
+        solve_row("RTB ik_LM", "RTB ik_LM (C++)", rtb_note)
+    else:
+        rows.append(Row("ik", "RTB ik_LM (C++)", 0.0, "", f"skipped: {rtb_note}"))
+    solve_row("fastest", f"mearm fastest ({fast.name})", "fastest_solver(model)")
+    solve_row("generic", f"mearm generic ({newton.name})", "NewtonIK, for arms without one")
+    if analytic is not None:
+        solve_row(
+            "analytic", "mearm analytic solver", "the closed form behind IKSolver: checks, record"
+        )
+    solve_row("PD-PIJ", f"PD-PIJ {controller.mode}", "the route generator, the paper's loop")
+    rows.append(Row("ik", f"PD-PIJ {controller.mode}: iterations per solve", pd_iterations / n, ""))
+    rows.append(
+        Row(
+            "ik",
+            f"PD-PIJ {controller.mode}: fixed cost per solve",
+            fixed * 1e6,
+            "µs",
+            "a converged solve started on its target: checks, 1 FK, the record",
+        )
+    )
+    rows.append(
+        Row(
+            "ik",
+            f"PD-PIJ {controller.mode}: per iteration",
+            pd_per_it * 1e6,
+            "µs",
+            "(solve − fixed cost) / iterations",
+        )
+    )
+    solve_row(
+        "numpy port",
+        "numpy port (paper mode)",
+        f"the first {n_port} targets, {port_iterations / n_port:.1f} iterations each",
+    )
+    if ets is not None:
+        rtb = per_solve["RTB ik_LM"]
+        for key, label in (
+            ("fastest", "mearm fastest"),
+            ("generic", "mearm generic"),
+            *([("analytic", "mearm analytic solver")] if analytic is not None else []),
+            ("PD-PIJ", "PD-PIJ"),
+            ("numpy port", "numpy port"),
+        ):
+            rows.append(Row("ik", f"{label} / RTB ik_LM, per solve", per_solve[key] / rtb, "×", ""))
+    rows.append(
+        Row(
+            "ik",
+            "PD-PIJ / mearm fastest, per solve",
+            per_solve["PD-PIJ"] / per_solve["fastest"],
+            "×",
+        )
+    )
     return rows
 
 

@@ -1,0 +1,311 @@
+r"""The fastest position solve mearm ships for an arm: joints for a TCP target, nothing more.
+
+:func:`fastest_solver` picks it: the arm's registered closed form (:class:`ClosedFormIK`,
+about 2 µs a solve on the paper arm), otherwise the generic :class:`NewtonIK`. Both
+return a :class:`FastSolution`: the joints, not a path. The path a servo follows comes from
+:class:`~mearm.ik.PdPij` (the paper's route generator); these solve a target once, for a
+planner, a reachability check or a seed.
+
+Neither checks the target box (call :func:`~mearm.kinematics.check_in_box` at the
+boundary) nor takes an approach direction.
+
+:class:`NewtonIK` is Gauss–Newton on the actuated joints with the coupled Jacobian
+:math:`J C` (one Pinocchio pass and one small SVD per iteration),
+
+.. math:: \Delta q_a = (J C)^+ e, \qquad e = s_d - FK(q)
+
+made a *bounded* step when it would cross a limit: each joint that would cross stops on
+its limit and the others are solved again for what is left of e (at most m passes, m
+the actuated joints); then halved until |e| falls.
+"""
+
+from __future__ import annotations
+
+import abc
+import math
+from typing import NamedTuple
+
+import numpy as np
+import numpy.typing as npt
+import pinocchio as pin
+
+from mearm.exceptions import ModelError
+from mearm.ik.pseudoinverse import PseudoInverse
+from mearm.ik.result import Status
+from mearm.ik.solver import coupling_terms
+from mearm.kinematics import ArmModel, ClosedForm, closed_form_for
+from mearm.kinematics.closed_form import scalar_target_cm
+from mearm.kinematics.model import CM_PER_M
+
+#: Default tolerance: |e| below this [cm].
+TOLERANCE_CM = 0.01
+#: Halvings of a step that does not lower |e| before the solve stops as ``stalled``.
+_MAX_HALVINGS = 10
+
+
+class FastSolution(NamedTuple):
+    """One fast solve.
+
+    Attributes:
+        q: Every joint, model units (rad, or m for a prismatic joint), within the limits
+            and on the coupling, (n,).
+        status: ``converged``, ``stalled`` or ``max_iterations`` (:data:`STATUSES`).
+        error_cm: |s_d − FK(q)| [cm]; 0.0 for a closed form (exact to rounding, below
+            1e-9 cm: tests/test_analytic.py).
+        iterations: Updates made [-]; 0 for a closed form.
+    """
+
+    q: np.ndarray
+    status: Status
+    error_cm: float
+    iterations: int
+
+    @property
+    def converged(self) -> bool:
+        """Whether the TCP reached the target within the tolerance."""
+        return self.status == "converged"
+
+
+class FastIK(abc.ABC):
+    """Base class: joints (n,) for a TCP target [cm], fast.
+
+    Args:
+        model: The arm model.
+    """
+
+    #: Short name the bench shows.
+    name: str = "fast"
+
+    def __init__(self, model: ArmModel):
+        self.model = model
+        self.chain = model.chain
+
+    @abc.abstractmethod
+    def solve(self, target_cm: npt.ArrayLike, q_seed: npt.ArrayLike | None = None) -> FastSolution:
+        """Joints putting the TCP at ``target_cm`` (x, y, z) [cm], base frame.
+
+        Args:
+            target_cm: The target, (3,) [cm].
+            q_seed: Every joint, model units, (n,): where an iterative solve starts
+                (default: its own choice). A closed form ignores it.
+
+        Raises:
+            InvalidTargetError: not three finite numbers.
+            UnreachableTargetError: (closed form only) out of reach within the limits;
+                an iterative solve returns a :class:`FastSolution` that did not converge.
+        """
+
+
+class ClosedFormIK(FastIK):
+    """The arm's registered closed form (:mod:`mearm.kinematics.closed_form`) as a solve.
+
+    Raises:
+        ModelError: the arm registers no closed form.
+    """
+
+    name = "closed form"
+
+    def __init__(self, model: ArmModel, closed_form: ClosedForm | None = None):
+        super().__init__(model)
+        cf = closed_form if closed_form is not None else closed_form_for(model.arm)
+        if cf is None:
+            raise ModelError(
+                f"arm {model.arm.name!r} registers no closed form (arm.closed_form is "
+                "null): use NewtonIK, or fastest_solver() which picks it"
+            )
+        self.closed_form = cf
+        self._solve = getattr(cf, "solve_list", cf.solve)
+
+    def solve(self, target_cm: npt.ArrayLike, q_seed: npt.ArrayLike | None = None) -> FastSolution:
+        """The closed form's joints for ``target_cm`` (see :meth:`FastIK.solve`)."""
+        return FastSolution(np.array(self._solve(target_cm)), "converged", 0.0, 0)
+
+
+class NewtonIK(FastIK):
+    """Gauss–Newton with bounded steps on the actuated joints (module docstring); any arm.
+
+    Args:
+        model: The arm model.
+        tolerance_cm: Converged when |e| is below this [cm].
+        max_iterations: Updates before ``max_iterations`` [-], per start.
+        cutoff: Singular values at or below this × the largest count as zero in J⁺ [-].
+        restarts: Further starts tried when one stops short (a corner of the joint box
+            can hold a local minimum): the middle of the box, then joints drawn from a
+            fixed seed, the same for every solve [-].
+        seed_table: About this many joint vectors on a grid over the actuated joints'
+            box, with their TCPs: without ``q_seed`` a solve starts from the one whose
+            TCP is nearest the target [-].
+    """
+
+    name = "Gauss-Newton"
+
+    def __init__(
+        self,
+        model: ArmModel,
+        tolerance_cm: float = TOLERANCE_CM,
+        max_iterations: int = 50,
+        cutoff: float = 1e-6,
+        restarts: int = 16,
+        seed_table: int = 512,
+    ):
+        super().__init__(model)
+        if not tolerance_cm > 0:
+            raise ValueError(f"tolerance_cm must be > 0, got {tolerance_cm!r}")
+        if max_iterations < 1:
+            raise ValueError(f"max_iterations must be >= 1, got {max_iterations!r}")
+        chain = self.chain
+        self.tolerance_cm = float(tolerance_cm)
+        self.max_iterations = int(max_iterations)
+        self._tol2 = (self.tolerance_cm / CM_PER_M) ** 2
+        self._pin_model = model.model
+        self._data = model.model.createData()
+        self._frame_id = model.tcp_frame_id
+        self._tcp = self._data.oMf[self._frame_id].translation  # a view, updated in place
+        self._pinv = PseudoInverse(3, chain.m, cutoff).svd
+        self._C = chain.C
+        self._lower, self._upper = chain.lower.tolist(), chain.upper.tolist()
+        self._act = chain.actuated_index.tolist()
+        self._passive = coupling_terms(chain)
+        self._home = model.home.tolist()
+        rng = np.random.default_rng(0)
+        lo_a, hi_a = chain.actuated_lower, chain.actuated_upper
+        seeds = [(lo_a + hi_a) / 2] + list(rng.uniform(lo_a, hi_a, (max(restarts - 1, 0), chain.m)))
+        self._restarts = [chain.full(s).tolist() for s in seeds[:restarts]]
+        # the seed table: a grid over the actuated joints' box and its TCPs [m]
+        per_joint = max(2, round(seed_table ** (1 / chain.m)))
+        axes = [np.linspace(a, b, per_joint + 2)[1:-1] for a, b in zip(lo_a, hi_a, strict=True)]
+        grid = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, chain.m)
+        table = [chain.full(g) for g in grid]
+        self._table_q = [q.tolist() for q in table]
+        self._table_tcp = np.array([model.fk_cm(q) for q in table]) / CM_PER_M  # (K, 3)
+
+    def _measure(self, q: list[float], t: tuple[float, ...]) -> tuple[list[float], np.ndarray]:
+        """Error e [m] (list) and the coupled Jacobian J C (3, m) at ``q``."""
+        J6 = pin.computeFrameJacobian(
+            self._pin_model, self._data, np.array(q), self._frame_id, pin.LOCAL_WORLD_ALIGNED
+        )
+        p = self._tcp.tolist()
+        return [t[0] - p[0], t[1] - p[1], t[2] - p[2]], J6[:3].dot(self._C)
+
+    def _couple(self, q: list[float]) -> bool:
+        """Set the passive joints of ``q`` in place; whether all are within their limits."""
+        lo, hi = self._lower, self._upper
+        ok = True
+        for i, offset, terms in self._passive:
+            v = offset
+            for j, coef in terms:
+                v += coef * q[j]
+            q[i] = v
+            ok = ok and lo[i] <= v <= hi[i]
+        return ok
+
+    def _bounded_step(self, q: list[float], Jc: np.ndarray, e: list[float]) -> list[float]:
+        """The actuated step (m,) for ``Jc Δ ≈ e``, joints that would cross stopping on it.
+
+        A joint whose step crosses its limit is fixed there, and the free ones are solved
+        again for what is left; at most m passes. Small and bounded: not the exact box
+        least squares, which the iteration does not need.
+        """
+        lo, hi, act = self._lower, self._upper, self._act
+        m = len(act)
+        fixed: dict[int, float] = {}
+        b = np.array(e)
+        dq = self._pinv.compute(Jc).solve(b).tolist()
+        for _ in range(m):
+            crossing = {}
+            for k, i in enumerate(act):
+                if k in fixed:
+                    continue
+                v = q[i] + dq[k]
+                if v < lo[i]:
+                    crossing[k] = lo[i] - q[i]
+                elif v > hi[i]:
+                    crossing[k] = hi[i] - q[i]
+            if not crossing:
+                break
+            fixed.update(crossing)
+            if len(fixed) == m:
+                break
+            J_free = Jc.copy()
+            rest = b.copy()
+            for k, d in fixed.items():
+                rest -= J_free[:, k] * d
+                J_free[:, k] = 0.0
+            dq = self._pinv.compute(J_free).solve(rest).tolist()
+        for k, d in fixed.items():
+            dq[k] = d
+        return dq
+
+    def solve(self, target_cm: npt.ArrayLike, q_seed: npt.ArrayLike | None = None) -> FastSolution:
+        """Iterate from ``q_seed`` to ``target_cm`` (see :meth:`FastIK.solve`).
+
+        Without ``q_seed``, from the seed table's entry whose TCP is nearest the target.
+
+        If it stops short, from each restart in turn; the first that converges is
+        returned (``iterations`` counts every start's), else the closest stop.
+        """
+        x, y, z = scalar_target_cm(target_cm)
+        t = (x / CM_PER_M, y / CM_PER_M, z / CM_PER_M)
+        lo, hi, act = self._lower, self._upper, self._act
+        if q_seed is None:
+            d = self._table_tcp - t
+            q = list(self._table_q[int(np.argmin(np.einsum("ij,ij->i", d, d)))])
+        else:  # trusted as a joint vector (n,); put on the limits and the coupling
+            q = np.asarray(q_seed, dtype=float).tolist()
+            for i in act:
+                q[i] = min(max(q[i], lo[i]), hi[i])
+            if not self._couple(q):
+                q = list(self._home)
+        best = self._descend(q, t)
+        total = best.iterations
+        for seed in self._restarts:
+            if best.converged:
+                break
+            run = self._descend(list(seed), t)
+            total += run.iterations
+            if run.converged or run.error_cm < best.error_cm:
+                best = run
+        return best._replace(iterations=total)
+
+    def _descend(self, q: list[float], t: tuple[float, float, float]) -> FastSolution:
+        """Gauss–Newton from ``q`` (n,) [model units] towards ``t`` [m]."""
+        lo, hi, act, tol2 = self._lower, self._upper, self._act, self._tol2
+        e, Jc = self._measure(q, t)
+        err2 = e[0] * e[0] + e[1] * e[1] + e[2] * e[2]
+        status: Status = "max_iterations"
+        k = 0
+        while True:
+            if err2 < tol2:
+                status = "converged"
+                break
+            if k == self.max_iterations:
+                break
+            dq = self._bounded_step(q, Jc, e)
+            alpha = 1.0
+            for _ in range(_MAX_HALVINGS + 1):
+                cand = list(q)
+                for j, i in enumerate(act):  # clip: q + (hi − q) may round one ulp past hi
+                    cand[i] = min(max(q[i] + alpha * dq[j], lo[i]), hi[i])
+                if self._couple(cand):
+                    e_new, Jc_new = self._measure(cand, t)
+                    err2_new = e_new[0] ** 2 + e_new[1] ** 2 + e_new[2] ** 2
+                    if err2_new < err2:
+                        break
+                alpha *= 0.5
+            else:
+                status = "stalled"
+                break
+            q, e, Jc, err2 = cand, e_new, Jc_new, err2_new
+            k += 1
+        return FastSolution(np.array(q), status, math.sqrt(err2) * CM_PER_M, k)
+
+
+def fastest_solver(model: ArmModel) -> FastIK:
+    """The fastest position solve for ``model``'s arm.
+
+    The registered closed form where the arm names one, else :class:`NewtonIK`.
+    """
+    closed_form = closed_form_for(model.arm)
+    if closed_form is not None:
+        return ClosedFormIK(model, closed_form)
+    return NewtonIK(model)
