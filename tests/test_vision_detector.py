@@ -254,6 +254,31 @@ def test_detection_is_a_frozen_record() -> None:
     assert d.centroid_px.shape == (2,) and len(d.bbox_px) == 4
 
 
+def test_detections_of_one_frame_cannot_be_written_through_each_other() -> None:
+    """Points shared from one per-frame array stay read-only, table points included."""
+    found = detector().detect(render([("red", 0.0, 45.0), ("red", 5.0, 45.0)]))
+    assert len(found) == 2
+    for d in found:
+        assert d.table_cm is not None
+        for point in (d.centroid_px, d.table_cm):
+            with pytest.raises(ValueError):
+                point[0] = 0.0
+            with pytest.raises(ValueError):
+                point.setflags(write=True)
+
+
+def test_a_detection_keeps_its_own_copy_of_a_writable_point() -> None:
+    """An array the caller can still write (itself or the array it views) is copied."""
+    given = np.array([1.0, 2.0])
+    view = given.view()
+    view.setflags(write=False)  # read-only, but ``given`` can still change it
+    for point in (given, view):
+        d = Detection("red", point, 1, (0, 0, 1, 1), table_cm=point)
+        given[0] = 9.0
+        assert d.centroid_px[0] == d.table_cm[0] == 1.0  # type: ignore[index]
+        given[0] = 1.0
+
+
 @pytest.mark.parametrize(
     ("frame", "words"),
     [

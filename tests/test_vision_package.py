@@ -9,7 +9,7 @@ import sys
 from pathlib import Path
 
 import mearm.vision
-from mearm.vision.bench import run_vision_bench
+from mearm.vision.bench import run_detection_peers, run_vision_bench
 
 VISION = Path(mearm.vision.__file__).parent
 
@@ -68,3 +68,14 @@ def test_bench_rows_have_the_shape_tools_bench_expects() -> None:
     assert all(r["section"] == "vision" and r["value"] > 0 for r in rows)
     assert "same detections as the NumPy/SciPy recipe" in rows[0]["note"]
     assert {r["name"] for r in rows} >= {"detect, OpenCV (best)", "paper (MATLAB)"}
+
+
+def test_peer_rows_time_both_recipes_on_every_object_count() -> None:
+    """One round on 3 and 6 objects: both recipes find them all; a per-object slope each."""
+    rows = run_detection_peers(repeat=1, counts=(3, 6))
+    assert all(set(r) == {"section", "name", "value", "unit", "note"} for r in rows)
+    names = {r["name"] for r in rows}
+    for n in (3, 6):
+        assert {f"detect {n} objects, mearm", f"detect {n} objects, 8-bit inRange recipe"} <= names
+        assert f"found {n} and {n} of {n}" in rows[0 if n == 3 else 3]["note"]
+    assert {r["unit"] for r in rows if r["name"].endswith("per object")} == {"µs/object"}

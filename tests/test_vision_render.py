@@ -7,7 +7,7 @@ import pytest
 
 from mearm.config import Config
 from mearm.exceptions import ConfigError
-from mearm.sim import Disc, Highlight, TableRenderer, class_bgr, class_discs
+from mearm.sim import Disc, Extra, Highlight, Paper, Shadow, TableRenderer, class_bgr, class_discs
 from mearm.vision import Calibration, ColorDetector
 from mearm.vision.classify import hsv_exact
 
@@ -84,3 +84,35 @@ def test_objects_are_drawn_in_their_class_colour_and_size() -> None:
 def test_unknown_class_is_a_named_error() -> None:
     with pytest.raises(ConfigError, match="'purple': not a class \\(classes: red, green, blue\\)"):
         class_discs(CONFIG.task.classes, [("purple", 0.0, 45.0)])
+
+
+def test_a_frame_is_its_discs_and_index_whatever_was_drawn_before() -> None:
+    """A renderer keeps the table and each disc's patch: a frame drawn after other scenes
+    (or after its caller wrote into an earlier frame) is the frame a new renderer draws."""
+    extras: list[Extra] = [
+        Paper(-8.0, 40.0, angle_deg=20.0),
+        Shadow(3.0, 45.0),
+        Highlight(1.0, 44.0),
+        Disc((30, 200, 200), -4.0, 42.0),
+    ]
+    discs = class_discs(CONFIG.task.classes, [("red", 0.0, 45.0), ("blue", 5.0, 40.0)])
+    for noise_std in (0.0, 2.0):
+        kept = TableRenderer(CAL, extras=extras, noise_std=noise_std)
+        first = kept.render(discs, 3)
+        first[:] = 0
+        kept.render(discs[:1], 4)
+        kept.render([], 5)
+        again = kept.render(discs, 3)
+        fresh = TableRenderer(CAL, extras=extras, noise_std=noise_std).render(discs, 3)
+        assert np.array_equal(again, fresh)
+
+
+def test_an_unchanged_table_is_not_drawn_again() -> None:
+    """Frames of the same discs differ only by their noise, drawn from the kept table."""
+    r = TableRenderer(CAL)
+    discs = class_discs(CONFIG.task.classes, [("green", 0.0, 45.0)])
+    a, b = r.render(discs, 1), r.render(discs, 2)
+    kept = r._clean  # the lit table before noise, drawn once for both frames
+    assert r.render(list(discs), 3) is not None and r._clean is kept
+    assert not np.array_equal(a, b)
+    assert np.abs(a.astype(float) - b).max() <= 2 * 6 * r.noise_std

@@ -1,4 +1,4 @@
-"""The simulated camera: the world's table, rendered afresh at every read (paper §1, §4).
+"""The simulated camera: the world's table as it is at every read (paper §1, §4).
 
 It stands in for a real camera behind the same :class:`~mearm.vision.camera.Camera`
 interface; :func:`mearm.vision.open_camera` returns one for ``camera.kind: sim``.
@@ -21,8 +21,9 @@ from mearm.vision.camera import Camera
 class SimCamera(Camera):
     """The simulated camera: renders the objects on the world's table at every read.
 
-    Each object is a disc of its class's ``draw_rgb`` and ``diameter_cm``
-    (``task.classes``).
+    The renderer redraws the table only when the objects on it changed; each read has
+    fresh sensor noise (see :class:`~mearm.sim.renderer.TableRenderer`). Each object is
+    a disc of its class's ``draw_rgb`` and ``diameter_cm`` (``task.classes``).
 
     Args:
         config: The whole config: ``camera`` (size, noise, light, table, seed),

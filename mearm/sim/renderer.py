@@ -13,8 +13,12 @@ A frame is drawn in the image through the inverse of the calibration, so an obje
 5. light: ``brightness`` × a linear gradient of ±``gradient`` from the top-left to the
    bottom-right corner;
 6. specular highlights, if asked for (white added, so saturation drops);
-7. Gaussian sensor noise of ``noise_std`` levels, seeded by (seed, frame index);
-8. rounded and clipped to 8 bits.
+7. Gaussian sensor noise of ``noise_std`` levels: a window of a bank of noise drawn once
+   per renderer, at an offset seeded by (seed, frame index);
+8. rounded (half to even) and clipped to 8 bits.
+
+Steps 1–6 are drawn again only when the discs change, from a kept background (1, 2) and
+kept disc patches (3), so a camera looking at an unchanged table pays for the noise only.
 
 The discs are flat: the calibration is taken to hold in the plane of the objects' tops,
 as the paper's was measured on the objects (paper §4), so there is no parallax to add.
@@ -124,6 +128,13 @@ Extra = Disc | Paper | Shadow | Highlight
 class TableRenderer:
     """Draw table scenes as the camera sees them.
 
+    The parts of a frame are drawn once and kept: the table (texture and paper), each
+    disc's patch and drop shadow. Only a change of the discs draws the lit table again,
+    from those parts; the noise of frame *i* is a window of a bank of Gaussian noise
+    drawn once per renderer, at an offset drawn from (seed, *i*): every frame has fresh
+    noise of ``noise_std``, and the same (discs, frame index) gives the same frame,
+    whatever was drawn before.
+
     Args:
         calibration: Pixel ↔ table map; objects are drawn through its inverse.
         width_px: Frame width [px].
@@ -136,6 +147,11 @@ class TableRenderer:
         extras: Distractors drawn in every frame: discs of other colours, paper,
             shadows, highlights.
     """
+
+    #: Noise values in the bank beyond one frame's: the range of a frame's offset.
+    NOISE_SPARE = 1 << 17
+    #: Disc patches and shadows kept (a new scene after this many starts afresh).
+    PATCHES_KEPT = 4096
 
     def __init__(
         self,
@@ -161,13 +177,23 @@ class TableRenderer:
         self.seed = int(seed)
         self.extras = tuple(extras)
         h, w = self.size
-        u, v = np.meshgrid(np.arange(w, dtype=float), np.arange(h, dtype=float))
-        xy = calibration.pixel_to_table(np.stack([u.ravel(), v.ravel()], axis=1))
-        self._x_cm = xy[:, 0].reshape(h, w).astype(np.float32)
-        self._y_cm = xy[:, 1].reshape(h, w).astype(np.float32)
+        u = np.arange(w, dtype=float)[None, :]
+        v = np.arange(h, dtype=float)[:, None]
         ramp = (u / max(w - 1, 1) + v / max(h - 1, 1) - 1.0).astype(np.float32)
         self._light = (self.brightness * (1.0 + self.gradient * ramp))[..., None]
-        self._texture = self._make_texture()
+        background = self._make_texture()
+        for e in self.extras:
+            if isinstance(e, Paper):
+                self._paper(background, e)
+        self._background = background  # texture and paper, before any disc [8-bit levels]
+        self._extra_discs = [e for e in self.extras if isinstance(e, Disc)]
+        self._patches: dict[
+            tuple[float, ...], tuple[tuple[slice, slice], np.ndarray, np.ndarray]
+        ] = {}
+        self._shades: dict[tuple[float, ...], tuple[tuple[slice, slice], np.ndarray] | None] = {}
+        self._scene: tuple[Disc, ...] | None = None
+        self._clean = np.empty(0, np.float32)  # the last scene, lit, before noise
+        self._noise_bank: np.ndarray | None = None
 
     @classmethod
     def from_config(
@@ -185,6 +211,21 @@ class TableRenderer:
             seed=camera.seed,
             extras=extras,
         )
+
+    def _table_xy(self, roi: tuple[slice, slice] | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Table coordinates (x, y) [cm] of the pixels of ``roi`` (all if None), float32.
+
+        Element by element, so a pixel's value does not depend on the box it is in.
+        """
+        h, w = self.size
+        rows, cols = roi if roi is not None else (slice(0, h), slice(0, w))
+        u = np.arange(cols.start, cols.stop, dtype=float)[None, :]
+        v = np.arange(rows.start, rows.stop, dtype=float)[:, None]
+        H = self.calibration.H
+        den = H[2, 0] * u + H[2, 1] * v + H[2, 2]
+        x = (H[0, 0] * u + H[0, 1] * v + H[0, 2]) / den
+        y = (H[1, 0] * u + H[1, 1] * v + H[1, 2]) / den
+        return x.astype(np.float32), y.astype(np.float32)
 
     def _lowfreq(self, rng: np.random.Generator, cells: tuple[int, int]) -> np.ndarray:
         h, w = self.size
@@ -214,32 +255,53 @@ class TableRenderer:
         Returns:
             The frame, (H, W, 3) uint8 BGR.
         """
-        img = self._texture.copy()
-        extras = self.extras
-        for e in extras:
-            if isinstance(e, Paper):
-                self._paper(img, e)
-        all_discs = [e for e in extras if isinstance(e, Disc)] + list(discs)
-        for d in all_discs:
+        scene = (*self._extra_discs, *discs)
+        if scene != self._scene:
+            self._clean = self._draw(scene)
+            self._scene = scene
+        if self.noise_std <= 0:
+            return np.clip(np.rint(self._clean), 0, 255).astype(np.uint8)
+        # cv2.add rounds half to even and saturates, as np.clip(np.rint(·)) does.
+        return cv2.add(self._clean, self._noise(frame_index), dtype=cv2.CV_8U)
+
+    def _draw(self, discs: Sequence[Disc]) -> np.ndarray:
+        """The table with ``discs`` on it, lit and highlighted, before noise (float32)."""
+        if len(self._patches) > self.PATCHES_KEPT:
+            self._patches.clear()
+            self._shades.clear()
+        img = self._background.copy()
+        for d in discs:
             self._soft(img, d.x_cm + 0.25, d.y_cm - 0.25, d.diameter_cm / 2 + 0.1, 0.3, 0.5)
-        for d in all_discs:
+        for d in discs:
             self._disc(img, d)
-        for e in extras:
+        for e in self.extras:
             if isinstance(e, Shadow):
                 self._soft(img, e.x_cm, e.y_cm, e.radius_cm, e.depth, e.soft_cm)
         img *= self._light
-        for e in extras:
-            if isinstance(e, Highlight):
-                r2 = (self._x_cm - e.x_cm) ** 2 + (self._y_cm - e.y_cm) ** 2
+        highlights = [e for e in self.extras if isinstance(e, Highlight)]
+        if highlights:
+            x_cm, y_cm = self._table_xy()
+            for e in highlights:
+                r2 = (x_cm - e.x_cm) ** 2 + (y_cm - e.y_cm) ** 2
                 img += (255.0 * e.strength * np.exp(-0.5 * r2 / e.sigma_cm**2))[..., None]
-        if self.noise_std > 0:
-            rng = np.random.default_rng([self.seed, int(frame_index)])
-            img += rng.normal(0.0, self.noise_std, img.shape).astype(np.float32)
-        return np.clip(np.rint(img), 0, 255).astype(np.uint8)
+        return img
+
+    def _noise(self, frame_index: int) -> np.ndarray:
+        """Frame ``frame_index``'s noise [8-bit levels], (H, W, 3) float32."""
+        h, w = self.size
+        n = h * w * 3
+        if self._noise_bank is None:
+            rng = np.random.default_rng([self.seed, 11])
+            bank = rng.standard_normal(n + self.NOISE_SPARE, dtype=np.float32)
+            bank *= np.float32(self.noise_std)
+            self._noise_bank = bank
+        start = int(np.random.default_rng([self.seed, int(frame_index)]).integers(self.NOISE_SPARE))
+        return self._noise_bank[start : start + n].reshape(h, w, 3)
 
     def _paper(self, img: np.ndarray, p: Paper) -> None:
+        x_cm, y_cm = self._table_xy()
         a = np.radians(p.angle_deg)
-        dx, dy = self._x_cm - p.x_cm, self._y_cm - p.y_cm
+        dx, dy = x_cm - p.x_cm, y_cm - p.y_cm
         along = np.cos(a) * dx + np.sin(a) * dy
         across = -np.sin(a) * dx + np.cos(a) * dy
         inside = (np.abs(along) <= p.width_cm / 2) & (np.abs(across) <= p.height_cm / 2)
@@ -258,18 +320,39 @@ class TableRenderer:
         return slice(v0, v1), slice(u0, u1)
 
     def _soft(self, img: np.ndarray, x: float, y: float, r: float, depth: float, soft: float):
-        roi = self._roi(x, y, r + soft)
-        if roi is None:
-            return
-        dist = np.sqrt((self._x_cm[roi] - x) ** 2 + (self._y_cm[roi] - y) ** 2)
-        t = np.clip((r + soft / 2 - dist) / max(soft, 1e-6), 0.0, 1.0)
-        img[roi] *= (1.0 - depth * t * t * (3 - 2 * t))[..., None]
+        key = (x, y, r, depth, soft)
+        if key not in self._shades:
+            roi = self._roi(x, y, r + soft)
+            if roi is None:
+                self._shades[key] = None
+            else:
+                x_cm, y_cm = self._table_xy(roi)
+                dist = np.sqrt((x_cm - x) ** 2 + (y_cm - y) ** 2)
+                t = np.clip((r + soft / 2 - dist) / max(soft, 1e-6), 0.0, 1.0)
+                self._shades[key] = (roi, (1.0 - depth * t * t * (3 - 2 * t))[..., None])
+        shade = self._shades[key]
+        if shade is not None:
+            roi, factor = shade
+            img[roi] *= factor
 
     def _disc(self, img: np.ndarray, d: Disc) -> None:
+        key = (*d.bgr, d.x_cm, d.y_cm, d.diameter_cm)
+        patch = self._patches.get(key)
+        if patch is None:
+            made = self._disc_patch(d)
+            if made is None:
+                return
+            self._patches[key] = patch = made
+        roi, keep, paint = patch
+        img[roi] *= keep
+        img[roi] += paint
+
+    def _disc_patch(self, d: Disc) -> tuple[tuple[slice, slice], np.ndarray, np.ndarray] | None:
+        """A disc's box, the share of the table kept and the colour added in it."""
         r = d.diameter_cm / 2.0
         roi = self._roi(d.x_cm, d.y_cm, r)
         if roi is None:
-            return
+            return None
         (v0, v1), (u0, u1) = (roi[0].start, roi[0].stop), (roi[1].start, roi[1].stop)
         n = _SAMPLES
         offs = (np.arange(n) + 0.5) / n - 0.5
@@ -284,6 +367,4 @@ class TableRenderer:
         cover = inside.reshape(bh, n, bw, n).mean(axis=(1, 3)).astype(np.float32)
         tone = shade.reshape(bh, n, bw, n).mean(axis=(1, 3)).astype(np.float32)
         color = np.array(d.bgr, np.float32)
-        patch = img[v0:v1, u0:u1]
-        patch *= (1.0 - cover)[..., None]
-        patch += tone[..., None] * color
+        return roi, (1.0 - cover)[..., None], tone[..., None] * color

@@ -20,6 +20,9 @@ Sections:
     vision: ms per 640x480 frame with 12 objects, OpenCV detector next to a plain
         NumPy/SciPy port of the same recipe (:mod:`mearm.vision.bench`) and the paper's
         0.263 s; detection accuracy on rendered scenes; calibration recovery.
+    sort-cpu: CPU time (user + sys, median of 3) of the 12-object simulated sort as a
+        child process, interpreter start included, with and without the bytecode cache;
+        the sort's imports and a bare interpreter beside it.
     twin: the MuJoCo physical twin's real-time factor (simulated seconds per wall
         second) on ``configs/sim_mujoco.yaml`` and ``configs/sim_5dof_mujoco.yaml``: its
         physics alone during a whole sort, MuJoCo's bare stepping at rest, and the whole
@@ -507,13 +510,75 @@ def bench_vision(options: BenchOptions) -> list[Row]:
     """Detector ms per 640x480 frame vs a NumPy/SciPy port of the recipe; accuracy."""
     from mearm.vision.bench import (  # noqa: PLC0415
         run_calibration_study,
+        run_detection_peers,
         run_vision_accuracy,
         run_vision_bench,
     )
 
     rows = run_vision_bench(max(20, 10 * options.repeat))
+    rows += run_detection_peers(max(20, 10 * options.repeat))
     rows += run_vision_accuracy() + run_calibration_study()
     return [Row(**r) for r in rows]
+
+
+# --------------------------------------------------------------------------- sort-cpu
+
+#: Runs of each command in the ``sort-cpu`` section (the median is reported).
+SORT_CPU_RUNS = 3
+SORT_ARGV = ("-m", "mearm.sort", "--config", "sim", "--quiet")
+
+
+def child_seconds(argv: Sequence[str], env: dict[str, str]) -> tuple[float, float, int]:
+    """CPU time (user + sys) [s], wall time [s] and exit status of ``python *argv``."""
+    import resource  # noqa: PLC0415
+    import subprocess  # noqa: PLC0415
+
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    t0 = time.perf_counter()
+    proc = subprocess.run(
+        [sys.executable, *argv], env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL
+    )
+    wall = time.perf_counter() - t0
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    return cpu, wall, proc.returncode
+
+
+@section("sort-cpu")
+def bench_sort_cpu(options: BenchOptions) -> list[Row]:
+    """CPU time of the 12-object simulated sort, interpreter start included."""
+    import tempfile  # noqa: PLC0415
+
+    with tempfile.TemporaryDirectory(prefix="mearm-pyc-") as cache:
+        cached = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
+        cached["PYTHONPYCACHEPREFIX"] = cache
+        uncached = {k: v for k, v in cached.items() if k != "PYTHONPYCACHEPREFIX"}
+        uncached["PYTHONDONTWRITEBYTECODE"] = "1"
+        kinds = {
+            "sim sort, 12 objects: CPU": (SORT_ARGV, cached),
+            "sim sort, 12 objects, no bytecode cache: CPU": (SORT_ARGV, uncached),
+            "imports of the sort (python -c 'import mearm.sort'): CPU": (
+                ("-c", "import mearm.sort"),
+                cached,
+            ),
+            "bare interpreter (python -c pass): CPU": (("-c", "pass"), cached),
+        }
+        child_seconds(SORT_ARGV, cached)  # writes the bytecode
+        runs: dict[str, list[tuple[float, float, int]]] = {k: [] for k in kinds}
+        for _ in range(SORT_CPU_RUNS):
+            for key, (argv, env) in kinds.items():
+                runs[key].append(child_seconds(argv, env))
+    note = f"median of {SORT_CPU_RUNS} runs, user + sys of the child process"
+    rows = []
+    for key, measured in runs.items():
+        failed = [r[2] for r in measured if r[2] != 0]
+        extra = f"; EXIT STATUS {failed}" if failed else ""
+        target = "; target ≤ 1.0 s" if key == "sim sort, 12 objects: CPU" else ""
+        cpu = statistics.median(r[0] for r in measured)
+        rows.append(Row("sort-cpu", key, cpu, "s", f"{note}{target}{extra}"))
+    wall = statistics.median(r[1] for r in runs["sim sort, 12 objects: CPU"])
+    rows.append(Row("sort-cpu", "sim sort, 12 objects: wall", wall, "s", "median, same runs"))
+    return rows
 
 
 # --------------------------------------------------------------------------- twin

@@ -6,10 +6,15 @@ Everything is keyed by colour class (``task.classes``): build a detector with
 
 ``mearm.vision.reference`` (the plain NumPy/SciPy recipe), ``mearm.vision.scenes`` and
 ``mearm.vision.bench`` (rendered test scenes, the benchmark) need SciPy or the simulator
-and are not imported here.
+and are not imported here; the ArUco markers (:mod:`mearm.vision.aruco`), which only
+calibration needs, are imported on first use.
 """
 
-from mearm.vision.aruco import calibration_from_markers, detect_markers
+from __future__ import annotations
+
+import importlib
+from typing import Any
+
 from mearm.vision.calibration import Calibration
 from mearm.vision.camera import (
     Camera,
@@ -22,6 +27,12 @@ from mearm.vision.classify import PixelClassifier, classify_exact
 from mearm.vision.detector import ColorDetector, Detection
 from mearm.vision.image import probe_image, read_image
 from mearm.vision.thresholds import Thresholds
+
+#: Public name → the module that defines it; imported on first access.
+_LAZY: dict[str, str] = {
+    "calibration_from_markers": "mearm.vision.aruco",
+    "detect_markers": "mearm.vision.aruco",
+}
 
 __all__ = [
     "Calibration",
@@ -40,3 +51,16 @@ __all__ = [
     "probe_image",
     "read_image",
 ]
+
+
+def __getattr__(name: str) -> Any:
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'mearm.vision' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return __all__

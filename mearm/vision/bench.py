@@ -9,6 +9,10 @@ rendering of a frame; prints them next to the paper's 0.263 s (MATLAB R2018a,
 i5-2410M). Figures are the best of the rounds (the least disturbed) and the median.
 Never asserted: timings depend on the machine. Needs SciPy (the ``dev`` extra).
 
+Next to a plain 8-bit OpenCV recipe (:func:`detect_inrange`: per class ``inRange`` on
+OpenCV's HSV, median, label) it times the detector on 12 and 40 objects laid on a grid
+(:func:`grid_scene`), and the cost of one more object (the slope from 12 to 40).
+
 It also reports the detector's accuracy on the standard scenes
 (:mod:`mearm.vision.scenes`): every condition, with and without distractors, several
 noise seeds — how many scenes gave exactly the 12 objects with the right classes, and
@@ -21,20 +25,24 @@ sits on top of both layers and imports it where it draws.
 
 from __future__ import annotations
 
+import math
 import statistics
 import sys
 import time
 from collections.abc import Callable, Sequence
 
+import cv2
 import numpy as np
 
-from mearm.config import Config
+from mearm.config import ColorClass, Config, VisionConfig
 from mearm.vision.calibration import Calibration
-from mearm.vision.detector import ColorDetector
+from mearm.vision.detector import ColorDetector, Detection
 from mearm.vision.reference import detect_reference
 from mearm.vision.scenes import BASE_OPTIONS, CONDITIONS, distractors, match_detections
 
 PAPER_DETECT_S = 0.263  # paper §4: 12 objects, 640×480, MATLAB
+#: Object counts of the per-object rows: the paper's scene and a crowded table.
+PEER_COUNTS = (12, 40)
 
 
 def _times(fns: dict[str, Callable[[], object]], rounds: int) -> dict[str, list[float]]:
@@ -101,6 +109,144 @@ def run_vision_bench(repeat: int = 50) -> list[dict]:
         ("sim camera render (best)", best["render"], "ms/frame",
          "textured table, 12 shaded discs, noise"),
     ]  # fmt: skip
+    return [
+        {"section": "vision", "name": n, "value": float(v), "unit": u, "note": note}
+        for n, v, u, note in rows
+    ]
+
+
+def grid_scene(
+    calibration: Calibration,
+    classes: Sequence[ColorClass],
+    n: int,
+    size_px: tuple[int, int] = (640, 480),
+    margin_px: float = 40.0,
+) -> list[tuple[str, float, float]]:
+    """``n`` objects (class, x [cm], y [cm]) on a grid over the frame, classes in turn.
+
+    The grid spans the frame less ``margin_px`` on each side, about 4 columns for 3 rows;
+    40 objects of 2 cm on the sim rig's 640×480 frame are about 5 cm apart.
+    """
+    w, h = size_px
+    (x0, y0), (x1, y1) = calibration.pixel_to_table(
+        np.array([[margin_px, margin_px], [w - margin_px, h - margin_px]])
+    )
+    cols = max(1, math.ceil(math.sqrt(n * 4 / 3)))
+    rows = max(1, math.ceil(n / cols))
+    xs = np.linspace(min(x0, x1), max(x0, x1), cols)
+    ys = np.linspace(min(y0, y1), max(y0, y1), rows)
+    return [
+        (classes[i % len(classes)].name, float(xs[i % cols]), float(ys[i // cols]))
+        for i in range(n)
+    ]
+
+
+def detect_inrange(
+    frame_bgr: np.ndarray,
+    classes: Sequence[ColorClass],
+    vision: VisionConfig,
+    calibration: Calibration | None = None,
+) -> list[Detection]:
+    """The plain 8-bit OpenCV recipe, the peer the detector is timed against.
+
+    Per class: ``cv2.inRange`` on OpenCV's 8-bit HSV (hue in 2° bins, each band rounded
+    inwards, a wrapping band as two ranges; S and V floors in levels), a median filter,
+    ``connectedComponentsWithStats``; each region of at least ``min_area_px`` one
+    detection with its centroid, area, box and, given a calibration, its table point.
+    No exact classification, merged test or splitting; detections in the detector's
+    order (class, then row, then column).
+    """
+    hsv = cv2.cvtColor(frame_bgr, cv2.COLOR_BGR2HSV)
+    s_lo = math.ceil(255 * vision.saturation_min)
+    v_lo = math.ceil(255 * vision.value_min)
+    found: list[Detection] = []
+    for c in classes:
+        mask = np.zeros(hsv.shape[:2], np.uint8)
+        for band in c.hue_bands_deg:
+            lo, hi = band.lo_deg / 2.0, band.hi_deg / 2.0
+            for a, z in [(lo, hi)] if lo <= hi else [(lo, 180.0), (0.0, hi)]:
+                lower = np.array([math.ceil(a), s_lo, v_lo], np.uint8)
+                upper = np.array([math.floor(z), 255, 255], np.uint8)
+                mask = cv2.bitwise_or(mask, cv2.inRange(hsv, lower, upper))
+        if vision.median_kernel > 1:
+            mask = cv2.medianBlur(mask, vision.median_kernel)
+        n, _, stats, centroids = cv2.connectedComponentsWithStats(mask, connectivity=8)
+        keep = [i for i in range(1, n) if stats[i, cv2.CC_STAT_AREA] >= vision.min_area_px]
+        table = calibration.pixel_to_table(centroids[keep]) if calibration and keep else None
+        per_class = [
+            Detection(
+                c.name,
+                centroids[i],
+                int(stats[i, cv2.CC_STAT_AREA]),
+                (int(stats[i, 0]), int(stats[i, 1]), int(stats[i, 2]), int(stats[i, 3])),
+                table_cm=None if table is None else table[j],
+            )
+            for j, i in enumerate(keep)
+        ]
+        per_class.sort(key=lambda d: (d.centroid_px[1], d.centroid_px[0]))
+        found.extend(per_class)
+    return found
+
+
+def run_detection_peers(repeat: int = 50, counts: Sequence[int] = PEER_COUNTS) -> list[dict]:
+    """The detector next to the 8-bit ``inRange`` recipe on grids of ``counts`` objects.
+
+    Rows: µs per frame of each (best of ``repeat`` interleaved rounds of 5 calls), their
+    ratio per count, and each one's cost of one more object: the slope between the
+    smallest and the largest count [µs/object]. The sim rig's camera (wood, noise),
+    calibration and classes.
+    """
+    from mearm.sim.renderer import TableRenderer, class_discs
+
+    config = Config()
+    classes = config.task.classes
+    calibration = Calibration.from_config(config.calibration)
+    renderer = TableRenderer.from_config(config.camera, calibration)
+    detector = ColorDetector(config.vision, calibration, classes)
+    size = (config.camera.width_px, config.camera.height_px)
+    frames = {
+        n: renderer.render(class_discs(classes, grid_scene(calibration, classes, n, size)))
+        for n in counts
+    }
+    inner = 5
+
+    def repeated(fn: Callable[[np.ndarray], object], frame: np.ndarray) -> Callable[[], None]:
+        def run() -> None:
+            for _ in range(inner):
+                fn(frame)
+
+        return run
+
+    calls: dict[str, Callable[[], object]] = {}
+    found: dict[str, int] = {}
+    for n, frame in frames.items():
+        recipe = lambda f: detect_inrange(f, classes, config.vision, calibration)  # noqa: E731
+        calls[f"mearm/{n}"] = repeated(detector.detect, frame)
+        calls[f"inRange/{n}"] = repeated(recipe, frame)
+        found[f"mearm/{n}"] = len(detector.detect(frame))
+        found[f"inRange/{n}"] = len(recipe(frame))
+    us = {k: 1e6 * min(v) / inner for k, v in _times(calls, max(1, repeat)).items()}
+    note = f"{size[0]}x{size[1]} sim wood table, objects on a grid, best of {repeat} rounds"
+    rows = []
+    for n in counts:
+        seen = f"found {found[f'mearm/{n}']} and {found[f'inRange/{n}']} of {n}"
+        rows.append((f"detect {n} objects, mearm", us[f"mearm/{n}"], "µs/frame", f"{note}; {seen}"))
+        rows.append(
+            (
+                f"detect {n} objects, 8-bit inRange recipe",
+                us[f"inRange/{n}"],
+                "µs/frame",
+                "cvtColor + inRange + medianBlur + connectedComponentsWithStats",
+            )
+        )
+        rows.append((f"mearm ÷ inRange, {n} objects", us[f"mearm/{n}"] / us[f"inRange/{n}"], "x",
+                     "same run"))  # fmt: skip
+    lo, hi = min(counts), max(counts)
+    if hi > lo:
+        for key, label in (("mearm", "mearm"), ("inRange", "8-bit inRange recipe")):
+            slope = (us[f"{key}/{hi}"] - us[f"{key}/{lo}"]) / (hi - lo)
+            rows.append((f"detect, {label}: per object", slope, "µs/object",
+                         f"slope from {lo} to {hi} objects"))  # fmt: skip
     return [
         {"section": "vision", "name": n, "value": float(v), "unit": u, "note": note}
         for n, v, u, note in rows
@@ -195,7 +341,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--repeat", type=int, default=50, help="timing rounds (50)")
     parser.add_argument("--seeds", type=int, default=3, help="noise seeds per scene (3)")
     args = parser.parse_args(argv)
-    rows = run_vision_bench(args.repeat) + run_vision_accuracy(args.seeds)
+    rows = run_vision_bench(args.repeat) + run_detection_peers(args.repeat)
+    rows += run_vision_accuracy(args.seeds)
     for row in rows + run_calibration_study():
         note = f"  ({row['note']})" if row["note"] else ""
         print(f"{row['name']:<62} {row['value']:9.3f} {row['unit']:<9}{note}")

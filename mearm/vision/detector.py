@@ -99,13 +99,31 @@ class Detection:
     table_cm: np.ndarray | None = field(default=None, compare=False)
 
     def __post_init__(self) -> None:
-        c = np.array(self.centroid_px, dtype=float).reshape(2)
-        c.setflags(write=False)
-        object.__setattr__(self, "centroid_px", c)
+        object.__setattr__(self, "centroid_px", _point(self.centroid_px))
         if self.table_cm is not None:
-            t = np.array(self.table_cm, dtype=float).reshape(2)
-            t.setflags(write=False)
-            object.__setattr__(self, "table_cm", t)
+            object.__setattr__(self, "table_cm", _point(self.table_cm))
+
+
+def _point(value: object) -> np.ndarray:
+    """``value`` as a read-only float (2,) array; one already so is kept, not copied.
+
+    Kept only if no one can write it: not writeable, and neither is the array whose
+    memory it views (NumPy points a view's ``base`` at that array).
+    """
+    if (
+        isinstance(value, np.ndarray)
+        and value.shape == (2,)
+        and value.dtype == np.float64
+        and not value.flags.writeable
+        and (
+            value.base is None
+            or (isinstance(value.base, np.ndarray) and not value.base.flags.writeable)
+        )
+    ):
+        return value
+    p = np.array(value, dtype=float).reshape(2)
+    p.setflags(write=False)
+    return p
 
 
 def check_frame(frame: object, source: str = "frame") -> np.ndarray:
@@ -318,6 +336,11 @@ class ColorDetector:
     def detect(self, frame_bgr: np.ndarray) -> list[Detection]:
         """Detections in ``frame_bgr`` ((H, W, 3) uint8 BGR), in the documented order.
 
+        The regions are measured one by one (class, area, box, elongation), the rest per
+        image (merged test, table positions, order); each detection is made once, at
+        the end. Regions to split and perspective calibrations take the general path
+        (:meth:`_resolve`, :meth:`_located`).
+
         Raises:
             ImageError: the frame is not an 8-bit 3-channel image.
         """
@@ -328,56 +351,90 @@ class ColorDetector:
             index = cv2.bitwise_or(index, and_scalar(masks[name], code))
         n, labels, stats, centroids = _label(index)
         min_area = self.vision.min_area_px
-        found: list[Detection] = []
-        regions: list[np.ndarray] = []  # each detection's 0/1 mask of its box
-        for lab in range(1, n):
-            x, y, w, h, area = (int(v) for v in stats[lab])
-            if area < min_area:  # its class regions are smaller still
-                continue
+        # One row per region, in label order: class code, area, box in the frame, centroid
+        # in working-box pixels, elongation, 0/1 mask of its box.
+        found: list[tuple[int, int, tuple[int, int, int, int], np.ndarray, float, np.ndarray]]
+        found = []
+        big = np.flatnonzero(stats[1:n, cv2.CC_STAT_AREA] >= min_area) + 1
+        for lab in big.tolist():  # smaller union regions hold smaller class regions still
+            x, y, w, h, area = stats[lab].tolist()
             roi = (slice(y, y + h), slice(x, x + w))
             region = (labels[roi] == lab).view(np.uint8)
             lo, hi, _, _ = cv2.minMaxLoc(index[roi], mask=region)
             if lo == hi:  # one class: the union region is that class's region
-                found.append(self._detection(int(lo), region, centroids[lab], area, (x, y)))
-                regions.append(region)
+                box = (x + ox, y + oy, w, h)
+                found.append((int(lo), area, box, centroids[lab], _elongation(region), region))
                 continue
             for i in range(int(lo), int(hi) + 1):  # different classes touch: split them
                 sub = equal_mask(index[roi], i)
                 sub = cv2.bitwise_and(sub, sub, mask=region)
                 m, sub_labels, sub_stats, sub_centroids = _label(sub)
                 for s in range(1, m):
-                    sx, sy, sw, sh, sarea = (int(v) for v in sub_stats[s])
+                    sx, sy, sw, sh, sarea = sub_stats[s].tolist()
                     if sarea >= min_area:
                         piece = (sub_labels[sy : sy + sh, sx : sx + sw] == s).view(np.uint8)
-                        centroid = sub_centroids[s] + (x, y)
-                        found.append(self._detection(i, piece, centroid, sarea, (x + sx, y + sy)))
-                        regions.append(piece)
-        found = [self._shifted(d, ox, oy) for d in found]
-        found, regions = self._resolve(found, regions, frame_bgr)
-        found = self._located(found, regions, frame_bgr)
+                        box = (x + sx + ox, y + sy + oy, sw, sh)
+                        centre = sub_centroids[s] + (x, y)
+                        found.append((i, sarea, box, centre, _elongation(piece), piece))
+        if not found:
+            return []
+        columns = (list(column) for column in zip(*found, strict=True))
+        codes, areas, boxes, centres, elongations, regions = columns
+        centroid = np.array(centres).reshape(-1, 2) + (ox, oy)  # (N, 2) [px]
+        centroid.setflags(write=False)  # its rows are the detections' own (read-only)
+        colors = [self.class_names[c - 1] for c in codes]
+        elongation = np.array(elongations)
+        merged = elongation > self.vision.merged_elongation
+        cal = self.calibration
+        table: np.ndarray | None = None
+        if cal is not None:
+            _, largest, stretch = self.one_object_bounds(centroid, colors, frame_bgr.shape)
+            over = np.array(areas) > self.vision.merged_area_ratio * largest
+            if over.any() or not isinstance(cal, Calibration):
+                return self._general(colors, centroid, areas, boxes, merged, elongations,
+                                     regions, frame_bgr)  # fmt: skip
+            merged = elongation > self.vision.merged_elongation * stretch
+            table = np.array(cal.pixel_to_table(centroid))  # its own memory, then read-only
+            table.setflags(write=False)
+        flags = merged.tolist()
+        row, col = centroid[:, 1].tolist(), centroid[:, 0].tolist()
+        order = sorted(range(len(codes)), key=lambda j: (codes[j], row[j], col[j]))
+        return [
+            Detection(
+                color=colors[j],
+                centroid_px=centroid[j],
+                area_px=areas[j],
+                bbox_px=boxes[j],
+                merged=flags[j],
+                elongation=elongations[j],
+                table_cm=None if table is None else table[j],
+            )
+            for j in order
+        ]
+
+    def _general(
+        self,
+        colors: list[str],
+        centroid: np.ndarray,
+        areas: list[int],
+        boxes: list[tuple[int, int, int, int]],
+        merged: np.ndarray,
+        elongations: list[float],
+        regions: list[np.ndarray],
+        frame: np.ndarray,
+    ) -> list[Detection]:
+        """The detections of regions of which some must be split or are in perspective."""
+        found = [
+            Detection(color, c, a, b, bool(m), e)
+            for color, c, a, b, m, e in zip(
+                colors, centroid, areas, boxes, merged, elongations, strict=True
+            )
+        ]
+        found, regions = self._resolve(found, regions, frame)
+        found = self._located(found, regions, frame)
         order = {name: i for i, name in enumerate(self.class_names)}
         found.sort(key=lambda d: (order[d.color], d.centroid_px[1], d.centroid_px[0]))
         return found
-
-    def _detection(
-        self, code: int, region: np.ndarray, centroid: np.ndarray, area: int, xy: tuple[int, int]
-    ) -> Detection:
-        """A detection from a region (0/1 image of its bounding box) in working-box pixels."""
-        elongation = _elongation(region)
-        h, w = region.shape
-        return Detection(
-            color=self.class_names[code - 1],
-            centroid_px=centroid,
-            area_px=int(area),
-            bbox_px=(xy[0], xy[1], w, h),
-            merged=elongation > self.vision.merged_elongation,
-            elongation=elongation,
-        )
-
-    @staticmethod
-    def _shifted(d: Detection, ox: int, oy: int) -> Detection:
-        x, y, w, h = d.bbox_px
-        return replace(d, centroid_px=d.centroid_px + (ox, oy), bbox_px=(x + ox, y + oy, w, h))
 
     def one_object_bounds(
         self, centroids_px: np.ndarray, colors: Sequence[str], frame_shape: Sequence[int]
