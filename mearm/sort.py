@@ -14,8 +14,8 @@ no longer sees it on the table).
 Exit status: 0 only when every object seen was sorted; 1 when the run ended with objects
 left (out of reach, failed picks, a camera or servo fault, a servo port that cannot be
 opened); 2 on bad input, found before anything moves (a camera that cannot be opened as
-configured included); 130 on Ctrl-C (the arm is parked first). The run log is written per route, so a failure
-loses nothing written before it.
+configured included); 130 on Ctrl-C (the arm is parked first). The run log is written
+per route, so a failure loses nothing written before it.
 """
 
 from __future__ import annotations
