@@ -8,11 +8,9 @@ imported on its own.
 
 from __future__ import annotations
 
-import importlib
 import logging
 import os
 import sys
-from typing import Any
 
 # MuJoCo picks its OpenGL backend when it is first imported: without a display, render
 # offscreen with Mesa's EGL (the physical twin's camera) unless the user chose one.
@@ -23,6 +21,7 @@ if sys.platform.startswith("linux") and not os.environ.get("DISPLAY"):
 # import). One thread, unless the user chose; no effect if NumPy was imported first.
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
+from mearm._lazy import lazy_exports  # noqa: E402
 from mearm.exceptions import *  # noqa: E402, F403 (the exception families are cheap and public)
 from mearm.exceptions import __all__ as _exception_names  # noqa: E402
 
@@ -72,14 +71,4 @@ _LAZY: dict[str, str] = {
 __all__ = sorted([*_exception_names, *_LAZY, "__version__"])
 
 
-def __getattr__(name: str) -> Any:
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module 'mearm' has no attribute {name!r}")
-    value = getattr(importlib.import_module(module), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return __all__
+__getattr__, __dir__ = lazy_exports(__name__, _LAZY, globals(), __all__)

@@ -12,9 +12,7 @@ The simulator sits above vision and hardware: it may import them, they never imp
 
 from __future__ import annotations
 
-import importlib
-from typing import Any
-
+from mearm._lazy import lazy_exports
 from mearm.sim.camera import SimCamera
 from mearm.sim.renderer import (
     Disc,
@@ -59,14 +57,4 @@ __all__ = [
 ]
 
 
-def __getattr__(name: str) -> Any:
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module 'mearm.sim' has no attribute {name!r}")
-    value = getattr(importlib.import_module(module), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return __all__
+__getattr__, __dir__ = lazy_exports(__name__, _LAZY, globals(), __all__)
