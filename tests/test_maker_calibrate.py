@@ -173,16 +173,7 @@ def operate(cmd: PtyCommand, truth: dict[str, TrueServo], count: int) -> dict[st
     recorded: dict[str, list[int]] = {}
     for _ in range(count):
         head = cmd.expect(r"\] (\w+) \(\w+, channel \d+\)")
-        name = head.group(1)
-        for _ in range(2):
-            ref = float(cmd.expect(rf"move {name} to (-?[\d.]+) (deg|cm)").group(1))
-            start = int(cmd.expect(rf"{name}: pulse (\d+) µs").group(1))
-            goal = round(truth[name].pulse_us(ref))
-            jog_to(cmd, start, goal)
-            cmd.send("\r")
-            cmd.expect(rf"recorded {name} at [-\d.]+ \w+: {goal} µs")
-            recorded.setdefault(name, []).append(goal)
-        cmd.expect(rf"{name}: zero ")
+        recorded.update(operate_from_here(cmd, head.group(1), truth))
     return recorded
 
 
