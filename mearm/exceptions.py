@@ -699,7 +699,37 @@ class UnsolicitedBytesError(ServoError):
         )
 
 
-__all__ += ["MoveNotConfirmedError", "SerialPortError", "UnsolicitedBytesError"]
+class ServoStallError(ServoError):
+    """A joint servo did not reach its command: it stopped short or ran out of time.
+
+    Attributes:
+        joint: The joint's name.
+        commanded: Where it was told to go [deg or cm].
+        measured: Where its potentiometer says it is [deg or cm].
+        reason: ``"stalled"`` (at rest short of the command) or ``"timeout"``.
+    """
+
+    def __init__(
+        self,
+        joint: str,
+        commanded: float,
+        measured: float,
+        reason: str,
+        detail: str,
+        *,
+        last_state: object | None = None,
+    ):
+        self.joint = joint
+        self.commanded = commanded
+        self.measured = measured
+        self.reason = reason
+        super().__init__(
+            f"joint {joint} {detail}: commanded {commanded:.2f}, measured {measured:.2f}",
+            last_state=last_state,
+        )
+
+
+__all__ += ["MoveNotConfirmedError", "SerialPortError", "ServoStallError", "UnsolicitedBytesError"]
 
 
 class ServoCalibrationError(CalibrationError):

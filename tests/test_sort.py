@@ -162,7 +162,7 @@ def test_camera_that_stops_delivering_frames(tmp_path, config):
 
 def test_servo_link_dropped_mid_route(tmp_path, config):
     """The cable is pulled mid-route: named reason, last acknowledged pose logged, no more sends."""
-    with FakeMearmBoard(MearmFaults(drop_at_move=90)) as board:
+    with FakeMearmBoard(MearmFaults(drop_at_move=400)) as board:
         cfg = config_from_dict(
             {
                 "servo": {
@@ -191,7 +191,7 @@ def test_servo_link_dropped_mid_route(tmp_path, config):
     assert trial.routes, "the route before the fault is in the log"
     fault = trial.faults[0]
     assert fault.last_joints is not None and not trial.summary.ok
-    assert len(moves) == 90  # the 90th move met the pulled cable; nothing sent after it
+    assert len(moves) == 400  # the 400th move met the pulled cable; nothing sent after it
 
 
 def test_ctrl_c_parks_and_keeps_the_log(tmp_path):

@@ -12,7 +12,13 @@ import pytest
 from conftest import ROOT
 
 from mearm.config import Config, load_config
-from mearm.exceptions import ModelError, ServoError, ServoFaultedError, WorldError
+from mearm.exceptions import (
+    ModelError,
+    ServoError,
+    ServoFaultedError,
+    ServoStallError,
+    WorldError,
+)
 from mearm.hardware.bus import ArmCommand
 from mearm.ik import IKTarget
 from mearm.kinematics import ArmModel
@@ -24,7 +30,9 @@ from mearm.sim.mjcf import (
     ServoSpec,
     generate_mjcf,
 )
-from mearm.sim.twin_bus import BACKLASH_DEG, TwinArm
+from mearm.sim.servo_bus import SimArm
+from mearm.sim.twin_bus import ARRIVED_SHAFT_DEG, BACKLASH_DEG, TwinArm
+from mearm.sim.world import World
 from mearm.task.plan import RETRY_LIFT_CM, Planner
 
 #: Settling time after the last command of a route [s].
@@ -115,6 +123,63 @@ def test_speed_limit_holds_on_a_big_step(paper):
     print(f"\n60° on {s.name} in {took:.3f} s (datasheet {datasheet:.3f} s/60°)")
     assert abs(arm.actual_joints[s.name] - joints[s.name]) < 0.5
     assert took >= datasheet
+
+
+def test_await_arrival_runs_on_until_a_lagging_joint_is_there(paper):
+    """One 60° command: the servo needs its datasheet time; the wait runs on until it is there."""
+    config, _ = paper
+    arm = _twin(paper)
+    s = arm.servos[0]
+    joints = config.arm.home()
+    joints[s.name] -= 60.0
+    arm.move(_command(config, joints))  # one period: the servo has barely started
+    assert abs(arm.actual_joints[s.name] - joints[s.name]) > 30.0
+    waited = arm.await_arrival(2.0)
+    datasheet = math.radians(60.0) / s.speed
+    assert waited >= datasheet - 2 * arm.period_s
+    assert abs(arm.actual_joints[s.name] - joints[s.name]) <= ARRIVED_SHAFT_DEG
+    assert arm.await_arrival(2.0) == 0.0  # there already: no wait
+
+
+def test_await_arrival_times_out_and_faults_the_bus(paper):
+    """Not there within the timeout: a named stall error, and the bus sends nothing more."""
+    config, _ = paper
+    arm = _twin(paper)
+    name = arm.servos[0].name
+    joints = config.arm.home()
+    joints[name] -= 60.0
+    arm.move(_command(config, joints))
+    with pytest.raises(ServoStallError, match=f"joint {name} did not arrive within") as info:
+        arm.await_arrival(0.04)
+    assert info.value.reason == "timeout" and info.value.joint == name
+    assert arm.fault is info.value
+    with pytest.raises(ServoFaultedError):
+        arm.move(ArmCommand.home(config.arm))
+
+
+def test_a_joint_too_weak_for_its_load_stalls(paper):
+    """A shoulder servo with a hundredth of its torque comes to rest short: a stall fault."""
+    config, m = paper
+    weak = mujoco.MjModel.from_xml_string(generate_mjcf(config))
+    weak.actuator("shoulder").forcerange[:] = m.actuator("shoulder").forcerange / 100
+    arm = TwinArm(config, weak)
+    arm.connect()
+    arm.settle(1.0)  # it sags under its own weight
+    joints = config.arm.home()
+    joints["shoulder"] += 20.0  # lift: against gravity
+    arm.move(_command(config, joints))
+    with pytest.raises(ServoStallError, match="joint shoulder stalled") as info:
+        arm.await_arrival(5.0)
+    assert info.value.reason == "stalled"
+    assert abs(info.value.measured - info.value.commanded) > 5.0
+
+
+def test_a_bus_without_feedback_does_not_wait():
+    """The kinematic sim (like a serial board) cannot measure its joints: no wait."""
+    config = load_config(ROOT / "configs" / "sim.yaml")
+    with SimArm(config, World.from_config(config)) as arm:
+        arm.move(ArmCommand.home(config.arm))
+        assert arm.await_arrival(2.0) == 0.0
 
 
 def test_a_command_inside_the_dead_band_moves_nothing(paper):

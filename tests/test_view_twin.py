@@ -105,10 +105,10 @@ def twin_sort():
 
 def test_the_view_draws_what_the_twin_measures_at_every_push(twin_sort):
     """Each push draws the measured joints, jaws and every object's pose, exactly; it is
-    pushed after every streamed move (hundreds of pushes for two objects)."""
+    pushed after every streamed move (dozens of pushes for two objects)."""
     pushes, end = twin_sort
     assert end["report"].outcome.sorted == {"red": 1, "green": 1, "blue": 0}
-    assert len(pushes) > 200
+    assert len(pushes) > 30
     for p in pushes:
         np.testing.assert_allclose(p.drawn_q, p.measured_q, atol=1e-12)
         assert p.drawn_opening_cm == pytest.approx(p.measured_opening_cm, abs=1e-12)
@@ -146,7 +146,7 @@ def test_a_carried_object_is_drawn_above_the_table_in_the_jaws(twin_sort):
     red = TWIN.task.class_named("red")
     start = np.array([SCENE[0].x, SCENE[0].y])
     carried = [p for p in pushes if p.drawn["red1"].position_cm[2] > red.height_cm + 3.0]
-    assert len(carried) > 20
+    assert len(carried) >= 3
     moved = [p for p in carried if np.linalg.norm(p.drawn["red1"].position_cm[:2] - start) > 5]
     assert moved, "red1 is never drawn carried away from its spot"
     for p in moved:
@@ -249,7 +249,7 @@ def test_twin_executor_pushes_at_most_every_nth_move_and_always_at_route_ends():
             ex = Executor(TWIN, rig.bus, rig.model, view, view_every=5)
             assert ex.twin_ids == ("red1", "green1")
             q = rig.model.home.copy()
-            q[0] += np.radians(13)  # a 13° joint path: 7 moves of at most 2°
+            q[0] -= np.radians(60)  # 60° at the servos' 400°/s: 8 moves at 50 Hz
             ex.move_joints(q, "travel", False)
             assert len(view.pushes) == 2  # after move 5, and at the path's end
             ex.set_tool("travel", True)  # the tool: one move, the hold, then a push

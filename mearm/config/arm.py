@@ -51,6 +51,14 @@ US_PER_UNIT_RANGE = (0.1, 10_000.0)
 MAX_COUPLING = 100.0
 #: Jaws thinner or shorter than this cannot be drawn or gripped with [cm].
 MIN_JAW_CM = 0.01
+#: Pulse change per degree of a hobby servo's output shaft [µs/deg]: the nominal
+#: 600–2400 µs over 180° these configs calibrate to (SG90, MG90S, MG996R alike).
+US_PER_SERVO_DEG = 10.0
+#: Speeds a servo may be given [s/60°]: the fastest hobby servos turn at about 0.04 s/60°,
+#: sail-winch servos at about 1 s/60°.
+SECONDS_PER_60DEG_RANGE = (0.01, 2.0)
+#: Shaft accelerations a servo may be given [deg/s²].
+ACCEL_DEG_S2_RANGE = (100.0, 1e6)
 
 Coefficient = Annotated[float, Field(ge=-MAX_COUPLING, le=MAX_COUPLING, allow_inf_nan=False)]
 
@@ -121,6 +129,22 @@ class ServoCalibration(Strict):
     """Lowest pulse this servo may get [µs] (the firmware and the SSC-32 allow 500–2500)."""
     max_us: int = Field(default=2400, ge=500, le=2500)
     """Highest pulse this servo may get [µs]."""
+    seconds_per_60deg: float = Field(
+        default=0.10,
+        ge=SECONDS_PER_60DEG_RANGE[0],
+        le=SECONDS_PER_60DEG_RANGE[1],
+        allow_inf_nan=False,
+    )
+    """The servo's speed limit: how long its shaft takes to turn 60° [s/60°]. The default
+    is the TowerPro SG90's and MG90S's datasheet no-load speed, 0.10 s/60° at 4.8 V (the
+    MG996R's is 0.17, the paper's RDS3135 about 0.15 at 6.8 V:
+    :mod:`mearm.config.servo_models`). Streamed trajectories never command a faster turn
+    (:meth:`max_speed`)."""
+    max_accel_deg_s2: float | None = Field(
+        default=None, ge=ACCEL_DEG_S2_RANGE[0], le=ACCEL_DEG_S2_RANGE[1], allow_inf_nan=False
+    )
+    """The shaft's acceleration limit [deg/s²]; ``null``: not given (hobby servo
+    datasheets give none): then only the speed limit bounds a move."""
 
     @model_validator(mode="after")
     def _pulse_range(self) -> ServoCalibration:
@@ -131,6 +155,22 @@ class ServoCalibration(Strict):
     def pulse_us(self, value: float) -> float:
         """Exact pulse for a value [µs]."""
         return self.zero_us + self.direction * self.us_per_unit * value
+
+    def max_speed(self) -> float:
+        r"""The fastest the value may change [deg/s or cm/s: the value's unit per second].
+
+        .. math:: \dot v_{max} = \frac{60°}{t_{60}}\,\frac{k_s}{k}
+
+        with :math:`t_{60}` = ``seconds_per_60deg``, :math:`k_s` =
+        :data:`US_PER_SERVO_DEG` and :math:`k` = ``us_per_unit``.
+        """
+        return 60.0 / self.seconds_per_60deg * US_PER_SERVO_DEG / self.us_per_unit
+
+    def max_accel(self) -> float | None:
+        """The acceleration limit of the value [deg/s² or cm/s²], or ``None`` if not given."""
+        if self.max_accel_deg_s2 is None:
+            return None
+        return self.max_accel_deg_s2 * US_PER_SERVO_DEG / self.us_per_unit
 
     def value_range(self) -> tuple[float, float]:
         """The values at ``min_us`` and ``max_us``, ascending."""
@@ -310,6 +350,12 @@ class Tool(Strict):
     e.g. ``[0, 0, -1]`` for a wrist that picks from above; ``null``: position only."""
     tcp_above_grip_cm: NonNegativeLength = 0.0
     """How far above the point where the jaws close the TCP is when picking [cm]."""
+    settle_s: float = Field(default=0.1, ge=0, le=10, allow_inf_nan=False)
+    """How long a tool setting (the gripper opening or closing, a tool actuator moving)
+    is held after its servos' travel at their speed limit, before the arm moves on [s].
+    The default, 0.1 s, is four times a micro servo motor's time constant (about 25 ms,
+    :data:`mearm.config.servo_models.MOTOR_TIME_CONSTANT_S`): room for the jaws to stop
+    and the grip to take hold."""
     gripper: Gripper
     actuators: list[ToolActuator] = Field(default_factory=list, max_length=12)
 

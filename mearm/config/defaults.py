@@ -26,7 +26,10 @@ def paper_arm() -> ArmDescription:
     """The paper's enlarged MeArm: base, shoulder, elbow and the parallelogram wrist."""
 
     def servo(channel: int, zero_us: float) -> ServoCalibration:
-        return ServoCalibration(channel=channel, zero_us=zero_us, us_per_unit=10.0)
+        # An RDS3135: 0.15 s/60° at 6.8 V (datasheet no-load speed).
+        return ServoCalibration(
+            channel=channel, zero_us=zero_us, us_per_unit=10.0, seconds_per_60deg=0.15
+        )
 
     return ArmDescription(
         name="mearm_paper",
@@ -61,7 +64,13 @@ def paper_arm() -> ArmDescription:
         tool=Tool(
             tcp_above_grip_cm=11.26,
             gripper=Gripper(
-                servo=ServoCalibration(channel=4, zero_us=2200.0, direction=-1, us_per_unit=300.0),
+                servo=ServoCalibration(
+                    channel=4,
+                    zero_us=2200.0,
+                    direction=-1,
+                    us_per_unit=300.0,
+                    seconds_per_60deg=0.17,  # an MG996R at 4.8 V
+                ),
                 open_cm=4.0,
                 closed_cm=1.0,
                 jaw_length_cm=4.0,

@@ -361,6 +361,12 @@ class TaskConfig(Strict):
     before the place, so the jaws neither sweep through other objects and bin walls nor
     drag what they hold [cm]; ``null``: the paper's direct routes (what the kinematic
     simulator, which has no collisions, reproduces)."""
+    order: Literal["class", "nearest"] = "class"
+    """Which object the arm takes next. ``class``: the classes in the order listed (the
+    paper's: every red, then green, then blue), the nearest of a class first; ``nearest``:
+    the object nearest the TCP whatever its class, which shortens the travel from each bin
+    to the next object. Either way an object whose open jaws come down clear of every
+    neighbour goes before one that has a neighbour under them."""
     scene: list[SceneObject] = Field(
         default_factory=lambda: [SceneObject(color=c, x=x, y=y) for c, x, y in PAPER_LAYOUT],
         max_length=MAX_SCENE_OBJECTS,

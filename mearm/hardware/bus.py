@@ -277,6 +277,30 @@ class ServoBus(ABC):
         if self.paced:
             time.sleep(seconds)
 
+    def await_arrival(self, timeout_s: float) -> float:
+        """Wait until the joint servos have reached the last command, if the bus can tell.
+
+        A bus that measures its joints (the physical twin's potentiometers) runs on with
+        the last command until every joint servo has arrived; a bus that cannot tell
+        (hobby servos over serial report no position) returns at once: there the
+        configured speed limits (``seconds_per_60deg``) are the promise that the servos
+        keep up with the stream.
+
+        Returns:
+            How long it waited [s].
+
+        Raises:
+            ServoNotConnectedError, ServoFaultedError: as :meth:`move`.
+            ServoStallError: a joint did not arrive within ``timeout_s`` or came to rest
+                short of the command; the bus is stopped from then on.
+        """
+        self._require_ready()
+        return self._guarded(self._await_arrival, float(timeout_s))
+
+    def _await_arrival(self, timeout_s: float) -> float:
+        """Backend hook of :meth:`await_arrival`: by default the bus cannot tell."""
+        return 0.0
+
     def stop(self) -> None:
         """Hold the last confirmed pose; commands no move. Sends nothing after a fault.
 

@@ -42,7 +42,8 @@ import mujoco
 import numpy as np
 
 from mearm.config import Config
-from mearm.exceptions import ModelError, ServoError, WorldError
+from mearm.config.arm import US_PER_SERVO_DEG
+from mearm.exceptions import ModelError, ServoError, ServoStallError, WorldError
 from mearm.hardware.bus import ArmCommand, ServoBus
 from mearm.hardware.mapping import ActuatorMap, ServoMap
 from mearm.kinematics.chain import Chain
@@ -68,6 +69,15 @@ log = logging.getLogger(__name__)
 BACKLASH_DEG = 0.5
 #: An object is at rest when its centre moves slower than this [m/s].
 REST_SPEED_M_S = 1e-3
+#: A joint servo has arrived when its potentiometer is within this of the command, in
+#: turns of its shaft (1° is 10 µs of pulse on a nominal hobby servo) [deg].
+ARRIVED_SHAFT_DEG = 1.0
+#: A joint servo whose motor has reached the command and whose joint moves less than this
+#: in one command period is at rest [deg of shaft]; at rest farther than
+#: :data:`STALLED_SHAFT_DEG` from the command it has stalled.
+AT_REST_SHAFT_DEG = 0.02
+#: How far short of the command a joint servo at rest has stalled [deg of shaft].
+STALLED_SHAFT_DEG = 5.0
 #: The physics warnings that mean the twin diverged (MuJoCo resets the data on them).
 _DIVERGED = (
     mujoco.mjtWarning.mjWARN_BADQPOS,
@@ -112,6 +122,11 @@ class ServoModel:
     def target_of(self, pulse_us: float) -> float:
         """The setpoint a pulse asks for [rad or m]."""
         return self.amap.value_of(pulse_us) * self.scale
+
+    @property
+    def shaft_unit(self) -> float:
+        """One degree of the servo's shaft in the model's units [rad or m per deg]."""
+        return US_PER_SERVO_DEG / self.amap.us_per_unit * self.scale
 
 
 @dataclass(frozen=True)
@@ -332,6 +347,51 @@ class TwinArm(ServoBus):
                 "(MuJoCo reset its state); rebuild the TwinArm",
                 last_state=self.state,
             )
+
+    def _await_arrival(self, timeout_s: float) -> float:
+        """Run on with the last command until every joint servo has arrived.
+
+        Arrived: its potentiometer within :data:`ARRIVED_SHAFT_DEG` of the accepted
+        target, or at rest (its motor at the target, the joint moving less than
+        :data:`AT_REST_SHAFT_DEG` in a period) within :data:`STALLED_SHAFT_DEG` of it, a
+        load the servo holds with a small error. The gripper is not waited for: jaws
+        closing on an object stop short by design (the tool's hold covers them).
+
+        Raises:
+            ServoStallError: a joint at rest farther than :data:`STALLED_SHAFT_DEG`, or
+                not arrived after ``timeout_s``.
+        """
+        joints = slice(0, len(self.servos) - 1)
+        shaft = np.array([s.shaft_unit for s in self.servos[joints]])
+        waited, before = 0.0, self.pot[joints]
+        while True:
+            pot = self.pot[joints]
+            error = np.abs(self._target[joints] - pot) / shaft
+            resting = (self._motor[joints] == self._target[joints]) & (
+                np.abs(pot - before) / shaft < AT_REST_SHAFT_DEG
+            )
+            if waited > 0 and np.any(resting & (error > STALLED_SHAFT_DEG)):
+                k = int(np.argmax(np.where(resting, error, -1.0)))
+                raise self._stall(k, "stalled: at rest short of its command")
+            if np.all((error <= ARRIVED_SHAFT_DEG) | (resting & (waited > 0))):
+                return waited
+            if waited >= timeout_s:
+                k = int(np.argmax(error))
+                raise self._stall(k, f"did not arrive within {timeout_s:.2f} s")
+            before = pot
+            self._run(self.period_s)
+            waited += self.period_s
+
+    def _stall(self, k: int, detail: str) -> ServoStallError:
+        servo = self.servos[k]
+        return ServoStallError(
+            servo.name,
+            float(self._target[k] / servo.scale),
+            float(self.pot[k] / servo.scale),
+            "stalled" if detail.startswith("stalled") else "timeout",
+            detail,
+            last_state=self.state,
+        )
 
     # ----------------------------------------------------------------- backend hooks
 

@@ -1,7 +1,11 @@
 """Execute: send a planned route to the servos, pose by pose, and set the tool.
 
 Only routes whose plan converged are sent (:attr:`Route.planned`); every command goes
-through the bus's own checks (limits, pulse ranges) before a byte is sent.
+through the bus's own checks (limits, pulse ranges) before a byte is sent. A plan is
+streamed as :func:`mearm.task.timing.time_path` samples it: points of the planned path,
+one per servo period, none faster than a servo's speed limit; a tool setting is held for
+its servos' travel and settling (:func:`mearm.task.timing.tool_move_s`). The executor adds
+both up in :attr:`Executor.motion`.
 
 The executor also keeps the view (if any) in step with the arm. On a bus that measures
 the world — the physical twin (:class:`mearm.sim.twin_bus.TwinArm`), recognised by its
@@ -24,15 +28,16 @@ from mearm.config import Config
 from mearm.hardware import ArmCommand, ServoBus
 from mearm.kinematics import ArmModel
 from mearm.task.route import Route
+from mearm.task.timing import MotionTime, SpeedLimits, TimedPath, time_path, tool_move_s
 
 Phase = Literal["home", "travel", "grip"]
 
-#: How long a tool setting (the gripper closing or opening, the gripper arm moving) is
-#: given to take effect before the arm moves on [s]: a micro servo's 0.1 s/60° over a
-#: full stroke, with room to settle.
-TOOL_SETTLE_S = 0.3
+#: How long a bus that measures its joints (the twin) is given, after the last command of
+#: a move, for every joint to arrive before the move is a fault [s]: a servo at half its
+#: rated speed is about 0.3 s behind at the end of a full-speed 180° swing.
+ARRIVAL_TIMEOUT_S = 2.0
 
-#: The largest step of a joint-space move per command: [rad] for a revolute joint
+#: The largest step between two planned poses of a joint-space move: [rad] for a revolute joint
 #: (2°), [m] for a prismatic one (0.5 cm).
 JOINT_STEP = {False: np.deg2rad(2.0), True: 0.005}
 
@@ -84,6 +89,8 @@ class Executor:
     Attributes:
         twin_ids: The objects the bus measures (:func:`twin_object_ids`), or ``None``:
             then the view is shown the commanded joints.
+        limits: The actuated joints' speed limits (from their servo calibrations).
+        motion: The motion commanded so far: streamed arm motion and tool settings.
     """
 
     def __init__(
@@ -107,6 +114,8 @@ class Executor:
         self.twin_ids = twin_object_ids(bus)
         self._classes = {c.name for c in config.task.classes}
         self._unshown = 0  # moves sent since the view was last shown the world
+        self.limits = SpeedLimits.of_arm(config.arm, self.chain)
+        self.motion = MotionTime()
 
     # ----------------------------------------------------------------- state
 
@@ -180,11 +189,44 @@ class Executor:
         if self._unshown >= self.view_every:
             self.show_world()
 
+    def _tool_change_s(self, phase: Phase, closed: bool) -> float:
+        """How long setting the tool for ``phase`` takes from the last command [s]."""
+        state = self.bus.state
+        before = None if state is None else dict(state.tool)
+        before_closed = None if state is None else state.gripper_closed
+        return tool_move_s(self._tool, before, before_closed, self.tool_settings(phase), closed)
+
     def set_tool(self, phase: Phase, closed: bool) -> None:
-        """Hold the joints; set the tool and the gripper, given :data:`TOOL_SETTLE_S`."""
+        """Hold the joints; set the tool and the gripper, held for its travel and settling."""
+        seconds = self._tool_change_s(phase, closed)
         self.send(self.q_now(), phase, closed)
-        self.bus.hold(TOOL_SETTLE_S)
+        self.bus.hold(seconds)
+        self._count_tool(seconds)
         self.show_world()  # the jaws closed or opened, and what they hold
+
+    def _count_tool(self, seconds: float) -> None:
+        if seconds > 0:
+            self.motion.tool_s += seconds
+            self.motion.tool_moves += 1
+
+    def _arrive(self) -> float:
+        """Wait for the joints to reach the last command where the bus measures them [s].
+
+        On the physical twin the servos' real speed under load may fall short of the
+        config's ``seconds_per_60deg``; the tool must not act before the arm is there.
+        The wait is counted in :attr:`MotionTime.wait_s`.
+
+        Raises:
+            ServoStallError: a joint stalled or did not arrive within
+                :data:`ARRIVAL_TIMEOUT_S`.
+        """
+        waited = self.bus.await_arrival(ARRIVAL_TIMEOUT_S)
+        self.motion.wait_s += waited
+        return waited
+
+    def timed(self, q_path: npt.ArrayLike) -> TimedPath:
+        """A planned path sampled at the servo rate within every speed limit (:func:`time_path`)."""
+        return time_path(q_path, self.chain, self.limits, self.config.servo.rate_hz)
 
     def stream(self, route: Route, phase: Phase, closed: bool, color: str = "#202020") -> Route:
         """Send every pose of a planned route; refuse one that is not fully planned.
@@ -195,13 +237,16 @@ class Executor:
         if not route.planned:
             raise ValueError(f"route {route.step} {route.object_id} is not planned: not sent")
         assert route.plan is not None
+        timed = self.timed(route.plan.q_path)  # in full, checked, before anything is sent
         if self.view is not None:
             self.view.set_target(route.target.position_cm)
-        for q in route.plan.q_path[1:]:
+        for q in timed.q[1:]:
             self.send(q, phase, closed)
+        waited = self._arrive()
         self._flush_view()
         route.executed = True
-        route.motion_s = route.plan.iterations / self.config.servo.rate_hz
+        route.motion_s = timed.duration_s + waited
+        self.motion.arm_s += timed.duration_s
         if self.view is not None:
             self.view.add_path(route.plan.ee_path_cm, color)
         return route
@@ -209,10 +254,11 @@ class Executor:
     def joint_path(self, q_to: npt.ArrayLike) -> np.ndarray:
         """A straight line in joint space from the last confirmed pose to ``q_to``, (k, n).
 
-        Planned in full before anything is sent: each step moves an actuated joint by at
-        most :data:`JOINT_STEP`, passive joints follow their coupling, and every pose is
-        checked against the limits (a straight line between two poses within box-shaped
-        limits and a linear coupling stays inside them).
+        Planned in full before anything is sent (and then streamed as :meth:`timed`
+        samples it): each step moves an actuated joint by at most :data:`JOINT_STEP`,
+        passive joints follow their coupling, and every pose is checked against the
+        limits (a straight line between two poses within box-shaped limits and a linear
+        coupling stays inside them).
 
         Raises:
             ValueError: a pose of the path leaves the limits (a bug: both ends are
@@ -231,14 +277,26 @@ class Executor:
         return path
 
     def move_joints(self, q_to: npt.ArrayLike, phase: Phase, closed: bool) -> None:
-        """Go to ``q_to`` along :meth:`joint_path`, planned in full first."""
-        for q in self.joint_path(q_to)[1:]:
+        """Go to ``q_to`` along :meth:`joint_path`, planned and timed in full first."""
+        timed = self.timed(self.joint_path(q_to))
+        for q in timed.q[1:]:
             self.send(q, phase, closed)
+        self.motion.arm_s += timed.duration_s
+        self._arrive()
         self._flush_view()
 
     def home_pose(self, closed: bool = False) -> None:
-        """Command the home joints and the tool's home settings (gripper open by default)."""
+        """Command the home joints and the tool's home settings (gripper open by default).
+
+        Sent as one command: the arm is at home already (before the first move, or after
+        :meth:`move_joints` home); the tool's travel to its home settings is counted in
+        :attr:`motion` and, once the arm has moved, held for.
+        """
+        seconds = self._tool_change_s("home", closed) if self.bus.state is not None else 0.0
         self.send(self.model.home, "home", closed)
+        if seconds > 0:
+            self.bus.hold(seconds)
+            self._count_tool(seconds)
         self._flush_view()
 
     def finish(self, route: Route, t0: float) -> Route:

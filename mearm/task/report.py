@@ -11,6 +11,7 @@ from mearm.config import Config
 from mearm.kinematics import Chain
 from mearm.runlog import RunLog
 from mearm.task.route import Route
+from mearm.task.timing import MotionTime
 
 #: Why an object was left unsorted: each kind and the words the summary line uses.
 LEFT_REASONS: dict[str, str] = {
@@ -205,7 +206,7 @@ class Reporter:
         if self.log is not None:
             self.log.fault(reason, last_joints, trial=self.trial)
 
-    def summary(self, ok: bool, outcome: Outcome) -> None:
+    def summary(self, ok: bool, outcome: Outcome, motion: MotionTime | None = None) -> None:
         """Close the trial in the log and print the per-class table.
 
         The last line printed is :meth:`Outcome.line`.
@@ -213,6 +214,9 @@ class Reporter:
         Args:
             ok: Whether the run ended without a fault.
             outcome: The objects seen, sorted and left.
+            motion: The whole run's commanded motion (every route, home moves and tool
+                settings: :class:`~mearm.task.timing.MotionTime`); ``None``: the logged
+                routes' streamed motion only.
         """
         rep = self.report
         rep.outcome = outcome
@@ -236,14 +240,19 @@ class Reporter:
             its = np.array([r.plan.iterations for r in routes if r.plan is not None])
             solver_err = np.array([r.plan.final_error_cm for r in routes if r.plan is not None])
             arm_err = np.array([np.linalg.norm(r.error_cm) for r in routes])
-            motion = sum(r.motion_s for r in routes)
+            rate = self.config.servo.rate_hz
+            if motion is None:
+                streamed = sum(r.motion_s for r in routes)
+                motion_text = f"motion {streamed:.1f} s (these routes, streamed at {rate:g} Hz)"
+            else:
+                motion_text = motion.line(rate)
             self.echo(
                 f"routes {len(routes)}, failed picks {rep.failed_picks}, "
                 f"iterations mean {its.mean():.1f} ({its.min()}–{its.max()}), "
                 f"solver error mean {solver_err.mean():.4f} cm, "
-                f"arm error mean {arm_err.mean():.3f} cm, "
-                f"motion {motion:.1f} s at {self.config.servo.rate_hz:g} Hz"
+                f"arm error mean {arm_err.mean():.3f} cm"
             )
+            self.echo(motion_text)
         for s in rep.skipped:
             self.echo(f"not sorted: {s.object_id} ({s.class_name}): {s.reason}")
         if rep.fault:

@@ -2,7 +2,8 @@
 
 The loop reads the table after every object, takes the classes in the order the config
 lists them (within a class, first an object whose open jaws come down clear of every
-neighbour, then the nearest), and starts each route where the last one ended (the arm
+neighbour, then the nearest) or, with ``task.order: nearest``, the clear object nearest
+the TCP whatever its class, and starts each route where the last one ended (the arm
 does not go home between objects). Each route is planned in full first
 (:mod:`mearm.task.plan`); only a converged plan is sent to the servos
 (:mod:`mearm.task.execute`), pose by pose, paced by the bus; what happened goes to the
@@ -216,6 +217,8 @@ class Sorter:
             return min(objs, key=lambda o: (np.hypot(o.x_cm - ee[0], o.y_cm - ee[1]), o.id))
 
         clear = [o for o in candidates if self._jaws_clear(o, candidates)]
+        if self.config.task.order == "nearest" and candidates:
+            return nearest(clear or candidates)
         for cls in self.config.task.classes:
             of_class = [o for o in candidates if o.class_name == cls.name]
             if not of_class:
@@ -374,7 +377,7 @@ class Sorter:
             self._abort(str(exc), park=isinstance(exc, CameraError))
         except KeyboardInterrupt:
             self._abort("interrupted (Ctrl-C)", park=True, interrupted=True)
-        self.reporter.summary(ok=True, outcome=self.outcome())
+        self.reporter.summary(ok=True, outcome=self.outcome(), motion=self.executor.motion)
         return self.report
 
     def outcome(self, stopped: str | None = None) -> Outcome:
@@ -433,7 +436,9 @@ class Sorter:
         full = reason + parked
         self.reporter.fault(full, self._last_joints())
         self.reporter.summary(
-            ok=False, outcome=self.outcome("interrupted" if interrupted else "fault")
+            ok=False,
+            outcome=self.outcome("interrupted" if interrupted else "fault"),
+            motion=self.executor.motion,
         )
         raise SortAborted(full, interrupted=interrupted, last_joints=self._last_joints())
 

@@ -1,0 +1,132 @@
+"""The streamed trajectory: within every servo's speed limit, on the planned path."""
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from mearm.config import Config
+from mearm.kinematics import Chain
+from mearm.task.timing import MotionTime, SpeedLimits, time_path, tool_move_s
+
+CONFIG = Config()
+CHAIN = Chain.from_description(CONFIG.arm)
+
+
+def arm_with(seconds_per_60deg, accel_deg_s2):
+    """The default arm, each actuated joint's servo given its own speed and acceleration."""
+    joints = []
+    for j, s, a in zip(
+        (j for j in CONFIG.arm.joints if j.servo is not None),
+        seconds_per_60deg,
+        accel_deg_s2,
+        strict=True,
+    ):
+        servo = j.servo.model_copy(update={"seconds_per_60deg": s, "max_accel_deg_s2": a})
+        joints.append(j.model_copy(update={"servo": servo}))
+    by_name = {j.name: j for j in joints}
+    return CONFIG.arm.model_copy(
+        update={"joints": [by_name.get(j.name, j) for j in CONFIG.arm.joints]}
+    )
+
+
+def route(rng, k):
+    """``k`` random poses within the limits, full joints, (k, n)."""
+    lo, hi = CHAIN.actuated_lower, CHAIN.actuated_upper
+    poses = [CHAIN.full(rng.uniform(lo, hi)) for _ in range(k)]
+    return np.array([q for q in poses if CHAIN.within_limits(q)] or [CHAIN.home.copy()])
+
+
+def distance_to_path(q, path):
+    """The largest joint difference from ``q`` to the nearest point of the polyline."""
+    a, d = path[:-1], np.diff(path, axis=0)
+    dd = np.maximum(np.einsum("ij,ij->i", d, d), 1e-300)
+    t = np.clip(np.einsum("ij,ij->i", q - a, d) / dd, 0.0, 1.0)
+    return float(np.min(np.abs(a + t[:, None] * d - q).max(axis=1)))
+
+
+speeds = st.lists(st.floats(0.03, 1.0), min_size=3, max_size=3)
+accels = st.lists(st.one_of(st.none(), st.floats(100.0, 1e5)), min_size=3, max_size=3)
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    seed=st.integers(0, 2**32 - 1),
+    k=st.integers(1, 40),
+    seconds=speeds,
+    accel=accels,
+    rate_hz=st.sampled_from([10.0, 50.0, 333.0]),
+)
+def test_no_step_outruns_a_speed_limit(seed, k, seconds, accel, rate_hz):
+    """No streamed step exceeds any servo's speed limit; every pose within the limits."""
+    limits = SpeedLimits.of_arm(arm_with(seconds, accel), CHAIN)
+    path = route(np.random.default_rng(seed), k)
+    timed = time_path(path, CHAIN, limits, rate_hz)
+    step = np.abs(np.diff(CHAIN.actuated_of(timed.q), axis=0))
+    assert np.all(step <= limits.velocity / rate_hz * (1 + 1e-9) + 1e-12)
+    assert all(CHAIN.within_limits(q, tol=1e-9) for q in timed.q)
+    assert timed.duration_s == pytest.approx((len(timed.q) - 1) / rate_hz)
+
+
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), k=st.integers(2, 30), seconds=speeds, accel=accels)
+def test_the_streamed_poses_follow_the_planned_path(seed, k, seconds, accel):
+    """Every streamed pose lies on the planned polyline, from its start to its end."""
+    limits = SpeedLimits.of_arm(arm_with(seconds, accel), CHAIN)
+    path = route(np.random.default_rng(seed), k)
+    timed = time_path(path, CHAIN, limits, 50.0)
+    assert np.allclose(timed.q[0], path[0], atol=1e-12)
+    assert np.allclose(timed.q[-1], path[-1], atol=1e-9)
+    if len(path) > 1:
+        assert max(distance_to_path(q, path) for q in timed.q) <= 1e-9
+
+
+def test_full_speed_takes_the_slowest_joints_time():
+    """Without an acceleration limit a straight move takes its slowest joint's time."""
+    limits = SpeedLimits.of_arm(arm_with([0.10] * 3, [None] * 3), CHAIN)
+    a0 = CHAIN.actuated_of(CHAIN.home.copy())
+    a1 = a0 + np.deg2rad([30.0, -12.0, 6.0])
+    timed = time_path([CHAIN.full(a0), CHAIN.full(a1)], CHAIN, limits, 50.0)
+    assert timed.duration_s == pytest.approx(0.06)  # 30° at 600°/s (0.10 s/60°), 3 periods
+    assert np.allclose(timed.q[-1], CHAIN.full(a1))
+
+
+def test_a_path_outside_the_limits_is_refused():
+    """A path leaving the joint limits is refused, naming the joints."""
+    limits = SpeedLimits.of_arm(CONFIG.arm, CHAIN)
+    q0 = CHAIN.home.copy()
+    q1 = q0.copy()
+    q1[CHAIN.actuated_index[0]] = CHAIN.upper[CHAIN.actuated_index[0]] + 0.5
+    with pytest.raises(ValueError, match="leaves the limits at .*base"):
+        time_path([q0, CHAIN.full(CHAIN.actuated_of(q1))], CHAIN, limits, 50.0)
+
+
+def test_a_pose_held_takes_no_time():
+    """A path that does not move streams nothing."""
+    limits = SpeedLimits.of_arm(CONFIG.arm, CHAIN)
+    q = CHAIN.home.copy()
+    assert time_path([q, q], CHAIN, limits, 50.0).duration_s == 0.0
+
+
+def test_a_tool_setting_takes_its_slowest_servo_and_the_settle_time():
+    """The gripper's stroke at its speed, or the gripper arm's turn, plus the settle time."""
+    tool = CONFIG.arm.tool
+    arm = tool.actuators[0]
+    travel = {arm.name: arm.travel}
+    grip = {arm.name: arm.grip}
+    stroke_s = (tool.gripper.open_cm - tool.gripper.closed_cm) / tool.gripper.servo.max_speed()
+    turn_s = abs(arm.grip - arm.travel) / arm.servo.max_speed()
+    assert tool_move_s(tool, grip, False, grip, True) == pytest.approx(stroke_s + tool.settle_s)
+    assert tool_move_s(tool, travel, False, grip, False) == pytest.approx(turn_s + tool.settle_s)
+    assert tool_move_s(tool, grip, True, grip, True) == 0.0
+    assert tool_move_s(tool, None, None, grip, True) == tool.settle_s
+
+
+def test_the_motion_line_says_what_it_counts():
+    """The summary line names the arm's speed limits, the rate and the tool settings."""
+    line = MotionTime(arm_s=2.0, tool_s=3.5, tool_moves=14).line(50.0)
+    assert line.startswith("motion 5.5 s")
+    assert "speed limits" in line and "50 Hz" in line and "14 settings" in line
+    assert "waiting" not in line
+    waited = MotionTime(arm_s=2.0, tool_s=3.5, tool_moves=14, wait_s=0.5).line(50.0)
+    assert waited.startswith("motion 6.0 s") and "0.5 s waiting for the measured joints" in waited
