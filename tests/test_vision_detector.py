@@ -21,6 +21,7 @@ from mearm.config import (
 from mearm.exceptions import ImageError
 from mearm.sim import Disc, SimCamera, TableRenderer, World, class_bgr, class_discs
 from mearm.vision import Calibration, ColorDetector, Detection
+from mearm.vision.detector import STACKED_BOX_PX
 from mearm.vision.reference import detect_reference
 from mearm.vision.scenes import BASE_OPTIONS, CONDITIONS, distractors, match_detections
 
@@ -87,13 +88,16 @@ def test_empty_table_gives_no_detections() -> None:
 
 
 def test_same_as_the_numpy_scipy_recipe() -> None:
-    """The OpenCV shortcuts change nothing: classes, areas, boxes and centroids agree.
+    """The OpenCV shortcuts change nothing: classes, areas, boxes, centroids and
+    elongations agree, for regions measured in one stack and one by one.
 
     For the default bands, the paper's printed bands and floors, four classes and one.
     """
     touching = [("red", -5.0, 45.0), ("green", -3.0, 45.0), ("red", 5.0, 50.0), ("red", 7.0, 50.0)]
     yellows = [("yellow", -15.0, 36.0), ("yellow", 0.0, 35.0), ("yellow", 2.0, 35.0)]
+    row = [("red", x, 40.0) for x in np.arange(-6.0, 6.1, 2.0)]  # a region over 96 px long
     scenes = [
+        render(row + [("green", 8.0, 40.0)]),
         render(),
         render(touching, DISTRACTORS, seed=5),
         render(LAYOUT + touching[:2]),
@@ -114,6 +118,9 @@ def test_same_as_the_numpy_scipy_recipe() -> None:
             ]
             for a, b in zip(ours, ref, strict=True):
                 np.testing.assert_allclose(a.centroid_px, b.centroid_px, atol=1e-9)
+                assert a.elongation == pytest.approx(b.elongation, rel=1e-9)
+    long_row = ColorDetector(VisionConfig(), None, default_classes()).detect(scenes[0])
+    assert max(d.bbox_px[2] for d in long_row) > STACKED_BOX_PX
 
 
 def test_order_is_class_then_row_then_column() -> None:

@@ -61,6 +61,7 @@ from typing import TYPE_CHECKING
 
 import cv2
 import numpy as np
+from numpy.lib.stride_tricks import sliding_window_view
 
 from mearm.config import ColorClass, VisionConfig
 from mearm.exceptions import ConfigError, ImageError
@@ -164,6 +165,75 @@ def _label(mask: np.ndarray) -> tuple[int, np.ndarray, np.ndarray, np.ndarray]:
 def _elongation(region: np.ndarray) -> float:
     """Principal-axis ratio √(λ_max/λ_min) of a binary region's second central moments."""
     return _axis_ratio(cv2.moments(region, binaryImage=True))
+
+
+#: Regions whose box is at most this many pixels on each side are measured together,
+#: as one stack of windows; larger ones one by one [px].
+STACKED_BOX_PX = 96
+
+
+def _measure_regions(
+    index: np.ndarray, labels: np.ndarray, stats: np.ndarray, big: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Each region's purity, class code and elongation, all at once, each (N,).
+
+    Pure: every pixel of the region has one class code (then ``code`` is it). The small
+    regions (boxes up to :data:`STACKED_BOX_PX`) are read as one stack of equal windows
+    over the label image, each at its region's box (moved inwards at the image's edge),
+    so their moments are a few array operations per frame, not a call per region; the
+    second moments are exact (integer sums).
+    """
+    count = len(big)
+    pure, code, elong = np.zeros(count, bool), np.zeros(count, int), np.ones(count)
+    if not count:
+        return pure, code, elong
+    x, y, w, h, area = stats[big].T
+    small = np.flatnonzero((w <= STACKED_BOX_PX) & (h <= STACKED_BOX_PX))
+    if len(small):
+        ww, hh = int(w[small].max()), int(h[small].max())
+        y0 = np.minimum(y[small], labels.shape[0] - hh)
+        x0 = np.minimum(x[small], labels.shape[1] - ww)
+        own = big[small].astype(labels.dtype)[:, None, None]
+        mask = sliding_window_view(labels, (hh, ww))[y0, x0] == own  # (n, hh, ww)
+        codes = sliding_window_view(index, (hh, ww))[y0, x0] * mask
+        top = codes.max(axis=(1, 2))
+        pure[small] = np.count_nonzero(codes == top[:, None, None], axis=(1, 2)) == area[small]
+        code[small] = top
+        # float32 sums are exact: each is an integer below 2**24 (96**2 pixels × 96**2)
+        m = mask.astype(np.float32)
+        cols, rows = m.sum(axis=1), m.sum(axis=2)
+        gx, gy = np.arange(ww, dtype=np.float32), np.arange(hh, dtype=np.float32)
+        sx, sxx = (cols @ gx).astype(float), (cols @ (gx * gx)).astype(float)
+        sy, syy = (rows @ gy).astype(float), (rows @ (gy * gy)).astype(float)
+        sxy = ((m @ gx) @ gy).astype(float)
+        n = area[small].astype(float)
+        elong[small] = _axis_ratios(sxx - sx * sx / n, sxy - sx * sy / n, syy - sy * sy / n)
+    for k in np.flatnonzero((w > STACKED_BOX_PX) | (h > STACKED_BOX_PX)).tolist():
+        roi = (slice(y[k], y[k] + h[k]), slice(x[k], x[k] + w[k]))
+        region = (labels[roi] == big[k]).view(np.uint8)
+        lo, hi, _, _ = cv2.minMaxLoc(index[roi], mask=region)
+        pure[k], code[k], elong[k] = lo == hi, int(lo), _elongation(region)
+    return pure, code, elong
+
+
+def _axis_ratios(mu20: np.ndarray, mu11: np.ndarray, mu02: np.ndarray) -> np.ndarray:
+    """:func:`_axis_ratio` of many regions at once, from their central moments, (N,)."""
+    root = np.sqrt(np.maximum((mu20 - mu02) ** 2 + 4.0 * mu11 * mu11, 0.0))
+    lam_max, lam_min = (mu20 + mu02 + root) / 2.0, (mu20 + mu02 - root) / 2.0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = np.sqrt(lam_max / lam_min)
+    ratio = np.where(lam_min <= 1e-12, np.inf, ratio)  # a line
+    return np.where(lam_max <= 1e-12, 1.0, ratio)  # a single pixel
+
+
+def _region_mask(
+    source: int | np.ndarray, labels: np.ndarray, box: tuple[int, int, int, int], ox: int, oy: int
+) -> np.ndarray:
+    """A region's 0/1 mask over its box: its label's pixels, or a split piece's own mask."""
+    if isinstance(source, np.ndarray):
+        return source
+    x, y, w, h = box[0] - ox, box[1] - oy, box[2], box[3]
+    return (labels[y : y + h, x : x + w] == source).view(np.uint8)
 
 
 def _axis_ratio(m: dict[str, float]) -> float:
@@ -351,20 +421,29 @@ class ColorDetector:
             index = cv2.bitwise_or(index, and_scalar(masks[name], code))
         n, labels, stats, centroids = _label(index)
         min_area = self.vision.min_area_px
-        # One row per region, in label order: class code, area, box in the frame, centroid
-        # in working-box pixels, elongation, 0/1 mask of its box.
-        found: list[tuple[int, int, tuple[int, int, int, int], np.ndarray, float, np.ndarray]]
-        found = []
         big = np.flatnonzero(stats[1:n, cv2.CC_STAT_AREA] >= min_area) + 1
-        for lab in big.tolist():  # smaller union regions hold smaller class regions still
-            x, y, w, h, area = stats[lab].tolist()
+        # smaller union regions hold smaller class regions still
+        # One row per region, in label order: class code, area, box in the frame, centroid
+        # in working-box pixels, elongation, its label (its mask: the label's pixels in its
+        # box) or, for a piece of a region where classes touch, the piece's 0/1 mask.
+        found: list[tuple[int, int, tuple[int, int, int, int], np.ndarray, float, int | np.ndarray]]
+        found = []
+        pure, code, elong = _measure_regions(index, labels, stats, big)
+        rows = zip(
+            big.tolist(),
+            pure.tolist(),
+            code.tolist(),
+            stats[big].tolist(),
+            elong.tolist(),
+            strict=True,
+        )
+        for lab, one, c, (x, y, w, h, area), e in rows:
+            if one:  # one class: the union region is that class's region
+                found.append((c, area, (x + ox, y + oy, w, h), centroids[lab], e, lab))
+                continue
             roi = (slice(y, y + h), slice(x, x + w))
             region = (labels[roi] == lab).view(np.uint8)
             lo, hi, _, _ = cv2.minMaxLoc(index[roi], mask=region)
-            if lo == hi:  # one class: the union region is that class's region
-                box = (x + ox, y + oy, w, h)
-                found.append((int(lo), area, box, centroids[lab], _elongation(region), region))
-                continue
             for i in range(int(lo), int(hi) + 1):  # different classes touch: split them
                 sub = equal_mask(index[roi], i)
                 sub = cv2.bitwise_and(sub, sub, mask=region)
@@ -379,7 +458,7 @@ class ColorDetector:
         if not found:
             return []
         columns = (list(column) for column in zip(*found, strict=True))
-        codes, areas, boxes, centres, elongations, regions = columns
+        codes, areas, boxes, centres, elongations, sources = columns
         centroid = np.array(centres).reshape(-1, 2) + (ox, oy)  # (N, 2) [px]
         centroid.setflags(write=False)  # its rows are the detections' own (read-only)
         colors = [self.class_names[c - 1] for c in codes]
@@ -391,6 +470,9 @@ class ColorDetector:
             _, largest, stretch = self.one_object_bounds(centroid, colors, frame_bgr.shape)
             over = np.array(areas) > self.vision.merged_area_ratio * largest
             if over.any() or not isinstance(cal, Calibration):
+                regions = [
+                    _region_mask(r, labels, b, ox, oy) for r, b in zip(sources, boxes, strict=True)
+                ]
                 return self._general(colors, centroid, areas, boxes, merged, elongations,
                                      regions, frame_bgr)  # fmt: skip
             merged = elongation > self.vision.merged_elongation * stretch

@@ -2,7 +2,8 @@
 
 Per colour class: float64 HSV thresholds, ``scipy.ndimage.median_filter`` (borders replicated,
 as OpenCV's ``medianBlur``), ``scipy.ndimage.label`` with 8-connectivity, regions under
-the minimum area dropped, centroid = mean pixel position. No shortcuts: every step runs
+the minimum area dropped, centroid = mean pixel position, elongation = the principal-axis
+ratio of the second central moments. No shortcuts: every step runs
 on the whole frame, as the paper's MATLAB did. Needs SciPy (the ``dev`` extra).
 """
 
@@ -49,18 +50,29 @@ def detect_reference(
         area = np.bincount(flat, minlength=n + 1)
         sum_u = np.bincount(flat, weights=cols.ravel(), minlength=n + 1)
         sum_v = np.bincount(flat, weights=rows.ravel(), minlength=n + 1)
+        u, v = cols.ravel().astype(float), rows.ravel().astype(float)
+        sum_uu = np.bincount(flat, weights=u * u, minlength=n + 1)
+        sum_vv = np.bincount(flat, weights=v * v, minlength=n + 1)
+        sum_uv = np.bincount(flat, weights=u * v, minlength=n + 1)
         boxes = ndimage.find_objects(labels)
         per_color = []
         for lab in range(1, n + 1):
             if area[lab] < vision.min_area_px:
                 continue
             sv, su = boxes[lab - 1]
+            a, cu, cv = area[lab], sum_u[lab] / area[lab], sum_v[lab] / area[lab]
+            cov = np.array(
+                [[sum_uu[lab] / a - cu * cu, sum_uv[lab] / a - cu * cv],
+                 [sum_uv[lab] / a - cu * cv, sum_vv[lab] / a - cv * cv]]
+            )  # fmt: skip
+            lam_min, lam_max = np.linalg.eigvalsh(cov)
             per_color.append(
                 Detection(
                     color=color,
                     centroid_px=np.array([sum_u[lab], sum_v[lab]]) / area[lab],
                     area_px=int(area[lab]),
                     bbox_px=(su.start, sv.start, su.stop - su.start, sv.stop - sv.start),
+                    elongation=float(np.sqrt(lam_max / lam_min)) if lam_min > 1e-12 else np.inf,
                 )
             )
         per_color.sort(key=lambda d: (d.centroid_px[1], d.centroid_px[0]))
