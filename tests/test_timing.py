@@ -8,6 +8,7 @@ from hypothesis import strategies as st
 from mearm.config import Config
 from mearm.kinematics import Chain
 from mearm.task.timing import MotionTime, SpeedLimits, time_path, tool_move_s
+from mearm.tools.bench import PAPER_MOTION_S, BenchOptions, bench_motion
 
 CONFIG = Config()
 CHAIN = Chain.from_description(CONFIG.arm)
@@ -130,3 +131,17 @@ def test_the_motion_line_says_what_it_counts():
     assert "waiting" not in line
     waited = MotionTime(arm_s=2.0, tool_s=3.5, tool_moves=14, wait_s=0.5).line(50.0)
     assert waited.startswith("motion 6.0 s") and "0.5 s waiting for the measured joints" in waited
+
+
+def test_the_paper_scene_moves_in_a_quarter_of_the_papers_time():
+    """The bench's motion section: the paper's scene sorted in both orders, its predicted
+    motion (speed limits, gripper settings, settling: deterministic, not a wall time)
+    within a quarter of the paper's ≈ 144 s."""
+    rows = {r.name: r for r in bench_motion(BenchOptions(repeat=1))}
+    for label in ("the paper's colour order", "nearest object first"):
+        row = rows[f"paper scene, {label}: motion"]
+        assert "sorted 12 of 12" in row.note and "INCOMPLETE" not in row.note
+        assert 0 < row.value <= PAPER_MOTION_S / 4
+        assert rows[f"paper scene, {label}: ÷ the paper's ≈ 144 s"].value == pytest.approx(
+            row.value / PAPER_MOTION_S
+        )

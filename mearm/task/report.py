@@ -99,12 +99,14 @@ class SortReport:
         skipped: Objects left on the table, with the reason.
         fault: Why the run stopped early, or ``None``.
         outcome: Objects seen, sorted and left (set when the run ends).
+        motion: The whole run's commanded motion (set when the run ends), or ``None``.
     """
 
     routes: list[Route] = field(default_factory=list)
     skipped: list[Skip] = field(default_factory=list)
     fault: str | None = None
     outcome: Outcome = field(default_factory=Outcome)
+    motion: MotionTime | None = None
 
     @property
     def complete(self) -> bool:
@@ -220,6 +222,7 @@ class Reporter:
         """
         rep = self.report
         rep.outcome = outcome
+        rep.motion = motion
         if self.log is not None:
             self.log.summary(
                 trial=self.trial,
