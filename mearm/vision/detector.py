@@ -422,29 +422,24 @@ class ColorDetector:
         n, labels, stats, centroids = _label(index)
         min_area = self.vision.min_area_px
         big = np.flatnonzero(stats[1:n, cv2.CC_STAT_AREA] >= min_area) + 1
-        # smaller union regions hold smaller class regions still
-        # One row per region, in label order: class code, area, box in the frame, centroid
-        # in working-box pixels, elongation, its label (its mask: the label's pixels in its
-        # box) or, for a piece of a region where classes touch, the piece's 0/1 mask.
-        found: list[tuple[int, int, tuple[int, int, int, int], np.ndarray, float, int | np.ndarray]]
-        found = []
-        pure, code, elong = _measure_regions(index, labels, stats, big)
-        rows = zip(
-            big.tolist(),
-            pure.tolist(),
-            code.tolist(),
-            stats[big].tolist(),
-            elong.tolist(),
-            strict=True,
-        )
-        for lab, one, c, (x, y, w, h, area), e in rows:
-            if one:  # one class: the union region is that class's region
-                found.append((c, area, (x + ox, y + oy, w, h), centroids[lab], e, lab))
-                continue
+        # (smaller union regions hold smaller class regions still)
+        # Per region, in label order: class code, area, box in the frame, centroid in
+        # working-box pixels, elongation, and its label (its mask: the label's pixels in
+        # its box); the pieces of regions where classes touch follow, each with its mask.
+        pure, region_code, elong = _measure_regions(index, labels, stats, big)
+        keep = big[pure]
+        codes: list[int] = region_code[pure].tolist()
+        areas: list[int] = stats[keep, cv2.CC_STAT_AREA].tolist()
+        boxes = [(x + ox, y + oy, w, h) for x, y, w, h in stats[keep, :4].tolist()]
+        elongations: list[float] = elong[pure].tolist()
+        sources: list[int | np.ndarray] = list(keep.tolist())
+        centres = [centroids[keep]]
+        for lab in big[~pure].tolist():  # different classes touch: split them
+            x, y, w, h, _ = stats[lab].tolist()
             roi = (slice(y, y + h), slice(x, x + w))
             region = (labels[roi] == lab).view(np.uint8)
             lo, hi, _, _ = cv2.minMaxLoc(index[roi], mask=region)
-            for i in range(int(lo), int(hi) + 1):  # different classes touch: split them
+            for i in range(int(lo), int(hi) + 1):
                 sub = equal_mask(index[roi], i)
                 sub = cv2.bitwise_and(sub, sub, mask=region)
                 m, sub_labels, sub_stats, sub_centroids = _label(sub)
@@ -452,14 +447,15 @@ class ColorDetector:
                     sx, sy, sw, sh, sarea = sub_stats[s].tolist()
                     if sarea >= min_area:
                         piece = (sub_labels[sy : sy + sh, sx : sx + sw] == s).view(np.uint8)
-                        box = (x + sx + ox, y + sy + oy, sw, sh)
-                        centre = sub_centroids[s] + (x, y)
-                        found.append((i, sarea, box, centre, _elongation(piece), piece))
-        if not found:
+                        codes.append(i)
+                        areas.append(sarea)
+                        boxes.append((x + sx + ox, y + sy + oy, sw, sh))
+                        centres.append((sub_centroids[s] + (x, y))[None, :])
+                        elongations.append(_elongation(piece))
+                        sources.append(piece)
+        if not codes:
             return []
-        columns = (list(column) for column in zip(*found, strict=True))
-        codes, areas, boxes, centres, elongations, sources = columns
-        centroid = np.array(centres).reshape(-1, 2) + (ox, oy)  # (N, 2) [px]
+        centroid = np.concatenate(centres) + (ox, oy)  # (N, 2) [px]
         centroid.setflags(write=False)  # its rows are the detections' own (read-only)
         colors = [self.class_names[c - 1] for c in codes]
         elongation = np.array(elongations)
