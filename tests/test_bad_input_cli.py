@@ -184,6 +184,7 @@ CASES: list[tuple[list[str], str]] = [
     (["preview", "--screenshot", "{fifo}"], "must be a .png file"),
     # experiment
     (["experiment"], "the following arguments are required: --log"),
+    (["bench", "--only", "motion", "--out", "{tmp}/no/such/dir/bench.json"], "no such directory"),
     (["experiment", "--log", "{tmp}.jsonl", "--trials", "0"], "--trials must be ≥ 1"),
     (["experiment", "--log", "{tmp}.jsonl", "--trials", "-5"], "--trials must be ≥ 1"),
     (["experiment", "--log", "{tmp}.jsonl", "--trials", "many"], "invalid int value"),

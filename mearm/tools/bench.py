@@ -1,6 +1,6 @@
 """The project's benchmarks: timings, measured in one run, printed (never asserted).
 
-    mearm bench [--only SECTION ...] [--repeat N] [--json]
+    mearm bench [--only SECTION ...] [--repeat N] [--json] [--out FILE]
 
 Each part of the project registers a section with ``@section("name")``: a function that
 takes the parsed :class:`BenchOptions` and returns :class:`Row` s. ``--only`` runs the
@@ -45,6 +45,7 @@ import time
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import asdict, dataclass
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -862,26 +863,43 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument(
         "--repeat", type=int, default=5, help="rounds; the best is kept (default 5)"
     )
-    parser.add_argument("--json", action="store_true", help="print JSON")
+    parser.add_argument("--json", action="store_true", help="print JSON instead of the table")
+    parser.add_argument(
+        "--out", type=Path, metavar="FILE", help="also write the rows as JSON to FILE"
+    )
     args = parser.parse_args(argv)
     if args.repeat < 1:
         parser.error(f"--repeat must be at least 1, got {args.repeat}")
+    if args.out is not None and not args.out.parent.is_dir():
+        parser.error(f"--out {args.out}: no such directory {str(args.out.parent)!r}")
     options = BenchOptions(repeat=args.repeat)
     rows: list[Row] = []
     for name in args.only or list(SECTIONS):
         rows += SECTIONS[name](options)
+    machine_text = machine()
+    result = {"machine": machine_text, "rows": [asdict(r) for r in rows]}
+    if args.out is not None:
+        partial = args.out.with_name(f".{args.out.name}.partial")
+        partial.write_text(json.dumps(result, indent=1) + "\n", encoding="utf-8")
+        partial.replace(args.out)  # a run cut short leaves the last file whole
     if args.json:
-        json.dump({"machine": machine(), "rows": [asdict(r) for r in rows]}, sys.stdout, indent=1)
+        json.dump(result, sys.stdout, indent=1)
         print()
         return 0
-    print(f"machine: {machine()}")
+    print("\n".join(table(machine_text, rows)))
+    return 0
+
+
+def table(machine_text: str, rows: Sequence[Row]) -> list[str]:
+    """The bench's printed lines: the machine, then one line per row."""
+    lines = [f"machine: {machine_text}"]
     for row in rows:
         value = f"{row.value:12.3f} {row.unit}" if row.unit else f"{row.value:12.2f}"
         if row.unit == "" and row.value == 0.0:
             value = ""
         note = f"  ({row.note})" if row.note else ""
-        print(f"[{row.section}] {row.name:<58} {value}{note}")
-    return 0
+        lines.append(f"[{row.section}] {row.name:<58} {value}{note}")
+    return lines
 
 
 if __name__ == "__main__":
