@@ -106,13 +106,19 @@ def test_planned_route_ends_within_the_servo_budget(paper):
     assert tcp_error_cm <= 0.3
 
 
-def test_speed_limit_holds_on_a_big_step(paper):
-    """A 60° step takes at least the datasheet's seconds per 60°."""
+def _step_of_first_servo(paper, degrees: float = 60.0):
+    """A fresh twin, its first servo, and home with that servo's joint ``degrees`` lower."""
     config, _ = paper
     arm = _twin(paper)
     s = arm.servos[0]
     joints = config.arm.home()
-    joints[s.name] -= 60.0
+    joints[s.name] -= degrees
+    return config, arm, s, joints
+
+
+def test_speed_limit_holds_on_a_big_step(paper):
+    """A 60° step takes at least the datasheet's seconds per 60°."""
+    config, arm, s, joints = _step_of_first_servo(paper)
     start = arm.time_s
     for _ in range(200):
         arm.move(_command(config, joints))
@@ -127,11 +133,7 @@ def test_speed_limit_holds_on_a_big_step(paper):
 
 def test_await_arrival_runs_on_until_a_lagging_joint_is_there(paper):
     """One 60° command: the servo needs its datasheet time; the wait runs on until it is there."""
-    config, _ = paper
-    arm = _twin(paper)
-    s = arm.servos[0]
-    joints = config.arm.home()
-    joints[s.name] -= 60.0
+    config, arm, s, joints = _step_of_first_servo(paper)
     arm.move(_command(config, joints))  # one period: the servo has barely started
     assert abs(arm.actual_joints[s.name] - joints[s.name]) > 30.0
     waited = arm.await_arrival(2.0)
@@ -143,11 +145,8 @@ def test_await_arrival_runs_on_until_a_lagging_joint_is_there(paper):
 
 def test_await_arrival_times_out_and_faults_the_bus(paper):
     """Not there within the timeout: a named stall error, and the bus sends nothing more."""
-    config, _ = paper
-    arm = _twin(paper)
-    name = arm.servos[0].name
-    joints = config.arm.home()
-    joints[name] -= 60.0
+    config, arm, s, joints = _step_of_first_servo(paper)
+    name = s.name
     arm.move(_command(config, joints))
     with pytest.raises(ServoStallError, match=f"joint {name} did not arrive within") as info:
         arm.await_arrival(0.04)
