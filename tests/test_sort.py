@@ -187,6 +187,9 @@ def test_servo_link_dropped_mid_route(tmp_path, config):
         moves = [line for line in board.received if line.split()[1:2] == [b"M"]]
     assert "nothing more sent to the servos" in exc.value.reason
     assert exc.value.last_joints is not None
+    outcome = exc.value.outcome  # the summary's counts travel with the error
+    assert outcome is not None and outcome.left.get("fault", 0) > 0
+    assert outcome.n_seen == outcome.n_sorted + sum(outcome.left.values())
     trial = read_runlog(log_path).trials[0]
     assert trial.routes, "the route before the fault is in the log"
     fault = trial.faults[0]

@@ -50,14 +50,21 @@ class SortAborted(MearmError):
         reason: One line: what failed.
         interrupted: Whether it was Ctrl-C.
         last_joints: The last confirmed joints by name [deg or cm], or ``None``.
+        outcome: What was sorted before it stopped (the summary's counts), or ``None``.
     """
 
     def __init__(
-        self, reason: str, *, interrupted: bool = False, last_joints: dict[str, float] | None = None
+        self,
+        reason: str,
+        *,
+        interrupted: bool = False,
+        last_joints: dict[str, float] | None = None,
+        outcome: Outcome | None = None,
     ):
         self.reason = reason
         self.interrupted = interrupted
         self.last_joints = last_joints
+        self.outcome = outcome
         super().__init__(reason)
 
 
@@ -435,12 +442,11 @@ class Sorter:
             parked = "; nothing more sent to the servos"
         full = reason + parked
         self.reporter.fault(full, self._last_joints())
-        self.reporter.summary(
-            ok=False,
-            outcome=self.outcome("interrupted" if interrupted else "fault"),
-            motion=self.executor.motion,
+        outcome = self.outcome("interrupted" if interrupted else "fault")
+        self.reporter.summary(ok=False, outcome=outcome, motion=self.executor.motion)
+        raise SortAborted(
+            full, interrupted=interrupted, last_joints=self._last_joints(), outcome=outcome
         )
-        raise SortAborted(full, interrupted=interrupted, last_joints=self._last_joints())
 
 
 def _table_cm(d: Detection) -> np.ndarray:

@@ -32,7 +32,10 @@ def _one(config: Config, objects: int, seed: int) -> tuple[int, int, dict[str, i
     try:
         report = run_sort(config, scene=scene, echo=None)
     except SortAborted as exc:
-        return len(scene), 0, {"fault": len(scene)}, exc.reason
+        if exc.outcome is None:
+            return len(scene), 0, {"fault": len(scene)}, exc.reason
+        out = exc.outcome  # what it sorted before the fault, and what the fault left
+        return out.n_seen, out.n_sorted, dict(out.left), exc.reason
     out = report.outcome
     return out.n_seen, out.n_sorted, dict(out.left), None
 
