@@ -33,7 +33,6 @@ from mearm.sim.mjcf import (
 from mearm.sim.servo_bus import SimArm
 from mearm.sim.twin_bus import ARRIVED_SHAFT_DEG, BACKLASH_DEG, TwinArm
 from mearm.sim.world import World
-from mearm.task.execute import Executor
 from mearm.task.plan import RETRY_LIFT_CM, Planner
 
 #: Settling time after the last command of a route [s].
@@ -369,34 +368,3 @@ def test_grasp_lifts_the_object_and_drops_it_in_its_bin(desk):
     _stream(arm, np.array([q] * 26), closed=False)
     arm.settle(1.0)
     assert arm.objects_in_bin() == {"red1": "red"}
-
-
-def test_a_stream_never_runs_ahead_of_servos_slower_than_configured(paper):
-    """Servos configured 3x faster than the twin's: each command waits until every joint
-    is within TRACKING_SHAFT_DEG of the last one, so the arm stays near its path."""
-    config, m = paper
-    servos = {j.name: j.servo for j in config.arm.joints if j.servo is not None}
-    overrides = [f"arm.joints.{name}.servo.seconds_per_60deg=0.05" for name in servos]
-    fast = load_config(ROOT / "configs" / "sim.yaml", overrides)  # the twin's RDS3135: 0.15
-    arm = TwinArm(fast, m)
-    arm.connect()
-    model = ArmModel(fast.arm)
-    executor = Executor(fast, arm, model)
-    lags, move = [], arm.move
-
-    def checked_move(command):
-        if arm.state is not None:  # how far behind the last command each joint is
-            lags.append(
-                max(abs(arm.actual_joints[n] - arm.state.joints[n]) for n in command.joints)
-            )
-        move(command)
-
-    arm.move = checked_move
-    q = model.home.copy()
-    q[0] -= np.radians(90)
-    executor.move_joints(q, "travel", False)
-    assert (
-        len(lags) >= 3 and max(lags) <= 2.0
-    )  # TRACKING_SHAFT_DEG; lags of 16° a period without it
-    assert executor.motion.wait_s > 0
-    assert abs(arm.actual_joints[model.chain.actuated[0]] - np.degrees(q[0])) <= ARRIVED_SHAFT_DEG

@@ -277,13 +277,8 @@ class ServoBus(ABC):
         if self.paced:
             time.sleep(seconds)
 
-    def await_arrival(self, timeout_s: float, within_shaft_deg: float | None = None) -> float:
+    def await_arrival(self, timeout_s: float) -> float:
         """Wait until the joint servos have reached the last command, if the bus can tell.
-
-        ``within_shaft_deg``: how close counts as there, in degrees of each servo's
-        shaft; ``None``: the backend's arrival tolerance. A larger value, checked after
-        every command of a stream, keeps the stream from running ahead of servos slower
-        than their configured speed, so the arm stays near its planned path.
 
         A bus that measures its joints (the physical twin's potentiometers) runs on with
         the last command until every joint servo has arrived; a bus that cannot tell
@@ -300,9 +295,9 @@ class ServoBus(ABC):
                 short of the command; the bus is stopped from then on.
         """
         self._require_ready()
-        return self._guarded(self._await_arrival, float(timeout_s), within_shaft_deg)
+        return self._guarded(self._await_arrival, float(timeout_s))
 
-    def _await_arrival(self, timeout_s: float, within_shaft_deg: float | None) -> float:
+    def _await_arrival(self, timeout_s: float) -> float:
         """Backend hook of :meth:`await_arrival`: by default the bus cannot tell."""
         return 0.0
 

@@ -348,11 +348,10 @@ class TwinArm(ServoBus):
                 last_state=self.state,
             )
 
-    def _await_arrival(self, timeout_s: float, within_shaft_deg: float | None) -> float:
+    def _await_arrival(self, timeout_s: float) -> float:
         """Run on with the last command until every joint servo has arrived.
 
-        Arrived: its potentiometer within ``within_shaft_deg`` (default
-        :data:`ARRIVED_SHAFT_DEG`) of the accepted
+        Arrived: its potentiometer within :data:`ARRIVED_SHAFT_DEG` of the accepted
         target, or at rest (its motor at the target, the joint moving less than
         :data:`AT_REST_SHAFT_DEG` in a period) within :data:`STALLED_SHAFT_DEG` of it, a
         load the servo holds with a small error. The gripper is not waited for: jaws
@@ -362,7 +361,6 @@ class TwinArm(ServoBus):
             ServoStallError: a joint at rest farther than :data:`STALLED_SHAFT_DEG`, or
                 not arrived after ``timeout_s``.
         """
-        tolerance = ARRIVED_SHAFT_DEG if within_shaft_deg is None else within_shaft_deg
         joints = slice(0, len(self.servos) - 1)
         shaft = np.array([s.shaft_unit for s in self.servos[joints]])
         waited, before = 0.0, self.pot[joints]
@@ -375,7 +373,7 @@ class TwinArm(ServoBus):
             if waited > 0 and np.any(resting & (error > STALLED_SHAFT_DEG)):
                 k = int(np.argmax(np.where(resting, error, -1.0)))
                 raise self._stall(k, "stalled: at rest short of its command")
-            if np.all((error <= tolerance) | (resting & (waited > 0))):
+            if np.all((error <= ARRIVED_SHAFT_DEG) | (resting & (waited > 0))):
                 return waited
             if waited >= timeout_s:
                 k = int(np.argmax(error))

@@ -37,11 +37,6 @@ Phase = Literal["home", "travel", "grip"]
 #: rated speed is about 0.3 s behind at the end of a full-speed 180° swing.
 ARRIVAL_TIMEOUT_S = 2.0
 
-#: On a bus that measures its joints, how far a joint may fall behind the stream before the
-#: next command waits for it [deg of the servo's shaft]: the arm stays within about this
-#: of its planned path however much slower than configured its servos turn.
-TRACKING_SHAFT_DEG = 2.0
-
 #: The largest step between two planned poses of a joint-space move: [rad] for a revolute joint
 #: (2°), [m] for a prismatic one (0.5 cm).
 JOINT_STEP = {False: np.deg2rad(2.0), True: 0.005}
@@ -214,31 +209,20 @@ class Executor:
             self.motion.tool_s += seconds
             self.motion.tool_moves += 1
 
-    def _arrive(self, within_shaft_deg: float | None = None) -> float:
+    def _arrive(self) -> float:
         """Wait for the joints to reach the last command where the bus measures them [s].
 
         On the physical twin the servos' real speed under load may fall short of the
-        config's ``seconds_per_60deg``: the tool must not act before the arm is there
-        (``within_shaft_deg`` ``None``: the bus's arrival tolerance), and a stream must
-        not run ahead of the arm (:data:`TRACKING_SHAFT_DEG`, after every command), or
-        the arm's real path bends away from the planned one. The wait is counted in
-        :attr:`MotionTime.wait_s`.
+        config's ``seconds_per_60deg``; the tool must not act before the arm is there.
+        The wait is counted in :attr:`MotionTime.wait_s`.
 
         Raises:
             ServoStallError: a joint stalled or did not arrive within
                 :data:`ARRIVAL_TIMEOUT_S`.
         """
-        waited = self.bus.await_arrival(ARRIVAL_TIMEOUT_S, within_shaft_deg)
+        waited = self.bus.await_arrival(ARRIVAL_TIMEOUT_S)
         self.motion.wait_s += waited
         return waited
-
-    def _stream(self, timed: TimedPath, phase: Phase, closed: bool) -> float:
-        """Send every command of a timed path, none ahead of the arm; the time waited [s]."""
-        waited = 0.0
-        for q in timed.q[1:]:
-            self.send(q, phase, closed)
-            waited += self._arrive(TRACKING_SHAFT_DEG)
-        return waited + self._arrive()
 
     def timed(self, q_path: npt.ArrayLike) -> TimedPath:
         """A planned path sampled at the servo rate within every speed limit (:func:`time_path`)."""
@@ -256,7 +240,9 @@ class Executor:
         timed = self.timed(route.plan.q_path)  # in full, checked, before anything is sent
         if self.view is not None:
             self.view.set_target(route.target.position_cm)
-        waited = self._stream(timed, phase, closed)
+        for q in timed.q[1:]:
+            self.send(q, phase, closed)
+        waited = self._arrive()
         self._flush_view()
         route.executed = True
         route.motion_s = timed.duration_s + waited
@@ -293,8 +279,10 @@ class Executor:
     def move_joints(self, q_to: npt.ArrayLike, phase: Phase, closed: bool) -> None:
         """Go to ``q_to`` along :meth:`joint_path`, planned and timed in full first."""
         timed = self.timed(self.joint_path(q_to))
-        self._stream(timed, phase, closed)
+        for q in timed.q[1:]:
+            self.send(q, phase, closed)
         self.motion.arm_s += timed.duration_s
+        self._arrive()
         self._flush_view()
 
     def home_pose(self, closed: bool = False) -> None:
