@@ -185,6 +185,8 @@ CASES: list[tuple[list[str], str]] = [
     # experiment
     (["experiment"], "the following arguments are required: --log"),
     (["bench", "--only", "motion", "--out", "{tmp}/no/such/dir/bench.json"], "no such directory"),
+    (["bench", "--only", "motion", "--out", "/tmp"], "is a directory"),
+    (["bench", "--only", "motion", "--out", "/proc/bench.json"], "is not writable"),
     (["experiment", "--log", "{tmp}.jsonl", "--trials", "0"], "--trials must be ≥ 1"),
     (["experiment", "--log", "{tmp}.jsonl", "--trials", "-5"], "--trials must be ≥ 1"),
     (["experiment", "--log", "{tmp}.jsonl", "--trials", "many"], "invalid int value"),

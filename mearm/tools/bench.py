@@ -41,6 +41,7 @@ import os
 import platform
 import statistics
 import sys
+import tempfile
 import time
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
@@ -50,7 +51,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from mearm.cli import ArgumentParser, run
+from mearm.cli import ArgumentParser, run, write_text_atomic
 
 if TYPE_CHECKING:
     from mearm.config import Config
@@ -551,8 +552,6 @@ def child_seconds(argv: Sequence[str], env: dict[str, str]) -> tuple[float, floa
 @section("sort-cpu")
 def bench_sort_cpu(options: BenchOptions) -> list[Row]:
     """CPU time of the 12-object simulated sort, interpreter start included."""
-    import tempfile  # noqa: PLC0415
-
     with tempfile.TemporaryDirectory(prefix="mearm-pyc-") as cache:
         cached = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
         cached["PYTHONPYCACHEPREFIX"] = cache
@@ -870,18 +869,24 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if args.repeat < 1:
         parser.error(f"--repeat must be at least 1, got {args.repeat}")
-    if args.out is not None and not args.out.parent.is_dir():
-        parser.error(f"--out {args.out}: no such directory {str(args.out.parent)!r}")
+    if args.out is not None:  # checked before the sections run, not after minutes of work
+        folder = args.out.parent
+        if not folder.is_dir():
+            parser.error(f"--out {args.out}: no such directory {str(folder)!r}")
+        if args.out.is_dir():
+            parser.error(f"--out {args.out}: is a directory; give a file name, e.g. bench.json")
+        try:  # a file can be made there (root passes os.access where nothing can be made)
+            tempfile.TemporaryFile(dir=folder).close()
+        except OSError as exc:
+            parser.error(f"--out {args.out}: directory {str(folder)!r} is not writable ({exc})")
     options = BenchOptions(repeat=args.repeat)
     rows: list[Row] = []
     for name in args.only or list(SECTIONS):
         rows += SECTIONS[name](options)
     machine_text = machine()
     result = {"machine": machine_text, "rows": [asdict(r) for r in rows]}
-    if args.out is not None:
-        partial = args.out.with_name(f".{args.out.name}.partial")
-        partial.write_text(json.dumps(result, indent=1) + "\n", encoding="utf-8")
-        partial.replace(args.out)  # a run cut short leaves the last file whole
+    if args.out is not None:  # whole or not at all: a run cut short leaves the old file
+        write_text_atomic(args.out, json.dumps(result, indent=1) + "\n")
     if args.json:
         json.dump(result, sys.stdout, indent=1)
         print()
