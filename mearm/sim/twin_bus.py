@@ -372,23 +372,23 @@ class TwinArm(ServoBus):
             )
             if waited > 0 and np.any(resting & (error > STALLED_SHAFT_DEG)):
                 k = int(np.argmax(np.where(resting, error, -1.0)))
-                raise self._stall(k, "stalled: at rest short of its command")
+                raise self._stall(k, "stalled", "stalled: at rest short of its command")
             if np.all((error <= ARRIVED_SHAFT_DEG) | (resting & (waited > 0))):
                 return waited
             if waited >= timeout_s:
                 k = int(np.argmax(error))
-                raise self._stall(k, f"did not arrive within {timeout_s:.2f} s")
+                raise self._stall(k, "timeout", f"did not arrive within {timeout_s:.2f} s")
             before = pot
             self._run(self.period_s)
             waited += self.period_s
 
-    def _stall(self, k: int, detail: str) -> ServoStallError:
+    def _stall(self, k: int, reason: str, detail: str) -> ServoStallError:
         servo = self.servos[k]
         return ServoStallError(
             servo.name,
             float(self._target[k] / servo.scale),
             float(self.pot[k] / servo.scale),
-            "stalled" if detail.startswith("stalled") else "timeout",
+            reason,
             detail,
             last_state=self.state,
         )

@@ -217,7 +217,10 @@ def _measure_regions(
 
 
 def _axis_ratios(mu20: np.ndarray, mu11: np.ndarray, mu02: np.ndarray) -> np.ndarray:
-    """:func:`_axis_ratio` of many regions at once, from their central moments, (N,)."""
+    """Principal-axis ratios √(λ_max/λ_min) of regions' second central moments, (N,).
+
+    1 for a single pixel (both eigenvalues 0), ``inf`` for a line (the smaller one 0).
+    """
     root = np.sqrt(np.maximum((mu20 - mu02) ** 2 + 4.0 * mu11 * mu11, 0.0))
     lam_max, lam_min = (mu20 + mu02 + root) / 2.0, (mu20 + mu02 - root) / 2.0
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -237,15 +240,9 @@ def _region_mask(
 
 
 def _axis_ratio(m: dict[str, float]) -> float:
-    """Principal-axis ratio √(λ_max/λ_min) from a region's image moments."""
-    a, b, c = m["mu20"], m["mu11"], m["mu02"]
-    root = math.sqrt(max((a - c) ** 2 + 4.0 * b * b, 0.0))
-    lam_max, lam_min = (a + c + root) / 2.0, (a + c - root) / 2.0
-    if lam_max <= 1e-12:  # a single pixel
-        return 1.0
-    if lam_min <= 1e-12:  # a line
-        return math.inf
-    return math.sqrt(lam_max / lam_min)
+    """Principal-axis ratio √(λ_max/λ_min) from a region's image moments (:func:`_axis_ratios`)."""
+    one = _axis_ratios(np.array([m["mu20"]]), np.array([m["mu11"]]), np.array([m["mu02"]]))
+    return float(one[0])
 
 
 @dataclass(frozen=True)
