@@ -199,7 +199,7 @@ def crash_log_path() -> Path:
 def _record_crash(prog: str, argv: Sequence[str]) -> str:
     """Append the current exception's traceback to the crash log; say where it went."""
     path = crash_log_path()
-    stamp = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
+    stamp = datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds")
     entry = f"--- {stamp} {prog} {' '.join(argv)}\n{traceback.format_exc()}\n"
     try:
         path.parent.mkdir(parents=True, exist_ok=True)

@@ -6,7 +6,7 @@ each with one line naming the file, the place and what to do:
 
 - anything but a regular file (``/dev/zero``, a FIFO, a directory), before reading it;
 - a file over :data:`MAX_YAML_BYTES`, without reading more than that;
-- text that is not UTF-8;
+- text that is not UTF-8, or holds control characters (YAML's printable set only);
 - an empty document (no config silently becomes the default);
 - a mapping with the same key twice;
 - a tag other than the plain ones (``!!str``, ``!!int``, ``!!float``, ``!!bool``,
@@ -19,13 +19,21 @@ each with one line naming the file, the place and what to do:
 The limits are checked while the document is composed, before any Python object is
 built: composing descends one level per nesting level and refuses the first level past
 the cap, so a 10 000-deep nesting (the parser itself keeps no stack in Python) or an
-alias bomb is refused in milliseconds, never a RecursionError or a MemoryError. Parsing
-uses libyaml when PyYAML was built with it.
+alias bomb is refused in milliseconds, never a RecursionError or a MemoryError.
+
+Parsing uses libyaml when PyYAML was built with it, as an accelerator only: the rules
+are mearm's, not the parser's. libyaml reads up to 1 024 characters ahead of the event
+being composed and has limits of its own (PyYAML 6.0.4's refuses nesting past 1 000
+levels in its own words), so when libyaml fails, the document is read again with
+PyYAML's pure-Python parser, whose scanner also counts the open collections and refuses
+the first one past :data:`MAX_YAML_DEPTH`. Whatever the PyYAML version, a document is
+refused by mearm's rule and message first, and one that only libyaml refuses is read.
 """
 
 from __future__ import annotations
 
 import os
+import re
 import stat
 from pathlib import Path
 from typing import Any
@@ -42,22 +50,17 @@ from yaml.events import (
     SequenceStartEvent,
 )
 from yaml.nodes import MappingNode, Node, ScalarNode, SequenceNode
+from yaml.parser import Parser
+from yaml.reader import Reader
 from yaml.resolver import Resolver
+from yaml.scanner import Scanner
 
 from mearm.exceptions import ConfigError, InputFileError
 
 try:  # libyaml: the C scanner and parser (the events are the same)
-    from yaml._yaml import CParser as _Parser
+    from yaml._yaml import CParser as _CParser
 except ImportError:  # pragma: no cover - PyYAML built without libyaml
-    from yaml.parser import Parser
-    from yaml.reader import Reader
-    from yaml.scanner import Scanner
-
-    class _Parser(Reader, Scanner, Parser):  # type: ignore[no-redef]
-        def __init__(self, stream: str):
-            Reader.__init__(self, stream)
-            Scanner.__init__(self)
-            Parser.__init__(self)
+    _CParser = None
 
 
 #: Largest YAML file read [bytes]. The reference configs are ~10 kB; a scene of the
@@ -73,6 +76,12 @@ MAX_YAML_ALIASES = 100
 MAX_YAML_NODES = 100_000
 #: A value shown in a message is cut to this many characters.
 SHOWN_CHARS = 60
+
+#: Characters YAML 1.1 allows in a stream (its c-printable set); anything else is refused
+#: by mearm before a parser sees it.
+_NOT_PRINTABLE = re.compile(
+    "[^\x09\x0a\x0d\x20-\x7e\x85\xa0-\ud7ff\ue000-\ufffd\U00010000-\U0010ffff]"
+)
 
 _TAG = "tag:yaml.org,2002:"
 #: Tags a document may carry, explicitly (``!!int 3``) or as resolved.
@@ -109,11 +118,47 @@ def _at(mark: Any) -> str:
     return f"line {mark.line + 1}, column {mark.column + 1}" if mark is not None else "?"
 
 
-class _GuardedLoader(Composer, _Parser, SafeConstructor, _Resolver):
-    """A safe loader that composes under the module's limits (see the module docstring)."""
+def _too_deep(mark: Any) -> _Refused:
+    return _Refused(f"nested deeper than {MAX_YAML_DEPTH} levels", mark)
+
+
+class _ReferenceParser(Reader, Scanner, Parser):
+    """PyYAML's pure-Python parser, whose scanner refuses collections past the cap.
+
+    Every open block collection holds one indentation level and every open flow
+    collection one flow level, so their sum never exceeds the document's nesting depth:
+    the scanner refuses only what the composer would, but before reading further ahead.
+    """
+
+    def __init__(self, stream: str):
+        Reader.__init__(self, stream)
+        Scanner.__init__(self)
+        Parser.__init__(self)
+
+    def _check_depth(self) -> None:
+        if len(self.indents) + self.flow_level > MAX_YAML_DEPTH:
+            raise _too_deep(self.get_mark())
+
+    def add_indent(self, column: int) -> bool:
+        added: bool = Scanner.add_indent(self, column)
+        if added:
+            self._check_depth()
+        return added
+
+    def fetch_flow_collection_start(self, TokenClass: Any) -> None:  # noqa: N803 - PyYAML's name
+        Scanner.fetch_flow_collection_start(self, TokenClass)
+        self._check_depth()
+
+
+class _GuardedLoader(Composer, SafeConstructor, _Resolver):
+    """A safe loader that composes under the module's limits (see the module docstring).
+
+    A subclass adds the parser: libyaml's (:class:`_FastLoader`) or PyYAML's own
+    (:class:`_ReferenceLoader`).
+    """
 
     def __init__(self, text: str):
-        _Parser.__init__(self, text)
+        self._init_parser(text)
         SafeConstructor.__init__(self)
         _Resolver.__init__(self)
         Composer.__init__(self)
@@ -227,6 +272,29 @@ class _GuardedLoader(Composer, _Parser, SafeConstructor, _Resolver):
         except (ValueError, yaml.YAMLError):
             return key.value
 
+    def _init_parser(self, text: str) -> None:
+        raise NotImplementedError
+
+
+class _ReferenceLoader(_GuardedLoader, _ReferenceParser):
+    """The guarded loader on PyYAML's pure-Python parser: slower, and the reference."""
+
+    def _init_parser(self, text: str) -> None:
+        _ReferenceParser.__init__(self, text)
+
+
+if _CParser is not None:
+
+    class _FastLoader(_GuardedLoader, _CParser):
+        """The guarded loader on libyaml's parser: the fast path."""
+
+        def _init_parser(self, text: str) -> None:
+            _CParser.__init__(self, text)
+
+    _LOADERS: tuple[type[_GuardedLoader], ...] = (_FastLoader, _ReferenceLoader)
+else:  # pragma: no cover - PyYAML built without libyaml
+    _LOADERS = (_ReferenceLoader,)
+
 
 def _describe(exc: yaml.YAMLError) -> str:
     """``at line L, column C: problem`` (or ``: problem`` when the place is unknown)."""
@@ -263,24 +331,41 @@ def load_yaml_text(
     """
     if text.startswith("\ufeff"):
         text = text[1:]
-    loader = _GuardedLoader(text)
-    try:
-        node = loader.get_single_node()
-        data = None if node is None else loader.construct_document(node)
-        if data is None and not allow_empty:
-            raise ConfigError(
-                source, [f"empty {what}: the file holds no YAML document (nothing but comments?)"]
-            )
-        return data
-    except _Refused as exc:
-        raise ConfigError(source, [f"refused YAML{_describe(exc)}"]) from None
-    except yaml.YAMLError as exc:
-        raise ConfigError(source, [f"malformed YAML{_describe(exc)}"]) from None
-    except ValueError as exc:  # an integer of more than 4300 digits (int's own limit)
-        problem = "a number too long" if "digits" in str(exc) else _cut(str(exc), 160)
-        raise ConfigError(source, [f"malformed YAML: {problem}"]) from None
-    finally:
-        loader.dispose()
+    bad = _NOT_PRINTABLE.search(text)
+    if bad is not None:
+        line = text.count("\n", 0, bad.start()) + 1
+        column = bad.start() - text.rfind("\n", 0, bad.start())
+        raise ConfigError(
+            source,
+            [
+                f"malformed YAML at line {line}, column {column}: control characters are not "
+                f"allowed (U+{ord(bad.group()):04X}); only printable text, tabs and newlines"
+            ],
+        )
+    for n, loader_class in enumerate(_LOADERS, start=1):
+        loader: _GuardedLoader | None = None
+        try:
+            loader = loader_class(text)  # PyYAML's reader checks the characters here
+            node = loader.get_single_node()
+            data = None if node is None else loader.construct_document(node)
+            break
+        except _Refused as exc:
+            raise ConfigError(source, [f"refused YAML{_describe(exc)}"]) from None
+        except yaml.YAMLError as exc:
+            if n < len(_LOADERS):  # libyaml's word is not final: the reference reads it again
+                continue
+            raise ConfigError(source, [f"malformed YAML{_describe(exc)}"]) from None
+        except ValueError as exc:  # an integer of more than 4300 digits (int's own limit)
+            problem = "a number too long" if "digits" in str(exc) else _cut(str(exc), 160)
+            raise ConfigError(source, [f"malformed YAML: {problem}"]) from None
+        finally:
+            if loader is not None:
+                loader.dispose()
+    if data is None and not allow_empty:
+        raise ConfigError(
+            source, [f"empty {what}: the file holds no YAML document (nothing but comments?)"]
+        )
+    return data
 
 
 def _a(noun: str) -> str:

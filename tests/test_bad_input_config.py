@@ -27,6 +27,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from pydantic import BaseModel
 
+from mearm import yamlio
 from mearm.config import Config, config_from_dict
 from mearm.config.migrate import migrate_v1_config
 from mearm.exceptions import ConfigError
@@ -323,6 +324,7 @@ def test_bad_config_file_is_refused_by_fk(name: str, bad_files: dict[str, Path])
         ["fk", "--config", bad_files[name], *FK], within_s=2, keep=[bad_files["empty"].parent]
     )
     assert ALL_FILES[name] in out.line
+    assert str(bad_files[name]) in out.line  # the line names the file
 
 
 #: The files every command is tried with (the harmful ones).
@@ -558,3 +560,62 @@ def test_the_depth_cap_leaves_room_for_real_configs() -> None:
         depth = max(len(line) - len(line.lstrip(" ")) for line in text.splitlines()) // 2 + 3
         assert depth < MAX_YAML_DEPTH // 2
     assert sys.getrecursionlimit() > 10 * MAX_YAML_DEPTH
+
+
+# ------------------------------------------------- mearm's rules, whatever the YAML parser
+
+#: The parsers mearm composes on: libyaml (when PyYAML has it) and PyYAML's own.
+PARSERS = {cls.__name__: cls for cls in yamlio._LOADERS}
+
+
+def _nested(depth: int, shape: str) -> str:
+    if shape == "flow":
+        return "a: " + "[" * (depth - 1) + "]" * (depth - 1) + "\n"
+    if shape == "mapping":
+        return "a: " + "{b: " * (depth - 1) + "1" + "}" * (depth - 1) + "\n"
+    return "".join(" " * i + f"k{i}:\n" for i in range(depth)) + " " * depth + "1\n"
+
+
+@bad_input
+@pytest.mark.parametrize("libyaml", [True, False], ids=["as-shipped", "without-libyaml"])
+@pytest.mark.parametrize("shape", ["flow", "mapping", "block"])
+def test_deep_nesting_is_refused_by_mearms_rule(
+    libyaml: bool, shape: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The cap is mearm's: the same line at depth cap + 1 and at 10 000, with or without
+    libyaml (whose own limit, in PyYAML 6.0.4, stops a 10 000-deep line first)."""
+    if not libyaml:
+        monkeypatch.setattr(yamlio, "_LOADERS", (yamlio._ReferenceLoader,))
+    load_yaml_text(_nested(MAX_YAML_DEPTH, shape), source="ok.yaml")
+    for depth in (MAX_YAML_DEPTH + 1, 10_000):
+        with pytest.raises(ConfigError) as err:
+            load_yaml_text(_nested(depth, shape), source="deep.yaml")
+        assert str(err.value).startswith("deep.yaml: ")
+        assert f"nested deeper than {MAX_YAML_DEPTH} levels" in str(err.value)
+
+
+@bad_input
+@settings(max_examples=300, deadline=None)
+@given(st.lists(_yaml_atoms, max_size=60).map("".join))
+def test_the_parsers_agree_on_what_they_both_read(text: str) -> None:
+    """libyaml is only an accelerator: where both parsers read a text, the data is the same."""
+    results = []
+    for cls in PARSERS.values():
+        with pytest.MonkeyPatch.context() as mp:
+            mp.setattr(yamlio, "_LOADERS", (cls,))
+            try:
+                results.append(load_yaml_text(text, source="t.yaml", allow_empty=True))
+            except ConfigError:
+                results.append(ConfigError)
+    if ConfigError not in results:
+        assert all(r == results[0] for r in results)
+
+
+def test_the_parsers_agree_on_every_reference_config(monkeypatch: pytest.MonkeyPatch) -> None:
+    texts = [path.read_text(encoding="utf-8") for path in sorted(CONFIGS.rglob("*.yaml"))]
+    assert texts
+    read = {}
+    for name, cls in PARSERS.items():
+        monkeypatch.setattr(yamlio, "_LOADERS", (cls,))
+        read[name] = [load_yaml_text(text) for text in texts]
+    assert all(data == read[next(iter(read))] for data in read.values())

@@ -59,7 +59,7 @@ KIND = "servos"
 
 def now_iso() -> str:
     """Now, as calibration files record it (ISO 8601, UTC, seconds)."""
-    return datetime.datetime.now(datetime.timezone.utc).replace(microsecond=0).isoformat()
+    return datetime.datetime.now(datetime.UTC).replace(microsecond=0).isoformat()
 
 
 @dataclass(frozen=True)

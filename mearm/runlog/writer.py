@@ -8,7 +8,7 @@ from __future__ import annotations
 import json
 import os
 from collections.abc import Mapping
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
@@ -157,7 +157,7 @@ class RunLog:
         if isinstance(config, Config):
             config = config.model_dump(mode="json")
         if started is None:
-            started = datetime.now(timezone.utc)
+            started = datetime.now(UTC)
         if isinstance(started, datetime):
             started = started.isoformat()
         record = self._write(

@@ -103,7 +103,7 @@ def _matrix(name: str, value: Any, shape: tuple[int, ...], limit: float) -> np.n
 
 def today() -> str:
     """Now, as the ISO 8601 timestamp calibration files record (UTC, seconds)."""
-    return datetime.datetime.now(datetime.timezone.utc).replace(microsecond=0).isoformat()
+    return datetime.datetime.now(datetime.UTC).replace(microsecond=0).isoformat()
 
 
 @dataclass(frozen=True)
