@@ -4,7 +4,17 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: install demo test lint bench urdf firmware preview clean
+# Debian packages a full `make test` needs (install as root: `make system-deps`); without
+# them the tests that need them skip, and the summary lists what was missing.
+#   chromium: the meshcat view tests; gcc-avr avr-libc arduino-core-avr: the firmware
+#   build; simavr libsimavr-dev libelf-dev gcc libc6-dev: the firmware run in simavr;
+#   libegl1 libegl-mesa0 libgl1-mesa-dri (libosmesa6 as a fallback): MuJoCo's offscreen
+#   rendering on the CPU, the physical twin's camera (MUJOCO_GL=egl)
+SYSTEM_DEPS := make gcc libc6-dev chromium gcc-avr avr-libc arduino-core-avr \
+               simavr libsimavr-dev libelf-dev \
+               libegl1 libegl-mesa0 libgl1-mesa-dri libosmesa6
+
+.PHONY: install demo test lint bench urdf firmware preview clean system-deps
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -36,6 +46,11 @@ urdf: $(STAMP)
 
 firmware:
 	$(MAKE) -C tools/arduino
+
+system-deps:
+	apt-get update -qq
+	DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends \
+	  $(SYSTEM_DEPS) >/dev/null
 
 clean:
 	rm -rf $(VENV) .pytest_cache .ruff_cache .mypy_cache

@@ -7,6 +7,7 @@ import shutil
 import subprocess
 import sys
 from pathlib import Path
+from typing import NoReturn
 
 import pytest
 from hypothesis import settings
@@ -123,20 +124,62 @@ def run_cli(*args: str, timeout: float = 60, cwd: Path = ROOT) -> subprocess.Com
     )
 
 
+#: The start of every skip reason for a system tool that is not installed; the summary
+#: gathers them (pytest_terminal_summary) and `make system-deps` installs them all.
+MISSING = "needs a system tool: "
+
+
+def missing_tool(what: str) -> NoReturn:
+    """Skip a test for a missing system tool (``what``: which, and where it comes from);
+    in CI (``MEARM_REQUIRE_TOOLS=1``) the test fails instead."""
+    if os.environ.get("MEARM_REQUIRE_TOOLS") == "1":
+        pytest.fail(f"{what} is not installed, and MEARM_REQUIRE_TOOLS=1 says it must be")
+    pytest.skip(MISSING + what)
+
+
 def require_tool(*names: str) -> str:
     """Path of the first tool found; skip (or fail in CI, MEARM_REQUIRE_TOOLS=1) if none."""
     for name in names:
         path = shutil.which(name)
         if path:
             return path
-    msg = f"none of {names} is installed"
-    if os.environ.get("MEARM_REQUIRE_TOOLS") == "1":
-        pytest.fail(f"{msg}, and MEARM_REQUIRE_TOOLS=1 says it must be")
-    pytest.skip(msg)
+    missing_tool(" or ".join(names))
+
+
+def require_file(path: Path, package: str) -> None:
+    """Skip (or fail in CI) unless ``path``, which Debian's ``package`` installs, exists."""
+    if not Path(path).is_file():
+        missing_tool(f"{package} ({path} missing)")
+
+
+def browser_or_skip() -> str:
+    """The headless browser the view tests drive; skip (or fail in CI) without one."""
+    from mearm.exceptions import BrowserNotFoundError
+    from mearm.view import find_browser
+
+    try:
+        return find_browser()
+    except BrowserNotFoundError as exc:
+        missing_tool(f"chromium ({exc})")
 
 
 def pytest_terminal_summary(terminalreporter: pytest.TerminalReporter) -> None:
-    """How many bad-input promises the run checked and kept (tests/badinput.py)."""
+    """What a full run needs that this machine lacks, and how many bad-input promises the
+    run checked and kept (tests/badinput.py)."""
+    needs: dict[str, int] = {}
+    for report in terminalreporter.stats.get("skipped", []):
+        reason = str(report.longrepr[2]) if isinstance(report.longrepr, tuple) else ""
+        if MISSING in reason:
+            what = reason.split(MISSING, 1)[1]
+            needs[what] = needs.get(what, 0) + 1
+    if needs:
+        terminalreporter.write_sep("-", "not a full run", yellow=True)
+        terminalreporter.write_line(
+            f"{sum(needs.values())} tests skipped for system tools this machine lacks "
+            "(`make system-deps` installs them on Debian, as root; README: Tests):"
+        )
+        for what, count in sorted(needs.items()):
+            terminalreporter.write_line(f"  {count:4d}  {what}")
     badinput = sys.modules.get("badinput")
     if badinput is not None and badinput.KEPT["checks"]:
         kept = badinput.KEPT

@@ -9,7 +9,6 @@ when MEARM_REQUIRE_TOOLS=1 (CI).
 
 from __future__ import annotations
 
-import os
 import re
 import statistics
 import subprocess
@@ -18,7 +17,7 @@ from pathlib import Path
 
 import pytest
 import serial
-from conftest import ROOT, require_tool
+from conftest import ROOT, require_file, require_tool
 from fakeboard import FakeMearmBoard, MearmFaults, SimavrBoard
 from hardware_helpers import HOME, HOME_PULSES, fast_config
 
@@ -33,12 +32,7 @@ RAM_BYTES = 2048
 
 
 def _require_core() -> None:
-    if CORE_H.is_file():
-        return
-    msg = f"arduino-core-avr is not installed ({CORE_H} missing)"
-    if os.environ.get("MEARM_REQUIRE_TOOLS") == "1":
-        pytest.fail(f"{msg}, and MEARM_REQUIRE_TOOLS=1 says it must be")
-    pytest.skip(msg)
+    require_file(CORE_H, "arduino-core-avr")
 
 
 @pytest.fixture(scope="module")
@@ -107,11 +101,7 @@ SIMAVR_H = Path("/usr/include/simavr/sim_avr.h")
 def simulator(firmware) -> Path:
     """``tools/arduino/sim/mearm_sim`` built next to the firmware (needs libsimavr-dev)."""
     require_tool("cc", "gcc")
-    if not SIMAVR_H.is_file():
-        msg = f"libsimavr-dev is not installed ({SIMAVR_H} missing)"
-        if os.environ.get("MEARM_REQUIRE_TOOLS") == "1":
-            pytest.fail(f"{msg}, and MEARM_REQUIRE_TOOLS=1 says it must be")
-        pytest.skip(msg)
+    require_file(SIMAVR_H, "libsimavr-dev")
     build = firmware.parent
     result = subprocess.run(
         ["make", "-C", str(ARDUINO), f"BUILD_DIR={build}", "sim"],

@@ -30,7 +30,7 @@ from pathlib import Path
 
 import pytest
 import yaml
-from conftest import require_tool
+from conftest import require_file, require_tool
 from fakeboard import FakeMearmBoard, SimavrBoard
 
 from mearm.config import load_config
@@ -327,23 +327,14 @@ class BoardUnderTest:
         return b.widths_us(channel)
 
 
-def _require_file(path: Path, what: str) -> None:
-    if path.is_file():
-        return
-    msg = f"{what} is not installed ({path} missing)"
-    if os.environ.get("MEARM_REQUIRE_TOOLS") == "1":
-        pytest.fail(f"{msg}, and MEARM_REQUIRE_TOOLS=1 says it must be")
-    pytest.skip(msg)
-
-
 @pytest.fixture(scope="session")
 def virtual_uno_build(tmp_path_factory) -> tuple[Path, Path]:
     """The firmware and its simavr runner, built from the checkout (skipped without tools)."""
     for tool in ("make", "avr-gcc"):
         require_tool(tool)
     require_tool("cc", "gcc")
-    _require_file(CORE_H, "arduino-core-avr")
-    _require_file(SIMAVR_H, "libsimavr-dev")
+    require_file(CORE_H, "arduino-core-avr")
+    require_file(SIMAVR_H, "libsimavr-dev")
     build = tmp_path_factory.mktemp("virtual_uno")
     result = subprocess.run(
         ["make", "-C", str(ARDUINO), f"BUILD_DIR={build}", "all", "sim"],

@@ -24,7 +24,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 import pytest
-from conftest import ROOT, require_tool
+from conftest import ROOT, require_file, require_tool
 from fakeboard import FakeMearmBoard, MearmFaults, SimavrBoard
 
 from mearm.config import load_config
@@ -288,10 +288,7 @@ def built_firmware(tmp_path_factory) -> Path:
     """The firmware built from the checkout, as flash builds it; the build folder."""
     require_tool("make")
     require_tool("avr-gcc")
-    if not (toolchain.ARDUINO_CORE_DIR / "cores/arduino/Arduino.h").is_file():
-        if os.environ.get("MEARM_REQUIRE_TOOLS") == "1":
-            pytest.fail("arduino-core-avr is not installed, and MEARM_REQUIRE_TOOLS=1")
-        pytest.skip("arduino-core-avr is not installed")
+    require_file(toolchain.ARDUINO_CORE_DIR / "cores/arduino/Arduino.h", "arduino-core-avr")
     build = tmp_path_factory.mktemp("flash_build")
     result = subprocess.run(
         ["make", "-C", str(flash.firmware_source_dir()), f"BUILD_DIR={build}"],
@@ -304,10 +301,7 @@ def built_firmware(tmp_path_factory) -> Path:
 def test_find_port_names_the_real_firmware_in_simavr(built_firmware):
     """The real firmware (simavr behind a pty): named by its banner and its V reply."""
     require_tool("cc", "gcc")
-    if not Path("/usr/include/simavr/sim_avr.h").is_file():
-        if os.environ.get("MEARM_REQUIRE_TOOLS") == "1":
-            pytest.fail("libsimavr-dev is not installed, and MEARM_REQUIRE_TOOLS=1")
-        pytest.skip("libsimavr-dev is not installed")
+    require_file(Path("/usr/include/simavr/sim_avr.h"), "libsimavr-dev")
     result = subprocess.run(
         ["make", "-C", str(flash.firmware_source_dir()), f"BUILD_DIR={built_firmware}", "sim"],
         capture_output=True, text=True, timeout=300,

@@ -22,7 +22,7 @@ import cv2
 import numpy as np
 import pinocchio as pin
 import pytest
-from conftest import REFERENCE_CONFIGS, ROOT, run_cli
+from conftest import REFERENCE_CONFIGS, ROOT, browser_or_skip, run_cli
 from viewscene import scene
 
 from mearm.cli import run
@@ -86,15 +86,6 @@ def urdf_q(full: pin.Model, model: ArmModel, q: np.ndarray, opening_cm: float) -
     for name in jaw_joint_names(model.arm):
         out[full.joints[full.getJointId(name)].idx_q] = opening_cm / 200
     return out
-
-
-def browser_or_skip() -> str:
-    try:
-        return find_browser()
-    except BrowserNotFoundError as exc:
-        if os.environ.get("MEARM_REQUIRE_TOOLS") == "1":
-            pytest.fail(f"{exc}; MEARM_REQUIRE_TOOLS=1 says it must be there")
-        pytest.skip(str(exc))
 
 
 def hsv_mask(img_bgr: np.ndarray, name: str) -> np.ndarray:

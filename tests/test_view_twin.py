@@ -7,7 +7,6 @@ recording what it draws at every push next to what the twin measures at that ins
 
 from __future__ import annotations
 
-import os
 import re
 from dataclasses import dataclass
 from typing import Any
@@ -15,15 +14,15 @@ from typing import Any
 import cv2
 import numpy as np
 import pytest
-from conftest import ROOT
+from conftest import ROOT, browser_or_skip
 from viewscene import scene
 
 from mearm.config import Config, SceneObject, load_config
-from mearm.exceptions import BrowserNotFoundError, ViewInputError
+from mearm.exceptions import ViewInputError
 from mearm.task.execute import Executor, twin_object_ids
 from mearm.task.rig import open_rig
 from mearm.task.sorter import Sorter
-from mearm.view import ArmView, TwinBody, find_browser
+from mearm.view import ArmView, TwinBody
 
 TWIN = load_config(ROOT / "configs" / "sim_mujoco.yaml")
 #: Two of the paper's objects (its M3 and H2): red is sorted first, green waits on the table.
@@ -184,12 +183,7 @@ def test_the_render_shows_the_carried_object_in_the_air(tmp_path):
     """Chromium's render while red1 is carried between its spot and its bin (over the
     bare table, nothing else red behind it): red where its body is drawn, none left at
     the spot it was picked from."""
-    try:
-        browser = find_browser()
-    except BrowserNotFoundError as exc:
-        if os.environ.get("MEARM_REQUIRE_TOOLS") == "1":
-            pytest.fail(f"{exc}; MEARM_REQUIRE_TOOLS=1 says it must be there")
-        pytest.skip(str(exc))
+    browser = browser_or_skip()
     shot: dict[str, Any] = {}
 
     start = np.array([SCENE[0].x, SCENE[0].y])

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import pytest
 import serial
-from conftest import ROOT
+from conftest import ROOT, missing_tool
 
 from mearm.config import config_from_dict
 from mearm.config.rig import VirtualUnoConfig
@@ -43,10 +43,7 @@ def cache_home(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """An ``XDG_CACHE_HOME`` holding the shipped firmware and the harness, built."""
     missing = missing_requirements()
     if missing:
-        msg = "not installed: " + ", ".join(f"{r.what} ({r.package})" for r in missing)
-        if os.environ.get("MEARM_REQUIRE_TOOLS") == "1":
-            pytest.fail(f"{msg}, and MEARM_REQUIRE_TOOLS=1 says it must be")
-        pytest.skip(msg)
+        missing_tool(", ".join(f"{r.what} ({r.package})" for r in missing))
     home = tmp_path_factory.mktemp("cache")
     build_virtual_uno(cache_dir=home / "mearm" / "virtual_uno")
     return home
