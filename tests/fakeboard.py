@@ -388,7 +388,8 @@ class SSC32Faults:
             channel goes limp (``QP`` answers 0) and the banner is printed.
         banner_on_reset: Print the banner when restarting.
         stray_after_move: (move, bytes): send these bytes unasked right after the answer
-            to the next ``QP`` of that group move's last channel.
+            to the first ``QP`` of that group move's last channel once the move is done
+            (the answer that confirms it, however late a loaded host asks).
     """
 
     silent: bool = False
@@ -552,7 +553,8 @@ class FakeSSC32Board(FakeBoard):
                 us += f.wrong_qp_us
             stale = self._before_us.get(ch, 0)
             tail = b""
-            if self._stray is not None and self._stray[0] == ch:
+            done = time.monotonic() >= self._move_end  # the answer that confirms the move
+            if self._stray is not None and self._stray[0] == ch and done:
                 self._mark_fault()
                 tail, self._stray = self._stray[1], None
             self._answer(bytes([max(0, min(255, us // 10))]), bytes([stale // 10]), tail)

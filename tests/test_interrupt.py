@@ -95,4 +95,6 @@ def test_ctrl_c_at_any_moment_parks_the_arm(tmp_path, monkeypatch, capsys):
                 f"fault {fault and fault.reason}"
             )
     assert not failures, "\n".join(failures)
-    assert parked >= RUNS // 2  # most signals land mid-run
+    # many signals land mid-run (how many depends on how busy the machine is: a quarter
+    # at least, so that the test cannot pass without interrupting anything)
+    assert parked >= RUNS // 4
