@@ -37,6 +37,14 @@ class ModelError(MearmError):
     """The robot description (URDF / DH table) is missing or inconsistent."""
 
 
+class CollisionError(MearmError):
+    """A motion would bring the arm's body too close to something; nothing of it was sent.
+
+    Too close: within ``task.clearance_cm`` of a bin or an object, or touching the table
+    (:mod:`mearm.kinematics.collision`).
+    """
+
+
 class JointLimitError(MearmError):
     """A joint angle is outside its limits.
 
@@ -592,6 +600,7 @@ __all__ = [
     "CalibrationError",
     "CameraError",
     "ChecksumError",
+    "CollisionError",
     "ConfigError",
     "GarbledReplyError",
     "HandshakeError",
@@ -699,6 +708,15 @@ class UnsolicitedBytesError(ServoError):
         )
 
 
+class SimCollisionError(ServoError):
+    """The simulated arm's body ran into the table, a bin or an object.
+
+    The kinematic simulator checks every move against the same collision model the
+    planner does (:mod:`mearm.kinematics.collision`), so a route the planner let through
+    a wall is a fault there, as it would be in physics.
+    """
+
+
 class ServoStallError(ServoError):
     """A joint servo did not reach its command: it stopped short or ran out of time.
 
@@ -730,6 +748,7 @@ class ServoStallError(ServoError):
 
 
 __all__ += ["MoveNotConfirmedError", "SerialPortError", "ServoStallError", "UnsolicitedBytesError"]
+__all__ += ["SimCollisionError"]
 
 
 class ServoCalibrationError(CalibrationError):

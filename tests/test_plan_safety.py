@@ -35,8 +35,8 @@ class SpySort:
             sorter = Sorter(config, rig.camera, rig.bus, model=rig.model, echo=None)
             plan = sorter.planner.plan
 
-            def spy_plan(route, q_start):
-                self.routes.append(plan(route, q_start))
+            def spy_plan(route, q_start, **kwargs):
+                self.routes.append(plan(route, q_start, **kwargs))
                 return route
 
             sorter.planner.plan = spy_plan

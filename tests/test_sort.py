@@ -389,6 +389,9 @@ def test_an_arm_defined_in_the_test_sorts_a_small_scene():
             ],
         },
     }
+    # the claw points along the forearm (its jaws open level): pointing along the joint
+    # axis, they would open up and down, and the lower jaw would hit the table
+    data["arm"]["tool"]["approach_axis"] = [1.0, 0.0, 0.0]
     config = config_from_dict(data)
     world, report, bus = _sort(config, None)
     assert [(o.color, o.bin) for o in world.objects] == [

@@ -361,6 +361,11 @@ class TaskConfig(Strict):
     before the place, so the jaws neither sweep through other objects and bin walls nor
     drag what they hold [cm]; ``null``: the paper's direct routes (what the kinematic
     simulator, which has no collisions, reproduces)."""
+    clearance_cm: float = Field(default=0.3, ge=0, le=10, allow_inf_nan=False)
+    """What the arm's body keeps from every bin and object on every route [cm], checked
+    along the whole path before anything moves (the table gets none: the jaws come down
+    to it to close on an object). A route that would come closer goes up, over at a
+    safe height and down instead; one that cannot is refused (``collision``)."""
     order: Literal["class", "nearest"] = "class"
     """Which object the arm takes next. ``class``: the classes in the order listed (the
     paper's: every red, then green, then blue), the nearest of a class first; ``nearest``:

@@ -1,6 +1,6 @@
 r"""Why a solve gives nothing to send: a kind a program can count and a line for people.
 
-Five kinds, each with one cause:
+Six kinds, each with one cause:
 
 - ``outside_box``: the target leaves the arm's target box (refused before any motion).
 - ``unreachable``: out of reach (a closed form proves it, before any motion).
@@ -10,6 +10,9 @@ Five kinds, each with one cause:
   solver stopped at a pose where no joint motion changes the error to first order (the
   arm stretched towards a target out of reach, usually).
 - ``stalled``: the solver stopped short for another reason (the iteration cap).
+- ``collision``: the solve converged, but every route the planner could make to the
+  target brings the arm's body within its clearance of the table, a bin or an object
+  (:mod:`mearm.kinematics.collision`); the message names the two bodies and the pose.
 
 A solver that stopped is classified at its last pose :math:`q` by the gradient of
 :math:`\tfrac12|e|^2` over the actuated joints, :math:`g = (J C)^T e`: with
@@ -33,13 +36,14 @@ from mearm.exceptions import (
 from mearm.kinematics import Chain
 from mearm.kinematics.closed_form import JointLimitTargetError, SingularTargetError
 
-FailureKind = Literal["unreachable", "limit", "stalled", "singular", "outside_box"]
+FailureKind = Literal["unreachable", "limit", "stalled", "singular", "outside_box", "collision"]
 FAILURE_KINDS: tuple[FailureKind, ...] = (
     "unreachable",
     "limit",
     "stalled",
     "singular",
     "outside_box",
+    "collision",
 )
 
 #: A (projected) gradient below this share of |J C|·|e| counts as none [-].

@@ -366,13 +366,17 @@ def _chosen(config: Config, names: str | None) -> list[Actuator]:
 
 
 def open_arm_bus(config: Config, port: str | None = None) -> ServoBus:
-    """The config's servo bus, not connected; the ``sim`` backend gets the simulated table."""
+    """The config's servo bus, not connected; the ``sim`` backend gets a cleared table.
+
+    Calibration turns each servo alone across its range, where the arm's body may sweep
+    low over the table: it is done with the table cleared (no bins, no objects), and the
+    simulated arm, which faults on whatever it touches, stands on a cleared table too.
+    """
     world = None
     if config.servo.backend == "sim":
         from mearm.sim import World
 
-        bins = {c.name: c.bin_cm for c in config.task.classes}
-        world = World.from_scene(config.task.scene, bins)
+        world = World()
     return open_bus(config, world, port=port)
 
 

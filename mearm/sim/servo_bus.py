@@ -31,10 +31,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from mearm.config import Config
-from mearm.exceptions import MearmError, TargetError, WorldError
+from mearm.exceptions import MearmError, SimCollisionError, TargetError, WorldError
 from mearm.hardware.bus import ArmCommand, ServoBus
 from mearm.hardware.mapping import ActuatorMap, Quantization, ServoMap
 from mearm.kinematics import ArmModel, check_target, closed_form_for
+from mearm.kinematics.collision import CollisionModel
 from mearm.sim.world import World
 
 log = logging.getLogger(__name__)
@@ -118,6 +119,8 @@ class SimArm(ServoBus):
         self.gripper_closed = False
         self.last_grip: GripResult | None = None
         self.last_release: ReleaseResult | None = None
+        #: The arm's body against the world, checked on every move (built on first use).
+        self._collision: CollisionModel | None = None
 
     @property
     def ee_cm(self) -> np.ndarray:
@@ -165,14 +168,55 @@ class SimArm(ServoBus):
             tool: Realised tool actuators, name → deg; actuators not named stay.
             gripper_closed: Whether the gripper is closed.
         """
+        before = self.actual_joints
         self.actual_joints = {**self.actual_joints, **joints}
         self.actual_tool = {**self.actual_tool, **tool}
+        if self.actual_joints != before:
+            self._check_move(before, self.actual_joints)
         if gripper_closed and not self.gripper_closed:
             self.gripper_closed = True
             self.last_grip = self._close_gripper()
         elif not gripper_closed and self.gripper_closed:
             self.gripper_closed = False
             self._open_gripper()
+
+    def _check_move(self, before: Mapping[str, float], after: Mapping[str, float]) -> None:
+        """Fault if the arm's body, moving from ``before`` to ``after``, touches anything.
+
+        The same check as the planner's (:meth:`CollisionModel.first_contact`), against
+        the world as it is: the objects on the table, the bins, the held object in the
+        jaws. The jaws' pads may touch an object standing between them.
+
+        Raises:
+            SimCollisionError: they touch; the arm stays where it was.
+        """
+        if self._collision is None:
+            self._collision = CollisionModel(
+                self.config, self.model, clearance_cm=0.0, bins=self.world.bins_cm
+            )
+        chain = self.model.chain
+        path = np.array([chain.from_named(j) for j in (before, after)])
+        held = self.world.held_object()
+        g = self.config.arm.tool.gripper
+        if held is not None:
+            opening = self.config.task.class_named(held.color).diameter_cm
+        else:
+            opening = g.closed_cm if self.gripper_closed else g.open_cm
+        self._collision.set_world(
+            [
+                (o.id, o.color, o.x_cm, o.y_cm)
+                for o in self.world.table_objects()
+                if o.color in self.config.task.class_names  # (another is the grip's error)
+            ],
+            opening_cm=opening,
+            held=None if held is None else (held.id, held.color),
+        )
+        contact = self._collision.first_contact(path)
+        if contact is not None:
+            self.actual_joints = dict(before)
+            raise SimCollisionError(
+                "sim: the arm ran into something: " + contact.describe(chain.names, chain.scale)
+            )
 
     def _send_move(self, command: ArmCommand, pulses_us: dict[int, int]) -> None:
         # A servo told to hold its value stays where it is: only a new joint command

@@ -3,10 +3,24 @@
 A route is sent to the servos only when its plan converged and every pose of it passed
 the checks here (:attr:`Route.planned`); otherwise it carries a typed reason
 (:attr:`Route.failure_kind`: ``outside_box``, ``unreachable``, ``limit``, ``stalled``,
-``singular``; :attr:`Route.failure`: the line for people) and nothing of it moves.
+``singular``, ``collision``; :attr:`Route.failure`: the line for people) and nothing of
+it moves.
+
+**Collisions.** With a :class:`~mearm.kinematics.collision.CollisionModel` (the sorter
+always gives one) the whole path is checked against the table, the bins and the objects
+on it (:meth:`~mearm.kinematics.collision.CollisionModel.first_contact`: nothing is
+stepped over). A path that comes within ``task.clearance_cm`` of something is planned
+again as a detour: straight up from the start to the safe height (every bin wall and
+object top, the clearance and the tool hanging below the TCP), over at that height to
+above the target, and down; each leg is solved and the whole is checked again. A detour
+that is not clear either refuses the route with ``collision``, naming the two bodies and
+the pose; nothing of it is sent. A direct solve that stopped short (``limit``,
+``stalled``) is tried once more the same way, from over the target.
 """
 
 from __future__ import annotations
+
+import dataclasses
 
 import numpy as np
 import numpy.typing as npt
@@ -15,10 +29,17 @@ from mearm.config import ColorClass, Config
 from mearm.exceptions import JointLimitError, TargetError
 from mearm.ik import IKFailure, IKResult, IKTarget, failure_of_error, make_solver
 from mearm.kinematics import ArmModel
+from mearm.kinematics.collision import CollisionModel, Contact
 from mearm.task.route import Route
 
 #: After a missed grip the TCP rises this much before the retry [cm].
 RETRY_LIFT_CM = 5.0
+#: A detour travels this much above the safe height, and tries these higher still [cm].
+DETOUR_MARGIN_CM = 1.0
+DETOUR_EXTRA_CM = (0.0, 3.0, 6.0)
+#: Failures of a direct solve that a detour is tried for: a solve that stopped short
+#: against the limits or stalled from this start may converge from over the target.
+REROUTED = ("limit", "stalled")
 
 
 class Planner:
@@ -27,14 +48,17 @@ class Planner:
     Args:
         config: The whole configuration (arm, tool, classes, controller).
         model: The arm model.
+        collision: The arm's body and the table's contents, checked along every plan
+            (the caller keeps its world up to date); ``None``: no collision checks.
     """
 
-    def __init__(self, config: Config, model: ArmModel):
+    def __init__(self, config: Config, model: ArmModel, collision: CollisionModel | None = None):
         self.config = config
         self.model = model
         self.solver = make_solver(model, config.controller)
         tool = config.arm.tool
         self._approach = tool.pick_approach
+        self.collision = collision
 
     # ----------------------------------------------------------------- targets
 
@@ -68,26 +92,98 @@ class Planner:
 
     # ----------------------------------------------------------------- plans
 
-    def plan(self, route: Route, q_start: npt.ArrayLike) -> Route:
+    def plan(self, route: Route, q_start: npt.ArrayLike, *, target: str | None = None) -> Route:
         """Solve ``route`` from ``q_start`` (full joints, model units); set its plan or failure.
 
         The whole solve runs first. A refused target or start (outside the box, out of
         reach, a joint limit), a solve that did not converge, or a plan with a pose
         outside the joint limits sets ``failure`` and ``failure_kind``, and the route is
-        not :attr:`~Route.planned`: nothing of it may be sent.
+        not :attr:`~Route.planned`: nothing of it may be sent. With a collision model the
+        path is checked whole, and detoured or refused (the module docstring).
+
+        Args:
+            route: The route; its plan or failure is set.
+            q_start: Where it starts.
+            target: The object the jaws close on at its end (their pads may touch it).
         """
+        result, failure = self._solve(route.target, q_start)
+        if result is not None:
+            route.plan = result
+        if failure is not None:
+            if self.collision is not None and failure.kind in REROUTED:
+                # the solver stopped short from here; from over the target it may not
+                detour = self._detour(route.target, q_start, target)
+                if detour is not None:
+                    route.plan, route.detour_cm = detour
+                    return route
+            return _fail(route, failure)
+        assert result is not None
+        if self.collision is None:
+            return route
+        contact = self.collision.first_contact(result.q_path, target=target)
+        if contact is None:
+            return route
+        detour = self._detour(route.target, q_start, target)
+        if detour is not None:
+            route.plan, route.detour_cm = detour
+            return route
+        return _fail(route, IKFailure("collision", f"collision: {self._describe(contact)}"))
+
+    def _solve(
+        self, target: IKTarget, q_start: npt.ArrayLike
+    ) -> tuple[IKResult | None, IKFailure | None]:
+        """One solve and its checks: the result (if any) and why it cannot be sent."""
         try:
-            result = self.solver.solve(q_start, route.target)
+            result = self.solver.solve(q_start, target)
         except (TargetError, JointLimitError) as exc:
-            return _fail(route, failure_of_error(exc))
-        route.plan = result
+            return None, failure_of_error(exc)
         if not result.converged:
             failure = result.failure or IKFailure("stalled", f"the solver {result.status}")
-            return _fail(route, IKFailure(failure.kind, f"no plan: {failure.message}"))
-        problem = self._outside_limits(result)
-        if problem is not None:
-            return _fail(route, problem)
-        return route
+            return result, IKFailure(failure.kind, f"no plan: {failure.message}")
+        return result, self._outside_limits(result)
+
+    def _describe(self, contact: Contact) -> str:
+        chain = self.model.chain
+        return contact.describe(chain.names, chain.scale) + " (task.clearance_cm)"
+
+    def safe_height_cm(self, q: npt.ArrayLike) -> float:
+        """The TCP height a detour travels at, for the tool as it hangs at pose ``q`` [cm].
+
+        Every bin wall and object top cleared by the clearance and
+        :data:`DETOUR_MARGIN_CM`.
+        """
+        assert self.collision is not None
+        return self.collision.clear_height_cm(q) + DETOUR_MARGIN_CM
+
+    def _detour(
+        self, target: IKTarget, q_start: npt.ArrayLike, obj: str | None
+    ) -> tuple[IKResult, float] | None:
+        """Up, over at a safe height and down to ``target``, checked whole; or ``None``."""
+        assert self.collision is not None
+        q0 = np.asarray(q_start, dtype=float)
+        x0, y0, z0 = (float(v) for v in self.model.fk_cm(q0))
+        x1, y1, z1 = (float(v) for v in target.position_cm)
+        base = self.safe_height_cm(q0)
+        for extra in DETOUR_EXTRA_CM:
+            z = base + extra
+            legs = [
+                IKTarget((x0, y0, max(z0, z)), target.approach),
+                IKTarget((x1, y1, max(z1, z)), target.approach),
+                target,
+            ]
+            results: list[IKResult] = []
+            q = q0
+            for leg in legs:
+                result, failure = self._solve(leg, q)
+                if result is None or failure is not None:
+                    break
+                results.append(result)
+                q = result.q
+            else:
+                joined = _join(results, np.asarray(target.position_cm, dtype=float))
+                if self.collision.first_contact(joined.q_path, target=obj) is None:
+                    return joined, z
+        return None
 
     def _outside_limits(self, plan: IKResult) -> IKFailure | None:
         """The first pose of ``plan`` outside the joint limits (or not finite), if any."""
@@ -105,6 +201,21 @@ class Planner:
             f"{q[k, i] / s:.4g} {unit}, outside its limits "
             f"[{chain.lower[i] / s:.4g}, {chain.upper[i] / s:.4g}] {unit}",
         )
+
+
+def _join(results: list[IKResult], target_cm: np.ndarray) -> IKResult:
+    """Legs solved one after the other as one result toward ``target_cm``."""
+    last = results[-1]
+    ee = np.vstack([results[0].ee_path_cm, *(r.ee_path_cm[1:] for r in results[1:])])
+    return dataclasses.replace(
+        last,
+        iterations=sum(r.iterations for r in results),
+        initial_error_cm=float(np.linalg.norm(ee[0] - target_cm)),
+        q_path=np.vstack([results[0].q_path, *(r.q_path[1:] for r in results[1:])]),
+        ee_path_cm=ee,
+        error_path_cm=np.linalg.norm(ee - target_cm, axis=1),
+        search_iterations=sum(r.search_iterations for r in results),
+    )
 
 
 def _fail(route: Route, failure: IKFailure) -> Route:

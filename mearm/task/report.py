@@ -20,6 +20,7 @@ LEFT_REASONS: dict[str, str] = {
     "limit": "beyond a joint limit",
     "stalled": "IK stalled",
     "singular": "at a singularity",
+    "collision": "no route clear of collisions",
     "merged": "touching another object",
     "cut": "cut by the image border",
     "pick_failed": "pick failed",

@@ -35,6 +35,9 @@ class Route:
             arm reports its commands).
         elapsed_s: Wall time from planning to the end of the step [s].
         motion_s: Commanded motion time: one command per pose at the servo rate [s].
+        detour_cm: The TCP height its path travels at, when the direct path would have
+            come too close to something and the planner went up, over and down instead
+            [cm]; ``None`` for the direct path.
     """
 
     object_id: str
@@ -50,6 +53,7 @@ class Route:
     ee_cm: np.ndarray = field(default_factory=lambda: np.full(3, np.nan))
     elapsed_s: float = 0.0
     motion_s: float = 0.0
+    detour_cm: float | None = None
 
     @property
     def planned(self) -> bool:

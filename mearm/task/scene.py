@@ -18,6 +18,7 @@ from mearm.config.base import MAX_SEED, loc_text, short_repr
 from mearm.config.rig import MAX_SCENE_OBJECTS
 from mearm.exceptions import ConfigError, MearmError
 from mearm.kinematics import ArmModel, check_in_box, closed_form_for
+from mearm.kinematics.collision import TOUCH_M, CollisionModel
 from mearm.task.plan import Planner
 from mearm.task.route import Route
 from mearm.yamlio import load_yaml_file
@@ -71,6 +72,14 @@ def load_scene(path: str | Path, class_names: Sequence[str] | None = None) -> li
     return scene
 
 
+#: What a random scene's picks keep from bins and neighbours beyond the clearance [cm]:
+#: the twin's camera locates a 1 cm tall object up to about 0.25 cm off (its top face seen
+#: in perspective), and the pick is planned where it is seen.
+FOOTPRINT_MARGIN_CM = 0.3
+#: Draws for one object before a layout that leaves it no room starts again.
+PER_OBJECT_DRAWS = 1000
+
+
 def camera_field_cm(config: Config, margin_cm: float) -> tuple[float, float, float, float]:
     """The table area the camera sees, shrunk by ``margin_cm``: (x_min, x_max, y_min, y_max).
 
@@ -87,8 +96,8 @@ def camera_field_cm(config: Config, margin_cm: float) -> tuple[float, float, flo
     return (xs[1] + margin_cm, xs[2] - margin_cm, ys[1] + margin_cm, ys[2] - margin_cm)
 
 
-def _reach_check(config: Config) -> Callable[[ColorClass, float, float], bool]:
-    """A test whether an object of a class at (x, y) can be picked.
+def _reach_check(config: Config) -> Callable[[ColorClass, float, float], np.ndarray | None]:
+    """A test whether an object of a class at (x, y) can be picked: its pick pose, or None.
 
     Its pick point (and, with ``task.approach_height_cm``, the point above it) must lie in
     the box and be solved: by the closed form where the arm has one, else planned from
@@ -101,26 +110,57 @@ def _reach_check(config: Config) -> Callable[[ColorClass, float, float], bool]:
     if closed_form is None:
         planner = Planner(config, model)
 
-    def reach(cls: ColorClass, x: float, y: float) -> bool:
+    def reach(cls: ColorClass, x: float, y: float) -> np.ndarray | None:
         z = cls.grip_z_cm + config.arm.tool.tcp_above_grip_cm
         heights = [z] if height is None else [z, z + height]
+        pose = None
         for zz in heights:
             try:
                 check_in_box((x, y, zz), config.arm)
                 if closed_form is not None:
-                    closed_form.solve((x, y, zz))
+                    q = closed_form.solve((x, y, zz))
+                    pose = q if pose is None else pose
             except MearmError:
-                return False
+                return None
             if planner is not None:
                 target = planner.pick_target(cls, x, y)
                 if zz != z:
                     target = planner.above_target(target, zz - z)
                 route = Route("", cls.name, "pick", 1, target)
                 if not planner.plan(route, model.home).planned:
-                    return False
-        return True
+                    return None
+                if pose is None and route.plan is not None:
+                    pose = route.plan.q
+        return pose
 
     return reach
+
+
+def _footprint_check(
+    config: Config,
+) -> Callable[[list[SceneObject], list[np.ndarray], SceneObject, np.ndarray], bool]:
+    """A test whether a new object keeps every pick clear of the arm's body.
+
+    With the jaws open at each object's pick pose, the whole tool (jaws, hand, servo) keeps
+    ``task.clearance_cm`` and :data:`FOOTPRINT_MARGIN_CM` (the camera's error in locating
+    an object, a route's way down) from every bin and every other object: both the new
+    object's pick among those placed, and each placed object's pick with the new one
+    beside it (:class:`~mearm.kinematics.collision.CollisionModel`).
+    """
+    model = ArmModel(config.arm)
+    margin = config.task.clearance_cm + FOOTPRINT_MARGIN_CM
+    collision = CollisionModel(config, model, clearance_cm=margin)
+
+    def clear(
+        placed: list[SceneObject], poses: list[np.ndarray], new: SceneObject, q: np.ndarray
+    ) -> bool:
+        objects = [(f"o{i}", o.color, o.x, o.y) for i, o in enumerate([*placed, new])]
+        collision.set_world(objects)
+        if collision.gap(q, target=f"o{len(placed)}")[0] < TOUCH_M:
+            return False
+        return all(collision.gap(qo, target=f"o{i}")[0] >= TOUCH_M for i, qo in enumerate(poses))
+
+    return clear
 
 
 def _near_bin(cls: ColorClass, x: float, y: float, clearance_cm: float) -> bool:
@@ -142,7 +182,11 @@ def random_scene(
     the open jaws around one object clear its neighbours (1.5 cm edge to edge for the
     paper's 4 cm gripper).
 
-    Objects keep the same gap from every bin's footprint (``ColorClass.bin_inner_width_cm``).
+    Objects keep the same gap from every bin's footprint (``ColorClass.bin_inner_width_cm``),
+    and every pick keeps the whole tool clear of the bins and the other objects (the
+    jaws open, the hand, the gripper's servo: :func:`_footprint_check`). Each object is
+    reachable at eight points :data:`FOOTPRINT_MARGIN_CM` around where it stands, as the
+    camera may see it there.
 
     Args:
         config: Supplies the camera field (calibration), the pick height and the arm.
@@ -185,24 +229,43 @@ def random_scene(
     # pushes, tips or traps the next
     g = config.arm.tool.gripper
     min_dist = max(diameter + MIN_GAP_CM, g.open_cm / 2 + g.jaw_thickness_cm + diameter / 2)
-    placed: list[SceneObject] = []
+    footprint = _footprint_check(config)
+    # where the camera may see it: the pick must be reachable there too
+    angles = np.linspace(0.0, 2 * np.pi, 8, endpoint=False)
+    margins = FOOTPRINT_MARGIN_CM * np.column_stack([np.cos(angles), np.sin(angles)])
     tries = 0
-    for color in order:
-        while True:
-            tries += 1
-            if tries > max_tries:
-                raise SceneError(
-                    f"could not place {len(order)} objects {min_dist - diameter:.3g} cm apart "
-                    f"in the reachable camera field after {max_tries} draws; ask for fewer"
-                )
-            x, y = round(rng.uniform(x0, x1), 2), round(rng.uniform(y0, y1), 2)
-            if any(np.hypot(o.x - x, o.y - y) < min_dist for o in placed):
-                continue
-            if any(_near_bin(c, x, y, diameter / 2 + MIN_GAP_CM) for c in config.task.classes):
-                continue
-            if not reach(config.task.class_named(color), x, y):
-                continue
-            placed.append(SceneObject(color=color, x=x, y=y))
+    while True:  # a layout whose first objects leave no room for the next starts again
+        placed: list[SceneObject] = []
+        poses: list[np.ndarray] = []
+        for color in order:
+            for _ in range(PER_OBJECT_DRAWS):
+                tries += 1
+                if tries > max_tries:
+                    raise SceneError(
+                        f"could not place {len(order)} objects {min_dist - diameter:.3g} cm "
+                        f"apart in the reachable camera field after {max_tries} draws; ask "
+                        "for fewer"
+                    )
+                x, y = round(rng.uniform(x0, x1), 2), round(rng.uniform(y0, y1), 2)
+                if any(np.hypot(o.x - x, o.y - y) < min_dist for o in placed):
+                    continue
+                if any(_near_bin(c, x, y, diameter / 2 + MIN_GAP_CM) for c in config.task.classes):
+                    continue
+                cls = config.task.class_named(color)
+                q = reach(cls, x, y)
+                if q is None or not all(
+                    reach(cls, x + float(dx), y + float(dy)) is not None for dx, dy in margins
+                ):
+                    continue
+                new = SceneObject(color=color, x=x, y=y)
+                if not footprint(placed, poses, new, q):
+                    continue
+                placed.append(new)
+                poses.append(q)
+                break
+            else:
+                break  # no room for this one: start the layout again
+        if len(placed) == len(order):
             break
     rng.shuffle(placed)
     return placed

@@ -4,13 +4,19 @@ The loop reads the table after every object, takes the classes in the order the 
 lists them (within a class, first an object whose open jaws come down clear of every
 neighbour, then the nearest) or, with ``task.order: nearest``, the clear object nearest
 the TCP whatever its class, and starts each route where the last one ended (the arm
-does not go home between objects). Each route is planned in full first
-(:mod:`mearm.task.plan`); only a converged plan is sent to the servos
+does not go home between objects; when an object seen before is missing from a look,
+the arm goes home, out of the camera's way, and looks again before it concludes). Each
+route is planned in full first (:mod:`mearm.task.plan`); only a converged plan is sent to the servos
 (:mod:`mearm.task.execute`), pose by pose, paced by the bus; what happened goes to the
 screen and the run log (:mod:`mearm.task.report`).
 
-Objects whose pick cannot be planned (out of reach, outside the target box, no
-converged solve) are reported and skipped; a failed grip (the object is still on the
+Every route is checked against the arm's body, the bins and the objects on the table
+(:class:`~mearm.kinematics.collision.CollisionModel`, kept up to date with what the
+camera saw, the jaws' opening and the object they hold) and detoured or refused before
+anything of it moves. An object whose pick is refused for a collision (a neighbour under
+the hand) waits until the others are taken, and is left (``collision``) only when no
+other can go first. Objects whose pick cannot be planned (out of reach, outside the
+target box, no converged solve) are reported and skipped; a failed grip (the object is still on the
 table in the frame taken once the arm is over the bin, where it hides nothing) is
 retried ``task.pick_retries`` times, whatever the jaws hold being let go back over its
 spot. A camera or servo
@@ -29,8 +35,10 @@ from typing import Any
 import numpy as np
 
 from mearm.config import Config
-from mearm.exceptions import CameraError, MearmError, ServoError
+from mearm.exceptions import CameraError, CollisionError, MearmError, ServoError
+from mearm.ik import IKTarget
 from mearm.kinematics import ArmModel
+from mearm.kinematics.collision import CollisionModel
 from mearm.runlog import RunLog
 from mearm.task.execute import Executor, View
 from mearm.task.plan import Planner
@@ -80,6 +88,9 @@ class TrackedObject:
     skipped: str | None = None
     skip_kind: str | None = None
     sorted: bool = False
+    #: Why its pick was refused for a collision since the last object was sorted (others
+    #: go first), or ``None``.
+    blocked: str | None = None
 
 
 Seen = list[tuple[Detection, np.ndarray]]
@@ -122,7 +133,8 @@ class Sorter:
         self.camera = camera
         self.bus = bus
         self.model = model if model is not None else ArmModel(config.arm)
-        self.planner = Planner(config, self.model)
+        self.collision = CollisionModel(config, self.model, clearance_cm=config.task.clearance_cm)
+        self.planner = Planner(config, self.model, self.collision)
         self.executor = Executor(config, bus, self.model, view)
         self.reporter = Reporter(config, self.model.chain, log, echo, trial)
         self.calibration = camera_geometry(config)
@@ -218,6 +230,10 @@ class Sorter:
             for o in self._objects
             if o.skipped is None and not o.sorted and self._on_table(o, seen)
         ]
+        free = [o for o in candidates if o.blocked is None]
+        for o in candidates if not free else []:  # every one waits for another: none can
+            self._skip(o, o.blocked or "collision", kind="collision")
+        candidates = free
         ee = self.executor.ee_now_cm()
 
         def nearest(objs: list[TrackedObject]) -> TrackedObject:
@@ -264,6 +280,17 @@ class Sorter:
 
     # ----------------------------------------------------------------- one object
 
+    def _world(self, held: TrackedObject | None = None, opening_cm: float | None = None) -> None:
+        """What the collision checks see: the objects on the table, the jaws, the held one."""
+        g = self.config.arm.tool.gripper
+        on_table = [
+            (o.id, o.class_name, o.x_cm, o.y_cm)
+            for o in self._objects
+            if not o.sorted and o is not held
+        ]
+        pair = None if held is None else (held.id, held.class_name)
+        self.collision.set_world(on_table, opening_cm=opening_cm or g.open_cm, held=pair)
+
     def _pick_and_place(self, obj: TrackedObject) -> None:
         cls = self.config.task.class_named(obj.class_name)
         ex = self.executor
@@ -272,13 +299,17 @@ class Sorter:
             obj.id, obj.class_name, "pick", obj.failed_picks + 1,
             self.planner.pick_target(cls, obj.x_cm, obj.y_cm),
         )  # fmt: skip
+        self._world()
         above = self._approach(obj, pick)  # planned in full with the pick, before either
         if above is None:
-            self.planner.plan(pick, ex.q_now())
+            self.planner.plan(pick, ex.q_now(), target=obj.id)
         elif above.planned and above.plan is not None:
-            self.planner.plan(pick, above.plan.q)
+            self.planner.plan(pick, above.plan.q, target=obj.id)
         failed = pick if above is None or above.planned else above
         if not failed.planned:
+            if failed.failure_kind == "collision" and obj.blocked is None:
+                obj.blocked = failed.failure  # another object may clear its way
+                return
             self._skip(obj, failed.failure or "no plan", failed, kind=_failure_kind(failed))
             return
         if above is not None:
@@ -288,6 +319,7 @@ class Sorter:
         ex.set_tool("grip", False)
         ex.set_tool("grip", True)
         ex.set_tool("travel", True)
+        self._world(held=obj, opening_cm=cls.diameter_cm)
         if above is not None:  # up with the object before anything else moves
             up = Route(obj.id, obj.class_name, "lift", 1, above.target)
             if self.planner.plan(up, ex.q_now()).planned:
@@ -327,6 +359,8 @@ class Sorter:
         release = getattr(self.bus, "last_release", None)
         place.success = release is None or release.bin == obj.class_name
         obj.sorted = place.success
+        for o in self._objects:  # the table changed: a blocked pick may be clear now
+            o.blocked = None
         t0 = t1
         self.reporter.route(ex.finish(place, t0))
 
@@ -352,6 +386,23 @@ class Sorter:
         ex = self.executor
         state = self.bus.state
         closed = bool(state is not None and state.gripper_closed)
+        if not keep_grip:
+            self._world()
+        if self.collision.first_contact(ex.joint_path(self.model.home)) is not None:
+            # up to the safe height first, where the straight way home is clear
+            x, y, z = (float(v) for v in ex.ee_now_cm())
+            safe = self.planner.safe_height_cm(ex.q_now())
+            up = Route("", "", "home", 1, IKTarget((x, y, max(z, safe))))
+            if self.planner.plan(up, ex.q_now()).planned:
+                ex.stream(up, "travel", closed)
+            contact = self.collision.first_contact(ex.joint_path(self.model.home))
+            if contact is not None:
+                chain = self.model.chain
+                raise CollisionError(
+                    "not parked: the way home "
+                    + contact.describe(chain.names, chain.scale)
+                    + "; the arm stays where it is"
+                )
         ex.move_joints(self.model.home, "travel", closed)
         ex.home_pose(closed=closed and keep_grip)
 
@@ -369,6 +420,10 @@ class Sorter:
             self.executor.home_pose()
             for _ in range(self.max_rounds):
                 obj = self._choose(self._look())
+                if obj is None and self._unaccounted():
+                    # the arm over a bin may hide an object seen before: look from home
+                    self._home()
+                    obj = self._choose(self._look())
                 if obj is None:
                     break
                 self._pick_and_place(obj)
@@ -380,7 +435,7 @@ class Sorter:
                             kind="never_cleared",
                         )  # fmt: skip
             self._home()
-        except (CameraError, ServoError) as exc:
+        except (CameraError, ServoError, CollisionError) as exc:
             self._abort(str(exc), park=isinstance(exc, CameraError))
         except KeyboardInterrupt:
             self._abort("interrupted (Ctrl-C)", park=True, interrupted=True)
@@ -421,6 +476,10 @@ class Sorter:
             out.seen[name] = out.seen.get(name, 0) + 1
             leave("cut")
         return out
+
+    def _unaccounted(self) -> bool:
+        """Whether an object seen before is neither sorted nor left for a reason."""
+        return any(not o.sorted and o.skipped is None for o in self._objects)
 
     def _last_joints(self) -> dict[str, float] | None:
         state = self.bus.state

@@ -1,0 +1,359 @@
+"""The arm's body and the table's, as primitive shapes: one description for physics and plans.
+
+Both the physical twin's MJCF (:mod:`mearm.sim.mjcf`) and the collision model the planner
+checks every route against (:mod:`mearm.kinematics.collision`) are built from the shapes
+here, so what the plan avoids is what the physics would touch. Nothing here imports
+MuJoCo or Pinocchio: a shape is a box or a cylinder (half-sizes, MuJoCo's convention, in
+metres), fixed in one *body* of the MJCF's tree at a pose in that body's frame.
+
+The bodies, by name:
+
+- ``base_link``: the world frame at the arm's base (the table's top is z = 0);
+- ``link_<joint>``: the frame of DH joint ``<joint>``, turning (or sliding) with it,
+  exactly as the URDF's joint frame (:mod:`mearm.kinematics.urdf`);
+- ``tcp``: the tool centre point, fixed in the last joint's frame;
+- ``link_<jaw>``: each of the gripper's two jaws, sliding from the TCP across the approach
+  axis by half the opening (:attr:`Shape.jaw` gives the direction's sign);
+- ``bin_<class>`` and ``obj_<id>``: a class's bin and a scene object, in the world frame.
+
+What the shapes are (the MJCF's module docstring says why): every DH segment a plate
+:data:`LINK_THICKNESS_M` thick and :func:`link_width_m` wide; each actuated joint's servo
+a box of its datasheet size at the joint, in the body before it; the gripper's servo (and
+each tool actuator's) behind the TCP and the jaws' roots; a mount plate bridging the TCP
+to the jaws' roots when they start beyond it; each jaw a finger ending in a pad centred on
+the grip point; a bin a floor and four walls; an object a cylinder standing on the table.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Literal
+
+import numpy as np
+
+from mearm.config import Config, Joint
+from mearm.config.servo_models import ServoSpec
+from mearm.kinematics.urdf import jaw_frame, jaw_joint_names, jaw_pad_length_m
+
+M_PER_CM = 0.01
+#: Laser-cut link plates: 3 mm acrylic, as the MeArm kits are cut from [m].
+LINK_THICKNESS_M = 0.003
+#: Bin walls' and floor's thickness [m]; walls' height in object heights, and at least.
+BIN_WALL_M = 0.003
+BIN_WALL_HEIGHT_PER_HEIGHT = 2.0
+BIN_MIN_WALL_HEIGHT_M = 0.02
+
+#: What a shape is part of: the planner treats each kind its own way (a jaw's pads may
+#: touch the object they close on; a plate of the last row runs between the jaws and is
+#: drawn only).
+Part = Literal["base", "link", "servo", "mount", "pad", "finger", "bin", "object"]
+
+
+@dataclass(frozen=True)
+class Shape:
+    """One primitive, fixed in one body.
+
+    Attributes:
+        name: The MJCF geom's name (unique in a scene).
+        body: The body it is fixed in (see the module docstring).
+        kind: ``box`` or ``cylinder`` (a cylinder's axis is its frame's z).
+        size: MuJoCo's half-sizes [m]: (x, y, z) for a box, (radius, half-height) for a
+            cylinder.
+        pos: Its centre in the body's frame [m], (3,).
+        R: Its frame's axes in the body's frame, (3, 3); ``None`` for the body's own.
+        part: What it is part of (:data:`Part`).
+        collides: Whether anything touches it (the base plate and the last row's plates,
+            which run between the jaws, are drawn only).
+        mass_kg: Its mass, for the physics; ``None`` where the MJCF gives a density-free
+            default (bins) or its own formula (objects).
+        jaw: ``+1`` or ``-1`` for a shape on a jaw (the sign of the jaw's slide along the
+            opening axis), else 0.
+    """
+
+    name: str
+    body: str
+    kind: Literal["box", "cylinder"]
+    size: tuple[float, ...]
+    pos: np.ndarray
+    R: np.ndarray | None = None
+    part: Part = "link"
+    collides: bool = True
+    mass_kg: float | None = None
+    jaw: int = 0
+
+    @property
+    def radius_m(self) -> float:
+        """Radius of a sphere about :attr:`pos` that holds the shape [m]."""
+        if self.kind == "box":
+            return float(np.linalg.norm(self.size))
+        return float(math.hypot(self.size[0], self.size[1]))
+
+    @property
+    def pose(self) -> np.ndarray:
+        """Its pose in the body's frame, (4, 4) [m]."""
+        T = np.eye(4)
+        if self.R is not None:
+            T[:3, :3] = self.R
+        T[:3, 3] = self.pos
+        return T
+
+
+@dataclass(frozen=True)
+class ArmBodies:
+    """The arm's shapes, and the frames the tool's hang from.
+
+    Attributes:
+        shapes: Every shape of the arm, base to jaws.
+        tcp_in_last: The TCP's pose in the last joint's frame, (4, 4) [m].
+        across: The jaws' opening axis in the TCP frame, unit, (3,).
+        approach: The tool's approach axis in the TCP frame, unit, (3,).
+        grip_m: The grip point's distance from the TCP along :attr:`approach` [m].
+    """
+
+    shapes: tuple[Shape, ...]
+    tcp_in_last: np.ndarray
+    across: np.ndarray
+    approach: np.ndarray
+    grip_m: float
+    jaw_joints: tuple[str, str] = field(default=("", ""))
+
+
+# --------------------------------------------------------------------------- helpers
+
+
+def link_width_m(config: Config) -> float:
+    """The plates' width: a sixtieth of the arm's reach, 6–20 mm (as the URDF draws it)."""
+    reach = sum(abs(j.dh.a_cm) + abs(j.dh.d_cm) for j in config.arm.joints) * M_PER_CM
+    return max(0.006, min(0.02, reach / 60))
+
+
+def base_radius_m(config: Config) -> float:
+    """The base plate's radius [m]."""
+    return link_width_m(config) * 3.3
+
+
+def fixed_part(joint: Joint) -> np.ndarray:
+    """The fixed part of a DH row, (4, 4), translation in metres."""
+    T = joint.dh.transform(0.0, joint.type)
+    T[:3, 3] *= M_PER_CM
+    return T
+
+
+def plate_mass_kg(length_m: float, width_m: float, density: float) -> float:
+    """A plate's mass [kg]."""
+    return density * length_m * width_m * LINK_THICKNESS_M
+
+
+def _rz(t: float) -> np.ndarray:
+    c, s = math.cos(t), math.sin(t)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
+def _servo(name: str, body: str, spec: ServoSpec, pos: np.ndarray, R: np.ndarray) -> Shape:
+    length, wide, high = spec.size_m
+    return Shape(
+        name, body, "box", (length / 2, wide / 2, high / 2), np.asarray(pos, float), R,
+        part="servo", mass_kg=spec.mass_kg,
+    )  # fmt: skip
+
+
+# --------------------------------------------------------------------------- the arm
+
+
+def arm_bodies(
+    config: Config, servo: ServoSpec, gripper_servo: ServoSpec, *, acrylic_kg_m3: float
+) -> ArmBodies:
+    """The arm's shapes: base plate, each DH row's plates, servos, and the tool.
+
+    Args:
+        config: The whole config (its arm and tool).
+        servo: The joints' servo (its box sits at each actuated joint but the first).
+        gripper_servo: The gripper's servo (and each tool actuator's).
+        acrylic_kg_m3: The plates' density, for their masses.
+    """
+    arm = config.arm
+    width = link_width_m(config)
+    shapes: list[Shape] = [
+        Shape(
+            "base_plate", "base_link", "cylinder", (base_radius_m(config), width / 2),
+            np.array([0.0, 0.0, width / 2]), part="base", collides=False,
+        )
+    ]  # fmt: skip
+    actuated = {j.name for j in arm.actuated_joints()}
+    parent, T_prev = "base_link", np.eye(4)
+    last = len(arm.joints) - 1
+    for i, joint in enumerate(arm.joints):
+        if joint.name in actuated and i > 0:
+            shapes.append(
+                _servo(f"{joint.name}_servo", parent, servo, T_prev[:3, 3], T_prev[:3, :3])
+            )
+        shapes += _plates(joint, width, collides=i != last, acrylic_kg_m3=acrylic_kg_m3)
+        parent, T_prev = f"link_{joint.name}", fixed_part(joint)
+    tcp = np.eye(4)
+    tcp[:3, :3] = T_prev[:3, :3]
+    tcp[:3, 3] = T_prev[:3, 3] + T_prev[:3, :3] @ (np.asarray(arm.tool.tcp_cm) * M_PER_CM)
+    R = jaw_frame(arm)
+    approach, across, third = R[:, 0], R[:, 1], R[:, 2]
+    grip = arm.tool.tcp_above_grip_cm * M_PER_CM
+    shapes += _tool(config, width, gripper_servo, approach, across, third, grip, acrylic_kg_m3)
+    left, right = jaw_joint_names(arm)
+    return ArmBodies(tuple(shapes), tcp, across, approach, grip, (left, right))
+
+
+def _plates(joint: Joint, width: float, *, collides: bool, acrylic_kg_m3: float) -> list[Shape]:
+    """Row i's plates, in joint i's moving frame: Tz(d) then Rz(θ0)·Tx(a)."""
+    a, dd = joint.dh.a_cm * M_PER_CM, joint.dh.d_cm * M_PER_CM
+    t0 = math.radians(joint.dh.theta_deg)
+    body = f"link_{joint.name}"
+    out = []
+    if abs(dd) > 1e-9:
+        out.append(
+            Shape(
+                f"{joint.name}_d", body, "box", (width / 2, LINK_THICKNESS_M / 2, abs(dd) / 2),
+                np.array([0.0, 0.0, dd / 2]), collides=collides,
+                mass_kg=plate_mass_kg(abs(dd), width, acrylic_kg_m3),
+            )
+        )  # fmt: skip
+    if abs(a) > 1e-9:
+        out.append(
+            Shape(
+                f"{joint.name}_a", body, "box", (abs(a) / 2, width / 2, LINK_THICKNESS_M / 2),
+                np.array([a / 2 * math.cos(t0), a / 2 * math.sin(t0), dd]), _rz(t0),
+                collides=collides, mass_kg=plate_mass_kg(abs(a), width, acrylic_kg_m3),
+            )
+        )  # fmt: skip
+    return out
+
+
+def _tool(
+    config: Config,
+    width: float,
+    gripper_servo: ServoSpec,
+    approach: np.ndarray,
+    across: np.ndarray,
+    third: np.ndarray,
+    grip: float,
+    acrylic_kg_m3: float,
+) -> list[Shape]:
+    """The gripper's servo(s) behind the TCP, the mount, and the two jaws.
+
+    Along the approach axis (distances from the TCP): the pad spans ``grip ± pad/2``, the
+    finger ``[tip − jaw_length, grip − pad/2]``, the mount ``[0, tip − jaw_length]`` when
+    the jaws start beyond the TCP.
+    """
+    g = config.arm.tool.gripper
+    length, thick = g.jaw_length_cm * M_PER_CM, g.jaw_thickness_cm * M_PER_CM
+    pad = jaw_pad_length_m(g)
+    tip = grip + pad / 2
+    root = tip - length
+    # the case: long side along the opening axis, shaft along the approach axis
+    R = np.column_stack([across, third, approach])
+    behind = approach * (min(0.0, root) - gripper_servo.size_m[2] / 2)
+    out = [_servo(f"{g.name}_servo", "tcp", gripper_servo, behind, R)]
+    for k, act in enumerate(config.arm.tool.actuators):
+        offset = behind - approach * gripper_servo.size_m[2] * (k + 1)
+        out.append(_servo(f"{act.name}_servo", "tcp", gripper_servo, offset, R))
+    if root > 1e-9:
+        out.append(
+            Shape(
+                f"{g.name}_mount", "tcp", "box", (root / 2, width / 2, LINK_THICKNESS_M / 2),
+                approach * root / 2, np.column_stack([approach, third, -across]), part="mount",
+                mass_kg=plate_mass_kg(root, width, acrylic_kg_m3),
+            )
+        )  # fmt: skip
+    R_jaw = np.column_stack([approach, across, third])
+    for name, sign in zip(jaw_joint_names(config.arm), (1, -1), strict=True):
+        inner = across * sign * thick / 2  # the inner face on the joint's position
+        pieces: list[tuple[Part, float, float]] = [("pad", grip, pad)]
+        if length - pad > 1e-9:
+            pieces.append(("finger", (root + grip - pad / 2) / 2, length - pad))
+        for part, centre, span in pieces:
+            out.append(
+                Shape(
+                    f"{name}_{part}", f"link_{name}", "box", (span / 2, thick / 2, width / 2),
+                    approach * centre + inner, R_jaw, part=part,
+                    mass_kg=acrylic_kg_m3 * span * thick * width, jaw=sign,
+                )
+            )  # fmt: skip
+    return out
+
+
+# --------------------------------------------------------------------------- the table
+
+
+def wall_height_m(config: Config, color: str) -> float:
+    """Walls that hold every object of the class in the scene, stacked, and one more."""
+    c = config.task.class_named(color)
+    n = max(1, sum(1 for o in config.task.scene if o.color == color))
+    per = max(BIN_WALL_HEIGHT_PER_HEIGHT, n + 1.0)
+    return max(BIN_MIN_WALL_HEIGHT_M, per * c.height_cm * M_PER_CM)
+
+
+def bin_half_outer_m(config: Config, color: str) -> float:
+    """Half a bin's outer width [m]."""
+    c = config.task.class_named(color)
+    return c.bin_inner_width_cm * M_PER_CM / 2 + BIN_WALL_M
+
+
+def bin_origin_m(config: Config, color: str) -> np.ndarray:
+    """Where a class's bin stands: its body's origin in the world frame, (3,) [m]."""
+    c = config.task.class_named(color)
+    return np.array([c.bin_cm[0] * M_PER_CM, c.bin_cm[1] * M_PER_CM, 0.0])
+
+
+def bin_shapes(config: Config, color: str) -> list[Shape]:
+    """A class's bin: a floor and four walls, in its body ``bin_<class>`` (:func:`bin_origin_m`)."""
+    c = config.task.class_named(color)
+    inner = c.bin_inner_width_cm * M_PER_CM / 2
+    outer = inner + BIN_WALL_M
+    body = f"bin_{color}"
+    t, z = BIN_WALL_M / 2, wall_height_m(config, color) / 2
+    out = [
+        Shape(f"bin_{color}_floor", body, "box", (outer, outer, t), np.array([0, 0, t]), part="bin")
+    ]
+    for name, pos, size in (
+        ("px", (inner + t, 0, z), (t, outer, z)),
+        ("nx", (-inner - t, 0, z), (t, outer, z)),
+        ("py", (0, inner + t, z), (inner, t, z)),
+        ("ny", (0, -inner - t, z), (inner, t, z)),
+    ):
+        out.append(
+            Shape(f"bin_{color}_wall_{name}", body, "box", size, np.array(pos, float), part="bin")
+        )
+    return out
+
+
+def object_shape(config: Config, oid: str, color: str) -> Shape:
+    """A scene object: a cylinder of its class's size about its body's origin.
+
+    The origin stands :func:`object_centre_m` above the table.
+    """
+    c = config.task.class_named(color)
+    r, h = c.diameter_cm * M_PER_CM / 2, c.height_cm * M_PER_CM
+    return Shape(f"obj_{oid}", f"obj_{oid}", "cylinder", (r, h / 2), np.zeros(3), part="object")
+
+
+def object_centre_m(config: Config, color: str, x_cm: float, y_cm: float) -> np.ndarray:
+    """An object's centre, standing on the table at (x, y), (3,) [m]."""
+    h = config.task.class_named(color).height_cm * M_PER_CM
+    return np.array([x_cm * M_PER_CM, y_cm * M_PER_CM, h / 2])
+
+
+__all__ = [
+    "BIN_WALL_M",
+    "LINK_THICKNESS_M",
+    "ArmBodies",
+    "Shape",
+    "arm_bodies",
+    "base_radius_m",
+    "bin_half_outer_m",
+    "bin_origin_m",
+    "bin_shapes",
+    "fixed_part",
+    "link_width_m",
+    "object_centre_m",
+    "object_shape",
+    "plate_mass_kg",
+    "wall_height_m",
+]

@@ -1,0 +1,452 @@
+r"""The arm's body against the table, the bins and the objects: Pinocchio's collision layer.
+
+:class:`CollisionModel` builds a ``pin.GeometryModel`` (coal shapes) from the same shapes
+as the physical twin's MJCF (:mod:`mearm.kinematics.bodies`): the arm's plates, servos,
+gripper mount and jaws on the joints they move with, and each bin's floor and walls and
+each object seen on the universe. The table is the plane z = 0, checked in closed form
+(the lowest point of each arm shape).
+
+**What counts as touching.** A pose is clear when every arm shape keeps
+``clearance_cm`` from every bin and object, and stays above the table (the jaws come down
+to the table to close on an object, so the table gets no margin). The jaws' pads may touch
+an object standing between them (the one they come down around and close on), and a
+held object (``held``) rides in the jaws: it
+is checked against the bins and the other objects, never against the jaws or the table it
+is lifted from.
+
+**A path is checked whole, without stepping over anything** (:meth:`first_contact`):
+between consecutive poses the joints move on a straight line, and along it the check
+advances by conservative advancement. At a pose with gap ``g`` to spare (the smallest
+distance less the margin) no point of the arm can touch anything before the joints have
+moved so far that some point could have travelled ``g``; the bound on how far a point can
+travel is :math:`\sum_i R_i |\Delta q_i|`, with :math:`R_i` the farthest any shape beyond
+joint i can be from its axis (a prismatic joint: 1 m per m). So the next check comes no
+later than that, however thin the wall (a bin's is 3 mm); a gap under :data:`TOUCH_CM`
+counts as touching. Far from everything one check covers a whole step of the path; close
+to a wall the checks come as close together as the gap requires.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+
+import coal
+import numpy as np
+import numpy.typing as npt
+import pinocchio as pin
+
+from mearm.config import Config
+from mearm.config.servo_models import SERVO_CATALOGUE, ServoSpec, servo_named
+from mearm.kinematics.bodies import (
+    M_PER_CM,
+    Shape,
+    arm_bodies,
+    bin_origin_m,
+    bin_shapes,
+    object_centre_m,
+    object_shape,
+)
+from mearm.kinematics.model import ArmModel
+
+#: A gap smaller than this counts as touching [cm]: the advancement's floor.
+TOUCH_CM = 0.005
+TOUCH_M = TOUCH_CM * 0.01
+#: The clearance kept from bins and objects when the config gives none [cm].
+DEFAULT_CLEARANCE_CM = 0.3
+
+
+@dataclass(frozen=True)
+class Contact:
+    """Where a path first comes too close to something.
+
+    Attributes:
+        arm_part: The arm's shape (an MJCF geom name, e.g. ``gripper_jaw_left_pad``), or
+            ``held <id>`` for the object in the jaws.
+        obstacle: What it comes too close to: ``table``, a bin's wall or floor
+            (``bin_red_wall_px``) or an object (``obj_red2``).
+        distance_cm: Their distance there [cm] (≤ 0: they touch).
+        q: The pose, model units, (n,).
+        pose_index: The path's segment it lies on (from pose k to k + 1).
+    """
+
+    arm_part: str
+    obstacle: str
+    distance_cm: float
+    q: np.ndarray
+    pose_index: int
+
+    def describe(self, names: Sequence[str], scale: np.ndarray) -> str:
+        """One line: the two bodies and the pose (joints in config units)."""
+        joints = ", ".join(f"{n} {v / s:.1f}" for n, v, s in zip(names, self.q, scale, strict=True))
+        if self.distance_cm <= TOUCH_CM:
+            what = "touches"
+        else:
+            what = f"comes within {self.distance_cm:.2f} cm of"
+        return f"{self.arm_part} {what} {_plain(self.obstacle)} at ({joints})"
+
+
+def _plain(name: str) -> str:
+    return name[4:] if name.startswith("obj_") else name
+
+
+def _coal(shape: Shape) -> coal.CollisionGeometry:
+    if shape.kind == "box":
+        return coal.Box(*(2 * np.asarray(shape.size)))
+    return coal.Cylinder(shape.size[0], 2 * shape.size[1])
+
+
+def _se3(T: np.ndarray) -> pin.SE3:
+    return pin.SE3(np.ascontiguousarray(T[:3, :3]), np.ascontiguousarray(T[:3, 3]))
+
+
+def _translate(v: np.ndarray) -> np.ndarray:
+    T = np.eye(4)
+    T[:3, 3] = v
+    return T
+
+
+def joint_servo(config: Config) -> ServoSpec:
+    """The joints' servo the shapes are drawn with.
+
+    The config's ``twin.joint_servo``, or the catalogue's largest: the twin picks one by
+    load, and the largest box errs on the safe side for a plan.
+    """
+    name = config.twin.joint_servo
+    if name is not None:
+        return servo_named(name)
+    return max(SERVO_CATALOGUE, key=lambda s: float(np.prod(s.size_m)))
+
+
+class CollisionModel:
+    """The arm and what lies on the table, as one Pinocchio geometry model.
+
+    Args:
+        config: The whole config: the arm, its tool, the classes' bins.
+        model: The arm's kinematic model (its Pinocchio model carries the geometry).
+        clearance_cm: What every arm shape keeps from bins and objects [cm].
+        servo: The joints' servo (default :func:`joint_servo`).
+        bins: The classes whose bins stand on the table (default: every class's).
+
+    Attributes:
+        checks: Poses checked so far (the bench reads it).
+    """
+
+    def __init__(
+        self,
+        config: Config,
+        model: ArmModel,
+        *,
+        clearance_cm: float = DEFAULT_CLEARANCE_CM,
+        servo: ServoSpec | None = None,
+        bins: Iterable[str] | None = None,
+    ):
+        self.config = config
+        self.model = model
+        self.clearance_m = clearance_cm * M_PER_CM
+        pm = model.model
+        self.data = pm.createData()
+        gripper = servo_named(config.twin.gripper_servo)
+        self.bodies = arm_bodies(config, servo or joint_servo(config), gripper, acrylic_kg_m3=0)
+        self._last = pm.njoints - 1
+        self._joint_of: dict[str, int] = {"base_link": 0, "tcp": self._last}
+        for name in model.chain.names:
+            self._joint_of[f"link_{name}"] = pm.getJointId(name)
+        self.arm_shapes = [s for s in self.bodies.shapes if s.collides]
+        standing = config.task.class_names if bins is None else list(bins)
+        self.bins = [
+            (shape, _translate(bin_origin_m(config, name)) @ shape.pose)
+            for name in standing
+            for shape in bin_shapes(config, name)
+        ]
+        T = self.bodies.tcp_in_last
+        self._grip_in_last = T[:3, :3] @ (self.bodies.approach * self.bodies.grip_m) + T[:3, 3]
+        self._reach_local = self._local_reach()
+        self.checks = 0
+        self._objects: list[tuple[str, str, float, float]] = []
+        self._opening_cm = config.arm.tool.gripper.open_cm
+        self._held: tuple[str, str] | None = None
+        self._on_table: set[str] = set()  # shapes standing on the table: the arm's mount
+        self._build()
+        home = self._lowest_points(model.home)
+        self._on_table = {n for n, z in zip(self._arm_names, home, strict=True) if z <= TOUCH_M}
+        self._build()
+
+    # ----------------------------------------------------------------- the world
+
+    def set_world(
+        self,
+        objects: Iterable[tuple[str, str, float, float]] | None = None,
+        *,
+        opening_cm: float | None = None,
+        held: tuple[str, str] | None = None,
+    ) -> None:
+        """What the checks see from now on.
+
+        Args:
+            objects: The objects on the table, ``(id, class, x_cm, y_cm)`` each (``None``
+                keeps the last ones); not the one held.
+            opening_cm: The jaws' opening [cm] (``None`` keeps it).
+            held: The object in the jaws, ``(id, class)``, or ``None``.
+        """
+        before = ([o[:2] for o in self._objects], self._held)
+        if objects is not None:
+            self._objects = list(objects)
+        if opening_cm is not None:
+            self._opening_cm = float(opening_cm)
+        self._held = held
+        if ([o[:2] for o in self._objects], self._held) != before:
+            self._build()  # other bodies: a new model
+            return
+        g = self.geometry.geometryObjects  # the same bodies: new places
+        for k, (shape, _, _) in enumerate(self._arm):
+            if shape.jaw:
+                g[k].placement = _se3(self._in_joint(shape))
+        for col, (_, color, x, y) in zip(self._object_cols, self._objects, strict=True):
+            g[self._na + int(col)].placement = _se3(
+                _translate(object_centre_m(self.config, color, x, y))
+            )
+            self._ob_centre[col] = object_centre_m(self.config, color, x, y)
+
+    def _in_joint(self, shape: Shape) -> np.ndarray:
+        T = shape.pose
+        if shape.jaw:
+            slide = _translate(self.bodies.across * shape.jaw * self._opening_cm * M_PER_CM / 2)
+            return self.bodies.tcp_in_last @ slide @ T
+        if shape.body == "tcp":
+            return self.bodies.tcp_in_last @ T
+        return T
+
+    def _held_shape(self) -> tuple[Shape, np.ndarray] | None:
+        if self._held is None:
+            return None
+        oid, color = self._held
+        shape = object_shape(self.config, oid, color)
+        a = self.bodies.approach
+        T = np.eye(4)
+        T[:3, :3] = np.column_stack([*_across_pair(a), a])
+        T[:3, 3] = a * self.bodies.grip_m
+        return Shape(f"held {oid}", "tcp", "cylinder", shape.size, T[:3, 3], T[:3, :3],
+                     part="object"), self.bodies.tcp_in_last @ T  # fmt: skip
+
+    def _build(self) -> None:
+        """The geometry model: the arm, its jaws, the held object, the table's contents.
+
+        The table is a half-space lowered by the clearance, so that one margin serves every
+        pair: a distance to it less the clearance is the height above the table. Every
+        arm shape pairs with every obstacle, but for the table the arm's mount standing on
+        it and the held object lifted from it.
+        """
+        g = pin.GeometryModel()
+        arm: list[tuple[Shape, np.ndarray, int]] = []
+        for shape in self.arm_shapes:
+            joint = self._joint_of.get(shape.body, self._last)
+            arm.append((shape, self._in_joint(shape), joint))
+        held = self._held_shape()
+        if held is not None:
+            arm.append((held[0], held[1], self._last))
+        for shape, T, joint in arm:
+            g.addGeometryObject(pin.GeometryObject(shape.name, joint, _se3(T), _coal(shape)))
+        obstacles: list[tuple[Shape | None, np.ndarray]] = [(None, np.eye(4))]  # the table
+        obstacles += list(self.bins)
+        for oid, color, x, y in self._objects:
+            shape = object_shape(self.config, oid, color)
+            obstacles.append((shape, _translate(object_centre_m(self.config, color, x, y))))
+        table = coal.Halfspace(np.array([0.0, 0.0, 1.0]), -self.clearance_m)
+        for obstacle, T in obstacles:
+            geometry = table if obstacle is None else _coal(obstacle)
+            name = "table" if obstacle is None else obstacle.name
+            g.addGeometryObject(pin.GeometryObject(name, 0, _se3(T), geometry))
+        na = len(arm)
+        self._pair_of: dict[tuple[int, int], int] = {}
+        for i, (shape, _, _) in enumerate(arm):
+            for j in range(len(obstacles)):
+                if j == 0 and (shape.name in self._on_table or i == na - 1 and held is not None):
+                    continue
+                self._pair_of[(i, j)] = len(self._pair_of)
+                g.addCollisionPair(pin.CollisionPair(i, na + j))
+        self.geometry = g
+        self.gdata = pin.GeometryData(g)
+        self._pairs = list(self._pair_of)
+        self._arm = arm
+        self._na = na
+        self._arm_names = [s.name for s, _, _ in arm]
+        self._obstacles = obstacles
+        self._ob_names = [name for name in ("table", *(s.name for s, _ in obstacles[1:]))]  # type: ignore[union-attr]
+        self._object_cols = np.array(
+            [k for k, (s, _) in enumerate(obstacles) if s is not None and s.part == "object"],
+            dtype=int,
+        )
+        self._ob_centre = np.array([T[:3, 3] for _, T in obstacles]).reshape(-1, 3)
+        jaw_rows = [i for i, (s, _, _) in enumerate(arm) if s.jaw]
+        # per object column, the jaws' pairs with it (switched off while it is between them)
+        self._jaw_pairs = {
+            col: [self._pair_of[(i, int(col))] for i in jaw_rows] for col in self._object_cols
+        }
+        self._tool = np.array(
+            [s.body == "tcp" or bool(s.jaw) or s.part == "object" for s, _, _ in arm]
+        )
+        self._half = np.array([_half_extents(s) for s, _, _ in arm])
+        self._is_cyl = np.array([s.kind == "cylinder" for s, _, _ in arm])
+
+    def _local_reach(self) -> np.ndarray:
+        """How far each joint frame's shapes reach from its origin [m], (n + 2,).
+
+        Frames 0 … n, and the tool's (n + 1, from the TCP: the jaws wide open, a held
+        object of the largest class) counted in the last joint's.
+        """
+        far = np.zeros(self._last + 2)
+        hi = self.config.arm.tool.gripper.servo.value_range()[1] * M_PER_CM
+        tcp = np.linalg.norm(self.bodies.tcp_in_last[:3, 3])
+        held = max(c.diameter_cm + c.height_cm for c in self.config.task.classes) * M_PER_CM
+        for shape in self.arm_shapes:
+            reach = float(np.linalg.norm(shape.pos)) + shape.radius_m
+            if shape.body == "tcp" or shape.jaw:
+                k, reach = self._last + 1, reach + (hi if shape.jaw else 0.0)
+            else:
+                k = self._joint_of[shape.body]
+            far[k] = max(far[k], reach)
+        far[self._last + 1] = max(far[self._last + 1], self.bodies.grip_m + held)
+        far[self._last] = max(far[self._last], tcp + far[self._last + 1])
+        return far
+
+    # ----------------------------------------------------------------- checks
+
+    def gap(self, q: npt.ArrayLike, *, target: str | None = None) -> tuple[float, str, str]:
+        """The smallest gap at pose ``q`` less the clearance [m], and its two shapes.
+
+        Args:
+            q: The pose, model units, (n,).
+            target: The object the jaws close on: their pads may touch it while it stands
+                between them (``None``: any object between them).
+        """
+        pm = self.model.model
+        pin.forwardKinematics(pm, self.data, np.asarray(q, dtype=float))
+        off = [k for col in self._between_jaws(target) for k in self._jaw_pairs[col]]
+        for k in off:
+            self.gdata.deactivateCollisionPair(k)
+        pin.updateGeometryPlacements(pm, self.data, self.geometry, self.gdata)
+        k = pin.computeDistances(self.geometry, self.gdata)
+        for j in off:
+            self.gdata.activateCollisionPair(j)
+        a, b = self._pairs[k]
+        d = self.gdata.distanceResults[k].min_distance - self.clearance_m
+        return float(d), self._arm_names[a], self._ob_names[b]
+
+    def _between_jaws(self, target: str | None) -> np.ndarray:
+        """The object columns standing between the jaws at the last pose's kinematics.
+
+        An object whose axis is within half the opening of the grip point, in the plane,
+        is straddled or held by the jaws: their pads may touch it. ``target`` limits this
+        to that object (``None``: any object).
+        """
+        cols = self._object_cols
+        if target is not None:
+            cols = cols[np.asarray(self._ob_names, dtype=object)[cols] == f"obj_{target}"]
+        if not cols.size:
+            return cols
+        M = self.data.oMi[self._last]
+        grip = M.rotation @ self._grip_in_last + M.translation
+        d = np.linalg.norm(self._ob_centre[cols, :2] - grip[:2], axis=1)
+        return cols[d <= self._opening_cm * M_PER_CM / 2]
+
+    def clear_height_cm(self, q: npt.ArrayLike) -> float:
+        """The TCP height where the tool clears every bin wall and object [cm].
+
+        The tool (jaws, their servo, a held object) hangs below the TCP as at pose ``q``;
+        its lowest point keeps the clearance above the highest top.
+        """
+        low = self._lowest_points(q)
+        tcp = float(self.model.fk_cm(q)[2]) * M_PER_CM
+        hang = max(0.0, tcp - float(np.min(low[self._tool])))
+        tops = [0.0] + [float(T[2, 3] + _half_extents(s)[2]) for s, T in self._obstacles[1:]]  # type: ignore[arg-type]
+        return (max(tops) + self.clearance_m + hang) / M_PER_CM
+
+    def _lowest_points(self, q: npt.ArrayLike) -> np.ndarray:
+        """Each arm shape's lowest point's height at pose ``q`` [m], (k,)."""
+        pm = self.model.model
+        pin.updateGeometryPlacements(pm, self.data, self.geometry, self.gdata, np.asarray(q, float))
+        oMg = self.gdata.oMg
+        R = np.array([oMg[k].rotation for k in range(self._na)])
+        c = np.array([oMg[k].translation for k in range(self._na)])
+        return c[:, 2] - _lowest(R, self._half, self._is_cyl)
+
+    def _reach(self) -> np.ndarray:
+        r"""R_i at the last pose's kinematics, (n,) [m per rad; 1 m per m for a prismatic joint].
+
+        The farthest any shape beyond joint i can be from the joint's origin: over the
+        joints j ≥ i, :math:`|o_j - o_i|` plus how far joint j's shapes reach from
+        :math:`o_j` (the tool's from the TCP, the last joint's origin plus the TCP's offset).
+        """
+        n = self._last
+        origins = np.array([self.data.oMi[j].translation for j in range(1, n + 1)])
+        sep = np.linalg.norm(origins[None, :, :] - origins[:, None, :], axis=2)  # (i, j)
+        local = self._reach_local[1 : n + 1]
+        far = np.where(np.triu(np.ones((n, n), dtype=bool)), sep + local[None, :], 0.0)
+        R = far.max(axis=1)
+        return np.where(self.model.chain.prismatic, 1.0, R)
+
+    def first_contact(self, q_path: npt.ArrayLike, *, target: str | None = None) -> Contact | None:
+        r"""The first pose along ``q_path`` that comes too close to something, or ``None``.
+
+        Between rows the joints move on a straight line; ``None``: the whole path is clear.
+
+        Conservative advancement (the module docstring): at a pose with gap ``g`` to
+        spare, the next check comes where some point of the arm could first have moved
+        ``g``, bounded by :math:`\sum_i (R_i + g) |\Delta q_i|` (:meth:`_reach`; while
+        every point moves less than ``g``, none gets farther than that from an axis).
+
+        Args:
+            q_path: The poses, model units, (k, n).
+            target: The object the jaws close on at the path's end (they may touch it).
+        """
+        path = np.atleast_2d(np.asarray(q_path, dtype=float))
+        last = len(path) - 1
+        k, t = 0, 0.0
+        while True:
+            q = path[k] + t * (path[k + 1] - path[k]) if k < last else path[last]
+            g, a, b = self.gap(q, target=target)
+            self.checks += 1
+            if g < TOUCH_M:  # (the table's distance less the clearance is the height)
+                d = g if b == "table" else g + self.clearance_m
+                return Contact(a, b, d / M_PER_CM, q, k)
+            if k == last:
+                return None
+            rate = self._reach() + g
+            budget = g  # how far a point may move before the next check [m]
+            while k < last:
+                sweep = float(np.sum(rate * np.abs(path[k + 1] - path[k])))  # per unit t
+                if sweep * (1.0 - t) > budget:
+                    t += budget / sweep
+                    break
+                budget -= sweep * (1.0 - t)
+                k, t = k + 1, 0.0
+
+
+def _half_extents(shape: Shape) -> np.ndarray:
+    if shape.kind == "box":
+        return np.asarray(shape.size, dtype=float)
+    return np.array([shape.size[0], shape.size[0], shape.size[1]])
+
+
+def _lowest(R: np.ndarray, half: np.ndarray, is_cyl: np.ndarray) -> np.ndarray:
+    """How far each shape reaches below its centre [m], (k,).
+
+    A box's lowest corner, a cylinder's lowest rim point.
+    """
+    rz = R[:, 2, :]  # the world z of each of the shape's axes
+    box = np.sum(np.abs(rz) * half, axis=1)
+    axial = np.abs(rz[:, 2]) * half[:, 2]
+    rim = half[:, 0] * np.sqrt(np.clip(1.0 - rz[:, 2] ** 2, 0.0, 1.0))
+    return np.where(is_cyl, axial + rim, box)
+
+
+def _across_pair(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Two unit axes completing ``a`` to a right-handed frame (x, y, a)."""
+    helper = np.array([1.0, 0.0, 0.0]) if abs(a[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    x = np.cross(helper, a)
+    x /= np.linalg.norm(x)
+    return x, np.cross(a, x)
+
+
+__all__ = ["DEFAULT_CLEARANCE_CM", "TOUCH_CM", "CollisionModel", "Contact", "joint_servo"]

@@ -1,0 +1,262 @@
+"""Plans that see the arm's body: one collision model, every route checked, detours, refusals."""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+import pinocchio as pin
+import pytest
+from conftest import ROOT
+
+from mearm.config import Config, SceneObject, load_config
+from mearm.exceptions import ServoStallError, SimCollisionError
+from mearm.hardware.bus import ArmCommand
+from mearm.ik import IKTarget
+from mearm.kinematics import ArmModel
+from mearm.kinematics.bodies import bin_shapes
+from mearm.kinematics.collision import TOUCH_CM, CollisionModel
+from mearm.sim.mjcf import generate_mjcf
+from mearm.sim.servo_bus import SimArm
+from mearm.sim.twin_bus import TwinArm
+from mearm.sim.world import World
+from mearm.task.plan import Planner
+from mearm.task.route import Route
+
+TWINS = ["sim_mujoco", "sim_5dof_mujoco", "sim_mearm_v1_mujoco"]
+
+
+def _config(name: str, *overrides: str) -> Config:
+    return load_config(ROOT / "configs" / f"{name}.yaml", overrides=overrides)
+
+
+# --------------------------------------------------------------------------- one source
+
+
+@pytest.mark.parametrize("name", TWINS)
+def test_the_collision_model_is_the_twins_body(name: str) -> None:
+    """Every colliding arm shape of the collision model sits where MuJoCo puts the twin's
+    geom of the same name, at random poses with the jaws open (one source for both)."""
+    config = _config(name)
+    m = mujoco.MjModel.from_xml_string(generate_mjcf(config))
+    d = mujoco.MjData(m)
+    model = ArmModel(config.arm)
+    collision = CollisionModel(config, model)
+    half = config.arm.tool.gripper.open_cm * 0.01 / 2
+    rng = np.random.default_rng(7)
+    names = [o.name for o in collision.geometry.geometryObjects][: collision._na]
+    assert {"shoulder_servo", f"{config.arm.tool.gripper.name}_servo"} <= set(names)
+    for _ in range(5):
+        q = model.chain.full(rng.uniform(model.chain.actuated_lower, model.chain.actuated_upper))
+        for j, joint in enumerate(model.chain.names):
+            d.qpos[m.joint(joint).qposadr[0]] = q[j]
+        for jaw in ("gripper_jaw_left", "gripper_jaw_right"):
+            d.qpos[m.joint(jaw).qposadr[0]] = half
+        mujoco.mj_kinematics(m, d)
+        pin.updateGeometryPlacements(
+            model.model, collision.data, collision.geometry, collision.gdata, q
+        )
+        for k, geom in enumerate(names):
+            g = m.geom(geom)
+            assert np.allclose(collision.gdata.oMg[k].translation, d.geom_xpos[g.id], atol=1e-9)
+            R = d.geom_xmat[g.id].reshape(3, 3)
+            assert np.allclose(collision.gdata.oMg[k].rotation, R, atol=1e-9)
+            assert np.allclose(_half_size(collision.geometry.geometryObjects[k]), m.geom_size[g.id])
+
+
+def _half_size(obj: pin.GeometryObject) -> np.ndarray:
+    """A coal box's or cylinder's half-sizes, MuJoCo's way."""
+    shape = obj.geometry
+    if hasattr(shape, "halfSide"):
+        return np.asarray(shape.halfSide)
+    return np.array([shape.radius, shape.halfLength, 0.0])
+
+
+def test_the_bins_are_the_twins_bins() -> None:
+    config = _config("sim_mujoco")
+    m = mujoco.MjModel.from_xml_string(generate_mjcf(config))
+    for c in config.task.classes:
+        for shape in bin_shapes(config, c.name):
+            assert np.allclose(m.geom(shape.name).size, shape.size)
+
+
+# --------------------------------------------------------------------------- a bin wall
+
+
+def _across_the_red_bin() -> tuple[Config, ArmModel, Planner, np.ndarray, IKTarget]:
+    """The paper's twin arm (jaws down) at grip height just left of the red bin, and a pick
+    target just right of it: the straight way runs through the bin's walls."""
+    config = _config("sim_mujoco", "task.scene=[]")
+    model = ArmModel(config.arm)
+    planner = Planner(config, model, CollisionModel(config, model))
+    red = config.task.class_named("red")
+    x, y = red.bin_cm[0], red.bin_cm[1]
+    out = red.bin_inner_width_cm / 2 + 5.0
+    start = planner.solver.solve(model.home, planner.pick_target(red, x - out, y))
+    assert start.converged
+    return config, model, planner, start.q, planner.pick_target(red, x + out, y)
+
+
+def test_a_route_across_a_bin_goes_up_over_and_down() -> None:
+    config, model, planner, q0, target = _across_the_red_bin()
+    direct = planner.solver.solve(q0, target)
+    assert direct.converged
+    assert planner.collision is not None
+    contact = planner.collision.first_contact(direct.q_path)
+    assert contact is not None and contact.obstacle.startswith("bin_red_")
+    route = planner.plan(Route("", "red", "pick", 1, target), q0)
+    assert route.planned and route.detour_cm is not None and route.plan is not None
+    assert planner.collision.first_contact(route.plan.q_path) is None
+    walls = max(float(s.size[2] * 2) for s in bin_shapes(config, "red")) * 100
+    assert route.detour_cm > walls
+    z = route.plan.ee_path_cm[:, 2]
+    assert z.max() >= route.detour_cm - 0.1  # it went up there
+    assert np.linalg.norm(route.plan.ee_path_cm[-1] - target.position_cm) < 0.1
+
+
+def test_the_kinematic_simulator_faults_on_the_wall_and_takes_the_detour() -> None:
+    """The fast simulator sees what physics would: the straight way is a fault naming the
+    wall, the planned detour arrives."""
+    config, model, planner, q0, target = _across_the_red_bin()
+    direct = planner.solver.solve(q0, target)
+    route = planner.plan(Route("", "red", "pick", 1, target), q0)
+    assert route.plan is not None
+
+    def fresh() -> SimArm:
+        arm = SimArm(config, World.from_config(config), model)
+        arm.connect()
+        arm.actual_joints = model.chain.named_actuated(q0)  # placed there, not moved
+        return arm
+
+    arm = fresh()
+    with pytest.raises(SimCollisionError, match=r"(touches|comes within [0-9.]+ cm of) bin_red_"):
+        for q in direct.q_path[1:]:
+            arm.move(_command(config, model, q))
+    arm = fresh()
+    for q in route.plan.q_path[1:]:
+        arm.move(_command(config, model, q))
+    assert np.linalg.norm(arm.ee_cm - target.position_cm) < 0.5
+
+
+@pytest.mark.slow
+def test_the_twin_stalls_on_the_wall_and_takes_the_detour() -> None:
+    """In physics the straight way catches the jaws on the wall (a stall fault); the
+    planned detour arrives."""
+    config, model, planner, q0, target = _across_the_red_bin()
+    xml = generate_mjcf(config)
+    direct = planner.solver.solve(q0, target)
+    route = planner.plan(Route("", "red", "pick", 1, target), q0)
+    assert route.plan is not None
+
+    start = IKTarget(tuple(model.fk_cm(q0)), target.approach)
+    to_start = planner.plan(Route("", "red", "pick", 1, start), model.home)
+    assert to_start.planned and to_start.plan is not None
+
+    def fresh() -> TwinArm:
+        arm = TwinArm(config, mujoco.MjModel.from_xml_string(xml))
+        arm.connect()
+        _stream_timed(arm, model, to_start.plan.q_path, config)
+        arm.await_arrival(3.0)
+        return arm
+
+    arm = fresh()
+    with pytest.raises(ServoStallError):
+        _stream_timed(arm, model, direct.q_path, config)
+        arm.await_arrival(3.0)
+    arm = fresh()
+    _stream_timed(arm, model, route.plan.q_path, config)
+    arm.await_arrival(3.0)
+    assert np.linalg.norm(arm.ee_cm - target.position_cm) < 0.5
+
+
+def _command(config: Config, model: ArmModel, q: np.ndarray) -> ArmCommand:
+    tool = {a.name: a.home for a in config.arm.tool.actuators}
+    return ArmCommand(model.chain.named_actuated(q), tool, False)
+
+
+def _stream_timed(arm: TwinArm, model: ArmModel, q_path: np.ndarray, config: Config) -> None:
+    """The path at the servos' speed limits, as the executor streams it."""
+    from mearm.task.execute import Executor
+
+    timed = Executor(config, arm, model, None).timed(q_path)
+    for q in timed.q[1:]:
+        arm.move(_command(config, model, q))
+
+
+# --------------------------------------------------------------------------- refusals
+
+
+def _blocking_pair(config: Config) -> list[SceneObject]:
+    """Two objects each of which a jaw of the other's pick comes down on."""
+    model = ArmModel(config.arm)
+    collision = CollisionModel(config, model)
+    g = config.arm.tool.gripper
+    across = collision.bodies.across
+    red = config.task.class_named("red")
+    x, y = 0.0, 45.0
+    planner = Planner(config, model)
+    q = planner.solver.solve(model.home, planner.pick_target(red, x, y)).q
+    R = model.tcp_pose(q)[1]
+    step = (R @ across)[:2]
+    step = step / np.linalg.norm(step) * (g.open_cm / 2 + g.jaw_thickness_cm / 2)
+    return [
+        SceneObject(color="red", x=x, y=y),
+        SceneObject(color="red", x=round(x + step[0], 2), y=round(y + step[1], 2)),
+    ]
+
+
+def test_a_pick_with_a_neighbour_under_a_jaw_is_refused_naming_both() -> None:
+    config = _config("sim_mujoco", "task.scene=[]")
+    scene = _blocking_pair(config)
+    model = ArmModel(config.arm)
+    collision = CollisionModel(config, model)
+    planner = Planner(config, model, collision)
+    red = config.task.class_named("red")
+    collision.set_world([("red1", "red", scene[0].x, scene[0].y),
+                         ("red2", "red", scene[1].x, scene[1].y)])  # fmt: skip
+    route = planner.plan(
+        Route("red1", "red", "pick", 1, planner.pick_target(red, scene[0].x, scene[0].y)),
+        model.home,
+        target="red1",
+    )
+    assert not route.planned and route.failure_kind == "collision"
+    assert route.failure is not None
+    assert "gripper_jaw_" in route.failure and "red2" in route.failure
+    assert "shoulder" in route.failure  # the pose, joint by joint
+
+
+def test_the_sort_sends_nothing_of_a_refused_pick(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Both picks of a blocking pair refused: each is left with the reason ``collision``,
+    and the bus received nothing but the home pose (a spy on the real simulated bus)."""
+    from mearm.task.rig import run_sort
+
+    config = _config("sim_mujoco", "simulator=kinematic", "task.scene=[]")
+    sent: list[dict[str, float]] = []
+    real_move = SimArm.move
+
+    def spy(self: SimArm, command: ArmCommand) -> None:
+        sent.append(dict(command.joints))
+        real_move(self, command)
+
+    monkeypatch.setattr(SimArm, "move", spy)
+    report = run_sort(config, scene=_blocking_pair(config), echo=None)
+    assert report.outcome.left == {"collision": 2}
+    home = config.arm.home()
+    assert sent and all(all(abs(joints[n] - home[n]) < 1e-9 for n in joints) for joints in sent)
+    assert all("red" in s.reason or "gripper" in s.reason for s in report.skipped)
+
+
+# --------------------------------------------------------------------------- the check
+
+
+def test_conservative_advancement_never_steps_over_a_wall() -> None:
+    """Two poses on either side of a bin wall, checked as one segment: the contact is
+    found, although neither end touches anything."""
+    config, model, planner, q0, target = _across_the_red_bin()
+    assert planner.collision is not None
+    q1 = planner.solver.solve(q0, target).q
+    c = planner.collision
+    assert c.first_contact(np.array([q0])) is None
+    assert c.first_contact(np.array([q1])) is None
+    contact = c.first_contact(np.array([q0, q1]))
+    assert contact is not None and contact.obstacle.startswith("bin_red_")
+    assert contact.distance_cm <= config.task.clearance_cm + TOUCH_CM
