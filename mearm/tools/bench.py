@@ -584,6 +584,143 @@ def bench_sort_cpu(options: BenchOptions) -> list[Row]:
     return rows
 
 
+# --------------------------------------------------------------------------- collision
+
+
+def collision_routes(
+    config: Config, collision: Any
+) -> list[tuple[np.ndarray, str | None, Any, list]]:
+    """The scene's picks and places planned one after another, as the sorter plans them.
+
+    Each entry: the route's joint path (checked, detoured where needed), the object the
+    jaws close on (picks), the held object (places) and the objects on the table then.
+    """
+    from mearm.sim.world import World  # noqa: PLC0415
+    from mearm.task.plan import Planner  # noqa: PLC0415
+    from mearm.task.route import Route  # noqa: PLC0415
+
+    model = collision.model
+    planner = Planner(config, model, collision)
+    on_table = list(World.from_config(config).table_objects())
+    order = sorted(on_table, key=lambda o: config.task.class_names.index(o.color))
+    g = config.arm.tool.gripper
+    q = model.home
+    out: list[tuple[np.ndarray, str | None, Any, list]] = []
+    for obj in order:
+        cls = config.task.class_named(obj.color)
+        objects = [(o.id, o.color, o.x_cm, o.y_cm) for o in on_table]
+        collision.set_world(objects, opening_cm=g.open_cm, held=None)
+        target = planner.pick_target(cls, obj.x_cm, obj.y_cm)
+        pick = planner.plan(Route(obj.id, obj.color, "pick", 1, target), q, target=obj.id)
+        assert pick.planned and pick.plan is not None, pick.failure
+        out.append((pick.plan.q_path, obj.id, None, objects))
+        on_table = [o for o in on_table if o is not obj]
+        objects = [(o.id, o.color, o.x_cm, o.y_cm) for o in on_table]
+        held = (obj.id, obj.color)
+        collision.set_world(objects, opening_cm=cls.diameter_cm, held=held)
+        place = planner.plan(
+            Route(obj.id, obj.color, "place", 1, planner.place_target(cls)), pick.plan.q
+        )
+        assert place.planned and place.plan is not None, place.failure
+        out.append((place.plan.q_path, None, held, objects))
+        q = place.plan.q
+    return out
+
+
+@section("collision")
+def bench_collision(options: BenchOptions) -> list[Row]:
+    """A collision check per pose and per route, beside the IK solve of the same route."""
+    import pinocchio as pin  # noqa: PLC0415
+
+    from mearm.config import load_config  # noqa: PLC0415
+    from mearm.ik import make_solver  # noqa: PLC0415
+    from mearm.kinematics import ArmModel  # noqa: PLC0415
+    from mearm.kinematics.collision import CollisionModel  # noqa: PLC0415
+
+    config = load_config("sim_mujoco")  # the paper's arm, jaws down, its 12-object scene
+    model = ArmModel(config.arm)
+    collision = CollisionModel(config, model, clearance_cm=config.task.clearance_cm)
+    solver = make_solver(model, config.controller)
+    routes = collision_routes(config, collision)
+    g = config.arm.tool.gripper
+
+    def world(k: int) -> None:
+        _, _, held, objects = routes[k]
+        opening = g.open_cm if held is None else config.task.class_named(held[1]).diameter_cm
+        collision.set_world(objects, opening_cm=opening, held=held)
+
+    checks = poses = 0
+    for k, (path, target, _, _) in enumerate(routes):
+        world(k)
+        before = collision.checks
+        assert collision.first_contact(path, target=target) is None
+        checks += collision.checks - before
+        poses += len(path)
+    calls: dict[str, Callable[[], object]] = {}
+    for k, (path, target, _, _) in enumerate(routes):
+        calls[f"route/{k}"] = functools.partial(_checked_route, world, k, collision, path, target)
+        calls[f"ik/{k}"] = functools.partial(solver.solve, path[0], model.fk_cm(path[-1]))
+    world(0)
+    q_mid = routes[0][0][len(routes[0][0]) // 2]
+    calls["pose"] = functools.partial(collision.gap, q_mid, target=routes[0][1])
+    geom, gdata = collision.geometry, collision.gdata
+    calls["all pairs"] = functools.partial(
+        pin.computeDistances, model.model, collision.data, geom, gdata, q_mid
+    )
+    calls["world"] = functools.partial(world, 0)
+    best = best_seconds(
+        calls, options.repeat, {"pose": 50, "all pairs": 50, "world": 10}, "collision"
+    )
+    n = len(routes)
+    route_s = sum(best[f"route/{k}"] for k in range(n)) / n
+    ik_s = sum(best[f"ik/{k}"] for k in range(n)) / n
+    note = (
+        f"{n} routes of the paper's twin scene (configs/sim_mujoco.yaml), "
+        f"best of {options.repeat} rounds"
+    )
+    pairs = len(geom.collisionPairs)
+    return [
+        Row(
+            "collision",
+            "check of one pose (the pairs that count, min distance)",
+            best["pose"] * 1e6,
+            "µs",
+            note,
+        ),
+        Row(
+            "collision",
+            f"peer: exact distance of all {pairs} pairs (pin.computeDistances)",
+            best["all pairs"] * 1e6,
+            "µs",
+            "same pose",
+        ),
+        Row("collision", "one pose / all pairs", best["pose"] / best["all pairs"], "×", ""),
+        Row(
+            "collision",
+            "check of one route (conservative advancement)",
+            route_s * 1e3,
+            "ms",
+            f"{checks / n:.1f} checks a route, {poses / n:.1f} poses in its path",
+        ),
+        Row("collision", "the same route's IK solve (PD-PIJ)", ik_s * 1e3, "ms", ""),
+        Row("collision", "route check / IK solve", route_s / ik_s, "×", ""),
+        Row(
+            "collision",
+            "world update (objects, jaws, held object)",
+            best["world"] * 1e6,
+            "µs",
+            "a new geometry model and its pairs",
+        ),
+    ]
+
+
+def _checked_route(
+    world: Callable[[int], None], k: int, collision: Any, path: np.ndarray, target: str | None
+) -> object:
+    world(k)
+    return collision.first_contact(path, target=target)
+
+
 # --------------------------------------------------------------------------- motion
 
 #: The paper's motion time for its 12 objects: about 6 s per pick or place motion, 24 of
