@@ -426,6 +426,37 @@ SET_CASES = {
     "qp_solver_junk": ("controller.qp_solver='../../etc'", "controller.qp_solver"),
     "pick_retries_huge": ("task.pick_retries=1000000", "task.pick_retries"),
     "scene_color_unknown": ("task.scene=[{color: purple, x: 0, y: 40}]", "not a class"),
+    # a servo over a combination of joints (arm.joints[].servo.drives)
+    "drives_missing_joint": (
+        "arm.joints.elbow.servo.drives={terms: {knee: 1}}",
+        "arm.joints.2.servo.drives.terms: 'knee' is not a joint of this arm",
+    ),
+    "drives_passive_joint": (
+        "arm.joints.elbow.servo.drives={terms: {shoulder: 1, wrist: 1}}",
+        "arm.joints.2.servo.drives.terms: 'wrist' is a passive joint",
+    ),
+    "drives_zero_row": (
+        "arm.joints.elbow.servo.drives={terms: {shoulder: 0, elbow: 0}}",
+        "arm.joints.2.servo.drives.terms: every coefficient is 0",
+    ),
+    "drives_as_another_servo": (
+        "arm.joints.elbow.servo.drives={terms: {shoulder: 1}}",
+        "arm.joints.2.servo.drives: elbow's servo turns shoulder, which depends on what the "
+        "servo of shoulder turns",
+    ),
+    "drives_a_multiple_of_another": (
+        "arm.joints.shoulder.servo.drives={terms: {elbow: -2}}",
+        "arm.joints.1.servo.drives: shoulder's servo turns -2·elbow, which depends on",
+    ),
+    "drives_home_past_the_pulse_range": (
+        "arm.joints.elbow.servo.drives={terms: {shoulder: 1, elbow: 1}, offset: 300}",
+        "arm.joints.2.servo.drives: at home its servo's value shoulder + elbow + 300 is 261",
+    ),
+    "drives_on_the_gripper": (
+        "arm.tool.gripper.servo.drives={terms: {elbow: 1}}",
+        "arm.tool.gripper.servo.drives: unknown key",
+    ),
+    "drives_huge": ("arm.joints.elbow.servo.drives={terms: {elbow: 1e9}}", "drives.terms.elbow"),
 }
 
 
@@ -438,6 +469,40 @@ def test_bad_set_is_refused(name: str, tmp_path: Path) -> None:
     cmd = cmds[sum(map(ord, name)) % len(cmds)]
     out = check_bad_input(command(cmd, tmp_path, "--set", text), within_s=2, keep=[CONFIGS])
     assert words in out.line
+
+
+#: A MeArm v1 whose servos' combinations are dependent in threes: (shoulder + elbow)
+#: and 2·(shoulder + elbow); the message names the later one and the one it repeats.
+_SHOULDER = "servo: {channel: 1, zero_us: 2255.5, direction: -1, us_per_unit: 11.0, "
+_DEPENDENT = (
+    f"{_SHOULDER}min_us: 544, max_us: 2400}}\n",
+    f"{_SHOULDER}min_us: 544, max_us: 2400, drives: {{terms: {{shoulder: 2.0, elbow: 2.0}}}}}}\n",
+)
+
+
+@bad_input
+@pytest.mark.parametrize(
+    ("edit", "words"),
+    [
+        (_DEPENDENT, "arm.joints.2.servo.drives: elbow's servo turns shoulder + elbow, which "
+                     "depends on what the servo of shoulder turns"),
+        (("drives: {terms: {shoulder: 1.0, elbow: 1.0}}", "drives: {terms: {shoulder: 1.0, "
+          "gripper: 1.0}}"), "arm.joints.2.servo.drives.terms: 'gripper' is not a joint"),
+        (("drives: {terms: {shoulder: 1.0, elbow: 1.0}}", "drives: {terms: {wrist: 1.0}}"),
+         "arm.joints.2.servo.drives.terms: 'wrist' is a passive joint"),
+        (("drives: {terms: {shoulder: 1.0, elbow: 1.0}}", "drives: {terms: {}}"),
+         "arm.joints.2.servo.drives.terms"),
+    ],
+)  # fmt: skip
+def test_a_bad_servo_combination_in_a_file_is_refused(edit, words, tmp_path: Path) -> None:
+    """``mearm fk --config`` a MeArm v1 whose elbow servo's ``drives`` is bad: exit 2, one
+    line naming the field, before anything is computed."""
+    text = (CONFIGS / "sim_mearm_v1.yaml").read_text(encoding="utf-8")
+    assert edit[0] in text
+    bad = tmp_path / "bad.yaml"
+    bad.write_text(text.replace(edit[0], edit[1]), encoding="utf-8")
+    out = check_bad_input(["fk", "--config", bad, "--joints", "90,90,-90"], within_s=2)
+    assert words in out.line and str(bad) in out.line
 
 
 # ------------------------------------------------------------- the promise in a real process

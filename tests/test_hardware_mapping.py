@@ -5,6 +5,7 @@ from __future__ import annotations
 import dataclasses
 import math
 
+import numpy as np
 import pytest
 from conftest import ROOT, planar_yaw_arm_data
 from hardware_helpers import HOME, command
@@ -249,3 +250,130 @@ def test_records():
     held = ArmCommand(source)
     source["base"] = 2.0
     assert held.joints["base"] == 1.0  # a copy, not a view of the caller's dict
+
+
+# --------------------------------------------------------------------------- servos over joints
+
+#: Every config shipped in configs/ (the reference arms, their twins and rigs).
+ALL_CONFIGS = sorted(p.name for p in (ROOT / "configs").glob("*.yaml"))
+MEARM = load_config(ROOT / "configs" / "sim_mearm_v1.yaml")
+MEARM_SMAP = ServoMap.from_config(MEARM)
+
+
+def _random_commands(config: Config, n: int, seed: int) -> list[ArmCommand]:
+    """Commands with every actuated joint uniform within its limits whose servo values
+    map into their pulse ranges (a servo over a combination leaves some poses out)."""
+    rng = np.random.default_rng(seed)
+    smap = ServoMap.from_config(config)
+    tool = {a.name: a.home for a in config.arm.tool.actuators}
+    out: list[ArmCommand] = []
+    while len(out) < n:
+        joints = {j.name: float(rng.uniform(j.lower, j.upper)) for j in smap.joints}
+        cmd = ArmCommand(joints, tool, bool(rng.integers(2)))
+        try:
+            smap.check(cmd)
+        except PulseRangeError:
+            continue
+        out.append(cmd)
+    return out
+
+
+@pytest.mark.parametrize("name", ALL_CONFIGS)
+def test_joints_to_pulses_to_joints_round_trips(name):
+    """Every shipped config, 200 random poses: the exact map inverts to 1e-9, and the
+    integer pulses the bus sends map back to the joints within their half-microsecond
+    steps carried through the inverse of the servos' combinations."""
+    config = load_config(ROOT / "configs" / name)
+    smap = ServoMap.from_config(config)
+    A, _ = config.arm.servo_matrix()
+    inv = np.abs(np.linalg.inv(A))
+    half_step = np.array([0.5 / j.us_per_unit for j in smap.joints])  # of each servo's value
+    bound = inv @ half_step + 1e-9  # per joint
+    for cmd in _random_commands(config, 200, seed=7):
+        exact = smap.joints_of(smap.servo_values(cmd.joints))
+        assert exact == pytest.approx(dict(cmd.joints), abs=1e-9)
+        pulses = smap.pulses_us(cmd)
+        back = smap.joints_from_pulses(pulses)
+        error = np.array([back[n] - cmd.joints[n] for n in smap.joint_names])
+        assert np.all(np.abs(error) <= bound), (name, dict(cmd.joints), back)
+        realised = smap.realised(cmd.joints, "microsecond")
+        assert realised == pytest.approx(back, abs=1e-9)  # what the bus sends, solved back
+
+
+@pytest.mark.parametrize("name", [n for n in ALL_CONFIGS if not n.startswith("sim_mearm_v1")])
+def test_a_servo_without_drives_turns_its_joint_alone(name):
+    """Every other shipped config: the identity combination, and each joint's pulse is its
+    own servo's p0 + s·k·q rounded, as before servos could turn combinations."""
+    config = load_config(ROOT / "configs" / name)
+    A, a = config.arm.servo_matrix()
+    assert np.array_equal(A, np.eye(len(A))) and not a.any()
+    smap = ServoMap.from_config(config)
+    assert not any(j.combined or j.terms for j in smap.joints)
+    for cmd in _random_commands(config, 50, seed=3):
+        pulses = smap.pulses_us(cmd)
+        for j in config.arm.actuated_joints():
+            s = j.servo
+            assert pulses[s.channel] == math.floor(s.zero_us + s.direction * s.us_per_unit
+                                                   * cmd.joints[j.name] + 0.5)  # fmt: skip
+
+
+def command_of(config: Config, joints: dict[str, float]) -> ArmCommand:
+    """A command of these joints, the tool at home, the gripper open."""
+    return ArmCommand(joints, {a.name: a.home for a in config.arm.tool.actuators})
+
+
+@pytest.mark.parametrize(
+    ("shoulder", "forearm", "servo_deg"),
+    [
+        (shoulder, forearm, servo_deg)
+        for shoulder in (45.0, 90.0, 135.0)
+        for forearm, servo_deg in ((45.0, 144), (0.0, 90), (-45.0, 36))
+        if -150.0 <= forearm - shoulder <= -20.0  # the elbow joint within its limits
+    ],
+)
+def test_the_mearm_elbow_servo_turns_the_forearm(shoulder, forearm, servo_deg):
+    """The MeArm v1's elbow servo is calibrated on the forearm's angle to the table,
+    shoulder + elbow: the York Hackspace library's elbow figures (servo degree 144 at
+    +45°, 36 at -45°) hold whatever the shoulder, and the shoulder's own pulse does not
+    depend on the elbow."""
+    elbow = MEARM_SMAP["elbow"]
+    assert elbow.combined and elbow.combination_text == "shoulder + elbow"
+    joints = {"base": 90.0, "shoulder": shoulder, "elbow": forearm - shoulder}
+    pulses = MEARM_SMAP.pulses_us(command_of(MEARM, joints))
+    library_us = 544 + servo_deg * (2400 - 544) / 180  # Arduino's Servo.write
+    assert abs(pulses[elbow.channel] - library_us) <= 0.5
+    assert pulses[MEARM_SMAP["shoulder"].channel] == MEARM_SMAP["shoulder"].command_us(shoulder)
+
+
+def test_a_servo_over_joints_is_checked_on_its_value_and_the_joints_on_theirs():
+    """Joints inside their limits whose sum takes the elbow servo past its pulse range are
+    refused naming the servo and its combination; a joint past its own limit is refused
+    naming the joint, as before."""
+    inside = {"base": 90.0, "shoulder": 100.0, "elbow": -20.0}  # forearm at +80°: past +75°
+    with pytest.raises(PulseRangeError) as err:
+        MEARM_SMAP.check(command_of(MEARM, inside))
+    e = err.value
+    assert e.joint == "elbow's servo (shoulder + elbow)" and e.value_deg == pytest.approx(80.0)
+    assert (e.lower_deg, e.upper_deg) == pytest.approx((-75.0, 75.0), abs=0.01)
+    assert "elbow's servo (shoulder + elbow) = 80 deg needs a 2461.9 µs pulse on channel 2" in str(
+        e
+    )
+    MEARM_SMAP.check(command_of(MEARM, {**inside, "shoulder": 95.0}))  # forearm +75°: the edge
+    with pytest.raises(JointLimitError) as err:
+        MEARM_SMAP.check(command_of(MEARM, {**inside, "elbow": -15.0}))
+    assert not isinstance(err.value, PulseRangeError)
+    assert (err.value.joint, err.value.lower_deg, err.value.upper_deg) == ("elbow", -150, -20)
+
+
+def test_exact_realisation_quantises_the_servos_not_the_joints():
+    """With a servo over shoulder + elbow, the realised elbow carries both servos' steps:
+    solving back from the quantised servo values, not quantising the joint."""
+    joints = {"base": 90.3, "shoulder": 60.04, "elbow": -100.03}
+    servo = MEARM_SMAP.servo_values(joints)
+    assert servo["elbow"] == pytest.approx(-39.99)
+    realised = MEARM_SMAP.realised(joints, "microsecond")
+    forearm = MEARM_SMAP["elbow"].realised(servo["elbow"], "microsecond")
+    shoulder = MEARM_SMAP["shoulder"].realised(60.04, "microsecond")
+    assert realised["shoulder"] == pytest.approx(shoulder, abs=1e-12)
+    assert realised["elbow"] == pytest.approx(forearm - shoulder, abs=1e-12)
+    assert MEARM_SMAP.realised(joints, "none") == pytest.approx(joints, abs=1e-12)

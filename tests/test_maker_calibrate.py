@@ -659,3 +659,88 @@ def test_a_config_naming_a_missing_servo_calibration_file_is_refused(tmp_path):
 
     with pytest.raises(ConfigError, match=r"servo\.calibration_file: 'gone.yaml' is not a file"):
         load_config(config)
+
+
+# --------------------------------------------------------------------------- a servo over joints
+
+MEARM = ROOT / "configs" / "sim_mearm_v1.yaml"
+
+
+@pytest.mark.slow
+def test_calibrate_a_servo_that_turns_shoulder_plus_elbow(tmp_path):
+    """The MeArm v1's elbow servo, on the sim: the screen asks for the forearm's angle to
+    the table (shoulder + elbow), at the library's -45° and +45° (a fifth in from the ±75°
+    its pulse range reaches); the file records the combination, and the config takes it
+    back through the file and through the printed overrides."""
+    out = tmp_path / "servos.yaml"
+    cmd = PtyCommand(*_args(out, "--config", str(MEARM), "--actuators", "elbow"))
+    config = load_config(MEARM)
+    truth = ServoMap.from_config(config)["elbow"]  # the sim's servo is the config's
+    try:
+        cmd.expect(r"\[1/1\] elbow \(joint, channel 2\): its servo turns shoulder \+ elbow: "
+                   r"\[-75, 75\] deg")  # fmt: skip
+        for ref in (-45.0, 45.0):
+            shown = cmd.expect(r"move elbow's servo until shoulder \+ elbow = (-?[\d.]+) deg")
+            assert float(shown.group(1)) == ref
+            start = int(cmd.expect(r"elbow: pulse (\d+) µs").group(1))
+            goal = truth.command_us(ref)
+            jog_to(cmd, start, goal)
+            cmd.expect(r"target shoulder \+ elbow = -?[\d.]+ deg  simulated arm: (-?[\d.]+) deg")
+            cmd.send("\r")
+            cmd.expect(rf"recorded elbow at {ref:g} deg: {goal} µs")
+        assert cmd.wait() == 0, cmd.text[-2000:]
+    finally:
+        cmd.close()
+    assert [round(truth.pulse_us(v)) for v in (-45.0, 45.0)] == [915, 2029]  # 36, 144 servo °
+    cal = load_servo_calibration(out)
+    (fit,) = cal.actuators
+    assert fit.drives is not None and dict(fit.drives.terms) == {"shoulder": 1.0, "elbow": 1.0}
+    check_fit(out, {"elbow": TrueServo(truth.zero_us, truth.direction, truth.us_per_unit)},
+              {"elbow": (-45.0, 45.0)})  # fmt: skip
+    lines = re.findall(r"--set '([^']+)'", cmd.text)
+    assert lines == servo_overrides(config.arm, cal.actuators) and "drives:" in lines[0]
+    via_set = load_config(MEARM, lines)
+    via_file = apply_servo_calibration_file(config, out)
+    assert via_set.arm.joints[2].servo == via_file.arm.joints[2].servo
+    assert via_file.arm.joints[2].servo.drives == config.arm.joints[2].servo.drives
+
+
+def test_a_fit_of_a_servo_over_joints_keeps_its_combination(tmp_path):
+    """Fitted on shoulder + elbow, the servo keeps its ``drives`` through the file; the
+    file applies only to a servo that turns the same combination."""
+    from mearm.config.servo_file import CalibrationPoint as P
+    from mearm.config.servo_file import (
+        ServoCalibrationError,
+        ServoCalibrationFile,
+        apply_servo_calibration,
+        fit_actuator,
+        save_servo_calibration,
+        servo_of,
+    )
+
+    config = load_config(MEARM)
+    fit = fit_actuator("elbow", "deg", servo_of(config.arm, "elbow"), [P(-45, 915), P(45, 2029)])
+    assert fit.servo.zero_us == pytest.approx(1472.0) and fit.servo.direction == 1
+    assert fit.servo.us_per_unit == pytest.approx(1114 / 90)
+    assert fit.drives == config.arm.joints[2].servo.drives
+    path = save_servo_calibration(
+        tmp_path / "s.yaml", ServoCalibrationFile("mearm_v1", "b", "", "d", (fit,))
+    )
+    entry = yaml.safe_load(path.read_text())["actuators"]["elbow"]
+    assert entry["drives"] == {"terms": {"shoulder": 1.0, "elbow": 1.0}, "offset": 0.0}
+    back = load_servo_calibration(path).actuators[0]
+    assert back.drives == fit.drives and back.servo.zero_us == pytest.approx(1472.0)
+    applied = apply_servo_calibration(config, [back])
+    assert applied.arm.joints[2].servo.drives == fit.drives
+    # the same elbow, its servo turning the elbow alone: the fit does not apply
+    alone = load_config(MEARM, ["arm.joints.elbow.servo.drives=null",
+                                "arm.joints.elbow.servo.zero_us=358",
+                                "arm.joints.elbow.servo.direction=-1"])  # fmt: skip
+    with pytest.raises(ServoCalibrationError, match="calibrated turning shoulder \\+ elbow, "
+                       "the config's turns elbow: recalibrate"):  # fmt: skip
+        apply_servo_calibration(alone, [back])
+    per_joint = fit_actuator("elbow", "deg", servo_of(alone.arm, "elbow"), [P(-135, 2028),
+                             P(-45, 915)])  # fmt: skip
+    with pytest.raises(ServoCalibrationError, match="calibrated turning elbow, the config's "
+                       "turns shoulder \\+ elbow"):  # fmt: skip
+        apply_servo_calibration(config, [per_joint])

@@ -286,3 +286,43 @@ def test_jog_with_a_bad_calibration_file_is_exit_2(tmp_path: Path):
     finally:
         cmd.close()
     assert "not a mearm servo calibration" in cmd.text
+
+
+# --------------------------------------------------------------------------- a servo over joints
+
+
+def test_jog_checks_the_mearm_forearm_servo_on_shoulder_plus_elbow():
+    """The MeArm v1 on the sim: the readout shows the elbow servo's value, shoulder +
+    elbow, and its room to each end of the pulse range; a shoulder move that keeps every
+    joint inside its limits but takes that sum past +75° is refused, nothing sent."""
+    import io
+
+    from mearm.maker.calibrate_servos import open_arm_bus
+    from mearm.maker.jog import Jogger
+
+    config = load_config(ROOT / "configs" / "sim_mearm_v1.yaml")
+    out = io.StringIO()
+    with open_arm_bus(config) as bus:
+        jogger = Jogger(config, bus, out)
+        jogger.executor.home_pose()
+        jogger.readout()
+        line = r"  elbow's servo \(shoulder \+ elbow\): (-?[\d.]+) deg   to its pulse range"
+        assert float(re.findall(line, out.getvalue())[-1]) == pytest.approx(0.0)
+        jogger.step_index = JOINT_STEPS.index(10.0)
+        jogger.selected = 2  # the elbow joint: up to -20°, the forearm at +70°
+        for _ in range(7):
+            jogger.move_joint(+1)
+        jogger.readout()
+        assert float(re.findall(line, out.getvalue())[-1]) == pytest.approx(70.0)
+        sent = bus.state
+        jogger.selected = 1  # the shoulder to 100°: inside its limits, the forearm at +80°
+        past = (
+            r"elbow's servo \(shoulder \+ elbow\) = 7[5-9][.\d]* deg needs a [\d.]+ µs "
+            r"pulse on channel 2, outside its \[544, 2400\]"
+        )
+        with pytest.raises(Exception, match=past):
+            jogger.move_joint(+1)  # the first pose of the path past +75° is named
+        assert bus.state == sent  # refused before anything was sent
+        jogger.selected = 2  # the elbow joint past its own limit: refused by the joint's
+        with pytest.raises(Exception, match=r"elbow would be at -10 deg, outside its limits"):
+            jogger.move_joint(+1)

@@ -27,6 +27,7 @@ from mearm.sim.mjcf import (
     recorded_servo,
     save_mjcf,
     servo_named,
+    servo_tendon,
 )
 from mearm.task.plan import Planner
 
@@ -304,16 +305,33 @@ def test_model_records_its_servos(twin):
 
 
 def test_actuators_are_limited_servos(twin):
-    """Each actuated joint: a position servo, ctrl range = limits, force range = stall."""
+    """Each actuated joint: a position servo, ctrl range = limits, force range = stall.
+
+    A servo that turns a combination of joints (the MeArm's elbow servo: shoulder +
+    elbow) drives a fixed tendon with those coefficients; its ctrl range is what its
+    pulse range allows within the joints' limits, and the motor's inertia is the tendon's.
+    """
     config, _, m = twin
     model = ArmModel(config.arm)
     ch = model.chain
     for k, name in enumerate(ch.actuated):
         a = m.actuator(name)
         i = ch.actuated_index[k]
-        np.testing.assert_allclose(a.ctrlrange, (ch.lower[i], ch.upper[i]))
+        servo = config.arm.joints[i].servo
         assert a.forcerange[1] > 0 and a.forcerange[0] == -a.forcerange[1]
-        assert a.gainprm[0] > 0 and m.joint(name).armature[0] > 0
+        assert a.gainprm[0] > 0
+        if servo.drives is None:
+            np.testing.assert_allclose(a.ctrlrange, (ch.lower[i], ch.upper[i]))
+            assert a.trntype == mujoco.mjtTrn.mjTRN_JOINT and m.joint(name).armature[0] > 0
+            continue
+        tendon = m.tendon(servo_tendon(name))
+        assert a.trntype == mujoco.mjtTrn.mjTRN_TENDON and a.trnid[0] == tendon.id
+        assert m.tendon_armature[tendon.id] > 0 and m.joint(name).armature[0] == 0
+        wraps = range(m.tendon_adr[tendon.id], m.tendon_adr[tendon.id] + m.tendon_num[tendon.id])
+        coef = {m.joint(int(m.wrap_objid[w])).name: float(m.wrap_prm[w]) for w in wraps}
+        assert coef == pytest.approx(dict(servo.drives.terms))  # revolute joints: same units
+        lo, hi = (math.radians(v - servo.drives.offset) for v in servo.value_range())
+        assert lo - 1e-9 <= a.ctrlrange[0] < a.ctrlrange[1] <= hi + 1e-9
 
 
 def test_explicit_servo_is_used(config):

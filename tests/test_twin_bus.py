@@ -368,3 +368,55 @@ def test_grasp_lifts_the_object_and_drops_it_in_its_bin(desk):
     _stream(arm, np.array([q] * 26), closed=False)
     arm.settle(1.0)
     assert arm.objects_in_bin() == {"red1": "red"}
+
+
+# --------------------------------------------------------------------------- a servo over joints
+
+
+@pytest.fixture(scope="module")
+def mearm() -> tuple[Config, mujoco.MjModel]:
+    config = load_config(ROOT / "configs" / "sim_mearm_v1_mujoco.yaml")
+    return config, mujoco.MjModel.from_xml_string(generate_mjcf(config))
+
+
+#: How far from its planned angle the forearm may settle [deg].
+FOREARM_TOL_DEG = 0.5
+
+
+@pytest.mark.parametrize("shoulder", [45.0, 135.0])
+def test_the_mearm_elbow_servo_drives_the_forearm_whatever_the_shoulder(mearm, shoulder):
+    """The MeArm v1 twin: the elbow servo turns shoulder + elbow through a tendon. With
+    the shoulder at 45° and at 135° (far from the 90° where a per-joint map of the elbow
+    would be right), the pulses sent for a planned pose — a joint-space path home → pose,
+    timed as the sort times it — put the DH elbow joint, as MuJoCo measures it once
+    settled, within 0.5° of the plan. The pose: the forearm at -45° or +45° to the table,
+    the library's two calibration points (servo degrees 36 and 144)."""
+    from mearm.task.execute import Executor
+
+    config, m = mearm
+    arm = _twin(mearm)
+    model = ArmModel(config.arm)
+    forearm = -45.0 if shoulder < 90 else 45.0
+    planned = {"base": 90.0, "shoulder": shoulder, "elbow": forearm - shoulder}
+    executor = Executor(config, arm, model)
+    executor.home_pose()
+    executor.move_joints(model.chain.from_named(planned), "home", False)
+    pulses = arm.servo_map.pulses_us(arm.state.to_command())
+    elbow_servo = arm.servo_map["elbow"]
+    assert pulses[elbow_servo.channel] == (915 if forearm < 0 else 2029)  # 36 / 144 servo °
+    arm.settle(SETTLE_S)
+    measured = arm.actual_joints
+    elbow_error = measured["elbow"] - planned["elbow"]
+    forearm_error = measured["shoulder"] + measured["elbow"] - forearm
+    print(
+        f"\nshoulder {shoulder:g}°: elbow {planned['elbow']:g}° planned, "
+        f"{measured['elbow']:.3f}° measured ({elbow_error:+.3f}°); forearm to the table "
+        f"{forearm_error:+.3f}°, shoulder {measured['shoulder'] - shoulder:+.3f}°"
+    )
+    assert abs(elbow_error) <= FOREARM_TOL_DEG
+    assert abs(forearm_error) <= FOREARM_TOL_DEG
+    # the servo's potentiometer reads the combination, where its actuator's tendon is
+    k = [s.name for s in arm.servos].index("elbow")
+    assert arm.servos[k].value_of(arm.pot[k]) == pytest.approx(
+        measured["shoulder"] + measured["elbow"], abs=1e-9
+    )

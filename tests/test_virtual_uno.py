@@ -219,3 +219,17 @@ def test_a_simulator_that_cannot_start_is_named(cache_home, monkeypatch, tmp_pat
     with pytest.raises(VirtualUnoError, match="the simulator stopped .*cannot read"):
         bus.connect()
     assert not bus.is_connected
+
+
+def test_virtual_uno_sorts_the_mearm_whose_elbow_servo_turns_the_forearm(cache_home):
+    """The MeArm v1 (its elbow servo turns shoulder + elbow) through the real firmware: the
+    joints are solved back from the pins' measured pulses, and the scene is sorted."""
+    env = {**os.environ, "XDG_CACHE_HOME": str(cache_home)}
+    r = subprocess.run(
+        [sys.executable, "-m", "mearm.sort", "--config", "configs/sim_mearm_v1.yaml", "--quiet",
+         "--set", "servo={backend: virtual_uno, ack_timeout_s: 2.0, grip_tolerance_cm: 0.6, "
+         "virtual_uno: {speed: 0, pulse_tolerance_us: 10.0}}"],
+        capture_output=True, text=True, timeout=300, cwd=ROOT, env=env,
+    )  # fmt: skip
+    assert r.returncode == 0, r.stdout + r.stderr
+    assert r.stdout.splitlines()[-1] == "sorted 6 of 6 objects"

@@ -10,23 +10,37 @@ value — or *passive*: an affine function of the actuated joints,
 
 .. math:: q_p = \sum_j c_{pj}\, q_j + c_p
 
-(the paper's parallelogram: θ4 = −θ2 − θ3). The tool sits on the last frame: the tool
-centre point (TCP), the axis it approaches along, the gripper (a named actuator with its
-own calibration, open/closed settings and jaw geometry) and any tool actuators that do not
-move the TCP (the paper's gripper-arm servo).
+(the paper's parallelogram: θ4 = −θ2 − θ3). The actuated joints are the chain's
+independent coordinates. Each one's servo turns, by default, that joint alone; a servo
+may instead turn a linear combination of actuated joints (its ``drives``),
 
-Everything is checked when the config loads: names unique, couplings naming actuated
-joints, every limit and setting inside its servo's pulse range, a chain that can move
-the TCP in three directions.
+.. math:: v_k = \sum_j a_{kj}\, q_j + a_k
+
+(the MeArm's elbow servo sets the forearm's angle to the table: v = θ2 + θ3), and its
+calibration maps v, not the joint's own value, to a pulse. The servos' combinations must
+be independent — the square matrix :math:`A = (a_{kj})` invertible — so that the pulses
+fix every actuated joint (:meth:`ArmDescription.servo_matrix`).
+
+The tool sits on the last frame: the tool centre point (TCP), the axis it approaches
+along, the gripper (a named actuator with its own calibration, open/closed settings and
+jaw geometry) and any tool actuators that do not move the TCP (the paper's gripper-arm
+servo).
+
+Everything is checked when the config loads: names unique, couplings and servo
+combinations naming actuated joints, the combinations independent, every limit and
+setting inside its servo's pulse range (for a servo over several joints: its value at
+home, since its pulse then depends on the pose), a chain that can move the TCP in three
+directions.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from typing import Annotated, Literal
 
 import numpy as np
-from pydantic import Field, model_validator
+from pydantic import Field, field_validator, model_validator
 
 from mearm.config.base import (
     MAX_ANGLE_DEG,
@@ -189,6 +203,65 @@ class ServoCalibration(Strict):
             )
 
 
+class ServoDrives(Strict):
+    r"""What a joint's servo turns when it is not that joint alone: a linear combination.
+
+    .. math:: v = \sum_j a_j\, q_j + a_0
+
+    ``terms`` maps actuated joint names to coefficients a_j [-; the servo's unit per the
+    joint's, for a prismatic joint among revolute ones]; ``offset`` a_0 is in the unit of
+    the joint the servo sits in (deg or cm). The servo's calibration maps v to a pulse. A
+    MeArm's elbow servo sets the forearm's angle to the table, shoulder plus elbow in DH
+    terms: ``terms: {shoulder: 1, elbow: 1}``. Without ``drives`` a servo turns its own
+    joint: ``terms: {<its joint>: 1}``, ``offset: 0``.
+    """
+
+    terms: dict[Name, Coefficient] = Field(min_length=1, max_length=12)
+    offset: Length = 0.0
+
+    def text(self) -> str:
+        """The combination as written: ``shoulder + elbow``, ``2·shoulder - elbow + 10``."""
+        return combination_text(self.terms.items(), self.offset)
+
+
+def combination_text(terms: Iterable[tuple[str, float]], offset: float = 0.0) -> str:
+    """A linear combination in words: ``shoulder + elbow``, ``2·shoulder - elbow + 10``."""
+    out = ""
+    for name, c in terms:
+        mag = "" if abs(c) == 1 else f"{abs(c):g}·"
+        out += (
+            f" {'-' if c < 0 else '+'} {mag}{name}" if out else f"{'-' if c < 0 else ''}{mag}{name}"
+        )
+    if offset:
+        out += f" {'-' if offset < 0 else '+'} {abs(offset):g}"
+    return out
+
+
+class JointServo(ServoCalibration):
+    r"""An actuated joint's servo: its pulse calibration and what it turns.
+
+    .. math:: p = p_0 + s\,k\,v
+
+    with ``zero_us`` = p0 [µs], ``direction`` = s (±1), ``us_per_unit`` = k [µs per deg,
+    or per cm for a prismatic joint] and v the servo's value: the joint's own, unless
+    ``drives`` names a combination of actuated joints (the MeArm's elbow servo turns
+    shoulder + elbow). The joint's limits are checked on the joint, the pulse range on v;
+    a value whose pulse leaves [min_us, max_us] is refused, never clamped.
+    """
+
+    drives: ServoDrives | None = None
+    """The combination of actuated joints this servo turns (:class:`ServoDrives`);
+    ``null``: the joint it sits in, alone."""
+
+    def combination(self, joint: str) -> ServoDrives:
+        """What this servo turns, sitting in joint ``joint``: its ``drives`` or ``joint`` alone."""
+        return self.drives if self.drives is not None else ServoDrives(terms={joint: 1.0})
+
+    def drives_only(self, joint: str) -> bool:
+        """Whether its value depends on ``joint`` alone (so its limits can be checked alone)."""
+        return self.drives is None or set(self.drives.terms) == {joint}
+
+
 class Coupling(Strict):
     """A passive joint's value as an affine function of actuated joints.
 
@@ -212,8 +285,16 @@ class Joint(Strict):
     range its coupling gives over the actuated joints' limits."""
     home: Length | None = None
     """Home value of an actuated joint [deg] or [cm]."""
-    servo: ServoCalibration | None = None
+    servo: JointServo | None = None
     coupling: Coupling | None = None
+
+    @field_validator("servo", mode="before")
+    @classmethod
+    def _joint_servo(cls, value: object) -> object:
+        """A plain :class:`ServoCalibration` given in code is a servo that turns its joint."""
+        if isinstance(value, ServoCalibration) and not isinstance(value, JointServo):
+            return value.model_dump()
+        return value
 
     @model_validator(mode="after")
     def _actuated_or_passive(self) -> Joint:
@@ -239,8 +320,7 @@ class Joint(Strict):
                     f"@home: {self.home:g} is outside the limits "
                     f"[{self.limits.min:g}, {self.limits.max:g}]"
                 )
-            for end in ("min", "max"):
-                self.servo.check_value(getattr(self.limits, end), f"limits.{end}")
+            self._check_servo(self.servo, self.limits)
         elif self.home is not None:
             raise ValueError("@home: a passive joint takes no home: its coupling gives it")
         elif self.type == "revolute" and self.coupling is not None:
@@ -250,6 +330,43 @@ class Joint(Strict):
                     f"revolute joint's offset lies within ±{MAX_ANGLE_DEG:g} deg"
                 )
         return self
+
+    def _check_servo(self, servo: JointServo, limits: Range) -> None:
+        """The servo's own checks: a combination that turns something, limits in range.
+
+        A servo over this joint alone has its pulse range checked at both limits; one over
+        several joints is checked where the arm is (:class:`ArmDescription`).
+        """
+        drives = servo.drives
+        if drives is not None:
+            if all(c == 0 for c in drives.terms.values()):
+                raise ValueError(
+                    "@servo.drives.terms: every coefficient is 0: the servo would turn "
+                    "nothing; give at least one joint a non-zero coefficient"
+                )
+            if self.type == "revolute" and abs(drives.offset) > MAX_ANGLE_DEG:
+                raise ValueError(
+                    f"@servo.drives.offset: {drives.offset:g} deg is more than a turn; a "
+                    f"revolute joint's servo offset lies within ±{MAX_ANGLE_DEG:g} deg"
+                )
+        if not servo.drives_only(self.name):
+            return
+        own = servo.combination(self.name)
+        c = own.terms[self.name]
+        for end in ("min", "max"):
+            value = getattr(limits, end)
+            if drives is None:
+                servo.check_value(value, f"limits.{end}")
+                continue
+            v = c * value + own.offset
+            p = servo.pulse_us(v)
+            if not servo.min_us - 1e-6 <= p <= servo.max_us + 1e-6:
+                lo, hi = servo.value_range()
+                raise ValueError(
+                    f"@limits.{end}: {value:g} puts its servo's value {own.text()} at {v:g}, "
+                    f"which needs a {p:.0f} µs pulse, outside the servo's [{servo.min_us}, "
+                    f"{servo.max_us}] µs, which allows [{lo:.4g}, {hi:.4g}]"
+                )
 
     @property
     def actuated(self) -> bool:
@@ -430,7 +547,9 @@ class ArmDescription(Strict):
                         f"this arm (actuated: {allowed})"
                     )
         channels: dict[int, str] = {}
-        servos = [(j.name, j.servo) for j in self.joints if j.servo is not None]
+        servos: list[tuple[str, ServoCalibration]] = [
+            (j.name, j.servo) for j in self.joints if j.servo is not None
+        ]
         servos += [(a.name, a.servo) for a in self.tool.actuators]
         servos.append((self.tool.gripper.name, self.tool.gripper.servo))
         for name, servo in servos:
@@ -440,8 +559,69 @@ class ArmDescription(Strict):
                     f"{servo.channel}"
                 )
             channels[servo.channel] = name
+        self._check_drives()
         self._check_rank()
         return self
+
+    def _check_drives(self) -> None:
+        """Refuse servo combinations naming a missing or passive joint, or not independent.
+
+        Also a servo over several joints whose value at home needs a pulse outside its
+        range: the arm could not go home.
+        """
+        index = {j.name: i for i, j in enumerate(self.joints)}
+        actuated = [j.name for j in self.joints if j.actuated]
+        for i, j in enumerate(self.joints):
+            if j.servo is None or j.servo.drives is None:
+                continue
+            for term in j.servo.drives.terms:
+                if term not in index:
+                    raise ValueError(
+                        f"@joints.{i}.servo.drives.terms: '{term}' is not a joint of this arm "
+                        f"(its actuated joints: {', '.join(actuated)})"
+                    )
+                if term not in actuated:
+                    raise ValueError(
+                        f"@joints.{i}.servo.drives.terms: '{term}' is a passive joint (its "
+                        "coupling sets it); a servo turns actuated joints: "
+                        f"{', '.join(actuated)}"
+                    )
+        A, _ = self.servo_matrix()
+        act = self.actuated_joints()
+        scale = np.abs(A).max(axis=1, keepdims=True)
+        rows = A / scale  # each row's largest coefficient 1: the rank test sees shapes
+        for k in range(len(act)):
+            if np.linalg.matrix_rank(rows[: k + 1], tol=1e-9) == k + 1:
+                continue
+            # the rows that depend on each other: a left null vector of rows[:k + 1]
+            _, _, vt = np.linalg.svd(rows[: k + 1].T)
+            involved = [r for r in range(k + 1) if abs(vt[-1, r]) > 1e-6]
+            named = [r for r in involved if getattr(act[r].servo, "drives", None) is not None]
+            blame = named[-1] if named else k
+            joint = act[blame]
+            assert joint.servo is not None
+            others = [act[r].name for r in involved if r != blame]
+            raise ValueError(
+                f"@joints.{index[joint.name]}.servo.drives: {joint.name}'s servo turns "
+                f"{joint.servo.combination(joint.name).text()}, which depends on what the "
+                f"servo{'s' if len(others) > 1 else ''} of {', '.join(others)} turn"
+                f"{'' if len(others) > 1 else 's'}: the servos' combinations must be "
+                "independent, or the pulses cannot set every actuated joint"
+            )
+        home = self.home()
+        for i, j in enumerate(self.joints):
+            if j.servo is None or j.servo.drives_only(j.name):
+                continue
+            combo = j.servo.combination(j.name)
+            v = combo.offset + sum(c * home[n] for n, c in combo.terms.items())
+            p = j.servo.pulse_us(v)
+            if not j.servo.min_us - 1e-6 <= p <= j.servo.max_us + 1e-6:
+                lo, hi = j.servo.value_range()
+                raise ValueError(
+                    f"@joints.{i}.servo.drives: at home its servo's value {combo.text()} is "
+                    f"{v:g}, which needs a {p:.0f} µs pulse, outside the servo's "
+                    f"[{j.servo.min_us}, {j.servo.max_us}] µs, which allows [{lo:.4g}, {hi:.4g}]"
+                )
 
     # ----------------------------------------------------------------- derived
 
@@ -472,6 +652,27 @@ class ArmDescription(Strict):
                     c * float(actuated[n]) for n, c in j.coupling.terms.items()
                 )
         return out
+
+    def servo_matrix(self) -> tuple[np.ndarray, np.ndarray]:
+        r"""What the actuated joints' servos turn: :math:`v = A\,q_a + a`, config units.
+
+        Returns:
+            ``A`` (m, m): row k is the combination the servo of the k-th actuated joint
+            turns, columns the actuated joints in chain order (the identity when every
+            servo turns its own joint); ``a`` (m,): the offsets.
+        """
+        act = self.actuated_joints()
+        col = {j.name: k for k, j in enumerate(act)}
+        A = np.zeros((len(act), len(act)))
+        a = np.zeros(len(act))
+        for k, j in enumerate(act):
+            assert j.servo is not None
+            combo = j.servo.combination(j.name)
+            for name, c in combo.terms.items():
+                if name in col:  # a name outside them is refused by the validator
+                    A[k, col[name]] = c
+            a[k] = combo.offset
+        return A, a
 
     def home(self) -> dict[str, float]:
         """Home of the actuated joints [deg or cm]."""

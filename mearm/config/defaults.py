@@ -13,6 +13,7 @@ from mearm.config.arm import (
     DHRow,
     Gripper,
     Joint,
+    JointServo,
     ServoCalibration,
     TargetBox,
     Tool,
@@ -25,9 +26,9 @@ from mearm.config.classes import ColorClass, HueBand
 def paper_arm() -> ArmDescription:
     """The paper's enlarged MeArm: base, shoulder, elbow and the parallelogram wrist."""
 
-    def servo(channel: int, zero_us: float) -> ServoCalibration:
+    def servo(channel: int, zero_us: float) -> JointServo:
         # An RDS3135: 0.15 s/60° at 6.8 V (datasheet no-load speed).
-        return ServoCalibration(
+        return JointServo(
             channel=channel, zero_us=zero_us, us_per_unit=10.0, seconds_per_60deg=0.15
         )
 
@@ -78,7 +79,9 @@ def paper_arm() -> ArmDescription:
             actuators=[
                 ToolActuator(
                     name="gripper_arm",
-                    servo=servo(3, 1500.0),
+                    servo=ServoCalibration(  # the same RDS3135, on the tool
+                        channel=3, zero_us=1500.0, us_per_unit=10.0, seconds_per_60deg=0.15
+                    ),
                     limits=Range(min=-90, max=90),
                     home=60.0,
                     travel=30.0,

@@ -4,8 +4,12 @@ Each actuator's pulse is linear in its value (:class:`~mearm.config.ServoCalibra
 
 .. math:: p = p_0 + s\,k\,v
 
-Two reference values :math:`v_1 \ne v_2` and the pulses :math:`p_1, p_2` that put the
-actuator there give the signed slope :math:`\kappa = (p_2 - p_1)/(v_2 - v_1)`, so
+where v is the servo's value: the actuator's own, or for a joint servo that turns a
+combination of joints (its ``drives``, :class:`~mearm.config.ServoDrives`) that
+combination — the MeArm's elbow servo is calibrated on the forearm's angle to the table,
+shoulder + elbow. Two reference values :math:`v_1 \ne v_2` and the pulses
+:math:`p_1, p_2` that put the servo there give the signed slope
+:math:`\kappa = (p_2 - p_1)/(v_2 - v_1)`, so
 :math:`k = |\kappa|` [µs/unit], :math:`s = \operatorname{sign}\kappa` and
 :math:`p_0 = p_1 - \kappa v_1` [µs]. With more points the line is the least-squares fit
 and ``residual_us`` the largest distance of a point from it.
@@ -26,6 +30,10 @@ and ``residual_us`` the largest distance of a point from it.
          min_us: 600, max_us: 2400, residual_us: 0.0,
          points: [{value: 51.0, pulse_us: 1080}, {value: 114.0, pulse_us: 1710}]}
 
+A servo that turns a combination records it (``drives: {terms: {shoulder: 1.0, elbow:
+1.0}, offset: 0.0}`` in its entry): its points are values of that combination, and a
+config applies the entry only to a servo that turns the same combination.
+
 :func:`save_servo_calibration` replaces a file only with ``force`` (the command asks
 first) and only if it is a servo calibration, and keeps the old one as ``<name>.bak``.
 :func:`apply_servo_calibration` puts a file's calibrations into a config and validates
@@ -45,7 +53,7 @@ import numpy as np
 import yaml
 from pydantic import ValidationError
 
-from mearm.config import ArmDescription, Config, ServoCalibration
+from mearm.config import ArmDescription, Config, JointServo, ServoCalibration, ServoDrives
 from mearm.config.base import short_repr
 from mearm.config.loader import config_from_dict
 from mearm.exceptions import ConfigError, ServoCalibrationError
@@ -88,10 +96,15 @@ class ActuatorFit:
     points: tuple[CalibrationPoint, ...]
     residual_us: float
 
+    @property
+    def drives(self) -> ServoDrives | None:
+        """The combination the servo turns, or ``None``: the actuator's own value."""
+        return self.servo.drives if isinstance(self.servo, JointServo) else None
+
     def to_dict(self) -> dict[str, Any]:
         """The actuator's entry in the file."""
         s = self.servo
-        return {
+        out: dict[str, Any] = {
             "channel": s.channel,
             "unit": self.unit,
             "zero_us": round(s.zero_us, 4),
@@ -99,9 +112,12 @@ class ActuatorFit:
             "us_per_unit": round(s.us_per_unit, 6),
             "min_us": s.min_us,
             "max_us": s.max_us,
-            "residual_us": round(self.residual_us, 4),
-            "points": [{"value": p.value, "pulse_us": p.pulse_us} for p in self.points],
         }
+        if self.drives is not None:
+            out["drives"] = self.drives.model_dump(mode="json")
+        out["residual_us"] = round(self.residual_us, 4)
+        out["points"] = [{"value": p.value, "pulse_us": p.pulse_us} for p in self.points]
+        return out
 
 
 def fit_actuator(
@@ -115,8 +131,10 @@ def fit_actuator(
     Args:
         name: The actuator's name.
         unit: ``deg`` or ``cm``.
-        template: The actuator's present calibration: its channel and pulse range are kept.
-        points: At least two references at different values.
+        template: The actuator's present calibration: its channel, pulse range and (a
+            joint servo's) ``drives`` are kept.
+        points: At least two references at different values (of the servo's value: the
+            combination, for a servo that turns one).
 
     Raises:
         ServoCalibrationError: fewer than two distinct values, equal pulses at different
@@ -138,7 +156,7 @@ def fit_actuator(
     data = template.model_dump()
     data.update(zero_us=float(zero), direction=1 if slope > 0 else -1, us_per_unit=abs(slope))
     try:
-        servo = ServoCalibration.model_validate(data)
+        servo = type(template).model_validate(data)
     except ValidationError as exc:
         err = exc.errors()[0]
         raise ServoCalibrationError(
@@ -218,7 +236,8 @@ def load_servo_calibration(path: str | Path) -> ServoCalibrationFile:
                 CalibrationPoint(float(p["value"]), int(p["pulse_us"]))
                 for p in fields.pop("points", [])
             )
-            servo = ServoCalibration.model_validate(fields)
+            kind = JointServo if "drives" in fields else ServoCalibration
+            servo = kind.model_validate(fields)
             actuators.append(ActuatorFit(str(name), unit, servo, points, residual))
         return ServoCalibrationFile(
             arm=str(data["arm"]),
@@ -307,12 +326,24 @@ def servo_overrides(arm: ArmDescription, fits: Sequence[ActuatorFit]) -> list[st
                 f"have; its actuators: {', '.join(paths)}"
             )
         s = fit.servo
+        drives = ""
+        if fit.drives is not None:
+            terms = ", ".join(f"{n}: {c!r}" for n, c in fit.drives.terms.items())
+            drives = f", drives: {{terms: {{{terms}}}, offset: {fit.drives.offset!r}}}"
         value = (
             f"{{channel: {s.channel}, zero_us: {s.zero_us:.4f}, direction: {s.direction}, "
-            f"us_per_unit: {s.us_per_unit:.6f}, min_us: {s.min_us}, max_us: {s.max_us}}}"
+            f"us_per_unit: {s.us_per_unit:.6f}, min_us: {s.min_us}, max_us: {s.max_us}"
+            f"{drives}}}"
         )
         out.append(f"{paths[fit.name]}={value}")
     return out
+
+
+def _turns(servo: ServoCalibration, name: str) -> ServoDrives:
+    """What a servo turns, as written: its ``drives``, or ``name`` alone."""
+    if isinstance(servo, JointServo):
+        return servo.combination(name)
+    return ServoDrives(terms={name: 1.0})
 
 
 def servo_of(arm: ArmDescription, name: str) -> ServoCalibration:
@@ -332,17 +363,25 @@ def apply_servo_calibration(
     """``config`` with these actuators' calibrations, validated by the config's checks.
 
     Raises:
-        ServoCalibrationError: an actuator the arm does not have, or on another channel.
+        ServoCalibrationError: an actuator the arm does not have, on another channel, or
+            whose servo was calibrated turning another combination of joints.
         ConfigError: the calibrated config is invalid (a limit, home or tool setting whose
             pulse leaves the servo's range); the message names the field.
     """
     overrides = servo_overrides(config.arm, fits)
     for fit in fits:
-        channel = servo_of(config.arm, fit.name).channel
+        present = servo_of(config.arm, fit.name)
+        channel = present.channel
         if fit.servo.channel != channel:
             raise ServoCalibrationError(
                 f"{source}: {fit.name} was calibrated on channel {fit.servo.channel}, the "
                 f"config drives it on channel {channel}: recalibrate, or fix the channel"
+            )
+        was, now = _turns(fit.servo, fit.name), _turns(present, fit.name)
+        if was != now:
+            raise ServoCalibrationError(
+                f"{source}: {fit.name}'s servo was calibrated turning {was.text()}, the "
+                f"config's turns {now.text()}: recalibrate, or fix its drives"
             )
     return config_from_dict(config.model_dump(mode="json"), source=source, overrides=overrides)
 

@@ -1,26 +1,43 @@
 r"""Value ↔ servo pulse for each named actuator, and the checks that refuse a command first.
 
 Every actuator of the arm — each actuated joint, each tool actuator and the gripper — has
-a servo channel that maps its value linearly to a pulse (its ``servo`` calibration in the
-arm description):
+a servo channel that maps its servo's value linearly to a pulse (its ``servo``
+calibration in the arm description):
 
 .. math:: p = p_0 + s\,k\,v \qquad v = (p - p_0) / (s\,k)
 
 with v in degrees (revolute joint, tool actuator) or centimetres (prismatic joint, the
-gripper's opening). A value is refused, never clamped, when it leaves the actuator's
-limits or when its pulse leaves the channel's ``[min_us, max_us]``; a command is refused
-when it misses an actuator or names one the arm does not have. Every check runs before
-anything is sent.
+gripper's opening). A joint's servo turns, by default, that joint alone: v is the joint's
+value. A servo may instead turn a linear combination of the actuated joints (its
+``drives``, :class:`~mearm.config.ServoDrives`), so that over every joint servo
+
+.. math:: v = A\,q_a + a \qquad q_a = A^{-1}(v - a)
+
+with A square and invertible (the config refuses anything else): the MeArm's elbow servo
+turns the forearm's angle to the table, shoulder plus elbow. :class:`ServoMap` goes both
+ways — joints to pulses (:meth:`ServoMap.pulses_us`) and pulses to joints
+(:meth:`ServoMap.joints_from_pulses`).
+
+A command is refused, never clamped, when a joint leaves its limits (checked on the joint,
+as the planner checks it) or when a servo's pulse leaves the channel's
+``[min_us, max_us]`` (checked on the servo's value: for a servo over several joints the
+pulse range depends on the pose, not on one joint's limits); a command is refused when it
+misses an actuator or names one the arm does not have. Every check runs before anything
+is sent.
 """
 
 from __future__ import annotations
 
+import functools
 import math
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Literal
 
-from mearm.config import ArmDescription, Config, Range, ServoCalibration
+import numpy as np
+
+from mearm.config import ArmDescription, Config, JointServo, Range, ServoCalibration
+from mearm.config.arm import combination_text
 from mearm.exceptions import InvalidCommandError, JointLimitError, PulseRangeError
 
 if TYPE_CHECKING:
@@ -38,7 +55,11 @@ _LIMIT_TOL = 1e-9
 
 @dataclass(frozen=True)
 class ActuatorMap:
-    """One actuator's servo channel: pulse mapping, pulse range and limits.
+    r"""One actuator's servo channel: pulse mapping, pulse range and limits.
+
+    The pulse methods (:meth:`pulse_us`, :meth:`value_of`, :meth:`command_us`, …) take
+    and give the servo's value: the actuator's own value, or for a joint servo that
+    turns a combination (``terms``) the combination :meth:`servo_value`.
 
     Attributes:
         name: The actuator's name in the arm description.
@@ -48,9 +69,12 @@ class ActuatorMap:
         us_per_unit: Pulse change per unit of the value [µs/deg or µs/cm].
         min_us: Lowest allowed pulse [µs].
         max_us: Highest allowed pulse [µs].
-        lower: Lower limit [unit].
+        lower: Lower limit of the actuator's own value [unit].
         upper: Upper limit [unit].
         unit: ``deg`` or ``cm``.
+        terms: What a joint's servo turns: (actuated joint, coefficient) pairs of
+            :math:`v = \sum_j a_j q_j + a_0`; empty: the actuator's own value.
+        offset: :math:`a_0` [unit] (with ``terms``).
     """
 
     name: str
@@ -63,12 +87,23 @@ class ActuatorMap:
     lower: float
     upper: float
     unit: str = "deg"
+    terms: tuple[tuple[str, float], ...] = ()
+    offset: float = 0.0
 
     @classmethod
     def from_calibration(
         cls, name: str, servo: ServoCalibration, limits: Range, unit: str = "deg"
     ) -> ActuatorMap:
-        """Build from an actuator's servo calibration and its limits."""
+        """Build from an actuator's servo calibration and its limits.
+
+        A joint servo's ``drives`` (:class:`~mearm.config.JointServo`) become ``terms``
+        and ``offset``; a servo over its joint alone has none.
+        """
+        terms: tuple[tuple[str, float], ...] = ()
+        offset = 0.0
+        if isinstance(servo, JointServo) and servo.drives is not None:
+            terms = tuple((n, float(c)) for n, c in servo.drives.terms.items())
+            offset = float(servo.drives.offset)
         return cls(
             name=name,
             channel=servo.channel,
@@ -80,7 +115,34 @@ class ActuatorMap:
             lower=limits.min,
             upper=limits.max,
             unit=unit,
+            terms=terms,
+            offset=offset,
         )
+
+    @property
+    def combined(self) -> bool:
+        """Whether the servo's value is something other than the actuator's own value."""
+        return bool(self.terms) and (self.terms != ((self.name, 1.0),) or self.offset != 0.0)
+
+    @property
+    def combination_text(self) -> str:
+        """What the servo turns: the actuator's name, or its combination (``shoulder + elbow``)."""
+        if not self.combined:
+            return self.name
+        return combination_text(self.terms, self.offset)
+
+    @property
+    def servo_text(self) -> str:
+        """The servo in words: the name, or ``elbow's servo (shoulder + elbow)``."""
+        if not self.combined:
+            return self.name
+        return f"{self.name}'s servo ({self.combination_text})"
+
+    def servo_value(self, values: Mapping[str, float]) -> float:
+        """The servo's value for the actuated joints' ``values`` [unit]: its combination."""
+        if not self.terms:
+            return float(values[self.name])
+        return self.offset + sum(c * float(values[n]) for n, c in self.terms)
 
     def pulse_us(self, value: float) -> float:
         """Exact pulse for a value [µs]."""
@@ -97,20 +159,37 @@ class ActuatorMap:
         return (min(a, b), max(a, b))
 
     def check(self, value: float) -> None:
-        """Refuse a value outside the limits or the pulse range.
+        """Refuse a value outside the limits or the pulse range (a servo over its own value).
 
         Raises:
             JointLimitError: outside ``[lower, upper]`` (or not finite).
             PulseRangeError: its pulse leaves ``[min_us, max_us]``.
         """
+        self.check_limits(value)
+        self.check_pulse(value)
+
+    def check_limits(self, value: float) -> None:
+        """Refuse an actuator value outside ``[lower, upper]`` (or not finite).
+
+        Raises:
+            JointLimitError: naming the actuator, the value, the limits and the unit.
+        """
         if not (self.lower - _LIMIT_TOL <= value <= self.upper + _LIMIT_TOL):
             raise JointLimitError(self.name, value, self.lower, self.upper, unit=self.unit)
-        pulse = self.pulse_us(value)
+
+    def check_pulse(self, servo_value: float) -> None:
+        """Refuse a servo value whose pulse leaves ``[min_us, max_us]``.
+
+        Raises:
+            PulseRangeError: naming the servo (:attr:`servo_text`), its value, the values
+                the pulse range allows, the channel and the pulse.
+        """
+        pulse = self.pulse_us(servo_value)
         if not (self.min_us - 1e-6 <= pulse <= self.max_us + 1e-6):
             lo, hi = self.pulse_limits
             raise PulseRangeError(
-                self.name,
-                value,
+                self.servo_text,
+                servo_value,
                 lo,
                 hi,
                 channel=self.channel,
@@ -142,6 +221,13 @@ class ActuatorMap:
     def realised(self, value: float, mode: Quantization) -> float:
         """The value a servo realises for a commanded one after command quantisation.
 
+        The pulse's grid (whole µs, or whole servo degrees) is applied without the range's
+        clamp: a value inside the pulse range (the only kind the bus sends) is realised
+        exactly as the backends send it. Given the value of one joint of a servo that
+        turns several, this is that joint on its servo's grid with the other joints'
+        share left out — the same step, not the same phase; :meth:`ServoMap.realised`
+        realises a whole command exactly.
+
         Args:
             value: Commanded value [unit], within the limits.
             mode: ``none``, ``microsecond`` (integer-µs pulse) or ``degree``
@@ -150,9 +236,10 @@ class ActuatorMap:
         if mode == "none":
             return float(value)
         if mode == "microsecond":
-            return self.value_of(self.command_us(value))
+            return self.value_of(math.floor(self.pulse_us(value) + 0.5))
         if mode == "degree":
-            return self.value_of(self.servo_degree_us(self.servo_degree(value)))
+            s = round((self.pulse_us(value) - self.min_us) / self.servo_step_us)
+            return self.value_of(self.servo_degree_us(s))
         raise ValueError(f"quantization must be none, degree or microsecond, got {mode!r}")
 
 
@@ -191,7 +278,7 @@ class ServoMap:
 
     @classmethod
     def from_arm(cls, arm: ArmDescription) -> ServoMap:
-        """Channels, calibrations and limits from an arm description."""
+        """Channels, calibrations, the joint servos' combinations and limits from an arm."""
         joints = tuple(
             ActuatorMap.from_calibration(j.name, j.servo, j.limits, j.unit)
             for j in arm.actuated_joints()
@@ -214,6 +301,86 @@ class ServoMap:
     def joint_names(self) -> tuple[str, ...]:
         """Names of the actuated joints, in chain order."""
         return tuple(j.name for j in self.joints)
+
+    # ----------------------------------------------------------------- joints ↔ servos
+
+    @functools.cached_property
+    def _matrix(self) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+        """(A, a, A⁻¹) of the joint servos, or ``None`` when every one turns its own joint."""
+        if not any(j.combined for j in self.joints):
+            return None
+        col = {n: k for k, n in enumerate(self.joint_names)}
+        A = np.zeros((len(self.joints), len(self.joints)))
+        a = np.zeros(len(self.joints))
+        for k, j in enumerate(self.joints):
+            for n, c in j.terms or ((j.name, 1.0),):
+                A[k, col[n]] = c
+            a[k] = j.offset
+        return A, a, np.linalg.inv(A)
+
+    def servo_values(self, joints: Mapping[str, float]) -> dict[str, float]:
+        r"""Each joint servo's value for the actuated joints, :math:`v = A q_a + a`.
+
+        Args:
+            joints: Every actuated joint, name → deg or cm.
+
+        Returns:
+            Joint servo (named by the joint it sits in) → its value [deg or cm].
+        """
+        return {j.name: j.servo_value(joints) for j in self.joints}
+
+    def joints_of(self, servo_values: Mapping[str, float]) -> dict[str, float]:
+        r"""The actuated joints that give the joint servos these values, :math:`A^{-1}(v - a)`.
+
+        Args:
+            servo_values: Every joint servo (by its joint's name) → its value.
+
+        Returns:
+            Actuated joint name → deg or cm, in chain order.
+        """
+        v = np.array([float(servo_values[n]) for n in self.joint_names])
+        if self._matrix is None:
+            return dict(zip(self.joint_names, v.tolist(), strict=True))
+        _, a, inv = self._matrix
+        return dict(zip(self.joint_names, (inv @ (v - a)).tolist(), strict=True))
+
+    def joints_from_pulses(self, pulses_us: Mapping[int, float]) -> dict[str, float]:
+        """The actuated joints a set of joint-servo pulses puts the arm at.
+
+        Args:
+            pulses_us: Channel → pulse [µs]; every joint servo's channel (others ignored).
+
+        Raises:
+            KeyError: a joint servo's channel is missing.
+        """
+        return self.joints_of({j.name: j.value_of(pulses_us[j.channel]) for j in self.joints})
+
+    def realised(self, joints: Mapping[str, float], mode: Quantization) -> dict[str, float]:
+        """The actuated joints the servos realise for commanded ones, after quantisation.
+
+        Each joint servo's value is quantised on its pulse grid (:meth:`ActuatorMap.realised`)
+        and the joints are solved back from those values: exact for servos that turn a
+        combination (the MeArm's elbow joint carries its own servo's step and the
+        shoulder's), and the same as each joint's own realisation otherwise.
+        """
+        servo = self.servo_values(joints)
+        return self.joints_of({j.name: j.realised(servo[j.name], mode) for j in self.joints})
+
+    def servo_range(self, name: str) -> tuple[float, float]:
+        r"""The values a joint servo takes over the joints' limits, ascending [unit].
+
+        Its own limits for a servo that turns its joint alone; for a combination, the
+        range of :math:`\sum_j a_j q_j + a_0` with each joint anywhere within its limits.
+        """
+        j = self[name]
+        if not j.terms:
+            return (j.lower, j.upper)
+        limits = {a.name: (a.lower, a.upper) for a in self.joints}
+        lo = hi = j.offset
+        for n, c in j.terms:
+            ends = (c * limits[n][0], c * limits[n][1])
+            lo, hi = lo + min(ends), hi + max(ends)
+        return (lo, hi)
 
     @property
     def tool_names(self) -> tuple[str, ...]:
@@ -250,11 +417,14 @@ class ServoMap:
     def check(self, command: ArmCommand) -> None:
         """Refuse a command that misses or misnames an actuator, or has a value out of range.
 
+        Each joint in chain order is checked on its limits, then its servo's value (the
+        joint's, or the combination it turns) on the pulse range; then the tool actuators.
+
         Raises:
             InvalidCommandError: a missing or unknown joint or tool actuator; the message
                 names them and lists the arm's.
             JointLimitError: the first value (joints, then tool) outside its limits.
-            PulseRangeError: the first value whose pulse leaves its channel's range.
+            PulseRangeError: the first servo value whose pulse leaves its channel's range.
         """
         problems = [
             p
@@ -270,14 +440,15 @@ class ServoMap:
                 "actuator, and only those"
             )
         for j in self.joints:
-            j.check(command.joints[j.name])
+            j.check_limits(command.joints[j.name])
+            j.check_pulse(j.servo_value(command.joints))
         for a in self.tool:
             a.check(command.tool[a.name])
 
     def pulses_us(self, command: ArmCommand) -> dict[int, int]:
         """Checked integer pulses of a command, channel → µs, ascending channels."""
         self.check(command)
-        pulses = {j.channel: j.command_us(command.joints[j.name]) for j in self.joints}
+        pulses = {j.channel: j.command_us(j.servo_value(command.joints)) for j in self.joints}
         pulses.update({a.channel: a.command_us(command.tool[a.name]) for a in self.tool})
         g = self.gripper
         pulses[g.channel] = g.command_us(self.gripper_opening_cm(command.gripper_closed))

@@ -11,6 +11,12 @@ value — by eye, a protractor or a ruler — and press Enter; after the second 
 with the config's own checks: the limits, home and tool settings must map into the
 servo's pulse range, else the actuator is done again.
 
+A joint servo that turns a combination of joints (its ``drives``: the MeArm's elbow servo
+turns the forearm's angle to the table, shoulder + elbow) is calibrated on that
+combination: the references are values of it, chosen from the range it takes over the
+joints' limits, within what the present calibration's pulse range reaches, and the
+screen asks for the combination (``shoulder + elbow = 45 deg``), not for the joint.
+
 Keys: ``+``/``-`` or →/← move by the step; ↑/↓ or ``1``/``2``/``3`` set the step (1, 5,
 20 µs); Enter or Space records the reference; Backspace goes back to the previous one;
 ``s`` skips the actuator (its calibration stays as configured); ``q`` stops without
@@ -34,6 +40,7 @@ folder); the command prints that line, and the equivalent ``--set`` overrides.
 from __future__ import annotations
 
 import dataclasses
+import math
 import sys
 from collections.abc import Sequence
 from pathlib import Path
@@ -94,12 +101,44 @@ def reference_values(lower: float, upper: float, unit: str) -> tuple[float, floa
 
 @dataclasses.dataclass(frozen=True)
 class Actuator:
-    """One actuator to calibrate: its map (with the present calibration) and references."""
+    """One actuator to calibrate: its map (with the present calibration) and references.
+
+    Attributes:
+        name: The actuator's name.
+        kind: ``joint``, ``tool`` or ``gripper``.
+        amap: Its map under the present calibration.
+        references: The two servo values to jog it to.
+        lower: The lowest value its servo takes (its limits, or its combination's range).
+        upper: The highest.
+    """
 
     name: str
     kind: str  # joint, tool or gripper
     amap: ActuatorMap
     references: tuple[float, float]
+    lower: float = -math.inf
+    upper: float = math.inf
+
+    @property
+    def what(self) -> str:
+        """What the references are values of: the name, or the combination its servo turns."""
+        return self.amap.combination_text
+
+
+def servo_span(smap: ServoMap, amap: ActuatorMap) -> tuple[float, float]:
+    """The values an actuator's servo is calibrated over [unit].
+
+    Its limits; for a servo that turns a combination, the range the combination takes over
+    the joints' limits, cut to what the present calibration's pulse range reaches (where
+    the two overlap).
+    """
+    if not amap.combined:
+        return (amap.lower, amap.upper)
+    lo, hi = smap.servo_range(amap.name)
+    plo, phi = amap.pulse_limits
+    if max(lo, plo) < min(hi, phi):
+        lo, hi = max(lo, plo), min(hi, phi)
+    return (lo, hi)
 
 
 def actuators_of(config: Config) -> list[Actuator]:
@@ -108,7 +147,8 @@ def actuators_of(config: Config) -> list[Actuator]:
     out = []
     for kind, maps in (("joint", smap.joints), ("tool", smap.tool), ("gripper", (smap.gripper,))):
         for a in maps:
-            out.append(Actuator(a.name, kind, a, reference_values(a.lower, a.upper, a.unit)))
+            lo, hi = servo_span(smap, a)
+            out.append(Actuator(a.name, kind, a, reference_values(lo, hi, a.unit), lo, hi))
     return out
 
 
@@ -132,7 +172,10 @@ class PulseSession:
     (its calibration is what is being measured), so any pulse in ``[min_us, max_us]`` can
     be commanded and nothing outside can. A pulse is sent as the value the present
     calibration gives it, which the bus turns back into the same integer pulse; the
-    gripper, commanded open or closed, gets a map whose "open" is the pulse.
+    joints are solved from the joint servos' values (:meth:`ServoMap.joints_of`: a servo
+    that turns a combination of joints is set by that combination, the joint it sits in
+    left free of its limits); the gripper, commanded open or closed, gets a map whose
+    "open" is the pulse.
 
     Args:
         config: The whole configuration (the present calibration).
@@ -146,12 +189,14 @@ class PulseSession:
         self._original = original
 
         def widened(a: ActuatorMap) -> ActuatorMap:
+            if a.combined:  # its pulse range bounds the combination, not this joint
+                return dataclasses.replace(a, lower=-math.inf, upper=math.inf)
             lo, hi = a.pulse_limits
             return dataclasses.replace(a, lower=lo, upper=hi)
 
         self._joints = tuple(widened(a) for a in original.joints)
         self._tool = tuple(widened(a) for a in original.tool)
-        home = config.arm.home()
+        home = original.servo_values(config.arm.home())
         tool_home = {t.name: t.home for t in config.arm.tool.actuators}
         self.pulses_us: dict[str, int] = {
             j.name: j.command_us(home[j.name]) for j in original.joints
@@ -184,19 +229,28 @@ class PulseSession:
         p = self.pulses_us[g0.name]
         open_cm = self._original.gripper_open_cm
         gripper = dataclasses.replace(g0, zero_us=p - g0.direction * g0.us_per_unit * open_cm)
-        self.bus.servo_map = ServoMap(
+        smap = ServoMap(
             self._joints, self._tool, gripper, open_cm, self._original.gripper_closed_cm
         )
-        joints = {a.name: a.value_of(self.pulses_us[a.name]) for a in self._joints}
+        self.bus.servo_map = smap
+        joints = smap.joints_of({a.name: a.value_of(self.pulses_us[a.name]) for a in self._joints})
         tool = {a.name: a.value_of(self.pulses_us[a.name]) for a in self._tool}
         self.bus.move(ArmCommand(joints, tool, False))
 
     def simulated_value(self, name: str) -> float | None:
-        """What a simulated arm realised for a joint or tool actuator, else ``None``."""
-        for attr in ("actual_joints", "actual_tool"):
-            values = getattr(self.bus, attr, None)
-            if isinstance(values, dict) and name in values:
-                return float(values[name])
+        """What a simulated arm realised for an actuator's servo, else ``None``.
+
+        A joint servo's value: the joint's, or the combination it turns.
+        """
+        joints = getattr(self.bus, "actual_joints", None)
+        if isinstance(joints, dict) and name in self._original.joint_names:
+            try:
+                return self._original[name].servo_value(joints)
+            except KeyError:  # a joint the simulator does not report
+                return None
+        values = getattr(self.bus, "actual_tool", None)
+        if isinstance(values, dict) and name in values:
+            return float(values[name])
         return None
 
 
@@ -226,9 +280,10 @@ class Calibrator:
         """Rewrite the live status line."""
         p = self.session.pulses_us[act.name]
         lo, hi = self.session.limits_us(act.name)
+        target = f"{act.what} = {ref:g}" if act.amap.combined else f"{ref:g}"
         text = (
             f"{act.name}: pulse {p} µs  step {STEPS_US[self.step_index]} µs  "
-            f"[{lo}, {hi}] µs  target {ref:g} {act.amap.unit}"
+            f"[{lo}, {hi}] µs  target {target} {act.amap.unit}"
         )
         sim = self.session.simulated_value(act.name)
         if sim is not None:
@@ -245,16 +300,28 @@ class Calibrator:
             Abandoned: ``q`` was pressed.
         """
         unit = act.amap.unit
+        if act.amap.combined:
+            span = (
+                f"its servo turns {act.what}: [{act.lower:.4g}, {act.upper:.4g}] {unit} "
+                "over the joints' limits and its pulse range"
+            )
+        else:
+            span = f"limits [{act.amap.lower:g}, {act.amap.upper:g}] {unit}"
         self.say(
             f"[{number}/{total}] {act.name} ({act.kind}, channel {act.amap.channel}): "
-            f"limits [{act.amap.lower:g}, {act.amap.upper:g}] {unit}; references "
-            f"{act.references[0]:g} and {act.references[1]:g} {unit}"
+            f"{span}; references {act.references[0]:g} and {act.references[1]:g} {unit}"
         )
         while True:
             points: list[CalibrationPoint] = []
             while len(points) < len(act.references):
                 ref = act.references[len(points)]
-                self.say(f"move {act.name} to {ref:g} {unit}, then press Enter")
+                if act.amap.combined:
+                    self.say(
+                        f"move {act.name}'s servo until {act.what} = {ref:g} {unit}, then "
+                        "press Enter"
+                    )
+                else:
+                    self.say(f"move {act.name} to {ref:g} {unit}, then press Enter")
                 outcome = self._jog_until_recorded(act, ref)
                 if outcome == "skip":
                     self.say(f"{act.name}: skipped; its calibration stays as configured")
@@ -274,11 +341,12 @@ class Calibrator:
                 self.say(f"do {act.name} again (or press s at a reference to skip it)")
                 continue
             s = fit.servo
+            span = "limits" if not act.amap.combined else act.what
             self.say(
                 f"{act.name}: zero {s.zero_us:.1f} µs, {s.us_per_unit:.3f} µs/{unit}, "
-                f"direction {s.direction:+d}; limits [{act.amap.lower:g}, "
-                f"{act.amap.upper:g}] {unit} → [{s.pulse_us(act.amap.lower):.0f}, "
-                f"{s.pulse_us(act.amap.upper):.0f}] µs"
+                f"direction {s.direction:+d}; {span} [{act.lower:g}, "
+                f"{act.upper:g}] {unit} → [{s.pulse_us(act.lower):.0f}, "
+                f"{s.pulse_us(act.upper):.0f}] µs"
             )
             return fit
 

@@ -15,7 +15,12 @@ The arm first goes home (as the sort's first move does). Then:
   stops at once and leaves the arm where it is (exit 130).
 
 After every key the screen shows every joint's value and its distance to each limit
-(passive joints too), the TCP's position by forward kinematics and the step.
+(passive joints too), the TCP's position by forward kinematics and the step. A servo that
+turns a combination of joints (its ``drives``: the MeArm's elbow servo turns the
+forearm's angle to the table, shoulder + elbow) gets a line of its own: the
+combination's value and its distance to each end of the servo's pulse range, which
+bounds the combination, not a joint — moving the shoulder moves the forearm's angle too,
+and a move that takes it past either end is refused.
 
 Every move goes through the sort's checks before anything is sent: a joint move is a
 straight line in joint space planned in full and checked against every limit
@@ -117,6 +122,16 @@ class Jogger:
             )
         x, y, z = (float(v) for v in self.model.fk_cm(q))
         lines.append(f"  TCP x {x:.3f}  y {y:.3f}  z {z:.3f} cm")
+        named = c.named_actuated(q)
+        for j in self.bus.servo_map.joints:
+            if not j.combined:
+                continue
+            v = j.servo_value(named)
+            lo, hi = j.pulse_limits
+            lines.append(
+                f"  {j.servo_text}: {v:.3f} {j.unit}   to its pulse range "
+                f"-{v - lo:.3f} / +{hi - v:.3f} {j.unit}"
+            )
         js = JOINT_STEPS[self.step_index]
         cs = CARTESIAN_STEPS_CM[self.step_index]
         lines.append(

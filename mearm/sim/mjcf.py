@@ -75,6 +75,29 @@ The speed limit, deadband, backlash and the bus's command quantisation are *not*
 twin's servo bus (next step) shapes ``ctrl`` with the :class:`ServoSpec` figures
 (``speed_rad_s``, ``deadband_us``) and the joints' pulse calibrations.
 
+**A servo that turns a combination of joints** (its ``drives``,
+:class:`~mearm.config.ServoDrives`: the MeArm's elbow servo sets the forearm's angle to
+the table, shoulder + elbow) is a ``position`` actuator on a fixed tendon ``<joint>_servo``
+with the combination's coefficients (in model units): the tendon's length is the servo's
+value less its offset, and so is its ``ctrl``. The motor's reflected inertia and back-EMF
+are the tendon's ``armature`` and ``damping``, not the joint's. A fixed tendon *is* a
+linear transmission: the actuator's force f acts on each joint by its coefficient
+(:math:`\tau_j = a_j f`, virtual work), its length and speed are the combination's, so
+the servo's gain, damping and stall torque act on exactly what the servo turns, and the
+load it holds is the load along that combination. Chosen over
+
+- a position actuator on the DH joint whose target is recomputed from the other joints'
+  measured angles: a controller the kit does not have. The real servo holds the
+  combination, so a shoulder that sags under load turns the DH elbow the other way;
+  only an actuator on the combination does that;
+- the kit's linkage bars as ``<connect>`` loops: the description has no bar geometry
+  (as for the passive coupling above).
+
+Its ``ctrlrange`` is what its pulse range allows within what the joints' limits allow;
+its ``kv`` damps the inertia along its own coordinate (:func:`_servo_kv`), and the servo
+choice weighs the load along it (:func:`_max_load`). What it leaves out, as for the
+coupling: the linkage's own mass, compliance and play.
+
 **The scene**: a table whose top is z = 0 in the base frame; per class a bin (floor and
 four walls, inner width the class's ``bin_inner_width_cm``) under its
 ``bin_cm``; one free body ``obj_<id>`` per scene object (ids as :class:`~mearm.sim.World`
@@ -91,6 +114,7 @@ from __future__ import annotations
 import math
 import xml.etree.ElementTree as ET
 from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
 
 import mujoco
@@ -113,6 +137,22 @@ from mearm.config.servo_models import (  # noqa: F401  (the twin's servos, re-ex
 )
 from mearm.exceptions import ModelError
 from mearm.fileio import write_atomic
+from mearm.kinematics.bodies import (
+    BIN_MIN_WALL_HEIGHT_M,  # noqa: F401  (re-exported)
+    BIN_WALL_HEIGHT_PER_HEIGHT,  # noqa: F401
+    ArmBodies,
+    Shape,
+    arm_bodies,
+    base_radius_m,
+    bin_half_outer_m,
+    bin_origin_m,
+    bin_shapes,
+    fixed_part,
+    link_width_m,
+    object_centre_m,
+    object_shape,
+    wall_height_m,
+)
 from mearm.kinematics.chain import Chain
 from mearm.kinematics.urdf import TCP_FRAME, jaw_frame, jaw_joint_names, jaw_pad_length_m
 
@@ -122,8 +162,6 @@ G = 9.81  # m/s²
 # --------------------------------------------------------------------------- materials
 #: Cast/extruded PMMA (acrylic) sheet: 1.19 g/cm³ (typical sheet datasheets) [kg/m³].
 ACRYLIC_DENSITY = 1190.0
-#: Laser-cut link plates: 3 mm acrylic, as the MeArm kits are cut from [m].
-LINK_THICKNESS_M = 0.003
 #: PLA filament: 1.24 g/cm³ (typical filament datasheets); objects printed solid [kg/m³].
 PLA_DENSITY = 1240.0
 #: Coulomb friction [-] (estimates: PLA on wood or acrylic 0.3–0.5; rubber jaw pads ~1).
@@ -146,10 +184,6 @@ SERVO_DAMPING_RATIO = 1.0
 LOAD_POSES = 16
 
 # --------------------------------------------------------------------------- scene
-#: Bin inner width in object diameters, wall thickness, wall height in object heights.
-BIN_WALL_M = 0.003
-BIN_WALL_HEIGHT_PER_HEIGHT = 2.0
-BIN_MIN_WALL_HEIGHT_M = 0.02
 #: The table plane's drawn grid spacing, and the margin it is drawn beyond everything on
 #: it [m].
 TABLE_GRID_M = 0.05
@@ -253,8 +287,7 @@ def object_ids(config: Config) -> list[str]:
 
 
 def _bin_half_outer_m(config: Config, color: str) -> float:
-    c = config.task.class_named(color)
-    return c.bin_inner_width_cm * M_PER_CM / 2 + BIN_WALL_M
+    return bin_half_outer_m(config, color)
 
 
 def _check_scene(config: Config) -> None:
@@ -301,11 +334,7 @@ def _check_scene(config: Config) -> None:
 
 
 def _wall_height_m(config: Config, color: str) -> float:
-    """Walls that hold every object of the class in the scene, stacked, and one more."""
-    c = config.task.class_named(color)
-    n = max(1, sum(1 for o in config.task.scene if o.color == color))
-    per = max(BIN_WALL_HEIGHT_PER_HEIGHT, n + 1.0)
-    return max(BIN_MIN_WALL_HEIGHT_M, per * c.height_cm * M_PER_CM)
+    return wall_height_m(config, color)
 
 
 def _capacity(joint: Joint, spec: ServoSpec) -> float:
@@ -334,21 +363,81 @@ def _home_data(m: mujoco.MjModel) -> mujoco.MjData:
 
 
 def _max_load(m: mujoco.MjModel, config: Config) -> np.ndarray:
-    """Worst gravity load on each actuated joint at home and seeded poses, (m,)."""
+    r"""Worst gravity load on each joint servo at home and seeded poses, (m,).
+
+    A servo that turns a combination of joints holds the load along its combination:
+    :math:`J^\top g` with :math:`J = C\,A^{-1}` (:func:`_servo_jacobian`).
+    """
     chain = Chain.from_description(config.arm)
     dofs = _arm_dofs(m, config)
     qadr = np.array([m.joint(j.name).qposadr[0] for j in config.arm.joints])
     d = _home_data(m)
     rng = np.random.default_rng(0)
     lo, hi = chain.actuated_lower, chain.actuated_upper
+    J = _servo_jacobian(config, chain)
     worst = np.zeros(chain.m)
     for k in range(LOAD_POSES + 1):
         qa = chain.home[chain.actuated_index] if k == 0 else rng.uniform(lo, hi)
         d.qpos[qadr] = chain.C @ qa + chain.c
         d.qvel[:] = 0.0
         mujoco.mj_forward(m, d)
-        worst = np.maximum(worst, np.abs(chain.C.T @ d.qfrc_bias[dofs]))
+        worst = np.maximum(worst, np.abs(J.T @ d.qfrc_bias[dofs]))
     return worst
+
+
+@dataclass(frozen=True)
+class _ServoRow:
+    """What one joint servo turns, in model units (rad or m).
+
+    Attributes:
+        joint: The joint it sits in (the actuator's name).
+        coef: Actuated joint → coefficient of its tendon (model units).
+        offset: The combination's offset [rad or m]: servo value = tendon length + offset.
+        combined: Whether it turns something other than its joint alone (then a tendon).
+    """
+
+    joint: Joint
+    coef: dict[str, float]
+    offset: float
+    combined: bool
+
+    @property
+    def tendon(self) -> str:
+        """The name of its fixed tendon (a combined servo only)."""
+        return servo_tendon(self.joint.name)
+
+
+def servo_tendon(joint: str) -> str:
+    """The fixed tendon a servo sitting in ``joint`` turns when it turns a combination."""
+    return f"{joint}_servo"
+
+
+def _servo_rows(config: Config, chain: Chain) -> list[_ServoRow]:
+    """Each actuated joint's servo, in chain order (:meth:`ArmDescription.servo_matrix`)."""
+    A, a = config.arm.servo_matrix()
+    col_scale = chain.scale[chain.actuated_index]
+    rows = []
+    for k, name in enumerate(chain.actuated):
+        joint = config.arm.joints[int(chain.actuated_index[k])]
+        assert joint.servo is not None
+        s = float(col_scale[k])
+        coef = {n: float(A[k, j] * s / col_scale[j]) for j, n in enumerate(chain.actuated)}
+        coef = {n: c for n, c in coef.items() if c != 0.0}
+        combined = not (joint.servo.drives is None or (coef == {name: 1.0} and a[k] == 0.0))
+        rows.append(_ServoRow(joint, coef, float(a[k] * s), combined))
+    return rows
+
+
+def _servo_jacobian(config: Config, chain: Chain) -> np.ndarray:
+    r"""How every joint moves per unit of each joint servo's value: :math:`C A^{-1}`, (n, m).
+
+    Model units; ``C`` itself when every servo turns its own joint.
+    """
+    rows = _servo_rows(config, chain)
+    if not any(r.combined for r in rows):
+        return chain.C
+    A = np.array([[r.coef.get(n, 0.0) for n in chain.actuated] for r in rows])
+    return chain.C @ np.linalg.inv(A)
 
 
 def _servo_kv(
@@ -356,17 +445,20 @@ def _servo_kv(
 ) -> dict[str, float]:
     r"""Each servo's derivative gain for critical damping at home [N·m·s/rad or N·s/m].
 
-    .. math:: k_{v,k} = 2\zeta\sqrt{k_p\,(C^\top M C)_{kk}} - b_k
+    .. math:: k_{v,k} = 2\zeta\sqrt{k_p\,(J^\top M J)_{kk}} - b_k
 
-    with M the mass matrix at home (armature included), C the coupling and b_k the
-    joint's own (motor) damping. Keyed by actuator name.
+    with M the mass matrix at home (armature included), :math:`J = C A^{-1}` the joints'
+    motion per unit of each servo's value (C the coupling, A the servos' combinations;
+    J = C when every servo turns its own joint) and b_k the servo's own (motor) damping.
+    Keyed by actuator name.
     """
     chain = Chain.from_description(config.arm)
     d = _home_data(m)
     M = np.zeros((m.nv, m.nv))
     mujoco.mj_fullM(m, d, M)
     dofs = _arm_dofs(m, config)
-    Meff = chain.C.T @ M[np.ix_(dofs, dofs)] @ chain.C
+    J = _servo_jacobian(config, chain)  # C, or C A⁻¹ with servos over combinations
+    Meff = J.T @ M[np.ix_(dofs, dofs)] @ J  # M holds the tendons' armature too
     out = {}
     for k, name in enumerate(chain.actuated):
         lever2 = _lever2(config.arm.joints[chain.actuated_index[k]])
@@ -409,19 +501,15 @@ def _quat(R: np.ndarray) -> np.ndarray:
 
 
 def _link_width_m(config: Config) -> float:
-    reach = sum(abs(j.dh.a_cm) + abs(j.dh.d_cm) for j in config.arm.joints) * M_PER_CM
-    return max(0.006, min(0.02, reach / 60))  # as the URDF draws it
+    return link_width_m(config)
 
 
 def _base_radius_m(config: Config) -> float:
-    return _link_width_m(config) * 3.3
+    return base_radius_m(config)
 
 
 def _fixed(joint: Joint) -> np.ndarray:
-    """The fixed part of a DH row, (4, 4), translation in metres."""
-    T = joint.dh.transform(0.0, joint.type)
-    T[:3, 3] *= M_PER_CM
-    return T
+    return fixed_part(joint)
 
 
 def _rgba(rgb: Sequence[int] | tuple[float, float, float], alpha: float = 1.0) -> str:
@@ -437,53 +525,18 @@ def _arm_geom(parent: ET.Element, name: str, size: Sequence[float], mass: float,
     _geom(parent, name, "box", size, mass=_f(mass), **attrs)
 
 
-def _plate_mass(length_m: float, width_m: float) -> float:
-    return ACRYLIC_DENSITY * length_m * width_m * LINK_THICKNESS_M
-
-
-def _segments(
-    body: ET.Element, joint: Joint, width: float, material: str, collide: bool = True
-) -> None:
-    """Row i's plates, in joint i's moving frame: Tz(d) then Rz(θ0)·Tx(a)."""
-    a, dd = joint.dh.a_cm * M_PER_CM, joint.dh.d_cm * M_PER_CM
-    t0 = math.radians(joint.dh.theta_deg)
-    off = {} if collide else {"contype": "0", "conaffinity": "0"}
-    if abs(dd) > 1e-9:
-        _arm_geom(
-            body,
-            f"{joint.name}_d",
-            (width / 2, LINK_THICKNESS_M / 2, abs(dd) / 2),
-            _plate_mass(abs(dd), width),
-            pos=_v((0, 0, dd / 2)),
-            material=material,
-            **off,
-        )
-    if abs(a) > 1e-9:
-        _arm_geom(
-            body,
-            f"{joint.name}_a",
-            (abs(a) / 2, width / 2, LINK_THICKNESS_M / 2),
-            _plate_mass(abs(a), width),
-            pos=_v((a / 2 * math.cos(t0), a / 2 * math.sin(t0), dd)),
-            quat=_v((math.cos(t0 / 2), 0, 0, math.sin(t0 / 2))),
-            material=material,
-            **off,
-        )
-
-
-def _servo_box(
-    parent: ET.Element, name: str, spec: ServoSpec, pos: np.ndarray, R: np.ndarray
-) -> None:
-    length, wide, high = spec.size_m
-    _arm_geom(
-        parent,
-        name,
-        (length / 2, wide / 2, high / 2),
-        spec.mass_kg,
-        pos=_v(pos),
-        quat=_v(_quat(R)),
-        material="servo",
-    )
+def _shape_geom(parent: ET.Element, shape: Shape, material: str, **attrs: str) -> None:
+    """A geom of :mod:`mearm.kinematics.bodies`' ``shape`` in ``parent`` (its body)."""
+    place = {"pos": _v(shape.pos)}
+    if shape.R is not None:
+        place["quat"] = _v(_quat(shape.R))
+    if shape.mass_kg is not None:
+        place["mass"] = _f(shape.mass_kg)
+    collide = {"contype": str(_ARM_CONTYPE), "conaffinity": str(_ARM_CONAFFINITY)}
+    if not shape.collides:
+        collide = {"contype": "0", "conaffinity": "0"}
+    attrs = {**place, "material": material, **collide, **attrs}
+    _geom(parent, shape.name, shape.kind, shape.size, **attrs)
 
 
 def _jaw_frame(config: Config) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -501,7 +554,6 @@ def _build(
 ) -> str:
     arm, task = config.arm, config.task
     chain = Chain.from_description(arm)
-    width = _link_width_m(config)
     root = ET.Element("mujoco", model=f"{arm.name}_twin")
     ET.SubElement(root, "compiler", angle="radian", autolimits="true")
     ET.SubElement(
@@ -538,20 +590,15 @@ def _build(
     _table(world, config)
     _camera(world, config)
 
-    # ---- the arm
+    # ---- the arm (its shapes: mearm.kinematics.bodies, which the planner checks too)
+    shapes = arm_bodies(config, spec, gripper_spec, acrylic_kg_m3=ACRYLIC_DENSITY)
     base = ET.SubElement(world, "body", name="base_link")
-    _geom(
-        base,
-        "base_plate",
-        "cylinder",
-        (_base_radius_m(config), width / 2),
-        pos=_v((0, 0, width / 2)),
-        material="base",
-        contype="0",
-        conaffinity="0",
-    )
+    bodies, material = {"base_link": base}, {"base_link": "base"}
     parent, T_prev = base, np.eye(4)
-    actuated = {j.name for j in arm.actuated_joints()}
+    servo_rows = _servo_rows(config, chain)
+    # the servo's motor (reflected inertia, back-EMF) sits on what it turns: its own
+    # joint, or the tendon of its combination (below)
+    own_servo = {r.joint.name for r in servo_rows if not r.combined}
     limits = arm.joint_limits()
     last = len(arm.joints) - 1
     for i, joint in enumerate(arm.joints):
@@ -569,24 +616,35 @@ def _build(
             "axis": "0 0 1",
             "range": _v((limits[joint.name].min * scale, limits[joint.name].max * scale)),
         }
-        if joint.name in actuated:
+        if joint.name in own_servo:
             attrs["armature"] = _f(spec.armature / _lever2(joint))
             attrs["damping"] = _f(spec.motor_damping / _lever2(joint))
-            if i > 0:
-                _servo_box(parent, f"{joint.name}_servo", spec, T_prev[:3, 3], T_prev[:3, :3])
         ET.SubElement(body, "joint", attrs)
         # the last row's plates run to the DH end, between the jaws: drawn, but the
         # gripper's servo and jaws are what collides there
-        _segments(body, joint, width, "gripper" if i == last else "link", collide=i != last)
+        material[body.get("name", "")] = "gripper" if i == last else "link"
+        bodies[body.get("name", "")] = body
         parent, T_prev = body, _fixed(joint)
 
     # ---- the tool
-    tcp_pos = T_prev[:3, 3] + T_prev[:3, :3] @ (np.asarray(arm.tool.tcp_cm) * M_PER_CM)
     tcp = ET.SubElement(
-        parent, "body", name=TCP_FRAME, pos=_v(tcp_pos), quat=_v(_quat(T_prev[:3, :3]))
+        parent,
+        "body",
+        name=TCP_FRAME,
+        pos=_v(shapes.tcp_in_last[:3, 3]),
+        quat=_v(_quat(shapes.tcp_in_last[:3, :3])),
     )
     ET.SubElement(tcp, "site", name=TCP_FRAME, size="0.004", rgba="1 0 1 1", group="4")
-    _tool(tcp, config, width, gripper_spec)
+    bodies[TCP_FRAME] = tcp
+    _tool(tcp, config, shapes, gripper_spec, bodies)
+    for shape in shapes.shapes:
+        if shape.jaw:
+            continue  # the jaws' geoms: _tool, with their contact properties
+        if shape.part == "link":
+            kind = material[shape.body]
+        else:
+            kind = shape.part if shape.part in ("base", "servo") else "gripper"
+        _shape_geom(bodies[shape.body], shape, kind)
 
     # ---- bins and objects
     for c in task.classes:
@@ -594,15 +652,15 @@ def _build(
     for oid, obj in zip(object_ids(config), task.scene, strict=True):
         c = task.class_named(obj.color)
         r, h = c.diameter_cm * M_PER_CM / 2, c.height_cm * M_PER_CM
-        body = ET.SubElement(
-            world, "body", name=f"obj_{oid}", pos=_v((obj.x * M_PER_CM, obj.y * M_PER_CM, h / 2))
-        )
+        centre = object_centre_m(config, obj.color, obj.x, obj.y)
+        body = ET.SubElement(world, "body", name=f"obj_{oid}", pos=_v(centre))
         ET.SubElement(body, "freejoint", name=f"obj_{oid}")
+        shape = object_shape(config, oid, obj.color)
         _geom(
             body,
-            f"obj_{oid}",
+            shape.name,
             "cylinder",
-            (r, h / 2),
+            shape.size,
             mass=_f(PLA_DENSITY * math.pi * r * r * h),
             friction=_v((OBJECT_FRICTION, OBJECT_SPIN_FRICTION, OBJECT_ROLL_FRICTION)),
             # sliding friction only against the table and bins (torsional friction there
@@ -646,20 +704,36 @@ def _build(
         polycoef="0 1 0 0 0",
         solref=_v(COUPLING_SOLREF),
     )
+    for row in servo_rows:
+        if not row.combined:
+            continue
+        fixed = ET.SubElement(
+            tendon,
+            "fixed",
+            name=row.tendon,
+            armature=_f(spec.armature / _lever2(row.joint)),
+            damping=_f(spec.motor_damping / _lever2(row.joint)),
+        )
+        for name, coef in row.coef.items():
+            ET.SubElement(fixed, "joint", joint=name, coef=_f(coef))
     actuator = ET.SubElement(root, "actuator")
     for k, a in enumerate(chain.actuated):
         i = int(chain.actuated_index[k])
         joint = arm.joints[i]
+        row = servo_rows[k]
         cap = _capacity(joint, spec)
+        target = ("tendon", row.tendon) if row.combined else ("joint", a)
         ET.SubElement(
             actuator,
             "position",
-            name=a,
-            joint=a,
-            kp=_f(spec.kp / _lever2(joint)),
-            kv=_f(kv[a] if kv else 0.0),
-            forcerange=_v((-cap, cap)),
-            ctrlrange=_v((chain.lower[i], chain.upper[i])),
+            {
+                "name": a,
+                target[0]: target[1],
+                "kp": _f(spec.kp / _lever2(joint)),
+                "kv": _f(kv[a] if kv else 0.0),
+                "forcerange": _v((-cap, cap)),
+                "ctrlrange": _v(_ctrl_range(row, chain, i)),
+            },
         )
     g = arm.tool.gripper
     lo, hi = g.servo.value_range()
@@ -685,7 +759,13 @@ def _build(
         h = task.class_named(obj.color).height_cm * M_PER_CM
         qpos += [obj.x * M_PER_CM, obj.y * M_PER_CM, h / 2, 1, 0, 0, 0]
     keyframe.set("qpos", _v(qpos))
-    keyframe.set("ctrl", _v([*chain.home[chain.actuated_index], g.open_cm * M_PER_CM]))
+    home_ctrl = [
+        sum(c * chain.home[chain.names.index(n)] for n, c in row.coef.items())
+        if row.combined
+        else chain.home[chain.actuated_index[k]]
+        for k, row in enumerate(servo_rows)
+    ]
+    keyframe.set("ctrl", _v([*home_ctrl, g.open_cm * M_PER_CM]))
     ET.indent(root)
     header = (
         "<!-- Generated by mearm.sim.mjcf from the config; do not edit: change the config "
@@ -695,54 +775,59 @@ def _build(
     return header + ET.tostring(root, encoding="unicode") + "\n"
 
 
+def _ctrl_range(row: _ServoRow, chain: Chain, i: int) -> tuple[float, float]:
+    """A joint servo's ``ctrlrange`` [rad or m].
+
+    Its joint's limits; for a servo over a combination (a tendon), the lengths its pulse
+    range allows, within what the joints' limits allow.
+    """
+    if not row.combined:
+        return (float(chain.lower[i]), float(chain.upper[i]))
+    servo = row.joint.servo
+    assert servo is not None
+    s = float(chain.scale[i])
+    lo, hi = (v * s - row.offset for v in servo.value_range())
+    box_lo = box_hi = 0.0
+    for name, c in row.coef.items():
+        j = chain.names.index(name)
+        ends = (c * chain.lower[j], c * chain.upper[j])
+        box_lo, box_hi = box_lo + min(ends), box_hi + max(ends)
+    if max(lo, box_lo) < min(hi, box_hi):
+        lo, hi = max(lo, box_lo), min(hi, box_hi)
+    return (float(lo), float(hi))
+
+
 def _tool(
     tcp: ET.Element,
     config: Config,
-    width: float,
+    shapes: ArmBodies,
     gripper_spec: ServoSpec,
+    bodies: dict[str, ET.Element],
 ) -> None:
-    """The gripper's servo(s) behind the TCP and its two jaws on slide joints.
+    """The grip site and the two jaws on slide joints, with their pads' contact.
 
-    Along the approach axis (distances from the TCP): the pad spans
-    ``grip ± pad/2``, the finger ``[tip − jaw_length, grip − pad/2]``, the mount
-    ``[0, tip − jaw_length]`` when the jaws start beyond the TCP.
+    The jaws' geometry (pads, fingers) is :func:`~mearm.kinematics.bodies.arm_bodies`';
+    the gripper's servo and mount are emitted with the arm's other shapes.
     """
     arm = config.arm
     g = arm.tool.gripper
-    approach, across, third = _jaw_frame(config)
-    grip = arm.tool.tcp_above_grip_cm * M_PER_CM
+    across = shapes.across
     ET.SubElement(
-        tcp, "site", name="grip", pos=_v(approach * grip), size="0.003", rgba="0 1 1 1", group="4"
+        tcp,
+        "site",
+        name="grip",
+        pos=_v(shapes.approach * shapes.grip_m),
+        size="0.003",
+        rgba="0 1 1 1",
+        group="4",
     )  # group 4: not drawn by the camera
-    length, thick = g.jaw_length_cm * M_PER_CM, g.jaw_thickness_cm * M_PER_CM
-    pad = pad_length_m(config)
-    tip = grip + pad / 2
-    root = tip - length
-    # the case: long side along the opening axis, shaft along the approach axis (a rotation:
-    # third = approach × across)
-    R = np.column_stack([across, third, approach])
-    behind = approach * (min(0.0, root) - gripper_spec.size_m[2] / 2)  # behind TCP and jaws
-    _servo_box(tcp, f"{g.name}_servo", gripper_spec, behind, R)
-    for k, act in enumerate(arm.tool.actuators):
-        offset = behind - approach * gripper_spec.size_m[2] * (k + 1)
-        _servo_box(tcp, f"{act.name}_servo", gripper_spec, offset, R)
-    if root > 1e-9:
-        _arm_geom(
-            tcp,
-            f"{g.name}_mount",
-            (root / 2, width / 2, LINK_THICKNESS_M / 2),
-            _plate_mass(root, width),
-            pos=_v(approach * root / 2),
-            quat=_v(_quat(np.column_stack([approach, third, -across]))),
-            material="gripper",
-        )
-    R_jaw = np.column_stack([approach, across, third])
     hi = g.servo.value_range()[1] * M_PER_CM / 2
     # the opening o = 2q: the servo's inertia and damping on o, J/r² and b/r², are 4×
     # that on q, shared by the two jaws
     jaw_armature = 2 * gripper_spec.armature / SERVO_LEVER_M**2
     for name, sign in zip(jaw_joint_names(arm), (1.0, -1.0), strict=True):
         body = ET.SubElement(tcp, "body", name=f"link_{name}")
+        bodies[f"link_{name}"] = body
         ET.SubElement(
             body,
             "joint",
@@ -753,28 +838,20 @@ def _tool(
             armature=_f(jaw_armature),
             damping=_f(2 * gripper_spec.motor_damping / SERVO_LEVER_M**2),
         )
-        inner = across * sign * thick / 2  # the inner face on the joint's position
-        pieces = [("pad", grip, pad)]
-        if length - pad > 1e-9:
-            pieces.append(("finger", (root + grip - pad / 2) / 2, length - pad))
-        for part, centre, span in pieces:
+        for shape in shapes.shapes:
+            if shape.body != f"link_{name}":
+                continue
             attrs = {
-                "pos": _v(approach * centre + inner),
-                "quat": _v(_quat(R_jaw)),
-                "mass": _f(ACRYLIC_DENSITY * span * thick * width),
                 "friction": _v((JAW_FRICTION, OBJECT_SPIN_FRICTION, OBJECT_ROLL_FRICTION)),
                 "condim": "4",
-                "material": "gripper",
-                "contype": str(_ARM_CONTYPE),
-                "conaffinity": str(_ARM_CONAFFINITY),
             }
-            if part == "pad":
+            if shape.part == "pad":
                 attrs |= {
                     "priority": "1",
                     "solref": _v(PAD_SOLREF),
                     "solimp": _v(PAD_SOLIMP),
                 }
-            _geom(body, f"{name}_{part}", "box", (span / 2, thick / 2, width / 2), **attrs)
+            _shape_geom(body, shape, "gripper", **attrs)
 
 
 def _field_corners_m(config: Config) -> np.ndarray:
@@ -850,25 +927,15 @@ def _camera(world: ET.Element, config: Config) -> None:
 
 def _bin(world: ET.Element, config: Config, color: str) -> None:
     """A bin on the table under ``bin_cm``: a floor and four walls."""
-    c = config.task.class_named(color)
-    inner = c.bin_inner_width_cm * M_PER_CM / 2
-    outer = inner + BIN_WALL_M
-    wall_h = _wall_height_m(config, color)
-    x, y = c.bin_cm[0] * M_PER_CM, c.bin_cm[1] * M_PER_CM
-    body = ET.SubElement(world, "body", name=f"bin_{color}", pos=_v((x, y, 0)))
-    common = {
-        "material": "bin",
-        "contype": str(_SCENE_CONTYPE),
-        "conaffinity": str(_SCENE_CONAFFINITY),
-    }
-    floor = (outer, outer, BIN_WALL_M / 2)
-    _geom(body, f"bin_{color}_floor", "box", floor, pos=_v((0, 0, BIN_WALL_M / 2)), **common)
-    t = BIN_WALL_M / 2
-    z = wall_h / 2
-    for name, pos, size in (
-        ("px", (inner + t, 0, z), (t, outer, z)),
-        ("nx", (-inner - t, 0, z), (t, outer, z)),
-        ("py", (0, inner + t, z), (inner, t, z)),
-        ("ny", (0, -inner - t, z), (inner, t, z)),
-    ):
-        _geom(body, f"bin_{color}_wall_{name}", "box", size, pos=_v(pos), **common)
+    body = ET.SubElement(world, "body", name=f"bin_{color}", pos=_v(bin_origin_m(config, color)))
+    for shape in bin_shapes(config, color):
+        _geom(
+            body,
+            shape.name,
+            "box",
+            shape.size,
+            pos=_v(shape.pos),
+            material="bin",
+            contype=str(_SCENE_CONTYPE),
+            conaffinity=str(_SCENE_CONAFFINITY),
+        )

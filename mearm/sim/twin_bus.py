@@ -8,9 +8,13 @@ every actuated joint and the gripper — is a :class:`ServoModel` built from its
 
 1. **quantisation** — the pulse p is mapped back through the actuator's calibration,
    :math:`v = (p - p_0)/(s\,k)`, so the bus's 1 µs step is the finest command there is;
+   v is the servo's value: its joint's, or for a servo that turns a combination of
+   joints (the MeArm's elbow servo: shoulder + elbow) that combination, which the MJCF's
+   actuator drives through a fixed tendon (:mod:`mearm.sim.mjcf`);
 2. **dead band** — a servo ignores a target within ``deadband_us`` / ``us_per_unit`` of
-   where its potentiometer (the joint's measured position; the jaws' opening) says it
-   is, and keeps driving to the target it last accepted;
+   where its potentiometer (the joint's measured position, or the combination of the
+   joints it turns; the jaws' opening) says it is, and keeps driving to the target it
+   last accepted;
 3. **speed limit** — the motor's setpoint :math:`x` moves toward the accepted target at
    most at the no-load speed, :math:`|\dot x| \le \omega_0` (``speed_rad_s``; a
    prismatic joint and the jaws' opening turn it into a linear speed through
@@ -59,6 +63,7 @@ from mearm.sim.mjcf import (
     generate_mjcf,
     object_ids,
     recorded_servo,
+    servo_tendon,
 )
 
 log = logging.getLogger(__name__)
@@ -98,6 +103,10 @@ mujoco.set_mju_user_warning(_mujoco_warning)
 class ServoModel:
     """One actuator's servo as the twin models it, in the model's units (rad or m).
 
+    The setpoint and the potentiometer are in the units of the actuator's ``ctrl``: the
+    joint's position, the jaws' opening, or for a servo that turns a combination of
+    joints its tendon's length, the servo's value less its combination's offset.
+
     Attributes:
         name: The actuator's name (the joint's, or the gripper's).
         amap: Its pulse calibration and channel.
@@ -106,8 +115,10 @@ class ServoModel:
         backlash: Play between the motor's setpoint and the joint's [rad or m].
         speed: Fastest the setpoint moves: the no-load speed [rad/s or m/s].
         ctrl_index: Its actuator's index in ``data.ctrl``.
-        pot_qpos: The ``qpos`` entries whose sum the potentiometer reads (one joint; the
-            gripper's two jaws give its opening).
+        pot_qpos: The ``qpos`` entries the potentiometer reads (one joint; the joints of
+            a combination; the gripper's two jaws, whose sum is its opening).
+        pot_coef: Each entry's coefficient (model units); empty: 1 each.
+        offset: The servo's value at ctrl 0 [rad or m]: its combination's offset.
     """
 
     name: str
@@ -118,10 +129,16 @@ class ServoModel:
     speed: float
     ctrl_index: int
     pot_qpos: tuple[int, ...]
+    pot_coef: tuple[float, ...] = ()
+    offset: float = 0.0
 
     def target_of(self, pulse_us: float) -> float:
         """The setpoint a pulse asks for [rad or m]."""
-        return self.amap.value_of(pulse_us) * self.scale
+        return self.amap.value_of(pulse_us) * self.scale - self.offset
+
+    def value_of(self, setpoint: float) -> float:
+        """The servo's value [deg or cm] at a setpoint or potentiometer reading."""
+        return (setpoint + self.offset) / self.scale
 
     @property
     def shaft_unit(self) -> float:
@@ -196,7 +213,11 @@ class TwinArm(ServoBus):
         self._deadband = np.array([s.deadband for s in self.servos])
         self._pot = np.zeros((nu, model.nq))  # (nu, nq)
         for k, s in enumerate(self.servos):
-            self._pot[k, list(s.pot_qpos)] = 1.0
+            self._pot[k, list(s.pot_qpos)] = s.pot_coef or 1.0
+        self._joint_qpos = {
+            name: (int(model.joint(name).qposadr[0]), float(self._chain.scale[i]))
+            for name, i in zip(self._chain.actuated, self._chain.actuated_index, strict=True)
+        }
         self._object_ids = object_ids(config)
         self.reset()
 
@@ -233,13 +254,12 @@ class TwinArm(ServoBus):
 
     @property
     def actual_joints(self) -> dict[str, float]:
-        """Measured actuated joints, name → deg or cm."""
-        pot = self.pot
-        return {
-            s.name: float(pot[k] / s.scale)
-            for k, s in enumerate(self.servos)
-            if s.name in self._chain.actuated
-        }
+        """Measured actuated joints, name → deg or cm.
+
+        The joints themselves, whatever combination their servos turn.
+        """
+        q = self.data.qpos
+        return {name: float(q[adr] / scale) for name, (adr, scale) in self._joint_qpos.items()}
 
     @property
     def opening_cm(self) -> float:
@@ -384,10 +404,12 @@ class TwinArm(ServoBus):
 
     def _stall(self, k: int, reason: str, detail: str) -> ServoStallError:
         servo = self.servos[k]
+        if servo.amap.combined:  # the values are its servo's: say what that turns
+            detail += f" ({servo.amap.servo_text})"
         return ServoStallError(
             servo.name,
-            float(self._target[k] / servo.scale),
-            float(self.pot[k] / servo.scale),
+            servo.value_of(float(self._target[k])),
+            servo.value_of(float(self.pot[k])),
             reason,
             detail,
             last_state=self.state,
@@ -445,7 +467,11 @@ def _joint_servo(m: mujoco.MjModel, config: Config, chain: Chain) -> ServoSpec:
     joint = config.arm.joints[int(chain.actuated_index[0])]
     lever = SERVO_LEVER_M if joint.type == "prismatic" else 1.0
     stall = float(m.actuator(name).forcerange[1]) * lever
-    speed = stall / (float(m.joint(name).damping[0]) * lever**2)
+    if m.actuator(name).trntype[0] == mujoco.mjtTrn.mjTRN_TENDON:  # a servo over joints
+        damping = float(m.tendon_damping[m.tendon(servo_tendon(name)).id])
+    else:
+        damping = float(m.joint(name).damping[0])
+    speed = stall / (damping * lever**2)
     for spec in SERVO_CATALOGUE:
         if math.isclose(spec.stall_torque_nm, stall, rel_tol=1e-6) and math.isclose(
             spec.speed_rad_s, speed, rel_tol=1e-6
@@ -477,6 +503,11 @@ def _servo_models(
             lever = SERVO_LEVER_M if config.arm.joints[i].type == "prismatic" else 1.0
             amap = smap[name]
             scale = float(chain.scale[i])
+            # the potentiometer reads what the servo turns: its joint, or its combination
+            # (in model units, as the MJCF's tendon has it)
+            terms = amap.terms if amap.combined else ((name, 1.0),)
+            pot_qpos = tuple(int(m.joint(n).qposadr[0]) for n, _ in terms)
+            pot_coef = tuple(c * scale / float(chain.scale[chain.names.index(n)]) for n, c in terms)
             out.append(
                 ServoModel(
                     name,
@@ -486,7 +517,9 @@ def _servo_models(
                     play * lever,
                     spec.speed_rad_s * lever,
                     m.actuator(name).id,
-                    (int(m.joint(name).qposadr[0]),),
+                    pot_qpos,
+                    pot_coef,
+                    amap.offset * scale if amap.combined else 0.0,
                 )
             )
         g = smap.gripper

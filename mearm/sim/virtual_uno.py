@@ -16,7 +16,9 @@ Three parts:
 
   .. math:: v = (p_\text{measured} - p_0) / (s\,k),
 
-  moves the simulated arm (:class:`~mearm.sim.servo_bus.SimArm`) there, and faults the
+  solves the actuated joints from the joint servos' values (a servo may turn a
+  combination of joints: :meth:`~mearm.hardware.ServoMap.joints_from_pulses`), moves the
+  simulated arm (:class:`~mearm.sim.servo_bus.SimArm`) there, and faults the
   move (:class:`~mearm.exceptions.MoveNotConfirmedError`) when a pulse is farther than
   ``servo.virtual_uno.pulse_tolerance_us`` from the one sent: a firmware with two
   channels swapped cannot pass for a working one.
@@ -681,9 +683,16 @@ class VirtualUnoBus(ArduinoBus):
     def _follow(self, widths_us: Mapping[int, float]) -> None:
         """Put the simulated arm where the measured pulses put its servos."""
         smap = self.servo_map
-        joints = {
-            j.name: j.value_of(widths_us[j.channel]) for j in smap.joints if j.channel in widths_us
-        }
+        joints: dict[str, float] = {}
+        if all(j.channel in widths_us for j in smap.joints):
+            # the joints together: a servo may turn a combination of them
+            joints = smap.joints_from_pulses(widths_us)
+        else:  # some channel silent: those servos stay; the others turn their own joint
+            joints = {
+                j.name: j.value_of(widths_us[j.channel])
+                for j in smap.joints
+                if j.channel in widths_us and not j.combined
+            }
         tool = {
             a.name: a.value_of(widths_us[a.channel]) for a in smap.tool if a.channel in widths_us
         }
@@ -700,24 +709,26 @@ class VirtualUnoBus(ArduinoBus):
         """One line per actuator whose measured pulse is missing or off the one sent."""
         smap = self.servo_map
         tol = self.config.servo.virtual_uno.pulse_tolerance_us
+        servo = smap.servo_values(command.joints)  # a joint servo's value: maybe a combination
         commanded: list[tuple[str, ActuatorMap, float]] = [
-            *(("joint", j, command.joints[j.name]) for j in smap.joints),
+            *(("joint", j, servo[j.name]) for j in smap.joints),
             *(("tool actuator", a, command.tool[a.name]) for a in smap.tool),
             ("gripper", smap.gripper, smap.gripper_opening_cm(command.gripper_closed)),
         ]
         problems = []
         for kind, a, value in commanded:
+            name = a.servo_text  # a joint servo over a combination says which
             sent = pulses_us[a.channel]
             unit = "°" if a.unit == "deg" else " cm"
             measured = widths_us.get(a.channel)
             if measured is None:
                 problems.append(
-                    f"{kind} {a.name}: the board produced no pulse on channel {a.channel}, "
+                    f"{kind} {name}: the board produced no pulse on channel {a.channel}, "
                     f"the command was {value:.1f}{unit} ({sent} µs sent)"
                 )
             elif abs(measured - sent) > tol:
                 problems.append(
-                    f"{kind} {a.name}: the board's pulses say {a.value_of(measured):.1f}{unit}, "
+                    f"{kind} {name}: the board's pulses say {a.value_of(measured):.1f}{unit}, "
                     f"the command was {value:.1f}{unit} (channel {a.channel}: {measured:.1f} µs "
                     f"measured, {sent} µs sent, tolerance ±{tol:g} µs)"
                 )
