@@ -229,3 +229,37 @@ def test_a_plan_with_a_pose_outside_the_limits_is_refused(config):
     route = plan(planner, model, (-10.99, 49.70, 12.76))
     assert not route.planned and route.failure_kind == "limit"
     assert "pose 5 of" in route.failure and "shoulder" in route.failure
+
+
+def test_a_plan_past_a_combined_servos_pulse_range_is_refused_and_not_sent(monkeypatch):
+    """The MeArm's elbow servo turns shoulder + elbow: a pick inside every joint's limits
+    whose forearm would need a pulse past the servo's range is refused (``limit``, the
+    servo named) before anything moves, and the sort goes on without it."""
+    from mearm.hardware.mapping import ServoMap
+    from mearm.sim.servo_bus import SimArm
+    from mearm.task.rig import run_sort
+
+    config = load_config(ROOT / "configs" / "sim_mearm_v1.yaml")
+    model = ArmModel(config.arm)
+    route = Planner(config, model).plan(
+        Route("", "red", "pick", 1, IKTarget((0.0, 12.0, 1.0))), model.home
+    )
+    assert route.failure_kind == "limit" and route.failure is not None
+    assert "elbow's servo (shoulder + elbow)" in route.failure
+    assert "pulse range" in route.failure
+    sent: list[dict[str, float]] = []
+    real_move = SimArm.move
+
+    def spy(self: SimArm, command) -> None:
+        sent.append(dict(command.joints))
+        real_move(self, command)
+
+    monkeypatch.setattr(SimArm, "move", spy)
+    scene = [SceneObject(color="red", x=0.0, y=12.0), config.task.scene[0]]
+    report = run_sort(config, scene=scene, echo=None)
+    assert report.outcome.left == {"limit": 1} and report.outcome.n_sorted == 1
+    smap = ServoMap.from_config(config)
+    for joints in sent:  # every command sent was inside every servo's pulse range
+        for name, value in smap.servo_values(joints).items():
+            lo, hi = smap[name].pulse_limits
+            assert lo - 1e-6 <= value <= hi + 1e-6

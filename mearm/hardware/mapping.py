@@ -318,6 +318,16 @@ class ServoMap:
             a[k] = j.offset
         return A, a, np.linalg.inv(A)
 
+    @property
+    def combination(self) -> tuple[np.ndarray, np.ndarray] | None:
+        r"""(A, a): the joint servos' values :math:`v = A q_a + a`, or ``None``.
+
+        Over the actuated joints in config units, chain order; ``None`` when each servo
+        turns its own joint.
+        """
+        m = self._matrix
+        return None if m is None else (m[0], m[1])
+
     def servo_values(self, joints: Mapping[str, float]) -> dict[str, float]:
         r"""Each joint servo's value for the actuated joints, :math:`v = A q_a + a`.
 

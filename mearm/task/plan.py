@@ -27,6 +27,7 @@ import numpy.typing as npt
 
 from mearm.config import ColorClass, Config
 from mearm.exceptions import JointLimitError, TargetError
+from mearm.hardware.mapping import ServoMap
 from mearm.ik import IKFailure, IKResult, IKTarget, failure_of_error, make_solver
 from mearm.kinematics import ArmModel
 from mearm.kinematics.collision import CollisionModel, Contact
@@ -59,6 +60,8 @@ class Planner:
         tool = config.arm.tool
         self._approach = tool.pick_approach
         self.collision = collision
+        self._servos = ServoMap.from_config(config)
+        self._combination = self._servos.combination
 
     # ----------------------------------------------------------------- targets
 
@@ -186,13 +189,17 @@ class Planner:
         return None
 
     def _outside_limits(self, plan: IKResult) -> IKFailure | None:
-        """The first pose of ``plan`` outside the joint limits (or not finite), if any."""
+        """The first pose of ``plan`` outside the joint limits or the pulse ranges, if any.
+
+        Outside a joint's limits (or not finite), or a servo that turns a combination of
+        joints past its pulse range (:meth:`_outside_pulses`).
+        """
         chain = self.model.chain
         q = plan.q_path
         tol = 1e-9
         inside = (q >= chain.lower - tol) & (q <= chain.upper + tol)  # NaN fails both
         if inside.all():
-            return None
+            return self._outside_pulses(plan)
         k, i = (int(v) for v in np.argwhere(~inside)[0])
         s, unit = chain.scale[i], chain.unit(i)
         return IKFailure(
@@ -201,6 +208,35 @@ class Planner:
             f"{q[k, i] / s:.4g} {unit}, outside its limits "
             f"[{chain.lower[i] / s:.4g}, {chain.upper[i] / s:.4g}] {unit}",
         )
+
+    def _outside_pulses(self, plan: IKResult) -> IKFailure | None:
+        """The first pose where a servo over a combination of joints leaves its pulse range.
+
+        The MeArm's elbow servo turns shoulder + elbow.
+
+        A servo that turns one joint stays in its pulse range within that joint's limits
+        (the config is checked so); one that turns a combination can leave it there.
+        """
+        if self._combination is None:
+            return None
+        A, a = self._combination
+        chain = self.model.chain
+        q_a = chain.actuated_of(plan.q_path) / chain.scale[chain.actuated_index]
+        values = q_a @ A.T + a  # (poses, servos) [deg or cm]
+        for k, servo in enumerate(self._servos.joints):
+            if not servo.combined:
+                continue
+            lo, hi = servo.pulse_limits
+            out = np.flatnonzero((values[:, k] < lo - 1e-9) | (values[:, k] > hi + 1e-9))
+            if out.size:
+                i = int(out[0])
+                return IKFailure(
+                    "limit",
+                    f"plan rejected before sending: pose {i} of {len(values) - 1} turns "
+                    f"{servo.servo_text} to {values[i, k]:.4g} {servo.unit}, outside what its "
+                    f"pulse range allows [{lo:.4g}, {hi:.4g}] {servo.unit}",
+                )
+        return None
 
 
 def _join(results: list[IKResult], target_cm: np.ndarray) -> IKResult:
