@@ -263,3 +263,33 @@ def test_a_plan_past_a_combined_servos_pulse_range_is_refused_and_not_sent(monke
         for name, value in smap.servo_values(joints).items():
             lo, hi = smap[name].pulse_limits
             assert lo - 1e-6 <= value <= hi + 1e-6
+
+
+def test_a_solve_that_swings_a_combined_servo_past_its_range_becomes_a_joint_move():
+    """PD-PIJ reaches this MeArm target, but its updates swing the elbow servo (shoulder +
+    elbow) past its pulse range on the way: the plan is a straight joint-space move to the
+    same solution, every pose inside the range (the servo's value is linear in the
+    joints)."""
+    from mearm.hardware.mapping import ServoMap
+
+    config = load_config(ROOT / "configs" / "sim_mearm_v1_mujoco.yaml")
+    model = ArmModel(config.arm)
+    planner = Planner(config, model)
+    start = np.array([2.1013, 0.8934, -2.1775, 1.2841])
+    target = IKTarget((5.2439, 18.1416, 3.2690))
+    direct = planner.solver.solve(start, target)
+    smap = ServoMap.from_config(config)
+    lo, hi = smap["elbow"].pulse_limits
+
+    def elbow_servo(q_path: np.ndarray) -> np.ndarray:
+        return np.array([smap.servo_values(model.chain.named_actuated(q))["elbow"] for q in q_path])
+
+    assert direct.converged and not np.all(
+        (elbow_servo(direct.q_path) >= lo) & (elbow_servo(direct.q_path) <= hi)
+    )
+    route = planner.plan(Route("", "red", "pick", 1, target), start)
+    assert route.planned and route.plan is not None and route.plan.method == "joint_move"
+    values = elbow_servo(route.plan.q_path)
+    assert np.all((values >= lo - 1e-9) & (values <= hi + 1e-9))
+    np.testing.assert_allclose(route.plan.q, direct.q)
+    assert np.linalg.norm(route.plan.ee_path_cm[-1] - target.position_cm) < 0.05

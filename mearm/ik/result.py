@@ -15,8 +15,8 @@ STATUSES: tuple[Status, ...] = ("converged", "max_iterations", "stalled")
 #: How the path was made: by the solver's own updates from the start (``direct``), or,
 #: after they stopped short, as a joint-space move to a solution from the closed form
 #: (``closed_form``) or from the solver started elsewhere (``multi_start``).
-Method = Literal["direct", "closed_form", "multi_start"]
-METHODS: tuple[Method, ...] = ("direct", "closed_form", "multi_start")
+Method = Literal["direct", "closed_form", "multi_start", "joint_move"]
+METHODS: tuple[Method, ...] = ("direct", "closed_form", "multi_start", "joint_move")
 
 
 def _frozen(a: npt.ArrayLike) -> np.ndarray:
@@ -77,7 +77,10 @@ class IKResult:
         method: How the path was made (:data:`METHODS`): ``direct`` — the solver's own
             updates; ``closed_form`` / ``multi_start`` — its own updates stopped short
             (``recovered_from``) and were discarded, and the path is a joint-space move
-            from the start to a solution found that way.
+            from the start to a solution found that way; ``joint_move`` — the solver's
+            updates reached the target but swung a servo over a combination of joints
+            past its pulse range on the way (:class:`~mearm.task.plan.Planner`), and the
+            path is a straight joint-space move to the same solution.
         recovered_from: With a recovery, the status the solver's own updates ended with;
             else ``None``.
         search_iterations: Updates computed but not in the path [-]: the discarded

@@ -127,7 +127,7 @@ class RouteRecord(_Record):
     """Every joint of the chain as commanded at the end of the route, by name [deg or cm]."""
     iterations: int = Field(ge=0)
     status: str
-    method: Literal["direct", "closed_form", "multi_start"] | None = None
+    method: Literal["direct", "closed_form", "multi_start", "joint_move"] | None = None
     """How the plan got there: PD-PIJ alone, or its stall recovered by a path to the
     closed-form or a multi-start solution (``None`` in logs written before it existed)."""
     initial_error_cm: _NonNegative

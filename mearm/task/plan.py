@@ -135,15 +135,27 @@ class Planner:
     def _solve(
         self, target: IKTarget, q_start: npt.ArrayLike
     ) -> tuple[IKResult | None, IKFailure | None]:
-        """One solve and its checks: the result (if any) and why it cannot be sent."""
+        """One solve and its checks: the result (if any) and why it cannot be sent.
+
+        A converged solve whose updates swing a servo over a combination of joints past
+        its pulse range on the way, though its start and end are within it, becomes a
+        straight joint-space move to the same solution (:func:`_joint_move`): every
+        servo's value is linear in the joints, so along the line it stays between its
+        values at the two ends.
+        """
         try:
             result = self.solver.solve(q_start, target)
         except (TargetError, JointLimitError) as exc:
             return None, failure_of_error(exc)
         if not result.converged:
-            failure = result.failure or IKFailure("stalled", f"the solver {result.status}")
-            return result, IKFailure(failure.kind, f"no plan: {failure.message}")
-        return result, self._outside_limits(result)
+            stopped = result.failure or IKFailure("stalled", f"the solver {result.status}")
+            return result, IKFailure(stopped.kind, f"no plan: {stopped.message}")
+        failure = self._outside_limits(result.q_path)
+        if failure is not None and self._combination is not None:
+            if self._outside_limits(result.q_path[[0, -1]]) is None:
+                moved = _joint_move(self.model, result, np.asarray(target.position_cm, float))
+                return moved, self._outside_limits(moved.q_path)
+        return result, failure
 
     def _describe(self, contact: Contact) -> str:
         chain = self.model.chain
@@ -188,18 +200,20 @@ class Planner:
                     return joined, z
         return None
 
-    def _outside_limits(self, plan: IKResult) -> IKFailure | None:
+    def _outside_limits(self, q: np.ndarray) -> IKFailure | None:
         """The first pose of ``plan`` outside the joint limits or the pulse ranges, if any.
 
         Outside a joint's limits (or not finite), or a servo that turns a combination of
         joints past its pulse range (:meth:`_outside_pulses`).
+
+        Args:
+            q: The plan's poses, full joints in model units, (k, n).
         """
         chain = self.model.chain
-        q = plan.q_path
         tol = 1e-9
         inside = (q >= chain.lower - tol) & (q <= chain.upper + tol)  # NaN fails both
         if inside.all():
-            return self._outside_pulses(plan)
+            return self._outside_pulses(q)
         k, i = (int(v) for v in np.argwhere(~inside)[0])
         s, unit = chain.scale[i], chain.unit(i)
         return IKFailure(
@@ -209,7 +223,11 @@ class Planner:
             f"[{chain.lower[i] / s:.4g}, {chain.upper[i] / s:.4g}] {unit}",
         )
 
-    def _outside_pulses(self, plan: IKResult) -> IKFailure | None:
+    def pose_allowed(self, q: npt.ArrayLike) -> bool:
+        """Whether a pose (full joints, model units) is within every limit and pulse range."""
+        return self._outside_limits(np.atleast_2d(np.asarray(q, dtype=float))) is None
+
+    def _outside_pulses(self, q: np.ndarray) -> IKFailure | None:
         """The first pose where a servo over a combination of joints leaves its pulse range.
 
         The MeArm's elbow servo turns shoulder + elbow.
@@ -221,7 +239,7 @@ class Planner:
             return None
         A, a = self._combination
         chain = self.model.chain
-        q_a = chain.actuated_of(plan.q_path) / chain.scale[chain.actuated_index]
+        q_a = chain.actuated_of(q) / chain.scale[chain.actuated_index]
         values = q_a @ A.T + a  # (poses, servos) [deg or cm]
         for k, servo in enumerate(self._servos.joints):
             if not servo.combined:
@@ -237,6 +255,32 @@ class Planner:
                     f"pulse range allows [{lo:.4g}, {hi:.4g}] {servo.unit}",
                 )
         return None
+
+
+#: A joint-space move's step: no actuated joint turns more than this between poses
+#: [rad] (a prismatic one: :data:`JOINT_MOVE_STEP_M`).
+JOINT_MOVE_STEP_RAD = np.deg2rad(2.0)
+JOINT_MOVE_STEP_M = 0.005
+
+
+def _joint_move(model: ArmModel, result: IKResult, target_cm: np.ndarray) -> IKResult:
+    """``result``'s start and solution joined by a straight line of the actuated joints."""
+    chain = model.chain
+    a0, a1 = (chain.actuated_of(q) for q in (result.q_path[0], result.q))
+    prismatic = chain.prismatic[chain.actuated_index]
+    step = np.where(prismatic, JOINT_MOVE_STEP_M, JOINT_MOVE_STEP_RAD)
+    k = max(1, int(np.ceil(np.max(np.abs(a1 - a0) / step))))
+    q_path = np.array([chain.full(a0 + (a1 - a0) * t) for t in np.linspace(0.0, 1.0, k + 1)])
+    ee = np.array([model.fk_cm(q) for q in q_path])
+    return dataclasses.replace(
+        result,
+        iterations=k,
+        q_path=q_path,
+        ee_path_cm=ee,
+        error_path_cm=np.linalg.norm(ee - target_cm, axis=1),
+        method="joint_move",
+        search_iterations=result.search_iterations + result.iterations,
+    )
 
 
 def _join(results: list[IKResult], target_cm: np.ndarray) -> IKResult:

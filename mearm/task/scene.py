@@ -105,10 +105,9 @@ def _reach_check(config: Config) -> Callable[[ColorClass, float, float], np.ndar
     """
     closed_form = closed_form_for(config.arm)
     height = config.task.approach_height_cm
-    planner = None
     model = ArmModel(config.arm)
-    if closed_form is None:
-        planner = Planner(config, model)
+    checks = Planner(config, model)  # a pose's limits and pulse ranges
+    planner = None if closed_form is not None else checks
 
     def reach(cls: ColorClass, x: float, y: float) -> np.ndarray | None:
         z = cls.grip_z_cm + config.arm.tool.tcp_above_grip_cm
@@ -119,6 +118,8 @@ def _reach_check(config: Config) -> Callable[[ColorClass, float, float], np.ndar
                 check_in_box((x, y, zz), config.arm)
                 if closed_form is not None:
                     q = closed_form.solve((x, y, zz))
+                    if not checks.pose_allowed(q):  # a servo over a combination, say
+                        return None
                     pose = q if pose is None else pose
             except MearmError:
                 return None
