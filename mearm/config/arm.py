@@ -192,15 +192,22 @@ class ServoCalibration(Strict):
         b = (self.max_us - self.zero_us) / (self.direction * self.us_per_unit)
         return (min(a, b), max(a, b))
 
+    def pulse_problem(self, value: float) -> str | None:
+        """Why ``value``'s pulse leaves the range (one clause), or ``None`` if it does not."""
+        p = self.pulse_us(value)
+        if self.min_us - 1e-6 <= p <= self.max_us + 1e-6:
+            return None
+        lo, hi = self.value_range()
+        return (
+            f"needs a {p:.0f} µs pulse, outside the servo's [{self.min_us}, {self.max_us}] "
+            f"µs, which allows [{lo:.4g}, {hi:.4g}]"
+        )
+
     def check_value(self, value: float, what: str) -> None:
         """Raise ``ValueError`` naming ``what`` if ``value``'s pulse leaves the range."""
-        p = self.pulse_us(value)
-        if not self.min_us - 1e-6 <= p <= self.max_us + 1e-6:
-            lo, hi = self.value_range()
-            raise ValueError(
-                f"@{what}: {value:g} needs a {p:.0f} µs pulse, outside the servo's "
-                f"[{self.min_us}, {self.max_us}] µs, which allows [{lo:.4g}, {hi:.4g}]"
-            )
+        problem = self.pulse_problem(value)
+        if problem is not None:
+            raise ValueError(f"@{what}: {value:g} {problem}")
 
 
 class ServoDrives(Strict):
@@ -359,13 +366,11 @@ class Joint(Strict):
                 servo.check_value(value, f"limits.{end}")
                 continue
             v = c * value + own.offset
-            p = servo.pulse_us(v)
-            if not servo.min_us - 1e-6 <= p <= servo.max_us + 1e-6:
-                lo, hi = servo.value_range()
+            problem = servo.pulse_problem(v)
+            if problem is not None:
                 raise ValueError(
                     f"@limits.{end}: {value:g} puts its servo's value {own.text()} at {v:g}, "
-                    f"which needs a {p:.0f} µs pulse, outside the servo's [{servo.min_us}, "
-                    f"{servo.max_us}] µs, which allows [{lo:.4g}, {hi:.4g}]"
+                    f"which {problem}"
                 )
 
     @property
