@@ -15,7 +15,11 @@ from mearm.task.check import check_consistency
 @pytest.mark.parametrize("name", REFERENCE_CONFIGS)
 def test_reference_configs_are_consistent(name):
     found = check_consistency(load_config(ROOT / "configs" / name))
-    assert found.pick_z_cm and all(0 <= s < 0.6 for s in found.unreachable_share.values())
+    # the MeArm v1's elbow servo turns the forearm only within ±75° of level (its pulse
+    # range, on shoulder + elbow): at the pick height it reaches a band 16–20 cm out,
+    # a fifth of its camera's 24 × 18 cm view, and says so in a note
+    most = 0.85 if name.startswith("sim_mearm_v1") else 0.6
+    assert found.pick_z_cm and all(0 <= s < most for s in found.unreachable_share.values())
 
 
 def test_a_bin_out_of_reach_is_named_with_its_value():
