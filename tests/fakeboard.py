@@ -377,7 +377,8 @@ class SSC32Faults:
             ``Q``, the pulse before the last move for ``QP``.
         garbage_answers: This many answers are ``garbage`` instead.
         garbage: The junk sent for a garbled answer.
-        extra_answers: This many answers are followed by ``extra`` (a byte too many).
+        extra_answers: This many answers given once the move is done are followed by
+            ``extra`` (a byte too many).
         extra: What follows them.
         wrong_qp_us: Added to every ``QP`` answer after ``fault_at_move`` [µs].
         mute_qp: After ``fault_at_move``, ``QP`` gets no answer (``Q`` still does): every
@@ -510,7 +511,9 @@ class FakeSSC32Board(FakeBoard):
             f.garbage_answers -= 1
             self._mark_fault()
             self.emit(f.garbage + tail)
-        elif f.extra_answers > 0:
+        elif f.extra_answers > 0 and time.monotonic() >= self._move_end:
+            # only once the move is done: while it runs the host polls again, and the
+            # shifted byte would be read as one nobody asked for (a race, not the fault)
             f.extra_answers -= 1
             self._mark_fault()
             self.emit(byte + f.extra + tail)
