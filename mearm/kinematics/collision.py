@@ -28,6 +28,7 @@ to a wall the checks come as close together as the gap requires.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 
@@ -163,13 +164,25 @@ class CollisionModel:
         self._grip_in_last = T[:3, :3] @ (self.bodies.approach * self.bodies.grip_m) + T[:3, 3]
         self._reach_local = self._local_reach()
         self.checks = 0
+        self._world = 0  # counts the worlds put in the model (a gap is kept for its world)
+        self._last_key: tuple[int, str | None, bytes] | None = None
+        self._last_gap: tuple[float, str, str] = (math.inf, "", "")
         self._objects: list[tuple[str, str, float, float]] = []
         self._opening_cm = config.arm.tool.gripper.open_cm
         self._held: tuple[str, str] | None = None
         self._on_table: set[str] = set()  # shapes standing on the table: the arm's mount
+        # object places per class: the scene's count and two more, grown when a look finds more
+        self._capacity = {
+            c: sum(1 for o in config.task.scene if o.color == c) + 2
+            for c in config.task.class_names
+        }
         self._build()
         home = self._lowest_points(model.home)
-        self._on_table = {n for n, z in zip(self._arm_names, home, strict=True) if z <= TOUCH_M}
+        self._on_table = {
+            n
+            for n, z in zip(self._arm_names[: self._na], home[: self._na], strict=True)
+            if z <= TOUCH_M
+        }
         self._build()
 
     # ----------------------------------------------------------------- the world
@@ -183,30 +196,33 @@ class CollisionModel:
     ) -> None:
         """What the checks see from now on.
 
+        The geometry model is built once with a place for every object the scene may
+        hold and one held object per class; a new world moves the places and switches
+        their pairs on and off (a rebuild only when a class has more objects than places).
+
         Args:
             objects: The objects on the table, ``(id, class, x_cm, y_cm)`` each (``None``
                 keeps the last ones); not the one held.
             opening_cm: The jaws' opening [cm] (``None`` keeps it).
             held: The object in the jaws, ``(id, class)``, or ``None``.
         """
-        before = ([o[:2] for o in self._objects], self._held)
+        state = (self._objects, self._opening_cm, self._held)
         if objects is not None:
             self._objects = list(objects)
         if opening_cm is not None:
             self._opening_cm = float(opening_cm)
         self._held = held
-        if ([o[:2] for o in self._objects], self._held) != before:
-            self._build()  # other bodies: a new model
-            return
-        g = self.geometry.geometryObjects  # the same bodies: new places
-        for k, (shape, _, _) in enumerate(self._arm):
-            if shape.jaw:
-                g[k].placement = _se3(self._in_joint(shape))
-        for col, (_, color, x, y) in zip(self._object_cols, self._objects, strict=True):
-            g[self._na + int(col)].placement = _se3(
-                _translate(object_centre_m(self.config, color, x, y))
-            )
-            self._ob_centre[col] = object_centre_m(self.config, color, x, y)
+        if (self._objects, self._opening_cm, self._held) == state:
+            return  # the same world (a simulator asks before every move)
+        counts: dict[str, int] = {}
+        for _, color, _, _ in self._objects:
+            counts[color] = counts.get(color, 0) + 1
+        if any(n > self._capacity.get(c, 0) for c, n in counts.items()):
+            for c, n in counts.items():
+                self._capacity[c] = max(self._capacity.get(c, 0), 2 * n)
+            self._build()  # more objects of a class than places: a bigger model
+        else:
+            self._apply()
 
     def _in_joint(self, shape: Shape) -> np.ndarray:
         T = shape.pose
@@ -217,77 +233,122 @@ class CollisionModel:
             return self.bodies.tcp_in_last @ T
         return T
 
-    def _held_shape(self) -> tuple[Shape, np.ndarray] | None:
-        if self._held is None:
-            return None
-        oid, color = self._held
-        shape = object_shape(self.config, oid, color)
+    def _held_shape(self, color: str) -> tuple[Shape, np.ndarray]:
+        """An object of class ``color`` in the jaws, and its pose in the last joint's frame."""
+        shape = object_shape(self.config, "held", color)
         a = self.bodies.approach
         T = np.eye(4)
         T[:3, :3] = np.column_stack([*_across_pair(a), a])
         T[:3, 3] = a * self.bodies.grip_m
-        return Shape(f"held {oid}", "tcp", "cylinder", shape.size, T[:3, 3], T[:3, :3],
+        return Shape(f"held {color}", "tcp", "cylinder", shape.size, T[:3, 3], T[:3, :3],
                      part="object"), self.bodies.tcp_in_last @ T  # fmt: skip
 
     def _build(self) -> None:
-        """The geometry model: the arm, its jaws, the held object, the table's contents.
+        """The geometry model: the arm, its jaws, a held object per class, the table's contents.
 
         The table is a half-space lowered by the clearance, so that one margin serves every
         pair: a distance to it less the clearance is the height above the table. Every
         arm shape pairs with every obstacle, but for the table the arm's mount standing on
-        it and the held object lifted from it.
+        it and the held object lifted from it. Objects stand in places, ``capacity`` per
+        class, that :meth:`_apply` moves and switches on and off.
         """
         g = pin.GeometryModel()
         arm: list[tuple[Shape, np.ndarray, int]] = []
         for shape in self.arm_shapes:
             joint = self._joint_of.get(shape.body, self._last)
             arm.append((shape, self._in_joint(shape), joint))
-        held = self._held_shape()
-        if held is not None:
-            arm.append((held[0], held[1], self._last))
+        na = len(arm)
+        self._held_row: dict[str, int] = {}
+        for color in self.config.task.class_names:
+            self._held_row[color] = len(arm)
+            shape, T = self._held_shape(color)
+            arm.append((shape, T, self._last))
         for shape, T, joint in arm:
             g.addGeometryObject(pin.GeometryObject(shape.name, joint, _se3(T), _coal(shape)))
         obstacles: list[tuple[Shape | None, np.ndarray]] = [(None, np.eye(4))]  # the table
         obstacles += list(self.bins)
-        for oid, color, x, y in self._objects:
-            shape = object_shape(self.config, oid, color)
-            obstacles.append((shape, _translate(object_centre_m(self.config, color, x, y))))
+        slots: dict[str, list[int]] = {}
+        for color, n in self._capacity.items():
+            for k in range(n):
+                slots.setdefault(color, []).append(len(obstacles))
+                obstacles.append((object_shape(self.config, f"{color}_{k}", color), np.eye(4)))
         table = coal.Halfspace(np.array([0.0, 0.0, 1.0]), -self.clearance_m)
         for obstacle, T in obstacles:
             geometry = table if obstacle is None else _coal(obstacle)
             name = "table" if obstacle is None else obstacle.name
             g.addGeometryObject(pin.GeometryObject(name, 0, _se3(T), geometry))
-        na = len(arm)
-        self._pair_of: dict[tuple[int, int], int] = {}
-        for i, (shape, _, _) in enumerate(arm):
+        rows, cols = [], []
+        for i in range(len(arm)):
             for j in range(len(obstacles)):
-                if j == 0 and (shape.name in self._on_table or i == na - 1 and held is not None):
+                if j == 0 and (i >= na or arm[i][0].name in self._on_table):
                     continue
-                self._pair_of[(i, j)] = len(self._pair_of)
-                g.addCollisionPair(pin.CollisionPair(i, na + j))
+                rows.append(i)
+                cols.append(j)
+                g.addCollisionPair(pin.CollisionPair(i, len(arm) + j))
         self.geometry = g
         self.gdata = pin.GeometryData(g)
-        self._pairs = list(self._pair_of)
+        self._pairs = list(zip(rows, cols, strict=True))
+        self._pair_rows, self._pair_cols = np.array(rows), np.array(cols)
+        self._active = np.ones(len(rows), dtype=bool)
         self._arm = arm
         self._na = na
-        self._arm_names = [s.name for s, _, _ in arm]
+        self._rows = len(arm)
+        self._slots = slots
         self._obstacles = obstacles
-        self._ob_names = [name for name in ("table", *(s.name for s, _ in obstacles[1:]))]  # type: ignore[union-attr]
-        self._object_cols = np.array(
-            [k for k, (s, _) in enumerate(obstacles) if s is not None and s.part == "object"],
-            dtype=int,
-        )
+        self._base_names = ["table", *(s.name for s, _ in obstacles[1:])]  # type: ignore[union-attr]
         self._ob_centre = np.array([T[:3, 3] for _, T in obstacles]).reshape(-1, 3)
         jaw_rows = [i for i, (s, _, _) in enumerate(arm) if s.jaw]
-        # per object column, the jaws' pairs with it (switched off while it is between them)
+        # per object place, the jaws' pairs with it (switched off while it is between them)
+        pair_of = {pair: k for k, pair in enumerate(self._pairs)}
         self._jaw_pairs = {
-            col: [self._pair_of[(i, int(col))] for i in jaw_rows] for col in self._object_cols
+            col: [pair_of[(i, col)] for i in jaw_rows]
+            for cols_of in slots.values()
+            for col in cols_of
         }
         self._tool = np.array(
             [s.body == "tcp" or bool(s.jaw) or s.part == "object" for s, _, _ in arm]
         )
         self._half = np.array([_half_extents(s) for s, _, _ in arm])
         self._is_cyl = np.array([s.kind == "cylinder" for s, _, _ in arm])
+        self._apply()
+
+    def _apply(self) -> None:
+        """Put the world in the model: the objects in their places, the held one, the jaws."""
+        self._world += 1
+        g = self.geometry.geometryObjects
+        for k, (shape, _, _) in enumerate(self._arm[: self._na]):
+            if shape.jaw:
+                g[k].placement = _se3(self._in_joint(shape))
+        row_on = np.zeros(self._rows, dtype=bool)
+        row_on[: self._na] = True
+        self._arm_names = [s.name for s, _, _ in self._arm]
+        if self._held is not None:
+            oid, color = self._held
+            row_on[self._held_row[color]] = True
+            self._arm_names[self._held_row[color]] = f"held {oid}"
+        col_on = np.zeros(len(self._obstacles), dtype=bool)
+        col_on[: 1 + len(self.bins)] = True
+        self._ob_names = list(self._base_names)
+        used: dict[str, int] = {}
+        cols = []
+        for oid, color, x, y in self._objects:
+            col = self._slots[color][used.get(color, 0)]
+            used[color] = used.get(color, 0) + 1
+            centre = object_centre_m(self.config, color, x, y)
+            g[self._rows + col].placement = _se3(_translate(centre))
+            self._ob_centre[col] = centre
+            self._ob_names[col] = f"obj_{oid}"
+            col_on[col] = True
+            cols.append(col)
+        self._object_cols = np.array(cols, dtype=int)
+        self._row_on, self._col_on = row_on, col_on
+        want = row_on[self._pair_rows] & col_on[self._pair_cols]
+        for pair in np.flatnonzero(want != self._active).tolist():
+            if want[pair]:
+                self.gdata.activateCollisionPair(pair)
+            else:
+                self.gdata.deactivateCollisionPair(pair)
+        self._active = want
 
     def _local_reach(self) -> np.ndarray:
         """How far each joint frame's shapes reach from its origin [m], (n + 2,).
@@ -321,7 +382,11 @@ class CollisionModel:
                 between them (``None``: any object between them).
         """
         pm = self.model.model
-        pin.forwardKinematics(pm, self.data, np.asarray(q, dtype=float))
+        q = np.asarray(q, dtype=float)
+        pin.forwardKinematics(pm, self.data, q)
+        key = (self._world, target, q.tobytes())
+        if key == self._last_key:  # a path's end is the next path's start
+            return self._last_gap
         off = [k for col in self._between_jaws(target) for k in self._jaw_pairs[col]]
         for k in off:
             self.gdata.deactivateCollisionPair(k)
@@ -329,9 +394,33 @@ class CollisionModel:
         k = pin.computeDistances(self.geometry, self.gdata)
         for j in off:
             self.gdata.activateCollisionPair(j)
-        a, b = self._pairs[k]
-        d = self.gdata.distanceResults[k].min_distance - self.clearance_m
-        return float(d), self._arm_names[a], self._ob_names[b]
+        if k >= len(self._pairs):  # no pair switched on: nothing to come near
+            found = (math.inf, "", "")
+        else:
+            a, b = self._pairs[k]
+            d = self.gdata.distanceResults[k].min_distance - self.clearance_m
+            found = (float(d), self._arm_names[a], self._ob_names[b])
+        self._last_key, self._last_gap = key, found
+        return found
+
+    def bins_at(self, q: npt.ArrayLike) -> list[tuple[str, str, float]]:
+        """Each standing bin's distance from the arm at pose ``q`` [cm], and the arm's part.
+
+        ``(class, arm part, distance)`` per bin, nearest part first; the clearance is not
+        taken off.
+        """
+        pm = self.model.model
+        pin.updateGeometryPlacements(pm, self.data, self.geometry, self.gdata, np.asarray(q, float))
+        near: dict[str, tuple[str, float]] = {}
+        for k, (a, b) in enumerate(self._pairs):
+            name = self._ob_names[b]
+            if not self._active[k] or not name.startswith("bin_"):
+                continue
+            d = pin.computeDistance(self.geometry, self.gdata, k).min_distance / M_PER_CM
+            color = name[4:].split("_wall_")[0].removesuffix("_floor")
+            if color not in near or d < near[color][1]:
+                near[color] = (self._arm_names[a], d)
+        return [(c, part, d) for c, (part, d) in near.items()]
 
     def _between_jaws(self, target: str | None) -> np.ndarray:
         """The object columns standing between the jaws at the last pose's kinematics.
@@ -358,17 +447,24 @@ class CollisionModel:
         """
         low = self._lowest_points(q)
         tcp = float(self.model.fk_cm(q)[2]) * M_PER_CM
-        hang = max(0.0, tcp - float(np.min(low[self._tool])))
-        tops = [0.0] + [float(T[2, 3] + _half_extents(s)[2]) for s, T in self._obstacles[1:]]  # type: ignore[arg-type]
+        hang = max(0.0, tcp - float(np.min(low[self._tool & self._row_on])))
+        tops = [0.0] + [
+            float(self._ob_centre[j, 2] + _half_extents(s)[2])  # type: ignore[arg-type]
+            for j, (s, _) in enumerate(self._obstacles)
+            if j > 0 and self._col_on[j]
+        ]
         return (max(tops) + self.clearance_m + hang) / M_PER_CM
 
     def _lowest_points(self, q: npt.ArrayLike) -> np.ndarray:
-        """Each arm shape's lowest point's height at pose ``q`` [m], (k,)."""
+        """Each arm shape's lowest point's height at pose ``q`` [m], (rows,).
+
+        Every row, the held objects of the classes not held included.
+        """
         pm = self.model.model
         pin.updateGeometryPlacements(pm, self.data, self.geometry, self.gdata, np.asarray(q, float))
         oMg = self.gdata.oMg
-        R = np.array([oMg[k].rotation for k in range(self._na)])
-        c = np.array([oMg[k].translation for k in range(self._na)])
+        R = np.array([oMg[k].rotation for k in range(self._rows)])
+        c = np.array([oMg[k].translation for k in range(self._rows)])
         return c[:, 2] - _lowest(R, self._half, self._is_cyl)
 
     def _reach(self) -> np.ndarray:
