@@ -62,6 +62,10 @@ def test_the_unreachable_share_of_the_view_is_said_once(capsys):
         ("task.classes.green.grip_height_cm=45", "task.classes.green.grip_height_cm"),
         ("arm.joints.shoulder.limits={min: 30, max: 200}", "arm.joints"),
         ("arm.joints.base.limits.max=250", "arm.joints"),
+        # the collision model's table: bins apart, off the base, clear of the arm at home
+        ("task.classes.green.bin_cm=[-18, 37, 20]", "task.classes.green.bin_cm: [-18, 37]"),
+        ("task.classes.blue.bin_cm=[1, 2, 20]", "on the arm's base plate"),
+        ("task.clearance_cm=-0.5", "task.clearance_cm"),
     ],
 )
 def test_inconsistent_configs_stop_before_motion_with_exit_2(tmp_path, override, field):
@@ -73,3 +77,13 @@ def test_inconsistent_configs_stop_before_motion_with_exit_2(tmp_path, override,
         trial = read_runlog(log).trials[-1]
         assert trial.faults and field in trial.faults[0].reason
         assert trial.summary is not None and not trial.summary.ok
+
+
+@pytest.mark.bad_input
+def test_a_clearance_the_arm_breaks_at_home_stops_before_motion():
+    """The paper's twin rests 3.31 cm above its red bin: a 5 cm clearance is refused at load."""
+    out = check_bad_input(["sort", "--config", "sim_mujoco", "--set", "task.clearance_cm=5"])
+    assert out.line.endswith(
+        "task.clearance_cm: 5 cm is more than the arm keeps from red's bin at home "
+        "(gripper_jaw_right_pad, 3.31 cm): at most 3.31 cm, or move the bin"
+    )

@@ -63,7 +63,7 @@ def test_an_arm_that_cannot_reach_the_objects_exits_1(tmp_path, capsys):
         "--set", "arm.joints.shoulder.dh.a_cm=12",
         "--set", "arm.joints.elbow.dh.a_cm=14",
         "--set", "arm.target_box.y_cm={min: 5, max: 60}",
-        *[a for c, x in (("red", -15), ("green", -10), ("blue", -5))
+        *[a for c, x in (("red", -19), ("green", -12), ("blue", -5))
           for a in ("--set", f"task.classes.{c}.bin_cm=[{x}, 25, 20]")],
     )  # fmt: skip
     assert code == 1, err

@@ -16,6 +16,7 @@ the CLIs end with exit 2 before anything moves.
 from __future__ import annotations
 
 import hashlib
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -23,6 +24,8 @@ import numpy as np
 from mearm.config import ColorClass, Config
 from mearm.exceptions import ConfigError
 from mearm.kinematics import ArmModel
+from mearm.kinematics.bodies import M_PER_CM, base_radius_m, bin_half_outer_m
+from mearm.kinematics.collision import TOUCH_CM, CollisionModel
 from mearm.task.plan import Planner
 from mearm.task.route import Route
 from mearm.vision.calibration import camera_geometry
@@ -69,6 +72,7 @@ def check_consistency(config: Config, model: ArmModel | None = None) -> Consiste
     problems: list[str] = []
     for cls in config.task.classes:
         problems += _check_bin(planner, model, cls)
+    problems += _check_bodies(config, model)
     view_cm = _view_points_cm(config)
     by_height: dict[float, list[str]] = {}
     for cls in config.task.classes:
@@ -132,6 +136,53 @@ def _check_bin(planner: Planner, model: ArmModel, cls: ColorClass) -> list[str]:
         f"task.classes.{cls.name}.bin_cm: [{x:g}, {y:g}, {z:g}] cannot be reached from home "
         f"within the joint limits: {route.failure}"
     ]
+
+
+def _check_bodies(config: Config, model: ArmModel) -> list[str]:
+    """The table as the collision model builds it: bins apart, clear of the arm at home.
+
+    Each bin stands on its own square of the table, off the arm's base plate; the arm at
+    home touches no bin and keeps ``task.clearance_cm`` from each (every run starts and
+    ends there).
+    """
+    problems = []
+    half = {c.name: bin_half_outer_m(config, c.name) / M_PER_CM for c in config.task.classes}
+    base = base_radius_m(config) / M_PER_CM
+    seen: list[ColorClass] = []
+    for cls in config.task.classes:
+        x, y = cls.bin_cm[0], cls.bin_cm[1]
+        where = f"task.classes.{cls.name}.bin_cm: [{x:g}, {y:g}]"
+        for other in seen:
+            reach = half[cls.name] + half[other.name]
+            if abs(x - other.bin_cm[0]) < reach and abs(y - other.bin_cm[1]) < reach:
+                problems.append(
+                    f"{where}: its bin ({2 * half[cls.name]:g} cm square with its walls) "
+                    f"overlaps {other.name}'s at [{other.bin_cm[0]:g}, {other.bin_cm[1]:g}]: "
+                    "each bin needs its own place on the table"
+                )
+        seen.append(cls)
+        dx, dy = max(abs(x) - half[cls.name], 0.0), max(abs(y) - half[cls.name], 0.0)
+        if math.hypot(dx, dy) < base:
+            problems.append(
+                f"{where}: its bin stands on the arm's base plate ({base:.1f} cm radius "
+                "about the origin): move it clear"
+            )
+    if problems:
+        return problems
+    collision = CollisionModel(config, model, clearance_cm=0.0)
+    for name, part, distance in collision.bins_at(model.home):
+        if distance <= TOUCH_CM:
+            problems.append(
+                f"task.classes.{name}.bin_cm: the arm at home ({part}) touches its bin: "
+                "move the bin or arm.joints[].home"
+            )
+        elif distance < config.task.clearance_cm:
+            problems.append(
+                f"task.clearance_cm: {config.task.clearance_cm:g} cm is more than the arm "
+                f"keeps from {name}'s bin at home ({part}, {distance:.2f} cm): at most "
+                f"{distance:.2f} cm, or move the bin"
+            )
+    return problems
 
 
 def _view_points_cm(config: Config) -> np.ndarray:
