@@ -316,6 +316,28 @@ def test_a_table_that_never_clears_is_reported(config):
     assert [s.reason for s in report.skipped] == ["still on the table after 1 pick rounds"] * 2
 
 
+def test_an_object_knocked_off_the_table_is_reported_as_such(config):
+    """An object that leaves the table while another is placed is looked for again from
+    home, then left as ``off_table`` with where it was last seen; the rest is sorted."""
+    scene = [SceneObject(color="red", x=0.0, y=45.0), SceneObject(color="blue", x=8.0, y=40.0)]
+    with open_rig(config, scene) as rig:
+        bus = rig.bus
+        release = bus._open_gripper
+
+        def knock_off() -> None:  # the first release sweeps the blue object off the table
+            release()
+            blue = next(o for o in bus.world.objects if o.color == "blue")
+            blue.x_cm, blue.y_cm = 300.0, 300.0
+
+        bus._open_gripper = knock_off
+        report = Sorter(config, rig.camera, bus, model=rig.model, echo=None).run()
+    assert report.sorted_per_class() == {"red": 1}
+    (skip,) = report.skipped
+    assert (skip.object_id, skip.kind) == ("blue1", "off_table")
+    assert skip.reason.startswith("no longer on the table: last seen at (8.0, 40.0) cm")
+    assert report.outcome.left == {"off_table": 1}
+
+
 def test_camera_that_cannot_open_is_logged(tmp_path):
     """No camera at all: found before any motion, so exit 2 with one line; the log says why
     the sort never started."""

@@ -38,6 +38,11 @@ RETRY_LIFT_CM = 5.0
 #: A detour travels this much above the safe height, and tries these higher still [cm].
 DETOUR_MARGIN_CM = 1.0
 DETOUR_EXTRA_CM = (0.0, 3.0, 6.0)
+#: An approach (and the lift back to it with the object) goes this much above the safe
+#: height where it can [cm]: streamed at the servos' speed limits, the physical twin's
+#: arm strays from a transit route's planned path by up to 2.7 cm (the paper's arm,
+#: random scenes), from a vertical pick or lift by 0.4 cm.
+TRAVEL_MARGIN_CM = 3.0
 #: Failures of a direct solve that a detour is tried for: a solve that stopped short
 #: against the limits or stalled from this start may converge from over the target.
 REROUTED = ("limit", "stalled")
@@ -169,6 +174,15 @@ class Planner:
         """
         assert self.collision is not None
         return self.collision.clear_height_cm(q) + DETOUR_MARGIN_CM
+
+    def travel_heights_cm(self, q: npt.ArrayLike) -> tuple[float, float]:
+        """The TCP heights an approach tries, highest first, for the tool as at ``q`` [cm].
+
+        The safe height with :data:`TRAVEL_MARGIN_CM` for the arm's lag in a transit,
+        then the safe height alone.
+        """
+        safe = self.safe_height_cm(q)
+        return safe + TRAVEL_MARGIN_CM, safe
 
     def _detour(
         self, target: IKTarget, q_start: npt.ArrayLike, obj: str | None

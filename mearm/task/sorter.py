@@ -372,9 +372,20 @@ class Sorter:
         h = self.config.task.approach_height_cm
         if h is None:
             return None
-        target = self.planner.above_target(pick.target, h)
-        above = Route(obj.id, obj.class_name, "approach", pick.attempt, target)
-        return self.planner.plan(above, self.executor.q_now())
+        q = self.executor.q_now()
+        z = float(pick.target.position_cm[2])
+        # Where it is higher, the travel height: the jaws, and the object they lift back
+        # to here, pass every bin wall and object top by the clearance and a margin for
+        # the arm's lag in the transits to and from here (Planner.travel_heights_cm);
+        # where that is out of reach, lower down to the approach height.
+        heights = [max(h, t - z) for t in self.planner.travel_heights_cm(q)] + [h]
+        above = None
+        for height in dict.fromkeys(heights):
+            target = self.planner.above_target(pick.target, height)
+            above = Route(obj.id, obj.class_name, "approach", pick.attempt, target)
+            if self.planner.plan(above, q).planned:
+                break
+        return above
 
     def _home(self, *, keep_grip: bool = False) -> None:
         """Go home along a straight line in joint space (no solve, inside the limits).
@@ -424,6 +435,8 @@ class Sorter:
                     # the arm over a bin may hide an object seen before: look from home
                     self._home()
                     obj = self._choose(self._look())
+                    if obj is None:
+                        self._gone()
                 if obj is None:
                     break
                 self._pick_and_place(obj)
@@ -476,6 +489,20 @@ class Sorter:
             out.seen[name] = out.seen.get(name, 0) + 1
             leave("cut")
         return out
+
+    def _gone(self) -> None:
+        """Leave each object seen before but not on the table from home, and say so.
+
+        Knocked off the table, or out of the camera's view: the camera cannot tell which.
+        """
+        for o in self._objects:
+            if not o.sorted and o.skipped is None:
+                self._skip(
+                    o,
+                    f"no longer on the table: last seen at ({o.x_cm:.1f}, {o.y_cm:.1f}) cm, "
+                    "not seen from home (knocked off the table, or out of the camera's view)",
+                    kind="off_table",
+                )
 
     def _unaccounted(self) -> bool:
         """Whether an object seen before is neither sorted nor left for a reason."""
