@@ -4,12 +4,14 @@ On the real rig (``configs/lab.yaml``) the camera and the Arduino do the work; o
 simulated rig (``configs/sim.yaml``, the default) both are simulated and the table holds
 the paper's 12-object layout unless ``--scene`` or ``--random`` says otherwise::
 
-    python -m mearm.sort --config configs/sim.yaml --log run.jsonl [--view]
+    python -m mearm.sort --config configs/sim.yaml --log run.jsonl [--view [--collision]]
 
 The last line printed is ``sorted N of M objects (…reasons…)``; the run log's summary
 record holds the same counts, per class and per reason. An object counts as sorted only
 when its place is confirmed (simulated: the world has it in its bin; real rig: the camera
-no longer sees it on the table).
+no longer sees it on the table). With ``--view --collision`` the view also draws, in
+translucent colours, the collision model the routes are checked against (the arm's, the
+bins' and the objects' shapes; docs/view.md).
 
 Exit status: 0 only when every object seen was sorted; 1 when the run ended with objects
 left (out of reach, failed picks, a camera or servo fault, a servo port that cannot be
@@ -92,6 +94,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument(
         "--hold", action="store_true", help="with --view: keep the view open after the run (Ctrl-C)"
     )
+    parser.add_argument(
+        "--collision",
+        action="store_true",
+        help="with --view: also draw the collision model the sort plans with (the arm's, "
+        "the bins' and the objects' shapes, translucent)",
+    )
     parser.add_argument("--quiet", action="store_true", help="print only the summary")
     parser.add_argument(
         "--save-mjcf",
@@ -103,6 +111,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if args.hold and not args.view:
         parser.error("--hold keeps the view open: use it with --view")
+    if args.collision and not args.view:
+        parser.error("--collision draws the collision model in the view: use it with --view")
     config = config_from_args(args)
     scene = scene_from_args(args, config)
     if args.save_mjcf is not None:
@@ -111,9 +121,20 @@ def main(argv: Sequence[str] | None = None) -> int:
     echo = lines.append if args.quiet else print
 
     def make_view(rig: Rig) -> object:
+        from mearm.kinematics.collision import CollisionModel
         from mearm.view import ArmView
 
         view = ArmView(rig.model, config)
+        try:
+            if args.collision:
+                # built as the sorter builds its own (which it keeps to itself); the view
+                # keeps this one in step with what it draws: the objects seen on the
+                # table, the jaws' opening, the arm's joints
+                model = CollisionModel(config, rig.model, clearance_cm=config.task.clearance_cm)
+                view.show_collision(model, track_world=True)
+        except BaseException:
+            view.close()
+            raise
         print(f"meshcat view: {view.url}", flush=True)
         return view
 

@@ -13,6 +13,7 @@ Examples::
     mearm preview --sweep                        # each actuated joint, then the jaws
     mearm preview --sweep shoulder               # only the shoulder
     mearm preview --screenshot arm.png           # render headless and exit
+    mearm preview --collision                    # and the collision model, translucent
 """
 
 from __future__ import annotations
@@ -27,6 +28,7 @@ import numpy as np
 
 from mearm.cli import ArgumentParser, add_config_argument, config_from_args, positive_number, run
 from mearm.kinematics import ArmModel
+from mearm.kinematics.collision import CollisionModel
 from mearm.view import ArmView
 
 #: The --sweep argument meaning every actuated joint, then the gripper.
@@ -128,6 +130,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--size", type=_window_size, default=(1280, 800), help="PNG size WxH")
     parser.add_argument("--hold", action="store_true", help="keep serving after --screenshot")
     parser.add_argument(
+        "--collision",
+        action="store_true",
+        help="also draw the collision model the sort plans with (the arm's and the bins' "
+        "shapes, translucent), moving with the arm",
+    )
+    parser.add_argument(
         "--port", type=int, default=None, help="web port (default: 7000 or the next free; 0: any)"
     )
     args = parser.parse_args(argv)
@@ -181,8 +189,14 @@ def main(argv: Sequence[str] | None = None) -> int:
                 view.show_joints(q_start, opening)
                 wait()
 
+    collision = None
+    if args.collision:
+        collision = CollisionModel(config, model, clearance_cm=config.task.clearance_cm)
+
     with ArmView(model, config, port=args.port) as view:
         view.show_joints(q_start, gripper.open_cm)
+        if collision is not None:
+            view.show_collision(collision, track_world=True)  # the jaws follow the sweep
         if args.screenshot is not None:
             if args.sweep:
                 sweep(pace=False)

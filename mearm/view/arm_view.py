@@ -16,7 +16,10 @@ Scene tree (below ``/meshcat``)::
     twin/objects/<id>           the physical twin's objects where its physics has them
     camera_frame                the last camera frame, lying where the calibration puts it
     target                      the current target
-    paths/route<k>              the TCP path of each route, kept until clear_paths()
+    paths/route<k>              the TCP path of each route, kept until clear_paths();
+                                hidden and shown again by show_paths()
+    collision/arm/<shape>       the collision model's arm shapes, and its bins' and
+    collision/world/<shape>     objects' (show_collision(); see mearm.view.collision)
 """
 
 from __future__ import annotations
@@ -42,8 +45,10 @@ from pinocchio.visualize import MeshcatVisualizer
 from mearm.config import ColorClass, Config
 from mearm.exceptions import ViewError, ViewInputError
 from mearm.kinematics import ArmModel, jaw_joint_names
+from mearm.kinematics.collision import CollisionModel
 from mearm.view.browser import screenshot
 from mearm.view.camera import M_PER_CM, ViewCamera
+from mearm.view.collision import CollisionDrawing
 from mearm.view.frame_plane import FramePlane, PixelToTable, frame_plane
 from mearm.view.layout import SceneLayout
 from mearm.view.server import MeshcatServer
@@ -288,7 +293,10 @@ class ArmView:
             self._bodies: dict[str, TwinBody] = {}
             self._twin_shown = False
             self._paths: list[str] = []
+            self._paths_shown = True
             self._target_shown = False
+            self._collision: CollisionDrawing | None = None  # drawn now
+            self._collision_last: CollisionDrawing | None = None  # drawn last, to show again
             self.frame_plane: FramePlane | None = None
             self._setup_scene()
             self._urdf = _UrdfArm(model)
@@ -419,6 +427,19 @@ class ArmView:
             ViewInputError: Not n (or m) finite numbers, or a non-finite opening.
         """
         self._check_open()
+        full = self._full_q(q)
+        if opening_cm is not None:
+            opening = _finite_array(opening_cm, "opening_cm", "a finite opening [cm]")
+            if opening.shape != ():
+                raise ViewInputError("opening_cm", opening_cm, "a finite opening [cm]")
+            self.opening_cm = float(opening)
+        self._viz.display(self._urdf.q(full, self.opening_cm))
+        self.joints = full.copy()
+        if self._collision is not None:
+            self._draw_collision()
+
+    def _full_q(self, q: npt.ArrayLike) -> np.ndarray:
+        """The chain's full joint vector from ``q`` as :meth:`show_joints` takes it, (n,)."""
         chain = self.model.chain
         sizes = sorted({chain.n, chain.m})
         allowed = (
@@ -427,18 +448,105 @@ class ArmView:
         )
         values = _finite_array(q, "q", allowed)
         if values.shape == (chain.n,):
-            full = values
-        elif values.shape == (chain.m,):
-            full = chain.full(values)
+            return values
+        if values.shape == (chain.m,):
+            return np.asarray(chain.full(values), dtype=float)
+        raise ViewInputError("q", q, allowed)
+
+    # ------------------------------------------------------------------ collision model
+
+    @property
+    def collision(self) -> CollisionModel | None:
+        """The collision model drawn now (:meth:`show_collision`), or ``None``."""
+        return None if self._collision is None else self._collision.collision
+
+    def show_collision(
+        self,
+        collision: CollisionModel | None = None,
+        q: npt.ArrayLike | None = None,
+        *,
+        track_world: bool | None = None,
+    ) -> None:
+        """Draw a collision model's shapes, translucent, under ``collision/``; until hidden.
+
+        Every shape of the model's world now is drawn (:mod:`mearm.view.collision`): the
+        arm's plates, servos, hand and jaws and a held object in translucent magenta,
+        each bin's floor and walls and each object on the table in translucent cyan, as
+        the model has them (their true sizes: the clearance is not drawn). The table is
+        not drawn: the model's is a half-space lowered by the clearance, so a distance
+        to it less the clearance is the height above the table top (z = 0); the arm's
+        distances to the bins and objects are compared against the clearance itself
+        (``collision.clearance_m``). Posed by Pinocchio for the joints the arm is drawn
+        at, the shapes follow the arm at each :meth:`show_joints` (and
+        :meth:`show_bodies`) until :meth:`hide_collision`.
+
+        Args:
+            collision: The model (e.g. the planner's); ``None``: the one drawn last.
+            q: The joints to draw the arm and the shapes at, as :meth:`show_joints` takes
+                them; ``None``: the joints drawn now.
+            track_world: Put the view's world into the model before each drawing: the
+                objects of :meth:`set_objects` and the jaws' opening drawn
+                (``collision.set_world``, nothing held). For a model of the view's own:
+                never the planner's, whose checks it would change. ``None``: off for a
+                new model, as before for the one drawn last. Without it the shapes are
+                the model's world as its owner sets it (its jaws at its opening).
+
+        Raises:
+            ViewInputError: Not a CollisionModel of this view's arm, none drawn before
+                (``collision=None``), bad joints or a ``track_world`` not a bool; nothing
+                is changed then.
+        """
+        self._check_open()
+        chain = self.model.chain
+        if collision is None:
+            if self._collision_last is None:
+                raise ViewInputError(
+                    "collision", None, "a CollisionModel (none was drawn before to show again)"
+                )
+            drawing = self._collision_last
+        elif not isinstance(collision, CollisionModel):
+            raise ViewInputError(
+                "collision", collision, "a mearm.kinematics.collision.CollisionModel"
+            )
+        elif list(collision.model.chain.names) != list(chain.names):
+            raise ViewInputError(
+                "collision",
+                f"a CollisionModel of joints {', '.join(collision.model.chain.names)}",
+                f"a CollisionModel of this view's arm (joints: {', '.join(chain.names)})",
+            )
+        elif self._collision_last is not None and collision is self._collision_last.collision:
+            drawing = self._collision_last
         else:
-            raise ViewInputError("q", q, allowed)
-        if opening_cm is not None:
-            opening = _finite_array(opening_cm, "opening_cm", "a finite opening [cm]")
-            if opening.shape != ():
-                raise ViewInputError("opening_cm", opening_cm, "a finite opening [cm]")
-            self.opening_cm = float(opening)
-        self._viz.display(self._urdf.q(full, self.opening_cm))
-        self.joints = full.copy()
+            drawing = CollisionDrawing(self.viewer, collision, track_world=False)
+        if track_world is not None and not isinstance(track_world, bool):
+            raise ViewInputError("track_world", track_world, "True, False or None")
+        full = None if q is None else self._full_q(q)
+        if self._collision is not None and self._collision is not drawing:
+            self._collision.delete()
+        if track_world is not None:
+            drawing.track_world = track_world
+        self._collision = self._collision_last = drawing
+        if full is not None:
+            self.show_joints(full)  # draws the shapes too
+        else:
+            self._draw_collision()
+
+    def hide_collision(self) -> None:
+        """Remove the collision model's shapes; :meth:`show_collision` draws them again."""
+        self._check_open()
+        if self._collision is not None:
+            self._collision.delete()
+            self._collision = None
+
+    def _draw_collision(self) -> None:
+        """Draw the collision model at the joints drawn (its world first, if tracked)."""
+        drawing = self._collision
+        if drawing is None:
+            return
+        if drawing.track_world:
+            objects = [(o.id, o.class_name, o.x_cm, o.y_cm) for o in self._objects.values()]
+            drawing.set_world(objects, self.opening_cm)
+        drawing.update(self.joints)
 
     # ------------------------------------------------------------------ objects
 
@@ -474,15 +582,17 @@ class ArmView:
             wanted[obj.id] = obj
         if self._twin_shown:  # the twin's bodies are drawn instead (see show_bodies)
             self._objects = wanted
-            return
-        self._sync_cylinders(
-            self._objects,
-            wanted,
-            "objects",
-            lambda obj, cls: tf.translation_matrix(
-                np.array([obj.x_cm, obj.y_cm, cls.height_cm / 2]) * M_PER_CM
-            ),
-        )
+        else:
+            self._sync_cylinders(
+                self._objects,
+                wanted,
+                "objects",
+                lambda obj, cls: tf.translation_matrix(
+                    np.array([obj.x_cm, obj.y_cm, cls.height_cm / 2]) * M_PER_CM
+                ),
+            )
+        if self._collision is not None and self._collision.track_world:
+            self._draw_collision()
 
     @property
     def twin_shown(self) -> bool:
@@ -662,7 +772,32 @@ class ArmView:
         return name
 
     def clear_paths(self) -> None:
-        """Remove every route line."""
+        """Remove every route line (hidden ones stay hidden: see :meth:`show_paths`)."""
         self._check_open()
         self.viewer["paths"].delete()
         self._paths.clear()
+        if not self._paths_shown:
+            self.viewer["paths"].set_property("visible", False)
+
+    @property
+    def paths_shown(self) -> bool:
+        """Whether the route lines are shown (:meth:`show_paths`); they are at first."""
+        return self._paths_shown
+
+    def show_paths(self, visible: bool = True) -> None:
+        """Show or hide every route line, those drawn later included.
+
+        Hidden lines stay in the scene (:attr:`paths` still lists them; meshcat's
+        ``visible`` property of ``paths``); :meth:`add_path` goes on adding lines.
+
+        Args:
+            visible: ``True`` shows them, ``False`` hides them.
+
+        Raises:
+            ViewInputError: ``visible`` is not a bool.
+        """
+        self._check_open()
+        if not isinstance(visible, (bool, np.bool_)):
+            raise ViewInputError("visible", visible, "True or False")
+        self._paths_shown = bool(visible)
+        self.viewer["paths"].set_property("visible", self._paths_shown)
