@@ -420,3 +420,18 @@ def test_the_mearm_elbow_servo_drives_the_forearm_whatever_the_shoulder(mearm, s
     assert arm.servos[k].value_of(arm.pot[k]) == pytest.approx(
         measured["shoulder"] + measured["elbow"], abs=1e-9
     )
+
+
+def test_a_bin_holds_an_object_too_slow_to_climb_its_walls(paper):
+    """In a bin: inside its walls, below their top, and too slow to rise over them
+    (v² < 2·g·(top − z)); a creeping object counts, one flying through does not."""
+    config, m = paper
+    arm = _twin(paper)
+    bin_xy = np.array(config.task.class_named("red").bin_cm[:2]) * M_PER_CM
+    joint = m.body("obj_red1").jntadr[0]
+    qpos, qvel = m.jnt_qposadr[joint], m.jnt_dofadr[joint]
+    arm.data.qpos[qpos : qpos + 3] = (*bin_xy, 0.01)  # on the bin's floor, not yet at rest
+    for speed_m_s, held in ((0.02, True), (2.0, False)):
+        arm.data.qvel[qvel : qvel + 3] = (0.0, 0.0, speed_m_s)
+        mujoco.mj_forward(m, arm.data)
+        assert ("red1" in arm.objects_in_bin()) is held, speed_m_s

@@ -292,23 +292,26 @@ class TwinArm(ServoBus):
         )
 
     def objects_in_bin(self) -> dict[str, str]:
-        """Objects at rest in a bin: id → the bin's class name.
+        """Objects held by a bin: id → the bin's class name.
 
-        In a bin: the body's centre lies inside the bin's inner walls in the plane and
-        below their top, and moves slower than :data:`REST_SPEED_M_S`.
+        Held: the body's centre lies inside the bin's inner walls in the plane and below
+        their top, and it moves too slowly to rise over them (``v² < 2·g·(top − z)``):
+        at rest, or settling on others in the bin (a leaning object may creep for
+        seconds), but not one still flying through.
         """
         out = {}
+        g = float(np.linalg.norm(self.model.opt.gravity))
         for oid in self._object_ids:
             pose = self.object_pose(oid)
-            if pose.speed_cm_s * M_PER_CM >= REST_SPEED_M_S:
-                continue
+            v = pose.speed_cm_s * M_PER_CM
             p = pose.position_cm * M_PER_CM
             for name in self.config.task.class_names:
                 centre = self.data.body(f"bin_{name}").xpos
                 wall = self.model.geom(f"bin_{name}_wall_px")
                 inner = float(wall.pos[0] - wall.size[0])
                 top = float(centre[2] + wall.pos[2] + wall.size[2])
-                if np.all(np.abs(p[:2] - centre[:2]) < inner) and p[2] < top:
+                inside = np.all(np.abs(p[:2] - centre[:2]) < inner) and p[2] < top
+                if inside and v * v < 2.0 * g * (top - p[2]):
                     out[oid] = name
         return out
 

@@ -100,7 +100,8 @@ def open_rig(config: Config, scene: list[SceneObject] | None = None) -> Iterator
 def _open_twin(config: Config, scene: list[SceneObject] | None, model: ArmModel) -> Iterator[Rig]:
     """The physical twin (``simulator: mujoco``) behind the servo bus and the camera.
 
-    One MuJoCo scene; a place counts when the physics has the object at rest in its bin.
+    One MuJoCo scene; a place counts when the physics has the object in its bin, too slow
+    to leave it.
     """
     from mearm.sim.twin_bus import TwinArm
     from mearm.sim.twin_camera import TwinCamera

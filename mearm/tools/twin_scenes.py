@@ -3,11 +3,10 @@
     mearm twin-scenes --config configs/sim_mujoco.yaml --scenes 50 --objects 12
 
 Each scene is ``random_scene(config, objects, seed)`` for seeds ``--first-seed`` … +
-scenes − 1 (default from 0), sorted by
-the same loop as ``mearm sort`` (``run_sort``) on the MuJoCo twin; an object counts only
-when the physics has it at rest in its class's bin. Prints one line per scene, the total
-and every object left with its reason, and exits 1 if the share sorted is below
-``--require`` (default 0: report only).
+scenes − 1 (default from 0), sorted by the same loop as ``mearm sort`` (``run_sort``) on
+the MuJoCo twin; an object counts only when the physics has it in its class's bin, too
+slow to leave it. Prints one line per scene, the total and every object left with its
+reason, and exits 1 if the share sorted is below ``--require`` (default 0: report only).
 """
 
 from __future__ import annotations
