@@ -14,7 +14,7 @@ from conftest import ROOT, planar_yaw_arm_data, run_cli
 from fakeboard import FakeMearmBoard, MearmFaults
 
 from mearm.config import SceneObject, config_from_dict, load_config
-from mearm.exceptions import MearmError
+from mearm.exceptions import MearmError, ServoError
 from mearm.hardware import open_bus
 from mearm.runlog import RunLog, read_runlog
 from mearm.sim import SimCamera, World
@@ -195,6 +195,28 @@ def test_servo_link_dropped_mid_route(tmp_path, config):
     fault = trial.faults[0]
     assert fault.last_joints is not None and not trial.summary.ok
     assert len(moves) == 400  # the 400th move met the pulled cable; nothing sent after it
+
+
+def test_a_fault_on_the_way_to_the_bin_leaves_the_pick_unconfirmed(config):
+    """The grip is checked over the bin: a servo fault before that is not a failed pick."""
+    lines: list[str] = []
+    with open_rig(config, [SceneObject(color="red", x=0.0, y=45.0)]) as rig:
+        bus = rig.bus
+        send = bus._send_move
+
+        def cut_while_holding(command, pulses):  # the link is lost once the jaws hold it
+            if bus.world.held_object() is not None and dict(command.joints) != dict(
+                bus.state.joints
+            ):
+                raise ServoError("servo link lost (test)")
+            send(command, pulses)
+
+        bus._send_move = cut_while_holding
+        with pytest.raises(SortAborted):
+            Sorter(config, rig.camera, bus, model=rig.model, echo=lines.append).run()
+    (pick,) = [line for line in lines if line.startswith("pick")]
+    assert "unconfirmed" in pick and "FAILED" not in pick
+    assert any("failed picks 0" in line for line in lines)
 
 
 def test_ctrl_c_parks_and_keeps_the_log(tmp_path):

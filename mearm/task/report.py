@@ -125,8 +125,8 @@ class SortReport:
 
     @property
     def failed_picks(self) -> int:
-        """Pick routes whose grip failed."""
-        return sum(1 for r in self.routes if r.step == "pick" and not r.success)
+        """Pick routes whose grip failed (not those a fault left unconfirmed)."""
+        return sum(1 for r in self.routes if r.step == "pick" and r.confirmed and not r.success)
 
 
 class Reporter:
@@ -183,7 +183,7 @@ class Reporter:
                 motion_s=route.motion_s,
             )
         x, y, z = target
-        mark = "ok" if route.success else "FAILED"
+        mark = "ok" if route.success else "FAILED" if route.confirmed else "unconfirmed"
         self.echo(
             f"{route.step:<5} {route.object_id:<9} target ({x:6.2f}, {y:6.2f}, {z:6.2f}) cm  "
             f"{plan.iterations:4d} it  solver {plan.final_error_cm:.4f} cm  "

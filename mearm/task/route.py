@@ -31,6 +31,8 @@ class Route:
             ``None`` with ``failure``.
         executed: Whether its poses were sent to the servos.
         success: Pick: gripped; place: in its bin; lift/home: reached.
+        confirmed: Whether :attr:`success` was found out: a fault before the check (a pick
+            is checked once the arm is over the bin) leaves it unconfirmed, not failed.
         ee_cm: Where the TCP really ended [cm], (3,) (the simulated arm knows; a real
             arm reports its commands).
         elapsed_s: Wall time from planning to the end of the step [s].
@@ -50,6 +52,7 @@ class Route:
     failure_kind: FailureKind | None = None
     executed: bool = False
     success: bool = False
+    confirmed: bool = True
     ee_cm: np.ndarray = field(default_factory=lambda: np.full(3, np.nan))
     elapsed_s: float = 0.0
     motion_s: float = 0.0

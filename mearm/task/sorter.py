@@ -338,9 +338,11 @@ class Sorter:
         # the table unobstructed, and an object held over its own spot (in view of a camera
         # above it) is not taken for one left there. (The paper re-reads the table after
         # each object.) A fault on the way leaves the pick in the log, unconfirmed.
+        pick.confirmed = False
         try:
             ex.stream(place, "travel", True, _hex(cls.draw_rgb))
             pick.success = not self._on_table(obj, self._look(track_new=False))
+            pick.confirmed = True
         finally:
             self.reporter.route(pick)
         if not pick.success:
