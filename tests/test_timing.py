@@ -145,3 +145,41 @@ def test_the_paper_scene_moves_in_a_quarter_of_the_papers_time():
         assert rows[f"paper scene, {label}: ÷ the paper's ≈ 144 s"].value == pytest.approx(
             row.value / PAPER_MOTION_S
         )
+
+
+def test_a_servo_over_a_combination_is_timed_on_its_own_value():
+    """The MeArm v1's elbow servo turns shoulder + elbow: its speed limit holds for that sum.
+
+    The shoulder and elbow turning 40° each the same way swing the forearm servo 80°, so
+    the move takes that servo's time for 80°; turning opposite ways, the forearm servo
+    stands still and the shoulder's own 40° sets the time.
+    """
+    from mearm.config import load_config  # noqa: PLC0415
+
+    config = load_config("sim_mearm_v1")
+    chain = Chain.from_description(config.arm)
+    limits = SpeedLimits.of_arm(config.arm, chain)
+    servo = {j.name: j.servo for j in config.arm.joints if j.servo is not None}
+    sec = {n: s.seconds_per_60deg for n, s in servo.items()}
+    home = chain.home.copy()
+    rate = 1000.0
+    durations = []
+    for elbow_sign, forearm_deg in ((1, 80.0), (-1, 0.0)):
+        a = dict(zip(chain.actuated, np.degrees(chain.actuated_of(home)), strict=True))
+        a["shoulder"] -= 40
+        a["elbow"] -= 40 * elbow_sign
+        path = np.array([home, chain.from_named(a)])
+        timed = time_path(path, chain, limits, rate)
+        values = np.degrees(limits.values(chain.actuated_of(timed.q)))
+        k = chain.actuated.index("elbow")
+        assert abs(values[-1, k] - values[0, k]) == pytest.approx(forearm_deg, abs=1e-6)
+        speed = np.array([60.0 / sec[n] for n in chain.actuated])  # each servo's [deg/s]
+        rates = np.abs(np.diff(values, axis=0)) * rate
+        assert np.all(rates <= speed * (1 + 1e-6))
+        durations.append(timed.duration_s)
+        if forearm_deg:  # timed joint by joint, the forearm servo would be outrun
+            naive = time_path(path, chain, SpeedLimits(limits.velocity, limits.acceleration), rate)
+            naive_rates = np.abs(np.diff(np.degrees(limits.values(chain.actuated_of(naive.q))),
+                                         axis=0)) * rate  # fmt: skip
+            assert naive_rates[:, k].max() > 1.5 * speed[k]
+    assert durations[0] > 1.5 * durations[1]  # 80° of the forearm servo against 40°

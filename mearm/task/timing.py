@@ -4,15 +4,17 @@ A route's plan (an IK solve, or a straight line in joint space) is a polyline of
 poses. It is followed as it is, never shortcut: every pose sent lies on that polyline. The
 polyline is measured by the time it would take at full speed,
 
-.. math:: d\sigma = \max_i \frac{|dq_i|}{\dot q_{i,max}} \quad [s],
+.. math:: d\sigma = \max_i \frac{|dv_i|}{\dot v_{i,max}} \quad [s],
 
-so along it each actuated joint moves :math:`|dq_i/d\sigma| \le \dot q_{i,max}`, and a
-path speed :math:`\dot\sigma \le 1` keeps every joint within its speed limit (an
-acceleration limit :math:`\ddot q_{i,max}` holds along each segment when
-:math:`|\ddot\sigma| \le \min_i \ddot q_{i,max}/\dot q_{i,max}`). The time law
-:math:`\sigma(t)`, from rest to rest, is a one-degree-of-freedom Ruckig trajectory, its
-duration a whole number of servo periods; sampling it every period gives the commands,
-each step at most :math:`\dot q_{i,max}/f` for every joint (checked before any is sent).
+with :math:`v_i` the value servo i turns (its joint :math:`q_i`, or a combination
+:math:`\sum_j a_{ij} q_j` such as the MeArm's forearm angle), so along it each servo moves
+:math:`|dv_i/d\sigma| \le \dot v_{i,max}`, and a path speed :math:`\dot\sigma \le 1`
+keeps every servo within its speed limit (an acceleration limit :math:`\ddot v_{i,max}`
+holds along each segment when :math:`|\ddot\sigma| \le \min_i \ddot v_{i,max}/\dot
+v_{i,max}`). The time law :math:`\sigma(t)`, from rest to rest, is a one-degree-of-freedom
+Ruckig trajectory, its duration a whole number of servo periods; sampling it every period
+gives the commands, each step at most :math:`\dot v_{i,max}/f` for every servo (checked
+before any is sent).
 
 Why Ruckig (``ruckig``) and not TOPP-RA (``toppra``): Ruckig is one small compiled
 extension with no dependencies that imports in about a millisecond, while ``toppra``
@@ -46,29 +48,51 @@ STEP_RTOL = 1e-9
 
 @dataclass(frozen=True)
 class SpeedLimits:
-    """Each actuated joint's speed and acceleration limit, model units.
+    """Each joint servo's speed and acceleration limit, model units.
+
+    A servo turns its joint, or a linear combination of the actuated joints (the
+    MeArm's elbow servo sets the forearm's angle, shoulder + elbow): its limits hold for
+    the value it turns, :attr:`drive` times the actuated joints.
 
     Attributes:
-        velocity: Largest speed [rad/s or m/s], (m,).
+        velocity: Largest speed of each servo's value [rad/s or m/s], (m,).
         acceleration: Largest acceleration [rad/s² or m/s²], (m,); ``inf`` where the
             config gives none.
+        drive: Each servo's value rate per actuated joint rate, (m, m); the identity
+            when every servo turns its own joint.
     """
 
     velocity: np.ndarray
     acceleration: np.ndarray
+    drive: np.ndarray | None = None
 
     @classmethod
     def of_arm(cls, arm: ArmDescription, chain: Chain) -> SpeedLimits:
         """The limits the config's servo calibrations give the chain's actuated joints."""
         scale = chain.scale[chain.actuated_index]
         servos = {j.name: j.servo for j in arm.joints if j.servo is not None}
+        column = {name: k for k, name in enumerate(chain.actuated)}
         velocity, acceleration = [], []
-        for name in chain.actuated:
+        drive = np.eye(len(chain.actuated))
+        for i, name in enumerate(chain.actuated):
             servo = servos[name]
             velocity.append(servo.max_speed())
             accel = servo.max_accel()
             acceleration.append(math.inf if accel is None else accel)
-        return cls(np.array(velocity) * scale, np.array(acceleration) * scale)
+            if servo.drives is not None:
+                drive[i] = 0.0
+                for joint, a in servo.drives.terms.items():  # v = Σ a_j q_j, config units
+                    drive[i, column[joint]] = a * scale[i] / scale[column[joint]]
+        combined = not np.array_equal(drive, np.eye(len(chain.actuated)))
+        return cls(
+            np.array(velocity) * scale,
+            np.array(acceleration) * scale,
+            drive if combined else None,
+        )
+
+    def values(self, actuated: np.ndarray) -> np.ndarray:
+        """The servos' values (less their offsets) for actuated joints, (..., m)."""
+        return actuated if self.drive is None else actuated @ self.drive.T
 
 
 @dataclass(frozen=True)
@@ -112,7 +136,8 @@ def time_path(
     q = np.asarray(q_path, dtype=float)
     period = 1.0 / rate_hz
     a = chain.actuated_of(q)  # (k, m)
-    seg = np.abs(np.diff(a, axis=0)) / limits.velocity  # time per segment per joint [s]
+    # time per segment per servo [s]
+    seg = np.abs(np.diff(limits.values(a), axis=0)) / limits.velocity
     tau = seg.max(axis=1) if len(a) > 1 else np.zeros(0)
     keep = np.concatenate([[True], tau > 0])
     knots_a = a[keep]
@@ -165,12 +190,12 @@ def _check(samples: np.ndarray, chain: Chain, limits: SpeedLimits, period_s: flo
     for q in samples:
         if not chain.within_limits(q, tol=1e-6):
             raise ValueError(f"timed path leaves the limits at {chain.named(q)}")
-    step = np.abs(np.diff(chain.actuated_of(samples), axis=0))
+    step = np.abs(np.diff(limits.values(chain.actuated_of(samples)), axis=0))
     bound = limits.velocity * period_s * (1 + STEP_RTOL) + 1e-12
     if np.any(step > bound):
         k, i = (int(v) for v in np.argwhere(step > bound)[0])
         raise ValueError(
-            f"timed path step {k} moves {chain.actuated[i]} faster than its speed limit "
+            f"timed path step {k} moves {chain.actuated[i]}'s servo faster than its speed limit "
             f"({step[k, i] / period_s:.4g} > {limits.velocity[i]:.4g} model units/s)"
         )
 
