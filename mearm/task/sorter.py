@@ -91,6 +91,9 @@ class TrackedObject:
     #: Why its pick was refused for a collision since the last object was sorted (others
     #: go first), or ``None``.
     blocked: str | None = None
+    #: Whether the last look saw it as a region of touching objects (or one the arm hid
+    #: in part): not picked while so; left as ``merged`` when nothing else is left.
+    merged: bool = False
 
 
 Seen = list[tuple[Detection, np.ndarray]]
@@ -201,13 +204,11 @@ class Sorter:
                 n = sum(1 for o in self._objects if o.class_name == det.color) + 1
                 known = TrackedObject(f"{det.color}{n}", det.color, float(x), float(y))
                 self._objects.append(known)
-                if det.merged:
-                    self._skip(
-                        known, "touching objects of one class: no single centroid to pick",
-                        kind="merged",
-                    )  # fmt: skip
             else:
                 known.x_cm, known.y_cm = float(x), float(y)
+            # one look's merged region may be another's single object: the arm, now
+            # elsewhere, hid part of it, or a neighbour picked meanwhile touched it
+            known.merged = det.merged
 
     def _match(self, class_name: str, x: float, y: float) -> TrackedObject | None:
         best, best_d = None, SAME_OBJECT_CM
@@ -230,6 +231,12 @@ class Sorter:
             for o in self._objects
             if o.skipped is None and not o.sorted and self._on_table(o, seen)
         ]
+        whole = [o for o in candidates if not o.merged]
+        for o in candidates if not whole else []:  # nothing else left: say why not these
+            self._skip(
+                o, "touching objects of one class: no single centroid to pick", kind="merged"
+            )
+        candidates = whole
         free = [o for o in candidates if o.blocked is None]
         for o in candidates if not free else []:  # every one waits for another: none can
             self._skip(o, o.blocked or "collision", kind="collision")
