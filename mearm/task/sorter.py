@@ -225,13 +225,21 @@ class Sorter:
             for d, (x, y) in seen
         )
 
-    def _choose(self, seen: Seen) -> TrackedObject | None:
+    def _choose(self, seen: Seen, *, final: bool = False) -> TrackedObject | None:
+        """The object to pick next, or ``None``.
+
+        ``final``: the look is from home, the last before the run ends; only then are the
+        objects seen as touching others, with nothing else left to pick, left as merged
+        (from elsewhere the arm may hide part of one).
+        """
         candidates = [
             o
             for o in self._objects
             if o.skipped is None and not o.sorted and self._on_table(o, seen)
         ]
         whole = [o for o in candidates if not o.merged]
+        if not whole and not final:
+            return None  # look again from home, where the arm hides nothing
         for o in candidates if not whole else []:  # nothing else left: say why not these
             self._skip(
                 o, "touching objects of one class: no single centroid to pick", kind="merged"
@@ -443,7 +451,7 @@ class Sorter:
                 if obj is None and self._unaccounted():
                     # the arm over a bin may hide an object seen before: look from home
                     self._home()
-                    obj = self._choose(self._look())
+                    obj = self._choose(self._look(), final=True)
                     if obj is None:
                         self._gone()
                 if obj is None:
