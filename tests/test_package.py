@@ -108,7 +108,7 @@ def test_config_by_name_is_the_packaged_file(tmp_path, monkeypatch):
     """``sim`` and ``sim.yaml`` name the shipped configs/sim.yaml from any folder; its
     calibration files resolve next to it."""
     from mearm.config import load_config
-    from mearm.config.loader import resolve_config_path
+    from mearm.config.files import resolve_config_path
 
     monkeypatch.chdir(tmp_path)
     shipped = ROOT / "configs" / "sim.yaml"

@@ -33,8 +33,7 @@ import numpy as np  # noqa: E402
 from PIL import Image  # noqa: E402
 
 from mearm.cli import ArgumentParser, run  # noqa: E402
-from mearm.config import Config  # noqa: E402
-from mearm.config.loader import load_config  # noqa: E402
+from mearm.config import Config, load_config  # noqa: E402
 from mearm.exceptions import MearmError  # noqa: E402
 from mearm.fileio import write_atomic  # noqa: E402
 

@@ -42,7 +42,8 @@ from mearm.config.base import (
 )
 from mearm.config.classes import ColorClass, HueBand
 from mearm.config.defaults import default_classes, paper_arm, paper_classes
-from mearm.config.loader import apply_overrides, config_from_dict, load_config, read_yaml
+from mearm.config.files import load_config, read_yaml
+from mearm.config.loader import apply_overrides, config_from_dict
 from mearm.config.rig import (
     CalibrationConfig,
     CameraConfig,

@@ -1,0 +1,124 @@
+"""Reading a config file: a path or a packaged name → YAML → :class:`Config`, files resolved.
+
+The mapping is validated by :func:`mearm.config.loader.config_from_dict`; the files a
+config names (the servo calibration, the camera's calibration) are found relative to its
+folder, and the servo calibration file's fits replace the calibrations of the actuators
+it names (:mod:`mearm.config.servo_file`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from mearm.config.loader import config_from_dict
+from mearm.config.root import Config
+from mearm.config.servo_file import apply_servo_calibration_file
+from mearm.data import config_names, packaged_config
+from mearm.exceptions import ConfigError
+from mearm.yamlio import load_yaml_file
+
+
+def read_yaml(path: str | Path) -> Any:
+    """Read one YAML config file through :func:`mearm.yamlio.load_yaml_file`.
+
+    Raises:
+        ConfigError: missing, not a regular file, too large, not UTF-8, empty, malformed
+            or refused YAML (duplicate keys, tags, aliases, depth); the message says where.
+    """
+    return load_yaml_file(path, what="config")
+
+
+def resolve_config_path(path: str | Path) -> Path:
+    """The file a ``--config`` value names: a path, else the name of a packaged config.
+
+    An existing path wins; a bare name (no folder: ``sim`` or ``sim.yaml``) that is no
+    file here names one of the configs the package ships (:mod:`mearm.data`). Any other
+    missing path is returned as it is, for the reader's "config file not found".
+
+    Raises:
+        ConfigError: a bare name that is neither a file nor a packaged config; the
+            message lists the packaged names.
+    """
+    given = Path(path)
+    text = str(path)
+    if given.exists() or given.is_symlink() or "/" in text or "\\" in text:
+        return given
+    packaged = packaged_config(text)
+    if packaged is not None:
+        return packaged
+    names = ", ".join(config_names()) or "none"
+    raise ConfigError(
+        text,
+        [
+            f"config file not found, and no packaged config is named {text!r} "
+            f"(packaged: {names}); give a file's path or one of these names"
+        ],
+    )
+
+
+def load_config(path: str | Path | None = None, overrides: Sequence[str] = ()) -> Config:
+    """Read a YAML config file; ``None`` gives the built-in default (the simulated rig).
+
+    Args:
+        path: The file, or the name of a packaged config (``sim`` is the shipped
+            ``configs/sim.yaml``: :func:`resolve_config_path`), or ``None``.
+        overrides: ``dotted.key=value`` strings applied before validation.
+
+    Raises:
+        ConfigError: the file is missing (a bare name: nor packaged), unreadable, not
+            YAML, or has bad fields.
+    """
+    if path is None:
+        if not overrides:
+            return Config()
+        return config_from_dict({}, source="--set", overrides=overrides)
+    path = resolve_config_path(path)
+    config = config_from_dict(read_yaml(path), source=str(path), overrides=overrides)
+    return _resolve_files(config, path.parent, str(path))
+
+
+def _resolve_files(config: Config, folder: Path, source: str) -> Config:
+    """``config`` with its calibration files found and its servo calibration applied.
+
+    Relative paths are relative to ``folder``; the servo calibration file
+    (``servo.calibration_file``) replaces the calibrations of the actuators it names.
+
+    Raises:
+        ConfigError: a calibration file the config names does not exist.
+        ServoCalibrationError: the servo calibration file is not one, or not this arm's.
+    """
+    servo_file = config.servo.calibration_file
+    if servo_file is not None:
+        resolved = _existing(folder, servo_file, "servo.calibration_file", source)
+        servo = config.servo.model_copy(update={"calibration_file": str(resolved)})
+        config = apply_servo_calibration_file(config.model_copy(update={"servo": servo}), resolved)
+    cal = config.calibration
+    if cal.model != "perspective":
+        return config
+    changes: dict[str, str] = {}
+    for name in ("intrinsics_file", "extrinsics_file"):
+        changes[name] = str(_existing(folder, getattr(cal, name), f"calibration.{name}", source))
+    return config.model_copy(update={"calibration": cal.model_copy(update=changes)})
+
+
+def _existing(folder: Path, text: str, key: str, source: str) -> Path:
+    """The file ``text`` names, relative to ``folder`` unless absolute.
+
+    Raises:
+        ConfigError: it is not a file.
+    """
+    resolved = folder / text if not Path(text).is_absolute() else Path(text)
+    if not resolved.is_file():
+        raise ConfigError(
+            source,
+            [
+                f"{key}: {text!r} is not a file (looked for {resolved}); relative paths are "
+                "relative to the config file's folder"
+            ],
+        )
+    return resolved
+
+
+__all__ = ["load_config", "read_yaml", "resolve_config_path"]
