@@ -41,7 +41,7 @@ from mearm.config.arm import combination_text
 from mearm.exceptions import InvalidCommandError, JointLimitError, PulseRangeError
 
 if TYPE_CHECKING:
-    from mearm.hardware.bus import ArmCommand
+    from mearm.hardware.command import ArmCommand
 
 #: How a servo realises a command: ``microsecond`` (the integer-µs pulse the serial
 #: backends send), ``degree`` (a whole degree of ``Servo.write``'s 0–180° scale) or
