@@ -105,7 +105,7 @@ gives them); a camera ``camera`` looking straight down from :data:`CAMERA_HEIGHT
 the centre of the calibrated field, its ``fovy`` chosen so that it sees that field (the
 calibration stays true for the twin's pictures at ``camera.width_px × height_px``) or,
 with ``twin.camera`` set, a perspective camera placed, tilted and with the field of view
-it gives (:func:`mearm.sim.twin_camera.camera_pose`; the lens distortion is applied to
+it gives (:func:`mearm.sim.twin_optics.camera_pose`; the lens distortion is applied to
 the rendered frames).
 """
 
@@ -155,6 +155,7 @@ from mearm.kinematics.bodies import (
 )
 from mearm.kinematics.chain import Chain
 from mearm.kinematics.urdf import TCP_FRAME, jaw_frame, jaw_joint_names, jaw_pad_length_m
+from mearm.sim.twin_optics import CAMERA_HEIGHT_M, camera_pose, homography_view
 
 M_PER_CM = 0.01
 G = 9.81  # m/s²
@@ -188,8 +189,6 @@ LOAD_POSES = 16
 #: it [m].
 TABLE_GRID_M = 0.05
 TABLE_MARGIN_M = 0.05
-#: Camera height above the table: "about 52 cm" (docs/paper.md §1) [m].
-CAMERA_HEIGHT_M = 0.52
 #: Time step [s] and the coupling's constraint time constant and damping ratio.
 TIMESTEP_S = 0.001
 COUPLING_SOLREF = (0.002, 1.0)
@@ -892,15 +891,13 @@ def _table(world: ET.Element, config: Config) -> None:
 
 
 def _camera(world: ET.Element, config: Config) -> None:
-    """The camera ``camera``: :func:`~mearm.sim.twin_camera.camera_pose` of the config.
+    """The camera ``camera``: :func:`~mearm.sim.twin_optics.camera_pose` of the config.
 
     Unconfigured (``twin.camera`` null) it looks straight down over the calibrated field's
     centre and sees that field; configured, it stands, tilts and sees as
     ``twin.camera`` says (its lens distortion is applied to the rendered frames by
     :class:`~mearm.sim.twin_camera.TwinCamera`).
     """
-    from mearm.sim.twin_camera import camera_pose, homography_view  # it imports this module
-
     if config.twin.camera is None:
         centre, yaw, extent = homography_view(config)
         fovy = 2 * math.degrees(math.atan(extent / 2 / CAMERA_HEIGHT_M))
