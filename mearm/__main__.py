@@ -59,6 +59,14 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
     ),
     "ik-stalls": ("mearm.tools.ik_stalls", "how often the IK stops short, per arm and start"),
     "bench": ("mearm.tools.bench", "benchmarks, side by side with the peers"),
+    "vision-bench": (
+        "mearm.tools.vision_bench",
+        "the detector's timings and accuracy on rendered scenes, beside its peers",
+    ),
+    "quantization": (
+        "mearm.tools.quantization",
+        "the TCP error of whole-degree and whole-µs servo commands, per arm",
+    ),
     "find-port": ("mearm.maker.find_port", "list the serial ports and name the mearm board"),
     "flash": ("mearm.maker.flash", "build the Uno firmware and upload it with avrdude"),
     "find-camera": ("mearm.maker.find_camera", "list the cameras with a snapshot of each"),

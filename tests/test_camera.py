@@ -10,6 +10,7 @@ import cv2
 import numpy as np
 import pytest
 
+from mearm.backends import open_camera
 from mearm.config import Config, config_from_dict
 from mearm.exceptions import CameraError, ConfigError
 from mearm.sim import SimCamera, World
@@ -18,7 +19,6 @@ from mearm.vision import (
     DeviceCamera,
     FileCamera,
     FolderCamera,
-    open_camera,
 )
 
 

@@ -12,9 +12,10 @@ import numpy as np
 import pytest
 
 from mearm import detect
+from mearm.backends import open_camera
 from mearm.config import Config, load_config
 from mearm.sim import TableRenderer, class_discs
-from mearm.vision import Calibration, open_camera
+from mearm.vision import Calibration
 
 ROOT = Path(__file__).resolve().parent.parent
 CONFIG = Config()

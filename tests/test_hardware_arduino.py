@@ -10,6 +10,7 @@ import pytest
 from fakeboard import FakeMearmBoard, MearmFaults
 from hardware_helpers import HOME, HOME_PULSES, command, fast_config, route
 
+from mearm.backends import open_bus
 from mearm.config import Config
 from mearm.exceptions import (
     BannerTimeoutError,
@@ -26,7 +27,7 @@ from mearm.exceptions import (
     ServoFaultedError,
     ServoNotConnectedError,
 )
-from mearm.hardware import ArduinoBus, ArmCommand, ArmState, ServoMap, open_bus
+from mearm.hardware import ArduinoBus, ArmCommand, ArmState, ServoMap
 from mearm.hardware.mearm_protocol import encode_command
 
 

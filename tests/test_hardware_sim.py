@@ -7,6 +7,7 @@ import pytest
 from conftest import ROOT
 from hardware_helpers import HOME
 
+from mearm.backends import open_bus
 from mearm.config import Config, config_from_dict, load_config
 from mearm.exceptions import (
     ConfigError,
@@ -15,7 +16,7 @@ from mearm.exceptions import (
     ServoNotConnectedError,
     WorldError,
 )
-from mearm.hardware import ArmCommand, open_bus
+from mearm.hardware import ArmCommand
 from mearm.kinematics import ArmModel, closed_form_for
 from mearm.sim import SimArm, World, WorldObject
 from mearm.sim.servo_bus import (

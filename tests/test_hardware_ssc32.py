@@ -14,6 +14,7 @@ import pytest
 from fakeboard import FakeSSC32Board, SSC32Faults
 from hardware_helpers import HOME, command, fast_config, route
 
+from mearm.backends import open_bus
 from mearm.exceptions import (
     BoardResetError,
     GarbledReplyError,
@@ -26,7 +27,7 @@ from mearm.exceptions import (
     ServoFaultedError,
     UnsolicitedBytesError,
 )
-from mearm.hardware import ArmCommand, ArmState, SSC32Bus, open_bus
+from mearm.hardware import ArmCommand, ArmState, SSC32Bus
 from mearm.hardware.ssc32 import (
     encode_group_move,
     encode_query_pulse,

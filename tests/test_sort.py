@@ -13,9 +13,9 @@ import yaml
 from conftest import ROOT, planar_yaw_arm_data, run_cli
 from fakeboard import FakeMearmBoard, MearmFaults
 
+from mearm.backends import open_bus
 from mearm.config import SceneObject, config_from_dict, load_config
 from mearm.exceptions import MearmError, ServoError
-from mearm.hardware import open_bus
 from mearm.runlog import RunLog, read_runlog
 from mearm.sim import SimCamera, World
 from mearm.task import SortAborted, Sorter, open_rig, random_scene

@@ -20,10 +20,10 @@ from mearm.config import (
 )
 from mearm.exceptions import ImageError
 from mearm.sim import Disc, SimCamera, TableRenderer, World, class_bgr, class_discs
+from mearm.sim.vision_scenes import BASE_OPTIONS, CONDITIONS, distractors, match_detections
 from mearm.vision import Calibration, ColorDetector, Detection
 from mearm.vision.detector import STACKED_BOX_PX
 from mearm.vision.reference import detect_reference
-from mearm.vision.scenes import BASE_OPTIONS, CONDITIONS, distractors, match_detections
 
 CONFIG = Config()
 CLASSES = CONFIG.task.classes

@@ -9,7 +9,7 @@ import sys
 from pathlib import Path
 
 import mearm.vision
-from mearm.vision.bench import run_detection_peers, run_vision_bench
+from mearm.tools.vision_bench import run_detection_peers, run_vision_bench
 
 VISION = Path(mearm.vision.__file__).parent
 

@@ -46,6 +46,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import TextIO
 
+from mearm.backends import open_bus
 from mearm.cli import (
     EXIT_FAILURE,
     EXIT_OK,
@@ -69,7 +70,7 @@ from mearm.config.servo_file import (
     servo_overrides,
 )
 from mearm.exceptions import ConfigError, MearmError, ServoError
-from mearm.hardware import ActuatorMap, ArmCommand, ServoBus, ServoMap, open_bus
+from mearm.hardware import ActuatorMap, ArmCommand, ServoBus, ServoMap
 from mearm.maker.keys import KeyReader, require_terminal
 
 #: The step sizes the keys choose from [µs].

@@ -6,8 +6,7 @@
 - :class:`SimArm`: the servo bus over the world (``mearm.sim.servo_bus``).
 
 The simulator sits above vision and hardware: it may import them, they never import it
-(``mearm.vision.open_camera`` imports :class:`SimCamera` only when ``camera.kind`` is
-``sim``).
+(:mod:`mearm.backends`, above all three, opens the simulated kinds).
 """
 
 from __future__ import annotations

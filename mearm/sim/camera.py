@@ -1,7 +1,7 @@
 """The simulated camera: the world's table as it is at every read (paper §1, §4).
 
 It stands in for a real camera behind the same :class:`~mearm.vision.camera.Camera`
-interface; :func:`mearm.vision.open_camera` returns one for ``camera.kind: sim``.
+interface; :func:`mearm.backends.open_camera` returns one for ``camera.kind: sim``.
 """
 
 from __future__ import annotations

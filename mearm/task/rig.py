@@ -11,16 +11,17 @@ from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass
 from typing import Any
 
+from mearm.backends import open_bus, open_camera
 from mearm.config import Config, SceneObject
 from mearm.exceptions import MearmError
-from mearm.hardware import ServoBus, open_bus
+from mearm.hardware import ServoBus
 from mearm.kinematics import ArmModel
 from mearm.runlog import RunLog
 from mearm.sim import World
 from mearm.task.check import check_consistency
 from mearm.task.report import SortReport
 from mearm.task.sorter import SortAborted, Sorter
-from mearm.vision import Camera, open_camera
+from mearm.vision import Camera
 
 
 @dataclass

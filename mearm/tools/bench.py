@@ -18,7 +18,7 @@ Sections:
         and per route (``paper`` and ``coupled`` modes) on the paper's 24 demo routes,
         next to the NumPy port and the mink cross-check.
     vision: ms per 640x480 frame with 12 objects, OpenCV detector next to a plain
-        NumPy/SciPy port of the same recipe (:mod:`mearm.vision.bench`) and the paper's
+        NumPy/SciPy port of the same recipe (:mod:`mearm.tools.vision_bench`) and the paper's
         0.263 s; detection accuracy on rendered scenes; calibration recovery.
     sort-cpu: CPU time (user + sys, median of 3) of the 12-object simulated sort as a
         child process, interpreter start included, with and without the bytecode cache;
@@ -513,7 +513,7 @@ def ik_peer_rows(config: Config, options: BenchOptions, n_targets: int = PEER_TA
 @section("vision")
 def bench_vision(options: BenchOptions) -> list[Row]:
     """Detector ms per 640x480 frame vs a NumPy/SciPy port of the recipe; accuracy."""
-    from mearm.vision.bench import (  # noqa: PLC0415
+    from mearm.tools.vision_bench import (  # noqa: PLC0415
         run_calibration_study,
         run_detection_peers,
         run_vision_accuracy,

@@ -4,9 +4,9 @@ Everything is keyed by colour class (``task.classes``): build a detector with
 ``ColorDetector(config.vision, calibration, config.task.classes)`` or
 ``ColorDetector.from_config(config)``. The simulated camera lives in :mod:`mearm.sim`.
 
-``mearm.vision.reference`` (the plain NumPy/SciPy recipe), ``mearm.vision.scenes`` and
-``mearm.vision.bench`` (rendered test scenes, the benchmark) need SciPy or the simulator
-and are not imported here; the ArUco markers (:mod:`mearm.vision.aruco`), which only
+``mearm.vision.reference`` (the plain NumPy/SciPy recipe) needs SciPy and is not imported
+here (the rendered test scenes and the benchmark are ``mearm.sim.vision_scenes`` and
+``mearm.tools.vision_bench``, above); the ArUco markers (:mod:`mearm.vision.aruco`), which only
 calibration needs, are imported on first use.
 """
 
@@ -19,7 +19,6 @@ from mearm.vision.camera import (
     DeviceCamera,
     FileCamera,
     FolderCamera,
-    open_camera,
 )
 from mearm.vision.classify import PixelClassifier, classify_exact
 from mearm.vision.detector import ColorDetector, Detection
@@ -45,7 +44,6 @@ __all__ = [
     "calibration_from_markers",
     "classify_exact",
     "detect_markers",
-    "open_camera",
     "probe_image",
     "read_image",
 ]

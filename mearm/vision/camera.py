@@ -6,8 +6,11 @@
   the configured resolution.
 - ``file``: one image (every read returns it) or a video (frames in order).
 - ``folder``: the images of a folder in name order.
-- ``sim``: the simulated table (:class:`mearm.sim.SimCamera`), rendered afresh on every
-  read; :func:`open_camera` imports it on demand (the simulator is the layer above).
+- ``sim``: the simulated table (:class:`mearm.sim.SimCamera`, the layer above), rendered
+  afresh on every read.
+
+Which source a config names is chosen in one place above this package,
+:func:`mearm.backends.open_camera`.
 
 Replayed frames must have the configured size, because the calibration is in pixels of
 that size. Every failure is a :class:`~mearm.exceptions.CameraError` naming the source;
@@ -20,17 +23,14 @@ import stat
 import threading
 from abc import ABC, abstractmethod
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import cv2
 import numpy as np
 
-from mearm.config import CameraConfig, Config
+from mearm.config import CameraConfig
 from mearm.exceptions import CameraError, ImageError
 from mearm.vision.image import MAX_IMAGE_PIXELS, probe_image, quiet_opencv, read_image
-
-if TYPE_CHECKING:
-    from mearm.sim.world import World
 
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".webp", ".ppm", ".pgm")
 
@@ -234,30 +234,3 @@ class FolderCamera(Camera):
             return read_image(path)
         except ImageError as exc:
             raise CameraError(self.source, f"{path.name}: {exc.reason}") from None
-
-
-def open_camera(config: Config, world: World | None = None) -> Camera:
-    """Open the source ``config.camera.kind`` names.
-
-    Args:
-        config: The whole config.
-        world: The table the ``sim`` camera shows; ``None`` builds one from
-            ``config.task.scene``. Ignored by the other kinds.
-
-    Returns:
-        A :class:`DeviceCamera`, :class:`FileCamera`, :class:`FolderCamera`, or for
-        ``sim`` a :class:`mearm.sim.SimCamera`.
-
-    Raises:
-        CameraError: the source cannot be opened.
-    """
-    kind = config.camera.kind
-    if kind == "device":
-        return DeviceCamera(config.camera)
-    if kind == "file":
-        return FileCamera(config.camera)
-    if kind == "folder":
-        return FolderCamera(config.camera)
-    from mearm import sim  # the layer above vision: imported only when asked for
-
-    return sim.SimCamera(config, sim.World.from_config(config) if world is None else world)

@@ -1,6 +1,6 @@
 """Vision benchmark: ms per 640×480 frame with the paper's 12 objects (paper §4).
 
-    python -m mearm.vision.bench [--repeat N] [--seeds N]
+    mearm vision-bench [--repeat N] [--seeds N]
 
 Times, in the same run and interleaved round by round (so a busy machine slows all
 alike): the OpenCV detector (:class:`~mearm.vision.detector.ColorDetector`), the same
@@ -14,7 +14,7 @@ OpenCV's HSV, median, label) it times the detector on 12 and 40 objects laid on 
 (:func:`grid_scene`), and the cost of one more object (the slope from 12 to 40).
 
 It also reports the detector's accuracy on the standard scenes
-(:mod:`mearm.vision.scenes`): every condition, with and without distractors, several
+(:mod:`mearm.sim.vision_scenes`): every condition, with and without distractors, several
 noise seeds — how many scenes gave exactly the 12 objects with the right classes, and
 the worst and mean position error; and how well calibrations recover the rig
 (:func:`run_calibration_study`).
@@ -35,10 +35,10 @@ import cv2
 import numpy as np
 
 from mearm.config import ColorClass, Config, VisionConfig
+from mearm.sim.vision_scenes import BASE_OPTIONS, CONDITIONS, distractors, match_detections
 from mearm.vision.calibration import Calibration
 from mearm.vision.detector import ColorDetector, Detection
 from mearm.vision.reference import detect_reference
-from mearm.vision.scenes import BASE_OPTIONS, CONDITIONS, distractors, match_detections
 
 PAPER_DETECT_S = 0.263  # paper §4: 12 objects, 640×480, MATLAB
 #: Object counts of the per-object rows: the paper's scene and a crowded table.
@@ -337,7 +337,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Print the vision rows as a table."""
     import argparse
 
-    parser = argparse.ArgumentParser(prog="python -m mearm.vision.bench")
+    parser = argparse.ArgumentParser(prog="mearm vision-bench")
     parser.add_argument("--repeat", type=int, default=50, help="timing rounds (50)")
     parser.add_argument("--seeds", type=int, default=3, help="noise seeds per scene (3)")
     args = parser.parse_args(argv)

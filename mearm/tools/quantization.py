@@ -1,4 +1,4 @@
-"""``python -m mearm.hardware.quantization``: TCP error caused by servo command quantisation.
+"""The TCP error caused by servo command quantisation: whole degrees, whole microseconds.
 
 paper §5: whole-degree commands (``Servo.write``) cost about 0.4 cm of TCP error at the
 paper arm's reach; 1 µs pulses are about ten times finer. This measures both (and
@@ -8,7 +8,7 @@ Simulated figures: FK of the quantised joints against FK of the exact ones, noth
 
 Example::
 
-    python -m mearm.hardware.quantization --config configs/sim.yaml --poses 2000 --seed 0
+    mearm quantization --config configs/sim.yaml --poses 2000 --seed 0
 """
 
 from __future__ import annotations
@@ -26,9 +26,7 @@ MODES: tuple[Quantization, ...] = ("degree", "microsecond", "none")
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Print mean, std, 95th percentile and max TCP error per quantisation mode."""
-    parser = ArgumentParser(
-        prog="python -m mearm.hardware.quantization", description=__doc__.splitlines()[0]
-    )
+    parser = ArgumentParser(prog="mearm quantization", description=__doc__.splitlines()[0])
     add_config_argument(parser)
     parser.add_argument("--poses", type=int, default=2000, help="random reachable poses")
     parser.add_argument("--seed", type=int, default=0, help="seed of the poses")
@@ -37,8 +35,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.poses < 1:
         parser.error(f"--poses must be at least 1, got {args.poses}")
     config = config_from_args(args)
-    # The measurement runs on the simulated arm, the layer above: imported only here.
-    from mearm.sim.servo_bus import quantization_ee_error_cm
+    from mearm.sim.servo_bus import quantization_ee_error_cm  # noqa: PLC0415
 
     rows = {}
     for mode in MODES:

@@ -2,7 +2,7 @@
 
 The default config's layout (the paper's 12 objects, paper §4) under each of
 :data:`CONDITIONS`, with or without :func:`distractors`, is what the tests and
-``python -m mearm.vision.bench`` measure. The scenes are drawn by the simulator
+``mearm vision-bench`` measure. The scenes are drawn by the simulator
 (:mod:`mearm.sim.renderer`), the layer above vision, which is imported only when a scene
 is asked for.
 """
