@@ -163,6 +163,8 @@ class CollisionModel:
         T = self.bodies.tcp_in_last
         self._grip_in_last = T[:3, :3] @ (self.bodies.approach * self.bodies.grip_m) + T[:3, 3]
         self._reach_local = self._local_reach()
+        self._upper = np.triu(np.ones((self._last, self._last), dtype=bool))  # j ≥ i
+        self._prismatic = np.asarray(model.chain.prismatic, dtype=bool)
         self.checks = 0
         self._world = 0  # counts the worlds put in the model (a gap is kept for its world)
         self._last_key: tuple[int, str | None, bytes] | None = None
@@ -341,6 +343,7 @@ class CollisionModel:
             col_on[col] = True
             cols.append(col)
         self._object_cols = np.array(cols, dtype=int)
+        self._col_of = {self._ob_names[c]: c for c in cols}
         self._row_on, self._col_on = row_on, col_on
         want = row_on[self._pair_rows] & col_on[self._pair_cols]
         for pair in np.flatnonzero(want != self._active).tolist():
@@ -431,7 +434,8 @@ class CollisionModel:
         """
         cols = self._object_cols
         if target is not None:
-            cols = cols[np.asarray(self._ob_names, dtype=object)[cols] == f"obj_{target}"]
+            col = self._col_of.get(f"obj_{target}")
+            cols = cols[:0] if col is None else np.array([col])
         if not cols.size:
             return cols
         M = self.data.oMi[self._last]
@@ -475,12 +479,11 @@ class CollisionModel:
         :math:`o_j` (the tool's from the TCP, the last joint's origin plus the TCP's offset).
         """
         n = self._last
-        origins = np.array([self.data.oMi[j].translation for j in range(1, n + 1)])
+        oMi = self.data.oMi
+        origins = np.array([oMi[j].translation for j in range(1, n + 1)])
         sep = np.linalg.norm(origins[None, :, :] - origins[:, None, :], axis=2)  # (i, j)
-        local = self._reach_local[1 : n + 1]
-        far = np.where(np.triu(np.ones((n, n), dtype=bool)), sep + local[None, :], 0.0)
-        R = far.max(axis=1)
-        return np.where(self.model.chain.prismatic, 1.0, R)
+        far = np.where(self._upper, sep + self._reach_local[None, 1 : n + 1], 0.0)
+        return np.where(self._prismatic, 1.0, far.max(axis=1))
 
     def first_contact(self, q_path: npt.ArrayLike, *, target: str | None = None) -> Contact | None:
         r"""The first pose along ``q_path`` that comes too close to something, or ``None``.
@@ -498,6 +501,7 @@ class CollisionModel:
         """
         path = np.atleast_2d(np.asarray(q_path, dtype=float))
         last = len(path) - 1
+        seg = np.abs(np.diff(path, axis=0))  # each segment's joint travel, (last, n)
         k, t = 0, 0.0
         while True:
             q = path[k] + t * (path[k + 1] - path[k]) if k < last else path[last]
@@ -508,15 +512,18 @@ class CollisionModel:
                 return Contact(a, b, d / M_PER_CM, q, k)
             if k == last:
                 return None
-            rate = self._reach() + g
-            budget = g  # how far a point may move before the next check [m]
-            while k < last:
-                sweep = float(np.sum(rate * np.abs(path[k + 1] - path[k])))  # per unit t
-                if sweep * (1.0 - t) > budget:
-                    t += budget / sweep
-                    break
-                budget -= sweep * (1.0 - t)
-                k, t = k + 1, 0.0
+            # how far a point may move before the next check is g [m]: walk the segments'
+            # sweeps (per unit of each) until they add up to more
+            sweep = seg[k:] @ (self._reach() + g)
+            ahead = np.cumsum(sweep)
+            ahead -= sweep[0] * t  # the first segment from t on
+            j = int(np.searchsorted(ahead, g, side="right"))
+            if j >= len(ahead):
+                k, t = last, 0.0
+            elif j == 0:
+                t += g / sweep[0]
+            else:
+                k, t = k + j, (g - ahead[j - 1]) / sweep[j]
 
 
 def _half_extents(shape: Shape) -> np.ndarray:
