@@ -40,7 +40,6 @@ from mearm.cli import (
 )
 from mearm.config import Config, SceneObject
 from mearm.exceptions import CameraError, MearmError, ServoError
-from mearm.runlog import RunLog
 from mearm.task import Rig, SortAborted, load_scene, random_scene, run_sort
 
 
@@ -138,7 +137,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"meshcat view: {view.url}", flush=True)
         return view
 
-    log = RunLog(args.log) if args.log else None
+    if args.log:
+        from mearm.runlog import RunLog  # noqa: PLC0415  (only a run that keeps a log)
+
+        log = RunLog(args.log)
+    else:
+        log = None
     if log is not None:
         print(f"run log: {args.log}", flush=True)
     try:

@@ -11,11 +11,19 @@ device paths or ``socket://``, ``rfc2217://`` and ``loop://`` URLs
 (:func:`~mearm.config.port.check_port`).
 """
 
-from mearm.hardware.arduino import ArduinoBus, BoardStatus
-from mearm.hardware.bus import ArmCommand, ArmState, RateLimiter, ServoBus
+from mearm._lazy import lazy_exports
+from mearm.hardware.bus import RateLimiter, ServoBus
+from mearm.hardware.command import ArmCommand, ArmState
 from mearm.hardware.mapping import ActuatorMap, Quantization, ServoMap
-from mearm.hardware.serial_bus import SerialServoBus
-from mearm.hardware.ssc32 import SSC32Bus
+
+# The serial backends (and pyserial) are imported on first access: a simulated run never
+# opens a serial port.
+_LAZY: dict[str, str] = {
+    "ArduinoBus": "mearm.hardware.arduino",
+    "BoardStatus": "mearm.hardware.arduino",
+    "SerialServoBus": "mearm.hardware.serial_bus",
+    "SSC32Bus": "mearm.hardware.ssc32",
+}
 
 __all__ = [
     "ActuatorMap",
@@ -30,3 +38,5 @@ __all__ = [
     "ServoBus",
     "ServoMap",
 ]
+
+__getattr__, __dir__ = lazy_exports(__name__, _LAZY, globals(), __all__)

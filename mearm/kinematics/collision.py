@@ -178,13 +178,18 @@ class CollisionModel:
             c: sum(1 for o in config.task.scene if o.color == c) + 2
             for c in config.task.class_names
         }
-        self._build()
-        home = self._lowest_points(model.home)
-        self._on_table = {
-            n
-            for n, z in zip(self._arm_names[: self._na], home[: self._na], strict=True)
-            if z <= TOUCH_M
-        }
+        # the arm's mount, standing on the table at home, is not checked against it
+        pin.forwardKinematics(pm, self.data, model.home)
+        placed = [
+            self.data.oMi[self._joint_of.get(shape.body, self._last)] * _se3(self._in_joint(shape))
+            for shape in self.arm_shapes
+        ]
+        low = np.array([M.translation[2] for M in placed]) - _lowest(
+            np.array([M.rotation for M in placed]),
+            np.array([_half_extents(shape) for shape in self.arm_shapes]),
+            np.array([shape.kind == "cylinder" for shape in self.arm_shapes]),
+        )
+        self._on_table = {s.name for s, z in zip(self.arm_shapes, low, strict=True) if z <= TOUCH_M}
         self._build()
 
     # ----------------------------------------------------------------- the world

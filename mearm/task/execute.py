@@ -25,7 +25,8 @@ import numpy as np
 import numpy.typing as npt
 
 from mearm.config import Config
-from mearm.hardware import ArmCommand, ServoBus
+from mearm.hardware.bus import ServoBus
+from mearm.hardware.command import ArmCommand
 from mearm.kinematics import ArmModel
 from mearm.task.route import Route
 from mearm.task.timing import MotionTime, SpeedLimits, TimedPath, time_path, tool_move_s

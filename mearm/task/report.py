@@ -4,14 +4,17 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from mearm.config import Config
 from mearm.kinematics import Chain
-from mearm.runlog import RunLog
 from mearm.task.route import Route
 from mearm.task.timing import MotionTime
+
+if TYPE_CHECKING:
+    from mearm.runlog.writer import RunLog  # a log is written only when asked for
 
 #: Why an object was left unsorted: each kind and the words the summary line uses.
 LEFT_REASONS: dict[str, str] = {

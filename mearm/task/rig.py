@@ -9,19 +9,21 @@ from __future__ import annotations
 import contextlib
 from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from mearm.backends import open_bus, open_camera
 from mearm.config import Config, SceneObject
 from mearm.exceptions import MearmError
-from mearm.hardware import ServoBus
+from mearm.hardware.bus import ServoBus
 from mearm.kinematics import ArmModel
-from mearm.runlog import RunLog
 from mearm.sim import World
 from mearm.task.check import check_consistency
 from mearm.task.report import SortReport
 from mearm.task.sorter import SortAborted, Sorter
 from mearm.vision import Camera
+
+if TYPE_CHECKING:
+    from mearm.runlog.writer import RunLog  # a log is written only when asked for
 
 
 @dataclass

@@ -30,7 +30,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -39,13 +39,15 @@ from mearm.exceptions import CameraError, CollisionError, MearmError, ServoError
 from mearm.ik import IKTarget
 from mearm.kinematics import ArmModel
 from mearm.kinematics.collision import CollisionModel
-from mearm.runlog import RunLog
 from mearm.task.execute import Executor, View
 from mearm.task.plan import Planner
 from mearm.task.report import Outcome, Reporter, Skip, SortReport
 from mearm.task.route import Route
 from mearm.vision import Camera, ColorDetector, Detection
 from mearm.vision.calibration import camera_geometry
+
+if TYPE_CHECKING:
+    from mearm.runlog.writer import RunLog  # a log is written only when asked for
 
 #: A detection within this distance of a known object is that object [cm].
 SAME_OBJECT_CM = 1.5
