@@ -18,7 +18,9 @@ import time
 from abc import ABC, abstractmethod
 from collections.abc import Callable
 from types import TracebackType
-from typing import TypeVar
+from typing import Any, Protocol, TypeVar, runtime_checkable
+
+import numpy as np
 
 from mearm.config import Config
 from mearm.exceptions import (
@@ -31,6 +33,38 @@ from mearm.hardware.mapping import ServoMap
 
 log = logging.getLogger(__name__)
 _T = TypeVar("_T")
+
+
+@runtime_checkable
+class MeasuresTcp(Protocol):
+    """A bus that knows where its arm's TCP really is (a simulator's): ``ee_cm`` [cm]."""
+
+    @property
+    def ee_cm(self) -> np.ndarray: ...  # noqa: D102
+
+
+@runtime_checkable
+class MeasuresWorld(MeasuresTcp, Protocol):
+    """A bus that measures its arm and the objects (the physical twin's).
+
+    The view draws what it measures, and the run log records it.
+    """
+
+    @property
+    def object_ids(self) -> tuple[str, ...]: ...  # noqa: D102
+    @property
+    def actual_joints(self) -> dict[str, float]: ...  # noqa: D102
+    @property
+    def opening_cm(self) -> float: ...  # noqa: D102
+    def object_pose(self, object_id: str) -> Any: ...  # noqa: D102
+
+
+@runtime_checkable
+class ReportsRelease(Protocol):
+    """A bus that knows where a released object went (a simulator's): ``last_release``."""
+
+    @property
+    def last_release(self) -> Any: ...  # noqa: D102
 
 
 class RateLimiter:

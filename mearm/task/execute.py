@@ -19,13 +19,13 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Iterable
-from typing import Any, Literal, Protocol
+from typing import Literal, Protocol
 
 import numpy as np
 import numpy.typing as npt
 
 from mearm.config import Config
-from mearm.hardware.bus import ServoBus
+from mearm.hardware.bus import MeasuresTcp, MeasuresWorld, ServoBus
 from mearm.hardware.command import ArmCommand
 from mearm.kinematics import ArmModel
 from mearm.task.route import Route
@@ -64,15 +64,9 @@ class View(Protocol):
 def twin_object_ids(bus: object) -> tuple[str, ...] | None:
     """The ids of the objects a bus measures (the physical twin's), or ``None``.
 
-    Duck-typed, so nothing here imports the physics: a bus measures the world when it
-    has ``object_pose(id)``, ``actual_joints`` and ``opening_cm``; its objects are its
-    ``object_ids``.
+    A bus measures the world when it is a :class:`~mearm.hardware.bus.MeasuresWorld`.
     """
-    if not callable(getattr(bus, "object_pose", None)):
-        return None
-    if not (hasattr(bus, "actual_joints") and hasattr(bus, "opening_cm")):
-        return None
-    return tuple(getattr(bus, "object_ids", ()))
+    return tuple(bus.object_ids) if isinstance(bus, MeasuresWorld) else None
 
 
 class Executor:
@@ -129,9 +123,8 @@ class Executor:
 
     def ee_now_cm(self) -> np.ndarray:
         """Where the TCP is [cm], (3,): the simulated arm's truth, else the FK of the command."""
-        actual = getattr(self.bus, "ee_cm", None)
-        if actual is not None:
-            return np.asarray(actual, dtype=float)
+        if isinstance(self.bus, MeasuresTcp):
+            return np.asarray(self.bus.ee_cm, dtype=float)
         return self.model.fk_cm(self.q_now())
 
     def world_now(self) -> tuple[np.ndarray, float, list[tuple[str, str, np.ndarray, np.ndarray]]]:
@@ -144,9 +137,9 @@ class Executor:
         Raises:
             ValueError: the bus does not measure the world (:attr:`twin_ids` is None).
         """
-        if self.twin_ids is None:
+        bus = self.bus
+        if self.twin_ids is None or not isinstance(bus, MeasuresWorld):
             raise ValueError("the bus measures no world: it is not the physical twin")
-        bus: Any = self.bus
         q = self.chain.from_named(bus.actual_joints)
         objects = []
         for oid in self.twin_ids:

@@ -30,12 +30,13 @@ from __future__ import annotations
 import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from mearm.config import Config
 from mearm.exceptions import CameraError, CollisionError, MearmError, ServoError
+from mearm.hardware.bus import ReportsRelease, ServoBus
 from mearm.ik import IKTarget
 from mearm.kinematics import ArmModel
 from mearm.kinematics.collision import CollisionModel
@@ -124,7 +125,7 @@ class Sorter:
         self,
         config: Config,
         camera: Camera,
-        bus: Any,
+        bus: ServoBus,
         *,
         model: ArmModel | None = None,
         log: RunLog | None = None,
@@ -375,7 +376,7 @@ class Sorter:
                 self._skip(obj, f"pick failed {obj.failed_picks} times", pick, kind="pick_failed")
             return
         ex.set_tool("travel", False)
-        release = getattr(self.bus, "last_release", None)
+        release = self.bus.last_release if isinstance(self.bus, ReportsRelease) else None
         place.success = release is None or release.bin == obj.class_name
         obj.sorted = place.success
         for o in self._objects:  # the table changed: a blocked pick may be clear now
