@@ -144,7 +144,7 @@ def _ssc32_bus(config: Config, world: World | None, port: str | None) -> ServoBu
 
 
 def _sim_camera(config: Config, world: World | None) -> Camera:
-    from mearm.sim.camera import SimCamera  # noqa: PLC0415
+    from mearm.sim.table_camera import SimCamera  # noqa: PLC0415
     from mearm.sim.world import World  # noqa: PLC0415
 
     return SimCamera(config, World.from_config(config) if world is None else world)

@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 from badinput import ROOT, check_bad_input, check_bad_input_subprocess, run_in_process
 
-from mearm.config.rig import MAX_SCENE_OBJECTS
+from mearm.config.sections import MAX_SCENE_OBJECTS
 
 bad_input = pytest.mark.bad_input
 

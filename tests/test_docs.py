@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 from mearm.__main__ import SUBCOMMANDS
-from mearm.config.reference import render
+from mearm.config.schema_doc import render
 
 ROOT = Path(__file__).resolve().parent.parent
 DOCS = sorted([ROOT / "README.md", *(ROOT / "docs").glob("*.md")])
@@ -51,13 +51,13 @@ def test_configuration_reference_is_current() -> None:
     written = (ROOT / "docs" / "configuration.md").read_text(encoding="utf-8")
     assert written == render(), (
         "docs/configuration.md is stale: run "
-        "python -m mearm.config.reference --output docs/configuration.md"
+        "python -m mearm.config.schema_doc --output docs/configuration.md"
     )
 
 
 def test_reference_covers_every_key() -> None:
     """Every field of every config model reached from Config appears in the reference."""
-    from mearm.config.reference import walk
+    from mearm.config.schema_doc import walk
 
     text = render()
     keys = [d.path for _, _, docs in walk() for d in docs]

@@ -29,7 +29,7 @@ from mearm.ik import (
     solve_ik,
 )
 from mearm.ik.bounded import bounded_lstsq
-from mearm.ik.reference import numpy_port_solve
+from mearm.ik.paper_port import numpy_port_solve
 from mearm.kinematics import ArmModel, check_target, closed_form_for
 
 M1 = (-10.99, 49.70, 12.76)  # paper §4, the first pick

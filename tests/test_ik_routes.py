@@ -8,7 +8,7 @@ from conftest import ROOT, run_cli
 
 from mearm.config import load_config
 from mearm.ik import PdPij, demo_routes, run_routes
-from mearm.ik.reference import numpy_port_solve
+from mearm.ik.paper_port import numpy_port_solve
 from mearm.kinematics import ArmModel
 
 

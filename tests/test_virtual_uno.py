@@ -21,7 +21,7 @@ from conftest import ROOT, missing_tool
 
 from mearm.backends import open_bus
 from mearm.config import config_from_dict
-from mearm.config.rig import VirtualUnoConfig
+from mearm.config.sections import VirtualUnoConfig
 from mearm.exceptions import ConfigError, MoveNotConfirmedError, ServoFaultedError
 from mearm.hardware import ArmCommand, ArmState
 from mearm.sim import World

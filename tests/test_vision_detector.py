@@ -23,7 +23,7 @@ from mearm.sim import Disc, SimCamera, TableRenderer, World, class_bgr, class_di
 from mearm.sim.vision_scenes import BASE_OPTIONS, CONDITIONS, distractors, match_detections
 from mearm.vision import Calibration, ColorDetector, Detection
 from mearm.vision.detector import STACKED_BOX_PX
-from mearm.vision.reference import detect_reference
+from mearm.vision.paper_recipe import detect_reference
 
 CONFIG = Config()
 CLASSES = CONFIG.task.classes

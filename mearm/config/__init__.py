@@ -44,7 +44,8 @@ from mearm.config.classes import ColorClass, HueBand
 from mearm.config.defaults import default_classes, paper_arm, paper_classes
 from mearm.config.files import load_config, read_yaml
 from mearm.config.loader import apply_overrides, config_from_dict
-from mearm.config.rig import (
+from mearm.config.root import Config, TwinConfig
+from mearm.config.sections import (
     CalibrationConfig,
     CameraConfig,
     ControllerConfig,
@@ -54,7 +55,6 @@ from mearm.config.rig import (
     TaskConfig,
     VisionConfig,
 )
-from mearm.config.root import Config, TwinConfig
 
 __all__ = [
     "Angle",

@@ -9,7 +9,7 @@ from pydantic import Field, field_validator, model_validator
 from mearm.config.arm import ArmDescription
 from mearm.config.base import MAX_LENGTH_CM, Strict
 from mearm.config.defaults import paper_arm
-from mearm.config.rig import (
+from mearm.config.sections import (
     CalibrationConfig,
     CameraConfig,
     ControllerConfig,

@@ -186,7 +186,7 @@ def seeds(chain: Chain, count: int, seed: int = SEED) -> Iterator[np.ndarray]:
 
 
 @dataclass(frozen=True)
-class Outcome:
+class RecoveryResult:
     """What a recovery found.
 
     Attributes:
@@ -227,7 +227,7 @@ class Recovery:
         q_closed_form: np.ndarray | None,
         measure: Measure,
         solve_from: SolveFrom,
-    ) -> Outcome:
+    ) -> RecoveryResult:
         """The first solution with a safe move from ``q_start`` (n,, model units).
 
         Args:
@@ -244,7 +244,7 @@ class Recovery:
         if q_closed_form is not None:
             path = self._safe_move(q_start, q_closed_form, measure, floor_cm)
             if path is not None:
-                return Outcome(path, "closed_form", 0)
+                return RecoveryResult(path, "closed_form", 0)
             unsafe = True
         searched = 0
         for seed in seeds(self.chain, MULTI_STARTS):
@@ -253,9 +253,9 @@ class Recovery:
             if goal is not None:
                 path = self._safe_move(q_start, goal, measure, floor_cm)
                 if path is not None:
-                    return Outcome(path, "multi_start", searched)
+                    return RecoveryResult(path, "multi_start", searched)
                 unsafe = True
-        return Outcome(None, "multi_start", searched, floor_cm if unsafe else None)
+        return RecoveryResult(None, "multi_start", searched, floor_cm if unsafe else None)
 
     def _safe_move(
         self, q_start: np.ndarray, goal: np.ndarray, measure: Measure, floor_cm: float

@@ -12,7 +12,6 @@ The simulator sits above vision and hardware: it may import them, they never imp
 from __future__ import annotations
 
 from mearm._lazy import lazy_exports
-from mearm.sim.camera import SimCamera
 from mearm.sim.renderer import (
     Disc,
     Extra,
@@ -23,6 +22,7 @@ from mearm.sim.renderer import (
     class_bgr,
     class_discs,
 )
+from mearm.sim.table_camera import SimCamera
 from mearm.sim.world import World, WorldObject
 
 # ---------------------------------------------------------------- simulated servo bus

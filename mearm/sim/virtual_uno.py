@@ -54,7 +54,7 @@ from typing import NamedTuple
 import numpy as np
 
 from mearm.config import Config
-from mearm.config.rig import DEFINE_PATTERN
+from mearm.config.sections import DEFINE_PATTERN
 from mearm.data import FIRMWARE_FILES, firmware_source_dir
 from mearm.exceptions import MearmError, MoveNotConfirmedError, ServoError
 from mearm.hardware import toolchain

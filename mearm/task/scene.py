@@ -15,7 +15,7 @@ from pydantic import TypeAdapter, ValidationError
 
 from mearm.config import ColorClass, Config, SceneObject
 from mearm.config.base import MAX_SEED, loc_text, short_repr
-from mearm.config.rig import MAX_SCENE_OBJECTS
+from mearm.config.sections import MAX_SCENE_OBJECTS
 from mearm.exceptions import ConfigError, MearmError
 from mearm.kinematics import ArmModel, check_in_box, closed_form_for
 from mearm.kinematics.collision import TOUCH_M, CollisionModel
@@ -43,7 +43,7 @@ def load_scene(path: str | Path, class_names: Sequence[str] | None = None) -> li
     Raises:
         ConfigError: the file is missing, not a regular file, too large, not YAML (read
             as :func:`mearm.yamlio.load_yaml_file` reads a config), or an entry is
-            malformed; more than :data:`~mearm.config.rig.MAX_SCENE_OBJECTS` objects.
+            malformed; more than :data:`~mearm.config.sections.MAX_SCENE_OBJECTS` objects.
     """
     p = Path(path)
     data = load_yaml_file(p, what="scene")
@@ -196,7 +196,7 @@ def random_scene(
         max_tries: Give up after this many rejected draws.
 
     Raises:
-        SceneError: a count below 0, more than :data:`~mearm.config.rig.MAX_SCENE_OBJECTS`
+        SceneError: a count below 0, more than :data:`~mearm.config.sections.MAX_SCENE_OBJECTS`
             objects, a seed outside [0, 2³² − 1], or the objects do not fit.
     """
     wanted = [counts] if isinstance(counts, int) else list(counts.values())

@@ -14,7 +14,7 @@ Sections:
         (skipped, in one line, without the ``bench`` extra), the fastest solve mearm
         ships for the arm (:func:`mearm.ik.fast.fastest_solver`), its generic solve,
         PD-PIJ (µs per iteration and fixed cost per solve) and the NumPy port of the
-        paper's loop (:mod:`mearm.ik.reference`), with ratios. Then PD-PIJ per iteration
+        paper's loop (:mod:`mearm.ik.paper_port`), with ratios. Then PD-PIJ per iteration
         and per route (``paper`` and ``coupled`` modes) on the paper's 24 demo routes,
         next to the NumPy port and the mink cross-check.
     vision: ms per 640x480 frame with 12 objects, OpenCV detector next to a plain
@@ -154,7 +154,7 @@ def bench_ik(options: BenchOptions) -> list[Row]:
     from mearm.config import Config  # noqa: PLC0415
     from mearm.ik import PdPij, demo_routes, run_routes  # noqa: PLC0415
     from mearm.ik.mink_solver import MinkSolver  # noqa: PLC0415
-    from mearm.ik.reference import numpy_port_solve  # noqa: PLC0415
+    from mearm.ik.paper_port import numpy_port_solve  # noqa: PLC0415
     from mearm.kinematics import ArmModel  # noqa: PLC0415
 
     config = Config()
@@ -334,7 +334,7 @@ def ik_peer_rows(config: Config, options: BenchOptions, n_targets: int = PEER_TA
 
     from mearm.ik import AnalyticSolver, PdPij  # noqa: PLC0415
     from mearm.ik.fast import ClosedFormIK, NewtonIK, fastest_solver  # noqa: PLC0415
-    from mearm.ik.reference import numpy_port_solve  # noqa: PLC0415
+    from mearm.ik.paper_port import numpy_port_solve  # noqa: PLC0415
     from mearm.kinematics import ArmModel  # noqa: PLC0415
 
     model = ArmModel(config.arm)

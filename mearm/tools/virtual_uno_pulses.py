@@ -21,7 +21,7 @@ from pathlib import Path
 import serial
 
 from mearm.cli import EXIT_FAILURE, EXIT_OK, ArgumentParser, positive_number, run, seed_value
-from mearm.config.rig import VirtualUnoConfig
+from mearm.config.sections import VirtualUnoConfig
 from mearm.exceptions import MearmError
 from mearm.fileio import write_atomic
 from mearm.hardware.mearm_protocol import encode_command

@@ -4,7 +4,7 @@
 
 Times, in the same run and interleaved round by round (so a busy machine slows all
 alike): the OpenCV detector (:class:`~mearm.vision.detector.ColorDetector`), the same
-recipe in plain NumPy/SciPy (:mod:`mearm.vision.reference`), and the sim camera's
+recipe in plain NumPy/SciPy (:mod:`mearm.vision.paper_recipe`), and the sim camera's
 rendering of a frame; prints them next to the paper's 0.263 s (MATLAB R2018a,
 i5-2410M). Figures are the best of the rounds (the least disturbed) and the median.
 Never asserted: timings depend on the machine. Needs SciPy (the ``dev`` extra).
@@ -38,7 +38,7 @@ from mearm.config import ColorClass, Config, VisionConfig
 from mearm.sim.vision_scenes import BASE_OPTIONS, CONDITIONS, distractors, match_detections
 from mearm.vision.calibration import Calibration
 from mearm.vision.detector import ColorDetector, Detection
-from mearm.vision.reference import detect_reference
+from mearm.vision.paper_recipe import detect_reference
 
 PAPER_DETECT_S = 0.263  # paper §4: 12 objects, 640×480, MATLAB
 #: Object counts of the per-object rows: the paper's scene and a crowded table.

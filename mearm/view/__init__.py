@@ -14,10 +14,10 @@ warnings.filterwarnings(
 
 from mearm.view.arm_view import ArmView, TwinBody, ViewObject, rgb_int  # noqa: E402
 from mearm.view.browser import SceneCounts, find_browser, screenshot  # noqa: E402
-from mearm.view.camera import DEFAULT_CAMERA, ViewCamera  # noqa: E402
 from mearm.view.frame_plane import FramePlane, frame_plane  # noqa: E402
 from mearm.view.layout import SceneLayout  # noqa: E402
 from mearm.view.server import MeshcatServer  # noqa: E402
+from mearm.view.viewpoint import DEFAULT_CAMERA, ViewCamera  # noqa: E402
 
 __all__ = [
     "DEFAULT_CAMERA",

@@ -47,11 +47,11 @@ from mearm.exceptions import ViewError, ViewInputError
 from mearm.kinematics import ArmModel, jaw_joint_names
 from mearm.kinematics.collision import CollisionModel
 from mearm.view.browser import screenshot
-from mearm.view.camera import M_PER_CM, ViewCamera
 from mearm.view.collision import CollisionDrawing
 from mearm.view.frame_plane import FramePlane, PixelToTable, frame_plane
 from mearm.view.layout import SceneLayout
 from mearm.view.server import MeshcatServer
+from mearm.view.viewpoint import M_PER_CM, ViewCamera
 
 log = logging.getLogger(__name__)
 
@@ -247,7 +247,7 @@ class ArmView:
         config: The rig and task: one bin per class (``task.classes``), objects drawn
             in their class's colour and size, the table sized to hold them.
         port: Web port; 0 takes any free one, ``None`` the first free one from 7000.
-        camera: The fixed viewpoint (see :mod:`mearm.view.camera`); default: one that
+        camera: The fixed viewpoint (see :mod:`mearm.view.viewpoint`); default: one that
             frames the arm at home and everything on the table (:class:`SceneLayout`).
 
     Attributes:

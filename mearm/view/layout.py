@@ -16,7 +16,7 @@ import pinocchio as pin
 
 from mearm.config import Config
 from mearm.kinematics import CM_PER_M, ArmModel
-from mearm.view.camera import ViewCamera
+from mearm.view.viewpoint import ViewCamera
 from mearm.vision.calibration import camera_geometry
 
 #: Largest bin footprint side [cm] (bins 10 cm apart, the paper's Table 2, fit 8 cm).

@@ -4,7 +4,7 @@ Everything is keyed by colour class (``task.classes``): build a detector with
 ``ColorDetector(config.vision, calibration, config.task.classes)`` or
 ``ColorDetector.from_config(config)``. The simulated camera lives in :mod:`mearm.sim`.
 
-``mearm.vision.reference`` (the plain NumPy/SciPy recipe) needs SciPy and is not imported
+``mearm.vision.paper_recipe`` (the plain NumPy/SciPy recipe) needs SciPy and is not imported
 here (the rendered test scenes and the benchmark are ``mearm.sim.vision_scenes`` and
 ``mearm.tools.vision_bench``, above); the ArUco markers (:mod:`mearm.vision.aruco`), which only
 calibration needs, are imported on first use.

@@ -13,7 +13,7 @@ the masks are disjoint: a pixel needs 5 of its 9 neighbours in a mask to stay in
 union region holding one class *is* that class's region, and the rare union region
 holding several (objects of different classes touching) is split by labelling each
 class inside its box. A test checks the result against a plain per-class NumPy/SciPy
-implementation (:mod:`mearm.vision.reference`).
+implementation (:mod:`mearm.vision.paper_recipe`).
 
 Touching objects of one class form one region. With a calibration the detector knows
 the largest image area one object of the class can have at each place, ``A1`` (below);
