@@ -182,7 +182,7 @@ _CALIB_CRITERIA = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 100, 1e-12)
 
 
 @dataclass(frozen=True)
-class ViewError:
+class ViewFit:
     """How well one view fits the calibration.
 
     Attributes:
@@ -211,7 +211,7 @@ class CalibrationReport:
     """
 
     intrinsics: Intrinsics
-    views: tuple[ViewError, ...]
+    views: tuple[ViewFit, ...]
     skipped: tuple[str, ...] = ()
     coverage: float = 0.0
 
@@ -350,7 +350,7 @@ def fit_views(
     n = np.array([len(o) for o in obj])
     total = math.sqrt(float(np.sum(n[kept] * rms[kept] ** 2) / np.sum(n[kept])))
     report_views = tuple(
-        ViewError(v.name, int(n[k]), float(rms[k]), bool(outlier[k])) for k, v in enumerate(used)
+        ViewFit(v.name, int(n[k]), float(rms[k]), bool(outlier[k])) for k, v in enumerate(used)
     )
     if total > MAX_RMS_PX:
         raise CalibrationError(
