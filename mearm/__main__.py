@@ -63,6 +63,10 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
         "mearm.tools.vision_bench",
         "the detector's timings and accuracy on rendered scenes, beside its peers",
     ),
+    "config-docs": (
+        "mearm.config.schema_doc",
+        "write the configuration reference (docs/configuration.md) from the schema",
+    ),
     "quantization": (
         "mearm.tools.quantization",
         "the TCP error of whole-degree and whole-µs servo commands, per arm",
