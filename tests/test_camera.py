@@ -184,11 +184,11 @@ def test_replay_kinds_need_a_path() -> None:
 
 
 def test_missing_device_is_a_quick_clear_error() -> None:
-    """A camera index with no device: CameraError naming it, well within the timeout."""
+    """A camera index with no device: CameraError naming it, without waiting the timeout."""
     start = time.monotonic()
     with pytest.raises(CameraError, match=r"device 63.*cannot open or read it") as info:
-        open_camera(cfg(kind="device", device_index=63, open_timeout_s=5.0))
-    assert time.monotonic() - start < 5.0
+        open_camera(cfg(kind="device", device_index=63, open_timeout_s=60.0))
+    assert time.monotonic() - start < 30.0
     assert info.value.source == "device 63"
 
 
@@ -199,7 +199,7 @@ def test_device_that_hangs_times_out(tmp_path: Path) -> None:
     start = time.monotonic()
     with pytest.raises(CameraError, match=r"did not open within 0.5 s"):
         DeviceCamera(cfg(kind="device", path=str(fifo), open_timeout_s=0.5).camera)
-    assert 0.4 < time.monotonic() - start < 3.0
+    assert 0.4 < time.monotonic() - start < 30.0  # waited the timeout; the bound: no hang
     try:  # let the abandoned opener finish
         os.close(os.open(fifo, os.O_WRONLY | os.O_NONBLOCK))
     except OSError:

@@ -229,12 +229,12 @@ def test_late_stale_reply_is_never_read_as_a_later_answer(caplog):
 
 def test_fault_late_replies():
     """Every answer later than the resync waits: NoAckError, nothing moves after it."""
-    faults = SSC32Faults(fault_at_move=3, late_answers=10**6, late_s=1.0)
+    faults = SSC32Faults(fault_at_move=3, late_answers=10**6, late_s=30.0)
     with FakeSSC32Board(faults) as board:
         bus = connected(board)
         t0 = time.monotonic()
         fault = drive_until_fault(bus)
-        assert time.monotonic() - t0 < 1.0
+        assert time.monotonic() - t0 < 15.0  # gave up long before the 30 s answers came
         assert isinstance(fault, NoAckError) and fault.frame == b"VER\r"
         assert_fault_end_state(bus, board, fault, confirmed=2)
 

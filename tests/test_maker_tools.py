@@ -152,7 +152,7 @@ def test_replug_with_nothing_changing_finds_nothing():
     t0 = time.monotonic()
     result = find_port.replug(lambda: {"/dev/ttyS0"}, lambda text: None, wait_s=0.3, poll_s=0.05)
     assert result == find_port.ReplugResult(gone=(), new=())
-    assert 0.3 <= time.monotonic() - t0 < 3
+    assert 0.3 <= time.monotonic() - t0 < 30  # waited the given time; the bound: no hang
 
 
 class Terminal:
