@@ -150,24 +150,31 @@ def _sim_camera(config: Config, world: World | None) -> Camera:
     return SimCamera(config, World.from_config(config) if world is None else world)
 
 
-def _recorded_or_device(kind: str) -> CameraOpener:
-    def opener(config: Config, world: World | None) -> Camera:
-        from mearm.vision import camera  # noqa: PLC0415
+def _device_camera(config: Config, world: World | None) -> Camera:
+    from mearm.vision.camera import DeviceCamera  # noqa: PLC0415
 
-        cls = {"device": camera.DeviceCamera, "file": camera.FileCamera}.get(
-            kind, camera.FolderCamera
-        )
-        return cls(config.camera)
+    return DeviceCamera(config.camera)
 
-    return opener
+
+def _file_camera(config: Config, world: World | None) -> Camera:
+    from mearm.vision.camera import FileCamera  # noqa: PLC0415
+
+    return FileCamera(config.camera)
+
+
+def _folder_camera(config: Config, world: World | None) -> Camera:
+    from mearm.vision.camera import FolderCamera  # noqa: PLC0415
+
+    return FolderCamera(config.camera)
 
 
 register_bus("sim", _sim_bus)
 register_bus("serial", _arduino_bus)
 register_bus("ssc32", _ssc32_bus)
 register_bus("virtual_uno", _virtual_uno_bus)
-for _kind in ("device", "file", "folder"):
-    register_camera(_kind, _recorded_or_device(_kind))
+register_camera("device", _device_camera)
+register_camera("file", _file_camera)
+register_camera("folder", _folder_camera)
 register_camera("sim", _sim_camera)
 
 __all__ = [
