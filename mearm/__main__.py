@@ -64,7 +64,7 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
         "the detector's timings and accuracy on rendered scenes, beside its peers",
     ),
     "config-docs": (
-        "mearm.config.schema_doc",
+        "mearm.tools.config_docs",
         "write the configuration reference (docs/configuration.md) from the schema",
     ),
     "quantization": (

@@ -224,6 +224,13 @@ CASES: list[tuple[list[str], str]] = [
     (["analyze", "--gains", "--start", "1,2"], "--start needs 3 numbers"),
     (["analyze", "--gains", "--target", "1000,1000,1000"], "outside the target box"),
     (["analyze", "--gains", "--mode", "fast"], "invalid choice: 'fast'"),
+    # the commands moved into tools/
+    (["vision-bench", "--repeat", "abc"], "expected a whole number, got 'abc'"),
+    (["vision-bench", "--seeds", "0"], "must be from 1 to 100000, got 0"),
+    (["config-docs", "--check", "{dir}/missing.md"], "no such file"),
+    (["config-docs", "--output", "{dir}"], "exists and is not a regular file"),
+    (["quantization", "--poses", "-1"], "--poses must be at least 1"),
+    (["sort", "--collision"], "use it with --view"),
 ]
 
 

@@ -50,8 +50,7 @@ def test_configuration_reference_is_current() -> None:
     """docs/configuration.md is what the config models generate today."""
     written = (ROOT / "docs" / "configuration.md").read_text(encoding="utf-8")
     assert written == render(), (
-        "docs/configuration.md is stale: run "
-        "python -m mearm.config.schema_doc --output docs/configuration.md"
+        "docs/configuration.md is stale: run mearm config-docs --output docs/configuration.md"
     )
 
 

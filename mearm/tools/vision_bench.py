@@ -25,15 +25,16 @@ sits on top of both layers and imports it where it draws.
 
 from __future__ import annotations
 
+import argparse
 import math
 import statistics
-import sys
 import time
 from collections.abc import Callable, Sequence
 
 import cv2
 import numpy as np
 
+from mearm.cli import ArgumentParser, run
 from mearm.config import ColorClass, Config, VisionConfig
 from mearm.sim.vision_scenes import BASE_OPTIONS, CONDITIONS, distractors, match_detections
 from mearm.vision.calibration import Calibration
@@ -333,13 +334,22 @@ def run_calibration_study(draws: int = 200) -> list[dict]:
     ]
 
 
+def _count(text: str) -> int:
+    """An argparse type: a whole number from 1 to 100 000."""
+    try:
+        n = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+    if not 1 <= n <= 100_000:
+        raise argparse.ArgumentTypeError(f"must be from 1 to 100000, got {n}")
+    return n
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Print the vision rows as a table."""
-    import argparse
-
-    parser = argparse.ArgumentParser(prog="mearm vision-bench")
-    parser.add_argument("--repeat", type=int, default=50, help="timing rounds (50)")
-    parser.add_argument("--seeds", type=int, default=3, help="noise seeds per scene (3)")
+    parser = ArgumentParser(description="The detector's timings and accuracy on rendered scenes.")
+    parser.add_argument("--repeat", type=_count, default=50, help="timing rounds (50)")
+    parser.add_argument("--seeds", type=_count, default=3, help="noise seeds per scene (3)")
     args = parser.parse_args(argv)
     rows = run_vision_bench(args.repeat) + run_detection_peers(args.repeat)
     rows += run_vision_accuracy(args.seeds)
@@ -350,4 +360,4 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    run(main)
