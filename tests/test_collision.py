@@ -15,7 +15,7 @@ from mearm.ik import IKTarget
 from mearm.kinematics import ArmModel
 from mearm.kinematics.bodies import bin_shapes
 from mearm.kinematics.collision import TOUCH_CM, CollisionModel
-from mearm.sim.mjcf import generate_mjcf
+from mearm.sim.mjcf import twin_model
 from mearm.sim.servo_bus import SimArm
 from mearm.sim.twin_bus import TwinArm
 from mearm.sim.world import World
@@ -37,7 +37,7 @@ def test_the_collision_model_is_the_twins_body(name: str) -> None:
     """Every colliding arm shape of the collision model sits where MuJoCo puts the twin's
     geom of the same name, at random poses with the jaws open (one source for both)."""
     config = _config(name)
-    m = mujoco.MjModel.from_xml_string(generate_mjcf(config))
+    m = twin_model(config)
     d = mujoco.MjData(m)
     model = ArmModel(config.arm)
     collision = CollisionModel(config, model)
@@ -73,7 +73,7 @@ def _half_size(obj: pin.GeometryObject) -> np.ndarray:
 
 def test_the_bins_are_the_twins_bins() -> None:
     config = _config("sim_mujoco")
-    m = mujoco.MjModel.from_xml_string(generate_mjcf(config))
+    m = twin_model(config)
     for c in config.task.classes:
         for shape in bin_shapes(config, c.name):
             assert np.allclose(m.geom(shape.name).size, shape.size)
@@ -142,7 +142,7 @@ def test_the_twin_stalls_on_the_wall_and_takes_the_detour() -> None:
     """In physics the straight way catches the jaws on the wall (a stall fault); the
     planned detour arrives."""
     config, model, planner, q0, target = _across_the_red_bin()
-    xml = generate_mjcf(config)
+    twin = twin_model(config)
     direct = planner.solver.solve(q0, target)
     route = planner.plan(Route("", "red", "pick", 1, target), q0)
     assert route.plan is not None
@@ -152,7 +152,7 @@ def test_the_twin_stalls_on_the_wall_and_takes_the_detour() -> None:
     assert to_start.planned and to_start.plan is not None
 
     def fresh() -> TwinArm:
-        arm = TwinArm(config, mujoco.MjModel.from_xml_string(xml))
+        arm = TwinArm(config, twin)
         arm.connect()
         _stream_timed(arm, model, to_start.plan.q_path, config)
         arm.await_arrival(3.0)

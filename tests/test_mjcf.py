@@ -12,6 +12,7 @@ from conftest import ROOT
 
 from mearm.config import Config, SceneObject, load_config
 from mearm.exceptions import ModelError
+from mearm.ik.mink_solver import mujoco_model
 from mearm.kinematics import ArmModel
 from mearm.kinematics.urdf import jaw_joint_names
 from mearm.sim import World
@@ -28,6 +29,7 @@ from mearm.sim.mjcf import (
     save_mjcf,
     servo_named,
     servo_tendon,
+    twin_model,
 )
 from mearm.task.plan import Planner
 
@@ -38,8 +40,7 @@ HOLD_S = 2.0
 @pytest.fixture(scope="module", params=CONFIGS)
 def twin(request: pytest.FixtureRequest) -> tuple[Config, str, mujoco.MjModel]:
     config = load_config(ROOT / "configs" / request.param)
-    xml = generate_mjcf(config)
-    return config, xml, mujoco.MjModel.from_xml_string(xml)
+    return config, generate_mjcf(config), twin_model(config)
 
 
 @pytest.fixture(scope="module")
@@ -50,6 +51,33 @@ def held(twin: tuple[Config, str, mujoco.MjModel]) -> mujoco.MjData:
     mujoco.mj_resetDataKeyframe(m, d, m.key("home").id)
     mujoco.mj_step(m, d, nstep=round(HOLD_S / m.opt.timestep))
     return d
+
+
+def test_the_twin_and_mink_solve_on_one_chain(twin: tuple[Config, str, mujoco.MjModel]) -> None:
+    """One builder: the twin's chain and the mink cross-check's put the TCP at one place."""
+    config, _, m = twin
+    arm = ArmModel(config.arm)
+    bare = mujoco_model(arm)
+    d, e = mujoco.MjData(m), mujoco.MjData(bare)
+    chain = arm.chain
+    rng = np.random.default_rng(7)
+    for _ in range(20):
+        q = chain.C @ rng.uniform(chain.actuated_lower, chain.actuated_upper) + chain.c
+        _set_arm(m, d, config, q)
+        e.qpos[:] = q
+        mujoco.mj_kinematics(bare, e)
+        np.testing.assert_allclose(d.site("tcp").xpos, e.site("tcp").xpos, atol=1e-12)
+        np.testing.assert_allclose(d.site("tcp").xpos * 100, arm.fk_cm(q), atol=1e-9)
+
+
+def test_the_mjcf_text_is_the_compiled_twin(twin: tuple[Config, str, mujoco.MjModel]) -> None:
+    """generate_mjcf writes the model twin_model compiles (to MuJoCo's six digits)."""
+    _, xml, m = twin
+    read = mujoco.MjModel.from_xml_string(xml)
+    for field in ("body_pos", "body_mass", "jnt_range", "geom_size", "actuator_gainprm",
+                  "actuator_biasprm", "eq_data", "key_qpos", "key_ctrl"):  # fmt: skip
+        np.testing.assert_allclose(getattr(read, field), getattr(m, field), rtol=1e-5,
+                                   atol=1e-9, err_msg=field)  # fmt: skip
 
 
 def _set_arm(m: mujoco.MjModel, d: mujoco.MjData, config: Config, q: np.ndarray) -> None:
@@ -348,14 +376,14 @@ def test_the_config_names_the_servos(name, joint, gripper):
     """``twin.joint_servo`` / ``twin.gripper_servo`` pick the catalogue models, whose
     datasheet figures (stall torque) become the actuators' force limits."""
     config = load_config(ROOT / "configs" / f"{name}.yaml")
-    m = mujoco.MjModel.from_xml_string(generate_mjcf(config))
+    m = twin_model(config)
     assert recorded_servo(m, JOINT_SERVO_TEXT) == joint
     assert recorded_servo(m, GRIPPER_SERVO_TEXT) == gripper
     stall = servo_named(joint).stall_torque_nm
     base = config.arm.actuated_joints()[0].name
     assert m.actuator(base).forcerange[1] == pytest.approx(stall)
     other = load_config(ROOT / "configs" / f"{name}.yaml", ["twin.joint_servo=MG996R"])
-    m2 = mujoco.MjModel.from_xml_string(generate_mjcf(other))
+    m2 = twin_model(other)
     assert recorded_servo(m2, JOINT_SERVO_TEXT) == "MG996R"
 
 

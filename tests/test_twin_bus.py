@@ -29,6 +29,7 @@ from mearm.sim.mjcf import (
     MG996R,
     ServoSpec,
     generate_mjcf,
+    twin_model,
 )
 from mearm.sim.servo_bus import SimArm
 from mearm.sim.twin_bus import ARRIVED_SHAFT_DEG, BACKLASH_DEG, TwinArm
@@ -42,13 +43,13 @@ SETTLE_S = 0.5
 @pytest.fixture(scope="module")
 def paper() -> tuple[Config, mujoco.MjModel]:
     config = load_config(ROOT / "configs" / "sim.yaml")
-    return config, mujoco.MjModel.from_xml_string(generate_mjcf(config))
+    return config, twin_model(config)
 
 
 @pytest.fixture(scope="module")
 def desk() -> tuple[Config, mujoco.MjModel]:
     config = load_config(ROOT / "configs" / "sim_5dof.yaml")
-    return config, mujoco.MjModel.from_xml_string(generate_mjcf(config))
+    return config, twin_model(config)
 
 
 def _twin(setup: tuple[Config, mujoco.MjModel]) -> TwinArm:
@@ -159,7 +160,7 @@ def test_await_arrival_times_out_and_faults_the_bus(paper):
 def test_a_joint_too_weak_for_its_load_stalls(paper):
     """A shoulder servo with a hundredth of its torque comes to rest short: a stall fault."""
     config, m = paper
-    weak = mujoco.MjModel.from_xml_string(generate_mjcf(config))
+    weak = twin_model(config)
     weak.actuator("shoulder").forcerange[:] = m.actuator("shoulder").forcerange / 100
     arm = TwinArm(config, weak)
     arm.connect()
@@ -290,7 +291,7 @@ def test_model_of_another_arm_is_refused(paper, desk):
     """A model without this arm's actuators is refused, naming the fix."""
     config, _ = paper
     _, m = desk
-    with pytest.raises(ModelError, match="generate_mjcf"):
+    with pytest.raises(ModelError, match="twin_model"):
         TwinArm(config, m)
 
 
@@ -298,7 +299,7 @@ def test_unknown_servo_needs_to_be_named(paper):
     """A model whose servos are not in the catalogue needs servo=; with it, it builds."""
     config, _ = paper
     odd = ServoSpec("odd", 0.06, 3.0, 0.2, 4.0, (0.04, 0.02, 0.04), "test")
-    m = mujoco.MjModel.from_xml_string(generate_mjcf(config, odd))
+    m = twin_model(config, odd)
     with pytest.raises(ModelError, match="pass servo="):
         TwinArm(config, m)
     arm = TwinArm(config, m, servo=odd)
@@ -308,7 +309,7 @@ def test_unknown_servo_needs_to_be_named(paper):
 def test_a_model_records_its_servos_and_the_twin_reads_them(desk):
     """TwinArm takes the servos the model records, not a guess from torque and speed."""
     config, _ = desk
-    m = mujoco.MjModel.from_xml_string(generate_mjcf(config, MG996R, gripper_servo=MG90S))
+    m = twin_model(config, MG996R, gripper_servo=MG90S)
     arm = TwinArm(config, m)
     s, g = arm.servos[0], arm.servos[-1]
     assert s.speed == pytest.approx(MG996R.speed_rad_s)
@@ -376,7 +377,7 @@ def test_grasp_lifts_the_object_and_drops_it_in_its_bin(desk):
 @pytest.fixture(scope="module")
 def mearm() -> tuple[Config, mujoco.MjModel]:
     config = load_config(ROOT / "configs" / "sim_mearm_v1_mujoco.yaml")
-    return config, mujoco.MjModel.from_xml_string(generate_mjcf(config))
+    return config, twin_model(config)
 
 
 #: How far from its planned angle the forearm may settle [deg].

@@ -15,7 +15,7 @@ from mearm.config import Config, load_config
 from mearm.kinematics import ArmModel, generate_urdf, jaw_joint_names
 from mearm.kinematics.urdf import JAW_PAD_LENGTH_M, jaw_pad_length_m, jaw_span_m
 from mearm.sim import mjcf
-from mearm.sim.mjcf import generate_mjcf
+from mearm.sim.mjcf import twin_model
 
 CONFIGS = (
     "sim.yaml",
@@ -32,7 +32,7 @@ TOL = 1e-6  # [m]
 def both(request: pytest.FixtureRequest) -> tuple[Config, mujoco.MjModel, mujoco.MjData]:
     """A reference config and its twin at the home keyframe (jaws open)."""
     config = load_config(ROOT / "configs" / request.param)
-    m = mujoco.MjModel.from_xml_string(generate_mjcf(config))
+    m = twin_model(config)
     d = mujoco.MjData(m)
     mujoco.mj_resetDataKeyframe(m, d, m.key("home").id)
     mujoco.mj_forward(m, d)

@@ -1,17 +1,16 @@
-r"""The mink cross-check: the same URDF in MuJoCo, solved as a QP with the coupling exact.
+r"""The mink cross-check: the arm in MuJoCo, solved as a QP with the coupling exact.
 
 An independent route to the joint solution :class:`~mearm.ik.PdPij` finds, for any arm:
-the generated URDF (:func:`mearm.kinematics.generate_urdf`) loaded by MuJoCo, a
+the arm's chain built for MuJoCo from its description by the twin's builder
+(:func:`mearm.kinematics.mjspec.arm_spec`, not through the URDF Pinocchio reads), a
 :class:`mink.FrameTask` on a ``tcp`` site, :class:`mink.ConfigurationLimit` for the joint
 limits and every passive joint's coupling as an equality constraint of every QP. MuJoCo
 equalities cannot express an affine function of several joints, so the coupling is a
 small custom task, :class:`CouplingTask`, passed to :func:`mink.solve_ik` as a
 constraint: ``A Δq = −e`` restores it after every step.
 
-The gripper's jaw joints are made fixed in the URDF before MuJoCo reads it, so the
-MuJoCo joints are exactly the chain's, in order. MuJoCo fuses the fixed ``tcp`` link
-into its parent; the ``tcp`` site added on it through :class:`mujoco.MjSpec` before
-compiling moves with it, so the site sits where Pinocchio's ``tcp`` frame is.
+The chain has no jaws, so the MuJoCo joints are exactly the chain's, in order; its
+``tcp`` site sits where Pinocchio's ``tcp`` frame is.
 
 Orientation. The site's z axis is the tool's approach axis. Without an approach the frame
 task's orientation cost is zero. With one, the target rotation is the site's current
@@ -27,7 +26,6 @@ where PD-PIJ arrives, not of its path, and converges in a handful of QPs.
 from __future__ import annotations
 
 import math
-import xml.etree.ElementTree as ET
 
 import mink
 import mujoco
@@ -40,45 +38,31 @@ from mearm.exceptions import ModelError, QPSolverError
 from mearm.ik.result import IKResult, Status
 from mearm.ik.solver import APPROACH_TOLERANCE_DEG, APPROACH_WEIGHT_CM, IKSolver
 from mearm.ik.target import IKTarget
-from mearm.kinematics import TCP_FRAME, ArmModel, Chain, jaw_joint_names
+from mearm.kinematics import TCP_FRAME, ArmModel, Chain
+from mearm.kinematics.mjspec import arm_spec, quat
 from mearm.kinematics.model import CM_PER_M
 
 TCP_SITE = TCP_FRAME
 _DT = 1.0  # mink returns Δq / dt; with dt = 1 the velocity is the step
 
 
-def _without_jaws(urdf: str, jaws: tuple[str, ...]) -> str:
-    """The URDF text with the named joints made fixed (axis, limit and mimic dropped)."""
-    root = ET.fromstring(urdf)
-    for joint in root.iter("joint"):
-        if joint.get("name") in jaws:
-            joint.set("type", "fixed")
-            for tag in ("axis", "limit", "mimic"):
-                for child in joint.findall(tag):
-                    joint.remove(child)
-    return ET.tostring(root, encoding="unicode")
-
-
 def mujoco_model(model: ArmModel) -> mujoco.MjModel:
-    """Compile the arm's URDF into MuJoCo, jaws fixed, with a ``tcp`` site.
+    """The arm's chain in MuJoCo with the ``tcp`` site's z axis along the approach axis.
+
+    The twin's own chain (:func:`~mearm.kinematics.mjspec.arm_spec`): the joints exactly
+    the chain's, in order, no jaws.
 
     Raises:
-        ModelError: MuJoCo cannot load the URDF, it has no ``tcp`` link, or its joints
-            are not the chain's.
+        ModelError: MuJoCo refuses the model, or its joints are not the chain's.
     """
-    urdf = _without_jaws(model.urdf, jaw_joint_names(model.arm))
-    try:
-        spec = mujoco.MjSpec.from_string(urdf)
-    except ValueError as exc:
-        raise ModelError(f"MuJoCo could not parse the URDF: {exc}") from None
-    tcp = spec.body(TCP_FRAME)
-    if tcp is None:
-        raise ModelError(f"URDF has no '{TCP_FRAME}' link to put the {TCP_SITE} site on")
+    spec = arm_spec(model.arm)
+    spec.compiler.boundmass = spec.compiler.boundinertia = 1e-9  # kinematics only
     # the site's z axis is the tool's approach axis, so a roll about it is one cost entry
-    quat = np.zeros(4)
-    mujoco.mju_mat2Quat(quat, _turn_onto(np.array([0.0, 0.0, 1.0]), model.approach_axis).ravel())
-    tcp.add_site(name=TCP_SITE, pos=[0.0, 0.0, 0.0], quat=quat)
-    mj_model = spec.compile()
+    spec.site(TCP_SITE).quat = quat(_turn_onto(np.array([0.0, 0.0, 1.0]), model.approach_axis))
+    try:
+        mj_model = spec.compile()
+    except ValueError as exc:
+        raise ModelError(f"MuJoCo refused the arm's model: {exc}") from None
     names = tuple(mj_model.joint(i).name for i in range(mj_model.njnt))
     if names != model.chain.names:
         raise ModelError(

@@ -24,7 +24,6 @@ frame's +y.
 from __future__ import annotations
 
 import math
-import xml.etree.ElementTree as ET
 from collections.abc import Mapping
 
 import cv2
@@ -33,7 +32,7 @@ import numpy as np
 
 from mearm.config import Config
 from mearm.exceptions import CalibrationError
-from mearm.sim.mjcf import M_PER_CM, generate_mjcf
+from mearm.sim.mjcf import M_PER_CM, twin_spec
 from mearm.sim.twin_camera import CAMERA_NAME, LensRenderer, twin_camera_model
 from mearm.vision.aruco import DEFAULT_DICTIONARY, get_dictionary, marker_image
 from mearm.vision.charuco import DEFAULT_BOARD, BoardSpec, board_image
@@ -64,39 +63,28 @@ SHEET_SIDE_CM = 4.0
 
 
 def _quad_mesh(
-    asset: ET.Element, name: str, x: tuple[float, float], y: tuple[float, float]
+    model: mujoco.MjSpec, name: str, x: tuple[float, float], y: tuple[float, float]
 ) -> None:
     """A flat quad over [x0, x1] × [y0, y1] at z = 0 [m], its face towards −z.
 
     Texture (u, v) = (0, 1) at (x0, y0), the image's first row along y0: rows run along +y.
     """
     (x0, x1), (y0, y1) = x, y
-    verts = [x0, y0, 0, x1, y0, 0, x1, y1, 0, x0, y1, 0]
-    tex = [0, 0, 1, 0, 1, 1, 0, 1]
-    ET.SubElement(
-        asset,
-        "mesh",
+    model.add_mesh(
         name=name,
-        vertex=" ".join(repr(float(v)) for v in verts),
-        texcoord=" ".join(repr(float(v)) for v in tex),
+        uservert=[x0, y0, 0, x1, y0, 0, x1, y1, 0, x0, y1, 0],
+        usertexcoord=[0, 0, 1, 0, 1, 1, 0, 1],
         # wound clockwise seen from +z: the face (and its normal) looks towards −z
-        face="0 2 1 0 3 2",
-        inertia="shell",
+        userface=[0, 2, 1, 0, 3, 2],
+        inertia=mujoco.mjtMeshInertia.mjMESH_INERTIA_SHELL,
     )
 
 
-def _textured(asset: ET.Element, name: str) -> None:
-    ET.SubElement(asset, "texture", name=name, type="2d", file=f"{name}.png")
-    ET.SubElement(
-        asset,
-        "material",
-        name=name,
-        texture=name,
-        rgba="1 1 1 1",
-        specular="0",
-        shininess="0",
-        reflectance="0",
-    )
+def _textured(model: mujoco.MjSpec, name: str) -> None:
+    model.add_texture(name=name, type=mujoco.mjtTexture.mjTEXTURE_2D, file=f"{name}.png")
+    material = model.add_material(name=name, rgba=[1, 1, 1, 1], specular=0, shininess=0,
+                                  reflectance=0)  # fmt: skip
+    material.textures[mujoco.mjtTextureRole.mjTEXROLE_RGB] = name
 
 
 def _png(image: np.ndarray) -> bytes:
@@ -110,12 +98,13 @@ def _scene_config(config: Config) -> Config:
     return config.model_copy(update={"task": config.task.model_copy(update={"scene": []})})
 
 
-def _compile(xml_root: ET.Element, assets: dict[str, bytes]) -> mujoco.MjModel:
-    model = mujoco.MjModel.from_xml_string(ET.tostring(xml_root, encoding="unicode"), assets)
-    base = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "base_link")
-    arm = model.body_rootid[model.geom_bodyid] == base
-    model.geom_group[arm] = HIDDEN_GROUP
-    return model
+def _compile(model: mujoco.MjSpec, assets: dict[str, bytes]) -> mujoco.MjModel:
+    model.assets = assets
+    compiled = model.compile()
+    base = mujoco.mj_name2id(compiled, mujoco.mjtObj.mjOBJ_BODY, "base_link")
+    arm = compiled.body_rootid[compiled.geom_bodyid] == base
+    compiled.geom_group[arm] = HIDDEN_GROUP
+    return compiled
 
 
 def _option() -> mujoco.MjvOption:
@@ -217,22 +206,18 @@ def board_poses(config: Config, n: int, seed: int, spec: BoardSpec = DEFAULT_BOA
 
 def board_model(config: Config, spec: BoardSpec = DEFAULT_BOARD) -> mujoco.MjModel:
     """The twin (no scene objects, arm hidden) with the board as mocap body ``charuco``."""
-    root = ET.fromstring(generate_mjcf(_scene_config(config)))
-    asset, world = root.find("asset"), root.find("worldbody")
-    assert asset is not None and world is not None
+    model = twin_spec(_scene_config(config))[0]
     image = board_image(spec, PX_PER_SQUARE)
     pad = round(BOARD_MARGIN_SQUARES * PX_PER_SQUARE)
     image = cv2.copyMakeBorder(image, pad, pad, pad, pad, cv2.BORDER_CONSTANT, value=255)
     margin = BOARD_MARGIN_SQUARES * spec.square_cm * M_PER_CM
     bw, bh = (s * M_PER_CM for s in spec.size_cm)
-    _quad_mesh(asset, "charuco", (-margin, bw + margin), (-margin, bh + margin))
-    _textured(asset, "charuco")
-    body = ET.SubElement(world, "body", name="charuco", mocap="true")
-    ET.SubElement(
-        body, "geom", name="charuco", type="mesh", mesh="charuco", material="charuco",
-        contype="0", conaffinity="0", mass="0.01",
-    )  # fmt: skip
-    return _compile(root, {"charuco.png": _png(image)})
+    _quad_mesh(model, "charuco", (-margin, bw + margin), (-margin, bh + margin))
+    _textured(model, "charuco")
+    body = model.worldbody.add_body(name="charuco", mocap=True)
+    body.add_geom(name="charuco", type=mujoco.mjtGeom.mjGEOM_MESH, meshname="charuco",
+                  material="charuco", contype=0, conaffinity=0, mass=0.01)  # fmt: skip
+    return _compile(model, {"charuco.png": _png(image)})
 
 
 def render_board_views(
@@ -357,24 +342,22 @@ def sheet_model(
                     "further apart"
                 )
     half = half_cm * M_PER_CM
-    root = ET.fromstring(generate_mjcf(_scene_config(config)))
-    asset, world = root.find("asset"), root.find("worldbody")
-    assert asset is not None and world is not None
-    _quad_mesh(asset, "marker", (-half, half), (-half, half))
+    model = twin_spec(_scene_config(config))[0]
+    _quad_mesh(model, "marker", (-half, half), (-half, half))
     assets = {}
     for marker_id, (x, y) in markers.items():
         image = marker_image(marker_id, modules * PX_PER_MODULE, dictionary)
         image = cv2.copyMakeBorder(image, pad, pad, pad, pad, cv2.BORDER_CONSTANT, value=255)
         name = f"marker_{marker_id}"
         assets[f"{name}.png"] = _png(image)
-        _textured(asset, name)
-        ET.SubElement(
-            world, "geom", name=name, type="mesh", mesh="marker", material=name,
-            pos=f"{x * M_PER_CM!r} {y * M_PER_CM!r} {SHEET_Z_CM * M_PER_CM!r}",
+        _textured(model, name)
+        model.worldbody.add_geom(
+            name=name, type=mujoco.mjtGeom.mjGEOM_MESH, meshname="marker", material=name,
+            pos=[x * M_PER_CM, y * M_PER_CM, SHEET_Z_CM * M_PER_CM],
             # the quad faces −z: turned over about x it faces up, its first row at +y
-            quat="0 1 0 0", contype="0", conaffinity="0",
+            quat=[0, 1, 0, 0], contype=0, conaffinity=0,
         )  # fmt: skip
-    return _compile(root, assets)
+    return _compile(model, assets)
 
 
 def render_sheet(
@@ -440,7 +423,7 @@ def render_objects(
         CameraError: no offscreen rendering, or a lens distortion with no inverse.
     """
     _check_noise(noise_std)
-    model = _compile(ET.fromstring(generate_mjcf(config)), {})
+    model = _compile(twin_spec(config)[0], {})
     data = mujoco.MjData(model)
     mujoco.mj_resetDataKeyframe(model, data, model.key("home").id)
     mujoco.mj_forward(model, data)

@@ -1,14 +1,15 @@
-r"""Generate the physical twin's MJCF (MuJoCo) from the config: arm, table, bins, objects, camera.
+r"""The physical twin's MuJoCo model from the config: arm, table, bins, objects, camera.
 
-Never hand-written: :func:`generate_mjcf` builds one self-contained MJCF string (primitive
-geoms only, metres, kilograms, radians) from :class:`~mearm.config.Config`.
+Never hand-written: :func:`twin_spec` builds it with :class:`mujoco.MjSpec` (primitive
+geoms only, metres, kilograms, radians) from :class:`~mearm.config.Config` and compiles
+it once; :func:`generate_mjcf` writes it as MJCF text (MuJoCo's writer: six significant
+digits).
 
-**The chain.** Body ``link_<joint>`` carries joint i (``hinge`` for a revolute joint,
-``slide`` for a prismatic one, about its own z axis); its pose in the previous body is the
-fixed part of DH row i−1, ``DHRow.transform(0)`` = :math:`R_z(\theta_0)T_z(d)T_x(a)R_x(\alpha)`,
-exactly as in the URDF (:mod:`mearm.kinematics.urdf`), so the twin's FK is the DH product.
-A body ``tcp`` with a site ``tcp`` sits at the tool centre point; the gripper's two jaws
-(slide joints named as in the URDF) hang from it.
+**The chain** is :func:`~mearm.kinematics.mjspec.arm_spec`'s, the one the mink
+cross-check solves on: body ``link_<joint>`` per joint, placed by the fixed part of the
+DH row before it exactly as in the URDF, so the twin's FK is the DH product, and a body
+``tcp`` with a site ``tcp`` at the tool centre point. The gripper's two jaws (slide joints
+named as in the URDF) hang from it.
 
 **The jaws and the grip point.** The planner sends the TCP ``tcp_above_grip_cm`` above
 the height where the jaws are to close (:meth:`~mearm.task.plan.Planner.pick_target`),
@@ -112,7 +113,6 @@ the rendered frames).
 from __future__ import annotations
 
 import math
-import xml.etree.ElementTree as ET
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -147,14 +147,14 @@ from mearm.kinematics.bodies import (
     bin_half_outer_m,
     bin_origin_m,
     bin_shapes,
-    fixed_part,
     link_width_m,
     object_centre_m,
     object_shape,
     wall_height_m,
 )
 from mearm.kinematics.chain import Chain
-from mearm.kinematics.urdf import TCP_FRAME, jaw_frame, jaw_joint_names, jaw_pad_length_m
+from mearm.kinematics.mjspec import arm_spec, exact, quat
+from mearm.kinematics.urdf import TCP_FRAME, jaw_joint_names, jaw_pad_length_m
 from mearm.sim.twin_optics import CAMERA_HEIGHT_M, camera_pose, homography_view
 
 M_PER_CM = 0.01
@@ -208,12 +208,17 @@ _ARM_CONTYPE, _ARM_CONAFFINITY = 2, 1  # arm geoms: touch the scene, never each 
 _SCENE_CONTYPE, _SCENE_CONAFFINITY = 1, 3
 
 
-def generate_mjcf(
+def twin_spec(
     config: Config,
     servo: ServoSpec | None = None,
     gripper_servo: ServoSpec | None = None,
-) -> str:
-    """Build the twin's MJCF: arm, table, bins, objects and camera.
+) -> tuple[mujoco.MjSpec, mujoco.MjModel]:
+    """Build the twin, arm, table, bins, objects and camera, and compile it.
+
+    The arm's chain is :func:`~mearm.kinematics.mjspec.arm_spec`'s (the mink cross-check
+    solves on the same one). The model is compiled once for the joints' servo (once per
+    catalogue servo tried when the config names none); the servos' damping, which
+    depends on the compiled model's inertia, is then set in both.
 
     Args:
         config: The whole config (arm, task, camera, calibration).
@@ -223,9 +228,9 @@ def generate_mjcf(
             ``twin.gripper_servo``.
 
     Returns:
-        The MJCF text (metres, kilograms, radians), loadable by
-        ``mujoco.MjModel.from_xml_string``; keyframe ``home`` holds the arm at home with
-        the jaws open and the objects on the table, ``ctrl`` at home.
+        The spec and its compiled model (metres, kilograms, radians); keyframe ``home``
+        holds the arm at home with the jaws open and the objects on the table, ``ctrl``
+        at home.
 
     Raises:
         ModelError: the scene cannot be built (objects overlapping each other, a bin or
@@ -238,19 +243,37 @@ def generate_mjcf(
         servo = servo_named(config.twin.joint_servo)
     if gripper_servo is None:
         gripper_servo = servo_named(config.twin.gripper_servo)
-    servos = (servo,) if servo is not None else SERVO_CATALOGUE
-    chosen = servos[-1]
-    for spec in servos:
-        load = _max_load(_compile(_build(config, spec, gripper_servo, None)), config)
-        capacity = np.array([_capacity(j, spec) for j in config.arm.actuated_joints()])
-        if servo is not None or np.all(SERVO_LOAD_FACTOR * load <= capacity):
-            chosen = spec
+    for candidate in (servo,) if servo is not None else SERVO_CATALOGUE:
+        spec = _build(config, candidate, gripper_servo)
+        model = _compile(spec)
+        if servo is not None:
             break
-    provisional = _compile(_build(config, chosen, gripper_servo, None))
-    kv = _servo_kv(provisional, config, chosen, gripper_servo)
-    xml = _build(config, chosen, gripper_servo, kv)
-    _compile(xml)
-    return xml
+        load = _max_load(model, config)
+        capacity = np.array([_capacity(j, candidate) for j in config.arm.actuated_joints()])
+        if np.all(SERVO_LOAD_FACTOR * load <= capacity):
+            break  # else the largest servo of the catalogue, the last one built
+    for name, kv in _servo_kv(model, config, candidate, gripper_servo).items():
+        spec.actuator(name).biasprm[2] = -kv  # a position actuator's bias: -kp q - kv q̇
+        model.actuator(name).biasprm[2] = -kv
+    return spec, model
+
+
+def twin_model(
+    config: Config,
+    servo: ServoSpec | None = None,
+    gripper_servo: ServoSpec | None = None,
+) -> mujoco.MjModel:
+    """The twin's compiled model (:func:`twin_spec`)."""
+    return twin_spec(config, servo, gripper_servo)[1]
+
+
+def generate_mjcf(
+    config: Config,
+    servo: ServoSpec | None = None,
+    gripper_servo: ServoSpec | None = None,
+) -> str:
+    """The twin as MJCF text (:func:`twin_spec`), loadable by ``mujoco.MjModel.from_xml_string``."""
+    return twin_spec(config, servo, gripper_servo)[0].to_xml()
 
 
 def save_mjcf(config: Config, path: str | Path) -> Path:
@@ -343,11 +366,11 @@ def _capacity(joint: Joint, spec: ServoSpec) -> float:
     return spec.stall_torque_nm
 
 
-def _compile(xml: str) -> mujoco.MjModel:
+def _compile(spec: mujoco.MjSpec) -> mujoco.MjModel:
     try:
-        return mujoco.MjModel.from_xml_string(xml)
+        return spec.compile()
     except ValueError as exc:
-        raise ModelError(f"MuJoCo refused the generated MJCF: {exc}") from None
+        raise ModelError(f"MuJoCo refused the twin's model: {exc}") from None
 
 
 def _arm_dofs(m: mujoco.MjModel, config: Config) -> np.ndarray:
@@ -482,21 +505,8 @@ def _lever2(joint: Joint) -> float:
 # --------------------------------------------------------------------------- building
 
 
-def _f(x: float) -> str:
-    x = float(x)
-    if abs(x) < 1e-15:
-        x = 0.0
-    return repr(x + 0.0)
-
-
-def _v(values: Sequence[float] | np.ndarray) -> str:
-    return " ".join(_f(x) for x in values)
-
-
-def _quat(R: np.ndarray) -> np.ndarray:
-    q = np.zeros(4)
-    mujoco.mju_mat2Quat(q, np.ascontiguousarray(R, dtype=float).reshape(9))
-    return q
+def _rgba(rgb: Sequence[int] | tuple[float, float, float], alpha: float = 1.0) -> list[float]:
+    return [*(float(c) / 255 for c in rgb), alpha]
 
 
 def _link_width_m(config: Config) -> float:
@@ -507,135 +517,88 @@ def _base_radius_m(config: Config) -> float:
     return base_radius_m(config)
 
 
-def _fixed(joint: Joint) -> np.ndarray:
-    return fixed_part(joint)
+_GEOM_KIND = {
+    "box": mujoco.mjtGeom.mjGEOM_BOX,
+    "cylinder": mujoco.mjtGeom.mjGEOM_CYLINDER,
+    "sphere": mujoco.mjtGeom.mjGEOM_SPHERE,
+    "capsule": mujoco.mjtGeom.mjGEOM_CAPSULE,
+    "plane": mujoco.mjtGeom.mjGEOM_PLANE,
+}
 
 
-def _rgba(rgb: Sequence[int] | tuple[float, float, float], alpha: float = 1.0) -> str:
-    return _v([*(float(c) / 255 for c in rgb), alpha])
+def _geom(
+    body: mujoco.MjsBody, name: str, kind: str, size: Sequence[float], **attrs: object
+) -> mujoco.MjsGeom:
+    geom = body.add_geom(name=name, type=_GEOM_KIND[kind], **attrs)
+    geom.size[: len(size)] = size
+    return geom
 
 
-def _geom(parent: ET.Element, name: str, kind: str, size: Sequence[float], **attrs: str) -> None:
-    ET.SubElement(parent, "geom", {"name": name, "type": kind, "size": _v(size), **attrs})
+def _scene_geom(
+    body: mujoco.MjsBody, name: str, kind: str, size: Sequence[float], **attrs: object
+) -> None:
+    _geom(body, name, kind, size, contype=_SCENE_CONTYPE, conaffinity=_SCENE_CONAFFINITY, **attrs)
 
 
-def _arm_geom(parent: ET.Element, name: str, size: Sequence[float], mass: float, **a: str) -> None:
-    attrs = {"contype": str(_ARM_CONTYPE), "conaffinity": str(_ARM_CONAFFINITY), **a}
-    _geom(parent, name, "box", size, mass=_f(mass), **attrs)
-
-
-def _shape_geom(parent: ET.Element, shape: Shape, material: str, **attrs: str) -> None:
-    """A geom of :mod:`mearm.kinematics.bodies`' ``shape`` in ``parent`` (its body)."""
-    place = {"pos": _v(shape.pos)}
+def _shape_geom(body: mujoco.MjsBody, shape: Shape, material: str, **attrs: object) -> None:
+    """A geom of :mod:`mearm.kinematics.bodies`' ``shape`` in ``body``."""
+    place: dict[str, object] = {"pos": exact(shape.pos)}
     if shape.R is not None:
-        place["quat"] = _v(_quat(shape.R))
+        place["quat"] = quat(shape.R)
     if shape.mass_kg is not None:
-        place["mass"] = _f(shape.mass_kg)
-    collide = {"contype": str(_ARM_CONTYPE), "conaffinity": str(_ARM_CONAFFINITY)}
-    if not shape.collides:
-        collide = {"contype": "0", "conaffinity": "0"}
-    attrs = {**place, "material": material, **collide, **attrs}
-    _geom(parent, shape.name, shape.kind, shape.size, **attrs)
+        place["mass"] = shape.mass_kg
+    collide = (_ARM_CONTYPE, _ARM_CONAFFINITY) if shape.collides else (0, 0)
+    _geom(body, shape.name, shape.kind, shape.size, material=material, contype=collide[0],
+          conaffinity=collide[1], **place, **attrs)  # fmt: skip
 
 
-def _jaw_frame(config: Config) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The approach axis, the jaws' opening axis and the third, in the TCP frame, unit, (3,).
-
-    The URDF's (:func:`~mearm.kinematics.urdf.jaw_frame`): the jaws open along a line
-    level with the arm at home.
-    """
-    R = jaw_frame(config.arm)
-    return R[:, 0], R[:, 1], R[:, 2]
-
-
-def _build(
-    config: Config, spec: ServoSpec, gripper_spec: ServoSpec, kv: dict[str, float] | None
-) -> str:
+def _build(config: Config, spec: ServoSpec, gripper_spec: ServoSpec) -> mujoco.MjSpec:
+    """The twin's spec for these servos, its servos undamped (:func:`twin_spec` sets ``kv``)."""
     arm, task = config.arm, config.task
     chain = Chain.from_description(arm)
-    root = ET.Element("mujoco", model=f"{arm.name}_twin")
-    ET.SubElement(root, "compiler", angle="radian", autolimits="true")
-    ET.SubElement(
-        root,
-        "option",
-        timestep=_f(TIMESTEP_S),
-        integrator="implicitfast",
-        cone="pyramidal",  # elliptic cones left light objects rocking (~0.08°, 1e-2 rad/s)
-        impratio="10",
-        gravity=_v((0, 0, -G)),
-    )
-    visual = ET.SubElement(root, "visual")
-    ET.SubElement(
-        visual,
-        "global",
-        offwidth=str(config.camera.width_px),
-        offheight=str(config.camera.height_px),
-    )
-    asset = ET.SubElement(root, "asset")
+    model = arm_spec(arm, name=f"{arm.name}_twin")
+    model.option.timestep = TIMESTEP_S
+    model.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
+    # elliptic cones left light objects rocking (~0.08°, 1e-2 rad/s)
+    model.option.cone = mujoco.mjtCone.mjCONE_PYRAMIDAL
+    model.option.impratio = 10.0
+    model.option.gravity = [0.0, 0.0, -G]
+    model.visual.global_.offwidth = config.camera.width_px
+    model.visual.global_.offheight = config.camera.height_px
     # The arm is drawn in greys (black acrylic, black metal-gear servos): a saturated
     # colour would be taken for an object of a class by the detector looking at the
     # twin's camera, as it would be on a real table.
     for name, rgba in (
-        ("base", "0.25 0.25 0.28 1"),
-        ("link", "0.18 0.18 0.20 1"),
-        ("gripper", "0.70 0.70 0.75 1"),
-        ("servo", "0.08 0.08 0.09 1"),
-        ("table", "0.62 0.46 0.30 1"),
-        ("bin", "0.85 0.85 0.85 1"),
+        ("base", (0.25, 0.25, 0.28, 1.0)),
+        ("link", (0.18, 0.18, 0.20, 1.0)),
+        ("gripper", (0.70, 0.70, 0.75, 1.0)),
+        ("servo", (0.08, 0.08, 0.09, 1.0)),
+        ("table", (0.62, 0.46, 0.30, 1.0)),
+        ("bin", (0.85, 0.85, 0.85, 1.0)),
     ):
-        ET.SubElement(asset, "material", name=name, rgba=rgba)
-    world = ET.SubElement(root, "worldbody")
-    ET.SubElement(world, "light", name="top", pos="0 0 1.5", dir="0 0 -1", directional="true")
+        model.add_material(name=name, rgba=list(rgba))
+    world = model.worldbody
+    world.add_light(name="top", pos=[0.0, 0.0, 1.5], dir=[0.0, 0.0, -1.0],
+                    type=mujoco.mjtLightType.mjLIGHT_DIRECTIONAL)  # fmt: skip
     _table(world, config)
     _camera(world, config)
 
     # ---- the arm (its shapes: mearm.kinematics.bodies, which the planner checks too)
     shapes = arm_bodies(config, spec, gripper_spec, acrylic_kg_m3=ACRYLIC_DENSITY)
-    base = ET.SubElement(world, "body", name="base_link")
-    bodies, material = {"base_link": base}, {"base_link": "base"}
-    parent, T_prev = base, np.eye(4)
     servo_rows = _servo_rows(config, chain)
     # the servo's motor (reflected inertia, back-EMF) sits on what it turns: its own
     # joint, or the tendon of its combination (below)
-    own_servo = {r.joint.name for r in servo_rows if not r.combined}
-    limits = arm.joint_limits()
-    last = len(arm.joints) - 1
-    for i, joint in enumerate(arm.joints):
-        body = ET.SubElement(
-            parent,
-            "body",
-            name=f"link_{joint.name}",
-            pos=_v(T_prev[:3, 3]),
-            quat=_v(_quat(T_prev[:3, :3])),
-        )
-        scale = chain.scale[i]
-        attrs = {
-            "name": joint.name,
-            "type": "hinge" if joint.type == "revolute" else "slide",
-            "axis": "0 0 1",
-            "range": _v((limits[joint.name].min * scale, limits[joint.name].max * scale)),
-        }
-        if joint.name in own_servo:
-            attrs["armature"] = _f(spec.armature / _lever2(joint))
-            attrs["damping"] = _f(spec.motor_damping / _lever2(joint))
-        ET.SubElement(body, "joint", attrs)
-        # the last row's plates run to the DH end, between the jaws: drawn, but the
-        # gripper's servo and jaws are what collides there
-        material[body.get("name", "")] = "gripper" if i == last else "link"
-        bodies[body.get("name", "")] = body
-        parent, T_prev = body, _fixed(joint)
-
-    # ---- the tool
-    tcp = ET.SubElement(
-        parent,
-        "body",
-        name=TCP_FRAME,
-        pos=_v(shapes.tcp_in_last[:3, 3]),
-        quat=_v(_quat(shapes.tcp_in_last[:3, :3])),
-    )
-    ET.SubElement(tcp, "site", name=TCP_FRAME, size="0.004", rgba="1 0 1 1", group="4")
-    bodies[TCP_FRAME] = tcp
-    _tool(tcp, config, shapes, gripper_spec, bodies)
+    for row in servo_rows:
+        if not row.combined:
+            joint = model.joint(row.joint.name)
+            joint.armature = spec.armature / _lever2(row.joint)
+            joint.damping[0] = spec.motor_damping / _lever2(row.joint)
+    # the last row's plates run to the DH end, between the jaws: drawn, but the
+    # gripper's servo and jaws are what collides there
+    last = f"link_{arm.joints[-1].name}"
+    material = {"base_link": "base"} | {f"link_{j.name}": "link" for j in arm.joints}
+    material[last] = "gripper"
+    _tool(model.body(TCP_FRAME), config, shapes, gripper_spec)
     for shape in shapes.shapes:
         if shape.jaw:
             continue  # the jaws' geoms: _tool, with their contact properties
@@ -643,7 +606,7 @@ def _build(
             kind = material[shape.body]
         else:
             kind = shape.part if shape.part in ("base", "servo") else "gripper"
-        _shape_geom(bodies[shape.body], shape, kind)
+        _shape_geom(model.body(shape.body), shape, kind)
 
     # ---- bins and objects
     for c in task.classes:
@@ -652,126 +615,133 @@ def _build(
         c = task.class_named(obj.color)
         r, h = c.diameter_cm * M_PER_CM / 2, c.height_cm * M_PER_CM
         centre = object_centre_m(config, obj.color, obj.x, obj.y)
-        body = ET.SubElement(world, "body", name=f"obj_{oid}", pos=_v(centre))
-        ET.SubElement(body, "freejoint", name=f"obj_{oid}")
+        body = world.add_body(name=f"obj_{oid}", pos=exact(centre))
+        body.add_freejoint(name=f"obj_{oid}")
         shape = object_shape(config, oid, obj.color)
-        _geom(
+        _scene_geom(
             body,
             shape.name,
             "cylinder",
             shape.size,
-            mass=_f(PLA_DENSITY * math.pi * r * r * h),
-            friction=_v((OBJECT_FRICTION, OBJECT_SPIN_FRICTION, OBJECT_ROLL_FRICTION)),
+            mass=PLA_DENSITY * math.pi * r * r * h,
+            friction=[OBJECT_FRICTION, OBJECT_SPIN_FRICTION, OBJECT_ROLL_FRICTION],
             # sliding friction only against the table and bins (torsional friction there
             # kept one object rocking on the table plane); against the pads the pads'
             # condim 4 holds, so a held object does not spin
-            condim="3",
+            condim=3,
             rgba=_rgba(c.draw_rgb),
-            contype=str(_SCENE_CONTYPE),
-            conaffinity=str(_SCENE_CONAFFINITY),
         )
 
     # ---- contacts, coupling, actuators, home
-    contact = ET.SubElement(root, "contact")
-    ET.SubElement(contact, "exclude", body1="world", body2=f"link_{arm.joints[0].name}")
-    tendon = ET.SubElement(root, "tendon")
-    equality = ET.SubElement(root, "equality")
+    model.add_exclude(bodyname1="world", bodyname2=f"link_{arm.joints[0].name}")
     for i, joint in enumerate(arm.joints):
         if joint.coupling is None:
             continue
-        fixed = ET.SubElement(tendon, "fixed", name=f"{joint.name}_coupling")
-        ET.SubElement(fixed, "joint", joint=joint.name, coef="1")
+        tendon = model.add_tendon(name=f"{joint.name}_coupling")
+        tendon.wrap_joint(joint.name, 1.0)
         for k, a in enumerate(chain.actuated):
             if chain.C[i, k] != 0.0:
-                ET.SubElement(fixed, "joint", joint=a, coef=_f(-chain.C[i, k]))
-        ET.SubElement(
-            equality,
-            "tendon",
-            name=f"{joint.name}_coupling",
-            tendon1=f"{joint.name}_coupling",
-            polycoef=_v((chain.c[i], 0, 0, 0, 0)),
-            solref=_v(COUPLING_SOLREF),
-            solimp=_v(COUPLING_SOLIMP),
-        )
+                tendon.wrap_joint(a, float(-chain.C[i, k]))
+        coupling = f"{joint.name}_coupling"
+        poly = (chain.c[i], 0, 0, 0, 0)
+        _equality(model, mujoco.mjtEq.mjEQ_TENDON, coupling, coupling, "", poly, COUPLING_SOLIMP)
     left, right = jaw_joint_names(arm)
-    ET.SubElement(
-        equality,
-        "joint",
-        name=f"{right}_mimic",
-        joint1=right,
-        joint2=left,
-        polycoef="0 1 0 0 0",
-        solref=_v(COUPLING_SOLREF),
-    )
+    _equality(model, mujoco.mjtEq.mjEQ_JOINT, f"{right}_mimic", right, left, (0, 1, 0, 0, 0))
     for row in servo_rows:
         if not row.combined:
             continue
-        fixed = ET.SubElement(
-            tendon,
-            "fixed",
+        tendon = model.add_tendon(
             name=row.tendon,
-            armature=_f(spec.armature / _lever2(row.joint)),
-            damping=_f(spec.motor_damping / _lever2(row.joint)),
+            armature=spec.armature / _lever2(row.joint),
         )
+        tendon.damping[0] = spec.motor_damping / _lever2(row.joint)
         for name, coef in row.coef.items():
-            ET.SubElement(fixed, "joint", joint=name, coef=_f(coef))
-    actuator = ET.SubElement(root, "actuator")
+            tendon.wrap_joint(name, coef)
     for k, a in enumerate(chain.actuated):
         i = int(chain.actuated_index[k])
         joint = arm.joints[i]
         row = servo_rows[k]
         cap = _capacity(joint, spec)
-        target = ("tendon", row.tendon) if row.combined else ("joint", a)
-        ET.SubElement(
-            actuator,
-            "position",
-            {
-                "name": a,
-                target[0]: target[1],
-                "kp": _f(spec.kp / _lever2(joint)),
-                "kv": _f(kv[a] if kv else 0.0),
-                "forcerange": _v((-cap, cap)),
-                "ctrlrange": _v(_ctrl_range(row, chain, i)),
-            },
+        _position(
+            model,
+            a,
+            (mujoco.mjtTrn.mjTRN_TENDON, row.tendon)
+            if row.combined
+            else (mujoco.mjtTrn.mjTRN_JOINT, a),
+            kp=spec.kp / _lever2(joint),
+            force=cap,
+            ctrl=_ctrl_range(row, chain, i),
         )
     g = arm.tool.gripper
     lo, hi = g.servo.value_range()
-    jaw_force = gripper_spec.stall_torque_nm / SERVO_LEVER_M
-    ET.SubElement(
-        actuator,
-        "position",
-        name=g.name,
-        joint=left,
-        gear="2",
-        kp=_f(gripper_spec.kp / SERVO_LEVER_M**2),
-        kv=_f(kv[g.name] if kv else 0.0),
-        forcerange=_v((-jaw_force, jaw_force)),
-        ctrlrange=_v((max(lo, 0.0) * M_PER_CM, hi * M_PER_CM)),
+    _position(
+        model,
+        g.name,
+        (_ON_JOINT, left),
+        kp=gripper_spec.kp / SERVO_LEVER_M**2,
+        force=gripper_spec.stall_torque_nm / SERVO_LEVER_M,
+        ctrl=(max(lo, 0.0) * M_PER_CM, hi * M_PER_CM),
+        gear=2.0,
     )
-    custom = ET.SubElement(root, "custom")
-    ET.SubElement(custom, "text", name=JOINT_SERVO_TEXT, data=spec.name)
-    ET.SubElement(custom, "text", name=GRIPPER_SERVO_TEXT, data=gripper_spec.name)
-    keyframe = ET.SubElement(ET.SubElement(root, "keyframe"), "key", name="home")
+    model.add_text(name=JOINT_SERVO_TEXT, data=spec.name)
+    model.add_text(name=GRIPPER_SERVO_TEXT, data=gripper_spec.name)
     half_open = g.open_cm * M_PER_CM / 2
     qpos = list(chain.home) + [half_open, half_open]
     for obj in task.scene:
         h = task.class_named(obj.color).height_cm * M_PER_CM
         qpos += [obj.x * M_PER_CM, obj.y * M_PER_CM, h / 2, 1, 0, 0, 0]
-    keyframe.set("qpos", _v(qpos))
     home_ctrl = [
         sum(c * chain.home[chain.names.index(n)] for n, c in row.coef.items())
         if row.combined
         else chain.home[chain.actuated_index[k]]
         for k, row in enumerate(servo_rows)
     ]
-    keyframe.set("ctrl", _v([*home_ctrl, g.open_cm * M_PER_CM]))
-    ET.indent(root)
-    header = (
-        "<!-- Generated by mearm.sim.mjcf from the config; do not edit: change the config "
-        f"and regenerate.\n     Joint servos: {spec.name} ({spec.source}).\n"
-        f"     Gripper servo: {gripper_spec.name}. Units: m, kg, rad. -->\n"
+    model.add_key(name="home", qpos=qpos, ctrl=[*home_ctrl, g.open_cm * M_PER_CM])
+    model.comment = (
+        "Generated by mearm.sim.mjcf from the config; do not edit: change the config "
+        f"and regenerate. Joint servos: {spec.name} ({spec.source}). "
+        f"Gripper servo: {gripper_spec.name}. Units: m, kg, rad."
     )
-    return header + ET.tostring(root, encoding="unicode") + "\n"
+    return model
+
+
+_ON_JOINT = mujoco.mjtTrn.mjTRN_JOINT
+
+
+def _equality(
+    model: mujoco.MjSpec,
+    kind: mujoco.mjtEq,
+    name: str,
+    name1: str,
+    name2: str,
+    polycoef: Sequence[float],
+    solimp: Sequence[float] | None = None,
+) -> None:
+    """A tendon or joint equality ``name1 = poly(name2)``, as stiff as the coupling."""
+    eq = model.add_equality(type=kind, name=name, name1=name1, solref=list(COUPLING_SOLREF))
+    if name2:
+        eq.name2 = name2
+    eq.data[:5] = polycoef
+    if solimp is not None:
+        eq.solimp = list(solimp)
+
+
+def _position(
+    model: mujoco.MjSpec,
+    name: str,
+    target: tuple[mujoco.mjtTrn, str],
+    *,
+    kp: float,
+    force: float,
+    ctrl: tuple[float, float],
+    gear: float = 1.0,
+) -> None:
+    """A ``position`` actuator: the servo's gain, damping, stall force and range."""
+    act = model.add_actuator(name=name, trntype=target[0], target=target[1])
+    act.set_to_position(kp=kp, kv=0.0)
+    act.gear[0] = gear
+    act.forcerange = [-force, force]
+    act.ctrlrange = list(ctrl)
 
 
 def _ctrl_range(row: _ServoRow, chain: Chain, i: int) -> tuple[float, float]:
@@ -796,60 +766,42 @@ def _ctrl_range(row: _ServoRow, chain: Chain, i: int) -> tuple[float, float]:
     return (float(lo), float(hi))
 
 
-def _tool(
-    tcp: ET.Element,
-    config: Config,
-    shapes: ArmBodies,
-    gripper_spec: ServoSpec,
-    bodies: dict[str, ET.Element],
-) -> None:
+def _tool(tcp: mujoco.MjsBody, config: Config, shapes: ArmBodies, gripper_spec: ServoSpec) -> None:
     """The grip site and the two jaws on slide joints, with their pads' contact.
 
     The jaws' geometry (pads, fingers) is :func:`~mearm.kinematics.bodies.arm_bodies`';
-    the gripper's servo and mount are emitted with the arm's other shapes.
+    the gripper's servo and mount are added with the arm's other shapes.
     """
     arm = config.arm
     g = arm.tool.gripper
     across = shapes.across
-    ET.SubElement(
-        tcp,
-        "site",
-        name="grip",
-        pos=_v(shapes.approach * shapes.grip_m),
-        size="0.003",
-        rgba="0 1 1 1",
-        group="4",
-    )  # group 4: not drawn by the camera
+    site = tcp.add_site(
+        name="grip", pos=exact(shapes.approach * shapes.grip_m), rgba=[0, 1, 1, 1], group=4
+    )
+    site.size[0] = 0.003  # group 4: not drawn by the camera
     hi = g.servo.value_range()[1] * M_PER_CM / 2
     # the opening o = 2q: the servo's inertia and damping on o, J/r² and b/r², are 4×
     # that on q, shared by the two jaws
     jaw_armature = 2 * gripper_spec.armature / SERVO_LEVER_M**2
     for name, sign in zip(jaw_joint_names(arm), (1.0, -1.0), strict=True):
-        body = ET.SubElement(tcp, "body", name=f"link_{name}")
-        bodies[f"link_{name}"] = body
-        ET.SubElement(
-            body,
-            "joint",
+        body = tcp.add_body(name=f"link_{name}")
+        joint = body.add_joint(
             name=name,
-            type="slide",
-            axis=_v(across * sign),
-            range=_v((0.0, hi)),
-            armature=_f(jaw_armature),
-            damping=_f(2 * gripper_spec.motor_damping / SERVO_LEVER_M**2),
+            type=mujoco.mjtJoint.mjJNT_SLIDE,
+            axis=exact(across * sign),
+            range=[0.0, hi],
+            armature=jaw_armature,
         )
+        joint.damping[0] = 2 * gripper_spec.motor_damping / SERVO_LEVER_M**2
         for shape in shapes.shapes:
             if shape.body != f"link_{name}":
                 continue
-            attrs = {
-                "friction": _v((JAW_FRICTION, OBJECT_SPIN_FRICTION, OBJECT_ROLL_FRICTION)),
-                "condim": "4",
+            attrs: dict[str, object] = {
+                "friction": [JAW_FRICTION, OBJECT_SPIN_FRICTION, OBJECT_ROLL_FRICTION],
+                "condim": 4,
             }
             if shape.part == "pad":
-                attrs |= {
-                    "priority": "1",
-                    "solref": _v(PAD_SOLREF),
-                    "solimp": _v(PAD_SOLIMP),
-                }
+                attrs |= {"priority": 1, "solref": list(PAD_SOLREF), "solimp": list(PAD_SOLIMP)}
             _shape_geom(body, shape, "gripper", **attrs)
 
 
@@ -862,7 +814,7 @@ def _field_corners_m(config: Config) -> np.ndarray:
     return xyw[:, :2] / xyw[:, 2:] * M_PER_CM
 
 
-def _table(world: ET.Element, config: Config) -> None:
+def _table(world: mujoco.MjsBody, config: Config) -> None:
     pts = [np.zeros(2), *_field_corners_m(config)]
     for c in config.task.classes:
         h = _bin_half_outer_m(config, c.name)
@@ -877,20 +829,18 @@ def _table(world: ET.Element, config: Config) -> None:
     # (an object pushed past the drawn edge slides on out of view instead of falling);
     # cylinder-plane contacts are analytic, and cost a third less per step than
     # cylinder-box ones (the twin's physics runs 12x instead of 8x real time)
-    _geom(
+    _scene_geom(
         world,
         "table",
         "plane",
         (half[0], half[1], TABLE_GRID_M),
-        pos=_v((centre[0], centre[1], 0.0)),
+        pos=[centre[0], centre[1], 0.0],
         material="table",
-        friction=_v((TABLE_FRICTION, OBJECT_SPIN_FRICTION, OBJECT_ROLL_FRICTION)),
-        contype=str(_SCENE_CONTYPE),
-        conaffinity=str(_SCENE_CONAFFINITY),
+        friction=[TABLE_FRICTION, OBJECT_SPIN_FRICTION, OBJECT_ROLL_FRICTION],
     )
 
 
-def _camera(world: ET.Element, config: Config) -> None:
+def _camera(world: mujoco.MjsBody, config: Config) -> None:
     """The camera ``camera``: :func:`~mearm.sim.twin_optics.camera_pose` of the config.
 
     Unconfigured (``twin.camera`` null) it looks straight down over the calibrated field's
@@ -901,38 +851,22 @@ def _camera(world: ET.Element, config: Config) -> None:
     if config.twin.camera is None:
         centre, yaw, extent = homography_view(config)
         fovy = 2 * math.degrees(math.atan(extent / 2 / CAMERA_HEIGHT_M))
-        ET.SubElement(
-            world,
-            "camera",
+        world.add_camera(
             name="camera",
-            pos=_v((centre[0], centre[1], CAMERA_HEIGHT_M)),
-            quat=_v((math.cos(yaw / 2), 0, 0, math.sin(yaw / 2))),
-            fovy=_f(fovy),
+            pos=[centre[0], centre[1], CAMERA_HEIGHT_M],
+            quat=[math.cos(yaw / 2), 0, 0, math.sin(yaw / 2)],
+            fovy=fovy,
         )
         return
     pose = camera_pose(config)
     # MuJoCo's camera: x right and y up in the image, looking along its -z
-    ET.SubElement(
-        world,
-        "camera",
-        name="camera",
-        pos=_v(pose.centre_m),
-        xyaxes=_v((*pose.R_base_mj[:, 0], *pose.R_base_mj[:, 1])),
-        fovy=_f(pose.fovy_deg),
-    )
+    camera = world.add_camera(name="camera", pos=pose.centre_m, fovy=pose.fovy_deg)
+    camera.alt.type = mujoco.mjtOrientation.mjORIENTATION_XYAXES
+    camera.alt.xyaxes = exact([*pose.R_base_mj[:, 0], *pose.R_base_mj[:, 1]])
 
 
-def _bin(world: ET.Element, config: Config, color: str) -> None:
+def _bin(world: mujoco.MjsBody, config: Config, color: str) -> None:
     """A bin on the table under ``bin_cm``: a floor and four walls."""
-    body = ET.SubElement(world, "body", name=f"bin_{color}", pos=_v(bin_origin_m(config, color)))
+    body = world.add_body(name=f"bin_{color}", pos=exact(bin_origin_m(config, color)))
     for shape in bin_shapes(config, color):
-        _geom(
-            body,
-            shape.name,
-            "box",
-            shape.size,
-            pos=_v(shape.pos),
-            material="bin",
-            contype=str(_SCENE_CONTYPE),
-            conaffinity=str(_SCENE_CONAFFINITY),
-        )
+        _scene_geom(body, shape.name, "box", shape.size, pos=exact(shape.pos), material="bin")

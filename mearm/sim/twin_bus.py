@@ -2,7 +2,7 @@ r"""The physical twin's servo bus: the real bus's pulses drive hobby-servo model
 
 :class:`TwinArm` takes the same checked, whole-µs pulses a serial backend sends
 (:meth:`~mearm.hardware.bus.ServoBus.move`) and runs the twin's physics
-(:func:`~mearm.sim.mjcf.generate_mjcf`) for one command period per move. Each actuator —
+(:func:`~mearm.sim.mjcf.twin_model`) for one command period per move. Each actuator —
 every actuated joint and the gripper — is a :class:`ServoModel` built from its
 :class:`~mearm.sim.mjcf.ServoSpec` datasheet facts and its pulse calibration:
 
@@ -60,10 +60,10 @@ from mearm.sim.mjcf import (
     SERVO_CATALOGUE,
     SERVO_LEVER_M,
     ServoSpec,
-    generate_mjcf,
     object_ids,
     recorded_servo,
     servo_tendon,
+    twin_model,
 )
 
 log = logging.getLogger(__name__)
@@ -168,7 +168,7 @@ class TwinArm(ServoBus):
 
     Args:
         config: The whole configuration.
-        model: The twin's model (:func:`~mearm.sim.mjcf.generate_mjcf` of ``config``);
+        model: The twin's model (:func:`~mearm.sim.mjcf.twin_model` of ``config``);
             built if omitted.
         servo: The joints' servo; ``None`` takes the one the model records
             (:data:`~mearm.sim.mjcf.JOINT_SERVO_TEXT`), looked up in
@@ -201,7 +201,7 @@ class TwinArm(ServoBus):
     ):
         super().__init__(config, paced=config.servo.sim_realtime)
         if model is None:
-            model = mujoco.MjModel.from_xml_string(generate_mjcf(config, servo, gripper_servo))
+            model = twin_model(config, servo, gripper_servo)
         self.model = model
         self.data = mujoco.MjData(model)
         self._chain = Chain.from_description(config.arm)
@@ -475,9 +475,9 @@ def _joint_servo(m: mujoco.MjModel, config: Config, chain: Chain) -> ServoSpec:
     else:
         damping = float(m.joint(name).damping[0])
     speed = stall / (damping * lever**2)
-    for spec in SERVO_CATALOGUE:
-        if math.isclose(spec.stall_torque_nm, stall, rel_tol=1e-6) and math.isclose(
-            spec.speed_rad_s, speed, rel_tol=1e-6
+    for spec in SERVO_CATALOGUE:  # (MuJoCo writes a model's numbers to six digits)
+        if math.isclose(spec.stall_torque_nm, stall, rel_tol=1e-4) and math.isclose(
+            spec.speed_rad_s, speed, rel_tol=1e-4
         ):
             return spec
     raise ModelError(
@@ -542,6 +542,6 @@ def _servo_models(
     except KeyError as exc:
         raise ModelError(
             f"the model is not the twin of arm {config.arm.name}: {exc}; build it with "
-            "generate_mjcf(config)"
+            "twin_model(config)"
         ) from None
     return tuple(out)
