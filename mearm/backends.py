@@ -1,8 +1,20 @@
-"""Which backend opens the servo bus and the camera a config names: one registry of kinds.
+"""Which backend opens the rig a config names: one registry of kinds.
 
-Every kind of servo bus (``servo.backend``) and of camera (``camera.kind``) is one opener
-in this registry, and :func:`open_bus` and :func:`open_camera` are the only places that
-choose. The built-in kinds:
+Every simulator (``simulator``), kind of servo bus (``servo.backend``) and of camera
+(``camera.kind``) is one opener in this registry, and :func:`open_parts`,
+:func:`open_bus` and :func:`open_camera` are the only places that choose. The
+simulators:
+
+========================  ================================================================
+``simulator``             opens
+========================  ================================================================
+``kinematic``             the servo bus and the camera the config names, over one
+                          :class:`~mearm.sim.World` when either is simulated
+``mujoco``                the physical twin: :class:`~mearm.sim.twin_bus.TwinArm` and
+                          :class:`~mearm.sim.twin_camera.TwinCamera` in one MuJoCo scene
+========================  ================================================================
+
+The servo backends:
 
 ========================  ================================================================
 ``servo.backend``         opened as
@@ -18,21 +30,25 @@ choose. The built-in kinds:
 
 Cameras: ``device`` (a USB camera), ``file`` and ``folder`` (recorded frames) from
 :mod:`mearm.vision.camera`, and ``sim`` (:class:`~mearm.sim.SimCamera`, the world drawn
-afresh at every read). The MuJoCo twin (``simulator: mujoco``) replaces both with its
-physics and its rendered camera (:func:`mearm.task.rig.open_rig`).
+afresh at every read). The MuJoCo twin replaces both with its physics and its rendered
+camera.
 
 This module sits above the hardware, vision and simulator packages and below the task:
 they never import it, so a lower layer never reaches a higher one to find a backend.
-A new kind registers its opener (:func:`register_bus`, :func:`register_camera`) and is
-then opened like the built-in ones (docs/development.md shows a small one).
+A new kind registers its opener (:func:`register_simulator`, :func:`register_bus`,
+:func:`register_camera`) and is then opened like the built-in ones (docs/development.md
+shows a small one).
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import contextlib
+from collections.abc import Callable, Iterator, Mapping
+from contextlib import AbstractContextManager
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-from mearm.config import Config
+from mearm.config import Config, SceneObject
 from mearm.exceptions import ConfigError
 
 if TYPE_CHECKING:
@@ -49,6 +65,36 @@ _BUSES: dict[str, BusOpener] = {}
 _CAMERAS: dict[str, CameraOpener] = {}
 
 
+@dataclass
+class RigParts:
+    """What a simulator opens: the frame source, the servo bus and, simulated, the table.
+
+    Attributes:
+        world: The kinematic simulator's table, or ``None`` (a real rig, or the twin,
+            whose table is its physics).
+        camera: The frame source, open.
+        bus: The servo bus, not yet connected.
+        in_bins: In simulation, how many objects of each class lie in its bin (what a
+            place is confirmed against); ``None`` on a real rig.
+    """
+
+    world: World | None
+    camera: Camera
+    bus: ServoBus
+    in_bins: Callable[[], Mapping[str, int]] | None = None
+
+
+#: Opens a rig's parts and closes them on exit: ``(config, scene) -> context``; ``scene``
+#: ``None`` is the config's own ``task.scene``.
+SimulatorOpener = Callable[[Config, "list[SceneObject] | None"], AbstractContextManager[RigParts]]
+_SIMULATORS: dict[str, SimulatorOpener] = {}
+
+
+def register_simulator(name: str, opener: SimulatorOpener) -> None:
+    """Make ``simulator: name`` open with ``opener`` (a later one replaces it)."""
+    _SIMULATORS[name] = opener
+
+
 def register_bus(name: str, opener: BusOpener) -> None:
     """Make ``servo.backend: name`` open with ``opener`` (a later one replaces it)."""
     _BUSES[name] = opener
@@ -59,6 +105,11 @@ def register_camera(name: str, opener: CameraOpener) -> None:
     _CAMERAS[name] = opener
 
 
+def simulator_kinds() -> tuple[str, ...]:
+    """The registered simulators, in registration order."""
+    return tuple(_SIMULATORS)
+
+
 def bus_kinds() -> tuple[str, ...]:
     """The registered servo backends, in registration order."""
     return tuple(_BUSES)
@@ -67,6 +118,38 @@ def bus_kinds() -> tuple[str, ...]:
 def camera_kinds() -> tuple[str, ...]:
     """The registered camera kinds, in registration order."""
     return tuple(_CAMERAS)
+
+
+def open_parts(
+    config: Config, scene: list[SceneObject] | None = None
+) -> AbstractContextManager[RigParts]:
+    """The camera, servo bus and table of ``config.simulator``; closed on leaving.
+
+    Args:
+        config: The whole configuration.
+        scene: Objects for the simulated table (default: ``config.task.scene``).
+
+    Raises:
+        ConfigError: a simulator no kind registered.
+    """
+    opener = _SIMULATORS.get(config.simulator)
+    if opener is None:
+        kinds = ", ".join(_SIMULATORS)
+        raise ConfigError(None, [f"simulator: {config.simulator!r} is not one of {kinds}"])
+    return opener(config, scene)
+
+
+def uses_world(config: Config) -> bool:
+    """Whether the camera or the servos are simulated, so a table of objects is laid out."""
+    return config.camera.kind == "sim" or config.servo.backend == "sim"
+
+
+def table_world(config: Config, scene: list[SceneObject] | None = None) -> World:
+    """The simulated table: ``scene`` (default ``task.scene``) and the bins."""
+    from mearm.sim.world import World  # noqa: PLC0415
+
+    bins = {c.name: c.bin_cm for c in config.task.classes}
+    return World.from_scene(config.task.scene if scene is None else scene, bins)
 
 
 def open_bus(config: Config, world: World | None = None, *, port: str | None = None) -> ServoBus:
@@ -113,6 +196,49 @@ def open_camera(config: Config, world: World | None = None) -> Camera:
 # --------------------------------------------------------------------------- built-in kinds
 # Each imports its package only when opened: a command that never opens a virtual Uno
 # never loads it.
+
+
+@contextlib.contextmanager
+def _kinematic(config: Config, scene: list[SceneObject] | None) -> Iterator[RigParts]:
+    world = table_world(config, scene) if uses_world(config) else None
+    with contextlib.ExitStack() as stack:
+        camera = stack.enter_context(open_camera(config, world=world))
+        bus = open_bus(config, world=world)
+        stack.callback(bus.close)
+        in_bins = None
+        if world is not None:
+            names = config.task.class_names
+            in_bins = lambda: {c: len(world.in_bin(c)) for c in names}  # noqa: E731
+        yield RigParts(world, camera, bus, in_bins)
+
+
+@contextlib.contextmanager
+def _mujoco(config: Config, scene: list[SceneObject] | None) -> Iterator[RigParts]:
+    """The physical twin behind the servo bus and the camera.
+
+    One MuJoCo scene; a place counts when the physics has the object in its bin, too slow
+    to leave it.
+    """
+    from mearm.sim.twin_bus import TwinArm  # noqa: PLC0415
+    from mearm.sim.twin_camera import TwinCamera  # noqa: PLC0415
+
+    if scene is not None:
+        config = config.model_copy(
+            update={"task": config.task.model_copy(update={"scene": list(scene)})}
+        )
+    twin = TwinArm(config)
+    with contextlib.ExitStack() as stack:
+        camera = stack.enter_context(TwinCamera(config, twin))
+        stack.callback(twin.close)
+
+        def in_bins() -> dict[str, int]:
+            twin.settle_objects()  # a dropped object rests before it is counted
+            counts = {c: 0 for c in config.task.class_names}
+            for name in twin.objects_in_bin().values():
+                counts[name] = counts.get(name, 0) + 1
+            return counts
+
+        yield RigParts(None, camera, twin, in_bins)
 
 
 def _sim_bus(config: Config, world: World | None, port: str | None) -> ServoBus:
@@ -168,6 +294,8 @@ def _folder_camera(config: Config, world: World | None) -> Camera:
     return FolderCamera(config.camera)
 
 
+register_simulator("kinematic", _kinematic)
+register_simulator("mujoco", _mujoco)
 register_bus("sim", _sim_bus)
 register_bus("serial", _arduino_bus)
 register_bus("ssc32", _ssc32_bus)
@@ -180,10 +308,17 @@ register_camera("sim", _sim_camera)
 __all__ = [
     "BusOpener",
     "CameraOpener",
+    "RigParts",
+    "SimulatorOpener",
     "bus_kinds",
     "camera_kinds",
     "open_bus",
     "open_camera",
+    "open_parts",
     "register_bus",
     "register_camera",
+    "register_simulator",
+    "simulator_kinds",
+    "table_world",
+    "uses_world",
 ]

@@ -176,3 +176,35 @@ def test_a_backend_kind_of_ones_own_sorts_without_touching_the_package(monkeypat
     assert report.sorted_per_class() == {"red": 1, "blue": 1} and ToyBus.moves > 20
     with open_rig(config, scene) as rig:
         assert isinstance(open_bus(config, rig.world), ToyBus)
+
+
+def test_a_simulator_of_ones_own_is_what_the_rig_opens(monkeypatch):
+    """A toy simulator registered here opens the rig's parts; the sort runs on them."""
+    import contextlib  # noqa: PLC0415
+
+    from mearm import backends  # noqa: PLC0415
+    from mearm.backends import RigParts, register_simulator, simulator_kinds  # noqa: PLC0415
+    from mearm.config import Config, SceneObject  # noqa: PLC0415
+    from mearm.sim.servo_bus import SimArm  # noqa: PLC0415
+    from mearm.sim.table_camera import SimCamera  # noqa: PLC0415
+    from mearm.task import Sorter, open_rig  # noqa: PLC0415
+
+    closed = []
+
+    @contextlib.contextmanager
+    def toy(config, scene):  # noqa: ANN001, ANN202
+        world = backends.table_world(config, scene)
+        bus = SimArm(config, world)
+        yield RigParts(
+            world, SimCamera(config, world), bus, lambda: {"red": len(world.in_bin("red"))}
+        )
+        closed.append(bus)
+
+    monkeypatch.setattr(backends, "_SIMULATORS", dict(backends._SIMULATORS))  # gone after
+    register_simulator("toy", toy)
+    assert "toy" in simulator_kinds()
+    config = Config().model_copy(update={"simulator": "toy"})
+    with open_rig(config, [SceneObject(color="red", x=0.0, y=45.0)]) as rig:
+        assert rig.simulated and rig.world is not None
+        report = Sorter(config, rig.camera, rig.bus, model=rig.model, echo=None).run()
+    assert report.sorted_per_class() == {"red": 1} and closed == [rig.bus]

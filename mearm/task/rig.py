@@ -11,7 +11,7 @@ from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
-from mearm.backends import open_bus, open_camera
+from mearm.backends import open_parts, table_world, uses_world
 from mearm.config import Config, SceneObject
 from mearm.exceptions import MearmError
 from mearm.hardware.bus import ServoBus
@@ -51,11 +51,6 @@ class Rig:
         return self.in_bins is not None
 
 
-def uses_world(config: Config) -> bool:
-    """Whether the camera or the servos are simulated, so a world model is needed."""
-    return config.camera.kind == "sim" or config.servo.backend == "sim"
-
-
 def scene_layout(config: Config, scene: list[SceneObject] | None = None) -> list[dict[str, object]]:
     """The simulated table as run-log entries ``{id, color, x, y}``; empty on a real rig.
 
@@ -63,69 +58,21 @@ def scene_layout(config: Config, scene: list[SceneObject] | None = None) -> list
     """
     if not uses_world(config):
         return []
-    world = _world(config, scene)
+    world = table_world(config, scene)
     return [{"id": o.id, "color": o.color, "x": o.x_cm, "y": o.y_cm} for o in world.objects]
-
-
-def _world(config: Config, scene: list[SceneObject] | None) -> World:
-    bins = {c.name: c.bin_cm for c in config.task.classes}
-    return World.from_scene(config.task.scene if scene is None else scene, bins)
 
 
 @contextlib.contextmanager
 def open_rig(config: Config, scene: list[SceneObject] | None = None) -> Iterator[Rig]:
-    """Open camera and servo bus (and the world, if simulated); close them on exit.
+    """Open the rig of ``config.simulator`` (:func:`~mearm.backends.open_parts`); close it on exit.
 
     Args:
         config: The whole configuration.
         scene: Objects for the simulated table (default: ``config.task.scene``).
     """
     model = ArmModel(config.arm)
-    if config.simulator == "mujoco":
-        with _open_twin(config, scene, model) as rig:
-            yield rig
-        return
-    world = None
-    if uses_world(config):
-        world = _world(config, scene)
-    with contextlib.ExitStack() as stack:
-        camera = stack.enter_context(open_camera(config, world=world))
-        bus = open_bus(config, world=world)
-        stack.callback(bus.close)
-        in_bins = None
-        if world is not None:
-            names = config.task.class_names
-            in_bins = lambda: {c: len(world.in_bin(c)) for c in names}  # noqa: E731
-        yield Rig(world=world, camera=camera, bus=bus, model=model, in_bins=in_bins)
-
-
-@contextlib.contextmanager
-def _open_twin(config: Config, scene: list[SceneObject] | None, model: ArmModel) -> Iterator[Rig]:
-    """The physical twin (``simulator: mujoco``) behind the servo bus and the camera.
-
-    One MuJoCo scene; a place counts when the physics has the object in its bin, too slow
-    to leave it.
-    """
-    from mearm.sim.twin_bus import TwinArm
-    from mearm.sim.twin_camera import TwinCamera
-
-    if scene is not None:
-        config = config.model_copy(
-            update={"task": config.task.model_copy(update={"scene": list(scene)})}
-        )
-    twin = TwinArm(config)
-    with contextlib.ExitStack() as stack:
-        camera = stack.enter_context(TwinCamera(config, twin))
-        stack.callback(twin.close)
-
-        def in_bins() -> dict[str, int]:
-            twin.settle_objects()  # a dropped object rests before it is counted
-            counts = {c: 0 for c in config.task.class_names}
-            for name in twin.objects_in_bin().values():
-                counts[name] = counts.get(name, 0) + 1
-            return counts
-
-        yield Rig(world=None, camera=camera, bus=twin, model=model, in_bins=in_bins)
+    with open_parts(config, scene) as parts:
+        yield Rig(parts.world, parts.camera, parts.bus, model, parts.in_bins)
 
 
 def run_sort(
