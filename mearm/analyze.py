@@ -42,7 +42,7 @@ from mearm.cli import (
     write_text_atomic,
 )
 from mearm.config import Config
-from mearm.exceptions import MearmError
+from mearm.errors import MearmError
 from mearm.runlog import HeaderRecord, RouteRecord, RunLogContents, read_runlog
 
 DEFAULT_KP = "0.01,0.1,0.5"

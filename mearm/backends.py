@@ -33,7 +33,7 @@ from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 from mearm.config import Config
-from mearm.exceptions import ConfigError
+from mearm.errors import ConfigError
 
 if TYPE_CHECKING:
     from mearm.hardware.bus import ServoBus

@@ -44,7 +44,6 @@ import mujoco
 import numpy as np
 
 from mearm.config import Config
-from mearm.exceptions import CameraError
 from mearm.sim.twin_optics import (  # noqa: F401  (re-exported: where the camera is)
     CAMERA_HEIGHT_M,
     M_PER_CM,
@@ -55,6 +54,7 @@ from mearm.sim.twin_optics import (  # noqa: F401  (re-exported: where the camer
     twin_camera_model,
 )
 from mearm.vision.camera import Camera
+from mearm.vision.errors import CameraError
 
 if TYPE_CHECKING:
     from mearm.sim.twin_bus import TwinArm

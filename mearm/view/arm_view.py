@@ -43,11 +43,11 @@ import pinocchio as pin
 from pinocchio.visualize import MeshcatVisualizer
 
 from mearm.config import ColorClass, Config
-from mearm.exceptions import ViewError, ViewInputError
 from mearm.kinematics import ArmModel, jaw_joint_names
 from mearm.kinematics.collision import CollisionModel
 from mearm.view.browser import screenshot
 from mearm.view.collision import CollisionDrawing
+from mearm.view.errors import ViewError, ViewInputError
 from mearm.view.frame_plane import FramePlane, PixelToTable, frame_plane
 from mearm.view.layout import SceneLayout
 from mearm.view.server import MeshcatServer
