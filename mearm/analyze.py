@@ -128,7 +128,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         )
         return EXIT_BAD_INPUT
 
-    from mearm.analysis.report import analyze, jsonable, to_json
+    from mearm.analysis.run_analysis import analyze, jsonable, to_json
     from mearm.analysis.tables import analysis_tables, gain_table, render_text
 
     result: dict[str, Any] = {}
