@@ -22,8 +22,7 @@ if sys.platform.startswith("linux") and not os.environ.get("DISPLAY"):
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 from mearm._lazy import lazy_exports  # noqa: E402
-from mearm.exceptions import *  # noqa: E402, F403 (the exception families are cheap and public)
-from mearm.exceptions import __all__ as _exception_names  # noqa: E402
+from mearm.exceptions import __all__ as _error_names  # noqa: E402
 
 __version__ = "0.2.0"
 
@@ -53,7 +52,6 @@ _LAZY: dict[str, str] = {
     "RunLog": "mearm.runlog",
     "RunLogContents": "mearm.runlog",
     "read_runlog": "mearm.runlog",
-    "SortAborted": "mearm.task",
     "Sorter": "mearm.task",
     "SortReport": "mearm.task",
     "open_rig": "mearm.task",
@@ -66,9 +64,11 @@ _LAZY: dict[str, str] = {
     "SimCamera": "mearm.sim",
     "World": "mearm.sim",
     "WorldObject": "mearm.sim",
+    # every error by name, each imported with its family (mearm.exceptions)
+    **dict.fromkeys(_error_names, "mearm.exceptions"),
 }
 
-__all__ = sorted([*_exception_names, *_LAZY, "__version__"])
+__all__ = sorted([*_LAZY, "__version__"])
 
 
 __getattr__, __dir__ = lazy_exports(__name__, _LAZY, globals(), __all__)

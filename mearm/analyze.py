@@ -42,7 +42,7 @@ from mearm.cli import (
     write_text_atomic,
 )
 from mearm.config import Config
-from mearm.exceptions import MearmError
+from mearm.errors import MearmError
 from mearm.runlog import HeaderRecord, RouteRecord, RunLogContents, read_runlog
 
 DEFAULT_KP = "0.01,0.1,0.5"
@@ -128,7 +128,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         )
         return EXIT_BAD_INPUT
 
-    from mearm.analysis.report import analyze, jsonable, to_json
+    from mearm.analysis.run_analysis import analyze, jsonable, to_json
     from mearm.analysis.tables import analysis_tables, gain_table, render_text
 
     result: dict[str, Any] = {}

@@ -49,7 +49,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from mearm.config import Config, SceneObject
-from mearm.exceptions import ConfigError
+from mearm.errors import ConfigError
 
 if TYPE_CHECKING:
     from mearm.hardware.bus import ServoBus

@@ -18,7 +18,7 @@ from pathlib import Path
 from typing import Any, NoReturn, Protocol
 
 from mearm.config import Config, load_config
-from mearm.exceptions import MearmError
+from mearm.errors import MearmError
 
 EXIT_OK = 0
 EXIT_FAILURE = 1

@@ -27,10 +27,10 @@ import numpy as np
 
 from mearm.backends import open_camera
 from mearm.cli import ArgumentParser, add_config_argument, config_from_args, run
-from mearm.exceptions import ImageError
 from mearm.fileio import write_atomic
 from mearm.vision.calibration import camera_geometry
 from mearm.vision.detector import ColorDetector, Detection
+from mearm.vision.errors import ImageError
 from mearm.vision.image import quiet_opencv, read_image
 
 #: Decoded frames kept between checking every image and detecting in each [px]; the

@@ -48,7 +48,8 @@ from mearm.cli import (
     seed_value,
 )
 from mearm.config import Config, SceneObject
-from mearm.exceptions import CameraError, MearmError, RunLogError, ServoError
+from mearm.errors import MearmError
+from mearm.hardware.errors import ServoError
 from mearm.runlog import (
     HeaderRecord,
     RunLog,
@@ -58,8 +59,10 @@ from mearm.runlog import (
     read_runlog,
     set_aside_torn_end,
 )
+from mearm.runlog.errors import RunLogError
 from mearm.task import SortAborted, load_scene, random_scene, run_sort, scene_layout
 from mearm.task.report import Outcome
+from mearm.vision.errors import CameraError
 
 #: Objects per class in a random trial layout (the paper: 12 objects, 4 of each colour).
 PER_CLASS = 4

@@ -39,8 +39,10 @@ from mearm.cli import (
     seed_value,
 )
 from mearm.config import Config, SceneObject
-from mearm.exceptions import CameraError, MearmError, ServoError
+from mearm.errors import MearmError
+from mearm.hardware.errors import ServoError
 from mearm.task import Rig, SortAborted, load_scene, random_scene, run_sort
+from mearm.vision.errors import CameraError
 
 
 def add_scene_arguments(parser: ArgumentParser) -> None:

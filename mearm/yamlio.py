@@ -55,7 +55,7 @@ from yaml.reader import Reader
 from yaml.resolver import Resolver
 from yaml.scanner import Scanner
 
-from mearm.exceptions import ConfigError, InputFileError
+from mearm.errors import ConfigError, InputFileError
 
 try:  # libyaml: the C scanner and parser (the events are the same)
     from yaml._yaml import CParser as _CParser

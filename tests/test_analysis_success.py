@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from mearm.analysis import Rate, fit_weibull, pick_outcomes, success_table, success_vs_error
-from mearm.analysis.report import analyze, to_json
+from mearm.analysis.run_analysis import analyze, to_json
 from mearm.config import Config, TaskConfig, default_classes
 from mearm.exceptions import AnalysisError
 from mearm.runlog import RunLog, read_runlog

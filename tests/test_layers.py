@@ -17,7 +17,7 @@ PACKAGE = ROOT / "mearm"
 
 #: Low to high: a module may import its own layer and those below, never one above.
 LAYERS: tuple[tuple[str, ...], ...] = (
-    ("mearm.exceptions", "mearm._lazy", "mearm.fileio", "mearm.yamlio", "mearm.data"),
+    ("mearm.errors", "mearm._lazy", "mearm.fileio", "mearm.yamlio", "mearm.data"),
     ("mearm.config",),
     ("mearm.kinematics", "mearm.runlog", "mearm.cli"),
     ("mearm.ik", "mearm.vision", "mearm.hardware"),
@@ -27,6 +27,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     (
         "mearm.sort", "mearm.detect", "mearm.fk", "mearm.analyze", "mearm.experiment",
         "mearm.maker", "mearm.tools", "mearm.__main__",
+        "mearm.exceptions",  # every error by name, for users: it names all the layers'
     ),
 )  # fmt: skip
 

@@ -11,7 +11,7 @@ import pytest
 from badinput import ROOT, check_bad_input, run_in_process
 
 from mearm.config import load_config
-from mearm.config.twin_camera import TwinCameraConfig
+from mearm.config.twin_camera_config import TwinCameraConfig
 from mearm.exceptions import CalibrationError
 from mearm.sim.calibration_scenes import (
     board_poses,

@@ -25,7 +25,7 @@ from mearm.kinematics.collision import CollisionModel
 from mearm.sort import main as sort_main
 from mearm.tools import preview
 from mearm.view import ArmView
-from mearm.view.collision import COLLISION_ARM_RGB, COLLISION_OPACITY, COLLISION_WORLD_RGB
+from mearm.view.collision_drawing import COLLISION_ARM_RGB, COLLISION_OPACITY, COLLISION_WORLD_RGB
 
 CONFIG = Config()
 W, H = 960, 600  # screenshot size [px]

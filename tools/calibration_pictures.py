@@ -34,7 +34,7 @@ from PIL import Image  # noqa: E402
 
 from mearm.cli import ArgumentParser, run  # noqa: E402
 from mearm.config import Config, load_config  # noqa: E402
-from mearm.exceptions import MearmError  # noqa: E402
+from mearm.errors import MearmError  # noqa: E402
 from mearm.fileio import write_atomic  # noqa: E402
 
 #: Noise of the rendered frames [8-bit levels] (as ``render-calibration --noise-std 2``).

@@ -6,7 +6,7 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 from mearm.analysis.paths import SolvedRoute
-from mearm.analysis.report import Analysis
+from mearm.analysis.run_analysis import Analysis
 from mearm.analysis.tables import (
     gain_table,
     render_markdown,

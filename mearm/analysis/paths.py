@@ -20,8 +20,8 @@ import numpy as np
 import numpy.typing as npt
 from pydantic import ValidationError
 
+from mearm.analysis.errors import AnalysisError
 from mearm.config import Config, ControllerConfig
-from mearm.exceptions import AnalysisError
 from mearm.ik.result import path_deviation_cm
 from mearm.kinematics import ArmModel
 from mearm.kinematics.chain import M_PER_CM

@@ -19,7 +19,7 @@ from mearm.analysis import paper
 from mearm.analysis.paths import SolvedRoute
 from mearm.analysis.success import SuccessVsError
 from mearm.analysis.weibull import WeibullFit
-from mearm.exceptions import MearmError
+from mearm.errors import MearmError
 from mearm.fileio import write_atomic
 
 if TYPE_CHECKING:

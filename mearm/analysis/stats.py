@@ -14,7 +14,7 @@ from typing import Literal
 import numpy as np
 import numpy.typing as npt
 
-from mearm.exceptions import AnalysisError
+from mearm.analysis.errors import AnalysisError
 from mearm.runlog import RouteRecord
 
 Step = Literal["all", "pick", "place"]

@@ -13,9 +13,9 @@ from typing import Literal
 
 import numpy as np
 
+from mearm.analysis.errors import AnalysisError
 from mearm.analysis.stats import select_routes
 from mearm.analysis.weibull import WeibullFit
-from mearm.exceptions import AnalysisError
 from mearm.runlog import RouteRecord
 
 

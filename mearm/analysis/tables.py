@@ -8,7 +8,7 @@ from dataclasses import dataclass
 
 from mearm.analysis import paper
 from mearm.analysis.paths import SolvedRoute
-from mearm.analysis.report import Analysis
+from mearm.analysis.run_analysis import Analysis
 from mearm.analysis.success import Rate
 
 DASH = "—"

@@ -16,7 +16,7 @@ import numpy as np
 import numpy.typing as npt
 from scipy import stats
 
-from mearm.exceptions import AnalysisError
+from mearm.analysis.errors import AnalysisError
 
 MIN_SAMPLES = 3
 

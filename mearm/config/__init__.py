@@ -6,7 +6,7 @@ and the colour classes (:class:`ColorClass`) are data: any hobby arm and any set
 classes is a config file, not code.
 
 Loading is strict: unknown keys are rejected and each bad field is reported with its
-dotted path, the value given and what is allowed (:class:`~mearm.exceptions.ConfigError`).
+dotted path, the value given and what is allowed (:class:`~mearm.errors.ConfigError`).
 Files are read through :mod:`mearm.yamlio` (no special files, duplicate keys, tags, alias
 bombs or deep nesting), and every number is bounded by physical sense, so a config that
 loads cannot overflow, hang or exhaust memory later.

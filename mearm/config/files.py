@@ -16,7 +16,7 @@ from mearm.config.loader import config_from_dict
 from mearm.config.root import Config
 from mearm.config.servo_file import apply_servo_calibration_file
 from mearm.data import config_names, packaged_config
-from mearm.exceptions import ConfigError
+from mearm.errors import ConfigError
 from mearm.yamlio import load_yaml_file
 
 

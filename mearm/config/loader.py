@@ -20,7 +20,7 @@ from pydantic import ValidationError
 
 from mearm.config.base import describe_error, short_repr
 from mearm.config.root import Config
-from mearm.exceptions import ConfigError
+from mearm.errors import ConfigError
 from mearm.yamlio import MAX_YAML_DEPTH, load_yaml_text
 
 #: Longest ``--set`` key [characters]; the longest real one has ~40.

@@ -55,7 +55,7 @@ from mearm.config.defaults import (
     default_classes,
     paper_arm,
 )
-from mearm.exceptions import ConfigError
+from mearm.errors import ConfigError
 
 #: Format 1 named the chain's joints by DH position: ``joint1``..``joint4``.
 V1_JOINT_NAMES: tuple[str, ...] = tuple(f"joint{i}" for i in range(1, 5))

@@ -13,7 +13,7 @@ again where they open the port.
 
 from __future__ import annotations
 
-from mearm.exceptions import SerialPortError
+from mearm.config.errors import SerialPortError
 
 #: URL schemes opened besides device paths: a TCP socket, RFC 2217 (a networked serial
 #: port) and the loopback used in tests. None of them touches a file.

@@ -18,7 +18,7 @@ from mearm.config.sections import (
     VisionConfig,
 )
 from mearm.config.servo_models import SERVO_NAMES
-from mearm.config.twin_camera import TwinCameraConfig
+from mearm.config.twin_camera_config import TwinCameraConfig
 
 #: A projective calibration may shrink the far side of the frame, but no pixel's w (its
 #: inverse depth) may be under this fraction of another's: 20:1 is a camera looking
@@ -40,7 +40,7 @@ class TwinConfig(Strict):
     """The gripper's servo."""
     camera: TwinCameraConfig | None = None
     """The twin's camera as a real perspective camera (pose, field of view, lens
-    distortion: :class:`~mearm.config.twin_camera.TwinCameraConfig`); ``null``: straight
+    distortion: :class:`~mearm.config.twin_camera_config.TwinCameraConfig`); ``null``: straight
     down from 52 cm over the calibrated field, so that ``calibration.homography`` holds."""
 
     @field_validator("joint_servo", "gripper_servo")

@@ -19,8 +19,9 @@ from mearm.config.base import (
 )
 from mearm.config.classes import ColorClass
 from mearm.config.defaults import PAPER_LAYOUT, default_classes
+from mearm.config.errors import SerialPortError
 from mearm.config.port import check_port
-from mearm.exceptions import ConfigError, SerialPortError
+from mearm.errors import ConfigError
 
 #: Largest camera frame side [px].
 MAX_FRAME_SIDE_PX = 4096

@@ -55,9 +55,10 @@ from pydantic import ValidationError
 
 from mearm.config.arm import ArmDescription, JointServo, ServoCalibration, ServoDrives
 from mearm.config.base import short_repr
+from mearm.config.errors import ServoCalibrationError
 from mearm.config.loader import config_from_dict
 from mearm.config.root import Config
-from mearm.exceptions import ConfigError, ServoCalibrationError
+from mearm.errors import ConfigError
 from mearm.fileio import write_atomic
 from mearm.yamlio import load_yaml_file
 

@@ -50,7 +50,7 @@ def firmware_source_dir() -> Path:
     Raises:
         MearmError: a file of :data:`FIRMWARE_FILES` is missing there.
     """
-    from mearm.exceptions import MearmError
+    from mearm.errors import MearmError
 
     folder = FIRMWARE_DIR.resolve()
     missing = [f for f in FIRMWARE_FILES if not (folder / f).is_file()]

@@ -16,7 +16,8 @@ import time
 from dataclasses import dataclass
 
 from mearm.config import Config
-from mearm.exceptions import (
+from mearm.hardware.bus import ArmCommand
+from mearm.hardware.errors import (
     BannerTimeoutError,
     BoardError,
     BoardResetError,
@@ -24,7 +25,6 @@ from mearm.exceptions import (
     HandshakeError,
     NoAckError,
 )
-from mearm.hardware.bus import ArmCommand
 from mearm.hardware.mearm_protocol import (
     ERR_CHECKSUM,
     ERROR_CODES,

@@ -8,7 +8,7 @@ whether the gripper is closed. Each backend maps them to pulses with
 a command that misses or misnames an actuator or leaves a limit, before anything is
 sent; pacing at ``servo.rate_hz``; and the fault latch — after a link or board fault
 nothing more is sent, and every later call raises
-:class:`~mearm.exceptions.ServoFaultedError`.
+:class:`~mearm.hardware.errors.ServoFaultedError`.
 """
 
 from __future__ import annotations
@@ -23,12 +23,8 @@ from typing import Any, Protocol, TypeVar, runtime_checkable
 import numpy as np
 
 from mearm.config import Config
-from mearm.exceptions import (
-    ServoError,
-    ServoFaultedError,
-    ServoNotConnectedError,
-)
 from mearm.hardware.command import ArmCommand, ArmState
+from mearm.hardware.errors import ServoError, ServoFaultedError, ServoNotConnectedError
 from mearm.hardware.mapping import ServoMap
 
 log = logging.getLogger(__name__)
@@ -106,7 +102,7 @@ class ServoBus(ABC):
     """A servo backend: connect, move atomically, read the confirmed state, stop, close.
 
     Subclasses implement ``_connect``, ``_send_move``, ``_stop`` and ``_close``; every
-    :class:`~mearm.exceptions.ServoError` they raise latches the bus as faulted.
+    :class:`~mearm.hardware.errors.ServoError` they raise latches the bus as faulted.
 
     Args:
         config: The whole configuration (``arm`` and ``servo`` sections are used).

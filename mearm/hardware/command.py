@@ -15,7 +15,7 @@ from types import MappingProxyType
 from typing import Any
 
 from mearm.config import ArmDescription
-from mearm.exceptions import InvalidCommandError
+from mearm.hardware.errors import InvalidCommandError
 
 
 def _finite(value: Any, what: str) -> float:

@@ -38,7 +38,8 @@ import numpy as np
 
 from mearm.config import ArmDescription, Config, JointServo, Range, ServoCalibration
 from mearm.config.arm import combination_text
-from mearm.exceptions import InvalidCommandError, JointLimitError, PulseRangeError
+from mearm.hardware.errors import InvalidCommandError, PulseRangeError
+from mearm.kinematics.errors import JointLimitError
 
 if TYPE_CHECKING:
     from mearm.hardware.command import ArmCommand

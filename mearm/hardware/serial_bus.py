@@ -1,7 +1,7 @@
 """Shared pyserial plumbing of the serial backends (lerobot's ``SerialMotorsBus`` idea).
 
 Opening, line and byte reads with a deadline, writes, and turning every pyserial or OS
-failure into a named :class:`~mearm.exceptions.LinkError` that carries the last
+failure into a named :class:`~mearm.hardware.errors.LinkError` that carries the last
 acknowledged pose. The port is checked by :func:`~mearm.config.port.check_port` before
 anything is opened: a device path, or a ``socket://``, ``rfc2217://`` or ``loop://`` URL
 (never ``spy://``, which writes a file). The subclasses
@@ -22,8 +22,8 @@ import serial
 
 from mearm.config import Config
 from mearm.config.port import check_port
-from mearm.exceptions import LinkDroppedError, LinkError
 from mearm.hardware.bus import ServoBus
+from mearm.hardware.errors import LinkDroppedError, LinkError
 
 log = logging.getLogger(__name__)
 

@@ -19,20 +19,20 @@ confirms each move with the board's own queries and keeps count of every byte:
   the 10 µs step of ``QP``. Only then does :attr:`~ServoBus.state` change.
 - **Accounting.** The board answers its queries once each, in order. An exchange that
   got all its bytes leaves nothing owed; a byte that arrives when nothing is owed came
-  unasked (:class:`~mearm.exceptions.UnsolicitedBytesError`, or
-  :class:`~mearm.exceptions.BoardResetError` if it is the restart banner). An exchange
+  unasked (:class:`~mearm.hardware.errors.UnsolicitedBytesError`, or
+  :class:`~mearm.hardware.errors.BoardResetError` if it is the restart banner). An exchange
   that timed out (a lost or late reply) or read junk may still owe bytes, so before the
   next query the host **resynchronises**: it sends ``VER`` and discards everything up
   to the version line. Answers come in order, so a late reply to the earlier query
   arrives before that line and is discarded with it: it can never be read as the answer
   to a later query. Each try is logged; after ``1 + servo.retries`` tries the bus faults
-  (:class:`~mearm.exceptions.NoAckError` or :class:`~mearm.exceptions.GarbledReplyError`).
+  (:class:`~mearm.hardware.errors.NoAckError` or :class:`~mearm.hardware.errors.GarbledReplyError`).
 - **Verification.** ``QP`` reading other pulses than those sent (the board restarted and
   went limp, junk in the reply, a move it did not make) is
-  :class:`~mearm.exceptions.MoveNotConfirmedError` at once, or
-  :class:`~mearm.exceptions.BoardResetError` when every channel reads 0 (limp) or the
+  :class:`~mearm.hardware.errors.MoveNotConfirmedError` at once, or
+  :class:`~mearm.hardware.errors.BoardResetError` when every channel reads 0 (limp) or the
   restart banner is in the reply. A move still running ``servo.ack_timeout_s`` after its
-  ``T`` is :class:`~mearm.exceptions.MoveNotConfirmedError` too.
+  ``T`` is :class:`~mearm.hardware.errors.MoveNotConfirmedError` too.
 
 After any fault the bus sends nothing more (:class:`~mearm.hardware.bus.ServoBus`), and
 :attr:`~ServoBus.state` stays the last confirmed pose. ``stop()`` sends nothing: every
@@ -53,7 +53,8 @@ from collections.abc import Iterable, Mapping
 from typing import NoReturn
 
 from mearm.config import Config
-from mearm.exceptions import (
+from mearm.hardware.bus import ArmCommand
+from mearm.hardware.errors import (
     BoardResetError,
     GarbledReplyError,
     HandshakeError,
@@ -61,7 +62,6 @@ from mearm.exceptions import (
     NoAckError,
     UnsolicitedBytesError,
 )
-from mearm.hardware.bus import ArmCommand
 from mearm.hardware.serial_bus import SerialServoBus
 
 log = logging.getLogger(__name__)

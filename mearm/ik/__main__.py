@@ -30,10 +30,10 @@ from mearm.cli import (
     positive_number,
     run,
 )
-from mearm.exceptions import InvalidJointsError, InvalidTargetError
 from mearm.ik.factory import solve_ik
 from mearm.ik.target import IKTarget
 from mearm.kinematics import ArmModel
+from mearm.kinematics.errors import InvalidJointsError, InvalidTargetError
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -12,11 +12,11 @@ import numpy as np
 import numpy.typing as npt
 
 from mearm.config import ControllerConfig
-from mearm.exceptions import ModelError
 from mearm.ik.result import IKResult
 from mearm.ik.solver import APPROACH_TOLERANCE_DEG, IKSolver
 from mearm.ik.target import IKTarget
 from mearm.kinematics import ArmModel
+from mearm.kinematics.errors import ModelError
 
 
 class AnalyticSolver(IKSolver):

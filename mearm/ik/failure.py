@@ -28,13 +28,9 @@ from typing import Literal
 
 import numpy as np
 
-from mearm.exceptions import (
-    JointLimitError,
-    TargetError,
-    TargetOutsideBoxError,
-)
 from mearm.kinematics import Chain
 from mearm.kinematics.closed_form import JointLimitTargetError, SingularTargetError
+from mearm.kinematics.errors import JointLimitError, TargetError, TargetOutsideBoxError
 
 FailureKind = Literal["unreachable", "limit", "stalled", "singular", "outside_box", "collision"]
 FAILURE_KINDS: tuple[FailureKind, ...] = (

@@ -29,12 +29,12 @@ import numpy as np
 import numpy.typing as npt
 import pinocchio as pin
 
-from mearm.exceptions import ModelError
 from mearm.ik.pseudoinverse import PseudoInverse
 from mearm.ik.result import Status
 from mearm.ik.solver import coupling_terms
 from mearm.kinematics import ArmModel, ClosedForm, closed_form_for
 from mearm.kinematics.closed_form import scalar_target_cm
+from mearm.kinematics.errors import ModelError
 from mearm.kinematics.model import CM_PER_M
 
 #: Default tolerance: |e| below this [cm].

@@ -34,11 +34,12 @@ import numpy.typing as npt
 import qpsolvers
 
 from mearm.config import ControllerConfig
-from mearm.exceptions import ModelError, QPSolverError
+from mearm.ik.errors import QPSolverError
 from mearm.ik.result import IKResult, Status
 from mearm.ik.solver import APPROACH_TOLERANCE_DEG, APPROACH_WEIGHT_CM, IKSolver
 from mearm.ik.target import IKTarget
 from mearm.kinematics import TCP_FRAME, ArmModel, Chain
+from mearm.kinematics.errors import ModelError
 from mearm.kinematics.mjspec import arm_spec, quat
 from mearm.kinematics.model import CM_PER_M
 

@@ -9,11 +9,11 @@ import numpy as np
 import numpy.typing as npt
 
 from mearm.config import ControllerConfig
-from mearm.exceptions import InvalidJointsError
 from mearm.ik.failure import IKFailure, blocking_joints
 from mearm.ik.result import IKResult, Method, Status
 from mearm.ik.target import IKTarget, approach_error_deg
 from mearm.kinematics import ArmModel, Chain, check_in_box, closed_form_for
+from mearm.kinematics.errors import InvalidJointsError
 
 #: A start's passive joints may differ from their coupling by this much [model units]
 #: (1e-6 rad moves the TCP by under 1e-4 cm).

@@ -8,8 +8,8 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from mearm.exceptions import InvalidTargetError
 from mearm.kinematics.closed_form import scalar_target_cm
+from mearm.kinematics.errors import InvalidTargetError
 
 
 @dataclass(frozen=True)

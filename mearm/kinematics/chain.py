@@ -21,7 +21,7 @@ import numpy as np
 import numpy.typing as npt
 
 from mearm.config import ArmDescription
-from mearm.exceptions import InvalidJointsError
+from mearm.kinematics.errors import InvalidJointsError
 
 #: Model units per config unit: degrees → radians, centimetres → metres.
 RAD_PER_DEG = math.pi / 180.0

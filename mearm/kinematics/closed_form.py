@@ -26,7 +26,8 @@ import numpy as np
 import numpy.typing as npt
 
 from mearm.config import ArmDescription
-from mearm.exceptions import (
+from mearm.kinematics.chain import Chain
+from mearm.kinematics.errors import (
     InvalidTargetError,
     JointLimitTargetError,
     ModelError,
@@ -34,7 +35,6 @@ from mearm.exceptions import (
     TargetOutsideBoxError,
     UnreachableTargetError,
 )
-from mearm.kinematics.chain import Chain
 
 _EPS = 1e-12
 

@@ -15,8 +15,8 @@ import numpy.typing as npt
 import pinocchio as pin
 
 from mearm.config import ArmDescription
-from mearm.exceptions import JointLimitError, ModelError
 from mearm.kinematics.chain import Chain
+from mearm.kinematics.errors import JointLimitError, ModelError
 from mearm.kinematics.urdf import TCP_FRAME, generate_urdf, jaw_joint_names
 
 CM_PER_M = 100.0

@@ -69,8 +69,9 @@ from mearm.config.servo_file import (
     servo_of,
     servo_overrides,
 )
-from mearm.exceptions import ConfigError, MearmError, ServoError
+from mearm.errors import ConfigError, MearmError
 from mearm.hardware import ActuatorMap, ArmCommand, ServoBus, ServoMap
+from mearm.hardware.errors import ServoError
 from mearm.maker.keys import KeyReader, require_terminal
 
 #: The step sizes the keys choose from [µs].

@@ -36,7 +36,7 @@ from mearm.cli import (
     config_from_args,
     run,
 )
-from mearm.exceptions import MearmError
+from mearm.errors import MearmError
 
 #: Default number of indices tried besides the ``/dev/video*`` devices.
 DEFAULT_INDICES = 2

@@ -44,8 +44,9 @@ from mearm.cli import (
     positive_number,
     run,
 )
+from mearm.config.errors import SerialPortError
 from mearm.config.port import check_port
-from mearm.exceptions import MearmError, SerialPortError
+from mearm.errors import MearmError
 from mearm.hardware.mearm_protocol import (
     FIRMWARE_NAME,
     FirmwareInfo,

@@ -37,7 +37,7 @@ from mearm.cli import (
     run,
 )
 from mearm.data import firmware_source_dir
-from mearm.exceptions import MearmError
+from mearm.errors import MearmError
 from mearm.hardware import toolchain
 from mearm.hardware.toolchain import (
     FIRMWARE_BUILD,

@@ -26,7 +26,7 @@ from pathlib import Path
 from mearm import __version__, data
 from mearm.cli import EXIT_OK, ArgumentParser, run, write_text_atomic
 from mearm.config import Config, config_from_dict
-from mearm.exceptions import ConfigError, MearmError
+from mearm.errors import ConfigError, MearmError
 from mearm.yamlio import load_yaml_text
 
 #: Servo channels the Uno firmware drives (``SERVO_COUNT`` in

@@ -50,8 +50,9 @@ from mearm.cli import (
 )
 from mearm.config import Config
 from mearm.config.servo_file import apply_servo_calibration_file
-from mearm.exceptions import MearmError, ServoError
+from mearm.errors import MearmError
 from mearm.hardware import ArmCommand, ServoBus
+from mearm.hardware.errors import ServoError
 from mearm.ik import IKTarget
 from mearm.kinematics import ArmModel
 from mearm.maker.calibrate_servos import hold_arm, open_arm_bus

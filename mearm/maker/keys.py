@@ -20,7 +20,7 @@ import tty
 from types import TracebackType
 from typing import TextIO
 
-from mearm.exceptions import MearmError
+from mearm.errors import MearmError
 
 #: Escape sequences of the special keys → their names.
 SEQUENCES = {

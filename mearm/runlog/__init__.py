@@ -52,7 +52,7 @@ in one file, which ``mearm analyze`` will not pool.
 **Reading.** :func:`read_runlog` returns every valid record up to the first bad line
 (torn, not JSON, not UTF-8, longer than :data:`MAX_LINE_BYTES`, unknown type or format,
 a field missing or of the wrong type, joint names other than the header's arm's, records
-out of order) and a :class:`~mearm.exceptions.RunLogFormatError` naming that line and why.
+out of order) and a :class:`~mearm.runlog.errors.RunLogFormatError` naming that line and why.
 """
 
 from mearm.runlog.format1 import upgrade_v1_record

@@ -22,7 +22,7 @@ from __future__ import annotations
 from typing import Any
 
 from mearm.config.migrate import V1_JOINT_NAMES, migrate_v1_config
-from mearm.exceptions import ConfigError
+from mearm.errors import ConfigError
 
 #: Format-1 joint lists → their format-2 names, per record type.
 V1_JOINT_FIELDS: dict[str, tuple[tuple[str, str], ...]] = {

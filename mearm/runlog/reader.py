@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from mearm.exceptions import RepeatedTrialError, RunLogError, RunLogFormatError
+from mearm.runlog.errors import RepeatedTrialError, RunLogError, RunLogFormatError
 from mearm.runlog.records import (
     FaultRecord,
     HeaderRecord,

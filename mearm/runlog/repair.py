@@ -21,8 +21,8 @@ import os
 from dataclasses import dataclass
 from pathlib import Path
 
-from mearm.exceptions import RunLogError
 from mearm.fileio import write_atomic
+from mearm.runlog.errors import RunLogError
 
 _CHUNK = 1 << 16
 

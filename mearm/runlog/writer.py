@@ -16,7 +16,7 @@ import numpy as np
 from pydantic import ValidationError
 
 from mearm.config import Config
-from mearm.exceptions import RunLogError
+from mearm.runlog.errors import RunLogError
 from mearm.runlog.reader import _TrialBuilder
 from mearm.runlog.records import (
     FORMAT_VERSION,

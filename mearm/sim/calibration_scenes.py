@@ -31,7 +31,7 @@ import mujoco
 import numpy as np
 
 from mearm.config import Config
-from mearm.exceptions import CalibrationError
+from mearm.config.errors import CalibrationError
 from mearm.sim.mjcf import M_PER_CM, twin_spec
 from mearm.sim.twin_camera import CAMERA_NAME, LensRenderer, twin_camera_model
 from mearm.vision.aruco import DEFAULT_DICTIONARY, get_dictionary, marker_image

@@ -135,7 +135,6 @@ from mearm.config.servo_models import (  # noqa: F401  (the twin's servos, re-ex
     ServoSpec,
     servo_named,
 )
-from mearm.exceptions import ModelError
 from mearm.fileio import write_atomic
 from mearm.kinematics.bodies import (
     BIN_MIN_WALL_HEIGHT_M,  # noqa: F401  (re-exported)
@@ -153,6 +152,7 @@ from mearm.kinematics.bodies import (
     wall_height_m,
 )
 from mearm.kinematics.chain import Chain
+from mearm.kinematics.errors import ModelError
 from mearm.kinematics.mjspec import arm_spec, exact, quat
 from mearm.kinematics.urdf import TCP_FRAME, jaw_joint_names, jaw_pad_length_m
 from mearm.sim.twin_optics import CAMERA_HEIGHT_M, camera_pose, homography_view

@@ -33,7 +33,7 @@ import cv2
 import numpy as np
 
 from mearm.config import CameraConfig, ColorClass
-from mearm.exceptions import ConfigError
+from mearm.errors import ConfigError
 from mearm.vision.calibration import Calibration
 
 WOOD_BGR = (95.0, 145.0, 195.0)  # H = 30°, S = 0.51

@@ -31,17 +31,28 @@ from dataclasses import dataclass
 import numpy as np
 
 from mearm.config import Config
-from mearm.exceptions import MearmError, SimCollisionError, TargetError, WorldError
+from mearm.errors import MearmError
 from mearm.hardware.bus import ArmCommand, ServoBus
+from mearm.hardware.errors import ServoError
 from mearm.hardware.mapping import ActuatorMap, Quantization, ServoMap
 from mearm.kinematics import ArmModel, check_target, closed_form_for
 from mearm.kinematics.collision import CollisionModel
-from mearm.sim.world import World
+from mearm.kinematics.errors import TargetError
+from mearm.sim.world import World, WorldError
 
 log = logging.getLogger(__name__)
 
 #: Random poses drawn per requested pose before :func:`random_reachable_joints` gives up.
 _DRAWS_PER_POSE = 10_000
+
+
+class SimCollisionError(ServoError):
+    """The simulated arm's body ran into the table, a bin or an object.
+
+    The kinematic simulator checks every move against the same collision model the
+    planner does (:mod:`mearm.kinematics.collision`), so a route the planner let through
+    a wall is a fault there, as it would be in physics.
+    """
 
 
 def quantize_deg(amap: ActuatorMap, value: float, mode: Quantization) -> float:

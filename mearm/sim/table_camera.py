@@ -11,11 +11,11 @@ from collections.abc import Sequence
 import numpy as np
 
 from mearm.config import Config
-from mearm.exceptions import CameraError
 from mearm.sim.renderer import Disc, Extra, TableRenderer
 from mearm.sim.world import World
 from mearm.vision.calibration import Calibration
 from mearm.vision.camera import Camera
+from mearm.vision.errors import CameraError
 
 
 class SimCamera(Camera):

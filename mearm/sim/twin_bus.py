@@ -47,10 +47,11 @@ import numpy as np
 
 from mearm.config import Config
 from mearm.config.arm import US_PER_SERVO_DEG
-from mearm.exceptions import ModelError, ServoError, ServoStallError, WorldError
 from mearm.hardware.bus import ArmCommand, ServoBus
+from mearm.hardware.errors import ServoError, ServoStallError
 from mearm.hardware.mapping import ActuatorMap, ServoMap
 from mearm.kinematics.chain import Chain
+from mearm.kinematics.errors import ModelError
 from mearm.kinematics.urdf import TCP_FRAME, jaw_joint_names
 from mearm.sim.mjcf import (
     GRIPPER_SERVO,
@@ -65,6 +66,7 @@ from mearm.sim.mjcf import (
     servo_tendon,
     twin_model,
 )
+from mearm.sim.world import WorldError
 
 log = logging.getLogger(__name__)
 

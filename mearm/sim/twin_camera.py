@@ -9,7 +9,7 @@ MuJoCo is first imported (:mod:`mearm`).
 **Where the camera is** (:func:`camera_pose`): by default straight down from
 :data:`~mearm.sim.mjcf.CAMERA_HEIGHT_M` over the calibrated field's centre, yawed and
 with the field of view that make ``calibration.homography`` hold on the table; with
-``twin.camera`` set (:class:`~mearm.config.twin_camera.TwinCameraConfig`), wherever that
+``twin.camera`` set (:class:`~mearm.config.twin_camera_config.TwinCameraConfig`), wherever that
 puts it, tilted, with any field of view.
 
 **The pinhole** (:func:`twin_camera_model`): MuJoCo's ``fovy`` spans the frame's full
@@ -44,7 +44,6 @@ import mujoco
 import numpy as np
 
 from mearm.config import Config
-from mearm.exceptions import CameraError
 from mearm.sim.twin_optics import (  # noqa: F401  (re-exported: where the camera is)
     CAMERA_HEIGHT_M,
     M_PER_CM,
@@ -55,6 +54,7 @@ from mearm.sim.twin_optics import (  # noqa: F401  (re-exported: where the camer
     twin_camera_model,
 )
 from mearm.vision.camera import Camera
+from mearm.vision.errors import CameraError
 
 if TYPE_CHECKING:
     from mearm.sim.twin_bus import TwinArm

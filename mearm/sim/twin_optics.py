@@ -15,8 +15,8 @@ from typing import NamedTuple
 import numpy as np
 
 from mearm.config import Config
-from mearm.exceptions import ModelError
 from mearm.kinematics.bodies import M_PER_CM
+from mearm.kinematics.errors import ModelError
 
 #: The default camera's height above the table: "about 52 cm" (docs/paper.md §1) [m].
 CAMERA_HEIGHT_M = 0.52

@@ -19,7 +19,7 @@ Three parts:
   solves the actuated joints from the joint servos' values (a servo may turn a
   combination of joints: :meth:`~mearm.hardware.ServoMap.joints_from_pulses`), moves the
   simulated arm (:class:`~mearm.sim.servo_bus.SimArm`) there, and faults the
-  move (:class:`~mearm.exceptions.MoveNotConfirmedError`) when a pulse is farther than
+  move (:class:`~mearm.hardware.errors.MoveNotConfirmedError`) when a pulse is farther than
   ``servo.virtual_uno.pulse_tolerance_us`` from the one sent: a firmware with two
   channels swapped cannot pass for a working one.
 
@@ -56,10 +56,11 @@ import numpy as np
 from mearm.config import Config
 from mearm.config.sections import DEFINE_PATTERN
 from mearm.data import FIRMWARE_FILES, firmware_source_dir
-from mearm.exceptions import MearmError, MoveNotConfirmedError, ServoError
+from mearm.errors import MearmError
 from mearm.hardware import toolchain
 from mearm.hardware.arduino import ArduinoBus
 from mearm.hardware.bus import ArmCommand, RateLimiter
+from mearm.hardware.errors import MoveNotConfirmedError, ServoError
 from mearm.hardware.mapping import ActuatorMap
 from mearm.hardware.toolchain import (
     FIRMWARE_BUILD,
@@ -576,7 +577,7 @@ class VirtualUnoBus(ArduinoBus):
     acknowledged by ``OK``); then the first servo frame that started after the ``OK`` left
     the board's UART is measured, the simulated arm over the world is put where those
     pulses put its servos, and the move is refused
-    (:class:`~mearm.exceptions.MoveNotConfirmedError`, which stops the bus with the last
+    (:class:`~mearm.hardware.errors.MoveNotConfirmedError`, which stops the bus with the last
     confirmed pose) when any pulse is missing or farther than
     ``servo.virtual_uno.pulse_tolerance_us`` from the one sent. The reason names the
     actuator, the value its pulse stands for and the commanded one.

@@ -15,9 +15,13 @@ import math
 from dataclasses import dataclass, field
 
 from mearm.config import Config, SceneObject
-from mearm.exceptions import WorldError
+from mearm.errors import MearmError
 
 Vector3 = tuple[float, float, float]
+
+
+class WorldError(MearmError):
+    """An impossible change of the simulated world, e.g. releasing when nothing is held."""
 
 
 @dataclass

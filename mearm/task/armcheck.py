@@ -44,7 +44,8 @@ import numpy as np
 import numpy.typing as npt
 
 from mearm.config import ColorClass, Config
-from mearm.exceptions import CalibrationError, MearmError
+from mearm.config.errors import CalibrationError
+from mearm.errors import MearmError
 from mearm.ik import IKTarget
 from mearm.task.execute import Executor
 from mearm.task.plan import Planner

@@ -9,7 +9,7 @@ in the target box and is reached somewhere in it; and how much of the camera's
 view of the table the arm cannot reach, said once. Home itself needs no solve: the arm
 goes home along a straight line in joint space, inside the limits by construction.
 
-A failure is a :class:`~mearm.exceptions.ConfigError` naming the field and its value, so
+A failure is a :class:`~mearm.errors.ConfigError` naming the field and its value, so
 the CLIs end with exit 2 before anything moves.
 """
 
@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from mearm.config import ColorClass, Config
-from mearm.exceptions import ConfigError
+from mearm.errors import ConfigError
 from mearm.kinematics import ArmModel
 from mearm.kinematics.bodies import M_PER_CM, base_radius_m, bin_half_outer_m
 from mearm.kinematics.collision import TOUCH_CM, CollisionModel

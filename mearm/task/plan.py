@@ -26,11 +26,11 @@ import numpy as np
 import numpy.typing as npt
 
 from mearm.config import ColorClass, Config
-from mearm.exceptions import JointLimitError, TargetError
 from mearm.hardware.mapping import ServoMap
 from mearm.ik import IKFailure, IKResult, IKTarget, failure_of_error, make_solver
 from mearm.kinematics import ArmModel
 from mearm.kinematics.collision import CollisionModel, Contact
+from mearm.kinematics.errors import JointLimitError, TargetError
 from mearm.task.route import Route
 
 #: After a missed grip the TCP rises this much before the retry [cm].

@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING, Any
 
 from mearm.backends import open_parts, table_world, uses_world
 from mearm.config import Config, SceneObject
-from mearm.exceptions import MearmError
+from mearm.errors import MearmError
 from mearm.hardware.bus import ServoBus
 from mearm.kinematics import ArmModel
 from mearm.sim import World

@@ -16,7 +16,7 @@ from pydantic import TypeAdapter, ValidationError
 from mearm.config import ColorClass, Config, SceneObject
 from mearm.config.base import MAX_SEED, loc_text, short_repr
 from mearm.config.sections import MAX_SCENE_OBJECTS
-from mearm.exceptions import ConfigError, MearmError
+from mearm.errors import ConfigError, MearmError
 from mearm.kinematics import ArmModel, check_in_box, closed_form_for
 from mearm.kinematics.collision import TOUCH_M, CollisionModel
 from mearm.task.plan import Planner

@@ -35,8 +35,9 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from mearm.config import Config
-from mearm.exceptions import CameraError, CollisionError, MearmError, ServoError
+from mearm.errors import MearmError
 from mearm.hardware.bus import ReportsRelease, ServoBus
+from mearm.hardware.errors import ServoError
 from mearm.ik import IKTarget
 from mearm.kinematics import ArmModel
 from mearm.kinematics.collision import CollisionModel
@@ -46,12 +47,21 @@ from mearm.task.report import Outcome, Reporter, Skip, SortReport
 from mearm.task.route import Route
 from mearm.vision import Camera, ColorDetector, Detection
 from mearm.vision.calibration import camera_geometry
+from mearm.vision.errors import CameraError
 
 if TYPE_CHECKING:
     from mearm.runlog.writer import RunLog  # a log is written only when asked for
 
 #: A detection within this distance of a known object is that object [cm].
 SAME_OBJECT_CM = 1.5
+
+
+class CollisionError(MearmError):
+    """A motion would bring the arm's body too close to something; nothing of it was sent.
+
+    Too close: within ``task.clearance_cm`` of a bin or an object, or touching the table
+    (:mod:`mearm.kinematics.collision`).
+    """
 
 
 class SortAborted(MearmError):

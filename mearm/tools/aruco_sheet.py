@@ -21,7 +21,7 @@ import cv2
 import numpy as np
 
 from mearm.cli import ArgumentParser, run
-from mearm.exceptions import MearmError
+from mearm.errors import MearmError
 from mearm.fileio import write_atomic
 from mearm.vision.aruco import DEFAULT_DICTIONARY, get_dictionary, marker_image
 

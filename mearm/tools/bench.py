@@ -255,8 +255,8 @@ def reachable_targets(config: Config, n: int, seed: int) -> np.ndarray:
     Reachable: the closed form solves it within the limits, or, for an arm without one,
     it is the TCP of joints drawn uniformly within the limits (kept when in the box).
     """
-    from mearm.exceptions import UnreachableTargetError  # noqa: PLC0415
     from mearm.kinematics import ArmModel, closed_form_for  # noqa: PLC0415
+    from mearm.kinematics.errors import UnreachableTargetError  # noqa: PLC0415
 
     rng = np.random.default_rng(seed)
     box = config.arm.target_box

@@ -53,7 +53,8 @@ from ruamel.yaml.comments import CommentedMap, CommentedSeq
 from mearm.cli import ArgumentParser, run
 from mearm.config import config_from_dict
 from mearm.config.base import MAX_LENGTH_CM, short_repr
-from mearm.exceptions import CalibrationError, ConfigError, InputFileError, MearmError
+from mearm.config.errors import CalibrationError
+from mearm.errors import ConfigError, InputFileError, MearmError
 from mearm.fileio import write_atomic
 from mearm.vision.aruco import (
     DEFAULT_DICTIONARY,

@@ -30,8 +30,9 @@ from pathlib import Path
 
 from mearm.cli import ArgumentParser, positive_number, run
 from mearm.config import CameraConfig
+from mearm.config.errors import CalibrationError
 from mearm.config.sections import MAX_DEVICE_INDEX
-from mearm.exceptions import CalibrationError, MearmError
+from mearm.errors import MearmError
 from mearm.vision.camera import DeviceCamera
 from mearm.vision.charuco import (
     DEFAULT_BOARD,

@@ -39,7 +39,7 @@ import numpy as np
 
 from mearm.cli import ArgumentParser, add_config_argument, config_from_args, run
 from mearm.config import Config
-from mearm.exceptions import MearmError
+from mearm.errors import MearmError
 from mearm.fileio import write_atomic
 
 #: A detection farther than this from every object of its class is extra, and the object

@@ -19,7 +19,7 @@ import cv2
 import numpy as np
 
 from mearm.cli import ArgumentParser, run
-from mearm.exceptions import MearmError
+from mearm.errors import MearmError
 from mearm.fileio import write_atomic
 from mearm.tools.aruco_sheet import A4_CM, CM_PER_INCH, png_with_dpi
 from mearm.vision.charuco import DEFAULT_BOARD, BoardSpec

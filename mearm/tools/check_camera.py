@@ -30,7 +30,8 @@ from pathlib import Path
 import numpy as np
 
 from mearm.cli import ArgumentParser, add_config_argument, config_from_args, run
-from mearm.exceptions import CameraError, MearmError, ServoError
+from mearm.errors import MearmError
+from mearm.hardware.errors import ServoError
 from mearm.task.armcheck import (
     MAX_POINTS,
     MIN_POINTS,
@@ -41,6 +42,7 @@ from mearm.task.armcheck import (
     run_check,
 )
 from mearm.vision.calibration import camera_geometry
+from mearm.vision.errors import CameraError
 from mearm.vision.pinhole import PerspectiveCamera, save_calibration
 
 

@@ -20,7 +20,7 @@ import cv2
 import numpy as np
 
 from mearm.cli import ArgumentParser, add_config_argument, config_from_args, run, seed_value
-from mearm.exceptions import MearmError
+from mearm.errors import MearmError
 from mearm.fileio import write_atomic
 
 #: Most board views one run renders.

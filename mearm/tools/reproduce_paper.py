@@ -21,7 +21,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from mearm.cli import ArgumentParser, add_config_argument, config_from_args, run
-from mearm.exceptions import ConfigError
+from mearm.errors import ConfigError
 from mearm.ik import PdPij, demo_routes, run_routes
 from mearm.kinematics import ArmModel
 

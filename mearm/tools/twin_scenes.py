@@ -19,7 +19,7 @@ from concurrent.futures import ProcessPoolExecutor
 from mearm.cli import ArgumentParser, add_config_argument, config_from_args, run
 from mearm.config import Config
 from mearm.config.base import MAX_SEED
-from mearm.exceptions import MearmError
+from mearm.errors import MearmError
 from mearm.task.report import LEFT_REASONS
 from mearm.task.sorter import SortAborted
 

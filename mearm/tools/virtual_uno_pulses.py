@@ -22,7 +22,7 @@ import serial
 
 from mearm.cli import EXIT_FAILURE, EXIT_OK, ArgumentParser, positive_number, run, seed_value
 from mearm.config.sections import VirtualUnoConfig
-from mearm.exceptions import MearmError
+from mearm.errors import MearmError
 from mearm.fileio import write_atomic
 from mearm.hardware.mearm_protocol import encode_command
 from mearm.sim.virtual_uno import VirtualUno, build_virtual_uno

@@ -19,7 +19,7 @@ Scene tree (below ``/meshcat``)::
     paths/route<k>              the TCP path of each route, kept until clear_paths();
                                 hidden and shown again by show_paths()
     collision/arm/<shape>       the collision model's arm shapes, and its bins' and
-    collision/world/<shape>     objects' (show_collision(); see mearm.view.collision)
+    collision/world/<shape>     objects' (show_collision(); see mearm.view.collision_drawing)
 """
 
 from __future__ import annotations
@@ -43,11 +43,11 @@ import pinocchio as pin
 from pinocchio.visualize import MeshcatVisualizer
 
 from mearm.config import ColorClass, Config
-from mearm.exceptions import ViewError, ViewInputError
 from mearm.kinematics import ArmModel, jaw_joint_names
 from mearm.kinematics.collision import CollisionModel
 from mearm.view.browser import screenshot
-from mearm.view.collision import CollisionDrawing
+from mearm.view.collision_drawing import CollisionDrawing
+from mearm.view.errors import ViewError, ViewInputError
 from mearm.view.frame_plane import FramePlane, PixelToTable, frame_plane
 from mearm.view.layout import SceneLayout
 from mearm.view.server import MeshcatServer
@@ -469,7 +469,7 @@ class ArmView:
     ) -> None:
         """Draw a collision model's shapes, translucent, under ``collision/``; until hidden.
 
-        Every shape of the model's world now is drawn (:mod:`mearm.view.collision`): the
+        Every shape of the model's world now is drawn (:mod:`mearm.view.collision_drawing`): the
         arm's plates, servos, hand and jaws and a held object in translucent magenta,
         each bin's floor and walls and each object on the table in translucent cyan, as
         the model has them (their true sizes: the clearance is not drawn). The table is

@@ -26,8 +26,8 @@ from typing import Any
 
 import tornado.websocket
 
-from mearm.exceptions import BrowserNotFoundError, ViewError, ViewInputError
 from mearm.fileio import write_atomic
+from mearm.view.errors import BrowserNotFoundError, ViewError, ViewInputError
 
 #: Executable names tried in order; ``$MEARM_CHROMIUM`` (a path or name) comes first.
 BROWSER_NAMES: tuple[str, ...] = (

@@ -20,7 +20,7 @@ import cv2
 import numpy as np
 import numpy.typing as npt
 
-from mearm.exceptions import ViewInputError
+from mearm.view.errors import ViewInputError
 
 PixelToTable = Callable[[np.ndarray], npt.ArrayLike]
 """(N, 2) pixel coordinates (u, v) [px] → (N, 2) table points (x, y), base frame [cm]."""

@@ -39,8 +39,8 @@ from meshcat.servers.zmqserver import (
 )
 from meshcat.visualizer import ViewerWindow
 
-from mearm.exceptions import ViewError, ViewPortError
 from mearm.view.browser import SceneCounts
+from mearm.view.errors import ViewError, ViewPortError
 
 LOOPBACK = "127.0.0.1"
 #: First web port tried when none is given (meshcat's own default), and how many after it.

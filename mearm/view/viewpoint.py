@@ -25,7 +25,7 @@ import meshcat.transformations as tf
 import numpy as np
 import numpy.typing as npt
 
-from mearm.exceptions import ViewInputError
+from mearm.view.errors import ViewInputError
 
 M_PER_CM = 0.01
 _Z_UP = np.array([0.0, 0.0, 1.0])

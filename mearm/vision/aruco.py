@@ -15,7 +15,7 @@ import cv2
 import numpy as np
 import numpy.typing as npt
 
-from mearm.exceptions import CalibrationError
+from mearm.config.errors import CalibrationError
 from mearm.vision.calibration import Calibration
 
 DEFAULT_DICTIONARY = "DICT_4X4_50"

@@ -10,7 +10,7 @@ The paper's rig is the affine special case x = 0.0625·u − 20.5, y = 59.0 − 
 (``configs/lab.yaml``). A general H is fitted from four or more pixel ↔ table pairs with
 ``cv2.findHomography`` (least squares over all pairs); the pairs must span the plane:
 at least four, none repeated, and not all on one line (exactly four: no three on one
-line), else :class:`~mearm.exceptions.CalibrationError`.
+line), else :class:`~mearm.config.errors.CalibrationError`.
 """
 
 from __future__ import annotations
@@ -26,7 +26,7 @@ import numpy.typing as npt
 
 from mearm.config import CalibrationConfig
 from mearm.config.base import short_repr
-from mearm.exceptions import CalibrationError
+from mearm.config.errors import CalibrationError
 from mearm.vision.pinhole import PerspectiveCamera
 
 if TYPE_CHECKING:

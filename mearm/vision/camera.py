@@ -13,7 +13,7 @@ Which source a config names is chosen in one place above this package,
 :func:`mearm.backends.open_camera`.
 
 Replayed frames must have the configured size, because the calibration is in pixels of
-that size. Every failure is a :class:`~mearm.exceptions.CameraError` naming the source;
+that size. Every failure is a :class:`~mearm.vision.errors.CameraError` naming the source;
 nothing blocks longer than the open timeout on opening.
 """
 
@@ -29,7 +29,7 @@ import cv2
 import numpy as np
 
 from mearm.config import CameraConfig
-from mearm.exceptions import CameraError, ImageError
+from mearm.vision.errors import CameraError, ImageError
 from mearm.vision.image import MAX_IMAGE_PIXELS, probe_image, quiet_opencv, read_image
 
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".webp", ".ppm", ".pgm")

@@ -18,8 +18,9 @@ import cv2
 import numpy as np
 import numpy.typing as npt
 
-from mearm.exceptions import CalibrationError, ImageError
+from mearm.config.errors import CalibrationError
 from mearm.vision.aruco import get_dictionary
+from mearm.vision.errors import ImageError
 from mearm.vision.pinhole import Intrinsics
 
 

@@ -64,9 +64,10 @@ import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
 from mearm.config import ColorClass, VisionConfig
-from mearm.exceptions import ConfigError, ImageError
+from mearm.errors import ConfigError
 from mearm.vision.calibration import Calibration, CameraGeometry, camera_geometry
 from mearm.vision.classify import PixelClassifier, and_scalar, equal_mask
+from mearm.vision.errors import ImageError
 from mearm.vision.pinhole import PerspectiveCamera
 from mearm.vision.thresholds import Thresholds
 

@@ -1,6 +1,6 @@
 """Reading image files so that no file can hurt: the size is checked before decoding.
 
-:func:`read_image` refuses, with an :class:`~mearm.exceptions.ImageError` naming the
+:func:`read_image` refuses, with an :class:`~mearm.vision.errors.ImageError` naming the
 file, before OpenCV decodes a byte:
 
 - anything but a regular file (a device, FIFO, socket or directory);
@@ -26,7 +26,8 @@ from typing import NamedTuple
 import cv2
 import numpy as np
 
-from mearm.exceptions import ImageError, InputFileError
+from mearm.errors import InputFileError
+from mearm.vision.errors import ImageError
 from mearm.yamlio import read_regular_file
 
 #: Most pixels an image file may hold: 50 Mpx, a large phone photo (8660 × 5773). Its

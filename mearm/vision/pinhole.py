@@ -53,7 +53,8 @@ import numpy.typing as npt
 import yaml
 
 from mearm.config.base import short_repr
-from mearm.exceptions import CalibrationError, ConfigError
+from mearm.config.errors import CalibrationError
+from mearm.errors import ConfigError
 from mearm.fileio import write_atomic
 from mearm.yamlio import load_yaml_file
 

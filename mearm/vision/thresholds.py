@@ -19,7 +19,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 from mearm.config import ColorClass, VisionConfig
-from mearm.exceptions import ConfigError
+from mearm.errors import ConfigError
 
 #: Class codes are 1..MAX_CLASSES (0 is no class); the fast classifier keeps a flag in
 #: the top bit of its 8-bit codes.

@@ -15,6 +15,7 @@ from typing import Any, Literal
 
 import numpy as np
 
+from mearm.analysis.errors import AnalysisError
 from mearm.analysis.stats import (
     ErrorTable,
     IterationStats,
@@ -35,8 +36,9 @@ from mearm.analysis.success import (
     success_vs_error,
 )
 from mearm.analysis.weibull import WeibullFit, fit_weibull
-from mearm.exceptions import AnalysisError, MearmError, RunLogFormatError
+from mearm.errors import MearmError
 from mearm.runlog import RunLogContents
+from mearm.runlog.errors import RunLogFormatError
 
 
 @dataclass(frozen=True)

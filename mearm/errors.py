@@ -1,0 +1,52 @@
+"""The base of every error mearm raises on purpose, and the errors of reading input.
+
+Every error the package raises on purpose derives from :class:`MearmError`, so a caller
+(and every CLI) can catch one type. Subclasses name the cause and keep the offending
+values as attributes; their messages say what was wrong and what is allowed.
+
+Each family lives next to the code that raises it (``mearm/<package>/errors.py``, or
+beside the one module that raises it); :mod:`mearm.exceptions` names them all. Here are
+the ones every layer raises, from the YAML reader (:mod:`mearm.yamlio`) up: a bad file,
+a bad configuration value.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+
+class MearmError(Exception):
+    """Base class for all errors raised by mearm."""
+
+
+class ConfigError(MearmError):
+    """A configuration file is missing, malformed or has invalid values.
+
+    Attributes:
+        path: The file that was read, or ``None`` for an in-memory mapping.
+        problems: One line per bad field: its dotted path, the value, what is allowed.
+    """
+
+    def __init__(self, path: str | None, problems: Sequence[str]):
+        self.path = path
+        self.problems = list(problems)
+        where = f"{path}: " if path else ""
+        if len(self.problems) == 1:
+            super().__init__(f"{where}{self.problems[0]}")
+        else:
+            lines = "; ".join(self.problems)
+            super().__init__(f"{where}{len(self.problems)} problems: {lines}")
+
+
+class InputFileError(MearmError):
+    """An input file cannot be read safely: missing, not a regular file, too large, not text.
+
+    Attributes:
+        path: The file.
+        reason: What is wrong with it and what to do.
+    """
+
+    def __init__(self, path: object, reason: str):
+        self.path = str(path)
+        self.reason = reason
+        super().__init__(f"{self.path}: {reason}")

@@ -1,0 +1,317 @@
+"""Errors of servo I/O: a command the arm cannot take, and every fault of a bus.
+
+Every :class:`ServoError` carries ``last_state``: the last pose the board acknowledged
+(a :class:`mearm.hardware.ArmState`, or ``None`` before the first move), so a caller
+always knows where the arm was last told to be. The simulated buses raise them too: the
+rest of the code cannot tell a simulated bus from a serial one.
+"""
+
+from __future__ import annotations
+
+from mearm.errors import MearmError
+from mearm.kinematics.errors import JointLimitError
+
+
+class InvalidCommandError(MearmError):
+    """An arm command is malformed.
+
+    It must name exactly the arm's actuated joints and tool actuators, with finite
+    values, and its gripper flag must be a bool.
+    """
+
+
+class PulseRangeError(JointLimitError):
+    """A joint angle needs a servo pulse outside its channel's [min_us, max_us].
+
+    The inherited ``lower_deg``/``upper_deg`` are the angles the pulse range allows.
+
+    Attributes:
+        channel: Servo channel of the joint.
+        pulse_us: The pulse the angle maps to [µs].
+        min_us: Lowest allowed pulse [µs].
+        max_us: Highest allowed pulse [µs].
+    """
+
+    def __init__(
+        self,
+        joint: str,
+        value_deg: float,
+        lower_deg: float,
+        upper_deg: float,
+        *,
+        channel: int,
+        pulse_us: float,
+        min_us: float,
+        max_us: float,
+        unit: str = "deg",
+    ):
+        self.joint = joint
+        self.value_deg = float(value_deg)
+        self.lower_deg = float(lower_deg)
+        self.upper_deg = float(upper_deg)
+        self.channel = channel
+        self.pulse_us = float(pulse_us)
+        self.min_us = float(min_us)
+        self.max_us = float(max_us)
+        self.unit = unit
+        MearmError.__init__(
+            self,
+            f"{joint} = {self.value_deg:.4g} {unit} needs a {self.pulse_us:.1f} µs pulse on "
+            f"channel {channel}, outside its [{self.min_us:g}, {self.max_us:g}] µs: the "
+            f"pulse range allows {joint} in [{self.lower_deg:.4g}, {self.upper_deg:.4g}] {unit} "
+            "(its servo calibration in arm: in the config)",
+        )
+
+
+class ServoError(MearmError):
+    """The servo link or board failed.
+
+    Attributes:
+        last_state: The last pose the board acknowledged (``mearm.hardware.ArmState``),
+            or ``None`` if no move was acknowledged yet.
+    """
+
+    def __init__(self, message: str, *, last_state: object | None = None):
+        self.last_state = last_state
+        pose = "none (no move acknowledged yet)" if last_state is None else str(last_state)
+        super().__init__(f"{message}; last acknowledged pose: {pose}")
+
+
+class ServoNotConnectedError(ServoError):
+    """A command was given to a servo bus that is not connected (call ``connect()``)."""
+
+
+class ServoFaultedError(ServoError):
+    """The bus refuses to send: an earlier fault stopped it. Close it and connect again.
+
+    Attributes:
+        fault: The error that stopped the bus.
+    """
+
+    def __init__(self, fault: ServoError):
+        self.fault = fault
+        super().__init__(
+            f"servo bus stopped after an earlier fault ({type(fault).__name__}); nothing is "
+            "sent after a fault: close the bus and connect again",
+            last_state=fault.last_state,
+        )
+
+
+class HandshakeError(ServoError):
+    """The board answered, but this backend cannot drive it.
+
+    Its firmware, protocol version, servo count or pulse range does not fit the config.
+    """
+
+
+class LinkError(ServoError):
+    """The serial link cannot be opened or was lost.
+
+    Attributes:
+        port: The serial port or URL.
+    """
+
+    def __init__(self, port: str, message: str, *, last_state: object | None = None):
+        self.port = port
+        super().__init__(f"{port}: {message}", last_state=last_state)
+
+
+class LinkDroppedError(LinkError):
+    """The link was lost while talking to the board (cable pulled, board power lost)."""
+
+
+class BannerTimeoutError(LinkError):
+    """The board did not print its banner after the port was opened (and reset it).
+
+    Attributes:
+        timeout_s: How long we waited [s].
+        received: Every byte received meanwhile.
+    """
+
+    def __init__(self, port: str, timeout_s: float, received: bytes):
+        self.timeout_s = float(timeout_s)
+        self.received = bytes(received)
+        seen = f"received {self.received[:60]!r}" if received else "received nothing"
+        super().__init__(
+            port,
+            f"no banner within {self.timeout_s:g} s ({seen}). Is tools/arduino/mearm_servo "
+            "flashed, is this the right port, and is servo.baud the sketch's baud rate? "
+            "Raise servo.banner_timeout_s if the board is slow to boot",
+        )
+
+
+class NoAckError(LinkError):
+    """The board did not acknowledge a command in time.
+
+    Attributes:
+        frame: The unacknowledged command as sent.
+        timeout_s: The acknowledgement timeout [s].
+        garbage: Unparseable bytes received while waiting.
+    """
+
+    def __init__(
+        self,
+        port: str,
+        frame: bytes,
+        timeout_s: float,
+        garbage: bytes = b"",
+        *,
+        last_state: object | None = None,
+    ):
+        self.frame = bytes(frame)
+        self.timeout_s = float(timeout_s)
+        self.garbage = bytes(garbage)
+        extra = (
+            f"; received only garbage {self.garbage[:60]!r}: check servo.baud and the firmware"
+            if garbage
+            else ""
+        )
+        super().__init__(
+            port,
+            f"no acknowledgement of {self.frame!r} within {self.timeout_s:g} s{extra}",
+            last_state=last_state,
+        )
+
+
+class GarbledReplyError(ServoError):
+    """Every try of a command got a corrupted or unintelligible reply.
+
+    Attributes:
+        frame: The command as sent.
+        attempts: How many times it was sent.
+        reply: The last bad reply.
+    """
+
+    def __init__(
+        self,
+        frame: bytes,
+        attempts: int,
+        reply: bytes,
+        reason: str = "garbled reply",
+        *,
+        last_state: object | None = None,
+    ):
+        self.frame = bytes(frame)
+        self.attempts = int(attempts)
+        self.reply = bytes(reply)
+        super().__init__(
+            f"{reason} on all {self.attempts} tries of {self.frame!r} (last reply "
+            f"{self.reply!r}); electrical noise on the link? (servo.retries sets the tries)",
+            last_state=last_state,
+        )
+
+
+class ChecksumError(GarbledReplyError):
+    """A command failed its checksum on every try (at the board or in its reply)."""
+
+
+class BoardError(ServoError):
+    """The board refused a command with a numbered error (tools/arduino/PROTOCOL.md).
+
+    Attributes:
+        code: The error number.
+        reason: What the number means.
+        detail: Extra text the board sent.
+        frame: The refused command as sent.
+    """
+
+    def __init__(
+        self,
+        code: int,
+        reason: str,
+        detail: str,
+        frame: bytes,
+        *,
+        last_state: object | None = None,
+    ):
+        self.code = int(code)
+        self.reason = reason
+        self.detail = detail
+        self.frame = bytes(frame)
+        more = f" ({detail})" if detail else ""
+        super().__init__(
+            f"board error {self.code}: {reason}{more} for {self.frame!r}",
+            last_state=last_state,
+        )
+
+
+class BoardResetError(ServoError):
+    """The board printed its boot banner mid-session: it restarted and stopped its pulses.
+
+    Usually a brown-out: the servos drew the board's supply down. Power them separately.
+    """
+
+
+class MoveNotConfirmedError(ServoError):
+    """The board answered, but did not confirm the move: it did not reach the pulses sent.
+
+    Attributes:
+        port: The serial port or URL.
+        expected_us: Channel → the pulse commanded [µs].
+        reported_us: Channel → the pulse the board reported [µs]; empty if it was
+            still moving when the time ran out.
+        reason: What did not match.
+    """
+
+    def __init__(
+        self,
+        port: str,
+        reason: str,
+        expected_us: dict[int, int],
+        reported_us: dict[int, int],
+        *,
+        last_state: object | None = None,
+    ):
+        self.port = port
+        self.reason = reason
+        self.expected_us = dict(expected_us)
+        self.reported_us = dict(reported_us)
+        super().__init__(f"{port}: move not confirmed: {reason}", last_state=last_state)
+
+
+class UnsolicitedBytesError(ServoError):
+    """The board sent bytes no query asked for: a noisy link or a board talking out of turn.
+
+    Attributes:
+        port: The serial port or URL.
+        received: The bytes (at most the first 64).
+    """
+
+    def __init__(self, port: str, received: bytes, *, last_state: object | None = None):
+        self.port = port
+        self.received = bytes(received[:64])
+        super().__init__(
+            f"{port}: the board sent {self.received!r} unasked; an SSC-32 speaks only when "
+            "asked, so the link is noisy or another program shares the port",
+            last_state=last_state,
+        )
+
+
+class ServoStallError(ServoError):
+    """A joint servo did not reach its command: it stopped short or ran out of time.
+
+    Attributes:
+        joint: The joint's name.
+        commanded: Where it was told to go [deg or cm].
+        measured: Where its potentiometer says it is [deg or cm].
+        reason: ``"stalled"`` (at rest short of the command) or ``"timeout"``.
+    """
+
+    def __init__(
+        self,
+        joint: str,
+        commanded: float,
+        measured: float,
+        reason: str,
+        detail: str,
+        *,
+        last_state: object | None = None,
+    ):
+        self.joint = joint
+        self.commanded = commanded
+        self.measured = measured
+        self.reason = reason
+        super().__init__(
+            f"joint {joint} {detail}: commanded {commanded:.2f}, measured {measured:.2f}",
+            last_state=last_state,
+        )

@@ -1,0 +1,112 @@
+"""Errors by family: each next to the code that raises it, all named by mearm.exceptions."""
+
+from __future__ import annotations
+
+import ast
+import importlib
+import inspect
+import subprocess
+import sys
+
+import pytest
+from conftest import ROOT
+
+import mearm
+from mearm import exceptions
+from mearm.errors import MearmError
+
+PACKAGE = ROOT / "mearm"
+#: Commands: their own errors (a refused key, an abandoned calibration) stay theirs.
+COMMANDS = ("mearm.maker", "mearm.tools", "mearm.sort", "mearm.detect", "mearm.fk")
+
+
+def _module_name(path):
+    parts = list(path.relative_to(ROOT).with_suffix("").parts)
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def _library_errors() -> dict[str, str]:
+    """Every ``MearmError`` subclass a module below the commands defines: name → module."""
+    found = {}
+    for path in sorted(PACKAGE.rglob("*.py")):
+        name = _module_name(path)
+        if name.rpartition(".")[2] == "__main__" or name.startswith(COMMANDS):
+            continue
+        if "class " not in path.read_text(encoding="utf-8"):
+            continue
+        module = importlib.import_module(name)
+        for attr, value in vars(module).items():
+            if (
+                inspect.isclass(value)
+                and issubclass(value, MearmError)
+                and value.__module__ == name
+                and not attr.startswith("_")
+            ):
+                found[attr] = name
+    return found
+
+
+def test_the_facade_names_every_error_of_the_library_at_its_home():
+    """Each public error is in ``mearm.exceptions.__all__``, mapped to the module that
+    defines it, and ``from mearm.exceptions import X`` gives that very class."""
+    defined = _library_errors()
+    mapped = {name: module for module, names in exceptions.FAMILIES.items() for name in names}
+    assert mapped == defined
+    assert sorted(exceptions.__all__) == sorted(defined)
+    for name, module in defined.items():
+        assert getattr(exceptions, name) is getattr(importlib.import_module(module), name)
+
+
+def test_every_error_is_a_mearm_error_and_the_top_level_names_them_too():
+    """One ``except MearmError`` catches them all; ``mearm.X`` is the same class."""
+    for name in exceptions.__all__:
+        error = getattr(exceptions, name)
+        assert issubclass(error, MearmError), name
+        assert getattr(mearm, name) is error
+        assert name in mearm.__all__
+
+
+def test_no_module_of_the_package_imports_the_facade():
+    """Inside the package an error comes from its family: the façade names errors of every
+    layer, so a lower layer importing it would reach up (only the package root may)."""
+    offenders = []
+    for path in sorted(PACKAGE.rglob("*.py")):
+        if path in (PACKAGE / "__init__.py", PACKAGE / "exceptions.py"):
+            continue
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            names = (
+                [node.module or ""]
+                if isinstance(node, ast.ImportFrom)
+                else [a.name for a in node.names]
+                if isinstance(node, ast.Import)
+                else []
+            )
+            if "mearm.exceptions" in names or (
+                isinstance(node, ast.ImportFrom)
+                and node.module == "mearm"
+                and any(a.name == "exceptions" for a in node.names)
+            ):
+                offenders.append(f"{path.relative_to(ROOT)}:{node.lineno}")
+    assert offenders == []
+
+
+def test_one_error_loads_only_its_family():
+    """``import mearm`` and catching a config error load neither NumPy nor the simulator
+    nor SciPy (the analysis extra): a family is imported when one of its errors is."""
+    code = (
+        "import sys, mearm\n"
+        "from mearm.exceptions import ConfigError, MearmError\n"
+        "assert issubclass(ConfigError, MearmError)\n"
+        "print(sorted(m for m in sys.modules if m.split('.')[0] in "
+        "('numpy', 'scipy', 'pydantic') or m.startswith('mearm.')))\n"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=ROOT
+    ).stdout
+    assert out.strip() == "['mearm._lazy', 'mearm.errors', 'mearm.exceptions']"
+
+
+def test_an_unknown_name_is_an_attribute_error():
+    """A name the façade does not have is refused as any module refuses it."""
+    with pytest.raises(AttributeError, match="has no attribute 'NoSuchError'"):
+        exceptions.NoSuchError  # noqa: B018
