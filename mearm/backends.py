@@ -10,8 +10,8 @@ simulators:
 ========================  ================================================================
 ``kinematic``             the servo bus and the camera the config names, over one
                           :class:`~mearm.sim.World` when either is simulated
-``mujoco``                the physical twin: :class:`~mearm.sim.twin_bus.TwinArm` and
-                          :class:`~mearm.sim.twin_camera.TwinCamera` in one MuJoCo scene
+``mujoco``                the physical twin: :class:`~mearm.sim.twin.twin_bus.TwinArm` and
+                          :class:`~mearm.sim.twin.twin_camera.TwinCamera` in one MuJoCo scene
 ========================  ================================================================
 
 The servo backends:
@@ -53,7 +53,7 @@ from mearm.errors import ConfigError
 
 if TYPE_CHECKING:
     from mearm.hardware.bus import ServoBus
-    from mearm.sim.world import World
+    from mearm.sim.kinematic.world import World
     from mearm.vision.camera import Camera
 
 #: Opens a servo bus (not yet connected): ``(config, world, port) -> bus``.
@@ -146,7 +146,7 @@ def uses_world(config: Config) -> bool:
 
 def table_world(config: Config, scene: list[SceneObject] | None = None) -> World:
     """The simulated table: ``scene`` (default ``task.scene``) and the bins."""
-    from mearm.sim.world import World  # noqa: PLC0415
+    from mearm.sim.kinematic.world import World  # noqa: PLC0415
 
     bins = {c.name: c.bin_cm for c in config.task.classes}
     return World.from_scene(config.task.scene if scene is None else scene, bins)
@@ -219,8 +219,8 @@ def _mujoco(config: Config, scene: list[SceneObject] | None) -> Iterator[RigPart
     One MuJoCo scene; a place counts when the physics has the object in its bin, too slow
     to leave it.
     """
-    from mearm.sim.twin_bus import TwinArm  # noqa: PLC0415
-    from mearm.sim.twin_camera import TwinCamera  # noqa: PLC0415
+    from mearm.sim.twin.twin_bus import TwinArm  # noqa: PLC0415
+    from mearm.sim.twin.twin_camera import TwinCamera  # noqa: PLC0415
 
     if scene is not None:
         config = config.model_copy(
@@ -246,7 +246,7 @@ def _sim_bus(config: Config, world: World | None, port: str | None) -> ServoBus:
         raise ConfigError(
             None, ["servo.backend: 'sim' needs the simulated world: open_bus(config, world=...)"]
         )
-    from mearm.sim.servo_bus import SimArm  # noqa: PLC0415
+    from mearm.sim.kinematic.servo_bus import SimArm  # noqa: PLC0415
 
     return SimArm(config, world)
 
@@ -270,8 +270,8 @@ def _ssc32_bus(config: Config, world: World | None, port: str | None) -> ServoBu
 
 
 def _sim_camera(config: Config, world: World | None) -> Camera:
-    from mearm.sim.table_camera import SimCamera  # noqa: PLC0415
-    from mearm.sim.world import World  # noqa: PLC0415
+    from mearm.sim.kinematic.table_camera import SimCamera  # noqa: PLC0415
+    from mearm.sim.kinematic.world import World  # noqa: PLC0415
 
     return SimCamera(config, World.from_config(config) if world is None else world)
 

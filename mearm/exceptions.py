@@ -54,8 +54,8 @@ FAMILIES: dict[str, tuple[str, ...]] = {
     "mearm.view.errors": ("ViewError", "ViewPortError", "ViewInputError", "BrowserNotFoundError"),
     "mearm.analysis.errors": ("AnalysisError",),
     # The simulators' and the task's errors live beside the one module that raises them.
-    "mearm.sim.world": ("WorldError",),
-    "mearm.sim.servo_bus": ("SimCollisionError",),
+    "mearm.sim.errors": ("WorldError",),
+    "mearm.sim.kinematic.servo_bus": ("SimCollisionError",),
     "mearm.sim.virtual_uno": ("VirtualUnoError",),
     "mearm.task.scene": ("SceneError",),
     "mearm.task.armcheck": ("ArmCheckError", "NothingToCheck"),

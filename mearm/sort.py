@@ -186,7 +186,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 def _save_mjcf(config: Config, scene: list[SceneObject] | None, path: Path) -> None:
     """Write the scene the sort will see as MJCF (before anything moves)."""
-    from mearm.sim.mjcf import save_mjcf
+    from mearm.sim.twin.mjcf import save_mjcf
 
     if scene is not None:
         config = config.model_copy(

@@ -11,7 +11,7 @@ from badinput import check_bad_input
 from conftest import ROOT
 
 from mearm.config import load_config
-from mearm.sim.twin_camera import twin_camera_model
+from mearm.sim.twin.twin_camera import twin_camera_model
 from mearm.task.armcheck import fit_planar_rigid, refine_extrinsics
 from mearm.vision.pinhole import Extrinsics, Intrinsics, load_calibration, save_calibration
 

@@ -15,10 +15,10 @@ from mearm.ik import IKTarget
 from mearm.kinematics import ArmModel
 from mearm.kinematics.bodies import bin_shapes
 from mearm.kinematics.collision import TOUCH_CM, CollisionModel
-from mearm.sim.mjcf import twin_model
-from mearm.sim.servo_bus import SimArm
-from mearm.sim.twin_bus import TwinArm
-from mearm.sim.world import World
+from mearm.sim.kinematic.servo_bus import SimArm
+from mearm.sim.kinematic.world import World
+from mearm.sim.twin.mjcf import twin_model
+from mearm.sim.twin.twin_bus import TwinArm
 from mearm.task.plan import Planner
 from mearm.task.route import Route
 

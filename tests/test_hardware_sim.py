@@ -19,7 +19,7 @@ from mearm.exceptions import (
 from mearm.hardware import ArmCommand
 from mearm.kinematics import ArmModel, closed_form_for
 from mearm.sim import SimArm, World, WorldObject
-from mearm.sim.servo_bus import (
+from mearm.sim.kinematic.servo_bus import (
     ee_from_joints_cm,
     quantization_ee_error_cm,
     random_reachable_joints,

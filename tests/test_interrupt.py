@@ -18,7 +18,7 @@ import pytest
 
 from mearm.config import Config
 from mearm.runlog import read_runlog
-from mearm.sim import servo_bus
+from mearm.sim.kinematic import servo_bus
 from mearm.sort import main as sort_main
 
 RUNS = 50

@@ -148,12 +148,31 @@ def test_no_module_imports_a_higher_layer():
     assert up == []
 
 
+def test_each_simulator_stands_alone():
+    """The kinematic simulator and the twin import nothing of each other (their one shared
+    error aside); the virtual Uno drives the kinematic arm and nothing of the twin."""
+    kinds = {"mearm.sim.kinematic": (), "mearm.sim.twin": (),
+             "mearm.sim.virtual_uno": ("mearm.sim.kinematic",)}  # fmt: skip
+    crossing = sorted(
+        f"{a} -> {b}"
+        for kind, allowed in kinds.items()
+        for a, targets in GRAPH.items()
+        if a == kind or a.startswith(kind + ".")
+        for b in targets
+        if b.startswith("mearm.sim.")
+        and b != "mearm.sim.errors"
+        and not (b == kind or b.startswith(kind + "."))
+        and not any(b == k or b.startswith(k + ".") for k in allowed)
+    )
+    assert crossing == []
+
+
 def test_a_backend_kind_of_ones_own_sorts_without_touching_the_package(monkeypatch):
     """A toy servo bus registered here is what the rig opens; the sort runs on it."""
     from mearm import backends  # noqa: PLC0415
     from mearm.backends import bus_kinds, open_bus, register_bus  # noqa: PLC0415
     from mearm.config import Config, SceneObject  # noqa: PLC0415
-    from mearm.sim.servo_bus import SimArm  # noqa: PLC0415
+    from mearm.sim.kinematic.servo_bus import SimArm  # noqa: PLC0415
     from mearm.task import Sorter, open_rig  # noqa: PLC0415
 
     class ToyBus(SimArm):
@@ -186,8 +205,8 @@ def test_a_simulator_of_ones_own_is_what_the_rig_opens(monkeypatch):
     from mearm import backends  # noqa: PLC0415
     from mearm.backends import RigParts, register_simulator, simulator_kinds  # noqa: PLC0415
     from mearm.config import Config, SceneObject  # noqa: PLC0415
-    from mearm.sim.servo_bus import SimArm  # noqa: PLC0415
-    from mearm.sim.table_camera import SimCamera  # noqa: PLC0415
+    from mearm.sim.kinematic.servo_bus import SimArm  # noqa: PLC0415
+    from mearm.sim.kinematic.table_camera import SimCamera  # noqa: PLC0415
     from mearm.task import Sorter, open_rig  # noqa: PLC0415
 
     closed = []

@@ -16,7 +16,7 @@ from mearm.ik.mink_solver import mujoco_model
 from mearm.kinematics import ArmModel
 from mearm.kinematics.urdf import jaw_joint_names
 from mearm.sim import World
-from mearm.sim.mjcf import (
+from mearm.sim.twin.mjcf import (
     GRIPPER_SERVO,
     GRIPPER_SERVO_TEXT,
     JOINT_SERVO_TEXT,

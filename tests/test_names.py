@@ -1,6 +1,6 @@
 """One name, one meaning: no two modules of the package share a name, nor two classes.
 
-``mearm.config.twin_camera`` beside ``mearm.sim.twin_camera`` (the camera's settings and
+``mearm.config.twin_camera`` beside ``mearm.sim.twin.twin_camera`` (the camera's settings and
 the camera), or two ``Outcome`` classes (a sort's counts and an IK recovery's result),
 make a reader open the file to learn which one an import means.
 """

@@ -236,7 +236,7 @@ def test_a_plan_past_a_combined_servos_pulse_range_is_refused_and_not_sent(monke
     whose forearm would need a pulse past the servo's range is refused (``limit``, the
     servo named) before anything moves, and the sort goes on without it."""
     from mearm.hardware.mapping import ServoMap
-    from mearm.sim.servo_bus import SimArm
+    from mearm.sim.kinematic.servo_bus import SimArm
     from mearm.task.rig import run_sort
 
     config = load_config(ROOT / "configs" / "sim_mearm_v1.yaml")

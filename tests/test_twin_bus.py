@@ -22,7 +22,9 @@ from mearm.exceptions import (
 from mearm.hardware.bus import ArmCommand
 from mearm.ik import IKTarget
 from mearm.kinematics import ArmModel
-from mearm.sim.mjcf import (
+from mearm.sim.kinematic.servo_bus import SimArm
+from mearm.sim.kinematic.world import World
+from mearm.sim.twin.mjcf import (
     JOINT_SERVO_TEXT,
     M_PER_CM,
     MG90S,
@@ -31,9 +33,7 @@ from mearm.sim.mjcf import (
     generate_mjcf,
     twin_model,
 )
-from mearm.sim.servo_bus import SimArm
-from mearm.sim.twin_bus import ARRIVED_SHAFT_DEG, BACKLASH_DEG, TwinArm
-from mearm.sim.world import World
+from mearm.sim.twin.twin_bus import ARRIVED_SHAFT_DEG, BACKLASH_DEG, TwinArm
 from mearm.task.plan import RETRY_LIFT_CM, Planner
 
 #: Settling time after the last command of a route [s].

@@ -13,13 +13,13 @@ from badinput import ROOT, check_bad_input, run_in_process
 from mearm.config import load_config
 from mearm.config.twin_camera_config import TwinCameraConfig
 from mearm.exceptions import CalibrationError
-from mearm.sim.calibration_scenes import (
+from mearm.sim.twin.calibration_scenes import (
     board_poses,
     default_sheet_layout,
     render_board_views,
     render_sheet,
 )
-from mearm.sim.twin_camera import _lens_maps, camera_pose, twin_camera_model
+from mearm.sim.twin.twin_camera import _lens_maps, camera_pose, twin_camera_model
 from mearm.vision.aruco import detect_markers, diagonal_center, table_corners_cm
 from mearm.vision.calibration import Calibration
 from mearm.vision.charuco import DEFAULT_BOARD

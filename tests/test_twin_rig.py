@@ -86,7 +86,7 @@ def test_the_scene_is_sorted_physically(capsys, tmp_path, name, n):
     grasped, carried and resting in its class's bin in the physics; the run says so and
     exits 0."""
     from mearm.runlog import read_runlog
-    from mearm.sim import twin_bus
+    from mearm.sim.twin import twin_bus
     from mearm.sort import main
 
     arms: list[twin_bus.TwinArm] = []

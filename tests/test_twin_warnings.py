@@ -6,7 +6,7 @@ import logging
 
 import mujoco
 
-import mearm.sim.twin_bus  # noqa: F401  (installs the handler)
+import mearm.sim.twin.twin_bus  # noqa: F401  (installs the handler)
 
 
 def test_a_mujoco_warning_is_logged_not_written_to_the_cwd(tmp_path, monkeypatch, caplog):
@@ -16,7 +16,7 @@ def test_a_mujoco_warning_is_logged_not_written_to_the_cwd(tmp_path, monkeypatch
     )
     d = mujoco.MjData(m)
     d.qpos[0] = float("nan")
-    with caplog.at_level(logging.WARNING, logger="mearm.sim.twin_bus"):
+    with caplog.at_level(logging.WARNING, logger="mearm.sim.twin.twin_bus"):
         mujoco.mj_step(m, d)
     assert any("MuJoCo: Nan, Inf or huge value in QPOS" in r.message for r in caplog.records)
     assert not (tmp_path / "MUJOCO_LOG.TXT").exists()

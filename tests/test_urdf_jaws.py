@@ -14,8 +14,8 @@ from conftest import ROOT
 from mearm.config import Config, load_config
 from mearm.kinematics import ArmModel, generate_urdf, jaw_joint_names
 from mearm.kinematics.urdf import JAW_PAD_LENGTH_M, jaw_pad_length_m, jaw_span_m
-from mearm.sim import mjcf
-from mearm.sim.mjcf import twin_model
+from mearm.sim.twin import mjcf
+from mearm.sim.twin.mjcf import twin_model
 
 CONFIGS = (
     "sim.yaml",

@@ -20,7 +20,12 @@ from mearm.config import (
 )
 from mearm.exceptions import ImageError
 from mearm.sim import Disc, SimCamera, TableRenderer, World, class_bgr, class_discs
-from mearm.sim.vision_scenes import BASE_OPTIONS, CONDITIONS, distractors, match_detections
+from mearm.sim.kinematic.vision_scenes import (
+    BASE_OPTIONS,
+    CONDITIONS,
+    distractors,
+    match_detections,
+)
 from mearm.vision import Calibration, ColorDetector, Detection
 from mearm.vision.detector import STACKED_BOX_PX
 from mearm.vision.paper_recipe import detect_reference

@@ -16,7 +16,7 @@ CLASSES = CONFIG.task.classes
 CAL = Calibration.from_config(CONFIG.calibration)
 RENDERER = TableRenderer(CAL)
 DETECTOR = ColorDetector(CONFIG.vision, CAL, CLASSES)
-CAMERA_HEIGHT_CM = 52.0  # the twin's camera (mearm.sim.mjcf.CAMERA_HEIGHT_M)
+CAMERA_HEIGHT_CM = 52.0  # the twin's camera (mearm.sim.twin.mjcf.CAMERA_HEIGHT_M)
 
 
 def _place(seed: int) -> tuple[str, float, float, np.random.Generator]:

@@ -103,8 +103,8 @@ def test_sim_package_exports():
     assert sorted(mearm.sim.__all__) == sorted(set(mearm.sim.__all__))
     for name in sorted(set(mearm.sim.__all__) - lazy):
         assert getattr(mearm.sim, name) is not None, name
-    if importlib.util.find_spec("mearm.sim.servo_bus") is None:
-        with pytest.raises(ModuleNotFoundError, match="mearm.sim.servo_bus"):
+    if importlib.util.find_spec("mearm.sim.kinematic.servo_bus") is None:
+        with pytest.raises(ModuleNotFoundError, match="mearm.sim.kinematic.servo_bus"):
             mearm.sim.SimArm  # noqa: B018
     else:
         for name in sorted(lazy):

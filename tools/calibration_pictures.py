@@ -3,7 +3,7 @@ r"""Regenerate the pictures of the camera calibration walkthrough (docs/calibrat
     python tools/calibration_pictures.py [--config configs/sim_mujoco_perspective.yaml] \\
         [--out docs/images]
 
-Everything is the physical twin's (simulated; ``mearm.sim.calibration_scenes``), seeded,
+Everything is the physical twin's (simulated; ``mearm.sim.twin.calibration_scenes``), seeded,
 with the twin's sensor noise of 2 levels:
 
 - ``calibration_board.png``: the printed ChArUco page (``mearm charuco-board``), downscaled;
@@ -87,7 +87,7 @@ def _tool(name: str):  # noqa: ANN202
 
 def board_views(config: Config, out: Path):  # noqa: ANN201
     """Render the views, draw the found corners on six, fit the intrinsics; return them."""
-    from mearm.sim.calibration_scenes import render_board_views
+    from mearm.sim.twin.calibration_scenes import render_board_views
     from mearm.vision.charuco import DEFAULT_BOARD, MIN_CORNERS, BoardView, detect_board, fit_views
 
     frames = render_board_views(config, VIEWS, 0, noise_std=NOISE)
@@ -123,7 +123,7 @@ def board_views(config: Config, out: Path):  # noqa: ANN201
 
 def sheet_picture(config: Config, intrinsics, out: Path):  # noqa: ANN001, ANN201
     """Render the marker sheet, draw the markers found, fit the pose; return the camera."""
-    from mearm.sim.calibration_scenes import SHEET_SIDE_CM, default_sheet_layout, render_sheet
+    from mearm.sim.twin.calibration_scenes import SHEET_SIDE_CM, default_sheet_layout, render_sheet
     from mearm.vision.aruco import detect_markers, diagonal_center, table_corners_cm
     from mearm.vision.pinhole import PerspectiveCamera, solve_pose
 
@@ -151,8 +151,8 @@ def sheet_picture(config: Config, intrinsics, out: Path):  # noqa: ANN001, ANN20
 def objects_pictures(config: Config, camera, layout, out: Path) -> None:  # noqa: ANN001
     """The object scene, annotated; and the close-up of the worst paper error."""
     from mearm.detect import annotate, to_records
-    from mearm.sim.calibration_scenes import SHEET_SIDE_CM, render_objects, render_sheet
-    from mearm.sim.mjcf import object_ids
+    from mearm.sim.twin.calibration_scenes import SHEET_SIDE_CM, render_objects, render_sheet
+    from mearm.sim.twin.mjcf import object_ids
     from mearm.vision.aruco import calibration_from_markers
     from mearm.vision.detector import ColorDetector
 

@@ -1,8 +1,8 @@
 """Hobby servos' datasheet facts, with their sources: what the physical twin models.
 
 A config names a servo model by its :attr:`ServoSpec.name` (``twin.joint_servo``,
-``twin.gripper_servo``); :mod:`mearm.sim.mjcf` turns the facts into MuJoCo actuators and
-:mod:`mearm.sim.twin_bus` into the servo bus's dead band and speed limit. Plain data: it
+``twin.gripper_servo``); :mod:`mearm.sim.twin.mjcf` turns the facts into MuJoCo actuators and
+:mod:`mearm.sim.twin.twin_bus` into the servo bus's dead band and speed limit. Plain data: it
 imports nothing heavier than the standard library.
 """
 

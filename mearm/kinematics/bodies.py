@@ -1,6 +1,6 @@
 """The arm's body and the table's, as primitive shapes: one description for physics and plans.
 
-Both the physical twin's MJCF (:mod:`mearm.sim.mjcf`) and the collision model the planner
+Both the physical twin's MJCF (:mod:`mearm.sim.twin.mjcf`) and the collision model the planner
 checks every route against (:mod:`mearm.kinematics.collision`) are built from the shapes
 here, so what the plan avoids is what the physics would touch. Nothing here imports
 MuJoCo or Pinocchio: a shape is a box or a cylinder (half-sizes, MuJoCo's convention, in

@@ -1,6 +1,6 @@
 r"""The arm's chain as a MuJoCo model (:class:`mujoco.MjSpec`): one builder for every user.
 
-The physical twin (:mod:`mearm.sim.mjcf`) dresses this chain in shapes, servos, jaws and
+The physical twin (:mod:`mearm.sim.twin.mjcf`) dresses this chain in shapes, servos, jaws and
 a scene; the mink cross-check (:mod:`mearm.ik.mink_solver`) solves on it bare. Both start
 here, from the arm description, so their joints, frames and TCP are one construction.
 

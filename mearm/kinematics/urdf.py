@@ -11,7 +11,7 @@ form a reader can parse (``mearm:coupling``); the solvers impose it. The gripper
 jaws are real prismatic joints on the ``tcp`` link, the second a ``mimic`` of the first.
 Lengths are written in metres and angles in radians, as URDF requires.
 
-The jaws are drawn where the physical twin (:mod:`mearm.sim.mjcf`) has them, where the
+The jaws are drawn where the physical twin (:mod:`mearm.sim.twin.mjcf`) has them, where the
 grasp happens: along the tool's approach axis the grip point is ``tcp_above_grip_cm``
 beyond the TCP; a jaw, ``jaw_length_cm`` long from root to tip, ends in a pad
 (:func:`jaw_pad_length_m` long) centred on the grip point, so its tip is half a pad
@@ -137,7 +137,7 @@ def jaw_frame(arm: ArmDescription) -> np.ndarray:
     along a line that is level with the arm at home (a claw pointing forward and level
     opens sideways, not up and down); with the approach axis vertical at home every axis
     across it is level, and the first of the TCP frame's y and x made perpendicular to
-    the approach axis is taken. The physical twin (:mod:`mearm.sim.mjcf`) uses the same.
+    the approach axis is taken. The physical twin (:mod:`mearm.sim.twin.mjcf`) uses the same.
     """
     approach = np.asarray(arm.tool.approach_axis, dtype=float)
     approach = approach / np.linalg.norm(approach)

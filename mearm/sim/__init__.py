@@ -1,9 +1,13 @@
-"""The simulator: everything that stands in for the real rig behind the same interfaces.
+"""The simulators: everything that stands in for the real rig behind the same interfaces.
 
-- :class:`World`: the table's objects and the bins, shared by the parts below;
-- :class:`TableRenderer`: the camera's picture of the table, and :class:`SimCamera`, a
-  :class:`~mearm.vision.camera.Camera` that renders the world at every read;
-- :class:`SimArm`: the servo bus over the world (``mearm.sim.servo_bus``).
+One subpackage or module per kind, each opened by :mod:`mearm.backends`:
+
+- :mod:`mearm.sim.kinematic`: the kinematic simulator (``simulator: kinematic``): a
+  :class:`World` of objects and bins, its picture (:class:`TableRenderer`,
+  :class:`SimCamera`) and the servo bus over it (:class:`SimArm`), re-exported here;
+- :mod:`mearm.sim.twin`: the physical twin in MuJoCo (``simulator: mujoco``);
+- :mod:`mearm.sim.virtual_uno`: the project's firmware in simavr driving the kinematic
+  arm (``servo.backend: virtual_uno``).
 
 The simulator sits above vision and hardware: it may import them, they never import it
 (:mod:`mearm.backends`, above all three, opens the simulated kinds).
@@ -12,7 +16,7 @@ The simulator sits above vision and hardware: it may import them, they never imp
 from __future__ import annotations
 
 from mearm._lazy import lazy_exports
-from mearm.sim.renderer import (
+from mearm.sim.kinematic.renderer import (
     Disc,
     Extra,
     Highlight,
@@ -22,13 +26,13 @@ from mearm.sim.renderer import (
     class_bgr,
     class_discs,
 )
-from mearm.sim.table_camera import SimCamera
-from mearm.sim.world import World, WorldObject
+from mearm.sim.kinematic.table_camera import SimCamera
+from mearm.sim.kinematic.world import World, WorldObject
 
 # ---------------------------------------------------------------- simulated servo bus
-# ``mearm.sim.servo_bus`` (SimArm and its records) is imported on first access, so this
+# ``mearm.sim.kinematic.servo_bus`` (SimArm and its records) is imported on first access, so this
 # package imports without it and without loading the hardware layer.
-_SERVO_BUS = "mearm.sim.servo_bus"
+_SERVO_BUS = "mearm.sim.kinematic.servo_bus"
 _LAZY: dict[str, str] = {
     "GripResult": _SERVO_BUS,
     "ReleaseResult": _SERVO_BUS,

@@ -18,7 +18,7 @@ Three parts:
 
   solves the actuated joints from the joint servos' values (a servo may turn a
   combination of joints: :meth:`~mearm.hardware.ServoMap.joints_from_pulses`), moves the
-  simulated arm (:class:`~mearm.sim.servo_bus.SimArm`) there, and faults the
+  simulated arm (:class:`~mearm.sim.kinematic.servo_bus.SimArm`) there, and faults the
   move (:class:`~mearm.hardware.errors.MoveNotConfirmedError`) when a pulse is farther than
   ``servo.virtual_uno.pulse_tolerance_us`` from the one sent: a firmware with two
   channels swapped cannot pass for a working one.
@@ -70,8 +70,8 @@ from mearm.hardware.toolchain import (
     describe_missing,
 )
 from mearm.kinematics import ArmModel
-from mearm.sim.servo_bus import GripResult, ReleaseResult, SimArm
-from mearm.sim.world import World
+from mearm.sim.kinematic.servo_bus import GripResult, ReleaseResult, SimArm
+from mearm.sim.kinematic.world import World
 
 log = logging.getLogger(__name__)
 

@@ -8,7 +8,7 @@ its servos' travel and settling (:func:`mearm.task.timing.tool_move_s`). The exe
 both up in :attr:`Executor.motion`.
 
 The executor also keeps the view (if any) in step with the arm. On a bus that measures
-the world — the physical twin (:class:`mearm.sim.twin_bus.TwinArm`), recognised by its
+the world — the physical twin (:class:`mearm.sim.twin.twin_bus.TwinArm`), recognised by its
 ``object_pose``, ``actual_joints`` and ``opening_cm`` — it pushes what the physics has
 (:meth:`Executor.show_world`): the measured joints and jaw opening and every object's
 pose, so a carried object moves with the jaws and a dropped one lands in its bin. On

@@ -596,7 +596,7 @@ def collision_routes(
     Each entry: the route's joint path (checked, detoured where needed), the object the
     jaws close on (picks), the held object (places) and the objects on the table then.
     """
-    from mearm.sim.world import World  # noqa: PLC0415
+    from mearm.sim.kinematic.world import World  # noqa: PLC0415
     from mearm.task.plan import Planner  # noqa: PLC0415
     from mearm.task.route import Route  # noqa: PLC0415
 
@@ -820,8 +820,8 @@ def _timing_twin(into: TwinSort) -> Iterator[None]:
     """Time the twin's physics and its camera's rendering into ``into`` while open."""
     from unittest import mock  # noqa: PLC0415
 
-    from mearm.sim.twin_bus import TwinArm  # noqa: PLC0415
-    from mearm.sim.twin_camera import TwinCamera  # noqa: PLC0415
+    from mearm.sim.twin.twin_bus import TwinArm  # noqa: PLC0415
+    from mearm.sim.twin.twin_camera import TwinCamera  # noqa: PLC0415
 
     run_physics, read_frame = TwinArm._run, TwinCamera._read
 
@@ -868,7 +868,7 @@ def bare_step_seconds(config: Config, steps: int = BARE_STEPS) -> tuple[float, f
     """
     import mujoco  # noqa: PLC0415
 
-    from mearm.sim.twin_bus import TwinArm  # noqa: PLC0415
+    from mearm.sim.twin.twin_bus import TwinArm  # noqa: PLC0415
 
     twin = TwinArm(config)
     t0 = time.perf_counter()

@@ -116,8 +116,8 @@ def score(
     """Detect seeded scenes with the fitted calibration; errors per height."""
     from scipy.optimize import linear_sum_assignment
 
-    from mearm.sim.calibration_scenes import render_objects
-    from mearm.sim.mjcf import object_ids
+    from mearm.sim.twin.calibration_scenes import render_objects
+    from mearm.sim.twin.mjcf import object_ids
     from mearm.task.scene import random_scene
     from mearm.vision.detector import ColorDetector
     from mearm.vision.pinhole import PerspectiveCamera

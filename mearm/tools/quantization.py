@@ -35,7 +35,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.poses < 1:
         parser.error(f"--poses must be at least 1, got {args.poses}")
     config = config_from_args(args)
-    from mearm.sim.servo_bus import quantization_ee_error_cm  # noqa: PLC0415
+    from mearm.sim.kinematic.servo_bus import quantization_ee_error_cm  # noqa: PLC0415
 
     rows = {}
     for mode in MODES:

@@ -5,7 +5,7 @@ r"""Render calibration pictures from the physical twin's camera: ChArUco views a
 
 Writes ``OUT/board_00.png`` … (the default ChArUco board, 7 × 5 squares of 3 cm,
 DICT_5X5_100, held at ``--views`` seeded poses), ``OUT/sheet.png`` (4 cm DICT_4X4_50
-markers lying on the empty table, :func:`~mearm.sim.calibration_scenes.default_sheet_layout`)
+markers lying on the empty table, :func:`~mearm.sim.twin.calibration_scenes.default_sheet_layout`)
 and ``OUT/sheet_markers.txt`` (the ``--marker ID:X,Y`` arguments and ``--marker-side-cm``
 for the calibration tool). The frames go through the twin camera's lens
 (``twin.camera``; unset, the default straight-down camera).
@@ -93,7 +93,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     except OSError as exc:
         raise MearmError(f"cannot write into --out {args.out}: {exc.strerror or exc}") from None
 
-    from mearm.sim.calibration_scenes import (
+    from mearm.sim.twin.calibration_scenes import (
         SHEET_SIDE_CM,
         default_sheet_layout,
         render_board_views,

@@ -14,12 +14,12 @@ OpenCV's HSV, median, label) it times the detector on 12 and 40 objects laid on 
 (:func:`grid_scene`), and the cost of one more object (the slope from 12 to 40).
 
 It also reports the detector's accuracy on the standard scenes
-(:mod:`mearm.sim.vision_scenes`): every condition, with and without distractors, several
+(:mod:`mearm.sim.kinematic.vision_scenes`): every condition, with and without distractors, several
 noise seeds — how many scenes gave exactly the 12 objects with the right classes, and
 the worst and mean position error; and how well calibrations recover the rig
 (:func:`run_calibration_study`).
 
-Scenes are drawn by the simulator's renderer (:mod:`mearm.sim.renderer`); this script
+Scenes are drawn by the simulator's renderer (:mod:`mearm.sim.kinematic.renderer`); this script
 sits on top of both layers and imports it where it draws.
 """
 
@@ -36,7 +36,12 @@ import numpy as np
 
 from mearm.cli import ArgumentParser, run
 from mearm.config import ColorClass, Config, VisionConfig
-from mearm.sim.vision_scenes import BASE_OPTIONS, CONDITIONS, distractors, match_detections
+from mearm.sim.kinematic.vision_scenes import (
+    BASE_OPTIONS,
+    CONDITIONS,
+    distractors,
+    match_detections,
+)
 from mearm.vision.calibration import Calibration
 from mearm.vision.detector import ColorDetector, Detection
 from mearm.vision.paper_recipe import detect_reference
@@ -63,7 +68,7 @@ def run_vision_bench(repeat: int = 50) -> list[dict]:
         repeat: Rounds; each round times every contender once (the OpenCV detector
             ten times, to resolve its short time).
     """
-    from mearm.sim.renderer import TableRenderer, class_discs
+    from mearm.sim.kinematic.renderer import TableRenderer, class_discs
 
     config = Config()  # the simulated rig: 640×480, paper calibration, default classes
     classes = config.task.classes
@@ -197,7 +202,7 @@ def run_detection_peers(repeat: int = 50, counts: Sequence[int] = PEER_COUNTS) -
     smallest and the largest count [µs/object]. The sim rig's camera (wood, noise),
     calibration and classes.
     """
-    from mearm.sim.renderer import TableRenderer, class_discs
+    from mearm.sim.kinematic.renderer import TableRenderer, class_discs
 
     config = Config()
     classes = config.task.classes
@@ -256,7 +261,7 @@ def run_detection_peers(repeat: int = 50, counts: Sequence[int] = PEER_COUNTS) -
 
 def run_vision_accuracy(seeds: int = 3) -> list[dict]:
     """Accuracy rows on the standard scenes (sim rig, default classes)."""
-    from mearm.sim.renderer import TableRenderer, class_discs
+    from mearm.sim.kinematic.renderer import TableRenderer, class_discs
 
     config = Config()
     calibration = Calibration.from_config(config.calibration)
@@ -297,7 +302,7 @@ def run_calibration_study(draws: int = 200) -> list[dict]:
     from a tilted camera: the worst error over the field using the 4 centres, and the
     centres plus the 16 corners.
     """
-    from mearm.sim.renderer import TableRenderer
+    from mearm.sim.kinematic.renderer import TableRenderer
     from mearm.vision.aruco import calibration_from_markers, draw_marker_on_table
 
     lab = Calibration.from_config(Config().calibration)

@@ -5,7 +5,7 @@ Everything is keyed by colour class (``task.classes``): build a detector with
 ``ColorDetector.from_config(config)``. The simulated camera lives in :mod:`mearm.sim`.
 
 ``mearm.vision.paper_recipe`` (the plain NumPy/SciPy recipe) needs SciPy and is not imported
-here (the rendered test scenes and the benchmark are ``mearm.sim.vision_scenes`` and
+here (the rendered test scenes and the benchmark are ``mearm.sim.kinematic.vision_scenes`` and
 ``mearm.tools.vision_bench``, above); the ArUco markers (:mod:`mearm.vision.aruco`), which only
 calibration needs, are imported on first use.
 """

@@ -15,13 +15,9 @@ import math
 from dataclasses import dataclass, field
 
 from mearm.config import Config, SceneObject
-from mearm.errors import MearmError
+from mearm.sim.errors import WorldError
 
 Vector3 = tuple[float, float, float]
-
-
-class WorldError(MearmError):
-    """An impossible change of the simulated world, e.g. releasing when nothing is held."""
 
 
 @dataclass

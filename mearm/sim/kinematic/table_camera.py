@@ -11,8 +11,8 @@ from collections.abc import Sequence
 import numpy as np
 
 from mearm.config import Config
-from mearm.sim.renderer import Disc, Extra, TableRenderer
-from mearm.sim.world import World
+from mearm.sim.kinematic.renderer import Disc, Extra, TableRenderer
+from mearm.sim.kinematic.world import World
 from mearm.vision.calibration import Calibration
 from mearm.vision.camera import Camera
 from mearm.vision.errors import CameraError
@@ -22,7 +22,7 @@ class SimCamera(Camera):
     """The simulated camera: renders the objects on the world's table at every read.
 
     The renderer redraws the table only when the objects on it changed; each read has
-    fresh sensor noise (see :class:`~mearm.sim.renderer.TableRenderer`). Each object is
+    fresh sensor noise (see :class:`~mearm.sim.kinematic.renderer.TableRenderer`). Each object is
     a disc of its class's ``draw_rgb`` and ``diameter_cm`` (``task.classes``).
 
     Args:
@@ -30,7 +30,7 @@ class SimCamera(Camera):
             ``calibration`` (objects are drawn through its inverse) and ``task.classes``.
         world: The table; its current ``table_objects()`` are drawn (held objects and
             objects in bins are not).
-        extras: Distractors drawn in every frame (see :mod:`mearm.sim.renderer`).
+        extras: Distractors drawn in every frame (see :mod:`mearm.sim.kinematic.renderer`).
     """
 
     def __init__(self, config: Config, world: World, extras: Sequence[Extra] = ()):

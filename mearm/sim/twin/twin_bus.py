@@ -2,15 +2,15 @@ r"""The physical twin's servo bus: the real bus's pulses drive hobby-servo model
 
 :class:`TwinArm` takes the same checked, whole-µs pulses a serial backend sends
 (:meth:`~mearm.hardware.bus.ServoBus.move`) and runs the twin's physics
-(:func:`~mearm.sim.mjcf.twin_model`) for one command period per move. Each actuator —
+(:func:`~mearm.sim.twin.mjcf.twin_model`) for one command period per move. Each actuator —
 every actuated joint and the gripper — is a :class:`ServoModel` built from its
-:class:`~mearm.sim.mjcf.ServoSpec` datasheet facts and its pulse calibration:
+:class:`~mearm.sim.twin.mjcf.ServoSpec` datasheet facts and its pulse calibration:
 
 1. **quantisation** — the pulse p is mapped back through the actuator's calibration,
    :math:`v = (p - p_0)/(s\,k)`, so the bus's 1 µs step is the finest command there is;
    v is the servo's value: its joint's, or for a servo that turns a combination of
    joints (the MeArm's elbow servo: shoulder + elbow) that combination, which the MJCF's
-   actuator drives through a fixed tendon (:mod:`mearm.sim.mjcf`);
+   actuator drives through a fixed tendon (:mod:`mearm.sim.twin.mjcf`);
 2. **dead band** — a servo ignores a target within ``deadband_us`` / ``us_per_unit`` of
    where its potentiometer (the joint's measured position, or the combination of the
    joints it turns; the jaws' opening) says it is, and keeps driving to the target it
@@ -18,7 +18,7 @@ every actuated joint and the gripper — is a :class:`ServoModel` built from its
 3. **speed limit** — the motor's setpoint :math:`x` moves toward the accepted target at
    most at the no-load speed, :math:`|\dot x| \le \omega_0` (``speed_rad_s``; a
    prismatic joint and the jaws' opening turn it into a linear speed through
-   :data:`~mearm.sim.mjcf.SERVO_LEVER_M`), updated at every physics step;
+   :data:`~mearm.sim.twin.mjcf.SERVO_LEVER_M`), updated at every physics step;
 4. **backlash** — the setpoint the joint sees, :math:`y` (the actuator's ``ctrl``), follows
    :math:`x` through a play of width :math:`b`: :math:`y \leftarrow \mathrm{clip}(y,\;
    x - b/2,\; x + b/2)`, so it lags by up to b/2 after a reversal
@@ -53,7 +53,8 @@ from mearm.hardware.mapping import ActuatorMap, ServoMap
 from mearm.kinematics.chain import Chain
 from mearm.kinematics.errors import ModelError
 from mearm.kinematics.urdf import TCP_FRAME, jaw_joint_names
-from mearm.sim.mjcf import (
+from mearm.sim.errors import WorldError
+from mearm.sim.twin.mjcf import (
     GRIPPER_SERVO,
     GRIPPER_SERVO_TEXT,
     JOINT_SERVO_TEXT,
@@ -66,7 +67,6 @@ from mearm.sim.mjcf import (
     servo_tendon,
     twin_model,
 )
-from mearm.sim.world import WorldError
 
 log = logging.getLogger(__name__)
 
@@ -170,15 +170,15 @@ class TwinArm(ServoBus):
 
     Args:
         config: The whole configuration.
-        model: The twin's model (:func:`~mearm.sim.mjcf.twin_model` of ``config``);
+        model: The twin's model (:func:`~mearm.sim.twin.mjcf.twin_model` of ``config``);
             built if omitted.
         servo: The joints' servo; ``None`` takes the one the model records
-            (:data:`~mearm.sim.mjcf.JOINT_SERVO_TEXT`), looked up in
-            :data:`~mearm.sim.mjcf.SERVO_CATALOGUE`; for a model that records none, the
+            (:data:`~mearm.sim.twin.mjcf.JOINT_SERVO_TEXT`), looked up in
+            :data:`~mearm.sim.twin.mjcf.SERVO_CATALOGUE`; for a model that records none, the
             first catalogue servo with its actuator's stall torque and speed.
         gripper_servo: The gripper's servo; ``None`` takes the one the model records
-            (:data:`~mearm.sim.mjcf.GRIPPER_SERVO_TEXT`), else
-            :data:`~mearm.sim.mjcf.GRIPPER_SERVO`.
+            (:data:`~mearm.sim.twin.mjcf.GRIPPER_SERVO_TEXT`), else
+            :data:`~mearm.sim.twin.mjcf.GRIPPER_SERVO`.
         backlash_deg: Each servo's gear play [deg] (:data:`BACKLASH_DEG`).
 
     Attributes:

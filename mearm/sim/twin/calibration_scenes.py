@@ -4,7 +4,7 @@ What a person does to calibrate a real camera, done in the twin: hold a ChArUco 
 many poses in front of the camera (:func:`render_board_views`, for the intrinsics and the
 lens distortion), and lay ArUco markers flat on the table at measured places
 (:func:`render_sheet`, for the camera's pose). The frames go through the twin's lens
-(:class:`~mearm.sim.twin_camera.LensRenderer`), so they are what the calibration tools
+(:class:`~mearm.sim.twin.twin_camera.LensRenderer`), so they are what the calibration tools
 would get from a real camera that they know nothing about.
 
 Each picture is printed paper: a textured flat mesh whose texture coordinates are given
@@ -32,8 +32,8 @@ import numpy as np
 
 from mearm.config import Config
 from mearm.config.errors import CalibrationError
-from mearm.sim.mjcf import M_PER_CM, twin_spec
-from mearm.sim.twin_camera import CAMERA_NAME, LensRenderer, twin_camera_model
+from mearm.sim.twin.mjcf import M_PER_CM, twin_spec
+from mearm.sim.twin.twin_camera import CAMERA_NAME, LensRenderer, twin_camera_model
 from mearm.vision.aruco import DEFAULT_DICTIONARY, get_dictionary, marker_image
 from mearm.vision.charuco import DEFAULT_BOARD, BoardSpec, board_image
 

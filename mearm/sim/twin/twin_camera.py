@@ -7,7 +7,7 @@ the CPU; on Linux without a display ``MUJOCO_GL`` defaults to ``egl`` (Mesa), se
 MuJoCo is first imported (:mod:`mearm`).
 
 **Where the camera is** (:func:`camera_pose`): by default straight down from
-:data:`~mearm.sim.mjcf.CAMERA_HEIGHT_M` over the calibrated field's centre, yawed and
+:data:`~mearm.sim.twin.mjcf.CAMERA_HEIGHT_M` over the calibrated field's centre, yawed and
 with the field of view that make ``calibration.homography`` hold on the table; with
 ``twin.camera`` set (:class:`~mearm.config.twin_camera_config.TwinCameraConfig`), wherever that
 puts it, tilted, with any field of view.
@@ -44,7 +44,7 @@ import mujoco
 import numpy as np
 
 from mearm.config import Config
-from mearm.sim.twin_optics import (  # noqa: F401  (re-exported: where the camera is)
+from mearm.sim.twin.twin_optics import (  # noqa: F401  (re-exported: where the camera is)
     CAMERA_HEIGHT_M,
     M_PER_CM,
     CameraPose,
@@ -57,9 +57,9 @@ from mearm.vision.camera import Camera
 from mearm.vision.errors import CameraError
 
 if TYPE_CHECKING:
-    from mearm.sim.twin_bus import TwinArm
+    from mearm.sim.twin.twin_bus import TwinArm
 
-#: The camera's name in the twin's MJCF (:mod:`mearm.sim.mjcf`).
+#: The camera's name in the twin's MJCF (:mod:`mearm.sim.twin.mjcf`).
 CAMERA_NAME = "camera"
 #: The lens maps must invert the distortion to within this [px]; a stronger distortion
 #: folds over inside the frame and has no single inverse.

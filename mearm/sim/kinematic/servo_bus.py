@@ -38,7 +38,8 @@ from mearm.hardware.mapping import ActuatorMap, Quantization, ServoMap
 from mearm.kinematics import ArmModel, check_target, closed_form_for
 from mearm.kinematics.collision import CollisionModel
 from mearm.kinematics.errors import TargetError
-from mearm.sim.world import World, WorldError
+from mearm.sim.errors import WorldError
+from mearm.sim.kinematic.world import World
 
 log = logging.getLogger(__name__)
 

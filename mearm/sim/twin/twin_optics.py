@@ -4,7 +4,7 @@
 calibrated field's centre (yawed, with the field of view that make
 ``calibration.homography`` hold on the table), or wherever ``twin.camera`` says;
 :func:`twin_camera_model` is that camera in OpenCV's terms. Both the twin's MJCF
-(:mod:`mearm.sim.mjcf`) and its renderer (:mod:`mearm.sim.twin_camera`) read it.
+(:mod:`mearm.sim.twin.mjcf`) and its renderer (:mod:`mearm.sim.twin.twin_camera`) read it.
 """
 
 from __future__ import annotations
@@ -93,7 +93,7 @@ def camera_pose(config: Config) -> CameraPose:
     r"""Where the twin's camera stands, how it is turned and its field of view.
 
     Unconfigured (``twin.camera`` null): over the calibrated field's centre at
-    :data:`~mearm.sim.mjcf.CAMERA_HEIGHT_M`, yawed by the homography's yaw, with
+    :data:`~mearm.sim.twin.mjcf.CAMERA_HEIGHT_M`, yawed by the homography's yaw, with
     :math:`\mathrm{fovy} = 2\arctan(e/2h)` for the field's extent e along the image's v.
     Configured: the straight-down camera over ``target_cm`` at ``height_cm``, yawed by
     ``yaw_deg``, is tilted by ``tilt_deg`` about the horizontal axis across

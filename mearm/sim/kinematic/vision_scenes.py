@@ -3,7 +3,7 @@
 The default config's layout (the paper's 12 objects, paper §4) under each of
 :data:`CONDITIONS`, with or without :func:`distractors`, is what the tests and
 ``mearm vision-bench`` measure. The scenes are drawn by the simulator
-(:mod:`mearm.sim.renderer`), the layer above vision, which is imported only when a scene
+(:mod:`mearm.sim.kinematic.renderer`), the layer above vision, which is imported only when a scene
 is asked for.
 """
 
@@ -18,7 +18,7 @@ from mearm.vision.calibration import Calibration
 from mearm.vision.detector import Detection
 
 if TYPE_CHECKING:
-    from mearm.sim.renderer import Extra
+    from mearm.sim.kinematic.renderer import Extra
 
 
 def distractors() -> tuple[Extra, ...]:
@@ -28,7 +28,7 @@ def distractors() -> tuple[Extra, ...]:
     280°–20°), a sheet of paper, shadows over objects and highlights on the table and on
     an object (the paper's third object, at (−0.40, 42.01) cm).
     """
-    from mearm.sim.renderer import Disc, Highlight, Paper, Shadow
+    from mearm.sim.kinematic.renderer import Disc, Highlight, Paper, Shadow
 
     hue_54, hue_29, hue_288 = (40, 210, 230), (30, 130, 240), (150, 50, 130)  # BGR
     return (
