@@ -497,7 +497,7 @@ _DEPENDENT = (
 def test_a_bad_servo_combination_in_a_file_is_refused(edit, words, tmp_path: Path) -> None:
     """``mearm fk --config`` a MeArm v1 whose elbow servo's ``drives`` is bad: exit 2, one
     line naming the field, before anything is computed."""
-    text = (CONFIGS / "sim_mearm_v1.yaml").read_text(encoding="utf-8")
+    text = (CONFIGS / "arms" / "mearm_v1.yaml").read_text(encoding="utf-8")
     assert edit[0] in text
     bad = tmp_path / "bad.yaml"
     bad.write_text(text.replace(edit[0], edit[1]), encoding="utf-8")
