@@ -276,6 +276,15 @@ BAD_FILES: dict[str, tuple[str | bytes, str]] = {
     "huge_frame": ("camera: {width_px: 4096, height_px: 4096}\n", "4K UHD"),
     "even_median": ("vision: {median_kernel: 4}\n", "must be odd"),
     "no_joints": ("arm:\n  joints: []\n", "arm"),
+    "extends_itself": ("extends: extends_itself.yaml\n", "the configs extend each other"),
+    "extends_nothing": ("extends: nowhere.yaml\n", "'nowhere.yaml' is not a file"),
+    "extends_a_list": ("extends: [sim.yaml]\n", "extends: expected a config file's path"),
+    "unknown_arm": ("arm: {use: mearm_v9}\n", "known: desk_5dof, mearm_paper, mearm_v1"),
+    "arm_path_for_name": ("arm: {use: ../../etc/passwd}\n", "no reference arm named"),
+    "change_no_such_joint": (
+        "arm: {use: mearm_v1, joints: {knee: {home: 1}}}\n",
+        "arm.joints.knee: no item named 'knee'",
+    ),
 }
 
 
