@@ -276,6 +276,15 @@ BAD_FILES: dict[str, tuple[str | bytes, str]] = {
     "huge_frame": ("camera: {width_px: 4096, height_px: 4096}\n", "4K UHD"),
     "even_median": ("vision: {median_kernel: 4}\n", "must be odd"),
     "no_joints": ("arm:\n  joints: []\n", "arm"),
+    "extends_itself": ("extends: extends_itself.yaml\n", "the configs extend each other"),
+    "extends_nothing": ("extends: nowhere.yaml\n", "'nowhere.yaml' is not a file"),
+    "extends_a_list": ("extends: [sim.yaml]\n", "extends: expected a config file's path"),
+    "unknown_arm": ("arm: {use: mearm_v9}\n", "known: desk_5dof, mearm_paper, mearm_v1"),
+    "arm_path_for_name": ("arm: {use: ../../etc/passwd}\n", "no reference arm named"),
+    "change_no_such_joint": (
+        "arm: {use: mearm_v1, joints: {knee: {home: 1}}}\n",
+        "arm.joints.knee: no item named 'knee'",
+    ),
 }
 
 
@@ -497,7 +506,7 @@ _DEPENDENT = (
 def test_a_bad_servo_combination_in_a_file_is_refused(edit, words, tmp_path: Path) -> None:
     """``mearm fk --config`` a MeArm v1 whose elbow servo's ``drives`` is bad: exit 2, one
     line naming the field, before anything is computed."""
-    text = (CONFIGS / "sim_mearm_v1.yaml").read_text(encoding="utf-8")
+    text = (CONFIGS / "arms" / "mearm_v1.yaml").read_text(encoding="utf-8")
     assert edit[0] in text
     bad = tmp_path / "bad.yaml"
     bad.write_text(text.replace(edit[0], edit[1]), encoding="utf-8")

@@ -31,6 +31,9 @@ ROOT = Path(__file__).resolve().parent.parent
 LAB = Calibration.from_config(Config().calibration)
 TILTED = Calibration(LAB.H @ np.array([[1.0, 0.02, 0.0], [0.01, 1.0, 0.0], [1e-5, 2e-5, 1.0]]))
 MARKERS = {0: (-17.0, 56.0), 1: (16.0, 56.0), 2: (16.0, 32.0), 3: (-17.0, 32.0)}
+#: A config that writes out its calibration block, comments and all (lab.yaml takes
+#: sim.yaml's through extends).
+FULL_CONFIG = ROOT / "configs" / "sim.yaml"
 
 
 def load_tool(name: str):
@@ -108,7 +111,7 @@ def outside_calibration(text: str) -> list[str]:
 def test_points_rewrite_only_the_calibration(tmp_path: Path, capsys) -> None:
     """The file keeps every other line and comment; the new block loads and is right."""
     path = tmp_path / "lab.yaml"
-    original = (ROOT / "configs" / "lab.yaml").read_text()
+    original = FULL_CONFIG.read_text()
     path.write_text(original)
     truth = Calibration(LAB.H @ np.array([[1.0, 0.0, 2.0], [0.0, 1.0, -1.0], [0.0, 0.0, 1.0]]))
     pts = [f"{u},{v}:{float(x)!r},{float(y)!r}" for (u, v), (x, y) in zip(
@@ -278,7 +281,7 @@ def test_marker_sheet_rejects_what_does_not_fit(tmp_path: Path, capsys) -> None:
 def test_a_worse_homography_does_not_replace_a_better_one_without_force(tmp_path: Path) -> None:
     """The config records a 0.01 cm fit; a noisier one is refused (exit 2), --force takes it."""
     path = tmp_path / "lab.yaml"
-    original = (ROOT / "configs" / "lab.yaml").read_text()
+    original = FULL_CONFIG.read_text()
     path.write_text(original.replace("reprojection_error_cm: null", "reprojection_error_cm: 0.01"))
     before = path.read_bytes()
     corners = [[0, 0], [640, 0], [640, 480], [0, 480], [320, 240]]

@@ -556,6 +556,33 @@ def test_init_config_sim_is_the_reference_file_with_a_header(tmp_path):
     assert out.read_text().endswith((ROOT / "configs" / "sim.yaml").read_text())
 
 
+def test_init_config_names_the_arm_and_how_to_change_it(tmp_path):
+    """The header names the arm's file and shows a change that loads as written."""
+    out = tmp_path / "mine.yaml"
+    init_config.main(["--arm", "mearm_v1", "--rig", "ssc32", str(out)])
+    text = out.read_text()
+    assert "configs/arms/mearm_v1.yaml" in text and "  use: mearm_v1\n" in text
+    example = re.search(r"^#   (arm: .*)$", text, re.M)
+    assert example is not None
+    changed = tmp_path / "changed.yaml"
+    changed.write_text(text.replace("arm:\n  use: mearm_v1\n", example.group(1) + "\n"))
+    assert load_config(changed).arm.joints[1].dh.a_cm == 8.2
+
+
+@pytest.mark.parametrize("existing", ["sim_mearm_v1.yaml", None])
+def test_init_config_refuses_a_folder_where_its_extends_names_another_file(tmp_path, existing):
+    """The twin's starter config extends the packaged sim_mearm_v1.yaml: not beside a file
+    of that name, nor under that name itself (it would extend itself)."""
+    if existing:
+        (tmp_path / existing).write_text("# mine\n")
+    out = tmp_path / ("x.yaml" if existing else "sim_mearm_v1.yaml")
+    line = one_error_line(
+        run_tool("init_config", "--arm", "mearm_v1", "--rig", "sim_mujoco", str(out))
+    )
+    assert "extends the packaged sim_mearm_v1.yaml" in line and "another folder" in line
+    assert not out.exists() or out.read_text() == "# mine\n"
+
+
 def test_init_config_refuses_an_arm_with_more_servos_than_the_uno_drives(tmp_path):
     """desk_5dof has six servos, the Uno firmware five: exit 2 naming the way out."""
     out = tmp_path / "desk.yaml"

@@ -131,12 +131,13 @@ def installed(tmp_path_factory: pytest.TempPathFactory) -> Installed:
 
 
 def test_the_wheel_ships_the_data(installed: Installed) -> None:
-    """The wheel holds every config, calibration file, URDF and the firmware source."""
+    """The wheel holds every config, reference arm, calibration file, URDF and the firmware."""
     import zipfile
 
     names = set(zipfile.ZipFile(installed.wheel).namelist())
     for folder, pattern in (
         ("configs", "*.yaml"),
+        ("configs/arms", "*.yaml"),
         ("configs/calibration", "*.yaml"),
         ("robot_description", "*.urdf"),
     ):

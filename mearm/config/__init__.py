@@ -3,7 +3,9 @@
 The defaults of :class:`Config` *are* the simulated rig with the paper's arm
 (``configs/sim.yaml`` writes them out with comments). The arm (:class:`ArmDescription`)
 and the colour classes (:class:`ColorClass`) are data: any hobby arm and any set of
-classes is a config file, not code.
+classes is a config file, not code. Each reference arm is one file (``configs/arms/``)
+that configs name (``arm: {use: mearm_v1}``), and a config may build on another
+(``extends``), giving only what differs (:mod:`mearm.config.compose`).
 
 Loading is strict: unknown keys are rejected and each bad field is reported with its
 dotted path, the value given and what is allowed (:class:`~mearm.errors.ConfigError`).

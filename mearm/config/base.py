@@ -113,7 +113,8 @@ def describe_error(err: ErrorDetails) -> str:
     loc = loc_text(err["loc"]) or "(top level)"
     kind = err["type"]
     if kind == "extra_forbidden":
-        return f"{loc}: unknown key (check the spelling; configs/sim.yaml shows every key)"
+        where = "configs/arms/mearm_paper.yaml" if loc.startswith("arm.") else "configs/sim.yaml"
+        return f"{loc}: unknown key (check the spelling; {where} shows every key)"
     if kind == "missing":
         return f"{loc}: required but missing"
     msg = err["msg"]

@@ -1,97 +1,28 @@
 """The built-in defaults: the paper's arm, its three colour classes and its demo layout.
 
-These are the only places in the package that name the paper's joints or colours; every
-other module reads them from the config. ``configs/sim.yaml`` writes them out with their
-sources, and a test keeps the two equal.
+The arm is the reference arm ``mearm_paper`` (its file, ``configs/arms/mearm_paper.yaml``,
+is the one place its joints are written); the classes and the layout are here, the only
+place in the package that names the paper's colours. ``configs/sim.yaml`` writes the
+defaults out with their sources, and a test keeps the two equal.
 """
 
 from __future__ import annotations
 
-from mearm.config.arm import (
-    ArmDescription,
-    Coupling,
-    DHRow,
-    Gripper,
-    Joint,
-    JointServo,
-    ServoCalibration,
-    TargetBox,
-    Tool,
-    ToolActuator,
-)
-from mearm.config.base import Range
+from mearm.config.arm import ArmDescription
 from mearm.config.classes import ColorClass, HueBand
+from mearm.config.compose import reference_arm
+
+#: The built-in arm: the reference arm of this name (configs/arms/mearm_paper.yaml).
+DEFAULT_ARM = "mearm_paper"
 
 
 def paper_arm() -> ArmDescription:
-    """The paper's enlarged MeArm: base, shoulder, elbow and the parallelogram wrist."""
+    """The paper's enlarged MeArm: base, shoulder, elbow and the parallelogram wrist.
 
-    def servo(channel: int, zero_us: float) -> JointServo:
-        # An RDS3135: 0.15 s/60° at 6.8 V (datasheet no-load speed).
-        return JointServo(
-            channel=channel, zero_us=zero_us, us_per_unit=10.0, seconds_per_60deg=0.15
-        )
-
-    return ArmDescription(
-        name="mearm_paper",
-        joints=[
-            Joint(
-                name="base",
-                dh=DHRow(a_cm=3.0, alpha_deg=90.0, d_cm=17.5),
-                limits=Range(min=20, max=160),
-                home=120.0,
-                servo=servo(0, 600.0),
-            ),
-            Joint(
-                name="shoulder",
-                dh=DHRow(a_cm=22.3),
-                limits=Range(min=30, max=135),
-                home=93.0,
-                servo=servo(1, 600.0),
-            ),
-            Joint(
-                name="elbow",
-                dh=DHRow(a_cm=31.5),
-                limits=Range(min=-160, max=-20),
-                home=-132.0,
-                servo=servo(2, 2400.0),
-            ),
-            Joint(
-                name="wrist",
-                dh=DHRow(a_cm=14.0),
-                coupling=Coupling(terms={"shoulder": -1.0, "elbow": -1.0}),
-            ),
-        ],
-        tool=Tool(
-            tcp_above_grip_cm=11.26,
-            gripper=Gripper(
-                servo=ServoCalibration(
-                    channel=4,
-                    zero_us=2200.0,
-                    direction=-1,
-                    us_per_unit=300.0,
-                    seconds_per_60deg=0.17,  # an MG996R at 4.8 V
-                ),
-                open_cm=4.0,
-                closed_cm=1.0,
-                jaw_length_cm=4.0,
-            ),
-            actuators=[
-                ToolActuator(
-                    name="gripper_arm",
-                    servo=ServoCalibration(  # the same RDS3135, on the tool
-                        channel=3, zero_us=1500.0, us_per_unit=10.0, seconds_per_60deg=0.15
-                    ),
-                    limits=Range(min=-90, max=90),
-                    home=60.0,
-                    travel=30.0,
-                    grip=-60.0,
-                )
-            ],
-        ),
-        target_box=TargetBox(),
-        closed_form="planar_wrist",
-    )
+    Read from its file, ``configs/arms/mearm_paper.yaml`` (:data:`DEFAULT_ARM`), the one
+    description every config that names it shares.
+    """
+    return ArmDescription.model_validate(reference_arm(DEFAULT_ARM))
 
 
 def default_classes() -> list[ColorClass]:

@@ -1,6 +1,7 @@
 """Reading a config file: a path or a packaged name → YAML → :class:`Config`, files resolved.
 
-The mapping is validated by :func:`mearm.config.loader.config_from_dict`; the files a
+The mapping is validated by :func:`mearm.config.loader.config_from_dict` (with what it
+builds on, ``extends`` and ``arm.use``, merged in: :mod:`mearm.config.compose`); the files a
 config names (the servo calibration, the camera's calibration) are found relative to its
 folder, and the servo calibration file's fits replace the calibrations of the actuators
 it names (:mod:`mearm.config.servo_file`).
@@ -75,7 +76,7 @@ def load_config(path: str | Path | None = None, overrides: Sequence[str] = ()) -
             return Config()
         return config_from_dict({}, source="--set", overrides=overrides)
     path = resolve_config_path(path)
-    config = config_from_dict(read_yaml(path), source=str(path), overrides=overrides)
+    config = config_from_dict(read_yaml(path), source=str(path), overrides=overrides, path=path)
     return _resolve_files(config, path.parent, str(path))
 
 

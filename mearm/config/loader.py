@@ -1,6 +1,8 @@
-"""A config from a mapping: ``--set`` overrides → validated :class:`Config`.
+"""A config from a mapping: ``extends`` and ``arm.use`` → ``--set`` → validated :class:`Config`.
 
-Files are read by :mod:`mearm.config.files` (YAML text → mapping, then here).
+Files are read by :mod:`mearm.config.files` (YAML text → mapping, then here); what the
+mapping builds on (another config, a reference arm) is merged in first
+(:mod:`mearm.config.compose`).
 
 An override is ``dotted.key=value``: the path walks mappings by key and lists by index
 or, for lists of named items (joints, classes, tool actuators), by name —
@@ -14,11 +16,13 @@ from __future__ import annotations
 import copy
 import re
 from collections.abc import Sequence
+from pathlib import Path
 from typing import Any
 
 from pydantic import ValidationError
 
 from mearm.config.base import describe_error, short_repr
+from mearm.config.compose import expand_config
 from mearm.config.root import Config
 from mearm.errors import ConfigError
 from mearm.yamlio import MAX_YAML_DEPTH, load_yaml_text
@@ -120,9 +124,23 @@ def apply_overrides(
 
 
 def config_from_dict(
-    data: Any, *, source: str | None = None, overrides: Sequence[str] = ()
+    data: Any,
+    *,
+    source: str | None = None,
+    overrides: Sequence[str] = (),
+    path: Path | None = None,
 ) -> Config:
-    """Validate a mapping (with ``overrides`` applied first) into a :class:`Config`.
+    """Validate a mapping into a :class:`Config`.
+
+    Its ``extends`` and ``arm.use`` are resolved first
+    (:func:`~mearm.config.compose.expand_config`), then ``overrides`` applied.
+
+    Args:
+        data: The mapping, as read from a config file.
+        source: Where it came from, for messages.
+        overrides: ``dotted.key=value`` strings.
+        path: The file it was read from: its ``extends`` are relative to its folder
+            (``None``: to the current folder).
 
     Raises:
         ConfigError: one line per bad field.
@@ -131,6 +149,7 @@ def config_from_dict(
         data = {}
     if not isinstance(data, dict):
         raise ConfigError(source, [f"top level must be a mapping, got {type(data).__name__}"])
+    data = expand_config(data, source=source, path=path)
     if overrides:
         data = apply_overrides(data, overrides, _default_data())
     try:

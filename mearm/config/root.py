@@ -55,6 +55,8 @@ class Config(Strict):
     """The whole configuration. Its defaults are the simulated rig with the paper's arm."""
 
     arm: ArmDescription = Field(default_factory=paper_arm)
+    """The arm: written out, or a reference arm by name and what differs on this one
+    (``use: mearm_v1``: "Building on a config, naming an arm", above)."""
     camera: CameraConfig = CameraConfig()
     calibration: CalibrationConfig = CalibrationConfig()
     vision: VisionConfig = VisionConfig()

@@ -31,7 +31,10 @@ from pydantic import BaseModel
 from pydantic.fields import FieldInfo
 from pydantic_core import PydanticUndefined
 
+from mearm.config.arm import ArmDescription
+from mearm.config.defaults import DEFAULT_ARM
 from mearm.config.root import Config
+from mearm.data import arm_names
 
 #: Where the page lives in a checkout.
 DEFAULT_OUTPUT = Path("docs/configuration.md")
@@ -53,6 +56,39 @@ be set on the command line with `--set dotted.key=value` (list items by name or 
 
 Units are in the key's name or in brackets: cm, deg, µs, s, Hz, px; `[-]` is a pure
 number. "paper §n" refers to the sections of [the paper, restated](paper.md).
+
+## Building on a config, naming an arm
+
+A config may build on another config and give only what differs (`extends`), and take a
+reference arm by name instead of describing one (`arm.use`; each reference arm is one
+file in `configs/arms/`: {arm_names}):
+
+```yaml
+extends: sim.yaml           # a file, relative to this one; else a packaged config's name
+simulator: mujoco
+arm:
+  joints:
+    shoulder: {{servo: {{max_accel_deg_s2: 4000}}}}   # the joint named shoulder
+task:
+  classes:
+    red: {{grip_height_cm: null}}                   # the class named red
+```
+
+```yaml
+arm:
+  use: mearm_v1             # configs/arms/mearm_v1.yaml
+  joints:
+    base: {{dh: {{d_cm: 6.0}}}}   # measured on this kit
+```
+
+What a config gives merges over what it builds on: a mapping merges key by key, at every
+depth; a mapping over a list of named items (`arm.joints`, `arm.tool.actuators`,
+`task.classes`) changes the items it names; anything else replaces, so a list is replaced
+whole (write the list out to add, remove or reorder items) and a value or `null` replaces
+the value. `arm.use` starts the arm afresh from its file: what an extended config said
+of its arm is dropped. Relative file paths stay relative to the config that wrote them.
+A config that extends itself (or a loop of them), a missing file and an unknown arm are
+refused with one line naming it. The built-in arm is `{default_arm}`.
 """
 
 
@@ -307,6 +343,8 @@ def default_text(info: FieldInfo) -> str:
         return "*required*"
     else:
         value = info.default
+    if isinstance(value, ArmDescription):
+        return f"the reference arm `{value.name}` (configs/arms/{value.name}.yaml)"
     if isinstance(value, BaseModel) and not value.model_fields_set:
         return "each key's own"
     if isinstance(value, list) and value and isinstance(value[0], BaseModel):
@@ -387,7 +425,7 @@ def render(model: type[BaseModel] = Config) -> str:
     def link(model: type[BaseModel]) -> str:
         return f"[{model.__name__}](#{_anchor(where[model])})"
 
-    out = [_HEADER]
+    out = [_HEADER.format(arm_names=", ".join(arm_names()), default_arm=DEFAULT_ARM)]
     out.append("## Contents\n")
     for path, m, _ in sections:
         title = path or "top level"

@@ -1,4 +1,4 @@
-"""The data the package ships: the reference configs, their arms' URDFs, the firmware source.
+"""The data the package ships: the reference configs and arms, the arms' URDFs, the firmware.
 
 The project keeps them in its fixed top-level folders (``configs/``, ``robot_description/``,
 ``tools/arduino/``); this folder links to them (``configs``, ``robot_description``,
@@ -16,6 +16,9 @@ from pathlib import Path
 DATA_DIR = Path(__file__).parent
 #: The reference configs (``sim.yaml`` …) and their calibration files (``calibration/``).
 CONFIGS_DIR = DATA_DIR / "configs"
+#: The reference arms, one description per file (``mearm_paper.yaml`` …), that configs
+#: name with ``arm: {use: mearm_paper}`` (:mod:`mearm.config.compose`).
+ARMS_DIR = CONFIGS_DIR / "arms"
 #: The reference arms' URDFs (``mearm urdf`` writes them).
 URDF_DIR = DATA_DIR / "robot_description"
 #: The Uno's firmware source and its Makefile (``tools/arduino/`` of the checkout).
@@ -37,6 +40,21 @@ def packaged_config(name: str) -> Path | None:
     if not stem or "/" in stem or "\\" in stem or stem.startswith("."):
         return None
     path = CONFIGS_DIR / f"{stem}{CONFIG_SUFFIX}"
+    return path if path.is_file() else None
+
+
+def arm_names() -> list[str]:
+    """The names of the reference arms (``mearm_paper``, ``mearm_v1`` …), sorted."""
+    if not ARMS_DIR.is_dir():
+        return []
+    return sorted(p.stem for p in ARMS_DIR.glob(f"*{CONFIG_SUFFIX}") if p.is_file())
+
+
+def packaged_arm(name: str) -> Path | None:
+    """The file of the reference arm called ``name``, or ``None``."""
+    if not name or "/" in name or "\\" in name or name.startswith("."):
+        return None
+    path = ARMS_DIR / f"{name}{CONFIG_SUFFIX}"
     return path if path.is_file() else None
 
 
@@ -74,14 +92,17 @@ def source_checkout() -> Path | None:
 
 
 __all__ = [
+    "ARMS_DIR",
     "CONFIGS_DIR",
     "CONFIG_SUFFIX",
     "DATA_DIR",
     "FIRMWARE_DIR",
     "FIRMWARE_FILES",
     "URDF_DIR",
+    "arm_names",
     "config_names",
     "firmware_source_dir",
+    "packaged_arm",
     "packaged_config",
     "source_checkout",
 ]

@@ -1,8 +1,10 @@
 """``mearm init-config``: a starter config for one of the reference arms on your rig.
 
-Writes a commented YAML config to start from: the arm of a reference config (its joints,
-limits, servo calibration and the notes on where each number comes from) on the rig you
-choose, with the next steps to take written at the top. ::
+Writes a commented YAML config to start from: a reference config (its notes included) on
+the rig you choose, with the next steps to take written at the top. Its arm is a
+reference arm, named (``arm: {use: mearm_v1}``; its file, ``configs/arms/mearm_v1.yaml``,
+holds the joints, limits, servo calibration and where each number comes from): the
+header says how to change what differs on yours. ::
 
     mearm init-config --list
     mearm init-config --arm mearm_v1 --rig uno my_arm.yaml
@@ -12,7 +14,9 @@ The simulated rigs (``sim``, ``sim_mujoco``) write the reference config as it is
 rigs (``uno``, ``ssc32``) replace its servo link and camera with a real board and a USB
 camera; the pixel-to-table calibration is then the reference's and must be redone for
 your camera. The file is checked to load before it is written; an existing file is only
-replaced with ``--force``.
+replaced with ``--force``. A reference config that builds on another (``extends``) is
+copied with its ``extends``, which then names the packaged config: the starter config is
+not written into a folder where a file of that name would be read instead.
 """
 
 from __future__ import annotations
@@ -25,7 +29,8 @@ from pathlib import Path
 
 from mearm import __version__, data
 from mearm.cli import EXIT_OK, ArgumentParser, run, write_text_atomic
-from mearm.config import Config, config_from_dict
+from mearm.config import Config, config_from_dict, load_config
+from mearm.config.compose import EXTENDS_KEY
 from mearm.errors import ConfigError, MearmError
 from mearm.yamlio import load_yaml_text
 
@@ -143,7 +148,8 @@ servo:
   banner_timeout_s: 3.0     # opening the port resets the Uno: wait this long for its banner
   retries: 3                # resends of a command that failed its checksum
   # Each servo's channel and pulse calibration (zero_us, us_per_unit, direction) is with
-  # its joint in arm: the Uno's channels 0..4 are its pins D3, D5, D6, D9 and D10.
+  # its joint in the arm's description; mearm calibrate-servos measures them into a file
+  # (calibration_file). The Uno's channels 0..4 are its pins D3, D5, D6, D9 and D10.
 """
 
 _SSC32_SERVO = """\
@@ -155,7 +161,8 @@ servo:
   ack_timeout_s: 0.5        # every query waits this long for the board's answer
   retries: 3                # queries asked again after a lost, late or garbled answer
   # Each servo's channel (0..31) and pulse calibration (zero_us, us_per_unit, direction)
-  # is with its joint in arm.
+  # is with its joint in the arm's description; mearm calibrate-servos measures them into
+  # a file (calibration_file).
 """
 
 RIGS: dict[str, RigChoice] = {
@@ -267,7 +274,8 @@ def render_config(arm: ArmChoice, rig: RigChoice, config_name: str) -> str:
     blocks = split_blocks(text)
     if rig.name == "uno":
         _check_uno_channels(arm, text, source)
-    header = _header(arm, rig, source, config_name)
+    arm_name = load_config(folder / source).arm.name
+    header = _header(arm, rig, source, config_name, arm_name)
     replaced = {"servo": rig.servo_block, "camera": rig.camera_block} if rig.real else {}
     body: list[str] = []
     for block in blocks:
@@ -290,7 +298,7 @@ def render_config(arm: ArmChoice, rig: RigChoice, config_name: str) -> str:
     return header + "".join(body).rstrip("\n") + "\n"
 
 
-def _header(arm: ArmChoice, rig: RigChoice, source: str, config_name: str) -> str:
+def _header(arm: ArmChoice, rig: RigChoice, source: str, config_name: str, arm_name: str) -> str:
     steps = "".join(
         f"#   {n}. {step.format(config=config_name)}\n" for n, step in enumerate(rig.steps, 1)
     )
@@ -301,8 +309,12 @@ def _header(arm: ArmChoice, rig: RigChoice, source: str, config_name: str) -> st
         f"# Written by mearm init-config --arm {arm.name} --rig {rig.name} (mearm "
         f"{__version__}) from configs/{source}.\n"
         "# Every number is yours to change: measure your arm (link lengths, joint limits) and\n"
-        "# calibrate its servos. A key left out takes its default (configs/sim.yaml shows\n"
-        "# them all). Units: cm and degrees unless a key says otherwise.\n"
+        f"# calibrate its servos. The arm is the reference arm {arm_name}, by name; its file,\n"
+        f"# configs/arms/{arm_name}.yaml, says where each number comes from. Write what\n"
+        "# differs on yours under arm:, beside use:, a joint by its name, e.g.\n"
+        f"#   arm: {{use: {arm_name}, joints: {{shoulder: {{dh: {{a_cm: 8.2}}}}}}}}\n"
+        "# A key left out takes the value of the config this one extends, else its default\n"
+        "# (configs/sim.yaml shows them all). Units: cm and degrees unless a key says otherwise.\n"
         f"# Next steps:\n{steps}\n"
     )
 
@@ -326,14 +338,31 @@ def _servo_channels(config: Config) -> set[int]:
     return channels
 
 
-def check_rendered(text: str, name: str) -> Config:
-    """Validate the starter config's text as the loader will read it.
+def check_folder(text: str, out: Path) -> None:
+    """Refuse to write the starter config where its ``extends`` would name another file.
+
+    Raises:
+        MearmError: ``out``'s folder holds a file of the name it extends (or ``out`` is
+            that name), which would be read instead of the packaged config.
+    """
+    data = load_yaml_text(text, source=str(out))
+    name = data.get(EXTENDS_KEY) if isinstance(data, dict) else None
+    if isinstance(name, str) and (out.name == name or (out.parent / name).exists()):
+        raise MearmError(
+            f"{out}: the starter config extends the packaged {name}, but a file of that name "
+            f"in {out.parent} would be read instead: write it in another folder or name"
+        )
+
+
+def check_rendered(text: str, out: Path) -> Config:
+    """Validate the starter config's text as the loader will read it from ``out``.
 
     Raises:
         MearmError: it does not load (a bug in this module, not in the user's input).
     """
+    name = str(out)
     try:
-        return config_from_dict(load_yaml_text(text, source=name), source=name)
+        return config_from_dict(load_yaml_text(text, source=name), source=name, path=out)
     except ConfigError as exc:
         raise MearmError(f"the starter config would not load (please report this): {exc}") from None
 
@@ -378,7 +407,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         raise MearmError(f"{out} exists: pass --force to replace it")
     arm, rig = ARMS[args.arm], RIGS[args.rig]
     text = render_config(arm, rig, shlex.quote(str(out)))
-    check_rendered(text, str(out))
+    check_folder(text, out)
+    check_rendered(text, out)
     write_text_atomic(out, text)
     print(f"wrote {out}: the {arm.name} arm on the {rig.name} rig. Next:")
     for n, step in enumerate(rig.steps, 1):

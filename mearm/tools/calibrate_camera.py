@@ -155,7 +155,7 @@ def _dumped(y: YAML, data: CommentedMap, source: str) -> str:
     out = io.StringIO()
     y.dump(data, out)
     result = out.getvalue()
-    config_from_dict(load_yaml_text(result, source=source), source=source)
+    config_from_dict(load_yaml_text(result, source=source), source=source, path=Path(source))
     return result
 
 

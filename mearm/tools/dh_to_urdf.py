@@ -1,6 +1,6 @@
 """Write the URDF of an arm description (by default: every reference arm).
 
-    mearm urdf     # robot_description/<arm>.urdf for each reference config
+    mearm urdf     # robot_description/<arm>.urdf for each reference arm (configs/arms/)
     mearm urdf --config configs/lab.yaml [--output arm.urdf] [--set key=value ...]
 
 Without ``--output`` the file goes to ``robot_description/``: the checkout's, when mearm
@@ -15,12 +15,10 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from mearm.cli import ArgumentParser, add_config_argument, config_from_args, run, write_text_atomic
-from mearm.config import load_config
-from mearm.data import source_checkout
+from mearm.config import ArmDescription
+from mearm.config.compose import reference_arm
+from mearm.data import arm_names, source_checkout
 from mearm.kinematics import ArmModel, generate_urdf
-
-#: The reference configs (packaged names) whose arms' URDFs are kept in robot_description/.
-REFERENCE_CONFIGS = ("sim", "sim_mearm_v1", "sim_5dof")
 
 
 def output_folder() -> Path:
@@ -42,11 +40,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.config is None and not args.set:
         if args.output is not None:
             parser.error("--output needs --config (without it every reference arm is written)")
-        configs = [load_config(name) for name in REFERENCE_CONFIGS]
+        arms = [ArmDescription.model_validate(reference_arm(name)) for name in arm_names()]
     else:
-        configs = [config_from_args(args)]
-    for config in configs:
-        arm = config.arm
+        arms = [config_from_args(args).arm]
+    for arm in arms:
         ArmModel(arm)  # Pinocchio must accept what we write
         output = args.output or output_folder() / f"{arm.name}.urdf"
         write_text_atomic(output, generate_urdf(arm))
