@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 import numpy.typing as npt
@@ -45,13 +45,29 @@ def path_deviation_cm(ee_path_cm: npt.ArrayLike, target_cm: npt.ArrayLike) -> fl
     return float(np.linalg.norm(rel - lam[:, None] * seg, axis=1).max())
 
 
+#: The fields of a jump (:meth:`IKResult.jump`) made on first use, from its ``_jump``.
+_JUMP_FIELDS = frozenset(
+    {
+        "initial_error_cm",
+        "final_error_cm",
+        "target_cm",
+        "ee_cm",
+        "q_path",
+        "ee_path_cm",
+        "error_path_cm",
+    }
+)
+
+
 @dataclass(frozen=True, eq=False)  # arrays inside: compare fields, not records
 class IKResult:
-    """One solve from a start pose to a target.
+    """One solve from a start pose to a target: what every solver returns.
 
     Row ``k`` of each path is the state after ``k`` updates; row 0 is the start, the last
     row the result. Every row is a pose the arm may be commanded to: within the joint
-    limits and with every passive joint on its coupling.
+    limits and with every passive joint on its coupling. A solver that finds joints but
+    no way there (a closed form, Gauss–Newton) reports one update, a jump from the start
+    to the solution (:meth:`jump`): it says nothing about how the arm gets there.
 
     Attributes:
         status: ``converged`` (|e|² below the tolerance and, with an approach, the approach
@@ -166,6 +182,86 @@ class IKResult:
             search_iterations=search_iterations,
             failure=failure,
         )
+
+    @classmethod
+    def jump(
+        cls,
+        status: Status,
+        solver: str,
+        target_cm: tuple[float, float, float],
+        q: np.ndarray,
+        ee_cm: tuple[float, float, float],
+        q_start: np.ndarray,
+        ee_start_cm: tuple[float, float, float],
+        *,
+        joint_names: tuple[str, ...],
+        scale: np.ndarray,
+        search_iterations: int = 0,
+        failure: IKFailure | None = None,
+    ) -> IKResult:
+        """The record of a solve that found joints, not a path: one update, start → ``q``.
+
+        Args:
+            status: As the solver ended.
+            solver: Its name.
+            target_cm: The target [cm].
+            q: The solution, every joint, model units, (n,); the record's own (made
+                read-only): pass a fresh array.
+            ee_cm: The TCP at ``q`` [cm].
+            q_start: The start (n,), model units; read-only, shared is fine.
+            ee_start_cm: The TCP at the start [cm].
+            joint_names: The chain's joint names.
+            scale: Model units per config unit of each joint, read-only, (n,).
+            search_iterations: The solver's own updates, none of them in the path [-].
+            failure: Why it cannot be sent; given when not converged.
+
+        The fast solves return one of these per call, in about the time a closed form
+        takes: the record skips the dataclass ``__init__`` (its frozen ``setattr`` per
+        field costs as much as the solve) and makes its arrays on first use (then they
+        are kept). It reads like any other record.
+        """
+        q.setflags(write=False)
+        self = object.__new__(cls)
+        self.__dict__.update(
+            {
+                "status": status,
+                "solver": solver,
+                "iterations": 1,
+                "q": q,
+                "joint_names": joint_names,
+                "scale": scale,
+                "search_iterations": search_iterations,
+                "failure": failure,
+                "_jump": (target_cm, ee_cm, q_start, ee_start_cm),
+            }
+        )
+        return self
+
+    if not TYPE_CHECKING:  # seen by mypy, it would accept any attribute name
+
+        def __getattr__(self, name: str) -> Any:
+            # Only reached for a name not in the instance: a jump's arrays, made now.
+            jump = self.__dict__.get("_jump")
+            if jump is None or name not in _JUMP_FIELDS:
+                raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
+            target_cm, ee_cm, q_start, ee_start_cm = jump
+            target = _frozen(target_cm)
+            ee_path = _frozen((ee_start_cm, ee_cm))
+            diff = ee_path - target
+            errors = np.sqrt(np.einsum("ij,ij->i", diff, diff))
+            errors.flags.writeable = False
+            self.__dict__.update(
+                {
+                    "initial_error_cm": float(errors[0]),
+                    "final_error_cm": float(errors[-1]),
+                    "target_cm": target,
+                    "ee_cm": ee_path[-1],
+                    "q_path": _frozen((q_start, self.q)),
+                    "ee_path_cm": ee_path,
+                    "error_path_cm": errors,
+                }
+            )
+            return self.__dict__[name]
 
     @property
     def converged(self) -> bool:
