@@ -18,7 +18,8 @@ from mearm.exceptions import ModelError
 from mearm.ik.result import IKResult
 from mearm.ik.solver import APPROACH_TOLERANCE_DEG, IKSolver
 from mearm.ik.target import IKTarget
-from mearm.kinematics import ArmModel
+from mearm.kinematics import ArmModel, check_in_box
+from mearm.kinematics.closed_form import scalar_target_cm
 
 
 class AnalyticSolver(IKSolver):
@@ -43,17 +44,30 @@ class AnalyticSolver(IKSolver):
                 "the analytic solver cannot run: choose controller.solver 'pdpij' or 'mink' "
                 "(or NewtonIK, which fastest_solver() picks for such an arm)"
             )
-        self._closed_form_list = self._solve_closed_form
+        self._solve_closed_form_checked = self._solve_closed_form
 
     def solve(
         self, target: IKTarget | npt.ArrayLike, q_start: npt.ArrayLike | None = None
     ) -> IKResult:
-        """Jump from ``q_start`` to the closed form's joints for ``target`` (:class:`IKSolver`)."""
-        if isinstance(target, IKTarget) and target.approach is not None:
-            return self._solve_approach(target, q_start)
-        p = self.position_cm(target)
-        q = np.array(self._closed_form_list(p))  # within the limits, on the coupling
-        return self._jump("converged", p, q, p, q_start)
+        """Jump from ``q_start`` to the closed form's joints for ``target`` (:class:`IKSolver`).
+
+        The hot path of :func:`~mearm.ik.fastest_solver`: :meth:`position_cm` and
+        :meth:`_jump` written out, each call saved is a tenth of a solve.
+        """
+        if isinstance(target, IKTarget):
+            if target.approach is not None:
+                return self._solve_approach(target, q_start)
+            p = target.position_cm
+        else:
+            p = scalar_target_cm(target)
+        x, y, z = p
+        (x0, x1), (y0, y1), (z0, z1) = self._box
+        if not (x0 <= x <= x1 and y0 <= y <= y1 and z0 <= z <= z1):
+            check_in_box(p, self.model.arm)  # raises, naming the axis and the range
+        # within the limits and on the coupling; as bytes, a read-only array in one step
+        q = np.frombuffer(self._pack_joints(*self._solve_closed_form_checked(p)))
+        start = self._from_home if q_start is None else self._jump_start(q_start)
+        return IKResult.jump("converged", p, q, p, start)
 
     def _solve_approach(self, target: IKTarget, q_start: npt.ArrayLike | None) -> IKResult:
         """With an approach: ``converged`` only if the closed form's approach meets it."""

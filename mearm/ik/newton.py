@@ -184,12 +184,13 @@ class NewtonIK(IKSolver):
                 "use PdPij or MinkSolver for an approach direction"
             )
         x, y, z = self.position_cm(target)
+        start = self._jump_start(q_start)
         t = (x / CM_PER_M, y / CM_PER_M, z / CM_PER_M)
         if q_start is None:
             d = self._table_tcp - t
             q = list(self._table_q[int(np.argmin(np.einsum("ij,ij->i", d, d)))])
         else:
-            q = self._start(q_start).tolist()
+            q = start.q.tolist()
         best = self._descend(q, t)
         total = best.iterations
         for seed in self._restarts:
@@ -201,7 +202,7 @@ class NewtonIK(IKSolver):
                 best = run
         e = best.e
         ee = ((t[0] - e[0]) * CM_PER_M, (t[1] - e[1]) * CM_PER_M, (t[2] - e[2]) * CM_PER_M)
-        return self._jump(best.status, (x, y, z), np.array(best.q), ee, q_start, total)
+        return self._jump(best.status, (x, y, z), best.q, ee, start, total)
 
     def _descend(self, q: list[float], t: tuple[float, float, float]) -> _Descent:
         """Gauss–Newton from ``q`` (n,) [model units] towards ``t`` [m]."""

@@ -140,13 +140,13 @@ class PdPij(IKSolver):
     """
 
     def __init__(self, model: ArmModel, config: ControllerConfig, *, recover: bool | None = None):
+        self.name = f"pdpij-{config.mode}"
         super().__init__(model, config)
         self.recover = config.safeguard if recover is None else recover
         self._recovery = recovery.Recovery(
             model.chain, model.home, model.arm.target_box.z_cm.min, config
         )
         self.mode = config.mode
-        self.name = f"pdpij-{self.mode}"
         self._pin_model = model.model
         self._data = model.model.createData()  # own data: solvers never share state
         self._frame_id = model.tcp_frame_id

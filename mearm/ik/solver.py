@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import abc
 import math
+import struct
 
 import numpy as np
 import numpy.typing as npt
@@ -29,7 +30,7 @@ import numpy.typing as npt
 from mearm.config import ControllerConfig
 from mearm.exceptions import InvalidJointsError
 from mearm.ik.failure import IKFailure, blocking_joints
-from mearm.ik.result import IKResult, Method, Status
+from mearm.ik.result import IKResult, JumpStart, Method, Status
 from mearm.ik.target import IKTarget, approach_error_deg
 from mearm.kinematics import ArmModel, Chain, check_in_box, closed_form_for
 from mearm.kinematics.closed_form import scalar_target_cm
@@ -154,7 +155,8 @@ class IKSolver(abc.ABC):
         self.closed_form = closed_form_for(model.arm)
         chain = self.chain
         # the checks of every solve in Python floats, their constants computed once
-        self._solve_closed_form = None if self.closed_form is None else self.closed_form.solve_list
+        cf = self.closed_form
+        self._solve_closed_form = None if cf is None else cf.solve_checked
         self._n, self._m = chain.n, chain.m
         self._act_index = chain.actuated_index.tolist()
         self._terms = coupling_terms(chain)
@@ -163,10 +165,13 @@ class IKSolver(abc.ABC):
         self._box = tuple((r.min, r.max) for r in (box.x_cm, box.y_cm, box.z_cm))
         self._scale = chain.scale.copy()
         self._scale.setflags(write=False)
+        #: n floats as bytes: ``np.frombuffer`` of them is a read-only joint array, made
+        #: in one step (cheaper than ``np.array`` and ``setflags`` on the fast path)
+        self._pack_joints = struct.Struct(f"{chain.n}d").pack
         self._home = start_joints(model.home, model)  # the start when none is given
         self._home.setflags(write=False)
         x, y, z = model.fk_cm(self._home).tolist()
-        self._ee_home = (x, y, z)
+        self._from_home = JumpStart(self.name, self._home, (x, y, z), chain.names, self._scale)
 
     @abc.abstractmethod
     def solve(
@@ -228,47 +233,38 @@ class IKSolver(abc.ABC):
             q_solution = np.array(self._solve_closed_form(p))
         return target, self._start(q_start), q_solution
 
-    def _start_and_tcp(
-        self, q_start: npt.ArrayLike | None
-    ) -> tuple[np.ndarray, tuple[float, float, float]]:
-        """The checked start (n,) [model units], read-only, and its TCP [cm]; see :meth:`_start`."""
+    def _jump_start(self, q_start: npt.ArrayLike | None) -> JumpStart:
+        """The start of a jump record (:meth:`IKResult.jump`): checked, with its TCP.
+
+        Raises:
+            InvalidJointsError, JointLimitError: see :func:`start_joints`.
+        """
         if q_start is None:
-            return self._home, self._ee_home
+            return self._from_home
         q0 = self._start(q_start)
         q0.setflags(write=False)
         x, y, z = self.model.fk_cm(q0).tolist()
-        return q0, (x, y, z)
+        return JumpStart(self.name, q0, (x, y, z), self.chain.names, self._scale)
 
     def _jump(
         self,
         status: Status,
         target_cm: tuple[float, float, float],
-        q: np.ndarray,
+        q: list[float],
         ee_cm: tuple[float, float, float],
-        q_start: npt.ArrayLike | None,
+        start: JumpStart,
         search_iterations: int = 0,
     ) -> IKResult:
-        """The record of a solve that found joints ``q`` (n,), not a path (:meth:`IKResult.jump`).
+        """The record of a solve that found joints ``q`` (n floats), not a path.
 
-        One that did not converge carries its :class:`IKFailure`.
+        See :meth:`IKResult.jump`. One that did not converge carries its
+        :class:`IKFailure`.
         """
-        q0, ee0 = self._start_and_tcp(q_start)
+        q_array = np.frombuffer(self._pack_joints(*q))
         failure = None
         if status != "converged":
-            failure = self.stop_failure(status, q, IKTarget(target_cm))
-        return IKResult.jump(
-            status,
-            self.name,
-            target_cm,
-            q,
-            ee_cm,
-            q0,
-            ee0,
-            joint_names=self.chain.names,
-            scale=self._scale,
-            search_iterations=search_iterations,
-            failure=failure,
-        )
+            failure = self.stop_failure(status, q_array, IKTarget(target_cm))
+        return IKResult.jump(status, target_cm, q_array, ee_cm, start, search_iterations, failure)
 
     def _start(self, q_start: npt.ArrayLike | None) -> np.ndarray:
         """:func:`start_joints` in Python floats for a valid start; itself otherwise.
