@@ -106,7 +106,10 @@ class NewtonIK(IKSolver):
         grid = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, chain.m)
         table = [chain.full(g) for g in grid]
         self._table_q = [q.tolist() for q in table]
-        self._table_tcp = np.array([model.fk_cm(q) for q in table]) / CM_PER_M  # (K, 3)
+        tcp = np.array([model.fk_cm(q) for q in table]) / CM_PER_M  # (K, 3) [m]
+        # nearest TCP to t: argmin |p|² − 2 p·t (|t|² is the same for all), one product
+        self._table_norm2 = np.einsum("ij,ij->i", tcp, tcp)  # (K,) [m²]
+        self._table_minus_2tcp = np.ascontiguousarray(-2.0 * tcp.T)  # (3, K) [m]
 
     def _measure(self, q: list[float], t: tuple[float, ...]) -> tuple[list[float], np.ndarray]:
         """Error e [m] (list) and the coupled Jacobian J C (3, m) at ``q``."""
@@ -187,8 +190,8 @@ class NewtonIK(IKSolver):
         start = self._jump_start(q_start)
         t = (x / CM_PER_M, y / CM_PER_M, z / CM_PER_M)
         if q_start is None:
-            d = self._table_tcp - t
-            q = list(self._table_q[int(np.argmin(np.einsum("ij,ij->i", d, d)))])
+            d2 = self._table_norm2 + np.dot(t, self._table_minus_2tcp)  # |p − t|² − |t|²
+            q = list(self._table_q[int(np.argmin(d2))])
         else:
             q = start.q.tolist()
         best = self._descend(q, t)
