@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from mearm.config import Config
-from mearm.exceptions import JointLimitError, TargetOutsideBoxError
+from mearm.exceptions import InvalidTargetError, JointLimitError, TargetOutsideBoxError
 from mearm.ik import AnalyticSolver, IKResult, IKSolver, IKTarget, MinkSolver, NewtonIK, PdPij
 from mearm.kinematics import ArmModel
 
@@ -106,3 +106,9 @@ def test_newton_searches_but_its_path_is_one_update():
     """Gauss–Newton's own updates are searched, not sent: one update in the path."""
     result = NewtonIK(MODEL).solve(TARGET, start_pose())
     assert result.iterations == 1 and result.search_iterations >= 1
+
+
+def test_newton_refuses_an_approach_naming_the_solvers_that_take_one():
+    """Gauss–Newton places the TCP only: an approach target is refused with what to use."""
+    with pytest.raises(InvalidTargetError, match="places the TCP only.*PdPij or MinkSolver"):
+        NewtonIK(MODEL).solve(IKTarget(TARGET, (0.0, 0.0, -1.0)))

@@ -8,11 +8,11 @@ the same two arguments in the same order and returns an :class:`~mearm.ik.IKResu
     solver.solve(target, q_start=None)
 
 The target first, because it is what a solve is for and every solver needs it; the start
-second and optional, because not every solver needs one (a closed form ignores it, and
-``None`` means the home pose), as Robotics Toolbox's ``ik_LM(Tep, q0=…)`` and ikpy's
-``inverse_kinematics(target, initial_position=None)`` have it. A start passed first by
-mistake is refused before anything moves: joint angles read as centimetres fall outside
-the target box.
+second and optional, because not every solver needs one to find its answer (a closed form
+needs none) and ``None`` means the home pose, as Robotics Toolbox's ``ik_LM(Tep, q0=…)``
+and ikpy's ``inverse_kinematics(target, initial_position=None)`` have it. A start passed
+first by mistake is refused before anything moves: joint angles read as centimetres fall
+outside the target box.
 
 Here too: the checks every solver makes before anything moves (the target box, the
 closed form's reachability, the start), and the record they return.
@@ -165,8 +165,8 @@ class IKSolver(abc.ABC):
         self._box = tuple((r.min, r.max) for r in (box.x_cm, box.y_cm, box.z_cm))
         self._scale = chain.scale.copy()
         self._scale.setflags(write=False)
-        #: n floats as bytes: ``np.frombuffer`` of them is a read-only joint array, made
-        #: in one step (cheaper than ``np.array`` and ``setflags`` on the fast path)
+        # n floats as bytes: np.frombuffer of them is a read-only joint array made in one
+        # step, cheaper than np.array and setflags on the fast path
         self._pack_joints = struct.Struct(f"{chain.n}d").pack
         self._home = start_joints(model.home, model)  # the start when none is given
         self._home.setflags(write=False)
