@@ -91,14 +91,14 @@ def _across_the_red_bin() -> tuple[Config, ArmModel, Planner, np.ndarray, IKTarg
     red = config.task.class_named("red")
     x, y = red.bin_cm[0], red.bin_cm[1]
     out = red.bin_inner_width_cm / 2 + 5.0
-    start = planner.solver.solve(model.home, planner.pick_target(red, x - out, y))
+    start = planner.solver.solve(planner.pick_target(red, x - out, y), model.home)
     assert start.converged
     return config, model, planner, start.q, planner.pick_target(red, x + out, y)
 
 
 def test_a_route_across_a_bin_goes_up_over_and_down() -> None:
     config, model, planner, q0, target = _across_the_red_bin()
-    direct = planner.solver.solve(q0, target)
+    direct = planner.solver.solve(target, q0)
     assert direct.converged
     assert planner.collision is not None
     contact = planner.collision.first_contact(direct.q_path)
@@ -117,7 +117,7 @@ def test_the_kinematic_simulator_faults_on_the_wall_and_takes_the_detour() -> No
     """The fast simulator sees what physics would: the straight way is a fault naming the
     wall, the planned detour arrives."""
     config, model, planner, q0, target = _across_the_red_bin()
-    direct = planner.solver.solve(q0, target)
+    direct = planner.solver.solve(target, q0)
     route = planner.plan(Route("", "red", "pick", 1, target), q0)
     assert route.plan is not None
 
@@ -143,7 +143,7 @@ def test_the_twin_stalls_on_the_wall_and_takes_the_detour() -> None:
     planned detour arrives."""
     config, model, planner, q0, target = _across_the_red_bin()
     twin = twin_model(config)
-    direct = planner.solver.solve(q0, target)
+    direct = planner.solver.solve(target, q0)
     route = planner.plan(Route("", "red", "pick", 1, target), q0)
     assert route.plan is not None
 
@@ -194,7 +194,7 @@ def _blocking_pair(config: Config) -> list[SceneObject]:
     red = config.task.class_named("red")
     x, y = 0.0, 45.0
     planner = Planner(config, model)
-    q = planner.solver.solve(model.home, planner.pick_target(red, x, y)).q
+    q = planner.solver.solve(planner.pick_target(red, x, y), model.home).q
     R = model.tcp_pose(q)[1]
     step = (R @ across)[:2]
     step = step / np.linalg.norm(step) * (g.open_cm / 2 + g.jaw_thickness_cm / 2)
@@ -253,7 +253,7 @@ def test_conservative_advancement_never_steps_over_a_wall() -> None:
     found, although neither end touches anything."""
     config, model, planner, q0, target = _across_the_red_bin()
     assert planner.collision is not None
-    q1 = planner.solver.solve(q0, target).q
+    q1 = planner.solver.solve(target, q0).q
     c = planner.collision
     assert c.first_contact(np.array([q0])) is None
     assert c.first_contact(np.array([q1])) is None

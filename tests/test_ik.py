@@ -73,14 +73,14 @@ def solver(model, config, **changes):
 @pytest.mark.parametrize("mode", ["paper", "coupled"])
 def test_reaches_the_closed_form_solution(model, config, mode):
     """With a tight tolerance both modes end on the closed-form joints."""
-    result = solver(model, config, mode=mode, tolerance_cm2=1e-12).solve(model.home, M1)
+    result = solver(model, config, mode=mode, tolerance_cm2=1e-12).solve(M1, model.home)
     assert result.converged
     np.testing.assert_allclose(result.q_config, closed_form_deg(config, M1), atol=1e-4)
 
 
 def test_first_step_is_kp_pinv_e_without_kick(model, config):
     """e_{−1} = e_0, so the first update is kp·J⁺e_0 exactly (no derivative kick)."""
-    result = solver(model, config, mode="paper").solve(model.home, M1)
+    result = solver(model, config, mode="paper").solve(M1, model.home)
     e0 = np.asarray(M1) - model.fk_cm(model.home)
     dq = np.linalg.pinv(model.jacobian(model.home)) @ (0.1 * e0)
     expected = model.home + dq
@@ -91,7 +91,7 @@ def test_first_step_is_kp_pinv_e_without_kick(model, config):
 def test_paper_mode_equals_the_numpy_port_iteration_for_iteration(model, config):
     """paper mode and a plain NumPy port of the paper (DH + pinv) take the same path."""
     status, q_path, ee_path = numpy_port_solve(model.home, M1, config.arm, config.controller)
-    result = solver(model, config, mode="paper").solve(model.home, M1)
+    result = solver(model, config, mode="paper").solve(M1, model.home)
     assert status == result.status == "converged"
     assert q_path.shape == result.q_path.shape
     np.testing.assert_allclose(result.q_path, q_path, atol=1e-10)
@@ -102,21 +102,21 @@ def test_coupled_error_contracts_by_the_pd_loops_root(model, config):
     """Away from the start |e| shrinks by the dominant root of r² − (1−kp−kd)r − kd."""
     kp, kd = config.controller.kp, config.controller.kd
     r = max(np.roots([1.0, -(1 - kp - kd), -kd]).real)
-    errors = solver(model, config, mode="coupled").solve(model.home, M1).error_path_cm
+    errors = solver(model, config, mode="coupled").solve(M1, model.home).error_path_cm
     ratios = errors[11:41] / errors[10:40]
     np.testing.assert_allclose(ratios, r, atol=2e-3)
 
 
 def test_paper_mode_needs_more_iterations_than_coupled(model, config):
     """θ4's share of the paper's step is overwritten, so each update does less."""
-    paper = solver(model, config, mode="paper").solve(model.home, M1)
-    coupled = solver(model, config, mode="coupled").solve(model.home, M1)
+    paper = solver(model, config, mode="paper").solve(M1, model.home)
+    coupled = solver(model, config, mode="coupled").solve(M1, model.home)
     assert paper.iterations > coupled.iterations
 
 
 def test_stops_at_the_tolerance(model, config):
     """It stops at the first |e|² below the tolerance, as eq. 6 says."""
-    result = solver(model, config).solve(model.home, M1)
+    result = solver(model, config).solve(M1, model.home)
     assert result.error_path_cm[-1] ** 2 < 1e-3 <= result.error_path_cm[-2] ** 2
 
 
@@ -124,7 +124,7 @@ def test_stops_at_the_tolerance(model, config):
 
 
 def test_result_record(model, config):
-    result = solver(model, config).solve(model.home, M1)
+    result = solver(model, config).solve(M1, model.home)
     n = result.iterations
     assert result.status in STATUSES and result.solver == "pdpij-coupled"
     assert result.q_path.shape == (n + 1, 4)
@@ -153,14 +153,14 @@ def ee_home(model):
 
 def test_start_may_be_three_angles(model, config):
     s = solver(model, config)
-    a = s.solve(model.home[:3], M1)
-    b = s.solve(model.home, M1)
+    a = s.solve(M1, model.home[:3])
+    b = s.solve(M1, model.home)
     np.testing.assert_array_equal(a.q_path, b.q_path)
 
 
 def test_max_iterations_status(model, config):
     """The cap binds the recovery too: five updates reach nowhere, and the record says so."""
-    result = solver(model, config, max_iterations=5).solve(model.home, M1)
+    result = solver(model, config, max_iterations=5).solve(M1, model.home)
     assert result.status == "max_iterations" and not result.converged
     assert result.iterations == 5 and len(result.q_path) == 6
     assert result.method == "direct" and result.failure.kind == "stalled"
@@ -173,11 +173,11 @@ def test_max_iterations_status(model, config):
 def test_safeguard_turns_a_stall_into_convergence(model, config):
     """The bare paper algorithm folds θ3 into its limit and stalls; the safeguard slides
     along the limit and gets there."""
-    bare = solver(model, config, mode="paper", safeguard=False).solve(model.home, FOLDING_TARGET)
+    bare = solver(model, config, mode="paper", safeguard=False).solve(FOLDING_TARGET, model.home)
     assert bare.status == "stalled" and bare.blocked_steps > 0
     assert bare.final_error_cm > 10
     assert bare.method == "direct"  # safeguard false: the bare algorithm, no recovery
-    guarded = solver(model, config, mode="paper").solve(model.home, FOLDING_TARGET)
+    guarded = solver(model, config, mode="paper").solve(FOLDING_TARGET, model.home)
     assert guarded.converged and guarded.blocked_steps > 0  # it slid along the limit
     assert np.all(np.diff(guarded.error_path_cm) < 0)
     for result in (bare, guarded):
@@ -187,7 +187,7 @@ def test_safeguard_turns_a_stall_into_convergence(model, config):
 
 def test_limit_rule_holds_the_joint(model, config):
     """A joint whose update would leave its limits gets Δθ = 0; the others move as J⁺Δs."""
-    bare = solver(model, config, mode="paper", safeguard=False).solve(model.home, FOLDING_TARGET)
+    bare = solver(model, config, mode="paper", safeguard=False).solve(FOLDING_TARGET, model.home)
     q, ee = bare.q_path, bare.ee_path_cm
     held = np.flatnonzero(q[1:, 2] == q[:-1, 2])
     assert len(held) > 0
@@ -209,7 +209,7 @@ def test_limit_rule_holds_the_joint(model, config):
 def test_start_on_the_limits_stays_within(model, config, mode):
     """A start on three limits at once: every pose stays inside, θ2 + θ3 + θ4 = 0."""
     q0 = model.chain.full([model.lower[0], model.upper[1], model.upper[2]])
-    result = solver(model, config, mode=mode).solve(q0, (0.0, 40.0, 30.0))
+    result = solver(model, config, mode=mode).solve((0.0, 40.0, 30.0), q0)
     assert result.status in STATUSES
     assert np.all(result.q_path >= model.lower)
     assert np.all(result.q_path <= model.upper)
@@ -227,7 +227,7 @@ def test_singular_start_on_the_base_axis(model, config, damping):
     assert abs(model.fk_cm(q0)[:2]).max() < 1e-9
     J = model.jacobian(q0)
     assert np.linalg.svd(J, compute_uv=False)[-1] < 1e-9 * np.linalg.norm(J)
-    result = solver(model, config, damping=damping).solve(q0, M1)
+    result = solver(model, config, damping=damping).solve(M1, q0)
     assert result.status in STATUSES
     assert np.all(np.isfinite(result.q_path))
     assert np.all(np.diff(result.error_path_cm) <= 1e-12)
@@ -268,7 +268,7 @@ def test_pseudoinverse_rejects_bad_settings():
 
 
 def test_damped_mode_converges(model, config):
-    result = solver(model, config, damping=2.0).solve(model.home, M1)
+    result = solver(model, config, damping=2.0).solve(M1, model.home)
     assert result.converged and result.final_error_cm < 0.0316
 
 
@@ -277,7 +277,7 @@ def test_damped_mode_converges(model, config):
 
 def test_target_outside_box(model, config):
     with pytest.raises(TargetOutsideBoxError) as exc:
-        solver(model, config).solve(model.home, (-10.0, 65.0, 20.0))
+        solver(model, config).solve((-10.0, 65.0, 20.0), model.home)
     err = exc.value
     assert err.axis == "y" and err.bounds_cm == (20.0, 60.0)
     assert err.target_cm == (-10.0, 65.0, 20.0)
@@ -287,7 +287,7 @@ def test_target_outside_box(model, config):
 def test_unreachable_target_in_box(model, config):
     target = (-40.0, 60.0, 60.0)  # in the box, 72 cm out and 42 cm up
     with pytest.raises(UnreachableTargetError) as exc:
-        solver(model, config).solve(model.home, target)
+        solver(model, config).solve(target, model.home)
     assert exc.value.target_cm == target
     assert "out of reach" in str(exc.value)
 
@@ -295,13 +295,13 @@ def test_unreachable_target_in_box(model, config):
 @pytest.mark.parametrize("bad", [(1.0, 2.0), (np.nan, 40.0, 20.0), "x"])
 def test_malformed_target(model, config, bad):
     with pytest.raises(InvalidTargetError):
-        solver(model, config).solve(model.home, bad)
+        solver(model, config).solve(bad, model.home)
 
 
 def test_start_outside_limits(model, config):
     q0 = np.radians([10.0, 93.0, -132.0])
     with pytest.raises(JointLimitError) as exc:
-        solver(model, config).solve(q0, M1)
+        solver(model, config).solve(M1, q0)
     assert exc.value.joint == "base" and exc.value.value_deg == pytest.approx(10.0)
     assert "[20, 160]" in str(exc.value)
 
@@ -316,7 +316,7 @@ def test_start_outside_limits(model, config):
 )
 def test_bad_start(model, config, start, needle):
     with pytest.raises(InvalidJointsError) as exc:
-        solver(model, config).solve(start, M1)
+        solver(model, config).solve(M1, start)
     assert needle in str(exc.value)
 
 
@@ -356,13 +356,13 @@ def test_solve_ik_dispatches_on_config(model, config):
     for name, kind in (("pdpij", PdPij), ("analytic", AnalyticSolver), ("mink", MinkSolver)):
         controller = config.controller.updated(solver=name)
         assert isinstance(make_solver(model, controller), kind)
-        result = solve_ik(model, model.home, M1, controller)
+        result = solve_ik(model, controller, M1, model.home)
         assert result.converged and result.final_error_cm < 0.0316
         np.testing.assert_allclose(result.q_path[0], model.home)
 
 
 def test_analytic_solver_record(model, config):
-    result = solve_ik(model, model.home, M1, config.controller.updated(solver="analytic"))
+    result = solve_ik(model, config.controller.updated(solver="analytic"), M1, model.home)
     assert result.iterations == 1 and result.final_error_cm < 1e-9
     q = check_target(M1, config.arm, closed_form_for(config.arm))
     np.testing.assert_allclose(result.q, q)
@@ -498,8 +498,8 @@ def test_bounded_lstsq_six_variables_matches_scipy():
 def test_target_forms_are_equivalent(model, config):
     """A plain (x, y, z) and an IKTarget without approach give the same solve."""
     s = solver(model, config)
-    a = s.solve(model.home, M1)
-    b = s.solve(model.home, IKTarget(M1))
+    a = s.solve(M1, model.home)
+    b = s.solve(IKTarget(M1), model.home)
     np.testing.assert_array_equal(a.q_path, b.q_path)
 
 
@@ -535,7 +535,7 @@ def test_approach_target_is_met(desk, mode):
     """With an approach both the position and the approach axis converge; roll stays."""
     config, model = desk
     target = IKTarget((5.0, 15.0, 3.0), config.arm.tool.pick_approach)
-    result = PdPij(model, config.controller.updated(mode=mode)).solve(model.home, target)
+    result = PdPij(model, config.controller.updated(mode=mode)).solve(target, model.home)
     assert result.converged and result.final_error_cm**2 < 1e-3
     assert result.final_approach_error_deg < 0.5
     np.testing.assert_allclose(model.approach(result.q), [0, 0, -1], atol=np.radians(0.5))
@@ -552,7 +552,7 @@ def test_approach_from_a_tilted_start(desk):
     assert np.degrees(np.arccos(-model.approach(q0)[2])) > 60
     target = IKTarget((-5.0, 18.0, 5.0), (0, 0, -1))
     for kind in ("pdpij", "mink"):
-        result = solve_ik(model, q0, target, config.controller.updated(solver=kind))
+        result = solve_ik(model, config.controller.updated(solver=kind), target, q0)
         assert result.converged and result.final_approach_error_deg < 0.5, kind
 
 
@@ -567,17 +567,17 @@ def test_analytic_solver_needs_a_closed_form(desk):
 def test_start_in_actuated_or_full_form_for_any_arm(desk):
     config, model = desk
     s = PdPij(model, config.controller)
-    a = s.solve(model.chain.actuated_of(model.home), (5.0, 15.0, 3.0))
-    b = s.solve(model.home, (5.0, 15.0, 3.0))
+    a = s.solve((5.0, 15.0, 3.0), model.chain.actuated_of(model.home))
+    b = s.solve((5.0, 15.0, 3.0), model.home)
     np.testing.assert_array_equal(a.q_path, b.q_path)
     with pytest.raises(InvalidJointsError, match="expected 5 joint values"):
-        s.solve([0.1, 0.2], (5.0, 15.0, 3.0))
+        s.solve((5.0, 15.0, 3.0), [0.1, 0.2])
 
 
 def test_desk_arm_summary_names_its_joints(desk):
     config, model = desk
     result = PdPij(model, config.controller).solve(
-        model.home, IKTarget((5.0, 15.0, 3.0), (0, 0, -1))
+        IKTarget((5.0, 15.0, 3.0), (0, 0, -1)), model.home
     )
     summary = result.summary()
     assert list(summary["joints"]) == list(model.chain.names)

@@ -249,8 +249,8 @@ def solved(arm_case):
     pd, mk = PdPij(model, controller), MinkSolver(model, controller)
     return {
         "targets": targets,
-        "pdpij": [pd.solve(model.home, t) for t in targets],
-        "mink": [mk.solve(model.home, t) for t in targets],
+        "pdpij": [pd.solve(t, model.home) for t in targets],
+        "mink": [mk.solve(t, model.home) for t in targets],
     }
 
 
@@ -346,7 +346,7 @@ SOLVERS = ["paper", "coupled", "mink"]
 def loose(paper_targets):
     """Every solver's result for every target at the paper's tolerance."""
     return {
-        kind: [make(kind, 1e-3).solve(PAPER_MODEL.home, t) for t in paper_targets]
+        kind: [make(kind, 1e-3).solve(t, PAPER_MODEL.home) for t in paper_targets]
         for kind in SOLVERS
     }
 
@@ -355,7 +355,7 @@ def loose(paper_targets):
 def tight(paper_targets):
     """The same at |e|² < 1e-10 cm²."""
     return {
-        kind: [make(kind, 1e-10).solve(PAPER_MODEL.home, t) for t in paper_targets]
+        kind: [make(kind, 1e-10).solve(t, PAPER_MODEL.home) for t in paper_targets]
         for kind in SOLVERS
     }
 

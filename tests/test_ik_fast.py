@@ -5,16 +5,16 @@ import math
 import numpy as np
 import pytest
 
-from mearm.config import Config, load_config
+from mearm.config import Config, config_from_dict, load_config
 from mearm.exceptions import (
     InvalidTargetError,
     JointLimitTargetError,
     ModelError,
     SingularTargetError,
+    TargetOutsideBoxError,
     UnreachableTargetError,
 )
-from mearm.ik import PdPij
-from mearm.ik.fast import ClosedFormIK, FastSolution, NewtonIK, fastest_solver
+from mearm.ik import AnalyticSolver, IKResult, NewtonIK, PdPij, fastest_solver
 from mearm.kinematics import ArmModel, closed_form_for
 from mearm.tools import bench
 from mearm.tools.bench import BenchOptions, reachable_targets, rtb_ets
@@ -35,11 +35,11 @@ def reached(model, q, target, tol_cm=0.01):
 
 def test_fastest_is_the_closed_form_where_one_is_registered():
     """An arm with a closed form gets it; one without gets the generic solve."""
-    assert isinstance(fastest_solver(MODEL), ClosedFormIK)
+    assert isinstance(fastest_solver(MODEL), AnalyticSolver)
     desk = ArmModel(load_config("sim_5dof").arm)
     assert isinstance(fastest_solver(desk), NewtonIK)
-    with pytest.raises(ModelError, match="registers no closed form"):
-        ClosedFormIK(desk)
+    with pytest.raises(ModelError, match="has no closed form"):
+        AnalyticSolver(desk)
 
 
 def test_closed_form_list_is_the_array(targets):
@@ -49,14 +49,14 @@ def test_closed_form_list_is_the_array(targets):
         assert cf.solve_list(t) == cf.solve(t).tolist() == cf.solve(tuple(t)).tolist()
 
 
-@pytest.mark.parametrize("make", [ClosedFormIK, NewtonIK], ids=["closed_form", "newton"])
+@pytest.mark.parametrize("make", [AnalyticSolver, NewtonIK], ids=["closed_form", "newton"])
 def test_fast_solves_reach_every_target_within_limits(make, targets):
     """Zero error at the target (|e| < 0.01 cm), joints within limits, on the coupling."""
     solver = make(MODEL)
     chain = MODEL.chain
     for t in targets:
         s = solver.solve(t)
-        assert isinstance(s, FastSolution) and s.converged
+        assert isinstance(s, IKResult) and s.converged
         assert reached(MODEL, s.q, t)
         np.testing.assert_allclose(s.q, chain.full(chain.actuated_of(s.q)), atol=1e-12)
 
@@ -64,11 +64,11 @@ def test_fast_solves_reach_every_target_within_limits(make, targets):
 def test_fast_solves_agree_with_pdpij_and_each_other(targets):
     """Closed form, Gauss–Newton and PD-PIJ land on the same joints (one elbow branch)."""
     pdpij = PdPij(MODEL, PAPER.controller.updated(tolerance_cm2=1e-8))
-    closed, newton = ClosedFormIK(MODEL), NewtonIK(MODEL, tolerance_cm=1e-4)
+    closed, newton = AnalyticSolver(MODEL), NewtonIK(MODEL, tolerance_cm=1e-4)
     for t in targets[:20]:
         q_cf = closed.solve(t).q
         np.testing.assert_allclose(newton.solve(t).q, q_cf, atol=1e-5)
-        np.testing.assert_allclose(pdpij.solve(MODEL.home, t).q, q_cf, atol=1e-3)
+        np.testing.assert_allclose(pdpij.solve(t, MODEL.home).q, q_cf, atol=1e-3)
 
 
 def test_newton_respects_limits_from_any_seed(targets):
@@ -85,8 +85,18 @@ def test_newton_respects_limits_from_any_seed(targets):
 
 
 def test_unreachable_is_reported():
-    """The closed form raises with the reason; Gauss–Newton returns a stop, not a solution."""
-    closed, newton = ClosedFormIK(MODEL), NewtonIK(MODEL)
+    """The closed form raises with the reason; Gauss–Newton returns a stop, not a solution.
+
+    On the paper arm with a target box wide enough to hold such targets.
+    """
+    wide = config_from_dict(
+        {},
+        overrides=[
+            f"arm.target_box.{axis}={{min: -300, max: 300}}" for axis in ("x_cm", "y_cm", "z_cm")
+        ],
+    )
+    model = ArmModel(wide.arm)
+    closed, newton = AnalyticSolver(model), NewtonIK(model)
     with pytest.raises(UnreachableTargetError, match="out of reach"):
         closed.solve((0.0, 200.0, 10.0))
     with pytest.raises(SingularTargetError):
@@ -94,12 +104,20 @@ def test_unreachable_is_reported():
     with pytest.raises(JointLimitTargetError):
         closed.solve((0.0, -30.0, 20.0))  # behind the base: the base limits forbid it
     s = newton.solve((0.0, 200.0, 10.0))
-    assert not s.converged and s.error_cm > 1.0 and MODEL.within_limits(s.q)
+    assert not s.converged and s.final_error_cm > 1.0 and MODEL.within_limits(s.q)
+    assert s.failure is not None
+
+
+def test_every_fast_solve_checks_the_box():
+    """A target outside the arm's target box is refused, naming the axis, by both."""
+    for solver in (AnalyticSolver(MODEL), NewtonIK(MODEL)):
+        with pytest.raises(TargetOutsideBoxError, match="y"):
+            solver.solve((0.0, 200.0, 10.0))
 
 
 @pytest.mark.parametrize("bad", [(1.0, 2.0), (math.nan, 1.0, 2.0), "abc", [[1.0], [2.0], [3.0]]])
 def test_bad_targets_name_the_value(bad):
-    for solver in (ClosedFormIK(MODEL), NewtonIK(MODEL)):
+    for solver in (AnalyticSolver(MODEL), NewtonIK(MODEL)):
         with pytest.raises(InvalidTargetError, match="three finite numbers"):
             solver.solve(bad)
 

@@ -49,9 +49,9 @@ def solve_or_unreachable(solver, q0, target):
         reachable = False
     if not reachable:
         with pytest.raises(UnreachableTargetError):
-            solver.solve(q0, target)
+            solver.solve(target, q0)
         return None
-    return solver.solve(q0, target)
+    return solver.solve(target, q0)
 
 
 def assert_safe(result):

@@ -27,7 +27,7 @@ def model(config):
 def corner(model):
     q0 = model.chain.full(np.radians(CORNER_START_DEG))
     target = tuple(model.fk_cm(model.chain.full(np.radians(CORNER_TARGET_Q_DEG))))
-    return q0, target
+    return target, q0
 
 
 def test_pd_pij_alone_stalls_in_the_corner(model, config, corner):
@@ -43,8 +43,8 @@ def test_pd_pij_alone_stalls_in_the_corner(model, config, corner):
 
 def test_closed_form_recovery_reaches_the_target(model, config, corner):
     """The default solver: a joint-space move to the closed-form solution, converged."""
-    q0, target = corner
-    result = PdPij(model, config.controller).solve(q0, target)
+    target, q0 = corner
+    result = PdPij(model, config.controller).solve(target, q0)
     assert result.converged and result.failure is None
     assert result.method == "closed_form" and result.recovered_from == "stalled"
     assert result.final_error_cm**2 < config.controller.tolerance_cm2
@@ -72,7 +72,7 @@ def test_recovery_follows_the_safeguard_switch(model, config, corner):
 
 def test_converged_solves_are_untouched(model, config):
     """A solve PD-PIJ converges on by itself is its own path: no search, no recovery."""
-    result = PdPij(model, config.controller).solve(model.home, (-10.99, 49.70, 12.76))
+    result = PdPij(model, config.controller).solve((-10.99, 49.70, 12.76), model.home)
     assert result.iterations == 62 and result.method == "direct"
     assert result.search_iterations == 0 and result.recovered_from is None
 
@@ -85,7 +85,7 @@ def test_recovered_path_stays_above_the_floor():
     solver = PdPij(model, config.controller)
     q0 = model.chain.full(np.radians([56.4, 10.5, -149.9]))
     target = (-14.18, 14.35, 1.09)
-    result = solver.solve(q0, target)
+    result = solver.solve(target, q0)
     assert result.converged and result.method == "closed_form"
     floor = config.arm.target_box.z_cm.min
     assert result.ee_path_cm[:, 2].min() >= floor
@@ -114,22 +114,22 @@ def test_multi_start_for_an_arm_without_closed_form(desk):
          "wrist_roll": -40.0}
     )  # fmt: skip
     target = IKTarget((-9.0, 21.0, 3.0), (0.0, 0.0, -1.0))  # a pick from above
-    alone = PdPij(model, config.controller, recover=False).solve(q0, target)
+    alone = PdPij(model, config.controller, recover=False).solve(target, q0)
     assert alone.status == "stalled" and alone.failure.kind == "limit"
-    result = PdPij(model, config.controller).solve(q0, target)
+    result = PdPij(model, config.controller).solve(target, q0)
     assert result.converged and result.method == "multi_start"
     assert result.recovered_from == alone.status
     assert result.search_iterations > alone.iterations  # the attempt and the seeds
     assert result.final_approach_error_deg < 0.5
     assert np.all(result.q_path >= model.lower) and np.all(result.q_path <= model.upper)
-    again = PdPij(model, config.controller).solve(q0, target)
+    again = PdPij(model, config.controller).solve(target, q0)
     np.testing.assert_array_equal(again.q_path, result.q_path)  # seeded: reproducible
 
 
 def test_unreachable_target_without_closed_form_fails_with_a_reason(desk):
     """Nothing converges from any start: PD-PIJ's own record, with its failure kind."""
     config, model = desk
-    result = PdPij(model, config.controller).solve(model.home, (0.0, 35.0, 35.0))
+    result = PdPij(model, config.controller).solve((0.0, 35.0, 35.0), model.home)
     assert not result.converged and result.method == "direct"
     assert result.failure.kind in ("stalled", "limit", "singular")
     assert result.failure.message.startswith("the solver stalled")

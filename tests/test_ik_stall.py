@@ -72,7 +72,7 @@ def run_stall_test(config, n, seed=12):
             q0 = q_prev
         else:
             q0 = random_start(rng, config, model, 0.0 if kind == 2 else 0.5)
-        result = solver.solve(q0, target)
+        result = solver.solve(target, q0)
         if not result.converged or not result.final_error_cm**2 < tol:
             stalls.append((k, target.position_cm, result.status, result.failure))
         path = result.q_path

@@ -313,7 +313,7 @@ def test_a_planned_pick_puts_the_grip_point_at_the_grip_height(twin):
     planner = Planner(config, model)
     obj = config.task.scene[0]
     cls = config.task.class_named(obj.color)
-    result = planner.solver.solve(model.home, planner.pick_target(cls, obj.x, obj.y))
+    result = planner.solver.solve(planner.pick_target(cls, obj.x, obj.y), model.home)
     assert result.converged
     if model.approach(result.q) @ np.array([0.0, 0.0, -1.0]) < np.cos(np.radians(1)):
         pytest.skip("the jaws do not point down at the pick (the paper's sideways tool axis)")

@@ -112,10 +112,10 @@ class StallNear:
         xy = self.xy
 
         class Wrapped:
-            def solve(self, q_start, target):
+            def solve(self, target, q_start=None):
                 if np.hypot(*(IKTarget.of(target).position[:2] - xy)) < 1.0:
-                    return short.solve(q_start, target)
-                return solver.solve(q_start, target)
+                    return short.solve(target, q_start)
+                return solver.solve(target, q_start)
 
         return Wrapped()
 
@@ -213,7 +213,7 @@ def test_a_plan_with_a_pose_outside_the_limits_is_refused(config):
     """The planner's last check: a converged plan with a pose off the limits is not sent."""
     model = ArmModel(config.arm)
     planner = Planner(config, model)
-    good = planner.solver.solve(model.home, (-10.99, 49.70, 12.76))
+    good = planner.solver.solve((-10.99, 49.70, 12.76), model.home)
     q_path = np.array(good.q_path)
     q_path[5, 1] = model.upper[1] + 0.01  # the shoulder 0.6° past its limit
     bad = IKResult.from_paths(
@@ -277,7 +277,7 @@ def test_a_solve_that_swings_a_combined_servo_past_its_range_becomes_a_joint_mov
     planner = Planner(config, model)
     start = np.array([2.1013, 0.8934, -2.1775, 1.2841])
     target = IKTarget((5.2439, 18.1416, 3.2690))
-    direct = planner.solver.solve(start, target)
+    direct = planner.solver.solve(target, start)
     smap = ServoMap.from_config(config)
     lo, hi = smap["elbow"].pulse_limits
 

@@ -71,7 +71,7 @@ def _stream(arm: TwinArm, q_path: np.ndarray, closed: bool = False) -> None:
 
 def _go(arm: TwinArm, planner: Planner, q: np.ndarray, target: IKTarget, closed: bool):
     """Plan from q to target, stream the route; returns the route's last pose."""
-    result = planner.solver.solve(q, target)
+    result = planner.solver.solve(target, q)
     assert result.converged
     _stream(arm, result.q_path, closed)
     return result.q
@@ -85,7 +85,7 @@ def test_planned_route_ends_within_the_servo_budget(paper):
     planner = Planner(config, model)
     obj = config.task.scene[0]
     result = planner.solver.solve(
-        model.home, planner.pick_target(config.task.class_named(obj.color), obj.x, obj.y)
+        planner.pick_target(config.task.class_named(obj.color), obj.x, obj.y), model.home
     )
     assert result.converged
     t0, sim0 = time.perf_counter(), arm.time_s

@@ -137,7 +137,7 @@ def solve_route(
     target = np.asarray(target_cm, dtype=float)
     approach = config.arm.tool.pick_approach
     result = make_solver(model, controller).solve(
-        np.asarray(q_start, dtype=float), IKTarget(tuple(target), approach)
+        IKTarget(tuple(target), approach), np.asarray(q_start, dtype=float)
     )
     return SolvedRoute(
         label=label,

@@ -47,7 +47,7 @@ def _ik(config: Config) -> Callable[[np.ndarray, np.ndarray], np.ndarray]:
     from mearm.kinematics import ArmModel
 
     solver = make_solver(ArmModel(config.arm), config.controller)
-    return lambda start, target: np.asarray(solver.solve(start, target).q, dtype=float)
+    return lambda start, target: np.asarray(solver.solve(target, start).q, dtype=float)
 
 
 def write_synthetic_log(

@@ -1,25 +1,28 @@
 """Inverse kinematics for any arm: PD-PIJ (paper §3), cross-checked by mink and closed forms.
 
-mink runs on MuJoCo; a closed form exists only for the arms that register one.
+Every solver has one interface (:class:`IKSolver`): ``solve(target, q_start=None)``
+returns an :class:`IKResult`. mink runs on MuJoCo; a closed form exists only for the
+arms that register one.
 
 Example::
 
     from mearm.ik import IKTarget, PdPij
     model = ArmModel(config.arm)
     solver = PdPij(model, config.controller)
-    result = solver.solve(model.home, IKTarget((-10.99, 49.70, 12.76)))
+    result = solver.solve(IKTarget((-10.99, 49.70, 12.76)), model.home)
     result.status, result.iterations, result.q_path  # (N+1, n), model units
 
 The mink solver (:mod:`mearm.ik.mink_solver`) imports MuJoCo and is loaded on first use.
 
 For joints alone (no path), :func:`fastest_solver` gives the fastest solve for an arm:
-its registered closed form, else the generic Gauss–Newton (:mod:`mearm.ik.fast`).
+its registered closed form (:class:`AnalyticSolver`), else the generic Gauss–Newton
+(:class:`NewtonIK`).
 """
 
 from mearm.ik.analytic import AnalyticSolver
-from mearm.ik.factory import make_solver, solve_ik
+from mearm.ik.factory import fastest_solver, make_solver, solve_ik
 from mearm.ik.failure import FAILURE_KINDS, FailureKind, IKFailure, failure_of_error
-from mearm.ik.fast import ClosedFormIK, FastIK, FastSolution, NewtonIK, fastest_solver
+from mearm.ik.newton import NewtonIK
 from mearm.ik.pdpij import PdPij
 from mearm.ik.pseudoinverse import PseudoInverse
 from mearm.ik.result import METHODS, STATUSES, IKResult, Method, Status
@@ -39,11 +42,8 @@ __all__ = [
     "METHODS",
     "STATUSES",
     "AnalyticSolver",
-    "ClosedFormIK",
     "DemoRoute",
     "FailureKind",
-    "FastIK",
-    "FastSolution",
     "IKFailure",
     "IKResult",
     "IKSolver",

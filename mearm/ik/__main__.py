@@ -100,7 +100,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         except argparse.ArgumentTypeError as exc:
             raise InvalidTargetError(str(exc)) from None
     target = IKTarget(tuple(args.target), approach)  # type: ignore[arg-type]
-    result = solve_ik(model, q_start, target, controller)
+    result = solve_ik(model, controller, target, q_start)
     if args.json:
         print(json.dumps(result.summary()))
     else:

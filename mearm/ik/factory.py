@@ -1,4 +1,8 @@
-"""Choose a solver by config: ``controller.solver`` is ``pdpij``, ``mink`` or ``analytic``."""
+"""Choose a solver: the one the config names, or the fastest one the arm has.
+
+``controller.solver`` is ``pdpij``, ``mink`` or ``analytic``; :func:`fastest_solver` picks
+the arm's closed form, else Gauss–Newton.
+"""
 
 from __future__ import annotations
 
@@ -6,6 +10,7 @@ import numpy.typing as npt
 
 from mearm.config import ControllerConfig
 from mearm.ik.analytic import AnalyticSolver
+from mearm.ik.newton import NewtonIK
 from mearm.ik.pdpij import PdPij
 from mearm.ik.result import IKResult
 from mearm.ik.solver import IKSolver
@@ -33,17 +38,17 @@ def make_solver(model: ArmModel, config: ControllerConfig) -> IKSolver:
 
 def solve_ik(
     model: ArmModel,
-    q_start: npt.ArrayLike,
-    target: IKTarget | npt.ArrayLike,
     config: ControllerConfig,
+    target: IKTarget | npt.ArrayLike,
+    q_start: npt.ArrayLike | None = None,
 ) -> IKResult:
-    """Solve once with the solver ``config.solver`` names.
+    """Solve once with the solver ``config.solver`` names: ``make_solver(...).solve(...)``.
 
     Args:
         model: The arm model.
-        q_start: Every joint (n,) or the actuated ones (m,), model units.
-        target: An :class:`IKTarget`, or (x, y, z) in the base frame [cm].
         config: The controller section of the config.
+        target: An :class:`IKTarget`, or (x, y, z) in the base frame [cm].
+        q_start: Every joint (n,) or the actuated ones (m,), model units; ``None``: home.
 
     Returns:
         The :class:`IKResult`.
@@ -54,4 +59,15 @@ def solve_ik(
 
     To solve many targets, build the solver once with :func:`make_solver` instead.
     """
-    return make_solver(model, config).solve(q_start, target)
+    return make_solver(model, config).solve(target, q_start)
+
+
+def fastest_solver(model: ArmModel) -> IKSolver:
+    """The fastest position solve for ``model``'s arm.
+
+    Its registered closed form (:class:`AnalyticSolver`) where the arm names one, else
+    :class:`NewtonIK`.
+    """
+    if model.arm.closed_form is not None:
+        return AnalyticSolver(model)
+    return NewtonIK(model)

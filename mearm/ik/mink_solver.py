@@ -164,9 +164,11 @@ class MinkSolver(IKSolver):
         coupling = CouplingTask(self.mj_model, self.chain)
         self._constraints = [coupling] if coupling.k else []
 
-    def solve(self, q_start: npt.ArrayLike, target: IKTarget | npt.ArrayLike) -> IKResult:
+    def solve(
+        self, target: IKTarget | npt.ArrayLike, q_start: npt.ArrayLike | None = None
+    ) -> IKResult:
         """Iterate mink QPs from ``q_start`` to ``target``; see :class:`IKSolver`."""
-        q0, target, _ = self.prepare(q_start, target)
+        target, q0, _ = self.prepare(target, q_start)
         cfg = self.config
         t = target.position / CM_PER_M
         tol2 = cfg.tolerance_cm2 / CM_PER_M**2

@@ -135,18 +135,18 @@ class PdPij(IKSolver):
     Example::
 
         model = ArmModel(config.arm)
-        result = PdPij(model, config.controller).solve(model.home, [-10.99, 49.70, 12.76])
+        result = PdPij(model, config.controller).solve([-10.99, 49.70, 12.76], model.home)
         result.status, result.iterations  # ('converged', 62)
     """
 
     def __init__(self, model: ArmModel, config: ControllerConfig, *, recover: bool | None = None):
+        self.name = f"pdpij-{config.mode}"
         super().__init__(model, config)
         self.recover = config.safeguard if recover is None else recover
         self._recovery = recovery.Recovery(
             model.chain, model.home, model.arm.target_box.z_cm.min, config
         )
         self.mode = config.mode
-        self.name = f"pdpij-{self.mode}"
         self._pin_model = model.model
         self._data = model.model.createData()  # own data: solvers never share state
         self._frame_id = model.tcp_frame_id
@@ -265,14 +265,16 @@ class PdPij(IKSolver):
 
     # ----------------------------------------------------------------- solve
 
-    def solve(self, q_start: npt.ArrayLike, target: IKTarget | npt.ArrayLike) -> IKResult:
+    def solve(
+        self, target: IKTarget | npt.ArrayLike, q_start: npt.ArrayLike | None = None
+    ) -> IKResult:
         """Run PD-PIJ from ``q_start`` to ``target``; recover if it stops short.
 
         Args:
-            q_start: Every joint (n,) or the actuated ones (m,), model units; passive
-                values must agree with their coupling.
             target: An :class:`IKTarget` (position [cm] and optional approach), or
                 (x, y, z) [cm].
+            q_start: Every joint (n,) or the actuated ones (m,), model units; passive
+                values must agree with their coupling. ``None``: home.
 
         Returns:
             The :class:`IKResult`, with the joint and TCP path of every update. Its
@@ -285,7 +287,7 @@ class PdPij(IKSolver):
             JointLimitError: the start is outside the joint limits.
             InvalidJointsError, InvalidTargetError: malformed input.
         """
-        q0, target, q_solution = self.prepare(q_start, target)
+        target, q0, q_solution = self.prepare(target, q_start)
         t = (target.position / CM_PER_M).tolist()
         run = self._iterate(q0, t, target.approach)
         if run.status != "converged" and self.recover:

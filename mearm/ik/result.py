@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Literal
+from typing import TYPE_CHECKING, Any, Literal, NamedTuple
 
 import numpy as np
 import numpy.typing as npt
@@ -45,13 +45,51 @@ def path_deviation_cm(ee_path_cm: npt.ArrayLike, target_cm: npt.ArrayLike) -> fl
     return float(np.linalg.norm(rel - lam[:, None] * seg, axis=1).max())
 
 
+class JumpStart(NamedTuple):
+    """What the jumps (:meth:`IKResult.jump`) of one solver from one start share.
+
+    Attributes:
+        solver: The solver's name.
+        q: The start, every joint, model units, read-only, (n,).
+        ee_cm: The TCP at the start [cm].
+        joint_names: The chain's joint names (n,).
+        scale: Model units per config unit of each joint, read-only, (n,).
+    """
+
+    solver: str
+    q: np.ndarray
+    ee_cm: tuple[float, float, float]
+    joint_names: tuple[str, ...]
+    scale: np.ndarray
+
+
+#: The fields of a jump (:meth:`IKResult.jump`) made on first use, from its ``_jump``.
+_JUMP_FIELDS = frozenset(
+    {
+        "solver",
+        "iterations",
+        "joint_names",
+        "scale",
+        "initial_error_cm",
+        "final_error_cm",
+        "target_cm",
+        "ee_cm",
+        "q_path",
+        "ee_path_cm",
+        "error_path_cm",
+    }
+)
+
+
 @dataclass(frozen=True, eq=False)  # arrays inside: compare fields, not records
 class IKResult:
-    """One solve from a start pose to a target.
+    """One solve from a start pose to a target: what every solver returns.
 
     Row ``k`` of each path is the state after ``k`` updates; row 0 is the start, the last
     row the result. Every row is a pose the arm may be commanded to: within the joint
-    limits and with every passive joint on its coupling.
+    limits and with every passive joint on its coupling. A solver that finds joints but
+    no way there (a closed form, Gauss–Newton) reports one update, a jump from the start
+    to the solution (:meth:`jump`): it says nothing about how the arm gets there.
 
     Attributes:
         status: ``converged`` (|e|² below the tolerance and, with an approach, the approach
@@ -166,6 +204,72 @@ class IKResult:
             search_iterations=search_iterations,
             failure=failure,
         )
+
+    @classmethod
+    def jump(
+        cls,
+        status: Status,
+        target_cm: tuple[float, float, float],
+        q: np.ndarray,
+        ee_cm: tuple[float, float, float],
+        start: JumpStart,
+        search_iterations: int = 0,
+        failure: IKFailure | None = None,
+    ) -> IKResult:
+        """The record of a solve that found joints, not a path: one update, start → ``q``.
+
+        Args:
+            status: As the solver ended.
+            target_cm: The target [cm].
+            q: The solution, every joint, model units, read-only, (n,).
+            ee_cm: The TCP at ``q`` [cm].
+            start: The solver, the start and the chain's constants.
+            search_iterations: The solver's own updates, none of them in the path [-].
+            failure: Why it cannot be sent; given when not converged.
+
+        The fast solves return one of these per call, in about the time a closed form
+        takes: the record skips the dataclass ``__init__`` (its frozen ``setattr`` per
+        field costs as much as the solve) and sets its other fields on first use (then
+        they are kept). It reads like any other record.
+        """
+        self = object.__new__(cls)
+        fields: dict[str, object] = {"status": status, "q": q, "_jump": (target_cm, ee_cm, start)}
+        if search_iterations:  # else the class's default, as for every field not set
+            fields["search_iterations"] = search_iterations
+        if failure is not None:
+            fields["failure"] = failure
+        object.__setattr__(self, "__dict__", fields)
+        return self
+
+    if not TYPE_CHECKING:  # seen by mypy, it would accept any attribute name
+
+        def __getattr__(self, name: str) -> Any:
+            # Only reached for a name not in the instance: a jump's other fields, set now.
+            jump = self.__dict__.get("_jump")
+            if jump is None or name not in _JUMP_FIELDS:
+                raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
+            target_cm, ee_cm, start = jump
+            target = _frozen(target_cm)
+            ee_path = _frozen((start.ee_cm, ee_cm))
+            diff = ee_path - target
+            errors = np.sqrt(np.einsum("ij,ij->i", diff, diff))
+            errors.flags.writeable = False
+            self.__dict__.update(
+                {
+                    "solver": start.solver,
+                    "iterations": 1,
+                    "joint_names": start.joint_names,
+                    "scale": start.scale,
+                    "initial_error_cm": float(errors[0]),
+                    "final_error_cm": float(errors[-1]),
+                    "target_cm": target,
+                    "ee_cm": ee_path[-1],
+                    "q_path": _frozen((start.q, self.q)),
+                    "ee_path_cm": ee_path,
+                    "error_path_cm": errors,
+                }
+            )
+            return self.__dict__[name]
 
     @property
     def converged(self) -> bool:

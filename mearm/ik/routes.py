@@ -80,7 +80,7 @@ def run_routes(
     q = np.asarray(q_start, dtype=float)
     results = []
     for route in routes:
-        result = solver.solve(q, route.target)
+        result = solver.solve(route.target, q)
         results.append(result)
         q = result.q
     return results

@@ -1,18 +1,38 @@
-"""What every IK solver shares: the checks made before anything moves, and the record."""
+r"""One interface for every IK solver: ``solver.solve(target, q_start) -> IKResult``.
+
+Every solver — :class:`~mearm.ik.PdPij` (the paper's loop), :class:`~mearm.ik.MinkSolver`,
+:class:`~mearm.ik.AnalyticSolver` (the arm's closed form) and
+:class:`~mearm.ik.NewtonIK` (Gauss–Newton, any arm) — subclasses :class:`IKSolver`, takes
+the same two arguments in the same order and returns an :class:`~mearm.ik.IKResult`:
+
+    solver.solve(target, q_start=None)
+
+The target first, because it is what a solve is for and every solver needs it; the start
+second and optional, because not every solver needs one to find its answer (a closed form
+needs none) and ``None`` means the home pose, as Robotics Toolbox's ``ik_LM(Tep, q0=…)``
+and ikpy's ``inverse_kinematics(target, initial_position=None)`` have it. A start passed
+first by mistake is refused before anything moves: joint angles read as centimetres fall
+outside the target box.
+
+Here too: the checks every solver makes before anything moves (the target box, the
+closed form's reachability, the start), and the record they return.
+"""
 
 from __future__ import annotations
 
 import abc
 import math
+import struct
 
 import numpy as np
 import numpy.typing as npt
 
 from mearm.config import ControllerConfig
 from mearm.ik.failure import IKFailure, blocking_joints
-from mearm.ik.result import IKResult, Method, Status
+from mearm.ik.result import IKResult, JumpStart, Method, Status
 from mearm.ik.target import IKTarget, approach_error_deg
 from mearm.kinematics import ArmModel, Chain, check_in_box, closed_form_for
+from mearm.kinematics.closed_form import scalar_target_cm
 from mearm.kinematics.errors import InvalidJointsError
 
 #: A start's passive joints may differ from their coupling by this much [model units]
@@ -113,68 +133,148 @@ def couple(chain: Chain, q_act: list[float]) -> np.ndarray:
 
 
 class IKSolver(abc.ABC):
-    """Base class: a solver moves the TCP from a start pose to a target.
+    """Base class: a solver takes the TCP from a start pose to a target (module docstring).
 
     Args:
         model: The arm model (geometry, chain, limits).
-        config: The controller section of the config.
+        config: The controller section of the config (default: its defaults).
 
     Attributes:
         closed_form: The arm's closed form (built once), or ``None`` for an arm without.
+        max_iterations: The solver's iteration cap, which a failure message names [-].
     """
 
     #: Short name recorded in :attr:`IKResult.solver`.
     name: str = "ik"
 
-    def __init__(self, model: ArmModel, config: ControllerConfig):
+    def __init__(self, model: ArmModel, config: ControllerConfig | None = None):
         self.model = model
         self.chain = model.chain
-        self.config = config
+        self.config = config if config is not None else ControllerConfig()
+        self.max_iterations = self.config.max_iterations
         self.closed_form = closed_form_for(model.arm)
         chain = self.chain
         # the checks of every solve in Python floats, their constants computed once
-        self._solve_closed_form = getattr(self.closed_form, "solve_list", None)
+        cf = self.closed_form
+        self._solve_closed_form = None if cf is None else cf.solve_checked
         self._n, self._m = chain.n, chain.m
         self._act_index = chain.actuated_index.tolist()
         self._terms = coupling_terms(chain)
         self._lo, self._hi = chain.lower.tolist(), chain.upper.tolist()
         box = model.arm.target_box
         self._box = tuple((r.min, r.max) for r in (box.x_cm, box.y_cm, box.z_cm))
+        self._scale = chain.scale.copy()
+        self._scale.setflags(write=False)
+        # n floats as bytes: np.frombuffer of them is a read-only joint array made in one
+        # step, cheaper than np.array and setflags on the fast path
+        self._pack_joints = struct.Struct(f"{chain.n}d").pack
+        self._home = start_joints(model.home, model)  # the start when none is given
+        self._home.setflags(write=False)
+        x, y, z = model.fk_cm(self._home).tolist()
+        self._from_home = JumpStart(self.name, self._home, (x, y, z), chain.names, self._scale)
 
-    def prepare(
-        self, q_start: npt.ArrayLike, target: IKTarget | npt.ArrayLike
-    ) -> tuple[np.ndarray, IKTarget, np.ndarray | None]:
-        """Check the target and the start before anything moves.
+    @abc.abstractmethod
+    def solve(
+        self, target: IKTarget | npt.ArrayLike, q_start: npt.ArrayLike | None = None
+    ) -> IKResult:
+        """Take the TCP from ``q_start`` to ``target``.
+
+        Args:
+            target: An :class:`IKTarget`, or (x, y, z) in the base frame [cm] for a
+                position alone.
+            q_start: Every joint (n,) or the actuated ones (m,), model units (rad, or m
+                for a prismatic joint); passive values must agree with their coupling.
+                ``None``: the home pose. The result's path starts here.
 
         Returns:
-            ``(q_start, target, q_closed_form)``: the full start (n,) in model units, the
-            target, and the closed-form solution (n,) — ``None`` for an arm without one.
+            The :class:`IKResult`: status, final joints, the path and the figures.
 
         Raises:
             InvalidTargetError: the target is not three finite numbers (or a bad approach).
             TargetOutsideBoxError: outside the arm's target box.
-            UnreachableTargetError: out of reach within the limits (closed form only).
-            InvalidJointsError: see :func:`start_joints`.
-            JointLimitError: the start is outside the joint limits.
+            UnreachableTargetError: out of reach within the limits (arms with a closed
+                form); an iterative solve that cannot reach returns a result that did not
+                converge, with its :class:`~mearm.ik.IKFailure`.
+            InvalidJointsError, JointLimitError: a bad start (:func:`start_joints`).
+
+        Never raises for numerics: a solve that stops short says so in the result.
         """
-        target = IKTarget.of(target)
-        p = target.position_cm
+
+    def position_cm(self, target: IKTarget | npt.ArrayLike) -> tuple[float, float, float]:
+        """The target's position as three floats [cm], checked against the target box.
+
+        Raises:
+            InvalidTargetError: not three finite numbers.
+            TargetOutsideBoxError: outside the arm's target box.
+        """
+        p = target.position_cm if isinstance(target, IKTarget) else scalar_target_cm(target)
         (x0, x1), (y0, y1), (z0, z1) = self._box
         if not (x0 <= p[0] <= x1 and y0 <= p[1] <= y1 and z0 <= p[2] <= z1):
             check_in_box(p, self.model.arm)  # raises, naming the axis and the range
+        return p
+
+    def prepare(
+        self, target: IKTarget | npt.ArrayLike, q_start: npt.ArrayLike | None = None
+    ) -> tuple[IKTarget, np.ndarray, np.ndarray | None]:
+        """Check the target and the start before anything moves.
+
+        Returns:
+            ``(target, q_start, q_closed_form)``: the target, the full start (n,) in model
+            units (home for ``None``), and the closed-form solution (n,) — ``None`` for an
+            arm without one.
+
+        Raises:
+            See :meth:`solve`.
+        """
+        target = IKTarget.of(target)
+        p = self.position_cm(target)
         q_solution = None
         if self._solve_closed_form is not None:
             q_solution = np.array(self._solve_closed_form(p))
-        elif self.closed_form is not None:  # pragma: no cover (a plug-in without solve_list)
-            q_solution = self.closed_form.solve(p)
-        return self._start(q_start), target, q_solution
+        return target, self._start(q_start), q_solution
 
-    def _start(self, q_start: npt.ArrayLike) -> np.ndarray:
+    def _jump_start(self, q_start: npt.ArrayLike | None) -> JumpStart:
+        """The start of a jump record (:meth:`IKResult.jump`): checked, with its TCP.
+
+        Raises:
+            InvalidJointsError, JointLimitError: see :func:`start_joints`.
+        """
+        if q_start is None:
+            return self._from_home
+        q0 = self._start(q_start)
+        q0.setflags(write=False)
+        x, y, z = self.model.fk_cm(q0).tolist()
+        return JumpStart(self.name, q0, (x, y, z), self.chain.names, self._scale)
+
+    def _jump(
+        self,
+        status: Status,
+        target_cm: tuple[float, float, float],
+        q: list[float],
+        ee_cm: tuple[float, float, float],
+        start: JumpStart,
+        search_iterations: int = 0,
+    ) -> IKResult:
+        """The record of a solve that found joints ``q`` (n floats), not a path.
+
+        See :meth:`IKResult.jump`. One that did not converge carries its
+        :class:`IKFailure`.
+        """
+        q_array = np.frombuffer(self._pack_joints(*q))
+        failure = None
+        if status != "converged":
+            failure = self.stop_failure(status, q_array, IKTarget(target_cm))
+        return IKResult.jump(status, target_cm, q_array, ee_cm, start, search_iterations, failure)
+
+    def _start(self, q_start: npt.ArrayLike | None) -> np.ndarray:
         """:func:`start_joints` in Python floats for a valid start; itself otherwise.
 
         The same values bit for bit (the same clipping, the same coupling sums); any start
         that is not plainly valid goes to :func:`start_joints`, which raises or clips.
+        ``None`` is the home pose.
         """
+        if q_start is None:
+            return self._home.copy()
         n, m, act, lo, hi = self._n, self._m, self._act_index, self._lo, self._hi
         plain = isinstance(q_start, np.ndarray) and q_start.ndim == 1 and q_start.dtype == float
         q = q_start.tolist() if plain else None  # type: ignore[union-attr]
@@ -222,7 +322,7 @@ class IKSolver(abc.ABC):
         kind, blocked = blocking_joints(J @ chain.C, e, q, chain)
         if status == "max_iterations":
             text = (
-                f"the solver reached its iteration cap ({self.config.max_iterations}) "
+                f"the solver reached its iteration cap ({self.max_iterations}) "
                 f"{error_cm:.3f} cm from the target"
             )
         else:
@@ -280,15 +380,3 @@ class IKSolver(abc.ABC):
             failure=None if status == "converged" else failure,
             **counts,
         )
-
-    @abc.abstractmethod
-    def solve(self, q_start: npt.ArrayLike, target: IKTarget | npt.ArrayLike) -> IKResult:
-        """Move from ``q_start`` (n,) or (m,) [model units] to ``target``.
-
-        Args:
-            q_start: Every joint or the actuated ones, model units.
-            target: An :class:`IKTarget`, or (x, y, z) [cm] for position only.
-
-        Raises:
-            MearmError: a bad target or start (see :meth:`prepare`); never for numerics.
-        """

@@ -19,8 +19,8 @@ along the horizontal direction θ1 (``t`` the TCP offset in the last frame). Wit
 from __future__ import annotations
 
 import abc
-import math
 from collections.abc import Callable
+from math import acos, atan2, cos, hypot, isfinite, sin  # local names: a solve is ~1 µs
 
 import numpy as np
 import numpy.typing as npt
@@ -66,13 +66,16 @@ def check_in_box(target_cm: npt.ArrayLike, arm: ArmDescription) -> None:
 def scalar_target_cm(target_cm: npt.ArrayLike) -> tuple[float, float, float]:
     """A target as three Python floats [cm]; a tuple, list or (3,) array without NumPy."""
     t = target_cm
-    if isinstance(t, tuple | list) or (isinstance(t, np.ndarray) and t.shape == (3,)):
+    if isinstance(t, np.ndarray):
+        t = t.tolist()  # one call, where indexing makes three NumPy scalars
+    if isinstance(t, (tuple, list)) and len(t) == 3:  # a tuple of types: faster than a union
         try:
             x, y, z = float(t[0]), float(t[1]), float(t[2])
-            if len(t) == 3 and math.isfinite(x + y + z):
-                return x, y, z
-        except (TypeError, ValueError, IndexError):
+        except (TypeError, ValueError):
             pass
+        else:
+            if isfinite(x + y + z):
+                return x, y, z
     x, y, z = as_target_cm(t).tolist()  # raises InvalidTargetError, naming the value
     return x, y, z
 
@@ -92,7 +95,6 @@ class ClosedForm(abc.ABC):
         self.arm = arm
         self.chain = Chain.from_description(arm)
 
-    @abc.abstractmethod
     def solve(self, target_cm: npt.ArrayLike) -> np.ndarray:
         """Every joint, model units, (n,), putting the TCP at ``target_cm``; within limits.
 
@@ -100,6 +102,20 @@ class ClosedForm(abc.ABC):
             UnreachableTargetError: out of reach; its subclasses
                 :class:`JointLimitTargetError` (needs a joint outside its limits) and
                 :class:`SingularTargetError` (where the formula is singular).
+        """
+        return np.array(self.solve_checked(scalar_target_cm(target_cm)))
+
+    def solve_list(self, target_cm: npt.ArrayLike) -> list[float]:
+        """:meth:`solve` as a list of Python floats [model units], without the array."""
+        return self.solve_checked(scalar_target_cm(target_cm))
+
+    @abc.abstractmethod
+    def solve_checked(self, target_cm: tuple[float, float, float]) -> list[float]:
+        """:meth:`solve` for a target already read as three finite floats [cm].
+
+        What a plug-in writes: the joints as Python floats [model units]. The solvers
+        call it (:class:`~mearm.ik.AnalyticSolver`), which read and check the target
+        once: a solve is then scalar arithmetic and one small array.
         """
 
     def _check_limits(self, target: tuple[float, float, float], q: np.ndarray) -> None:
@@ -175,42 +191,49 @@ class PlanarWrist(ClosedForm):
             )
         tx, ty, _ = arm.tool.tcp_cm
         a2, a3 = j[1].dh.a_cm, j[2].dh.a_cm
-        # every constant of the formula and the checks, as Python floats, computed once:
-        # a solve is then scalar arithmetic and one small array (about 2 µs)
-        self._a2, self._a3 = a2, a3
-        self._a2a2_a3a3, self._inv_2a2a3 = a2 * a2 + a3 * a3, 1.0 / (2.0 * a2 * a3)
         self._reach_max, self._reach_min = a2 + a3, abs(a2 - a3)
-        self._radial = j[0].dh.a_cm + j[3].dh.a_cm + tx
-        self._height = j[0].dh.d_cm + ty
         self._lower = self.chain.lower.tolist()
         self._upper = self.chain.upper.tolist()
+        # every constant of the formula and the checks as Python floats, computed once and
+        # read in one unpacking: a solve is then scalar arithmetic (under 1 µs)
+        self._constants = (
+            j[0].dh.a_cm + j[3].dh.a_cm + tx,  # radial offset of the shoulder and TCP
+            j[0].dh.d_cm + ty,  # height of the shoulder and TCP
+            self._reach_max + _EPS,
+            self._reach_min - _EPS,
+            a2 * a2 + a3 * a3,
+            1.0 / (2.0 * a2 * a3),
+            a2,
+            a3,
+            *self._lower,
+            *self._upper,
+        )
 
-    def solve(self, target_cm: npt.ArrayLike) -> np.ndarray:
-        """Joints (model units, (4,)) putting the TCP at ``target_cm``; see the module."""
-        return np.array(self.solve_list(target_cm))
-
-    def solve_list(self, target_cm: npt.ArrayLike) -> list[float]:
-        """:meth:`solve` as a list of Python floats [model units], without the array."""
-        x, y, z = scalar_target_cm(target_cm)
-        rho = math.hypot(x, y)
+    def solve_checked(self, target_cm: tuple[float, float, float]) -> list[float]:
+        """Joints (model units, 4 floats) putting the TCP at ``target_cm``; see the module."""
+        x, y, z = target_cm
+        radial, height, far, near, a2a2_a3a3, inv_2a2a3, a2, a3, l0, l1, l2, l3, h0, h1, h2, h3 = (
+            self._constants
+        )
+        rho = hypot(x, y)
         if rho < _EPS:
             raise SingularTargetError((x, y, z), "on the base axis, where the base is undefined")
-        r = rho - self._radial
-        h = z - self._height
-        dist = math.hypot(r, h)
-        if dist > self._reach_max + _EPS or dist < self._reach_min - _EPS:
+        r = rho - radial
+        h = z - height
+        dist = hypot(r, h)
+        if dist > far or dist < near:
             raise UnreachableTargetError(
                 (x, y, z),
                 f"out of reach: the wrist point is {dist:.3f} cm from the shoulder, "
                 f"the arm reaches [{self._reach_min:.3f}, {self._reach_max:.3f}] cm",
             )
-        cos3 = (dist * dist - self._a2a2_a3a3) * self._inv_2a2a3
-        theta3 = -math.acos(1.0 if cos3 > 1.0 else -1.0 if cos3 < -1.0 else cos3)
-        a3 = self._a3
-        theta2 = math.atan2(h, r) - math.atan2(
-            a3 * math.sin(theta3), self._a2 + a3 * math.cos(theta3)
-        )
-        q = [math.atan2(y, x), theta2, theta3, -(theta2 + theta3)]
+        cos3 = (dist * dist - a2a2_a3a3) * inv_2a2a3
+        theta3 = -acos(1.0 if cos3 > 1.0 else -1.0 if cos3 < -1.0 else cos3)
+        theta2 = atan2(h, r) - atan2(a3 * sin(theta3), a2 + a3 * cos(theta3))
+        base, wrist = atan2(y, x), -(theta2 + theta3)
+        if l0 <= base <= h0 and l1 <= theta2 <= h1 and l2 <= theta3 <= h2 and l3 <= wrist <= h3:
+            return [base, theta2, theta3, wrist]  # the usual case, checked in one expression
+        q = [base, theta2, theta3, wrist]
         lo, hi = self._lower, self._upper
         for i in range(4):
             v = q[i]

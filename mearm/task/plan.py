@@ -149,7 +149,7 @@ class Planner:
         values at the two ends.
         """
         try:
-            result = self.solver.solve(q_start, target)
+            result = self.solver.solve(target, q_start)
         except (TargetError, JointLimitError) as exc:
             return None, failure_of_error(exc)
         if not result.converged:

@@ -12,7 +12,7 @@ Sections:
     ik: the peers on the same 500 seeded reachable targets, each held to |e| < 0.01 cm
         from home: Robotics Toolbox's C++ ``ik_LM`` on the same 3-joint kinematics
         (skipped, in one line, without the ``bench`` extra), the fastest solve mearm
-        ships for the arm (:func:`mearm.ik.fast.fastest_solver`), its generic solve,
+        ships for the arm (:func:`mearm.ik.fastest_solver`), its generic solve,
         PD-PIJ (µs per iteration and fixed cost per solve) and the NumPy port of the
         paper's loop (:mod:`mearm.ik.paper_port`), with ratios. Then PD-PIJ per iteration
         and per route (``paper`` and ``coupled`` modes) on the paper's 24 demo routes,
@@ -187,7 +187,7 @@ def bench_ik(options: BenchOptions) -> list[Row]:
     calls: dict[str, Callable[[], object]] = {}
     for i, route in enumerate(routes):
         for key, solver in solvers.items():
-            calls[f"{key}/{i}"] = functools.partial(solver.solve, starts[key][i], route.target_cm)
+            calls[f"{key}/{i}"] = functools.partial(solver.solve, route.target_cm, starts[key][i])
         calls[f"numpy port/{i}"] = functools.partial(port, starts["paper"][i], route.target_cm)
     tries = {"paper": 4, "coupled": 4, "mink": 2, "numpy port": 2}
     best = best_seconds(
@@ -332,8 +332,7 @@ def ik_peer_rows(config: Config, options: BenchOptions, n_targets: int = PEER_TA
     """
     from tqdm import tqdm  # noqa: PLC0415
 
-    from mearm.ik import AnalyticSolver, PdPij  # noqa: PLC0415
-    from mearm.ik.fast import ClosedFormIK, NewtonIK, fastest_solver  # noqa: PLC0415
+    from mearm.ik import AnalyticSolver, NewtonIK, PdPij, fastest_solver  # noqa: PLC0415
     from mearm.ik.paper_port import numpy_port_solve  # noqa: PLC0415
     from mearm.kinematics import ArmModel  # noqa: PLC0415
 
@@ -349,7 +348,9 @@ def ik_peer_rows(config: Config, options: BenchOptions, n_targets: int = PEER_TA
     pdpij = PdPij(model, controller)
     fast = fastest_solver(model)
     newton = NewtonIK(model, tolerance_cm=PEER_TOLERANCE_CM)
-    analytic = AnalyticSolver(model, controller) if isinstance(fast, ClosedFormIK) else None
+    closed = isinstance(fast, AnalyticSolver)
+    # the same solver from a given start: the start checked, its TCP, the record
+    analytic = AnalyticSolver(model, controller) if closed else None
     port_controller = controller.updated(mode="paper")
     port_targets = targets[:n_port]
     # a solve that starts at its own target: no iteration, the fixed cost alone
@@ -358,14 +359,14 @@ def ik_peer_rows(config: Config, options: BenchOptions, n_targets: int = PEER_TA
     runs: dict[str, Callable[[], list[Any]]] = {
         "fastest": lambda: [fast.solve(t) for t in targets],
         "generic": lambda: [newton.solve(t) for t in targets],
-        "PD-PIJ": lambda: [pdpij.solve(home, t) for t in targets],
-        "PD-PIJ at target": lambda: [pdpij.solve(q, t) for q, t in on_target],
+        "PD-PIJ": lambda: [pdpij.solve(t, home) for t in targets],
+        "PD-PIJ at target": lambda: [pdpij.solve(t, q) for q, t in on_target],
         "numpy port": lambda: [
             numpy_port_solve(home, t, config.arm, port_controller) for t in port_targets
         ],
     }
     if analytic is not None:
-        runs["analytic"] = lambda: [analytic.solve(home, t) for t in targets]
+        runs["analytic"] = lambda: [analytic.solve(t, home) for t in targets]
     ets, rtb_note = rtb_ets(config)
     if ets is not None:
         rng = np.random.default_rng(0)
@@ -456,11 +457,14 @@ def ik_peer_rows(config: Config, options: BenchOptions, n_targets: int = PEER_TA
         solve_row("RTB ik_LM", "RTB ik_LM (C++)", rtb_note)
     else:
         rows.append(Row("ik", "RTB ik_LM (C++)", 0.0, "", f"skipped: {rtb_note}"))
-    solve_row("fastest", f"mearm fastest ({fast.name})", "fastest_solver(model)")
+    kind = "closed form" if closed else fast.name
+    solve_row("fastest", f"mearm fastest ({kind})", "fastest_solver(model)")
     solve_row("generic", f"mearm generic ({newton.name})", "NewtonIK, for arms without one")
     if analytic is not None:
         solve_row(
-            "analytic", "mearm analytic solver", "the closed form behind IKSolver: checks, record"
+            "analytic",
+            "mearm analytic solver",
+            "the same closed form from a start: its checks, its TCP",
         )
     solve_row("PD-PIJ", f"PD-PIJ {controller.mode}", "the route generator, the paper's loop")
     rows.append(Row("ik", f"PD-PIJ {controller.mode}: iterations per solve", pd_iterations / n, ""))
@@ -660,7 +664,7 @@ def bench_collision(options: BenchOptions) -> list[Row]:
     calls: dict[str, Callable[[], object]] = {}
     for k, (path, target, _, _) in enumerate(routes):
         calls[f"route/{k}"] = functools.partial(_checked_route, world, k, collision, path, target)
-        calls[f"ik/{k}"] = functools.partial(solver.solve, path[0], model.fk_cm(path[-1]))
+        calls[f"ik/{k}"] = functools.partial(solver.solve, model.fk_cm(path[-1]), path[0])
     world(0)
     path0 = routes[0][0]
     two_poses = itertools.cycle([path0[len(path0) // 2], path0[len(path0) // 3]])

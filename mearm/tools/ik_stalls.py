@@ -75,7 +75,7 @@ def measure(config: Config, n: int, seed: int, recover: bool | None) -> list[dic
             target = IKTarget(_xyz(p), axis)
             edge = {"home": None, "uniform": 0.0, "near a limit": 0.5}[start]
             q0 = model.home if edge is None else chain.full(_sample(rng, lo, hi, edge))
-            result = solver.solve(q0, target)
+            result = solver.solve(target, q0)
             solved += 1
             if not result.converged:
                 stopped += 1

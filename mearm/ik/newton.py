@@ -1,16 +1,14 @@
-r"""The fastest position solve mearm ships for an arm: joints for a TCP target, nothing more.
+r"""Gauss–Newton IK for any arm: joints for a TCP target, fast; no path.
 
-:func:`fastest_solver` picks it: the arm's registered closed form (:class:`ClosedFormIK`,
-about 2 µs a solve on the paper arm), otherwise the generic :class:`NewtonIK`. Both
-return a :class:`FastSolution`: the joints, not a path. The path a servo follows comes from
-:class:`~mearm.ik.PdPij` (the paper's route generator); these solve a target once, for a
-planner, a reachability check or a seed.
+:class:`NewtonIK` is the generic solve :func:`~mearm.ik.fastest_solver` picks for an arm
+that registers no closed form (for one that does, :class:`~mearm.ik.AnalyticSolver`).
+Its record is one update from the start to the solution (:meth:`IKResult.jump`): the
+path a servo follows comes from :class:`~mearm.ik.PdPij` (the paper's route generator);
+this solves a target once, for a planner, a reachability check or a seed. It places the
+TCP only (no approach direction).
 
-Neither checks the target box (call :func:`~mearm.kinematics.check_in_box` at the
-boundary) nor takes an approach direction.
-
-:class:`NewtonIK` is Gauss–Newton on the actuated joints with the coupled Jacobian
-:math:`J C` (one Pinocchio pass and one small SVD per iteration),
+It is Gauss–Newton on the actuated joints with the coupled Jacobian :math:`J C` (one
+Pinocchio pass and one small SVD per iteration),
 
 .. math:: \Delta q_a = (J C)^+ e, \qquad e = s_d - FK(q)
 
@@ -21,8 +19,6 @@ the actuated joints); then halved until |e| falls.
 
 from __future__ import annotations
 
-import abc
-import math
 from typing import NamedTuple
 
 import numpy as np
@@ -30,11 +26,11 @@ import numpy.typing as npt
 import pinocchio as pin
 
 from mearm.ik.pseudoinverse import PseudoInverse
-from mearm.ik.result import Status
-from mearm.ik.solver import coupling_terms
-from mearm.kinematics import ArmModel, ClosedForm, closed_form_for
-from mearm.kinematics.closed_form import scalar_target_cm
-from mearm.kinematics.errors import ModelError
+from mearm.ik.result import IKResult, Status
+from mearm.ik.solver import IKSolver, coupling_terms
+from mearm.ik.target import IKTarget
+from mearm.kinematics import ArmModel
+from mearm.kinematics.errors import InvalidTargetError
 from mearm.kinematics.model import CM_PER_M
 
 #: Default tolerance: |e| below this [cm].
@@ -43,86 +39,20 @@ TOLERANCE_CM = 0.01
 _MAX_HALVINGS = 10
 
 
-class FastSolution(NamedTuple):
-    """One fast solve.
+class _Descent(NamedTuple):
+    """One Gauss–Newton run: where it stopped, how, |e|² there [m²] and its updates."""
 
-    Attributes:
-        q: Every joint, model units (rad, or m for a prismatic joint), within the limits
-            and on the coupling, (n,).
-        status: ``converged``, ``stalled`` or ``max_iterations`` (:data:`STATUSES`).
-        error_cm: |s_d − FK(q)| [cm]; 0.0 for a closed form (exact to rounding, below
-            1e-9 cm: tests/test_analytic.py).
-        iterations: Updates made [-]; 0 for a closed form.
-    """
-
-    q: np.ndarray
+    q: list[float]
     status: Status
-    error_cm: float
+    err2: float
+    e: list[float]
     iterations: int
 
-    @property
-    def converged(self) -> bool:
-        """Whether the TCP reached the target within the tolerance."""
-        return self.status == "converged"
 
-
-class FastIK(abc.ABC):
-    """Base class: joints (n,) for a TCP target [cm], fast.
-
-    Args:
-        model: The arm model.
-    """
-
-    #: Short name the bench shows.
-    name: str = "fast"
-
-    def __init__(self, model: ArmModel):
-        self.model = model
-        self.chain = model.chain
-
-    @abc.abstractmethod
-    def solve(self, target_cm: npt.ArrayLike, q_seed: npt.ArrayLike | None = None) -> FastSolution:
-        """Joints putting the TCP at ``target_cm`` (x, y, z) [cm], base frame.
-
-        Args:
-            target_cm: The target, (3,) [cm].
-            q_seed: Every joint, model units, (n,): where an iterative solve starts
-                (default: its own choice). A closed form ignores it.
-
-        Raises:
-            InvalidTargetError: not three finite numbers.
-            UnreachableTargetError: (closed form only) out of reach within the limits;
-                an iterative solve returns a :class:`FastSolution` that did not converge.
-        """
-
-
-class ClosedFormIK(FastIK):
-    """The arm's registered closed form (:mod:`mearm.kinematics.closed_form`) as a solve.
-
-    Raises:
-        ModelError: the arm registers no closed form.
-    """
-
-    name = "closed form"
-
-    def __init__(self, model: ArmModel, closed_form: ClosedForm | None = None):
-        super().__init__(model)
-        cf = closed_form if closed_form is not None else closed_form_for(model.arm)
-        if cf is None:
-            raise ModelError(
-                f"arm {model.arm.name!r} registers no closed form (arm.closed_form is "
-                "null): use NewtonIK, or fastest_solver() which picks it"
-            )
-        self.closed_form = cf
-        self._solve = getattr(cf, "solve_list", cf.solve)
-
-    def solve(self, target_cm: npt.ArrayLike, q_seed: npt.ArrayLike | None = None) -> FastSolution:
-        """The closed form's joints for ``target_cm`` (see :meth:`FastIK.solve`)."""
-        return FastSolution(np.array(self._solve(target_cm)), "converged", 0.0, 0)
-
-
-class NewtonIK(FastIK):
+class NewtonIK(IKSolver):
     """Gauss–Newton with bounded steps on the actuated joints (module docstring); any arm.
+
+    Its settings are its own, not the controller config's (PD-PIJ's gains and cap).
 
     Args:
         model: The arm model.
@@ -133,8 +63,8 @@ class NewtonIK(FastIK):
             can hold a local minimum): the middle of the box, then joints drawn from a
             fixed seed, the same for every solve [-].
         seed_table: About this many joint vectors on a grid over the actuated joints'
-            box, with their TCPs: without ``q_seed`` a solve starts from the one whose
-            TCP is nearest the target [-].
+            box, with their TCPs: without a start a solve begins at the one whose TCP
+            is nearest the target [-].
     """
 
     name = "Gauss-Newton"
@@ -166,7 +96,6 @@ class NewtonIK(FastIK):
         self._lower, self._upper = chain.lower.tolist(), chain.upper.tolist()
         self._act = chain.actuated_index.tolist()
         self._passive = coupling_terms(chain)
-        self._home = model.home.tolist()
         rng = np.random.default_rng(0)
         lo_a, hi_a = chain.actuated_lower, chain.actuated_upper
         seeds = [(lo_a + hi_a) / 2] + list(rng.uniform(lo_a, hi_a, (max(restarts - 1, 0), chain.m)))
@@ -177,7 +106,10 @@ class NewtonIK(FastIK):
         grid = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, chain.m)
         table = [chain.full(g) for g in grid]
         self._table_q = [q.tolist() for q in table]
-        self._table_tcp = np.array([model.fk_cm(q) for q in table]) / CM_PER_M  # (K, 3)
+        tcp = np.array([model.fk_cm(q) for q in table]) / CM_PER_M  # (K, 3) [m]
+        # nearest TCP to t: argmin |p|² − 2 p·t (|t|² is the same for all), one product
+        self._table_norm2 = np.einsum("ij,ij->i", tcp, tcp)  # (K,) [m²]
+        self._table_minus_2tcp = np.ascontiguousarray(-2.0 * tcp.T)  # (3, K) [m]
 
     def _measure(self, q: list[float], t: tuple[float, ...]) -> tuple[list[float], np.ndarray]:
         """Error e [m] (list) and the coupled Jacobian J C (3, m) at ``q``."""
@@ -236,38 +168,46 @@ class NewtonIK(FastIK):
             dq[k] = d
         return dq
 
-    def solve(self, target_cm: npt.ArrayLike, q_seed: npt.ArrayLike | None = None) -> FastSolution:
-        """Iterate from ``q_seed`` to ``target_cm`` (see :meth:`FastIK.solve`).
+    def solve(
+        self, target: IKTarget | npt.ArrayLike, q_start: npt.ArrayLike | None = None
+    ) -> IKResult:
+        """Iterate from ``q_start`` to ``target`` (see :class:`IKSolver`).
 
-        Without ``q_seed``, from the seed table's entry whose TCP is nearest the target.
+        Without a start, from the seed table's entry whose TCP is nearest the target
+        (the record's path still starts at home). If it stops short, from each restart
+        in turn; the first that converges is returned, else the closest stop.
+        ``search_iterations`` counts every start's updates.
 
-        If it stops short, from each restart in turn; the first that converges is
-        returned (``iterations`` counts every start's), else the closest stop.
+        Raises:
+            InvalidTargetError: also for a target with an approach direction.
         """
-        x, y, z = scalar_target_cm(target_cm)
+        if isinstance(target, IKTarget) and target.approach is not None:
+            raise InvalidTargetError(
+                f"NewtonIK places the TCP only, got the approach {target.approach}: "
+                "use PdPij or MinkSolver for an approach direction"
+            )
+        x, y, z = self.position_cm(target)
+        start = self._jump_start(q_start)
         t = (x / CM_PER_M, y / CM_PER_M, z / CM_PER_M)
-        lo, hi, act = self._lower, self._upper, self._act
-        if q_seed is None:
-            d = self._table_tcp - t
-            q = list(self._table_q[int(np.argmin(np.einsum("ij,ij->i", d, d)))])
-        else:  # trusted as a joint vector (n,); put on the limits and the coupling
-            q = np.asarray(q_seed, dtype=float).tolist()
-            for i in act:
-                q[i] = min(max(q[i], lo[i]), hi[i])
-            if not self._couple(q):
-                q = list(self._home)
+        if q_start is None:
+            d2 = self._table_norm2 + np.dot(t, self._table_minus_2tcp)  # |p − t|² − |t|²
+            q = list(self._table_q[int(np.argmin(d2))])
+        else:
+            q = start.q.tolist()
         best = self._descend(q, t)
         total = best.iterations
         for seed in self._restarts:
-            if best.converged:
+            if best.status == "converged":
                 break
             run = self._descend(list(seed), t)
             total += run.iterations
-            if run.converged or run.error_cm < best.error_cm:
+            if run.status == "converged" or run.err2 < best.err2:
                 best = run
-        return best._replace(iterations=total)
+        e = best.e
+        ee = ((t[0] - e[0]) * CM_PER_M, (t[1] - e[1]) * CM_PER_M, (t[2] - e[2]) * CM_PER_M)
+        return self._jump(best.status, (x, y, z), best.q, ee, start, total)
 
-    def _descend(self, q: list[float], t: tuple[float, float, float]) -> FastSolution:
+    def _descend(self, q: list[float], t: tuple[float, float, float]) -> _Descent:
         """Gauss–Newton from ``q`` (n,) [model units] towards ``t`` [m]."""
         lo, hi, act, tol2 = self._lower, self._upper, self._act, self._tol2
         e, Jc = self._measure(q, t)
@@ -297,15 +237,4 @@ class NewtonIK(FastIK):
                 break
             q, e, Jc, err2 = cand, e_new, Jc_new, err2_new
             k += 1
-        return FastSolution(np.array(q), status, math.sqrt(err2) * CM_PER_M, k)
-
-
-def fastest_solver(model: ArmModel) -> FastIK:
-    """The fastest position solve for ``model``'s arm.
-
-    The registered closed form where the arm names one, else :class:`NewtonIK`.
-    """
-    closed_form = closed_form_for(model.arm)
-    if closed_form is not None:
-        return ClosedFormIK(model, closed_form)
-    return NewtonIK(model)
+        return _Descent(q, status, err2, e, k)
