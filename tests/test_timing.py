@@ -183,3 +183,53 @@ def test_a_servo_over_a_combination_is_timed_on_its_own_value():
                                          axis=0)) * rate  # fmt: skip
             assert naive_rates[:, k].max() > 1.5 * speed[k]
     assert durations[0] > 1.5 * durations[1]  # 80° of the forearm servo against 40°
+
+
+class _Spy:
+    """A view that records the joints it is shown."""
+
+    def __init__(self) -> None:
+        self.shown: list[np.ndarray] = []
+
+    def show_joints(self, q, opening_cm=None) -> None:  # noqa: ANN001
+        self.shown.append(np.array(q, dtype=float))
+
+    def show_bodies(self, *args) -> None:  # noqa: ANN002
+        raise AssertionError("the kinematic rig has no bodies to show")
+
+    def set_target(self, target_cm) -> None:  # noqa: ANN001
+        pass
+
+    def add_path(self, ee_path_cm, color) -> object:  # noqa: ANN001
+        return None
+
+
+@pytest.mark.parametrize(("rate_hz", "every"), [(50.0, 1), (60.0, 1), (200.0, 4), (1000.0, 17)])
+def test_the_view_is_shown_at_most_sixty_times_a_second_and_every_routes_end(rate_hz, every):
+    """A fast stream shows the view every k-th move (k from VIEW_HZ) and always the last."""
+    from mearm.kinematics import ArmModel  # noqa: PLC0415
+    from mearm.sim import SimArm, World  # noqa: PLC0415
+    from mearm.task.execute import VIEW_HZ, Executor  # noqa: PLC0415
+    from mearm.task.plan import Planner  # noqa: PLC0415
+    from mearm.task.route import Route  # noqa: PLC0415
+
+    config = Config()
+    config = config.model_copy(
+        update={"servo": config.servo.model_copy(update={"rate_hz": rate_hz})}
+    )
+    model = ArmModel(config.arm)
+    world = World.from_config(config)
+    spy = _Spy()
+    with SimArm(config, world) as bus:
+        ex = Executor(config, bus, model, spy)
+        assert ex.view_every == every and rate_hz / every <= VIEW_HZ
+        planner = Planner(config, model)
+        red = config.task.class_named("red")
+        route = planner.plan(
+            Route("", "red", "pick", 1, planner.pick_target(red, 0.0, 45.0)), model.home
+        )
+        assert route.planned and route.plan is not None
+        sent = len(ex.timed(route.plan.q_path).q) - 1
+        ex.stream(route, "travel", False)
+    assert len(spy.shown) == -(-sent // every)  # every k-th move, and the last if it was not
+    np.testing.assert_allclose(spy.shown[-1], ex.q_now(), atol=1e-12)

@@ -17,6 +17,7 @@ any other bus the view shows the commanded joints.
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable, Iterable
 from typing import Literal, Protocol
@@ -41,6 +42,12 @@ ARRIVAL_TIMEOUT_S = 2.0
 #: The largest step between two planned poses of a joint-space move: [rad] for a revolute joint
 #: (2°), [m] for a prismatic one (0.5 cm).
 JOINT_STEP = {False: np.deg2rad(2.0), True: 0.005}
+
+#: The view is shown the arm at most this often in the stream's own time [Hz]: a faster
+#: stream (``servo.rate_hz``) shows every k-th move and each route's last. A frame costs
+#: one meshcat round trip per body (about 6.5 ms for the paper arm), which at 1000 Hz
+#: held a paced run back to half speed.
+VIEW_HZ = 60.0
 
 
 class View(Protocol):
@@ -77,9 +84,10 @@ class Executor:
         bus: The servo bus (connected by the caller).
         model: The arm model.
         view: A view to follow the arm, or ``None``.
-        view_every: On a bus that measures the world (the twin), push the world to the
-            view after every this many moves; always at the end of a route or a joint
-            path, at home, and after a tool setting.
+        view_every: Show the view the arm after every this many moves (the twin's whole
+            world, else the commanded joints); always at the end of a route or a joint
+            path, at home, and after a tool setting. ``None``: as often as
+            :data:`VIEW_HZ` allows at ``servo.rate_hz`` (every move at 60 Hz or less).
 
     Attributes:
         twin_ids: The objects the bus measures (:func:`twin_object_ids`), or ``None``:
@@ -95,8 +103,10 @@ class Executor:
         model: ArmModel,
         view: View | None = None,
         *,
-        view_every: int = 1,
+        view_every: int | None = None,
     ):
+        if view_every is None:
+            view_every = max(1, math.ceil(config.servo.rate_hz / VIEW_HZ))
         if view_every < 1:
             raise ValueError(f"view_every must be at least 1, not {view_every}")
         self.config = config
@@ -109,6 +119,7 @@ class Executor:
         self.twin_ids = twin_object_ids(bus)
         self._classes = {c.name for c in config.task.classes}
         self._unshown = 0  # moves sent since the view was last shown the world
+        self._unshown_q: np.ndarray | None = None  # the last joints sent, not yet shown
         self.limits = SpeedLimits.of_arm(config.arm, self.chain)
         self.motion = MotionTime()
 
@@ -153,11 +164,18 @@ class Executor:
         return q, float(bus.opening_cm), objects
 
     def show_world(self) -> None:
-        """Push the twin's world to the view now (nothing without a view or a twin)."""
-        if self.view is None or self.twin_ids is None:
+        """Show the view the arm now: the twin's measured world, else the joints last sent.
+
+        Nothing without a view, or on the kinematic rig when every move was shown.
+        """
+        if self.view is None:
             return
         self._unshown = 0
-        self.view.show_bodies(*self.world_now())
+        if self.twin_ids is not None:
+            self.view.show_bodies(*self.world_now())
+        elif self._unshown_q is not None:
+            self.view.show_joints(self._unshown_q)
+            self._unshown_q = None
 
     def _flush_view(self) -> None:
         """Show the world if a move was sent since it was last shown."""
@@ -177,8 +195,7 @@ class Executor:
         if self.view is None:
             return
         if self.twin_ids is None:
-            self.view.show_joints(self.chain.full(self.chain.actuated_of(np.asarray(q))))
-            return
+            self._unshown_q = self.chain.full(self.chain.actuated_of(np.asarray(q)))
         self._unshown += 1
         if self._unshown >= self.view_every:
             self.show_world()
