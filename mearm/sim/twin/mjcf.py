@@ -146,7 +146,6 @@ from mearm.kinematics.bodies import (
     bin_half_outer_m,
     bin_origin_m,
     bin_shapes,
-    link_width_m,
     object_centre_m,
     object_shape,
     wall_height_m,
@@ -315,7 +314,7 @@ def _bin_half_outer_m(config: Config, color: str) -> float:
 def _check_scene(config: Config) -> None:
     task = config.task
     ids = object_ids(config)
-    base_r = _base_radius_m(config)
+    base_r = base_radius_m(config)
     placed: list[tuple[str, np.ndarray, float]] = []
     for oid, obj in zip(ids, task.scene, strict=True):
         c = task.class_named(obj.color)
@@ -507,14 +506,6 @@ def _lever2(joint: Joint) -> float:
 
 def _rgba(rgb: Sequence[int] | tuple[float, float, float], alpha: float = 1.0) -> list[float]:
     return [*(float(c) / 255 for c in rgb), alpha]
-
-
-def _link_width_m(config: Config) -> float:
-    return link_width_m(config)
-
-
-def _base_radius_m(config: Config) -> float:
-    return base_radius_m(config)
 
 
 _GEOM_KIND = {
