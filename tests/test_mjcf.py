@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import copy
 import math
 
 import mujoco
@@ -14,9 +15,12 @@ from mearm.config import Config, SceneObject, load_config
 from mearm.exceptions import ModelError
 from mearm.ik.mink_solver import mujoco_model
 from mearm.kinematics import ArmModel
+from mearm.kinematics.chain import Chain
 from mearm.kinematics.urdf import jaw_joint_names
 from mearm.sim import World
 from mearm.sim.twin.mjcf import (
+    COUPLING_PLAY,
+    COUPLING_SOLREF,
     GRIPPER_SERVO,
     GRIPPER_SERVO_TEXT,
     JOINT_SERVO_TEXT,
@@ -138,14 +142,21 @@ def test_holds_home_under_gravity(twin, held):
     assert np.max(np.abs(held.qvel[: ch.n])) < 1e-3  # settled, not oscillating
 
 
-def test_coupling_is_a_tendon_equality(twin):
-    """Each passive joint has a fixed tendon q_p − Σ c q_a held at its offset."""
+def test_coupling_is_a_tendon_held_at_its_offset(twin):
+    """Each passive joint has a fixed tendon q_p − Σ c q_a held at its offset by its limits.
+
+    Not a tendon equality: MuJoCo cannot put bodies to sleep in a model that has one.
+    """
     config, _, m = twin
-    passive = [j.name for j in config.arm.joints if j.coupling is not None]
-    names = {m.eq(i).name for i in range(m.neq)}
-    for name in passive:
-        assert f"{name}_coupling" in names
-        assert m.tendon(f"{name}_coupling").id >= 0
+    chain = Chain.from_description(config.arm)
+    for i, joint in enumerate(config.arm.joints):
+        if joint.coupling is None:
+            continue
+        t = m.tendon(f"{joint.name}_coupling").id
+        assert m.tendon_limited[t]
+        half = COUPLING_PLAY / 2
+        np.testing.assert_allclose(m.tendon_range[t], chain.c[i] + np.array([-half, half]))
+        assert m.tendon_solref_lim[t].tolist() == list(COUPLING_SOLREF)
 
 
 def test_objects_rest_on_the_table(twin, held):
@@ -159,6 +170,22 @@ def test_objects_rest_on_the_table(twin, held):
         assert body.xmat[8] > 1 - 1e-6  # upright
         assert np.linalg.norm(body.cvel) < 1e-3
         assert m.body(f"obj_{oid}").mass[0] > 0
+
+
+def test_objects_at_rest_sleep_and_wake_when_touched(twin, held):
+    """Settled objects sleep (MuJoCo does not simulate them); a push wakes one and moves it."""
+    config, _, m = twin
+    ids = object_ids(config)
+    bodies = [m.body(f"obj_{oid}").id for oid in ids]
+    assert all(held.body_awake[b] == mujoco.mjtSleepState.mjS_ASLEEP for b in bodies)
+    assert held.nv_awake == m.nv - 6 * len(ids)  # the arm alone
+    d = copy.copy(held)
+    b = bodies[0]
+    d.xfrc_applied[b, 0] = 0.5  # a sideways push [N]: it wakes the object
+    x0 = d.xpos[b].copy()
+    mujoco.mj_step(m, d, nstep=50)
+    assert d.body_awake[b] == mujoco.mjtSleepState.mjS_AWAKE
+    assert np.linalg.norm(d.xpos[b] - x0) > 1e-4
 
 
 def test_object_names_are_the_worlds_ids(twin):

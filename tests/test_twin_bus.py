@@ -221,6 +221,41 @@ def test_backlash_lags_after_a_reversal(paper):
     np.testing.assert_allclose(ends[0] - ends[1], BACKLASH_DEG, atol=0.02)
 
 
+def _stepwise(arm: TwinArm, n: int) -> np.ndarray:
+    """The servo model's setpoints one step at a time (what ``TwinArm._ramp`` does at once)."""
+    step = arm._speed * arm.model.opt.timestep
+    motor, setpoint, rows = arm._motor.copy(), arm._setpoint.copy(), []
+    for _ in range(n):
+        gap = arm._target - motor
+        motor = np.where(np.abs(gap) <= step, arm._target, motor + np.sign(gap) * step)
+        setpoint = np.clip(setpoint, motor - arm._half_play, motor + arm._half_play)
+        rows.append(setpoint)
+    return np.array(rows)
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_the_setpoint_ramp_is_the_step_by_step_servo_model(paper, seed):
+    """The ramp computed for many steps at once equals the per-step recurrence bit for bit.
+
+    Targets, motors and setpoints are drawn so that servos rise, fall, stand still, arrive
+    mid-ramp and start inside their play after a reversal.
+    """
+    rng = np.random.default_rng(seed)
+    arm = _twin(paper)
+    nu = len(arm.servos)
+    for _ in range(20):
+        arm._motor = rng.uniform(-1.0, 1.0, nu)
+        arm._target = np.where(rng.random(nu) < 0.2, arm._motor, rng.uniform(-1.0, 1.0, nu))
+        arm._setpoint = arm._motor + rng.uniform(-0.5, 0.5, nu) * 2 * arm._half_play
+        expected = _stepwise(arm, 400)
+        ramp = arm._ramp(400)
+        assert 1 <= len(ramp) <= 400
+        np.testing.assert_array_equal(ramp, expected[: len(ramp)])
+        if len(ramp) < 400:  # the motors are all there: the rest holds the last setpoint
+            assert np.array_equal(arm._motor, arm._target)
+            np.testing.assert_array_equal(expected[len(ramp) :], expected[len(ramp) - 1 :][:-1])
+
+
 def test_each_move_runs_one_command_period(paper):
     """100 moves run 100 command periods of physics (the speed is `mearm bench`'s)."""
     config, _ = paper

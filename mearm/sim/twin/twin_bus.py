@@ -347,31 +347,56 @@ class TwinArm(ServoBus):
             waited += step_s
 
     def _run(self, seconds: float) -> None:
+        """Run the physics ``seconds`` on: the servos' setpoints ramp, then hold."""
         m, d = self.model, self.data
         n = max(0, round(seconds / m.opt.timestep))
-        step = self._speed * m.opt.timestep
         before = [d.warning[w].number for w in _DIVERGED]
         t0 = d.time  # MuJoCo resets the time with the rest of the state on divergence
-        for k in range(n):
+        while n > 0:
             if np.array_equal(self._motor, self._target):
                 d.ctrl[self._ctrl] = self._setpoint
-                mujoco.mj_step(m, d, nstep=n - k)
+                mujoco.mj_step(m, d, nstep=n)
                 break
-            gap = self._target - self._motor
-            self._motor = np.where(
-                np.abs(gap) <= step, self._target, self._motor + np.sign(gap) * step
-            )
-            self._setpoint = np.clip(
-                self._setpoint, self._motor - self._half_play, self._motor + self._half_play
-            )
-            d.ctrl[self._ctrl] = self._setpoint
-            mujoco.mj_step(m, d)
+            ramp = self._ramp(n)
+            for setpoint in ramp:
+                d.ctrl[self._ctrl] = setpoint
+                mujoco.mj_step(m, d)
+            n -= len(ramp)
         if [d.warning[w].number for w in _DIVERGED] != before or not np.all(np.isfinite(d.qpos)):
             raise ServoError(
                 f"the twin's physics diverged within {seconds:.3f} s of t = {t0:.3f} s "
                 "(MuJoCo reset its state); rebuild the TwinArm",
                 last_state=self.state,
             )
+
+    def _ramp(self, n: int) -> np.ndarray:
+        """The joints' setpoints y for the next steps while the motors move, ``(k, nu)``.
+
+        Step by step, each motor's setpoint x moves toward its target by at most
+        ``speed · dt`` and y follows x through the play (the module's steps 3 and 4). The
+        target holds for the whole run, so x is monotone and both have closed forms over
+        the steps at once: x is the running sum of its steps (NumPy accumulates in order,
+        so it is the step-by-step sum to the last bit) until it is within one step of the
+        target, then the target; y is the running maximum of x − b/2 (x rising) or the
+        running minimum of x + b/2 (x falling), from where it was. Returns at most ``n``
+        steps, and at least one; leaves x and y where the last step puts them.
+        """
+        dt = self.model.opt.timestep
+        step = self._speed * dt
+        gap = self._target - self._motor
+        k = min(n, int(np.max(np.ceil(np.abs(gap) / step))) + 1)
+        motor = np.cumsum(np.vstack([self._motor, np.tile(np.sign(gap) * step, (k, 1))]), axis=0)
+        arrived = np.logical_or.accumulate(np.abs(self._target - motor[:-1]) <= step, axis=0)
+        motor = np.where(arrived, self._target, motor[1:])
+        low, high = motor - self._half_play, motor + self._half_play
+        setpoint = np.where(
+            gap > 0,
+            np.maximum(self._setpoint, np.maximum.accumulate(low, axis=0)),
+            np.minimum(self._setpoint, np.minimum.accumulate(high, axis=0)),
+        )
+        setpoint = np.clip(setpoint, low, high)
+        self._motor, self._setpoint = motor[-1], setpoint[-1]
+        return setpoint
 
     def _await_arrival(self, timeout_s: float) -> float:
         """Run on with the last command until every joint servo has arrived.
