@@ -61,6 +61,11 @@ if TYPE_CHECKING:
 
 #: The camera's name in the twin's MJCF (:mod:`mearm.sim.twin.mjcf`).
 CAMERA_NAME = "camera"
+#: The sorter's frames: no multisampling, no shadows (:class:`TwinCamera`; the
+#: calibration pictures keep MuJoCo's 4× MSAA and 4096² shadow map). See the module
+#: docstring for what each costs and what the detector sees without it.
+SORTER_MSAA_SAMPLES = 0
+SORTER_SHADOWS = False
 #: The lens maps must invert the distortion to within this [px]; a stronger distortion
 #: folds over inside the frame and has no single inverse.
 LENS_INVERSE_TOL_PX = 1e-3
@@ -78,6 +83,11 @@ class LensRenderer:
         config: The whole config (frame size, ``twin.camera``'s lens).
         camera: The camera's name in ``model``.
         option: What to draw (geom groups, …); ``None``: MuJoCo's defaults.
+        msaa_samples: Multisamples per pixel (``vis.quality.offsamples``); ``None``: the
+            model's (MuJoCo's default, 4). 0 renders aliased edges, at about half the cost.
+        shadows: Draw the light's shadows (a shadow map of the model's
+            ``vis.quality.shadowsize``, 4096² by default); ``False`` costs neither the
+            shadow pass nor the map's memory.
 
     Raises:
         CameraError: no offscreen OpenGL context could be made, or the distortion has no
@@ -90,9 +100,13 @@ class LensRenderer:
         config: Config,
         camera: str = CAMERA_NAME,
         option: mujoco.MjvOption | None = None,
+        *,
+        msaa_samples: int | None = None,
+        shadows: bool = True,
     ):
         self.camera = camera
         self.option = option
+        self.shadows = shadows
         w, h = config.camera.width_px, config.camera.height_px
         self.size_px = (w, h)
         truth = twin_camera_model(config)
@@ -109,6 +123,16 @@ class LensRenderer:
             render_model.vis.global_.offwidth = max(rw, model.vis.global_.offwidth)
             render_model.vis.global_.offheight = max(rh, model.vis.global_.offheight)
         self._model = render_model
+        # The GL context takes the samples and the shadow map's size from the model when
+        # it is made; the model is the twin's own (its renders follow the live model), so
+        # its values are put back at once.
+        quality = render_model.vis.quality
+        kept = (quality.offsamples, quality.shadowsize)
+        if msaa_samples is not None:
+            quality.offsamples = msaa_samples
+        if not shadows:
+            quality.shadowsize = 0
+        self.msaa_samples = int(quality.offsamples)
         try:
             self._renderer = mujoco.Renderer(render_model, rh, rw)
         except Exception as exc:  # MuJoCo raises plain errors for a missing GL
@@ -117,11 +141,14 @@ class LensRenderer:
                 f"cannot render offscreen ({type(exc).__name__}: {exc}); install Mesa's EGL "
                 "or OSMesa and set MUJOCO_GL=egl or MUJOCO_GL=osmesa",
             ) from None
+        finally:
+            quality.offsamples, quality.shadowsize = kept
+        self._renderer.scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = shadows
 
     def render(self, data: mujoco.MjData) -> np.ndarray:
         """The camera's frame of ``data``'s state, (h, w, 3) uint8 BGR."""
         self._renderer.update_scene(data, camera=self.camera, scene_option=self.option)
-        bgr = np.ascontiguousarray(self._renderer.render()[:, :, ::-1])
+        bgr = cv2.cvtColor(self._renderer.render(), cv2.COLOR_RGB2BGR)
         if self._maps is None:
             return bgr
         return cv2.remap(bgr, *self._maps, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
@@ -194,7 +221,9 @@ class TwinCamera(Camera):
         cam = config.camera
         super().__init__("twin", (cam.width_px, cam.height_px))
         self.twin = twin
-        self._lens = LensRenderer(twin.model, config)
+        self._lens = LensRenderer(
+            twin.model, config, msaa_samples=SORTER_MSAA_SAMPLES, shadows=SORTER_SHADOWS
+        )
         self.frames_read = 0
 
     def _read(self) -> np.ndarray:
