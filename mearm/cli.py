@@ -125,6 +125,19 @@ def seed_value(text: str) -> int:
     return value
 
 
+def worker_count(text: str) -> int:
+    """An argparse type for ``--jobs``: a number of worker processes, an integer ≥ 1."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"a number of workers is an integer ≥ 1, got {text[:40]!r}"
+        ) from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"a number of workers must be ≥ 1, got {value}")
+    return value
+
+
 class ArgumentContainer(Protocol):
     """What takes arguments: an ``argparse`` parser or an argument group of one."""
 

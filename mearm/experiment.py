@@ -30,8 +30,14 @@ the run says so and exits 0.
 from __future__ import annotations
 
 import json
+import os
+import signal
 import sys
+import tempfile
+import time
 from collections.abc import Callable, Mapping, Sequence
+from concurrent.futures import CancelledError, Future, ProcessPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -46,6 +52,7 @@ from mearm.cli import (
     config_from_args,
     run,
     seed_value,
+    worker_count,
 )
 from mearm.config import Config, SceneObject
 from mearm.errors import MearmError
@@ -162,6 +169,186 @@ def run_trials(
         if progress is not None:
             progress(len(outcomes))
     return outcomes
+
+
+# -- trials in worker processes
+
+#: What a worker runs: (config, seed, scene, folder of per-trial logs), set once by
+#: :func:`_start_worker`.
+_WORK: tuple[Config, int, list[SceneObject] | None, Path] | None = None
+#: Whether this worker has seen Ctrl-C (trials handed to it after that are not run).
+_STOPPED = False
+#: Whether this worker is running a trial (Ctrl-C then interrupts it).
+_RUNNING = False
+
+
+@dataclass(frozen=True)
+class TrialResult:
+    """What a worker reports back about trial ``number``.
+
+    Attributes:
+        number: The trial.
+        ran: Whether it ran (a worker that saw Ctrl-C starts no more trials).
+        reason: ``None`` if it cleared the table, else why it stopped.
+        interrupted: It was stopped by Ctrl-C.
+        error: A camera or servo that failed it (as the serial run reports it), if one did.
+    """
+
+    number: int
+    ran: bool = True
+    reason: str | None = None
+    interrupted: bool = False
+    error: str | None = None
+
+
+def _on_interrupt(signum: int, frame: object) -> None:
+    global _STOPPED
+    _STOPPED = True
+    if _RUNNING:
+        raise KeyboardInterrupt
+
+
+def _start_worker(config: Config, seed: int, scene: list[SceneObject] | None, folder: Path) -> None:
+    """A worker's one-time setup: the experiment's settings once; Ctrl-C only stops trials."""
+    global _WORK
+    signal.signal(signal.SIGINT, _on_interrupt)
+    _WORK = (config, seed, scene, folder)
+
+
+def _part(folder: Path, number: int) -> Path:
+    """Where a worker writes trial ``number``'s records before the parent appends them."""
+    return folder / f"trial-{number}.jsonl"
+
+
+def _trial_in_worker(number: int) -> TrialResult:
+    """Run trial ``number`` into its own log file (:func:`_part`)."""
+    global _RUNNING
+    assert _WORK is not None, "_start_worker was not run"
+    config, seed, scene, folder = _WORK
+    if _STOPPED:
+        return TrialResult(number, ran=False)
+    plan = plan_trial(config, seed, number, scene)
+    _RUNNING = True
+    try:
+        with RunLog(_part(folder, number), exclusive=True, fsync=False) as log:
+            run_sort(
+                plan.config, scene=plan.layout, log=log, trial=number, seed=plan.seed, echo=None
+            )
+        return TrialResult(number)
+    except SortAborted as exc:
+        return TrialResult(number, reason=exc.reason, interrupted=exc.interrupted)
+    except KeyboardInterrupt:  # before the sort started; run_sort logged it
+        return TrialResult(number, reason="interrupted (Ctrl-C)", interrupted=True)
+    except (CameraError, ServoError) as exc:
+        return TrialResult(number, reason=str(exc), error=str(exc))
+    finally:
+        _RUNNING = False
+
+
+class TrialFailed(MearmError):
+    """A trial run by a worker failed on its camera or servos (the log holds it)."""
+
+
+def run_trials_parallel(
+    config: Config,
+    trials: int,
+    seed: int,
+    log_path: Path,
+    jobs: int,
+    *,
+    scene: list[SceneObject] | None = None,
+    start: int = 0,
+    progress: Callable[[int], None] | None = None,
+) -> dict[int, str | None]:
+    """Run trials ``start`` .. ``trials``−1 in ``jobs`` worker processes.
+
+    Each worker writes its trial to a file of its own; this process appends each trial's
+    records to ``log_path`` in trial order as soon as every trial before it is in, so
+    the log holds the same records in the same order as :func:`run_trials` writes (only
+    the wall-clock fields ``started`` and ``elapsed_s`` differ). On Ctrl-C, a failed trial
+    or a dead worker, trials not yet started are cancelled, the ones running finish
+    (interrupted, on Ctrl-C) and every finished trial is appended in order before this
+    returns or raises: nothing that was finished is lost, and the log resumes.
+
+    Args:
+        config: The rig (simulated).
+        trials: How many in the whole experiment.
+        seed: Base seed; trial k uses :func:`trial_seed` (seed, k).
+        scene: The same layout every trial instead of a random one.
+        start: The first trial to run (the ones before are in the log already).
+        progress: Called after each trial is appended with the number appended so far.
+        log_path: The run log (appended to; its torn end, if any, already dealt with).
+        jobs: Worker processes (≥ 2; :func:`run_trials` runs trials in this process).
+
+    Returns:
+        Per trial run, ``None`` if it cleared the table, else the reason it stopped.
+
+    Raises:
+        SortAborted: Ctrl-C (the log holds every trial finished).
+        TrialFailed: a trial's camera or servos failed (as the serial run stops on
+            :class:`CameraError` or :class:`ServoError`).
+        MearmError: a worker process died.
+    """
+    outcomes: dict[int, str | None] = {}
+    numbers = range(start, trials)
+    stop: BaseException | None = None
+    with tempfile.TemporaryDirectory(prefix="mearm-trials-") as tmp:
+        folder = Path(tmp)
+        pool = ProcessPoolExecutor(
+            max_workers=min(jobs, len(numbers)),
+            initializer=_start_worker,
+            initargs=(config, seed, scene, folder),
+        )
+        try:
+            futures: list[Future[TrialResult]] = [pool.submit(_trial_in_worker, k) for k in numbers]
+            with log_path.open("ab") as out:
+                for k, fut in zip(numbers, futures, strict=True):
+                    while True:
+                        try:
+                            result = fut.result()
+                            break
+                        except KeyboardInterrupt:  # the workers saw it, too
+                            stop = stop or SortAborted("interrupted (Ctrl-C)", interrupted=True)
+                            for f in futures:
+                                f.cancel()
+                        except CancelledError:
+                            result = TrialResult(k, ran=False)
+                            break
+                        except BrokenProcessPool:
+                            result = TrialResult(k, ran=False)
+                            stop = stop or MearmError(
+                                f"a worker process died during trial {k}; the log holds "
+                                f"trials {start}..{k - 1} and resumes at trial {k}"
+                            )
+                            break
+                    if not result.ran:
+                        break
+                    _append(out, _part(folder, k))
+                    outcomes[k] = result.reason
+                    if progress is not None:
+                        progress(len(outcomes))
+                    if result.interrupted:
+                        stop = stop or SortAborted(result.reason or "interrupted", interrupted=True)
+                    elif result.error is not None:
+                        stop = stop or TrialFailed(f"trial {k}: {result.error}")
+                    if stop is not None:
+                        for f in futures:
+                            f.cancel()
+        finally:
+            pool.shutdown(wait=True, cancel_futures=True)
+    if stop is not None:
+        raise stop
+    return outcomes
+
+
+def _append(out: Any, part: Path) -> None:
+    """Append one trial's records (the file a worker wrote) to the open log, durably."""
+    if not part.exists():  # Ctrl-C before the worker opened it: nothing was written
+        return
+    out.write(part.read_bytes())
+    out.flush()
+    os.fsync(out.fileno())
+    part.unlink()
 
 
 # -- resuming
@@ -367,6 +554,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         help="real rig: start every trial without waiting for Enter (needed without a "
         "terminal; lay the objects out beforehand)",
     )
+    parser.add_argument(
+        "--jobs",
+        type=worker_count,
+        default=1,
+        help="simulated trials run at once, in worker processes (default 1; this machine "
+        f"has {os.cpu_count()} CPUs); the log is the same, in trial order",
+    )
     args = parser.parse_args(argv)
     if args.trials < 1:
         parser.error(f"--trials must be ≥ 1, got {args.trials}")
@@ -374,6 +568,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     scene = load_scene(args.scene, config.task.class_names) if args.scene else None
     if scene is not None and config.camera.kind != "sim":
         raise MearmError("--scene lays out the simulated table; this config's camera is not 'sim'")
+    if args.jobs > 1 and config.camera.kind != "sim":
+        raise MearmError(
+            f"--jobs {args.jobs} runs simulated trials at once; this config's camera is not "
+            "'sim' (a real rig sorts one trial at a time)"
+        )
     wait = None
     if config.camera.kind != "sim" and not args.yes:
         wait = terminal_prompt(args.trials)
@@ -401,6 +600,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     from tqdm import tqdm
 
+    t0 = time.perf_counter()
     with (
         RunLog(args.log) as log,
         tqdm(
@@ -408,24 +608,41 @@ def main(argv: Sequence[str] | None = None) -> int:
         ) as bar,
     ):
         try:
-            outcomes = run_trials(
-                config,
-                args.trials,
-                args.seed,
-                log,
-                scene=scene,
-                start=resume.done,
-                wait_for_user=wait,
-                progress=lambda done: bar.update(1),
-            )
+            if args.jobs == 1:
+                outcomes = run_trials(
+                    config,
+                    args.trials,
+                    args.seed,
+                    log,
+                    scene=scene,
+                    start=resume.done,
+                    wait_for_user=wait,
+                    progress=lambda done: bar.update(1),
+                )
+            else:
+                outcomes = run_trials_parallel(
+                    config,
+                    args.trials,
+                    args.seed,
+                    args.log,
+                    args.jobs,
+                    scene=scene,
+                    start=resume.done,
+                    progress=lambda done: bar.update(1),
+                )
         except SortAborted as exc:
             print(f"mearm.experiment: stopped: {exc.reason}", file=sys.stderr)
             return EXIT_INTERRUPTED
-        except (CameraError, ServoError) as exc:
+        except (CameraError, ServoError, TrialFailed) as exc:
             print(f"mearm.experiment: {exc}", file=sys.stderr)
             return EXIT_FAILURE
+    wall = time.perf_counter() - t0
     failed = [(k, r) for k, r in outcomes.items() if r is not None]
-    print(f"{len(outcomes)} trials written to {args.log}; {len(failed)} stopped early")
+    workers = "1 process" if args.jobs == 1 else f"{min(args.jobs, len(outcomes))} workers"
+    print(
+        f"{len(outcomes)} trials written to {args.log} in {wall:.0f} s "
+        f"({60 * len(outcomes) / wall:.1f} trials/min, {workers}); {len(failed)} stopped early"
+    )
     for k, reason in failed:
         print(f"  trial {k}: {reason}")
     print(f"analyse: python -m mearm.analyze {args.log} --out report/")

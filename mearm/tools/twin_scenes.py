@@ -1,22 +1,38 @@
 """Sort seeded random scenes in the physical twin and count what lands in its bin.
 
-    mearm twin-scenes --config configs/sim_mujoco.yaml --scenes 50 --objects 12
+    mearm twin-scenes --config configs/sim_mujoco.yaml --scenes 50 --objects 12 --jobs 2
 
 Each scene is ``random_scene(config, objects, seed)`` for seeds ``--first-seed`` … +
 scenes − 1 (default from 0), sorted by the same loop as ``mearm sort`` (``run_sort``) on
 the MuJoCo twin; an object counts only when the physics has it in its class's bin, too
-slow to leave it. Prints one line per scene, the total and every object left with its
-reason, and exits 1 if the share sorted is below ``--require`` (default 0: report only).
+slow to leave it. Prints one line per scene, the total with the scenes sorted per minute
+(wall time, worker start included), every object left with its reason, and exits 1 if
+the share sorted is below ``--require`` (default 0: report only).
+
+**Workers** (``--jobs N``, default 2): scenes are sorted in N worker processes, each
+started once for the whole sweep (it imports the twin and the renderer once, gets the
+config once and then only seeds); ``--jobs 1`` sorts in this process. A scene depends
+only on its seed, so the lines are printed in seed order and are the same whatever N:
+each scene builds its own model (scenes differ in objects; compiling one takes a few
+milliseconds, against seconds of sorting) and its own renderer.
 """
 
 from __future__ import annotations
 
+import os
+import signal
 import time
 from collections import Counter
-from collections.abc import Sequence
-from concurrent.futures import ProcessPoolExecutor
+from collections.abc import Iterator, Sequence
+from concurrent.futures import Future, ProcessPoolExecutor
 
-from mearm.cli import ArgumentParser, add_config_argument, config_from_args, run
+from mearm.cli import (
+    ArgumentParser,
+    add_config_argument,
+    config_from_args,
+    run,
+    worker_count,
+)
 from mearm.config import Config
 from mearm.config.base import MAX_SEED
 from mearm.errors import MearmError
@@ -24,6 +40,9 @@ from mearm.task.report import LEFT_REASONS
 from mearm.task.sorter import SortAborted
 
 Result = tuple[int, int, dict[str, int], str | None, list[str]]
+
+#: What a worker sorts: the config and objects per scene, set once by :func:`_start_worker`.
+_WORK: tuple[Config, int] | None = None
 
 
 def _one(config: Config, objects: int, seed: int) -> Result:
@@ -44,6 +63,74 @@ def _one(config: Config, objects: int, seed: int) -> Result:
     return out.n_seen, out.n_sorted, dict(out.left), None, notes
 
 
+#: Whether this worker has seen Ctrl-C: the scenes it is handed after that are not sorted.
+_STOPPED = False
+#: Whether this worker is sorting a scene (Ctrl-C then interrupts it).
+_SORTING = False
+
+
+def _on_interrupt(signum: int, frame: object) -> None:
+    """A worker's Ctrl-C: stop the scene it sorts; sort no more."""
+    global _STOPPED
+    _STOPPED = True
+    if _SORTING:
+        raise KeyboardInterrupt
+
+
+def _start_worker(config: Config, objects: int) -> None:
+    """A worker's one-time setup: keep the config, import what every scene needs.
+
+    Ctrl-C (the terminal sends it to the workers, too) stops the scene a worker sorts as
+    an interrupted sort, and the scenes already queued for it are not started; the parent
+    cancels the rest. An idle worker does not die of it with a traceback of its own.
+    """
+    global _WORK
+    signal.signal(signal.SIGINT, _on_interrupt)
+    _WORK = (config, objects)
+    import mearm.sim.twin.twin_bus  # noqa: F401, PLC0415  (MuJoCo, the model builder)
+    import mearm.sim.twin.twin_camera  # noqa: F401, PLC0415  (the renderer, OpenCV)
+    import mearm.task.rig  # noqa: F401, PLC0415
+    import mearm.task.scene  # noqa: F401, PLC0415
+
+
+def _in_worker(seed: int) -> Result:
+    """Sort scene ``seed`` with the worker's config (none after Ctrl-C)."""
+    global _SORTING
+    assert _WORK is not None, "_start_worker was not run"
+    if _STOPPED:
+        raise KeyboardInterrupt
+    _SORTING = True
+    try:
+        return _one(*_WORK, seed)
+    finally:
+        _SORTING = False
+
+
+def sweep(config: Config, objects: int, seeds: Sequence[int], jobs: int) -> Iterator[Result]:
+    """Each seed's :data:`Result`, in the order of ``seeds``, sorted by ``jobs`` workers.
+
+    ``jobs`` 1 sorts here, one scene after another; more start that many worker
+    processes once (:func:`_start_worker`) and hand them seeds. Leaving the iterator
+    early (Ctrl-C, an error) cancels the scenes not yet started.
+    """
+    if jobs == 1:
+        for seed in seeds:
+            yield _one(config, objects, seed)
+        return
+    pool = ProcessPoolExecutor(
+        max_workers=min(jobs, len(seeds)), initializer=_start_worker, initargs=(config, objects)
+    )
+    futures: list[Future[Result]] = []
+    try:
+        futures = [pool.submit(_in_worker, s) for s in seeds]
+        for fut in futures:
+            yield fut.result()
+    finally:
+        for fut in futures:
+            fut.cancel()
+        pool.shutdown(wait=True, cancel_futures=True)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Sort the scenes and print the counts; 1 if the share is under --require."""
     parser = ArgumentParser(description=__doc__.splitlines()[0])
@@ -53,13 +140,19 @@ def main(argv: Sequence[str] | None = None) -> int:
         "--first-seed", type=int, default=0, help="S, the first scene's seed (default 0)"
     )
     parser.add_argument("--objects", type=int, default=12, help="objects per scene")
-    parser.add_argument("--jobs", type=int, default=2, help="scenes sorted at once")
+    parser.add_argument(
+        "--jobs",
+        type=worker_count,
+        default=2,
+        help=f"worker processes sorting scenes at once (default 2; this machine has "
+        f"{os.cpu_count()} CPUs); 1 sorts in this process",
+    )
     parser.add_argument(
         "--require", type=float, default=0.0, help="exit 1 below this share sorted (0…1)"
     )
     args = parser.parse_args(argv)
-    if args.scenes < 1 or args.objects < 1 or args.jobs < 1 or not 0 <= args.require <= 1:
-        raise MearmError("--scenes, --objects and --jobs must be ≥ 1 and --require in [0, 1]")
+    if args.scenes < 1 or args.objects < 1 or not 0 <= args.require <= 1:
+        raise MearmError("--scenes and --objects must be ≥ 1 and --require in [0, 1]")
     if not 0 <= args.first_seed <= MAX_SEED - args.scenes + 1:
         raise MearmError(
             f"--first-seed must be in [0, {MAX_SEED - args.scenes + 1}] for {args.scenes} "
@@ -73,24 +166,26 @@ def main(argv: Sequence[str] | None = None) -> int:
     t0 = time.perf_counter()
     seen = done = 0
     left: Counter[str] = Counter()
-    with ProcessPoolExecutor(max_workers=args.jobs) as pool:
-        seeds = range(args.first_seed, args.first_seed + args.scenes)
-        futures = [pool.submit(_one, config, args.objects, s) for s in seeds]
-        for seed, fut in zip(seeds, futures, strict=True):
-            n, k, why, fault, notes = fut.result()
-            seen, done = seen + n, done + k
-            left.update(why)
-            reasons = ", ".join(f"{v} {LEFT_REASONS.get(r, r)}" for r, v in why.items())
-            extra = f" ({reasons})" if reasons else ""
-            print(
-                f"seed {seed:3d}: sorted {k:2d} of {n:2d}{extra}" + (f"; {fault}" if fault else "")
-            )
-            for line in notes:
-                print(f"  {line}")
+    seeds = range(args.first_seed, args.first_seed + args.scenes)
+    results = sweep(config, args.objects, seeds, args.jobs)
+    for seed, (n, k, why, fault, notes) in zip(seeds, results, strict=True):
+        seen, done = seen + n, done + k
+        left.update(why)
+        reasons = ", ".join(f"{v} {LEFT_REASONS.get(r, r)}" for r, v in why.items())
+        extra = f" ({reasons})" if reasons else ""
+        print(
+            f"seed {seed:3d}: sorted {k:2d} of {n:2d}{extra}" + (f"; {fault}" if fault else ""),
+            flush=True,
+        )
+        for line in notes:
+            print(f"  {line}")
+    wall = time.perf_counter() - t0
     share = done / seen if seen else 0.0
+    workers = "1 process" if args.jobs == 1 else f"{min(args.jobs, args.scenes)} workers"
     print(
         f"twin, {args.scenes} scenes of {args.objects}: sorted {done} of {seen} objects "
-        f"({100 * share:.1f} %) in {time.perf_counter() - t0:.0f} s"
+        f"({100 * share:.1f} %) in {wall:.0f} s, {60 * args.scenes / wall:.1f} scenes/min "
+        f"({workers})"
     )
     for reason, n in left.most_common():
         print(f"  left: {n} {LEFT_REASONS.get(reason, reason)}")

@@ -1,0 +1,141 @@
+"""Sweeps in worker processes: the same seeds give the same outcomes whatever --jobs."""
+
+import json
+import os
+import re
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+from conftest import ROOT, run_cli
+
+from mearm.runlog import read_runlog
+
+
+def twin_scenes(*args: str) -> tuple[int, list[str], str]:
+    r = run_cli(
+        "-m", "mearm", "twin-scenes", "--config", "configs/sim_mujoco.yaml", *args, timeout=300
+    )  # fmt: skip
+    return r.returncode, r.stdout.splitlines(), r.stderr
+
+
+def test_twin_scenes_in_two_workers_print_what_one_process_prints():
+    """Three seeded scenes of three objects: every outcome line identical, in seed order."""
+    sweep = ("--scenes", "3", "--objects", "3", "--first-seed", "4")
+    code1, serial, err1 = twin_scenes(*sweep, "--jobs", "1")
+    code2, parallel, err2 = twin_scenes(*sweep, "--jobs", "2")
+    assert code1 == code2 == 0, err1 + err2
+    total = re.compile(
+        r"(twin, 3 scenes of 3: sorted \d+ of 9 objects \([\d.]+ %\)) in \d+ s, "
+        r"[\d.]+ scenes/min \((1 process|2 workers)\)"
+    )
+    heads = []
+    for lines in (serial, parallel):
+        [i] = [i for i, line in enumerate(lines) if line.startswith("twin, ")]
+        match = total.fullmatch(lines[i])
+        assert match, lines[i]
+        heads.append(match.group(1))
+        lines[i] = ""
+    assert [line.split(":")[0] for line in serial if line.startswith("seed")] == [
+        "seed   4", "seed   5", "seed   6"
+    ]  # fmt: skip
+    assert parallel == serial
+    assert heads[0] == heads[1]
+
+
+@pytest.mark.parametrize("jobs", ["0", "-1", "two"])
+def test_twin_scenes_refuses_a_bad_number_of_workers(jobs):
+    code, out, err = twin_scenes("--scenes", "1", "--jobs", jobs)
+    assert code == 2 and not out
+    assert len(err.strip().splitlines()) == 1 and "--jobs" in err and "workers" in err
+
+
+# --------------------------------------------------------------------------- experiment
+
+
+def records(log: Path) -> list[dict]:
+    """The log's records without the two wall-clock fields (start time, time per route)."""
+    out = []
+    for line in log.read_text().splitlines():
+        record = json.loads(line)
+        record.pop("started", None)
+        record.pop("elapsed_s", None)
+        out.append(record)
+    return out
+
+
+def experiment(*args: object, timeout: float = 300) -> subprocess.CompletedProcess:
+    return run_cli("-m", "mearm", "experiment", *map(str, args), timeout=timeout)
+
+
+def test_experiment_in_two_workers_writes_the_serial_log(tmp_path):
+    """Same trials, same records in the same order; analyze reads it; then it resumes."""
+    logs = {}
+    for jobs in (1, 2):
+        logs[jobs] = tmp_path / f"jobs{jobs}.jsonl"
+        r = experiment(
+            "--config", "configs/sim.yaml", "--trials", 3, "--seed", 5, "--log", logs[jobs],
+            "--jobs", jobs,
+        )  # fmt: skip
+        assert r.returncode == 0, r.stderr
+        workers = "1 process" if jobs == 1 else "2 workers"
+        assert re.search(rf"3 trials written to .* \([\d.]+ trials/min, {workers}\)", r.stdout)
+        assert "sorted 36 of 36 objects over 3 trials" in r.stdout
+    serial, parallel = records(logs[1]), records(logs[2])
+    assert len(serial) > 3 * 24 and parallel == serial
+    r = run_cli("-m", "mearm.analyze", str(logs[2]), "--json", timeout=120)
+    assert r.returncode == 0 and json.loads(r.stdout), r.stderr
+    before = logs[2].read_bytes()
+    r = experiment(
+        "--config", "configs/sim.yaml", "--trials", 5, "--seed", 5, "--log", logs[2], "--jobs", 2
+    )  # fmt: skip
+    assert r.returncode == 0 and "running trials 3..4" in r.stdout, r.stdout + r.stderr
+    assert logs[2].read_bytes().startswith(before)
+    assert [t.number for t in read_runlog(logs[2]).trials] == [0, 1, 2, 3, 4]
+
+
+def test_ctrl_c_keeps_every_finished_trial_in_order_and_the_log_resumes(tmp_path):
+    """Ctrl-C (to the whole process group, as a terminal sends it) in a run of two workers:
+    exit 130, every trial in the log complete and in order, and the same command finishes."""
+    log = tmp_path / "trials.jsonl"
+    args = ["--config", "configs/sim.yaml", "--trials", 30, "--log", log, "--jobs", 2]
+    cmd = [sys.executable, "-m", "mearm", "experiment", *map(str, args)]
+    proc = subprocess.Popen(
+        cmd, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True
+    )
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and proc.poll() is None:
+        if log.exists() and log.read_bytes().count(b'"type":"summary"') >= 2:
+            break
+        time.sleep(0.01)
+    os.killpg(proc.pid, signal.SIGINT)
+    proc.communicate(timeout=120)
+    assert proc.returncode == 130
+    contents = read_runlog(log)
+    assert contents.problem is None
+    got = [(t.number, t.complete) for t in contents.trials]
+    assert 2 <= len(got) < 30, "the run was not stopped mid-way"
+    assert got == [(k, True) for k in range(len(got))]
+    written = log.read_bytes()
+    r = experiment(*args)
+    assert r.returncode == 0, r.stderr
+    assert log.read_bytes().startswith(written)
+    assert [t.number for t in read_runlog(log).trials] == list(range(30))
+
+
+@pytest.mark.parametrize("jobs", ["0", "-2", "many"])
+def test_experiment_refuses_a_bad_number_of_workers(jobs, tmp_path):
+    r = experiment("--trials", 1, "--log", tmp_path / "t.jsonl", "--jobs", jobs)
+    assert r.returncode == 2 and not (tmp_path / "t.jsonl").exists()
+    assert len(r.stderr.strip().splitlines()) == 1 and "workers" in r.stderr
+
+
+def test_a_real_rig_runs_one_trial_at_a_time(tmp_path):
+    rig = tmp_path / "rig.yaml"
+    rig.write_text(f"camera:\n  kind: folder\n  path: {tmp_path}\n")
+    r = experiment("--config", rig, "--trials", 2, "--log", tmp_path / "t.jsonl", "--jobs", 2)
+    assert r.returncode == 2 and not (tmp_path / "t.jsonl").exists()
+    assert len(r.stderr.strip().splitlines()) == 1 and "one trial at a time" in r.stderr
