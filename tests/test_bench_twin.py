@@ -19,11 +19,12 @@ def test_twin_section_reports_physics_and_whole_sort():
     figures and the simulated time the sort covered in the notes."""
     bench = _bench()
     assert "twin" in bench.SECTIONS
-    config = load_config(
+    path, scene = (
         ROOT / "configs" / "sim_5dof_mujoco.yaml",
-        ["task.scene=[{color: red, x: 2.0, y: 22.0}]"],
+        "task.scene=[{color: red, x: 2.0, y: 22.0}]",
     )
-    rows = bench.twin_rows({"one": config}, rounds=1)
+    config = load_config(path, [scene])
+    rows = bench.twin_rows({"one": config}, 1, {"one": ("--config", str(path), "--set", scene)})
     by_name = {r.name: r for r in rows}
     assert all(r.section == "twin" for r in rows)
     physics = by_name["physics (one): real-time factor"]
@@ -33,3 +34,6 @@ def test_twin_section_reports_physics_and_whole_sort():
     assert sort.value > 0 and "sorted 1 of 1" in sort.note
     assert by_name["render (one): per frame"].value > 0
     assert by_name["bare mj_step at rest (one): real-time factor"].value > 0
+    process = by_name["whole process (one): real-time factor"]
+    assert process.value > 0 and "EXIT STATUS" not in process.note
+    assert by_name["whole process (one): real-time factor on the CPU"].value > 0

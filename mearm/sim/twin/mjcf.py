@@ -195,17 +195,27 @@ LOAD_POSES = 16
 #: it [m].
 TABLE_GRID_M = 0.05
 TABLE_MARGIN_M = 0.05
-#: Time step [s] and the coupling's constraint time constant and damping ratio.
-TIMESTEP_S = 0.001
-COUPLING_SOLREF = (0.002, 1.0)
+#: Time step [s]: 2 ms. At 1 ms the paper scene's physics ran 40× real time on the CPU
+#: (loaded 2-core machine), at 2 ms 77×; 30 random scenes of 12 (seeds 500–529) sorted
+#: 360 of 360 at both. The servos' step responses (`tools/servo_steps.py`, plotted in
+#: docs/twin.md) run at most 0.24° ahead while they ramp (one step sooner) and settle
+#: within 0.1° of the 1 ms model's (0.53° for 4 ms where the shoulder meets its limit).
+#: The coupling's constraint time constant and damping ratio follow.
+TIMESTEP_S = 0.002
+COUPLING_SOLREF = (2 * TIMESTEP_S, 1.0)  # two steps: the stiffest MuJoCo keeps
 COUPLING_SOLIMP = (0.99, 0.999, 0.001, 0.5, 2.0)
 #: The coupling's play: its tendon's limits are this far apart [rad or m].
 COUPLING_PLAY = 1e-4
 
-#: The pads' contact: a 4 ms time constant (four time steps: at two, the stiffest MuJoCo
-#: nominally keeps stable, a squeezed object diverged in one of ten random twin sorts),
-#: critically damped, impedance 0.99–0.999 over 0.5 mm of penetration. Under an SG90's
-#: jaw force (8.8 N) a 2 cm PLA object reads 1.9975 cm between the pads.
+#: The pads' contact: a 4 ms time constant, two 2 ms steps, the stiffest MuJoCo nominally
+#: keeps stable; critically damped, impedance 0.99–0.999 over 0.5 mm of penetration. Under
+#: an SG90's jaw force (8.8 N) a 2 cm PLA object reads 1.9975 cm between the pads. Softer
+#: pads let a held object creep out of the jaws when a move stops: at 6 and 8 ms the 5-DOF
+#: arm's random scenes (seeds 600–619) sorted 179 and 119 of 180, at 4 ms 180 of 180. At a
+#: 1 ms step, two steps once let a squeezed object diverge in one of ten random sorts; at
+#: 2 ms none of 80 random scenes did (paper arm seeds 700–729, 5-DOF 600–619, MeArm v1
+#: 600–629, every object sorted), and a divergence is a servo fault, never silent
+#: (:meth:`~mearm.sim.twin.twin_bus.TwinArm._run`).
 PAD_SOLREF = (0.004, 1.0)
 PAD_SOLIMP = (0.99, 0.999, 0.0005, 0.5, 2.0)
 #: Names of the ``<custom>`` texts recording the joints' and the gripper's servo models.
