@@ -173,12 +173,13 @@ def test_objects_rest_on_the_table(twin, held):
 
 
 def test_objects_at_rest_sleep_and_wake_when_touched(twin, held):
-    """Settled objects sleep (MuJoCo does not simulate them); a push wakes one and moves it."""
+    """Settled objects sleep (MuJoCo does not simulate them), and so does the arm holding
+    still; a push wakes an object and moves it, and leaves the arm asleep."""
     config, _, m = twin
     ids = object_ids(config)
     bodies = [m.body(f"obj_{oid}").id for oid in ids]
     assert all(held.body_awake[b] == mujoco.mjtSleepState.mjS_ASLEEP for b in bodies)
-    assert held.nv_awake == m.nv - 6 * len(ids)  # the arm alone
+    assert held.nv_awake == 0
     d = copy.copy(held)
     b = bodies[0]
     d.xfrc_applied[b, 0] = 0.5  # a sideways push [N]: it wakes the object
@@ -186,6 +187,8 @@ def test_objects_at_rest_sleep_and_wake_when_touched(twin, held):
     mujoco.mj_step(m, d, nstep=50)
     assert d.body_awake[b] == mujoco.mjtSleepState.mjS_AWAKE
     assert np.linalg.norm(d.xpos[b] - x0) > 1e-4
+    arm = m.body(f"link_{config.arm.joints[0].name}").id
+    assert d.body_awake[arm] == mujoco.mjtSleepState.mjS_ASLEEP
 
 
 def test_object_names_are_the_worlds_ids(twin):

@@ -256,6 +256,30 @@ def test_the_setpoint_ramp_is_the_step_by_step_servo_model(paper, seed):
             np.testing.assert_array_equal(expected[len(ramp) :], expected[len(ramp) - 1 :][:-1])
 
 
+def test_a_still_arm_sleeps_skips_its_steps_and_wakes_on_a_command(paper):
+    """Held still, the whole scene sleeps and a hold only advances the time (the state is
+    the same to the bit); the next command wakes the arm and it moves."""
+    config, _ = paper
+    arm = _twin(paper)
+    arm.settle(1.0)
+    d = arm.data
+    assert d.nv_awake == 0
+    qpos, t0 = d.qpos.copy(), arm.time_s
+    steps = d.timer[mujoco.mjtTimer.mjTIMER_STEP].number
+    arm.settle(2.0)
+    assert arm.time_s == pytest.approx(t0 + 2.0)
+    assert d.timer[mujoco.mjtTimer.mjTIMER_STEP].number == steps  # no step was taken
+    np.testing.assert_array_equal(d.qpos, qpos)
+    name = config.arm.actuated_joints()[0].name
+    joints = config.arm.home()
+    joints[name] += 10.0
+    arm.move(_command(config, joints))
+    assert d.nv_awake > 0
+    for _ in range(20):
+        arm.move(_command(config, joints))
+    assert arm.actual_joints[name] == pytest.approx(joints[name], abs=1.0)
+
+
 def test_each_move_runs_one_command_period(paper):
     """100 moves run 100 command periods of physics (the speed is `mearm bench`'s)."""
     config, _ = paper

@@ -195,11 +195,12 @@ LOAD_POSES = 16
 #: it [m].
 TABLE_GRID_M = 0.05
 TABLE_MARGIN_M = 0.05
-#: Time step [s]: 2 ms. At 1 ms the paper scene's physics ran 40× real time on the CPU
-#: (loaded 2-core machine), at 2 ms 77×; 30 random scenes of 12 (seeds 500–529) sorted
-#: 360 of 360 at both. The servos' step responses (`tools/servo_steps.py`, plotted in
-#: docs/twin.md) run at most 0.24° ahead while they ramp (one step sooner) and settle
-#: within 0.1° of the 1 ms model's (0.53° for 4 ms where the shoulder meets its limit).
+#: Time step [s]: 2 ms, ten to a command period. With objects and arm asleep at rest and
+#: the servo model run once per run of steps (:mod:`mearm.sim.twin.twin_bus`), the 5-DOF
+#: arm's physics ran 40× real time on the CPU at 1 ms and 68× at 2 ms (the paper arm's,
+#: before those two, 40× and 77×). The servos' step responses (`tools/servo_steps.py`,
+#: plotted in docs/twin.md) run at most 0.24° ahead while they ramp (one step sooner)
+#: and settle within 0.1° of the 1 ms model's. What 2 ms costs: see :data:`PAD_SOLREF`.
 #: The coupling's constraint time constant and damping ratio follow.
 TIMESTEP_S = 0.002
 COUPLING_SOLREF = (2 * TIMESTEP_S, 1.0)  # two steps: the stiffest MuJoCo keeps
@@ -213,9 +214,10 @@ COUPLING_PLAY = 1e-4
 #: pads let a held object creep out of the jaws when a move stops: at 6 and 8 ms the 5-DOF
 #: arm's random scenes (seeds 600–619) sorted 179 and 119 of 180, at 4 ms 180 of 180. At a
 #: 1 ms step, two steps once let a squeezed object diverge in one of ten random sorts; at
-#: 2 ms none of 80 random scenes did (paper arm seeds 700–729, 5-DOF 600–619, MeArm v1
-#: 600–629, every object sorted), and a divergence is a servo fault, never silent
-#: (:meth:`~mearm.sim.twin.twin_bus.TwinArm._run`).
+#: 2 ms none diverged in the sweeps of docs/twin.md, and a divergence is a servo fault,
+#: never silent (:meth:`~mearm.sim.twin.twin_bus.TwinArm._run`). In one sweep at 2 ms, one
+#: held object of 2,520 (paper arm, seed 7008) tipped out of the jaws in a fast lift,
+#: which 1 ms held.
 PAD_SOLREF = (0.004, 1.0)
 PAD_SOLIMP = (0.99, 0.999, 0.0005, 0.5, 2.0)
 #: Names of the ``<custom>`` texts recording the joints' and the gripper's servo models.
@@ -574,8 +576,11 @@ def _build(config: Config, spec: ServoSpec, gripper_spec: ServoSpec) -> mujoco.M
     model.option.impratio = 10.0
     model.option.gravity = [0.0, 0.0, -G]
     # Objects at rest sleep until something touches them (MuJoCo's islands): the paper's
-    # scene of 12 at rest steps in 14 µs instead of 46 (72 of its 78 dofs asleep).
+    # scene of 12 at rest steps in 14 µs instead of 46 (72 of its 78 dofs asleep). The arm
+    # (actuated, which MuJoCo keeps awake by default) may sleep too when it holds still:
+    # the twin's bus wakes it for each new command (mearm.sim.twin.twin_bus).
     model.option.enableflags |= mujoco.mjtEnableBit.mjENBL_SLEEP
+    model.body(f"link_{arm.joints[0].name}").sleep = mujoco.mjtSleepPolicy.mjSLEEP_ALLOWED
     model.visual.global_.offwidth = config.camera.width_px
     model.visual.global_.offheight = config.camera.height_px
     # The arm is drawn in greys (black acrylic, black metal-gear servos): a saturated

@@ -33,7 +33,17 @@ while holding (the twin's servo stiffly holds its accepted target instead), the
 whole-degree quantisation, and the tool actuators (the paper's ``gripper_arm``), which the
 MJCF has no joint for: their pulses are checked by the base class and not simulated.
 
-The sim does not sleep unless ``servo.sim_realtime`` is set.
+**What is not stepped.** Steps 3 and 4 are computed for a whole run of steps at once
+(:meth:`TwinArm._ramp`, equal to the step-by-step model to the bit), so Python runs once
+per run, not at every step. MuJoCo puts bodies at rest to sleep (the twin's model enables
+it, :mod:`mearm.sim.twin.mjcf`): objects lying still, and the arm holding still between
+commands. A sleeping body is exactly where it was; contact wakes it, and the twin keeps
+the arm awake while its setpoints move (a nil applied force, :data:`_NUDGE`: jaws pressed
+on an object do not move until the opening command passes where they are, and must not
+sleep meanwhile). While everything sleeps, a hold only advances the time
+(:meth:`TwinArm._hold_steps`).
+
+The sim does not wait for the wall clock unless ``servo.sim_realtime`` is set.
 """
 
 from __future__ import annotations
@@ -85,6 +95,12 @@ ARRIVED_SHAFT_DEG = 1.0
 AT_REST_SHAFT_DEG = 0.02
 #: How far short of the command a joint servo at rest has stalled [deg of shaft].
 STALLED_SHAFT_DEG = 5.0
+#: Steps between checks whether every body sleeps while the setpoints hold (then the
+#: rest of the hold is only time passing; :meth:`TwinArm._hold_steps`).
+SLEEP_CHECK_STEPS = 10
+#: A force on the arm's first joint that changes nothing but keeps the arm awake (MuJoCo
+#: wakes, and does not put to sleep, a tree with any force applied) [N·m or N].
+_NUDGE = 1e-300
 #: The physics warnings that mean the twin diverged (MuJoCo resets the data on them).
 _DIVERGED = (
     mujoco.mjtWarning.mjWARN_BADQPOS,
@@ -221,6 +237,8 @@ class TwinArm(ServoBus):
             for name, i in zip(self._chain.actuated, self._chain.actuated_index, strict=True)
         }
         self._object_ids = object_ids(config)
+        self._arm_body = model.body(f"link_{config.arm.joints[0].name}").id
+        self._arm_dof = int(model.body_dofadr[self._arm_body])
         self.reset()
 
     # ----------------------------------------------------------------- state
@@ -352,15 +370,25 @@ class TwinArm(ServoBus):
         n = max(0, round(seconds / m.opt.timestep))
         before = [d.warning[w].number for w in _DIVERGED]
         t0 = d.time  # MuJoCo resets the time with the rest of the state on divergence
+        if not np.array_equal(self._motor, self._target) or not np.array_equal(
+            d.ctrl[self._ctrl], self._setpoint
+        ):
+            self._wake()
         while n > 0:
             if np.array_equal(self._motor, self._target):
                 d.ctrl[self._ctrl] = self._setpoint
-                mujoco.mj_step(m, d, nstep=n)
+                self._hold_steps(n)
                 break
             ramp = self._ramp(n)
-            for setpoint in ramp:
-                d.ctrl[self._ctrl] = setpoint
-                mujoco.mj_step(m, d)
+            # a setpoint that moves may not yet move a joint (jaws pressed on an object
+            # until the command passes where they are): the arm must not sleep meanwhile
+            d.qfrc_applied[self._arm_dof] = _NUDGE
+            try:
+                for setpoint in ramp:
+                    d.ctrl[self._ctrl] = setpoint
+                    mujoco.mj_step(m, d)
+            finally:
+                d.qfrc_applied[self._arm_dof] = 0.0
             n -= len(ramp)
         if [d.warning[w].number for w in _DIVERGED] != before or not np.all(np.isfinite(d.qpos)):
             raise ServoError(
@@ -368,6 +396,36 @@ class TwinArm(ServoBus):
                 "(MuJoCo reset its state); rebuild the TwinArm",
                 last_state=self.state,
             )
+
+    def _hold_steps(self, n: int) -> None:
+        """``n`` steps with the setpoints held: once every body sleeps, only time passes.
+
+        MuJoCo keeps a sleeping body exactly where it is, so a step of a scene where every
+        body sleeps and nothing pushes one changes nothing but the time; it is skipped.
+        Checked every :data:`SLEEP_CHECK_STEPS` steps.
+        """
+        m, d = self.model, self.data
+        while n > 0:
+            if self._frozen():
+                d.time += n * m.opt.timestep
+                return
+            k = min(n, SLEEP_CHECK_STEPS)
+            mujoco.mj_step(m, d, nstep=k)
+            n -= k
+
+    def _frozen(self) -> bool:
+        """Whether every body sleeps and nothing pushes one: a step would only add dt."""
+        d = self.data
+        return d.nv_awake == 0 and not d.qfrc_applied.any() and not d.xfrc_applied.any()
+
+    def _wake(self) -> None:
+        """Wake the arm if it sleeps: a new command moves it (MuJoCo wakes it on contact)."""
+        d = self.data
+        tree = self.model.body_treeid[self._arm_body]
+        if d.tree_asleep[tree] >= 0:
+            d.qfrc_applied[self._arm_dof] = _NUDGE
+            mujoco.mj_forward(self.model, d)
+            d.qfrc_applied[self._arm_dof] = 0.0
 
     def _ramp(self, n: int) -> np.ndarray:
         """The joints' setpoints y for the next steps while the motors move, ``(k, nu)``.
