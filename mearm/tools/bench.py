@@ -995,7 +995,8 @@ def twin_rows(
                 value,
                 "×",
                 f"python -m mearm.sort {' '.join(args[name])}: {last.sim_s:.1f} s simulated "
-                f"per s of wall time, interpreter start included; {how}; the bar: ≥ 15×{extra}",
+                f"per s of wall time, interpreter start included; {how}"
+                f"{'; the bar: ≥ 15×' if name == 'sim_mujoco' else ''}{extra}",
             )
         )
         value, how = stats([last.sim_s / r[0] for r in process[name]], max, "×")
