@@ -60,6 +60,7 @@ FAMILIES: dict[str, tuple[str, ...]] = {
     "mearm.task.scene": ("SceneError",),
     "mearm.task.armcheck": ("ArmCheckError", "NothingToCheck"),
     "mearm.task.sorter": ("CollisionError", "SortAborted"),
+    "mearm.experiment": ("TrialFailed",),
 }
 
 _LAZY = {name: module for module, names in FAMILIES.items() for name in names}
