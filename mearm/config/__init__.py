@@ -46,7 +46,7 @@ from mearm.config.classes import ColorClass, HueBand
 from mearm.config.defaults import default_classes, paper_arm, paper_classes
 from mearm.config.files import load_config, read_yaml
 from mearm.config.loader import apply_overrides, config_from_dict
-from mearm.config.root import Config, TwinConfig
+from mearm.config.root import Config, ServoKitConfig, TwinConfig
 from mearm.config.sections import (
     CalibrationConfig,
     CameraConfig,
@@ -90,6 +90,7 @@ __all__ = [
     "Strict",
     "TargetBox",
     "TaskConfig",
+    "ServoKitConfig",
     "TwinConfig",
     "Tool",
     "ToolActuator",

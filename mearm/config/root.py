@@ -7,7 +7,7 @@ from typing import Literal
 from pydantic import Field, field_validator, model_validator
 
 from mearm.config.arm import ArmDescription
-from mearm.config.base import MAX_LENGTH_CM, Strict
+from mearm.config.base import MAX_LENGTH_CM, Seed, Strict
 from mearm.config.defaults import paper_arm
 from mearm.config.sections import (
     CalibrationConfig,
@@ -26,6 +26,31 @@ from mearm.config.twin_camera_config import TwinCameraConfig
 MIN_W_RATIO = 0.05
 
 
+#: Largest ``twin.kit.spread`` [-]: at 5 the slowest sourced unit's scale (8.1 µs/°, 1.9
+#: below the nominal 10) is still positive.
+MAX_KIT_SPREAD = 5.0
+
+
+class ServoKitConfig(Strict):
+    """A kit of servos: each twin servo a unit drawn from the spread of real ones.
+
+    The per-unit errors (zero offset, scale, backlash, dead band) and the sources of their
+    ranges are in :mod:`mearm.sim.twin.servo_kit`. Unset (``twin.kit: null``), every servo
+    is the datasheet's nominal one.
+    """
+
+    seed: Seed = 0
+    """Seed of the draw: the same seed gives the same kit."""
+    per_trial: bool = False
+    """``true``: every trial of ``mearm experiment`` draws its own kit (its seed mixed with the
+    trial's seed); ``false``: every trial keeps the kit of ``seed`` (one arm, as on a real
+    rig)."""
+    spread: float = Field(default=1.0, ge=0.0, le=MAX_KIT_SPREAD, allow_inf_nan=False)
+    """Factor on the calibration errors (zero offset and scale deviation) of the sourced
+    ranges: 1 draws them as published, 0 gives nominal calibrations (backlash and dead band
+    are drawn from their ranges regardless)."""
+
+
 class TwinConfig(Strict):
     """The servo models the physical twin gives the arm (:mod:`mearm.config.servo_models`).
 
@@ -42,6 +67,9 @@ class TwinConfig(Strict):
     """The twin's camera as a real perspective camera (pose, field of view, lens
     distortion: :class:`~mearm.config.twin_camera_config.TwinCameraConfig`); ``null``: straight
     down from 52 cm over the calibrated field, so that ``calibration.homography`` holds."""
+    kit: ServoKitConfig | None = None
+    """Draw each servo from a kit of real units (:class:`ServoKitConfig`, e.g.
+    ``{seed: 7, per_trial: true}``); ``null``: every servo is the datasheet's nominal one."""
 
     @field_validator("joint_servo", "gripper_servo")
     @classmethod

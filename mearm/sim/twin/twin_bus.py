@@ -48,6 +48,7 @@ The sim does not wait for the wall clock unless ``servo.sim_realtime`` is set.
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import math
 from dataclasses import dataclass
@@ -77,6 +78,7 @@ from mearm.sim.twin.mjcf import (
     servo_tendon,
     twin_model,
 )
+from mearm.sim.twin.servo_kit import ServoUnit, draw_kit, kit_seed
 
 log = logging.getLogger(__name__)
 
@@ -137,6 +139,10 @@ class ServoModel:
             a combination; the gripper's two jaws, whose sum is its opening).
         pot_coef: Each entry's coefficient (model units); empty: 1 each.
         offset: The servo's value at ctrl 0 [rad or m]: its combination's offset.
+        lever: Model units per radian of shaft: 1 for a revolute joint,
+            :data:`~mearm.sim.twin.mjcf.SERVO_LEVER_M` for a linear one and the jaws.
+        unit: The kit's unit this servo is (its own zero and scale,
+            :mod:`mearm.sim.twin.servo_kit`); ``None``: the nominal servo.
     """
 
     name: str
@@ -149,9 +155,13 @@ class ServoModel:
     pot_qpos: tuple[int, ...]
     pot_coef: tuple[float, ...] = ()
     offset: float = 0.0
+    lever: float = 1.0
+    unit: ServoUnit | None = None
 
     def target_of(self, pulse_us: float) -> float:
-        """The setpoint a pulse asks for [rad or m]."""
+        """The setpoint a pulse asks for [rad or m]: where this unit turns for it."""
+        if self.unit is not None:
+            pulse_us = self.unit.nominal_pulse(pulse_us)
         return self.amap.value_of(pulse_us) * self.scale - self.offset
 
     def value_of(self, setpoint: float) -> float:
@@ -195,17 +205,26 @@ class TwinArm(ServoBus):
         gripper_servo: The gripper's servo; ``None`` takes the one the model records
             (:data:`~mearm.sim.twin.mjcf.GRIPPER_SERVO_TEXT`), else
             :data:`~mearm.sim.twin.mjcf.GRIPPER_SERVO`.
-        backlash_deg: Each servo's gear play [deg] (:data:`BACKLASH_DEG`).
+        backlash_deg: Each servo's gear play [deg] (:data:`BACKLASH_DEG`), for a twin
+            without a kit.
+        kit: One :class:`~mearm.sim.twin.servo_kit.ServoUnit` per servo (joints in chain
+            order, then the gripper): each servo's own zero, scale, backlash and dead band.
+            ``None`` draws the kit ``config.twin.kit`` asks for (its seed; with
+            ``per_trial`` mixed with ``servo.error_model.seed``, which ``mearm experiment``
+            sets to each trial's seed), or with no ``twin.kit`` gives every servo the
+            datasheet's nominal one.
 
     Attributes:
         model: The MuJoCo model.
         data: Its state, starting at the ``home`` keyframe.
         servos: Each actuator's :class:`ServoModel`, joints in chain order then the gripper.
+        kit: The servos' units, or ``None`` (every servo nominal).
 
     Raises:
         ModelError: the model lacks an actuator or joint of ``config``'s arm, or it
             records a servo the catalogue lacks (or, recording none, its joints' servos
-            match no catalogue servo) and ``servo``/``gripper_servo`` is not given.
+            match no catalogue servo) and ``servo``/``gripper_servo`` is not given; or
+            ``kit`` has not one unit per servo.
     """
 
     def __init__(
@@ -216,6 +235,7 @@ class TwinArm(ServoBus):
         servo: ServoSpec | None = None,
         gripper_servo: ServoSpec | None = None,
         backlash_deg: float = BACKLASH_DEG,
+        kit: tuple[ServoUnit, ...] | None = None,
     ):
         super().__init__(config, paced=config.servo.sim_realtime)
         if model is None:
@@ -224,6 +244,14 @@ class TwinArm(ServoBus):
         self.data = mujoco.MjData(model)
         self._chain = Chain.from_description(config.arm)
         self.servos = _servo_models(model, config, self._chain, servo, gripper_servo, backlash_deg)
+        if kit is None and config.twin.kit is not None:
+            asked = config.twin.kit
+            trial = config.servo.error_model.seed if asked.per_trial else None
+            deadbands = [round(s.deadband / s.scale * s.amap.us_per_unit, 9) for s in self.servos]
+            kit = draw_kit(deadbands, kit_seed(asked.seed, trial), asked.spread)
+        if kit is not None:
+            self.servos = _with_kit(self.servos, tuple(kit))
+        self.kit = None if kit is None else tuple(kit)
         nu = len(self.servos)
         self._ctrl = np.array([s.ctrl_index for s in self.servos])
         self._speed = np.array([s.speed for s in self.servos])
@@ -527,6 +555,26 @@ class TwinArm(ServoBus):
         """Nothing to release."""
 
 
+def _with_kit(servos: tuple[ServoModel, ...], kit: tuple[ServoUnit, ...]) -> tuple[ServoModel, ...]:
+    """The servos as the kit's units: their own zero, scale, backlash and dead band."""
+    if len(kit) != len(servos):
+        raise ModelError(
+            f"a kit of {len(kit)} servos for a twin of {len(servos)} "
+            f"({', '.join(s.name for s in servos)}): one unit per servo"
+        )
+    out = []
+    for s, unit in zip(servos, kit, strict=True):
+        out.append(
+            dataclasses.replace(
+                s,
+                unit=unit,
+                deadband=unit.deadband_us / s.amap.us_per_unit * s.scale,
+                backlash=math.radians(unit.backlash_deg) * s.lever,
+            )
+        )
+    return tuple(out)
+
+
 def _catalogued(m: mujoco.MjModel, text: str, what: str) -> ServoSpec | None:
     """The catalogue servo the model records in ``text``; None if it records none."""
     name = recorded_servo(m, text)
@@ -608,6 +656,7 @@ def _servo_models(
                     pot_qpos,
                     pot_coef,
                     amap.offset * scale if amap.combined else 0.0,
+                    lever,
                 )
             )
         g = smap.gripper
@@ -622,6 +671,7 @@ def _servo_models(
                 gripper_spec.speed_rad_s * SERVO_LEVER_M,
                 m.actuator(g.name).id,
                 jaws,
+                lever=SERVO_LEVER_M,
             )
         )
     except KeyError as exc:
