@@ -576,8 +576,10 @@ def test_init_config_refuses_a_folder_where_its_extends_names_another_file(tmp_p
     if existing:
         (tmp_path / existing).write_text("# mine\n")
     out = tmp_path / ("x.yaml" if existing else "sim_mearm_v1.yaml")
+    # run in the folder, the file named relative to it: the line names the file and its
+    # folder, and a long temporary path (an xdist worker's) would cut the line's advice
     line = one_error_line(
-        run_tool("init_config", "--arm", "mearm_v1", "--rig", "sim_mujoco", str(out))
+        run_tool("init_config", "--arm", "mearm_v1", "--rig", "sim_mujoco", out.name, cwd=tmp_path)
     )
     assert "extends the packaged sim_mearm_v1.yaml" in line and "another folder" in line
     assert not out.exists() or out.read_text() == "# mine\n"
