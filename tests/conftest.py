@@ -7,7 +7,7 @@ import shutil
 import subprocess
 import sys
 from pathlib import Path
-from typing import NoReturn
+from typing import Any, NoReturn
 
 import pytest
 from hypothesis import settings
@@ -180,10 +180,39 @@ def pytest_terminal_summary(terminalreporter: pytest.TerminalReporter) -> None:
         )
         for what, count in sorted(needs.items()):
             terminalreporter.write_line(f"  {count:4d}  {what}")
-    badinput = sys.modules.get("badinput")
-    if badinput is not None and badinput.KEPT["checks"]:
-        kept = badinput.KEPT
+    kept = _bad_input_kept(terminalreporter.config)
+    if kept["checks"]:
         terminalreporter.write_line(
             f"bad-input corpus: {kept['promises']} promises kept in {kept['checks']} checks "
             "(exit code, one stderr line, no traceback, time bound, files intact)"
         )
+
+
+#: The bad-input counts the xdist workers reported, on the controller's config.
+_WORKERS_KEPT = pytest.StashKey[dict[str, int]]()
+
+
+def _bad_input_kept(config: pytest.Config) -> dict[str, int]:
+    """The bad-input promises kept in this session: this process's (tests/badinput.py),
+    plus those each xdist worker reported when it finished (:func:`pytest_testnodedown`)."""
+    badinput = sys.modules.get("badinput")
+    own = badinput.KEPT if badinput is not None else {}
+    workers = config.stash.get(_WORKERS_KEPT, {})
+    return {k: own.get(k, 0) + workers.get(k, 0) for k in ("checks", "promises")}
+
+
+def pytest_sessionfinish(session: pytest.Session) -> None:
+    """An xdist worker hands its bad-input counts to the controller (its workeroutput)."""
+    workeroutput = getattr(session.config, "workeroutput", None)
+    badinput = sys.modules.get("badinput")
+    if workeroutput is not None and badinput is not None:
+        workeroutput["bad_input_kept"] = dict(badinput.KEPT)
+
+
+@pytest.hookimpl(optionalhook=True)
+def pytest_testnodedown(node: Any, error: object) -> None:
+    """The xdist controller adds up the counts each worker reported as it finished."""
+    kept = getattr(node, "workeroutput", {}).get("bad_input_kept", {})
+    total = node.config.stash.setdefault(_WORKERS_KEPT, {"checks": 0, "promises": 0})
+    for k in total:
+        total[k] += kept.get(k, 0)
