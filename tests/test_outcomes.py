@@ -89,6 +89,7 @@ def test_an_arm_that_cannot_reach_the_objects_exits_1(tmp_path, capsys):
     assert err.strip() == f"mearm sort: sorted 0 of 12 objects ({words})"
 
 
+@pytest.mark.heavy
 def test_a_base_servo_8_degrees_off_exits_1(tmp_path, capsys):
     log = tmp_path / "run.jsonl"
     code, lines, err = _sort(
@@ -100,6 +101,7 @@ def test_a_base_servo_8_degrees_off_exits_1(tmp_path, capsys):
     assert s.left == {"pick_failed": 12} and sum(s.sorted.values()) == 0
 
 
+@pytest.mark.heavy
 def test_a_board_whose_arm_never_moves_exits_1(tmp_path, capsys):
     """The serial backend on a fake Uno that acknowledges every move but moves nothing:
     the (simulated) camera still sees all 12 objects of the paper's layout, so nothing
