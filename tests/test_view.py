@@ -236,7 +236,9 @@ def test_port_in_use_is_a_named_error(view: ArmView, model: ArmModel):
 def test_close_frees_the_port_and_is_final(model: ArmModel):
     """close() stops the server (the port can be taken again), twice is fine, use after
     close is an error."""
-    v = ArmView(model, CONFIG)
+    # a port of the kernel's choosing: the first free one from 7000 (the default) is what
+    # every other view takes, and one of another xdist worker could take it in between
+    v = ArmView(model, CONFIG, port=0)
     port = v.port
     v.close()
     v.close()
