@@ -12,25 +12,13 @@ from pathlib import Path
 
 import pytest
 import yaml
+from conftest import QUICK_SERVOS
 from fakeboard import FakeMearmBoard
 
 from mearm.config import config_from_dict
 from mearm.runlog import read_runlog
 from mearm.sort import main as sort_main
 from mearm.task.report import LEFT_REASONS, Outcome
-
-#: Servos ten times quicker than the paper arm's (0.015 s per 60°) and 10 ms of tool
-#: settling: a serial link is paced in real time, and a run of 12 objects at the real
-#: speeds spends ~27 of its ~30 s waiting for servos that here never move anyway.
-QUICK_SERVOS = [
-    arg
-    for key in (
-        *(f"arm.joints.{j}.servo" for j in ("base", "shoulder", "elbow")),
-        "arm.tool.gripper.servo",
-        "arm.tool.actuators.gripper_arm.servo",
-    )
-    for arg in ("--set", f"{key}.seconds_per_60deg=0.015")
-] + ["--set", "arm.tool.settle_s=0.01"]
 
 
 def _sort(capsys: pytest.CaptureFixture[str], *argv: object) -> tuple[int, list[str], str]:

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import pytest
 import serial
-from conftest import ROOT, missing_tool
+from conftest import QUICK_SERVOS, ROOT, missing_tool
 
 from mearm.backends import open_bus
 from mearm.config import config_from_dict
@@ -64,7 +64,7 @@ def _sort(cache_home: Path, *args: str, path: str | None = None) -> subprocess.C
 def test_virtual_uno_sorts_the_paper_layout(cache_home):
     """12 of 12 through the serial backend and the real firmware, the arm moved by the
     pins' measured pulses, exit 0."""
-    r = _sort(cache_home, "--quiet")
+    r = _sort(cache_home, "--quiet", *QUICK_SERVOS)
     assert r.returncode == 0, r.stdout + r.stderr
     assert r.stdout.splitlines()[-1] == "sorted 12 of 12 objects"
     assert "Traceback" not in r.stderr
