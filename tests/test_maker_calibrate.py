@@ -366,10 +366,14 @@ def board(request: pytest.FixtureRequest) -> Iterator[BoardUnderTest]:
 
 
 def serial_args(port: str) -> list[str]:
+    """The serial backend on ``port``; 400 moves a second, not the paper's 50: the link is
+    paced, and a session of keys held down (80 steps past a range's end, the jogs to
+    each reference) spent most of its ~10 s waiting out the 20 ms frames."""
     return [
         "--config", str(ROOT / "configs" / "sim.yaml"),
         "--set", "servo.backend=serial", "--port", port,
         "--set", "servo.banner_timeout_s=5", "--set", "servo.ack_timeout_s=2",
+        "--set", "servo.rate_hz=400",
     ]  # fmt: skip
 
 
