@@ -1,4 +1,5 @@
-# One command sets everything up and runs the job: `make demo`; the tests: `make test`.
+# One command sets everything up and runs the job: `make demo`; the tests: `make test`
+# (the inner loop: `make test-fast`, the suite without its slow and heavy tests).
 PYTHON ?= python3
 VENV   := .venv
 BIN    := $(VENV)/bin
@@ -14,7 +15,7 @@ SYSTEM_DEPS := make gcc libc6-dev chromium gcc-avr avr-libc arduino-core-avr \
                simavr libsimavr-dev libelf-dev \
                libegl1 libegl-mesa0 libgl1-mesa-dri libosmesa6
 
-.PHONY: install demo test lint bench urdf firmware preview clean system-deps
+.PHONY: install demo test test-fast lint bench urdf firmware preview clean system-deps
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -27,8 +28,16 @@ install: $(STAMP)
 demo: $(STAMP)
 	$(BIN)/python -m mearm.sort --config configs/sim.yaml
 
+# The suite runs in JOBS processes (pytest-xdist; `auto`: one per core, JOBS=0: in this
+# one, e.g. for --pdb); worksteal hands a worker that ran out of tests some of another's.
+JOBS ?= auto
+PYTEST := $(BIN)/python -m pytest -q -n $(JOBS) --dist worksteal
+
 test: $(STAMP)
-	$(BIN)/python -m pytest -q
+	$(PYTEST)
+
+test-fast: $(STAMP)
+	$(PYTEST) -m "not slow and not heavy"
 
 lint: $(STAMP)
 	$(BIN)/ruff check mearm tools tests

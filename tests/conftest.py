@@ -7,7 +7,7 @@ import shutil
 import subprocess
 import sys
 from pathlib import Path
-from typing import NoReturn
+from typing import Any, NoReturn
 
 import pytest
 from hypothesis import settings
@@ -117,6 +117,22 @@ def planar_yaw_arm_data(*, rail: bool = False) -> dict:
     }
 
 
+#: ``--set`` arguments that make the paper arm's servos ten times quicker (0.015 s per 60°)
+#: and its tool settle in 10 ms. A serial link (a fake or a simulated Uno) is paced in
+#: real or simulated time, and a 12-object sort at the real speeds spends most of its
+#: half a minute waiting for servo travel; a test about what reaches the board, and
+#: what comes back, proves the same with quick servos.
+QUICK_SERVOS = [
+    arg
+    for key in (
+        *(f"arm.joints.{j}.servo" for j in ("base", "shoulder", "elbow")),
+        "arm.tool.gripper.servo",
+        "arm.tool.actuators.gripper_arm.servo",
+    )
+    for arg in ("--set", f"{key}.seconds_per_60deg=0.015")
+] + ["--set", "arm.tool.settle_s=0.01"]
+
+
 def run_cli(*args: str, timeout: float = 60, cwd: Path = ROOT) -> subprocess.CompletedProcess:
     """Run ``python <args>`` as a user would, capturing text output."""
     return subprocess.run(
@@ -180,10 +196,39 @@ def pytest_terminal_summary(terminalreporter: pytest.TerminalReporter) -> None:
         )
         for what, count in sorted(needs.items()):
             terminalreporter.write_line(f"  {count:4d}  {what}")
-    badinput = sys.modules.get("badinput")
-    if badinput is not None and badinput.KEPT["checks"]:
-        kept = badinput.KEPT
+    kept = _bad_input_kept(terminalreporter.config)
+    if kept["checks"]:
         terminalreporter.write_line(
             f"bad-input corpus: {kept['promises']} promises kept in {kept['checks']} checks "
             "(exit code, one stderr line, no traceback, time bound, files intact)"
         )
+
+
+#: The bad-input counts the xdist workers reported, on the controller's config.
+_WORKERS_KEPT = pytest.StashKey[dict[str, int]]()
+
+
+def _bad_input_kept(config: pytest.Config) -> dict[str, int]:
+    """The bad-input promises kept in this session: this process's (tests/badinput.py),
+    plus those each xdist worker reported when it finished (:func:`pytest_testnodedown`)."""
+    badinput = sys.modules.get("badinput")
+    own = badinput.KEPT if badinput is not None else {}
+    workers = config.stash.get(_WORKERS_KEPT, {})
+    return {k: own.get(k, 0) + workers.get(k, 0) for k in ("checks", "promises")}
+
+
+def pytest_sessionfinish(session: pytest.Session) -> None:
+    """An xdist worker hands its bad-input counts to the controller (its workeroutput)."""
+    workeroutput = getattr(session.config, "workeroutput", None)
+    badinput = sys.modules.get("badinput")
+    if workeroutput is not None and badinput is not None:
+        workeroutput["bad_input_kept"] = dict(badinput.KEPT)
+
+
+@pytest.hookimpl(optionalhook=True)
+def pytest_testnodedown(node: Any, error: object) -> None:
+    """The xdist controller adds up the counts each worker reported as it finished."""
+    kept = getattr(node, "workeroutput", {}).get("bad_input_kept", {})
+    total = node.config.stash.setdefault(_WORKERS_KEPT, {"checks": 0, "promises": 0})
+    for k in total:
+        total[k] += kept.get(k, 0)

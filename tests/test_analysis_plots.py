@@ -70,6 +70,7 @@ def sample() -> tuple[np.ndarray, np.ndarray]:
     return errors, success
 
 
+@pytest.mark.heavy
 def test_histogram_with_fit(tmp_path: Path, sample) -> None:
     errors, _ = sample
     path = plots.error_histogram(errors, fit_weibull(errors), tmp_path / "h.png")
@@ -100,6 +101,7 @@ def test_ee_paths_3d(tmp_path: Path) -> None:
     assert pixels_of(rgb, BLUE) > 100 and pixels_of(rgb, ORANGE) > 100
 
 
+@pytest.mark.heavy
 def test_joint_angles_one_panel_per_route(tmp_path: Path) -> None:
     routes = [
         joint_path_route("pick", (5.0, 45.0, 12.76)),
@@ -140,6 +142,7 @@ def test_joint_angles_any_number_of_joints(tmp_path: Path) -> None:
         assert pixels_of(rgb, color) > 100
 
 
+@pytest.mark.heavy
 def test_gain_sweep(tmp_path: Path) -> None:
     routes = [
         joint_path_route(f"kp = {kp}", (-10.99, 49.7, 12.76), n=n)

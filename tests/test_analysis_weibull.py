@@ -13,6 +13,7 @@ from mearm.exceptions import AnalysisError
 from mearm.runlog import read_runlog
 
 
+@pytest.mark.heavy
 def test_fit_recovers_the_papers_weibull_from_a_2400_route_log(tmp_path) -> None:
     """Errors whose norms follow Weibull(2.045, 0.7059): the fit is within 5 % on both."""
     path = tmp_path / "trials.jsonl"

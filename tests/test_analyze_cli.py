@@ -66,6 +66,7 @@ def test_step_selection(log: Path, capsys) -> None:
     assert picks["step"] == "pick" and first["first_attempt"] is True
 
 
+@pytest.mark.heavy
 def test_out_writes_plots_and_a_report_that_links_them(log: Path, tmp_path: Path, capsys) -> None:
     out = tmp_path / "report"
     data = run_json(capsys, str(log), "--out", str(out))
@@ -111,6 +112,7 @@ def test_damaged_log_warning_on_stderr(log: Path, tmp_path: Path, capsys) -> Non
         main([str(damaged), "--strict"])
 
 
+@pytest.mark.heavy
 def test_gain_sweeps(capsys, tmp_path: Path) -> None:
     """Larger kp converges in fewer iterations; the table names mode, kp and kd."""
     data = run_json(capsys, "--gains", "--mode", "paper", "--out", str(tmp_path))
@@ -173,6 +175,7 @@ def test_empty_log_is_an_error(tmp_path: Path) -> None:
         (["--gains", "--start", "1,2"], "--start needs 3 numbers"),
     ],
 )
+@pytest.mark.heavy
 def test_cli_errors_are_one_line_and_exit_2(argv: list[str], pattern: str, tmp_path: Path) -> None:
     proc = subprocess.run(
         [sys.executable, "-m", "mearm.analyze", *argv], capture_output=True, text=True, cwd=tmp_path
@@ -181,6 +184,7 @@ def test_cli_errors_are_one_line_and_exit_2(argv: list[str], pattern: str, tmp_p
     assert len(proc.stderr.strip().splitlines()) == 1 and pattern in proc.stderr
 
 
+@pytest.mark.heavy
 def test_cli_strict_damaged_log_exits_2(log: Path, tmp_path: Path) -> None:
     torn = tmp_path / "torn.jsonl"
     torn.write_bytes(log.read_bytes()[:-25])
@@ -262,6 +266,7 @@ def v1_log(tmp_path: Path) -> Path:
     return path
 
 
+@pytest.mark.heavy
 def test_a_format_1_log_is_analysed_end_to_end(v1_log: Path, tmp_path: Path, capsys) -> None:
     """A hand-written format-1 log: tables printed, Table 9 in its config's class order,
     and its logged joints (named joint1..joint4 on reading) solved again for the plots."""
@@ -286,6 +291,7 @@ def test_a_format_1_log_is_analysed_end_to_end(v1_log: Path, tmp_path: Path, cap
 # --------------------------------------------------------------------------- repeated trials
 
 
+@pytest.mark.heavy
 def test_a_cut_off_attempt_that_was_run_again_is_left_out(log: Path, tmp_path: Path, capsys):
     """Trial 0 cut off before its summary, then run again: only the complete one counts."""
     lines = log.read_text().splitlines(keepends=True)
@@ -308,6 +314,7 @@ def test_two_runs_in_one_log_are_refused(log: Path, tmp_path: Path) -> None:
 # --------------------------------------------------------------------------- writing --out
 
 
+@pytest.mark.heavy
 def test_report_and_plots_replace_old_ones_through_links(log: Path, tmp_path: Path, capsys):
     """report.md linked elsewhere is written through the link; no temp file is left."""
     out, kept = tmp_path / "report", tmp_path / "kept"

@@ -50,6 +50,7 @@ def test_fit_planar_rigid_recovers_a_known_motion():
     np.testing.assert_allclose(got_t, t, atol=1e-12)
 
 
+@pytest.mark.heavy
 def test_the_check_in_the_twin_has_small_residuals(capsys):
     """Three points with the twin's homography: finite residuals under 1 cm, the printed
     RMS is the RMS of the printed per-point residuals, and the object goes back."""
@@ -81,6 +82,7 @@ def _perturbed_calibration(tmp_path, config):
     return intr, ext, truth
 
 
+@pytest.mark.heavy
 def test_refine_brings_the_pose_back(tmp_path, capsys):
     """A camera turned 1° and shifted 0.5 cm: the pose refined by 4 points gives a
     residual RMS well below the one before (the rest is the arm's own placing error),

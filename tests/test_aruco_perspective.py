@@ -170,6 +170,7 @@ def test_calibrate_tool_on_a_straight_view(view: str, tmp_path: Path) -> None:
 
 
 @pytest.mark.parametrize("view", TILTED)
+@pytest.mark.heavy
 def test_calibrate_tool_on_a_tilted_view(view: str, tmp_path: Path) -> None:
     """Tilted 8°: still a plane, so the homography is as good (within 0.05 cm)."""
     assert table_error_cm(view, run_calibrate_tool(view, tmp_path)) < 0.05

@@ -528,6 +528,7 @@ def test_a_bad_servo_combination_in_a_file_is_refused(edit, words, tmp_path: Pat
         ("too_large", "too large"),
     ],
 )
+@pytest.mark.heavy
 def test_harmful_config_ends_fast_in_a_real_process(
     name: str, words: str, bad_files: dict[str, Path]
 ) -> None:
@@ -539,6 +540,7 @@ def test_harmful_config_ends_fast_in_a_real_process(
 
 
 @bad_input
+@pytest.mark.heavy
 def test_deep_set_value_ends_fast_in_a_real_process() -> None:
     """10 000-deep nesting given on the command line, not in a file."""
     out = check_bad_input_subprocess(
@@ -593,6 +595,7 @@ _v1_keys = st.sampled_from(["robot", "vision", "servo", "task", "camera", "calib
 @bad_input
 @settings(max_examples=200, deadline=None)
 @given(st.dictionaries(_v1_keys, _json, min_size=1, max_size=4), st.booleans())
+@pytest.mark.heavy
 def test_any_format1_mapping_migrates_or_is_refused(data: dict, robot: bool) -> None:
     """migrate_v1_config + validation on arbitrary data: a Config or a ConfigError."""
     if robot:
@@ -613,6 +616,7 @@ _numbers = st.one_of(
 @bad_input
 @settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(st.sampled_from([p for p, _, _ in FIELDS]), _numbers)
+@pytest.mark.heavy
 def test_any_number_in_any_field_is_accepted_or_refused_never_a_crash(
     path: str, value: float
 ) -> None:

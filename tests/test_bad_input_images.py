@@ -336,6 +336,7 @@ def test_detect_annotate_never_overwrites_an_input(
 @pytest.mark.parametrize(
     "name", ["png_30000x30000", "jpeg_65000x65000", "tiff_100000x100000", "dev_zero", "fifo"]
 )
+@pytest.mark.heavy
 def test_huge_header_ends_fast_in_a_real_process(name: str, images: dict[str, Path]) -> None:
     """The issue's 30000² PNG header (and its kin): under 2 s, exit 2, one line."""
     out = check_bad_input_subprocess(
@@ -345,6 +346,7 @@ def test_huge_header_ends_fast_in_a_real_process(name: str, images: dict[str, Pa
 
 
 @bad_input
+@pytest.mark.heavy
 def test_huge_header_for_calibration_ends_fast_in_a_real_process(
     images: dict[str, Path], tmp_path: Path
 ) -> None:

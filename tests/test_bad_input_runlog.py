@@ -117,6 +117,7 @@ BAD_LOG_BYTES: dict[str, Callable[[dict[str, Path]], bytes]] = {
 
 
 @pytest.mark.parametrize("name", BAD_LOG_BYTES)
+@pytest.mark.heavy
 def test_analyze_refuses_a_bad_log(name: str, made: dict[str, Path], tmp_path: Path) -> None:
     log = tmp_path / "bad.jsonl"
     log.write_bytes(BAD_LOG_BYTES[name](made))

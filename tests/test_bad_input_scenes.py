@@ -101,6 +101,7 @@ def _imported() -> None:
 
 @bad_input
 @pytest.mark.parametrize("name", list(ALL_SCENES))
+@pytest.mark.heavy
 def test_sort_refuses_a_bad_scene(name: str, scenes: dict[str, Path], tmp_path: Path) -> None:
     """sort --scene FILE: refused before the rig starts; the run log is not created."""
     log = tmp_path / "run.jsonl"
@@ -153,6 +154,7 @@ def test_experiment_refuses_a_bad_scene(name: str, scenes: dict[str, Path], tmp_
          "could not place"),
     ],
 )  # fmt: skip
+@pytest.mark.heavy
 def test_sort_refuses_a_bad_random_scene(args: list[str], words: str) -> None:
     """--random N --seed S out of range, or no room for the objects: exit 2, one line."""
     out = check_bad_input(["sort", "--quiet", *args], within_s=5)
@@ -161,6 +163,7 @@ def test_sort_refuses_a_bad_random_scene(args: list[str], words: str) -> None:
 
 @bad_input
 @pytest.mark.parametrize("name", ["alias_bomb", "deep", "dev_zero", "too_large"])
+@pytest.mark.heavy
 def test_harmful_scene_ends_fast_in_a_real_process(name: str, scenes: dict[str, Path]) -> None:
     out = check_bad_input_subprocess(
         ["sort", "--scene", scenes[name], "--quiet"], within_s=2, keep=[scenes["empty"].parent]

@@ -178,6 +178,7 @@ def assert_no_move_after_fault(board: FakeBoard, at_move: int | None) -> None:
 
 @pytest.mark.bad_input
 @pytest.mark.parametrize("name", list(CASES))
+@pytest.mark.heavy
 def test_bad_serial_bytes_end_the_sort(tmp_path: Path, name: str) -> None:
     """A board sending bad bytes stops the sort: exit 1, one line, no move after it."""
     case = CASES[name]
@@ -202,6 +203,7 @@ def test_port_url_refused_before_anything_opens(tmp_path: Path, scheme: str) -> 
 
 
 @pytest.mark.bad_input
+@pytest.mark.heavy
 def test_one_line_in_a_real_process(tmp_path: Path) -> None:
     """Outside pytest nothing captures log records: the retries and the fault are still
     not printed beside the one line (the hardware package's logger has a handler)."""

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import importlib
 
+import pytest
 from conftest import ROOT
 
 from mearm.config import load_config
@@ -14,6 +15,7 @@ def _bench():
     return importlib.import_module("mearm.tools.bench")
 
 
+@pytest.mark.heavy
 def test_twin_section_reports_physics_and_whole_sort():
     """One round on the 5-DOF twin with one object: the section's rows, with positive
     figures and the simulated time the sort covered in the notes."""

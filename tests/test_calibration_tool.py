@@ -163,6 +163,7 @@ def run_tool(capsys, *args: str) -> tuple[int, str]:
     return int(info.value.code), capsys.readouterr().err
 
 
+@pytest.mark.heavy
 def test_the_script_runs(tmp_path: Path) -> None:
     """End to end as a script: exit 2 and one line for a degenerate set."""
     result = subprocess.run(
@@ -248,6 +249,7 @@ def test_a_file_without_a_calibration_gets_one(tmp_path: Path) -> None:
     np.testing.assert_allclose(load_config(path).calibration.homography, LAB.H, atol=1e-9)
 
 
+@pytest.mark.heavy
 def test_marker_sheet_prints_at_size(tmp_path: Path) -> None:
     """The sheet holds detectable markers of the asked size and records its DPI."""
     out = tmp_path / "sheet.png"
@@ -278,6 +280,7 @@ def test_marker_sheet_rejects_what_does_not_fit(tmp_path: Path, capsys) -> None:
     assert not (tmp_path / "s.png").exists()
 
 
+@pytest.mark.heavy
 def test_a_worse_homography_does_not_replace_a_better_one_without_force(tmp_path: Path) -> None:
     """The config records a 0.01 cm fit; a noisier one is refused (exit 2), --force takes it."""
     path = tmp_path / "lab.yaml"

@@ -192,6 +192,7 @@ def test_missing_device_is_a_quick_clear_error() -> None:
     assert info.value.source == "device 63"
 
 
+@pytest.mark.heavy
 def test_device_that_hangs_times_out(tmp_path: Path) -> None:
     """A device path whose open blocks (a FIFO nobody writes) fails after the timeout."""
     fifo = tmp_path / "video-fifo"

@@ -52,6 +52,7 @@ def folder(views: list[np.ndarray], tmp_path_factory: pytest.TempPathFactory) ->
     return path
 
 
+@pytest.mark.heavy
 def test_corners_are_found_to_a_tenth_of_a_pixel(cam: TrueCamera) -> None:
     """Detected corners lie within 0.1 px RMS of the true projections."""
     errors = []
@@ -70,6 +71,7 @@ def test_no_board_no_corners() -> None:
         assert corners.shape == (0, 2) and ids.shape == (0,)
 
 
+@pytest.mark.heavy
 def test_the_fit_recovers_the_camera(report: CalibrationReport, cam: TrueCamera) -> None:
     """fx, fy, cx, cy within 0.5 px of the truth; reprojection RMS ≤ 0.3 px."""
     K = report.intrinsics.camera_matrix
@@ -80,6 +82,7 @@ def test_the_fit_recovers_the_camera(report: CalibrationReport, cam: TrueCamera)
     assert report.coverage >= 0.5
 
 
+@pytest.mark.heavy
 def test_undistortion_agrees_with_the_truth(report: CalibrationReport, cam: TrueCamera) -> None:
     """Undistorted pixels agree with the true model's within 0.15 px where the board was seen.
 
@@ -103,11 +106,13 @@ def test_undistortion_agrees_with_the_truth(report: CalibrationReport, cam: True
     assert err[inside].max() < 0.15
 
 
+@pytest.mark.heavy
 def test_calibrate_returns_intrinsics(views: list[np.ndarray]) -> None:
     """calibrate() is the report's Intrinsics."""
     assert isinstance(calibrate(views[:12]), Intrinsics)
 
 
+@pytest.mark.heavy
 def test_refusals_say_why(views: list[np.ndarray]) -> None:
     """Mixed sizes, too few views, too little coverage: a CalibrationError naming it."""
     small = cv2.resize(views[1], (320, 240))
@@ -120,6 +125,7 @@ def test_refusals_say_why(views: list[np.ndarray]) -> None:
         calibrate(centre * 3)
 
 
+@pytest.mark.heavy
 def test_an_outlier_view_is_dropped(views: list[np.ndarray], cam: TrueCamera) -> None:
     """A view of a warped board is dropped, named, and the fit stays good."""
     bent = views[3].copy()
@@ -134,6 +140,7 @@ def test_an_outlier_view_is_dropped(views: list[np.ndarray], cam: TrueCamera) ->
 # --------------------------------------------------------------------------- CLI
 
 
+@pytest.mark.heavy
 def test_cli_writes_keeps_and_forces(folder: Path, cam: TrueCamera, tmp_path: Path) -> None:
     """Writes a loadable file; a worse run keeps it (exit 2); --force replaces it (.bak)."""
     out = tmp_path / "intrinsics.yaml"
@@ -161,6 +168,7 @@ def test_cli_writes_keeps_and_forces(folder: Path, cam: TrueCamera, tmp_path: Pa
     assert (tmp_path / "intrinsics.yaml.bak").read_bytes() == good
 
 
+@pytest.mark.heavy
 def test_cli_dry_run_writes_nothing(folder: Path, tmp_path: Path) -> None:
     out = tmp_path / "i.yaml"
     done = run_in_process(
@@ -211,6 +219,7 @@ def _blank_folder(path: Path) -> Path:
         ("empty_folder", "holds no *.png"),
     ],
 )
+@pytest.mark.heavy
 def test_bad_images_are_refused(case: str, words: str, folder: Path, tmp_path: Path) -> None:
     """Each: exit 2, one line naming the problem, --out untouched."""
     first = sorted(folder.iterdir())[0]
@@ -267,6 +276,7 @@ def test_bad_arguments_are_refused(args: list[str], words: str, tmp_path: Path) 
 
 
 @bad_input
+@pytest.mark.heavy
 def test_out_a_folder_is_refused(folder: Path, tmp_path: Path) -> None:
     done = check_bad_input(
         ["calibrate-intrinsics", "--images", folder, "--out", tmp_path], within_s=10

@@ -13,6 +13,7 @@ from mearm.task.check import check_consistency
 
 
 @pytest.mark.parametrize("name", REFERENCE_CONFIGS)
+@pytest.mark.heavy
 def test_reference_configs_are_consistent(name):
     found = check_consistency(load_config(ROOT / "configs" / name))
     # the MeArm v1's elbow servo turns the forearm only within ±75° of level (its pulse

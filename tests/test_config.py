@@ -104,6 +104,7 @@ def test_bad_arm_descriptions_refused_at_load(overrides, message):
     assert message in str(exc.value)
 
 
+@pytest.mark.heavy
 def test_bad_arm_description_cli_exits_2_one_line(tmp_path):
     """A bad arm file: exit 2, one line naming the field, no traceback."""
     bad = _write(
@@ -193,6 +194,7 @@ def test_empty_file_is_refused(tmp_path):
     assert load_config(_write(tmp_path, "{}\n")) == Config()
 
 
+@pytest.mark.heavy
 def test_cli_bad_config_exits_2_with_one_line(tmp_path):
     bad = _write(tmp_path, "controller:\n  kpp: 0.1\n")
     r = run_cli("-m", "mearm.fk", "--config", str(bad), "--joints", "120,93,-132")

@@ -263,6 +263,7 @@ def test_a_bad_extended_file_is_named(tmp_path):
         load_config(tmp_path / "c.yaml")
 
 
+@pytest.mark.heavy
 def test_a_loop_exits_2_with_one_line_from_the_cli(tmp_path):
     _write(tmp_path, "a.yaml", "extends: b.yaml\n")
     _write(tmp_path, "b.yaml", "extends: a.yaml\n")
@@ -273,6 +274,7 @@ def test_a_loop_exits_2_with_one_line_from_the_cli(tmp_path):
     assert "Traceback" not in r.stderr
 
 
+@pytest.mark.heavy
 def test_an_unknown_arm_exits_2_with_one_line_from_the_cli(tmp_path):
     path = _write(tmp_path, "c.yaml", "arm: {use: meArm}\n")
     r = run_cli("-m", "mearm.fk", "--config", str(path), "--joints", "120,93,-132")
@@ -367,6 +369,7 @@ def files_writing(arm: Signature) -> list[str]:
 
 
 @pytest.mark.parametrize("name", ["desk_5dof", "mearm_paper", "mearm_v1"])
+@pytest.mark.heavy
 def test_each_reference_arms_joint_list_is_written_in_one_file(name):
     """configs/arms/<name>.yaml is the only file of the project that lists its joints."""
     arm = signature(reference_arm(name)["joints"])

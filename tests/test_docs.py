@@ -46,6 +46,7 @@ def _links(path: Path) -> list[str]:
     return LINK.findall(text)
 
 
+@pytest.mark.heavy
 def test_configuration_reference_is_current() -> None:
     """docs/configuration.md is what the config models generate today."""
     written = (ROOT / "docs" / "configuration.md").read_text(encoding="utf-8")
@@ -148,6 +149,7 @@ def help_texts() -> dict[str, str]:
         for name in ["mearm", *SUBCOMMANDS]
     ],
 )
+@pytest.mark.heavy
 def test_help_is_plain_words(help_texts: dict[str, str], name: str) -> None:
     """--help shows no raw reStructuredText and no SPEC or § references."""
     text = help_texts[name]

@@ -66,6 +66,7 @@ def test_every_error_is_a_mearm_error_and_the_top_level_names_them_too():
         assert name in mearm.__all__
 
 
+@pytest.mark.heavy
 def test_no_module_of_the_package_imports_the_facade():
     """Inside the package an error comes from its family: the façade names errors of every
     layer, so a lower layer importing it would reach up (only the package root may)."""

@@ -31,6 +31,7 @@ def three_trials(tmp_path_factory):
     return log
 
 
+@pytest.mark.heavy
 def test_three_trials_each_sort_a_new_4_4_4_layout(three_trials):
     """Each trial: its own header and seed, 12 objects (4 per colour), 24 routes, all sorted."""
     contents = read_runlog(three_trials)
@@ -47,6 +48,7 @@ def test_three_trials_each_sort_a_new_4_4_4_layout(three_trials):
     assert len({t.header.seed for t in contents.trials}) == 3
 
 
+@pytest.mark.heavy
 def test_analysis_of_the_trials_writes_tables_and_plots(three_trials, tmp_path):
     out = tmp_path / "report"
     r = run_cli("-m", "mearm.analyze", str(three_trials), "--out", str(out), timeout=120)
@@ -76,6 +78,7 @@ def test_trial_seeds_are_distinct_and_reseed_the_noise(config):
         (["--config", "configs/lab.yaml", "--scene", "s.yaml", "--log", "x.jsonl"], "not found"),
     ],
 )
+@pytest.mark.heavy
 def test_bad_input_exits_2(args, needle, tmp_path):
     r = run_cli("-m", "mearm.experiment", *args)
     assert r.returncode == 2
@@ -111,6 +114,7 @@ def numbers(log: Path) -> list[tuple[int | None, bool]]:
     return [(t.number, t.complete) for t in read_runlog(log).trials]
 
 
+@pytest.mark.heavy
 def test_a_second_run_continues_after_the_last_complete_trial(tmp_path, scene):
     """The same --log with more --trials appends the missing trials; nothing before changes."""
     log = tmp_path / "trials.jsonl"
@@ -191,6 +195,7 @@ def test_a_whole_last_record_missing_its_newline_is_kept(tmp_path, scene):
     assert numbers(log) == [(0, True), (1, True)]
 
 
+@pytest.mark.heavy
 def test_a_killed_experiment_resumes_and_loses_nothing(tmp_path):
     """SIGKILL in the middle of a run, then the same command: every trial once, complete,
     and every byte written before the kill still there."""
@@ -248,6 +253,7 @@ def run_on_pty(args: list[str], keys: bytes) -> subprocess.CompletedProcess[str]
     return subprocess.CompletedProcess(proc.args, proc.returncode, out, err)
 
 
+@pytest.mark.heavy
 def test_real_rig_waits_for_enter_on_the_terminal_each_trial(tmp_path, rig):
     """With a camera that is not simulated, every trial waits for Enter before it starts."""
     log = tmp_path / "trials.jsonl"
@@ -257,6 +263,7 @@ def test_real_rig_waits_for_enter_on_the_terminal_each_trial(tmp_path, rig):
     assert len(read_runlog(log).trials) == 2
 
 
+@pytest.mark.heavy
 def test_end_of_input_at_a_prompt_stops_cleanly(tmp_path, rig):
     """Ctrl-D at the second prompt: exit 2, one line, trial 0 in the log, nothing after."""
     log = tmp_path / "trials.jsonl"
@@ -268,6 +275,7 @@ def test_end_of_input_at_a_prompt_stops_cleanly(tmp_path, rig):
 
 
 @pytest.mark.parametrize("stdin", ["closed", "devnull"])
+@pytest.mark.heavy
 def test_without_a_terminal_the_rig_refuses_before_anything(tmp_path, rig, stdin):
     """No terminal: exit 2 with one line naming --yes; no log, no motion."""
     log = tmp_path / "trials.jsonl"

@@ -61,6 +61,7 @@ def _section_sizes(elf: Path) -> dict[str, int]:
     return sizes
 
 
+@pytest.mark.heavy
 def test_firmware_fits_the_uno(firmware):
     """Flash (.text + .data) and RAM (.data + .bss) within the Uno's limits, with room."""
     s = _section_sizes(firmware)
@@ -75,6 +76,7 @@ def test_firmware_does_not_use_the_servo_library():
     assert "Servo.h" not in text and "TIMER1_COMPA_vect" in text
 
 
+@pytest.mark.heavy
 def test_firmware_boots_with_banner_in_simavr(firmware):
     """Run the ELF in simavr (ATmega328P, 16 MHz): its UART prints the protocol banner."""
     simavr = require_tool("simavr")
@@ -132,6 +134,7 @@ def wait_for_pulses(chip: SimavrBoard, after_ms: int, frames: int = 5) -> list[l
     raise AssertionError(f"no pulses after {after_ms} ms: {chip.pulses[-10:]} {chip.stderr}")
 
 
+@pytest.mark.heavy
 def test_host_drives_the_firmware(chip):
     """The real ArduinoBus drives the real firmware: handshake, moves, query, stop; the
     Timer1 pulses measured in CPU cycles are the commanded ones to within 1 µs."""
@@ -202,6 +205,7 @@ def test_firmware_and_fake_board_answer_alike(chip):
     assert firmware_replies[-1].startswith(b"OK 11 HOLD 0 2500 500 0 1200*")
 
 
+@pytest.mark.heavy
 def test_firmware_holds_when_commands_stop(chip):
     """No valid command for 1 s: '! HOLD', and the last pulses go on (stiff, not limp)."""
     with serial.Serial(chip.port, 115200, timeout=3.0) as link:

@@ -1,5 +1,6 @@
 import json
 
+import pytest
 from conftest import run_cli
 
 
@@ -22,6 +23,7 @@ def test_home_text_default_config():
     assert "base 120.00 deg, shoulder 93.00 deg, elbow -132.00 deg, wrist 39.00 deg" in r.stdout
 
 
+@pytest.mark.heavy
 def test_any_arm_from_its_config():
     """The 5-DOF desk arm: five actuated joints by name, the approach axis printed."""
     r = run_cli(
@@ -38,6 +40,7 @@ def test_any_arm_from_its_config():
     assert "--joints needs 5 numbers, the actuated joints (base_yaw, shoulder" in r.stderr
 
 
+@pytest.mark.heavy
 def test_bad_joints_exit_2_one_line():
     for joints, needle in [
         ("120,93", "--joints needs 3 numbers"),

@@ -88,6 +88,7 @@ def test_allowed_url_that_cannot_connect():
         bus.connect()
 
 
+@pytest.mark.heavy
 def test_quantization_cli_json():
     """The CLI reports the paper §5 figures: degree ~0.3-0.4 cm, microsecond ~10x less."""
     out = run_cli("-m", "mearm", "quantization", "--poses", "300", "--json")
@@ -98,6 +99,7 @@ def test_quantization_cli_json():
     assert modes["none"]["max_cm"] < 1e-9
 
 
+@pytest.mark.heavy
 def test_quantization_cli_other_arm():
     """The CLI measures any arm: the 5-joint desk arm (no closed form) works too."""
     out = run_cli(
@@ -109,6 +111,7 @@ def test_quantization_cli_other_arm():
     assert 0 < modes["microsecond"]["mean_cm"] < modes["degree"]["mean_cm"] < 1.0
 
 
+@pytest.mark.heavy
 def test_quantization_cli_bad_input():
     out = run_cli("-m", "mearm", "quantization", "--poses", "0")
     assert out.returncode == 2 and out.stderr.count("\n") == 1 and "--poses" in out.stderr

@@ -239,6 +239,7 @@ def test_fault_late_replies():
         assert_fault_end_state(bus, board, fault, confirmed=2)
 
 
+@pytest.mark.heavy
 def test_fault_lost_replies(caplog):
     """Answers lost on every try: NoAckError after 1 + retries tries, each logged."""
     with FakeSSC32Board(SSC32Faults(fault_at_move=3, lost_answers=10**6)) as board:

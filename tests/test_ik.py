@@ -371,6 +371,7 @@ def test_analytic_solver_record(model, config):
 # --------------------------------------------------------------------------- CLI
 
 
+@pytest.mark.heavy
 def test_cli_json_issue_example():
     """The issue's command, negative target coordinates included."""
     r = run_cli(
@@ -387,6 +388,7 @@ def test_cli_json_issue_example():
     np.testing.assert_allclose(out["ee_cm"], [-10.99, 49.70, 12.76], atol=0.0316)
 
 
+@pytest.mark.heavy
 def test_cli_solvers_and_tolerance():
     for solver_name in ("pdpij", "mink", "analytic"):
         r = run_cli(
@@ -419,6 +421,7 @@ def test_cli_text_output():
         (["--target", "0,40,20", "--mode", "fast"], "invalid choice"),
     ],
 )
+@pytest.mark.heavy
 def test_cli_bad_input_exit_2_one_line(args, needle):
     r = run_cli("-m", "mearm.ik", *args)
     assert r.returncode == 2, r.stdout

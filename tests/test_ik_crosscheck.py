@@ -255,6 +255,7 @@ def solved(arm_case):
 
 
 @pytest.mark.parametrize("kind", ["pdpij", "mink"])
+@pytest.mark.heavy
 def test_solvers_reach_random_reachable_targets(arm_case, solved, kind):
     """Within 0.01 cm (and the approach tolerance), every pose within limits and coupled."""
     _, _, model = arm_case
@@ -272,6 +273,7 @@ def test_solvers_reach_random_reachable_targets(arm_case, solved, kind):
         assert np.abs(result.q_path - coupled).max() < 1e-9
 
 
+@pytest.mark.heavy
 def test_pdpij_and_mink_agree_where_unique(arm_case, solved):
     """Joints agree within 0.05° (5e-4 cm for a prismatic joint), free joints aside."""
     name, _, model = arm_case
@@ -283,6 +285,7 @@ def test_pdpij_and_mink_agree_where_unique(arm_case, solved):
         assert np.all(diff <= limit), (name, diff)
 
 
+@pytest.mark.heavy
 def test_pdpij_leaves_a_free_joint_where_it_starts(arm_case, solved):
     """A joint that moves neither the TCP nor the approach axis (the 5-DOF wrist roll)
     stays where it starts: J⁺ is the least-norm step."""
@@ -293,6 +296,7 @@ def test_pdpij_leaves_a_free_joint_where_it_starts(arm_case, solved):
             assert np.abs(result.q_path[:, k] - model.home[k]).max() < 1e-12
 
 
+@pytest.mark.heavy
 def test_closed_form_agrees(arm_case, solved):
     """Where the arm has a closed form, it gives the solvers' joints (within 0.05°)."""
     _, arm, model = arm_case
@@ -361,6 +365,7 @@ def tight(paper_targets):
 
 
 @pytest.mark.parametrize("kind", SOLVERS)
+@pytest.mark.heavy
 def test_paper_arm_all_reach_within_the_papers_tolerance(loose, kind):
     """PD-PIJ (both modes) and mink converge to within 0.0316 cm of every target."""
     errors = np.array([r.final_error_cm for r in loose[kind]])
@@ -376,6 +381,7 @@ def test_paper_arm_closed_form_reaches_every_target(paper_targets):
 
 
 @pytest.mark.parametrize("kind", SOLVERS)
+@pytest.mark.heavy
 def test_paper_arm_tight_tolerance_joints_agree_with_the_closed_form(paper_targets, tight, kind):
     """At |e|² < 1e-10 cm² every solver's joints match the closed form within 0.001°."""
     worst = 0.0
@@ -387,6 +393,7 @@ def test_paper_arm_tight_tolerance_joints_agree_with_the_closed_form(paper_targe
 
 
 @pytest.mark.parametrize("kind", SOLVERS)
+@pytest.mark.heavy
 def test_paper_arm_coupling_holds_in_every_pose(loose, tight, kind):
     """θ2 + θ3 + θ4 = 0 within 1e-9 rad in every solution and along every path."""
     for result in loose[kind] + tight[kind]:
@@ -395,6 +402,7 @@ def test_paper_arm_coupling_holds_in_every_pose(loose, tight, kind):
 
 
 @pytest.mark.parametrize("kind", SOLVERS)
+@pytest.mark.heavy
 def test_paper_arm_limits_hold_in_every_pose(loose, kind):
     for result in loose[kind]:
         assert np.all(result.q_path >= PAPER_MODEL.lower - 1e-12)

@@ -102,6 +102,7 @@ def test_returns_a_status_within_limits_with_error_never_rising(target, q0, mode
 
 @settings_
 @given(target=targets, q0=starts, mode=st.sampled_from(["paper", "coupled"]))
+@pytest.mark.heavy
 def test_bare_paper_algorithm_is_still_safe(target, q0, mode):
     """Without the safeguard the error may rise, but limits, coupling and finiteness hold."""
     result = solve_or_unreachable(SOLVERS[(mode, 0.0, False)], q0, target)
@@ -111,6 +112,7 @@ def test_bare_paper_algorithm_is_still_safe(target, q0, mode):
 
 @settings_
 @given(target=targets, mode=st.sampled_from(["paper", "coupled"]))
+@pytest.mark.heavy
 def test_from_home_every_reachable_target_converges(target, mode):
     """From home (where every route of the demo starts) the solver always gets there."""
     result = solve_or_unreachable(SOLVERS[(mode, 0.0, True)], MODEL.home, target)

@@ -75,6 +75,7 @@ def test_path_deviation_measures_distance_to_the_segment(results):
     assert r.path_deviation_cm == pytest.approx(brute, abs=1e-3)
 
 
+@pytest.mark.heavy
 def test_paper_mode_is_the_bare_paper_algorithm_on_the_demo(model, config, routes, results):
     """The safeguard never acts on the demo: the whole chain equals the NumPy port's."""
     q = model.home
@@ -95,6 +96,7 @@ def test_coupled_iterations_follow_the_linear_prediction(config, results):
         assert predicted - 0.5 <= result.iterations <= predicted + 2
 
 
+@pytest.mark.heavy
 def test_reproduce_paper_json():
     r = run_cli("tools/reproduce_paper.py", "--mode", "paper", "--json")
     assert r.returncode == 0, r.stderr
@@ -107,6 +109,7 @@ def test_reproduce_paper_json():
     assert abs(summary["mean_initial_error_cm"] - 24.99) < 0.1  # the same 24 routes
 
 
+@pytest.mark.heavy
 def test_reproduce_paper_text_coupled():
     r = run_cli("tools/reproduce_paper.py", "--mode", "coupled")
     assert r.returncode == 0, r.stderr
@@ -114,6 +117,7 @@ def test_reproduce_paper_text_coupled():
     assert r.stdout.count("converged") >= 24
 
 
+@pytest.mark.heavy
 def test_reproduce_paper_needs_a_scene():
     r = run_cli("tools/reproduce_paper.py", "--config", "configs/lab.yaml")
     assert r.returncode == 2
@@ -121,6 +125,7 @@ def test_reproduce_paper_needs_a_scene():
     assert len(lines) == 1 and "task.scene is empty" in lines[0]
 
 
+@pytest.mark.heavy
 def test_bench_ik_section_runs():
     """The benchmark runs its ik section and reports figures (never asserted on)."""
     r = run_cli("tools/bench.py", "--only", "ik", "--repeat", "1", "--json", timeout=300)
@@ -132,6 +137,7 @@ def test_bench_ik_section_runs():
     assert all(row["section"] == "ik" for row in out["rows"])
 
 
+@pytest.mark.heavy
 def test_bench_rejects_unknown_section():
     r = run_cli("tools/bench.py", "--only", "nope")
     assert r.returncode == 2 and "invalid choice" in r.stderr

@@ -95,6 +95,7 @@ def test_default_solver_never_stalls_on_20000_targets():
     assert recovered > 100  # PD-PIJ alone stalls on a few percent: the recovery ran
 
 
+@pytest.mark.heavy
 def test_mearm_v1_never_stalls():
     """The MeArm v1 kit (another closed-form arm), 1,000 targets: 0 stalls, 0 violations."""
     config = load_config(ROOT / "configs" / "sim_mearm_v1.yaml")

@@ -22,13 +22,28 @@ from mearm.sim.kinematic import servo_bus
 from mearm.sort import main as sort_main
 
 RUNS = 50
-ARGV = ["--random", "2", "--set", "servo.rate_hz=1000", "--quiet"]
+#: Two objects; the tool quick (the gripper and the gripper arm at 0.02 s per 60°, 10 ms of
+#: settling, instead of 2.9 s of the 3.4 s a run's motion takes): a run with the view is
+#: paced in real time, and the moments a signal can land in (solving, streaming, holding
+#: the tool, drawing) are the same in a shorter run, in shares closer to each other.
+ARGV = [
+    "--random", "2", "--set", "servo.rate_hz=1000", "--quiet",
+    "--set", "arm.tool.settle_s=0.01",
+    "--set", "arm.tool.gripper.servo.seconds_per_60deg=0.02",
+    "--set", "arm.tool.actuators.gripper_arm.servo.seconds_per_60deg=0.02",
+]  # fmt: skip
 
 
 def _duration(view: bool) -> float:
-    t0 = time.perf_counter()
-    assert sort_main([*ARGV, "--seed", "0", *(["--view"] if view else [])]) == 0
-    return time.perf_counter() - t0
+    """How long a run takes: the shorter of two runs after a first one. The first imports
+    what it needs, and a moment of load on a busy machine can slow one run: either, counted
+    in, would put many signals after the run's end."""
+    times = []
+    for _ in range(3):
+        t0 = time.perf_counter()
+        assert sort_main([*ARGV, "--seed", "0", *(["--view"] if view else [])]) == 0
+        times.append(time.perf_counter() - t0)
+    return min(times[1:])
 
 
 @pytest.mark.slow

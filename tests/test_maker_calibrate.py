@@ -366,10 +366,14 @@ def board(request: pytest.FixtureRequest) -> Iterator[BoardUnderTest]:
 
 
 def serial_args(port: str) -> list[str]:
+    """The serial backend on ``port``; 400 moves a second, not the paper's 50: the link is
+    paced, and a session of keys held down (80 steps past a range's end, the jogs to
+    each reference) spent most of its ~10 s waiting out the 20 ms frames."""
     return [
         "--config", str(ROOT / "configs" / "sim.yaml"),
         "--set", "servo.backend=serial", "--port", port,
         "--set", "servo.banner_timeout_s=5", "--set", "servo.ack_timeout_s=2",
+        "--set", "servo.rate_hz=400",
     ]  # fmt: skip
 
 
@@ -490,6 +494,7 @@ def test_an_existing_calibration_is_replaced_only_after_yes(tmp_path):
     assert [a.name for a in load_servo_calibration(out).actuators] == ["base"]
 
 
+@pytest.mark.heavy
 def test_a_file_that_is_not_a_servo_calibration_is_not_replaced(tmp_path):
     """Pointing --output at a config is refused before anything opens (exit 2)."""
     out = tmp_path / "my.yaml"
@@ -502,6 +507,7 @@ def test_a_file_that_is_not_a_servo_calibration_is_not_replaced(tmp_path):
     assert "not a mearm servo calibration" in cmd.text and out.read_text() == "arm: {}\n"
 
 
+@pytest.mark.heavy
 def test_without_a_terminal_exit_2_one_line(tmp_path):
     """No terminal: exit 2 with one line, before any port opens."""
     result = subprocess.run(
@@ -514,6 +520,7 @@ def test_without_a_terminal_exit_2_one_line(tmp_path):
     assert not (tmp_path / "s.yaml").exists()
 
 
+@pytest.mark.heavy
 def test_q_writes_nothing(tmp_path):
     """q stops the session: exit 1, no file."""
     out = tmp_path / "servos.yaml"
@@ -527,6 +534,7 @@ def test_q_writes_nothing(tmp_path):
     assert not out.exists() and "nothing written" in cmd.text
 
 
+@pytest.mark.heavy
 def test_unknown_actuator_is_bad_input(tmp_path):
     """--actuators with a name the arm lacks: exit 2 naming the arm's actuators."""
     cmd = PtyCommand(*_args(tmp_path / "s.yaml", "--actuators", "knee"))
@@ -545,6 +553,7 @@ def test_reference_values_lie_inside_the_limits():
     assert 10.0 < a < b < 12.0
 
 
+@pytest.mark.heavy
 def test_calibration_file_round_trips_and_is_versioned(tmp_path):
     """The file carries format, version, kind, arm, board, date; a newer version is refused."""
     out = tmp_path / "servos.yaml"

@@ -262,6 +262,7 @@ def test_calibrate_then_jog_puts_the_true_servo_at_the_angle(board, tmp_path):
     assert BOARD_TRUTH["base"].value_of(pulse) == pytest.approx(home, abs=0.2)
 
 
+@pytest.mark.heavy
 def test_jog_without_a_terminal_is_exit_2(tmp_path: Path):
     """No terminal: exit 2 with one line."""
     import subprocess
@@ -276,6 +277,7 @@ def test_jog_without_a_terminal_is_exit_2(tmp_path: Path):
     assert len(lines) == 1 and "needs a terminal" in lines[0], result.stderr
 
 
+@pytest.mark.heavy
 def test_jog_with_a_bad_calibration_file_is_exit_2(tmp_path: Path):
     """--servo-calibration naming something else: exit 2 naming the file."""
     bad = tmp_path / "x.yaml"

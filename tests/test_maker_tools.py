@@ -61,6 +61,7 @@ def line_of(stdout: str, port: str) -> str:
 # --------------------------------------------------------------------------- find-port
 
 
+@pytest.mark.heavy
 def test_find_port_names_the_fake_board_and_says_what_the_others_are(tmp_path):
     """The mearm board is named with its firmware; other ports say what they are."""
     with (
@@ -103,6 +104,7 @@ def test_find_port_names_the_fake_board_and_says_what_the_others_are(tmp_path):
     assert elapsed < 20  # the ports are listened to at once, not one after the other
 
 
+@pytest.mark.heavy
 def test_find_port_without_a_mearm_board_exits_1():
     """Only a board without the banner: the job was not done, exit 1 with one line."""
     with FakeMearmBoard(MearmFaults(banner=False)) as board:
@@ -111,6 +113,7 @@ def test_find_port_without_a_mearm_board_exits_1():
     assert "no mearm board found" in one_error_line(result, code=1)
 
 
+@pytest.mark.heavy
 def test_find_port_reports_missing_and_refused_ports():
     """A port that does not exist is said so; a refused URL scheme is bad input (exit 2)."""
     result = run_tool("find_port", "--only", "--port", "/dev/ttyNOPE9")
@@ -206,6 +209,7 @@ class Terminal:
         raise AssertionError(f"still running after {timeout} s; the screen: {self.output!r}")
 
 
+@pytest.mark.heavy
 def test_replug_on_a_terminal_finds_the_board_that_was_unplugged_and_replugged(tmp_path):
     """Keystrokes on a pty: unplug (the link goes), Enter, replug (a new board), Enter."""
     link = tmp_path / "ttyUSB_by_id"
@@ -230,6 +234,7 @@ def test_replug_on_a_terminal_finds_the_board_that_was_unplugged_and_replugged(t
     assert second.opens == 1
 
 
+@pytest.mark.heavy
 def test_replug_on_a_terminal_reports_a_board_without_firmware_and_how_to_flash_it(tmp_path):
     """The replugged board is found even without the banner; flash is suggested."""
     link = tmp_path / "ttyACM_link"
@@ -249,6 +254,7 @@ def test_replug_on_a_terminal_reports_a_board_without_firmware_and_how_to_flash_
     assert f"mearm flash --port {link}" in term.output
 
 
+@pytest.mark.heavy
 def test_replug_on_a_terminal_with_nothing_replugged_exits_1_and_ctrl_c_exits_130(tmp_path):
     """Nothing came back: exit 1 with the reason. Ctrl-C at a prompt: exit 130."""
     gone = tmp_path / "ttyGONE"
@@ -270,6 +276,7 @@ def test_replug_on_a_terminal_with_nothing_replugged_exits_1_and_ctrl_c_exits_13
     assert "interrupted" in term.output and "Traceback" not in term.output
 
 
+@pytest.mark.heavy
 def test_replug_without_a_terminal_is_refused():
     """Standard input not a terminal: exit 2 before any prompt, one line saying why."""
     result = subprocess.run(
@@ -298,6 +305,7 @@ def built_firmware(tmp_path_factory) -> Path:
     return build
 
 
+@pytest.mark.heavy
 def test_find_port_names_the_real_firmware_in_simavr(built_firmware):
     """The real firmware (simavr behind a pty): named by its banner and its V reply."""
     require_tool("cc", "gcc")
@@ -328,6 +336,7 @@ def _boards_txt_uno() -> dict[str, str]:
     return values
 
 
+@pytest.mark.heavy
 def test_flash_dry_run_prints_the_uno_upload_command_and_builds_nothing(tmp_path):
     """Every avrdude argument: the Uno's MCU, programmer, speed; the port; the hex built."""
     build = tmp_path / "build"
@@ -350,6 +359,7 @@ def test_flash_dry_run_prints_the_uno_upload_command_and_builds_nothing(tmp_path
         assert avrdude[avrdude.index("-b") + 1] == uno["upload.speed"]
 
 
+@pytest.mark.heavy
 def test_flash_dry_run_agrees_with_the_makefiles_upload_target(tmp_path):
     """``make -n upload`` of tools/arduino prints the same avrdude command."""
     require_tool("make")
@@ -365,6 +375,7 @@ def test_flash_dry_run_agrees_with_the_makefiles_upload_target(tmp_path):
     assert theirs == [upload]
 
 
+@pytest.mark.heavy
 def test_flash_dry_run_takes_the_port_from_the_config_and_the_old_bootloader_baud():
     """No --port: servo.port of the config; --upload-baud 57600 for old bootloaders."""
     result = run_tool(
@@ -376,6 +387,7 @@ def test_flash_dry_run_takes_the_port_from_the_config_and_the_old_bootloader_bau
     assert "--upload-baud" in one_error_line(run_tool("flash", "--upload-baud", "9600"))
 
 
+@pytest.mark.heavy
 def test_flash_refuses_a_port_that_is_not_a_device():
     """A URL or an option-like port cannot be an avrdude port: exit 2, one line."""
     for port in ("socket://localhost:5000", "-x"):
@@ -383,6 +395,7 @@ def test_flash_refuses_a_port_that_is_not_a_device():
         assert "--port must be the board's device path" in line
 
 
+@pytest.mark.heavy
 def test_flash_with_tools_missing_names_the_debian_packages(tmp_path):
     """Nothing on PATH: one line naming every missing package, exit 2, nothing built."""
     env = {**os.environ, "PATH": str(tmp_path)}
@@ -413,6 +426,7 @@ def _fake_avrdude(folder: Path, code: int) -> tuple[dict[str, str], Path]:
     return {**os.environ, "PATH": f"{folder}:{os.environ['PATH']}"}, log
 
 
+@pytest.mark.heavy
 def test_flash_builds_uploads_and_checks_the_banner(built_firmware, tmp_path):
     """The build runs, avrdude gets the built hex, then the board's banner is awaited."""
     env, log = _fake_avrdude(tmp_path / "bin", 0)
@@ -429,6 +443,7 @@ def test_flash_builds_uploads_and_checks_the_banner(built_firmware, tmp_path):
     assert board.opens == 1
 
 
+@pytest.mark.heavy
 def test_flash_fails_when_the_upload_fails_or_no_banner_follows(built_firmware, tmp_path):
     """avrdude failing → exit 1 with what to check; an upload without a banner → exit 1."""
     env, _ = _fake_avrdude(tmp_path / "bin_fail", 1)
@@ -464,6 +479,7 @@ def test_missing_data_is_one_line_saying_where(tmp_path, monkeypatch):
 # --------------------------------------------------------------------------- find-camera
 
 
+@pytest.mark.heavy
 def test_find_camera_without_a_camera_exits_1(tmp_path):
     """Sources that are no camera: each says why, exit 1, no snapshot folder made."""
     out = tmp_path / "snaps"
@@ -479,6 +495,7 @@ def test_find_camera_without_a_camera_exits_1(tmp_path):
     any(re.fullmatch(r"video\d+", p.name) for p in Path("/dev").glob("video*")),
     reason="this machine has cameras",
 )
+@pytest.mark.heavy
 def test_find_camera_scan_on_a_machine_without_cameras_exits_1(tmp_path):
     """The default scan (indices 0, 1 and /dev/video*) finds nothing here: exit 1."""
     result = run_tool("find_camera", "--out", str(tmp_path / "s"))
@@ -486,6 +503,7 @@ def test_find_camera_scan_on_a_machine_without_cameras_exits_1(tmp_path):
     assert "no cameras found" in one_error_line(result, code=1)
 
 
+@pytest.mark.heavy
 def test_find_camera_saves_a_snapshot_and_prints_the_resolution(tmp_path):
     """A recorded video as the source: its size is printed and its first frame saved."""
     video = tmp_path / "table.avi"
@@ -507,6 +525,7 @@ def test_find_camera_saves_a_snapshot_and_prints_the_resolution(tmp_path):
     assert np.abs(saved.astype(int) - first).mean() < 8  # the first frame, not the white one
 
 
+@pytest.mark.heavy
 def test_find_camera_refuses_bad_input(tmp_path):
     """Too many indices, or --out naming a file: exit 2 with one line."""
     assert "--indices" in one_error_line(run_tool("find_camera", "--indices", "99"))
@@ -570,19 +589,23 @@ def test_init_config_names_the_arm_and_how_to_change_it(tmp_path):
 
 
 @pytest.mark.parametrize("existing", ["sim_mearm_v1.yaml", None])
+@pytest.mark.heavy
 def test_init_config_refuses_a_folder_where_its_extends_names_another_file(tmp_path, existing):
     """The twin's starter config extends the packaged sim_mearm_v1.yaml: not beside a file
     of that name, nor under that name itself (it would extend itself)."""
     if existing:
         (tmp_path / existing).write_text("# mine\n")
     out = tmp_path / ("x.yaml" if existing else "sim_mearm_v1.yaml")
+    # run in the folder, the file named relative to it: the line names the file and its
+    # folder, and a long temporary path (an xdist worker's) would cut the line's advice
     line = one_error_line(
-        run_tool("init_config", "--arm", "mearm_v1", "--rig", "sim_mujoco", str(out))
+        run_tool("init_config", "--arm", "mearm_v1", "--rig", "sim_mujoco", out.name, cwd=tmp_path)
     )
     assert "extends the packaged sim_mearm_v1.yaml" in line and "another folder" in line
     assert not out.exists() or out.read_text() == "# mine\n"
 
 
+@pytest.mark.heavy
 def test_init_config_refuses_an_arm_with_more_servos_than_the_uno_drives(tmp_path):
     """desk_5dof has six servos, the Uno firmware five: exit 2 naming the way out."""
     out = tmp_path / "desk.yaml"
@@ -592,6 +615,7 @@ def test_init_config_refuses_an_arm_with_more_servos_than_the_uno_drives(tmp_pat
     assert not out.exists()
 
 
+@pytest.mark.heavy
 def test_init_config_refuses_to_overwrite_without_force(tmp_path):
     """An existing file stays as it was unless --force; with it, it is replaced."""
     out = tmp_path / "mine.yaml"
@@ -606,6 +630,7 @@ def test_init_config_refuses_to_overwrite_without_force(tmp_path):
     assert f"mearm calibrate-servos --config {out}" in forced.stdout
 
 
+@pytest.mark.heavy
 def test_init_config_lists_the_choices_and_refuses_missing_ones():
     """--list names every arm and rig; without --arm, --rig or a file: exit 2."""
     listed = run_tool("init_config", "--list")

@@ -10,6 +10,7 @@ from __future__ import annotations
 import ast
 from collections import defaultdict
 
+import pytest
 from conftest import ROOT
 
 PACKAGE = ROOT / "mearm"
@@ -42,6 +43,7 @@ def test_no_two_modules_share_a_name():
     assert {n: w for n, w in places.items() if len(w) > 1} == {}
 
 
+@pytest.mark.heavy
 def test_no_two_classes_share_a_name():
     """Each class name (exceptions, records, protocols, nested ones too) is defined once."""
     places = defaultdict(list)

@@ -12,6 +12,7 @@ from pathlib import Path
 
 import pytest
 import yaml
+from conftest import QUICK_SERVOS
 from fakeboard import FakeMearmBoard
 
 from mearm.config import config_from_dict
@@ -76,6 +77,7 @@ def test_an_arm_that_cannot_reach_the_objects_exits_1(tmp_path, capsys):
     assert err.strip() == f"mearm sort: sorted 0 of 12 objects ({words})"
 
 
+@pytest.mark.heavy
 def test_a_base_servo_8_degrees_off_exits_1(tmp_path, capsys):
     log = tmp_path / "run.jsonl"
     code, lines, err = _sort(
@@ -87,6 +89,7 @@ def test_a_base_servo_8_degrees_off_exits_1(tmp_path, capsys):
     assert s.left == {"pick_failed": 12} and sum(s.sorted.values()) == 0
 
 
+@pytest.mark.heavy
 def test_a_board_whose_arm_never_moves_exits_1(tmp_path, capsys):
     """The serial backend on a fake Uno that acknowledges every move but moves nothing:
     the (simulated) camera still sees all 12 objects of the paper's layout, so nothing
@@ -104,7 +107,7 @@ def test_a_board_whose_arm_never_moves_exits_1(tmp_path, capsys):
             }
         ).model_dump(mode="json")  # fmt: skip
         cfg.write_text(yaml.safe_dump(data), encoding="utf-8")
-        code, lines, err = _sort(capsys, "--config", cfg, "--log", log, "--quiet")
+        code, lines, err = _sort(capsys, "--config", cfg, "--log", log, "--quiet", *QUICK_SERVOS)
     assert code == 1, err
     assert lines[-1] == "sorted 0 of 12 objects (12 pick failed)"
     assert _summary(log).left == {"pick_failed": 12}

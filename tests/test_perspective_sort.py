@@ -20,6 +20,7 @@ def _run(*argv: str, timeout: float = 600) -> subprocess.CompletedProcess[str]:
 
 
 @pytest.mark.parametrize("tilt", ["0", "8"])
+@pytest.mark.heavy
 def test_calibrated_by_its_own_tools_the_camera_locates_objects_within_a_millimetre(
     tilt: str, tmp_path: Path
 ) -> None:
@@ -42,6 +43,7 @@ def test_calibrated_by_its_own_tools_the_camera_locates_objects_within_a_millime
         assert (tmp_path / name).is_file()
 
 
+@pytest.mark.heavy
 def test_the_twin_sorts_through_its_calibrated_perspective_camera() -> None:
     proc = _run("-m", "mearm", "sort", "--config", str(CONFIG))
     assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr

@@ -156,6 +156,7 @@ def _scene(rng: np.random.Generator, classes, height: float, n: int = 12) -> lis
 
 @pytest.mark.parametrize("tilt", [0.0, 8.0])
 @pytest.mark.parametrize("height", [1.0, 2.5])
+@pytest.mark.heavy
 def test_objects_are_located_by_their_top_face(tilt: float, height: float) -> None:
     """With the true camera, 12 objects of each height are located within 0.03 cm.
 
@@ -179,6 +180,7 @@ def test_objects_are_located_by_their_top_face(tilt: float, height: float) -> No
     assert np.mean(naive) > 4 * np.mean(errors)
 
 
+@pytest.mark.heavy
 def test_subpixel_edges_centre_a_half_arc_to_a_twentieth_of_a_pixel() -> None:
     """Discs rendered with exact pixel coverage at sub-pixel centres, with sensor noise.
 

@@ -231,6 +231,7 @@ def test_a_plan_with_a_pose_outside_the_limits_is_refused(config):
     assert "pose 5 of" in route.failure and "shoulder" in route.failure
 
 
+@pytest.mark.heavy
 def test_a_plan_past_a_combined_servos_pulse_range_is_refused_and_not_sent(monkeypatch):
     """The MeArm's elbow servo turns shoulder + elbow: a pick inside every joint's limits
     whose forearm would need a pulse past the servo's range is refused (``limit``, the

@@ -27,6 +27,7 @@ def _sort(config, scene, log=None):
         return rig.world, report, rig.bus
 
 
+@pytest.mark.heavy
 def test_cli_sorts_the_paper_layout(tmp_path):
     """python -m mearm.sort on the sim rig: 12 objects in their bins, 24 routes logged."""
     log = tmp_path / "run.jsonl"
@@ -51,6 +52,7 @@ def test_cli_sorts_the_paper_layout(tmp_path):
 
 
 @pytest.mark.parametrize("seed", range(20))
+@pytest.mark.heavy
 def test_random_scenes_are_sorted(config, seed):
     """20 random scenes: every object ends in its colour's bin, or is reported with a reason."""
     n = 4 + seed % 9  # 4 to 12 objects
@@ -184,6 +186,7 @@ def test_camera_that_stops_delivering_frames(tmp_path, config):
     assert "no more frames" in trial.faults[0].reason
 
 
+@pytest.mark.heavy
 def test_servo_link_dropped_mid_route(tmp_path, config):
     """The cable is pulled mid-route: named reason, last acknowledged pose logged, no more sends."""
     with FakeMearmBoard(MearmFaults(drop_at_move=400)) as board:
@@ -243,6 +246,7 @@ def test_a_fault_on_the_way_to_the_bin_leaves_the_pick_unconfirmed(config):
     assert any("failed picks 0" in line for line in lines)
 
 
+@pytest.mark.heavy
 def test_ctrl_c_parks_and_keeps_the_log(tmp_path):
     """SIGINT mid-run: exit 130, one line on stderr, fault logged, arm parked at home."""
     cfg = tmp_path / "slow.yaml"
@@ -277,6 +281,7 @@ def test_ctrl_c_parks_and_keeps_the_log(tmp_path):
     )
 
 
+@pytest.mark.heavy
 def test_scene_file_and_random_flags(tmp_path):
     scene = tmp_path / "scene.yaml"
     scene.write_text("- {color: green, x: 0.0, y: 45.0}\n- {color: red, x: -6.0, y: 40.0}\n")
@@ -309,6 +314,7 @@ def test_scene_file_and_random_flags(tmp_path):
         (["--hold"], "--hold keeps the view open: use it with --view"),
     ],
 )
+@pytest.mark.heavy
 def test_bad_input_exits_2_with_one_line(args, needle):
     r = run_cli("-m", "mearm.sort", *args)
     assert r.returncode == 2
@@ -316,6 +322,7 @@ def test_bad_input_exits_2_with_one_line(args, needle):
     assert len(lines) == 1 and needle in lines[0], r.stderr
 
 
+@pytest.mark.heavy
 def test_bad_scene_entry_named(tmp_path):
     scene = tmp_path / "scene.yaml"
     scene.write_text("- {color: purple, x: 0.0, y: 45.0}\n")
@@ -323,6 +330,7 @@ def test_bad_scene_entry_named(tmp_path):
     assert r.returncode == 2 and "[0.color]" in r.stderr and "purple" in r.stderr
 
 
+@pytest.mark.heavy
 def test_random_scene_properties(config):
     """Random scenes: seeded, objects ≥ 1 cm apart edge to edge, reachable, in the field."""
     a = random_scene(config, {"red": 4, "green": 4, "blue": 4}, seed=7)
@@ -335,6 +343,7 @@ def test_random_scene_properties(config):
         random_scene(config, 400, seed=0, max_tries=2000)
 
 
+@pytest.mark.heavy
 def test_class_order_from_config(config):
     """The classes are sorted in the order the config lists them."""
     classes = config.task.classes
@@ -384,6 +393,7 @@ def test_an_object_knocked_off_the_table_is_reported_as_such(config):
     assert report.outcome.left == {"off_table": 1}
 
 
+@pytest.mark.heavy
 def test_camera_that_cannot_open_is_logged(tmp_path):
     """No camera at all: found before any motion, so exit 2 with one line; the log says why
     the sort never started."""
@@ -400,6 +410,7 @@ def test_camera_that_cannot_open_is_logged(tmp_path):
 
 
 @pytest.mark.parametrize("name", ["sim_mearm_v1", "sim_5dof", "sim_4colours"])
+@pytest.mark.heavy
 def test_reference_arms_sort_every_object(name, tmp_path):
     """Each reference config sorts every object into its class's bin, exit 0."""
     config = load_config(ROOT / "configs" / f"{name}.yaml")

@@ -58,6 +58,7 @@ accels = st.lists(st.one_of(st.none(), st.floats(100.0, 1e5)), min_size=3, max_s
     accel=accels,
     rate_hz=st.sampled_from([10.0, 50.0, 333.0]),
 )
+@pytest.mark.heavy
 def test_no_step_outruns_a_speed_limit(seed, k, seconds, accel, rate_hz):
     """No streamed step exceeds any servo's speed limit; every pose within the limits."""
     limits = SpeedLimits.of_arm(arm_with(seconds, accel), CHAIN)
@@ -71,6 +72,7 @@ def test_no_step_outruns_a_speed_limit(seed, k, seconds, accel, rate_hz):
 
 @settings(max_examples=40, deadline=None)
 @given(seed=st.integers(0, 2**32 - 1), k=st.integers(2, 30), seconds=speeds, accel=accels)
+@pytest.mark.heavy
 def test_the_streamed_poses_follow_the_planned_path(seed, k, seconds, accel):
     """Every streamed pose lies on the planned polyline, from its start to its end."""
     limits = SpeedLimits.of_arm(arm_with(seconds, accel), CHAIN)
@@ -133,6 +135,7 @@ def test_the_motion_line_says_what_it_counts():
     assert waited.startswith("motion 6.0 s") and "0.5 s waiting for the measured joints" in waited
 
 
+@pytest.mark.heavy
 def test_the_paper_scene_moves_in_a_quarter_of_the_papers_time():
     """The bench's motion section: the paper's scene sorted in both orders, its predicted
     motion (speed limits, gripper settings, settling: deterministic, not a wall time)

@@ -394,6 +394,7 @@ def test_a_recorded_servo_outside_the_catalogue_is_refused(desk):
         TwinArm(config, mujoco.MjModel.from_xml_string(xml))
 
 
+@pytest.mark.heavy
 def test_grasp_lifts_the_object_and_drops_it_in_its_bin(desk):
     """Pick at the planner's target, close, lift: the jaws stop on the object's diameter
     (within 0.3 mm), the object rises with them, then lands in its bin."""

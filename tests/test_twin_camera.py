@@ -61,6 +61,7 @@ def _projected(config, markers, side_cm):
     return out
 
 
+@pytest.mark.heavy
 def test_default_camera_keeps_the_homography(default_config):
     """Unconfigured, the twin renders table points where the homography maps them.
 
@@ -100,6 +101,7 @@ def test_tilted_axis_meets_the_target(perspective):
     assert np.allclose(pose.R_base_mj.T @ pose.R_base_mj, np.eye(3))
 
 
+@pytest.mark.heavy
 def test_configured_camera_renders_where_the_truth_projects(perspective):
     """Markers on the table appear where the ground-truth camera (lens too) projects them.
 
@@ -134,6 +136,7 @@ def test_distortion_direction():
     assert map_x[0, 0] - mx < 0 and map_y[0, 0] - my < 0
 
 
+@pytest.mark.heavy
 def test_folding_distortion_is_refused(default_config):
     """A distortion with no inverse over the frame is a named error, not a garbled frame."""
     from mearm.exceptions import CameraError
@@ -143,6 +146,7 @@ def test_folding_distortion_is_refused(default_config):
         _lens_maps(K, np.array([-1.0, 0.0, 0.0, 0.0, 0.0]), (640, 480))
 
 
+@pytest.mark.heavy
 def test_board_views_are_detected(perspective):
     """Most board views show ≥ 12 ChArUco corners, at the pose the board was put."""
     n = 8
@@ -172,6 +176,7 @@ def test_board_views_are_detected(perspective):
     assert np.median(errors_cm) <= 0.05 and np.median(errors_deg) <= 0.1
 
 
+@pytest.mark.heavy
 def test_renders_are_deterministic(perspective):
     """One seed, one picture (noise included)."""
     a = render_board_views(perspective, 1, seed=5, noise_std=2.0)[0]
@@ -195,6 +200,7 @@ def test_camera_config_is_bounded():
         TwinCameraConfig(distortion=(2.0, 0, 0, 0, 0))
 
 
+@pytest.mark.heavy
 def test_tool_writes_the_pictures(tmp_path: Path):
     """``mearm render-calibration`` writes the views, the sheet and its marker list."""
     out = tmp_path / "calib"

@@ -1,6 +1,7 @@
 import xml.etree.ElementTree as ET
 
 import numpy as np
+import pytest
 from conftest import ROOT, run_cli
 
 from mearm.kinematics import ArmModel, generate_urdf
@@ -24,6 +25,7 @@ def test_committed_urdfs_load_in_pinocchio(reference_config):
     np.testing.assert_allclose(model.fk_cm(model.home), generated.fk_cm(generated.home), atol=1e-12)
 
 
+@pytest.mark.heavy
 def test_tool_writes_every_reference_arm(tmp_path):
     out = tmp_path / "sub" / "arm.urdf"
     r = run_cli("tools/dh_to_urdf.py", "--config", "configs/sim_5dof.yaml", "--output", str(out))
@@ -31,6 +33,7 @@ def test_tool_writes_every_reference_arm(tmp_path):
     assert out.read_text() == (DESCRIPTIONS / "desk_5dof.urdf").read_text()
 
 
+@pytest.mark.heavy
 def test_tool_set_changes_the_arm(tmp_path):
     out = tmp_path / "arm.urdf"
     r = run_cli(
@@ -40,6 +43,7 @@ def test_tool_set_changes_the_arm(tmp_path):
     assert '<origin xyz="0.25 0.0 0.0"' in out.read_text()
 
 
+@pytest.mark.heavy
 def test_tool_bad_argument_exits_2(tmp_path):
     r = run_cli("tools/dh_to_urdf.py", "--config", str(tmp_path / "none.yaml"))
     assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1

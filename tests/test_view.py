@@ -177,6 +177,7 @@ UPGRADE = (
     ],
 )
 @pytest.mark.parametrize("path", ["/static/", "/static/main.min.js", "/", "/nothing-here"])
+@pytest.mark.heavy
 def test_a_foreign_host_or_origin_gets_403(view: ArmView, host, origin, path):
     """Every page, file and 404 answers 403 to a Host or Origin that is not this server."""
     p, other = view.port, view.port + 1
@@ -235,7 +236,9 @@ def test_port_in_use_is_a_named_error(view: ArmView, model: ArmModel):
 def test_close_frees_the_port_and_is_final(model: ArmModel):
     """close() stops the server (the port can be taken again), twice is fine, use after
     close is an error."""
-    v = ArmView(model, CONFIG)
+    # a port of the kernel's choosing: the first free one from 7000 (the default) is what
+    # every other view takes, and one of another xdist worker could take it in between
+    v = ArmView(model, CONFIG, port=0)
     port = v.port
     v.close()
     v.close()
@@ -486,6 +489,7 @@ def test_frame_plane_rejects_bad_frames_and_calibrations(frame, p2t, match):
         frame_plane(frame, p2t)
 
 
+@pytest.mark.heavy
 def test_set_camera_frame_lays_the_texture_on_the_table(view: ArmView):
     """The plane lies just above the table top, centred and sized as the frame's outline."""
     frame = SimCamera(CONFIG, World.from_config(CONFIG)).read()
@@ -570,6 +574,7 @@ def test_screenshot_checks_its_arguments(tmp_path):
         screenshot("http://127.0.0.1:1/", tmp_path / "x.png", width_px=4, browser="unused")
 
 
+@pytest.mark.heavy
 def test_render_shows_the_arm_and_objects_where_they_are(model: ArmModel, tmp_path):
     """In Chromium's render of the arm at home, the 12 paper objects, the bins, the
     target and the camera frame, each thing's colour is at its projected place."""
@@ -695,6 +700,7 @@ def test_sweep_poses_cover_each_joint_range_in_small_steps():
     assert poses[-1] == pytest.approx(start)
 
 
+@pytest.mark.heavy
 def test_preview_serves_until_ctrl_c():
     """The tool prints a 127.0.0.1 URL, keeps serving, and exits 130 without a traceback
     on SIGINT."""
@@ -722,6 +728,7 @@ def test_preview_serves_until_ctrl_c():
     assert len(err.strip().splitlines()) == 1
 
 
+@pytest.mark.heavy
 def test_preview_screenshot_renders_the_arm(tmp_path):
     """--screenshot writes a PNG showing the arm (orange) at the named joints and exits 0."""
     browser_or_skip()
@@ -797,6 +804,7 @@ def test_each_reference_layout_keeps_bins_apart_and_on_the_table(reference):
     assert (xy[:, 1] > y0).all() and (xy[:, 1] < y1).all()
 
 
+@pytest.mark.heavy
 def test_each_reference_arm_renders(reference, tmp_path):
     """A render of each reference arm at home with its scene is not empty: the arm's
     orange shows along its links, and the whole arm is inside the picture."""

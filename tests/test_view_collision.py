@@ -280,6 +280,7 @@ def test_a_closed_view_refuses_the_toggles(model: ArmModel, collision: Collision
 # --------------------------------------------------------------------------- render
 
 
+@pytest.mark.heavy
 def test_the_render_shows_the_arms_shapes_in_translucent_magenta(
     model: ArmModel, collision: CollisionModel, tmp_path
 ):
@@ -322,6 +323,7 @@ def test_preview_collision_with_bad_joints_exits_2_before_serving(capsys):
     assert out == ""
 
 
+@pytest.mark.heavy
 def test_sort_view_collision_draws_the_model_during_the_run(monkeypatch, tmp_path):
     """--view --collision: the view draws the arm's and bins' shapes and, at the first
     look, the object on the table (then, once sorted, none), posed as the arm is drawn."""

@@ -102,6 +102,7 @@ def twin_sort():
 # --------------------------------------------------------------------------- the sort
 
 
+@pytest.mark.heavy
 def test_the_view_draws_what_the_twin_measures_at_every_push(twin_sort):
     """Each push draws the measured joints, jaws and every object's pose, exactly; it is
     pushed after every streamed move (dozens of pushes for two objects)."""
@@ -179,6 +180,7 @@ def test_sorted_objects_are_drawn_in_their_bins(twin_sort):
 # --------------------------------------------------------------------------- render
 
 
+@pytest.mark.heavy
 def test_the_render_shows_the_carried_object_in_the_air(tmp_path):
     """Chromium's render while red1 is carried between its spot and its bin (over the
     bare table, nothing else red behind it): red where its body is drawn, none left at

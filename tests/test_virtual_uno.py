@@ -17,7 +17,7 @@ from pathlib import Path
 
 import pytest
 import serial
-from conftest import ROOT, missing_tool
+from conftest import QUICK_SERVOS, ROOT, missing_tool
 
 from mearm.backends import open_bus
 from mearm.config import config_from_dict
@@ -60,15 +60,17 @@ def _sort(cache_home: Path, *args: str, path: str | None = None) -> subprocess.C
     )  # fmt: skip
 
 
+@pytest.mark.heavy
 def test_virtual_uno_sorts_the_paper_layout(cache_home):
     """12 of 12 through the serial backend and the real firmware, the arm moved by the
     pins' measured pulses, exit 0."""
-    r = _sort(cache_home, "--quiet")
+    r = _sort(cache_home, "--quiet", *QUICK_SERVOS)
     assert r.returncode == 0, r.stdout + r.stderr
     assert r.stdout.splitlines()[-1] == "sorted 12 of 12 objects"
     assert "Traceback" not in r.stderr
 
 
+@pytest.mark.heavy
 def test_swapped_channels_stop_the_sort_with_the_mismatch(cache_home):
     """A firmware with channels 1 and 2 on each other's pins: the first move's pulses put
     the shoulder and the elbow where the other was sent; exit 1, both named, no motion
@@ -92,6 +94,7 @@ def test_swapped_channels_stop_the_sort_with_the_mismatch(cache_home):
     assert r.stdout.splitlines()[-1].startswith("sorted 0 of")  # stopped at the first move
 
 
+@pytest.mark.heavy
 def test_missing_toolchain_is_one_line_naming_the_package(tmp_path):
     """No avr-gcc, make or cc on PATH and nothing built yet: exit 2 before anything moves,
     one line naming the Debian packages to install."""
@@ -127,6 +130,7 @@ def test_bad_firmware_define_is_refused(define):
         )
 
 
+@pytest.mark.heavy
 def test_pulses_agree_with_the_commands(cache_home):
     """Over 150 random commands on every channel (500–2500 µs), the first frame after each
     OK: median |error| ≤ 0.5 µs, 99 % within the firmware's 1 µs, every pulse within the
@@ -210,6 +214,7 @@ def test_a_mismatch_faults_the_bus_and_keeps_the_last_confirmed_pose(cache_home,
             bus.move(home)
 
 
+@pytest.mark.heavy
 def test_a_simulator_that_cannot_start_is_named(cache_home, monkeypatch, tmp_path):
     """A firmware file simavr cannot read: connect fails with the simulator's own words."""
     monkeypatch.setenv("XDG_CACHE_HOME", str(cache_home))
@@ -222,6 +227,7 @@ def test_a_simulator_that_cannot_start_is_named(cache_home, monkeypatch, tmp_pat
     assert not bus.is_connected
 
 
+@pytest.mark.heavy
 def test_virtual_uno_sorts_the_mearm_whose_elbow_servo_turns_the_forearm(cache_home):
     """The MeArm v1 (its elbow servo turns shoulder + elbow) through the real firmware: the
     joints are solved back from the pins' measured pulses, and the scene is sorted."""

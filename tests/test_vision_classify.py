@@ -85,6 +85,7 @@ def colour_slab(blue: range) -> np.ndarray:
     return np.stack([b, g, r], axis=-1).astype(np.uint8).reshape(-1, 256, 3)
 
 
+@pytest.mark.heavy
 def test_fast_path_is_exact_on_every_colour() -> None:
     """The 8-bit LUT path with exact refinement equals float64 on all 2²⁴ colours (paper)."""
     classifier = PixelClassifier(PAPER)
@@ -105,6 +106,7 @@ def test_paper_thresholds_are_the_printed_ones() -> None:
     assert PAPER.codes == {"red": 1, "green": 2, "blue": 3} == DEFAULT.codes
 
 
+@pytest.mark.heavy
 def test_fast_path_is_exact_for_the_default_preset() -> None:
     """Same for the default preset, on every 5th blue level (all r, g)."""
     classifier = PixelClassifier(DEFAULT)
@@ -191,6 +193,7 @@ def test_a_class_may_have_several_bands() -> None:
     assert PixelClassifier(thr).classify(frame)[0].tolist() == want
 
 
+@pytest.mark.heavy
 def test_any_number_of_classes() -> None:
     """One class, or four with a yellow between red and green: codes 1..N, fast = exact."""
     (blue,) = [c for c in default_classes() if c.name == "blue"]

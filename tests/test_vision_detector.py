@@ -92,6 +92,7 @@ def test_empty_table_gives_no_detections() -> None:
         assert empty.detect(render([], DISTRACTORS, table=table, brightness=1.3)) == []
 
 
+@pytest.mark.heavy
 def test_same_as_the_numpy_scipy_recipe() -> None:
     """The OpenCV shortcuts change nothing: classes, areas, boxes, centroids and
     elongations agree, for regions measured in one stack and one by one.

@@ -8,6 +8,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 import mearm.vision
 from mearm.tools.vision_bench import run_detection_peers, run_vision_bench
 
@@ -20,6 +22,7 @@ def test_every_exported_name_exists() -> None:
     assert sorted(mearm.vision.__all__) == sorted(set(mearm.vision.__all__))
 
 
+@pytest.mark.heavy
 def test_vision_does_not_import_the_simulator() -> None:
     """Importing vision loads no part of mearm.sim (the layer above) ..."""
     code = "import sys, mearm.vision; print(sorted(m for m in sys.modules if 'mearm.sim' in m))"

@@ -86,6 +86,7 @@ def test_unknown_class_is_a_named_error() -> None:
         class_discs(CONFIG.task.classes, [("purple", 0.0, 45.0)])
 
 
+@pytest.mark.heavy
 def test_a_frame_is_its_discs_and_index_whatever_was_drawn_before() -> None:
     """A renderer keeps the table and each disc's patch: a frame drawn after other scenes
     (or after its caller wrote into an earlier frame) is the frame a new renderer draws."""

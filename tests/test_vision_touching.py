@@ -32,6 +32,7 @@ def _error(found, objects) -> float:
     return float(min(straight, swapped))
 
 
+@pytest.mark.heavy
 def test_touching_pairs_are_split_at_their_centres() -> None:
     """100 seeded pairs (same class, 0–0.5 mm apart, any orientation, anywhere in the
     field): two detections, unflagged, each within 0.2 cm of its object, in ≥ 95."""
@@ -47,6 +48,7 @@ def test_touching_pairs_are_split_at_their_centres() -> None:
     assert good >= 95, good
 
 
+@pytest.mark.heavy
 def test_lone_objects_are_never_split() -> None:
     """100 lone objects anywhere in the field: one detection each, not flagged."""
     for seed in range(100):
@@ -88,6 +90,7 @@ def _cylinder(cls, x: float, y: float, height: float, n: int = 12) -> list[Disc]
     return out
 
 
+@pytest.mark.heavy
 def test_tall_objects_in_perspective_are_not_flagged() -> None:
     """Lone 2.5 cm tall objects seen in perspective: without the camera height some look
     merged (their side shows); with it, none is flagged and none is split."""
@@ -119,6 +122,7 @@ def _touching_pair(seed: int, classes, height: float):
 
 
 @pytest.mark.parametrize(("tilt", "height"), [(0.0, 1.0), (0.0, 2.5), (8.0, 1.0), (8.0, 2.5)])
+@pytest.mark.heavy
 def test_touching_tall_pairs_in_perspective_are_two(tilt: float, height: float) -> None:
     """Seen in perspective, one object's side wall can fill the neck between two touching
     ones: they are told apart by fitting the camera's own silhouettes. 25 seeded pairs per
