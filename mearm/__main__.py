@@ -49,6 +49,10 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
         "mearm.tools.twin_scenes",
         "sort seeded random scenes in the physical twin and count what lands",
     ),
+    "servo-steps": (
+        "mearm.tools.servo_steps",
+        "the twin's servo step responses: a CSV and a plot",
+    ),
     "camera-accuracy": (
         "mearm.tools.camera_accuracy",
         "calibrate the twin's camera with the tools above and score where it sees objects",

@@ -198,7 +198,7 @@ TABLE_MARGIN_M = 0.05
 #: Time step [s]: 2 ms, ten to a command period. With objects and arm asleep at rest and
 #: the servo model run once per run of steps (:mod:`mearm.sim.twin.twin_bus`), the 5-DOF
 #: arm's physics ran 40× real time on the CPU at 1 ms and 68× at 2 ms (the paper arm's,
-#: before those two, 40× and 77×). The servos' step responses (`tools/servo_steps.py`,
+#: before those two, 40× and 77×). The servos' step responses (`mearm servo-steps`,
 #: plotted in docs/twin.md) run at most 0.24° ahead while they ramp (one step sooner)
 #: and settle within 0.1° of the 1 ms model's. What 2 ms costs: see :data:`PAD_SOLREF`.
 #: The coupling's constraint time constant and damping ratio follow.

@@ -1,0 +1,124 @@
+r"""The twin's servo step responses, as a table and a plot (docs/twin.md).
+
+    mearm servo-steps --csv steps.csv                    # this model's responses
+    mearm servo-steps --before old.csv --out docs/images/servo_steps.png
+
+(``python tools/servo_steps.py`` from the checkout.) Each response starts from a fresh
+twin at home (``configs/sim_mujoco.yaml`` unless ``--config``): one joint is commanded
+``--degrees`` away (10° and 60° by default: inside and at its speed limit) by one move
+of the real bus, and the physics runs on with that command; its measured angle is
+sampled every 4 ms for 0.6 s (simulated). ``--csv`` writes
+``joint,step_deg,t_s,angle_deg`` rows; ``--before`` draws another run's CSV (an earlier
+model's, written by this command run against it) dashed under this model's, which is
+how the plot in docs/twin.md compares the servo model before and after a change.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+from collections.abc import Sequence
+from pathlib import Path
+
+from mearm.cli import ArgumentParser, add_config_argument, config_from_args
+from mearm.config import Config
+from mearm.errors import MearmError
+from mearm.fileio import write_atomic
+
+#: Sampling interval and length of each response (simulated) [s].
+SAMPLE_S, LENGTH_S = 0.004, 0.6
+DEFAULT_CONFIG = Path("sim_mujoco")  # the shipped config, by name
+Rows = list[tuple[str, float, float, float]]
+
+
+def responses(config: Config, steps_deg: list[float]) -> Rows:
+    """Each actuated joint's response to each step: (joint, step, t, angle) rows."""
+    from mearm.hardware.bus import ArmCommand
+    from mearm.sim.twin.twin_bus import TwinArm
+
+    rows: Rows = []
+    tool = {a.name: a.home for a in config.arm.tool.actuators}
+    for joint in config.arm.actuated_joints():
+        for step in steps_deg:
+            arm = TwinArm(config)
+            arm.connect()
+            joints = config.arm.home()
+            high = joint.limits.max if joint.limits else float("inf")
+            joints[joint.name] += step if joints[joint.name] + step <= high else -step
+            start, t0 = arm.actual_joints[joint.name], arm.time_s
+            arm.move(ArmCommand(joints, tool, False))
+            while arm.time_s - t0 < LENGTH_S:
+                moved = arm.actual_joints[joint.name] - start
+                rows.append((joint.name, step, arm.time_s - t0, moved))
+                arm.settle(SAMPLE_S)
+    return rows
+
+
+def read_rows(path: Path) -> Rows:
+    """Rows of a CSV this script wrote."""
+    try:
+        with path.open(newline="") as f:
+            return [
+                (r["joint"], float(r["step_deg"]), float(r["t_s"]), float(r["angle_deg"]))
+                for r in csv.DictReader(f)
+            ]
+    except (OSError, KeyError, ValueError) as exc:
+        raise MearmError(f"--before {path}: not a CSV this script wrote ({exc})") from exc
+
+
+def csv_text(rows: Rows) -> str:
+    """The rows as the CSV ``--csv`` writes."""
+    out = io.StringIO()
+    writer = csv.writer(out, lineterminator="\n")
+    writer.writerow(["joint", "step_deg", "t_s", "angle_deg"])
+    writer.writerows((j, f"{s:g}", f"{t:.4f}", f"{a:.5f}") for j, s, t, a in rows)
+    return out.getvalue()
+
+
+def plot(rows: Rows, before: Rows, out: Path) -> None:
+    """Responses (solid) over ``before`` (dashed), one panel per joint."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    joints = list(dict.fromkeys(j for j, *_ in rows))
+    fig, axes = plt.subplots(1, len(joints), figsize=(4 * len(joints), 3.2), squeeze=False)
+    for ax, joint in zip(axes[0], joints, strict=True):
+        for label, data, style in (("before", before, "--"), ("now", rows, "-")):
+            for step in sorted({s for j, s, *_ in data if j == joint}):
+                t = [r[2] for r in data if r[0] == joint and r[1] == step]
+                a = [abs(r[3]) for r in data if r[0] == joint and r[1] == step]
+                ax.plot(t, a, style, label=f"{step:g}° {label}")
+        ax.set_title(joint)
+        ax.set_xlabel("time after the command [s] (simulated)")
+        ax.grid(alpha=0.3)
+    axes[0][0].set_ylabel("joint moved [°]")
+    axes[0][-1].legend(fontsize=7)
+    fig.tight_layout()
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=80)
+    write_atomic(out, buf.getvalue())
+    print(f"wrote {out}")
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Measure the responses; write the CSV and the plot asked for."""
+    parser = ArgumentParser(description=__doc__.splitlines()[0])
+    add_config_argument(parser)
+    parser.add_argument("--degrees", type=float, nargs="+", default=[10.0, 60.0])
+    parser.add_argument("--csv", type=Path, help="write the responses here")
+    parser.add_argument("--before", type=Path, help="an earlier run's CSV, drawn dashed")
+    parser.add_argument("--out", type=Path, help="write the plot here (PNG)")
+    args = parser.parse_args(argv)
+    if any(not 0 < d <= 90 for d in args.degrees):
+        raise MearmError("--degrees must be in (0, 90]")
+    before = read_rows(args.before) if args.before else []
+    args.config = args.config or DEFAULT_CONFIG
+    rows = responses(config_from_args(args), args.degrees)
+    if args.csv:
+        write_atomic(args.csv, csv_text(rows))
+        print(f"wrote {args.csv}")
+    if args.out:
+        plot(rows, before, args.out)
+    return 0
