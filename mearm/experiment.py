@@ -488,6 +488,30 @@ def open_workers(
     return _dask_cluster(config, seed, scene, scheduler, jobs)
 
 
+@contextmanager
+def _ctrl_c() -> Iterator[threading.Event]:
+    """Ctrl-C sets the event instead of raising; a second Ctrl-C raises KeyboardInterrupt.
+
+    The first asks the trials to stop (the caller cancels them and appends what finished);
+    the second gives up waiting for them. Outside the main thread: an event never set.
+    """
+    seen = threading.Event()
+    if threading.current_thread() is not threading.main_thread():
+        yield seen
+        return
+
+    def on_interrupt(signum: int, frame: object) -> None:
+        if seen.is_set():
+            raise KeyboardInterrupt
+        seen.set()
+
+    before = signal.signal(signal.SIGINT, on_interrupt)
+    try:
+        yield seen
+    finally:
+        signal.signal(signal.SIGINT, before)
+
+
 def _append_in_order(
     workers: Workers,
     numbers: range,
@@ -507,29 +531,26 @@ def _append_in_order(
             if not f.done():  # a finished Dask future cancelled would drop its result
                 f.cancel()
 
-    with log_path.open("ab") as out:
+    with log_path.open("ab") as out, _ctrl_c() as ctrl_c:
         for k, fut in zip(numbers, futures, strict=True):
-            while True:
-                try:
-                    result: TrialResult = fut.result()
-                    break
-                except KeyboardInterrupt:  # worker processes saw it, too
-                    stop = stop or SortAborted("interrupted (Ctrl-C)", interrupted=True)
+            while not fut.done():  # poll: Ctrl-C never lands inside the executor's wait
+                if ctrl_c.wait(0.05) and stop is None:  # worker processes saw it, too
+                    stop = SortAborted("interrupted (Ctrl-C)", interrupted=True)
                     cancel()
-                except CancelledError as exc:
-                    result = TrialResult(k, ran=False)
-                    stop = stop or MearmError(
-                        f"trial {k} was cancelled by the cluster ({_one_line(exc)}); the log "
-                        f"holds trials {numbers.start}..{k - 1} and resumes at trial {k}"
-                    )
-                    break
-                except workers.lost:
-                    result = TrialResult(k, ran=False)
-                    stop = stop or MearmError(
-                        f"a worker died during trial {k}; the log holds trials "
-                        f"{numbers.start}..{k - 1} and resumes at trial {k}"
-                    )
-                    break
+            try:
+                result: TrialResult = fut.result()
+            except CancelledError as exc:
+                result = TrialResult(k, ran=False)
+                stop = stop or MearmError(
+                    f"trial {k} was cancelled by the cluster ({_one_line(exc)}); the log "
+                    f"holds trials {numbers.start}..{k - 1} and resumes at trial {k}"
+                )
+            except workers.lost:
+                result = TrialResult(k, ran=False)
+                stop = stop or MearmError(
+                    f"a worker died during trial {k}; the log holds trials "
+                    f"{numbers.start}..{k - 1} and resumes at trial {k}"
+                )
             if not result.ran:
                 break
             if result.records:
