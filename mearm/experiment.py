@@ -12,6 +12,11 @@ closed) the run stops with exit 2 before anything moves; ``--yes`` starts every 
 without asking. Simulated trials draw the layout, the servo noise and the camera noise
 from the trial's own seed, so any trial can be rerun alone.
 
+**Workers.** ``--jobs N`` runs simulated trials in N worker processes; ``--scheduler
+ADDRESS`` on a Dask cluster (``tcp://host:port`` of a running scheduler, or ``local`` for
+a LocalCluster of ``--jobs`` processes; the ``cluster`` extra). Either way each trial's
+records come back as data and are appended in trial order: the log is the serial run's.
+
 **Resuming.** The log is only ever appended to. Running again with the same ``--log``
 continues the experiment: every trial already in it must have been written by this same
 run — trial k's header has the seed, config and layout that ``--config``, ``--set``,
@@ -832,7 +837,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         )
     # Workers first: a scheduler that cannot be used leaves the log as it was.
     parallel = args.jobs > 1 or args.scheduler is not None
-    jobs = args.jobs if args.scheduler is not None else min(args.jobs, args.trials - resume.done)
+    jobs = min(args.jobs, args.trials - resume.done)
     with (
         open_workers(config, args.seed, scene, jobs, args.scheduler) if parallel else nullcontext()
     ) as workers:
