@@ -12,6 +12,11 @@ closed) the run stops with exit 2 before anything moves; ``--yes`` starts every 
 without asking. Simulated trials draw the layout, the servo noise and the camera noise
 from the trial's own seed, so any trial can be rerun alone.
 
+**Workers.** ``--jobs N`` runs simulated trials in N worker processes; ``--scheduler
+ADDRESS`` on a Dask cluster (``tcp://host:port`` of a running scheduler, or ``local`` for
+a LocalCluster of ``--jobs`` processes; the ``cluster`` extra). Either way each trial's
+records come back as data and are appended in trial order: the log is the serial run's.
+
 **Resuming.** The log is only ever appended to. Running again with the same ``--log``
 continues the experiment: every trial already in it must have been written by this same
 run — trial k's header has the seed, config and layout that ``--config``, ``--set``,
@@ -30,15 +35,19 @@ the run says so and exits 0.
 from __future__ import annotations
 
 import json
+import logging
 import os
 import signal
 import sys
 import tempfile
+import threading
 import time
-from collections.abc import Callable, Mapping, Sequence
-from concurrent.futures import CancelledError, Future, ProcessPoolExecutor
+import uuid
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from concurrent.futures import CancelledError, ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
-from dataclasses import dataclass
+from contextlib import AbstractContextManager, ExitStack, contextmanager, nullcontext
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -171,15 +180,19 @@ def run_trials(
     return outcomes
 
 
-# -- trials in worker processes
+# -- trials in worker processes, here or on a Dask cluster
 
-#: What a worker runs: (config, seed, scene, folder of per-trial logs), set once by
-#: :func:`_start_worker`.
-_WORK: tuple[Config, int, list[SceneObject] | None, Path] | None = None
+#: What a worker process runs: (config, seed, scene), set once by :func:`_start_worker`.
+_WORK: tuple[Config, int, list[SceneObject] | None] | None = None
 #: Whether this worker has seen Ctrl-C (trials handed to it after that are not run).
 _STOPPED = False
 #: Whether this worker is running a trial (Ctrl-C then interrupts it).
 _RUNNING = False
+
+#: How to get the Dask engine that ``--scheduler`` needs.
+CLUSTER_EXTRA = "pip install 'mearm[cluster]'"
+#: Seconds to wait for a ``--scheduler`` to answer, and for it to have a worker.
+CONNECT_TIMEOUT_S = 5
 
 
 @dataclass(frozen=True)
@@ -192,6 +205,7 @@ class TrialResult:
         reason: ``None`` if it cleared the table, else why it stopped.
         interrupted: It was stopped by Ctrl-C.
         error: A camera or servo that failed it (as the serial run reports it), if one did.
+        records: Its run-log lines (JSON lines, as bytes), for the command to append.
     """
 
     number: int
@@ -199,6 +213,38 @@ class TrialResult:
     reason: str | None = None
     interrupted: bool = False
     error: str | None = None
+    records: bytes = b""
+
+
+def run_trial(
+    config: Config, seed: int, scene: list[SceneObject] | None, number: int
+) -> TrialResult:
+    """Run trial ``number`` wherever this is called; its records come back as data.
+
+    The trial writes its log into a temporary folder of the machine it runs on, which is
+    read back and removed: a worker (a process here, or a Dask worker elsewhere) needs
+    no file system shared with the command, only the arguments.
+    """
+    global _RUNNING
+    with tempfile.TemporaryDirectory(prefix="mearm-trial-") as tmp:
+        part = Path(tmp) / f"trial-{number}.jsonl"
+        try:
+            _RUNNING = True  # Ctrl-C in a worker process now interrupts the trial
+            plan = plan_trial(config, seed, number, scene)
+            with RunLog(part, exclusive=True, fsync=False) as log:
+                run_sort(
+                    plan.config, scene=plan.layout, log=log, trial=number, seed=plan.seed, echo=None
+                )
+            result = TrialResult(number)
+        except SortAborted as exc:
+            result = TrialResult(number, reason=exc.reason, interrupted=exc.interrupted)
+        except KeyboardInterrupt:  # before the sort started; run_sort logged it if it had
+            result = TrialResult(number, reason="interrupted (Ctrl-C)", interrupted=True)
+        except (CameraError, ServoError) as exc:
+            result = TrialResult(number, reason=str(exc), error=str(exc))
+        finally:
+            _RUNNING = False
+        return replace(result, records=part.read_bytes() if part.exists() else b"")
 
 
 def _on_interrupt(signum: int, frame: object) -> None:
@@ -208,45 +254,177 @@ def _on_interrupt(signum: int, frame: object) -> None:
         raise KeyboardInterrupt
 
 
-def _start_worker(config: Config, seed: int, scene: list[SceneObject] | None, folder: Path) -> None:
+def _start_worker(config: Config, seed: int, scene: list[SceneObject] | None) -> None:
     """A worker's one-time setup: the experiment's settings once; Ctrl-C only stops trials."""
     global _WORK
     signal.signal(signal.SIGINT, _on_interrupt)
-    _WORK = (config, seed, scene, folder)
-
-
-def _part(folder: Path, number: int) -> Path:
-    """Where a worker writes trial ``number``'s records before the parent appends them."""
-    return folder / f"trial-{number}.jsonl"
+    _WORK = (config, seed, scene)
 
 
 def _trial_in_worker(number: int) -> TrialResult:
-    """Run trial ``number`` into its own log file (:func:`_part`)."""
-    global _RUNNING
+    """Run trial ``number`` in a worker process (:func:`run_trial`), unless Ctrl-C was seen."""
     assert _WORK is not None, "_start_worker was not run"
-    config, seed, scene, folder = _WORK
     if _STOPPED:
         return TrialResult(number, ran=False)
-    plan = plan_trial(config, seed, number, scene)
-    _RUNNING = True
-    try:
-        with RunLog(_part(folder, number), exclusive=True, fsync=False) as log:
-            run_sort(
-                plan.config, scene=plan.layout, log=log, trial=number, seed=plan.seed, echo=None
-            )
-        return TrialResult(number)
-    except SortAborted as exc:
-        return TrialResult(number, reason=exc.reason, interrupted=exc.interrupted)
-    except KeyboardInterrupt:  # before the sort started; run_sort logged it
-        return TrialResult(number, reason="interrupted (Ctrl-C)", interrupted=True)
-    except (CameraError, ServoError) as exc:
-        return TrialResult(number, reason=str(exc), error=str(exc))
-    finally:
-        _RUNNING = False
+    return run_trial(*_WORK, number)
 
 
 class TrialFailed(MearmError):
     """A trial run by a worker failed on its camera or servos (the log holds it)."""
+
+
+@dataclass
+class Workers:
+    """Somewhere that runs trials: :meth:`submit` trial k, get a future of its result.
+
+    Attributes:
+        submit: Starts trial k; returns a future (``result()``, ``done()``, ``cancel()``).
+        lost: The exceptions a future raises when the worker running it died.
+        count: How many trials run at once.
+        where: Says where they run, for the line after the run.
+    """
+
+    submit: Callable[[int], Any]
+    lost: tuple[type[BaseException], ...]
+    count: int
+    where: str
+
+
+@contextmanager
+def _process_pool(
+    config: Config, seed: int, scene: list[SceneObject] | None, jobs: int
+) -> Iterator[Workers]:
+    """``jobs`` worker processes on this machine; closed (waiting for them) on the way out."""
+    pool = ProcessPoolExecutor(
+        max_workers=jobs, initializer=_start_worker, initargs=(config, seed, scene)
+    )
+    try:
+        yield Workers(
+            lambda k: pool.submit(_trial_in_worker, k), (BrokenProcessPool,), jobs, "workers"
+        )
+    finally:
+        pool.shutdown(wait=True, cancel_futures=True)
+
+
+@contextmanager
+def _dask_cluster(
+    config: Config, seed: int, scene: list[SceneObject] | None, scheduler: str, jobs: int
+) -> Iterator[Workers]:
+    """The Dask cluster of ``scheduler`` (``local``: a LocalCluster of ``jobs`` processes).
+
+    Raises:
+        MearmError: Dask is not installed, the scheduler does not answer within
+            :data:`CONNECT_TIMEOUT_S`, has no workers, or its workers cannot run mearm.
+    """
+    try:
+        from distributed import Client, KilledWorker, LocalCluster
+    except ImportError:
+        raise MearmError(
+            f"--scheduler runs the trials on Dask, which is not installed: {CLUSTER_EXTRA}"
+        ) from None
+    with ExitStack() as stack:
+        if scheduler == "local":
+            cluster = stack.enter_context(_local_cluster(LocalCluster, jobs))
+            address = cluster.scheduler_address
+        else:
+            address = _scheduler_address(scheduler)
+        try:
+            client = stack.enter_context(
+                Client(address, timeout=CONNECT_TIMEOUT_S, set_as_default=False)
+            )
+        except (OSError, ValueError, TypeError) as exc:
+            raise MearmError(
+                f"--scheduler {scheduler}: cannot reach a Dask scheduler there ({_one_line(exc)})"
+            ) from None
+        try:
+            client.wait_for_workers(1, timeout=CONNECT_TIMEOUT_S)
+        except TimeoutError:
+            raise MearmError(
+                f"--scheduler {scheduler}: the scheduler has no workers (start some with "
+                f"dask worker {address})"
+            ) from None
+        _check_workers(client, scheduler)
+        threads = sum(client.nthreads().values())
+        token = uuid.uuid4().hex[:8]
+
+        def submit(k: int) -> Any:
+            return client.submit(
+                run_trial, config, seed, scene, k,
+                key=f"mearm-trial-{k}-{token}", pure=False, priority=-k,
+            )  # fmt: skip
+
+        yield Workers(submit, (KilledWorker,), threads, f"Dask workers at {address}")
+
+
+def _scheduler_address(text: str) -> str:
+    """``text`` if it is a Dask scheduler address (``tcp://host:port``), or :class:`MearmError`."""
+    from distributed.comm import parse_address
+    from distributed.comm.registry import get_backend
+
+    try:
+        scheme, _ = parse_address(text, strict=True)
+        get_backend(scheme).get_address_host_port(text)
+    except (ValueError, TypeError, NotImplementedError) as exc:  # inproc: no host, no port
+        raise MearmError(
+            f"--scheduler {text!r} is not a Dask scheduler address like tcp://host:8786, nor "
+            f"'local' ({_one_line(exc)})"
+        ) from None
+    return text
+
+
+@contextmanager
+def _local_cluster(local_cluster: Any, jobs: int) -> Iterator[Any]:
+    """A Dask LocalCluster of ``jobs`` worker processes of one thread each, quiet.
+
+    Its workers start with Ctrl-C ignored (they inherit that): on Ctrl-C this process
+    cancels their trials and closes them, as a remote cluster's are cancelled.
+    """
+    ignore = threading.current_thread() is threading.main_thread()
+    before = signal.signal(signal.SIGINT, signal.SIG_IGN) if ignore else None
+    try:
+        cluster = local_cluster(
+            n_workers=jobs,
+            threads_per_worker=1,
+            processes=True,
+            dashboard_address=":0",
+            silence_logs=logging.ERROR,
+        )
+    finally:
+        if ignore:
+            signal.signal(signal.SIGINT, before)
+    with cluster:
+        yield cluster
+
+
+def _mearm_version() -> str:
+    """The mearm version a worker imports (run on each Dask worker)."""
+    import mearm
+
+    return mearm.__version__
+
+
+def _check_workers(client: Any, scheduler: str) -> None:
+    """Every Dask worker imports this mearm version, or :class:`MearmError`."""
+    import mearm
+
+    try:
+        versions = client.run(_mearm_version)
+    except Exception as exc:  # the worker's own error, e.g. ModuleNotFoundError
+        raise MearmError(
+            f"--scheduler {scheduler}: its workers cannot run mearm trials "
+            f"({type(exc).__name__}: {_one_line(exc)}); install mearm {mearm.__version__} on "
+            "every worker"
+        ) from None
+    for worker, version in sorted(versions.items()):
+        if version != mearm.__version__:
+            raise MearmError(
+                f"--scheduler {scheduler}: worker {worker} runs mearm {version}, this is "
+                f"{mearm.__version__}; install the same version on every worker"
+            )
+
+
+def _one_line(exc: BaseException) -> str:
+    return " ".join(str(exc).split()) or type(exc).__name__
 
 
 def run_trials_parallel(
@@ -259,96 +437,143 @@ def run_trials_parallel(
     scene: list[SceneObject] | None = None,
     start: int = 0,
     progress: Callable[[int], None] | None = None,
+    scheduler: str | None = None,
 ) -> dict[int, str | None]:
-    """Run trials ``start`` .. ``trials``−1 in ``jobs`` worker processes.
+    """Run trials ``start`` .. ``trials``−1 in ``jobs`` worker processes, or on Dask.
 
-    Each worker writes its trial to a file of its own; this process appends each trial's
-    records to ``log_path`` in trial order as soon as every trial before it is in, so
-    the log holds the same records in the same order as :func:`run_trials` writes (only
-    the wall-clock fields ``started`` and ``elapsed_s`` differ). On Ctrl-C, a failed trial
-    or a dead worker, trials not yet started are cancelled, the ones running finish
-    (interrupted, on Ctrl-C) and every finished trial is appended in order before this
-    returns or raises: nothing that was finished is lost, and the log resumes.
+    Every trial runs in :func:`run_trial` on a worker, which sends its records back;
+    this process appends each trial's records to ``log_path`` in trial order as soon as
+    every trial before it is in, so the log holds the same records in the same order as
+    :func:`run_trials` writes (only the wall-clock fields ``started`` and ``elapsed_s``
+    differ), wherever the trials ran. On Ctrl-C, a failed trial or a lost worker, trials
+    not yet started are cancelled and every finished trial up to the first unfinished one
+    is appended in order before this returns or raises: nothing that was finished in order
+    is lost, and the log resumes. In worker processes the running trials finish first
+    (interrupted, on Ctrl-C); on Dask they are dropped (a Dask task cannot be
+    interrupted) and run again when the log resumes.
 
     Args:
         config: The rig (simulated).
         trials: How many in the whole experiment.
         seed: Base seed; trial k uses :func:`trial_seed` (seed, k).
+        log_path: The run log (appended to; its torn end, if any, already dealt with).
+        jobs: Worker processes (≥ 2 without ``scheduler``; :func:`run_trials` runs trials in
+            this process), or the workers of ``scheduler="local"``.
         scene: The same layout every trial instead of a random one.
         start: The first trial to run (the ones before are in the log already).
         progress: Called after each trial is appended with the number appended so far.
-        log_path: The run log (appended to; its torn end, if any, already dealt with).
-        jobs: Worker processes (≥ 2; :func:`run_trials` runs trials in this process).
+        scheduler: A Dask scheduler's address (``tcp://host:port``), or ``local`` for a
+            Dask LocalCluster of ``jobs`` processes; ``None``: a process pool.
 
     Returns:
         Per trial run, ``None`` if it cleared the table, else the reason it stopped.
 
     Raises:
-        SortAborted: Ctrl-C (the log holds every trial finished).
+        SortAborted: Ctrl-C (the log holds every trial finished in order).
         TrialFailed: a trial's camera or servos failed (as the serial run stops on
             :class:`CameraError` or :class:`ServoError`).
-        MearmError: a worker process died.
+        MearmError: a worker died, the cluster cancelled a trial, or ``scheduler`` cannot
+            be used (see :func:`_dask_cluster`).
+    """
+    numbers = range(start, trials)
+    with open_workers(config, seed, scene, min(jobs, len(numbers)), scheduler) as workers:
+        return _append_in_order(workers, numbers, log_path, progress)
+
+
+def open_workers(
+    config: Config, seed: int, scene: list[SceneObject] | None, jobs: int, scheduler: str | None
+) -> AbstractContextManager[Workers]:
+    """Where :func:`run_trials_parallel` runs trials: ``jobs`` processes, or Dask.
+
+    Raises:
+        MearmError: ``scheduler`` cannot be used (see :func:`_dask_cluster`).
+    """
+    if scheduler is None:
+        return _process_pool(config, seed, scene, jobs)
+    return _dask_cluster(config, seed, scene, scheduler, jobs)
+
+
+@contextmanager
+def _ctrl_c() -> Iterator[threading.Event]:
+    """Ctrl-C sets the event instead of raising; a second Ctrl-C raises KeyboardInterrupt.
+
+    The first asks the trials to stop (the caller cancels them and appends what finished);
+    the second gives up waiting for them. Outside the main thread: an event never set.
+    """
+    seen = threading.Event()
+    if threading.current_thread() is not threading.main_thread():
+        yield seen
+        return
+
+    def on_interrupt(signum: int, frame: object) -> None:
+        if seen.is_set():
+            raise KeyboardInterrupt
+        seen.set()
+
+    before = signal.signal(signal.SIGINT, on_interrupt)
+    try:
+        yield seen
+    finally:
+        signal.signal(signal.SIGINT, before)
+
+
+def _append_in_order(
+    workers: Workers,
+    numbers: range,
+    log_path: Path,
+    progress: Callable[[int], None] | None,
+) -> dict[int, str | None]:
+    """Submit trials ``numbers`` to ``workers``; append their records in trial order.
+
+    See :func:`run_trials_parallel` (returns and raises as it does).
     """
     outcomes: dict[int, str | None] = {}
-    numbers = range(start, trials)
     stop: BaseException | None = None
-    with tempfile.TemporaryDirectory(prefix="mearm-trials-") as tmp:
-        folder = Path(tmp)
-        pool = ProcessPoolExecutor(
-            max_workers=min(jobs, len(numbers)),
-            initializer=_start_worker,
-            initargs=(config, seed, scene, folder),
-        )
-        try:
-            futures: list[Future[TrialResult]] = [pool.submit(_trial_in_worker, k) for k in numbers]
-            with log_path.open("ab") as out:
-                for k, fut in zip(numbers, futures, strict=True):
-                    while True:
-                        try:
-                            result = fut.result()
-                            break
-                        except KeyboardInterrupt:  # the workers saw it, too
-                            stop = stop or SortAborted("interrupted (Ctrl-C)", interrupted=True)
-                            for f in futures:
-                                f.cancel()
-                        except CancelledError:
-                            result = TrialResult(k, ran=False)
-                            break
-                        except BrokenProcessPool:
-                            result = TrialResult(k, ran=False)
-                            stop = stop or MearmError(
-                                f"a worker process died during trial {k}; the log holds "
-                                f"trials {start}..{k - 1} and resumes at trial {k}"
-                            )
-                            break
-                    if not result.ran:
-                        break
-                    _append(out, _part(folder, k))
-                    outcomes[k] = result.reason
-                    if progress is not None:
-                        progress(len(outcomes))
-                    if result.interrupted:
-                        stop = stop or SortAborted(result.reason or "interrupted", interrupted=True)
-                    elif result.error is not None:
-                        stop = stop or TrialFailed(f"trial {k}: {result.error}")
-                    if stop is not None:
-                        for f in futures:
-                            f.cancel()
-        finally:
-            pool.shutdown(wait=True, cancel_futures=True)
+    futures = [workers.submit(k) for k in numbers]
+
+    def cancel() -> None:
+        for f in futures:
+            if not f.done():  # a finished Dask future cancelled would drop its result
+                f.cancel()
+
+    with log_path.open("ab") as out, _ctrl_c() as ctrl_c:
+        for k, fut in zip(numbers, futures, strict=True):
+            while not fut.done():  # poll: Ctrl-C never lands inside the executor's wait
+                if ctrl_c.wait(0.05) and stop is None:  # worker processes saw it, too
+                    stop = SortAborted("interrupted (Ctrl-C)", interrupted=True)
+                    cancel()
+            try:
+                result: TrialResult = fut.result()
+            except CancelledError as exc:
+                result = TrialResult(k, ran=False)
+                stop = stop or MearmError(
+                    f"trial {k} was cancelled by the cluster ({_one_line(exc)}); the log "
+                    f"holds trials {numbers.start}..{k - 1} and resumes at trial {k}"
+                )
+            except workers.lost:
+                result = TrialResult(k, ran=False)
+                stop = stop or MearmError(
+                    f"a worker died during trial {k}; the log holds trials "
+                    f"{numbers.start}..{k - 1} and resumes at trial {k}"
+                )
+            if not result.ran:
+                break
+            if result.records:
+                out.write(result.records)
+                out.flush()
+                os.fsync(out.fileno())
+            outcomes[k] = result.reason
+            if progress is not None:
+                progress(len(outcomes))
+            if result.interrupted:
+                stop = stop or SortAborted(result.reason or "interrupted", interrupted=True)
+            elif result.error is not None:
+                stop = stop or TrialFailed(f"trial {k}: {result.error}")
+            if stop is not None:
+                cancel()
     if stop is not None:
         raise stop
     return outcomes
-
-
-def _append(out: Any, part: Path) -> None:
-    """Append one trial's records (the file a worker wrote) to the open log, durably."""
-    if not part.exists():  # Ctrl-C before the worker opened it: nothing was written
-        return
-    out.write(part.read_bytes())
-    out.flush()
-    os.fsync(out.fileno())
-    part.unlink()
 
 
 # -- resuming
@@ -557,17 +782,37 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument(
         "--jobs",
         type=worker_count,
-        default=1,
+        default=None,
         help="simulated trials run at once, in worker processes (default 1; this machine "
-        f"has {os.cpu_count()} CPUs); the log is the same, in trial order",
+        f"has {os.cpu_count()} CPUs), or the workers of --scheduler local; the log is the "
+        "same, in trial order",
+    )
+    parser.add_argument(
+        "--scheduler",
+        metavar="ADDRESS",
+        help="run the simulated trials on a Dask cluster: a running scheduler's address "
+        "(tcp://host:port) or 'local' (a LocalCluster of --jobs processes, default 2); the "
+        f"log is the same, in trial order (needs {CLUSTER_EXTRA})",
     )
     args = parser.parse_args(argv)
     if args.trials < 1:
         parser.error(f"--trials must be ≥ 1, got {args.trials}")
+    if args.scheduler not in (None, "local") and args.jobs is not None:
+        parser.error(
+            f"--jobs sets the workers of --scheduler local; the cluster at {args.scheduler} "
+            "has its own workers"
+        )
+    if args.jobs is None:
+        args.jobs = 2 if args.scheduler == "local" else 1
     config = config_from_args(args)
     scene = load_scene(args.scene, config.task.class_names) if args.scene else None
     if scene is not None and config.camera.kind != "sim":
         raise MearmError("--scene lays out the simulated table; this config's camera is not 'sim'")
+    if args.scheduler is not None and config.camera.kind != "sim":
+        raise MearmError(
+            "--scheduler runs simulated trials on a cluster; this config's camera is not "
+            "'sim' (a real rig sorts one trial at a time, here)"
+        )
     if args.jobs > 1 and config.camera.kind != "sim":
         raise MearmError(
             f"--jobs {args.jobs} runs simulated trials at once; this config's camera is not "
@@ -590,6 +835,24 @@ def main(argv: Sequence[str] | None = None) -> int:
             f"resuming {args.log}: {resume.done} complete trials there, running trials "
             f"{resume.done}..{args.trials - 1}{again}"
         )
+    # Workers first: a scheduler that cannot be used leaves the log as it was.
+    parallel = args.jobs > 1 or args.scheduler is not None
+    jobs = min(args.jobs, args.trials - resume.done)
+    with (
+        open_workers(config, args.seed, scene, jobs, args.scheduler) if parallel else nullcontext()
+    ) as workers:
+        return _run(args, config, scene, resume, wait, workers)
+
+
+def _run(
+    args: Any,
+    config: Config,
+    scene: list[SceneObject] | None,
+    resume: Resume,
+    wait: Callable[[int], None] | None,
+    workers: Workers | None,
+) -> int:
+    """The run of :func:`main` once its input is checked (and its workers are ready)."""
     set_aside = ready_to_append(args.log, resume)
     if set_aside is not None:
         print(
@@ -608,7 +871,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         ) as bar,
     ):
         try:
-            if args.jobs == 1:
+            if workers is None:
                 outcomes = run_trials(
                     config,
                     args.trials,
@@ -620,15 +883,9 @@ def main(argv: Sequence[str] | None = None) -> int:
                     progress=lambda done: bar.update(1),
                 )
             else:
-                outcomes = run_trials_parallel(
-                    config,
-                    args.trials,
-                    args.seed,
-                    args.log,
-                    args.jobs,
-                    scene=scene,
-                    start=resume.done,
-                    progress=lambda done: bar.update(1),
+                numbers = range(resume.done, args.trials)
+                outcomes = _append_in_order(
+                    workers, numbers, args.log, progress=lambda done: bar.update(1)
                 )
         except SortAborted as exc:
             print(f"mearm.experiment: stopped: {exc.reason}", file=sys.stderr)
@@ -638,10 +895,10 @@ def main(argv: Sequence[str] | None = None) -> int:
             return EXIT_FAILURE
     wall = time.perf_counter() - t0
     failed = [(k, r) for k, r in outcomes.items() if r is not None]
-    workers = "1 process" if args.jobs == 1 else f"{min(args.jobs, len(outcomes))} workers"
+    where = "1 process" if workers is None else f"{workers.count} {workers.where}"
     print(
         f"{len(outcomes)} trials written to {args.log} in {wall:.0f} s "
-        f"({60 * len(outcomes) / wall:.1f} trials/min, {workers}); {len(failed)} stopped early"
+        f"({60 * len(outcomes) / wall:.1f} trials/min, {where}); {len(failed)} stopped early"
     )
     for k, reason in failed:
         print(f"  trial {k}: {reason}")

@@ -1,0 +1,120 @@
+"""Sweeps on Dask (`mearm experiment --scheduler`): the log the process pool writes."""
+
+import json
+import os
+import re
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+from conftest import ROOT, run_cli
+from test_sweeps import experiment, records
+
+from mearm.runlog import read_runlog
+
+pytest.importorskip("distributed", reason="needs the cluster extra: pip install 'mearm[cluster]'")
+
+SWEEP = ("--config", "configs/sim.yaml", "--trials", 5, "--seed", 11)
+
+
+def analysis(log: Path) -> dict:
+    r = run_cli("-m", "mearm", "analyze", str(log), "--json", timeout=120)
+    assert r.returncode == 0, r.stderr
+    data = json.loads(r.stdout)
+    assert data["analysis"].pop("source") == str(log)
+    return data
+
+
+def test_a_sweep_on_a_local_dask_cluster_writes_the_log_of_the_process_pool(tmp_path):
+    """Five seeded trials: --scheduler local (2 workers), --jobs 2 and --jobs 1 write the
+    same records in the same order, and analyze gives the same numbers."""
+    runs = {
+        "dask": (
+            ("--scheduler", "local", "--jobs", 2),
+            r"2 Dask workers at tcp://127\.0\.0\.1:\d+",
+        ),
+        "pool": (("--jobs", 2), r"2 workers"),
+        "serial": (("--jobs", 1), r"1 process"),
+    }
+    logs = {}
+    for name, (how, where) in runs.items():
+        logs[name] = tmp_path / f"{name}.jsonl"
+        r = experiment(*SWEEP, "--log", logs[name], *how)
+        assert r.returncode == 0, r.stderr
+        assert re.search(rf"5 trials written to .* \([\d.]+ trials/min, {where}\)", r.stdout)
+        assert "sorted 60 of 60 objects over 5 trials" in r.stdout
+    serial = records(logs["serial"])
+    assert len(serial) > 5 * 24
+    assert records(logs["dask"]) == serial
+    assert records(logs["pool"]) == serial
+    assert [t.number for t in read_runlog(logs["dask"]).trials] == [0, 1, 2, 3, 4]
+    assert analysis(logs["dask"]) == analysis(logs["serial"])
+
+
+@pytest.mark.slow
+def test_ctrl_c_on_a_local_dask_cluster_keeps_the_trials_in_order_and_the_log_resumes(tmp_path):
+    """Ctrl-C to the whole process group (the cluster's workers too, as a terminal sends
+    it): exit 130, the log holds complete trials in order, and the same command finishes
+    it with the serial run's records."""
+    log = tmp_path / "trials.jsonl"
+    args = ["--config", "configs/sim.yaml", "--trials", 12, "--log", log, "--scheduler", "local"]
+    cmd = [sys.executable, "-m", "mearm", "experiment", *map(str, args)]
+    proc = subprocess.Popen(
+        cmd, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True
+    )
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and proc.poll() is None:
+        if log.exists() and log.read_bytes().count(b'"type":"summary"') >= 2:
+            break
+        time.sleep(0.01)
+    os.killpg(proc.pid, signal.SIGINT)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 130, err
+    assert b"Traceback" not in err, err.decode()
+    contents = read_runlog(log)
+    assert contents.problem is None
+    got = [(t.number, t.complete) for t in contents.trials]
+    assert 2 <= len(got) < 12, "the run was not stopped mid-way"
+    assert got == [(k, True) for k in range(len(got))]
+    written = log.read_bytes()
+    r = experiment(*args)
+    assert r.returncode == 0 and f"running trials {len(got)}..11" in r.stdout, r.stderr
+    assert log.read_bytes().startswith(written)
+    serial = tmp_path / "serial.jsonl"
+    assert experiment(*args[:4], "--log", serial).returncode == 0
+    assert records(log) == records(serial)
+
+
+@pytest.mark.parametrize(
+    "args, needle",
+    [
+        (["--scheduler", "tcp://127.0.0.1:1"], "cannot reach a Dask scheduler there"),
+        (["--scheduler", "127.0.0.1:8786"], "is not a Dask scheduler address"),
+        (["--scheduler", "tcp://127.0.0.1:1", "--jobs", "2"], "--jobs sets the workers"),
+        (["--config", "RIG", "--scheduler", "local"], "camera is not 'sim'"),
+    ],
+)
+def test_a_scheduler_that_cannot_be_used_exits_2_before_touching_the_log(args, needle, tmp_path):
+    rig = tmp_path / "rig.yaml"
+    rig.write_text(f"camera:\n  kind: folder\n  path: {tmp_path}\n")
+    log = tmp_path / "t.jsonl"
+    args = [str(rig) if a == "RIG" else a for a in args]
+    r = experiment("--trials", 2, "--log", log, *args, timeout=60)
+    assert r.returncode == 2 and not log.exists()
+    assert len(r.stderr.strip().splitlines()) == 1 and needle in r.stderr, r.stderr
+
+
+def test_without_dask_the_scheduler_option_names_the_extra(tmp_path):
+    """Dask not importable (as without the extra): one line naming the extra, exit 2."""
+    code = (
+        "import sys; sys.modules['distributed'] = None; "
+        "from mearm.cli import run; from mearm.experiment import main; run(main)"
+    )
+    log = tmp_path / "t.jsonl"
+    r = run_cli("-c", code, "--trials", "2", "--log", str(log), "--scheduler", "local")
+    assert r.returncode == 2 and not log.exists()
+    assert len(r.stderr.strip().splitlines()) == 1, r.stderr
+    assert "pip install 'mearm[cluster]'" in r.stderr
