@@ -71,7 +71,7 @@ def test_simulated_calibration_recovers_each_units_mapping(tmp_path: Path) -> No
 
 
 def test_calibrated_config_runs_the_units_as_they_are_and_points_better(tmp_path: Path) -> None:
-    """The file's config sends the fitted pulses; each unit turns as before; the TCP lands nearer."""
+    """The file's config sends the fitted pulses, each unit turns as before: the TCP is nearer."""
     path = _calibrate(tmp_path)
     before = load_config(KITS, _overrides())
     after = load_config(KITS, [*_overrides(), f"servo.calibration_file={path}"])
