@@ -70,6 +70,7 @@ from mearm.config.servo_file import (
     check_replace,
     fit_actuator,
     now_iso,
+    replaced_calibration,
     save_servo_calibration,
     servo_of,
     servo_overrides,
@@ -413,9 +414,16 @@ class SimulatedCalibrator(Calibrator):
     by a seeded normal error of ``reading_error[unit]`` (one standard deviation, fixed
     per reference: the maker believes the arm is at the reference when it is at the
     reference plus that error). It jumps near the reference with the present
-    calibration's slope, then from :data:`SIM_APPROACH_US` below steps up 1 µs at a
-    time until the reading passes the reference, and records the pulse whose reading
-    was nearer. The fit, its checks and the file are the interactive command's.
+    calibration's slope, then approaches it 1 µs at a time twice: from
+    :data:`SIM_APPROACH_US` below, up to the first pulse whose reading reaches the
+    reference, and from as far above, down to the first whose reading reaches it; it
+    records the pulse midway between the two. One approach alone records where the
+    reading lags the pulse by half the gears' backlash and up to the dead band (the
+    servo ignores steps within its dead band, then jumps): a bias of about 1° of
+    shaft, toward the side approached from, which the arm does not have in use,
+    where its moves come from either side and each clears the dead band; the two
+    lags cancel in the middle. The fit, its checks and the file are the interactive
+    command's.
 
     The tool actuators (the paper's ``gripper_arm``) have no joint in the twin: they are
     skipped, their calibration stays as configured.
@@ -518,22 +526,50 @@ class SimulatedCalibrator(Calibrator):
             pulse += step
             if abs(step) <= 2:
                 break
-        sign = 1.0 if slope > 0 else -1.0  # reading rises with the pulse when > 0
-        p = clip(pulse - SIM_APPROACH_US)
-        before = self.read(act, p)
-        while p < hi:  # the last approach, 1 µs at a time, from below
-            now = self.read(act, p + 1)
-            p += 1
-            if sign * (now - seen) >= 0:
-                if abs(before - seen) < abs(now - seen):
-                    p -= 1
-                    self.session.set_pulse(act.name, p)
-                break
-            before = now
-            if p - pulse > 4 * SIM_APPROACH_US:
-                break
-        self.say(f"{act.name}: read {ref:g} {act.amap.unit} at {p} µs")
+        up = self._approach(act, seen, pulse, 1, slope, (lo, hi))
+        down = self._approach(act, seen, pulse, -1, slope, (lo, hi))
+        p = clip((up + down) / 2)
+        self.session.set_pulse(act.name, p)
+        self.say(
+            f"{act.name}: read {ref:g} {act.amap.unit} at {up} µs from below, {down} µs "
+            f"from above: {p} µs"
+        )
         return "record"
+
+    def _approach(
+        self,
+        act: Actuator,
+        seen: float,
+        pulse: int,
+        way: int,
+        slope: float,
+        limits: tuple[int, int],
+    ) -> int:
+        """The first pulse whose reading reaches ``seen``, stepping 1 µs in ``way`` (±1).
+
+        It starts :data:`SIM_APPROACH_US` before ``pulse`` (farther while the reading
+        there is already past the reference), so the gears' play is taken up on the way.
+        """
+        lo, hi = limits
+        rising = way * (1.0 if slope > 0 else -1.0)  # the reading's sign of change
+
+        def reached(value: float) -> bool:
+            return rising * (value - seen) >= 0
+
+        p = int(min(hi, max(lo, pulse - way * SIM_APPROACH_US)))
+        for _ in range(4):
+            if not reached(self.read(act, p)) or p in (lo, hi):
+                break
+            p = int(min(hi, max(lo, p - way * SIM_APPROACH_US)))
+        start = p
+        while lo < p < hi or p == start:
+            nxt = p + way
+            if not lo <= nxt <= hi or abs(nxt - start) > 6 * SIM_APPROACH_US:
+                break
+            p = nxt
+            if reached(self.read(act, p)):
+                break
+        return p
 
 
 def default_output(config_path: Path | None) -> Path:
@@ -787,6 +823,10 @@ def simulate(
     except ServoError as exc:
         print(f"mearm calibrate-servos: servo fault: {exc}; nothing written", file=sys.stderr)
         return EXIT_FAILURE
+    nominal = replaced_calibration(config)
+    if nominal is not None:  # recalibrating over a file: the twin's units stay relative
+        # to what that file replaced, so the new file records the same
+        fits = [dataclasses.replace(f, replaces=servo_of(nominal.arm, f.name)) for f in fits]
     return write_calibration(config, fits, board, "", output, bool(args.force))
 
 
