@@ -249,8 +249,9 @@ class TwinArm(ServoBus):
         kit: tuple[ServoUnit, ...] | None = None,
     ):
         super().__init__(config, paced=config.servo.sim_realtime)
-        if model is None:
-            model = twin_model(config, servo, gripper_servo)
+        if model is None:  # with a kit, its physics as without the calibration file
+            physical = replaced_calibration(config) if kit or config.twin.kit else None
+            model = twin_model(physical or config, servo, gripper_servo)
         self.model = model
         self.data = mujoco.MjData(model)
         self._chain = Chain.from_description(config.arm)
