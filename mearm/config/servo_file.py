@@ -28,7 +28,11 @@ and ``residual_us`` the largest distance of a point from it.
       shoulder:
         {channel: 1, unit: deg, zero_us: 570.0, direction: 1, us_per_unit: 10.0,
          min_us: 600, max_us: 2400, residual_us: 0.0,
+         replaces: {zero_us: 600.0, direction: 1, us_per_unit: 10.0},
          points: [{value: 51.0, pulse_us: 1080}, {value: 114.0, pulse_us: 1710}]}
+
+``replaces`` is the calibration the actuator had when it was measured (optional: files
+written before it was recorded lack it).
 
 A servo that turns a combination records it (``drives: {terms: {shoulder: 1.0, elbow:
 1.0}, offset: 0.0}`` in its entry): its points are values of that combination, and a
@@ -90,6 +94,10 @@ class ActuatorFit:
         servo: The fitted calibration (channel and pulse range as configured).
         points: The references it was fitted to.
         residual_us: The largest distance of a point from the fitted line [µs].
+        replaces: The calibration the actuator had when it was measured (its zero,
+            direction and µs per unit; written as ``replaces``), or ``None`` (unknown: a
+            file written before it was recorded). The twin with a kit of servos takes it
+            as the arm's nominal servo, the one its units deviate from (docs/twin.md).
     """
 
     name: str
@@ -97,6 +105,7 @@ class ActuatorFit:
     servo: ServoCalibration
     points: tuple[CalibrationPoint, ...]
     residual_us: float
+    replaces: ServoCalibration | None = None
 
     @property
     def drives(self) -> ServoDrives | None:
@@ -118,6 +127,13 @@ class ActuatorFit:
         if self.drives is not None:
             out["drives"] = self.drives.model_dump(mode="json")
         out["residual_us"] = round(self.residual_us, 4)
+        if self.replaces is not None:
+            r = self.replaces
+            out["replaces"] = {
+                "zero_us": round(r.zero_us, 4),
+                "direction": r.direction,
+                "us_per_unit": round(r.us_per_unit, 6),
+            }
         out["points"] = [{"value": p.value, "pulse_us": p.pulse_us} for p in self.points]
         return out
 
@@ -166,7 +182,7 @@ def fit_actuator(
             f"{short_repr(err.get('input'))}: {err['msg']}; redo the references"
         ) from None
     residual = float(np.max(np.abs(zero + slope * values - pulses)))
-    return ActuatorFit(name, unit, servo, tuple(points), residual)
+    return ActuatorFit(name, unit, servo, tuple(points), residual, replaces=template)
 
 
 @dataclass(frozen=True)
@@ -238,9 +254,13 @@ def load_servo_calibration(path: str | Path) -> ServoCalibrationFile:
                 CalibrationPoint(float(p["value"]), int(p["pulse_us"]))
                 for p in fields.pop("points", [])
             )
+            replaced = fields.pop("replaces", None)
             kind = JointServo if "drives" in fields else ServoCalibration
             servo = kind.model_validate(fields)
-            actuators.append(ActuatorFit(str(name), unit, servo, points, residual))
+            replaces = None
+            if replaced is not None:
+                replaces = kind.model_validate({**fields, **dict(replaced)})
+            actuators.append(ActuatorFit(str(name), unit, servo, points, residual, replaces))
         return ServoCalibrationFile(
             arm=str(data["arm"]),
             board_id=str(data["board_id"]),
@@ -406,3 +426,27 @@ def apply_servo_calibration_file(config: Config, path: str | Path) -> Config:
 def fits_by_name(cal: ServoCalibrationFile) -> Mapping[str, ActuatorFit]:
     """The file's actuators by name."""
     return {a.name: a for a in cal.actuators}
+
+
+def replaced_calibration(config: Config) -> Config | None:
+    """``config`` with the calibrations its servo calibration file replaced put back.
+
+    What the arm had before ``servo.calibration_file``: each actuator's ``replaces``
+    (:class:`ActuatorFit`). ``None`` when the config names no file, or the file records
+    no ``replaces`` for any actuator.
+
+    Raises:
+        ServoCalibrationError, ConfigError: as :func:`apply_servo_calibration_file`.
+    """
+    path = config.servo.calibration_file
+    if path is None:
+        return None
+    cal = load_servo_calibration(path)
+    back = [
+        ActuatorFit(a.name, a.unit, a.replaces, (), 0.0)
+        for a in cal.actuators
+        if a.replaces is not None
+    ]
+    if not back:
+        return None
+    return apply_servo_calibration(config, back, source=f"{path} (the calibration it replaced)")

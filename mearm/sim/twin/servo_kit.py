@@ -177,3 +177,21 @@ def draw_kit(
             )
         )
     return tuple(units)
+
+
+def unit_calibration(
+    unit: ServoUnit, zero_us: float, direction: int, us_per_unit: float
+) -> tuple[float, int, float]:
+    r"""The calibration that is exact for ``unit``, given the nominal servo's.
+
+    The nominal calibration :math:`p_n = z + s\,k\,v` holds for the nominal servo; the
+    unit turns for a pulse p where the nominal one turns for
+    :math:`p_n = a p + b` (:meth:`ServoUnit.nominal_pulse`, :math:`a = 10/k_u`), so the
+    unit's own is :math:`p = (z - b)/a + s\,(k/a)\,v`.
+
+    Returns:
+        ``(zero_us, direction, us_per_unit)`` of the unit.
+    """
+    b = unit.nominal_pulse(0.0)
+    a = unit.nominal_pulse(1.0) - b
+    return ((zero_us - b) / a, direction, us_per_unit / a)

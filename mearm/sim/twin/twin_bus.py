@@ -58,6 +58,7 @@ import numpy as np
 
 from mearm.config import Config
 from mearm.config.arm import US_PER_SERVO_DEG
+from mearm.config.servo_file import replaced_calibration
 from mearm.hardware.bus import ArmCommand, ServoBus
 from mearm.hardware.errors import ServoError, ServoStallError
 from mearm.hardware.mapping import ActuatorMap, ServoMap
@@ -143,6 +144,10 @@ class ServoModel:
             :data:`~mearm.sim.twin.mjcf.SERVO_LEVER_M` for a linear one and the jaws.
         unit: The kit's unit this servo is (its own zero and scale,
             :mod:`mearm.sim.twin.servo_kit`); ``None``: the nominal servo.
+        nominal: The arm's nominal calibration of this servo, which the kit's unit
+            deviates from, when the bus's (``amap``) is another: a config whose servo
+            calibration file was fitted to this kit (:func:`_calibrated_kit`); ``None``:
+            ``amap`` is the nominal one.
     """
 
     name: str
@@ -157,12 +162,18 @@ class ServoModel:
     offset: float = 0.0
     lever: float = 1.0
     unit: ServoUnit | None = None
+    nominal: ActuatorMap | None = None
+
+    @property
+    def physical(self) -> ActuatorMap:
+        """The nominal servo's mapping, which the unit's own is relative to."""
+        return self.amap if self.nominal is None else self.nominal
 
     def target_of(self, pulse_us: float) -> float:
         """The setpoint a pulse asks for [rad or m]: where this unit turns for it."""
         if self.unit is not None:
             pulse_us = self.unit.nominal_pulse(pulse_us)
-        return self.amap.value_of(pulse_us) * self.scale - self.offset
+        return self.physical.value_of(pulse_us) * self.scale - self.offset
 
     def value_of(self, setpoint: float) -> float:
         """The servo's value [deg or cm] at a setpoint or potentiometer reading."""
@@ -171,7 +182,7 @@ class ServoModel:
     @property
     def shaft_unit(self) -> float:
         """One degree of the servo's shaft in the model's units [rad or m per deg]."""
-        return US_PER_SERVO_DEG / self.amap.us_per_unit * self.scale
+        return US_PER_SERVO_DEG / self.physical.us_per_unit * self.scale
 
 
 @dataclass(frozen=True)
@@ -238,8 +249,9 @@ class TwinArm(ServoBus):
         kit: tuple[ServoUnit, ...] | None = None,
     ):
         super().__init__(config, paced=config.servo.sim_realtime)
-        if model is None:
-            model = twin_model(config, servo, gripper_servo)
+        if model is None:  # with a kit, its physics as without the calibration file
+            physical = replaced_calibration(config) if kit or config.twin.kit else None
+            model = twin_model(physical or config, servo, gripper_servo)
         self.model = model
         self.data = mujoco.MjData(model)
         self._chain = Chain.from_description(config.arm)
@@ -250,7 +262,7 @@ class TwinArm(ServoBus):
             deadbands = [round(s.deadband / s.scale * s.amap.us_per_unit, 9) for s in self.servos]
             kit = draw_kit(deadbands, kit_seed(asked.seed, trial), asked.spread)
         if kit is not None:
-            self.servos = _with_kit(self.servos, tuple(kit))
+            self.servos = _with_kit(_calibrated_kit(self.servos, config), tuple(kit))
         self.kit = None if kit is None else tuple(kit)
         nu = len(self.servos)
         self._ctrl = np.array([s.ctrl_index for s in self.servos])
@@ -568,10 +580,36 @@ def _with_kit(servos: tuple[ServoModel, ...], kit: tuple[ServoUnit, ...]) -> tup
             dataclasses.replace(
                 s,
                 unit=unit,
-                deadband=unit.deadband_us / s.amap.us_per_unit * s.scale,
+                deadband=unit.deadband_us / s.physical.us_per_unit * s.scale,
                 backlash=math.radians(unit.backlash_deg) * s.lever,
             )
         )
+    return tuple(out)
+
+
+def _calibrated_kit(servos: tuple[ServoModel, ...], config: Config) -> tuple[ServoModel, ...]:
+    """The servos of a kit whose bus runs a servo calibration file fitted to it.
+
+    A kit's unit turns relative to the arm's nominal servo; a config whose
+    ``servo.calibration_file`` replaced that calibration sends the pulses the file gives,
+    while each unit still turns as it is: its nominal is the calibration the file
+    replaced (each actuator's ``replaces``, :func:`~mearm.config.servo_file.replaced_calibration`).
+    Without a file, or one recording nothing replaced, the servos are returned as they are.
+    """
+    nominal_config = replaced_calibration(config)
+    if nominal_config is None:
+        if config.servo.calibration_file is not None:
+            log.warning(
+                "%s records no replaced calibration: the kit's units are taken relative "
+                "to the calibration it gives",
+                config.servo.calibration_file,
+            )
+        return servos
+    nominal = ServoMap.from_config(nominal_config)
+    out = []
+    for s in servos:
+        n = nominal[s.name]
+        out.append(s if n == s.amap else dataclasses.replace(s, nominal=n))
     return tuple(out)
 
 
