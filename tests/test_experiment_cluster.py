@@ -28,6 +28,7 @@ def analysis(log: Path) -> dict:
     return data
 
 
+@pytest.mark.heavy
 def test_a_sweep_on_a_local_dask_cluster_writes_the_log_of_the_process_pool(tmp_path):
     """Five seeded trials: --scheduler local (2 workers), --jobs 2 and --jobs 1 write the
     same records in the same order, and analyze gives the same numbers."""
@@ -88,6 +89,7 @@ def test_ctrl_c_on_a_local_dask_cluster_keeps_the_trials_in_order_and_the_log_re
     assert records(log) == records(serial)
 
 
+@pytest.mark.heavy
 @pytest.mark.parametrize(
     "args, needle",
     [

@@ -38,7 +38,7 @@ def test_py_typed_shipped():
 
 ROOT = Path(__file__).resolve().parent.parent
 #: tools/ scripts that stay scripts of the checkout: they regenerate the docs' pictures.
-DEVELOPER_SCRIPTS = {"screenshots.py", "calibration_pictures.py"}
+DEVELOPER_SCRIPTS = {"screenshots.py", "calibration_pictures.py", "calibration_worth.py"}
 
 
 def _pyproject() -> dict:

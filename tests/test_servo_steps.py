@@ -18,6 +18,7 @@ def _run(*args: str) -> subprocess.CompletedProcess[str]:
     )
 
 
+@pytest.mark.heavy
 def test_each_joint_reaches_its_step_and_the_plot_is_drawn(tmp_path):
     """A 10° step on every joint of the 5-DOF twin: each ends within a degree of it, having
     moved no faster than its servo can (the CSV is read back as the --before of a plot)."""
@@ -40,6 +41,7 @@ def test_each_joint_reaches_its_step_and_the_plot_is_drawn(tmp_path):
     assert picture.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
+@pytest.mark.heavy
 @pytest.mark.parametrize(
     ("args", "says"),
     [

@@ -22,6 +22,7 @@ def twin_scenes(*args: str) -> tuple[int, list[str], str]:
     return r.returncode, r.stdout.splitlines(), r.stderr
 
 
+@pytest.mark.heavy
 def test_twin_scenes_in_two_workers_print_what_one_process_prints():
     """Three seeded scenes of three objects: every outcome line identical, in seed order."""
     sweep = ("--scenes", "3", "--objects", "3", "--first-seed", "4")
@@ -71,6 +72,7 @@ def experiment(*args: object, timeout: float = 300) -> subprocess.CompletedProce
     return run_cli("-m", "mearm", "experiment", *map(str, args), timeout=timeout)
 
 
+@pytest.mark.heavy
 def test_experiment_in_two_workers_writes_the_serial_log(tmp_path):
     """Same trials, same records in the same order; analyze reads it; then it resumes."""
     logs = {}
@@ -97,6 +99,7 @@ def test_experiment_in_two_workers_writes_the_serial_log(tmp_path):
     assert [t.number for t in read_runlog(logs[2]).trials] == [0, 1, 2, 3, 4]
 
 
+@pytest.mark.heavy
 def test_ctrl_c_keeps_every_finished_trial_in_order_and_the_log_resumes(tmp_path):
     """Ctrl-C (to the whole process group, as a terminal sends it) in a run of two workers:
     exit 130, every trial in the log complete and in order, and the same command finishes."""
@@ -126,6 +129,7 @@ def test_ctrl_c_keeps_every_finished_trial_in_order_and_the_log_resumes(tmp_path
     assert [t.number for t in read_runlog(log).trials] == list(range(30))
 
 
+@pytest.mark.heavy
 @pytest.mark.parametrize("jobs", ["0", "-2", "many"])
 def test_experiment_refuses_a_bad_number_of_workers(jobs, tmp_path):
     r = experiment("--trials", 1, "--log", tmp_path / "t.jsonl", "--jobs", jobs)
@@ -133,6 +137,7 @@ def test_experiment_refuses_a_bad_number_of_workers(jobs, tmp_path):
     assert len(r.stderr.strip().splitlines()) == 1 and "workers" in r.stderr
 
 
+@pytest.mark.heavy
 def test_a_real_rig_runs_one_trial_at_a_time(tmp_path):
     rig = tmp_path / "rig.yaml"
     rig.write_text(f"camera:\n  kind: folder\n  path: {tmp_path}\n")

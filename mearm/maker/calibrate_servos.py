@@ -401,7 +401,7 @@ SIM_APPROACH_US = 30
 READING_ERROR = {"deg": 0.5, "cm": 0.05}
 
 
-class _Refused(MearmError):
+class _FitRefusedTwice(MearmError):
     """The simulated maker's fit of an actuator was refused twice."""
 
 
@@ -479,7 +479,7 @@ class SimulatedCalibrator(Calibrator):
         if text.endswith("(or press s at a reference to skip it)"):
             self.refused += 1
             if self.refused >= 2:
-                raise _Refused(text)
+                raise _FitRefusedTwice(text)
 
     def clear_pose(self, act: Actuator) -> None:
         """Put the other joints where the actuator's sweep keeps the arm highest.
@@ -813,7 +813,7 @@ def simulate(
             for k, act in enumerate(actuators, 1):
                 try:
                     fit = calibrator.calibrate(act, k, len(actuators))
-                except _Refused:
+                except _FitRefusedTwice:
                     calibrator.say(
                         f"{act.name}: refused twice; its calibration stays as configured"
                     )
