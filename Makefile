@@ -32,6 +32,11 @@ demo: $(STAMP)
 # one, e.g. for --pdb); worksteal hands a worker that ran out of tests some of another's.
 JOBS ?= auto
 PYTEST := $(BIN)/python -m pytest -q -n $(JOBS) --dist worksteal
+# Hundreds of tests run mearm in a child process: with bytecode off (PYTHONDONTWRITEBYTECODE)
+# each one compiles the package again. The suite keeps its bytecode under .venv instead
+# (user + sys CPU of the whole suite 7.7 -> 7.1 min on a warm cache, 2 cores).
+test test-fast: unexport PYTHONDONTWRITEBYTECODE
+test test-fast: export PYTHONPYCACHEPREFIX := $(CURDIR)/$(VENV)/pycache
 
 test: $(STAMP)
 	$(PYTEST)
