@@ -31,12 +31,11 @@ demo: $(STAMP)
 # The suite runs in JOBS processes (pytest-xdist; `auto`: one per core, JOBS=0: in this
 # one, e.g. for --pdb); worksteal hands a worker that ran out of tests some of another's.
 JOBS ?= auto
-PYTEST := $(BIN)/python -m pytest -q -n $(JOBS) --dist worksteal
 # Hundreds of tests run mearm in a child process: with bytecode off (PYTHONDONTWRITEBYTECODE)
 # each one compiles the package again. The suite keeps its bytecode under .venv instead
 # (user + sys CPU of the whole suite 7.7 -> 7.1 min on a warm cache, 2 cores).
-test test-fast: unexport PYTHONDONTWRITEBYTECODE
-test test-fast: export PYTHONPYCACHEPREFIX := $(CURDIR)/$(VENV)/pycache
+PYTEST := env -u PYTHONDONTWRITEBYTECODE PYTHONPYCACHEPREFIX=$(CURDIR)/$(VENV)/pycache \
+          $(BIN)/python -m pytest -q -n $(JOBS) --dist worksteal
 
 test: $(STAMP)
 	$(PYTEST)
