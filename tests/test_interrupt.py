@@ -46,7 +46,18 @@ def _duration(view: bool) -> float:
     return min(times[1:])
 
 
+@pytest.fixture
+def sigint_raises():
+    """SIGINT raises KeyboardInterrupt here, as in a terminal: a suite started in the
+    background of a shell without job control inherits SIGINT ignored (POSIX), and
+    Python then leaves it ignored."""
+    before = signal.signal(signal.SIGINT, signal.default_int_handler)
+    yield
+    signal.signal(signal.SIGINT, before)
+
+
 @pytest.mark.slow
+@pytest.mark.usefixtures("sigint_raises")
 def test_ctrl_c_at_any_moment_parks_the_arm(tmp_path, monkeypatch, capsys):
     arms: list[servo_bus.SimArm] = []
     real_init = servo_bus.SimArm.__init__
