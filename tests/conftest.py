@@ -4,8 +4,10 @@ from __future__ import annotations
 
 import os
 import shutil
+import signal
 import subprocess
 import sys
+import time
 from pathlib import Path
 from typing import Any, NoReturn
 
@@ -143,6 +145,24 @@ def run_cli(*args: str, timeout: float = 60, cwd: Path = ROOT) -> subprocess.Com
 #: The start of every skip reason for a system tool that is not installed; the summary
 #: gathers them (pytest_terminal_summary) and `make system-deps` installs them all.
 MISSING = "needs a system tool: "
+
+
+def interrupted_experiment(args: list[object], log: Path, after: int = 2) -> tuple[int, str]:
+    """``mearm experiment ARGS`` in a session of its own, Ctrl-C to its whole process group
+    (its workers too, as a terminal sends it) once ``after`` trials are in ``log``:
+    (exit status, stderr). Bounded by generous timeouts: a hang is the failure."""
+    cmd = [sys.executable, "-m", "mearm", "experiment", *map(str, args)]
+    proc = subprocess.Popen(
+        cmd, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True
+    )
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and proc.poll() is None:
+        if log.exists() and log.read_bytes().count(b'"type":"summary"') >= after:
+            break
+        time.sleep(0.01)
+    os.killpg(proc.pid, signal.SIGINT)
+    _, err = proc.communicate(timeout=120)
+    return proc.returncode, err.decode(errors="replace")
 
 
 def missing_tool(what: str) -> NoReturn:

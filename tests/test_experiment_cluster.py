@@ -1,16 +1,11 @@
 """Sweeps on Dask (`mearm experiment --scheduler`): the log the process pool writes."""
 
 import json
-import os
 import re
-import signal
-import subprocess
-import sys
-import time
 from pathlib import Path
 
 import pytest
-from conftest import ROOT, run_cli
+from conftest import interrupted_experiment, run_cli
 from test_sweeps import experiment, records
 
 from mearm.runlog import read_runlog
@@ -62,19 +57,9 @@ def test_ctrl_c_on_a_local_dask_cluster_keeps_the_trials_in_order_and_the_log_re
     it with the serial run's records."""
     log = tmp_path / "trials.jsonl"
     args = ["--config", "configs/sim.yaml", "--trials", 12, "--log", log, "--scheduler", "local"]
-    cmd = [sys.executable, "-m", "mearm", "experiment", *map(str, args)]
-    proc = subprocess.Popen(
-        cmd, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True
-    )
-    deadline = time.monotonic() + 120
-    while time.monotonic() < deadline and proc.poll() is None:
-        if log.exists() and log.read_bytes().count(b'"type":"summary"') >= 2:
-            break
-        time.sleep(0.01)
-    os.killpg(proc.pid, signal.SIGINT)
-    _, err = proc.communicate(timeout=120)
-    assert proc.returncode == 130, err
-    assert b"Traceback" not in err, err.decode()
+    code, err = interrupted_experiment(args, log)
+    assert code == 130, err
+    assert "Traceback" not in err, err
     contents = read_runlog(log)
     assert contents.problem is None
     got = [(t.number, t.complete) for t in contents.trials]

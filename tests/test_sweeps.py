@@ -1,16 +1,12 @@
 """Sweeps in worker processes: the same seeds give the same outcomes whatever --jobs."""
 
 import json
-import os
 import re
-import signal
 import subprocess
-import sys
-import time
 from pathlib import Path
 
 import pytest
-from conftest import ROOT, run_cli
+from conftest import interrupted_experiment, run_cli
 
 from mearm.runlog import read_runlog
 
@@ -105,18 +101,8 @@ def test_ctrl_c_keeps_every_finished_trial_in_order_and_the_log_resumes(tmp_path
     exit 130, every trial in the log complete and in order, and the same command finishes."""
     log = tmp_path / "trials.jsonl"
     args = ["--config", "configs/sim.yaml", "--trials", 30, "--log", log, "--jobs", 2]
-    cmd = [sys.executable, "-m", "mearm", "experiment", *map(str, args)]
-    proc = subprocess.Popen(
-        cmd, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True
-    )
-    deadline = time.monotonic() + 120
-    while time.monotonic() < deadline and proc.poll() is None:
-        if log.exists() and log.read_bytes().count(b'"type":"summary"') >= 2:
-            break
-        time.sleep(0.01)
-    os.killpg(proc.pid, signal.SIGINT)
-    proc.communicate(timeout=120)
-    assert proc.returncode == 130
+    code, _ = interrupted_experiment(args, log)
+    assert code == 130
     contents = read_runlog(log)
     assert contents.problem is None
     got = [(t.number, t.complete) for t in contents.trials]
