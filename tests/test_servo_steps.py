@@ -47,9 +47,12 @@ def test_each_joint_reaches_its_step_and_the_plot_is_drawn(tmp_path):
     [
         (("--degrees", "0"), "--degrees must be in (0, 90]"),
         (("--before", "missing.csv"), "--before missing.csv"),
+        (("--before", "empty.csv"), "--before empty.csv: no responses in it"),
+        (("--csv", "empty.csv/steps.csv"), "--csv empty.csv/steps.csv: not a file in an"),
     ],
 )
 def test_bad_input_is_named(tmp_path, args, says):
+    (tmp_path / "empty.csv").touch()
     done = subprocess.run(
         [sys.executable, str(TOOL), *args], capture_output=True, text=True, cwd=tmp_path
     )

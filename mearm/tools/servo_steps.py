@@ -58,12 +58,15 @@ def read_rows(path: Path) -> Rows:
     """Rows of a CSV this script wrote."""
     try:
         with path.open(newline="") as f:
-            return [
+            rows = [
                 (r["joint"], float(r["step_deg"]), float(r["t_s"]), float(r["angle_deg"]))
                 for r in csv.DictReader(f)
             ]
-    except (OSError, KeyError, ValueError) as exc:
+    except (OSError, KeyError, ValueError, UnicodeDecodeError) as exc:
         raise MearmError(f"--before {path}: not a CSV this script wrote ({exc})") from exc
+    if not rows:
+        raise MearmError(f"--before {path}: no responses in it")
+    return rows
 
 
 def csv_text(rows: Rows) -> str:
@@ -113,6 +116,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if any(not 0 < d <= 90 for d in args.degrees):
         raise MearmError("--degrees must be in (0, 90]")
+    for flag, path in (("--csv", args.csv), ("--out", args.out)):
+        if path is not None and (path.is_dir() or not path.resolve().parent.is_dir()):
+            raise MearmError(f"{flag} {path}: not a file in an existing folder")
     before = read_rows(args.before) if args.before else []
     args.config = args.config or DEFAULT_CONFIG
     rows = responses(config_from_args(args), args.degrees)
