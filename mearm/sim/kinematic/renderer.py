@@ -26,6 +26,7 @@ as the paper's was measured on the objects (paper §4), so there is no parallax 
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 
@@ -181,7 +182,9 @@ class TableRenderer:
         v = np.arange(h, dtype=float)[:, None]
         ramp = (u / max(w - 1, 1) + v / max(h - 1, 1) - 1.0).astype(np.float32)
         self._light = (self.brightness * (1.0 + self.gradient * ramp))[..., None]
-        background = self._make_texture()
+        background = _texture(self.size, self.table, self.seed)
+        if any(isinstance(e, Paper) for e in self.extras):
+            background = background.copy()  # the shared texture stays as it is
         for e in self.extras:
             if isinstance(e, Paper):
                 self._paper(background, e)
@@ -227,28 +230,6 @@ class TableRenderer:
         y = (H[1, 0] * u + H[1, 1] * v + H[1, 2]) / den
         return x.astype(np.float32), y.astype(np.float32)
 
-    def _lowfreq(self, rng: np.random.Generator, cells: tuple[int, int]) -> np.ndarray:
-        h, w = self.size
-        grid = rng.standard_normal(cells).astype(np.float32)
-        return cv2.resize(grid, (w, h), interpolation=cv2.INTER_CUBIC)
-
-    def _make_texture(self) -> np.ndarray:
-        rng = np.random.default_rng([self.seed, 7])
-        h, w = self.size
-        if self.table == "grey":
-            shade = 1.0 + 0.04 * self._lowfreq(rng, (8, 10)) + 0.02 * self._lowfreq(rng, (48, 64))
-            base = np.array(GREY_BGR, np.float32)
-        else:
-            # Grain: bands across the image, wavy, of varying darkness.
-            v = np.arange(h, dtype=np.float32)[:, None]
-            warp = 6.0 * self._lowfreq(rng, (4, 6)) + 2.0 * self._lowfreq(rng, (12, 16))
-            phase = 2 * np.pi * (v + warp) / 23.0
-            grain = 0.5 + 0.5 * np.sin(phase + 0.8 * np.sin(phase / 3.1))
-            shade = 1.0 - 0.14 * grain**3 + 0.03 * self._lowfreq(rng, (60, 80))
-            shade += 0.05 * self._lowfreq(rng, (6, 8))
-            base = np.array(WOOD_BGR, np.float32)
-        return shade[..., None] * base
-
     def render(self, discs: Iterable[Disc], frame_index: int = 0) -> np.ndarray:
         """One frame with ``discs`` (and the renderer's extras) on the table.
 
@@ -291,10 +272,7 @@ class TableRenderer:
         h, w = self.size
         n = h * w * 3
         if self._noise_bank is None:
-            rng = np.random.default_rng([self.seed, 11])
-            bank = rng.standard_normal(n + self.NOISE_SPARE, dtype=np.float32)
-            bank *= np.float32(self.noise_std)
-            self._noise_bank = bank
+            self._noise_bank = _noise_bank(n + self.NOISE_SPARE, self.noise_std, self.seed)
         start = int(np.random.default_rng([self.seed, int(frame_index)]).integers(self.NOISE_SPARE))
         return self._noise_bank[start : start + n].reshape(h, w, 3)
 
@@ -368,3 +346,41 @@ class TableRenderer:
         tone = shade.reshape(bh, n, bw, n).mean(axis=(1, 3)).astype(np.float32)
         color = np.array(d.bgr, np.float32)
         return roi, (1.0 - cover)[..., None], tone[..., None] * color
+
+
+# A renderer's table texture and noise depend only on these arguments; every renderer of
+# one camera (a sort opens one per run, a suite or a sweep hundreds) shares them, read-only.
+@functools.lru_cache(maxsize=4)
+def _texture(size: tuple[int, int], table: str, seed: int) -> np.ndarray:
+    """The table's texture [8-bit levels], (H, W, 3) float32, before light; read-only."""
+    rng = np.random.default_rng([seed, 7])
+    h, w = size
+
+    def lowfreq(cells: tuple[int, int]) -> np.ndarray:
+        grid = rng.standard_normal(cells).astype(np.float32)
+        return cv2.resize(grid, (w, h), interpolation=cv2.INTER_CUBIC)
+
+    if table == "grey":
+        shade = 1.0 + 0.04 * lowfreq((8, 10)) + 0.02 * lowfreq((48, 64))
+        base = np.array(GREY_BGR, np.float32)
+    else:
+        # Grain: bands across the image, wavy, of varying darkness.
+        v = np.arange(h, dtype=np.float32)[:, None]
+        warp = 6.0 * lowfreq((4, 6)) + 2.0 * lowfreq((12, 16))
+        phase = 2 * np.pi * (v + warp) / 23.0
+        grain = 0.5 + 0.5 * np.sin(phase + 0.8 * np.sin(phase / 3.1))
+        shade = 1.0 - 0.14 * grain**3 + 0.03 * lowfreq((60, 80))
+        shade += 0.05 * lowfreq((6, 8))
+        base = np.array(WOOD_BGR, np.float32)
+    texture = shade[..., None] * base
+    texture.flags.writeable = False
+    return texture
+
+
+@functools.lru_cache(maxsize=4)
+def _noise_bank(n: int, noise_std: float, seed: int) -> np.ndarray:
+    """``n`` Gaussian noise values of ``noise_std`` [8-bit levels], float32; read-only."""
+    bank = np.random.default_rng([seed, 11]).standard_normal(n, dtype=np.float32)
+    bank *= np.float32(noise_std)
+    bank.flags.writeable = False
+    return bank
