@@ -87,12 +87,14 @@ def run_stall_test(config, n, seed=12):
 
 
 @pytest.mark.slow
-def test_default_solver_never_stalls_on_20000_targets():
-    """The paper arm, 20,000 reachable targets (limit-adjacent ones included): 0 stalls,
+@pytest.mark.parametrize("part", range(4))
+def test_default_solver_never_stalls_on_20000_targets(part):
+    """The paper arm, 20,000 reachable targets (limit-adjacent ones included) in four
+    parts of 5,000, each from a seed of its own (so that two workers share them): 0 stalls,
     0 poses outside the limits or off the coupling."""
-    stalls, violations, recovered = run_stall_test(Config(), 20_000)
+    stalls, violations, recovered = run_stall_test(Config(), 5_000, seed=12 + part)
     assert stalls == [] and violations == []
-    assert recovered > 100  # PD-PIJ alone stalls on a few percent: the recovery ran
+    assert recovered > 25  # PD-PIJ alone stalls on a few percent: the recovery ran
 
 
 @pytest.mark.heavy
