@@ -12,7 +12,13 @@ from mearm.analysis.paths import SolvedRoute
 from mearm.config import Config
 from mearm.kinematics import ArmModel, closed_form_for
 
-matplotlib_image = pytest.importorskip("matplotlib.image")
+
+@pytest.fixture(autouse=True)
+def _matplotlib() -> None:
+    """Skip without the plots extra; imported when a test runs, not in every worker's
+    collection."""
+    pytest.importorskip("matplotlib.image")
+
 
 BLUE = (0x31, 0x82, 0xBD)  # first series / histogram edges
 ORANGE = (0xE6, 0x55, 0x0D)  # second series
@@ -22,6 +28,8 @@ GREEN = (0x31, 0xA3, 0x54)  # success bars
 
 def read_png(path: Path) -> np.ndarray:
     assert path.is_file() and path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    from matplotlib import image as matplotlib_image
+
     image = matplotlib_image.imread(path)  # (H, W, 4) floats in [0, 1]
     assert image.ndim == 3 and image.shape[0] > 300 and image.shape[1] > 500
     rgb = (image[..., :3] * 255).round()

@@ -9,6 +9,7 @@ round a circle, and no module imports one of a higher layer (:data:`LAYERS`).
 from __future__ import annotations
 
 import ast
+import functools
 from pathlib import Path
 
 from conftest import ROOT
@@ -38,7 +39,11 @@ def _name(path: Path) -> str:
 
 
 MODULES = {_name(p): p for p in PACKAGE.rglob("*.py")}
-TREES = {name: ast.parse(path.read_text(encoding="utf-8")) for name, path in MODULES.items()}
+
+
+@functools.cache
+def _tree(name: str) -> ast.Module:
+    return ast.parse(MODULES[name].read_text(encoding="utf-8"))
 
 
 def _module(dotted: str) -> str:
@@ -50,10 +55,11 @@ def _module(dotted: str) -> str:
     return dotted
 
 
+@functools.cache
 def _reexports(package: str) -> dict[str, str]:
     """Names a package's ``__init__`` takes from its modules: name → module."""
     out = {}
-    for node in ast.walk(TREES[package]):
+    for node in ast.walk(_tree(package)):
         if isinstance(node, ast.ImportFrom) and (node.module or "").startswith("mearm"):
             for alias in node.names:
                 out[alias.asname or alias.name] = _module(str(node.module))
@@ -63,7 +69,7 @@ def _reexports(package: str) -> dict[str, str]:
 def _arrows(name: str) -> set[str]:
     """The mearm modules ``name`` imports, names followed to where they are defined."""
     out = set()
-    for node in ast.walk(TREES[name]):
+    for node in ast.walk(_tree(name)):
         if isinstance(node, ast.Import):
             out |= {_module(a.name) for a in node.names if a.name.startswith("mearm")}
         elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
@@ -82,7 +88,10 @@ def _arrows(name: str) -> set[str]:
     return out
 
 
-GRAPH = {name: _arrows(name) for name in MODULES}
+@functools.cache
+def graph() -> dict[str, set[str]]:
+    """Every module's arrows; built when a test asks (not in every worker's collection)."""
+    return {name: _arrows(name) for name in MODULES}
 
 
 def _layer(name: str) -> int:
@@ -112,7 +121,7 @@ def test_no_import_circles():
         index[v] = low[v] = len(index)
         stack.append(v)
         on_stack.add(v)
-        for w in GRAPH[v]:
+        for w in graph()[v]:
             if w not in index:
                 visit(w)
                 low[v] = min(low[v], low[w])
@@ -129,7 +138,7 @@ def test_no_import_circles():
             if len(component) > 1:
                 circles.append(sorted(component))
 
-    for v in sorted(GRAPH):
+    for v in sorted(graph()):
         if v not in index:
             visit(v)
     assert circles == []
@@ -140,7 +149,7 @@ def test_no_module_imports_a_higher_layer():
     backends, the task or the commands; nothing imports a command."""
     up = sorted(
         f"{a} -> {b}"
-        for a, targets in GRAPH.items()
+        for a, targets in graph().items()
         if a != "mearm"
         for b in targets
         if b != "mearm" and _layer(b) > _layer(a)
@@ -156,7 +165,7 @@ def test_each_simulator_stands_alone():
     crossing = sorted(
         f"{a} -> {b}"
         for kind, allowed in kinds.items()
-        for a, targets in GRAPH.items()
+        for a, targets in graph().items()
         if a == kind or a.startswith(kind + ".")
         for b in targets
         if b.startswith("mearm.sim.")
