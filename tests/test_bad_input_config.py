@@ -435,6 +435,17 @@ SET_CASES = {
     "qp_solver_junk": ("controller.qp_solver='../../etc'", "controller.qp_solver"),
     "pick_retries_huge": ("task.pick_retries=1000000", "task.pick_retries"),
     "scene_color_unknown": ("task.scene=[{color: purple, x: 0, y: 40}]", "not a class"),
+    # classes are a colour, a shape of the catalogue, or both
+    "shape_unknown": (
+        "task.classes.red.shape=hexagon",
+        "task.classes.0.shape: no shape 'hexagon'; the catalogue has: cylinder, cube, prism",
+    ),
+    "class_neither_colour_nor_shape": (
+        "task.classes.green.hue_bands_deg=null",
+        "task.classes.1: class 'green' has neither a colour nor a shape: give it hue_bands_deg, "
+        "a shape (cylinder, cube, prism), or both",
+    ),
+    "scene_yaw_past_a_turn": ("task.scene.0.yaw_deg=400", "task.scene.0.yaw_deg"),
     # a servo over a combination of joints (arm.joints[].servo.drives)
     "drives_missing_joint": (
         "arm.joints.elbow.servo.drives={terms: {knee: 1}}",
