@@ -491,6 +491,17 @@ def test_bad_set_is_refused(name: str, tmp_path: Path) -> None:
     assert words in out.line
 
 
+@bad_input
+def test_a_cube_the_open_jaws_cannot_pass_is_refused(tmp_path: Path) -> None:
+    """A cube whose diagonal is as wide as the open jaws: exit 2, one line with both widths."""
+    sets = ["--set", "task.classes.red.shape=cube", "--set", "task.classes.red.diameter_cm=3"]
+    out = check_bad_input(command("sort", tmp_path, *sets), within_s=2, keep=[CONFIGS])
+    assert (
+        "task.classes.0.diameter_cm: a 3 cm cube is 4.24 cm across its diagonal, not less "
+        "than the open jaws' 4 cm (arm.tool.gripper.open_cm)"
+    ) in out.line
+
+
 #: A MeArm v1 whose servos' combinations are dependent in threes: (shoulder + elbow)
 #: and 2·(shoulder + elbow); the message names the later one and the one it repeats.
 _SHOULDER = "servo: {channel: 1, zero_us: 2255.5, direction: -1, us_per_unit: 11.0, "

@@ -63,13 +63,16 @@ def test_every_shape_is_told_at_every_size_and_yaw(sweep: list) -> None:
 
 
 def test_a_cubes_yaw_comes_from_its_outline(sweep: list) -> None:
-    """The yaw of a cube's sides on the table, modulo 90°, within 3° of the drawn one."""
+    """The yaw of a cube's sides on the table, modulo 90°, within 5° of the drawn one.
+
+    (The sweep of docs/vision.md measures at most 4.1° over 800 cubes of 1–3 cm.)
+    """
     cubes = [(disc, _nearest(disc, found)) for disc, found in sweep if disc.shape == "cube"]
     assert len(cubes) == 24
     for disc, d in cubes:
         yaw = table_yaw_deg(CAL.pixel_to_table, d.centroid_px, d.yaw_px_deg)
         err = (yaw - disc.yaw_deg + 45.0) % 90.0 - 45.0
-        assert abs(err) < 3.0, (disc, yaw)
+        assert abs(err) < 5.0, (disc, yaw)
     others = [_nearest(disc, found) for disc, found in sweep if disc.shape != "cube"]
     assert all(d.yaw_px_deg is None for d in others)
 

@@ -111,6 +111,30 @@ class Config(Strict):
         return self
 
     @model_validator(mode="after")
+    def _jaws_pass_every_yaw(self) -> Config:
+        """The open jaws must come down around a cube or a prism at any yaw.
+
+        The jaws close along a direction fixed to the wrist, and the sort does not turn
+        it to an object's faces (a wrist roll stays at its home angle), so a cube may lie
+        across the jaws at 45°: its diagonal must pass between them. Closing then turns
+        it onto its faces (the twin shows it).
+        """
+        g = self.arm.tool.gripper
+        for i, c in enumerate(self.task.classes):
+            shape = c.object_shape
+            widest = shape.widest_cm(c.diameter_cm)
+            if shape.footprint != "disc" and widest >= g.open_cm:
+                across = "its diagonal" if shape.footprint == "square" else "a side"
+                raise ValueError(
+                    f"@task.classes.{i}.diameter_cm: a {c.diameter_cm:g} cm {shape.name} is "
+                    f"{widest:.3g} cm across {across}, not less than the open jaws' "
+                    f"{g.open_cm:g} cm (arm.tool.gripper.open_cm): the sort does not turn the "
+                    "jaws to its faces, so they must pass it at any yaw; use smaller objects "
+                    "or a wider-opening gripper"
+                )
+        return self
+
+    @model_validator(mode="after")
     def _names_known(self) -> Config:
         actuated = [j.name for j in self.arm.actuated_joints()]
         for name in self.servo.error_model.offset_deg:

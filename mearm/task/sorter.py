@@ -293,7 +293,7 @@ class Sorter:
         for o in others:
             if o is obj:
                 continue
-            r = self.config.task.class_named(o.class_name).diameter_cm / 2
+            r = self.config.task.class_named(o.class_name).footprint_radius_cm
             if np.hypot(o.x_cm - obj.x_cm, o.y_cm - obj.y_cm) < reach + r:
                 return False
         return True
