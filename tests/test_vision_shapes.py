@@ -182,3 +182,33 @@ def test_a_class_without_a_shape_has_cylinders() -> None:
     cube = _class("c", 0, shape="cube", diameter_cm=2.0, **RED)
     assert cube.footprint_radius_cm == pytest.approx(math.sqrt(2))
     assert cube.object_shape.widest_cm(2.0) == pytest.approx(2 * math.sqrt(2))
+
+
+def test_shape_sweep_prints_its_table(capsys) -> None:
+    """mearm shape-sweep over one frame: every shape's row, and all right (exit 0)."""
+    from mearm.tools import shape_sweep
+
+    assert shape_sweep.main(["--objects", "24", "--seed", "3"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0].startswith("shape ") and len(lines) == 5
+    assert [line.split()[:4] for line in lines[1:4]] == [
+        [name, "8", "8", "8"] for name in ("cylinder", "cube", "prism")
+    ]
+    assert lines[-1] == "24 of 24 objects found once with the right shape"
+
+
+@pytest.mark.bad_input
+@pytest.mark.parametrize(
+    ("args", "words"),
+    [
+        (["--objects", "0"], "--objects must be in [1, 100000], got 0"),
+        (["--min-cm", "3", "--max-cm", "2"], "sizes must satisfy 0.5 <= --min-cm <= --max-cm"),
+        (["--seed", "-1"], "--seed must be in [0, 2^32), got -1"),
+    ],
+)
+def test_shape_sweep_refuses_bad_arguments(args: list[str], words: str) -> None:
+    """Out-of-range counts, sizes or seeds: exit 2 and one line naming them."""
+    from badinput import check_bad_input
+
+    out = check_bad_input(["shape-sweep", *args], within_s=2)
+    assert words in out.line
