@@ -212,3 +212,24 @@ def test_shape_sweep_refuses_bad_arguments(args: list[str], words: str) -> None:
 
     out = check_bad_input(["shape-sweep", *args], within_s=2)
     assert words in out.line
+
+
+def test_a_class_of_any_colour_takes_its_shape_in_every_hue() -> None:
+    """A shape-only class on a grey table: prisms of any hue are its.
+
+    The red 2 cm cube is too large for one 2 cm prism (1.6 × its area): flagged merged,
+    its shape untold, it goes to the colour's first class, which the sort does not pick.
+    """
+    classes = [_class("prism", 0, shape="prism", draw_rgb=[1, 2, 3])]
+    discs = [
+        Disc((30, 200, 230), -6.0, 45.0, 2.0, "prism", 10.0),  # yellow
+        Disc((200, 60, 35), 0.0, 45.0, 2.0, "prism", 80.0),  # blue
+        Disc((35, 30, 200), 6.0, 45.0, 2.0, "cube", 30.0),  # red
+    ]
+    frame = TableRenderer(CAL, table="grey").render(discs)
+    found = ColorDetector(CONFIG.vision, CAL, classes).detect(frame)
+    whole = [d for d in found if not d.merged]
+    assert [(d.color, d.shape) for d in whole] == [("prism", "prism")] * 2
+    assert sorted(round(float(d.table_cm[0])) for d in whole) == [-6, 0]
+    (cube,) = [d for d in found if d.merged]
+    assert cube.shape is None and round(float(cube.table_cm[0])) == 6

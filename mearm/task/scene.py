@@ -1,6 +1,7 @@
 """Simulated table layouts: scene files and random scenes.
 
-A scene is a list of ``{color, x, y}`` objects in the base frame [cm]. Random scenes put
+A scene is a list of ``{color, x, y}`` objects in the base frame [cm] (and ``yaw_deg``,
+the turn of a cube or a prism; its shape is its class's). Random scenes put
 objects at least 1 cm apart (edge to edge, so centres at least 3 cm apart for the paper's
 2 cm discs) where the camera sees them whole and the arm can pick them.
 """
@@ -35,6 +36,8 @@ class SceneError(MearmError):
 
 def load_scene(path: str | Path, class_names: Sequence[str] | None = None) -> list[SceneObject]:
     """Read a scene file: a YAML list of ``{color, x, y}`` [cm], ``color`` a class name.
+
+    Each entry may also give ``yaw_deg``, its turn about the vertical [deg].
 
     Args:
         path: The file.
