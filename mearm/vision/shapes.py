@@ -116,8 +116,6 @@ class ClassMatcher:
             else:
                 own = set(members) | set(anyhue)
                 self.candidates[colour] = tuple(c.name for c in self.classes if c.name in own)
-        #: Whether any class names a shape (else every region is its colour's class).
-        self.uses_shapes = any(c.shape is not None for c in self.classes)
         self._shape = {c.name: c.shape for c in self.classes}
 
     def match(self, colour: str, shape: str | None) -> str | None:
