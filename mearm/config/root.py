@@ -114,10 +114,11 @@ class Config(Strict):
     def _jaws_pass_every_yaw(self) -> Config:
         """The open jaws must come down around a cube or a prism at any yaw.
 
-        The jaws close along a direction fixed to the wrist, and the sort does not turn
-        it to an object's faces (a wrist roll stays at its home angle), so a cube may lie
-        across the jaws at 45°: its diagonal must pass between them. Closing then turns
-        it onto its faces (the twin shows it).
+        Only an arm with a wrist roll turns its jaws to a cube's faces
+        (:meth:`mearm.task.plan.Planner.turn_jaws`), and a turn past its limits or into
+        something is refused; otherwise the jaws close along a direction fixed to the
+        wrist and a cube may lie across them at 45°: its diagonal must pass between them
+        on every arm. Closing then turns it onto its faces (the twin shows it).
         """
         g = self.arm.tool.gripper
         for i, c in enumerate(self.task.classes):
@@ -128,9 +129,9 @@ class Config(Strict):
                 raise ValueError(
                     f"@task.classes.{i}.diameter_cm: a {c.diameter_cm:g} cm {shape.name} is "
                     f"{widest:.3g} cm across {across}, not less than the open jaws' "
-                    f"{g.open_cm:g} cm (arm.tool.gripper.open_cm): the sort does not turn the "
-                    "jaws to its faces, so they must pass it at any yaw; use smaller objects "
-                    "or a wider-opening gripper"
+                    f"{g.open_cm:g} cm (arm.tool.gripper.open_cm): the open jaws must pass it "
+                    "at any yaw (they turn to its faces only where a wrist roll can); use "
+                    "smaller objects or a wider-opening gripper"
                 )
         return self
 

@@ -114,10 +114,10 @@ shape no class of its colour has is no object of the task. `diameter_cm` is a cy
 diameter, a cube's or a prism's side. A class without a shape has cylinders in the
 simulators. A class without `hue_bands_deg` takes every pixel that passes the `vision`
 floors and no other class's band: a wooden table (hue ≈ 30°, S ≈ 0.5) passes the default
-floors, so use it on a grey or white table, or give the class its bands. The sort does
-not turn the jaws to an object's faces (a wrist roll stays at its home angle), so a
-cube's diagonal (a prism's side) must be less than `arm.tool.gripper.open_cm`; a larger
-one is refused when the config loads.
+floors, so use it on a grey or white table, or give the class its bands. An arm with a
+wrist roll turns its jaws to a cube's faces; elsewhere a cube may lie across the jaws,
+so a cube's diagonal (a prism's side) must be less than `arm.tool.gripper.open_cm` on
+every arm; a larger one is refused when the config loads.
 How the detector tells the shapes apart: [Vision](vision.md#shapes).
 """
 
