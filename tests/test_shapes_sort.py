@@ -113,6 +113,8 @@ def test_the_wrist_roll_turns_the_jaws_to_a_cubes_faces() -> None:
         assert turn <= 45.0 + 1e-9
     _, paper = _planner("sim")
     assert paper.roll_joint(paper.model.home) is None
+    with pytest.raises(ValueError, match="symmetry_deg must be in"):
+        planner.turn_jaws(route, 0.0, 0.0)
 
 
 @pytest.mark.slow

@@ -187,6 +187,8 @@ class Planner:
             unchanged) for an unplanned route, an arm without such a joint, or a turn
             that is refused.
         """
+        if not 0.0 < symmetry_deg <= 360.0:
+            raise ValueError(f"symmetry_deg must be in (0, 360], got {symmetry_deg}")
         plan = route.plan
         if not route.planned or plan is None:
             return False

@@ -35,6 +35,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from mearm.config import Config
+from mearm.config.shapes import SHAPES
 from mearm.errors import MearmError
 from mearm.hardware.bus import ReportsRelease, ServoBus
 from mearm.hardware.errors import ServoError
@@ -338,7 +339,8 @@ class Sorter:
         self._world()
         above = self._approach(obj, pick)  # planned in full with the pick, before either
         if above is not None and obj.yaw_deg is not None:  # jaws across a cube's faces
-            self.planner.turn_jaws(above, obj.yaw_deg, cls.object_shape.symmetry_deg)
+            # (the yaw is a square outline's, whatever shape the class names)
+            self.planner.turn_jaws(above, obj.yaw_deg, SHAPES["cube"].symmetry_deg)
         if above is None:
             self.planner.plan(pick, ex.q_now(), target=obj.id)
         elif above.planned and above.plan is not None:
