@@ -67,6 +67,10 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
         "mearm.tools.vision_bench",
         "the detector's timings and accuracy on rendered scenes, beside its peers",
     ),
+    "shape-sweep": (
+        "mearm.tools.shape_sweep",
+        "how well the detector tells the shapes apart at every size and yaw",
+    ),
     "config-docs": (
         "mearm.tools.config_docs",
         "write the configuration reference (docs/configuration.md) from the schema",

@@ -6,11 +6,16 @@ Examples::
     python -m mearm.detect --config configs/sim.yaml --camera --annotate out.png
 
 With ``--json`` each image gives one line: a JSON list of
-``{"color", "px": [u, v], "cm": [x, y], "area_px", "merged"}`` (``color`` is the class
-name), in the detector's order (the classes of ``task.classes`` in order; each by image
-row). ``--annotate OUT.png`` draws each region's contour, centroid, class and table
-position in its class's ``draw_rgb`` (each label once, on a filled box); with several
-images the i-th (from 0, in the order given) goes to ``OUT-i.png``. A missing or
+``{"color", "px": [u, v], "cm": [x, y], "area_px", "merged", "cut", "shape", "yaw_deg"}``
+(``color`` is the class name), in the detector's order (the classes of ``task.classes``
+in order; each by image row). ``cut``: the region touches the image border, so only
+part of the object is seen (its centroid and shape are not to be trusted; the sort does
+not pick it until it is seen whole); ``shape``: the shape its outline has (``null``
+when merged or cut); ``yaw_deg``: a cube's sides' direction in the base frame, in
+[0, 90) (``null`` for other shapes). ``--annotate OUT.png`` draws each region's contour,
+centroid, class and table position in its class's ``draw_rgb`` (each label once, on a
+filled box); with several images the i-th (from 0, in the order given) goes to
+``OUT-i.png``. A missing or
 unreadable image stops the run before anything is printed: exit 2 with one line on
 stderr.
 """
@@ -19,7 +24,7 @@ from __future__ import annotations
 
 import json
 import sys
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 import cv2
@@ -32,6 +37,7 @@ from mearm.vision.calibration import camera_geometry
 from mearm.vision.detector import ColorDetector, Detection
 from mearm.vision.errors import ImageError
 from mearm.vision.image import quiet_opencv, read_image
+from mearm.vision.shapes import table_yaw_deg, touches_border
 
 #: Decoded frames kept between checking every image and detecting in each [px]; the
 #: images past it are decoded twice (checked, dropped, read again) to bound the memory.
@@ -68,22 +74,37 @@ def annotation_paths(out: Path, count: int) -> list[Path]:
     return [out.with_name(f"{out.stem}-{i}{out.suffix}") for i in range(count)]
 
 
-def to_records(detections: Sequence[Detection]) -> list[dict]:
-    """The JSON records of detections: class, pixel and table position, area, merged.
+def to_records(
+    detections: Sequence[Detection],
+    frame_shape: Sequence[int],
+    pixel_to_table: Callable[[np.ndarray], np.ndarray] | None = None,
+) -> list[dict]:
+    """The JSON records of detections: class, positions, area, merged, cut, shape, yaw.
 
     The table position is the detector's (``Detection.table_cm``): the centroid's under
     the paper's homography, the top face's centre under a perspective calibration.
+    ``cut``: the region touches the border of the frame of ``frame_shape`` (H, W, ...).
+    A cube's yaw is turned into the base frame by ``pixel_to_table`` (``None``: no yaw).
     """
-    return [
-        {
-            "color": d.color,
-            "px": [round(float(v), 3) for v in d.centroid_px],
-            "cm": None if d.table_cm is None else [round(float(v), 3) for v in d.table_cm],
-            "area_px": d.area_px,
-            "merged": d.merged,
-        }
-        for d in detections
-    ]
+    h, w = int(frame_shape[0]), int(frame_shape[1])
+    out = []
+    for d in detections:
+        yaw = None
+        if d.yaw_px_deg is not None and pixel_to_table is not None:
+            yaw = round(table_yaw_deg(pixel_to_table, d.centroid_px, d.yaw_px_deg), 2)
+        out.append(
+            {
+                "color": d.color,
+                "px": [round(float(v), 3) for v in d.centroid_px],
+                "cm": None if d.table_cm is None else [round(float(v), 3) for v in d.table_cm],
+                "area_px": d.area_px,
+                "merged": d.merged,
+                "cut": touches_border(d.bbox_px, w, h),
+                "shape": d.shape,
+                "yaw_deg": yaw,
+            }
+        )
+    return out
 
 
 #: Label text: font, scale, thickness [px] and the padding of its box [px].
@@ -148,9 +169,10 @@ def draw_label(
 
 
 def label_text(record: dict) -> str:
-    """A detection's label: class, table position [cm], ``merged`` if flagged."""
+    """A detection's label: class, table position [cm], ``merged`` and ``cut`` if flagged."""
     x_cm, y_cm = record["cm"]
-    return f"{record['color']} ({x_cm:.2f}, {y_cm:.2f})" + (" merged" if record["merged"] else "")
+    flags = "".join(f" {flag}" for flag in ("merged", "cut") if record[flag])
+    return f"{record['color']} ({x_cm:.2f}, {y_cm:.2f}){flags}"
 
 
 def annotate(
@@ -236,17 +258,20 @@ def main(argv: Sequence[str] | None = None) -> int:
                 file=sys.stderr,
             )
         detections = detector.detect(frame)
-        records = to_records(detections)
+        records = to_records(detections, frame.shape, calibration.pixel_to_table)
         if args.json:
             print(json.dumps(records))
         else:
             print(f"{name}: {len(records)} object(s)")
             for r in records:
                 (u, v), (x, y) = r["px"], r["cm"]
-                flag = "  merged" if r["merged"] else ""
+                flags = "".join(f"  {flag}" for flag in ("merged", "cut") if r[flag])
+                shape = r["shape"] or "?"
+                if r["yaw_deg"] is not None:
+                    shape += f" {r['yaw_deg']:.1f}°"
                 print(
                     f"  {r['color']:<{width}} px ({u:7.2f}, {v:7.2f})  cm ({x:7.2f}, {y:6.2f})"
-                    f"  area {r['area_px']:5d}{flag}"
+                    f"  area {r['area_px']:5d}  {shape}{flags}"
                 )
         if outs:
             drawn = annotate(frame, detector, records, detections)

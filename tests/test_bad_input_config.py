@@ -435,6 +435,17 @@ SET_CASES = {
     "qp_solver_junk": ("controller.qp_solver='../../etc'", "controller.qp_solver"),
     "pick_retries_huge": ("task.pick_retries=1000000", "task.pick_retries"),
     "scene_color_unknown": ("task.scene=[{color: purple, x: 0, y: 40}]", "not a class"),
+    # classes are a colour, a shape of the catalogue, or both
+    "shape_unknown": (
+        "task.classes.red.shape=hexagon",
+        "task.classes.0.shape: no shape 'hexagon'; the catalogue has: cylinder, cube, prism",
+    ),
+    "class_neither_colour_nor_shape": (
+        "task.classes.green.hue_bands_deg=null",
+        "task.classes.1: class 'green' has neither a colour nor a shape: give it hue_bands_deg, "
+        "a shape (cylinder, cube, prism), or both",
+    ),
+    "scene_yaw_past_a_turn": ("task.scene.0.yaw_deg=400", "task.scene.0.yaw_deg"),
     # a servo over a combination of joints (arm.joints[].servo.drives)
     "drives_missing_joint": (
         "arm.joints.elbow.servo.drives={terms: {knee: 1}}",
@@ -478,6 +489,17 @@ def test_bad_set_is_refused(name: str, tmp_path: Path) -> None:
     cmd = cmds[sum(map(ord, name)) % len(cmds)]
     out = check_bad_input(command(cmd, tmp_path, "--set", text), within_s=2, keep=[CONFIGS])
     assert words in out.line
+
+
+@bad_input
+def test_a_cube_the_open_jaws_cannot_pass_is_refused(tmp_path: Path) -> None:
+    """A cube whose diagonal is as wide as the open jaws: exit 2, one line with both widths."""
+    sets = ["--set", "task.classes.red.shape=cube", "--set", "task.classes.red.diameter_cm=3"]
+    out = check_bad_input(command("sort", tmp_path, *sets), within_s=2, keep=[CONFIGS])
+    assert (
+        "task.classes.0.diameter_cm: a 3 cm cube is 4.24 cm across its diagonal, not less "
+        "than the open jaws' 4 cm (arm.tool.gripper.open_cm)"
+    ) in out.line
 
 
 #: A MeArm v1 whose servos' combinations are dependent in threes: (shoulder + elbow)

@@ -18,7 +18,7 @@ def _annotated(objects):
     frame = TableRenderer(CAL).render(class_discs(CONFIG.task.classes, objects))
     detector = ColorDetector(CONFIG.vision, CAL, CONFIG.task.classes)
     found = detector.detect(frame)
-    records = detect.to_records(found)
+    records = detect.to_records(found, frame.shape)
     return frame, detect.annotate(frame, detector, records, found), records, found
 
 

@@ -53,13 +53,32 @@ def test_json_one_list_per_image(capsys, images: list[Path]) -> None:
     assert [r["color"] for r in layout] == ["red"] * 4 + ["green"] * 4 + ["blue"] * 4
     truth = {(o.color, o.x, o.y) for o in CONFIG.task.scene}
     for r in layout:
-        assert set(r) == {"color", "px", "cm", "area_px", "merged"}
+        assert set(r) == {"color", "px", "cm", "area_px", "merged", "cut", "shape", "yaw_deg"}
+        assert (r["cut"], r["shape"], r["yaw_deg"]) == (False, "cylinder", None)
         assert (
             min(np.hypot(r["cm"][0] - x, r["cm"][1] - y) for c, x, y in truth if c == r["color"])
             < 0.1
         )
         np.testing.assert_allclose(CAL.pixel_to_table(r["px"]), r["cm"], atol=2e-3)
         assert 700 < r["area_px"] < 900 and r["merged"] is False
+
+
+def test_objects_cut_by_the_border_are_flagged(capsys, tmp_path: Path) -> None:
+    """An object half out of the frame is reported ``cut`` (JSON, text), its shape untold."""
+    frame = TableRenderer(CAL).render(
+        class_discs(CONFIG.task.classes, [("red", -20.5, 45.0), ("green", 0.0, 45.0)])
+    )
+    path = tmp_path / "edge.png"
+    cv2.imwrite(str(path), frame)
+    code, out, _ = run_cli(capsys, "--json", str(path))
+    assert code == 0
+    red, green = json.loads(out)
+    assert (red["color"], red["cut"], red["shape"]) == ("red", True, None)
+    assert (green["color"], green["cut"], green["shape"]) == ("green", False, "cylinder")
+    code, out, _ = run_cli(capsys, str(path))
+    lines = out.splitlines()
+    assert lines[1].split()[0] == "red" and "  ?  " in lines[1] and lines[1].endswith("  cut")
+    assert lines[2].split()[0] == "green" and lines[2].endswith("  cylinder")
 
 
 def test_text_output(capsys, images: list[Path]) -> None:

@@ -1,17 +1,21 @@
-"""Colour classes as data: what to look for, how to draw it, where it goes.
+"""Object classes as data: what to look for, how to draw it, where it goes.
 
-Any number of named classes; each has its hue band(s) (a band with ``lo > hi`` wraps
-through 0°, as red does), the colour it is drawn in (simulated camera, 3-D view, plots),
-its bin, and the size of its objects. The sort takes the classes in the order listed.
+Any number of named classes; each is a colour (its hue band(s); a band with ``lo > hi``
+wraps through 0°, as red does), a shape of the catalogue (:mod:`mearm.config.shapes`),
+or both: "red", "cube", "red cube". Each has the colour its objects are drawn in
+(simulated camera, 3-D view, plots), its bin, and the size of its objects. The sort
+takes the classes in the order listed; a region the camera sees goes to the first class
+whose colour and shape it has.
 """
 
 from __future__ import annotations
 
 from typing import Annotated
 
-from pydantic import Field
+from pydantic import Field, field_validator, model_validator
 
 from mearm.config.base import Name, NonNegativeLength, Strict, Vector3
+from mearm.config.shapes import DEFAULT_SHAPE, SHAPE_NAMES, ShapeSpec, shape_named
 
 #: Object sizes [cm]: from a 1 mm bead to a 1 m box.
 OBJECT_SIZE_CM = (0.1, 100.0)
@@ -39,14 +43,20 @@ class HueBand(Strict):
 
 
 class ColorClass(Strict):
-    """One class of objects to sort.
+    """One class of objects to sort: a colour, a shape, or both.
 
     Attributes:
         name: The class's name (used in logs, scenes and the CLI).
-        hue_bands_deg: Hue intervals a pixel of this class falls in.
+        hue_bands_deg: Hue intervals a pixel of this class falls in; ``None``: any
+            colour (every pixel that passes the saturation and value floors and no band
+            of another class).
+        shape: The shape of its objects, a name of the catalogue
+            (:data:`~mearm.config.shapes.SHAPE_NAMES`); ``None``: any shape (the
+            simulators make its objects cylinders, the paper's).
         draw_rgb: The colour its objects are drawn in (sim camera, view, plots), 0–255.
         bin_cm: Where the TCP goes to drop an object of this class, base frame [cm].
-        diameter_cm: The objects' diameter [cm].
+        diameter_cm: The objects' size [cm]: a cylinder's diameter, a cube's side, a
+            prism's side.
         height_cm: The objects' height [cm].
         grip_height_cm: Height above the table at which the jaws close on one [cm]
             (default: half the height).
@@ -56,13 +66,42 @@ class ColorClass(Strict):
     """
 
     name: Name
-    hue_bands_deg: list[HueBand] = Field(min_length=1, max_length=MAX_HUE_BANDS)
+    hue_bands_deg: (
+        Annotated[list[HueBand], Field(min_length=1, max_length=MAX_HUE_BANDS)] | None
+    ) = None
+    shape: str | None = None
     draw_rgb: Rgb
     bin_cm: Vector3
     diameter_cm: ObjectSize = 2.0
     height_cm: ObjectSize = 1.0
     grip_height_cm: NonNegativeLength | None = None
     bin_width_cm: ObjectSize | None = None
+
+    @field_validator("shape")
+    @classmethod
+    def _in_catalogue(cls, name: str | None) -> str | None:
+        if name is not None:
+            shape_named(name)
+        return name
+
+    @model_validator(mode="after")
+    def _colour_or_shape(self) -> ColorClass:
+        if self.hue_bands_deg is None and self.shape is None:
+            raise ValueError(
+                f"class '{self.name}' has neither a colour nor a shape: give it "
+                f"hue_bands_deg, a shape ({', '.join(SHAPE_NAMES)}), or both"
+            )
+        return self
+
+    @property
+    def object_shape(self) -> ShapeSpec:
+        """The shape of this class's objects: its ``shape``, else a cylinder."""
+        return shape_named(self.shape or DEFAULT_SHAPE)
+
+    @property
+    def footprint_radius_cm(self) -> float:
+        """The radius of the smallest circle around one object's footprint [cm]."""
+        return self.object_shape.enclosing_radius_cm(self.diameter_cm)
 
     @property
     def bin_inner_width_cm(self) -> float:

@@ -89,6 +89,36 @@ the value. `arm.use` starts the arm afresh from its file: what an extended confi
 of its arm is dropped. Relative file paths stay relative to the config that wrote them.
 A config that extends itself (or a loop of them), a missing file and an unknown arm are
 refused with one line naming it. The built-in arm is `{default_arm}`.
+
+## Classes: a colour, a shape, or both
+
+Each class of `task.classes` names a colour (`hue_bands_deg`), a shape of the catalogue
+(`shape`: `cylinder`, `cube` or `prism`, an upright triangular prism), or both; a class
+with neither is refused. Red cubes and red cylinders into two bins
+(`configs/sim_shapes.yaml`):
+
+```yaml
+task:
+  classes:
+    - {{name: red_cube, shape: cube, hue_bands_deg: [{{lo_deg: 330, hi_deg: 15}}],
+       draw_rgb: [200, 30, 35], bin_cm: [-20, 45, 20], height_cm: 1.5}}
+    - {{name: red_cylinder, shape: cylinder, hue_bands_deg: [{{lo_deg: 330, hi_deg: 15}}],
+       draw_rgb: [200, 30, 35], bin_cm: [-20, 35, 20]}}
+  scene:
+    - {{color: red_cube, x: -0.4, y: 42.0, yaw_deg: 45}}   # a scene object's shape is its class's
+```
+
+A region the camera sees goes to the first class, in the order listed, whose colour it
+has (or which names none) and whose shape it has (or which names none); a region of a
+shape no class of its colour has is no object of the task. `diameter_cm` is a cylinder's
+diameter, a cube's or a prism's side. A class without a shape has cylinders in the
+simulators. A class without `hue_bands_deg` takes every pixel that passes the `vision`
+floors and no other class's band: a wooden table (hue ≈ 30°, S ≈ 0.5) passes the default
+floors, so use it on a grey or white table, or give the class its bands. An arm with a
+wrist roll turns its jaws to a cube's faces; elsewhere a cube may lie across the jaws,
+so a cube's diagonal (a prism's side) must be less than `arm.tool.gripper.open_cm` on
+every arm; a larger one is refused when the config loads.
+How the detector tells the shapes apart: [Vision](vision.md#shapes).
 """
 
 

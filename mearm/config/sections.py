@@ -9,6 +9,7 @@ from pydantic import Field, ValidationError, field_validator, model_validator
 from mearm.config.base import (
     MAX_ANGLE_DEG,
     MAX_LENGTH_CM,
+    Angle,
     Length,
     Name,
     NonNegativeLength,
@@ -343,11 +344,16 @@ class ServoConfig(Strict):
 
 
 class SceneObject(Strict):
-    """One object on the (simulated) table, base frame [cm]; ``color`` names its class."""
+    """One object on the (simulated) table, base frame [cm]; ``color`` names its class.
+
+    Its shape is its class's (:attr:`ColorClass.object_shape`); ``yaw_deg`` turns it
+    about the vertical (a cube's or a prism's faces; a cylinder looks the same) [deg].
+    """
 
     color: Name
     x: Length
     y: Length
+    yaw_deg: Angle = 0.0
 
 
 class TaskConfig(Strict):

@@ -325,12 +325,14 @@ def bin_shapes(config: Config, color: str) -> list[Shape]:
 
 
 def object_shape(config: Config, oid: str, color: str) -> Shape:
-    """A scene object: a cylinder of its class's size about its body's origin.
+    """A scene object as the planner sees it: a cylinder about its body's origin.
 
-    The origin stands :func:`object_centre_m` above the table.
+    The cylinder around its footprint (a cylinder's own; a cube's or a prism's enclosing
+    one, whatever its yaw), its class's height; the origin stands
+    :func:`object_centre_m` above the table.
     """
     c = config.task.class_named(color)
-    r, h = c.diameter_cm * M_PER_CM / 2, c.height_cm * M_PER_CM
+    r, h = c.footprint_radius_cm * M_PER_CM, c.height_cm * M_PER_CM
     return Shape(f"obj_{oid}", f"obj_{oid}", "cylinder", (r, h / 2), np.zeros(3), part="object")
 
 

@@ -6,6 +6,12 @@ the checks here (:attr:`Route.planned`); otherwise it carries a typed reason
 ``singular``, ``collision``; :attr:`Route.failure`: the line for people) and nothing of
 it moves.
 
+**Turning the jaws.** An arm with a joint that turns the jaws about a vertical approach
+axis without moving the TCP (a wrist roll) turns them, at the end of the route to above
+a cube, to close on two of its faces (:meth:`Planner.turn_jaws`); the turn is checked
+with the rest of the route, and an arm without such a joint, or a turn past the joint's
+limits or into something, keeps the jaws as they are.
+
 **Collisions.** With a :class:`~mearm.kinematics.collision.CollisionModel` (the sorter
 always gives one) the whole path is checked against the table, the bins and the objects
 on it (:meth:`~mearm.kinematics.collision.CollisionModel.first_contact`: nothing is
@@ -21,6 +27,7 @@ the pose; nothing of it is sent. A direct solve that stopped short (``limit``,
 from __future__ import annotations
 
 import dataclasses
+import math
 
 import numpy as np
 import numpy.typing as npt
@@ -31,6 +38,7 @@ from mearm.ik import IKFailure, IKResult, IKTarget, failure_of_error, make_solve
 from mearm.kinematics import ArmModel
 from mearm.kinematics.collision import CollisionModel, Contact
 from mearm.kinematics.errors import JointLimitError, TargetError
+from mearm.kinematics.urdf import jaw_frame
 from mearm.task.route import Route
 
 #: After a missed grip the TCP rises this much before the retry [cm].
@@ -67,6 +75,7 @@ class Planner:
         self.collision = collision
         self._servos = ServoMap.from_config(config)
         self._combination = self._servos.combination
+        self._jaw_across = jaw_frame(config.arm)[:, 1]  # the line the jaws open along
 
     # ----------------------------------------------------------------- targets
 
@@ -161,6 +170,105 @@ class Planner:
                 moved = _joint_move(self.model, result, np.asarray(target.position_cm, float))
                 return moved, self._outside_limits(moved.q_path)
         return result, failure
+
+    def turn_jaws(
+        self, route: Route, yaw_deg: float, symmetry_deg: float, *, target: str | None = None
+    ) -> bool:
+        """Turn the jaws, where ``route`` ends, to close across an object's faces.
+
+        The object's faces are perpendicular to ``yaw_deg`` + k·``symmetry_deg`` in the
+        table plane (a cube's: its yaw and every 90°). The jaws' joint (:meth:`roll_joint`)
+        is turned in place, in steps of at most 2°, by the least turn within its limits
+        that opens the jaws along one of those directions; the turn is appended to the
+        route's plan and checked with it (limits, pulse ranges, collisions).
+
+        Returns:
+            Whether the plan now ends with the jaws so turned; ``False`` (the plan
+            unchanged) for an unplanned route, an arm without such a joint, or a turn
+            that is refused.
+        """
+        if not 0.0 < symmetry_deg <= 360.0:
+            raise ValueError(f"symmetry_deg must be in (0, 360], got {symmetry_deg}")
+        plan = route.plan
+        if not route.planned or plan is None:
+            return False
+        found = self.roll_joint(plan.q)
+        if found is None:
+            return False
+        k, rate = found
+        chain = self.model.chain
+        a_end = chain.actuated_of(plan.q)
+        phi = self._opening_deg(plan.q)
+        lo, hi = chain.actuated_lower[k], chain.actuated_upper[k]
+        turns = []
+        for i in range(max(1, round(360.0 / symmetry_deg))):
+            delta = (yaw_deg + i * symmetry_deg - phi + 180.0) % 360.0 - 180.0
+            dq = np.deg2rad(delta) / rate
+            if lo <= a_end[k] + dq <= hi:
+                turns.append(dq)
+        if not turns:
+            return False
+        dq = min(turns, key=abs)
+        steps = max(1, int(np.ceil(abs(dq) / JOINT_MOVE_STEP_RAD)))
+        rows = []
+        for t in np.linspace(0.0, 1.0, steps + 1)[1:]:
+            a = a_end.copy()
+            a[k] += dq * t
+            rows.append(chain.full(a))
+        q_path = np.vstack([plan.q_path, rows])
+        if self._outside_limits(q_path) is not None:
+            return False
+        if self.collision is not None and self.collision.first_contact(q_path, target=target):
+            return False
+        ee = np.vstack([plan.ee_path_cm, [self.model.fk_cm(q) for q in rows]])
+        route.plan = dataclasses.replace(
+            plan,
+            q=q_path[-1],
+            q_path=q_path,
+            ee_path_cm=ee,
+            error_path_cm=np.linalg.norm(ee - plan.target_cm, axis=1),
+            iterations=plan.iterations + steps,
+        )
+        return True
+
+    def roll_joint(self, q: npt.ArrayLike) -> tuple[int, float] | None:
+        """The actuated joint that turns the jaws about a vertical approach axis, at ``q``.
+
+        One whose turn moves neither the TCP nor the approach axis but the line the jaws
+        open along, checked by a small turn at ``q``; with the approach axis within 8° of
+        vertical. Returns its index among the actuated joints and the turn of the opening
+        line per unit of the joint [-] (±1), or ``None``.
+        """
+        chain = self.model.chain
+        q0 = np.asarray(q, dtype=float)
+        p0, R0 = self.model.tcp_pose(q0)
+        a0 = R0 @ self.model.approach_axis
+        if abs(float(a0[2])) < math.cos(math.radians(8.0)):
+            return None
+        phi0 = self._opening_deg(q0)
+        eps = 1e-4
+        base = chain.actuated_of(q0)
+        for k in range(chain.m):
+            if chain.prismatic[chain.actuated_index[k]]:
+                continue
+            a = base.copy()
+            a[k] += eps
+            q1 = chain.full(a)
+            p1, R1 = self.model.tcp_pose(q1)
+            moved = (
+                np.linalg.norm(p1 - p0) > 1e-6
+                or np.linalg.norm(R1 @ self.model.approach_axis - a0) > 1e-6
+            )
+            turn = ((self._opening_deg(q1) - phi0 + 180.0) % 360.0 - 180.0) / np.rad2deg(eps)
+            if not moved and abs(abs(turn) - 1.0) < 1e-3:
+                return k, float(np.sign(turn))
+        return None
+
+    def _opening_deg(self, q: npt.ArrayLike) -> float:
+        """The direction the jaws open along, in the table plane, at ``q`` [deg]."""
+        _, R = self.model.tcp_pose(q)
+        o = R @ self._jaw_across
+        return math.degrees(math.atan2(float(o[1]), float(o[0])))
 
     def _describe(self, contact: Contact) -> str:
         chain = self.model.chain

@@ -1,6 +1,7 @@
 """Simulated table layouts: scene files and random scenes.
 
-A scene is a list of ``{color, x, y}`` objects in the base frame [cm]. Random scenes put
+A scene is a list of ``{color, x, y}`` objects in the base frame [cm] (and ``yaw_deg``,
+the turn of a cube or a prism; its shape is its class's). Random scenes put
 objects at least 1 cm apart (edge to edge, so centres at least 3 cm apart for the paper's
 2 cm discs) where the camera sees them whole and the arm can pick them.
 """
@@ -35,6 +36,8 @@ class SceneError(MearmError):
 
 def load_scene(path: str | Path, class_names: Sequence[str] | None = None) -> list[SceneObject]:
     """Read a scene file: a YAML list of ``{color, x, y}`` [cm], ``color`` a class name.
+
+    Each entry may also give ``yaw_deg``, its turn about the vertical [deg].
 
     Args:
         path: The file.
@@ -216,7 +219,8 @@ def random_scene(
             raise SceneError(f"no class {unknown}; classes: {', '.join(config.task.class_names)}")
         order = [c for c in config.task.class_names for _ in range(counts.get(c, 0))]
     rng = np.random.default_rng(seed)
-    diameter = max(c.diameter_cm for c in config.task.classes)
+    # (a cube's or a prism's: the circle around it, whatever its yaw)
+    diameter = max(2 * c.footprint_radius_cm for c in config.task.classes)
     x0, x1, y0, y1 = camera_field_cm(config, margin_cm=diameter)
     if order and not (x0 < x1 and y0 < y1):
         raise SceneError(
@@ -259,6 +263,9 @@ def random_scene(
                 ):
                     continue
                 new = SceneObject(color=color, x=x, y=y)
+                symmetry = cls.object_shape.symmetry_deg
+                if symmetry:  # a cube or a prism lies at any yaw (a disc draws none)
+                    new = new.model_copy(update={"yaw_deg": round(rng.uniform(0, symmetry), 1)})
                 if not footprint(placed, poses, new, q):
                     continue
                 placed.append(new)

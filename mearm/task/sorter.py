@@ -35,6 +35,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from mearm.config import Config
+from mearm.config.shapes import SHAPES
 from mearm.errors import MearmError
 from mearm.hardware.bus import ReportsRelease, ServoBus
 from mearm.hardware.errors import ServoError
@@ -48,6 +49,7 @@ from mearm.task.route import Route
 from mearm.vision import Camera, ColorDetector, Detection
 from mearm.vision.calibration import camera_geometry
 from mearm.vision.errors import CameraError
+from mearm.vision.shapes import table_yaw_deg
 
 if TYPE_CHECKING:
     from mearm.runlog.writer import RunLog  # a log is written only when asked for
@@ -107,6 +109,9 @@ class TrackedObject:
     #: Whether the last look saw it as a region of touching objects (or one the arm hid
     #: in part): not picked while so; left as ``merged`` when nothing else is left.
     merged: bool = False
+    #: A cube's yaw on the table at the last look [deg, 0–90), or ``None``: the jaws
+    #: turn to its faces where the arm can turn them (:meth:`Planner.turn_jaws`).
+    yaw_deg: float | None = None
 
 
 Seen = list[tuple[Detection, np.ndarray]]
@@ -222,6 +227,10 @@ class Sorter:
             # one look's merged region may be another's single object: the arm, now
             # elsewhere, hid part of it, or a neighbour picked meanwhile touched it
             known.merged = det.merged
+            if det.yaw_px_deg is not None:
+                known.yaw_deg = table_yaw_deg(
+                    self.calibration.pixel_to_table, det.centroid_px, det.yaw_px_deg
+                )
 
     def _match(self, class_name: str, x: float, y: float) -> TrackedObject | None:
         best, best_d = None, SAME_OBJECT_CM
@@ -293,7 +302,7 @@ class Sorter:
         for o in others:
             if o is obj:
                 continue
-            r = self.config.task.class_named(o.class_name).diameter_cm / 2
+            r = self.config.task.class_named(o.class_name).footprint_radius_cm
             if np.hypot(o.x_cm - obj.x_cm, o.y_cm - obj.y_cm) < reach + r:
                 return False
         return True
@@ -329,6 +338,9 @@ class Sorter:
         )  # fmt: skip
         self._world()
         above = self._approach(obj, pick)  # planned in full with the pick, before either
+        if above is not None and obj.yaw_deg is not None:  # jaws across a cube's faces
+            # (the yaw is a square outline's, whatever shape the class names)
+            self.planner.turn_jaws(above, obj.yaw_deg, SHAPES["cube"].symmetry_deg)
         if above is None:
             self.planner.plan(pick, ex.q_now(), target=obj.id)
         elif above.planned and above.plan is not None:

@@ -168,7 +168,7 @@ def detect_inrange(
     found: list[Detection] = []
     for c in classes:
         mask = np.zeros(hsv.shape[:2], np.uint8)
-        for band in c.hue_bands_deg:
+        for band in c.hue_bands_deg or []:  # (a class of any colour: none; no shapes here)
             lo, hi = band.lo_deg / 2.0, band.hi_deg / 2.0
             for a, z in [(lo, hi)] if lo <= hi else [(lo, 180.0), (0.0, hi)]:
                 lower = np.array([math.ceil(a), s_lo, v_lo], np.uint8)

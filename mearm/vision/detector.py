@@ -69,6 +69,7 @@ from mearm.vision.calibration import Calibration, CameraGeometry, camera_geometr
 from mearm.vision.classify import PixelClassifier, and_scalar, equal_mask
 from mearm.vision.errors import ImageError
 from mearm.vision.pinhole import PerspectiveCamera
+from mearm.vision.shapes import ClassMatcher, classify_regions
 from mearm.vision.thresholds import Thresholds
 
 if TYPE_CHECKING:
@@ -90,6 +91,10 @@ class Detection:
             when the detector has a calibration: the centroid's table point under the
             paper's homography; the centre of its top face's outline under a
             perspective calibration (:meth:`PerspectiveCamera.locate_object`).
+        shape: The shape its outline has (:mod:`mearm.vision.shapes`); ``None`` when it
+            cannot be told: the region is merged or cut by the image border.
+        yaw_px_deg: A cube's sides' direction in the image, from the u axis towards +v,
+            in [0, 90) [deg]; ``None`` for other shapes.
     """
 
     color: str
@@ -99,6 +104,8 @@ class Detection:
     merged: bool = False
     elongation: float = 1.0
     table_cm: np.ndarray | None = field(default=None, compare=False)
+    shape: str | None = None
+    yaw_px_deg: float | None = None
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "centroid_px", _point(self.centroid_px))
@@ -142,6 +149,12 @@ def check_frame(frame: object, source: str = "frame") -> np.ndarray:
     if frame.shape[0] < 1 or frame.shape[1] < 1:
         raise ImageError(source, f"image is empty, shape {frame.shape}")
     return np.ascontiguousarray(frame)
+
+
+def _disc_diameter_cm(color_class: ColorClass) -> float:
+    """The diameter of the disc with the area of one object's footprint [cm]."""
+    area = color_class.object_shape.area_cm2(color_class.diameter_cm)
+    return 2.0 * math.sqrt(area / math.pi)
 
 
 #: A region's core: its pixels at least this × one object's radius from its edge.
@@ -345,9 +358,17 @@ class ColorDetector:
         self.calibration = calibration
         self.thresholds = Thresholds.from_config(self.classes, vision)
         self.classifier = PixelClassifier(self.thresholds)
+        #: The colours the pixels are classified into (one per class without shapes).
         self.class_names = self.thresholds.class_names
-        self._diameter_cm = {c.name: float(c.diameter_cm) for c in self.classes}
-        self._height_cm = {c.name: float(c.height_cm) for c in self.classes}
+        self.matcher = ClassMatcher(self.classes)
+        # Per colour, its classes' largest object: the diameter of the disc of its
+        # footprint's area (a cube's is 1.13 sides), and the tallest height.
+        size = {c.name: c for c in self.classes}
+        members = {g: names for g, (_, names) in self.matcher.groups.items()}
+        self._diameter_cm = {
+            g: max(_disc_diameter_cm(size[n]) for n in names) for g, names in members.items()
+        }
+        self._height_cm = {g: max(size[n].height_cm for n in names) for g, names in members.items()}
         if camera_height_cm is not None:
             tallest = max(self._height_cm.values(), default=0.0)
             if not math.isfinite(camera_height_cm) or camera_height_cm <= tallest:
@@ -473,9 +494,7 @@ class ColorDetector:
             table = np.array(cal.pixel_to_table(centroid))  # its own memory, then read-only
             table.setflags(write=False)
         flags = merged.tolist()
-        row, col = centroid[:, 1].tolist(), centroid[:, 0].tolist()
-        order = sorted(range(len(codes)), key=lambda j: (codes[j], row[j], col[j]))
-        return [
+        found = [
             Detection(
                 color=colors[j],
                 centroid_px=centroid[j],
@@ -485,8 +504,10 @@ class ColorDetector:
                 elongation=elongations[j],
                 table_cm=None if table is None else table[j],
             )
-            for j in order
+            for j in range(len(codes))
         ]
+        regions = [_region_mask(r, labels, b, ox, oy) for r, b in zip(sources, boxes, strict=True)]
+        return self._classed(found, regions, frame_bgr.shape)
 
     def _general(
         self,
@@ -508,9 +529,20 @@ class ColorDetector:
         ]
         found, regions = self._resolve(found, regions, frame)
         found = self._located(found, regions, frame)
-        order = {name: i for i, name in enumerate(self.class_names)}
-        found.sort(key=lambda d: (order[d.color], d.centroid_px[1], d.centroid_px[0]))
-        return found
+        return self._classed(found, regions, frame.shape)
+
+    def _classed(
+        self, found: list[Detection], regions: list[np.ndarray], frame_shape: Sequence[int]
+    ) -> list[Detection]:
+        """Each region's shape and class (its colour's and shape's), in the documented order.
+
+        ``found`` are the regions of each colour (``color`` is the colour's name);
+        regions of no class (a shape no class of its colour has) are dropped.
+        """
+        out = classify_regions(self.matcher, found, regions, frame_shape)
+        order = {c.name: i for i, c in enumerate(self.classes)}
+        out.sort(key=lambda d: (order[d.color], d.centroid_px[1], d.centroid_px[0]))
+        return out
 
     def one_object_bounds(
         self, centroids_px: np.ndarray, colors: Sequence[str], frame_shape: Sequence[int]

@@ -6,7 +6,12 @@ lies in one of *c*'s bands. Hue is in degrees [0, 360) as the paper states it
 Classes are tried in the order listed, so a hue in the bands of two classes goes to
 the first.
 
-The bands come from the classes (``task.classes``), the floors from ``vision``. The
+The bands come from the classes (``task.classes``), the floors from ``vision``. Classes
+are grouped by colour: classes with the same bands (a red cube and a red cylinder) are
+one colour, named after the first of them, and the classes without bands (a shape of
+any colour) are one colour, tried last, whose band is every hue
+(:func:`colour_groups`); the shape tells the classes of a colour apart
+(:mod:`mearm.vision.shapes`). The
 built-in classes (:func:`mearm.config.defaults.default_classes`) have bands chosen for
 real objects, with a margin to what they must ignore (wood, paper, highlights, shadows);
 :func:`mearm.config.defaults.paper_classes` has the bands as the paper printed them,
@@ -57,18 +62,20 @@ class Thresholds:
 
     @classmethod
     def from_config(cls, classes: Sequence[ColorClass], vision: VisionConfig) -> Thresholds:
-        """The bands of ``classes`` (``task.classes``) and the floors of ``vision``.
+        """The colours of ``classes`` (``task.classes``) and the floors of ``vision``.
+
+        One entry per colour (:func:`colour_groups`), named after its first class.
 
         Raises:
             ConfigError: no classes, more than :data:`MAX_CLASSES`, or a name listed twice.
         """
-        bands: dict[str, tuple[Band, ...]] = {}
+        names: set[str] = set()
         for c in classes:
-            if c.name in bands:
+            if c.name in names:
                 raise ConfigError(None, [f"task.classes: '{c.name}' is listed twice"])
-            bands[c.name] = tuple((float(b.lo_deg), float(b.hi_deg)) for b in c.hue_bands_deg)
+            names.add(c.name)
         return cls(
-            bands_deg=bands,
+            bands_deg={name: bands for name, (bands, _) in colour_groups(classes).items()},
             saturation_min=float(vision.saturation_min),
             value_min=float(vision.value_min),
         )
@@ -82,6 +89,41 @@ class Thresholds:
     def codes(self) -> dict[str, int]:
         """Class name → its code in a class map (*i* + 1 for class *i*; 0 is no class)."""
         return {name: i + 1 for i, name in enumerate(self.bands_deg)}
+
+
+#: The band of a colour that is any hue [deg].
+ANY_HUE: tuple[Band, ...] = ((0.0, 360.0),)
+
+
+def class_bands(color_class: ColorClass) -> tuple[Band, ...] | None:
+    """A class's hue bands ``(lo, hi)`` [deg], or ``None`` for a class of any colour."""
+    if color_class.hue_bands_deg is None:
+        return None
+    return tuple((float(b.lo_deg), float(b.hi_deg)) for b in color_class.hue_bands_deg)
+
+
+def colour_groups(
+    classes: Sequence[ColorClass],
+) -> dict[str, tuple[tuple[Band, ...], tuple[str, ...]]]:
+    """The colours of ``classes``: per colour's name, its bands and its classes' names.
+
+    Classes with equal bands are one colour, named after the first; the classes of any
+    colour (no bands) are one more, last, with the band :data:`ANY_HUE` (it gets only the
+    pixels no other colour takes). Without shapes and with distinct bands (the paper's
+    classes) every class is its own colour, under its own name.
+    """
+    groups: dict[tuple[Band, ...], list[str]] = {}
+    anyhue: list[str] = []
+    for c in classes:
+        bands = class_bands(c)
+        if bands is None:
+            anyhue.append(c.name)
+        else:
+            groups.setdefault(bands, []).append(c.name)
+    out = {names[0]: (bands, tuple(names)) for bands, names in groups.items()}
+    if anyhue:
+        out[anyhue[0]] = (ANY_HUE, tuple(anyhue))
+    return out
 
 
 def in_band(hue_deg: float, band: Band) -> bool:

@@ -5,10 +5,12 @@ A frame is drawn in the image through the inverse of the calibration, so an obje
 
 1. a table texture: light wood with grain, or grey with mottling (fixed per seed);
 2. white paper sheets, if asked for;
-3. for each object a soft drop shadow and then a disc of its class's colour
-   (``draw_rgb``) and diameter (``diameter_cm``): its coverage of each pixel
+3. for each object a soft drop shadow and then its top in its class's colour
+   (``draw_rgb``), shape (``shape``: a disc, a square or an equilateral triangle, turned
+   by the object's yaw) and size (``diameter_cm``): its coverage of each pixel
    from 4×4 samples mapped to the table (anti-aliased, exact for any homography), its
-   top shaded darker towards the rim (radially symmetric, so its centroid is unbiased);
+   top shaded darker towards the rim (symmetric about its centre, so its centroid is
+   unbiased);
 4. shadows, if asked for (a soft darkening);
 5. light: ``brightness`` × a linear gradient of ±``gradient`` from the top-left to the
    bottom-right corner;
@@ -34,6 +36,7 @@ import cv2
 import numpy as np
 
 from mearm.config import CameraConfig, ColorClass
+from mearm.config.shapes import DEFAULT_SHAPE, shape_named
 from mearm.errors import ConfigError
 from mearm.vision.calibration import Calibration
 
@@ -51,43 +54,80 @@ def class_bgr(color_class: ColorClass) -> tuple[int, int, int]:
 
 @dataclass(frozen=True)
 class Disc:
-    """A flat disc on the table: an object or a distractor.
+    """A flat object top on the table (a disc by default): an object or a distractor.
 
     Attributes:
         bgr: Its top's colour (8-bit BGR) in nominal light.
         x_cm: Centre, base frame [cm].
         y_cm: Centre, base frame [cm].
-        diameter_cm: Diameter [cm] (the paper's objects: 2, paper §1).
+        diameter_cm: Size [cm]: a disc's diameter, a square's or a triangle's side (the
+            paper's objects: 2 cm discs, paper §1).
+        shape: The shape of the catalogue whose footprint it is
+            (:data:`~mearm.config.shapes.SHAPES`).
+        yaw_deg: Its turn about the vertical, base frame [deg]: a square's sides lie
+            along x and y at 0, a triangle has a corner towards +y.
     """
 
     bgr: tuple[int, int, int]
     x_cm: float
     y_cm: float
     diameter_cm: float = 2.0
+    shape: str = DEFAULT_SHAPE
+    yaw_deg: float = 0.0
 
     @classmethod
-    def of_class(cls, color_class: ColorClass, x_cm: float, y_cm: float) -> Disc:
-        """An object of ``color_class`` at (x, y) [cm]: its ``draw_rgb`` and ``diameter_cm``."""
-        return cls(class_bgr(color_class), float(x_cm), float(y_cm), color_class.diameter_cm)
+    def of_class(
+        cls, color_class: ColorClass, x_cm: float, y_cm: float, yaw_deg: float = 0.0
+    ) -> Disc:
+        """An object of ``color_class`` at (x, y) [cm]: its colour, size and shape."""
+        return cls(
+            class_bgr(color_class),
+            float(x_cm),
+            float(y_cm),
+            color_class.diameter_cm,
+            color_class.object_shape.name,
+            float(yaw_deg),
+        )
+
+    def gauge(self, x_cm: np.ndarray, y_cm: np.ndarray) -> np.ndarray:
+        """Where table points lie in the footprint: ≤ 1 inside, 1 on the edge, 0 at the centre.
+
+        The footprint's gauge (Minkowski) function: the distance from the centre scaled
+        so that the outline is 1 in every direction.
+        """
+        dx, dy = x_cm - self.x_cm, y_cm - self.y_cm
+        footprint = shape_named(self.shape).footprint
+        if footprint == "disc":
+            return np.hypot(dx, dy) / (self.diameter_cm / 2.0)
+        a = np.radians(self.yaw_deg)
+        if footprint == "square":
+            along = np.cos(a) * dx + np.sin(a) * dy
+            across = -np.sin(a) * dx + np.cos(a) * dy
+            return np.maximum(np.abs(along), np.abs(across)) / (self.diameter_cm / 2.0)
+        inradius = self.diameter_cm / (2.0 * np.sqrt(3.0))
+        # the sides' outward normals: away from the corner at yaw + 90° and the other two
+        normals = [a - np.pi / 2, a + np.pi / 6, a + 5 * np.pi / 6]
+        return np.max([np.cos(n) * dx + np.sin(n) * dy for n in normals], axis=0) / inradius
 
 
 def class_discs(
-    classes: Sequence[ColorClass], objects: Iterable[tuple[str, float, float]]
+    classes: Sequence[ColorClass],
+    objects: Iterable[tuple[str, float, float] | tuple[str, float, float, float]],
 ) -> list[Disc]:
-    """Discs of objects given as (class name, x [cm], y [cm]).
+    """Object tops given as (class name, x [cm], y [cm]) or (…, yaw [deg]).
 
     Raises:
         ConfigError: an object names a class not in ``classes``.
     """
     by_name = {c.name: c for c in classes}
     discs = []
-    for name, x, y in objects:
+    for name, x, y, *yaw in objects:
         if name not in by_name:
             raise ConfigError(
                 None,
                 [f"object of class '{name}': not a class (classes: {', '.join(by_name)})"],
             )
-        discs.append(Disc.of_class(by_name[name], x, y))
+        discs.append(Disc.of_class(by_name[name], x, y, *yaw))
     return discs
 
 
@@ -191,7 +231,7 @@ class TableRenderer:
         self._background = background  # texture and paper, before any disc [8-bit levels]
         self._extra_discs = [e for e in self.extras if isinstance(e, Disc)]
         self._patches: dict[
-            tuple[float, ...], tuple[tuple[slice, slice], np.ndarray, np.ndarray]
+            tuple[object, ...], tuple[tuple[slice, slice], np.ndarray, np.ndarray]
         ] = {}
         self._shades: dict[tuple[float, ...], tuple[tuple[slice, slice], np.ndarray] | None] = {}
         self._scene: tuple[Disc, ...] | None = None
@@ -314,7 +354,7 @@ class TableRenderer:
             img[roi] *= factor
 
     def _disc(self, img: np.ndarray, d: Disc) -> None:
-        key = (*d.bgr, d.x_cm, d.y_cm, d.diameter_cm)
+        key = (*d.bgr, d.x_cm, d.y_cm, d.diameter_cm, d.shape, d.yaw_deg)
         patch = self._patches.get(key)
         if patch is None:
             made = self._disc_patch(d)
@@ -326,9 +366,8 @@ class TableRenderer:
         img[roi] += paint
 
     def _disc_patch(self, d: Disc) -> tuple[tuple[slice, slice], np.ndarray, np.ndarray] | None:
-        """A disc's box, the share of the table kept and the colour added in it."""
-        r = d.diameter_cm / 2.0
-        roi = self._roi(d.x_cm, d.y_cm, r)
+        """An object top's box, the share of the table kept and the colour added in it."""
+        roi = self._roi(d.x_cm, d.y_cm, shape_named(d.shape).enclosing_radius_cm(d.diameter_cm))
         if roi is None:
             return None
         (v0, v1), (u0, u1) = (roi[0].start, roi[0].stop), (roi[1].start, roi[1].stop)
@@ -338,7 +377,7 @@ class TableRenderer:
         vs = (np.arange(v0, v1)[:, None] + offs).ravel()  # (H·n,)
         uu, vv = np.meshgrid(us, vs)
         xy = self.calibration.pixel_to_table(np.stack([uu.ravel(), vv.ravel()], axis=1))
-        rho = np.hypot(xy[:, 0] - d.x_cm, xy[:, 1] - d.y_cm).reshape(uu.shape) / r
+        rho = d.gauge(xy[:, 0], xy[:, 1]).reshape(uu.shape)
         inside = rho <= 1.0
         shade = np.where(inside, 1.0 - 0.12 * rho**2 - 0.15 * (rho > 0.88), 0.0)
         bh, bw = v1 - v0, u1 - u0

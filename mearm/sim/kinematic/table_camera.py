@@ -52,7 +52,7 @@ class SimCamera(Camera):
                     f"object {o.id} is of class '{o.color}', which is not in task.classes "
                     f"({', '.join(self.classes)}): the camera cannot draw it",
                 )
-            discs.append(Disc.of_class(color_class, o.x_cm, o.y_cm))
+            discs.append(Disc.of_class(color_class, o.x_cm, o.y_cm, o.yaw_deg))
         frame = self.renderer.render(discs, frame_index=self.frames_read)
         self.frames_read += 1
         return frame

@@ -31,6 +31,8 @@ class WorldObject:
         y_cm: Position, base frame [cm].
         held: Whether it is in the gripper.
         bin: The class name of the bin it was dropped into, or ``None``.
+        yaw_deg: Its turn about the vertical, base frame [deg] (its shape is its
+            class's).
     """
 
     id: str
@@ -39,6 +41,7 @@ class WorldObject:
     y_cm: float
     held: bool = False
     bin: str | None = None
+    yaw_deg: float = 0.0
 
     @property
     def on_table(self) -> bool:
@@ -65,7 +68,8 @@ class World:
         objects = []
         for obj in scene:
             counts[obj.color] = counts.get(obj.color, 0) + 1
-            objects.append(WorldObject(f"{obj.color}{counts[obj.color]}", obj.color, obj.x, obj.y))
+            oid = f"{obj.color}{counts[obj.color]}"
+            objects.append(WorldObject(oid, obj.color, obj.x, obj.y, yaw_deg=obj.yaw_deg))
         return cls(objects=objects, bins_cm=dict(bins_cm))
 
     @classmethod

@@ -127,7 +127,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from mearm.config import Config, Joint
+from mearm.config import ColorClass, Config, Joint
 from mearm.config.servo_models import (  # noqa: F401  (the twin's servos, re-exported)
     FULL_TORQUE_ERROR_RAD,
     GRIPPER_SERVO,
@@ -154,7 +154,6 @@ from mearm.kinematics.bodies import (
     bin_origin_m,
     bin_shapes,
     object_centre_m,
-    object_shape,
     wall_height_m,
 )
 from mearm.kinematics.chain import Chain
@@ -340,7 +339,7 @@ def _check_scene(config: Config) -> None:
     for oid, obj in zip(ids, task.scene, strict=True):
         c = task.class_named(obj.color)
         xy = np.array([obj.x, obj.y]) * M_PER_CM
-        r = c.diameter_cm * M_PER_CM / 2
+        r = c.footprint_radius_cm * M_PER_CM  # (the circle around a cube's or a prism's)
         for other, oxy, orr in placed:
             d = float(np.linalg.norm(xy - oxy))
             if d < r + orr:
@@ -564,6 +563,47 @@ def _shape_geom(body: mujoco.MjsBody, shape: Shape, material: str, **attrs: obje
           conaffinity=collide[1], **place, **attrs)  # fmt: skip
 
 
+def _object_geom(model: mujoco.MjSpec, body: mujoco.MjsBody, name: str, c: ColorClass) -> None:
+    """A scene object of class ``c``: solid PLA of its class's shape, size and colour.
+
+    A cylinder, a box (a cube's footprint, its class's height) or a triangular prism (a
+    convex mesh, a corner towards the body's +y), standing on its base; its yaw is its
+    body's.
+    """
+    size_m, h = c.diameter_cm * M_PER_CM, c.height_cm * M_PER_CM
+    footprint = c.object_shape.footprint
+    mass = PLA_DENSITY * c.object_shape.area_cm2(c.diameter_cm) * M_PER_CM**2 * h
+    attrs: dict[str, object] = {
+        "mass": mass,
+        "friction": [OBJECT_FRICTION, OBJECT_SPIN_FRICTION, OBJECT_ROLL_FRICTION],
+        # sliding friction only against the table and bins (torsional friction there
+        # kept one object rocking on the table plane); against the pads the pads'
+        # condim 4 holds, so a held object does not spin
+        "condim": 3,
+        "rgba": _rgba(c.draw_rgb),
+    }
+    if footprint == "disc":
+        _scene_geom(body, name, "cylinder", (size_m / 2, h / 2), **attrs)
+    elif footprint == "square":
+        _scene_geom(body, name, "box", (size_m / 2, size_m / 2, h / 2), **attrs)
+    else:
+        mesh = f"{name}_prism"
+        corners = [
+            (size_m / math.sqrt(3) * math.cos(a), size_m / math.sqrt(3) * math.sin(a))
+            for a in (math.pi / 2, math.pi / 2 + 2 * math.pi / 3, math.pi / 2 + 4 * math.pi / 3)
+        ]
+        verts = [v for x, y in corners for z in (-h / 2, h / 2) for v in (x, y, z)]
+        model.add_mesh(name=mesh, uservert=verts)
+        body.add_geom(
+            name=name,
+            type=mujoco.mjtGeom.mjGEOM_MESH,
+            meshname=mesh,
+            contype=_SCENE_CONTYPE,
+            conaffinity=_SCENE_CONAFFINITY,
+            **attrs,
+        )
+
+
 def _build(config: Config, spec: ServoSpec, gripper_spec: ServoSpec) -> mujoco.MjSpec:
     """The twin's spec for these servos, its servos undamped (:func:`twin_spec` sets ``kv``)."""
     arm, task = config.arm, config.task
@@ -631,24 +671,15 @@ def _build(config: Config, spec: ServoSpec, gripper_spec: ServoSpec) -> mujoco.M
         _bin(world, config, c.name)
     for oid, obj in zip(object_ids(config), task.scene, strict=True):
         c = task.class_named(obj.color)
-        r, h = c.diameter_cm * M_PER_CM / 2, c.height_cm * M_PER_CM
         centre = object_centre_m(config, obj.color, obj.x, obj.y)
-        body = world.add_body(name=f"obj_{oid}", pos=exact(centre))
-        body.add_freejoint(name=f"obj_{oid}")
-        shape = object_shape(config, oid, obj.color)
-        _scene_geom(
-            body,
-            shape.name,
-            "cylinder",
-            shape.size,
-            mass=PLA_DENSITY * math.pi * r * r * h,
-            friction=[OBJECT_FRICTION, OBJECT_SPIN_FRICTION, OBJECT_ROLL_FRICTION],
-            # sliding friction only against the table and bins (torsional friction there
-            # kept one object rocking on the table plane); against the pads the pads'
-            # condim 4 holds, so a held object does not spin
-            condim=3,
-            rgba=_rgba(c.draw_rgb),
+        yaw = math.radians(obj.yaw_deg)
+        body = world.add_body(
+            name=f"obj_{oid}",
+            pos=exact(centre),
+            quat=exact([math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2)]),
         )
+        body.add_freejoint(name=f"obj_{oid}")
+        _object_geom(model, body, f"obj_{oid}", c)
 
     # ---- contacts, coupling, actuators, home
     model.add_exclude(bodyname1="world", bodyname2=f"link_{arm.joints[0].name}")
