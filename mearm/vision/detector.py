@@ -69,7 +69,7 @@ from mearm.vision.calibration import Calibration, CameraGeometry, camera_geometr
 from mearm.vision.classify import PixelClassifier, and_scalar, equal_mask
 from mearm.vision.errors import ImageError
 from mearm.vision.pinhole import PerspectiveCamera
-from mearm.vision.shapes import ClassMatcher, classify_regions
+from mearm.vision.shapes import ClassMatcher, measure_shape, touches_border
 from mearm.vision.thresholds import Thresholds
 
 if TYPE_CHECKING:
@@ -539,7 +539,7 @@ class ColorDetector:
         ``found`` are the regions of each colour (``color`` is the colour's name);
         regions of no class (a shape no class of its colour has) are dropped.
         """
-        out = classify_regions(self.matcher, found, regions, frame_shape)
+        out = _classify_regions(self.matcher, found, regions, frame_shape)
         order = {c.name: i for i, c in enumerate(self.classes)}
         out.sort(key=lambda d: (order[d.color], d.centroid_px[1], d.centroid_px[0]))
         return out
@@ -709,3 +709,36 @@ class ColorDetector:
                 )
             )
         return parts, centres
+
+
+def _classify_regions(
+    matcher: ClassMatcher,
+    found: Sequence[Detection],
+    regions: Sequence[np.ndarray],
+    frame_shape: Sequence[int],
+) -> list[Detection]:
+    """Detections of colours (``color`` a colour's name) as detections of classes.
+
+    Each region's shape is measured (:func:`measure_shape`) unless it is merged or cut
+    by the image border (then ``shape`` is ``None``), and its class is
+    :meth:`ClassMatcher.match`'s; regions of no class are left out.
+
+    Args:
+        matcher: The classes.
+        found: The regions' detections, ``color`` the colour's name.
+        regions: Each one's mask over its box, 0/1 uint8.
+        frame_shape: The frame's (H, W, ...).
+    """
+    height, width = int(frame_shape[0]), int(frame_shape[1])
+    out = []
+    for d, region in zip(found, regions, strict=True):
+        measured = None
+        if not d.merged and not touches_border(d.bbox_px, width, height):
+            measured = measure_shape(region)
+        shape = None if measured is None else measured.shape
+        name = matcher.match(d.color, shape)
+        if name is None:
+            continue
+        yaw = None if measured is None else measured.yaw_px_deg
+        out.append(replace(d, color=name, shape=shape, yaw_px_deg=yaw))
+    return out

@@ -17,8 +17,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, replace
-from typing import TYPE_CHECKING
+from dataclasses import dataclass
 
 import cv2
 import numpy as np
@@ -27,9 +26,6 @@ import numpy.typing as npt
 from mearm.config import ColorClass
 from mearm.config.shapes import SHAPES
 from mearm.vision.thresholds import class_bands, colour_groups
-
-if TYPE_CHECKING:
-    from mearm.vision.detector import Detection
 
 
 @dataclass(frozen=True)
@@ -134,36 +130,3 @@ def touches_border(bbox_px: tuple[int, int, int, int], width_px: int, height_px:
     """Whether a region's box (x, y, w, h) touches the image border: only part of it is seen."""
     x, y, w, h = bbox_px
     return x <= 0 or y <= 0 or x + w >= width_px or y + h >= height_px
-
-
-def classify_regions(
-    matcher: ClassMatcher,
-    found: Sequence[Detection],
-    regions: Sequence[np.ndarray],
-    frame_shape: Sequence[int],
-) -> list[Detection]:
-    """Detections of colours (``color`` a colour's name) as detections of classes.
-
-    Each region's shape is measured (:func:`measure_shape`) unless it is merged or cut
-    by the image border (then ``shape`` is ``None``), and its class is
-    :meth:`ClassMatcher.match`'s; regions of no class are left out.
-
-    Args:
-        matcher: The classes.
-        found: The regions' detections, ``color`` the colour's name.
-        regions: Each one's mask over its box, 0/1 uint8.
-        frame_shape: The frame's (H, W, ...).
-    """
-    height, width = int(frame_shape[0]), int(frame_shape[1])
-    out = []
-    for d, region in zip(found, regions, strict=True):
-        measured = None
-        if not d.merged and not touches_border(d.bbox_px, width, height):
-            measured = measure_shape(region)
-        shape = None if measured is None else measured.shape
-        name = matcher.match(d.color, shape)
-        if name is None:
-            continue
-        yaw = None if measured is None else measured.yaw_px_deg
-        out.append(replace(d, color=name, shape=shape, yaw_px_deg=yaw))
-    return out
