@@ -68,6 +68,14 @@ class Camera(ABC):
             )
         return frame
 
+    def peek(self) -> np.ndarray:
+        """A frame of the scene now, for a recording.
+
+        Like :meth:`read`, but a source that numbers its frames (a simulated camera's
+        noise) does not count it.
+        """
+        return self.read()
+
     @abstractmethod
     def _read(self) -> np.ndarray: ...
 

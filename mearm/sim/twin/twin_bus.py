@@ -303,6 +303,11 @@ class TwinArm(ServoBus):
         return float(self.data.time)
 
     @property
+    def clock_s(self) -> float:
+        """The bus's clock: the physics' time [s] (a sampler samples within the physics)."""
+        return float(self.data.time)
+
+    @property
     def ee_cm(self) -> np.ndarray:
         """The TCP (the ``tcp`` site) in the base frame [cm], (3,)."""
         return self.data.site(TCP_FRAME).xpos / M_PER_CM
@@ -427,6 +432,8 @@ class TwinArm(ServoBus):
                 for setpoint in ramp:
                     d.ctrl[self._ctrl] = setpoint
                     mujoco.mj_step(m, d)
+                    if self.sampler is not None and d.time >= self.sampler.due_s - 1e-9:
+                        self.sampler.sample(self)
             finally:
                 d.qfrc_applied[self._arm_dof] = 0.0
             n -= len(ramp)
@@ -448,10 +455,16 @@ class TwinArm(ServoBus):
         while n > 0:
             if self._frozen():
                 d.time += n * m.opt.timestep
+                self._sample()
                 return
             k = min(n, SLEEP_CHECK_STEPS)
+            if self.sampler is not None and math.isfinite(self.sampler.due_s):
+                # stop where the next frame is due
+                due = math.ceil((self.sampler.due_s - d.time) / m.opt.timestep - 1e-6)
+                k = max(1, min(k, due))
             mujoco.mj_step(m, d, nstep=k)
             n -= k
+            self._sample()
 
     def _frozen(self) -> bool:
         """Whether every body sleeps and nothing pushes one: a step would only add dt."""
