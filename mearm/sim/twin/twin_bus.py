@@ -452,18 +452,20 @@ class TwinArm(ServoBus):
         Checked every :data:`SLEEP_CHECK_STEPS` steps.
         """
         m, d = self.model, self.data
+        stepped = 0  # since the last check: a sampler's stops leave the checks where they were
         while n > 0:
-            if self._frozen():
+            if stepped == 0 and self._frozen():
                 d.time += n * m.opt.timestep
                 self._sample()
                 return
-            k = min(n, SLEEP_CHECK_STEPS)
+            k = min(n, SLEEP_CHECK_STEPS - stepped)
             if self.sampler is not None and math.isfinite(self.sampler.due_s):
                 # stop where the next frame is due
                 due = math.ceil((self.sampler.due_s - d.time) / m.opt.timestep - 1e-6)
                 k = max(1, min(k, due))
             mujoco.mj_step(m, d, nstep=k)
             n -= k
+            stepped = (stepped + k) % SLEEP_CHECK_STEPS
             self._sample()
 
     def _frozen(self) -> bool:
