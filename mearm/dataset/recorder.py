@@ -133,8 +133,14 @@ def check_root(root: Path, *, resume: bool) -> bool:
         root.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise DatasetError(root, f"cannot be created ({exc.strerror})") from None
-    if not os.access(root, os.W_OK | os.X_OK):
-        raise DatasetError(root, "is not writable: give a directory you can write to")
+    try:  # a file made and removed: permission bits do not tell (root, read-only mounts)
+        fd, probe = tempfile.mkstemp(dir=root, prefix=".mearm-probe-")
+        os.close(fd)
+        os.unlink(probe)
+    except OSError as exc:
+        raise DatasetError(
+            root, f"is not writable ({exc.strerror}): give a directory you can write to"
+        ) from None
     entries = [p for p in root.iterdir() if p.name != L.SCRATCH_DIR]
     if entries and not resume:
         raise DatasetExistsError(root)
@@ -227,7 +233,9 @@ class DatasetRecorder:
         self.robot_type = config.arm.name
         self._size = (config.camera.height_px, config.camera.width_px)
         existing = check_root(self.root, resume=resume)
-        finish_journal(self.root)
+        if not finish_journal(self.root):  # files of an episode whose journal was not written
+            for stale in self.root.glob("**/*.tmp"):
+                stale.unlink()
         self._scratch = self.root / L.SCRATCH_DIR
         shutil.rmtree(self._scratch, ignore_errors=True)
         self._episodes: list[dict[str, Any]] = []
