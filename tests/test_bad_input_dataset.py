@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import os
 import shutil
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -147,3 +148,10 @@ def test_the_small_dataset_passes(dataset: Path) -> None:
     from mearm.dataset.format_check import check_dataset
 
     assert check_dataset(dataset) == []
+
+
+@bad_input
+def test_record_without_the_extra(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setitem(sys.modules, "av", None)  # import av fails, as when not installed
+    out = check_bad_input(["sort", "--config", SIM, "--record", tmp_path / "ds"])
+    assert "needs PyAV (av), which is not installed: pip install 'mearm[record]'" in out.line
