@@ -908,7 +908,7 @@ def _run(
                     scene=scene,
                     start=resume.done,
                     wait_for_user=wait,
-                    progress=lambda done: bar.update(1),
+                    progress=lambda done: _step(bar, recorder),
                     recorder=recorder,
                 )
             else:
@@ -934,6 +934,13 @@ def _run(
     print(f"analyse: python -m mearm.analyze {args.log} --out report/")
     print(_totals(args.log, args.trials))
     return EXIT_FAILURE if failed else 0
+
+
+def _step(bar: Any, recorder: RigRecorder | None) -> None:
+    """One more trial on the progress bar, with the episodes recorded so far."""
+    if recorder is not None:
+        bar.set_postfix_str(f"{recorder.episodes_written} episodes", refresh=False)
+    bar.update(1)
 
 
 def _totals(path: Path, trials: int) -> str:

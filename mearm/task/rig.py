@@ -54,6 +54,8 @@ class Rig:
 class RigRecorder(EpisodeRecorder, Protocol):
     """An episode recorder that samples a rig's bus and camera while it is attached."""
 
+    @property
+    def episodes_written(self) -> int: ...  # noqa: D102
     def attach(self, bus: ServoBus, camera: Camera) -> None: ...  # noqa: D102
     def detach(self) -> None: ...  # noqa: D102
 
