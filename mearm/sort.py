@@ -189,6 +189,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             log.close()
         if recorder is not None:
             recorder.close()
+        if recorder is not None and recorder.episodes_written:
             print(
                 f"recorded {recorder.episodes_written} episodes "
                 f"({recorder.frames_written} frames) to {args.record}",

@@ -155,3 +155,13 @@ def test_record_without_the_extra(tmp_path: Path, monkeypatch: pytest.MonkeyPatc
     monkeypatch.setitem(sys.modules, "av", None)  # import av fails, as when not installed
     out = check_bad_input(["sort", "--config", SIM, "--record", tmp_path / "ds"])
     assert "needs PyAV (av), which is not installed: pip install 'mearm[record]'" in out.line
+
+
+@bad_input
+def test_record_with_a_camera_that_does_not_open(tmp_path: Path) -> None:
+    """Refused before the sort: one line, and no dataset directory left behind."""
+    argv = ["sort", "--config", SIM, "--set", "camera.kind=file", "--set",
+            f"camera.path={tmp_path / 'none.png'}", "--record", tmp_path / "ds"]  # fmt: skip
+    out = check_bad_input(argv)
+    assert "no such file (camera.path)" in out.line
+    assert not (tmp_path / "ds").exists()

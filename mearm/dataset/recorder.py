@@ -232,6 +232,7 @@ class DatasetRecorder:
         self.video_key = L.IMAGES + CAMERA_NAME
         self.robot_type = config.arm.name
         self._size = (config.camera.height_px, config.camera.width_px)
+        self._created = not self.root.exists()
         existing = check_root(self.root, resume=resume)
         if not finish_journal(self.root):  # files of an episode whose journal was not written
             for stale in self.root.glob("**/*.tmp"):
@@ -387,9 +388,12 @@ class DatasetRecorder:
             ep.path.unlink(missing_ok=True)
 
     def close(self) -> None:
-        """Drop an unfinished episode and the scratch folder."""
+        """Drop an unfinished episode and the scratch folder (and DIR, if made for nothing)."""
         self.detach()
         shutil.rmtree(self._scratch, ignore_errors=True)
+        if self._created and not self._episodes:
+            with contextlib.suppress(OSError):  # only if still empty
+                self.root.rmdir()
 
     # ----------------------------------------------------------------- writing
 
