@@ -18,6 +18,7 @@ from conftest import ROOT
 from mearm.config import Config, load_config
 from mearm.dataset import recorder as recorder_module
 from mearm.dataset.format_check import check_dataset
+from mearm.dataset.lerobot_format import JOURNAL_PATH
 from mearm.dataset.recorder import DatasetRecorder
 from mearm.hardware.command import ArmCommand
 from mearm.task import open_rig
@@ -66,12 +67,10 @@ def test_a_kill_after_the_journal_is_finished_on_resume(
     finishes it, and the episode is there, whole."""
     root = tmp_path / "ds"
     _record(root, sim, ["end"])
-    calls = {"n": 0}
     real = recorder_module.finish_journal
 
     def killed(path: Path) -> bool:
-        calls["n"] += 1
-        if calls["n"] == 2:  # the first call is the recorder's opening one
+        if (path / JOURNAL_PATH).exists():  # an episode's renames are due: stop here
             raise KeyboardInterrupt  # stands for the kill: nothing after it runs
         return real(path)
 
@@ -103,5 +102,27 @@ def test_a_kill_before_the_journal_leaves_the_dataset_as_it_was(
     assert list(root.glob("**/*.tmp"))  # the episode's files, not yet in place
     DatasetRecorder(root, sim, fps=10, resume=True).close()
     assert not list(root.glob("**/*.tmp"))
+    assert _total(root) == 1
+    assert check_dataset(root) == []
+
+
+def test_a_kill_in_the_first_episodes_renames_is_finished_on_resume(
+    sim: Config, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The first episode's journal holds info.json itself: --resume still finds the dataset."""
+    root = tmp_path / "ds"
+    real = recorder_module.finish_journal
+
+    def killed(path: Path) -> bool:
+        if (path / JOURNAL_PATH).exists():  # an episode's renames are due: stop here
+            raise KeyboardInterrupt  # stands for the kill: nothing after it runs
+        return real(path)
+
+    monkeypatch.setattr(recorder_module, "finish_journal", killed)
+    with pytest.raises(KeyboardInterrupt):
+        _record(root, sim, ["end"])
+    monkeypatch.undo()
+    assert not (root / "meta/info.json").exists()
+    DatasetRecorder(root, sim, fps=10, resume=True).close()
     assert _total(root) == 1
     assert check_dataset(root) == []

@@ -123,6 +123,8 @@ def finish_journal(root: Path) -> bool:
 def check_root(root: Path, *, resume: bool) -> bool:
     """Check the directory to record into; whether it holds a dataset to append to.
 
+    With ``resume``, an episode's journal left by a kill is finished first.
+
     Raises:
         DatasetError: it is a file, or cannot be created or written.
         DatasetExistsError: it is not empty and ``resume`` is off.
@@ -144,6 +146,8 @@ def check_root(root: Path, *, resume: bool) -> bool:
     entries = [p for p in root.iterdir() if p.name != L.SCRATCH_DIR]
     if entries and not resume:
         raise DatasetExistsError(root)
+    if entries:  # a first episode killed mid-renames has its info.json in the journal
+        finish_journal(root)
     if entries and not (root / L.INFO_PATH).exists():
         raise DatasetError(
             root, f"--resume: holds files but no {L.INFO_PATH}: not a dataset to append to"
