@@ -126,3 +126,13 @@ def test_a_kill_in_the_first_episodes_renames_is_finished_on_resume(
     DatasetRecorder(root, sim, fps=10, resume=True).close()
     assert _total(root) == 1
     assert check_dataset(root) == []
+
+
+def test_a_peek_is_the_next_read_and_does_not_count(sim: Config) -> None:
+    """The recorder's frames leave the simulated camera's own sequence (its noise) as it was."""
+    with open_rig(sim) as rig:
+        camera = rig.camera
+        peeked = camera.peek()
+        assert camera.frames_read == 0
+        np.testing.assert_array_equal(peeked, camera.read())
+        assert camera.frames_read == 1
