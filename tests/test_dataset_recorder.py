@@ -136,3 +136,18 @@ def test_a_peek_is_the_next_read_and_does_not_count(sim: Config) -> None:
         assert camera.frames_read == 0
         np.testing.assert_array_equal(peeked, camera.read())
         assert camera.frames_read == 1
+
+
+def test_a_replayed_camera_peeks_at_the_frame_read_last(sim: Config, tmp_path: Path) -> None:
+    """A folder of frames: a peek repeats the frame the sort read, and skips none of them."""
+    import cv2
+
+    from mearm.vision.camera import FolderCamera
+
+    w, h = sim.camera.width_px, sim.camera.height_px
+    for k in range(2):
+        cv2.imwrite(str(tmp_path / f"{k}.png"), np.full((h, w, 3), 100 * k + 50, np.uint8))
+    camera = FolderCamera(sim.camera.model_copy(update={"kind": "folder", "path": str(tmp_path)}))
+    first = camera.read()
+    np.testing.assert_array_equal(camera.peek(), first)
+    assert int(camera.read()[0, 0, 0]) == 150
