@@ -13,6 +13,9 @@ no longer sees it on the table). With ``--view --collision`` the view also draws
 translucent colours, the collision model the routes are checked against (the arm's, the
 bins' and the objects' shapes; docs/view.md).
 
+``--record DIR`` also writes the run as a LeRobotDataset v3.0, one episode per
+pick-and-place (docs/datasets.md).
+
 Exit status: 0 only when every object seen was sorted; 1 when the run ended with objects
 left (out of reach, failed picks, a camera or servo fault, a servo port that cannot be
 opened); 2 on bad input, found before anything moves (a camera that cannot be opened as
