@@ -41,6 +41,7 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
     "check-camera": ("mearm.tools.check_camera", "check the camera calibration with the arm"),
     "experiment": ("mearm.experiment", "repeated sorting trials into one run log"),
     "analyze": ("mearm.analyze", "tables, fits and plots from a run log"),
+    "dataset": ("mearm.dataset.__main__", "check or show a LeRobot dataset recorded by --record"),
     "render-calibration": (
         "mearm.tools.render_calibration",
         "render the twin camera's ChArUco views and marker sheet",

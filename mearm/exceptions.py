@@ -53,6 +53,7 @@ FAMILIES: dict[str, tuple[str, ...]] = {
     ),
     "mearm.view.errors": ("ViewError", "ViewPortError", "ViewInputError", "BrowserNotFoundError"),
     "mearm.analysis.errors": ("AnalysisError",),
+    "mearm.dataset.errors": ("DatasetError", "DatasetExistsError", "ExtraMissingError"),
     # The simulators' and the task's errors live beside the one module that raises them.
     "mearm.sim.errors": ("WorldError",),
     "mearm.sim.kinematic.servo_bus": ("SimCollisionError",),

@@ -64,6 +64,11 @@ from mearm.cli import (
     worker_count,
 )
 from mearm.config import Config, SceneObject
+from mearm.dataset.arguments import (
+    add_record_arguments,
+    check_record_arguments,
+    recorder_from_args,
+)
 from mearm.errors import MearmError
 from mearm.hardware.errors import ServoError
 from mearm.runlog import (
@@ -78,6 +83,7 @@ from mearm.runlog import (
 from mearm.runlog.errors import RunLogError
 from mearm.task import SortAborted, load_scene, random_scene, run_sort, scene_layout
 from mearm.task.report import Outcome
+from mearm.task.rig import RigRecorder
 from mearm.vision.errors import CameraError
 
 #: Objects per class in a random trial layout (the paper: 12 objects, 4 of each colour).
@@ -143,6 +149,7 @@ def run_trials(
     start: int = 0,
     wait_for_user: Callable[[int], None] | None = None,
     progress: Callable[[int], None] | None = None,
+    recorder: RigRecorder | None = None,
 ) -> dict[int, str | None]:
     """Run trials ``start`` .. ``trials``−1, one header per trial in ``log``.
 
@@ -156,6 +163,7 @@ def run_trials(
         wait_for_user: Called with the trial number before each trial on a real rig (to
             lay out the objects).
         progress: Called after each trial with the number of trials run so far.
+        recorder: Records every trial's sorts into one dataset (``--record``).
 
     Returns:
         Per trial run, ``None`` if it cleared the table, else the reason it stopped.
@@ -169,7 +177,10 @@ def run_trials(
         if wait_for_user is not None:
             wait_for_user(k)
         try:
-            run_sort(plan.config, scene=plan.layout, log=log, trial=k, seed=plan.seed, echo=None)
+            run_sort(
+                plan.config, scene=plan.layout, log=log, trial=k, seed=plan.seed, echo=None,
+                recorder=recorder,
+            )  # fmt: skip
             outcomes[k] = None
         except SortAborted as exc:
             if exc.interrupted:
@@ -794,7 +805,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         "(tcp://host:port) or 'local' (a LocalCluster of --jobs processes, default 2); the "
         f"log is the same, in trial order (needs {CLUSTER_EXTRA})",
     )
+    add_record_arguments(parser)
     args = parser.parse_args(argv)
+    check_record_arguments(parser, args)
+    if args.record is not None and (args.scheduler is not None or (args.jobs or 1) > 1):
+        parser.error(
+            "--record writes one dataset from this process: not with --jobs or --scheduler"
+        )
     if args.trials < 1:
         parser.error(f"--trials must be ≥ 1, got {args.trials}")
     if args.scheduler not in (None, "local") and args.jobs is not None:
@@ -835,13 +852,24 @@ def main(argv: Sequence[str] | None = None) -> int:
             f"resuming {args.log}: {resume.done} complete trials there, running trials "
             f"{resume.done}..{args.trials - 1}{again}"
         )
+    recorder = recorder_from_args(args, config)  # its directory checked before any trial
     # Workers first: a scheduler that cannot be used leaves the log as it was.
     parallel = args.jobs > 1 or args.scheduler is not None
     jobs = min(args.jobs, args.trials - resume.done)
     with (
         open_workers(config, args.seed, scene, jobs, args.scheduler) if parallel else nullcontext()
     ) as workers:
-        return _run(args, config, scene, resume, wait, workers)
+        try:
+            return _run(args, config, scene, resume, wait, workers, recorder)
+        finally:
+            if recorder is not None:
+                recorder.close()
+            if recorder is not None and recorder.episodes_written:
+                print(
+                    f"recorded {recorder.episodes_written} episodes "
+                    f"({recorder.frames_written} frames) to {args.record}",
+                    file=sys.stderr,
+                )
 
 
 def _run(
@@ -851,6 +879,7 @@ def _run(
     resume: Resume,
     wait: Callable[[int], None] | None,
     workers: Workers | None,
+    recorder: RigRecorder | None = None,
 ) -> int:
     """The run of :func:`main` once its input is checked (and its workers are ready)."""
     set_aside = ready_to_append(args.log, resume)
@@ -880,7 +909,8 @@ def _run(
                     scene=scene,
                     start=resume.done,
                     wait_for_user=wait,
-                    progress=lambda done: bar.update(1),
+                    progress=lambda done: _step(bar, recorder),
+                    recorder=recorder,
                 )
             else:
                 numbers = range(resume.done, args.trials)
@@ -905,6 +935,13 @@ def _run(
     print(f"analyse: python -m mearm.analyze {args.log} --out report/")
     print(_totals(args.log, args.trials))
     return EXIT_FAILURE if failed else 0
+
+
+def _step(bar: Any, recorder: RigRecorder | None) -> None:
+    """One more trial on the progress bar, with the episodes recorded so far."""
+    if recorder is not None:
+        bar.set_postfix_str(f"{recorder.episodes_written} episodes", refresh=False)
+    bar.update(1)
 
 
 def _totals(path: Path, trials: int) -> str:

@@ -13,6 +13,9 @@ no longer sees it on the table). With ``--view --collision`` the view also draws
 translucent colours, the collision model the routes are checked against (the arm's, the
 bins' and the objects' shapes; docs/view.md).
 
+``--record DIR`` also writes the run as a LeRobotDataset v3.0, one episode per
+pick-and-place (docs/datasets.md).
+
 Exit status: 0 only when every object seen was sorted; 1 when the run ended with objects
 left (out of reach, failed picks, a camera or servo fault, a servo port that cannot be
 opened); 2 on bad input, found before anything moves (a camera that cannot be opened as
@@ -39,6 +42,11 @@ from mearm.cli import (
     seed_value,
 )
 from mearm.config import Config, SceneObject
+from mearm.dataset.arguments import (
+    add_record_arguments,
+    check_record_arguments,
+    recorder_from_args,
+)
 from mearm.errors import MearmError
 from mearm.hardware.errors import ServoError
 from mearm.task import Rig, SortAborted, load_scene, random_scene, run_sort
@@ -109,7 +117,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         help="also write the whole scene (arm, table, bins, objects, camera) as one "
         "self-contained MJCF for MuJoCo's own viewer",
     )
+    add_record_arguments(parser)
     args = parser.parse_args(argv)
+    check_record_arguments(parser, args)
     if args.hold and not args.view:
         parser.error("--hold keeps the view open: use it with --view")
     if args.collision and not args.view:
@@ -120,6 +130,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         _save_mjcf(config, scene, args.save_mjcf)
     lines: list[str] = []
     echo = lines.append if args.quiet else print
+    recorder = recorder_from_args(args, config)  # its directory checked before any motion
 
     def make_view(rig: Rig) -> object:
         from mearm.kinematics.collision import CollisionModel
@@ -147,6 +158,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         log = None
     if log is not None:
         print(f"run log: {args.log}", flush=True)
+    if recorder is not None:
+        print(f"recording: {args.record}", flush=True)
     try:
         report = run_sort(
             config,
@@ -157,6 +170,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             echo=echo,
             view_factory=make_view if args.view else None,
             on_view=(lambda view: _hold(view.url)) if args.hold else None,
+            recorder=recorder,
         )
     except SortAborted as exc:
         if args.quiet:
@@ -176,6 +190,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     finally:
         if log is not None:
             log.close()
+        if recorder is not None:
+            recorder.close()
+        if recorder is not None and recorder.episodes_written:
+            print(
+                f"recorded {recorder.episodes_written} episodes "
+                f"({recorder.frames_written} frames) to {args.record}",
+                file=sys.stderr,  # the summary stays the last line of the output
+            )
     if args.quiet:
         _print_summary(lines)
     if not report.complete:

@@ -22,7 +22,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("mearm.config",),
     ("mearm.kinematics", "mearm.runlog", "mearm.cli"),
     ("mearm.ik", "mearm.vision", "mearm.hardware"),
-    ("mearm.sim", "mearm.view", "mearm.analysis"),
+    ("mearm.sim", "mearm.view", "mearm.analysis", "mearm.dataset"),
     ("mearm.backends",),
     ("mearm.task",),
     (

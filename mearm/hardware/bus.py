@@ -63,6 +63,19 @@ class ReportsRelease(Protocol):
     def last_release(self) -> Any: ...  # noqa: D102
 
 
+@runtime_checkable
+class Sampler(Protocol):
+    """Samples a run at a fixed rate (a dataset recorder, :mod:`mearm.dataset`).
+
+    The bus calls :meth:`sample` whenever its clock (:attr:`ServoBus.clock_s`) has passed
+    ``due_s``: after each command, hold and wait, and (the twin) within its physics.
+    """
+
+    @property
+    def due_s(self) -> float: ...  # noqa: D102
+    def sample(self, bus: ServoBus) -> None: ...  # noqa: D102
+
+
 class RateLimiter:
     """Spaces calls at least ``period`` apart (loop-rate-limiters' ``RateLimiter`` idea).
 
@@ -117,6 +130,10 @@ class ServoBus(ABC):
         self._state: ArmState | None = None
         self._connected = False
         self._fault: ServoError | None = None
+        self._sent: ArmCommand | None = None
+        self._clock_s = 0.0
+        #: Called as the clock passes its ``due_s`` (``None``: nothing samples the run).
+        self.sampler: Sampler | None = None
 
     # ----------------------------------------------------------------- public API
 
@@ -134,6 +151,30 @@ class ServoBus(ABC):
     def fault(self) -> ServoError | None:
         """The fault that stopped the bus, if any."""
         return self._fault
+
+    @property
+    def commanded(self) -> ArmCommand | None:
+        """The command being sent, else the last one sent (``None`` before the first)."""
+        return self._sent
+
+    @property
+    def clock_s(self) -> float:
+        """The run's time on this bus [s].
+
+        The periods of the commands streamed, the holds and the waits for arrival (a
+        simulated bus: its own time).
+        """
+        return self._clock_s
+
+    def _advance(self, seconds: float) -> None:
+        """Move the clock on by ``seconds`` and let the sampler take what is due."""
+        self._clock_s += seconds
+        self._sample()
+
+    def _sample(self) -> None:
+        sampler = self.sampler
+        if sampler is not None and self.clock_s >= sampler.due_s - 1e-9:
+            sampler.sample(self)
 
     @property
     def period_s(self) -> float:
@@ -173,8 +214,10 @@ class ServoBus(ABC):
         pulses = self.servo_map.pulses_us(command)
         if self.paced:
             self._rate.wait(self.period_s)
+        self._sent = command
         self._guarded(self._send_move, command, pulses)
         self._state = ArmState.from_command(command)
+        self._advance(self.period_s)
 
     def hold(self, seconds: float) -> None:
         """Let the last command take effect for ``seconds`` (a gripper closing).
@@ -187,6 +230,7 @@ class ServoBus(ABC):
         self._require_ready()
         if seconds > 0:
             self._guarded(self._hold, float(seconds))
+            self._advance(float(seconds))
 
     def _hold(self, seconds: float) -> None:
         """Backend hook of :meth:`hold`: by default wait, if the bus is paced."""
@@ -211,7 +255,9 @@ class ServoBus(ABC):
                 short of the command; the bus is stopped from then on.
         """
         self._require_ready()
-        return self._guarded(self._await_arrival, float(timeout_s))
+        waited = self._guarded(self._await_arrival, float(timeout_s))
+        self._advance(waited)
+        return waited
 
     def _await_arrival(self, timeout_s: float) -> float:
         """Backend hook of :meth:`await_arrival`: by default the bus cannot tell."""

@@ -9,7 +9,7 @@ from __future__ import annotations
 import contextlib
 from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Protocol
 
 from mearm.backends import open_parts, table_world, uses_world
 from mearm.config import Config, SceneObject
@@ -19,7 +19,7 @@ from mearm.kinematics import ArmModel
 from mearm.sim import World
 from mearm.task.check import check_consistency
 from mearm.task.report import SortReport
-from mearm.task.sorter import SortAborted, Sorter
+from mearm.task.sorter import EpisodeRecorder, SortAborted, Sorter
 from mearm.vision import Camera
 
 if TYPE_CHECKING:
@@ -49,6 +49,15 @@ class Rig:
     def simulated(self) -> bool:
         """Whether any part of the rig is simulated."""
         return self.in_bins is not None
+
+
+class RigRecorder(EpisodeRecorder, Protocol):
+    """An episode recorder that samples a rig's bus and camera while it is attached."""
+
+    @property
+    def episodes_written(self) -> int: ...  # noqa: D102
+    def attach(self, bus: ServoBus, camera: Camera) -> None: ...  # noqa: D102
+    def detach(self) -> None: ...  # noqa: D102
 
 
 def scene_layout(config: Config, scene: list[SceneObject] | None = None) -> list[dict[str, object]]:
@@ -86,6 +95,7 @@ def run_sort(
     echo: Callable[[str], None] | None = print,
     view_factory: Callable[[Rig], Any] | None = None,
     on_view: Callable[[Any], None] | None = None,
+    recorder: RigRecorder | None = None,
 ) -> SortReport:
     """Write the trial's header, open the rig, sort, close everything.
 
@@ -104,6 +114,8 @@ def run_sort(
         echo: Called with each line the sort prints (``None``: silent).
         view_factory: Builds a view for the opened rig (``None``: no view).
         on_view: Called with the view after the sort (e.g. to keep it open).
+        recorder: Records the sort as a dataset (:class:`mearm.dataset.DatasetRecorder`):
+            attached to the rig's bus and camera while the sort runs.
 
     Raises:
         SortAborted: the sort stopped early (the log says why).
@@ -124,10 +136,16 @@ def run_sort(
                 rig.bus.paced = True  # let the eye follow the arm
             sorter = Sorter(
                 config, rig.camera, rig.bus, model=rig.model, log=log, view=view, echo=echo,
-                trial=trial, in_bins=rig.in_bins,
+                trial=trial, in_bins=rig.in_bins, recorder=recorder,
             )  # fmt: skip
             started = True  # from here on the sorter logs its own faults
-            report = sorter.run()
+            if recorder is not None:
+                recorder.attach(rig.bus, rig.camera)
+            try:
+                report = sorter.run()
+            finally:
+                if recorder is not None:
+                    recorder.detach()
             if view is not None and on_view is not None:
                 on_view(view)
             return report

@@ -30,7 +30,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 
@@ -64,6 +64,20 @@ class CollisionError(MearmError):
     Too close: within ``task.clearance_cm`` of a bin or an object, or touching the table
     (:mod:`mearm.kinematics.collision`).
     """
+
+
+class EpisodeRecorder(Protocol):
+    """Records the run as episodes (:class:`mearm.dataset.DatasetRecorder`).
+
+    The sorter opens an episode as a pick-and-place of an object of ``class_name``
+    starts, ends it when the pick-and-place ends, ends the run after the last one, and
+    abandons the episode a fault or Ctrl-C cuts short.
+    """
+
+    def begin(self, class_name: str) -> None: ...  # noqa: D102
+    def end(self) -> None: ...  # noqa: D102
+    def end_run(self) -> None: ...  # noqa: D102
+    def abandon(self) -> None: ...  # noqa: D102
 
 
 class SortAborted(MearmError):
@@ -134,6 +148,7 @@ class Sorter:
             real rig (the camera confirms: the object is no longer on the table).
         max_rounds: Pick attempts before the run gives up on a table that never clears
             (default: four per expected object and retry, at least 80 × (retries + 1)).
+        recorder: Records each pick-and-place as an episode (``--record``), or ``None``.
     """
 
     def __init__(
@@ -149,8 +164,10 @@ class Sorter:
         trial: int | None = None,
         in_bins: Callable[[], Mapping[str, int]] | None = None,
         max_rounds: int | None = None,
+        recorder: EpisodeRecorder | None = None,
     ):
         self.config = config
+        self.recorder = recorder
         self.camera = camera
         self.bus = bus
         self.model = model if model is not None else ArmModel(config.arm)
@@ -406,6 +423,20 @@ class Sorter:
         t0 = t1
         self.reporter.route(ex.finish(place, t0))
 
+    def _recorded_pick(self, obj: TrackedObject) -> None:
+        """:meth:`_pick_and_place` as an episode of the recording, if there is one."""
+        recorder = self.recorder
+        if recorder is None:
+            self._pick_and_place(obj)
+            return
+        recorder.begin(obj.class_name)
+        try:
+            self._pick_and_place(obj)
+        except BaseException:
+            recorder.abandon()
+            raise
+        recorder.end()
+
     def _approach(self, obj: TrackedObject, pick: Route) -> Route | None:
         """The route to above the object (``task.approach_height_cm``), planned.
 
@@ -481,7 +512,7 @@ class Sorter:
                         self._gone()
                 if obj is None:
                     break
-                self._pick_and_place(obj)
+                self._recorded_pick(obj)
             else:  # a table that never clears (flickering detections?): stop, say so
                 for obj in self._objects:
                     if obj.skipped is None and not obj.sorted:
@@ -490,6 +521,8 @@ class Sorter:
                             kind="never_cleared",
                         )  # fmt: skip
             self._home()
+            if self.recorder is not None:
+                self.recorder.end_run()
         except (CameraError, ServoError, CollisionError) as exc:
             self._abort(str(exc), park=isinstance(exc, CameraError))
         except KeyboardInterrupt:
@@ -559,6 +592,8 @@ class Sorter:
         # The view is for the eye; safety comes first: an interrupt may have cut a request
         # to the view's server in half, so parking goes on without it.
         self.view = self.executor.view = None
+        if self.recorder is not None:
+            self.recorder.abandon()  # the episode cut short is not written
         if park and bus.is_connected and bus.fault is None and bus.state:
             try:
                 self._home(keep_grip=True)

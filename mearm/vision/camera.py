@@ -47,6 +47,7 @@ class Camera(ABC):
         self.source = source
         self.size_px = size_px
         self._closed = False
+        self._last: np.ndarray | None = None  # the frame read last (a replay's peek)
 
     def read(self) -> np.ndarray:
         """The next frame, (H, W, 3) uint8 BGR.
@@ -66,7 +67,16 @@ class Camera(ABC):
                 f"frame is {w}x{h} px but the config says {self.size_px[0]}x{self.size_px[1]}"
                 " (camera.width_px, camera.height_px): the calibration is for that size",
             )
+        self._last = frame
         return frame
+
+    def peek(self) -> np.ndarray:
+        """A frame of the scene now, for a recording.
+
+        Like :meth:`read`, but a source that numbers its frames (a simulated camera's
+        noise) does not count it.
+        """
+        return self.read()
 
     @abstractmethod
     def _read(self) -> np.ndarray: ...
@@ -184,6 +194,10 @@ class FileCamera(Camera):
                 " (camera.width_px, camera.height_px): the calibration is for that size",
             )
 
+    def peek(self) -> np.ndarray:  # noqa: D102
+        # a replay shows the frame the sort read last: reading would skip one of its frames
+        return self._last.copy() if self._last is not None else self.read()
+
     def _read(self) -> np.ndarray:
         if self._still is not None:
             return self._still.copy()
@@ -219,6 +233,10 @@ class FolderCamera(Camera):
             except ImageError as exc:
                 raise CameraError(self.source, f"{path.name}: {exc.reason}") from None
         self._next = 0
+
+    def peek(self) -> np.ndarray:  # noqa: D102
+        # a replay shows the frame the sort read last: reading would skip one of its frames
+        return self._last.copy() if self._last is not None else self.read()
 
     def _read(self) -> np.ndarray:
         if self._next >= len(self.paths):

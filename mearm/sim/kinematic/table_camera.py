@@ -42,6 +42,13 @@ class SimCamera(Camera):
         self.renderer = TableRenderer.from_config(cam, calibration, extras)
         self.frames_read = 0
 
+    def peek(self) -> np.ndarray:  # noqa: D102
+        frames_read = self.frames_read
+        try:
+            return self.read()
+        finally:
+            self.frames_read = frames_read
+
     def _read(self) -> np.ndarray:
         discs = []
         for o in self.world.table_objects():

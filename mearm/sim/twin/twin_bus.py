@@ -303,6 +303,11 @@ class TwinArm(ServoBus):
         return float(self.data.time)
 
     @property
+    def clock_s(self) -> float:
+        """The bus's clock: the physics' time [s] (a sampler samples within the physics)."""
+        return float(self.data.time)
+
+    @property
     def ee_cm(self) -> np.ndarray:
         """The TCP (the ``tcp`` site) in the base frame [cm], (3,)."""
         return self.data.site(TCP_FRAME).xpos / M_PER_CM
@@ -427,6 +432,8 @@ class TwinArm(ServoBus):
                 for setpoint in ramp:
                     d.ctrl[self._ctrl] = setpoint
                     mujoco.mj_step(m, d)
+                    if self.sampler is not None and d.time >= self.sampler.due_s - 1e-9:
+                        self.sampler.sample(self)
             finally:
                 d.qfrc_applied[self._arm_dof] = 0.0
             n -= len(ramp)
@@ -445,13 +452,21 @@ class TwinArm(ServoBus):
         Checked every :data:`SLEEP_CHECK_STEPS` steps.
         """
         m, d = self.model, self.data
+        stepped = 0  # since the last check: a sampler's stops leave the checks where they were
         while n > 0:
-            if self._frozen():
+            if stepped == 0 and self._frozen():
                 d.time += n * m.opt.timestep
+                self._sample()
                 return
-            k = min(n, SLEEP_CHECK_STEPS)
+            k = min(n, SLEEP_CHECK_STEPS - stepped)
+            if self.sampler is not None and math.isfinite(self.sampler.due_s):
+                # stop where the next frame is due
+                due = math.ceil((self.sampler.due_s - d.time) / m.opt.timestep - 1e-6)
+                k = max(1, min(k, due))
             mujoco.mj_step(m, d, nstep=k)
             n -= k
+            stepped = (stepped + k) % SLEEP_CHECK_STEPS
+            self._sample()
 
     def _frozen(self) -> bool:
         """Whether every body sleeps and nothing pushes one: a step would only add dt."""

@@ -255,6 +255,13 @@ class TwinCamera(Camera):
         )
         self.frames_read = 0
 
+    def peek(self) -> np.ndarray:  # noqa: D102
+        frames_read = self.frames_read
+        try:
+            return self.read()
+        finally:
+            self.frames_read = frames_read
+
     def _read(self) -> np.ndarray:
         frame = self._lens.render(self.twin.data)
         self.frames_read += 1

@@ -1,0 +1,94 @@
+"""``--record DIR`` and its options, shared by ``mearm sort`` and ``mearm experiment``.
+
+Light on purpose: the recorder (and pyarrow, PyAV) is imported only when ``--record`` is
+given.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from mearm.config import Config
+
+if TYPE_CHECKING:
+    from mearm.dataset.recorder import DatasetRecorder
+
+#: Frames per second of a recording unless ``--record-fps`` says otherwise [Hz].
+DEFAULT_FPS = 10
+#: The highest ``--record-fps`` [Hz]: the servo streams at most at 1000 Hz.
+MAX_FPS = 1000
+
+
+def fps_value(text: str) -> int:
+    """An argparse type: a whole number of frames per second in 1..MAX_FPS."""
+    try:
+        fps = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"must be a whole number of frames per second, got {text!r}"
+        ) from None
+    if not 1 <= fps <= MAX_FPS:
+        raise argparse.ArgumentTypeError(f"must be in 1..{MAX_FPS} frames per second, got {fps}")
+    return fps
+
+
+def add_record_arguments(parser: argparse.ArgumentParser) -> None:
+    """``--record DIR``, ``--resume``, ``--record-fps N``, ``--record-per pick|scene``."""
+    parser.add_argument(
+        "--record",
+        type=Path,
+        metavar="DIR",
+        help="record the run as a LeRobotDataset v3.0 in DIR (a new or empty directory; "
+        "needs the 'record' extra; docs/datasets.md)",
+    )
+    parser.add_argument(
+        "--resume", action="store_true", help="with --record: append to the dataset in DIR"
+    )
+    parser.add_argument(
+        "--record-fps",
+        type=fps_value,
+        default=DEFAULT_FPS,
+        metavar="N",
+        help=f"with --record: frames per second of the run's time (default {DEFAULT_FPS})",
+    )
+    parser.add_argument(
+        "--record-per",
+        choices=("pick", "scene"),
+        default="pick",
+        help="with --record: one episode per pick-and-place (default) or per scene",
+    )
+
+
+def check_record_arguments(parser: argparse.ArgumentParser, args: argparse.Namespace) -> None:
+    """Refuse the recording options without ``--record`` (exit 2, one line)."""
+    if args.record is None:
+        given = [
+            flag
+            for flag, on in (
+                ("--resume", args.resume),
+                ("--record-fps", args.record_fps != DEFAULT_FPS),
+                ("--record-per", args.record_per != "pick"),
+            )
+            if on
+        ]
+        if given:
+            parser.error(f"{given[0]} is an option of --record DIR: give --record too")
+
+
+def recorder_from_args(args: argparse.Namespace, config: Config) -> DatasetRecorder | None:
+    """The recorder ``--record`` asks for, its directory checked; ``None`` without it.
+
+    Raises:
+        DatasetError: the directory is a file, not writable, or not empty without
+            ``--resume``, or holds another recording.
+        ExtraMissingError: pyarrow or PyAV is not installed.
+    """
+    if args.record is None:
+        return None
+    from mearm.dataset.recorder import DatasetRecorder
+
+    return DatasetRecorder(
+        args.record, config, fps=args.record_fps, per=args.record_per, resume=args.resume
+    )

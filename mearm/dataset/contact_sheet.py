@@ -1,0 +1,143 @@
+"""What a dataset holds (``mearm dataset show``): episodes, tasks, statistics, a picture.
+
+The contact sheet shows frames of each episode (its first, middle and last) decoded from
+its video, each captioned with the episode, the frame and its ``observation.state``.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import cv2
+import numpy as np
+
+from mearm.dataset import lerobot_format as L
+from mearm.dataset.errors import DatasetError
+from mearm.dataset.recorder import import_extra
+
+#: The width of one frame on the contact sheet [px].
+THUMB_WIDTH_PX = 320
+
+
+def describe(root: Path) -> list[str]:
+    """The lines ``show`` prints: totals, episodes, tasks, statistics of the state.
+
+    Raises:
+        DatasetError: not a dataset (:func:`check_dataset`'s first checks).
+    """
+    info, episodes, tasks = _read(root)
+    lines = [
+        f"{root}: LeRobot {info['codebase_version']}, robot {info.get('robot_type')}, "
+        f"{info['fps']} fps, {info['total_episodes']} episodes, {info['total_frames']} frames, "
+        f"{info['total_tasks']} tasks",
+        "",
+        "episode  frames  seconds  task",
+    ]
+    for row in episodes:
+        seconds = row["length"] / info["fps"]
+        tasks_text = "; ".join(row["tasks"])
+        lines.append(f"{row['episode_index']:7d}  {row['length']:6d}  {seconds:7.1f}  {tasks_text}")
+    lines += ["", "task_index  task"]
+    lines += [f"{k:10d}  {t}" for k, t in enumerate(tasks)]
+    stats = json.loads((root / L.STATS_PATH).read_text())
+    for key in ("observation.state", "action"):
+        names = info["features"][key]["names"]
+        s = stats.get(key, {})
+        lines += ["", f"{key}: {'name':>14}  {'min':>8}  {'mean':>8}  {'std':>8}  {'max':>8}"]
+        for i, name in enumerate(names):
+            values = [s[k][i] for k in ("min", "mean", "std", "max")]
+            lines.append(
+                " " * (len(key) + 2) + f"{name:>14}  " + "  ".join(f"{v:8.2f}" for v in values)
+            )
+    return lines
+
+
+def contact_sheet(root: Path, path: Path, *, per_episode: int = 3, max_episodes: int = 12) -> int:
+    """Save frames of the first episodes with their states as one picture; how many frames.
+
+    Raises:
+        DatasetError: not a dataset, or the picture cannot be written.
+    """
+    _, pq, av = import_extra()
+    info, episodes, _ = _read(root)
+    key = next((k for k, f in info["features"].items() if f["dtype"] == "video"), None)
+    if key is None:
+        raise DatasetError(root, "has no camera: no frames to show")
+    names = info["features"]["observation.state"]["names"]
+    fps = info["fps"]
+    rows = []
+    shown = 0
+    for row in episodes[:max_episodes]:
+        n = row["length"]
+        picks = sorted({0, n // 2, n - 1})[:per_episode]
+        rel = L.chunk_file(
+            L.VIDEO_PATH, row[f"videos/{key}/chunk_index"], row[f"videos/{key}/file_index"],
+            video_key=key,
+        )  # fmt: skip
+        t0 = row[f"videos/{key}/from_timestamp"]
+        frames = _frames_at(av, root / rel, [t0 + i / fps for i in picks])
+        shown += len(frames)
+        data = pq.read_table(
+            root / L.chunk_file(L.DATA_PATH, row["data/chunk_index"], row["data/file_index"])
+        )
+        states = data["observation.state"].to_pylist()
+        first = row["dataset_from_index"] - int(data["index"][0].as_py())
+        tiles = []
+        for i, frame in zip(picks, frames, strict=True):
+            state = states[first + i]
+            caption = [f"episode {row['episode_index']} frame {i} t={i / fps:.1f}s"]
+            pairs = [f"{nm}={v:.1f}" for nm, v in zip(names, state, strict=True)]
+            caption += [" ".join(pairs[j : j + 3]) for j in range(0, len(pairs), 3)]
+            tiles.append(_captioned(frame, caption))
+        while len(tiles) < per_episode:
+            tiles.append(np.zeros_like(tiles[0]))
+        rows.append(np.hstack(tiles))
+    sheet = np.vstack(rows)
+    ok, png = cv2.imencode(".png", sheet)
+    try:
+        if not ok:
+            raise OSError("PNG encoding failed")
+        path.write_bytes(png.tobytes())
+    except OSError as exc:
+        raise DatasetError(path, f"cannot write the contact sheet ({exc})") from None
+    return shown
+
+
+def _read(root: Path) -> tuple[dict[str, Any], list[dict[str, Any]], list[str]]:
+    _, pq, _ = import_extra()
+    if not (root / L.INFO_PATH).is_file():
+        raise DatasetError(root, f"holds no {L.INFO_PATH}: not a LeRobot dataset")
+    info = json.loads((root / L.INFO_PATH).read_text())
+    episodes: list[dict[str, Any]] = []
+    for p in sorted((root / "meta" / "episodes").glob("chunk-*/file-*.parquet")):
+        episodes.extend(pq.read_table(p).to_pylist())
+    tasks = [str(t) for t in pq.read_table(root / L.TASKS_PATH)["task"].to_pylist()]
+    return info, episodes, tasks
+
+
+def _frames_at(av: Any, path: Path, times_s: list[float]) -> list[np.ndarray]:
+    """The frames of a video at these times [s] (BGR), decoded in one pass."""
+    out: dict[int, np.ndarray] = {}
+    with av.open(str(path)) as container:
+        stream = container.streams.video[0]
+        for frame in container.decode(stream):
+            t = float(frame.pts * frame.time_base)
+            for j, want in enumerate(times_s):
+                if j not in out and abs(t - want) < 1e-3:
+                    out[j] = frame.to_ndarray(format="bgr24")
+            if len(out) == len(times_s):
+                break
+    if len(out) != len(times_s):
+        raise DatasetError(path, "lacks frames its episodes point to: run mearm dataset check")
+    return [out[j] for j in range(len(times_s))]
+
+
+def _captioned(frame: np.ndarray, lines: list[str]) -> np.ndarray:
+    h, w = frame.shape[:2]
+    thumb = cv2.resize(frame, (THUMB_WIDTH_PX, round(h * THUMB_WIDTH_PX / w)))
+    band = np.full((16 * len(lines) + 6, THUMB_WIDTH_PX, 3), 255, np.uint8)
+    for i, text in enumerate(lines):
+        cv2.putText(band, text, (4, 16 * (i + 1)), cv2.FONT_HERSHEY_PLAIN, 0.8, (0, 0, 0), 1)
+    return np.vstack([thumb, band])

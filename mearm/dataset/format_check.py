@@ -1,0 +1,376 @@
+"""Check a directory against the LeRobotDataset v3.0 format (``mearm dataset check``).
+
+Every rule in :data:`RULES` is checked and each broken one reported with the file and
+the episode at fault. The rules are LeRobot's (``lerobot/datasets/``): the files it reads,
+the columns and types it casts them to, and the relations between the metadata, the
+frames and the videos that its reader relies on (a frame's video time is its episode's
+``from_timestamp`` plus its ``timestamp``, matched within ``1e-4`` s).
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from mearm.dataset import lerobot_format as L
+from mearm.dataset.errors import DatasetError
+from mearm.dataset.recorder import import_extra
+
+#: LeRobot's tolerance between a frame's timestamp and its video frame's time [s].
+TOLERANCE_S = 1e-4
+
+#: Each rule ``check`` applies, by name (docs/datasets.md lists them).
+RULES: dict[str, str] = {
+    "journal": f"no episode is half written ({L.JOURNAL_PATH} is absent)",
+    "info": f'{L.INFO_PATH} is JSON with codebase_version "{L.CODEBASE_VERSION}", fps ≥ 1, '
+    "the totals, chunks_size, the size limits, data_path and video_path as LeRobot's, "
+    'splits {"train": "0:<total_episodes>"}',
+    "features": "every feature has a dtype, a shape and names; the frame columns "
+    "timestamp, frame_index, episode_index, index and task_index are LeRobot's; a video "
+    "feature has its video.* info",
+    "tasks": f"{L.TASKS_PATH} has task_index 0..total_tasks-1 and distinct tasks",
+    "episodes": "meta/episodes/chunk-*/file-*.parquet has episode_index 0..total_episodes-1 "
+    "in order, each with a length ≥ 1, frame ranges that follow each other from 0, tasks "
+    "that tasks.parquet holds, and its data and video files; the lengths add up to "
+    "total_frames",
+    "data": "each data file has a column per non-video feature of its dtype and shape, "
+    "and exactly the rows of its episodes, in order: episode_index, frame_index "
+    "0..length-1, index from dataset_from_index, timestamp = frame_index / fps, a "
+    "task_index of the episode's tasks (a torn last episode breaks this)",
+    "videos": "each video file is AV1 (yuv420p) of the feature's size, and each episode's "
+    "span [from_timestamp, to_timestamp) holds exactly its frames, at its timestamps",
+    "stats": f"{L.STATS_PATH} has min, max, mean, std, count and the quantiles for every "
+    "feature, shaped as the feature ((3, 1, 1) for a camera), count = total_frames",
+}
+
+
+def check_dataset(root: Path, *, videos: bool = True) -> list[str]:
+    """The broken rules of the dataset in ``root``: one line each, ``rule: what``.
+
+    Args:
+        root: The dataset's directory.
+        videos: Decode the videos (rule ``videos``); off, the rule is skipped.
+
+    Raises:
+        DatasetError: ``root`` is not a directory, or holds no ``meta/info.json``.
+    """
+    root = Path(root)
+    if not root.is_dir():
+        what = "is a file" if root.exists() else "does not exist"
+        raise DatasetError(root, f"{what}: give a dataset directory")
+    if not (root / L.INFO_PATH).is_file():
+        raise DatasetError(root, f"holds no {L.INFO_PATH}: not a LeRobot dataset")
+    return _Checker(root, videos).run()
+
+
+class _Checker:
+    def __init__(self, root: Path, videos: bool):
+        self.root = root
+        self.videos = videos
+        self.problems: list[str] = []
+        self.pa, self.pq, self.av = import_extra()
+
+    def fail(self, rule: str, message: str) -> None:
+        self.problems.append(f"{rule}: {message}")
+
+    def run(self) -> list[str]:
+        if (self.root / L.JOURNAL_PATH).exists():
+            self.fail(
+                "journal",
+                f"{L.JOURNAL_PATH} is there: an episode was being written when the "
+                "recorder stopped (record with --resume to finish writing it)",
+            )
+        info = self._info()
+        if info is None:
+            return self.problems
+        tasks = self._tasks(info)
+        episodes = self._episodes(info, tasks)
+        if episodes is not None:
+            self._data(info, episodes, tasks)
+            if self.videos:
+                self._videos(info, episodes)
+        self._stats(info)
+        return self.problems
+
+    # ----------------------------------------------------------------- meta
+
+    def _info(self) -> dict[str, Any] | None:
+        try:
+            info = json.loads((self.root / L.INFO_PATH).read_text())
+        except (OSError, ValueError) as exc:
+            self.fail("info", f"{L.INFO_PATH} cannot be read as JSON ({exc})")
+            return None
+        if not isinstance(info, dict):
+            self.fail("info", f"{L.INFO_PATH} is not a JSON object")
+            return None
+        expected = {
+            "codebase_version": L.CODEBASE_VERSION,
+            "data_path": L.DATA_PATH,
+            "video_path": L.VIDEO_PATH,
+        }
+        for key, value in expected.items():
+            if info.get(key) != value:
+                self.fail("info", f"{key} is {info.get(key)!r}, LeRobot v3.0 has {value!r}")
+        for key in ("fps", "total_episodes", "total_frames", "total_tasks", "chunks_size"):
+            number = info.get(key)
+            if not isinstance(number, int) or isinstance(number, bool) or number < 0:
+                self.fail("info", f"{key} is {number!r}: a whole number ≥ 0 is needed")
+                return None
+        if info["fps"] < 1:
+            self.fail("info", f"fps is {info['fps']}: ≥ 1 is needed")
+            return None
+        for key in ("data_files_size_in_mb", "video_files_size_in_mb"):
+            if not isinstance(info.get(key), int | float) or info[key] <= 0:
+                self.fail("info", f"{key} is {info.get(key)!r}: a size > 0 [MB] is needed")
+        split = f"0:{info['total_episodes']}"
+        if info.get("splits") != {"train": split}:
+            self.fail("info", f'splits is {info.get("splits")!r}, not {{"train": "{split}"}}')
+        features = info.get("features")
+        if not isinstance(features, dict):
+            self.fail("features", "info.json has no features object")
+            return None
+        for key, ft in features.items():
+            if not isinstance(ft, dict) or not {"dtype", "shape", "names"} <= set(ft):
+                self.fail("features", f"{key} lacks a dtype, shape or names")
+                return None
+            shape = ft["shape"]
+            if not isinstance(shape, list) or not all(isinstance(s, int) for s in shape):
+                self.fail("features", f"{key}: shape {shape!r} is not a list of whole numbers")
+                return None
+            if ft["dtype"] == "video":
+                vinfo = ft.get("info") or {}
+                missing = [
+                    k for k in ("video.codec", "video.pix_fmt", "video.fps") if k not in vinfo
+                ]
+                if missing:
+                    self.fail("features", f"{key}: its info lacks {', '.join(missing)}")
+        for key, ft in L.DEFAULT_FEATURES.items():
+            got = features.get(key)
+            if got is None or got.get("dtype") != ft["dtype"] or got.get("shape") != ft["shape"]:
+                self.fail("features", f"{key} is {got!r}, LeRobot has {ft!r}")
+        return info
+
+    def _tasks(self, info: dict[str, Any]) -> list[str]:
+        path = self.root / L.TASKS_PATH
+        try:
+            table = self.pq.read_table(path)
+            tasks = [str(t) for t in table["task"].to_pylist()]
+            indices = table["task_index"].to_pylist()
+        except Exception as exc:  # noqa: BLE001  (any unreadable file is one finding)
+            self.fail("tasks", f"{L.TASKS_PATH} cannot be read with task and task_index ({exc})")
+            return []
+        if indices != list(range(len(tasks))):
+            self.fail("tasks", f"task_index is {indices[:5]}..., not 0..{len(tasks) - 1}")
+        if len(set(tasks)) != len(tasks):
+            self.fail("tasks", "a task is listed twice")
+        if len(tasks) != info["total_tasks"]:
+            self.fail("tasks", f"{len(tasks)} tasks, info.json says {info['total_tasks']}")
+        return tasks
+
+    def _episodes(self, info: dict[str, Any], tasks: list[str]) -> list[dict[str, Any]] | None:
+        paths = sorted((self.root / "meta" / "episodes").glob("chunk-*/file-*.parquet"))
+        if not paths and info["total_episodes"]:
+            self.fail("episodes", "meta/episodes holds no chunk-*/file-*.parquet")
+            return None
+        rows: list[dict[str, Any]] = []
+        for path in paths:
+            try:
+                rows.extend(self.pq.read_table(path).to_pylist())
+            except Exception as exc:  # noqa: BLE001
+                self.fail("episodes", f"{path.relative_to(self.root)} cannot be read ({exc})")
+                return None
+        if len(rows) != info["total_episodes"]:
+            self.fail("episodes", f"{len(rows)} episodes, info.json says {info['total_episodes']}")
+        video_keys = [k for k, f in info["features"].items() if f["dtype"] == "video"]
+        needed = ["episode_index", "tasks", "length", "data/chunk_index", "data/file_index"]
+        needed += ["dataset_from_index", "dataset_to_index"]
+        for key in video_keys:
+            needed += [f"videos/{key}/{c}" for c in ("chunk_index", "file_index")]
+            needed += [f"videos/{key}/{c}" for c in ("from_timestamp", "to_timestamp")]
+        frames = 0
+        for k, row in enumerate(rows):
+            missing = [c for c in needed if row.get(c) is None]
+            if missing:
+                self.fail("episodes", f"episode {k} lacks {', '.join(missing)}")
+                return None
+            if row["episode_index"] != k:
+                self.fail("episodes", f"row {k} has episode_index {row['episode_index']}")
+            if row["length"] < 1:
+                self.fail("episodes", f"episode {k} has length {row['length']}")
+            if row["dataset_from_index"] != frames:
+                self.fail(
+                    "episodes",
+                    f"episode {k} starts at index {row['dataset_from_index']}, not {frames} "
+                    "(where the episode before it ends)",
+                )
+            if row["dataset_to_index"] - row["dataset_from_index"] != row["length"]:
+                self.fail("episodes", f"episode {k}: its index range is not its length")
+            frames = row["dataset_to_index"]
+            for task in row["tasks"]:
+                if task not in tasks:
+                    self.fail("episodes", f"episode {k}: task {task!r} is not in tasks.parquet")
+        if frames != info["total_frames"]:
+            self.fail("episodes", f"the episodes hold {frames} frames, info.json says "
+                      f"{info['total_frames']}")  # fmt: skip
+        return rows
+
+    # ----------------------------------------------------------------- frames
+
+    def _data(self, info: dict[str, Any], episodes: list[dict[str, Any]], tasks: list[str]) -> None:
+        features = {k: f for k, f in info["features"].items() if f["dtype"] != "video"}
+        files: dict[tuple[int, int], list[dict[str, Any]]] = {}
+        for row in episodes:
+            files.setdefault((row["data/chunk_index"], row["data/file_index"]), []).append(row)
+        on_disk = set(sorted((self.root / "data").glob("chunk-*/file-*.parquet")))
+        fps = info["fps"]
+        for (chunk, file), rows in files.items():
+            rel = L.chunk_file(L.DATA_PATH, chunk, file)
+            path = self.root / rel
+            on_disk.discard(path)
+            if not path.is_file():
+                self.fail("data", f"{rel} (episode {rows[0]['episode_index']}) is missing")
+                continue
+            try:
+                table = self.pq.read_table(path)
+            except Exception as exc:  # noqa: BLE001
+                self.fail("data", f"{rel} cannot be read ({exc})")
+                continue
+            if not self._columns(rel, table, features):
+                continue
+            cols = {c: np.asarray(table[c].to_numpy()) for c in L.DEFAULT_FEATURES}
+            at = 0
+            for row in rows:
+                k, n = row["episode_index"], row["length"]
+                part = {c: v[at : at + n] for c, v in cols.items()}
+                if len(part["index"]) < n:
+                    self.fail(
+                        "data",
+                        f"episode {k} is torn: {rel} holds {len(part['index'])} of its {n} frames",
+                    )
+                    break
+                start = row["dataset_from_index"]
+                allowed = [tasks.index(t) for t in row["tasks"] if t in tasks]
+                checks = {
+                    "episode_index": np.all(part["episode_index"] == k),
+                    "frame_index": np.array_equal(part["frame_index"], np.arange(n)),
+                    "index": np.array_equal(part["index"], np.arange(start, start + n)),
+                    "timestamp": np.allclose(
+                        part["timestamp"], np.arange(n) / fps, rtol=0, atol=TOLERANCE_S
+                    ),
+                    "task_index": np.all(np.isin(part["task_index"], allowed)),
+                }
+                bad = [c for c, ok in checks.items() if not ok]
+                if bad:
+                    self.fail("data", f"episode {k} in {rel}: wrong {', '.join(bad)}")
+                at += n
+            else:
+                if at != table.num_rows:
+                    self.fail(
+                        "data",
+                        f"{rel} holds {table.num_rows - at} rows after its last episode "
+                        f"({rows[-1]['episode_index']}): an episode torn off while written",
+                    )
+        for path in sorted(on_disk):
+            self.fail("data", f"{path.relative_to(self.root)} belongs to no episode")
+
+    def _columns(self, rel: str, table: Any, features: dict[str, dict[str, Any]]) -> bool:
+        pa = self.pa
+        ok = True
+        for key, ft in features.items():
+            if key not in table.column_names:
+                self.fail("data", f"{rel} has no column {key}")
+                ok = False
+                continue
+            typ = table.schema.field(key).type
+            shape = ft["shape"]
+            if shape == [1]:
+                want = pa.type_for_alias(ft["dtype"])
+            else:
+                want = pa.list_(pa.type_for_alias(ft["dtype"]), shape[0])
+            if typ != want:
+                self.fail("data", f"{rel}: column {key} is {typ}, the feature says {want}")
+                ok = False
+        return ok
+
+    def _videos(self, info: dict[str, Any], episodes: list[dict[str, Any]]) -> None:
+        fps = info["fps"]
+        for key, ft in info["features"].items():
+            if ft["dtype"] != "video":
+                continue
+            files: dict[tuple[int, int], list[dict[str, Any]]] = {}
+            for row in episodes:
+                where = (row[f"videos/{key}/chunk_index"], row[f"videos/{key}/file_index"])
+                files.setdefault(where, []).append(row)
+            for (chunk, file), rows in files.items():
+                rel = L.chunk_file(L.VIDEO_PATH, chunk, file, video_key=key)
+                times = self._frame_times(rel, ft)
+                if times is None:
+                    continue
+                for row in rows:
+                    k = row["episode_index"]
+                    t0 = row[f"videos/{key}/from_timestamp"]
+                    t1 = row[f"videos/{key}/to_timestamp"]
+                    span = times[(times >= t0 - TOLERANCE_S) & (times < t1 - TOLERANCE_S)]
+                    want = t0 + np.arange(row["length"]) / fps
+                    if len(span) != row["length"]:
+                        self.fail(
+                            "videos",
+                            f"episode {k}: {rel} holds {len(span)} frames in "
+                            f"[{t0:.3f}, {t1:.3f}) s, the episode has {row['length']}",
+                        )
+                    elif not np.allclose(span, want, rtol=0, atol=TOLERANCE_S):
+                        self.fail(
+                            "videos", f"episode {k}: {rel}: frame times are not its timestamps"
+                        )
+
+    def _frame_times(self, rel: str, ft: dict[str, Any]) -> np.ndarray | None:
+        path = self.root / rel
+        if not path.is_file():
+            self.fail("videos", f"{rel} is missing")
+            return None
+        try:
+            with self.av.open(str(path)) as container:
+                stream = container.streams.video[0]
+                h, w = ft["shape"][0], ft["shape"][1]
+                if stream.codec_context.name not in ("av1", "libdav1d", "libaom-av1"):
+                    self.fail("videos", f"{rel} is {stream.codec_context.name}, not AV1")
+                if stream.pix_fmt != L.VIDEO_PIX_FMT or (stream.height, stream.width) != (h, w):
+                    self.fail(
+                        "videos",
+                        f"{rel} is {stream.width}x{stream.height} {stream.pix_fmt}, the "
+                        f"feature says {w}x{h} {L.VIDEO_PIX_FMT}",
+                    )
+                times = [float(f.pts * f.time_base) for f in container.decode(stream)]
+        except Exception as exc:  # noqa: BLE001  (a video PyAV cannot decode is one finding)
+            self.fail("videos", f"{rel} cannot be decoded ({exc})")
+            return None
+        return np.array(sorted(times))
+
+    # ----------------------------------------------------------------- stats
+
+    def _stats(self, info: dict[str, Any]) -> None:
+        try:
+            stats = json.loads((self.root / L.STATS_PATH).read_text())
+        except (OSError, ValueError) as exc:
+            self.fail("stats", f"{L.STATS_PATH} cannot be read as JSON ({exc})")
+            return
+        for key, ft in info["features"].items():
+            s = stats.get(key)
+            if s is None:
+                self.fail("stats", f"no statistics of {key}")
+                continue
+            missing = [n for n in L.STAT_NAMES if n not in s]
+            if missing:
+                self.fail("stats", f"{key} lacks {', '.join(missing)}")
+                continue
+            want = (3, 1, 1) if ft["dtype"] == "video" else tuple(ft["shape"])
+            for name in L.STAT_NAMES:
+                shape = np.shape(s[name])
+                if name == "count":
+                    if shape != (1,) or s[name][0] != info["total_frames"]:
+                        self.fail("stats", f"{key} count is {s[name]}, not [total_frames]")
+                elif shape != want:
+                    self.fail("stats", f"{key} {name} is shaped {shape}, not {want}")

@@ -1,0 +1,71 @@
+"""Where the files of a LeRobotDataset v3.0 go, and the features every dataset has.
+
+The paths, the default features and the size limits are LeRobot's own
+(``lerobot/datasets/utils.py``, ``lerobot/utils/constants.py``, codebase version "v3.0"):
+episodes share a data file and a video file per camera until it reaches its size limit,
+and a chunk folder holds up to ``chunks_size`` files.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+CODEBASE_VERSION = "v3.0"
+
+INFO_PATH = "meta/info.json"
+STATS_PATH = "meta/stats.json"
+TASKS_PATH = "meta/tasks.parquet"
+CHUNK_FILE = "chunk-{chunk_index:03d}/file-{file_index:03d}"
+EPISODES_PATH = "meta/episodes/" + CHUNK_FILE + ".parquet"
+DATA_PATH = "data/" + CHUNK_FILE + ".parquet"
+VIDEO_PATH = "videos/{video_key}/" + CHUNK_FILE + ".mp4"
+
+#: Files per chunk folder; the data file's and each video file's size limit [MB].
+CHUNKS_SIZE = 1000
+DATA_FILES_SIZE_IN_MB = 100
+VIDEO_FILES_SIZE_IN_MB = 200
+
+#: The columns every frame has (LeRobot's ``DEFAULT_FEATURES``).
+DEFAULT_FEATURES: dict[str, dict[str, Any]] = {
+    "timestamp": {"dtype": "float32", "shape": [1], "names": None},
+    "frame_index": {"dtype": "int64", "shape": [1], "names": None},
+    "episode_index": {"dtype": "int64", "shape": [1], "names": None},
+    "index": {"dtype": "int64", "shape": [1], "names": None},
+    "task_index": {"dtype": "int64", "shape": [1], "names": None},
+}
+
+#: The statistics of each feature (LeRobot's ``compute_stats``): the quantiles are
+#: ``q01``, ``q10``, ``q50``, ``q90`` and ``q99``.
+QUANTILES = (0.01, 0.10, 0.50, 0.90, 0.99)
+STAT_NAMES = ("min", "max", "mean", "std", "count") + tuple(
+    f"q{round(q * 100):02d}" for q in QUANTILES
+)
+
+#: The video encoding (LeRobot's ``VideoEncoderConfig`` defaults): AV1 by SVT-AV1, 4:2:0,
+#: a key frame every 2 frames (any frame decodes fast), constant quality 30.
+VIDEO_CODEC = "libsvtav1"
+VIDEO_PIX_FMT = "yuv420p"
+VIDEO_GOP = 2
+VIDEO_CRF = 30
+#: SVT-AV1's speed preset, LeRobot's default (SVT-AV1 runs 12 as its fastest, 11).
+VIDEO_PRESET = 12
+
+#: The prefix of a camera's feature (``observation.images.table``).
+IMAGES = "observation.images."
+
+#: A journal of an episode being written: the files it replaces (see ``writer``).
+JOURNAL_PATH = "meta/.commit.json"
+#: The writer's scratch folder inside the dataset (the episode's video being encoded).
+SCRATCH_DIR = ".recording"
+
+
+def chunk_file(path_template: str, chunk_index: int, file_index: int, **keys: str) -> str:
+    """A file's path in the dataset, e.g. ``data/chunk-000/file-003.parquet``."""
+    return path_template.format(chunk_index=chunk_index, file_index=file_index, **keys)
+
+
+def next_file(chunk_index: int, file_index: int) -> tuple[int, int]:
+    """The (chunk, file) after this one (LeRobot's ``update_chunk_file_indices``)."""
+    if file_index == CHUNKS_SIZE - 1:
+        return chunk_index + 1, 0
+    return chunk_index, file_index + 1

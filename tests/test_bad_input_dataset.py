@@ -1,0 +1,167 @@
+"""Bad-input corpus: recording (``--record``) and ``mearm dataset check/show``.
+
+A record directory that is a file, cannot be written or holds a dataset without
+``--resume``, a frame rate of 0, options of --record without it; ``check`` of a file, of
+a folder with no dataset and of a dataset with a torn last episode (exit 1: a failed
+check). Each case: its exit code, one line on stderr, no traceback, the files intact.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import sys
+from pathlib import Path
+
+import numpy as np
+import pyarrow.parquet as pq
+import pytest
+from badinput import ROOT, check_bad_input
+
+from mearm.config import load_config
+from mearm.dataset.recorder import DatasetRecorder
+from mearm.hardware.command import ArmCommand
+from mearm.task import open_rig
+
+bad_input = pytest.mark.bad_input
+
+SIM = ROOT / "configs" / "sim.yaml"
+
+
+@pytest.fixture(scope="module")
+def dataset(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A small dataset of two episodes on the kinematic rig, recorded in this process."""
+    root = tmp_path_factory.mktemp("bad-dataset") / "ds"
+    config = load_config(SIM)
+    recorder = DatasetRecorder(root, config, fps=10)
+    home = ArmCommand.home(config.arm)
+    with open_rig(config, []) as rig, rig.bus:
+        recorder.attach(rig.bus, rig.camera)
+        for episode in range(2):
+            recorder.begin("red")
+            for k in range(40):
+                joints = {n: v + np.sin(k / 10 + episode) for n, v in home.joints.items()}
+                rig.bus.move(ArmCommand(joints, home.tool, k > 20))
+            recorder.end()
+        recorder.close()
+    return root
+
+
+@pytest.fixture(scope="module")
+def spots(tmp_path_factory: pytest.TempPathFactory, dataset: Path) -> dict[str, Path]:
+    d = tmp_path_factory.mktemp("record-spots")
+    (d / "file.txt").write_text("keep me\n")
+    (d / "nodata").mkdir()
+    (d / "nodata" / "notes.txt").write_text("not a dataset\n")
+    torn = d / "torn"
+    shutil.copytree(dataset, torn)
+    path = torn / "data/chunk-000/file-000.parquet"
+    table = pq.read_table(path)
+    pq.write_table(table.slice(0, table.num_rows - 3), path)
+    return {"dir": d, "file": d / "file.txt", "nodata": d / "nodata", "torn": torn}
+
+
+@bad_input
+def test_record_into_a_file(spots: dict[str, Path]) -> None:
+    out = check_bad_input(
+        ["sort", "--config", SIM, "--random", "1", "--record", spots["file"]], keep=[spots["file"]]
+    )
+    assert "is a file, not a directory" in out.line
+
+
+@bad_input
+def test_record_into_an_unwritable_directory(spots: dict[str, Path], tmp_path: Path) -> None:
+    if os.geteuid() == 0:  # root writes through permission bits: a read-only kernel folder
+        target = Path("/sys/kernel")
+        if not target.is_dir():
+            pytest.skip("no /sys/kernel to stand for a folder root cannot write")
+        keep: list[Path] = []
+    else:
+        target = tmp_path / "locked"
+        target.mkdir(mode=0o500)
+        keep = [target]
+    out = check_bad_input(["sort", "--config", SIM, "--record", target], keep=keep)
+    assert f"{target}: is not writable" in out.line
+
+
+@bad_input
+def test_record_into_a_dataset_without_resume(dataset: Path) -> None:
+    log = dataset.parent / "x.jsonl"
+    argv = ["experiment", "--config", SIM, "--trials", "1", "--log", log, "--record", dataset]
+    out = check_bad_input(argv, keep=[dataset])
+    assert "is not empty: pass --resume" in out.line
+    assert not log.exists()
+
+
+@bad_input
+def test_resume_a_dataset_at_another_frame_rate(dataset: Path) -> None:
+    argv = ["sort", "--config", SIM, "--record", dataset, "--resume", "--record-fps", "5"]
+    out = check_bad_input(argv, keep=[dataset])
+    assert "--resume: the dataset's fps is not this run's (10 there, 5 here)" in out.line
+
+
+@bad_input
+@pytest.mark.parametrize("command", ["sort", "experiment"])
+@pytest.mark.parametrize("fps", ["0", "-5", "2.5", "nan", "1001"])
+def test_record_fps_out_of_range(command: str, fps: str, tmp_path: Path) -> None:
+    argv = [command, "--config", SIM, "--record", tmp_path / "ds", "--record-fps", fps]
+    if command == "experiment":
+        argv += ["--log", tmp_path / "x.jsonl"]
+    out = check_bad_input(argv)
+    assert "--record-fps" in out.line and "frames per second" in out.line
+    assert not (tmp_path / "ds").exists()
+
+
+@bad_input
+@pytest.mark.parametrize("flag", [["--resume"], ["--record-fps", "5"], ["--record-per", "scene"]])
+def test_record_options_without_record(flag: list[str]) -> None:
+    out = check_bad_input(["sort", "--config", SIM, *flag])
+    assert f"{flag[0]} is an option of --record DIR" in out.line
+
+
+@bad_input
+def test_record_with_workers(tmp_path: Path) -> None:
+    out = check_bad_input(["experiment", "--config", SIM, "--log", tmp_path / "x.jsonl",
+                           "--jobs", "2", "--record", tmp_path / "ds"])  # fmt: skip
+    assert "--record writes one dataset from this process" in out.line
+
+
+@bad_input
+@pytest.mark.parametrize("command", ["check", "show"])
+def test_dataset_of_a_file_or_a_folder_without_one(command: str, spots: dict[str, Path]) -> None:
+    out = check_bad_input(["dataset", command, spots["file"]], keep=[spots["file"]])
+    assert "is a file: give a dataset directory" in out.line
+    out = check_bad_input(["dataset", command, spots["nodata"]], keep=[spots["nodata"]])
+    assert "holds no meta/info.json: not a LeRobot dataset" in out.line
+    out = check_bad_input(["dataset", command, spots["dir"] / "missing"])
+    assert "does not exist" in out.line
+
+
+@bad_input
+def test_check_a_torn_last_episode(spots: dict[str, Path]) -> None:
+    out = check_bad_input(["dataset", "check", spots["torn"]], code=1, keep=[spots["torn"]])
+    assert "episode 1 is torn: data/chunk-000/file-000.parquet holds" in out.line
+
+
+def test_the_small_dataset_passes(dataset: Path) -> None:
+    """The corpus's dataset is a valid one: each case breaks one thing."""
+    from mearm.dataset.format_check import check_dataset
+
+    assert check_dataset(dataset) == []
+
+
+@bad_input
+def test_record_without_the_extra(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setitem(sys.modules, "av", None)  # import av fails, as when not installed
+    out = check_bad_input(["sort", "--config", SIM, "--record", tmp_path / "ds"])
+    assert "needs PyAV (av), which is not installed: pip install 'mearm[record]'" in out.line
+
+
+@bad_input
+def test_record_with_a_camera_that_does_not_open(tmp_path: Path) -> None:
+    """Refused before the sort: one line, and no dataset directory left behind."""
+    argv = ["sort", "--config", SIM, "--set", "camera.kind=file", "--set",
+            f"camera.path={tmp_path / 'none.png'}", "--record", tmp_path / "ds"]  # fmt: skip
+    out = check_bad_input(argv)
+    assert "no such file (camera.path)" in out.line
+    assert not (tmp_path / "ds").exists()
