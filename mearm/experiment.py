@@ -76,7 +76,15 @@ from mearm.runlog import (
     set_aside_torn_end,
 )
 from mearm.runlog.errors import RunLogError
-from mearm.task import SortAborted, load_scene, random_scene, run_sort, scene_layout
+from mearm.task import (
+    SortAborted,
+    check_scene,
+    load_scene,
+    random_scene,
+    run_sort,
+    scene_layout,
+)
+from mearm.task.check import check_consistency
 from mearm.task.report import Outcome
 from mearm.vision.errors import CameraError
 
@@ -805,9 +813,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.jobs is None:
         args.jobs = 2 if args.scheduler == "local" else 1
     config = config_from_args(args)
+    check_consistency(config)  # before the scene, the log or any output: the config first
     scene = load_scene(args.scene, config.task.class_names) if args.scene else None
     if scene is not None and config.camera.kind != "sim":
         raise MearmError("--scene lays out the simulated table; this config's camera is not 'sim'")
+    if scene is not None:
+        check_scene(config, scene, str(args.scene))  # (without it, each trial draws its own)
     if args.scheduler is not None and config.camera.kind != "sim":
         raise MearmError(
             "--scheduler runs simulated trials on a cluster; this config's camera is not "

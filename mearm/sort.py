@@ -41,7 +41,8 @@ from mearm.cli import (
 from mearm.config import Config, SceneObject
 from mearm.errors import MearmError
 from mearm.hardware.errors import ServoError
-from mearm.task import Rig, SortAborted, load_scene, random_scene, run_sort
+from mearm.task import Rig, SortAborted, check_scene, load_scene, random_scene, run_sort
+from mearm.task.check import check_consistency
 from mearm.vision.errors import CameraError
 
 
@@ -58,7 +59,12 @@ def add_scene_arguments(parser: ArgumentParser) -> None:
 
 
 def scene_from_args(args: object, config: Config) -> list[SceneObject] | None:
-    """The scene the arguments ask for, or ``None`` for the config's own."""
+    """The scene the arguments ask for, or ``None`` for the config's own.
+
+    On a simulated table the scene (the config's own included) is checked first
+    (:func:`~mearm.task.scene.check_scene`): an object the camera could not see whole
+    would be left out of the count.
+    """
     scene_path = getattr(args, "scene", None)
     n = getattr(args, "random", None)
     if (scene_path is not None or n is not None) and config.camera.kind != "sim":
@@ -66,13 +72,17 @@ def scene_from_args(args: object, config: Config) -> list[SceneObject] | None:
             "--scene and --random lay out the simulated table; this config's camera is "
             f"'{config.camera.kind}', not 'sim'"
         )
+    scene = None
     if scene_path is not None:
-        return load_scene(scene_path, config.task.class_names)
-    if n is not None:
+        scene = load_scene(scene_path, config.task.class_names)
+    elif n is not None:
         if n < 0:
             raise MearmError(f"--random needs a number of objects ≥ 0, got {n}")
-        return random_scene(config, n, seed=getattr(args, "seed", 0))
-    return None
+        scene = random_scene(config, n, seed=getattr(args, "seed", 0))
+    if config.camera.kind == "sim":
+        source = str(scene_path) if scene_path is not None else "--random" if n else "task.scene"
+        check_scene(config, config.task.scene if scene is None else scene, source)
+    return scene
 
 
 def _hold(url: str) -> None:
@@ -115,6 +125,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.collision and not args.view:
         parser.error("--collision draws the collision model in the view: use it with --view")
     config = config_from_args(args)
+    check_consistency(config)  # before the scene, the log or any output: the config first
     scene = scene_from_args(args, config)
     if args.save_mjcf is not None:
         _save_mjcf(config, scene, args.save_mjcf)
