@@ -68,6 +68,7 @@ from mearm.errors import MearmError
 from mearm.hardware.errors import ServoError
 from mearm.runlog import (
     HeaderRecord,
+    LogLock,
     RunLog,
     TornEnd,
     end_line,
@@ -833,6 +834,24 @@ def main(argv: Sequence[str] | None = None) -> int:
     if config.camera.kind != "sim" and not args.yes:
         wait = terminal_prompt(args.trials)
 
+    # one writer per log: taken before the log is read for resuming, so no other run
+    # appends between that reading and this run's first record (a new log: RunLog's own)
+    held = LogLock(args.log) if args.log.is_file() else None
+    try:
+        return _resume(args, config, scene, wait, held)
+    finally:
+        if held is not None:
+            held.release()
+
+
+def _resume(
+    args: Any,
+    config: Config,
+    scene: list[SceneObject] | None,
+    wait: Callable[[int], None] | None,
+    held: LogLock | None,
+) -> int:
+    """Where the log leaves off, the workers, then the run (:func:`main`'s second half)."""
     resume = resume_point(args.log, config, args.seed, scene)
     if resume.done >= args.trials:
         print(
@@ -852,7 +871,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     with (
         open_workers(config, args.seed, scene, jobs, args.scheduler) if parallel else nullcontext()
     ) as workers:
-        return _run(args, config, scene, resume, wait, workers)
+        return _run(args, config, scene, resume, wait, workers, held)
 
 
 def _run(
@@ -862,6 +881,7 @@ def _run(
     resume: Resume,
     wait: Callable[[int], None] | None,
     workers: Workers | None,
+    held: LogLock | None = None,
 ) -> int:
     """The run of :func:`main` once its input is checked (and its workers are ready)."""
     set_aside = ready_to_append(args.log, resume)
@@ -876,7 +896,7 @@ def _run(
 
     t0 = time.perf_counter()
     with (
-        RunLog(args.log) as log,
+        RunLog(args.log, lock=held) as log,
         tqdm(
             total=args.trials, initial=resume.done, unit="trial", file=sys.stderr, disable=None
         ) as bar,

@@ -55,7 +55,9 @@ a field missing or of the wrong type, joint names other than the header's arm's,
 out of order) and a :class:`~mearm.runlog.errors.RunLogFormatError` naming that line and why.
 """
 
+from mearm.runlog.errors import RunLogLockedError
 from mearm.runlog.format1 import upgrade_v1_record
+from mearm.runlog.lock import LogLock
 from mearm.runlog.reader import (
     MAX_LINE_BYTES,
     RepeatedTrialError,
@@ -94,11 +96,13 @@ __all__ = [
     "FaultRecord",
     "HeaderRecord",
     "JointValues",
+    "LogLock",
     "Record",
     "RepeatedTrialError",
     "RouteRecord",
     "RunLog",
     "RunLogContents",
+    "RunLogLockedError",
     "SkipRecord",
     "SummaryRecord",
     "TornEnd",
