@@ -230,6 +230,9 @@ CASES: list[tuple[list[str], str]] = [
     (["config-docs", "--check", "{dir}/missing.md"], "no such file"),
     (["config-docs", "--output", "{dir}"], "exists and is not a regular file"),
     (["quantization", "--poses", "-1"], "--poses must be at least 1"),
+    (["quantization", "--seed", "-1"], "the seed must be in [0, 4294967295]"),
+    (["ik-stalls", "--seed", "-1"], "the seed must be in [0, 4294967295], got -1"),
+    (["ik-stalls", "--seed", str(2**32)], "the seed must be in [0, 4294967295]"),
     (["sort", "--collision"], "use it with --view"),
 ]
 
