@@ -34,9 +34,11 @@ from mearm.cli import (
     EXIT_OK,
     ArgumentParser,
     add_config_argument,
+    check_output_file,
     config_from_args,
     run,
     seed_value,
+    write_text_atomic,
 )
 from mearm.config import Config, SceneObject
 from mearm.errors import MearmError
@@ -124,11 +126,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.error("--hold keeps the view open: use it with --view")
     if args.collision and not args.view:
         parser.error("--collision draws the collision model in the view: use it with --view")
+    if args.save_mjcf is not None:
+        check_output_file(args.save_mjcf, "--save-mjcf")
     config = config_from_args(args)
     check_consistency(config)  # before the scene, the log or any output: the config first
     scene = scene_from_args(args, config)
-    if args.save_mjcf is not None:
-        _save_mjcf(config, scene, args.save_mjcf)
+    mjcf = _scene_mjcf(config, scene) if args.save_mjcf is not None else None
     lines: list[str] = []
     echo = lines.append if args.quiet else print
 
@@ -159,6 +162,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     if log is not None:
         print(f"run log: {args.log}", flush=True)
     try:
+        if mjcf is not None:  # the last of the inputs accepted (the log's lock included)
+            write_text_atomic(args.save_mjcf, mjcf)
+            print(f"MJCF: {args.save_mjcf}", flush=True)
         report = run_sort(
             config,
             scene=scene,
@@ -195,19 +201,15 @@ def main(argv: Sequence[str] | None = None) -> int:
     return EXIT_OK
 
 
-def _save_mjcf(config: Config, scene: list[SceneObject] | None, path: Path) -> None:
-    """Write the scene the sort will see as MJCF (before anything moves)."""
-    from mearm.sim.twin.mjcf import save_mjcf
+def _scene_mjcf(config: Config, scene: list[SceneObject] | None) -> str:
+    """The MJCF of the scene the sort will see (written once every input is accepted)."""
+    from mearm.sim.twin.mjcf import generate_mjcf
 
     if scene is not None:
         config = config.model_copy(
             update={"task": config.task.model_copy(update={"scene": list(scene)})}
         )
-    try:
-        save_mjcf(config, path)
-    except OSError as exc:
-        raise MearmError(f"--save-mjcf {path}: cannot write: {exc}") from None
-    print(f"MJCF: {path}", flush=True)
+    return generate_mjcf(config)
 
 
 def _print_summary(lines: list[str]) -> None:
