@@ -200,13 +200,13 @@ def check_output_file(path: Path, flag: str) -> None:
     A folder, a device or pipe, a path under a regular file, a folder that is not
     writable: each is one :class:`MearmError` naming ``flag`` and the path, so a command
     refuses it before it measures or sorts (not with a traceback after). Nothing is
-    created: missing folders are made when the file is written.
+    created here.
 
     Raises:
         MearmError: the path cannot be written as a file.
     """
     if path.is_dir():
-        raise MearmError(f"{flag} {path}: is a folder; give a file path")
+        raise MearmError(f"{flag} {path}: is a folder, not a regular file; give a file path")
     if path.exists() and not path.is_file():
         raise MearmError(f"{flag} {path}: exists and is not a regular file (a device or pipe)")
     _check_writable_folder(path, flag)
@@ -230,9 +230,9 @@ def check_output_folder(path: Path, flag: str) -> None:
 def _check_writable_folder(path: Path, flag: str) -> None:
     folder = _existing_ancestor(path)
     if not folder.is_dir():
-        raise MearmError(f"{flag} {path}: {folder} is a file, not a folder")
+        raise MearmError(f"{flag} {path}: cannot write: {folder} is a file, not a folder")
     if not os.access(folder, os.W_OK | os.X_OK):
-        raise MearmError(f"{flag} {path}: the folder {folder} is not writable")
+        raise MearmError(f"{flag} {path}: cannot write: the folder {folder} is not writable")
 
 
 def _program_name() -> str:

@@ -32,10 +32,10 @@ def spots(tmp_path: Path) -> dict[str, Path]:
 #: whole measurement (a traceback, exit 1), or not at all, before.
 CASES: list[tuple[list[str], str]] = [
     (["virtual-uno-pulses", "--json", "{folder}"], "--json {folder}: is a folder"),
-    (["virtual-uno-pulses", "--json", "{under}"], "--json {under}: {file} is a file, not a "
-                                                  "folder"),
+    (["virtual-uno-pulses", "--json", "{under}"], "--json {under}: cannot write: {file} is a "
+                                                  "file, not a folder"),
     (["camera-accuracy", "--config", "sim_mujoco", "--json", "{under}"],
-     "--json {under}: {file} is a file, not a folder"),
+     "--json {under}: cannot write: {file} is a file, not a folder"),
     (["camera-accuracy", "--config", "sim_mujoco", "--json", "{folder}"], "is a folder"),
     (["camera-accuracy", "--config", "sim_mujoco", "--work", "{file}"],
      "--work {file}: exists and is not a folder"),
@@ -44,9 +44,13 @@ CASES: list[tuple[list[str], str]] = [
     (["sort", "--quiet", "--save-mjcf", "{folder}"], "--save-mjcf {folder}: is a folder"),
     (["sort", "--quiet", "--save-mjcf", "{under}"], "{file} is a file, not a folder"),
     (["check-camera", "--config", "sim_mujoco_perspective", "--refine", "{under}"],
-     "--refine {under}: {file} is a file, not a folder"),
+     "--refine {under}: cannot write: {file} is a file, not a folder"),
     (["check-camera", "--config", "sim_mujoco_perspective", "--refine", "{folder}"],
      "is a folder"),
+    (["calibrate-intrinsics", "--images", "{folder}", "--out", "{under}"],
+     "--out {under}: cannot write: {file} is a file, not a folder"),
+    (["calibrate-camera", "--config", "sim", "--point", "0,0:-20.5,59", "--output", "{under}"],
+     "--output {under}: cannot write: {file} is a file, not a folder"),
 ]  # fmt: skip
 
 
