@@ -206,7 +206,9 @@ def check_output_file(path: Path, flag: str) -> None:
         MearmError: the path cannot be written as a file.
     """
     if path.is_dir():
-        raise MearmError(f"{flag} {path}: is a folder, not a regular file; give a file path")
+        raise MearmError(
+            f"{flag} {path}: exists and is not a regular file (a folder); give a file path"
+        )
     if path.exists() and not path.is_file():
         raise MearmError(f"{flag} {path}: exists and is not a regular file (a device or pipe)")
     _check_writable_folder(path, flag)

@@ -31,25 +31,32 @@ def spots(tmp_path: Path) -> dict[str, Path]:
 #: (command line with {folder}, {file} or {under}, words). Each was refused only after its
 #: whole measurement (a traceback, exit 1), or not at all, before.
 CASES: list[tuple[list[str], str]] = [
-    (["virtual-uno-pulses", "--json", "{folder}"], "--json {folder}: is a folder"),
+    (["virtual-uno-pulses", "--json", "{folder}"],
+     "--json {folder}: exists and is not a regular file (a folder)"),
     (["virtual-uno-pulses", "--json", "{under}"], "--json {under}: cannot write: {file} is a "
                                                   "file, not a folder"),
     (["camera-accuracy", "--config", "sim_mujoco", "--json", "{under}"],
      "--json {under}: cannot write: {file} is a file, not a folder"),
-    (["camera-accuracy", "--config", "sim_mujoco", "--json", "{folder}"], "is a folder"),
+    (["camera-accuracy", "--config", "sim_mujoco", "--json", "{folder}"],
+     "not a regular file (a folder)"),
     (["camera-accuracy", "--config", "sim_mujoco", "--work", "{file}"],
      "--work {file}: exists and is not a folder"),
     (["camera-accuracy", "--config", "sim_mujoco", "--work", "{under}"], "is a file, not a folder"),
     (["camera-accuracy", "--config", "sim_mujoco", "--max-mean-cm", "nan"], "--max-mean-cm"),
-    (["sort", "--quiet", "--save-mjcf", "{folder}"], "--save-mjcf {folder}: is a folder"),
+    (["sort", "--quiet", "--save-mjcf", "{folder}"],
+     "--save-mjcf {folder}: exists and is not a regular file (a folder)"),
     (["sort", "--quiet", "--save-mjcf", "{under}"], "{file} is a file, not a folder"),
     (["check-camera", "--config", "sim_mujoco_perspective", "--refine", "{under}"],
      "--refine {under}: cannot write: {file} is a file, not a folder"),
     (["check-camera", "--config", "sim_mujoco_perspective", "--refine", "{folder}"],
-     "is a folder"),
+     "not a regular file (a folder)"),
     (["calibrate-intrinsics", "--images", "{folder}", "--out", "{under}"],
      "--out {under}: cannot write: {file} is a file, not a folder"),
     (["calibrate-camera", "--config", "sim", "--point", "0,0:-20.5,59", "--output", "{under}"],
+     "--output {under}: cannot write: {file} is a file, not a folder"),
+    (["detect", "--camera", "--annotate", "{under}.png"],
+     "--annotate {under}.png: cannot write: {file} is a file, not a folder"),
+    (["config-docs", "--output", "{under}"],
      "--output {under}: cannot write: {file} is a file, not a folder"),
 ]  # fmt: skip
 
