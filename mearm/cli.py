@@ -186,6 +186,57 @@ def write_text_atomic(path: Path, text: str) -> None:
         raise MearmError(f"cannot write {path}: {exc}") from None
 
 
+def _existing_ancestor(path: Path) -> Path:
+    """The nearest of ``path``'s folders that exists (``path`` itself excluded)."""
+    parent = path.absolute().parent
+    while not parent.exists() and parent != parent.parent:
+        parent = parent.parent
+    return parent
+
+
+def check_output_file(path: Path, flag: str) -> None:
+    """Refuse, before any work, an output file that could not be written.
+
+    A folder, a device or pipe, a path under a regular file, a folder that is not
+    writable: each is one :class:`MearmError` naming ``flag`` and the path, so a command
+    refuses it before it measures or sorts (not with a traceback after). Nothing is
+    created here.
+
+    Raises:
+        MearmError: the path cannot be written as a file.
+    """
+    if path.is_dir():
+        raise MearmError(
+            f"{flag} {path}: exists and is not a regular file (a folder); give a file path"
+        )
+    if path.exists() and not path.is_file():
+        raise MearmError(f"{flag} {path}: exists and is not a regular file (a device or pipe)")
+    _check_writable_folder(path, flag)
+
+
+def check_output_folder(path: Path, flag: str) -> None:
+    """As :func:`check_output_file`, for an output folder (missing folders are made).
+
+    Raises:
+        MearmError: the path exists and is not a folder, lies under a regular file, or
+            its nearest existing folder is not writable.
+    """
+    if path.exists() and not path.is_dir():
+        raise MearmError(f"{flag} {path}: exists and is not a folder")
+    if not path.exists():
+        _check_writable_folder(path, flag)
+    elif not os.access(path, os.W_OK | os.X_OK):
+        raise MearmError(f"{flag} {path}: the folder is not writable")
+
+
+def _check_writable_folder(path: Path, flag: str) -> None:
+    folder = _existing_ancestor(path)
+    if not folder.is_dir():
+        raise MearmError(f"{flag} {path}: cannot write: {folder} is a file, not a folder")
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise MearmError(f"{flag} {path}: cannot write: the folder {folder} is not writable")
+
+
 def _program_name() -> str:
     """``python -m mearm.ik`` for a module run with -m, else the script's name."""
     if sys.argv and sys.argv[0].startswith("mearm "):

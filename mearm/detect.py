@@ -31,7 +31,13 @@ import cv2
 import numpy as np
 
 from mearm.backends import open_camera
-from mearm.cli import ArgumentParser, add_config_argument, config_from_args, run
+from mearm.cli import (
+    ArgumentParser,
+    add_config_argument,
+    check_output_file,
+    config_from_args,
+    run,
+)
 from mearm.fileio import write_atomic
 from mearm.vision.calibration import camera_geometry
 from mearm.vision.detector import ColorDetector, Detection
@@ -232,8 +238,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         for out in outs:
             if _identity(out) in inputs:
                 parser.error(f"--annotate {out}: is one of the input images (write elsewhere)")
-            if out.exists() and not out.is_file():
-                parser.error(f"--annotate {out}: exists and is not a regular file")
+            check_output_file(out, "--annotate")  # a folder, a path under a file: now
     config = config_from_args(args)
     calibration = camera_geometry(config)
     detector = ColorDetector(config.vision, calibration, config.task.classes)

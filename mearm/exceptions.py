@@ -29,7 +29,12 @@ FAMILIES: dict[str, tuple[str, ...]] = {
         "JointLimitTargetError",
         "SingularTargetError",
     ),
-    "mearm.runlog.errors": ("RunLogError", "RepeatedTrialError", "RunLogFormatError"),
+    "mearm.runlog.errors": (
+        "RunLogError",
+        "RepeatedTrialError",
+        "RunLogFormatError",
+        "RunLogLockedError",
+    ),
     "mearm.ik.errors": ("QPSolverError",),
     "mearm.vision.errors": ("ImageError", "CameraError"),
     "mearm.hardware.errors": (

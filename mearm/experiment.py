@@ -73,6 +73,7 @@ from mearm.errors import MearmError
 from mearm.hardware.errors import ServoError
 from mearm.runlog import (
     HeaderRecord,
+    LogLock,
     RunLog,
     TornEnd,
     end_line,
@@ -81,7 +82,15 @@ from mearm.runlog import (
     set_aside_torn_end,
 )
 from mearm.runlog.errors import RunLogError
-from mearm.task import SortAborted, load_scene, random_scene, run_sort, scene_layout
+from mearm.task import (
+    SortAborted,
+    check_scene,
+    load_scene,
+    random_scene,
+    run_sort,
+    scene_layout,
+)
+from mearm.task.check import check_consistency
 from mearm.task.report import Outcome
 from mearm.task.rig import RigRecorder
 from mearm.vision.errors import CameraError
@@ -822,9 +831,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.jobs is None:
         args.jobs = 2 if args.scheduler == "local" else 1
     config = config_from_args(args)
+    check_consistency(config)  # before the scene, the log or any output: the config first
     scene = load_scene(args.scene, config.task.class_names) if args.scene else None
     if scene is not None and config.camera.kind != "sim":
         raise MearmError("--scene lays out the simulated table; this config's camera is not 'sim'")
+    if scene is not None:
+        check_scene(config, scene, str(args.scene))  # (without it, each trial draws its own)
     if args.scheduler is not None and config.camera.kind != "sim":
         raise MearmError(
             "--scheduler runs simulated trials on a cluster; this config's camera is not "
@@ -839,6 +851,24 @@ def main(argv: Sequence[str] | None = None) -> int:
     if config.camera.kind != "sim" and not args.yes:
         wait = terminal_prompt(args.trials)
 
+    # one writer per log: taken before the log is read for resuming, so no other run
+    # appends between that reading and this run's first record (a new log: RunLog's own)
+    held = LogLock(args.log) if args.log.is_file() else None
+    try:
+        return _resume(args, config, scene, wait, held)
+    finally:
+        if held is not None:
+            held.release()
+
+
+def _resume(
+    args: Any,
+    config: Config,
+    scene: list[SceneObject] | None,
+    wait: Callable[[int], None] | None,
+    held: LogLock | None,
+) -> int:
+    """Where the log leaves off, the workers, then the run (:func:`main`'s second half)."""
     resume = resume_point(args.log, config, args.seed, scene)
     if resume.done >= args.trials:
         print(
@@ -860,7 +890,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         open_workers(config, args.seed, scene, jobs, args.scheduler) if parallel else nullcontext()
     ) as workers:
         try:
-            return _run(args, config, scene, resume, wait, workers, recorder)
+            return _run(args, config, scene, resume, wait, workers, recorder, held)
         finally:
             if recorder is not None:
                 recorder.close()
@@ -880,6 +910,7 @@ def _run(
     wait: Callable[[int], None] | None,
     workers: Workers | None,
     recorder: RigRecorder | None = None,
+    held: LogLock | None = None,
 ) -> int:
     """The run of :func:`main` once its input is checked (and its workers are ready)."""
     set_aside = ready_to_append(args.log, resume)
@@ -894,7 +925,7 @@ def _run(
 
     t0 = time.perf_counter()
     with (
-        RunLog(args.log) as log,
+        RunLog(args.log, lock=held) as log,
         tqdm(
             total=args.trials, initial=resume.done, unit="trial", file=sys.stderr, disable=None
         ) as bar,

@@ -37,9 +37,11 @@ from mearm.cli import (
     EXIT_OK,
     ArgumentParser,
     add_config_argument,
+    check_output_file,
     config_from_args,
     run,
     seed_value,
+    write_text_atomic,
 )
 from mearm.config import Config, SceneObject
 from mearm.dataset.arguments import (
@@ -49,7 +51,8 @@ from mearm.dataset.arguments import (
 )
 from mearm.errors import MearmError
 from mearm.hardware.errors import ServoError
-from mearm.task import Rig, SortAborted, load_scene, random_scene, run_sort
+from mearm.task import Rig, SortAborted, check_scene, load_scene, random_scene, run_sort
+from mearm.task.check import check_consistency
 from mearm.vision.errors import CameraError
 
 
@@ -66,7 +69,12 @@ def add_scene_arguments(parser: ArgumentParser) -> None:
 
 
 def scene_from_args(args: object, config: Config) -> list[SceneObject] | None:
-    """The scene the arguments ask for, or ``None`` for the config's own."""
+    """The scene the arguments ask for, or ``None`` for the config's own.
+
+    On a simulated table the scene (the config's own included) is checked first
+    (:func:`~mearm.task.scene.check_scene`): an object the camera could not see whole
+    would be left out of the count.
+    """
     scene_path = getattr(args, "scene", None)
     n = getattr(args, "random", None)
     if (scene_path is not None or n is not None) and config.camera.kind != "sim":
@@ -74,13 +82,17 @@ def scene_from_args(args: object, config: Config) -> list[SceneObject] | None:
             "--scene and --random lay out the simulated table; this config's camera is "
             f"'{config.camera.kind}', not 'sim'"
         )
+    scene = None
     if scene_path is not None:
-        return load_scene(scene_path, config.task.class_names)
-    if n is not None:
+        scene = load_scene(scene_path, config.task.class_names)
+    elif n is not None:
         if n < 0:
             raise MearmError(f"--random needs a number of objects ≥ 0, got {n}")
-        return random_scene(config, n, seed=getattr(args, "seed", 0))
-    return None
+        scene = random_scene(config, n, seed=getattr(args, "seed", 0))
+    if config.camera.kind == "sim":
+        source = str(scene_path) if scene_path is not None else "--random" if n else "task.scene"
+        check_scene(config, config.task.scene if scene is None else scene, source)
+    return scene
 
 
 def _hold(url: str) -> None:
@@ -124,10 +136,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.error("--hold keeps the view open: use it with --view")
     if args.collision and not args.view:
         parser.error("--collision draws the collision model in the view: use it with --view")
-    config = config_from_args(args)
-    scene = scene_from_args(args, config)
     if args.save_mjcf is not None:
-        _save_mjcf(config, scene, args.save_mjcf)
+        check_output_file(args.save_mjcf, "--save-mjcf")
+    config = config_from_args(args)
+    check_consistency(config)  # before the scene, the log or any output: the config first
+    scene = scene_from_args(args, config)
+    mjcf = _scene_mjcf(config, scene) if args.save_mjcf is not None else None
     lines: list[str] = []
     echo = lines.append if args.quiet else print
     recorder = recorder_from_args(args, config)  # its directory checked before any motion
@@ -161,6 +175,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     if recorder is not None:
         print(f"recording: {args.record}", flush=True)
     try:
+        if mjcf is not None:  # the last of the inputs accepted (the log's lock included)
+            write_text_atomic(args.save_mjcf, mjcf)
+            print(f"MJCF: {args.save_mjcf}", flush=True)
         report = run_sort(
             config,
             scene=scene,
@@ -206,19 +223,15 @@ def main(argv: Sequence[str] | None = None) -> int:
     return EXIT_OK
 
 
-def _save_mjcf(config: Config, scene: list[SceneObject] | None, path: Path) -> None:
-    """Write the scene the sort will see as MJCF (before anything moves)."""
-    from mearm.sim.twin.mjcf import save_mjcf
+def _scene_mjcf(config: Config, scene: list[SceneObject] | None) -> str:
+    """The MJCF of the scene the sort will see (written once every input is accepted)."""
+    from mearm.sim.twin.mjcf import generate_mjcf
 
     if scene is not None:
         config = config.model_copy(
             update={"task": config.task.model_copy(update={"scene": list(scene)})}
         )
-    try:
-        save_mjcf(config, path)
-    except OSError as exc:
-        raise MearmError(f"--save-mjcf {path}: cannot write: {exc}") from None
-    print(f"MJCF: {path}", flush=True)
+    return generate_mjcf(config)
 
 
 def _print_summary(lines: list[str]) -> None:

@@ -181,3 +181,62 @@ def test_dry_run_checks_the_fit_too(lab: Path) -> None:
         ["calibrate-camera", "--config", lab, "--dry-run", *bad], within_s=3, keep=[lab.parent]
     )
     assert "horizon" in out.line and out.stdout == ""
+
+
+CALIBRATION = ROOT / "configs" / "calibration"
+
+#: name → (file, line replaced, the new line, words). ``int(.inf)`` raised OverflowError
+#: (exit 1 with a traceback in the crash log) before each was named.
+BAD_CALIBRATION_NUMBERS: dict[str, tuple[str, str, str, str]] = {
+    "views .inf": ("twin_intrinsics.yaml", "views:", "views: .inf",
+                   "views must be a whole number in 0 … 1000000, got inf"),
+    "views 1.5": ("twin_intrinsics.yaml", "views:", "views: 1.5",
+                  "views must be a whole number in 0 … 1000000, got 1.5"),
+    "views -1": ("twin_intrinsics.yaml", "views:", "views: -1",
+                 "views must be a whole number in 0 … 1000000, got -1"),
+    "rms .nan": ("twin_intrinsics.yaml", "rms_px:", "rms_px: .nan",
+                 "rms_px must be in 0 … 1000 px, got nan"),
+    "resolution .inf": ("twin_intrinsics.yaml", "resolution:", "resolution: [.inf, 480]",
+                        "resolution must be a whole number in 1 … 65535, got inf"),
+    "markers .inf": ("twin_pose.yaml", "markers:", "markers: .inf",
+                     "markers must be a whole number in 0 … 1000000, got inf"),
+    "resolution true": ("twin_pose.yaml", "resolution:", "resolution: [true, 480]",
+                        "resolution must be a whole number"),
+}  # fmt: skip
+
+
+def bad_calibration(name: str, folder: Path) -> Path:
+    file, start, line, _ = BAD_CALIBRATION_NUMBERS[name]
+    text = (CALIBRATION / file).read_text()
+    lines = [line if x.startswith(start) else x for x in text.splitlines()]
+    assert lines != text.splitlines()
+    path = folder / file
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+@bad_input
+@pytest.mark.parametrize("name", BAD_CALIBRATION_NUMBERS)
+def test_detect_names_a_number_out_of_range_in_a_calibration_file(
+    name: str, tmp_path: Path
+) -> None:
+    """A calibration file's every number is finite and in range, or named (exit 2)."""
+    path = bad_calibration(name, tmp_path)
+    key = "intrinsics_file" if "intrinsics" in path.name else "extrinsics_file"
+    argv = ["detect", "--config", "sim_mujoco_perspective", "--set", f"calibration.{key}={path}",
+            "--camera"]  # fmt: skip
+    out = check_bad_input(argv, within_s=5, keep=[tmp_path])
+    assert f"{path}: {BAD_CALIBRATION_NUMBERS[name][3]}" in out.line
+
+
+@bad_input
+@pytest.mark.parametrize("name", [n for n, v in BAD_CALIBRATION_NUMBERS.items() if "intr" in v[0]])
+def test_calibrate_camera_names_a_number_out_of_range_in_the_intrinsics(
+    name: str, tmp_path: Path
+) -> None:
+    path = bad_calibration(name, tmp_path)
+    argv = ["--config", "sim_mujoco_perspective", "--intrinsics", path, "--out",
+            tmp_path / "pose.yaml", "--image", tmp_path / "none.png", "--marker", "0:1,2",
+            "--marker-side-cm", "4"]  # fmt: skip
+    check(argv, tmp_path, f"{path}: {BAD_CALIBRATION_NUMBERS[name][3]}")
+    assert not (tmp_path / "pose.yaml").exists()

@@ -205,7 +205,7 @@ CASES: list[tuple[list[str], str]] = [
             "--set",
             "task.classes.red.diameter_cm=100",
         ],
-        "the camera sees no table area",
+        "task.classes.red.bin_cm",  # its bin, as wide as the object, is refused first
     ),
     # analyze (bad arguments only: the run logs themselves are another corpus)
     (["analyze"], "give a run log to analyse, --gains, or both"),
@@ -230,6 +230,9 @@ CASES: list[tuple[list[str], str]] = [
     (["config-docs", "--check", "{dir}/missing.md"], "no such file"),
     (["config-docs", "--output", "{dir}"], "exists and is not a regular file"),
     (["quantization", "--poses", "-1"], "--poses must be at least 1"),
+    (["quantization", "--seed", "-1"], "the seed must be in [0, 4294967295]"),
+    (["ik-stalls", "--seed", "-1"], "the seed must be in [0, 4294967295], got -1"),
+    (["ik-stalls", "--seed", str(2**32)], "the seed must be in [0, 4294967295]"),
     (["sort", "--collision"], "use it with --view"),
 ]
 

@@ -180,6 +180,41 @@ def test_analyze_reads_a_damaged_log_up_to_the_bad_line(
     assert out.line.startswith("warning:")
 
 
+def route_moved(m: dict[str, Path], n: int, x_cm: float) -> bytes:
+    """The experiment log with its ``n``-th route's end (and so its error) moved to ``x_cm``."""
+    lines = lines_of(m["log"])
+    routes = [i for i, line in enumerate(lines) if b'"type":"route"' in line]
+    obj = json.loads(lines[routes[n]])
+    obj["ee_cm"][0] = x_cm
+    obj["error_cm"][0] = x_cm - obj["target_cm"][0]
+    lines[routes[n]] = json.dumps(obj).encode() + b"\n"
+    return b"".join(lines)
+
+
+@pytest.mark.parametrize("x_cm", [1e308, -1e300, 1e5])
+def test_analyze_strict_refuses_an_absurd_route_naming_its_line(
+    x_cm: float, made: dict[str, Path], tmp_path: Path
+) -> None:
+    """A route that ended 1e308 cm away is not a measurement: strict names its line."""
+    log = tmp_path / "absurd.jsonl"
+    log.write_bytes(route_moved(made, 1, x_cm))
+    line = 1 + [b'"type":"route"' in x for x in lines_of(log)].index(True) + 1
+    out = check_bad_input(["analyze", log, "--strict"], keep=[log], within_s=15)
+    assert f"line {line}: route record: field 'ee_cm.0'" in out.line
+    assert "less than or equal to 10000" in out.line or "greater than or equal to -10000" in (
+        out.line
+    )
+    assert "overflow" not in out.stderr
+
+
+def test_analyze_reads_up_to_an_absurd_route(made: dict[str, Path], tmp_path: Path) -> None:
+    """Without --strict, the routes before it are analysed and the line is named."""
+    log = tmp_path / "absurd.jsonl"
+    log.write_bytes(route_moved(made, 1, 1e308))
+    out = check_bad_input(["analyze", log], code=0, keep=[log], within_s=15)
+    assert out.line.startswith("warning:") and "ee_cm.0" in out.line
+
+
 def test_analyze_refuses_out_that_is_a_file(made: dict[str, Path], tmp_path: Path) -> None:
     (tmp_path / "report").write_text("keep")
     out = check_bad_input(["analyze", made["log"], "--out", tmp_path / "report"], keep=[tmp_path])
@@ -248,7 +283,8 @@ def test_experiment_refuses_to_resume_a_bad_log(
         (["--set", "controller.kp=0.3"], "its config differs at controller.kp"),
         (["--set", "servo.error_model.quantization=degree"], "servo.error_model.quantization"),
         (["--config", "configs/sim_4colours.yaml"], "its config differs at"),
-        (["--config", "configs/sim_5dof.yaml"], "its config differs at arm"),
+        # (without --scene: the module's scene lies outside this arm's camera view)
+        (["--config", "configs/sim_5dof.yaml", "--no-scene"], "its config differs at arm"),
     ],
 )
 def test_experiment_refuses_a_log_of_another_config_or_seed(
@@ -256,7 +292,9 @@ def test_experiment_refuses_a_log_of_another_config_or_seed(
 ) -> None:
     log = tmp_path / "trials.jsonl"
     log.write_bytes(made["log"].read_bytes())
-    out = check_bad_input(experiment_argv(log, made["scene"], *more), keep=[tmp_path])
+    scene = None if "--no-scene" in more else made["scene"]
+    more = [m for m in more if m != "--no-scene"]
+    out = check_bad_input(experiment_argv(log, scene, *more), keep=[tmp_path])
     assert words in out.line and "another run" in out.line
 
 

@@ -149,8 +149,8 @@ def test_experiment_refuses_a_bad_scene(name: str, scenes: dict[str, Path], tmp_
         (["--random", "5", "--set", "camera.width_px=16", "--set", "camera.height_px=16"],
          "the camera sees no table area"),
         (["--random", "5", "--set", "task.classes.red.diameter_cm=100"],
-         "the camera sees no table area"),
-        (["--random", str(MAX_SCENE_OBJECTS), "--set", "task.classes.red.diameter_cm=5"],
+         "task.classes.red.bin_cm"),  # its bin, as wide as the object, is refused first
+        (["--random", str(MAX_SCENE_OBJECTS), "--set", "task.classes.red.diameter_cm=3"],
          "could not place"),
     ],
 )  # fmt: skip
@@ -178,3 +178,82 @@ def test_an_empty_list_is_a_valid_scene(tmp_path: Path) -> None:
     out = run_in_process(["sort", "--scene", scene, "--quiet"], within_s=10)
     assert out.code == 0, out.stderr
     assert (ROOT / "configs").is_dir()
+
+
+#: The paper's twelve objects, as a scene file's entries.
+PAPER = "".join(
+    f"- {{color: {c}, x: {x}, y: {y}}}\n"
+    for c, x, y in (("red", -10.99, 49.70), ("red", -0.75, 53.72), ("red", -0.40, 42.01),
+                    ("red", 8.08, 46.71), ("green", -8.31, 53.81), ("green", -4.57, 47.58),
+                    ("green", 5.15, 53.38), ("green", 11.74, 42.88), ("blue", -10.08, 44.03),
+                    ("blue", 2.03, 48.57), ("blue", 6.93, 41.11), ("blue", 12.15, 51.86))
+)  # fmt: skip
+
+#: name → (the thirteenth object, words the one line must hold). Before, the sort left
+#: each of these out and printed "sorted 12 of 12 objects" with exit 0.
+LYING_SCENES: dict[str, tuple[str, str]] = {
+    "behind the base": ("{color: red, x: 0, y: -20}", "[12] (red at x 0, y -20 cm): outside "
+                        "the camera's view of the table"),
+    "beside the base (y = 0)": ("{color: red, x: 30, y: 0}", "[12] (red at x 30, y 0 cm): "
+                                "outside the camera's view"),
+    "5 m away": ("{color: blue, x: 500, y: 40}", "[12] (blue at x 500, y 40 cm): outside the "
+                 "camera's view of the table (640x480 px through calibration): the whole "
+                 "object must be seen (centres within x -19.5…18.5, y 30.0…58.0 cm are)"),
+    "half out of view": ("{color: red, x: 0, y: 58.5}", "outside the camera's view"),
+    "on the base plate": ("{color: red, x: 1, y: 0}", "[12] (red at x 1, y 0 cm): not on the "
+                          "table: it stands on the arm's base plate"),
+    "on another object": ("{color: green, x: -0.4, y: 43}", "[12] (green at x -0.4, y 43 cm): "
+                          "overlaps "),
+    "inside a bin": ("{color: red, x: -17, y: 45}", "[12] (red at x -17, y 45 cm): inside "
+                     "green's bin (a 6.6 cm square, walls included"),
+}  # fmt: skip
+
+
+@bad_input
+@pytest.mark.parametrize("name", LYING_SCENES)
+def test_sort_refuses_a_scene_it_could_not_see_whole(name: str, tmp_path: Path) -> None:
+    """An object off the table, out of view, on another or in a bin: exit 2 naming it."""
+    obj, words = LYING_SCENES[name]
+    scene = tmp_path / "scene.yaml"
+    scene.write_text(PAPER + f"- {obj}\n")
+    log = tmp_path / "run.jsonl"
+    out = check_bad_input(["sort", "--scene", scene, "--log", log, "--quiet"], keep=[scene])
+    assert (str(scene) + words if words.startswith("[") else words) in out.line
+    if name == "on another object":
+        assert out.line.endswith(
+            f"{scene}[2] (red at x -0.4, y 42.01 cm): centres must be at least 2 cm apart"
+        )
+    assert not log.exists()
+
+
+@bad_input
+@pytest.mark.parametrize("command", ["sort", "experiment"])
+def test_a_configured_scene_that_lies_is_refused(command: str, tmp_path: Path) -> None:
+    """The config's own table (task.scene) is checked as a scene file is."""
+    if command == "sort":
+        argv = ["sort", "--set", "task.scene=[{color: red, x: 0, y: -20}]", "--quiet"]
+        out = check_bad_input(argv)
+        assert out.line.endswith("task.scene[0] (red at x 0, y -20 cm): outside the camera's "
+                                 "view of the table (640x480 px through calibration): the "
+                                 "whole object must be seen (centres within x -19.5…18.5, "
+                                 "y 30.0…58.0 cm are)")  # fmt: skip
+    else:
+        scene = tmp_path / "scene.yaml"
+        scene.write_text(PAPER + "- {color: red, x: 0, y: -20}\n")
+        log = tmp_path / "trials.jsonl"
+        out = check_bad_input(["experiment", "--scene", scene, "--log", log, "--trials", "2"])
+        assert f"{scene}[12] (red at x 0, y -20 cm): outside" in out.line
+        assert not log.exists()
+
+
+def test_the_paper_layout_and_random_scenes_pass_the_check() -> None:
+    """What the project ships and draws is a scene the sort sees whole."""
+    from mearm.config import load_config
+    from mearm.task import check_scene, random_scene
+
+    for name in ("sim", "sim_4colours", "sim_mujoco_perspective", "sim_paper_arm"):
+        config = load_config(name)
+        check_scene(config, config.task.scene)
+    config = load_config("sim")
+    for seed in range(3):
+        check_scene(config, random_scene(config, 12, seed=seed), "--random")

@@ -88,3 +88,33 @@ def test_a_clearance_the_arm_breaks_at_home_stops_before_motion():
         "task.clearance_cm: 5 cm is more than the arm keeps from red's bin at home "
         "(gripper_jaw_right_pad, 3.31 cm): at most 3.31 cm, or move the bin"
     )
+
+
+#: The built-in calibration with the field moved 100 cm farther out: no pick reaches it.
+FAR_FIELD = "calibration.homography=[[0.0625, 0, -20.5], [0, -0.0625, 159.0], [0, 0, 1]]"
+#: Shoulder 10°, elbow −120°: the hand points down through the table.
+HOME_UNDER_TABLE = ("arm.joints.shoulder.limits.min=0", "arm.joints.shoulder.home=10",
+                    "arm.joints.elbow.home=-120")  # fmt: skip
+
+
+@pytest.mark.bad_input
+@pytest.mark.parametrize(
+    ("sets", "words"),
+    [
+        ((FAR_FIELD,), "calibration.homography: the camera's view of the table (x -20…19 cm, "
+                       "y 129…159 cm) holds no point the arm can pick from"),
+        (HOME_UNDER_TABLE, "arm.joints[].home: at home (base 120, shoulder 10, elbow -120) the "
+                           "tool's gripper_mount is 8.96 cm below the table"),
+    ],
+)  # fmt: skip
+@pytest.mark.parametrize("command", ["sort", "experiment"])
+def test_a_config_the_sort_cannot_use_is_refused_before_the_log(
+    sets: tuple[str, ...], words: str, command: str, tmp_path
+):
+    """A camera that sees nothing in reach ("sorted 0 of 0", exit 0 before) or a home with
+    the tool under the table: exit 2, one line, and no run log started."""
+    log = tmp_path / "run.jsonl"
+    argv = [command, *(a for s in sets for a in ("--set", s)), "--log", log]
+    out = check_bad_input([*argv, *(["--trials", "2"] if command == "experiment" else [])])
+    assert words in out.line
+    assert not log.exists()

@@ -753,3 +753,46 @@ def test_a_fit_of_a_servo_over_joints_keeps_its_combination(tmp_path):
     with pytest.raises(ServoCalibrationError, match="calibrated turning elbow, the config's "
                        "turns shoulder \\+ elbow"):  # fmt: skip
         apply_servo_calibration(config, [per_joint])
+
+
+@pytest.mark.parametrize(
+    ("field", "value", "words"),
+    [
+        (
+            "pulse_us",
+            ".inf",
+            "base.points[0].pulse_us must be a whole number in 0 … 10000, got inf",
+        ),
+        (
+            "pulse_us",
+            "1500.5",
+            "base.points[0].pulse_us must be a whole number in 0 … 10000, got 1500.5",
+        ),
+        ("value", ".nan", "base.points[0].value must be a number in -1000 … 1000, got nan"),
+        ("residual_us", ".inf", "base.residual_us must be a number in 0 … 10000, got inf"),
+    ],
+)
+def test_a_number_out_of_range_in_the_file_is_named(tmp_path, field, value, words):
+    """``.inf`` as a pulse raised OverflowError (a traceback); NaN as a value was taken."""
+    from mearm.config.servo_file import (
+        CalibrationPoint,
+        ServoCalibrationError,
+        ServoCalibrationFile,
+        fit_actuator,
+        load_servo_calibration,
+    )
+
+    points = [CalibrationPoint(60.0, 1200), CalibrationPoint(120.0, 1800)]
+    fit = fit_actuator("base", "deg", _servo(), points)
+    text = ServoCalibrationFile("paper", "mearm 1", "", "2026-01-01", (fit,)).text()
+    data = yaml.safe_load(text)
+    target = data["actuators"]["base"]
+    if field == "residual_us":
+        target["residual_us"] = "X"
+    else:
+        target["points"][0][field] = "X"
+    path = tmp_path / "servos.yaml"
+    path.write_text(yaml.safe_dump(data, sort_keys=False).replace("X", value).replace("'", ""))
+    with pytest.raises(ServoCalibrationError) as caught:
+        load_servo_calibration(path)
+    assert str(caught.value) == f"{path}: {words}"

@@ -48,11 +48,15 @@ def test_each_joint_reaches_its_step_and_the_plot_is_drawn(tmp_path):
         (("--degrees", "0"), "--degrees must be in (0, 90]"),
         (("--before", "missing.csv"), "--before missing.csv"),
         (("--before", "empty.csv"), "--before empty.csv: no responses in it"),
+        (("--before", "inf.csv"), "--before inf.csv: line 3: step_deg, t_s and angle_deg must"),
         (("--csv", "empty.csv/steps.csv"), "--csv empty.csv/steps.csv: not a file in an"),
     ],
 )
 def test_bad_input_is_named(tmp_path, args, says):
     (tmp_path / "empty.csv").touch()
+    (tmp_path / "inf.csv").write_text(
+        "joint,step_deg,t_s,angle_deg\nshoulder,5,0.0,0.0\nshoulder,5,0.02,inf\n"
+    )
     done = subprocess.run(
         [sys.executable, str(TOOL), *args], capture_output=True, text=True, cwd=tmp_path
     )

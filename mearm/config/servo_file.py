@@ -58,7 +58,7 @@ import yaml
 from pydantic import ValidationError
 
 from mearm.config.arm import ArmDescription, JointServo, ServoCalibration, ServoDrives
-from mearm.config.base import short_repr
+from mearm.config.base import MAX_LENGTH_CM, short_repr
 from mearm.config.errors import ServoCalibrationError
 from mearm.config.loader import config_from_dict
 from mearm.config.root import Config
@@ -249,10 +249,13 @@ def load_servo_calibration(path: str | Path) -> ServoCalibrationFile:
         for name, entry in entries.items():
             fields = dict(entry)
             unit = str(fields.pop("unit"))
-            residual = float(fields.pop("residual_us", 0.0))
+            residual = _number(f"{name}.residual_us", fields.pop("residual_us", 0.0), 0, MAX_US)
             points = tuple(
-                CalibrationPoint(float(p["value"]), int(p["pulse_us"]))
-                for p in fields.pop("points", [])
+                CalibrationPoint(
+                    _number(f"{name}.points[{k}].value", p["value"], -MAX_LENGTH_CM, MAX_LENGTH_CM),
+                    int(_number(f"{name}.points[{k}].pulse_us", p["pulse_us"], 0, MAX_US, True)),
+                )
+                for k, p in enumerate(fields.pop("points", []))
             )
             replaced = fields.pop("replaces", None)
             kind = JointServo if "drives" in fields else ServoCalibration
@@ -274,8 +277,23 @@ def load_servo_calibration(path: str | Path) -> ServoCalibrationFile:
         err = exc.errors()[0]
         loc = ".".join(map(str, err["loc"]))
         raise ServoCalibrationError(f"{where}: {name}.{loc}: {err['msg']}") from None
-    except (TypeError, ValueError, AttributeError) as exc:
+    except (TypeError, ValueError, AttributeError, OverflowError) as exc:
         raise ServoCalibrationError(f"{where}: {exc}") from None
+
+
+#: Largest pulse width or residual a servo calibration file may hold [µs].
+MAX_US = 10_000
+
+
+def _number(field: str, value: Any, lo: float, hi: float, whole: bool = False) -> float:
+    """A number read from the file: finite, in [lo, hi] (and whole), or a named ValueError."""
+    kind = "a whole number" if whole else "a number"
+    ok = isinstance(value, int | float) and not isinstance(value, bool)
+    if ok and not (np.isfinite(value) and lo <= value <= hi and (not whole or value == int(value))):
+        ok = False
+    if not ok:
+        raise ValueError(f"{field} must be {kind} in {lo:g} … {hi:g}, got {short_repr(value)}")
+    return float(value)
 
 
 def check_replace(path: Path) -> None:

@@ -464,6 +464,16 @@ class CollisionModel:
         ]
         return (max(tops) + self.clearance_m + hang) / M_PER_CM
 
+    def tool_lowest_cm(self, q: npt.ArrayLike) -> tuple[float, str]:
+        """The tool's lowest point at pose ``q``: its height above the table [cm], its shape.
+
+        The tool is the jaws (as open as the model holds them), their servo and the hand.
+        """
+        low = self._lowest_points(q)[: self._na]
+        rows = np.flatnonzero(self._tool[: self._na])
+        k = int(rows[np.argmin(low[rows])])
+        return float(low[k]) / M_PER_CM, self._arm[k][0].name
+
     def _lowest_points(self, q: npt.ArrayLike) -> np.ndarray:
         """Each arm shape's lowest point's height at pose ``q`` [m], (rows,).
 

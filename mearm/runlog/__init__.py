@@ -40,6 +40,12 @@ be read as part of the broken line; :func:`set_aside_torn_end` moves such a line
 side file first (:mod:`mearm.runlog.repair`). A path that is not a regular file (a
 folder, a device) is refused.
 
+**One writer.** A :class:`RunLog` holds an advisory ``flock`` on its file while it is
+open (:mod:`mearm.runlog.lock`); a second writer, in this process or another, gets a
+:class:`~mearm.runlog.errors.RunLogLockedError` naming the holder's pid and command. A
+command that reads a log before appending to it takes a :class:`LogLock` first and hands
+it to the :class:`RunLog`.
+
 **Repeated trial numbers.** The experiment runner runs a trial again under the same
 number when its last attempt was cut off before its summary. Reading keeps every attempt;
 :meth:`RunLogContents.latest` keeps the complete one (or, if none is, the last) and
@@ -51,11 +57,17 @@ in one file, which ``mearm analyze`` will not pool.
 
 **Reading.** :func:`read_runlog` returns every valid record up to the first bad line
 (torn, not JSON, not UTF-8, longer than :data:`MAX_LINE_BYTES`, unknown type or format,
-a field missing or of the wrong type, joint names other than the header's arm's, records
-out of order) and a :class:`~mearm.runlog.errors.RunLogFormatError` naming that line and why.
+a field missing or of the wrong type, a number out of range — lengths beyond
+±:data:`~mearm.runlog.records.MAX_RECORD_CM`, joint values beyond
+±:data:`~mearm.runlog.records.MAX_RECORD_JOINT`, times beyond
+:data:`~mearm.runlog.records.MAX_RECORD_S` —, joint names other than the header's arm's,
+records out of order) and a :class:`~mearm.runlog.errors.RunLogFormatError` naming that
+line and why.
 """
 
+from mearm.runlog.errors import RunLogLockedError
 from mearm.runlog.format1 import upgrade_v1_record
+from mearm.runlog.lock import LogLock
 from mearm.runlog.reader import (
     MAX_LINE_BYTES,
     RepeatedTrialError,
@@ -94,11 +106,13 @@ __all__ = [
     "FaultRecord",
     "HeaderRecord",
     "JointValues",
+    "LogLock",
     "Record",
     "RepeatedTrialError",
     "RouteRecord",
     "RunLog",
     "RunLogContents",
+    "RunLogLockedError",
     "SkipRecord",
     "SummaryRecord",
     "TornEnd",

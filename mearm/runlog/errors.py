@@ -60,3 +60,26 @@ class RunLogFormatError(RunLogError):
         self.reason = reason
         self.text = text
         super().__init__(path, f"line {self.line}: {reason}")
+
+
+class RunLogLockedError(RunLogError):
+    """Another process is writing the run log.
+
+    Attributes:
+        path: The log file.
+        pid: The holder's process id, or ``None`` when it cannot be found.
+        command: The holder's command line, or ``""``.
+    """
+
+    def __init__(self, path: object, pid: int | None, command: str):
+        self.pid = pid
+        self.command = command
+        if pid is None:
+            who = "another process"
+        else:
+            who = f"process {pid}" + (f" ({command})" if command else "")
+        super().__init__(
+            path,
+            f"is being written by {who}: one run writes a log at a time; wait for it to "
+            "end, or give this run another --log",
+        )

@@ -18,6 +18,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
 from mearm.config import Config
+from mearm.config.base import MAX_ANGLE_DEG, MAX_LENGTH_CM
 from mearm.runlog.format1 import upgrade_v1_record
 
 #: The format this mearm writes.
@@ -38,13 +39,30 @@ VERSIONED_PACKAGES: dict[str, str] = {
     "matplotlib": "matplotlib",
 }
 
-_Finite = Annotated[float, Field(allow_inf_nan=False)]
-_NonNegative = Annotated[float, Field(ge=0, allow_inf_nan=False)]
+#: Largest magnitude of a length in a record [cm]: ten times the config's physical range
+#: (a position, an error between two positions, an error's norm all fit well inside).
+#: Past it a value is not a measurement (1e308 cm overflows the analysis' squares).
+MAX_RECORD_CM = 10 * MAX_LENGTH_CM
+#: Largest magnitude of a joint value [deg or cm]: a turn is 360°, a slide at most
+#: the physical range.
+MAX_RECORD_JOINT = max(MAX_ANGLE_DEG, MAX_LENGTH_CM)
+#: Longest time in a record [s] (about 11.6 days).
+MAX_RECORD_S = 1e6
+#: Largest count in a record (iterations, attempts, objects, routes).
+MAX_RECORD_COUNT = 10**9
+
+_Cm = Annotated[float, Field(ge=-MAX_RECORD_CM, le=MAX_RECORD_CM, allow_inf_nan=False)]
+_NonNegativeCm = Annotated[float, Field(ge=0, le=MAX_RECORD_CM, allow_inf_nan=False)]
+_Seconds = Annotated[float, Field(ge=0, le=MAX_RECORD_S, allow_inf_nan=False)]
+_JointValue = Annotated[
+    float, Field(ge=-MAX_RECORD_JOINT, le=MAX_RECORD_JOINT, allow_inf_nan=False)
+]
+_Count = Annotated[int, Field(ge=0, le=MAX_RECORD_COUNT)]
 _Name = Annotated[str, Field(min_length=1)]
-Vec3 = tuple[_Finite, _Finite, _Finite]
+Vec3 = tuple[_Cm, _Cm, _Cm]
 #: Joint values by joint name, in chain order: deg for a revolute joint, cm for a
 #: prismatic one.
-JointValues = dict[_Name, _Finite]
+JointValues = dict[_Name, _JointValue]
 _Joints = Annotated[JointValues, Field(min_length=1)]
 
 #: Largest allowed |error_cm − (ee_cm − target_cm)| on any axis [cm].
@@ -118,26 +136,26 @@ class RouteRecord(_Record):
     color: str = Field(min_length=1)
     """The object's colour class (a name of ``task.classes``)."""
     step: Literal["pick", "place"]
-    attempt: int = Field(ge=1)
+    attempt: int = Field(ge=1, le=MAX_RECORD_COUNT)
     """1 for the first attempt at this object's pick (or place)."""
     target_cm: Vec3
     start_joints: _Joints
     """Every joint of the chain at the start of the route, by name [deg or cm]."""
     end_joints: _Joints
     """Every joint of the chain as commanded at the end of the route, by name [deg or cm]."""
-    iterations: int = Field(ge=0)
+    iterations: _Count
     status: str
     method: Literal["direct", "closed_form", "multi_start", "joint_move"] | None = None
     """How the plan got there: PD-PIJ alone, or its stall recovered by a path to the
     closed-form or a multi-start solution (``None`` in logs written before it existed)."""
-    initial_error_cm: _NonNegative
-    final_error_cm: _NonNegative
+    initial_error_cm: _NonNegativeCm
+    final_error_cm: _NonNegativeCm
     ee_cm: Vec3
     error_cm: Vec3
     success: bool
     """Pick: the object was gripped. Place: it landed in its bin."""
-    elapsed_s: _NonNegative
-    motion_s: _NonNegative
+    elapsed_s: _Seconds
+    motion_s: _Seconds
 
     @model_validator(mode="after")
     def _error_is_ee_minus_target(self) -> RouteRecord:
@@ -184,18 +202,18 @@ class SummaryRecord(_Record):
 
     type: Literal["summary"] = "summary"
     trial: int | None
-    sorted: dict[_Name, Annotated[int, Field(ge=0)]]
+    sorted: dict[_Name, _Count]
     """Objects placed in their bin, per colour class (by name)."""
-    objects: dict[_Name, Annotated[int, Field(ge=0)]] | None = None
+    objects: dict[_Name, _Count] | None = None
     """Objects seen on the table, per class (``None`` in logs written before it existed)."""
-    left: dict[str, Annotated[int, Field(ge=0)]] | None = None
+    left: dict[str, _Count] | None = None
     """Objects not sorted, per reason (``out_of_reach``, ``pick_failed``, ``fault``, …)."""
-    failures: int = Field(ge=0)
-    skipped: int = Field(ge=0)
-    routes: int = Field(ge=0)
-    mean_iterations: _NonNegative | None
-    mean_final_error_cm: _NonNegative | None
-    motion_s: _NonNegative
+    failures: _Count
+    skipped: _Count
+    routes: _Count
+    mean_iterations: Annotated[float, Field(ge=0, le=MAX_RECORD_COUNT, allow_inf_nan=False)] | None
+    mean_final_error_cm: _NonNegativeCm | None
+    motion_s: _Seconds
     ok: bool
 
 

@@ -17,6 +17,7 @@ from pydantic import ValidationError
 
 from mearm.config import Config
 from mearm.runlog.errors import RunLogError
+from mearm.runlog.lock import LogLock, lock_file
 from mearm.runlog.reader import _TrialBuilder
 from mearm.runlog.records import (
     FORMAT_VERSION,
@@ -70,14 +71,25 @@ class RunLog:
         exclusive: Refuse an existing file instead of appending to it.
         fsync: ``fsync`` after every record (keep this on for real runs; tests that
             write thousands of records may turn it off).
+        lock: The log's lock, already taken by the caller (:class:`~mearm.runlog.lock.
+            LogLock`); ``None``: the log takes its own, held while it is open. Either way
+            one process writes a log at a time.
 
     Raises:
+        RunLogLockedError: another process is writing the log (it names the process).
         RunLogError: ``exclusive`` and the file exists; the file ends in a torn line
             (:func:`~mearm.runlog.set_aside_torn_end` repairs that); it is not a regular
             file; it cannot be opened.
     """
 
-    def __init__(self, path: str | Path, *, exclusive: bool = False, fsync: bool = True):
+    def __init__(
+        self,
+        path: str | Path,
+        *,
+        exclusive: bool = False,
+        fsync: bool = True,
+        lock: LogLock | None = None,
+    ):
         self.path = Path(path)
         self._fsync = fsync
         self._trial: _TrialBuilder | None = None
@@ -98,6 +110,12 @@ class RunLog:
             raise RunLogError(self.path, "exists (exclusive=True refuses to append)") from None
         except OSError as exc:
             raise RunLogError(self.path, f"cannot open for writing: {exc}") from None
+        if lock is None:
+            try:
+                lock_file(self._file, self.path)  # held until the file is closed
+            except BaseException:
+                self._file.close()
+                raise
 
     def _refuse_torn_file(self) -> None:
         try:

@@ -8,7 +8,13 @@ from mearm.task.plan import RETRY_LIFT_CM, Planner
 from mearm.task.report import Reporter, Skip, SortReport
 from mearm.task.rig import Rig, open_rig, run_sort, scene_layout
 from mearm.task.route import Route
-from mearm.task.scene import SceneError, camera_field_cm, load_scene, random_scene
+from mearm.task.scene import (
+    SceneError,
+    camera_field_cm,
+    check_scene,
+    load_scene,
+    random_scene,
+)
 from mearm.task.sorter import SortAborted, Sorter, TrackedObject
 
 __all__ = [
@@ -25,6 +31,7 @@ __all__ = [
     "Sorter",
     "TrackedObject",
     "camera_field_cm",
+    "check_scene",
     "load_scene",
     "open_rig",
     "random_scene",

@@ -6,7 +6,9 @@ solving it: every class's bin is reached from home within the limits; the jaws c
 the object (the grip height within the object's height plus the jaws' length); every
 class's pick height (derived from the object's height, the grip height and the tool's geometry) lies
 in the target box and is reached somewhere in it; and how much of the camera's
-view of the table the arm cannot reach, said once. Home itself needs no solve: the arm
+view of the table the arm cannot reach, said once (none of it reached is a failure: the
+sort would find nothing to do); at home, no part of the tool below the table. Home itself
+needs no solve: the arm
 goes home along a straight line in joint space, inside the limits by construction.
 
 A failure is a :class:`~mearm.errors.ConfigError` naming the field and its value, so
@@ -73,7 +75,9 @@ def check_consistency(config: Config, model: ArmModel | None = None) -> Consiste
     for cls in config.task.classes:
         problems += _check_bin(planner, model, cls)
     problems += _check_bodies(config, model)
+    problems += _check_home_above_table(config, model)
     view_cm = _view_points_cm(config)
+    reached_anywhere = False
     by_height: dict[float, list[str]] = {}
     for cls in config.task.classes:
         z = float(planner.pick_target(cls, 0.0, 0.0).position_cm[2])
@@ -105,6 +109,7 @@ def check_consistency(config: Config, model: ArmModel | None = None) -> Consiste
             )
             continue
         reached = _reachable(planner, model, names[0], view_cm)
+        reached_anywhere |= bool(reached.any())
         share = 1.0 - float(np.mean(reached))
         found.unreachable_share[z] = share
         if share > 0:
@@ -115,6 +120,14 @@ def check_consistency(config: Config, model: ArmModel | None = None) -> Consiste
                 f"arm's reach at the pick height {z:.2f} cm ({', '.join(names)}); objects "
                 "there are reported and left"
             )
+    if not problems and not reached_anywhere:
+        lo, hi = view_cm.min(axis=0), view_cm.max(axis=0)
+        problems.append(
+            f"calibration.homography: the camera's view of the table (x {lo[0]:.0f}…"
+            f"{hi[0]:.0f} cm, y {lo[1]:.0f}…{hi[1]:.0f} cm) holds no point the arm can pick "
+            "from at any class's pick height: a sort would find nothing to do; point the "
+            "camera (and its calibration) at the arm's reach"
+        )
     if problems:
         raise ConfigError(None, problems)
     _CACHE[key] = found
@@ -183,6 +196,24 @@ def _check_bodies(config: Config, model: ArmModel) -> list[str]:
                 f"{distance:.2f} cm, or move the bin"
             )
     return problems
+
+
+def _check_home_above_table(config: Config, model: ArmModel) -> list[str]:
+    """At home, every part of the tool (jaws open, their servo, the hand) is above the table.
+
+    Every run starts and ends at home, and the arm goes there first: a home under the
+    table would drive the tool into it.
+    """
+    collision = CollisionModel(config, model, clearance_cm=0.0)
+    low_cm, part = collision.tool_lowest_cm(model.home)
+    if low_cm >= 0.0:
+        return []
+    home = ", ".join(f"{j.name} {j.home:g}" for j in config.arm.joints if j.home is not None)
+    return [
+        f"arm.joints[].home: at home ({home}) the tool's {part} is {-low_cm:.2f} cm below "
+        "the table (z = 0): every part of the tool must be above it; choose a home that "
+        "holds the tool up"
+    ]
 
 
 def _view_points_cm(config: Config) -> np.ndarray:

@@ -8,6 +8,7 @@ objects at least 1 cm apart (edge to edge, so centres at least 3 cm apart for th
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
@@ -19,9 +20,11 @@ from mearm.config.base import MAX_SEED, loc_text, short_repr
 from mearm.config.sections import MAX_SCENE_OBJECTS
 from mearm.errors import ConfigError, MearmError
 from mearm.kinematics import ArmModel, check_in_box, closed_form_for
+from mearm.kinematics.bodies import M_PER_CM, base_radius_m, bin_half_outer_m
 from mearm.kinematics.collision import TOUCH_M, CollisionModel
 from mearm.task.plan import Planner
 from mearm.task.route import Route
+from mearm.vision.calibration import camera_geometry
 from mearm.yamlio import load_yaml_file
 
 #: Edge-to-edge gap between objects in a random scene [cm] (paper §5).
@@ -73,6 +76,93 @@ def load_scene(path: str | Path, class_names: Sequence[str] | None = None) -> li
         if bad:
             raise ConfigError(str(p), bad)
     return scene
+
+
+#: Points on an object's rim checked to lie in the camera's frame.
+RIM_POINTS = 16
+
+
+def check_scene(config: Config, scene: Sequence[SceneObject], source: str = "task.scene") -> None:
+    """Refuse a simulated table the sort could not see whole: name the object and the rule.
+
+    Every object must stand on the table clear of the arm's base plate, lie whole inside
+    the camera's view (its rim maps into the frame through the calibration), overlap no
+    other object (centres at least the sum of their radii apart) and stand outside every
+    bin (its disc clear of the bin's square, walls included). An object that broke one of
+    these would be left unseen, or seen as part of another, and the sort would report a
+    table of fewer objects than it was given.
+
+    Args:
+        config: The camera and its calibration, the classes (diameters, bins), the arm.
+        scene: The objects.
+        source: How messages name the scene (a file's path, ``task.scene``).
+
+    Raises:
+        SceneError: one line naming the first object that breaks a rule, the rule and what
+            is allowed (``(+N more)`` when others do too).
+    """
+    if not scene:
+        return
+    base_cm = base_radius_m(config) / M_PER_CM
+    bins = [(c, bin_half_outer_m(config, c.name) / M_PER_CM) for c in config.task.classes]
+    geometry = camera_geometry(config)
+    w, h = config.camera.width_px, config.camera.height_px
+    angles = np.linspace(0.0, 2 * np.pi, RIM_POINTS, endpoint=False)
+    rim = np.column_stack([np.cos(angles), np.sin(angles)])
+    radius = {c.name: c.diameter_cm / 2 for c in config.task.classes}
+    problems: list[str] = []
+    for i, obj in enumerate(scene):
+        r = radius[obj.color]
+        what = f"{source}[{i}] ({obj.color} at x {obj.x:g}, y {obj.y:g} cm)"
+        if math.hypot(obj.x, obj.y) < base_cm + r:
+            problems.append(
+                f"{what}: not on the table: it stands on the arm's base plate "
+                f"({base_cm:.1f} cm radius about the origin); its centre must be at least "
+                f"{base_cm + r:.1f} cm from the origin"
+            )
+            continue
+        points = np.array([obj.x, obj.y]) + r * rim
+        px = geometry.table_to_pixel(points)
+        back = geometry.pixel_to_table(px)
+        inside = (
+            np.all(np.isfinite(px))
+            and np.all((px[:, 0] >= 0) & (px[:, 0] <= w) & (px[:, 1] >= 0) & (px[:, 1] <= h))
+            and np.allclose(back, points, atol=0.01)
+        )
+        if not inside:
+            x0, x1, y0, y1 = camera_field_cm(config, margin_cm=r)
+            field = (
+                f" (centres within x {x0:.1f}…{x1:.1f}, y {y0:.1f}…{y1:.1f} cm are)"
+                if x0 < x1 and y0 < y1
+                else ""
+            )
+            problems.append(
+                f"{what}: outside the camera's view of the table ({w}x{h} px through "
+                f"calibration): the whole object must be seen{field}"
+            )
+            continue
+        for j, other in enumerate(scene[:i]):
+            apart = r + radius[other.color]
+            if math.hypot(obj.x - other.x, obj.y - other.y) < apart:
+                problems.append(
+                    f"{what}: overlaps {source}[{j}] ({other.color} at x {other.x:g}, "
+                    f"y {other.y:g} cm): centres must be at least {apart:g} cm apart"
+                )
+                break
+        else:
+            for cls, half in bins:
+                dx = max(abs(obj.x - cls.bin_cm[0]) - half, 0.0)
+                dy = max(abs(obj.y - cls.bin_cm[1]) - half, 0.0)
+                if math.hypot(dx, dy) < r:
+                    problems.append(
+                        f"{what}: inside {cls.name}'s bin (a {2 * half:.1f} cm square, walls "
+                        f"included, centred at x {cls.bin_cm[0]:g}, y {cls.bin_cm[1]:g} cm): "
+                        f"an object stands at least its radius ({r:g} cm) outside every bin"
+                    )
+                    break
+    if problems:
+        more = f" (+{len(problems) - 1} more)" if len(problems) > 1 else ""
+        raise SceneError(problems[0] + more)
 
 
 #: What a random scene's picks keep from bins and neighbours beyond the clearance [cm]:

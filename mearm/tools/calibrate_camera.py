@@ -50,7 +50,7 @@ import numpy as np
 from ruamel.yaml import YAML, YAMLError
 from ruamel.yaml.comments import CommentedMap, CommentedSeq
 
-from mearm.cli import ArgumentParser, run
+from mearm.cli import ArgumentParser, check_output_file, run
 from mearm.config import config_from_dict
 from mearm.config.base import MAX_LENGTH_CM, short_repr
 from mearm.config.errors import CalibrationError
@@ -320,6 +320,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.error("--image needs --marker ID:X,Y for each marker (4 or more)")
     if args.marker and not args.image:
         parser.error("--marker needs --image")
+    if not args.dry_run:  # every file this run would write, before the fit
+        for flag, path in (("--output", args.output), ("--out", args.out)):
+            if path is not None:
+                check_output_file(path, flag)
     if args.marker_side_cm is not None and not 0 < args.marker_side_cm <= MAX_MARKER_SIDE_CM:
         parser.error(
             f"--marker-side-cm must be in (0, {MAX_MARKER_SIDE_CM:g}] cm, "

@@ -28,7 +28,7 @@ import time
 from collections.abc import Sequence
 from pathlib import Path
 
-from mearm.cli import ArgumentParser, positive_number, run
+from mearm.cli import ArgumentParser, check_output_file, positive_number, run
 from mearm.config import CameraConfig
 from mearm.config.errors import CalibrationError
 from mearm.config.sections import MAX_DEVICE_INDEX
@@ -185,8 +185,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--force", action="store_true", help="replace even a better file")
     parser.add_argument("--dry-run", action="store_true", help="fit and print; write nothing")
     args = parser.parse_args(argv)
-    if args.out.exists() and not args.out.is_file():
-        parser.error(f"--out {args.out}: exists and is not a regular file")
+    if not args.dry_run:
+        check_output_file(args.out, "--out")  # before the views are read and fitted
     if args.camera_id is not None and not (0 < len(args.camera_id) <= 200):
         parser.error("--camera-id must be 1 … 200 characters")
 

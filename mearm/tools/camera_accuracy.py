@@ -37,10 +37,18 @@ from pathlib import Path
 
 import numpy as np
 
-from mearm.cli import ArgumentParser, add_config_argument, config_from_args, run
+from mearm.cli import (
+    ArgumentParser,
+    add_config_argument,
+    check_output_file,
+    check_output_folder,
+    config_from_args,
+    positive_number,
+    run,
+    write_text_atomic,
+)
 from mearm.config import Config
 from mearm.errors import MearmError
-from mearm.fileio import write_atomic
 
 #: A detection farther than this from every object of its class is extra, and the object
 #: missed [cm].
@@ -194,9 +202,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--noise-std", type=float, default=2.0, help="sensor noise [8-bit levels]")
     parser.add_argument("--work", type=Path, help="keep the pictures and calibrations here")
     parser.add_argument("--json", type=Path, help="write the figures here")
-    parser.add_argument("--max-mean-cm", type=float, default=0.05)
-    parser.add_argument("--max-error-cm", type=float, default=0.10)
+    parser.add_argument("--max-mean-cm", type=positive_number(1e-6, 1000, "cm"), default=0.05)
+    parser.add_argument("--max-error-cm", type=positive_number(1e-6, 1000, "cm"), default=0.10)
     args = parser.parse_args(argv)
+    # outputs before the work: the measurement takes minutes
+    if args.json is not None:
+        check_output_file(args.json, "--json")
+    if args.work is not None:
+        check_output_folder(args.work, "--work")
     heights = _numbers(args.heights)
     if not (1 <= args.scenes <= 100 and 1 <= args.objects <= 40 and 6 <= args.views <= 60):
         raise MearmError("--scenes must be 1 … 100, --objects 1 … 40 and --views 6 … 60")
@@ -235,7 +248,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         ok &= r["missed"] == 0 and r["extra"] == 0
     print(f"({time.perf_counter() - t0:.0f} s; simulated: the twin's rendered camera)")
     if args.json:
-        write_atomic(args.json, json.dumps({"rows": rows, "calibration": cal}, indent=2) + "\n")
+        text = json.dumps({"rows": rows, "calibration": cal}, indent=2) + "\n"
+        write_text_atomic(args.json, text)
     if not ok:
         print(
             f"camera accuracy: NOT within mean {args.max_mean_cm:g} cm, max "

@@ -17,7 +17,8 @@ an existing file holding a better calibration is kept unless ``--force``), and p
 the residuals the refined pose gives on the same frames.
 
 Exit 0: the check ran and printed its figures; 1: it could not complete (no object seen,
-a point that failed, a camera or servo fault); 2: bad input, one line on stderr.
+a point that failed, a camera or servo fault: one line on stderr says which, and OUT is
+not written); 2: bad input, one line on stderr (OUT is checked before the arm moves).
 """
 
 from __future__ import annotations
@@ -29,7 +30,13 @@ from pathlib import Path
 
 import numpy as np
 
-from mearm.cli import ArgumentParser, add_config_argument, config_from_args, run
+from mearm.cli import (
+    ArgumentParser,
+    add_config_argument,
+    check_output_file,
+    config_from_args,
+    run,
+)
 from mearm.errors import MearmError
 from mearm.hardware.errors import ServoError
 from mearm.task.armcheck import (
@@ -87,6 +94,10 @@ def report_lines(check: ArmCheck) -> list[str]:
     return lines
 
 
+#: How the command names itself on stderr.
+PROG = "mearm check-camera"
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the check (and the refinement); the exit codes are the module's."""
     parser = ArgumentParser(
@@ -104,8 +115,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     )  # fmt: skip
     parser.add_argument("--force", action="store_true", help="with --refine: replace any file")
     args = parser.parse_args(argv)
-    if args.refine is not None and args.refine.exists() and not args.refine.is_file():
-        parser.error(f"--refine {args.refine}: exists and is not a regular file")
+    if args.refine is not None:
+        check_output_file(args.refine, "--refine")
     config = config_from_args(args)
     if args.class_name is not None and args.class_name not in config.task.class_names:
         parser.error(
@@ -124,23 +135,25 @@ def main(argv: Sequence[str] | None = None) -> int:
             refine=args.refine is not None, echo=None,
         )  # fmt: skip
     except NothingToCheck as exc:
-        print(f"check not run: {exc}")
+        print(f"{PROG}: check not run: {exc}", file=sys.stderr)
         return 1
     except (CameraError, ServoError) as exc:
-        print(f"check stopped: {exc}")
+        print(f"{PROG}: check stopped: {exc}", file=sys.stderr)
         return 1
     print("\n".join(report_lines(check)))
+    if not check.complete:
+        # a check that did not finish refines nothing: the pose file stays as it was
+        failed = sum(1 for p in check.points if p.seen_cm is None)
+        why = check.failure or f"{failed} of {len(check.points)} points failed"
+        kept = f"; {args.refine} not written" if args.refine is not None else ""
+        print(f"{PROG}: check incomplete: {why}{kept}", file=sys.stderr)
+        return 1
     if check.refined is not None:
         try:
             save_calibration(args.refine, check.refined, force=args.force)
         except OSError as exc:
             raise MearmError(f"cannot write {args.refine}: {exc.strerror or exc}") from None
         print(f"wrote {args.refine}")
-    if not check.complete:
-        failed = sum(1 for p in check.points if p.seen_cm is None)
-        why = check.failure or f"{failed} of {len(check.points)} points failed"
-        print(f"check incomplete: {why}")
-        return 1
     return 0
 
 

@@ -10,7 +10,7 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
-from mearm.cli import ArgumentParser, run, write_text_atomic
+from mearm.cli import ArgumentParser, check_output_file, run, write_text_atomic
 from mearm.config.schema_doc import DEFAULT_OUTPUT, render
 
 
@@ -28,8 +28,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if args.check is not None and not args.check.is_file():
         parser.error(f"--check {args.check}: no such file")
-    if args.output is not None and args.output.exists() and not args.output.is_file():
-        parser.error(f"--output {args.output}: exists and is not a regular file")
+    if args.output is not None:
+        check_output_file(args.output, "--output")
     text = render()
     if args.stdout:
         sys.stdout.write(text)

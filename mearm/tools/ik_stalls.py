@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from mearm.cli import ArgumentParser, run
+from mearm.cli import ArgumentParser, run, seed_value
 from mearm.config import Config, load_config
 from mearm.ik import IKTarget, PdPij, make_solver
 from mearm.kinematics import ArmModel
@@ -104,7 +104,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         help=f"config files or packaged config names (default: {', '.join(CONFIGS)})",
     )
     parser.add_argument("--targets", type=int, default=2000, help="targets per kind of start")
-    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument(
+        "--seed", type=seed_value, default=0, help="seed of the targets (default 0)"
+    )
     parser.add_argument("--no-recover", action="store_true", help="PD-PIJ without the recovery")
     args = parser.parse_args(argv)
     if not 1 <= args.targets <= 1_000_000:

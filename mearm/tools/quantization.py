@@ -18,7 +18,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from mearm.cli import ArgumentParser, add_config_argument, config_from_args, run
+from mearm.cli import ArgumentParser, add_config_argument, config_from_args, run, seed_value
 from mearm.hardware.mapping import Quantization
 
 MODES: tuple[Quantization, ...] = ("degree", "microsecond", "none")
@@ -29,7 +29,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = ArgumentParser(prog="mearm quantization", description=__doc__.splitlines()[0])
     add_config_argument(parser)
     parser.add_argument("--poses", type=int, default=2000, help="random reachable poses")
-    parser.add_argument("--seed", type=int, default=0, help="seed of the poses")
+    parser.add_argument("--seed", type=seed_value, default=0, help="seed of the poses")
     parser.add_argument("--json", action="store_true", help="print JSON")
     args = parser.parse_args(argv)
     if args.poses < 1:

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import csv
 import io
+import math
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -54,6 +55,10 @@ def responses(config: Config, steps_deg: list[float]) -> Rows:
     return rows
 
 
+#: Largest magnitude of a number in a --before CSV (degrees, seconds).
+MAX_CSV_VALUE = 1e4
+
+
 def read_rows(path: Path) -> Rows:
     """Rows of a CSV this script wrote."""
     try:
@@ -66,6 +71,12 @@ def read_rows(path: Path) -> Rows:
         raise MearmError(f"--before {path}: not a CSV this script wrote ({exc})") from exc
     if not rows:
         raise MearmError(f"--before {path}: no responses in it")
+    for k, (_, *numbers) in enumerate(rows, 2):
+        if not all(math.isfinite(v) and abs(v) <= MAX_CSV_VALUE for v in numbers):
+            raise MearmError(
+                f"--before {path}: line {k}: step_deg, t_s and angle_deg must be finite and "
+                f"within ±{MAX_CSV_VALUE:g}, got {numbers}"
+            )
     return rows
 
 

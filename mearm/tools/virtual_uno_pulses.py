@@ -20,10 +20,18 @@ from pathlib import Path
 
 import serial
 
-from mearm.cli import EXIT_FAILURE, EXIT_OK, ArgumentParser, positive_number, run, seed_value
+from mearm.cli import (
+    EXIT_FAILURE,
+    EXIT_OK,
+    ArgumentParser,
+    check_output_file,
+    positive_number,
+    run,
+    seed_value,
+    write_text_atomic,
+)
 from mearm.config.sections import VirtualUnoConfig
 from mearm.errors import MearmError
-from mearm.fileio import write_atomic
 from mearm.hardware.mearm_protocol import encode_command
 from mearm.sim.virtual_uno import VirtualUno, build_virtual_uno
 
@@ -88,6 +96,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--seed", type=seed_value, default=0, help="random seed (default 0)")
     parser.add_argument("--json", type=Path, help="write the figures here")
     args = parser.parse_args(argv)
+    if args.json is not None:
+        check_output_file(args.json, "--json")  # before the measurement, not after it
     errors = pulse_errors(int(args.commands), args.seed)
     s = summary(errors)
     tolerance = VirtualUnoConfig().pulse_tolerance_us
@@ -97,7 +107,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         f"within 1 µs (simulated: the firmware in simavr)"
     )
     if args.json:
-        write_atomic(args.json, json.dumps(s, indent=2) + "\n")
+        write_text_atomic(args.json, json.dumps(s, indent=2) + "\n")
     if s["max_us"] > tolerance:
         print(
             f"mearm virtual-uno-pulses: a pulse is {s['max_us']:.1f} µs off, beyond the "

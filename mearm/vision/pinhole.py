@@ -102,6 +102,44 @@ def _matrix(name: str, value: Any, shape: tuple[int, ...], limit: float) -> np.n
     return arr
 
 
+def _whole(name: str, value: Any, lo: int, hi: int) -> int:
+    """A whole number read from a file, in [lo, hi].
+
+    ``.inf``, NaN, 1.5, text and ``true`` are named, not converted (``int(.inf)`` raised
+    OverflowError, ``int(1.5)`` gave 1).
+    """
+    if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
+        raise CalibrationError(
+            f"{name} must be a whole number in {lo} … {hi}, got {short_repr(value)}"
+        )
+    if not (math.isfinite(value) and float(value).is_integer() and lo <= value <= hi):
+        raise CalibrationError(
+            f"{name} must be a whole number in {lo} … {hi}, got {short_repr(value)}"
+        )
+    return int(value)
+
+
+#: Most board views or markers a calibration records having been fitted to.
+MAX_FIT_COUNT = 1_000_000
+
+
+def _size_px(value: Any) -> tuple[int, int]:
+    """A frame size (width, height), each side a whole number in 1 … 65535 px."""
+    if not isinstance(value, list | tuple) or len(value) != 2:
+        raise CalibrationError(f"resolution must be [width, height] px, got {short_repr(value)}")
+    w, h = (_whole("resolution", v, 1, 65535) for v in value)
+    return w, h
+
+
+def _rms(value: Any) -> float:
+    """An RMS reprojection error in 0 … 1000 px."""
+    if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
+        raise CalibrationError(f"rms_px must be a number in 0 … 1000 px, got {short_repr(value)}")
+    if not (math.isfinite(value) and 0 <= value <= 1e3):
+        raise CalibrationError(f"rms_px must be in 0 … 1000 px, got {short_repr(value)}")
+    return float(value)
+
+
 def today() -> str:
     """Now, as the ISO 8601 timestamp calibration files record (UTC, seconds)."""
     return datetime.datetime.now(datetime.UTC).replace(microsecond=0).isoformat()
@@ -139,11 +177,9 @@ class Intrinsics:
                 f"got {short_repr(K.tolist())}"
             )
         dist = _matrix("distortion", self.distortion, (5,), MAX_DISTORTION)
-        w, h = (int(v) for v in self.size_px)
-        if not (0 < w <= 65535 and 0 < h <= 65535):
-            raise CalibrationError(f"size_px must be two sides in 1 … 65535 px, got {self.size_px}")
-        if not (math.isfinite(self.rms_px) and 0 <= self.rms_px <= 1e3):
-            raise CalibrationError(f"rms_px must be in 0 … 1000 px, got {self.rms_px!r}")
+        w, h = _size_px(self.size_px)
+        _rms(self.rms_px)
+        object.__setattr__(self, "views", _whole("views", self.views, 0, MAX_FIT_COUNT))
         object.__setattr__(self, "camera_matrix", K)
         object.__setattr__(self, "distortion", dist)
         object.__setattr__(self, "size_px", (w, h))
@@ -163,9 +199,9 @@ class Intrinsics:
         return cls(
             camera_matrix=data["camera_matrix"],
             distortion=data["distortion"],
-            size_px=tuple(header["resolution"]),
-            rms_px=float(data["rms_px"]),
-            views=int(data.get("views", 0)),
+            size_px=header["resolution"],
+            rms_px=data["rms_px"],
+            views=data.get("views", 0),
             camera_id=str(header["camera_id"]),
             date=str(header["date"]),
         )
@@ -211,11 +247,11 @@ class Extrinsics:
         if np.abs(R @ R.T - np.eye(3)).max() > 1e-6 or np.linalg.det(R) < 0:
             raise CalibrationError("rotation must be a rotation matrix (orthonormal, det +1)")
         C = _matrix("position_cm", self.position_cm, (3,), MAX_CAMERA_DISTANCE_CM)
-        if not (math.isfinite(self.rms_px) and 0 <= self.rms_px <= 1e3):
-            raise CalibrationError(f"rms_px must be in 0 … 1000 px, got {self.rms_px!r}")
+        _rms(self.rms_px)
+        object.__setattr__(self, "markers", _whole("markers", self.markers, 0, MAX_FIT_COUNT))
         object.__setattr__(self, "rotation", R)
         object.__setattr__(self, "position_cm", C)
-        object.__setattr__(self, "size_px", tuple(int(v) for v in self.size_px))
+        object.__setattr__(self, "size_px", _size_px(self.size_px))
 
     @classmethod
     def from_rvec_tvec(cls, rvec: npt.ArrayLike, tvec: npt.ArrayLike, **kw: Any) -> Extrinsics:
@@ -247,10 +283,10 @@ class Extrinsics:
         return cls(
             rotation=data["rotation"],
             position_cm=data["position_cm"],
-            rms_px=float(data["rms_px"]),
-            markers=int(data.get("markers", 0)),
+            rms_px=data["rms_px"],
+            markers=data.get("markers", 0),
             camera_id=str(header["camera_id"]),
-            size_px=tuple(header["resolution"]),
+            size_px=header["resolution"],
             date=str(header["date"]),
             refined_by_arm=bool(data.get("refined_by_arm", False)),
         )
@@ -312,7 +348,7 @@ def load_calibration(path: str | Path, kind: Kind | None = None) -> CalibrationF
         return _KINDS[found].from_dict(data, data)
     except KeyError as exc:
         raise CalibrationError(f"{where}: missing field {exc.args[0]!r}") from None
-    except (TypeError, ValueError) as exc:
+    except (TypeError, ValueError, OverflowError) as exc:
         raise CalibrationError(f"{where}: {exc}") from None
     except CalibrationError as exc:
         raise CalibrationError(f"{where}: {exc.reason}") from None

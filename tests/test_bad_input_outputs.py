@@ -1,0 +1,118 @@
+"""Bad-input corpus: outputs checked before the work, and no good file replaced by a refused run.
+
+A command that will write a file refuses a path it could not write (a folder, a path
+under a regular file) before it measures or sorts: within the case's short time bound,
+not after minutes of measurement with a traceback. A run that is refused leaves every
+file it was pointed at byte for byte as it was.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+from badinput import check_bad_input, run_in_process
+
+bad_input = pytest.mark.bad_input
+
+
+@pytest.fixture
+def spots(tmp_path: Path) -> dict[str, Path]:
+    """A folder, a regular file, and a path under that file."""
+    (tmp_path / "folder").mkdir()
+    (tmp_path / "file.txt").write_text("keep me\n")
+    return {
+        "folder": tmp_path / "folder",
+        "file": tmp_path / "file.txt",
+        "under": tmp_path / "file.txt" / "out.json",
+    }
+
+
+#: (command line with {folder}, {file} or {under}, words). Each was refused only after its
+#: whole measurement (a traceback, exit 1), or not at all, before.
+CASES: list[tuple[list[str], str]] = [
+    (["virtual-uno-pulses", "--json", "{folder}"],
+     "--json {folder}: exists and is not a regular file (a folder)"),
+    (["virtual-uno-pulses", "--json", "{under}"], "--json {under}: cannot write: {file} is a "
+                                                  "file, not a folder"),
+    (["camera-accuracy", "--config", "sim_mujoco", "--json", "{under}"],
+     "--json {under}: cannot write: {file} is a file, not a folder"),
+    (["camera-accuracy", "--config", "sim_mujoco", "--json", "{folder}"],
+     "not a regular file (a folder)"),
+    (["camera-accuracy", "--config", "sim_mujoco", "--work", "{file}"],
+     "--work {file}: exists and is not a folder"),
+    (["camera-accuracy", "--config", "sim_mujoco", "--work", "{under}"], "is a file, not a folder"),
+    (["camera-accuracy", "--config", "sim_mujoco", "--max-mean-cm", "nan"], "--max-mean-cm"),
+    (["sort", "--quiet", "--save-mjcf", "{folder}"],
+     "--save-mjcf {folder}: exists and is not a regular file (a folder)"),
+    (["sort", "--quiet", "--save-mjcf", "{under}"], "{file} is a file, not a folder"),
+    (["check-camera", "--config", "sim_mujoco_perspective", "--refine", "{under}"],
+     "--refine {under}: cannot write: {file} is a file, not a folder"),
+    (["check-camera", "--config", "sim_mujoco_perspective", "--refine", "{folder}"],
+     "not a regular file (a folder)"),
+    (["calibrate-intrinsics", "--images", "{folder}", "--out", "{under}"],
+     "--out {under}: cannot write: {file} is a file, not a folder"),
+    (["calibrate-camera", "--config", "sim", "--point", "0,0:-20.5,59", "--output", "{under}"],
+     "--output {under}: cannot write: {file} is a file, not a folder"),
+    (["detect", "--camera", "--annotate", "{under}.png"],
+     "--annotate {under}.png: cannot write: {file} is a file, not a folder"),
+    (["config-docs", "--output", "{under}"],
+     "--output {under}: cannot write: {file} is a file, not a folder"),
+]  # fmt: skip
+
+
+@bad_input
+@pytest.mark.parametrize(("argv", "words"), CASES, ids=[" ".join(a)[:60] for a, _ in CASES])
+def test_an_output_that_cannot_be_written_is_refused_first(
+    argv: list[str], words: str, spots: dict[str, Path], tmp_path: Path
+) -> None:
+    """Exit 2 and one line naming the flag and the path, before any measurement."""
+    names = {k: str(v) for k, v in spots.items()}
+    out = check_bad_input([a.format(**names) for a in argv], within_s=3, keep=[tmp_path])
+    assert words.format(**names) in out.line
+
+
+@bad_input
+@pytest.mark.parametrize(
+    ("more", "words"),
+    [
+        (["--set", "task.classes.red.bin_cm=[0, 80, 20]"], "task.classes.red.bin_cm"),
+        (["--set", "task.scene=[{color: red, x: 0, y: -20}]"], "task.scene[0]"),
+        (["--log", "{folder}"], "not a regular file"),
+    ],
+)
+def test_sort_keeps_an_old_mjcf_when_it_refuses_the_run(
+    more: list[str], words: str, spots: dict[str, Path], tmp_path: Path
+) -> None:
+    """--save-mjcf old.xml was written before the config's check, then the run refused."""
+    old = tmp_path / "old.xml"
+    old.write_text("<mujoco/>\n")
+    more = [m.replace("{folder}", str(spots["folder"])) for m in more]
+    out = check_bad_input(["sort", "--quiet", "--save-mjcf", old, *more], keep=[tmp_path])
+    assert words in out.line
+    assert old.read_text() == "<mujoco/>\n"
+
+
+@bad_input
+def test_check_camera_says_why_it_did_not_run_on_stderr(tmp_path: Path) -> None:
+    """No object to check with: exit 1, the reason as one line on stderr; --refine's file kept."""
+    pose = tmp_path / "pose.yaml"
+    pose.write_text("keep me\n")
+    argv = ["check-camera", "--config", "sim_mujoco_perspective", "--set", "task.scene=[]",
+            "--refine", pose]  # fmt: skip
+    out = check_bad_input(argv, code=1, within_s=10, keep=[tmp_path])
+    assert out.line == (
+        "mearm check-camera: check not run: no object seen on the table: put one in the "
+        "camera's view"
+    )
+
+
+def test_sort_writes_the_mjcf_of_an_accepted_run(tmp_path: Path) -> None:
+    """Accepted, the run replaces the old file with the scene's MJCF."""
+    old = tmp_path / "old.xml"
+    old.write_text("<mujoco/>\n")
+    scene = tmp_path / "scene.yaml"
+    scene.write_text("- {color: red, x: -10.99, y: 49.70}\n")
+    out = run_in_process(["sort", "--quiet", "--scene", scene, "--save-mjcf", old], within_s=30)
+    assert out.code == 0, out.stderr
+    assert old.read_text().startswith("<mujoco") and 'name="obj_red1"' in old.read_text()

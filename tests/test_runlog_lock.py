@@ -1,0 +1,74 @@
+"""One writer per run log: a second sort or experiment on a log being written is refused.
+
+The first writer is a real ``mearm experiment`` process; the second, a real ``mearm
+sort`` or ``mearm experiment`` process (through the bad-input check), must end with exit
+2 and one line naming the first (its pid and command), and leave the log to the first,
+which ends with a log ``mearm analyze --strict`` accepts.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+from badinput import ROOT, check_bad_input_subprocess, run_in_process
+
+from mearm.runlog import LogLock, RunLog, RunLogLockedError
+from mearm.runlog.lock import lock_holder
+
+SCENE = "- {color: red, x: -10.99, y: 49.70}\n"
+
+
+@pytest.mark.slow  # three interpreters start (~10 s on 2 busy cores)
+@pytest.mark.heavy
+@pytest.mark.bad_input
+def test_a_second_writer_is_refused_naming_the_first(tmp_path: Path) -> None:
+    """Two real processes on one log: the second (sort, then experiment) gets exit 2."""
+    scene = tmp_path / "scene.yaml"
+    scene.write_text(SCENE)
+    log = tmp_path / "trials.jsonl"
+    first = subprocess.Popen(
+        [sys.executable, "-m", "mearm", "experiment", "--trials", "10000", "--scene", scene,
+         "--log", log],
+        cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True,
+    )  # fmt: skip
+    try:
+        deadline = time.monotonic() + 120  # a hang is the failure, not a slow start
+        while first.poll() is None and time.monotonic() < deadline:
+            if log.exists() and lock_holder(log)[0] == first.pid:
+                break
+            time.sleep(0.02)
+        assert lock_holder(log)[0] == first.pid, "the first writer never took the lock"
+        for second in (
+            ["sort", "--scene", scene, "--log", log, "--quiet"],
+            ["experiment", "--trials", "10001", "--scene", scene, "--log", log],
+        ):
+            out = check_bad_input_subprocess(second, within_s=10)
+            assert f"{log}: is being written by process {first.pid} (" in out.line
+            assert "mearm experiment --trials 10000" in out.line
+            assert "one run writes a log at a time" in out.line
+    finally:
+        os.killpg(first.pid, signal.SIGINT)
+        first.communicate(timeout=120)
+    assert first.returncode == 130
+    out = run_in_process(["analyze", log, "--strict"], within_s=30)
+    assert out.code == 0, out.stderr
+
+
+def test_the_lock_goes_with_the_writer(tmp_path: Path) -> None:
+    """Closed, the log can be written again; in this process a second writer is refused."""
+    log = tmp_path / "run.jsonl"
+    with RunLog(log, fsync=False):
+        with pytest.raises(RunLogLockedError) as caught:
+            RunLog(log, fsync=False)
+        assert caught.value.pid == os.getpid()
+        with pytest.raises(RunLogLockedError):
+            LogLock(log)
+    with LogLock(log) as held:
+        RunLog(log, fsync=False, lock=held).close()
+    RunLog(log, fsync=False).close()
