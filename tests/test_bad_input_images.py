@@ -308,7 +308,7 @@ def test_a_file_over_the_byte_cap_is_refused_unread(
     ("annotate", "words"),
     [
         ("{good}", "is one of the input images"),
-        ("{good}/x.png", "cannot write the annotated image"),
+        ("{good}/x.png", "is a file, not a folder"),
         ("{fifo}", "exists and is not a regular file"),
         ("{dir}/out.gif2", "unknown image type"),
         ("{dir}/no/such/folder/out.png", "cannot write the annotated image"),

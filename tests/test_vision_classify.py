@@ -224,7 +224,15 @@ def test_bad_class_lists_are_named_errors() -> None:
     red = default_classes()[0]
     with pytest.raises(ConfigError, match="'red' is listed twice"):
         Thresholds.from_config([red, red], VisionConfig())
-    many = [red.model_copy(update={"name": f"c{i}"}) for i in range(MAX_CLASSES + 1)]
-    with pytest.raises(ConfigError, match=f"{MAX_CLASSES + 1} classes, .* at most {MAX_CLASSES}"):
+    many = [
+        red.model_copy(
+            update={"name": f"c{i}", "hue_bands_deg": [HueBand(lo_deg=2.0 * i, hi_deg=2.0 * i + 1)]}
+        )
+        for i in range(MAX_CLASSES + 1)
+    ]  # each a colour of its own
+    with pytest.raises(ConfigError, match=f"{MAX_CLASSES + 1} colours .* at most {MAX_CLASSES}"):
         Thresholds.from_config(many, VisionConfig())
     assert len(Thresholds.from_config(many[:MAX_CLASSES], VisionConfig()).codes) == MAX_CLASSES
+    # classes of one colour share its code: as many classes as codes, one colour
+    same = [red.model_copy(update={"name": f"s{i}"}) for i in range(MAX_CLASSES + 1)]
+    assert len(Thresholds.from_config(same, VisionConfig()).codes) == 1

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from mearm.config import ColorClass, Config, config_from_dict
-from mearm.config.shapes import SHAPES, shape_named
+from mearm.config.shape_catalogue import SHAPES, shape_named
 from mearm.exceptions import ConfigError
 from mearm.sim import Disc, TableRenderer
 from mearm.vision import Calibration, ColorDetector

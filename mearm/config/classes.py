@@ -1,7 +1,7 @@
 """Object classes as data: what to look for, how to draw it, where it goes.
 
 Any number of named classes; each is a colour (its hue band(s); a band with ``lo > hi``
-wraps through 0°, as red does), a shape of the catalogue (:mod:`mearm.config.shapes`),
+wraps through 0°, as red does), a shape of the catalogue (:mod:`mearm.config.shape_catalogue`),
 or both: "red", "cube", "red cube". Each has the colour its objects are drawn in
 (simulated camera, 3-D view, plots), its bin, and the size of its objects. The sort
 takes the classes in the order listed; a region the camera sees goes to the first class
@@ -15,7 +15,7 @@ from typing import Annotated
 from pydantic import Field, field_validator, model_validator
 
 from mearm.config.base import Name, NonNegativeLength, Strict, Vector3
-from mearm.config.shapes import DEFAULT_SHAPE, SHAPE_NAMES, ShapeSpec, shape_named
+from mearm.config.shape_catalogue import DEFAULT_SHAPE, SHAPE_NAMES, ShapeSpec, shape_named
 
 #: Object sizes [cm]: from a 1 mm bead to a 1 m box.
 OBJECT_SIZE_CM = (0.1, 100.0)
@@ -51,7 +51,7 @@ class ColorClass(Strict):
             colour (every pixel that passes the saturation and value floors and no band
             of another class).
         shape: The shape of its objects, a name of the catalogue
-            (:data:`~mearm.config.shapes.SHAPE_NAMES`); ``None``: any shape (the
+            (:data:`~mearm.config.shape_catalogue.SHAPE_NAMES`); ``None``: any shape (the
             simulators make its objects cylinders, the paper's).
         draw_rgb: The colour its objects are drawn in (sim camera, view, plots), 0–255.
         bin_cm: Where the TCP goes to drop an object of this class, base frame [cm].

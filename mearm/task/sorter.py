@@ -35,7 +35,7 @@ from typing import TYPE_CHECKING, Protocol
 import numpy as np
 
 from mearm.config import Config
-from mearm.config.shapes import SHAPES
+from mearm.config.shape_catalogue import SHAPES
 from mearm.errors import MearmError
 from mearm.hardware.bus import ReportsRelease, ServoBus
 from mearm.hardware.errors import ServoError

@@ -24,7 +24,7 @@ import numpy as np
 
 from mearm.cli import ArgumentParser, add_config_argument, config_from_args
 from mearm.config import Config
-from mearm.config.shapes import SHAPES
+from mearm.config.shape_catalogue import SHAPES
 from mearm.errors import MearmError
 
 #: The grid's columns and rows [cm] (a 3 cm cube's diagonal is 4.2 cm).

@@ -3,7 +3,7 @@ r"""Shapes seen from above, and the class of a region by its colour and its shap
 :func:`measure_shape` reads one region's outline (its mask's outer contour): its fill of
 the smallest circle around it, :math:`f = A_c / (\pi r^2)` with :math:`A_c` the area
 inside the outline, names the shape whose band holds it
-(:attr:`mearm.config.shapes.ShapeSpec.fill_band`), and for a square takes the yaw of its
+(:attr:`mearm.config.shape_catalogue.ShapeSpec.fill_band`), and for a square takes the yaw of its
 sides from the smallest rectangle around the outline (``cv2.minAreaRect``).
 
 :class:`ClassMatcher` turns (colour, shape) into a class: the first class, in the
@@ -24,7 +24,7 @@ import numpy as np
 import numpy.typing as npt
 
 from mearm.config import ColorClass
-from mearm.config.shapes import SHAPES
+from mearm.config.shape_catalogue import SHAPES
 from mearm.vision.thresholds import class_bands, colour_groups
 
 

@@ -55,8 +55,8 @@ class Thresholds:
             raise ConfigError(
                 None,
                 [
-                    f"task.classes: {len(self.bands_deg)} classes, the detector handles at "
-                    f"most {MAX_CLASSES}"
+                    f"task.classes: {len(self.bands_deg)} colours (classes with the same "
+                    f"hue bands are one), the detector handles at most {MAX_CLASSES}"
                 ],
             )
 

@@ -36,7 +36,7 @@ import cv2
 import numpy as np
 
 from mearm.config import CameraConfig, ColorClass
-from mearm.config.shapes import DEFAULT_SHAPE, shape_named
+from mearm.config.shape_catalogue import DEFAULT_SHAPE, shape_named
 from mearm.errors import ConfigError
 from mearm.vision.calibration import Calibration
 
@@ -63,7 +63,7 @@ class Disc:
         diameter_cm: Size [cm]: a disc's diameter, a square's or a triangle's side (the
             paper's objects: 2 cm discs, paper §1).
         shape: The shape of the catalogue whose footprint it is
-            (:data:`~mearm.config.shapes.SHAPES`).
+            (:data:`~mearm.config.shape_catalogue.SHAPES`).
         yaw_deg: Its turn about the vertical, base frame [deg]: a square's sides lie
             along x and y at 0, a triangle has a corner towards +y.
     """
