@@ -41,11 +41,15 @@ class Camera(ABC):
     Attributes:
         source: What the frames come from, for messages (e.g. ``"device 0"``).
         size_px: Expected frame size (width, height) [px].
+        frame_time_s: When the last frame read was taken, on the source's own clock [s],
+            for a source that tells (the twin: its simulated time); ``None`` otherwise. A
+            live source whose frame is not newer than the one before has frozen.
     """
 
     def __init__(self, source: str, size_px: tuple[int, int]):
         self.source = source
         self.size_px = size_px
+        self.frame_time_s: float | None = None
         self._closed = False
 
     def read(self) -> np.ndarray:
