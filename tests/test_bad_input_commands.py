@@ -2,8 +2,8 @@
 
 The maker's commands (find-port, flash, find-camera, init-config, calibrate-servos,
 jog), the twin's (twin-scenes, servo-steps, render-calibration, camera-accuracy,
-``twin.faults``), the virtual Uno's (virtual-uno-pulses), aruco-sheet, reproduce-paper,
-ik-stalls and bench. Each case: exit 2, one line on stderr naming the problem, no
+``twin.faults``), the virtual Uno's (virtual-uno-pulses), aruco-sheet, reproduce-paper
+and ik-stalls. Each case: exit 2, one line on stderr naming the problem, no
 traceback, within the time bound, the files around intact (:func:`badinput.check_bad_input`).
 """
 
@@ -59,6 +59,7 @@ CASES: list[tuple[list[str], str]] = [
     # camera-accuracy
     (["camera-accuracy", "--heights", "x"], "--heights wants numbers like 1,2.5"),
     (["camera-accuracy", "--config", TWIN, "--views", "0"], "--views 6 … 60"),
+    (["camera-accuracy"], "the built-in config: simulator is 'kinematic'; this needs the twin"),
     # the twin's injected faults
     (["sort", "--config", TWIN, "--set", "twin.faults=[{kind: melt, at_s: 1}]"], "twin.faults"),
     (["sort", "--config", TWIN, "--set", "twin.faults=[{kind: limp_servo, at_s: 1, "
@@ -92,8 +93,6 @@ CASES: list[tuple[list[str], str]] = [
     (["jog"], "interactive and needs a terminal"),
     # the virtual Uno
     (["virtual-uno-pulses", "--commands", "0"], "must be a positive number"),
-    # bench
-    (["bench", "--only", "nope"], "invalid choice: 'nope'"),
 ]  # fmt: skip
 
 
