@@ -131,6 +131,22 @@ def test_a_frame_check_refuses_a_black_or_stale_frame():
     with pytest.raises(CameraError, match="the frame is black"):
         check.check(np.full((48, 64, 3), 8, np.uint8), 2.0)
     check.check(dim, None)  # a source that does not tell its frames' times
+    check.check(dim, 3.0, 3.0)
+    check.check(dim, 3.0, 3.0)  # read again at the same instant: the same frame, not frozen
+    with pytest.raises(CameraError, match="the stream froze"):
+        check.check(dim, 3.0, 3.5)  # the clock moved on, the frame did not
+
+
+def test_looking_twice_at_one_instant_is_not_a_frozen_stream(tmp_path, capsys):
+    """Two objects whose picks are each refused for the other: the sort looks again with
+    nothing moved in between (the same simulated instant) and ends without a fault."""
+    scene = "task.scene=[{color: red, x: 0, y: 45}, {color: red, x: 0, y: 48.2}]"
+    log = tmp_path / "run.jsonl"
+    code = sort_main(["--config", str(CONFIG), "--set", scene, "--log", str(log), "--quiet"])
+    assert code == 1
+    assert "(2 no route clear of collisions)" in capsys.readouterr().err
+    (trial,) = read_runlog(log, strict=True).trials
+    assert trial.complete and not trial.faults
 
 
 def test_a_fault_names_what_it_needs():

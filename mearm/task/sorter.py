@@ -198,7 +198,7 @@ class Sorter:
                 holds one: the camera sees the held object too, away from the table).
         """
         frame = self.camera.read()
-        self.frame_check.check(frame, self.camera.frame_time_s)
+        self.frame_check.check(frame, self.camera.frame_time_s, self.camera.clock_s)
         h, w = frame.shape[:2]
         # an object cut by the image border is not picked until seen whole
         found = self.detector.detect(frame)

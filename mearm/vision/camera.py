@@ -43,7 +43,8 @@ class Camera(ABC):
         size_px: Expected frame size (width, height) [px].
         frame_time_s: When the last frame read was taken, on the source's own clock [s],
             for a source that tells (the twin: its simulated time); ``None`` otherwise. A
-            live source whose frame is not newer than the one before has frozen.
+            source whose clock moved on since a frame and whose next frame is not newer
+            has frozen.
     """
 
     def __init__(self, source: str, size_px: tuple[int, int]):
@@ -74,6 +75,11 @@ class Camera(ABC):
 
     @abstractmethod
     def _read(self) -> np.ndarray: ...
+
+    @property
+    def clock_s(self) -> float | None:
+        """The source's own clock now [s] (see :attr:`frame_time_s`); ``None``: unknown."""
+        return None
 
     def close(self) -> None:
         """Release the source; further reads raise."""

@@ -9,7 +9,8 @@ table is clear; the object just picked is still there) and move on it, so each i
   a covered lens, a dead sensor, the light off;
 - **frozen**: a source that tells when each frame was taken
   (:attr:`~mearm.vision.camera.Camera.frame_time_s`) gives a frame no newer than the one
-  before it.
+  before it, though its clock has moved on since (two reads at one instant of a
+  simulated clock are the same frame, not a frozen stream).
 """
 
 from __future__ import annotations
@@ -38,19 +39,25 @@ class FrameCheck:
         self.source = source
         self._last_time_s: float | None = None
 
-    def check(self, frame: np.ndarray, time_s: float | None = None) -> None:
-        """Refuse a black frame, or one no newer than the last.
+    def check(
+        self, frame: np.ndarray, time_s: float | None = None, now_s: float | None = None
+    ) -> None:
+        """Refuse a black frame, or one no newer than the last though time went on.
 
         Args:
             frame: The frame, (H, W, 3) uint8 BGR.
             time_s: When it was taken, on the source's clock [s]; ``None``: unknown.
+            now_s: The source's clock as it was read [s]; ``None``: unknown (time is
+                taken to have moved on since the last frame).
 
         Raises:
-            CameraError: the frame is black, or not newer than the one checked before.
+            CameraError: the frame is black, or not newer than the one checked before
+                while the clock moved on.
         """
         if time_s is not None:
             last, self._last_time_s = self._last_time_s, time_s
-            if last is not None and time_s <= last:
+            moved_on = now_s is None or last is None or now_s > last
+            if last is not None and time_s <= last and moved_on:
                 raise CameraError(
                     self.source,
                     f"the stream froze: this frame was taken at {time_s:.3f} s, no later "

@@ -275,6 +275,11 @@ class TwinCamera(Camera):
             self._last = (frame.copy(), now)
         return frame
 
+    @property
+    def clock_s(self) -> float:
+        """The twin's simulated time [s]: its frames' clock."""
+        return self.twin.time_s
+
     def _bump(self, shift_m: np.ndarray) -> None:
         """Put the camera ``shift_m`` from its mount [m], (3,) (``camera_bump``).
 
