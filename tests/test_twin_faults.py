@@ -172,3 +172,16 @@ def test_one_object_moved_alone_is_not_a_moved_view():
     _check_view([(a, one_cm), (b, np.zeros(2))], "test")
     with pytest.raises(CameraError, match=r"the view moved: red1, green1, .* 1\.05 cm"):
         _check_view([(a, one_cm), (b, one_cm + 0.1)], "test")
+
+
+def test_a_limp_servo_leaves_the_callers_model_whole():
+    """The fault takes the torque of the twin's own copy: a model shared by others keeps it."""
+    from mearm.sim.twin.mjcf import twin_model
+
+    config = load_config(CONFIG, ["twin.faults=[{kind: limp_servo, at_s: 0.01, joint: shoulder}]"])
+    shared = twin_model(config)
+    twin = TwinArm(config, shared)
+    twin.settle(0.05)
+    assert [type(f).__name__ for f in twin.faults.struck] == ["LimpServo"]
+    assert twin.model.actuator("shoulder").gainprm[0] == 0.0
+    assert shared.actuator("shoulder").gainprm[0] > 0.0

@@ -48,6 +48,7 @@ The sim does not wait for the wall clock unless ``servo.sim_realtime`` is set.
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import logging
 import math
@@ -256,6 +257,8 @@ class TwinArm(ServoBus):
         if model is None:  # with a kit, its physics as without the calibration file
             physical = replaced_calibration(config) if kit or config.twin.kit else None
             model = twin_model(physical or config, servo, gripper_servo)
+        if any(f.kind == "limp_servo" for f in config.twin.faults):
+            model = copy.copy(model)  # the fault changes its actuator: not the caller's model
         self.model = model
         self.data = mujoco.MjData(model)
         self._chain = Chain.from_description(config.arm)
