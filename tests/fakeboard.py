@@ -431,7 +431,6 @@ class FakeSSC32Board(FakeBoard):
     Attributes:
         pulses_us: Target pulse per channel [µs].
         moves: (pulses, time_ms) of every group move made, in order.
-        move_started: When each of them started (``time.monotonic``) [s].
         move_lines: Index in :attr:`received` of every group move line, made or not.
         fault_line: Index in :attr:`received` of the line at which the first fault
             struck (``None`` before).
@@ -445,7 +444,6 @@ class FakeSSC32Board(FakeBoard):
         self.faults = faults or SSC32Faults()
         self.pulses_us: dict[int, int] = {}
         self.moves: list[tuple[dict[int, int], int | None]] = []
-        self.move_started: list[float] = []
         self.move_lines: list[int] = []
         self.fault_line: int | None = None
         self.resets = 0
@@ -582,7 +580,6 @@ class FakeSSC32Board(FakeBoard):
             self.pulses_us.update(move)
             self.moves.append((move, time_ms))
             self._move_start = time.monotonic()
-            self.move_started.append(self._move_start)
             self._move_end = self._move_start + (time_ms or 0) / 1000.0
             if time_ms:
                 self._move_end += f.slow_s
