@@ -18,7 +18,7 @@ def _collect(*args: str) -> str:
     return r.stdout.strip().splitlines()[-1]
 
 
-@pytest.mark.heavy
+@pytest.mark.slow  # two pytest processes collecting: a few seconds
 def test_the_soak_runs_only_when_its_marker_is_asked_for():
     """Left out by another -m expression (as by none: the same rule); collected by ``-m soak``."""
     assert _collect("-m", "not slow and not heavy").startswith("no tests collected (3 deselected)")
