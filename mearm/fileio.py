@@ -112,6 +112,18 @@ def resolve_target(path: str | os.PathLike[str]) -> Path:
         return Path(os.path.realpath(path))
 
 
+def signal_ends_process(sig: int) -> bool:
+    """Whether ``sig`` would end the process now.
+
+    It would with its default action, also after this module's clean-up; a Python
+    handler or an ignored signal would not.
+    """
+    handler = signal.getsignal(sig)
+    if handler is _on_signal:
+        handler = _previous.get(sig, signal.SIG_DFL)
+    return handler == signal.SIG_DFL
+
+
 def live_temp_files() -> frozenset[str]:
     """The temporary files being written at this moment (for tests and diagnostics)."""
     return frozenset(_live)

@@ -199,6 +199,16 @@ def browser_or_skip() -> str:
         missing_tool(f"chromium ({exc})")
 
 
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    """Leave out the soak tests unless the ``-m`` expression names them (``make soak``)."""
+    if "soak" in (config.getoption("markexpr", "") or ""):
+        return
+    soak = [item for item in items if item.get_closest_marker("soak") is not None]
+    if soak:
+        config.hook.pytest_deselected(items=soak)
+        items[:] = [item for item in items if item.get_closest_marker("soak") is None]
+
+
 def pytest_terminal_summary(terminalreporter: pytest.TerminalReporter) -> None:
     """What a full run needs that this machine lacks, and how many bad-input promises the
     run checked and kept (tests/badinput.py)."""

@@ -176,11 +176,29 @@ def test_version_line_ending_cr_lf():
 
 
 def test_wire_bytes_per_move():
-    """Move, status query and its answer: the period grows past 1/rate at a slow baud."""
+    """Move, status query and its answer: the period is the move's T and all of them on
+    the wire, which cannot overlap the glide (the answer must say done)."""
     bus = SSC32Bus(fast_config("ssc32", rate_hz=50.0, baud=2400))
     move = len(b"#0P2500#1P2500#2P2500#3P2500#4P2500T65535\r")
     assert bus.wire_bytes_per_move == move + len(b"Q\rQP0\rQP1\rQP2\rQP3\rQP4\r") + 6
-    assert bus.period_s == pytest.approx(10 * bus.wire_bytes_per_move / 2400)
+    assert bus.move_time_ms == 20
+    assert bus.period_s == pytest.approx(0.020 + 10 * bus.wire_bytes_per_move / 2400)
+
+
+def test_the_rate_limiter_counts_the_confirmation_exchange():
+    """At 4800 baud a move and its confirmation spend 146 ms on the wire: each move still
+    glides over the 20 ms step the stream planned (T20), and moves start no closer than
+    T and the wire time together."""
+    with FakeSSC32Board() as board, connected(board, rate_hz=50.0, baud=4800) as bus:
+        assert bus.period_s == pytest.approx(0.020 + 10 * bus.wire_bytes_per_move / 4800)
+        periods: list[float] = []
+        real_wait = bus._rate.wait
+        bus._rate.wait = lambda period_s: periods.append(period_s) or real_wait(period_s)
+        for pose in route(3):
+            bus.move(pose)
+        assert [t for _, t in board.moves] == [20, 20, 20]
+        assert periods == [bus.period_s] * 3  # the pacing counts the exchange
+        assert board.received.count(b"Q") == 3  # each move done when first asked
 
 
 # ------------------------------------------------------------------ recovered, never desynced

@@ -19,6 +19,7 @@ from mearm.config.sections import (
 )
 from mearm.config.servo_models import SERVO_NAMES
 from mearm.config.twin_camera_config import TwinCameraConfig
+from mearm.config.twin_faults import TwinFault
 
 #: A projective calibration may shrink the far side of the frame, but no pixel's w (its
 #: inverse depth) may be under this fraction of another's: 20:1 is a camera looking
@@ -70,6 +71,10 @@ class TwinConfig(Strict):
     kit: ServoKitConfig | None = None
     """Draw each servo from a kit of real units (:class:`ServoKitConfig`, e.g.
     ``{seed: 7, per_trial: true}``); ``null``: every servo is the datasheet's nominal one."""
+    faults: list[TwinFault] = Field(default_factory=list, max_length=16)
+    """Faults injected into the run, each at a simulated time (:mod:`mearm.config.twin_faults`:
+    ``limp_servo``, ``knock_object``, ``camera_black``, ``camera_frozen``, ``camera_bump``);
+    empty: nothing breaks."""
 
     @field_validator("joint_servo", "gripper_servo")
     @classmethod
@@ -142,6 +147,12 @@ class Config(Strict):
             if name not in actuated:
                 raise ValueError(
                     f"@servo.error_model.offset_deg.{name}: not an actuated joint "
+                    f"(actuated: {', '.join(actuated)})"
+                )
+        for i, fault in enumerate(self.twin.faults):
+            if fault.kind == "limp_servo" and fault.joint not in actuated:
+                raise ValueError(
+                    f"@twin.faults.{i}.joint: {fault.joint!r} is not an actuated joint "
                     f"(actuated: {', '.join(actuated)})"
                 )
         return self

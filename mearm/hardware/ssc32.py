@@ -39,8 +39,13 @@ After any fault the bus sends nothing more (:class:`~mearm.hardware.bus.ServoBus
 move returns only once the board has finished it and holds its pulses, which is the
 last confirmed pose.
 
-Each move's ``T`` is the command period, so the servos glide from one command to the
-next instead of jumping; the confirmation adds one exchange per move (about 30 bytes).
+Each move's ``T`` is the servo frame period, 1 / ``servo.rate_hz``: the time the stream
+plans each step over, so the servos glide from one command to the next at the speed
+planned instead of jumping. The confirmation cannot overlap the glide (its answer must
+say done), so one move takes the move's bytes on the wire, its ``T``, then the status
+query and its answer on the wire: :attr:`SSC32Bus.period_s` counts them all (at 9600
+baud about 73 ms of wire for five channels, on top of the 20 ms of ``T``), and the bus
+paces its moves at that period.
 The SSC-32 does not reset when the port opens and prints no banner then: the handshake
 is ``VER``.
 """
@@ -62,7 +67,7 @@ from mearm.hardware.errors import (
     NoAckError,
     UnsolicitedBytesError,
 )
-from mearm.hardware.serial_bus import SerialServoBus
+from mearm.hardware.serial_bus import BITS_PER_BYTE, SerialServoBus
 
 log = logging.getLogger(__name__)
 
@@ -146,8 +151,21 @@ class SSC32Bus(SerialServoBus):
 
     @property
     def move_time_ms(self) -> int:
-        """The ``T`` of each move: the command period [ms]."""
-        return max(1, round(1000.0 * self.period_s))
+        """The ``T`` of each move: the servo frame period, 1 / ``servo.rate_hz`` [ms]."""
+        return max(1, round(1000.0 / self.config.servo.rate_hz))
+
+    @property
+    def period_s(self) -> float:
+        """Time between moves [s]: a move's ``T`` and everything on the wire.
+
+        The move's bytes, its status query's and the answer's: the confirmation follows
+        the glide and never overlaps it.
+        """
+        return self.move_time_ms / 1000.0 + self.wire_time_s
+
+    def _wire_s(self, data: bytes) -> float:
+        """Time ``data`` takes on the wire at the baud rate [s]."""
+        return BITS_PER_BYTE * len(data) / self.baud
 
     @property
     def wire_bytes_per_move(self) -> int:
@@ -215,7 +233,9 @@ class SSC32Bus(SerialServoBus):
         move = encode_group_move(pulses_us, self.move_time_ms)
         self._settle(move)
         self._write(move)
-        self._confirm(move, pulses_us, time.monotonic() + self.move_time_ms / 1000.0)
+        # the board starts the glide once the whole line has arrived
+        due = time.monotonic() + self._wire_s(move) + self.move_time_ms / 1000.0
+        self._confirm(move, pulses_us, due)
 
     def _stop(self) -> None:
         """Send nothing: the last move was confirmed done, and the board holds its pulses.

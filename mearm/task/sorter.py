@@ -22,7 +22,9 @@ retried ``task.pick_retries`` times, whatever the jaws hold being let go back ov
 spot. A camera or servo
 failure, or Ctrl-C, parks the arm where it is safe to (home, if the servo link still
 answers; otherwise nothing more is sent), writes the reason to the run log and raises
-:class:`SortAborted`.
+:class:`SortAborted`. A black frame, a frozen stream (:mod:`mearm.vision.frame_check`)
+and objects that moved between two looks though the arm went near none of them (the
+camera was knocked: its calibration no longer holds) are camera failures.
 """
 
 from __future__ import annotations
@@ -49,6 +51,7 @@ from mearm.task.route import Route
 from mearm.vision import Camera, ColorDetector, Detection
 from mearm.vision.calibration import camera_geometry
 from mearm.vision.errors import CameraError
+from mearm.vision.frame_check import FrameCheck
 from mearm.vision.shapes import table_yaw_deg
 
 if TYPE_CHECKING:
@@ -56,6 +59,16 @@ if TYPE_CHECKING:
 
 #: A detection within this distance of a known object is that object [cm].
 SAME_OBJECT_CM = 1.5
+#: Objects the arm did not go for that all move farther than this between two looks, the
+#: same way, mean the view moved (the camera was knocked) [cm]: a detection's jitter is a
+#: few tenths of a pixel (0.0625 cm a pixel at the paper's calibration).
+VIEW_SHIFT_CM = 0.5
+#: How closely their shifts must agree to be one move of the view [cm] (one object moved
+#: alone may be the arm's doing: a jaw that caught it).
+SAME_SHIFT_CM = 0.3
+#: An object whose region grew or shrank by more than this fraction since the last look
+#: is partly hidden (by the arm) in one of them: its centroid moved for that [-].
+SAME_AREA_RATIO = 0.15
 
 
 class CollisionError(MearmError):
@@ -126,6 +139,8 @@ class TrackedObject:
     #: A cube's yaw on the table at the last look [deg, 0–90), or ``None``: the jaws
     #: turn to its faces where the arm can turn them (:meth:`Planner.turn_jaws`).
     yaw_deg: float | None = None
+    #: Its region's area at the last look [px].
+    area_px: int = 0
 
 
 Seen = list[tuple[Detection, np.ndarray]]
@@ -177,6 +192,10 @@ class Sorter:
         self.reporter = Reporter(config, self.model.chain, log, echo, trial)
         self.calibration = camera_geometry(config)
         self.detector = ColorDetector(config.vision, self.calibration, config.task.classes)
+        self.frame_check = FrameCheck(camera.source)
+        #: The object the arm last went for (the only one it may have moved since).
+        self._active: TrackedObject | None = None
+        self._active_from_cm = (0.0, 0.0)
         self.view = view
         self.in_bins = in_bins
         retries = config.task.pick_retries + 1
@@ -201,6 +220,7 @@ class Sorter:
                 holds one: the camera sees the held object too, away from the table).
         """
         frame = self.camera.read()
+        self.frame_check.check(frame, self.camera.frame_time_s, self.camera.clock_s)
         h, w = frame.shape[:2]
         # an object cut by the image border is not picked until seen whole
         found = self.detector.detect(frame)
@@ -231,6 +251,14 @@ class Sorter:
         return any(c.in_bin(x, y) for c in self.config.task.classes)
 
     def _track(self, seen: Seen, *, track_new: bool = True) -> None:
+        """Follow the objects seen; an object the arm did not go for must not have moved.
+
+        Raises:
+            CameraError: two or more such objects, seen whole in both looks, all moved
+                more than :data:`VIEW_SHIFT_CM` since the last look, by the same shift
+                (within :data:`SAME_SHIFT_CM`): the camera was knocked.
+        """
+        shifts: list[tuple[TrackedObject, np.ndarray]] = []
         for det, (x, y) in seen:
             known = self._match(det.color, x, y)
             if known is None and not track_new:
@@ -240,7 +268,10 @@ class Sorter:
                 known = TrackedObject(f"{det.color}{n}", det.color, float(x), float(y))
                 self._objects.append(known)
             else:
+                if self._untouched(known, det):
+                    shifts.append((known, np.array([x - known.x_cm, y - known.y_cm])))
                 known.x_cm, known.y_cm = float(x), float(y)
+            known.area_px = det.area_px
             # one look's merged region may be another's single object: the arm, now
             # elsewhere, hid part of it, or a neighbour picked meanwhile touched it
             known.merged = det.merged
@@ -248,6 +279,23 @@ class Sorter:
                 known.yaw_deg = table_yaw_deg(
                     self.calibration.pixel_to_table, det.centroid_px, det.yaw_px_deg
                 )
+        _check_view(shifts, self.camera.source)
+
+    def _untouched(self, obj: TrackedObject, det: Detection) -> bool:
+        """Whether the arm left ``obj`` alone since the last look and both saw it whole."""
+        if obj is self._active or obj.merged or det.merged or self._near_active(obj):
+            return False
+        # an area that changed: partly hidden (by the arm) in one look, its centroid moved
+        return abs(det.area_px - obj.area_px) <= SAME_AREA_RATIO * obj.area_px
+
+    def _near_active(self, obj: TrackedObject) -> bool:
+        """Whether ``obj`` lay where the jaws coming down on the active object may push it."""
+        if self._active is None:
+            return False
+        g = self.config.arm.tool.gripper
+        r = self.config.task.class_named(obj.class_name).diameter_cm / 2
+        x, y = self._active_from_cm
+        return bool(np.hypot(obj.x_cm - x, obj.y_cm - y) < g.open_cm / 2 + g.jaw_thickness_cm + r)
 
     def _match(self, class_name: str, x: float, y: float) -> TrackedObject | None:
         best, best_d = None, SAME_OBJECT_CM
@@ -346,6 +394,7 @@ class Sorter:
         self.collision.set_world(on_table, opening_cm=opening_cm or g.open_cm, held=pair)
 
     def _pick_and_place(self, obj: TrackedObject) -> None:
+        self._active, self._active_from_cm = obj, (obj.x_cm, obj.y_cm)
         cls = self.config.task.class_named(obj.class_name)
         ex = self.executor
         t0 = time.perf_counter()
@@ -609,6 +658,25 @@ class Sorter:
         self.reporter.summary(ok=False, outcome=outcome, motion=self.executor.motion)
         raise SortAborted(
             full, interrupted=interrupted, last_joints=self._last_joints(), outcome=outcome
+        )
+
+
+def _check_view(shifts: list[tuple[TrackedObject, np.ndarray]], source: str) -> None:
+    """Refuse one shift of every object the arm left alone: the view moved (:meth:`_track`)."""
+    if len(shifts) < 2:
+        return
+    moves = np.array([d for _, d in shifts])  # (n, 2) [cm]
+    mean = moves.mean(axis=0)
+    if np.all(np.linalg.norm(moves, axis=1) > VIEW_SHIFT_CM) and np.all(
+        np.linalg.norm(moves - mean, axis=1) <= SAME_SHIFT_CM
+    ):
+        names = ", ".join(o.id for o, _ in shifts)
+        raise CameraError(
+            source,
+            f"the view moved: {names}, which the arm did not go near, all appear "
+            f"{float(np.linalg.norm(mean)):.2f} cm from where they lay (by ({mean[0]:.2f}, "
+            f"{mean[1]:.2f}) cm); was the camera knocked? Fix its mount and recalibrate "
+            "(tools/calibrate_camera.py)",
         )
 
 

@@ -223,7 +223,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         ) from None
     config = config_from_args(args)
     if config.simulator != "mujoco":
-        raise MearmError(f"{args.config}: simulator is {config.simulator!r}; this needs the twin")
+        raise MearmError(
+            f"{args.config or 'the built-in config'}: simulator is {config.simulator!r}; "
+            "this needs the twin (simulator: mujoco, e.g. --config sim_mujoco)"
+        )
     t0 = time.perf_counter()
     with tempfile.TemporaryDirectory(prefix="mearm-accuracy-") as tmp:
         work = args.work or Path(tmp)

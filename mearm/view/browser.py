@@ -8,25 +8,36 @@ the page is driven over the DevTools protocol instead: the picture is taken once
 viewer has received the expected number of messages, holds the expected number of
 objects, and has drawn two more frames. WebGL runs on SwiftShader, the CPU
 renderer, so no GPU or display is needed.
+
+Nothing is left behind, whatever ends the screenshot: the browser runs in a process
+group of its own, which is ended as a whole (its helper processes too), and its
+temporary profile folder, which also holds every temporary file it makes, is removed —
+on an error, on Ctrl-C, and on SIGTERM or SIGHUP, which unwind the screenshot
+(:func:`_signals_unwind`) before they end the process as they would have.
 """
 
 from __future__ import annotations
 
 import asyncio
 import base64
+import contextlib
 import json
 import os
 import shutil
+import signal
 import subprocess
 import tempfile
+import threading
 import time
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
+from types import FrameType
 from typing import Any
 
 import tornado.websocket
 
-from mearm.fileio import write_atomic
+from mearm.fileio import signal_ends_process, write_atomic
 from mearm.view.errors import BrowserNotFoundError, ViewError, ViewInputError
 
 #: Executable names tried in order; ``$MEARM_CHROMIUM`` (a path or name) comes first.
@@ -54,6 +65,14 @@ HEADLESS_FLAGS: tuple[str, ...] = (
     "--remote-debugging-address=127.0.0.1",
     "--remote-debugging-port=0",
 )
+
+#: Signals that end the process by default, which unwind a screenshot first (SIGINT
+#: already does: it raises KeyboardInterrupt).
+UNWIND_SIGNALS: tuple[signal.Signals, ...] = tuple(
+    getattr(signal, name) for name in ("SIGTERM", "SIGHUP") if hasattr(signal, name)
+)
+#: How long the browser may take to quit when asked before it is killed [s].
+QUIT_TIMEOUT_S = 10.0
 
 # [socket state, messages received, objects drawn under /meshcat]. meshcat keeps each
 # object in a scene-tree node named "<object>", created only once the object is added
@@ -127,6 +146,64 @@ class _DevTools:
                 if "error" in reply:
                     raise ViewError(f"DevTools {method} failed: {reply['error'].get('message')}")
                 return reply.get("result", {})
+
+
+class _Unwind(BaseException):  # noqa: N818 - not an Exception: nothing may catch it on the way
+    """A signal that ends the process arrived: unwind, then end as it would have."""
+
+    def __init__(self, signum: int):
+        self.signum = signum
+        super().__init__(signum)
+
+
+@contextlib.contextmanager
+def _signals_unwind() -> Iterator[None]:
+    """Let SIGTERM and SIGHUP unwind the block, then end the process as they would have.
+
+    Inside the block they raise, so every ``finally`` runs; on leaving, the signal is
+    taken again with the handler it had (the process ends). Only a signal whose handler
+    ends the process is caught, and only from the main thread (only it may install
+    handlers); elsewhere the block runs as it is.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def unwind(signum: int, frame: FrameType | None) -> None:
+        raise _Unwind(signum)
+
+    previous = {}
+    for sig in UNWIND_SIGNALS:
+        if signal_ends_process(sig):
+            previous[sig] = signal.signal(sig, unwind)
+    try:
+        yield
+    except _Unwind as exc:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+        previous = {}
+        signal.raise_signal(exc.signum)
+        raise  # not reached: the signal ends the process
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+
+
+def _end_group(proc: subprocess.Popen) -> None:
+    """End the browser and every process of its group: asked first, then killed."""
+    try:
+        os.killpg(proc.pid, signal.SIGTERM)
+    except ProcessLookupError:
+        pass
+    try:
+        proc.wait(timeout=QUIT_TIMEOUT_S)
+    except subprocess.TimeoutExpired:
+        pass
+    try:  # helpers that outlived the browser, and the browser if it did not quit
+        os.killpg(proc.pid, signal.SIGKILL)
+    except ProcessLookupError:
+        pass
+    proc.wait()
 
 
 def _devtools_url(profile: Path, proc: subprocess.Popen, deadline: float) -> str:
@@ -230,9 +307,12 @@ def screenshot(
             raise ViewInputError(name, value, "a size in [16, 8192] px")
     exe = browser or find_browser()
     deadline = time.monotonic() + timeout_s
-    with tempfile.TemporaryDirectory(
-        prefix="mearm-chromium-", ignore_cleanup_errors=True
-    ) as profile:
+    with (
+        _signals_unwind(),
+        tempfile.TemporaryDirectory(
+            prefix="mearm-chromium-", ignore_cleanup_errors=True
+        ) as profile,
+    ):
         cmd = [
             exe,
             *HEADLESS_FLAGS,
@@ -242,7 +322,14 @@ def screenshot(
         ]
         try:
             proc = subprocess.Popen(
-                cmd, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL
+                cmd,
+                stdin=subprocess.DEVNULL,
+                stdout=subprocess.DEVNULL,
+                stderr=subprocess.DEVNULL,
+                start_new_session=True,  # its own group: ended as a whole, not by Ctrl-C
+                # its own temporary files (org.chromium.Chromium.*, which it leaves in
+                # $TMPDIR even when it quits) go into the profile, removed with it
+                env={**os.environ, "TMPDIR": profile},
             )
         except OSError as exc:
             raise ViewError(f"cannot run {exe}: {exc}") from None
@@ -252,12 +339,7 @@ def screenshot(
         except (OSError, tornado.websocket.WebSocketClosedError) as exc:
             raise ViewError(f"lost the browser while rendering {url}: {exc}") from None
         finally:
-            proc.terminate()
-            try:
-                proc.wait(timeout=10)
-            except subprocess.TimeoutExpired:
-                proc.kill()
-                proc.wait()
+            _end_group(proc)
     try:
         write_atomic(out, png)
     except OSError as exc:

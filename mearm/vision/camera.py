@@ -41,11 +41,16 @@ class Camera(ABC):
     Attributes:
         source: What the frames come from, for messages (e.g. ``"device 0"``).
         size_px: Expected frame size (width, height) [px].
+        frame_time_s: When the last frame read was taken, on the source's own clock [s],
+            for a source that tells (the twin: its simulated time); ``None`` otherwise. A
+            source whose clock moved on since a frame and whose next frame is not newer
+            has frozen.
     """
 
     def __init__(self, source: str, size_px: tuple[int, int]):
         self.source = source
         self.size_px = size_px
+        self.frame_time_s: float | None = None
         self._closed = False
         self._last: np.ndarray | None = None  # the frame read last (a replay's peek)
 
@@ -80,6 +85,11 @@ class Camera(ABC):
 
     @abstractmethod
     def _read(self) -> np.ndarray: ...
+
+    @property
+    def clock_s(self) -> float | None:
+        """The source's own clock now [s] (see :attr:`frame_time_s`); ``None``: unknown."""
+        return None
 
     def close(self) -> None:
         """Release the source; further reads raise."""

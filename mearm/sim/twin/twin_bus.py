@@ -48,6 +48,7 @@ The sim does not wait for the wall clock unless ``servo.sim_realtime`` is set.
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import logging
 import math
@@ -80,6 +81,7 @@ from mearm.sim.twin.mjcf import (
     twin_model,
 )
 from mearm.sim.twin.servo_kit import ServoUnit, draw_kit, kit_seed
+from mearm.sim.twin.twin_faults import FaultSchedule
 
 log = logging.getLogger(__name__)
 
@@ -230,12 +232,15 @@ class TwinArm(ServoBus):
         data: Its state, starting at the ``home`` keyframe.
         servos: Each actuator's :class:`ServoModel`, joints in chain order then the gripper.
         kit: The servos' units, or ``None`` (every servo nominal).
+        faults: The faults ``config.twin.faults`` injects, each struck once as the
+            simulated time passes it (:mod:`mearm.sim.twin.twin_faults`).
 
     Raises:
         ModelError: the model lacks an actuator or joint of ``config``'s arm, or it
             records a servo the catalogue lacks (or, recording none, its joints' servos
             match no catalogue servo) and ``servo``/``gripper_servo`` is not given; or
             ``kit`` has not one unit per servo.
+        WorldError: a ``twin.faults`` entry knocks an object the scene does not have.
     """
 
     def __init__(
@@ -252,6 +257,8 @@ class TwinArm(ServoBus):
         if model is None:  # with a kit, its physics as without the calibration file
             physical = replaced_calibration(config) if kit or config.twin.kit else None
             model = twin_model(physical or config, servo, gripper_servo)
+        if any(f.kind == "limp_servo" for f in config.twin.faults):
+            model = copy.copy(model)  # the fault changes its actuator: not the caller's model
         self.model = model
         self.data = mujoco.MjData(model)
         self._chain = Chain.from_description(config.arm)
@@ -277,6 +284,7 @@ class TwinArm(ServoBus):
             for name, i in zip(self._chain.actuated, self._chain.actuated_index, strict=True)
         }
         self._object_ids = object_ids(config)
+        self.faults = FaultSchedule(config.twin.faults, self._object_ids)
         self._arm_body = model.body(f"link_{config.arm.joints[0].name}").id
         self._arm_dof = int(model.body_dofadr[self._arm_body])
         self.reset()
@@ -410,6 +418,15 @@ class TwinArm(ServoBus):
             waited += step_s
 
     def _run(self, seconds: float) -> None:
+        """Run the physics ``seconds`` on, striking each injected fault at its time."""
+        while (at := self.faults.next_arm_fault_s()) is not None and at < self.time_s + seconds:
+            head = max(0.0, at - self.time_s)
+            self._physics(head)
+            seconds -= head
+            self.faults.strike_arm(self.model, self.data)
+        self._physics(seconds)
+
+    def _physics(self, seconds: float) -> None:
         """Run the physics ``seconds`` on: the servos' setpoints ramp, then hold."""
         m, d = self.model, self.data
         n = max(0, round(seconds / m.opt.timestep))

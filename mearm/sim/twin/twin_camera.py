@@ -254,6 +254,10 @@ class TwinCamera(Camera):
             twin.model, config, msaa_samples=SORTER_MSAA_SAMPLES, shadows=SORTER_SHADOWS
         )
         self.frames_read = 0
+        #: The last frame rendered and its time (what a frozen stream repeats).
+        self._last: tuple[np.ndarray, float] | None = None
+        self._camera_id = twin.model.camera(CAMERA_NAME).id
+        self._mount_m = twin.data.cam_xpos[self._camera_id].copy()
 
     def peek(self) -> np.ndarray:  # noqa: D102
         frames_read = self.frames_read
@@ -263,9 +267,33 @@ class TwinCamera(Camera):
             self.frames_read = frames_read
 
     def _read(self) -> np.ndarray:
+        now = self.twin.time_s
+        faults = self.twin.faults.camera(now)
+        self._bump(faults.shift_m)
+        if faults.frozen_at_s is not None and self._last is not None:
+            frame, self.frame_time_s = self._last  # the stream froze: the stale frame again
+            return frame.copy()
         frame = self._lens.render(self.twin.data)
+        if faults.black:
+            frame[:] = 0
         self.frames_read += 1
+        self.frame_time_s = now
+        if faults.frozen_at_s is None or self._last is None:
+            self._last = (frame.copy(), now)
         return frame
+
+    @property
+    def clock_s(self) -> float:
+        """The twin's simulated time [s]: its frames' clock."""
+        return self.twin.time_s
+
+    def _bump(self, shift_m: np.ndarray) -> None:
+        """Put the camera ``shift_m`` from its mount [m], (3,) (``camera_bump``).
+
+        The camera hangs from the world body, whose frame MuJoCo does not compute again
+        after the model is made: its place in the data is where it is rendered from.
+        """
+        self.twin.data.cam_xpos[self._camera_id] = self._mount_m + shift_m
 
     def close(self) -> None:  # noqa: D102
         if not self._closed:

@@ -1,0 +1,74 @@
+"""Is a frame fit to act on? A black frame and a frozen stream are camera faults.
+
+A sort acts on what the camera shows: a black frame shows an empty table, and a stream
+that froze shows the table as it was. Either would have the sort conclude wrongly (the
+table is clear; the object just picked is still there) and move on it, so each is a
+:class:`~mearm.vision.errors.CameraError` naming what is wrong:
+
+- **black**: fewer than :data:`LIT_FRACTION` of the pixels reach :data:`BLACK_LEVEL` —
+  a covered lens, a dead sensor, the light off;
+- **frozen**: a source that tells when each frame was taken
+  (:attr:`~mearm.vision.camera.Camera.frame_time_s`) gives a frame no newer than the one
+  before it, though its clock has moved on since (two reads at one instant of a
+  simulated clock are the same frame, not a frozen stream).
+"""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+from mearm.vision.errors import CameraError
+
+#: Grey level a lit pixel reaches [0–255]: a table under room light is far brighter; a
+#: covered lens or a dark room reads a few levels of sensor noise.
+BLACK_LEVEL = 16
+#: Fraction of the pixels that must reach :data:`BLACK_LEVEL` for the frame to be lit [-]
+#: (a few hot pixels of a dark sensor do not make a picture).
+LIT_FRACTION = 0.01
+
+
+class FrameCheck:
+    """Checks each frame of one camera before the sort acts on it.
+
+    Args:
+        source: The camera, for messages (``Camera.source``).
+    """
+
+    def __init__(self, source: str):
+        self.source = source
+        self._last_time_s: float | None = None
+
+    def check(
+        self, frame: np.ndarray, time_s: float | None = None, now_s: float | None = None
+    ) -> None:
+        """Refuse a black frame, or one no newer than the last though time went on.
+
+        Args:
+            frame: The frame, (H, W, 3) uint8 BGR.
+            time_s: When it was taken, on the source's clock [s]; ``None``: unknown.
+            now_s: The source's clock as it was read [s]; ``None``: unknown (time is
+                taken to have moved on since the last frame).
+
+        Raises:
+            CameraError: the frame is black, or not newer than the one checked before
+                while the clock moved on.
+        """
+        if time_s is not None:
+            last, self._last_time_s = self._last_time_s, time_s
+            moved_on = now_s is None or last is None or now_s > last
+            if last is not None and time_s <= last and moved_on:
+                raise CameraError(
+                    self.source,
+                    f"the stream froze: this frame was taken at {time_s:.3f} s, no later "
+                    f"than the one before ({last:.3f} s); check the camera's cable and driver",
+                )
+        grey = cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY)
+        lit = np.count_nonzero(grey >= BLACK_LEVEL) / grey.size
+        if lit < LIT_FRACTION:
+            raise CameraError(
+                self.source,
+                f"the frame is black ({lit:.2%} of its pixels reach grey level "
+                f"{BLACK_LEVEL}, under {LIT_FRACTION:.0%}): is the lens covered, the light "
+                "off or the camera failing?",
+            )

@@ -1,0 +1,118 @@
+"""Bad-input corpus: the commands added after the corpus was first written.
+
+The maker's commands (find-port, flash, find-camera, init-config, calibrate-servos,
+jog), the twin's (twin-scenes, servo-steps, render-calibration, camera-accuracy,
+``twin.faults``), the virtual Uno's (virtual-uno-pulses), aruco-sheet, reproduce-paper
+and ik-stalls. Each case: exit 2, one line on stderr naming the problem, no
+traceback, within the time bound, the files around intact (:func:`badinput.check_bad_input`).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+from badinput import ROOT, check_bad_input, run_in_process
+
+bad_input = pytest.mark.bad_input
+
+CONFIGS = ROOT / "configs"
+TWIN = str(CONFIGS / "sim_mujoco.yaml")
+
+
+@pytest.fixture(scope="module")
+def spots(tmp_path_factory: pytest.TempPathFactory) -> dict[str, str]:
+    """Places to point outputs and inputs at: a folder and a plain file."""
+    d = tmp_path_factory.mktemp("commands")
+    (d / "folder").mkdir()
+    (d / "file.txt").write_text("keep me\n")
+    return {"dir": str(d), "folder": str(d / "folder"), "file": str(d / "file.txt")}
+
+
+@pytest.fixture(scope="module", autouse=True)
+def _imported() -> None:
+    for name in ("aruco-sheet", "twin-scenes", "servo-steps", "find-port", "calibrate-servos"):
+        run_in_process([name, "--help"], within_s=60)
+
+
+#: (argv, words the one line must hold). ``{dir}`` etc. are filled from ``spots``.
+CASES: list[tuple[list[str], str]] = [
+    # aruco-sheet
+    (["aruco-sheet", "--output", "{dir}/s.png", "--ids", "abc"], "--ids must be up to 64"),
+    (["aruco-sheet", "--output", "{dir}/s.png", "--side-cm", "nan"], "--side-cm must be in"),
+    (["aruco-sheet", "--output", "{dir}/s.png", "--dpi", "0"], "--dpi must be in [72, 2400]"),
+    (["aruco-sheet", "--output", "{folder}"], "--output must be a .png file"),
+    (["aruco-sheet", "--output", "{dir}/s.png", "--dictionary", "NOPE"], "unknown ArUco dict"),
+    # render-calibration (the twin's camera)
+    (["render-calibration", "--out", "{file}"], "exists and is not a directory"),
+    (["render-calibration", "--out", "{dir}/r", "--views", "0"], "--views must be in [1, 200]"),
+    (["render-calibration", "--out", "{dir}/r", "--noise-std", "-1"], "--noise-std must be"),
+    # twin-scenes
+    (["twin-scenes", "--scenes", "0"], "--scenes and --objects must be ≥ 1"),
+    (["twin-scenes", "--objects", "-1"], "--scenes and --objects must be ≥ 1"),
+    (["twin-scenes", "--require", "2"], "--require in [0, 1]"),
+    (["twin-scenes", "--jobs", "0"], "a number of workers must be ≥ 1"),
+    # servo-steps
+    (["servo-steps", "--degrees", "nan"], "--degrees must be in (0, 90]"),
+    (["servo-steps", "--degrees", "0"], "--degrees must be in (0, 90]"),
+    (["servo-steps", "--csv", "{folder}"], "not a file in an existing folder"),
+    # camera-accuracy
+    (["camera-accuracy", "--heights", "x"], "--heights wants numbers like 1,2.5"),
+    (["camera-accuracy", "--config", TWIN, "--views", "0"], "--views 6 … 60"),
+    (["camera-accuracy"], "the built-in config: simulator is 'kinematic'; this needs the twin"),
+    # the twin's injected faults
+    (["sort", "--config", TWIN, "--set", "twin.faults=[{kind: melt, at_s: 1}]"], "twin.faults"),
+    (["sort", "--config", TWIN, "--set", "twin.faults=[{kind: limp_servo, at_s: 1, "
+      "joint: wrist}]"], "'wrist' is not an actuated joint"),
+    (["sort", "--config", TWIN, "--set", "twin.faults=[{kind: camera_black, at_s: -1}]"],
+     "twin.faults.0"),
+    (["sort", "--config", TWIN, "--set", "twin.faults=[{kind: camera_bump, at_s: 1, "
+      "shift_cm: [100, 0, 0]}]"], "twin.faults.0"),
+    (["sort", "--config", TWIN, "--set", "twin.faults=[{kind: knock_object, at_s: 1, "
+      "object: purple9}]"], "no object 'purple9' in the twin"),
+    # reproduce-paper, ik-stalls
+    (["reproduce-paper", "--mode", "fast"], "invalid choice: 'fast'"),
+    (["ik-stalls", "--targets", "0"], "--targets must be in [1, 1000000]"),
+    (["ik-stalls", "{dir}/nosuch.yaml"], "config file not found"),
+    # the maker's commands
+    (["find-port", "--timeout", "nan"], "must be a positive number s"),
+    (["find-port", "--wait", "-1"], "must be a positive number s"),
+    (["find-port", "--port", "spy://x"], "the URL scheme 'spy' is not allowed"),
+    (["flash", "--upload-baud", "9600"], "invalid choice: 9600"),
+    (["flash", "--port", "spy://x", "--dry-run"], "--port must be the board's device path"),
+    (["find-camera", "--out", "{file}"], "exists and is not a folder"),
+    (["init-config", "--arm", "nope"], "invalid choice: 'nope'"),
+    (["init-config", "--rig", "nope"], "invalid choice: 'nope'"),
+    (["init-config", "{dir}/new.yaml"], "needs --arm, --rig"),
+    (["calibrate-servos", "--port", "/dev/null"], "interactive and needs a terminal"),
+    (["calibrate-servos", "--simulate", "--output", "{dir}/c.yaml"], "against the MuJoCo twin"),
+    (["calibrate-servos", "--config", TWIN, "--simulate", "--output", "{dir}/c.yaml",
+      "--actuators", "nope"], "no actuator 'nope'"),
+    (["calibrate-servos", "--simulate", "--reading-error", "nan"], "a reading error lies in"),
+    (["jog", "--servo-calibration", "{dir}/nosuch.yaml"], "servo calibration file not found"),
+    (["jog"], "interactive and needs a terminal"),
+    # the virtual Uno
+    (["virtual-uno-pulses", "--commands", "0"], "must be a positive number"),
+]  # fmt: skip
+
+
+def _fill(argv: list[str], spots: dict[str, str]) -> list[str]:
+    """``{dir}`` etc. filled in (only those: YAML flow mappings keep their braces)."""
+    out = []
+    for a in argv:
+        for key, value in spots.items():
+            a = a.replace("{" + key + "}", value)
+        out.append(a)
+    return out
+
+
+@bad_input
+@pytest.mark.parametrize(
+    ("argv", "words"), [pytest.param(a, w, id=" ".join(a)[:60]) for a, w in CASES]
+)
+def test_bad_arguments_are_refused(argv: list[str], words: str, spots: dict[str, str]) -> None:
+    """Each bad command line: exit 2, one line naming the problem, nothing touched."""
+    out = check_bad_input(_fill(argv, spots), within_s=5, keep=[Path(spots["dir"]), CONFIGS])
+    assert words in out.line
+    assert Path(spots["file"]).read_text() == "keep me\n"
+    assert list(Path(spots["folder"]).iterdir()) == []
