@@ -255,7 +255,7 @@ class TwinCamera(Camera):
         )
         self.frames_read = 0
         #: The last frame rendered and its time (what a frozen stream repeats).
-        self._last: tuple[np.ndarray, float] | None = None
+        self._rendered: tuple[np.ndarray, float] | None = None
         self._camera_id = twin.model.camera(CAMERA_NAME).id
         self._mount_m = twin.data.cam_xpos[self._camera_id].copy()
 
@@ -270,16 +270,16 @@ class TwinCamera(Camera):
         now = self.twin.time_s
         faults = self.twin.faults.camera(now)
         self._bump(faults.shift_m)
-        if faults.frozen_at_s is not None and self._last is not None:
-            frame, self.frame_time_s = self._last  # the stream froze: the stale frame again
+        if faults.frozen_at_s is not None and self._rendered is not None:
+            frame, self.frame_time_s = self._rendered  # the stream froze: the stale frame again
             return frame.copy()
         frame = self._lens.render(self.twin.data)
         if faults.black:
             frame[:] = 0
         self.frames_read += 1
         self.frame_time_s = now
-        if faults.frozen_at_s is None or self._last is None:
-            self._last = (frame.copy(), now)
+        if faults.frozen_at_s is None or self._rendered is None:
+            self._rendered = (frame.copy(), now)
         return frame
 
     @property
