@@ -596,8 +596,7 @@ def _build(config: Config, spec: ServoSpec, gripper_spec: ServoSpec) -> mujoco.M
     ):
         model.add_material(name=name, rgba=list(rgba))
     world = model.worldbody
-    world.add_light(name="top", pos=[0.0, 0.0, 1.5], dir=[0.0, 0.0, -1.0],
-                    type=mujoco.mjtLightType.mjLIGHT_DIRECTIONAL)  # fmt: skip
+    _lights(model, config)
     _table(world, config)
     _camera(world, config)
 
@@ -636,11 +635,13 @@ def _build(config: Config, spec: ServoSpec, gripper_spec: ServoSpec) -> mujoco.M
         body = world.add_body(name=f"obj_{oid}", pos=exact(centre))
         body.add_freejoint(name=f"obj_{oid}")
         shape = object_shape(config, oid, obj.color)
+        gloss = {} if config.twin.lamp is None else {"material": f"object_{c.name}"}
         _scene_geom(
             body,
             shape.name,
             "cylinder",
             shape.size,
+            **gloss,
             mass=PLA_DENSITY * math.pi * r * r * h,
             friction=[OBJECT_FRICTION, OBJECT_SPIN_FRICTION, OBJECT_ROLL_FRICTION],
             # sliding friction only against the table and bins (torsional friction there
@@ -853,6 +854,56 @@ def _table(world: mujoco.MjsBody, config: Config) -> None:
         material="table",
         friction=[TABLE_FRICTION, OBJECT_SPIN_FRICTION, OBJECT_ROLL_FRICTION],
     )
+
+
+def _lights(model: mujoco.MjSpec, config: Config) -> None:
+    """The twin's light: an even light straight down, or ``twin.lamp``.
+
+    Without a lamp: a directional light ``top`` straight down and MuJoCo's headlight (a
+    light on the camera). With one (:class:`~mearm.config.twin_lamp_config.TwinLampConfig`):
+    the light ``lamp`` where it stands, pointed at its target, casting shadows if it says
+    so; the headlight gives only the room's ``ambient`` light; each class's objects get a
+    material ``object_<class>`` of the lamp's ``object_specular`` and ``object_shininess``.
+    """
+    lamp = config.twin.lamp
+    world = model.worldbody
+    if lamp is None:
+        world.add_light(name="top", pos=[0.0, 0.0, 1.5], dir=[0.0, 0.0, -1.0],
+                        type=mujoco.mjtLightType.mjLIGHT_DIRECTIONAL)  # fmt: skip
+        return
+    pos = np.array(lamp.position_cm) * M_PER_CM
+    if lamp.target_cm is not None:
+        target = np.array([*lamp.target_cm, 0.0]) * M_PER_CM
+    else:
+        target = np.array([*homography_view(config)[0], 0.0])
+    direction = target - pos
+    distance = float(np.linalg.norm(direction))
+    if distance < 1e-3:
+        raise ModelError(
+            f"twin.lamp: the lamp at {lamp.position_cm} cm points at its own place; give a "
+            "target_cm on the table away from it"
+        )
+    kind = {"spot": mujoco.mjtLightType.mjLIGHT_SPOT,
+            "directional": mujoco.mjtLightType.mjLIGHT_DIRECTIONAL}[lamp.kind]  # fmt: skip
+    light = world.add_light(name="lamp", pos=exact(pos), dir=exact(direction / distance),
+                            type=kind, castshadow=lamp.shadows)  # fmt: skip
+    light.diffuse = [lamp.diffuse] * 3
+    light.specular = [lamp.specular] * 3
+    light.ambient = [0.0] * 3
+    light.cutoff = lamp.cutoff_deg
+    light.exponent = lamp.exponent
+    model.visual.quality.shadowsize = lamp.shadow_map_px
+    headlight = model.visual.headlight
+    headlight.ambient = [lamp.ambient] * 3
+    headlight.diffuse = [0.0] * 3
+    headlight.specular = [0.0] * 3
+    for c in config.task.classes:
+        model.add_material(
+            name=f"object_{c.name}",
+            rgba=_rgba(c.draw_rgb),
+            specular=lamp.object_specular,
+            shininess=lamp.object_shininess,
+        )
 
 
 def _camera(world: mujoco.MjsBody, config: Config) -> None:
