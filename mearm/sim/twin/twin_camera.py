@@ -31,10 +31,10 @@ bins, which the sorter does not pick from.
 
 **Under a lamp** (``twin.lamp``, :class:`~mearm.config.twin_lamp_config.TwinLampConfig`)
 the sorter's frames keep the lamp's shadows, which are what such frames are for; a
-640×480 frame of the paper's scene then cost a median 30 ms of CPU with the lamp's
-2048² shadow map (20 ms at 1024², 63 ms at 4096², measured interleaved on the loaded
-2-core machine, simulated) against 4.9 ms without a lamp, and 5.1 ms under the lamp
-with ``shadows: false``.
+640×480 frame of the paper's scene then cost a median 27–30 ms of CPU with the lamp's
+2048² shadow map (20 ms at 1024², 63 ms at 4096²; frames interleaved, two runs on the
+loaded 2-core machine, simulated) against 4.9–5.0 ms without a lamp, and 5.0–5.1 ms
+under the lamp with ``shadows: false``.
 
 **The calibration pictures**
 (:mod:`~mearm.sim.twin.calibration_scenes`) keep both: the sub-pixel fits need MSAA.
