@@ -72,6 +72,11 @@ def test_the_lamp_stands_and_points_where_the_config_says(lamp_config):
     red = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_MATERIAL, "object_red")
     assert model.mat_specular[red] == pytest.approx(lamp.object_specular)
     assert sorter_shadows(lamp_config) is True
+    aimed = load_config(LAMP, ["twin.lamp.kind=directional", "twin.lamp.target_cm=[10, 30]"])
+    model = twin_spec(aimed)[1]
+    to = np.array([0.10, 0.30, 0.0]) - pos
+    assert model.light_type[i] == mujoco.mjtLightType.mjLIGHT_DIRECTIONAL
+    assert model.light_dir[i] == pytest.approx(to / np.linalg.norm(to), abs=1e-6)
     off = load_config(LAMP, ["twin.lamp.shadows=false"])
     assert not twin_spec(off)[1].light_castshadow[_light(model, "lamp")]
     assert sorter_shadows(off) is False

@@ -876,13 +876,8 @@ def _lights(model: mujoco.MjSpec, config: Config) -> None:
         target = np.array([*lamp.target_cm, 0.0]) * M_PER_CM
     else:
         target = np.array([*homography_view(config)[0], 0.0])
-    direction = target - pos
+    direction = target - pos  # never zero: the lamp stands ≥ 1 cm above the table
     distance = float(np.linalg.norm(direction))
-    if distance < 1e-3:
-        raise ModelError(
-            f"twin.lamp: the lamp at {lamp.position_cm} cm points at its own place; give a "
-            "target_cm on the table away from it"
-        )
     kind = {"spot": mujoco.mjtLightType.mjLIGHT_SPOT,
             "directional": mujoco.mjtLightType.mjLIGHT_DIRECTIONAL}[lamp.kind]  # fmt: skip
     light = world.add_light(name="lamp", pos=exact(pos), dir=exact(direction / distance),
