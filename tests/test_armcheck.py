@@ -102,9 +102,14 @@ def test_refine_brings_the_pose_back(tmp_path, capsys):
     refined_r = _residuals(out, "refined ")
     assert len(refined_r) == 4
     assert after == pytest.approx(math.sqrt(np.mean(refined_r**2)), abs=2e-3)
-    # measured in the twin: 0.509 → 0.285 cm; the twin's arm places the object up to
-    # 0.6 cm off its command even with the true camera, which no pose can remove
-    assert after < before / 1.5, out
+    # measured in the twin: 0.509 → 0.285 cm, and 0.526 → 0.381 cm since the rim's
+    # colours are compared by chroma; the twin's arm places the object up to 0.6 cm off
+    # its command even with the true camera, which no pose can remove. Each transfer
+    # picks the object where the camera saw it, so a change of hundredths of a cm in
+    # where the (perturbed) camera sees it changes where the arm puts it down next: the
+    # true camera locates every placed object within 0.023 cm with either rim, but the
+    # placements, and so the residuals, differ.
+    assert after < before / 1.3, out
     refined = load_calibration(out_file, "extrinsics")
     assert isinstance(refined, Extrinsics) and refined.refined_by_arm
     assert refined.rms_px == 0.2

@@ -66,6 +66,11 @@ TWIN = {"simulator", "twin.joint_servo", "task.approach_height_cm"}
             {"twin.camera", "calibration.model", "calibration.intrinsics_file"}
             | {"calibration.extrinsics_file"},
         ),
+        (
+            "sim_mujoco_lamp.yaml",
+            "sim_mujoco_perspective.yaml",
+            {"twin.lamp", "vision.value_min", "vision.shadow_value_min"},
+        ),
         ("sim_mearm_v1_mujoco.yaml", "sim_mearm_v1.yaml", TWIN),
         ("sim_5dof_mujoco.yaml", "sim_5dof.yaml", TWIN),
     ],

@@ -8,6 +8,7 @@ import sys
 from pathlib import Path
 
 import pytest
+from badinput import check_bad_input
 
 ROOT = Path(__file__).resolve().parents[1]
 CONFIG = ROOT / "configs" / "sim_mujoco_perspective.yaml"
@@ -48,3 +49,13 @@ def test_the_twin_sorts_through_its_calibrated_perspective_camera() -> None:
     proc = _run("-m", "mearm", "sort", "--config", str(CONFIG))
     assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr
     assert proc.stdout.strip().splitlines()[-1] == "sorted 12 of 12 objects"
+
+
+@pytest.mark.bad_input
+@pytest.mark.parametrize(
+    ("extra", "words"),
+    [(["--first-seed", "-1"], "--first-seed"), (["--scenes", "0"], "--scenes")],
+)
+def test_camera_accuracy_refuses_bad_arguments_with_one_line(extra: list[str], words: str):
+    out = check_bad_input(["camera-accuracy", "--config", CONFIG, *extra])
+    assert words in out.line

@@ -20,6 +20,7 @@ from mearm.config.sections import (
 from mearm.config.servo_models import SERVO_NAMES
 from mearm.config.twin_camera_config import TwinCameraConfig
 from mearm.config.twin_faults import TwinFault
+from mearm.config.twin_lamp_config import TwinLampConfig
 
 #: A projective calibration may shrink the far side of the frame, but no pixel's w (its
 #: inverse depth) may be under this fraction of another's: 20:1 is a camera looking
@@ -68,6 +69,10 @@ class TwinConfig(Strict):
     """The twin's camera as a real perspective camera (pose, field of view, lens
     distortion: :class:`~mearm.config.twin_camera_config.TwinCameraConfig`); ``null``: straight
     down from 52 cm over the calibrated field, so that ``calibration.homography`` holds."""
+    lamp: TwinLampConfig | None = None
+    """A lamp lighting the table (where it stands, its cone and falloff, shadows, glossy
+    objects: :class:`~mearm.config.twin_lamp_config.TwinLampConfig`); ``null``: an even
+    light straight down and the sorter's frames drawn without shadows (the fast path)."""
     kit: ServoKitConfig | None = None
     """Draw each servo from a kit of real units (:class:`ServoKitConfig`, e.g.
     ``{seed: 7, per_trial: true}``); ``null``: every servo is the datasheet's nominal one."""

@@ -176,6 +176,20 @@ class VisionConfig(Strict):
     """A region larger than this times one object's expected area is flagged merged."""
     merged_elongation: Annotated[float, Field(gt=1, le=100, allow_inf_nan=False)] = 1.5
     """A region whose major/minor axis ratio exceeds this is flagged merged."""
+    shadow_value_min: Annotated[float, Field(ge=0, le=1, allow_inf_nan=False)] | None = None
+    """Grow each region into its own shadow: a pixel of the class's hue and saturation
+    whose value is under ``value_min`` but at least this [-] counts when it joins a region
+    that passes ``value_min`` (hysteresis), so that a lamp's shadow across an object does
+    not cut its outline; ``null``: never (the paper's recipe)."""
+
+    @model_validator(mode="after")
+    def _shadow_below_value(self) -> VisionConfig:
+        if self.shadow_value_min is not None and self.shadow_value_min >= self.value_min:
+            raise ValueError(
+                f"@shadow_value_min: {self.shadow_value_min:g} must be below value_min "
+                f"({self.value_min:g}), or null"
+            )
+        return self
 
     @field_validator("median_kernel")
     @classmethod

@@ -1,8 +1,8 @@
 r"""Measure where the calibrated camera puts objects in the twin, calibrated by mearm's own tools.
 
     mearm camera-accuracy --config sim_mujoco_perspective \
-        [--set twin.camera.tilt_deg=0] [--heights 1,2.5] [--scenes 5] [--objects 12] \
-        [--noise-std 2] [--work DIR] [--json FILE]
+        [--set twin.camera.tilt_deg=0] [--heights 1,2.5] [--scenes 5] [--first-seed 0] \
+        [--objects 12] [--noise-std 2] [--work DIR] [--json FILE]
 
 What a user does with a real camera, done with the twin's (a perspective camera with
 lens distortion that the software knows nothing about):
@@ -12,7 +12,8 @@ lens distortion that the software knows nothing about):
 2. ``mearm calibrate-intrinsics`` fits the camera matrix and distortion to the boards;
 3. ``mearm calibrate-camera --intrinsics`` fits the camera's pose to the markers.
 
-Then, for each object height, seeded random scenes of objects (``random_scene``) are
+Then, for each object height, seeded random scenes of objects (``random_scene``, seeds
+``--first-seed`` …) are
 rendered by the twin (the arm hidden, so that nothing but the table, the bins and the
 objects is seen), detected with the fitted calibration, and each detection compared with
 the object's true position in the physics. Objects the camera does not see whole (cut
@@ -119,7 +120,7 @@ def _paper_homography(work: Path, marker_args: list[str]):  # noqa: ANN202
 
 def score(
     config: Config, work: Path, heights: list[float], scenes: int, objects: int, noise: float,
-    marker_args: list[str],
+    marker_args: list[str], first_seed: int = 0,
 ) -> list[dict]:  # fmt: skip
     """Detect seeded scenes with the fitted calibration; errors per height."""
     from scipy.optimize import linear_sum_assignment
@@ -151,7 +152,7 @@ def score(
         errors: list[float] = []
         paper_errors: list[float] = []
         missed, extra, n = 0, 0, 0
-        for seed in range(scenes):
+        for seed in range(first_seed, first_seed + scenes):
             scene = []
             for o in random_scene(cfg, objects, seed=seed):
                 c = cfg.task.class_named(o.color)
@@ -196,7 +197,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = ArgumentParser(description=__doc__.splitlines()[0] if __doc__ else None)
     add_config_argument(parser)
     parser.add_argument("--heights", type=str, default="1,2.5", help="object heights [cm]")
-    parser.add_argument("--scenes", type=int, default=5, help="scenes per height (seeds 0 …)")
+    parser.add_argument("--scenes", type=int, default=5, help="scenes per height")
+    parser.add_argument("--first-seed", type=int, default=0, help="seed of the first scene")
     parser.add_argument("--objects", type=int, default=12, help="objects per scene")
     parser.add_argument("--views", type=int, default=15, help="board views for the intrinsics")
     parser.add_argument("--noise-std", type=float, default=2.0, help="sensor noise [8-bit levels]")
@@ -213,6 +215,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     heights = _numbers(args.heights)
     if not (1 <= args.scenes <= 100 and 1 <= args.objects <= 40 and 6 <= args.views <= 60):
         raise MearmError("--scenes must be 1 … 100, --objects 1 … 40 and --views 6 … 60")
+    if not 0 <= args.first_seed <= 1_000_000:
+        raise MearmError(f"--first-seed must be in 0 … 1000000, got {args.first_seed}")
     if not 0 <= args.noise_std <= 50:
         raise MearmError(f"--noise-std must be in 0 … 50, got {args.noise_std:g}")
     try:
@@ -236,8 +240,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         for line in cal["pose_output"].splitlines()[1:4]:
             print(line)
         rows = score(
-            config, work, heights, args.scenes, args.objects, args.noise_std, cal["markers"]
-        )
+            config, work, heights, args.scenes, args.objects, args.noise_std, cal["markers"],
+            args.first_seed,
+        )  # fmt: skip
     print(f"{'height':>7} {'objects':>7} {'mean cm':>8} {'max cm':>7} {'missed':>6} {'extra':>5}"
           f"   paper model: {'mean cm':>7} {'max cm':>7}")  # fmt: skip
     ok = True

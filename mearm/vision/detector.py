@@ -69,6 +69,7 @@ from mearm.vision.calibration import Calibration, CameraGeometry, camera_geometr
 from mearm.vision.classify import PixelClassifier, and_scalar, equal_mask
 from mearm.vision.errors import ImageError
 from mearm.vision.pinhole import PerspectiveCamera
+from mearm.vision.shadows import grow_into_shadows, weak_classifier
 from mearm.vision.shapes import ClassMatcher, measure_shape, touches_border
 from mearm.vision.thresholds import Thresholds
 
@@ -358,6 +359,8 @@ class ColorDetector:
         self.calibration = calibration
         self.thresholds = Thresholds.from_config(self.classes, vision)
         self.classifier = PixelClassifier(self.thresholds)
+        shadow = vision.shadow_value_min
+        self._weak = None if shadow is None else weak_classifier(self.thresholds, shadow)
         #: The colours the pixels are classified into (one per class without shapes).
         self.class_names = self.thresholds.class_names
         self.matcher = ClassMatcher(self.classes)
@@ -394,6 +397,9 @@ class ColorDetector:
         """
         frame = check_frame(frame_bgr)
         codes, (x, y, w, h) = self.classifier.classify_with_box(frame)
+        if self._weak is not None:  # regions grown into their shadows (mearm.vision.shadows)
+            weak, (x, y, w, h) = self._weak.classify_with_box(frame)
+            codes = grow_into_shadows(codes, weak, len(self.class_names))
         k = self.vision.median_kernel
         if w == 0 or h == 0:
             x, y, w, h = 0, 0, 1, 1

@@ -420,11 +420,22 @@ def subpixel_edges(frame: np.ndarray, outline: np.ndarray) -> np.ndarray:
     A mask's outline runs through the centres of its border pixels, up to a pixel from
     the true edge and in steps of whole pixels. Along each point's outward normal the
     frame is sampled (bilinear) from 3 px inside to 3 px outside; each sample's colour is
-    scored between the local inside colour (mean of the innermost samples) and the local
-    outside colour (outermost), 1 to 0, and the edge is where the score crosses one half
-    (linear interpolation between samples). A point whose profile has too little contrast
-    (under 12 levels) or no crossing near the outline keeps its pixel position plus half a
-    pixel outward, where a binary mask's edge lies on average.
+    scored between the local inside colour (mean of the samples 1–1.5 px inside) and the
+    local outside colour (2.5–3 px outside), 1 to 0, and the edge is where the score
+    crosses one half (linear interpolation between samples). A point whose profile has
+    too little contrast (under 12 levels) or no crossing near the outline keeps its pixel
+    position plus half a pixel outward, where a binary mask's edge lies on average.
+
+    Under a lamp (measured on the twin's renders, ``mearm camera-accuracy`` with
+    ``twin.lamp``) two choices matter. Colours are compared by their *chroma*, each
+    sample less the mean of its channels: a shadow scales a colour and a specular
+    highlight adds white to it, which leaves the chroma's direction, so a dark shadow
+    just beyond the rim no longer scores as the object (in B, G, R a dark pixel lies
+    nearer a saturated green than the lit table does: the rim came out a pixel outwards,
+    0.1 cm for 1 cm objects). And the inside colour is the rim's own, 1–1.5 px in, not
+    the face's 3 px in: a shadow falling across the rim (a bin's) darkens the rim against
+    the lit middle of the face, and the half-way point then lay on the shadow's edge
+    on the face.
 
     Args:
         frame: The image (H, W, 3) uint8 (or (H, W)).
@@ -448,7 +459,9 @@ def subpixel_edges(frame: np.ndarray, outline: np.ndarray) -> np.ndarray:
     ).astype(float)
     if samples.ndim == 2:
         samples = samples[..., None]
-    inner = samples[:, :3].mean(axis=1)  # t ∈ [-3, -2.5]
+    else:  # chroma: a shadow or a highlight moves a colour along (1, 1, 1), not across it
+        samples = samples - samples.mean(axis=2, keepdims=True)
+    inner = samples[:, 6:9].mean(axis=1)  # t ∈ [-1.5, -1]: the rim's own colour
     outer = samples[:, -3:].mean(axis=1)  # t ∈ [2.5, 3]
     d = inner - outer
     dd = np.sum(d * d, axis=1)

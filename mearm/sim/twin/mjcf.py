@@ -563,12 +563,19 @@ def _shape_geom(body: mujoco.MjsBody, shape: Shape, material: str, **attrs: obje
           conaffinity=collide[1], **place, **attrs)  # fmt: skip
 
 
-def _object_geom(model: mujoco.MjSpec, body: mujoco.MjsBody, name: str, c: ColorClass) -> None:
+def _object_geom(
+    model: mujoco.MjSpec,
+    body: mujoco.MjsBody,
+    name: str,
+    c: ColorClass,
+    material: str | None = None,
+) -> None:
     """A scene object of class ``c``: solid PLA of its class's shape, size and colour.
 
     A cylinder, a box (a cube's footprint, its class's height) or a triangular prism (a
     convex mesh, a corner towards the body's +y), standing on its base; its yaw is its
-    body's.
+    body's. ``material``: the model's material it is drawn with (the glossy one of its
+    class under a lamp), or none.
     """
     size_m, h = c.diameter_cm * M_PER_CM, c.height_cm * M_PER_CM
     footprint = c.object_shape.footprint
@@ -582,6 +589,8 @@ def _object_geom(model: mujoco.MjSpec, body: mujoco.MjsBody, name: str, c: Color
         "condim": 3,
         "rgba": _rgba(c.draw_rgb),
     }
+    if material is not None:
+        attrs["material"] = material
     if footprint == "disc":
         _scene_geom(body, name, "cylinder", (size_m / 2, h / 2), **attrs)
     elif footprint == "square":
@@ -636,8 +645,7 @@ def _build(config: Config, spec: ServoSpec, gripper_spec: ServoSpec) -> mujoco.M
     ):
         model.add_material(name=name, rgba=list(rgba))
     world = model.worldbody
-    world.add_light(name="top", pos=[0.0, 0.0, 1.5], dir=[0.0, 0.0, -1.0],
-                    type=mujoco.mjtLightType.mjLIGHT_DIRECTIONAL)  # fmt: skip
+    _lights(model, config)
     _table(world, config)
     _camera(world, config)
 
@@ -679,7 +687,8 @@ def _build(config: Config, spec: ServoSpec, gripper_spec: ServoSpec) -> mujoco.M
             quat=exact([math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2)]),
         )
         body.add_freejoint(name=f"obj_{oid}")
-        _object_geom(model, body, f"obj_{oid}", c)
+        gloss = None if config.twin.lamp is None else f"object_{c.name}"  # under a lamp
+        _object_geom(model, body, f"obj_{oid}", c, material=gloss)
 
     # ---- contacts, coupling, actuators, home
     model.add_exclude(bodyname1="world", bodyname2=f"link_{arm.joints[0].name}")
@@ -884,6 +893,51 @@ def _table(world: mujoco.MjsBody, config: Config) -> None:
         material="table",
         friction=[TABLE_FRICTION, OBJECT_SPIN_FRICTION, OBJECT_ROLL_FRICTION],
     )
+
+
+def _lights(model: mujoco.MjSpec, config: Config) -> None:
+    """The twin's light: an even light straight down, or ``twin.lamp``.
+
+    Without a lamp: a directional light ``top`` straight down and MuJoCo's headlight (a
+    light on the camera). With one (:class:`~mearm.config.twin_lamp_config.TwinLampConfig`):
+    the light ``lamp`` where it stands, pointed at its target, casting shadows if it says
+    so; the headlight gives only the room's ``ambient`` light; each class's objects get a
+    material ``object_<class>`` of the lamp's ``object_specular`` and ``object_shininess``.
+    """
+    lamp = config.twin.lamp
+    world = model.worldbody
+    if lamp is None:
+        world.add_light(name="top", pos=[0.0, 0.0, 1.5], dir=[0.0, 0.0, -1.0],
+                        type=mujoco.mjtLightType.mjLIGHT_DIRECTIONAL)  # fmt: skip
+        return
+    pos = np.array(lamp.position_cm) * M_PER_CM
+    if lamp.target_cm is not None:
+        target = np.array([*lamp.target_cm, 0.0]) * M_PER_CM
+    else:
+        target = np.array([*homography_view(config)[0], 0.0])
+    direction = target - pos  # never zero: the lamp stands ≥ 1 cm above the table
+    distance = float(np.linalg.norm(direction))
+    kind = {"spot": mujoco.mjtLightType.mjLIGHT_SPOT,
+            "directional": mujoco.mjtLightType.mjLIGHT_DIRECTIONAL}[lamp.kind]  # fmt: skip
+    light = world.add_light(name="lamp", pos=exact(pos), dir=exact(direction / distance),
+                            type=kind, castshadow=lamp.shadows)  # fmt: skip
+    light.diffuse = [lamp.diffuse] * 3
+    light.specular = [lamp.specular] * 3
+    light.ambient = [0.0] * 3
+    light.cutoff = lamp.cutoff_deg
+    light.exponent = lamp.exponent
+    model.visual.quality.shadowsize = lamp.shadow_map_px
+    headlight = model.visual.headlight
+    headlight.ambient = [lamp.ambient] * 3
+    headlight.diffuse = [0.0] * 3
+    headlight.specular = [0.0] * 3
+    for c in config.task.classes:
+        model.add_material(
+            name=f"object_{c.name}",
+            rgba=_rgba(c.draw_rgb),
+            specular=lamp.object_specular,
+            shininess=lamp.object_shininess,
+        )
 
 
 def _camera(world: mujoco.MjsBody, config: Config) -> None:
