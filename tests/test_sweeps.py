@@ -99,9 +99,10 @@ def test_experiment_in_two_workers_writes_the_serial_log(tmp_path):
 def test_ctrl_c_keeps_every_finished_trial_in_order_and_the_log_resumes(tmp_path):
     """Ctrl-C (to the whole process group, as a terminal sends it) in a run of two workers:
     exit 130, every trial in the log complete and in order, and the same command finishes."""
-    log, trials = tmp_path / "trials.jsonl", 16
+    log, trials = tmp_path / "trials.jsonl", 30
     # signalled once 2 trials are in the log; on a loaded machine the workers run ahead of
-    # the writing process, so leave them room (all 8 of 8 were done once)
+    # the writing process (a slow first trial holds the others back, then all are written
+    # at once), so leave them room: 8 and 16 trials were each once all done first
     args = ["--config", "configs/sim.yaml", "--trials", trials, "--log", log, "--jobs", 2]
     code, _ = interrupted_experiment(args, log)
     assert code == 130

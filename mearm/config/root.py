@@ -19,7 +19,7 @@ from mearm.config.sections import (
 )
 from mearm.config.servo_models import SERVO_NAMES
 from mearm.config.twin_camera_config import TwinCameraConfig
-from mearm.config.twin_faults import TwinFault
+from mearm.config.twin_faults_config import TwinFault
 from mearm.config.twin_lamp_config import TwinLampConfig
 
 #: A projective calibration may shrink the far side of the frame, but no pixel's w (its
@@ -77,9 +77,9 @@ class TwinConfig(Strict):
     """Draw each servo from a kit of real units (:class:`ServoKitConfig`, e.g.
     ``{seed: 7, per_trial: true}``); ``null``: every servo is the datasheet's nominal one."""
     faults: list[TwinFault] = Field(default_factory=list, max_length=16)
-    """Faults injected into the run, each at a simulated time (:mod:`mearm.config.twin_faults`:
-    ``limp_servo``, ``knock_object``, ``camera_black``, ``camera_frozen``, ``camera_bump``);
-    empty: nothing breaks."""
+    """Faults injected into the run, each at a simulated time
+    (:mod:`mearm.config.twin_faults_config`: ``limp_servo``, ``knock_object``,
+    ``camera_black``, ``camera_frozen``, ``camera_bump``); empty: nothing breaks."""
 
     @field_validator("joint_servo", "gripper_servo")
     @classmethod

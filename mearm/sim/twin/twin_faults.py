@@ -1,6 +1,6 @@
 """The faults ``twin.faults`` injects, applied to the twin as its simulated time passes.
 
-Each strikes once, at its ``at_s`` of simulated time (:mod:`mearm.config.twin_faults`):
+Each strikes once, at its ``at_s`` of simulated time (:mod:`mearm.config.twin_faults_config`):
 
 - ``limp_servo``: the joint's position actuator loses its gain and its damping term (the
   servo's amplifier is off: no torque, the joint hangs on its own friction and damping);
@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from mearm.config.twin_faults import KnockObject, LimpServo, TwinFault
+from mearm.config.twin_faults_config import KnockObject, LimpServo, TwinFault
 from mearm.sim.errors import WorldError
 from mearm.sim.twin.mjcf import M_PER_CM
 
