@@ -65,6 +65,7 @@ from mearm.hardware.mapping import ActuatorMap, ServoMap
 from mearm.kinematics.chain import Chain
 from mearm.kinematics.errors import ModelError
 from mearm.kinematics.urdf import TCP_FRAME, jaw_joint_names
+from mearm.sim.belt import Arrival, belt_arrivals
 from mearm.sim.errors import WorldError
 from mearm.sim.twin.mjcf import (
     GRIPPER_SERVO,
@@ -74,6 +75,7 @@ from mearm.sim.twin.mjcf import (
     SERVO_CATALOGUE,
     SERVO_LEVER_M,
     ServoSpec,
+    arrival_centre_m,
     object_ids,
     recorded_servo,
     servo_tendon,
@@ -276,7 +278,8 @@ class TwinArm(ServoBus):
             name: (int(model.joint(name).qposadr[0]), float(self._chain.scale[i]))
             for name, i in zip(self._chain.actuated, self._chain.actuated_index, strict=True)
         }
-        self._object_ids = object_ids(config)
+        self._arrivals = belt_arrivals(config)
+        self._object_ids = object_ids(config) + [a.id for a in self._arrivals]
         self._arm_body = model.body(f"link_{config.arm.joints[0].name}").id
         self._arm_dof = int(model.body_dofadr[self._arm_body])
         self.reset()
@@ -284,7 +287,11 @@ class TwinArm(ServoBus):
     # ----------------------------------------------------------------- state
 
     def reset(self) -> None:
-        """Back to the ``home`` keyframe: arm at home, jaws open, objects on the table."""
+        """Back to the ``home`` keyframe: arm at home, jaws open, objects on the table.
+
+        The belt's objects wait off the table again, to arrive at their times.
+        """
+        self._to_arrive = list(self._arrivals)
         mujoco.mj_resetDataKeyframe(self.model, self.data, self.model.key("home").id)
         mujoco.mj_forward(self.model, self.data)
         ctrl = self.data.ctrl[self._ctrl].copy()
@@ -405,6 +412,31 @@ class TwinArm(ServoBus):
             waited += step_s
 
     def _run(self, seconds: float) -> None:
+        """Run the physics ``seconds`` on; the belt's objects land on it at their times."""
+        end = self.data.time + seconds
+        while self._to_arrive and self._to_arrive[0].t_s <= end:
+            arrival = self._to_arrive.pop(0)
+            self._run_physics(arrival.t_s - self.data.time)
+            self._land(arrival)
+        self._run_physics(end - self.data.time)
+
+    def _land(self, arrival: Arrival) -> None:
+        """Put an object the belt brings on its upstream end, at rest and awake."""
+        m, d = self.model, self.data
+        joint = m.joint(f"obj_{arrival.id}")
+        q, v = int(joint.qposadr[0]), int(joint.dofadr[0])
+        yaw = math.radians(arrival.yaw_deg)
+        d.qpos[q : q + 7] = [
+            *arrival_centre_m(self.config, arrival),
+            math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2),
+        ]  # fmt: skip
+        d.qvel[v : v + 6] = 0.0
+        d.qfrc_applied[v] = _NUDGE  # wakes its tree (MuJoCo keeps a pushed tree awake)
+        mujoco.mj_forward(m, d)
+        d.qfrc_applied[v] = 0.0
+        log.info("belt: %s arrives at t = %.2f s", arrival.id, d.time)
+
+    def _run_physics(self, seconds: float) -> None:
         """Run the physics ``seconds`` on: the servos' setpoints ramp, then hold."""
         m, d = self.model, self.data
         n = max(0, round(seconds / m.opt.timestep))
