@@ -31,7 +31,7 @@ FAMILIES: dict[str, tuple[str, ...]] = {
     ),
     "mearm.runlog.errors": ("RunLogError", "RepeatedTrialError", "RunLogFormatError"),
     "mearm.ik.errors": ("QPSolverError",),
-    "mearm.vision.errors": ("ImageError", "CameraError"),
+    "mearm.vision.errors": ("ImageError", "CameraError", "TrackingError"),
     "mearm.hardware.errors": (
         "InvalidCommandError",
         "PulseRangeError",

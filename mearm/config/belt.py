@@ -61,6 +61,29 @@ class BeltArrivals(Strict):
         return self
 
 
+class TrackingConfig(Strict):
+    """How the objects on the belt are followed from frame to frame.
+
+    Each object is a track: a Kalman filter of its position and velocity on the table
+    under a constant-velocity model (:mod:`mearm.vision.tracking`).
+    """
+
+    coast_s: float = Field(default=3.0, gt=0, le=MAX_GAP_S, allow_inf_nan=False)
+    """How long a track lives on its prediction alone, unseen (the arm over it) [s]."""
+    gate_cm: float = Field(default=2.0, gt=0, le=MAX_LENGTH_CM, allow_inf_nan=False)
+    """A detection farther than this from a track's predicted position is not its object
+    [cm]."""
+    accel_std_cm_s2: float = Field(default=1.0, gt=0, le=1000, allow_inf_nan=False)
+    """How much an object's velocity may change unmodelled: the process noise's
+    acceleration, standard deviation [cm/s²]."""
+    measurement_std_cm: float = Field(default=0.1, gt=0, le=MAX_LENGTH_CM, allow_inf_nan=False)
+    """How far a detected centre may lie from the object's, standard deviation [cm]."""
+    min_area_share: float = Field(default=0.9, gt=0, le=1, allow_inf_nan=False)
+    """A region smaller than this share of a whole object's footprint is an object partly
+    hidden (the arm over it, the frame's edge): its centre is off, so the track coasts
+    instead of taking it [-]."""
+
+
 class BeltConfig(Strict):
     """A conveyor belt on the table: a straight strip that carries what lies on it.
 
@@ -87,6 +110,8 @@ class BeltConfig(Strict):
     arm must also come down, close and lift while it keeps up (:func:`follow_limit_cm_s`)."""
     arrivals: BeltArrivals = BeltArrivals()
     """What it brings, and when."""
+    tracking: TrackingConfig = TrackingConfig()
+    """How the camera's detections become tracks of the objects it carries."""
 
     def direction(self) -> tuple[float, float]:
         """The unit vector it runs along, base frame (x, y) [-]."""
