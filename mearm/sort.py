@@ -115,14 +115,6 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.collision and not args.view:
         parser.error("--collision draws the collision model in the view: use it with --view")
     config = config_from_args(args)
-    if config.belt is not None:
-        # the sorter reads still tables: a moving object needs tracking and an intercept
-        print(
-            "mearm sort: error: belt: the sorter does not yet pick from a conveyor belt "
-            "(the config sets belt); remove belt to sort a still table",
-            file=sys.stderr,
-        )
-        return EXIT_BAD_INPUT
     scene = scene_from_args(args, config)
     if args.save_mjcf is not None:
         _save_mjcf(config, scene, args.save_mjcf)

@@ -103,10 +103,16 @@ def test_a_track_unseen_too_long_is_lost():
 
 
 def test_classes_and_the_gate_keep_tracks_apart():
-    """A detection of another class, or beyond the gate, does not feed a track."""
+    """A detection of another class, or beyond the gate of a track whose velocity is
+    known, does not feed the track; a track seen once has a wide gate."""
     tracker = Tracker(TrackingConfig(gate_cm=1.0))
-    tracker.update(0.0, [Seen("red", 0.0, 40.0)])
-    states = tracker.update(0.2, [Seen("blue", 0.0, 40.0), Seen("red", 1.5, 40.0)])
+    tracker.update(0.0, [Seen("red", 0, 40)])
+    # its velocity unknown (up to 100 cm/s): 1.5 cm away 0.1 s later is still its object
+    assert [s.id for s in tracker.update(0.1, [Seen("red", 1.5, 40.0)])] == [1]
+    for k in (2, 3, 4):  # at 15 cm/s
+        tracker.update(k / 10, [Seen("red", 1.5 * k, 40.0)])
+    # predicted at 7.5 cm: a blue there is not it, nor a red 2 cm on
+    states = tracker.update(0.5, [Seen("blue", 7.5, 40.0), Seen("red", 9.5, 40.0)])
     assert sorted((s.id, s.color, s.seen) for s in states) == [
         (1, "red", False),
         (2, "blue", True),

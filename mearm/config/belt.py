@@ -13,10 +13,13 @@ A belt the arm cannot follow is refused at load (:func:`follow_limit_cm_s`).
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
+import numpy as np
 from pydantic import Field, model_validator
 
 from mearm.config.base import MAX_LENGTH_CM, Angle, Length, PositiveLength, Seed, Strict
+from mearm.config.classes import ColorClass
 
 #: Largest belt speed any config may give [cm/s] (1 m/s); the arm's own bound
 #: (:func:`follow_limit_cm_s`) is usually far lower.
@@ -124,6 +127,35 @@ class BeltConfig(Strict):
         x0, y0 = self.start_cm
         s = min(max(-(x0 * ux + y0 * uy), 0.0), self.length_cm)
         return math.hypot(x0 + s * ux, y0 + s * uy)
+
+
+def arrival_draws(
+    belt: BeltConfig | None, classes: Sequence[ColorClass]
+) -> list[tuple[str, float, float, float]]:
+    """The belt's arrivals as drawn: (class name, time [s], offset across [cm], yaw [deg]).
+
+    One draw from ``belt.arrivals.seed`` (:class:`BeltArrivals`), each class from
+    ``classes``; none without a belt. Where they land is the simulators'
+    (:func:`mearm.sim.belt.belt_arrivals`).
+    """
+    if belt is None:
+        return []
+    a = belt.arrivals
+    rng = np.random.default_rng(a.seed)
+    out = []
+    t = a.first_s
+    for _ in range(a.count):
+        c = classes[int(rng.integers(len(classes)))]
+        across = float(rng.uniform(-a.lateral_cm, a.lateral_cm))
+        yaw = round(float(rng.uniform(0.0, 90.0)), 1)
+        out.append((c.name, t, across, yaw))
+        t += float(rng.uniform(a.min_gap_s, a.max_gap_s))
+    return out
+
+
+def belt_classes(belt: BeltConfig | None, classes: Sequence[ColorClass]) -> list[str]:
+    """The classes of the objects the belt brings, in arrival order."""
+    return [name for name, *_ in arrival_draws(belt, classes)]
 
 
 def follow_limit_cm_s(sweep_deg_s: float, belt: BeltConfig) -> float:

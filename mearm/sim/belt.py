@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from mearm.config import Config
-from mearm.config.belt import BeltConfig
+from mearm.config.belt import BeltConfig, arrival_draws
 
 
 @dataclass(frozen=True)
@@ -114,26 +114,17 @@ def belt_arrivals(config: Config) -> list[Arrival]:
     ``belt.arrivals.seed`` (:class:`~mearm.config.belt.BeltArrivals`); each object lands
     its own radius past the upstream end.
     """
-    belt = config.belt
-    if belt is None:
+    if config.belt is None:
         return []
-    a = belt.arrivals
-    rng = np.random.default_rng(a.seed)
     counts: dict[str, int] = {}
     for obj in config.task.scene:
         counts[obj.color] = counts.get(obj.color, 0) + 1
-    geometry = Belt(belt)
-    classes = config.task.classes
+    geometry = Belt(config.belt)
     out = []
-    t = a.first_s
-    for _ in range(a.count):
-        c = classes[int(rng.integers(len(classes)))]
-        across = float(rng.uniform(-a.lateral_cm, a.lateral_cm))
-        yaw = float(rng.uniform(0.0, 90.0))
-        counts[c.name] = counts.get(c.name, 0) + 1
-        x, y = geometry.point_cm(radius_cm(config, c.name), across)
-        out.append(Arrival(f"{c.name}{counts[c.name]}", c.name, t, x, y, round(yaw, 1)))
-        t += float(rng.uniform(a.min_gap_s, a.max_gap_s))
+    for name, t, across, yaw in arrival_draws(config.belt, config.task.classes):
+        counts[name] = counts.get(name, 0) + 1
+        x, y = geometry.point_cm(radius_cm(config, name), across)
+        out.append(Arrival(f"{name}{counts[name]}", name, t, x, y, yaw))
     return out
 
 

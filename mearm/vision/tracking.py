@@ -22,8 +22,9 @@ over it has its centre off the object's, and would pull the velocity with it; su
 region (smaller than ``min_area_share`` of the class's footprint) is left out and the
 track coasts.
 
-**Association.** A detection can only be of a track of its class, within ``gate_cm`` of
-the track's predicted position; the pairs are taken nearest first (greedily: on a belt
+**Association.** A detection can only be of a track of its class, within ``gate_cm``
+and three standard deviations of the track's predicted position (:meth:`Track.gate_cm`:
+wide while a track's velocity is unknown); the pairs are taken nearest first (greedily: on a belt
 objects of a class lie centimetres apart, far more than the gate, so nearest-first
 and an optimal assignment agree). A detection left over starts a track; a track left
 over *coasts* on its prediction, unseen (the arm over it), and is dropped once it has
@@ -48,6 +49,7 @@ from mearm.config.belt import TrackingConfig
 from mearm.vision.calibration import Calibration
 from mearm.vision.detector import Detection
 from mearm.vision.errors import TrackingError
+from mearm.vision.pinhole import PerspectiveCamera
 
 
 @dataclass(frozen=True)
@@ -67,7 +69,7 @@ class Seen:
 
 def whole_sightings(
     detections: Iterable[Detection],
-    calibration: Calibration,
+    calibration: Calibration | PerspectiveCamera,
     classes: Sequence[ColorClass],
     min_area_share: float,
 ) -> list[Seen]:
@@ -131,7 +133,7 @@ class Track:
         kf = cv2.KalmanFilter(4, 2, 0, cv2.CV_64F)
         kf.measurementMatrix = np.hstack([np.eye(2), np.zeros((2, 2))])
         kf.measurementNoiseCov = np.eye(2) * tracking.measurement_std_cm**2
-        kf.statePost = np.array([[seen.x_cm], [seen.y_cm], [0.0], [0.0]])
+        kf.statePost = np.array([[seen.x_cm], [seen.y_cm], [0.0], [0.0]], dtype=float)
         # the velocity is unknown until a second sighting: as wide as any belt's speed
         kf.errorCovPost = np.diag([tracking.measurement_std_cm**2] * 2 + [100.0**2] * 2)
         self._kf = kf
@@ -165,9 +167,19 @@ class Track:
 
     def correct(self, seen: Seen) -> None:
         """Take a detection at the track's current time."""
-        self._kf.correct(np.array([[seen.x_cm], [seen.y_cm]]))
+        self._kf.correct(np.array([[seen.x_cm], [seen.y_cm]], dtype=float))
         self.last_seen_s = self.t_s
         self.seen = True
+
+    def gate_cm(self, gate_cm: float) -> float:
+        """How far from its prediction a detection may be its object's [cm].
+
+        ``gate_cm`` plus three standard deviations of the predicted position: wide for a
+        track seen once (its velocity still unknown), ``gate_cm`` and a little more once
+        its velocity is known.
+        """
+        cov = self._kf.errorCovPost[:2, :2]
+        return gate_cm + 3.0 * math.sqrt(float(np.max(np.linalg.eigvalsh(cov))))
 
     @property
     def position_cm(self) -> np.ndarray:
@@ -233,8 +245,8 @@ class Tracker:
         taken_tracks: set[int] = set()
         taken_detections: set[int] = set()
         for distance, tid, k in pairs:
-            if distance > self.tracking.gate_cm:
-                break
+            if distance > self.tracks[tid].gate_cm(self.tracking.gate_cm):
+                continue
             if tid in taken_tracks or k in taken_detections:
                 continue
             self.tracks[tid].correct(detections[k])

@@ -90,10 +90,14 @@ class World:
         return cls(objects=objects, bins_cm=dict(bins_cm))
 
     @classmethod
-    def from_config(cls, config: Config) -> World:
-        """The world of ``config.task.scene`` with each class's bin (``task.classes``)."""
+    def from_config(cls, config: Config, scene: list[SceneObject] | None = None) -> World:
+        """The world of ``scene`` (default ``config.task.scene``), bins and belt.
+
+        Each class has its bin (``task.classes``); the belt's objects (``config.belt``)
+        wait to arrive.
+        """
         bins_cm = {c.name: c.bin_cm for c in config.task.classes}
-        world = cls.from_scene(config.task.scene, bins_cm)
+        world = cls.from_scene(config.task.scene if scene is None else scene, bins_cm)
         if config.belt is not None:
             world.belt = Belt(config.belt)
             world.radii_cm = {c: radius_cm(config, c) for c in config.task.class_names}
