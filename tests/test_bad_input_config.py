@@ -530,6 +530,24 @@ def test_a_bad_belt_is_refused(sets: list[str], words: str, tmp_path: Path) -> N
     assert words in out.line
 
 
+@bad_input
+@pytest.mark.parametrize(
+    ("argv", "words"),
+    [
+        (["--speeds", "150"], "belt.speed_cm_s: Input should be less than or equal to 100"),
+        (["--speeds", "1,30", "--set", "arm.joints.base.servo.seconds_per_60deg=1.0"],
+         "belt.speed_cm_s: 30 cm/s is faster than the arm can follow: at most 24.6 cm/s"),
+        (["--speeds", "fast"], "--speeds: speeds must be comma-separated numbers"),
+        (["--config", "sim", "--speeds", "1"], "sim: the config has no belt"),
+    ],
+)  # fmt: skip
+def test_conveyor_sweep_refuses_a_belt_it_cannot_run(argv, words, tmp_path: Path) -> None:
+    """``mearm conveyor-sweep``: every speed is checked before the first run; a speed the
+    arm cannot follow is exit 2, one line, nothing printed of the table."""
+    out = check_bad_input(["conveyor-sweep", *argv], within_s=2, keep=[CONFIGS])
+    assert words in out.line and out.stdout == ""
+
+
 #: A MeArm v1 whose servos' combinations are dependent in threes: (shoulder + elbow)
 #: and 2·(shoulder + elbow); the message names the later one and the one it repeats.
 _SHOULDER = "servo: {channel: 1, zero_us: 2255.5, direction: -1, us_per_unit: 11.0, "

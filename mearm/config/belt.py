@@ -71,8 +71,9 @@ class TrackingConfig(Strict):
     under a constant-velocity model (:mod:`mearm.vision.tracking`).
     """
 
-    coast_s: float = Field(default=3.0, gt=0, le=MAX_GAP_S, allow_inf_nan=False)
-    """How long a track lives on its prediction alone, unseen (the arm over it) [s]."""
+    coast_s: float = Field(default=10.0, gt=0, le=MAX_GAP_S, allow_inf_nan=False)
+    """How long a track lives on its prediction alone, unseen [s]: the arm over it, or the
+    sorter busy with a pick (the camera is read between moves), which takes 2 to 3 s."""
     gate_cm: float = Field(default=2.0, gt=0, le=MAX_LENGTH_CM, allow_inf_nan=False)
     """A detection farther than this from a track's predicted position is not its object
     [cm]."""

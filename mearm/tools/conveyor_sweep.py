@@ -104,12 +104,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     config = config_from_args(args)
     if config.belt is None:
         raise MearmError(f"{args.config}: the config has no belt (set belt: …)")
+    for v in args.speeds:
+        at_speed(config, v)  # a speed the arm cannot follow stops here, before any run
     rows = []
     print("| belt speed [cm/s] | brought | sorted | missed on the belt | "
           "tracking error at the grip, mean / max [cm] |")  # fmt: skip
     print("|---|---|---|---|---|")
-    for v in args.speeds:
-        at_speed(config, v)  # a speed the arm cannot follow stops here, before any run
     for v in args.speeds:
         row = run_speed(config, v)
         rows.append(row)
