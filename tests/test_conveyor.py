@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import math
 
 import pytest
@@ -51,18 +52,20 @@ def _sort(config):
 
 
 def test_the_kinematic_conveyor_sorts_every_object_it_brings():
-    """Four objects at 3 cm/s: each tracked, intercepted and sorted; the jaws close
-    within 0.05 cm of where the object is."""
-    config = _config(KINEMATIC, speed_cm_s=3.0, arrivals={"count": 4})
+    """Three objects at 3 cm/s, 3 to 4 s apart: each tracked, intercepted and sorted; the
+    jaws close within 0.05 cm of where the object is."""
+    arrivals = {"count": 3, "first_s": 0.5, "min_gap_s": 3.0, "max_gap_s": 4.0}
+    config = _config(KINEMATIC, speed_cm_s=3.0, arrivals=arrivals)
     report, errors = _sort(config)
-    assert report.complete and report.outcome.n_sorted == 4, report.outcome.line()
-    assert len(errors) == 4 and max(errors) < 0.05, errors
+    assert report.complete and report.outcome.n_sorted == 3, report.outcome.line()
+    assert len(errors) == 3 and max(errors) < 0.05, errors
 
 
 def test_an_object_that_leaves_the_belt_first_is_missed():
     """A short, fast belt carries its object off before the arm can get there: it is
     reported missed on the belt and the run is not complete (exit 1)."""
-    config = _config(KINEMATIC, length_cm=6.0, speed_cm_s=20.0, arrivals={"count": 1})
+    arrivals = {"count": 1, "first_s": 0.5, "max_gap_s": 1.0, "min_gap_s": 1.0}
+    config = _config(KINEMATIC, length_cm=6.0, speed_cm_s=20.0, arrivals=arrivals)
     report, errors = _sort(config)
     assert not report.complete and errors == []
     assert report.outcome.left == {"missed_belt": 1}
@@ -73,9 +76,28 @@ def test_an_object_that_leaves_the_belt_first_is_missed():
 
 @pytest.mark.slow
 def test_the_twin_conveyor_sorts_what_it_brings():
-    """The physical twin: three objects at 2 cm/s, gripped on the moving belt by the
-    contacts and counted in their bins by the physics."""
-    config = _config(TWIN, arrivals={"count": 3})
-    report, errors = _sort(config)
+    """The physical twin: three objects at 2 cm/s, 4 to 5 s apart, gripped on the moving
+    belt by the contacts and counted in their bins by the physics (within 0.5 cm: the
+    camera's parallax on their tops)."""
+    arrivals = {"count": 3, "first_s": 0.5, "min_gap_s": 4.0, "max_gap_s": 5.0}
+    report, errors = _sort(_config(TWIN, arrivals=arrivals))
     assert report.outcome.n_sorted == 3, report.outcome.line()
     assert len(errors) == 3 and max(errors) < 0.5, errors
+
+
+def test_mearm_sort_reports_a_miss_in_its_log_and_exits_1(tmp_path):
+    """``mearm sort`` on a belt too short to catch its object: exit 1, the last line and
+    the run log's skip and summary say missed on the belt."""
+    from badinput import run_in_process
+
+    log = tmp_path / "run.jsonl"
+    sets = ["belt.length_cm=6", "belt.speed_cm_s=20", "belt.arrivals.count=1"]
+    sets += ["belt.arrivals.first_s=0.5", "belt.arrivals.min_gap_s=1", "belt.arrivals.max_gap_s=1"]
+    argv = ["sort", "--config", str(KINEMATIC), "--log", str(log), "--quiet"]
+    out = run_in_process([*argv, *(a for s in sets for a in ("--set", s))], within_s=10)
+    assert out.code == 1
+    assert out.line == "mearm sort: sorted 0 of 1 objects (1 missed on the belt)"
+    records = [json.loads(line) for line in log.read_text().splitlines()]
+    (skip,) = [r for r in records if r["type"] == "skip"]
+    assert skip["reason"].startswith("missed on the belt: it would be")
+    assert records[-1]["type"] == "summary" and records[-1]["left"] == {"missed_belt": 1}
