@@ -9,6 +9,7 @@ import pytest
 from conftest import ROOT
 
 from mearm.config import config_from_dict, load_config
+from mearm.sim import SimCamera
 from mearm.task.conveyor import ConveyorSorter, GripAim
 from mearm.task.rig import open_rig
 
@@ -101,3 +102,49 @@ def test_mearm_sort_reports_a_miss_in_its_log_and_exits_1(tmp_path):
     (skip,) = [r for r in records if r["type"] == "skip"]
     assert skip["reason"].startswith("missed on the belt: it would be")
     assert records[-1]["type"] == "summary" and records[-1]["left"] == {"missed_belt": 1}
+
+
+class _LateCamera(SimCamera):
+    """A simulated camera whose frames show the belt as it was ``late_s`` before the read:
+    each object on the belt drawn where the belt had it then."""
+
+    def __init__(self, config, world, late_s):
+        super().__init__(config, world)
+        self.late_s = late_s
+
+    def _read(self):
+        belt, moved = self.world.belt, []
+        for o in self.world.table_objects():
+            if belt.carries(o.x_cm, o.y_cm):
+                moved.append((o, o.x_cm, o.y_cm))
+                o.x_cm, o.y_cm = (o.x_cm, o.y_cm) - belt.velocity_cm_s * self.late_s
+        try:
+            return super()._read()
+        finally:
+            for o, x, y in moved:
+                o.x_cm, o.y_cm = x, y
+
+
+@pytest.mark.parametrize(("latency_s", "within_cm"), [(0.3, 0.05), (0.0, None)])
+def test_the_cameras_latency_is_taken_into_account(latency_s, within_cm):
+    """Frames 0.3 s late at 3 cm/s: with camera.latency_s = 0.3 the jaws close within
+    0.05 cm of the object; told none, they close 0.9 cm (v x 0.3 s) behind it."""
+    arrivals = {"count": 1, "first_s": 0.5, "min_gap_s": 1.0, "max_gap_s": 1.0}
+    data = _config(KINEMATIC, speed_cm_s=3.0, arrivals=arrivals).model_dump(mode="json")
+    data["camera"]["latency_s"] = latency_s
+    config = config_from_dict(data)
+    errors = []
+    with open_rig(config) as rig:
+        camera = _LateCamera(config, rig.world, 0.3)
+
+        def measure(aim: GripAim) -> None:
+            errors.append(
+                min(math.dist(aim.aim_cm, (o.x_cm, o.y_cm)) for o in rig.world.table_objects())
+            )
+
+        ConveyorSorter(config, camera, rig.bus, model=rig.model, echo=None, in_bins=rig.in_bins,
+                       on_grip=measure).run()  # fmt: skip
+    if within_cm is not None:
+        assert len(errors) == 1 and errors[0] < within_cm, errors
+    else:
+        assert len(errors) == 1 and errors[0] == pytest.approx(0.9, abs=0.05), errors

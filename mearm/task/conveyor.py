@@ -37,9 +37,10 @@ from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
-from mearm.config import Config
+from mearm.config import ColorClass, Config
 from mearm.hardware.bus import ReportsRelease, ServoBus
 from mearm.hardware.errors import ServoError
+from mearm.ik import IKTarget
 from mearm.sim.belt import Belt
 from mearm.task.report import SortReport
 from mearm.task.route import Route
@@ -115,6 +116,7 @@ class ConveyorSorter(Sorter):
         self._t0 = time.monotonic()
         self._last_frame_s = -np.inf
         self._last_seen_s = 0.0
+        self._planning_s = 0.0
 
     # ----------------------------------------------------------------- time and sight
 
@@ -211,19 +213,21 @@ class ConveyorSorter(Sorter):
         # the jaws close from there, around where the object is then
         # (the setting is one command, which takes a servo period before the hold)
         tool_s = self._tool_s("grip", False, ("travel", False)) + self.bus.period_s
-        t0 = self.now_s()
+        # on a real rig the belt runs on while the routes are planned: the arm sets off
+        # that much later (the last intercept's planning time; a simulator's clock waits)
+        t0 = self.now_s() + self._planning_s
         t_grip = t0 + tool_s
         p = track.position_at(t_grip)
         above: Route | None = None
         pick = Route(obj.id, obj.class_name, "pick", obj.failed_picks + 1,
-                     self.planner.pick_target(cls, *p))  # fmt: skip
+                     self._on_belt(cls, p))  # fmt: skip
         for _ in range(INTERCEPT_ROUNDS):
             for o in self._objects:  # every object where it will be as the jaws close
                 state = self._track_of(o)
                 if state is not None:
                     o.x_cm, o.y_cm = (float(v) for v in state.position_at(t_grip))
             pick = Route(obj.id, obj.class_name, "pick", obj.failed_picks + 1,
-                         self.planner.pick_target(cls, *p))  # fmt: skip
+                         self._on_belt(cls, p))  # fmt: skip
             self._world()
             above = self._approach(obj, pick)
             if above is None:
@@ -244,6 +248,11 @@ class ConveyorSorter(Sorter):
                 break
         return above, pick, t_grip
 
+    def _on_belt(self, cls: ColorClass, xy_cm: np.ndarray) -> IKTarget:
+        """The pick target of an object lying on the belt: its surface lifts it."""
+        target = self.planner.pick_target(cls, float(xy_cm[0]), float(xy_cm[1]))
+        return self.planner.above_target(target, self.belt.config.surface_cm)
+
     def _track_of(self, obj: TrackedObject) -> Track | None:
         for tid, o in self._by_track.items():
             if o is obj:
@@ -256,7 +265,10 @@ class ConveyorSorter(Sorter):
         cls = self.config.task.class_named(obj.class_name)
         ex = self.executor
         t_start = time.perf_counter()
+        planning = time.monotonic()
         above, pick, t_grip = self._intercept(obj, tid)
+        if not isinstance(self.bus, KeepsTime):
+            self._planning_s = time.monotonic() - planning
         failed = pick if above is None or above.planned else above
         if not failed.planned:
             reason = f"missed on the belt: {failed.failure or 'no plan'}"
