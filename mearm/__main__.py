@@ -72,6 +72,10 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
         "mearm.tools.shape_sweep",
         "how well the detector tells the shapes apart at every size and yaw",
     ),
+    "conveyor-sweep": (
+        "mearm.tools.conveyor_sweep",
+        "objects sorted from a conveyor belt and the tracking error at the grip, per speed",
+    ),
     "config-docs": (
         "mearm.tools.config_docs",
         "write the configuration reference (docs/configuration.md) from the schema",

@@ -145,11 +145,10 @@ def uses_world(config: Config) -> bool:
 
 
 def table_world(config: Config, scene: list[SceneObject] | None = None) -> World:
-    """The simulated table: ``scene`` (default ``task.scene``) and the bins."""
+    """The simulated table: ``scene`` (default ``task.scene``), the bins and the belt."""
     from mearm.sim.kinematic.world import World  # noqa: PLC0415
 
-    bins = {c.name: c.bin_cm for c in config.task.classes}
-    return World.from_scene(config.task.scene if scene is None else scene, bins)
+    return World.from_config(config, scene)
 
 
 def open_bus(config: Config, world: World | None = None, *, port: str | None = None) -> ServoBus:

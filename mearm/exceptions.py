@@ -36,7 +36,7 @@ FAMILIES: dict[str, tuple[str, ...]] = {
         "RunLogLockedError",
     ),
     "mearm.ik.errors": ("QPSolverError",),
-    "mearm.vision.errors": ("ImageError", "CameraError"),
+    "mearm.vision.errors": ("ImageError", "CameraError", "TrackingError"),
     "mearm.hardware.errors": (
         "InvalidCommandError",
         "PulseRangeError",

@@ -191,8 +191,10 @@ def _imported() -> None:
 def test_every_numeric_field_is_covered() -> None:
     """The generator finds the fields of every section (a new section is not missed)."""
     sections = {path.split(".")[0] for path, _, _ in FIELDS}
-    # ``simulator`` is a choice and ``twin`` names servo models: no number in either
-    assert sections == set(Config.model_fields) - {"simulator", "twin"} and len(FIELDS) > 60
+    # ``simulator`` is a choice and ``twin`` names servo models: no number in either;
+    # ``belt`` is unset by default: test_a_bad_belt_is_refused covers it
+    assert sections == set(Config.model_fields) - {"simulator", "twin", "belt"}
+    assert len(FIELDS) > 60
 
 
 @bad_input
@@ -500,6 +502,50 @@ def test_a_cube_the_open_jaws_cannot_pass_is_refused(tmp_path: Path) -> None:
         "task.classes.0.diameter_cm: a 3 cm cube is 4.24 cm across its diagonal, not less "
         "than the open jaws' 4 cm (arm.tool.gripper.open_cm)"
     ) in out.line
+
+
+CONVEYOR = ["--config", str(CONFIGS / "sim_conveyor_kinematic.yaml")]
+
+
+@bad_input
+@pytest.mark.parametrize(
+    ("sets", "words"),
+    [
+        (["belt.speed_cm_s=.nan"], "belt.speed_cm_s: Input should be a finite number"),
+        (["belt.speed_cm_s=-1"], "belt.speed_cm_s: Input should be greater than or equal to 0"),
+        (["belt.speed_cm_s=150"], "belt.speed_cm_s: Input should be less than or equal to 100"),
+        # the paper's arm with a base servo of 1 s/60° (60°/s) cannot follow 30 cm/s
+        (["arm.joints.base.servo.seconds_per_60deg=1.0", "belt.speed_cm_s=30"],
+         "belt.speed_cm_s: 30 cm/s is faster than the arm can follow: at most 24.6 cm/s"),
+        (["belt.width_cm=0"], "belt.width_cm: Input should be greater than 0"),
+        (["belt.arrivals.count=501"], "belt.arrivals.count: Input should be less than or"),
+        (["belt.arrivals.max_gap_s=1"], "belt.arrivals.max_gap_s: 1 s is below min_gap_s"),
+    ],
+)  # fmt: skip
+def test_a_bad_belt_is_refused(sets: list[str], words: str, tmp_path: Path) -> None:
+    """A belt the arm cannot follow, or a belt field out of its range: exit 2, one line
+    naming the field and what is allowed."""
+    extra = [a for s in sets for a in ("--set", s)]
+    out = check_bad_input(command("sort", tmp_path, *CONVEYOR, *extra), within_s=2, keep=[CONFIGS])
+    assert words in out.line
+
+
+@bad_input
+@pytest.mark.parametrize(
+    ("argv", "words"),
+    [
+        (["--speeds", "150"], "belt.speed_cm_s: Input should be less than or equal to 100"),
+        (["--speeds", "1,30", "--set", "arm.joints.base.servo.seconds_per_60deg=1.0"],
+         "belt.speed_cm_s: 30 cm/s is faster than the arm can follow: at most 24.6 cm/s"),
+        (["--speeds", "fast"], "--speeds: speeds must be comma-separated numbers"),
+        (["--config", "sim", "--speeds", "1"], "sim: the config has no belt"),
+    ],
+)  # fmt: skip
+def test_conveyor_sweep_refuses_a_belt_it_cannot_run(argv, words, tmp_path: Path) -> None:
+    """``mearm conveyor-sweep``: every speed is checked before the first run; a speed the
+    arm cannot follow is exit 2, one line, nothing printed of the table."""
+    out = check_bad_input(["conveyor-sweep", *argv], within_s=2, keep=[CONFIGS])
+    assert words in out.line and out.stdout == ""
 
 
 #: A MeArm v1 whose servos' combinations are dependent in threes: (shoulder + elbow)

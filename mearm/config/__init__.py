@@ -42,6 +42,7 @@ from mearm.config.base import (
     Strict,
     short_repr,
 )
+from mearm.config.belt import BeltArrivals, BeltConfig
 from mearm.config.classes import ColorClass, HueBand
 from mearm.config.defaults import default_classes, paper_arm, paper_classes
 from mearm.config.files import load_config, read_yaml
@@ -61,6 +62,8 @@ from mearm.config.sections import (
 __all__ = [
     "Angle",
     "ArmDescription",
+    "BeltArrivals",
+    "BeltConfig",
     "CalibrationConfig",
     "CameraConfig",
     "ColorClass",

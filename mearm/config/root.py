@@ -8,6 +8,7 @@ from pydantic import Field, field_validator, model_validator
 
 from mearm.config.arm import ArmDescription
 from mearm.config.base import MAX_LENGTH_CM, Seed, Strict
+from mearm.config.belt import FOLLOW_SHARE, BeltConfig, follow_limit_cm_s
 from mearm.config.defaults import paper_arm
 from mearm.config.sections import (
     CalibrationConfig,
@@ -103,6 +104,9 @@ class Config(Strict):
     task: TaskConfig = TaskConfig()
     twin: TwinConfig = TwinConfig()
     """The physical twin's servo models (used when ``simulator`` is ``mujoco``)."""
+    belt: BeltConfig | None = None
+    """A conveyor belt that brings objects past the arm (:mod:`mearm.config.belt`);
+    ``null``: none, the objects lie where ``task.scene`` puts them."""
     simulator: Literal["kinematic", "mujoco"] = "kinematic"
     """What simulates the rig when ``servo.backend`` and ``camera.kind`` are ``sim``:
     ``kinematic`` (a grasp succeeds within ``servo.grip_tolerance_cm``; drawn camera) or
@@ -143,6 +147,24 @@ class Config(Strict):
                     "at any yaw (they turn to its faces only where a wrist roll can); use "
                     "smaller objects or a wider-opening gripper"
                 )
+        return self
+
+    @model_validator(mode="after")
+    def _belt_followable(self) -> Config:
+        """The arm must keep up with what the belt carries (:func:`follow_limit_cm_s`)."""
+        belt = self.belt
+        if belt is None:
+            return self
+        first = self.arm.actuated_joints()[0]
+        sweep_deg_s = first.servo.max_speed() if first.type == "revolute" and first.servo else 0.0
+        limit = follow_limit_cm_s(sweep_deg_s, belt)
+        if belt.speed_cm_s > limit:
+            raise ValueError(
+                f"@belt.speed_cm_s: {belt.speed_cm_s:g} cm/s is faster than the arm can follow: "
+                f"at most {limit:.3g} cm/s ({FOLLOW_SHARE:g} x the TCP's sweep by its first "
+                f"joint, {first.name}, at {sweep_deg_s:.3g} deg/s, {belt.nearest_cm():.3g} cm "
+                "from the base axis); slow the belt or move it further out"
+            )
         return self
 
     @model_validator(mode="after")

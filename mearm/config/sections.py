@@ -75,6 +75,10 @@ class CameraConfig(Strict):
     height_px: int = Field(default=480, ge=MIN_FRAME_SIDE_PX, le=MAX_FRAME_SIDE_PX)
     open_timeout_s: Seconds = 5.0
     loop: bool = False
+    latency_s: float = Field(default=0.0, ge=0, le=2.0, allow_inf_nan=False)
+    """How long before a frame is read the scene was as the frame shows it [s]: exposure,
+    readout, USB transfer and driver queue. What moves is tracked at the time it was seen
+    (:mod:`mearm.vision.tracking`); measure it as docs/vision.md says."""
     # sim renderer (mearm.vision.render)
     noise_std: float = Field(default=2.0, ge=0, le=255, allow_inf_nan=False)
     """Sensor noise, standard deviation in 8-bit levels."""

@@ -33,6 +33,7 @@ from typing import Literal
 import numpy as np
 
 from mearm.config import Config, Joint
+from mearm.config.belt import belt_classes
 from mearm.config.servo_models import ServoSpec
 from mearm.kinematics.urdf import jaw_frame, jaw_joint_names, jaw_pad_length_m
 
@@ -283,9 +284,15 @@ def _tool(
 
 
 def wall_height_m(config: Config, color: str) -> float:
-    """Walls that hold every object of the class in the scene, stacked, and one more."""
+    """Walls that hold every object of the class, stacked, and one more.
+
+    Every object: the scene's and the belt's. The twin releases each over the bin's
+    middle, so they stack.
+    """
     c = config.task.class_named(color)
-    n = max(1, sum(1 for o in config.task.scene if o.color == color))
+    brought = belt_classes(config.belt, config.task.classes)
+    belt = sum(1 for name in brought if name == color)
+    n = max(1, sum(1 for o in config.task.scene if o.color == color) + belt)
     per = max(BIN_WALL_HEIGHT_PER_HEIGHT, n + 1.0)
     return max(BIN_MIN_WALL_HEIGHT_M, per * c.height_cm * M_PER_CM)
 

@@ -30,6 +30,7 @@ LEFT_REASONS: dict[str, str] = {
     "bin_unreachable": "bin out of reach",
     "never_cleared": "table never cleared",
     "off_table": "no longer on the table",
+    "missed_belt": "missed on the belt",
     "not_confirmed": "not confirmed in its bin",
     "fault": "stopped by a fault",
     "interrupted": "interrupted",

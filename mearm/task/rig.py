@@ -18,6 +18,7 @@ from mearm.hardware.bus import ServoBus
 from mearm.kinematics import ArmModel
 from mearm.sim import World
 from mearm.task.check import check_consistency
+from mearm.task.conveyor import ConveyorSorter
 from mearm.task.report import SortReport
 from mearm.task.sorter import EpisodeRecorder, SortAborted, Sorter
 from mearm.vision import Camera
@@ -134,7 +135,9 @@ def run_sort(
             if view_factory is not None:
                 view = view_factory(rig)
                 rig.bus.paced = True  # let the eye follow the arm
-            sorter = Sorter(
+            # a belt's objects move: tracked and intercepted (mearm.task.conveyor)
+            kind = Sorter if config.belt is None else ConveyorSorter
+            sorter = kind(
                 config, rig.camera, rig.bus, model=rig.model, log=log, view=view, echo=echo,
                 trial=trial, in_bins=rig.in_bins, recorder=recorder,
             )  # fmt: skip

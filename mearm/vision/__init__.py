@@ -24,6 +24,7 @@ from mearm.vision.classify import PixelClassifier, classify_exact
 from mearm.vision.detector import ColorDetector, Detection
 from mearm.vision.image import probe_image, read_image
 from mearm.vision.thresholds import Thresholds
+from mearm.vision.tracking import Seen, Tracker, TrackState
 
 #: Public name → the module that defines it; imported on first access.
 _LAZY: dict[str, str] = {
@@ -40,7 +41,10 @@ __all__ = [
     "FileCamera",
     "FolderCamera",
     "PixelClassifier",
+    "Seen",
     "Thresholds",
+    "TrackState",
+    "Tracker",
     "calibration_from_markers",
     "classify_exact",
     "detect_markers",

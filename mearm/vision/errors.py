@@ -35,3 +35,21 @@ class CameraError(MearmError):
         self.source = source
         self.reason = reason
         super().__init__(f"camera ({source}): {reason}")
+
+
+class TrackingError(MearmError):
+    """Frames given to the tracker out of the order they were taken.
+
+    Attributes:
+        t_s: The frame's time [s].
+        last_s: The time of the frame before it [s].
+    """
+
+    def __init__(self, t_s: float, last_s: float | None):
+        self.t_s = t_s
+        self.last_s = last_s
+        super().__init__(
+            f"tracker: frame time {t_s!r} s is not finite or earlier than the last frame's "
+            f"({last_s!r} s); give frames in the order they were taken, each at the time it "
+            "was taken (read time minus camera.latency_s)"
+        )

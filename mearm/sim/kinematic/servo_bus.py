@@ -139,6 +139,11 @@ class SimArm(ServoBus):
         """The realised TCP position in the base frame [cm], (3,)."""
         return ee_from_joints_cm(self.model, self.actual_joints)
 
+    @property
+    def time_s(self) -> float:
+        """The simulated time [s]: one servo period per command, plus every hold."""
+        return self.world.time_s
+
     def realise(self, command: ArmCommand) -> dict[str, float]:
         """Realised actuated joints for a command: quantised, offset, noisy [deg or cm].
 
@@ -241,6 +246,13 @@ class SimArm(ServoBus):
         q = self.error_model.quantization
         tool = {a.name: a.realised(command.tool[a.name], q) for a in self.servo_map.tool}
         self.actuate(joints, tool, command.gripper_closed)
+        # the servos take the command for one period, while the table's time runs on
+        self.world.advance(self.period_s)
+
+    def _hold(self, seconds: float) -> None:
+        """Time passes on the table (a belt carries its objects); a paced bus waits too."""
+        self.world.advance(seconds)
+        super()._hold(seconds)
 
     def _stop(self) -> None:
         """Moves are instantaneous in the sim: nothing is in progress to stop."""

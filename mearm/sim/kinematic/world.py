@@ -1,4 +1,4 @@
-"""The simulated table: objects with a colour class and a position, and one bin per class.
+"""The simulated table: objects with a colour class and a position, one bin per class, a belt.
 
 One :class:`World` is shared by the simulated camera (which renders what lies on the
 table) and the simulated arm (which picks objects up and drops them into bins), so a pick
@@ -15,6 +15,7 @@ import math
 from dataclasses import dataclass, field
 
 from mearm.config import Config, SceneObject
+from mearm.sim.belt import Arrival, Belt, belt_arrivals, radius_cm
 from mearm.sim.errors import WorldError
 
 Vector3 = tuple[float, float, float]
@@ -33,6 +34,9 @@ class WorldObject:
         bin: The class name of the bin it was dropped into, or ``None``.
         yaw_deg: Its turn about the vertical, base frame [deg] (its shape is its
             class's).
+        arrives_s: When the belt brings it [s]; ``None``: it lies on the table from the
+            start.
+        waiting: Whether it is still to come on the belt.
     """
 
     id: str
@@ -42,24 +46,37 @@ class WorldObject:
     held: bool = False
     bin: str | None = None
     yaw_deg: float = 0.0
+    arrives_s: float | None = None
+    waiting: bool = False
 
     @property
     def on_table(self) -> bool:
-        """Whether the object lies on the table (not held, not in a bin)."""
-        return not self.held and self.bin is None
+        """Whether the object lies on the table or the belt (here, not held, not in a bin)."""
+        return not self.held and self.bin is None and not self.waiting
 
 
 @dataclass
 class World:
     """The table's objects and the bins.
 
+    With a belt, the belt's objects (:func:`~mearm.sim.belt.belt_arrivals`) follow the
+    scene's, waiting until :meth:`advance` brings the time of their arrival; from then on
+    each moves with the belt while it lies on it (:meth:`Belt.carried_cm`).
+
     Attributes:
-        objects: Every object, in scene order.
+        objects: Every object, in scene order, then the belt's in arrival order.
         bins_cm: Per class name, where its bin is, base frame (x, y, z) [cm].
+        belt: The conveyor belt, or ``None``.
+        radii_cm: Per class name, half an object's widest extent [cm] (where one drops
+            off the belt's end).
+        time_s: The world's time since the run started [s].
     """
 
     objects: list[WorldObject] = field(default_factory=list)
     bins_cm: dict[str, Vector3] = field(default_factory=dict)
+    belt: Belt | None = None
+    radii_cm: dict[str, float] = field(default_factory=dict)
+    time_s: float = 0.0
 
     @classmethod
     def from_scene(cls, scene: list[SceneObject], bins_cm: dict[str, Vector3]) -> World:
@@ -73,10 +90,42 @@ class World:
         return cls(objects=objects, bins_cm=dict(bins_cm))
 
     @classmethod
-    def from_config(cls, config: Config) -> World:
-        """The world of ``config.task.scene`` with each class's bin (``task.classes``)."""
+    def from_config(cls, config: Config, scene: list[SceneObject] | None = None) -> World:
+        """The world of ``scene`` (default ``config.task.scene``), bins and belt.
+
+        Each class has its bin (``task.classes``); the belt's objects (``config.belt``)
+        wait to arrive.
+        """
         bins_cm = {c.name: c.bin_cm for c in config.task.classes}
-        return cls.from_scene(config.task.scene, bins_cm)
+        world = cls.from_scene(config.task.scene if scene is None else scene, bins_cm)
+        if config.belt is not None:
+            world.belt = Belt(config.belt)
+            world.radii_cm = {c: radius_cm(config, c) for c in config.task.class_names}
+            world.objects += [_waiting(a) for a in belt_arrivals(config)]
+        return world
+
+    def advance(self, seconds: float) -> None:
+        """Let ``seconds`` pass: objects arrive on the belt and ride it.
+
+        Raises:
+            WorldError: ``seconds`` is negative or not finite.
+        """
+        if not (math.isfinite(seconds) and seconds >= 0):
+            raise WorldError(f"cannot advance the world by {seconds!r} s: must be finite, >= 0")
+        end = self.time_s + seconds
+        belt = self.belt
+        if belt is not None:
+            for o in self.objects:
+                if o.waiting and o.arrives_s is not None and o.arrives_s <= end:
+                    o.waiting = False
+                    ridden = end - o.arrives_s
+                elif o.on_table:
+                    ridden = seconds
+                else:
+                    continue
+                if ridden > 0 and belt.carries(o.x_cm, o.y_cm):
+                    o.x_cm, o.y_cm = belt.carried_cm(o.x_cm, o.y_cm, ridden, self.radii_cm[o.color])
+        self.time_s = end
 
     def table_objects(self) -> list[WorldObject]:
         """Objects lying on the table, in scene order."""
@@ -151,3 +200,16 @@ class World:
             raise WorldError("nothing is held")
         obj.held = False
         return obj
+
+
+def _waiting(arrival: Arrival) -> WorldObject:
+    """An object still to come on the belt, where it will land."""
+    return WorldObject(
+        arrival.id,
+        arrival.color,
+        arrival.x_cm,
+        arrival.y_cm,
+        yaw_deg=arrival.yaw_deg,
+        arrives_s=arrival.t_s,
+        waiting=True,
+    )

@@ -115,6 +115,16 @@ calibration stays true for the twin's pictures at ``camera.width_px × height_px
 with ``twin.camera`` set, a perspective camera placed, tilted and with the field of view
 it gives (:func:`mearm.sim.twin.twin_optics.camera_pose`; the lens distortion is applied to
 the rendered frames).
+
+**The belt** (``config.belt``): a box lying on the table, ``surface_cm`` thick, whose top
+moves at ``speed_cm_s`` along its length: MuJoCo's ``surfacevel`` (since 3.11), which
+makes the contacts with it move what lies on it as a real belt's friction does. A driven
+body would do the same with a joint, an actuator and a length of travel that runs out;
+the moving surface has none of these, and a carried object still slips, tips or stops
+against the jaws as the contacts decide. Each object the belt brings
+(:func:`~mearm.sim.belt.belt_arrivals`) is a free body ``obj_<id>`` that waits off the
+table (:func:`parked_m`) until the twin's bus puts it on the belt's upstream end at its
+time.
 """
 
 from __future__ import annotations
@@ -160,6 +170,7 @@ from mearm.kinematics.chain import Chain
 from mearm.kinematics.errors import ModelError
 from mearm.kinematics.mjspec import arm_spec, exact, quat
 from mearm.kinematics.urdf import TCP_FRAME, jaw_joint_names, jaw_pad_length_m
+from mearm.sim.belt import Arrival, Belt, belt_arrivals
 from mearm.sim.twin.twin_optics import CAMERA_HEIGHT_M, camera_pose, homography_view
 
 M_PER_CM = 0.01
@@ -173,6 +184,8 @@ PLA_DENSITY = 1240.0
 #: Coulomb friction [-] (estimates: PLA on wood or acrylic 0.3–0.5; rubber jaw pads ~1).
 OBJECT_FRICTION = 0.4
 TABLE_FRICTION = 0.4
+#: A rubber belt's grip on PLA [-] (rubber on plastics: 0.5–0.8).
+BELT_FRICTION = 0.6
 JAW_FRICTION = 1.0
 #: Torsional and rolling friction of the objects [m] (small: they stand flat).
 OBJECT_SPIN_FRICTION = 0.005
@@ -327,6 +340,26 @@ def object_ids(config: Config) -> list[str]:
     return out
 
 
+#: Where the belt's objects wait for their arrival, off the table: the first at this
+#: (x, y) [m], the next ones :data:`PARK_STEP_M` further along x.
+PARK_ORIGIN_M = (-3.0, -3.0)
+PARK_STEP_M = 0.1
+
+
+def parked_m(config: Config, index: int, arrival: Arrival) -> list[float]:
+    """Where the ``index``-th object the belt brings waits, its centre (x, y, z) [m]."""
+    h = config.task.class_named(arrival.color).height_cm * M_PER_CM
+    return [PARK_ORIGIN_M[0] - index * PARK_STEP_M, PARK_ORIGIN_M[1], h / 2]
+
+
+def arrival_centre_m(config: Config, arrival: Arrival) -> list[float]:
+    """Where an object the belt brings lands: its centre (x, y, z) [m], on the belt's top."""
+    assert config.belt is not None
+    h = config.task.class_named(arrival.color).height_cm * M_PER_CM
+    top = config.belt.surface_cm * M_PER_CM
+    return [arrival.x_cm * M_PER_CM, arrival.y_cm * M_PER_CM, top + h / 2]
+
+
 def _bin_half_outer_m(config: Config, color: str) -> float:
     return bin_half_outer_m(config, color)
 
@@ -363,6 +396,8 @@ def _check_scene(config: Config) -> None:
                     f"({b.bin_cm[0]:g}, {b.bin_cm[1]:g}) cm); move it (task.scene)"
                 )
         placed.append((oid, xy, r))
+    if config.belt is not None:
+        _check_belt(config, base_r)
     for c in task.classes:
         wall = _wall_height_m(config, c.name)
         release = (c.bin_cm[2] - config.arm.tool.tcp_above_grip_cm - c.grip_z_cm) * M_PER_CM
@@ -372,6 +407,74 @@ def _check_scene(config: Config) -> None:
                 f"bottom {release * 100:.3g} cm above the table, below the bin's "
                 f"{wall * 100:.3g} cm walls; raise bin_cm z (task.classes)"
             )
+
+
+def _check_belt(config: Config, base_r: float) -> None:
+    """The belt must lie clear of the arm's base and of every bin."""
+    assert config.belt is not None
+    belt = Belt(config.belt)
+    b = config.belt
+    if belt.config.nearest_cm() * M_PER_CM < base_r + b.width_cm / 2 * M_PER_CM:
+        raise ModelError(
+            f"the belt passes {b.nearest_cm():.3g} cm from the base axis, over the arm's "
+            f"base (radius {base_r * 100:.3g} cm) with its {b.width_cm:g} cm width; move it "
+            "(belt.start_cm, belt.heading_deg)"
+        )
+    for c in config.task.classes:
+        h = _bin_half_outer_m(config, c.name) / M_PER_CM
+        corners = [(sx * h, sy * h) for sx in (-1, 1) for sy in (-1, 1)]
+        along_across = [belt.along_across_cm(c.bin_cm[0] + dx, c.bin_cm[1] + dy)
+                        for dx, dy in corners]  # fmt: skip
+        along = [a for a, _ in along_across]
+        across = [x for _, x in along_across]
+        # the bin's square against the belt's strip: separated along one of the strip's axes
+        # or one of the square's (both pairs are the only candidates for two rectangles)
+        apart = (
+            max(along) < 0
+            or min(along) > b.length_cm
+            or max(across) < -b.width_cm / 2
+            or min(across) > b.width_cm / 2
+            or _strip_clear_of_square(belt, c.bin_cm[:2], h)
+        )
+        if not apart:
+            raise ModelError(
+                f"the belt runs over the bin of class {c.name} (a {2 * h:.3g} cm square around "
+                f"({c.bin_cm[0]:g}, {c.bin_cm[1]:g}) cm); move the belt or the bin "
+                "(belt.start_cm, belt.length_cm, task.classes)"
+            )
+
+
+def _strip_clear_of_square(belt: Belt, centre_cm: Sequence[float], half_cm: float) -> bool:
+    """Whether the belt's strip lies wholly beside a square (axis-aligned) in x or in y."""
+    b = belt.config
+    corners = [
+        belt.point_cm(a, w) for a in (0.0, b.length_cm) for w in (-b.width_cm / 2, b.width_cm / 2)
+    ]
+    for k in (0, 1):
+        values = [p[k] - centre_cm[k] for p in corners]
+        if min(values) > half_cm or max(values) < -half_cm:
+            return True
+    return False
+
+
+def _belt(world: mujoco.MjsBody, config: Config) -> None:
+    """The belt: a box on the table whose top moves along its length (``surfacevel``)."""
+    assert config.belt is not None
+    b = config.belt
+    belt = Belt(b)
+    cx, cy = belt.centre_cm
+    yaw = math.radians(b.heading_deg)
+    _scene_geom(
+        world,
+        "belt",
+        "box",
+        (b.length_cm / 2 * M_PER_CM, b.width_cm / 2 * M_PER_CM, b.surface_cm / 2 * M_PER_CM),
+        pos=exact([cx * M_PER_CM, cy * M_PER_CM, b.surface_cm / 2 * M_PER_CM]),
+        quat=exact([math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2)]),
+        material="belt",
+        friction=[BELT_FRICTION, OBJECT_SPIN_FRICTION, OBJECT_ROLL_FRICTION],
+        surfacevel=[b.speed_cm_s * M_PER_CM, 0.0, 0.0, 0.0, 0.0, 0.0],
+    )
 
 
 def _wall_height_m(config: Config, color: str) -> float:
@@ -642,11 +745,14 @@ def _build(config: Config, spec: ServoSpec, gripper_spec: ServoSpec) -> mujoco.M
         ("servo", (0.08, 0.08, 0.09, 1.0)),
         ("table", (0.62, 0.46, 0.30, 1.0)),
         ("bin", (0.85, 0.85, 0.85, 1.0)),
+        ("belt", (0.12, 0.12, 0.13, 1.0)),  # black rubber
     ):
         model.add_material(name=name, rgba=list(rgba))
     world = model.worldbody
     _lights(model, config)
     _table(world, config)
+    if config.belt is not None:
+        _belt(world, config)
     _camera(world, config)
 
     # ---- the arm (its shapes: mearm.kinematics.bodies, which the planner checks too)
@@ -689,6 +795,13 @@ def _build(config: Config, spec: ServoSpec, gripper_spec: ServoSpec) -> mujoco.M
         body.add_freejoint(name=f"obj_{oid}")
         gloss = None if config.twin.lamp is None else f"object_{c.name}"  # under a lamp
         _object_geom(model, body, f"obj_{oid}", c, material=gloss)
+    arrivals = belt_arrivals(config)
+    for i, arrival in enumerate(arrivals):
+        name = f"obj_{arrival.id}"
+        body = world.add_body(name=name, pos=exact(parked_m(config, i, arrival)))
+        body.add_freejoint(name=name)
+        gloss = None if config.twin.lamp is None else f"object_{arrival.color}"
+        _object_geom(model, body, name, task.class_named(arrival.color), material=gloss)
 
     # ---- contacts, coupling, actuators, home
     model.add_exclude(bodyname1="world", bodyname2=f"link_{arm.joints[0].name}")
@@ -749,6 +862,8 @@ def _build(config: Config, spec: ServoSpec, gripper_spec: ServoSpec) -> mujoco.M
     for obj in task.scene:
         h = task.class_named(obj.color).height_cm * M_PER_CM
         qpos += [obj.x * M_PER_CM, obj.y * M_PER_CM, h / 2, 1, 0, 0, 0]
+    for i, arrival in enumerate(arrivals):
+        qpos += [*parked_m(config, i, arrival), 1, 0, 0, 0]
     home_ctrl = [
         sum(c * chain.home[chain.names.index(n)] for n, c in row.coef.items())
         if row.combined

@@ -66,6 +66,7 @@ from mearm.hardware.mapping import ActuatorMap, ServoMap
 from mearm.kinematics.chain import Chain
 from mearm.kinematics.errors import ModelError
 from mearm.kinematics.urdf import TCP_FRAME, jaw_joint_names
+from mearm.sim.belt import Arrival, belt_arrivals
 from mearm.sim.errors import WorldError
 from mearm.sim.twin.mjcf import (
     GRIPPER_SERVO,
@@ -75,6 +76,7 @@ from mearm.sim.twin.mjcf import (
     SERVO_CATALOGUE,
     SERVO_LEVER_M,
     ServoSpec,
+    arrival_centre_m,
     object_ids,
     recorded_servo,
     servo_tendon,
@@ -283,7 +285,8 @@ class TwinArm(ServoBus):
             name: (int(model.joint(name).qposadr[0]), float(self._chain.scale[i]))
             for name, i in zip(self._chain.actuated, self._chain.actuated_index, strict=True)
         }
-        self._object_ids = object_ids(config)
+        self._arrivals = belt_arrivals(config)
+        self._object_ids = object_ids(config) + [a.id for a in self._arrivals]
         self.faults = FaultSchedule(config.twin.faults, self._object_ids)
         self._arm_body = model.body(f"link_{config.arm.joints[0].name}").id
         self._arm_dof = int(model.body_dofadr[self._arm_body])
@@ -292,7 +295,11 @@ class TwinArm(ServoBus):
     # ----------------------------------------------------------------- state
 
     def reset(self) -> None:
-        """Back to the ``home`` keyframe: arm at home, jaws open, objects on the table."""
+        """Back to the ``home`` keyframe: arm at home, jaws open, objects on the table.
+
+        The belt's objects wait off the table again, to arrive at their times.
+        """
+        self._to_arrive = list(self._arrivals)
         mujoco.mj_resetDataKeyframe(self.model, self.data, self.model.key("home").id)
         mujoco.mj_forward(self.model, self.data)
         ctrl = self.data.ctrl[self._ctrl].copy()
@@ -418,13 +425,43 @@ class TwinArm(ServoBus):
             waited += step_s
 
     def _run(self, seconds: float) -> None:
-        """Run the physics ``seconds`` on, striking each injected fault at its time."""
-        while (at := self.faults.next_arm_fault_s()) is not None and at < self.time_s + seconds:
-            head = max(0.0, at - self.time_s)
-            self._physics(head)
-            seconds -= head
-            self.faults.strike_arm(self.model, self.data)
-        self._physics(seconds)
+        """Run the physics ``seconds`` on: faults strike and belt objects land at their times."""
+        end = self.time_s + seconds
+        events = False
+        while True:
+            fault_s = self.faults.next_arm_fault_s()
+            fault_s = fault_s if fault_s is not None and fault_s < end else None
+            land_s = self._to_arrive[0].t_s if self._to_arrive else None
+            land_s = land_s if land_s is not None and land_s <= end else None
+            if fault_s is None and land_s is None:
+                break
+            events = True
+            if land_s is not None and (fault_s is None or land_s <= fault_s):
+                arrival = self._to_arrive.pop(0)
+                self._physics(arrival.t_s - self.time_s)
+                self._land(arrival)
+            else:
+                assert fault_s is not None
+                self._physics(fault_s - self.time_s)
+                self.faults.strike_arm(self.model, self.data)
+        # without events, exactly ``seconds`` (the steps a run without faults or a belt takes)
+        self._physics(end - self.time_s if events else seconds)
+
+    def _land(self, arrival: Arrival) -> None:
+        """Put an object the belt brings on its upstream end, at rest and awake."""
+        m, d = self.model, self.data
+        joint = m.joint(f"obj_{arrival.id}")
+        q, v = int(joint.qposadr[0]), int(joint.dofadr[0])
+        yaw = math.radians(arrival.yaw_deg)
+        d.qpos[q : q + 7] = [
+            *arrival_centre_m(self.config, arrival),
+            math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2),
+        ]  # fmt: skip
+        d.qvel[v : v + 6] = 0.0
+        d.qfrc_applied[v] = _NUDGE  # wakes its tree (MuJoCo keeps a pushed tree awake)
+        mujoco.mj_forward(m, d)
+        d.qfrc_applied[v] = 0.0
+        log.info("belt: %s arrives at t = %.2f s", arrival.id, d.time)
 
     def _physics(self, seconds: float) -> None:
         """Run the physics ``seconds`` on: the servos' setpoints ramp, then hold."""

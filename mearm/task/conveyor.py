@@ -1,0 +1,386 @@
+r"""Sorting what a conveyor belt brings: track each object, pick it where it will be.
+
+:class:`ConveyorSorter` runs the sort of ``config.belt`` (:mod:`mearm.config.belt`):
+
+1. **Look** every :data:`LOOK_PERIOD_S` while the arm waits, and after every move: each
+   frame is dated when it was taken (the bus's clock minus ``camera.latency_s``), its
+   whole objects on the belt feed the tracker (:class:`~mearm.vision.tracking.Tracker`),
+   and a track the arm hides coasts on its prediction.
+2. **Choose** the object farthest down the belt whose track has a velocity (seen
+   :data:`MIN_SIGHTINGS` times).
+3. **Intercept**: the pick is planned for where the object will be when the jaws close
+   on it. With :math:`p(t)` the track's constant-velocity prediction, the grip time
+   solves
+
+   .. math:: t_g = t_0 + T_{approach}(p(t_g)) + T_{pick}(p(t_g)) + T_{tool}
+
+   by fixed-point iteration: each round plans the approach (above the object) and the
+   pick to :math:`p(t_g)` in full, with their collision checks, and times them with the
+   servo time law (Ruckig, :func:`~mearm.task.timing.time_path`), plus the tool's
+   travel to its grip setting; the jaws start closing then, around the object. The
+   other objects are checked where they will be at :math:`t_g`.
+4. An object whose intercept lies off the belt's end, or out of the arm's reach before
+   it gets there, is left **missed on the belt** (``missed_belt``), as is one whose
+   track is lost.
+
+Lift, place, release and the outcome are the still table's
+(:class:`~mearm.task.sorter.Sorter`): in simulation an object counts as sorted only when
+the world or the twin's physics holds it in its bin.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any, Protocol, runtime_checkable
+
+import numpy as np
+
+from mearm.config import ColorClass, Config
+from mearm.hardware.bus import ReportsRelease, ServoBus
+from mearm.hardware.errors import ServoError
+from mearm.ik import IKTarget
+from mearm.sim.belt import Belt
+from mearm.task.report import SortReport
+from mearm.task.route import Route
+from mearm.task.sorter import CollisionError, Sorter, TrackedObject, _hex
+from mearm.task.timing import tool_move_s
+from mearm.vision import Camera
+from mearm.vision.errors import CameraError
+from mearm.vision.tracking import Track, Tracker, TrackState, whole_sightings
+
+#: How often the camera is read while the arm waits for an object [s].
+LOOK_PERIOD_S = 0.1
+#: Sightings before a track's velocity is trusted for an intercept.
+MIN_SIGHTINGS = 3
+#: The intercept's rounds: each plans the routes to the last round's grip point.
+INTERCEPT_ROUNDS = 8
+#: The intercept has converged when the grip point moves less than this [cm].
+INTERCEPT_TOL_CM = 0.02
+
+
+@runtime_checkable
+class KeepsTime(Protocol):
+    """A bus that simulates time (the kinematic arm's world, the twin's physics)."""
+
+    @property
+    def time_s(self) -> float: ...  # noqa: D102
+
+
+@dataclass(frozen=True)
+class GripAim:
+    """Where the jaws were sent to close on a moving object.
+
+    Attributes:
+        object_id: The object.
+        t_s: When the jaws close on it, on the bus's clock [s].
+        aim_cm: Where its track put it then (x, y) [cm], (2,).
+    """
+
+    object_id: str
+    t_s: float
+    aim_cm: np.ndarray
+
+
+class ConveyorSorter(Sorter):
+    """Sorts the objects a belt brings (the module docstring).
+
+    Takes :class:`~mearm.task.sorter.Sorter`'s arguments, and:
+
+    Args:
+        on_grip: Called with each :class:`GripAim` as the jaws close (a simulation
+            measures there how far the track was from the object).
+
+    Raises:
+        ValueError: ``config.belt`` is not set.
+    """
+
+    def __init__(
+        self,
+        config: Config,
+        camera: Camera,
+        bus: ServoBus,
+        *,
+        on_grip: Callable[[GripAim], None] | None = None,
+        **kwargs: Any,
+    ):
+        super().__init__(config, camera, bus, **kwargs)
+        if self.config.belt is None:
+            raise ValueError("ConveyorSorter needs config.belt")
+        self.belt = Belt(self.config.belt)
+        self.tracker = Tracker(self.config.belt.tracking)
+        self.on_grip = on_grip
+        self._by_track: dict[int, TrackedObject] = {}
+        self._sightings: dict[int, int] = {}
+        self._t0 = time.monotonic()
+        self._last_frame_s = -np.inf
+        self._last_seen_s = 0.0
+        self._planning_s = 0.0
+
+    # ----------------------------------------------------------------- time and sight
+
+    def now_s(self) -> float:
+        """The bus's simulated time, or the wall clock since the start on a real rig [s]."""
+        if isinstance(self.bus, KeepsTime):
+            return float(self.bus.time_s)
+        return time.monotonic() - self._t0
+
+    def _observe(self) -> list[TrackState]:
+        """Read a frame, feed its whole objects on the belt to the tracker."""
+        frame = self.camera.read()
+        taken = max(self.now_s() - self.config.camera.latency_s, self._last_frame_s)
+        self._last_frame_s = taken
+        tracking = self.tracker.tracking
+        seen = [
+            s
+            for s in whole_sightings(
+                self.detector.detect(frame),
+                self.calibration,
+                self.config.task.classes,
+                tracking.min_area_share,
+            )
+            if self.belt.carries(s.x_cm, s.y_cm)
+        ]
+        before = set(self.tracker.lost)
+        states = self.tracker.update(taken, seen)
+        if seen:
+            self._last_seen_s = taken
+        for s in states:
+            if s.seen:
+                self._sightings[s.id] = self._sightings.get(s.id, 0) + 1
+            obj = self._by_track.get(s.id)
+            if obj is None:
+                n = sum(1 for o in self._objects if o.class_name == s.color) + 1
+                x, y = (float(v) for v in s.position_cm)
+                obj = TrackedObject(f"{s.color}{n}", s.color, x, y)
+                self._objects.append(obj)
+                self._by_track[s.id] = obj
+            obj.x_cm, obj.y_cm = (float(v) for v in s.position_cm)
+        for tid in set(self.tracker.lost) - before:
+            obj = self._by_track.get(tid)
+            if obj is not None and not obj.sorted and obj.skipped is None:
+                self._skip(
+                    obj,
+                    f"missed on the belt: its track was lost at ({obj.x_cm:.1f}, "
+                    f"{obj.y_cm:.1f}) cm",
+                    kind="missed_belt",
+                )
+        return states
+
+    def _wait(self) -> None:
+        """Let one look period pass with the arm still (the belt runs on)."""
+        self.bus.hold(LOOK_PERIOD_S)
+
+    # ----------------------------------------------------------------- choice
+
+    def _choose_track(self, states: list[TrackState]) -> tuple[TrackedObject, int] | None:
+        """The object farthest down the belt with a trusted velocity, and its track id."""
+        ready = []
+        for s in states:
+            obj = self._by_track[s.id]
+            if obj.sorted or obj.skipped is not None:
+                continue
+            if self._sightings.get(s.id, 0) < MIN_SIGHTINGS:
+                continue
+            along, _ = self.belt.along_across_cm(*s.position_cm)
+            ready.append((along, s.id))
+        if not ready:
+            return None
+        _, tid = max(ready)
+        return self._by_track[tid], tid
+
+    # ----------------------------------------------------------------- intercept
+
+    def _tool_s(self, phase: str, closed: bool, before: tuple[str, bool]) -> float:
+        ex = self.executor
+        return tool_move_s(
+            self.config.arm.tool,
+            ex.tool_settings(before[0]),  # type: ignore[arg-type]
+            before[1],
+            ex.tool_settings(phase),  # type: ignore[arg-type]
+            closed,
+        )
+
+    def _intercept(self, obj: TrackedObject, tid: int) -> tuple[Route | None, Route, float]:
+        """The approach and pick routes to where the object will be, and when [s].
+
+        Returns the last round's routes when a plan fails (the caller reports why).
+        """
+        ex, track = self.executor, self.tracker.tracks[tid]
+        cls = self.config.task.class_named(obj.class_name)
+        # from the travel setting with open jaws: the tool's move to its grip setting;
+        # the jaws close from there, around where the object is then
+        # (the setting is one command, which takes a servo period before the hold)
+        tool_s = self._tool_s("grip", False, ("travel", False)) + self.bus.period_s
+        # on a real rig the belt runs on while the routes are planned: the arm sets off
+        # that much later (the last intercept's planning time; a simulator's clock waits)
+        t0 = self.now_s() + self._planning_s
+        t_grip = t0 + tool_s
+        p = track.position_at(t_grip)
+        above: Route | None = None
+        pick = Route(obj.id, obj.class_name, "pick", obj.failed_picks + 1,
+                     self._on_belt(cls, p))  # fmt: skip
+        for _ in range(INTERCEPT_ROUNDS):
+            for o in self._objects:  # every object where it will be as the jaws close
+                state = self._track_of(o)
+                if state is not None:
+                    o.x_cm, o.y_cm = (float(v) for v in state.position_at(t_grip))
+            pick = Route(obj.id, obj.class_name, "pick", obj.failed_picks + 1,
+                         self._on_belt(cls, p))  # fmt: skip
+            self._world()
+            above = self._approach(obj, pick)
+            if above is None:
+                self.planner.plan(pick, ex.q_now(), target=obj.id)
+            elif above.planned and above.plan is not None:
+                self.planner.plan(pick, above.plan.q, target=obj.id)
+            if not (pick.planned and (above is None or above.planned)):
+                break
+            assert pick.plan is not None
+            moving_s = ex.timed(pick.plan.q_path).duration_s
+            if above is not None and above.plan is not None:
+                moving_s += ex.timed(above.plan.q_path).duration_s
+            t_next = t0 + moving_s + tool_s
+            p_next = track.position_at(t_next)
+            t_grip, converged = t_next, float(np.hypot(*(p_next - p))) < INTERCEPT_TOL_CM
+            p = p_next
+            if converged:
+                break
+        return above, pick, t_grip
+
+    def _on_belt(self, cls: ColorClass, xy_cm: np.ndarray) -> IKTarget:
+        """The pick target of an object lying on the belt: its surface lifts it."""
+        target = self.planner.pick_target(cls, float(xy_cm[0]), float(xy_cm[1]))
+        return self.planner.above_target(target, self.belt.config.surface_cm)
+
+    def _track_of(self, obj: TrackedObject) -> Track | None:
+        for tid, o in self._by_track.items():
+            if o is obj:
+                return self.tracker.tracks.get(tid)
+        return None
+
+    # ----------------------------------------------------------------- one object
+
+    def _catch(self, obj: TrackedObject, tid: int) -> None:
+        cls = self.config.task.class_named(obj.class_name)
+        ex = self.executor
+        t_start = time.perf_counter()
+        planning = time.monotonic()
+        above, pick, t_grip = self._intercept(obj, tid)
+        if not isinstance(self.bus, KeepsTime):
+            self._planning_s = time.monotonic() - planning
+        failed = pick if above is None or above.planned else above
+        if not failed.planned:
+            reason = f"missed on the belt: {failed.failure or 'no plan'}"
+            self._skip(obj, reason, failed, kind="missed_belt")
+            return
+        aim = pick.target.position_cm[:2]
+        along, _ = self.belt.along_across_cm(*aim)
+        if along > self.belt.config.length_cm:
+            self._skip(
+                obj,
+                f"missed on the belt: it would be {along - self.belt.config.length_cm:.1f} cm "
+                "past the belt's end when the jaws got there",
+                pick,
+                kind="missed_belt",
+            )
+            return
+        if above is not None:
+            ex.stream(above, "travel", False)
+        ex.stream(pick, "travel", False, _hex(cls.draw_rgb))
+        ex.finish(pick, t_start)
+        ex.set_tool("grip", False)
+        if self.on_grip is not None:
+            self.on_grip(GripAim(obj.id, self.now_s(), np.array(aim, dtype=float)))
+        ex.set_tool("grip", True)
+        ex.set_tool("travel", True)
+        self.tracker.drop(tid)
+        obj.x_cm, obj.y_cm = float(aim[0]), float(aim[1])
+        self._world(held=obj, opening_cm=cls.diameter_cm)
+        if above is not None:
+            up = Route(obj.id, obj.class_name, "lift", 1, above.target)
+            if self.planner.plan(up, ex.q_now()).planned:
+                ex.stream(up, "travel", True)
+        t1 = time.perf_counter()
+        place = Route(obj.id, obj.class_name, "place", 1, self.planner.place_target(cls))
+        self.planner.plan(place, ex.q_now())
+        if not place.planned:
+            self.reporter.route(pick)
+            self._skip(obj, f"bin unreachable: {place.failure}", place, kind="bin_unreachable")
+            ex.set_tool("grip", True)
+            ex.set_tool("grip", False)
+            return
+        pick.confirmed = False
+        try:
+            ex.stream(place, "travel", True, _hex(cls.draw_rgb))
+            # over the bin the camera sees the belt whole: a grip that held left nothing
+            # of the class where the object would be now
+            self._observe()
+            where = np.array(aim) + self.belt.velocity_cm_s * (self.now_s() - t_grip)
+            pick.success = not any(
+                s.color == obj.class_name
+                and float(np.hypot(*(s.position_cm - where))) <= self.tracker.tracking.gate_cm
+                for s in (t.state() for t in self.tracker.tracks.values())
+                if s.seen
+            )
+            pick.confirmed = True
+        finally:
+            self.reporter.route(pick)
+        if not pick.success:
+            ex.set_tool("travel", False)
+            self._skip(obj, "pick failed on the belt", pick, kind="pick_failed")
+            return
+        ex.set_tool("travel", False)
+        release = self.bus.last_release if isinstance(self.bus, ReportsRelease) else None
+        place.success = release is None or release.bin == obj.class_name
+        obj.sorted = place.success
+        self.reporter.route(ex.finish(place, t1))
+
+    # ----------------------------------------------------------------- run
+
+    def _idle_limit_s(self) -> float:
+        """How long the belt may bring nothing before the run ends [s]."""
+        a = self.belt.config.arrivals
+        return max(a.first_s, a.max_gap_s) + 1.0
+
+    def run(self) -> SortReport:
+        """Sort what the belt brings until it has brought nothing for a while, then go home.
+
+        The belt is done when nothing has been on it for longer than the longest gap
+        between arrivals (``belt.arrivals``), with no object still tracked.
+
+        Raises:
+            SortAborted: camera or servo failure, or Ctrl-C; the reason is logged first.
+        """
+        try:
+            if not self.bus.is_connected:
+                self.bus.connect()
+            self.executor.home_pose()
+            self._last_seen_s = self.now_s()
+            while True:
+                states = self._observe()
+                chosen = self._choose_track(states)
+                if chosen is not None:
+                    self._catch(*chosen)
+                    self._observe()
+                    self._home()
+                    continue
+                pending = [o for o in self._by_track.values() if not o.sorted and o.skipped is None]
+                idle_s = self.now_s() - self._last_seen_s
+                if not pending and idle_s > self._idle_limit_s():
+                    break
+                if idle_s > self._idle_limit_s() + self.tracker.tracking.coast_s:
+                    for o in pending:  # tracked, never seen again, never lost: say so
+                        self._skip(o, "missed on the belt: no longer seen", kind="missed_belt")
+                    break
+                self._wait()
+            self._home()
+        except (CameraError, ServoError, CollisionError) as exc:
+            self._abort(str(exc), park=isinstance(exc, CameraError))
+        except KeyboardInterrupt:
+            self._abort("interrupted (Ctrl-C)", park=True, interrupted=True)
+        self.reporter.summary(ok=True, outcome=self.outcome(), motion=self.executor.motion)
+        return self.report
+
+
+__all__ = ["ConveyorSorter", "GripAim", "KeepsTime"]

@@ -1,0 +1,267 @@
+r"""Objects followed across timestamped frames: a Kalman filter per object.
+
+Each object the camera sees is a :class:`Track`: OpenCV's :class:`cv2.KalmanFilter` of
+its state :math:`s = (x, y, \dot x, \dot y)` on the table [cm, cm/s] under a
+constant-velocity model. Between two frames :math:`\Delta t` apart,
+
+.. math::
+
+    s_{k+1} = F s_k + w,\qquad F = \begin{pmatrix} I & \Delta t\,I \\ 0 & I \end{pmatrix},
+    \qquad Q = \sigma_a^2 \begin{pmatrix} \tfrac{\Delta t^4}{4} I & \tfrac{\Delta t^3}{2} I \\
+    \tfrac{\Delta t^3}{2} I & \Delta t^2 I \end{pmatrix}
+
+(white acceleration of standard deviation :math:`\sigma_a`, ``accel_std_cm_s2``), and a
+detection measures :math:`z = (x, y)` with noise :math:`\sigma_z` (``measurement_std_cm``).
+
+**Time.** A frame shows the scene as it was ``camera.latency_s`` before it was read, so
+:meth:`Tracker.update` is given the time the frame was *taken*: the read time minus the
+latency.
+
+**What is taken.** Only whole objects (:func:`whole_sightings`): a region cut by the arm
+over it has its centre off the object's, and would pull the velocity with it; such a
+region (smaller than ``min_area_share`` of the class's footprint) is left out and the
+track coasts.
+
+**Association.** A detection can only be of a track of its class, within ``gate_cm``
+and three standard deviations of the track's predicted position (:meth:`Track.gate_cm`:
+wide while a track's velocity is unknown); the pairs are taken nearest first (greedily: on a belt
+objects of a class lie centimetres apart, far more than the gate, so nearest-first
+and an optimal assignment agree). A detection left over starts a track; a track left
+over *coasts* on its prediction, unseen (the arm over it), and is dropped once it has
+been unseen for ``coast_s``. A track keeps its id from the first frame to the last, so
+an object hidden by the arm and seen again is the same object.
+
+norfair, the tracking library that would do this, pins ``numpy<2`` and cannot be
+installed with this package; the filter is OpenCV's.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from mearm.config import ColorClass
+from mearm.config.belt import TrackingConfig
+from mearm.vision.calibration import Calibration
+from mearm.vision.detector import Detection
+from mearm.vision.errors import TrackingError
+from mearm.vision.pinhole import PerspectiveCamera
+
+
+@dataclass(frozen=True)
+class Seen:
+    """One detection given to the tracker.
+
+    Attributes:
+        color: Its class's name.
+        x_cm: Its centre on the table, base frame [cm].
+        y_cm: Its centre on the table, base frame [cm].
+    """
+
+    color: str
+    x_cm: float
+    y_cm: float
+
+
+def whole_sightings(
+    detections: Iterable[Detection],
+    calibration: Calibration | PerspectiveCamera,
+    classes: Sequence[ColorClass],
+    min_area_share: float,
+) -> list[Seen]:
+    """The detections of whole objects, as sightings for the tracker.
+
+    Left out: merged regions (no centre of one object), regions with no place on the
+    table (a detector without a calibration), and regions smaller than
+    ``min_area_share`` of the class's footprint (``object_shape.area_cm2``) at the
+    calibration's scale where they lie (an object partly hidden).
+    """
+    by_name = {c.name: c for c in classes}
+    out = []
+    for d in detections:
+        c = by_name.get(d.color)
+        if d.merged or c is None or d.table_cm is None:
+            continue
+        cm2_per_px = calibration.pixel_area_cm2(d.centroid_px).item()
+        footprint_px = c.object_shape.area_cm2(c.diameter_cm) / cm2_per_px
+        if d.area_px >= min_area_share * footprint_px:
+            out.append(Seen(d.color, float(d.table_cm[0]), float(d.table_cm[1])))
+    return out
+
+
+@dataclass(frozen=True)
+class TrackState:
+    """A track's estimate at one time.
+
+    Attributes:
+        id: The track's number, kept for its object's whole life.
+        color: Its class's name.
+        t_s: The time of the estimate [s].
+        position_cm: (x, y) on the table [cm], (2,).
+        velocity_cm_s: (vx, vy) [cm/s], (2,).
+        seen: Whether a detection was taken at this time (else it coasts).
+        unseen_s: How long it has gone unseen [s].
+    """
+
+    id: int
+    color: str
+    t_s: float
+    position_cm: np.ndarray
+    velocity_cm_s: np.ndarray
+    seen: bool
+    unseen_s: float
+
+
+class Track:
+    """One object followed by a Kalman filter (the module docstring).
+
+    Args:
+        track_id: Its number.
+        seen: The detection that starts it.
+        t_s: When that detection was taken [s].
+        tracking: The filter's noise.
+    """
+
+    def __init__(self, track_id: int, seen: Seen, t_s: float, tracking: TrackingConfig):
+        self.id = track_id
+        self.color = seen.color
+        self._accel_var = tracking.accel_std_cm_s2**2
+        kf = cv2.KalmanFilter(4, 2, 0, cv2.CV_64F)
+        kf.measurementMatrix = np.hstack([np.eye(2), np.zeros((2, 2))])
+        kf.measurementNoiseCov = np.eye(2) * tracking.measurement_std_cm**2
+        kf.statePost = np.array([[seen.x_cm], [seen.y_cm], [0.0], [0.0]], dtype=float)
+        # the velocity is unknown until a second sighting: as wide as any belt's speed
+        kf.errorCovPost = np.diag([tracking.measurement_std_cm**2] * 2 + [100.0**2] * 2)
+        self._kf = kf
+        self.t_s = t_s
+        self.last_seen_s = t_s
+        self.seen = True
+
+    def _transition(self, dt: float) -> None:
+        kf = self._kf
+        F = np.eye(4)
+        F[0, 2] = F[1, 3] = dt
+        kf.transitionMatrix = F
+        q = self._accel_var
+        a, b, c = dt**4 / 4 * q, dt**3 / 2 * q, dt**2 * q
+        kf.processNoiseCov = np.array(
+            [[a, 0, b, 0], [0, a, 0, b], [b, 0, c, 0], [0, b, 0, c]], dtype=float
+        )
+
+    def predict(self, t_s: float) -> np.ndarray:
+        """Move the estimate on to ``t_s`` (no later than now: never back); returns (x, y)."""
+        dt = t_s - self.t_s
+        if dt > 0:
+            self._transition(dt)
+            self._kf.predict()
+            # predict() leaves statePost as it was; the prediction is the estimate now
+            self._kf.statePost = self._kf.statePre.copy()
+            self._kf.errorCovPost = self._kf.errorCovPre.copy()
+            self.t_s = t_s
+        self.seen = False
+        return self.position_cm
+
+    def correct(self, seen: Seen) -> None:
+        """Take a detection at the track's current time."""
+        self._kf.correct(np.array([[seen.x_cm], [seen.y_cm]], dtype=float))
+        self.last_seen_s = self.t_s
+        self.seen = True
+
+    def gate_cm(self, gate_cm: float) -> float:
+        """How far from its prediction a detection may be its object's [cm].
+
+        ``gate_cm`` plus three standard deviations of the predicted position: wide for a
+        track seen once (its velocity still unknown), ``gate_cm`` and a little more once
+        its velocity is known.
+        """
+        cov = self._kf.errorCovPost[:2, :2]
+        return gate_cm + 3.0 * math.sqrt(float(np.max(np.linalg.eigvalsh(cov))))
+
+    @property
+    def position_cm(self) -> np.ndarray:
+        """The estimated (x, y) [cm], (2,)."""
+        return self._kf.statePost[:2, 0].copy()
+
+    @property
+    def velocity_cm_s(self) -> np.ndarray:
+        """The estimated (vx, vy) [cm/s], (2,)."""
+        return self._kf.statePost[2:, 0].copy()
+
+    def position_at(self, t_s: float) -> np.ndarray:
+        """Where the constant-velocity model puts the object at ``t_s`` [cm], (2,)."""
+        return self.position_cm + self.velocity_cm_s * (t_s - self.t_s)
+
+    def state(self) -> TrackState:
+        """The estimate now, as a record."""
+        return TrackState(
+            self.id,
+            self.color,
+            self.t_s,
+            self.position_cm,
+            self.velocity_cm_s,
+            self.seen,
+            self.t_s - self.last_seen_s,
+        )
+
+
+class Tracker:
+    """Tracks of the objects in a stream of timestamped detections (the module docstring).
+
+    Args:
+        tracking: The filter's noise, the gate and the coasting time.
+
+    Attributes:
+        tracks: The live tracks, by id.
+        lost: Ids of tracks dropped after coasting ``coast_s`` unseen, in order.
+    """
+
+    def __init__(self, tracking: TrackingConfig):
+        self.tracking = tracking
+        self.tracks: dict[int, Track] = {}
+        self.lost: list[int] = []
+        self._next_id = 1
+        self._t_s: float | None = None
+
+    def update(self, t_s: float, detections: Sequence[Seen]) -> list[TrackState]:
+        """Take the detections of one frame taken at ``t_s``; returns every live track.
+
+        Raises:
+            TrackingError: ``t_s`` is not finite or earlier than the last frame's.
+        """
+        if not math.isfinite(t_s) or (self._t_s is not None and t_s < self._t_s):
+            raise TrackingError(t_s, self._t_s)
+        self._t_s = t_s
+        predicted = {tid: track.predict(t_s) for tid, track in self.tracks.items()}
+        pairs = sorted(
+            (float(np.hypot(*(p - (d.x_cm, d.y_cm)))), tid, k)
+            for tid, p in predicted.items()
+            for k, d in enumerate(detections)
+            if d.color == self.tracks[tid].color
+        )
+        taken_tracks: set[int] = set()
+        taken_detections: set[int] = set()
+        for distance, tid, k in pairs:
+            if distance > self.tracks[tid].gate_cm(self.tracking.gate_cm):
+                continue
+            if tid in taken_tracks or k in taken_detections:
+                continue
+            self.tracks[tid].correct(detections[k])
+            taken_tracks.add(tid)
+            taken_detections.add(k)
+        for tid in list(self.tracks):
+            if t_s - self.tracks[tid].last_seen_s > self.tracking.coast_s:
+                del self.tracks[tid]
+                self.lost.append(tid)
+        for k, d in enumerate(detections):
+            if k not in taken_detections:
+                self.tracks[self._next_id] = Track(self._next_id, d, t_s, self.tracking)
+                self._next_id += 1
+        return [track.state() for track in self.tracks.values()]
+
+    def drop(self, track_id: int) -> None:
+        """Forget a track (its object was picked up)."""
+        self.tracks.pop(track_id, None)
