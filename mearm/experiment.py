@@ -293,6 +293,11 @@ class TrialFailed(MearmError):
     """A trial run by a worker failed on its camera or servos (the log holds it)."""
 
 
+#: Trials submitted per worker beyond the last one appended to the log (see
+#: :func:`_append_in_order`).
+AHEAD_PER_WORKER = 2
+
+
 @dataclass
 class Workers:
     """Somewhere that runs trials: :meth:`submit` trial k, get a future of its result.
@@ -465,7 +470,8 @@ def run_trials_parallel(
     this process appends each trial's records to ``log_path`` in trial order as soon as
     every trial before it is in, so the log holds the same records in the same order as
     :func:`run_trials` writes (only the wall-clock fields ``started`` and ``elapsed_s``
-    differ), wherever the trials ran. On Ctrl-C, a failed trial or a lost worker, trials
+    differ), wherever the trials ran; at most :data:`AHEAD_PER_WORKER` trials per worker
+    are submitted beyond the last one appended. On Ctrl-C, a failed trial or a lost worker, trials
     not yet started are cancelled and every finished trial up to the first unfinished one
     is appended in order before this returns or raises: nothing that was finished in order
     is lost, and the log resumes. In worker processes the running trials finish first
@@ -549,15 +555,31 @@ def _append_in_order(
     """
     outcomes: dict[int, str | None] = {}
     stop: BaseException | None = None
-    futures = [workers.submit(k) for k in numbers]
+    # At most AHEAD_PER_WORKER trials per worker are submitted past the last one written:
+    # a slow trial holds back only those (not every later trial, finished and then lost
+    # to a Ctrl-C), and the log keeps up with the run.
+    window = AHEAD_PER_WORKER * max(1, workers.count)
+    futures: dict[int, Any] = {}
+    to_submit = iter(numbers)
+
+    def submit() -> None:
+        while stop is None and len(futures) < window:
+            k = next(to_submit, None)
+            if k is None:
+                return
+            futures[k] = workers.submit(k)
 
     def cancel() -> None:
-        for f in futures:
+        for f in futures.values():
             if not f.done():  # a finished Dask future cancelled would drop its result
                 f.cancel()
 
+    submit()
     with log_path.open("ab") as out, _ctrl_c() as ctrl_c:
-        for k, fut in zip(numbers, futures, strict=True):
+        for k in numbers:
+            if k not in futures:  # stopped before it was submitted
+                break
+            fut = futures.pop(k)
             while not fut.done():  # poll: Ctrl-C never lands inside the executor's wait
                 if ctrl_c.wait(0.05) and stop is None:  # worker processes saw it, too
                     stop = SortAborted("interrupted (Ctrl-C)", interrupted=True)
@@ -591,6 +613,7 @@ def _append_in_order(
                 stop = stop or TrialFailed(f"trial {k}: {result.error}")
             if stop is not None:
                 cancel()
+            submit()
     if stop is not None:
         raise stop
     return outcomes

@@ -8,7 +8,7 @@ import pytest
 from conftest import ROOT
 
 from mearm.config import config_from_dict, load_config
-from mearm.config.belt import FOLLOW_SHARE, BeltConfig, follow_limit_cm_s
+from mearm.config.belt_config import FOLLOW_SHARE, BeltConfig, follow_limit_cm_s
 from mearm.exceptions import ConfigError, WorldError
 from mearm.sim import World
 from mearm.sim.belt import Belt, belt_arrivals

@@ -10,7 +10,7 @@ import pytest
 from conftest import ROOT
 
 from mearm.config import load_config
-from mearm.config.belt import TrackingConfig
+from mearm.config.belt_config import TrackingConfig
 from mearm.exceptions import TrackingError
 from mearm.sim import SimCamera, World
 from mearm.vision import ColorDetector, Seen, Tracker

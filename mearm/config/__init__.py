@@ -42,7 +42,7 @@ from mearm.config.base import (
     Strict,
     short_repr,
 )
-from mearm.config.belt import BeltArrivals, BeltConfig
+from mearm.config.belt_config import BeltArrivals, BeltConfig
 from mearm.config.classes import ColorClass, HueBand
 from mearm.config.defaults import default_classes, paper_arm, paper_classes
 from mearm.config.files import load_config, read_yaml

@@ -8,7 +8,7 @@ from pydantic import Field, field_validator, model_validator
 
 from mearm.config.arm import ArmDescription
 from mearm.config.base import MAX_LENGTH_CM, Seed, Strict
-from mearm.config.belt import FOLLOW_SHARE, BeltConfig, follow_limit_cm_s
+from mearm.config.belt_config import FOLLOW_SHARE, BeltConfig, follow_limit_cm_s
 from mearm.config.defaults import paper_arm
 from mearm.config.sections import (
     CalibrationConfig,
@@ -105,7 +105,7 @@ class Config(Strict):
     twin: TwinConfig = TwinConfig()
     """The physical twin's servo models (used when ``simulator`` is ``mujoco``)."""
     belt: BeltConfig | None = None
-    """A conveyor belt that brings objects past the arm (:mod:`mearm.config.belt`);
+    """A conveyor belt that brings objects past the arm (:mod:`mearm.config.belt_config`);
     ``null``: none, the objects lie where ``task.scene`` puts them."""
     simulator: Literal["kinematic", "mujoco"] = "kinematic"
     """What simulates the rig when ``servo.backend`` and ``camera.kind`` are ``sim``:

@@ -33,7 +33,7 @@ from typing import Literal
 import numpy as np
 
 from mearm.config import Config, Joint
-from mearm.config.belt import belt_classes
+from mearm.config.belt_config import belt_classes
 from mearm.config.servo_models import ServoSpec
 from mearm.kinematics.urdf import jaw_frame, jaw_joint_names, jaw_pad_length_m
 

@@ -1,6 +1,6 @@
 r"""The conveyor belt both simulators share: what arrives when, and where the belt carries it.
 
-The belt (``config.belt``, :class:`~mearm.config.belt.BeltConfig`) is a strip on the
+The belt (``config.belt``, :class:`~mearm.config.belt_config.BeltConfig`) is a strip on the
 table. An object lying on it moves with its surface,
 
 .. math:: p(t) = p_0 + v\,\hat u\,(t - t_0),
@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from mearm.config import Config
-from mearm.config.belt import BeltConfig, arrival_draws
+from mearm.config.belt_config import BeltConfig, arrival_draws
 
 
 @dataclass(frozen=True)
@@ -111,7 +111,7 @@ def belt_arrivals(config: Config) -> list[Arrival]:
     """The objects ``config.belt`` brings, in arrival order (none without a belt).
 
     The gaps, classes, offsets across the belt and yaws are drawn from
-    ``belt.arrivals.seed`` (:class:`~mearm.config.belt.BeltArrivals`); each object lands
+    ``belt.arrivals.seed`` (:class:`~mearm.config.belt_config.BeltArrivals`); each object lands
     its own radius past the upstream end.
     """
     if config.belt is None:

@@ -1,6 +1,6 @@
 r"""Sorting what a conveyor belt brings: track each object, pick it where it will be.
 
-:class:`ConveyorSorter` runs the sort of ``config.belt`` (:mod:`mearm.config.belt`):
+:class:`ConveyorSorter` runs the sort of ``config.belt`` (:mod:`mearm.config.belt_config`):
 
 1. **Look** every :data:`LOOK_PERIOD_S` while the arm waits, and after every move: each
    frame is dated when it was taken (the bus's clock minus ``camera.latency_s``), its

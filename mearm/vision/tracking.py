@@ -45,7 +45,7 @@ import cv2
 import numpy as np
 
 from mearm.config import ColorClass
-from mearm.config.belt import TrackingConfig
+from mearm.config.belt_config import TrackingConfig
 from mearm.vision.calibration import Calibration
 from mearm.vision.detector import Detection
 from mearm.vision.errors import TrackingError
