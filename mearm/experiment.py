@@ -599,6 +599,9 @@ def _append_in_order(
                     f"{numbers.start}..{k - 1} and resumes at trial {k}"
                 )
             if not result.ran:
+                # a worker that saw Ctrl-C itself runs no more trials: stopped, even when
+                # this process had not polled its own Ctrl-C yet (the trial was done first)
+                stop = stop or SortAborted("interrupted (Ctrl-C)", interrupted=True)
                 break
             if result.records:
                 out.write(result.records)

@@ -133,3 +133,25 @@ def test_a_real_rig_runs_one_trial_at_a_time(tmp_path):
     r = experiment("--config", rig, "--trials", 2, "--log", tmp_path / "t.jsonl", "--jobs", 2)
     assert r.returncode == 2 and not (tmp_path / "t.jsonl").exists()
     assert len(r.stderr.strip().splitlines()) == 1 and "one trial at a time" in r.stderr
+
+
+def test_a_worker_that_saw_ctrl_c_first_stops_the_run(tmp_path):
+    """Ctrl-C reaches the workers before this process polls its own: a worker's trial comes
+    back not run, already done. The run stops as interrupted (it returned as finished, and
+    `mearm experiment` exited 0 with trials missing), and the trials before it are kept."""
+    from concurrent.futures import Future
+
+    from mearm.experiment import TrialResult, Workers, _append_in_order
+    from mearm.task.sorter import SortAborted
+
+    def done(k: int) -> Future:
+        fut: Future = Future()
+        record = f'{{"trial":{k}}}\n'.encode()
+        fut.set_result(TrialResult(k, ran=k < 2, records=record if k < 2 else b""))
+        return fut
+
+    log = tmp_path / "trials.jsonl"
+    with pytest.raises(SortAborted) as stopped:
+        _append_in_order(Workers(done, (), 2, "workers"), range(6), log, None)
+    assert stopped.value.interrupted
+    assert log.read_bytes() == b'{"trial":0}\n{"trial":1}\n'
