@@ -580,10 +580,15 @@ def _append_in_order(
             if k not in futures:  # stopped before it was submitted
                 break
             fut = futures.pop(k)
-            while not fut.done():  # poll: Ctrl-C never lands inside the executor's wait
-                if ctrl_c.wait(0.05) and stop is None:  # worker processes saw it, too
+            # poll: Ctrl-C never lands inside the executor's wait; and look before each
+            # trial, done or not (workers faster than the writing leave every future done
+            # when it is reached, and the run went on to the end)
+            while stop is None and (ctrl_c.is_set() or not fut.done()):
+                if ctrl_c.wait(0.05):  # worker processes saw it, too
                     stop = SortAborted("interrupted (Ctrl-C)", interrupted=True)
                     cancel()
+            while not fut.done():
+                time.sleep(0.05)
             try:
                 result: TrialResult = fut.result()
             except CancelledError as exc:

@@ -155,3 +155,29 @@ def test_a_worker_that_saw_ctrl_c_first_stops_the_run(tmp_path):
         _append_in_order(Workers(done, (), 2, "workers"), range(6), log, None)
     assert stopped.value.interrupted
     assert log.read_bytes() == b'{"trial":0}\n{"trial":1}\n'
+
+
+def test_ctrl_c_stops_a_run_whose_trials_are_all_done_when_reached(tmp_path):
+    """Workers faster than the writing: every future is done when the loop reaches it.
+    A Ctrl-C once trial 2 is written still stops the run (it went on to the end, the
+    writing process never waiting long enough to see it)."""
+    import os
+    import signal
+    from concurrent.futures import Future
+
+    from mearm.experiment import AHEAD_PER_WORKER, TrialResult, Workers, _append_in_order
+    from mearm.task.sorter import SortAborted
+
+    def done(k: int) -> Future:
+        if k == 2 + 2 * AHEAD_PER_WORKER:  # submitted once trial 2 is written
+            os.kill(os.getpid(), signal.SIGINT)
+        fut: Future = Future()
+        fut.set_result(TrialResult(k, ran=True, records=f'{{"trial":{k}}}\n'.encode()))
+        return fut
+
+    log = tmp_path / "trials.jsonl"
+    with pytest.raises(SortAborted) as stopped:
+        _append_in_order(Workers(done, (), 2, "workers"), range(30), log, None)
+    assert stopped.value.interrupted
+    written = log.read_bytes().splitlines()
+    assert 2 <= len(written) < 30 and written[0] == b'{"trial":0}'
