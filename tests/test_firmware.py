@@ -9,7 +9,9 @@ when MEARM_REQUIRE_TOOLS=1 (CI).
 
 from __future__ import annotations
 
+import os
 import re
+import select
 import statistics
 import subprocess
 import time
@@ -80,16 +82,29 @@ def test_firmware_does_not_use_the_servo_library():
 def test_firmware_boots_with_banner_in_simavr(firmware):
     """Run the ELF in simavr (ATmega328P, 16 MHz): its UART prints the protocol banner."""
     simavr = require_tool("simavr")
-    try:
-        proc = subprocess.run(
-            [simavr, "-m", "atmega328p", "-f", "16000000", str(firmware)],
-            capture_output=True, timeout=1.5,
-        )  # fmt: skip
-        out = proc.stdout + proc.stderr
-    except subprocess.TimeoutExpired as exc:  # simavr runs until killed
-        out = (exc.stdout or b"") + (exc.stderr or b"")
-    text = re.sub(rb"\x1b\[[0-9;]*m", b"", out)  # simavr colours UART output
     banner = encode_line("READY mearm_servo 1.0 5").rstrip(b"\n")
+    # simavr runs until killed: read its output until the banner comes (within a generous
+    # bound, a hang being the failure; a fixed 1.5 s run missed it on a loaded machine)
+    proc = subprocess.Popen(
+        [simavr, "-m", "atmega328p", "-f", "16000000", str(firmware)],
+        stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+    )  # fmt: skip
+    assert proc.stdout is not None
+    out, deadline = b"", time.monotonic() + 60.0
+    try:
+        while time.monotonic() < deadline:
+            ready, _, _ = select.select([proc.stdout], [], [], 0.1)
+            chunk = os.read(proc.stdout.fileno(), 4096) if ready else b""
+            if ready and not chunk:
+                break  # simavr ended
+            out += chunk
+            if banner in re.sub(rb"\x1b\[[0-9;]*m", b"", out):
+                break
+    finally:
+        proc.kill()
+        proc.wait()
+        proc.stdout.close()
+    text = re.sub(rb"\x1b\[[0-9;]*m", b"", out)  # simavr colours UART output
     assert banner in text, text[:500]
     assert decode_line(banner).kind == "READY"
 
