@@ -412,7 +412,10 @@ def _local_cluster(local_cluster: Any, jobs: int) -> Iterator[Any]:
             threads_per_worker=1,
             processes=True,
             dashboard_address=":0",
-            silence_logs=logging.ERROR,
+            # only critical: closing the cluster after a Ctrl-C, a worker's heartbeat may
+            # find the scheduler gone and log an ERROR with its traceback; what failed,
+            # the command reports itself (a lost worker, a cancelled trial)
+            silence_logs=logging.CRITICAL,
         )
     finally:
         if ignore:

@@ -234,7 +234,7 @@ def test_virtual_uno_sorts_the_mearm_whose_elbow_servo_turns_the_forearm(cache_h
     env = {**os.environ, "XDG_CACHE_HOME": str(cache_home)}
     r = subprocess.run(
         [sys.executable, "-m", "mearm.sort", "--config", "configs/sim_mearm_v1.yaml", "--quiet",
-         "--set", "servo={backend: virtual_uno, ack_timeout_s: 2.0, grip_tolerance_cm: 0.6, "
+         "--set", "servo={backend: virtual_uno, ack_timeout_s: 10.0, grip_tolerance_cm: 0.6, "
          "virtual_uno: {speed: 0, pulse_tolerance_us: 10.0}}"],
         capture_output=True, text=True, timeout=300, cwd=ROOT, env=env,
     )  # fmt: skip
