@@ -67,6 +67,7 @@ from mearm.config import Config, SceneObject
 from mearm.dataset.arguments import (
     add_record_arguments,
     check_record_arguments,
+    close_recorder,
     recorder_from_args,
 )
 from mearm.errors import MearmError
@@ -926,14 +927,7 @@ def _resume(
         try:
             return _run(args, config, scene, resume, wait, workers, recorder, held)
         finally:
-            if recorder is not None:
-                recorder.close()
-            if recorder is not None and recorder.episodes_written:
-                print(
-                    f"recorded {recorder.episodes_written} episodes "
-                    f"({recorder.frames_written} frames) to {args.record}",
-                    file=sys.stderr,
-                )
+            close_recorder(recorder, args.record)
 
 
 def _run(

@@ -47,6 +47,7 @@ from mearm.config import Config, SceneObject
 from mearm.dataset.arguments import (
     add_record_arguments,
     check_record_arguments,
+    close_recorder,
     recorder_from_args,
 )
 from mearm.errors import MearmError
@@ -207,14 +208,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     finally:
         if log is not None:
             log.close()
-        if recorder is not None:
-            recorder.close()
-        if recorder is not None and recorder.episodes_written:
-            print(
-                f"recorded {recorder.episodes_written} episodes "
-                f"({recorder.frames_written} frames) to {args.record}",
-                file=sys.stderr,  # the summary stays the last line of the output
-            )
+        close_recorder(recorder, args.record)
     if args.quiet:
         _print_summary(lines)
     if not report.complete:

@@ -7,6 +7,7 @@ given.
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -92,3 +93,20 @@ def recorder_from_args(args: argparse.Namespace, config: Config) -> DatasetRecor
     return DatasetRecorder(
         args.record, config, fps=args.record_fps, per=args.record_per, resume=args.resume
     )
+
+
+def close_recorder(recorder: DatasetRecorder | None, where: object) -> None:
+    """Close ``recorder`` and say on stderr what it recorded to ``where``.
+
+    Its last episode is written whole or not at all; stderr, so that a command's summary
+    stays the last line of its output.
+    """
+    if recorder is None:
+        return
+    recorder.close()
+    if recorder.episodes_written:
+        print(
+            f"recorded {recorder.episodes_written} episodes "
+            f"({recorder.frames_written} frames) to {where}",
+            file=sys.stderr,
+        )
