@@ -372,6 +372,7 @@ class SSC32Bus(SerialServoBus):
             wait = due - time.monotonic()
             if wait > 0:
                 time.sleep(wait)
+            asked_at = time.monotonic()
             reply = self._ask(query, 1 + len(channels), move)
             if reply is None or reply[:1] not in (MOVE_DONE, MOVE_RUNNING):
                 if reply is not None:
@@ -382,7 +383,10 @@ class SSC32Bus(SerialServoBus):
                     self._give_up(move + query, tries, reply)
                 continue
             if reply[:1] == MOVE_RUNNING:
-                if time.monotonic() > give_up_at:
+                # '+' says the move ran when the query reached the board, not now: only
+                # a query sent after the deadline proves it still runs (a slow answer
+                # to an earlier one is asked again)
+                if asked_at > give_up_at:
                     raise MoveNotConfirmedError(
                         self.port,
                         f"still moving {timeout:g} s after its {self.move_time_ms} ms "
