@@ -43,19 +43,21 @@ def test_a_second_writer_is_refused_naming_the_first(tmp_path: Path) -> None:
             if log.exists() and lock_holder(log)[0] == first.pid:
                 break
             time.sleep(0.02)
+        if first.poll() is not None:
+            pytest.fail(f"the first writer ended ({first.returncode}): {first.stderr.read()!r}")
         assert lock_holder(log)[0] == first.pid, "the first writer never took the lock"
         for second in (
             ["sort", "--scene", scene, "--log", log, "--quiet"],
             ["experiment", "--trials", "10001", "--scene", scene, "--log", log],
         ):
             out = check_bad_input_subprocess(second, within_s=10)
-            assert f"{log}: is being written by process {first.pid} (" in out.line
-            assert "mearm experiment --trials 10000" in out.line
-            assert "one run writes a log at a time" in out.line
+            assert f"{log}: is being written by process {first.pid} (" in out.line, out
+            assert "mearm experiment --trials 10000" in out.line, out
+            assert "one run writes a log at a time" in out.line, out
     finally:
         os.killpg(first.pid, signal.SIGINT)
-        first.communicate(timeout=120)
-    assert first.returncode == 130
+        _, err = first.communicate(timeout=120)
+    assert first.returncode == 130, err.decode(errors="replace")[-3000:]
     out = run_in_process(["analyze", log, "--strict"], within_s=30)
     assert out.code == 0, out.stderr
 
