@@ -148,8 +148,14 @@ class _DevTools:
                 return reply.get("result", {})
 
 
-class _Unwind(BaseException):  # noqa: N818 - not an Exception: nothing may catch it on the way
-    """A signal that ends the process arrived: unwind, then end as it would have."""
+class _Unwind(SystemExit):  # noqa: N818 - not an Exception: nothing may catch it on the way
+    """A signal that ends the process arrived: unwind, then end as it would have.
+
+    A :class:`SystemExit`: asyncio's event loop re-raises it from a callback, where any
+    other exception (even a bare :class:`BaseException`) is logged and swallowed, and the
+    signal with it (a SIGTERM that landed in one of tornado's callbacks was lost, and the
+    screenshot ran on to its timeout).
+    """
 
     def __init__(self, signum: int):
         self.signum = signum
