@@ -12,6 +12,7 @@ import cv2
 import numpy as np
 import pytest
 from badinput import check_bad_input, run_in_process
+from built_once import built_once, computed_once
 from charuco_render import TrueCamera, board_poses, render_view, true_corners
 
 from mearm.exceptions import CalibrationError
@@ -34,22 +35,29 @@ def cam() -> TrueCamera:
 
 
 @pytest.fixture(scope="module")
-def views(cam: TrueCamera) -> list[np.ndarray]:
-    """20 views of the board, 20–45 cm away, tilted 10–40°, noise σ = 2."""
-    return [render_view(cam, p, seed=100 + i) for i, p in enumerate(board_poses(cam, 20, seed=1))]
+def folder(cam: TrueCamera, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """20 views of the board, 20–45 cm away, tilted 10–40°, noise σ = 2, as PNG files
+    (rendered once per test run; nothing may write into the folder)."""
+
+    def render(path: Path) -> None:
+        for k, pose in enumerate(board_poses(cam, 20, seed=1)):
+            cv2.imwrite(str(path / f"view_{k:02d}.png"), render_view(cam, pose, seed=100 + k))
+
+    return built_once(tmp_path_factory, "charuco-views", render)
 
 
 @pytest.fixture(scope="module")
-def report(views: list[np.ndarray]) -> CalibrationReport:
-    return calibrate_report(views, camera_id="images")
+def views(folder: Path) -> list[np.ndarray]:
+    """The views of :func:`folder` (PNG is lossless: the rendered grey images)."""
+    return [cv2.imread(str(p), cv2.IMREAD_UNCHANGED) for p in sorted(folder.glob("view_*.png"))]
 
 
 @pytest.fixture(scope="module")
-def folder(views: list[np.ndarray], tmp_path_factory: pytest.TempPathFactory) -> Path:
-    path = tmp_path_factory.mktemp("charuco_views")
-    for k, v in enumerate(views):
-        cv2.imwrite(str(path / f"view_{k:02d}.png"), v)
-    return path
+def report(views: list[np.ndarray], tmp_path_factory: pytest.TempPathFactory) -> CalibrationReport:
+    """The fit to the 20 views (fitted once per test run)."""
+    return computed_once(
+        tmp_path_factory, "charuco-fit", lambda: calibrate_report(views, camera_id="images")
+    )
 
 
 @pytest.mark.heavy

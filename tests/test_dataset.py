@@ -21,6 +21,7 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
+from built_once import built_once
 from conftest import ROOT
 
 from mearm.dataset.contact_sheet import THUMB_WIDTH_PX
@@ -44,13 +45,17 @@ def _mearm(*args: object, timeout: float = 300) -> subprocess.CompletedProcess[s
 
 @pytest.fixture(scope="module")
 def recorded(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
-    """A twin sort recorded (and its log), and the same sort's log without recording."""
-    d = tmp_path_factory.mktemp("dataset")
-    rec = _mearm("sort", *SORT, "--log", d / "rec.jsonl", "--record", d / "ds")
-    assert rec.returncode == 0, rec.stderr
-    plain = _mearm("sort", *SORT, "--log", d / "plain.jsonl")
-    assert plain.returncode == 0, plain.stderr
-    return {"root": d / "ds", "log": d / "rec.jsonl", "plain": d / "plain.jsonl", "dir": d}
+    """A twin sort recorded (and its log), and the same sort's log without recording (run
+    once per test run; nothing may write into them: copy the dataset to change it)."""
+
+    def sort(d: Path) -> None:
+        rec = _mearm("sort", *SORT, "--log", d / "rec.jsonl", "--record", d / "ds")
+        assert rec.returncode == 0, rec.stderr
+        plain = _mearm("sort", *SORT, "--log", d / "plain.jsonl")
+        assert plain.returncode == 0, plain.stderr
+
+    d = built_once(tmp_path_factory, "recorded-twin-sort", sort)
+    return {"root": d / "ds", "log": d / "rec.jsonl", "plain": d / "plain.jsonl"}
 
 
 def _episodes(root: Path) -> list[dict]:
@@ -187,12 +192,12 @@ def test_check_finds_rows_after_the_last_episode(recorded: dict[str, Path], tmp_
 
 
 def test_show_prints_episodes_and_saves_a_contact_sheet(
-    recorded: dict[str, Path], capsys: pytest.CaptureFixture[str]
+    recorded: dict[str, Path], capsys: pytest.CaptureFixture[str], tmp_path: Path
 ) -> None:
     """show lists every episode with its task and writes a PNG of frames with their states."""
     from mearm.dataset.__main__ import main
 
-    sheet = recorded["dir"] / "sheet.png"
+    sheet = tmp_path / "sheet.png"
     assert main(["show", str(recorded["root"]), "--sheet", str(sheet)]) == 0
     out = capsys.readouterr().out
     assert task_sentence("red") in out and "observation.state" in out

@@ -13,6 +13,7 @@ import cv2
 import numpy as np
 import pytest
 from badinput import Outcome, run_in_process
+from built_once import built_once
 from conftest import ROOT, run_cli
 
 from mearm.experiment import trial_config, trial_seed
@@ -21,14 +22,17 @@ from mearm.runlog import read_runlog
 
 @pytest.fixture(scope="module")
 def three_trials(tmp_path_factory):
-    log = tmp_path_factory.mktemp("exp") / "trials.jsonl"
-    r = run_cli(
-        "-m", "mearm.experiment", "--config", "configs/sim.yaml",
-        "--trials", "3", "--seed", "0", "--log", str(log),
-    )  # fmt: skip
-    assert r.returncode == 0, r.stderr
-    assert "3 trials written" in r.stdout
-    return log
+    """Three trials' log (run once per test run; read only)."""
+
+    def run(d):
+        r = run_cli(
+            "-m", "mearm.experiment", "--config", "configs/sim.yaml",
+            "--trials", "3", "--seed", "0", "--log", str(d / "trials.jsonl"),
+        )  # fmt: skip
+        assert r.returncode == 0, r.stderr
+        assert "3 trials written" in r.stdout
+
+    return built_once(tmp_path_factory, "three-trials", run) / "trials.jsonl"
 
 
 @pytest.mark.heavy

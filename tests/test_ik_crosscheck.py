@@ -16,6 +16,7 @@ import mujoco
 import numpy as np
 import pytest
 import yourdfpy
+from built_once import computed_once
 
 from mearm.config import ArmDescription, Config, load_config
 from mearm.exceptions import TargetOutsideBoxError, UnreachableTargetError
@@ -238,20 +239,24 @@ def reachable_targets(name: str, arm: ArmDescription, model: ArmModel) -> list[I
 
 
 @pytest.fixture(scope="module")
-def solved(arm_case):
+def solved(arm_case, tmp_path_factory):
     """PD-PIJ (coupled) and mink from home to every target at |e|² < 1e-8 cm²
 
     (1e-4 cm: tight enough that two solvers stopping at different points within it still
-    agree to 0.05° on the 8 cm links of the MeArm v1)."""
+    agree to 0.05° on the 8 cm links of the MeArm v1). Solved once per test run."""
     name, arm, model = arm_case
-    controller = Config().controller.updated(tolerance_cm2=1e-8)
-    targets = reachable_targets(name, arm, model)
-    pd, mk = PdPij(model, controller), MinkSolver(model, controller)
-    return {
-        "targets": targets,
-        "pdpij": [pd.solve(t, model.home) for t in targets],
-        "mink": [mk.solve(t, model.home) for t in targets],
-    }
+
+    def solve() -> dict:
+        controller = Config().controller.updated(tolerance_cm2=1e-8)
+        targets = reachable_targets(name, arm, model)
+        pd, mk = PdPij(model, controller), MinkSolver(model, controller)
+        return {
+            "targets": targets,
+            "pdpij": [pd.solve(t, model.home) for t in targets],
+            "mink": [mk.solve(t, model.home) for t in targets],
+        }
+
+    return computed_once(tmp_path_factory, f"ik-crosscheck-{name}", solve)
 
 
 @pytest.mark.parametrize("kind", ["pdpij", "mink"])
@@ -346,22 +351,27 @@ def make(kind, tolerance_cm2):
 SOLVERS = ["paper", "coupled", "mink"]
 
 
-@pytest.fixture(scope="module")
-def loose(paper_targets):
-    """Every solver's result for every target at the paper's tolerance."""
+def _solve_all(targets, tolerance_cm2: float) -> dict:
     return {
-        kind: [make(kind, 1e-3).solve(t, PAPER_MODEL.home) for t in paper_targets]
+        kind: [make(kind, tolerance_cm2).solve(t, PAPER_MODEL.home) for t in targets]
         for kind in SOLVERS
     }
 
 
 @pytest.fixture(scope="module")
-def tight(paper_targets):
+def loose(paper_targets, tmp_path_factory):
+    """Every solver's result for every target at the paper's tolerance (once per run)."""
+    return computed_once(
+        tmp_path_factory, "ik-paper-loose", lambda: _solve_all(paper_targets, 1e-3)
+    )
+
+
+@pytest.fixture(scope="module")
+def tight(paper_targets, tmp_path_factory):
     """The same at |e|² < 1e-10 cm²."""
-    return {
-        kind: [make(kind, 1e-10).solve(t, PAPER_MODEL.home) for t in paper_targets]
-        for kind in SOLVERS
-    }
+    return computed_once(
+        tmp_path_factory, "ik-paper-tight", lambda: _solve_all(paper_targets, 1e-10)
+    )
 
 
 @pytest.mark.parametrize("kind", SOLVERS)

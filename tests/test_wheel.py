@@ -15,6 +15,7 @@ Skipped when ``MEARM_SKIP_WHEEL=1`` (and not in CI: there it always runs).
 
 from __future__ import annotations
 
+import json
 import os
 import shutil
 import subprocess
@@ -25,6 +26,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import pytest
+from built_once import built_once
 from conftest import ROOT
 
 from mearm.__main__ import SUBCOMMANDS
@@ -85,9 +87,9 @@ def _site_view(dest: Path) -> Path:
     return dest
 
 
-@pytest.fixture(scope="module")
-def installed(tmp_path_factory: pytest.TempPathFactory) -> Installed:
-    base = tmp_path_factory.mktemp("wheel")
+def _build_and_install(base: Path) -> None:
+    """Build the wheel from a copy of the sources and install it into ``base / "venv"``;
+    the build's and the install's seconds go to ``base / "seconds.json"``."""
     seconds: dict[str, float] = {}
     t0 = time.perf_counter()
     src = base / "src"
@@ -125,9 +127,18 @@ def installed(tmp_path_factory: pytest.TempPathFactory) -> Installed:
     )  # fmt: skip
     assert r.returncode == 0, r.stdout + r.stderr
     seconds["install"] = time.perf_counter() - t0
-    work = base / "work"
-    work.mkdir()
-    return Installed(python, venv / "bin" / "mearm", wheel, work, seconds)
+    (base / "seconds.json").write_text(json.dumps(seconds))
+
+
+@pytest.fixture(scope="module")
+def installed(tmp_path_factory: pytest.TempPathFactory) -> Installed:
+    """The wheel, installed once per test run; each worker runs it in its own folder."""
+    base = built_once(tmp_path_factory, "wheel", _build_and_install)
+    (wheel,) = (base / "dist").glob("mearm-*.whl")
+    venv = base / "venv"
+    seconds = json.loads((base / "seconds.json").read_text())
+    work = tmp_path_factory.mktemp("wheel-work")
+    return Installed(venv / "bin" / "python", venv / "bin" / "mearm", wheel, work, seconds)
 
 
 def test_the_wheel_ships_the_data(installed: Installed) -> None:
