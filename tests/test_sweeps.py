@@ -98,7 +98,7 @@ def test_experiment_in_two_workers_writes_the_serial_log(tmp_path):
 @pytest.mark.heavy
 def test_ctrl_c_keeps_every_finished_trial_in_order_and_the_log_resumes(tmp_path):
     """Ctrl-C (to the whole process group, as a terminal sends it) in a run of two workers:
-    exit 130, every trial in the log complete and in order, and the same command finishes."""
+    exit 130, every trial in the log complete and in order, and the same command resumes it."""
     log, trials = tmp_path / "trials.jsonl", 30
     # signalled once 2 trials are in the log; on a loaded machine the workers run ahead of
     # the writing process (a slow first trial holds the others back, then all are written
@@ -112,10 +112,12 @@ def test_ctrl_c_keeps_every_finished_trial_in_order_and_the_log_resumes(tmp_path
     assert 2 <= len(got) < trials, "the run was not stopped mid-way"
     assert got == [(k, True) for k in range(len(got))]
     written = log.read_bytes()
-    r = experiment(*args)
-    assert r.returncode == 0, r.stderr
+    # resumed to two trials past the stop (running all 30 would prove no more)
+    more = len(got) + 2
+    r = experiment(*args[:3], more, *args[4:])
+    assert r.returncode == 0 and f"running trials {len(got)}..{more - 1}" in r.stdout, r.stderr
     assert log.read_bytes().startswith(written)
-    assert [t.number for t in read_runlog(log).trials] == list(range(trials))
+    assert [t.number for t in read_runlog(log).trials] == list(range(more))
 
 
 @pytest.mark.heavy
