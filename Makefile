@@ -28,9 +28,12 @@ install: $(STAMP)
 demo: $(STAMP)
 	$(BIN)/python -m mearm.sort --config configs/sim.yaml
 
-# The suite runs in JOBS processes (pytest-xdist; `auto`: one per core, JOBS=0: in this
-# one, e.g. for --pdb); worksteal hands a worker that ran out of tests some of another's.
-JOBS ?= auto
+# The suite runs in JOBS processes (pytest-xdist; JOBS=0: in this one, e.g. for --pdb);
+# worksteal hands a worker that ran out of tests some of another's. One worker more than
+# cores: about a seventh of a worker's time is spent waiting (child processes starting,
+# boards answering, signals timed), and the extra worker fills it (the whole suite on
+# 2 cores: 2 workers 4 min 42 s, 3 workers 4 min 12 s, 4 workers 5 min 3 s).
+JOBS ?= $(shell echo $$(( $$(nproc) + 1 )))
 # Hundreds of tests run mearm in a child process: with bytecode off (PYTHONDONTWRITEBYTECODE)
 # each one compiles the package again. The suite keeps its bytecode under .venv instead
 # (user + sys CPU of the whole suite 7.7 -> 7.1 min on a warm cache, 2 cores).
