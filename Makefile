@@ -29,22 +29,25 @@ demo: $(STAMP)
 	$(BIN)/python -m mearm.sort --config configs/sim.yaml
 
 # The suite runs in JOBS processes (pytest-xdist; JOBS=0: in this one, e.g. for --pdb);
-# worksteal hands a worker that ran out of tests some of another's. One worker more than
-# cores: about a seventh of a worker's time is spent waiting (child processes starting,
-# boards answering, signals timed), and the extra worker fills it (the whole suite on
-# 2 cores: 2 workers 4 min 42 s, 3 workers 4 min 12 s, 4 workers 5 min 3 s).
+# worksteal hands a worker that ran out of tests some of another's. `make test` runs one
+# worker more than cores: about a seventh of a worker's time there is spent waiting (child
+# processes starting, boards answering, signals timed), and the extra worker fills it
+# (2 cores, back to back: 5 min 30 s with 2 workers, 4 min 44 s with 3; 4 workers were
+# slower than 3). `make test-fast` has little to wait for and runs one per core (54 s with
+# 2 workers, 57 s with 3).
 JOBS ?= $(shell echo $$(( $$(nproc) + 1 )))
+FAST_JOBS ?= $(if $(filter command line,$(origin JOBS)),$(JOBS),auto)
 # Hundreds of tests run mearm in a child process: with bytecode off (PYTHONDONTWRITEBYTECODE)
 # each one compiles the package again. The suite keeps its bytecode under .venv instead
 # (user + sys CPU of the whole suite 7.7 -> 7.1 min on a warm cache, 2 cores).
 PYTEST := env -u PYTHONDONTWRITEBYTECODE PYTHONPYCACHEPREFIX=$(CURDIR)/$(VENV)/pycache \
-          $(BIN)/python -m pytest -q -n $(JOBS) --dist worksteal
+          $(BIN)/python -m pytest -q --dist worksteal
 
 test: $(STAMP)
-	$(PYTEST)
+	$(PYTEST) -n $(JOBS)
 
 test-fast: $(STAMP)
-	$(PYTEST) -m "not slow and not heavy"
+	$(PYTEST) -n $(FAST_JOBS) -m "not slow and not heavy"
 
 # Long runs in one process (a few minutes; `make test` leaves them out): 300 kinematic and
 # 50 twin sorts, the meshcat server with 20 clients for 60 s; memory, files and threads flat.

@@ -8,6 +8,8 @@ defaults out with their sources, and a test keeps the two equal.
 
 from __future__ import annotations
 
+import functools
+
 from mearm.config.arm import ArmDescription
 from mearm.config.classes import ColorClass, HueBand
 from mearm.config.compose import reference_arm
@@ -16,11 +18,13 @@ from mearm.config.compose import reference_arm
 DEFAULT_ARM = "mearm_paper"
 
 
+@functools.cache
 def paper_arm() -> ArmDescription:
     """The paper's enlarged MeArm: base, shoulder, elbow and the parallelogram wrist.
 
     Read from its file, ``configs/arms/mearm_paper.yaml`` (:data:`DEFAULT_ARM`), the one
-    description every config that names it shares.
+    description every config that names it shares; read and checked once per process
+    (the model is frozen: every default config shares it).
     """
     return ArmDescription.model_validate(reference_arm(DEFAULT_ARM))
 

@@ -14,6 +14,7 @@ applied before validation, so a bad one gets the same one-line error as a bad fi
 from __future__ import annotations
 
 import copy
+import functools
 import re
 from collections.abc import Sequence
 from pathlib import Path
@@ -158,5 +159,7 @@ def config_from_dict(
         raise ConfigError(source, [describe_error(e) for e in exc.errors()]) from None
 
 
+@functools.cache
 def _default_data() -> dict[str, Any]:
+    """The built-in config as data (read only: :func:`apply_overrides` copies what it takes)."""
     return Config().model_dump(mode="json")
