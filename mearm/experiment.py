@@ -354,6 +354,7 @@ def _dask_cluster(
             address = cluster.scheduler_address
         else:
             address = _scheduler_address(scheduler)
+            _probe_scheduler(address, scheduler)
         try:
             client = stack.enter_context(
                 Client(address, timeout=CONNECT_TIMEOUT_S, set_as_default=False)
@@ -380,6 +381,55 @@ def _dask_cluster(
             )  # fmt: skip
 
         yield Workers(submit, (KilledWorker,), threads, f"Dask workers at {address}")
+
+
+def _probe_scheduler(address: str, scheduler: str) -> None:
+    """Ask ``address`` who it is: a Dask scheduler, or :class:`MearmError`.
+
+    Dask's own connection waits for the peer's handshake without a time limit, so a
+    server that accepts the connection and says nothing (a web server) hung the command,
+    and one that answers something else made Dask read a frame exabytes long.
+
+    Raises:
+        MearmError: nothing connects or answers within :data:`CONNECT_TIMEOUT_S` (+1 s),
+            or what answers is not a Dask scheduler.
+    """
+    import asyncio
+
+    from distributed.comm import connect
+
+    async def identity() -> Any:
+        comm = await connect(address, timeout=CONNECT_TIMEOUT_S)
+        try:
+            await comm.write({"op": "identity", "reply": True})
+            return await comm.read()
+        finally:
+            comm.abort()
+
+    # a second more than the connection's own limit, so that its error (refused, no
+    # route) comes first and this one is the silent server's
+    wait_s = CONNECT_TIMEOUT_S + 1
+    try:
+        reply = asyncio.run(asyncio.wait_for(identity(), wait_s))
+    except TimeoutError:
+        raise MearmError(
+            f"--scheduler {scheduler}: something accepted the connection but did not answer "
+            f"as a Dask scheduler within {wait_s} s"
+        ) from None
+    except OSError as exc:
+        raise MearmError(
+            f"--scheduler {scheduler}: cannot reach a Dask scheduler there ({_one_line(exc)})"
+        ) from None
+    except Exception as exc:  # noqa: BLE001 - whatever a server that is not Dask causes
+        raise MearmError(
+            f"--scheduler {scheduler}: what answered there is not a Dask scheduler "
+            f"({type(exc).__name__}: {_one_line(exc)})"
+        ) from None
+    if not isinstance(reply, dict) or reply.get("type") != "Scheduler":
+        raise MearmError(
+            f"--scheduler {scheduler}: what answered there is not a Dask scheduler (it "
+            f"answered {repr(reply)[:60]})"
+        )
 
 
 def _scheduler_address(text: str) -> str:

@@ -2,6 +2,10 @@
 
 import json
 import re
+import socket
+import threading
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 import pytest
@@ -94,6 +98,49 @@ def test_a_scheduler_that_cannot_be_used_exits_2_before_touching_the_log(args, n
     args = [str(rig) if a == "RIG" else a for a in args]
     r = experiment("--trials", 2, "--log", log, *args, timeout=60)
     assert r.returncode == 2 and not log.exists()
+    assert len(r.stderr.strip().splitlines()) == 1 and needle in r.stderr, r.stderr
+
+
+@contextmanager
+def _not_a_scheduler(answer: bytes | None) -> Iterator[str]:
+    """A TCP server on this machine that accepts and sends ``answer`` (None: nothing)."""
+    server = socket.create_server(("127.0.0.1", 0))
+    held: list[socket.socket] = []
+
+    def serve() -> None:
+        while True:
+            try:
+                conn, _ = server.accept()
+            except OSError:
+                return
+            held.append(conn)
+            if answer is not None:
+                conn.sendall(answer)
+
+    threading.Thread(target=serve, daemon=True).start()
+    try:
+        yield f"tcp://127.0.0.1:{server.getsockname()[1]}"
+    finally:
+        server.close()
+        for conn in held:
+            conn.close()
+
+
+@pytest.mark.heavy
+@pytest.mark.parametrize(
+    "answer, needle",
+    [(None, "did not answer as a Dask scheduler within 6 s"),
+     (b"HTTP/1.0 400 Bad Request\r\nServer: not-dask\r\n\r\n" * 4,
+      "what answered there is not a Dask scheduler")],
+    ids=["silent", "a web server"],
+)  # fmt: skip
+def test_a_server_that_is_not_a_scheduler_exits_2(answer, needle, tmp_path):
+    """Dask waits for a peer's handshake without a limit (a silent server hung the command)
+    and reads a web server's answer as a frame exabytes long: one line, exit 2, no log."""
+    log = tmp_path / "t.jsonl"
+    with _not_a_scheduler(answer) as address:
+        r = experiment("--trials", 2, "--log", log, "--scheduler", address, timeout=60)
+    assert r.returncode == 2 and not log.exists(), r.stderr
     assert len(r.stderr.strip().splitlines()) == 1 and needle in r.stderr, r.stderr
 
 
