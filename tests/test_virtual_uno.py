@@ -54,8 +54,12 @@ def _sort(cache_home: Path, *args: str, path: str | None = None) -> subprocess.C
     env = {**os.environ, "XDG_CACHE_HOME": str(cache_home)}
     if path is not None:
         env["PATH"] = path
+    # a generous acknowledgement timeout: on a loaded machine the emulated board, run by
+    # simavr beside other work, answered a move after more than the default 2 s
+    generous = ["--set", "servo.ack_timeout_s=10"]
     return subprocess.run(
-        [sys.executable, "-m", "mearm.sort", "--config", "configs/virtual_uno.yaml", *args],
+        [sys.executable, "-m", "mearm.sort", "--config", "configs/virtual_uno.yaml",
+         *generous, *args],
         capture_output=True, text=True, timeout=300, cwd=ROOT, env=env,
     )  # fmt: skip
 
