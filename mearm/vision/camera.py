@@ -102,6 +102,23 @@ class Camera(ABC):
         self.close()
 
 
+class NumberedCamera(Camera):
+    """A camera that numbers the frames it reads: :meth:`peek` leaves the count as it was.
+
+    A simulated camera's noise follows from each frame's number (:attr:`frames_read`), so
+    a recorded run's frames equal an unrecorded run's.
+    """
+
+    frames_read: int
+
+    def peek(self) -> np.ndarray:  # noqa: D102
+        frames_read = self.frames_read
+        try:
+            return self.read()
+        finally:
+            self.frames_read = frames_read
+
+
 class DeviceCamera(Camera):
     """A camera device through ``cv2.VideoCapture`` (``camera.kind: device``)."""
 

@@ -14,11 +14,11 @@ from mearm.config import Config
 from mearm.sim.kinematic.renderer import Disc, Extra, TableRenderer
 from mearm.sim.kinematic.world import World
 from mearm.vision.calibration import Calibration
-from mearm.vision.camera import Camera
+from mearm.vision.camera import NumberedCamera
 from mearm.vision.errors import CameraError
 
 
-class SimCamera(Camera):
+class SimCamera(NumberedCamera):
     """The simulated camera: renders the objects on the world's table at every read.
 
     The renderer redraws the table only when the objects on it changed; each read has
@@ -41,13 +41,6 @@ class SimCamera(Camera):
         calibration = Calibration.from_config(config.calibration)
         self.renderer = TableRenderer.from_config(cam, calibration, extras)
         self.frames_read = 0
-
-    def peek(self) -> np.ndarray:  # noqa: D102
-        frames_read = self.frames_read
-        try:
-            return self.read()
-        finally:
-            self.frames_read = frames_read
 
     def _read(self) -> np.ndarray:
         discs = []

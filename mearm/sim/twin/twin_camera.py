@@ -90,7 +90,7 @@ from mearm.sim.twin.twin_optics import (  # noqa: F401  (re-exported: where the 
     homography_view,
     twin_camera_model,
 )
-from mearm.vision.camera import Camera
+from mearm.vision.camera import NumberedCamera
 from mearm.vision.errors import CameraError
 
 if TYPE_CHECKING:
@@ -249,7 +249,7 @@ def sorter_shadows(config: Config) -> bool:
     return SORTER_SHADOWS if lamp is None else lamp.shadows
 
 
-class TwinCamera(Camera):
+class TwinCamera(NumberedCamera):
     """Frames rendered from the twin's camera, at ``camera.width_px × height_px``.
 
     With ``twin.camera.distortion`` set, each frame goes through the lens
@@ -280,13 +280,6 @@ class TwinCamera(Camera):
         self._rendered: tuple[np.ndarray, float] | None = None
         self._camera_id = twin.model.camera(CAMERA_NAME).id
         self._mount_m = twin.data.cam_xpos[self._camera_id].copy()
-
-    def peek(self) -> np.ndarray:  # noqa: D102
-        frames_read = self.frames_read
-        try:
-            return self.read()
-        finally:
-            self.frames_read = frames_read
 
     def _read(self) -> np.ndarray:
         now = self.twin.time_s
