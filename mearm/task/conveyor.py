@@ -297,19 +297,10 @@ class ConveyorSorter(Sorter):
         self.tracker.drop(tid)
         obj.x_cm, obj.y_cm = float(aim[0]), float(aim[1])
         self._world(held=obj, opening_cm=cls.diameter_cm)
-        if above is not None:
-            up = Route(obj.id, obj.class_name, "lift", 1, above.target)
-            if self.planner.plan(up, ex.q_now()).planned:
-                ex.stream(up, "travel", True)
-        t1 = time.perf_counter()
-        place = Route(obj.id, obj.class_name, "place", 1, self.planner.place_target(cls))
-        self.planner.plan(place, ex.q_now())
-        if not place.planned:
-            self.reporter.route(pick)
-            self._skip(obj, f"bin unreachable: {place.failure}", place, kind="bin_unreachable")
-            ex.set_tool("grip", True)
-            ex.set_tool("grip", False)
+        planned = self._lift_and_plan_place(obj, cls, above, pick)
+        if planned is None:
             return
+        place, t1 = planned
         pick.confirmed = False
         try:
             ex.stream(place, "travel", True, _hex(cls.draw_rgb))

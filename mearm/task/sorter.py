@@ -37,6 +37,7 @@ from typing import TYPE_CHECKING, Protocol
 import numpy as np
 
 from mearm.config import Config
+from mearm.config.classes import ColorClass
 from mearm.config.shape_catalogue import SHAPES
 from mearm.errors import MearmError
 from mearm.hardware.bus import ReportsRelease, ServoBus
@@ -393,6 +394,32 @@ class Sorter:
         pair = None if held is None else (held.id, held.class_name)
         self.collision.set_world(on_table, opening_cm=opening_cm or g.open_cm, held=pair)
 
+    def _lift_and_plan_place(
+        self, obj: TrackedObject, cls: ColorClass, above: Route | None, pick: Route
+    ) -> tuple[Route, float] | None:
+        """With ``obj`` held: lift it, then plan the place route in full.
+
+        The lift (when the pick came down from ``above``) comes before anything else
+        moves. Returns the place route and when its planning began
+        (``time.perf_counter``), or ``None`` when the bin is out of reach: nothing
+        unplanned is sent, so the object is put back where it was and skipped.
+        """
+        ex = self.executor
+        if above is not None:
+            up = Route(obj.id, obj.class_name, "lift", 1, above.target)
+            if self.planner.plan(up, ex.q_now()).planned:
+                ex.stream(up, "travel", True)
+        t1 = time.perf_counter()
+        place = Route(obj.id, obj.class_name, "place", 1, self.planner.place_target(cls))
+        self.planner.plan(place, ex.q_now())
+        if not place.planned:
+            self.reporter.route(pick)
+            self._skip(obj, f"bin unreachable: {place.failure}", place, kind="bin_unreachable")
+            ex.set_tool("grip", True)
+            ex.set_tool("grip", False)
+            return None
+        return place, t1
+
     def _pick_and_place(self, obj: TrackedObject) -> None:
         self._active, self._active_from_cm = obj, (obj.x_cm, obj.y_cm)
         cls = self.config.task.class_named(obj.class_name)
@@ -426,20 +453,10 @@ class Sorter:
         ex.set_tool("grip", True)
         ex.set_tool("travel", True)
         self._world(held=obj, opening_cm=cls.diameter_cm)
-        if above is not None:  # up with the object before anything else moves
-            up = Route(obj.id, obj.class_name, "lift", 1, above.target)
-            if self.planner.plan(up, ex.q_now()).planned:
-                ex.stream(up, "travel", True)
-        t1 = time.perf_counter()
-        place = Route(obj.id, obj.class_name, "place", 1, self.planner.place_target(cls))
-        self.planner.plan(place, ex.q_now())
-        if not place.planned:
-            # holding the object: nothing unplanned is sent, so put it back where it was
-            self.reporter.route(pick)
-            self._skip(obj, f"bin unreachable: {place.failure}", place, kind="bin_unreachable")
-            ex.set_tool("grip", True)
-            ex.set_tool("grip", False)
+        planned = self._lift_and_plan_place(obj, cls, above, pick)
+        if planned is None:
             return
+        place, t1 = planned
         # Whether the grip held is read once the arm is over the bin: there the camera sees
         # the table unobstructed, and an object held over its own spot (in view of a camera
         # above it) is not taken for one left there. (The paper re-reads the table after
