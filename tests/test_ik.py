@@ -469,6 +469,35 @@ def test_bounded_lstsq_singular_and_bad_input():
         bounded_lstsq(A, [1.0, 0, 0], [0.1, -1, -1], [1, 1, 1])
 
 
+def test_bounded_lstsq_a_column_nought_to_rounding_stays_at_zero_without_the_enumeration(
+    monkeypatch,
+):
+    """A variable that moves nothing (a 5-DOF wrist roll's column under a position-and-
+    approach target is 1e-16 of the others) stays at 0 and the walk certifies the rest:
+    the others are the enumeration's optimum of the problem without it, and no
+    enumeration runs. (The 3ⁿ enumeration itself may put such a variable on a bound: with
+    every other variable on one, its free set is the nought column alone, whose
+    pseudoinverse is huge.)"""
+    from mearm.ik import bounded
+
+    rng = np.random.default_rng(5)
+    for _ in range(40):
+        A, b = rng.normal(size=(6, 5)), 3 * rng.normal(size=6)
+        dead = int(rng.integers(5))
+        A[:, dead] = rng.normal(size=6) * 1e-17
+        lo, hi = -rng.random(5), rng.random(5)
+        live = np.arange(5) != dead
+        with monkeypatch.context() as m:
+            m.setattr(bounded, "_active_set", lambda *args: None)
+            enumerated = bounded_lstsq(A[:, live], b, lo[live], hi[live])
+        with monkeypatch.context() as m:
+            m.setattr(bounded, "_SETS", {})
+            m.setattr(bounded, "_active_sets", lambda n: pytest.fail("enumerated"))
+            walked = bounded_lstsq(A, b, lo, hi)
+        assert walked[dead] == 0.0
+        np.testing.assert_allclose(walked[live], enumerated, atol=1e-9)
+
+
 def test_all_names_exist():
     """Every name in mearm.ik.__all__ is importable (MinkSolver lazily)."""
     import mearm.ik

@@ -111,7 +111,7 @@ def test_generic_arm_without_closed_form_never_stalls():
     """The 5-DOF desk arm (no closed form: multi-start), 800 targets, each with the
     approach of the pose it came from: 0 stalls, 0 limit violations. Fewer targets than
     for the paper arm: here PD-PIJ alone stops short on about one solve in nine (one in
-    three from limit-adjacent starts), each costing tens of milliseconds (six-row
+    three from limit-adjacent starts), and a solve costs a few milliseconds (six-row
     Jacobian, bounded steps, the seeds)."""
     config = load_config(ROOT / "configs" / "sim_5dof.yaml")
     stalls, violations, recovered = run_stall_test(config, 800)

@@ -9,7 +9,9 @@ Parker's BVLS): from x = 0, solve for the free variables; if that leaves the box
 as far as the box allows and fix the variables that reach a bound; once inside, free
 the fixed variable whose gradient points into the box. It stops when the KKT conditions
 hold — then x is *the* optimum, the problem being convex — or after a bounded number of
-solves. About 20–40 µs for three variables.
+solves. About 20–40 µs for three variables. A variable whose column is nought to
+rounding (it moves nothing) stays at 0, the least-norm choice, and the walk solves the
+others.
 
 Where it cannot certify an answer (A without full column rank, where the minimiser is
 not unique, or a walk that does not settle) every one of the 3ⁿ active sets is solved at
@@ -31,6 +33,9 @@ _FEASIBLE_SLACK = 1e-12
 _RANK_TOL = 1e-10
 #: Residuals within this share of |b|² of the best count as equal [-] (rounding is ~1e-16).
 _TIE = 1e-12
+#: A column under this share of the longest one's norm moves nothing [-]: a wrist roll's
+#: column, for a target of a position and an approach axis, is 1e-16 of it (rounding).
+_DEAD_COLUMN = 1e-12
 
 
 def _active_sets(n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -75,8 +80,16 @@ def bounded_lstsq(
         raise ValueError(f"bounded_lstsq handles 1 to {MAX_VARIABLES} variables, got {n}")
     if not (np.all(lo <= 0.0) and np.all(hi >= 0.0)):
         raise ValueError("x = 0 must be feasible: lower <= 0 <= upper")
-    x = _active_set(A, b, lo, hi)
-    if x is not None:
+    # A variable whose column is nought (to rounding) fits as well anywhere in its box:
+    # the least-norm optimum leaves it at 0, and the walk certifies the others alone
+    # (a 5-DOF arm's wrist roll under a position-and-approach target: else every step
+    # would take the 3ⁿ sets below).
+    norms = np.einsum("ij,ij->j", A, A)
+    live = norms > _DEAD_COLUMN**2 * norms.max()
+    part = _active_set(A[:, live], b, lo[live], hi[live]) if live.any() else np.zeros(0)
+    if part is not None:
+        x = np.zeros(n)
+        x[live] = part
         return x
     cached = _SETS.get(n)
     if cached is None:
