@@ -80,16 +80,8 @@ def bounded_lstsq(
         raise ValueError(f"bounded_lstsq handles 1 to {MAX_VARIABLES} variables, got {n}")
     if not (np.all(lo <= 0.0) and np.all(hi >= 0.0)):
         raise ValueError("x = 0 must be feasible: lower <= 0 <= upper")
-    # A variable whose column is nought (to rounding) fits as well anywhere in its box:
-    # the least-norm optimum leaves it at 0, and the walk certifies the others alone
-    # (a 5-DOF arm's wrist roll under a position-and-approach target: else every step
-    # would take the 3ⁿ sets below).
-    norms = np.einsum("ij,ij->j", A, A)
-    live = norms > _DEAD_COLUMN**2 * norms.max()
-    part = _active_set(A[:, live], b, lo[live], hi[live]) if live.any() else np.zeros(0)
-    if part is not None:
-        x = np.zeros(n)
-        x[live] = part
+    x = _active_set(A, b, lo, hi)
+    if x is not None:
         return x
     cached = _SETS.get(n)
     if cached is None:
@@ -156,7 +148,10 @@ def _active_set(A: np.ndarray, b: np.ndarray, lo: np.ndarray, hi: np.ndarray) ->
     scale = max(max(abs(v) for v in row) for row in G) * (max(map(abs, c)) + 1.0)
     tol = 1e-12 * scale
     x = [0.0] * n
-    free = [True] * n
+    # a variable whose column is nought to rounding fits as well anywhere in its box: it
+    # stays at 0 (the least-norm choice) and is never freed (its gradient is nought too)
+    longest = max(G[i][i] for i in range(n))
+    free = [G[i][i] > _DEAD_COLUMN**2 * longest for i in range(n)]
     for _ in range(3 * n + 3):
         idx = [i for i in range(n) if free[i]]
         z = list(x)
