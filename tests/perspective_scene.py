@@ -129,8 +129,28 @@ def render(
     """The BGR uint8 frame the camera sees."""
     d = _rays(camera)
     o = camera.centre_cm
-    n = len(d)
-    best = (0.0 - o[2]) / d[:, 2]  # the table
+    d_all = d.reshape(HEIGHT, WIDTH, SUB * SUB, 3)
+    # each cylinder is traced only through the pixels around its image; without a texture
+    # every other pixel is the plain table, and only the box around them is traced
+    windows = []
+    for c in cylinders:
+        hull = camera.silhouette_px((c.x, c.y), c.radius, c.height)
+        u0, v0 = np.maximum(np.floor(hull.min(axis=0)).astype(int) - 3, 0)
+        u1, v1 = np.minimum(np.ceil(hull.max(axis=0)).astype(int) + 4, (WIDTH, HEIGHT))
+        if u0 < u1 and v0 < v1:
+            windows.append((c, int(u0), int(v0), int(u1), int(v1)))
+    if texture is None:
+        if not windows:
+            img = np.empty((HEIGHT, WIDTH, 3))
+            img[:] = TABLE_BGR
+            return _finish(img, noise_std, seed)
+        U0, V0 = min(w[1] for w in windows), min(w[2] for w in windows)
+        U1, V1 = max(w[3] for w in windows), max(w[4] for w in windows)
+    else:
+        U0, V0, U1, V1 = 0, 0, WIDTH, HEIGHT
+    d_img = d_all[V0:V1, U0:U1]
+    n = d_img.shape[0] * d_img.shape[1] * SUB * SUB
+    best = (0.0 - o[2]) / d_img.reshape(-1, 3)[:, 2]  # the table
     colour = np.tile(np.array(TABLE_BGR, dtype=float), (n, 1))
     if texture is not None:
         p = o[:2] + best[:, None] * d[:, :2]
@@ -144,16 +164,10 @@ def render(
         )
         grey = texture.image[vi, ui].astype(float)
         colour[inside] = np.repeat(grey[inside, None], 3, axis=1) * 0.9
-    # each cylinder is traced only through the pixels around its image
-    d_img = d.reshape(HEIGHT, WIDTH, SUB * SUB, 3)
-    best_img = best.reshape(HEIGHT, WIDTH, SUB * SUB)
-    colour_img = colour.reshape(HEIGHT, WIDTH, SUB * SUB, 3)
-    for c in cylinders:
-        hull = camera.silhouette_px((c.x, c.y), c.radius, c.height)
-        u0, v0 = np.maximum(np.floor(hull.min(axis=0)).astype(int) - 3, 0)
-        u1, v1 = np.minimum(np.ceil(hull.max(axis=0)).astype(int) + 4, (WIDTH, HEIGHT))
-        if u0 >= u1 or v0 >= v1:
-            continue
+    best_img = best.reshape(V1 - V0, U1 - U0, SUB * SUB)
+    colour_img = colour.reshape(V1 - V0, U1 - U0, SUB * SUB, 3)
+    for c, u0, v0, u1, v1 in windows:
+        u0, u1, v0, v1 = u0 - U0, u1 - U0, v0 - V0, v1 - V0
         dw = d_img[v0:v1, u0:u1].reshape(-1, 3)
         bw = best_img[v0:v1, u0:u1].reshape(-1)
         cw = colour_img[v0:v1, u0:u1].reshape(-1, 3)
@@ -178,8 +192,14 @@ def render(
         cw[hit] = bgr * SIDE_SHADE
         best_img[v0:v1, u0:u1] = bw.reshape(v1 - v0, u1 - u0, SUB * SUB)
         colour_img[v0:v1, u0:u1] = cw.reshape(v1 - v0, u1 - u0, SUB * SUB, 3)
-    colour = colour_img.reshape(-1, 3)
-    img = colour.reshape(HEIGHT, WIDTH, SUB * SUB, 3).mean(axis=2)
+    img = np.empty((HEIGHT, WIDTH, 3))
+    img[:] = TABLE_BGR
+    img[V0:V1, U0:U1] = colour_img.mean(axis=2)
+    return _finish(img, noise_std, seed)
+
+
+def _finish(img: np.ndarray, noise_std: float, seed: int) -> np.ndarray:
+    """Sensor noise, then the uint8 frame."""
     if noise_std > 0:
         img = img + np.random.default_rng(seed).normal(0.0, noise_std, img.shape)
     return np.clip(np.rint(img), 0, 255).astype(np.uint8)
