@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import hashlib
 import math
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -101,14 +102,14 @@ def check_consistency(config: Config, model: ArmModel | None = None) -> Consiste
                 "(pick height = grip height + arm.tool.tcp_above_grip_cm)"
             )
             continue
-        if not _reachable(planner, model, names[0], _box_points_cm(config)).any():
+        if not any(_reached(planner, model, names[0], _box_points_cm(config))):
             problems.append(
                 f"{field_name}: picks of {', '.join(names)} at z = {z:.2f} cm are reached "
                 "nowhere in arm.target_box within the joint limits: check the arm's reach, "
                 "the box and the pick height (grip height + arm.tool.tcp_above_grip_cm)"
             )
             continue
-        reached = _reachable(planner, model, names[0], view_cm)
+        reached = np.fromiter(_reached(planner, model, names[0], view_cm), bool, len(view_cm))
         reached_anywhere |= bool(reached.any())
         share = 1.0 - float(np.mean(reached))
         found.unreachable_share[z] = share
@@ -235,12 +236,12 @@ def _box_points_cm(config: Config) -> np.ndarray:
     return np.column_stack([x.ravel(), y.ravel()])
 
 
-def _reachable(
+def _reached(
     planner: Planner, model: ArmModel, class_name: str, points_cm: np.ndarray
-) -> np.ndarray:
+) -> Iterator[bool]:
+    """Whether a pick at each point is planned from home, one point at a time (``any``
+    stops at the first reached)."""
     cls = planner.config.task.class_named(class_name)
-    out = np.zeros(len(points_cm), dtype=bool)
-    for i, (x, y) in enumerate(points_cm):
+    for x, y in points_cm:
         route = Route("", class_name, "pick", 1, planner.pick_target(cls, float(x), float(y)))
-        out[i] = planner.plan(route, model.home).planned
-    return out
+        yield planner.plan(route, model.home).planned
