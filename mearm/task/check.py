@@ -239,8 +239,10 @@ def _box_points_cm(config: Config) -> np.ndarray:
 def _reached(
     planner: Planner, model: ArmModel, class_name: str, points_cm: np.ndarray
 ) -> Iterator[bool]:
-    """Whether a pick at each point is planned from home, one point at a time (``any``
-    stops at the first reached)."""
+    """Whether a pick at each point is planned from home, one point at a time.
+
+    ``any`` of it stops at the first point reached.
+    """
     cls = planner.config.task.class_named(class_name)
     for x, y in points_cm:
         route = Route("", class_name, "pick", 1, planner.pick_target(cls, float(x), float(y)))
