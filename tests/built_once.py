@@ -21,8 +21,6 @@ import pytest
 
 T = TypeVar("T")
 
-T = TypeVar("T")
-
 
 def built_once(factory: pytest.TempPathFactory, name: str, build: Callable[[Path], None]) -> Path:
     """The folder ``name``, filled by ``build(folder)`` the first time any worker asks.
