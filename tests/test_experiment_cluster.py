@@ -9,14 +9,13 @@ from contextlib import contextmanager
 from pathlib import Path
 
 import pytest
+from built_once import computed_once
 from conftest import interrupted_experiment, run_cli
-from test_sweeps import experiment, records
+from test_sweeps import SWEEP, experiment, records, serial_log, serial_records
 
 from mearm.runlog import read_runlog
 
 pytest.importorskip("distributed", reason="needs the cluster extra: pip install 'mearm[cluster]'")
-
-SWEEP = ("--config", "configs/sim.yaml", "--trials", 5, "--seed", 11)
 
 
 def analysis(log: Path) -> dict:
@@ -28,29 +27,22 @@ def analysis(log: Path) -> dict:
 
 
 @pytest.mark.heavy
-def test_a_sweep_on_a_local_dask_cluster_writes_the_serial_log(tmp_path):
-    """Five seeded trials: --scheduler local (2 workers) and --jobs 1 write the same records
+def test_a_sweep_on_a_local_dask_cluster_writes_the_serial_log(tmp_path, tmp_path_factory):
+    """Five seeded trials: --scheduler local (2 workers) writes the records --jobs 1 writes,
     in the same order, and analyze gives the same numbers (the process pool writes the
     serial log too: tests/test_sweeps.py)."""
-    runs = {
-        "dask": (
-            ("--scheduler", "local", "--jobs", 2),
-            r"2 Dask workers at tcp://127\.0\.0\.1:\d+",
-        ),
-        "serial": (("--jobs", 1), r"1 process"),
-    }
-    logs = {}
-    for name, (how, where) in runs.items():
-        logs[name] = tmp_path / f"{name}.jsonl"
-        r = experiment(*SWEEP, "--log", logs[name], *how)
-        assert r.returncode == 0, r.stderr
-        assert re.search(rf"5 trials written to .* \([\d.]+ trials/min, {where}\)", r.stdout)
-        assert "sorted 60 of 60 objects over 5 trials" in r.stdout
-    serial = records(logs["serial"])
-    assert len(serial) > 5 * 24
-    assert records(logs["dask"]) == serial
-    assert [t.number for t in read_runlog(logs["dask"]).trials] == [0, 1, 2, 3, 4]
-    assert analysis(logs["dask"]) == analysis(logs["serial"])
+    log = tmp_path / "dask.jsonl"
+    r = experiment(*SWEEP, "--trials", 5, "--log", log, "--scheduler", "local", "--jobs", 2)
+    assert r.returncode == 0, r.stderr
+    where = r"2 Dask workers at tcp://127\.0\.0\.1:\d+"
+    assert re.search(rf"5 trials written to .* \([\d.]+ trials/min, {where}\)", r.stdout)
+    assert "sorted 60 of 60 objects over 5 trials" in r.stdout
+    assert records(log) == serial_records(tmp_path_factory, 5)
+    assert [t.number for t in read_runlog(log).trials] == [0, 1, 2, 3, 4]
+    serial = computed_once(
+        tmp_path_factory, "serial-sweep-analysis", lambda: analysis(serial_log(tmp_path_factory))
+    )
+    assert analysis(log) == serial
 
 
 @pytest.mark.slow

@@ -6,6 +6,7 @@ import subprocess
 from pathlib import Path
 
 import pytest
+from built_once import built_once
 from conftest import interrupted_experiment, run_cli
 
 from mearm.runlog import read_runlog
@@ -68,31 +69,51 @@ def experiment(*args: object, timeout: float = 300) -> subprocess.CompletedProce
     return run_cli("-m", "mearm", "experiment", *map(str, args), timeout=timeout)
 
 
-@pytest.mark.heavy
-def test_experiment_in_two_workers_writes_the_serial_log(tmp_path):
-    """Same trials, same records in the same order; analyze reads it; then it resumes."""
-    logs = {}
-    for jobs in (1, 2):
-        logs[jobs] = tmp_path / f"jobs{jobs}.jsonl"
-        r = experiment(
-            "--config", "configs/sim.yaml", "--trials", 3, "--seed", 5, "--log", logs[jobs],
-            "--jobs", jobs,
-        )  # fmt: skip
+#: The seeded sweep that runs in workers and on Dask (tests/test_experiment_cluster.py).
+SWEEP = ("--config", "configs/sim.yaml", "--seed", 5)
+#: The trials of its serial log.
+SERIAL_TRIALS = 5
+
+
+def serial_log(factory: pytest.TempPathFactory) -> Path:
+    """:data:`SWEEP`'s trials run in one process (``--jobs 1``): the log every other way of
+    running them must write. Run once per test run and shared by the workers."""
+
+    def run(folder: Path) -> None:
+        log = folder / "serial.jsonl"
+        r = experiment(*SWEEP, "--trials", SERIAL_TRIALS, "--log", log, "--jobs", 1)
         assert r.returncode == 0, r.stderr
-        workers = "1 process" if jobs == 1 else "2 workers"
-        assert re.search(rf"3 trials written to .* \([\d.]+ trials/min, {workers}\)", r.stdout)
-        assert "sorted 36 of 36 objects over 3 trials" in r.stdout
-    serial, parallel = records(logs[1]), records(logs[2])
-    assert len(serial) > 3 * 24 and parallel == serial
-    r = run_cli("-m", "mearm.analyze", str(logs[2]), "--json", timeout=120)
+        assert re.search(r"5 trials written to .* \([\d.]+ trials/min, 1 process\)", r.stdout)
+        assert "sorted 60 of 60 objects over 5 trials" in r.stdout
+
+    return built_once(factory, "serial-sweep", run) / "serial.jsonl"
+
+
+def serial_records(factory: pytest.TempPathFactory, trials: int) -> list[dict]:
+    """The serial log's records of the first ``trials`` trials (see :func:`records`)."""
+    out = [r for r in records(serial_log(factory)) if r["trial"] < trials]
+    assert len(out) > trials * 24  # a header, routes and a summary per trial
+    return out
+
+
+@pytest.mark.heavy
+def test_experiment_in_two_workers_writes_the_serial_log(tmp_path, tmp_path_factory):
+    """Same trials, same records in the same order; analyze reads it; then it resumes, to
+    the serial log of all five."""
+    log = tmp_path / "jobs2.jsonl"
+    r = experiment(*SWEEP, "--trials", 3, "--log", log, "--jobs", 2)
+    assert r.returncode == 0, r.stderr
+    assert re.search(r"3 trials written to .* \([\d.]+ trials/min, 2 workers\)", r.stdout)
+    assert "sorted 36 of 36 objects over 3 trials" in r.stdout
+    assert records(log) == serial_records(tmp_path_factory, 3)
+    r = run_cli("-m", "mearm.analyze", str(log), "--json", timeout=120)
     assert r.returncode == 0 and json.loads(r.stdout), r.stderr
-    before = logs[2].read_bytes()
-    r = experiment(
-        "--config", "configs/sim.yaml", "--trials", 5, "--seed", 5, "--log", logs[2], "--jobs", 2
-    )  # fmt: skip
+    before = log.read_bytes()
+    r = experiment(*SWEEP, "--trials", 5, "--log", log, "--jobs", 2)
     assert r.returncode == 0 and "running trials 3..4" in r.stdout, r.stdout + r.stderr
-    assert logs[2].read_bytes().startswith(before)
-    assert [t.number for t in read_runlog(logs[2]).trials] == [0, 1, 2, 3, 4]
+    assert log.read_bytes().startswith(before)
+    assert [t.number for t in read_runlog(log).trials] == [0, 1, 2, 3, 4]
+    assert records(log) == serial_records(tmp_path_factory, 5)
 
 
 @pytest.mark.heavy
