@@ -163,3 +163,48 @@ def test_an_object_cut_by_the_image_border_is_never_picked(tmp_path):
     routes = read_runlog(log).trials[-1].routes
     picks = [r for r in routes if r.step == "pick"]
     assert len(picks) == 12 and all(r.target_cm[0] < 18.0 for r in picks)
+
+
+def test_a_bin_refused_once_the_object_is_held_puts_it_back(tmp_path, capsys, monkeypatch):
+    """The place is planned in full once the object is lifted; when that plan is refused
+    (the blue bin's, injected here: from home it is reached, so the start-up check passes),
+    nothing of the place is sent, the jaws open over the spot the object was lifted from,
+    it is counted "bin out of reach" and never tried again, and the others are sorted:
+    exit 1 and a log that says so."""
+    from mearm.config import load_config
+    from mearm.ik import IKFailure
+    from mearm.sim.kinematic import servo_bus
+    from mearm.task import plan
+    from mearm.task.check import check_consistency
+
+    check_consistency(load_config("configs/sim.yaml"))  # the real planner's verdict, kept
+    real_plan = plan.Planner.plan
+
+    def refusing(self, route, q_start, *, target=None):
+        if route.step == "place" and route.class_name == "blue":
+            return plan._fail(route, IKFailure("unreachable", "the blue bin (injected)"))
+        return real_plan(self, route, q_start, target=target)
+
+    monkeypatch.setattr(plan.Planner, "plan", refusing)
+    arms: list[servo_bus.SimArm] = []
+    real_init = servo_bus.SimArm.__init__
+    start: dict[str, tuple[float, float]] = {}
+
+    def spying_init(self, *args, **kwargs):
+        real_init(self, *args, **kwargs)
+        arms.append(self)
+        start.update({o.id: (o.x_cm, o.y_cm) for o in self.world.objects})
+
+    monkeypatch.setattr(servo_bus.SimArm, "__init__", spying_init)
+    log = tmp_path / "run.jsonl"
+    code, lines, err = _sort(capsys, "--config", "configs/sim.yaml", "--log", log, "--quiet")
+    assert code == 1, err
+    assert lines[-1] == "sorted 8 of 12 objects (4 bin out of reach)"
+    s = _summary(log)
+    assert s.sorted == {"red": 4, "green": 4, "blue": 0} and s.left == {"bin_unreachable": 4}
+    trial = read_runlog(log).trials[-1]
+    assert not [r for r in trial.routes if r.step == "place" and r.color == "blue"]
+    blue = [o for o in arms[-1].world.objects if o.color == "blue"]
+    assert len(blue) == 4 and all(o.on_table and o.bin is None for o in blue)
+    for o in blue:  # put back where it was picked up, to the grip's error
+        assert abs(o.x_cm - start[o.id][0]) < 1.0 and abs(o.y_cm - start[o.id][1]) < 1.0
