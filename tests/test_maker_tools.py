@@ -503,6 +503,19 @@ def test_find_camera_scan_on_a_machine_without_cameras_exits_1(tmp_path):
     assert "no cameras found" in one_error_line(result, code=1)
 
 
+@pytest.mark.skipif(
+    any(re.fullmatch(r"video\d+", p.name) for p in Path("/dev").glob("video*")),
+    reason="this machine has cameras",
+)
+def test_find_camera_with_nothing_to_try_exits_2(tmp_path):
+    """--indices 0 on a machine without /dev/video*: nothing to try is bad input, not a
+    camera not found."""
+    result = run_tool("find_camera", "--indices", "0", "--out", str(tmp_path / "s"))
+    line = one_error_line(result, code=2)
+    assert "--indices 0 and no /dev/video* device" in line and "--camera SOURCE" in line
+    assert not (tmp_path / "s").exists()
+
+
 @pytest.mark.heavy
 def test_find_camera_saves_a_snapshot_and_prints_the_resolution(tmp_path):
     """A recorded video as the source: its size is printed and its first frame saved."""

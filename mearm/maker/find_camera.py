@@ -205,6 +205,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         raise MearmError(f"--out {args.out} exists and is not a folder")
 
     sources = [_source(s) for s in args.camera] or candidate_sources(args.indices)
+    if not sources:
+        raise MearmError(
+            "--indices 0 and no /dev/video* device here: nothing to try; give --indices N "
+            f"(1 to {MAX_INDICES}) or --camera SOURCE"
+        )
     print(f"trying {len(sources)} camera source{'s' if len(sources) != 1 else ''}:")
     reports = []
     for source in sources:
@@ -213,7 +218,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"  {source!s:<14}  {'camera' if report.ok else 'no camera'}: {report.detail}")
     found = [r for r in reports if r.ok]
     if not found:
-        where = ", ".join(str(s) for s in sources) or "nothing to try"
+        where = ", ".join(str(s) for s in sources)
         print(
             f"find-camera: no cameras found (tried {where}): is one plugged in, and not held "
             "by another program? (Linux: ls /dev/video*; your user must be in the video group)",
