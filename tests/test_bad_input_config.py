@@ -504,6 +504,17 @@ def test_a_cube_the_open_jaws_cannot_pass_is_refused(tmp_path: Path) -> None:
     ) in out.line
 
 
+def test_a_cylinder_as_wide_as_the_open_jaws_is_refused(tmp_path: Path) -> None:
+    """A cylinder the open jaws cannot come down around (the kinematic simulator sorted
+    one as if they could): exit 2, one line with both widths."""
+    sets = ["--set", "task.classes.red.diameter_cm=4"]
+    out = check_bad_input(command("sort", tmp_path, *sets), within_s=2, keep=[CONFIGS])
+    assert (
+        "task.classes.0.diameter_cm: a 4 cm cylinder is 4 cm across, not less than the open "
+        "jaws' 4 cm (arm.tool.gripper.open_cm)"
+    ) in out.line
+
+
 CONVEYOR = ["--config", str(CONFIGS / "sim_conveyor_kinematic.yaml")]
 
 

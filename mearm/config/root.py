@@ -126,27 +126,32 @@ class Config(Strict):
 
     @model_validator(mode="after")
     def _jaws_pass_every_yaw(self) -> Config:
-        """The open jaws must come down around a cube or a prism at any yaw.
+        """The open jaws must come down around every object, a cube or a prism at any yaw.
 
-        Only an arm with a wrist roll turns its jaws to a cube's faces
-        (:meth:`mearm.task.plan.Planner.turn_jaws`), and a turn past its limits or into
-        something is refused; otherwise the jaws close along a direction fixed to the
-        wrist and a cube may lie across them at 45°: its diagonal must pass between them
-        on every arm. Closing then turns it onto its faces (the twin shows it).
+        A cylinder's diameter must pass between them. Only an arm with a wrist roll turns
+        its jaws to a cube's faces (:meth:`mearm.task.plan.Planner.turn_jaws`), and a turn
+        past its limits or into something is refused; otherwise the jaws close along a
+        direction fixed to the wrist and a cube may lie across them at 45°: its diagonal
+        must pass between them on every arm. Closing then turns it onto its faces (the
+        twin shows it).
         """
         g = self.arm.tool.gripper
         for i, c in enumerate(self.task.classes):
             shape = c.object_shape
             widest = shape.widest_cm(c.diameter_cm)
-            if shape.footprint != "disc" and widest >= g.open_cm:
-                across = "its diagonal" if shape.footprint == "square" else "a side"
-                raise ValueError(
-                    f"@task.classes.{i}.diameter_cm: a {c.diameter_cm:g} cm {shape.name} is "
-                    f"{widest:.3g} cm across {across}, not less than the open jaws' "
-                    f"{g.open_cm:g} cm (arm.tool.gripper.open_cm): the open jaws must pass it "
-                    "at any yaw (they turn to its faces only where a wrist roll can); use "
-                    "smaller objects or a wider-opening gripper"
-                )
+            if widest < g.open_cm:
+                continue
+            disc = shape.footprint == "disc"
+            across = {"disc": "across", "square": "across its diagonal"}.get(
+                shape.footprint, "across a side"
+            )
+            yaw = "" if disc else " at any yaw (they turn to its faces only where a wrist roll can)"
+            raise ValueError(
+                f"@task.classes.{i}.diameter_cm: a {c.diameter_cm:g} cm {shape.name} is "
+                f"{widest:.3g} cm {across}, not less than the open jaws' {g.open_cm:g} cm "
+                f"(arm.tool.gripper.open_cm): the open jaws must pass it{yaw}; use smaller "
+                "objects or a wider-opening gripper"
+            )
         return self
 
     @model_validator(mode="after")
