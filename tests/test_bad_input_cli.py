@@ -205,7 +205,7 @@ CASES: list[tuple[list[str], str]] = [
             "--set",
             "task.classes.red.diameter_cm=100",
         ],
-        "task.classes.red.bin_cm",  # its bin, as wide as the object, is refused first
+        "task.classes.0.diameter_cm",  # wider than the open jaws: refused at load
     ),
     # analyze (bad arguments only: the run logs themselves are another corpus)
     (["analyze"], "give a run log to analyse, --gains, or both"),
