@@ -262,3 +262,43 @@ def pytest_testnodedown(node: Any, error: object) -> None:
     total = node.config.stash.setdefault(_WORKERS_KEPT, {"checks": 0, "promises": 0})
     for k in total:
         total[k] += kept.get(k, 0)
+
+
+# --------------------------------------------------------------------------- the firmware
+
+#: The firmware's sources (its Makefile builds the sketch and the simavr runner).
+ARDUINO = ROOT / "tools" / "arduino"
+#: Debian's Arduino core (arduino-core-avr) and simavr's headers (libsimavr-dev).
+CORE_H = Path("/usr/share/arduino/hardware/arduino/avr/cores/arduino/Arduino.h")
+SIMAVR_H = Path("/usr/include/simavr/sim_avr.h")
+
+
+def _make_once(factory: pytest.TempPathFactory, name: str, *targets: str) -> Path:
+    """``make TARGETS`` of the firmware into a folder built once per test run and shared by
+    the workers (read only: a test that builds into a folder makes its own)."""
+    from built_once import built_once
+
+    def build(folder: Path) -> None:
+        result = subprocess.run(
+            ["make", "-C", str(ARDUINO), f"BUILD_DIR={folder}", *targets],
+            capture_output=True, text=True, timeout=600,
+        )  # fmt: skip
+        assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-3000:]
+
+    return built_once(factory, name, build)
+
+
+def firmware_build(factory: pytest.TempPathFactory) -> Path:
+    """The sketch built from the checkout (``mearm_servo.elf`` and ``.hex``): the folder."""
+    require_tool("make")
+    require_tool("avr-gcc")
+    require_file(CORE_H, "arduino-core-avr")
+    return _make_once(factory, "firmware", "all")
+
+
+def simulator_build(factory: pytest.TempPathFactory) -> Path:
+    """The sketch and its simavr runner (``mearm_sim``) built from the checkout: the folder."""
+    firmware_build(factory)  # the same requirements first, then the runner's
+    require_tool("cc", "gcc")
+    require_file(SIMAVR_H, "libsimavr-dev")
+    return _make_once(factory, "firmware-sim", "all", "sim")

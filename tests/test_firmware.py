@@ -19,36 +19,22 @@ from pathlib import Path
 
 import pytest
 import serial
-from conftest import ROOT, require_file, require_tool
+from conftest import ARDUINO, firmware_build, require_tool, simulator_build
 from fakeboard import FakeMearmBoard, MearmFaults, SimavrBoard
 from hardware_helpers import HOME, HOME_PULSES, fast_config
 
 from mearm.hardware import ArduinoBus, ArmCommand
 from mearm.hardware.mearm_protocol import decode_line, encode_command, encode_line
 
-ARDUINO = ROOT / "tools" / "arduino"
-CORE_H = Path("/usr/share/arduino/hardware/arduino/avr/cores/arduino/Arduino.h")
 #: ATmega328P with the Uno's bootloader (boards.txt: upload.maximum_size/_data_size).
 FLASH_BYTES = 32256
 RAM_BYTES = 2048
 
 
-def _require_core() -> None:
-    require_file(CORE_H, "arduino-core-avr")
-
-
 @pytest.fixture(scope="module")
 def firmware(tmp_path_factory) -> Path:
-    """Build the sketch from the checkout into a temporary directory; the ELF's path."""
-    require_tool("make")
-    require_tool("avr-gcc")
-    _require_core()
-    build = tmp_path_factory.mktemp("firmware")
-    result = subprocess.run(
-        ["make", "-C", str(ARDUINO), f"BUILD_DIR={build}"],
-        capture_output=True, text=True, timeout=300,
-    )  # fmt: skip
-    assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-3000:]
+    """The sketch built from the checkout (once per test run): the ELF's path."""
+    build = firmware_build(tmp_path_factory)
     assert (build / "mearm_servo.hex").stat().st_size > 0
     return build / "mearm_servo.elf"
 
@@ -111,21 +97,11 @@ def test_firmware_boots_with_banner_in_simavr(firmware):
 
 # --------------------------------------------------------------------------- in simavr
 
-SIMAVR_H = Path("/usr/include/simavr/sim_avr.h")
-
 
 @pytest.fixture(scope="module")
-def simulator(firmware) -> Path:
-    """``tools/arduino/sim/mearm_sim`` built next to the firmware (needs libsimavr-dev)."""
-    require_tool("cc", "gcc")
-    require_file(SIMAVR_H, "libsimavr-dev")
-    build = firmware.parent
-    result = subprocess.run(
-        ["make", "-C", str(ARDUINO), f"BUILD_DIR={build}", "sim"],
-        capture_output=True, text=True, timeout=120,
-    )  # fmt: skip
-    assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-3000:]
-    return build / "mearm_sim"
+def simulator(firmware, tmp_path_factory) -> Path:
+    """``tools/arduino/sim/mearm_sim`` built from the checkout (needs libsimavr-dev)."""
+    return simulator_build(tmp_path_factory) / "mearm_sim"
 
 
 @pytest.fixture

@@ -30,7 +30,7 @@ from pathlib import Path
 
 import pytest
 import yaml
-from conftest import require_file, require_tool
+from conftest import simulator_build
 from fakeboard import FakeMearmBoard, SimavrBoard
 
 from mearm.config import load_config
@@ -278,11 +278,6 @@ BOARD_TRUTH = {
 }
 
 
-ARDUINO = ROOT / "tools" / "arduino"
-CORE_H = Path("/usr/share/arduino/hardware/arduino/avr/cores/arduino/Arduino.h")
-SIMAVR_H = Path("/usr/include/simavr/sim_avr.h")
-
-
 class BoardUnderTest:
     """What the tests read from a board: its port, the pulse each channel outputs now, the
     moves it got. Wraps the fake Uno (pulses as commanded) or the real firmware in simavr
@@ -330,17 +325,7 @@ class BoardUnderTest:
 @pytest.fixture(scope="session")
 def virtual_uno_build(tmp_path_factory) -> tuple[Path, Path]:
     """The firmware and its simavr runner, built from the checkout (skipped without tools)."""
-    for tool in ("make", "avr-gcc"):
-        require_tool(tool)
-    require_tool("cc", "gcc")
-    require_file(CORE_H, "arduino-core-avr")
-    require_file(SIMAVR_H, "libsimavr-dev")
-    build = tmp_path_factory.mktemp("virtual_uno")
-    result = subprocess.run(
-        ["make", "-C", str(ARDUINO), f"BUILD_DIR={build}", "all", "sim"],
-        capture_output=True, text=True, timeout=300,
-    )  # fmt: skip
-    assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-3000:]
+    build = simulator_build(tmp_path_factory)
     return build / "mearm_sim", build / "mearm_servo.elf"
 
 

@@ -24,12 +24,11 @@ from pathlib import Path
 import cv2
 import numpy as np
 import pytest
-from conftest import ROOT, require_file, require_tool
+from conftest import ROOT, firmware_build, require_tool, simulator_build
 from fakeboard import FakeMearmBoard, MearmFaults, SimavrBoard
 
 from mearm.config import load_config
 from mearm.exceptions import MearmError
-from mearm.hardware import toolchain
 from mearm.maker import find_port, flash, init_config
 
 BOARDS_TXT = Path("/usr/share/arduino/hardware/arduino/avr/boards.txt")
@@ -292,30 +291,16 @@ def test_replug_without_a_terminal_is_refused():
 
 @pytest.fixture(scope="module")
 def built_firmware(tmp_path_factory) -> Path:
-    """The firmware built from the checkout, as flash builds it; the build folder."""
-    require_tool("make")
-    require_tool("avr-gcc")
-    require_file(toolchain.ARDUINO_CORE_DIR / "cores/arduino/Arduino.h", "arduino-core-avr")
-    build = tmp_path_factory.mktemp("flash_build")
-    result = subprocess.run(
-        ["make", "-C", str(flash.firmware_source_dir()), f"BUILD_DIR={build}"],
-        capture_output=True, text=True, timeout=600,
-    )  # fmt: skip
-    assert result.returncode == 0, result.stdout[-2000:] + result.stderr[-2000:]
-    return build
+    """The firmware built from the checkout, as flash builds it (once per test run): the
+    build folder (flash finds it up to date and builds nothing more)."""
+    return firmware_build(tmp_path_factory)
 
 
 @pytest.mark.heavy
-def test_find_port_names_the_real_firmware_in_simavr(built_firmware):
+def test_find_port_names_the_real_firmware_in_simavr(tmp_path_factory):
     """The real firmware (simavr behind a pty): named by its banner and its V reply."""
-    require_tool("cc", "gcc")
-    require_file(Path("/usr/include/simavr/sim_avr.h"), "libsimavr-dev")
-    result = subprocess.run(
-        ["make", "-C", str(flash.firmware_source_dir()), f"BUILD_DIR={built_firmware}", "sim"],
-        capture_output=True, text=True, timeout=300,
-    )  # fmt: skip
-    assert result.returncode == 0, result.stderr[-2000:]
-    sim, elf = built_firmware / "mearm_sim", built_firmware / "mearm_servo.elf"
+    build = simulator_build(tmp_path_factory)
+    sim, elf = build / "mearm_sim", build / "mearm_servo.elf"
     with SimavrBoard(str(sim), str(elf)) as chip:
         found = run_tool("find_port", "--only", "--timeout", "5", "--port", chip.port)
     assert found.returncode == 0, found.stdout + found.stderr
