@@ -8,6 +8,7 @@ and the run log must say so in its fault record.
 
 from __future__ import annotations
 
+import functools
 import os
 import signal
 import threading
@@ -22,6 +23,9 @@ from mearm.sim.kinematic import servo_bus
 from mearm.sort import main as sort_main
 
 RUNS = 50
+#: The runs are split in this many parts, so that two workers can share them (a part's
+#: runs are paced in real time with the view: under load the whole took over a minute).
+PARTS = 2
 #: Two objects; the tool quick (the gripper and the gripper arm at 0.02 s per 60°, 10 ms of
 #: settling, instead of 2.9 s of the 3.4 s a run's motion takes): a run with the view is
 #: paced in real time, and the moments a signal can land in (solving, streaming, holding
@@ -34,6 +38,7 @@ ARGV = [
 ]  # fmt: skip
 
 
+@functools.cache
 def _duration(view: bool) -> float:
     """How long a run takes: the shorter of two runs after a first one. The first imports
     what it needs, and a moment of load on a busy machine can slow one run: either, counted
@@ -58,7 +63,8 @@ def sigint_raises():
 
 @pytest.mark.slow
 @pytest.mark.usefixtures("sigint_raises")
-def test_ctrl_c_at_any_moment_parks_the_arm(tmp_path, monkeypatch, capsys):
+@pytest.mark.parametrize("part", range(PARTS))
+def test_ctrl_c_at_any_moment_parks_the_arm(part, tmp_path, monkeypatch, capsys):
     arms: list[servo_bus.SimArm] = []
     real_init = servo_bus.SimArm.__init__
 
@@ -68,11 +74,12 @@ def test_ctrl_c_at_any_moment_parks_the_arm(tmp_path, monkeypatch, capsys):
 
     monkeypatch.setattr(servo_bus.SimArm, "__init__", spying_init)
     home = Config().arm.home()
-    rng = np.random.default_rng(12)
+    rng = np.random.default_rng(12 + part)
     durations = {False: _duration(False), True: _duration(True)}
     parked = 0
     failures: list[str] = []
-    for i in range(RUNS):
+    runs = range(part * RUNS // PARTS, (part + 1) * RUNS // PARTS)
+    for i in runs:
         view = i % 2 == 1
         delay = float(rng.uniform(0.0, durations[view]))
         log = tmp_path / f"run{i}.jsonl"
@@ -136,4 +143,4 @@ def test_ctrl_c_at_any_moment_parks_the_arm(tmp_path, monkeypatch, capsys):
     assert not failures, "\n".join(failures)
     # many signals land mid-run (how many depends on how busy the machine is: a quarter
     # at least, so that the test cannot pass without interrupting anything)
-    assert parked >= RUNS // 4
+    assert parked >= len(runs) // 4
