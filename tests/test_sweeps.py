@@ -71,8 +71,8 @@ def experiment(*args: object, timeout: float = 300) -> subprocess.CompletedProce
 
 #: The seeded sweep that runs in workers and on Dask (tests/test_experiment_cluster.py).
 SWEEP = ("--config", "configs/sim.yaml", "--seed", 5)
-#: The trials of its serial log.
-SERIAL_TRIALS = 5
+#: The trials of its serial log (five are compared with, six cover most Ctrl-C resumes).
+SERIAL_TRIALS = 6
 
 
 def serial_log(factory: pytest.TempPathFactory) -> Path:
@@ -83,10 +83,20 @@ def serial_log(factory: pytest.TempPathFactory) -> Path:
         log = folder / "serial.jsonl"
         r = experiment(*SWEEP, "--trials", SERIAL_TRIALS, "--log", log, "--jobs", 1)
         assert r.returncode == 0, r.stderr
-        assert re.search(r"5 trials written to .* \([\d.]+ trials/min, 1 process\)", r.stdout)
-        assert "sorted 60 of 60 objects over 5 trials" in r.stdout
+        n = SERIAL_TRIALS
+        assert re.search(rf"{n} trials written to .* \([\d.]+ trials/min, 1 process\)", r.stdout)
+        assert f"sorted {12 * n} of {12 * n} objects over {n} trials" in r.stdout
 
     return built_once(factory, "serial-sweep", run) / "serial.jsonl"
+
+
+def serial_prefix(factory: pytest.TempPathFactory, trials: int, folder: Path) -> Path:
+    """The serial log's first ``trials`` trials as a log of their own, written in ``folder``
+    (a log is only ever appended to: the first trials of a longer run are a shorter run)."""
+    lines = serial_log(factory).read_text().splitlines(keepends=True)
+    path = folder / f"serial-{trials}.jsonl"
+    path.write_text("".join(line for line in lines if json.loads(line)["trial"] < trials))
+    return path
 
 
 def serial_records(factory: pytest.TempPathFactory, trials: int) -> list[dict]:
