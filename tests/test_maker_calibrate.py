@@ -306,6 +306,18 @@ class BoardUnderTest:
                 return now
             time.sleep(0.01)
 
+    def steady_pulses_us(self, channels: list[int], timeout_s: float = 30.0) -> list[float]:
+        """Each channel's pulse [µs] once a move in progress has ended: the same in two
+        readings 0.3 s apart (the firmware in simavr lags real time on a loaded machine)."""
+        deadline = time.monotonic() + timeout_s
+        before = [self.pulse_us(ch) for ch in channels]
+        while True:
+            time.sleep(0.3)
+            now = [self.pulse_us(ch) for ch in channels]
+            if now == pytest.approx(before, abs=self.accuracy_us) or time.monotonic() > deadline:
+                return now
+            before = now
+
     def move_count(self) -> int | None:
         """``M`` frames received (resends included); ``None`` if the board cannot tell
         (the firmware in simavr: then a test checks that no pulse changed)."""
@@ -432,9 +444,8 @@ def test_ctrl_c_writes_nothing_and_leaves_the_arm(board, tmp_path):
         cmd.expect(r"base: pulse (\d+) µs")
         cmd.send("3++")
         cmd.expect(r"base: pulse \d+ µs  step 20")
-        time.sleep(0.3)
         channels = ServoMap.from_config(load_config(ROOT / "configs" / "sim.yaml")).channels
-        held = [board.pulse_us(ch) for ch in channels]
+        held = board.steady_pulses_us(channels)
         moves = board.move_count()
         cmd.send("\x03")
         assert cmd.wait() == 130, cmd.text[-2000:]
