@@ -162,7 +162,6 @@ class CollisionModel:
         ]
         T = self.bodies.tcp_in_last
         self._grip_in_last = T[:3, :3] @ (self.bodies.approach * self.bodies.grip_m) + T[:3, 3]
-        self._reach_local = self._local_reach()
         self._upper = np.triu(np.ones((self._last, self._last), dtype=bool))  # j ≥ i
         self._prismatic = np.asarray(model.chain.prismatic, dtype=bool)
         self.checks = 0
@@ -171,6 +170,7 @@ class CollisionModel:
         self._last_gap: tuple[float, str, str] = (math.inf, "", "")
         self._objects: list[tuple[str, str, float, float]] = []
         self._opening_cm = config.arm.tool.gripper.open_cm
+        self._reach_local = self._local_reach()
         self._held: tuple[str, str] | None = None
         self._on_table: set[str] = set()  # shapes standing on the table: the arm's mount
         # object places per class: the scene's count and two more, grown when a look finds more
@@ -216,8 +216,9 @@ class CollisionModel:
         state = (self._objects, self._opening_cm, self._held)
         if objects is not None:
             self._objects = list(objects)
-        if opening_cm is not None:
+        if opening_cm is not None and float(opening_cm) != self._opening_cm:
             self._opening_cm = float(opening_cm)
+            self._reach_local = self._local_reach()
         self._held = held
         if (self._objects, self._opening_cm, self._held) == state:
             return  # the same world (a simulator asks before every move)
@@ -361,17 +362,19 @@ class CollisionModel:
     def _local_reach(self) -> np.ndarray:
         """How far each joint frame's shapes reach from its origin [m], (n + 2,).
 
-        Frames 0 … n, and the tool's (n + 1, from the TCP: the jaws wide open, a held
-        object of the largest class) counted in the last joint's.
+        Frames 0 … n, and the tool's (n + 1, from the TCP: the jaws as open as the world
+        holds them, a held object of the largest class) counted in the last joint's. A
+        jaw's pad slides half the opening across the TCP; the jaws' servo's whole range
+        would be no bound at all for a servo of fine units (0.1 µs a unit: kilometres).
         """
         far = np.zeros(self._last + 2)
-        hi = self.config.arm.tool.gripper.servo.value_range()[1] * M_PER_CM
+        slide = self._opening_cm * M_PER_CM / 2
         tcp = np.linalg.norm(self.bodies.tcp_in_last[:3, 3])
         held = max(c.diameter_cm + c.height_cm for c in self.config.task.classes) * M_PER_CM
         for shape in self.arm_shapes:
             reach = float(np.linalg.norm(shape.pos)) + shape.radius_m
             if shape.body == "tcp" or shape.jaw:
-                k, reach = self._last + 1, reach + (hi if shape.jaw else 0.0)
+                k, reach = self._last + 1, reach + (slide if shape.jaw else 0.0)
             else:
                 k = self._joint_of[shape.body]
             far[k] = max(far[k], reach)
