@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import io
 import os
 import shutil
 import signal
@@ -55,6 +56,14 @@ REFERENCE_CONFIGS = ("sim.yaml", "sim_mearm_v1.yaml", "sim_5dof.yaml", "sim_4col
 @pytest.fixture(scope="session", params=REFERENCE_CONFIGS)
 def reference_config(request: pytest.FixtureRequest) -> Config:
     return load_config(ROOT / "configs" / request.param)
+
+
+def yourdfpy_urdf(text: str, **kwargs: Any) -> Any:
+    """``text`` read by yourdfpy, without meshes (imported here: with trimesh it takes 0.6 s,
+    which only the workers that run its tests should pay, not every worker's collection)."""
+    import yourdfpy
+
+    return yourdfpy.URDF.load(io.StringIO(text), load_meshes=False, **kwargs)
 
 
 def planar_yaw_arm_data(*, rail: bool = False) -> dict:

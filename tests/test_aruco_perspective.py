@@ -10,6 +10,7 @@ marker corners, found exactly in the page by template matching.
 
 from __future__ import annotations
 
+import functools
 import math
 import subprocess
 import sys
@@ -59,8 +60,10 @@ def page_to_table(page_xy: np.ndarray) -> np.ndarray:
     return np.column_stack([PAGE_ORIGIN_CM[0] + p[:, 0], PAGE_ORIGIN_CM[1] - p[:, 1]])
 
 
+@functools.cache
 def marker_truth() -> dict[int, np.ndarray]:
-    """Marker id → its corners on the table (TL, TR, BR, BL) [cm], found in the page."""
+    """Marker id → its corners on the table (TL, TR, BR, BL) [cm], found in the page (once
+    per worker that runs these tests, not at every worker's collection)."""
     side = round(SIDE_CM * PX_PER_CM)
     out = {}
     for marker_id in IDS:
@@ -71,9 +74,6 @@ def marker_truth() -> dict[int, np.ndarray]:
         quad = np.array([[x, y], [x + side, y], [x + side, y + side], [x, y + side]], float)
         out[marker_id] = page_to_table(quad)
     return out
-
-
-TRUTH = marker_truth()
 
 
 def camera_matrix(view: str) -> np.ndarray:
@@ -118,7 +118,7 @@ def corner_error_px(view: str) -> float:
     found = detect_markers(render(view))
     assert sorted(found) == IDS  # each marker once: a dict cannot hold an id twice
     Hc = camera_matrix(view)
-    return max(float(np.abs(found[i] - to_pixels(Hc, TRUTH[i])).max()) for i in IDS)
+    return max(float(np.abs(found[i] - to_pixels(Hc, marker_truth()[i])).max()) for i in IDS)
 
 
 @pytest.mark.parametrize("view", list(VIEWS))
@@ -133,7 +133,7 @@ def run_calibrate_tool(view: str, tmp_path: Path) -> Calibration:
     config = tmp_path / "lab.yaml"
     config.write_text((ROOT / "configs" / "lab.yaml").read_text())
     args = ["--config", str(config), "--image", str(image), "--marker-side-cm", str(SIDE_CM)]
-    for marker_id, corners in TRUTH.items():
+    for marker_id, corners in marker_truth().items():
         x, y = (float(v) for v in corners.mean(axis=0))
         args += ["--marker", f"{marker_id}:{x!r},{y!r}"]
     result = subprocess.run(
@@ -155,7 +155,7 @@ def table_error_cm(view: str, fitted: Calibration, *, whole_page: bool = False) 
         x0, y1 = PAGE_ORIGIN_CM
         x1, y0 = x0 + PAGE.shape[1] / PX_PER_CM, y1 - PAGE.shape[0] / PX_PER_CM
     else:
-        corners = np.concatenate(list(TRUTH.values()))
+        corners = np.concatenate(list(marker_truth().values()))
         (x0, y0), (x1, y1) = corners.min(axis=0), corners.max(axis=0)
     gx, gy = np.meshgrid(np.linspace(x0, x1, 15), np.linspace(y0, y1, 21))
     table = np.column_stack([gx.ravel(), gy.ravel()])

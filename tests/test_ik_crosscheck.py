@@ -9,14 +9,13 @@ the base.
 
 from __future__ import annotations
 
-import io
 from pathlib import Path
 
 import mujoco
 import numpy as np
 import pytest
-import yourdfpy
 from built_once import computed_once
+from conftest import yourdfpy_urdf
 
 from mearm.config import ArmDescription, Config, load_config
 from mearm.exceptions import TargetOutsideBoxError, UnreachableTargetError
@@ -121,7 +120,7 @@ def random_poses(model: ArmModel, count: int, seed: int = 5) -> np.ndarray:
 def test_fk_pinocchio_dh_and_yourdfpy_agree(arm_case):
     """The TCP of Pinocchio, the DH product and yourdfpy agree within 1e-9 cm."""
     _, arm, model = arm_case
-    urdf = yourdfpy.URDF.load(io.StringIO(model.urdf), load_meshes=False)
+    urdf = yourdfpy_urdf(model.urdf)
     left, _ = jaw_joint_names(arm)
     for q in random_poses(model, 25):
         p_pin = model.fk_cm(q)

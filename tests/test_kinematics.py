@@ -1,9 +1,6 @@
-import io
-
 import numpy as np
 import pytest
-import yourdfpy
-from conftest import planar_yaw_arm_data
+from conftest import planar_yaw_arm_data, yourdfpy_urdf
 
 from mearm.config import ArmDescription
 from mearm.exceptions import JointLimitError, ModelError
@@ -31,7 +28,7 @@ def test_paper_home_check_value(model):
 def test_fk_agrees_pinocchio_dh_yourdfpy(arm):
     """Pinocchio, the DH product and yourdfpy give the same TCP within 1e-9 cm."""
     model = ArmModel(arm)
-    urdf = yourdfpy.URDF.load(io.StringIO(model.urdf), build_scene_graph=True, load_meshes=False)
+    urdf = yourdfpy_urdf(model.urdf, build_scene_graph=True)
     for q in _random_poses(model.chain, 200):
         p_pin = model.fk_cm(q)
         np.testing.assert_allclose(p_pin, dh_fk(arm, q), atol=1e-9)
@@ -42,7 +39,7 @@ def test_fk_agrees_pinocchio_dh_yourdfpy(arm):
 
 def test_jaws_are_joints_in_both_readers(arm):
     """The gripper's jaws are joints: the right one a mimic of the left."""
-    urdf = yourdfpy.URDF.load(io.StringIO(generate_urdf(arm)), load_meshes=False)
+    urdf = yourdfpy_urdf(generate_urdf(arm))
     g = arm.tool.gripper.name
     assert f"{g}_jaw_left" in urdf.actuated_joint_names
     assert urdf.joint_map[f"{g}_jaw_right"].mimic.joint == f"{g}_jaw_left"
