@@ -126,6 +126,45 @@ def test_multi_start_for_an_arm_without_closed_form(desk):
     np.testing.assert_array_equal(again.q_path, result.q_path)  # seeded: reproducible
 
 
+#: 5-DOF starts and goals (deg) from fresh random draws where every move to a solution,
+#: straight or through home, dipped below the target box's bottom (0.3 cm): the arm
+#: folded 4 mm over the table (it swings through it on its way home unless the shoulder
+#: lifts first), and goals 4–5 mm above the table (reached only by lowering one joint
+#: last).
+LOW_CASES_DEG = [
+    ([174.9, 35.5, -159.5, 62.5, -33.3], [75.2, 35.1, -137.5, -76.5, -13.2]),
+    ([179.9, 54.4, -113.3, -89.5, 0.9], [60.6, 20.0, -159.5, 89.7, -75.3]),
+    ([179.6, 61.6, -69.4, -89.7, 28.8], [6.1, 19.3, -159.7, 89.6, -85.2]),
+]
+
+
+@pytest.mark.parametrize("start_deg, goal_deg", LOW_CASES_DEG, ids=["folded", "low1", "low2"])
+def test_one_joint_first_or_last_keeps_the_move_above_the_table(desk, start_deg, goal_deg):
+    """Moves through home with one joint alone moved first (lifting) or last (lowering)
+    reach what the straight and through-home moves refused, above the floor, within the
+    limits."""
+    config, model = desk
+    chain = model.chain
+    q0, q_goal = chain.full(np.radians(start_deg)), chain.full(np.radians(goal_deg))
+    target = IKTarget(tuple(model.fk_cm(q_goal)), tuple(model.approach(q_goal)))
+    floor = min(config.arm.target_box.z_cm.min, model.fk_cm(q0)[2], target.position_cm[2])
+    result = PdPij(model, config.controller).solve(target, q0)
+    assert result.converged and result.method == "multi_start", result.failure
+    assert result.ee_path_cm[:, 2].min() >= floor - 1e-7
+    assert np.all(result.q_path >= model.lower) and np.all(result.q_path <= model.upper)
+    # the moves the recovery tried before: straight, and through home, each dip below
+    measure = PdPij(model, config.controller)._met(
+        (np.array(target.position_cm) / 100).tolist(), target.approach
+    )
+    cfg = config.controller
+    for vias in ([], [model.home]):
+        move = recovery.path_via(
+            chain, q0, vias, result.q, measure,
+            kp=cfg.kp, kd=cfg.kd, max_steps=cfg.max_iterations,
+        )  # fmt: skip
+        assert move is None or min(p[2] for p in move[1]) * 100 < floor
+
+
 def test_unreachable_target_without_closed_form_fails_with_a_reason(desk):
     """Nothing converges from any start: PD-PIJ's own record, with its failure kind."""
     config, model = desk

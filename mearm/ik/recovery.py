@@ -11,9 +11,11 @@ joint-space move from the start to a solution:
   each converged solve gives a solution.
 
 The first solution with a safe move wins (:class:`Recovery`): straight to it, else
-through the home pose, in either case never taking the TCP below the floor — the target
-box's bottom, or the start or the target if lower. (A straight joint-space move can swing
-the TCP through the table that a Cartesian path between the same points stays above.)
+through the home pose, else through home with one joint alone moved first or last (an
+arm folded low over the table lifts before it swings); in every case never taking the
+TCP below the floor — the target box's bottom, or the start or the target if lower. (A
+straight joint-space move can swing the TCP through the table that a Cartesian path
+between the same points stays above.)
 
 The path. From the start :math:`q_0` to the solution :math:`q^*` along the straight
 segment of the actuated joints, passive joints from their coupling:
@@ -260,10 +262,10 @@ class Recovery:
     def _safe_move(
         self, q_start: np.ndarray, goal: np.ndarray, measure: Measure, floor_cm: float
     ) -> Path | None:
-        """The move to ``goal``, straight or through home, that stays above the floor."""
+        """The first move to ``goal`` of :meth:`_vias` that stays above the floor."""
         cfg = self.config
         floor_m = floor_cm / 100.0 - 1e-9
-        for waypoints in ([], [self.home]):
+        for waypoints in self._vias(q_start, goal):
             path = path_via(
                 self.chain,
                 q_start,
@@ -277,3 +279,26 @@ class Recovery:
             if path is not None and min(tcp[2] for tcp in path[1]) >= floor_m:
                 return path
         return None
+
+    def _vias(self, q_start: np.ndarray, goal: np.ndarray) -> Iterator[list[np.ndarray]]:
+        """The waypoints of each move :meth:`_safe_move` tries, in turn.
+
+        None; home; then home with one joint alone moved first (the start with that joint
+        at its home value, for each actuated joint); then home with one joint alone moved
+        last (the goal with that joint at its home value). An arm folded low over the
+        table (the 5-DOF arm's TCP 4 mm above it, elbow at its limit) swings through the
+        table on its way home unless its shoulder lifts it first, and a goal just above
+        the table is reached from above by lowering one joint last; which joint lifts is
+        the arm's business, so each is tried. A waypoint whose passive joints leave their
+        limits is refused by :func:`joint_path`.
+        """
+        yield []
+        yield [self.home]
+        home = self.chain.actuated_of(self.home)
+        for q, first in ((q_start, True), (goal, False)):
+            ends = self.chain.actuated_of(q)
+            for j in np.flatnonzero(ends != home):
+                via = ends.copy()
+                via[j] = home[j]
+                q_via = couple(self.chain, via.tolist())
+                yield [q_via, self.home] if first else [self.home, q_via]
