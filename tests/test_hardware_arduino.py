@@ -388,3 +388,27 @@ def test_pacing_never_faster_than_the_baud_rate():
     assert slow.period_s == pytest.approx(10 * slow.wire_bytes_per_move / 9600)
     assert slow.period_s > 1 / 50
     assert fast.period_s == pytest.approx(1 / 50)
+
+
+def test_a_stream_at_a_low_baud_steps_as_far_as_the_period_allows():
+    """The board sets each pulse at once and the servo turns at its own speed: the
+    executor sizes each step for the whole period (43.8 ms at 9600 baud, not the 20 ms
+    of servo.rate_hz) and counts a period for it, so the arm keeps its planned speed and
+    the reported motion time is the time the link takes."""
+    from mearm.kinematics import ArmModel
+    from mearm.task.execute import Executor
+
+    durations = {}
+    for baud in (9600, 115200):
+        config = fast_config("serial", rate_hz=50.0, baud=baud)
+        bus = ArduinoBus(config)
+        model = ArmModel(config.arm)
+        executor = Executor(config, bus, model)
+        lo, hi = model.chain.actuated_lower, model.chain.actuated_upper
+        timed = executor.timed(executor.joint_path(model.chain.full(lo + 0.2 * (hi - lo))))
+        assert bus.step_s == bus.period_s and timed.period_s == bus.period_s
+        assert executor.motion.stream_hz == pytest.approx(1.0 / bus.period_s)
+        durations[baud] = timed.duration_s
+        assert len(timed.q) - 1 >= 3
+    # the same speed limits, the time law rounded to whole periods
+    assert durations[9600] == pytest.approx(durations[115200], abs=2 * 0.0438)

@@ -205,6 +205,32 @@ def test_the_rate_limiter_counts_the_confirmation_exchange():
         assert board.received.count(b"Q") == 3  # each move done when first asked
 
 
+@pytest.mark.parametrize("baud", [2400, 9600, 115200])
+def test_a_stream_takes_a_period_a_step_and_glides_each_within_the_speed_limits(baud):
+    """The executor sizes each step for the move's glide (T, 20 ms) and counts a period
+    for it (T and the wire: 93 ms at 9600 baud), so the reported motion time is the time
+    the board takes; the steps do not depend on the baud rate."""
+    import numpy as np
+
+    from mearm.kinematics import ArmModel
+    from mearm.task.execute import Executor
+
+    config = fast_config("ssc32", rate_hz=50.0, baud=baud)
+    bus = SSC32Bus(config)
+    model = ArmModel(config.arm)
+    executor = Executor(config, bus, model)
+    lo, hi = model.chain.actuated_lower, model.chain.actuated_upper
+    timed = executor.timed(executor.joint_path(model.chain.full(lo + 0.3 * (hi - lo))))
+    steps = len(timed.q) - 1
+    assert bus.step_s == 0.020 and steps >= 5
+    assert timed.duration_s == pytest.approx(steps * bus.period_s)
+    assert executor.motion.stream_hz == pytest.approx(1.0 / bus.period_s)
+    limits = executor.limits
+    travel = np.abs(np.diff(limits.values(model.chain.actuated_of(timed.q)), axis=0))
+    assert np.all(travel <= limits.velocity * bus.step_s * (1 + 1e-6))
+    assert travel.max() > 0.5 * limits.velocity.min() * bus.step_s  # not crawling
+
+
 # ------------------------------------------------------------------ recovered, never desynced
 
 

@@ -127,11 +127,11 @@ def test_a_tool_setting_takes_its_slowest_servo_and_the_settle_time():
 
 def test_the_motion_line_says_what_it_counts():
     """The summary line names the arm's speed limits, the rate and the tool settings."""
-    line = MotionTime(arm_s=2.0, tool_s=3.5, tool_moves=14).line(50.0)
+    line = MotionTime(50.0, arm_s=2.0, tool_s=3.5, tool_moves=14).line()
     assert line.startswith("motion 5.5 s")
     assert "speed limits" in line and "50 Hz" in line and "14 settings" in line
     assert "waiting" not in line
-    waited = MotionTime(arm_s=2.0, tool_s=3.5, tool_moves=14, wait_s=0.5).line(50.0)
+    waited = MotionTime(50.0, arm_s=2.0, tool_s=3.5, tool_moves=14, wait_s=0.5).line()
     assert waited.startswith("motion 6.0 s") and "0.5 s waiting for the measured joints" in waited
 
 

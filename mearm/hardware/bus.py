@@ -181,6 +181,15 @@ class ServoBus(ABC):
         """Time between commands [s]: 1 / ``rate_hz``, or longer if the link needs it."""
         return 1.0 / self.config.servo.rate_hz
 
+    @property
+    def step_s(self) -> float:
+        """Time one command's motion takes [s]: the speed limits bound its step over this.
+
+        The period, unless the board glides each move over a time of its own and talks
+        on the wire besides (the SSC-32's ``T``).
+        """
+        return self.period_s
+
     def connect(self) -> None:
         """Open the link and handshake; a no-op if already connected.
 

@@ -163,6 +163,14 @@ class SSC32Bus(SerialServoBus):
         """
         return self.move_time_ms / 1000.0 + self.wire_time_s
 
+    @property
+    def step_s(self) -> float:
+        """Time one move's glide takes [s]: its ``T``, not the period.
+
+        The wire's time is spent holding, before and after the glide.
+        """
+        return self.move_time_ms / 1000.0
+
     def _wire_s(self, data: bytes) -> float:
         """Time ``data`` takes on the wire at the baud rate [s]."""
         return BITS_PER_BYTE * len(data) / self.baud

@@ -17,6 +17,7 @@ any other bus the view shows the commanded joints.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from collections.abc import Callable, Iterable
@@ -121,7 +122,7 @@ class Executor:
         self._unshown = 0  # moves sent since the view was last shown the world
         self._unshown_q: np.ndarray | None = None  # the last joints sent, not yet shown
         self.limits = SpeedLimits.of_arm(config.arm, self.chain)
-        self.motion = MotionTime()
+        self.motion = MotionTime(stream_hz=1.0 / bus.period_s)
 
     # ----------------------------------------------------------------- state
 
@@ -236,8 +237,18 @@ class Executor:
         return waited
 
     def timed(self, q_path: npt.ArrayLike) -> TimedPath:
-        """A planned path sampled at the servo rate within every speed limit (:func:`time_path`)."""
-        return time_path(q_path, self.chain, self.limits, self.config.servo.rate_hz)
+        """A planned path sampled within every speed limit (:func:`time_path`).
+
+        Its steps are sized for the bus's step time, its duration one bus period a
+        command. The two differ on a board that glides each move over its own time and then
+        answers a query on the wire (the SSC-32: at 9600 baud 20 ms of glide in a 93 ms
+        period): the steps are what the speed limits allow in the glide, and the move
+        takes a period per step.
+        """
+        period = self.bus.period_s  # known in full once the board has answered
+        self.motion.stream_hz = 1.0 / period
+        timed = time_path(q_path, self.chain, self.limits, 1.0 / self.bus.step_s)
+        return dataclasses.replace(timed, period_s=period)
 
     def stream(self, route: Route, phase: Phase, closed: bool, color: str = "#202020") -> Route:
         """Send every pose of a planned route; refuse one that is not fully planned.

@@ -254,7 +254,7 @@ class Reporter:
                 streamed = sum(r.motion_s for r in routes)
                 motion_text = f"motion {streamed:.1f} s (these routes, streamed at {rate:g} Hz)"
             else:
-                motion_text = motion.line(rate)
+                motion_text = motion.line()
             self.echo(
                 f"routes {len(routes)}, failed picks {rep.failed_picks}, "
                 f"iterations mean {its.mean():.1f} ({its.min()}–{its.max()}), "

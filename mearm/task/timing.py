@@ -243,8 +243,11 @@ class MotionTime:
         tool_moves: Tool settings that moved something.
         wait_s: Time spent after a move's last command waiting for the measured joints
             to arrive (on a bus that measures them: the twin) [s].
+        stream_hz: Commands per second the bus streams at: ``servo.rate_hz``, or fewer
+            where the link needs longer for one [Hz].
     """
 
+    stream_hz: float
     arm_s: float = 0.0
     tool_s: float = 0.0
     tool_moves: int = 0
@@ -255,7 +258,7 @@ class MotionTime:
         """Arm, tool and waits together (none overlaps: the arm holds while the tool moves) [s]."""
         return self.arm_s + self.tool_s + self.wait_s
 
-    def line(self, rate_hz: float) -> str:
+    def line(self) -> str:
         """``motion 20.1 s (arm … at the servos' speed limits, …; tool … )``."""
         waits = (
             f"; {self.wait_s:.1f} s waiting for the measured joints to arrive"
@@ -264,6 +267,6 @@ class MotionTime:
         )
         return (
             f"motion {self.total_s:.1f} s (arm {self.arm_s:.1f} s at the servos' speed limits, "
-            f"streamed at {rate_hz:g} Hz; gripper and tool {self.tool_s:.1f} s for "
+            f"streamed at {self.stream_hz:.3g} Hz; gripper and tool {self.tool_s:.1f} s for "
             f"{self.tool_moves} settings with settling{waits})"
         )
