@@ -13,6 +13,7 @@ from mearm.config import load_config
 from mearm.config.belt_config import TrackingConfig
 from mearm.exceptions import TrackingError
 from mearm.sim import SimCamera, World
+from mearm.sim.belt import Belt
 from mearm.vision import ColorDetector, Seen, Tracker
 from mearm.vision.calibration import Calibration
 from mearm.vision.tracking import whole_sightings
@@ -43,7 +44,8 @@ def tracked():
     camera = SimCamera(config, world)
     calibration = Calibration.from_config(config.calibration)
     detector = ColorDetector.from_config(config)
-    tracker = Tracker(config.belt.tracking)
+    vx, vy = (float(v) for v in Belt(config.belt).velocity_cm_s)
+    tracker = Tracker(config.belt.tracking, (vx, vy))  # as the conveyor sorter makes it
     first = world.objects[0]
     frames = []
     for k in range(int(10 * FPS) + 1):
@@ -118,6 +120,27 @@ def test_classes_and_the_gate_keep_tracks_apart():
         (2, "blue", True),
         (3, "red", True),
     ]
+
+
+def test_an_object_seen_once_rides_the_belt_and_is_not_taken_for_one_far_off():
+    """A red seen once, then hidden 2 s (the sorter busy with a pick): on a belt running
+    -x at 2 cm/s it is near x = 16 cm, not 21 cm beyond that. A red there is a new object
+    with an id of its own (taken at rest, give or take the 100 cm/s of any belt, it took
+    the first one's id); the first one seen again where the belt carried it keeps its id,
+    and both tracks start at the belt's velocity."""
+    belt = Tracker(TrackingConfig(), belt_cm_s=(-2.0, 0.0))
+    belt.update(0.0, [Seen("red", 20.0, 40.0)])
+    states = belt.update(2.0, [Seen("red", -5.0, 40.0)])
+    assert sorted(s.id for s in states) == [1, 2]
+    first = next(s for s in states if s.id == 1)
+    assert first.position_cm == pytest.approx([16.0, 40.0], abs=1e-6) and not first.seen
+    states = belt.update(2.2, [Seen("red", 15.6, 40.0), Seen("red", -5.4, 40.0)])
+    assert sorted((s.id, s.seen) for s in states) == [(1, True), (2, True)]
+    for s in states:
+        assert s.velocity_cm_s == pytest.approx([-2.0, 0.0], abs=0.05)
+    anywhere = Tracker(TrackingConfig())  # no belt given
+    anywhere.update(0.0, [Seen("red", 20.0, 40.0)])
+    assert [s.id for s in anywhere.update(2.0, [Seen("red", -5.0, 40.0)])] == [1]
 
 
 def test_frames_out_of_order_are_refused():

@@ -109,7 +109,8 @@ class ConveyorSorter(Sorter):
         if self.config.belt is None:
             raise ValueError("ConveyorSorter needs config.belt")
         self.belt = Belt(self.config.belt)
-        self.tracker = Tracker(self.config.belt.tracking)
+        belt_cm_s = tuple(float(v) for v in self.belt.velocity_cm_s)
+        self.tracker = Tracker(self.config.belt.tracking, (belt_cm_s[0], belt_cm_s[1]))
         self.on_grip = on_grip
         self._by_track: dict[int, TrackedObject] = {}
         self._sightings: dict[int, int] = {}

@@ -24,9 +24,11 @@ track coasts.
 
 **Association.** A detection can only be of a track of its class, within ``gate_cm``
 and three standard deviations of the track's predicted position (:meth:`Track.gate_cm`:
-wide while a track's velocity is unknown); the pairs are taken nearest first (greedily: on a belt
-objects of a class lie centimetres apart, far more than the gate, so nearest-first
-and an optimal assignment agree). A detection left over starts a track; a track left
+wider while a track's velocity is little known: an object seen once is taken to ride at
+the belt's velocity, give or take the belt's speed);
+the pairs are taken nearest first (greedily: on a belt objects of a class lie
+centimetres apart, far more than the gate, so nearest-first and an optimal assignment
+agree). A detection left over starts a track; a track left
 over *coasts* on its prediction, unseen (the arm over it), and is dropped once it has
 been unseen for ``coast_s``. A track keeps its id from the first frame to the last, so
 an object hidden by the arm and seen again is the same object.
@@ -45,7 +47,7 @@ import cv2
 import numpy as np
 
 from mearm.config import ColorClass
-from mearm.config.belt_config import TrackingConfig
+from mearm.config.belt_config import MAX_BELT_SPEED_CM_S, TrackingConfig
 from mearm.vision.calibration import Calibration
 from mearm.vision.detector import Detection
 from mearm.vision.errors import TrackingError
@@ -124,18 +126,30 @@ class Track:
         seen: The detection that starts it.
         t_s: When that detection was taken [s].
         tracking: The filter's noise.
+        belt_cm_s: The belt's velocity (vx, vy) [cm/s]: the velocity it starts with, and
+            its speed the standard deviation of that until more sightings (``None``: at
+            rest, give or take the fastest belt a config may give).
     """
 
-    def __init__(self, track_id: int, seen: Seen, t_s: float, tracking: TrackingConfig):
+    def __init__(
+        self,
+        track_id: int,
+        seen: Seen,
+        t_s: float,
+        tracking: TrackingConfig,
+        belt_cm_s: tuple[float, float] | None = None,
+    ):
         self.id = track_id
         self.color = seen.color
         self._accel_var = tracking.accel_std_cm_s2**2
         kf = cv2.KalmanFilter(4, 2, 0, cv2.CV_64F)
         kf.measurementMatrix = np.hstack([np.eye(2), np.zeros((2, 2))])
         kf.measurementNoiseCov = np.eye(2) * tracking.measurement_std_cm**2
-        kf.statePost = np.array([[seen.x_cm], [seen.y_cm], [0.0], [0.0]], dtype=float)
-        # the velocity is unknown until a second sighting: as wide as any belt's speed
-        kf.errorCovPost = np.diag([tracking.measurement_std_cm**2] * 2 + [100.0**2] * 2)
+        vx, vy = (0.0, 0.0) if belt_cm_s is None else belt_cm_s
+        speed = MAX_BELT_SPEED_CM_S if belt_cm_s is None else math.hypot(vx, vy)
+        kf.statePost = np.array([[seen.x_cm], [seen.y_cm], [vx], [vy]], dtype=float)
+        # the velocity is the belt's, give or take its speed, until the sightings say more
+        kf.errorCovPost = np.diag([tracking.measurement_std_cm**2] * 2 + [speed**2] * 2)
         self._kf = kf
         self.t_s = t_s
         self.last_seen_s = t_s
@@ -213,14 +227,18 @@ class Tracker:
 
     Args:
         tracking: The filter's noise, the gate and the coasting time.
+        belt_cm_s: The belt's velocity (vx, vy) [cm/s], which an object seen once is
+            taken to ride at, give or take its speed (``None``: at rest, give or take the
+            fastest belt a config may give).
 
     Attributes:
         tracks: The live tracks, by id.
         lost: Ids of tracks dropped after coasting ``coast_s`` unseen, in order.
     """
 
-    def __init__(self, tracking: TrackingConfig):
+    def __init__(self, tracking: TrackingConfig, belt_cm_s: tuple[float, float] | None = None):
         self.tracking = tracking
+        self.belt_cm_s = belt_cm_s
         self.tracks: dict[int, Track] = {}
         self.lost: list[int] = []
         self._next_id = 1
@@ -258,7 +276,9 @@ class Tracker:
                 self.lost.append(tid)
         for k, d in enumerate(detections):
             if k not in taken_detections:
-                self.tracks[self._next_id] = Track(self._next_id, d, t_s, self.tracking)
+                self.tracks[self._next_id] = Track(
+                    self._next_id, d, t_s, self.tracking, self.belt_cm_s
+                )
                 self._next_id += 1
         return [track.state() for track in self.tracks.values()]
 
