@@ -64,6 +64,22 @@ class ShapeSpec:
             return size_cm / math.sqrt(2)
         return size_cm / math.sqrt(3)
 
+    def corners_cm(self, size_cm: float) -> list[tuple[float, float]] | None:
+        """The footprint's corners around its centre at no turn [cm]; ``None`` for a disc.
+
+        A square's (sides along x and y), a triangle's (its centroid at the centre, a
+        corner along +y).
+        """
+        if self.footprint == "disc":
+            return None
+        if self.footprint == "square":
+            h = size_cm / 2
+            return [(-h, -h), (h, -h), (h, h), (-h, h)]
+        r = size_cm / math.sqrt(3)
+        return [
+            (r * math.cos(math.radians(a)), r * math.sin(math.radians(a))) for a in (90, 210, 330)
+        ]
+
     def widest_cm(self, size_cm: float) -> float:
         """The footprint's largest width in any direction [cm]: what open jaws must pass.
 

@@ -367,6 +367,7 @@ class ColorDetector:
         # Per colour, its classes' largest object: the diameter of the disc of its
         # footprint's area (a cube's is 1.13 sides), and the tallest height.
         size = {c.name: c for c in self.classes}
+        self._class_of = size
         members = {g: names for g, (_, names) in self.matcher.groups.items()}
         self._diameter_cm = {
             g: max(_disc_diameter_cm(size[n]) for n in names) for g, names in members.items()
@@ -534,8 +535,8 @@ class ColorDetector:
             )
         ]
         found, regions = self._resolve(found, regions, frame)
-        found = self._located(found, regions, frame)
-        return self._classed(found, regions, frame.shape)
+        classed = _classify_regions(self.matcher, found, regions, frame.shape)
+        return self._ordered(self._located(classed, frame))
 
     def _classed(
         self, found: list[Detection], regions: list[np.ndarray], frame_shape: Sequence[int]
@@ -545,7 +546,11 @@ class ColorDetector:
         ``found`` are the regions of each colour (``color`` is the colour's name);
         regions of no class (a shape no class of its colour has) are dropped.
         """
-        out = _classify_regions(self.matcher, found, regions, frame_shape)
+        classed = _classify_regions(self.matcher, found, regions, frame_shape)
+        return self._ordered([d for d, _ in classed])
+
+    def _ordered(self, out: list[Detection]) -> list[Detection]:
+        """``out`` in the documented order: by class, then top to bottom, left to right."""
         order = {c.name: i for i, c in enumerate(self.classes)}
         out.sort(key=lambda d: (order[d.color], d.centroid_px[1], d.centroid_px[0]))
         return out
@@ -594,9 +599,15 @@ class ColorDetector:
         return flat, area_cm2 / cal.pixel_area_cm2(centroids_px), 1.0 + sweep / (2.0 * r)
 
     def _located(
-        self, found: list[Detection], regions: list[np.ndarray], frame: np.ndarray
+        self, classed: list[tuple[Detection, np.ndarray]], frame: np.ndarray
     ) -> list[Detection]:
-        """``found`` with each detection's table position (``table_cm``)."""
+        """Each detection of a class (with its region) with its table position (``table_cm``).
+
+        In perspective a disc is located by its top's rim, a square or a triangle by its
+        top's outline (:meth:`PerspectiveCamera.locate_polygon`) once its shape is
+        measured (a merged region's or one cut by the border is taken as a disc).
+        """
+        found = [d for d, _ in classed]
         cal = self.calibration
         if cal is None or not found:
             return found
@@ -604,13 +615,22 @@ class ColorDetector:
             xy = cal.pixel_to_table(np.array([d.centroid_px for d in found]))
             return [replace(d, table_cm=p) for d, p in zip(found, xy, strict=True)]
         out = []
-        for d, region in zip(found, regions, strict=True):
+        for d, region in classed:
             if d.table_cm is not None:  # placed by the silhouette fit of a split
                 out.append(d)
                 continue
-            x, y = d.bbox_px[:2]
-            r, h = self._diameter_cm[d.color] / 2.0, self._height_cm[d.color]
-            out.append(replace(d, table_cm=cal.locate_object(region, (x, y), r, h, frame)))
+            origin = (d.bbox_px[0], d.bbox_px[1])
+            cls = self._class_of[d.color]
+            spec = cls.object_shape
+            corners = spec.corners_cm(cls.diameter_cm)
+            if d.shape == spec.name and corners is not None:
+                at = cal.locate_polygon(
+                    region, origin, corners, spec.symmetry_deg, cls.height_cm, frame
+                )
+            else:
+                r = _disc_diameter_cm(cls) / 2.0
+                at = cal.locate_object(region, origin, r, cls.height_cm, frame)
+            out.append(replace(d, table_cm=at))
         return out
 
     def _resolve(
@@ -722,7 +742,7 @@ def _classify_regions(
     found: Sequence[Detection],
     regions: Sequence[np.ndarray],
     frame_shape: Sequence[int],
-) -> list[Detection]:
+) -> list[tuple[Detection, np.ndarray]]:
     """Detections of colours (``color`` a colour's name) as detections of classes.
 
     Each region's shape is measured (:func:`measure_shape`) unless it is merged or cut
@@ -734,6 +754,9 @@ def _classify_regions(
         found: The regions' detections, ``color`` the colour's name.
         regions: Each one's mask over its box, 0/1 uint8.
         frame_shape: The frame's (H, W, ...).
+
+    Returns:
+        Each detection of a class and its region.
     """
     height, width = int(frame_shape[0]), int(frame_shape[1])
     out = []
@@ -746,5 +769,5 @@ def _classify_regions(
         if name is None:
             continue
         yaw = None if measured is None else measured.yaw_px_deg
-        out.append(replace(d, color=name, shape=shape, yaw_px_deg=yaw))
+        out.append((replace(d, color=name, shape=shape, yaw_px_deg=yaw), region))
     return out

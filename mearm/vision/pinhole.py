@@ -75,6 +75,14 @@ MAX_CAMERA_DISTANCE_CM = 1000.0
 #: beyond ±90°). On the twin's renders 89° gives a third less error than 80° (more of
 #: the rim) and 60° twice as much.
 FAR_ARC_DEG = 89.0
+#: The same for a polygon's top (a cube's square) [deg] (see :meth:`locate_polygon`).
+POLYGON_FAR_ARC_DEG = 89.0
+#: Starting turns of the polygon fit, spread over one period of its symmetry [-].
+POLYGON_TURNS = 6
+#: A fitted polygon's corner may lie this far outside the region's outline [cm] (the
+#: outline's pixels and the corner's own rounding); farther, the fit is the far edges'
+#: mirror image.
+POLYGON_OUTSIDE_CM = 0.05
 #: Undistortion iterations and tolerance (OpenCV's default 5 iterations leave up to
 #: 0.1 px at a webcam's corners).
 _UNDISTORT_CRITERIA = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 40, 1e-12)
@@ -504,6 +512,55 @@ def _fit_circle(pts: np.ndarray) -> tuple[np.ndarray, float]:
     return c, float(r)
 
 
+def _segment_distances(pts: np.ndarray, corners: np.ndarray) -> np.ndarray:
+    """Each point's distance to the nearest side of a closed polygon, (N,)."""
+    a = corners
+    b = np.roll(corners, -1, axis=0)
+    ab = b - a  # (K, 2)
+    ap = pts[:, None, :] - a[None]  # (N, K, 2)
+    t = np.clip(np.sum(ap * ab, axis=2) / np.sum(ab * ab, axis=1), 0.0, 1.0)
+    nearest = a[None] + t[..., None] * ab[None]
+    return np.min(np.linalg.norm(pts[:, None, :] - nearest, axis=2), axis=1)
+
+
+def _fit_polygon(
+    pts: np.ndarray, corners: np.ndarray, centre: np.ndarray, yaw0: float
+) -> tuple[np.ndarray, float, float]:
+    """The pose of a rigid polygon whose sides pass nearest ``pts``: centre, yaw, rms.
+
+    ``corners`` (K, 2) are around its centre at yaw 0; Gauss–Newton on the points'
+    distances to the nearest side, with numerical derivatives, from ``centre`` and
+    ``yaw0`` [rad].
+    """
+
+    def residuals(x: np.ndarray) -> np.ndarray:
+        c, s = math.cos(x[2]), math.sin(x[2])
+        placed = corners @ np.array([[c, s], [-s, c]]) + x[:2]
+        return _segment_distances(pts, placed)
+
+    x = np.array([centre[0], centre[1], yaw0], dtype=float)
+    res = residuals(x)
+    for _ in range(30):
+        J = np.empty((len(pts), 3))
+        for i, h in enumerate((1e-6, 1e-6, 1e-6)):
+            dx = np.zeros(3)
+            dx[i] = h
+            J[:, i] = (residuals(x + dx) - res) / h
+        step, *_ = np.linalg.lstsq(J, -res, rcond=None)
+        trial = residuals(x + step)
+        shrink = 0
+        while float(trial @ trial) > float(res @ res) and shrink < 10:
+            step = step / 2
+            trial = residuals(x + step)
+            shrink += 1
+        if float(trial @ trial) > float(res @ res):
+            break
+        x, res = x + step, trial
+        if np.abs(step).max() < 1e-9:
+            break
+    return x[:2], float(x[2]), float(math.sqrt(np.mean(res**2)))
+
+
 class PerspectiveCamera:
     """A calibrated camera placed in the base frame: pixels ↔ 3-D points [cm].
 
@@ -884,6 +941,75 @@ class PerspectiveCamera:
                 break
             moved = float(np.linalg.norm(c_new - c))
             c = c_new
+            if moved < 1e-6:
+                break
+        return np.asarray(c, dtype=float)
+
+    def locate_polygon(
+        self,
+        mask: np.ndarray,
+        origin_px: tuple[int, int],
+        corners_cm: npt.ArrayLike,
+        symmetry_deg: float,
+        height_cm: float,
+        frame: np.ndarray | None = None,
+    ) -> np.ndarray:
+        """The table position (x, y) [cm] of an upright prism (a cube) from its image region.
+
+        As :meth:`locate_object` for a disc, the far side of the region's outline cast
+        onto the plane of the object's top is the top face's own rim; here the top is a
+        polygon (a square, a triangle), so the polygon of the known size is fitted to it
+        (its centre and turn), from turns spread over one period of its symmetry.
+
+        Args:
+            mask: The region, a 0/1 (or 0/255) uint8 image of its bounding box.
+            origin_px: The box's top-left pixel (x, y) in the frame.
+            corners_cm: The top face's corners around its centre at no turn, (K, 2) [cm].
+            symmetry_deg: The face looks the same turned by this [deg].
+            height_cm: The object's height [cm]: the plane of its top face.
+            frame: The whole image, for the sub-pixel outline.
+        """
+        corners = np.asarray(corners_cm, dtype=float).reshape(-1, 2)
+        reach = float(np.max(np.linalg.norm(corners, axis=1)))
+        # from the region's centroid on the top's plane (the walls draw it towards the
+        # camera's foot point, so more of the outline counts as the far side, not less)
+        m = cv2.moments((mask > 0).view(np.uint8), binaryImage=True)
+        centroid_px = np.array([m["m10"] / m["m00"], m["m01"] / m["m00"]]) + origin_px
+        c = self.pixel_to_plane(centroid_px, height_cm)
+        pts = self._outline_on_plane(mask, origin_px, height_cm, frame)
+        outline = pts.astype(np.float32).reshape(-1, 1, 2)
+        best: tuple[tuple[float, float], np.ndarray] | None = None
+        for _ in range(3):  # the far side is judged from the centre: again from the fit
+            away = c - self.centre_cm[:2]
+            dist = float(np.linalg.norm(away))
+            if dist < 1e-6 * reach:
+                chosen = pts
+            else:
+                d = pts - c
+                cosang = (d @ (away / dist)) / np.maximum(np.linalg.norm(d, axis=1), 1e-12)
+                chosen = pts[cosang >= math.cos(math.radians(POLYGON_FAR_ARC_DEG))]
+            if len(chosen) < 6:
+                break
+            best = None
+            period = math.radians(symmetry_deg)
+            for k in range(POLYGON_TURNS):
+                centre, yaw, rms = _fit_polygon(chosen, corners, c, k * period / POLYGON_TURNS)
+                if not np.all(np.isfinite(centre)):
+                    continue
+                # the top face lies within the region's outline: a polygon fitted to the
+                # far side's edges from beyond them (its mirror image) does not
+                cos, sin = math.cos(yaw), math.sin(yaw)
+                placed = corners @ np.array([[cos, sin], [-sin, cos]]) + centre
+                outside = max(
+                    -cv2.pointPolygonTest(outline, (float(x), float(y)), True) for x, y in placed
+                )
+                key = (max(outside - POLYGON_OUTSIDE_CM, 0.0), rms)
+                if best is None or key < best[0]:
+                    best = (key, centre)
+            if best is None:
+                break
+            moved = float(np.linalg.norm(best[1] - c))
+            c = best[1]
             if moved < 1e-6:
                 break
         return np.asarray(c, dtype=float)
