@@ -68,7 +68,7 @@ from mearm.errors import ConfigError
 from mearm.vision.calibration import Calibration, CameraGeometry, camera_geometry
 from mearm.vision.classify import PixelClassifier, and_scalar, equal_mask
 from mearm.vision.errors import ImageError
-from mearm.vision.pinhole import PerspectiveCamera
+from mearm.vision.pinhole import PerspectiveCamera, TopFace
 from mearm.vision.shadows import grow_into_shadows, weak_classifier
 from mearm.vision.shapes import ClassMatcher, measure_shape, touches_border
 from mearm.vision.thresholds import Thresholds
@@ -156,6 +156,16 @@ def _disc_diameter_cm(color_class: ColorClass) -> float:
     """The diameter of the disc with the area of one object's footprint [cm]."""
     area = color_class.object_shape.area_cm2(color_class.diameter_cm)
     return 2.0 * math.sqrt(area / math.pi)
+
+
+def _top_face(color_class: ColorClass) -> TopFace:
+    """A class's top face: a disc of its diameter, or its shape's polygon of its size."""
+    spec = color_class.object_shape
+    corners = spec.corners_cm(color_class.diameter_cm)
+    if corners is None:
+        return TopFace(color_class.diameter_cm / 2.0)
+    c = np.asarray(corners, dtype=float)
+    return TopFace(float(np.max(np.linalg.norm(c, axis=1))), c, spec.symmetry_deg)
 
 
 #: A region's core: its pixels at least this × one object's radius from its edge.
@@ -535,8 +545,41 @@ class ColorDetector:
             )
         ]
         found, regions = self._resolve(found, regions, frame)
-        classed = _classify_regions(self.matcher, found, regions, frame.shape)
+        tops = self._top_shapes(found, regions, frame)
+        classed = _classify_regions(self.matcher, found, regions, frame.shape, tops)
         return self._ordered(self._located(classed, frame))
+
+    def _top_shapes(
+        self, found: list[Detection], regions: list[np.ndarray], frame: np.ndarray
+    ) -> list[str | None] | None:
+        """In perspective, each region's shape judged by its top face (else ``None``).
+
+        The silhouette a perspective camera sees adds the side walls to the top face, and
+        a tall object's fill leaves its shape's band (2.5 cm cylinders read as squares).
+        Where a region's colour has classes that name shapes, each of their top faces
+        (a disc, a square, a triangle of the class's size, at its height) is fitted to
+        the far half of the outline (:meth:`PerspectiveCamera.fit_top`) and the closest
+        fit names the shape. ``None`` for a region merged or cut by the border, or of a
+        colour whose classes name no shape: the silhouette's measure stands.
+        """
+        cal = self.calibration
+        if not isinstance(cal, PerspectiveCamera) or not found:
+            return None
+        h, w = frame.shape[:2]
+        out: list[str | None] = []
+        for d, region in zip(found, regions, strict=True):
+            names = self.matcher.candidates[d.color]
+            classes = [self._class_of[n] for n in names]
+            if d.merged or touches_border(d.bbox_px, w, h) or all(c.shape is None for c in classes):
+                out.append(None)
+                continue
+            origin = (d.bbox_px[0], d.bbox_px[1])
+            fits = []
+            for c in classes:
+                _, rms = cal.fit_top(region, origin, _top_face(c), c.height_cm, frame)
+                fits.append((rms, c.object_shape.name))
+            out.append(min(fits)[1])
+        return out
 
     def _classed(
         self, found: list[Detection], regions: list[np.ndarray], frame_shape: Sequence[int]
@@ -742,6 +785,7 @@ def _classify_regions(
     found: Sequence[Detection],
     regions: Sequence[np.ndarray],
     frame_shape: Sequence[int],
+    tops: Sequence[str | None] | None = None,
 ) -> list[tuple[Detection, np.ndarray]]:
     """Detections of colours (``color`` a colour's name) as detections of classes.
 
@@ -754,20 +798,24 @@ def _classify_regions(
         found: The regions' detections, ``color`` the colour's name.
         regions: Each one's mask over its box, 0/1 uint8.
         frame_shape: The frame's (H, W, ...).
+        tops: Each region's shape judged by its top face in perspective, where known
+            (:meth:`ColorDetector._top_shapes`): it stands for the silhouette's.
 
     Returns:
         Each detection of a class and its region.
     """
     height, width = int(frame_shape[0]), int(frame_shape[1])
     out = []
-    for d, region in zip(found, regions, strict=True):
+    for k, (d, region) in enumerate(zip(found, regions, strict=True)):
         measured = None
         if not d.merged and not touches_border(d.bbox_px, width, height):
             measured = measure_shape(region)
         shape = None if measured is None else measured.shape
+        if tops is not None and tops[k] is not None:
+            shape = tops[k]
         name = matcher.match(d.color, shape)
         if name is None:
             continue
-        yaw = None if measured is None else measured.yaw_px_deg
+        yaw = None if measured is None or shape != "cube" else measured.yaw_px_deg
         out.append((replace(d, color=name, shape=shape, yaw_px_deg=yaw), region))
     return out

@@ -78,7 +78,7 @@ FAR_ARC_DEG = 89.0
 #: The same for a polygon's top (a cube's square) [deg] (see :meth:`locate_polygon`).
 POLYGON_FAR_ARC_DEG = 89.0
 #: Starting turns of the polygon fit, spread over one period of its symmetry [-].
-POLYGON_TURNS = 6
+POLYGON_TURNS = 3
 #: A fitted polygon's corner may lie this far outside the region's outline [cm] (the
 #: outline's pixels and the corner's own rounding); farther, the fit is the far edges'
 #: mirror image.
@@ -512,15 +512,44 @@ def _fit_circle(pts: np.ndarray) -> tuple[np.ndarray, float]:
     return c, float(r)
 
 
-def _segment_distances(pts: np.ndarray, corners: np.ndarray) -> np.ndarray:
-    """Each point's distance to the nearest side of a closed polygon, (N,)."""
+@dataclass(frozen=True)
+class TopFace:
+    """An upright object's top face seen from above, around its centre [cm].
+
+    Attributes:
+        radius_cm: A disc's radius; a polygon's farthest corner from its centre.
+        corners_cm: A polygon's corners at no turn, (K, 2); ``None``: a disc.
+        symmetry_deg: A polygon looks the same turned by this [deg].
+    """
+
+    radius_cm: float
+    corners_cm: np.ndarray | None = None
+    symmetry_deg: float = 0.0
+
+
+def _fit_disc(pts: np.ndarray, radius: float, centre: np.ndarray) -> tuple[np.ndarray, float]:
+    """The centre of a circle of ``radius`` nearest ``pts`` (Gauss–Newton): centre, rms."""
+    c = np.asarray(centre, dtype=float).copy()
+    for _ in range(20):
+        d = pts - c
+        dist = np.maximum(np.linalg.norm(d, axis=1), 1e-12)
+        step, *_ = np.linalg.lstsq(-d / dist[:, None], radius - dist, rcond=None)
+        c = c + step
+        if np.abs(step).max() < 1e-9:
+            break
+    res = np.linalg.norm(pts - c, axis=1) - radius
+    return c, float(math.sqrt(np.mean(res**2)))
+
+
+def _nearest_on_sides(pts: np.ndarray, corners: np.ndarray) -> np.ndarray:
+    """Each point's nearest point on the sides of a closed polygon, (N, 2)."""
     a = corners
-    b = np.roll(corners, -1, axis=0)
-    ab = b - a  # (K, 2)
+    ab = np.concatenate([corners[1:], corners[:1]]) - a  # (K, 2)
     ap = pts[:, None, :] - a[None]  # (N, K, 2)
-    t = np.clip(np.sum(ap * ab, axis=2) / np.sum(ab * ab, axis=1), 0.0, 1.0)
-    nearest = a[None] + t[..., None] * ab[None]
-    return np.min(np.linalg.norm(pts[:, None, :] - nearest, axis=2), axis=1)
+    t = np.clip(np.einsum("nkd,kd->nk", ap, ab) / np.einsum("kd,kd->k", ab, ab), 0.0, 1.0)
+    near = a[None] + t[..., None] * ab[None]  # (N, K, 2)
+    d2 = np.einsum("nkd,nkd->nk", pts[:, None, :] - near, pts[:, None, :] - near)
+    return near[np.arange(len(pts)), np.argmin(d2, axis=1)]
 
 
 def _fit_polygon(
@@ -529,34 +558,35 @@ def _fit_polygon(
     """The pose of a rigid polygon whose sides pass nearest ``pts``: centre, yaw, rms.
 
     ``corners`` (K, 2) are around its centre at yaw 0; Gauss–Newton on the points'
-    distances to the nearest side, with numerical derivatives, from ``centre`` and
-    ``yaw0`` [rad].
+    distances to their nearest points of the sides (``q``: d|p − q|/dc = −u and
+    d|p − q|/dψ = −u · ⊥(q − c), u the unit vector from q to p), step halved while the
+    sum of squares does not fall, from ``centre`` and ``yaw0`` [rad].
     """
 
-    def residuals(x: np.ndarray) -> np.ndarray:
+    def placed(x: np.ndarray) -> np.ndarray:
         c, s = math.cos(x[2]), math.sin(x[2])
-        placed = corners @ np.array([[c, s], [-s, c]]) + x[:2]
-        return _segment_distances(pts, placed)
+        return corners @ np.array([[c, s], [-s, c]]) + x[:2]
+
+    def evaluate(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        q = _nearest_on_sides(pts, placed(x))
+        return q, np.linalg.norm(pts - q, axis=1)
 
     x = np.array([centre[0], centre[1], yaw0], dtype=float)
-    res = residuals(x)
+    q, res = evaluate(x)
     for _ in range(30):
-        J = np.empty((len(pts), 3))
-        for i, h in enumerate((1e-6, 1e-6, 1e-6)):
-            dx = np.zeros(3)
-            dx[i] = h
-            J[:, i] = (residuals(x + dx) - res) / h
+        u = (pts - q) / np.maximum(res, 1e-12)[:, None]
+        r = q - x[:2]
+        J = np.column_stack([-u, -(u[:, 0] * -r[:, 1] + u[:, 1] * r[:, 0])])
         step, *_ = np.linalg.lstsq(J, -res, rcond=None)
-        trial = residuals(x + step)
-        shrink = 0
-        while float(trial @ trial) > float(res @ res) and shrink < 10:
+        for _ in range(10):
+            q_new, trial = evaluate(x + step)
+            if float(trial @ trial) <= float(res @ res):
+                break
             step = step / 2
-            trial = residuals(x + step)
-            shrink += 1
-        if float(trial @ trial) > float(res @ res):
+        else:
             break
-        x, res = x + step, trial
-        if np.abs(step).max() < 1e-9:
+        x, q, res = x + step, q_new, trial
+        if np.abs(step).max() < 1e-8:
             break
     return x[:2], float(x[2]), float(math.sqrt(np.mean(res**2)))
 
@@ -954,35 +984,50 @@ class PerspectiveCamera:
         height_cm: float,
         frame: np.ndarray | None = None,
     ) -> np.ndarray:
-        """The table position (x, y) [cm] of an upright prism (a cube) from its image region.
+        """The table position (x, y) [cm] of an upright prism (a cube): :meth:`fit_top`'s."""
+        corners = np.asarray(corners_cm, dtype=float).reshape(-1, 2)
+        face = TopFace(float(np.max(np.linalg.norm(corners, axis=1))), corners, symmetry_deg)
+        return self.fit_top(mask, origin_px, face, height_cm, frame)[0]
+
+    def fit_top(
+        self,
+        mask: np.ndarray,
+        origin_px: tuple[int, int],
+        face: TopFace,
+        height_cm: float,
+        frame: np.ndarray | None = None,
+    ) -> tuple[np.ndarray, float]:
+        """Where an upright object of a known top face stands, and how well the face fits.
 
         As :meth:`locate_object` for a disc, the far side of the region's outline cast
-        onto the plane of the object's top is the top face's own rim; here the top is a
-        polygon (a square, a triangle), so the polygon of the known size is fitted to it
-        (its centre and turn), from turns spread over one period of its symmetry.
+        onto the plane of the object's top is the top face's own rim. The face of the
+        known size is fitted to it: a disc's centre, or a polygon's (a square, a
+        triangle) centre and turn, from turns spread over one period of its symmetry, each
+        fit from the region's centroid on the top's plane (the walls draw the centroid
+        towards the camera's foot point, so more of the outline counts as the far side,
+        not less) and again from the fit.
 
         Args:
             mask: The region, a 0/1 (or 0/255) uint8 image of its bounding box.
             origin_px: The box's top-left pixel (x, y) in the frame.
-            corners_cm: The top face's corners around its centre at no turn, (K, 2) [cm].
-            symmetry_deg: The face looks the same turned by this [deg].
+            face: The top face's outline around its centre.
             height_cm: The object's height [cm]: the plane of its top face.
             frame: The whole image, for the sub-pixel outline.
+
+        Returns:
+            The position (x, y) [cm] and the far side's rms distance from the fitted
+            face [cm] (∞ when too little of the outline faces away to fit).
         """
-        corners = np.asarray(corners_cm, dtype=float).reshape(-1, 2)
-        reach = float(np.max(np.linalg.norm(corners, axis=1)))
-        # from the region's centroid on the top's plane (the walls draw it towards the
-        # camera's foot point, so more of the outline counts as the far side, not less)
         m = cv2.moments((mask > 0).view(np.uint8), binaryImage=True)
         centroid_px = np.array([m["m10"] / m["m00"], m["m01"] / m["m00"]]) + origin_px
         c = self.pixel_to_plane(centroid_px, height_cm)
         pts = self._outline_on_plane(mask, origin_px, height_cm, frame)
         outline = pts.astype(np.float32).reshape(-1, 1, 2)
-        best: tuple[tuple[float, float], np.ndarray] | None = None
+        rms = math.inf
         for _ in range(3):  # the far side is judged from the centre: again from the fit
             away = c - self.centre_cm[:2]
             dist = float(np.linalg.norm(away))
-            if dist < 1e-6 * reach:
+            if dist < 1e-6 * face.radius_cm:
                 chosen = pts
             else:
                 d = pts - c
@@ -990,29 +1035,45 @@ class PerspectiveCamera:
                 chosen = pts[cosang >= math.cos(math.radians(POLYGON_FAR_ARC_DEG))]
             if len(chosen) < 6:
                 break
-            best = None
-            period = math.radians(symmetry_deg)
-            for k in range(POLYGON_TURNS):
-                centre, yaw, rms = _fit_polygon(chosen, corners, c, k * period / POLYGON_TURNS)
-                if not np.all(np.isfinite(centre)):
-                    continue
-                # the top face lies within the region's outline: a polygon fitted to the
-                # far side's edges from beyond them (its mirror image) does not
-                cos, sin = math.cos(yaw), math.sin(yaw)
-                placed = corners @ np.array([[cos, sin], [-sin, cos]]) + centre
-                outside = max(
-                    -cv2.pointPolygonTest(outline, (float(x), float(y)), True) for x, y in placed
-                )
-                key = (max(outside - POLYGON_OUTSIDE_CM, 0.0), rms)
-                if best is None or key < best[0]:
-                    best = (key, centre)
-            if best is None:
+            if face.corners_cm is None:
+                fitted, rms = _fit_disc(chosen, face.radius_cm, c)
+            else:
+                fitted, rms = self._fit_face(chosen, outline, face, c)
+            if not np.all(np.isfinite(fitted)):
                 break
-            moved = float(np.linalg.norm(best[1] - c))
-            c = best[1]
+            moved = float(np.linalg.norm(fitted - c))
+            c = fitted
             if moved < 1e-6:
                 break
-        return np.asarray(c, dtype=float)
+        return np.asarray(c, dtype=float), rms
+
+    @staticmethod
+    def _fit_face(
+        chosen: np.ndarray, outline: np.ndarray, face: TopFace, c: np.ndarray
+    ) -> tuple[np.ndarray, float]:
+        """The polygon's best fit to the far side's points, over its starting turns.
+
+        The top face lies within the region's outline: a fit from beyond the far side's
+        edges (their mirror image) is taken only if no fit lies within.
+        """
+        corners = np.asarray(face.corners_cm, dtype=float)
+        period = math.radians(face.symmetry_deg)
+        best: tuple[tuple[float, float], np.ndarray] | None = None
+        for k in range(POLYGON_TURNS):
+            centre, yaw, rms = _fit_polygon(chosen, corners, c, k * period / POLYGON_TURNS)
+            if not np.all(np.isfinite(centre)):
+                continue
+            cos, sin = math.cos(yaw), math.sin(yaw)
+            placed = corners @ np.array([[cos, sin], [-sin, cos]]) + centre
+            outside = max(
+                -cv2.pointPolygonTest(outline, (float(x), float(y)), True) for x, y in placed
+            )
+            key = (max(outside - POLYGON_OUTSIDE_CM, 0.0), rms)
+            if best is None or key < best[0]:
+                best = (key, centre)
+        if best is None:
+            return np.full(2, np.nan), math.inf
+        return best[1], best[0][1] + best[0][0]
 
 
 def solve_pose(
