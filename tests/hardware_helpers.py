@@ -44,3 +44,16 @@ def route(n: int = 5) -> list[ArmCommand]:
 
 def is_default(config: Config) -> bool:
     return config == Config()
+
+
+def timed_move(config: Config, bus: Any, share: float) -> tuple[Any, Any]:
+    """An executor streaming to ``bus`` and its timed move from home to ``share`` of
+    each actuated joint's range: ``(executor, timed)``."""
+    from mearm.kinematics import ArmModel
+    from mearm.task.execute import Executor
+
+    model = ArmModel(config.arm)
+    executor = Executor(config, bus, model)
+    lo, hi = model.chain.actuated_lower, model.chain.actuated_upper
+    target = model.chain.full(lo + share * (hi - lo))
+    return executor, executor.timed(executor.joint_path(target))

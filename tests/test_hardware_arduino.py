@@ -8,7 +8,7 @@ import time
 
 import pytest
 from fakeboard import FakeMearmBoard, MearmFaults
-from hardware_helpers import HOME, HOME_PULSES, command, fast_config, route
+from hardware_helpers import HOME, HOME_PULSES, command, fast_config, route, timed_move
 
 from mearm.backends import open_bus
 from mearm.config import Config
@@ -395,17 +395,11 @@ def test_a_stream_at_a_low_baud_steps_as_far_as_the_period_allows():
     executor sizes each step for the whole period (43.8 ms at 9600 baud, not the 20 ms
     of servo.rate_hz) and counts a period for it, so the arm keeps its planned speed and
     the reported motion time is the time the link takes."""
-    from mearm.kinematics import ArmModel
-    from mearm.task.execute import Executor
-
     durations = {}
     for baud in (9600, 115200):
         config = fast_config("serial", rate_hz=50.0, baud=baud)
         bus = ArduinoBus(config)
-        model = ArmModel(config.arm)
-        executor = Executor(config, bus, model)
-        lo, hi = model.chain.actuated_lower, model.chain.actuated_upper
-        timed = executor.timed(executor.joint_path(model.chain.full(lo + 0.2 * (hi - lo))))
+        executor, timed = timed_move(config, bus, 0.2)
         assert bus.step_s == bus.period_s and timed.period_s == bus.period_s
         assert executor.motion.stream_hz == pytest.approx(1.0 / bus.period_s)
         durations[baud] = timed.duration_s

@@ -12,7 +12,7 @@ import time
 
 import pytest
 from fakeboard import FakeSSC32Board, SSC32Faults
-from hardware_helpers import HOME, command, fast_config, route
+from hardware_helpers import HOME, command, fast_config, route, timed_move
 
 from mearm.backends import open_bus
 from mearm.exceptions import (
@@ -212,21 +212,16 @@ def test_a_stream_takes_a_period_a_step_and_glides_each_within_the_speed_limits(
     the board takes; the steps do not depend on the baud rate."""
     import numpy as np
 
-    from mearm.kinematics import ArmModel
-    from mearm.task.execute import Executor
-
     config = fast_config("ssc32", rate_hz=50.0, baud=baud)
     bus = SSC32Bus(config)
-    model = ArmModel(config.arm)
-    executor = Executor(config, bus, model)
-    lo, hi = model.chain.actuated_lower, model.chain.actuated_upper
-    timed = executor.timed(executor.joint_path(model.chain.full(lo + 0.3 * (hi - lo))))
+    executor, timed = timed_move(config, bus, 0.3)
+    chain = executor.chain
     steps = len(timed.q) - 1
     assert bus.step_s == 0.020 and steps >= 5
     assert timed.duration_s == pytest.approx(steps * bus.period_s)
     assert executor.motion.stream_hz == pytest.approx(1.0 / bus.period_s)
     limits = executor.limits
-    travel = np.abs(np.diff(limits.values(model.chain.actuated_of(timed.q)), axis=0))
+    travel = np.abs(np.diff(limits.values(chain.actuated_of(timed.q)), axis=0))
     assert np.all(travel <= limits.velocity * bus.step_s * (1 + 1e-6))
     assert travel.max() > 0.5 * limits.velocity.min() * bus.step_s  # not crawling
 

@@ -75,8 +75,6 @@ MAX_CAMERA_DISTANCE_CM = 1000.0
 #: beyond ±90°). On the twin's renders 89° gives a third less error than 80° (more of
 #: the rim) and 60° twice as much.
 FAR_ARC_DEG = 89.0
-#: The same for a polygon's top (a cube's square) [deg] (see :meth:`locate_polygon`).
-POLYGON_FAR_ARC_DEG = 89.0
 #: Starting turns of the polygon fit, spread over one period of its symmetry [-].
 POLYGON_TURNS = 3
 #: A fitted polygon's corner may lie this far outside the region's outline [cm] (the
@@ -530,12 +528,12 @@ class TopFace:
 def _fit_disc(pts: np.ndarray, radius: float, centre: np.ndarray) -> tuple[np.ndarray, float]:
     """The centre of a circle of ``radius`` nearest ``pts`` (Gauss–Newton): centre, rms."""
     c = np.asarray(centre, dtype=float).copy()
-    for _ in range(20):
+    for _ in range(10):
         d = pts - c
         dist = np.maximum(np.linalg.norm(d, axis=1), 1e-12)
         step, *_ = np.linalg.lstsq(-d / dist[:, None], radius - dist, rcond=None)
         c = c + step
-        if np.abs(step).max() < 1e-9:
+        if np.abs(step).max() < 1e-7:
             break
     res = np.linalg.norm(pts - c, axis=1) - radius
     return c, float(math.sqrt(np.mean(res**2)))
@@ -873,6 +871,20 @@ class PerspectiveCamera:
             outline = subpixel_edges(frame, outline)
         return self.pixel_to_plane(outline, height_cm)
 
+    def _far_side(self, pts: np.ndarray, c: np.ndarray, radius_cm: float) -> np.ndarray:
+        """The outline points (on the top's plane) on the far side of ``c``.
+
+        Those within :data:`FAR_ARC_DEG` of the way away from the camera's foot point;
+        all of them when ``c`` is under the camera (the whole outline is the top's rim).
+        """
+        away = c - self.centre_cm[:2]
+        dist = float(np.linalg.norm(away))
+        if dist < 1e-6 * max(radius_cm, 1e-3):
+            return pts
+        d = pts - c
+        cosang = (d @ (away / dist)) / np.maximum(np.linalg.norm(d, axis=1), 1e-12)
+        return pts[cosang >= math.cos(math.radians(FAR_ARC_DEG))]
+
     def rim_centres(
         self,
         mask: np.ndarray,
@@ -918,14 +930,7 @@ class PerspectiveCamera:
             rim = pts[(owner == i) & (np.abs(dist - radius_cm) < 0.2 * radius_cm) & facing]
             if len(rim) < 8:
                 continue
-            for _ in range(10):
-                d = rim - c
-                dist = np.maximum(np.linalg.norm(d, axis=1), 1e-12)
-                step, *_ = np.linalg.lstsq(-d / dist[:, None], radius_cm - dist, rcond=None)
-                c = c + step
-                if np.abs(step).max() < 1e-7:
-                    break
-            centres[i] = c
+            centres[i] = _fit_disc(rim, radius_cm, c)[0]
         return centres
 
     def locate_object(
@@ -953,17 +958,8 @@ class PerspectiveCamera:
         m = cv2.moments((mask > 0).view(np.uint8), binaryImage=True)
         centroid_px = np.array([m["m10"] / m["m00"], m["m01"] / m["m00"]]) + origin_px
         c = self.pixel_to_plane(centroid_px, height_cm)
-        foot = self.centre_cm[:2]
         for _ in range(4):
-            away = c - foot
-            dist = float(np.linalg.norm(away))
-            if dist < 1e-6 * max(radius_cm, 1e-3):
-                chosen = pts  # under the camera: the whole outline is the top's rim
-            else:
-                u = away / dist
-                d = pts - c
-                cosang = (d @ u) / np.maximum(np.linalg.norm(d, axis=1), 1e-12)
-                chosen = pts[cosang >= math.cos(math.radians(FAR_ARC_DEG))]
+            chosen = self._far_side(pts, c, radius_cm)
             if len(chosen) < 6:
                 break
             c_new, _ = _fit_circle(chosen)
@@ -1025,14 +1021,7 @@ class PerspectiveCamera:
         outline = pts.astype(np.float32).reshape(-1, 1, 2)
         rms = math.inf
         for _ in range(3):  # the far side is judged from the centre: again from the fit
-            away = c - self.centre_cm[:2]
-            dist = float(np.linalg.norm(away))
-            if dist < 1e-6 * face.radius_cm:
-                chosen = pts
-            else:
-                d = pts - c
-                cosang = (d @ (away / dist)) / np.maximum(np.linalg.norm(d, axis=1), 1e-12)
-                chosen = pts[cosang >= math.cos(math.radians(POLYGON_FAR_ARC_DEG))]
+            chosen = self._far_side(pts, c, face.radius_cm)
             if len(chosen) < 6:
                 break
             if face.corners_cm is None:
