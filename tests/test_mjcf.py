@@ -476,3 +476,21 @@ def test_sort_saves_the_scene_it_will_see_as_mjcf(tmp_path, capsys):
     m = mujoco.MjModel.from_xml_path(str(path))
     bodies = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, i) for i in range(m.nbody)]
     assert sum(1 for b in bodies if b and b.startswith("obj_")) == 5
+
+
+def test_the_twins_objects_start_at_their_scenes_yaw() -> None:
+    """The keyframe every twin run starts from puts each object where and at the yaw its
+    scene gives (it used to leave every object at yaw 0: cubes the scene turned 20°, 45°
+    and 70° were sorted square to the jaws)."""
+    config = load_config(ROOT / "configs" / "sim_shapes_mujoco.yaml")
+    model = twin_model(config)
+    data = mujoco.MjData(model)
+    mujoco.mj_resetDataKeyframe(model, data, model.key("home").id)
+    mujoco.mj_forward(model, data)
+    yaws = [o.yaw_deg for o in config.task.scene]
+    assert any(yaws)
+    for obj, oid in zip(config.task.scene, object_ids(config), strict=True):
+        body = data.body(f"obj_{oid}")
+        yaw = math.degrees(2 * math.atan2(body.xquat[3], body.xquat[0]))
+        assert abs((yaw - obj.yaw_deg + 180.0) % 360.0 - 180.0) < 1e-6, (oid, yaw, obj.yaw_deg)
+        np.testing.assert_allclose(body.xpos[:2] * 100, (obj.x, obj.y), atol=1e-9)

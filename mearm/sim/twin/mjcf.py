@@ -859,9 +859,11 @@ def _build(config: Config, spec: ServoSpec, gripper_spec: ServoSpec) -> mujoco.M
     model.add_text(name=GRIPPER_SERVO_TEXT, data=gripper_spec.name)
     half_open = g.open_cm * M_PER_CM / 2
     qpos = list(chain.home) + [half_open, half_open]
-    for obj in task.scene:
+    for obj in task.scene:  # where and at what yaw the scene puts each (as its body)
         h = task.class_named(obj.color).height_cm * M_PER_CM
-        qpos += [obj.x * M_PER_CM, obj.y * M_PER_CM, h / 2, 1, 0, 0, 0]
+        yaw = math.radians(obj.yaw_deg)
+        turn = [math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2)]
+        qpos += [obj.x * M_PER_CM, obj.y * M_PER_CM, h / 2, *exact(turn)]
     for i, arrival in enumerate(arrivals):
         qpos += [*parked_m(config, i, arrival), 1, 0, 0, 0]
     home_ctrl = [
