@@ -70,6 +70,11 @@ SAME_SHIFT_CM = 0.3
 #: An object whose region grew or shrank by more than this fraction since the last look
 #: is partly hidden (by the arm) in one of them: its centroid moved for that [-].
 SAME_AREA_RATIO = 0.15
+#: An object that slips from the jaws on the way to its bin lands within this of the
+#: path the TCP carried it along, on the table [cm]: it falls from the carrying height
+#: and may tip or roll (the paper arm's twin drops a cube gripped across its corners
+#: 0.3 cm from that path).
+DROPPED_NEAR_CM = 5.0
 
 
 class CollisionError(MearmError):
@@ -142,6 +147,10 @@ class TrackedObject:
     yaw_deg: float | None = None
     #: Its region's area at the last look [px].
     area_px: int = 0
+    #: The path (x, y) [cm], (k, 2), its TCP carried it along to its bin, while no
+    #: simulator has confirmed the release (the twin, a real rig): an object of its class
+    #: seen new near that path is it, dropped on the way (:meth:`Sorter._dropped`).
+    carried_cm: np.ndarray | None = None
 
 
 Seen = list[tuple[Detection, np.ndarray]]
@@ -265,6 +274,8 @@ class Sorter:
             if known is None and not track_new:
                 continue
             if known is None:
+                known = self._dropped(det.color, float(x), float(y))
+            if known is None:
                 n = sum(1 for o in self._objects if o.class_name == det.color) + 1
                 known = TrackedObject(f"{det.color}{n}", det.color, float(x), float(y))
                 self._objects.append(known)
@@ -281,6 +292,24 @@ class Sorter:
                     self.calibration.pixel_to_table, det.centroid_px, det.yaw_px_deg
                 )
         _check_view(shifts, self.camera.source)
+
+    def _dropped(self, class_name: str, x: float, y: float) -> TrackedObject | None:
+        """The object of ``class_name`` counted sorted but seen again at (x, y), or ``None``.
+
+        On a table nothing else brings new objects: one that appears within
+        :data:`DROPPED_NEAR_CM` of the path the arm carried an object of its class along,
+        its release unconfirmed, is that object dropped on the way. It is no longer counted
+        sorted and is picked again from where it lies (the most recently carried first).
+        """
+        for obj in reversed(self._objects):
+            path = obj.carried_cm
+            if obj.class_name != class_name or not obj.sorted or path is None:
+                continue
+            if _distance_to_path(path, np.array([x, y])) <= DROPPED_NEAR_CM:
+                obj.sorted, obj.carried_cm = False, None
+                obj.x_cm, obj.y_cm = x, y
+                return obj
+        return None
 
     def _untouched(self, obj: TrackedObject, det: Detection) -> bool:
         """Whether the arm left ``obj`` alone since the last look and both saw it whole."""
@@ -484,6 +513,8 @@ class Sorter:
         release = self.bus.last_release if isinstance(self.bus, ReportsRelease) else None
         place.success = release is None or release.bin == obj.class_name
         obj.sorted = place.success
+        if release is None and place.plan is not None:  # unconfirmed: it may have slipped
+            obj.carried_cm = np.vstack([[obj.x_cm, obj.y_cm], place.plan.ee_path_cm[:, :2]])
         for o in self._objects:  # the table changed: a blocked pick may be clear now
             o.blocked = None
         t0 = t1
@@ -717,3 +748,11 @@ def _failure_kind(route: Route) -> str:
 
 def _hex(rgb: tuple[int, int, int]) -> str:
     return "#{:02x}{:02x}{:02x}".format(*rgb)
+
+
+def _distance_to_path(path: np.ndarray, p: np.ndarray) -> float:
+    """The distance of ``p`` (2,) from a polyline ``path`` (k ≥ 2, 2) [cm]."""
+    a, ab = path[:-1], np.diff(path, axis=0)
+    t = np.einsum("kd,kd->k", p - a, ab) / np.maximum(np.einsum("kd,kd->k", ab, ab), 1e-12)
+    nearest = a + np.clip(t, 0.0, 1.0)[:, None] * ab
+    return float(np.min(np.linalg.norm(nearest - p, axis=1)))
