@@ -232,12 +232,19 @@ def test_a_stream_takes_a_period_a_step_and_glides_each_within_the_speed_limits(
 
 
 def test_garbled_q_resynced_and_retried(caplog):
-    """A junk byte instead of '.'/'+': each try logged, VER resynchronises, Q asked again."""
+    """A junk byte instead of '.'/'+': each try logged, VER resynchronises, Q asked again.
+
+    (Each failed try is logged as answered with the junk, or, when the junk reaches a
+    loaded host after the try's wait, as no complete answer: seen in CI's script.)
+    """
     with FakeSSC32Board(SSC32Faults(garbage_q=2)) as board, connected(board) as bus:
         with caplog.at_level(logging.WARNING):
             bus.move(HOME)
         assert board.received[2:] == [*STATUS, b"VER", *STATUS, b"VER", *STATUS]
-        assert sum("try" in r.message and "answered" in r.message for r in caplog.records) == 2
+        tries = [r.message for r in caplog.records if "try" in r.message]
+        assert len(tries) == 2 and all(
+            "answered" in t or "no complete answer" in t for t in tries
+        ), tries
         assert bus.state == ArmState.from_command(HOME)
 
 
