@@ -141,6 +141,13 @@ def wait_board_joints(board, expected: dict[str, float]) -> None:
         board.wait_pulse(a.channel, a.command_us(expected[a.name]))
 
 
+def pulses_at(board: BoardUnderTest, joints: dict[str, float]) -> list[float]:
+    """Every joint's pulse once the board outputs the readout's ``joints`` [µs]: on a loaded
+    machine the firmware in simavr can still be gliding to it well after the readout."""
+    wait_board_joints(board, joints)
+    return settled_pulses(board)
+
+
 @pytest.mark.slow
 def test_jog_on_a_board_reaches_the_poses_and_parks(board):
     """The pulses the board outputs are the readout's joints (to 1 µs plus the board's
@@ -181,7 +188,7 @@ def test_a_move_past_a_limit_is_refused_and_sends_nothing(board):
         for _ in range(7):
             joints, _ = readout(cmd)
         assert joints["shoulder"] == pytest.approx(133.0, abs=1e-3)
-        held, moves = settled_pulses(board), board.move_count()
+        held, moves = pulses_at(board, joints), board.move_count()
         cmd.send("+")
         cmd.expect(
             r"refused: shoulder would be at 143 deg, outside its limits \[30, 135\] deg; "
@@ -193,7 +200,7 @@ def test_a_move_past_a_limit_is_refused_and_sends_nothing(board):
         cmd.expect(r"refused: .*; nothing sent")
         joints_after, tcp_after = last_readout(cmd)
         assert tcp_after[2] > fk_of(joints)[2] + 4.0  # the Z steps before the refusal moved
-        held, moves = settled_pulses(board), board.move_count()
+        held, moves = pulses_at(board, joints_after), board.move_count()
         cmd.send("Z")
         cmd.expect(r"refused: .*; nothing sent")
         assert settled_pulses(board) == pytest.approx(held, abs=board.accuracy_us)
@@ -218,8 +225,8 @@ def test_ctrl_c_stops_where_the_arm_is(board):
         cmd.send("1++")
         readout(cmd)
         readout(cmd)
-        readout(cmd)
-        held, moves = settled_pulses(board), board.move_count()
+        joints, _ = readout(cmd)
+        held, moves = pulses_at(board, joints), board.move_count()
         cmd.send("\x03")
         assert cmd.wait() == 130
     finally:
