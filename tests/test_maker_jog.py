@@ -256,9 +256,8 @@ def test_calibrate_then_jog_puts_the_true_servo_at_the_angle(board, tmp_path):
     cmd = PtyCommand("jog", *serial_args(board.port), "--servo-calibration", str(out))
     try:
         readout(cmd)
-        time.sleep(0.3)
         base = SMAP["base"]
-        pulse = board.pulse_us(base.channel)
+        (pulse,) = board.steady_pulses_us([base.channel])
         cmd.send("Q")
         assert cmd.wait() == 0
     finally:
