@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import json
 import sys
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from pathlib import Path
 
 import cv2
@@ -43,7 +43,7 @@ from mearm.vision.calibration import camera_geometry
 from mearm.vision.detector import ColorDetector, Detection
 from mearm.vision.errors import ImageError
 from mearm.vision.image import quiet_opencv, read_image
-from mearm.vision.shapes import table_yaw_deg, touches_border
+from mearm.vision.shapes import touches_border
 
 #: Decoded frames kept between checking every image and detecting in each [px]; the
 #: images past it are decoded twice (checked, dropped, read again) to bound the memory.
@@ -80,24 +80,18 @@ def annotation_paths(out: Path, count: int) -> list[Path]:
     return [out.with_name(f"{out.stem}-{i}{out.suffix}") for i in range(count)]
 
 
-def to_records(
-    detections: Sequence[Detection],
-    frame_shape: Sequence[int],
-    pixel_to_table: Callable[[np.ndarray], np.ndarray] | None = None,
-) -> list[dict]:
+def to_records(detections: Sequence[Detection], frame_shape: Sequence[int]) -> list[dict]:
     """The JSON records of detections: class, positions, area, merged, cut, shape, yaw.
 
     The table position is the detector's (``Detection.table_cm``): the centroid's under
     the paper's homography, the top face's centre under a perspective calibration.
     ``cut``: the region touches the border of the frame of ``frame_shape`` (H, W, ...).
-    A cube's yaw is turned into the base frame by ``pixel_to_table`` (``None``: no yaw).
+    A cube's yaw is the detector's on the table (``Detection.yaw_deg``; ``None``: none).
     """
     h, w = int(frame_shape[0]), int(frame_shape[1])
     out = []
     for d in detections:
-        yaw = None
-        if d.yaw_px_deg is not None and pixel_to_table is not None:
-            yaw = round(table_yaw_deg(pixel_to_table, d.centroid_px, d.yaw_px_deg), 2)
+        yaw = None if d.yaw_deg is None else round(d.yaw_deg, 2)
         out.append(
             {
                 "color": d.color,
@@ -263,7 +257,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                 file=sys.stderr,
             )
         detections = detector.detect(frame)
-        records = to_records(detections, frame.shape, calibration.pixel_to_table)
+        records = to_records(detections, frame.shape)
         if args.json:
             print(json.dumps(records))
         else:

@@ -70,11 +70,13 @@ def test_a_cubes_yaw_comes_from_its_outline(sweep: list) -> None:
     cubes = [(disc, _nearest(disc, found)) for disc, found in sweep if disc.shape == "cube"]
     assert len(cubes) == 24
     for disc, d in cubes:
+        # the detector's table yaw is the image yaw turned through the homography
         yaw = table_yaw_deg(CAL.pixel_to_table, d.centroid_px, d.yaw_px_deg)
+        assert d.yaw_deg == pytest.approx(yaw, abs=1e-9)
         err = (yaw - disc.yaw_deg + 45.0) % 90.0 - 45.0
         assert abs(err) < 5.0, (disc, yaw)
     others = [_nearest(disc, found) for disc, found in sweep if disc.shape != "cube"]
-    assert all(d.yaw_px_deg is None for d in others)
+    assert all(d.yaw_px_deg is None and d.yaw_deg is None for d in others)
 
 
 def test_fill_of_ideal_outlines() -> None:

@@ -171,7 +171,7 @@ def objects_pictures(config: Config, camera, layout, out: Path) -> None:  # noqa
     frame, truth = render_objects(cfg, noise_std=NOISE, seed=0)
     detector = ColorDetector(cfg.vision, camera, classes)
     found = detector.detect(frame)
-    records = to_records(found)
+    records = to_records(found, frame.shape)
     _save(out / "calibration_objects.png", annotate(frame, detector, records, found), colors=48)
 
     # the paper's model on the same frame: centroid through a homography of the same markers

@@ -53,7 +53,6 @@ from mearm.vision import Camera, ColorDetector, Detection
 from mearm.vision.calibration import camera_geometry
 from mearm.vision.errors import CameraError
 from mearm.vision.frame_check import FrameCheck
-from mearm.vision.shapes import table_yaw_deg
 
 if TYPE_CHECKING:
     from mearm.runlog.writer import RunLog  # a log is written only when asked for
@@ -287,10 +286,8 @@ class Sorter:
             # one look's merged region may be another's single object: the arm, now
             # elsewhere, hid part of it, or a neighbour picked meanwhile touched it
             known.merged = det.merged
-            if det.yaw_px_deg is not None:
-                known.yaw_deg = table_yaw_deg(
-                    self.calibration.pixel_to_table, det.centroid_px, det.yaw_px_deg
-                )
+            if det.yaw_deg is not None:
+                known.yaw_deg = det.yaw_deg
         _check_view(shifts, self.camera.source)
 
     def _dropped(self, class_name: str, x: float, y: float) -> TrackedObject | None:

@@ -52,7 +52,7 @@ def sweep(
     from mearm.sim.kinematic.renderer import Disc, TableRenderer, class_bgr
     from mearm.vision.calibration import Calibration
     from mearm.vision.detector import ColorDetector
-    from mearm.vision.shapes import measure_shape, table_yaw_deg
+    from mearm.vision.shapes import measure_shape
 
     calibration = Calibration.from_config(config.calibration)
     first = config.task.classes[0]
@@ -100,9 +100,8 @@ def sweep(
             t.right += f.shape == d.shape
             x, y, w, h = f.bbox_px
             t.fills.append(measure_shape((mask[y : y + h, x : x + w] > 0).view(np.uint8)).fill)
-            if d.shape == "cube" and f.yaw_px_deg is not None:
-                yaw = table_yaw_deg(calibration.pixel_to_table, f.centroid_px, f.yaw_px_deg)
-                t.yaw_errors_deg.append(abs((yaw - d.yaw_deg + 45.0) % 90.0 - 45.0))
+            if d.shape == "cube" and f.yaw_deg is not None:
+                t.yaw_errors_deg.append(abs((f.yaw_deg - d.yaw_deg + 45.0) % 90.0 - 45.0))
     return tally
 
 

@@ -68,9 +68,9 @@ from mearm.errors import ConfigError
 from mearm.vision.calibration import Calibration, CameraGeometry, camera_geometry
 from mearm.vision.classify import PixelClassifier, and_scalar, equal_mask
 from mearm.vision.errors import ImageError
-from mearm.vision.pinhole import PerspectiveCamera, TopFace
+from mearm.vision.pinhole import PerspectiveCamera, TopFace, TopFit
 from mearm.vision.shadows import grow_into_shadows, weak_classifier
-from mearm.vision.shapes import ClassMatcher, measure_shape, touches_border
+from mearm.vision.shapes import ClassMatcher, measure_shape, table_yaw_deg, touches_border
 from mearm.vision.thresholds import Thresholds
 
 if TYPE_CHECKING:
@@ -95,7 +95,13 @@ class Detection:
         shape: The shape its outline has (:mod:`mearm.vision.shapes`); ``None`` when it
             cannot be told: the region is merged or cut by the image border.
         yaw_px_deg: A cube's sides' direction in the image, from the u axis towards +v,
-            in [0, 90) [deg]; ``None`` for other shapes.
+            in [0, 90) [deg], from the silhouette's smallest rectangle; ``None`` for other
+            shapes.
+        yaw_deg: A cube's sides' direction on the table, from the base frame's x axis
+            towards y, in [0, 90) [deg], when the detector has a calibration: under the
+            paper's homography ``yaw_px_deg`` turned through it; under a perspective
+            calibration the fitted top square's turn (the silhouette's walls turn its
+            rectangle). ``None`` for other shapes, or without a calibration.
     """
 
     color: str
@@ -107,6 +113,7 @@ class Detection:
     table_cm: np.ndarray | None = field(default=None, compare=False)
     shape: str | None = None
     yaw_px_deg: float | None = None
+    yaw_deg: float | None = None
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "centroid_px", _point(self.centroid_px))
@@ -545,28 +552,31 @@ class ColorDetector:
             )
         ]
         found, regions = self._resolve(found, regions, frame)
-        tops = self._top_shapes(found, regions, frame)
+        fits = self._top_fits(found, regions, frame)
+        tops = None if fits is None else [None if f is None else self._best_shape(f) for f in fits]
         classed = _classify_regions(self.matcher, found, regions, frame.shape, tops)
-        return self._ordered(self._located(classed, frame))
+        return self._ordered(self._located(classed, frame, fits))
 
-    def _top_shapes(
+    def _top_fits(
         self, found: list[Detection], regions: list[np.ndarray], frame: np.ndarray
-    ) -> list[str | None] | None:
-        """In perspective, each region's shape judged by its top face (else ``None``).
+    ) -> list[dict[str, TopFit] | None] | None:
+        """In perspective, each region's top face fitted as each class it may be of.
 
         The silhouette a perspective camera sees adds the side walls to the top face, and
         a tall object's fill leaves its shape's band (2.5 cm cylinders read as squares).
         Where a region's colour has classes that name shapes, each of their top faces
         (a disc, a square, a triangle of the class's size, at its height) is fitted to
         the far half of the outline (:meth:`PerspectiveCamera.fit_top`) and the closest
-        fit names the shape. ``None`` for a region merged or cut by the border, or of a
-        colour whose classes name no shape: the silhouette's measure stands.
+        fit names the shape (:meth:`_best_shape`); the region is then located by its
+        class's fit. ``None`` for a region merged or cut by the border, or of a colour
+        whose classes name no shape: the silhouette's measure stands. Each fit is keyed
+        by its class's name.
         """
         cal = self.calibration
         if not isinstance(cal, PerspectiveCamera) or not found:
             return None
         h, w = frame.shape[:2]
-        out: list[str | None] = []
+        out: list[dict[str, TopFit] | None] = []
         for d, region in zip(found, regions, strict=True):
             names = self.matcher.candidates[d.color]
             classes = [self._class_of[n] for n in names]
@@ -574,12 +584,15 @@ class ColorDetector:
                 out.append(None)
                 continue
             origin = (d.bbox_px[0], d.bbox_px[1])
-            fits = []
-            for c in classes:
-                _, rms = cal.fit_top(region, origin, _top_face(c), c.height_cm, frame)
-                fits.append((rms, c.object_shape.name))
-            out.append(min(fits)[1])
+            out.append(
+                {c.name: cal.fit_top(region, origin, _top_face(c), c.height_cm, frame)
+                 for c in classes}
+            )  # fmt: skip
         return out
+
+    def _best_shape(self, fits: dict[str, TopFit]) -> str:
+        """The shape whose class's top face fits a region's outline best (least rms)."""
+        return min((f.rms_cm, self._class_of[n].object_shape.name) for n, f in fits.items())[1]
 
     def _classed(
         self, found: list[Detection], regions: list[np.ndarray], frame_shape: Sequence[int]
@@ -590,7 +603,11 @@ class ColorDetector:
         regions of no class (a shape no class of its colour has) are dropped.
         """
         classed = _classify_regions(self.matcher, found, regions, frame_shape)
-        return self._ordered([d for d, _ in classed])
+        cal = self.calibration
+        out = [d for _, d, _ in classed]
+        if isinstance(cal, Calibration):
+            out = [_with_table_yaw(d, cal) for d in out]
+        return self._ordered(out)
 
     def _ordered(self, out: list[Detection]) -> list[Detection]:
         """``out`` in the documented order: by class, then top to bottom, left to right."""
@@ -642,38 +659,46 @@ class ColorDetector:
         return flat, area_cm2 / cal.pixel_area_cm2(centroids_px), 1.0 + sweep / (2.0 * r)
 
     def _located(
-        self, classed: list[tuple[Detection, np.ndarray]], frame: np.ndarray
+        self,
+        classed: list[tuple[int, Detection, np.ndarray]],
+        frame: np.ndarray,
+        fits: Sequence[dict[str, TopFit] | None] | None = None,
     ) -> list[Detection]:
-        """Each detection of a class (with its region) with its table position (``table_cm``).
+        """Each detection of a class with its table position and a cube's table yaw.
 
-        In perspective a disc is located by its top's rim, a square or a triangle by its
-        top's outline (:meth:`PerspectiveCamera.locate_polygon`) once its shape is
-        measured (a merged region's or one cut by the border is taken as a disc).
+        ``classed`` holds each detection's index in ``fits`` (:meth:`_top_fits`) and its
+        region. In perspective a disc is located by its top's rim, a square or a triangle
+        by its top's outline (:meth:`PerspectiveCamera.fit_top`, the fit already made for
+        its class where there is one) once its shape is measured (a merged region's or
+        one cut by the border is taken as a disc); a cube's yaw is its top's turn.
         """
-        found = [d for d, _ in classed]
+        found = [d for _, d, _ in classed]
         cal = self.calibration
         if cal is None or not found:
             return found
         if isinstance(cal, Calibration):
             xy = cal.pixel_to_table(np.array([d.centroid_px for d in found]))
-            return [replace(d, table_cm=p) for d, p in zip(found, xy, strict=True)]
+            return [
+                _with_table_yaw(replace(d, table_cm=p), cal) for d, p in zip(found, xy, strict=True)
+            ]
         out = []
-        for d, region in classed:
+        for k, d, region in classed:
             if d.table_cm is not None:  # placed by the silhouette fit of a split
                 out.append(d)
                 continue
             origin = (d.bbox_px[0], d.bbox_px[1])
             cls = self._class_of[d.color]
             spec = cls.object_shape
-            corners = spec.corners_cm(cls.diameter_cm)
-            if d.shape == spec.name and corners is not None:
-                at = cal.locate_polygon(
-                    region, origin, corners, spec.symmetry_deg, cls.height_cm, frame
-                )
+            if d.shape == spec.name and spec.corners_cm(cls.diameter_cm) is not None:
+                of_region = None if fits is None else fits[k]
+                made = None if of_region is None else of_region.get(cls.name)
+                fit = made or cal.fit_top(region, origin, _top_face(cls), cls.height_cm, frame)
+                yaw = fit.yaw_deg if spec.name == "cube" else None
+                out.append(replace(d, table_cm=fit.centre_cm, yaw_deg=yaw))
             else:
                 r = _disc_diameter_cm(cls) / 2.0
                 at = cal.locate_object(region, origin, r, cls.height_cm, frame)
-            out.append(replace(d, table_cm=at))
+                out.append(replace(d, table_cm=at))
         return out
 
     def _resolve(
@@ -780,13 +805,20 @@ class ColorDetector:
         return parts, centres
 
 
+def _with_table_yaw(d: Detection, cal: Calibration) -> Detection:
+    """``d`` with a cube's image yaw turned onto the table through the homography."""
+    if d.yaw_px_deg is None:
+        return d
+    return replace(d, yaw_deg=table_yaw_deg(cal.pixel_to_table, d.centroid_px, d.yaw_px_deg))
+
+
 def _classify_regions(
     matcher: ClassMatcher,
     found: Sequence[Detection],
     regions: Sequence[np.ndarray],
     frame_shape: Sequence[int],
     tops: Sequence[str | None] | None = None,
-) -> list[tuple[Detection, np.ndarray]]:
+) -> list[tuple[int, Detection, np.ndarray]]:
     """Detections of colours (``color`` a colour's name) as detections of classes.
 
     Each region's shape is measured (:func:`measure_shape`) unless it is merged or cut
@@ -799,10 +831,10 @@ def _classify_regions(
         regions: Each one's mask over its box, 0/1 uint8.
         frame_shape: The frame's (H, W, ...).
         tops: Each region's shape judged by its top face in perspective, where known
-            (:meth:`ColorDetector._top_shapes`): it stands for the silhouette's.
+            (:meth:`ColorDetector._top_fits`): it stands for the silhouette's.
 
     Returns:
-        Each detection of a class and its region.
+        Each detection of a class, with its index in ``found`` and its region.
     """
     height, width = int(frame_shape[0]), int(frame_shape[1])
     out = []
@@ -817,5 +849,5 @@ def _classify_regions(
         if name is None:
             continue
         yaw = None if measured is None or shape != "cube" else measured.yaw_px_deg
-        out.append((replace(d, color=name, shape=shape, yaw_px_deg=yaw), region))
+        out.append((k, replace(d, color=name, shape=shape, yaw_px_deg=yaw), region))
     return out

@@ -45,7 +45,7 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any, Literal, NamedTuple
 
 import cv2
 import numpy as np
@@ -525,6 +525,21 @@ class TopFace:
     symmetry_deg: float = 0.0
 
 
+class TopFit(NamedTuple):
+    """An upright object's top face fitted to its outline (:meth:`PerspectiveCamera.fit_top`).
+
+    Attributes:
+        centre_cm: Where the object stands, base frame (x, y) [cm], (2,).
+        rms_cm: The far side's rms distance from the fitted face [cm] (∞: no fit).
+        yaw_deg: A polygon's turn on the table, from the base frame's x axis towards y,
+            modulo its symmetry [deg]; ``None`` for a disc or when no fit was made.
+    """
+
+    centre_cm: np.ndarray
+    rms_cm: float
+    yaw_deg: float | None
+
+
 def _fit_disc(pts: np.ndarray, radius: float, centre: np.ndarray) -> tuple[np.ndarray, float]:
     """The centre of a circle of ``radius`` nearest ``pts`` (Gauss–Newton): centre, rms."""
     c = np.asarray(centre, dtype=float).copy()
@@ -971,20 +986,6 @@ class PerspectiveCamera:
                 break
         return np.asarray(c, dtype=float)
 
-    def locate_polygon(
-        self,
-        mask: np.ndarray,
-        origin_px: tuple[int, int],
-        corners_cm: npt.ArrayLike,
-        symmetry_deg: float,
-        height_cm: float,
-        frame: np.ndarray | None = None,
-    ) -> np.ndarray:
-        """The table position (x, y) [cm] of an upright prism (a cube): :meth:`fit_top`'s."""
-        corners = np.asarray(corners_cm, dtype=float).reshape(-1, 2)
-        face = TopFace(float(np.max(np.linalg.norm(corners, axis=1))), corners, symmetry_deg)
-        return self.fit_top(mask, origin_px, face, height_cm, frame)[0]
-
     def fit_top(
         self,
         mask: np.ndarray,
@@ -992,8 +993,8 @@ class PerspectiveCamera:
         face: TopFace,
         height_cm: float,
         frame: np.ndarray | None = None,
-    ) -> tuple[np.ndarray, float]:
-        """Where an upright object of a known top face stands, and how well the face fits.
+    ) -> TopFit:
+        """Where an upright object of a known top face stands, its turn, and the fit's rms.
 
         As :meth:`locate_object` for a disc, the far side of the region's outline cast
         onto the plane of the object's top is the top face's own rim. The face of the
@@ -1011,15 +1012,15 @@ class PerspectiveCamera:
             frame: The whole image, for the sub-pixel outline.
 
         Returns:
-            The position (x, y) [cm] and the far side's rms distance from the fitted
-            face [cm] (∞ when too little of the outline faces away to fit).
+            The top's centre, the far side's rms distance from the fitted face (∞ when too
+            little of the outline faces away to fit) and a polygon's turn (:class:`TopFit`).
         """
         m = cv2.moments((mask > 0).view(np.uint8), binaryImage=True)
         centroid_px = np.array([m["m10"] / m["m00"], m["m01"] / m["m00"]]) + origin_px
         c = self.pixel_to_plane(centroid_px, height_cm)
         pts = self._outline_on_plane(mask, origin_px, height_cm, frame)
         outline = pts.astype(np.float32).reshape(-1, 1, 2)
-        rms = math.inf
+        rms, yaw = math.inf, None
         for _ in range(3):  # the far side is judged from the centre: again from the fit
             chosen = self._far_side(pts, c, face.radius_cm)
             if len(chosen) < 6:
@@ -1027,27 +1028,30 @@ class PerspectiveCamera:
             if face.corners_cm is None:
                 fitted, rms = _fit_disc(chosen, face.radius_cm, c)
             else:
-                fitted, rms = self._fit_face(chosen, outline, face, c)
+                fitted, turn, rms = self._fit_face(chosen, outline, face, c)
             if not np.all(np.isfinite(fitted)):
                 break
+            if face.corners_cm is not None:
+                yaw = math.degrees(turn) % face.symmetry_deg
             moved = float(np.linalg.norm(fitted - c))
             c = fitted
             if moved < 1e-6:
                 break
-        return np.asarray(c, dtype=float), rms
+        return TopFit(np.asarray(c, dtype=float), rms, yaw)
 
     @staticmethod
     def _fit_face(
         chosen: np.ndarray, outline: np.ndarray, face: TopFace, c: np.ndarray
-    ) -> tuple[np.ndarray, float]:
+    ) -> tuple[np.ndarray, float, float]:
         """The polygon's best fit to the far side's points, over its starting turns.
 
-        The top face lies within the region's outline: a fit from beyond the far side's
-        edges (their mirror image) is taken only if no fit lies within.
+        Returns its centre, its turn [rad] and its score (the rms, plus how far a corner
+        lies outside). The top face lies within the region's outline: a fit from beyond
+        the far side's edges (their mirror image) is taken only if no fit lies within.
         """
         corners = np.asarray(face.corners_cm, dtype=float)
         period = math.radians(face.symmetry_deg)
-        best: tuple[tuple[float, float], np.ndarray] | None = None
+        best: tuple[tuple[float, float], np.ndarray, float] | None = None
         for k in range(POLYGON_TURNS):
             centre, yaw, rms = _fit_polygon(chosen, corners, c, k * period / POLYGON_TURNS)
             if not np.all(np.isfinite(centre)):
@@ -1059,10 +1063,10 @@ class PerspectiveCamera:
             )
             key = (max(outside - POLYGON_OUTSIDE_CM, 0.0), rms)
             if best is None or key < best[0]:
-                best = (key, centre)
+                best = (key, centre, yaw)
         if best is None:
-            return np.full(2, np.nan), math.inf
-        return best[1], best[0][1] + best[0][0]
+            return np.full(2, np.nan), math.nan, math.inf
+        return best[1], best[2], best[0][1] + best[0][0]
 
 
 def solve_pose(
