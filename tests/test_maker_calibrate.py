@@ -297,7 +297,7 @@ class BoardUnderTest:
         widths = b.widths_us(channel)[-3:]
         return statistics.median(widths) if widths else 0.0
 
-    def wait_pulse(self, channel: int, expected: float, timeout: float = 5.0) -> float:
+    def wait_pulse(self, channel: int, expected: float, timeout: float = 30.0) -> float:
         """Wait until the channel outputs ``expected`` (within the accuracy); return it."""
         deadline = time.monotonic() + timeout
         while True:
