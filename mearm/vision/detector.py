@@ -101,7 +101,8 @@ class Detection:
             towards y, in [0, 90) [deg], when the detector has a calibration: under the
             paper's homography ``yaw_px_deg`` turned through it; under a perspective
             calibration the fitted top square's turn (the silhouette's walls turn its
-            rectangle). ``None`` for other shapes, or without a calibration.
+            rectangle), or for a part of a split region its ``yaw_px_deg`` turned onto
+            the table. ``None`` for other shapes, or without a calibration.
     """
 
     color: str
@@ -684,7 +685,7 @@ class ColorDetector:
         out = []
         for k, d, region in classed:
             if d.table_cm is not None:  # placed by the silhouette fit of a split
-                out.append(d)
+                out.append(_with_table_yaw(d, cal))  # its part of the silhouette's yaw
                 continue
             origin = (d.bbox_px[0], d.bbox_px[1])
             cls = self._class_of[d.color]
@@ -805,8 +806,8 @@ class ColorDetector:
         return parts, centres
 
 
-def _with_table_yaw(d: Detection, cal: Calibration) -> Detection:
-    """``d`` with a cube's image yaw turned onto the table through the homography."""
+def _with_table_yaw(d: Detection, cal: CameraGeometry) -> Detection:
+    """``d`` with a cube's image yaw (the silhouette's) turned onto the table."""
     if d.yaw_px_deg is None:
         return d
     return replace(d, yaw_deg=table_yaw_deg(cal.pixel_to_table, d.centroid_px, d.yaw_px_deg))
