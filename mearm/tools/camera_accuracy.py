@@ -21,7 +21,8 @@ by the frame) are left out of the scenes. The paper's model — the blob's centr
 through a homography fitted to the same markers — is scored on the same frames.
 
 Prints one line per height: objects, mean and largest error [cm], objects missed and
-detections extra, and the paper model's figures. Exits 1 if the mean or the largest
+detections extra, and the paper model's figures; where the classes are cubes, a line of
+their yaws' errors (modulo 90°) under both models. Exits 1 if the mean or the largest
 error exceeds ``--max-mean-cm`` / ``--max-error-cm`` (0.05 / 0.10 cm) or anything was
 missed or extra. Needs SciPy (``pip install 'mearm[analysis]'``) for the matching.
 """
@@ -151,6 +152,7 @@ def score(
         paper_detector = ColorDetector(cfg.vision, paper, classes)
         errors: list[float] = []
         paper_errors: list[float] = []
+        yaw_errors: dict[bool, list[float]] = {True: [], False: []}  # by: ours?
         missed, extra, n = 0, 0, 0
         for seed in range(first_seed, first_seed + scenes):
             scene = []
@@ -173,10 +175,21 @@ def score(
                 ii, jj = linear_sum_assignment(cost)
                 good = cost[ii, jj] <= MATCH_CM
                 errs.extend(cost[ii, jj][good].tolist())
+                for i, j in zip(ii[good], jj[good], strict=True):
+                    yaw = found[j].yaw_deg
+                    if yaw is not None and scene[i].yaw_deg is not None:
+                        off = (yaw - scene[i].yaw_deg + 45.0) % 90.0 - 45.0
+                        yaw_errors[det is detector].append(abs(off))
                 if det is detector:
                     missed += len(true) - int(good.sum())
                     extra += len(found) - int(good.sum())
         e, p = np.array(errors), np.array(paper_errors)
+        yaws: dict[str, float | None] = {}
+        for ours, key in ((True, "yaw"), (False, "paper_yaw")):
+            y = np.array(yaw_errors[ours])
+            yaws[f"{key}_cubes"] = len(y)
+            yaws[f"{key}_mean_deg"] = float(y.mean()) if len(y) else None
+            yaws[f"{key}_max_deg"] = float(y.max()) if len(y) else None
         rows.append(
             {
                 "height_cm": height,
@@ -187,6 +200,7 @@ def score(
                 "extra": extra,
                 "paper_mean_cm": float(p.mean()) if len(p) else float("nan"),
                 "paper_max_cm": float(p.max()) if len(p) else float("nan"),
+                **yaws,
             }
         )
     return rows
@@ -252,6 +266,17 @@ def main(argv: Sequence[str] | None = None) -> int:
             f"{r['missed']:>6d} {r['extra']:>5d}                {r['paper_mean_cm']:>7.4f} "
             f"{r['paper_max_cm']:>7.4f}"
         )
+        if r["yaw_cubes"]:
+            paper = (
+                f"paper model: mean {r['paper_yaw_mean_deg']:.2f}°, "
+                f"max {r['paper_yaw_max_deg']:.2f}° ({r['paper_yaw_cubes']} cubes)"
+                if r["paper_yaw_cubes"]
+                else "paper model: none"
+            )
+            print(
+                f"{'':>7} cubes' yaw (mod 90°): mean {r['yaw_mean_deg']:.2f}°, max "
+                f"{r['yaw_max_deg']:.2f}° ({r['yaw_cubes']} cubes); {paper}"
+            )
         ok &= r["mean_cm"] <= args.max_mean_cm and r["max_cm"] <= args.max_error_cm
         ok &= r["missed"] == 0 and r["extra"] == 0
     print(f"({time.perf_counter() - t0:.0f} s; simulated: the twin's rendered camera)")
