@@ -692,8 +692,9 @@ class ColorDetector:
             spec = cls.object_shape
             if d.shape == spec.name and spec.corners_cm(cls.diameter_cm) is not None:
                 of_region = None if fits is None else fits[k]
-                made = None if of_region is None else of_region.get(cls.name)
-                fit = made or cal.fit_top(region, origin, _top_face(cls), cls.height_cm, frame)
+                fit = None if of_region is None else of_region.get(cls.name)
+                if fit is None:  # its shape came from the silhouette: no fit made yet
+                    fit = cal.fit_top(region, origin, _top_face(cls), cls.height_cm, frame)
                 yaw = fit.yaw_deg if spec.name == "cube" else None
                 out.append(replace(d, table_cm=fit.centre_cm, yaw_deg=yaw))
             else:

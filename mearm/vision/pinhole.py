@@ -948,6 +948,14 @@ class PerspectiveCamera:
             centres[i] = _fit_disc(rim, radius_cm, c)[0]
         return centres
 
+    def _centroid_on_plane(
+        self, mask: np.ndarray, origin_px: tuple[int, int], height_cm: float
+    ) -> np.ndarray:
+        """The region's centroid cast onto the plane z = ``height_cm``: (x, y) [cm], (2,)."""
+        m = cv2.moments((mask > 0).view(np.uint8), binaryImage=True)
+        centroid_px = np.array([m["m10"] / m["m00"], m["m01"] / m["m00"]]) + origin_px
+        return self.pixel_to_plane(centroid_px, height_cm)
+
     def locate_object(
         self,
         mask: np.ndarray,
@@ -970,9 +978,7 @@ class PerspectiveCamera:
                 moved onto its colour edge to a fraction of a pixel (:func:`subpixel_edges`).
         """
         pts = self._outline_on_plane(mask, origin_px, height_cm, frame)
-        m = cv2.moments((mask > 0).view(np.uint8), binaryImage=True)
-        centroid_px = np.array([m["m10"] / m["m00"], m["m01"] / m["m00"]]) + origin_px
-        c = self.pixel_to_plane(centroid_px, height_cm)
+        c = self._centroid_on_plane(mask, origin_px, height_cm)
         for _ in range(4):
             chosen = self._far_side(pts, c, radius_cm)
             if len(chosen) < 6:
@@ -1015,9 +1021,7 @@ class PerspectiveCamera:
             The top's centre, the far side's rms distance from the fitted face (∞ when too
             little of the outline faces away to fit) and a polygon's turn (:class:`TopFit`).
         """
-        m = cv2.moments((mask > 0).view(np.uint8), binaryImage=True)
-        centroid_px = np.array([m["m10"] / m["m00"], m["m01"] / m["m00"]]) + origin_px
-        c = self.pixel_to_plane(centroid_px, height_cm)
+        c = self._centroid_on_plane(mask, origin_px, height_cm)
         pts = self._outline_on_plane(mask, origin_px, height_cm, frame)
         outline = pts.astype(np.float32).reshape(-1, 1, 2)
         rms, yaw = math.inf, None
