@@ -30,7 +30,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from mearm.backends import open_camera
+from mearm.backends import open_camera, open_parts
 from mearm.cli import (
     ArgumentParser,
     add_config_argument,
@@ -38,6 +38,7 @@ from mearm.cli import (
     config_from_args,
     run,
 )
+from mearm.config import Config
 from mearm.fileio import write_atomic
 from mearm.vision.calibration import camera_geometry
 from mearm.vision.detector import ColorDetector, Detection
@@ -78,6 +79,19 @@ def annotation_paths(out: Path, count: int) -> list[Path]:
     if count == 1:
         return [out]
     return [out.with_name(f"{out.stem}-{i}{out.suffix}") for i in range(count)]
+
+
+def _grab(config: Config) -> np.ndarray:
+    """One frame from the config's camera.
+
+    Where the simulator is the twin, its own render (not the kinematic table's drawing:
+    a perspective calibration fits only the twin's camera); else ``camera.kind``'s.
+    """
+    if config.simulator == "kinematic":
+        with open_camera(config) as camera:
+            return camera.read()
+    with open_parts(config) as parts:  # the arm at home, as a sort's first look
+        return parts.camera.read()
 
 
 def to_records(detections: Sequence[Detection], frame_shape: Sequence[int]) -> list[dict]:
@@ -239,8 +253,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     frames: list[tuple[str, np.ndarray | None]]
     if args.camera:
-        with open_camera(config) as camera:
-            frames = [("camera", camera.read())]
+        frames = [("camera", _grab(config))]
     else:
         frames = _read_all(args.images)  # all readable, or exit 2 before any output
 

@@ -63,6 +63,30 @@ def test_the_twin_sorts_through_its_calibrated_perspective_camera() -> None:
     assert proc.stdout.strip().splitlines()[-1] == "sorted 12 of 12 objects"
 
 
+@pytest.mark.heavy
+def test_detect_on_the_twin_sees_through_the_twins_camera() -> None:
+    """`mearm detect --camera` on a twin config grabs the twin's render, the frame its
+    perspective calibration fits: each object once, within a millimetre of where the scene
+    puts it. (It drew the kinematic table instead, which that calibration read as 36
+    objects, each split in three.)"""
+    import json
+
+    import numpy as np
+
+    from mearm.config import load_config
+
+    proc = _run("-m", "mearm", "detect", "--config", str(CONFIG), "--camera", "--json")
+    assert proc.returncode == 0, proc.stderr
+    found = json.loads(proc.stdout.splitlines()[0])
+    scene = load_config(CONFIG).task.scene
+    assert len(found) == len(scene) == 12
+    for o in scene:
+        near = min(
+            np.hypot(d["cm"][0] - o.x, d["cm"][1] - o.y) for d in found if d["color"] == o.color
+        )
+        assert near <= 0.1, (o, found)
+
+
 @pytest.mark.bad_input
 @pytest.mark.parametrize(
     ("extra", "words"),
