@@ -64,9 +64,10 @@ def test_red_cubes_and_red_cylinders_go_to_their_own_bins_kinematic() -> None:
 def test_red_cubes_and_red_cylinders_go_to_their_own_bins_in_the_twin() -> None:
     """The physical twin: every cube (at yaws 0–70°) and cylinder ends in its class's bin.
 
-    The paper's arm cannot turn its jaws: the cube at 45° is gripped across its corners,
-    slips out on the way to its bin, and is picked again where it fell, as the same
-    object (it was counted twice: 8 of 9).
+    The paper's arm cannot turn its jaws: the cube at 45° is gripped across its corners
+    and may slip out on the way to its bin (with the claw marker's plate on the tool it
+    held in this scene); one that slips is picked again where it fell, as the same object
+    (it was counted twice: 8 of 9).
     """
     from mearm.sim.twin import twin_bus
 
@@ -82,7 +83,7 @@ def test_red_cubes_and_red_cylinders_go_to_their_own_bins_in_the_twin() -> None:
     assert sorted(in_bins) == sorted(twin.object_ids) and len(in_bins) == 8
     assert all(oid.rstrip("0123456789") == cls for oid, cls in in_bins.items())
     picks = [r for r in report.routes if r.step == "pick" and r.class_name == "red_cube"]
-    assert len(picks) == 5 and len({r.object_id for r in picks}) == 4  # one picked twice
+    assert len({r.object_id for r in picks}) == 4 and 4 <= len(picks) <= 5  # at most one again
 
 
 def _planner(name: str):

@@ -16,6 +16,7 @@ loads cannot overflow, hang or exhaust memory later.
 
 from mearm.config.arm import (
     ArmDescription,
+    ClawMarker,
     Coupling,
     DHRow,
     Gripper,
@@ -95,6 +96,7 @@ __all__ = [
     "TaskConfig",
     "ServoKitConfig",
     "TwinConfig",
+    "ClawMarker",
     "Tool",
     "ToolActuator",
     "VisionConfig",

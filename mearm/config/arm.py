@@ -460,6 +460,39 @@ class Gripper(Strict):
         return self.closed_cm if closed else self.open_cm
 
 
+class ClawMarker(Strict):
+    """An ArUco marker fixed on the tool, so that the camera sees where the claw is.
+
+    The marker is printed on a stiff plate (``mearm aruco-sheet`` prints it) whose face
+    looks along :attr:`faces` (by default away from the jaws along the tool's approach
+    axis: up, when the jaws hang down to pick). Its top edge points along the jaws' third
+    axis (across the approach and the opening axes) or, where the face looks along that,
+    along the approach axis.
+    ``calibrate-servos --camera`` and the sort's picks that look
+    (:mod:`mearm.task.claw_loop`) measure it with the calibrated camera.
+    """
+
+    id: int = Field(ge=0, le=999)
+    """The marker's id in :attr:`dictionary`."""
+    size_cm: PositiveLength
+    """The printed side of the marker's black square [cm]."""
+    dictionary: str = "DICT_4X4_50"
+    """The ArUco dictionary it is printed from (OpenCV's name)."""
+    faces: Vector3 | None = None
+    """Where the marker's face looks, in the TCP frame; ``null``: against the approach axis."""
+    centre_cm: Vector3 | None = None
+    """The marker's centre in the TCP frame [cm]; ``null``: on the plate resting on the
+    gripper's servo (and each tool actuator's) on the side :attr:`faces` names."""
+    border_cm: NonNegativeLength = 0.5
+    """The white plate's margin around the black square [cm]."""
+
+    @model_validator(mode="after")
+    def _face(self) -> ClawMarker:
+        if self.faces is not None and math.hypot(*self.faces) < 1e-9:
+            raise ValueError(f"@faces: must be a non-zero vector, got {list(self.faces)}")
+        return self
+
+
 class Tool(Strict):
     """What sits on the last frame of the chain."""
 
@@ -480,6 +513,8 @@ class Tool(Strict):
     and the grip to take hold."""
     gripper: Gripper
     actuators: list[ToolActuator] = Field(default_factory=list, max_length=12)
+    marker: ClawMarker | None = None
+    """An ArUco marker on the claw, for the camera to measure the arm (``null``: none)."""
 
     @model_validator(mode="after")
     def _axes(self) -> Tool:

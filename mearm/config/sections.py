@@ -386,6 +386,11 @@ class TaskConfig(Strict):
     before the place, so the jaws neither sweep through other objects and bin walls nor
     drag what they hold [cm]; ``null``: the paper's direct routes (what the kinematic
     simulator, which has no collisions, reproduces)."""
+    look_at_claw: bool = True
+    """Picks that look: before the jaws close, the camera sees where the claw's marker is
+    and the pick is corrected (:mod:`mearm.task.claw_loop`). Only where the tool carries
+    a marker (``arm.tool.marker``), the camera has a perspective calibration and the pick
+    goes via a point above the object (``approach_height_cm``); ``false``: never."""
     clearance_cm: float = Field(default=0.3, ge=0, le=10, allow_inf_nan=False)
     """What the arm's body keeps from every bin and object on every route [cm], checked
     along the whole path before anything moves (the table gets none: the jaws come down

@@ -48,7 +48,7 @@ BIN_MIN_WALL_HEIGHT_M = 0.02
 #: What a shape is part of: the planner treats each kind its own way (a jaw's pads may
 #: touch the object they close on; a plate of the last row runs between the jaws and is
 #: drawn only).
-Part = Literal["base", "link", "servo", "mount", "pad", "finger", "bin", "object"]
+Part = Literal["base", "link", "servo", "mount", "pad", "finger", "bin", "object", "marker"]
 
 
 @dataclass(frozen=True)
@@ -118,6 +118,9 @@ class ArmBodies:
     approach: np.ndarray
     grip_m: float
     jaw_joints: tuple[str, str] = field(default=("", ""))
+    marker_in_tcp: np.ndarray | None = None
+    """The claw marker's frame in the TCP frame, (4, 4) [m], as OpenCV's marker frame: x
+    right, y towards the top edge, z out of its face; ``None``: the tool carries none."""
 
 
 # --------------------------------------------------------------------------- helpers
@@ -198,8 +201,64 @@ def arm_bodies(
     approach, across, third = R[:, 0], R[:, 1], R[:, 2]
     grip = arm.tool.tcp_above_grip_cm * M_PER_CM
     shapes += _tool(config, width, gripper_servo, approach, across, third, grip, acrylic_kg_m3)
+    marker = marker_in_tcp(config, gripper_servo)
+    if marker is not None:
+        shapes.append(_marker_plate(config, marker, acrylic_kg_m3))
     left, right = jaw_joint_names(arm)
-    return ArmBodies(tuple(shapes), tcp, across, approach, grip, (left, right))
+    return ArmBodies(tuple(shapes), tcp, across, approach, grip, (left, right), marker)
+
+
+#: The claw marker's plate: 2 mm acrylic [m].
+MARKER_PLATE_M = 0.002
+
+
+def marker_in_tcp(config: Config, gripper_servo: ServoSpec) -> np.ndarray | None:
+    """The claw marker's face in the TCP frame (:attr:`ArmBodies.marker_in_tcp`), (4, 4) [m].
+
+    It looks along ``tool.marker.faces`` (default −approach), its top edge along the jaws'
+    third axis, or the approach axis where it looks along the third. Its default centre is
+    on a plate resting on the servo stack behind the TCP (the gripper's servo and one per
+    tool actuator, as :func:`_tool` stacks them), on the side it looks to.
+    """
+    tool = config.arm.tool
+    m = tool.marker
+    if m is None:
+        return None
+    J = jaw_frame(config.arm)
+    approach, third = J[:, 0], J[:, 2]
+    z = -approach if m.faces is None else np.asarray(m.faces, dtype=float)
+    z = z / np.linalg.norm(z)
+    up = third if abs(float(third @ z)) < 0.9 else approach
+    y = up - (up @ z) * z
+    y /= np.linalg.norm(y)
+    T = np.eye(4)
+    T[:3, :3] = np.column_stack([np.cross(y, z), y, z])
+    if m.centre_cm is not None:
+        T[:3, 3] = np.asarray(m.centre_cm, dtype=float) * M_PER_CM
+        return T
+    g = tool.gripper
+    root = tool.tcp_above_grip_cm * M_PER_CM + jaw_pad_length_m(g) / 2 - g.jaw_length_cm * M_PER_CM
+    n = len(tool.actuators) + 1
+    size = np.asarray(gripper_servo.size_m, dtype=float)
+    # the stack's centre, and how far its boxes reach along the face's normal
+    centre = approach * (min(0.0, root) - size[2] * n / 2)
+    R = J[:, [1, 2, 0]]  # a servo case's axes: across, third, approach
+    reach = float(np.abs(R.T @ z) @ (size / 2 * np.array([1.0, 1.0, n])))
+    T[:3, 3] = centre + z * (reach + MARKER_PLATE_M)
+    return T
+
+
+def _marker_plate(config: Config, marker_in_tcp: np.ndarray, acrylic_kg_m3: float) -> Shape:
+    """The plate the claw marker is printed on: its face is the marker's, its body the TCP's."""
+    m = config.arm.tool.marker
+    assert m is not None
+    half = (m.size_cm / 2 + m.border_cm) * M_PER_CM
+    z = marker_in_tcp[:3, 2]
+    return Shape(
+        "claw_marker_plate", "tcp", "box", (half, half, MARKER_PLATE_M / 2),
+        marker_in_tcp[:3, 3] - z * MARKER_PLATE_M / 2, marker_in_tcp[:3, :3], part="marker",
+        mass_kg=acrylic_kg_m3 * (2 * half) ** 2 * MARKER_PLATE_M,
+    )  # fmt: skip
 
 
 def _plates(joint: Joint, width: float, *, collides: bool, acrylic_kg_m3: float) -> list[Shape]:

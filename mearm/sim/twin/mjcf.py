@@ -172,6 +172,7 @@ from mearm.kinematics.mjspec import arm_spec, exact, quat
 from mearm.kinematics.urdf import TCP_FRAME, jaw_joint_names, jaw_pad_length_m
 from mearm.sim.belt import Arrival, Belt, belt_arrivals
 from mearm.sim.twin.twin_optics import CAMERA_HEIGHT_M, camera_pose, homography_view
+from mearm.vision.aruco import get_dictionary, marker_image
 
 M_PER_CM = 0.01
 G = 9.81  # m/s²
@@ -746,6 +747,7 @@ def _build(config: Config, spec: ServoSpec, gripper_spec: ServoSpec) -> mujoco.M
         ("table", (0.62, 0.46, 0.30, 1.0)),
         ("bin", (0.85, 0.85, 0.85, 1.0)),
         ("belt", (0.12, 0.12, 0.13, 1.0)),  # black rubber
+        ("marker", (1.0, 1.0, 1.0, 1.0)),  # the claw marker's white plate
     ):
         model.add_material(name=name, rgba=list(rgba))
     world = model.worldbody
@@ -777,8 +779,10 @@ def _build(config: Config, spec: ServoSpec, gripper_spec: ServoSpec) -> mujoco.M
         if shape.part == "link":
             kind = material[shape.body]
         else:
-            kind = shape.part if shape.part in ("base", "servo") else "gripper"
+            kind = shape.part if shape.part in ("base", "servo", "marker") else "gripper"
         _shape_geom(model.body(shape.body), shape, kind)
+    if shapes.marker_in_tcp is not None:
+        _claw_marker(model, model.body(TCP_FRAME), config, shapes.marker_in_tcp)
 
     # ---- bins and objects
     for c in task.classes:
@@ -975,6 +979,31 @@ def _tool(tcp: mujoco.MjsBody, config: Config, shapes: ArmBodies, gripper_spec: 
             if shape.part == "pad":
                 attrs |= {"priority": 1, "solref": list(PAD_SOLREF), "solimp": list(PAD_SOLIMP)}
             _shape_geom(body, shape, "gripper", **attrs)
+
+
+def _claw_marker(
+    model: mujoco.MjSpec, tcp: mujoco.MjsBody, config: Config, face: np.ndarray
+) -> None:
+    """The claw marker's print on its white plate: one thin black box per black module.
+
+    Boxes, not a texture, so that the twin's MJCF stays one self-contained file
+    (:func:`generate_mjcf`). Drawn only (no contacts). Module (row, column) of the
+    marker's image lies at (column, −row) from its top-left corner along the face's x and
+    y (its top edge along +y), as :func:`~mearm.vision.claw_marker.square_corners` has it.
+    """
+    m = config.arm.tool.marker
+    assert m is not None
+    modules = get_dictionary(m.dictionary).markerSize + 2
+    cells = marker_image(m.id, modules, m.dictionary) < 128  # one pixel a module
+    side = m.size_cm * M_PER_CM
+    module = side / modules
+    R = face[:3, :3]
+    model.add_material(name="claw_marker", rgba=[0.0, 0.0, 0.0, 1.0])
+    for row, col in zip(*np.nonzero(cells), strict=True):
+        local = np.array([(col + 0.5) * module - side / 2, side / 2 - (row + 0.5) * module, 1e-4])
+        _geom(tcp, f"claw_marker_{row}_{col}", "box", (module / 2, module / 2, 1e-4),
+              pos=exact(face[:3, 3] + R @ local), quat=exact(quat(R)), material="claw_marker",
+              contype=0, conaffinity=0, mass=0.0)  # fmt: skip
 
 
 def _field_corners_m(config: Config) -> np.ndarray:

@@ -1,0 +1,184 @@
+r"""Picks that look: the camera sees where the claw is before the jaws close, and the pick is corrected.
+
+Real hobby servos do not go where they are told: each unit's zero and scale differ from
+the datasheet's, and its gears' play (backlash, 0.5–2° at the shaft) and dead band
+(up to 10 µs) leave it short of its command by an amount that depends on the way it
+last turned. Over the paper's arm that is 0.5–1 cm at the claw, as much as the jaws' room
+around a 2 cm object. The calibrated camera sees the claw's marker
+(:mod:`mearm.vision.claw_marker`) to a few hundredths of a centimetre, so the sort asks it.
+
+At a pose the arm was sent to, the marker's seen centre :math:`m_s` and the centre the
+plan put it at :math:`m_p` (the forward kinematics of the commanded joints) differ by the
+arm's error :math:`e = m_s - m_p`. The arm was aimed at the goal :math:`g` shifted by
+:math:`a` (zero at first), so the claw is :math:`r = a + e` off the goal, and the aim
+becomes :math:`a - r`: an integrator on what the camera sees, which cancels an error that
+stays put (a servo's zero) at once and one that follows the command (the gears' play
+after a move) too; the camera then looks again, a few times at most (:data:`MAX_LOOKS`),
+until :math:`|r|` < :data:`GOOD_ENOUGH_CM`. Each corrected
+route is planned in full and checked against collisions like any other before it is
+sent. Only the table plane is corrected (x, y): the marker's height is the least well
+measured of its coordinates, and the jaws close at half the object's height with room to
+spare.
+
+What the arm learns is kept for the rest of the run: each corrected pick leaves the
+correction it needed at its place (:class:`CorrectionMap`), and the next pick starts from
+the nearest ones' (the servos' errors vary smoothly over the table), so that it needs
+fewer looks.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from mearm.config import Config
+from mearm.config.servo_models import servo_named
+from mearm.ik import IKTarget
+from mearm.kinematics import ArmModel
+from mearm.kinematics.bodies import marker_in_tcp
+from mearm.vision.aruco import diagonal_center
+from mearm.vision.claw_marker import MarkerSighting, find_claw_marker
+from mearm.vision.pinhole import PerspectiveCamera
+
+#: Looks at one pose at most (the first, and two corrections of it).
+MAX_LOOKS = 3
+#: An error this small in the table plane is left as it is [cm]: a few tenths of a
+#: millimetre is below what the servos' smallest step moves the claw by.
+GOOD_ENOUGH_CM = 0.05
+#: The largest correction believed [cm]; a larger error means the marker was seen where
+#: the claw is not (another print of it in view) or the arm is not where its state says.
+MAX_CORRECTION_CM = 4.0
+#: How long the arm is held still before a look [s]: a hobby servo's step response has
+#: settled to a few hundredths of a degree by then (the twin's: mearm servo-steps).
+SETTLE_S = 0.25
+#: The corrections kept from earlier picks weigh in within this distance [cm].
+NEIGHBOURHOOD_CM = 12.0
+
+
+@dataclass
+class CorrectionMap:
+    """The table-plane corrections earlier picks needed, by where they were needed."""
+
+    places_cm: list[np.ndarray] = field(default_factory=list)
+    corrections_cm: list[np.ndarray] = field(default_factory=list)
+
+    def add(self, place_cm: np.ndarray, correction_cm: np.ndarray) -> None:
+        """Keep the correction a pick at ``place_cm`` (x, y) needed."""
+        self.places_cm.append(np.asarray(place_cm, dtype=float)[:2].copy())
+        self.corrections_cm.append(np.asarray(correction_cm, dtype=float)[:2].copy())
+
+    def guess(self, place_cm: np.ndarray) -> np.ndarray:
+        """The correction to start a pick at ``place_cm`` from: the nearest ones', weighted."""
+        if not self.places_cm:
+            return np.zeros(2)
+        d = np.linalg.norm(np.array(self.places_cm) - np.asarray(place_cm)[:2], axis=1)
+        w = np.where(d < NEIGHBOURHOOD_CM, 1.0 / (1.0 + d), 0.0)
+        if w.sum() <= 0:
+            return np.zeros(2)
+        return (w[:, None] * np.array(self.corrections_cm)).sum(axis=0) / w.sum()
+
+
+@dataclass(frozen=True)
+class Look:
+    """One look at the claw.
+
+    Attributes:
+        error_cm: Where the marker is seen less where the plan put it (x, y, z) [cm].
+        sighting: What the camera saw.
+    """
+
+    error_cm: np.ndarray
+    sighting: MarkerSighting
+
+
+class ClawEye:
+    """The calibrated camera watching the claw's marker.
+
+    Args:
+        config: The whole config (its tool's marker; a perspective calibration).
+        model: The arm's kinematic model.
+        camera: The calibrated camera.
+        read: Reads a frame (BGR) of the camera, with the arm where it is now.
+        hold: Holds the arm still for a time [s] (:meth:`~mearm.hardware.bus.ServoBus.hold`).
+    """
+
+    def __init__(
+        self,
+        config: Config,
+        model: ArmModel,
+        camera: PerspectiveCamera,
+        read: Callable[[], np.ndarray],
+        hold: Callable[[float], None],
+    ):
+        marker = config.arm.tool.marker
+        assert marker is not None
+        self.marker = marker
+        self.model = model
+        self.camera = camera
+        self.read = read
+        self.hold = hold
+        face = marker_in_tcp(config, servo_named(config.twin.gripper_servo))
+        assert face is not None
+        self._centre_in_tcp_cm = face[:3, 3] * 100.0
+        self.corrections = CorrectionMap()
+
+    def planned_cm(self, q: np.ndarray) -> np.ndarray:
+        """Where the marker's centre is at joints ``q`` by the forward kinematics [cm], (3,)."""
+        p, R = self.model.tcp_pose(q)
+        return p + R @ self._centre_in_tcp_cm
+
+    def look(self, q_commanded: np.ndarray) -> Look | None:
+        """Look at the claw, held at ``q_commanded``.
+
+        The arm is held still for :data:`SETTLE_S` first. The marker's centre is where
+        the ray through its image's centre (the diagonals' intersection, exact under
+        perspective) meets the level plane at the height its pose gives (the servos'
+        errors move the claw up and down by a centimetre, which would shift a ray's
+        point on a plane at the planned height sideways).
+
+        Returns:
+            The look, or ``None`` when the marker is not in view or is seen implausibly
+            far (:data:`MAX_CORRECTION_CM`) from where it should be.
+        """
+        self.hold(SETTLE_S)
+        sighting = find_claw_marker(self.read(), self.marker, self.camera)
+        if sighting is None:
+            return None
+        planned = self.planned_cm(q_commanded)
+        z = float(sighting.centre_cm[2])
+        xy = self.camera.pixel_to_plane(diagonal_center(sighting.corners_px), z)
+        error = np.array([xy[0], xy[1], z]) - planned
+        if np.linalg.norm(error[:2]) > MAX_CORRECTION_CM:
+            return None
+        return Look(error, sighting)
+
+
+def shifted(target: IKTarget, shift_xy_cm: np.ndarray) -> IKTarget:
+    """``target`` moved by ``shift_xy_cm`` in the table plane."""
+    x, y, z = (float(v) for v in target.position_cm)
+    dx, dy = (float(v) for v in shift_xy_cm)
+    return dataclasses.replace(target, position_cm=(x + dx, y + dy, z))
+
+
+def claw_eye(
+    config: Config,
+    model: ArmModel,
+    geometry: object,
+    read: Callable[[], np.ndarray],
+    hold: Callable[[float], None],
+) -> ClawEye | None:
+    """The :class:`ClawEye` of a sort, or ``None`` where its picks cannot look.
+
+    They look where ``task.look_at_claw`` asks for it, the tool carries a marker, the
+    camera's calibration is a perspective one (``geometry``) and picks go via a point above
+    the object (``task.approach_height_cm``).
+    """
+    task = config.task
+    if not task.look_at_claw or task.approach_height_cm is None:
+        return None
+    if config.arm.tool.marker is None or not isinstance(geometry, PerspectiveCamera):
+        return None
+    return ClawEye(config, model, geometry, read, hold)
