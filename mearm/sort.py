@@ -21,6 +21,11 @@ left (out of reach, failed picks, a camera or servo fault, a servo port that can
 opened); 2 on bad input, found before anything moves (a camera that cannot be opened as
 configured included); 130 on Ctrl-C (the arm is parked first). The run log is written
 per route, so a failure loses nothing written before it.
+
+On servos that were never calibrated — a real board (``servo.backend`` ``serial`` or
+``ssc32``) or the twin with a kit of servos (``twin.kit``), without a
+``servo.calibration_file`` — one line on stderr says so before the arm moves and names
+the ``mearm calibrate-servos`` command to run (not with ``--quiet``); the sort runs on.
 """
 
 from __future__ import annotations
@@ -53,7 +58,7 @@ from mearm.dataset.arguments import (
 from mearm.errors import MearmError
 from mearm.hardware.errors import ServoError
 from mearm.task import Rig, SortAborted, check_scene, load_scene, random_scene, run_sort
-from mearm.task.check import check_consistency
+from mearm.task.check import calibration_note, check_consistency
 from mearm.vision.errors import CameraError
 
 
@@ -175,6 +180,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"run log: {args.log}", flush=True)
     if recorder is not None:
         print(f"recording: {args.record}", flush=True)
+    note = calibration_note(config, _config_args(args))
+    if note is not None and not args.quiet:  # every input accepted; nothing moved yet
+        print(f"mearm sort: {note}", file=sys.stderr, flush=True)
     try:
         if mjcf is not None:  # the last of the inputs accepted (the log's lock included)
             write_text_atomic(args.save_mjcf, mjcf)
@@ -215,6 +223,15 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"mearm sort: {report.outcome.line()}", file=sys.stderr)
         return EXIT_FAILURE
     return EXIT_OK
+
+
+def _config_args(args: object) -> list[str]:
+    """The ``--config`` and ``--set`` arguments the config came from, as typed."""
+    config = getattr(args, "config", None)
+    out = [] if config is None else ["--config", str(config)]
+    for item in getattr(args, "set", []):
+        out += ["--set", item]
+    return out
 
 
 def _scene_mjcf(config: Config, scene: list[SceneObject] | None) -> str:

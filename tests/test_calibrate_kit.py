@@ -6,6 +6,7 @@ and writer make the file, and a config with it runs the twin with the calibrated
 
 from __future__ import annotations
 
+import io
 from pathlib import Path
 
 import numpy as np
@@ -167,3 +168,130 @@ def test_recalibrating_over_a_file_keeps_the_twins_units(tmp_path: Path) -> None
         assert s1.physical == s0.amap and s1.unit == s0.unit
     # the MJCF too is the arm's without the file (the jaws' travel, the tendon's range)
     assert np.array_equal(plain.model.actuator_ctrlrange, twin.model.actuator_ctrlrange)
+
+
+# --------------------------------------------------------------------------- a servo over joints
+
+V1_TWIN = str(ROOT / "configs" / "sim_mearm_v1_mujoco.yaml")
+#: The MeArm v1's elbow servo in its arm file: 12.373 µs per degree of the forearm's
+#: angle to the table (shoulder + elbow).
+V1_ELBOW_US_PER_DEG = 12.3733
+#: A kit at the paper's spread, on the MeArm v1 twin.
+V1_KIT = ["twin.kit.seed=3", "twin.kit.spread=0.12", "twin.kit.per_trial=false"]
+
+
+def _simulated(tmp_path: Path, config: str, sets: list[str], *extra: str) -> Path:
+    """``calibrate-servos --simulate`` on ``config``; the file it wrote."""
+    out = tmp_path / "servos.yaml"
+    argv = ["--config", config, "--simulate", "--output", str(out), *extra]
+    assert calibrate_servos.main([*argv, *(a for s in sets for a in ("--set", s))]) == 0
+    return out
+
+
+def _unit_errors(path: Path, config: str, sets: list[str]) -> dict[str, tuple[float, float]]:
+    """Each servo's fit against its twin's true mapping: (slope error [-], largest error
+    over the references' span [unit])."""
+    fits = {a.name: a for a in load_servo_calibration(path).actuators}
+    out = {}
+    for servo in TwinArm(load_config(config, sets)).servos:
+        fit, a = fits[servo.name], servo.amap
+        if servo.unit is None:  # a nominal servo turns as its calibration says
+            zero, direction, k = a.zero_us, a.direction, a.us_per_unit
+        else:
+            zero, direction, k = unit_calibration(servo.unit, a.zero_us, a.direction, a.us_per_unit)
+        values = np.linspace(*sorted(p.value for p in fit.points), 5)
+        error = fit.servo.zero_us - zero + direction * (fit.servo.us_per_unit - k) * values
+        out[servo.name] = (fit.servo.us_per_unit / k - 1.0, float(np.max(np.abs(error))) / k)
+    return out
+
+
+def test_the_elbows_references_are_taken_off_its_stop() -> None:
+    """After its own calibration the shoulder stands at its reference 120°: the elbow
+    servo's -45° then needs the elbow at -165°, past its -150° stop, and the servo pushed
+    the shoulder instead (the twin read shoulder + elbow = -40° at every pulse below
+    1000 µs). Before the elbow's references the session moves the shoulder where both
+    keep every joint inside its limits; there the forearm follows its servo."""
+    config = load_config(V1_TWIN)
+    cleared = config.model_copy(update={"task": config.task.model_copy(update={"scene": []})})
+    twin = TwinArm(cleared)
+    with twin:
+        session = calibrate_servos.PulseSession(config, twin)
+        smap = session.servo_map
+        session.set_pulse("shoulder", smap["shoulder"].command_us(120.0))
+        twin.settle(1.0)
+        elbow = {a.name: a for a in calibrate_servos.actuators_of(config)}["elbow"]
+        out = io.StringIO()
+        calibrate_servos.Calibrator(config, session, None, out).place_others(elbow)
+        assert (
+            out.getvalue()
+            .strip()
+            .endswith(
+                "moved shoulder to 90 deg: at elbow's references every joint then stays inside "
+                "its limits"
+            )
+        )
+        for ref in elbow.references:
+            session.set_pulse("elbow", smap["elbow"].command_us(ref))
+            twin.settle(1.0)
+            got = twin.actual_joints
+            assert got["shoulder"] == pytest.approx(90.0, abs=1.0)  # held by its servo
+            assert got["shoulder"] + got["elbow"] == pytest.approx(ref, abs=1.0)
+            assert -150.0 < got["elbow"] < -20.0
+
+
+@pytest.mark.parametrize("reading_deg", [0.0, 0.5])
+def test_the_mearm_v1_elbow_servo_is_fitted_within_2_percent(tmp_path: Path, reading_deg) -> None:
+    """The elbow servo turns shoulder + elbow: its references must be taken with the
+    elbow off its stops. With the shoulder left at its own reference (120°) the elbow's
+    -45° needed the elbow at -165°, past its -150° stop: the twin's shoulder turned instead
+    and the fit came out 14.667 µs/deg (+18.5 %). Now the shoulder is moved first."""
+    path = _simulated(tmp_path, V1_TWIN, [], "--reading-error", str(reading_deg))
+    (fit,) = [a for a in load_servo_calibration(path).actuators if a.name == "elbow"]
+    assert fit.servo.us_per_unit == pytest.approx(V1_ELBOW_US_PER_DEG, rel=0.02)
+    slope, error = _unit_errors(path, V1_TWIN, [])["elbow"]
+    assert abs(slope) < 0.02
+    assert error < 0.35 + 3 * reading_deg  # the servo's play, and three readings' std
+
+
+@pytest.mark.parametrize("reading_deg", [0.0, 0.5])
+def test_a_mearm_v1_kit_calibration_recovers_each_units_mapping(
+    tmp_path: Path, reading_deg: float
+) -> None:
+    """Each kit unit's own mapping, the elbow's on the forearm's angle, within what the
+    maker's reading allows: 0.35° (0.01 cm of the jaws) of the servo's play, plus three
+    standard deviations of the protractor's (ruler's) reading."""
+    reading_cm = reading_deg / 10
+    extra = ["--reading-error", str(reading_deg), "--reading-error-cm", str(reading_cm)]
+    path = _simulated(tmp_path, V1_TWIN, V1_KIT, *extra)
+    errors = _unit_errors(path, V1_TWIN, V1_KIT)
+    assert set(errors) == {"base", "shoulder", "elbow", "gripper"}
+    for name, (_, error) in errors.items():
+        if name == "gripper":
+            assert error < 0.01 + 3 * reading_cm, (name, error)
+        else:
+            assert error < 0.35 + 3 * reading_deg, (name, error)
+    assert abs(errors["elbow"][0]) < 0.02
+
+
+REFERENCE_TWINS = ["sim_mujoco.yaml", "sim_mearm_v1_mujoco.yaml", "sim_5dof_mujoco.yaml"]
+
+
+@pytest.mark.heavy
+@pytest.mark.parametrize("name", REFERENCE_TWINS)
+def test_each_reference_arms_simulated_calibration_sorts(tmp_path: Path, name: str, capsys) -> None:
+    """The keyboard procedure on each reference arm's twin writes a file with which the
+    sort sorts every object; the file changes the pulses, never the servos' speeds."""
+    from mearm import sort
+
+    config = str(ROOT / "configs" / name)
+    path = _simulated(tmp_path, config, [])
+    sets = [f"servo.calibration_file={path}"]
+    calibrated, plain = load_config(config, sets), load_config(config)
+    for a, b in zip(calibrated.arm.joints, plain.arm.joints, strict=True):
+        if a.servo is not None:
+            assert a.servo.seconds_per_60deg == b.servo.seconds_per_60deg, a.name
+    capsys.readouterr()
+    assert sort.main(["--config", config, "--set", sets[0], "--quiet"]) == 0
+    last = capsys.readouterr().out.strip().splitlines()[-1]
+    seen = len(plain.task.scene)
+    assert last == f"sorted {seen} of {seen} objects"

@@ -792,3 +792,55 @@ def test_a_number_out_of_range_in_the_file_is_named(tmp_path, field, value, word
     with pytest.raises(ServoCalibrationError) as caught:
         load_servo_calibration(path)
     assert str(caught.value) == f"{path}: {words}"
+
+
+def test_the_overrides_and_the_file_keep_the_servos_speed(tmp_path):
+    """A calibration sets zero, direction and µs per unit; the servo's speed
+    (``seconds_per_60deg``) stays the arm's. It was reset to the default 0.1 s/60°, so a
+    calibrated arm planned moves faster than its servos turn."""
+    from mearm.config.servo_file import CalibrationPoint as P
+    from mearm.config.servo_file import (
+        ServoCalibrationFile,
+        fit_actuator,
+        save_servo_calibration,
+        servo_of,
+    )
+
+    path = ROOT / "configs" / "sim.yaml"
+    config = load_config(path)
+    before = servo_of(config.arm, "base")
+    assert before.seconds_per_60deg == 0.15  # the paper's RDS3135
+    fit = fit_actuator("base", "deg", before, [P(50.0, 1110), P(130.0, 1900)])
+    (line,) = servo_overrides(config.arm, [fit])
+    assert "seconds_per_60deg: 0.15" in line
+    file = save_servo_calibration(
+        tmp_path / "s.yaml", ServoCalibrationFile(config.arm.name, "b", "", "d", (fit,))
+    )
+    for calibrated in (load_config(path, [line]), apply_servo_calibration_file(config, file)):
+        servo = servo_of(calibrated.arm, "base")
+        assert servo.seconds_per_60deg == 0.15
+        assert servo.us_per_unit == pytest.approx(790 / 80)
+
+
+def test_the_pose_for_a_joints_references_moves_only_what_it_must():
+    """Each servo over its own joint: the others stay. The MeArm v1's elbow servo: with
+    the shoulder at 90° (home) both references keep the elbow inside its limits, and the
+    shoulder stays; at 120° or 40° one of them would put the elbow on a stop, and the
+    shoulder goes home; the base, which no reference moves, stays where it is."""
+    from mearm.maker.calibrate_servos import actuators_of, reference_pose
+
+    for config_path, name, others in (
+        (ROOT / "configs" / "sim.yaml", "elbow", {"base": 70.0, "shoulder": 60.0}),
+        (MEARM, "elbow", {"base": 60.0, "shoulder": 90.0}),
+    ):
+        config = load_config(config_path)
+        smap = ServoMap.from_config(config)
+        act = {a.name: a for a in actuators_of(config)}[name]
+        home = smap.servo_values(config.arm.home())
+        assert reference_pose(smap, act, others, home) == others
+    for shoulder in (120.0, 40.0):
+        pose = reference_pose(smap, act, {"base": 60.0, "shoulder": shoulder}, home)
+        assert pose == {"base": 60.0, "shoulder": 90.0}
+        for ref in act.references:
+            joints = smap.joints_of({**pose, "elbow": ref})
+            assert -150.0 < joints["elbow"] < -20.0

@@ -38,11 +38,21 @@ A servo that turns a combination records it (``drives: {terms: {shoulder: 1.0, e
 1.0}, offset: 0.0}`` in its entry): its points are values of that combination, and a
 config applies the entry only to a servo that turns the same combination.
 
+**What a fit must pass** (:func:`check_fit`): its µs per unit within
+:data:`MAX_SLOPE_DEVIATION` of the arm's own (a misread reference is farther off than any
+real unit), and its pulses over :func:`fit_span` — the limits, or for a servo that turns
+a combination the combination over the joint's limits with the other joints at home —
+inside ``[min_us, max_us]``. A fit whose line leaves that range by less than a reading's
+uncertainty (:data:`FIT_SLACK`) takes the nearest line that does not
+(:func:`fit_actuator` with ``span``): limits that fill the whole pulse range, as the
+5-DOF arm's wrist's do, are otherwise refused for a half-degree misreading.
+
 :func:`save_servo_calibration` replaces a file only with ``force`` (the command asks
 first) and only if it is a servo calibration, and keeps the old one as ``<name>.bak``.
 :func:`apply_servo_calibration` puts a file's calibrations into a config and validates
 the result with the config's own checks (limits, home, tool settings inside each
-servo's pulse range).
+servo's pulse range); it sets the calibrated fields of each servo and keeps the rest
+(its speed, ``seconds_per_60deg``) as the config has it.
 """
 
 from __future__ import annotations
@@ -138,13 +148,30 @@ class ActuatorFit:
         return out
 
 
+#: How far a fit may pass from its references to keep a span's pulses inside the servo's
+#: range [unit]: two standard deviations of a reading by eye (protractor; ruler across
+#: the jaws), a difference the references cannot tell.
+FIT_SLACK = {"deg": 1.0, "cm": 0.1}
+#: Such a line holds an end of the span this far inside the pulse range [µs], so the
+#: file's rounding (0.0001 µs, 1e-6 µs per unit) keeps it inside.
+FIT_EDGE_US = 0.01
+
+
 def fit_actuator(
     name: str,
     unit: str,
     template: ServoCalibration,
     points: Sequence[CalibrationPoint],
+    span: tuple[float, float] | None = None,
 ) -> ActuatorFit:
     """Fit zero, direction and µs per unit to two or more reference points.
+
+    The least-squares line through the points. With ``span``, when that line puts an
+    end of the span outside ``[min_us, max_us]``, the nearest line that keeps both
+    inside is taken instead, if it passes within :data:`FIT_SLACK` of every point (a
+    joint whose limits span the whole pulse range, as the nominal calibration maps
+    them, would otherwise be refused for its reading error); else the line stays, for
+    :func:`check_fit` to refuse.
 
     Args:
         name: The actuator's name.
@@ -153,6 +180,8 @@ def fit_actuator(
             joint servo's) ``drives`` are kept.
         points: At least two references at different values (of the servo's value: the
             combination, for a servo that turns one).
+        span: The values the calibration must put inside the pulse range
+            (:func:`fit_span`), or ``None``.
 
     Raises:
         ServoCalibrationError: fewer than two distinct values, equal pulses at different
@@ -171,6 +200,9 @@ def fit_actuator(
             f"{name}: the same pulse ({int(pulses[0])} µs) at {values.min():g} and "
             f"{values.max():g} {unit}: the servo did not move; check its wiring and channel"
         )
+    if span is not None:
+        bounds = (template.min_us + FIT_EDGE_US, template.max_us - FIT_EDGE_US)
+        slope, zero = _line_inside(values, pulses, (slope, zero), span, bounds, FIT_SLACK[unit])
     data = template.model_dump()
     data.update(zero_us=float(zero), direction=1 if slope > 0 else -1, us_per_unit=abs(slope))
     try:
@@ -183,6 +215,49 @@ def fit_actuator(
         ) from None
     residual = float(np.max(np.abs(zero + slope * values - pulses)))
     return ActuatorFit(name, unit, servo, tuple(points), residual, replaces=template)
+
+
+def _line_inside(
+    values: np.ndarray,
+    pulses: np.ndarray,
+    line: tuple[float, float],
+    span: tuple[float, float],
+    bounds: tuple[float, float],
+    slack: float,
+) -> tuple[float, float]:
+    """The least-squares (slope, zero) with the span's pulses inside ``bounds``.
+
+    ``line`` itself when it keeps them inside; else the best line through one or both
+    corners (an end of the span at an end of the pulse range), if it passes within
+    ``slack`` [unit] of every point; else ``line``.
+    """
+
+    def inside(k: float, z: float) -> bool:
+        return all(bounds[0] - 1e-6 <= z + k * v <= bounds[1] + 1e-6 for v in span)
+
+    if inside(*line):
+        return line
+    candidates = []
+    for e in span:  # one end held at an end of the pulse range: the best slope about it
+        for b in bounds:
+            k = float(np.sum((values - e) * (pulses - b)) / np.sum((values - e) ** 2))
+            candidates.append((k, b - k * e))
+    for b0 in bounds:  # both ends held
+        for b1 in bounds:
+            if b0 != b1 and span[1] != span[0]:
+                k = (b1 - b0) / (span[1] - span[0])
+                candidates.append((k, b0 - k * span[0]))
+    best = min(
+        (c for c in candidates if c[0] != 0 and inside(*c)),
+        key=lambda c: float(np.sum((c[1] + c[0] * values - pulses) ** 2)),
+        default=None,
+    )
+    if best is None:
+        return line
+    k, z = best
+    if np.max(np.abs(z + k * values - pulses)) / abs(k) > slack:
+        return line
+    return best
 
 
 @dataclass(frozen=True)
@@ -351,8 +426,15 @@ def actuator_paths(arm: ArmDescription) -> dict[str, str]:
     return paths
 
 
+#: The fields of a servo a calibration sets; the others (its speed) stay the config's.
+CALIBRATED_FIELDS = ("channel", "zero_us", "direction", "us_per_unit", "min_us", "max_us", "drives")
+
+
 def servo_overrides(arm: ArmDescription, fits: Sequence[ActuatorFit]) -> list[str]:
     """The ``--set KEY=VALUE`` overrides that give a config these calibrations.
+
+    Each replaces the actuator's whole ``servo``: the calibrated fields from the fit, the
+    others (``seconds_per_60deg``, ``max_accel_deg_s2``) as the arm has them.
 
     Raises:
         ServoCalibrationError: an actuator the arm does not have.
@@ -370,13 +452,84 @@ def servo_overrides(arm: ArmDescription, fits: Sequence[ActuatorFit]) -> list[st
         if fit.drives is not None:
             terms = ", ".join(f"{n}: {c!r}" for n, c in fit.drives.terms.items())
             drives = f", drives: {{terms: {{{terms}}}, offset: {fit.drives.offset!r}}}"
+        present = servo_of(arm, fit.name).model_dump(mode="json")
+        kept = "".join(
+            f", {k}: {v!r}"
+            for k, v in present.items()
+            if k not in CALIBRATED_FIELDS and v is not None
+        )
         value = (
             f"{{channel: {s.channel}, zero_us: {s.zero_us:.4f}, direction: {s.direction}, "
             f"us_per_unit: {s.us_per_unit:.6f}, min_us: {s.min_us}, max_us: {s.max_us}"
-            f"{drives}}}"
+            f"{drives}{kept}}}"
         )
         out.append(f"{paths[fit.name]}={value}")
     return out
+
+
+#: Largest share a fit's µs/unit may differ from the arm's: real units span −19…+15 % (servo_kit).
+MAX_SLOPE_DEVIATION = 0.30
+
+
+def fit_span(arm: ArmDescription, name: str) -> tuple[str, float, float]:
+    """What an actuator's calibration must put inside its pulse range: (what, lo, hi).
+
+    Its limits (the gripper's: closed to open); for a joint servo that turns a
+    combination, the values the combination takes as the joint sweeps its limits with the
+    other joints at home — where the config checks such a servo (its pulse range
+    depends on the pose).
+    """
+    home = arm.home()
+    for j in arm.actuated_joints():
+        if j.name != name or j.servo is None or j.limits is None:
+            continue
+        combo = _turns(j.servo, name)
+        if combo == ServoDrives(terms={name: 1.0}):
+            return (f"{name}'s limits", j.limits.min, j.limits.max)
+        c = combo.terms.get(name, 0.0)
+        rest = combo.offset + sum(k * home[n] for n, k in combo.terms.items() if n != name)
+        a, b = rest + c * j.limits.min, rest + c * j.limits.max
+        what = f"{name}'s servo ({combo.text()}) over {name}'s limits, the other joints at home"
+        return (what, min(a, b), max(a, b))
+    for t in arm.tool.actuators:
+        if t.name == name:
+            return (f"{name}'s limits", t.limits.min, t.limits.max)
+    g = arm.tool.gripper
+    return (f"{g.name}'s opening, closed to open", g.closed_cm, g.open_cm)
+
+
+def check_fit(arm: ArmDescription, fit: ActuatorFit, nominal: ServoCalibration) -> None:
+    """Refuse a fit far from the arm's nominal slope, or that cannot reach the limits.
+
+    Args:
+        arm: The arm (its limits, home and combinations).
+        fit: The fit of one of its actuators.
+        nominal: The actuator's calibration in the arm's own file (before any servo
+            calibration file), which the fit's µs per unit is compared with.
+
+    Raises:
+        ServoCalibrationError: µs per unit more than :data:`MAX_SLOPE_DEVIATION` off the
+            nominal, or :func:`fit_span` putting a pulse outside ``[min_us, max_us]``;
+            the message says which, by how much, and what to do.
+    """
+    s, unit = fit.servo, fit.unit
+    off = s.us_per_unit / nominal.us_per_unit - 1.0
+    if abs(off) > MAX_SLOPE_DEVIATION:
+        raise ServoCalibrationError(
+            f"{fit.name}: the fit gives {s.us_per_unit:.3f} µs/{unit}, {off:+.0%} off the "
+            f"arm's {nominal.us_per_unit:.3f} µs/{unit} (real servos differ by at most "
+            f"±{MAX_SLOPE_DEVIATION:.0%}): a reference was misread or not reached; redo "
+            "the references, or check the channel and the arm's us_per_unit"
+        )
+    what, lo, hi = fit_span(arm, fit.name)
+    p_lo, p_hi = s.pulse_us(lo), s.pulse_us(hi)
+    if not all(s.min_us - 1e-6 <= p <= s.max_us + 1e-6 for p in (p_lo, p_hi)):
+        raise ServoCalibrationError(
+            f"{fit.name}: the fit puts {what}, [{lo:.4g}, {hi:.4g}] {unit}, at "
+            f"[{p_lo:.0f}, {p_hi:.0f}] µs, outside the servo's [{s.min_us}, {s.max_us}] µs: "
+            "redo the references; if the fit is right, the servo cannot turn that far: "
+            "narrow the limits, or widen min_us/max_us as far as its datasheet allows"
+        )
 
 
 def _turns(servo: ServoCalibration, name: str) -> ServoDrives:

@@ -7,15 +7,22 @@ For each actuator (the actuated joints, the tool actuators, then the gripper) th
 shows two reference values chosen from its limits (a fifth of the range in from each
 end, on a 5° or 0.5 cm grid). Jog the actuator with the keys until it is at the shown
 value — by eye, a protractor or a ruler — and press Enter; after the second the zero,
-µs per unit and direction are fitted (:mod:`mearm.config.servo_file`) and checked
-with the config's own checks: the limits, home and tool settings must map into the
-servo's pulse range, else the actuator is done again.
+µs per unit and direction are fitted (:mod:`mearm.config.servo_file`) and checked: a
+µs per unit more than 30 % off the arm's own, or limits (for a servo that turns a
+combination: the joint's limits with the other joints at home) that the fit puts
+outside the servo's pulse range, are refused with the reason, as is anything the
+config's own checks refuse; a refused fit is never written, the actuator is done again.
 
 A joint servo that turns a combination of joints (its ``drives``: the MeArm's elbow servo
 turns the forearm's angle to the table, shoulder + elbow) is calibrated on that
 combination: the references are values of it, chosen from the range it takes over the
 joints' limits, within what the present calibration's pulse range reaches, and the
 screen asks for the combination (``shoulder + elbow = 45 deg``), not for the joint.
+
+Before a joint's references the other joints are moved, if need be, to where both
+references keep every joint inside its limits (the screen says so): the MeArm's elbow
+servo, asked for ``shoulder + elbow = -45 deg`` with the shoulder at 120°, would put
+the elbow past its stop, and then turn the shoulder instead of the forearm.
 
 Keys: ``+``/``-`` or →/← move by the step; ↑/↓ or ``1``/``2``/``3`` set the step (1, 5,
 20 µs); Enter or Space records the reference; Backspace goes back to the previous one;
@@ -25,13 +32,17 @@ writing anything.
 Every pulse sent lies inside the actuator's ``[min_us, max_us]``, whatever keys are
 pressed (the keys stop at the ends, and the servo bus refuses anything outside). The
 session starts by sending every actuator its home value under the present calibration,
-then only ever changes the actuator being calibrated.
+then only changes the actuator being calibrated (and, before a joint's references, the
+other joints as above).
 
 The calibration file is written at the end, atomically, only if at least one actuator
-was calibrated. An existing file is replaced only after a y/N question (or with
-``--force``/``--yes``), and only if it is a servo calibration; the old one is kept as
-``<name>.bak``. Ctrl-C writes nothing and leaves the arm where it is (exit 130); ``q``
-writes nothing (exit 1). Needs a terminal: without one, exit 2 before anything opens.
+was calibrated and every fit passes its checks again, all together (else exit 1,
+nothing written). With ``--simulate`` no one is there to redo a fit: one refused twice
+ends the command with exit 1 and nothing written (no partial file). An existing file
+is replaced only after a y/N question (or with ``--force``/``--yes``), and only if it
+is a servo calibration; the old one is kept as ``<name>.bak``. Ctrl-C writes nothing
+and leaves the arm where it is (exit 130); ``q`` writes nothing (exit 1). Needs a
+terminal: without one, exit 2 before anything opens.
 
 A config uses the file through ``servo.calibration_file`` (relative to the config's
 folder); the command prints that line, and the equivalent ``--set`` overrides.
@@ -44,7 +55,7 @@ import dataclasses
 import itertools
 import math
 import sys
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import TextIO
 
@@ -67,8 +78,10 @@ from mearm.config.servo_file import (
     ServoCalibrationError,
     ServoCalibrationFile,
     apply_servo_calibration,
+    check_fit,
     check_replace,
     fit_actuator,
+    fit_span,
     now_iso,
     replaced_calibration,
     save_servo_calibration,
@@ -86,6 +99,13 @@ STEPS_US = (1, 5, 20)
 REFERENCE_INSET = 0.2
 #: Reference values are rounded to this grid, per unit.
 REFERENCE_GRID = {"deg": 5.0, "cm": 0.5}
+#: At a joint's references every joint stays this share of its range inside its limits:
+#: a joint on its stop no longer follows its servo (the MeArm's elbow servo, its joint
+#: stopped, turns the shoulder instead).
+POSE_INSET = 0.05
+#: Values tried across each other joint servo's span for a pose that keeps the joints
+#: inside their limits, when where it is, its home and its references do not.
+POSE_GRID = 9
 
 
 class Abandoned(MearmError):
@@ -151,13 +171,120 @@ def servo_span(smap: ServoMap, amap: ActuatorMap) -> tuple[float, float]:
 
 def actuators_of(config: Config) -> list[Actuator]:
     """Every actuator of the arm, in calibration order: joints, tool actuators, gripper."""
-    smap = ServoMap.from_config(config)
+    return actuators_of_map(ServoMap.from_config(config))
+
+
+def actuators_of_map(smap: ServoMap) -> list[Actuator]:
+    """:func:`actuators_of` an arm's servos."""
     out = []
     for kind, maps in (("joint", smap.joints), ("tool", smap.tool), ("gripper", (smap.gripper,))):
         for a in maps:
             lo, hi = servo_span(smap, a)
             out.append(Actuator(a.name, kind, a, reference_values(lo, hi, a.unit), lo, hi))
     return out
+
+
+def joints_overrun(smap: ServoMap, values: Mapping[str, float]) -> float:
+    """How far the joints these joint-servo values set lie outside their limits.
+
+    Each limit taken :data:`POSE_INSET` of the range in; the worst joint's distance past
+    it, as a share of its range (0 or less: every joint inside).
+    """
+    q = smap.joints_of(values)
+    worst = -math.inf
+    for j in smap.joints:
+        span = j.upper - j.lower
+        lo, hi = j.lower + POSE_INSET * span, j.upper - POSE_INSET * span
+        worst = max(worst, (lo - q[j.name]) / span, (q[j.name] - hi) / span)
+    return worst
+
+
+def pose_overrun(smap: ServoMap, act: Actuator, others: Mapping[str, float]) -> float:
+    """:func:`joints_overrun` at the worse of ``act``'s references, the others at ``others``."""
+    return max(joints_overrun(smap, {**others, act.name: r}) for r in act.references)
+
+
+def _moved_with(smap: ServoMap, name: str) -> list[str]:
+    """The other joint servos that set a joint which ``name``'s servo moves too."""
+    m = smap.combination
+    if m is None:  # every servo turns its own joint: no other shares one
+        return []
+    turns = np.abs(np.linalg.inv(m[0])) > 1e-9  # joint r ← servo c
+    names = smap.joint_names
+    k = names.index(name)
+    moved = [r for r in range(len(names)) if turns[r, k]]
+    return [n for c, n in enumerate(names) if c != k and any(turns[r, c] for r in moved)]
+
+
+def pose_settings(
+    choices: Mapping[str, Sequence[float]], fixed: Mapping[str, float] | None = None
+) -> list[dict[str, float]]:
+    """Every setting of the other joint servos: each of ``choices``, the rest ``fixed``.
+
+    In ``itertools.product`` order: the first choice of each servo first.
+    """
+    rest = dict(fixed or {})
+    return [
+        {**rest, **dict(zip(choices, s, strict=True))} for s in itertools.product(*choices.values())
+    ]
+
+
+def poses_inside(
+    smap: ServoMap,
+    act: Actuator,
+    choices: Mapping[str, Sequence[float]],
+    fixed: Mapping[str, float] | None = None,
+) -> list[dict[str, float]]:
+    """The settings of the other joint servos that keep the joints inside at both references.
+
+    Args:
+        smap: The arm's servos (the present calibration).
+        act: The joint actuator to be calibrated.
+        choices: Other joint servos → their candidate values, preferred first.
+        fixed: The other joint servos not in ``choices`` → their values.
+
+    Returns:
+        Every setting (:func:`pose_settings`) whose :func:`pose_overrun` is not
+        positive, the preferred first; maybe none.
+    """
+    return [s for s in pose_settings(choices, fixed) if pose_overrun(smap, act, s) <= 0]
+
+
+def reference_pose(
+    smap: ServoMap, act: Actuator, present: Mapping[str, float], home: Mapping[str, float]
+) -> dict[str, float]:
+    """Where the other joint servos go before a joint's references are taken.
+
+    Where they are, if that keeps every joint inside its limits at both references
+    (:func:`pose_overrun`); else the first setting that does, trying for each servo
+    that shares a joint with this one its present value, its home, its references and
+    :data:`POSE_GRID` values across its span (the rest stay); else the setting of those
+    that overruns least.
+
+    Args:
+        smap: The arm's servos (the present calibration).
+        act: The joint actuator to be calibrated.
+        present: Every other joint servo's present value.
+        home: Every joint servo's value at home.
+    """
+    now = dict(present)
+    if pose_overrun(smap, act, now) <= 0:
+        return now
+    shared = _moved_with(smap, act.name)
+    choices = {
+        o.name: list(
+            dict.fromkeys(
+                [now[o.name], home[o.name], *o.references]
+                + np.linspace(o.lower, o.upper, POSE_GRID).tolist()
+            )
+        )
+        for o in actuators_of_map(smap)
+        if o.name in shared
+    }
+    inside = poses_inside(smap, act, choices, now)
+    if inside:
+        return inside[0]
+    return min(pose_settings(choices, now), key=lambda s: pose_overrun(smap, act, s))
 
 
 def board_identity(bus: ServoBus) -> tuple[str, str]:
@@ -206,12 +333,22 @@ class PulseSession:
         self._tool = tuple(widened(a) for a in original.tool)
         home = original.servo_values(config.arm.home())
         tool_home = {t.name: t.home for t in config.arm.tool.actuators}
+        self.home_values = home
         self.pulses_us: dict[str, int] = {
             j.name: j.command_us(home[j.name]) for j in original.joints
         }
         self.pulses_us.update({t.name: t.command_us(tool_home[t.name]) for t in original.tool})
         g = original.gripper
         self.pulses_us[g.name] = g.command_us(original.gripper_open_cm)
+
+    @property
+    def servo_map(self) -> ServoMap:
+        """The arm's servos under the present calibration (not the widened ones sent)."""
+        return self._original
+
+    def joint_values(self) -> dict[str, float]:
+        """Each joint servo's value now: its pulse under the present calibration [unit]."""
+        return {a.name: a.value_of(self.pulses_us[a.name]) for a in self._original.joints}
 
     def limits_us(self, name: str) -> tuple[int, int]:
         """The pulse range of an actuator [µs]."""
@@ -278,6 +415,8 @@ class Calibrator:
         self.keys = keys
         self.out = out
         self.step_index = 1
+        # the arm's own calibration, before any file: what a fit's slope is compared with
+        self.nominal_arm = (replaced_calibration(config) or config).arm
 
     def say(self, text: str = "") -> None:
         """Print a line (ending any live status line)."""
@@ -319,6 +458,7 @@ class Calibrator:
             f"[{number}/{total}] {act.name} ({act.kind}, channel {act.amap.channel}): "
             f"{span}; references {act.references[0]:g} and {act.references[1]:g} {unit}"
         )
+        self.place_others(act)
         while True:
             points: list[CalibrationPoint] = []
             while len(points) < len(act.references):
@@ -342,21 +482,53 @@ class Calibrator:
                 points.append(CalibrationPoint(ref, pulse))
                 self.say(f"recorded {act.name} at {ref:g} {unit}: {pulse} µs")
             try:
-                fit = fit_actuator(act.name, unit, servo_of(self.config.arm, act.name), points)
+                arm = self.config.arm
+                _, lo, hi = fit_span(arm, act.name)
+                fit = fit_actuator(act.name, unit, servo_of(arm, act.name), points, (lo, hi))
+                check_fit(arm, fit, servo_of(self.nominal_arm, act.name))
                 apply_servo_calibration(self.config, [fit], source=f"the fit of {act.name}")
             except (ServoCalibrationError, ConfigError) as exc:
-                self.say(f"{act.name}: fit refused: {exc}")
-                self.say(f"do {act.name} again (or press s at a reference to skip it)")
+                self.refuse(act, exc)
                 continue
             s = fit.servo
-            span = "limits" if not act.amap.combined else act.what
+            what, lo, hi = fit_span(self.config.arm, act.name)
             self.say(
                 f"{act.name}: zero {s.zero_us:.1f} µs, {s.us_per_unit:.3f} µs/{unit}, "
-                f"direction {s.direction:+d}; {span} [{act.lower:g}, "
-                f"{act.upper:g}] {unit} → [{s.pulse_us(act.lower):.0f}, "
-                f"{s.pulse_us(act.upper):.0f}] µs"
+                f"direction {s.direction:+d}; {what} [{lo:.4g}, {hi:.4g}] {unit} → "
+                f"[{s.pulse_us(lo):.0f}, {s.pulse_us(hi):.0f}] µs"
             )
             return fit
+
+    def refuse(self, act: Actuator, exc: MearmError) -> None:
+        """Say why a fit was refused; the references are done again."""
+        self.say(f"{act.name}: fit refused: {exc}")
+        self.say(f"do {act.name} again (or press s at a reference to skip it)")
+
+    def place_others(self, act: Actuator) -> None:
+        """Before a joint's references, move the other joints where they keep it clear.
+
+        At a reference a joint on its stop would not follow its servo: the other joint
+        servos go to :func:`reference_pose` (where they are, when that keeps every joint
+        inside its limits at both references), and the screen says so.
+        """
+        if act.kind != "joint":
+            return
+        session = self.session
+        smap = session.servo_map
+        present = {n: v for n, v in session.joint_values().items() if n != act.name}
+        pose = reference_pose(smap, act, present, session.home_values)
+        moved = {n: v for n, v in pose.items() if smap[n].command_us(v) != session.pulses_us[n]}
+        if not moved:
+            return
+        for n, v in moved.items():
+            session.pulses_us[n] = smap[n].command_us(v)
+        session.send()
+        where = ", ".join(
+            f"{smap[n].combination_text} to {v:.4g} {smap[n].unit}" for n, v in moved.items()
+        )
+        self.say(
+            f"moved {where}: at {act.name}'s references every joint then stays inside its limits"
+        )
 
     def _jog_until_recorded(self, act: Actuator, ref: float) -> str:
         """Handle keys until a reference is recorded (``record``), ``back`` or ``skip``."""
@@ -401,8 +573,8 @@ SIM_APPROACH_US = 30
 READING_ERROR = {"deg": 0.5, "cm": 0.05}
 
 
-class _FitRefusedTwice(MearmError):
-    """The simulated maker's fit of an actuator was refused twice."""
+class FitRefused(MearmError):
+    """A fit the checks refuse ended the session: nothing is written (exit 1)."""
 
 
 class SimulatedCalibrator(Calibrator):
@@ -473,29 +645,38 @@ class SimulatedCalibrator(Calibrator):
         self.refused = 0
         return super().calibrate(act, number, total)
 
-    def say(self, text: str = "") -> None:
-        """Print a line; a fit refused twice more skips the actuator (no one to redo it)."""
-        super().say(text)
-        if text.endswith("(or press s at a reference to skip it)"):
-            self.refused += 1
-            if self.refused >= 2:
-                raise _FitRefusedTwice(text)
+    def refuse(self, act: Actuator, exc: MearmError) -> None:
+        """As :meth:`Calibrator.refuse`; refused a second time, the session ends.
+
+        Raises:
+            FitRefused: the actuator's fit was refused twice.
+        """
+        self.refused += 1
+        if self.refused >= 2:
+            raise FitRefused(f"{act.name}'s fit refused twice: {exc}")
+        super().refuse(act, exc)
 
     def clear_pose(self, act: Actuator) -> None:
         """Put the other joints where the actuator's sweep keeps the arm highest.
 
         A maker lifts the arm out of the way of the table first: among the other joint
         servos' present values and references, the setting whose lower TCP height over
-        the actuator's two references (under the present calibration) is highest.
+        the actuator's two references (under the present calibration) is highest, of
+        those that keep every joint inside its limits there (:func:`poses_inside`;
+        if none does, :func:`reference_pose`).
         """
-        others = [a for a in actuators_of(self.config) if a.kind == "joint" and a.name != act.name]
-        bus = self.session.bus
-        choices = [
-            (self.session.pulses_us[a.name], *(a.amap.command_us(r) for r in a.references))
-            for a in others
+        session = self.session
+        smap = session.servo_map
+        now = session.joint_values()
+        others = [a for a in actuators_of_map(smap) if a.kind == "joint" and a.name != act.name]
+        choices = {a.name: list(dict.fromkeys([now[a.name], *a.references])) for a in others}
+        settings = poses_inside(smap, act, choices) or [
+            reference_pose(smap, act, {n: now[n] for n in choices}, session.home_values)
         ]
+        bus = session.bus
         best: tuple[float, tuple[int, ...]] | None = None
-        for setting in itertools.product(*choices):
+        for values in settings:
+            setting = tuple(smap[a.name].command_us(values[a.name]) for a in others)
             for a, p in zip(others, setting, strict=True):
                 self.session.pulses_us[a.name] = p
             low = math.inf
@@ -746,11 +927,22 @@ def write_calibration(
     output: Path,
     force: bool,
 ) -> int:
-    """Check the fits together, write the file, print how a config uses it."""
+    """Check the fits together, write the file, print how a config uses it.
+
+    Each fit is checked again (:func:`~mearm.config.servo_file.check_fit`) and all of
+    them together with the config's checks: one refused, nothing is written (exit 1).
+    """
     if not fits:
         print("no actuator calibrated: nothing written", file=sys.stderr)
         return EXIT_FAILURE
-    apply_servo_calibration(config, fits, source="the calibration")
+    nominal_arm = (replaced_calibration(config) or config).arm
+    try:
+        for fit in fits:
+            check_fit(config.arm, fit, servo_of(nominal_arm, fit.name))
+        apply_servo_calibration(config, fits, source="the calibration")
+    except (ServoCalibrationError, ConfigError) as exc:
+        print(f"mearm calibrate-servos: refused: {exc}; nothing written", file=sys.stderr)
+        return EXIT_FAILURE
     cal = ServoCalibrationFile(config.arm.name, board, port, now_iso(), tuple(fits))
     written = save_servo_calibration(output, cal, force=force)
     print(f"wrote {written} ({len(fits)} actuator{'s' if len(fits) != 1 else ''})")
@@ -811,17 +1003,14 @@ def simulate(
             twin.settle(1.0)
             calibrator = SimulatedCalibrator(config, session, out, errors, args.reading_seed)
             for k, act in enumerate(actuators, 1):
-                try:
-                    fit = calibrator.calibrate(act, k, len(actuators))
-                except _FitRefusedTwice:
-                    calibrator.say(
-                        f"{act.name}: refused twice; its calibration stays as configured"
-                    )
-                    continue
+                fit = calibrator.calibrate(act, k, len(actuators))
                 if fit is not None:
                     fits.append(fit)
     except ServoError as exc:
         print(f"mearm calibrate-servos: servo fault: {exc}; nothing written", file=sys.stderr)
+        return EXIT_FAILURE
+    except FitRefused as exc:  # no one to redo it: a partial file would look complete
+        print(f"mearm calibrate-servos: {exc}; nothing written", file=sys.stderr)
         return EXIT_FAILURE
     nominal = replaced_calibration(config)
     if nominal is not None:  # recalibrating over a file: the twin's units stay relative

@@ -12,20 +12,27 @@ needs no solve: the arm
 goes home along a straight line in joint space, inside the limits by construction.
 
 A failure is a :class:`~mearm.errors.ConfigError` naming the field and its value, so
-the CLIs end with exit 2 before anything moves.
+the CLIs end with exit 2 before anything moves. A failure that the config's servo
+calibration file causes (``servo.calibration_file``: the same check passes with the
+calibration the file replaced) also names the file and what to do about it.
+
+:func:`calibration_note` is the line a sort on servos that were never calibrated
+prints before it starts (real boards, or the twin with a kit of servos).
 """
 
 from __future__ import annotations
 
 import hashlib
 import math
-from collections.abc import Iterator
+import shlex
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from mearm.config import ColorClass, Config
-from mearm.errors import ConfigError
+from mearm.config.servo_file import replaced_calibration
+from mearm.errors import ConfigError, MearmError
 from mearm.kinematics import ArmModel
 from mearm.kinematics.bodies import M_PER_CM, base_radius_m, bin_half_outer_m
 from mearm.kinematics.collision import TOUCH_CM, CollisionModel
@@ -130,9 +137,68 @@ def check_consistency(config: Config, model: ArmModel | None = None) -> Consiste
             "camera (and its calibration) at the arm's reach"
         )
     if problems:
-        raise ConfigError(None, problems)
+        raise ConfigError(None, _blame_calibration_file(config, problems))
     _CACHE[key] = found
     return found
+
+
+def _blame_calibration_file(config: Config, problems: list[str]) -> list[str]:
+    """The problems; those the servo calibration file causes name it and what to do.
+
+    Caused by the file: gone with the calibration it replaced (its ``replaces``). A file
+    that records none cannot be told apart: each problem then names it as a maybe.
+    """
+    path = config.servo.calibration_file
+    if path is None:
+        return problems
+    try:
+        before = replaced_calibration(config)
+    except MearmError:  # the file loaded with the config; if it no longer does, say maybe
+        before = None
+    # said first: a CLI's one line may cut the end of a long problem
+    fix = "re-run mearm calibrate-servos or remove servo.calibration_file"
+    if before is None:
+        return [
+            f"with the servo calibration from {path} (maybe the cause: {fix}): {p}"
+            for p in problems
+        ]
+    plain = before.model_copy(
+        update={"servo": before.servo.model_copy(update={"calibration_file": None})}
+    )
+    also: set[str] = set()  # the problems the config has without the file too
+    try:
+        check_consistency(plain)
+    except ConfigError as exc:
+        also = set(exc.problems)
+    blame = f"with the servo calibration from {path} (without it this holds: {fix})"
+    return [p if p in also else f"{blame}: {p}" for p in problems]
+
+
+def calibration_note(config: Config, config_args: Sequence[str]) -> str | None:
+    """The line saying the servos were never calibrated, or ``None``.
+
+    Said for servos that are real (``servo.backend`` ``serial`` or ``ssc32``) or that the
+    twin draws as a kit of real units (``twin.kit``), when the config applies no servo
+    calibration file: the arm's nominal calibration may be good enough, or not.
+
+    Args:
+        config: The whole configuration.
+        config_args: The ``--config`` and ``--set`` arguments the config came from, for
+            the command the line names.
+    """
+    if config.servo.calibration_file is not None:
+        return None
+    if config.servo.backend in ("serial", "ssc32"):
+        what, extra = f"the servos on the {config.servo.backend} board", []
+    elif config.simulator == "mujoco" and config.twin.kit is not None:
+        what, extra = "the servos of the twin's kit (twin.kit)", ["--simulate"]
+    else:
+        return None
+    command = shlex.join(["mearm", "calibrate-servos", *config_args, *extra])
+    return (
+        f"note: {what} have never been calibrated (no servo.calibration_file): the sort "
+        f"uses the arm's nominal calibration; to measure theirs, run {command}"
+    )
 
 
 def _pick_field(cls: ColorClass) -> str:
