@@ -789,6 +789,13 @@ def build_parser() -> ArgumentParser:
         action="store_true",
         help="replace an existing calibration file without asking (the old one → .bak)",
     )
+    parser.add_argument(
+        "--camera",
+        action="store_true",
+        help="fit every joint servo from where the calibrated camera sees the ArUco marker on "
+        "the claw (arm.tool.marker; needs calibration.model: perspective), no keys: the arm "
+        "visits points over the table by itself; with --simulate on the twin",
+    )
     sim = parser.add_argument_group(
         "simulated (--simulate)",
         "the procedure run against the twin (simulator: mujoco; its twin.kit's servos): "
@@ -868,8 +875,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Run the command (see the module docstring); returns the exit status."""
     args = build_parser().parse_args(argv)
     config = config_from_args(args)
-    actuators = _chosen(config, args.actuators)
     output = args.output if args.output is not None else default_output(args.config)
+    if args.camera:  # the camera's procedure (mearm.maker.calibrate_by_camera)
+        from mearm.maker.calibrate_by_camera import calibrate_by_camera  # noqa: PLC0415
+
+        return calibrate_by_camera(config, output, args)
+    actuators = _chosen(config, args.actuators)
     if args.simulate:
         return simulate(config, actuators, output, args)
     require_terminal("calibrate-servos")
