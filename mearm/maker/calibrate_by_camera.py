@@ -9,7 +9,7 @@ direction are fitted to where it sees the marker's corners
 (:class:`~mearm.task.claw_fit.ClawCamera`: least squares in pixels). The result is the
 keyboard procedure's servo calibration file (:mod:`mearm.config.servo_file`), written by
 the same writer after the same checks
-(:func:`~mearm.maker.calibrate_servos.write_calibration`).
+(:func:`~mearm.maker.servo_output.write_calibration`).
 
 **What it needs** (else exit 2, before anything opens): an arm with a claw marker whose
 id is in its dictionary, a perspective calibration of the camera (a table homography
@@ -107,7 +107,7 @@ from mearm.ik import IKTarget
 from mearm.kinematics.bodies import bin_origin_m, bin_shapes, marker_in_tcp
 from mearm.kinematics.chain import Chain
 from mearm.kinematics.collision import CollisionModel
-from mearm.maker.calibrate_servos import board_identity, hold_arm, write_calibration
+from mearm.maker.servo_output import board_identity, hold_arm, write_calibration
 from mearm.task.claw_fit import ClawCamera, ServoFit, Sighting
 from mearm.task.execute import JOINT_STEP, Executor
 from mearm.task.plan import Planner

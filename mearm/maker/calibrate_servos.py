@@ -2,6 +2,12 @@
 
     mearm calibrate-servos --config my.yaml [--port /dev/ttyACM0] [--output my.servos.yaml]
         [--actuators shoulder,elbow] [--force]
+    mearm calibrate-servos --camera --config my.yaml [--simulate] [--output …] [--force]
+
+With ``--camera`` no keys are pressed: the arm visits points over the table by itself and
+the calibrated camera's view of the marker on the claw fits every joint servo
+(:mod:`mearm.maker.calibrate_by_camera`; docs/servos.md). The rest of this docstring is
+the keyboard procedure.
 
 For each actuator (the actuated joints, the tool actuators, then the gripper) the screen
 shows two reference values chosen from its limits (a fifth of the range in from each
@@ -64,7 +70,6 @@ import numpy as np
 from mearm.backends import open_bus
 from mearm.cli import (
     EXIT_FAILURE,
-    EXIT_OK,
     ArgumentParser,
     add_config_argument,
     config_from_args,
@@ -76,22 +81,19 @@ from mearm.config.servo_file import (
     ActuatorFit,
     CalibrationPoint,
     ServoCalibrationError,
-    ServoCalibrationFile,
     apply_servo_calibration,
     check_fit,
     check_replace,
     fit_actuator,
     fit_span,
-    now_iso,
     replaced_calibration,
-    save_servo_calibration,
     servo_of,
-    servo_overrides,
 )
 from mearm.errors import ConfigError, MearmError
 from mearm.hardware import ActuatorMap, ArmCommand, ServoBus, ServoMap
 from mearm.hardware.errors import ServoError
 from mearm.maker.keys import KeyReader, require_terminal
+from mearm.maker.servo_output import board_identity, hold_arm, write_calibration
 
 #: The step sizes the keys choose from [µs].
 STEPS_US = (1, 5, 20)
@@ -285,19 +287,6 @@ def reference_pose(
     if inside:
         return inside[0]
     return min(pose_settings(choices, now), key=lambda s: pose_overrun(smap, act, s))
-
-
-def board_identity(bus: ServoBus) -> tuple[str, str]:
-    """The board's id (from its banner, else its version reply) and its port."""
-    port = str(getattr(bus, "port", ""))
-    banner = getattr(bus, "banner", None)
-    if isinstance(banner, bytes) and banner:
-        text = banner.decode("ascii", "replace").split("*")[0].strip()
-        return text.removeprefix("READY").strip(), port
-    version = getattr(bus, "version", None)
-    if version:
-        return str(version), port
-    return f"simulated ({type(bus).__name__}, servo.backend: sim)", port
 
 
 class PulseSession:
@@ -930,42 +919,6 @@ def main(argv: Sequence[str] | None = None) -> int:
     return write_calibration(config, fits, board, port, output, force)
 
 
-def write_calibration(
-    config: Config,
-    fits: Sequence[ActuatorFit],
-    board: str,
-    port: str,
-    output: Path,
-    force: bool,
-) -> int:
-    """Check the fits together, write the file, print how a config uses it.
-
-    Each fit is checked again (:func:`~mearm.config.servo_file.check_fit`) and all of
-    them together with the config's checks: one refused, nothing is written (exit 1).
-    """
-    if not fits:
-        print("no actuator calibrated: nothing written", file=sys.stderr)
-        return EXIT_FAILURE
-    nominal_arm = (replaced_calibration(config) or config).arm
-    try:
-        for fit in fits:
-            check_fit(config.arm, fit, servo_of(nominal_arm, fit.name))
-        apply_servo_calibration(config, fits, source="the calibration")
-    except (ServoCalibrationError, ConfigError) as exc:
-        print(f"mearm calibrate-servos: refused: {exc}; nothing written", file=sys.stderr)
-        return EXIT_FAILURE
-    cal = ServoCalibrationFile(config.arm.name, board, port, now_iso(), tuple(fits))
-    written = save_servo_calibration(output, cal, force=force)
-    print(f"wrote {written} ({len(fits)} actuator{'s' if len(fits) != 1 else ''})")
-    print(
-        f"to use it, add to the config's servo section:  calibration_file: {written}\n"
-        "(relative to the config's folder), or add these overrides to a command:"
-    )
-    for line in servo_overrides(config.arm, fits):
-        print(f"  --set '{line}'")
-    return EXIT_OK
-
-
 def simulate(
     config: Config, actuators: Sequence[Actuator], output: Path, args: argparse.Namespace
 ) -> int:
@@ -1028,14 +981,6 @@ def simulate(
         # to what that file replaced, so the new file records the same
         fits = [dataclasses.replace(f, replaces=servo_of(nominal.arm, f.name)) for f in fits]
     return write_calibration(config, fits, board, "", output, bool(args.force))
-
-
-def hold_arm(bus: ServoBus) -> None:
-    """Ask the bus to hold where it is (sends no new pulse); a failure is only reported."""
-    try:
-        bus.stop()
-    except MearmError as exc:
-        print(f"note: could not send hold: {exc}", file=sys.stderr)
 
 
 if __name__ == "__main__":

@@ -55,8 +55,9 @@ from mearm.hardware import ArmCommand, ServoBus
 from mearm.hardware.errors import ServoError
 from mearm.ik import IKTarget
 from mearm.kinematics import ArmModel
-from mearm.maker.calibrate_servos import hold_arm, open_arm_bus
+from mearm.maker.calibrate_servos import open_arm_bus
 from mearm.maker.keys import KeyReader, require_terminal
+from mearm.maker.servo_output import hold_arm
 from mearm.task import Executor, Planner, Route
 from mearm.task.execute import Phase
 

@@ -1,0 +1,86 @@
+"""What both servo calibration procedures share: the board's name, holding the arm, the file.
+
+The keyboard procedure (:mod:`mearm.maker.calibrate_servos`) and the camera's
+(:mod:`mearm.maker.calibrate_by_camera`) write the same servo calibration file, through
+the same refusals (:func:`write_calibration`).
+"""
+
+from __future__ import annotations
+
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+
+from mearm.cli import EXIT_FAILURE, EXIT_OK
+from mearm.config import Config
+from mearm.config.servo_file import (
+    ActuatorFit,
+    ServoCalibrationError,
+    ServoCalibrationFile,
+    apply_servo_calibration,
+    check_fit,
+    now_iso,
+    replaced_calibration,
+    save_servo_calibration,
+    servo_of,
+    servo_overrides,
+)
+from mearm.errors import ConfigError, MearmError
+from mearm.hardware.bus import ServoBus
+
+
+def board_identity(bus: ServoBus) -> tuple[str, str]:
+    """The board's id (from its banner, else its version reply) and its port."""
+    port = str(getattr(bus, "port", ""))
+    banner = getattr(bus, "banner", None)
+    if isinstance(banner, bytes) and banner:
+        text = banner.decode("ascii", "replace").split("*")[0].strip()
+        return text.removeprefix("READY").strip(), port
+    version = getattr(bus, "version", None)
+    if version:
+        return str(version), port
+    return f"simulated ({type(bus).__name__}, servo.backend: sim)", port
+
+
+def write_calibration(
+    config: Config,
+    fits: Sequence[ActuatorFit],
+    board: str,
+    port: str,
+    output: Path,
+    force: bool,
+) -> int:
+    """Check the fits together, write the file, print how a config uses it.
+
+    Each fit is checked again (:func:`~mearm.config.servo_file.check_fit`) and all of
+    them together with the config's checks: one refused, nothing is written (exit 1).
+    """
+    if not fits:
+        print("no actuator calibrated: nothing written", file=sys.stderr)
+        return EXIT_FAILURE
+    nominal_arm = (replaced_calibration(config) or config).arm
+    try:
+        for fit in fits:
+            check_fit(config.arm, fit, servo_of(nominal_arm, fit.name))
+        apply_servo_calibration(config, fits, source="the calibration")
+    except (ServoCalibrationError, ConfigError) as exc:
+        print(f"mearm calibrate-servos: refused: {exc}; nothing written", file=sys.stderr)
+        return EXIT_FAILURE
+    cal = ServoCalibrationFile(config.arm.name, board, port, now_iso(), tuple(fits))
+    written = save_servo_calibration(output, cal, force=force)
+    print(f"wrote {written} ({len(fits)} actuator{'s' if len(fits) != 1 else ''})")
+    print(
+        f"to use it, add to the config's servo section:  calibration_file: {written}\n"
+        "(relative to the config's folder), or add these overrides to a command:"
+    )
+    for line in servo_overrides(config.arm, fits):
+        print(f"  --set '{line}'")
+    return EXIT_OK
+
+
+def hold_arm(bus: ServoBus) -> None:
+    """Ask the bus to hold where it is (sends no new pulse); a failure is only reported."""
+    try:
+        bus.stop()
+    except MearmError as exc:
+        print(f"note: could not send hold: {exc}", file=sys.stderr)
