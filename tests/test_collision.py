@@ -13,7 +13,7 @@ from mearm.exceptions import ServoStallError, SimCollisionError
 from mearm.hardware.bus import ArmCommand
 from mearm.ik import IKTarget
 from mearm.kinematics import ArmModel
-from mearm.kinematics.bodies import bin_shapes
+from mearm.kinematics.bodies import M_PER_CM, bin_shapes
 from mearm.kinematics.collision import TOUCH_CM, CollisionModel
 from mearm.sim.kinematic.servo_bus import SimArm
 from mearm.sim.kinematic.world import World
@@ -276,3 +276,119 @@ def test_a_gripper_servo_of_fine_units_does_not_slow_the_check() -> None:
         assert c.first_contact(path) is None
         counts.append(c.checks)
     assert counts[1] == counts[0] < 100, counts
+
+
+# --------------------------------------------------------------------------- a start within
+
+
+#: An object 0.1 cm from the green bin's +x wall, as the camera of the paper's twin sees it
+#: (it stands 0.2 cm off the bin's corner and is seen 0.3 cm nearer): the jaws come down
+#: clear of the wall, and close on an object held within the clearance of it.
+BESIDE_THE_GREEN_BIN = SceneObject(color="green", x=-15.5, y=48.8)
+
+
+def _held_beside_the_wall() -> tuple[Config, ArmModel, Planner, np.ndarray]:
+    """The paper's twin arm holding a green object 0.1 cm from the green bin's +x wall."""
+    config = _config("sim_mujoco", "task.scene=[]")
+    model = ArmModel(config.arm)
+    collision = CollisionModel(config, model, clearance_cm=config.task.clearance_cm)
+    planner = Planner(config, model, collision)
+    green = config.task.class_named("green")
+    x = green.bin_cm[0] + green.bin_inner_width_cm / 2 + 0.3 + 0.1 + green.diameter_cm / 2
+    y = green.bin_cm[1] + 3.0
+    collision.set_world([("green1", "green", x, y)])
+    pick = planner.plan(Route("green1", "green", "pick", 1, planner.pick_target(green, x, y)),
+                        model.home, target="green1")  # fmt: skip
+    assert pick.planned and pick.plan is not None
+    collision.set_world([], opening_cm=green.diameter_cm, held=("green1", "green"))
+    return config, model, planner, pick.plan.q
+
+
+def test_a_start_within_the_clearance_may_be_left_but_never_closer() -> None:
+    """Held 0.1 cm from the wall (inside the 0.3 cm clearance), the object may be lifted:
+    a path that keeps that pair no closer passes the check. Toward the wall it is refused,
+    naming the pair and the distance it started at; the table, and an object it does not
+    start beside, keep their checks as strict as ever."""
+    config, model, planner, q0 = _held_beside_the_wall()
+    c = planner.collision
+    assert c is not None
+    g, part, obstacle = c.gap(q0)
+    assert g < -0.1 * M_PER_CM and part == "held green1" and obstacle.startswith("bin_green_")
+    assert c.first_contact(np.array([q0])) is None  # standing still is not coming closer
+    x, y, z = model.fk_cm(q0)
+    approach = planner.pick_target(config.task.class_named("green"), x, y).approach
+    lift = planner.plan(Route("green1", "green", "lift", 1, planner.up_from(q0, z + 6.0, approach)),
+                        q0)  # fmt: skip
+    assert lift.planned and lift.plan is not None
+    assert lift.plan.ee_path_cm[-1][2] > z + 5.9
+
+    def path_to(dx: float, dy: float, dz: float) -> np.ndarray:
+        moved = planner.solver.solve(IKTarget((x + dx, y + dy, z + dz), approach), q0)
+        assert moved.converged
+        return moved.q_path
+
+    toward = c.first_contact(path_to(-0.1, 0.0, 0.0))
+    assert toward is not None and toward.obstacle.startswith("bin_green_")
+    assert toward.start_cm is not None and toward.distance_cm < toward.start_cm < 0.3
+    assert "closer than the" in toward.describe(model.chain.names, model.chain.scale)
+    down = c.first_contact(path_to(0.5, 0.0, -0.5))  # away from the wall, into the table
+    assert down is not None and down.obstacle == "table" and down.start_cm is None
+    # a blue just beyond the clearance on the side it moves away to: refused on the way
+    bare = CollisionModel(config, model, clearance_cm=config.task.clearance_cm, bins=[])
+    for bx in np.arange(x + 1.0, x + 6.0, 0.05):
+        bare.set_world([("blue1", "blue", bx, y)], held=("green1", "green"))
+        if bare.gap(q0)[0] >= TOUCH_CM * M_PER_CM:
+            break
+    else:
+        pytest.fail("no place beside the held object keeps the blue out of the clearance")
+    assert bare.gap(q0)[0] < 0.1 * M_PER_CM  # just beyond it
+    c.set_world([("blue1", "blue", bx, y)], held=("green1", "green"))
+    side = c.first_contact(path_to(1.0, 0.0, 0.0))
+    assert side is not None and side.obstacle == "obj_blue1" and side.start_cm is None
+    assert side.distance_cm <= config.task.clearance_cm + TOUCH_CM
+
+
+@pytest.mark.heavy
+def test_an_object_held_beside_a_bin_wall_is_sorted() -> None:
+    """The twin picks the object beside the green bin's wall; held, it is within the
+    clearance of the wall (the lift starts there), and it is lifted and sorted, not put
+    back as "bin unreachable"."""
+    from mearm.task.rig import run_sort
+    from mearm.task.sorter import Sorter
+
+    config = _config("sim_mujoco")
+    lifts: list[float] = []
+    lift_and_place = Sorter._lift_and_plan_place
+
+    def spy(self: Sorter, *args):  # the gap where the object is held, before the lift
+        lifts.append(self.collision.gap(self.executor.q_now())[0] / M_PER_CM)
+        return lift_and_place(self, *args)
+
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(Sorter, "_lift_and_plan_place", spy)
+        report = run_sort(config, scene=[BESIDE_THE_GREEN_BIN], echo=None)
+    assert report.outcome.line() == "sorted 1 of 1 objects"
+    assert lifts and min(lifts) < 0.0  # it did start within the clearance
+
+
+@pytest.mark.heavy
+def test_a_pick_with_no_way_out_is_left_naming_what_it_ended_beside() -> None:
+    """Where no route leaves the pick's end without coming closer to the wall (every way
+    up turned toward it, here), the object is put back and left as ``collision``, naming
+    the wall the pick ended beside: the bin was never the problem."""
+    from mearm.task.rig import run_sort
+
+    config = _config("sim_mujoco")
+    away_from = CollisionModel.away_from
+
+    def toward(self: CollisionModel, q, *, target=None):
+        way = away_from(self, q, target=target)
+        return None if way is None else -way
+
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(CollisionModel, "away_from", toward)
+        report = run_sort(config, scene=[BESIDE_THE_GREEN_BIN], echo=None)
+    assert report.outcome.left == {"collision": 1}
+    (skip,) = report.skipped
+    assert skip.reason.startswith("the pick ended beside bin_green_"), skip.reason
+    assert "within task.clearance_cm" in skip.reason and "bin unreachable" not in skip.reason

@@ -16,7 +16,13 @@ from mearm.sim import SimCamera, World
 from mearm.sim.belt import Belt
 from mearm.vision import ColorDetector, Seen, Tracker
 from mearm.vision.calibration import Calibration
-from mearm.vision.tracking import whole_sightings
+from mearm.vision.tracking import (
+    Missing,
+    distance_to_path,
+    explain,
+    nearest_pairs,
+    whole_sightings,
+)
 
 KINEMATIC = ROOT / "configs" / "sim_conveyor_kinematic.yaml"
 #: Frames per second of the test's camera.
@@ -150,3 +156,54 @@ def test_frames_out_of_order_are_refused():
     for bad in (1.0, math.nan):
         with pytest.raises(TrackingError, match=r"earlier than the last frame's \(2.0 s\)"):
             tracker.update(bad, [])
+
+
+# --------------------------------------------------------------------------- still table
+
+
+def test_nearest_pairs_are_taken_first_each_row_and_column_once():
+    """Greedy nearest-first: the closest pair, then the closest of the free ones; a row's
+    reach and an ``inf`` keep a pair from being made."""
+    d = np.array([[1.0, 0.5, math.inf], [0.4, 0.6, 3.0]])
+    assert nearest_pairs(d) == [(1, 0), (0, 1)]
+    assert nearest_pairs(d, reach_cm=[0.45, 5.0]) == [(1, 0)]  # row 0: 1.0 and 0.5 too far
+    assert nearest_pairs(d, reach_cm=0.45) == [(1, 0)]
+    assert nearest_pairs(np.array([[math.inf]])) == []
+    assert nearest_pairs(np.zeros((0, 3))) == []
+
+
+def test_the_distance_to_a_path_is_to_its_nearest_segment():
+    path = np.array([[0.0, 0.0], [10.0, 0.0], [10.0, 10.0]])
+    assert distance_to_path(path, (5.0, 2.0)) == pytest.approx(2.0)
+    assert distance_to_path(path, (13.0, 14.0)) == pytest.approx(5.0)  # past its end
+    assert distance_to_path(path[:1], (3.0, 4.0)) == pytest.approx(5.0)  # one point
+
+
+def test_a_missing_object_explains_what_appeared_wherever_it_went():
+    """An object of the class that is missing is the one that appeared, however far (a
+    pushed cylinder tips and rolls): 30 cm off is still it; the class must agree, and a
+    second sighting with no missing object left is a new object."""
+    missing = [Missing("red", np.array([[0.0, 40.0]]), touched=False)]
+    far = [Seen("blue", 1.0, 40.0), Seen("red", 30.0, 40.0), Seen("red", 31.0, 55.0)]
+    assert explain(missing, far) == [(0, 1)]
+    assert explain(missing, [Seen("blue", 0.5, 40.0)]) == []
+    assert explain([], far) == []
+
+
+def test_objects_off_the_table_and_touched_explain_first_then_the_nearest():
+    """Two reds missing from the table: the one the arm went near takes the sighting,
+    though the other was nearer it; among equals the nearest pairs go first. One carried
+    to its bin (most likely there) explains a sighting only when no red missing from the
+    table can, however near its path lies; then, as far as its path."""
+    touched = Missing("red", np.array([[0.0, 40.0]]), touched=True)
+    hidden = Missing("red", np.array([[9.0, 40.0]]), touched=False)
+    assert explain([hidden, touched], [Seen("red", 8.0, 40.0)]) == [(1, 0)]
+    two = [Seen("red", 8.0, 40.0), Seen("red", 1.0, 40.0)]
+    assert sorted(explain([touched, hidden], two)) == [(0, 1), (1, 0)]
+    path = np.array([[0.0, 30.0], [-20.0, 30.0]])
+    carried = Missing("red", path, touched=True, carried=True)
+    near_its_path = Seen("red", -12.0, 31.0)  # 1 cm from the path, 21 cm from the other
+    assert explain([hidden, carried], [near_its_path]) == [(0, 0)]
+    assert explain([carried], [near_its_path]) == [(0, 0)]
+    farther = Missing("red", path + (0.0, 5.0), touched=False, carried=True)
+    assert explain([farther, carried], [near_its_path]) == [(1, 0)]

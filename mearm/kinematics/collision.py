@@ -24,12 +24,20 @@ joint i can be from its axis (a prismatic joint: 1 m per m). So the next check c
 later than that, however thin the wall (a bin's is 3 mm); a gap under :data:`TOUCH_CM`
 counts as touching. Far from everything one check covers a whole step of the path; close
 to a wall the checks come as close together as the gap requires.
+
+**A start within the clearance may be left** (MoveIt's handling of a start state in
+collision, for the clearance): a measured pose can end nearer a wall or an object than
+the clearance the plan kept (the jaws close on an object beside a bin's wall, and it is
+held 0.1 cm from it). From there no path would pass the check, and nothing could move.
+So each pair within the clearance at a path's first pose (not touching: the table never)
+is held to where it started instead: the path may not bring it more than
+:data:`TOUCH_CM` closer than that, only farther. Every other pair keeps the clearance.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 
 import coal
@@ -69,6 +77,8 @@ class Contact:
         distance_cm: Their distance there [cm] (≤ 0: they touch).
         q: The pose, model units, (n,).
         pose_index: The path's segment it lies on (from pose k to k + 1).
+        start_cm: For a pair within the clearance at the path's start, their distance
+            there [cm] (the path came closer than that); ``None`` for any other pair.
     """
 
     arm_part: str
@@ -76,6 +86,7 @@ class Contact:
     distance_cm: float
     q: np.ndarray
     pose_index: int
+    start_cm: float | None = None
 
     def describe(self, names: Sequence[str], scale: np.ndarray) -> str:
         """One line: the two bodies and the pose (joints in config units)."""
@@ -84,7 +95,10 @@ class Contact:
             what = "touches"
         else:
             what = f"comes within {self.distance_cm:.2f} cm of"
-        return f"{self.arm_part} {what} {_plain(self.obstacle)} at ({joints})"
+        text = f"{self.arm_part} {what} {_plain(self.obstacle)}"
+        if self.start_cm is not None:
+            text += f" (closer than the {self.start_cm:.2f} cm it started at)"
+        return f"{text} at ({joints})"
 
 
 def _plain(name: str) -> str:
@@ -166,8 +180,8 @@ class CollisionModel:
         self._prismatic = np.asarray(model.chain.prismatic, dtype=bool)
         self.checks = 0
         self._world = 0  # counts the worlds put in the model (a gap is kept for its world)
-        self._last_key: tuple[int, str | None, bytes] | None = None
-        self._last_gap: tuple[float, str, str] = (math.inf, "", "")
+        self._last_key: tuple[object, ...] | None = None
+        self._last_gap: tuple[float, str, str, float] = (math.inf, "", "", math.inf)
         self._objects: list[tuple[str, str, float, float]] = []
         self._opening_cm = config.arm.tool.gripper.open_cm
         self._reach_local = self._local_reach()
@@ -392,27 +406,111 @@ class CollisionModel:
             target: The object the jaws close on: their pads may touch it while it stands
                 between them (``None``: any object between them).
         """
+        g, a, b, _ = self._gap(q, target, {})
+        return g, a, b
+
+    def _gap(
+        self, q: npt.ArrayLike, target: str | None, floors: Mapping[int, float]
+    ) -> tuple[float, str, str, float]:
+        """:meth:`gap` with some pairs held to a floor of their own, and the pair's distance.
+
+        Args:
+            q: The pose, model units, (n,).
+            target: As for :meth:`gap`.
+            floors: Per pair index, the distance it keeps instead of the clearance [m]
+                (:meth:`first_contact`: a pair within it at the path's start).
+
+        Returns:
+            The smallest of each pair's distance less its floor (the clearance, or its own)
+            [m], its two shapes, and their distance as a contact reports it [m] (the
+            table's: the height above it).
+        """
         pm = self.model.model
         q = np.asarray(q, dtype=float)
         pin.forwardKinematics(pm, self.data, q)
-        key = (self._world, target, q.tobytes())
+        key = (self._world, target, q.tobytes(), tuple(floors.items()))
         if key == self._last_key:  # a path's end is the next path's start
             return self._last_gap
-        off = [k for col in self._between_jaws(target) for k in self._jaw_pairs[col]]
+        jaws = [k for col in self._between_jaws(target) for k in self._jaw_pairs[col]]
+        own = [k for k in floors if self._active[k] and k not in jaws]
+        off = jaws + own  # (the pairs with a floor of their own are measured one by one)
         for k in off:
             self.gdata.deactivateCollisionPair(k)
         pin.updateGeometryPlacements(pm, self.data, self.geometry, self.gdata)
         k = pin.computeDistances(self.geometry, self.gdata)
         for j in off:
             self.gdata.activateCollisionPair(j)
-        if k >= len(self._pairs):  # no pair switched on: nothing to come near
-            found = (math.inf, "", "")
-        else:
-            a, b = self._pairs[k]
-            d = self.gdata.distanceResults[k].min_distance - self.clearance_m
-            found = (float(d), self._arm_names[a], self._ob_names[b])
+        found = (math.inf, "", "", math.inf)
+        if k < len(self._pairs):  # some pair was switched on
+            d = self.gdata.distanceResults[k].min_distance
+            found = self._gap_of(k, d, self.clearance_m)
+        for j in own:
+            d = pin.computeDistance(self.geometry, self.gdata, j).min_distance
+            found = min(found, self._gap_of(j, d, floors[j]))
         self._last_key, self._last_gap = key, found
         return found
+
+    def _gap_of(
+        self, pair: int, distance_m: float, floor_m: float
+    ) -> tuple[float, str, str, float]:
+        """A pair's gap over its floor, its shapes and its distance as a contact reports it."""
+        a, b = self._pair_names(pair)
+        # the table is lowered by the clearance: its distance less that is the height
+        shown = distance_m - self.clearance_m if b == "table" else distance_m
+        return float(distance_m - floor_m), a, b, float(shown)
+
+    def _pair_names(self, pair: int) -> tuple[str, str]:
+        """A pair's arm shape and obstacle, as the world names them now."""
+        a, b = self._pairs[pair]
+        return self._arm_names[a], self._ob_names[b]
+
+    def _start_distances(self, q: npt.ArrayLike, target: str | None) -> dict[int, float]:
+        """The pairs within the clearance at a path's first pose, and their distance there [m].
+
+        Pairs closer than the clearance but not touching (the table never: the jaws come
+        down to it, and it keeps no clearance). Empty when the pose keeps the clearance, or
+        when it touches something (the check then refuses the path at its start, as any
+        touch).
+        """
+        g, _, _ = self.gap(q, target=target)
+        if g >= TOUCH_M:
+            return {}
+        pm = self.model.model
+        pin.updateGeometryPlacements(pm, self.data, self.geometry, self.gdata, np.asarray(q, float))
+        jaws = [k for col in self._between_jaws(target) for k in self._jaw_pairs[col]]
+        for k in jaws:
+            self.gdata.deactivateCollisionPair(k)
+        pin.computeDistances(self.geometry, self.gdata)  # every pair switched on
+        for k in jaws:
+            self.gdata.activateCollisionPair(k)
+        results = self.gdata.distanceResults
+        near = {}
+        for k in np.flatnonzero(self._active).tolist():
+            d = float(results[k].min_distance)
+            if k in jaws or self._pair_cols[k] == 0 or d >= self.clearance_m + TOUCH_M:
+                continue
+            if d < TOUCH_M:
+                return {}
+            near[k] = d
+        return near
+
+    def away_from(self, q: npt.ArrayLike, *, target: str | None = None) -> np.ndarray | None:
+        """The way out, in the table plane, from what pose ``q`` is within the clearance of.
+
+        The mean of the directions from each such pair's nearest point on the obstacle to
+        the one on the arm (:meth:`_start_distances`), as a unit vector (2,); ``None`` when
+        ``q`` keeps the clearance (or touches something), or the pairs pull opposite ways.
+        """
+        near = self._start_distances(q, target)  # (it leaves the placements at q)
+        way = np.zeros(2)
+        for k in near:
+            r = pin.computeDistance(self.geometry, self.gdata, k)
+            d = (np.asarray(r.getNearestPoint1()) - np.asarray(r.getNearestPoint2()))[:2]
+            n = float(np.linalg.norm(d))
+            if n > 0:
+                way += d / n
+        n = float(np.linalg.norm(way))
+        return way / n if n > 1e-6 else None
 
     def bins_at(self, q: npt.ArrayLike) -> list[tuple[str, str, float]]:
         """Each standing bin's distance from the arm at pose ``q`` [cm], and the arm's part.
@@ -507,6 +605,9 @@ class CollisionModel:
         r"""The first pose along ``q_path`` that comes too close to something, or ``None``.
 
         Between rows the joints move on a straight line; ``None``: the whole path is clear.
+        A pair within the clearance at the first row may not come closer than it starts
+        there (:meth:`_start_distances`, the module docstring); every other pair keeps the
+        clearance.
 
         Conservative advancement (the module docstring): at a pose with gap ``g`` to
         spare, the next check comes where some point of the arm could first have moved
@@ -520,14 +621,17 @@ class CollisionModel:
         path = np.atleast_2d(np.asarray(q_path, dtype=float))
         last = len(path) - 1
         seg = np.abs(np.diff(path, axis=0))  # each segment's joint travel, (last, n)
+        start = self._start_distances(path[0], target)
+        # such a pair may come no more than TOUCH_CM closer than it starts, nor touch
+        floors = {k: max(d - TOUCH_M, TOUCH_M) - TOUCH_M for k, d in start.items()}
+        names = {self._pair_names(k): d / M_PER_CM for k, d in start.items()}
         k, t = 0, 0.0
         while True:
             q = path[k] + t * (path[k + 1] - path[k]) if k < last else path[last]
-            g, a, b = self.gap(q, target=target)
+            g, a, b, d = self._gap(q, target, floors)
             self.checks += 1
-            if g < TOUCH_M:  # (the table's distance less the clearance is the height)
-                d = g if b == "table" else g + self.clearance_m
-                return Contact(a, b, d / M_PER_CM, q, k)
+            if g < TOUCH_M:
+                return Contact(a, b, d / M_PER_CM, q, k, names.get((a, b)))
             if k == last:
                 return None
             # how far a point may move before the next check is g [m]: walk the segments'

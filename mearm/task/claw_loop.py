@@ -1,4 +1,4 @@
-r"""Picks that look: the camera sees where the claw is before the jaws close, and the pick is corrected.
+r"""Picks that look: the camera sees where the claw is before the jaws close; the pick is corrected.
 
 Real hobby servos do not go where they are told: each unit's zero and scale differ from
 the datasheet's, and its gears' play (backlash, 0.5–2° at the shaft) and dead band
@@ -157,10 +157,11 @@ class ClawEye:
 
 
 def shifted(target: IKTarget, shift_xy_cm: np.ndarray) -> IKTarget:
-    """``target`` moved by ``shift_xy_cm`` in the table plane."""
+    """``target`` moved by ``shift_xy_cm`` in the table plane (and up, given a third value)."""
     x, y, z = (float(v) for v in target.position_cm)
-    dx, dy = (float(v) for v in shift_xy_cm)
-    return dataclasses.replace(target, position_cm=(x + dx, y + dy, z))
+    dx, dy = (float(v) for v in shift_xy_cm[:2])
+    dz = float(shift_xy_cm[2]) if len(shift_xy_cm) > 2 else 0.0
+    return dataclasses.replace(target, position_cm=(x + dx, y + dy, z + dz))
 
 
 def claw_eye(

@@ -22,6 +22,12 @@ above the target, and down; each leg is solved and the whole is checked again. A
 that is not clear either refuses the route with ``collision``, naming the two bodies and
 the pose; nothing of it is sent. A direct solve that stopped short (``limit``,
 ``stalled``) is tried once more the same way, from over the target.
+
+**A start within the clearance** (a pose that ended off its plan, an object held beside
+a bin's wall) may be left by a path that brings nothing it starts within the clearance of
+any closer (:mod:`mearm.kinematics.collision`); every other pair keeps the clearance. A
+way up from there aims a little away from what it starts beside (:meth:`Planner.up_from`),
+so that where the solve leaves the TCP it has not come closer.
 """
 
 from __future__ import annotations
@@ -51,6 +57,11 @@ DETOUR_EXTRA_CM = (0.0, 3.0, 6.0)
 #: arm strays from a transit route's planned path by up to 2.7 cm (the paper's arm,
 #: random scenes), from a vertical pick or lift by 0.4 cm.
 TRAVEL_MARGIN_CM = 3.0
+#: A way up from a pose within the clearance aims this many solver tolerances away from
+#: what it is beside (:meth:`Planner.up_from`): the solve leaves the TCP up to one off its
+#: target, in any direction, and straight up beside a bin's wall that ended closer to it
+#: (0.01 cm, the paper's arm, an object held 0.1 cm from the green bin's wall).
+AWAY_TOLERANCES = 2.0
 #: Failures of a direct solve that a detour is tried for: a solve that stopped short
 #: against the limits or stalled from this start may converge from over the target.
 REROUTED = ("limit", "stalled")
@@ -97,6 +108,25 @@ class Planner:
         """``target`` raised by ``height_cm``, same approach."""
         x, y, z = (float(v) for v in target.position_cm)
         return IKTarget((x, y, z + height_cm), target.approach)
+
+    def up_from(
+        self, q: npt.ArrayLike, z_cm: float, approach: tuple[float, float, float] | None
+    ) -> IKTarget:
+        """Straight up from where the TCP is at pose ``q``, to height ``z_cm``.
+
+        Where ``q`` is within the clearance of something (a pick that ended beside a bin's
+        wall, an object held there), the target moves away from it in the table plane by
+        :data:`AWAY_TOLERANCES` times the solver's tolerance: the solve leaves the TCP up
+        to that far off its target, and a way straight up may end that much closer to
+        what it started beside, which the check refuses
+        (:mod:`mearm.kinematics.collision`).
+        """
+        x, y, _ = (float(v) for v in self.model.fk_cm(q))
+        away = None if self.collision is None else self.collision.away_from(q)
+        if away is not None:
+            off = AWAY_TOLERANCES * math.sqrt(self.config.controller.tolerance_cm2)
+            x, y = x + off * float(away[0]), y + off * float(away[1])
+        return IKTarget((x, y, z_cm), approach)
 
     def home_target(self) -> IKTarget:
         """The TCP at the home pose (with its approach axis, for an arm that needs one)."""
@@ -298,13 +328,13 @@ class Planner:
         """Up, over at a safe height and down to ``target``, checked whole; or ``None``."""
         assert self.collision is not None
         q0 = np.asarray(q_start, dtype=float)
-        x0, y0, z0 = (float(v) for v in self.model.fk_cm(q0))
+        z0 = float(self.model.fk_cm(q0)[2])
         x1, y1, z1 = (float(v) for v in target.position_cm)
         base = self.safe_height_cm(q0)
         for extra in DETOUR_EXTRA_CM:
             z = base + extra
             legs = [
-                IKTarget((x0, y0, max(z0, z)), target.approach),
+                self.up_from(q0, max(z0, z), target.approach),
                 IKTarget((x1, y1, max(z1, z)), target.approach),
                 target,
             ]

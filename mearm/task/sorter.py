@@ -44,7 +44,9 @@ from mearm.hardware.bus import ReportsRelease, ServoBus
 from mearm.hardware.errors import ServoError
 from mearm.ik import IKTarget
 from mearm.kinematics import ArmModel
-from mearm.kinematics.collision import CollisionModel
+from mearm.kinematics.bodies import M_PER_CM
+from mearm.kinematics.collision import TOUCH_M, CollisionModel
+from mearm.task.claw_loop import GOOD_ENOUGH_CM, MAX_LOOKS, claw_eye, shifted
 from mearm.task.execute import Executor, View
 from mearm.task.plan import Planner
 from mearm.task.report import Outcome, Reporter, Skip, SortReport
@@ -53,6 +55,8 @@ from mearm.vision import Camera, ColorDetector, Detection
 from mearm.vision.calibration import camera_geometry
 from mearm.vision.errors import CameraError
 from mearm.vision.frame_check import FrameCheck
+from mearm.vision.tracking import Missing, explain, nearest_pairs
+from mearm.vision.tracking import Seen as Sighting
 
 if TYPE_CHECKING:
     from mearm.runlog.writer import RunLog  # a log is written only when asked for
@@ -69,11 +73,6 @@ SAME_SHIFT_CM = 0.3
 #: An object whose region grew or shrank by more than this fraction since the last look
 #: is partly hidden (by the arm) in one of them: its centroid moved for that [-].
 SAME_AREA_RATIO = 0.15
-#: An object that slips from the jaws on the way to its bin lands within this of the
-#: path the TCP carried it along, on the table [cm]: it falls from the carrying height
-#: and may tip or roll (the paper arm's twin drops a cube gripped across its corners
-#: 0.3 cm from that path).
-DROPPED_NEAR_CM = 5.0
 
 
 class CollisionError(MearmError):
@@ -139,7 +138,8 @@ class TrackedObject:
     #: go first), or ``None``.
     blocked: str | None = None
     #: Whether the last look saw it as a region of touching objects (or one the arm hid
-    #: in part): not picked while so; left as ``merged`` when nothing else is left.
+    #: in part, or one cut by the image border): not picked while so; left as ``merged``
+    #: (or ``cut``) when nothing else is left.
     merged: bool = False
     #: A cube's yaw on the table at the last look [deg, 0–90), or ``None``: the jaws
     #: turn to its faces where the arm can turn them (:meth:`Planner.turn_jaws`).
@@ -201,6 +201,9 @@ class Sorter:
         self.reporter = Reporter(config, self.model.chain, log, echo, trial)
         self.calibration = camera_geometry(config)
         self.detector = ColorDetector(config.vision, self.calibration, config.task.classes)
+        #: The camera watching the claw's marker (picks that look), where the tool carries
+        #: one, the camera is calibrated as a perspective one and the config asks for it.
+        self.eye = claw_eye(config, self.model, self.calibration, camera.read, bus.hold)
         self.frame_check = FrameCheck(camera.source)
         #: The object the arm last went for (the only one it may have moved since).
         self._active: TrackedObject | None = None
@@ -210,9 +213,6 @@ class Sorter:
         retries = config.task.pick_retries + 1
         self.max_rounds = max_rounds or 4 * (len(config.task.scene) + 20) * retries
         self._objects: list[TrackedObject] = []
-        #: The classes of the regions the last look found cut by the image border, on the
-        #: table (only part of each is seen: never picked, reported as left).
-        self._cut: list[str] = []
 
     @property
     def report(self) -> SortReport:
@@ -222,7 +222,10 @@ class Sorter:
     # ----------------------------------------------------------------- vision
 
     def _look(self, *, track_new: bool = True) -> Seen:
-        """Read a frame: what lies on the table, whole, outside the bins.
+        """Read a frame: what lies on the table, outside the bins.
+
+        An object cut by the image border is in it, seen in part: followed, but not
+        picked until seen whole (:meth:`_track`).
 
         Args:
             track_new: Start following objects not seen before (off while the gripper
@@ -230,18 +233,10 @@ class Sorter:
         """
         frame = self.camera.read()
         self.frame_check.check(frame, self.camera.frame_time_s, self.camera.clock_s)
-        h, w = frame.shape[:2]
-        # an object cut by the image border is not picked until seen whole
-        found = self.detector.detect(frame)
-        detections = [d for d in found if not _cut(d, w, h)]
-        if track_new:  # (holding an object, the look is only for that object)
-            self._cut = [
-                d.color for d in found if _cut(d, w, h) and not self._in_a_bin(_table_cm(d))
-            ]
-        cm = [_table_cm(d) for d in detections]
         # an object seen in a bin is sorted, not on the table (a camera that sees the
         # bins sees what was put in them)
-        seen = [(d, p) for d, p in zip(detections, cm, strict=True) if not self._in_a_bin(p)]
+        found = [(d, _table_cm(d)) for d in self.detector.detect(frame)]
+        seen = [(d, p) for d, p in found if not self._in_a_bin(p)]
         self._track(seen, track_new=track_new)
         if self.view is not None:
             self.view.set_camera_frame(frame, self.calibration.pixel_to_table)
@@ -260,53 +255,90 @@ class Sorter:
         return any(c.in_bin(x, y) for c in self.config.task.classes)
 
     def _track(self, seen: Seen, *, track_new: bool = True) -> None:
-        """Follow the objects seen; an object the arm did not go for must not have moved.
+        """Follow the objects seen: each detection is a known object, or a new one.
+
+        Each known object takes the detection of its class nearest where it was, within
+        :data:`SAME_OBJECT_CM` (:meth:`_match`). On a look that may start new objects, a
+        detection left over is a known object no longer where it was, when one of its
+        class is missing (:meth:`_dropped`); only one that none can be is a new object.
+        A region cut by the image border, or of touching objects, is followed as
+        ``merged``: not picked while so. An object the arm did not go for must not have
+        moved.
 
         Raises:
             CameraError: two or more such objects, seen whole in both looks, all moved
                 more than :data:`VIEW_SHIFT_CM` since the last look, by the same shift
                 (within :data:`SAME_SHIFT_CM`): the camera was knocked.
         """
+        taken = self._match(seen)
         shifts: list[tuple[TrackedObject, np.ndarray]] = []
-        for det, (x, y) in seen:
-            known = self._match(det.color, x, y)
-            if known is None and not track_new:
-                continue
-            if known is None:
-                known = self._dropped(det.color, float(x), float(y))
-            if known is None:
-                n = sum(1 for o in self._objects if o.class_name == det.color) + 1
-                known = TrackedObject(f"{det.color}{n}", det.color, float(x), float(y))
-                self._objects.append(known)
-            else:
-                if self._untouched(known, det):
-                    shifts.append((known, np.array([x - known.x_cm, y - known.y_cm])))
-                known.x_cm, known.y_cm = float(x), float(y)
-            known.area_px = det.area_px
-            # one look's merged region may be another's single object: the arm, now
-            # elsewhere, hid part of it, or a neighbour picked meanwhile touched it
-            known.merged = det.merged
+        for k, known in taken.items():
+            det, (x, y) = seen[k]
+            if self._untouched(known, det):
+                shifts.append((known, np.array([x - known.x_cm, y - known.y_cm])))
+        if track_new:
+            taken.update(self._dropped(seen, taken))
+            for k, (det, _) in enumerate(seen):
+                if k not in taken:
+                    n = sum(1 for o in self._objects if o.class_name == det.color) + 1
+                    taken[k] = TrackedObject(f"{det.color}{n}", det.color, 0.0, 0.0)
+                    self._objects.append(taken[k])
+        camera = self.config.camera
+        for k, known in taken.items():
+            det, (x, y) = seen[k]
+            known.x_cm, known.y_cm = float(x), float(y)
+            if track_new:  # (what the region looked like: the next look tells if it came apart)
+                known.area_px = det.area_px
+                # one look's merged region may be another's single object: the arm, now
+                # elsewhere, hid part of it, or a neighbour picked meanwhile touched it;
+                # an object cut by the image border has no centre seen either
+                known.merged = det.merged or _cut(det, camera.width_px, camera.height_px)
             if det.yaw_deg is not None:
                 known.yaw_deg = det.yaw_deg
         _check_view(shifts, self.camera.source)
 
-    def _dropped(self, class_name: str, x: float, y: float) -> TrackedObject | None:
-        """The object of ``class_name`` counted sorted but seen again at (x, y), or ``None``.
+    def _dropped(self, seen: Seen, taken: Mapping[int, TrackedObject]) -> dict[int, TrackedObject]:
+        """The known objects that the detections :meth:`_match` left over are.
 
-        On a table nothing else brings new objects: one that appears within
-        :data:`DROPPED_NEAR_CM` of the path the arm carried an object of its class along,
-        its release unconfirmed, is that object dropped on the way. It is no longer counted
-        sorted and is picked again from where it lies (the most recently carried first).
+        On a still table nothing brings new objects (:func:`~mearm.vision.tracking.explain`):
+        such a detection is a known object of its class that is missing, if one is: on the
+        table but not seen where it was (pushed by the jaws, tipped and rolled), or counted
+        sorted while no simulator confirmed its release (:attr:`TrackedObject.carried_cm`:
+        dropped on the way, or out of its bin again), which is then no longer counted
+        sorted and is picked again from where it lies. Those missing from the table come
+        before those counted sorted, and the ones the arm went for or may have pushed since
+        the last look before the others; the nearest pairs first.
+        The other object of a region of touching objects come apart is a new one
+        (:func:`_come_apart`).
+
+        Returns:
+            The detection's index → the object it is.
         """
-        for obj in reversed(self._objects):
-            path = obj.carried_cm
-            if obj.class_name != class_name or not obj.sorted or path is None:
-                continue
-            if _distance_to_path(path, np.array([x, y])) <= DROPPED_NEAR_CM:
-                obj.sorted, obj.carried_cm = False, None
-                obj.x_cm, obj.y_cm = x, y
-                return obj
-        return None
+        present = {o.id for o in taken.values()}
+        missing = [
+            o
+            for o in self._objects
+            if o.id not in present and (not o.sorted or o.carried_cm is not None)
+        ]
+        apart = _come_apart(seen, taken, self.config)
+        left = [k for k in range(len(seen)) if k not in taken and k not in apart]
+        pairs = explain(
+            [
+                Missing(
+                    o.class_name,
+                    np.array([[o.x_cm, o.y_cm]]) if o.carried_cm is None else o.carried_cm,
+                    touched=o is self._active or self._near_active(o),
+                    carried=o.sorted,
+                )
+                for o in missing
+            ],
+            [Sighting(d.color, float(p[0]), float(p[1])) for d, p in (seen[k] for k in left)],
+        )
+        found = {}
+        for i, j in pairs:
+            obj = found[left[j]] = missing[i]
+            obj.sorted, obj.carried_cm = False, None
+        return found
 
     def _untouched(self, obj: TrackedObject, det: Detection) -> bool:
         """Whether the arm left ``obj`` alone since the last look and both saw it whole."""
@@ -324,13 +356,20 @@ class Sorter:
         x, y = self._active_from_cm
         return bool(np.hypot(obj.x_cm - x, obj.y_cm - y) < g.open_cm / 2 + g.jaw_thickness_cm + r)
 
-    def _match(self, class_name: str, x: float, y: float) -> TrackedObject | None:
-        best, best_d = None, SAME_OBJECT_CM
-        for o in self._objects:
-            d = float(np.hypot(o.x_cm - x, o.y_cm - y))
-            if o.class_name == class_name and not o.sorted and d <= best_d:
-                best, best_d = o, d
-        return best
+    def _match(self, seen: Seen) -> dict[int, TrackedObject]:
+        """The known objects seen where they were: detection index → object.
+
+        Each object on the table (not counted sorted) and each detection of its class
+        within :data:`SAME_OBJECT_CM` of where it was pair up, the nearest pairs first:
+        of two detections near one object, the farther is another object.
+        """
+        known = [o for o in self._objects if not o.sorted]
+        distance = np.full((len(known), len(seen)), np.inf)
+        for i, o in enumerate(known):
+            for k, (det, (x, y)) in enumerate(seen):
+                if det.color == o.class_name:
+                    distance[i, k] = float(np.hypot(x - o.x_cm, y - o.y_cm))
+        return {k: known[i] for i, k in nearest_pairs(distance, SAME_OBJECT_CM)}
 
     @staticmethod
     def _on_table(obj: TrackedObject, seen: Seen) -> bool:
@@ -343,8 +382,8 @@ class Sorter:
         """The object to pick next, or ``None``.
 
         ``final``: the look is from home, the last before the run ends; only then are the
-        objects seen as touching others, with nothing else left to pick, left as merged
-        (from elsewhere the arm may hide part of one).
+        objects seen as touching others, or cut by the image border, with nothing else
+        left to pick, left as merged or cut (from elsewhere the arm may hide part of one).
         """
         candidates = [
             o
@@ -354,10 +393,13 @@ class Sorter:
         whole = [o for o in candidates if not o.merged]
         if not whole and not final:
             return None  # look again from home, where the arm hides nothing
+        camera = self.config.camera
         for o in candidates if not whole else []:  # nothing else left: say why not these
-            self._skip(
-                o, "touching objects of one class: no single centroid to pick", kind="merged"
-            )
+            if _seen_cut(o, seen, camera.width_px, camera.height_px):
+                self._skip(o, "cut by the image border: only part of it is seen", kind="cut")
+            else:
+                why = "touching objects of one class: no single centroid to pick"
+                self._skip(o, why, kind="merged")
         candidates = whole
         free = [o for o in candidates if o.blocked is None]
         for o in candidates if not free else []:  # every one waits for another: none can
@@ -426,13 +468,22 @@ class Sorter:
         """With ``obj`` held: lift it, then plan the place route in full.
 
         The lift (when the pick came down from ``above``) comes before anything else
-        moves. Returns the place route and when its planning began
-        (``time.perf_counter``), or ``None`` when the bin is out of reach: nothing
-        unplanned is sent, so the object is put back where it was and skipped.
+        moves. Where the pick ended within the clearance of something (the object held
+        beside a bin's wall), a route out may leave as long as it comes no closer
+        (:mod:`mearm.kinematics.collision`). Returns the place route and when its planning
+        began (``time.perf_counter``), or ``None`` when no place can be planned: nothing
+        unplanned is sent, so the object is put back where it was and skipped, for the
+        bin when the bin is out of reach, for the pick when no route leaves where it ended
+        without coming closer to what it ended beside.
         """
         ex = self.executor
         if above is not None:
-            up = Route(obj.id, obj.class_name, "lift", 1, above.target)
+            # straight up from where the jaws closed, to the height it came down from (the
+            # point above the target is off the pose by as much as the solver left: that
+            # way may bring an object held beside a wall closer to it)
+            z = float(above.target.position_cm[2])
+            straight_up = self.planner.up_from(ex.q_now(), z, above.target.approach)
+            up = Route(obj.id, obj.class_name, "lift", 1, straight_up)
             if self.planner.plan(up, ex.q_now()).planned:
                 ex.stream(up, "travel", True)
         t1 = time.perf_counter()
@@ -440,7 +491,13 @@ class Sorter:
         self.planner.plan(place, ex.q_now())
         if not place.planned:
             self.reporter.route(pick)
-            self._skip(obj, f"bin unreachable: {place.failure}", place, kind="bin_unreachable")
+            beside = self.collision.gap(ex.q_now())
+            if place.failure_kind == "collision" and beside[0] < TOUCH_M:
+                why = _stuck(beside, self.config.task.clearance_cm, place.failure)
+                self._skip(obj, why, pick, kind="collision")
+            else:
+                why = f"bin unreachable: {place.failure}"
+                self._skip(obj, why, place, kind="bin_unreachable")
             ex.set_tool("grip", True)
             ex.set_tool("grip", False)
             return None
@@ -451,10 +508,13 @@ class Sorter:
         cls = self.config.task.class_named(obj.class_name)
         ex = self.executor
         t0 = time.perf_counter()
-        pick = Route(
-            obj.id, obj.class_name, "pick", obj.failed_picks + 1,
-            self.planner.pick_target(cls, obj.x_cm, obj.y_cm),
-        )  # fmt: skip
+        xy = np.array([obj.x_cm, obj.y_cm])
+        goal = self.planner.pick_target(cls, obj.x_cm, obj.y_cm)
+        # picks that look start from the aim the picks nearby needed (claw_loop)
+        aim = np.zeros(3)
+        if self.eye is not None:
+            aim[:2] = self.eye.corrections.guess(xy)
+        pick = Route(obj.id, obj.class_name, "pick", obj.failed_picks + 1, shifted(goal, aim))
         self._world()
         above = self._approach(obj, pick)  # planned in full with the pick, before either
         if above is not None and obj.yaw_deg is not None:  # jaws across a cube's faces
@@ -473,7 +533,13 @@ class Sorter:
             return
         if above is not None:
             ex.stream(above, "travel", False)
+            if self.eye is not None:
+                pick, aim = self._aim_over(obj, above, pick, aim)
         ex.stream(pick, "travel", False, _hex(cls.draw_rgb))
+        if self.eye is not None:
+            pick, aim = self._aim_by_eye(obj, above, pick, aim)
+            self.eye.corrections.add(xy, aim[:2])
+            pick.target = goal  # the pick is judged, and logged, against the object
         ex.finish(pick, t0)  # where the TCP is when the jaws close
         ex.set_tool("grip", False)
         ex.set_tool("grip", True)
@@ -516,6 +582,70 @@ class Sorter:
             o.blocked = None
         t0 = t1
         self.reporter.route(ex.finish(place, t0))
+
+    def _aim_over(
+        self, obj: TrackedObject, above: Route, pick: Route, aim: np.ndarray
+    ) -> tuple[Route, np.ndarray]:
+        """Over the object: look once and aim the way down by what was seen.
+
+        The table-plane error seen here shifts the pick route before the jaws come down
+        around the object. Returns the route down (replanned where the aim changed; kept
+        where the new one cannot be planned) and the aim [cm], (3,).
+        """
+        assert self.eye is not None
+        ex = self.executor
+        look = self.eye.look(ex.q_now())
+        if look is None:
+            return pick, aim
+        off = aim[:2] + look.error_cm[:2]  # where the claw is, less where it should be
+        if np.linalg.norm(off) < GOOD_ENOUGH_CM:
+            return pick, aim
+        step = np.array([-off[0], -off[1], 0.0])
+        down = Route(obj.id, obj.class_name, "pick", pick.attempt,
+                     shifted(pick.target, step))  # fmt: skip
+        if not self.planner.plan(down, ex.q_now(), target=obj.id).planned:
+            return pick, aim
+        return down, aim + step
+
+    def _aim_by_eye(
+        self, obj: TrackedObject, above: Route | None, pick: Route, aim: np.ndarray
+    ) -> tuple[Route, np.ndarray]:
+        """With the open jaws round the object: look at the claw and correct the aim.
+
+        :mod:`mearm.task.claw_loop`. Each correction goes back up to the point above the
+        object and down again to the corrected pick, so that every look sees the claw
+        after the same final move (the gears' play and dead band then leave the same
+        error each time, and the correction takes it out), a few times at most. A
+        correction that cannot be planned in full is not made: the arm stays where it is.
+
+        Returns:
+            The pick route the arm is on now and the aim's shift [cm], (3,).
+        """
+        assert self.eye is not None
+        ex = self.executor
+        for _ in range(MAX_LOOKS):
+            look = self.eye.look(ex.q_now())
+            if look is None:
+                break
+            off = aim[:2] + look.error_cm[:2]  # where the claw is, less where it should be
+            if np.linalg.norm(off) < GOOD_ENOUGH_CM or above is None:
+                break
+            step = np.array([-off[0], -off[1], 0.0])
+            up = Route(obj.id, obj.class_name, "approach", pick.attempt,
+                       shifted(above.target, step))  # fmt: skip
+            down = Route(obj.id, obj.class_name, "pick", pick.attempt,
+                         shifted(pick.target, step))  # fmt: skip
+            if not self.planner.plan(up, ex.q_now(), target=obj.id).planned:
+                break
+            if obj.yaw_deg is not None:  # the jaws stay across a cube's faces
+                self.planner.turn_jaws(up, obj.yaw_deg, SHAPES["cube"].symmetry_deg)
+            assert up.plan is not None
+            if not self.planner.plan(down, up.plan.q, target=obj.id).planned:
+                break
+            ex.stream(up, "travel", False)
+            ex.stream(down, "travel", False)
+            above, pick, aim = up, down, aim + step
+        return pick, aim
 
     def _recorded_pick(self, obj: TrackedObject) -> None:
         """:meth:`_pick_and_place` as an episode of the recording, if there is one."""
@@ -630,7 +760,9 @@ class Sorter:
         A place counts when the bus reported the release into the right bin and, in
         simulation, the world holds that many objects of the class in its bin; an object
         left for no recorded reason is put down to ``stopped`` (a fault or Ctrl-C) or,
-        after a complete run, to ``not_confirmed``.
+        after a complete run, to ``not_confirmed``. Each object counts once, wherever the
+        arm pushed it (:meth:`_track`): an object seen only in part, at the image border,
+        is one of them too.
         """
         out = Outcome()
         for cls in self.config.task.classes:
@@ -654,9 +786,6 @@ class Sorter:
                 leave(stopped)
             else:
                 leave("not_confirmed")
-        for name in self._cut:  # seen in part at the last look, never picked
-            out.seen[name] = out.seen.get(name, 0) + 1
-            leave("cut")
         return out
 
     def _gone(self) -> None:
@@ -737,6 +866,46 @@ def _cut(det: Detection, width_px: int, height_px: int) -> bool:
     return x <= 0 or y <= 0 or x + w >= width_px or y + h >= height_px
 
 
+def _seen_cut(obj: TrackedObject, seen: Seen, width_px: int, height_px: int) -> bool:
+    """Whether the look saw ``obj`` (a detection of its class where it is) cut by the border."""
+    return any(
+        d.color == obj.class_name
+        and np.hypot(x - obj.x_cm, y - obj.y_cm) <= SAME_OBJECT_CM
+        and _cut(d, width_px, height_px)
+        for d, (x, y) in seen
+    )
+
+
+def _come_apart(seen: Seen, taken: Mapping[int, TrackedObject], config: Config) -> set[int]:
+    """The detections that are the other object of a region of touching objects come apart.
+
+    A known object last seen as such a region (``merged``, and larger than it is seen
+    now by more than :data:`SAME_AREA_RATIO`: not one the arm hid in part) and seen whole
+    now: the detection of its class nearest where it was, not taken by a known object,
+    within the open jaws' reach and an object across (the jaws parted them), is the
+    other object the region stood for.
+    """
+    g, camera = config.arm.tool.gripper, config.camera
+    apart: set[int] = set()
+    for k, obj in taken.items():
+        det = seen[k][0]
+        if not obj.merged or det.merged or _cut(det, camera.width_px, camera.height_px):
+            continue
+        if obj.area_px <= (1 + SAME_AREA_RATIO) * det.area_px:
+            continue  # as large as one object now: part of it was hidden
+        r = config.task.class_named(obj.class_name).footprint_radius_cm
+        reach = g.open_cm / 2 + g.jaw_thickness_cm + 2 * r
+        near = {
+            float(np.hypot(x - obj.x_cm, y - obj.y_cm)): j
+            for j, (d, (x, y)) in enumerate(seen)
+            if j not in taken and j not in apart and d.color == obj.class_name
+        }
+        nearest = min(near, default=np.inf)
+        if nearest <= reach:
+            apart.add(near[nearest])
+    return apart
+
+
 def _failure_kind(route: Route) -> str:
     """The typed reason a route's plan failed (``unreachable`` when it gives none)."""
     kind = getattr(route, "failure_kind", None)
@@ -747,9 +916,21 @@ def _hex(rgb: tuple[int, int, int]) -> str:
     return "#{:02x}{:02x}{:02x}".format(*rgb)
 
 
-def _distance_to_path(path: np.ndarray, p: np.ndarray) -> float:
-    """The distance of ``p`` (2,) from a polyline ``path`` (k ≥ 2, 2) [cm]."""
-    a, ab = path[:-1], np.diff(path, axis=0)
-    t = np.einsum("kd,kd->k", p - a, ab) / np.maximum(np.einsum("kd,kd->k", ab, ab), 1e-12)
-    nearest = a + np.clip(t, 0.0, 1.0)[:, None] * ab
-    return float(np.min(np.linalg.norm(nearest - p, axis=1)))
+def _stuck(beside: tuple[float, str, str], clearance_cm: float, failure: str | None) -> str:
+    """Why a held object stays where the pick ended, for the skip.
+
+    Args:
+        beside: :meth:`CollisionModel.gap` where the pick ended (within the clearance).
+        clearance_cm: ``task.clearance_cm``.
+        failure: Why the place was refused.
+    """
+    gap_m, part, obstacle = beside
+    name = obstacle.removeprefix("obj_")
+    if obstacle == "table":  # (the table keeps no clearance: its gap is the height)
+        where = f"{part} {gap_m / M_PER_CM:.2f} cm above it"
+    else:
+        where = f"{part} {gap_m / M_PER_CM + clearance_cm:.2f} cm from it"
+    return (
+        f"the pick ended beside {name} ({where}, within task.clearance_cm) and no route "
+        f"leaves without coming closer: {failure}"
+    )

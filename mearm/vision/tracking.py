@@ -33,6 +33,16 @@ over *coasts* on its prediction, unseen (the arm over it), and is dropped once i
 been unseen for ``coast_s``. A track keeps its id from the first frame to the last, so
 an object hidden by the arm and seen again is the same object.
 
+**A still table** (:func:`explain`): with no belt nothing brings objects to the table, so
+a detection not where a known object was is a known object that is no longer where it
+was (pushed by the jaws, dropped on the way to its bin, tipped and rolled, knocked out of
+its bin), if one of its class is missing; only when none is, is it a new object. Objects
+missing from the table before those carried to their bins (most likely there), and the
+ones the arm went near before the others; within each, the nearest pairs first. No
+distance is too far: in the physical twin the jaws pushed an upright object 12 cm from
+where it stood and tipped cylinders rolled off the table, so a reach short of the table
+would count a pushed object twice.
+
 norfair, the tracking library that would do this, pins ``numpy<2`` and cannot be
 installed with this package; the filter is OpenCV's.
 """
@@ -253,22 +263,17 @@ class Tracker:
         if not math.isfinite(t_s) or (self._t_s is not None and t_s < self._t_s):
             raise TrackingError(t_s, self._t_s)
         self._t_s = t_s
-        predicted = {tid: track.predict(t_s) for tid, track in self.tracks.items()}
-        pairs = sorted(
-            (float(np.hypot(*(p - (d.x_cm, d.y_cm)))), tid, k)
-            for tid, p in predicted.items()
-            for k, d in enumerate(detections)
-            if d.color == self.tracks[tid].color
-        )
-        taken_tracks: set[int] = set()
+        ids = list(self.tracks)
+        predicted = [self.tracks[tid].predict(t_s) for tid in ids]
+        distance = np.full((len(ids), len(detections)), math.inf)
+        for i, tid in enumerate(ids):
+            for k, d in enumerate(detections):
+                if d.color == self.tracks[tid].color:
+                    distance[i, k] = float(np.hypot(*(predicted[i] - (d.x_cm, d.y_cm))))
+        gates = [self.tracks[tid].gate_cm(self.tracking.gate_cm) for tid in ids]
         taken_detections: set[int] = set()
-        for distance, tid, k in pairs:
-            if distance > self.tracks[tid].gate_cm(self.tracking.gate_cm):
-                continue
-            if tid in taken_tracks or k in taken_detections:
-                continue
-            self.tracks[tid].correct(detections[k])
-            taken_tracks.add(tid)
+        for i, k in nearest_pairs(distance, gates):
+            self.tracks[ids[i]].correct(detections[k])
             taken_detections.add(k)
         for tid in list(self.tracks):
             if t_s - self.tracks[tid].last_seen_s > self.tracking.coast_s:
@@ -285,3 +290,96 @@ class Tracker:
     def drop(self, track_id: int) -> None:
         """Forget a track (its object was picked up)."""
         self.tracks.pop(track_id, None)
+
+
+def nearest_pairs(
+    distance_cm: np.ndarray, reach_cm: float | Sequence[float] = math.inf
+) -> list[tuple[int, int]]:
+    """Rows paired with columns, the nearest pair first, each row and column at most once.
+
+    Greedy: the closest pair left is taken, then the next closest of those whose row and
+    column are both still free (ties: the lower row, then the lower column).
+
+    Args:
+        distance_cm: (rows, columns) distances [cm]; ``inf`` where a pair may not be made.
+        reach_cm: How far apart a pair may be: one for every row, or one per row.
+
+    Returns:
+        The ``(row, column)`` pairs in the order taken.
+    """
+    d = np.asarray(distance_cm, dtype=float)
+    if d.size == 0:
+        return []
+    reach = np.broadcast_to(np.asarray(reach_cm, dtype=float), (d.shape[0],))
+    rows: set[int] = set()
+    cols: set[int] = set()
+    pairs = []
+    for flat in np.argsort(d, axis=None, kind="stable").tolist():
+        i, j = divmod(flat, d.shape[1])
+        if not (math.isfinite(d[i, j]) and d[i, j] <= reach[i]):
+            continue
+        if i in rows or j in cols:
+            continue
+        pairs.append((i, j))
+        rows.add(i)
+        cols.add(j)
+    return pairs
+
+
+def distance_to_path(path_cm: np.ndarray, point_cm: Sequence[float] | np.ndarray) -> float:
+    """The distance of a point (2,) from a polyline (k ≥ 1, 2) [cm] (k = 1: a point)."""
+    path = np.atleast_2d(np.asarray(path_cm, dtype=float))
+    p = np.asarray(point_cm, dtype=float)
+    if len(path) == 1:
+        return float(np.linalg.norm(path[0] - p))
+    a, ab = path[:-1], np.diff(path, axis=0)
+    t = np.einsum("kd,kd->k", p - a, ab) / np.maximum(np.einsum("kd,kd->k", ab, ab), 1e-12)
+    nearest = a + np.clip(t, 0.0, 1.0)[:, None] * ab
+    return float(np.min(np.linalg.norm(nearest - p, axis=1)))
+
+
+@dataclass(frozen=True)
+class Missing:
+    """A known object not seen where it was, on a still table (:func:`explain`).
+
+    Attributes:
+        color: Its class's name.
+        from_cm: Where it may have gone from, (k, 2) [cm]: where it was last seen, and
+            for an object carried away the path it was carried along.
+        touched: Whether the arm went near it since it was last seen.
+        carried: Whether it was carried to its bin (its release unconfirmed): it is most
+            likely there, and explains a sighting only when no object missing from the
+            table can.
+    """
+
+    color: str
+    from_cm: np.ndarray
+    touched: bool
+    carried: bool = False
+
+
+def explain(missing: Sequence[Missing], appeared: Sequence[Seen]) -> list[tuple[int, int]]:
+    """Which missing object each detection not where a known object was is.
+
+    A still table (the module docstring): by class; the objects missing from the table
+    before those carried to their bins, and within each those the arm touched before the
+    others; the nearest pairs first (the distance from where a missing object may have
+    gone from, :attr:`Missing.from_cm`), whatever the distance. A detection left over is
+    a new object.
+
+    Returns:
+        ``(missing, appeared)`` index pairs.
+    """
+    distance = np.full((len(missing), len(appeared)), math.inf)
+    for i, m in enumerate(missing):
+        for j, s in enumerate(appeared):
+            if s.color == m.color:
+                distance[i, j] = distance_to_path(m.from_cm, (s.x_cm, s.y_cm))
+    pairs: list[tuple[int, int]] = []
+    for carried, touched in ((False, True), (False, False), (True, True), (True, False)):
+        rows = [i for i, m in enumerate(missing) if (m.carried, m.touched) == (carried, touched)]
+        taken = {j for _, j in pairs}
+        cols = [j for j in range(len(appeared)) if j not in taken]
+        for a, b in nearest_pairs(distance[np.ix_(rows, cols)]):
+            pairs.append((rows[a], cols[b]))
+    return pairs
