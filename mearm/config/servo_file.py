@@ -203,18 +203,30 @@ def fit_actuator(
     if span is not None:
         bounds = (template.min_us + FIT_EDGE_US, template.max_us - FIT_EDGE_US)
         slope, zero = _line_inside(values, pulses, (slope, zero), span, bounds, FIT_SLACK[unit])
+    servo = fitted_servo(template, name, float(zero), float(slope), "; redo the references")
+    residual = float(np.max(np.abs(zero + slope * values - pulses)))
+    return ActuatorFit(name, unit, servo, tuple(points), residual, replaces=template)
+
+
+def fitted_servo(
+    template: ServoCalibration, name: str, zero_us: float, slope: float, advice: str = ""
+) -> ServoCalibration:
+    """``template`` with a fitted mapping: ``zero_us``, and ``slope`` µs per unit (signed).
+
+    Raises:
+        ServoCalibrationError: the servo's calibration refuses a fitted value (naming it,
+            then ``advice``).
+    """
     data = template.model_dump()
-    data.update(zero_us=float(zero), direction=1 if slope > 0 else -1, us_per_unit=abs(slope))
+    data.update(zero_us=zero_us, direction=1 if slope > 0 else -1, us_per_unit=abs(slope))
     try:
-        servo = type(template).model_validate(data)
+        return type(template).model_validate(data)
     except ValidationError as exc:
         err = exc.errors()[0]
         raise ServoCalibrationError(
             f"{name}: the fit gives {'.'.join(map(str, err['loc']))} = "
-            f"{short_repr(err.get('input'))}: {err['msg']}; redo the references"
+            f"{short_repr(err.get('input'))}: {err['msg']}{advice}"
         ) from None
-    residual = float(np.max(np.abs(zero + slope * values - pulses)))
-    return ActuatorFit(name, unit, servo, tuple(points), residual, replaces=template)
 
 
 def _line_inside(

@@ -82,7 +82,6 @@ from pathlib import Path
 from typing import TextIO
 
 import numpy as np
-from pydantic import ValidationError
 from scipy.optimize import least_squares
 
 from mearm.cli import EXIT_FAILURE, check_output_file
@@ -95,7 +94,7 @@ from mearm.config.servo_file import (
     ServoCalibrationError,
     apply_servo_calibration,
     check_fit,
-    check_replace,
+    fitted_servo,
     replaced_calibration,
     servo_of,
 )
@@ -107,7 +106,7 @@ from mearm.ik import IKTarget
 from mearm.kinematics.bodies import bin_origin_m, bin_shapes, marker_in_tcp
 from mearm.kinematics.chain import Chain
 from mearm.kinematics.collision import CollisionModel
-from mearm.maker.servo_output import board_identity, hold_arm, write_calibration
+from mearm.maker.servo_output import board_identity, check_output, hold_arm, write_calibration
 from mearm.task.claw_fit import ClawCamera, ServoFit, Sighting
 from mearm.task.execute import JOINT_STEP, Executor
 from mearm.task.plan import Planner
@@ -223,13 +222,7 @@ def check_inputs(config: Config, args: argparse.Namespace, output: Path) -> Pers
             "of them): leave out --actuators, or calibrate single actuators by keyboard"
         )
     check_output_file(output, "--output")
-    if output.exists():
-        if not args.force:
-            raise MearmError(
-                f"{output} exists: pass --force to replace it (the old one is kept as "
-                f"{output.name}.bak)"
-            )
-        check_replace(output)
+    check_output(output, force=bool(args.force))
     camera = camera_geometry(config)
     assert isinstance(camera, PerspectiveCamera)  # calibration.model: perspective
     return camera
@@ -1193,16 +1186,8 @@ def actuator_fits(
     out = []
     for amap in servos:
         template = servo_of(config.arm, amap.name)
-        data = template.model_dump()
-        data.update(zero_us=amap.zero_us, direction=amap.direction, us_per_unit=amap.us_per_unit)
-        try:
-            servo = type(template).model_validate(data)
-        except ValidationError as exc:
-            err = exc.errors()[0]
-            raise ServoCalibrationError(
-                f"{amap.name}: the fit gives {'.'.join(map(str, err['loc']))} = "
-                f"{err.get('input')!r}: {err['msg']}"
-            ) from None
+        slope = amap.direction * amap.us_per_unit
+        servo = fitted_servo(template, amap.name, amap.zero_us, slope)
         seen = (points or {}).get(amap.name, ())
         residual = max((abs(servo.pulse_us(p.value) - p.pulse_us) for p in seen), default=0.0)
         replaces = servo_of(replaces_arm, amap.name)

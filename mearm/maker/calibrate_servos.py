@@ -93,7 +93,7 @@ from mearm.errors import ConfigError, MearmError
 from mearm.hardware import ActuatorMap, ArmCommand, ServoBus, ServoMap
 from mearm.hardware.errors import ServoError
 from mearm.maker.keys import KeyReader, require_terminal
-from mearm.maker.servo_output import board_identity, hold_arm, write_calibration
+from mearm.maker.servo_output import board_identity, check_output, hold_arm, write_calibration
 
 #: The step sizes the keys choose from [µs].
 STEPS_US = (1, 5, 20)
@@ -935,13 +935,7 @@ def simulate(
             f"--simulate runs against the MuJoCo twin: the config's simulator is "
             f"{config.simulator!r}; use one with simulator: mujoco (configs/sim_mujoco_kits.yaml)"
         )
-    if output.exists():
-        if not args.force:
-            raise MearmError(
-                f"{output} exists: pass --force to replace it (the old one is kept as "
-                f"{output.name}.bak)"
-            )
-        check_replace(output)
+    check_output(output, force=bool(args.force))
     from mearm.sim.twin.twin_bus import TwinArm  # noqa: PLC0415
 
     cleared = config.model_copy(update={"task": config.task.model_copy(update={"scene": []})})

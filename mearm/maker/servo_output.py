@@ -19,6 +19,7 @@ from mearm.config.servo_file import (
     ServoCalibrationFile,
     apply_servo_calibration,
     check_fit,
+    check_replace,
     now_iso,
     replaced_calibration,
     save_servo_calibration,
@@ -40,6 +41,21 @@ def board_identity(bus: ServoBus) -> tuple[str, str]:
     if version:
         return str(version), port
     return f"simulated ({type(bus).__name__}, servo.backend: sim)", port
+
+
+def check_output(output: Path, *, force: bool) -> None:
+    """Refuse to replace an existing calibration file without ``--force``.
+
+    Raises:
+        MearmError: ``output`` exists and ``force`` is not given, or it cannot be replaced.
+    """
+    if output.exists():
+        if not force:
+            raise MearmError(
+                f"{output} exists: pass --force to replace it (the old one is kept as "
+                f"{output.name}.bak)"
+            )
+        check_replace(output)
 
 
 def write_calibration(
