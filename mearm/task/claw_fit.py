@@ -107,8 +107,9 @@ class ClawCamera:
         self._corners_tcp = corners @ marker_in_tcp[:3, :3].T + marker_in_tcp[:3, 3]
         combo = servo_map.combination
         m = len(servo_map.joints)
-        self._A, self._a = combo if combo is not None else (np.eye(m), np.zeros(m))
-        self._A_inv = np.linalg.inv(self._A)
+        A, a = combo if combo is not None else (np.eye(m), np.zeros(m))
+        self._a: np.ndarray = a
+        self._A_inv: np.ndarray = np.linalg.inv(A)
 
     @property
     def names(self) -> tuple[str, ...]:
