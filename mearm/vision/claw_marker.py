@@ -57,7 +57,10 @@ def check_marker(marker: ClawMarker) -> None:
     Raises:
         CalibrationError: naming the dictionary and the ids it has.
     """
-    n = len(get_dictionary(marker.dictionary).bytesList)
+    try:
+        n = len(get_dictionary(marker.dictionary).bytesList)
+    except CalibrationError as exc:
+        raise CalibrationError(f"arm.tool.marker.dictionary: {exc}") from None
     if marker.id >= n:
         raise CalibrationError(
             f"arm.tool.marker.id: {marker.id} is not in {marker.dictionary} (ids 0..{n - 1})"

@@ -173,6 +173,7 @@ from mearm.kinematics.urdf import TCP_FRAME, jaw_joint_names, jaw_pad_length_m
 from mearm.sim.belt import Arrival, Belt, belt_arrivals
 from mearm.sim.twin.twin_optics import CAMERA_HEIGHT_M, camera_pose, homography_view
 from mearm.vision.aruco import get_dictionary, marker_image
+from mearm.vision.claw_marker import check_marker
 
 M_PER_CM = 0.01
 G = 9.81  # m/s²
@@ -993,6 +994,7 @@ def _claw_marker(
     """
     m = config.arm.tool.marker
     assert m is not None
+    check_marker(m)  # the error names arm.tool.marker's field
     modules = get_dictionary(m.dictionary).markerSize + 2
     cells = marker_image(m.id, modules, m.dictionary) < 128  # one pixel a module
     side = m.size_cm * M_PER_CM
