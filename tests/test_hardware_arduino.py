@@ -408,3 +408,27 @@ def test_a_stream_at_a_low_baud_steps_as_far_as_the_period_allows():
         assert len(timed.q) - 1 >= 3
     # the same speed limits, the time law rounded to whole periods
     assert durations[9600] == pytest.approx(durations[115200], abs=2 * 0.0438)
+
+
+def test_a_slow_write_is_not_a_lost_cable(monkeypatch):
+    """A process descheduled longer than ack_timeout_s mid-write still delivers the move.
+
+    pyserial raises "Write timeout" after a complete write when its timeout has run
+    out; with the acknowledgement timeout as the write timeout, a loaded machine took
+    that for a lost cable.
+    """
+    import os
+    import types
+
+    import serial.serialposix
+
+    def slow_write(fd: int, data: bytes) -> int:
+        time.sleep(0.3)  # longer than fast_config's ack_timeout_s of 0.15 s
+        return os.write(fd, data)
+
+    slow_os = types.SimpleNamespace(**{**vars(os), "write": slow_write})
+    with FakeMearmBoard() as board, connected(board) as bus:
+        monkeypatch.setattr(serial.serialposix, "os", slow_os)  # pyserial's os only
+        bus.move(route(1)[0])
+        monkeypatch.undo()
+        assert len(board.moves) == 1

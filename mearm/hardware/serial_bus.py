@@ -45,6 +45,11 @@ BITS_PER_BYTE = 10
 #: Longest line kept whole [bytes]; a longer run without a terminator is cut into lines
 #: of this length, so a flood of bytes cannot grow the buffer without bound.
 MAX_LINE_BYTES = 256
+#: Longest a write may block [s]. A line takes milliseconds on the wire; this bounds a
+#: link that stopped draining. It is not ``ack_timeout_s``: pyserial raises "Write
+#: timeout" after a complete write when the process was descheduled that long, and a
+#: loaded machine takes a short acknowledgement timeout for a lost cable.
+WRITE_TIMEOUT_S = 2.0
 
 
 class SerialServoBus(ServoBus):
@@ -96,7 +101,7 @@ class SerialServoBus(ServoBus):
             ser = serial.serial_for_url(self.port, do_not_open=True)
             ser.baudrate = self.baud
             ser.timeout = POLL_S
-            ser.write_timeout = self.config.servo.ack_timeout_s
+            ser.write_timeout = max(WRITE_TIMEOUT_S, self.config.servo.ack_timeout_s)
             ser.open()
         except (serial.SerialException, OSError, ValueError) as exc:
             raise LinkError(
