@@ -336,3 +336,28 @@ def test_out_that_is_a_file_is_refused(log: Path, tmp_path: Path) -> None:
     with pytest.raises(SystemExit) as e:
         main([str(log), "--out", str(tmp_path / "file")])
     assert e.value.code == 2 and (tmp_path / "file").read_text() == "keep"
+
+
+def test_picks_when_the_jaws_close_have_their_own_table(log: Path, tmp_path: Path, capsys):
+    """``grip_ee_cm`` on the picks: their settled error in its own table; without, none."""
+    assert main([str(log)]) == 0
+    assert "Picks when the jaws close" not in capsys.readouterr().out
+    assert run_json(capsys, str(log))["analysis"]["grip"] is None
+    lines, offsets = [], []
+    for k, line in enumerate(log.read_text().splitlines()):
+        record = json.loads(line)
+        if record["type"] == "route" and record["step"] == "pick":
+            offset = [0.01 * (k % 7), -0.02, 0.03]
+            record["grip_ee_cm"] = list(np.add(record["target_cm"], offset))
+            offsets.append(offset)
+        lines.append(json.dumps(record))
+    gripped = tmp_path / "gripped.jsonl"
+    gripped.write_text("\n".join(lines) + "\n")
+    assert main([str(gripped)]) == 0
+    assert f"Picks when the jaws close: TCP − target [cm], {len(offsets)} picks" in (
+        capsys.readouterr().out
+    )
+    grip = run_json(capsys, str(gripped))["analysis"]["grip"]
+    norms = np.linalg.norm(offsets, axis=1)
+    assert grip["xyz"]["mean"] == pytest.approx(norms.mean())
+    assert grip["z"]["mean"] == pytest.approx(0.03)

@@ -15,6 +15,7 @@ from hypothesis import strategies as st
 from mearm.config import Config, config_from_dict, load_config
 from mearm.exceptions import ConfigError, InvalidCommandError, JointLimitError, PulseRangeError
 from mearm.hardware import ActuatorMap, ArmCommand, ArmState, ServoMap
+from mearm.hardware.mapping import PlayCompensation
 from mearm.sim import quantize_deg
 
 SMAP = ServoMap.from_config(Config())
@@ -377,3 +378,57 @@ def test_exact_realisation_quantises_the_servos_not_the_joints():
     assert realised["shoulder"] == pytest.approx(shoulder, abs=1e-12)
     assert realised["elbow"] == pytest.approx(forearm - shoulder, abs=1e-12)
     assert MEARM_SMAP.realised(joints, "none") == pytest.approx(joints, abs=1e-12)
+
+
+# ----------------------------------------------------------------- play compensation
+
+
+def _with_play(play_us: float) -> ServoMap:
+    return ServoMap(
+        tuple(dataclasses.replace(j, play_us=play_us) for j in SMAP.joints),
+        SMAP.tool,
+        SMAP.gripper,
+        SMAP.gripper_open_cm,
+        SMAP.gripper_closed_cm,
+    )
+
+
+def test_play_is_sent_half_further_the_way_the_pulse_moved():
+    """Up: +play/2; down: −play/2; unchanged: the last move's side; first: none."""
+    play = PlayCompensation(_with_play(12.0))
+    base = BASE.channel
+    first = SMAP.pulses_us(HOME)
+    assert play.apply(first) == first  # no side known yet
+    up = {**first, base: first[base] + 20}
+    assert play.apply(up)[base] == first[base] + 26
+    assert play.apply(up)[base] == first[base] + 26  # held: still from below
+    down = {**first, base: first[base] + 10}
+    assert play.apply(down)[base] == first[base] + 4
+    sent = play.apply(down)
+    assert sent[SMAP.gripper.channel] == first[SMAP.gripper.channel]  # no play: as given
+    play.reset()
+    assert play.apply(down) == down
+
+
+def test_play_never_leaves_the_pulse_range():
+    """A pulse at max_us moved up is sent at max_us, not beyond."""
+    play = PlayCompensation(_with_play(40.0))
+    base = BASE.channel
+    pulses = SMAP.pulses_us(HOME)
+    play.apply({**pulses, base: BASE.max_us - 5})
+    assert play.apply({**pulses, base: BASE.max_us})[base] == BASE.max_us
+
+
+def test_a_map_without_play_compensates_nothing():
+    """``without_play`` (what calibration moves by) leaves every pulse as calibrated."""
+    smap = _with_play(12.0).without_play()
+    assert not PlayCompensation(smap).active
+    assert all(a.play_us == 0.0 for a in smap.actuators)
+
+
+def test_play_in_the_calibration_reaches_the_map():
+    """``servo.play_us`` reaches the actuator map; more than 100 µs is refused."""
+    config = load_config(ROOT / "configs" / "sim.yaml", ["arm.joints.base.servo.play_us=9.5"])
+    assert ServoMap.from_config(config)["base"].play_us == 9.5
+    with pytest.raises(ConfigError, match="play_us"):
+        load_config(ROOT / "configs" / "sim.yaml", ["arm.joints.base.servo.play_us=101"])

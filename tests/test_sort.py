@@ -41,6 +41,8 @@ def test_cli_sorts_the_paper_layout(tmp_path):
     assert len(routes) == 24
     assert [r.step for r in routes] == ["pick", "place"] * 12
     assert all(r.success and r.status == "converged" for r in routes)
+    # a pick also logs where the TCP was when the jaws closed; a place does not
+    assert all((r.grip_ee_cm is not None) == (r.step == "pick") for r in routes)
     # all red first, then green, then blue (the paper's order, the classes' order)
     assert [r.color for r in routes[::2]] == ["red"] * 4 + ["green"] * 4 + ["blue"] * 4
     # each route starts where the last ended (no return home in between)

@@ -496,3 +496,33 @@ def test_a_bin_holds_an_object_too_slow_to_climb_its_walls(paper):
         arm.data.qvel[qvel : qvel + 3] = (0.0, 0.0, speed_m_s)
         mujoco.mj_forward(m, arm.data)
         assert ("red1" in arm.objects_in_bin()) is held, speed_m_s
+
+
+def test_play_compensation_ends_a_reversal_where_commanded(paper):
+    """With the servo's play in its calibration, both approaches end at the same angle.
+
+    Without it they end the play apart (the test above); the bus sends each pulse half
+    the play further the way it moved, so the lag on either side is taken up.
+    """
+    config, m = paper
+    joint = config.arm.actuated_joints()[0]
+    s_name = joint.name
+    assert joint.servo is not None
+    play_us = BACKLASH_DEG * joint.servo.us_per_unit
+    compensated = load_config(
+        ROOT / "configs" / "sim.yaml", overrides=[f"arm.joints.{s_name}.servo.play_us={play_us}"]
+    )
+    ends = []
+    for sign in (1.0, -1.0):
+        arm = TwinArm(compensated, m)
+        arm.connect()
+        joints = config.arm.home()
+        joints[s_name] += 10.0 * sign
+        arm.move(_command(config, joints))
+        arm.settle(SETTLE_S)
+        arm.move(ArmCommand.home(config.arm))
+        arm.settle(SETTLE_S)
+        ends.append(arm.actual_joints[s_name])
+    # within the pulse's whole µs either way
+    assert abs(ends[0] - ends[1]) < 0.25 * BACKLASH_DEG
+    assert abs(np.mean(ends) - config.arm.home()[s_name]) < 0.25 * BACKLASH_DEG

@@ -10,6 +10,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any, Literal
 
@@ -37,7 +38,7 @@ from mearm.analysis.success import (
 )
 from mearm.analysis.weibull import WeibullFit, fit_weibull
 from mearm.errors import MearmError
-from mearm.runlog import RunLogContents
+from mearm.runlog import RouteRecord, RunLogContents
 from mearm.runlog.errors import RunLogFormatError
 
 
@@ -63,6 +64,8 @@ class Analysis:
         success: Success against error of those picks, or ``None`` when there are none.
         around_bound: The same bound counted over the Table 8 routes, the paper's way.
         table6: Iteration and solver-error statistics for all routes, picks and places.
+        grip: Error statistics of the picks' TCP when the jaws close, the arm settled
+            (``grip_ee_cm``), or ``None`` when the log has none.
     """
 
     source: str
@@ -81,6 +84,7 @@ class Analysis:
     success: SuccessVsError | None
     around_bound: RoutesAroundBound | None
     table6: dict[str, IterationStats]
+    grip: ErrorTable | None = None
 
 
 def class_names(contents: RunLogContents) -> list[str]:
@@ -161,7 +165,15 @@ def analyze(
         success=success,
         around_bound=routes_around_bound(norms, success) if success else None,
         table6=table6,
+        grip=_grip_errors(routes, first_attempt),
     )
+
+
+def _grip_errors(routes: Sequence[RouteRecord], first_attempt: bool) -> ErrorTable | None:
+    """The picks' errors when the jaws close (``grip_ee_cm − target_cm``), or ``None``."""
+    picks = select_routes(routes, step="pick", first_attempt=first_attempt)
+    errors = [np.subtract(r.grip_ee_cm, r.target_cm) for r in picks if r.grip_ee_cm is not None]
+    return error_table(errors) if errors else None
 
 
 def jsonable(value: Any) -> Any:

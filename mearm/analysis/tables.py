@@ -97,6 +97,22 @@ def table8(a: Analysis) -> Table:
     )
 
 
+def grip_table(a: Analysis) -> Table | None:
+    """The picks' error when the jaws close, the arm settled (``None``: not in the log)."""
+    if a.grip is None:
+        return None
+    rows = [(name, *(_num(v) for v in m.as_tuple())) for name, m in a.grip.rows().items()]
+    return Table(
+        title=f"Picks when the jaws close: TCP − target [cm], {a.grip.n} picks",
+        header=("", "mean", "std", "max", "min"),
+        rows=tuple(rows),
+        notes=(
+            "the arm settled, the tool's hold done (Table 8 takes each route's TCP on "
+            "arrival, within a degree of each servo's command)",
+        ),
+    )
+
+
 def weibull_table(a: Analysis) -> Table:
     """The Weibull fit and its goodness of fit, ours and the paper's."""
     fit = a.weibull
@@ -258,7 +274,15 @@ def table6(a: Analysis) -> Table:
 
 def analysis_tables(a: Analysis) -> list[Table]:
     """All tables of an analysis, in the order of the report."""
-    return [table8(a), weibull_table(a), table9(a), success_table(a), table6(a)]
+    grip = grip_table(a)
+    return [
+        table8(a),
+        *([] if grip is None else [grip]),
+        weibull_table(a),
+        table9(a),
+        success_table(a),
+        table6(a),
+    ]
 
 
 def gain_table(routes: Sequence[SolvedRoute], title: str) -> Table:

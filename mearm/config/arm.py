@@ -58,6 +58,9 @@ from mearm.config.base import (
 #: Pulse widths a calibration may name [µs]: a servo's zero may lie outside the pulses it
 #: is allowed, but not absurdly far.
 MAX_ZERO_US = 100_000.0
+#: Largest play, either way, a servo calibration may compensate [µs]: 10° of a standard
+#: servo's scale.
+MAX_PLAY_US = 100.0
 #: Pulse change per unit [µs/deg or µs/cm]: 0.1 lets one servo sweep 20 000 units, 10 000
 #: moves 0.2 units over the whole pulse range.
 US_PER_UNIT_RANGE = (0.1, 10_000.0)
@@ -159,6 +162,14 @@ class ServoCalibration(Strict):
     )
     """The shaft's acceleration limit [deg/s²]; ``null``: not given (hobby servo
     datasheets give none): then only the speed limit bounds a move."""
+    play_us: float = Field(default=0.0, ge=-MAX_PLAY_US, le=MAX_PLAY_US, allow_inf_nan=False)
+    """How much farther the pulse must go to put the shaft at a value reached with the
+    pulse rising than with it falling [µs], as ``mearm calibrate-servos --camera``
+    measures it: positive where the shaft stops short the way it moved (the gears' play
+    and the dead band), less or negative where a load pulls it through its play. Each
+    pulse is sent half of it further the way the pulse last moved (backlash
+    compensation), so the shaft stops where the calibration's line says from either
+    side; never outside ``[min_us, max_us]``. ``0``: no compensation."""
 
     @model_validator(mode="after")
     def _pulse_range(self) -> ServoCalibration:
@@ -576,14 +587,14 @@ class ArmDescription(Strict):
         actuated = [j.name for j in self.joints if j.actuated]
         if not actuated:
             raise ValueError("@joints: no joint is actuated: give at least one a 'servo'")
-        for i, j in enumerate(self.joints):
+        for j in self.joints:
             if j.coupling is None:
                 continue
             for term in j.coupling.terms:
                 if term not in actuated:
                     allowed = ", ".join(actuated)
                     raise ValueError(
-                        f"@joints.{i}.coupling.terms: '{term}' is not an actuated joint of "
+                        f"@joints.{j.name}.coupling.terms: '{term}' is not an actuated joint of "
                         f"this arm (actuated: {allowed})"
                     )
         channels: dict[int, str] = {}
@@ -611,18 +622,18 @@ class ArmDescription(Strict):
         """
         index = {j.name: i for i, j in enumerate(self.joints)}
         actuated = [j.name for j in self.joints if j.actuated]
-        for i, j in enumerate(self.joints):
+        for j in self.joints:
             if j.servo is None or j.servo.drives is None:
                 continue
             for term in j.servo.drives.terms:
                 if term not in index:
                     raise ValueError(
-                        f"@joints.{i}.servo.drives.terms: '{term}' is not a joint of this arm "
+                        f"@joints.{j.name}.servo.drives.terms: '{term}' is not a joint of this arm "
                         f"(its actuated joints: {', '.join(actuated)})"
                     )
                 if term not in actuated:
                     raise ValueError(
-                        f"@joints.{i}.servo.drives.terms: '{term}' is a passive joint (its "
+                        f"@joints.{j.name}.servo.drives.terms: '{term}' is a passive joint (its "
                         "coupling sets it); a servo turns actuated joints: "
                         f"{', '.join(actuated)}"
                     )
@@ -642,14 +653,14 @@ class ArmDescription(Strict):
             assert joint.servo is not None
             others = [act[r].name for r in involved if r != blame]
             raise ValueError(
-                f"@joints.{index[joint.name]}.servo.drives: {joint.name}'s servo turns "
+                f"@joints.{joint.name}.servo.drives: {joint.name}'s servo turns "
                 f"{joint.servo.combination(joint.name).text()}, which depends on what the "
                 f"servo{'s' if len(others) > 1 else ''} of {', '.join(others)} turn"
                 f"{'' if len(others) > 1 else 's'}: the servos' combinations must be "
                 "independent, or the pulses cannot set every actuated joint"
             )
         home = self.home()
-        for i, j in enumerate(self.joints):
+        for j in self.joints:
             if j.servo is None or j.servo.drives_only(j.name):
                 continue
             combo = j.servo.combination(j.name)
@@ -658,7 +669,7 @@ class ArmDescription(Strict):
             if not j.servo.min_us - 1e-6 <= p <= j.servo.max_us + 1e-6:
                 lo, hi = j.servo.value_range()
                 raise ValueError(
-                    f"@joints.{i}.servo.drives: at home its servo's value {combo.text()} is "
+                    f"@joints.{j.name}.servo.drives: at home its servo's value {combo.text()} is "
                     f"{v:g}, which needs a {p:.0f} µs pulse, outside the servo's "
                     f"[{j.servo.min_us}, {j.servo.max_us}] µs, which allows [{lo:.4g}, {hi:.4g}]"
                 )

@@ -136,6 +136,8 @@ class ActuatorFit:
         }
         if self.drives is not None:
             out["drives"] = self.drives.model_dump(mode="json")
+        if s.play_us != 0:
+            out["play_us"] = round(s.play_us, 2)
         out["residual_us"] = round(self.residual_us, 4)
         if self.replaces is not None:
             r = self.replaces
@@ -209,16 +211,30 @@ def fit_actuator(
 
 
 def fitted_servo(
-    template: ServoCalibration, name: str, zero_us: float, slope: float, advice: str = ""
+    template: ServoCalibration,
+    name: str,
+    zero_us: float,
+    slope: float,
+    advice: str = "",
+    *,
+    play_us: float = 0.0,
 ) -> ServoCalibration:
-    """``template`` with a fitted mapping: ``zero_us``, and ``slope`` µs per unit (signed).
+    """``template`` with a fitted mapping: ``zero_us``, ``slope`` µs per unit (signed).
+
+    Its ``play_us`` is the one measured, none unless given: an old file's play does not
+    carry over to a new fit.
 
     Raises:
         ServoCalibrationError: the servo's calibration refuses a fitted value (naming it,
             then ``advice``).
     """
     data = template.model_dump()
-    data.update(zero_us=zero_us, direction=1 if slope > 0 else -1, us_per_unit=abs(slope))
+    data.update(
+        zero_us=zero_us,
+        direction=1 if slope > 0 else -1,
+        us_per_unit=abs(slope),
+        play_us=play_us,
+    )
     try:
         return type(template).model_validate(data)
     except ValidationError as exc:
@@ -439,7 +455,16 @@ def actuator_paths(arm: ArmDescription) -> dict[str, str]:
 
 
 #: The fields of a servo a calibration sets; the others (its speed) stay the config's.
-CALIBRATED_FIELDS = ("channel", "zero_us", "direction", "us_per_unit", "min_us", "max_us", "drives")
+CALIBRATED_FIELDS = (
+    "channel",
+    "zero_us",
+    "direction",
+    "us_per_unit",
+    "min_us",
+    "max_us",
+    "drives",
+    "play_us",
+)
 
 
 def servo_overrides(arm: ArmDescription, fits: Sequence[ActuatorFit]) -> list[str]:
@@ -464,6 +489,7 @@ def servo_overrides(arm: ArmDescription, fits: Sequence[ActuatorFit]) -> list[st
         if fit.drives is not None:
             terms = ", ".join(f"{n}: {c!r}" for n, c in fit.drives.terms.items())
             drives = f", drives: {{terms: {{{terms}}}, offset: {fit.drives.offset!r}}}"
+        play = f", play_us: {s.play_us:.2f}" if s.play_us != 0 else ""
         present = servo_of(arm, fit.name).model_dump(mode="json")
         kept = "".join(
             f", {k}: {v!r}"
@@ -473,7 +499,7 @@ def servo_overrides(arm: ArmDescription, fits: Sequence[ActuatorFit]) -> list[st
         value = (
             f"{{channel: {s.channel}, zero_us: {s.zero_us:.4f}, direction: {s.direction}, "
             f"us_per_unit: {s.us_per_unit:.6f}, min_us: {s.min_us}, max_us: {s.max_us}"
-            f"{drives}{kept}}}"
+            f"{drives}{play}{kept}}}"
         )
         out.append(f"{paths[fit.name]}={value}")
     return out

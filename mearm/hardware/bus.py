@@ -25,7 +25,7 @@ import numpy as np
 from mearm.config import Config
 from mearm.hardware.command import ArmCommand, ArmState
 from mearm.hardware.errors import ServoError, ServoFaultedError, ServoNotConnectedError
-from mearm.hardware.mapping import ServoMap
+from mearm.hardware.mapping import PlayCompensation, ServoMap
 
 log = logging.getLogger(__name__)
 _T = TypeVar("_T")
@@ -138,6 +138,16 @@ class ServoBus(ABC):
     # ----------------------------------------------------------------- public API
 
     @property
+    def servo_map(self) -> ServoMap:
+        """The pulse mapping :meth:`move` sends by; setting it resets the play compensation."""
+        return self._servo_map
+
+    @servo_map.setter
+    def servo_map(self, smap: ServoMap) -> None:
+        self._servo_map = smap
+        self._play = PlayCompensation(smap)
+
+    @property
     def is_connected(self) -> bool:
         """Whether :meth:`connect` succeeded and :meth:`close` was not called since."""
         return self._connected
@@ -201,6 +211,7 @@ class ServoBus(ABC):
         self._fault = None
         self._state = None
         self._rate.reset()
+        self._play.reset()
         self._connect()
         self._connected = True
         log.info("%s connected", type(self).__name__)
@@ -220,7 +231,7 @@ class ServoBus(ABC):
             ServoError: the link or board failed; the bus is stopped from then on.
         """
         self._require_ready()
-        pulses = self.servo_map.pulses_us(command)
+        pulses = self._play.apply(self.servo_map.pulses_us(command))
         if self.paced:
             self._rate.wait(self.period_s)
         self._sent = command

@@ -28,6 +28,7 @@ is sent.
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import math
 from collections.abc import Iterable, Mapping
@@ -76,6 +77,9 @@ class ActuatorMap:
         terms: What a joint's servo turns: (actuated joint, coefficient) pairs of
             :math:`v = \sum_j a_j q_j + a_0`; empty: the actuator's own value.
         offset: :math:`a_0` [unit] (with ``terms``).
+        play_us: The pulse a value needs reached rising less the one it needs reached
+            falling [µs] (:attr:`~mearm.config.ServoCalibration.play_us`;
+            :class:`PlayCompensation`).
     """
 
     name: str
@@ -90,6 +94,7 @@ class ActuatorMap:
     unit: str = "deg"
     terms: tuple[tuple[str, float], ...] = ()
     offset: float = 0.0
+    play_us: float = 0.0
 
     @classmethod
     def from_calibration(
@@ -118,6 +123,7 @@ class ActuatorMap:
             unit=unit,
             terms=terms,
             offset=offset,
+            play_us=servo.play_us,
         )
 
     @property
@@ -298,6 +304,20 @@ class ServoMap:
         """:meth:`from_arm` of ``config.arm``."""
         return cls.from_arm(config.arm)
 
+    def without_play(self) -> ServoMap:
+        """The same map with no servo's play compensated (what calibration measures by)."""
+
+        def bare(a: ActuatorMap) -> ActuatorMap:
+            return dataclasses.replace(a, play_us=0.0)
+
+        return ServoMap(
+            tuple(map(bare, self.joints)),
+            tuple(map(bare, self.tool)),
+            bare(self.gripper),
+            self.gripper_open_cm,
+            self.gripper_closed_cm,
+        )
+
     @property
     def joint_names(self) -> tuple[str, ...]:
         """Names of the actuated joints, in chain order."""
@@ -464,3 +484,47 @@ class ServoMap:
         g = self.gripper
         pulses[g.channel] = g.command_us(self.gripper_opening_cm(command.gripper_closed))
         return dict(sorted(pulses.items()))
+
+
+class PlayCompensation:
+    """Backlash compensation: each pulse sent half a servo's play further the way it moved.
+
+    A hobby servo stops short of its pulse on the side it came from, by half its gears'
+    backlash and dead band; a load can pull it through its play instead.
+    :attr:`ActuatorMap.play_us` is the pulse a value needs reached rising less the one
+    it needs reached falling, and the calibration's line is midway between the two; so a
+    pulse moved up is sent ``play_us / 2`` higher and one moved down as much lower (the
+    other way where ``play_us`` is negative); a pulse that does not change keeps the
+    offset of its last move, and one never moved yet has none. Sent pulses stay in
+    ``[min_us, max_us]``.
+    """
+
+    def __init__(self, servo_map: ServoMap):
+        self._half = {a.channel: a.play_us / 2.0 for a in servo_map.actuators if a.play_us}
+        self._range = {a.channel: (a.min_us, a.max_us) for a in servo_map.actuators}
+        self._last: dict[int, int] = {}
+        self._side: dict[int, int] = {}
+
+    @property
+    def active(self) -> bool:
+        """Whether any servo has play to compensate."""
+        return bool(self._half)
+
+    def reset(self) -> None:
+        """Forget the last moves (a new connection: the shafts' sides are unknown)."""
+        self._last.clear()
+        self._side.clear()
+
+    def apply(self, pulses_us: Mapping[int, int]) -> dict[int, int]:
+        """The pulses to send for the calibrated ``pulses_us`` (channel → µs)."""
+        out = dict(pulses_us)
+        for channel, half in self._half.items():
+            pulse = pulses_us[channel]
+            last = self._last.get(channel)
+            if last is not None and pulse != last:
+                self._side[channel] = 1 if pulse > last else -1
+            self._last[channel] = pulse
+            lo, hi = self._range[channel]
+            shifted = math.floor(pulse + self._side.get(channel, 0) * half + 0.5)
+            out[channel] = min(hi, max(lo, shifted))
+        return out

@@ -76,7 +76,7 @@ import argparse
 import dataclasses
 import math
 import sys
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TextIO
@@ -525,6 +525,7 @@ class CameraSession:
         self.nominal_arm = own.arm
         self.shaft = ServoMap.from_config(own)  # where each servo's shaft stops: its pulse range
         self.rig, self.bus, self.model = rig, rig.bus, rig.model
+        self.bus.servo_map = self.bus.servo_map.without_play()  # the play is measured
         self.chain = rig.model.chain
         self.marker = marker
         face = marker_in_tcp(config, servo_named(config.twin.gripper_servo))
@@ -762,6 +763,26 @@ class CameraSession:
             a[i] += 1e-3
             ways.append(-1.0 if col.tool_lowest_cm(chain.full(a))[0] < low - 1e-9 else 1.0)
         return np.array(ways)
+
+    def rising_play_us(self, fit: CameraFit) -> dict[str, float]:
+        """Each servo's play as the servo file keeps it: the pulse rising less falling.
+
+        :attr:`CameraFit.play_us` is the zero from below less the zero from above; the
+        arrivals from above came with every joint turning against :attr:`raises`, and each
+        servo's pulse then moved the way its combination and direction say.
+        """
+        chain = self.chain
+        step = [APPROACH_FROM[chain.unit(int(i))] for i in chain.actuated_index]
+        down = -self.raises * np.array(step)  # the final move from above, config units
+        comb = self.bus.servo_map.combination
+        values = down if comb is None else comb[0] @ down
+        out = {}
+        for amap, dv in zip(fit.servos, values, strict=True):
+            if amap.name in fit.play_us and dv != 0:
+                rising_from_above = amap.direction * dv > 0
+                play = fit.play_us[amap.name]  # zero from below − zero from above
+                out[amap.name] = -play if rising_from_above else play
+        return out
 
     def turned(self, q: np.ndarray, way: float) -> np.ndarray:
         """``q``, each joint :data:`APPROACH_FROM` the way that raises the tool (-1: lowers)."""
@@ -1170,6 +1191,7 @@ def actuator_fits(
     servos: Sequence[ActuatorMap],
     replaces_arm: ArmDescription,
     points: dict[str, tuple[CalibrationPoint, ...]] | None = None,
+    play_us: Mapping[str, float] | None = None,
 ) -> list[ActuatorFit]:
     """Joint servo maps as the servo file's entries.
 
@@ -1179,6 +1201,8 @@ def actuator_fits(
         servos: The fitted maps.
         replaces_arm: The arm whose calibration each entry records it replaces.
         points: Each servo's points (the value the camera saw it at, its pulse).
+        play_us: Each servo's measured play, the pulse rising less falling [µs]
+            (:meth:`CameraSession.rising_play_us`); none where not given.
 
     Raises:
         ServoCalibrationError: a fitted value the servo's calibration refuses.
@@ -1187,7 +1211,8 @@ def actuator_fits(
     for amap in servos:
         template = servo_of(config.arm, amap.name)
         slope = amap.direction * amap.us_per_unit
-        servo = fitted_servo(template, amap.name, amap.zero_us, slope)
+        play = (play_us or {}).get(amap.name, 0.0)
+        servo = fitted_servo(template, amap.name, amap.zero_us, slope, play_us=play)
         seen = (points or {}).get(amap.name, ())
         residual = max((abs(servo.pulse_us(p.value) - p.pulse_us) for p in seen), default=0.0)
         replaces = servo_of(replaces_arm, amap.name)
@@ -1334,7 +1359,7 @@ def measure(session: CameraSession, simulate: bool) -> list[ActuatorFit]:
     sightings = [s for _, s in session.above + session.below]
     points = seen_points(session.claw, sightings, fit.servos)
     try:
-        return actuator_fits(config, fit.servos, replaces, points)
+        return actuator_fits(config, fit.servos, replaces, points, session.rising_play_us(fit))
     except ServoCalibrationError as exc:
         raise CameraCalibrationFailed(f"refused: {exc}") from None
 

@@ -313,10 +313,11 @@ class PulseSession:
         self._original = original
 
         def widened(a: ActuatorMap) -> ActuatorMap:
+            # no play compensated: the references are taken from both sides
             if a.combined:  # its pulse range bounds the combination, not this joint
-                return dataclasses.replace(a, lower=-math.inf, upper=math.inf)
+                return dataclasses.replace(a, lower=-math.inf, upper=math.inf, play_us=0.0)
             lo, hi = a.pulse_limits
-            return dataclasses.replace(a, lower=lo, upper=hi)
+            return dataclasses.replace(a, lower=lo, upper=hi, play_us=0.0)
 
         self._joints = tuple(widened(a) for a in original.joints)
         self._tool = tuple(widened(a) for a in original.tool)

@@ -152,6 +152,9 @@ class RouteRecord(_Record):
     final_error_cm: _NonNegativeCm
     ee_cm: Vec3
     error_cm: Vec3
+    grip_ee_cm: Vec3 | None = None
+    """A pick's TCP when the jaws start to close, the arm settled [cm] (``ee_cm`` is on
+    arrival); ``None`` on a place, where not measured, or in logs written before it."""
     success: bool
     """Pick: the object was gripped. Place: it landed in its bin."""
     elapsed_s: _Seconds

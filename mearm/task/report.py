@@ -182,6 +182,7 @@ class Reporter:
                 final_error_cm=float(plan.final_error_cm),
                 ee_cm=route.ee_cm.tolist(),
                 error_cm=route.error_cm.tolist(),
+                grip_ee_cm=_finite(route.grip_ee_cm),
                 success=bool(route.success),
                 elapsed_s=route.elapsed_s,
                 motion_s=route.motion_s,
@@ -267,3 +268,10 @@ class Reporter:
         if rep.fault:
             self.echo(f"stopped: {rep.fault}")
         self.echo(outcome.line())
+
+
+def _finite(cm: np.ndarray | None) -> list[float] | None:
+    """A measured position as the log keeps it, or ``None`` where it was not measured."""
+    if cm is None or not np.all(np.isfinite(cm)):
+        return None
+    return [float(v) for v in cm]

@@ -35,6 +35,9 @@ class Route:
             is checked once the arm is over the bin) leaves it unconfirmed, not failed.
         ee_cm: Where the TCP really ended [cm], (3,) (the simulated arm knows; a real
             arm reports its commands).
+        grip_ee_cm: A pick's TCP when the jaws start to close, after the tool's settling
+            [cm], (3,); ``None`` on a place or before the grip. :attr:`ee_cm` is taken on
+            arrival (within a degree of each servo's command), as the paper's Table 8.
         elapsed_s: Wall time from planning to the end of the step [s].
         motion_s: Commanded motion time: one command per pose at the servo rate [s].
         detour_cm: The TCP height its path travels at, when the direct path would have
@@ -54,6 +57,7 @@ class Route:
     success: bool = False
     confirmed: bool = True
     ee_cm: np.ndarray = field(default_factory=lambda: np.full(3, np.nan))
+    grip_ee_cm: np.ndarray | None = None
     elapsed_s: float = 0.0
     motion_s: float = 0.0
     detour_cm: float | None = None

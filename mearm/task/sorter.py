@@ -540,8 +540,9 @@ class Sorter:
             pick, aim = self._aim_by_eye(obj, above, pick, aim)
             self.eye.corrections.add(xy, aim[:2])
             pick.target = goal  # the pick is judged, and logged, against the object
-        ex.finish(pick, t0)  # where the TCP is when the jaws close
+        ex.finish(pick, t0)  # where the TCP arrived (Table 8's)
         ex.set_tool("grip", False)
+        pick.grip_ee_cm = ex.ee_now_cm()  # settled: where the jaws close
         ex.set_tool("grip", True)
         ex.set_tool("travel", True)
         self._world(held=obj, opening_cm=cls.diameter_cm)
