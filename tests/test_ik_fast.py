@@ -152,6 +152,13 @@ def test_peer_rows_skip_rtb_in_one_line_without_it(monkeypatch):
     assert "mearm fastest (closed form): per solve" in names
     assert "PD-PIJ coupled: per iteration" in names
     assert not any("/ RTB" in n for n in names)
+    by_name = {r.name: r for r in rows}
+    for name in (  # from home, from a new start each call, all in one batch: every target
+        "mearm fastest (closed form): per solve",
+        "mearm fastest (closed form), a new start each: per solve",
+        "mearm batch (closed form): per solve",
+    ):
+        assert by_name[name].note.startswith("success 5/5"), by_name[name]
 
 
 def test_prepare_start_is_start_joints_bit_for_bit():

@@ -12,21 +12,23 @@ Example::
     result = solver.solve(IKTarget((-10.99, 49.70, 12.76)), model.home)
     result.status, result.iterations, result.q_path  # (N+1, n), model units
 
-The mink solver (:mod:`mearm.ik.mink_solver`) imports MuJoCo and is loaded on first use.
+The mink solver (:mod:`mearm.ik.mink_solver`) imports MuJoCo; it, the fast solves and the
+demo routes are loaded on first use.
 
 For joints alone (no path), :func:`fastest_solver` gives the fastest solve for an arm:
 its registered closed form (:class:`AnalyticSolver`), else the generic Gauss–Newton
-(:class:`NewtonIK`).
+(:class:`NewtonIK`). For many targets at once, :func:`solve_batch`.
 """
 
-from mearm.ik.analytic import AnalyticSolver
+from typing import TYPE_CHECKING
+
+from mearm._lazy import lazy_exports
+from mearm.ik.batch import BatchSolution, solve_batch
 from mearm.ik.factory import fastest_solver, make_solver, solve_ik
 from mearm.ik.failure import FAILURE_KINDS, FailureKind, IKFailure, failure_of_error
-from mearm.ik.newton import NewtonIK
 from mearm.ik.pdpij import PdPij
 from mearm.ik.pseudoinverse import PseudoInverse
 from mearm.ik.result import METHODS, STATUSES, IKResult, Method, Status
-from mearm.ik.routes import DemoRoute, demo_routes, run_routes
 from mearm.ik.solver import (
     APPROACH_TOLERANCE_DEG,
     APPROACH_WEIGHT_CM,
@@ -35,6 +37,22 @@ from mearm.ik.solver import (
 )
 from mearm.ik.target import IKTarget
 
+if TYPE_CHECKING:  # typed for the checker, imported on first use (_LAZY)
+    from mearm.ik.analytic import AnalyticSolver
+    from mearm.ik.mink_solver import MinkSolver
+    from mearm.ik.newton import NewtonIK
+    from mearm.ik.routes import DemoRoute, demo_routes, run_routes
+
+#: Names a sort never needs, imported on first use: mink pulls in MuJoCo (~0.3 s).
+_LAZY = {
+    "AnalyticSolver": "mearm.ik.analytic",
+    "NewtonIK": "mearm.ik.newton",
+    "MinkSolver": "mearm.ik.mink_solver",
+    "DemoRoute": "mearm.ik.routes",
+    "demo_routes": "mearm.ik.routes",
+    "run_routes": "mearm.ik.routes",
+}
+
 __all__ = [
     "APPROACH_TOLERANCE_DEG",
     "APPROACH_WEIGHT_CM",
@@ -42,6 +60,7 @@ __all__ = [
     "METHODS",
     "STATUSES",
     "AnalyticSolver",
+    "BatchSolution",
     "DemoRoute",
     "FailureKind",
     "IKFailure",
@@ -59,15 +78,9 @@ __all__ = [
     "fastest_solver",
     "make_solver",
     "run_routes",
+    "solve_batch",
     "solve_ik",
     "start_joints",
 ]
 
-
-def __getattr__(name: str) -> object:
-    # MinkSolver pulls in MuJoCo and mink (~0.3 s): import it only when named.
-    if name == "MinkSolver":
-        from mearm.ik.mink_solver import MinkSolver  # noqa: PLC0415
-
-        return MinkSolver
-    raise AttributeError(f"module 'mearm.ik' has no attribute {name!r}")
+__getattr__, __dir__ = lazy_exports(__name__, _LAZY, globals(), __all__)

@@ -9,8 +9,6 @@ from __future__ import annotations
 import numpy.typing as npt
 
 from mearm.config import ControllerConfig
-from mearm.ik.analytic import AnalyticSolver
-from mearm.ik.newton import NewtonIK
 from mearm.ik.pdpij import PdPij
 from mearm.ik.result import IKResult
 from mearm.ik.solver import IKSolver
@@ -33,6 +31,8 @@ def make_solver(model: ArmModel, config: ControllerConfig) -> IKSolver:
         from mearm.ik.mink_solver import MinkSolver  # noqa: PLC0415 (MuJoCo is heavy)
 
         return MinkSolver(model, config)
+    from mearm.ik.analytic import AnalyticSolver  # noqa: PLC0415 (a sort needs PD-PIJ only)
+
     return AnalyticSolver(model, config)
 
 
@@ -68,6 +68,9 @@ def fastest_solver(model: ArmModel) -> IKSolver:
     Its registered closed form (:class:`AnalyticSolver`) where the arm names one, else
     :class:`NewtonIK`.
     """
+    from mearm.ik.analytic import AnalyticSolver  # noqa: PLC0415 (a sort needs PD-PIJ only)
+    from mearm.ik.newton import NewtonIK  # noqa: PLC0415
+
     if model.arm.closed_form is not None:
         return AnalyticSolver(model)
     return NewtonIK(model)

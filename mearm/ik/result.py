@@ -2,8 +2,9 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, Literal, NamedTuple
+from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 import numpy.typing as npt
@@ -45,22 +46,43 @@ def path_deviation_cm(ee_path_cm: npt.ArrayLike, target_cm: npt.ArrayLike) -> fl
     return float(np.linalg.norm(rel - lam[:, None] * seg, axis=1).max())
 
 
-class JumpStart(NamedTuple):
+class JumpStart:
     """What the jumps (:meth:`IKResult.jump`) of one solver from one start share.
+
+    The start's TCP is computed the first time a record asks for it (its path or its
+    errors), then kept: a solve whose caller reads only ``q`` never pays the FK.
 
     Attributes:
         solver: The solver's name.
         q: The start, every joint, model units, read-only, (n,).
-        ee_cm: The TCP at the start [cm].
         joint_names: The chain's joint names (n,).
         scale: Model units per config unit of each joint, read-only, (n,).
     """
 
-    solver: str
-    q: np.ndarray
-    ee_cm: tuple[float, float, float]
-    joint_names: tuple[str, ...]
-    scale: np.ndarray
+    __slots__ = ("_ee_cm", "_fk_cm", "joint_names", "q", "scale", "solver")
+
+    def __init__(
+        self,
+        solver: str,
+        q: np.ndarray,
+        joint_names: tuple[str, ...],
+        scale: np.ndarray,
+        fk_cm: Callable[[np.ndarray], np.ndarray],
+    ):
+        self.solver = solver
+        self.q = q
+        self.joint_names = joint_names
+        self.scale = scale
+        self._fk_cm = fk_cm
+        self._ee_cm: tuple[float, float, float] | None = None
+
+    @property
+    def ee_cm(self) -> tuple[float, float, float]:
+        """The TCP at the start [cm]."""
+        if self._ee_cm is None:
+            x, y, z = self._fk_cm(self.q).tolist()
+            self._ee_cm = (x, y, z)
+        return self._ee_cm
 
 
 #: The fields of a jump (:meth:`IKResult.jump`) made on first use, from its ``_jump``.

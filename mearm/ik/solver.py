@@ -170,8 +170,9 @@ class IKSolver(abc.ABC):
         self._pack_joints = struct.Struct(f"{chain.n}d").pack
         self._home = start_joints(model.home, model)  # the start when none is given
         self._home.setflags(write=False)
-        x, y, z = model.fk_cm(self._home).tolist()
-        self._from_home = JumpStart(self.name, self._home, (x, y, z), chain.names, self._scale)
+        self._from_home = JumpStart(self.name, self._home, chain.names, self._scale, model.fk_cm)
+        # the last start given and its record: the same start again costs one comparison
+        self._last_start: tuple[bytes | None, JumpStart] = (None, self._from_home)
 
     @abc.abstractmethod
     def solve(
@@ -234,17 +235,28 @@ class IKSolver(abc.ABC):
         return target, self._start(q_start), q_solution
 
     def _jump_start(self, q_start: npt.ArrayLike | None) -> JumpStart:
-        """The start of a jump record (:meth:`IKResult.jump`): checked, with its TCP.
+        """The start of a jump record (:meth:`IKResult.jump`), checked.
+
+        The record's start TCP is computed when first read; a start equal to the last
+        one (a (n,) or (m,) float array) is not checked again.
 
         Raises:
             InvalidJointsError, JointLimitError: see :func:`start_joints`.
         """
         if q_start is None:
             return self._from_home
+        key = b""
+        if type(q_start) is np.ndarray and q_start.dtype == float and q_start.ndim == 1:
+            key = q_start.tobytes()
+            last = self._last_start
+            if key == last[0]:
+                return last[1]
         q0 = self._start(q_start)
         q0.setflags(write=False)
-        x, y, z = self.model.fk_cm(q0).tolist()
-        return JumpStart(self.name, q0, (x, y, z), self.chain.names, self._scale)
+        start = JumpStart(self.name, q0, self.chain.names, self._scale, self.model.fk_cm)
+        if key:
+            self._last_start = (key, start)
+        return start
 
     def _jump(
         self,

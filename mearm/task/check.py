@@ -31,8 +31,11 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from mearm.config import ColorClass, Config
+from mearm.config.loader import millimetre_hint
 from mearm.config.servo_file import replaced_calibration
 from mearm.errors import ConfigError, MearmError
+from mearm.ik import APPROACH_TOLERANCE_DEG
+from mearm.ik.batch import solve_batch
 from mearm.kinematics import ArmModel
 from mearm.kinematics.bodies import M_PER_CM, base_radius_m, bin_half_outer_m
 from mearm.kinematics.collision import TOUCH_CM, CollisionModel
@@ -42,6 +45,10 @@ from mearm.vision.calibration import camera_geometry
 
 #: The camera's view is sampled on a grid of this many points across × down.
 VIEW_GRID = (7, 5)
+#: A view point is left unplanned when the batch solve misses it by this many times the
+#: solver's tolerances: unreachable points miss by centimetres, while at the edge of reach
+#: the batch's least squares may stop just outside what PD-PIJ accepts.
+REACH_MARGIN = 10.0
 
 
 @dataclass
@@ -82,8 +89,9 @@ def check_consistency(config: Config, model: ArmModel | None = None) -> Consiste
     problems: list[str] = []
     for cls in config.task.classes:
         problems += _check_bin(planner, model, cls)
-    problems += _check_bodies(config, model)
-    problems += _check_home_above_table(config, model)
+    table = CollisionModel(config, model, clearance_cm=0.0)  # bins and table, for both checks
+    problems += _check_bodies(config, model, table)
+    problems += _check_home_above_table(config, model, table)
     view_cm = _view_points_cm(config)
     reached_anywhere = False
     by_height: dict[float, list[str]] = {}
@@ -137,6 +145,8 @@ def check_consistency(config: Config, model: ArmModel | None = None) -> Consiste
             "camera (and its calibration) at the arm's reach"
         )
     if problems:
+        hint = millimetre_hint(config.model_dump(mode="json"))
+        problems = [hint, *problems] if hint else problems
         raise ConfigError(None, _blame_calibration_file(config, problems))
     _CACHE[key] = found
     return found
@@ -218,7 +228,7 @@ def _check_bin(planner: Planner, model: ArmModel, cls: ColorClass) -> list[str]:
     ]
 
 
-def _check_bodies(config: Config, model: ArmModel) -> list[str]:
+def _check_bodies(config: Config, model: ArmModel, collision: CollisionModel) -> list[str]:
     """The table as the collision model builds it: bins apart, clear of the arm at home.
 
     Each bin stands on its own square of the table, off the arm's base plate; the arm at
@@ -249,7 +259,6 @@ def _check_bodies(config: Config, model: ArmModel) -> list[str]:
             )
     if problems:
         return problems
-    collision = CollisionModel(config, model, clearance_cm=0.0)
     for name, part, distance in collision.bins_at(model.home):
         if distance <= TOUCH_CM:
             problems.append(
@@ -265,13 +274,14 @@ def _check_bodies(config: Config, model: ArmModel) -> list[str]:
     return problems
 
 
-def _check_home_above_table(config: Config, model: ArmModel) -> list[str]:
+def _check_home_above_table(
+    config: Config, model: ArmModel, collision: CollisionModel
+) -> list[str]:
     """At home, every part of the tool (jaws open, their servo, the hand) is above the table.
 
     Every run starts and ends at home, and the arm goes there first: a home under the
     table would drive the tool into it.
     """
-    collision = CollisionModel(config, model, clearance_cm=0.0)
     low_cm, part = collision.tool_lowest_cm(model.home)
     if low_cm >= 0.0:
         return []
@@ -307,9 +317,25 @@ def _reached(
 ) -> Iterator[bool]:
     """Whether a pick at each point is planned from home, one point at a time.
 
-    ``any`` of it stops at the first point reached.
+    ``any`` of it stops at the first point reached. A point no joints reach, with a
+    margin (the arm's closed form, else a batch of Gauss–Newton solves,
+    :func:`~mearm.ik.batch.solve_batch`), is not planned: its multi-start recovery
+    would only fail, slowly.
     """
     cls = planner.config.task.class_named(class_name)
-    for x, y in points_cm:
-        route = Route("", class_name, "pick", 1, planner.pick_target(cls, float(x), float(y)))
+    targets = [planner.pick_target(cls, float(x), float(y)) for x, y in points_cm]
+    positions = [t.position_cm for t in targets]
+    approach = planner.pick_target(cls, 0.0, 0.0).approach  # the same for every pick
+    solvable = solve_batch(
+        model,
+        positions,
+        approach,
+        tolerance_cm=REACH_MARGIN * math.sqrt(planner.config.controller.tolerance_cm2),
+        tolerance_deg=REACH_MARGIN * APPROACH_TOLERANCE_DEG,
+    ).reached
+    for target, ok in zip(targets, solvable.tolist(), strict=True):
+        if not ok:
+            yield False
+            continue
+        route = Route("", class_name, "pick", 1, target)
         yield planner.plan(route, model.home).planned
