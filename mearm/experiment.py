@@ -49,7 +49,7 @@ from concurrent.futures.process import BrokenProcessPool
 from contextlib import AbstractContextManager, ExitStack, contextmanager, nullcontext
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -93,8 +93,10 @@ from mearm.task import (
 )
 from mearm.task.check import check_consistency
 from mearm.task.report import Outcome
-from mearm.task.rig import RigRecorder
 from mearm.vision.errors import CameraError
+
+if TYPE_CHECKING:
+    from mearm.dataset.recorder import DatasetRecorder
 
 #: Objects per class in a random trial layout (the paper: 12 objects, 4 of each colour).
 PER_CLASS = 4
@@ -159,7 +161,7 @@ def run_trials(
     start: int = 0,
     wait_for_user: Callable[[int], None] | None = None,
     progress: Callable[[int], None] | None = None,
-    recorder: RigRecorder | None = None,
+    recorder: DatasetRecorder | None = None,
 ) -> dict[int, str | None]:
     """Run trials ``start`` .. ``trials``−1, one header per trial in ``log``.
 
@@ -173,7 +175,9 @@ def run_trials(
         wait_for_user: Called with the trial number before each trial on a real rig (to
             lay out the objects).
         progress: Called after each trial with the number of trials run so far.
-        recorder: Records every trial's sorts into one dataset (``--record``).
+        recorder: Records every trial's sorts into one dataset (``--record``), each
+            episode tagged with its trial: a pick the dataset holds already (a trial cut
+            off by a kill, run again) is not recorded twice.
 
     Returns:
         Per trial run, ``None`` if it cleared the table, else the reason it stopped.
@@ -186,6 +190,8 @@ def run_trials(
         plan = plan_trial(config, seed, k, scene)
         if wait_for_user is not None:
             wait_for_user(k)
+        if recorder is not None:
+            recorder.start_trial(plan.seed)
         try:
             run_sort(
                 plan.config, scene=plan.layout, log=log, trial=k, seed=plan.seed, echo=None,
@@ -203,8 +209,25 @@ def run_trials(
 
 # -- trials in worker processes, here or on a Dask cluster
 
-#: What a worker process runs: (config, seed, scene), set once by :func:`_start_worker`.
-_WORK: tuple[Config, int, list[SceneObject] | None] | None = None
+
+@dataclass(frozen=True)
+class Recording:
+    """How a worker records its trials' picks (``--record`` with ``--jobs``).
+
+    Attributes:
+        fps: Frames per second of the run's time [Hz].
+        per: ``"pick"`` or ``"scene"``: what an episode is.
+        codec: The video's codec (``--record-codec``).
+    """
+
+    fps: int
+    per: str
+    codec: str
+
+
+#: What a worker process runs: (config, seed, scene, recording), set once by
+#: :func:`_start_worker`.
+_WORK: tuple[Config, int, list[SceneObject] | None, Recording | None] | None = None
 #: Whether this worker has seen Ctrl-C (trials handed to it after that are not run).
 _STOPPED = False
 #: Whether this worker is running a trial (Ctrl-C then interrupts it).
@@ -227,6 +250,8 @@ class TrialResult:
         interrupted: It was stopped by Ctrl-C.
         error: A camera or servo that failed it (as the serial run reports it), if one did.
         records: Its run-log lines (JSON lines, as bytes), for the command to append.
+        episodes: Its picks recorded, videos encoded (:class:`~mearm.dataset.sampler.
+            EpisodeCapture`), for the command to write into the dataset.
     """
 
     number: int
@@ -235,27 +260,43 @@ class TrialResult:
     interrupted: bool = False
     error: str | None = None
     records: bytes = b""
+    episodes: tuple[Any, ...] = ()
 
 
 def run_trial(
-    config: Config, seed: int, scene: list[SceneObject] | None, number: int
+    config: Config,
+    seed: int,
+    scene: list[SceneObject] | None,
+    number: int,
+    recording: Recording | None = None,
 ) -> TrialResult:
     """Run trial ``number`` wherever this is called; its records come back as data.
 
     The trial writes its log into a temporary folder of the machine it runs on, which is
     read back and removed: a worker (a process here, or a Dask worker elsewhere) needs
-    no file system shared with the command, only the arguments.
+    no file system shared with the command, only the arguments. With ``recording``, its
+    picks come back as episodes, too.
     """
     global _RUNNING
+    capture = None
     with tempfile.TemporaryDirectory(prefix="mearm-trial-") as tmp:
         part = Path(tmp) / f"trial-{number}.jsonl"
         try:
             _RUNNING = True  # Ctrl-C in a worker process now interrupts the trial
             plan = plan_trial(config, seed, number, scene)
+            if recording is not None:
+                from mearm.dataset.sampler import EpisodeCapture
+
+                capture = EpisodeCapture(
+                    plan.config, fps=recording.fps, per=recording.per,  # type: ignore[arg-type]
+                    codec=recording.codec,
+                )  # fmt: skip
+                capture.start_trial(plan.seed)
             with RunLog(part, exclusive=True, fsync=False) as log:
                 run_sort(
-                    plan.config, scene=plan.layout, log=log, trial=number, seed=plan.seed, echo=None
-                )
+                    plan.config, scene=plan.layout, log=log, trial=number, seed=plan.seed,
+                    echo=None, recorder=capture,
+                )  # fmt: skip
             result = TrialResult(number)
         except SortAborted as exc:
             result = TrialResult(number, reason=exc.reason, interrupted=exc.interrupted)
@@ -265,7 +306,12 @@ def run_trial(
             result = TrialResult(number, reason=str(exc), error=str(exc))
         finally:
             _RUNNING = False
-        return replace(result, records=part.read_bytes() if part.exists() else b"")
+            if capture is not None:
+                capture.close()
+        episodes = tuple(capture.episodes) if capture is not None else ()
+        return replace(
+            result, records=part.read_bytes() if part.exists() else b"", episodes=episodes
+        )
 
 
 def _on_interrupt(signum: int, frame: object) -> None:
@@ -275,11 +321,13 @@ def _on_interrupt(signum: int, frame: object) -> None:
         raise KeyboardInterrupt
 
 
-def _start_worker(config: Config, seed: int, scene: list[SceneObject] | None) -> None:
+def _start_worker(
+    config: Config, seed: int, scene: list[SceneObject] | None, recording: Recording | None
+) -> None:
     """A worker's one-time setup: the experiment's settings once; Ctrl-C only stops trials."""
     global _WORK
     signal.signal(signal.SIGINT, _on_interrupt)
-    _WORK = (config, seed, scene)
+    _WORK = (config, seed, scene, recording)
 
 
 def _trial_in_worker(number: int) -> TrialResult:
@@ -287,7 +335,8 @@ def _trial_in_worker(number: int) -> TrialResult:
     assert _WORK is not None, "_start_worker was not run"
     if _STOPPED:
         return TrialResult(number, ran=False)
-    return run_trial(*_WORK, number)
+    config, seed, scene, recording = _WORK
+    return run_trial(config, seed, scene, number, recording)
 
 
 class TrialFailed(MearmError):
@@ -318,11 +367,15 @@ class Workers:
 
 @contextmanager
 def _process_pool(
-    config: Config, seed: int, scene: list[SceneObject] | None, jobs: int
+    config: Config,
+    seed: int,
+    scene: list[SceneObject] | None,
+    jobs: int,
+    recording: Recording | None = None,
 ) -> Iterator[Workers]:
     """``jobs`` worker processes on this machine; closed (waiting for them) on the way out."""
     pool = ProcessPoolExecutor(
-        max_workers=jobs, initializer=_start_worker, initargs=(config, seed, scene)
+        max_workers=jobs, initializer=_start_worker, initargs=(config, seed, scene, recording)
     )
     try:
         yield Workers(
@@ -561,15 +614,22 @@ def run_trials_parallel(
 
 
 def open_workers(
-    config: Config, seed: int, scene: list[SceneObject] | None, jobs: int, scheduler: str | None
+    config: Config,
+    seed: int,
+    scene: list[SceneObject] | None,
+    jobs: int,
+    scheduler: str | None,
+    recording: Recording | None = None,
 ) -> AbstractContextManager[Workers]:
     """Where :func:`run_trials_parallel` runs trials: ``jobs`` processes, or Dask.
+
+    ``recording``: the worker processes record their trials' picks (not on Dask).
 
     Raises:
         MearmError: ``scheduler`` cannot be used (see :func:`_dask_cluster`).
     """
     if scheduler is None:
-        return _process_pool(config, seed, scene, jobs)
+        return _process_pool(config, seed, scene, jobs, recording)
     return _dask_cluster(config, seed, scene, scheduler, jobs)
 
 
@@ -602,10 +662,13 @@ def _append_in_order(
     numbers: range,
     log_path: Path,
     progress: Callable[[int], None] | None,
+    recorder: DatasetRecorder | None = None,
 ) -> dict[int, str | None]:
     """Submit trials ``numbers`` to ``workers``; append their records in trial order.
 
-    See :func:`run_trials_parallel` (returns and raises as it does).
+    See :func:`run_trials_parallel` (returns and raises as it does). A trial's recorded
+    episodes go into ``recorder``'s dataset before its records into the log: a kill
+    between the two leaves the trial to run again, and its picks are not written twice.
     """
     outcomes: dict[int, str | None] = {}
     stop: BaseException | None = None
@@ -662,6 +725,8 @@ def _append_in_order(
                 # this process had not polled its own Ctrl-C yet (the trial was done first)
                 stop = stop or SortAborted("interrupted (Ctrl-C)", interrupted=True)
                 break
+            if recorder is not None and result.episodes:
+                recorder.write_episodes(list(result.episodes))
             if result.records:
                 out.write(result.records)
                 out.flush()
@@ -902,10 +967,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     add_record_arguments(parser)
     args = parser.parse_args(argv)
     check_record_arguments(parser, args)
-    if args.record is not None and (args.scheduler is not None or (args.jobs or 1) > 1):
-        parser.error(
-            "--record writes one dataset from this process: not with --jobs or --scheduler"
-        )
+    if args.record is not None and args.scheduler is not None:
+        parser.error("--record writes the dataset here: with --jobs, not with --scheduler")
     if args.trials < 1:
         parser.error(f"--trials must be ≥ 1, got {args.trials}")
     if args.scheduler not in (None, "local") and args.jobs is not None:
@@ -972,7 +1035,9 @@ def _resume(
     parallel = args.jobs > 1 or args.scheduler is not None
     jobs = min(args.jobs, args.trials - resume.done)
     with (
-        open_workers(config, args.seed, scene, jobs, args.scheduler) if parallel else nullcontext()
+        open_workers(config, args.seed, scene, jobs, args.scheduler, _recording(args))
+        if parallel
+        else nullcontext()
     ) as workers:
         try:
             return _run(args, config, scene, resume, wait, workers, recorder, held)
@@ -987,7 +1052,7 @@ def _run(
     resume: Resume,
     wait: Callable[[int], None] | None,
     workers: Workers | None,
-    recorder: RigRecorder | None = None,
+    recorder: DatasetRecorder | None = None,
     held: LogLock | None = None,
 ) -> int:
     """The run of :func:`main` once its input is checked (and its workers are ready)."""
@@ -1024,7 +1089,7 @@ def _run(
             else:
                 numbers = range(resume.done, args.trials)
                 outcomes = _append_in_order(
-                    workers, numbers, args.log, progress=lambda done: bar.update(1)
+                    workers, numbers, args.log, lambda done: _step(bar, recorder), recorder
                 )
         except SortAborted as exc:
             print(f"mearm.experiment: stopped: {exc.reason}", file=sys.stderr)
@@ -1046,7 +1111,14 @@ def _run(
     return EXIT_FAILURE if failed else 0
 
 
-def _step(bar: Any, recorder: RigRecorder | None) -> None:
+def _recording(args: Any) -> Recording | None:
+    """What the worker processes record, with ``--record``."""
+    if args.record is None:
+        return None
+    return Recording(args.record_fps, args.record_per, args.record_codec)
+
+
+def _step(bar: Any, recorder: DatasetRecorder | None) -> None:
     """One more trial on the progress bar, with the episodes recorded so far."""
     if recorder is not None:
         bar.set_postfix_str(f"{recorder.episodes_written} episodes", refresh=False)

@@ -113,17 +113,20 @@ def test_record_fps_out_of_range(command: str, fps: str, tmp_path: Path) -> None
 
 
 @bad_input
-@pytest.mark.parametrize("flag", [["--resume"], ["--record-fps", "5"], ["--record-per", "scene"]])
+@pytest.mark.parametrize(
+    "flag",
+    [["--resume"], ["--record-fps", "5"], ["--record-per", "scene"], ["--record-codec", "h264"]],
+)
 def test_record_options_without_record(flag: list[str]) -> None:
     out = check_bad_input(["sort", "--config", SIM, *flag])
     assert f"{flag[0]} is an option of --record DIR" in out.line
 
 
 @bad_input
-def test_record_with_workers(tmp_path: Path) -> None:
+def test_record_on_a_cluster(tmp_path: Path) -> None:
     out = check_bad_input(["experiment", "--config", SIM, "--log", tmp_path / "x.jsonl",
-                           "--jobs", "2", "--record", tmp_path / "ds"])  # fmt: skip
-    assert "--record writes one dataset from this process" in out.line
+                           "--scheduler", "local", "--record", tmp_path / "ds"])  # fmt: skip
+    assert "--record writes the dataset here: with --jobs, not with --scheduler" in out.line
 
 
 @bad_input

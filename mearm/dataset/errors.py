@@ -39,3 +39,7 @@ class ExtraMissingError(MearmError):
             f"recording a dataset needs {module}, which is not installed: "
             "pip install 'mearm[record]'"
         )
+
+
+class EncoderError(MearmError):
+    """The process encoding a recording's video failed or stopped."""

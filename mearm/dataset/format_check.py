@@ -40,7 +40,8 @@ RULES: dict[str, str] = {
     "and exactly the rows of its episodes, in order: episode_index, frame_index "
     "0..length-1, index from dataset_from_index, timestamp = frame_index / fps, a "
     "task_index of the episode's tasks (a torn last episode breaks this)",
-    "videos": "each video file is AV1 (yuv420p) of the feature's size, and each episode's "
+    "videos": "each video file is of the feature's codec (AV1 or H.264), yuv420p, of its "
+    "size, and each episode's "
     "span [from_timestamp, to_timestamp) holds exactly its frames, at its timestamps",
     "stats": f"{L.STATS_PATH} has min, max, mean, std, count and the quantiles for every "
     "feature, shaped as the feature ((3, 1, 1) for a camera), count = total_frames",
@@ -335,8 +336,11 @@ class _Checker:
             with self.av.open(str(path)) as container:
                 stream = container.streams.video[0]
                 h, w = ft["shape"][0], ft["shape"][1]
-                if stream.codec_context.name not in ("av1", "libdav1d", "libaom-av1"):
-                    self.fail("videos", f"{rel} is {stream.codec_context.name}, not AV1")
+                spec = L.codec_of(ft.get("info", {}))
+                name = stream.codec_context.name
+                if spec is None or name not in spec.decoders:
+                    want = ft.get("info", {}).get("video.codec")
+                    self.fail("videos", f"{rel} is {name}, the feature says {want}")
                 if stream.pix_fmt != L.VIDEO_PIX_FMT or (stream.height, stream.width) != (h, w):
                     self.fail(
                         "videos",

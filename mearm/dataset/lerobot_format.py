@@ -8,6 +8,7 @@ and a chunk folder holds up to ``chunks_size`` files.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any
 
 CODEBASE_VERSION = "v3.0"
@@ -50,11 +51,61 @@ VIDEO_CRF = 30
 #: SVT-AV1's speed preset, LeRobot's default (SVT-AV1 runs 12 as its fastest, 11).
 VIDEO_PRESET = 12
 
+
+@dataclass(frozen=True)
+class VideoCodec:
+    """A video encoding LeRobot reads, as ``--record-codec`` names it.
+
+    Attributes:
+        encoder: FFmpeg's encoder (PyAV's ``add_stream`` name).
+        codec: The stream's codec as ``meta/info.json`` records it (``video.codec``) and
+            PyAV reports it when decoding.
+        preset: The encoder's speed preset (``video.preset``).
+        decoders: The names PyAV may give the stream's decoder.
+    """
+
+    encoder: str
+    codec: str
+    preset: int | str
+    decoders: tuple[str, ...]
+
+    def options(self) -> dict[str, str]:
+        """The encoder's options, as LeRobot's ``get_codec_options`` gives them."""
+        out = {"crf": str(VIDEO_CRF), "preset": str(self.preset)}
+        # One thread (LeRobot's ``encoder_threads=1``): the sort has the other core, and
+        # SVT-AV1 spends about a quarter more CPU a 640×480 frame on two threads than on one.
+        if self.encoder == "libsvtav1":
+            out["svtav1-params"] = "lp=1"
+        else:
+            out["threads"] = "1"
+        return out
+
+
+#: The encodings ``--record-codec`` offers: AV1 (LeRobot's default, the default here) and
+#: H.264 (LeRobot's ``vcodec="h264"``; libx264's fastest preset, about a fifth of
+#: SVT-AV1's CPU a frame, files about a fifth larger).
+VIDEO_CODECS: dict[str, VideoCodec] = {
+    "av1": VideoCodec(VIDEO_CODEC, "av1", VIDEO_PRESET, ("av1", "libdav1d", "libaom-av1")),
+    "h264": VideoCodec("libx264", "h264", "ultrafast", ("h264",)),
+}
+DEFAULT_CODEC = "av1"
+
+
+def codec_of(video_info: dict[str, Any]) -> VideoCodec | None:
+    """The encoding a video feature's ``info`` names (``video.codec``), if one of ours."""
+    name = video_info.get("video.codec")
+    return next((c for c in VIDEO_CODECS.values() if c.codec == name), None)
+
+
 #: The prefix of a camera's feature (``observation.images.table``).
 IMAGES = "observation.images."
 
 #: A journal of an episode being written: the files it replaces (see ``writer``).
 JOURNAL_PATH = "meta/.commit.json"
+#: mearm's own record of each episode's trial (its seed) and pick in the trial, in
+#: episode order: what a resumed experiment reads to record no pick twice. LeRobot
+#: reads only the files above.
+TAGS_PATH = "meta/mearm_episodes.json"
 #: The writer's scratch folder inside the dataset (the episode's video being encoded).
 SCRATCH_DIR = ".recording"
 

@@ -8,15 +8,23 @@ time) passes the next frame's time, it takes one frame at ``fps``:
   measures nothing confirms its commands) [deg or cm], each tool actuator's confirmed
   setting [deg] and ``gripper_closed`` (0 or 1);
 - ``action``: the same names, as commanded (the command being sent, else the last one);
-- ``observation.images.<camera>``: the camera's frame (:meth:`Camera.peek`), encoded as
-  AV1 video.
+- ``observation.images.<camera>``: the camera's frame, drawn by this process into shared
+  memory (the twin's camera draws it there directly, :class:`DrawsRGB`) and encoded as
+  AV1 (or H.264) by another process (:mod:`mearm.dataset.video_encoder`).
 
 The sorter opens an episode per pick-and-place (or one per scene) with its task as a
-sentence, and ends or abandons it. An episode is written whole or not at all: its files
-are written beside the ones they replace, listed in a journal (``meta/.commit.json``),
-then renamed into place; a recorder that opens a dataset with a journal finishes its
-renames first. Ctrl-C waits for an episode being written; an unfinished episode (a fault,
-Ctrl-C during it) is dropped.
+sentence, and ends or abandons it. An ended episode is written once its video is
+encoded, while the sort goes on; whole or not at all: its files are written beside the
+ones they replace and its video's fragment beside the video file it joins
+(:mod:`mearm.dataset.fragments`), all listed in a journal (``meta/.commit.json``), then
+appended and renamed into place; a recorder that opens a dataset with a journal
+finishes it first. Ctrl-C waits for an episode being written; an unfinished episode (a
+fault, Ctrl-C during it) is dropped, and the finished ones are written before the sorter
+logs how its sort ended (:meth:`DatasetRecorder.abandon`).
+
+In an experiment each episode is tagged with its trial's seed and its pick's number
+(:meth:`DatasetRecorder.start_trial`): a trial cut off by a kill and run again records
+only the picks the dataset does not hold.
 """
 
 from __future__ import annotations
@@ -25,11 +33,11 @@ import contextlib
 import json
 import os
 import shutil
-import signal
 import tempfile
-from collections.abc import Iterator
+from collections import deque
+from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any
 
 import numpy as np
 
@@ -37,15 +45,21 @@ from mearm.config import Config
 from mearm.dataset import lerobot_format as L
 from mearm.dataset.errors import DatasetError, DatasetExistsError, ExtraMissingError
 from mearm.dataset.feature_stats import Stats, aggregate, image_stats, to_json, vector_stats
-from mearm.hardware.bus import MeasuresWorld, ServoBus
-from mearm.vision import Camera
+from mearm.dataset.fragments import EpisodeVideo, file_header
+from mearm.dataset.sampler import (  # noqa: F401  (re-exported: what an episode is)
+    SCENE_TASK,
+    STATS_PIXEL_STRIDE,
+    EpisodeCapture,
+    EpisodeSampler,
+    Per,
+    _Episode,
+    no_interrupt,
+    state_names,
+    task_sentence,
+)
 
-#: A frame's pixels kept for the image statistics: every this many rows and columns.
-STATS_PIXEL_STRIDE = 16
 #: The name of the camera's feature (``observation.images.table``): it looks at the table.
 CAMERA_NAME = "table"
-
-Per = Literal["pick", "scene"]
 
 
 def import_extra() -> tuple[Any, Any, Any]:
@@ -60,21 +74,6 @@ def import_extra() -> tuple[Any, Any, Any]:
     except ImportError:
         raise ExtraMissingError("PyAV (av)") from None
     return pa, pq, av
-
-
-def state_names(config: Config) -> list[str]:
-    """The names of ``observation.state`` and ``action``, in order."""
-    arm = config.arm
-    return [*arm.home(), *(a.name for a in arm.tool.actuators), "gripper_closed"]
-
-
-def task_sentence(class_name: str) -> str:
-    """The task of a pick-and-place as a sentence."""
-    return f"put the {class_name} object in the {class_name} bin"
-
-
-#: The task of an episode that is a whole scene.
-SCENE_TASK = "put each object in the bin of its class"
 
 
 def write_atomic(path: Path, data: bytes) -> None:
@@ -93,27 +92,27 @@ def write_atomic(path: Path, data: bytes) -> None:
         raise
 
 
-@contextlib.contextmanager
-def _no_interrupt() -> Iterator[None]:
-    """Hold Ctrl-C (SIGINT) back until the block ends; it is delivered then."""
-    try:
-        old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
-    except (ValueError, OSError):  # not possible here (another thread): run as is
-        yield
-        return
-    try:
-        yield
-    finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, old)
-
-
 def finish_journal(root: Path) -> bool:
-    """Finish the renames of an episode's journal, if one is there; whether there was one."""
+    """Finish an episode's journal, if one is there; whether there was one.
+
+    Its appends first (a video file cut back to its size before, then the episode's
+    fragment added: the same file however often this is repeated), then its renames.
+    """
     journal = root / L.JOURNAL_PATH
     if not journal.exists():
         return False
-    moves = json.loads(journal.read_text())["replace"]
-    for final, tmp in moves.items():
+    entries = json.loads(journal.read_text())
+    for rel, append in entries.get("append", {}).items():
+        fragment = root / append["from"]
+        if fragment.exists():
+            with open(root / rel, "r+b") as f:
+                f.truncate(append["size"])
+                f.seek(0, os.SEEK_END)
+                f.write(fragment.read_bytes())
+                f.flush()
+                os.fsync(f.fileno())
+            fragment.unlink()
+    for final, tmp in entries["replace"].items():
         if (root / tmp).exists():
             os.replace(root / tmp, root / final)
     journal.unlink()
@@ -155,53 +154,7 @@ def check_root(root: Path, *, resume: bool) -> bool:
     return bool(entries)
 
 
-class _Episode:
-    """The frames of the episode being recorded and its video being encoded."""
-
-    def __init__(self, av: Any, path: Path, fps: int, start_s: float, task: str):
-        self.path = path
-        self.start_s = start_s
-        self.task = task
-        self.states: list[np.ndarray] = []
-        self.actions: list[np.ndarray] = []
-        self.pixels: list[np.ndarray] = []
-        self.fps = fps
-        self._av = av
-        self._out = av.open(str(path), "w")
-        self._stream: Any = None
-
-    @property
-    def length(self) -> int:
-        return len(self.states)
-
-    def add(self, state: np.ndarray, action: np.ndarray, frame_bgr: np.ndarray) -> None:
-        if self._stream is None:
-            stream = self._out.add_stream(
-                L.VIDEO_CODEC,
-                rate=self.fps,
-                options={"crf": str(L.VIDEO_CRF), "preset": str(L.VIDEO_PRESET)},
-            )
-            stream.width, stream.height = frame_bgr.shape[1], frame_bgr.shape[0]
-            stream.pix_fmt = L.VIDEO_PIX_FMT
-            stream.gop_size = L.VIDEO_GOP
-            self._stream = stream
-        frame = self._av.VideoFrame.from_ndarray(frame_bgr, format="bgr24")
-        frame.pts = self.length
-        for packet in self._stream.encode(frame):
-            self._out.mux(packet)
-        self.states.append(state)
-        self.actions.append(action)
-        step = STATS_PIXEL_STRIDE
-        self.pixels.append(frame_bgr[::step, ::step, ::-1].reshape(-1, 3))
-
-    def close(self) -> None:
-        if self._stream is not None:
-            for packet in self._stream.encode():
-                self._out.mux(packet)
-        self._out.close()
-
-
-class DatasetRecorder:
+class DatasetRecorder(EpisodeSampler):
     """Records episodes into a LeRobotDataset v3.0 directory (module docstring).
 
     Args:
@@ -211,55 +164,59 @@ class DatasetRecorder:
         fps: Frames per second of stream time [Hz], ≥ 1.
         per: One episode per ``"pick"`` (pick-and-place) or per ``"scene"`` (a whole sort).
         resume: Append to the dataset in ``root``.
+        codec: The video encoding, a key of
+            :data:`~mearm.dataset.lerobot_format.VIDEO_CODECS` (``"av1"``, ``"h264"``).
 
     Raises:
         DatasetError: ``root`` is a file or not writable; with ``resume``, its dataset
-            has another fps, robot or features.
+            has another fps, robot, features or encoding.
         DatasetExistsError: ``root`` is not empty and ``resume`` is off.
         ExtraMissingError: pyarrow or PyAV is not installed.
-        ValueError: ``fps`` below 1 or ``per`` unknown (the CLI checks both first).
+        EncoderError: the encoder process could not be started.
+        ValueError: ``fps`` below 1, ``per`` or ``codec`` unknown (the CLI checks them first).
     """
 
     def __init__(
-        self, root: Path, config: Config, *, fps: int, per: Per = "pick", resume: bool = False
+        self,
+        root: Path,
+        config: Config,
+        *,
+        fps: int,
+        per: Per = "pick",
+        resume: bool = False,
+        codec: str = L.DEFAULT_CODEC,
     ):
-        if fps < 1:
-            raise ValueError(f"fps must be at least 1, got {fps}")
-        if per not in ("pick", "scene"):
-            raise ValueError(f"per must be 'pick' or 'scene', got {per!r}")
+        root = Path(root)
+        super().__init__(config, fps=fps, per=per, codec=codec, scratch=root / L.SCRATCH_DIR)
         self._pa, self._pq, self._av = import_extra()
-        os.environ.setdefault("SVT_LOG", "1")  # SVT-AV1: errors only, not its banner
-        self.root = Path(root)
-        self.fps = int(fps)
-        self.per = per
-        self.names = state_names(config)
+        self.root = root
         self.video_key = L.IMAGES + CAMERA_NAME
         self.robot_type = config.arm.name
-        self._size = (config.camera.height_px, config.camera.width_px)
         self._created = not self.root.exists()
         existing = check_root(self.root, resume=resume)
         if not finish_journal(self.root):  # files of an episode whose journal was not written
             for stale in self.root.glob("**/*.tmp"):
                 stale.unlink()
-        self._scratch = self.root / L.SCRATCH_DIR
         shutil.rmtree(self._scratch, ignore_errors=True)
         self._episodes: list[dict[str, Any]] = []
+        self._tags: list[tuple[int | None, int | None]] = []
         self._tasks: list[str] = []
-        self._ep_stats: list[dict[str, Stats]] = []
+        self._stats: dict[str, Stats] = {}  # the dataset's, aggregated
+        self._episodes_table: Any = None  # meta/episodes' table, as last written
+        self._data_table: tuple[str, Any] | None = None  # the last data file and its table
         if existing:
             self._load()
-        self._bus: ServoBus | None = None
-        self._camera: Camera | None = None
-        self._episode: _Episode | None = None
-        self.episodes_written = 0
-        self.frames_written = 0
-
-    # ----------------------------------------------------------------- dataset
+        # one thread writes the episodes, in order, while the sort goes on (its files'
+        # fsyncs and pyarrow's writing let go of the GIL)
+        self._writer = ThreadPoolExecutor(max_workers=1, thread_name_prefix="mearm-dataset")
+        self._writes: deque[Future[None]] = deque()
+        self._failed = False
 
     def features(self) -> dict[str, dict[str, Any]]:
         """The ``features`` of ``meta/info.json``."""
         n = len(self.names)
         h, w = self._size
+        spec = L.VIDEO_CODECS[self.codec]
         return {
             "observation.state": {"dtype": "float32", "shape": [n], "names": list(self.names)},
             "action": {"dtype": "float32", "shape": [n], "names": list(self.names)},
@@ -270,14 +227,14 @@ class DatasetRecorder:
                 "info": {
                     "video.height": h,
                     "video.width": w,
-                    "video.codec": "av1",
+                    "video.codec": spec.codec,
                     "video.pix_fmt": L.VIDEO_PIX_FMT,
                     "video.fps": self.fps,
                     "video.channels": 3,
                     "has_audio": False,
                     "video.g": L.VIDEO_GOP,
                     "video.crf": L.VIDEO_CRF,
-                    "video.preset": L.VIDEO_PRESET,
+                    "video.preset": spec.preset,
                     "video.fast_decode": 0,
                     "video.video_backend": "pyav",
                     "video.extra_options": {},
@@ -297,121 +254,75 @@ class DatasetRecorder:
                     self.root,
                     f"--resume: the dataset's {key} is not this run's "
                     f"({_short(info.get(key))} there, {_short(value)} here): record into a "
-                    "new directory",
+                    "new directory (or give the dataset's --record-codec)",
                 )
         pq = self._pq
         self._tasks = [str(t) for t in pq.read_table(self.root / L.TASKS_PATH)["task"].to_pylist()]
         for path in sorted((self.root / "meta" / "episodes").glob("*/*.parquet")):
             self._episodes.extend(pq.read_table(path).to_pylist())
-        for ep in self._episodes:
-            self._ep_stats.append(_stats_of_row(ep))
+        if self._episodes:
+            per_episode = [_stats_of_row(ep) for ep in self._episodes]
+            self._stats = {f: aggregate([s[f] for s in per_episode]) for f in per_episode[0]}
+        tags_path = self.root / L.TAGS_PATH
+        tags = json.loads(tags_path.read_text())["episodes"] if tags_path.exists() else []
+        self._tags = [(t[0], t[1]) for t in tags][: len(self._episodes)]
+        self._tags += [(None, None)] * (len(self._episodes) - len(self._tags))
 
     # ----------------------------------------------------------------- the run
 
-    def attach(self, bus: ServoBus, camera: Camera) -> None:
-        """Sample this rig from now on: its bus's commands and clock, its camera."""
-        self._bus, self._camera = bus, camera
-        bus.sampler = self
+    def _accept(self, ep: _Episode) -> None:
+        self._writes.append(self._writer.submit(self._write, ep))
 
-    def detach(self) -> None:
-        """Stop sampling the rig (an open episode is dropped)."""
-        self.abandon()
-        if self._bus is not None and self._bus.sampler is self:
-            self._bus.sampler = None
-        self._bus = self._camera = None
+    def _settle(self, *, wait: bool) -> None:
+        while self._writes and (wait or self._writes[0].done()):
+            self._writes.popleft().result()  # a failed write is raised here
 
-    @property
-    def due_s(self) -> float:
-        """The bus clock's time of the next frame [s] (infinite with no episode open)."""
-        ep = self._episode
-        return float("inf") if ep is None else ep.start_s + ep.length / self.fps
+    def _held_tags(self) -> list[tuple[int | None, int | None]]:
+        return self._tags
 
-    def sample(self, bus: ServoBus) -> None:
-        """Take every frame due by the bus's clock, as the run is now."""
-        ep = self._episode
-        if ep is None:
-            return
-        state = action = frame = None
-        while bus.clock_s >= self.due_s - 1e-9:
-            if frame is None:
-                state, action = self._measure(bus)
-                assert self._camera is not None
-                frame = self._camera.peek()
-            assert state is not None and action is not None
-            ep.add(state, action, frame)
+    def write_episodes(self, episodes: list[_Episode]) -> None:
+        """Write episodes recorded elsewhere (:class:`EpisodeCapture`, a worker's trial).
 
-    def _measure(self, bus: ServoBus) -> tuple[np.ndarray, np.ndarray]:
-        confirmed, sent = bus.state, bus.commanded
-        joints = dict(bus.actual_joints) if isinstance(bus, MeasuresWorld) else None
-
-        def vector(cmd: Any, measured: dict[str, float] | None) -> np.ndarray:
-            values: dict[str, float] = {}
-            if cmd is not None:
-                values.update(cmd.joints)
-                values.update(cmd.tool)
-                values["gripper_closed"] = float(cmd.gripper_closed)
-            if measured is not None:
-                values.update(measured)
-            return np.array([values.get(n, np.nan) for n in self.names], dtype=np.float32)
-
-        return vector(confirmed, joints), vector(sent, None)
-
-    def begin(self, class_name: str) -> None:
-        """A pick-and-place of an object of ``class_name`` starts: open its episode.
-
-        Per scene, the first call opens the scene's episode and later ones do nothing.
+        In order, each whole, before this returns; one whose (trial, pick) the dataset
+        holds already is not written again.
         """
-        if self._episode is not None:
-            if self.per == "scene":
-                return
-            self.abandon()
-        if self._bus is None:
-            raise RuntimeError("attach() the recorder to a rig before an episode")
-        self._scratch.mkdir(parents=True, exist_ok=True)
-        path = self._scratch / "episode.mp4"
-        task = SCENE_TASK if self.per == "scene" else task_sentence(class_name)
-        self._episode = _Episode(self._av, path, self.fps, self._bus.clock_s, task)
-        self.sample(self._bus)
-
-    def end(self) -> None:
-        """The pick-and-place ended: write its episode (per pick)."""
-        if self.per == "pick":
-            self._write()
-
-    def end_run(self) -> None:
-        """The sort ended normally: write the scene's episode (per scene)."""
-        if self.per == "scene":
-            self._write()
-
-    def abandon(self) -> None:
-        """Drop the episode being recorded (a fault or Ctrl-C cut it short)."""
-        ep, self._episode = self._episode, None
-        if ep is not None:
-            with contextlib.suppress(Exception):
-                ep.close()
-            ep.path.unlink(missing_ok=True)
+        held = set(self._tags)
+        with no_interrupt():
+            for ep in episodes:
+                if ep.tag[0] is not None and ep.tag in held:
+                    self.episodes_skipped += 1
+                    continue
+                self._accept(ep)
+            self._settle(wait=True)
 
     def close(self) -> None:
-        """Drop an unfinished episode and the scratch folder (and DIR, if made for nothing)."""
-        self.detach()
-        shutil.rmtree(self._scratch, ignore_errors=True)
-        if self._created and not self._episodes:
-            with contextlib.suppress(OSError):  # only if still empty
-                self.root.rmdir()
+        """Write the finished episodes, drop an unfinished one, stop the encoder.
+
+        The scratch folder goes (and DIR, if it was made for nothing).
+        """
+        try:
+            super().close()
+        finally:
+            self._failed = True  # a write still queued after an error is not made
+            self._writer.shutdown(wait=True, cancel_futures=True)
+            shutil.rmtree(self._scratch, ignore_errors=True)
+            if self._created and not self._episodes:
+                with contextlib.suppress(OSError):  # only if still empty
+                    self.root.rmdir()
 
     # ----------------------------------------------------------------- writing
 
-    def _write(self) -> None:
-        ep, self._episode = self._episode, None
-        if ep is None:
+    def _write(self, ep: _Episode) -> None:
+        """Write one episode (in the writer thread)."""
+        if self._failed:
             return
-        ep.close()
-        if ep.length < 2:  # nothing was sent: no motion to learn from
-            ep.path.unlink(missing_ok=True)
-            return
-        with _no_interrupt():
+        try:
             self._commit(ep)
-        ep.path.unlink(missing_ok=True)
+        except BaseException:
+            self._failed = True
+            raise
+        finally:
+            ep.path.unlink(missing_ok=True)
         self.episodes_written += 1
         self.frames_written += ep.length
 
@@ -447,36 +358,15 @@ class DatasetRecorder:
             chunk, file = L.next_file(chunk, file)
             data_rel = L.chunk_file(L.DATA_PATH, chunk, file)
         elif last and old.exists():
-            table = pa.concat_tables([pq.read_table(old), table])
+            cached = self._data_table
+            earlier = cached[1] if cached and cached[0] == data_rel else pq.read_table(old)
+            table = pa.concat_tables([earlier, table])
         pq.write_table(table, staged(data_rel), compression="snappy")
         data_meta = {"data/chunk_index": chunk, "data/file_index": file}
 
-        # video: the episode's file appended to the last one's, or a new file
-        key = self.video_key
-        vchunk, vfile = (
-            (int(last[f"videos/{key}/chunk_index"]), int(last[f"videos/{key}/file_index"]))
-            if last
-            else (0, 0)
-        )
-        video_rel = L.chunk_file(L.VIDEO_PATH, vchunk, vfile, video_key=key)
-        old_video = root / video_rel
-        # the frames before this episode in the file, counted (no sum of rounded seconds)
-        before = round(float(last[f"videos/{key}/to_timestamp"]) * self.fps) if last else 0
-        if last and _mb(old_video) + _mb(ep.path) >= L.VIDEO_FILES_SIZE_IN_MB:
-            vchunk, vfile = L.next_file(vchunk, vfile)
-            video_rel = L.chunk_file(L.VIDEO_PATH, vchunk, vfile, video_key=key)
-            before = 0
-        if before > 0:
-            concatenate_videos(self._av, [old_video, ep.path], staged(video_rel))
-        else:
-            shutil.copyfile(ep.path, staged(video_rel))
-        video_meta = {
-            f"videos/{key}/chunk_index": vchunk,
-            f"videos/{key}/file_index": vfile,
-            f"videos/{key}/from_timestamp": before / self.fps,
-            f"videos/{key}/to_timestamp": (before + n) / self.fps,
-        }
+        video_meta, appends = self._stage_video(ep, last, staged)
 
+        key = self.video_key
         ep_stats = {
             "observation.state": vector_stats(states),
             "action": vector_stats(actions),
@@ -502,23 +392,84 @@ class DatasetRecorder:
             for name, value in stats.items():
                 row[f"stats/{feature}/{name}"] = np.asarray(value).tolist()
         episodes = [*self._episodes, row]
-        episodes_table = pa.Table.from_pylist(episodes)
+        episodes_table = self._with_row(row, episodes)
         pq.write_table(episodes_table, staged(L.chunk_file(L.EPISODES_PATH, 0, 0)))
         pq.write_table(tasks_table(pa, self._tasks), staged(L.TASKS_PATH))
-        all_stats = [*self._ep_stats, ep_stats]
-        dataset_stats = {f: aggregate([s[f] for s in all_stats]) for f in ep_stats}
+        # the aggregate is associative: the dataset's so far with this episode's
+        dataset_stats = {
+            f: aggregate([self._stats[f], s]) if self._stats else s for f, s in ep_stats.items()
+        }
         staged(L.STATS_PATH).write_text(json.dumps(to_json(dataset_stats), indent=4))
         info = self._info(len(episodes), first_index + n)
         staged(L.INFO_PATH).write_text(json.dumps(info, indent=4))
+        tags = [*self._tags, ep.tag]
+        staged(L.TAGS_PATH).write_text(json.dumps({"episodes": [list(t) for t in tags]}))
 
-        for tmp in moves.values():
+        for tmp in [*moves.values(), *(root / a["from"] for a in appends.values())]:
             with open(tmp, "rb") as f:
                 os.fsync(f.fileno())
-        journal = {"replace": {rel: str(tmp.relative_to(root)) for rel, tmp in moves.items()}}
+        journal = {
+            "replace": {rel: str(tmp.relative_to(root)) for rel, tmp in moves.items()},
+            "append": appends,
+        }
         write_atomic(root / L.JOURNAL_PATH, json.dumps(journal).encode())
         finish_journal(root)
         self._episodes = episodes
-        self._ep_stats = all_stats
+        self._stats = dataset_stats
+        self._tags = tags
+        self._episodes_table = episodes_table
+        self._data_table = (data_rel, table)
+
+    def _with_row(self, row: dict[str, Any], episodes: list[dict[str, Any]]) -> Any:
+        """``meta/episodes``' table with ``row`` added: to the last one written, if it fits."""
+        pa = self._pa
+        last = self._episodes_table
+        if last is not None:
+            with contextlib.suppress(pa.ArrowInvalid, pa.ArrowTypeError):
+                return pa.concat_tables([last, pa.Table.from_pylist([row], schema=last.schema)])
+        return pa.Table.from_pylist(episodes)
+
+    def _stage_video(
+        self, ep: _Episode, last: dict[str, Any] | None, staged: Any
+    ) -> tuple[dict[str, Any], dict[str, dict[str, Any]]]:
+        """The episode's video: its fragment appended to the last episode's file, or a new file.
+
+        Returns:
+            The episode row's video columns, and the journal's appends (file: its size
+            before, the staged fragment).
+        """
+        key = self.video_key
+        video = EpisodeVideo.parse(ep.video if ep.video is not None else ep.path.read_bytes())
+        vchunk, vfile = (
+            (int(last[f"videos/{key}/chunk_index"]), int(last[f"videos/{key}/file_index"]))
+            if last
+            else (0, 0)
+        )
+        video_rel = L.chunk_file(L.VIDEO_PATH, vchunk, vfile, video_key=key)
+        old_video = self.root / video_rel
+        # the frames before this episode in the file, counted (no sum of rounded seconds)
+        before = round(float(last[f"videos/{key}/to_timestamp"]) * self.fps) if last else 0
+        appendable = last is not None and file_header(old_video) == video.header
+        too_big = _mb(old_video) + len(video.fragments) / 2**20 >= L.VIDEO_FILES_SIZE_IN_MB
+        appends: dict[str, dict[str, Any]] = {}
+        if last and (too_big or not appendable):
+            vchunk, vfile = L.next_file(vchunk, vfile)
+            video_rel = L.chunk_file(L.VIDEO_PATH, vchunk, vfile, video_key=key)
+            before = 0
+        if before > 0:
+            tmp = self.root / (video_rel + ".append.tmp")
+            tmp.write_bytes(video.shifted(before, self.fps))
+            size = old_video.stat().st_size
+            appends[video_rel] = {"size": size, "from": str(tmp.relative_to(self.root))}
+        else:
+            staged(video_rel).write_bytes(video.header + video.shifted(0, self.fps))
+        meta = {
+            f"videos/{key}/chunk_index": vchunk,
+            f"videos/{key}/file_index": vfile,
+            f"videos/{key}/from_timestamp": before / self.fps,
+            f"videos/{key}/to_timestamp": (before + ep.length) / self.fps,
+        }
+        return meta, appends
 
     def _frames_table(
         self, states: np.ndarray, actions: np.ndarray, episode: int, first: int, task: int
@@ -603,29 +554,6 @@ def tasks_table(pa: Any, tasks: list[str]) -> Any:
         }
     )
     return table.replace_schema_metadata({b"pandas": json.dumps(pandas_meta).encode()})
-
-
-def concatenate_videos(av: Any, inputs: list[Path], output: Path) -> None:
-    """Join videos of the same encoding, packets copied (LeRobot's ``concatenate_video_files``)."""
-    with tempfile.NamedTemporaryFile("w", suffix=".ffconcat", delete=False) as listing:
-        listing.write("ffconcat version 1.0\n")
-        for path in inputs:
-            listing.write(f"file '{path.resolve()}'\n")
-    try:
-        with (
-            av.open(listing.name, "r", format="concat", options={"safe": "0"}) as src,
-            av.open(str(output), "w", format="mp4") as dst,
-        ):
-            stream_in = src.streams.video[0]
-            stream_out = dst.add_stream_from_template(template=stream_in, opaque=True)
-            stream_out.time_base = stream_in.time_base
-            for packet in src.demux(stream_in):
-                if packet.dts is None:
-                    continue
-                packet.stream = stream_out
-                dst.mux(packet)
-    finally:
-        os.unlink(listing.name)
 
 
 def _stats_of_row(row: dict[str, Any]) -> dict[str, Stats]:

@@ -190,6 +190,18 @@ class LensRenderer:
             return bgr
         return cv2.remap(bgr, *self._maps, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
 
+    def render_rgb(self, data: mujoco.MjData, out: np.ndarray) -> bool:
+        """Draw ``data``'s frame straight into ``out``, (h, w, 3) uint8 RGB; whether it could.
+
+        Without a lens only (a lens remaps a larger picture): no BGR conversion, no new
+        array; MuJoCo reads the pixels back into ``out`` itself.
+        """
+        if self._maps is not None:
+            return False
+        self._renderer.update_scene(data, camera=self.camera, scene_option=self.option)
+        self._renderer.render(out=out)
+        return True
+
     def close(self) -> None:
         """Free the renderer's GL context."""
         self._renderer.close()
@@ -296,6 +308,23 @@ class TwinCamera(NumberedCamera):
         if faults.frozen_at_s is None or self._rendered is None:
             self._rendered = (frame.copy(), now)
         return frame
+
+    def peek_rgb(self, out: np.ndarray) -> None:
+        """The frame :meth:`peek` gives, drawn into ``out`` as RGB, (h, w, 3) uint8.
+
+        A recording's frame: rendered into the buffer the encoder reads (no conversion, no
+        copy), and it leaves the camera as it was: the frames the sort reads, their count
+        and what a frozen stream repeats are the same as without the recording. Under a
+        camera fault or a lens it is :meth:`peek`'s frame, converted.
+        """
+        faults = self.twin.faults.camera(self.twin.time_s)
+        clear = faults.frozen_at_s is None and not faults.black
+        if self._closed or not clear:
+            cv2.cvtColor(self.peek(), cv2.COLOR_BGR2RGB, dst=out)
+            return
+        self._bump(faults.shift_m)
+        if not self._lens.render_rgb(self.twin.data, out):
+            cv2.cvtColor(self.peek(), cv2.COLOR_BGR2RGB, dst=out)
 
     @property
     def clock_s(self) -> float:

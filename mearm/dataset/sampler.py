@@ -1,0 +1,366 @@
+"""Sampling a rig into episodes: the frames drawn, their video encoded elsewhere.
+
+:class:`EpisodeSampler` is the servo bus's sampler (:class:`~mearm.hardware.bus.Sampler`):
+whenever the bus's clock (the command periods streamed, the holds and waits; the twin's
+physics time) passes the next frame's time, it takes one frame at ``fps``: the state and
+the action (:mod:`mearm.dataset.recorder`), and the camera's frame, drawn straight into
+the encoder's shared memory (the twin's camera, :class:`DrawsRGB`) or converted into it.
+The sorter opens an episode per pick-and-place (or one per scene) and ends or abandons
+it; an ended episode goes on to :meth:`EpisodeSampler._accept` once its video is encoded,
+in order.
+
+Two kinds: :class:`~mearm.dataset.recorder.DatasetRecorder` writes each into a dataset
+(the video encoded by another process); :class:`EpisodeCapture` keeps them, videos
+encoded in its own process, for a worker process to send back with its trial.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import shutil
+import tempfile
+from collections import deque
+from collections.abc import Callable, Iterable, Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Literal, Protocol, runtime_checkable
+
+import cv2
+import numpy as np
+
+from mearm.config import Config
+from mearm.dataset import lerobot_format as L
+from mearm.dataset.errors import EncoderError
+from mearm.dataset.video_encoder import EncoderProcess, InlineEncoder
+from mearm.hardware.bus import MeasuresWorld, ServoBus
+from mearm.vision import Camera
+
+#: A frame's pixels kept for the image statistics: every this many rows and columns.
+STATS_PIXEL_STRIDE = 16
+
+Per = Literal["pick", "scene"]
+Encoder = EncoderProcess | InlineEncoder
+
+
+def state_names(config: Config) -> list[str]:
+    """The names of ``observation.state`` and ``action``, in order."""
+    arm = config.arm
+    return [*arm.home(), *(a.name for a in arm.tool.actuators), "gripper_closed"]
+
+
+def task_sentence(class_name: str) -> str:
+    """The task of a pick-and-place as a sentence."""
+    return f"put the {class_name} object in the {class_name} bin"
+
+
+#: The task of an episode that is a whole scene.
+SCENE_TASK = "put each object in the bin of its class"
+
+
+@dataclass
+class _Episode:
+    """An episode being recorded, then waiting for its video to be encoded.
+
+    Attributes:
+        number: Its number in this recording (the encoder's name for it).
+        path: Its video, being encoded (a fragmented MP4).
+        start_s: The bus clock when it began [s].
+        task: Its task sentence.
+        tag: The trial's seed and the pick's number in the trial, if in an experiment.
+        video: The encoded video's bytes, once carried to another process (a trial run
+            by a worker process); ``None`` while it is at ``path``.
+    """
+
+    number: int
+    path: Path
+    start_s: float
+    task: str
+    tag: tuple[int | None, int | None]
+    states: list[np.ndarray] = field(default_factory=list)
+    actions: list[np.ndarray] = field(default_factory=list)
+    pixels: list[np.ndarray] = field(default_factory=list)
+    video: bytes | None = None
+
+    @property
+    def length(self) -> int:
+        return len(self.states)
+
+
+@runtime_checkable
+class DrawsRGB(Protocol):
+    """A camera that draws its frame of now into a buffer, RGB (the twin's camera)."""
+
+    def peek_rgb(self, out: np.ndarray) -> None:
+        """Draw the frame ``peek()`` would give into ``out``, (h, w, 3) uint8 RGB."""
+
+
+class EpisodeSampler:
+    """Samples a rig into episodes (module docstring); what becomes of them is a subclass's.
+
+    Args:
+        config: The rig's config (the arm's joint and tool names, the camera's size).
+        fps: Frames per second of stream time [Hz], ≥ 1.
+        per: One episode per ``"pick"`` (pick-and-place) or per ``"scene"`` (a whole sort).
+        codec: The video encoding, a key of
+            :data:`~mearm.dataset.lerobot_format.VIDEO_CODECS` (``"av1"``, ``"h264"``).
+        scratch: Where episodes' videos are encoded.
+
+    Raises:
+        ValueError: ``fps`` below 1, ``per`` or ``codec`` unknown (the CLI checks them first).
+    """
+
+    def __init__(self, config: Config, *, fps: int, per: Per, codec: str, scratch: Path):
+        if fps < 1:
+            raise ValueError(f"fps must be at least 1, got {fps}")
+        if per not in ("pick", "scene"):
+            raise ValueError(f"per must be 'pick' or 'scene', got {per!r}")
+        if codec not in L.VIDEO_CODECS:
+            raise ValueError(f"codec must be one of {', '.join(L.VIDEO_CODECS)}, got {codec!r}")
+        self.fps = int(fps)
+        self.per = per
+        self.codec = codec
+        self.names = state_names(config)
+        self._size = (config.camera.height_px, config.camera.width_px)
+        self._scratch = scratch
+        self._bus: ServoBus | None = None
+        self._camera: Camera | None = None
+        self._draw_rgb: Callable[[np.ndarray], None] | None = None
+        self._episode: _Episode | None = None
+        self._pending: deque[_Episode] = deque()
+        self._encoder: Encoder | None = None
+        self._numbers = 0
+        self._trial: int | None = None
+        self._picks = 0
+        self._held: set[int | None] = set()
+        self.episodes_written = 0
+        self.frames_written = 0
+        self.episodes_skipped = 0
+
+    # ----------------------------------------------------------------- a subclass's
+
+    def _open_encoder(self) -> Encoder:
+        """The encoder of this sampler's episodes (another process)."""
+        return EncoderProcess((*self._size, 3), self.fps, self.codec)
+
+    def _accept(self, ep: _Episode) -> None:
+        """An episode whose video is encoded (at ``ep.path``), in order."""
+        raise NotImplementedError
+
+    def _settle(self, *, wait: bool) -> None:
+        """After :meth:`_accept`: ``wait`` until every episode accepted is written."""
+
+    def _held_tags(self) -> Iterable[tuple[int | None, int | None]]:
+        """The (trial seed, pick) of the episodes held already (not recorded again)."""
+        return ()
+
+    def attach(self, bus: ServoBus, camera: Camera) -> None:
+        """Sample this rig from now on: its bus's commands and clock, its camera."""
+        self._bus, self._camera = bus, camera
+        # looked up once: a runtime protocol's isinstance walks its members every time
+        self._draw_rgb = camera.peek_rgb if isinstance(camera, DrawsRGB) else None
+        bus.sampler = self
+        if self._encoder is None:
+            self._encoder = self._open_encoder()
+
+    def detach(self) -> None:
+        """Stop sampling the rig (an open episode is dropped; finished ones are written)."""
+        self.abandon()
+        if self._bus is not None and self._bus.sampler is self:
+            self._bus.sampler = None
+        self._bus = self._camera = None
+
+    def start_trial(self, trial_seed: int) -> None:
+        """The episodes from here on are of the experiment's trial with this seed.
+
+        Each is tagged with the seed and its pick's number in the trial. A pick the
+        dataset holds already (the trial ran before, and a kill cut it or its log short)
+        is not recorded again.
+        """
+        self._trial, self._picks = trial_seed, 0
+        self._held = {pick for seed, pick in self._held_tags() if seed == trial_seed}
+
+    @property
+    def due_s(self) -> float:
+        """The bus clock's time of the next frame [s] (infinite with no episode open)."""
+        ep = self._episode
+        return float("inf") if ep is None else ep.start_s + ep.length / self.fps
+
+    def sample(self, bus: ServoBus) -> None:
+        """Take every frame due by the bus's clock, as the run is now (drawn once)."""
+        ep = self._episode
+        if ep is None:
+            return
+        due = self.due_s
+        if bus.clock_s < due - 1e-9:
+            return
+        repeat = int((bus.clock_s - due + 1e-9) * self.fps) + 1
+        state, action = self._measure(bus)
+        assert self._camera is not None and self._encoder is not None
+        slot, rgb = self._encoder.slot()
+        if self._draw_rgb is not None:
+            self._draw_rgb(rgb)
+        else:
+            cv2.cvtColor(self._camera.peek(), cv2.COLOR_BGR2RGB, dst=rgb)
+        step = STATS_PIXEL_STRIDE
+        pixels = rgb[::step, ::step].reshape(-1, 3).copy()
+        self._encoder.frame(ep.number, slot, repeat)
+        ep.states.extend([state] * repeat)
+        ep.actions.extend([action] * repeat)
+        ep.pixels.extend([pixels] * repeat)
+
+    def _measure(self, bus: ServoBus) -> tuple[np.ndarray, np.ndarray]:
+        confirmed, sent = bus.state, bus.commanded
+        joints = dict(bus.actual_joints) if isinstance(bus, MeasuresWorld) else None
+
+        def vector(cmd: Any, measured: dict[str, float] | None) -> np.ndarray:
+            values: dict[str, float] = {}
+            if cmd is not None:
+                values.update(cmd.joints)
+                values.update(cmd.tool)
+                values["gripper_closed"] = float(cmd.gripper_closed)
+            if measured is not None:
+                values.update(measured)
+            return np.array([values.get(n, np.nan) for n in self.names], dtype=np.float32)
+
+        return vector(confirmed, joints), vector(sent, None)
+
+    def begin(self, class_name: str) -> None:
+        """A pick-and-place of an object of ``class_name`` starts: open its episode.
+
+        Per scene, the first call opens the scene's episode and later ones do nothing.
+        A pick of a trial run again that the dataset holds already is not recorded.
+        """
+        if self._episode is not None:
+            if self.per == "scene":
+                return
+            self._drop()
+        if self._bus is None or self._encoder is None:
+            raise RuntimeError("attach() the recorder to a rig before an episode")
+        pick, self._picks = self._picks, self._picks + 1
+        if pick in self._held:
+            self.episodes_skipped += 1
+            return
+        self._take_encoded(wait=False)
+        self._scratch.mkdir(parents=True, exist_ok=True)
+        number, self._numbers = self._numbers, self._numbers + 1
+        path = self._scratch / f"episode-{number}.mp4"
+        task = SCENE_TASK if self.per == "scene" else task_sentence(class_name)
+        tag = (self._trial, pick if self._trial is not None else None)
+        self._episode = _Episode(number, path, self._bus.clock_s, task, tag)
+        self._encoder.open(number, path)
+        self.sample(self._bus)
+
+    def end(self) -> None:
+        """The pick-and-place ended: its episode is written once encoded (per pick)."""
+        if self.per == "pick":
+            self._finish()
+
+    def end_run(self) -> None:
+        """The sort ended normally: write the scene's episode and every one still encoding."""
+        if self.per == "scene":
+            self._finish()
+        self._take_encoded(wait=True)
+
+    def abandon(self) -> None:
+        """Drop the episode being recorded (a fault or Ctrl-C cut it short).
+
+        The finished episodes still being encoded are written first (at most
+        :data:`~mearm.dataset.video_encoder.SLOTS` frames to encode): the sorter abandons
+        before it logs how the sort ended, and the dataset then holds every pick the log
+        says was finished.
+        """
+        self._drop()
+        self._take_encoded(wait=True)
+
+    def close(self) -> None:
+        """Take the finished episodes, drop an unfinished one, stop the encoder."""
+        try:
+            self.detach()
+        finally:
+            if self._encoder is not None:
+                self._encoder.close()
+                self._encoder = None
+            self._pending.clear()
+
+    def _drop(self) -> None:
+        ep, self._episode = self._episode, None
+        if ep is not None and self._encoder is not None:
+            self._encoder.cancel(ep.number)
+
+    def _finish(self) -> None:
+        ep, self._episode = self._episode, None
+        if ep is None or self._encoder is None:
+            return
+        if ep.length < 2:  # nothing was sent: no motion to learn from
+            self._encoder.cancel(ep.number)
+            return
+        self._encoder.finish(ep.number)
+        self._pending.append(ep)
+        self._take_encoded(wait=False)
+
+    def _take_encoded(self, *, wait: bool) -> None:
+        """Accept the episodes whose video is encoded, in order.
+
+        ``wait``: every finished episode, encoded and accepted (and written,
+        :meth:`_settle`), before this returns (Ctrl-C held back meanwhile).
+        """
+        encoder = self._encoder
+        with no_interrupt() if wait else contextlib.nullcontext():
+            while self._pending and encoder is not None:
+                ep = self._pending[0]
+                done, error = encoder.done(ep.number, wait=wait)
+                if not done:
+                    break
+                self._pending.popleft()
+                if error is not None:
+                    ep.path.unlink(missing_ok=True)
+                    raise EncoderError(f"an episode's video failed: {error}")
+                self._accept(ep)
+            self._settle(wait=wait)
+
+
+class EpisodeCapture(EpisodeSampler):
+    """Keeps the episodes of a trial, their videos encoded in this process, to send on.
+
+    What a worker process of ``mearm experiment --jobs N --record`` records: its trial's
+    episodes go back with the trial's log records, and the command writes them into the
+    dataset in trial order (:meth:`~mearm.dataset.recorder.DatasetRecorder.write_episodes`).
+    Every core already runs a trial, so the encoding stays in the worker.
+    """
+
+    def __init__(self, config: Config, *, fps: int, per: Per, codec: str):
+        scratch = Path(tempfile.mkdtemp(prefix="mearm-episodes-"))
+        super().__init__(config, fps=fps, per=per, codec=codec, scratch=scratch)
+        self.episodes: list[_Episode] = []
+
+    def _open_encoder(self) -> Encoder:
+        return InlineEncoder((*self._size, 3), self.fps, self.codec)
+
+    def _accept(self, ep: _Episode) -> None:
+        ep.video = ep.path.read_bytes()
+        ep.path.unlink(missing_ok=True)
+        self.episodes.append(ep)
+        self.episodes_written += 1
+        self.frames_written += ep.length
+
+    def close(self) -> None:  # noqa: D102
+        try:
+            super().close()
+        finally:
+            shutil.rmtree(self._scratch, ignore_errors=True)
+
+
+@contextlib.contextmanager
+def no_interrupt() -> Iterator[None]:
+    """Hold Ctrl-C (SIGINT) back until the block ends; it is delivered then."""
+    import signal
+
+    try:
+        old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    except (ValueError, OSError):  # not possible here (another thread): run as is
+        yield
+        return
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
