@@ -74,11 +74,15 @@ def test_bench_rows_have_the_shape_tools_bench_expects() -> None:
 
 
 def test_peer_rows_time_both_recipes_on_every_object_count() -> None:
-    """One round on 3 and 6 objects: both recipes find them all; a per-object slope each."""
+    """One round on 3 and 6 objects: both recipes, and the detector with taught colours,
+    find them all; a per-object slope each."""
     rows = run_detection_peers(repeat=1, counts=(3, 6))
     assert all(set(r) == {"section", "name", "value", "unit", "note"} for r in rows)
     names = {r["name"] for r in rows}
     for n in (3, 6):
         assert {f"detect {n} objects, mearm", f"detect {n} objects, 8-bit inRange recipe"} <= names
-        assert f"found {n} and {n} of {n}" in rows[0 if n == 3 else 3]["note"]
+        mine = next(r for r in rows if r["name"] == f"detect {n} objects, mearm")
+        assert f"found {n} and {n} of {n}" in mine["note"]
+        taught = next(r for r in rows if r["name"] == f"detect {n} objects, mearm, taught colours")
+        assert f"found {n} of {n}" in taught["note"]
     assert {r["unit"] for r in rows if r["name"].endswith("per object")} == {"µs/object"}

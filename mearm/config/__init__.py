@@ -44,7 +44,7 @@ from mearm.config.base import (
     short_repr,
 )
 from mearm.config.belt_config import BeltArrivals, BeltConfig
-from mearm.config.classes import ColorClass, HueBand
+from mearm.config.classes import ColorClass, HueBand, LearnedColour
 from mearm.config.defaults import default_classes, paper_arm, paper_classes
 from mearm.config.files import load_config, read_yaml
 from mearm.config.loader import apply_overrides, config_from_dict
@@ -75,6 +75,7 @@ __all__ = [
     "Finite",
     "Gripper",
     "HueBand",
+    "LearnedColour",
     "Joint",
     "JointServo",
     "JointType",

@@ -42,6 +42,50 @@ class HueBand(Strict):
     hi_deg: Annotated[float, Field(ge=0, le=360, allow_inf_nan=False)]
 
 
+Lightness = Annotated[float, Field(ge=0, le=100, allow_inf_nan=False)]
+Opponent = Annotated[float, Field(ge=-128, le=128, allow_inf_nan=False)]
+
+
+class LearnedColour(Strict):
+    """A colour taught from pixels of a camera's frames: an ellipse in CIELAB's a*b* plane.
+
+    A pixel (L*, a*, b*) of the white-balanced frame (:mod:`mearm.vision.learned`) is of
+    this colour when its chroma c = (a*, b*) lies within ``max_distance`` of the ellipse's
+    centre μ in Mahalanobis distance, (c − μ)ᵀ Σ⁻¹ (c − μ) ≤ ``max_distance``², its
+    lightness lies in ``lightness`` and its chroma √(a*² + b*²) reaches
+    ``chroma_min`` (shadows and glare on a white table are faintly coloured, never as
+    much as an object). Written by ``mearm learn-colours``.
+
+    Attributes:
+        ab_mean: The ellipse's centre (a*, b*) [-], CIELAB, D65.
+        ab_cov: Its covariance (σ_aa, σ_ab, σ_bb) [-²].
+        lightness: The lightness L* it accepts, (lo, hi) [0–100].
+        max_distance: The Mahalanobis radius of the ellipse [-].
+        chroma_min: The least chroma it accepts [-].
+    """
+
+    ab_mean: tuple[Opponent, Opponent]
+    ab_cov: tuple[
+        Annotated[float, Field(gt=0, le=1e4, allow_inf_nan=False)],
+        Annotated[float, Field(ge=-1e4, le=1e4, allow_inf_nan=False)],
+        Annotated[float, Field(gt=0, le=1e4, allow_inf_nan=False)],
+    ]
+    lightness: tuple[Lightness, Lightness]
+    max_distance: Annotated[float, Field(gt=0, le=20, allow_inf_nan=False)] = 3.0
+    chroma_min: Annotated[float, Field(ge=0, le=200, allow_inf_nan=False)] = 0.0
+
+    @model_validator(mode="after")
+    def _proper(self) -> LearnedColour:
+        saa, sab, sbb = self.ab_cov
+        if saa * sbb - sab * sab <= 0:
+            raise ValueError(
+                f"@ab_cov: {list(self.ab_cov)} is not a covariance (positive definite)"
+            )
+        if self.lightness[0] >= self.lightness[1]:
+            raise ValueError(f"@lightness: {list(self.lightness)}: lo must be below hi")
+        return self
+
+
 class ColorClass(Strict):
     """One class of objects to sort: a colour, a shape, or both.
 
@@ -63,6 +107,8 @@ class ColorClass(Strict):
         bin_width_cm: Inner width of the class's square bin, centred under ``bin_cm``
             [cm] (default: three diameters). A camera that sees the bins counts what lies
             inside one as sorted, not as on the table.
+        learned_colour: Its colour as taught from camera frames (``mearm learn-colours``);
+            when set it stands for ``hue_bands_deg``.
     """
 
     name: Name
@@ -76,6 +122,7 @@ class ColorClass(Strict):
     height_cm: ObjectSize = 1.0
     grip_height_cm: NonNegativeLength | None = None
     bin_width_cm: ObjectSize | None = None
+    learned_colour: LearnedColour | None = None
 
     @field_validator("shape")
     @classmethod
@@ -86,7 +133,7 @@ class ColorClass(Strict):
 
     @model_validator(mode="after")
     def _colour_or_shape(self) -> ColorClass:
-        if self.hue_bands_deg is None and self.shape is None:
+        if self.hue_bands_deg is None and self.shape is None and self.learned_colour is None:
             raise ValueError(
                 f"class '{self.name}' has neither a colour nor a shape: give it "
                 f"hue_bands_deg, a shape ({', '.join(SHAPE_NAMES)}), or both"

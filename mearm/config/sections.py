@@ -164,6 +164,13 @@ class CalibrationConfig(Strict):
         return self
 
 
+PixelLevel = Annotated[float, Field(gt=0, le=255, allow_inf_nan=False)]
+PixelPoint = tuple[
+    Annotated[float, Field(ge=-MAX_FRAME_SIDE_PX, le=2 * MAX_FRAME_SIDE_PX, allow_inf_nan=False)],
+    Annotated[float, Field(ge=-MAX_FRAME_SIDE_PX, le=2 * MAX_FRAME_SIDE_PX, allow_inf_nan=False)],
+]
+
+
 class VisionConfig(Strict):
     """HSV colour segmentation; each class's hue bands are in ``task.classes``.
 
@@ -184,7 +191,17 @@ class VisionConfig(Strict):
     """Grow each region into its own shadow: a pixel of the class's hue and saturation
     whose value is under ``value_min`` but at least this [-] counts when it joins a region
     that passes ``value_min`` (hysteresis), so that a lamp's shadow across an object does
-    not cut its outline; ``null``: never (the paper's recipe)."""
+    not cut its outline; ``null``: never (the paper's recipe). Hue bands only: not used
+    with learned colours, ``reference_bgr`` or ``work_area_px``."""
+    reference_bgr: tuple[PixelLevel, PixelLevel, PixelLevel] | None = None
+    """Colour constancy: the work area's median colour (B, G, R) in the frames the colours
+    were learned from (``mearm learn-colours`` writes it); each frame's channels are scaled
+    so that its own median matches it before any class is classified, which undoes the
+    camera's white balance and exposure; ``null``: frames as they come."""
+    work_area_px: Annotated[list[PixelPoint], Field(min_length=3, max_length=64)] | None = None
+    """Where objects can be: a polygon (u, v) [px] in the camera's frame; nothing outside
+    it is detected; ``null``: the whole frame. ``mearm learn-colours`` writes the table's
+    outline it finds, or the polygon given with ``--work-area``."""
 
     @model_validator(mode="after")
     def _shadow_below_value(self) -> VisionConfig:

@@ -1,6 +1,7 @@
 """Vision benchmark: ms per 640×480 frame with the paper's 12 objects (paper §4).
 
     mearm vision-bench [--repeat N] [--seeds N]
+    mearm vision-bench --photos DIR [--config C] [--learn]
 
 Times, in the same run and interleaved round by round (so a busy machine slows all
 alike): the OpenCV detector (:class:`~mearm.vision.detector.ColorDetector`), the same
@@ -19,6 +20,11 @@ noise seeds — how many scenes gave exactly the 12 objects with the right class
 the worst and mean position error; and how well calibrations recover the rig
 (:func:`run_calibration_study`).
 
+``--photos DIR`` scores a folder of labelled real photos instead
+(:mod:`mearm.tools.photo_bench`): recall and precision per photo, per class and over
+all, the detector of ``--config`` and the ``inRange`` recipe side by side; ``--learn``
+teaches the detector each source's colours from its first photo (one click per class).
+
 Scenes are drawn by the simulator's renderer (:mod:`mearm.sim.kinematic.renderer`); this script
 sits on top of both layers and imports it where it draws.
 """
@@ -30,12 +36,13 @@ import math
 import statistics
 import time
 from collections.abc import Callable, Sequence
+from pathlib import Path
 
-import cv2
 import numpy as np
 
-from mearm.cli import ArgumentParser, run
-from mearm.config import ColorClass, Config, VisionConfig
+from mearm.cli import ArgumentParser, add_config_argument, config_from_args, run
+from mearm.config import ColorClass, Config
+from mearm.errors import InputFileError
 from mearm.sim.kinematic.vision_scenes import (
     BASE_OPTIONS,
     CONDITIONS,
@@ -43,7 +50,8 @@ from mearm.sim.kinematic.vision_scenes import (
     match_detections,
 )
 from mearm.vision.calibration import Calibration
-from mearm.vision.detector import ColorDetector, Detection
+from mearm.vision.detector import ColorDetector
+from mearm.vision.inrange import detect_inrange
 from mearm.vision.paper_recipe import detect_reference
 
 PAPER_DETECT_S = 0.263  # paper §4: 12 objects, 640×480, MATLAB
@@ -147,51 +155,28 @@ def grid_scene(
     ]
 
 
-def detect_inrange(
-    frame_bgr: np.ndarray,
-    classes: Sequence[ColorClass],
-    vision: VisionConfig,
-    calibration: Calibration | None = None,
-) -> list[Detection]:
-    """The plain 8-bit OpenCV recipe, the peer the detector is timed against.
+def _taught_detector(
+    config: Config,
+    calibration: Calibration,
+    frame: np.ndarray,
+    objects: Sequence[tuple[str, float, float]],
+) -> ColorDetector:
+    """The detector with the classes' colours taught by one click each on ``frame``."""
+    from mearm.vision.teaching import Sample, teach
 
-    Per class: ``cv2.inRange`` on OpenCV's 8-bit HSV (hue in 2° bins, each band rounded
-    inwards, a wrapping band as two ranges; S and V floors in levels), a median filter,
-    ``connectedComponentsWithStats``; each region of at least ``min_area_px`` one
-    detection with its centroid, area, box and, given a calibration, its table point.
-    No exact classification, merged test or splitting; detections in the detector's
-    order (class, then row, then column).
-    """
-    hsv = cv2.cvtColor(frame_bgr, cv2.COLOR_BGR2HSV)
-    s_lo = math.ceil(255 * vision.saturation_min)
-    v_lo = math.ceil(255 * vision.value_min)
-    found: list[Detection] = []
-    for c in classes:
-        mask = np.zeros(hsv.shape[:2], np.uint8)
-        for band in c.hue_bands_deg or []:  # (a class of any colour: none; no shapes here)
-            lo, hi = band.lo_deg / 2.0, band.hi_deg / 2.0
-            for a, z in [(lo, hi)] if lo <= hi else [(lo, 180.0), (0.0, hi)]:
-                lower = np.array([math.ceil(a), s_lo, v_lo], np.uint8)
-                upper = np.array([math.floor(z), 255, 255], np.uint8)
-                mask = cv2.bitwise_or(mask, cv2.inRange(hsv, lower, upper))
-        if vision.median_kernel > 1:
-            mask = cv2.medianBlur(mask, vision.median_kernel)
-        n, _, stats, centroids = cv2.connectedComponentsWithStats(mask, connectivity=8)
-        keep = [i for i in range(1, n) if stats[i, cv2.CC_STAT_AREA] >= vision.min_area_px]
-        table = calibration.pixel_to_table(centroids[keep]) if calibration and keep else None
-        per_class = [
-            Detection(
-                c.name,
-                centroids[i],
-                int(stats[i, cv2.CC_STAT_AREA]),
-                (int(stats[i, 0]), int(stats[i, 1]), int(stats[i, 2]), int(stats[i, 3])),
-                table_cm=None if table is None else table[j],
-            )
-            for j, i in enumerate(keep)
-        ]
-        per_class.sort(key=lambda d: (d.centroid_px[1], d.centroid_px[0]))
-        found.extend(per_class)
-    return found
+    samples = []
+    for c in config.task.classes:
+        _, x, y = next(o for o in objects if o[0] == c.name)
+        (u, v), = calibration.table_to_pixel(np.array([[x, y]]))  # fmt: skip
+        samples.append(Sample(c.name, float(u), float(v)))
+    taught = teach([frame], samples)
+    classes = [
+        c.model_copy(update={"learned_colour": taught.colours[c.name]}) for c in config.task.classes
+    ]
+    vision = config.vision.model_copy(
+        update={"reference_bgr": taught.reference_bgr, "work_area_px": taught.work_area_px}
+    )
+    return ColorDetector(vision, calibration, classes)
 
 
 def run_detection_peers(repeat: int = 50, counts: Sequence[int] = PEER_COUNTS) -> list[dict]:
@@ -227,6 +212,11 @@ def run_detection_peers(repeat: int = 50, counts: Sequence[int] = PEER_COUNTS) -
     found: dict[str, int] = {}
     for n, frame in frames.items():
         recipe = lambda f: detect_inrange(f, classes, config.vision, calibration)  # noqa: E731
+        taught = _taught_detector(
+            config, calibration, frame, grid_scene(calibration, classes, n, size)
+        )
+        calls[f"taught/{n}"] = repeated(taught.detect, frame)
+        found[f"taught/{n}"] = len(taught.detect(frame))
         calls[f"mearm/{n}"] = repeated(detector.detect, frame)
         calls[f"inRange/{n}"] = repeated(recipe, frame)
         found[f"mearm/{n}"] = len(detector.detect(frame))
@@ -247,6 +237,11 @@ def run_detection_peers(repeat: int = 50, counts: Sequence[int] = PEER_COUNTS) -
         )
         rows.append((f"mearm ÷ inRange, {n} objects", us[f"mearm/{n}"] / us[f"inRange/{n}"], "x",
                      "same run"))  # fmt: skip
+        taught_note = f"one click per class; found {found[f'taught/{n}']} of {n}"
+        rows.append((f"detect {n} objects, mearm, taught colours", us[f"taught/{n}"], "µs/frame",
+                     taught_note))  # fmt: skip
+        rows.append((f"mearm taught ÷ inRange, {n} objects", us[f"taught/{n}"] / us[f"inRange/{n}"],
+                     "x", "same run"))  # fmt: skip
     lo, hi = min(counts), max(counts)
     if hi > lo:
         for key, label in (("mearm", "mearm"), ("inRange", "8-bit inRange recipe")):
@@ -350,12 +345,38 @@ def _count(text: str) -> int:
     return n
 
 
+def _print_photos(folder: Path, config: Config, *, learn: bool) -> int:
+    from mearm.tools.photo_bench import run_photo_bench
+
+    if not (folder / "manifest.yaml").is_file():
+        raise InputFileError(str(folder), "no manifest.yaml in it (the labelled photos' list)")
+    print(f"{'photos':<28} {'detector':<8} {'found':>5} {'missed':>6} {'false':>5} "
+          f"{'recall':>7} {'precision':>9}")  # fmt: skip
+    for r in run_photo_bench(folder, config, learn=learn):
+        rec = "-" if r["recall"] is None else f"{100 * r['recall']:.1f}%"
+        pre = "-" if r["precision"] is None else f"{100 * r['precision']:.1f}%"
+        print(f"{r['scope']:<28} {r['who']:<8} {r['found']:>5} {r['missed']:>6} {r['false']:>5} "
+              f"{rec:>7} {pre:>9}")  # fmt: skip
+    return 0
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Print the vision rows as a table."""
     parser = ArgumentParser(description="The detector's timings and accuracy on rendered scenes.")
     parser.add_argument("--repeat", type=_count, default=50, help="timing rounds (50)")
     parser.add_argument("--seeds", type=_count, default=3, help="noise seeds per scene (3)")
+    parser.add_argument(
+        "--photos", type=Path, metavar="DIR", help="score the labelled photos of DIR instead"
+    )
+    parser.add_argument(
+        "--learn", action="store_true", help="with --photos: teach each source from its first photo"
+    )
+    add_config_argument(parser)
     args = parser.parse_args(argv)
+    if args.learn and args.photos is None:
+        parser.error("--learn needs --photos DIR")
+    if args.photos is not None:
+        return _print_photos(args.photos, config_from_args(args), learn=args.learn)
     rows = run_vision_bench(args.repeat) + run_detection_peers(args.repeat)
     rows += run_vision_accuracy(args.seeds)
     for row in rows + run_calibration_study():

@@ -68,6 +68,7 @@ from mearm.errors import ConfigError
 from mearm.vision.calibration import Calibration, CameraGeometry, camera_geometry
 from mearm.vision.classify import PixelClassifier, and_scalar, equal_mask
 from mearm.vision.errors import ImageError
+from mearm.vision.learned import LearnedClassifier, area_mask, balance_by, gains
 from mearm.vision.pinhole import PerspectiveCamera, TopFace, TopFit
 from mearm.vision.shadows import grow_into_shadows, weak_classifier
 from mearm.vision.shapes import ClassMatcher, measure_shape, table_yaw_deg, touches_border
@@ -377,8 +378,21 @@ class ColorDetector:
         self.calibration = calibration
         self.thresholds = Thresholds.from_config(self.classes, vision)
         self.classifier = PixelClassifier(self.thresholds)
+        learned = self.thresholds.learned
+        codes = self.thresholds.codes
+        #: The learned colours' classifier (:mod:`mearm.vision.learned`), if any.
+        self.learned = (
+            LearnedClassifier({codes[n]: m for n, m in learned.items()}) if learned else None
+        )
+        self._banded = any(n not in learned for n in self.thresholds.class_names)
+        self._areas: dict[tuple[int, int], np.ndarray] = {}
         shadow = vision.shadow_value_min
-        self._weak = None if shadow is None else weak_classifier(self.thresholds, shadow)
+        # hysteresis on value is for hue bands on raw frames: not with learned colours,
+        # a reference colour or a work area
+        plain = not learned and vision.reference_bgr is None and vision.work_area_px is None
+        self._weak = (
+            None if shadow is None or not plain else weak_classifier(self.thresholds, shadow)
+        )
         #: The colours the pixels are classified into (one per class without shapes).
         self.class_names = self.thresholds.class_names
         self.matcher = ClassMatcher(self.classes)
@@ -408,6 +422,41 @@ class ColorDetector:
         """The detector of a whole config: ``task.classes``, ``vision``, ``calibration``."""
         return cls(config.vision, camera_geometry(config), config.task.classes)
 
+    def work_area(self, shape: Sequence[int]) -> np.ndarray | None:
+        """The work area's 0/255 mask for frames of ``shape`` (H, W, ...), or ``None``."""
+        if self.vision.work_area_px is None:
+            return None
+        key = (int(shape[0]), int(shape[1]))
+        if key not in self._areas:
+            self._areas[key] = area_mask(self.vision.work_area_px, key)
+        return self._areas[key]
+
+    def _classify(self, frame: np.ndarray) -> tuple[np.ndarray, tuple[int, int, int, int]]:
+        """Class codes of a frame and the box outside which all are 0 (may be loose).
+
+        The frame is white-balanced first when the config holds a reference colour, the
+        learned colours' codes take their pixels before the hue bands', and nothing
+        outside the work area is kept (:mod:`mearm.vision.learned`).
+        """
+        area = self.work_area(frame.shape)
+        ref = self.vision.reference_bgr
+        gain = None if ref is None else gains(frame, ref, area)
+        if self.learned is None and area is None:
+            balanced = frame if gain is None else balance_by(frame, gain)
+            return self.classifier.classify_with_box(balanced)
+        if self._banded:
+            balanced = frame if gain is None else balance_by(frame, gain)
+            codes, _ = self.classifier.classify_with_box(balanced)
+        else:
+            codes = np.zeros(frame.shape[:2], np.uint8)
+        if self.learned is not None:
+            taught = self.learned.classify_with_highlights(frame, gain)
+            codes = taught if not self._banded else np.where(taught > 0, taught, codes)
+        if area is not None:
+            codes = cv2.bitwise_and(codes, area)
+        x, y, w, h = cv2.boundingRect(codes)
+        return codes, (x, y, w, h)
+
     def _filtered(self, frame_bgr: np.ndarray) -> tuple[dict[str, np.ndarray], int, int]:
         """Filtered masks of the box around every classified pixel, and the box origin.
 
@@ -415,7 +464,7 @@ class ColorDetector:
         inside it gives the full frame's result exactly, for less work.
         """
         frame = check_frame(frame_bgr)
-        codes, (x, y, w, h) = self.classifier.classify_with_box(frame)
+        codes, (x, y, w, h) = self._classify(frame)
         if self._weak is not None:  # regions grown into their shadows (mearm.vision.shadows)
             weak, (x, y, w, h) = self._weak.classify_with_box(frame)
             codes = grow_into_shadows(codes, weak, len(self.class_names))

@@ -53,3 +53,17 @@ class TrackingError(MearmError):
             f"({last_s!r} s); give frames in the order they were taken, each at the time it "
             "was taken (read time minus camera.latency_s)"
         )
+
+
+class SampleError(MearmError):
+    """A colour sample that cannot teach a class (``mearm learn-colours``).
+
+    Attributes:
+        sample: The sample as given, ``CLASS=U,V``.
+        reason: What is wrong with it and what to do.
+    """
+
+    def __init__(self, sample: str, reason: str):
+        self.sample = sample
+        self.reason = reason
+        super().__init__(f"sample {sample}: {reason}")

@@ -21,9 +21,10 @@ whose floors were S, V ≥ 0.1.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from mearm.config import ColorClass, VisionConfig
+from mearm.config.classes import LearnedColour
 from mearm.errors import ConfigError
 
 #: Class codes are 1..MAX_CLASSES (0 is no class); the fast classifier keeps a flag in
@@ -42,11 +43,15 @@ class Thresholds:
             wraps through 0. Its order is the class order: class *i* has code *i* + 1.
         saturation_min: Floor on S [-], in [0, 1].
         value_min: Floor on V [-], in [0, 1].
+        learned: Per colour taught from camera frames (``learned_colour``), its model;
+            such a colour has no hue bands (its entry in ``bands_deg`` is empty) and is
+            classified by :class:`mearm.vision.learned.LearnedClassifier`.
     """
 
     bands_deg: dict[str, tuple[Band, ...]]
     saturation_min: float
     value_min: float
+    learned: dict[str, LearnedColour] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         if not self.bands_deg:
@@ -74,10 +79,17 @@ class Thresholds:
             if c.name in names:
                 raise ConfigError(None, [f"task.classes: '{c.name}' is listed twice"])
             names.add(c.name)
+        groups = colour_groups(classes)
+        by_name = {c.name: c for c in classes}
         return cls(
-            bands_deg={name: bands for name, (bands, _) in colour_groups(classes).items()},
+            bands_deg={name: bands for name, (bands, _) in groups.items()},
             saturation_min=float(vision.saturation_min),
             value_min=float(vision.value_min),
+            learned={
+                name: model
+                for name in groups
+                if (model := by_name[name].learned_colour) is not None
+            },
         )
 
     @property
@@ -96,7 +108,12 @@ ANY_HUE: tuple[Band, ...] = ((0.0, 360.0),)
 
 
 def class_bands(color_class: ColorClass) -> tuple[Band, ...] | None:
-    """A class's hue bands ``(lo, hi)`` [deg], or ``None`` for a class of any colour."""
+    """A class's hue bands ``(lo, hi)`` [deg], or ``None`` for a class of any colour.
+
+    A class with a learned colour has none: ``()``.
+    """
+    if color_class.learned_colour is not None:
+        return ()
     if color_class.hue_bands_deg is None:
         return None
     return tuple((float(b.lo_deg), float(b.hi_deg)) for b in color_class.hue_bands_deg)
@@ -107,20 +124,24 @@ def colour_groups(
 ) -> dict[str, tuple[tuple[Band, ...], tuple[str, ...]]]:
     """The colours of ``classes``: per colour's name, its bands and its classes' names.
 
-    Classes with equal bands are one colour, named after the first; the classes of any
+    Classes with equal bands (or equal learned colours) are one colour, named after the
+    first; the classes of any
     colour (no bands) are one more, last, with the band :data:`ANY_HUE` (it gets only the
     pixels no other colour takes). Without shapes and with distinct bands (the paper's
     classes) every class is its own colour, under its own name.
     """
-    groups: dict[tuple[Band, ...], list[str]] = {}
+    groups: dict[tuple[Band, ...] | LearnedColour, list[str]] = {}
     anyhue: list[str] = []
     for c in classes:
         bands = class_bands(c)
         if bands is None:
             anyhue.append(c.name)
         else:
-            groups.setdefault(bands, []).append(c.name)
-    out = {names[0]: (bands, tuple(names)) for bands, names in groups.items()}
+            groups.setdefault(c.learned_colour or bands, []).append(c.name)
+    out = {
+        names[0]: (() if isinstance(key, LearnedColour) else key, tuple(names))
+        for key, names in groups.items()
+    }
     if anyhue:
         out[anyhue[0]] = (ANY_HUE, tuple(anyhue))
     return out

@@ -1,0 +1,254 @@
+r"""``mearm learn-colours``: teach each class its colour from the camera's own frames.
+
+Click once on an object of each class (or give the pixel), and the class's colour is
+fitted from the pixels there (:mod:`mearm.vision.teaching`): an ellipse in CIELAB's
+a*b* plane with a lightness range, on frames white-balanced against the table. The new
+config extends the old one with the learned colours, the table's median colour (each
+frame is balanced to it: a lamp or the camera's auto white balance does not move the
+colours) and the work area (the table's outline found around the samples, or
+``--work-area``); ``mearm detect --config NEW.yaml`` uses them. ::
+
+    mearm learn-colours frame.png --sample red=212,340 --sample blue=400,236 \
+        --config sim --out mine.yaml
+    mearm learn-colours --camera --pick --config lab.yaml --out lab_learned.yaml
+
+``--sample CLASS=U,V`` (repeatable; ``CLASS=U,V@I`` for the I-th image, from 0) names a
+pixel of an object of the class; ``--pick`` shows the first frame and asks for a click
+on each class in turn (needs a display). A class not sampled keeps its hue bands.
+
+Refused (exit 2, one line): a sample outside its image, a class the config does not
+have, two classes sampled on one colour, a sample on a grey or black pixel.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import re
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from mearm.cli import ArgumentParser, check_output_file, run, write_text_atomic
+from mearm.config import Config
+from mearm.config.files import load_config, resolve_config_path
+from mearm.errors import MearmError
+from mearm.vision.calibration import camera_geometry
+from mearm.vision.image import read_image
+from mearm.vision.teaching import Sample, Taught, teach
+
+_SAMPLE = re.compile(r"^([^=\s]+)=([-+0-9.eE]+),([-+0-9.eE]+)(?:@(\d+))?$")
+
+
+def parse_sample(text: str) -> Sample:
+    """``CLASS=U,V`` or ``CLASS=U,V@I`` as a :class:`Sample` (ValueError if malformed)."""
+    m = _SAMPLE.match(text.strip())
+    if m is None:
+        raise ValueError(f"--sample {text!r}: expected CLASS=U,V (e.g. red=212,340)")
+    u, v = float(m.group(2)), float(m.group(3))
+    if not (math.isfinite(u) and math.isfinite(v)):
+        raise ValueError(f"--sample {text!r}: U and V must be finite pixels")
+    return Sample(m.group(1), u, v, int(m.group(4) or 0))
+
+
+def parse_point(text: str) -> tuple[float, float]:
+    """``U,V`` as a pixel (ValueError if malformed)."""
+    parts = text.split(",")
+    try:
+        u, v = (float(p) for p in parts)
+    except ValueError:
+        raise ValueError(f"--work-area {text!r}: expected U,V pixels") from None
+    if not (math.isfinite(u) and math.isfinite(v)):
+        raise ValueError(f"--work-area {text!r}: U and V must be finite")
+    return u, v
+
+
+def object_size_px(config: Config, shape: Sequence[int]) -> float:
+    """About one object's width [px] at the frame's centre, through the calibration."""
+    diameter = max(c.diameter_cm for c in config.task.classes)
+    centre = np.array([[shape[1] / 2.0, shape[0] / 2.0]])
+    try:
+        area = float(camera_geometry(config).expected_disc_area_px(centre, diameter)[0])
+    except MearmError:
+        return 32.0
+    return 2.0 * math.sqrt(area / math.pi) if math.isfinite(area) and area > 0 else 32.0
+
+
+def pick_samples(frame: np.ndarray, names: Sequence[str]) -> list[Sample]:
+    """Ask for one click on an object of each class on ``frame`` (an OpenCV window)."""
+    import cv2
+
+    clicked: list[tuple[int, int]] = []
+
+    def on_mouse(event: int, x: int, y: int, *_: Any) -> None:
+        if event == cv2.EVENT_LBUTTONDOWN:
+            clicked.append((x, y))
+
+    title = "mearm learn-colours"
+    try:
+        cv2.namedWindow(title)
+        cv2.setMouseCallback(title, on_mouse)
+    except cv2.error:
+        raise MearmError("--pick needs a display (give --sample CLASS=U,V instead)") from None
+    out = []
+    try:
+        for name in names:
+            shown = frame.copy()
+            cv2.putText(
+                shown,
+                f"click on a {name} object (Esc: skip)",
+                (10, 24),
+                cv2.FONT_HERSHEY_SIMPLEX,
+                0.6,
+                (255, 255, 255),
+                2,
+            )
+            clicked.clear()
+            while not clicked:
+                cv2.imshow(title, shown)
+                if cv2.waitKey(30) == 27:
+                    break
+            if clicked:
+                out.append(Sample(name, float(clicked[0][0]), float(clicked[0][1])))
+    finally:
+        cv2.destroyWindow(title)
+    return out
+
+
+def learned_yaml(base: str, taught: Taught) -> dict:
+    """The new config's data: ``extends`` the old one, with what was learned."""
+    vision: dict[str, Any] = {"reference_bgr": [round(v, 2) for v in taught.reference_bgr]}
+    if taught.work_area_px is not None:
+        vision["work_area_px"] = [[round(u, 1), round(v, 1)] for u, v in taught.work_area_px]
+    classes = {}
+    for name, m in taught.colours.items():
+        classes[name] = {
+            "learned_colour": {
+                "ab_mean": [round(v, 3) for v in m.ab_mean],
+                "ab_cov": [round(v, 3) for v in m.ab_cov],
+                "lightness": [round(v, 2) for v in m.lightness],
+                "max_distance": round(m.max_distance, 3),
+                "chroma_min": round(m.chroma_min, 2),
+            }
+        }
+    return {"extends": base, "vision": vision, "task": {"classes": classes}}
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Teach the classes their colours and write the new config; see the module docstring."""
+    parser = ArgumentParser(
+        prog="mearm learn-colours",
+        description="Teach each class its colour from clicks on the camera's own frames.",
+        epilog="Exit status: 0 written, 2 bad input (one line on stderr).",
+    )
+    parser.add_argument(
+        "images", nargs="*", type=Path, metavar="IMAGE", help="frames to learn from"
+    )
+    parser.add_argument("--config", type=str, required=True, help="the config to extend")
+    parser.add_argument(
+        "--out", type=Path, required=True, metavar="NEW.yaml", help="config to write"
+    )
+    parser.add_argument(
+        "--sample",
+        action="append",
+        default=[],
+        metavar="CLASS=U,V",
+        help="a pixel on an object of CLASS (repeatable; CLASS=U,V@I: image I)",
+    )
+    parser.add_argument(
+        "--camera", action="store_true", help="learn from one frame of the config's camera"
+    )
+    parser.add_argument("--pick", action="store_true", help="click the samples on the first frame")
+    parser.add_argument(
+        "--radius",
+        type=float,
+        default=4.0,
+        metavar="PX",
+        help="pixels within this of a sample are its colour (default 4)",
+    )
+    parser.add_argument(
+        "--work-area",
+        nargs="+",
+        default=None,
+        metavar="U,V",
+        help="the work area's polygon in pixels (default: the table found)",
+    )
+    parser.add_argument("--whole-frame", action="store_true", help="no work area: the whole frame")
+    args = parser.parse_args(argv)
+    if bool(args.images) == args.camera:
+        parser.error("give IMAGE paths or --camera (one of the two)")
+    if not args.sample and not args.pick:
+        parser.error("give at least one --sample CLASS=U,V, or --pick")
+    if not 0.5 <= args.radius <= 50 or not math.isfinite(args.radius):
+        parser.error(f"--radius must be from 0.5 to 50 px, got {args.radius:g}")
+    if args.work_area is not None and args.whole_frame:
+        parser.error("give --work-area or --whole-frame, not both")
+    try:
+        samples = [parse_sample(s) for s in args.sample]
+        area = None if args.work_area is None else [parse_point(p) for p in args.work_area]
+    except ValueError as exc:
+        parser.error(str(exc))
+    if area is not None and len(area) < 3:
+        parser.error(f"--work-area needs at least 3 points, got {len(area)}")
+    check_output_file(args.out, "--out")
+    config = load_config(args.config)
+    names = config.task.class_names
+    for s in samples:
+        if s.name not in names:
+            raise MearmError(
+                f"sample {s}: no class '{s.name}' in {args.config} (classes: {', '.join(names)})"
+            )
+        if s.image >= max(1, len(args.images)):
+            raise MearmError(f"sample {s}: there is no image {s.image} (images from 0)")
+    if args.camera:
+        from mearm.backends import open_camera
+
+        with open_camera(config) as camera:
+            frames = [camera.read()]
+        sources = ["camera"]
+    else:
+        frames = [read_image(p) for p in args.images]
+        sources = [str(p) for p in args.images]
+    if args.pick:
+        samples += pick_samples(frames[0], [n for n in names if n not in {s.name for s in samples}])
+    taught = teach(
+        frames,
+        samples,
+        radius_px=args.radius,
+        object_px=object_size_px(config, frames[0].shape),
+        work_area_px=area,
+        find_area=not args.whole_frame,
+    )
+    given = Path(args.config)
+    base = (
+        os.path.relpath(resolve_config_path(args.config).resolve(), args.out.resolve().parent)
+        if given.exists()
+        else args.config
+    )
+    import yaml
+
+    head = f"# mearm learn-colours: {' '.join(sources)}; samples {' '.join(map(str, samples))}\n"
+    write_text_atomic(
+        args.out,
+        head + yaml.safe_dump(learned_yaml(base, taught), sort_keys=False, default_flow_style=None),
+    )
+    load_config(args.out)  # what was written loads, or exit 2 naming it
+    for name, m in taught.colours.items():
+        print(
+            f"{name}: a*b* ({m.ab_mean[0]:.1f}, {m.ab_mean[1]:.1f}), chroma >= {m.chroma_min:.1f}, "
+            f"L* {m.lightness[0]:.0f}-{m.lightness[1]:.0f}, radius {m.max_distance:.2f}"
+        )
+    where = (
+        "whole frame"
+        if taught.work_area_px is None
+        else f"{len(taught.work_area_px)}-point polygon"
+    )
+    print(f"table L*a*b* ({', '.join(f'{v:.1f}' for v in taught.table_lab)}); work area: {where}")
+    print(f"wrote {args.out}")
+    return 0
+
+
+if __name__ == "__main__":
+    run(main)

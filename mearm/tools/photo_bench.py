@@ -1,0 +1,234 @@
+"""Detection on labelled real photos: recall and precision per image and class.
+
+A folder of photos with a ``manifest.yaml`` (per image: ``file``, ``source_repo``,
+``shapes`` with the objects' size as ``~N px``, ``objects`` per class with their
+``centres`` [px], optional ``partial`` regions ``x A-B, y C-D`` whose detections are not
+counted) is scored as a user's camera would see it: each photo scaled so its objects
+are :data:`OBJECT_PX` across (2 cm under the paper's calibration), the detector of a
+config and the 8-bit ``inRange`` recipe run on it, and each detection matched to the
+nearest unmatched labelled object of its class within half an object. A detection that
+matches none (another colour's object, a distractor, a wrong class) is a false
+positive; a labelled object no detection matches is missed.
+
+With ``learn``, each source's colours are taught from its first photo as a user teaches
+them: one click per class, on the first labelled object of that class (moved to its most
+coloured pixel within half an object when the centre is grey: a blown-out top),
+and the photos are scored with the config that makes.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from mearm.config import Config
+from mearm.errors import InputFileError
+from mearm.vision.calibration import Calibration, camera_geometry
+from mearm.vision.detector import ColorDetector, Detection
+from mearm.vision.image import read_image
+from mearm.vision.inrange import detect_inrange
+from mearm.vision.learned import CHROMA_MIN, chroma, lab_of
+from mearm.vision.teaching import Sample, teach
+from mearm.yamlio import load_yaml_file
+
+#: Each photo is scaled so that its objects are this many pixels across [px].
+OBJECT_PX = 32.0
+
+
+@dataclass(frozen=True)
+class Photo:
+    """One labelled photo, scaled: its frame, labelled centres per class, ignored boxes."""
+
+    name: str
+    source: str
+    frame: np.ndarray = field(repr=False)
+    centres: dict[str, np.ndarray] = field(repr=False)
+    ignore: list[tuple[float, float, float, float]] = field(repr=False)
+
+
+@dataclass
+class Score:
+    """Counts of one detector on one photo, per class: found, missed, false."""
+
+    found: dict[str, int] = field(default_factory=dict)
+    missed: dict[str, int] = field(default_factory=dict)
+    false: dict[str, int] = field(default_factory=dict)
+
+    def add(self, other: Score) -> None:
+        """Add ``other``'s counts to these."""
+        for mine, theirs in (
+            (self.found, other.found),
+            (self.missed, other.missed),
+            (self.false, other.false),
+        ):
+            for k, v in theirs.items():
+                mine[k] = mine.get(k, 0) + v
+
+    def totals(self) -> tuple[int, int, int]:
+        """(found, missed, false) over every class."""
+        return sum(self.found.values()), sum(self.missed.values()), sum(self.false.values())
+
+
+def _size_px(entry: dict) -> float:
+    match = re.search(r"~\s*(\d+)(?:\s*-\s*(\d+))?\s*px", str(entry.get("shapes", "")))
+    if match is None:
+        raise InputFileError(str(entry.get("file")), "its 'shapes' gives no object size (~N px)")
+    lo, hi = match.group(1), match.group(2) or match.group(1)
+    return (float(lo) + float(hi)) / 2.0
+
+
+def _boxes(entry: dict, scale: float) -> list[tuple[float, float, float, float]]:
+    out = []
+    for p in entry.get("partial") or []:
+        m = re.search(r"x\s*(\d+)\s*-\s*(\d+),\s*y\s*(\d+)\s*-\s*(\d+)", str(p.get("region", "")))
+        if m:
+            x0, x1, y0, y1 = (float(g) * scale for g in m.groups())
+            out.append((x0, x1, y0, y1))
+    return out
+
+
+def load_photos(folder: Path) -> list[Photo]:
+    """The labelled photos of ``folder`` (its ``manifest.yaml``), scaled to :data:`OBJECT_PX`."""
+    manifest = load_yaml_file(folder / "manifest.yaml")
+    if not isinstance(manifest, dict) or not isinstance(manifest.get("images"), list):
+        raise InputFileError(str(folder / "manifest.yaml"), "expected a mapping with 'images'")
+    photos = []
+    for entry in manifest["images"]:
+        frame = read_image(folder / str(entry["file"]))
+        scale = OBJECT_PX / _size_px(entry)
+        frame = cv2.resize(frame, None, fx=scale, fy=scale, interpolation=cv2.INTER_AREA)
+        centres = {
+            str(name): np.asarray(obj.get("centres") or [], dtype=float).reshape(-1, 2) * scale
+            for name, obj in (entry.get("objects") or {}).items()
+        }
+        photos.append(
+            Photo(
+                str(entry["file"]),
+                str(entry.get("source_repo", "")),
+                frame,
+                centres,
+                _boxes(entry, scale),
+            )
+        )
+    return photos
+
+
+def score(photo: Photo, found: Sequence[Detection]) -> Score:
+    """Match detections to the photo's labels (class, within half an object)."""
+    out = Score()
+    left = {k: list(range(len(v))) for k, v in photo.centres.items()}
+    for k in photo.centres:
+        out.found[k] = out.missed[k] = out.false[k] = 0
+    for d in found:
+        u, v = d.centroid_px
+        if any(x0 <= u <= x1 and y0 <= v <= y1 for x0, x1, y0, y1 in photo.ignore):
+            continue
+        labels = photo.centres.get(d.color, np.zeros((0, 2)))
+        free = left.get(d.color, [])
+        dist = [float(np.hypot(*(labels[i] - (u, v)))) for i in free]
+        if dist and min(dist) <= OBJECT_PX / 2:
+            free.pop(int(np.argmin(dist)))
+            out.found[d.color] = out.found.get(d.color, 0) + 1
+        else:
+            out.false[d.color] = out.false.get(d.color, 0) + 1
+    for k, free in left.items():
+        out.missed[k] += len(free)
+    return out
+
+
+def _click(photo: Photo, name: str) -> Sample:
+    """One click on the first labelled object of class ``name``.
+
+    At its centre, or at its most coloured pixel within half an object when the centre is
+    grey (a blown-out top): where a user would click.
+    """
+    u, v = photo.centres[name][0]
+    r = int(OBJECT_PX / 2)
+    h, w = photo.frame.shape[:2]
+    y0, y1, x0, x1 = (
+        max(int(v) - r, 0),
+        min(int(v) + r + 1, h),
+        max(int(u) - r, 0),
+        min(int(u) + r + 1, w),
+    )
+    c = cv2.blur(chroma(lab_of(photo.frame[y0:y1, x0:x1])).astype(np.float32), (5, 5))
+    if c[int(v) - y0, int(u) - x0] >= 2 * CHROMA_MIN:
+        return Sample(name, float(u), float(v))
+    j, i = np.unravel_index(int(np.argmax(c)), c.shape)
+    return Sample(name, float(x0 + i), float(y0 + j))
+
+
+def learned_config(config: Config, photo: Photo) -> Config:
+    """``config`` with the colours taught by one click per class on ``photo``."""
+    names = [n for n, c in photo.centres.items() if len(c) and n in config.task.class_names]
+    taught = teach([photo.frame], [_click(photo, n) for n in names], object_px=OBJECT_PX)
+    classes = [
+        c.model_copy(update={"learned_colour": taught.colours[c.name]})
+        if c.name in taught.colours
+        else c
+        for c in config.task.classes
+    ]
+    vision = config.vision.model_copy(
+        update={"reference_bgr": taught.reference_bgr, "work_area_px": taught.work_area_px}
+    )
+    return config.model_copy(
+        update={"vision": vision, "task": config.task.model_copy(update={"classes": classes})}
+    )
+
+
+def _detectors(config: Config) -> dict[str, Callable[[np.ndarray], Sequence[Detection]]]:
+    cal = camera_geometry(config)
+    detector = ColorDetector(config.vision, cal, config.task.classes)
+    plain = cal if isinstance(cal, Calibration) else None
+    return {
+        "mearm": detector.detect,
+        "inRange": lambda f: detect_inrange(f, config.task.classes, config.vision, plain),
+    }
+
+
+def run_photo_bench(folder: Path, config: Config, *, learn: bool = False) -> list[dict]:
+    """Recall and precision of the detector and the ``inRange`` recipe on labelled photos.
+
+    Rows per photo and per class (``scope``) and over all, for each detector (``who``):
+    found, missed, false, recall, precision. With ``learn`` the detector's config is
+    taught per source from its first photo (:func:`learned_config`); the recipe keeps the
+    config's hue bands (it has no learned colours).
+    """
+    photos = load_photos(folder)
+    firsts: dict[str, Photo] = {}
+    for p in photos:
+        firsts.setdefault(p.source, p)
+    plain = _detectors(config)
+    taught = {s: _detectors(learned_config(config, p))["mearm"] for s, p in firsts.items()}
+    totals: dict[str, Score] = {"mearm": Score(), "inRange": Score()}
+    rows = []
+    for p in photos:
+        runs = {"mearm": taught[p.source] if learn else plain["mearm"], "inRange": plain["inRange"]}
+        for who, detect in runs.items():
+            s = score(p, detect(p.frame))
+            totals[who].add(s)
+            rows.append(_row(p.name, who, s))
+    for who, s in totals.items():
+        for name in s.found:
+            one = Score({name: s.found[name]}, {name: s.missed[name]}, {name: s.false[name]})
+            rows.append(_row(f"all photos, {name}", who, one))
+        rows.append(_row("all photos", who, s))
+    return rows
+
+
+def _row(scope: str, who: str, s: Score) -> dict:
+    found, missed, false = s.totals()
+    return {
+        "scope": scope,
+        "who": who,
+        "found": found,
+        "missed": missed,
+        "false": false,
+        "recall": found / (found + missed) if found + missed else None,
+        "precision": found / (found + false) if found + false else None,
+    }

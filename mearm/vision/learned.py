@@ -1,0 +1,265 @@
+r"""Colours taught from camera frames: colour constancy, CIELAB ellipses, a work area.
+
+A webcam's hues move with its white balance and exposure, and the HSV bands typed into a
+config do not hold on its pixels (orange and pink fall into red's band, a blown-out
+yellow top into none). Here a class's colour is fitted from pixels a user picks on the
+camera's own frames (``mearm learn-colours``) and classified in CIELAB, where equal
+distances are roughly equal perceived differences:
+
+- *Colour constancy.* Each frame's channels are scaled (von Kries) so that its median
+  colour inside the work area matches the one the colours were learned under
+  (``vision.reference_bgr``): a lamp, a brighter day or a camera's auto white balance
+  moves the table and the objects alike, and the gains undo it. A gain on 8-bit sRGB is
+  a gain on the linear light too ((g·x)^γ = g^γ·x^γ), so this is white balance, not a
+  curve.
+- *The model.* A colour is an ellipse in the chroma plane (a*, b*) — the samples' mean
+  and covariance, widened to a floor so that one click's few pixels still give a usable
+  spread — with the lightness L* handled apart, as a range: shading moves L* far more
+  than it moves a*b*. A pixel is of the colour when its Mahalanobis distance to the
+  ellipse is at most ``max_distance``, its L* is in range and its chroma reaches 0.65 of the
+  samples' (a shadow or glare on a white table is faintly tinted, never that much); where
+  two colours claim a pixel the nearer wins. What lies in no ellipse is no class: an
+  orange cube is not red.
+- *Highlights.* A blown-out pixel (a channel clipped) keeps only a faint tint; it joins
+  a region of the colour whose hue it has that it touches, so a yellow cube whose top is
+  blown out to white is found whole from its yellow edges.
+- *The work area.* Nothing outside ``vision.work_area_px`` is classified.
+
+Classification is one table look-up per pixel: the frame's colour, with the gains
+applied and 6 bits a channel, indexes a table of class codes built once per detector.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+
+import cv2
+import numpy as np
+import numpy.typing as npt
+
+from mearm.config.classes import LearnedColour
+from mearm.vision.classify import and_scalar
+from mearm.vision.shadows import grow_into_shadows
+
+#: Smallest spread of a learned colour in a* and b* [-]: one click's pixels are nearly
+#: one colour, and an object's shaded sides and the camera's noise spread more.
+AB_SIGMA_MIN = 5.0
+#: How far below and above its samples' lightness a colour reaches [L*]: an object's
+#: sides are darker than its top, a highlight lighter.
+LIGHTNESS_MARGIN = 20.0
+#: Lowest lightness any learned colour takes [L*]: below it no hue is measurable.
+LIGHTNESS_MIN = 6.0
+#: A learned colour's Mahalanobis radius [-].
+MAX_DISTANCE = 3.0
+#: Smallest chroma a sample may have [-]: below it the pixel is grey, white or black.
+CHROMA_MIN = 12.0
+#: A learned colour accepts chroma down to this share of its samples' median chroma
+#: (chosen on the development photos, docs/vision.md: 0.5 let bluish shadows in).
+CHROMA_SHARE = 0.65
+#: Largest gain colour constancy applies to a channel (and smallest, its inverse).
+MAX_GAIN = 4.0
+#: Every this-many-th row and column gives the frame's median colour.
+MEDIAN_STRIDE = 8
+#: A blown-out pixel joins a region of a colour whose hue it has within this [deg] …
+HIGHLIGHT_HUE_DEG = 30.0
+#: … when its chroma reaches this [-].
+HIGHLIGHT_CHROMA = 4.0
+#: The flag, in the classifier's table, of a blown-out colour that may join a region.
+HIGHLIGHT = 0x80
+#: Bits of each channel the learned classifier's table is indexed by.
+COLOUR_BITS = 6
+
+
+def lab_of(pixels_bgr: npt.ArrayLike) -> np.ndarray:
+    """CIELAB (L* in [0, 100], a*, b*) of 8-bit BGR pixels, float, shape (..., 3)."""
+    px = np.asarray(pixels_bgr, dtype=np.uint8)
+    flat = px.reshape(1, -1, 3).astype(np.float32) / 255.0
+    return cv2.cvtColor(flat, cv2.COLOR_BGR2Lab).reshape(px.shape).astype(float)
+
+
+def chroma(lab: npt.ArrayLike) -> np.ndarray:
+    """Chroma √(a*² + b*²) of CIELAB colours (..., 3) [-]."""
+    c = np.asarray(lab, dtype=float)
+    return np.hypot(c[..., 1], c[..., 2])
+
+
+def fit_colour(lab: npt.ArrayLike, *, max_distance: float = MAX_DISTANCE) -> LearnedColour:
+    """The colour of sample pixels: their a*b* ellipse and lightness range.
+
+    Args:
+        lab: The samples' CIELAB colours, (N, 3), N ≥ 1.
+        max_distance: The ellipse's Mahalanobis radius [-].
+    """
+    c = np.asarray(lab, dtype=float).reshape(-1, 3)
+    ab = c[:, 1:]
+    mean = ab.mean(axis=0)
+    cov = np.cov(ab.T) if len(ab) > 2 else np.zeros((2, 2))
+    cov = cov + AB_SIGMA_MIN**2 * np.eye(2)
+    lo, hi = np.percentile(c[:, 0], [5, 95])
+    return LearnedColour(
+        ab_mean=(float(mean[0]), float(mean[1])),
+        ab_cov=(float(cov[0, 0]), float(cov[0, 1]), float(cov[1, 1])),
+        lightness=(
+            float(max(LIGHTNESS_MIN, lo - LIGHTNESS_MARGIN)),
+            float(min(100.0, hi + LIGHTNESS_MARGIN)),
+        ),
+        max_distance=max_distance,
+        chroma_min=float(max(CHROMA_MIN, CHROMA_SHARE * np.median(chroma(c)))),
+    )
+
+
+def distance(model: LearnedColour, lab: npt.ArrayLike) -> np.ndarray:
+    """Mahalanobis distance of CIELAB colours (..., 3) to a colour's a*b* ellipse [-]."""
+    c = np.asarray(lab, dtype=float)
+    saa, sab, sbb = model.ab_cov
+    det = saa * sbb - sab * sab
+    da, db = c[..., 1] - model.ab_mean[0], c[..., 2] - model.ab_mean[1]
+    return np.sqrt(np.maximum((sbb * da * da - 2 * sab * da * db + saa * db * db) / det, 0.0))
+
+
+def accepts(model: LearnedColour, lab: npt.ArrayLike) -> np.ndarray:
+    """Whether CIELAB colours (..., 3) are of the colour: in its ellipse and lightness."""
+    c = np.asarray(lab, dtype=float)
+    lo, hi = model.lightness
+    inside = (distance(model, c) <= model.max_distance) & (chroma(c) >= model.chroma_min)
+    return inside & (c[..., 0] >= lo) & (c[..., 0] <= hi)
+
+
+def area_mask(polygon_px: Sequence[tuple[float, float]] | None, shape: Sequence[int]) -> np.ndarray:
+    """0/255 uint8 mask (H, W) of a work-area polygon (u, v) [px]; all 255 for ``None``."""
+    h, w = int(shape[0]), int(shape[1])
+    if polygon_px is None:
+        return np.full((h, w), 255, np.uint8)
+    mask = np.zeros((h, w), np.uint8)
+    pts = np.round(np.asarray(polygon_px, dtype=float)).astype(np.int32)
+    cv2.fillPoly(mask, [pts], 255)
+    return mask
+
+
+def median_bgr(frame_bgr: np.ndarray, mask: np.ndarray | None = None) -> np.ndarray:
+    """The median colour (B, G, R) of a frame's pixels inside ``mask``, (3,).
+
+    Read on every :data:`MEDIAN_STRIDE`-th row and column; the whole frame's if the mask
+    is empty.
+    """
+    sub = frame_bgr[::MEDIAN_STRIDE, ::MEDIAN_STRIDE].reshape(-1, 3)
+    if mask is not None:
+        inside = mask[::MEDIAN_STRIDE, ::MEDIAN_STRIDE].reshape(-1) > 0
+        if inside.any():
+            sub = sub[inside]
+    return np.median(sub, axis=0)
+
+
+def gains(
+    frame_bgr: np.ndarray, reference_bgr: Sequence[float], mask: np.ndarray | None = None
+) -> np.ndarray:
+    """Per-channel gains (3,) that take the frame's median (in ``mask``) to ``reference_bgr``.
+
+    Held within [1/:data:`MAX_GAIN`, :data:`MAX_GAIN`].
+    """
+    med = np.maximum(median_bgr(frame_bgr, mask), 1.0)
+    return np.clip(np.asarray(reference_bgr, dtype=float) / med, 1.0 / MAX_GAIN, MAX_GAIN)
+
+
+def _channel_lut(gain: np.ndarray, shift: int = 0) -> np.ndarray:
+    """OpenCV's 3-channel look-up table (256, 1, 3) uint8.
+
+    Each level times its channel's gain, clipped, then shifted right by ``shift`` bits.
+    """
+    levels = np.clip(np.round(np.arange(256, dtype=float)[:, None] * gain[None, :]), 0, 255)
+    return (levels.astype(np.uint8) >> shift).reshape(256, 1, 3)
+
+
+def balance(
+    frame_bgr: np.ndarray, reference_bgr: Sequence[float], mask: np.ndarray | None = None
+) -> np.ndarray:
+    """``frame_bgr`` with each channel scaled so its median (in ``mask``) is ``reference_bgr``.
+
+    The gains are :func:`gains`'; values clip at 255.
+    """
+    return balance_by(frame_bgr, gains(frame_bgr, reference_bgr, mask))
+
+
+def balance_by(frame_bgr: np.ndarray, gain: npt.ArrayLike) -> np.ndarray:
+    """``frame_bgr`` with each channel times its gain (B, G, R), clipped at 255."""
+    return cv2.LUT(frame_bgr, _channel_lut(np.asarray(gain, dtype=float)))
+
+
+class LearnedClassifier:
+    """Class codes of the learned colours, one table look-up per pixel.
+
+    The table is indexed by the pixel's colour with :data:`COLOUR_BITS` bits a channel
+    (after the frame's gains): each of its 2^18 colours is classified once, at the
+    centre of its cell, when the classifier is made; a frame is then a per-channel
+    look-up (gains and quantisation at once), a reinterpretation of each pixel's bytes
+    as one integer, and a gather.
+
+    Args:
+        models: Per colour's code (1…), its learned colour.
+    """
+
+    def __init__(self, models: Mapping[int, LearnedColour]):
+        self.models = dict(models)
+        step = 1 << (8 - COLOUR_BITS)
+        levels = np.arange(1 << COLOUR_BITS)
+        b, g, r = np.meshgrid(levels, levels, levels, indexing="ij")
+        centre = (np.stack([b, g, r], axis=-1) * step + (step - 1) / 2.0).reshape(-1, 3)
+        flat = (centre / 255.0).astype(np.float32).reshape(1, -1, 3)
+        lab = cv2.cvtColor(flat, cv2.COLOR_BGR2Lab).reshape(-1, 3).astype(float)
+        best = np.full(len(lab), np.inf)
+        codes = np.zeros(len(lab), np.uint8)
+        for code, model in self.models.items():
+            d = np.where(accepts(model, lab), distance(model, lab), np.inf)
+            nearer = d < best
+            codes[nearer], best[nearer] = code, d[nearer]
+        # blown-out pixels: a channel clipped, the hue of a colour, a little chroma
+        clipped = centre.max(axis=1) >= 255 - step
+        hue = np.arctan2(lab[:, 2], lab[:, 1])
+        c = chroma(lab)
+        highlight = np.zeros(len(lab), np.uint8)
+        for code, model in self.models.items():
+            h0 = np.arctan2(model.ab_mean[1], model.ab_mean[0])
+            near = np.abs(np.angle(np.exp(1j * (hue - h0)))) <= np.radians(HIGHLIGHT_HUE_DEG)
+            highlight[clipped & near & (c >= HIGHLIGHT_CHROMA) & (codes == 0)] = code
+        # the index of colour (b, g, r): its bytes b, g, r, 0 read as one little-endian int
+        index = (b | (g << 8) | (r << 16)).reshape(-1)
+        # one byte a colour: its code, or HIGHLIGHT | the code of the colour it may join
+        self._lut = np.zeros(1 << (16 + COLOUR_BITS), np.uint8)
+        self._lut[index] = np.where(
+            codes > 0, codes, np.where(highlight > 0, HIGHLIGHT | highlight, 0)
+        )
+
+    def classify(self, frame_bgr: np.ndarray, gain: npt.ArrayLike | None = None) -> np.ndarray:
+        """Class codes (0: none) of an 8-bit BGR frame, uint8 (H, W).
+
+        Args:
+            frame_bgr: The frame, (H, W, 3) uint8.
+            gain: Per-channel gains (B, G, R) to apply first (:func:`gains`); ``None``: 1.
+        """
+        looked_up = self._lut.take(self._index(frame_bgr, gain))
+        return cv2.threshold(looked_up, HIGHLIGHT - 1, 0, cv2.THRESH_TOZERO_INV)[1]
+
+    def classify_with_highlights(
+        self, frame_bgr: np.ndarray, gain: npt.ArrayLike | None = None
+    ) -> np.ndarray:
+        """Class codes as :meth:`classify`, each region grown into its blown-out pixels.
+
+        A pixel with a channel clipped (a highlight, a top blown out to white) keeps a
+        faint tint of its colour's hue: such a pixel, within :data:`HIGHLIGHT_HUE_DEG`
+        of a colour's hue and of chroma at least :data:`HIGHLIGHT_CHROMA`, joins a region
+        of that colour it touches (:func:`mearm.vision.shadows.grow_into_shadows`: a
+        highlight alone never becomes an object).
+        """
+        looked_up = self._lut.take(self._index(frame_bgr, gain))
+        strong = cv2.threshold(looked_up, HIGHLIGHT - 1, 0, cv2.THRESH_TOZERO_INV)[1]
+        if not cv2.countNonZero(cv2.compare(looked_up, strong, cv2.CMP_NE)):
+            return strong
+        weak = and_scalar(looked_up, HIGHLIGHT - 1)
+        return grow_into_shadows(strong, weak, max(self.models, default=0))
+
+    def _index(self, frame_bgr: np.ndarray, gain: npt.ArrayLike | None) -> np.ndarray:
+        """Each pixel's index in the tables, uint32 (H, W)."""
+        g = np.ones(3) if gain is None else np.asarray(gain, dtype=float)
+        quantised = cv2.LUT(frame_bgr, _channel_lut(g, 8 - COLOUR_BITS))
+        packed = cv2.cvtColor(quantised, cv2.COLOR_BGR2BGRA)  # alpha 255: masked off below
+        return packed.view(np.uint32).reshape(frame_bgr.shape[:2]) & np.uint32(0x00FFFFFF)

@@ -1,0 +1,237 @@
+"""Teaching colours: a class's colour fitted from pixels a user picks on camera frames.
+
+The user clicks once (or more) on an object of each class (``mearm learn-colours``);
+the pixels within a few pixels of each click, on the white-balanced frame, give the
+class's CIELAB ellipse (:func:`mearm.vision.learned.fit_colour`). The table is found
+around the samples: the frame's pixels near the colour just outside them, the largest
+such region's outline is the work area unless the user gives one, and each colour's
+ellipse is narrowed to keep the table's colour out. A sample that cannot teach is
+refused (:class:`~mearm.vision.errors.SampleError`): outside the image, on a grey or
+black pixel, or two classes sampled on one colour.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from mearm.config.classes import LearnedColour
+from mearm.vision.errors import SampleError
+from mearm.vision.learned import (
+    CHROMA_MIN,
+    LIGHTNESS_MIN,
+    area_mask,
+    balance,
+    chroma,
+    distance,
+    fit_colour,
+    lab_of,
+    median_bgr,
+)
+
+#: The table's colour: pixels within this CIELAB distance of the colour around the samples.
+TABLE_DELTA_E = 14.0
+#: The table's region must cover at least this share of the frame to be the work area.
+TABLE_MIN_SHARE = 0.05
+#: A learned colour's ellipse keeps the table's colour at least this far out [-].
+TABLE_MARGIN = 1.0
+#: The narrowest a learned colour's ellipse is made to keep the table out [-].
+MIN_DISTANCE = 1.5
+
+
+@dataclass(frozen=True)
+class Sample:
+    """One click: class ``name`` at pixel (u, v) of image ``image`` (an index).
+
+    Attributes:
+        name: The class's name.
+        u_px: Column from the left [px].
+        v_px: Row from the top [px].
+        image: Which of the frames it is on (0 for the first).
+    """
+
+    name: str
+    u_px: float
+    v_px: float
+    image: int = 0
+
+    def __str__(self) -> str:
+        return f"{self.name}={self.u_px:g},{self.v_px:g}"
+
+
+@dataclass(frozen=True)
+class Taught:
+    """What the samples taught: each class's colour, the reference colour, the work area.
+
+    Attributes:
+        colours: Per class name, its learned colour.
+        reference_bgr: The work area's median colour in the first frame (B, G, R).
+        work_area_px: The work area's polygon (u, v) [px], or ``None`` (the whole frame).
+        table_lab: The table's colour, CIELAB.
+    """
+
+    colours: dict[str, LearnedColour]
+    reference_bgr: tuple[float, float, float]
+    work_area_px: list[tuple[float, float]] | None
+    table_lab: tuple[float, float, float]
+
+
+def _disc(frame: np.ndarray, u: float, v: float, radius_px: float) -> np.ndarray:
+    """The pixels (N, 3) within ``radius_px`` of (u, v)."""
+    h, w = frame.shape[:2]
+    r = max(radius_px, 0.5)
+    ys, xs = np.mgrid[0:h, 0:w]
+    near = (xs - u) ** 2 + (ys - v) ** 2 <= r * r
+    if not near.any():
+        near[min(int(v), h - 1), min(int(u), w - 1)] = True
+    return frame[near]
+
+
+#: A sample's pixels: those of its disc within this a*b* distance of the clicked pixel.
+CLICK_DELTA = 15.0
+#: … and within this lightness of it [L*].
+CLICK_LIGHTNESS = 100.0
+
+
+def _like_click(frame: np.ndarray, s: Sample, radius_px: float) -> np.ndarray:
+    """CIELAB of the pixels (N, 3) within ``radius_px`` of a click and of its colour.
+
+    The clicked colour is the median of its 3×3 pixels; the disc's pixels more than
+    :data:`CLICK_DELTA` from it in a*b* or :data:`CLICK_LIGHTNESS` in L* (the white top
+    beside a yellow edge, a letter printed on a block, the table beside a small object)
+    are not the user's colour.
+    """
+    clicked = np.median(lab_of(_disc(frame, s.u_px, s.v_px, 1.5)), axis=0)
+    lab = lab_of(_disc(frame, s.u_px, s.v_px, radius_px))
+    near = np.hypot(lab[:, 1] - clicked[1], lab[:, 2] - clicked[2]) <= CLICK_DELTA
+    near &= np.abs(lab[:, 0] - clicked[0]) <= CLICK_LIGHTNESS
+    return lab[near] if near.any() else clicked[None, :]
+
+
+def _ring(frame: np.ndarray, samples: Sequence[Sample], inner: float, outer: float) -> np.ndarray:
+    """The pixels (N, 3) between ``inner`` and ``outer`` px of the samples."""
+    h, w = frame.shape[:2]
+    ys, xs = np.mgrid[0:h, 0:w]
+    near = np.zeros((h, w), bool)
+    far = np.zeros((h, w), bool)
+    for s in samples:
+        d2 = (xs - s.u_px) ** 2 + (ys - s.v_px) ** 2
+        near |= d2 < inner * inner
+        far |= d2 <= outer * outer
+    return frame[far & ~near]
+
+
+def find_table(
+    frame: np.ndarray, samples: Sequence[Sample], object_px: float
+) -> tuple[np.ndarray, list[tuple[float, float]] | None]:
+    """The table's colour (CIELAB, (3,)) and outline (a polygon, or ``None``).
+
+    The table's colour is the median of the ring 1–2.5 objects from the samples; its
+    region the pixels within :data:`TABLE_DELTA_E` of it, closed over the objects on it;
+    its outline the convex hull of the largest region (``None`` if it covers less than
+    :data:`TABLE_MIN_SHARE` of the frame).
+    """
+    lab = lab_of(frame)
+    ring = lab_of(_ring(frame, samples, 1.0 * object_px, 2.5 * object_px))
+    table = np.median(ring, axis=0) if len(ring) else np.median(lab.reshape(-1, 3), axis=0)
+    near = (np.linalg.norm(lab - table, axis=-1) <= TABLE_DELTA_E).astype(np.uint8)
+    k = max(3, int(2 * object_px) | 1)
+    closed = cv2.morphologyEx(
+        near, cv2.MORPH_CLOSE, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (k, k))
+    )
+    n, labels, stats, _ = cv2.connectedComponentsWithStats(closed, connectivity=8)
+    if n < 2:
+        return table, None
+    big = 1 + int(np.argmax(stats[1:, cv2.CC_STAT_AREA]))
+    if stats[big, cv2.CC_STAT_AREA] < TABLE_MIN_SHARE * frame.shape[0] * frame.shape[1]:
+        return table, None
+    pts = cv2.findNonZero((labels == big).astype(np.uint8))
+    hull = cv2.convexHull(pts)
+    poly = cv2.approxPolyDP(hull, 2.0, True).reshape(-1, 2)
+    return table, [(float(u), float(v)) for u, v in poly[:64]]
+
+
+def teach(
+    frames: Sequence[np.ndarray],
+    samples: Sequence[Sample],
+    *,
+    radius_px: float = 4.0,
+    object_px: float = 32.0,
+    work_area_px: list[tuple[float, float]] | None = None,
+    find_area: bool = True,
+) -> Taught:
+    """Fit each sampled class's colour from its samples' pixels.
+
+    Args:
+        frames: The 8-bit BGR frames, (H, W, 3) each.
+        samples: The clicks; each class sampled at least once.
+        radius_px: Pixels within this of a click are its samples [px].
+        object_px: About one object's width in the frames [px] (where the table is).
+        work_area_px: The work area, if the user gives one.
+        find_area: Find the table's outline as the work area when none is given.
+
+    Raises:
+        SampleError: a sample outside its image, on a grey or black pixel, or two
+            classes sampled on the same colour.
+    """
+    first = frames[0]
+    area = work_area_px
+    table_lab, found = find_table(first, [s for s in samples if s.image == 0], object_px)
+    if area is None and find_area:
+        area = found
+    ref = tuple(float(v) for v in median_bgr(first, area_mask(area, first.shape) if area else None))
+    reference = (ref[0], ref[1], ref[2])
+    balanced = [balance(f, reference, area_mask(area, f.shape) if area else None) for f in frames]
+    pixels: dict[str, list[np.ndarray]] = {}
+    for s in samples:
+        frame = balanced[s.image]
+        h, w = frame.shape[:2]
+        if not (0 <= s.u_px < w and 0 <= s.v_px < h):
+            raise SampleError(
+                str(s), f"is outside the image ({w}x{h} px): 0 <= U < {w}, 0 <= V < {h}"
+            )
+        lab = _like_click(frame, s, radius_px)
+        c, lightness = float(np.median(chroma(lab))), float(np.median(lab[:, 0]))
+        if c < CHROMA_MIN or lightness < LIGHTNESS_MIN:
+            raise SampleError(
+                str(s),
+                f"is on a grey or black pixel (chroma {c:.0f}, lightness {lightness:.0f}; "
+                f"a colour needs chroma >= {CHROMA_MIN:g}): click on the object's colour",
+            )
+        pixels.setdefault(s.name, []).append(lab)
+    colours = {name: fit_colour(np.concatenate(p)) for name, p in pixels.items()}
+    _refuse_shared(colours, samples)
+    d_table = {n: float(distance(m, table_lab)) for n, m in colours.items()}
+    colours = {
+        n: m.model_copy(update={"max_distance": max(MIN_DISTANCE, d_table[n] - TABLE_MARGIN)})
+        if d_table[n] < m.max_distance + TABLE_MARGIN
+        else m
+        for n, m in colours.items()
+    }
+    ref = (float(reference[0]), float(reference[1]), float(reference[2]))
+    return Taught(
+        colours, ref, area, (float(table_lab[0]), float(table_lab[1]), float(table_lab[2]))
+    )
+
+
+def _refuse_shared(colours: dict[str, LearnedColour], samples: Sequence[Sample]) -> None:
+    """Raise if one class's colour lies inside another's ellipse: sampled on one colour."""
+    names = list(colours)
+    for i, a in enumerate(names):
+        for b in names[i + 1 :]:
+            ma, mb = colours[a], colours[b]
+            centre_b = np.array([0.0, *mb.ab_mean])
+            centre_a = np.array([0.0, *ma.ab_mean])
+            overlap = min(float(distance(ma, centre_b)), float(distance(mb, centre_a)))
+            la, lb = ma.lightness, mb.lightness
+            if overlap <= 1.0 and la[0] < lb[1] and lb[0] < la[1]:
+                first = next(s for s in samples if s.name == b)
+                raise SampleError(
+                    str(first),
+                    f"classes '{a}' and '{b}' were sampled on the same colour (their "
+                    f"ellipses overlap, distance {overlap:.2f}); sample each class on its own "
+                    "objects",
+                )

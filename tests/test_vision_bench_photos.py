@@ -1,0 +1,112 @@
+"""``mearm vision-bench --photos``: recall and precision on a folder of labelled photos."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+import yaml
+
+from mearm.cli import run
+from mearm.config import Config
+from mearm.sim import TableRenderer, class_discs
+from mearm.sim.kinematic.renderer import Disc
+from mearm.tools.photo_bench import load_photos, run_photo_bench
+from mearm.tools.vision_bench import main
+from mearm.vision import Calibration
+
+CONFIG = Config()
+CAL = Calibration.from_config(CONFIG.calibration)
+LAYOUT = [(o.color, o.x, o.y) for o in CONFIG.task.scene]
+
+
+def centres(objects) -> dict:
+    out: dict = {c.name: {"count": 0, "centres": []} for c in CONFIG.task.classes}
+    for name, x, y in objects:
+        ((u, v),) = CAL.table_to_pixel(np.array([[x, y]]))
+        out[name]["centres"].append([round(float(u), 1), round(float(v), 1)])
+        out[name]["count"] += 1
+    return out
+
+
+@pytest.fixture(scope="module")
+def folder(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """Two photos of one source at 2x (objects 64 px), one with a label moved off its object."""
+    root = tmp_path_factory.mktemp("photos")
+    r = TableRenderer(CAL, 640, 480, extras=(Disc((30, 130, 240), 16.0, 56.0),), table="grey")
+    frame = r.render(class_discs(CONFIG.task.classes, LAYOUT))
+    big = cv2.resize(frame, None, fx=2, fy=2, interpolation=cv2.INTER_LINEAR)
+    cv2.imwrite(str(root / "a.png"), big)
+    cv2.imwrite(str(root / "b.png"), big)
+    labels = centres(LAYOUT)
+    moved = centres(LAYOUT)
+    moved["blue"]["centres"][0] = [5.0, 5.0]  # a blue object said to be where none is
+    for entry in (labels, moved):
+        for obj in entry.values():
+            obj["centres"] = [[2 * u, 2 * v] for u, v in obj["centres"]]
+    manifest = {
+        "images": [
+            {
+                "file": "a.png",
+                "source_repo": "x/y",
+                "shapes": "cylinder (~64 px)",
+                "objects": labels,
+            },
+            {
+                "file": "b.png",
+                "source_repo": "x/y",
+                "shapes": "cylinder (~64 px)",
+                "objects": moved,
+                "partial": [{"colour": "red", "region": "x 0-10, y 0-10"}],
+            },
+        ]
+    }
+    (root / "manifest.yaml").write_text(yaml.safe_dump(manifest))
+    return root
+
+
+def by(rows: list[dict], scope: str, who: str) -> dict:
+    return next(r for r in rows if r["scope"] == scope and r["who"] == who)
+
+
+def test_photos_are_scaled_to_the_calibration(folder: Path) -> None:
+    """Each photo is scaled so its objects are 32 px, its labels with it."""
+    a, b = load_photos(folder)
+    assert a.frame.shape[:2] == (480, 640) and b.ignore == [(0.0, 5.0, 0.0, 5.0)]
+    np.testing.assert_allclose(
+        a.centres["red"][0], CAL.table_to_pixel(np.array([LAYOUT[0][1:]]))[0], atol=0.1
+    )
+
+
+@pytest.mark.parametrize("learn", [False, True])
+def test_counts_per_photo_and_class(folder: Path, learn: bool) -> None:
+    """All 12 found on the true labels; with a label moved, one blue missed and one false."""
+    rows = run_photo_bench(folder, CONFIG, learn=learn)
+    a, b = by(rows, "a.png", "mearm"), by(rows, "b.png", "mearm")
+    assert (a["found"], a["missed"], a["false"]) == (12, 0, 0)
+    assert (b["found"], b["missed"], b["false"]) == (11, 1, 1)
+    blue = by(rows, "all photos, blue", "mearm")
+    assert (blue["found"], blue["missed"], blue["false"]) == (7, 1, 1)
+    total = by(rows, "all photos", "inRange")
+    assert total["recall"] == pytest.approx(23 / 24) and total["precision"] == pytest.approx(
+        23 / 24
+    )
+
+
+def test_command_prints_the_table(folder: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """``--photos DIR --learn`` prints one row per photo, class and detector; bad folders exit 2."""
+    with pytest.raises(SystemExit) as info:
+        run(main, ["--photos", str(folder), "--learn"])
+    out, _ = capsys.readouterr()
+    assert info.value.code == 0
+    assert "all photos" in out and "inRange" in out and "95.8%" in out
+    with pytest.raises(SystemExit) as info:
+        run(main, ["--photos", str(folder / "nowhere")])
+    _, err = capsys.readouterr()
+    assert info.value.code == 2 and "no manifest.yaml" in err and len(err.strip().splitlines()) == 1
+    with pytest.raises(SystemExit) as info:
+        run(main, ["--learn"])
+    _, err = capsys.readouterr()
+    assert info.value.code == 2 and "--learn needs --photos" in err
