@@ -36,7 +36,7 @@ FAMILIES: dict[str, tuple[str, ...]] = {
         "RunLogLockedError",
     ),
     "mearm.ik.errors": ("QPSolverError",),
-    "mearm.vision.errors": ("ImageError", "CameraError", "TrackingError"),
+    "mearm.vision.errors": ("ImageError", "CameraError", "TrackingError", "SampleError"),
     "mearm.hardware.errors": (
         "InvalidCommandError",
         "PulseRangeError",
@@ -58,7 +58,12 @@ FAMILIES: dict[str, tuple[str, ...]] = {
     ),
     "mearm.view.errors": ("ViewError", "ViewPortError", "ViewInputError", "BrowserNotFoundError"),
     "mearm.analysis.errors": ("AnalysisError",),
-    "mearm.dataset.errors": ("DatasetError", "DatasetExistsError", "ExtraMissingError"),
+    "mearm.dataset.errors": (
+        "DatasetError",
+        "DatasetExistsError",
+        "ExtraMissingError",
+        "EncoderError",
+    ),
     # The simulators' and the task's errors live beside the one module that raises them.
     "mearm.sim.errors": ("WorldError",),
     "mearm.sim.kinematic.servo_bus": ("SimCollisionError",),
@@ -67,6 +72,9 @@ FAMILIES: dict[str, tuple[str, ...]] = {
     "mearm.task.armcheck": ("ArmCheckError", "NothingToCheck"),
     "mearm.task.sorter": ("CollisionError", "SortAborted"),
     "mearm.experiment": ("TrialFailed",),
+    # the environments' and the baseline's (their packages import Gymnasium: mearm[gym])
+    "mearm.envs.errors": ("EnvOptionError", "PolicyError"),
+    "mearm.learn.errors": ("LearnExtraMissingError",),
 }
 
 _LAZY = {name: module for module, names in FAMILIES.items() for name in names}

@@ -27,7 +27,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("mearm.task",),
     (
         "mearm.sort", "mearm.detect", "mearm.fk", "mearm.analyze", "mearm.experiment",
-        "mearm.maker", "mearm.tools", "mearm.__main__",
+        "mearm.maker", "mearm.tools", "mearm.__main__", "mearm.envs", "mearm.learn",
         "mearm.exceptions",  # every error by name, for users: it names all the layers'
     ),
 )  # fmt: skip

@@ -1,0 +1,43 @@
+"""Gymnasium environments on the physical twin, registered when this package is imported.
+
+    import gymnasium as gym
+    import mearm.envs  # noqa: F401  (registers mearm/PickPlace-v0 and mearm/Sort-v0)
+
+    env = gym.make("mearm/Sort-v0", config="sim_mujoco")
+
+``mearm/PickPlace-v0``: one object to its bin; ``mearm/Sort-v0``: a scene of objects
+(12 unless ``objects=``), each to its class's bin. Both step at the servo stream's rate
+(``metadata["render_fps"]``, 50 Hz on the reference configs) and stop at
+``max_episode_steps`` (:data:`MAX_EPISODE_STEPS`; ``gym.make(..., max_episode_steps=N)``
+changes it). :mod:`mearm.envs.twin_env` describes the observations, actions and reward;
+docs/learning.md the whole workflow.
+"""
+
+from __future__ import annotations
+
+import gymnasium as gym
+
+from mearm.envs.actions import ActionSpec
+from mearm.envs.errors import EnvOptionError, PolicyError
+from mearm.envs.twin_env import TwinEnv
+
+__all__ = ["MAX_EPISODE_STEPS", "ActionSpec", "EnvOptionError", "PolicyError", "TwinEnv"]
+
+#: Steps before an episode is cut short: 10 s of a pick-and-place and 80 s of a sort at
+#: 50 Hz, about 5× and 3× what the expert takes (about 100 and 1,300 steps for 12
+#: objects: docs/learning.md).
+MAX_EPISODE_STEPS = {"mearm/PickPlace-v0": 500, "mearm/Sort-v0": 4000}
+
+
+def _register() -> None:
+    for env_id, task in (("mearm/PickPlace-v0", "pick_place"), ("mearm/Sort-v0", "sort")):
+        if env_id not in gym.registry:
+            gym.register(
+                id=env_id,
+                entry_point="mearm.envs.twin_env:TwinEnv",
+                kwargs={"task": task},
+                max_episode_steps=MAX_EPISODE_STEPS[env_id],
+            )
+
+
+_register()

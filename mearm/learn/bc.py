@@ -1,0 +1,152 @@
+"""Train the behaviour-cloning baseline on the expert's demonstrations.
+
+    python -m mearm.learn.bc --env mearm/PickPlace-v0 --episodes 200 --jobs 2 --out bc.pt
+    mearm eval-policy --env mearm/PickPlace-v0 --policy bc.pt --first-seed 100000
+
+Collects ``--episodes`` expert episodes (seeds ``--first-seed`` …, in ``--jobs``
+workers; ``--demos FILE.npz`` keeps them, or reuses them if the file exists), then fits
+the MLP of :mod:`mearm.learn.baseline` by Adam on the mean squared error of the joints'
+steps and the gripper's cross-entropy, for ``--steps`` minibatches of ``--batch``, on
+the CPU with a fixed seed. Evaluate it on seeds it never saw (``--first-seed`` of
+eval-policy past the training seeds).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from mearm.cli import ArgumentParser, run, seed_value, worker_count
+from mearm.config import load_config
+from mearm.envs.actions import ActionSpec
+from mearm.errors import MearmError
+from mearm.learn.baseline import HIDDEN, build_mlp, features, save_baseline
+from mearm.learn.collect import Demos, collect
+from mearm.learn.errors import import_torch
+
+
+@dataclass(frozen=True)
+class Trained:
+    """A fitted network and the scaling of its inputs and outputs.
+
+    Attributes:
+        net: The network.
+        mean: The inputs' mean, (d,).
+        std: Their spread, (d,).
+        scaling: The outputs' mean and scale, (2, n) (0 and 1 for the gripper's logit).
+        joints: How many outputs are joint steps.
+        loss: The last minibatch's loss.
+    """
+
+    net: Any
+    mean: np.ndarray
+    std: np.ndarray
+    scaling: np.ndarray
+    joints: int
+    loss: float
+
+
+def train(
+    demos: Demos,
+    joints: int,
+    *,
+    steps: int = 10000,
+    batch: int = 256,
+    lr: float = 1e-3,
+    hidden: int = HIDDEN,
+    seed: int = 0,
+) -> Trained:
+    """Fit the MLP to ``demos``, whose first ``joints`` action values are joints.
+
+    The targets are the joints' steps, the tool's settings and the gripper
+    (:mod:`mearm.learn.baseline`); inputs and targets are standardised, so that every
+    joint and tool actuator weighs alike in the loss. One thread: on a few shared cores
+    more only contend.
+
+    Raises:
+        MearmError: no demonstrations.
+    """
+    torch = import_torch()
+    if len(demos.action) == 0:
+        raise MearmError("no demonstrations to learn from (no expert episode succeeded)")
+    torch.manual_seed(seed)
+    torch.set_num_threads(1)
+    rng = np.random.default_rng(seed)
+    x = features(demos.agent_pos, demos.environment_state, demos.step)
+    mean = x.mean(axis=0)
+    std = x.std(axis=0) + 1e-3
+    target = demos.action.astype(np.float64).copy()
+    target[:, :joints] -= demos.agent_pos[:, :joints]
+    scaling = np.zeros((2, target.shape[1]))
+    scaling[1] = 1.0
+    scaling[0, :-1] = target[:, :-1].mean(axis=0)
+    scaling[1, :-1] = target[:, :-1].std(axis=0) + 1e-3
+    X = torch.from_numpy((x - mean) / std)
+    Y = torch.from_numpy(((target - scaling[0]) / scaling[1]).astype(np.float32))
+    net = build_mlp(X.shape[1], Y.shape[1], hidden)
+    opt = torch.optim.Adam(net.parameters(), lr=lr)
+    bce = torch.nn.BCEWithLogitsLoss()
+    loss_value = float("nan")
+    for _ in range(steps):
+        idx = torch.from_numpy(rng.integers(len(X), size=min(batch, len(X))))
+        out = net(X[idx])
+        y = Y[idx]
+        loss = ((out[:, :-1] - y[:, :-1]) ** 2).mean() + bce(out[:, -1], y[:, -1])
+        opt.zero_grad()
+        loss.backward()
+        opt.step()
+        loss_value = float(loss.detach())
+    return Trained(net, mean, std, scaling, joints, loss_value)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Collect (or read) the demonstrations, train, save."""
+    parser = ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--env", default="mearm/PickPlace-v0", help="environment id")
+    parser.add_argument("--config", default="sim_mujoco", help="twin config (name or file)")
+    parser.add_argument("--episodes", type=int, default=200, help="expert episodes to learn from")
+    parser.add_argument("--first-seed", type=seed_value, default=0, help="their first seed")
+    parser.add_argument("--jobs", type=worker_count, default=2, help="collecting workers")
+    parser.add_argument("--demos", type=Path, default=None, help="keep (or reuse) them here")
+    parser.add_argument("--steps", type=int, default=10000, help="training minibatches")
+    parser.add_argument("--batch", type=int, default=256, help="minibatch size")
+    parser.add_argument("--out", type=Path, required=True, help="the baseline's file (.pt)")
+    args = parser.parse_args(argv)
+    if args.episodes < 1 or args.steps < 1 or args.batch < 1:
+        raise MearmError("--episodes, --steps and --batch must be at least 1")
+    if args.out.suffix != ".pt":
+        raise MearmError(
+            f"--out must end in .pt (eval-policy knows a baseline by it), got {args.out}"
+        )
+    import_torch()  # the missing extra is said before any work
+    options = {"config": args.config}
+    t0 = time.perf_counter()
+    if args.demos is not None and args.demos.exists():
+        demos = Demos.load(args.demos)
+    else:
+        seeds = range(args.first_seed, args.first_seed + args.episodes)
+        demos = collect(args.env, options, seeds, args.jobs)
+        if args.demos is not None:
+            demos.save(args.demos)
+    kept = len(np.unique(demos.episode))
+    print(
+        f"{len(demos.action)} steps of {kept} expert episodes in {time.perf_counter() - t0:.0f} s"
+    )
+    t1 = time.perf_counter()
+    joints = ActionSpec.of(load_config(args.config)).joints
+    fit = train(demos, joints, steps=args.steps, batch=args.batch)
+    meta = {"env_id": args.env, "env_options": options, "episodes": kept,
+            "seeds": [int(demos.episode.min()), int(demos.episode.max())]}  # fmt: skip
+    save_baseline(args.out, fit.net, fit.mean, fit.std, fit.scaling, fit.joints, meta)
+    wall = time.perf_counter() - t1
+    print(f"trained {args.steps} steps in {wall:.0f} s (loss {fit.loss:.4f}): {args.out}")
+    return 0
+
+
+if __name__ == "__main__":
+    run(main)

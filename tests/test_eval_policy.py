@@ -1,0 +1,146 @@
+"""`mearm eval-policy`: scores, JSON, progress, bad input (exit 2), a policy that raises."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import pytest
+
+from mearm.tools.eval_policy import main
+
+pytestmark = pytest.mark.heavy
+
+ROOT = Path(__file__).resolve().parent.parent
+
+POLICIES = """
+import numpy as np
+
+HOME = np.array([120.0, 93.0, -132.0, 60.0, 0.0], dtype=np.float32)
+
+def hold(observation):
+    return HOME
+
+def wrong_shape(observation):
+    return HOME[:3]
+
+def not_finite(observation):
+    return HOME * np.nan
+
+class Raises:
+    def __init__(self):
+        self.calls = 0
+    def reset(self):
+        self.calls = 0
+    def __call__(self, observation):
+        self.calls += 1
+        if self.calls > 3:
+            raise RuntimeError("the policy broke")
+        return HOME
+"""
+
+
+@pytest.fixture
+def policies(tmp_path, monkeypatch):
+    (tmp_path / "my_policies.py").write_text(textwrap.dedent(POLICIES))
+    monkeypatch.syspath_prepend(str(tmp_path))
+    return "my_policies"
+
+
+def _run(*argv: str) -> int:
+    return main(["--jobs", "1", "--env-option", "obs_type=state", *argv])
+
+
+def test_the_expert_succeeds_and_the_json_has_each_episode(tmp_path, capsys):
+    """Two expert episodes: 100 % success, seeds, outcomes and returns in the JSON."""
+    out = tmp_path / "pp.json"
+    assert (
+        _run("--policy", "expert", "--episodes", "2", "--first-seed", "7", "--out", str(out)) == 0
+    )
+    scores = json.loads(out.read_text())
+    assert scores["pc_success"] == 100.0 and scores["avg_sum_reward"] == 1.0
+    assert [e["seed"] for e in scores["per_episode"]] == [7, 8]
+    assert all(e["success"] and e["in_bins"] == 1 for e in scores["per_episode"])
+    assert scores["simulated"] is True
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0].startswith("episode   1/2 seed 7: success")
+    assert "success 100.0 % of 2 episodes" in lines[-1]
+
+
+def test_a_policy_that_holds_still_scores_zero_and_require_fails_it(tmp_path, policies):
+    """A policy that never moves sorts nothing; --require 0.5 then exits 1."""
+    out = tmp_path / "hold.json"
+    code = _run("--policy", f"{policies}:hold", "--episodes", "1", "--out", str(out),
+                "--env-option", "max_episode_steps=20", "--require", "0.5")  # fmt: skip
+    assert code == 1
+    scores = json.loads(out.read_text())
+    assert scores["pc_success"] == 0.0 and scores["per_episode"][0]["steps"] == 20
+
+
+def test_a_policy_that_raises_ends_its_episode_as_a_named_failure(tmp_path, policies, capsys):
+    """The error is the episode's, named; the next episode runs (reset() was called)."""
+    out = tmp_path / "raises.json"
+    assert _run("--policy", f"{policies}:Raises", "--episodes", "2", "--out", str(out)) == 0
+    episodes = json.loads(out.read_text())["per_episode"]
+    for e in episodes:
+        assert not e["success"] and e["steps"] == 3
+        assert e["error"] == "the policy raised RuntimeError: the policy broke"
+    assert "the policy raised RuntimeError" in capsys.readouterr().out
+
+
+def test_videos_of_the_first_episodes_are_written(tmp_path):
+    """--videos 1 writes the first episode as an MP4 beside the JSON."""
+    out = tmp_path / "v.json"
+    assert main(["--jobs", "1", "--episodes", "1", "--videos", "1", "--out", str(out),
+                 "--env-option", "image_size=[24, 32]"]) == 0  # fmt: skip
+    video = Path(json.loads(out.read_text())["per_episode"][0]["video"])
+    assert video.parent == tmp_path / "videos" and video.stat().st_size > 1000
+
+
+@pytest.mark.parametrize(
+    ("argv", "words"),
+    [
+        (["--policy", "no_such_module_xyz:act"], "does not import"),
+        (["--policy", "my_policies:missing"], "has no missing"),
+        (["--policy", "nonsense"], "give expert, random, module:callable"),
+        (["--policy", "my_policies:wrong_shape"], "has shape (3,)"),
+        (["--policy", "my_policies:not_finite"], "is not finite"),
+        (["--env-option", "colour=red"], "not an option of the environments"),
+        (["--env-option", "objects"], "give key=value"),
+        (["--env-option", "fps=7"], "fps must divide"),
+        (["--episodes", "0"], "--episodes must be at least 1"),
+        (["--env", "mearm/Stack-v0"], "--env must be"),
+    ],
+)
+def test_bad_input_exits_2_with_one_line(argv, words, tmp_path, policies):
+    """Each bad input: exit 2, one line on stderr that names it."""
+    env = {"PYTHONPATH": f"{tmp_path}:{ROOT}", "MUJOCO_GL": "egl", "PATH": "/usr/bin:/bin"}
+    proc = subprocess.run(
+        [sys.executable, "-m", "mearm.tools.eval_policy", "--jobs", "1", "--episodes", "1",
+         "--env-option", "obs_type=state", *argv],
+        capture_output=True, text=True, env=env, cwd=tmp_path, timeout=120,
+    )  # fmt: skip
+    assert proc.returncode == 2, proc.stderr
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and words in lines[0], proc.stderr
+
+
+def test_a_baseline_without_pytorch_asks_for_the_extra(tmp_path, monkeypatch):
+    """--policy FILE.pt without torch: one line naming mearm[learn]."""
+    from mearm.errors import MearmError
+
+    monkeypatch.setitem(sys.modules, "torch", None)  # `import torch` raises ImportError
+    with pytest.raises(MearmError, match=r"pip install 'mearm\[learn\]'"):
+        _run("--policy", str(tmp_path / "bc.pt"), "--episodes", "1")
+
+
+def test_without_gymnasium_eval_policy_asks_for_the_extra(monkeypatch):
+    """No Gymnasium: one line naming mearm[gym], before anything runs."""
+    from mearm.errors import MearmError
+
+    monkeypatch.setitem(sys.modules, "gymnasium", None)
+    with pytest.raises(MearmError, match=r"pip install 'mearm\[gym\]'"):
+        main(["--episodes", "1"])
