@@ -1,4 +1,5 @@
-# One command sets everything up and runs the job: `make demo`; the tests: `make test`
+# One command sets everything up and runs the job: `make demo` (the package alone); the
+# tests: `make test` (the package and its development tools)
 # (the inner loop: `make test-fast`, the suite without its slow and heavy tests).
 PYTHON ?= python3
 VENV   := .venv
@@ -15,18 +16,32 @@ SYSTEM_DEPS := make gcc libc6-dev chromium gcc-avr avr-libc arduino-core-avr \
                simavr libsimavr-dev libelf-dev \
                libegl1 libegl-mesa0 libgl1-mesa-dri libosmesa6
 
-.PHONY: install demo test test-fast soak lint bench urdf firmware preview clean system-deps
+.PHONY: install demo wheel test test-fast soak lint bench urdf firmware preview clean system-deps
 
-$(STAMP): pyproject.toml
+# Two stamps: the package alone (what `make demo` needs, no test or analysis tools) and
+# the package with its development extras (`make install`, `make test`, `make lint`).
+BASE_STAMP := $(VENV)/.installed-base
+
+$(BASE_STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install -q --upgrade pip
+	$(BIN)/python -m pip install -q -e .
+	touch $(BASE_STAMP)
+
+$(STAMP): $(BASE_STAMP)
 	$(BIN)/python -m pip install -q -e '.[dev]'
 	touch $(STAMP)
 
 install: $(STAMP)
 
-demo: $(STAMP)
-	$(BIN)/python -m mearm.sort --config configs/sim.yaml
+demo: $(BASE_STAMP)
+	$(BIN)/mearm sort --config sim
+
+# The wheel (dist/mearm-VERSION-py3-none-any.whl): the package, its configs, arm
+# descriptions and firmware source; `pip install dist/mearm-*.whl` on another machine.
+wheel: $(BASE_STAMP)
+	$(BIN)/python -m pip wheel -q --no-deps -w dist .
+	@ls dist/mearm-*.whl
 
 # The suite runs in JOBS processes (pytest-xdist; JOBS=0: in this one, e.g. for --pdb);
 # worksteal hands a worker that ran out of tests some of another's. `make test` runs one
@@ -78,4 +93,4 @@ system-deps:
 	  $(SYSTEM_DEPS) >/dev/null
 
 clean:
-	rm -rf $(VENV) .pytest_cache .ruff_cache .mypy_cache
+	rm -rf $(VENV) dist build .pytest_cache .ruff_cache .mypy_cache

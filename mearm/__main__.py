@@ -7,6 +7,7 @@ Each subcommand is the ``main`` of one module of the package (``mearm sort`` is
 ``python -m mearm.sort``, ``mearm urdf`` is :mod:`mearm.tools.dh_to_urdf`, which the
 checkout's ``python tools/dh_to_urdf.py`` also runs) and takes the same arguments;
 ``mearm SUBCOMMAND --help`` lists them. Every one of them ships in the wheel.
+``mearm --help`` lists them by what you want to do (:data:`GROUPS`).
 """
 
 from __future__ import annotations
@@ -19,97 +20,134 @@ from collections.abc import Callable, Sequence
 from mearm.cli import EXIT_BAD_INPUT, run
 from mearm.data import config_names
 
-#: subcommand → (the module whose ``main(argv) -> int`` it runs, one line of help), in
-#: the order ``mearm --help`` lists them. A new command is one more entry.
+#: The groups ``mearm --help`` shows, in order: a title (what you want to do), then each
+#: subcommand → (the module whose ``main(argv) -> int`` it runs, one line of help). A new
+#: command is one more entry in its group.
+GROUPS: dict[str, dict[str, tuple[str, str]]] = {
+    "start here: from a new kit to a working rig": {
+        "init-config": (
+            "mearm.maker.init_config",
+            "write a starter config and its wiring, or a twin of your config",
+        ),
+        "find-port": ("mearm.maker.find_port", "list the serial ports and name the mearm board"),
+        "flash": ("mearm.maker.flash", "build the Uno firmware and upload it with avrdude"),
+        "find-camera": ("mearm.maker.find_camera", "list the cameras with a snapshot of each"),
+        "jog": ("mearm.maker.jog", "move the arm with the keyboard, joint by joint or in x/y/z"),
+    },
+    "sort and see": {
+        "sort": ("mearm.sort", "sort the objects on the table into their class's bins"),
+        "detect": ("mearm.detect", "detect the objects in a frame (image file or camera)"),
+        "preview": ("mearm.tools.preview", "show the arm in the meshcat 3-D view"),
+        "fk": ("mearm.fk", "forward kinematics: joints → TCP position"),
+        "ik": ("mearm.ik.__main__", "inverse kinematics: solve one target from a start pose"),
+        "urdf": ("mearm.tools.dh_to_urdf", "write the URDF of an arm description"),
+    },
+    "calibrate": {
+        "calibrate-servos": (
+            "mearm.maker.calibrate_servos",
+            "fit each servo's zero, µs per degree and direction with the keyboard",
+        ),
+        "aruco-sheet": ("mearm.tools.aruco_sheet", "write a printable sheet of ArUco markers"),
+        "calibrate-camera": (
+            "mearm.tools.calibrate_camera",
+            "fit pixel → table from markers or points",
+        ),
+        "charuco-board": (
+            "mearm.tools.charuco_board",
+            "write the printable ChArUco calibration board",
+        ),
+        "calibrate-intrinsics": (
+            "mearm.tools.calibrate_intrinsics",
+            "fit camera matrix and lens distortion from ChArUco board views",
+        ),
+        "check-camera": ("mearm.tools.check_camera", "check the camera calibration with the arm"),
+        "learn-colours": (
+            "mearm.maker.learn_colours",
+            "teach each class its colour from clicks on the camera's own frames",
+        ),
+    },
+    "the twin and experiments": {
+        "twin-scenes": (
+            "mearm.tools.twin_scenes",
+            "sort seeded random scenes in the physical twin and count what lands",
+        ),
+        "experiment": ("mearm.experiment", "repeated sorting trials into one run log"),
+        "analyze": ("mearm.analyze", "tables, fits and plots from a run log"),
+        "reproduce-paper": (
+            "mearm.tools.reproduce_paper",
+            "run the paper's 24 demo routes and compare with its figures",
+        ),
+        "render-calibration": (
+            "mearm.tools.render_calibration",
+            "render the twin camera's ChArUco views and marker sheet",
+        ),
+    },
+    "data and learning": {
+        "dataset": (
+            "mearm.dataset.__main__",
+            "check or show a LeRobot dataset recorded by --record",
+        ),
+        "eval-policy": (
+            "mearm.tools.eval_policy",
+            "score a policy over seeded twin episodes (lerobot-eval's figures)",
+        ),
+    },
+    "measure and develop": {
+        "bench": ("mearm.tools.bench", "benchmarks, side by side with the peers"),
+        "vision-bench": (
+            "mearm.tools.vision_bench",
+            "the detector's timings and accuracy beside its peers",
+        ),
+        "camera-accuracy": (
+            "mearm.tools.camera_accuracy",
+            "score where the twin's calibrated camera sees objects",
+        ),
+        "shape-sweep": (
+            "mearm.tools.shape_sweep",
+            "how well the detector tells the shapes apart at every size and yaw",
+        ),
+        "conveyor-sweep": (
+            "mearm.tools.conveyor_sweep",
+            "conveyor belt sorts per speed and the tracking error at the grip",
+        ),
+        "servo-steps": (
+            "mearm.tools.servo_steps",
+            "the twin's servo step responses: a CSV and a plot",
+        ),
+        "ik-stalls": ("mearm.tools.ik_stalls", "how often the IK stops short, per arm and start"),
+        "quantization": (
+            "mearm.tools.quantization",
+            "the TCP error of whole-degree and whole-µs servo commands, per arm",
+        ),
+        "virtual-uno-pulses": (
+            "mearm.tools.virtual_uno_pulses",
+            "measure how closely the virtual Uno's pins follow the commands",
+        ),
+        "config-docs": (
+            "mearm.tools.config_docs",
+            "write docs/configuration.md from the config schema",
+        ),
+    },
+}
+
+#: Every subcommand → (its module, its line of help), the groups flattened.
 SUBCOMMANDS: dict[str, tuple[str, str]] = {
-    "sort": ("mearm.sort", "sort the objects on the table into their class's bins"),
-    "detect": ("mearm.detect", "detect the objects in a frame (image file or camera)"),
-    "fk": ("mearm.fk", "forward kinematics: joints → TCP position"),
-    "ik": ("mearm.ik.__main__", "inverse kinematics: solve one target from a start pose"),
-    "urdf": ("mearm.tools.dh_to_urdf", "write the URDF of an arm description"),
-    "preview": ("mearm.tools.preview", "show the arm in the meshcat 3-D view"),
-    "calibrate-camera": (
-        "mearm.tools.calibrate_camera",
-        "fit pixel → table from markers or points",
-    ),
-    "calibrate-intrinsics": (
-        "mearm.tools.calibrate_intrinsics",
-        "fit camera matrix and lens distortion from ChArUco board views",
-    ),
-    "charuco-board": ("mearm.tools.charuco_board", "write the printable ChArUco calibration board"),
-    "aruco-sheet": ("mearm.tools.aruco_sheet", "write a printable sheet of ArUco markers"),
-    "check-camera": ("mearm.tools.check_camera", "check the camera calibration with the arm"),
-    "experiment": ("mearm.experiment", "repeated sorting trials into one run log"),
-    "analyze": ("mearm.analyze", "tables, fits and plots from a run log"),
-    "dataset": ("mearm.dataset.__main__", "check or show a LeRobot dataset recorded by --record"),
-    "render-calibration": (
-        "mearm.tools.render_calibration",
-        "render the twin camera's ChArUco views and marker sheet",
-    ),
-    "twin-scenes": (
-        "mearm.tools.twin_scenes",
-        "sort seeded random scenes in the physical twin and count what lands",
-    ),
-    "servo-steps": (
-        "mearm.tools.servo_steps",
-        "the twin's servo step responses: a CSV and a plot",
-    ),
-    "camera-accuracy": (
-        "mearm.tools.camera_accuracy",
-        "calibrate the twin's camera with the tools above and score where it sees objects",
-    ),
-    "reproduce-paper": (
-        "mearm.tools.reproduce_paper",
-        "run the paper's 24 demo routes and compare with its figures",
-    ),
-    "ik-stalls": ("mearm.tools.ik_stalls", "how often the IK stops short, per arm and start"),
-    "bench": ("mearm.tools.bench", "benchmarks, side by side with the peers"),
-    "vision-bench": (
-        "mearm.tools.vision_bench",
-        "the detector's timings and accuracy on rendered scenes, beside its peers",
-    ),
-    "shape-sweep": (
-        "mearm.tools.shape_sweep",
-        "how well the detector tells the shapes apart at every size and yaw",
-    ),
-    "conveyor-sweep": (
-        "mearm.tools.conveyor_sweep",
-        "objects sorted from a conveyor belt and the tracking error at the grip, per speed",
-    ),
-    "config-docs": (
-        "mearm.tools.config_docs",
-        "write the configuration reference (docs/configuration.md) from the schema",
-    ),
-    "quantization": (
-        "mearm.tools.quantization",
-        "the TCP error of whole-degree and whole-µs servo commands, per arm",
-    ),
-    "find-port": ("mearm.maker.find_port", "list the serial ports and name the mearm board"),
-    "flash": ("mearm.maker.flash", "build the Uno firmware and upload it with avrdude"),
-    "find-camera": ("mearm.maker.find_camera", "list the cameras with a snapshot of each"),
-    "init-config": (
-        "mearm.maker.init_config",
-        "write a starter config for a reference arm and rig",
-    ),
-    "calibrate-servos": (
-        "mearm.maker.calibrate_servos",
-        "fit each servo's zero, µs per degree and direction with the keyboard",
-    ),
-    "jog": ("mearm.maker.jog", "move the arm with the keyboard, joint by joint or in x/y/z"),
-    "virtual-uno-pulses": (
-        "mearm.tools.virtual_uno_pulses",
-        "measure how closely the virtual Uno's pins follow the commands",
-    ),
+    name: entry for group in GROUPS.values() for name, entry in group.items()
 }
 
 
 def _usage() -> str:
     width = max(map(len, SUBCOMMANDS))
-    rows = "\n".join(f"  {name:<{width}}  {text}" for name, (_, text) in SUBCOMMANDS.items())
+    groups = "\n\n".join(
+        f"{title}:\n"
+        + "\n".join(f"  {name:<{width}}  {text}" for name, (_, text) in commands.items())
+        for title, commands in GROUPS.items()
+    )
     return (
         "usage: mearm SUBCOMMAND [ARGS ...]\n\n"
-        "A vision-guided colour-sorting robot arm, for any hobby arm described as data.\n\n"
-        f"subcommands:\n{rows}\n\n"
+        "A vision-guided colour-sorting robot arm, for any hobby arm described as data.\n"
+        "First time? mearm sort --config sim (a simulated sort), then docs/maker-path.md.\n\n"
+        f"{groups}\n\n"
         + textwrap.fill(
             "Every subcommand that reads a config takes --config FILE and --set KEY=VALUE; "
             f"FILE may also name a config shipped with mearm: {', '.join(config_names())}.",

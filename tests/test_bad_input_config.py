@@ -440,39 +440,39 @@ SET_CASES = {
     # classes are a colour, a shape of the catalogue, or both
     "shape_unknown": (
         "task.classes.red.shape=hexagon",
-        "task.classes.0.shape: no shape 'hexagon'; the catalogue has: cylinder, cube, prism",
+        "task.classes.red.shape: no shape 'hexagon'; the catalogue has: cylinder, cube, prism",
     ),
     "class_neither_colour_nor_shape": (
         "task.classes.green.hue_bands_deg=null",
-        "task.classes.1: class 'green' has neither a colour nor a shape: give it hue_bands_deg, "
-        "a shape (cylinder, cube, prism), or both",
+        "task.classes.green: class 'green' has neither a colour nor a shape: give it "
+        "hue_bands_deg, a shape (cylinder, cube, prism), or both",
     ),
     "scene_yaw_past_a_turn": ("task.scene.0.yaw_deg=400", "task.scene.0.yaw_deg"),
     # a servo over a combination of joints (arm.joints[].servo.drives)
     "drives_missing_joint": (
         "arm.joints.elbow.servo.drives={terms: {knee: 1}}",
-        "arm.joints.2.servo.drives.terms: 'knee' is not a joint of this arm",
+        "arm.joints.elbow.servo.drives.terms: 'knee' is not a joint of this arm",
     ),
     "drives_passive_joint": (
         "arm.joints.elbow.servo.drives={terms: {shoulder: 1, wrist: 1}}",
-        "arm.joints.2.servo.drives.terms: 'wrist' is a passive joint",
+        "arm.joints.elbow.servo.drives.terms: 'wrist' is a passive joint",
     ),
     "drives_zero_row": (
         "arm.joints.elbow.servo.drives={terms: {shoulder: 0, elbow: 0}}",
-        "arm.joints.2.servo.drives.terms: every coefficient is 0",
+        "arm.joints.elbow.servo.drives.terms: every coefficient is 0",
     ),
     "drives_as_another_servo": (
         "arm.joints.elbow.servo.drives={terms: {shoulder: 1}}",
-        "arm.joints.2.servo.drives: elbow's servo turns shoulder, which depends on what the "
+        "arm.joints.elbow.servo.drives: elbow's servo turns shoulder, which depends on what the "
         "servo of shoulder turns",
     ),
     "drives_a_multiple_of_another": (
         "arm.joints.shoulder.servo.drives={terms: {elbow: -2}}",
-        "arm.joints.1.servo.drives: shoulder's servo turns -2·elbow, which depends on",
+        "arm.joints.shoulder.servo.drives: shoulder's servo turns -2·elbow, which depends on",
     ),
     "drives_home_past_the_pulse_range": (
         "arm.joints.elbow.servo.drives={terms: {shoulder: 1, elbow: 1}, offset: 300}",
-        "arm.joints.2.servo.drives: at home its servo's value shoulder + elbow + 300 is 261",
+        "arm.joints.elbow.servo.drives: at home its servo's value shoulder + elbow + 300 is 261",
     ),
     "drives_on_the_gripper": (
         "arm.tool.gripper.servo.drives={terms: {elbow: 1}}",
@@ -572,14 +572,14 @@ _DEPENDENT = (
 @pytest.mark.parametrize(
     ("edit", "words"),
     [
-        (_DEPENDENT, "arm.joints.2.servo.drives: elbow's servo turns shoulder + elbow, which "
+        (_DEPENDENT, "arm.joints.elbow.servo.drives: elbow's servo turns shoulder + elbow, which "
                      "depends on what the servo of shoulder turns"),
         (("drives: {terms: {shoulder: 1.0, elbow: 1.0}}", "drives: {terms: {shoulder: 1.0, "
-          "gripper: 1.0}}"), "arm.joints.2.servo.drives.terms: 'gripper' is not a joint"),
+          "gripper: 1.0}}"), "arm.joints.elbow.servo.drives.terms: 'gripper' is not a joint"),
         (("drives: {terms: {shoulder: 1.0, elbow: 1.0}}", "drives: {terms: {wrist: 1.0}}"),
-         "arm.joints.2.servo.drives.terms: 'wrist' is a passive joint"),
+         "arm.joints.elbow.servo.drives.terms: 'wrist' is a passive joint"),
         (("drives: {terms: {shoulder: 1.0, elbow: 1.0}}", "drives: {terms: {}}"),
-         "arm.joints.2.servo.drives.terms"),
+         "arm.joints.elbow.servo.drives.terms"),
     ],
 )  # fmt: skip
 def test_a_bad_servo_combination_in_a_file_is_refused(edit, words, tmp_path: Path) -> None:

@@ -51,12 +51,12 @@ def test_min_above_max_limit():
     with pytest.raises(ConfigError) as exc:
         load_config(None, ["arm.joints.shoulder.limits={min: 30, max: -80}"])
     msg = str(exc.value)
-    assert "arm.joints.1.limits" in msg and "min (30) must be below max (-80)" in msg
+    assert "arm.joints.shoulder.limits" in msg and "min (30) must be below max (-80)" in msg
 
 
 def test_home_outside_limits():
     with pytest.raises(
-        ConfigError, match=r"arm.joints.2.home: -132 is outside the limits \[-80, -20\]"
+        ConfigError, match=r"arm.joints.elbow.home: -132 is outside the limits \[-80, -20\]"
     ):
         load_config(None, ["arm.joints.elbow.limits={min: -80, max: -20}"])
 
@@ -65,7 +65,7 @@ BAD_ARMS = [
     # (override, what the one line must say)
     (
         ["arm.joints.wrist.coupling.terms={shoulder: -1, knee: -1}"],
-        "arm.joints.3.coupling.terms: 'knee' is not an actuated joint of this arm "
+        "arm.joints.wrist.coupling.terms: 'knee' is not an actuated joint of this arm "
         "(actuated: base, shoulder, elbow)",
     ),
     (["arm.joints=[]"], "arm.joints: List should have at least 1 item"),
@@ -75,7 +75,7 @@ BAD_ARMS = [
     ),
     (
         ["arm.joints.base.limits.max=200"],
-        "arm.joints.0.limits.max: 200 needs a 2600 µs pulse, outside the servo's "
+        "arm.joints.base.limits.max: 200 needs a 2600 µs pulse, outside the servo's "
         "[600, 2400] µs, which allows [0, 180]",
     ),
     (
@@ -83,7 +83,7 @@ BAD_ARMS = [
         "task.classes: 'green' and 'red' share the bin at [-20.0, 35.0, 20.0] cm",
     ),
     (["task.scene.0.color=pink"], "task.scene.0.color: 'pink' is not a class"),
-    (["arm.joints.elbow.servo=null"], "arm.joints.2: joint 'elbow' needs exactly one of"),
+    (["arm.joints.elbow.servo=null"], "arm.joints.elbow: joint 'elbow' needs exactly one of"),
     (["arm.joints.base.servo.channel=4"], "arm.joints: gripper and base share servo channel 4"),
     (["arm.closed_form=nonsense"], None),  # the name is valid data; the model refuses it
 ]

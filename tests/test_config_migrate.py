@@ -239,5 +239,5 @@ def test_bad_values_left_for_validation_name_the_new_key() -> None:
     """A value migration only moves is checked by the config, at its new place."""
     data = v1_file("configs/sim.yaml")
     data["robot"]["joint_limits_deg"]["joint1"] = {"min": 170.0, "max": 160.0}
-    with pytest.raises(ConfigError, match=r"arm\.joints\.0\.limits"):
+    with pytest.raises(ConfigError, match=r"arm\.joints\.joint1\.limits"):
         config_from_dict(migrate_v1_config(data))

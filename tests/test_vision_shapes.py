@@ -160,7 +160,7 @@ def test_a_class_needs_a_colour_or_a_shape() -> None:
     """Neither: a ConfigError naming the class and both ways out."""
     with pytest.raises(ConfigError) as err:
         config_from_dict({"task": {"classes": [{**_RED_CLASS, "hue_bands_deg": None}]}})
-    assert "task.classes.0" in str(err.value)
+    assert "task.classes.red" in str(err.value)
     assert "'red' has neither a colour nor a shape" in str(err.value)
     assert "cylinder, cube, prism" in str(err.value)
 
@@ -169,7 +169,7 @@ def test_a_shape_is_one_of_the_catalogue() -> None:
     """An unknown shape: a ConfigError naming it and the catalogue."""
     with pytest.raises(ConfigError) as err:
         config_from_dict({"task": {"classes": [{**_RED_CLASS, "shape": "ball"}]}})
-    assert "task.classes.0.shape: no shape 'ball'; the catalogue has: cylinder, cube, prism" in (
+    assert "task.classes.red.shape: no shape 'ball'; the catalogue has: cylinder, cube, prism" in (
         str(err.value)
     )
     with pytest.raises(ValueError, match="no shape 'hexagon'"):

@@ -14,6 +14,7 @@ applied before validation, so a bad one gets the same one-line error as a bad fi
 from __future__ import annotations
 
 import copy
+import difflib
 import functools
 import re
 from collections.abc import Sequence
@@ -21,10 +22,12 @@ from pathlib import Path
 from typing import Any
 
 from pydantic import ValidationError
+from pydantic_core import ErrorDetails
 
-from mearm.config.base import describe_error, short_repr
+from mearm.config.base import describe_error, loc_text, short_repr
 from mearm.config.compose import expand_config
 from mearm.config.root import Config
+from mearm.data import packaged_arm
 from mearm.errors import ConfigError
 from mearm.yamlio import MAX_YAML_DEPTH, load_yaml_text
 
@@ -156,7 +159,102 @@ def config_from_dict(
     try:
         return Config.model_validate(data)
     except ValidationError as exc:
-        raise ConfigError(source, [describe_error(e) for e in exc.errors()]) from None
+        problems = [_in_user_words(e, data) for e in exc.errors()]
+        hint = millimetre_hint(data)
+        raise ConfigError(source, [hint, *problems] if hint else problems) from None
+
+
+def _named_loc(loc: Sequence[int | str], data: Any) -> tuple[int | str, ...]:
+    """``loc`` with each index into a list of named items replaced by the item's name.
+
+    ``("arm", "joints", 1, "dh")`` → ``("arm", "joints", "shoulder", "dh")``: the path a
+    user writes (and ``--set`` takes).
+    """
+    out: list[int | str] = []
+    node = data
+    for part in loc:
+        if isinstance(node, list) and isinstance(part, int) and 0 <= part < len(node):
+            item = node[part]
+            name = item.get("name") if isinstance(item, dict) else None
+            out.append(name if isinstance(name, str) and name.isidentifier() else part)
+            node = item
+        elif isinstance(node, dict) and part in node:
+            out.append(part)
+            node = node[part]
+        else:
+            out.append(part)
+            node = None
+    return tuple(out)
+
+
+def _allowed_keys(loc: Sequence[int | str]) -> list[str]:
+    """The keys the section at ``loc`` takes, read from the built-in config's shape."""
+    node: Any = _default_data()
+    for part in loc:
+        if isinstance(node, list):
+            node = node[0] if node else None
+        elif isinstance(node, dict) and part in node:
+            node = node[part]
+        else:
+            return []
+    if isinstance(node, list):
+        node = node[0] if node else None
+    return list(node) if isinstance(node, dict) else []
+
+
+def _arm_file(data: Any) -> str:
+    """The reference arm file the config's arm is, as a user finds it in the repository."""
+    arm = data.get("arm") if isinstance(data, dict) else None
+    name = arm.get("name") if isinstance(arm, dict) else None
+    if isinstance(name, str) and packaged_arm(name) is not None:
+        return f"configs/arms/{name}.yaml"
+    return "configs/arms/mearm_paper.yaml"
+
+
+def _in_user_words(err: ErrorDetails, data: Any) -> str:
+    """One line for one pydantic error, in the words of the user's file.
+
+    Joints, classes and tool actuators by name, not index; an unknown key with the key
+    it most likely meant and the file that shows every key of its section.
+    """
+    loc = _named_loc(err["loc"], data)
+    if err["type"] != "extra_forbidden":
+        return describe_error({**err, "loc": loc})
+    *section, key = loc
+    close = difflib.get_close_matches(str(key), _allowed_keys(err["loc"][:-1]), n=1, cutoff=0.6)
+    meant = f"; did you mean {close[0]}?" if close else ""
+    where = _arm_file(data) if loc and loc[0] == "arm" else "configs/sim.yaml"
+    return f"{loc_text(loc)}: unknown key{meant} ({where} shows every key)"
+
+
+#: A link longer than this is no hobby arm's [cm]: written in mm, an 8 cm link reads 80.
+MM_SUSPECT_CM = 60.0
+
+
+def millimetre_hint(data: Any) -> str | None:
+    """A hint when the arm's link lengths look like millimetres, else ``None``.
+
+    Hobby arms' links are a few to 30 cm; a DH ``a_cm`` or ``d_cm`` over
+    :data:`MM_SUSPECT_CM` is most likely a length in mm.
+    """
+    arm = data.get("arm") if isinstance(data, dict) else None
+    joints = arm.get("joints") if isinstance(arm, dict) else None
+    if not isinstance(joints, list):
+        return None
+    long = []
+    for k, joint in enumerate(joints):
+        dh = joint.get("dh") if isinstance(joint, dict) else None
+        for key in ("a_cm", "d_cm"):
+            value = dh.get(key) if isinstance(dh, dict) else None
+            if isinstance(value, int | float) and abs(value) > MM_SUSPECT_CM:
+                name = joint.get("name", k)
+                long.append(f"{name}.dh.{key} = {value:g}")
+    if not long:
+        return None
+    return (
+        f"arm.joints: {', '.join(long)}: lengths are in cm; these look like mm "
+        f"(8 cm is 8.0, not 80)"
+    )
 
 
 @functools.cache

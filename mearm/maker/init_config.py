@@ -7,8 +7,9 @@ holds the joints, limits, servo calibration and where each number comes from): t
 header says how to change what differs on yours. ::
 
     mearm init-config --list
-    mearm init-config --arm mearm_v1 --rig uno my_arm.yaml
-    mearm sort --config my_arm.yaml
+    mearm init-config --arm mearm_v1 --rig uno my_arm.yaml        # prints the wiring too
+    mearm init-config --of my_arm.yaml --rig sim_mujoco my_twin.yaml
+    mearm sort --config my_twin.yaml
 
 The simulated rigs (``sim``, ``sim_mujoco``) write the reference config as it is. The real
 rigs (``uno``, ``ssc32``) replace its servo link and camera with a real board and a USB
@@ -16,22 +17,33 @@ camera; the pixel-to-table calibration is then the reference's and must be redon
 your camera. The file is checked to load before it is written; an existing file is only
 replaced with ``--force``. A reference config that builds on another (``extends``) is
 copied with its ``extends``, which then names the packaged config: the starter config is
-not written into a folder where a file of that name would be read instead.
+not written into a folder where a file of that name would be read instead. The real rigs'
+header and output carry the arm's wiring (:mod:`mearm.maker.wiring`).
+
+``--of MY_CONFIG`` writes a twin of the maker's own config instead: a file that extends
+it (so the arm measured into it is the arm simulated) and replaces only the rig — the
+simulated servos and camera, and the reference's simulated table
+(:func:`render_twin`).
 """
 
 from __future__ import annotations
 
+import os
 import re
 import shlex
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
+
+import yaml
 
 from mearm import __version__, data
 from mearm.cli import EXIT_OK, ArgumentParser, run, write_text_atomic
 from mearm.config import Config, config_from_dict, load_config
 from mearm.config.compose import EXTENDS_KEY
 from mearm.errors import ConfigError, MearmError
+from mearm.maker.wiring import Board, wiring_text
 from mearm.yamlio import load_yaml_text
 
 #: Servo channels the Uno firmware drives (``SERVO_COUNT`` in
@@ -66,6 +78,7 @@ class ArmChoice:
         sim: Its reference config on the kinematic simulator (file name in configs/).
         twin: Its reference config in the physical twin.
         real: The reference config the real rigs start from.
+        arm_file: The reference arm it uses (``configs/arms/<arm_file>.yaml``).
     """
 
     name: str
@@ -73,6 +86,7 @@ class ArmChoice:
     sim: str
     twin: str
     real: str
+    arm_file: str
 
 
 @dataclass(frozen=True)
@@ -110,6 +124,7 @@ ARMS: dict[str, ArmChoice] = {
             "sim.yaml",
             "sim_mujoco.yaml",
             "lab.yaml",
+            "mearm_paper",
         ),
         ArmChoice(
             "mearm_v1",
@@ -117,6 +132,7 @@ ARMS: dict[str, ArmChoice] = {
             "sim_mearm_v1.yaml",
             "sim_mearm_v1_mujoco.yaml",
             "sim_mearm_v1.yaml",
+            "mearm_v1",
         ),
         ArmChoice(
             "desk_5dof",
@@ -125,6 +141,7 @@ ARMS: dict[str, ArmChoice] = {
             "sim_5dof.yaml",
             "sim_5dof_mujoco.yaml",
             "sim_5dof.yaml",
+            "desk_5dof",
         ),
     )
 }
@@ -165,6 +182,20 @@ servo:
   # a file (calibration_file).
 """
 
+#: The camera's calibration step: markers of a printed sheet on the table, seen in a
+#: snapshot (docs/maker-path.md shows where they go for each reference arm).
+CAMERA_STEP = (
+    "mearm aruco-sheet --output sheet.png, lay the markers on the table, then "
+    "mearm calibrate-camera --config {config} --image snapshots/camera0.png "
+    "--marker-side-cm 4 --marker 0:X,Y --marker 1:X,Y --marker 2:X,Y --marker 3:X,Y"
+)
+
+#: The simulated rigs' second step: the maker's own config, simulated as it is.
+OWN_CONFIG_STEP = (
+    "to simulate your own config as it is: mearm init-config --of MY_CONFIG.yaml "
+    "--rig sim_mujoco MY_TWIN.yaml"
+)
+
 RIGS: dict[str, RigChoice] = {
     r.name: r
     for r in (
@@ -173,7 +204,7 @@ RIGS: dict[str, RigChoice] = {
             "everything simulated: a kinematic arm, the table rendered from above",
             None,
             None,
-            ("mearm sort --config {config}",),
+            ("mearm sort --config {config}", OWN_CONFIG_STEP),
         ),
         RigChoice(
             "sim_mujoco",
@@ -181,7 +212,7 @@ RIGS: dict[str, RigChoice] = {
             "camera (needs the mujoco package)",
             None,
             None,
-            ("mearm sort --config {config}",),
+            ("mearm sort --config {config}", OWN_CONFIG_STEP),
         ),
         RigChoice(
             "uno",
@@ -189,11 +220,12 @@ RIGS: dict[str, RigChoice] = {
             _UNO_SERVO,
             _REAL_CAMERA,
             (
-                "mearm flash --port /dev/ttyACM0 (puts the firmware on the Uno)",
-                "mearm find-port (names the board's port; set servo.port)",
-                "mearm calibrate-servos --config {config}",
-                "mearm find-camera (set camera.device_index or camera.path)",
-                "mearm calibrate-camera --config {config}",
+                "wire the servos as the table below shows (docs/maker-path.md)",
+                "mearm find-port --replug (names the Uno's port; set servo.port)",
+                "mearm flash --config {config} (puts the firmware on the Uno)",
+                "mearm calibrate-servos --config {config} (the horns go on at home first)",
+                "mearm find-camera --out snapshots (set camera.device_index or camera.path)",
+                CAMERA_STEP,
                 "mearm sort --config {config}",
             ),
         ),
@@ -203,10 +235,11 @@ RIGS: dict[str, RigChoice] = {
             _SSC32_SERVO,
             _REAL_CAMERA,
             (
+                "wire the servos as the table below shows (docs/maker-path.md)",
                 "mearm find-port --replug (names the board's port; set servo.port)",
-                "mearm calibrate-servos --config {config}",
-                "mearm find-camera (set camera.device_index or camera.path)",
-                "mearm calibrate-camera --config {config}",
+                "mearm calibrate-servos --config {config} (the horns go on at home first)",
+                "mearm find-camera --out snapshots (set camera.device_index or camera.path)",
+                CAMERA_STEP,
                 "mearm sort --config {config}",
             ),
         ),
@@ -302,6 +335,11 @@ def _header(arm: ArmChoice, rig: RigChoice, source: str, config_name: str, arm_n
     steps = "".join(
         f"#   {n}. {step.format(config=config_name)}\n" for n, step in enumerate(rig.steps, 1)
     )
+    wiring = ""
+    if rig.real:
+        board: Board = "uno" if rig.name == "uno" else "ssc32"
+        text = wiring_text(load_config(reference_config_dir() / source).arm, board)
+        wiring = "# Wiring (the channels of the arm's description):\n" + _commented(text)
     return (
         f"# mearm config: {arm.name} on the {rig.name} rig.\n"
         f"# Arm: {arm.title}.\n"
@@ -315,7 +353,7 @@ def _header(arm: ArmChoice, rig: RigChoice, source: str, config_name: str, arm_n
         f"#   arm: {{use: {arm_name}, joints: {{shoulder: {{dh: {{a_cm: 8.2}}}}}}}}\n"
         "# A key left out takes the value of the config this one extends, else its default\n"
         "# (configs/sim.yaml shows them all). Units: cm and degrees unless a key says otherwise.\n"
-        f"# Next steps:\n{steps}\n"
+        f"# Next steps:\n{steps}{wiring}\n"
     )
 
 
@@ -336,6 +374,69 @@ def _servo_channels(config: Config) -> set[int]:
     if arm.tool.gripper is not None:
         channels.add(arm.tool.gripper.servo.channel)
     return channels
+
+
+def arm_of(config: Config) -> ArmChoice:
+    """The reference arm a config's arm is (its ``arm.name``).
+
+    Raises:
+        MearmError: it is none of them (``--arm`` then names the one to take the table of).
+    """
+    for choice in ARMS.values():
+        if choice.arm_file == config.arm.name:
+            return choice
+    raise MearmError(
+        f"arm {config.arm.name!r} is not a reference arm: give --arm, the one whose simulated "
+        f"table (camera, objects) to use ({', '.join(ARMS)})"
+    )
+
+
+def _yaml(data: dict[str, Any]) -> str:
+    return yaml.safe_dump(
+        data, sort_keys=False, allow_unicode=True, width=88, default_flow_style=None
+    )
+
+
+def render_twin(of: Path, out: Path, arm: ArmChoice, rig: RigChoice) -> str:
+    """A config that extends the maker's own ``of`` and simulates it on ``rig``.
+
+    The arm, the classes and the bins stay the maker's (``extends``); the servo link and
+    the camera become the simulated ones, and the table the simulated camera sees (its
+    calibration and its objects) is the reference's simulated config's. On the twin rig
+    the twin reference's own settings (``simulator``, ``twin``, the approach height …)
+    are added as that file writes them.
+    """
+    folder = reference_config_dir()
+    sim = load_config(folder / arm.sim)
+    extends = os.path.relpath(of.absolute(), out.absolute().parent)
+    own: dict[str, Any] = {}
+    if rig.name == "sim_mujoco":
+        twin = load_yaml_text((folder / arm.twin).read_text(encoding="utf-8"), source=arm.twin)
+        own = {k: v for k, v in twin.items() if k != EXTENDS_KEY}
+    task = {"scene": [s.model_dump(mode="json", exclude_defaults=True) for s in sim.task.scene]}
+    sections: dict[str, Any] = {
+        EXTENDS_KEY: extends,
+        "simulator": "mujoco" if rig.name == "sim_mujoco" else "kinematic",
+        "servo": {"backend": "sim"},
+        "camera": sim.camera.model_dump(mode="json", exclude_none=True),
+        "calibration": sim.calibration.model_dump(mode="json", exclude_none=True),
+        **{k: v for k, v in own.items() if k not in ("simulator", "task")},
+        "task": {**task, **own.get("task", {})},
+    }
+    name = shlex.quote(str(out))
+    header = (
+        f"# mearm config: your {of.name} simulated, on the {rig.name} rig.\n"
+        f"# Written by mearm init-config --of {shlex.quote(str(of))} --rig {rig.name} (mearm "
+        f"{__version__}).\n"
+        f"# It extends {extends}: the arm, the classes and the bins are yours, so what you\n"
+        f"# measure into that file is what is simulated here. Only the rig differs: the servos\n"
+        "# and the camera are simulated, and the table that camera sees (its calibration, the\n"
+        f"# objects on it) is the one of configs/{arm.sim}"
+        + (f", in the physical twin of configs/{arm.twin}" if rig.name == "sim_mujoco" else "")
+        + ".\n"
+        f"# Next steps:\n#   1. mearm sort --config {name}\n#   2. mearm jog --config {name}\n\n"
+    )
+    return header + _yaml(sections)
 
 
 def check_folder(text: str, out: Path) -> None:
@@ -379,8 +480,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Write a starter config; see the module docstring."""
     parser = ArgumentParser(
         prog="mearm init-config",
-        description="Write a starter config for a reference arm on your rig; "
-        "--list shows the choices.",
+        description="Write a starter config for a reference arm on your rig, or (--of) a "
+        "simulated twin of your own config; --list shows the choices.",
         epilog="Exit status: 0 written, 2 bad input (an unknown choice, an arm with more "
         "servos than the board drives, an existing file without --force).",
     )
@@ -389,15 +490,24 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
     parser.add_argument("--arm", choices=list(ARMS), help="the reference arm closest to yours")
     parser.add_argument("--rig", choices=list(RIGS), help="what drives the servos, and the camera")
+    parser.add_argument(
+        "--of",
+        type=Path,
+        metavar="MY_CONFIG",
+        help="simulate your own config: FILE extends MY_CONFIG (your arm as you measured "
+        "it) and runs it on --rig sim or sim_mujoco",
+    )
     parser.add_argument("--force", action="store_true", help="replace an existing file")
     parser.add_argument("--list", action="store_true", help="list the arms and rigs and exit")
     args = parser.parse_args(argv)
     if args.list:
         print(list_choices(), end="")
         return EXIT_OK
-    missing = [
-        f for f, v in (("FILE", args.out), ("--arm", args.arm), ("--rig", args.rig)) if not v
-    ]
+    needed: list[tuple[str, object]] = [("FILE", args.out)]
+    if args.of is None:
+        needed.append(("--arm", args.arm))
+    needed.append(("--rig", args.rig))
+    missing = [f for f, v in needed if not v]
     if missing:
         parser.error(f"needs {', '.join(missing)} (mearm init-config --list shows the choices)")
     out: Path = args.out
@@ -405,7 +515,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         raise MearmError(f"{out} is a folder: give the config file's name, e.g. {out}/my_arm.yaml")
     if out.exists() and not args.force:
         raise MearmError(f"{out} exists: pass --force to replace it")
-    arm, rig = ARMS[args.arm], RIGS[args.rig]
+    rig = RIGS[args.rig]
+    if args.of is not None:
+        return _write_twin(args.of, out, args.arm, rig)
+    arm = ARMS[args.arm]
     text = render_config(arm, rig, shlex.quote(str(out)))
     check_folder(text, out)
     check_rendered(text, out)
@@ -413,6 +526,31 @@ def main(argv: Sequence[str] | None = None) -> int:
     print(f"wrote {out}: the {arm.name} arm on the {rig.name} rig. Next:")
     for n, step in enumerate(rig.steps, 1):
         print(f"  {n}. {step.format(config=shlex.quote(str(out)))}")
+    if rig.real:
+        board: Board = "uno" if rig.name == "uno" else "ssc32"
+        print(f"Wiring of the {arm.name} arm (docs/maker-path.md):")
+        print(wiring_text(load_config(out).arm, board), end="")
+    return EXIT_OK
+
+
+def _write_twin(of: Path, out: Path, arm_name: str | None, rig: RigChoice) -> int:
+    if rig.real:
+        raise MearmError(
+            f"--of simulates your config: give --rig sim or sim_mujoco, not {rig.name}"
+        )
+    if of.resolve() == out.resolve():
+        raise MearmError(f"{out}: write the twin beside {of}, not over it")
+    mine = load_config(of)
+    arm = ARMS[arm_name] if arm_name else arm_of(mine)
+    text = render_twin(of, out, arm, rig)
+    name = str(out)
+    try:
+        config_from_dict(load_yaml_text(text, source=name), source=name, path=out)
+    except ConfigError as exc:
+        raise MearmError(f"the twin of {of} does not load: {exc}") from None
+    write_text_atomic(out, text)
+    print(f"wrote {out}: your {of.name} on the {rig.name} rig (it extends {of.name}). Next:")
+    print(f"  1. mearm sort --config {shlex.quote(name)}")
     return EXIT_OK
 
 

@@ -1,0 +1,74 @@
+"""``mearm --help`` lists the subcommands grouped by job; every one is still reachable."""
+
+from __future__ import annotations
+
+import importlib
+import re
+
+import pytest
+
+from mearm.__main__ import GROUPS, SUBCOMMANDS, _usage, main
+
+TITLES = [
+    "start here",
+    "sort and see",
+    "calibrate",
+    "the twin and experiments",
+    "data and learning",
+    "measure and develop",
+]
+
+
+def test_groups_are_in_the_order_a_user_needs_them() -> None:
+    """Start here first, the rarely used measurements last, each group non-empty."""
+    titles = list(GROUPS)
+    assert [next(t for t in titles if t.startswith(want)) for want in TITLES] == titles
+    assert all(GROUPS.values())
+
+
+def test_every_subcommand_is_in_exactly_one_group() -> None:
+    """The flat table is the groups' union, nothing listed twice."""
+    names = [name for group in GROUPS.values() for name in group]
+    assert len(names) == len(set(names)) == len(SUBCOMMANDS)
+    assert {"init-config", "find-port", "flash", "find-camera"} <= set(GROUPS[next(iter(GROUPS))])
+
+
+def test_the_makers_first_steps_are_not_among_the_benchmarks() -> None:
+    """The measurement commands sit in their own group, away from the maker's."""
+    measure = GROUPS[next(t for t in GROUPS if t.startswith("measure"))]
+    assert {"bench", "ik-stalls", "quantization", "virtual-uno-pulses", "shape-sweep"} <= set(
+        measure
+    )
+
+
+@pytest.mark.parametrize("name", list(SUBCOMMANDS))
+def test_every_subcommand_names_a_main(name: str) -> None:
+    """Each entry's module imports and has ``main``."""
+    module, text = SUBCOMMANDS[name]
+    assert callable(importlib.import_module(module).main)
+    assert text and len(text) <= 72, text
+
+
+def test_help_shows_each_group_and_each_subcommand_once(capsys: pytest.CaptureFixture[str]) -> None:
+    """``mearm --help``: a heading per group, one line per subcommand, exit 0."""
+    with pytest.raises(SystemExit) as exc:
+        main(["--help"])
+    assert exc.value.code == 0
+    text = capsys.readouterr().out
+    assert text == _usage() + "\n"
+    for title, commands in GROUPS.items():
+        assert f"\n{title}:\n" in text
+        for name in commands:
+            assert len(re.findall(rf"^  {re.escape(name)}\s", text, re.M)) == 1, name
+    assert text.index("init-config") < text.index("  sort ") < text.index("  bench ")
+
+
+def test_an_unknown_subcommand_exits_2_naming_the_choices(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    """A typo: exit 2, one line listing the subcommands."""
+    with pytest.raises(SystemExit) as exc:
+        main(["srot"])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "unknown subcommand 'srot'" in err[0] and "init-config" in err[0]
