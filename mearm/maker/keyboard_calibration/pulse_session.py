@@ -1,0 +1,125 @@
+"""The servo bus driven in pulses while their calibration is measured."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+from mearm.backends import open_bus
+from mearm.config import Config
+from mearm.hardware import ActuatorMap, ArmCommand, ServoBus, ServoMap
+
+
+class PulseSession:
+    """Drives a servo bus in pulses: each actuator holds a pulse [µs] the keys change.
+
+    The bus's map is replaced by one whose limits are each actuator's whole pulse range
+    (its calibration is what is being measured), so any pulse in ``[min_us, max_us]`` can
+    be commanded and nothing outside can. A pulse is sent as the value the present
+    calibration gives it, which the bus turns back into the same integer pulse; the
+    joints are solved from the joint servos' values (:meth:`ServoMap.joints_of`: a servo
+    that turns a combination of joints is set by that combination, the joint it sits in
+    left free of its limits); the gripper, commanded open or closed, gets a map whose
+    "open" is the pulse.
+
+    Args:
+        config: The whole configuration (the present calibration).
+        bus: The servo bus, connected.
+    """
+
+    def __init__(self, config: Config, bus: ServoBus):
+        self.config = config
+        self.bus = bus
+        original = ServoMap.from_config(config)
+        self._original = original
+
+        def widened(a: ActuatorMap) -> ActuatorMap:
+            # no play compensated: the references are taken from both sides
+            if a.combined:  # its pulse range bounds the combination, not this joint
+                return dataclasses.replace(a, lower=-math.inf, upper=math.inf, play_us=0.0)
+            lo, hi = a.pulse_limits
+            return dataclasses.replace(a, lower=lo, upper=hi, play_us=0.0)
+
+        self._joints = tuple(widened(a) for a in original.joints)
+        self._tool = tuple(widened(a) for a in original.tool)
+        home = original.servo_values(config.arm.home())
+        tool_home = {t.name: t.home for t in config.arm.tool.actuators}
+        self.home_values = home
+        self.pulses_us: dict[str, int] = {
+            j.name: j.command_us(home[j.name]) for j in original.joints
+        }
+        self.pulses_us.update({t.name: t.command_us(tool_home[t.name]) for t in original.tool})
+        g = original.gripper
+        self.pulses_us[g.name] = g.command_us(original.gripper_open_cm)
+
+    @property
+    def servo_map(self) -> ServoMap:
+        """The arm's servos under the present calibration (not the widened ones sent)."""
+        return self._original
+
+    def joint_values(self) -> dict[str, float]:
+        """Each joint servo's value now: its pulse under the present calibration [unit]."""
+        return {a.name: a.value_of(self.pulses_us[a.name]) for a in self._original.joints}
+
+    def limits_us(self, name: str) -> tuple[int, int]:
+        """The pulse range of an actuator [µs]."""
+        a = self._original[name]
+        return (a.min_us, a.max_us)
+
+    def set_pulse(self, name: str, pulse_us: int) -> int:
+        """Send ``pulse_us`` (kept inside the actuator's range) to one actuator; return it."""
+        lo, hi = self.limits_us(name)
+        pulse = min(hi, max(lo, int(pulse_us)))
+        previous = self.pulses_us[name]
+        self.pulses_us[name] = pulse
+        try:
+            self.send()
+        except BaseException:
+            self.pulses_us[name] = previous
+            raise
+        return pulse
+
+    def send(self) -> None:
+        """Send every actuator's present pulse in one command."""
+        g0 = self._original.gripper
+        p = self.pulses_us[g0.name]
+        open_cm = self._original.gripper_open_cm
+        gripper = dataclasses.replace(g0, zero_us=p - g0.direction * g0.us_per_unit * open_cm)
+        smap = ServoMap(
+            self._joints, self._tool, gripper, open_cm, self._original.gripper_closed_cm
+        )
+        self.bus.servo_map = smap
+        joints = smap.joints_of({a.name: a.value_of(self.pulses_us[a.name]) for a in self._joints})
+        tool = {a.name: a.value_of(self.pulses_us[a.name]) for a in self._tool}
+        self.bus.move(ArmCommand(joints, tool, False))
+
+    def simulated_value(self, name: str) -> float | None:
+        """What a simulated arm realised for an actuator's servo, else ``None``.
+
+        A joint servo's value: the joint's, or the combination it turns.
+        """
+        joints = getattr(self.bus, "actual_joints", None)
+        if isinstance(joints, dict) and name in self._original.joint_names:
+            try:
+                return self._original[name].servo_value(joints)
+            except KeyError:  # a joint the simulator does not report
+                return None
+        values = getattr(self.bus, "actual_tool", None)
+        if isinstance(values, dict) and name in values:
+            return float(values[name])
+        return None
+
+
+def open_arm_bus(config: Config, port: str | None = None) -> ServoBus:
+    """The config's servo bus, not connected; the ``sim`` backend gets a cleared table.
+
+    Calibration turns each servo alone across its range, where the arm's body may sweep
+    low over the table: it is done with the table cleared (no bins, no objects), and the
+    simulated arm, which faults on whatever it touches, stands on a cleared table too.
+    """
+    world = None
+    if config.servo.backend == "sim":
+        from mearm.sim import World
+
+        world = World()
+    return open_bus(config, world, port=port)
