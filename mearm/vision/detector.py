@@ -56,294 +56,74 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import replace
 from typing import TYPE_CHECKING
 
 import cv2
 import numpy as np
-from numpy.lib.stride_tricks import sliding_window_view
 
 from mearm.config import ColorClass, VisionConfig
 from mearm.errors import ConfigError
 from mearm.vision.calibration import Calibration, CameraGeometry, camera_geometry
 from mearm.vision.classify import PixelClassifier, and_scalar, equal_mask
-from mearm.vision.errors import ImageError
+from mearm.vision.detection import Detection, _point, _with_table_yaw, check_frame
 from mearm.vision.learned import LearnedClassifier, area_mask, balance_by, gains
-from mearm.vision.pinhole import PerspectiveCamera, TopFace, TopFit
+from mearm.vision.perspective_detection import (
+    MAX_SPLIT,
+    SILHOUETTE_WRONG,
+    _disc_diameter_cm,
+    _top_face,
+    best_shape,
+    locate_in_perspective,
+    object_image_bounds,
+    split_by_silhouettes,
+    top_fits,
+)
+from mearm.vision.pinhole import PerspectiveCamera, TopFit
+from mearm.vision.regions import (
+    CORE_DEPTH,
+    MIN_PART,
+    STACKED_BOX_PX,
+    Part,
+    _axis_ratio,
+    _axis_ratios,
+    _elongation,
+    _label,
+    _measure_regions,
+    _region_mask,
+    class_pieces,
+    split_region,
+)
 from mearm.vision.shadows import grow_into_shadows, weak_classifier
-from mearm.vision.shapes import ClassMatcher, measure_shape, table_yaw_deg, touches_border
+from mearm.vision.shapes import ClassMatcher, measure_shape, touches_border
 from mearm.vision.thresholds import Thresholds
 
 if TYPE_CHECKING:
     from mearm.config import Config
 
-
-@dataclass(frozen=True)
-class Detection:
-    """One region of one colour class.
-
-    Attributes:
-        color: The name of its class (one of ``task.classes``).
-        centroid_px: Mean (u, v) of the region's pixel centres [px], (2,), read-only.
-        area_px: Number of pixels in the region [px].
-        bbox_px: Bounding box (x, y, w, h) [px].
-        merged: The region looks like several touching objects (see the module docstring).
-        elongation: Ratio of the region's principal axes [-] (1 for a disc).
-        table_cm: Where the object stands on the table (x, y), base frame [cm], (2,),
-            when the detector has a calibration: the centroid's table point under the
-            paper's homography; the centre of its top face's outline under a
-            perspective calibration (:meth:`PerspectiveCamera.locate_object`).
-        shape: The shape its outline has (:mod:`mearm.vision.shapes`); ``None`` when it
-            cannot be told: the region is merged or cut by the image border.
-        yaw_px_deg: A cube's sides' direction in the image, from the u axis towards +v,
-            in [0, 90) [deg], from the silhouette's smallest rectangle; ``None`` for other
-            shapes.
-        yaw_deg: A cube's sides' direction on the table, from the base frame's x axis
-            towards y, in [0, 90) [deg], when the detector has a calibration: under the
-            paper's homography ``yaw_px_deg`` turned through it; under a perspective
-            calibration the fitted top square's turn (the silhouette's walls turn its
-            rectangle), or for a part of a split region its ``yaw_px_deg`` turned onto
-            the table. ``None`` for other shapes, or without a calibration.
-    """
-
-    color: str
-    centroid_px: np.ndarray = field(compare=False)
-    area_px: int
-    bbox_px: tuple[int, int, int, int]
-    merged: bool = False
-    elongation: float = 1.0
-    table_cm: np.ndarray | None = field(default=None, compare=False)
-    shape: str | None = None
-    yaw_px_deg: float | None = None
-    yaw_deg: float | None = None
-
-    def __post_init__(self) -> None:
-        object.__setattr__(self, "centroid_px", _point(self.centroid_px))
-        if self.table_cm is not None:
-            object.__setattr__(self, "table_cm", _point(self.table_cm))
-
-
-def _point(value: object) -> np.ndarray:
-    """``value`` as a read-only float (2,) array; one already so is kept, not copied.
-
-    Kept only if no one can write it: not writeable, and neither is the array whose
-    memory it views (NumPy points a view's ``base`` at that array).
-    """
-    if (
-        isinstance(value, np.ndarray)
-        and value.shape == (2,)
-        and value.dtype == np.float64
-        and not value.flags.writeable
-        and (
-            value.base is None
-            or (isinstance(value.base, np.ndarray) and not value.base.flags.writeable)
-        )
-    ):
-        return value
-    p = np.array(value, dtype=float).reshape(2)
-    p.setflags(write=False)
-    return p
-
-
-def check_frame(frame: object, source: str = "frame") -> np.ndarray:
-    """Return ``frame`` as a C-contiguous (H, W, 3) uint8 BGR array, or raise ImageError."""
-    if not isinstance(frame, np.ndarray):
-        raise ImageError(source, f"expected a numpy array, got {type(frame).__name__}")
-    if frame.dtype != np.uint8:
-        raise ImageError(source, f"expected 8-bit pixels (uint8), got {frame.dtype}")
-    if frame.ndim != 3 or frame.shape[2] != 3:
-        raise ImageError(
-            source,
-            f"expected a colour image of shape (H, W, 3) in BGR order, got {frame.shape}",
-        )
-    if frame.shape[0] < 1 or frame.shape[1] < 1:
-        raise ImageError(source, f"image is empty, shape {frame.shape}")
-    return np.ascontiguousarray(frame)
-
-
-def _disc_diameter_cm(color_class: ColorClass) -> float:
-    """The diameter of the disc with the area of one object's footprint [cm]."""
-    area = color_class.object_shape.area_cm2(color_class.diameter_cm)
-    return 2.0 * math.sqrt(area / math.pi)
-
-
-def _top_face(color_class: ColorClass) -> TopFace:
-    """A class's top face: a disc of its diameter, or its shape's polygon of its size."""
-    spec = color_class.object_shape
-    corners = spec.corners_cm(color_class.diameter_cm)
-    if corners is None:
-        return TopFace(color_class.diameter_cm / 2.0)
-    c = np.asarray(corners, dtype=float)
-    return TopFace(float(np.max(np.linalg.norm(c, axis=1))), c, spec.symmetry_deg)
-
-
-#: A region's core: its pixels at least this × one object's radius from its edge.
-CORE_DEPTH = 0.6
-#: A split's part must have at least this × one flat object's expected area.
-MIN_PART = 0.5
-#: Perspective: the fitted silhouettes of a split must get at most this share of the
-#: region's area wrong (measured: under 0.03 on touching pairs, over 0.15 with one
-#: object too few).
-SILHOUETTE_WRONG = 0.08
-#: Perspective: at most this many objects are fitted to one region.
-MAX_SPLIT = 4
-
-
-def _label(mask: np.ndarray) -> tuple[int, np.ndarray, np.ndarray, np.ndarray]:
-    try:  # 16-bit labels are ~3x faster; OpenCV raises if there are too many regions
-        return cv2.connectedComponentsWithStats(mask, connectivity=8, ltype=cv2.CV_16U)
-    except cv2.error:
-        return cv2.connectedComponentsWithStats(mask, connectivity=8, ltype=cv2.CV_32S)
-
-
-def _elongation(region: np.ndarray) -> float:
-    """Principal-axis ratio √(λ_max/λ_min) of a binary region's second central moments."""
-    return _axis_ratio(cv2.moments(region, binaryImage=True))
-
-
-#: Regions whose box is at most this many pixels on each side are measured together,
-#: as one stack of windows; larger ones one by one [px].
-STACKED_BOX_PX = 96
-
-
-def _measure_regions(
-    index: np.ndarray, labels: np.ndarray, stats: np.ndarray, big: np.ndarray
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Each region's purity, class code and elongation, all at once, each (N,).
-
-    Pure: every pixel of the region has one class code (then ``code`` is it). The small
-    regions (boxes up to :data:`STACKED_BOX_PX`) are read as one stack of equal windows
-    over the label image, each at its region's box (moved inwards at the image's edge),
-    so their moments are a few array operations per frame, not a call per region; the
-    second moments are exact (integer sums).
-    """
-    count = len(big)
-    pure, code, elong = np.zeros(count, bool), np.zeros(count, int), np.ones(count)
-    if not count:
-        return pure, code, elong
-    x, y, w, h, area = stats[big].T
-    small = np.flatnonzero((w <= STACKED_BOX_PX) & (h <= STACKED_BOX_PX))
-    if len(small):
-        ww, hh = int(w[small].max()), int(h[small].max())
-        y0 = np.minimum(y[small], labels.shape[0] - hh)
-        x0 = np.minimum(x[small], labels.shape[1] - ww)
-        own = big[small].astype(labels.dtype)[:, None, None]
-        mask = sliding_window_view(labels, (hh, ww))[y0, x0] == own  # (n, hh, ww)
-        codes = sliding_window_view(index, (hh, ww))[y0, x0] * mask
-        top = codes.max(axis=(1, 2))
-        pure[small] = np.count_nonzero(codes == top[:, None, None], axis=(1, 2)) == area[small]
-        code[small] = top
-        # float32 sums are exact: each is an integer below 2**24 (96**2 pixels × 96**2)
-        m = mask.astype(np.float32)
-        cols, rows = m.sum(axis=1), m.sum(axis=2)
-        gx, gy = np.arange(ww, dtype=np.float32), np.arange(hh, dtype=np.float32)
-        sx, sxx = (cols @ gx).astype(float), (cols @ (gx * gx)).astype(float)
-        sy, syy = (rows @ gy).astype(float), (rows @ (gy * gy)).astype(float)
-        sxy = ((m @ gx) @ gy).astype(float)
-        n = area[small].astype(float)
-        elong[small] = _axis_ratios(sxx - sx * sx / n, sxy - sx * sy / n, syy - sy * sy / n)
-    for k in np.flatnonzero((w > STACKED_BOX_PX) | (h > STACKED_BOX_PX)).tolist():
-        roi = (slice(y[k], y[k] + h[k]), slice(x[k], x[k] + w[k]))
-        region = (labels[roi] == big[k]).view(np.uint8)
-        lo, hi, _, _ = cv2.minMaxLoc(index[roi], mask=region)
-        pure[k], code[k], elong[k] = lo == hi, int(lo), _elongation(region)
-    return pure, code, elong
-
-
-def _axis_ratios(mu20: np.ndarray, mu11: np.ndarray, mu02: np.ndarray) -> np.ndarray:
-    """Principal-axis ratios √(λ_max/λ_min) of regions' second central moments, (N,).
-
-    1 for a single pixel (both eigenvalues 0), ``inf`` for a line (the smaller one 0).
-    """
-    root = np.sqrt(np.maximum((mu20 - mu02) ** 2 + 4.0 * mu11 * mu11, 0.0))
-    lam_max, lam_min = (mu20 + mu02 + root) / 2.0, (mu20 + mu02 - root) / 2.0
-    with np.errstate(divide="ignore", invalid="ignore"):
-        ratio = np.sqrt(lam_max / lam_min)
-    ratio = np.where(lam_min <= 1e-12, np.inf, ratio)  # a line
-    return np.where(lam_max <= 1e-12, 1.0, ratio)  # a single pixel
-
-
-def _region_mask(
-    source: int | np.ndarray, labels: np.ndarray, box: tuple[int, int, int, int], ox: int, oy: int
-) -> np.ndarray:
-    """A region's 0/1 mask over its box: its label's pixels, or a split piece's own mask."""
-    if isinstance(source, np.ndarray):
-        return source
-    x, y, w, h = box[0] - ox, box[1] - oy, box[2], box[3]
-    return (labels[y : y + h, x : x + w] == source).view(np.uint8)
-
-
-def _axis_ratio(m: dict[str, float]) -> float:
-    """Principal-axis ratio √(λ_max/λ_min) from a region's image moments (:func:`_axis_ratios`)."""
-    one = _axis_ratios(np.array([m["mu20"]]), np.array([m["mu11"]]), np.array([m["mu02"]]))
-    return float(one[0])
-
-
-@dataclass(frozen=True)
-class Part:
-    """One object of a split region, in the region's box pixels.
-
-    Attributes:
-        area_px: Its pixel count.
-        centroid_px: Mean (u, v) of its pixel centres, in the box [px].
-        bbox_px: Its bounding box (x, y, w, h) in the box [px].
-        elongation: Its principal-axis ratio [-].
-        mask: Its pixels, a 0/1 uint8 image of its bounding box.
-    """
-
-    area_px: int
-    centroid_px: tuple[float, float]
-    bbox_px: tuple[int, int, int, int]
-    elongation: float
-    mask: np.ndarray = field(repr=False, compare=False)
-
-
-def split_region(
-    region: np.ndarray,
-    radius_px: float,
-    min_area_px: float,
-    max_area_px: float,
-    max_elongation: float,
-) -> list[Part] | None:
-    """The objects of a region holding several touching ones, or ``None`` if not sure.
-
-    Args:
-        region: The region, 0/1 uint8 image of its bounding box.
-        radius_px: One object's radius there [px] (its flat disc's).
-        min_area_px: A part smaller than this is no object: no split.
-        max_area_px: A part larger than this is not one object: no split.
-        max_elongation: A part longer than this is not one object: no split.
-
-    Returns:
-        The parts (≥ 2, pixels given to the nearest core), or ``None`` when the region
-        has fewer than two cores or a part fails the size or shape test.
-    """
-    padded = cv2.copyMakeBorder(region, 1, 1, 1, 1, cv2.BORDER_CONSTANT, value=0)
-    depth = cv2.distanceTransform(padded, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
-    cores = (depth >= CORE_DEPTH * radius_px).view(np.uint8)
-    n, _, _, _ = _label(cores)
-    if n < 3:  # background and one core (or none)
-        return None
-    _, nearest = cv2.distanceTransformWithLabels(
-        1 - cores, cv2.DIST_L2, cv2.DIST_MASK_5, labelType=cv2.DIST_LABEL_CCOMP
-    )
-    nearest = nearest[1:-1, 1:-1]
-    parts = []
-    for lab in np.unique(nearest[region.view(bool)]):
-        piece = ((nearest == lab) & region.view(bool)).view(np.uint8)
-        m = cv2.moments(piece, binaryImage=True)
-        area = m["m00"]
-        if not min_area_px <= area <= max_area_px:
-            return None
-        elongation = _axis_ratio(m)
-        if elongation > max_elongation:
-            return None
-        x, y, w, h = cv2.boundingRect(piece)
-        centroid = (m["m10"] / area, m["m01"] / area)
-        parts.append(
-            Part(int(area), centroid, (x, y, w, h), elongation, piece[y : y + h, x : x + w])
-        )
-    return parts if len(parts) >= 2 else None
+__all__ = [
+    "CORE_DEPTH",
+    "MAX_SPLIT",
+    "MIN_PART",
+    "SILHOUETTE_WRONG",
+    "STACKED_BOX_PX",
+    "ColorDetector",
+    "Detection",
+    "Part",
+    "_axis_ratio",
+    "_axis_ratios",
+    "_classify_regions",
+    "_disc_diameter_cm",
+    "_elongation",
+    "_label",
+    "_measure_regions",
+    "_point",
+    "_region_mask",
+    "_top_face",
+    "_with_table_yaw",
+    "check_frame",
+    "split_region",
+]
 
 
 class ColorDetector:
@@ -528,24 +308,14 @@ class ColorDetector:
         sources: list[int | np.ndarray] = list(keep.tolist())
         centres = [centroids[keep]]
         for lab in big[~pure].tolist():  # different classes touch: split them
-            x, y, w, h, _ = stats[lab].tolist()
-            roi = (slice(y, y + h), slice(x, x + w))
-            region = (labels[roi] == lab).view(np.uint8)
-            lo, hi, _, _ = cv2.minMaxLoc(index[roi], mask=region)
-            for i in range(int(lo), int(hi) + 1):
-                sub = equal_mask(index[roi], i)
-                sub = cv2.bitwise_and(sub, sub, mask=region)
-                m, sub_labels, sub_stats, sub_centroids = _label(sub)
-                for s in range(1, m):
-                    sx, sy, sw, sh, sarea = sub_stats[s].tolist()
-                    if sarea >= min_area:
-                        piece = (sub_labels[sy : sy + sh, sx : sx + sw] == s).view(np.uint8)
-                        codes.append(i)
-                        areas.append(sarea)
-                        boxes.append((x + sx + ox, y + sy + oy, sw, sh))
-                        centres.append((sub_centroids[s] + (x, y))[None, :])
-                        elongations.append(_elongation(piece))
-                        sources.append(piece)
+            for p in class_pieces(index, labels, stats[lab].tolist(), lab, min_area):
+                x, y, w, h = p.bbox_px
+                codes.append(p.code)
+                areas.append(p.area_px)
+                boxes.append((x + ox, y + oy, w, h))
+                centres.append(p.centroid_px[None, :])
+                elongations.append(p.elongation)
+                sources.append(p.mask)
         if not codes:
             return []
         centroid = np.concatenate(centres) + (ox, oy)  # (N, 2) [px]
@@ -603,7 +373,11 @@ class ColorDetector:
         ]
         found, regions = self._resolve(found, regions, frame)
         fits = self._top_fits(found, regions, frame)
-        tops = None if fits is None else [None if f is None else self._best_shape(f) for f in fits]
+        tops = (
+            None
+            if fits is None
+            else [None if f is None else best_shape(f, self._class_of) for f in fits]
+        )
         classed = _classify_regions(self.matcher, found, regions, frame.shape, tops)
         return self._ordered(self._located(classed, frame, fits))
 
@@ -612,37 +386,13 @@ class ColorDetector:
     ) -> list[dict[str, TopFit] | None] | None:
         """In perspective, each region's top face fitted as each class it may be of.
 
-        The silhouette a perspective camera sees adds the side walls to the top face, and
-        a tall object's fill leaves its shape's band (2.5 cm cylinders read as squares).
-        Where a region's colour has classes that name shapes, each of their top faces
-        (a disc, a square, a triangle of the class's size, at its height) is fitted to
-        the far half of the outline (:meth:`PerspectiveCamera.fit_top`) and the closest
-        fit names the shape (:meth:`_best_shape`); the region is then located by its
-        class's fit. ``None`` for a region merged or cut by the border, or of a colour
-        whose classes name no shape: the silhouette's measure stands. Each fit is keyed
-        by its class's name.
+        :func:`~mearm.vision.perspective_detection.top_fits`; ``None`` without a
+        perspective camera.
         """
         cal = self.calibration
         if not isinstance(cal, PerspectiveCamera) or not found:
             return None
-        h, w = frame.shape[:2]
-        out: list[dict[str, TopFit] | None] = []
-        for d, region in zip(found, regions, strict=True):
-            names = self.matcher.candidates[d.color]
-            classes = [self._class_of[n] for n in names]
-            if d.merged or touches_border(d.bbox_px, w, h) or all(c.shape is None for c in classes):
-                out.append(None)
-                continue
-            origin = (d.bbox_px[0], d.bbox_px[1])
-            out.append(
-                {c.name: cal.fit_top(region, origin, _top_face(c), c.height_cm, frame)
-                 for c in classes}
-            )  # fmt: skip
-        return out
-
-    def _best_shape(self, fits: dict[str, TopFit]) -> str:
-        """The shape whose class's top face fits a region's outline best (least rms)."""
-        return min((f.rms_cm, self._class_of[n].object_shape.name) for n, f in fits.items())[1]
+        return top_fits(cal, self.matcher, self._class_of, found, regions, frame)
 
     def _classed(
         self, found: list[Detection], regions: list[np.ndarray], frame_shape: Sequence[int]
@@ -687,15 +437,7 @@ class ColorDetector:
         flat = cal.expected_disc_area_px(centroids_px, diameter)
         if isinstance(cal, PerspectiveCamera):  # the calibrated camera's own outline
             height = np.array([self._height_cm[c] for c in colors])
-            at = cal.pixel_to_plane(centroids_px, height / 2.0)
-            bounds = [
-                cal.object_image(p, d / 2.0, hh)
-                for p, d, hh in zip(at, diameter, height, strict=True)
-            ]
-            area, ratio = (
-                np.array(v, dtype=float).reshape(len(flat)) for v in zip(*bounds, strict=True)
-            )
-            return flat, area, ratio
+            return flat, *object_image_bounds(cal, centroids_px, diameter, height)
         if self.camera_height_cm is None:
             return flat, flat, np.ones(len(flat))
         height = np.array([self._height_cm[c] for c in colors])
@@ -731,26 +473,8 @@ class ColorDetector:
             return [
                 _with_table_yaw(replace(d, table_cm=p), cal) for d, p in zip(found, xy, strict=True)
             ]
-        out = []
-        for k, d, region in classed:
-            if d.table_cm is not None:  # placed by the silhouette fit of a split
-                out.append(_with_table_yaw(d, cal))  # its part of the silhouette's yaw
-                continue
-            origin = (d.bbox_px[0], d.bbox_px[1])
-            cls = self._class_of[d.color]
-            spec = cls.object_shape
-            if d.shape == spec.name and spec.corners_cm(cls.diameter_cm) is not None:
-                of_region = None if fits is None else fits[k]
-                fit = None if of_region is None else of_region.get(cls.name)
-                if fit is None:  # its shape came from the silhouette: no fit made yet
-                    fit = cal.fit_top(region, origin, _top_face(cls), cls.height_cm, frame)
-                yaw = fit.yaw_deg if spec.name == "cube" else None
-                out.append(replace(d, table_cm=fit.centre_cm, yaw_deg=yaw))
-            else:
-                r = _disc_diameter_cm(cls) / 2.0
-                at = cal.locate_object(region, origin, r, cls.height_cm, frame)
-                out.append(replace(d, table_cm=at))
-        return out
+        assert isinstance(cal, PerspectiveCamera)
+        return locate_in_perspective(cal, self._class_of, classed, frame, fits)
 
     def _resolve(
         self, found: list[Detection], regions: list[np.ndarray], frame: np.ndarray
@@ -809,58 +533,22 @@ class ColorDetector:
     ) -> tuple[list[Part] | None, np.ndarray | None]:
         """A region of touching objects seen in perspective: its parts and their places.
 
-        Fits 2, 3, … objects' silhouettes to the region
-        (:meth:`PerspectiveCamera.fit_silhouettes`) and takes the fewest that explain it
-        (at most :data:`SILHOUETTE_WRONG` of its area wrong); each pixel goes to the
-        nearest fitted object that covers it. ``(None, None)`` if no count explains it.
+        :func:`~mearm.vision.perspective_detection.split_by_silhouettes`, fitting up to
+        as many objects as the region's area suggests (at most :data:`MAX_SPLIT`).
         """
         cal = self.calibration
         assert isinstance(cal, PerspectiveCamera)
-        r, h = self._diameter_cm[d.color] / 2.0, self._height_cm[d.color]
-        origin = (d.bbox_px[0], d.bbox_px[1])
         most = min(MAX_SPLIT, max(2, math.ceil(d.area_px / a_max * self.vision.merged_area_ratio)))
-        for count in range(2, most + 1):
-            centres, wrong = cal.fit_silhouettes(region, origin, r, h, count)
-            if wrong <= SILHOUETTE_WRONG:
-                break
-        else:
-            return None, None
-        centres = cal.rim_centres(region, origin, centres, r, h, frame)
-        # each pixel: the nearest (on the plane of the tops) of the objects covering it
-        ys, xs = np.nonzero(region)
-        pixels = np.column_stack([xs + origin[0], ys + origin[1]]).astype(float)
-        on_top = cal.pixel_to_plane(pixels, h)
-        dist = np.linalg.norm(on_top[:, None, :] - centres[None, :, :], axis=2)
-        covers = np.stack(
-            [cal.silhouette_coverage(c, r, h, origin, region.shape)[ys, xs] > 0.5 for c in centres],
-            axis=1,
+        return split_by_silhouettes(
+            cal,
+            d,
+            region,
+            frame,
+            radius_cm=self._diameter_cm[d.color] / 2.0,
+            height_cm=self._height_cm[d.color],
+            most=most,
+            min_area_px=self.vision.min_area_px,
         )
-        owner = np.argmin(np.where(covers, dist, dist + 1e6), axis=1)
-        parts = []
-        for i in range(len(centres)):
-            piece = np.zeros_like(region)
-            piece[ys[owner == i], xs[owner == i]] = 1
-            m = cv2.moments(piece, binaryImage=True)
-            if m["m00"] < self.vision.min_area_px:
-                return None, None
-            x, y, w, hh = cv2.boundingRect(piece)
-            parts.append(
-                Part(
-                    int(m["m00"]),
-                    (m["m10"] / m["m00"], m["m01"] / m["m00"]),
-                    (x, y, w, hh),
-                    _axis_ratio(m),
-                    piece[y : y + hh, x : x + w],
-                )
-            )
-        return parts, centres
-
-
-def _with_table_yaw(d: Detection, cal: CameraGeometry) -> Detection:
-    """``d`` with a cube's image yaw (the silhouette's) turned onto the table."""
-    if d.yaw_px_deg is None:
-        return d
-    return replace(d, yaw_deg=table_yaw_deg(cal.pixel_to_table, d.centroid_px, d.yaw_px_deg))
 
 
 def _classify_regions(
@@ -882,7 +570,7 @@ def _classify_regions(
         regions: Each one's mask over its box, 0/1 uint8.
         frame_shape: The frame's (H, W, ...).
         tops: Each region's shape judged by its top face in perspective, where known
-            (:meth:`ColorDetector._top_fits`): it stands for the silhouette's.
+            (:func:`~mearm.vision.perspective_detection.top_fits`): it stands for the silhouette's.
 
     Returns:
         Each detection of a class, with its index in ``found`` and its region.

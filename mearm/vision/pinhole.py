@@ -29,51 +29,96 @@ centre is the centre of the circle fitted to that arc (the fit's radius is free,
 mask grown or shrunk by a fraction of a pixel all round does not move it). Whether the
 side wall is bright enough to be segmented does not matter.
 
-**Files.** Each calibration is its own YAML file (not a config section), versioned:
-``format: mearm-camera-calibration``, ``version: 1``, ``kind: intrinsics | extrinsics``,
-the camera's id, the frame size and the date, its numbers and its quality (``rms_px``,
-the RMS reprojection error). :func:`save_calibration` never replaces a file holding a
-better calibration of the same camera (lower ``rms_px``), a different camera's or
-resolution's, or anything that is not a calibration, unless forced; a replaced file is
-kept beside the new one as ``<name>.bak``.
+**Files.** Each calibration is its own versioned YAML file
+(:mod:`mearm.vision.calibration_file`, whose names this module re-exports).
 """
 
 from __future__ import annotations
 
-import datetime
 import math
-from collections.abc import Mapping
-from dataclasses import dataclass, field
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any, Literal, NamedTuple
+from typing import Any
 
 import cv2
 import numpy as np
 import numpy.typing as npt
-import yaml
 
-from mearm.config.base import short_repr
 from mearm.config.errors import CalibrationError
-from mearm.errors import ConfigError
-from mearm.fileio import write_atomic
-from mearm.yamlio import load_yaml_file
+from mearm.vision.calibration_file import (
+    _KINDS,
+    _UNDISTORT_CRITERIA,
+    FORMAT,
+    MAX_CAMERA_DISTANCE_CM,
+    MAX_DISTORTION,
+    MAX_FIT_COUNT,
+    MAX_PIXELS,
+    VERSION,
+    CalibrationFile,
+    Extrinsics,
+    Intrinsics,
+    Kind,
+    _check_replace,
+    _matrix,
+    _rms,
+    _size_px,
+    _whole,
+    calibration_text,
+    load_calibration,
+    save_calibration,
+    today,
+)
+from mearm.vision.subpixel import _outward_normals, subpixel_edges
+from mearm.vision.top_face import (
+    TopFace,
+    TopFit,
+    _fit_circle,
+    _fit_disc,
+    _fit_polygon,
+    _nearest_on_sides,
+)
 
-FORMAT = "mearm-camera-calibration"
-VERSION = 1
-Kind = Literal["intrinsics", "extrinsics"]
+__all__ = [
+    "FAR_ARC_DEG",
+    "FORMAT",
+    "MAX_CAMERA_DISTANCE_CM",
+    "MAX_DISTORTION",
+    "MAX_FIT_COUNT",
+    "MAX_PIXELS",
+    "POLYGON_OUTSIDE_CM",
+    "POLYGON_TURNS",
+    "VERSION",
+    "CalibrationFile",
+    "Extrinsics",
+    "Intrinsics",
+    "Kind",
+    "PerspectiveCamera",
+    "TopFace",
+    "TopFit",
+    "_KINDS",
+    "_UNDISTORT_CRITERIA",
+    "_check_replace",
+    "_fit_circle",
+    "_fit_disc",
+    "_fit_polygon",
+    "_matrix",
+    "_nearest_on_sides",
+    "_outward_normals",
+    "_rms",
+    "_size_px",
+    "_whole",
+    "calibration_text",
+    "load_calibration",
+    "save_calibration",
+    "solve_pose",
+    "subpixel_edges",
+    "today",
+]
 
-#: Largest focal length or principal-point coordinate [px] (an image side is ≤ 4096 px).
-MAX_PIXELS = 1e5
-#: Largest distortion coefficient magnitude (webcams: |k1| < 1).
-MAX_DISTORTION = 100.0
-#: Largest distance of the camera from the base [cm].
-MAX_CAMERA_DISTANCE_CM = 1000.0
-#: Outline points on the far side of an object used for the top disc's circle: within
 #: this angle of the direction away from the camera's foot point [deg]. The top disc's
 #: rim owns at least ±90° of the outline (the base disc, cast onto the top's plane, is
 #: smaller and nearer the foot point, so the hull's straight sides touch the top circle
-#: beyond ±90°). On the twin's renders 89° gives a third less error than 80° (more of
-#: the rim) and 60° twice as much.
+#: beyond ±90°).
 FAR_ARC_DEG = 89.0
 #: Starting turns of the polygon fit, spread over one period of its symmetry [-].
 POLYGON_TURNS = 3
@@ -81,9 +126,6 @@ POLYGON_TURNS = 3
 #: outline's pixels and the corner's own rounding); farther, the fit is the far edges'
 #: mirror image.
 POLYGON_OUTSIDE_CM = 0.05
-#: Undistortion iterations and tolerance (OpenCV's default 5 iterations leave up to
-#: 0.1 px at a webcam's corners).
-_UNDISTORT_CRITERIA = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 40, 1e-12)
 #: Sub-pixel bits of the silhouettes' anti-aliased fill (1/16 px).
 _SUBPIXEL_BITS = 4
 _SUBPIXEL = 1 << _SUBPIXEL_BITS
@@ -93,515 +135,49 @@ _FIT_ITERATIONS = 20
 _FIT_STEP_CM = 0.01
 
 
-def _matrix(name: str, value: Any, shape: tuple[int, ...], limit: float) -> np.ndarray:
-    try:
-        arr = np.array(value, dtype=float)
-    except (TypeError, ValueError):
-        raise CalibrationError(f"{name} must be numbers, got {short_repr(value)}") from None
-    if arr.shape != shape:
-        raise CalibrationError(f"{name} must have shape {shape}, got {arr.shape}")
-    if not np.all(np.isfinite(arr)) or np.abs(arr).max(initial=0.0) > limit:
-        raise CalibrationError(
-            f"{name} must be finite numbers within ±{limit:g}, got {short_repr(arr.tolist())}"
-        )
-    arr.setflags(write=False)
-    return arr
-
-
-def _whole(name: str, value: Any, lo: int, hi: int) -> int:
-    """A whole number read from a file, in [lo, hi].
-
-    ``.inf``, NaN, 1.5, text and ``true`` are named, not converted (``int(.inf)`` raised
-    OverflowError, ``int(1.5)`` gave 1).
-    """
-    if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
-        raise CalibrationError(
-            f"{name} must be a whole number in {lo} … {hi}, got {short_repr(value)}"
-        )
-    if not (math.isfinite(value) and float(value).is_integer() and lo <= value <= hi):
-        raise CalibrationError(
-            f"{name} must be a whole number in {lo} … {hi}, got {short_repr(value)}"
-        )
-    return int(value)
-
-
-#: Most board views or markers a calibration records having been fitted to.
-MAX_FIT_COUNT = 1_000_000
-
-
-def _size_px(value: Any) -> tuple[int, int]:
-    """A frame size (width, height), each side a whole number in 1 … 65535 px."""
-    if not isinstance(value, list | tuple) or len(value) != 2:
-        raise CalibrationError(f"resolution must be [width, height] px, got {short_repr(value)}")
-    w, h = (_whole("resolution", v, 1, 65535) for v in value)
-    return w, h
-
-
-def _rms(value: Any) -> float:
-    """An RMS reprojection error in 0 … 1000 px."""
-    if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
-        raise CalibrationError(f"rms_px must be a number in 0 … 1000 px, got {short_repr(value)}")
-    if not (math.isfinite(value) and 0 <= value <= 1e3):
-        raise CalibrationError(f"rms_px must be in 0 … 1000 px, got {short_repr(value)}")
-    return float(value)
-
-
-def today() -> str:
-    """Now, as the ISO 8601 timestamp calibration files record (UTC, seconds)."""
-    return datetime.datetime.now(datetime.UTC).replace(microsecond=0).isoformat()
-
-
-@dataclass(frozen=True)
-class Intrinsics:
-    """The camera matrix and lens distortion of one camera at one resolution.
-
-    Attributes:
-        camera_matrix: *K* = [[fx, 0, cx], [0, fy, cy], [0, 0, 1]] [px], (3, 3).
-        distortion: OpenCV's (k1, k2, p1, p2, k3), (5,).
-        size_px: The frame size it holds for (width, height) [px].
-        rms_px: RMS reprojection error of the board corners [px].
-        views: How many board views it was fitted from.
-        camera_id: Which camera (a device path, a serial number, ``twin``).
-        date: When it was made (ISO 8601).
-    """
-
-    camera_matrix: np.ndarray
-    distortion: np.ndarray
-    size_px: tuple[int, int]
-    rms_px: float
-    views: int = 0
-    camera_id: str = "camera"
-    date: str = field(default_factory=today)
-
-    kind = "intrinsics"
-
-    def __post_init__(self) -> None:
-        K = _matrix("camera_matrix", self.camera_matrix, (3, 3), MAX_PIXELS)
-        if K[0, 0] <= 0 or K[1, 1] <= 0 or K[2, 2] != 1 or K[1, 0] or K[2, 0] or K[2, 1]:
-            raise CalibrationError(
-                "camera_matrix must be [[fx, s, cx], [0, fy, cy], [0, 0, 1]] with fx, fy > 0, "
-                f"got {short_repr(K.tolist())}"
-            )
-        dist = _matrix("distortion", self.distortion, (5,), MAX_DISTORTION)
-        w, h = _size_px(self.size_px)
-        _rms(self.rms_px)
-        object.__setattr__(self, "views", _whole("views", self.views, 0, MAX_FIT_COUNT))
-        object.__setattr__(self, "camera_matrix", K)
-        object.__setattr__(self, "distortion", dist)
-        object.__setattr__(self, "size_px", (w, h))
-
-    def to_dict(self) -> dict[str, Any]:
-        """The file's fields (the header is added by :func:`save_calibration`)."""
-        return {
-            "camera_matrix": [[float(v) for v in row] for row in self.camera_matrix],
-            "distortion": [float(v) for v in self.distortion],
-            "rms_px": float(self.rms_px),
-            "views": int(self.views),
-        }
-
-    @classmethod
-    def from_dict(cls, data: Mapping[str, Any], header: Mapping[str, Any]) -> Intrinsics:
-        """Read the fields :meth:`to_dict` writes (``header``: id, size, date)."""
-        return cls(
-            camera_matrix=data["camera_matrix"],
-            distortion=data["distortion"],
-            size_px=header["resolution"],
-            rms_px=data["rms_px"],
-            views=data.get("views", 0),
-            camera_id=str(header["camera_id"]),
-            date=str(header["date"]),
-        )
-
-    def undistort(self, pixels_px: npt.ArrayLike) -> np.ndarray:
-        """Normalised image coordinates (x/z, y/z) of pixels, (N, 2) → (N, 2)."""
-        px = np.asarray(pixels_px, dtype=np.float64).reshape(-1, 1, 2)
-        out = cv2.undistortPoints(
-            px, self.camera_matrix, self.distortion, None, None, None, _UNDISTORT_CRITERIA
-        )
-        return out.reshape(-1, 2)
-
-
-@dataclass(frozen=True)
-class Extrinsics:
-    """The camera's pose in the robot base frame.
-
-    Attributes:
-        rotation: Camera → base rotation *R*, (3, 3) (columns: the camera's x right,
-            y down, z forward axes in the base frame).
-        position_cm: The camera's optical centre in the base frame [cm], (3,).
-        rms_px: RMS reprojection error of the marker corners it was fitted to [px].
-        markers: How many markers it was fitted to.
-        camera_id: Which camera.
-        size_px: The frame size of the intrinsics it was fitted with.
-        date: When it was made (ISO 8601).
-        refined_by_arm: Whether the arm's check (:mod:`mearm.task.armcheck`) refined it.
-    """
-
-    rotation: np.ndarray
-    position_cm: np.ndarray
-    rms_px: float
-    markers: int = 0
-    camera_id: str = "camera"
-    size_px: tuple[int, int] = (640, 480)
-    date: str = field(default_factory=today)
-    refined_by_arm: bool = False
-
-    kind = "extrinsics"
-
-    def __post_init__(self) -> None:
-        R = _matrix("rotation", self.rotation, (3, 3), 1.0 + 1e-6)
-        if np.abs(R @ R.T - np.eye(3)).max() > 1e-6 or np.linalg.det(R) < 0:
-            raise CalibrationError("rotation must be a rotation matrix (orthonormal, det +1)")
-        C = _matrix("position_cm", self.position_cm, (3,), MAX_CAMERA_DISTANCE_CM)
-        _rms(self.rms_px)
-        object.__setattr__(self, "markers", _whole("markers", self.markers, 0, MAX_FIT_COUNT))
-        object.__setattr__(self, "rotation", R)
-        object.__setattr__(self, "position_cm", C)
-        object.__setattr__(self, "size_px", _size_px(self.size_px))
-
-    @classmethod
-    def from_rvec_tvec(cls, rvec: npt.ArrayLike, tvec: npt.ArrayLike, **kw: Any) -> Extrinsics:
-        """From OpenCV's pose of the base frame in the camera (solvePnP's rvec, tvec [cm])."""
-        R_cam_base, _ = cv2.Rodrigues(np.asarray(rvec, dtype=float).reshape(3, 1))
-        t = np.asarray(tvec, dtype=float).reshape(3)
-        R = R_cam_base.T
-        return cls(rotation=R, position_cm=-R @ t, **kw)
-
-    def rvec_tvec(self) -> tuple[np.ndarray, np.ndarray]:
-        """OpenCV's (rvec, tvec [cm]) of the base frame in the camera, for projectPoints."""
-        R_cam_base = self.rotation.T
-        rvec, _ = cv2.Rodrigues(R_cam_base)
-        return rvec.reshape(3), -R_cam_base @ self.position_cm
-
-    def to_dict(self) -> dict[str, Any]:
-        """The file's fields (the header is added by :func:`save_calibration`)."""
-        return {
-            "rotation": [[float(v) for v in row] for row in self.rotation],
-            "position_cm": [float(v) for v in self.position_cm],
-            "rms_px": float(self.rms_px),
-            "markers": int(self.markers),
-            "refined_by_arm": bool(self.refined_by_arm),
-        }
-
-    @classmethod
-    def from_dict(cls, data: Mapping[str, Any], header: Mapping[str, Any]) -> Extrinsics:
-        """Read the fields :meth:`to_dict` writes (``header``: id, size, date)."""
-        return cls(
-            rotation=data["rotation"],
-            position_cm=data["position_cm"],
-            rms_px=data["rms_px"],
-            markers=data.get("markers", 0),
-            camera_id=str(header["camera_id"]),
-            size_px=header["resolution"],
-            date=str(header["date"]),
-            refined_by_arm=bool(data.get("refined_by_arm", False)),
-        )
-
-
-CalibrationFile = Intrinsics | Extrinsics
-_KINDS: dict[str, type[Intrinsics] | type[Extrinsics]] = {
-    "intrinsics": Intrinsics,
-    "extrinsics": Extrinsics,
-}
-
-
-def calibration_text(cal: CalibrationFile) -> str:
-    """The YAML text of a calibration file."""
-    header = {
-        "format": FORMAT,
-        "version": VERSION,
-        "kind": cal.kind,
-        "camera_id": cal.camera_id,
-        "resolution": list(cal.size_px),
-        "date": cal.date,
-    }
-    body = yaml.safe_dump(cal.to_dict(), sort_keys=False, default_flow_style=None, width=100)
-    head = yaml.safe_dump(header, sort_keys=False, default_flow_style=None)
-    return f"# mearm camera calibration ({cal.kind}); written by mearm, do not edit\n{head}{body}"
-
-
-def load_calibration(path: str | Path, kind: Kind | None = None) -> CalibrationFile:
-    """Read a calibration file.
-
-    Args:
-        path: The file.
-        kind: The kind it must be; ``None``: either.
-
-    Raises:
-        CalibrationError: the file is missing, not YAML, not a mearm camera calibration,
-            of a newer version, of the wrong kind, or its numbers are out of range; the
-            message names the file and the field.
-    """
-    try:
-        data = load_yaml_file(path, what="calibration")
-    except ConfigError as exc:
-        raise CalibrationError(str(exc)) from None
-    where = str(path)
-    if not isinstance(data, dict) or data.get("format") != FORMAT:
-        raise CalibrationError(f"{where}: not a mearm camera calibration (format: {FORMAT})")
-    version = data.get("version")
-    if version != VERSION:
-        raise CalibrationError(
-            f"{where}: calibration file version {short_repr(version)}; this mearm reads "
-            f"version {VERSION}"
-        )
-    found = data.get("kind")
-    if found not in _KINDS:
-        raise CalibrationError(f"{where}: kind must be intrinsics or extrinsics, got {found!r}")
-    if kind is not None and found != kind:
-        raise CalibrationError(f"{where}: holds {found}, but {kind} are needed here")
-    try:
-        return _KINDS[found].from_dict(data, data)
-    except KeyError as exc:
-        raise CalibrationError(f"{where}: missing field {exc.args[0]!r}") from None
-    except (TypeError, ValueError, OverflowError) as exc:
-        raise CalibrationError(f"{where}: {exc}") from None
-    except CalibrationError as exc:
-        raise CalibrationError(f"{where}: {exc.reason}") from None
-
-
-def save_calibration(path: str | Path, cal: CalibrationFile, *, force: bool = False) -> Path:
-    """Write ``cal`` to ``path`` unless that would lose a better calibration.
-
-    Without ``force`` an existing file is replaced only when it holds a calibration of
-    the same kind, camera and frame size whose ``rms_px`` is no lower than the new
-    one's. A replaced file is kept as ``<path>.bak``. The write is atomic.
-
-    Returns:
-        The path written.
-
-    Raises:
-        CalibrationError: the existing file is better, of another camera, kind or
-            resolution, or not a calibration file, and ``force`` is not set.
-    """
-    target = Path(path)
-    if target.exists():
-        old_text = target.read_bytes() if target.is_file() else None
-        if not force:
-            _check_replace(target, cal)
-        if old_text is not None:
-            write_atomic(target.with_name(target.name + ".bak"), old_text)
-    return write_atomic(target, calibration_text(cal))
-
-
-def _check_replace(target: Path, cal: CalibrationFile) -> None:
-    try:
-        old = load_calibration(target)
-    except CalibrationError as exc:
-        raise CalibrationError(
-            f"{target} exists and is not a readable camera calibration ({exc.reason}): "
-            "pass --force to replace it"
-        ) from None
-    if old.kind != cal.kind or old.camera_id != cal.camera_id or old.size_px != cal.size_px:
-        raise CalibrationError(
-            f"{target} holds the {old.kind} of camera {old.camera_id!r} at "
-            f"{old.size_px[0]}x{old.size_px[1]} px; the new one is the {cal.kind} of "
-            f"{cal.camera_id!r} at {cal.size_px[0]}x{cal.size_px[1]} px: pass --force to "
-            "replace it, or write elsewhere"
-        )
-    if cal.rms_px > old.rms_px:
-        raise CalibrationError(
-            f"{target} holds a better calibration (rms {old.rms_px:.3f} px, {old.date}) than "
-            f"the new one (rms {cal.rms_px:.3f} px): kept; pass --force to replace it"
-        )
-
-
-def _outward_normals(outline: np.ndarray, k: int = 3) -> np.ndarray:
-    """Unit normals (N, 2) of a closed pixel outline (N, 2), pointing out of the region.
-
-    The tangent at each point is the chord between its k-th neighbours either side; the
-    normal's sign is chosen to point away from the outline's mean.
-    """
-    tangent = np.roll(outline, -k, axis=0) - np.roll(outline, k, axis=0)
-    normal = np.column_stack([tangent[:, 1], -tangent[:, 0]])
-    length = np.linalg.norm(normal, axis=1, keepdims=True)
-    normal = normal / np.where(length < 1e-12, 1.0, length)
-    outward = np.sum(normal * (outline - outline.mean(axis=0)), axis=1) >= 0
-    return np.where(outward[:, None], normal, -normal)
-
-
-def subpixel_edges(frame: np.ndarray, outline: np.ndarray) -> np.ndarray:
-    """The outline of a region moved onto the image's colour edge, to a fraction of a pixel.
-
-    A mask's outline runs through the centres of its border pixels, up to a pixel from
-    the true edge and in steps of whole pixels. Along each point's outward normal the
-    frame is sampled (bilinear) from 3 px inside to 3 px outside; each sample's colour is
-    scored between the local inside colour (mean of the samples 1–1.5 px inside) and the
-    local outside colour (2.5–3 px outside), 1 to 0, and the edge is where the score
-    crosses one half (linear interpolation between samples). A point whose profile has
-    too little contrast (under 12 levels) or no crossing near the outline keeps its pixel
-    position plus half a pixel outward, where a binary mask's edge lies on average.
-
-    Under a lamp (measured on the twin's renders, ``mearm camera-accuracy`` with
-    ``twin.lamp``) two choices matter. Colours are compared by their *chroma*, each
-    sample less the mean of its channels: a shadow scales a colour and a specular
-    highlight adds white to it, which leaves the chroma's direction, so a dark shadow
-    just beyond the rim no longer scores as the object (in B, G, R a dark pixel lies
-    nearer a saturated green than the lit table does: the rim came out a pixel outwards,
-    0.1 cm for 1 cm objects). And the inside colour is the rim's own, 1–1.5 px in, not
-    the face's 3 px in: a shadow falling across the rim (a bin's) darkens the rim against
-    the lit middle of the face, and the half-way point then lay on the shadow's edge
-    on the face.
-
-    Args:
-        frame: The image (H, W, 3) uint8 (or (H, W)).
-        outline: Outline points (N, 2) [px], ordered along the closed outline.
-
-    Returns:
-        The refined points (N, 2) [px].
-    """
-    pts = np.asarray(outline, dtype=float)
-    if len(pts) < 7:
-        return pts
-    normals = _outward_normals(pts)
-    steps = np.arange(-3.0, 3.0001, 0.25)
-    xy = pts[:, None, :] + steps[None, :, None] * normals[:, None, :]
-    samples = cv2.remap(
-        frame,
-        xy[..., 0].astype(np.float32),
-        xy[..., 1].astype(np.float32),
-        cv2.INTER_LINEAR,
-        borderMode=cv2.BORDER_REPLICATE,
-    ).astype(float)
-    if samples.ndim == 2:
-        samples = samples[..., None]
-    else:  # chroma: a shadow or a highlight moves a colour along (1, 1, 1), not across it
-        samples = samples - samples.mean(axis=2, keepdims=True)
-    inner = samples[:, 6:9].mean(axis=1)  # t ∈ [-1.5, -1]: the rim's own colour
-    outer = samples[:, -3:].mean(axis=1)  # t ∈ [2.5, 3]
-    d = inner - outer
-    dd = np.sum(d * d, axis=1)
-    score = np.einsum("nkc,nc->nk", samples - outer[:, None, :], d) / np.maximum(dd, 1e-9)[:, None]
-    above = score >= 0.5
-    # the crossing nearest the pixel outline's own edge (t = +0.5) from inside to outside
-    cross = above[:, :-1] & ~above[:, 1:]
-    t_mid = (steps[:-1] + steps[1:]) / 2.0
-    dist = np.where(cross, np.abs(t_mid - 0.5)[None, :], np.inf)
-    j = np.argmin(dist, axis=1)
-    n = np.arange(len(pts))
-    ok = np.isfinite(dist[n, j]) & (np.sqrt(dd) >= 12.0)
-    s0, s1 = score[n, j], score[n, j + 1]
-    frac = np.clip((s0 - 0.5) / np.where(s0 - s1 == 0, 1.0, s0 - s1), 0.0, 1.0)
-    t = np.where(ok, steps[j] + frac * (steps[1] - steps[0]), 0.5)
-    return pts + t[:, None] * normals
-
-
-def _fit_circle(pts: np.ndarray) -> tuple[np.ndarray, float]:
-    """Least-squares circle through points (N ≥ 3, (N, 2)): centre, radius.
-
-    The algebraic (Kåsa) fit, refined by Gauss–Newton on the geometric distances.
-    """
-    A = np.column_stack([2 * pts, np.ones(len(pts))])
-    b = np.sum(pts**2, axis=1)
-    sol, *_ = np.linalg.lstsq(A, b, rcond=None)
-    c = sol[:2]
-    r = math.sqrt(max(sol[2] + c @ c, 1e-18))
-    for _ in range(10):
-        d = pts - c
-        dist = np.linalg.norm(d, axis=1)
-        dist = np.where(dist < 1e-12, 1e-12, dist)
-        J = np.column_stack([-d / dist[:, None], -np.ones(len(pts))])
-        res = dist - r
-        step, *_ = np.linalg.lstsq(J, -res, rcond=None)
-        c = c + step[:2]
-        r = r + step[2]
-        if np.abs(step).max() < 1e-10:
-            break
-    return c, float(r)
-
-
-@dataclass(frozen=True)
-class TopFace:
-    """An upright object's top face seen from above, around its centre [cm].
-
-    Attributes:
-        radius_cm: A disc's radius; a polygon's farthest corner from its centre.
-        corners_cm: A polygon's corners at no turn, (K, 2); ``None``: a disc.
-        symmetry_deg: A polygon looks the same turned by this [deg].
-    """
-
-    radius_cm: float
-    corners_cm: np.ndarray | None = None
-    symmetry_deg: float = 0.0
-
-
-class TopFit(NamedTuple):
-    """An upright object's top face fitted to its outline (:meth:`PerspectiveCamera.fit_top`).
-
-    Attributes:
-        centre_cm: Where the object stands, base frame (x, y) [cm], (2,).
-        rms_cm: The far side's rms distance from the fitted face [cm] (∞: no fit).
-        yaw_deg: A polygon's turn on the table, from the base frame's x axis towards y,
-            modulo its symmetry [deg]; ``None`` for a disc or when no fit was made.
-    """
-
-    centre_cm: np.ndarray
-    rms_cm: float
-    yaw_deg: float | None
-
-
-def _fit_disc(pts: np.ndarray, radius: float, centre: np.ndarray) -> tuple[np.ndarray, float]:
-    """The centre of a circle of ``radius`` nearest ``pts`` (Gauss–Newton): centre, rms."""
-    c = np.asarray(centre, dtype=float).copy()
-    for _ in range(10):
-        d = pts - c
-        dist = np.maximum(np.linalg.norm(d, axis=1), 1e-12)
-        step, *_ = np.linalg.lstsq(-d / dist[:, None], radius - dist, rcond=None)
-        c = c + step
-        if np.abs(step).max() < 1e-7:
-            break
-    res = np.linalg.norm(pts - c, axis=1) - radius
-    return c, float(math.sqrt(np.mean(res**2)))
-
-
-def _nearest_on_sides(pts: np.ndarray, corners: np.ndarray) -> np.ndarray:
-    """Each point's nearest point on the sides of a closed polygon, (N, 2)."""
-    a = corners
-    ab = np.concatenate([corners[1:], corners[:1]]) - a  # (K, 2)
-    ap = pts[:, None, :] - a[None]  # (N, K, 2)
-    t = np.clip(np.einsum("nkd,kd->nk", ap, ab) / np.einsum("kd,kd->k", ab, ab), 0.0, 1.0)
-    near = a[None] + t[..., None] * ab[None]  # (N, K, 2)
-    d2 = np.einsum("nkd,nkd->nk", pts[:, None, :] - near, pts[:, None, :] - near)
-    return near[np.arange(len(pts)), np.argmin(d2, axis=1)]
-
-
-def _fit_polygon(
-    pts: np.ndarray, corners: np.ndarray, centre: np.ndarray, yaw0: float
-) -> tuple[np.ndarray, float, float]:
-    """The pose of a rigid polygon whose sides pass nearest ``pts``: centre, yaw, rms.
-
-    ``corners`` (K, 2) are around its centre at yaw 0; Gauss–Newton on the points'
-    distances to their nearest points of the sides (``q``: d|p − q|/dc = −u and
-    d|p − q|/dψ = −u · ⊥(q − c), u the unit vector from q to p), step halved while the
-    sum of squares does not fall, from ``centre`` and ``yaw0`` [rad].
-    """
-
-    def placed(x: np.ndarray) -> np.ndarray:
-        c, s = math.cos(x[2]), math.sin(x[2])
-        return corners @ np.array([[c, s], [-s, c]]) + x[:2]
-
-    def evaluate(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        q = _nearest_on_sides(pts, placed(x))
-        return q, np.linalg.norm(pts - q, axis=1)
-
-    x = np.array([centre[0], centre[1], yaw0], dtype=float)
-    q, res = evaluate(x)
-    for _ in range(30):
-        u = (pts - q) / np.maximum(res, 1e-12)[:, None]
-        r = q - x[:2]
-        J = np.column_stack([-u, -(u[:, 0] * -r[:, 1] + u[:, 1] * r[:, 0])])
-        step, *_ = np.linalg.lstsq(J, -res, rcond=None)
-        for _ in range(10):
-            q_new, trial = evaluate(x + step)
-            if float(trial @ trial) <= float(res @ res):
+def _levenberg_marquardt(residual: Callable[[np.ndarray], np.ndarray], p: np.ndarray) -> np.ndarray:
+    """The parameters minimising ``|residual(p)|²`` from ``p`` (forward differences)."""
+    r = residual(p)
+    cost = float(r @ r)
+    damping = 1e-3
+    for _ in range(_FIT_ITERATIONS):
+        J = np.empty((len(r), len(p)))
+        for i in range(len(p)):
+            q = p.copy()
+            q[i] += _FIT_STEP_CM
+            J[:, i] = (residual(q) - r) / _FIT_STEP_CM
+        JtJ, Jtr = J.T @ J, J.T @ r
+        improved = False
+        for _ in range(8):
+            step = np.linalg.solve(JtJ + damping * np.diag(np.diag(JtJ) + 1e-9), -Jtr)
+            q = p + step
+            rq = residual(q)
+            cq = float(rq @ rq)
+            if cq < cost:
+                p, r, cost, improved = q, rq, cq, True
+                damping = max(damping / 3.0, 1e-7)
                 break
-            step = step / 2
-        else:
+            damping *= 4.0
+        if not improved or np.abs(step).max() < 1e-4:
             break
-        x, q, res = x + step, q_new, trial
-        if np.abs(step).max() < 1e-8:
-            break
-    return x[:2], float(x[2]), float(math.sqrt(np.mean(res**2)))
+    return p
+
+
+def _wrong_share(region: np.ndarray, hull: np.ndarray, tops: np.ndarray) -> float:
+    """The share of the region's area the fitted silhouettes get wrong by over a pixel.
+
+    Wrong: a top's pixel (over half covered) with no mask pixel within one pixel, or a
+    mask pixel with no silhouette pixel within one (a mask's edge wanders by up to a
+    pixel with the colour thresholds).
+    """
+    near = np.ones((3, 3), np.uint8)
+    seen = region.astype(np.uint8)
+    seen_near = cv2.dilate(seen, near).view(bool)
+    hull_near = cv2.dilate((hull > 0.5).astype(np.uint8), near).view(bool)
+    bad = np.count_nonzero((tops > 0.5) & ~seen_near) + np.count_nonzero(
+        seen.view(bool) & ~hull_near
+    )
+    return bad / max(float(region.sum()), 1.0)
 
 
 class PerspectiveCamera:
@@ -830,45 +406,12 @@ class PerspectiveCamera:
                 [np.maximum(tops - region, 0.0).ravel(), np.maximum(region - hull, 0.0).ravel()]
             )
 
-        r = residual(p)
-        cost = float(r @ r)
-        damping = 1e-3
-        for _ in range(_FIT_ITERATIONS):
-            J = np.empty((len(r), len(p)))
-            for i in range(len(p)):
-                q = p.copy()
-                q[i] += _FIT_STEP_CM
-                J[:, i] = (residual(q) - r) / _FIT_STEP_CM
-            JtJ, Jtr = J.T @ J, J.T @ r
-            improved = False
-            for _ in range(8):
-                step = np.linalg.solve(JtJ + damping * np.diag(np.diag(JtJ) + 1e-9), -Jtr)
-                q = p + step
-                rq = residual(q)
-                cq = float(rq @ rq)
-                if cq < cost:
-                    p, r, cost, improved = q, rq, cq, True
-                    damping = max(damping / 3.0, 1e-7)
-                    break
-                damping *= 4.0
-            if not improved or np.abs(step).max() < 1e-4:
-                break
-        # pixels wrong by more than a pixel's blur: a top's pixel (over half covered) with
-        # no mask pixel within one pixel, or a mask pixel with no silhouette pixel within
-        # one (a mask's edge wanders by up to a pixel with the colour thresholds)
-        at = p.reshape(-1, 2)
+        at = _levenberg_marquardt(residual, p).reshape(-1, 2)
         hull = self.silhouette_coverage(at, radius_cm, height_cm, origin, region.shape)
         tops = self.silhouette_coverage(
             at, radius_cm, height_cm, origin, region.shape, top_only=True
         )
-        near = np.ones((3, 3), np.uint8)
-        seen = region.astype(np.uint8)
-        seen_near = cv2.dilate(seen, near).view(bool)
-        hull_near = cv2.dilate((hull > 0.5).astype(np.uint8), near).view(bool)
-        bad = np.count_nonzero((tops > 0.5) & ~seen_near) + np.count_nonzero(
-            seen.view(bool) & ~hull_near
-        )
-        return at, bad / max(float(region.sum()), 1.0)
+        return at, _wrong_share(region, hull, tops)
 
     def _outline_on_plane(
         self,

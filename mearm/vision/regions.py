@@ -1,0 +1,228 @@
+"""Connected regions of the class masks: labels, moments, and touching objects split.
+
+A union region holding several classes is cut into each class's pieces
+(:func:`class_pieces`); a region holding several touching objects of one class is
+split at its cores (:func:`split_region`, the detector module's docstring says when).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import NamedTuple
+
+import cv2
+import numpy as np
+from numpy.lib.stride_tricks import sliding_window_view
+
+from mearm.vision.classify import equal_mask
+
+#: A region's core: its pixels at least this × one object's radius from its edge.
+CORE_DEPTH = 0.6
+#: A split's part must have at least this × one flat object's expected area.
+MIN_PART = 0.5
+
+
+def _label(mask: np.ndarray) -> tuple[int, np.ndarray, np.ndarray, np.ndarray]:
+    try:  # 16-bit labels are ~3x faster; OpenCV raises if there are too many regions
+        return cv2.connectedComponentsWithStats(mask, connectivity=8, ltype=cv2.CV_16U)
+    except cv2.error:
+        return cv2.connectedComponentsWithStats(mask, connectivity=8, ltype=cv2.CV_32S)
+
+
+def _elongation(region: np.ndarray) -> float:
+    """Principal-axis ratio √(λ_max/λ_min) of a binary region's second central moments."""
+    return _axis_ratio(cv2.moments(region, binaryImage=True))
+
+
+#: Regions whose box is at most this many pixels on each side are measured together,
+#: as one stack of windows; larger ones one by one [px].
+STACKED_BOX_PX = 96
+
+
+def _measure_regions(
+    index: np.ndarray, labels: np.ndarray, stats: np.ndarray, big: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Each region's purity, class code and elongation, all at once, each (N,).
+
+    Pure: every pixel of the region has one class code (then ``code`` is it). The small
+    regions (boxes up to :data:`STACKED_BOX_PX`) are read as one stack of equal windows
+    over the label image, each at its region's box (moved inwards at the image's edge),
+    so their moments are a few array operations per frame, not a call per region; the
+    second moments are exact (integer sums).
+    """
+    count = len(big)
+    pure, code, elong = np.zeros(count, bool), np.zeros(count, int), np.ones(count)
+    if not count:
+        return pure, code, elong
+    x, y, w, h, area = stats[big].T
+    small = np.flatnonzero((w <= STACKED_BOX_PX) & (h <= STACKED_BOX_PX))
+    if len(small):
+        ww, hh = int(w[small].max()), int(h[small].max())
+        y0 = np.minimum(y[small], labels.shape[0] - hh)
+        x0 = np.minimum(x[small], labels.shape[1] - ww)
+        own = big[small].astype(labels.dtype)[:, None, None]
+        mask = sliding_window_view(labels, (hh, ww))[y0, x0] == own  # (n, hh, ww)
+        codes = sliding_window_view(index, (hh, ww))[y0, x0] * mask
+        top = codes.max(axis=(1, 2))
+        pure[small] = np.count_nonzero(codes == top[:, None, None], axis=(1, 2)) == area[small]
+        code[small] = top
+        # float32 sums are exact: each is an integer below 2**24 (96**2 pixels × 96**2)
+        m = mask.astype(np.float32)
+        cols, rows = m.sum(axis=1), m.sum(axis=2)
+        gx, gy = np.arange(ww, dtype=np.float32), np.arange(hh, dtype=np.float32)
+        sx, sxx = (cols @ gx).astype(float), (cols @ (gx * gx)).astype(float)
+        sy, syy = (rows @ gy).astype(float), (rows @ (gy * gy)).astype(float)
+        sxy = ((m @ gx) @ gy).astype(float)
+        n = area[small].astype(float)
+        elong[small] = _axis_ratios(sxx - sx * sx / n, sxy - sx * sy / n, syy - sy * sy / n)
+    for k in np.flatnonzero((w > STACKED_BOX_PX) | (h > STACKED_BOX_PX)).tolist():
+        roi = (slice(y[k], y[k] + h[k]), slice(x[k], x[k] + w[k]))
+        region = (labels[roi] == big[k]).view(np.uint8)
+        lo, hi, _, _ = cv2.minMaxLoc(index[roi], mask=region)
+        pure[k], code[k], elong[k] = lo == hi, int(lo), _elongation(region)
+    return pure, code, elong
+
+
+def _axis_ratios(mu20: np.ndarray, mu11: np.ndarray, mu02: np.ndarray) -> np.ndarray:
+    """Principal-axis ratios √(λ_max/λ_min) of regions' second central moments, (N,).
+
+    1 for a single pixel (both eigenvalues 0), ``inf`` for a line (the smaller one 0).
+    """
+    root = np.sqrt(np.maximum((mu20 - mu02) ** 2 + 4.0 * mu11 * mu11, 0.0))
+    lam_max, lam_min = (mu20 + mu02 + root) / 2.0, (mu20 + mu02 - root) / 2.0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = np.sqrt(lam_max / lam_min)
+    ratio = np.where(lam_min <= 1e-12, np.inf, ratio)  # a line
+    return np.where(lam_max <= 1e-12, 1.0, ratio)  # a single pixel
+
+
+def _region_mask(
+    source: int | np.ndarray, labels: np.ndarray, box: tuple[int, int, int, int], ox: int, oy: int
+) -> np.ndarray:
+    """A region's 0/1 mask over its box: its label's pixels, or a split piece's own mask."""
+    if isinstance(source, np.ndarray):
+        return source
+    x, y, w, h = box[0] - ox, box[1] - oy, box[2], box[3]
+    return (labels[y : y + h, x : x + w] == source).view(np.uint8)
+
+
+def _axis_ratio(m: dict[str, float]) -> float:
+    """Principal-axis ratio √(λ_max/λ_min) from a region's image moments (:func:`_axis_ratios`)."""
+    one = _axis_ratios(np.array([m["mu20"]]), np.array([m["mu11"]]), np.array([m["mu02"]]))
+    return float(one[0])
+
+
+@dataclass(frozen=True)
+class Part:
+    """One object of a split region, in the region's box pixels.
+
+    Attributes:
+        area_px: Its pixel count.
+        centroid_px: Mean (u, v) of its pixel centres, in the box [px].
+        bbox_px: Its bounding box (x, y, w, h) in the box [px].
+        elongation: Its principal-axis ratio [-].
+        mask: Its pixels, a 0/1 uint8 image of its bounding box.
+    """
+
+    area_px: int
+    centroid_px: tuple[float, float]
+    bbox_px: tuple[int, int, int, int]
+    elongation: float
+    mask: np.ndarray = field(repr=False, compare=False)
+
+
+def split_region(
+    region: np.ndarray,
+    radius_px: float,
+    min_area_px: float,
+    max_area_px: float,
+    max_elongation: float,
+) -> list[Part] | None:
+    """The objects of a region holding several touching ones, or ``None`` if not sure.
+
+    Args:
+        region: The region, 0/1 uint8 image of its bounding box.
+        radius_px: One object's radius there [px] (its flat disc's).
+        min_area_px: A part smaller than this is no object: no split.
+        max_area_px: A part larger than this is not one object: no split.
+        max_elongation: A part longer than this is not one object: no split.
+
+    Returns:
+        The parts (≥ 2, pixels given to the nearest core), or ``None`` when the region
+        has fewer than two cores or a part fails the size or shape test.
+    """
+    padded = cv2.copyMakeBorder(region, 1, 1, 1, 1, cv2.BORDER_CONSTANT, value=0)
+    depth = cv2.distanceTransform(padded, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+    cores = (depth >= CORE_DEPTH * radius_px).view(np.uint8)
+    n, _, _, _ = _label(cores)
+    if n < 3:  # background and one core (or none)
+        return None
+    _, nearest = cv2.distanceTransformWithLabels(
+        1 - cores, cv2.DIST_L2, cv2.DIST_MASK_5, labelType=cv2.DIST_LABEL_CCOMP
+    )
+    nearest = nearest[1:-1, 1:-1]
+    parts = []
+    for lab in np.unique(nearest[region.view(bool)]):
+        piece = ((nearest == lab) & region.view(bool)).view(np.uint8)
+        m = cv2.moments(piece, binaryImage=True)
+        area = m["m00"]
+        if not min_area_px <= area <= max_area_px:
+            return None
+        elongation = _axis_ratio(m)
+        if elongation > max_elongation:
+            return None
+        x, y, w, h = cv2.boundingRect(piece)
+        centroid = (m["m10"] / area, m["m01"] / area)
+        parts.append(
+            Part(int(area), centroid, (x, y, w, h), elongation, piece[y : y + h, x : x + w])
+        )
+    return parts if len(parts) >= 2 else None
+
+
+class Piece(NamedTuple):
+    """One class's region inside a region where objects of several classes touch.
+
+    Attributes:
+        code: Its class code (1..N).
+        area_px: Its pixel count.
+        bbox_px: Its bounding box (x, y, w, h) in the working box [px].
+        centroid_px: Mean (u, v) of its pixel centres in the working box [px], (2,).
+        elongation: Its principal-axis ratio [-].
+        mask: Its pixels, a 0/1 uint8 image of its bounding box.
+    """
+
+    code: int
+    area_px: int
+    bbox_px: tuple[int, int, int, int]
+    centroid_px: np.ndarray
+    elongation: float
+    mask: np.ndarray
+
+
+def class_pieces(
+    index: np.ndarray, labels: np.ndarray, stats_row: Sequence[int], lab: int, min_area: int
+) -> list[Piece]:
+    """The regions of each class inside union region ``lab``, where classes touch.
+
+    Each class inside the region's box is labelled on its own; pieces under
+    ``min_area`` [px] are dropped.
+    """
+    x, y, w, h, _ = stats_row
+    roi = (slice(y, y + h), slice(x, x + w))
+    region = (labels[roi] == lab).view(np.uint8)
+    lo, hi, _, _ = cv2.minMaxLoc(index[roi], mask=region)
+    out = []
+    for i in range(int(lo), int(hi) + 1):
+        sub = equal_mask(index[roi], i)
+        sub = cv2.bitwise_and(sub, sub, mask=region)
+        m, sub_labels, sub_stats, sub_centroids = _label(sub)
+        for s in range(1, m):
+            sx, sy, sw, sh, sarea = sub_stats[s].tolist()
+            if sarea >= min_area:
+                mask = (sub_labels[sy : sy + sh, sx : sx + sw] == s).view(np.uint8)
+                centre = sub_centroids[s] + (x, y)
+                out.append(
+                    Piece(i, sarea, (x + sx, y + sy, sw, sh), centre, _elongation(mask), mask)
+                )
+    return out
