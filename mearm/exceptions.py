@@ -71,7 +71,7 @@ FAMILIES: dict[str, tuple[str, ...]] = {
     "mearm.task.scene": ("SceneError",),
     "mearm.task.armcheck": ("ArmCheckError", "NothingToCheck"),
     "mearm.task.sorter": ("CollisionError", "SortAborted"),
-    "mearm.experiment": ("TrialFailed",),
+    "mearm.experiment.errors": ("TrialFailed",),
     # the environments' and the baseline's (their packages import Gymnasium: mearm[gym])
     "mearm.envs.errors": ("EnvOptionError", "PolicyError"),
     "mearm.learn.errors": ("LearnExtraMissingError",),

@@ -2,6 +2,7 @@
 
 from mearm.tools import bench
 from mearm.tools.bench import BenchOptions
+from mearm.tools.benchmarks import sort_cpu
 
 
 def test_sort_cpu_rows_put_the_sort_beside_its_dependencies(monkeypatch):
@@ -18,7 +19,7 @@ def test_sort_cpu_rows_put_the_sort_beside_its_dependencies(monkeypatch):
         times = seconds.get(tuple(argv), [0.05])
         return times[sum(1 for c in calls if c == tuple(argv)) % len(times)], 1.0, 0
 
-    monkeypatch.setattr(bench, "child_seconds", fake_child)
+    monkeypatch.setattr(sort_cpu, "child_seconds", fake_child)
     rows = {r.name: r for r in bench.bench_sort_cpu(BenchOptions(repeat=1))}
     ratio = rows["sim sort CPU / its dependencies' import CPU"]
     assert ratio.value == 0.9 / 0.4 and "target ≤ 2×" in ratio.note
@@ -30,7 +31,7 @@ def test_sort_cpu_rows_put_the_sort_beside_its_dependencies(monkeypatch):
 
 def test_sort_cpu_says_when_a_run_failed(monkeypatch):
     """A child that exits non-zero is named in its row, not hidden in a median."""
-    monkeypatch.setattr(bench, "child_seconds", lambda argv, env: (0.5, 1.0, 1))
+    monkeypatch.setattr(sort_cpu, "child_seconds", lambda argv, env: (0.5, 1.0, 1))
     rows = bench.bench_sort_cpu(BenchOptions(repeat=1))
     assert all(
         "EXIT STATUS [1, 1, 1]" in r.note

@@ -1,0 +1,356 @@
+"""Run repeated sorting trials into one run log, as in the paper's experiments.
+
+Each trial sorts a new layout of 4 objects of each class at least 1 cm apart
+(or the same ``--scene`` every time) and appends its records, under one header per trial,
+to the run log; ``python -m mearm.analyze`` reads it back::
+
+    python -m mearm.experiment --config configs/sim.yaml --trials 100 --seed 0 --log trials.jsonl
+
+On a real rig (camera not simulated) each trial waits for you to lay the objects out and
+press Enter. That needs a terminal: without one (standard input not a terminal, or
+closed) the run stops with exit 2 before anything moves; ``--yes`` starts every trial
+without asking. Simulated trials draw the layout, the servo noise and the camera noise
+from the trial's own seed, so any trial can be rerun alone.
+
+**Workers.** ``--jobs N`` runs simulated trials in N worker processes; ``--scheduler
+ADDRESS`` on a Dask cluster (``tcp://host:port`` of a running scheduler, or ``local`` for
+a LocalCluster of ``--jobs`` processes; the ``cluster`` extra). Either way each trial's
+records come back as data and are appended in trial order: the log is the serial run's.
+
+**Resuming.** The log is only ever appended to. Running again with the same ``--log``
+continues the experiment: every trial already in it must have been written by this same
+run — trial k's header has the seed, config and layout that ``--config``, ``--set``,
+``--seed`` and ``--scene`` give trial k — else the run refuses with exit 2 and names the
+first difference. It then starts at the trial after the last *complete* one (a trial
+with its summary, which includes one that stopped early on a fault or Ctrl-C and said
+so). A trial cut off before its summary (the process was killed) is run again under the
+same number and seed: its partial records stay in the log, and ``mearm analyze`` leaves
+them out because the same trial comes back complete later
+(:meth:`~mearm.runlog.RunLogContents.latest`). A torn last line (killed mid-write) is
+moved into a side file ``<log>.torn-<offset>`` first (:mod:`mearm.runlog.repair`). A log
+damaged anywhere else is not resumed. When the log already holds the trials asked for,
+the run says so and exits 0.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import time
+from collections.abc import Callable, Sequence
+from contextlib import nullcontext
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from mearm.cli import (
+    EXIT_FAILURE,
+    EXIT_INTERRUPTED,
+    ArgumentParser,
+    add_config_argument,
+    config_from_args,
+    seed_value,
+    worker_count,
+)
+from mearm.config import Config, SceneObject
+from mearm.dataset.arguments import (
+    add_record_arguments,
+    check_record_arguments,
+    close_recorder,
+    recorder_from_args,
+)
+from mearm.errors import MearmError
+from mearm.experiment.cluster import CLUSTER_EXTRA
+from mearm.experiment.errors import TrialFailed
+from mearm.experiment.ordered_log import _append_in_order, open_workers
+from mearm.experiment.pool import Workers
+from mearm.experiment.resume import Resume, ready_to_append, resume_point
+from mearm.experiment.trials import Recording, run_trials
+from mearm.hardware.errors import ServoError
+from mearm.runlog import LogLock, RunLog, read_runlog
+from mearm.task import SortAborted, check_scene, load_scene
+from mearm.task.check import check_consistency
+from mearm.task.report import Outcome
+from mearm.vision.errors import CameraError
+
+if TYPE_CHECKING:
+    from mearm.dataset.recorder import DatasetRecorder
+
+#: Why a real rig's run cannot start without a terminal (and how to run it anyway).
+NEEDS_TERMINAL = (
+    "needs a terminal to confirm each layout (a real rig waits for Enter before every "
+    "trial); pass --yes to start every trial without asking"
+)
+
+
+def _has_terminal() -> bool:
+    stdin = sys.stdin
+    try:
+        return stdin is not None and stdin.isatty()
+    except (ValueError, OSError):  # a closed stream
+        return False
+
+
+def terminal_prompt(trials: int) -> Callable[[int], None]:
+    """The wait before each trial of a real rig: Enter on the terminal.
+
+    Raises:
+        MearmError: Standard input is not a terminal (checked now, before anything
+            moves), or it ends at a prompt (raised by the wait).
+    """
+    if not _has_terminal():
+        raise MearmError(NEEDS_TERMINAL)
+
+    def wait(k: int) -> None:
+        try:
+            input(f"trial {k + 1}/{trials}: lay out the objects, then press Enter ")
+        except EOFError:
+            raise MearmError(
+                f"input ended at the prompt of trial {k}: {NEEDS_TERMINAL}; the same --log "
+                f"resumes at trial {k}"
+            ) from None
+
+    return wait
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the trials; see the module docstring."""
+    args = _arguments(argv)
+    config = config_from_args(args)
+    check_consistency(config)  # before the scene, the log or any output: the config first
+    scene = _scene(args, config)
+    wait = None
+    if config.camera.kind != "sim" and not args.yes:
+        wait = terminal_prompt(args.trials)
+
+    # one writer per log: taken before the log is read for resuming, so no other run
+    # appends between that reading and this run's first record (a new log: RunLog's own)
+    held = LogLock(args.log) if args.log.is_file() else None
+    try:
+        return _resume(args, config, scene, wait, held)
+    finally:
+        if held is not None:
+            held.release()
+
+
+def _parser() -> ArgumentParser:
+    parser = ArgumentParser(prog="python -m mearm.experiment", description=__doc__.splitlines()[0])
+    add_config_argument(parser)
+    parser.add_argument(
+        "--trials", type=int, default=100, help="number of trials in all (default 100)"
+    )
+    parser.add_argument("--seed", type=seed_value, default=0, help="base seed (default 0)")
+    parser.add_argument(
+        "--log",
+        type=Path,
+        required=True,
+        help="JSON-lines log; one that holds trials of this run is continued",
+    )
+    parser.add_argument("--scene", type=Path, help="use this layout in every trial")
+    parser.add_argument(
+        "--yes",
+        action="store_true",
+        help="real rig: start every trial without waiting for Enter (needed without a "
+        "terminal; lay the objects out beforehand)",
+    )
+    parser.add_argument(
+        "--jobs",
+        type=worker_count,
+        default=None,
+        help="simulated trials run at once, in worker processes (default 1; this machine "
+        f"has {os.cpu_count()} CPUs), or the workers of --scheduler local; the log is the "
+        "same, in trial order",
+    )
+    parser.add_argument(
+        "--scheduler",
+        metavar="ADDRESS",
+        help="run the simulated trials on a Dask cluster: a running scheduler's address "
+        "(tcp://host:port) or 'local' (a LocalCluster of --jobs processes, default 2); the "
+        f"log is the same, in trial order (needs {CLUSTER_EXTRA})",
+    )
+    add_record_arguments(parser)
+    return parser
+
+
+def _arguments(argv: Sequence[str] | None) -> Any:
+    """The parsed arguments, checked against each other (``--jobs`` set)."""
+    parser = _parser()
+    args = parser.parse_args(argv)
+    check_record_arguments(parser, args)
+    if args.record is not None and args.scheduler is not None:
+        parser.error("--record writes the dataset here: with --jobs, not with --scheduler")
+    if args.trials < 1:
+        parser.error(f"--trials must be ≥ 1, got {args.trials}")
+    if args.scheduler not in (None, "local") and args.jobs is not None:
+        parser.error(
+            f"--jobs sets the workers of --scheduler local; the cluster at {args.scheduler} "
+            "has its own workers"
+        )
+    if args.jobs is None:
+        args.jobs = 2 if args.scheduler == "local" else 1
+    return args
+
+
+def _scene(args: Any, config: Config) -> list[SceneObject] | None:
+    """The ``--scene`` layout (checked), or ``None``.
+
+    Raises:
+        MearmError: ``--scene``, ``--scheduler`` or ``--jobs`` > 1 on a real rig (its camera
+            not ``sim``: it sorts one trial at a time).
+    """
+    scene = load_scene(args.scene, config.task.class_names) if args.scene else None
+    if scene is not None and config.camera.kind != "sim":
+        raise MearmError("--scene lays out the simulated table; this config's camera is not 'sim'")
+    if scene is not None:
+        check_scene(config, scene, str(args.scene))  # (without it, each trial draws its own)
+    if args.scheduler is not None and config.camera.kind != "sim":
+        raise MearmError(
+            "--scheduler runs simulated trials on a cluster; this config's camera is not "
+            "'sim' (a real rig sorts one trial at a time, here)"
+        )
+    if args.jobs > 1 and config.camera.kind != "sim":
+        raise MearmError(
+            f"--jobs {args.jobs} runs simulated trials at once; this config's camera is not "
+            "'sim' (a real rig sorts one trial at a time)"
+        )
+    return scene
+
+
+def _resume(
+    args: Any,
+    config: Config,
+    scene: list[SceneObject] | None,
+    wait: Callable[[int], None] | None,
+    held: LogLock | None,
+) -> int:
+    """Where the log leaves off, the workers, then the run (:func:`main`'s second half)."""
+    resume = resume_point(args.log, config, args.seed, scene)
+    if resume.done >= args.trials:
+        print(
+            f"{args.log} already holds {resume.done} complete trials (--trials {args.trials}): "
+            "nothing to run"
+        )
+        return 0
+    if resume.done or resume.cut_off:
+        again = f"; trial {resume.done} again, it was cut off" if resume.cut_off else ""
+        print(
+            f"resuming {args.log}: {resume.done} complete trials there, running trials "
+            f"{resume.done}..{args.trials - 1}{again}"
+        )
+    recorder = recorder_from_args(args, config)  # its directory checked before any trial
+    # Workers first: a scheduler that cannot be used leaves the log as it was.
+    parallel = args.jobs > 1 or args.scheduler is not None
+    jobs = min(args.jobs, args.trials - resume.done)
+    with (
+        open_workers(config, args.seed, scene, jobs, args.scheduler, _recording(args))
+        if parallel
+        else nullcontext()
+    ) as workers:
+        try:
+            return _run(args, config, scene, resume, wait, workers, recorder, held)
+        finally:
+            close_recorder(recorder, args.record)
+
+
+def _run(
+    args: Any,
+    config: Config,
+    scene: list[SceneObject] | None,
+    resume: Resume,
+    wait: Callable[[int], None] | None,
+    workers: Workers | None,
+    recorder: DatasetRecorder | None = None,
+    held: LogLock | None = None,
+) -> int:
+    """The run of :func:`main` once its input is checked (and its workers are ready)."""
+    set_aside = ready_to_append(args.log, resume)
+    if set_aside is not None:
+        print(
+            f"note: {args.log} ended in a torn line (killed mid-write); its "
+            f"{len(resume.torn.data) if resume.torn else 0} bytes were moved to {set_aside}",
+            file=sys.stderr,
+        )
+
+    from tqdm import tqdm
+
+    t0 = time.perf_counter()
+    with (
+        RunLog(args.log, lock=held) as log,
+        tqdm(
+            total=args.trials, initial=resume.done, unit="trial", file=sys.stderr, disable=None
+        ) as bar,
+    ):
+        try:
+            if workers is None:
+                outcomes = run_trials(
+                    config,
+                    args.trials,
+                    args.seed,
+                    log,
+                    scene=scene,
+                    start=resume.done,
+                    wait_for_user=wait,
+                    progress=lambda done: _step(bar, recorder),
+                    recorder=recorder,
+                )
+            else:
+                numbers = range(resume.done, args.trials)
+                outcomes = _append_in_order(
+                    workers, numbers, args.log, lambda done: _step(bar, recorder), recorder
+                )
+        except SortAborted as exc:
+            print(f"mearm.experiment: stopped: {exc.reason}", file=sys.stderr)
+            return EXIT_INTERRUPTED
+        except (CameraError, ServoError, TrialFailed) as exc:
+            print(f"mearm.experiment: {exc}", file=sys.stderr)
+            return EXIT_FAILURE
+    wall = time.perf_counter() - t0
+    failed = [(k, r) for k, r in outcomes.items() if r is not None]
+    where = "1 process" if workers is None else f"{workers.count} {workers.where}"
+    print(
+        f"{len(outcomes)} trials written to {args.log} in {wall:.0f} s "
+        f"({60 * len(outcomes) / wall:.1f} trials/min, {where}); {len(failed)} stopped early"
+    )
+    for k, reason in failed:
+        print(f"  trial {k}: {reason}")
+    print(f"analyse: python -m mearm.analyze {args.log} --out report/")
+    print(_totals(args.log, args.trials))
+    return EXIT_FAILURE if failed else 0
+
+
+def _recording(args: Any) -> Recording | None:
+    """What the worker processes record, with ``--record``."""
+    if args.record is None:
+        return None
+    return Recording(args.record_fps, args.record_per, args.record_codec)
+
+
+def _step(bar: Any, recorder: DatasetRecorder | None) -> None:
+    """One more trial on the progress bar, with the episodes recorded so far."""
+    if recorder is not None:
+        bar.set_postfix_str(f"{recorder.episodes_written} episodes", refresh=False)
+    bar.update(1)
+
+
+def _totals(path: Path, trials: int) -> str:
+    """``sorted N of M objects over K trials (…reasons…)``, from the log's summaries.
+
+    Counts each trial number once (its complete attempt), resumed trials included. Objects
+    left in a trial are the experiment's data, not a failure of the command.
+    """
+    total = Outcome()
+    done: set[int] = set()
+    for trial in reversed(read_runlog(path).trials):
+        s = trial.summary
+        number = trial.header.trial
+        if s is None or number is None or number in done or number >= trials:
+            continue
+        done.add(number)
+        for name, n in (s.objects or s.sorted).items():
+            total.seen[name] = total.seen.get(name, 0) + n
+        for name, n in s.sorted.items():
+            total.sorted[name] = total.sorted.get(name, 0) + n
+        for kind, n in (s.left or {}).items():
+            total.left[kind] = total.left.get(kind, 0) + n
+    line = total.line()
+    head, _, rest = line.partition(" objects")
+    return f"{head} objects over {len(done)} trials{rest}"

@@ -1,0 +1,1 @@
+"""The sections of ``mearm bench`` (:mod:`mearm.tools.bench`), one module each."""

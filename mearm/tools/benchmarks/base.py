@@ -1,0 +1,113 @@
+"""What every benchmark section shares: its options, its rows, the registry, timing."""
+
+from __future__ import annotations
+
+import os
+import platform
+import sys
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class BenchOptions:
+    """What every section gets: how many rounds to run."""
+
+    repeat: int
+
+
+@dataclass(frozen=True)
+class Row:
+    """One measured figure."""
+
+    section: str
+    name: str
+    value: float
+    unit: str
+    note: str = ""
+
+
+Section = Callable[[BenchOptions], list[Row]]
+SECTIONS: dict[str, Section] = {}
+
+
+def section(name: str) -> Callable[[Section], Section]:
+    """Register a benchmark section under ``name`` (used by ``--only``)."""
+
+    def register(fn: Section) -> Section:
+        if name in SECTIONS:
+            raise ValueError(f"benchmark section {name!r} registered twice")
+        SECTIONS[name] = fn
+        return fn
+
+    return register
+
+
+def best_seconds(
+    fns: dict[str, Callable[[], object]],
+    repeat: int,
+    inner: dict[str, int] | None = None,
+    progress: str | None = None,
+) -> dict[str, float]:
+    """Best wall time of each callable [s] over ``repeat`` interleaved rounds.
+
+    In each round callable ``key`` is timed ``inner[key]`` times (default 1): fast ones
+    get more tries, so that the best of them escapes other processes' bursts as well as
+    the best of one slow call averages over them. ``progress``: a tqdm bar with this
+    label on stderr, one tick a round (hidden when stderr is not a terminal).
+    """
+    from tqdm import tqdm  # noqa: PLC0415
+
+    inner = inner or {}
+    best = dict.fromkeys(fns, float("inf"))
+    rounds = tqdm(
+        range(repeat),
+        desc=progress,
+        unit="round",
+        file=sys.stderr,
+        disable=True if progress is None else None,
+    )
+    for _ in rounds:
+        for key, fn in fns.items():
+            for _ in range(inner.get(key, 1)):
+                t0 = time.perf_counter()
+                fn()
+                best[key] = min(best[key], time.perf_counter() - t0)
+    return best
+
+
+def machine() -> str:
+    """CPU model (as ``lscpu`` prints it), Python and NumPy versions, current load."""
+    cpu = platform.processor() or platform.machine()
+    try:
+        with open("/proc/cpuinfo", encoding="utf-8") as f:
+            for line in f:
+                if line.startswith("model name"):
+                    cpu = line.split(":", 1)[1].strip()
+                    break
+    except OSError:
+        pass
+    try:
+        load = f"; load average {os.getloadavg()[0]:.2f} on {os.cpu_count()} CPUs"
+    except OSError:
+        load = ""
+    return f"{cpu}; Python {platform.python_version()}; NumPy {np.__version__}{load}"
+
+
+def child_seconds(argv: Sequence[str], env: dict[str, str]) -> tuple[float, float, int]:
+    """CPU time (user + sys) [s], wall time [s] and exit status of ``python *argv``."""
+    import resource  # noqa: PLC0415
+    import subprocess  # noqa: PLC0415
+
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    t0 = time.perf_counter()
+    proc = subprocess.run(
+        [sys.executable, *argv], env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL
+    )
+    wall = time.perf_counter() - t0
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    return cpu, wall, proc.returncode

@@ -1,0 +1,99 @@
+"""The ``sort-cpu`` section: the simulated sort's CPU time beside importing its dependencies."""
+
+from __future__ import annotations
+
+import os
+import statistics
+import tempfile
+
+from mearm.tools.benchmarks.base import BenchOptions, Row, child_seconds, section
+
+#: Runs of each command in the ``sort-cpu`` section (the median is reported).
+SORT_CPU_RUNS = 3
+SORT_ARGV = ("-m", "mearm.sort", "--config", "sim", "--quiet")
+
+
+#: The sort's dependencies, imported alone: its peer in the ``sort-cpu`` section.
+DEPS_ARGV = ("-c", "import numpy, cv2, pinocchio, yaml, pydantic")
+#: The sort's CPU over its dependencies' import must stay at or below this [×].
+SORT_OVER_DEPS_TARGET = 2.0
+
+
+@section("sort-cpu")
+def bench_sort_cpu(options: BenchOptions) -> list[Row]:
+    """CPU time of the 12-object simulated sort, interpreter start included, beside its peer.
+
+    The peer is importing the sort's dependencies (numpy, cv2, pinocchio, yaml, pydantic)
+    in a bare interpreter: the sort can cost no less, and the ratio says what mearm adds.
+    Every command runs :data:`SORT_CPU_RUNS` times, interleaved; medians are reported.
+    """
+    runs = _child_runs()
+    note = f"median of {SORT_CPU_RUNS} runs, user + sys of the child process"
+    rows = []
+    cpu: dict[str, float] = {}
+    for key, measured in runs.items():
+        failed = [r[2] for r in measured if r[2] != 0]
+        extra = f"; EXIT STATUS {failed}" if failed else ""
+        target = "; target ≤ 1.0 s" if key == "sim sort, 12 objects: CPU" else ""
+        cpu[key] = statistics.median(r[0] for r in measured)
+        rows.append(Row("sort-cpu", key, cpu[key], "s", f"{note}{target}{extra}"))
+    sort_s = cpu["sim sort, 12 objects: CPU"]
+    deps_s = cpu["peer: import numpy, cv2, pinocchio, yaml, pydantic: CPU"]
+    imports_s = cpu["imports of the sort (python -c 'import mearm.sort'): CPU"]
+    rows += [
+        Row(
+            "sort-cpu",
+            "sim sort CPU / its dependencies' import CPU",
+            sort_s / deps_s,
+            "×",
+            f"same run; target ≤ {SORT_OVER_DEPS_TARGET:g}×",
+        ),
+        Row(
+            "sort-cpu",
+            "import mearm.sort beyond its dependencies: CPU",
+            imports_s - deps_s,
+            "s",
+            "mearm's own modules and what they import besides the five",
+        ),
+        Row(
+            "sort-cpu",
+            "the sort beyond its imports: CPU",
+            sort_s - imports_s,
+            "s",
+            "loading the config, the start-up checks, the rig, 12 picks and places",
+        ),
+    ]
+    wall = statistics.median(r[1] for r in runs["sim sort, 12 objects: CPU"])
+    rows.append(Row("sort-cpu", "sim sort, 12 objects: wall", wall, "s", "median, same runs"))
+    return rows
+
+
+def _child_runs() -> dict[str, list[tuple[float, float, int]]]:
+    """Each command's :data:`SORT_CPU_RUNS` runs (CPU [s], wall [s], exit status), interleaved."""
+    with tempfile.TemporaryDirectory(prefix="mearm-pyc-") as cache:
+        cached = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
+        cached["PYTHONPYCACHEPREFIX"] = cache
+        uncached = {k: v for k, v in cached.items() if k != "PYTHONPYCACHEPREFIX"}
+        uncached["PYTHONDONTWRITEBYTECODE"] = "1"
+        five_dof = (*SORT_ARGV[:3], "sim_5dof", *SORT_ARGV[4:])
+        kinds = {
+            "sim sort, 12 objects: CPU": (SORT_ARGV, cached),
+            "sim sort, 12 objects, no bytecode cache: CPU": (SORT_ARGV, uncached),
+            "peer: import numpy, cv2, pinocchio, yaml, pydantic: CPU": (
+                DEPS_ARGV,
+                cached,
+            ),
+            "imports of the sort (python -c 'import mearm.sort'): CPU": (
+                ("-c", "import mearm.sort"),
+                cached,
+            ),
+            "bare interpreter (python -c pass): CPU": (("-c", "pass"), cached),
+            "sim_5dof sort, 9 objects: CPU": (five_dof, cached),
+        }
+        child_seconds(SORT_ARGV, cached)  # writes the bytecode
+        child_seconds(five_dof, cached)
+        runs: dict[str, list[tuple[float, float, int]]] = {k: [] for k in kinds}
+        for _ in range(SORT_CPU_RUNS):
+            for key, (argv, env) in kinds.items():
+                runs[key].append(child_seconds(argv, env))
+    return runs
