@@ -35,9 +35,9 @@ import numpy as np
 from mearm.config import Config, Joint
 from mearm.config.belt_config import belt_classes
 from mearm.config.servo_models import ServoSpec
+from mearm.kinematics.chain import M_PER_CM
 from mearm.kinematics.urdf import jaw_frame, jaw_joint_names, jaw_pad_length_m
 
-M_PER_CM = 0.01
 #: Laser-cut link plates: 3 mm acrylic, as the MeArm kits are cut from [m].
 LINK_THICKNESS_M = 0.003
 #: Bin walls' and floor's thickness [m]; walls' height in object heights, and at least.

@@ -25,9 +25,9 @@ import meshcat.transformations as tf
 import numpy as np
 import numpy.typing as npt
 
+from mearm.kinematics.chain import M_PER_CM
 from mearm.view.errors import ViewInputError
 
-M_PER_CM = 0.01
 _Z_UP = np.array([0.0, 0.0, 1.0])
 
 

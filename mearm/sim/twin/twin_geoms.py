@@ -11,9 +11,9 @@ from collections.abc import Sequence
 import mujoco
 
 from mearm.kinematics.bodies import Shape
+from mearm.kinematics.chain import M_PER_CM as M_PER_CM  # re-exported: the twin's unit
 from mearm.kinematics.mjspec import exact, quat
 
-M_PER_CM = 0.01
 G = 9.81  # m/s²
 
 #: Cast/extruded PMMA (acrylic) sheet: 1.19 g/cm³ (typical sheet datasheets) [kg/m³].
