@@ -3,8 +3,10 @@ r"""The physical twin's servo bus: the real bus's pulses drive hobby-servo model
 :class:`TwinArm` takes the same checked, whole-µs pulses a serial backend sends
 (:meth:`~mearm.hardware.bus.ServoBus.move`) and runs the twin's physics
 (:func:`~mearm.sim.twin.mjcf.twin_model`) for one command period per move. Each actuator —
-every actuated joint and the gripper — is a :class:`ServoModel` built from its
-:class:`~mearm.sim.twin.mjcf.ServoSpec` datasheet facts and its pulse calibration:
+every actuated joint and the gripper — is a :class:`~mearm.sim.twin.servo_model.ServoModel`
+built from its
+:class:`~mearm.sim.twin.mjcf.ServoSpec` datasheet facts and its pulse calibration
+(:mod:`mearm.sim.twin.servo_model`):
 
 1. **quantisation** — the pulse p is mapped back through the actuator's calibration,
    :math:`v = (p - p_0)/(s\,k)`, so the bus's 1 µs step is the finest command there is;
@@ -34,14 +36,14 @@ whole-degree quantisation, and the tool actuators (the paper's ``gripper_arm``),
 MJCF has no joint for: their pulses are checked by the base class and not simulated.
 
 **What is not stepped.** Steps 3 and 4 are computed for a whole run of steps at once
-(:meth:`TwinArm._ramp`, equal to the step-by-step model to the bit), so Python runs once
-per run, not at every step. MuJoCo puts bodies at rest to sleep (the twin's model enables
-it, :mod:`mearm.sim.twin.mjcf`): objects lying still, and the arm holding still between
-commands. A sleeping body is exactly where it was; contact wakes it, and the twin keeps
-the arm awake while its setpoints move (a nil applied force, :data:`_NUDGE`: jaws pressed
-on an object do not move until the opening command passes where they are, and must not
-sleep meanwhile). While everything sleeps, a hold only advances the time
-(:meth:`TwinArm._hold_steps`).
+(:func:`~mearm.sim.twin.servo_model.ramp`, equal to the step-by-step model to the bit),
+so Python runs once per run, not at every step. MuJoCo puts bodies at rest to sleep (the
+twin's model enables it, :mod:`mearm.sim.twin.mjcf`): objects lying still, and the arm
+holding still between commands. A sleeping body is exactly where it was; contact wakes
+it, and the twin keeps the arm awake while its setpoints move (a nil applied force,
+:data:`_NUDGE`: jaws pressed on an object do not move until the opening command passes
+where they are, and must not sleep meanwhile). While everything sleeps, a hold only
+advances the time (:meth:`TwinArm._hold_steps`).
 
 The sim does not wait for the wall clock unless ``servo.sim_realtime`` is set.
 """
@@ -49,7 +51,6 @@ The sim does not wait for the wall clock unless ``servo.sim_realtime`` is set.
 from __future__ import annotations
 
 import copy
-import dataclasses
 import logging
 import math
 from dataclasses import dataclass
@@ -58,39 +59,31 @@ import mujoco
 import numpy as np
 
 from mearm.config import Config
-from mearm.config.arm import US_PER_SERVO_DEG
 from mearm.config.servo_file import replaced_calibration
 from mearm.hardware.bus import ArmCommand, ServoBus
 from mearm.hardware.errors import ServoError, ServoStallError
-from mearm.hardware.mapping import ActuatorMap, ServoMap
 from mearm.kinematics.chain import Chain
-from mearm.kinematics.errors import ModelError
-from mearm.kinematics.urdf import TCP_FRAME, jaw_joint_names
+from mearm.kinematics.urdf import TCP_FRAME
 from mearm.sim.belt import Arrival, belt_arrivals
 from mearm.sim.errors import WorldError
-from mearm.sim.twin.mjcf import (
-    GRIPPER_SERVO,
-    GRIPPER_SERVO_TEXT,
-    JOINT_SERVO_TEXT,
-    M_PER_CM,
-    SERVO_CATALOGUE,
-    SERVO_LEVER_M,
-    ServoSpec,
-    arrival_centre_m,
-    object_ids,
-    recorded_servo,
-    servo_tendon,
-    twin_model,
+from mearm.sim.twin.mjcf import M_PER_CM, ServoSpec, arrival_centre_m, object_ids, twin_model
+from mearm.sim.twin.servo_kit import ServoUnit
+from mearm.sim.twin.servo_model import (  # noqa: F401  (the servo model, re-exported)
+    BACKLASH_DEG,
+    ServoModel,
+    _catalogued,
+    _joint_servo,
+    kit_servos,
+    ramp,
+    servo_models,
 )
-from mearm.sim.twin.servo_kit import ServoUnit, draw_kit, kit_seed
+from mearm.sim.twin.servo_model import calibrated_kit as _calibrated_kit  # noqa: F401
+from mearm.sim.twin.servo_model import servo_models as _servo_models  # noqa: F401
+from mearm.sim.twin.servo_model import with_kit as _with_kit  # noqa: F401
 from mearm.sim.twin.twin_faults import FaultSchedule
 
 log = logging.getLogger(__name__)
 
-#: Gear play of a hobby servo at its output, seen at the joint [deg]. An estimate: plastic-
-#: gear micro servos (SG90 class) are commonly measured at 0.5–1° of play at the horn,
-#: metal-gear ones (MG996R class) at the low end; no datasheet states it.
-BACKLASH_DEG = 0.5
 #: An object is at rest when its centre moves slower than this [m/s].
 REST_SPEED_M_S = 1e-3
 #: A joint servo has arrived when its potentiometer is within this of the command, in
@@ -122,71 +115,6 @@ def _mujoco_warning(text: str) -> None:
 
 
 mujoco.set_mju_user_warning(_mujoco_warning)
-
-
-@dataclass(frozen=True)
-class ServoModel:
-    """One actuator's servo as the twin models it, in the model's units (rad or m).
-
-    The setpoint and the potentiometer are in the units of the actuator's ``ctrl``: the
-    joint's position, the jaws' opening, or for a servo that turns a combination of
-    joints its tendon's length, the servo's value less its combination's offset.
-
-    Attributes:
-        name: The actuator's name (the joint's, or the gripper's).
-        amap: Its pulse calibration and channel.
-        scale: Model units per command unit (π/180 per deg, 0.01 per cm) [-].
-        deadband: Targets this close to the potentiometer are ignored [rad or m].
-        backlash: Play between the motor's setpoint and the joint's [rad or m].
-        speed: Fastest the setpoint moves: the no-load speed [rad/s or m/s].
-        ctrl_index: Its actuator's index in ``data.ctrl``.
-        pot_qpos: The ``qpos`` entries the potentiometer reads (one joint; the joints of
-            a combination; the gripper's two jaws, whose sum is its opening).
-        pot_coef: Each entry's coefficient (model units); empty: 1 each.
-        offset: The servo's value at ctrl 0 [rad or m]: its combination's offset.
-        lever: Model units per radian of shaft: 1 for a revolute joint,
-            :data:`~mearm.sim.twin.mjcf.SERVO_LEVER_M` for a linear one and the jaws.
-        unit: The kit's unit this servo is (its own zero and scale,
-            :mod:`mearm.sim.twin.servo_kit`); ``None``: the nominal servo.
-        nominal: The arm's nominal calibration of this servo, which the kit's unit
-            deviates from, when the bus's (``amap``) is another: a config whose servo
-            calibration file was fitted to this kit (:func:`_calibrated_kit`); ``None``:
-            ``amap`` is the nominal one.
-    """
-
-    name: str
-    amap: ActuatorMap
-    scale: float
-    deadband: float
-    backlash: float
-    speed: float
-    ctrl_index: int
-    pot_qpos: tuple[int, ...]
-    pot_coef: tuple[float, ...] = ()
-    offset: float = 0.0
-    lever: float = 1.0
-    unit: ServoUnit | None = None
-    nominal: ActuatorMap | None = None
-
-    @property
-    def physical(self) -> ActuatorMap:
-        """The nominal servo's mapping, which the unit's own is relative to."""
-        return self.amap if self.nominal is None else self.nominal
-
-    def target_of(self, pulse_us: float) -> float:
-        """The setpoint a pulse asks for [rad or m]: where this unit turns for it."""
-        if self.unit is not None:
-            pulse_us = self.unit.nominal_pulse(pulse_us)
-        return self.physical.value_of(pulse_us) * self.scale - self.offset
-
-    def value_of(self, setpoint: float) -> float:
-        """The servo's value [deg or cm] at a setpoint or potentiometer reading."""
-        return (setpoint + self.offset) / self.scale
-
-    @property
-    def shaft_unit(self) -> float:
-        """One degree of the servo's shaft in the model's units [rad or m per deg]."""
-        return US_PER_SERVO_DEG / self.physical.us_per_unit * self.scale
 
 
 @dataclass(frozen=True)
@@ -264,15 +192,8 @@ class TwinArm(ServoBus):
         self.model = model
         self.data = mujoco.MjData(model)
         self._chain = Chain.from_description(config.arm)
-        self.servos = _servo_models(model, config, self._chain, servo, gripper_servo, backlash_deg)
-        if kit is None and config.twin.kit is not None:
-            asked = config.twin.kit
-            trial = config.servo.error_model.seed if asked.per_trial else None
-            deadbands = [round(s.deadband / s.scale * s.amap.us_per_unit, 9) for s in self.servos]
-            kit = draw_kit(deadbands, kit_seed(asked.seed, trial), asked.spread)
-        if kit is not None:
-            self.servos = _with_kit(_calibrated_kit(self.servos, config), tuple(kit))
-        self.kit = None if kit is None else tuple(kit)
+        self.servos = servo_models(model, config, self._chain, servo, gripper_servo, backlash_deg)
+        self.servos, self.kit = kit_servos(self.servos, config, kit)
         nu = len(self.servos)
         self._ctrl = np.array([s.ctrl_index for s in self.servos])
         self._speed = np.array([s.speed for s in self.servos])
@@ -539,29 +460,11 @@ class TwinArm(ServoBus):
     def _ramp(self, n: int) -> np.ndarray:
         """The joints' setpoints y for the next steps while the motors move, ``(k, nu)``.
 
-        Step by step, each motor's setpoint x moves toward its target by at most
-        ``speed · dt`` and y follows x through the play (the module's steps 3 and 4). The
-        target holds for the whole run, so x is monotone and both have closed forms over
-        the steps at once: x is the running sum of its steps (NumPy accumulates in order,
-        so it is the step-by-step sum to the last bit) until it is within one step of the
-        target, then the target; y is the running maximum of x − b/2 (x rising) or the
-        running minimum of x + b/2 (x falling), from where it was. Returns at most ``n``
-        steps, and at least one; leaves x and y where the last step puts them.
+        :func:`~mearm.sim.twin.servo_model.ramp`: at most ``n`` steps, and at least one;
+        leaves x and y where the last step puts them.
         """
-        dt = self.model.opt.timestep
-        step = self._speed * dt
-        gap = self._target - self._motor
-        k = min(n, int(np.max(np.ceil(np.abs(gap) / step))) + 1)
-        motor = np.cumsum(np.vstack([self._motor, np.tile(np.sign(gap) * step, (k, 1))]), axis=0)
-        arrived = np.logical_or.accumulate(np.abs(self._target - motor[:-1]) <= step, axis=0)
-        motor = np.where(arrived, self._target, motor[1:])
-        low, high = motor - self._half_play, motor + self._half_play
-        setpoint = np.where(
-            gap > 0,
-            np.maximum(self._setpoint, np.maximum.accumulate(low, axis=0)),
-            np.minimum(self._setpoint, np.minimum.accumulate(high, axis=0)),
-        )
-        setpoint = np.clip(setpoint, low, high)
+        step = self._speed * self.model.opt.timestep
+        motor, setpoint = ramp(self._motor, self._setpoint, self._target, step, self._half_play, n)
         self._motor, self._setpoint = motor[-1], setpoint[-1]
         return setpoint
 
@@ -634,156 +537,3 @@ class TwinArm(ServoBus):
 
     def _close(self) -> None:
         """Nothing to release."""
-
-
-def _with_kit(servos: tuple[ServoModel, ...], kit: tuple[ServoUnit, ...]) -> tuple[ServoModel, ...]:
-    """The servos as the kit's units: their own zero, scale, backlash and dead band."""
-    if len(kit) != len(servos):
-        raise ModelError(
-            f"a kit of {len(kit)} servos for a twin of {len(servos)} "
-            f"({', '.join(s.name for s in servos)}): one unit per servo"
-        )
-    out = []
-    for s, unit in zip(servos, kit, strict=True):
-        out.append(
-            dataclasses.replace(
-                s,
-                unit=unit,
-                deadband=unit.deadband_us / s.physical.us_per_unit * s.scale,
-                backlash=math.radians(unit.backlash_deg) * s.lever,
-            )
-        )
-    return tuple(out)
-
-
-def _calibrated_kit(servos: tuple[ServoModel, ...], config: Config) -> tuple[ServoModel, ...]:
-    """The servos of a kit whose bus runs a servo calibration file fitted to it.
-
-    A kit's unit turns relative to the arm's nominal servo; a config whose
-    ``servo.calibration_file`` replaced that calibration sends the pulses the file gives,
-    while each unit still turns as it is: its nominal is the calibration the file
-    replaced (each actuator's ``replaces``, :func:`~mearm.config.servo_file.replaced_calibration`).
-    Without a file, or one recording nothing replaced, the servos are returned as they are.
-    """
-    nominal_config = replaced_calibration(config)
-    if nominal_config is None:
-        if config.servo.calibration_file is not None:
-            log.warning(
-                "%s records no replaced calibration: the kit's units are taken relative "
-                "to the calibration it gives",
-                config.servo.calibration_file,
-            )
-        return servos
-    nominal = ServoMap.from_config(nominal_config)
-    out = []
-    for s in servos:
-        n = nominal[s.name]
-        out.append(s if n == s.amap else dataclasses.replace(s, nominal=n))
-    return tuple(out)
-
-
-def _catalogued(m: mujoco.MjModel, text: str, what: str) -> ServoSpec | None:
-    """The catalogue servo the model records in ``text``; None if it records none."""
-    name = recorded_servo(m, text)
-    if name is None:
-        return None
-    for spec in (*SERVO_CATALOGUE, GRIPPER_SERVO):
-        if spec.name == name:
-            return spec
-    raise ModelError(
-        f"the model's {what} servo {name!r} is none of the catalogue's "
-        f"({', '.join(s.name for s in SERVO_CATALOGUE)}); pass "
-        f"{'servo' if text == JOINT_SERVO_TEXT else 'gripper_servo'}=..."
-    )
-
-
-def _joint_servo(m: mujoco.MjModel, config: Config, chain: Chain) -> ServoSpec:
-    """The joints' servo the model records.
-
-    For a model without the record, the catalogue servo whose stall torque and speed the
-    first joint's actuator has.
-    """
-    recorded = _catalogued(m, JOINT_SERVO_TEXT, "joint")
-    if recorded is not None:
-        return recorded
-    name = chain.actuated[0]
-    joint = config.arm.joints[int(chain.actuated_index[0])]
-    lever = SERVO_LEVER_M if joint.type == "prismatic" else 1.0
-    stall = float(m.actuator(name).forcerange[1]) * lever
-    if m.actuator(name).trntype[0] == mujoco.mjtTrn.mjTRN_TENDON:  # a servo over joints
-        damping = float(m.tendon_damping[m.tendon(servo_tendon(name)).id])
-    else:
-        damping = float(m.joint(name).damping[0])
-    speed = stall / (damping * lever**2)
-    for spec in SERVO_CATALOGUE:  # (MuJoCo writes a model's numbers to six digits)
-        if math.isclose(spec.stall_torque_nm, stall, rel_tol=1e-4) and math.isclose(
-            spec.speed_rad_s, speed, rel_tol=1e-4
-        ):
-            return spec
-    raise ModelError(
-        f"the model's servo on {name} ({stall:.3g} N·m, {speed:.3g} rad/s) is none of the "
-        f"catalogue's ({', '.join(s.name for s in SERVO_CATALOGUE)}); pass servo=..."
-    )
-
-
-def _servo_models(
-    m: mujoco.MjModel,
-    config: Config,
-    chain: Chain,
-    servo: ServoSpec | None,
-    gripper_servo: ServoSpec | None,
-    backlash_deg: float,
-) -> tuple[ServoModel, ...]:
-    smap = ServoMap.from_config(config)
-    play = math.radians(backlash_deg)
-    out = []
-    try:
-        spec = servo if servo is not None else _joint_servo(m, config, chain)
-        gripper_spec = gripper_servo or _catalogued(m, GRIPPER_SERVO_TEXT, "gripper")
-        gripper_spec = gripper_spec or GRIPPER_SERVO
-        for k, name in enumerate(chain.actuated):
-            i = int(chain.actuated_index[k])
-            lever = SERVO_LEVER_M if config.arm.joints[i].type == "prismatic" else 1.0
-            amap = smap[name]
-            scale = float(chain.scale[i])
-            # the potentiometer reads what the servo turns: its joint, or its combination
-            # (in model units, as the MJCF's tendon has it)
-            terms = amap.terms if amap.combined else ((name, 1.0),)
-            pot_qpos = tuple(int(m.joint(n).qposadr[0]) for n, _ in terms)
-            pot_coef = tuple(c * scale / float(chain.scale[chain.names.index(n)]) for n, c in terms)
-            out.append(
-                ServoModel(
-                    name,
-                    amap,
-                    scale,
-                    spec.deadband_us / amap.us_per_unit * scale,
-                    play * lever,
-                    spec.speed_rad_s * lever,
-                    m.actuator(name).id,
-                    pot_qpos,
-                    pot_coef,
-                    amap.offset * scale if amap.combined else 0.0,
-                    lever,
-                )
-            )
-        g = smap.gripper
-        jaws = tuple(int(m.joint(j).qposadr[0]) for j in jaw_joint_names(config.arm))
-        out.append(
-            ServoModel(
-                g.name,
-                g,
-                M_PER_CM,
-                gripper_spec.deadband_us / g.us_per_unit * M_PER_CM,
-                play * SERVO_LEVER_M,
-                gripper_spec.speed_rad_s * SERVO_LEVER_M,
-                m.actuator(g.name).id,
-                jaws,
-                lever=SERVO_LEVER_M,
-            )
-        )
-    except KeyError as exc:
-        raise ModelError(
-            f"the model is not the twin of arm {config.arm.name}: {exc}; build it with "
-            "twin_model(config)"
-        ) from None
-    return tuple(out)

@@ -1,0 +1,287 @@
+"""One object from the table to its bin: plan the pick and the place in full, then move.
+
+The pick is planned with the route above the object (``task.approach_height_cm``) before
+either moves; with the object held, the lift and then the place route are planned in
+full, and nothing unplanned is sent (an object whose place cannot be planned is put back
+and skipped). Whether the grip held is read from the camera once the arm is over the
+bin; whether the place counts, from the bus's report of the release.
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Protocol
+
+import numpy as np
+
+from mearm.config.classes import ColorClass
+from mearm.config.shape_catalogue import SHAPES
+from mearm.hardware.bus import ReportsRelease, ServoBus
+from mearm.kinematics.bodies import M_PER_CM
+from mearm.kinematics.collision import TOUCH_M, CollisionModel
+from mearm.task.claw_loop import ClawEye, shifted
+from mearm.task.execute import Executor
+from mearm.task.looking_picks import aim_by_eye, aim_over
+from mearm.task.plan import Planner
+from mearm.task.route import Route
+from mearm.task.table_tracking import TableTracking, TrackedObject
+
+
+class EpisodeRecorder(Protocol):
+    """Records the run as episodes (:class:`mearm.dataset.DatasetRecorder`).
+
+    The sorter opens an episode as a pick-and-place of an object of ``class_name``
+    starts, ends it when the pick-and-place ends, ends the run after the last one, and
+    abandons the episode a fault or Ctrl-C cuts short.
+    """
+
+    def begin(self, class_name: str) -> None: ...  # noqa: D102
+    def end(self) -> None: ...  # noqa: D102
+    def end_run(self) -> None: ...  # noqa: D102
+    def abandon(self) -> None: ...  # noqa: D102
+
+
+class PickAndPlace(TableTracking):
+    """The sorter's pick-and-place of one object (a part of the sorter).
+
+    Attributes:
+        bus: The servo bus.
+        collision: What the routes are checked against.
+        planner: Plans each route in full.
+        executor: Sends planned routes to the bus.
+        eye: The camera watching the claw (picks that look), or ``None``.
+        recorder: Records each pick-and-place as an episode, or ``None``.
+    """
+
+    bus: ServoBus
+    collision: CollisionModel
+    planner: Planner
+    executor: Executor
+    eye: ClawEye | None
+    recorder: EpisodeRecorder | None
+
+    def _recorded_pick(self, obj: TrackedObject) -> None:
+        """:meth:`_pick_and_place` as an episode of the recording, if there is one."""
+        recorder = self.recorder
+        if recorder is None:
+            self._pick_and_place(obj)
+            return
+        recorder.begin(obj.class_name)
+        try:
+            self._pick_and_place(obj)
+        except BaseException:
+            recorder.abandon()
+            raise
+        recorder.end()
+
+    def _approach(self, obj: TrackedObject, pick: Route) -> Route | None:
+        """The route to above the object (``task.approach_height_cm``), planned.
+
+        ``None`` when the config asks for the paper's direct routes.
+        """
+        h = self.config.task.approach_height_cm
+        if h is None:
+            return None
+        q = self.executor.q_now()
+        z = float(pick.target.position_cm[2])
+        # Where it is higher, the travel height: the jaws, and the object they lift back
+        # to here, pass every bin wall and object top by the clearance and a margin for
+        # the arm's lag in the transits to and from here (Planner.travel_heights_cm);
+        # where that is out of reach, lower down to the approach height.
+        heights = [max(h, t - z) for t in self.planner.travel_heights_cm(q)] + [h]
+        above = None
+        for height in dict.fromkeys(heights):
+            target = self.planner.above_target(pick.target, height)
+            above = Route(obj.id, obj.class_name, "approach", pick.attempt, target)
+            if self.planner.plan(above, q).planned:
+                break
+        return above
+
+    def _world(self, held: TrackedObject | None = None, opening_cm: float | None = None) -> None:
+        """What the collision checks see: the objects on the table, the jaws, the held one."""
+        g = self.config.arm.tool.gripper
+        on_table = [
+            (o.id, o.class_name, o.x_cm, o.y_cm)
+            for o in self._objects
+            if not o.sorted and o is not held
+        ]
+        pair = None if held is None else (held.id, held.class_name)
+        self.collision.set_world(on_table, opening_cm=opening_cm or g.open_cm, held=pair)
+
+    def _lift_and_plan_place(
+        self, obj: TrackedObject, cls: ColorClass, above: Route | None, pick: Route
+    ) -> tuple[Route, float] | None:
+        """With ``obj`` held: lift it, then plan the place route in full.
+
+        The lift (when the pick came down from ``above``) comes before anything else
+        moves. Where the pick ended within the clearance of something (the object held
+        beside a bin's wall), a route out may leave as long as it comes no closer
+        (:mod:`mearm.kinematics.collision`). Returns the place route and when its planning
+        began (``time.perf_counter``), or ``None`` when no place can be planned: nothing
+        unplanned is sent, so the object is put back where it was and skipped, for the
+        bin when the bin is out of reach, for the pick when no route leaves where it ended
+        without coming closer to what it ended beside.
+        """
+        ex = self.executor
+        if above is not None:
+            # straight up from where the jaws closed, to the height it came down from (the
+            # point above the target is off the pose by as much as the solver left: that
+            # way may bring an object held beside a wall closer to it)
+            z = float(above.target.position_cm[2])
+            straight_up = self.planner.up_from(ex.q_now(), z, above.target.approach)
+            up = Route(obj.id, obj.class_name, "lift", 1, straight_up)
+            if self.planner.plan(up, ex.q_now()).planned:
+                ex.stream(up, "travel", True)
+        t1 = time.perf_counter()
+        place = Route(obj.id, obj.class_name, "place", 1, self.planner.place_target(cls))
+        self.planner.plan(place, ex.q_now())
+        if not place.planned:
+            self.reporter.route(pick)
+            beside = self.collision.gap(ex.q_now())
+            if place.failure_kind == "collision" and beside[0] < TOUCH_M:
+                why = stuck_reason(beside, self.config.task.clearance_cm, place.failure)
+                self._skip(obj, why, pick, kind="collision")
+            else:
+                why = f"bin unreachable: {place.failure}"
+                self._skip(obj, why, place, kind="bin_unreachable")
+            ex.set_tool("grip", True)
+            ex.set_tool("grip", False)
+            return None
+        return place, t1
+
+    def _pick_and_place(self, obj: TrackedObject) -> None:
+        """Pick ``obj`` and place it in its bin: plan in full, go down, grip, carry, release."""
+        self._active, self._active_from_cm = obj, (obj.x_cm, obj.y_cm)
+        cls = self.config.task.class_named(obj.class_name)
+        ex = self.executor
+        t0 = time.perf_counter()
+        xy = np.array([obj.x_cm, obj.y_cm])
+        goal = self.planner.pick_target(cls, obj.x_cm, obj.y_cm)
+        # picks that look start from the aim the picks nearby needed (claw_loop)
+        aim = np.zeros(3)
+        if self.eye is not None:
+            aim[:2] = self.eye.corrections.guess(xy)
+        pick = Route(obj.id, obj.class_name, "pick", obj.failed_picks + 1, shifted(goal, aim))
+        self._world()
+        above = self._approach(obj, pick)  # planned in full with the pick, before either
+        if not self._plan_pick(obj, above, pick):
+            return
+        if above is not None:
+            ex.stream(above, "travel", False)
+            if self.eye is not None:
+                pick, aim = aim_over(self.eye, self.planner, ex, obj, pick, aim)
+        ex.stream(pick, "travel", False, hex_rgb(cls.draw_rgb))
+        if self.eye is not None:
+            pick, aim = aim_by_eye(self.eye, self.planner, ex, obj, above, pick, aim)
+            self.eye.corrections.add(xy, aim[:2])
+            pick.target = goal  # the pick is judged, and logged, against the object
+        ex.finish(pick, t0)  # where the TCP arrived (Table 8's)
+        ex.set_tool("grip", False)
+        pick.grip_ee_cm = ex.ee_now_cm()  # settled: where the jaws close
+        ex.set_tool("grip", True)
+        ex.set_tool("travel", True)
+        self._world(held=obj, opening_cm=cls.diameter_cm)
+        planned = self._lift_and_plan_place(obj, cls, above, pick)
+        if planned is not None:
+            self._place(obj, cls, above, pick, *planned)
+
+    def _plan_pick(self, obj: TrackedObject, above: Route | None, pick: Route) -> bool:
+        """Plan the pick down from ``above`` (or from where the arm is), the jaws turned.
+
+        Returns whether both are planned. Otherwise ``obj`` waits, blocked, when a
+        collision refused it (another object may clear its way), or is skipped.
+        """
+        if above is not None and obj.yaw_deg is not None:  # jaws across a cube's faces
+            # (the yaw is a square outline's, whatever shape the class names)
+            self.planner.turn_jaws(above, obj.yaw_deg, SHAPES["cube"].symmetry_deg)
+        if above is None:
+            self.planner.plan(pick, self.executor.q_now(), target=obj.id)
+        elif above.planned and above.plan is not None:
+            self.planner.plan(pick, above.plan.q, target=obj.id)
+        failed = pick if above is None or above.planned else above
+        if failed.planned:
+            return True
+        if failed.failure_kind == "collision" and obj.blocked is None:
+            obj.blocked = failed.failure  # another object may clear its way
+            return False
+        self._skip(obj, failed.failure or "no plan", failed, kind=failure_kind(failed))
+        return False
+
+    def _place(
+        self,
+        obj: TrackedObject,
+        cls: ColorClass,
+        above: Route | None,
+        pick: Route,
+        place: Route,
+        t1: float,
+    ) -> None:
+        """Carry the held object along the planned ``place`` route, check the grip, release.
+
+        ``t1``: when the place's planning began (``time.perf_counter``). A grip that did
+        not hold takes whatever the jaws hold back over the spot and lets it go there.
+        """
+        ex = self.executor
+        # Whether the grip held is read once the arm is over the bin: there the camera sees
+        # the table unobstructed, and an object held over its own spot (in view of a camera
+        # above it) is not taken for one left there. (The paper re-reads the table after
+        # each object.) A fault on the way leaves the pick in the log, unconfirmed.
+        pick.confirmed = False
+        try:
+            ex.stream(place, "travel", True, hex_rgb(cls.draw_rgb))
+            pick.success = not self._on_table(obj, self._look(track_new=False))
+            pick.confirmed = True
+        finally:
+            self.reporter.route(pick)
+        if not pick.success:
+            # the jaws hold nothing, or a neighbour: take it back over the spot (not into
+            # this bin) and let it go there
+            back = above.target if above is not None else self.planner.lift_target(pick.target)
+            back_route = Route(obj.id, obj.class_name, "lift", 1, back)
+            if self.planner.plan(back_route, ex.q_now()).planned:
+                ex.stream(back_route, "travel", True)
+            ex.set_tool("travel", False)
+            obj.failed_picks += 1
+            if obj.failed_picks > self.config.task.pick_retries:
+                self._skip(obj, f"pick failed {obj.failed_picks} times", pick, kind="pick_failed")
+            return
+        ex.set_tool("travel", False)
+        release = self.bus.last_release if isinstance(self.bus, ReportsRelease) else None
+        place.success = release is None or release.bin == obj.class_name
+        obj.sorted = place.success
+        if release is None and place.plan is not None:  # unconfirmed: it may have slipped
+            obj.carried_cm = np.vstack([[obj.x_cm, obj.y_cm], place.plan.ee_path_cm[:, :2]])
+        for o in self._objects:  # the table changed: a blocked pick may be clear now
+            o.blocked = None
+        self.reporter.route(ex.finish(place, t1))
+
+
+def failure_kind(route: Route) -> str:
+    """The typed reason a route's plan failed (``unreachable`` when it gives none)."""
+    kind = getattr(route, "failure_kind", None)
+    return str(kind) if kind else "unreachable"
+
+
+def hex_rgb(rgb: tuple[int, int, int]) -> str:
+    """A colour as the view draws it: ``#rrggbb``."""
+    return "#{:02x}{:02x}{:02x}".format(*rgb)
+
+
+def stuck_reason(beside: tuple[float, str, str], clearance_cm: float, failure: str | None) -> str:
+    """Why a held object stays where the pick ended, for the skip.
+
+    Args:
+        beside: :meth:`CollisionModel.gap` where the pick ended (within the clearance).
+        clearance_cm: ``task.clearance_cm``.
+        failure: Why the place was refused.
+    """
+    gap_m, part, obstacle = beside
+    name = obstacle.removeprefix("obj_")
+    if obstacle == "table":  # (the table keeps no clearance: its gap is the height)
+        where = f"{part} {gap_m / M_PER_CM:.2f} cm above it"
+    else:
+        where = f"{part} {gap_m / M_PER_CM + clearance_cm:.2f} cm from it"
+    return (
+        f"the pick ended beside {name} ({where}, within task.clearance_cm) and no route "
+        f"leaves without coming closer: {failure}"
+    )

@@ -1,0 +1,336 @@
+"""The objects on the table, followed from look to look: which detection is which object.
+
+Each known object takes the detection of its class nearest where it was; a detection left
+over is a known object no longer where it was (pushed, dropped on the way to its bin) when
+one can be, else a new object. Objects the arm did not go near that all moved by the same
+shift mean the camera was knocked (:func:`check_view`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+
+from mearm.config import Config
+from mearm.task.execute import View
+from mearm.task.report import Reporter, Skip
+from mearm.task.route import Route
+from mearm.vision import Camera, ColorDetector, Detection
+from mearm.vision.calibration import CameraGeometry
+from mearm.vision.errors import CameraError
+from mearm.vision.frame_check import FrameCheck
+from mearm.vision.tracking import Missing, explain, nearest_pairs
+from mearm.vision.tracking import Seen as Sighting
+
+#: A detection within this distance of a known object is that object [cm].
+SAME_OBJECT_CM = 1.5
+#: Objects the arm did not go for that all move farther than this between two looks, the
+#: same way, mean the view moved (the camera was knocked) [cm]: a detection's jitter is a
+#: few tenths of a pixel (0.0625 cm a pixel at the paper's calibration).
+VIEW_SHIFT_CM = 0.5
+#: How closely their shifts must agree to be one move of the view [cm] (one object moved
+#: alone may be the arm's doing: a jaw that caught it).
+SAME_SHIFT_CM = 0.3
+#: An object whose region grew or shrank by more than this fraction since the last look
+#: is partly hidden (by the arm) in one of them: its centroid moved for that [-].
+SAME_AREA_RATIO = 0.15
+
+
+@dataclass
+class TrackedObject:
+    """An object seen on the table, followed from frame to frame by its position."""
+
+    id: str
+    class_name: str
+    x_cm: float
+    y_cm: float
+    failed_picks: int = 0
+    skipped: str | None = None
+    skip_kind: str | None = None
+    sorted: bool = False
+    #: Why its pick was refused for a collision since the last object was sorted (others
+    #: go first), or ``None``.
+    blocked: str | None = None
+    #: Whether the last look saw it as a region of touching objects (or one the arm hid
+    #: in part, or one cut by the image border): not picked while so; left as ``merged``
+    #: (or ``cut``) when nothing else is left.
+    merged: bool = False
+    #: A cube's yaw on the table at the last look [deg, 0–90), or ``None``: the jaws
+    #: turn to its faces where the arm can turn them (:meth:`Planner.turn_jaws`).
+    yaw_deg: float | None = None
+    #: Its region's area at the last look [px].
+    area_px: int = 0
+    #: The path (x, y) [cm], (k, 2), its TCP carried it along to its bin, while no
+    #: simulator has confirmed the release (the twin, a real rig): an object of its class
+    #: seen new near that path is it, dropped on the way (:meth:`TableTracking._dropped`).
+    carried_cm: np.ndarray | None = None
+
+
+Seen = list[tuple[Detection, np.ndarray]]
+
+
+class TableTracking:
+    """The objects on the table, as the sorter knows them (a part of its :class:`Sorter`).
+
+    Attributes:
+        config: The whole configuration.
+        camera: Frame source.
+        detector: Finds the objects in a frame.
+        calibration: The camera's geometry (pixel ↔ table).
+        frame_check: Refuses black and frozen frames.
+        view: Meshcat view to update, or ``None``.
+        reporter: Where skips are reported.
+    """
+
+    config: Config
+    camera: Camera
+    detector: ColorDetector
+    calibration: CameraGeometry
+    frame_check: FrameCheck
+    view: View | None
+    reporter: Reporter
+    _objects: list[TrackedObject]
+    #: The object the arm last went for (the only one it may have moved since).
+    _active: TrackedObject | None
+    _active_from_cm: tuple[float, float]
+
+    def _look(self, *, track_new: bool = True) -> Seen:
+        """Read a frame: what lies on the table, outside the bins.
+
+        An object cut by the image border is in it, seen in part: followed, but not
+        picked until seen whole (:meth:`_track`).
+
+        Args:
+            track_new: Start following objects not seen before (off while the gripper
+                holds one: the camera sees the held object too, away from the table).
+        """
+        frame = self.camera.read()
+        self.frame_check.check(frame, self.camera.frame_time_s, self.camera.clock_s)
+        # an object seen in a bin is sorted, not on the table (a camera that sees the
+        # bins sees what was put in them)
+        found = [(d, table_cm(d)) for d in self.detector.detect(frame)]
+        seen = [(d, p) for d, p in found if not self._in_a_bin(p)]
+        self._track(seen, track_new=track_new)
+        if self.view is not None:
+            self.view.set_camera_frame(frame, self.calibration.pixel_to_table)
+            self.view.set_objects(
+                [
+                    (o.id, o.class_name, o.x_cm, o.y_cm)
+                    for o in self._objects
+                    if self._on_table(o, seen)
+                ]
+            )
+        return seen
+
+    def _in_a_bin(self, xy_cm: np.ndarray) -> bool:
+        """Whether a table point lies inside a class's bin (``ColorClass.in_bin``)."""
+        x, y = float(xy_cm[0]), float(xy_cm[1])
+        return any(c.in_bin(x, y) for c in self.config.task.classes)
+
+    def _track(self, seen: Seen, *, track_new: bool = True) -> None:
+        """Follow the objects seen: each detection is a known object, or a new one.
+
+        Each known object takes the detection of its class nearest where it was, within
+        :data:`SAME_OBJECT_CM` (:meth:`_match`). On a look that may start new objects, a
+        detection left over is a known object no longer where it was, when one of its
+        class is missing (:meth:`_dropped`); only one that none can be is a new object.
+        A region cut by the image border, or of touching objects, is followed as
+        ``merged``: not picked while so. An object the arm did not go for must not have
+        moved.
+
+        Raises:
+            CameraError: two or more such objects, seen whole in both looks, all moved
+                more than :data:`VIEW_SHIFT_CM` since the last look, by the same shift
+                (within :data:`SAME_SHIFT_CM`): the camera was knocked.
+        """
+        taken = self._match(seen)
+        shifts: list[tuple[TrackedObject, np.ndarray]] = []
+        for k, known in taken.items():
+            det, (x, y) = seen[k]
+            if self._untouched(known, det):
+                shifts.append((known, np.array([x - known.x_cm, y - known.y_cm])))
+        if track_new:
+            taken.update(self._dropped(seen, taken))
+            for k, (det, _) in enumerate(seen):
+                if k not in taken:
+                    n = sum(1 for o in self._objects if o.class_name == det.color) + 1
+                    taken[k] = TrackedObject(f"{det.color}{n}", det.color, 0.0, 0.0)
+                    self._objects.append(taken[k])
+        camera = self.config.camera
+        for k, known in taken.items():
+            det, (x, y) = seen[k]
+            known.x_cm, known.y_cm = float(x), float(y)
+            if track_new:  # (what the region looked like: the next look tells if it came apart)
+                known.area_px = det.area_px
+                # one look's merged region may be another's single object: the arm, now
+                # elsewhere, hid part of it, or a neighbour picked meanwhile touched it;
+                # an object cut by the image border has no centre seen either
+                known.merged = det.merged or is_cut(det, camera.width_px, camera.height_px)
+            if det.yaw_deg is not None:
+                known.yaw_deg = det.yaw_deg
+        check_view(shifts, self.camera.source)
+
+    def _dropped(self, seen: Seen, taken: Mapping[int, TrackedObject]) -> dict[int, TrackedObject]:
+        """The known objects that the detections :meth:`_match` left over are.
+
+        On a still table nothing brings new objects (:func:`~mearm.vision.tracking.explain`):
+        such a detection is a known object of its class that is missing, if one is: on the
+        table but not seen where it was (pushed by the jaws, tipped and rolled), or counted
+        sorted while no simulator confirmed its release (:attr:`TrackedObject.carried_cm`:
+        dropped on the way, or out of its bin again), which is then no longer counted
+        sorted and is picked again from where it lies. Those missing from the table come
+        before those counted sorted, and the ones the arm went for or may have pushed since
+        the last look before the others; the nearest pairs first.
+        The other object of a region of touching objects come apart is a new one
+        (:func:`come_apart`).
+
+        Returns:
+            The detection's index → the object it is.
+        """
+        present = {o.id for o in taken.values()}
+        missing = [
+            o
+            for o in self._objects
+            if o.id not in present and (not o.sorted or o.carried_cm is not None)
+        ]
+        apart = come_apart(seen, taken, self.config)
+        left = [k for k in range(len(seen)) if k not in taken and k not in apart]
+        pairs = explain(
+            [
+                Missing(
+                    o.class_name,
+                    np.array([[o.x_cm, o.y_cm]]) if o.carried_cm is None else o.carried_cm,
+                    touched=o is self._active or self._near_active(o),
+                    carried=o.sorted,
+                )
+                for o in missing
+            ],
+            [Sighting(d.color, float(p[0]), float(p[1])) for d, p in (seen[k] for k in left)],
+        )
+        found = {}
+        for i, j in pairs:
+            obj = found[left[j]] = missing[i]
+            obj.sorted, obj.carried_cm = False, None
+        return found
+
+    def _untouched(self, obj: TrackedObject, det: Detection) -> bool:
+        """Whether the arm left ``obj`` alone since the last look and both saw it whole."""
+        if obj is self._active or obj.merged or det.merged or self._near_active(obj):
+            return False
+        # an area that changed: partly hidden (by the arm) in one look, its centroid moved
+        return abs(det.area_px - obj.area_px) <= SAME_AREA_RATIO * obj.area_px
+
+    def _near_active(self, obj: TrackedObject) -> bool:
+        """Whether ``obj`` lay where the jaws coming down on the active object may push it."""
+        if self._active is None:
+            return False
+        g = self.config.arm.tool.gripper
+        r = self.config.task.class_named(obj.class_name).diameter_cm / 2
+        x, y = self._active_from_cm
+        return bool(np.hypot(obj.x_cm - x, obj.y_cm - y) < g.open_cm / 2 + g.jaw_thickness_cm + r)
+
+    def _match(self, seen: Seen) -> dict[int, TrackedObject]:
+        """The known objects seen where they were: detection index → object.
+
+        Each object on the table (not counted sorted) and each detection of its class
+        within :data:`SAME_OBJECT_CM` of where it was pair up, the nearest pairs first:
+        of two detections near one object, the farther is another object.
+        """
+        known = [o for o in self._objects if not o.sorted]
+        distance = np.full((len(known), len(seen)), np.inf)
+        for i, o in enumerate(known):
+            for k, (det, (x, y)) in enumerate(seen):
+                if det.color == o.class_name:
+                    distance[i, k] = float(np.hypot(x - o.x_cm, y - o.y_cm))
+        return {k: known[i] for i, k in nearest_pairs(distance, SAME_OBJECT_CM)}
+
+    @staticmethod
+    def _on_table(obj: TrackedObject, seen: Seen) -> bool:
+        return any(
+            d.color == obj.class_name and np.hypot(x - obj.x_cm, y - obj.y_cm) <= SAME_OBJECT_CM
+            for d, (x, y) in seen
+        )
+
+    def _skip(
+        self, obj: TrackedObject, reason: str, target: Route | None = None, *, kind: str
+    ) -> None:
+        obj.skipped = reason
+        obj.skip_kind = kind
+        where = None if target is None else tuple(float(v) for v in target.target.position_cm)
+        self.reporter.skip(Skip(obj.id, obj.class_name, reason, where, kind))  # type: ignore[arg-type]
+
+
+def check_view(shifts: list[tuple[TrackedObject, np.ndarray]], source: str) -> None:
+    """Refuse one shift of every object the arm left alone: the view moved.
+
+    :meth:`TableTracking._track` measures the shifts.
+    """
+    if len(shifts) < 2:
+        return
+    moves = np.array([d for _, d in shifts])  # (n, 2) [cm]
+    mean = moves.mean(axis=0)
+    if np.all(np.linalg.norm(moves, axis=1) > VIEW_SHIFT_CM) and np.all(
+        np.linalg.norm(moves - mean, axis=1) <= SAME_SHIFT_CM
+    ):
+        names = ", ".join(o.id for o, _ in shifts)
+        raise CameraError(
+            source,
+            f"the view moved: {names}, which the arm did not go near, all appear "
+            f"{float(np.linalg.norm(mean)):.2f} cm from where they lay (by ({mean[0]:.2f}, "
+            f"{mean[1]:.2f}) cm); was the camera knocked? Fix its mount and recalibrate "
+            "(tools/calibrate_camera.py)",
+        )
+
+
+def table_cm(d: Detection) -> np.ndarray:
+    """Where the detector located a detection on the table [cm] (it has the calibration)."""
+    assert d.table_cm is not None
+    return d.table_cm
+
+
+def is_cut(det: Detection, width_px: int, height_px: int) -> bool:
+    """Whether a detection's region touches the image border (only part of it is seen)."""
+    x, y, w, h = det.bbox_px
+    return x <= 0 or y <= 0 or x + w >= width_px or y + h >= height_px
+
+
+def seen_cut(obj: TrackedObject, seen: Seen, width_px: int, height_px: int) -> bool:
+    """Whether the look saw ``obj`` (a detection of its class where it is) cut by the border."""
+    return any(
+        d.color == obj.class_name
+        and np.hypot(x - obj.x_cm, y - obj.y_cm) <= SAME_OBJECT_CM
+        and is_cut(d, width_px, height_px)
+        for d, (x, y) in seen
+    )
+
+
+def come_apart(seen: Seen, taken: Mapping[int, TrackedObject], config: Config) -> set[int]:
+    """The detections that are the other object of a region of touching objects come apart.
+
+    A known object last seen as such a region (``merged``, and larger than it is seen
+    now by more than :data:`SAME_AREA_RATIO`: not one the arm hid in part) and seen whole
+    now: the detection of its class nearest where it was, not taken by a known object,
+    within the open jaws' reach and an object across (the jaws parted them), is the
+    other object the region stood for.
+    """
+    g, camera = config.arm.tool.gripper, config.camera
+    apart: set[int] = set()
+    for k, obj in taken.items():
+        det = seen[k][0]
+        if not obj.merged or det.merged or is_cut(det, camera.width_px, camera.height_px):
+            continue
+        if obj.area_px <= (1 + SAME_AREA_RATIO) * det.area_px:
+            continue  # as large as one object now: part of it was hidden
+        r = config.task.class_named(obj.class_name).footprint_radius_cm
+        reach = g.open_cm / 2 + g.jaw_thickness_cm + 2 * r
+        near = {
+            float(np.hypot(x - obj.x_cm, y - obj.y_cm)): j
+            for j, (d, (x, y)) in enumerate(seen)
+            if j not in taken and j not in apart and d.color == obj.class_name
+        }
+        nearest = min(near, default=np.inf)
+        if nearest <= reach:
+            apart.add(near[nearest])
+    return apart
