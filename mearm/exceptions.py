@@ -67,7 +67,7 @@ FAMILIES: dict[str, tuple[str, ...]] = {
     # The simulators' and the task's errors live beside the one module that raises them.
     "mearm.sim.errors": ("WorldError",),
     "mearm.sim.kinematic.servo_bus": ("SimCollisionError",),
-    "mearm.sim.virtual_uno": ("VirtualUnoError",),
+    "mearm.sim.virtual_uno.errors": ("VirtualUnoError",),
     "mearm.task.scene": ("SceneError",),
     "mearm.task.armcheck": ("ArmCheckError", "NothingToCheck"),
     "mearm.task.sorter": ("CollisionError", "SortAborted"),

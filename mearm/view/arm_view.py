@@ -26,217 +26,73 @@ from __future__ import annotations
 
 import logging
 import math
-import re
 from collections.abc import Callable, Iterable
-from dataclasses import dataclass
 from pathlib import Path
 from types import TracebackType
 from typing import Any
 
-import cv2
 import meshcat
 import meshcat.geometry as mg
 import meshcat.transformations as tf
 import numpy as np
 import numpy.typing as npt
-import pinocchio as pin
 from pinocchio.visualize import MeshcatVisualizer
 
 from mearm.config import ColorClass, Config
-from mearm.kinematics import ArmModel, jaw_joint_names
+from mearm.kinematics import ArmModel
 from mearm.kinematics.collision import CollisionModel
 from mearm.view.browser import screenshot
 from mearm.view.collision_drawing import CollisionDrawing
 from mearm.view.errors import ViewError, ViewInputError
 from mearm.view.frame_plane import FramePlane, PixelToTable, frame_plane
 from mearm.view.layout import SceneLayout
+from mearm.view.scene_meshes import (
+    BIN_WALL_CM,
+    TABLE_RGB,
+    TABLE_THICKNESS_CM,
+    camera_frame_mesh,
+    class_cylinder,
+    draw_bin,
+    draw_table,
+)
 from mearm.view.server import MeshcatServer
+from mearm.view.urdf_arm import UrdfArm
+from mearm.view.view_items import (
+    PATH_RGB,
+    TwinBody,
+    ViewObject,
+    color_value,
+    finite_array,
+    rgb_int,
+    twin_body,
+    view_object,
+)
 from mearm.view.viewpoint import M_PER_CM, ViewCamera
+
+__all__ = [
+    "BACKGROUND_BOTTOM",
+    "BACKGROUND_TOP",
+    "BIN_WALL_CM",
+    "FRAME_LIFT_CM",
+    "PATH_RGB",
+    "TABLE_RGB",
+    "TABLE_THICKNESS_CM",
+    "TARGET_RADIUS_CM",
+    "TARGET_RGB",
+    "ArmView",
+    "TwinBody",
+    "ViewObject",
+    "rgb_int",
+]
 
 log = logging.getLogger(__name__)
 
-TABLE_RGB = 0xD8D5CE
 TARGET_RGB = 0xF2C500
-#: Route lines without a colour of their own.
-PATH_RGB = 0x202020
 BACKGROUND_TOP = [0.96, 0.97, 0.98]
 BACKGROUND_BOTTOM = [0.80, 0.82, 0.85]
-
-TABLE_THICKNESS_CM = 2.0
-#: Open bins: wall thickness [cm]; side and height come from the layout.
-BIN_WALL_CM = 0.4
 #: The camera frame floats this far above the table top so the two do not z-fight [cm].
 FRAME_LIFT_CM = 0.05
 TARGET_RADIUS_CM = 0.8
-
-_HEX = re.compile(r"^#?([0-9a-fA-F]{6})$")
-
-
-@dataclass(frozen=True)
-class ViewObject:
-    """An object as drawn: its id, colour class and table position [cm]."""
-
-    id: str
-    class_name: str
-    x_cm: float
-    y_cm: float
-
-
-@dataclass(frozen=True)
-class TwinBody:
-    """An object of the physical twin as drawn: its id, colour class and pose.
-
-    Attributes:
-        id: The object's id (``red1``, …).
-        class_name: Its colour class.
-        position_cm: Its body's centre in the base frame [cm], (x, y, z).
-        quat: Its orientation (w, x, y, z), unit [-]; the cylinder's axis is the body's z.
-    """
-
-    id: str
-    class_name: str
-    position_cm: tuple[float, float, float]
-    quat: tuple[float, float, float, float]
-
-
-class _PlaneGeometry(mg.Geometry):
-    """three.js ``PlaneGeometry``: a width × height rectangle in the local xy plane [m]."""
-
-    def __init__(self, width_m: float, height_m: float):
-        super().__init__()
-        self.width_m = width_m
-        self.height_m = height_m
-
-    def lower(self, object_data: Any) -> dict[str, Any]:
-        return {
-            "uuid": self.uuid,
-            "type": "PlaneGeometry",
-            "width": self.width_m,
-            "height": self.height_m,
-            "widthSegments": 1,
-            "heightSegments": 1,
-        }
-
-
-def rgb_int(rgb: tuple[int, int, int]) -> int:
-    """A class's ``draw_rgb`` (0–255 each) as 0xRRGGBB."""
-    r, g, b = rgb
-    return (int(r) << 16) | (int(g) << 8) | int(b)
-
-
-def _color_value(color: str | int | None, argument: str = "color") -> int:
-    if color is None:
-        return PATH_RGB
-    if isinstance(color, int) and not isinstance(color, bool) and 0 <= color <= 0xFFFFFF:
-        return color
-    if isinstance(color, str):
-        match = _HEX.match(color)
-        if match:
-            return int(match.group(1), 16)
-    raise ViewInputError(argument, color, "a hex string '#RRGGBB' or an int 0xRRGGBB")
-
-
-def _finite_array(value: npt.ArrayLike, argument: str, allowed: str) -> np.ndarray:
-    try:
-        arr = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        raise ViewInputError(argument, value, allowed) from None
-    if not np.all(np.isfinite(arr)):
-        raise ViewInputError(argument, value, allowed)
-    return arr
-
-
-def _view_object(item: Any, classes: dict[str, ColorClass]) -> ViewObject:
-    """Validate one object to draw.
-
-    It is a ``(id, class_name, x_cm, y_cm)`` tuple, or anything with an ``id``, a
-    ``class_name`` (or ``color``), ``x_cm`` and ``y_cm``.
-    """
-    if isinstance(item, ViewObject):
-        fields = (item.id, item.class_name, item.x_cm, item.y_cm)
-    elif all(hasattr(item, a) for a in ("id", "x_cm", "y_cm")) and (
-        hasattr(item, "class_name") or hasattr(item, "color")
-    ):
-        name = item.class_name if hasattr(item, "class_name") else item.color
-        fields = (item.id, name, item.x_cm, item.y_cm)
-    elif isinstance(item, (tuple, list)) and len(item) == 4:
-        fields = tuple(item)
-    else:
-        raise ViewInputError("objects[...]", item, "(id, class_name, x_cm, y_cm)")
-    obj_id, class_name, x, y = fields
-    obj_id = _object_id(obj_id)
-    if class_name not in classes:
-        raise ViewInputError(
-            f"class of {obj_id}", class_name, f"one of task.classes: {', '.join(classes)}"
-        )
-    xy = _finite_array((x, y), f"position of {obj_id}", "finite x_cm, y_cm")
-    return ViewObject(obj_id, class_name, float(xy[0]), float(xy[1]))
-
-
-def _object_id(obj_id: Any) -> str:
-    if not isinstance(obj_id, str) or not obj_id or "/" in obj_id:
-        raise ViewInputError("object id", obj_id, "a non-empty string without '/'")
-    return obj_id
-
-
-def _twin_body(item: Any, classes: dict[str, ColorClass]) -> TwinBody:
-    """Validate one twin body to draw: ``(id, class_name, position_cm, quat)``."""
-    allowed = "(id, class_name, position_cm (x, y, z), quat (w, x, y, z))"
-    if isinstance(item, TwinBody):
-        fields: tuple[Any, ...] = (item.id, item.class_name, item.position_cm, item.quat)
-    elif isinstance(item, (tuple, list)) and len(item) == 4:
-        fields = tuple(item)
-    else:
-        raise ViewInputError("objects[...]", item, allowed)
-    obj_id = _object_id(fields[0])
-    class_name = fields[1]
-    if class_name not in classes:
-        raise ViewInputError(
-            f"class of {obj_id}", class_name, f"one of task.classes: {', '.join(classes)}"
-        )
-    pos = _finite_array(fields[2], f"position of {obj_id}", "3 finite numbers [cm]")
-    if pos.shape != (3,):
-        raise ViewInputError(f"position of {obj_id}", fields[2], "3 finite numbers [cm]")
-    quat = _finite_array(fields[3], f"orientation of {obj_id}", "a quaternion (w, x, y, z)")
-    norm = float(np.linalg.norm(quat)) if quat.shape == (4,) else 0.0
-    if norm < 1e-9:
-        raise ViewInputError(f"orientation of {obj_id}", fields[3], "a quaternion (w, x, y, z)")
-    quat = quat / norm
-    return TwinBody(
-        obj_id,
-        str(class_name),
-        (float(pos[0]), float(pos[1]), float(pos[2])),
-        (float(quat[0]), float(quat[1]), float(quat[2]), float(quat[3])),
-    )
-
-
-def _png(bgra: np.ndarray) -> bytes:
-    ok, buf = cv2.imencode(".png", bgra)
-    if not ok:  # pragma: no cover - OpenCV encodes any uint8 BGRA image
-        raise ViewError("OpenCV could not encode the camera frame as PNG")
-    return buf.tobytes()
-
-
-class _UrdfArm:
-    """The URDF with its jaw joints free, and where each joint's value goes in its q."""
-
-    def __init__(self, model: ArmModel):
-        self.full = pin.buildModelFromXML(model.urdf)
-        self.visual = pin.buildGeomFromUrdfString(self.full, model.urdf, pin.GeometryType.VISUAL)
-        self.chain_idx = np.array(
-            [self.full.joints[self.full.getJointId(n)].idx_q for n in model.chain.names]
-        )
-        jaws = [n for n in jaw_joint_names(model.arm) if self.full.existJointName(n)]
-        self.jaw_idx = np.array([self.full.joints[self.full.getJointId(n)].idx_q for n in jaws])
-
-    def q(self, q_chain: np.ndarray, opening_cm: float) -> np.ndarray:
-        """The URDF's q: the chain's joints, each jaw at half the opening [m]."""
-        q = pin.neutral(self.full)
-        q[self.chain_idx] = q_chain
-        for i in self.jaw_idx.tolist():
-            half = opening_cm / 2.0 * M_PER_CM
-            q[i] = min(max(half, self.full.lowerPositionLimit[i]), self.full.upperPositionLimit[i])
-        return q
 
 
 class ArmView:
@@ -299,7 +155,7 @@ class ArmView:
             self._collision_last: CollisionDrawing | None = None  # drawn last, to show again
             self.frame_plane: FramePlane | None = None
             self._setup_scene()
-            self._urdf = _UrdfArm(model)
+            self._urdf = UrdfArm(model)
             self._viz = MeshcatVisualizer(self._urdf.full, None, self._urdf.visual)
             self._viz.initViewer(viewer=self.viewer)
             self._viz.loadViewerModel(rootNodeName="arm")
@@ -384,32 +240,9 @@ class ArmView:
         vis["/Axes"].set_property("visible", False)
         self.camera.apply(vis)
 
-        (x0, x1), (y0, y1) = self.layout.table_x_cm, self.layout.table_y_cm
-        size_m = np.array([x1 - x0, y1 - y0, TABLE_THICKNESS_CM]) * M_PER_CM
-        center_m = np.array([(x0 + x1) / 2, (y0 + y1) / 2, -TABLE_THICKNESS_CM / 2]) * M_PER_CM
-        vis["table"].set_object(mg.Box(size_m.tolist()), mg.MeshLambertMaterial(color=TABLE_RGB))
-        vis["table"].set_transform(tf.translation_matrix(center_m))
-
+        draw_table(vis, self.layout)
         for c in self.config.task.classes:
-            self._draw_bin(c, c.bin_cm[0], c.bin_cm[1])
-
-    def _draw_bin(self, color_class: ColorClass, x_cm: float, y_cm: float) -> None:
-        """An open box in the class's colour standing on the table under (x, y, ·)."""
-        s, h, t = self.layout.bin_side_cm, self.layout.bin_height_cm, BIN_WALL_CM
-        material = mg.MeshLambertMaterial(color=rgb_int(color_class.draw_rgb))
-        parts = {  # name: (size, centre) relative to the bin's footprint centre [cm]
-            "floor": ((s, s, t), (0, 0, t / 2)),
-            "wall_xn": ((t, s, h), (-(s - t) / 2, 0, h / 2)),
-            "wall_xp": ((t, s, h), ((s - t) / 2, 0, h / 2)),
-            "wall_yn": ((s - 2 * t, t, h), (0, -(s - t) / 2, h / 2)),
-            "wall_yp": ((s - 2 * t, t, h), (0, (s - t) / 2, h / 2)),
-        }
-        for name, (size, (cx, cy, cz)) in parts.items():
-            node = self.viewer[f"bins/{color_class.name}/{name}"]
-            node.set_object(mg.Box([v * M_PER_CM for v in size]), material)
-            node.set_transform(
-                tf.translation_matrix(np.array([x_cm + cx, y_cm + cy, cz]) * M_PER_CM)
-            )
+            draw_bin(vis, self.layout, c, c.bin_cm[0], c.bin_cm[1])
 
     # ------------------------------------------------------------------ arm
 
@@ -429,7 +262,7 @@ class ArmView:
         self._check_open()
         full = self._full_q(q)
         if opening_cm is not None:
-            opening = _finite_array(opening_cm, "opening_cm", "a finite opening [cm]")
+            opening = finite_array(opening_cm, "opening_cm", "a finite opening [cm]")
             if opening.shape != ():
                 raise ViewInputError("opening_cm", opening_cm, "a finite opening [cm]")
             self.opening_cm = float(opening)
@@ -446,7 +279,7 @@ class ArmView:
             f"{' or '.join(map(str, sizes))} finite joint values in model units "
             f"(joints: {', '.join(chain.names)})"
         )
-        values = _finite_array(q, "q", allowed)
+        values = finite_array(q, "q", allowed)
         if values.shape == (chain.n,):
             return values
         if values.shape == (chain.m,):
@@ -497,27 +330,7 @@ class ArmView:
                 is changed then.
         """
         self._check_open()
-        chain = self.model.chain
-        if collision is None:
-            if self._collision_last is None:
-                raise ViewInputError(
-                    "collision", None, "a CollisionModel (none was drawn before to show again)"
-                )
-            drawing = self._collision_last
-        elif not isinstance(collision, CollisionModel):
-            raise ViewInputError(
-                "collision", collision, "a mearm.kinematics.collision.CollisionModel"
-            )
-        elif list(collision.model.chain.names) != list(chain.names):
-            raise ViewInputError(
-                "collision",
-                f"a CollisionModel of joints {', '.join(collision.model.chain.names)}",
-                f"a CollisionModel of this view's arm (joints: {', '.join(chain.names)})",
-            )
-        elif self._collision_last is not None and collision is self._collision_last.collision:
-            drawing = self._collision_last
-        else:
-            drawing = CollisionDrawing(self.viewer, collision, track_world=False)
+        drawing = self._drawing_for(collision)
         if track_world is not None and not isinstance(track_world, bool):
             raise ViewInputError("track_world", track_world, "True, False or None")
         full = None if q is None else self._full_q(q)
@@ -530,6 +343,30 @@ class ArmView:
             self.show_joints(full)  # draws the shapes too
         else:
             self._draw_collision()
+
+    def _drawing_for(self, collision: CollisionModel | None) -> CollisionDrawing:
+        """The drawing of ``collision`` (the last one again if it is that one, or ``None``)."""
+        chain = self.model.chain
+        last = self._collision_last
+        if collision is None:
+            if last is None:
+                raise ViewInputError(
+                    "collision", None, "a CollisionModel (none was drawn before to show again)"
+                )
+            return last
+        if not isinstance(collision, CollisionModel):
+            raise ViewInputError(
+                "collision", collision, "a mearm.kinematics.collision.CollisionModel"
+            )
+        if list(collision.model.chain.names) != list(chain.names):
+            raise ViewInputError(
+                "collision",
+                f"a CollisionModel of joints {', '.join(collision.model.chain.names)}",
+                f"a CollisionModel of this view's arm (joints: {', '.join(chain.names)})",
+            )
+        if last is not None and collision is last.collision:
+            return last
+        return CollisionDrawing(self.viewer, collision, track_world=False)
 
     def hide_collision(self) -> None:
         """Remove the collision model's shapes; :meth:`show_collision` draws them again."""
@@ -576,7 +413,7 @@ class ArmView:
         self._check_open()
         wanted: dict[str, ViewObject] = {}
         for item in objects:
-            obj = _view_object(item, self._classes)
+            obj = view_object(item, self._classes)
             if obj.id in wanted:
                 raise ViewInputError("objects", obj.id, "each id at most once")
             wanted[obj.id] = obj
@@ -625,7 +462,7 @@ class ArmView:
         self._check_open()
         wanted: dict[str, TwinBody] = {}
         for item in objects:
-            body = _twin_body(item, self._classes)
+            body = twin_body(item, self._classes)
             if body.id in wanted:
                 raise ViewInputError("objects", body.id, "each id at most once")
             wanted[body.id] = body
@@ -665,16 +502,10 @@ class ArmView:
             node = self.viewer[f"{prefix}/{obj_id}"]
             cls = self._classes[item.class_name]
             if old is None or old.class_name != item.class_name:
-                node.set_object(*self._cylinder(cls))
+                node.set_object(*class_cylinder(cls))
             # three.js cylinders stand along y: turn them to stand along the pose's z
             node.set_transform(pose_of(item, cls) @ tf.rotation_matrix(math.pi / 2, [1, 0, 0]))
             drawn[obj_id] = item
-
-    @staticmethod
-    def _cylinder(cls: ColorClass) -> tuple[mg.Geometry, mg.Material]:
-        """A class's object: a cylinder of its size in its colour (along three.js y)."""
-        geometry = mg.Cylinder(cls.height_cm * M_PER_CM, radius=cls.diameter_cm / 2 * M_PER_CM)
-        return geometry, mg.MeshLambertMaterial(color=rgb_int(cls.draw_rgb))
 
     # ------------------------------------------------------------------ camera frame
 
@@ -693,11 +524,8 @@ class ArmView:
         """
         self._check_open()
         plane = frame_plane(frame_bgr, pixel_to_table)
-        width_m, height_m = plane.size_cm * M_PER_CM
-        texture = mg.ImageTexture(image=mg.PngImage(_png(plane.texture_bgra)))
-        material = mg.MeshBasicMaterial(map=texture, transparent=True)
         node = self.viewer["camera_frame"]
-        node.set_object(mg.Mesh(_PlaneGeometry(width_m, height_m), material))
+        node.set_object(camera_frame_mesh(plane))
         cx, cy = plane.center_cm
         node.set_transform(tf.translation_matrix(np.array([cx, cy, FRAME_LIFT_CM]) * M_PER_CM))
         self.frame_plane = plane
@@ -726,7 +554,7 @@ class ArmView:
                 node.delete()
                 self._target_shown = False
             return
-        target = _finite_array(target_cm, "target_cm", "3 finite numbers (x, y, z) [cm]")
+        target = finite_array(target_cm, "target_cm", "3 finite numbers (x, y, z) [cm]")
         if target.shape != (3,):
             raise ViewInputError("target_cm", target_cm, "3 finite numbers (x, y, z) [cm]")
         if not self._target_shown:
@@ -758,10 +586,10 @@ class ArmView:
         """
         self._check_open()
         allowed = "an (N, 3) array of finite EE positions [cm] with N >= 2"
-        points = _finite_array(ee_path_cm, "ee_path_cm", allowed)
+        points = finite_array(ee_path_cm, "ee_path_cm", allowed)
         if points.ndim != 2 or points.shape[1] != 3 or points.shape[0] < 2:
             raise ViewInputError("ee_path_cm", f"array of shape {points.shape}", allowed)
-        rgb = _color_value(color)
+        rgb = color_value(color)
         name = f"route{len(self._paths) + 1}"
         line = mg.Line(
             mg.PointsGeometry((points * M_PER_CM).T.astype(np.float32)),

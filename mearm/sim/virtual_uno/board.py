@@ -1,82 +1,33 @@
-r"""The virtual Uno: the project's real firmware on a simulated ATmega328P, behind a pty.
+"""The virtual Uno's board: the firmware on a simulated ATmega328P, behind a pty.
 
-Three parts:
-
-- :func:`build_virtual_uno` builds ``tools/arduino/mearm_servo`` with Debian's avr-gcc
-  and the simulator harness ``tools/arduino/sim/mearm_sim.c`` against libsimavr, once,
-  into a cache folder (``~/.cache/mearm/virtual_uno/<hash of the sources>``);
-- :class:`VirtualUno` runs the firmware in the harness and serves it on a
-  pseudo-terminal: a serial port for pyserial, ``find-port``, ``jog``… Opening the port
-  restarts the simulated chip, as DTR resets a real Uno. Every servo pulse the emulated
-  pins produce is measured in CPU cycles and collected;
-- :class:`VirtualUnoBus` (``servo.backend: virtual_uno``) is the serial backend
-  (:class:`~mearm.hardware.arduino.ArduinoBus`) driving that board. After each
-  acknowledged move it takes the first servo frame the board generated after its
-  ``OK``, maps each measured pulse back through the actuator's calibration,
-
-  .. math:: v = (p_\text{measured} - p_0) / (s\,k),
-
-  solves the actuated joints from the joint servos' values (a servo may turn a
-  combination of joints: :meth:`~mearm.hardware.ServoMap.joints_from_pulses`), moves the
-  simulated arm (:class:`~mearm.sim.kinematic.servo_bus.SimArm`) there, and faults the
-  move (:class:`~mearm.hardware.errors.MoveNotConfirmedError`) when a pulse is farther than
-  ``servo.virtual_uno.pulse_tolerance_us`` from the one sent: a firmware with two
-  channels swapped cannot pass for a working one.
-
-Time: the harness keeps simulated time (``servo.virtual_uno.speed`` simulated seconds per
-wall-clock second, 0 = as fast as the computer runs it) and reports it; the bus paces
-its moves and holds in simulated time, so the firmware sees the same command stream at
-any speed.
+:class:`VirtualUno` runs the firmware in the harness and serves it on a pseudo-terminal:
+a serial port for pyserial, ``find-port``, ``jog``… Opening the port restarts the
+simulated chip, as DTR resets a real Uno. Every servo pulse the emulated pins produce is
+measured in CPU cycles and collected, and grouped into servo frames.
 """
 
 from __future__ import annotations
 
 import contextlib
 import fcntl
-import hashlib
 import logging
 import os
-import re
 import select
-import shutil
 import struct
 import subprocess
-import tempfile
 import termios
 import threading
 import time
 import tty
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import NamedTuple
 
-import numpy as np
-
-from mearm.config import Config
-from mearm.config.sections import DEFINE_PATTERN
-from mearm.data import FIRMWARE_FILES, firmware_source_dir
-from mearm.errors import MearmError
-from mearm.hardware import toolchain
-from mearm.hardware.arduino import ArduinoBus
-from mearm.hardware.bus import ArmCommand, RateLimiter
-from mearm.hardware.errors import MoveNotConfirmedError, ServoError
-from mearm.hardware.mapping import ActuatorMap
-from mearm.hardware.toolchain import (
-    FIRMWARE_BUILD,
-    SIMULATOR,
-    Requirement,
-    cache_dir,
-    describe_missing,
-)
-from mearm.kinematics import ArmModel
-from mearm.sim.kinematic.servo_bus import GripResult, ReleaseResult, SimArm
-from mearm.sim.kinematic.world import World
+from mearm.sim.virtual_uno.build import VirtualUnoBuild, build_virtual_uno
+from mearm.sim.virtual_uno.errors import VirtualUnoError
 
 log = logging.getLogger(__name__)
 
-#: The sketch: ``<source>/mearm_servo/mearm_servo.ino``.
-SKETCH = "mearm_servo"
 #: The firmware's servo frame (``FRAME_US`` in ``mearm_servo.ino``) [µs].
 FRAME_US = 20_000
 #: A pause between two pulses longer than this ends a frame [µs] (within a frame the
@@ -86,8 +37,6 @@ FRAME_GAP_US = 2_000
 FRAMES_TO_CONFIRM = 3
 #: Fastest simulation the harness accepts (``-x``) [simulated s per wall-clock s].
 MAX_SPEED = 1000.0
-#: Longest build [s].
-BUILD_TIMEOUT_S = 600.0
 #: Pulses kept for :attr:`VirtualUno.pulses` (about 3 minutes of 5 channels).
 MAX_PULSES = 50_000
 #: Line times kept for :meth:`VirtualUno.reply_time_us` (only the last is ever asked for).
@@ -98,113 +47,6 @@ WALL_TIMEOUT_S = 10.0
 
 _TIOCPKT = getattr(termios, "TIOCPKT", 0x5420)
 _TIOCPKT_FLUSHREAD = 0x01
-
-
-class VirtualUnoError(MearmError):
-    """The virtual Uno cannot be built or started.
-
-    Attributes:
-        packages: The Debian packages that would provide what is missing (empty when
-            something else failed).
-    """
-
-    def __init__(self, message: str, packages: Sequence[str] = ()):
-        self.packages = tuple(packages)
-        super().__init__(f"virtual Uno: {message}")
-
-
-# --------------------------------------------------------------------------- building
-
-
-def missing_requirements() -> list[Requirement]:
-    """What the build of the firmware and its simulator needs and is not installed."""
-    return toolchain.missing((*FIRMWARE_BUILD, *SIMULATOR))
-
-
-def cache_root() -> Path:
-    """Where builds are kept: ``$XDG_CACHE_HOME/mearm/virtual_uno`` or ``~/.cache/…``."""
-    return cache_dir("virtual_uno")
-
-
-@dataclass(frozen=True)
-class VirtualUnoBuild:
-    """A built virtual Uno.
-
-    Attributes:
-        firmware: The firmware's ELF.
-        simulator: The harness executable, ``mearm_sim``.
-    """
-
-    firmware: Path
-    simulator: Path
-
-
-def build_virtual_uno(
-    defines: Sequence[str] = (), *, cache_dir: Path | None = None, source: Path | None = None
-) -> VirtualUnoBuild:
-    """Build the firmware and the harness, or find them already built.
-
-    Each combination of sources and ``defines`` is built once, into its own folder named
-    by their hash under ``cache_dir``; a build goes to a temporary folder first and is
-    renamed into place, so an interrupted or concurrent build leaves no half of one.
-
-    Args:
-        defines: Compile-time options of a firmware variant, ``NAME`` or ``NAME=VALUE``
-            (``SERVO_PIN_1=6``: channel 1 on pin D6); validated by the config.
-        cache_dir: Where builds are kept (default :func:`cache_root`).
-        source: The firmware source (default :func:`firmware_source_dir`).
-
-    Raises:
-        VirtualUnoError: a tool or header is missing (one line naming the Debian
-            packages to install), or the build failed (its last line of output).
-    """
-    bad = [d for d in defines if not re.fullmatch(DEFINE_PATTERN, d)]
-    if bad:
-        raise VirtualUnoError(
-            f"firmware defines must be NAME or NAME=VALUE (capitals, digits, _), got {bad}"
-        )
-    source = source if source is not None else firmware_source_dir()
-    root = cache_dir if cache_dir is not None else cache_root()
-    digest = hashlib.sha256()
-    for name in FIRMWARE_FILES:
-        digest.update((source / name).read_bytes())
-    digest.update("\0".join(defines).encode())
-    folder = root / digest.hexdigest()[:16]
-    built = VirtualUnoBuild(folder / f"{SKETCH}.elf", folder / "mearm_sim")
-    if built.firmware.is_file() and built.simulator.is_file():
-        return built
-    missing = missing_requirements()
-    if missing:
-        raise VirtualUnoError(
-            f"cannot build the firmware and its simulator: {describe_missing(missing)}",
-            toolchain.packages(missing),
-        )
-    root.mkdir(parents=True, exist_ok=True)
-    work = Path(tempfile.mkdtemp(prefix="build-", dir=root))
-    command = ["make", "-C", str(source), f"BUILD_DIR={work}", "all", "sim"]
-    if defines:
-        command.append("EXTRA_DEFS=" + " ".join(f"-D{d}" for d in defines))
-    log.info("building the virtual Uno: %s", " ".join(command))
-    try:
-        result = subprocess.run(command, capture_output=True, text=True, timeout=BUILD_TIMEOUT_S)
-        if result.returncode != 0:
-            lines = (result.stderr or result.stdout).strip().splitlines() or ["no output"]
-            raise VirtualUnoError(
-                f"building the firmware and its simulator failed ({' '.join(command)}, exit "
-                f"{result.returncode}): {lines[-1]}"
-            )
-        with contextlib.suppress(OSError):  # another process built the same: keep theirs
-            os.replace(work, folder)
-    except subprocess.TimeoutExpired:
-        raise VirtualUnoError(f"the build took over {BUILD_TIMEOUT_S:.0f} s") from None
-    finally:
-        shutil.rmtree(work, ignore_errors=True)
-    if not (built.firmware.is_file() and built.simulator.is_file()):
-        raise VirtualUnoError(f"the build left no {built.firmware.name} and mearm_sim")
-    return built
-
-
-# --------------------------------------------------------------------------- the board
 
 
 class Pulse(NamedTuple):
@@ -565,172 +407,3 @@ class VirtualUno:
             frame = Frame(pulse.rise_us, {})
         self._frame = Frame(frame.start_us, {**frame.widths_us, pulse.channel: pulse.width_us})
         self._last_fall_us = fall_us
-
-
-# --------------------------------------------------------------------------- the bus
-
-
-class VirtualUnoBus(ArduinoBus):
-    """``servo.backend: virtual_uno``: the serial backend; the board's pulses move the arm.
-
-    The board is a :class:`VirtualUno`. Every move is sent as to a real board (``M``,
-    acknowledged by ``OK``); then the first servo frame that started after the ``OK`` left
-    the board's UART is measured, the simulated arm over the world is put where those
-    pulses put its servos, and the move is refused
-    (:class:`~mearm.hardware.errors.MoveNotConfirmedError`, which stops the bus with the last
-    confirmed pose) when any pulse is missing or farther than
-    ``servo.virtual_uno.pulse_tolerance_us`` from the one sent. The reason names the
-    actuator, the value its pulse stands for and the commanded one.
-
-    Args:
-        config: The whole configuration.
-        world: The table (shared with the simulated camera); ``None``: the board's own,
-            laid out from ``task.scene``.
-        model: Arm model for the TCP (built from ``config.arm`` if omitted).
-
-    Attributes:
-        arm: The simulated arm its pins drive.
-        board: The running virtual Uno, while connected.
-        last_frame: The frame that confirmed (or refused) the last move.
-
-    Raises:
-        VirtualUnoError: the firmware or the harness cannot be built (missing tools).
-    """
-
-    def __init__(self, config: Config, world: World | None = None, model: ArmModel | None = None):
-        settings = config.servo.virtual_uno
-        self.built = build_virtual_uno(settings.defines)
-        super().__init__(config)
-        self.arm = SimArm(config, world if world is not None else World.from_config(config), model)
-        self.board: VirtualUno | None = None
-        self.last_frame: Frame | None = None
-
-    # ----------------------------------------------------------------- the arm
-
-    @property
-    def world(self) -> World:
-        """The table the arm acts on."""
-        return self.arm.world
-
-    @property
-    def ee_cm(self) -> np.ndarray:
-        """Where the pulses put the TCP, base frame [cm], (3,)."""
-        return self.arm.ee_cm
-
-    @property
-    def actual_joints(self) -> dict[str, float]:
-        """The actuated joints the pulses stand for, name → deg or cm."""
-        return dict(self.arm.actual_joints)
-
-    @property
-    def last_grip(self) -> GripResult | None:
-        """What the last close of the gripper did."""
-        return self.arm.last_grip
-
-    @property
-    def last_release(self) -> ReleaseResult | None:
-        """What the last release of an object did."""
-        return self.arm.last_release
-
-    # ----------------------------------------------------------------- backend hooks
-
-    def _connect(self) -> None:
-        board = VirtualUno(self.built, speed=self.config.servo.virtual_uno.speed)
-        self.board = board
-        self.port = board.port
-        self._rate = RateLimiter(board.clock_s, board.sleep_s)  # simulated time
-        try:
-            super()._connect()
-        except ServoError as exc:
-            why = board.stopped_because
-            self._close()
-            if why is None:
-                raise
-            raise VirtualUnoError(f"the simulator stopped ({why}): {exc}") from None
-        except BaseException:
-            self._close()
-            raise
-
-    def _close(self) -> None:
-        super()._close()
-        if self.board is not None:
-            self.board.close()
-            self.board = None
-
-    def _hold(self, seconds: float) -> None:
-        assert self.board is not None
-        self.board.sleep_s(seconds)
-
-    def _send_move(self, command: ArmCommand, pulses_us: dict[int, int]) -> None:
-        super()._send_move(command, pulses_us)
-        assert self.board is not None
-        sent_at = self.board.reply_time_us()
-        frame = None if sent_at is None else self.board.frame_after(sent_at, sorted(pulses_us))
-        self.last_frame = frame
-        widths = dict(frame.widths_us) if frame is not None else {}
-        self._follow(widths)
-        problems = self._mismatches(command, pulses_us, widths)
-        if problems:
-            raise MoveNotConfirmedError(
-                self.port,
-                "; ".join(problems),
-                pulses_us,
-                {ch: round(w) for ch, w in widths.items()},
-                last_state=self.state,
-            )
-
-    # ----------------------------------------------------------------- measured pose
-
-    def _follow(self, widths_us: Mapping[int, float]) -> None:
-        """Put the simulated arm where the measured pulses put its servos."""
-        smap = self.servo_map
-        joints: dict[str, float] = {}
-        if all(j.channel in widths_us for j in smap.joints):
-            # the joints together: a servo may turn a combination of them
-            joints = smap.joints_from_pulses(widths_us)
-        else:  # some channel silent: those servos stay; the others turn their own joint
-            joints = {
-                j.name: j.value_of(widths_us[j.channel])
-                for j in smap.joints
-                if j.channel in widths_us and not j.combined
-            }
-        tool = {
-            a.name: a.value_of(widths_us[a.channel]) for a in smap.tool if a.channel in widths_us
-        }
-        g = smap.gripper
-        closed = self.arm.gripper_closed
-        if g.channel in widths_us:
-            opening = g.value_of(widths_us[g.channel])
-            closed = abs(opening - smap.gripper_closed_cm) < abs(opening - smap.gripper_open_cm)
-        self.arm.actuate(joints, tool, closed)
-
-    def _mismatches(
-        self, command: ArmCommand, pulses_us: Mapping[int, int], widths_us: Mapping[int, float]
-    ) -> list[str]:
-        """One line per actuator whose measured pulse is missing or off the one sent."""
-        smap = self.servo_map
-        tol = self.config.servo.virtual_uno.pulse_tolerance_us
-        servo = smap.servo_values(command.joints)  # a joint servo's value: maybe a combination
-        commanded: list[tuple[str, ActuatorMap, float]] = [
-            *(("joint", j, servo[j.name]) for j in smap.joints),
-            *(("tool actuator", a, command.tool[a.name]) for a in smap.tool),
-            ("gripper", smap.gripper, smap.gripper_opening_cm(command.gripper_closed)),
-        ]
-        problems = []
-        for kind, a, value in commanded:
-            name = a.servo_text  # a joint servo over a combination says which
-            sent = pulses_us[a.channel]
-            unit = "°" if a.unit == "deg" else " cm"
-            measured = widths_us.get(a.channel)
-            if measured is None:
-                problems.append(
-                    f"{kind} {name}: the board produced no pulse on channel {a.channel}, "
-                    f"the command was {value:.1f}{unit} ({sent} µs sent)"
-                )
-            elif abs(measured - sent) > tol:
-                problems.append(
-                    f"{kind} {name}: the board's pulses say {a.value_of(measured):.1f}{unit}, "
-                    f"the command was {value:.1f}{unit} (channel {a.channel}: {measured:.1f} µs "
-                    f"measured, {sent} µs sent, tolerance ±{tol:g} µs)"
-                )
-        return problems

@@ -1,0 +1,137 @@
+"""Building the virtual Uno: the firmware and the simavr harness, once per source hash.
+
+``tools/arduino/mearm_servo`` is built with Debian's avr-gcc and the harness
+``tools/arduino/sim/mearm_sim.c`` against libsimavr, into a cache folder
+(``~/.cache/mearm/virtual_uno/<hash of the sources>``).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import logging
+import os
+import re
+import shutil
+import subprocess
+import tempfile
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+from mearm.config.sections import DEFINE_PATTERN
+from mearm.data import FIRMWARE_FILES, firmware_source_dir
+from mearm.hardware import toolchain
+from mearm.hardware.toolchain import (
+    FIRMWARE_BUILD,
+    SIMULATOR,
+    Requirement,
+    cache_dir,
+    describe_missing,
+)
+from mearm.sim.virtual_uno.errors import VirtualUnoError
+
+log = logging.getLogger(__name__)
+
+#: The sketch: ``<source>/mearm_servo/mearm_servo.ino``.
+SKETCH = "mearm_servo"
+#: Longest build [s].
+BUILD_TIMEOUT_S = 600.0
+
+
+def missing_requirements() -> list[Requirement]:
+    """What the build of the firmware and its simulator needs and is not installed."""
+    return toolchain.missing((*FIRMWARE_BUILD, *SIMULATOR))
+
+
+def cache_root() -> Path:
+    """Where builds are kept: ``$XDG_CACHE_HOME/mearm/virtual_uno`` or ``~/.cache/…``."""
+    return cache_dir("virtual_uno")
+
+
+@dataclass(frozen=True)
+class VirtualUnoBuild:
+    """A built virtual Uno.
+
+    Attributes:
+        firmware: The firmware's ELF.
+        simulator: The harness executable, ``mearm_sim``.
+    """
+
+    firmware: Path
+    simulator: Path
+
+
+def build_virtual_uno(
+    defines: Sequence[str] = (), *, cache_dir: Path | None = None, source: Path | None = None
+) -> VirtualUnoBuild:
+    """Build the firmware and the harness, or find them already built.
+
+    Each combination of sources and ``defines`` is built once, into its own folder named
+    by their hash under ``cache_dir``; a build goes to a temporary folder first and is
+    renamed into place, so an interrupted or concurrent build leaves no half of one.
+
+    Args:
+        defines: Compile-time options of a firmware variant, ``NAME`` or ``NAME=VALUE``
+            (``SERVO_PIN_1=6``: channel 1 on pin D6); validated by the config.
+        cache_dir: Where builds are kept (default :func:`cache_root`).
+        source: The firmware source (default :func:`firmware_source_dir`).
+
+    Raises:
+        VirtualUnoError: a tool or header is missing (one line naming the Debian
+            packages to install), or the build failed (its last line of output).
+    """
+    bad = [d for d in defines if not re.fullmatch(DEFINE_PATTERN, d)]
+    if bad:
+        raise VirtualUnoError(
+            f"firmware defines must be NAME or NAME=VALUE (capitals, digits, _), got {bad}"
+        )
+    source = source if source is not None else firmware_source_dir()
+    root = cache_dir if cache_dir is not None else cache_root()
+    folder = root / _build_hash(source, defines)
+    built = VirtualUnoBuild(folder / f"{SKETCH}.elf", folder / "mearm_sim")
+    if built.firmware.is_file() and built.simulator.is_file():
+        return built
+    missing = missing_requirements()
+    if missing:
+        raise VirtualUnoError(
+            f"cannot build the firmware and its simulator: {describe_missing(missing)}",
+            toolchain.packages(missing),
+        )
+    root.mkdir(parents=True, exist_ok=True)
+    _make_into(source, defines, folder)
+    if not (built.firmware.is_file() and built.simulator.is_file()):
+        raise VirtualUnoError(f"the build left no {built.firmware.name} and mearm_sim")
+    return built
+
+
+def _build_hash(source: Path, defines: Sequence[str]) -> str:
+    """The build folder's name: a hash of the firmware's sources and the defines."""
+    digest = hashlib.sha256()
+    for name in FIRMWARE_FILES:
+        digest.update((source / name).read_bytes())
+    digest.update("\0".join(defines).encode())
+    return digest.hexdigest()[:16]
+
+
+def _make_into(source: Path, defines: Sequence[str], folder: Path) -> None:
+    """Run the build in a temporary folder beside ``folder``, then rename it into place."""
+    work = Path(tempfile.mkdtemp(prefix="build-", dir=folder.parent))
+    command = ["make", "-C", str(source), f"BUILD_DIR={work}", "all", "sim"]
+    if defines:
+        command.append("EXTRA_DEFS=" + " ".join(f"-D{d}" for d in defines))
+    log.info("building the virtual Uno: %s", " ".join(command))
+    try:
+        result = subprocess.run(command, capture_output=True, text=True, timeout=BUILD_TIMEOUT_S)
+        if result.returncode != 0:
+            lines = (result.stderr or result.stdout).strip().splitlines() or ["no output"]
+            raise VirtualUnoError(
+                f"building the firmware and its simulator failed ({' '.join(command)}, exit "
+                f"{result.returncode}): {lines[-1]}"
+            )
+        with contextlib.suppress(OSError):  # another process built the same: keep theirs
+            os.replace(work, folder)
+    except subprocess.TimeoutExpired:
+        raise VirtualUnoError(f"the build took over {BUILD_TIMEOUT_S:.0f} s") from None
+    finally:
+        shutil.rmtree(work, ignore_errors=True)

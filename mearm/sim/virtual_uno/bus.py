@@ -1,0 +1,193 @@
+r"""``servo.backend: virtual_uno``: the serial backend driving the virtual Uno.
+
+After each acknowledged move the first servo frame the board generated after its ``OK``
+is measured, each pulse mapped back through the actuator's calibration,
+
+.. math:: v = (p_\text{measured} - p_0) / (s\,k),
+
+the simulated arm moved there, and the move faulted when a pulse is off the one sent.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+
+from mearm.config import Config
+from mearm.hardware.arduino import ArduinoBus
+from mearm.hardware.bus import ArmCommand, RateLimiter
+from mearm.hardware.errors import MoveNotConfirmedError, ServoError
+from mearm.hardware.mapping import ActuatorMap
+from mearm.kinematics import ArmModel
+from mearm.sim.kinematic.servo_bus import GripResult, ReleaseResult, SimArm
+from mearm.sim.kinematic.world import World
+from mearm.sim.virtual_uno.board import Frame, VirtualUno
+from mearm.sim.virtual_uno.build import build_virtual_uno
+from mearm.sim.virtual_uno.errors import VirtualUnoError
+
+
+class VirtualUnoBus(ArduinoBus):
+    """``servo.backend: virtual_uno``: the serial backend; the board's pulses move the arm.
+
+    The board is a :class:`VirtualUno`. Every move is sent as to a real board (``M``,
+    acknowledged by ``OK``); then the first servo frame that started after the ``OK`` left
+    the board's UART is measured, the simulated arm over the world is put where those
+    pulses put its servos, and the move is refused
+    (:class:`~mearm.hardware.errors.MoveNotConfirmedError`, which stops the bus with the last
+    confirmed pose) when any pulse is missing or farther than
+    ``servo.virtual_uno.pulse_tolerance_us`` from the one sent. The reason names the
+    actuator, the value its pulse stands for and the commanded one.
+
+    Args:
+        config: The whole configuration.
+        world: The table (shared with the simulated camera); ``None``: the board's own,
+            laid out from ``task.scene``.
+        model: Arm model for the TCP (built from ``config.arm`` if omitted).
+
+    Attributes:
+        arm: The simulated arm its pins drive.
+        board: The running virtual Uno, while connected.
+        last_frame: The frame that confirmed (or refused) the last move.
+
+    Raises:
+        VirtualUnoError: the firmware or the harness cannot be built (missing tools).
+    """
+
+    def __init__(self, config: Config, world: World | None = None, model: ArmModel | None = None):
+        settings = config.servo.virtual_uno
+        self.built = build_virtual_uno(settings.defines)
+        super().__init__(config)
+        self.arm = SimArm(config, world if world is not None else World.from_config(config), model)
+        self.board: VirtualUno | None = None
+        self.last_frame: Frame | None = None
+
+    # ----------------------------------------------------------------- the arm
+
+    @property
+    def world(self) -> World:
+        """The table the arm acts on."""
+        return self.arm.world
+
+    @property
+    def ee_cm(self) -> np.ndarray:
+        """Where the pulses put the TCP, base frame [cm], (3,)."""
+        return self.arm.ee_cm
+
+    @property
+    def actual_joints(self) -> dict[str, float]:
+        """The actuated joints the pulses stand for, name → deg or cm."""
+        return dict(self.arm.actual_joints)
+
+    @property
+    def last_grip(self) -> GripResult | None:
+        """What the last close of the gripper did."""
+        return self.arm.last_grip
+
+    @property
+    def last_release(self) -> ReleaseResult | None:
+        """What the last release of an object did."""
+        return self.arm.last_release
+
+    # ----------------------------------------------------------------- backend hooks
+
+    def _connect(self) -> None:
+        board = VirtualUno(self.built, speed=self.config.servo.virtual_uno.speed)
+        self.board = board
+        self.port = board.port
+        self._rate = RateLimiter(board.clock_s, board.sleep_s)  # simulated time
+        try:
+            super()._connect()
+        except ServoError as exc:
+            why = board.stopped_because
+            self._close()
+            if why is None:
+                raise
+            raise VirtualUnoError(f"the simulator stopped ({why}): {exc}") from None
+        except BaseException:
+            self._close()
+            raise
+
+    def _close(self) -> None:
+        super()._close()
+        if self.board is not None:
+            self.board.close()
+            self.board = None
+
+    def _hold(self, seconds: float) -> None:
+        assert self.board is not None
+        self.board.sleep_s(seconds)
+
+    def _send_move(self, command: ArmCommand, pulses_us: dict[int, int]) -> None:
+        super()._send_move(command, pulses_us)
+        assert self.board is not None
+        sent_at = self.board.reply_time_us()
+        frame = None if sent_at is None else self.board.frame_after(sent_at, sorted(pulses_us))
+        self.last_frame = frame
+        widths = dict(frame.widths_us) if frame is not None else {}
+        self._follow(widths)
+        problems = self._mismatches(command, pulses_us, widths)
+        if problems:
+            raise MoveNotConfirmedError(
+                self.port,
+                "; ".join(problems),
+                pulses_us,
+                {ch: round(w) for ch, w in widths.items()},
+                last_state=self.state,
+            )
+
+    # ----------------------------------------------------------------- measured pose
+
+    def _follow(self, widths_us: Mapping[int, float]) -> None:
+        """Put the simulated arm where the measured pulses put its servos."""
+        smap = self.servo_map
+        joints: dict[str, float] = {}
+        if all(j.channel in widths_us for j in smap.joints):
+            # the joints together: a servo may turn a combination of them
+            joints = smap.joints_from_pulses(widths_us)
+        else:  # some channel silent: those servos stay; the others turn their own joint
+            joints = {
+                j.name: j.value_of(widths_us[j.channel])
+                for j in smap.joints
+                if j.channel in widths_us and not j.combined
+            }
+        tool = {
+            a.name: a.value_of(widths_us[a.channel]) for a in smap.tool if a.channel in widths_us
+        }
+        g = smap.gripper
+        closed = self.arm.gripper_closed
+        if g.channel in widths_us:
+            opening = g.value_of(widths_us[g.channel])
+            closed = abs(opening - smap.gripper_closed_cm) < abs(opening - smap.gripper_open_cm)
+        self.arm.actuate(joints, tool, closed)
+
+    def _mismatches(
+        self, command: ArmCommand, pulses_us: Mapping[int, int], widths_us: Mapping[int, float]
+    ) -> list[str]:
+        """One line per actuator whose measured pulse is missing or off the one sent."""
+        smap = self.servo_map
+        tol = self.config.servo.virtual_uno.pulse_tolerance_us
+        servo = smap.servo_values(command.joints)  # a joint servo's value: maybe a combination
+        commanded: list[tuple[str, ActuatorMap, float]] = [
+            *(("joint", j, servo[j.name]) for j in smap.joints),
+            *(("tool actuator", a, command.tool[a.name]) for a in smap.tool),
+            ("gripper", smap.gripper, smap.gripper_opening_cm(command.gripper_closed)),
+        ]
+        problems = []
+        for kind, a, value in commanded:
+            name = a.servo_text  # a joint servo over a combination says which
+            sent = pulses_us[a.channel]
+            unit = "°" if a.unit == "deg" else " cm"
+            measured = widths_us.get(a.channel)
+            if measured is None:
+                problems.append(
+                    f"{kind} {name}: the board produced no pulse on channel {a.channel}, "
+                    f"the command was {value:.1f}{unit} ({sent} µs sent)"
+                )
+            elif abs(measured - sent) > tol:
+                problems.append(
+                    f"{kind} {name}: the board's pulses say {a.value_of(measured):.1f}{unit}, "
+                    f"the command was {value:.1f}{unit} (channel {a.channel}: {measured:.1f} µs "
+                    f"measured, {sent} µs sent, tolerance ±{tol:g} µs)"
+                )
+        return problems
