@@ -107,6 +107,87 @@ def _parser() -> ArgumentParser:
     return parser
 
 
+def _extras_installed(prog: str, *, plots: bool) -> bool:
+    """Whether SciPy (and Matplotlib, for ``plots``) import; if not, say so on stderr."""
+    try:
+        import scipy  # noqa: F401
+
+        if plots:
+            import matplotlib  # noqa: F401
+    except ImportError as exc:
+        print(
+            f"{prog}: error: {exc.name or 'SciPy or Matplotlib'} is not installed "
+            "(analyze needs SciPy, and Matplotlib for --out): pip install 'mearm[analysis]'",
+            file=sys.stderr,
+        )
+        return False
+    return True
+
+
+def _read_log(path: Path, *, strict: bool) -> RunLogContents:
+    """The log's latest attempt of each trial; notes on stderr what was left out."""
+    contents = read_runlog(path, strict=strict)
+    superseded = contents.superseded
+    contents = contents.latest()
+    if contents.problem is not None and not contents.routes:
+        raise contents.problem  # nothing before the bad line to analyse: it is the error
+    if superseded:
+        numbers = sorted({t.number for t in superseded if t.number is not None})
+        print(
+            f"note: left out {len(superseded)} cut-off attempt(s) of trial(s) "
+            f"{', '.join(map(str, numbers))} (header line(s) "
+            f"{', '.join(str(t.line) for t in superseded)}), which were run again",
+            file=sys.stderr,
+        )
+    if contents.problem is not None:
+        p = contents.problem
+        print(
+            f"warning: {p}; analysed the {len(contents.records)} records before it",
+            file=sys.stderr,
+        )
+    return contents
+
+
+def _write_report(
+    out: Path,
+    images: dict[str, Path],
+    *,
+    analysis: Any,
+    contents: RunLogContents | None,
+    path_routes: list[Any],
+    gains_kp: list[Any],
+    gains_kd: list[Any],
+) -> Path:
+    """Write ``report.md`` into ``out``, linking the plots; return its path."""
+    from mearm.analysis.document import report_markdown
+
+    report = out / "report.md"
+    rig = _rig(contents) if contents is not None else None
+    write_text_atomic(
+        report,
+        report_markdown(
+            out,
+            images,
+            analysis=analysis,
+            rig=rig,
+            path_routes=path_routes,
+            gains_kp=gains_kp,
+            gains_kd=gains_kd,
+        ),
+    )
+    return report
+
+
+def _check_start(parser: ArgumentParser, config: Config, start: list[float] | None) -> None:
+    """Exit 2 (``parser.error``) unless --start gives one number per actuated joint."""
+    actuated = config.arm.actuated_joints()
+    if start is not None and len(start) != len(actuated):
+        parser.error(
+            f"--start needs {len(actuated)} numbers, one per actuated joint "
+            f"({', '.join(j.name for j in actuated)}), got {len(start)}"
+        )
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Analyse a run log and / or sweep the gains; print tables or JSON, write plots."""
     parser = _parser()
@@ -115,17 +196,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.error("give a run log to analyse, --gains, or both")
     if args.out is not None and args.out.exists() and not args.out.is_dir():
         parser.error(f"--out {args.out} is not a folder")
-    try:
-        import scipy  # noqa: F401
-
-        if args.out is not None:
-            import matplotlib  # noqa: F401
-    except ImportError as exc:
-        print(
-            f"{parser.prog}: error: {exc.name or 'SciPy or Matplotlib'} is not installed "
-            "(analyze needs SciPy, and Matplotlib for --out): pip install 'mearm[analysis]'",
-            file=sys.stderr,
-        )
+    if not _extras_installed(parser.prog, plots=args.out is not None):
         return EXIT_BAD_INPUT
 
     from mearm.analysis.run_analysis import analyze, jsonable, to_json
@@ -137,25 +208,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     analysis = None
     contents: RunLogContents | None = None
     if args.log is not None:
-        contents = read_runlog(args.log, strict=args.strict)
-        superseded = contents.superseded
-        contents = contents.latest()
-        if contents.problem is not None and not contents.routes:
-            raise contents.problem  # nothing before the bad line to analyse: it is the error
-        if superseded:
-            numbers = sorted({t.number for t in superseded if t.number is not None})
-            print(
-                f"note: left out {len(superseded)} cut-off attempt(s) of trial(s) "
-                f"{', '.join(map(str, numbers))} (header line(s) "
-                f"{', '.join(str(t.line) for t in superseded)}), which were run again",
-                file=sys.stderr,
-            )
-        if contents.problem is not None:
-            p = contents.problem
-            print(
-                f"warning: {p}; analysed the {len(contents.records)} records before it",
-                file=sys.stderr,
-            )
+        contents = _read_log(args.log, strict=args.strict)
         analysis = analyze(
             contents, step=args.step, first_attempt=args.first_attempt, attempts=args.attempts
         )
@@ -171,12 +224,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     gains_kd: list[Any] = []
     if args.gains:
         config = config_from_args(args)
-        actuated = config.arm.actuated_joints()
-        if args.start is not None and len(args.start) != len(actuated):
-            parser.error(
-                f"--start needs {len(actuated)} numbers, one per actuated joint "
-                f"({', '.join(j.name for j in actuated)}), got {len(args.start)}"
-            )
+        _check_start(parser, config, args.start)
         gains_kp, gains_kd = _gain_sweeps(config, args)
         result["gains"] = {
             "kp": jsonable(_gain_rows(gains_kp)),
@@ -189,21 +237,14 @@ def main(argv: Sequence[str] | None = None) -> int:
         if args.out is not None:
             images.update(_gain_plots(gains_kp, gains_kd, args.out))
     if args.out is not None:
-        from mearm.analysis.document import report_markdown
-
-        report = args.out / "report.md"
-        rig = _rig(contents) if contents is not None else None
-        write_text_atomic(
-            report,
-            report_markdown(
-                args.out,
-                images,
-                analysis=analysis,
-                rig=rig,
-                path_routes=path_routes,
-                gains_kp=gains_kp,
-                gains_kd=gains_kd,
-            ),
+        report = _write_report(
+            args.out,
+            images,
+            analysis=analysis,
+            contents=contents,
+            path_routes=path_routes,
+            gains_kp=gains_kp,
+            gains_kd=gains_kd,
         )
         result["report"] = str(report)
         result["plots"] = {k: str(v) for k, v in images.items()}

@@ -30,9 +30,10 @@ the ``mearm calibrate-servos`` command to run (not with ``--quiet``); the sort r
 
 from __future__ import annotations
 
+import argparse
 import sys
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 from mearm.cli import (
@@ -111,8 +112,8 @@ def _hold(url: str) -> None:
         pass
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    """Run the sort; see the module docstring."""
+def _parser() -> ArgumentParser:
+    """The command line of :func:`main`."""
     parser = ArgumentParser(prog="python -m mearm.sort", description=__doc__.splitlines()[0])
     add_config_argument(parser)
     add_scene_arguments(parser)
@@ -136,7 +137,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         "self-contained MJCF for MuJoCo's own viewer",
     )
     add_record_arguments(parser)
-    args = parser.parse_args(argv)
+    return parser
+
+
+def _check_arguments(parser: ArgumentParser, args: argparse.Namespace) -> None:
+    """Exit 2 (``parser.error``) on options that do not go together or a bad output path."""
     check_record_arguments(parser, args)
     if args.hold and not args.view:
         parser.error("--hold keeps the view open: use it with --view")
@@ -144,13 +149,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.error("--collision draws the collision model in the view: use it with --view")
     if args.save_mjcf is not None:
         check_output_file(args.save_mjcf, "--save-mjcf")
-    config = config_from_args(args)
-    check_consistency(config)  # before the scene, the log or any output: the config first
-    scene = scene_from_args(args, config)
-    mjcf = _scene_mjcf(config, scene) if args.save_mjcf is not None else None
-    lines: list[str] = []
-    echo = lines.append if args.quiet else print
-    recorder = recorder_from_args(args, config)  # its directory checked before any motion
+
+
+def _view_factory(config: Config, *, collision: bool) -> Callable[[Rig], object]:
+    """What opens the meshcat view of a rig (and its collision model with ``collision``)."""
 
     def make_view(rig: Rig) -> object:
         from mearm.kinematics.collision import CollisionModel
@@ -158,7 +160,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
         view = ArmView(rig.model, config)
         try:
-            if args.collision:
+            if collision:
                 # built as the sorter builds its own (which it keeps to itself); the view
                 # keeps this one in step with what it draws: the objects seen on the
                 # table, the jaws' opening, the arm's joints
@@ -169,6 +171,24 @@ def main(argv: Sequence[str] | None = None) -> int:
             raise
         print(f"meshcat view: {view.url}", flush=True)
         return view
+
+    return make_view
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the sort; see the module docstring."""
+    parser = _parser()
+    args = parser.parse_args(argv)
+    _check_arguments(parser, args)
+    config = config_from_args(args)
+    check_consistency(config)  # before the scene, the log or any output: the config first
+    scene = scene_from_args(args, config)
+    mjcf = _scene_mjcf(config, scene) if args.save_mjcf is not None else None
+    lines: list[str] = []
+    echo = lines.append if args.quiet else print
+    recorder = recorder_from_args(args, config)  # its directory checked before any motion
+
+    make_view = _view_factory(config, collision=args.collision)
 
     if args.log:
         from mearm.runlog import RunLog  # noqa: PLC0415  (only a run that keeps a log)

@@ -22,6 +22,7 @@ have, two classes sampled on one colour, a sample on a grey or black pixel.
 
 from __future__ import annotations
 
+import argparse
 import math
 import os
 import re
@@ -136,8 +137,8 @@ def learned_yaml(base: str, taught: Taught) -> dict:
     return {"extends": base, "vision": vision, "task": {"classes": classes}}
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    """Teach the classes their colours and write the new config; see the module docstring."""
+def _parser() -> ArgumentParser:
+    """The command line of :func:`main`."""
     parser = ArgumentParser(
         prog="mearm learn-colours",
         description="Teach each class its colour from clicks on the camera's own frames.",
@@ -176,7 +177,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         help="the work area's polygon in pixels (default: the table found)",
     )
     parser.add_argument("--whole-frame", action="store_true", help="no work area: the whole frame")
-    args = parser.parse_args(argv)
+    return parser
+
+
+def _checked_arguments(
+    parser: ArgumentParser, args: argparse.Namespace
+) -> tuple[list[Sample], list[tuple[float, float]] | None]:
+    """The samples and work area given; exit 2 (``parser.error``) on a bad argument."""
     if bool(args.images) == args.camera:
         parser.error("give IMAGE paths or --camera (one of the two)")
     if not args.sample and not args.pick:
@@ -192,16 +199,24 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.error(str(exc))
     if area is not None and len(area) < 3:
         parser.error(f"--work-area needs at least 3 points, got {len(area)}")
-    check_output_file(args.out, "--out")
-    config = load_config(args.config)
-    names = config.task.class_names
+    return samples, area
+
+
+def _check_samples(
+    samples: list[Sample], names: Sequence[str], config_name: str, n_images: int
+) -> None:
+    """Every sample names a class of the config and an image given."""
     for s in samples:
         if s.name not in names:
             raise MearmError(
-                f"sample {s}: no class '{s.name}' in {args.config} (classes: {', '.join(names)})"
+                f"sample {s}: no class '{s.name}' in {config_name} (classes: {', '.join(names)})"
             )
-        if s.image >= max(1, len(args.images)):
+        if s.image >= max(1, n_images):
             raise MearmError(f"sample {s}: there is no image {s.image} (images from 0)")
+
+
+def _frames(args: argparse.Namespace, config: Config) -> tuple[list[np.ndarray], list[str]]:
+    """The frames to learn from and where each came from."""
     if args.camera:
         from mearm.backends import open_camera
 
@@ -211,6 +226,34 @@ def main(argv: Sequence[str] | None = None) -> int:
     else:
         frames = [read_image(p) for p in args.images]
         sources = [str(p) for p in args.images]
+    return frames, sources
+
+
+def _print_taught(taught: Taught) -> None:
+    """One line per learned colour, then the table's colour and the work area."""
+    for name, m in taught.colours.items():
+        print(
+            f"{name}: a*b* ({m.ab_mean[0]:.1f}, {m.ab_mean[1]:.1f}), chroma >= {m.chroma_min:.1f}, "
+            f"L* {m.lightness[0]:.0f}-{m.lightness[1]:.0f}, radius {m.max_distance:.2f}"
+        )
+    where = (
+        "whole frame"
+        if taught.work_area_px is None
+        else f"{len(taught.work_area_px)}-point polygon"
+    )
+    print(f"table L*a*b* ({', '.join(f'{v:.1f}' for v in taught.table_lab)}); work area: {where}")
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Teach the classes their colours and write the new config; see the module docstring."""
+    parser = _parser()
+    args = parser.parse_args(argv)
+    samples, area = _checked_arguments(parser, args)
+    check_output_file(args.out, "--out")
+    config = load_config(args.config)
+    names = config.task.class_names
+    _check_samples(samples, names, args.config, len(args.images))
+    frames, sources = _frames(args, config)
     if args.pick:
         samples += pick_samples(frames[0], [n for n in names if n not in {s.name for s in samples}])
     taught = teach(
@@ -235,17 +278,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         head + yaml.safe_dump(learned_yaml(base, taught), sort_keys=False, default_flow_style=None),
     )
     load_config(args.out)  # what was written loads, or exit 2 naming it
-    for name, m in taught.colours.items():
-        print(
-            f"{name}: a*b* ({m.ab_mean[0]:.1f}, {m.ab_mean[1]:.1f}), chroma >= {m.chroma_min:.1f}, "
-            f"L* {m.lightness[0]:.0f}-{m.lightness[1]:.0f}, radius {m.max_distance:.2f}"
-        )
-    where = (
-        "whole frame"
-        if taught.work_area_px is None
-        else f"{len(taught.work_area_px)}-point polygon"
-    )
-    print(f"table L*a*b* ({', '.join(f'{v:.1f}' for v in taught.table_lab)}); work area: {where}")
+    _print_taught(taught)
     print(f"wrote {args.out}")
     return 0
 

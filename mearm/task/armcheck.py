@@ -51,7 +51,7 @@ from mearm.task.execute import Executor
 from mearm.task.plan import Planner
 from mearm.task.rig import open_rig
 from mearm.task.route import Route
-from mearm.vision import ColorDetector, Detection
+from mearm.vision import Camera, ColorDetector, Detection
 from mearm.vision.calibration import CameraGeometry, camera_geometry
 from mearm.vision.pinhole import Extrinsics, PerspectiveCamera, today
 
@@ -410,6 +410,55 @@ def run_check(
         CalibrationError: ``refine`` without a perspective calibration.
     """
     say = echo if echo is not None else (lambda _line: None)
+    geometry = _checked_geometry(config, points, class_name, refine)
+    detector = ColorDetector(config.vision, geometry, config.task.classes)
+    with open_rig(config) as rig:
+        planner = Planner(config, rig.model)
+        ex = Executor(config, rig.bus, rig.model)
+        if not rig.bus.is_connected:
+            rig.bus.connect()
+        ex.home_pose()
+        found = _table_detections(detector, config, rig.camera.read())
+        obj = _chosen_object(found, class_name)
+        cls = config.task.class_named(obj.color)
+        assert obj.table_cm is not None
+        start = np.array(obj.table_cm, dtype=float)
+        others_xy, others_cm = _other_objects(config, found, obj)
+        targets = check_points(config, geometry, planner, cls, points, others_cm)
+        say(f"object: {cls.name} at ({start[0]:.2f}, {start[1]:.2f}) cm")
+        arm = _Arm(config, planner, ex)
+        visit = _visit_points(
+            arm, rig.camera, detector, config, cls, start, targets, others_xy, say
+        )
+        returned = False
+        failure = visit.failure
+        if failure is None:
+            problem = arm.transfer(cls, visit.here, start, cls.name)
+            returned = problem is None
+            if problem is not None:
+                failure = f"the object was not put back: {problem}"
+        refined = refined_seen = None
+        measured = [r for r in visit.records if r.seen_cm is not None]
+        if refine and len(measured) >= 2:
+            assert isinstance(geometry, PerspectiveCamera)
+            refined, refined_seen = _refit_pose(
+                config, geometry, cls, measured, visit.frames, others_xy
+            )
+    return ArmCheck(
+        class_name=cls.name,
+        start_cm=start,
+        points=tuple(visit.records),
+        refined=refined,
+        refined_seen_cm=refined_seen,
+        returned=returned,
+        failure=failure,
+    )
+
+
+def _checked_geometry(
+    config: Config, points: int, class_name: str | None, refine: bool
+) -> CameraGeometry:
+    """Validate :func:`run_check`'s arguments and return the camera geometry."""
     if not MIN_POINTS <= points <= MAX_POINTS:
         raise ArmCheckError(f"points must be in {MIN_POINTS} … {MAX_POINTS}, got {points}")
     if class_name is not None and class_name not in config.task.class_names:
@@ -422,85 +471,95 @@ def run_check(
             "refining the camera pose needs a perspective calibration "
             "(calibration.model: perspective), not the homography"
         )
-    detector = ColorDetector(config.vision, geometry, config.task.classes)
-    with open_rig(config) as rig:
-        planner = Planner(config, rig.model)
-        ex = Executor(config, rig.bus, rig.model)
-        if not rig.bus.is_connected:
-            rig.bus.connect()
-        ex.home_pose()
-        found = _table_detections(detector, config, rig.camera.read())
-        chosen = [d for d in found if class_name is None or d.color == class_name]
-        if not chosen:
-            what = "object" if class_name is None else f"{class_name} object"
-            raise NothingToCheck(f"no {what} seen on the table: put one in the camera's view")
-        obj = chosen[0]
-        cls = config.task.class_named(obj.color)
-        assert obj.table_cm is not None
-        start = np.array(obj.table_cm, dtype=float)
-        others = [d for d in found if d is not obj]
-        others_xy = np.array([d.table_cm for d in others], dtype=float).reshape(-1, 2)
-        others_cm = [
-            (float(x), float(y), config.task.class_named(d.color).diameter_cm / 2)
-            for d, (x, y) in zip(others, others_xy, strict=True)
-        ]
-        targets = check_points(config, geometry, planner, cls, points, others_cm)
-        say(f"object: {cls.name} at ({start[0]:.2f}, {start[1]:.2f}) cm")
-        arm = _Arm(config, planner, ex)
-        here = start
-        records: list[CheckPoint] = []
-        frames: list[np.ndarray] = []
-        failure: str | None = None
-        for k, target in enumerate(targets, 1):
-            problem = arm.transfer(cls, here, target, cls.name)
-            if problem is not None:
-                records.append(CheckPoint(target, failure=problem))
-                say(f"point {k}: skipped: {problem}")
-                continue
-            frame = rig.camera.read()
-            seen = _find(_table_detections(detector, config, frame), cls, target, others_xy)
-            if seen is None:
-                failure = (
-                    f"point {k}: no {cls.name} object seen within {FIND_RADIUS_CM:g} cm of "
-                    f"({target[0]:.2f}, {target[1]:.2f}) cm after setting it down"
-                )
-                records.append(CheckPoint(target, failure=failure))
-                break
-            assert seen.table_cm is not None
-            here = np.array(seen.table_cm, dtype=float)
-            records.append(CheckPoint(target, here))
-            frames.append(frame)
-        returned = False
-        if failure is None:
-            problem = arm.transfer(cls, here, start, cls.name)
-            returned = problem is None
-            if problem is not None:
-                failure = f"the object was not put back: {problem}"
-        refined = refined_seen = None
-        measured = [r for r in records if r.seen_cm is not None]
-        if refine and len(measured) >= 2:
-            assert isinstance(geometry, PerspectiveCamera)
-            seen_xy = np.array([r.seen_cm for r in measured], dtype=float)
-            theta, t = fit_planar_rigid(seen_xy, [r.commanded_cm for r in measured])
-            refined = refine_extrinsics(geometry.extrinsics, theta, t)
-            relocate = ColorDetector(
-                config.vision, geometry.with_extrinsics(refined), config.task.classes
+    return geometry
+
+
+def _chosen_object(found: list[Detection], class_name: str | None) -> Detection:
+    """The first detection of ``class_name`` (any class when ``None``)."""
+    chosen = [d for d in found if class_name is None or d.color == class_name]
+    if not chosen:
+        what = "object" if class_name is None else f"{class_name} object"
+        raise NothingToCheck(f"no {what} seen on the table: put one in the camera's view")
+    return chosen[0]
+
+
+def _other_objects(
+    config: Config, found: list[Detection], obj: Detection
+) -> tuple[np.ndarray, list[tuple[float, float, float]]]:
+    """The other objects seen: their centres (k, 2) and (x, y, radius) each [cm]."""
+    others = [d for d in found if d is not obj]
+    others_xy = np.array([d.table_cm for d in others], dtype=float).reshape(-1, 2)
+    others_cm = [
+        (float(x), float(y), config.task.class_named(d.color).diameter_cm / 2)
+        for d, (x, y) in zip(others, others_xy, strict=True)
+    ]
+    return others_xy, others_cm
+
+
+@dataclass
+class _Visit:
+    """What moving the object through the check points left behind."""
+
+    records: list[CheckPoint]
+    frames: list[np.ndarray]  # one per measured point
+    here: np.ndarray  # where the object was last seen [cm]
+    failure: str | None
+
+
+def _visit_points(
+    arm: _Arm,
+    camera: Camera,
+    detector: ColorDetector,
+    config: Config,
+    cls: ColorClass,
+    start: np.ndarray,
+    targets: np.ndarray,
+    others_xy: np.ndarray,
+    say: Callable[[str], None],
+) -> _Visit:
+    """Move the object to each target in turn and find it there; stop at the first loss."""
+    visit = _Visit(records=[], frames=[], here=start, failure=None)
+    for k, target in enumerate(targets, 1):
+        problem = arm.transfer(cls, visit.here, target, cls.name)
+        if problem is not None:
+            visit.records.append(CheckPoint(target, failure=problem))
+            say(f"point {k}: skipped: {problem}")
+            continue
+        frame = camera.read()
+        seen = _find(_table_detections(detector, config, frame), cls, target, others_xy)
+        if seen is None:
+            visit.failure = (
+                f"point {k}: no {cls.name} object seen within {FIND_RADIUS_CM:g} cm of "
+                f"({target[0]:.2f}, {target[1]:.2f}) cm after setting it down"
             )
-            seen_again = []
-            for r, frame in zip(measured, frames, strict=True):
-                d = _find(_table_detections(relocate, config, frame), cls, r.commanded_cm,
-                          _moved(others_xy, theta, t))  # fmt: skip
-                seen_again.append(np.full(2, np.nan) if d is None else d.table_cm)
-            refined_seen = np.array(seen_again, dtype=float).reshape(-1, 2)
-    return ArmCheck(
-        class_name=cls.name,
-        start_cm=start,
-        points=tuple(records),
-        refined=refined,
-        refined_seen_cm=refined_seen,
-        returned=returned,
-        failure=failure,
-    )
+            visit.records.append(CheckPoint(target, failure=visit.failure))
+            break
+        assert seen.table_cm is not None
+        visit.here = np.array(seen.table_cm, dtype=float)
+        visit.records.append(CheckPoint(target, visit.here))
+        visit.frames.append(frame)
+    return visit
+
+
+def _refit_pose(
+    config: Config,
+    geometry: PerspectiveCamera,
+    cls: ColorClass,
+    measured: list[CheckPoint],
+    frames: list[np.ndarray],
+    others_xy: np.ndarray,
+) -> tuple[Extrinsics, np.ndarray]:
+    """Fit the camera pose to the measured points and find the object again with it."""
+    seen_xy = np.array([r.seen_cm for r in measured], dtype=float)
+    theta, t = fit_planar_rigid(seen_xy, [r.commanded_cm for r in measured])
+    refined = refine_extrinsics(geometry.extrinsics, theta, t)
+    relocate = ColorDetector(config.vision, geometry.with_extrinsics(refined), config.task.classes)
+    seen_again = []
+    for r, frame in zip(measured, frames, strict=True):
+        d = _find(_table_detections(relocate, config, frame), cls, r.commanded_cm,
+                  _moved(others_xy, theta, t))  # fmt: skip
+        seen_again.append(np.full(2, np.nan) if d is None else d.table_cm)
+    return refined, np.array(seen_again, dtype=float).reshape(-1, 2)
 
 
 def _moved(points_cm: np.ndarray, theta: float, t: np.ndarray) -> np.ndarray:

@@ -263,6 +263,93 @@ def _near_bin(cls: ColorClass, x: float, y: float, clearance_cm: float) -> bool:
     return abs(x - cls.bin_cm[0]) <= half and abs(y - cls.bin_cm[1]) <= half
 
 
+def _class_order(config: Config, counts: dict[str, int] | int, seed: int) -> list[str]:
+    """The class of each object to draw, in drawing order; SceneError on a bad count or seed."""
+    wanted = [counts] if isinstance(counts, int) else list(counts.values())
+    if any(n < 0 for n in wanted) or sum(wanted) > MAX_SCENE_OBJECTS:
+        raise SceneError(
+            f"the number of objects must be ≥ 0 and at most {MAX_SCENE_OBJECTS} in all, "
+            f"got {short_repr(counts)}"
+        )
+    if not 0 <= seed <= MAX_SEED:
+        raise SceneError(f"the seed must be in [0, {MAX_SEED}], got {short_repr(seed)}")
+    if isinstance(counts, int):
+        names = config.task.class_names
+        order = [names[i % len(names)] for i in range(counts)]
+    else:
+        unknown = sorted(set(counts) - set(config.task.class_names))
+        if unknown:
+            raise SceneError(f"no class {unknown}; classes: {', '.join(config.task.class_names)}")
+        order = [c for c in config.task.class_names for _ in range(counts.get(c, 0))]
+    return order
+
+
+def _scene_field(
+    config: Config, any_objects: bool
+) -> tuple[float, tuple[float, float, float, float]]:
+    """The largest object diameter and the camera field (x0, x1, y0, y1) one diameter in [cm]."""
+    # (a cube's or a prism's: the circle around it, whatever its yaw)
+    diameter = max(2 * c.footprint_radius_cm for c in config.task.classes)
+    x0, x1, y0, y1 = camera_field_cm(config, margin_cm=diameter)
+    if any_objects and not (x0 < x1 and y0 < y1):
+        raise SceneError(
+            f"the camera sees no table area for {diameter:g} cm objects (a margin of one "
+            "diameter inside the calibrated frame): check camera.width_px, camera.height_px, "
+            "calibration.homography and the classes' diameter_cm"
+        )
+    return diameter, (x0, x1, y0, y1)
+
+
+def _min_centre_distance_cm(config: Config, diameter_cm: float) -> float:
+    """How far apart two objects' centres must be [cm].
+
+    The open jaws come down around an object: a neighbour must stay clear of their outer
+    faces (open_cm / 2 + jaw_thickness_cm from the centre), or picking one object pushes,
+    tips or traps the next.
+    """
+    g = config.arm.tool.gripper
+    return max(diameter_cm + MIN_GAP_CM, g.open_cm / 2 + g.jaw_thickness_cm + diameter_cm / 2)
+
+
+def _candidate(
+    config: Config,
+    color: str,
+    x: float,
+    y: float,
+    rng: np.random.Generator,
+    placed: list[SceneObject],
+    poses: list[np.ndarray],
+    *,
+    min_dist: float,
+    diameter: float,
+    reach: Callable[[ColorClass, float, float], np.ndarray | None],
+    margins: np.ndarray,
+    footprint: Callable[[list[SceneObject], list[np.ndarray], SceneObject, np.ndarray], bool],
+) -> tuple[SceneObject, np.ndarray] | None:
+    """A ``color`` object at (x, y) and its pick pose, or ``None`` if it may not stand there.
+
+    It keeps clear of the objects placed and the bins, and is reachable around (x, y); a
+    cube's or a prism's yaw is drawn from ``rng`` only once it is reachable.
+    """
+    if any(np.hypot(o.x - x, o.y - y) < min_dist for o in placed):
+        return None
+    if any(_near_bin(c, x, y, diameter / 2 + MIN_GAP_CM) for c in config.task.classes):
+        return None
+    cls = config.task.class_named(color)
+    q = reach(cls, x, y)
+    if q is None or not all(
+        reach(cls, x + float(dx), y + float(dy)) is not None for dx, dy in margins
+    ):
+        return None
+    new = SceneObject(color=color, x=x, y=y)
+    symmetry = cls.object_shape.symmetry_deg
+    if symmetry:  # a cube or a prism lies at any yaw (a disc draws none)
+        new = new.model_copy(update={"yaw_deg": round(rng.uniform(0, symmetry), 1)})
+    if not footprint(placed, poses, new, q):
+        return None
+    return new, q
+
+
 def random_scene(
     config: Config,
     counts: dict[str, int] | int,
@@ -292,38 +379,11 @@ def random_scene(
         SceneError: a count below 0, more than :data:`~mearm.config.sections.MAX_SCENE_OBJECTS`
             objects, a seed outside [0, 2³² − 1], or the objects do not fit.
     """
-    wanted = [counts] if isinstance(counts, int) else list(counts.values())
-    if any(n < 0 for n in wanted) or sum(wanted) > MAX_SCENE_OBJECTS:
-        raise SceneError(
-            f"the number of objects must be ≥ 0 and at most {MAX_SCENE_OBJECTS} in all, "
-            f"got {short_repr(counts)}"
-        )
-    if not 0 <= seed <= MAX_SEED:
-        raise SceneError(f"the seed must be in [0, {MAX_SEED}], got {short_repr(seed)}")
-    if isinstance(counts, int):
-        names = config.task.class_names
-        order: Sequence[str] = [names[i % len(names)] for i in range(counts)]
-    else:
-        unknown = sorted(set(counts) - set(config.task.class_names))
-        if unknown:
-            raise SceneError(f"no class {unknown}; classes: {', '.join(config.task.class_names)}")
-        order = [c for c in config.task.class_names for _ in range(counts.get(c, 0))]
+    order = _class_order(config, counts, seed)
     rng = np.random.default_rng(seed)
-    # (a cube's or a prism's: the circle around it, whatever its yaw)
-    diameter = max(2 * c.footprint_radius_cm for c in config.task.classes)
-    x0, x1, y0, y1 = camera_field_cm(config, margin_cm=diameter)
-    if order and not (x0 < x1 and y0 < y1):
-        raise SceneError(
-            f"the camera sees no table area for {diameter:g} cm objects (a margin of one "
-            "diameter inside the calibrated frame): check camera.width_px, camera.height_px, "
-            "calibration.homography and the classes' diameter_cm"
-        )
+    diameter, (x0, x1, y0, y1) = _scene_field(config, bool(order))
     reach = _reach_check(config)
-    # the open jaws come down around an object: a neighbour must stay clear of their
-    # outer faces (open_cm / 2 + jaw_thickness_cm from the centre), or picking one object
-    # pushes, tips or traps the next
-    g = config.arm.tool.gripper
-    min_dist = max(diameter + MIN_GAP_CM, g.open_cm / 2 + g.jaw_thickness_cm + diameter / 2)
+    min_dist = _min_centre_distance_cm(config, diameter)
     footprint = _footprint_check(config)
     # where the camera may see it: the pick must be reachable there too
     angles = np.linspace(0.0, 2 * np.pi, 8, endpoint=False)
@@ -342,22 +402,14 @@ def random_scene(
                         "for fewer"
                     )
                 x, y = round(rng.uniform(x0, x1), 2), round(rng.uniform(y0, y1), 2)
-                if any(np.hypot(o.x - x, o.y - y) < min_dist for o in placed):
+                found = _candidate(
+                    config, color, x, y, rng, placed, poses,
+                    min_dist=min_dist, diameter=diameter, reach=reach, margins=margins,
+                    footprint=footprint,
+                )  # fmt: skip
+                if found is None:
                     continue
-                if any(_near_bin(c, x, y, diameter / 2 + MIN_GAP_CM) for c in config.task.classes):
-                    continue
-                cls = config.task.class_named(color)
-                q = reach(cls, x, y)
-                if q is None or not all(
-                    reach(cls, x + float(dx), y + float(dy)) is not None for dx, dy in margins
-                ):
-                    continue
-                new = SceneObject(color=color, x=x, y=y)
-                symmetry = cls.object_shape.symmetry_deg
-                if symmetry:  # a cube or a prism lies at any yaw (a disc draws none)
-                    new = new.model_copy(update={"yaw_deg": round(rng.uniform(0, symmetry), 1)})
-                if not footprint(placed, poses, new, q):
-                    continue
+                new, q = found
                 placed.append(new)
                 poses.append(q)
                 break

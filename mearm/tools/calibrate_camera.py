@@ -282,8 +282,8 @@ def write_atomically(path: Path, text: str) -> None:
     write_atomic(path, text)
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    """Fit the calibration and write it; 0 on success, 1 if it fails, 2 on bad input."""
+def _parser() -> ArgumentParser:
+    """The command line of :func:`main`."""
     parser = ArgumentParser(
         description="Fit pixel → table calibration into a config, or the camera's pose.",
     )
@@ -311,7 +311,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         "--force", action="store_true", help="replace a better calibration than the new one"
     )
     parser.add_argument("--dry-run", action="store_true", help="fit and print; write nothing")
-    args = parser.parse_args(argv)
+    return parser
+
+
+def _check_arguments(parser: ArgumentParser, args: argparse.Namespace) -> None:
+    """Exit 2 (``parser.error``) on arguments that do not go together, before any fit."""
     if args.intrinsics is None and args.config is None:
         parser.error("the following arguments are required: --config (or --intrinsics)")
     if bool(args.point) == bool(args.image or args.marker):
@@ -329,6 +333,52 @@ def main(argv: Sequence[str] | None = None) -> int:
             f"--marker-side-cm must be in (0, {MAX_MARKER_SIDE_CM:g}] cm, "
             f"got {args.marker_side_cm:g}"
         )
+
+
+def _fit_homography(
+    parser: ArgumentParser, args: argparse.Namespace
+) -> tuple[Calibration, int, str]:
+    """The homography fitted to --point pairs or --image markers, its pair count, and how."""
+    if args.point:
+        pixels = [p for p, _ in args.point]
+        table = [c for _, c in args.point]
+        calibration = Calibration.fit(pixels, table)
+        n_pairs = len(pixels)
+        how = f"{n_pairs} point pairs"
+    else:
+        centers = dict(args.marker)
+        if len(centers) != len(args.marker):
+            parser.error("each --marker id may be given once")
+        frame = read_image(args.image)
+        calibration = calibration_from_markers(
+            frame, centers, side_cm=args.marker_side_cm, dictionary=args.dictionary
+        )
+        corners = " and corners" if args.marker_side_cm else ""
+        n_pairs = len(centers) * (5 if args.marker_side_cm else 1)
+        how = f"{len(centers)} ArUco marker centres{corners} in {args.image.name}"
+    return calibration, n_pairs, how
+
+
+def _write_config(target: Path, new_text: str, calibration: Calibration, *, force: bool) -> None:
+    """Write the updated config, unless (without ``force``) it holds a better homography."""
+    if not force and target.exists():
+        try:
+            old = load_yaml_text(read_text_file(target, what="config file"), source=str(target))
+        except (ConfigError, InputFileError):
+            old = None
+        if isinstance(old, dict):
+            _homography_no_worse(old, calibration, target)
+    try:
+        write_atomically(target, new_text)
+    except OSError as exc:
+        raise MearmError(f"cannot write {target}: {exc.strerror or exc}") from None
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Fit the calibration and write it; 0 on success, 1 if it fails, 2 on bad input."""
+    parser = _parser()
+    args = parser.parse_args(argv)
+    _check_arguments(parser, args)
     if args.intrinsics is not None:
         if args.point:
             parser.error("--intrinsics fits the pose from --image and --marker, not --point")
@@ -348,23 +398,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     if not isinstance(data, dict):
         raise ConfigError(str(args.config), ["top level must be a mapping"])
 
-    if args.point:
-        pixels = [p for p, _ in args.point]
-        table = [c for _, c in args.point]
-        calibration = Calibration.fit(pixels, table)
-        n_pairs = len(pixels)
-        how = f"{n_pairs} point pairs"
-    else:
-        centers = dict(args.marker)
-        if len(centers) != len(args.marker):
-            parser.error("each --marker id may be given once")
-        frame = read_image(args.image)
-        calibration = calibration_from_markers(
-            frame, centers, side_cm=args.marker_side_cm, dictionary=args.dictionary
-        )
-        corners = " and corners" if args.marker_side_cm else ""
-        n_pairs = len(centers) * (5 if args.marker_side_cm else 1)
-        how = f"{len(centers)} ArUco marker centres{corners} in {args.image.name}"
+    calibration, n_pairs, how = _fit_homography(parser, args)
 
     note = f"fitted {date.today().isoformat()} by tools/calibrate_camera.py from {how}"
     new_text = update_config_text(text, calibration, note, str(args.config))  # or exit 2
@@ -379,17 +413,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.dry_run:
         return 0
     target = args.output or args.config
-    if not args.force and target.exists():
-        try:
-            old = load_yaml_text(read_text_file(target, what="config file"), source=str(target))
-        except (ConfigError, InputFileError):
-            old = None
-        if isinstance(old, dict):
-            _homography_no_worse(old, calibration, target)
-    try:
-        write_atomically(target, new_text)
-    except OSError as exc:
-        raise MearmError(f"cannot write {target}: {exc.strerror or exc}") from None
+    _write_config(target, new_text, calibration, force=args.force)
     print(f"wrote the calibration into {target}", file=sys.stderr)
     return 0
 

@@ -99,8 +99,8 @@ def sweep_openings_cm(open_cm: float, closed_cm: float, step_cm: float) -> Itera
         yield from (float(v) for v in np.linspace(a, b, n + 1)[1:])
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    """Serve (or render) the bare arm; see the module docstring."""
+def _parser() -> ArgumentParser:
+    """The command line of :func:`main`."""
     parser = ArgumentParser(description=__doc__.splitlines()[0])
     add_config_argument(parser)
     parser.add_argument(
@@ -138,15 +138,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument(
         "--port", type=int, default=None, help="web port (default: 7000 or the next free; 0: any)"
     )
-    args = parser.parse_args(argv)
-    shot = args.screenshot
-    if shot is not None and (shot.suffix.lower() != ".png" or shot.exists() and not shot.is_file()):
-        parser.error(f"--screenshot {shot}: must be a .png file (not a folder or a device)")
+    return parser
 
-    config = config_from_args(args)
-    model = ArmModel(config.arm)
-    chain = model.chain
-    actuated = list(chain.actuated)
+
+def _check_joint_names(
+    parser: ArgumentParser, args: argparse.Namespace, actuated: list[str]
+) -> None:
+    """Exit 2 (``parser.error``) on a --sweep or --joints name the arm does not actuate."""
     if args.sweep is not None and args.sweep not in (SWEEP_ALL, *actuated):
         parser.error(
             f"--sweep: unknown joint {args.sweep!r}; this arm's actuated joints: "
@@ -158,6 +156,21 @@ def main(argv: Sequence[str] | None = None) -> int:
             f"--joints: unknown joint(s) {', '.join(map(repr, unknown))}; this arm's "
             f"actuated joints: {', '.join(actuated)}"
         )
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Serve (or render) the bare arm; see the module docstring."""
+    parser = _parser()
+    args = parser.parse_args(argv)
+    shot = args.screenshot
+    if shot is not None and (shot.suffix.lower() != ".png" or shot.exists() and not shot.is_file()):
+        parser.error(f"--screenshot {shot}: must be a .png file (not a folder or a device)")
+
+    config = config_from_args(args)
+    model = ArmModel(config.arm)
+    chain = model.chain
+    actuated = list(chain.actuated)
+    _check_joint_names(parser, args, actuated)
     start_named = config.arm.home() | (args.joints or {})
     q_start = chain.from_named(start_named)  # unknown names: exit 2 before serving
     model.check_limits(q_start)  # joints out of their limits: exit 2 before serving

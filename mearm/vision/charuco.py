@@ -280,6 +280,70 @@ def _fit(
     return K, dist.reshape(-1)[:5], rms
 
 
+def _checked_coverage(points_px: np.ndarray, size_px: tuple[int, int]) -> float:
+    """The corners' coverage of the frame; CalibrationError if too little or a quarter empty."""
+    coverage, empty = _coverage(points_px, size_px)
+    if coverage < MIN_COVERAGE or empty:
+        where = f"; none in the {', '.join(empty)} quarter" if empty else ""
+        raise CalibrationError(
+            f"the board's corners cover {100 * coverage:.0f} % of the frame{where}; at least "
+            f"{100 * MIN_COVERAGE:.0f} % and every quarter are needed to fit the distortion: "
+            "add views with the board near each corner of the frame"
+        )
+    return coverage
+
+
+def _fit_without_outliers(
+    obj: list[np.ndarray], img: list[np.ndarray], size_px: tuple[int, int], min_views: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Fit, then refit once without the views that fit badly: K, distortion, RMS per view, outliers.
+
+    An outlier's RMS stays that of the first fit.
+    """
+    K, dist, rms = _fit(obj, img, size_px)
+    median = float(np.median(rms))
+    outlier = (rms > OUTLIER_FACTOR * median) & (rms > OUTLIER_FLOOR_PX)
+    first_rms = rms
+    if outlier.any():
+        keep = np.flatnonzero(~outlier)
+        if len(keep) < min_views:
+            raise CalibrationError(
+                f"{int(outlier.sum())} of {len(obj)} views fit badly (rms above "
+                f"{OUTLIER_FACTOR:g} × the median {median:.2f} px); the {len(keep)} left are "
+                f"fewer than {min_views}: take sharper views of the flat board"
+            )
+        K, dist, rms_kept = _fit([obj[k] for k in keep], [img[k] for k in keep], size_px)
+        rms = first_rms.copy()
+        rms[keep] = rms_kept
+    return K, dist, rms, outlier
+
+
+def _check_plausible(
+    K: np.ndarray, total: float, spec: BoardSpec, size_px: tuple[int, int]
+) -> None:
+    """CalibrationError on a poor fit or a camera matrix no real camera has."""
+    if total > MAX_RMS_PX:
+        raise CalibrationError(
+            f"the calibration is too poor: rms {total:.2f} px, more than {MAX_RMS_PX:g} px: "
+            "use sharp, evenly lit views of a flat board and check it is the "
+            f"{spec.squares[0]}x{spec.squares[1]} board of {spec.square_cm:g} cm squares"
+        )
+    w, h = size_px
+    fx, fy, cx, cy = K[0, 0], K[1, 1], K[0, 2], K[1, 2]
+    if abs(fx / fy - 1.0) > MAX_ASPECT_DEVIATION:
+        raise CalibrationError(
+            f"implausible camera matrix: fx {fx:.1f} px and fy {fy:.1f} px differ by more "
+            f"than {100 * MAX_ASPECT_DEVIATION:.0f} %: add views with the board tilted "
+            "in different directions"
+        )
+    if not (w / 4 <= cx <= 3 * w / 4 and h / 4 <= cy <= 3 * h / 4):
+        raise CalibrationError(
+            f"implausible camera matrix: the principal point ({cx:.1f}, {cy:.1f}) px is "
+            f"outside the middle half of the {w}x{h} px frame: add views with the board "
+            "tilted in different directions and covering the whole frame"
+        )
+
+
 def fit_views(
     views: Sequence[BoardView],
     size_px: tuple[int, int],
@@ -324,54 +388,15 @@ def fit_views(
     corners_cm = np.asarray(board.getChessboardCorners(), np.float32)  # (C, 3), z = 0
     obj = [corners_cm[v.ids].reshape(-1, 1, 3) for v in used]
     img = [v.corners_px.astype(np.float32).reshape(-1, 1, 2) for v in used]
-    coverage, empty = _coverage(np.concatenate([v.corners_px for v in used]), size_px)
-    if coverage < MIN_COVERAGE or empty:
-        where = f"; none in the {', '.join(empty)} quarter" if empty else ""
-        raise CalibrationError(
-            f"the board's corners cover {100 * coverage:.0f} % of the frame{where}; at least "
-            f"{100 * MIN_COVERAGE:.0f} % and every quarter are needed to fit the distortion: "
-            "add views with the board near each corner of the frame"
-        )
-    K, dist, rms = _fit(obj, img, size_px)
-    median = float(np.median(rms))
-    outlier = (rms > OUTLIER_FACTOR * median) & (rms > OUTLIER_FLOOR_PX)
-    first_rms = rms
-    if outlier.any():
-        keep = np.flatnonzero(~outlier)
-        if len(keep) < min_views:
-            raise CalibrationError(
-                f"{int(outlier.sum())} of {len(used)} views fit badly (rms above "
-                f"{OUTLIER_FACTOR:g} × the median {median:.2f} px); the {len(keep)} left are "
-                f"fewer than {min_views}: take sharper views of the flat board"
-            )
-        K, dist, rms_kept = _fit([obj[k] for k in keep], [img[k] for k in keep], size_px)
-        rms = first_rms.copy()
-        rms[keep] = rms_kept
+    coverage = _checked_coverage(np.concatenate([v.corners_px for v in used]), size_px)
+    K, dist, rms, outlier = _fit_without_outliers(obj, img, size_px, min_views)
     kept = ~outlier
     n = np.array([len(o) for o in obj])
     total = math.sqrt(float(np.sum(n[kept] * rms[kept] ** 2) / np.sum(n[kept])))
     report_views = tuple(
         ViewFit(v.name, int(n[k]), float(rms[k]), bool(outlier[k])) for k, v in enumerate(used)
     )
-    if total > MAX_RMS_PX:
-        raise CalibrationError(
-            f"the calibration is too poor: rms {total:.2f} px, more than {MAX_RMS_PX:g} px: "
-            "use sharp, evenly lit views of a flat board and check it is the "
-            f"{spec.squares[0]}x{spec.squares[1]} board of {spec.square_cm:g} cm squares"
-        )
-    fx, fy, cx, cy = K[0, 0], K[1, 1], K[0, 2], K[1, 2]
-    if abs(fx / fy - 1.0) > MAX_ASPECT_DEVIATION:
-        raise CalibrationError(
-            f"implausible camera matrix: fx {fx:.1f} px and fy {fy:.1f} px differ by more "
-            f"than {100 * MAX_ASPECT_DEVIATION:.0f} %: add views with the board tilted "
-            "in different directions"
-        )
-    if not (w / 4 <= cx <= 3 * w / 4 and h / 4 <= cy <= 3 * h / 4):
-        raise CalibrationError(
-            f"implausible camera matrix: the principal point ({cx:.1f}, {cy:.1f}) px is "
-            f"outside the middle half of the {w}x{h} px frame: add views with the board "
-            "tilted in different directions and covering the whole frame"
-        )
+    _check_plausible(K, total, spec, size_px)
     try:
         intrinsics = Intrinsics(
             camera_matrix=K,
