@@ -220,7 +220,7 @@ def annotate(
     return out
 
 
-def main(argv: Sequence[str] | None = None) -> int:
+def main(argv: Sequence[str] | None = None) -> int:  # noqa: PLR0912 (one branch per option)
     """Detect objects in each image and print them (text or JSON lines)."""
     parser = ArgumentParser(prog="python -m mearm.detect", description=__doc__.splitlines()[0])
     add_config_argument(parser)

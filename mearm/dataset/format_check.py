@@ -98,7 +98,7 @@ class _Checker:
 
     # ----------------------------------------------------------------- meta
 
-    def _info(self) -> dict[str, Any] | None:
+    def _info(self) -> dict[str, Any] | None:  # noqa: C901, PLR0912 (one check per field of info.json, in its order)
         try:
             info = json.loads((self.root / L.INFO_PATH).read_text())
         except (OSError, ValueError) as exc:

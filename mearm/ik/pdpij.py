@@ -371,7 +371,7 @@ class PdPij(IKSolver):
 
     # ----------------------------------------------------------------- iterate
 
-    def _iterate(
+    def _iterate(  # noqa: PLR0915 (the paper's loop, step by step, reads as one)
         self,
         q0: np.ndarray,
         t: list[float],
