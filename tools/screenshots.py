@@ -9,7 +9,10 @@ Each group writes PNGs under ``docs/images/`` (``--out`` elsewhere):
   description with OpenCV: the base frame's origin and axes, each joint's zero and its
   positive direction (``frames_mearm_v1.png``, ``frames_mearm_paper.png``);
 - ``views``: each reference config's arm at home in the meshcat view, saved by headless
-  Chromium (``view_<config stem>.png``; needs chromium).
+  Chromium (``view_<config stem>.png``; needs chromium);
+- ``env``: ``mearm/PickPlace-v0`` mid-episode, the sorter stepped as the policy: what
+  ``render()`` shows beside the observation's ``pixels`` (``env_pick_place.png``;
+  simulated, seed 0; needs Gymnasium).
 
 Examples::
 
@@ -37,7 +40,7 @@ from mearm.kinematics import ArmModel
 ROOT = Path(__file__).resolve().parent.parent
 REFERENCE_CONFIGS = ("sim.yaml", "sim_mearm_v1.yaml", "sim_5dof.yaml", "sim_4colours.yaml")
 OUT_DIR = ROOT / "docs" / "images"
-GROUPS = ("twin", "frames", "views")
+GROUPS = ("twin", "frames", "views", "env")
 
 #: The twin pictures: file name → (config, free camera azimuth [deg], elevation [deg]).
 TWIN_SHOTS: dict[str, tuple[str, float, float]] = {
@@ -282,6 +285,34 @@ def render_config(config_path: Path, out_dir: Path, size_px: tuple[int, int] = (
         return view.screenshot(out, width_px=size_px[0], height_px=size_px[1])
 
 
+#: Steps of the expert into a pick-and-place episode: the object in the jaws, rising.
+ENV_SHOT_STEP = 60
+
+
+def render_env(out: Path) -> Path:
+    """The pick-and-place environment mid-episode: its render beside its observation."""
+    from mearm.envs.twin_env import TwinEnv
+
+    env = TwinEnv("sim_mujoco", task="pick_place", render_mode="rgb_array", expert=True)
+    try:
+        obs, info = env.reset(seed=0)
+        for _ in range(ENV_SHOT_STEP):
+            obs, _, done, cut, info = env.step(info["expert_action"])
+            if done or cut:
+                break
+        frame = env.render()
+        assert frame is not None
+        small = obs["pixels"]["table"]
+        scale = frame.shape[0] / small.shape[0]
+        size = (round(small.shape[1] * scale), frame.shape[0])
+        seen = cv2.resize(small, size, interpolation=cv2.INTER_NEAREST)
+        both = np.hstack([frame, np.full((frame.shape[0], 8, 3), 255, np.uint8), seen])
+        cv2.imwrite(str(out), cv2.cvtColor(both, cv2.COLOR_RGB2BGR))
+    finally:
+        env.close()
+    return out
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Render the pictures; see the module docstring."""
     parser = ArgumentParser(prog="python tools/screenshots.py", description=__doc__.splitlines()[0])
@@ -310,6 +341,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     if "views" in groups:
         for path in args.configs:
             print(f"wrote {render_config(path, args.out)}", flush=True)
+    if "env" in groups:
+        print(f"wrote {render_env(args.out / 'env_pick_place.png')} (simulated)", flush=True)
     return 0
 
 
