@@ -220,6 +220,7 @@ VISUAL_PAGES = {
     "docs/sorting.md": "twin_conveyor.png",
     "docs/calibration.md": "calibration_sheet.png",
     "docs/view.md": "view_sim.png",
+    "docs/learning.md": "env_pick_place.png",
 }
 
 
