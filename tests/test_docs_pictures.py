@@ -221,6 +221,7 @@ VISUAL_PAGES = {
     "docs/calibration.md": "calibration_sheet.png",
     "docs/view.md": "view_sim.png",
     "docs/learning.md": "env_pick_place.png",
+    "docs/datasets.md": "dataset_sheet.png",
 }
 
 

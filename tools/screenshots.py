@@ -12,7 +12,10 @@ Each group writes PNGs under ``docs/images/`` (``--out`` elsewhere):
   Chromium (``view_<config stem>.png``; needs chromium);
 - ``env``: ``mearm/PickPlace-v0`` mid-episode, the sorter stepped as the policy: what
   ``render()`` shows beside the observation's ``pixels`` (``env_pick_place.png``;
-  simulated, seed 0; needs Gymnasium).
+  simulated, seed 0; needs Gymnasium);
+- ``dataset``: one pick-and-place recorded by ``mearm sort --record`` in the twin, its
+  first, middle and last frames as ``mearm dataset show`` draws them
+  (``dataset_sheet.png``; simulated, seed 0; needs the ``record`` extra).
 
 Examples::
 
@@ -40,7 +43,7 @@ from mearm.kinematics import ArmModel
 ROOT = Path(__file__).resolve().parent.parent
 REFERENCE_CONFIGS = ("sim.yaml", "sim_mearm_v1.yaml", "sim_5dof.yaml", "sim_4colours.yaml")
 OUT_DIR = ROOT / "docs" / "images"
-GROUPS = ("twin", "frames", "views", "env")
+GROUPS = ("twin", "frames", "views", "env", "dataset")
 
 #: The twin pictures: file name → (config, free camera azimuth [deg], elevation [deg]).
 TWIN_SHOTS: dict[str, tuple[str, float, float]] = {
@@ -313,6 +316,25 @@ def render_env(out: Path) -> Path:
     return out
 
 
+def render_dataset(out: Path) -> Path:
+    """One recorded pick-and-place's contact sheet (its first, middle and last frames)."""
+    import subprocess
+    import tempfile
+
+    from mearm.dataset.contact_sheet import contact_sheet
+
+    with tempfile.TemporaryDirectory() as tmp:
+        root = Path(tmp) / "ds"
+        config = ROOT / "configs" / "sim_mujoco.yaml"
+        subprocess.run(
+            [sys.executable, "-m", "mearm.sort", "--config", str(config), "--random", "1",
+             "--seed", "0", "--set", "camera.noise_std=0", "--record", str(root), "--quiet"],
+            check=True,
+        )  # fmt: skip
+        contact_sheet(root, out, per_episode=3, max_episodes=1)
+    return out
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Render the pictures; see the module docstring."""
     parser = ArgumentParser(prog="python tools/screenshots.py", description=__doc__.splitlines()[0])
@@ -343,6 +365,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             print(f"wrote {render_config(path, args.out)}", flush=True)
     if "env" in groups:
         print(f"wrote {render_env(args.out / 'env_pick_place.png')} (simulated)", flush=True)
+    if "dataset" in groups:
+        print(f"wrote {render_dataset(args.out / 'dataset_sheet.png')} (simulated)", flush=True)
     return 0
 
 
