@@ -13,12 +13,15 @@ import os
 import re
 import sys
 import traceback
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
+from concurrent.futures import Executor, Future
 from pathlib import Path
-from typing import Any, NoReturn, Protocol
+from typing import Any, NoReturn, Protocol, TypeVar
 
 from mearm.config import Config, load_config
 from mearm.errors import MearmError
+
+_T = TypeVar("_T")
 
 EXIT_OK = 0
 EXIT_FAILURE = 1
@@ -311,3 +314,22 @@ def run(main: Callable[[Sequence[str] | None], int], argv: Sequence[str] | None 
             )
         code = EXIT_FAILURE
     sys.exit(code)
+
+
+def ordered_results(
+    pool: Executor, fn: Callable[..., _T], calls: Iterable[tuple[Any, ...]]
+) -> Iterator[_T]:
+    """Each call's result in the order of ``calls``, run by ``pool``'s workers.
+
+    Leaving the iterator early (Ctrl-C, an error) cancels the calls not yet started, and
+    the pool is shut down either way.
+    """
+    futures: list[Future[_T]] = []
+    try:
+        futures = [pool.submit(fn, *args) for args in calls]
+        for fut in futures:
+            yield fut.result()
+    finally:
+        for fut in futures:
+            fut.cancel()
+        pool.shutdown(wait=True, cancel_futures=True)

@@ -13,7 +13,7 @@ from __future__ import annotations
 import os
 import signal
 from collections.abc import Iterator, Sequence
-from concurrent.futures import Future, ProcessPoolExecutor
+from concurrent.futures import ProcessPoolExecutor
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
@@ -21,6 +21,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
+from mearm.cli import ordered_results
 from mearm.envs.policies import Policy, checked_action, load_policy
 
 
@@ -191,12 +192,4 @@ def run_episodes(job: Job, seeds: Sequence[int], jobs: int) -> Iterator[EpisodeR
     pool = ProcessPoolExecutor(
         max_workers=min(jobs, len(seeds)), initializer=_start_worker, initargs=(job,)
     )
-    futures: list[Future[EpisodeResult]] = []
-    try:
-        futures = [pool.submit(_in_worker, s, i) for i, s in enumerate(seeds)]
-        for fut in futures:
-            yield fut.result()
-    finally:
-        for fut in futures:
-            fut.cancel()
-        pool.shutdown(wait=True, cancel_futures=True)
+    yield from ordered_results(pool, _in_worker, ((s, i) for i, s in enumerate(seeds)))

@@ -24,12 +24,13 @@ import signal
 import time
 from collections import Counter
 from collections.abc import Iterator, Sequence
-from concurrent.futures import Future, ProcessPoolExecutor
+from concurrent.futures import ProcessPoolExecutor
 
 from mearm.cli import (
     ArgumentParser,
     add_config_argument,
     config_from_args,
+    ordered_results,
     run,
     worker_count,
 )
@@ -120,15 +121,7 @@ def sweep(config: Config, objects: int, seeds: Sequence[int], jobs: int) -> Iter
     pool = ProcessPoolExecutor(
         max_workers=min(jobs, len(seeds)), initializer=_start_worker, initargs=(config, objects)
     )
-    futures: list[Future[Result]] = []
-    try:
-        futures = [pool.submit(_in_worker, s) for s in seeds]
-        for fut in futures:
-            yield fut.result()
-    finally:
-        for fut in futures:
-            fut.cancel()
-        pool.shutdown(wait=True, cancel_futures=True)
+    yield from ordered_results(pool, _in_worker, ((s,) for s in seeds))
 
 
 def main(argv: Sequence[str] | None = None) -> int:
