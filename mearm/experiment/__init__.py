@@ -1,7 +1,7 @@
 """Run repeated sorting trials into one run log, as in the paper's experiments.
 
 The command (``mearm experiment``, ``python -m mearm.experiment``) is
-:mod:`~mearm.experiment.command`; the rooms it uses:
+:mod:`~mearm.experiment.commandline`; the rooms it uses:
 
 - :mod:`~mearm.experiment.trials`: each trial's seed, config and layout, and running it;
 - :mod:`~mearm.experiment.pool`: where trials run, and worker processes on this machine;
@@ -11,7 +11,7 @@ The command (``mearm experiment``, ``python -m mearm.experiment``) is
 """
 
 from mearm.experiment.cluster import CLUSTER_EXTRA, CONNECT_TIMEOUT_S, dask_cluster
-from mearm.experiment.command import NEEDS_TERMINAL, main, terminal_prompt
+from mearm.experiment.commandline import NEEDS_TERMINAL, main, terminal_prompt
 from mearm.experiment.errors import TrialFailed
 from mearm.experiment.ordered_log import (
     AHEAD_PER_WORKER,

@@ -49,7 +49,7 @@ from dataclasses import asdict
 from pathlib import Path
 
 from mearm.cli import ArgumentParser, run, write_text_atomic
-from mearm.tools.benchmarks.base import (
+from mearm.tools.benchmarks.bench_base import (
     SECTIONS,
     BenchOptions,
     Row,
@@ -62,7 +62,7 @@ from mearm.tools.benchmarks.base import (
 
 # isort: off
 # The sections register on import, in the order a run without --only measures them.
-from mearm.tools.benchmarks.ik import bench_ik
+from mearm.tools.benchmarks.ik_bench import bench_ik
 from mearm.tools.benchmarks.ik_peers import (
     PEER_SEED,
     PEER_TARGETS,
@@ -72,7 +72,7 @@ from mearm.tools.benchmarks.ik_peers import (
     reachable_targets,
     rtb_ets,
 )
-from mearm.tools.benchmarks.vision import bench_vision
+from mearm.tools.benchmarks.detector_bench import bench_vision
 from mearm.tools.benchmarks.sort_cpu import (
     DEPS_ARGV,
     SORT_ARGV,
@@ -80,9 +80,9 @@ from mearm.tools.benchmarks.sort_cpu import (
     SORT_OVER_DEPS_TARGET,
     bench_sort_cpu,
 )
-from mearm.tools.benchmarks.collision import bench_collision, collision_routes
+from mearm.tools.benchmarks.collision_bench import bench_collision, collision_routes
 from mearm.tools.benchmarks.motion import PAPER_MOTION_S, bench_motion
-from mearm.tools.benchmarks.twin import (
+from mearm.tools.benchmarks.twin_bench import (
     BARE_STEPS,
     TWIN_CONFIGS,
     TWIN_ROUNDS,

@@ -49,8 +49,8 @@ from mearm.sim.virtual_uno.build import (
     cache_root,
     missing_requirements,
 )
-from mearm.sim.virtual_uno.bus import VirtualUnoBus
 from mearm.sim.virtual_uno.errors import VirtualUnoError
+from mearm.sim.virtual_uno.uno_bus import VirtualUnoBus
 
 __all__ = [
     "BUILD_TIMEOUT_S",

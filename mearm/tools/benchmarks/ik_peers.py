@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from mearm.tools.benchmarks.base import BenchOptions, Row
+from mearm.tools.benchmarks.bench_base import BenchOptions, Row
 
 if TYPE_CHECKING:
     from mearm.config import Config

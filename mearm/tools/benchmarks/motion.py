@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from mearm.tools.benchmarks.base import BenchOptions, Row, section
+from mearm.tools.benchmarks.bench_base import BenchOptions, Row, section
 
 #: The paper's motion time for its 12 objects: about 6 s per pick or place motion, 24 of
 #: them [s].

@@ -6,7 +6,7 @@ import os
 import statistics
 import tempfile
 
-from mearm.tools.benchmarks.base import BenchOptions, Row, child_seconds, section
+from mearm.tools.benchmarks.bench_base import BenchOptions, Row, child_seconds, section
 
 #: Runs of each command in the ``sort-cpu`` section (the median is reported).
 SORT_CPU_RUNS = 3

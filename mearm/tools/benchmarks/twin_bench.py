@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from mearm.tools.benchmarks.base import BenchOptions, Row, child_seconds, section
+from mearm.tools.benchmarks.bench_base import BenchOptions, Row, child_seconds, section
 
 if TYPE_CHECKING:
     from mearm.config import Config

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from mearm.tools.benchmarks.base import BenchOptions, Row, section
+from mearm.tools.benchmarks.bench_base import BenchOptions, Row, section
 
 
 @section("vision")

@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from mearm.tools.benchmarks.base import BenchOptions, Row, best_seconds, section
+from mearm.tools.benchmarks.bench_base import BenchOptions, Row, best_seconds, section
 from mearm.tools.benchmarks.ik_peers import ik_peer_rows
 
 if TYPE_CHECKING:

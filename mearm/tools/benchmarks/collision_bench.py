@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from mearm.tools.benchmarks.base import BenchOptions, Row, best_seconds, section
+from mearm.tools.benchmarks.bench_base import BenchOptions, Row, best_seconds, section
 
 if TYPE_CHECKING:
     from mearm.config import Config
