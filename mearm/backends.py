@@ -35,6 +35,9 @@ camera.
 
 This module sits above the hardware, vision and simulator packages and below the task:
 they never import it, so a lower layer never reaches a higher one to find a backend.
+Those layers take the parts of the config they need, never the whole of it; the few
+assemblies a command needs from a whole config are here (:func:`open_bus`) and, for the
+planner's collision model, in :func:`mearm.sim.table_collision.collision_model`.
 A new kind registers its opener (:func:`register_simulator`, :func:`register_bus`,
 :func:`register_camera`) and is then opened like the built-in ones (docs/development.md
 shows a small one).
@@ -259,13 +262,13 @@ def _virtual_uno_bus(config: Config, world: World | None, port: str | None) -> S
 def _arduino_bus(config: Config, world: World | None, port: str | None) -> ServoBus:
     from mearm.hardware.arduino import ArduinoBus  # noqa: PLC0415
 
-    return ArduinoBus(config, port=port)
+    return ArduinoBus(config.arm, config.servo, port=port)
 
 
 def _ssc32_bus(config: Config, world: World | None, port: str | None) -> ServoBus:
     from mearm.hardware.ssc32 import SSC32Bus  # noqa: PLC0415
 
-    return SSC32Bus(config, port=port)
+    return SSC32Bus(config.arm, config.servo, port=port)
 
 
 def _sim_camera(config: Config, world: World | None) -> Camera:

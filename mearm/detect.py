@@ -248,8 +248,10 @@ def main(argv: Sequence[str] | None = None) -> int:  # noqa: PLR0912 (one branch
                 parser.error(f"--annotate {out}: is one of the input images (write elsewhere)")
             check_output_file(out, "--annotate")  # a folder, a path under a file: now
     config = config_from_args(args)
-    calibration = camera_geometry(config)
-    detector = ColorDetector(config.vision, calibration, config.task.classes)
+    calibration = camera_geometry(config.calibration, config.camera)
+    detector = ColorDetector.from_config(
+        config.vision, config.calibration, config.camera, config.task.classes, geometry=calibration
+    )
 
     frames: list[tuple[str, np.ndarray | None]]
     if args.camera:

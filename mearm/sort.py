@@ -155,7 +155,7 @@ def _view_factory(config: Config, *, collision: bool) -> Callable[[Rig], object]
     """What opens the meshcat view of a rig (and its collision model with ``collision``)."""
 
     def make_view(rig: Rig) -> object:
-        from mearm.kinematics.collision import CollisionModel
+        from mearm.sim.table_collision import collision_model
         from mearm.view import ArmView
 
         view = ArmView(rig.model, config)
@@ -164,7 +164,7 @@ def _view_factory(config: Config, *, collision: bool) -> Callable[[Rig], object]
                 # built as the sorter builds its own (which it keeps to itself); the view
                 # keeps this one in step with what it draws: the objects seen on the
                 # table, the jaws' opening, the arm's joints
-                model = CollisionModel(config, rig.model, clearance_cm=config.task.clearance_cm)
+                model = collision_model(config, rig.model, clearance_cm=config.task.clearance_cm)
                 view.show_collision(model, track_world=True)
         except BaseException:
             view.close()

@@ -27,8 +27,11 @@ from mearm.config.servo_file import (
     servo_of,
 )
 from mearm.hardware import ServoMap
+from mearm.kinematics.model import ArmModel
 from mearm.maker import calibrate_by_camera
 from mearm.maker.calibrate_by_camera import PLAY_US, ServoDoubt
+from mearm.maker.camera_calibration.points import free_joints
+from mearm.maker.camera_calibration.safe_moves import limits_of
 from mearm.sim.twin.twin_bus import TwinArm
 from mearm.task.claw_fit import ServoFit, Sighting
 from mearm.task.rig import open_rig
@@ -134,7 +137,7 @@ def test_the_doubt_shrinks_as_the_fit_learns_the_servos() -> None:
     """Before a fit, a servo may be off by its play, zero and scale error about the
     middle; once zeros and scales are fitted, by its play and fitted zero within the
     pulses sighted, growing beyond them; a measured play replaces the datasheet's."""
-    smap = ServoMap.from_config(load_config(PERSPECTIVE))
+    smap = ServoMap.from_arm(load_config(PERSPECTIVE).arm)
     base = smap["base"]
     doubt = ServoDoubt()
     middle = (base.min_us + base.max_us) / 2
@@ -288,3 +291,82 @@ def test_the_camera_calibrates_a_kit_that_then_sorts_without_touching_anything(
                            "--quiet"], within_s=60)  # fmt: skip
     assert sort.code == 0, sort.stdout[-2000:] + sort.stderr
     assert sort.stdout.strip().splitlines()[-1] == "sorted 6 of 6 objects", sort.stdout[-1500:]
+
+
+# ----------------------------------------------------------------- the 5-DOF arm
+
+FIVE_KITS = ROOT / "configs" / "sim_5dof_mujoco_kits.yaml"
+
+
+@pytest.mark.parametrize(("config", "free"), [(FIVE_KITS, ("wrist_roll",)), (PERSPECTIVE, ())])
+def test_the_joints_a_point_leaves_free_are_the_ones_about_the_tools_axis(config, free):
+    """The 5-DOF arm's wrist roll turns the claw about the approach axis: the TCP and the
+    approach stay; the paper arm has no such joint."""
+    arm = load_config(config).arm
+    model = ArmModel(arm)
+    chain = model.chain
+    rng = np.random.default_rng(0)
+    for _ in range(3):
+        a = chain.actuated_lower + rng.uniform(0.2, 0.8, chain.m) * (
+            chain.actuated_upper - chain.actuated_lower
+        )
+        found = free_joints(model, chain.full(a), keeps_approach=arm.tool.pick_approach is not None)
+        assert tuple(chain.actuated[i] for i in found) == free
+
+
+@pytest.mark.slow
+def test_the_camera_calibrates_the_5dof_kit_its_wrist_roll_too_narrowing_what_it_must(
+    tmp_path: Path,
+) -> None:
+    """Servos as published (spread 1): every joint servo fitted, the wrist roll from points
+    that turn it; limits a servo does not reach narrowed, said, and applied by a config
+    that uses the file, whose every joint is then inside its servo's pulse range."""
+    out = tmp_path / "five.servos.yaml"
+    argv = ["calibrate-servos", "--camera", "--simulate", "--config", str(FIVE_KITS),
+            *_sets(KIT), "--output", str(out)]  # fmt: skip
+    result = run_in_process(argv, within_s=120)
+    assert result.code == 0, result.stdout[-3000:] + result.stderr
+    fits = {a.name: a for a in load_servo_calibration(out).actuators}
+    kit = load_config(FIVE_KITS, KIT)
+    assert set(fits) == {j.name for j in kit.arm.actuated_joints()}
+    # the roll was turned over more than the scale needs, and fitted near the unit's truth
+    roll = [p.value for p in fits["wrist_roll"].points]
+    assert max(roll) - min(roll) >= 10.0, roll
+    limits = kit.arm.joint_limits()
+    for servo in TwinArm(kit).servos:
+        if servo.name not in ("wrist_roll", "base_yaw"):
+            continue  # the pitch is seen over a narrow band: its error grows beyond it
+        nominal, fit = servo.amap, fits[servo.name].servo
+        span = limits[servo.name]
+        pulses = np.linspace(max(fit.min_us, nominal.pulse_us(span.min)),
+                             min(fit.max_us, nominal.pulse_us(span.max)), 40)  # fmt: skip
+        true = np.array([servo.value_of(servo.target_of(p)) for p in pulses])
+        before = np.abs([nominal.value_of(p) for p in pulses] - true).max()
+        after = np.abs((pulses - fit.zero_us) / (fit.direction * fit.us_per_unit) - true).max()
+        assert after < 1.0 and after < 0.5 * before, (servo.name, before, after)
+    # narrowed where the fit reaches less, said so, and applied by the loader
+    narrowed_ones = [a for a in fits.values() if a.limits is not None]
+    assert narrowed_ones  # this kit's wrist servos reach less than ±90°
+    used = load_config(FIVE_KITS, [*KIT, f"servo.calibration_file={out}"])
+    for a in narrowed_ones:
+        assert f"{a.name}: limits narrowed from [" in result.stdout
+        got = used.arm.joint_limits()[a.name]
+        assert (got.min, got.max) == a.limits
+    for joint in used.arm.actuated_joints():
+        assert joint.servo is not None and joint.limits is not None
+        for end in (joint.limits.min, joint.limits.max):
+            assert joint.servo.pulse_problem(end) is None, (joint.name, end)
+
+
+def test_the_moves_keep_inside_limits_a_fit_narrowed():
+    """A config whose calibration narrowed a joint: the moves' checks take its limits, in
+    model units; the others stay the chain's."""
+    kit = load_config(FIVE_KITS)
+    chain = ArmModel(kit.arm).chain
+    narrowed = load_config(FIVE_KITS, ["arm.joints.wrist_roll.limits={min: -88.31, max: 86.59}"])
+    lower, upper = limits_of(chain, narrowed)
+    k = chain.actuated.index("wrist_roll")
+    assert (lower[k], upper[k]) == pytest.approx((math.radians(-88.31), math.radians(86.59)))
+    others = [i for i in range(chain.m) if i != k]
+    assert lower[others] == pytest.approx(chain.actuated_lower[others])
+    assert upper[others] == pytest.approx(chain.actuated_upper[others])

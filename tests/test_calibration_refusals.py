@@ -24,6 +24,8 @@ from mearm.config.servo_file import (
     fit_actuator,
     fit_span,
     load_servo_calibration,
+    narrowed,
+    narrowing_text,
     save_servo_calibration,
     servo_of,
 )
@@ -47,9 +49,11 @@ def _fit(config_path: Path, name: str, points: list[CalibrationPoint], span: boo
     return arm, fit_actuator(name, unit, servo_of(arm, name), points, ends)
 
 
-def test_the_issues_elbow_fit_is_refused_naming_the_range():
+def test_the_issues_elbow_fit_is_refused_naming_the_range_or_narrows_the_elbow():
     """Zero 1368 µs, 14.667 µs/deg: the forearm over the elbow's limits at home needs
-    488 µs, outside the SG90's 544–2400 µs; refused, naming what and by how much."""
+    488 µs, outside the SG90's 544–2400 µs; refused, naming what and by how much. Its
+    slope and zero within what real units and horns give, the fit narrows the elbow's
+    limits to what its servo reaches instead, and says so."""
     arm, fit = _fit(V1, "elbow", ISSUE_ELBOW)
     assert fit.servo.us_per_unit == pytest.approx(1320 / 90)  # no line nearer keeps it inside
     with pytest.raises(ServoCalibrationError) as caught:
@@ -58,6 +62,11 @@ def test_the_issues_elbow_fit_is_refused_naming_the_range():
     assert "elbow's servo (shoulder + elbow) over elbow's limits, the other joints at home" in text
     assert "[-60, 70] deg, at [488, 2395] µs, outside the servo's [544, 2400] µs" in text
     assert "redo the references" in text
+    fit = narrowed(arm, fit)
+    assert fit.limits == (-146.18, -20.0)  # (544 - 1368) / 14.667 less shoulder's home 90
+    check_fit(arm, fit, servo_of(arm, "elbow"))
+    text = narrowing_text(arm, fit)
+    assert "elbow: limits narrowed from [-150, -20] to [-146.18, -20] deg" in text
 
 
 @pytest.mark.parametrize(
@@ -107,18 +116,23 @@ def test_limits_that_span_the_whole_pulse_range_take_the_nearest_line_inside():
 
 @pytest.mark.heavy
 def test_a_refused_simulated_calibration_writes_nothing_and_exits_1(tmp_path, capsys):
-    """Read 10° off (a protractor misread), the 5-DOF base's fit leaves its pulse range
-    twice: exit 1, one line on stderr, the file already there untouched, no .bak."""
+    """Read 10° off (a protractor misread; reading seed 2), the 5-DOF shoulder's fit puts
+    its shaft 16° off the arm's at the neutral pulse twice, more than a unit's centring and
+    its horn's tooth give: exit 1, one line on stderr, the file already there untouched,
+    no .bak. (A fit that only misses the ends of a joint's limits narrows them instead.)"""
     arm, fit = _fit(FIVE_TWIN, "base_yaw", [CalibrationPoint(35, 950), CalibrationPoint(145, 2050)])
     cal = ServoCalibrationFile(arm.name, "before", "", "2026-01-01T00:00:00+00:00", (fit,))
     out = save_servo_calibration(tmp_path / "five.servos.yaml", cal)
     before = out.read_bytes()
     argv = ["--config", str(FIVE_TWIN), "--simulate", "--output", str(out), "--force"]
     with pytest.raises(SystemExit) as e:
-        calibrate_servos.run(calibrate_servos.main, [*argv, "--reading-error", "10"])
+        calibrate_servos.run(
+            calibrate_servos.main, [*argv, "--reading-error", "10", "--reading-seed", "2"]
+        )
     assert e.value.code == 1
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "fit refused twice" in err[0] and "nothing written" in err[0]
+    assert "off the arm's at the neutral 1500 µs" in err[0]
     assert out.read_bytes() == before
     assert sorted(p.name for p in tmp_path.iterdir()) == [out.name]
 

@@ -34,7 +34,9 @@ def test_sim_camera_shows_the_current_table() -> None:
     """Picked objects vanish from the next frame; bins are never drawn."""
     config = Config()
     world = World.from_config(config)
-    detector = ColorDetector.from_config(config)
+    detector = ColorDetector.from_config(
+        config.vision, config.calibration, config.camera, config.task.classes
+    )
     with SimCamera(config, world) as cam:
         assert len(detector.detect(cam.read())) == 12
         world.objects[0].held = True
@@ -76,7 +78,14 @@ def test_open_camera_shows_the_world_given() -> None:
     world.objects[0].bin = "red"
     with open_camera(config, world) as cam:
         assert cam.world is world
-        assert len(ColorDetector.from_config(config).detect(cam.read())) == 11
+        assert (
+            len(
+                ColorDetector.from_config(
+                    config.vision, config.calibration, config.camera, config.task.classes
+                ).detect(cam.read())
+            )
+            == 11
+        )
 
 
 def test_sim_object_of_an_unknown_class_is_an_error() -> None:

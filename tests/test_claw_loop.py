@@ -41,7 +41,7 @@ def _at(rig, config, point):
     for target in ((x, y, z + 3.0), (x, y, z)):
         route = Route("", "", "approach", 1, IKTarget(target))
         assert planner.plan(route, ex.q_now()).planned, route.failure
-        ex.stream(route, "travel", False)
+        ex.stream(route, "travel", closed=False)
     rig.bus.hold(0.3)
     return ex.q_now()
 
@@ -55,7 +55,7 @@ def _true_marker_cm(bus):
 
 def test_the_claw_marker_is_seen_where_the_twin_has_it():
     config = load_config(PERSPECTIVE)
-    camera = camera_geometry(config)
+    camera = camera_geometry(config.calibration, config.camera)
     with open_rig(config) as rig:
         rig.bus.connect()
         eye = claw_eye(config, rig.model, camera, rig.camera.read, rig.bus.hold)
@@ -74,7 +74,7 @@ def test_the_claw_marker_is_seen_where_the_twin_has_it():
 
 def test_no_eye_without_a_marker_a_perspective_camera_or_the_wish():
     config = load_config(PERSPECTIVE)
-    camera = camera_geometry(config)
+    camera = camera_geometry(config.calibration, config.camera)
     model = None  # not needed for the refusals
 
     def eye(c, geometry=camera):
@@ -88,7 +88,9 @@ def test_no_eye_without_a_marker_a_perspective_camera_or_the_wish():
     assert (
         eye(
             load_config(ROOT / "configs" / "sim_mujoco.yaml"),
-            camera_geometry(load_config(ROOT / "configs" / "sim_mujoco.yaml")),
+            camera_geometry(
+                (mj := load_config(ROOT / "configs" / "sim_mujoco.yaml")).calibration, mj.camera
+            ),
         )
         is None
     )  # a homography: no
@@ -107,11 +109,11 @@ def test_the_fit_recovers_a_kits_servos_from_what_the_camera_sees():
     config = load_config(
         PERSPECTIVE, ["twin.kit.seed=11", "twin.kit.spread=1", "twin.kit.per_trial=false"]
     )
-    camera = camera_geometry(config)
+    camera = camera_geometry(config.calibration, config.camera)
     from mearm.config.servo_models import servo_named
     from mearm.kinematics.bodies import marker_in_tcp
 
-    face = marker_in_tcp(config, servo_named(config.twin.gripper_servo))
+    face = marker_in_tcp(config.arm, servo_named(config.twin.gripper_servo))
     with open_rig(config) as rig:
         rig.bus.connect()
         smap = rig.bus.servo_map

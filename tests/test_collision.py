@@ -9,14 +9,16 @@ import pytest
 from conftest import ROOT
 
 from mearm.config import Config, SceneObject, load_config
+from mearm.config.belt_config import belt_classes
 from mearm.exceptions import ServoStallError, SimCollisionError
 from mearm.hardware.bus import ArmCommand
 from mearm.ik import IKTarget
 from mearm.kinematics import ArmModel
-from mearm.kinematics.bodies import M_PER_CM, bin_shapes
+from mearm.kinematics.bodies import M_PER_CM, TableContents, bin_shapes, wall_height_m
 from mearm.kinematics.collision import TOUCH_CM, CollisionModel
 from mearm.sim.kinematic.servo_bus import SimArm
 from mearm.sim.kinematic.world import World
+from mearm.sim.table_collision import collision_model
 from mearm.sim.twin.mjcf import twin_model
 from mearm.sim.twin.twin_bus import TwinArm
 from mearm.task.plan import Planner
@@ -40,7 +42,7 @@ def test_the_collision_model_is_the_twins_body(name: str) -> None:
     m = twin_model(config)
     d = mujoco.MjData(m)
     model = ArmModel(config.arm)
-    collision = CollisionModel(config, model)
+    collision = collision_model(config, model)
     half = config.arm.tool.gripper.open_cm * 0.01 / 2
     rng = np.random.default_rng(7)
     names = [o.name for o in collision.geometry.geometryObjects][: collision._na]
@@ -74,9 +76,24 @@ def _half_size(obj: pin.GeometryObject) -> np.ndarray:
 def test_the_bins_are_the_twins_bins() -> None:
     config = _config("sim_mujoco")
     m = twin_model(config)
-    for c in config.task.classes:
-        for shape in bin_shapes(config, c.name):
+    table = TableContents.of(config.task, config.belt)
+    for c in table.classes:
+        for shape in bin_shapes(c, table.objects(c.name)):
             assert np.allclose(m.geom(shape.name).size, shape.size)
+
+
+def test_the_table_counts_the_scene_and_the_belt() -> None:
+    """Each bin's walls hold every object of its class, the scene's and the belt's, and one more."""
+    config = _config("sim_conveyor")
+    table = TableContents.of(config.task, config.belt)
+    brought = belt_classes(config.belt, config.task.classes)
+    assert brought, "the conveyor's belt brings objects"
+    for c in config.task.classes:
+        n = sum(o.color == c.name for o in config.task.scene) + brought.count(c.name)
+        assert table.objects(c.name) == n
+        assert wall_height_m(c, n) >= (n + 1) * c.height_cm * M_PER_CM
+    with pytest.raises(KeyError):
+        table.class_named("purple")
 
 
 # --------------------------------------------------------------------------- a bin wall
@@ -87,7 +104,7 @@ def _across_the_red_bin() -> tuple[Config, ArmModel, Planner, np.ndarray, IKTarg
     target just right of it: the straight way runs through the bin's walls."""
     config = _config("sim_mujoco", "task.scene=[]")
     model = ArmModel(config.arm)
-    planner = Planner(config, model, CollisionModel(config, model))
+    planner = Planner(config, model, collision_model(config, model))
     red = config.task.class_named("red")
     x, y = red.bin_cm[0], red.bin_cm[1]
     out = red.bin_inner_width_cm / 2 + 5.0
@@ -106,7 +123,7 @@ def test_a_route_across_a_bin_goes_up_over_and_down() -> None:
     route = planner.plan(Route("", "red", "pick", 1, target), q0)
     assert route.planned and route.detour_cm is not None and route.plan is not None
     assert planner.collision.first_contact(route.plan.q_path) is None
-    walls = max(float(s.size[2] * 2) for s in bin_shapes(config, "red")) * 100
+    walls = max(float(s.size[2] * 2) for s in bin_shapes(config.task.class_named("red"), 0)) * 100
     assert route.detour_cm > walls
     z = route.plan.ee_path_cm[:, 2]
     assert z.max() >= route.detour_cm - 0.1  # it went up there
@@ -188,7 +205,7 @@ def _stream_timed(arm: TwinArm, model: ArmModel, q_path: np.ndarray, config: Con
 def _blocking_pair(config: Config) -> list[SceneObject]:
     """Two objects each of which a jaw of the other's pick comes down on."""
     model = ArmModel(config.arm)
-    collision = CollisionModel(config, model)
+    collision = collision_model(config, model)
     g = config.arm.tool.gripper
     across = collision.bodies.across
     red = config.task.class_named("red")
@@ -208,7 +225,7 @@ def test_a_pick_with_a_neighbour_under_a_jaw_is_refused_naming_both() -> None:
     config = _config("sim_mujoco", "task.scene=[]")
     scene = _blocking_pair(config)
     model = ArmModel(config.arm)
-    collision = CollisionModel(config, model)
+    collision = collision_model(config, model)
     planner = Planner(config, model, collision)
     red = config.task.class_named("red")
     collision.set_world([("red1", "red", scene[0].x, scene[0].y),
@@ -270,7 +287,7 @@ def test_a_gripper_servo_of_fine_units_does_not_slow_the_check() -> None:
     for overrides in ((), ("arm.tool.gripper.servo.us_per_unit=0.1",)):
         config = _config("sim", *overrides)
         model = ArmModel(config.arm)
-        c = CollisionModel(config, model)
+        c = collision_model(config, model)
         lo, hi = model.chain.actuated_lower, model.chain.actuated_upper
         path = np.array([model.chain.full(lo + f * (hi - lo)) for f in (0.3, 0.5, 0.7)])
         assert c.first_contact(path) is None
@@ -291,7 +308,7 @@ def _held_beside_the_wall() -> tuple[Config, ArmModel, Planner, np.ndarray]:
     """The paper's twin arm holding a green object 0.1 cm from the green bin's +x wall."""
     config = _config("sim_mujoco", "task.scene=[]")
     model = ArmModel(config.arm)
-    collision = CollisionModel(config, model, clearance_cm=config.task.clearance_cm)
+    collision = collision_model(config, model, clearance_cm=config.task.clearance_cm)
     planner = Planner(config, model, collision)
     green = config.task.class_named("green")
     x = green.bin_cm[0] + green.bin_inner_width_cm / 2 + 0.3 + 0.1 + green.diameter_cm / 2
@@ -334,7 +351,7 @@ def test_a_start_within_the_clearance_may_be_left_but_never_closer() -> None:
     down = c.first_contact(path_to(0.5, 0.0, -0.5))  # away from the wall, into the table
     assert down is not None and down.obstacle == "table" and down.start_cm is None
     # a blue just beyond the clearance on the side it moves away to: refused on the way
-    bare = CollisionModel(config, model, clearance_cm=config.task.clearance_cm, bins=[])
+    bare = collision_model(config, model, clearance_cm=config.task.clearance_cm, bins=[])
     for bx in np.arange(x + 1.0, x + 6.0, 0.05):
         bare.set_world([("blue1", "blue", bx, y)], held=("green1", "green"))
         if bare.gap(q0)[0] >= TOUCH_CM * M_PER_CM:

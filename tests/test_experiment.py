@@ -234,7 +234,7 @@ def rig(tmp_path: Path, config) -> Path:
 
     frames = tmp_path / "frames"
     frames.mkdir()
-    empty = SimCamera(config, World(bins_cm={c.name: c.bin_cm for c in config.task.classes})).read()
+    empty = SimCamera(config, World(bins={c.name: c for c in config.task.classes})).read()
     cv2.imwrite(str(frames / "table.png"), empty)  # an empty table: each trial ends at once
     cfg = tmp_path / "rig.yaml"
     cfg.write_text(f"camera:\n  kind: folder\n  path: {frames}\n  loop: true\n")

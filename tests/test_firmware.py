@@ -129,7 +129,8 @@ def wait_for_pulses(chip: SimavrBoard, after_ms: int, frames: int = 5) -> list[l
 def test_host_drives_the_firmware(chip):
     """The real ArduinoBus drives the real firmware: handshake, moves, query, stop; the
     Timer1 pulses measured in CPU cycles are the commanded ones to within 1 µs."""
-    with ArduinoBus(sim_config(chip.port)) as bus:
+    config = sim_config(chip.port)
+    with ArduinoBus(config.arm, config.servo) as bus:
         assert bus.banner == b"READY mearm_servo 1.0 5*25"
         assert (bus.firmware.version, bus.firmware.servo_count) == ("1.0", 5)
         assert chip.pulses == []  # no pulses before the first move

@@ -32,7 +32,7 @@ from mearm.hardware.mearm_protocol import encode_command
 
 
 def pulses_of(cmd: ArmCommand) -> list[int]:
-    return list(ServoMap.from_config(Config()).pulses_us(cmd).values())
+    return list(ServoMap.from_arm(Config().arm).pulses_us(cmd).values())
 
 
 def connected(board: FakeMearmBoard, **servo) -> ArduinoBus:
@@ -384,8 +384,8 @@ def test_reconnect_after_fault_clears_it():
 
 def test_pacing_never_faster_than_the_baud_rate():
     """At 9600 baud a 42-byte move + ack takes 43.8 ms: the period grows past 1/50 s."""
-    slow = ArduinoBus(fast_config("serial", rate_hz=50.0, baud=9600))
-    fast = ArduinoBus(fast_config("serial", rate_hz=50.0, baud=115200))
+    slow = open_bus(fast_config("serial", rate_hz=50.0, baud=9600))
+    fast = open_bus(fast_config("serial", rate_hz=50.0, baud=115200))
     assert slow.wire_bytes_per_move == len(b"255 M 2500 2500 2500 2500 2500*00\n") + 10
     assert slow.period_s == pytest.approx(10 * slow.wire_bytes_per_move / 9600)
     assert slow.period_s > 1 / 50
@@ -400,7 +400,7 @@ def test_a_stream_at_a_low_baud_steps_as_far_as_the_period_allows():
     durations = {}
     for baud in (9600, 115200):
         config = fast_config("serial", rate_hz=50.0, baud=baud)
-        bus = ArduinoBus(config)
+        bus = ArduinoBus(config.arm, config.servo)
         executor, timed = timed_move(config, bus, 0.2)
         assert bus.step_s == bus.period_s and timed.period_s == bus.period_s
         assert executor.motion.stream_hz == pytest.approx(1.0 / bus.period_s)

@@ -18,7 +18,7 @@ from mearm.hardware import ActuatorMap, ArmCommand, ArmState, ServoMap
 from mearm.hardware.mapping import PlayCompensation
 from mearm.sim import quantize_deg
 
-SMAP = ServoMap.from_config(Config())
+SMAP = ServoMap.from_arm(Config().arm)
 BASE, SHOULDER, ELBOW = SMAP.joints
 GRIPPER_ARM = SMAP["gripper_arm"]
 
@@ -65,7 +65,7 @@ def test_tool_actuator_limit_refused():
 
 def test_prismatic_limit_names_its_unit():
     """A prismatic joint (a rail) is limited in cm and the error says so."""
-    rail = ServoMap.from_config(config_from_dict({"arm": planar_yaw_arm_data(rail=True)}))["rail"]
+    rail = ServoMap.from_arm(config_from_dict({"arm": planar_yaw_arm_data(rail=True)}).arm)["rail"]
     assert rail.unit == "cm" and rail.command_us(2.0) == 1200
     with pytest.raises(JointLimitError, match=r"rail = 11 cm is outside its limits \[0, 10\] cm"):
         rail.check(11.0)
@@ -104,7 +104,7 @@ def test_pulses_of_a_command():
     assert SMAP.pulses_us(HOME) == {0: 1800, 1: 1530, 2: 1080, 3: 2100, 4: 1000}
     closed = command(120, 93, -132, 60, closed=True)
     assert SMAP.pulses_us(closed)[4] == 1900
-    assert SMAP.gripper.command_us(SMAP.gripper_opening_cm(False)) == 1000
+    assert SMAP.gripper.command_us(SMAP.gripper_opening_cm(closed=False)) == 1000
     assert ArmCommand.home(Config().arm) == HOME
 
 
@@ -169,7 +169,7 @@ def test_five_joint_arm_channels():
     """The 5-joint desk arm (configs/sim_5dof.yaml): five joints and the gripper, each on
     its own channel, every home pulse within its servo's range."""
     cfg = load_config(ROOT / "configs" / "sim_5dof.yaml")
-    smap = ServoMap.from_config(cfg)
+    smap = ServoMap.from_arm(cfg.arm)
     assert smap.joint_names == ("base_yaw", "shoulder", "elbow", "wrist_pitch", "wrist_roll")
     assert smap.tool_names == ()
     assert smap.channels == (0, 1, 2, 3, 4, 5)
@@ -181,7 +181,7 @@ def test_mearm_v1_home_pulses_in_range():
     """The MeArm v1 (configs/sim_mearm_v1.yaml, 544..2400 µs servos): home and both
     gripper settings give pulses within each servo's range."""
     cfg = load_config(ROOT / "configs" / "sim_mearm_v1.yaml")
-    smap = ServoMap.from_config(cfg)
+    smap = ServoMap.from_arm(cfg.arm)
     home = ArmCommand.home(cfg.arm)
     for closed in (False, True):
         pulses = smap.pulses_us(dataclasses.replace(home, gripper_closed=closed))
@@ -258,14 +258,14 @@ def test_records():
 #: Every config shipped in configs/ (the reference arms, their twins and rigs).
 ALL_CONFIGS = sorted(p.name for p in (ROOT / "configs").glob("*.yaml"))
 MEARM = load_config(ROOT / "configs" / "sim_mearm_v1.yaml")
-MEARM_SMAP = ServoMap.from_config(MEARM)
+MEARM_SMAP = ServoMap.from_arm(MEARM.arm)
 
 
 def _random_commands(config: Config, n: int, seed: int) -> list[ArmCommand]:
     """Commands with every actuated joint uniform within its limits whose servo values
     map into their pulse ranges (a servo over a combination leaves some poses out)."""
     rng = np.random.default_rng(seed)
-    smap = ServoMap.from_config(config)
+    smap = ServoMap.from_arm(config.arm)
     tool = {a.name: a.home for a in config.arm.tool.actuators}
     out: list[ArmCommand] = []
     while len(out) < n:
@@ -285,7 +285,7 @@ def test_joints_to_pulses_to_joints_round_trips(name):
     integer pulses the bus sends map back to the joints within their half-microsecond
     steps carried through the inverse of the servos' combinations."""
     config = load_config(ROOT / "configs" / name)
-    smap = ServoMap.from_config(config)
+    smap = ServoMap.from_arm(config.arm)
     A, _ = config.arm.servo_matrix()
     inv = np.abs(np.linalg.inv(A))
     half_step = np.array([0.5 / j.us_per_unit for j in smap.joints])  # of each servo's value
@@ -308,7 +308,7 @@ def test_a_servo_without_drives_turns_its_joint_alone(name):
     config = load_config(ROOT / "configs" / name)
     A, a = config.arm.servo_matrix()
     assert np.array_equal(A, np.eye(len(A))) and not a.any()
-    smap = ServoMap.from_config(config)
+    smap = ServoMap.from_arm(config.arm)
     assert not any(j.combined or j.terms for j in smap.joints)
     for cmd in _random_commands(config, 50, seed=3):
         pulses = smap.pulses_us(cmd)
@@ -429,6 +429,6 @@ def test_a_map_without_play_compensates_nothing():
 def test_play_in_the_calibration_reaches_the_map():
     """``servo.play_us`` reaches the actuator map; more than 100 µs is refused."""
     config = load_config(ROOT / "configs" / "sim.yaml", ["arm.joints.base.servo.play_us=9.5"])
-    assert ServoMap.from_config(config)["base"].play_us == 9.5
+    assert ServoMap.from_arm(config.arm)["base"].play_us == 9.5
     with pytest.raises(ConfigError, match="play_us"):
         load_config(ROOT / "configs" / "sim.yaml", ["arm.joints.base.servo.play_us=101"])

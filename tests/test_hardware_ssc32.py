@@ -182,7 +182,7 @@ def test_version_line_ending_cr_lf():
 def test_wire_bytes_per_move():
     """Move, status query and its answer: the period is the move's T and all of them on
     the wire, which cannot overlap the glide (the answer must say done)."""
-    bus = SSC32Bus(fast_config("ssc32", rate_hz=50.0, baud=2400))
+    bus = open_bus(fast_config("ssc32", rate_hz=50.0, baud=2400))
     move = len(b"#0P2500#1P2500#2P2500#3P2500#4P2500T65535\r")
     assert bus.wire_bytes_per_move == move + len(b"Q\rQP0\rQP1\rQP2\rQP3\rQP4\r") + 6
     assert bus.move_time_ms == 20
@@ -215,7 +215,7 @@ def test_a_stream_takes_a_period_a_step_and_glides_each_within_the_speed_limits(
     import numpy as np
 
     config = fast_config("ssc32", rate_hz=50.0, baud=baud)
-    bus = SSC32Bus(config)
+    bus = SSC32Bus(config.arm, config.servo)
     executor, timed = timed_move(config, bus, 0.3)
     chain = executor.chain
     steps = len(timed.q) - 1

@@ -19,7 +19,7 @@ def model(config):
 
 @pytest.fixture(scope="module")
 def routes(config):
-    return demo_routes(config)
+    return demo_routes(config.arm.tool, config.task)
 
 
 @pytest.fixture(scope="module")
@@ -146,7 +146,7 @@ def test_bench_rejects_unknown_section():
 def test_demo_routes_follow_the_config(config):
     """Class order, grip height, TCP height above the grip and pick approach are data."""
     desk = load_config(ROOT / "configs" / "sim_5dof.yaml")
-    routes = demo_routes(desk)
+    routes = demo_routes(desk.arm.tool, desk.task)
     assert len(routes) == 2 * len(desk.task.scene)
     assert [r.class_name for r in routes[::2]] == [
         o.color for c in desk.task.classes for o in desk.task.scene if o.color == c.name
@@ -159,14 +159,15 @@ def test_demo_routes_follow_the_config(config):
     reordered = config.model_copy(
         update={"task": config.task.model_copy(update={"classes": config.task.classes[::-1]})}
     )
-    assert demo_routes(reordered)[0].name == "blue1"
+    assert demo_routes(reordered.arm.tool, reordered.task)[0].name == "blue1"
 
 
 def test_desk_arm_runs_its_demo_from_above():
     """The 5-DOF arm's demo: every route converges with the gripper pointing down."""
     desk = load_config(ROOT / "configs" / "sim_5dof.yaml")
     model = ArmModel(desk.arm)
-    results = run_routes(PdPij(model, desk.controller), model.home, demo_routes(desk))
+    routes = demo_routes(desk.arm.tool, desk.task)
+    results = run_routes(PdPij(model, desk.controller), model.home, routes)
     for r in results:
         assert r.converged and r.final_approach_error_deg < 0.5
 

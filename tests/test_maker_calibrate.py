@@ -208,7 +208,7 @@ SIM_OFFSETS = {"base": 2.5, "shoulder": -3.0, "elbow": 4.0}
 
 def sim_truth() -> dict[str, TrueServo]:
     """The sim realises value_of_config(pulse) + offset: a servo with zero shifted by it."""
-    smap = ServoMap.from_config(load_config(ROOT / "configs" / "sim.yaml"))
+    smap = ServoMap.from_arm(load_config(ROOT / "configs" / "sim.yaml").arm)
     out = {}
     for a in smap.joints:
         off = SIM_OFFSETS[a.name]
@@ -237,7 +237,7 @@ def test_calibrate_on_the_sim_fits_the_simulated_servos(tmp_path):
     finally:
         cmd.close()
     config = load_config(ROOT / "configs" / "sim.yaml")
-    smap = ServoMap.from_config(config)
+    smap = ServoMap.from_arm(config.arm)
     refs = {a.name: reference_values(a.lower, a.upper, a.unit) for a in smap.joints}
     check_fit(out, sim_truth(), refs)
     # the screen showed the simulated joint at the reference when it was recorded
@@ -381,7 +381,7 @@ def test_calibrate_on_a_board_fits_its_servos_and_sends_only_allowed_pulses(boar
     out = tmp_path / "servos.yaml"
     cmd = PtyCommand(*_args(out, *serial_args(board.port)))
     config = load_config(ROOT / "configs" / "sim.yaml")
-    smap = ServoMap.from_config(config)
+    smap = ServoMap.from_arm(config.arm)
     try:
         cmd.expect(r"connected: mearm_servo 1\.0 5 on ")
         # first actuator: hammer 20 µs steps far past the end of its range, then operate
@@ -444,7 +444,7 @@ def test_ctrl_c_writes_nothing_and_leaves_the_arm(board, tmp_path):
         cmd.expect(r"base: pulse (\d+) µs")
         cmd.send("3++")
         cmd.expect(r"base: pulse \d+ µs  step 20")
-        channels = ServoMap.from_config(load_config(ROOT / "configs" / "sim.yaml")).channels
+        channels = ServoMap.from_arm(load_config(ROOT / "configs" / "sim.yaml").arm).channels
         held = board.steady_pulses_us(channels)
         moves = board.move_count()
         cmd.send("\x03")
@@ -680,7 +680,7 @@ def test_calibrate_a_servo_that_turns_shoulder_plus_elbow(tmp_path):
     out = tmp_path / "servos.yaml"
     cmd = PtyCommand(*_args(out, "--config", str(MEARM), "--actuators", "elbow"))
     config = load_config(MEARM)
-    truth = ServoMap.from_config(config)["elbow"]  # the sim's servo is the config's
+    truth = ServoMap.from_arm(config.arm)["elbow"]  # the sim's servo is the config's
     try:
         cmd.expect(r"\[1/1\] elbow \(joint, channel 2\): its servo turns shoulder \+ elbow: "
                    r"\[-75, 75\] deg")  # fmt: skip
@@ -834,7 +834,7 @@ def test_the_pose_for_a_joints_references_moves_only_what_it_must():
         (MEARM, "elbow", {"base": 60.0, "shoulder": 90.0}),
     ):
         config = load_config(config_path)
-        smap = ServoMap.from_config(config)
+        smap = ServoMap.from_arm(config.arm)
         act = {a.name: a for a in actuators_of(config)}[name]
         home = smap.servo_values(config.arm.home())
         assert reference_pose(smap, act, others, home) == others

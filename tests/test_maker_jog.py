@@ -43,7 +43,7 @@ def board(request: pytest.FixtureRequest) -> Iterator[BoardUnderTest]:
 
 CONFIG = load_config(SIM)
 MODEL = ArmModel(CONFIG.arm)
-SMAP = ServoMap.from_config(CONFIG)
+SMAP = ServoMap.from_arm(CONFIG.arm)
 #: Cartesian steps land within the IK tolerance of their target: |e|² < tolerance_cm2.
 IK_TOL_CM = float(np.sqrt(CONFIG.controller.tolerance_cm2))
 #: Default step index 2: 2° per joint step, 1 cm per TCP step.

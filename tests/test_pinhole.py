@@ -128,10 +128,10 @@ def test_a_config_selects_the_perspective_model_by_its_files(tmp_path) -> None:
         "  extrinsics_file: pose.yaml\n"
     )
     config = load_config(cfg)
-    geometry = camera_geometry(config)
+    geometry = camera_geometry(config.calibration, config.camera)
     assert isinstance(geometry, PerspectiveCamera)
     assert np.allclose(geometry.centre_cm, cam.centre_cm)
-    assert isinstance(camera_geometry(Config()), Calibration)
+    assert isinstance(camera_geometry(Config().calibration, Config().camera), Calibration)
     cfg.write_text("calibration:\n  model: perspective\n  intrinsics_file: intrinsics.yaml\n")
     with pytest.raises(ConfigError, match="needs extrinsics_file"):
         load_config(cfg)

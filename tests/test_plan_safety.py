@@ -259,7 +259,7 @@ def test_a_plan_past_a_combined_servos_pulse_range_is_refused_and_not_sent(monke
     scene = [SceneObject(color="red", x=0.0, y=12.0), config.task.scene[0]]
     report = run_sort(config, scene=scene, echo=None)
     assert report.outcome.left == {"limit": 1} and report.outcome.n_sorted == 1
-    smap = ServoMap.from_config(config)
+    smap = ServoMap.from_arm(config.arm)
     for joints in sent:  # every command sent was inside every servo's pulse range
         for name, value in smap.servo_values(joints).items():
             lo, hi = smap[name].pulse_limits
@@ -279,7 +279,7 @@ def test_a_solve_that_swings_a_combined_servo_past_its_range_becomes_a_joint_mov
     start = np.array([2.1013, 0.8934, -2.1775, 1.2841])
     target = IKTarget((5.2439, 18.1416, 3.2690))
     direct = planner.solver.solve(target, start)
-    smap = ServoMap.from_config(config)
+    smap = ServoMap.from_arm(config.arm)
     lo, hi = smap["elbow"].pulse_limits
 
     def elbow_servo(q_path: np.ndarray) -> np.ndarray:

@@ -88,12 +88,12 @@ def test_red_cubes_and_red_cylinders_go_to_their_own_bins_in_the_twin() -> None:
 
 def _planner(name: str):
     from mearm.kinematics import ArmModel
-    from mearm.kinematics.collision import CollisionModel
+    from mearm.sim.table_collision import collision_model
     from mearm.task.plan import Planner
 
     config = load_config(ROOT / "configs" / f"{name}.yaml")
     model = ArmModel(config.arm)
-    return config, Planner(config, model, CollisionModel(config, model))
+    return config, Planner(config, model, collision_model(config, model))
 
 
 def test_the_wrist_roll_turns_the_jaws_to_a_cubes_faces() -> None:

@@ -119,10 +119,14 @@ def test_a_tool_setting_takes_its_slowest_servo_and_the_settle_time():
     grip = {arm.name: arm.grip}
     stroke_s = (tool.gripper.open_cm - tool.gripper.closed_cm) / tool.gripper.servo.max_speed()
     turn_s = abs(arm.grip - arm.travel) / arm.servo.max_speed()
-    assert tool_move_s(tool, grip, False, grip, True) == pytest.approx(stroke_s + tool.settle_s)
-    assert tool_move_s(tool, travel, False, grip, False) == pytest.approx(turn_s + tool.settle_s)
-    assert tool_move_s(tool, grip, True, grip, True) == 0.0
-    assert tool_move_s(tool, None, None, grip, True) == tool.settle_s
+    assert tool_move_s(tool, grip, grip, before_closed=False, after_closed=True) == pytest.approx(
+        stroke_s + tool.settle_s
+    )
+    assert tool_move_s(
+        tool, travel, grip, before_closed=False, after_closed=False
+    ) == pytest.approx(turn_s + tool.settle_s)
+    assert tool_move_s(tool, grip, grip, before_closed=True, after_closed=True) == 0.0
+    assert tool_move_s(tool, None, grip, before_closed=None, after_closed=True) == tool.settle_s
 
 
 def test_the_motion_line_says_what_it_counts():
@@ -233,6 +237,6 @@ def test_the_view_is_shown_at_most_sixty_times_a_second_and_every_routes_end(rat
         )
         assert route.planned and route.plan is not None
         sent = len(ex.timed(route.plan.q_path).q) - 1
-        ex.stream(route, "travel", False)
+        ex.stream(route, "travel", closed=False)
     assert len(spy.shown) == -(-sent // every)  # every k-th move, and the last if it was not
     np.testing.assert_allclose(spy.shown[-1], ex.q_now(), atol=1e-12)

@@ -49,7 +49,9 @@ def tracked():
     world = World.from_config(config)
     camera = SimCamera(config, world)
     calibration = Calibration.from_config(config.calibration)
-    detector = ColorDetector.from_config(config)
+    detector = ColorDetector.from_config(
+        config.vision, config.calibration, config.camera, config.task.classes
+    )
     vx, vy = (float(v) for v in Belt(config.belt).velocity_cm_s)
     tracker = Tracker(config.belt.tracking, (vx, vy))  # as the conveyor sorter makes it
     first = world.objects[0]

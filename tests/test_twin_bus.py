@@ -461,7 +461,7 @@ def test_the_mearm_elbow_servo_drives_the_forearm_whatever_the_shoulder(mearm, s
     planned = {"base": 90.0, "shoulder": shoulder, "elbow": forearm - shoulder}
     executor = Executor(config, arm, model)
     executor.home_pose()
-    executor.move_joints(model.chain.from_named(planned), "home", False)
+    executor.move_joints(model.chain.from_named(planned), "home", closed=False)
     pulses = arm.servo_map.pulses_us(arm.state.to_command())
     elbow_servo = arm.servo_map["elbow"]
     assert pulses[elbow_servo.channel] == (915 if forearm < 0 else 2029)  # 36 / 144 servo °

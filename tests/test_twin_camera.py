@@ -341,7 +341,9 @@ def test_the_detector_finds_the_same_objects_in_the_sorters_frame(name):
 
     config = load_config(CONFIGS / name)
     twin = TwinArm(config)
-    detector = ColorDetector(config.vision, camera_geometry(config), config.task.classes)
+    detector = ColorDetector(
+        config.vision, camera_geometry(config.calibration, config.camera), config.task.classes
+    )
     found = []
     try:
         for kwargs in ({}, {"msaa_samples": SORTER_MSAA_SAMPLES, "shadows": SORTER_SHADOWS}):

@@ -22,6 +22,7 @@ from mearm.exceptions import ViewError, ViewInputError
 from mearm.kinematics import ArmModel
 from mearm.kinematics.bodies import bin_shapes, object_centre_m
 from mearm.kinematics.collision import CollisionModel
+from mearm.sim.table_collision import collision_model
 from mearm.sort import main as sort_main
 from mearm.tools import preview
 from mearm.view import ArmView
@@ -39,7 +40,7 @@ def view(model: ArmModel):
 
 @pytest.fixture
 def collision(model: ArmModel) -> CollisionModel:
-    return CollisionModel(CONFIG, model, clearance_cm=CONFIG.task.clearance_cm)
+    return collision_model(CONFIG, model, clearance_cm=CONFIG.task.clearance_cm)
 
 
 def drawn(view: ArmView, prefix: str) -> set[str]:
@@ -49,7 +50,7 @@ def drawn(view: ArmView, prefix: str) -> set[str]:
 
 
 def bin_names() -> set[str]:
-    return {s.name for c in CONFIG.task.classes for s in bin_shapes(CONFIG, c.name)}
+    return {s.name for c in CONFIG.task.classes for s in bin_shapes(c, 0)}
 
 
 def placements(collision: CollisionModel, q: np.ndarray) -> dict[str, np.ndarray]:
@@ -201,7 +202,8 @@ def test_a_tracked_model_follows_the_views_objects_and_jaws(
     assert len(objects) == 2
     centres = sorted(tuple(tree[f"/meshcat/collision/world/{n}"]["transform"][:3, 3])
                      for n in objects)  # fmt: skip
-    expected = sorted(tuple(object_centre_m(CONFIG, c, x, y)) for _, c, x, y in placed)
+    task = CONFIG.task
+    expected = sorted(tuple(object_centre_m(task.class_named(c), x, y)) for _, c, x, y in placed)
     np.testing.assert_allclose(centres, expected, atol=1e-12)
 
     gaps = {}
@@ -224,7 +226,7 @@ def test_collision_input_is_checked_and_nothing_changes(view: ArmView, collision
     with pytest.raises(ViewInputError, match="collision = 'planner'.*CollisionModel"):
         view.show_collision("planner")  # type: ignore[arg-type]
     other = load_config(ROOT / "configs" / "sim_5dof.yaml")
-    five = CollisionModel(other, ArmModel(other.arm))
+    five = collision_model(other, ArmModel(other.arm))
     with pytest.raises(ViewInputError, match=r"this view's arm \(joints: base, shoulder"):
         view.show_collision(five)
     with pytest.raises(ViewInputError, match="q = "):
@@ -240,12 +242,12 @@ def test_collision_input_is_checked_and_nothing_changes(view: ArmView, collision
 
 
 def test_the_route_lines_hide_and_show(view: ArmView):
-    """show_paths(False) hides every line, those added or cleared later too; the lines
-    stay in the scene; show_paths(True) shows them again."""
+    """show_paths(visible=False) hides every line, those added or cleared later too; the lines
+    stay in the scene; show_paths(visible=True) shows them again."""
     line = np.array([[-20.0, 35.0, 20.0], [-0.75, 53.72, 12.76]])
     view.add_path(line, "#c81e23")
     assert view.paths_shown
-    view.show_paths(False)
+    view.show_paths(visible=False)
     view.add_path(line + 1.0)
     assert not view.paths_shown and view.paths == ["route1", "route2"]
     assert drawn(view, "paths") == {"route1", "route2"}
@@ -253,7 +255,7 @@ def test_the_route_lines_hide_and_show(view: ArmView):
     view.clear_paths()
     view.add_path(line)
     assert scene(view)["/meshcat/paths"]["properties"]["visible"] is False
-    view.show_paths(True)
+    view.show_paths(visible=True)
     assert view.paths_shown
     assert scene(view)["/meshcat/paths"]["properties"]["visible"] is True
     assert drawn(view, "paths") == {"route1"}
@@ -264,7 +266,7 @@ def test_the_route_lines_hide_and_show(view: ArmView):
 @pytest.mark.parametrize("bad", ["no", 0, None, 1.0])
 def test_show_paths_takes_a_bool(view: ArmView, bad):
     with pytest.raises(ViewInputError, match="visible = .*: expected True or False"):
-        view.show_paths(bad)
+        view.show_paths(visible=bad)
     assert view.paths_shown
 
 
@@ -272,7 +274,7 @@ def test_a_closed_view_refuses_the_toggles(model: ArmModel, collision: Collision
     v = ArmView(model, CONFIG, port=0)
     v.close()
     for call in (lambda: v.show_collision(collision), v.hide_collision,
-                 lambda: v.show_paths(False)):  # fmt: skip
+                 lambda: v.show_paths(visible=False)):  # fmt: skip
         with pytest.raises(ViewError, match="closed"):
             call()
 

@@ -231,7 +231,7 @@ def test_without_the_twin_the_view_shows_the_commanded_joints():
             q = rig.model.home.copy()
             q[0] += np.radians(10)
             q = rig.model.chain.full(rig.model.chain.actuated_of(q))
-            ex.send(q, "travel", False)
+            ex.send(q, "travel", closed=False)
             np.testing.assert_allclose(view.joints, q)
             view.set_objects([("red1", "red", -0.4, 42.0)])
             assert not view.twin_shown and view.bodies == {}
@@ -248,10 +248,10 @@ def test_twin_executor_pushes_at_most_every_nth_move_and_always_at_route_ends():
             q[0] -= np.radians(60)  # 60° within the servos' speed and acceleration
             moves = len(ex.timed(ex.joint_path(q)).q) - 1
             assert moves > 5
-            ex.move_joints(q, "travel", False)
+            ex.move_joints(q, "travel", closed=False)
             # after every 5th move, and at the path's end
             assert len(view.pushes) == moves // 5 + (moves % 5 != 0)
-            ex.set_tool("travel", True)  # the tool: one move, the hold, then a push
+            ex.set_tool("travel", closed=True)  # the tool: one move, the hold, then a push
             assert len(view.pushes) == moves // 5 + (moves % 5 != 0) + 1
             assert view.pushes[-1].drawn_opening_cm < TWIN.arm.tool.gripper.open_cm - 1.0
         with pytest.raises(ValueError, match="view_every"):

@@ -220,8 +220,10 @@ def test_regions_under_the_minimum_area_are_dropped() -> None:
         [Disc(bgr("red"), 0.0, 45.0), Disc(bgr("red"), 8.0, 45.0, diameter_cm=0.6)]
     )
     assert len(detector().detect(frame)) == 2
-    assert len(detector().detect(small)) == 1
-    assert len(detector(vision=VisionConfig(min_area_px=50)).detect(small)) == 2
+    # the red objects come in 0.6 cm too (a class of that size: smaller ones are no object)
+    reds = CLASSES + [CLASSES[0].model_copy(update={"name": "small", "diameter_cm": 0.6})]
+    assert len(detector(reds).detect(small)) == 1
+    assert len(detector(reds, VisionConfig(min_area_px=50)).detect(small)) == 2
 
 
 def test_paper_bands_misread_real_colours() -> None:
@@ -340,9 +342,9 @@ def test_four_classes_render_and_are_detected() -> None:
     yellows = [("yellow", -15.0, 36.0), ("yellow", 0.0, 35.0), ("yellow", 15.0, 37.0),
                ("yellow", 16.0, 50.0)]  # fmt: skip
     config = four_class_config(yellows)
-    found = ColorDetector.from_config(config).detect(
-        SimCamera(config, World.from_config(config)).read()
-    )
+    found = ColorDetector.from_config(
+        config.vision, config.calibration, config.camera, config.task.classes
+    ).detect(SimCamera(config, World.from_config(config)).read())
     assert [d.color for d in found] == ["red"] * 4 + ["green"] * 4 + ["blue"] * 4 + ["yellow"] * 4
     match(found, LAYOUT + yellows)
     assert not any(d.merged for d in found)

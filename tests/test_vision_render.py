@@ -56,7 +56,9 @@ def test_highlight_washes_out_saturation() -> None:
     """A strong highlight on a disc leaves a hole in its mask but the centre holds."""
     hl = Highlight(0.3, 45.2, sigma_cm=0.2, strength=1.0)
     frame = TableRenderer(CAL, extras=[hl]).render([Disc.of_class(RED, 0.0, 45.0)])
-    (d,) = ColorDetector.from_config(CONFIG).detect(frame)
+    (d,) = ColorDetector.from_config(
+        CONFIG.vision, CONFIG.calibration, CONFIG.camera, CONFIG.task.classes
+    ).detect(frame)
     assert d.area_px < 780
     assert np.linalg.norm(CAL.pixel_to_table(d.centroid_px) - [0.0, 45.0]) < 0.1
 

@@ -34,6 +34,8 @@ def sweep() -> list[tuple[Disc, list]]:
     """Three frames of 24 objects each: every shape, sizes 1–3 cm, random yaws, both tables."""
     rng = np.random.default_rng(28)
     classes = [c.model_copy(update={"diameter_cm": 3.0}) for c in CONFIG.task.classes]
+    # objects of 1 cm too: a class of the first colour at that size (after the others)
+    classes.append(classes[0].model_copy(update={"name": "small", "diameter_cm": 1.0}))
     detector = ColorDetector(CONFIG.vision, CAL, classes)
     out = []
     for k, table in enumerate(("wood", "grey", "wood")):

@@ -65,6 +65,17 @@ def test_grip_and_release_into_bin(world):
     assert world.nearest_on_table(-20.0, 55.0)[0] is not red3
 
 
+def test_in_bin_is_the_class_rule(world):
+    """A dropped object counts in the bin whose walls it lies within (``ColorClass.in_bin``)."""
+    red, obj = world.bins["red"], world.objects[0]
+    world.grip(obj)
+    world.release_into_bin("red")
+    assert world.in_bin("red") == [obj] and red.in_bin(obj.x_cm, obj.y_cm)
+    assert world.in_bin("blue") == [] and world.in_bin("purple") == []
+    obj.x_cm = red.bin_cm[0] + red.bin_inner_width_cm / 2 + 0.01  # beyond the wall
+    assert not red.in_bin(obj.x_cm, obj.y_cm) and world.in_bin("red") == []
+
+
 def test_release_on_table(world):
     obj = world.objects[0]
     world.grip(obj)
@@ -92,8 +103,10 @@ def test_impossible_changes(world):
 
 
 def test_from_scene():
-    w = World.from_scene([SceneObject(color="blue", x=1, y=2)], {"blue": (0.0, 0.0, 0.0)})
+    blue = default_classes()[2]
+    w = World.from_scene([SceneObject(color="blue", x=1, y=2)], [blue])
     assert [(o.id, o.x_cm) for o in w.objects] == [("blue1", 1.0)]
+    assert w.bins == {"blue": blue} and w.bins_cm == {"blue": blue.bin_cm}
 
 
 def test_sim_package_exports():

@@ -138,7 +138,14 @@ def sheet_picture(config: Config, intrinsics, out: Path):  # noqa: ANN001, ANN20
     pose = solve_pose(intrinsics, np.array(pixels), pts3, markers=len(layout))
     pic = frame.copy()
     for marker_id, quad in sorted(found.items()):
-        cv2.polylines(pic, [np.round(quad).astype(np.int32)], True, (0, 200, 0), 2, cv2.LINE_AA)
+        cv2.polylines(
+            pic,
+            [np.round(quad).astype(np.int32)],
+            isClosed=True,
+            color=(0, 200, 0),
+            thickness=2,
+            lineType=cv2.LINE_AA,
+        )
         cv2.circle(pic, tuple(np.round(quad[0]).astype(int)), 4, (0, 0, 255), -1)  # TL corner
         u, v = diagonal_center(quad)
         x, y = layout[marker_id]
@@ -217,7 +224,14 @@ def _closeup(frame, camera, cls, oid, truth, det, pdet, out: Path) -> None:  # n
         (det.table_cm, h, (0, 220, 255)),  # fitted top
     ):
         px = camera.table_to_pixel(ring + centre, z)
-        cv2.polylines(big, [np.array([at(p) for p in px], np.int32)], True, colour, 1, cv2.LINE_AA)
+        cv2.polylines(
+            big,
+            [np.array([at(p) for p in px], np.int32)],
+            isClosed=True,
+            color=colour,
+            thickness=1,
+            lineType=cv2.LINE_AA,
+        )
     cv2.drawMarker(big, at(det.centroid_px), (0, 0, 255), cv2.MARKER_CROSS, 18, 2, cv2.LINE_AA)
     legend = np.full((64, big.shape[1], 3), 255, np.uint8)
     for k, (text, colour) in enumerate(

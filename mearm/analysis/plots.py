@@ -235,7 +235,7 @@ def gain_sweep(routes: Sequence[SolvedRoute], path: str | Path, *, title: str) -
         )
     ax_err.set_xlabel("iteration")
     ax_err.set_ylabel("|e| [cm]")
-    ax_err.grid(True, which="both", alpha=0.3)
+    ax_err.grid(visible=True, which="both", alpha=0.3)
     ax_err.legend(fontsize="small")
     ax_path = fig.add_subplot(1, 2, 2, projection="3d")
     _path_axes(ax_path, routes)

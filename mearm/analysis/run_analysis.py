@@ -165,11 +165,11 @@ def analyze(
         success=success,
         around_bound=routes_around_bound(norms, success) if success else None,
         table6=table6,
-        grip=_grip_errors(routes, first_attempt),
+        grip=_grip_errors(routes, first_attempt=first_attempt),
     )
 
 
-def _grip_errors(routes: Sequence[RouteRecord], first_attempt: bool) -> ErrorTable | None:
+def _grip_errors(routes: Sequence[RouteRecord], *, first_attempt: bool) -> ErrorTable | None:
     """The picks' errors when the jaws close (``grip_ee_cm − target_cm``), or ``None``."""
     picks = select_routes(routes, step="pick", first_attempt=first_attempt)
     errors = [np.subtract(r.grip_ee_cm, r.target_cm) for r in picks if r.grip_ee_cm is not None]

@@ -33,6 +33,8 @@ MAX_COUPLING = 100.0
 #: Pulse change per degree of a hobby servo's output shaft [µs/deg]: the nominal
 #: 600–2400 µs over 180° these configs calibrate to (SG90, MG90S, MG996R alike).
 US_PER_SERVO_DEG = 10.0
+#: The pulse at which a hobby servo is centred [µs]: its scale error pivots here.
+NEUTRAL_US = 1500.0
 #: Speeds a servo may be given [s/60°]: the fastest hobby servos turn at about 0.04 s/60°,
 #: sail-winch servos at about 1 s/60°.
 SECONDS_PER_60DEG_RANGE = (0.01, 2.0)

@@ -45,7 +45,11 @@ a combination the combination over the joint's limits with the other joints at h
 inside ``[min_us, max_us]``. A fit whose line leaves that range by less than a reading's
 uncertainty (:data:`FIT_SLACK`) takes the nearest line that does not
 (:func:`fit_actuator` with ``span``): limits that fill the whole pulse range, as the
-5-DOF arm's wrist's do, are otherwise refused for a half-degree misreading.
+5-DOF arm's wrist's do, are otherwise refused for a half-degree misreading. A fit that
+reaches less than a joint's limits by more than that narrows them to what it reaches
+(:func:`~mearm.config.servo_reach.narrowed`; ``limits: {min, max}`` in its entry, which
+a config that uses the file takes), unless it leaves more than
+:data:`~mearm.config.servo_reach.MAX_NARROWING` of them: then it is refused.
 
 :func:`save_servo_calibration` replaces a file only with ``force`` (the command asks
 first) and only if it is a servo calibration, and keeps the old one as ``<name>.bak``.
@@ -57,6 +61,7 @@ servo's pulse range); it sets the calibrated fields of each servo and keeps the 
 
 from __future__ import annotations
 
+import dataclasses
 import datetime
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
@@ -72,6 +77,15 @@ from mearm.config.base import MAX_LENGTH_CM, short_repr
 from mearm.config.errors import ServoCalibrationError
 from mearm.config.loader import config_from_dict
 from mearm.config.root import Config
+from mearm.config.servo_reach import (  # noqa: F401  (the checks on a fit, used from here)
+    MAX_NARROWING,
+    MAX_SLOPE_DEVIATION,
+    check_fit,
+    fit_span,
+    narrowed,
+    narrowing_text,
+    turns,
+)
 from mearm.errors import ConfigError
 from mearm.fileio import write_atomic
 from mearm.yamlio import load_yaml_file
@@ -108,6 +122,9 @@ class ActuatorFit:
             direction and µs per unit; written as ``replaces``), or ``None`` (unknown: a
             file written before it was recorded). The twin with a kit of servos takes it
             as the arm's nominal servo, the one its units deviate from (docs/twin.md).
+        limits: The joint's limits narrowed to what the servo reaches inside its pulse
+            range (min, max) [deg or cm], or ``None``: the arm's
+            (:func:`~mearm.config.servo_reach.narrowed`).
     """
 
     name: str
@@ -116,6 +133,11 @@ class ActuatorFit:
     points: tuple[CalibrationPoint, ...]
     residual_us: float
     replaces: ServoCalibration | None = None
+    limits: tuple[float, float] | None = None
+
+    def with_limits(self, limits: tuple[float, float] | None) -> ActuatorFit:
+        """The same fit with these narrowed limits (``None``: the arm's)."""
+        return dataclasses.replace(self, limits=limits)
 
     @property
     def drives(self) -> ServoDrives | None:
@@ -139,6 +161,8 @@ class ActuatorFit:
         if s.play_us != 0:
             out["play_us"] = round(s.play_us, 2)
         out["residual_us"] = round(self.residual_us, 4)
+        if self.limits is not None:
+            out["limits"] = {"min": self.limits[0], "max": self.limits[1]}
         if self.replaces is not None:
             r = self.replaces
             out["replaces"] = {
@@ -356,17 +380,24 @@ def load_servo_calibration(path: str | Path) -> ServoCalibrationFile:
             points = tuple(
                 CalibrationPoint(
                     _number(f"{name}.points[{k}].value", p["value"], -MAX_LENGTH_CM, MAX_LENGTH_CM),
-                    int(_number(f"{name}.points[{k}].pulse_us", p["pulse_us"], 0, MAX_US, True)),
+                    int(
+                        _number(
+                            f"{name}.points[{k}].pulse_us", p["pulse_us"], 0, MAX_US, whole=True
+                        )
+                    ),
                 )
                 for k, p in enumerate(fields.pop("points", []))
             )
             replaced = fields.pop("replaces", None)
+            limits = _limits(str(name), fields.pop("limits", None))
             kind = JointServo if "drives" in fields else ServoCalibration
             servo = kind.model_validate(fields)
             replaces = None
             if replaced is not None:
                 replaces = kind.model_validate({**fields, **dict(replaced)})
-            actuators.append(ActuatorFit(str(name), unit, servo, points, residual, replaces))
+            actuators.append(
+                ActuatorFit(str(name), unit, servo, points, residual, replaces, limits)
+            )
         return ServoCalibrationFile(
             arm=str(data["arm"]),
             board_id=str(data["board_id"]),
@@ -388,7 +419,7 @@ def load_servo_calibration(path: str | Path) -> ServoCalibrationFile:
 MAX_US = 10_000
 
 
-def _number(field: str, value: Any, lo: float, hi: float, whole: bool = False) -> float:
+def _number(field: str, value: Any, lo: float, hi: float, *, whole: bool = False) -> float:
     """A number read from the file: finite, in [lo, hi] (and whole), or a named ValueError."""
     kind = "a whole number" if whole else "a number"
     ok = isinstance(value, int | float) and not isinstance(value, bool)
@@ -397,6 +428,19 @@ def _number(field: str, value: Any, lo: float, hi: float, whole: bool = False) -
     if not ok:
         raise ValueError(f"{field} must be {kind} in {lo:g} … {hi:g}, got {short_repr(value)}")
     return float(value)
+
+
+def _limits(name: str, value: Any) -> tuple[float, float] | None:
+    """An entry's narrowed ``limits: {min, max}``, or ``None``; a named ValueError if bad."""
+    if value is None:
+        return None
+    if not isinstance(value, dict) or set(value) != {"min", "max"}:
+        raise ValueError(f"{name}.limits must be {{min: …, max: …}}, got {short_repr(value)}")
+    lo = _number(f"{name}.limits.min", value["min"], -MAX_LENGTH_CM, MAX_LENGTH_CM)
+    hi = _number(f"{name}.limits.max", value["max"], -MAX_LENGTH_CM, MAX_LENGTH_CM)
+    if not lo < hi:
+        raise ValueError(f"{name}.limits: min ({lo:g}) must be below max ({hi:g})")
+    return (lo, hi)
 
 
 def check_replace(path: Path) -> None:
@@ -471,10 +515,12 @@ def servo_overrides(arm: ArmDescription, fits: Sequence[ActuatorFit]) -> list[st
     """The ``--set KEY=VALUE`` overrides that give a config these calibrations.
 
     Each replaces the actuator's whole ``servo``: the calibrated fields from the fit, the
-    others (``seconds_per_60deg``, ``max_accel_deg_s2``) as the arm has them.
+    others (``seconds_per_60deg``, ``max_accel_deg_s2``) as the arm has them. A fit that
+    narrowed its joint's limits sets them too, where they are narrower than the arm's.
 
     Raises:
-        ServoCalibrationError: an actuator the arm does not have.
+        ServoCalibrationError: an actuator the arm does not have, or narrowed limits for
+            one that has none (the gripper).
     """
     paths = actuator_paths(arm)
     out = []
@@ -502,79 +548,25 @@ def servo_overrides(arm: ArmDescription, fits: Sequence[ActuatorFit]) -> list[st
             f"{drives}{play}{kept}}}"
         )
         out.append(f"{paths[fit.name]}={value}")
+        if fit.limits is not None:
+            out.append(_limits_override(arm, fit.name, fit.limits, paths[fit.name]))
     return out
 
 
-#: Largest share a fit's µs/unit may differ from the arm's: real units span −19…+15 % (servo_kit).
-MAX_SLOPE_DEVIATION = 0.30
-
-
-def fit_span(arm: ArmDescription, name: str) -> tuple[str, float, float]:
-    """What an actuator's calibration must put inside its pulse range: (what, lo, hi).
-
-    Its limits (the gripper's: closed to open); for a joint servo that turns a
-    combination, the values the combination takes as the joint sweeps its limits with the
-    other joints at home — where the config checks such a servo (its pulse range
-    depends on the pose).
-    """
-    home = arm.home()
-    for j in arm.actuated_joints():
-        if j.name != name or j.servo is None or j.limits is None:
-            continue
-        combo = _turns(j.servo, name)
-        if combo == ServoDrives(terms={name: 1.0}):
-            return (f"{name}'s limits", j.limits.min, j.limits.max)
-        c = combo.terms.get(name, 0.0)
-        rest = combo.offset + sum(k * home[n] for n, k in combo.terms.items() if n != name)
-        a, b = rest + c * j.limits.min, rest + c * j.limits.max
-        what = f"{name}'s servo ({combo.text()}) over {name}'s limits, the other joints at home"
-        return (what, min(a, b), max(a, b))
-    for t in arm.tool.actuators:
-        if t.name == name:
-            return (f"{name}'s limits", t.limits.min, t.limits.max)
-    g = arm.tool.gripper
-    return (f"{g.name}'s opening, closed to open", g.closed_cm, g.open_cm)
-
-
-def check_fit(arm: ArmDescription, fit: ActuatorFit, nominal: ServoCalibration) -> None:
-    """Refuse a fit far from the arm's nominal slope, or that cannot reach the limits.
-
-    Args:
-        arm: The arm (its limits, home and combinations).
-        fit: The fit of one of its actuators.
-        nominal: The actuator's calibration in the arm's own file (before any servo
-            calibration file), which the fit's µs per unit is compared with.
-
-    Raises:
-        ServoCalibrationError: µs per unit more than :data:`MAX_SLOPE_DEVIATION` off the
-            nominal, or :func:`fit_span` putting a pulse outside ``[min_us, max_us]``;
-            the message says which, by how much, and what to do.
-    """
-    s, unit = fit.servo, fit.unit
-    off = s.us_per_unit / nominal.us_per_unit - 1.0
-    if abs(off) > MAX_SLOPE_DEVIATION:
+def _limits_override(
+    arm: ArmDescription, name: str, limits: tuple[float, float], servo_key: str
+) -> str:
+    """The ``--set`` that narrows an actuator's limits: never wider than the arm's."""
+    present = {j.name: j.limits for j in arm.actuated_joints()}
+    present.update({a.name: a.limits for a in arm.tool.actuators})
+    now = present.get(name)
+    if now is None:
         raise ServoCalibrationError(
-            f"{fit.name}: the fit gives {s.us_per_unit:.3f} µs/{unit}, {off:+.0%} off the "
-            f"arm's {nominal.us_per_unit:.3f} µs/{unit} (real servos differ by at most "
-            f"±{MAX_SLOPE_DEVIATION:.0%}): a reference was misread or not reached; redo "
-            "the references, or check the channel and the arm's us_per_unit"
+            f"the calibration narrows {name}'s limits, which {arm.name}'s {name} does not "
+            "have (a gripper's are its opening): recalibrate it"
         )
-    what, lo, hi = fit_span(arm, fit.name)
-    p_lo, p_hi = s.pulse_us(lo), s.pulse_us(hi)
-    if not all(s.min_us - 1e-6 <= p <= s.max_us + 1e-6 for p in (p_lo, p_hi)):
-        raise ServoCalibrationError(
-            f"{fit.name}: the fit puts {what}, [{lo:.4g}, {hi:.4g}] {unit}, at "
-            f"[{p_lo:.0f}, {p_hi:.0f}] µs, outside the servo's [{s.min_us}, {s.max_us}] µs: "
-            "redo the references; if the fit is right, the servo cannot turn that far: "
-            "narrow the limits, or widen min_us/max_us as far as its datasheet allows"
-        )
-
-
-def _turns(servo: ServoCalibration, name: str) -> ServoDrives:
-    """What a servo turns, as written: its ``drives``, or ``name`` alone."""
-    if isinstance(servo, JointServo):
-        return servo.combination(name)
-    return ServoDrives(terms={name: 1.0})
+    lo, hi = max(limits[0], now.min), min(limits[1], now.max)
+    return f"{servo_key.removesuffix('.servo')}.limits={{min: {lo!r}, max: {hi!r}}}"
 
 
 def servo_of(arm: ArmDescription, name: str) -> ServoCalibration:
@@ -608,7 +600,7 @@ def apply_servo_calibration(
                 f"{source}: {fit.name} was calibrated on channel {fit.servo.channel}, the "
                 f"config drives it on channel {channel}: recalibrate, or fix the channel"
             )
-        was, now = _turns(fit.servo, fit.name), _turns(present, fit.name)
+        was, now = turns(fit.servo, fit.name), turns(present, fit.name)
         if was != now:
             raise ServoCalibrationError(
                 f"{source}: {fit.name}'s servo was calibrated turning {was.text()}, the "
@@ -659,3 +651,29 @@ def replaced_calibration(config: Config) -> Config | None:
     if not back:
         return None
     return apply_servo_calibration(config, back, source=f"{path} (the calibration it replaced)")
+
+
+def narrowed_limits_note(config: Config) -> str | None:
+    """The line naming the limits the config's servo calibration file narrowed, or ``None``.
+
+    The limits as the config has them now (never wider than its arm's own).
+
+    Raises:
+        ServoCalibrationError: as :func:`load_servo_calibration`.
+    """
+    path = config.servo.calibration_file
+    if path is None:
+        return None
+    limits = config.arm.joint_limits()
+    limits.update({a.name: a.limits for a in config.arm.tool.actuators})
+    narrowed_ones = [
+        f"{a.name} to [{limits[a.name].min:g}, {limits[a.name].max:g}] {a.unit}"
+        for a in load_servo_calibration(path).actuators
+        if a.limits is not None and a.name in limits
+    ]
+    if not narrowed_ones:
+        return None
+    return (
+        f"note: the servo calibration {path} narrows {', '.join(narrowed_ones)}: its servos, "
+        "as calibrated, reach no farther inside their pulse ranges"
+    )

@@ -95,7 +95,7 @@ class Gripper(Strict):
         self.servo.check_value(self.closed_cm, "closed_cm")
         return self
 
-    def opening_cm(self, closed: bool) -> float:
+    def opening_cm(self, *, closed: bool) -> float:
         """The opening for closed or open [cm]."""
         return self.closed_cm if closed else self.open_cm
 

@@ -64,11 +64,11 @@ def check_dataset(root: Path, *, videos: bool = True) -> list[str]:
         raise DatasetError(root, f"{what}: give a dataset directory")
     if not (root / L.INFO_PATH).is_file():
         raise DatasetError(root, f"holds no {L.INFO_PATH}: not a LeRobot dataset")
-    return _Checker(root, videos).run()
+    return _Checker(root, videos=videos).run()
 
 
 class _Checker:
-    def __init__(self, root: Path, videos: bool):
+    def __init__(self, root: Path, *, videos: bool):
         self.root = root
         self.videos = videos
         self.problems: list[str] = []

@@ -87,7 +87,7 @@ class StepBus(ServoBus):
     """
 
     def __init__(self, config: Config, twin: TwinArm, handoff: Handoff, step_s: float):
-        super().__init__(config, paced=False)
+        super().__init__(config.arm, config.servo, paced=False)
         self.twin = twin
         self._handoff = handoff
         self._step_s = step_s

@@ -47,7 +47,7 @@ from mearm.experiment import trial_config
 from mearm.hardware.command import ArmCommand
 from mearm.hardware.errors import JointLimitError, PulseRangeError, ServoError
 from mearm.kinematics import ArmModel
-from mearm.kinematics.collision import CollisionModel
+from mearm.sim.table_collision import collision_model
 from mearm.sim.twin.twin_bus import TwinArm
 from mearm.sim.twin.twin_camera import CAMERA_NAME as TWIN_CAMERA
 from mearm.task.scene import random_scene
@@ -162,7 +162,7 @@ class TwinEnv(gym.Env[dict[str, Any], np.ndarray]):
         self.model = ArmModel(base.arm)
         self.chain = self.model.chain
         # bins and the table only, at touch: the jaws may meet the objects they grasp
-        self.collision = CollisionModel(base, self.model, clearance_cm=0.0)
+        self.collision = collision_model(base, self.model, clearance_cm=0.0)
         self.collision.set_world([])
         self.twin: TwinArm | None = None
         self.config: Config | None = None
@@ -210,7 +210,7 @@ class TwinEnv(gym.Env[dict[str, Any], np.ndarray]):
         self.twin = twin
         home = self.chain.named_actuated(self.model.home)
         tool = {t.name: t.setting("home") for t in config.arm.tool.actuators}
-        self._send(ArmCommand(home, tool, False))
+        self._send(ArmCommand(home, tool, gripper_closed=False))
         self._in_bin = self._count()
         if self.use_expert:
             from mearm.envs.expert import SorterExpert  # noqa: PLC0415

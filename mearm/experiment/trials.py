@@ -187,7 +187,7 @@ def run_trial(
         part = Path(tmp) / f"trial-{number}.jsonl"
         try:
             if running is not None:
-                running(True)
+                running(True)  # noqa: FBT003 - the hook's one argument: started
             plan = plan_trial(config, seed, number, scene)
             if recording is not None:
                 from mearm.dataset.sampler import EpisodeCapture
@@ -211,7 +211,7 @@ def run_trial(
             result = TrialResult(number, reason=str(exc), error=str(exc))
         finally:
             if running is not None:
-                running(False)
+                running(False)  # noqa: FBT003 - ended
             if capture is not None:
                 capture.close()
         episodes = tuple(capture.episodes) if capture is not None else ()

@@ -15,7 +15,7 @@ import logging
 import time
 from dataclasses import dataclass
 
-from mearm.config import Config
+from mearm.config import ArmDescription, ServoConfig
 from mearm.hardware.bus import ArmCommand
 from mearm.hardware.errors import (
     BannerTimeoutError,
@@ -66,16 +66,17 @@ class ArduinoBus(SerialServoBus):
     """The serial backend (``servo.backend: serial``) for our firmware and protocol.
 
     Args:
-        config: The whole configuration.
-        port: Override ``servo.port``.
+        arm: The arm whose actuators it drives.
+        link: The ``servo`` section (port, baud, rate, timeouts, retries).
+        port: Override ``link.port``.
 
     Attributes:
         banner: The banner line the board printed, once connected.
         firmware: What the board reported to ``V``, once connected.
     """
 
-    def __init__(self, config: Config, *, port: str | None = None):
-        super().__init__(config, port=port)
+    def __init__(self, arm: ArmDescription, link: ServoConfig, *, port: str | None = None):
+        super().__init__(arm, link, port=port)
         self.banner: bytes | None = None
         self.firmware: FirmwareInfo | None = None
         self._seq = -1
@@ -131,7 +132,7 @@ class ArduinoBus(SerialServoBus):
     # ----------------------------------------------------------------- protocol
 
     def _await_banner(self) -> bytes:
-        timeout = self.config.servo.banner_timeout_s
+        timeout = self.link.banner_timeout_s
         deadline = time.monotonic() + timeout
         seen = bytearray()
         while True:
@@ -190,7 +191,7 @@ class ArduinoBus(SerialServoBus):
             LinkDroppedError: the port failed.
         """
         frame = encode_command(self._next_seq(), command, args or [])
-        tries = 1 + self.config.servo.retries
+        tries = 1 + self.link.retries
         bad = b""
         for attempt in range(1, tries + 1):
             self._write(frame)
@@ -214,7 +215,7 @@ class ArduinoBus(SerialServoBus):
 
     def _await_reply(self, seq: int, frame: bytes) -> Reply | BadChecksum:
         """The reply to ``seq``: an OK or ERR for it, an ``ERR -``, or a corrupted line."""
-        timeout = self.config.servo.ack_timeout_s
+        timeout = self.link.ack_timeout_s
         deadline = time.monotonic() + timeout
         garbage = bytearray()
         while True:

@@ -22,7 +22,7 @@ from typing import Any, Protocol, TypeVar, runtime_checkable
 
 import numpy as np
 
-from mearm.config import Config
+from mearm.config import ArmDescription, ServoConfig
 from mearm.hardware.command import ArmCommand, ArmState
 from mearm.hardware.errors import ServoError, ServoFaultedError, ServoNotConnectedError
 from mearm.hardware.mapping import PlayCompensation, ServoMap
@@ -118,13 +118,14 @@ class ServoBus(ABC):
     :class:`~mearm.hardware.errors.ServoError` they raise latches the bus as faulted.
 
     Args:
-        config: The whole configuration (``arm`` and ``servo`` sections are used).
-        paced: Whether :meth:`move` waits to keep ``servo.rate_hz``.
+        arm: The arm whose actuators it drives (their channels, calibrations, limits).
+        link: The ``servo`` section: rate, timeouts, retries, port.
+        paced: Whether :meth:`move` waits to keep ``link.rate_hz``.
     """
 
-    def __init__(self, config: Config, *, paced: bool = True):
-        self.config = config
-        self.servo_map = ServoMap.from_config(config)
+    def __init__(self, arm: ArmDescription, link: ServoConfig, *, paced: bool = True):
+        self.link = link
+        self.servo_map = ServoMap.from_arm(arm)
         self.paced = paced
         self._rate = RateLimiter()
         self._state: ArmState | None = None
@@ -189,7 +190,7 @@ class ServoBus(ABC):
     @property
     def period_s(self) -> float:
         """Time between commands [s]: 1 / ``rate_hz``, or longer if the link needs it."""
-        return 1.0 / self.config.servo.rate_hz
+        return 1.0 / self.link.rate_hz
 
     @property
     def step_s(self) -> float:

@@ -42,7 +42,7 @@ def _values(values: Any, what: str, example: str) -> Mapping[str, float]:
     return MappingProxyType(out)
 
 
-def _describe(joints: Mapping[str, float], tool: Mapping[str, float], closed: bool) -> str:
+def _describe(joints: Mapping[str, float], tool: Mapping[str, float], *, closed: bool) -> str:
     parts = [" ".join(f"{n}={v:.2f}" for n, v in joints.items())]
     if tool:
         parts.append(" ".join(f"{n}={v:.2f}" for n, v in tool.items()))
@@ -78,7 +78,7 @@ class _ArmValues:
         )
 
     def __str__(self) -> str:
-        return _describe(self.joints, self.tool, self.gripper_closed)
+        return _describe(self.joints, self.tool, closed=self.gripper_closed)
 
 
 @dataclass(frozen=True, eq=True)
@@ -105,7 +105,7 @@ class ArmCommand(_ArmValues):
     @classmethod
     def home(cls, arm: ArmDescription) -> ArmCommand:
         """Every actuated joint and tool actuator at its home value, the gripper open."""
-        return cls(arm.home(), {a.name: a.home for a in arm.tool.actuators}, False)
+        return cls(arm.home(), {a.name: a.home for a in arm.tool.actuators}, gripper_closed=False)
 
 
 @dataclass(frozen=True, eq=True)

@@ -37,7 +37,7 @@ from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 
-from mearm.config import ArmDescription, Config, JointServo, Range, ServoCalibration
+from mearm.config import ArmDescription, JointServo, Range, ServoCalibration
 from mearm.config.arm import combination_text
 from mearm.hardware.errors import InvalidCommandError, PulseRangeError
 from mearm.kinematics.errors import JointLimitError
@@ -299,11 +299,6 @@ class ServoMap:
         gripper = ActuatorMap.from_calibration(g.name, g.servo, opening, "cm")
         return cls(joints, tool, gripper, g.open_cm, g.closed_cm)
 
-    @classmethod
-    def from_config(cls, config: Config) -> ServoMap:
-        """:meth:`from_arm` of ``config.arm``."""
-        return cls.from_arm(config.arm)
-
     def without_play(self) -> ServoMap:
         """The same map with no servo's play compensated (what calibration measures by)."""
 
@@ -441,7 +436,7 @@ class ServoMap:
         """Every channel in use, ascending."""
         return tuple(sorted(a.channel for a in self.actuators))
 
-    def gripper_opening_cm(self, closed: bool) -> float:
+    def gripper_opening_cm(self, *, closed: bool) -> float:
         """The jaw opening for closed or open [cm]."""
         return self.gripper_closed_cm if closed else self.gripper_open_cm
 
@@ -482,7 +477,7 @@ class ServoMap:
         pulses = {j.channel: j.command_us(j.servo_value(command.joints)) for j in self.joints}
         pulses.update({a.channel: a.command_us(command.tool[a.name]) for a in self.tool})
         g = self.gripper
-        pulses[g.channel] = g.command_us(self.gripper_opening_cm(command.gripper_closed))
+        pulses[g.channel] = g.command_us(self.gripper_opening_cm(closed=command.gripper_closed))
         return dict(sorted(pulses.items()))
 
 

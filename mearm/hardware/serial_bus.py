@@ -20,7 +20,7 @@ from abc import abstractmethod
 
 import serial
 
-from mearm.config import Config
+from mearm.config import ArmDescription, ServoConfig
 from mearm.config.port import check_port
 from mearm.hardware.bus import ServoBus
 from mearm.hardware.errors import LinkDroppedError, LinkError
@@ -56,17 +56,18 @@ class SerialServoBus(ServoBus):
     """A servo bus on a serial port (device path or pyserial URL).
 
     Args:
-        config: The whole configuration; ``servo.port`` and ``servo.baud`` are used.
-        port: Override ``servo.port``.
+        arm: The arm whose actuators it drives.
+        link: The ``servo`` section; ``port`` and ``baud`` open the port.
+        port: Override ``link.port``.
 
     Raises:
         SerialPortError: the port is neither a device path nor an allowed URL.
     """
 
-    def __init__(self, config: Config, *, port: str | None = None):
-        super().__init__(config, paced=True)
-        self.port = check_port(port if port is not None else config.servo.port)
-        self.baud = config.servo.baud
+    def __init__(self, arm: ArmDescription, link: ServoConfig, *, port: str | None = None):
+        super().__init__(arm, link, paced=True)
+        self.port = check_port(port if port is not None else link.port)
+        self.baud = link.baud
         self._serial: serial.SerialBase | None = None
         self._rx = bytearray()
 
@@ -85,7 +86,7 @@ class SerialServoBus(ServoBus):
     @property
     def period_s(self) -> float:
         """Time between moves [s]: 1 / ``rate_hz``, or the wire time if that is longer."""
-        return max(1.0 / self.config.servo.rate_hz, self.wire_time_s)
+        return max(1.0 / self.link.rate_hz, self.wire_time_s)
 
     # ----------------------------------------------------------------- port
 
@@ -101,7 +102,7 @@ class SerialServoBus(ServoBus):
             ser = serial.serial_for_url(self.port, do_not_open=True)
             ser.baudrate = self.baud
             ser.timeout = POLL_S
-            ser.write_timeout = max(WRITE_TIMEOUT_S, self.config.servo.ack_timeout_s)
+            ser.write_timeout = max(WRITE_TIMEOUT_S, self.link.ack_timeout_s)
             ser.open()
         except (serial.SerialException, OSError, ValueError) as exc:
             raise LinkError(
@@ -111,7 +112,7 @@ class SerialServoBus(ServoBus):
             ) from None
         self._serial = ser
         self._rx.clear()
-        if self.wire_time_s > 1.0 / self.config.servo.rate_hz:
+        if self.wire_time_s > 1.0 / self.link.rate_hz:
             log.warning(
                 "%s: %d baud carries one move in %.1f ms: %.1f Hz at most, not the %.1f Hz "
                 "of servo.rate_hz",
@@ -119,7 +120,7 @@ class SerialServoBus(ServoBus):
                 self.baud,
                 1e3 * self.wire_time_s,
                 1.0 / self.wire_time_s,
-                self.config.servo.rate_hz,
+                self.link.rate_hz,
             )
 
     def _close(self) -> None:

@@ -57,7 +57,7 @@ import time
 from collections.abc import Iterable, Mapping
 from typing import NoReturn
 
-from mearm.config import Config
+from mearm.config import ArmDescription, ServoConfig
 from mearm.hardware.bus import ArmCommand
 from mearm.hardware.errors import (
     BoardResetError,
@@ -135,15 +135,16 @@ class SSC32Bus(SerialServoBus):
     """The SSC-32 / SSC-32U backend.
 
     Args:
-        config: The whole configuration.
-        port: Override ``servo.port``.
+        arm: The arm whose actuators it drives.
+        link: The ``servo`` section (port, baud, rate, timeouts, retries).
+        port: Override ``link.port``.
 
     Attributes:
         version: The board's answer to ``VER``, once connected.
     """
 
-    def __init__(self, config: Config, *, port: str | None = None):
-        super().__init__(config, port=port)
+    def __init__(self, arm: ArmDescription, link: ServoConfig, *, port: str | None = None):
+        super().__init__(arm, link, port=port)
         self.version: str | None = None
         # True while a query may still owe bytes (a timeout, junk, an interruption):
         # the next query resynchronises first.
@@ -152,7 +153,7 @@ class SSC32Bus(SerialServoBus):
     @property
     def move_time_ms(self) -> int:
         """The ``T`` of each move: the servo frame period, 1 / ``servo.rate_hz`` [ms]."""
-        return max(1, round(1000.0 / self.config.servo.rate_hz))
+        return max(1, round(1000.0 / self.link.rate_hz))
 
     @property
     def period_s(self) -> float:
@@ -217,7 +218,7 @@ class SSC32Bus(SerialServoBus):
 
     def _handshake(self) -> str:
         self._write(QUERY_VERSION)
-        timeout = self.config.servo.ack_timeout_s
+        timeout = self.link.ack_timeout_s
         deadline = time.monotonic() + timeout
         seen = bytearray()
         while True:
@@ -274,7 +275,7 @@ class SSC32Bus(SerialServoBus):
         Raises:
             NoAckError: no version line within ``servo.ack_timeout_s``.
         """
-        timeout = self.config.servo.ack_timeout_s
+        timeout = self.link.ack_timeout_s
         assert self.version is not None
         version = self.version.encode("ascii", "replace")
         self._write(QUERY_VERSION)
@@ -311,7 +312,7 @@ class SSC32Bus(SerialServoBus):
         self._settle(before)
         self._owed = True
         self._write(query)
-        deadline = time.monotonic() + self.config.servo.ack_timeout_s
+        deadline = time.monotonic() + self.link.ack_timeout_s
         reply = bytearray()
         while len(reply) < n:
             byte = self._read_byte(deadline)
@@ -344,7 +345,7 @@ class SSC32Bus(SerialServoBus):
 
     def _query_movement(self) -> bytes:
         """Ask ``Q`` alone: ``.`` or ``+``, with the same tries as a confirmation."""
-        tries = 1 + self.config.servo.retries
+        tries = 1 + self.link.retries
         reply: bytes | None = None
         for attempt in range(1, tries + 1):
             reply = self._ask(QUERY_MOVEMENT, 1, QUERY_MOVEMENT)
@@ -372,9 +373,9 @@ class SSC32Bus(SerialServoBus):
         """
         channels = sorted(pulses_us)
         query = encode_status_query(channels)
-        timeout = self.config.servo.ack_timeout_s
+        timeout = self.link.ack_timeout_s
         give_up_at = due + timeout
-        tries = 1 + self.config.servo.retries
+        tries = 1 + self.link.retries
         failures = 0
         while True:
             wait = due - time.monotonic()
@@ -435,9 +436,7 @@ class SSC32Bus(SerialServoBus):
 
     def _give_up(self, frame: bytes, tries: int, reply: bytes | None) -> NoReturn:
         if reply is None:  # a partial answer is not garbage: no hint about the baud rate
-            raise NoAckError(
-                self.port, frame, self.config.servo.ack_timeout_s, last_state=self.state
-            )
+            raise NoAckError(self.port, frame, self.link.ack_timeout_s, last_state=self.state)
         raise GarbledReplyError(
             frame, tries, reply, "no '.'/'+' answer to Q", last_state=self.state
         )

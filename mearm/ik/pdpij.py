@@ -376,6 +376,7 @@ class PdPij(IKSolver):
         q0: np.ndarray,
         t: list[float],
         a_d: tuple[float, ...] | None,
+        *,
         safeguard: bool | None = None,
     ) -> _Run:
         """PD-PIJ's own updates from ``q0`` (n,) towards ``t`` [m]: the paper's loop.

@@ -15,7 +15,7 @@ from typing import Literal
 import numpy as np
 import numpy.typing as npt
 
-from mearm.config import Config
+from mearm.config import TaskConfig, Tool
 from mearm.ik.result import IKResult
 from mearm.ik.solver import IKSolver
 from mearm.ik.target import IKTarget
@@ -43,20 +43,23 @@ class DemoRoute:
         return self.target.position_cm
 
 
-def demo_routes(config: Config) -> list[DemoRoute]:
-    """The routes of ``config.task.scene``, classes in ``config.task.classes`` order.
+def demo_routes(tool: Tool, task: TaskConfig) -> list[DemoRoute]:
+    """The routes of ``task.scene``, classes in ``task.classes`` order.
 
     Objects of one class keep their scene order. A pick puts the TCP at the object, at
-    ``grip_z_cm + arm.tool.tcp_above_grip_cm`` (the paper: 1.5 + 11.26 = 12.76 cm); a
-    place at the class's bin; both with the approach ``arm.tool.pick_approach``.
+    ``grip_z_cm + tool.tcp_above_grip_cm`` (the paper: 1.5 + 11.26 = 12.76 cm); a place
+    at the class's bin; both with the approach ``tool.pick_approach``.
+
+    Args:
+        tool: The arm's tool (``config.arm.tool``).
+        task: The classes and the scene (``config.task``).
     """
-    tool = config.arm.tool
     approach = tool.pick_approach
     routes: list[DemoRoute] = []
-    for cls in config.task.classes:
+    for cls in task.classes:
         z = cls.grip_z_cm + tool.tcp_above_grip_cm
         place = IKTarget(tuple(float(v) for v in cls.bin_cm), approach)  # type: ignore[arg-type]
-        objects = [o for o in config.task.scene if o.color == cls.name]
+        objects = [o for o in task.scene if o.color == cls.name]
         for i, obj in enumerate(objects, start=1):
             name = f"{cls.name}{i}"
             routes.append(DemoRoute(name, cls.name, "pick", IKTarget((obj.x, obj.y, z), approach)))

@@ -27,12 +27,13 @@ the grip point; a bin a floor and four walls; an object a cylinder standing on t
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Literal
 
 import numpy as np
 
-from mearm.config import Config, Joint
+from mearm.config import ArmDescription, BeltConfig, ClawMarker, ColorClass, Joint, TaskConfig
 from mearm.config.belt_config import belt_classes
 from mearm.config.servo_models import ServoSpec
 from mearm.kinematics.chain import M_PER_CM
@@ -123,18 +124,47 @@ class ArmBodies:
     right, y towards the top edge, z out of its face; ``None``: the tool carries none."""
 
 
+# --------------------------------------------------------------------------- names
+
+#: What the table's body and geom names start with: a class's bin, a scene object.
+BIN_PREFIX = "bin_"
+OBJECT_PREFIX = "obj_"
+
+
+def bin_name(class_name: str, part: str | None = None) -> str:
+    """A class's bin body ``bin_<class>``, or its geom ``bin_<class>_<part>`` (``wall_px``)."""
+    return f"{BIN_PREFIX}{class_name}" if part is None else f"{BIN_PREFIX}{class_name}_{part}"
+
+
+def class_of(name: str) -> str | None:
+    """The class whose bin a body or geom is part of (:func:`bin_name` read back), else ``None``."""
+    if not name.startswith(BIN_PREFIX):
+        return None
+    return name[len(BIN_PREFIX) :].split("_wall_")[0].removesuffix("_floor")
+
+
+def object_name(object_id: str) -> str:
+    """A scene object's body, joint and geom name: ``obj_<id>``."""
+    return f"{OBJECT_PREFIX}{object_id}"
+
+
+def object_of(name: str) -> str | None:
+    """The object a body or geom name is (:func:`object_name` read back), else ``None``."""
+    return name[len(OBJECT_PREFIX) :] if name.startswith(OBJECT_PREFIX) else None
+
+
 # --------------------------------------------------------------------------- helpers
 
 
-def link_width_m(config: Config) -> float:
+def link_width_m(arm: ArmDescription) -> float:
     """The plates' width: a sixtieth of the arm's reach, 6–20 mm (as the URDF draws it)."""
-    reach = sum(abs(j.dh.a_cm) + abs(j.dh.d_cm) for j in config.arm.joints) * M_PER_CM
+    reach = sum(abs(j.dh.a_cm) + abs(j.dh.d_cm) for j in arm.joints) * M_PER_CM
     return max(0.006, min(0.02, reach / 60))
 
 
-def base_radius_m(config: Config) -> float:
+def base_radius_m(arm: ArmDescription) -> float:
     """The base plate's radius [m]."""
-    return link_width_m(config) * 3.3
+    return link_width_m(arm) * 3.3
 
 
 def fixed_part(joint: Joint) -> np.ndarray:
@@ -166,21 +196,20 @@ def _servo(name: str, body: str, spec: ServoSpec, pos: np.ndarray, R: np.ndarray
 
 
 def arm_bodies(
-    config: Config, servo: ServoSpec, gripper_servo: ServoSpec, *, acrylic_kg_m3: float
+    arm: ArmDescription, servo: ServoSpec, gripper_servo: ServoSpec, *, acrylic_kg_m3: float
 ) -> ArmBodies:
     """The arm's shapes: base plate, each DH row's plates, servos, and the tool.
 
     Args:
-        config: The whole config (its arm and tool).
+        arm: The arm and its tool.
         servo: The joints' servo (its box sits at each actuated joint but the first).
         gripper_servo: The gripper's servo (and each tool actuator's).
         acrylic_kg_m3: The plates' density, for their masses.
     """
-    arm = config.arm
-    width = link_width_m(config)
+    width = link_width_m(arm)
     shapes: list[Shape] = [
         Shape(
-            "base_plate", "base_link", "cylinder", (base_radius_m(config), width / 2),
+            "base_plate", "base_link", "cylinder", (base_radius_m(arm), width / 2),
             np.array([0.0, 0.0, width / 2]), part="base", collides=False,
         )
     ]  # fmt: skip
@@ -200,10 +229,10 @@ def arm_bodies(
     R = jaw_frame(arm)
     approach, across, third = R[:, 0], R[:, 1], R[:, 2]
     grip = arm.tool.tcp_above_grip_cm * M_PER_CM
-    shapes += _tool(config, width, gripper_servo, approach, across, third, grip, acrylic_kg_m3)
-    marker = marker_in_tcp(config, gripper_servo)
-    if marker is not None:
-        shapes.append(_marker_plate(config, marker, acrylic_kg_m3))
+    shapes += _tool(arm, width, gripper_servo, approach, across, third, grip, acrylic_kg_m3)
+    marker = marker_in_tcp(arm, gripper_servo)
+    if marker is not None and arm.tool.marker is not None:
+        shapes.append(_marker_plate(arm.tool.marker, marker, acrylic_kg_m3))
     left, right = jaw_joint_names(arm)
     return ArmBodies(tuple(shapes), tcp, across, approach, grip, (left, right), marker)
 
@@ -212,7 +241,7 @@ def arm_bodies(
 MARKER_PLATE_M = 0.002
 
 
-def marker_in_tcp(config: Config, gripper_servo: ServoSpec) -> np.ndarray | None:
+def marker_in_tcp(arm: ArmDescription, gripper_servo: ServoSpec) -> np.ndarray | None:
     """The claw marker's face in the TCP frame (:attr:`ArmBodies.marker_in_tcp`), (4, 4) [m].
 
     It looks along ``tool.marker.faces`` (default −approach), its top edge along the jaws'
@@ -220,11 +249,11 @@ def marker_in_tcp(config: Config, gripper_servo: ServoSpec) -> np.ndarray | None
     on a plate resting on the servo stack behind the TCP (the gripper's servo and one per
     tool actuator, as :func:`_tool` stacks them), on the side it looks to.
     """
-    tool = config.arm.tool
+    tool = arm.tool
     m = tool.marker
     if m is None:
         return None
-    J = jaw_frame(config.arm)
+    J = jaw_frame(arm)
     approach, third = J[:, 0], J[:, 2]
     z = -approach if m.faces is None else np.asarray(m.faces, dtype=float)
     z = z / np.linalg.norm(z)
@@ -248,10 +277,8 @@ def marker_in_tcp(config: Config, gripper_servo: ServoSpec) -> np.ndarray | None
     return T
 
 
-def _marker_plate(config: Config, marker_in_tcp: np.ndarray, acrylic_kg_m3: float) -> Shape:
+def _marker_plate(m: ClawMarker, marker_in_tcp: np.ndarray, acrylic_kg_m3: float) -> Shape:
     """The plate the claw marker is printed on: its face is the marker's, its body the TCP's."""
-    m = config.arm.tool.marker
-    assert m is not None
     half = (m.size_cm / 2 + m.border_cm) * M_PER_CM
     z = marker_in_tcp[:3, 2]
     return Shape(
@@ -287,7 +314,7 @@ def _plates(joint: Joint, width: float, *, collides: bool, acrylic_kg_m3: float)
 
 
 def _tool(
-    config: Config,
+    arm: ArmDescription,
     width: float,
     gripper_servo: ServoSpec,
     approach: np.ndarray,
@@ -302,7 +329,7 @@ def _tool(
     finger ``[tip − jaw_length, grip − pad/2]``, the mount ``[0, tip − jaw_length]`` when
     the jaws start beyond the TCP.
     """
-    g = config.arm.tool.gripper
+    g = arm.tool.gripper
     length, thick = g.jaw_length_cm * M_PER_CM, g.jaw_thickness_cm * M_PER_CM
     pad = jaw_pad_length_m(g)
     tip = grip + pad / 2
@@ -311,7 +338,7 @@ def _tool(
     R = np.column_stack([across, third, approach])
     behind = approach * (min(0.0, root) - gripper_servo.size_m[2] / 2)
     out = [_servo(f"{g.name}_servo", "tcp", gripper_servo, behind, R)]
-    for k, act in enumerate(config.arm.tool.actuators):
+    for k, act in enumerate(arm.tool.actuators):
         offset = behind - approach * gripper_servo.size_m[2] * (k + 1)
         out.append(_servo(f"{act.name}_servo", "tcp", gripper_servo, offset, R))
     if root > 1e-9:
@@ -323,7 +350,7 @@ def _tool(
             )
         )  # fmt: skip
     R_jaw = np.column_stack([approach, across, third])
-    for name, sign in zip(jaw_joint_names(config.arm), (1, -1), strict=True):
+    for name, sign in zip(jaw_joint_names(arm), (1, -1), strict=True):
         inner = across * sign * thick / 2  # the inner face on the joint's position
         pieces: list[tuple[Part, float, float]] = [("pad", grip, pad)]
         if length - pad > 1e-9:
@@ -342,42 +369,84 @@ def _tool(
 # --------------------------------------------------------------------------- the table
 
 
-def wall_height_m(config: Config, color: str) -> float:
-    """Walls that hold every object of the class, stacked, and one more.
+@dataclass(frozen=True)
+class TableContents:
+    """What stands on the table: the classes, each with its bin, and how many objects.
 
-    Every object: the scene's and the belt's. The twin releases each over the bin's
-    middle, so they stack.
+    Attributes:
+        classes: The task's classes, in sort order.
+        scene: Objects of each class the scene lays out, by class name.
+        belt: Objects of each class the belt brings, by class name.
     """
-    c = config.task.class_named(color)
-    brought = belt_classes(config.belt, config.task.classes)
-    belt = sum(1 for name in brought if name == color)
-    n = max(1, sum(1 for o in config.task.scene if o.color == color) + belt)
-    per = max(BIN_WALL_HEIGHT_PER_HEIGHT, n + 1.0)
-    return max(BIN_MIN_WALL_HEIGHT_M, per * c.height_cm * M_PER_CM)
+
+    classes: tuple[ColorClass, ...]
+    scene: Mapping[str, int]
+    belt: Mapping[str, int] = field(default_factory=dict)
+
+    @classmethod
+    def of(cls, task: TaskConfig, belt: BeltConfig | None = None) -> TableContents:
+        """The classes and objects of a task's scene, and those its belt brings."""
+        names = [c.name for c in task.classes]
+        brought = belt_classes(belt, task.classes)
+        return cls(
+            tuple(task.classes),
+            {n: sum(1 for o in task.scene if o.color == n) for n in names},
+            {n: sum(1 for b in brought if b == n) for n in names},
+        )
+
+    @property
+    def class_names(self) -> list[str]:
+        """Class names in sort order."""
+        return [c.name for c in self.classes]
+
+    def class_named(self, name: str) -> ColorClass:
+        """The class called ``name``.
+
+        Raises:
+            KeyError: no such class.
+        """
+        for c in self.classes:
+            if c.name == name:
+                return c
+        raise KeyError(name)
+
+    def objects(self, name: str) -> int:
+        """Objects of class ``name`` the table ever holds: the scene's and the belt's."""
+        return self.scene.get(name, 0) + self.belt.get(name, 0)
 
 
-def bin_half_outer_m(config: Config, color: str) -> float:
+def wall_height_m(cls: ColorClass, objects: int) -> float:
+    """Walls that hold ``objects`` of the class, stacked, and one more.
+
+    ``objects``: the scene's and the belt's (:meth:`TableContents.objects`). The twin
+    releases each over the bin's middle, so they stack.
+    """
+    per = max(BIN_WALL_HEIGHT_PER_HEIGHT, max(1, objects) + 1.0)
+    return max(BIN_MIN_WALL_HEIGHT_M, per * cls.height_cm * M_PER_CM)
+
+
+def bin_half_outer_m(cls: ColorClass) -> float:
     """Half a bin's outer width [m]."""
-    c = config.task.class_named(color)
-    return c.bin_inner_width_cm * M_PER_CM / 2 + BIN_WALL_M
+    return cls.bin_inner_width_cm * M_PER_CM / 2 + BIN_WALL_M
 
 
-def bin_origin_m(config: Config, color: str) -> np.ndarray:
+def bin_origin_m(cls: ColorClass) -> np.ndarray:
     """Where a class's bin stands: its body's origin in the world frame, (3,) [m]."""
-    c = config.task.class_named(color)
-    return np.array([c.bin_cm[0] * M_PER_CM, c.bin_cm[1] * M_PER_CM, 0.0])
+    return np.array([cls.bin_cm[0] * M_PER_CM, cls.bin_cm[1] * M_PER_CM, 0.0])
 
 
-def bin_shapes(config: Config, color: str) -> list[Shape]:
-    """A class's bin: a floor and four walls, in its body ``bin_<class>`` (:func:`bin_origin_m`)."""
-    c = config.task.class_named(color)
-    inner = c.bin_inner_width_cm * M_PER_CM / 2
+def bin_shapes(cls: ColorClass, objects: int) -> list[Shape]:
+    """A class's bin: a floor and four walls, in its body ``bin_<class>`` (:func:`bin_origin_m`).
+
+    ``objects``: how many the walls must hold (:func:`wall_height_m`).
+    """
+    color = cls.name
+    inner = cls.bin_inner_width_cm * M_PER_CM / 2
     outer = inner + BIN_WALL_M
-    body = f"bin_{color}"
-    t, z = BIN_WALL_M / 2, wall_height_m(config, color) / 2
-    out = [
-        Shape(f"bin_{color}_floor", body, "box", (outer, outer, t), np.array([0, 0, t]), part="bin")
-    ]
+    body = bin_name(color)
+    t, z = BIN_WALL_M / 2, wall_height_m(cls, objects) / 2
+    floor = bin_name(color, "floor")
+    out = [Shape(floor, body, "box", (outer, outer, t), np.array([0, 0, t]), part="bin")]
     for name, pos, size in (
         ("px", (inner + t, 0, z), (t, outer, z)),
         ("nx", (-inner - t, 0, z), (t, outer, z)),
@@ -385,42 +454,51 @@ def bin_shapes(config: Config, color: str) -> list[Shape]:
         ("ny", (0, -inner - t, z), (inner, t, z)),
     ):
         out.append(
-            Shape(f"bin_{color}_wall_{name}", body, "box", size, np.array(pos, float), part="bin")
+            Shape(
+                bin_name(color, f"wall_{name}"), body, "box", size, np.array(pos, float), part="bin"
+            )
         )
     return out
 
 
-def object_shape(config: Config, oid: str, color: str) -> Shape:
+def object_shape(cls: ColorClass, oid: str) -> Shape:
     """A scene object as the planner sees it: a cylinder about its body's origin.
 
     The cylinder around its footprint (a cylinder's own; a cube's or a prism's enclosing
     one, whatever its yaw), its class's height; the origin stands
     :func:`object_centre_m` above the table.
     """
-    c = config.task.class_named(color)
-    r, h = c.footprint_radius_cm * M_PER_CM, c.height_cm * M_PER_CM
-    return Shape(f"obj_{oid}", f"obj_{oid}", "cylinder", (r, h / 2), np.zeros(3), part="object")
+    r, h = cls.footprint_radius_cm * M_PER_CM, cls.height_cm * M_PER_CM
+    name = object_name(oid)
+    return Shape(name, name, "cylinder", (r, h / 2), np.zeros(3), part="object")
 
 
-def object_centre_m(config: Config, color: str, x_cm: float, y_cm: float) -> np.ndarray:
+def object_centre_m(cls: ColorClass, x_cm: float, y_cm: float) -> np.ndarray:
     """An object's centre, standing on the table at (x, y), (3,) [m]."""
-    h = config.task.class_named(color).height_cm * M_PER_CM
+    h = cls.height_cm * M_PER_CM
     return np.array([x_cm * M_PER_CM, y_cm * M_PER_CM, h / 2])
 
 
 __all__ = [
+    "BIN_PREFIX",
     "BIN_WALL_M",
     "LINK_THICKNESS_M",
+    "OBJECT_PREFIX",
     "ArmBodies",
     "Shape",
+    "TableContents",
     "arm_bodies",
     "base_radius_m",
     "bin_half_outer_m",
+    "bin_name",
     "bin_origin_m",
     "bin_shapes",
+    "class_of",
     "fixed_part",
     "link_width_m",
     "object_centre_m",
+    "object_name",
+    "object_of",
     "object_shape",
     "plate_mass_kg",
     "wall_height_m",

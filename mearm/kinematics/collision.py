@@ -45,15 +45,18 @@ import numpy as np
 import numpy.typing as npt
 import pinocchio as pin
 
-from mearm.config import Config
 from mearm.config.servo_models import SERVO_CATALOGUE, ServoSpec, servo_named
 from mearm.kinematics.bodies import (
     M_PER_CM,
     Shape,
+    TableContents,
     arm_bodies,
     bin_origin_m,
     bin_shapes,
+    class_of,
     object_centre_m,
+    object_name,
+    object_of,
     object_shape,
 )
 from mearm.kinematics.model import ArmModel
@@ -102,7 +105,8 @@ class Contact:
 
 
 def _plain(name: str) -> str:
-    return name[4:] if name.startswith("obj_") else name
+    oid = object_of(name)
+    return name if oid is None else oid
 
 
 def _coal(shape: Shape) -> coal.CollisionGeometry:
@@ -121,13 +125,13 @@ def _translate(v: np.ndarray) -> np.ndarray:
     return T
 
 
-def joint_servo(config: Config) -> ServoSpec:
+def joint_servo(name: str | None) -> ServoSpec:
     """The joints' servo the shapes are drawn with.
 
-    The config's ``twin.joint_servo``, or the catalogue's largest: the twin picks one by
-    load, and the largest box errs on the safe side for a plan.
+    The servo called ``name`` (the config's ``twin.joint_servo``), or with ``None`` the
+    catalogue's largest: the twin picks one by load, and the largest box errs on the safe
+    side for a plan.
     """
-    name = config.twin.joint_servo
     if name is not None:
         return servo_named(name)
     return max(SERVO_CATALOGUE, key=lambda s: float(np.prod(s.size_m)))
@@ -137,10 +141,12 @@ class CollisionModel:
     """The arm and what lies on the table, as one Pinocchio geometry model.
 
     Args:
-        config: The whole config: the arm, its tool, the classes' bins.
-        model: The arm's kinematic model (its Pinocchio model carries the geometry).
+        table: The classes (their bins and objects) and how many objects each brings.
+        model: The arm's kinematic model (its arm and tool; its Pinocchio model carries
+            the geometry).
+        gripper_servo: The gripper's servo (and each tool actuator's).
         clearance_cm: What every arm shape keeps from bins and objects [cm].
-        servo: The joints' servo (default :func:`joint_servo`).
+        servo: The joints' servo (default: :func:`joint_servo` of ``None``).
         bins: The classes whose bins stand on the table (default: every class's).
 
     Attributes:
@@ -149,30 +155,32 @@ class CollisionModel:
 
     def __init__(
         self,
-        config: Config,
+        table: TableContents,
         model: ArmModel,
         *,
+        gripper_servo: ServoSpec,
         clearance_cm: float = DEFAULT_CLEARANCE_CM,
         servo: ServoSpec | None = None,
         bins: Iterable[str] | None = None,
     ):
-        self.config = config
+        self.table = table
         self.model = model
         self.clearance_m = clearance_cm * M_PER_CM
         pm = model.model
         self.data = pm.createData()
-        gripper = servo_named(config.twin.gripper_servo)
-        self.bodies = arm_bodies(config, servo or joint_servo(config), gripper, acrylic_kg_m3=0)
+        arm = model.arm
+        joints = servo or joint_servo(None)
+        self.bodies = arm_bodies(arm, joints, gripper_servo, acrylic_kg_m3=0)
         self._last = pm.njoints - 1
         self._joint_of: dict[str, int] = {"base_link": 0, "tcp": self._last}
         for name in model.chain.names:
             self._joint_of[f"link_{name}"] = pm.getJointId(name)
         self.arm_shapes = [s for s in self.bodies.shapes if s.collides]
-        standing = config.task.class_names if bins is None else list(bins)
+        standing = table.class_names if bins is None else list(bins)
         self.bins = [
-            (shape, _translate(bin_origin_m(config, name)) @ shape.pose)
+            (shape, _translate(bin_origin_m(table.class_named(name))) @ shape.pose)
             for name in standing
-            for shape in bin_shapes(config, name)
+            for shape in bin_shapes(table.class_named(name), table.objects(name))
         ]
         T = self.bodies.tcp_in_last
         self._grip_in_last = T[:3, :3] @ (self.bodies.approach * self.bodies.grip_m) + T[:3, 3]
@@ -183,15 +191,12 @@ class CollisionModel:
         self._last_key: tuple[object, ...] | None = None
         self._last_gap: tuple[float, str, str, float] = (math.inf, "", "", math.inf)
         self._objects: list[tuple[str, str, float, float]] = []
-        self._opening_cm = config.arm.tool.gripper.open_cm
+        self._opening_cm = arm.tool.gripper.open_cm
         self._reach_local = self._local_reach()
         self._held: tuple[str, str] | None = None
         self._on_table: set[str] = set()  # shapes standing on the table: the arm's mount
         # object places per class: the scene's count and two more, grown when a look finds more
-        self._capacity = {
-            c: sum(1 for o in config.task.scene if o.color == c) + 2
-            for c in config.task.class_names
-        }
+        self._capacity = {c: table.scene.get(c, 0) + 2 for c in table.class_names}
         # the arm's mount, standing on the table at home, is not checked against it
         pin.forwardKinematics(pm, self.data, model.home)
         placed = [
@@ -257,7 +262,7 @@ class CollisionModel:
 
     def _held_shape(self, color: str) -> tuple[Shape, np.ndarray]:
         """An object of class ``color`` in the jaws, and its pose in the last joint's frame."""
-        shape = object_shape(self.config, "held", color)
+        shape = object_shape(self.table.class_named(color), "held")
         a = self.bodies.approach
         T = np.eye(4)
         T[:3, :3] = np.column_stack([*_across_pair(a), a])
@@ -281,7 +286,7 @@ class CollisionModel:
             arm.append((shape, self._in_joint(shape), joint))
         na = len(arm)
         self._held_row: dict[str, int] = {}
-        for color in self.config.task.class_names:
+        for color in self.table.class_names:
             self._held_row[color] = len(arm)
             shape, T = self._held_shape(color)
             arm.append((shape, T, self._last))
@@ -293,7 +298,8 @@ class CollisionModel:
         for color, n in self._capacity.items():
             for k in range(n):
                 slots.setdefault(color, []).append(len(obstacles))
-                obstacles.append((object_shape(self.config, f"{color}_{k}", color), np.eye(4)))
+                shape = object_shape(self.table.class_named(color), f"{color}_{k}")
+                obstacles.append((shape, np.eye(4)))
         table = coal.Halfspace(np.array([0.0, 0.0, 1.0]), -self.clearance_m)
         for obstacle, T in obstacles:
             geometry = table if obstacle is None else _coal(obstacle)
@@ -356,10 +362,10 @@ class CollisionModel:
         for oid, color, x, y in self._objects:
             col = self._slots[color][used.get(color, 0)]
             used[color] = used.get(color, 0) + 1
-            centre = object_centre_m(self.config, color, x, y)
+            centre = object_centre_m(self.table.class_named(color), x, y)
             g[self._rows + col].placement = _se3(_translate(centre))
             self._ob_centre[col] = centre
-            self._ob_names[col] = f"obj_{oid}"
+            self._ob_names[col] = object_name(oid)
             col_on[col] = True
             cols.append(col)
         self._object_cols = np.array(cols, dtype=int)
@@ -384,7 +390,7 @@ class CollisionModel:
         far = np.zeros(self._last + 2)
         slide = self._opening_cm * M_PER_CM / 2
         tcp = np.linalg.norm(self.bodies.tcp_in_last[:3, 3])
-        held = max(c.diameter_cm + c.height_cm for c in self.config.task.classes) * M_PER_CM
+        held = max(c.diameter_cm + c.height_cm for c in self.table.classes) * M_PER_CM
         for shape in self.arm_shapes:
             reach = float(np.linalg.norm(shape.pos)) + shape.radius_m
             if shape.body == "tcp" or shape.jaw:
@@ -522,11 +528,10 @@ class CollisionModel:
         pin.updateGeometryPlacements(pm, self.data, self.geometry, self.gdata, np.asarray(q, float))
         near: dict[str, tuple[str, float]] = {}
         for k, (a, b) in enumerate(self._pairs):
-            name = self._ob_names[b]
-            if not self._active[k] or not name.startswith("bin_"):
+            color = class_of(self._ob_names[b])
+            if not self._active[k] or color is None:
                 continue
             d = pin.computeDistance(self.geometry, self.gdata, k).min_distance / M_PER_CM
-            color = name[4:].split("_wall_")[0].removesuffix("_floor")
             if color not in near or d < near[color][1]:
                 near[color] = (self._arm_names[a], d)
         return [(c, part, d) for c, (part, d) in near.items()]
@@ -540,7 +545,7 @@ class CollisionModel:
         """
         cols = self._object_cols
         if target is not None:
-            col = self._col_of.get(f"obj_{target}")
+            col = self._col_of.get(object_name(target))
             cols = cols[:0] if col is None else np.array([col])
         if not cols.size:
             return cols

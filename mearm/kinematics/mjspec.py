@@ -14,6 +14,8 @@ site ``tcp`` sits at the tool centre point (:func:`tcp_in_last`). Metres, radian
 
 from __future__ import annotations
 
+import math
+
 import mujoco
 import numpy as np
 import numpy.typing as npt
@@ -41,6 +43,14 @@ def exact(values: npt.ArrayLike) -> np.ndarray:
     v = np.array(values, dtype=float)
     v[np.abs(v) < 1e-15] = 0.0
     return v + 0.0  # (no -0.0)
+
+
+def yaw_quat(yaw_rad: float) -> np.ndarray:
+    r"""The unit quaternion (w, x, y, z) of a turn by ``yaw_rad`` about the vertical [rad].
+
+    .. math:: q = (\cos\tfrac{\psi}{2}, 0, 0, \sin\tfrac{\psi}{2})
+    """
+    return np.array([math.cos(yaw_rad / 2), 0.0, 0.0, math.sin(yaw_rad / 2)])
 
 
 def quat(R: np.ndarray) -> np.ndarray:

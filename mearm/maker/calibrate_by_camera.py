@@ -57,7 +57,16 @@ pulse. A fit within its bound (:data:`MAX_RMS_PX`; :data:`MAX_ZEROS_RMS_PX` for 
 zeros alone) that the servo file's checks accept is used for the moves from then on (the
 bus sends its pulses), which is what lets the doubt shrink. The last fits must be within
 :data:`MAX_RMS_PX` and pass :func:`~mearm.config.servo_file.check_fit` (a µs per unit more
-than 30 % off the arm's, or limits outside the pulse range, are refused).
+than 30 % off the arm's, or a shaft more than 12° off at the neutral pulse, is refused;
+a fit of the zeros alone is not checked for its zero). Where a fitted servo cannot reach
+its joint's whole limits inside its pulse range, the joint's limits are narrowed to what
+it reaches, in the file and for the moves from then on, and said; by more than a quarter
+of them, the fit is refused (:func:`~mearm.config.servo_reach.narrowed`).
+
+**Joints the points leave free** — the 5-DOF arm's wrist roll turns the claw about the
+tool's axis, so the TCP and its approach stay — still move the marker: each point is
+also visited with them at :data:`FREE_SHARES` of their range, so their scales are fitted
+too.
 
 **Objects on the table**: the camera looks once with the arm at home, and the moves keep
 clear of what it sees there, as the sort's do (``--simulate``: the table is empty).
@@ -80,7 +89,12 @@ from typing import TextIO
 from mearm.cli import EXIT_FAILURE, check_output_file
 from mearm.config import Config
 from mearm.config.errors import CalibrationError
-from mearm.config.servo_file import ActuatorFit, ServoCalibrationError, replaced_calibration
+from mearm.config.servo_file import (
+    ActuatorFit,
+    ServoCalibrationError,
+    narrowing_text,
+    replaced_calibration,
+)
 from mearm.errors import MearmError
 from mearm.hardware.errors import ServoError
 from mearm.maker.camera_calibration.doubt import ServoDoubt
@@ -113,6 +127,7 @@ from mearm.maker.camera_calibration.settings import (
     FIRST_FEW,
     FIT_SCALE,
     FIT_ZERO_US,
+    FREE_SHARES,
     GRID_HALF_CM,
     GRID_STEP_CM,
     HEIGHTS_ABOVE_PICK_CM,
@@ -146,6 +161,7 @@ __all__ = [
     "CameraFit",
     "CameraSession",
     "FIRST_FEW",
+    "FREE_SHARES",
     "FIT_SCALE",
     "FIT_ZERO_US",
     "GRID_HALF_CM",
@@ -232,12 +248,12 @@ def check_inputs(config: Config, args: argparse.Namespace, output: Path) -> Pers
         )
     check_output_file(output, "--output")
     check_output(output, force=bool(args.force))
-    camera = camera_geometry(config)
+    camera = camera_geometry(config.calibration, config.camera)
     assert isinstance(camera, PerspectiveCamera)  # calibration.model: perspective
     return camera
 
 
-def board_text(config: Config, rig: Rig, simulate: bool) -> tuple[str, str]:
+def board_text(config: Config, rig: Rig, *, simulate: bool) -> tuple[str, str]:
     """The board and port the file records."""
     if not simulate:
         board, port = board_identity(rig.bus)
@@ -290,10 +306,10 @@ def calibrate_by_camera(config: Config, output: Path, args: argparse.Namespace) 
     try:
         with open_rig(config) as rig:
             rig.bus.connect()
-            board, port = board_text(config, rig, args.simulate)
+            board, port = board_text(config, rig, simulate=args.simulate)
             out.write(f"connected: {board}{' on ' + port if port else ''}\n")
             session = CameraSession(config, rig, camera, out)
-            fits = measure(session, args.simulate)
+            fits = measure(session, simulate=args.simulate)
     except ServoError as exc:
         print(f"{PROG}: servo fault: {exc}; nothing written", file=sys.stderr)
         return EXIT_FAILURE
@@ -303,10 +319,10 @@ def calibrate_by_camera(config: Config, output: Path, args: argparse.Namespace) 
     except CameraCalibrationFailed as exc:
         print(f"{PROG}: {exc}; nothing written", file=sys.stderr)
         return EXIT_FAILURE
-    return write_calibration(config, fits, board, port, output, bool(args.force))
+    return write_calibration(config, fits, board, port, output, force=bool(args.force))
 
 
-def measure(session: CameraSession, simulate: bool) -> list[ActuatorFit]:
+def measure(session: CameraSession, *, simulate: bool) -> list[ActuatorFit]:
     """Run the session and park: the file's entries.
 
     A fault holds the arm where it is; Ctrl-C and a run that fails park it first (a way
@@ -343,9 +359,14 @@ def measure(session: CameraSession, simulate: bool) -> list[ActuatorFit]:
     sightings = [s for _, s in session.above + session.below]
     points = seen_points(session.claw, sightings, fit.servos)
     try:
-        return actuator_fits(config, fit.servos, replaces, points, session.rising_play_us(fit))
+        fits = actuator_fits(config, fit.servos, replaces, points, session.rising_play_us(fit))
     except ServoCalibrationError as exc:
         raise CameraCalibrationFailed(f"refused: {exc}") from None
+    for f in fits:
+        narrowing = narrowing_text(config.arm, f)
+        if narrowing is not None:
+            session.say(narrowing)
+    return fits
 
 
 def _park(session: CameraSession) -> None:

@@ -14,10 +14,13 @@ shows two reference values chosen from its limits (a fifth of the range in from 
 end, on a 5° or 0.5 cm grid). Jog the actuator with the keys until it is at the shown
 value — by eye, a protractor or a ruler — and press Enter; after the second the zero,
 µs per unit and direction are fitted (:mod:`mearm.config.servo_file`) and checked: a
-µs per unit more than 30 % off the arm's own, or limits (for a servo that turns a
-combination: the joint's limits with the other joints at home) that the fit puts
-outside the servo's pulse range, are refused with the reason, as is anything the
-config's own checks refuse; a refused fit is never written, the actuator is done again.
+µs per unit more than 30 % off the arm's own, or a shaft more than 12° off the arm's at
+the neutral pulse, is refused with the reason, as is anything the config's own checks
+refuse; a refused fit is never written, the actuator is done again. Limits (for a servo
+that turns a combination: the joint's limits with the other joints at home) that the
+fit puts outside the servo's pulse range are narrowed to what it reaches, and said
+(:mod:`mearm.config.servo_reach`); by more than a quarter of them, or past the joint's
+home, the fit is refused.
 
 A joint servo that turns a combination of joints (its ``drives``: the MeArm's elbow servo
 turns the forearm's angle to the table, shoulder + elbow) is calibrated on that

@@ -136,18 +136,20 @@ def probe_camera(source: int | str, timeout_s: float, out_dir: Path) -> CameraRe
 
     frame, why = grab_frame(source, timeout_s)
     if frame is None:
-        return CameraReport(source, False, why)
+        return CameraReport(source, ok=False, detail=why)
     h, w = frame.shape[:2]
     ok, png = cv2.imencode(".png", frame)
     if not ok:
-        return CameraReport(source, False, f"{w}x{h} px, but the frame cannot be encoded")
+        return CameraReport(source, ok=False, detail=f"{w}x{h} px, but the frame cannot be encoded")
     path = out_dir / snapshot_name(source)
     try:
         out_dir.mkdir(parents=True, exist_ok=True)
         write_atomic(path, png.tobytes())
     except OSError as exc:
         raise MearmError(f"cannot write the snapshot {path}: {exc}") from None
-    return CameraReport(source, True, f"{w}x{h} px, snapshot {path}", (w, h), path)
+    return CameraReport(
+        source, ok=True, detail=f"{w}x{h} px, snapshot {path}", size_px=(w, h), snapshot=path
+    )
 
 
 def _source(text: str) -> int | str:

@@ -319,11 +319,12 @@ def _terminal_prompt() -> Callable[[str], None]:
 
 def _run_replug(
     extra: Sequence[str],
-    system: bool,
     baud: int,
     timeout_s: float,
     wait_s: float,
     prompt: Callable[[str], None],
+    *,
+    system: bool,
 ) -> int:
     result = replug(
         lambda: {p.device for p in list_serial_ports(extra, system=system)}, prompt, wait_s
@@ -415,7 +416,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     timeout_s = args.timeout if args.timeout is not None else config.servo.banner_timeout_s
     if args.replug:
         prompt = _terminal_prompt()
-        return _run_replug(args.port, not args.only, baud, timeout_s, args.wait, prompt)
+        return _run_replug(args.port, baud, timeout_s, args.wait, prompt, system=not args.only)
 
     ports = list_serial_ports(args.port, system=not args.only)
     missing = [p for p in args.port if p not in {q.device for q in ports}]

@@ -144,7 +144,7 @@ class Jogger:
 
     # ----------------------------------------------------------------- checks
 
-    def _check_pulses(self, poses: np.ndarray, closed: bool) -> None:
+    def _check_pulses(self, poses: np.ndarray, *, closed: bool) -> None:
         """Refuse if any pose's pulses leave a servo's range (nothing sent yet)."""
         tool = self.executor.tool_settings(PHASE)
         for q in poses:
@@ -181,9 +181,9 @@ class Jogger:
         if problem is not None:
             raise Refused(problem)
         path = self.executor.joint_path(q_to)
-        self._check_pulses(path, self.closed)
+        self._check_pulses(path, closed=self.closed)
         for q in path[1:]:
-            self.executor.send(q, PHASE, self.closed)
+            self.executor.send(q, PHASE, closed=self.closed)
 
     def move_tcp(self, axis: int, sign: int) -> None:
         """Move the TCP one step along a base axis: a route planned in full, then sent."""
@@ -197,8 +197,8 @@ class Jogger:
         if not route.planned:
             raise Refused(route.failure or "no plan")
         assert route.plan is not None
-        self._check_pulses(route.plan.q_path, self.closed)
-        self.executor.stream(route, PHASE, self.closed)
+        self._check_pulses(route.plan.q_path, closed=self.closed)
+        self.executor.stream(route, PHASE, closed=self.closed)
         self.target_cm = target
 
     def home(self) -> None:
@@ -209,9 +209,9 @@ class Jogger:
     def toggle_gripper(self) -> None:
         """Open or close the gripper where the arm is."""
         q = self.executor.q_now()
-        self._check_pulses(q[None, :], not self.closed)
+        self._check_pulses(q[None, :], closed=not self.closed)
         self.closed = not self.closed
-        self.executor.set_tool(PHASE, self.closed)
+        self.executor.set_tool(PHASE, closed=self.closed)
 
     # ----------------------------------------------------------------- keys
 

@@ -71,7 +71,11 @@ def object_size_px(config: Config, shape: Sequence[int]) -> float:
     diameter = max(c.diameter_cm for c in config.task.classes)
     centre = np.array([[shape[1] / 2.0, shape[0] / 2.0]])
     try:
-        area = float(camera_geometry(config).expected_disc_area_px(centre, diameter)[0])
+        area = float(
+            camera_geometry(config.calibration, config.camera).expected_disc_area_px(
+                centre, diameter
+            )[0]
+        )
     except MearmError:
         return 32.0
     return 2.0 * math.sqrt(area / math.pi) if math.isfinite(area) and area > 0 else 32.0

@@ -64,6 +64,7 @@ def write_calibration(
     board: str,
     port: str,
     output: Path,
+    *,
     force: bool,
 ) -> int:
     """Check the fits together, write the file, print how a config uses it.

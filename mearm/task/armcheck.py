@@ -333,22 +333,22 @@ class _Arm:
         ex = self.ex
         *to_pick, lift, across, down, up = routes
         for route in to_pick:
-            ex.stream(route, "travel", False)
-        ex.set_tool("grip", False)
-        ex.set_tool("grip", True)
-        ex.set_tool("travel", True)
-        ex.stream(lift, "travel", True)
-        ex.stream(across, "travel", True)
-        ex.stream(down, "travel", True)
-        ex.set_tool("grip", True)  # the jaws come down around the spot, then open
-        ex.set_tool("grip", False)
-        ex.stream(up, "grip", False)  # straight up, the open jaws clear of the object
+            ex.stream(route, "travel", closed=False)
+        ex.set_tool("grip", closed=False)
+        ex.set_tool("grip", closed=True)
+        ex.set_tool("travel", closed=True)
+        ex.stream(lift, "travel", closed=True)
+        ex.stream(across, "travel", closed=True)
+        ex.stream(down, "travel", closed=True)
+        ex.set_tool("grip", closed=True)  # the jaws come down around the spot, then open
+        ex.set_tool("grip", closed=False)
+        ex.stream(up, "grip", closed=False)  # straight up, the open jaws clear of the object
         self.home()
         return None
 
     def home(self) -> None:
         """Home along a straight line in joint space, the gripper open."""
-        self.ex.move_joints(self.planner.model.home, "travel", False)
+        self.ex.move_joints(self.planner.model.home, "travel", closed=False)
         self.ex.home_pose()
 
 
@@ -410,7 +410,7 @@ def run_check(
         CalibrationError: ``refine`` without a perspective calibration.
     """
     say = echo if echo is not None else (lambda _line: None)
-    geometry = _checked_geometry(config, points, class_name, refine)
+    geometry = _checked_geometry(config, points, class_name, refine=refine)
     detector = ColorDetector(config.vision, geometry, config.task.classes)
     with open_rig(config) as rig:
         planner = Planner(config, rig.model)
@@ -456,7 +456,7 @@ def run_check(
 
 
 def _checked_geometry(
-    config: Config, points: int, class_name: str | None, refine: bool
+    config: Config, points: int, class_name: str | None, *, refine: bool
 ) -> CameraGeometry:
     """Validate :func:`run_check`'s arguments and return the camera geometry."""
     if not MIN_POINTS <= points <= MAX_POINTS:
@@ -465,7 +465,7 @@ def _checked_geometry(
         raise ArmCheckError(
             f"no class {class_name!r}; classes: {', '.join(config.task.class_names)}"
         )
-    geometry = camera_geometry(config)
+    geometry = camera_geometry(config.calibration, config.camera)
     if refine and not isinstance(geometry, PerspectiveCamera):
         raise CalibrationError(
             "refining the camera pose needs a perspective calibration "

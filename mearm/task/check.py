@@ -32,13 +32,14 @@ import numpy as np
 
 from mearm.config import ColorClass, Config
 from mearm.config.loader import millimetre_hint
-from mearm.config.servo_file import replaced_calibration
+from mearm.config.servo_file import narrowed_limits_note, replaced_calibration
 from mearm.errors import ConfigError, MearmError
 from mearm.ik import APPROACH_TOLERANCE_DEG
 from mearm.ik.batch import solve_batch
 from mearm.kinematics import ArmModel
 from mearm.kinematics.bodies import M_PER_CM, base_radius_m, bin_half_outer_m
 from mearm.kinematics.collision import TOUCH_CM, CollisionModel
+from mearm.sim.table_collision import collision_model
 from mearm.task.plan import Planner
 from mearm.task.route import Route
 from mearm.vision.calibration import camera_geometry
@@ -89,7 +90,7 @@ def check_consistency(config: Config, model: ArmModel | None = None) -> Consiste
     problems: list[str] = []
     for cls in config.task.classes:
         problems += _check_bin(planner, model, cls)
-    table = CollisionModel(config, model, clearance_cm=0.0)  # bins and table, for both checks
+    table = collision_model(config, model, clearance_cm=0.0)  # bins and table, for both checks
     problems += _check_bodies(config, model, table)
     problems += _check_home_above_table(config, model, table)
     view_cm = _view_points_cm(config)
@@ -189,7 +190,8 @@ def calibration_note(config: Config, config_args: Sequence[str]) -> str | None:
 
     Said for servos that are real (``servo.backend`` ``serial`` or ``ssc32``) or that the
     twin draws as a kit of real units (``twin.kit``), when the config applies no servo
-    calibration file: the arm's nominal calibration may be good enough, or not.
+    calibration file: the arm's nominal calibration may be good enough, or not. With a
+    file, the limits it narrowed, if any (:func:`~mearm.config.servo_file.narrowed_limits_note`).
 
     Args:
         config: The whole configuration.
@@ -197,7 +199,7 @@ def calibration_note(config: Config, config_args: Sequence[str]) -> str | None:
             the command the line names.
     """
     if config.servo.calibration_file is not None:
-        return None
+        return narrowed_limits_note(config)
     if config.servo.backend in ("serial", "ssc32"):
         what, extra = f"the servos on the {config.servo.backend} board", []
     elif config.simulator == "mujoco" and config.twin.kit is not None:
@@ -236,8 +238,8 @@ def _check_bodies(config: Config, model: ArmModel, collision: CollisionModel) ->
     ends there).
     """
     problems = []
-    half = {c.name: bin_half_outer_m(config, c.name) / M_PER_CM for c in config.task.classes}
-    base = base_radius_m(config) / M_PER_CM
+    half = {c.name: bin_half_outer_m(c) / M_PER_CM for c in config.task.classes}
+    base = base_radius_m(config.arm) / M_PER_CM
     seen: list[ColorClass] = []
     for cls in config.task.classes:
         x, y = cls.bin_cm[0], cls.bin_cm[1]
@@ -299,7 +301,7 @@ def _view_points_cm(config: Config) -> np.ndarray:
     w, h = config.camera.width_px, config.camera.height_px
     u, v = np.meshgrid(np.linspace(0, w - 1, nu), np.linspace(0, h - 1, nv))
     pixels = np.column_stack([u.ravel(), v.ravel()])
-    return camera_geometry(config).pixel_to_table(pixels)
+    return camera_geometry(config.calibration, config.camera).pixel_to_table(pixels)
 
 
 def _box_points_cm(config: Config) -> np.ndarray:

@@ -18,21 +18,23 @@ until :math:`|r|` < :data:`GOOD_ENOUGH_CM`. Each corrected
 route is planned in full and checked against collisions like any other before it is
 sent. Only the table plane is corrected (x, y): the marker's height is the least well
 measured of its coordinates, and the jaws close at half the object's height with room to
-spare.
+spare. The height is corrected only after a miss, from what the miss and the looks show
+(:class:`GripDrops`).
 
 What the arm learns is kept for the rest of the run: each corrected pick leaves the
 correction it needed at its place (:class:`CorrectionMap`), and the next pick starts from
 the nearest ones' (the servos' errors vary smoothly over the table), so that it needs
-fewer looks.
+fewer looks; so does each drop of the grip with which a pick held.
 """
 
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
+import numpy.typing as npt
 
 from mearm.config import Config
 from mearm.config.servo_models import servo_named
@@ -56,29 +58,110 @@ MAX_CORRECTION_CM = 4.0
 SETTLE_S = 0.25
 #: The corrections kept from earlier picks weigh in within this distance [cm].
 NEIGHBOURHOOD_CM = 12.0
+#: An object seen within this of where it was before a pick that missed is still on its
+#: spot [cm]: pads that close over its top brush its edge and nudge it by a few
+#: millimetres (up to 0.9 cm, simulated: docs/twin.md); farther, it was pushed or dropped.
+UNMOVED_CM = 1.0
+#: How much of an object's side the jaws need to hold it [cm]: a pick that missed with
+#: the object unmoved had its claw at least the planned overlap less this high, and a
+#: miss lowers the next attempt by at least this.
+GRIP_HOLD_CM = 0.1
+#: A lowered grip keeps the tool's lowest point this far above the table at the planned
+#: pose [cm]: the collision check's own bound is the table itself (0).
+TABLE_ROOM_CM = 0.05
 
 
 @dataclass
 class CorrectionMap:
-    """The table-plane corrections earlier picks needed, by where they were needed."""
+    """The corrections earlier picks needed, by where they were needed (x, y).
 
+    Attributes:
+        dims: How many values a correction has (2: the table plane; 1: the grip's drop).
+    """
+
+    dims: int = 2
     places_cm: list[np.ndarray] = field(default_factory=list)
     corrections_cm: list[np.ndarray] = field(default_factory=list)
 
-    def add(self, place_cm: np.ndarray, correction_cm: np.ndarray) -> None:
-        """Keep the correction a pick at ``place_cm`` (x, y) needed."""
+    def add(self, place_cm: np.ndarray, correction_cm: npt.ArrayLike) -> None:
+        """Keep the correction a pick at ``place_cm`` (x, y) needed (its first ``dims``)."""
         self.places_cm.append(np.asarray(place_cm, dtype=float)[:2].copy())
-        self.corrections_cm.append(np.asarray(correction_cm, dtype=float)[:2].copy())
+        correction = np.atleast_1d(np.asarray(correction_cm, dtype=float))[: self.dims]
+        self.corrections_cm.append(correction.copy())
 
     def guess(self, place_cm: np.ndarray) -> np.ndarray:
         """The correction to start a pick at ``place_cm`` from: the nearest ones', weighted."""
         if not self.places_cm:
-            return np.zeros(2)
+            return np.zeros(self.dims)
         d = np.linalg.norm(np.array(self.places_cm) - np.asarray(place_cm)[:2], axis=1)
         w = np.where(d < NEIGHBOURHOOD_CM, 1.0 / (1.0 + d), 0.0)
         if w.sum() <= 0:
-            return np.zeros(2)
+            return np.zeros(self.dims)
         return (w[:, None] * np.array(self.corrections_cm)).sum(axis=0) / w.sum()
+
+
+@dataclass
+class GripDrops:
+    r"""How far below the planned grip the jaws close: learned from misses, kept for the run.
+
+    A kit whose shoulder turns more than nominal leaves the claw a few millimetres high,
+    and the jaws close above a 1 cm object. The camera tells such a miss from others: the
+    object is seen still on its spot (:data:`UNMOVED_CM`; jaws that closed on its side
+    push it away), and the looks at the grip pose saw the marker high (their mean :math:`\bar e_z
+    > 0`; a marker's height is measured to a few millimetres a look, but its sign over the
+    looks tells a high claw from a low one). The jaws then closed above the object's side,
+    so the claw was at least as high as the plan had them reach down it, :math:`o`, less
+    the :data:`GRIP_HOLD_CM` they need of it; the next attempt goes lower by
+    :math:`\max(\bar e_z,\ o - h,\ h)`, down to what the collision check allows (the
+    caller's bound). A drop with which a pick held is kept at its place, and
+    later picks start from their neighbours' (:class:`CorrectionMap`).
+    """
+
+    kept: CorrectionMap = field(default_factory=lambda: CorrectionMap(dims=1))
+    #: The drop the next attempt at an object starts from, after a miss [cm], by id.
+    retry_cm: dict[str, float] = field(default_factory=dict)
+
+    def drop_cm(self, obj_id: str, place_cm: np.ndarray) -> float:
+        """The drop to start a pick of ``obj_id`` at ``place_cm`` from [cm], ≥ 0."""
+        if obj_id in self.retry_cm:
+            return self.retry_cm[obj_id]
+        return max(0.0, float(self.kept.guess(place_cm)[0]))
+
+    def held(self, obj_id: str, place_cm: np.ndarray, drop_cm: float) -> None:
+        """The pick of ``obj_id`` at ``place_cm`` held with the jaws ``drop_cm`` lower.
+
+        Only a drop is kept: a pick that held at the planned height says the claw was not
+        too high there for the jaws to hold on to the top of the object, not that it was
+        level (such grips held by a few millimetres and slipped on the way to the bin).
+        """
+        if drop_cm > 0:
+            self.kept.add(place_cm, [drop_cm])
+        self.retry_cm.pop(obj_id, None)
+
+    def missed(
+        self,
+        obj_id: str,
+        drop_cm: float,
+        moved_cm: float,
+        seen_z_cm: Sequence[float],
+        overlap_cm: float,
+    ) -> float:
+        """The pick of ``obj_id`` missed: the drop its next attempt starts from [cm].
+
+        Args:
+            obj_id: The object.
+            drop_cm: How far below the planned grip the jaws closed [cm].
+            moved_cm: How far the object is seen from where it was before the pick [cm].
+            seen_z_cm: The marker's height errors the looks at the grip pose saw [cm].
+            overlap_cm: How far down the object's side the open jaws reached in the plan
+                (its top less their lowest point) [cm].
+        """
+        high = float(np.mean(seen_z_cm)) if len(seen_z_cm) else 0.0
+        drop = drop_cm
+        if moved_cm <= UNMOVED_CM and high > 0:
+            drop += max(high, overlap_cm - GRIP_HOLD_CM, GRIP_HOLD_CM)
+        self.retry_cm[obj_id] = drop
+        return drop
 
 
 @dataclass(frozen=True)
@@ -120,10 +203,11 @@ class ClawEye:
         self.camera = camera
         self.read = read
         self.hold = hold
-        face = marker_in_tcp(config, servo_named(config.twin.gripper_servo))
+        face = marker_in_tcp(config.arm, servo_named(config.twin.gripper_servo))
         assert face is not None
         self._centre_in_tcp_cm = face[:3, 3] * 100.0
         self.corrections = CorrectionMap()
+        self.drops = GripDrops()
 
     def planned_cm(self, q: np.ndarray) -> np.ndarray:
         """Where the marker's centre is at joints ``q`` by the forward kinematics [cm], (3,)."""

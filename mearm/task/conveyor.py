@@ -193,14 +193,14 @@ class ConveyorSorter(Sorter):
 
     # ----------------------------------------------------------------- intercept
 
-    def _tool_s(self, phase: str, closed: bool, before: tuple[str, bool]) -> float:
+    def _tool_s(self, phase: str, before: tuple[str, bool], *, closed: bool) -> float:
         ex = self.executor
         return tool_move_s(
             self.config.arm.tool,
             ex.tool_settings(before[0]),  # type: ignore[arg-type]
-            before[1],
             ex.tool_settings(phase),  # type: ignore[arg-type]
-            closed,
+            before_closed=before[1],
+            after_closed=closed,
         )
 
     def _intercept(self, obj: TrackedObject, tid: int) -> tuple[Route | None, Route, float]:
@@ -213,7 +213,7 @@ class ConveyorSorter(Sorter):
         # from the travel setting with open jaws: the tool's move to its grip setting;
         # the jaws close from there, around where the object is then
         # (the setting is one command, which takes a servo period before the hold)
-        tool_s = self._tool_s("grip", False, ("travel", False)) + self.bus.period_s
+        tool_s = self._tool_s("grip", ("travel", False), closed=False) + self.bus.period_s
         # on a real rig the belt runs on while the routes are planned: the arm sets off
         # that much later (the last intercept's planning time; a simulator's clock waits)
         t0 = self.now_s() + self._planning_s
@@ -287,14 +287,14 @@ class ConveyorSorter(Sorter):
             )
             return
         if above is not None:
-            ex.stream(above, "travel", False)
-        ex.stream(pick, "travel", False, _hex(cls.draw_rgb))
+            ex.stream(above, "travel", closed=False)
+        ex.stream(pick, "travel", closed=False, color=_hex(cls.draw_rgb))
         ex.finish(pick, t_start)
-        ex.set_tool("grip", False)
+        ex.set_tool("grip", closed=False)
         if self.on_grip is not None:
             self.on_grip(GripAim(obj.id, self.now_s(), np.array(aim, dtype=float)))
-        ex.set_tool("grip", True)
-        ex.set_tool("travel", True)
+        ex.set_tool("grip", closed=True)
+        ex.set_tool("travel", closed=True)
         self.tracker.drop(tid)
         obj.x_cm, obj.y_cm = float(aim[0]), float(aim[1])
         self._world(held=obj, opening_cm=cls.diameter_cm)
@@ -304,7 +304,7 @@ class ConveyorSorter(Sorter):
         place, t1 = planned
         pick.confirmed = False
         try:
-            ex.stream(place, "travel", True, _hex(cls.draw_rgb))
+            ex.stream(place, "travel", closed=True, color=_hex(cls.draw_rgb))
             # over the bin the camera sees the belt whole: a grip that held left nothing
             # of the class where the object would be now
             self._observe()
@@ -319,10 +319,10 @@ class ConveyorSorter(Sorter):
         finally:
             self.reporter.route(pick)
         if not pick.success:
-            ex.set_tool("travel", False)
+            ex.set_tool("travel", closed=False)
             self._skip(obj, "pick failed on the belt", pick, kind="pick_failed")
             return
-        ex.set_tool("travel", False)
+        ex.set_tool("travel", closed=False)
         release = self.bus.last_release if isinstance(self.bus, ReportsRelease) else None
         place.success = release is None or release.bin == obj.class_name
         obj.sorted = place.success

@@ -189,7 +189,7 @@ class Executor:
 
     # ----------------------------------------------------------------- commands
 
-    def send(self, q: npt.ArrayLike, phase: Phase, closed: bool) -> None:
+    def send(self, q: npt.ArrayLike, phase: Phase, *, closed: bool) -> None:
         """Command the joints ``q`` (full, model units) with the tool set for ``phase``."""
         joints = self.chain.named_actuated(q)
         self.bus.move(ArmCommand(joints, self.tool_settings(phase), closed))
@@ -201,17 +201,23 @@ class Executor:
         if self._unshown >= self.view_every:
             self.show_world()
 
-    def _tool_change_s(self, phase: Phase, closed: bool) -> float:
+    def _tool_change_s(self, phase: Phase, *, closed: bool) -> float:
         """How long setting the tool for ``phase`` takes from the last command [s]."""
         state = self.bus.state
         before = None if state is None else dict(state.tool)
         before_closed = None if state is None else state.gripper_closed
-        return tool_move_s(self._tool, before, before_closed, self.tool_settings(phase), closed)
+        return tool_move_s(
+            self._tool,
+            before,
+            self.tool_settings(phase),
+            before_closed=before_closed,
+            after_closed=closed,
+        )
 
-    def set_tool(self, phase: Phase, closed: bool) -> None:
+    def set_tool(self, phase: Phase, *, closed: bool) -> None:
         """Hold the joints; set the tool and the gripper, held for its travel and settling."""
-        seconds = self._tool_change_s(phase, closed)
-        self.send(self.q_now(), phase, closed)
+        seconds = self._tool_change_s(phase, closed=closed)
+        self.send(self.q_now(), phase, closed=closed)
         self.bus.hold(seconds)
         self._count_tool(seconds)
         self.show_world()  # the jaws closed or opened, and what they hold
@@ -250,7 +256,7 @@ class Executor:
         timed = time_path(q_path, self.chain, self.limits, 1.0 / self.bus.step_s)
         return dataclasses.replace(timed, period_s=period)
 
-    def stream(self, route: Route, phase: Phase, closed: bool, color: str = "#202020") -> Route:
+    def stream(self, route: Route, phase: Phase, *, closed: bool, color: str = "#202020") -> Route:
         """Send every pose of a planned route; refuse one that is not fully planned.
 
         Raises:
@@ -263,7 +269,7 @@ class Executor:
         if self.view is not None:
             self.view.set_target(route.target.position_cm)
         for q in timed.q[1:]:
-            self.send(q, phase, closed)
+            self.send(q, phase, closed=closed)
         waited = self._arrive()
         self._flush_view()
         route.executed = True
@@ -298,24 +304,24 @@ class Executor:
                 raise ValueError(f"joint path leaves the limits at {chain.named(q)}")
         return path
 
-    def move_joints(self, q_to: npt.ArrayLike, phase: Phase, closed: bool) -> None:
+    def move_joints(self, q_to: npt.ArrayLike, phase: Phase, *, closed: bool) -> None:
         """Go to ``q_to`` along :meth:`joint_path`, planned and timed in full first."""
         timed = self.timed(self.joint_path(q_to))
         for q in timed.q[1:]:
-            self.send(q, phase, closed)
+            self.send(q, phase, closed=closed)
         self.motion.arm_s += timed.duration_s
         self._arrive()
         self._flush_view()
 
-    def home_pose(self, closed: bool = False) -> None:
+    def home_pose(self, *, closed: bool = False) -> None:
         """Command the home joints and the tool's home settings (gripper open by default).
 
         Sent as one command: the arm is at home already (before the first move, or after
         :meth:`move_joints` home); the tool's travel to its home settings is counted in
         :attr:`motion` and, once the arm has moved, held for.
         """
-        seconds = self._tool_change_s("home", closed) if self.bus.state is not None else 0.0
-        self.send(self.model.home, "home", closed)
+        seconds = self._tool_change_s("home", closed=closed) if self.bus.state is not None else 0.0
+        self.send(self.model.home, "home", closed=closed)
         if seconds > 0:
             self.bus.hold(seconds)
             self._count_tool(seconds)

@@ -48,7 +48,7 @@ def aim_by_eye(
     above: Route | None,
     pick: Route,
     aim: np.ndarray,
-) -> tuple[Route, np.ndarray]:
+) -> tuple[Route, np.ndarray, list[float]]:
     """With the open jaws round the object: look at the claw and correct the aim.
 
     (:mod:`mearm.task.claw_loop`.) Each correction goes back up to the point above the
@@ -58,12 +58,15 @@ def aim_by_eye(
     correction that cannot be planned in full is not made: the arm stays where it is.
 
     Returns:
-        The pick route the arm is on now and the aim's shift [cm], (3,).
+        The pick route the arm is on now, the aim's shift [cm], (3,), and the marker's
+        height errors the looks saw [cm] (:class:`~mearm.task.claw_loop.GripDrops`).
     """
+    seen_z_cm: list[float] = []
     for _ in range(MAX_LOOKS):
         look = eye.look(ex.q_now())
         if look is None:
             break
+        seen_z_cm.append(float(look.error_cm[2]))
         off = aim[:2] + look.error_cm[:2]  # where the claw is, less where it should be
         if np.linalg.norm(off) < GOOD_ENOUGH_CM or above is None:
             break
@@ -79,7 +82,7 @@ def aim_by_eye(
         assert up.plan is not None
         if not planner.plan(down, up.plan.q, target=obj.id).planned:
             break
-        ex.stream(up, "travel", False)
-        ex.stream(down, "travel", False)
+        ex.stream(up, "travel", closed=False)
+        ex.stream(down, "travel", closed=False)
         above, pick, aim = up, down, aim + step
-    return pick, aim
+    return pick, aim, seen_z_cm

@@ -10,6 +10,7 @@ bin; whether the place counts, from the bus's report of the release.
 from __future__ import annotations
 
 import time
+from collections.abc import Sequence
 from typing import Protocol
 
 import numpy as np
@@ -17,9 +18,11 @@ import numpy as np
 from mearm.config.classes import ColorClass
 from mearm.config.shape_catalogue import SHAPES
 from mearm.hardware.bus import ReportsRelease, ServoBus
-from mearm.kinematics.bodies import M_PER_CM
+from mearm.ik import IKTarget
+from mearm.kinematics import ArmModel
+from mearm.kinematics.bodies import M_PER_CM, object_of
 from mearm.kinematics.collision import TOUCH_M, CollisionModel
-from mearm.task.claw_loop import ClawEye, shifted
+from mearm.task.claw_loop import TABLE_ROOM_CM, ClawEye, shifted
 from mearm.task.execute import Executor
 from mearm.task.looking_picks import aim_by_eye, aim_over
 from mearm.task.plan import Planner
@@ -46,6 +49,7 @@ class PickAndPlace(TableTracking):
 
     Attributes:
         bus: The servo bus.
+        model: The arm's kinematic model.
         collision: What the routes are checked against.
         planner: Plans each route in full.
         executor: Sends planned routes to the bus.
@@ -54,11 +58,18 @@ class PickAndPlace(TableTracking):
     """
 
     bus: ServoBus
+    model: ArmModel
     collision: CollisionModel
     planner: Planner
     executor: Executor
     eye: ClawEye | None
     recorder: EpisodeRecorder | None
+    #: How far below the planned grip the last pick's jaws closed [cm], the marker's
+    #: height errors its looks saw [cm] and how far down the object's side the open jaws
+    #: reached in its plan [cm] (:class:`~mearm.task.claw_loop.GripDrops`).
+    _drop_cm: float = 0.0
+    _seen_z_cm: Sequence[float] = ()
+    _overlap_cm: float = 0.0
 
     def _recorded_pick(self, obj: TrackedObject) -> None:
         """:meth:`_pick_and_place` as an episode of the recording, if there is one."""
@@ -97,6 +108,33 @@ class PickAndPlace(TableTracking):
                 break
         return above
 
+    def _pick_routes(
+        self, obj: TrackedObject, goal: IKTarget, aim: np.ndarray
+    ) -> tuple[Route | None, Route]:
+        """The route above the object, planned, and the pick to ``goal`` shifted by ``aim``.
+
+        A pick lowered by a miss (``aim``'s z < 0, :class:`~mearm.task.claw_loop.GripDrops`)
+        goes no lower than the collision check lets the jaws come to the table at the
+        planned pose: where the drop is more, the pick rises to that bound; where the
+        pick lowered even that far cannot be planned, it goes at the planned height.
+        """
+        pick = Route(obj.id, obj.class_name, "pick", obj.failed_picks + 1, shifted(goal, aim))
+        above = self._approach(obj, pick)  # planned in full with the pick, before either
+        if aim[2] >= 0 or above is None or above.plan is None or not above.planned:
+            return above, pick
+        # the tool hangs the same below the TCP over the object as at the pick (the
+        # way down is straight): the room under its lowest point at the planned pick
+        tcp_z = float(self.model.fk_cm(above.plan.q)[2])
+        over_cm = tcp_z - float(goal.position_cm[2])
+        lowest = self.collision.tool_lowest_cm(above.plan.q)[0] - over_cm
+        bound = -max(0.0, lowest - TABLE_ROOM_CM)
+        if aim[2] >= bound and self.planner.plan(pick, above.plan.q, target=obj.id).planned:
+            return above, pick
+        # lower than the check allows: at its bound; the lowered pick not planned: as planned
+        risen = np.array([aim[0], aim[1], bound if aim[2] < bound else 0.0])
+        pick = Route(obj.id, obj.class_name, "pick", obj.failed_picks + 1, shifted(goal, risen))
+        return self._approach(obj, pick), pick
+
     def _world(self, held: TrackedObject | None = None, opening_cm: float | None = None) -> None:
         """What the collision checks see: the objects on the table, the jaws, the held one."""
         g = self.config.arm.tool.gripper
@@ -131,7 +169,7 @@ class PickAndPlace(TableTracking):
             straight_up = self.planner.up_from(ex.q_now(), z, above.target.approach)
             up = Route(obj.id, obj.class_name, "lift", 1, straight_up)
             if self.planner.plan(up, ex.q_now()).planned:
-                ex.stream(up, "travel", True)
+                ex.stream(up, "travel", closed=True)
         t1 = time.perf_counter()
         place = Route(obj.id, obj.class_name, "place", 1, self.planner.place_target(cls))
         self.planner.plan(place, ex.q_now())
@@ -144,8 +182,8 @@ class PickAndPlace(TableTracking):
             else:
                 why = f"bin unreachable: {place.failure}"
                 self._skip(obj, why, place, kind="bin_unreachable")
-            ex.set_tool("grip", True)
-            ex.set_tool("grip", False)
+            ex.set_tool("grip", closed=True)
+            ex.set_tool("grip", closed=False)
             return None
         return place, t1
 
@@ -155,31 +193,39 @@ class PickAndPlace(TableTracking):
         cls = self.config.task.class_named(obj.class_name)
         ex = self.executor
         t0 = time.perf_counter()
+        self._seen_z_cm = ()
         xy = np.array([obj.x_cm, obj.y_cm])
         goal = self.planner.pick_target(cls, obj.x_cm, obj.y_cm)
         # picks that look start from the aim the picks nearby needed (claw_loop)
         aim = np.zeros(3)
         if self.eye is not None:
             aim[:2] = self.eye.corrections.guess(xy)
-        pick = Route(obj.id, obj.class_name, "pick", obj.failed_picks + 1, shifted(goal, aim))
+            aim[2] = -self.eye.drops.drop_cm(obj.id, xy)  # the height misses taught
         self._world()
-        above = self._approach(obj, pick)  # planned in full with the pick, before either
+        above, pick = self._pick_routes(obj, goal, aim)
+        aim[2] = float(pick.target.position_cm[2] - goal.position_cm[2])
         if not self._plan_pick(obj, above, pick):
             return
         if above is not None:
-            ex.stream(above, "travel", False)
+            ex.stream(above, "travel", closed=False)
             if self.eye is not None:
                 pick, aim = aim_over(self.eye, self.planner, ex, obj, pick, aim)
-        ex.stream(pick, "travel", False, hex_rgb(cls.draw_rgb))
+        ex.stream(pick, "travel", closed=False, color=hex_rgb(cls.draw_rgb))
         if self.eye is not None:
-            pick, aim = aim_by_eye(self.eye, self.planner, ex, obj, above, pick, aim)
+            pick, aim, self._seen_z_cm = aim_by_eye(
+                self.eye, self.planner, ex, obj, above, pick, aim
+            )
             self.eye.corrections.add(xy, aim[:2])
+            self._drop_cm = -float(aim[2])
+            if pick.plan is not None:  # how far down the object's side the open jaws reach
+                low_cm = self.collision.tool_lowest_cm(pick.plan.q)[0]
+                self._overlap_cm = cls.height_cm - low_cm
             pick.target = goal  # the pick is judged, and logged, against the object
         ex.finish(pick, t0)  # where the TCP arrived (Table 8's)
-        ex.set_tool("grip", False)
+        ex.set_tool("grip", closed=False)
         pick.grip_ee_cm = ex.ee_now_cm()  # settled: where the jaws close
-        ex.set_tool("grip", True)
-        ex.set_tool("travel", True)
+        ex.set_tool("grip", closed=True)
+        ex.set_tool("travel", closed=True)
         self._world(held=obj, opening_cm=cls.diameter_cm)
         planned = self._lift_and_plan_place(obj, cls, above, pick)
         if planned is not None:
@@ -228,24 +274,32 @@ class PickAndPlace(TableTracking):
         # each object.) A fault on the way leaves the pick in the log, unconfirmed.
         pick.confirmed = False
         try:
-            ex.stream(place, "travel", True, hex_rgb(cls.draw_rgb))
+            ex.stream(place, "travel", closed=True, color=hex_rgb(cls.draw_rgb))
             pick.success = not self._on_table(obj, self._look(track_new=False))
             pick.confirmed = True
         finally:
             self.reporter.route(pick)
+        if self.eye is not None:  # what the grip's height did (claw_loop.GripDrops)
+            xy = np.array(self._active_from_cm)
+            if pick.success:
+                self.eye.drops.held(obj.id, xy, self._drop_cm)
+            else:
+                moved = float(np.hypot(obj.x_cm - xy[0], obj.y_cm - xy[1]))
+                drops = self.eye.drops
+                drops.missed(obj.id, self._drop_cm, moved, self._seen_z_cm, self._overlap_cm)
         if not pick.success:
             # the jaws hold nothing, or a neighbour: take it back over the spot (not into
             # this bin) and let it go there
             back = above.target if above is not None else self.planner.lift_target(pick.target)
             back_route = Route(obj.id, obj.class_name, "lift", 1, back)
             if self.planner.plan(back_route, ex.q_now()).planned:
-                ex.stream(back_route, "travel", True)
-            ex.set_tool("travel", False)
+                ex.stream(back_route, "travel", closed=True)
+            ex.set_tool("travel", closed=False)
             obj.failed_picks += 1
             if obj.failed_picks > self.config.task.pick_retries:
                 self._skip(obj, f"pick failed {obj.failed_picks} times", pick, kind="pick_failed")
             return
-        ex.set_tool("travel", False)
+        ex.set_tool("travel", closed=False)
         release = self.bus.last_release if isinstance(self.bus, ReportsRelease) else None
         place.success = release is None or release.bin == obj.class_name
         obj.sorted = place.success
@@ -276,7 +330,7 @@ def stuck_reason(beside: tuple[float, str, str], clearance_cm: float, failure: s
         failure: Why the place was refused.
     """
     gap_m, part, obstacle = beside
-    name = obstacle.removeprefix("obj_")
+    name = object_of(obstacle) or obstacle
     if obstacle == "table":  # (the table keeps no clearance: its gap is the height)
         where = f"{part} {gap_m / M_PER_CM:.2f} cm above it"
     else:

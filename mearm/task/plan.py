@@ -84,7 +84,7 @@ class Planner:
         tool = config.arm.tool
         self._approach = tool.pick_approach
         self.collision = collision
-        self._servos = ServoMap.from_config(config)
+        self._servos = ServoMap.from_arm(config.arm)
         self._combination = self._servos.combination
         self._jaw_across = jaw_frame(config.arm)[:, 1]  # the line the jaws open along
 

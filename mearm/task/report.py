@@ -215,7 +215,7 @@ class Reporter:
         if self.log is not None:
             self.log.fault(reason, last_joints, trial=self.trial)
 
-    def summary(self, ok: bool, outcome: Outcome, motion: MotionTime | None = None) -> None:
+    def summary(self, *, ok: bool, outcome: Outcome, motion: MotionTime | None = None) -> None:
         """Close the trial in the log and print the per-class table.
 
         The last line printed is :meth:`Outcome.line`.

@@ -21,7 +21,8 @@ from mearm.config.sections import MAX_SCENE_OBJECTS
 from mearm.errors import ConfigError, MearmError
 from mearm.kinematics import ArmModel, check_in_box, closed_form_for
 from mearm.kinematics.bodies import M_PER_CM, base_radius_m, bin_half_outer_m
-from mearm.kinematics.collision import TOUCH_M, CollisionModel
+from mearm.kinematics.collision import TOUCH_M
+from mearm.sim.table_collision import collision_model
 from mearm.task.plan import Planner
 from mearm.task.route import Route
 from mearm.vision.calibration import camera_geometry
@@ -103,9 +104,9 @@ def check_scene(config: Config, scene: Sequence[SceneObject], source: str = "tas
     """
     if not scene:
         return
-    base_cm = base_radius_m(config) / M_PER_CM
-    bins = [(c, bin_half_outer_m(config, c.name) / M_PER_CM) for c in config.task.classes]
-    geometry = camera_geometry(config)
+    base_cm = base_radius_m(config.arm) / M_PER_CM
+    bins = [(c, bin_half_outer_m(c) / M_PER_CM) for c in config.task.classes]
+    geometry = camera_geometry(config.calibration, config.camera)
     w, h = config.camera.width_px, config.camera.height_px
     angles = np.linspace(0.0, 2 * np.pi, RIM_POINTS, endpoint=False)
     rim = np.column_stack([np.cos(angles), np.sin(angles)])
@@ -243,7 +244,7 @@ def _footprint_check(
     """
     model = ArmModel(config.arm)
     margin = config.task.clearance_cm + FOOTPRINT_MARGIN_CM
-    collision = CollisionModel(config, model, clearance_cm=margin)
+    collision = collision_model(config, model, clearance_cm=margin)
 
     def clear(
         placed: list[SceneObject], poses: list[np.ndarray], new: SceneObject, q: np.ndarray
@@ -285,7 +286,7 @@ def _class_order(config: Config, counts: dict[str, int] | int, seed: int) -> lis
 
 
 def _scene_field(
-    config: Config, any_objects: bool
+    config: Config, *, any_objects: bool
 ) -> tuple[float, tuple[float, float, float, float]]:
     """The largest object diameter and the camera field (x0, x1, y0, y1) one diameter in [cm]."""
     # (a cube's or a prism's: the circle around it, whatever its yaw)
@@ -381,7 +382,7 @@ def random_scene(
     """
     order = _class_order(config, counts, seed)
     rng = np.random.default_rng(seed)
-    diameter, (x0, x1, y0, y1) = _scene_field(config, bool(order))
+    diameter, (x0, x1, y0, y1) = _scene_field(config, any_objects=bool(order))
     reach = _reach_check(config)
     min_dist = _min_centre_distance_cm(config, diameter)
     footprint = _footprint_check(config)

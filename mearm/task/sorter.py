@@ -45,7 +45,7 @@ from mearm.hardware.bus import ServoBus
 from mearm.hardware.errors import ServoError
 from mearm.ik import IKTarget
 from mearm.kinematics import ArmModel
-from mearm.kinematics.collision import CollisionModel
+from mearm.sim.table_collision import collision_model
 from mearm.task.claw_loop import claw_eye
 from mearm.task.execute import Executor, View
 from mearm.task.pick_place import (  # noqa: F401  (re-exported)
@@ -80,6 +80,7 @@ from mearm.task.table_tracking import is_cut as _cut  # noqa: F401
 from mearm.task.table_tracking import seen_cut as _seen_cut  # noqa: F401
 from mearm.task.table_tracking import table_cm as _table_cm  # noqa: F401
 from mearm.vision import Camera, ColorDetector
+from mearm.vision.arm_mask import arm_mask_source
 from mearm.vision.calibration import camera_geometry
 from mearm.vision.errors import CameraError
 from mearm.vision.frame_check import FrameCheck
@@ -161,15 +162,22 @@ class Sorter(PickAndPlace):
         self.camera = camera
         self.bus = bus
         self.model = model if model is not None else ArmModel(config.arm)
-        self.collision = CollisionModel(config, self.model, clearance_cm=config.task.clearance_cm)
+        self.collision = collision_model(config, self.model, clearance_cm=config.task.clearance_cm)
         self.planner = Planner(config, self.model, self.collision)
         self.executor = Executor(config, bus, self.model, view)
         self.reporter = Reporter(config, self.model.chain, log, echo, trial)
-        self.calibration = camera_geometry(config)
-        self.detector = ColorDetector(config.vision, self.calibration, config.task.classes)
+        self.calibration = camera_geometry(config.calibration, config.camera)
+        self.detector = ColorDetector.from_config(
+            config.vision, config.calibration, config.camera, config.task.classes,
+            geometry=self.calibration,
+        )  # fmt: skip
         #: The camera watching the claw's marker (picks that look), where the tool carries
         #: one, the camera is calibrated as a perspective one and the config asks for it.
         self.eye = claw_eye(config, self.model, self.calibration, camera.read, bus.hold)
+        self.arm_in_view = arm_mask_source(
+            self.calibration, self.model, self.collision.bodies,
+            opening_cm=config.arm.tool.gripper.open_cm, joints=self.executor.q_now,
+        )  # fmt: skip
         self.frame_check = FrameCheck(camera.source)
         #: The object the arm last went for (the only one it may have moved since).
         self._active: TrackedObject | None = None
@@ -268,7 +276,7 @@ class Sorter(PickAndPlace):
             safe = self.planner.safe_height_cm(ex.q_now())
             up = Route("", "", "home", 1, IKTarget((x, y, max(z, safe))))
             if self.planner.plan(up, ex.q_now()).planned:
-                ex.stream(up, "travel", closed)
+                ex.stream(up, "travel", closed=closed)
             contact = self.collision.first_contact(ex.joint_path(self.model.home))
             if contact is not None:
                 chain = self.model.chain
@@ -277,7 +285,7 @@ class Sorter(PickAndPlace):
                     + contact.describe(chain.names, chain.scale)
                     + "; the arm stays where it is"
                 )
-        ex.move_joints(self.model.home, "travel", closed)
+        ex.move_joints(self.model.home, "travel", closed=closed)
         ex.home_pose(closed=closed and keep_grip)
 
     def run(self) -> SortReport:

@@ -8,7 +8,7 @@ shift mean the camera was knocked (:func:`check_view`).
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -91,6 +91,9 @@ class TableTracking:
     frame_check: FrameCheck
     view: View | None
     reporter: Reporter
+    #: The arm's body in a frame of this shape at its last joints (0/255), where a
+    #: calibrated camera sees it: no object is looked for there; ``None``: not known.
+    arm_in_view: Callable[[tuple[int, ...]], np.ndarray] | None = None
     _objects: list[TrackedObject]
     #: The object the arm last went for (the only one it may have moved since).
     _active: TrackedObject | None
@@ -110,7 +113,11 @@ class TableTracking:
         self.frame_check.check(frame, self.camera.frame_time_s, self.camera.clock_s)
         # an object seen in a bin is sorted, not on the table (a camera that sees the
         # bins sees what was put in them)
-        found = [(d, table_cm(d)) for d in self.detector.detect(frame)]
+        if self.arm_in_view is None:
+            detections = self.detector.detect(frame)
+        else:
+            detections = self.detector.detect(frame, exclude=self.arm_in_view(frame.shape))
+        found = [(d, table_cm(d)) for d in detections]
         seen = [(d, p) for d, p in found if not self._in_a_bin(p)]
         self._track(seen, track_new=track_new)
         if self.view is not None:

@@ -203,8 +203,9 @@ def _check(samples: np.ndarray, chain: Chain, limits: SpeedLimits, period_s: flo
 def tool_move_s(
     tool: Tool,
     before: Mapping[str, float] | None,
-    before_closed: bool | None,
     after: Mapping[str, float],
+    *,
+    before_closed: bool | None,
     after_closed: bool,
 ) -> float:
     """How long a tool setting takes: its slowest servo's travel, then ``tool.settle_s`` [s].

@@ -123,7 +123,9 @@ def main(argv: Sequence[str] | None = None) -> int:
             f"--class {args.class_name!r}: no such class (classes: "
             f"{', '.join(config.task.class_names)})"
         )
-    if args.refine is not None and not isinstance(camera_geometry(config), PerspectiveCamera):
+    if args.refine is not None and not isinstance(
+        camera_geometry(config.calibration, config.camera), PerspectiveCamera
+    ):
         parser.error(
             "--refine needs a perspective calibration (calibration.model: perspective with "
             "intrinsics_file and extrinsics_file); this config has the homography"

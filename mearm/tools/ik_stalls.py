@@ -45,7 +45,7 @@ def _sample(rng: np.random.Generator, lo: np.ndarray, hi: np.ndarray, p_edge: fl
     return q
 
 
-def measure(config: Config, n: int, seed: int, recover: bool | None) -> list[dict[str, object]]:
+def measure(config: Config, n: int, seed: int, *, recover: bool | None) -> list[dict[str, object]]:
     """One row per kind of start: stops, their kinds, how solves got there, violations."""
     model = ArmModel(config.arm)
     chain = model.chain
@@ -118,7 +118,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         solver = config.controller.solver
         label = f"{path.name} ({solver}{', no recovery' if args.no_recover else ''})"
         print(label)
-        for row in measure(config, args.targets, args.seed, False if args.no_recover else None):
+        for row in measure(
+            config, args.targets, args.seed, recover=False if args.no_recover else None
+        ):
             share = 100.0 * int(row["stopped"]) / int(row["targets"])  # type: ignore[call-overload]
             print(
                 f"  start {row['start']:<13} {row['targets']} targets: stopped {row['stopped']} "

@@ -182,7 +182,7 @@ def learned_config(config: Config, photo: Photo) -> Config:
 
 
 def _detectors(config: Config) -> dict[str, Callable[[np.ndarray], Sequence[Detection]]]:
-    cal = camera_geometry(config)
+    cal = camera_geometry(config.calibration, config.camera)
     detector = ColorDetector(config.vision, cal, config.task.classes)
     plain = cal if isinstance(cal, Calibration) else None
     return {
@@ -194,7 +194,9 @@ def _detectors(config: Config) -> dict[str, Callable[[np.ndarray], Sequence[Dete
 def run_photo_bench(folder: Path, config: Config, *, learn: bool = False) -> list[dict]:
     """Recall and precision of the detector and the ``inRange`` recipe on labelled photos.
 
-    Rows per photo and per class (``scope``) and over all, for each detector (``who``):
+    Rows per photo, per source (``source <repo>``: scored as held out when the
+    detector was developed on the others), per class (``scope``) and over all, for
+    each detector (``who``):
     found, missed, false, recall, precision. With ``learn`` the detector's config is
     taught per source from its first photo (:func:`learned_config`); the recipe keeps the
     config's hue bands (it has no learned colours).
@@ -206,13 +208,17 @@ def run_photo_bench(folder: Path, config: Config, *, learn: bool = False) -> lis
     plain = _detectors(config)
     taught = {s: _detectors(learned_config(config, p))["mearm"] for s, p in firsts.items()}
     totals: dict[str, Score] = {"mearm": Score(), "inRange": Score()}
+    sources = {(src, who): Score() for src in firsts for who in totals}
     rows = []
     for p in photos:
         runs = {"mearm": taught[p.source] if learn else plain["mearm"], "inRange": plain["inRange"]}
         for who, detect in runs.items():
             s = score(p, detect(p.frame))
             totals[who].add(s)
+            sources[p.source, who].add(s)
             rows.append(_row(p.name, who, s))
+    for (src, who), s in sources.items():
+        rows.append(_row(f"source {src}", who, s))
     for who, s in totals.items():
         for name in s.found:
             one = Score({name: s.found[name]}, {name: s.missed[name]}, {name: s.false[name]})

@@ -28,7 +28,7 @@ import numpy as np
 
 from mearm.cli import ArgumentParser, add_config_argument, config_from_args, positive_number, run
 from mearm.kinematics import ArmModel
-from mearm.kinematics.collision import CollisionModel
+from mearm.sim.table_collision import collision_model
 from mearm.view import ArmView
 
 #: The --sweep argument meaning every actuated joint, then the gripper.
@@ -181,7 +181,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     joints = range(chain.m) if everything else [actuated.index(args.sweep)] if args.sweep else []
     gripper = config.arm.tool.gripper
 
-    def sweep(pace: bool) -> None:
+    def sweep(*, pace: bool) -> None:
         period = 1.0 / args.rate_hz
         deadline = time.monotonic()
 
@@ -204,7 +204,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     collision = None
     if args.collision:
-        collision = CollisionModel(config, model, clearance_cm=config.task.clearance_cm)
+        collision = collision_model(config, model, clearance_cm=config.task.clearance_cm)
 
     with ArmView(model, config, port=args.port) as view:
         view.show_joints(q_start, gripper.open_cm)

@@ -39,7 +39,7 @@ PAPER = {
 
 def reproduce(config, mode: str) -> dict:
     """Solve the demo routes; return rows, summary and the paper's figures."""
-    routes = demo_routes(config)
+    routes = demo_routes(config.arm.tool, config.task)
     if not routes:
         raise ConfigError(
             None, ["task.scene is empty: the demo needs the paper's layout (configs/sim.yaml)"]

@@ -47,7 +47,7 @@ def responses(config: Config, steps_deg: list[float]) -> Rows:
             high = joint.limits.max if joint.limits else float("inf")
             joints[joint.name] += step if joints[joint.name] + step <= high else -step
             start, t0 = arm.actual_joints[joint.name], arm.time_s
-            arm.move(ArmCommand(joints, tool, False))
+            arm.move(ArmCommand(joints, tool, gripper_closed=False))
             while arm.time_s - t0 < LENGTH_S:
                 moved = arm.actual_joints[joint.name] - start
                 rows.append((joint.name, step, arm.time_s - t0, moved))

@@ -58,7 +58,9 @@ def sweep(
     first = config.task.classes[0]
     cls = first.model_copy(update={"diameter_cm": max_cm, "shape": None})
     bgr = class_bgr(cls)
-    detector = ColorDetector(config.vision, calibration, [cls])
+    # the colour's objects come in every size from min_cm (a class of its own) to max_cm
+    small = cls.model_copy(update={"name": f"{cls.name}_small", "diameter_cm": min_cm})
+    detector = ColorDetector(config.vision, calibration, [cls, small])
     rng = np.random.default_rng(seed)
     tally = {name: ShapeTally() for name in SHAPES}
     names = list(SHAPES)

@@ -260,7 +260,9 @@ def run_vision_accuracy(seeds: int = 3) -> list[dict]:
 
     config = Config()
     calibration = Calibration.from_config(config.calibration)
-    detector = ColorDetector.from_config(config)
+    detector = ColorDetector.from_config(
+        config.vision, config.calibration, config.camera, config.task.classes
+    )
     objects = [(o.color, o.x, o.y) for o in config.task.scene]
     discs = class_discs(config.task.classes, objects)
     errors, scenes, exact = [], 0, 0

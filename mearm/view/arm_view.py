@@ -236,8 +236,8 @@ class ArmView:
         vis = self.viewer
         vis["/Background"].set_property("top_color", BACKGROUND_TOP)
         vis["/Background"].set_property("bottom_color", BACKGROUND_BOTTOM)
-        vis["/Grid"].set_property("visible", False)
-        vis["/Axes"].set_property("visible", False)
+        vis["/Grid"].set_property("visible", False)  # noqa: FBT003 - meshcat's (name, value)
+        vis["/Axes"].set_property("visible", False)  # noqa: FBT003 - meshcat's (name, value)
         self.camera.apply(vis)
 
         draw_table(vis, self.layout)
@@ -605,14 +605,14 @@ class ArmView:
         self.viewer["paths"].delete()
         self._paths.clear()
         if not self._paths_shown:
-            self.viewer["paths"].set_property("visible", False)
+            self.viewer["paths"].set_property("visible", False)  # noqa: FBT003 - meshcat's (name, value)
 
     @property
     def paths_shown(self) -> bool:
         """Whether the route lines are shown (:meth:`show_paths`); they are at first."""
         return self._paths_shown
 
-    def show_paths(self, visible: bool = True) -> None:
+    def show_paths(self, *, visible: bool = True) -> None:
         """Show or hide every route line, those drawn later included.
 
         Hidden lines stay in the scene (:attr:`paths` still lists them; meshcat's

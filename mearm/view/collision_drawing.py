@@ -131,7 +131,7 @@ class CollisionDrawing:
         drawn: The shapes drawn now, by scene path.
     """
 
-    def __init__(self, viewer: meshcat.Visualizer, collision: CollisionModel, track_world: bool):
+    def __init__(self, viewer: meshcat.Visualizer, collision: CollisionModel, *, track_world: bool):
         self.viewer = viewer
         self.collision = collision
         self.track_world = track_world

@@ -93,7 +93,7 @@ def camera_field_cm(config: Config) -> np.ndarray:
     """Where the camera image's corners land on the table [cm], (4, 2)."""
     w, h = config.camera.width_px, config.camera.height_px
     corners = np.array([[0, 0], [w, 0], [w, h], [0, h]], dtype=float)
-    return camera_geometry(config).pixel_to_table(corners)
+    return camera_geometry(config.calibration, config.camera).pixel_to_table(corners)
 
 
 def arm_points_cm(model: ArmModel, q: np.ndarray) -> np.ndarray:

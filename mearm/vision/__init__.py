@@ -2,7 +2,9 @@
 
 Everything is keyed by colour class (``task.classes``): build a detector with
 ``ColorDetector(config.vision, calibration, config.task.classes)`` or
-``ColorDetector.from_config(config)``. The simulated camera lives in :mod:`mearm.sim`.
+``ColorDetector.from_config(config.vision, config.calibration, config.camera,
+config.task.classes)`` (which also takes the calibrated table as the work area). The
+simulated camera lives in :mod:`mearm.sim`.
 
 ``mearm.vision.paper_recipe`` (the plain NumPy/SciPy recipe) needs SciPy and is not imported
 here (the rendered test scenes and the benchmark are ``mearm.sim.kinematic.vision_scenes`` and

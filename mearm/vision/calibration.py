@@ -18,19 +18,15 @@ from __future__ import annotations
 import itertools
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import cv2
 import numpy as np
 import numpy.typing as npt
 
-from mearm.config import CalibrationConfig
+from mearm.config import CalibrationConfig, CameraConfig
 from mearm.config.base import short_repr
 from mearm.config.errors import CalibrationError
 from mearm.vision.pinhole import PerspectiveCamera
-
-if TYPE_CHECKING:
-    from mearm.config import Config
 
 #: Twice a triangle's area over its longest side squared below this is "on one line"
 #: (≈ 0.6° of bend at the middle point).
@@ -205,23 +201,28 @@ class Calibration:
 CameraGeometry = Calibration | PerspectiveCamera
 
 
-def camera_geometry(config: Config) -> CameraGeometry:
-    """The pixel ↔ base-frame model a config's ``calibration`` section selects.
+def camera_geometry(calibration: CalibrationConfig, camera: CameraConfig) -> CameraGeometry:
+    """The pixel ↔ base-frame model a ``calibration`` section selects.
+
+    Args:
+        calibration: The config's ``calibration`` section.
+        camera: The config's ``camera`` section (the frames' size a perspective
+            calibration must have been made at).
 
     Raises:
         CalibrationError: a perspective calibration's files cannot be read, or do not
             belong together or to the configured frame size.
     """
-    cal = config.calibration
+    cal = calibration
     if cal.model == "homography":
         return Calibration.from_config(cal)
     assert cal.intrinsics_file is not None and cal.extrinsics_file is not None
-    camera = PerspectiveCamera.from_files(cal.intrinsics_file, cal.extrinsics_file)
-    size = (config.camera.width_px, config.camera.height_px)
-    if camera.size_px != size:
+    found = PerspectiveCamera.from_files(cal.intrinsics_file, cal.extrinsics_file)
+    size = (camera.width_px, camera.height_px)
+    if found.size_px != size:
         raise CalibrationError(
-            f"{cal.intrinsics_file}: calibrated at {camera.size_px[0]}x{camera.size_px[1]} px "
+            f"{cal.intrinsics_file}: calibrated at {found.size_px[0]}x{found.size_px[1]} px "
             f"but camera frames are {size[0]}x{size[1]} px: recalibrate at this size or "
             "change camera.width_px/height_px"
         )
-    return camera
+    return found

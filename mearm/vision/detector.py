@@ -57,16 +57,16 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import replace
-from typing import TYPE_CHECKING
 
 import cv2
 import numpy as np
 
-from mearm.config import ColorClass, VisionConfig
+from mearm.config import CalibrationConfig, CameraConfig, ColorClass, VisionConfig
 from mearm.errors import ConfigError
 from mearm.vision.calibration import Calibration, CameraGeometry, camera_geometry
 from mearm.vision.classify import PixelClassifier, and_scalar, equal_mask
 from mearm.vision.detection import Detection, _point, _with_table_yaw, check_frame
+from mearm.vision.errors import ImageError
 from mearm.vision.learned import LearnedClassifier, area_mask, balance_by, gains
 from mearm.vision.perspective_detection import (
     MAX_SPLIT,
@@ -80,6 +80,7 @@ from mearm.vision.perspective_detection import (
     top_fits,
 )
 from mearm.vision.pinhole import PerspectiveCamera, TopFit
+from mearm.vision.plausible import plausible, surely_plausible, widths_cm
 from mearm.vision.regions import (
     CORE_DEPTH,
     MIN_PART,
@@ -97,9 +98,6 @@ from mearm.vision.regions import (
 from mearm.vision.shadows import grow_into_shadows, weak_classifier
 from mearm.vision.shapes import ClassMatcher, measure_shape, touches_border
 from mearm.vision.thresholds import Thresholds
-
-if TYPE_CHECKING:
-    from mearm.config import Config
 
 __all__ = [
     "CORE_DEPTH",
@@ -140,6 +138,9 @@ class ColorDetector:
             calibration holds in the table plane and the camera sees the objects in
             perspective (see the module docstring); ``None``: the calibration holds in
             the plane of the objects' tops (no perspective growth).
+        table_area_px: The work area when ``vision`` gives none: the calibrated table's
+            outline (:func:`~mearm.vision.work_area.default_work_area`), a polygon (u, v)
+            [px]; ``None``: the whole frame.
 
     Raises:
         ConfigError: no classes, too many, or a name listed twice; a camera height
@@ -152,6 +153,8 @@ class ColorDetector:
         calibration: CameraGeometry | None,
         classes: Sequence[ColorClass],
         camera_height_cm: float | None = None,
+        *,
+        table_area_px: Sequence[tuple[float, float]] | None = None,
     ):
         self.classes = tuple(classes)
         self.vision = vision
@@ -166,6 +169,8 @@ class ColorDetector:
         )
         self._banded = any(n not in learned for n in self.thresholds.class_names)
         self._areas: dict[tuple[int, int], np.ndarray] = {}
+        given = vision.work_area_px
+        self._area_px = list(given) if given is not None else table_area_px
         shadow = vision.shadow_value_min
         # hysteresis on value is for hue bands on raw frames: not with learned colours,
         # a reference colour or a work area
@@ -185,6 +190,7 @@ class ColorDetector:
             g: max(_disc_diameter_cm(size[n]) for n in names) for g, names in members.items()
         }
         self._height_cm = {g: max(size[n].height_cm for n in names) for g, names in members.items()}
+        self._widths_cm = {g: widths_cm(size[n] for n in names) for g, names in members.items()}
         if camera_height_cm is not None:
             tallest = max(self._height_cm.values(), default=0.0)
             if not math.isfinite(camera_height_cm) or camera_height_cm <= tallest:
@@ -198,27 +204,58 @@ class ColorDetector:
         self.camera_height_cm = camera_height_cm
 
     @classmethod
-    def from_config(cls, config: Config) -> ColorDetector:
-        """The detector of a whole config: ``task.classes``, ``vision``, ``calibration``."""
-        return cls(config.vision, camera_geometry(config), config.task.classes)
+    def from_config(
+        cls,
+        vision: VisionConfig,
+        calibration: CalibrationConfig,
+        camera: CameraConfig,
+        classes: Sequence[ColorClass],
+        *,
+        geometry: CameraGeometry | None = None,
+    ) -> ColorDetector:
+        """The detector of a config's sections: ``vision``, ``calibration``, ``camera``, classes.
+
+        The calibration selects the camera's geometry (:func:`camera_geometry`; or
+        ``geometry``, already made from it); with a perspective calibration and no
+        ``vision.work_area_px`` the work area is the calibrated table's outline
+        (:func:`~mearm.vision.work_area.default_work_area`).
+        """
+        from mearm.vision.work_area import default_work_area
+
+        if geometry is None:
+            geometry = camera_geometry(calibration, camera)
+        table = default_work_area(vision, geometry, calibration, camera, classes)
+        return cls(vision, geometry, classes, table_area_px=table)
 
     def work_area(self, shape: Sequence[int]) -> np.ndarray | None:
         """The work area's 0/255 mask for frames of ``shape`` (H, W, ...), or ``None``."""
-        if self.vision.work_area_px is None:
+        if self._area_px is None:
             return None
         key = (int(shape[0]), int(shape[1]))
         if key not in self._areas:
-            self._areas[key] = area_mask(self.vision.work_area_px, key)
+            self._areas[key] = area_mask(self._area_px, key)
         return self._areas[key]
 
-    def _classify(self, frame: np.ndarray) -> tuple[np.ndarray, tuple[int, int, int, int]]:
+    def _classify(
+        self, frame: np.ndarray, exclude: np.ndarray | None = None
+    ) -> tuple[np.ndarray, tuple[int, int, int, int]]:
         """Class codes of a frame and the box outside which all are 0 (may be loose).
 
         The frame is white-balanced first when the config holds a reference colour, the
         learned colours' codes take their pixels before the hue bands', and nothing
-        outside the work area is kept (:mod:`mearm.vision.learned`).
+        outside the work area, or inside ``exclude`` (0/255, (H, W)), is kept
+        (:mod:`mearm.vision.learned`).
         """
         area = self.work_area(frame.shape)
+        if exclude is not None:
+            if exclude.shape != frame.shape[:2]:
+                raise ImageError(
+                    "exclude",
+                    f"mask is {exclude.shape[1]}x{exclude.shape[0]} px but the frame is "
+                    f"{frame.shape[1]}x{frame.shape[0]} px",
+                )
+            keep = cv2.bitwise_not(exclude.astype(np.uint8, copy=False))
+            area = keep if area is None else cv2.bitwise_and(area, keep)
         ref = self.vision.reference_bgr
         gain = None if ref is None else gains(frame, ref, area)
         if self.learned is None and area is None:
@@ -237,14 +274,16 @@ class ColorDetector:
         x, y, w, h = cv2.boundingRect(codes)
         return codes, (x, y, w, h)
 
-    def _filtered(self, frame_bgr: np.ndarray) -> tuple[dict[str, np.ndarray], int, int]:
+    def _filtered(
+        self, frame_bgr: np.ndarray, exclude: np.ndarray | None = None
+    ) -> tuple[dict[str, np.ndarray], int, int]:
         """Filtered masks of the box around every classified pixel, and the box origin.
 
         Outside that box (grown by the median's reach) every mask is 0, so working
         inside it gives the full frame's result exactly, for less work.
         """
         frame = check_frame(frame_bgr)
-        codes, (x, y, w, h) = self._classify(frame)
+        codes, (x, y, w, h) = self._classify(frame, exclude)
         if self._weak is not None:  # regions grown into their shadows (mearm.vision.shadows)
             weak, (x, y, w, h) = self._weak.classify_with_box(frame)
             codes = grow_into_shadows(codes, weak, len(self.class_names))
@@ -276,8 +315,13 @@ class ColorDetector:
             out[name] = full
         return out
 
-    def detect(self, frame_bgr: np.ndarray) -> list[Detection]:
+    def detect(
+        self, frame_bgr: np.ndarray, *, exclude: np.ndarray | None = None
+    ) -> list[Detection]:
         """Detections in ``frame_bgr`` ((H, W, 3) uint8 BGR), in the documented order.
+
+        ``exclude``: pixels where no object is looked for (0/255 uint8, (H, W)), e.g. the
+        arm's body (:class:`~mearm.vision.arm_mask.ArmInView`).
 
         The regions are measured one by one (class, area, box, elongation), the rest per
         image (merged test, table positions, order); each detection is made once, at
@@ -285,9 +329,10 @@ class ColorDetector:
         (:meth:`_resolve`, :meth:`_located`).
 
         Raises:
-            ImageError: the frame is not an 8-bit 3-channel image.
+            ImageError: the frame is not an 8-bit 3-channel image, or ``exclude`` is not
+                of its size.
         """
-        masks, ox, oy = self._filtered(frame_bgr)
+        masks, ox, oy = self._filtered(frame_bgr, exclude)
         # One image of class codes 1..N (0 = none); the filtered masks are disjoint.
         index = np.zeros_like(next(iter(masks.values())))
         for code, name in enumerate(self.class_names, start=1):
@@ -326,7 +371,7 @@ class ColorDetector:
         cal = self.calibration
         table: np.ndarray | None = None
         if cal is not None:
-            _, largest, stretch = self.one_object_bounds(centroid, colors, frame_bgr.shape)
+            flat, largest, stretch = self.one_object_bounds(centroid, colors, frame_bgr.shape)
             over = np.array(areas) > self.vision.merged_area_ratio * largest
             if over.any() or not isinstance(cal, Calibration):
                 regions = [
@@ -351,6 +396,8 @@ class ColorDetector:
             for j in range(len(codes))
         ]
         regions = [_region_mask(r, labels, b, ox, oy) for r, b in zip(sources, boxes, strict=True)]
+        bounds = None if table is None else (flat, stretch)
+        found, regions = self._objects_only(found, regions, frame_bgr.shape, bounds)
         return self._classed(found, regions, frame_bgr.shape)
 
     def _general(
@@ -372,6 +419,7 @@ class ColorDetector:
             )
         ]
         found, regions = self._resolve(found, regions, frame)
+        found, regions = self._objects_only(found, regions, frame.shape)
         fits = self._top_fits(found, regions, frame)
         tops = (
             None
@@ -380,6 +428,49 @@ class ColorDetector:
         )
         classed = _classify_regions(self.matcher, found, regions, frame.shape, tops)
         return self._ordered(self._located(classed, frame, fits))
+
+    def _objects_only(
+        self,
+        found: list[Detection],
+        regions: list[np.ndarray],
+        frame_shape: Sequence[int],
+        bounds: tuple[np.ndarray, np.ndarray] | None = None,
+    ) -> tuple[list[Detection], list[np.ndarray]]:
+        """The regions that can be objects of their colour's size and shape, and their masks.
+
+        :func:`~mearm.vision.plausible.plausible` at each region's place, after its box's
+        sure pass (:func:`~mearm.vision.plausible.surely_plausible`); regions cut by the
+        frame's border are kept (only part of them is seen). Needs the calibration (the
+        objects' size in pixels); without it every region is kept. ``bounds``: the flat
+        area and largest elongation at each region (:meth:`one_object_bounds`), if known.
+        """
+        if self.calibration is None or not found:
+            return found, regions
+        colors = [d.color for d in found]
+        if bounds is None:
+            centroids = np.array([d.centroid_px for d in found])
+            flat, _, stretch = self.one_object_bounds(centroids, colors, frame_shape)
+        else:
+            flat, stretch = bounds
+        disc_cm2 = np.array([math.pi * self._diameter_cm[c] ** 2 / 4.0 for c in colors])
+        scale = np.sqrt(flat / disc_cm2)
+        widths = np.array([self._widths_cm[c] for c in colors])  # (N, 2)
+        area = np.array([d.area_px for d in found], dtype=float)
+        box = np.array([d.bbox_px for d in found], dtype=float)  # (N, 4)
+        sure = surely_plausible(area, box[:, 2], box[:, 3], scale, flat, widths, stretch)
+        height, width = int(frame_shape[0]), int(frame_shape[1])
+        keep = [
+            bool(sure[j])
+            or touches_border(d.bbox_px, width, height)
+            or plausible(r, d.area_px, scale[j], flat[j], self._widths_cm[d.color], stretch[j])
+            for j, (d, r) in enumerate(zip(found, regions, strict=True))
+        ]
+        if all(keep):
+            return found, regions
+        return (
+            [d for d, k in zip(found, keep, strict=True) if k],
+            [r for r, k in zip(regions, keep, strict=True) if k],
+        )
 
     def _top_fits(
         self, found: list[Detection], regions: list[np.ndarray], frame: np.ndarray

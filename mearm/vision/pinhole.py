@@ -606,7 +606,8 @@ class PerspectiveCamera:
             cos, sin = math.cos(yaw), math.sin(yaw)
             placed = corners @ np.array([[cos, sin], [-sin, cos]]) + centre
             outside = max(
-                -cv2.pointPolygonTest(outline, (float(x), float(y)), True) for x, y in placed
+                -cv2.pointPolygonTest(outline, (float(x), float(y)), measureDist=True)
+                for x, y in placed
             )
             key = (max(outside - POLYGON_OUTSIDE_CM, 0.0), rms)
             if best is None or key < best[0]:

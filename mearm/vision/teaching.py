@@ -150,7 +150,7 @@ def find_table(
         return table, None
     pts = cv2.findNonZero((labels == big).astype(np.uint8))
     hull = cv2.convexHull(pts)
-    poly = cv2.approxPolyDP(hull, 2.0, True).reshape(-1, 2)
+    poly = cv2.approxPolyDP(hull, 2.0, closed=True).reshape(-1, 2)
     return table, [(float(u), float(v)) for u, v in poly[:64]]
 
 

@@ -10,7 +10,13 @@ from scipy.optimize import least_squares
 
 from mearm.config import Config
 from mearm.config.arm import ArmDescription
-from mearm.config.servo_file import ActuatorFit, CalibrationPoint, fitted_servo, servo_of
+from mearm.config.servo_file import (
+    ActuatorFit,
+    CalibrationPoint,
+    fitted_servo,
+    narrowed,
+    servo_of,
+)
 from mearm.hardware import ActuatorMap
 from mearm.task.claw_fit import ClawCamera, ServoFit, Sighting
 
@@ -54,7 +60,10 @@ def actuator_fits(
     points: dict[str, tuple[CalibrationPoint, ...]] | None = None,
     play_us: Mapping[str, float] | None = None,
 ) -> list[ActuatorFit]:
-    """Joint servo maps as the servo file's entries.
+    """Joint servo maps as the servo file's entries, their limits narrowed where needed.
+
+    Each joint's limits are narrowed to what its servo reaches
+    (:func:`~mearm.config.servo_reach.narrowed`).
 
     Args:
         config: The whole config (each servo's present calibration: its channel, pulse
@@ -66,7 +75,8 @@ def actuator_fits(
             (:meth:`CameraSession.rising_play_us`); none where not given.
 
     Raises:
-        ServoCalibrationError: a fitted value the servo's calibration refuses.
+        ServoCalibrationError: a fitted value the servo's calibration refuses, or limits
+            it would narrow too far.
     """
     out = []
     for amap in servos:
@@ -77,7 +87,8 @@ def actuator_fits(
         seen = (points or {}).get(amap.name, ())
         residual = max((abs(servo.pulse_us(p.value) - p.pulse_us) for p in seen), default=0.0)
         replaces = servo_of(replaces_arm, amap.name)
-        out.append(ActuatorFit(amap.name, amap.unit, servo, tuple(seen), residual, replaces))
+        fit = ActuatorFit(amap.name, amap.unit, servo, tuple(seen), residual, replaces)
+        out.append(narrowed(config.arm, fit))
     return out
 
 

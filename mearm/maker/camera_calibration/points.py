@@ -11,9 +11,11 @@ import numpy as np
 from mearm.config import Config
 from mearm.errors import MearmError
 from mearm.ik import IKTarget
-from mearm.kinematics.bodies import bin_origin_m, bin_shapes
+from mearm.kinematics.bodies import TableContents, bin_origin_m, bin_shapes
 from mearm.kinematics.chain import Chain
+from mearm.kinematics.model import ArmModel
 from mearm.maker.camera_calibration.settings import (
+    FREE_SHARES,
     GRID_HALF_CM,
     GRID_STEP_CM,
     HEIGHTS_ABOVE_PICK_CM,
@@ -36,11 +38,22 @@ class Point:
         target_cm: The TCP there (x, y, z) [cm].
         q: The joints the solver puts it at from home (model units), (n,).
         spread: The actuated joints, each as a share of its range, (m,).
+        free: The actuated joints (chain order) its target leaves free
+            (:func:`free_joints`), set at ``q``'s wherever it is reached from.
     """
 
     target_cm: tuple[float, float, float]
     q: np.ndarray
     spread: np.ndarray
+    free: tuple[int, ...] = ()
+
+    def reached(self, chain: Chain, q: np.ndarray) -> np.ndarray:
+        """``q``, a solution of the target, with the free joints set as at the point."""
+        if not self.free:
+            return q
+        a, free = chain.actuated_of(q), list(self.free)
+        a[free] = chain.actuated_of(self.q)[free]
+        return chain.full(a)
 
 
 @dataclass(frozen=True)
@@ -79,7 +92,9 @@ def grid_points(config: Config, planner: Planner, claw: ClawCamera) -> list[Poin
     A grid of :data:`GRID_STEP_CM` about the view's centre at each of
     :data:`HEIGHTS_ABOVE_PICK_CM`; kept where the solver reaches it from home inside the
     limits and the marker, as the present calibration puts it, faces the camera inside
-    the frame.
+    the frame. Each such target is a point as solved, and one more for each joint it
+    leaves free (:func:`free_joints`) at each of :data:`FREE_SHARES`, where those too
+    are inside the limits and show the marker.
     """
     chain = planner.model.chain
     approach = config.arm.tool.pick_approach
@@ -92,9 +107,46 @@ def grid_points(config: Config, planner: Planner, claw: ClawCamera) -> list[Poin
             for dy in np.arange(-GRID_HALF_CM[1], GRID_HALF_CM[1] + 1e-9, GRID_STEP_CM):
                 target = (float(centre[0] + dx), float(centre[1] + dy), float(z))
                 q = solved(planner, IKTarget(target, approach), planner.model.home)
-                if q is not None and in_frame(claw, q, VIEW_MARGIN_PX):
-                    points.append(Point(target, q, (chain.actuated_of(q) - lo) / (hi - lo)))
+                if q is None:
+                    continue
+                free = free_joints(planner.model, q, keeps_approach=approach is not None)
+                for v in (q, *turned_free(chain, q, free)):
+                    if planner.pose_allowed(v) and in_frame(claw, v, VIEW_MARGIN_PX):
+                        spread = (chain.actuated_of(v) - lo) / (hi - lo)
+                        points.append(Point(target, v, spread, free))
     return points
+
+
+def free_joints(model: ArmModel, q: np.ndarray, *, keeps_approach: bool) -> tuple[int, ...]:
+    """The actuated joints (chain order) whose turn at ``q`` leaves a point's target as is.
+
+    The TCP's place stays, and its approach axis where the target keeps one: the 5-DOF
+    arm's wrist roll, about the tool's axis. Such a joint still moves the marker.
+    """
+    chain = model.chain
+    p0, R0 = model.tcp_pose(q)
+    a0 = chain.actuated_of(q)
+    free = []
+    for i in range(chain.m):
+        a = a0.copy()
+        a[i] += 1e-3  # [rad or m]: moves a TCP 1 cm from the axis 1e-3 cm
+        p, R = model.tcp_pose(chain.full(a))
+        turn = np.linalg.norm((R - R0) @ model.approach_axis) if keeps_approach else 0.0
+        if np.linalg.norm(p - p0) < 1e-7 and turn < 1e-7:
+            free.append(i)
+    return tuple(free)
+
+
+def turned_free(chain: Chain, q: np.ndarray, free: Sequence[int]) -> list[np.ndarray]:
+    """``q`` with each free joint in turn at each of :data:`FREE_SHARES` of its range."""
+    lo, hi = chain.actuated_lower, chain.actuated_upper
+    out = []
+    for i in free:
+        for share in FREE_SHARES:
+            a = chain.actuated_of(q)
+            a[i] = lo[i] + share * (hi[i] - lo[i])
+            out.append(chain.full(a))
+    return out
 
 
 def solved(planner: Planner, target: IKTarget, q_start: np.ndarray) -> np.ndarray | None:
@@ -143,10 +195,12 @@ def joint_line(chain: Chain, q_from: np.ndarray, q_to: np.ndarray) -> np.ndarray
 def tops_cm(config: Config, objects: Sequence[tuple[str, str, float, float]]) -> float:
     """The highest bin wall or top of an object (id, class, x, y) above the table [cm]."""
     tops = [0.0]
-    for name in config.task.class_names:
-        z0 = float(bin_origin_m(config, name)[2])
+    table = TableContents.of(config.task, config.belt)
+    for c in table.classes:
+        z0 = float(bin_origin_m(c)[2])
         tops += [
-            (z0 + float(s.pose[2, 3]) + float(s.size[-1])) * 100.0 for s in bin_shapes(config, name)
+            (z0 + float(s.pose[2, 3]) + float(s.size[-1])) * 100.0
+            for s in bin_shapes(c, table.objects(c.name))
         ]
     return max(tops + [config.task.class_named(o[1]).height_cm for o in objects])
 

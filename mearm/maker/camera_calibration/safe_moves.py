@@ -19,6 +19,7 @@ from mearm.config import Config
 from mearm.config.servo_file import replaced_calibration
 from mearm.hardware import ServoMap
 from mearm.ik import IKTarget
+from mearm.kinematics.chain import Chain
 from mearm.kinematics.collision import CollisionModel
 from mearm.maker.camera_calibration.doubt import ServoDoubt
 from mearm.maker.camera_calibration.errors import CameraCalibrationFailed
@@ -36,6 +37,7 @@ from mearm.maker.camera_calibration.settings import (
     JOINT_MARGIN,
     TABLE_MARGIN_CM,
 )
+from mearm.sim.table_collision import collision_model
 from mearm.task.claw_fit import ClawCamera
 from mearm.task.execute import Executor
 from mearm.task.plan import Planner
@@ -71,6 +73,19 @@ class Slack:
     doubt: np.ndarray
 
 
+def limits_of(chain: Chain, config: Config) -> tuple[np.ndarray, np.ndarray]:
+    """The actuated joints' limits, model units, (m,) each: the chain's, or the config's.
+
+    The config's where narrower: a calibration narrows a joint's limits where its servo
+    reaches less of them (:func:`~mearm.config.servo_reach.narrowed`).
+    """
+    named = config.arm.joint_limits()
+    scale = chain.scale[chain.actuated_index]
+    lower = np.array([named[n].min for n in chain.actuated]) * scale
+    upper = np.array([named[n].max for n in chain.actuated]) * scale
+    return np.maximum(lower, chain.actuated_lower), np.minimum(upper, chain.actuated_upper)
+
+
 class SafeMoves:
     """The arm's moves on an open rig, each planned in full and checked against the doubt.
 
@@ -92,7 +107,7 @@ class SafeMoves:
         self.config = config  # with the fit the bus sends, once one is used
         own = replaced_calibration(config) or config  # the arm's calibration, before any file
         self.nominal_arm = own.arm
-        self.shaft = ServoMap.from_config(own)  # where each servo's shaft stops: its pulse range
+        self.shaft = ServoMap.from_arm(own.arm)  # where each servo's shaft stops: its pulse range
         self.rig, self.bus, self.model = rig, rig.bus, rig.model
         self.bus.servo_map = self.bus.servo_map.without_play()  # the play is measured
         self.chain = rig.model.chain
@@ -111,7 +126,7 @@ class SafeMoves:
         """A planner keeping ``clearance_cm`` from the bins and the objects seen (kept)."""
         key = round(clearance_cm, 3)
         if key not in self._collision:
-            col = CollisionModel(self.present, self.model, clearance_cm=key)
+            col = collision_model(self.present, self.model, clearance_cm=key)
             col.set_world(self.objects, opening_cm=self.present.arm.tool.gripper.open_cm)
             self._collision[key] = col
         if key not in self._planner:  # with the calibration the bus sends
@@ -164,9 +179,8 @@ class SafeMoves:
         margin = JOINT_MARGIN * chain.scale[chain.actuated_index]
         a = chain.actuated_of(q)
         doubt, turns = self.doubt_turns(q)
-        joints = np.minimum(
-            a - doubt - (chain.actuated_lower + margin), chain.actuated_upper - margin - a - doubt
-        )
+        lower, upper = self.limits()
+        joints = np.minimum(a - doubt - (lower + margin), upper - margin - a - doubt)
         col = self.collision(self.present.task.clearance_cm)
         low, points = col.tool_lowest_cm(q)[0], self.tool_points(q)
         drop = reach = 0.0
@@ -179,6 +193,10 @@ class SafeMoves:
             reach = 0.0  # above everything, however far it strays sideways
         travel = self.travel(q)
         return Slack(joints, travel, low - drop - TABLE_MARGIN_CM, reach, low, drop, doubt)
+
+    def limits(self) -> tuple[np.ndarray, np.ndarray]:
+        """The actuated joints' limits with the fit the bus sends (:func:`limits_of`)."""
+        return limits_of(self.chain, self.config)
 
     def travel(self, q: np.ndarray) -> np.ndarray:
         """Each joint servo's room inside its travel at ``q``, within the doubt (:class:`Slack`).
@@ -279,8 +297,11 @@ class SafeMoves:
         """
         q0 = self.executor.q_now()
         target = IKTarget(point.target_cm, self.present.arm.tool.pick_approach)
-        q_end = solved(self.planner(self.present.task.clearance_cm), target, q0)
-        if q_end is None:
+        planner = self.planner(self.present.task.clearance_cm)
+        q_end = solved(planner, target, q0)
+        if q_end is not None:  # its free joints as the point has them
+            q_end = point.reached(self.chain, q_end)
+        if q_end is None or not planner.pose_allowed(q_end):
             return "no solution inside the limits"
         start = self.turned(q_end, 1.0)
         need = max(self.refusal(q0)[1], self.refusal(q_end)[1])
@@ -343,7 +364,7 @@ class SafeMoves:
     def go(self, visit: Visit) -> None:
         """Stream a visit's route, if any, then its lines (as checked)."""
         if visit.route is not None:
-            self.executor.stream(visit.route, "travel", False)
+            self.executor.stream(visit.route, "travel", closed=False)
         for line in visit.lines:
             self.line(line)
 
@@ -356,7 +377,7 @@ class SafeMoves:
         ex = self.executor
         if not np.allclose(ex.joint_path(path[-1]), path, atol=1e-9):
             raise CameraCalibrationFailed("the move is not the one checked (a bug); stopped")
-        ex.move_joints(path[-1], "travel", False)
+        ex.move_joints(path[-1], "travel", closed=False)
 
     def from_below(self) -> str | None:
         """Each joint :data:`APPROACH_FROM` the way that lowers the tool and back; or why not."""
@@ -394,7 +415,7 @@ class SafeMoves:
             approach = self.present.arm.tool.pick_approach
             up = Route("", "", "home", 1, IKTarget((x, y, max(z, safe)), approach))
             if planner.plan(up, ex.q_now()).planned:
-                ex.stream(up, "travel", False)
+                ex.stream(up, "travel", closed=False)
                 contact = collision.first_contact(ex.joint_path(home))
         if contact is not None:
             raise CameraCalibrationFailed(
@@ -402,5 +423,5 @@ class SafeMoves:
                 + contact.describe(self.chain.names, self.chain.scale)
                 + "; the arm stays where it is"
             )
-        ex.move_joints(home, "travel", False)
+        ex.move_joints(home, "travel", closed=False)
         ex.home_pose()

@@ -31,7 +31,7 @@ from mearm.maker.camera_calibration.points import (
     tops_cm,
     view_centre_cm,
 )
-from mearm.maker.camera_calibration.safe_moves import SafeMoves
+from mearm.maker.camera_calibration.safe_moves import SafeMoves, limits_of
 from mearm.maker.camera_calibration.settings import (
     APPROACH_FROM,
     FIRST_FEW,
@@ -87,9 +87,9 @@ class CameraSession(SafeMoves):
     def __init__(self, config: Config, rig: Rig, camera: PerspectiveCamera, out: TextIO):
         marker = config.arm.tool.marker
         assert marker is not None  # check_inputs
-        face = marker_in_tcp(config, servo_named(config.twin.gripper_servo))
+        face = marker_in_tcp(config.arm, servo_named(config.twin.gripper_servo))
         assert face is not None  # the tool has a marker
-        claw = ClawCamera(rig.model, ServoMap.from_config(config), face, marker.size_cm, camera)
+        claw = ClawCamera(rig.model, ServoMap.from_arm(config.arm), face, marker.size_cm, camera)
         super().__init__(config, rig, claw)
         self.marker = marker
         self.home: Sighting | None = None
@@ -243,8 +243,8 @@ class CameraSession(SafeMoves):
         """Send the fit's pulses from now on, where it holds (:class:`_Used`: why not).
 
         It holds when its RMS is within its bound, the servo file's checks pass and the
-        joints it says the arm is at now are inside their limits. The bus then holds the
-        same pulses, read as those joints.
+        joints it says the arm is at now are inside their limits (narrowed where its
+        servos reach less). The bus then holds the same pulses, read as those joints.
         """
         bound = MAX_RMS_PX if fit.scales else MAX_ZEROS_RMS_PX
         if fit.rms_px > bound:
@@ -252,11 +252,12 @@ class CameraSession(SafeMoves):
         try:
             fits = actuator_fits(self.present, fit.servos, self.nominal_arm)
             for f in fits:
-                check_fit(self.present.arm, f, servo_of(self.nominal_arm, f.name))
+                nominal = servo_of(self.nominal_arm, f.name)
+                check_fit(self.present.arm, f, nominal, zero=fit.scales)
             config = apply_servo_calibration(self.present, fits, source="the camera's fit")
         except (ServoCalibrationError, ConfigError) as exc:
             return _Used(str(exc))
-        smap, state = ServoMap.from_config(config), self.bus.state
+        smap, state = ServoMap.from_arm(config.arm), self.bus.state
         assert state is not None
         held = {
             j.name: j.command_us(j.servo_value(state.joints)) for j in self.bus.servo_map.joints
@@ -264,7 +265,10 @@ class CameraSession(SafeMoves):
         q = self.chain.from_named(
             smap.joints_of({j.name: j.value_of(held[j.name]) for j in smap.joints})
         )
-        if not self.chain.within_limits(q, tol=1e-6):
+        lower, upper = limits_of(self.chain, config)
+        a = self.chain.actuated_of(q)
+        outside = np.any(a < lower - 1e-6) or np.any(a > upper + 1e-6)
+        if outside or not self.chain.within_limits(q, tol=1e-6):
             return _Used("it puts the arm outside its limits")
         self.bus.servo_map = smap
         # the same pulses (to the µs): the arm stays, now where the fit says it is

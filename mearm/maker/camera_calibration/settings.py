@@ -33,6 +33,10 @@ GRID_HALF_CM = (16.0, 12.0)
 #: cm]: more than a unit's backlash and dead band together (2° and 1° of shaft at most),
 #: so each arrives with its gears' play taken up the same way.
 APPROACH_FROM = {"deg": 4.0, "cm": 0.4}
+#: Where a joint the points' targets leave free is set besides where the solver leaves
+#: it, each a share of its range [-]: the 5-DOF arm's wrist roll turns the marker about
+#: the tool's axis, not the TCP, and its scale is fitted only if the points turn it.
+FREE_SHARES = (0.25, 0.75)
 #: A path's doubt is checked at poses this many degrees (cm) of its largest joint turn apart.
 PATH_CHECK_STEP = 1.0
 #: How long the arm is held still before a frame is read [s].

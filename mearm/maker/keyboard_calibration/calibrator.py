@@ -19,6 +19,8 @@ from mearm.config.servo_file import (
     check_replace,
     fit_actuator,
     fit_span,
+    narrowed,
+    narrowing_text,
     replaced_calibration,
     servo_of,
 )
@@ -123,18 +125,22 @@ class Calibrator:
                 arm = self.config.arm
                 _, lo, hi = fit_span(arm, act.name)
                 fit = fit_actuator(act.name, unit, servo_of(arm, act.name), points, (lo, hi))
+                fit = narrowed(arm, fit)
                 check_fit(arm, fit, servo_of(self.nominal_arm, act.name))
                 apply_servo_calibration(self.config, [fit], source=f"the fit of {act.name}")
             except (ServoCalibrationError, ConfigError) as exc:
                 self.refuse(act, exc)
                 continue
             s = fit.servo
-            what, lo, hi = fit_span(self.config.arm, act.name)
+            what, lo, hi = fit_span(self.config.arm, act.name, fit.limits)
             self.say(
                 f"{act.name}: zero {s.zero_us:.1f} µs, {s.us_per_unit:.3f} µs/{unit}, "
                 f"direction {s.direction:+d}; {what} [{lo:.4g}, {hi:.4g}] {unit} → "
                 f"[{s.pulse_us(lo):.0f}, {s.pulse_us(hi):.0f}] µs"
             )
+            narrowing = narrowing_text(self.config.arm, fit)
+            if narrowing is not None:
+                self.say(narrowing)
             return fit
 
     def refuse(self, act: Actuator, exc: MearmError) -> None:
@@ -257,4 +263,4 @@ def calibrate_by_keyboard(
         except ServoError as exc:
             print(f"mearm calibrate-servos: servo fault: {exc}; nothing written", file=sys.stderr)
             return EXIT_FAILURE
-    return write_calibration(config, fits, board, port, output, force)
+    return write_calibration(config, fits, board, port, output, force=force)

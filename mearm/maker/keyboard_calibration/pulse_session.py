@@ -30,7 +30,7 @@ class PulseSession:
     def __init__(self, config: Config, bus: ServoBus):
         self.config = config
         self.bus = bus
-        original = ServoMap.from_config(config)
+        original = ServoMap.from_arm(config.arm)
         self._original = original
 
         def widened(a: ActuatorMap) -> ActuatorMap:
@@ -91,7 +91,7 @@ class PulseSession:
         self.bus.servo_map = smap
         joints = smap.joints_of({a.name: a.value_of(self.pulses_us[a.name]) for a in self._joints})
         tool = {a.name: a.value_of(self.pulses_us[a.name]) for a in self._tool}
-        self.bus.move(ArmCommand(joints, tool, False))
+        self.bus.move(ArmCommand(joints, tool, gripper_closed=False))
 
     def simulated_value(self, name: str) -> float | None:
         """What a simulated arm realised for an actuator's servo, else ``None``.

@@ -84,7 +84,7 @@ def servo_span(smap: ServoMap, amap: ActuatorMap) -> tuple[float, float]:
 
 def actuators_of(config: Config) -> list[Actuator]:
     """Every actuator of the arm, in calibration order: joints, tool actuators, gripper."""
-    return actuators_of_map(ServoMap.from_config(config))
+    return actuators_of_map(ServoMap.from_arm(config.arm))
 
 
 def actuators_of_map(smap: ServoMap) -> list[Actuator]:

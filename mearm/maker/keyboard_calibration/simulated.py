@@ -272,4 +272,4 @@ def simulate(
     if nominal is not None:  # recalibrating over a file: the twin's units stay relative
         # to what that file replaced, so the new file records the same
         fits = [dataclasses.replace(f, replaces=servo_of(nominal.arm, f.name)) for f in fits]
-    return write_calibration(config, fits, board, "", output, bool(args.force))
+    return write_calibration(config, fits, board, "", output, force=bool(args.force))

@@ -40,6 +40,7 @@ from mearm.kinematics.collision import CollisionModel
 from mearm.kinematics.errors import TargetError
 from mearm.sim.errors import WorldError
 from mearm.sim.kinematic.world import World
+from mearm.sim.table_collision import collision_model
 
 log = logging.getLogger(__name__)
 
@@ -121,7 +122,8 @@ class SimArm(ServoBus):
     """
 
     def __init__(self, config: Config, world: World, model: ArmModel | None = None):
-        super().__init__(config, paced=config.servo.sim_realtime)
+        super().__init__(config.arm, config.servo, paced=config.servo.sim_realtime)
+        self.config = config
         self.world = world
         self.model = model if model is not None else ArmModel(config.arm)
         self.error_model = config.servo.error_model
@@ -171,7 +173,7 @@ class SimArm(ServoBus):
         )
 
     def actuate(
-        self, joints: Mapping[str, float], tool: Mapping[str, float], gripper_closed: bool
+        self, joints: Mapping[str, float], tool: Mapping[str, float], *, gripper_closed: bool
     ) -> None:
         """Put the arm where its servos are: realised values, not commands.
 
@@ -208,7 +210,7 @@ class SimArm(ServoBus):
             SimCollisionError: they touch; the arm stays where it was.
         """
         if self._collision is None:
-            self._collision = CollisionModel(
+            self._collision = collision_model(
                 self.config, self.model, clearance_cm=0.0, bins=self.world.bins_cm
             )
         chain = self.model.chain
@@ -245,7 +247,7 @@ class SimArm(ServoBus):
         )
         q = self.error_model.quantization
         tool = {a.name: a.realised(command.tool[a.name], q) for a in self.servo_map.tool}
-        self.actuate(joints, tool, command.gripper_closed)
+        self.actuate(joints, tool, gripper_closed=command.gripper_closed)
         # the servos take the command for one period, while the table's time runs on
         self.world.advance(self.period_s)
 
@@ -282,7 +284,7 @@ class SimArm(ServoBus):
         obj, dist = self.world.nearest_on_table(x, y)
         if obj is None:
             log.info("sim grip: nothing on the table")
-            return GripResult(False, None, math.inf, math.nan)
+            return GripResult(success=False, object_id=None, distance_cm=math.inf, dz_cm=math.nan)
         dz = z - self.grip_height_cm(obj.color)
         tol = self.config.servo.grip_tolerance_cm
         ok = dist <= tol and abs(dz) <= tol
@@ -371,7 +373,7 @@ def quantization_ee_error_cm(
     Each pose's actuated joints are quantised as :func:`quantize_deg` does; the error is
     the distance between the FK of the quantised and of the exact joints.
     """
-    smap = ServoMap.from_config(config)
+    smap = ServoMap.from_arm(config.arm)
     model = ArmModel(config.arm)
     names = model.chain.actuated
     errors = np.empty(n)

@@ -12,9 +12,10 @@ catches a released object) live in the simulated arm (``mearm.sim.SimArm``).
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 
-from mearm.config import Config, SceneObject
+from mearm.config import ColorClass, Config, SceneObject
 from mearm.sim.belt import Arrival, Belt, belt_arrivals, radius_cm
 from mearm.sim.errors import WorldError
 
@@ -65,7 +66,8 @@ class World:
 
     Attributes:
         objects: Every object, in scene order, then the belt's in arrival order.
-        bins_cm: Per class name, where its bin is, base frame (x, y, z) [cm].
+        bins: Per class name, the class whose bin stands on the table (its place and
+            size).
         belt: The conveyor belt, or ``None``.
         radii_cm: Per class name, half an object's widest extent [cm] (where one drops
             off the belt's end).
@@ -73,13 +75,18 @@ class World:
     """
 
     objects: list[WorldObject] = field(default_factory=list)
-    bins_cm: dict[str, Vector3] = field(default_factory=dict)
+    bins: dict[str, ColorClass] = field(default_factory=dict)
     belt: Belt | None = None
     radii_cm: dict[str, float] = field(default_factory=dict)
     time_s: float = 0.0
 
+    @property
+    def bins_cm(self) -> dict[str, Vector3]:
+        """Per class name, where its bin is, base frame (x, y, z) [cm]."""
+        return {name: c.bin_cm for name, c in self.bins.items()}
+
     @classmethod
-    def from_scene(cls, scene: list[SceneObject], bins_cm: dict[str, Vector3]) -> World:
+    def from_scene(cls, scene: list[SceneObject], bins: Iterable[ColorClass]) -> World:
         """Objects named by class and index (``red1``, ``red2``, …) in scene order."""
         counts: dict[str, int] = {}
         objects = []
@@ -87,7 +94,7 @@ class World:
             counts[obj.color] = counts.get(obj.color, 0) + 1
             oid = f"{obj.color}{counts[obj.color]}"
             objects.append(WorldObject(oid, obj.color, obj.x, obj.y, yaw_deg=obj.yaw_deg))
-        return cls(objects=objects, bins_cm=dict(bins_cm))
+        return cls(objects=objects, bins={c.name: c for c in bins})
 
     @classmethod
     def from_config(cls, config: Config, scene: list[SceneObject] | None = None) -> World:
@@ -96,8 +103,7 @@ class World:
         Each class has its bin (``task.classes``); the belt's objects (``config.belt``)
         wait to arrive.
         """
-        bins_cm = {c.name: c.bin_cm for c in config.task.classes}
-        world = cls.from_scene(config.task.scene if scene is None else scene, bins_cm)
+        world = cls.from_scene(config.task.scene if scene is None else scene, config.task.classes)
         if config.belt is not None:
             world.belt = Belt(config.belt)
             world.radii_cm = {c: radius_cm(config, c) for c in config.task.class_names}
@@ -145,15 +151,21 @@ class World:
         return best, best_d
 
     def in_bin(self, color: str) -> list[WorldObject]:
-        """Objects dropped into the bin of class ``color``."""
-        return [o for o in self.objects if o.bin == color]
+        """Objects dropped into a bin (:meth:`release_into_bin`) that lie in ``color``'s.
+
+        Which bin holds one is its class's rule (:meth:`~mearm.config.ColorClass.in_bin`).
+        """
+        cls = self.bins.get(color)
+        if cls is None:
+            return []
+        return [o for o in self.objects if o.bin is not None and cls.in_bin(o.x_cm, o.y_cm)]
 
     def nearest_bin(self, x_cm: float, y_cm: float) -> tuple[str | None, float]:
         """The class of the bin nearest to (x, y) in the plane and its distance [cm]."""
         best: str | None = None
         best_d = math.inf
-        for color, (bx, by, _bz) in self.bins_cm.items():
-            d = math.hypot(bx - x_cm, by - y_cm)
+        for color, c in self.bins.items():
+            d = math.hypot(c.bin_cm[0] - x_cm, c.bin_cm[1] - y_cm)
             if d < best_d:
                 best, best_d = color, d
         return best, best_d
@@ -177,11 +189,11 @@ class World:
         Raises:
             WorldError: nothing is held, or there is no such bin.
         """
-        if color not in self.bins_cm:
-            raise WorldError(f"no bin {color!r}; bins: {sorted(self.bins_cm)}")
+        if color not in self.bins:
+            raise WorldError(f"no bin {color!r}; bins: {sorted(self.bins)}")
         obj = self._take_held()
         obj.bin = color
-        obj.x_cm, obj.y_cm = self.bins_cm[color][:2]
+        obj.x_cm, obj.y_cm = self.bins[color].bin_cm[:2]
         return obj
 
     def release_on_table(self, x_cm: float, y_cm: float) -> WorldObject:

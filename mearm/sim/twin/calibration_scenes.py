@@ -32,6 +32,7 @@ import numpy as np
 
 from mearm.config import Config
 from mearm.config.errors import CalibrationError
+from mearm.kinematics.bodies import object_of
 from mearm.sim.twin.mjcf import M_PER_CM, twin_spec
 from mearm.sim.twin.twin_camera import CAMERA_NAME, LensRenderer, twin_camera_model
 from mearm.vision.aruco import DEFAULT_DICTIONARY, get_dictionary, marker_image
@@ -430,8 +431,9 @@ def render_objects(
     truth = {}
     for i in range(model.nbody):
         name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, i) or ""
-        if name.startswith("obj_"):
-            truth[name[4:]] = data.xpos[i][:2] / M_PER_CM
+        oid = object_of(name)
+        if oid is not None:
+            truth[oid] = data.xpos[i][:2] / M_PER_CM
     lens = LensRenderer(model, config, CAMERA_NAME, option=_option())
     try:
         frame = lens.render(data)

@@ -160,7 +160,7 @@ from mearm.kinematics.bodies import (
 )
 from mearm.kinematics.chain import Chain
 from mearm.kinematics.errors import ModelError
-from mearm.kinematics.mjspec import arm_spec, exact, quat
+from mearm.kinematics.mjspec import arm_spec, exact, quat, yaw_quat
 from mearm.kinematics.urdf import TCP_FRAME, jaw_joint_names, jaw_pad_length_m
 from mearm.sim.belt import Arrival
 from mearm.sim.twin.twin_geoms import (  # noqa: F401  (re-exported)
@@ -422,7 +422,7 @@ def _arm(
     here, or the tendon of its combination (:func:`_actuators`).
     """
     arm = config.arm
-    shapes = arm_bodies(config, spec, gripper_spec, acrylic_kg_m3=ACRYLIC_DENSITY)
+    shapes = arm_bodies(config.arm, spec, gripper_spec, acrylic_kg_m3=ACRYLIC_DENSITY)
     for row in servo_rows:
         if not row.combined:
             joint = model.joint(row.joint.name)
@@ -530,7 +530,7 @@ def _home_key(
     for obj in task.scene:  # where and at what yaw the scene puts each (as its body)
         h = task.class_named(obj.color).height_cm * M_PER_CM
         yaw = math.radians(obj.yaw_deg)
-        turn = [math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2)]
+        turn = yaw_quat(yaw)
         qpos += [obj.x * M_PER_CM, obj.y * M_PER_CM, h / 2, *exact(turn)]
     for i, arrival in enumerate(arrivals):
         qpos += [*parked_m(config, i, arrival), 1, 0, 0, 0]

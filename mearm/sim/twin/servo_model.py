@@ -208,7 +208,7 @@ def calibrated_kit(servos: tuple[ServoModel, ...], config: Config) -> tuple[Serv
                 config.servo.calibration_file,
             )
         return servos
-    nominal = ServoMap.from_config(nominal_config)
+    nominal = ServoMap.from_arm(nominal_config.arm)
     out = []
     for s in servos:
         n = nominal[s.name]
@@ -274,7 +274,7 @@ def servo_models(
         ModelError: the model lacks an actuator or joint of ``config``'s arm, or its
             servo is none of the catalogue's and ``servo``/``gripper_servo`` is not given.
     """
-    smap = ServoMap.from_config(config)
+    smap = ServoMap.from_arm(config.arm)
     play = math.radians(backlash_deg)
     out = []
     try:

@@ -62,7 +62,9 @@ from mearm.config import Config
 from mearm.config.servo_file import replaced_calibration
 from mearm.hardware.bus import ArmCommand, ServoBus
 from mearm.hardware.errors import ServoError, ServoStallError
+from mearm.kinematics.bodies import TableContents, object_name, wall_height_m
 from mearm.kinematics.chain import Chain
+from mearm.kinematics.mjspec import yaw_quat
 from mearm.kinematics.urdf import TCP_FRAME
 from mearm.sim.belt import Arrival, belt_arrivals
 from mearm.sim.errors import WorldError
@@ -183,7 +185,8 @@ class TwinArm(ServoBus):
         backlash_deg: float = BACKLASH_DEG,
         kit: tuple[ServoUnit, ...] | None = None,
     ):
-        super().__init__(config, paced=config.servo.sim_realtime)
+        super().__init__(config.arm, config.servo, paced=config.servo.sim_realtime)
+        self.config = config
         if model is None:  # with a kit, its physics as without the calibration file
             physical = replaced_calibration(config) if kit or config.twin.kit else None
             model = twin_model(physical or config, servo, gripper_servo)
@@ -208,6 +211,9 @@ class TwinArm(ServoBus):
         }
         self._arrivals = belt_arrivals(config)
         self._object_ids = object_ids(config) + [a.id for a in self._arrivals]
+        table = TableContents.of(config.task, config.belt)
+        #: Each bin's walls' top above the table [m], as the scene builds them.
+        self._bin_tops_m = {c.name: wall_height_m(c, table.objects(c.name)) for c in table.classes}
         self.faults = FaultSchedule(config.twin.faults, self._object_ids)
         self._arm_body = model.body(f"link_{config.arm.joints[0].name}").id
         self._arm_dof = int(model.body_dofadr[self._arm_body])
@@ -282,7 +288,7 @@ class TwinArm(ServoBus):
             raise WorldError(
                 f"no object {object_id!r} in the twin; its objects: {', '.join(self._object_ids)}"
             )
-        body = self.data.body(f"obj_{object_id}")
+        body = self.data.body(object_name(object_id))
         vel = np.zeros(6)
         mujoco.mj_objectVelocity(self.model, self.data, mujoco.mjtObj.mjOBJ_BODY, body.id, vel, 0)
         return ObjectPose(
@@ -295,25 +301,23 @@ class TwinArm(ServoBus):
     def objects_in_bin(self) -> dict[str, str]:
         """Objects held by a bin: id → the bin's class name.
 
-        Held: the body's centre lies inside the bin's inner walls in the plane and below
-        their top, and it moves too slowly to rise over them (``v² < 2·g·(top − z)``):
-        at rest, or settling on others in the bin (a leaning object may creep for
-        seconds), but not one still flying through.
+        Held: the body's centre lies in the bin in the plane (its class's rule,
+        :meth:`~mearm.config.ColorClass.in_bin`) and below the walls' top, and it moves too
+        slowly to rise over them (``v² < 2·g·(top − z)``): at rest, or settling on others
+        in the bin (a leaning object may creep for seconds), but not one still flying
+        through.
         """
         out = {}
         g = float(np.linalg.norm(self.model.opt.gravity))
         for oid in self._object_ids:
             pose = self.object_pose(oid)
             v = pose.speed_cm_s * M_PER_CM
-            p = pose.position_cm * M_PER_CM
-            for name in self.config.task.class_names:
-                centre = self.data.body(f"bin_{name}").xpos
-                wall = self.model.geom(f"bin_{name}_wall_px")
-                inner = float(wall.pos[0] - wall.size[0])
-                top = float(centre[2] + wall.pos[2] + wall.size[2])
-                inside = np.all(np.abs(p[:2] - centre[:2]) < inner) and p[2] < top
-                if inside and v * v < 2.0 * g * (top - p[2]):
-                    out[oid] = name
+            x_cm, y_cm, z_cm = (float(c) for c in pose.position_cm)
+            z = z_cm * M_PER_CM
+            for cls in self.config.task.classes:
+                top = self._bin_tops_m[cls.name]
+                if cls.in_bin(x_cm, y_cm) and z < top and v * v < 2.0 * g * (top - z):
+                    out[oid] = cls.name
         return out
 
     # ----------------------------------------------------------------- physics
@@ -371,13 +375,10 @@ class TwinArm(ServoBus):
     def _land(self, arrival: Arrival) -> None:
         """Put an object the belt brings on its upstream end, at rest and awake."""
         m, d = self.model, self.data
-        joint = m.joint(f"obj_{arrival.id}")
+        joint = m.joint(object_name(arrival.id))
         q, v = int(joint.qposadr[0]), int(joint.dofadr[0])
         yaw = math.radians(arrival.yaw_deg)
-        d.qpos[q : q + 7] = [
-            *arrival_centre_m(self.config, arrival),
-            math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2),
-        ]  # fmt: skip
+        d.qpos[q : q + 7] = [*arrival_centre_m(self.config, arrival), *yaw_quat(yaw)]
         d.qvel[v : v + 6] = 0.0
         d.qfrc_applied[v] = _NUDGE  # wakes its tree (MuJoCo keeps a pushed tree awake)
         mujoco.mj_forward(m, d)

@@ -27,6 +27,7 @@ import mujoco
 import numpy as np
 
 from mearm.config.twin_faults_config import KnockObject, LimpServo, TwinFault
+from mearm.kinematics.bodies import object_name
 from mearm.sim.errors import WorldError
 from mearm.sim.twin.mjcf import M_PER_CM
 
@@ -89,7 +90,7 @@ class FaultSchedule:
             a.gainprm[:] = 0.0
             a.biasprm[:] = 0.0
         else:
-            joint = model.joint(f"obj_{fault.object}")
+            joint = model.joint(object_name(fault.object))
             adr, dof = int(joint.qposadr[0]), int(joint.dofadr[0])
             xy = data.qpos[adr : adr + 2]
             away = xy / max(float(np.linalg.norm(xy)), 1e-9)

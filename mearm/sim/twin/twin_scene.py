@@ -12,8 +12,15 @@ import mujoco
 import numpy as np
 
 from mearm.config import ColorClass, Config
-from mearm.kinematics.bodies import bin_origin_m, bin_shapes, object_centre_m
-from mearm.kinematics.mjspec import exact
+from mearm.kinematics.bodies import (
+    TableContents,
+    bin_name,
+    bin_origin_m,
+    bin_shapes,
+    object_centre_m,
+    object_name,
+)
+from mearm.kinematics.mjspec import exact, yaw_quat
 from mearm.sim.belt import Arrival, Belt, belt_arrivals
 from mearm.sim.twin.twin_geoms import (
     _SCENE_CONAFFINITY,
@@ -95,19 +102,19 @@ def _objects(model: mujoco.MjSpec, config: Config) -> list[Arrival]:
     world, task = model.worldbody, config.task
     for oid, obj in zip(object_ids(config), task.scene, strict=True):
         c = task.class_named(obj.color)
-        centre = object_centre_m(config, obj.color, obj.x, obj.y)
+        centre = object_centre_m(c, obj.x, obj.y)
         yaw = math.radians(obj.yaw_deg)
         body = world.add_body(
-            name=f"obj_{oid}",
+            name=object_name(oid),
             pos=exact(centre),
-            quat=exact([math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2)]),
+            quat=exact(yaw_quat(yaw)),
         )
-        body.add_freejoint(name=f"obj_{oid}")
+        body.add_freejoint(name=object_name(oid))
         gloss = None if config.twin.lamp is None else f"object_{c.name}"  # under a lamp
-        _object_geom(model, body, f"obj_{oid}", c, material=gloss)
+        _object_geom(model, body, object_name(oid), c, material=gloss)
     arrivals = belt_arrivals(config)
     for i, arrival in enumerate(arrivals):
-        name = f"obj_{arrival.id}"
+        name = object_name(arrival.id)
         body = world.add_body(name=name, pos=exact(parked_m(config, i, arrival)))
         body.add_freejoint(name=name)
         gloss = None if config.twin.lamp is None else f"object_{arrival.color}"
@@ -128,7 +135,7 @@ def _belt(world: mujoco.MjsBody, config: Config) -> None:
         "box",
         (b.length_cm / 2 * M_PER_CM, b.width_cm / 2 * M_PER_CM, b.surface_cm / 2 * M_PER_CM),
         pos=exact([cx * M_PER_CM, cy * M_PER_CM, b.surface_cm / 2 * M_PER_CM]),
-        quat=exact([math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2)]),
+        quat=exact(yaw_quat(yaw)),
         material="belt",
         friction=[BELT_FRICTION, OBJECT_SPIN_FRICTION, OBJECT_ROLL_FRICTION],
         surfacevel=[b.speed_cm_s * M_PER_CM, 0.0, 0.0, 0.0, 0.0, 0.0],
@@ -229,7 +236,7 @@ def _camera(world: mujoco.MjsBody, config: Config) -> None:
         world.add_camera(
             name="camera",
             pos=[centre[0], centre[1], CAMERA_HEIGHT_M],
-            quat=[math.cos(yaw / 2), 0, 0, math.sin(yaw / 2)],
+            quat=yaw_quat(yaw),
             fovy=fovy,
         )
         return
@@ -242,6 +249,8 @@ def _camera(world: mujoco.MjsBody, config: Config) -> None:
 
 def _bin(world: mujoco.MjsBody, config: Config, color: str) -> None:
     """A bin on the table under ``bin_cm``: a floor and four walls."""
-    body = world.add_body(name=f"bin_{color}", pos=exact(bin_origin_m(config, color)))
-    for shape in bin_shapes(config, color):
+    table = TableContents.of(config.task, config.belt)
+    c = table.class_named(color)
+    body = world.add_body(name=bin_name(color), pos=exact(bin_origin_m(c)))
+    for shape in bin_shapes(c, table.objects(color)):
         _scene_geom(body, shape.name, "box", shape.size, pos=exact(shape.pos), material="bin")

@@ -11,7 +11,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from mearm.config import Config
-from mearm.kinematics.bodies import base_radius_m, bin_half_outer_m, wall_height_m
+from mearm.kinematics.bodies import TableContents, base_radius_m, bin_half_outer_m, wall_height_m
 from mearm.kinematics.errors import ModelError
 from mearm.sim.belt import Arrival, Belt
 from mearm.sim.twin.twin_geoms import M_PER_CM
@@ -48,17 +48,18 @@ def arrival_centre_m(config: Config, arrival: Arrival) -> list[float]:
 
 
 def _bin_half_outer_m(config: Config, color: str) -> float:
-    return bin_half_outer_m(config, color)
+    return bin_half_outer_m(config.task.class_named(color))
 
 
 def _wall_height_m(config: Config, color: str) -> float:
-    return wall_height_m(config, color)
+    table = TableContents.of(config.task, config.belt)
+    return wall_height_m(table.class_named(color), table.objects(color))
 
 
 def _check_scene(config: Config) -> None:
     task = config.task
     ids = object_ids(config)
-    base_r = base_radius_m(config)
+    base_r = base_radius_m(config.arm)
     placed: list[tuple[str, np.ndarray, float]] = []
     for oid, obj in zip(ids, task.scene, strict=True):
         c = task.class_named(obj.color)

@@ -94,7 +94,7 @@ class VirtualUno:
 
         with VirtualUno.start() as board:        # builds on first use (a few seconds)
             print(board.port)                    # e.g. /dev/pts/7
-            with ArduinoBus(config, port=board.port) as bus:   # servo.backend: serial
+            with ArduinoBus(config.arm, config.servo, port=board.port) as bus:
                 bus.move(ArmCommand.home(config.arm))
                 frame = board.frame_after(board.reply_time_us(), range(5))
             print(frame.widths_us)               # {0: 1800.1, 1: 1530.0, ...} [µs]

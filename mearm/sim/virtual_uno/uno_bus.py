@@ -57,7 +57,8 @@ class VirtualUnoBus(ArduinoBus):
     def __init__(self, config: Config, world: World | None = None, model: ArmModel | None = None):
         settings = config.servo.virtual_uno
         self.built = build_virtual_uno(settings.defines)
-        super().__init__(config)
+        super().__init__(config.arm, config.servo)
+        self.config = config
         self.arm = SimArm(config, world if world is not None else World.from_config(config), model)
         self.board: VirtualUno | None = None
         self.last_frame: Frame | None = None
@@ -159,7 +160,7 @@ class VirtualUnoBus(ArduinoBus):
         if g.channel in widths_us:
             opening = g.value_of(widths_us[g.channel])
             closed = abs(opening - smap.gripper_closed_cm) < abs(opening - smap.gripper_open_cm)
-        self.arm.actuate(joints, tool, closed)
+        self.arm.actuate(joints, tool, gripper_closed=closed)
 
     def _mismatches(
         self, command: ArmCommand, pulses_us: Mapping[int, int], widths_us: Mapping[int, float]
@@ -171,7 +172,7 @@ class VirtualUnoBus(ArduinoBus):
         commanded: list[tuple[str, ActuatorMap, float]] = [
             *(("joint", j, servo[j.name]) for j in smap.joints),
             *(("tool actuator", a, command.tool[a.name]) for a in smap.tool),
-            ("gripper", smap.gripper, smap.gripper_opening_cm(command.gripper_closed)),
+            ("gripper", smap.gripper, smap.gripper_opening_cm(closed=command.gripper_closed)),
         ]
         problems = []
         for kind, a, value in commanded:

@@ -63,11 +63,11 @@ def bench_collision(options: BenchOptions) -> list[Row]:
     from mearm.config import load_config  # noqa: PLC0415
     from mearm.ik import make_solver  # noqa: PLC0415
     from mearm.kinematics import ArmModel  # noqa: PLC0415
-    from mearm.kinematics.collision import CollisionModel  # noqa: PLC0415
+    from mearm.sim.table_collision import collision_model  # noqa: PLC0415
 
     config = load_config("sim_mujoco")  # the paper's arm, jaws down, its 12-object scene
     model = ArmModel(config.arm)
-    collision = CollisionModel(config, model, clearance_cm=config.task.clearance_cm)
+    collision = collision_model(config, model, clearance_cm=config.task.clearance_cm)
     solver = make_solver(model, config.controller)
     routes = collision_routes(config, collision)
     g = config.arm.tool.gripper

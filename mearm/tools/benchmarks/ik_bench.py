@@ -55,7 +55,7 @@ def _demo_route_seconds(
     from mearm.kinematics import ArmModel  # noqa: PLC0415
 
     model = ArmModel(config.arm)
-    routes = demo_routes(config)
+    routes = demo_routes(config.arm.tool, config.task)
     home = model.home
     solvers = {
         "paper": PdPij(model, config.controller.updated(mode="paper")),
