@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
-from typing import TYPE_CHECKING
+from dataclasses import dataclass, field, fields
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -58,6 +58,27 @@ class Detection:
         if self.table_cm is not None:
             object.__setattr__(self, "table_cm", _point(self.table_cm))
 
+    def evolve(self, **changes: Any) -> Detection:
+        """This detection with ``changes``, as :func:`dataclasses.replace` gives it.
+
+        A frame's detections are each changed a few times, and ``replace`` re-runs the
+        generated ``__init__`` and inspects the fields on every call (5.7 against 1.6 µs).
+        """
+        unknown = changes.keys() - _FIELDS
+        if unknown:
+            raise TypeError(f"Detection has no field {sorted(unknown)}")
+        new = object.__new__(Detection)
+        values = {**self.__dict__, **changes}
+        if "centroid_px" in changes:
+            values["centroid_px"] = _point(values["centroid_px"])
+        if changes.get("table_cm") is not None:
+            values["table_cm"] = _point(values["table_cm"])
+        new.__dict__.update(values)
+        return new
+
+
+_FIELDS = frozenset(f.name for f in fields(Detection))
+
 
 def _point(value: object) -> np.ndarray:
     """``value`` as a read-only float (2,) array; one already so is kept, not copied.
@@ -101,4 +122,4 @@ def _with_table_yaw(d: Detection, cal: CameraGeometry) -> Detection:
     """``d`` with a cube's image yaw (the silhouette's) turned onto the table."""
     if d.yaw_px_deg is None:
         return d
-    return replace(d, yaw_deg=table_yaw_deg(cal.pixel_to_table, d.centroid_px, d.yaw_px_deg))
+    return d.evolve(yaw_deg=table_yaw_deg(cal.pixel_to_table, d.centroid_px, d.yaw_px_deg))

@@ -56,7 +56,6 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import replace
 
 import cv2
 import numpy as np
@@ -562,7 +561,7 @@ class ColorDetector:
         if isinstance(cal, Calibration):
             xy = cal.pixel_to_table(np.array([d.centroid_px for d in found]))
             return [
-                _with_table_yaw(replace(d, table_cm=p), cal) for d, p in zip(found, xy, strict=True)
+                _with_table_yaw(d.evolve(table_cm=p), cal) for d, p in zip(found, xy, strict=True)
             ]
         assert isinstance(cal, PerspectiveCamera)
         return locate_in_perspective(cal, self._class_of, classed, frame, fits)
@@ -589,7 +588,7 @@ class ColorDetector:
             found, regions, flat, limit, elong * stretch, strict=True
         ):
             if d.area_px <= a_max:
-                out.append(replace(d, merged=bool(d.elongation > e_max)))
+                out.append(d.evolve(merged=bool(d.elongation > e_max)))
                 masks.append(region)
                 continue
             if isinstance(self.calibration, PerspectiveCamera):
@@ -599,7 +598,7 @@ class ColorDetector:
                 lo = max(MIN_PART * a_flat, self.vision.min_area_px)
                 parts, at = split_region(region, radius, lo, a_max, e_max), None
             if parts is None:
-                out.append(replace(d, merged=True))
+                out.append(d.evolve(merged=True))
                 masks.append(region)
                 continue
             x0, y0 = d.bbox_px[0], d.bbox_px[1]
@@ -607,8 +606,7 @@ class ColorDetector:
                 px, py, pw, ph = p.bbox_px
                 masks.append(p.mask)
                 out.append(
-                    replace(
-                        d,
+                    d.evolve(
                         centroid_px=np.add(p.centroid_px, (x0, y0)),
                         area_px=p.area_px,
                         bbox_px=(x0 + px, y0 + py, pw, ph),
@@ -679,5 +677,5 @@ def _classify_regions(
         if name is None:
             continue
         yaw = None if measured is None or shape != "cube" else measured.yaw_px_deg
-        out.append((k, replace(d, color=name, shape=shape, yaw_px_deg=yaw), region))
+        out.append((k, d.evolve(color=name, shape=shape, yaw_px_deg=yaw), region))
     return out

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import replace
 
 import cv2
 import numpy as np
@@ -114,11 +113,11 @@ def locate_in_perspective(
             if fit is None:  # its shape came from the silhouette: no fit made yet
                 fit = cam.fit_top(region, origin, _top_face(cls), cls.height_cm, frame)
             yaw = fit.yaw_deg if spec.name == "cube" else None
-            out.append(replace(d, table_cm=fit.centre_cm, yaw_deg=yaw))
+            out.append(d.evolve(table_cm=fit.centre_cm, yaw_deg=yaw))
         else:
             r = _disc_diameter_cm(cls) / 2.0
             at = cam.locate_object(region, origin, r, cls.height_cm, frame)
-            out.append(replace(d, table_cm=at))
+            out.append(d.evolve(table_cm=at))
     return out
 
 
