@@ -10,6 +10,7 @@ whose colour and shape it has.
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from typing import Annotated
 
 from pydantic import Field, field_validator, model_validator
@@ -164,3 +165,15 @@ class ColorClass(Strict):
     def grip_z_cm(self) -> float:
         """Height above the table at which the jaws close [cm]."""
         return self.height_cm / 2 if self.grip_height_cm is None else self.grip_height_cm
+
+
+def class_named(classes: Iterable[ColorClass], name: str) -> ColorClass:
+    """The class called ``name`` among ``classes``.
+
+    Raises:
+        KeyError: no such class.
+    """
+    for c in classes:
+        if c.name == name:
+            return c
+    raise KeyError(name)

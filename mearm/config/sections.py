@@ -18,7 +18,7 @@ from mearm.config.base import (
     Strict,
     describe_error,
 )
-from mearm.config.classes import ColorClass
+from mearm.config.classes import ColorClass, class_named
 from mearm.config.defaults import PAPER_LAYOUT, default_classes
 from mearm.config.errors import SerialPortError
 from mearm.config.port import check_port
@@ -447,15 +447,8 @@ class TaskConfig(Strict):
         return self
 
     def class_named(self, name: str) -> ColorClass:
-        """The class called ``name``.
-
-        Raises:
-            KeyError: no such class.
-        """
-        for c in self.classes:
-            if c.name == name:
-                return c
-        raise KeyError(name)
+        """The class called ``name`` (:func:`~mearm.config.classes.class_named`)."""
+        return class_named(self.classes, name)
 
     @property
     def class_names(self) -> list[str]:

@@ -35,6 +35,7 @@ import numpy as np
 
 from mearm.config import ArmDescription, BeltConfig, ClawMarker, ColorClass, Joint, TaskConfig
 from mearm.config.belt_config import belt_classes
+from mearm.config.classes import class_named
 from mearm.config.servo_models import ServoSpec
 from mearm.kinematics.chain import M_PER_CM
 from mearm.kinematics.urdf import jaw_frame, jaw_joint_names, jaw_pad_length_m
@@ -400,15 +401,8 @@ class TableContents:
         return [c.name for c in self.classes]
 
     def class_named(self, name: str) -> ColorClass:
-        """The class called ``name``.
-
-        Raises:
-            KeyError: no such class.
-        """
-        for c in self.classes:
-            if c.name == name:
-                return c
-        raise KeyError(name)
+        """The class called ``name`` (:func:`~mearm.config.classes.class_named`)."""
+        return class_named(self.classes, name)
 
     def objects(self, name: str) -> int:
         """Objects of class ``name`` the table ever holds: the scene's and the belt's."""
