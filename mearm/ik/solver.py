@@ -23,6 +23,7 @@ from __future__ import annotations
 import abc
 import math
 import struct
+import weakref
 
 import numpy as np
 import numpy.typing as npt
@@ -106,27 +107,44 @@ def coupling_terms(chain: Chain) -> list[tuple[int, float, list[tuple[int, float
     """Each passive joint as ``(index, offset, [(actuated index in q, coefficient)])``.
 
     Only the non-zero coefficients, so the sum is the exact one a person would write
-    (the paper's wrist: ``0 + (−1)·θ2 + (−1)·θ3``, bit for bit −(θ2 + θ3)).
+    (the paper's wrist: ``0 + (−1)·θ2 + (−1)·θ3``, bit for bit −(θ2 + θ3)). Built once
+    per chain (a chain never changes): :func:`couple` runs on every step of a path.
     """
-    out = []
-    for i in chain.passive_index.tolist():
-        terms = [
-            (int(chain.actuated_index[k]), float(chain.C[i, k]))
-            for k in range(chain.m)
-            if chain.C[i, k] != 0.0
-        ]
-        out.append((i, float(chain.c[i]), terms))
-    return out
+    return _coupling(chain)[1]
+
+
+def _coupling(chain: Chain) -> tuple[list[int], list[tuple[int, float, list[tuple[int, float]]]]]:
+    """The actuated joints' indices and :func:`coupling_terms` of ``chain``, cached."""
+    cached = _COUPLINGS.get(chain)
+    if cached is None:
+        terms = []
+        for i in chain.passive_index.tolist():
+            row = [
+                (int(chain.actuated_index[k]), float(chain.C[i, k]))
+                for k in range(chain.m)
+                if chain.C[i, k] != 0.0
+            ]
+            terms.append((i, float(chain.c[i]), row))
+        cached = (chain.actuated_index.tolist(), terms)
+        _COUPLINGS[chain] = cached
+    return cached
+
+
+#: Each live chain's coupling (:func:`_coupling`), dropped with the chain.
+_COUPLINGS: weakref.WeakKeyDictionary[
+    Chain, tuple[list[int], list[tuple[int, float, list[tuple[int, float]]]]]
+] = weakref.WeakKeyDictionary()
 
 
 def couple(chain: Chain, q_act: list[float]) -> np.ndarray:
     """Full joint vector (n,) from the actuated values (m,), sums as :func:`coupling_terms`."""
+    actuated, terms = _coupling(chain)
     q = [0.0] * chain.n
-    for k, i in enumerate(chain.actuated_index.tolist()):
+    for k, i in enumerate(actuated):
         q[i] = q_act[k]
-    for i, offset, terms in coupling_terms(chain):
+    for i, offset, row in terms:
         v = offset
-        for j, coef in terms:
+        for j, coef in row:
             v += coef * q[j]
         q[i] = v
     return np.array(q)

@@ -13,6 +13,7 @@ centimetres) and keyed by joint name; :class:`Chain` converts both ways.
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -114,10 +115,13 @@ class Chain:
         """Upper limits of the actuated joints in model units, (m,)."""
         return self.upper[self.actuated_index]
 
-    @property
+    @functools.cached_property
     def passive_index(self) -> np.ndarray:
-        """Indices of the passive joints in ``names``."""
-        return np.array([i for i in range(self.n) if i not in set(self.actuated_index.tolist())])
+        """Indices of the passive joints in ``names`` (read-only; a chain never changes)."""
+        actuated = set(self.actuated_index.tolist())
+        index = np.array([i for i in range(self.n) if i not in actuated], dtype=int)
+        index.setflags(write=False)
+        return index
 
     # ----------------------------------------------------------------- conversions
 
