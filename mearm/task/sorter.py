@@ -80,10 +80,11 @@ from mearm.task.table_tracking import is_cut as _cut  # noqa: F401
 from mearm.task.table_tracking import seen_cut as _seen_cut  # noqa: F401
 from mearm.task.table_tracking import table_cm as _table_cm  # noqa: F401
 from mearm.vision import Camera, ColorDetector
-from mearm.vision.arm_mask import arm_mask_source
+from mearm.vision.arm_mask import ArmInView
 from mearm.vision.calibration import camera_geometry
 from mearm.vision.errors import CameraError
 from mearm.vision.frame_check import FrameCheck
+from mearm.vision.pinhole import PerspectiveCamera
 
 if TYPE_CHECKING:
     from mearm.runlog.writer import RunLog  # a log is written only when asked for
@@ -174,14 +175,21 @@ class Sorter(PickAndPlace):
         #: The camera watching the claw's marker (picks that look), where the tool carries
         #: one, the camera is calibrated as a perspective one and the config asks for it.
         self.eye = claw_eye(config, self.model, self.calibration, camera.read, bus.hold)
-        self.arm_in_view = arm_mask_source(
-            self.calibration, self.model, self.collision.bodies,
-            opening_cm=config.arm.tool.gripper.open_cm, joints=self.executor.q_now,
-        )  # fmt: skip
+        #: The arm's body where the calibrated camera sees it (a perspective camera only:
+        #: a homography knows only the table's plane); no object is looked for there.
+        self.arm_view = None
+        self.arm_in_view = None
+        if isinstance(self.calibration, PerspectiveCamera):
+            self.arm_view = ArmInView(
+                self.calibration, self.model, self.collision.bodies,
+                opening_cm=config.arm.tool.gripper.open_cm,
+            )  # fmt: skip
+            self.arm_in_view = self._arm_now
         self.frame_check = FrameCheck(camera.source)
         #: The object the arm last went for (the only one it may have moved since).
         self._active: TrackedObject | None = None
         self._active_from_cm = (0.0, 0.0)
+        self._seen_px = None
         self.view = view
         self.in_bins = in_bins
         retries = config.task.pick_retries + 1
@@ -298,16 +306,21 @@ class Sorter(PickAndPlace):
             if not self.bus.is_connected:
                 self.bus.connect()
             self.executor.home_pose()
+            # since the last pick, from beside home (_look_aside: a camera that sees the arm)
+            looked_aside = self.arm_view is None
             for _ in range(self.max_rounds):
                 obj = self._choose(self._look())
-                if obj is None and self._unaccounted():
+                if obj is None and (self._unaccounted() or not looked_aside):
                     # the arm over a bin may hide an object seen before: look from home
                     self._home()
                     obj = self._choose(self._look(), final=True)
-                    if obj is None:
+                    if obj is None and not looked_aside:
+                        obj, looked_aside = self._look_aside(), True
+                    if obj is None and self._unaccounted():
                         self._gone()
                 if obj is None:
                     break
+                looked_aside = self.arm_view is None
                 self._recorded_pick(obj)
             else:  # a table that never clears (flickering detections?): stop, say so
                 for obj in self._objects:
@@ -373,6 +386,46 @@ class Sorter(PickAndPlace):
                     "not seen from home (knocked off the table, or out of the camera's view)",
                     kind="off_table",
                 )
+
+    def _arm_now(self, frame_shape: tuple[int, ...]) -> np.ndarray:
+        """The arm's body in a frame of that shape at the last confirmed joints (0/255)."""
+        assert self.arm_view is not None  # set only with it
+        return self.arm_view.mask(self.executor.q_now(), frame_shape)
+
+    def _look_aside(self) -> TrackedObject | None:
+        """From home, look again with the base turned aside where the arm hides the table.
+
+        Over a small table the arm at home stands between the camera and the objects
+        near its claw (the MeArm's, 17 cm out in front), and an object there may never
+        have been seen, or seen only while the arm was elsewhere. Of the base turned to
+        either limit or halfway there, the pose that uncovers most of what the arm at
+        home hides of the work area is taken, along a straight joint path checked against
+        collisions like the way home. ``None``: no camera that sees the arm, nothing
+        hidden, no such pose, or nothing to pick there.
+        """
+        if self.arm_view is None:
+            return None
+        ex, chain = self.executor, self.model.chain
+        shape = (self.config.camera.height_px, self.config.camera.width_px)
+        home = np.asarray(self.model.home, dtype=float)
+        hidden = self.arm_view.mask(home, shape) > 0
+        area = self.detector.work_area(shape)
+        if area is not None:
+            hidden &= area > 0
+        best: tuple[int, float, np.ndarray] | None = None
+        for end in (chain.lower[0], chain.upper[0]):
+            for share in (0.5, 1.0):
+                q = home.copy()
+                q[0] = home[0] + share * (end - home[0])
+                if not chain.within_limits(q):
+                    continue
+                uncovered = int(np.count_nonzero(hidden & (self.arm_view.mask(q, shape) == 0)))
+                if uncovered and (best is None or (-uncovered, share) < (-best[0], best[1])):
+                    best = (uncovered, share, q)
+        if best is None or self.collision.first_contact(ex.joint_path(best[2])) is not None:
+            return None
+        ex.move_joints(best[2], "travel", closed=False)
+        return self._choose(self._look(), final=True)
 
     def _unaccounted(self) -> bool:
         """Whether an object seen before is neither sorted nor left for a reason."""

@@ -9,6 +9,7 @@ shift mean the camera was knocked (:func:`check_view`).
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
+from collections.abc import Set as AbstractSet
 from dataclasses import dataclass
 
 import numpy as np
@@ -21,9 +22,14 @@ from mearm.vision import Camera, ColorDetector, Detection
 from mearm.vision.calibration import CameraGeometry
 from mearm.vision.errors import CameraError
 from mearm.vision.frame_check import FrameCheck
-from mearm.vision.tracking import Missing, explain, nearest_pairs
+from mearm.vision.tracking import Missing, distance_to_path, explain, nearest_pairs
 from mearm.vision.tracking import Seen as Sighting
 
+#: A detection where no earlier look saw the table (the arm's body hid it) farther than
+#: this from where every missing object of its class may have gone is an object not seen
+#: before, not one of them pushed or dropped [cm]: twice :data:`SAME_OBJECT_CM`, more than
+#: the jaws push one (0.9 cm at most, simulated) and than a drop lands off its path.
+REVEALED_NEW_CM = 3.0
 #: A detection within this distance of a known object is that object [cm].
 SAME_OBJECT_CM = 1.5
 #: Objects the arm did not go for that all move farther than this between two looks, the
@@ -98,6 +104,8 @@ class TableTracking:
     #: The object the arm last went for (the only one it may have moved since).
     _active: TrackedObject | None
     _active_from_cm: tuple[float, float]
+    #: The pixels some look saw the table in, not hidden by the arm; ``None``: no look yet.
+    _seen_px: np.ndarray | None
 
     def _look(self, *, track_new: bool = True) -> Seen:
         """Read a frame: what lies on the table, outside the bins.
@@ -113,13 +121,15 @@ class TableTracking:
         self.frame_check.check(frame, self.camera.frame_time_s, self.camera.clock_s)
         # an object seen in a bin is sorted, not on the table (a camera that sees the
         # bins sees what was put in them)
-        if self.arm_in_view is None:
+        hidden = None if self.arm_in_view is None else self.arm_in_view(frame.shape)
+        if hidden is None:
             detections = self.detector.detect(frame)
         else:
-            detections = self.detector.detect(frame, exclude=self.arm_in_view(frame.shape))
+            detections = self.detector.detect(frame, exclude=hidden)
         found = [(d, table_cm(d)) for d in detections]
         seen = [(d, p) for d, p in found if not self._in_a_bin(p)]
-        self._track(seen, track_new=track_new)
+        revealed = self._revealed(seen, hidden) if track_new else set()
+        self._track(seen, track_new=track_new, revealed=revealed)
         if self.view is not None:
             self.view.set_camera_frame(frame, self.calibration.pixel_to_table)
             self.view.set_objects(
@@ -136,7 +146,29 @@ class TableTracking:
         x, y = float(xy_cm[0]), float(xy_cm[1])
         return any(c.in_bin(x, y) for c in self.config.task.classes)
 
-    def _track(self, seen: Seen, *, track_new: bool = True) -> None:
+    def _revealed(self, seen: Seen, hidden: np.ndarray | None) -> set[int]:
+        """The detections whose centre no earlier look saw (the arm's body hid it there).
+
+        Also adds what this look sees of the table to :attr:`_seen_px` (only looks that
+        may start new objects: one while the jaws hold an object would spend the news).
+        """
+        if hidden is None:
+            return set()
+        previous, self._seen_px = self._seen_px, hidden == 0
+        if previous is None:
+            return set()
+        self._seen_px |= previous
+        h, w = previous.shape
+        out = set()
+        for k, (det, _) in enumerate(seen):
+            u, v = (int(round(float(c))) for c in det.centroid_px)
+            if 0 <= u < w and 0 <= v < h and not previous[v, u]:
+                out.add(k)
+        return out
+
+    def _track(
+        self, seen: Seen, *, track_new: bool = True, revealed: AbstractSet[int] = frozenset()
+    ) -> None:
         """Follow the objects seen: each detection is a known object, or a new one.
 
         Each known object takes the detection of its class nearest where it was, within
@@ -159,7 +191,7 @@ class TableTracking:
             if self._untouched(known, det):
                 shifts.append((known, np.array([x - known.x_cm, y - known.y_cm])))
         if track_new:
-            taken.update(self._dropped(seen, taken))
+            taken.update(self._dropped(seen, taken, revealed))
             for k, (det, _) in enumerate(seen):
                 if k not in taken:
                     n = sum(1 for o in self._objects if o.class_name == det.color) + 1
@@ -179,7 +211,9 @@ class TableTracking:
                 known.yaw_deg = det.yaw_deg
         check_view(shifts, self.camera.source)
 
-    def _dropped(self, seen: Seen, taken: Mapping[int, TrackedObject]) -> dict[int, TrackedObject]:
+    def _dropped(
+        self, seen: Seen, taken: Mapping[int, TrackedObject], revealed: AbstractSet[int]
+    ) -> dict[int, TrackedObject]:
         """The known objects that the detections :meth:`_match` left over are.
 
         On a still table nothing brings new objects (:func:`~mearm.vision.tracking.explain`):
@@ -191,7 +225,9 @@ class TableTracking:
         before those counted sorted, and the ones the arm went for or may have pushed since
         the last look before the others; the nearest pairs first.
         The other object of a region of touching objects come apart is a new one
-        (:func:`come_apart`).
+        (:func:`come_apart`), and so is one where no earlier look saw the table
+        (``revealed``: the arm's body hid it) farther than :data:`REVEALED_NEW_CM` from
+        where each missing object of its class may have gone.
 
         Returns:
             The detection's index → the object it is.
@@ -203,7 +239,13 @@ class TableTracking:
             if o.id not in present and (not o.sorted or o.carried_cm is not None)
         ]
         apart = come_apart(seen, taken, self.config)
-        left = [k for k in range(len(seen)) if k not in taken and k not in apart]
+        left = [
+            k
+            for k in range(len(seen))
+            if k not in taken
+            and k not in apart
+            and not (k in revealed and self._new_in_view(seen[k], missing))
+        ]
         pairs = explain(
             [
                 Missing(
@@ -221,6 +263,23 @@ class TableTracking:
             obj = found[left[j]] = missing[i]
             obj.sorted, obj.carried_cm = False, None
         return found
+
+    @staticmethod
+    def _new_in_view(sighting: tuple[Detection, np.ndarray], missing: list[TrackedObject]) -> bool:
+        """Whether a sighting is far from where each missing object of its class may be.
+
+        Farther than :data:`REVEALED_NEW_CM` from every such object's last place or path.
+        """
+        det, p = sighting
+        xy = (float(p[0]), float(p[1]))
+        return all(
+            distance_to_path(
+                np.array([[o.x_cm, o.y_cm]]) if o.carried_cm is None else o.carried_cm, xy
+            )
+            > REVEALED_NEW_CM
+            for o in missing
+            if o.class_name == det.color
+        )
 
     def _untouched(self, obj: TrackedObject, det: Detection) -> bool:
         """Whether the arm left ``obj`` alone since the last look and both saw it whole."""

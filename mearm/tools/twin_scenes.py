@@ -7,7 +7,9 @@ scenes − 1 (default from 0), sorted by the same loop as ``mearm sort`` (``run_
 the MuJoCo twin; an object counts only when the physics has it in its class's bin, too
 slow to leave it. Prints one line per scene, the total with the scenes sorted per minute
 (wall time, worker start included), every object left with its reason, and exits 1 if
-the share sorted is below ``--require`` (default 0: report only).
+the share sorted is below ``--require`` (default 0: report only). The share is of the
+objects the scenes hold: where the sort saw fewer (one the arm hid all along, two taken
+for one), each line says how many its scene held.
 
 **Workers** (``--jobs N``, default 2): scenes are sorted in N worker processes, each
 started once for the whole sweep (it imports the twin and the renderer once, gets the
@@ -164,8 +166,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     for seed, (n, k, why, fault, notes) in zip(seeds, results, strict=True):
         seen, done = seen + n, done + k
         left.update(why)
-        reasons = ", ".join(f"{v} {LEFT_REASONS.get(r, r)}" for r, v in why.items())
-        extra = f" ({reasons})" if reasons else ""
+        reasons = [f"{v} {LEFT_REASONS.get(r, r)}" for r, v in why.items()]
+        if n != args.objects:
+            reasons.append(f"{args.objects} in the scene")
+        extra = f" ({', '.join(reasons)})" if reasons else ""
         print(
             f"seed {seed:3d}: sorted {k:2d} of {n:2d}{extra}" + (f"; {fault}" if fault else ""),
             flush=True,
@@ -173,10 +177,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         for line in notes:
             print(f"  {line}")
     wall = time.perf_counter() - t0
-    share = done / seen if seen else 0.0
+    held = args.scenes * args.objects
+    share = done / held
     workers = "1 process" if args.jobs == 1 else f"{min(args.jobs, args.scenes)} workers"
+    of = f"{seen} objects" if seen == held else f"{seen} objects seen, {held} in the scenes"
     print(
-        f"twin, {args.scenes} scenes of {args.objects}: sorted {done} of {seen} objects "
+        f"twin, {args.scenes} scenes of {args.objects}: sorted {done} of {of} "
         f"({100 * share:.1f} %) in {wall:.0f} s, {60 * args.scenes / wall:.1f} scenes/min "
         f"({workers})"
     )
