@@ -77,7 +77,8 @@ class TwinConfig(Strict):
     kit: ServoKitConfig | None = None
     """Draw each servo from a kit of real units (:class:`ServoKitConfig`, e.g.
     ``{seed: 7, per_trial: true}``); ``null``: every servo is the datasheet's nominal one."""
-    faults: list[TwinFault] = Field(default_factory=list, max_length=16)
+    # copied for each model (why a default: SimErrorModel.offset_deg)
+    faults: list[TwinFault] = Field(default=[], max_length=16)
     """Faults injected into the run, each at a simulated time
     (:mod:`mearm.config.twin_faults_config`: ``limp_servo``, ``knock_object``,
     ``camera_black``, ``camera_frozen``, ``camera_bump``); empty: nothing breaks."""

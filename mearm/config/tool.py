@@ -152,7 +152,8 @@ class Tool(Strict):
     :data:`mearm.config.servo_models.MOTOR_TIME_CONSTANT_S`): room for the jaws to stop
     and the grip to take hold."""
     gripper: Gripper
-    actuators: list[ToolActuator] = Field(default_factory=list, max_length=12)
+    # copied for each model (why a default: SimErrorModel.offset_deg)
+    actuators: list[ToolActuator] = Field(default=[], max_length=12)
     marker: ClawMarker | None = None
     """An ArUco marker on the claw, for the camera to measure the arm (``null``: none)."""
 

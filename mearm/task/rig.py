@@ -18,7 +18,6 @@ from mearm.hardware.bus import ServoBus
 from mearm.kinematics import ArmModel
 from mearm.sim import World
 from mearm.task.check import check_consistency
-from mearm.task.conveyor import ConveyorSorter
 from mearm.task.report import SortReport
 from mearm.task.sorter import EpisodeRecorder, SortAborted, Sorter
 from mearm.vision import Camera
@@ -59,6 +58,13 @@ class RigRecorder(EpisodeRecorder, Protocol):
     def episodes_written(self) -> int: ...  # noqa: D102
     def attach(self, bus: ServoBus, camera: Camera) -> None: ...  # noqa: D102
     def detach(self) -> None: ...  # noqa: D102
+
+
+def _conveyor_sorter() -> type[Sorter]:
+    """The sorter of a belt (:class:`~mearm.task.conveyor.ConveyorSorter`)."""
+    from mearm.task.conveyor import ConveyorSorter  # noqa: PLC0415  (a belt's run only)
+
+    return ConveyorSorter
 
 
 def scene_layout(config: Config, scene: list[SceneObject] | None = None) -> list[dict[str, object]]:
@@ -135,8 +141,8 @@ def run_sort(
             if view_factory is not None:
                 view = view_factory(rig)
                 rig.bus.paced = True  # let the eye follow the arm
-            # a belt's objects move: tracked and intercepted (mearm.task.conveyor)
-            kind = Sorter if config.belt is None else ConveyorSorter
+            # a belt's objects move: tracked and intercepted (imported for a belt only)
+            kind = Sorter if config.belt is None else _conveyor_sorter()
             sorter = kind(
                 config, rig.camera, rig.bus, model=rig.model, log=log, view=view, echo=echo,
                 trial=trial, in_bins=rig.in_bins, recorder=recorder,
