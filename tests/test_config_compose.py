@@ -10,6 +10,7 @@ from typing import Any
 
 import pytest
 import yaml
+from built_once import computed_once
 from conftest import ROOT, run_cli
 
 from mearm.config import ArmDescription, Config, DHRow, config_from_dict, load_config
@@ -71,8 +72,12 @@ TWIN = {"simulator", "twin.joint_servo", "task.approach_height_cm"}
             "sim_mujoco_perspective.yaml",
             {"twin.lamp", "vision.value_min", "vision.shadow_value_min"},
         ),
-        ("sim_mearm_v1_mujoco.yaml", "sim_mearm_v1.yaml", TWIN),
-        ("sim_5dof_mujoco.yaml", "sim_5dof.yaml", TWIN),
+        ("sim_mearm_v1_mujoco.yaml", "sim_mearm_v1.yaml", TWIN | JOINT_ACCEL),
+        (
+            "sim_5dof_mujoco.yaml",
+            "sim_5dof.yaml",
+            TWIN | {f"arm.joints.{i}.servo.max_accel_deg_s2" for i in range(5)},
+        ),
     ],
 )
 def test_a_config_differs_from_what_it_extends_by_its_own_keys_only(name, base, differences):
@@ -362,24 +367,31 @@ def joint_lists_in(path: Path) -> Iterator[Signature]:
                 yield found
 
 
-def files_writing(arm: Signature) -> list[str]:
-    out = []
+def joint_lists_of_the_project() -> dict[str, set[Signature]]:
+    """Each scanned file's joint lists, by path relative to the checkout."""
+    out = {}
     for top in SCANNED:
         paths = [ROOT / top] if (ROOT / top).is_file() else sorted((ROOT / top).rglob("*"))
         for path in paths:
             if path.suffix in (".yaml", ".yml", ".md", ".py") and path.is_file():
-                if arm in set(joint_lists_in(path)):
-                    out.append(path.relative_to(ROOT).as_posix())
+                out[path.relative_to(ROOT).as_posix()] = set(joint_lists_in(path))
     return out
+
+
+@pytest.fixture(scope="module")
+def project_joint_lists(tmp_path_factory: pytest.TempPathFactory) -> dict[str, set[Signature]]:
+    """The scan of the whole project, made once per test run (each arm's case reads it)."""
+    return computed_once(tmp_path_factory, "joint-lists", joint_lists_of_the_project)
 
 
 @pytest.mark.parametrize("name", ["desk_5dof", "mearm_paper", "mearm_v1"])
 @pytest.mark.heavy
-def test_each_reference_arms_joint_list_is_written_in_one_file(name):
+def test_each_reference_arms_joint_list_is_written_in_one_file(name, project_joint_lists):
     """configs/arms/<name>.yaml is the only file of the project that lists its joints."""
     arm = signature(reference_arm(name)["joints"])
     assert arm is not None
-    assert files_writing(arm) == [f"configs/arms/{name}.yaml"]
+    writing = [path for path, arms in project_joint_lists.items() if arm in arms]
+    assert writing == [f"configs/arms/{name}.yaml"]
 
 
 def keywords(row: dict[str, float]) -> str:
