@@ -22,6 +22,8 @@ def _sort(*objects: tuple[str, float, float]) -> tuple[dict[str, int], dict[str,
     config = load_config(CONFIG)
     scene = [SceneObject(color=c, x=x, y=y) for c, x, y in objects]
     out = run_sort(config, scene=scene, echo=None).outcome
+    # the twin's own count, whatever the sort saw (what twin-scenes scores)
+    assert sum(out.in_bins.values()) == len(objects)
     return out.seen, out.sorted
 
 

@@ -68,11 +68,16 @@ class Outcome:
         seen: Objects seen on the table, per class (classes in sort order).
         sorted: Objects sorted, per class.
         left: Objects not sorted, per reason kind (:data:`LEFT_REASONS`).
+        in_bins: In simulation, the objects the world has in their class's bin at the
+            end, per class, whether the sort saw them or not (it may take an object seen
+            first where the arm hid the table for one carried off before); empty on a
+            real rig.
     """
 
     seen: dict[str, int] = field(default_factory=dict)
     sorted: dict[str, int] = field(default_factory=dict)
     left: dict[str, int] = field(default_factory=dict)
+    in_bins: dict[str, int] = field(default_factory=dict)
 
     @property
     def n_seen(self) -> int:

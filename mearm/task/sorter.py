@@ -354,6 +354,7 @@ class Sorter(PickAndPlace):
             out.seen[cls.name] = 0
             out.sorted[cls.name] = 0
         in_bin = None if self.in_bins is None else dict(self.in_bins())
+        out.in_bins = dict(in_bin or {})
         self.executor.show_world()  # the twin's objects, settled, in the view
 
         def leave(kind: str) -> None:

@@ -7,9 +7,11 @@ scenes − 1 (default from 0), sorted by the same loop as ``mearm sort`` (``run_
 the MuJoCo twin; an object counts only when the physics has it in its class's bin, too
 slow to leave it. Prints one line per scene, the total with the scenes sorted per minute
 (wall time, worker start included), every object left with its reason, and exits 1 if
-the share sorted is below ``--require`` (default 0: report only). The share is of the
-objects the scenes hold: where the sort saw fewer (one the arm hid all along, two taken
-for one), each line says how many its scene held.
+the share sorted is below ``--require`` (default 0: report only). The share is the
+twin's count: the objects in their bins of those the scenes hold. Where the sort saw
+fewer (one the arm hid all along, or one first seen where the arm hid the table taken
+for one carried off before) or counted fewer than the twin has in their bins, the line
+says how many its scene held and how many lie in their bins.
 
 **Workers** (``--jobs N``, default 2): scenes are sorted in N worker processes, each
 started once for the whole sweep (it imports the twin and the renderer once, gets the
@@ -42,14 +44,16 @@ from mearm.errors import MearmError
 from mearm.task.report import LEFT_REASONS
 from mearm.task.sorter import SortAborted
 
-Result = tuple[int, int, dict[str, int], str | None, list[str]]
+#: A scene's objects seen, sorted (the sort's count) and in their bins (the twin's), the
+#: objects left per reason, the fault that stopped it and each object left and why.
+Result = tuple[int, int, int, dict[str, int], str | None, list[str]]
 
 #: What a worker sorts: the config and objects per scene, set once by :func:`_start_worker`.
 _WORK: tuple[Config, int] | None = None
 
 
 def _one(config: Config, objects: int, seed: int) -> Result:
-    """Sort one scene; (seen, sorted, left per reason, fault, each object left and why)."""
+    """Sort one scene: its :data:`Result`."""
     from mearm.task.rig import run_sort
     from mearm.task.scene import random_scene
 
@@ -58,12 +62,12 @@ def _one(config: Config, objects: int, seed: int) -> Result:
         report = run_sort(config, scene=scene, echo=None)
     except SortAborted as exc:
         if exc.outcome is None:
-            return len(scene), 0, {"fault": len(scene)}, exc.reason, []
+            return len(scene), 0, 0, {"fault": len(scene)}, exc.reason, []
         out = exc.outcome  # what it sorted before the fault, and what the fault left
-        return out.n_seen, out.n_sorted, dict(out.left), exc.reason, []
+        return out.n_seen, out.n_sorted, sum(out.in_bins.values()), dict(out.left), exc.reason, []
     out = report.outcome
     notes = [f"{s.object_id}: {s.reason}" for s in report.skipped]
-    return out.n_seen, out.n_sorted, dict(out.left), None, notes
+    return out.n_seen, out.n_sorted, sum(out.in_bins.values()), dict(out.left), None, notes
 
 
 #: Whether this worker has seen Ctrl-C: the scenes it is handed after that are not sorted.
@@ -159,16 +163,16 @@ def main(argv: Sequence[str] | None = None) -> int:
             f"{args.config}: simulator is {config.simulator!r}; this counts twin sorts"
         )
     t0 = time.perf_counter()
-    seen = done = 0
+    seen = done = binned = 0
     left: Counter[str] = Counter()
     seeds = range(args.first_seed, args.first_seed + args.scenes)
     results = sweep(config, args.objects, seeds, args.jobs)
-    for seed, (n, k, why, fault, notes) in zip(seeds, results, strict=True):
-        seen, done = seen + n, done + k
+    for seed, (n, k, b, why, fault, notes) in zip(seeds, results, strict=True):
+        seen, done, binned = seen + n, done + k, binned + b
         left.update(why)
         reasons = [f"{v} {LEFT_REASONS.get(r, r)}" for r, v in why.items()]
-        if n != args.objects:
-            reasons.append(f"{args.objects} in the scene")
+        if n != args.objects or b != k:
+            reasons.append(f"{args.objects} in the scene, {b} in their bins")
         extra = f" ({', '.join(reasons)})" if reasons else ""
         print(
             f"seed {seed:3d}: sorted {k:2d} of {n:2d}{extra}" + (f"; {fault}" if fault else ""),
@@ -178,9 +182,11 @@ def main(argv: Sequence[str] | None = None) -> int:
             print(f"  {line}")
     wall = time.perf_counter() - t0
     held = args.scenes * args.objects
-    share = done / held
+    share = binned / held
     workers = "1 process" if args.jobs == 1 else f"{min(args.jobs, args.scenes)} workers"
-    of = f"{seen} objects" if seen == held else f"{seen} objects seen, {held} in the scenes"
+    of = f"{seen} objects"
+    if seen != held or binned != done:
+        of = f"{seen} objects seen, {held} in the scenes; {binned} in their bins"
     print(
         f"twin, {args.scenes} scenes of {args.objects}: sorted {done} of {of} "
         f"({100 * share:.1f} %) in {wall:.0f} s, {60 * args.scenes / wall:.1f} scenes/min "
