@@ -89,3 +89,146 @@ def test_the_twins_frame_drawn_for_a_recording_is_its_peek() -> None:
         camera.peek_rgb(out)
         assert camera.frames_read == 0
         np.testing.assert_array_equal(out, camera.peek()[:, :, ::-1])
+
+
+def _moving_states(twin, camera, n: int) -> list[np.ndarray]:
+    """The twin's frame states at ``n`` moments of the arm swinging (each a copy)."""
+    import mujoco
+
+    m, d = twin.model, twin.data
+    states = []
+    for _ in range(n):
+        d.ctrl[:] += 0.04
+        mujoco.mj_step(m, d, nstep=7)
+        state = np.empty(camera.frame_source().state_size)
+        assert camera.frame_state(state)
+        states.append(state)
+    return states
+
+
+@pytest.mark.heavy
+@pytest.mark.parametrize("bump", [False, True], ids=["mounted", "bumped"])
+def test_the_twins_frame_drawn_from_its_state_elsewhere_is_its_peek(bump: bool) -> None:
+    """A frame drawn from its state by a renderer built from the pickled source (as the
+    encoder's process does) is peek_rgb's, pixel for pixel, while the arm moves (its
+    poses are those of the last step's start) and with the camera bumped."""
+    import pickle
+
+    from mearm.dataset.sampler import DrawsElsewhere
+
+    fault = ["twin.faults=[{kind: camera_bump, at_s: 0, shift_cm: [1, 0.5, 0]}]"] if bump else []
+    config = load_config(ROOT / "configs" / "sim_mujoco.yaml", fault)
+    shape = (config.camera.height_px, config.camera.width_px, 3)
+    with open_rig(config) as rig:
+        camera = rig.camera
+        assert isinstance(camera, DrawsElsewhere)
+        drawer = pickle.loads(pickle.dumps(camera.frame_source())).open()
+        try:
+            for _ in range(4):
+                (state,) = _moving_states(rig.bus, camera, 1)
+                here, there = np.zeros(shape, np.uint8), np.ones(shape, np.uint8)
+                camera.peek_rgb(here)
+                drawer.draw(state, there)
+                np.testing.assert_array_equal(there, here)
+        finally:
+            drawer.close()
+        assert camera.frames_read == 0
+
+
+@pytest.mark.heavy
+def test_a_black_frame_is_drawn_where_the_twin_runs() -> None:
+    """Under a camera fault the frame has no state to send: frame_state says so."""
+    config = load_config(
+        ROOT / "configs" / "sim_mujoco.yaml", ["twin.faults=[{kind: camera_black, at_s: 0}]"]
+    )
+    with open_rig(config) as rig:
+        state = np.zeros(rig.camera.frame_source().state_size)
+        assert not rig.camera.frame_state(state)
+        assert not state.any()
+
+
+@pytest.mark.heavy
+@pytest.mark.parametrize("codec", list(VIDEO_CODECS))
+def test_an_episode_drawn_in_the_encoders_process_is_the_one_drawn_here(
+    codec: str, tmp_path: Path
+) -> None:
+    """The encoder process drawing from states writes the very file (byte for byte) and
+    pixel samples that encoding frames drawn here gives: the same frames, the same encoder."""
+    from mearm.dataset.video_encoder import EncoderProcess, InlineEncoder
+
+    config = load_config(ROOT / "configs" / "sim_mujoco.yaml")
+    shape = (config.camera.height_px, config.camera.width_px, 3)
+    remote, inline = EncoderProcess(shape, FPS, codec), InlineEncoder(shape, FPS, codec)
+    try:
+        with open_rig(config) as rig:
+            camera = rig.camera
+            assert remote.scene(camera.frame_source())
+            remote.open(0, tmp_path / "remote.mp4")
+            inline.open(0, tmp_path / "inline.mp4")
+            state = np.empty(0)
+            for k in range(6):
+                if k != 3:  # the fourth frame: nothing moved (not drawn again)
+                    (state,) = _moving_states(rig.bus, camera, 1)
+                slot, _ = remote.slot()
+                remote.state(slot)[: len(state)] = state
+                remote.draw(0, slot, repeat=1 + k % 2)
+                _, rgb = inline.slot()
+                camera.peek_rgb(rgb)
+                inline.frame(0, 0, repeat=1 + k % 2)
+            remote.finish(0)
+            inline.finish(0)
+            done, error, pixels = remote.done(0, wait=True)
+            assert (done, error) == (True, None)
+            _, _, want = inline.done(0, wait=True)
+    finally:
+        remote.close()
+        inline.close()
+    assert (tmp_path / "remote.mp4").read_bytes() == (tmp_path / "inline.mp4").read_bytes()
+    assert pixels is not None and want is not None and pixels.shape == want.shape
+    np.testing.assert_array_equal(pixels, want)
+
+
+def _record_twin(root: Path, overrides: list[str]) -> np.ndarray:
+    """Two episodes of the twin's arm swinging, recorded; the video's frames, decoded."""
+    from mearm.dataset.format_check import check_dataset
+    from mearm.dataset.recorder import DatasetRecorder
+    from mearm.hardware.command import ArmCommand
+
+    config = load_config(ROOT / "configs" / "sim_mujoco.yaml", overrides)
+    rec = DatasetRecorder(root, config, fps=FPS, codec="h264")
+    home = ArmCommand.home(config.arm)
+    with open_rig(config) as rig, rig.bus:
+        rec.attach(rig.bus, rig.camera)
+        for k in range(2):
+            rec.begin("red")
+            for i in range(12):
+                joints = {n: v + 6 * np.sin(i / 4 + k) for n, v in home.joints.items()}
+                rig.bus.move(ArmCommand(joints, home.tool, False))
+            rec.end()
+        rec.close()
+    assert check_dataset(root) == []
+    (video,) = root.glob("videos/**/*.mp4")
+    with av.open(str(video)) as container:
+        return np.stack([f.to_ndarray(format="rgb24") for f in container.decode(video=0)])
+
+
+@pytest.mark.heavy
+def test_a_twin_recording_draws_no_frame_in_the_sorts_process(monkeypatch, tmp_path: Path) -> None:
+    """The twin's frames are drawn by the encoder's process: the sort's renderer never runs
+    for them, and the episodes are written, moving pictures of the scene."""
+    from mearm.sim.twin.twin_camera import TwinCamera
+
+    def refuse(self, out):
+        raise AssertionError("a recorded frame was drawn in the sort's process")
+
+    monkeypatch.setattr(TwinCamera, "peek_rgb", refuse)
+    frames = _record_twin(tmp_path / "ds", [])
+    assert len(frames) >= 4 and frames.mean() > 40
+    assert np.abs(np.diff(frames.astype(np.int16), axis=0)).max() > 50  # the arm moved
+
+
+@pytest.mark.heavy
+def test_a_black_camera_is_recorded_black(tmp_path: Path) -> None:
+    """Under a camera fault the frames are drawn where the twin runs: black, as it sees."""
+    frames = _record_twin(tmp_path / "ds", ["twin.faults=[{kind: camera_black, at_s: 0}]"])
+    assert len(frames) >= 4 and frames.max() <= 20  # lossy black

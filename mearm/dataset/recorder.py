@@ -8,9 +8,10 @@ time) passes the next frame's time, it takes one frame at ``fps``:
   measures nothing confirms its commands) [deg or cm], each tool actuator's confirmed
   setting [deg] and ``gripper_closed`` (0 or 1);
 - ``action``: the same names, as commanded (the command being sent, else the last one);
-- ``observation.images.<camera>``: the camera's frame, drawn by this process into shared
-  memory (the twin's camera draws it there directly, :class:`DrawsRGB`) and encoded as
-  AV1 (or H.264) by another process (:mod:`mearm.dataset.video_encoder`).
+- ``observation.images.<camera>``: the camera's frame, drawn and encoded as AV1 (or
+  H.264) by another process (:mod:`mearm.dataset.video_encoder`): the twin's camera sends
+  the state it is drawn from (:class:`~mearm.dataset.sampler.DrawsElsewhere`), another
+  camera's frame is drawn by this process into shared memory.
 
 The sorter opens an episode per pick-and-place (or one per scene) with its task as a
 sentence, and ends or abandons it. An ended episode is written once its video is

@@ -3,8 +3,10 @@
 :class:`EpisodeSampler` is the servo bus's sampler (:class:`~mearm.hardware.bus.Sampler`):
 whenever the bus's clock (the command periods streamed, the holds and waits; the twin's
 physics time) passes the next frame's time, it takes one frame at ``fps``: the state and
-the action (:mod:`mearm.dataset.recorder`), and the camera's frame, drawn straight into
-the encoder's shared memory (the twin's camera, :class:`DrawsRGB`) or converted into it.
+the action (:mod:`mearm.dataset.recorder`), and the camera's frame: the twin's camera
+writes the state it is drawn from into the encoder's shared memory and the encoder's
+process draws it (:class:`DrawsElsewhere`), another camera's frame is drawn or converted
+into it here.
 The sorter opens an episode per pick-and-place (or one per scene) and ends or abandons
 it; an ended episode goes on to :meth:`EpisodeSampler._accept` once its video is encoded,
 in order.
@@ -30,13 +32,11 @@ import numpy as np
 
 from mearm.config import Config
 from mearm.dataset import lerobot_format as L
+from mearm.dataset.encoder_server import STATS_PIXEL_STRIDE  # noqa: F401  (re-exported)
 from mearm.dataset.errors import EncoderError
 from mearm.dataset.video_encoder import EncoderProcess, InlineEncoder
 from mearm.hardware.bus import MeasuresWorld, ServoBus
 from mearm.vision import Camera
-
-#: A frame's pixels kept for the image statistics: every this many rows and columns.
-STATS_PIXEL_STRIDE = 16
 
 Per = Literal["pick", "scene"]
 Encoder = EncoderProcess | InlineEncoder
@@ -94,6 +94,17 @@ class DrawsRGB(Protocol):
         """Draw the frame ``peek()`` would give into ``out``, (h, w, 3) uint8 RGB."""
 
 
+@runtime_checkable
+class DrawsElsewhere(Protocol):
+    """A camera whose frames another process can draw from their state (the twin's)."""
+
+    def frame_source(self) -> Any:
+        """What that process needs, pickled to it once a scene; ``None``: draw here."""
+
+    def frame_state(self, out: np.ndarray) -> bool:
+        """Write the state of the frame of now into ``out``; ``False``: draw this one here."""
+
+
 class EpisodeSampler:
     """Samples a rig into episodes (module docstring); what becomes of them is a subclass's.
 
@@ -125,6 +136,9 @@ class EpisodeSampler:
         self._bus: ServoBus | None = None
         self._camera: Camera | None = None
         self._draw_rgb: Callable[[np.ndarray], None] | None = None
+        # the encoder's process draws the camera's frames from their states: the encoder
+        # and the camera's frame_state
+        self._elsewhere: tuple[EncoderProcess, Callable[[np.ndarray], bool]] | None = None
         self._episode: _Episode | None = None
         self._pending: deque[_Episode] = deque()
         self._encoder: Encoder | None = None
@@ -161,6 +175,11 @@ class EpisodeSampler:
         bus.sampler = self
         if self._encoder is None:
             self._encoder = self._open_encoder()
+        self._elsewhere = None
+        if isinstance(camera, DrawsElsewhere) and isinstance(self._encoder, EncoderProcess):
+            source = camera.frame_source()
+            if source is not None and self._encoder.scene(source):
+                self._elsewhere = (self._encoder, camera.frame_state)
 
     def detach(self) -> None:
         """Stop sampling the rig (an open episode is dropped; finished ones are written)."""
@@ -168,6 +187,7 @@ class EpisodeSampler:
         if self._bus is not None and self._bus.sampler is self:
             self._bus.sampler = None
         self._bus = self._camera = None
+        self._elsewhere = None
 
     def start_trial(self, trial_seed: int) -> None:
         """The episodes from here on are of the experiment's trial with this seed.
@@ -195,18 +215,20 @@ class EpisodeSampler:
             return
         repeat = int((bus.clock_s - due + 1e-9) * self.fps) + 1
         state, action = self._measure(bus)
-        assert self._camera is not None and self._encoder is not None
-        slot, rgb = self._encoder.slot()
-        if self._draw_rgb is not None:
-            self._draw_rgb(rgb)
+        encoder = self._encoder
+        assert self._camera is not None and encoder is not None
+        slot, rgb = encoder.slot()
+        elsewhere = self._elsewhere
+        if elsewhere is not None and elsewhere[1](elsewhere[0].state(slot)):
+            elsewhere[0].draw(ep.number, slot, repeat)
         else:
-            cv2.cvtColor(self._camera.peek(), cv2.COLOR_BGR2RGB, dst=rgb)
-        step = STATS_PIXEL_STRIDE
-        pixels = rgb[::step, ::step].reshape(-1, 3).copy()
-        self._encoder.frame(ep.number, slot, repeat)
+            if self._draw_rgb is not None:
+                self._draw_rgb(rgb)
+            else:
+                cv2.cvtColor(self._camera.peek(), cv2.COLOR_BGR2RGB, dst=rgb)
+            encoder.frame(ep.number, slot, repeat)
         ep.states.extend([state] * repeat)
         ep.actions.extend([action] * repeat)
-        ep.pixels.extend([pixels] * repeat)
 
     def _measure(self, bus: ServoBus) -> tuple[np.ndarray, np.ndarray]:
         confirmed, sent = bus.state, bus.commanded
@@ -308,13 +330,14 @@ class EpisodeSampler:
         with no_interrupt() if wait else contextlib.nullcontext():
             while self._pending and encoder is not None:
                 ep = self._pending[0]
-                done, error = encoder.done(ep.number, wait=wait)
+                done, error, pixels = encoder.done(ep.number, wait=wait)
                 if not done:
                     break
                 self._pending.popleft()
                 if error is not None:
                     ep.path.unlink(missing_ok=True)
                     raise EncoderError(f"an episode's video failed: {error}")
+                ep.pixels = [] if pixels is None else [pixels]
                 self._accept(ep)
             self._settle(wait=wait)
 

@@ -1,9 +1,12 @@
 """Encoding episodes' frames in another process, the frames passed through shared memory.
 
-The recording process draws each frame straight into a slot of a ring in shared memory
-(:meth:`EncoderProcess.slot`) and sends the slot's number; the encoder process turns it
-into a video frame, gives the slot back and encodes it into the episode's fragmented MP4
-(:mod:`mearm.dataset.fragments`), while the sort goes on. A message says when an
+The recording process writes each frame into a slot of a ring in shared memory
+(:meth:`EncoderProcess.slot`) and sends the slot's number: the twin's camera writes the
+state the frame is drawn from (:meth:`EncoderProcess.draw`; the encoder process draws
+it from the scene's model, sent once, :meth:`EncoderProcess.scene`), any other camera its
+pixels (:meth:`EncoderProcess.frame`). The encoder process (:mod:`mearm.dataset.encoder_server`)
+turns it into a video frame, gives the slot back and encodes it into the episode's
+fragmented MP4 (:mod:`mearm.dataset.fragments`), while the sort goes on. A message says when an
 episode's file is complete. The ring bounds how far the encoder may fall behind
 (:data:`SLOTS` frames): a recording that draws faster than it encodes waits for a slot,
 and an interrupted run waits for at most that many frames to be encoded.
@@ -18,129 +21,28 @@ from __future__ import annotations
 
 import contextlib
 import multiprocessing
-import os
 import signal
 import threading
-from multiprocessing.connection import Connection
 from multiprocessing.shared_memory import SharedMemory
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from mearm.dataset import lerobot_format as L
+from mearm.dataset.encoder_server import (  # noqa: F401  (re-exported: the ring, a writer)
+    SLOTS,
+    STATE_CAPACITY,
+    EpisodeWriter,
+    open_episode_video,
+    pixel_sample,
+    ring_bytes,
+    ring_views,
+    serve,
+)
 from mearm.dataset.errors import EncoderError
-from mearm.dataset.fragments import MOVFLAGS
 
-#: Frames the encoder may be behind: the ring's slots (640×480: 0.9 MB each).
-SLOTS = 24
 #: How long to wait for the encoder process at a time before checking it is alive [s].
 POLL_S = 0.2
-
-
-def open_episode_video(av: Any, path: Path, fps: int, size_hw: tuple[int, int], codec: str) -> Any:
-    """An output container and stream for one episode's fragmented MP4."""
-    os.environ.setdefault("SVT_LOG", "1")  # SVT-AV1: errors only, not its banner
-    spec = L.VIDEO_CODECS[codec]
-    out = av.open(str(path), "w", format="mp4", options={"movflags": MOVFLAGS})
-    stream = out.add_stream(spec.encoder, rate=fps, options=spec.options())
-    stream.height, stream.width = size_hw
-    stream.pix_fmt = L.VIDEO_PIX_FMT
-    stream.gop_size = L.VIDEO_GOP
-    return out, stream
-
-
-class EpisodeWriter:
-    """One episode's video being encoded, in whatever process holds it."""
-
-    def __init__(self, av: Any, path: Path, fps: int, size_hw: tuple[int, int], codec: str):
-        self.path = path
-        self._av = av
-        self._out, self._stream = open_episode_video(av, path, fps, size_hw, codec)
-        self.frames = 0
-
-    def add(self, frame: Any, repeat: int = 1) -> None:
-        """Encode ``frame`` (a PyAV ``VideoFrame``) ``repeat`` times, one frame period each."""
-        for _ in range(repeat):
-            frame.pts = self.frames
-            for packet in self._stream.encode(frame):
-                self._out.mux(packet)
-            self.frames += 1
-
-    def close(self) -> None:
-        """Flush the encoder and write the file's one fragment."""
-        for packet in self._stream.encode():
-            self._out.mux(packet)
-        self._out.close()
-
-    def discard(self) -> None:
-        """Stop and remove the file."""
-        with contextlib.suppress(Exception):
-            self._out.close()
-        self.path.unlink(missing_ok=True)
-
-
-def _serve(
-    conn: Connection,
-    shm_name: str,
-    shape: tuple[int, int, int],
-    fps: int,
-    codec: str,
-    dropped: Any,
-) -> None:
-    """The encoder process: encode the frames it is sent until told to stop (or orphaned)."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    import av
-
-    shm = SharedMemory(shm_name)
-    ring = np.ndarray((SLOTS, *shape), np.uint8, buffer=shm.buf)
-    writers: dict[int, EpisodeWriter] = {}
-    errors: dict[int, str] = {}
-    try:
-        while True:
-            try:
-                msg = conn.recv()
-            except (EOFError, OSError):  # the recording process is gone
-                break
-            kind, episode = msg[0], msg[1]
-            if kind == "frame":
-                _, _, slot, repeat = msg
-                writer = writers.get(episode)
-                frame = None
-                if writer is not None and episode != dropped.value:
-                    frame = av.VideoFrame.from_ndarray(ring[slot], format="rgb24")
-                conn.send(("free", slot))
-                if frame is not None and episode not in errors:
-                    try:
-                        writer.add(frame, repeat)  # type: ignore[union-attr]
-                    except Exception as exc:  # noqa: BLE001  (said when the episode ends)
-                        errors[episode] = f"{type(exc).__name__}: {exc}"
-            elif kind == "open":
-                try:
-                    writers[episode] = EpisodeWriter(av, Path(msg[2]), fps, shape[:2], codec)
-                except Exception as exc:  # noqa: BLE001
-                    errors[episode] = f"{type(exc).__name__}: {exc}"
-            elif kind == "finish":
-                writer = writers.pop(episode, None)
-                error = errors.pop(episode, None)
-                if writer is not None and error is None:
-                    try:
-                        writer.close()
-                    except Exception as exc:  # noqa: BLE001
-                        error = f"{type(exc).__name__}: {exc}"
-                conn.send(("done", episode, error))
-            elif kind == "cancel":
-                writer = writers.pop(episode, None)
-                errors.pop(episode, None)
-                if writer is not None:
-                    writer.discard()
-            elif kind == "stop":
-                break
-    finally:
-        for writer in writers.values():
-            writer.discard()
-        del ring
-        shm.close()
 
 
 class EncoderProcess:
@@ -158,12 +60,12 @@ class EncoderProcess:
     def __init__(self, shape: tuple[int, int, int], fps: int, codec: str):
         self.shape = shape
         ctx = multiprocessing.get_context("spawn")  # no copy of the sort's GL context, threads
-        self._shm = SharedMemory(create=True, size=SLOTS * int(np.prod(shape)))
-        self._ring = np.ndarray((SLOTS, *shape), np.uint8, buffer=self._shm.buf)
+        self._shm = SharedMemory(create=True, size=ring_bytes(shape))
+        self._ring, self._states = ring_views(self._shm.buf, shape)
         self._dropped = ctx.Value("q", -1, lock=False)
         self._conn, child = ctx.Pipe()
         self._proc = ctx.Process(
-            target=_serve,
+            target=serve,
             args=(child, self._shm.name, shape, fps, codec, self._dropped),
             name="mearm-encoder",
             daemon=True,
@@ -176,7 +78,23 @@ class EncoderProcess:
             raise EncoderError(f"cannot start the video encoder process ({exc})") from None
         child.close()
         self._free = list(range(SLOTS))
-        self._done: dict[int, str | None] = {}
+        self._done: dict[int, tuple[str | None, np.ndarray | None]] = {}
+
+    def scene(self, source: Any) -> bool:
+        """Draw the frames sent with :meth:`draw` from ``source`` from now on; whether it can.
+
+        ``source`` (a :class:`~mearm.sim.twin.twin_frame_state.TwinFrameSource`) is
+        pickled to the encoder process, which opens its renderer there. ``False``: its
+        frame's state does not fit a slot (:data:`STATE_CAPACITY`); draw them here.
+        """
+        if source.state_size > STATE_CAPACITY:
+            return False
+        self._send(("scene", -1, source))
+        return True
+
+    def state(self, slot: int) -> np.ndarray:
+        """A slot's room for a frame's state, (:data:`STATE_CAPACITY`,) float64."""
+        return self._states[slot]
 
     def open(self, episode: int, path: Path) -> None:
         """Start episode ``episode``'s video at ``path``."""
@@ -200,6 +118,10 @@ class EncoderProcess:
         """Encode the frame in ``slot`` as the next ``repeat`` frames of ``episode``."""
         self._send(("frame", episode, slot, repeat))
 
+    def draw(self, episode: int, slot: int, repeat: int = 1) -> None:
+        """Draw the frame of the state in ``slot`` (:meth:`state`) and encode it so."""
+        self._send(("draw", episode, slot, repeat))
+
     def finish(self, episode: int) -> None:
         """Episode ``episode`` has all its frames: write its file (see :meth:`done`)."""
         self._send(("finish", episode))
@@ -209,8 +131,11 @@ class EncoderProcess:
         self._dropped.value = episode
         self._send(("cancel", episode))
 
-    def done(self, episode: int, *, wait: bool) -> tuple[bool, str | None]:
-        """Whether episode ``episode``'s file is written, and the error if it failed.
+    def done(self, episode: int, *, wait: bool) -> tuple[bool, str | None, np.ndarray | None]:
+        """Whether episode ``episode``'s file is written, the error if it failed, its pixels.
+
+        The pixels: each frame's :func:`~mearm.dataset.encoder_server.pixel_sample`, for
+        the image statistics, (frames · k, 3) uint8.
 
         Raises:
             EncoderError: the encoder process died.
@@ -219,8 +144,8 @@ class EncoderProcess:
         while wait and episode not in self._done:
             self._pump(POLL_S)
         if episode not in self._done:
-            return False, None
-        return True, self._done.pop(episode)
+            return False, None, None
+        return True, *self._done.pop(episode)
 
     def close(self) -> None:
         """Stop the process (its unfinished episodes are dropped) and free the ring."""
@@ -235,7 +160,7 @@ class EncoderProcess:
 
     def _release(self) -> None:
         self._conn.close()
-        del self._ring
+        del self._ring, self._states
         self._shm.close()
         with contextlib.suppress(FileNotFoundError):
             self._shm.unlink()
@@ -255,7 +180,7 @@ class EncoderProcess:
                 if msg[0] == "free":
                     self._free.append(msg[1])
                 else:
-                    self._done[msg[1]] = msg[2]
+                    self._done[msg[1]] = (msg[2], msg[3])
                 ready = self._conn.poll(0)
         except (EOFError, OSError):
             self._died()
@@ -294,7 +219,7 @@ class InlineEncoder:
         self._fps, self._codec = fps, codec
         self._buffer = np.empty(shape, np.uint8)
         self._writers: dict[int, EpisodeWriter] = {}
-        self._done: dict[int, str | None] = {}
+        self._done: dict[int, tuple[str | None, np.ndarray | None]] = {}
 
     def open(self, episode: int, path: Path) -> None:  # noqa: D102
         self._writers[episode] = EpisodeWriter(
@@ -306,21 +231,24 @@ class InlineEncoder:
 
     def frame(self, episode: int, slot: int, repeat: int = 1) -> None:  # noqa: D102
         frame = self._av.VideoFrame.from_ndarray(self._buffer, format="rgb24")
-        self._writers[episode].add(frame, repeat)
+        self._writers[episode].add(frame, repeat, pixel_sample(self._buffer))
 
     def finish(self, episode: int) -> None:  # noqa: D102
-        self._writers.pop(episode).close()
-        self._done[episode] = None
+        writer = self._writers.pop(episode)
+        writer.close()
+        self._done[episode] = (None, writer.pixels())
 
     def cancel(self, episode: int) -> None:  # noqa: D102
         writer = self._writers.pop(episode, None)
         if writer is not None:
             writer.discard()
 
-    def done(self, episode: int, *, wait: bool) -> tuple[bool, str | None]:  # noqa: D102
+    def done(  # noqa: D102
+        self, episode: int, *, wait: bool
+    ) -> tuple[bool, str | None, np.ndarray | None]:
         if episode not in self._done:
-            return False, None
-        return True, self._done.pop(episode)
+            return False, None, None
+        return True, *self._done.pop(episode)
 
     def close(self) -> None:  # noqa: D102
         for writer in self._writers.values():

@@ -35,6 +35,9 @@ Sections:
         physics alone during a whole sort, MuJoCo's bare stepping at rest, and the whole
         sort with the rendered camera. A sort takes seconds: at most
         :data:`TWIN_ROUNDS` rounds.
+    record: a 3-trial twin experiment unrecorded, recorded as AV1 and as H.264, as fast
+        as the twin runs: walls, CPU and the recorded runs' wall over the unrecorded one's,
+        beside the target (≤ +100 %).
 
 Each section lives in its own module of :mod:`mearm.tools.benchmarks`.
 """
@@ -93,6 +96,7 @@ from mearm.tools.benchmarks.twin_bench import (
     twin_rows,
     twin_sort,
 )
+from mearm.tools.benchmarks.record_bench import bench_record
 # isort: on
 
 __all__ = [
@@ -117,6 +121,7 @@ __all__ = [
     "bench_collision",
     "bench_ik",
     "bench_motion",
+    "bench_record",
     "bench_sort_cpu",
     "bench_twin",
     "bench_vision",

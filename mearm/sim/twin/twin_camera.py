@@ -81,6 +81,7 @@ import mujoco
 import numpy as np
 
 from mearm.config import Config
+from mearm.sim.twin.twin_frame_state import TwinFrameSource, pack_frame_state
 from mearm.sim.twin.twin_optics import (  # noqa: F401  (re-exported: where the camera is)
     CAMERA_HEIGHT_M,
     M_PER_CM,
@@ -190,6 +191,11 @@ class LensRenderer:
             return bgr
         return cv2.remap(bgr, *self._maps, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
 
+    @property
+    def distorts(self) -> bool:
+        """Whether a lens distorts the frames (remapped from a larger picture)."""
+        return self._maps is not None
+
     def render_rgb(self, data: mujoco.MjData, out: np.ndarray) -> bool:
         """Draw ``data``'s frame straight into ``out``, (h, w, 3) uint8 RGB; whether it could.
 
@@ -287,6 +293,7 @@ class TwinCamera(NumberedCamera):
         self._lens = LensRenderer(
             twin.model, config, msaa_samples=SORTER_MSAA_SAMPLES, shadows=sorter_shadows(config)
         )
+        self._config = config
         self.frames_read = 0
         #: The last frame rendered and its time (what a frozen stream repeats).
         self._rendered: tuple[np.ndarray, float] | None = None
@@ -325,6 +332,32 @@ class TwinCamera(NumberedCamera):
         self._bump(faults.shift_m)
         if not self._lens.render_rgb(self.twin.data, out):
             cv2.cvtColor(self.peek(), cv2.COLOR_BGR2RGB, dst=out)
+
+    def frame_source(self) -> TwinFrameSource | None:
+        """What another process needs to draw this camera's frames; ``None`` under a lens.
+
+        A recording's frames are then drawn there from :meth:`frame_state`
+        (:mod:`mearm.sim.twin.twin_frame_state`), pixel for pixel as :meth:`peek_rgb`.
+        """
+        if self._lens.distorts:
+            return None
+        lens = self._lens
+        return TwinFrameSource(
+            self.twin.model, self._config, lens.msaa_samples, lens.shadows, LensRenderer
+        )
+
+    def frame_state(self, out: np.ndarray) -> bool:
+        """Write the state :meth:`peek_rgb`'s frame is drawn from into ``out``; whether it is one.
+
+        ``False`` under a camera fault, a lens or once closed: the frame is then
+        :meth:`peek_rgb`'s, drawn here. Leaves the camera as it was.
+        """
+        faults = self.twin.faults.camera(self.twin.time_s)
+        if self._closed or self._lens.distorts or faults.frozen_at_s is not None or faults.black:
+            return False
+        self._bump(faults.shift_m)
+        pack_frame_state(self.twin.data, out)
+        return True
 
     @property
     def clock_s(self) -> float:
