@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 
+import cv2
 import numpy as np
 import pytest
 
@@ -12,7 +13,8 @@ from mearm.config.shape_catalogue import SHAPES, shape_named
 from mearm.exceptions import ConfigError
 from mearm.sim import Disc, TableRenderer
 from mearm.vision import Calibration, ColorDetector
-from mearm.vision.shapes import ClassMatcher, measure_shape, table_yaw_deg
+from mearm.vision.regions import STACKED_BOX_PX, region_outlines
+from mearm.vision.shapes import ClassMatcher, measure_shape, shape_of_outline, table_yaw_deg
 from mearm.vision.thresholds import colour_groups
 
 CONFIG = Config()
@@ -237,3 +239,22 @@ def test_a_class_of_any_colour_takes_its_shape_in_every_hue() -> None:
     assert sorted(round(float(d.table_cm[0])) for d in whole) == [-6, 0]
     (cube,) = [d for d in found if d.merged]
     assert cube.shape is None and round(float(cube.table_cm[0])) == 6
+
+
+def test_outlines_traced_together_are_each_regions_own() -> None:
+    """The stacked trace gives each region the outline its own padded mask gives."""
+    rng = np.random.default_rng(39)
+    noise = (rng.random((240, 320)) < 0.5).astype(np.uint8) * 255
+    blobs = cv2.medianBlur(cv2.medianBlur(noise, 5), 5)  # ragged blobs, holes, the edges
+    n, labels, stats, _ = cv2.connectedComponentsWithStats(blobs, connectivity=8, ltype=cv2.CV_16U)
+    small = [k for k in range(1, n) if max(stats[k, 2], stats[k, 3]) <= STACKED_BOX_PX]
+    assert len(small) > 100
+    outlines = region_outlines(labels, stats[small, :4], np.array(small))
+    assert outlines is not None
+    for k, traced in zip(small, outlines, strict=True):
+        x, y, w, h = stats[k, :4]
+        mask = (labels[y : y + h, x : x + w] == k).view(np.uint8)
+        padded = cv2.copyMakeBorder(mask, 1, 1, 1, 1, cv2.BORDER_CONSTANT, value=0)
+        (own,), _ = cv2.findContours(padded, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
+        np.testing.assert_array_equal(traced, own)
+        assert shape_of_outline(traced) == measure_shape(mask)

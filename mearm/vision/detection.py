@@ -80,6 +80,41 @@ class Detection:
 _FIELDS = frozenset(f.name for f in fields(Detection))
 
 
+def _made(
+    color: str,
+    centroid_px: np.ndarray,
+    area_px: int,
+    bbox_px: tuple[int, int, int, int],
+    *,
+    merged: bool,
+    elongation: float,
+    table_cm: np.ndarray | None,
+    shape: str | None,
+    yaw_px_deg: float | None,
+    yaw_deg: float | None,
+) -> Detection:
+    """A detection of values the detector has made ready, without ``__init__``'s checks.
+
+    ``centroid_px`` and ``table_cm`` must be what :func:`_point` keeps (read-only (2,)
+    float rows of read-only arrays); a frame's detections are made by the dozen (the
+    generated ``__init__`` with its checks costs several µs each).
+    """
+    new = object.__new__(Detection)
+    new.__dict__.update(
+        color=color,
+        centroid_px=centroid_px,
+        area_px=area_px,
+        bbox_px=bbox_px,
+        merged=merged,
+        elongation=elongation,
+        table_cm=table_cm,
+        shape=shape,
+        yaw_px_deg=yaw_px_deg,
+        yaw_deg=yaw_deg,
+    )
+    return new
+
+
 def _point(value: object) -> np.ndarray:
     """``value`` as a read-only float (2,) array; one already so is kept, not copied.
 

@@ -55,7 +55,7 @@ image row then column of the centroid.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import cv2
 import numpy as np
@@ -66,6 +66,7 @@ from mearm.vision.calibration import Calibration, CameraGeometry, camera_geometr
 from mearm.vision.classify import PixelClassifier, and_scalar, equal_mask
 from mearm.vision.detection import Detection, _point, _with_table_yaw, check_frame
 from mearm.vision.errors import ImageError
+from mearm.vision.flat_detection import Regions, seen_from_above
 from mearm.vision.learned import LearnedClassifier, area_mask, balance_by, gains
 from mearm.vision.perspective_detection import (
     MAX_SPLIT,
@@ -168,6 +169,7 @@ class ColorDetector:
         )
         self._banded = any(n not in learned for n in self.thresholds.class_names)
         self._areas: dict[tuple[int, int], np.ndarray] = {}
+        self._whole: dict[tuple[int, int], bool] = {}  # the work area is the whole frame
         given = vision.work_area_px
         self._area_px = list(given) if given is not None else table_area_px
         shadow = vision.shadow_value_min
@@ -180,6 +182,7 @@ class ColorDetector:
         #: The colours the pixels are classified into (one per class without shapes).
         self.class_names = self.thresholds.class_names
         self.matcher = ClassMatcher(self.classes)
+        self._rank = {c.name: i for i, c in enumerate(self.classes)}  # the classes' order
         # Per colour, its classes' largest object: the diameter of the disc of its
         # footprint's area (a cube's is 1.13 sides), and the tallest height.
         size = {c.name: c for c in self.classes}
@@ -233,6 +236,7 @@ class ColorDetector:
         key = (int(shape[0]), int(shape[1]))
         if key not in self._areas:
             self._areas[key] = area_mask(self._area_px, key)
+            self._whole[key] = cv2.countNonZero(self._areas[key]) == key[0] * key[1]
         return self._areas[key]
 
     def _classify(
@@ -246,6 +250,8 @@ class ColorDetector:
         (:mod:`mearm.vision.learned`).
         """
         area = self.work_area(frame.shape)
+        # a work area of the whole frame (a taught one, often) keeps every pixel
+        whole = exclude is None and self._whole.get(frame.shape[:2], False)
         if exclude is not None:
             if exclude.shape != frame.shape[:2]:
                 raise ImageError(
@@ -256,7 +262,7 @@ class ColorDetector:
             keep = cv2.bitwise_not(exclude.astype(np.uint8, copy=False))
             area = keep if area is None else cv2.bitwise_and(area, keep)
         ref = self.vision.reference_bgr
-        gain = None if ref is None else gains(frame, ref, area)
+        gain = None if ref is None else gains(frame, ref, None if whole else area)
         if self.learned is None and area is None:
             balanced = frame if gain is None else balance_by(frame, gain)
             return self.classifier.classify_with_box(balanced)
@@ -268,7 +274,7 @@ class ColorDetector:
         if self.learned is not None:
             taught = self.learned.classify_with_highlights(frame, gain)
             codes = taught if not self._banded else np.where(taught > 0, taught, codes)
-        if area is not None:
+        if area is not None and not whole:
             codes = cv2.bitwise_and(codes, area)
         x, y, w, h = cv2.boundingRect(codes)
         return codes, (x, y, w, h)
@@ -343,7 +349,7 @@ class ColorDetector:
         # Per region, in label order: class code, area, box in the frame, centroid in
         # working-box pixels, elongation, and its label (its mask: the label's pixels in
         # its box); the pieces of regions where classes touch follow, each with its mask.
-        pure, region_code, elong = _measure_regions(index, labels, stats, big)
+        pure, region_code, elong, outlines = _measure_regions(index, labels, stats, big)
         keep = big[pure]
         codes: list[int] = region_code[pure].tolist()
         areas: list[int] = stats[keep, cv2.CC_STAT_AREA].tolist()
@@ -381,23 +387,22 @@ class ColorDetector:
             merged = elongation > self.vision.merged_elongation * stretch
             table = np.array(cal.pixel_to_table(centroid))  # its own memory, then read-only
             table.setflags(write=False)
-        flags = merged.tolist()
-        found = [
-            Detection(
-                color=colors[j],
-                centroid_px=centroid[j],
-                area_px=areas[j],
-                bbox_px=boxes[j],
-                merged=flags[j],
-                elongation=elongations[j],
-                table_cm=None if table is None else table[j],
-            )
-            for j in range(len(codes))
-        ]
-        regions = [_region_mask(r, labels, b, ox, oy) for r, b in zip(sources, boxes, strict=True)]
-        bounds = None if table is None else (flat, stretch)
-        found, regions = self._objects_only(found, regions, frame_bgr.shape, bounds)
-        return self._classed(found, regions, frame_bgr.shape)
+
+        def region_of(j: int) -> np.ndarray:
+            return _region_mask(sources[j], labels, boxes[j], ox, oy)
+
+        keep = None
+        if table is not None:
+            keep = self._plausible_keep(
+                colors, np.array(areas, float), np.array(boxes, float), region_of,
+                frame_bgr.shape, (flat, stretch),
+            )  # fmt: skip
+        measured = Regions(colors, centroid, areas, boxes, merged.tolist(), elongations, table,
+                           sources, outlines)  # fmt: skip
+        chosen = range(len(codes)) if keep is None else np.flatnonzero(keep).tolist()
+        to_table = cal.pixel_to_table if isinstance(cal, Calibration) else None
+        return seen_from_above(measured, chosen, labels, (ox, oy), frame_bgr.shape,
+                               self.matcher, self._rank, to_table)  # fmt: skip
 
     def _general(
         self,
@@ -449,27 +454,51 @@ class ColorDetector:
         if bounds is None:
             centroids = np.array([d.centroid_px for d in found])
             flat, _, stretch = self.one_object_bounds(centroids, colors, frame_shape)
-        else:
-            flat, stretch = bounds
-        disc_cm2 = np.array([math.pi * self._diameter_cm[c] ** 2 / 4.0 for c in colors])
-        scale = np.sqrt(flat / disc_cm2)
-        widths = np.array([self._widths_cm[c] for c in colors])  # (N, 2)
-        area = np.array([d.area_px for d in found], dtype=float)
-        box = np.array([d.bbox_px for d in found], dtype=float)  # (N, 4)
-        sure = surely_plausible(area, box[:, 2], box[:, 3], scale, flat, widths, stretch)
-        height, width = int(frame_shape[0]), int(frame_shape[1])
-        keep = [
-            bool(sure[j])
-            or touches_border(d.bbox_px, width, height)
-            or plausible(r, d.area_px, scale[j], flat[j], self._widths_cm[d.color], stretch[j])
-            for j, (d, r) in enumerate(zip(found, regions, strict=True))
-        ]
-        if all(keep):
+            bounds = flat, stretch
+        keep = self._plausible_keep(
+            colors,
+            np.array([d.area_px for d in found], dtype=float),
+            np.array([d.bbox_px for d in found], dtype=float),
+            regions.__getitem__,
+            frame_shape,
+            bounds,
+        )
+        if keep is None:
             return found, regions
         return (
             [d for d, k in zip(found, keep, strict=True) if k],
             [r for r, k in zip(regions, keep, strict=True) if k],
         )
+
+    def _plausible_keep(
+        self,
+        colors: Sequence[str],
+        area_px: np.ndarray,
+        box_px: np.ndarray,
+        region_of: Callable[[int], np.ndarray],
+        frame_shape: Sequence[int],
+        bounds: tuple[np.ndarray, np.ndarray],
+    ) -> list[bool] | None:
+        """Which regions :meth:`_objects_only` keeps; ``None``: every one.
+
+        ``area_px`` (N,) and ``box_px`` (N, 4) as floats; ``region_of(j)`` gives region
+        ``j``'s mask, asked only for those the sure pass does not settle.
+        """
+        flat, stretch = bounds
+        disc_cm2 = np.array([math.pi * self._diameter_cm[c] ** 2 / 4.0 for c in colors])
+        scale = np.sqrt(flat / disc_cm2)
+        widths = np.array([self._widths_cm[c] for c in colors])  # (N, 2)
+        sure = surely_plausible(area_px, box_px[:, 2], box_px[:, 3], scale, flat, widths, stretch)
+        if sure.all():
+            return None
+        height, width = int(frame_shape[0]), int(frame_shape[1])
+        keep = sure.tolist()
+        for j in np.flatnonzero(~sure).tolist():
+            x, y, w, h = (int(v) for v in box_px[j])
+            keep[j] = touches_border((x, y, w, h), width, height) or plausible(
+                region_of(j), area_px[j], scale[j], flat[j], self._widths_cm[colors[j]], stretch[j]
+            )
+        return None if all(keep) else keep
 
     def _top_fits(
         self, found: list[Detection], regions: list[np.ndarray], frame: np.ndarray
@@ -484,24 +513,9 @@ class ColorDetector:
             return None
         return top_fits(cal, self.matcher, self._class_of, found, regions, frame)
 
-    def _classed(
-        self, found: list[Detection], regions: list[np.ndarray], frame_shape: Sequence[int]
-    ) -> list[Detection]:
-        """Each region's shape and class (its colour's and shape's), in the documented order.
-
-        ``found`` are the regions of each colour (``color`` is the colour's name);
-        regions of no class (a shape no class of its colour has) are dropped.
-        """
-        classed = _classify_regions(self.matcher, found, regions, frame_shape)
-        cal = self.calibration
-        out = [d for _, d, _ in classed]
-        if isinstance(cal, Calibration):
-            out = [_with_table_yaw(d, cal) for d in out]
-        return self._ordered(out)
-
     def _ordered(self, out: list[Detection]) -> list[Detection]:
         """``out`` in the documented order: by class, then top to bottom, left to right."""
-        order = {c.name: i for i, c in enumerate(self.classes)}
+        order = self._rank
         out.sort(key=lambda d: (order[d.color], d.centroid_px[1], d.centroid_px[0]))
         return out
 

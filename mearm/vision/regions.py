@@ -40,21 +40,32 @@ def _elongation(region: np.ndarray) -> float:
 STACKED_BOX_PX = 96
 
 
+class Measured(NamedTuple):
+    """What :func:`_measure_regions` finds of each region, each (N,) in ``big``'s order."""
+
+    pure: np.ndarray  # bool: every pixel has one class code
+    code: np.ndarray  # int: its class code (the largest, if not pure)
+    elongation: np.ndarray  # float [-]
+    outlines: dict[int, np.ndarray]  # per small region's label: its outline (region_outlines)
+
+
 def _measure_regions(
     index: np.ndarray, labels: np.ndarray, stats: np.ndarray, big: np.ndarray
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Each region's purity, class code and elongation, all at once, each (N,).
+) -> Measured:
+    """Each region's purity, class code, elongation, and the small ones' outlines.
 
     Pure: every pixel of the region has one class code (then ``code`` is it). The small
     regions (boxes up to :data:`STACKED_BOX_PX`) are read as one stack of equal windows
     over the label image, each at its region's box (moved inwards at the image's edge),
     so their moments are a few array operations per frame, not a call per region; the
-    second moments are exact (integer sums).
+    second moments are exact (integer sums). The same stack gives their outlines, as
+    :func:`region_outlines` does (none if it cannot).
     """
     count = len(big)
     pure, code, elong = np.zeros(count, bool), np.zeros(count, int), np.ones(count)
+    outlines: dict[int, np.ndarray] = {}
     if not count:
-        return pure, code, elong
+        return Measured(pure, code, elong, outlines)
     x, y, w, h, area = stats[big].T
     small = np.flatnonzero((w <= STACKED_BOX_PX) & (h <= STACKED_BOX_PX))
     if len(small):
@@ -62,7 +73,12 @@ def _measure_regions(
         y0 = np.minimum(y[small], labels.shape[0] - hh)
         x0 = np.minimum(x[small], labels.shape[1] - ww)
         own = big[small].astype(labels.dtype)[:, None, None]
-        mask = sliding_window_view(labels, (hh, ww))[y0, x0] == own  # (n, hh, ww)
+        canvas = np.zeros((len(small), hh + 1, ww + 1), np.uint8)
+        mask = canvas[:, :hh, :ww].view(bool)  # (n, hh, ww), in the traced canvas
+        np.equal(sliding_window_view(labels, (hh, ww))[y0, x0], own, out=mask)
+        traced = _trace_stack(canvas, x[small] - x0, y[small] - y0)
+        if traced is not None:
+            outlines = dict(zip(big[small].tolist(), traced, strict=True))
         codes = sliding_window_view(index, (hh, ww))[y0, x0] * mask
         top = codes.max(axis=(1, 2))
         pure[small] = np.count_nonzero(codes == top[:, None, None], axis=(1, 2)) == area[small]
@@ -81,7 +97,7 @@ def _measure_regions(
         region = (labels[roi] == big[k]).view(np.uint8)
         lo, hi, _, _ = cv2.minMaxLoc(index[roi], mask=region)
         pure[k], code[k], elong[k] = lo == hi, int(lo), _elongation(region)
-    return pure, code, elong
+    return Measured(pure, code, elong, outlines)
 
 
 def _axis_ratios(mu20: np.ndarray, mu11: np.ndarray, mu02: np.ndarray) -> np.ndarray:
@@ -105,6 +121,55 @@ def _region_mask(
         return source
     x, y, w, h = box[0] - ox, box[1] - oy, box[2], box[3]
     return (labels[y : y + h, x : x + w] == source).view(np.uint8)
+
+
+def region_outlines(
+    labels: np.ndarray, boxes: np.ndarray, own: np.ndarray
+) -> list[np.ndarray] | None:
+    """Regions' outer contours, as :func:`~mearm.vision.shapes.measure_shape` finds them.
+
+    Each (M, 1, 2) int32 [px], in its box's pixels padded by one (the points that
+    ``measure_shape`` of the region's mask gives, so the same fill and yaw). The regions
+    (labels ``own`` (N,), boxes (N, 4) (x, y, w, h) in ``labels``, each at most
+    :data:`STACKED_BOX_PX` a side) are cut out as one stack of equal windows, each a
+    zero row and column apart, and traced in one ``findContours`` call, not one per
+    region. ``None`` if a window does not give one contour (then measure them one by one).
+    """
+    count = len(own)
+    if not count:
+        return []
+    x, y, w, h = (np.asarray(boxes[:, i], dtype=np.int64) for i in range(4))
+    hh, ww = int(h.max()), int(w.max())
+    y0 = np.minimum(y, labels.shape[0] - hh)  # moved inwards at the image's edge
+    x0 = np.minimum(x, labels.shape[1] - ww)
+    canvas = np.zeros((count, hh + 1, ww + 1), np.uint8)
+    own_ = np.asarray(own).astype(labels.dtype)[:, None, None]
+    canvas[:, :hh, :ww] = sliding_window_view(labels, (hh, ww))[y0, x0] == own_
+    return _trace_stack(canvas, x - x0, y - y0)
+
+
+def _trace_stack(canvas: np.ndarray, dx: np.ndarray, dy: np.ndarray) -> list[np.ndarray] | None:
+    """The outlines of a stack of windows (n, hh + 1, ww + 1), one region each.
+
+    Window ``k`` holds its region at (``dx[k]``, ``dy[k]``) and a zero last row and
+    column, which keep neighbouring windows' regions apart; outlines as
+    :func:`region_outlines` gives them, ``None`` if a window gives not one.
+    """
+    count, rows, cols = canvas.shape
+    # each window holds one 8-connected region, so one outer contour
+    contours, _ = cv2.findContours(
+        canvas.reshape(count * rows, cols), cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE
+    )
+    if len(contours) != count:
+        return None
+    window = [int(c[0, 0, 1]) // rows for c in contours]
+    if len(set(window)) != count:
+        return None
+    shift = np.stack([1 - dx, 1 - dy - np.arange(count) * rows], axis=1).astype(np.int32)
+    out: list[np.ndarray] = [shift[0]] * count
+    for c, k in zip(contours, window, strict=True):
+        out[k] = c + shift[k]
+    return out
 
 
 def _axis_ratio(m: dict[str, float]) -> float:

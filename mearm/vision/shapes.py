@@ -61,8 +61,15 @@ def shape_of_fill(fill: float) -> str:
 
 def measure_shape(region: np.ndarray) -> ShapeMeasure:
     """The shape of a region, 0/1 uint8 mask of its box (see the module docstring)."""
-    padded = cv2.copyMakeBorder(region, 1, 1, 1, 1, cv2.BORDER_CONSTANT, value=0)
-    contour = outline(padded)
+    # findContours pads the image by one pixel itself; the offset gives the points of a
+    # mask padded by one (the same points, so the same fill and yaw, without the copy)
+    contours, _ = cv2.findContours(region, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE, offset=(1, 1))
+    contour = contours[0] if len(contours) == 1 else max(contours, key=cv2.contourArea)
+    return shape_of_outline(contour)
+
+
+def shape_of_outline(contour: np.ndarray) -> ShapeMeasure:
+    """The shape of a region by its outline, (M, 1, 2) int32 [px] (:func:`measure_shape`)."""
     _, radius = cv2.minEnclosingCircle(contour)
     fill = cv2.contourArea(contour) / (math.pi * radius * radius) if radius > 0 else 0.0
     shape = shape_of_fill(fill)
@@ -113,6 +120,7 @@ class ClassMatcher:
                 own = set(members) | set(anyhue)
                 self.candidates[colour] = tuple(c.name for c in self.classes if c.name in own)
         self._shape = {c.name: c.shape for c in self.classes}
+        self._matched: dict[tuple[str, str | None], str | None] = {}  # asked once a frame each
 
     def match(self, colour: str, shape: str | None) -> str | None:
         """The class of a region of ``colour`` (a colour's name) and ``shape``.
@@ -120,10 +128,15 @@ class ClassMatcher:
         ``shape`` ``None`` (not told): the colour's first class. ``None`` when no class
         has both its colour and its shape (it is no object of the task).
         """
-        names = self.candidates[colour]
-        if shape is None:
-            return names[0]
-        return next((n for n in names if self._shape[n] in (None, shape)), None)
+        key = (colour, shape)
+        if key not in self._matched:
+            names = self.candidates[colour]
+            self._matched[key] = (
+                names[0]
+                if shape is None
+                else next((n for n in names if self._shape[n] in (None, shape)), None)
+            )
+        return self._matched[key]
 
 
 def touches_border(bbox_px: tuple[int, int, int, int], width_px: int, height_px: int) -> bool:
