@@ -16,7 +16,7 @@ from mearm.exceptions import ImageError
 from mearm.ik import IKTarget, fastest_solver
 from mearm.kinematics import ArmModel
 from mearm.sim.table_collision import collision_model
-from mearm.vision.arm_mask import ArmInView, arm_mask_source, project_in_view
+from mearm.vision.arm_mask import ArmInView, arm_view, project_in_view
 from mearm.vision.calibration import camera_geometry
 from mearm.vision.detector import ColorDetector
 from mearm.vision.pinhole import PerspectiveCamera
@@ -140,9 +140,7 @@ def test_no_mask_without_a_perspective_calibration() -> None:
     model = ArmModel(config.arm)
     geometry = camera_geometry(config.calibration, config.camera)
     bodies = collision_model(config, model).bodies
-    assert (
-        arm_mask_source(geometry, model, bodies, opening_cm=1.0, joints=lambda: model.home) is None
-    )
+    assert arm_view(geometry, model, bodies, opening_cm=1.0) is None
 
 
 def test_an_exclude_mask_of_another_size_is_refused(arm_over_table) -> None:

@@ -80,11 +80,10 @@ from mearm.task.table_tracking import is_cut as _cut  # noqa: F401
 from mearm.task.table_tracking import seen_cut as _seen_cut  # noqa: F401
 from mearm.task.table_tracking import table_cm as _table_cm  # noqa: F401
 from mearm.vision import Camera, ColorDetector
-from mearm.vision.arm_mask import ArmInView
+from mearm.vision.arm_mask import arm_view
 from mearm.vision.calibration import camera_geometry
 from mearm.vision.errors import CameraError
 from mearm.vision.frame_check import FrameCheck
-from mearm.vision.pinhole import PerspectiveCamera
 
 if TYPE_CHECKING:
     from mearm.runlog.writer import RunLog  # a log is written only when asked for
@@ -177,14 +176,11 @@ class Sorter(PickAndPlace):
         self.eye = claw_eye(config, self.model, self.calibration, camera.read, bus.hold)
         #: The arm's body where the calibrated camera sees it (a perspective camera only:
         #: a homography knows only the table's plane); no object is looked for there.
-        self.arm_view = None
-        self.arm_in_view = None
-        if isinstance(self.calibration, PerspectiveCamera):
-            self.arm_view = ArmInView(
-                self.calibration, self.model, self.collision.bodies,
-                opening_cm=config.arm.tool.gripper.open_cm,
-            )  # fmt: skip
-            self.arm_in_view = self._arm_now
+        self.arm_view = arm_view(
+            self.calibration, self.model, self.collision.bodies,
+            opening_cm=config.arm.tool.gripper.open_cm,
+        )  # fmt: skip
+        self.arm_in_view = None if self.arm_view is None else self._arm_now
         self.frame_check = FrameCheck(camera.source)
         #: The object the arm last went for (the only one it may have moved since).
         self._active: TrackedObject | None = None

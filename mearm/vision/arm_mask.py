@@ -15,7 +15,6 @@ off. The detector classifies nothing there (``exclude`` of
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 
 import cv2
 import numpy as np
@@ -148,20 +147,14 @@ class ArmInView:
         return math.ceil(MARGIN_CM / math.sqrt(cm2))
 
 
-def arm_mask_source(
-    camera: object,
-    model: ArmModel,
-    bodies: ArmBodies,
-    *,
-    opening_cm: float,
-    joints: Callable[[], np.ndarray],
-) -> Callable[[tuple[int, ...]], np.ndarray] | None:
-    """The arm's mask in frames of a given shape at the joints ``joints()`` returns.
+def arm_view(
+    camera: object, model: ArmModel, bodies: ArmBodies, *, opening_cm: float
+) -> ArmInView | None:
+    """The arm's body in the camera's frame, or ``None`` where it cannot be known.
 
     ``None`` unless ``camera`` is a calibrated :class:`PerspectiveCamera` (a homography
     knows only the table's plane, not where a body above it shows).
     """
     if not isinstance(camera, PerspectiveCamera):
         return None
-    view = ArmInView(camera, model, bodies, opening_cm=opening_cm)
-    return lambda frame_shape: view.mask(joints(), frame_shape)
+    return ArmInView(camera, model, bodies, opening_cm=opening_cm)
