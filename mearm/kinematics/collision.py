@@ -194,6 +194,7 @@ class CollisionModel:
         self._opening_cm = arm.tool.gripper.open_cm
         self._reach_local = self._local_reach()
         self._held: tuple[str, str] | None = None
+        self._table_below_cm = 0.0  # the table as checked, below the real one [cm]
         self._on_table: set[str] = set()  # shapes standing on the table: the arm's mount
         # object places per class: the scene's count and two more, grown when a look finds more
         self._capacity = {c: table.scene.get(c, 0) + 2 for c in table.class_names}
@@ -219,6 +220,7 @@ class CollisionModel:
         *,
         opening_cm: float | None = None,
         held: tuple[str, str] | None = None,
+        table_below_cm: float = 0.0,
     ) -> None:
         """What the checks see from now on.
 
@@ -231,15 +233,19 @@ class CollisionModel:
                 keeps the last ones); not the one held.
             opening_cm: The jaws' opening [cm] (``None`` keeps it).
             held: The object in the jaws, ``(id, class)``, or ``None``.
+            table_below_cm: How far below the real table the table is checked [cm], ≥ 0:
+                the tool measured that much higher than its commanded pose (a pick lowered
+                by a miss, :class:`mearm.task.claw_loop.GripDrops`); 0: the real table.
         """
-        state = (self._objects, self._opening_cm, self._held)
+        state = (self._objects, self._opening_cm, self._held, self._table_below_cm)
         if objects is not None:
             self._objects = list(objects)
         if opening_cm is not None and float(opening_cm) != self._opening_cm:
             self._opening_cm = float(opening_cm)
             self._reach_local = self._local_reach()
         self._held = held
-        if (self._objects, self._opening_cm, self._held) == state:
+        self._table_below_cm = max(0.0, float(table_below_cm))
+        if (self._objects, self._opening_cm, self._held, self._table_below_cm) == state:
             return  # the same world (a simulator asks before every move)
         counts: dict[str, int] = {}
         for _, color, _, _ in self._objects:
@@ -354,6 +360,8 @@ class CollisionModel:
             oid, color = self._held
             row_on[self._held_row[color]] = True
             self._arm_names[self._held_row[color]] = f"held {oid}"
+        table = np.array([0.0, 0.0, -self._table_below_cm * M_PER_CM])
+        g[self._rows].placement = _se3(_translate(table))
         col_on = np.zeros(len(self._obstacles), dtype=bool)
         col_on[: 1 + len(self.bins)] = True
         self._ob_names = list(self._base_names)

@@ -18,8 +18,8 @@ until :math:`|r|` < :data:`GOOD_ENOUGH_CM`. Each corrected
 route is planned in full and checked against collisions like any other before it is
 sent. Only the table plane is corrected (x, y): the marker's height is the least well
 measured of its coordinates, and the jaws close at half the object's height with room to
-spare. The height is corrected only after a miss, from what the miss and the looks show
-(:class:`GripDrops`).
+spare. The height is corrected from what misses, slips in the carry and the looks of
+several picks show (:class:`GripDrops`).
 
 What the arm learns is kept for the rest of the run: each corrected pick leaves the
 correction it needed at its place (:class:`CorrectionMap`), and the next pick starts from
@@ -69,6 +69,25 @@ GRIP_HOLD_CM = 0.1
 #: A lowered grip keeps the tool's lowest point this far above the table at the planned
 #: pose [cm]: the collision check's own bound is the table itself (0).
 TABLE_ROOM_CM = 0.05
+#: How much of an object's side the jaws need to carry it to the bin [cm]: grips of the
+#: top 0.15-0.25 cm held at the lift and slipped out on the way (simulated, kits 21, 52,
+#: 53: docs/twin.md), grips of 0.35 cm and more did not.
+GRIP_CARRY_CM = 0.3
+#: Picks whose looks weigh in before the claw's height they saw lowers a first attempt.
+LEVEL_PICKS = 3
+#: The picks' mean height must exceed this, less two of its standard errors, to count as
+#: high [cm]: a pick's looks see the marker's height to a few millimetres, and on average
+#: between 0.5 cm lower and 0.15 cm higher than the claw is (kits 3, 11, 21, 52, 53,
+#: simulated: docs/twin.md); a low claw (kit 3, 0.2 cm low) was seen up to 0.46 cm high in
+#: one pick, never on average. Such picks start lower by the height seen (less, for
+#: the claws seen high, than they were).
+LEVEL_HIGH_CM = 0.05
+#: A miss with the claw seen this high on average measures it high [cm]: a low claw
+#: (kit 3) was seen at most 0.26 cm high in a pick, kit 21's far out 0.2-0.9 cm.
+MISS_HIGH_CM = 0.3
+#: How much the claw's height at one place varies between attempts [cm]: kit 21's far
+#: out 0.88-1.16 cm high over three (simulated, seed 901).
+CLAW_REPEAT_CM = 0.3
 
 
 @dataclass
@@ -105,38 +124,112 @@ class GripDrops:
     r"""How far below the planned grip the jaws close: learned from misses, kept for the run.
 
     A kit whose shoulder turns more than nominal leaves the claw a few millimetres high,
-    and the jaws close above a 1 cm object. The camera tells such a miss from others: the
+    and the jaws close above a 1 cm object, or on its top millimetres, which slip out on
+    the way to the bin. The camera tells such a miss from others: the
     object is seen still on its spot (:data:`UNMOVED_CM`; jaws that closed on its side
     push it away), and the looks at the grip pose saw the marker high (their mean :math:`\bar e_z
     > 0`; a marker's height is measured to a few millimetres a look, but its sign over the
     looks tells a high claw from a low one). The jaws then closed above the object's side,
     so the claw was at least as high as the plan had them reach down it, :math:`o`, less
     the :data:`GRIP_HOLD_CM` they need of it; the next attempt goes lower by
-    :math:`\max(\bar e_z,\ o - h,\ h)`, down to what the collision check allows (the
-    caller's bound). A drop with which a pick held is kept at its place, and
-    later picks start from their neighbours' (:class:`CorrectionMap`).
+    :math:`\max(\bar e_z,\ o - h,\ h) + c` (:data:`GRIP_CARRY_CM`: the claw may be
+    higher still), down to what the collision check allows (the caller's bound; with
+    the claw seen high by more than :data:`MISS_HIGH_CM`, the check's table lies lower by
+    what the miss measured, less :data:`CLAW_REPEAT_CM`). An object that held and slipped
+    out on the way (seen on the table again after it was carried off, with the claw seen
+    high) is as good evidence: the claw
+    was at least :math:`o - c` high (:data:`GRIP_CARRY_CM`). A drop with which a pick held,
+    or that a slip called for, is kept at its place, and later picks start from their
+    neighbours' (:class:`CorrectionMap`). And where the looks of several picks nearby saw
+    the claw high by more than their noise (:data:`LEVEL_HIGH_CM`), a first attempt starts
+    lower by that height. A claw seen low lowers nothing.
     """
 
     kept: CorrectionMap = field(default_factory=lambda: CorrectionMap(dims=1))
     #: The drop the next attempt at an object starts from, after a miss [cm], by id.
     retry_cm: dict[str, float] = field(default_factory=dict)
+    #: The mean height error each pick's looks at the grip pose saw, by place [cm].
+    levels: CorrectionMap = field(default_factory=lambda: CorrectionMap(dims=1))
+    #: The picks that held, by id: (place (x, y) [cm], drop [cm], the looks' height errors
+    #: [cm], the plan's overlap [cm]); one picked again slipped out on the way.
+    carried: dict[str, tuple[np.ndarray, float, tuple[float, ...], float]] = field(
+        default_factory=dict
+    )
+    #: How far below the real table the collision check may put the table for the next
+    #: attempt at an object [cm], by id: what its miss measured the claw high by, less
+    #: :data:`CLAW_REPEAT_CM` (:meth:`missed`).
+    below_cm: dict[str, float] = field(default_factory=dict)
 
     def drop_cm(self, obj_id: str, place_cm: np.ndarray) -> float:
-        """The drop to start a pick of ``obj_id`` at ``place_cm`` from [cm], ≥ 0."""
+        """The drop to start a pick of ``obj_id`` at ``place_cm`` from [cm], ≥ 0.
+
+        An object that held before and is picked again slipped out on the way to its bin
+        (:meth:`slipped`).
+        """
+        if obj_id in self.carried:
+            self.slipped(obj_id)
         if obj_id in self.retry_cm:
             return self.retry_cm[obj_id]
-        return max(0.0, float(self.kept.guess(place_cm)[0]))
+        return max(0.0, float(self.kept.guess(place_cm)[0]), self.level_cm(place_cm))
 
-    def held(self, obj_id: str, place_cm: np.ndarray, drop_cm: float) -> None:
+    def looked(self, place_cm: np.ndarray, seen_z_cm: Sequence[float]) -> None:
+        """Keep the mean height error the looks at a pick's grip pose saw [cm]."""
+        if len(seen_z_cm):
+            self.levels.add(place_cm, [float(np.mean(seen_z_cm))])
+
+    def level_cm(self, place_cm: np.ndarray) -> float:
+        """How much lower than planned a first attempt at ``place_cm`` starts [cm], ≥ 0.
+
+        The height the looks of the picks nearby saw (their mean, the nearer weighing more),
+        where at least :data:`LEVEL_PICKS` of them saw it high by more than
+        :data:`LEVEL_HIGH_CM` plus two standard errors of their mean; 0 otherwise.
+        """
+        if not self.levels.places_cm:
+            return 0.0
+        d = np.linalg.norm(np.array(self.levels.places_cm) - np.asarray(place_cm)[:2], axis=1)
+        v = np.array(self.levels.corrections_cm)[d < NEIGHBOURHOOD_CM, 0]
+        if len(v) < LEVEL_PICKS:
+            return 0.0
+        if v.mean() - 2.0 * v.std(ddof=1) / np.sqrt(len(v)) <= LEVEL_HIGH_CM:
+            return 0.0
+        return max(0.0, float(self.levels.guess(place_cm)[0]))
+
+    def held(
+        self,
+        obj_id: str,
+        place_cm: np.ndarray,
+        drop_cm: float,
+        seen_z_cm: Sequence[float] = (),
+        overlap_cm: float = 0.0,
+    ) -> None:
         """The pick of ``obj_id`` at ``place_cm`` held with the jaws ``drop_cm`` lower.
 
         Only a drop is kept: a pick that held at the planned height says the claw was not
         too high there for the jaws to hold on to the top of the object, not that it was
-        level (such grips held by a few millimetres and slipped on the way to the bin).
+        level. What the pick saw (``seen_z_cm``, ``overlap_cm``: :meth:`missed`) is kept
+        until the object is picked again, if it is: it slipped (:meth:`slipped`).
         """
         if drop_cm > 0:
             self.kept.add(place_cm, [drop_cm])
         self.retry_cm.pop(obj_id, None)
+        place = np.asarray(place_cm, dtype=float)[:2].copy()
+        self.carried[obj_id] = (place, drop_cm, tuple(seen_z_cm), overlap_cm)
+
+    def slipped(self, obj_id: str) -> float:
+        """``obj_id``, which held, slipped out of the jaws: the drop its next attempt starts from.
+
+        With the claw seen high at its grip, the jaws held less of its side than they need
+        to carry it (:data:`GRIP_CARRY_CM`): the claw was at least the plan's overlap less
+        that high. The lower drop is kept at where it was picked, for the picks nearby.
+        """
+        place, drop_cm, seen_z_cm, overlap_cm = self.carried.pop(obj_id)
+        high = float(np.mean(seen_z_cm)) if seen_z_cm else 0.0
+        if high <= 0:
+            return self.retry_cm.get(obj_id, drop_cm)
+        drop = drop_cm + max(high, overlap_cm - GRIP_CARRY_CM, GRIP_HOLD_CM)
+        self.kept.add(place, [drop])
+        self.retry_cm[obj_id] = drop
+        return drop
 
     def missed(
         self,
@@ -159,7 +252,16 @@ class GripDrops:
         high = float(np.mean(seen_z_cm)) if len(seen_z_cm) else 0.0
         drop = drop_cm
         if moved_cm <= UNMOVED_CM and high > 0:
-            drop += max(high, overlap_cm - GRIP_HOLD_CM, GRIP_HOLD_CM)
+            # at least that high: lower by it and by what carrying the object needs, so
+            # that a claw higher than that still holds it to the bin (the caller's bound
+            # keeps the tips over the table)
+            drop += max(high, overlap_cm - GRIP_HOLD_CM, GRIP_HOLD_CM) + GRIP_CARRY_CM
+        if moved_cm <= UNMOVED_CM and high > MISS_HIGH_CM:
+            # the tips stayed above the object's side less what holds it: the claw was
+            # that high; the next attempt's may be planned that much lower, less how much
+            # the claw's height varies (the real tips then stay over the table)
+            measured = overlap_cm - GRIP_HOLD_CM - CLAW_REPEAT_CM
+            self.below_cm[obj_id] = max(self.below_cm.get(obj_id, 0.0), measured)
         self.retry_cm[obj_id] = drop
         return drop
 

@@ -109,14 +109,16 @@ class PickAndPlace(TableTracking):
         return above
 
     def _pick_routes(
-        self, obj: TrackedObject, goal: IKTarget, aim: np.ndarray
+        self, obj: TrackedObject, goal: IKTarget, aim: np.ndarray, below_cm: float = 0.0
     ) -> tuple[Route | None, Route]:
         """The route above the object, planned, and the pick to ``goal`` shifted by ``aim``.
 
         A pick lowered by a miss (``aim``'s z < 0, :class:`~mearm.task.claw_loop.GripDrops`)
         goes no lower than the collision check lets the jaws come to the table at the
-        planned pose: where the drop is more, the pick rises to that bound; where the
-        pick lowered even that far cannot be planned, it goes at the planned height.
+        planned pose, the table checked ``below_cm`` lower where a miss measured the claw
+        that much higher than commanded (:attr:`GripDrops.below_cm`): where the drop is
+        more, the pick rises to that bound; where the pick lowered even that far cannot
+        be planned, it goes at the planned height.
         """
         pick = Route(obj.id, obj.class_name, "pick", obj.failed_picks + 1, shifted(goal, aim))
         above = self._approach(obj, pick)  # planned in full with the pick, before either
@@ -127,7 +129,7 @@ class PickAndPlace(TableTracking):
         tcp_z = float(self.model.fk_cm(above.plan.q)[2])
         over_cm = tcp_z - float(goal.position_cm[2])
         lowest = self.collision.tool_lowest_cm(above.plan.q)[0] - over_cm
-        bound = -max(0.0, lowest - TABLE_ROOM_CM)
+        bound = -max(0.0, lowest + below_cm - TABLE_ROOM_CM)
         if aim[2] >= bound and self.planner.plan(pick, above.plan.q, target=obj.id).planned:
             return above, pick
         # lower than the check allows: at its bound; the lowered pick not planned: as planned
@@ -135,8 +137,17 @@ class PickAndPlace(TableTracking):
         pick = Route(obj.id, obj.class_name, "pick", obj.failed_picks + 1, shifted(goal, risen))
         return self._approach(obj, pick), pick
 
-    def _world(self, held: TrackedObject | None = None, opening_cm: float | None = None) -> None:
-        """What the collision checks see: the objects on the table, the jaws, the held one."""
+    def _world(
+        self,
+        held: TrackedObject | None = None,
+        opening_cm: float | None = None,
+        table_below_cm: float = 0.0,
+    ) -> None:
+        """What the collision checks see: the objects on the table, the jaws, the held one.
+
+        ``table_below_cm``: how much lower the table is checked (the claw measured that
+        much higher than commanded: :attr:`~mearm.task.claw_loop.GripDrops.below_cm`).
+        """
         g = self.config.arm.tool.gripper
         on_table = [
             (o.id, o.class_name, o.x_cm, o.y_cm)
@@ -144,7 +155,9 @@ class PickAndPlace(TableTracking):
             if not o.sorted and o is not held
         ]
         pair = None if held is None else (held.id, held.class_name)
-        self.collision.set_world(on_table, opening_cm=opening_cm or g.open_cm, held=pair)
+        self.collision.set_world(
+            on_table, opening_cm=opening_cm or g.open_cm, held=pair, table_below_cm=table_below_cm
+        )
 
     def _lift_and_plan_place(
         self, obj: TrackedObject, cls: ColorClass, above: Route | None, pick: Route
@@ -197,12 +210,15 @@ class PickAndPlace(TableTracking):
         xy = np.array([obj.x_cm, obj.y_cm])
         goal = self.planner.pick_target(cls, obj.x_cm, obj.y_cm)
         # picks that look start from the aim the picks nearby needed (claw_loop)
-        aim = np.zeros(3)
+        aim, below = np.zeros(3), 0.0
         if self.eye is not None:
             aim[:2] = self.eye.corrections.guess(xy)
             aim[2] = -self.eye.drops.drop_cm(obj.id, xy)  # the height misses taught
-        self._world()
-        above, pick = self._pick_routes(obj, goal, aim)
+            below = self.eye.drops.below_cm.get(obj.id, 0.0)
+        # (the table as checked stays lowered for the lift: the jaws leave from where
+        # they were planned to close)
+        self._world(table_below_cm=below)
+        above, pick = self._pick_routes(obj, goal, aim, below)
         aim[2] = float(pick.target.position_cm[2] - goal.position_cm[2])
         if not self._plan_pick(obj, above, pick):
             return
@@ -216,6 +232,7 @@ class PickAndPlace(TableTracking):
                 self.eye, self.planner, ex, obj, above, pick, aim
             )
             self.eye.corrections.add(xy, aim[:2])
+            self.eye.drops.looked(xy, self._seen_z_cm)
             self._drop_cm = -float(aim[2])
             if pick.plan is not None:  # how far down the object's side the open jaws reach
                 low_cm = self.collision.tool_lowest_cm(pick.plan.q)[0]
@@ -226,7 +243,7 @@ class PickAndPlace(TableTracking):
         pick.grip_ee_cm = ex.ee_now_cm()  # settled: where the jaws close
         ex.set_tool("grip", closed=True)
         ex.set_tool("travel", closed=True)
-        self._world(held=obj, opening_cm=cls.diameter_cm)
+        self._world(held=obj, opening_cm=cls.diameter_cm, table_below_cm=below)
         planned = self._lift_and_plan_place(obj, cls, above, pick)
         if planned is not None:
             self._place(obj, cls, above, pick, *planned)
@@ -282,7 +299,7 @@ class PickAndPlace(TableTracking):
         if self.eye is not None:  # what the grip's height did (claw_loop.GripDrops)
             xy = np.array(self._active_from_cm)
             if pick.success:
-                self.eye.drops.held(obj.id, xy, self._drop_cm)
+                self.eye.drops.held(obj.id, xy, self._drop_cm, self._seen_z_cm, self._overlap_cm)
             else:
                 moved = float(np.hypot(obj.x_cm - xy[0], obj.y_cm - xy[1]))
                 drops = self.eye.drops
