@@ -65,10 +65,11 @@ test-fast: $(STAMP)
 	$(PYTEST) -n $(FAST_JOBS) -m "not slow and not heavy"
 
 # Long runs in one process (a few minutes; `make test` leaves them out): 300 kinematic and
-# 50 twin sorts, the meshcat server with 20 clients for 60 s; memory, files and threads flat.
+# 50 twin sorts, the meshcat server with 20 clients for 60 s; memory, files and threads flat;
+# and IK on 20,000 random targets of the paper arm, 0 stalls (tests/test_ik_stall.py).
 soak: $(STAMP)
 	env -u PYTHONDONTWRITEBYTECODE PYTHONPYCACHEPREFIX=$(CURDIR)/$(VENV)/pycache \
-	  $(BIN)/python -m pytest -q -s -p no:xdist -m soak tests/test_soak.py
+	  $(BIN)/python -m pytest -q -s -p no:xdist -m soak tests/test_soak.py tests/test_ik_stall.py
 
 lint: $(STAMP)
 	$(BIN)/ruff check mearm tools tests

@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from badinput import run_in_process
 
 from mearm.analysis.synthetic import write_synthetic_log
 from mearm.analyze import main
@@ -175,13 +176,11 @@ def test_empty_log_is_an_error(tmp_path: Path) -> None:
         (["--gains", "--start", "1,2"], "--start needs 3 numbers"),
     ],
 )
-@pytest.mark.heavy
-def test_cli_errors_are_one_line_and_exit_2(argv: list[str], pattern: str, tmp_path: Path) -> None:
-    proc = subprocess.run(
-        [sys.executable, "-m", "mearm.analyze", *argv], capture_output=True, text=True, cwd=tmp_path
-    )
-    assert proc.returncode == 2
-    assert len(proc.stderr.strip().splitlines()) == 1 and pattern in proc.stderr
+def test_cli_errors_are_one_line_and_exit_2(argv: list[str], pattern: str) -> None:
+    """In this process, through the command's guard (the test below runs a real process)."""
+    out = run_in_process(["analyze", *argv])
+    assert out.code == 2
+    assert len(out.stderr.strip().splitlines()) == 1 and pattern in out.stderr
 
 
 @pytest.mark.heavy

@@ -9,6 +9,7 @@ import sys
 from pathlib import Path
 
 import pytest
+from built_once import computed_once
 
 from mearm.__main__ import SUBCOMMANDS
 from mearm.config.schema_doc import render
@@ -122,9 +123,7 @@ print(json.dumps(out))
 """
 
 
-@pytest.fixture(scope="module")
-def help_texts() -> dict[str, str]:
-    """``mearm --help`` and every ``mearm SUBCOMMAND --help``, from one process."""
+def _help_of_every_subcommand() -> dict[str, str]:
     r = subprocess.run(
         [sys.executable, "-c", HELP_OF_EVERY_SUBCOMMAND],
         capture_output=True,
@@ -135,6 +134,13 @@ def help_texts() -> dict[str, str]:
     assert r.returncode == 0, r.stderr
     texts: dict[str, str] = json.loads(r.stdout)
     return texts
+
+
+@pytest.fixture(scope="module")
+def help_texts(tmp_path_factory: pytest.TempPathFactory) -> dict[str, str]:
+    """``mearm --help`` and every ``mearm SUBCOMMAND --help``, from one process (once per
+    test run: the workers share it)."""
+    return computed_once(tmp_path_factory, "help-texts", _help_of_every_subcommand)
 
 
 @pytest.mark.parametrize(

@@ -9,6 +9,7 @@ import textwrap
 from pathlib import Path
 
 import pytest
+from badinput import run_in_process
 
 from mearm.tools.eval_policy import main
 
@@ -115,17 +116,30 @@ def test_videos_of_the_first_episodes_are_written(tmp_path):
         (["--env", "mearm/Stack-v0"], "--env must be"),
     ],
 )
-def test_bad_input_exits_2_with_one_line(argv, words, tmp_path, policies):
-    """Each bad input: exit 2, one line on stderr that names it."""
+def test_bad_input_exits_2_with_one_line(argv, words, policies):
+    """Each bad input: exit 2, one line on stderr that names it (in this process, through
+    the command's guard; the test below runs one in a real process)."""
+    out = run_in_process(
+        ["eval-policy", "--jobs", "1", "--episodes", "1", "--env-option", "obs_type=state",
+         *argv], within_s=60,
+    )  # fmt: skip
+    assert out.code == 2, out.stderr
+    lines = out.stderr.strip().splitlines()
+    assert len(lines) == 1 and words in lines[0], out.stderr
+
+
+def test_bad_input_exits_2_with_one_line_from_a_real_process(tmp_path, policies):
+    """The process's exit status and stderr, as a shell sees them (a policy of the user's
+    module, found on PYTHONPATH, of the wrong shape)."""
     env = {"PYTHONPATH": f"{tmp_path}:{ROOT}", "MUJOCO_GL": "egl", "PATH": "/usr/bin:/bin"}
     proc = subprocess.run(
         [sys.executable, "-m", "mearm.tools.eval_policy", "--jobs", "1", "--episodes", "1",
-         "--env-option", "obs_type=state", *argv],
+         "--env-option", "obs_type=state", "--policy", "my_policies:wrong_shape"],
         capture_output=True, text=True, env=env, cwd=tmp_path, timeout=120,
     )  # fmt: skip
     assert proc.returncode == 2, proc.stderr
     lines = proc.stderr.strip().splitlines()
-    assert len(lines) == 1 and words in lines[0], proc.stderr
+    assert len(lines) == 1 and "has shape (3,)" in lines[0], proc.stderr
 
 
 def test_a_baseline_without_pytorch_asks_for_the_extra(tmp_path, monkeypatch):

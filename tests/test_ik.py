@@ -5,6 +5,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from badinput import run_in_process
 from conftest import run_cli
 
 from mearm.config import ControllerConfig, config_from_dict, load_config
@@ -390,12 +391,14 @@ def test_cli_json_issue_example():
 
 @pytest.mark.heavy
 def test_cli_solvers_and_tolerance():
+    """In this process (``mearm ik``, the command ``python -m mearm.ik`` runs): the
+    subprocess tests above and below prove the real process's exit and streams."""
     for solver_name in ("pdpij", "mink", "analytic"):
-        r = run_cli(
-            "-m", "mearm.ik", "--target", "0,40,20", "--solver", solver_name,
-            "--tolerance", "1e-8", "--json",
+        r = run_in_process(
+            ["ik", "--target", "0,40,20", "--solver", solver_name, "--tolerance", "1e-8",
+             "--json"], within_s=60,
         )  # fmt: skip
-        assert r.returncode == 0, r.stderr
+        assert r.code == 0, r.stderr
         out = json.loads(r.stdout)
         assert out["final_error_cm"] ** 2 < 1e-8
 
@@ -421,12 +424,21 @@ def test_cli_text_output():
         (["--target", "0,40,20", "--mode", "fast"], "invalid choice"),
     ],
 )
-@pytest.mark.heavy
 def test_cli_bad_input_exit_2_one_line(args, needle):
-    r = run_cli("-m", "mearm.ik", *args)
-    assert r.returncode == 2, r.stdout
+    """In this process (``mearm ik``: the same ``run`` guard maps the error to exit 2)."""
+    r = run_in_process(["ik", *args], within_s=30)
+    assert r.code == 2, r.stdout
     lines = r.stderr.strip().splitlines()
     assert len(lines) == 1 and needle in lines[0], r.stderr
+
+
+@pytest.mark.heavy
+def test_cli_bad_input_exits_2_with_one_line_from_a_real_process():
+    """The process's exit status and stderr, as a shell sees them (one case of the above)."""
+    r = run_cli("-m", "mearm.ik", "--target", "-10.99,65,12.76")
+    assert r.returncode == 2, r.stdout
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and "y = 65 is outside the target box" in lines[0], r.stderr
 
 
 def test_bounded_lstsq_matches_scipy_bvls():

@@ -4,6 +4,7 @@ import json
 
 import numpy as np
 import pytest
+from badinput import run_in_process
 from conftest import ROOT, run_cli
 
 from mearm.config import load_config
@@ -109,18 +110,18 @@ def test_reproduce_paper_json():
     assert abs(summary["mean_initial_error_cm"] - 24.99) < 0.1  # the same 24 routes
 
 
-@pytest.mark.heavy
 def test_reproduce_paper_text_coupled():
-    r = run_cli("tools/reproduce_paper.py", "--mode", "coupled")
-    assert r.returncode == 0, r.stderr
+    """In this process (``mearm reproduce-paper``, the tool's command; the JSON test above
+    runs the script as a user would)."""
+    r = run_in_process(["reproduce-paper", "--mode", "coupled"], within_s=60)
+    assert r.code == 0, r.stderr
     assert "mean iterations" in r.stdout and "paper: 82 (73–93)" in r.stdout
     assert r.stdout.count("converged") >= 24
 
 
-@pytest.mark.heavy
 def test_reproduce_paper_needs_a_scene():
-    r = run_cli("tools/reproduce_paper.py", "--config", "configs/lab.yaml")
-    assert r.returncode == 2
+    r = run_in_process(["reproduce-paper", "--config", ROOT / "configs" / "lab.yaml"])
+    assert r.code == 2
     lines = r.stderr.strip().splitlines()
     assert len(lines) == 1 and "task.scene is empty" in lines[0]
 

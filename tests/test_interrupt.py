@@ -8,7 +8,6 @@ and the run log must say so in its fault record.
 
 from __future__ import annotations
 
-import functools
 import os
 import signal
 import threading
@@ -16,6 +15,7 @@ import time
 
 import numpy as np
 import pytest
+from built_once import computed_once
 
 from mearm.config import Config
 from mearm.runlog import read_runlog
@@ -38,7 +38,6 @@ ARGV = [
 ]  # fmt: skip
 
 
-@functools.cache
 def _duration(view: bool) -> float:
     """How long a run takes: the shorter of two runs after a first one. The first imports
     what it needs, and a moment of load on a busy machine can slow one run: either, counted
@@ -49,6 +48,15 @@ def _duration(view: bool) -> float:
         assert sort_main([*ARGV, "--seed", "0", *(["--view"] if view else [])]) == 0
         times.append(time.perf_counter() - t0)
     return min(times[1:])
+
+
+@pytest.fixture(scope="module")
+def durations(tmp_path_factory: pytest.TempPathFactory) -> dict[bool, float]:
+    """:func:`_duration` without and with the view, measured once per test run (the parts
+    share it: each would otherwise spend six whole runs measuring the same machine)."""
+    return computed_once(
+        tmp_path_factory, "interrupt-durations", lambda: {v: _duration(v) for v in (False, True)}
+    )
 
 
 @pytest.fixture
@@ -64,7 +72,7 @@ def sigint_raises():
 @pytest.mark.slow
 @pytest.mark.usefixtures("sigint_raises")
 @pytest.mark.parametrize("part", range(PARTS))
-def test_ctrl_c_at_any_moment_parks_the_arm(part, tmp_path, monkeypatch, capsys):
+def test_ctrl_c_at_any_moment_parks_the_arm(part, durations, tmp_path, monkeypatch, capsys):
     arms: list[servo_bus.SimArm] = []
     real_init = servo_bus.SimArm.__init__
 
@@ -75,7 +83,6 @@ def test_ctrl_c_at_any_moment_parks_the_arm(part, tmp_path, monkeypatch, capsys)
     monkeypatch.setattr(servo_bus.SimArm, "__init__", spying_init)
     home = Config().arm.home()
     rng = np.random.default_rng(12 + part)
-    durations = {False: _duration(False), True: _duration(True)}
     parked = 0
     failures: list[str] = []
     runs = range(part * RUNS // PARTS, (part + 1) * RUNS // PARTS)

@@ -2,10 +2,15 @@
 
 from __future__ import annotations
 
+import importlib.util
+
 import numpy as np
 import pytest
 
-pytest.importorskip("torch")
+# Found, not imported: importing torch takes seconds, which only the worker that runs
+# these tests should pay, not every worker's collection (mearm.learn imports it lazily).
+if importlib.util.find_spec("torch") is None:
+    pytest.skip("could not import 'torch': No module named 'torch'", allow_module_level=True)
 
 from mearm.envs.policies import RandomPolicy, load_policy  # noqa: E402
 from mearm.learn.bc import main as bc_main  # noqa: E402

@@ -2,6 +2,7 @@ import xml.etree.ElementTree as ET
 
 import numpy as np
 import pytest
+from badinput import run_in_process
 from conftest import ROOT, run_cli
 
 from mearm.kinematics import ArmModel, generate_urdf
@@ -33,13 +34,11 @@ def test_tool_writes_every_reference_arm(tmp_path):
     assert out.read_text() == (DESCRIPTIONS / "desk_5dof.urdf").read_text()
 
 
-@pytest.mark.heavy
 def test_tool_set_changes_the_arm(tmp_path):
+    """In this process (``mearm urdf``, the script's command)."""
     out = tmp_path / "arm.urdf"
-    r = run_cli(
-        "tools/dh_to_urdf.py", "--set", "arm.joints.shoulder.dh.a_cm=25", "--output", str(out)
-    )
-    assert r.returncode == 0, r.stderr
+    r = run_in_process(["urdf", "--set", "arm.joints.shoulder.dh.a_cm=25", "--output", out])
+    assert r.code == 0, r.stderr
     assert '<origin xyz="0.25 0.0 0.0"' in out.read_text()
 
 
@@ -48,8 +47,8 @@ def test_tool_bad_argument_exits_2(tmp_path):
     r = run_cli("tools/dh_to_urdf.py", "--config", str(tmp_path / "none.yaml"))
     assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1
     assert "file not found" in r.stderr
-    r = run_cli("tools/dh_to_urdf.py", "--set", "arm.joints.wrist.coupling.terms={x: 1}")
-    assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1
+    r = run_in_process(["urdf", "--set", "arm.joints.wrist.coupling.terms={x: 1}"])
+    assert r.code == 2 and len(r.stderr.strip().splitlines()) == 1
     assert "arm.joints.wrist.coupling.terms" in r.stderr
     assert "'x' is not an actuated joint" in r.stderr
 
