@@ -5,6 +5,7 @@ import sys
 
 import numpy as np
 import pytest
+from test_startup_check import planned_one_by_one
 
 from mearm.config import Config, load_config
 from mearm.config.root import TwinConfig
@@ -12,7 +13,6 @@ from mearm.config.sections import SimErrorModel, VirtualUnoConfig
 from mearm.kinematics import ArmModel
 from mearm.task import check
 from mearm.task.plan import Planner
-from mearm.task.route import Route
 
 
 def _planner(name):
@@ -21,22 +21,13 @@ def _planner(name):
     return config, model, Planner(config, model)
 
 
-def _planned_one_by_one(planner, model, cls, points):
-    """A plan from home for every point: what the check must agree with."""
-    out = []
-    for x, y in points:
-        route = Route("", cls.name, "pick", 1, planner.pick_target(cls, float(x), float(y)))
-        out.append(planner.plan(route, model.home).planned)
-    return out
-
-
 @pytest.mark.parametrize("name", ["sim", "sim_5dof"])
 def test_box_reach_is_any_point_planned(name):
     """Trying the middle first answers as planning every point of the target box would."""
     config, model, planner = _planner(name)
     cls = config.task.classes[0]
     points = check._box_points_cm(config)
-    expected = any(_planned_one_by_one(planner, model, cls, points))
+    expected = any(planned_one_by_one(planner, model, cls, points))
     assert check._reached_somewhere(planner, model, cls.name, points) is expected
 
 
@@ -47,7 +38,7 @@ def test_box_reach_finds_a_point_away_from_the_middle():
     reached = check._box_points_cm(config)[17]
     far = [[0.0, 200.0], [150.0, 150.0], [-150.0, 150.0], [200.0, 0.0]]  # beyond the arm
     points = np.array([*far[:2], reached, *far[2:]])
-    assert _planned_one_by_one(planner, model, cls, points) == [False, False, True, False, False]
+    assert planned_one_by_one(planner, model, cls, points) == [False, False, True, False, False]
     assert check._reached_somewhere(planner, model, cls.name, points)
     assert not check._reached_somewhere(planner, model, cls.name, np.array(far))
     assert not check._reached_somewhere(planner, model, cls.name, np.zeros((0, 2)))
