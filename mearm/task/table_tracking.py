@@ -128,6 +128,8 @@ class TableTracking:
             detections = self.detector.detect(frame, exclude=hidden)
         found = [(d, table_cm(d)) for d in detections]
         seen = [(d, p) for d, p in found if not self._in_a_bin(p)]
+        if track_new:
+            self._confirm_in_bins(found)
         revealed = self._revealed(seen, hidden) if track_new else set()
         self._track(seen, track_new=track_new, revealed=revealed)
         if self.view is not None:
@@ -145,6 +147,24 @@ class TableTracking:
         """Whether a table point lies inside a class's bin (``ColorClass.in_bin``)."""
         x, y = float(xy_cm[0]), float(xy_cm[1])
         return any(c.in_bin(x, y) for c in self.config.task.classes)
+
+    def _confirm_in_bins(self, found: Seen) -> None:
+        """Count a carried object in its bin where the camera sees its class there.
+
+        An object carried to its bin stays "carried" (:attr:`TrackedObject.carried_cm`: it
+        may have dropped on the way) until something confirms its release. Where the
+        camera sees an object of a class in that class's bin and the class's only object
+        counted sorted is one carried there, that one lies in it. With more, objects
+        stacked in a bin show as one, and none is confirmed this way.
+        """
+        for cls in self.config.task.classes:
+            if not any(
+                d.color == cls.name and cls.in_bin(float(p[0]), float(p[1])) for d, p in found
+            ):
+                continue
+            placed = [o for o in self._objects if o.class_name == cls.name and o.sorted]
+            if len(placed) == 1 and placed[0].carried_cm is not None:
+                placed[0].carried_cm = None
 
     def _revealed(self, seen: Seen, hidden: np.ndarray | None) -> set[int]:
         """The detections whose centre no earlier look saw (the arm's body hid it there).
