@@ -226,9 +226,13 @@ def test_sort_without_record_imports_neither_pyarrow_nor_av() -> None:
 
 @pytest.mark.slow
 def test_ctrl_c_keeps_every_finished_episode(tmp_path: Path) -> None:
-    """Ctrl-C after the first episode: exit 130, the finished episodes pass the check."""
+    """Ctrl-C after the first episode: exit 130, the finished episodes pass the check.
+
+    Six objects, six episodes at most: the encoder may run an episode or two behind the
+    sort (its ring holds 24 frames), so the run is stopped well before its end."""
     root = tmp_path / "ds"
-    cmd = [sys.executable, "-m", "mearm", "sort", *map(str, SORT), "--record", str(root),
+    six = [*SORT[:3], "6", *SORT[4:]]  # --random 6
+    cmd = [sys.executable, "-m", "mearm", "sort", *map(str, six), "--record", str(root),
            "--set", "servo.sim_realtime=true"]  # fmt: skip
     proc = subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                             start_new_session=True)  # fmt: skip
@@ -242,5 +246,5 @@ def test_ctrl_c_keeps_every_finished_episode(tmp_path: Path) -> None:
     assert proc.returncode == 130
     assert check_dataset(root) == []
     episodes = json.loads((root / "meta/info.json").read_text())["total_episodes"]
-    assert 1 <= episodes < 3
+    assert 1 <= episodes < 6
     assert not (root / ".recording").exists()

@@ -5,9 +5,12 @@ The format is described in :mod:`mearm.runlog`.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
-from collections.abc import Mapping
+import signal
+import threading
+from collections.abc import Iterator, Mapping
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
@@ -178,21 +181,20 @@ class RunLog:
             started = datetime.now(UTC)
         if isinstance(started, datetime):
             started = started.isoformat()
-        record = self._write(
-            "header",
-            {
-                "format": FORMAT_VERSION,
-                "mearm_version": mearm_version(),
-                "started": started,
-                "config": config,
-                "versions": library_versions(),
-                "trial": trial,
-                "seed": seed,
-                **extra,
-            },
-        )
-        assert isinstance(record, HeaderRecord)
-        self._trial = _TrialBuilder(record, self.records_written)
+        fields = {
+            "format": FORMAT_VERSION,
+            "mearm_version": mearm_version(),
+            "started": started,
+            "config": config,
+            "versions": library_versions(),
+            "trial": trial,
+            "seed": seed,
+            **extra,
+        }
+        with _ctrl_c_after():  # the header in the file is the trial the writer is in
+            record = self._write("header", fields)
+            assert isinstance(record, HeaderRecord)
+            self._trial = _TrialBuilder(record, self.records_written)
         return record
 
     def route(self, **fields: Any) -> RouteRecord:
@@ -281,8 +283,9 @@ class RunLog:
         why = trial.check(record)
         if why is not None:
             raise RunLogError(self.path, why)
-        self._append(record)
-        trial.add(record)
+        with _ctrl_c_after():  # the file and the trial's state agree, whatever Ctrl-C does
+            self._append(record)
+            trial.add(record)
         return record
 
     def _write(self, kind: str, fields: Mapping[str, Any]) -> Record:
@@ -313,3 +316,24 @@ class RunLog:
         except OSError as exc:
             raise RunLogError(self.path, f"cannot write: {exc}") from None
         self.records_written += 1
+
+
+@contextlib.contextmanager
+def _ctrl_c_after() -> Iterator[None]:
+    """Hold back Ctrl-C until the block is done (then it takes effect as it would have).
+
+    A record written to the file but not yet to the trial's state would let a fault
+    record follow a trial's summary (Ctrl-C between the two). Only the main thread runs
+    Python's signal handlers, so only there is there anything to hold back.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    held: list[int] = []
+    previous = signal.signal(signal.SIGINT, lambda signum, _frame: held.append(signum))
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+        if held:
+            signal.raise_signal(signal.SIGINT)
