@@ -24,12 +24,16 @@ HOME_PULSES = [1800, 1530, 1080, 2100, 1000]
 
 
 def fast_config(backend: str, port: str = "/dev/null", **servo: Any) -> Config:
-    """The default config on ``port`` with short timeouts, so fault tests stay fast."""
+    """The default config on ``port`` with short timeouts, so fault tests stay fast.
+
+    0.5 s, not less: a fake board thread on a loaded 2-core CI machine once took
+    longer than 0.15 s to answer a healthy query.
+    """
     section = {
         "backend": backend,
         "port": port,
-        "ack_timeout_s": 0.15,
-        "banner_timeout_s": 0.4,
+        "ack_timeout_s": 0.5,
+        "banner_timeout_s": 1.0,
         "rate_hz": 1000.0,
         "retries": 2,
     }
