@@ -9,6 +9,11 @@ markers lying on the empty table, :func:`~mearm.sim.twin.calibration_scenes.defa
 and ``OUT/sheet_markers.txt`` (the ``--marker ID:X,Y`` arguments and ``--marker-side-cm``
 for the calibration tool). The frames go through the twin camera's lens
 (``twin.camera``; unset, the default straight-down camera).
+
+``--truth`` also writes ``OUT/truth_intrinsics.yaml`` and ``OUT/truth_pose.yaml``: the
+twin's own camera, as a perfect calibration would find it. A config pointed at them
+(``calibration.intrinsics_file``, ``calibration.extrinsics_file``) tells what the camera's
+calibration costs a measurement from what the rest costs.
 """
 
 from __future__ import annotations
@@ -20,6 +25,7 @@ import cv2
 import numpy as np
 
 from mearm.cli import ArgumentParser, add_config_argument, config_from_args, run, seed_value
+from mearm.config import Config
 from mearm.errors import MearmError
 from mearm.fileio import write_atomic
 
@@ -73,6 +79,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument(
         "--noise-std", type=_noise, default=0.0, help="Gaussian noise, 8-bit levels (0)"
     )
+    parser.add_argument(
+        "--truth",
+        action="store_true",
+        help="also write the twin's own camera as truth_intrinsics.yaml and truth_pose.yaml",
+    )
     args = parser.parse_args(argv)
     if args.out.exists() and not args.out.is_dir():
         parser.error(f"--out {args.out}: exists and is not a directory")
@@ -118,12 +129,38 @@ def main(argv: Sequence[str] | None = None) -> int:
     except OSError as exc:
         raise MearmError(f"cannot write {markers_txt}: {exc.strerror or exc}") from None
     written.append(markers_txt)
+    if args.truth:
+        written += _write_truth(config, args.out)
     print(
         f"wrote {len(frames)} board views ({args.out / 'board_00.png'} …), "
         f"{args.out / 'sheet.png'} ({len(layout)} markers of {SHEET_SIDE_CM:g} cm) "
         f"and {markers_txt}"
+        + (f"; the twin's own camera in {written[-2]} and {written[-1]}" if args.truth else "")
     )
     return 0
+
+
+def _write_truth(config: Config, out: Path) -> list[Path]:
+    """The twin's camera as calibration files: intrinsics and pose, each with rms 0."""
+    from mearm.sim.twin.twin_optics import twin_camera_model
+    from mearm.vision.calibration_file import Extrinsics, Intrinsics, save_calibration
+
+    truth = twin_camera_model(config)
+    size = (config.camera.width_px, config.camera.height_px)
+    files = (
+        (out / "truth_intrinsics.yaml", Intrinsics(truth.K, truth.dist, size, 0.0, 0, "twin")),
+        (
+            out / "truth_pose.yaml",
+            Extrinsics(truth.R_base_cam, truth.camera_centre_cm, 0.0, 0, "twin", size),
+        ),
+    )
+    written = []
+    for path, cal in files:
+        try:
+            written.append(save_calibration(path, cal, force=True))
+        except OSError as exc:
+            raise MearmError(f"cannot write {path}: {exc.strerror or exc}") from None
+    return written
 
 
 if __name__ == "__main__":
