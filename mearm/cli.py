@@ -14,12 +14,14 @@ import re
 import sys
 import traceback
 from collections.abc import Callable, Iterable, Iterator, Sequence
-from concurrent.futures import Executor, Future
 from pathlib import Path
-from typing import Any, NoReturn, Protocol, TypeVar
+from typing import TYPE_CHECKING, Any, NoReturn, Protocol, TypeVar
 
 from mearm.config import Config, load_config
 from mearm.errors import MearmError
+
+if TYPE_CHECKING:  # only the pools' callers import concurrent.futures (7 ms)
+    from concurrent.futures import Executor, Future
 
 _T = TypeVar("_T")
 

@@ -11,6 +11,7 @@ def test_sort_cpu_rows_put_the_sort_beside_its_dependencies(monkeypatch):
         bench.SORT_ARGV: [0.9, 0.8, 1.0],
         bench.DEPS_ARGV: [0.4, 0.5, 0.3],
         ("-c", "import mearm.sort"): [0.6, 0.6, 0.6],
+        ("-c", f"{bench.DEPS_ARGV[1]}; import mearm.config"): [0.5, 0.5, 0.5],
     }
     calls: list[tuple[str, ...]] = []
 
@@ -25,6 +26,7 @@ def test_sort_cpu_rows_put_the_sort_beside_its_dependencies(monkeypatch):
     assert ratio.value == 0.9 / 0.4 and "target ≤ 2×" in ratio.note
     assert rows["import mearm.sort beyond its dependencies: CPU"].value == 0.6 - 0.4
     assert rows["the sort beyond its imports: CPU"].value == 0.9 - 0.6
+    assert rows["import mearm.config beyond its dependencies: CPU"].value == 0.5 - 0.4
     assert any("sim_5dof" in c for c in calls)
     assert not any("EXIT STATUS" in r.note for r in rows.values())
 

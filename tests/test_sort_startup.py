@@ -103,3 +103,19 @@ def test_list_and_mapping_defaults_are_each_model_s_own():
         assert x == y
         assert not x
         assert x is not y
+
+
+def test_the_sort_leaves_what_only_other_runs_need_unimported():
+    """``import mearm.sort`` and loading ``sim`` import none of what only other runs need.
+
+    A thread pool (``--jobs``), the servo calibration file's module (a config that names
+    one), ``difflib`` (an unknown key's suggestion) and ``shlex`` (the note for servos
+    never calibrated) are each imported where they are used.
+    """
+    code = (
+        "import sys, mearm.sort, mearm.config\n"
+        "mearm.config.load_config('sim')\n"
+        "names = ('concurrent.futures', 'mearm.config.servo_file', 'difflib', 'shlex')\n"
+        "print(sorted(n for n in names if n in sys.modules))"
+    )
+    assert _run(code) == "[]"

@@ -15,7 +15,6 @@ from typing import Any
 
 from mearm.config.loader import config_from_dict
 from mearm.config.root import Config
-from mearm.config.servo_file import apply_servo_calibration_file
 from mearm.data import config_names, packaged_config
 from mearm.errors import ConfigError
 from mearm.yamlio import load_yaml_file
@@ -92,6 +91,9 @@ def _resolve_files(config: Config, folder: Path, source: str) -> Config:
     """
     servo_file = config.servo.calibration_file
     if servo_file is not None:
+        # imported only for a config that names such a file (every other load skips it)
+        from mearm.config.servo_file import apply_servo_calibration_file  # noqa: PLC0415
+
         resolved = _existing(folder, servo_file, "servo.calibration_file", source)
         servo = config.servo.model_copy(update={"calibration_file": str(resolved)})
         config = apply_servo_calibration_file(config.model_copy(update={"servo": servo}), resolved)

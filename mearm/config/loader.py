@@ -14,7 +14,6 @@ applied before validation, so a bad one gets the same one-line error as a bad fi
 from __future__ import annotations
 
 import copy
-import difflib
 import functools
 import re
 from collections.abc import Sequence
@@ -221,6 +220,8 @@ def _in_user_words(err: ErrorDetails, data: Any) -> str:
     if err["type"] != "extra_forbidden":
         return describe_error({**err, "loc": loc})
     *section, key = loc
+    import difflib  # noqa: PLC0415  (an unknown key only)
+
     close = difflib.get_close_matches(str(key), _allowed_keys(err["loc"][:-1]), n=1, cutoff=0.6)
     meant = f"; did you mean {close[0]}?" if close else ""
     where = _arm_file(data) if loc and loc[0] == "arm" else "configs/sim.yaml"

@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import hashlib
 import math
-import shlex
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 
@@ -32,7 +31,6 @@ import numpy as np
 
 from mearm.config import ColorClass, Config
 from mearm.config.loader import millimetre_hint
-from mearm.config.servo_file import narrowed_limits_note, replaced_calibration
 from mearm.errors import ConfigError, MearmError
 from mearm.ik import APPROACH_TOLERANCE_DEG
 from mearm.ik.batch import solve_batch
@@ -162,6 +160,8 @@ def _blame_calibration_file(config: Config, problems: list[str]) -> list[str]:
     path = config.servo.calibration_file
     if path is None:
         return problems
+    from mearm.config.servo_file import replaced_calibration  # noqa: PLC0415  (a file's only)
+
     try:
         before = replaced_calibration(config)
     except MearmError:  # the file loaded with the config; if it no longer does, say maybe
@@ -199,6 +199,8 @@ def calibration_note(config: Config, config_args: Sequence[str]) -> str | None:
             the command the line names.
     """
     if config.servo.calibration_file is not None:
+        from mearm.config.servo_file import narrowed_limits_note  # noqa: PLC0415  (a file's only)
+
         return narrowed_limits_note(config)
     if config.servo.backend in ("serial", "ssc32"):
         what, extra = f"the servos on the {config.servo.backend} board", []
@@ -206,6 +208,8 @@ def calibration_note(config: Config, config_args: Sequence[str]) -> str | None:
         what, extra = "the servos of the twin's kit (twin.kit)", ["--simulate"]
     else:
         return None
+    import shlex  # noqa: PLC0415  (servos never calibrated only)
+
     command = shlex.join(["mearm", "calibrate-servos", *config_args, *extra])
     return (
         f"note: {what} have never been calibrated (no servo.calibration_file): the sort "

@@ -40,6 +40,7 @@ def bench_sort_cpu(options: BenchOptions) -> list[Row]:
     sort_s = cpu["sim sort, 12 objects: CPU"]
     deps_s = cpu["peer: import numpy, cv2, pinocchio, yaml, pydantic: CPU"]
     imports_s = cpu["imports of the sort (python -c 'import mearm.sort'): CPU"]
+    config_s = cpu["imports of the config (the five, then mearm.config): CPU"]
     rows += [
         Row(
             "sort-cpu",
@@ -54,6 +55,13 @@ def bench_sort_cpu(options: BenchOptions) -> list[Row]:
             imports_s - deps_s,
             "s",
             "mearm's own modules and what they import besides the five",
+        ),
+        Row(
+            "sort-cpu",
+            "import mearm.config beyond its dependencies: CPU",
+            config_s - deps_s,
+            "s",
+            "pydantic's model machinery and plugin scan, and the config's models",
         ),
         Row(
             "sort-cpu",
@@ -85,6 +93,11 @@ def _child_runs() -> dict[str, list[tuple[float, float, int]]]:
             ),
             "imports of the sort (python -c 'import mearm.sort'): CPU": (
                 ("-c", "import mearm.sort"),
+                cached,
+            ),
+            # the five first, so that the difference is the config's own share
+            "imports of the config (the five, then mearm.config): CPU": (
+                ("-c", f"{DEPS_ARGV[1]}; import mearm.config"),
                 cached,
             ),
             "bare interpreter (python -c pass): CPU": (("-c", "pass"), cached),
