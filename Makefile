@@ -66,10 +66,12 @@ test-fast: $(STAMP)
 
 # Long runs in one process (a few minutes; `make test` leaves them out): 300 kinematic and
 # 50 twin sorts, the meshcat server with 20 clients for 60 s; memory, files and threads flat;
-# and IK on 20,000 random targets of the paper arm, 0 stalls (tests/test_ik_stall.py).
+# IK on 20,000 random targets of the paper arm, 0 stalls (tests/test_ik_stall.py); and
+# Ctrl-C at 50 random moments of a sort, each parked (tests/test_interrupt.py).
 soak: $(STAMP)
 	env -u PYTHONDONTWRITEBYTECODE PYTHONPYCACHEPREFIX=$(CURDIR)/$(VENV)/pycache \
-	  $(BIN)/python -m pytest -q -s -p no:xdist -m soak tests/test_soak.py tests/test_ik_stall.py
+	  $(BIN)/python -m pytest -q -s -p no:xdist -m soak tests/test_soak.py tests/test_ik_stall.py \
+	  tests/test_interrupt.py
 
 lint: $(STAMP)
 	$(BIN)/ruff check mearm tools tests

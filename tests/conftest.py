@@ -208,14 +208,40 @@ def browser_or_skip() -> str:
         missing_tool(f"chromium ({exc})")
 
 
+#: A test's rough cost by its marker [s] (unmarked: 0.01 s), to order the modules by.
+MARKER_COST_S = {"slow": 8.0, "heavy": 1.0}
+
+
+@pytest.hookimpl(tryfirst=True)
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
-    """Leave out the soak tests unless the ``-m`` expression names them (``make soak``)."""
-    if "soak" in (config.getoption("markexpr", "") or ""):
-        return
-    soak = [item for item in items if item.get_closest_marker("soak") is not None]
-    if soak:
-        config.hook.pytest_deselected(items=soak)
-        items[:] = [item for item in items if item.get_closest_marker("soak") is None]
+    """Leave out the soak tests unless the ``-m`` expression names them (``make soak``);
+    then order whole modules costliest first (:func:`costliest_modules_first`)."""
+    if "soak" not in (config.getoption("markexpr", "") or ""):
+        soak = [item for item in items if item.get_closest_marker("soak") is not None]
+        if soak:
+            config.hook.pytest_deselected(items=soak)
+            items[:] = [item for item in items if item.get_closest_marker("soak") is None]
+    costliest_modules_first(items)
+
+
+def costliest_modules_first(items: list[pytest.Item]) -> None:
+    """Sort ``items`` by their module's costliest test, then its summed cost (both by
+    :data:`MARKER_COST_S`), costliest first, each module's tests together and in order.
+
+    xdist's work stealing hands each worker a run of the collection and lets idle ones take
+    the back half of a busy one's queue: with the long tests at the front they start early,
+    and the run ends on short ones on every worker, not on one long test on one worker.
+    """
+    most: dict[Path, float] = {}
+    cost: dict[Path, float] = {}
+    first: dict[Path, int] = {}
+    for i, item in enumerate(items):
+        marker = next((m for m in MARKER_COST_S if item.get_closest_marker(m)), "")
+        seconds = MARKER_COST_S.get(marker, 0.01)
+        most[item.path] = max(most.get(item.path, 0.0), seconds)
+        cost[item.path] = cost.get(item.path, 0.0) + seconds
+        first.setdefault(item.path, i)
+    items.sort(key=lambda item: (-most[item.path], -cost[item.path], first[item.path]))
 
 
 def pytest_terminal_summary(terminalreporter: pytest.TerminalReporter) -> None:

@@ -183,6 +183,7 @@ class ArmContacts:
         self.touches: list[tuple[str, str, float]] = []
         self.closest_cm = math.inf
         self._due = 0.0
+        self._plane = m.geom_type[self.obstacles] == mujoco.mjtGeom.mjGEOM_PLANE
 
     @property
     def due_s(self) -> float:
@@ -195,12 +196,31 @@ class ArmContacts:
             pair = {int(c.geom1), int(c.geom2)}
             if pair & arm and pair & obstacles:
                 self.touches.append((m.geom(c.geom1).name, m.geom(c.geom2).name, d.time))
+        # mj_geomDistance reports at most its distmax (5 cm): a pair whose bounds are
+        # already that far, or farther than the closest seen, cannot lower the closest
+        limit_m = min(self.closest_cm, 5.0) / 100.0
+        far = self._lower_bounds_m(m, d) >= limit_m  # (arm, obstacles)
+        if far.any():
+            self.closest_cm = min(self.closest_cm, 5.0)
         ft = np.zeros(6)
-        for g in self.arm:
-            for o in self.obstacles:
-                dist = mujoco.mj_geomDistance(m, d, g, o, 0.05, ft) * 100.0
-                self.closest_cm = min(self.closest_cm, dist)
+        for i, k in zip(*np.nonzero(~far), strict=True):
+            g, o = self.arm[i], self.obstacles[k]
+            dist = mujoco.mj_geomDistance(m, d, g, o, 0.05, ft) * 100.0
+            self.closest_cm = min(self.closest_cm, dist)
         self._due = d.time + 0.005
+
+    def _lower_bounds_m(self, m: mujoco.MjModel, d: mujoco.MjData) -> np.ndarray:
+        """Each arm geom's least possible distance to each obstacle [m], (arm, obstacles):
+        bounding spheres apart, or a sphere above a plane."""
+        rb_arm, rb_obs = m.geom_rbound[self.arm], m.geom_rbound[self.obstacles]
+        c_arm, c_obs = d.geom_xpos[self.arm], d.geom_xpos[self.obstacles]
+        apart = c_arm[:, None, :] - c_obs[None, :, :]  # (arm, obstacles, 3)
+        bound = np.linalg.norm(apart, axis=2) - rb_arm[:, None] - rb_obs[None, :]
+        normals = d.geom_xmat[self.obstacles].reshape(-1, 3, 3)[:, :, 2]  # a plane's z axis
+        above = np.einsum("aok,ok->ao", apart, normals) - rb_arm[:, None]
+        bound = np.where(self._plane[None, :], above, bound)
+        return np.where((rb_arm[:, None] > 0) & ((rb_obs > 0) | self._plane)[None, :],
+                        bound, -np.inf)  # fmt: skip
 
 
 @pytest.fixture

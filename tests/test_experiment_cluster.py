@@ -10,6 +10,7 @@ from contextlib import contextmanager
 from pathlib import Path
 
 import pytest
+from badinput import run_in_process
 from built_once import computed_once
 from conftest import interrupted_experiment, run_cli
 from test_sweeps import SERIAL_TRIALS, SWEEP, experiment, records, serial_prefix, serial_records
@@ -92,14 +93,28 @@ def test_ctrl_c_on_a_local_dask_cluster_keeps_the_trials_in_order_and_the_log_re
         (["--config", "RIG", "--scheduler", "local"], "camera is not 'sim'"),
     ],
 )
-def test_a_scheduler_that_cannot_be_used_exits_2_before_touching_the_log(args, needle, tmp_path):
+def test_a_scheduler_that_cannot_be_used_exits_2_before_touching_the_log(
+    args, needle, tmp_path, quick_connect
+):
+    """Run in this process (the sweeps above run the command as its own process), the
+    connection's wait cut to 1 s."""
     rig = tmp_path / "rig.yaml"
     rig.write_text(f"camera:\n  kind: folder\n  path: {tmp_path}\n")
     log = tmp_path / "t.jsonl"
     args = [str(rig) if a == "RIG" else a for a in args]
-    r = experiment("--trials", 2, "--log", log, *args, timeout=60)
-    assert r.returncode == 2 and not log.exists()
+    r = run_in_process(["experiment", "--trials", 2, "--log", log, *args], within_s=10)
+    assert r.code == 2 and not log.exists()
     assert len(r.stderr.strip().splitlines()) == 1 and needle in r.stderr, r.stderr
+
+
+@pytest.fixture
+def quick_connect(monkeypatch: pytest.MonkeyPatch) -> int:
+    """The connection's wait for a scheduler cut from 5 s to 1 s: the seconds the
+    silent server's message names (the wait plus one)."""
+    from mearm.experiment import cluster
+
+    monkeypatch.setattr(cluster, "CONNECT_TIMEOUT_S", 1)
+    return 2
 
 
 @contextmanager
@@ -130,18 +145,20 @@ def _not_a_scheduler(answer: bytes | None) -> Iterator[str]:
 @pytest.mark.heavy
 @pytest.mark.parametrize(
     "answer, needle",
-    [(None, "did not answer as a Dask scheduler within 6 s"),
+    [(None, "did not answer as a Dask scheduler within {wait_s} s"),
      (b"HTTP/1.0 400 Bad Request\r\nServer: not-dask\r\n\r\n" * 4,
       "what answered there is not a Dask scheduler")],
     ids=["silent", "a web server"],
 )  # fmt: skip
-def test_a_server_that_is_not_a_scheduler_exits_2(answer, needle, tmp_path):
+def test_a_server_that_is_not_a_scheduler_exits_2(answer, needle, tmp_path, quick_connect):
     """Dask waits for a peer's handshake without a limit (a silent server hung the command)
     and reads a web server's answer as a frame exabytes long: one line, exit 2, no log."""
     log = tmp_path / "t.jsonl"
     with _not_a_scheduler(answer) as address:
-        r = experiment("--trials", 2, "--log", log, "--scheduler", address, timeout=60)
-    assert r.returncode == 2 and not log.exists(), r.stderr
+        argv = ["experiment", "--trials", 2, "--log", log, "--scheduler", address]
+        r = run_in_process(argv, within_s=10)
+    assert r.code == 2 and not log.exists(), r.stderr
+    needle = needle.format(wait_s=quick_connect)
     assert len(r.stderr.strip().splitlines()) == 1 and needle in r.stderr, r.stderr
 
 

@@ -128,14 +128,27 @@ def test_reproduce_paper_needs_a_scene():
 
 @pytest.mark.heavy
 def test_bench_ik_section_runs():
-    """The benchmark runs its ik section and reports figures (never asserted on)."""
-    r = run_cli("tools/bench.py", "--only", "ik", "--repeat", "1", "--json", timeout=300)
-    assert r.returncode == 0, r.stderr
-    out = json.loads(r.stdout)
-    names = {row["name"] for row in out["rows"]}
+    """The benchmark's ik section runs whole, on 20 of its 500 peer targets, and reports
+    figures (never asserted on): its peers, the demo routes and their ratios."""
+    from mearm.tools.bench import BenchOptions, bench_ik
+
+    rows = bench_ik(BenchOptions(repeat=1, ik_targets=20))
+    names = {row.name for row in rows}
     assert "PD-PIJ paper: per iteration" in names
     assert "numpy port / PD-PIJ paper, per iteration" in names
-    assert all(row["section"] == "ik" for row in out["rows"])
+    assert "mearm fastest (closed form): per solve" in names
+    assert all(row.section == "ik" for row in rows)
+
+
+def test_bench_prints_json(capsys):
+    """``bench --json`` prints the machine and the chosen sections' rows as JSON (the
+    motion section: a prediction, quick; the script as a process: the test below)."""
+    from mearm.tools.bench import main
+
+    assert main(["--only", "motion", "--repeat", "1", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert "load average" in out["machine"]
+    assert out["rows"] and all(row["section"] == "motion" for row in out["rows"])
 
 
 @pytest.mark.heavy

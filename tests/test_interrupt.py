@@ -1,9 +1,10 @@
-"""Ctrl-C parks the arm, every time: 50 sorts interrupted at random moments.
+"""Ctrl-C parks the arm, every time: sorts interrupted at random moments.
 
 Each sort runs in this process on the simulated rig (half of them with the meshcat view);
 a real SIGINT arrives at a random moment of it. Whatever the moment, the run must end
 with exit 130, the arm's last command must be the home pose (or the arm never left it),
-and the run log must say so in its fault record.
+and the run log must say so in its fault record. ``make test`` interrupts 16 sorts,
+``make soak`` 50.
 """
 
 from __future__ import annotations
@@ -22,7 +23,9 @@ from mearm.runlog import read_runlog
 from mearm.sim.kinematic import servo_bus
 from mearm.sort import main as sort_main
 
+#: The soak's runs, and ``make test``'s.
 RUNS = 50
+QUICK_RUNS = 16
 #: The runs are split in this many parts, so that two workers can share them (a part's
 #: runs are paced in real time with the view: under load the whole took over a minute).
 PARTS = 2
@@ -73,6 +76,24 @@ def sigint_raises():
 @pytest.mark.usefixtures("sigint_raises")
 @pytest.mark.parametrize("part", range(PARTS))
 def test_ctrl_c_at_any_moment_parks_the_arm(part, durations, tmp_path, monkeypatch, capsys):
+    """16 sorts, half with the view, each interrupted at a random moment: enough to land
+    in each of a run's long phases (solving, streaming, holding the tool, drawing) many
+    times; the rarer short windows (the log's header, the rig's close) are the soak's."""
+    _interrupt_runs(part, QUICK_RUNS, durations, tmp_path, monkeypatch, capsys)
+
+
+@pytest.mark.soak
+@pytest.mark.slow
+@pytest.mark.usefixtures("sigint_raises")
+def test_ctrl_c_at_fifty_moments_parks_the_arm(durations, tmp_path, monkeypatch, capsys):
+    """50 sorts, each interrupted at a random moment (``make soak``)."""
+    for part in range(PARTS):
+        with monkeypatch.context() as patch:  # each part spies on the real SimArm
+            _interrupt_runs(part, RUNS, durations, tmp_path, patch, capsys)
+
+
+def _interrupt_runs(part, total, durations, tmp_path, monkeypatch, capsys) -> None:
+    """Part ``part`` of ``total`` sorts, each Ctrl-C'd at a random moment: every one parked."""
     arms: list[servo_bus.SimArm] = []
     real_init = servo_bus.SimArm.__init__
 
@@ -85,7 +106,7 @@ def test_ctrl_c_at_any_moment_parks_the_arm(part, durations, tmp_path, monkeypat
     rng = np.random.default_rng(12 + part)
     parked = 0
     failures: list[str] = []
-    runs = range(part * RUNS // PARTS, (part + 1) * RUNS // PARTS)
+    runs = range(part * total // PARTS, (part + 1) * total // PARTS)
     for i in runs:
         view = i % 2 == 1
         delay = float(rng.uniform(0.0, durations[view]))

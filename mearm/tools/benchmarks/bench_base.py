@@ -14,9 +14,15 @@ import numpy as np
 
 @dataclass(frozen=True)
 class BenchOptions:
-    """What every section gets: how many rounds to run."""
+    """What every section gets: how many rounds to run.
+
+    Attributes:
+        repeat: Rounds; the best is kept.
+        ik_targets: The ik section's peer targets (``None``: its 500); a test's hook.
+    """
 
     repeat: int
+    ik_targets: int | None = None
 
 
 @dataclass(frozen=True)

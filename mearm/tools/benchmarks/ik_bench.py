@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from mearm.tools.benchmarks.bench_base import BenchOptions, Row, best_seconds, section
-from mearm.tools.benchmarks.ik_peers import ik_peer_rows
+from mearm.tools.benchmarks.ik_peers import PEER_TARGETS, ik_peer_rows
 
 if TYPE_CHECKING:
     from mearm.config import Config
@@ -38,7 +38,8 @@ def bench_ik(options: BenchOptions) -> list[Row]:
         rows.append(Row("ik", f"{label}: iterations per route", iterations[key] / n, "", ""))
     rows += _ratio_rows(per_it, per_route)
     rows.append(Row("ik", "pinocchio", 0.0, "", f"pin {pin.__version__}"))
-    return ik_peer_rows(config, options) + rows
+    n_targets = PEER_TARGETS if options.ik_targets is None else options.ik_targets
+    return ik_peer_rows(config, options, n_targets) + rows
 
 
 def _demo_route_seconds(
