@@ -153,6 +153,40 @@ def _val_lut(thr: Thresholds) -> np.ndarray:
     return np.where(v >= thr.value_min, 0xFF, 0).astype(np.uint8)
 
 
+def _levels(lut: np.ndarray) -> tuple[int, int]:
+    """The first levels at which a floor's table turns unsure (or passes), and passes.
+
+    The table (:func:`_sat_lut`, :func:`_val_lut`) is 0, then ``_UNSURE``, then 0xFF.
+    """
+    passes = np.flatnonzero(lut == 0xFF)
+    sure = int(passes[0]) if len(passes) else 256
+    some = np.flatnonzero(lut != 0)
+    first = int(some[0]) if len(some) else 256
+    expected = np.zeros(256, np.uint8)
+    expected[first:] = _UNSURE
+    expected[sure:] = 0xFF
+    if not np.array_equal(lut, expected):
+        raise AssertionError("a floor's table must be 0, then unsure, then pass")
+    return first, sure
+
+
+def _at_least(channel: np.ndarray, level: int, value: int) -> np.ndarray:
+    """``value`` where ``channel`` ≥ ``level`` (0 ≤ level ≤ 256), else 0, uint8."""
+    # THRESH_BINARY keeps what is above the threshold: level − 1 (−1: every pixel)
+    return cv2.threshold(channel, level - 1, value, cv2.THRESH_BINARY)[1]
+
+
+def _nonzero(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The (u, v) [px] of a 0/255 mask's few set pixels, each (N,), in raster order.
+
+    Only the rows holding one are scanned (a row's sum is one SIMD pass; finding the
+    pixels is a scan of every pixel).
+    """
+    rows = np.flatnonzero(cv2.reduce(mask, 1, cv2.REDUCE_SUM, dtype=cv2.CV_32S))
+    xy = cv2.findNonZero(mask[rows]).reshape(-1, 2)  # (N, 2): u and the row's place
+    return xy[:, 0], rows[xy[:, 1]]
+
+
 class PixelClassifier:
     """Fast exact classification of 8-bit BGR frames (see the module docstring).
 
@@ -165,6 +199,9 @@ class PixelClassifier:
         self._hue_lut = _hue_lut(thresholds)
         self._sat_lut = _sat_lut(thresholds)
         self._val_lut = _val_lut(thresholds)
+        # the floors are steps: a threshold or two, several times cheaper than a look-up
+        self._sat_levels = _levels(self._sat_lut)
+        self._val_level = _levels(self._val_lut)[1]
         # The value floor is exact in 8 bits; keep the integer for documentation/tests.
         self.value_min_level = math.ceil(255.0 * thresholds.value_min - 1e-9)
 
@@ -183,10 +220,11 @@ class PixelClassifier:
 
         The box may be loose (it is taken before the exact pass), never too tight.
         """
-        hsv = cv2.cvtColor(frame_bgr, cv2.COLOR_BGR2HSV)
-        h, s, v = (cv2.extractChannel(hsv, i) for i in range(3))  # cv2.split is slower
+        h, s, v = cv2.split(cv2.cvtColor(frame_bgr, cv2.COLOR_BGR2HSV))
         codes = cv2.LUT(h, self._hue_lut)
-        sv = cv2.bitwise_and(cv2.LUT(s, self._sat_lut), cv2.LUT(v, self._val_lut))
+        s_unsure, s_pass = self._sat_levels  # the S table's values, as thresholds
+        sat = cv2.bitwise_or(_at_least(s, s_unsure, _UNSURE), _at_least(s, s_pass, 0xFF))
+        sv = cv2.bitwise_and(sat, _at_least(v, self._val_level, 0xFF))
         codes = cv2.bitwise_and(codes, sv)  # sure k & pass = k; anything & unsure = unsure
         x, y, w, h_ = cv2.boundingRect(codes)
         if w == 0 or h_ == 0:  # no pixel passes: nothing to refine
@@ -194,7 +232,7 @@ class PixelClassifier:
         unsure = equal_mask(codes[y : y + h_, x : x + w], _UNSURE)
         codes = and_scalar(codes, 0xFF ^ _SURE)  # drop the flag: unsure → 0, sure → code
         if cv2.countNonZero(unsure):
-            xy = cv2.findNonZero(unsure).reshape(-1, 2) + (x, y)  # (N, 2) u, v
-            us, vs = xy[:, 0], xy[:, 1]
+            us, vs = _nonzero(unsure)
+            us, vs = us + x, vs + y
             codes[vs, us] = classify_exact(frame_bgr[vs, us], self.thresholds)
         return codes, (x, y, w, h_)

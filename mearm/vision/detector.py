@@ -66,7 +66,7 @@ from mearm.vision.calibration import Calibration, CameraGeometry, camera_geometr
 from mearm.vision.classify import PixelClassifier, and_scalar, equal_mask
 from mearm.vision.detection import Detection, _point, _with_table_yaw, check_frame
 from mearm.vision.errors import ImageError
-from mearm.vision.flat_detection import Regions, seen_from_above
+from mearm.vision.flat_detection import Regions, find_regions, seen_from_above
 from mearm.vision.learned import LearnedClassifier, area_mask, balance_by, gains
 from mearm.vision.perspective_detection import (
     MAX_SPLIT,
@@ -92,7 +92,6 @@ from mearm.vision.regions import (
     _label,
     _measure_regions,
     _region_mask,
-    class_pieces,
     split_region,
 )
 from mearm.vision.shadows import grow_into_shadows, weak_classifier
@@ -342,34 +341,11 @@ class ColorDetector:
         index = np.zeros_like(next(iter(masks.values())))
         for code, name in enumerate(self.class_names, start=1):
             index = cv2.bitwise_or(index, and_scalar(masks[name], code))
-        n, labels, stats, centroids = _label(index)
-        min_area = self.vision.min_area_px
-        big = np.flatnonzero(stats[1:n, cv2.CC_STAT_AREA] >= min_area) + 1
-        # (smaller union regions hold smaller class regions still)
-        # Per region, in label order: class code, area, box in the frame, centroid in
-        # working-box pixels, elongation, and its label (its mask: the label's pixels in
-        # its box); the pieces of regions where classes touch follow, each with its mask.
-        pure, region_code, elong, outlines = _measure_regions(index, labels, stats, big)
-        keep = big[pure]
-        codes: list[int] = region_code[pure].tolist()
-        areas: list[int] = stats[keep, cv2.CC_STAT_AREA].tolist()
-        boxes = [(x + ox, y + oy, w, h) for x, y, w, h in stats[keep, :4].tolist()]
-        elongations: list[float] = elong[pure].tolist()
-        sources: list[int | np.ndarray] = list(keep.tolist())
-        centres = [centroids[keep]]
-        for lab in big[~pure].tolist():  # different classes touch: split them
-            for p in class_pieces(index, labels, stats[lab].tolist(), lab, min_area):
-                x, y, w, h = p.bbox_px
-                codes.append(p.code)
-                areas.append(p.area_px)
-                boxes.append((x + ox, y + oy, w, h))
-                centres.append(p.centroid_px[None, :])
-                elongations.append(p.elongation)
-                sources.append(p.mask)
+        found = find_regions(index, (ox, oy), self.vision.min_area_px)
+        codes, areas, boxes, elongations = found.codes, found.areas, found.boxes, found.elongations
+        sources, centroid, labels = found.sources, found.centroid, found.labels
         if not codes:
             return []
-        centroid = np.concatenate(centres) + (ox, oy)  # (N, 2) [px]
-        centroid.setflags(write=False)  # its rows are the detections' own (read-only)
         colors = [self.class_names[c - 1] for c in codes]
         elongation = np.array(elongations)
         merged = elongation > self.vision.merged_elongation
@@ -380,7 +356,8 @@ class ColorDetector:
             over = np.array(areas) > self.vision.merged_area_ratio * largest
             if over.any() or not isinstance(cal, Calibration):
                 regions = [
-                    _region_mask(r, labels, b, ox, oy) for r, b in zip(sources, boxes, strict=True)
+                    _region_mask(r, labels, b, 0, 0)
+                    for r, b in zip(sources, found.label_boxes, strict=True)
                 ]
                 return self._general(colors, centroid, areas, boxes, merged, elongations,
                                      regions, frame_bgr)  # fmt: skip
@@ -389,7 +366,7 @@ class ColorDetector:
             table.setflags(write=False)
 
         def region_of(j: int) -> np.ndarray:
-            return _region_mask(sources[j], labels, boxes[j], ox, oy)
+            return _region_mask(sources[j], labels, found.label_boxes[j], 0, 0)
 
         keep = None
         if table is not None:
@@ -398,11 +375,11 @@ class ColorDetector:
                 frame_bgr.shape, (flat, stretch),
             )  # fmt: skip
         measured = Regions(colors, centroid, areas, boxes, merged.tolist(), elongations, table,
-                           sources, outlines)  # fmt: skip
+                           sources, found.outlines, found.label_boxes)  # fmt: skip
         chosen = range(len(codes)) if keep is None else np.flatnonzero(keep).tolist()
         to_table = cal.pixel_to_table if isinstance(cal, Calibration) else None
-        return seen_from_above(measured, chosen, labels, (ox, oy), frame_bgr.shape,
-                               self.matcher, self._rank, to_table)  # fmt: skip
+        return seen_from_above(measured, chosen, labels, frame_bgr.shape, self.matcher,
+                               self._rank, to_table)  # fmt: skip
 
     def _general(
         self,

@@ -30,6 +30,48 @@ def _label(mask: np.ndarray) -> tuple[int, np.ndarray, np.ndarray, np.ndarray]:
         return cv2.connectedComponentsWithStats(mask, connectivity=8, ltype=cv2.CV_32S)
 
 
+class Labelled(NamedTuple):
+    """A class-code image's regions (:func:`label_rows`), in the kept rows' pixels."""
+
+    n_labels: int  # the background's 0 among them
+    labels: np.ndarray  # (h, W) label image of the kept rows
+    stats: np.ndarray  # (n_labels, 5) OpenCV's stats, in the kept rows' pixels
+    centroids: np.ndarray  # (n_labels, 2) likewise [px]
+    codes: np.ndarray  # (h, W) the kept rows of the code image
+    row_shift: np.ndarray  # (n_labels,) a region's rows in the image are its rows here + this
+
+
+def label_rows(index: np.ndarray) -> Labelled:
+    """The 8-connected regions of a code image (H, W), labelled on the rows that matter.
+
+    Labelling costs per pixel, background included; most rows of a frame of a few
+    objects hold none. The rows are taken in pairs (0–1, 2–3, …: OpenCV labels 2×2
+    blocks, so its labels' order stays the image's): each run of pairs holding a pixel is
+    kept with the empty pair after it (which keeps runs apart, as the empty rows between
+    them did). The regions, their order, their shapes and their columns are the image's
+    own, and a region's rows are consecutive there too (every one of them holds a pixel
+    of it), so each region is only moved up by its ``row_shift``.
+    """
+    height = index.shape[0]
+    filled = np.zeros(height + height % 2, bool)
+    filled[:height] = cv2.reduce(index, 1, cv2.REDUCE_SUM, dtype=cv2.CV_32S).ravel() > 0
+    pairs = np.logical_or(filled[0::2], filled[1::2])
+    kept = pairs.copy()
+    kept[1:] |= pairs[:-1]
+    rows = (2 * np.flatnonzero(kept)[:, None] + (0, 1)).ravel()
+    rows = rows[rows < height]
+    if not len(rows) or 8 * len(rows) >= 7 * height:  # too few rows drop to pay the copy
+        n, labels, stats, centroids = _label(index)
+        return Labelled(n, labels, stats, centroids, index, np.zeros(n, np.intp))
+    sub = index[rows]
+    n, labels, stats, centroids = _label(sub)
+    if n > 0xFFFF:  # 32-bit labels: OpenCV's parallel labelling, whose order may not keep
+        n, labels, stats, centroids = _label(index)
+        return Labelled(n, labels, stats, centroids, index, np.zeros(n, np.intp))
+    top = stats[:, cv2.CC_STAT_TOP]
+    return Labelled(n, labels, stats, centroids, sub, rows[top] - top)
+
+
 def _elongation(region: np.ndarray) -> float:
     """Principal-axis ratio √(λ_max/λ_min) of a binary region's second central moments."""
     return _axis_ratio(cv2.moments(region, binaryImage=True))
@@ -162,13 +204,19 @@ def _trace_stack(canvas: np.ndarray, dx: np.ndarray, dy: np.ndarray) -> list[np.
     )
     if len(contours) != count:
         return None
-    window = [int(c[0, 0, 1]) // rows for c in contours]
-    if len(set(window)) != count:
+    # shifted all at once: one array of every point, each outline a slice of it
+    length = np.fromiter(map(len, contours), np.intp, count)
+    end = np.cumsum(length)
+    start = end - length
+    points = np.concatenate(contours)  # (M, 1, 2) int32
+    window = points[start, 0, 1] // rows  # the window each outline's first point is in
+    if np.count_nonzero(np.bincount(window, minlength=count)) != count:
         return None
     shift = np.stack([1 - dx, 1 - dy - np.arange(count) * rows], axis=1).astype(np.int32)
-    out: list[np.ndarray] = [shift[0]] * count
-    for c, k in zip(contours, window, strict=True):
-        out[k] = c + shift[k]
+    points += np.repeat(shift[window], length, axis=0)[:, None, :]
+    out: list[np.ndarray] = [points] * count
+    for k, a, b in zip(window.tolist(), start.tolist(), end.tolist(), strict=True):
+        out[k] = points[a:b]
     return out
 
 
@@ -266,15 +314,22 @@ class Piece(NamedTuple):
 
 
 def class_pieces(
-    index: np.ndarray, labels: np.ndarray, stats_row: Sequence[int], lab: int, min_area: int
+    index: np.ndarray,
+    labels: np.ndarray,
+    stats_row: Sequence[int],
+    lab: int,
+    min_area: int,
+    row_shift: int = 0,
 ) -> list[Piece]:
     """The regions of each class inside union region ``lab``, where classes touch.
 
     Each class inside the region's box is labelled on its own; pieces under
-    ``min_area`` [px] are dropped.
+    ``min_area`` [px] are dropped. Their boxes and centroids are ``row_shift`` rows
+    below the labels' (:func:`label_rows`).
     """
     x, y, w, h, _ = stats_row
     roi = (slice(y, y + h), slice(x, x + w))
+    y_out = y + row_shift
     region = (labels[roi] == lab).view(np.uint8)
     lo, hi, _, _ = cv2.minMaxLoc(index[roi], mask=region)
     out = []
@@ -286,8 +341,8 @@ def class_pieces(
             sx, sy, sw, sh, sarea = sub_stats[s].tolist()
             if sarea >= min_area:
                 mask = (sub_labels[sy : sy + sh, sx : sx + sw] == s).view(np.uint8)
-                centre = sub_centroids[s] + (x, y)
+                centre = sub_centroids[s] + (x, y_out)
                 out.append(
-                    Piece(i, sarea, (x + sx, y + sy, sw, sh), centre, _elongation(mask), mask)
+                    Piece(i, sarea, (x + sx, y_out + sy, sw, sh), centre, _elongation(mask), mask)
                 )
     return out

@@ -80,6 +80,40 @@ def shape_of_outline(contour: np.ndarray) -> ShapeMeasure:
     return ShapeMeasure(float(fill), shape, yaw)
 
 
+def shapes_of_outlines(contours: Sequence[np.ndarray]) -> list[ShapeMeasure]:
+    """:func:`shape_of_outline` of each outline, the fills and shapes taken at once.
+
+    The same values, bit for bit (each fill is the same float operations), for fewer
+    Python steps per region.
+    """
+    if not contours:
+        return []
+    radius = np.array([cv2.minEnclosingCircle(c)[1] for c in contours])
+    area = np.array([cv2.contourArea(c) for c in contours])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        fill = np.where(radius > 0, area / (math.pi * radius * radius), 0.0)
+    names = np.full(len(fill), "", dtype=object)
+    for spec in reversed(list(SHAPES.values())):  # the first band that holds it wins
+        lo, hi = spec.fill_band
+        names[(lo <= fill) & (fill < hi)] = spec.name
+    out = []
+    for c, f, name in zip(contours, fill.tolist(), names.tolist(), strict=True):
+        if not name:
+            raise AssertionError(f"the catalogue's fill bands miss {f}")
+        yaw = None
+        if SHAPES[name].footprint == "square":
+            yaw = float(cv2.minAreaRect(c)[2]) % 90.0
+        out.append(_shape_measure(f, name, yaw))
+    return out
+
+
+def _shape_measure(fill: float, shape: str, yaw_px_deg: float | None) -> ShapeMeasure:
+    """A :class:`ShapeMeasure` of values already checked (without the generated ``__init__``)."""
+    new = object.__new__(ShapeMeasure)
+    new.__dict__.update(fill=fill, shape=shape, yaw_px_deg=yaw_px_deg)
+    return new
+
+
 def table_yaw_deg(
     pixel_to_table: object, centre_px: npt.ArrayLike, yaw_px_deg: float, symmetry_deg: float = 90.0
 ) -> float:
