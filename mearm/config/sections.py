@@ -410,6 +410,11 @@ class TaskConfig(Strict):
     and the pick is corrected (:mod:`mearm.task.claw_loop`). Only where the tool carries
     a marker (``arm.tool.marker``), the camera has a perspective calibration and the pick
     goes via a point above the object (``approach_height_cm``); ``false``: never."""
+    carry_accel_deg_s2: float | None = Field(default=None, ge=100, le=1e6, allow_inf_nan=False)
+    """While the jaws hold an object, no servo's shaft accelerates faster than this
+    [deg/s²] (nor than its own ``max_accel_deg_s2``): a grip of the top millimetres of an
+    object's side holds at a gentle start and stop and lets go at a servo's full jolt
+    (docs/twin.md); ``null``: only the servos' own limits."""
     clearance_cm: float = Field(default=0.3, ge=0, le=10, allow_inf_nan=False)
     """What the arm's body keeps from every bin and object on every route [cm], checked
     along the whole path before anything moves (the table gets none: the jaws come down

@@ -27,9 +27,10 @@ import numpy as np
 import numpy.typing as npt
 
 from mearm.config import Config
+from mearm.config.servo_calibration import US_PER_SERVO_DEG
 from mearm.hardware.bus import MeasuresTcp, MeasuresWorld, ServoBus
 from mearm.hardware.command import ArmCommand
-from mearm.kinematics import ArmModel
+from mearm.kinematics import ArmModel, Chain
 from mearm.task.route import Route
 from mearm.task.timing import MotionTime, SpeedLimits, TimedPath, time_path, tool_move_s
 
@@ -49,6 +50,23 @@ JOINT_STEP = {False: np.deg2rad(2.0), True: 0.005}
 #: one meshcat round trip per body (about 6.5 ms for the paper arm), which at 1000 Hz
 #: held a paced run back to half speed.
 VIEW_HZ = 60.0
+
+
+def carry_limits(limits: SpeedLimits, config: Config, chain: Chain) -> SpeedLimits:
+    r"""The limits while the jaws hold an object: ``task.carry_accel_deg_s2`` caps each servo.
+
+    A servo's shaft acceleration :math:`a` [deg/s²] is :math:`a\,k_s/k` of its value (as
+    :meth:`~mearm.config.ServoCalibration.max_accel` has it); each servo keeps the lower of
+    that and its own limit. ``limits`` as they are where the task sets no cap.
+    """
+    cap_deg_s2 = config.task.carry_accel_deg_s2
+    if cap_deg_s2 is None:
+        return limits
+    servos = {j.name: j.servo for j in config.arm.joints if j.servo is not None}
+    scale = chain.scale[chain.actuated_index]
+    per_value = [cap_deg_s2 * US_PER_SERVO_DEG / servos[n].us_per_unit for n in chain.actuated]
+    cap = np.array(per_value) * scale
+    return dataclasses.replace(limits, acceleration=np.minimum(limits.acceleration, cap))
 
 
 class View(Protocol):
@@ -94,6 +112,7 @@ class Executor:
         twin_ids: The objects the bus measures (:func:`twin_object_ids`), or ``None``:
             then the view is shown the commanded joints.
         limits: The actuated joints' speed limits (from their servo calibrations).
+        carry_limits: The same while the jaws hold an object (:func:`carry_limits`).
         motion: The motion commanded so far: streamed arm motion and tool settings.
     """
 
@@ -122,6 +141,7 @@ class Executor:
         self._unshown = 0  # moves sent since the view was last shown the world
         self._unshown_q: np.ndarray | None = None  # the last joints sent, not yet shown
         self.limits = SpeedLimits.of_arm(config.arm, self.chain)
+        self.carry_limits = carry_limits(self.limits, config, self.chain)
         self.motion = MotionTime(stream_hz=1.0 / bus.period_s)
 
     # ----------------------------------------------------------------- state
@@ -242,8 +262,10 @@ class Executor:
         self.motion.wait_s += waited
         return waited
 
-    def timed(self, q_path: npt.ArrayLike) -> TimedPath:
+    def timed(self, q_path: npt.ArrayLike, *, carrying: bool = False) -> TimedPath:
         """A planned path sampled within every speed limit (:func:`time_path`).
+
+        ``carrying``: the jaws hold an object, and :attr:`carry_limits` hold.
 
         Its steps are sized for the bus's step time, its duration one bus period a
         command. The two differ on a board that glides each move over its own time and then
@@ -253,7 +275,8 @@ class Executor:
         """
         period = self.bus.period_s  # known in full once the board has answered
         self.motion.stream_hz = 1.0 / period
-        timed = time_path(q_path, self.chain, self.limits, 1.0 / self.bus.step_s)
+        limits = self.carry_limits if carrying else self.limits
+        timed = time_path(q_path, self.chain, limits, 1.0 / self.bus.step_s)
         return dataclasses.replace(timed, period_s=period)
 
     def stream(self, route: Route, phase: Phase, *, closed: bool, color: str = "#202020") -> Route:
@@ -265,7 +288,8 @@ class Executor:
         if not route.planned:
             raise ValueError(f"route {route.step} {route.object_id} is not planned: not sent")
         assert route.plan is not None
-        timed = self.timed(route.plan.q_path)  # in full, checked, before anything is sent
+        # in full, checked, before anything is sent
+        timed = self.timed(route.plan.q_path, carrying=closed)
         if self.view is not None:
             self.view.set_target(route.target.position_cm)
         for q in timed.q[1:]:
@@ -306,7 +330,7 @@ class Executor:
 
     def move_joints(self, q_to: npt.ArrayLike, phase: Phase, *, closed: bool) -> None:
         """Go to ``q_to`` along :meth:`joint_path`, planned and timed in full first."""
-        timed = self.timed(self.joint_path(q_to))
+        timed = self.timed(self.joint_path(q_to), carrying=closed)
         for q in timed.q[1:]:
             self.send(q, phase, closed=closed)
         self.motion.arm_s += timed.duration_s

@@ -238,10 +238,13 @@ COUPLING_SOLIMP = (0.99, 0.999, 0.001, 0.5, 2.0)
 COUPLING_PLAY = 1e-4
 
 #: The pads' contact: a 4 ms time constant, two 2 ms steps, the stiffest MuJoCo nominally
-#: keeps stable; critically damped, impedance 0.99–0.999 over 0.5 mm of penetration.
-#: Softer pads let a held object creep out of the jaws when a move stops (the sweeps:
-#: docs/twin.md).
-PAD_SOLREF = (0.004, 1.0)
+#: keeps stable; impedance 0.99–0.999 over 0.5 mm of penetration. Softer pads let a held
+#: object creep out of the jaws when a move stops (the sweeps: docs/twin.md). Damping
+#: ratio 2, not 1: at a time constant of two steps a critically damped pad rang, the
+#: held object lost one pad every few steps and slid 0.1–0.2 cm down the jaws in a carry
+#: (traced step by step, docs/twin.md); overdamped, a rubber pad's contact neither rings
+#: nor rebounds, and the object stays where the jaws closed on it.
+PAD_SOLREF = (0.004, 2.0)
 PAD_SOLIMP = (0.99, 0.999, 0.0005, 0.5, 2.0)
 #: Names of the ``<custom>`` texts recording the joints' and the gripper's servo models.
 JOINT_SERVO_TEXT = "mearm_joint_servo"
