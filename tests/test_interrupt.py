@@ -41,25 +41,24 @@ ARGV = [
 ]  # fmt: skip
 
 
-def _duration(view: bool) -> float:
-    """How long a run takes: the shorter of two runs after a first one. The first imports
-    what it needs, and a moment of load on a busy machine can slow one run: either, counted
-    in, would put many signals after the run's end."""
-    times = []
-    for _ in range(3):
+def _durations() -> dict[bool, float]:
+    """How long a run takes without and with the view: the shorter of two runs each, after
+    a first run with the view. The first imports what either needs, and a moment of load
+    on a busy machine can slow one run: either, counted in, would put many signals after
+    the run's end."""
+    times: dict[bool, list[float]] = {False: [], True: []}
+    for view in (True, False, True, False, True):
         t0 = time.perf_counter()
         assert sort_main([*ARGV, "--seed", "0", *(["--view"] if view else [])]) == 0
-        times.append(time.perf_counter() - t0)
-    return min(times[1:])
+        times[view].append(time.perf_counter() - t0)
+    return {False: min(times[False]), True: min(times[True][1:])}
 
 
 @pytest.fixture(scope="module")
 def durations(tmp_path_factory: pytest.TempPathFactory) -> dict[bool, float]:
-    """:func:`_duration` without and with the view, measured once per test run (the parts
-    share it: each would otherwise spend six whole runs measuring the same machine)."""
-    return computed_once(
-        tmp_path_factory, "interrupt-durations", lambda: {v: _duration(v) for v in (False, True)}
-    )
+    """:func:`_durations`, measured once per test run (the parts share it: each would
+    otherwise spend five whole runs measuring the same machine)."""
+    return computed_once(tmp_path_factory, "interrupt-durations", _durations)
 
 
 @pytest.fixture

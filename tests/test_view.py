@@ -10,12 +10,14 @@ config's arm (any number of joints, the jaws as joints) is drawn and rendered to
 from __future__ import annotations
 
 import importlib
+import json
 import os
 import re
 import signal
 import socket
 import subprocess
 import sys
+import urllib.request
 from pathlib import Path
 
 import cv2
@@ -37,6 +39,7 @@ from mearm.kinematics import ArmModel, jaw_joint_names
 from mearm.sim import SimCamera, World
 from mearm.view import (
     ArmView,
+    HeadlessBrowser,
     SceneLayout,
     ViewCamera,
     find_browser,
@@ -54,6 +57,14 @@ W, H = 960, 600  # screenshot size [px]
 
 
 # --------------------------------------------------------------------------- helpers
+
+
+@pytest.fixture(scope="module")
+def chromium():
+    """One headless Chromium for this module's in-process renders (each in a tab of its
+    own); ``test_preview_screenshot_renders_the_arm`` starts one as a user's command does."""
+    with HeadlessBrowser(browser_or_skip()) as running:
+        yield running
 
 
 @pytest.fixture
@@ -575,10 +586,42 @@ def test_screenshot_checks_its_arguments(tmp_path):
 
 
 @pytest.mark.heavy
-def test_render_shows_the_arm_and_objects_where_they_are(model: ArmModel, tmp_path):
+def test_a_running_browser_closes_the_tab_it_drew_in(
+    view: ArmView, tmp_path, chromium: HeadlessBrowser
+):
+    """A picture drawn in a running browser shows the arm and leaves no tab behind."""
+    port = int(chromium._ws_url.split(":")[2].split("/")[0])
+
+    def pages() -> list[dict]:
+        with urllib.request.urlopen(f"http://127.0.0.1:{port}/json/list", timeout=10) as r:
+            return [t for t in json.loads(r.read()) if t["type"] == "page"]
+
+    before = len(pages())
+    png = view.screenshot(tmp_path / "a.png", width_px=W, height_px=H, session=chromium)
+    img = cv2.imread(str(png))
+    assert img.shape == (H, W, 3)
+    assert hsv_mask(img, "orange").sum() > 300
+    assert len(pages()) == before
+
+
+def test_a_closed_browser_has_ended_and_left_no_profile(tmp_path):
+    """Closing a running browser ends its process and removes its profile; it draws no more."""
+    running = HeadlessBrowser(browser_or_skip())
+    proc, profile = running._proc, Path(running._profile.name)
+    assert proc is not None and proc.poll() is None and profile.is_dir()
+    running.close()
+    running.close()
+    assert proc.poll() is not None and not profile.exists()
+    with pytest.raises(ViewError, match="closed"):
+        screenshot("http://127.0.0.1:1/", tmp_path / "x.png", session=running)
+
+
+@pytest.mark.heavy
+def test_render_shows_the_arm_and_objects_where_they_are(
+    model: ArmModel, tmp_path, chromium: HeadlessBrowser
+):
     """In Chromium's render of the arm at home, the 12 paper objects, the bins, the
     target and the camera frame, each thing's colour is at its projected place."""
-    browser = browser_or_skip()
     world = World.from_config(CONFIG)
     frame = SimCamera(CONFIG, world).read()
     target_cm = np.array([12.0, 30.0, 12.76])
@@ -586,7 +629,7 @@ def test_render_shows_the_arm_and_objects_where_they_are(model: ArmModel, tmp_pa
         v.set_objects(world.objects)
         v.set_camera_frame(frame, CAL.pixel_to_table)
         v.set_target(target_cm)
-        png = v.screenshot(tmp_path / "view.png", width_px=W, height_px=H, browser=browser)
+        png = v.screenshot(tmp_path / "view.png", width_px=W, height_px=H, session=chromium)
         cam = v.camera
     img = cv2.imread(str(png))
     assert img.shape == (H, W, 3)
@@ -805,14 +848,13 @@ def test_each_reference_layout_keeps_bins_apart_and_on_the_table(reference):
 
 
 @pytest.mark.heavy
-def test_each_reference_arm_renders(reference, tmp_path):
+def test_each_reference_arm_renders(reference, tmp_path, chromium: HeadlessBrowser):
     """A render of each reference arm at home with its scene is not empty: the arm's
     orange shows along its links, and the whole arm is inside the picture."""
-    browser = browser_or_skip()
     name, config, model = reference
     with ArmView(model, config, port=0) as v:
         v.set_objects(World.from_config(config).objects)
-        png = v.screenshot(tmp_path / "view.png", width_px=W, height_px=H, browser=browser)
+        png = v.screenshot(tmp_path / "view.png", width_px=W, height_px=H, session=chromium)
         cam = v.camera
     img = cv2.imread(str(png))
     assert img.shape == (H, W, 3)

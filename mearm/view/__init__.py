@@ -13,7 +13,12 @@ warnings.filterwarnings(
 )
 
 from mearm.view.arm_view import ArmView, TwinBody, ViewObject, rgb_int  # noqa: E402
-from mearm.view.browser import SceneCounts, find_browser, screenshot  # noqa: E402
+from mearm.view.browser import (  # noqa: E402
+    HeadlessBrowser,
+    SceneCounts,
+    find_browser,
+    screenshot,
+)
 from mearm.view.frame_plane import FramePlane, frame_plane  # noqa: E402
 from mearm.view.layout import SceneLayout  # noqa: E402
 from mearm.view.server import MeshcatServer  # noqa: E402
@@ -23,6 +28,7 @@ __all__ = [
     "DEFAULT_CAMERA",
     "ArmView",
     "FramePlane",
+    "HeadlessBrowser",
     "MeshcatServer",
     "SceneLayout",
     "SceneCounts",

@@ -7,7 +7,8 @@ object only once its image has been decoded, which virtual time does not wait fo
 the page is driven over the DevTools protocol instead: the picture is taken once the
 viewer has received the expected number of messages, holds the expected number of
 objects, and has drawn two more frames. WebGL runs on SwiftShader, the CPU
-renderer, so no GPU or display is needed.
+renderer, so no GPU or display is needed. A :class:`HeadlessBrowser` kept running draws
+many pages, one tab each, for callers that take many pictures.
 
 Nothing is left behind, whatever ends the screenshot: the browser runs in a process
 group of its own, which is ended as a whole (its helper processes too), and its
@@ -267,9 +268,97 @@ async def _capture(
             await asyncio.sleep(0.5)
         await tools.call("Runtime.evaluate", sid, expression=_TWO_FRAMES_JS, awaitPromise=True)
         shot = await tools.call("Page.captureScreenshot", sid, format="png")
+        # a browser that draws more pages keeps no old tab (after a failure it is ended)
+        await tools.call("Target.closeTarget", targetId=target["targetId"])
         return base64.b64decode(shot["data"])
     finally:
         conn.close()
+
+
+class HeadlessBrowser:
+    """One headless Chromium that renders pages, each in a tab of its own, until closed.
+
+    :func:`screenshot` starts one for its picture and ends it; a caller that takes many
+    pictures may keep one running and pass it as ``session`` (the browser's start and its
+    CPU renderer's warm-up are then paid once). Use it as a context manager: on leaving,
+    the browser's process group is ended and its temporary profile removed.
+    """
+
+    def __init__(
+        self,
+        browser: str | None = None,
+        *,
+        window_px: tuple[int, int] = (1280, 800),
+        timeout_s: float = 60.0,
+    ):
+        """Start the browser and wait for its DevTools port.
+
+        Args:
+            browser: The browser executable; default :func:`find_browser`.
+            window_px: Its window size (each page sets its own viewport) [px].
+            timeout_s: Give up waiting for the port after this long [s].
+
+        Raises:
+            BrowserNotFoundError: No browser.
+            ViewError: It cannot run, or exited or did not open its port in time.
+        """
+        exe = browser or find_browser()
+        # its own temporary files (org.chromium.Chromium.*, which it leaves in $TMPDIR
+        # even when it quits) go into the profile, removed with it
+        self._profile = tempfile.TemporaryDirectory(
+            prefix="mearm-chromium-", ignore_cleanup_errors=True
+        )
+        profile = self._profile.name
+        cmd = [
+            exe,
+            *HEADLESS_FLAGS,
+            f"--user-data-dir={profile}",
+            f"--window-size={window_px[0]},{window_px[1]}",
+            "about:blank",
+        ]
+        self._proc: subprocess.Popen | None = None
+        try:
+            try:
+                self._proc = subprocess.Popen(
+                    cmd,
+                    stdin=subprocess.DEVNULL,
+                    stdout=subprocess.DEVNULL,
+                    stderr=subprocess.DEVNULL,
+                    start_new_session=True,  # its own group: ended as a whole, not by Ctrl-C
+                    env={**os.environ, "TMPDIR": profile},
+                )
+            except OSError as exc:
+                raise ViewError(f"cannot run {exe}: {exc}") from None
+            self._ws_url = _devtools_url(Path(profile), self._proc, time.monotonic() + timeout_s)
+        except BaseException:
+            self.close()
+            raise
+
+    def render(
+        self, url: str, size: tuple[int, int], expect: SceneCounts | None, deadline: float
+    ) -> bytes:
+        """PNG bytes of ``url`` drawn in a new tab of ``size`` px (see :func:`screenshot`)."""
+        if self._proc is None:
+            raise ViewError("the browser was closed")
+        try:
+            return asyncio.run(_capture(self._ws_url, url, size, expect, deadline))
+        except (OSError, tornado.websocket.WebSocketClosedError) as exc:
+            raise ViewError(f"lost the browser while rendering {url}: {exc}") from None
+
+    def close(self) -> None:
+        """End the browser's process group and remove its profile. Safe to call twice."""
+        proc, self._proc = self._proc, None
+        try:
+            if proc is not None:
+                _end_group(proc)
+        finally:
+            self._profile.cleanup()
+
+    def __enter__(self) -> HeadlessBrowser:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
 
 
 def screenshot(
@@ -281,6 +370,7 @@ def screenshot(
     expect: SceneCounts | None = None,
     timeout_s: float = 60.0,
     browser: str | None = None,
+    session: HeadlessBrowser | None = None,
 ) -> Path:
     """Render the meshcat page ``url`` in headless Chromium to a ``width_px`` × ``height_px`` PNG.
 
@@ -294,6 +384,8 @@ def screenshot(
             and half a second more.
         timeout_s: Give up after this long [s].
         browser: The browser executable; default :func:`find_browser`.
+        session: A running :class:`HeadlessBrowser` to draw in (a new tab, closed after;
+            ``browser`` is then unused); default: start one for this picture, end it after.
 
     Returns:
         The PNG's path.
@@ -311,41 +403,16 @@ def screenshot(
     for name, value in (("width_px", width_px), ("height_px", height_px)):
         if not 16 <= value <= 8192:
             raise ViewInputError(name, value, "a size in [16, 8192] px")
-    exe = browser or find_browser()
+    size = (width_px, height_px)
     deadline = time.monotonic() + timeout_s
-    with (
-        _signals_unwind(),
-        tempfile.TemporaryDirectory(
-            prefix="mearm-chromium-", ignore_cleanup_errors=True
-        ) as profile,
-    ):
-        cmd = [
-            exe,
-            *HEADLESS_FLAGS,
-            f"--user-data-dir={profile}",
-            f"--window-size={width_px},{height_px}",
-            "about:blank",
-        ]
-        try:
-            proc = subprocess.Popen(
-                cmd,
-                stdin=subprocess.DEVNULL,
-                stdout=subprocess.DEVNULL,
-                stderr=subprocess.DEVNULL,
-                start_new_session=True,  # its own group: ended as a whole, not by Ctrl-C
-                # its own temporary files (org.chromium.Chromium.*, which it leaves in
-                # $TMPDIR even when it quits) go into the profile, removed with it
-                env={**os.environ, "TMPDIR": profile},
-            )
-        except OSError as exc:
-            raise ViewError(f"cannot run {exe}: {exc}") from None
-        try:
-            ws_url = _devtools_url(Path(profile), proc, deadline)
-            png = asyncio.run(_capture(ws_url, url, (width_px, height_px), expect, deadline))
-        except (OSError, tornado.websocket.WebSocketClosedError) as exc:
-            raise ViewError(f"lost the browser while rendering {url}: {exc}") from None
-        finally:
-            _end_group(proc)
+    with _signals_unwind():
+        if session is not None:
+            png = session.render(url, size, expect, deadline)
+        else:
+            exe = browser or find_browser()
+            start_s = deadline - time.monotonic()
+            with HeadlessBrowser(exe, window_px=size, timeout_s=start_s) as own:
+                png = own.render(url, size, expect, deadline)
     try:
         write_atomic(out, png)
     except OSError as exc:
