@@ -115,7 +115,11 @@ class ServoCalibration(Strict):
         """The acceleration limit of the value [deg/s² or cm/s²], or ``None`` if not given."""
         if self.max_accel_deg_s2 is None:
             return None
-        return self.max_accel_deg_s2 * US_PER_SERVO_DEG / self.us_per_unit
+        return self.value_accel(self.max_accel_deg_s2)
+
+    def value_accel(self, shaft_deg_s2: float) -> float:
+        """The value's acceleration [deg/s² or cm/s²] when the shaft's is ``shaft_deg_s2``."""
+        return shaft_deg_s2 * US_PER_SERVO_DEG / self.us_per_unit
 
     def value_range(self) -> tuple[float, float]:
         """The values at ``min_us`` and ``max_us``, ascending."""

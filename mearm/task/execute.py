@@ -27,7 +27,6 @@ import numpy as np
 import numpy.typing as npt
 
 from mearm.config import Config
-from mearm.config.servo_calibration import US_PER_SERVO_DEG
 from mearm.hardware.bus import MeasuresTcp, MeasuresWorld, ServoBus
 from mearm.hardware.command import ArmCommand
 from mearm.kinematics import ArmModel, Chain
@@ -56,7 +55,7 @@ def carry_limits(limits: SpeedLimits, config: Config, chain: Chain) -> SpeedLimi
     r"""The limits while the jaws hold an object: ``task.carry_accel_deg_s2`` caps each servo.
 
     A servo's shaft acceleration :math:`a` [deg/s²] is :math:`a\,k_s/k` of its value (as
-    :meth:`~mearm.config.ServoCalibration.max_accel` has it); each servo keeps the lower of
+    :meth:`~mearm.config.ServoCalibration.value_accel` has it); each servo keeps the lower of
     that and its own limit. ``limits`` as they are where the task sets no cap.
     """
     cap_deg_s2 = config.task.carry_accel_deg_s2
@@ -64,8 +63,7 @@ def carry_limits(limits: SpeedLimits, config: Config, chain: Chain) -> SpeedLimi
         return limits
     servos = {j.name: j.servo for j in config.arm.joints if j.servo is not None}
     scale = chain.scale[chain.actuated_index]
-    per_value = [cap_deg_s2 * US_PER_SERVO_DEG / servos[n].us_per_unit for n in chain.actuated]
-    cap = np.array(per_value) * scale
+    cap = np.array([servos[n].value_accel(cap_deg_s2) for n in chain.actuated]) * scale
     return dataclasses.replace(limits, acceleration=np.minimum(limits.acceleration, cap))
 
 
