@@ -59,7 +59,7 @@ PYTEST := env -u PYTHONDONTWRITEBYTECODE PYTHONPYCACHEPREFIX=$(CURDIR)/$(VENV)/p
           $(BIN)/python -m pytest -q --dist worksteal
 
 test: $(STAMP)
-	$(PYTEST) -n $(JOBS)
+	$(PYTEST) -n $(JOBS) --durations=30
 
 test-fast: $(STAMP)
 	$(PYTEST) -n $(FAST_JOBS) -m "not slow and not heavy"
