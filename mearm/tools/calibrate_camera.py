@@ -34,15 +34,24 @@ It writes the pose file (never over a better one without ``--force``), prints th
 reprojection error of the corners [px] and the marker centres' table error [cm], and,
 with ``--config``, points that config's ``calibration`` at the two files
 (``model: perspective``).
+
+**A pose that holds above the table.** Fitted to one plane, the pose turns the camera
+to make up for a principal point a pixel off, which is right on that plane only. A
+second picture of markers lying on a box of measured height (``--raised-image``,
+``--raised-height-cm``, ``--raised-marker ID:X,Y`` each, the centres measured as on
+the table) puts points at two heights into one (non-planar) pose fit, which that
+rotation no longer fits.
 """
 
 from __future__ import annotations
 
 import argparse
 import io
+import math
 import stat
 import sys
 from collections.abc import Sequence
+from dataclasses import dataclass, replace
 from datetime import date
 from pathlib import Path
 
@@ -79,6 +88,10 @@ from mearm.yamlio import load_yaml_text, read_text_file
 MAX_PIXEL = 65_535.0
 #: Largest printed marker side [cm].
 MAX_MARKER_SIDE_CM = 100.0
+#: Tallest support of the raised view [cm]: the camera must see its markers whole.
+MAX_RAISED_HEIGHT_CM = 100.0
+#: Fewest markers on the raised support: spread along x and y.
+MIN_RAISED_MARKERS = 3
 
 
 def _numbers(text: str, n: int, what: str, limit: float) -> list[float]:
@@ -216,34 +229,90 @@ def point_config_at_files(
     return _dumped(y, data, source)
 
 
-def fit_pose(
-    frame: object,
-    intrinsics: Intrinsics,
+@dataclass(frozen=True)
+class RaisedView:
+    """Markers lying on a support above the table, and the picture of them.
+
+    Attributes:
+        frame: The picture, (h, w, 3) uint8 BGR.
+        centers: Marker id → its centre (x, y) in the base frame [cm].
+        height_cm: The support's top above the table [cm].
+        name: What the messages call the picture (its file name).
+    """
+
+    frame: np.ndarray
+    centers: dict[int, tuple[float, float]]
+    height_cm: float
+    name: str
+
+
+def _marker_points(
+    frame: np.ndarray,
     centers: dict[int, tuple[float, float]],
     side_cm: float,
     dictionary: str,
-) -> tuple[Extrinsics, float, float]:
-    """The camera's pose from the markers, and the centres' table error (rms, max) [cm].
-
-    Raises:
-        CalibrationError: the frame is not the intrinsics' size, a marker is missing, or
-            no pose fits.
-    """
-    assert isinstance(frame, np.ndarray)
-    h, w = frame.shape[:2]
-    if (w, h) != intrinsics.size_px:
-        raise CalibrationError(
-            f"the image is {w}x{h} px but the intrinsics are for "
-            f"{intrinsics.size_px[0]}x{intrinsics.size_px[1]} px: take the picture at that size"
-        )
+    z_cm: float,
+) -> tuple[dict[int, np.ndarray], np.ndarray, np.ndarray]:
+    """The markers found, their corners' pixels (N, 2) and base-frame points (N, 3) [cm]."""
     found = find_markers(frame, centers, dictionary)
     pixels: list[np.ndarray] = []
     points: list[np.ndarray] = []
     for marker_id, centre in sorted(centers.items()):
         pixels.extend(found[marker_id])
         points.extend(table_corners_cm(centre, side_cm))
-    pts3 = np.column_stack([np.array(points), np.zeros(len(points))])
-    pose = solve_pose(intrinsics, np.array(pixels), pts3, markers=len(centers))
+    pts3 = np.column_stack([np.array(points), np.full(len(points), z_cm)])
+    return found, np.array(pixels), pts3
+
+
+def _check_size(frame: np.ndarray, intrinsics: Intrinsics, name: str) -> None:
+    h, w = frame.shape[:2]
+    if (w, h) != intrinsics.size_px:
+        raise CalibrationError(
+            f"{name}is {w}x{h} px but the intrinsics are for "
+            f"{intrinsics.size_px[0]}x{intrinsics.size_px[1]} px: take the picture at that size"
+        )
+
+
+def fit_pose(
+    frame: object,
+    intrinsics: Intrinsics,
+    centers: dict[int, tuple[float, float]],
+    side_cm: float,
+    dictionary: str,
+    raised: RaisedView | None = None,
+) -> tuple[Extrinsics, float, float]:
+    """The camera's pose from the markers, and the centres' table error (rms, max) [cm].
+
+    With ``raised``, the raised view's corners (at z = its height) join the table's in
+    one fit: points at two heights, so no rotation can stand in for a principal-point
+    error as it does on one plane.
+
+    Raises:
+        CalibrationError: a picture is not the intrinsics' size, a marker is missing, or
+            no pose fits.
+    """
+    assert isinstance(frame, np.ndarray)
+    _check_size(frame, intrinsics, "the image ")
+    found, pixels, pts3 = _marker_points(frame, centers, side_cm, dictionary, 0.0)
+    markers = len(centers)
+    if raised is not None:
+        _check_size(raised.frame, intrinsics, f"the raised view {raised.name} ")
+        try:
+            _, px_up, pts_up = _marker_points(
+                raised.frame, raised.centers, side_cm, dictionary, raised.height_cm
+            )
+        except CalibrationError as exc:
+            raise CalibrationError(f"the raised view {raised.name}: {exc.reason}") from None
+        pixels, pts3 = np.vstack([pixels, px_up]), np.vstack([pts3, pts_up])
+        markers += len(raised.centers)
+    pose = solve_pose(intrinsics, pixels, pts3, markers=markers)
+    if raised is not None:
+        if pose.position_cm[2] <= raised.height_cm:
+            raise CalibrationError(
+                f"the fitted pose puts the camera at {pose.position_cm[2]:.1f} cm, not above "
+                f"the {raised.height_cm:g} cm support: check --raised-height-cm and the markers"
+            )
+        pose = replace(pose, raised_cm=raised.height_cm)
     camera = PerspectiveCamera(intrinsics, pose)
     seen = camera.pixel_to_table(np.array([diagonal_center(found[i]) for i in sorted(centers)]))
     err = np.linalg.norm(seen - np.array([centers[i] for i in sorted(centers)]), axis=1)
@@ -308,6 +377,17 @@ def _parser() -> ArgumentParser:
     )  # fmt: skip
     parser.add_argument("--out", type=Path, help="with --intrinsics: the pose file to write")
     parser.add_argument(
+        "--raised-image", type=Path,
+        help="with --intrinsics: a picture of markers on a support above the table",
+    )  # fmt: skip
+    parser.add_argument(
+        "--raised-height-cm", type=float, help="the support's top above the table [cm]"
+    )
+    parser.add_argument(
+        "--raised-marker", type=parse_marker, action="append", default=[], metavar="ID:X,Y",
+        help="a marker on the support: its id and its centre's position [cm] (3 or more)",
+    )  # fmt: skip
+    parser.add_argument(
         "--force", action="store_true", help="replace a better calibration than the new one"
     )
     parser.add_argument("--dry-run", action="store_true", help="fit and print; write nothing")
@@ -328,11 +408,39 @@ def _check_arguments(parser: ArgumentParser, args: argparse.Namespace) -> None:
         for flag, path in (("--output", args.output), ("--out", args.out)):
             if path is not None:
                 check_output_file(path, flag)
+    _check_raised(parser, args)
     if args.marker_side_cm is not None and not 0 < args.marker_side_cm <= MAX_MARKER_SIDE_CM:
         parser.error(
             f"--marker-side-cm must be in (0, {MAX_MARKER_SIDE_CM:g}] cm, "
             f"got {args.marker_side_cm:g}"
         )
+
+
+def _check_raised(parser: ArgumentParser, args: argparse.Namespace) -> None:
+    """Exit 2 on a raised view's arguments that are missing, alone or out of range."""
+    given = args.raised_height_cm is not None or bool(args.raised_marker)
+    if args.raised_image is None:
+        if given:
+            parser.error("--raised-height-cm and --raised-marker need --raised-image")
+        return
+    if args.intrinsics is None:
+        parser.error("--raised-image is for the camera's pose: it needs --intrinsics")
+    h = args.raised_height_cm
+    if h is None:
+        parser.error("--raised-image needs --raised-height-cm (the support's measured height)")
+    if not (math.isfinite(h) and 0 < h <= MAX_RAISED_HEIGHT_CM):
+        parser.error(
+            f"--raised-height-cm must be in (0, {MAX_RAISED_HEIGHT_CM:g}] cm, got {h:g}: the "
+            "height of the support's top above the table"
+        )
+    ids = [i for i, _ in args.raised_marker]
+    if len(set(ids)) < MIN_RAISED_MARKERS:
+        parser.error(
+            f"--raised-image needs --raised-marker ID:X,Y for {MIN_RAISED_MARKERS} or more "
+            f"markers on the support, got {len(set(ids))}"
+        )
+    if len(set(ids)) != len(ids):
+        parser.error("each --raised-marker id may be given once")
 
 
 def _fit_homography(
@@ -433,12 +541,24 @@ def _pose(parser: ArgumentParser, args: argparse.Namespace) -> int:
             raise ConfigError(exc.path, [exc.reason]) from None
         load_yaml_text(config_text, source=str(args.config))  # refused before any fitting
     frame = read_image(args.image)
+    raised = None
+    if args.raised_image is not None:
+        raised = RaisedView(
+            read_image(args.raised_image),
+            dict(args.raised_marker),
+            args.raised_height_cm,
+            args.raised_image.name,
+        )
     pose, rms_cm, max_cm = fit_pose(
-        frame, intrinsics, centers, args.marker_side_cm, args.dictionary
+        frame, intrinsics, centers, args.marker_side_cm, args.dictionary, raised
     )
     c = pose.position_cm
     tilt = float(np.degrees(np.arccos(np.clip(-pose.rotation[2, 2], -1.0, 1.0))))
     print(f"fitted the camera's pose from {len(centers)} ArUco markers in {args.image.name}")
+    if raised is not None:
+        print(
+            f"  and {len(raised.centers)} in {raised.name}, {raised.height_cm:g} cm above the table"
+        )
     print(f"reprojection error of the corners: rms {pose.rms_px:.3f} px")
     print(f"marker centres on the table: rms {rms_cm:.4f} cm, max {max_cm:.4f} cm")
     print(

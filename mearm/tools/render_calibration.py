@@ -10,6 +10,12 @@ and ``OUT/sheet_markers.txt`` (the ``--marker ID:X,Y`` arguments and ``--marker-
 for the calibration tool). The frames go through the twin camera's lens
 (``twin.camera``; unset, the default straight-down camera).
 
+``--raised-height-cm H`` also writes ``OUT/raised.png``: six of the markers lying on a
+box H cm tall standing on the table
+(:func:`~mearm.sim.twin.calibration_scenes.raised_sheet_layout`), and
+``OUT/raised_markers.txt`` (their ``--raised-marker ID:X,Y`` arguments and
+``--raised-height-cm``), for a pose fitted at two heights.
+
 ``--truth`` also writes ``OUT/truth_intrinsics.yaml`` and ``OUT/truth_pose.yaml``: the
 twin's own camera, as a perfect calibration would find it. A config pointed at them
 (``calibration.intrinsics_file``, ``calibration.extrinsics_file``) tells what the camera's
@@ -18,8 +24,10 @@ calibration costs a measurement from what the rest costs.
 
 from __future__ import annotations
 
+import argparse
 from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import cv2
 import numpy as np
@@ -28,6 +36,9 @@ from mearm.cli import ArgumentParser, add_config_argument, config_from_args, run
 from mearm.config import Config
 from mearm.errors import MearmError
 from mearm.fileio import write_atomic
+
+if TYPE_CHECKING:
+    from mearm.sim.twin.calibration_scenes import Support
 
 #: Most board views one run renders.
 MAX_VIEWS = 200
@@ -80,6 +91,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         "--noise-std", type=_noise, default=0.0, help="Gaussian noise, 8-bit levels (0)"
     )
     parser.add_argument(
+        "--raised-height-cm", type=_height, default=None,
+        help="also render markers on a box this tall [cm]: raised.png, raised_markers.txt",
+    )  # fmt: skip
+    parser.add_argument(
         "--truth",
         action="store_true",
         help="also write the twin's own camera as truth_intrinsics.yaml and truth_pose.yaml",
@@ -107,11 +122,15 @@ def main(argv: Sequence[str] | None = None) -> int:
     from mearm.sim.twin.calibration_scenes import (
         SHEET_SIDE_CM,
         default_sheet_layout,
+        raised_sheet_layout,
         render_board_views,
         render_sheet,
     )
 
     layout = default_sheet_layout(config)
+    raised = None
+    if args.raised_height_cm is not None:  # refused (exit 2) before anything is rendered
+        raised = raised_sheet_layout(config, args.raised_height_cm)
     sheet = render_sheet(config, layout, SHEET_SIDE_CM, noise_std=args.noise_std, seed=args.seed)
     frames = render_board_views(config, args.views, args.seed, noise_std=args.noise_std)
     written = []
@@ -129,15 +148,64 @@ def main(argv: Sequence[str] | None = None) -> int:
     except OSError as exc:
         raise MearmError(f"cannot write {markers_txt}: {exc.strerror or exc}") from None
     written.append(markers_txt)
+    if raised is not None:
+        written += _write_raised(config, args, *raised)
     if args.truth:
         written += _write_truth(config, args.out)
     print(
         f"wrote {len(frames)} board views ({args.out / 'board_00.png'} …), "
         f"{args.out / 'sheet.png'} ({len(layout)} markers of {SHEET_SIDE_CM:g} cm) "
         f"and {markers_txt}"
+        + (
+            f"; markers on a box {args.raised_height_cm:g} cm tall in {args.out / 'raised.png'}"
+            if raised is not None
+            else ""
+        )
         + (f"; the twin's own camera in {written[-2]} and {written[-1]}" if args.truth else "")
     )
     return 0
+
+
+def _height(text: str) -> float:
+    import argparse
+    import math
+
+    from mearm.sim.twin.calibration_scenes import MAX_SUPPORT_CM
+
+    try:
+        value = float(text)
+    except ValueError:
+        value = float("nan")
+    if not (math.isfinite(value) and 0 < value <= MAX_SUPPORT_CM):
+        raise argparse.ArgumentTypeError(
+            f"--raised-height-cm must be a number in (0, {MAX_SUPPORT_CM:g}] cm, got {text[:40]!r}"
+        )
+    return value
+
+
+def _write_raised(
+    config: Config,
+    args: argparse.Namespace,
+    layout: dict[int, tuple[float, float]],
+    support: Support,
+) -> list[Path]:
+    """The raised view and its arguments: markers on a box ``--raised-height-cm`` tall."""
+    from mearm.sim.twin.calibration_scenes import SHEET_SIDE_CM, render_sheet
+
+    h = args.raised_height_cm
+    frame = render_sheet(
+        config, layout, SHEET_SIDE_CM, noise_std=args.noise_std, seed=args.seed, support=support
+    )
+    image = args.out / "raised.png"
+    _write_png(image, frame)
+    lines = [f"--raised-marker {i}:{x:g},{y:g}" for i, (x, y) in layout.items()]
+    lines.append(f"--raised-height-cm {h:g}")
+    text = args.out / "raised_markers.txt"
+    try:
+        write_atomic(text, "\n".join(lines) + "\n")
+    except OSError as exc:
+        raise MearmError(f"cannot write {text}: {exc.strerror or exc}") from None
+    return [image, text]
 
 
 def _write_truth(config: Config, out: Path) -> list[Path]:

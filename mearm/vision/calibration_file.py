@@ -187,6 +187,9 @@ class Extrinsics:
         size_px: The frame size of the intrinsics it was fitted with.
         date: When it was made (ISO 8601).
         refined_by_arm: Whether the arm's check (:mod:`mearm.task.armcheck`) refined it.
+        raised_cm: The height of the raised view's support when it was fitted to markers
+            there too [cm] (``None``: to the table's only); such a pose holds above the
+            table, which a rotation fitted to one plane does not.
     """
 
     rotation: np.ndarray
@@ -197,6 +200,7 @@ class Extrinsics:
     size_px: tuple[int, int] = (640, 480)
     date: str = field(default_factory=today)
     refined_by_arm: bool = False
+    raised_cm: float | None = None
 
     kind = "extrinsics"
 
@@ -210,6 +214,11 @@ class Extrinsics:
         object.__setattr__(self, "rotation", R)
         object.__setattr__(self, "position_cm", C)
         object.__setattr__(self, "size_px", _size_px(self.size_px))
+        if self.raised_cm is not None:
+            h = float(_matrix("raised_cm", [self.raised_cm], (1,), MAX_CAMERA_DISTANCE_CM)[0])
+            if h <= 0:
+                raise CalibrationError(f"raised_cm must be above the table, got {h:g}")
+            object.__setattr__(self, "raised_cm", h)
 
     @classmethod
     def from_rvec_tvec(cls, rvec: npt.ArrayLike, tvec: npt.ArrayLike, **kw: Any) -> Extrinsics:
@@ -227,13 +236,16 @@ class Extrinsics:
 
     def to_dict(self) -> dict[str, Any]:
         """The file's fields (the header is added by :func:`save_calibration`)."""
-        return {
+        fields = {
             "rotation": [[float(v) for v in row] for row in self.rotation],
             "position_cm": [float(v) for v in self.position_cm],
             "rms_px": float(self.rms_px),
             "markers": int(self.markers),
             "refined_by_arm": bool(self.refined_by_arm),
         }
+        if self.raised_cm is not None:  # absent from a table-only pose's file, as before
+            fields["raised_cm"] = float(self.raised_cm)
+        return fields
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any], header: Mapping[str, Any]) -> Extrinsics:
@@ -247,6 +259,7 @@ class Extrinsics:
             size_px=header["resolution"],
             date=str(header["date"]),
             refined_by_arm=bool(data.get("refined_by_arm", False)),
+            raised_cm=data.get("raised_cm"),
         )
 
 
@@ -336,6 +349,10 @@ def save_calibration(path: str | Path, cal: CalibrationFile, *, force: bool = Fa
     return write_atomic(target, calibration_text(cal))
 
 
+def _raised(cal: CalibrationFile) -> bool:
+    return isinstance(cal, Extrinsics) and cal.raised_cm is not None
+
+
 def _check_replace(target: Path, cal: CalibrationFile) -> None:
     try:
         old = load_calibration(target)
@@ -350,6 +367,14 @@ def _check_replace(target: Path, cal: CalibrationFile) -> None:
             f"{old.size_px[0]}x{old.size_px[1]} px; the new one is the {cal.kind} of "
             f"{cal.camera_id!r} at {cal.size_px[0]}x{cal.size_px[1]} px: pass --force to "
             "replace it, or write elsewhere"
+        )
+    if _raised(cal) and not _raised(old):
+        return  # a pose that holds above the table beats a lower rms on the table alone
+    if isinstance(old, Extrinsics) and old.raised_cm is not None and not _raised(cal):
+        raise CalibrationError(
+            f"{target} holds a pose fitted on the table and {old.raised_cm:g} cm above it "
+            f"({old.date}), which holds above the table; the new one is fitted on the table "
+            "only: kept; add the raised view (--raised-image), or pass --force to replace it"
         )
     if cal.rms_px > old.rms_px:
         raise CalibrationError(

@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
+from dataclasses import dataclass
 
 import cv2
 import mujoco
@@ -61,6 +62,10 @@ BOARD_MIN_IN_VIEW = 0.75
 BOARD_EDGE_PX = 4.0
 #: The default marker sheet's marker side [cm].
 SHEET_SIDE_CM = 4.0
+#: The raised view's markers: their widest spacing along x and y [cm], and the tallest
+#: support [cm].
+RAISED_SPACING_CM = (16.0, 12.0)
+MAX_SUPPORT_CM = 40.0
 
 
 def _quad_mesh(
@@ -318,13 +323,154 @@ def default_sheet_layout(
     return layout
 
 
+@dataclass(frozen=True)
+class Support:
+    """A box standing on the table, its top level: the raised view's markers lie on it.
+
+    Attributes:
+        centre_cm: Its centre on the table (x, y) [cm].
+        size_cm: Its top's sides along x and y [cm].
+        height_cm: Its top's height above the table [cm].
+    """
+
+    centre_cm: tuple[float, float]
+    size_cm: tuple[float, float]
+    height_cm: float
+
+
+def raised_sheet_layout(
+    config: Config, height_cm: float, side_cm: float = SHEET_SIDE_CM
+) -> tuple[dict[int, tuple[float, float]], Support]:
+    """Markers (3 × 2, else 2 × 2; ids 0, 1, …) on a box ``height_cm`` tall, and the box.
+
+    The box stands at the middle of :func:`default_sheet_layout`'s field, or as near it
+    as keeps it 1 cm clear of the bins; the markers are spread as far as the twin's
+    camera still sees each whole at that height (:data:`RAISED_SPACING_CM` at most),
+    the box's top one margin wider than they are.
+
+    Raises:
+        CalibrationError: ``height_cm`` not in (0, :data:`MAX_SUPPORT_CM`], or not even four
+            markers fit in the camera's view at that height clear of the bins.
+    """
+    if not (math.isfinite(height_cm) and 0 < height_cm <= MAX_SUPPORT_CM):
+        raise CalibrationError(
+            f"the support's height must be in (0, {MAX_SUPPORT_CM:g}] cm, got {height_cm!r}"
+        )
+    xy = np.array(list(default_sheet_layout(config, side_cm).values()))
+    middle = (xy.min(axis=0) + xy.max(axis=0)) / 2
+    modules = get_dictionary(DEFAULT_DICTIONARY).markerSize + 2
+    half = side_cm / 2 * (modules + 2 * MARKER_MARGIN_MODULES) / modules
+    shifts = sorted(
+        ((dx, dy) for dx in range(-12, 13, 2) for dy in range(-6, 7, 2)),
+        key=lambda d: (math.hypot(*d), d),
+    )  # the middle first, then ever further from it
+    for grid in ((3, 2), (2, 2)):
+        sx, sy = RAISED_SPACING_CM
+        while min(sx, sy) >= 2 * half + 0.5:
+            for dx, dy in shifts:
+                centre = (float(middle[0] + dx), float(middle[1] + dy))
+                found = _raised_fit(config, grid, centre, (sx, sy), half, height_cm)
+                if found is not None:
+                    return found
+            sx, sy = 0.95 * sx, 0.95 * sy
+    raise CalibrationError(
+        f"not even four markers of {side_cm:g} cm on a support {height_cm:g} cm tall fit in the "
+        "camera's view clear of the bins: use a lower support"
+    )
+
+
+def _raised_fit(
+    config: Config,
+    grid: tuple[int, int],
+    centre: tuple[float, float],
+    spacing: tuple[float, float],
+    half: float,
+    height_cm: float,
+) -> tuple[dict[int, tuple[float, float]], Support] | None:
+    """The grid of markers and its box at ``centre``, or ``None``.
+
+    ``None`` unless the camera sees every marker whole at that height and the box keeps
+    clear of the bins and the base.
+    """
+    (nx, ny), (cx, cy), (sx, sy) = grid, centre, spacing
+    layout = {
+        nx * j + i: (
+            round(cx + (i - (nx - 1) / 2) * sx, 2),
+            round(cy + ((ny - 1) / 2 - j) * sy, 2),
+        )
+        for j in range(ny)
+        for i in range(nx)
+    }
+    size = ((nx - 1) * sx + 2 * half + 2.0, (ny - 1) * sy + 2 * half + 2.0)
+    support = Support((cx, cy), size, float(height_cm))
+    if not _support_clear(config, support):
+        return None
+    corners = np.array(
+        [(x + dx * half, y + dy * half, height_cm)
+         for x, y in layout.values() for dx in (-1, 1) for dy in (-1, 1)]
+    )  # fmt: skip
+    truth = twin_camera_model(config)
+    in_cam = (corners - truth.camera_centre_cm) @ truth.R_base_cam
+    px = cv2.projectPoints(in_cam, np.zeros(3), np.zeros(3), truth.K, truth.dist)[0].reshape(-1, 2)
+    w, h = config.camera.width_px, config.camera.height_px
+    inside = bool(
+        (px >= BOARD_EDGE_PX).all()
+        and (px <= [w - 1 - BOARD_EDGE_PX, h - 1 - BOARD_EDGE_PX]).all()
+        and (in_cam[:, 2] > 1.0).all()
+    )
+    return (layout, support) if inside else None
+
+
+def _support_clear(config: Config, support: Support) -> bool:
+    """Whether the support's footprint keeps 1 cm from every bin and 10 cm from the base."""
+    (bx, by), (sx, sy) = support.centre_cm, support.size_cm
+    for c in config.task.classes:
+        reach = c.bin_inner_width_cm / 2 + 1.0 + 1.0  # the bin's wall, then a gap
+        if abs(bx - c.bin_cm[0]) < sx / 2 + reach and abs(by - c.bin_cm[1]) < sy / 2 + reach:
+            return False
+    near_x = max(abs(bx) - sx / 2, 0.0)
+    near_y = max(abs(by) - sy / 2, 0.0)
+    return math.hypot(near_x, near_y) > 10.0
+
+
+def _add_support(
+    model: mujoco.MjSpec,
+    support: Support,
+    markers: Mapping[int, tuple[float, float]],
+    half_cm: float,
+) -> None:
+    """The support as a box on the table; each marker with its margin must lie on its top."""
+    (bx, by), (sx, sy) = support.centre_cm, support.size_cm
+    if not 0 < support.height_cm <= MAX_SUPPORT_CM:
+        raise CalibrationError(
+            f"the support's height must be in (0, {MAX_SUPPORT_CM:g}] cm, got {support.height_cm!r}"
+        )
+    for marker_id, (x, y) in markers.items():
+        if abs(x - bx) + half_cm > sx / 2 + 1e-9 or abs(y - by) + half_cm > sy / 2 + 1e-9:
+            raise CalibrationError(
+                f"marker {marker_id} at ({x:g}, {y:g}) cm is not on the support's top "
+                f"({sx:g} x {sy:g} cm around ({bx:g}, {by:g}))"
+            )
+    hz = support.height_cm / 2
+    model.worldbody.add_geom(
+        name="support", type=mujoco.mjtGeom.mjGEOM_BOX,
+        size=[sx / 2 * M_PER_CM, sy / 2 * M_PER_CM, hz * M_PER_CM],
+        pos=[bx * M_PER_CM, by * M_PER_CM, hz * M_PER_CM], rgba=[0.62, 0.47, 0.32, 1.0],
+    )  # fmt: skip
+
+
 def sheet_model(
     config: Config,
     markers: Mapping[int, tuple[float, float]],
     side_cm: float,
     dictionary: str = DEFAULT_DICTIONARY,
+    *,
+    support: Support | None = None,
 ) -> mujoco.MjModel:
-    """The twin (no scene objects, arm hidden) with the markers lying on the table."""
+    """The twin (no scene objects, arm hidden) with the markers lying on the table.
+
+    With ``support``, they lie on the top of that box, which stands on the table.
+    """
     if not 0.5 <= side_cm <= 50:
         raise CalibrationError(f"the marker side must be in [0.5, 50] cm, got {side_cm!r}")
     if not markers:
@@ -344,6 +490,10 @@ def sheet_model(
                 )
     half = half_cm * M_PER_CM
     model = twin_spec(_scene_config(config))[0]
+    z_cm = SHEET_Z_CM
+    if support is not None:
+        _add_support(model, support, markers, half_cm)
+        z_cm += support.height_cm
     _quad_mesh(model, "marker", (-half, half), (-half, half))
     assets = {}
     for marker_id, (x, y) in markers.items():
@@ -354,7 +504,7 @@ def sheet_model(
         _textured(model, name)
         model.worldbody.add_geom(
             name=name, type=mujoco.mjtGeom.mjGEOM_MESH, meshname="marker", material=name,
-            pos=[x * M_PER_CM, y * M_PER_CM, SHEET_Z_CM * M_PER_CM],
+            pos=[x * M_PER_CM, y * M_PER_CM, z_cm * M_PER_CM],
             # the quad faces −z: turned over about x it faces up, its first row at +y
             quat=[0, 1, 0, 0], contype=0, conaffinity=0,
         )  # fmt: skip
@@ -369,6 +519,7 @@ def render_sheet(
     *,
     noise_std: float = 0.0,
     seed: int = 0,
+    support: Support | None = None,
 ) -> np.ndarray:
     """The twin camera's frame of ArUco markers lying flat on the empty table.
 
@@ -383,16 +534,19 @@ def render_sheet(
         dictionary: ArUco dictionary.
         noise_std: Gaussian sensor noise (std) [8-bit levels].
         seed: Seed of the noise.
+        support: A box the markers lie on instead (:func:`raised_sheet_layout`); its
+            top is ``support.height_cm`` above the table.
 
     Returns:
         The frame, (h, w, 3) uint8 BGR, through the twin's lens.
 
     Raises:
-        CalibrationError: a bad id, side or noise level; no markers.
+        CalibrationError: a bad id, side or noise level; no markers; a marker off the
+            support's top.
         CameraError: no offscreen rendering, or a lens distortion with no inverse.
     """
     _check_noise(noise_std)
-    model = sheet_model(config, markers, side_cm, dictionary)
+    model = sheet_model(config, markers, side_cm, dictionary, support=support)
     data = mujoco.MjData(model)
     mujoco.mj_resetDataKeyframe(model, data, model.key("home").id)
     mujoco.mj_forward(model, data)
@@ -401,7 +555,9 @@ def render_sheet(
         frame = lens.render(data)
     finally:
         lens.close()
-    return _with_noise(frame, noise_std, np.random.default_rng([seed, 2]))
+    # the raised view's noise is its own draw: the table's sheet stays as it was
+    stream = 2 if support is None else 4
+    return _with_noise(frame, noise_std, np.random.default_rng([seed, stream]))
 
 
 # --------------------------------------------------------------------------- objects
