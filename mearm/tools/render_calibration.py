@@ -142,11 +142,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     written.append(args.out / "sheet.png")
     lines = [f"--marker {i}:{x:g},{y:g}" for i, (x, y) in layout.items()]
     lines.append(f"--marker-side-cm {SHEET_SIDE_CM:g}")
-    markers_txt = args.out / "sheet_markers.txt"
-    try:
-        write_atomic(markers_txt, "\n".join(lines) + "\n")
-    except OSError as exc:
-        raise MearmError(f"cannot write {markers_txt}: {exc.strerror or exc}") from None
+    markers_txt = _write_arguments(args.out / "sheet_markers.txt", lines)
     written.append(markers_txt)
     if raised is not None:
         written += _write_raised(config, args, *raised)
@@ -200,12 +196,16 @@ def _write_raised(
     _write_png(image, frame)
     lines = [f"--raised-marker {i}:{x:g},{y:g}" for i, (x, y) in layout.items()]
     lines.append(f"--raised-height-cm {h:g}")
-    text = args.out / "raised_markers.txt"
+    return [image, _write_arguments(args.out / "raised_markers.txt", lines)]
+
+
+def _write_arguments(path: Path, lines: list[str]) -> Path:
+    """Write ``calibrate-camera``'s arguments for a picture, one a line; returns ``path``."""
     try:
-        write_atomic(text, "\n".join(lines) + "\n")
+        write_atomic(path, "\n".join(lines) + "\n")
     except OSError as exc:
-        raise MearmError(f"cannot write {text}: {exc.strerror or exc}") from None
-    return [image, text]
+        raise MearmError(f"cannot write {path}: {exc.strerror or exc}") from None
+    return path
 
 
 def _write_truth(config: Config, out: Path) -> list[Path]:
