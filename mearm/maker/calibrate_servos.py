@@ -3,10 +3,13 @@
     mearm calibrate-servos --config my.yaml [--port /dev/ttyACM0] [--output my.servos.yaml]
         [--actuators shoulder,elbow] [--force]
     mearm calibrate-servos --camera --config my.yaml [--simulate] [--output …] [--force]
+    mearm calibrate-servos --simulate --truth --config my.yaml [--output …] [--force]
 
 With ``--camera`` no keys are pressed: the arm visits points over the table by itself and
 the calibrated camera's view of the marker on the claw fits every joint servo
-(:mod:`mearm.maker.calibrate_by_camera`; docs/servos.md). The rest of this docstring is
+(:mod:`mearm.maker.calibrate_by_camera`; docs/servos.md). With ``--simulate --truth``
+nothing is measured: the twin's kit's own calibration is written
+(:mod:`mearm.maker.servo_truth`), the bound of any fit. The rest of this docstring is
 the keyboard procedure.
 
 For each actuator (the actuated joints, the tool actuators, then the gripper) the screen
@@ -208,6 +211,12 @@ def build_parser() -> ArgumentParser:
         default=0,
         help="seed of the simulated reading errors (default 0)",
     )
+    sim.add_argument(
+        "--truth",
+        action="store_true",
+        help="with --simulate, measure nothing: write the twin's kit's true calibration "
+        "(each unit's zero, µs per unit, direction and play), what a perfect fit would give",
+    )
     return parser
 
 
@@ -242,6 +251,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     config = config_from_args(args)
     output = args.output if args.output is not None else default_output(args.config)
+    if args.truth:  # the twin's kit as it is (mearm.maker.servo_truth)
+        from mearm.maker.servo_truth import write_truth  # noqa: PLC0415
+
+        return write_truth(config, output, args)
     if args.camera:  # the camera's procedure (mearm.maker.calibrate_by_camera)
         from mearm.maker.calibrate_by_camera import calibrate_by_camera  # noqa: PLC0415
 
