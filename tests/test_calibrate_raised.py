@@ -264,3 +264,28 @@ def test_render_calibration_writes_the_raised_view(tmp_path: Path):
     text = (raised / "raised_markers.txt").read_text().split()
     assert text.count("--raised-marker") == 6 and text[-2:] == ["--raised-height-cm", "15"]
     assert cv2.imread(str(raised / "raised.png")).shape == (480, 640, 3)
+
+
+@bad_input
+@pytest.mark.parametrize("raised", [False, True])
+def test_a_mistyped_marker_position_is_refused_and_named(pictures, tmp_path: Path, raised: bool):
+    """One marker's centre typed 3 cm off: the pose is refused, that marker named, nothing
+    written (before, it was written with corners tens of pixels off)."""
+    table, up = dict(pictures["table"]), dict(pictures["raised"])
+    layout, flag = (up, "--raised-marker") if raised else (table, "--marker")
+    first = min(layout)
+    x, y = layout[first]
+    layout[first] = (x + 3.0, y)
+    extra = []
+    if raised:
+        extra = ["--raised-image", pictures["folder"] / "raised.png",
+                 "--raised-height-cm", f"{RAISED_CM:g}",
+                 *_marker_args(up, "--raised-marker")]  # fmt: skip
+    out = check_bad_input(
+        ["calibrate-camera", "--intrinsics", INTRINSICS, "--out", tmp_path / "p.yaml",
+         "--image", pictures["folder"] / "sheet.png", "--marker-side-cm", f"{SHEET_SIDE_CM:g}",
+         *_marker_args(table, "--marker"), *extra],
+        within_s=5, keep=[tmp_path],
+    )  # fmt: skip
+    assert f"{flag} {first}'s position looks wrong" in out.line, out.line
+    assert not (tmp_path / "p.yaml").exists()

@@ -88,6 +88,10 @@ from mearm.yamlio import load_yaml_text, read_text_file
 MAX_PIXEL = 65_535.0
 #: Largest printed marker side [cm].
 MAX_MARKER_SIDE_CM = 100.0
+#: Largest corner reprojection error of a pose fit that is written [px]. A marker centre
+#: measured a millimetre off moves its corners about a pixel at the paper's 50 cm; above
+#: this, positions are wrong by several millimetres on every marker, or one is mistyped.
+MAX_POSE_RMS_PX = 5.0
 #: Tallest support of the raised view [cm]: the camera must see its markers whole.
 MAX_RAISED_HEIGHT_CM = 100.0
 #: Fewest markers on the raised support: spread along x and y.
@@ -316,7 +320,37 @@ def fit_pose(
     camera = PerspectiveCamera(intrinsics, pose)
     seen = camera.pixel_to_table(np.array([diagonal_center(found[i]) for i in sorted(centers)]))
     err = np.linalg.norm(seen - np.array([centers[i] for i in sorted(centers)]), axis=1)
+    if pose.rms_px > MAX_POSE_RMS_PX:
+        names = [f"--marker {i}" for i in sorted(centers)]
+        if raised is not None:
+            names += [f"--raised-marker {i}" for i in sorted(raised.centers)]
+        raise CalibrationError(
+            f"the markers' corners are {pose.rms_px:.1f} px rms from the fitted pose (a good "
+            f"fit is under 1 px; refused above {MAX_POSE_RMS_PX:g}): "
+            + _culprit(intrinsics, pixels, pts3, names)
+        )
     return pose, float(np.sqrt(np.mean(err**2))), float(err.max())
+
+
+def _culprit(intrinsics: Intrinsics, pixels: np.ndarray, pts3: np.ndarray, names: list[str]) -> str:
+    """Which marker's given position a bad pose fit points at (4 corners a marker, in order).
+
+    The fit is repeated without each marker in turn: where one leaves the rest within
+    :data:`MAX_POSE_RMS_PX`, that one is named.
+    """
+    best: tuple[float, str] | None = None
+    for k, name in enumerate(names):
+        keep = np.ones(len(pixels), dtype=bool)
+        keep[4 * k : 4 * k + 4] = False
+        try:
+            rms = solve_pose(intrinsics, pixels[keep], pts3[keep]).rms_px
+        except CalibrationError:
+            continue
+        if rms <= MAX_POSE_RMS_PX and (best is None or rms < best[0]):
+            best = (rms, name)
+    if best is None:
+        return "the markers' positions or --marker-side-cm do not match the picture"
+    return f"{best[1]}'s position looks wrong (without it the rest fit to {best[0]:.2f} px)"
 
 
 def _homography_no_worse(data: dict[str, object], calibration: Calibration, where: Path) -> None:
