@@ -1,6 +1,7 @@
 from pathlib import Path
 
 import pytest
+from badinput import run_in_process
 from conftest import ROOT, run_cli
 
 from mearm.config import Config, config_from_dict, load_config
@@ -197,8 +198,8 @@ def test_empty_file_is_refused(tmp_path):
 @pytest.mark.heavy
 def test_cli_bad_config_exits_2_with_one_line(tmp_path):
     bad = _write(tmp_path, "controller:\n  kpp: 0.1\n")
-    r = run_cli("-m", "mearm.fk", "--config", str(bad), "--joints", "120,93,-132")
-    assert r.returncode == 2
+    r = run_in_process(["fk", "--config", bad, "--joints", "120,93,-132"])  # fk: test_fk_cli
+    assert r.code == 2
     assert r.stdout == ""
     lines = r.stderr.strip().splitlines()
     assert len(lines) == 1 and "controller.kpp: unknown key" in lines[0]

@@ -10,8 +10,9 @@ from typing import Any
 
 import pytest
 import yaml
+from badinput import run_in_process
 from built_once import computed_once
-from conftest import ROOT, run_cli
+from conftest import ROOT
 
 from mearm.config import ArmDescription, Config, DHRow, config_from_dict, load_config
 from mearm.config.compose import MAX_EXTENDS, merge, reference_arm
@@ -277,8 +278,8 @@ def test_a_bad_extended_file_is_named(tmp_path):
 def test_a_loop_exits_2_with_one_line_from_the_cli(tmp_path):
     _write(tmp_path, "a.yaml", "extends: b.yaml\n")
     _write(tmp_path, "b.yaml", "extends: a.yaml\n")
-    r = run_cli("-m", "mearm.fk", "--config", str(tmp_path / "a.yaml"), "--joints", "120,93,-132")
-    assert r.returncode == 2 and r.stdout == ""
+    r = run_in_process(["fk", "--config", tmp_path / "a.yaml", "--joints", "120,93,-132"])
+    assert r.code == 2 and r.stdout == ""
     lines = r.stderr.strip().splitlines()
     assert len(lines) == 1 and "the configs extend each other" in lines[0], r.stderr
     assert "Traceback" not in r.stderr
@@ -287,8 +288,8 @@ def test_a_loop_exits_2_with_one_line_from_the_cli(tmp_path):
 @pytest.mark.heavy
 def test_an_unknown_arm_exits_2_with_one_line_from_the_cli(tmp_path):
     path = _write(tmp_path, "c.yaml", "arm: {use: meArm}\n")
-    r = run_cli("-m", "mearm.fk", "--config", str(path), "--joints", "120,93,-132")
-    assert r.returncode == 2 and r.stdout == ""
+    r = run_in_process(["fk", "--config", path, "--joints", "120,93,-132"])
+    assert r.code == 2 and r.stdout == ""
     lines = r.stderr.strip().splitlines()
     assert len(lines) == 1 and "known: desk_5dof, mearm_paper, mearm_v1" in lines[0], r.stderr
 

@@ -1,5 +1,6 @@
 """Repeated trials (paper §5) and their analysis; resuming a log; the per-trial prompt."""
 
+import contextlib
 import io
 import json
 import os
@@ -55,13 +56,14 @@ def test_three_trials_each_sort_a_new_4_4_4_layout(three_trials):
 @pytest.mark.heavy
 def test_analysis_of_the_trials_writes_tables_and_plots(three_trials, tmp_path):
     out = tmp_path / "report"
-    r = run_cli("-m", "mearm.analyze", str(three_trials), "--out", str(out), timeout=120)
-    assert r.returncode == 0, r.stderr
+    """In this process (tests/test_analyze_cli.py and the wheel's test run it as a command)."""
+    r = run_in_process(["analyze", three_trials, "--out", out], within_s=30)
+    assert r.code == 0, r.stderr
     assert "Table 8" in r.stdout and "Table 9" in r.stdout
     for name in ("histogram.png", "success_vs_error.png", "ee_path_3d.png", "joint_angles.png"):
         assert (out / name).stat().st_size > 10_000, name
     assert "histogram.png" in (out / "report.md").read_text()
-    r = run_cli("-m", "mearm.analyze", str(three_trials), "--json")
+    r = run_in_process(["analyze", three_trials, "--json"], within_s=30)
     data = json.loads(r.stdout)
     assert data  # machine-readable figures
 
@@ -84,8 +86,10 @@ def test_trial_seeds_are_distinct_and_reseed_the_noise(config):
 )
 @pytest.mark.heavy
 def test_bad_input_exits_2(args, needle, tmp_path):
-    r = run_cli("-m", "mearm.experiment", *args)
-    assert r.returncode == 2
+    """Refused in this process (the tests without a terminal below run a real one)."""
+    with contextlib.chdir(ROOT):
+        r = experiment(*args)
+    assert r.code == 2
     lines = r.stderr.strip().splitlines()
     assert len(lines) == 1 and needle in lines[0], r.stderr
 

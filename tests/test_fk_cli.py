@@ -1,7 +1,16 @@
+import contextlib
 import json
 
 import pytest
-from conftest import run_cli
+from badinput import Outcome, run_in_process
+from conftest import ROOT, run_cli
+
+
+def fk_here(*args: str) -> Outcome:
+    """``mearm fk ARGS`` in this process, from the checkout (test_home_json runs the
+    command as a process: its exit status and output as a shell sees them)."""
+    with contextlib.chdir(ROOT):
+        return run_in_process(["fk", *args], within_s=10)
 
 
 def test_home_json():
@@ -17,8 +26,8 @@ def test_home_json():
 
 
 def test_home_text_default_config():
-    r = run_cli("-m", "mearm.fk", "--joints", "120,93,-132")
-    assert r.returncode == 0
+    r = fk_here("--joints", "120,93,-132")
+    assert r.code == 0
     assert "ee = (-20.16, 34.91, 19.95) cm" in r.stdout
     assert "base 120.00 deg, shoulder 93.00 deg, elbow -132.00 deg, wrist 39.00 deg" in r.stdout
 
@@ -26,17 +35,14 @@ def test_home_text_default_config():
 @pytest.mark.heavy
 def test_any_arm_from_its_config():
     """The 5-DOF desk arm: five actuated joints by name, the approach axis printed."""
-    r = run_cli(
-        "-m", "mearm.fk", "--config", "configs/sim_5dof.yaml", "--joints", "90,100,-110,-80,0",
-        "--json",
-    )  # fmt: skip
-    assert r.returncode == 0, r.stderr
+    r = fk_here("--config", "configs/sim_5dof.yaml", "--joints", "90,100,-110,-80,0", "--json")
+    assert r.code == 0, r.stderr
     out = json.loads(r.stdout)
     assert list(out["joints"]) == ["base_yaw", "shoulder", "elbow", "wrist_pitch", "wrist_roll"]
     for got, want in zip(out["approach"], [0, 0, -1], strict=True):
         assert abs(got - want) < 1e-9
-    r = run_cli("-m", "mearm.fk", "--config", "configs/sim_5dof.yaml", "--joints", "90,100,-110")
-    assert r.returncode == 2
+    r = fk_here("--config", "configs/sim_5dof.yaml", "--joints", "90,100,-110")
+    assert r.code == 2
     assert "--joints needs 5 numbers, the actuated joints (base_yaw, shoulder" in r.stderr
 
 
@@ -48,7 +54,7 @@ def test_bad_joints_exit_2_one_line():
         ("120,93,nan", "finite"),
         ("10,93,-132", "base = 10 deg is outside its limits [20, 160] deg"),
     ]:
-        r = run_cli("-m", "mearm.fk", "--joints", joints)
-        assert r.returncode == 2, joints
+        r = fk_here("--joints", joints)
+        assert r.code == 2, joints
         lines = r.stderr.strip().splitlines()
         assert len(lines) == 1 and needle in lines[0], r.stderr

@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
 
 import pytest
-from conftest import run_cli
+from badinput import run_in_process
+from conftest import ROOT, run_cli
 from hardware_helpers import fast_config
 
 import mearm.hardware as hardware
@@ -102,16 +104,17 @@ def test_quantization_cli_json():
 @pytest.mark.heavy
 def test_quantization_cli_other_arm():
     """The CLI measures any arm: the 5-joint desk arm (no closed form) works too."""
-    out = run_cli(
-        "-m", "mearm", "quantization", "--config", "configs/sim_5dof.yaml",
-        "--poses", "100", "--json",
-    )  # fmt: skip
-    assert out.returncode == 0, out.stderr
+    with contextlib.chdir(ROOT):  # in this process: the test above runs the command
+        out = run_in_process(
+            ["quantization", "--config", "configs/sim_5dof.yaml", "--poses", "100", "--json"],
+            within_s=30,
+        )
+    assert out.code == 0, out.stderr
     modes = json.loads(out.stdout)["modes"]
     assert 0 < modes["microsecond"]["mean_cm"] < modes["degree"]["mean_cm"] < 1.0
 
 
 @pytest.mark.heavy
 def test_quantization_cli_bad_input():
-    out = run_cli("-m", "mearm", "quantization", "--poses", "0")
-    assert out.returncode == 2 and out.stderr.count("\n") == 1 and "--poses" in out.stderr
+    out = run_in_process(["quantization", "--poses", "0"])  # the command: the tests above
+    assert out.code == 2 and out.stderr.count("\n") == 1 and "--poses" in out.stderr

@@ -404,8 +404,9 @@ def test_cli_solvers_and_tolerance():
 
 
 def test_cli_text_output():
-    r = run_cli("-m", "mearm.ik", "--target", "-10.99,49.70,12.76")
-    assert r.returncode == 0, r.stderr
+    """In this process (the two tests around it run the command as a process)."""
+    r = run_in_process(["ik", "--target", "-10.99,49.70,12.76"], within_s=30)
+    assert r.code == 0, r.stderr
     assert "pdpij-coupled: converged after" in r.stdout and "ee = (" in r.stdout
     assert "joints: base " in r.stdout
 

@@ -1,13 +1,15 @@
 """Sweeps in worker processes: the same seeds give the same outcomes whatever --jobs."""
 
+import contextlib
 import json
 import re
 import subprocess
 from pathlib import Path
 
 import pytest
+from badinput import Outcome, run_in_process
 from built_once import built_once
-from conftest import interrupted_experiment, run_cli
+from conftest import ROOT, interrupted_experiment, run_cli
 
 from mearm.runlog import read_runlog
 
@@ -44,11 +46,19 @@ def test_twin_scenes_in_two_workers_print_what_one_process_prints():
     assert heads[0] == heads[1]
 
 
+def here(*args: object) -> Outcome:
+    """``mearm ARGS`` in this process, from the checkout: for refusals before any work (the
+    runs above and below start real processes, whose exit codes they check)."""
+    with contextlib.chdir(ROOT):
+        return run_in_process([str(a) for a in args], within_s=10)
+
+
 @pytest.mark.parametrize("jobs", ["0", "-1", "two"])
 def test_twin_scenes_refuses_a_bad_number_of_workers(jobs):
-    code, out, err = twin_scenes("--scenes", "1", "--jobs", jobs)
-    assert code == 2 and not out
-    assert len(err.strip().splitlines()) == 1 and "--jobs" in err and "workers" in err
+    r = here("twin-scenes", "--config", "configs/sim_mujoco.yaml", "--scenes", 1, "--jobs", jobs)
+    assert r.code == 2 and not r.stdout
+    assert len(r.stderr.strip().splitlines()) == 1 and "--jobs" in r.stderr
+    assert "workers" in r.stderr
 
 
 # --------------------------------------------------------------------------- experiment
@@ -116,8 +126,8 @@ def test_experiment_in_two_workers_writes_the_serial_log(tmp_path, tmp_path_fact
     assert re.search(r"3 trials written to .* \([\d.]+ trials/min, 2 workers\)", r.stdout)
     assert "sorted 36 of 36 objects over 3 trials" in r.stdout
     assert records(log) == serial_records(tmp_path_factory, 3)
-    r = run_cli("-m", "mearm.analyze", str(log), "--json", timeout=120)
-    assert r.returncode == 0 and json.loads(r.stdout), r.stderr
+    r = here("analyze", log, "--json")
+    assert r.code == 0 and json.loads(r.stdout), r.stderr
     before = log.read_bytes()
     r = experiment(*SWEEP, "--trials", 5, "--log", log, "--jobs", 2)
     assert r.returncode == 0 and "running trials 3..4" in r.stdout, r.stdout + r.stderr
@@ -154,8 +164,8 @@ def test_ctrl_c_keeps_every_finished_trial_in_order_and_the_log_resumes(tmp_path
 @pytest.mark.heavy
 @pytest.mark.parametrize("jobs", ["0", "-2", "many"])
 def test_experiment_refuses_a_bad_number_of_workers(jobs, tmp_path):
-    r = experiment("--trials", 1, "--log", tmp_path / "t.jsonl", "--jobs", jobs)
-    assert r.returncode == 2 and not (tmp_path / "t.jsonl").exists()
+    r = here("experiment", "--trials", 1, "--log", tmp_path / "t.jsonl", "--jobs", jobs)
+    assert r.code == 2 and not (tmp_path / "t.jsonl").exists()
     assert len(r.stderr.strip().splitlines()) == 1 and "workers" in r.stderr
 
 
@@ -163,8 +173,10 @@ def test_experiment_refuses_a_bad_number_of_workers(jobs, tmp_path):
 def test_a_real_rig_runs_one_trial_at_a_time(tmp_path):
     rig = tmp_path / "rig.yaml"
     rig.write_text(f"camera:\n  kind: folder\n  path: {tmp_path}\n")
-    r = experiment("--config", rig, "--trials", 2, "--log", tmp_path / "t.jsonl", "--jobs", 2)
-    assert r.returncode == 2 and not (tmp_path / "t.jsonl").exists()
+    r = here(
+        "experiment", "--config", rig, "--trials", 2, "--log", tmp_path / "t.jsonl", "--jobs", 2
+    )
+    assert r.code == 2 and not (tmp_path / "t.jsonl").exists()
     assert len(r.stderr.strip().splitlines()) == 1 and "one trial at a time" in r.stderr
 
 
