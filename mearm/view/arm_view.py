@@ -36,7 +36,6 @@ import meshcat.geometry as mg
 import meshcat.transformations as tf
 import numpy as np
 import numpy.typing as npt
-from pinocchio.visualize import MeshcatVisualizer
 
 from mearm.config import ColorClass, Config
 from mearm.kinematics import ArmModel
@@ -156,6 +155,10 @@ class ArmView:
             self.frame_plane: FramePlane | None = None
             self._setup_scene()
             self._urdf = UrdfArm(model)
+            # Pinocchio's visualisers import trimesh, networkx and shapely: 1.2 s that
+            # only a view pays, not every importer of this module.
+            from pinocchio.visualize import MeshcatVisualizer
+
             self._viz = MeshcatVisualizer(self._urdf.full, None, self._urdf.visual)
             self._viz.initViewer(viewer=self.viewer)
             self._viz.loadViewerModel(rootNodeName="arm")

@@ -30,7 +30,6 @@ import meshcat
 import meshcat.geometry as mg
 import numpy as np
 import pinocchio as pin
-from pinocchio.visualize.meshcat_visualizer import loadPrimitive
 
 from mearm.kinematics.collision import CollisionModel
 
@@ -105,6 +104,9 @@ def meshcat_geometry(obj: pin.GeometryObject) -> mg.Geometry | None:
 
     Boxes, spheres, cylinders, cones and capsules are drawn; other shapes are not.
     """
+    # imported here: Pinocchio's visualisers cost 1.2 s to import (trimesh, networkx)
+    from pinocchio.visualize.meshcat_visualizer import loadPrimitive
+
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", UserWarning)  # "unsupported geometry type"
         return loadPrimitive(obj)
