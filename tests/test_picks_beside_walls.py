@@ -101,12 +101,74 @@ def test_an_object_by_a_wall_where_the_claw_goes_is_left_not_the_scene_stopped()
 def test_a_pick_by_a_wall_where_the_camera_cannot_see_the_claw_is_not_made_blind():
     """Kit 52, seed 1510: red1 lies 1.9 cm from the blue bin's wall at the edge of the
     camera's view; the claw's marker is not seen over it, its error is unknown, and the
-    jaw came down on the wall's top (11 objects left by the fault). It is left, named, and
-    the other 11 are picked."""
+    jaw came down on the wall's top (11 objects left by the fault). It is not picked
+    blind: looked at aside, where the camera sees the claw, it is picked with that
+    correction (SortAborted would stop the test on a stall), and so are the rest."""
     report = _sort(52, 1510)
-    skips = {s.object_id: s for s in report.skipped}
-    assert "red1" in skips, [s.reason for s in report.skipped]
-    assert "not picked blind" in skips["red1"].reason
-    assert "blue bin's wall" in skips["red1"].reason
+    blind = [s.object_id for s in report.skipped if "not picked blind" in s.reason]
+    assert blind == []
     assert report.outcome.n_seen <= 12
-    assert report.outcome.n_sorted >= 10
+    assert report.outcome.n_sorted >= 11
+
+
+#: An object by the blue bin's wall far out (kit 82 left it at seed 901): over it, and at
+#: the low point above the walls, the claw's marker is at the frame's top edge.
+FAR_BY_THE_WALL_CM = (-14.3, 56.6)
+
+
+def _eye(planner: Planner):
+    from mearm.task.claw_loop import ClawEye
+    from mearm.vision.calibration import camera_geometry
+
+    config = planner.config
+    camera = camera_geometry(config.calibration, config.camera)
+    return ClawEye(config, planner.model, camera, read=lambda: None, hold=lambda s: None)
+
+
+def _in_frame(eye, config, centre_cm) -> bool:
+    from mearm.task.looking_picks import WALL_MARGIN_CM
+
+    r = eye.marker.size_cm / 2.0 + WALL_MARGIN_CM
+    square = np.array([[-r, -r, 0.0], [r, -r, 0.0], [r, r, 0.0], [-r, r, 0.0]])
+    px = eye.camera.project(np.asarray(centre_cm) + square)
+    return bool(np.all((px >= 0) & (px < [config.camera.width_px, config.camera.height_px])))
+
+
+def test_a_look_aside_finds_the_nearest_point_where_the_marker_is_in_view():
+    """At the low point over a far object by the blue bin the marker (with the claw's
+    error around it) is not wholly in the frame; in_view_shift moves it, toward the
+    image's centre and no farther than needed, to where it is."""
+    from mearm.task.looking_picks import ASIDE_STEP_CM, MAX_ASIDE_CM, in_view_shift
+
+    planner = _planner(FAR_BY_THE_WALL_CM)
+    config = planner.config
+    down = _way_down(planner, FAR_BY_THE_WALL_CM)
+    assert down.plan is not None
+    q_over = down.plan.q_path[0]
+    z_cm = planner.safe_height_cm(q_over)
+    up = np.array([0.0, 0.0, z_cm - down.target.position_cm[2]])
+    low = Route("red1", "red", "approach", 1, shifted(down.target, up))  # as aim_low's
+    assert planner.plan(low, q_over).planned and low.plan is not None
+    eye = _eye(planner)
+    centre = eye.planned_cm(low.plan.q)
+    assert not _in_frame(eye, config, centre)
+    shift = in_view_shift(eye, config, low.plan.q)
+    assert shift is not None
+    assert 0 < np.linalg.norm(shift) <= MAX_ASIDE_CM
+    assert shift[2] == 0.0
+    assert _in_frame(eye, config, centre + shift)
+    smaller = shift * (1.0 - ASIDE_STEP_CM / np.linalg.norm(shift))
+    assert not _in_frame(eye, config, centre + smaller)  # the nearest such point
+
+
+@pytest.mark.slow
+def test_picks_by_the_wall_where_the_claw_is_out_of_view_look_aside_not_left():
+    """Kit 21, seed 1710: red1 and red2 lie by the blue bin's wall far out, where the
+    claw's marker is above the frame over them and at the low point; they were left, not
+    picked blind. Looked at a few centimetres aside, where the camera sees the claw, they
+    are picked, and no pick is left blind."""
+    report = _sort(21, 1710)
+    blind = [s.object_id for s in report.skipped if "not picked blind" in s.reason]
+    assert blind == []
+    assert report.outcome.n_seen <= 12
+    assert report.outcome.n_sorted >= 11

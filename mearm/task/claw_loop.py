@@ -142,7 +142,10 @@ class GripDrops:
     or that a slip called for, is kept at its place, and later picks start from their
     neighbours' (:class:`CorrectionMap`). And where the looks of several picks nearby saw
     the claw high by more than their noise (:data:`LEVEL_HIGH_CM`), a first attempt starts
-    lower by that height. A claw seen low lowers nothing.
+    lower by that height. A claw seen low lowers no first attempt; but a miss with the
+    object unmoved and the claw not seen high is not repeated at its height: the claw
+    may be as low (the open jaws' tips stalled on the table round the object) as high,
+    so the next attempt tries the other height (:meth:`missed`).
     """
 
     kept: CorrectionMap = field(default_factory=lambda: CorrectionMap(dims=1))
@@ -251,6 +254,13 @@ class GripDrops:
         """
         high = float(np.mean(seen_z_cm)) if len(seen_z_cm) else 0.0
         drop = drop_cm
+        if moved_cm <= UNMOVED_CM and len(seen_z_cm) and high <= 0:
+            # not seen high: the claw may be as low, the open jaws' tips stalled on the
+            # table round the object (the looks' mean has the wrong sign either way, kit
+            # 82: docs/twin.md); the next attempt tries the other height: the planned one
+            # after a lowered attempt, lower after one at or above it
+            lower = drop_cm + max(overlap_cm - GRIP_HOLD_CM, GRIP_HOLD_CM) + GRIP_CARRY_CM
+            drop = 0.0 if drop_cm > 0 else lower
         if moved_cm <= UNMOVED_CM and high > 0:
             # at least that high: lower by it and by what carrying the object needs, so
             # that a claw higher than that still holds it to the bin (the caller's bound

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from mearm.config import Config
 from mearm.config.shape_catalogue import SHAPES
 from mearm.kinematics.collision import CollisionModel
 from mearm.task.claw_loop import GOOD_ENOUGH_CM, MAX_LOOKS, ClawEye, shifted
@@ -25,6 +26,12 @@ from mearm.task.table_tracking import TrackedObject
 #: (fixed kits 3, 11, 21, 52, 53 at spread 0.12, seeds 1300-1302, simulated), as much as
 #: the jaws' room beside a 2 cm object; an open jaw that far off lands on the wall's top.
 WALL_MARGIN_CM = 1.0
+#: A look aside (:func:`aim_aside`) moves the claw in steps of this [cm] ...
+ASIDE_STEP_CM = 0.5
+#: ... up to this far from the low point [cm]: a few centimetres, well within the
+#: neighbourhood over which the picks' corrections are taken to hold
+#: (:data:`~mearm.task.claw_loop.NEIGHBOURHOOD_CM`).
+MAX_ASIDE_CM = 4.0
 
 
 def aim_over(
@@ -67,7 +74,7 @@ def beside_wall(planner: Planner, collision: CollisionModel, pick: Route) -> str
 
 def aim_low(
     eye: ClawEye, planner: Planner, ex: Executor, obj: TrackedObject, pick: Route, aim: np.ndarray
-) -> tuple[Route | None, Route, np.ndarray]:
+) -> tuple[Route | None, Route, np.ndarray, bool]:
     """Where the way down passes a bin's wall: stop just above the walls, look, go on.
 
     The look over the object (:func:`aim_over`) corrects the claw there; on the way down
@@ -78,30 +85,110 @@ def aim_low(
     clearance and a margin (:meth:`~mearm.task.plan.Planner.safe_height_cm`), straight
     above the pick, and looks there: the rest of the way down changes the error much less
     before the jaws pass the wall. Both legs are planned in full before the first moves;
-    where either cannot be, or the point above is no higher, nothing changes.
+    where either cannot be, or the point above is no higher, nothing changes. The low
+    point is safe to reach where the camera has not seen the claw yet: there the tool
+    still clears every wall's top, whatever its error in the table plane; and there the
+    marker comes into the frame where, higher up over the far table, it was above the
+    frame's top edge (simulated: kits 21 and 82 at seeds 901 and 1710, docs/twin.md).
 
     Returns:
         The route to the low point (``None`` where not taken, and then nothing moved), the
-        pick route from where the arm is, and the aim's shift [cm], (3,).
+        pick route from where the arm is, the aim's shift [cm], (3,), and whether the
+        camera saw the claw at the low point.
     """
     if pick.plan is None:
-        return None, pick, aim
+        return None, pick, aim, False
     q_path = pick.plan.q_path
     z_cm = planner.safe_height_cm(q_path[0])
     if z_cm >= float(planner.model.fk_cm(q_path[0])[2]):
-        return None, pick, aim
+        return None, pick, aim, False
     up_cm = z_cm - float(pick.target.position_cm[2])
     low = Route(obj.id, obj.class_name, "approach", pick.attempt,
                 shifted(pick.target, np.array([0.0, 0.0, up_cm])))  # fmt: skip
     if not planner.plan(low, ex.q_now(), target=obj.id).planned:
-        return None, pick, aim
+        return None, pick, aim, False
     assert low.plan is not None
     down = Route(obj.id, obj.class_name, "pick", pick.attempt, pick.target)
     if not planner.plan(down, low.plan.q, target=obj.id).planned:
-        return None, pick, aim
+        return None, pick, aim, False
     ex.stream(low, "travel", closed=False)
-    down, aim, _ = aim_over(eye, planner, ex, obj, down, aim)
-    return low, down, aim
+    down, aim, seen = aim_over(eye, planner, ex, obj, down, aim)
+    return low, down, aim, seen
+
+
+def aim_aside(
+    eye: ClawEye,
+    planner: Planner,
+    ex: Executor,
+    obj: TrackedObject,
+    low: Route,
+    pick: Route,
+    aim: np.ndarray,
+) -> tuple[Route, Route, np.ndarray, bool]:
+    """Where the camera saw the claw neither over the object nor at the low point: look aside.
+
+    Over the far table the claw's marker is above the frame's top edge, and at the low
+    point (:func:`aim_low`) still at it (simulated: 0.4 cm of its image inside). The arm,
+    at the low point, moves at that height to the nearest point that puts the marker
+    inside the frame with room for the claw's error (:func:`in_view_shift`), looks there,
+    and comes back to the low point shifted by what it saw: the servos' errors vary
+    smoothly over the table, and at that height the tool clears every wall's top,
+    whatever its error. The way there, back and down is planned in full before the arm
+    moves back; where any leg cannot be, the pick is not made.
+
+    Returns:
+        The route the arm is on now (toward the low point, or the look aside), the pick
+        route from it, the aim's shift [cm], (3,), and whether the camera saw the claw.
+    """
+    q_low = ex.q_now()
+    shift = in_view_shift(eye, planner.config, q_low)
+    if shift is None:
+        return low, pick, aim, False
+    aside = Route(obj.id, obj.class_name, "approach", pick.attempt,
+                  shifted(low.target, shift))  # fmt: skip
+    if not planner.plan(aside, q_low, target=obj.id).planned:
+        return low, pick, aim, False
+    ex.stream(aside, "travel", closed=False)
+    look = eye.look(ex.q_now())
+    if look is None:
+        return aside, pick, aim, False
+    off = aim[:2] + look.error_cm[:2]  # where the claw is, less where it should be
+    step = np.array([-off[0], -off[1], 0.0])
+    back = Route(obj.id, obj.class_name, "approach", pick.attempt, shifted(low.target, step))
+    down = Route(obj.id, obj.class_name, "pick", pick.attempt, shifted(pick.target, step))
+    if not planner.plan(back, ex.q_now(), target=obj.id).planned:
+        return aside, pick, aim, False
+    assert back.plan is not None
+    if not planner.plan(down, back.plan.q, target=obj.id).planned:
+        return aside, pick, aim, False
+    ex.stream(back, "travel", closed=False)
+    return back, down, aim + step, True
+
+
+def in_view_shift(eye: ClawEye, config: Config, q: np.ndarray) -> np.ndarray | None:
+    """The smallest shift of the claw in the table plane that brings its marker into view [cm].
+
+    The shift points from the marker toward where the image's centre meets the level
+    plane at the marker's height, in steps of :data:`ASIDE_STEP_CM` up to
+    :data:`MAX_ASIDE_CM`; at it the square of the marker's side and
+    :data:`WALL_MARGIN_CM` (the claw's error) around the marker's planned centre is seen
+    whole. ``None`` when no shift that far does. Returns (3,), z 0.
+    """
+    w, h = config.camera.width_px, config.camera.height_px
+    centre = eye.planned_cm(q)
+    toward = eye.camera.pixel_to_plane(np.array([w / 2.0, h / 2.0]), float(centre[2]))
+    d = np.asarray(toward, dtype=float).ravel()[:2] - centre[:2]
+    if np.linalg.norm(d) <= 0:
+        return None
+    d /= np.linalg.norm(d)
+    r = eye.marker.size_cm / 2.0 + WALL_MARGIN_CM
+    square = np.array([[-r, -r, 0.0], [r, -r, 0.0], [r, r, 0.0], [-r, r, 0.0]])
+    for k in range(1, int(MAX_ASIDE_CM / ASIDE_STEP_CM) + 1):
+        shift = np.array([d[0], d[1], 0.0]) * k * ASIDE_STEP_CM
+        px = eye.camera.project(centre + shift + square)
+        if np.all((px >= 0) & (px < [w, h])):
+            return shift
+    return None
 
 
 def aim_by_eye(

@@ -25,7 +25,7 @@ from mearm.kinematics.collision import TOUCH_M, CollisionModel
 from mearm.kinematics.errors import JointLimitError, TargetError
 from mearm.task.claw_loop import TABLE_ROOM_CM, ClawEye, shifted
 from mearm.task.execute import Executor
-from mearm.task.looking_picks import aim_by_eye, aim_low, aim_over, beside_wall
+from mearm.task.looking_picks import aim_aside, aim_by_eye, aim_low, aim_over, beside_wall
 from mearm.task.plan import Planner
 from mearm.task.route import Route
 from mearm.task.table_tracking import TableTracking, TrackedObject
@@ -229,11 +229,15 @@ class PickAndPlace(TableTracking):
             if self.eye is not None:
                 pick, aim, seen = aim_over(self.eye, self.planner, ex, obj, pick, aim)
                 wall = beside_wall(self.planner, self.collision, pick)
-                if wall is not None and not seen:  # its error unknown: it may land on the wall
-                    self._skip(obj, blind_reason(wall), pick, kind="collision")
-                    return
-                if wall is not None:
-                    low, pick, aim = aim_low(self.eye, self.planner, ex, obj, pick, aim)
+                if wall is not None:  # (the low point clears the walls whatever the error)
+                    low, pick, aim, seen_low = aim_low(self.eye, self.planner, ex, obj, pick, aim)
+                    if low is not None and not (seen or seen_low):
+                        low, pick, aim, seen_low = aim_aside(
+                            self.eye, self.planner, ex, obj, low, pick, aim
+                        )
+                    if not (seen or seen_low):  # its error unknown: it may land on the wall
+                        self._skip(obj, blind_reason(wall), pick, kind="collision")
+                        return
         ex.stream(pick, "travel", closed=False, color=hex_rgb(cls.draw_rgb))
         if self.eye is not None:  # (corrections go back up to where it last looked)
             pick, aim, self._seen_z_cm = aim_by_eye(
@@ -379,10 +383,11 @@ class PickAndPlace(TableTracking):
 
 
 def blind_reason(wall: str) -> str:
-    """Why a pick beside ``wall``'s bin is not made: the camera did not see the claw over it."""
+    """Why a pick beside ``wall``'s bin is not made: the camera saw the claw nowhere near it."""
     return (
         f"the way down passes the {wall} bin's wall within the claw's unmeasured error "
-        "(the camera did not see the claw over the object): not picked blind"
+        "(the camera saw the claw neither over the object nor just above the walls): not "
+        "picked blind"
     )
 
 
