@@ -26,15 +26,19 @@ from mearm.config.servo_file import (
     save_servo_calibration,
     servo_of,
 )
+from mearm.config.servo_models import servo_named
 from mearm.hardware import ServoMap
+from mearm.kinematics.bodies import marker_in_tcp
 from mearm.kinematics.model import ArmModel
 from mearm.maker import calibrate_by_camera
 from mearm.maker.calibrate_by_camera import PLAY_US, ServoDoubt
 from mearm.maker.camera_calibration.points import free_joints
 from mearm.maker.camera_calibration.safe_moves import limits_of
+from mearm.maker.servo_truth import truth_fits
 from mearm.sim.twin.twin_bus import TwinArm
-from mearm.task.claw_fit import ServoFit, Sighting
+from mearm.task.claw_fit import ClawCamera, ServoFit, Sighting
 from mearm.task.rig import open_rig
+from mearm.vision.calibration import camera_geometry
 
 PERSPECTIVE = ROOT / "configs" / "sim_mujoco_perspective.yaml"
 #: A kit of servos as published (spread 1): zeros ±2°, 8.1-11.5 µs/deg, backlash
@@ -390,3 +394,77 @@ def test_the_moves_keep_inside_limits_a_fit_narrowed():
     others = [i for i in range(chain.m) if i != k]
     assert lower[others] == pytest.approx(chain.actuated_lower[others])
     assert upper[others] == pytest.approx(chain.actuated_upper[others])
+
+
+# ----------------------------------------------------------------- the marker's side
+
+
+def _claw(config, *, fit_side=False):
+    """The fit's view of the claw's marker through the config's calibrated camera."""
+    face = marker_in_tcp(config.arm, servo_named(config.twin.gripper_servo))
+    camera = camera_geometry(config.calibration, config.camera)
+    smap = ServoMap.from_arm(config.arm)
+    return ClawCamera(ArmModel(config.arm), smap, face, config.arm.tool.marker.size_cm, camera,
+                      fit_side=fit_side)  # fmt: skip
+
+
+#: The joints (base, shoulder, elbow) [deg] at the 16 points kit 37's calibration visited
+#: (the twin's own camera, 2026-11-29): the TCP 14-20 cm above the table, 3-9 cm above the
+#: picks, whose shoulders turn down to 42° and elbows up to -83°.
+VISITED_KIT_37 = [
+    (91.5, 92.1, -138.3), (90.6, 108.9, -153.1), (78.7, 93.8, -138.6), (102.0, 99.2, -137.7),
+    (79.9, 82.9, -126.1), (95.6, 82.6, -127.9), (75.6, 72.2, -115.9), (105.0, 71.8, -115.2),
+    (71.0, 90.0, -144.3), (90.2, 67.1, -109.0), (77.0, 114.8, -148.9), (90.5, 95.3, -149.1),
+    (104.1, 113.9, -148.3), (90.3, 75.4, -119.7), (90.5, 118.2, -151.0), (103.8, 92.2, -146.4),
+]  # fmt: skip
+
+
+def test_a_marker_seen_smaller_than_printed_leaves_the_servos_lines_as_they_are():
+    """The detector's corners lie inside the black square's edges (0.13-0.19 px on the
+    twin's renders): fitted with the printed side, the servos take the smaller marker for a lower,
+    farther claw and the picks, lower and farther out than any pose seen, end high; fitted
+    with its apparent side, every servo's line stays on the unit's (kit 37, as published)."""
+    config = load_config(PERSPECTIVE, ["twin.kit.seed=37", "twin.kit.spread=1",
+                                       "twin.kit.per_trial=false"])  # fmt: skip
+    truth = {f.name: f.servo for f in truth_fits(config)[:3]}
+    names = ("base", "shoulder", "elbow")
+    true_params = np.array(
+        [v for n in names for v in (truth[n].zero_us, truth[n].direction * truth[n].us_per_unit)]
+    )
+    seen_by = _claw(config)  # the printed side, to draw the corners the camera sees
+    rng = np.random.default_rng(37)
+    sightings = []
+    for q in VISITED_KIT_37:
+        pulses = {n: truth[n].pulse_us(v) for n, v in zip(names, q, strict=True)}
+        px = seen_by.pixels(seen_by.joints(pulses, true_params))
+        inward = px.mean(axis=0) - px
+        inward /= np.linalg.norm(inward, axis=1)[:, None]
+        sightings.append(Sighting(pulses, px + 0.19 * inward + rng.normal(0.0, 0.05, (4, 2))))
+    picks = [(73.0, 43.0, -84.0), (97.0, 50.0, -97.0), (80.0, 60.0, -112.0), (95.0, 70.0, -128.0)]
+
+    def pick_height_error_cm(claw, params) -> float:
+        """The TCP's mean height at the picks, sent by ``params``, less where it should be."""
+        dz = []
+        for q in picks:
+            pulses = {n: z + s * v for n, v, z, s in zip(names, q, params[0::2], params[1::2],
+                                                         strict=True)}  # fmt: skip
+            dz.append(claw.model.tcp_pose(claw.joints(pulses, true_params))[0][2]
+                      - claw.model.tcp_pose(claw.joints(pulses, params))[0][2])  # fmt: skip
+        return float(np.mean(dz))
+
+    printed = _claw(config)
+    plain = printed.fit(sightings, scales=True)
+    assert pick_height_error_cm(printed, printed.params_of(plain.servos)) > 0.04  # high
+    sided = _claw(config, fit_side=True)
+    fit = sided.fit(sightings, scales=True)
+    assert fit.scales
+    assert fit.side == pytest.approx(0.9946, abs=0.002)  # 0.19 px on a 35 px half-diagonal
+    params = sided.params_of(fit.servos)
+    assert abs(pick_height_error_cm(sided, params)) < 0.02
+    for k, n in enumerate(names):  # each servo's zero within 1.5 µs, its slope 0.2 %
+        assert params[2 * k] == pytest.approx(true_params[2 * k], abs=1.5), n
+        assert params[2 * k + 1] == pytest.approx(true_params[2 * k + 1], rel=0.002), n
+    # a fit of the zeros alone keeps the side the scales' fit found, once used
+    sided.use_side(fit)
+    zeros = sided.fit(sightings[:2], scales=False, start=params)
+    assert zeros.side == fit.side and sided.side == fit.side

@@ -53,9 +53,11 @@ above only.)
 
 **The fit.** While the sightings are few, only the zeros; the scales too from
 :data:`MIN_SCALE_SIGHTINGS` sightings over at least :data:`MIN_SPREAD_US` of each servo's
-pulse. A fit within its bound (:data:`MAX_RMS_PX`; :data:`MAX_ZEROS_RMS_PX` for the
-zeros alone) that the servo file's checks accept is used for the moves from then on (the
-bus sends its pulses), which is what lets the doubt shrink. The last fits must be within
+pulse, and with them the marker's apparent side (:mod:`mearm.task.claw_fit`:
+a print's scale or the detector's edges would otherwise pass for a shoulder error). A
+fit within its bound (:data:`MAX_RMS_PX`; :data:`MAX_ZEROS_RMS_PX` for the zeros alone)
+that the servo file's checks accept is used for the moves from then on (the bus sends
+its pulses), which is what lets the doubt shrink. The last fits must be within
 :data:`MAX_RMS_PX` and pass :func:`~mearm.config.servo_file.check_fit` (a µs per unit more
 than 30 % off the arm's, or a shaft more than 12° off at the neutral pulse, is refused;
 a fit of the zeros alone is not checked for its zero). Where a fitted servo cannot reach
@@ -281,6 +283,11 @@ def report(session: CameraSession, fit: CameraFit, out: TextIO) -> None:
             f"{amap.servo_text}: zero {amap.zero_us:.1f} µs, {amap.us_per_unit:.3f} "
             f"µs/{amap.unit}, direction {amap.direction:+d}{extra}\n"
         )
+    marker = session.marker
+    out.write(
+        f"marker: seen at {session.claw.side:.2%} of its printed side ({marker.size_cm:g} cm; "
+        "the print's scale and the detector's edges), fitted with the servos\n"
+    )
     for name, seen, part in (
         ("from above", session.above, fit.above),
         ("from below", session.below, fit.below),

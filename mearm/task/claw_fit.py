@@ -23,6 +23,19 @@ apparent size alone. With few poses only the zeros are fitted (``scales=False``)
 pose's eight numbers settle the zeros of three servos, and scales need poses spread over
 each joint's range.
 
+**The marker's apparent side.** The camera looks down on the marker, so its height is
+its depth along the ray, and one view tells depth mostly by the marker's apparent size:
+a marker seen 0.5 % smaller (0.19 px on a 35 px half-diagonal) is placed 0.15 cm lower.
+The print's scale and the detector's corners (on the twin's renders 0.13–0.19 px inside
+the black square's edges, kits 32, 36, 37, 41) make it look smaller or larger by about
+that much at every pose; fitted with the printed side, the servos take the difference
+for a shoulder and elbow error (the fit's weakest direction: the shoulder's zero and
+slope against the elbow's zero), and picks lower and farther out than the poses end
+0.06–0.13 cm high. So a calibration (``fit_side``) fits with the scales one more
+parameter, the side as a factor :math:`\sigma` of the printed one (corners
+:math:`c + \sigma (X_j - c)` about the marker's centre :math:`c`), within
+:data:`SIDE_RANGE`; a fit of the zeros alone keeps the side last found (:meth:`use_side`).
+
 The result is a servo calibration in the same terms as the keyboard procedure's
 (:mod:`mearm.config.servo_file`): ``zero_us`` = :math:`z_k`, ``direction`` = sign
 :math:`s_k`, ``us_per_unit`` = :math:`|s_k|`.
@@ -47,6 +60,10 @@ from mearm.vision.pinhole import PerspectiveCamera
 #: so a fit beyond ±35 % has found something other than the servo (a slipped horn, the
 #: wrong marker).
 MAX_SCALE_CHANGE = 0.35
+#: How far the marker's apparent side may be from its printed one, a factor [-]: a
+#: print's scale and a detector's edge bias (a pixel at most on a 40 px side) stay well
+#: inside 5 %; more is a wrong ``size_cm``.
+SIDE_RANGE = (0.95, 1.05)
 
 
 @dataclass(frozen=True)
@@ -71,12 +88,15 @@ class ServoFit:
         residuals_px: Each sighting's RMS corner residual [px], (N,).
         rms_px: The RMS over every corner [px].
         scales: Whether the scales were fitted (else only the zeros).
+        side: The marker's apparent side the fit used or found, a factor of its printed
+            side [-] (module docstring).
     """
 
     servos: tuple[ActuatorMap, ...]
     residuals_px: np.ndarray
     rms_px: float
     scales: bool
+    side: float = 1.0
 
 
 class ClawCamera:
@@ -90,6 +110,11 @@ class ClawCamera:
             (:func:`~mearm.kinematics.bodies.marker_in_tcp`).
         side_cm: The marker's printed side [cm].
         camera: The calibrated camera.
+        fit_side: Fit the marker's apparent side with the scales (module docstring).
+
+    Attributes:
+        side: The apparent side the predictions use, a factor of the printed one [-]
+            (1 until a fit that found one is used: :meth:`use_side`).
     """
 
     def __init__(
@@ -99,12 +124,17 @@ class ClawCamera:
         marker_in_tcp: np.ndarray,
         side_cm: float,
         camera: PerspectiveCamera,
+        *,
+        fit_side: bool = False,
     ):
         self.model = model
+        self.fit_side = fit_side
+        self.side = 1.0
         self.servo_map = servo_map
         self.camera = camera
         corners = square_corners(side_cm) / 100.0  # m
         self._corners_tcp = corners @ marker_in_tcp[:3, :3].T + marker_in_tcp[:3, 3]
+        self._centre_tcp = self._corners_tcp.mean(axis=0)
         combo = servo_map.combination
         m = len(servo_map.joints)
         A, a = combo if combo is not None else (np.eye(m), np.zeros(m))
@@ -131,10 +161,17 @@ class ClawCamera:
         q_a = self._A_inv @ (values - self._a) * chain.scale[chain.actuated_index]
         return chain.full(q_a)
 
-    def corners_cm(self, q: np.ndarray) -> np.ndarray:
-        """The marker's corners in the base frame at joints ``q`` [cm], (4, 3)."""
+    def corners_cm(self, q: np.ndarray, side: float | None = None) -> np.ndarray:
+        """The marker's corners in the base frame at joints ``q`` [cm], (4, 3).
+
+        ``side``: its apparent side, a factor of the printed one (default :attr:`side`).
+        """
+        side = self.side if side is None else side
+        c = self._corners_tcp
+        if side != 1.0:
+            c = self._centre_tcp + (c - self._centre_tcp) * side
         p, R = self.model.tcp_pose(q)
-        return (self._corners_tcp * 100.0) @ R.T + p
+        return (c * 100.0) @ R.T + p
 
     def centre_cm(self, q: np.ndarray) -> np.ndarray:
         """The marker's centre in the base frame at joints ``q`` [cm], (3,)."""
@@ -144,14 +181,28 @@ class ClawCamera:
         """Where the camera sees the marker's corners at joints ``q`` [px], (4, 2)."""
         return self.camera.project(self.corners_cm(q))
 
-    def residuals(self, sightings: Sequence[Sighting], params: np.ndarray) -> np.ndarray:
-        """Every sighting's corner residuals, flattened [px], (8 N,)."""
+    def residuals(
+        self, sightings: Sequence[Sighting], params: np.ndarray, side: float | None = None
+    ) -> np.ndarray:
+        """Every sighting's corner residuals, flattened [px], (8 N,).
+
+        ``side``: the marker's apparent side, a factor of the printed one (default
+        :attr:`side`).
+        """
         return np.concatenate(
             [
-                (self.pixels(self.joints(s.pulses_us, params)) - s.corners_px).ravel()
+                (
+                    self.camera.project(self.corners_cm(self.joints(s.pulses_us, params), side))
+                    - s.corners_px
+                ).ravel()
                 for s in sightings
             ]
         )
+
+    def use_side(self, fit: ServoFit) -> None:
+        """Predict with the side ``fit`` found (a fit of the zeros keeps the present one)."""
+        if fit.scales:
+            self.side = fit.side
 
     def servo_maps(self, params: np.ndarray) -> tuple[ActuatorMap, ...]:
         """The joint servos' maps with the mapping of ``params``."""
@@ -170,38 +221,45 @@ class ClawCamera:
 
         Args:
             sightings: At least one; with ``scales``, poses spread over each joint.
-            scales: Fit each servo's µs per unit too (else only its zero).
+            scales: Fit each servo's µs per unit too (else only its zero), and with them
+                the marker's apparent side where :attr:`fit_side`.
             start: Parameters to start from (default: the servo map's).
         """
-        x0 = self.start() if start is None else np.asarray(start, dtype=float)
+        # the servos' (zero, scale) pairs, then the marker's side
+        x0 = np.append(self.start() if start is None else np.asarray(start, dtype=float),
+                       self.side)  # fmt: skip
+        n = len(x0) - 1
         free = np.ones(len(x0), dtype=bool)
         if not scales:
-            free[1::2] = False
-        s0 = x0[1::2]
+            free[1:n:2] = False
+        free[n] = scales and self.fit_side
+        s0 = x0[1:n:2]
         lo, hi = np.full(len(x0), -np.inf), np.full(len(x0), np.inf)
         ref = np.abs(self.start()[1::2])
-        lo[1::2] = np.where(s0 > 0, ref * (1 - MAX_SCALE_CHANGE), -ref * (1 + MAX_SCALE_CHANGE))
-        hi[1::2] = np.where(s0 > 0, ref * (1 + MAX_SCALE_CHANGE), -ref * (1 - MAX_SCALE_CHANGE))
+        lo[1:n:2] = np.where(s0 > 0, ref * (1 - MAX_SCALE_CHANGE), -ref * (1 + MAX_SCALE_CHANGE))
+        hi[1:n:2] = np.where(s0 > 0, ref * (1 + MAX_SCALE_CHANGE), -ref * (1 - MAX_SCALE_CHANGE))
+        lo[n], hi[n] = SIDE_RANGE
 
         def full(x: np.ndarray) -> np.ndarray:
             out = x0.copy()
             out[free] = x
             return out
 
-        x_free = np.clip(x0[free], lo[free], hi[free])
+        x_scale = np.where(np.arange(len(x0)) % 2 == 0, 10.0, 0.5)
+        x_scale[n] = 0.01
         result = least_squares(
-            lambda x: self.residuals(sightings, full(x)),
-            x_free,
+            lambda x: self.residuals(sightings, full(x)[:n], full(x)[n]),
+            np.clip(x0[free], lo[free], hi[free]),
             bounds=(lo[free], hi[free]),
-            x_scale=np.where(np.arange(len(x0))[free] % 2 == 0, 10.0, 0.5),
+            x_scale=x_scale[free],
             method="trf",
         )
-        params = full(result.x)
-        r = self.residuals(sightings, params).reshape(len(sightings), 4, 2)
+        x = full(result.x)
+        params, side = x[:n], float(x[n])
+        r = self.residuals(sightings, params, side).reshape(len(sightings), 4, 2)
         per = np.sqrt(np.mean(np.sum(r**2, axis=2), axis=1))
-        return ServoFit(
-            self.servo_maps(params), per, float(np.sqrt(np.mean(np.sum(r**2, axis=2)))), scales
-        )
+        rms = float(np.sqrt(np.mean(np.sum(r**2, axis=2))))
+        return ServoFit(self.servo_maps(params), per, rms, scales, side)
 
     def params_of(self, servos: Sequence[ActuatorMap]) -> np.ndarray:
         """Fit parameters of joint servo maps (the inverse of :meth:`servo_maps`)."""

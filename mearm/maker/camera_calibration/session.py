@@ -89,7 +89,8 @@ class CameraSession(SafeMoves):
         assert marker is not None  # check_inputs
         face = marker_in_tcp(config.arm, servo_named(config.twin.gripper_servo))
         assert face is not None  # the tool has a marker
-        claw = ClawCamera(rig.model, ServoMap.from_arm(config.arm), face, marker.size_cm, camera)
+        claw = ClawCamera(rig.model, ServoMap.from_arm(config.arm), face, marker.size_cm, camera,
+                          fit_side=True)  # fmt: skip
         super().__init__(config, rig, claw)
         self.marker = marker
         self.home: Sighting | None = None
@@ -277,6 +278,7 @@ class CameraSession(SafeMoves):
         )
         self.config, self._planner = config, {}
         self.fit, self.params = fit, self.claw.params_of(fit.servos)
+        self.claw.use_side(fit)
         self.fits += 1
         self.doubt.learn(fit, sightings, self.claw.servo_map)
         return _Used()
@@ -413,6 +415,7 @@ class CameraSession(SafeMoves):
                 "table under the view and light the marker"
             )
         first = self.claw.fit(above, scales=True, start=self.params)
+        self.claw.use_side(first)  # the arrivals from below, and each servo's points
         second = None
         if self.below:
             below = [s for _, s in self.below]
