@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from scipy import stats
 
 from mearm.analysis import fit_weibull, route_errors_cm
 from mearm.analysis import paper as P
@@ -43,6 +42,8 @@ def test_synthetic_error_lengths_follow_the_weibull() -> None:
     """The generator itself: the lengths pass a KS test against the true Weibull."""
     e = weibull_error_vectors(2400, shape=2.045, scale=0.7059, rng=np.random.default_rng(9))
     norms = np.linalg.norm(e, axis=1)
+    from scipy import stats  # here, not at the top: every xdist worker collects this file
+
     assert stats.kstest(norms, "weibull_min", args=(2.045, 0, 0.7059)).pvalue > 0.05
     # directions are uniform: each axis has mean ≈ 0
     assert np.abs(e.mean(axis=0)).max() < 0.05
@@ -71,6 +72,8 @@ def test_probabilities_are_the_closed_form() -> None:
 
 def test_papers_own_fit_gives_948_percent_below_1_2_cm() -> None:
     """With the paper's shape and scale, P(e < 1.2 cm) is 94.82 %, not the printed 94.46 %."""
+    from scipy import stats  # here, not at the top: every xdist worker collects this file
+
     d = stats.weibull_min(P.WEIBULL_SHAPE, scale=P.WEIBULL_SCALE_CM)
     assert 100 * d.cdf(P.SUCCESS_BOUND_CM) == pytest.approx(94.82, abs=0.01)
 

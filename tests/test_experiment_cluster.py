@@ -4,6 +4,7 @@ import importlib.util
 import json
 import re
 import socket
+import sys
 import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -12,7 +13,7 @@ from pathlib import Path
 import pytest
 from badinput import run_in_process
 from built_once import computed_once
-from conftest import interrupted_experiment, run_cli
+from conftest import interrupted_experiment
 from test_sweeps import SERIAL_TRIALS, SWEEP, experiment, records, serial_prefix, serial_records
 
 from mearm.runlog import read_runlog
@@ -22,8 +23,9 @@ if importlib.util.find_spec("distributed") is None:  # not imported here: 0.3 s 
 
 
 def analysis(log: Path) -> dict:
-    r = run_cli("-m", "mearm", "analyze", str(log), "--json", timeout=120)
-    assert r.returncode == 0, r.stderr
+    # in this process: the test is about the numbers, not the interpreter (0.7 s a child)
+    r = run_in_process(["analyze", log, "--json"], within_s=12)
+    assert r.code == 0, r.stderr
     data = json.loads(r.stdout)
     assert data["analysis"].pop("source") == str(log)
     return data
@@ -162,14 +164,12 @@ def test_a_server_that_is_not_a_scheduler_exits_2(answer, needle, tmp_path, quic
     assert len(r.stderr.strip().splitlines()) == 1 and needle in r.stderr, r.stderr
 
 
-def test_without_dask_the_scheduler_option_names_the_extra(tmp_path):
+def test_without_dask_the_scheduler_option_names_the_extra(tmp_path, monkeypatch):
     """Dask not importable (as without the extra): one line naming the extra, exit 2."""
-    code = (
-        "import sys; sys.modules['distributed'] = None; "
-        "from mearm.cli import run; from mearm.experiment import main; run(main)"
-    )
+    # None in sys.modules makes `import distributed` fail, loaded or not (restored after)
+    monkeypatch.setitem(sys.modules, "distributed", None)
     log = tmp_path / "t.jsonl"
-    r = run_cli("-c", code, "--trials", "2", "--log", str(log), "--scheduler", "local")
-    assert r.returncode == 2 and not log.exists()
+    r = run_in_process(["experiment", "--trials", 2, "--log", log, "--scheduler", "local"])
+    assert r.code == 2 and not log.exists()
     assert len(r.stderr.strip().splitlines()) == 1, r.stderr
     assert "pip install 'mearm[cluster]'" in r.stderr

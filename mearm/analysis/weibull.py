@@ -11,12 +11,15 @@ with shape :math:`k` and scale :math:`\lambda` [cm].
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 import numpy.typing as npt
-from scipy import stats
 
 from mearm.analysis.errors import AnalysisError
+
+if TYPE_CHECKING:
+    from scipy import stats
 
 MIN_SAMPLES = 3
 
@@ -46,6 +49,9 @@ class WeibullFit:
     @property
     def distribution(self) -> stats.rv_continuous:
         """The fitted ``scipy.stats.weibull_min`` (frozen)."""
+        # scipy.stats costs ~1 s to import; every `import mearm.analysis` paid it.
+        from scipy import stats
+
         return stats.weibull_min(self.shape, loc=0.0, scale=self.scale)
 
     def pdf(self, error_cm: npt.ArrayLike) -> np.ndarray:
@@ -84,6 +90,8 @@ def fit_weibull(errors_cm: npt.ArrayLike) -> WeibullFit:
             f"a Weibull fit needs finite errors > 0; {int(bad.sum())} of {e.size} are not "
             f"(e.g. {e[bad][0]!r} cm)"
         )
+    from scipy import stats  # lazy: see WeibullFit.distribution
+
     shape, _, scale = stats.weibull_min.fit(e, floc=0)
     ks = stats.kstest(e, "weibull_min", args=(shape, 0.0, scale))
     _, (_, _, r) = stats.probplot(e, sparams=(shape, 0.0, scale), dist="weibull_min")
