@@ -48,7 +48,6 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import least_squares
 
 from mearm.hardware.mapping import ActuatorMap, ServoMap
 from mearm.kinematics import ArmModel
@@ -225,6 +224,8 @@ class ClawCamera:
                 the marker's apparent side where :attr:`fit_side`.
             start: Parameters to start from (default: the servo map's).
         """
+        from scipy.optimize import least_squares  # lazy: scipy costs 0.7 s to import
+
         # the servos' (zero, scale) pairs, then the marker's side
         x0 = np.append(self.start() if start is None else np.asarray(start, dtype=float),
                        self.side)  # fmt: skip

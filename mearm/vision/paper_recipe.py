@@ -12,7 +12,6 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
-from scipy import ndimage
 
 from mearm.config import ColorClass, VisionConfig
 from mearm.vision.classify import classify_hsv, hsv_exact
@@ -34,6 +33,8 @@ def detect_reference(
         classes: The colour classes (``task.classes``), in order.
         vision: Floors and filter settings.
     """
+    from scipy import ndimage  # lazy: scipy costs 0.7 s to import
+
     thr = Thresholds.from_config(classes, vision)
     codes = classify_hsv(*hsv_exact(frame_bgr), thr)
     k = vision.median_kernel

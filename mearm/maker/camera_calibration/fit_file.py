@@ -6,7 +6,6 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import least_squares
 
 from mearm.config import Config
 from mearm.config.arm import ArmDescription
@@ -106,6 +105,8 @@ def seen_values(claw: ClawCamera, sighting: Sighting, params: np.ndarray) -> np.
     def residual(v: np.ndarray) -> np.ndarray:
         q = claw.joints(dict(zip(names, v, strict=True)), as_values)
         return (claw.pixels(q) - sighting.corners_px).ravel()
+
+    from scipy.optimize import least_squares  # lazy: scipy costs 0.7 s to import
 
     return least_squares(residual, start, method="lm").x
 
