@@ -8,6 +8,7 @@ import pytest
 from badinput import run_in_process
 from conftest import run_cli
 
+import mearm.ik  # MinkSolver on first use: mink costs each worker's collection 0.3 s
 from mearm.config import ControllerConfig, config_from_dict, load_config
 from mearm.exceptions import (
     ConfigError,
@@ -23,7 +24,6 @@ from mearm.ik import (
     STATUSES,
     AnalyticSolver,
     IKTarget,
-    MinkSolver,
     PdPij,
     PseudoInverse,
     make_solver,
@@ -346,7 +346,7 @@ def test_updated_validates():
 
 def test_unknown_qp_solver(model, config):
     with pytest.raises(QPSolverError) as exc:
-        MinkSolver(model, config.controller.updated(qp_solver="nope"))
+        mearm.ik.MinkSolver(model, config.controller.updated(qp_solver="nope"))
     assert "daqp" in exc.value.available
 
 
@@ -354,7 +354,11 @@ def test_unknown_qp_solver(model, config):
 
 
 def test_solve_ik_dispatches_on_config(model, config):
-    for name, kind in (("pdpij", PdPij), ("analytic", AnalyticSolver), ("mink", MinkSolver)):
+    for name, kind in (
+        ("pdpij", PdPij),
+        ("analytic", AnalyticSolver),
+        ("mink", mearm.ik.MinkSolver),
+    ):
         controller = config.controller.updated(solver=name)
         assert isinstance(make_solver(model, controller), kind)
         result = solve_ik(model, controller, M1, model.home)

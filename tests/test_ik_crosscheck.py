@@ -17,10 +17,10 @@ import pytest
 from built_once import computed_once
 from conftest import yourdfpy_urdf
 
+import mearm.ik  # MinkSolver on first use: mink costs each worker's collection 0.3 s
 from mearm.config import ArmDescription, Config, load_config
 from mearm.exceptions import TargetOutsideBoxError, UnreachableTargetError
-from mearm.ik import IKTarget, MinkSolver, PdPij
-from mearm.ik.mink_solver import TCP_SITE, CouplingTask, mujoco_model
+from mearm.ik import IKTarget, PdPij
 from mearm.kinematics import ArmModel, check_in_box, closed_form_for, dh_fk, jaw_joint_names
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -161,23 +161,29 @@ def test_jacobians_match_finite_differences(arm_case):
 
 def test_mujoco_site_is_pinocchios_tcp_frame(arm_case):
     """The URDF in MuJoCo (jaws fixed) puts the tcp site where Pinocchio puts tcp."""
+    from mearm.ik import mink_solver
+
     _, _, model = arm_case
-    mj_model = mujoco_model(model)
+    mj_model = mink_solver.mujoco_model(model)
     assert mj_model.njnt == model.chain.n
     data = mujoco.MjData(mj_model)
     for q in random_poses(model, 20, seed=3):
         data.qpos[:] = q
         mujoco.mj_kinematics(mj_model, data)
-        np.testing.assert_allclose(data.site(TCP_SITE).xpos * 100, model.fk_cm(q), atol=1e-10)
+        np.testing.assert_allclose(
+            data.site(mink_solver.TCP_SITE).xpos * 100, model.fk_cm(q), atol=1e-10
+        )
         # the site's z axis is the tool's approach axis
         np.testing.assert_allclose(
-            data.site(TCP_SITE).xmat.reshape(3, 3)[:, 2], model.approach(q), atol=1e-10
+            data.site(mink_solver.TCP_SITE).xmat.reshape(3, 3)[:, 2], model.approach(q), atol=1e-10
         )
 
 
 def test_mujoco_limits_are_the_models(arm_case):
+    from mearm.ik import mink_solver
+
     _, _, model = arm_case
-    mj_model = mujoco_model(model)
+    mj_model = mink_solver.mujoco_model(model)
     np.testing.assert_allclose(mj_model.jnt_range[:, 0], model.lower, atol=1e-12)
     np.testing.assert_allclose(mj_model.jnt_range[:, 1], model.upper, atol=1e-12)
 
@@ -186,10 +192,12 @@ def test_coupling_task_error_and_jacobian(arm_case):
     """e = q_p − C_p q_a − c_p, one row per passive joint, J by finite differences."""
     import mink
 
+    from mearm.ik import mink_solver
+
     _, _, model = arm_case
     ch = model.chain
-    mj_model = mujoco_model(model)
-    task = CouplingTask(mj_model, ch)
+    mj_model = mink_solver.mujoco_model(model)
+    task = mink_solver.CouplingTask(mj_model, ch)
     assert task.k == len(ch.passive_index)
     if task.k == 0:
         return
@@ -248,7 +256,7 @@ def solved(arm_case, tmp_path_factory):
     def solve() -> dict:
         controller = Config().controller.updated(tolerance_cm2=1e-8)
         targets = reachable_targets(name, arm, model)
-        pd, mk = PdPij(model, controller), MinkSolver(model, controller)
+        pd, mk = PdPij(model, controller), mearm.ik.MinkSolver(model, controller)
         return {
             "targets": targets,
             "pdpij": [pd.solve(t, model.home) for t in targets],
@@ -343,7 +351,7 @@ def paper_targets():
 def make(kind, tolerance_cm2):
     controller = Config().controller.updated(tolerance_cm2=tolerance_cm2)
     if kind == "mink":
-        return MinkSolver(PAPER_MODEL, controller)
+        return mearm.ik.MinkSolver(PAPER_MODEL, controller)
     return PdPij(PAPER_MODEL, controller.updated(mode=kind))
 
 

@@ -5,9 +5,10 @@ import dataclasses
 import numpy as np
 import pytest
 
+import mearm.ik  # MinkSolver on first use: mink costs each worker's collection 0.3 s
 from mearm.config import Config
 from mearm.exceptions import InvalidTargetError, JointLimitError, TargetOutsideBoxError
-from mearm.ik import AnalyticSolver, IKResult, IKSolver, IKTarget, MinkSolver, NewtonIK, PdPij
+from mearm.ik import AnalyticSolver, IKResult, IKSolver, IKTarget, NewtonIK, PdPij
 from mearm.kinematics import ArmModel
 
 CONFIG = Config()
@@ -15,7 +16,7 @@ MODEL = ArmModel(CONFIG.arm)
 TARGET = (-10.99, 49.70, 12.76)
 SOLVERS = {
     "pdpij": lambda: PdPij(MODEL, CONFIG.controller),
-    "mink": lambda: MinkSolver(MODEL, CONFIG.controller),
+    "mink": lambda: mearm.ik.MinkSolver(MODEL, CONFIG.controller),
     "analytic": lambda: AnalyticSolver(MODEL, CONFIG.controller),
     "newton": lambda: NewtonIK(MODEL),
 }

@@ -13,7 +13,6 @@ from conftest import ROOT
 
 from mearm.config import Config, SceneObject, load_config
 from mearm.exceptions import ModelError
-from mearm.ik.mink_solver import mujoco_model
 from mearm.kinematics import ArmModel
 from mearm.kinematics.chain import Chain
 from mearm.kinematics.urdf import jaw_joint_names
@@ -59,6 +58,8 @@ def held(twin: tuple[Config, str, mujoco.MjModel]) -> mujoco.MjData:
 
 def test_the_twin_and_mink_solve_on_one_chain(twin: tuple[Config, str, mujoco.MjModel]) -> None:
     """One builder: the twin's chain and the mink cross-check's put the TCP at one place."""
+    from mearm.ik.mink_solver import mujoco_model  # here: mink costs each worker 0.3 s
+
     config, _, m = twin
     arm = ArmModel(config.arm)
     bare = mujoco_model(arm)

@@ -58,8 +58,8 @@ class Installed:
     seconds: dict[str, float]
 
 
-#: Left out of the commands' environment. ``PYTHONPYCACHEPREFIX`` (``make test`` keeps the
-#: suite's bytecode under .venv) would key the bytecode of the installed package and of
+#: Left out of the commands' environment. ``PYTHONPYCACHEPREFIX`` (``make soak`` keeps its
+#: bytecode under .venv; a user may set it) would key the bytecode of the installed package and of
 #: its dependencies (reached through ``deps/``, links into the test environment) by this
 #: run's temporary paths: every run compiled all of them again, about 6 s of CPU, and left
 #: about 45 MB of bytecode behind under .venv. Without it the dependencies' own
