@@ -200,9 +200,11 @@ class Sorter(PickAndPlace):
     def _choose(self, seen: Seen, *, final: bool = False) -> TrackedObject | None:
         """The object to pick next, or ``None``.
 
-        ``final``: the look is from home, the last before the run ends; only then are the
-        objects seen as touching others, or cut by the image border, with nothing else
-        left to pick, left as merged or cut (from elsewhere the arm may hide part of one).
+        ``final``: the look is the last before the run ends (from home, and where the
+        camera sees the arm, from beside home too: at home the arm may hide part of an
+        object); only then are the objects seen as touching others, or cut by the image
+        border, with nothing else left to pick, left as merged or cut (from elsewhere
+        the arm may hide part of one).
         """
         candidates = [
             o
@@ -309,9 +311,14 @@ class Sorter(PickAndPlace):
                 if obj is None and (self._unaccounted() or not looked_aside):
                     # the arm over a bin may hide an object seen before: look from home
                     self._home()
-                    obj = self._choose(self._look(), final=True)
+                    seen = self._look()
+                    # the arm at home may hide part of an object (seen as a half disc,
+                    # flagged merged): nothing is left so before the look aside
+                    obj = self._choose(seen, final=looked_aside)
                     if obj is None and not looked_aside:
                         obj, looked_aside = self._look_aside(), True
+                        if obj is None:  # what the look aside did not settle, home does
+                            obj = self._choose(seen, final=True)
                     if obj is None and self._unaccounted():
                         self._gone()
                 if obj is None:
