@@ -322,6 +322,15 @@ class ColorDetector:
     def detect(
         self, frame_bgr: np.ndarray, *, exclude: np.ndarray | None = None
     ) -> list[Detection]:
+        """:meth:`_detect`'s detections, parts of objects judged (:mod:`.object_parts`)."""
+        from mearm.vision.object_parts import whole_objects
+
+        found = self._detect(frame_bgr, exclude=exclude)
+        return whole_objects(found, self, frame_bgr.shape)
+
+    def _detect(
+        self, frame_bgr: np.ndarray, *, exclude: np.ndarray | None = None
+    ) -> list[Detection]:
         """Detections in ``frame_bgr`` ((H, W, 3) uint8 BGR), in the documented order.
 
         ``exclude``: pixels where no object is looked for (0/255 uint8, (H, W)), e.g. the
