@@ -71,6 +71,7 @@ from mearm.vision.learned import LearnedClassifier, area_mask, balance_by, gains
 from mearm.vision.perspective_detection import (
     MAX_SPLIT,
     SILHOUETTE_WRONG,
+    _classify_regions,
     _disc_diameter_cm,
     _top_face,
     best_shape,
@@ -95,8 +96,12 @@ from mearm.vision.regions import (
     split_region,
 )
 from mearm.vision.shadows import grow_into_shadows, weak_classifier
-from mearm.vision.shapes import ClassMatcher, measure_shape, touches_border
+from mearm.vision.shapes import ClassMatcher, touches_border
 from mearm.vision.thresholds import Thresholds
+
+#: Where objects are looked for (0/255, ``None``: everywhere), whether that is the whole
+#: frame, and the colour-constancy gains (B, G, R) or ``None``.
+Prepared = tuple[np.ndarray | None, bool, np.ndarray | None]
 
 __all__ = [
     "CORE_DEPTH",
@@ -239,14 +244,31 @@ class ColorDetector:
         return self._areas[key]
 
     def _classify(
-        self, frame: np.ndarray, exclude: np.ndarray | None = None
+        self, frame: np.ndarray, exclude: np.ndarray | None = None, prepared: Prepared | None = None
     ) -> tuple[np.ndarray, tuple[int, int, int, int]]:
         """Class codes of a frame and the box outside which all are 0 (may be loose).
 
         The frame is white-balanced first when the config holds a reference colour, the
         learned colours' codes take their pixels before the hue bands', and nothing
         outside the work area, or inside ``exclude`` (0/255, (H, W)), is kept
-        (:mod:`mearm.vision.learned`).
+        (:mod:`mearm.vision.learned`). ``prepared``: :meth:`area_and_gain`'s, if known.
+        """
+        area, whole, gain = prepared or self.area_and_gain(frame, exclude)
+        if self.learned is None and area is None:
+            balanced = frame if gain is None else balance_by(frame, gain)
+            return self.classifier.classify_with_box(balanced)
+        codes = self.codes_of(frame, gain)
+        if area is not None and not whole:
+            codes = cv2.bitwise_and(codes, area)
+        x, y, w, h = cv2.boundingRect(codes)
+        return codes, (x, y, w, h)
+
+    def area_and_gain(self, frame: np.ndarray, exclude: np.ndarray | None = None) -> Prepared:
+        """Where objects are looked for, whether that is the whole frame, and the gains.
+
+        The area is the work area's 0/255 mask less ``exclude`` (``None``: everywhere);
+        the gains (B, G, R) take the frame's median there to ``vision.reference_bgr``
+        (``None`` without a reference colour).
         """
         area = self.work_area(frame.shape)
         # a work area of the whole frame (a taught one, often) keeps every pixel
@@ -262,9 +284,13 @@ class ColorDetector:
             area = keep if area is None else cv2.bitwise_and(area, keep)
         ref = self.vision.reference_bgr
         gain = None if ref is None else gains(frame, ref, None if whole else area)
-        if self.learned is None and area is None:
-            balanced = frame if gain is None else balance_by(frame, gain)
-            return self.classifier.classify_with_box(balanced)
+        return area, whole, gain
+
+    def codes_of(self, frame: np.ndarray, gain: np.ndarray | None) -> np.ndarray:
+        """Class codes (uint8 (H, W), 0: none) of a frame or a window of one, after ``gain``.
+
+        Learned colours first, then the hue bands; no work area applied.
+        """
         if self._banded:
             balanced = frame if gain is None else balance_by(frame, gain)
             codes, _ = self.classifier.classify_with_box(balanced)
@@ -273,13 +299,13 @@ class ColorDetector:
         if self.learned is not None:
             taught = self.learned.classify_with_highlights(frame, gain)
             codes = taught if not self._banded else np.where(taught > 0, taught, codes)
-        if area is not None and not whole:
-            codes = cv2.bitwise_and(codes, area)
-        x, y, w, h = cv2.boundingRect(codes)
-        return codes, (x, y, w, h)
+        return codes
 
     def _filtered(
-        self, frame_bgr: np.ndarray, exclude: np.ndarray | None = None
+        self,
+        frame_bgr: np.ndarray,
+        exclude: np.ndarray | None = None,
+        prepared: Prepared | None = None,
     ) -> tuple[dict[str, np.ndarray], int, int]:
         """Filtered masks of the box around every classified pixel, and the box origin.
 
@@ -287,7 +313,7 @@ class ColorDetector:
         inside it gives the full frame's result exactly, for less work.
         """
         frame = check_frame(frame_bgr)
-        codes, (x, y, w, h) = self._classify(frame, exclude)
+        codes, (x, y, w, h) = self._classify(frame, exclude, prepared)
         if self._weak is not None:  # regions grown into their shadows (mearm.vision.shadows)
             weak, (x, y, w, h) = self._weak.classify_with_box(frame)
             codes = grow_into_shadows(codes, weak, len(self.class_names))
@@ -322,14 +348,27 @@ class ColorDetector:
     def detect(
         self, frame_bgr: np.ndarray, *, exclude: np.ndarray | None = None
     ) -> list[Detection]:
-        """:meth:`_detect`'s detections, parts of objects judged (:mod:`.object_parts`)."""
-        from mearm.vision.object_parts import whole_objects
+        """:meth:`_detect`'s detections, parts of objects judged (:mod:`.object_parts`).
 
-        found = self._detect(frame_bgr, exclude=exclude)
-        return whole_objects(found, self, frame_bgr.shape)
+        With a reference colour (the table's, taught), only detections standing on the
+        work surface are kept (:mod:`.on_table`).
+        """
+        from mearm.vision.object_parts import whole_objects_and_widths
+        from mearm.vision.on_table import on_table
+
+        prepared = None
+        if self.vision.reference_bgr is not None and self.calibration is not None:
+            prepared = self.area_and_gain(check_frame(frame_bgr), exclude)
+        found = self._detect(frame_bgr, exclude=exclude, prepared=prepared)
+        found, narrow = whole_objects_and_widths(found, self, frame_bgr.shape)
+        return found if prepared is None else on_table(found, frame_bgr, self, prepared, narrow)
 
     def _detect(
-        self, frame_bgr: np.ndarray, *, exclude: np.ndarray | None = None
+        self,
+        frame_bgr: np.ndarray,
+        *,
+        exclude: np.ndarray | None = None,
+        prepared: Prepared | None = None,
     ) -> list[Detection]:
         """Detections in ``frame_bgr`` ((H, W, 3) uint8 BGR), in the documented order.
 
@@ -345,7 +384,7 @@ class ColorDetector:
             ImageError: the frame is not an 8-bit 3-channel image, or ``exclude`` is not
                 of its size.
         """
-        masks, ox, oy = self._filtered(frame_bgr, exclude)
+        masks, ox, oy = self._filtered(frame_bgr, exclude, prepared)
         # One image of class codes 1..N (0 = none); the filtered masks are disjoint.
         index = np.zeros_like(next(iter(masks.values())))
         for code, name in enumerate(self.class_names, start=1):
@@ -638,44 +677,3 @@ class ColorDetector:
             most=most,
             min_area_px=self.vision.min_area_px,
         )
-
-
-def _classify_regions(
-    matcher: ClassMatcher,
-    found: Sequence[Detection],
-    regions: Sequence[np.ndarray],
-    frame_shape: Sequence[int],
-    tops: Sequence[str | None] | None = None,
-) -> list[tuple[int, Detection, np.ndarray]]:
-    """Detections of colours (``color`` a colour's name) as detections of classes.
-
-    Each region's shape is measured (:func:`measure_shape`) unless it is merged or cut
-    by the image border (then ``shape`` is ``None``), and its class is
-    :meth:`ClassMatcher.match`'s; regions of no class are left out.
-
-    Args:
-        matcher: The classes.
-        found: The regions' detections, ``color`` the colour's name.
-        regions: Each one's mask over its box, 0/1 uint8.
-        frame_shape: The frame's (H, W, ...).
-        tops: Each region's shape judged by its top face in perspective, where known
-            (:func:`~mearm.vision.perspective_detection.top_fits`): it stands for the silhouette's.
-
-    Returns:
-        Each detection of a class, with its index in ``found`` and its region.
-    """
-    height, width = int(frame_shape[0]), int(frame_shape[1])
-    out = []
-    for k, (d, region) in enumerate(zip(found, regions, strict=True)):
-        measured = None
-        if not d.merged and not touches_border(d.bbox_px, width, height):
-            measured = measure_shape(region)
-        shape = None if measured is None else measured.shape
-        if tops is not None and tops[k] is not None:
-            shape = tops[k]
-        name = matcher.match(d.color, shape)
-        if name is None:
-            continue
-        yaw = None if measured is None or shape != "cube" else measured.yaw_px_deg
-        out.append((k, d.evolve(color=name, shape=shape, yaw_px_deg=yaw), region))
-    return out

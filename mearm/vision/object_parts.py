@@ -142,18 +142,10 @@ def _sizes(detector: ObjectBounds) -> _Sizes:
     return known
 
 
-def whole_objects(
-    found: list[Detection], detector: ObjectBounds, frame_shape: Sequence[int]
-) -> list[Detection]:
-    """``found`` without parts longer than one object, fragments of one object joined.
-
-    Args:
-        found: A frame's detections, in the detector's order (class, row, column), kept.
-        detector: The detector that found them (its calibration, classes and bounds).
-        frame_shape: The frame's (H, W, ...).
-    """
-    if detector.calibration is None or not found:
-        return found
+def _bounds_px(
+    found: Sequence[Detection], detector: ObjectBounds, frame_shape: Sequence[int]
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    r"""At each detection: one footprint, *s*·*w*\ :sub:`n`, *s*·*w*\ :sub:`x`·``E1`` [px]."""
     sizes = _sizes(detector)
     names = [d.color for d in found]
     centroids = np.array([d.centroid_px for d in found])
@@ -164,6 +156,51 @@ def whole_objects(
     scale = np.sqrt(footprint / (np.pi * diameter**2 / 4.0))  # [px/cm]
     narrow = scale * np.array([sizes.narrow_cm[n] for n in names])
     wide = scale * np.array([sizes.wide_cm[n] for n in names]) * stretch
+    return footprint, narrow, wide
+
+
+def narrowest_px(
+    found: Sequence[Detection], detector: ObjectBounds, frame_shape: Sequence[int]
+) -> np.ndarray:
+    r"""Each detection's object's narrowest width there, *s*·*w*\ :sub:`n` [px], (N,).
+
+    Needs the detector's calibration.
+    """
+    return _bounds_px(found, detector, frame_shape)[1]
+
+
+def colours_of(found: Sequence[Detection], detector: ObjectBounds) -> list[str]:
+    """Each detection's colour: the colour group its class is classified in."""
+    colour = _sizes(detector).colour
+    return [colour[d.color] for d in found]
+
+
+def whole_objects(
+    found: list[Detection], detector: ObjectBounds, frame_shape: Sequence[int]
+) -> list[Detection]:
+    """``found`` without parts longer than one object, fragments of one object joined.
+
+    Args:
+        found: A frame's detections, in the detector's order (class, row, column), kept.
+        detector: The detector that found them (its calibration, classes and bounds).
+        frame_shape: The frame's (H, W, ...).
+    """
+    return whole_objects_and_widths(found, detector, frame_shape)[0]
+
+
+def whole_objects_and_widths(
+    found: list[Detection], detector: ObjectBounds, frame_shape: Sequence[int]
+) -> tuple[list[Detection], np.ndarray | None]:
+    """:func:`whole_objects`, and each one's :func:`narrowest_px` when already known.
+
+    ``None`` for the widths without a calibration or when fragments were joined.
+    """
+    if detector.calibration is None or not found:
+        return found, None
+    sizes = _sizes(detector)
+    names = [d.color for d in found]
+    centroids = np.array([d.centroid_px for d in found])
+    footprint, narrow, wide = _bounds_px(found, detector, frame_shape)
     areas = np.array([d.area_px for d in found], dtype=float)
     e = np.array([d.elongation for d in found])
     long_part = (np.sqrt(areas / e) < narrow) & (np.sqrt(areas * e) > wide)
@@ -180,18 +217,19 @@ def whole_objects(
         centroids, areas = centroids[keep], areas[keep]
         narrow, footprint = narrow[keep], footprint[keep]
     if len(found) < 2:
-        return found
+        return found, narrow
     # a fragment is under one footprint less the other fragment: most detections are not
     small = np.flatnonzero(areas < 2 * LEAST_SEEN * footprint - areas.min())
     if len(small) < 2:
-        return found
+        return found, narrow
     pairs = fragment_pairs(
         centroids[small], areas[small], [names[k] for k in small], narrow[small], footprint[small]
     )
     if not pairs:
-        return found
+        return found, narrow
     joined_ = _join(found, [(int(small[i]), int(small[j])) for i, j in pairs], centroids)
-    return sorted(joined_, key=lambda d: (sizes.rank[d.color], d.centroid_px[1], d.centroid_px[0]))
+    order = sorted(joined_, key=lambda d: (sizes.rank[d.color], d.centroid_px[1], d.centroid_px[0]))
+    return order, None
 
 
 def _join(

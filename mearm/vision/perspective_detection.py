@@ -19,7 +19,7 @@ from mearm.config import ColorClass
 from mearm.vision.detection import Detection, _with_table_yaw
 from mearm.vision.pinhole import PerspectiveCamera, TopFace, TopFit
 from mearm.vision.regions import Part, _axis_ratio
-from mearm.vision.shapes import ClassMatcher, touches_border
+from mearm.vision.shapes import ClassMatcher, measure_shape, touches_border
 
 #: The fitted silhouettes of a split must get at most this share of the region's area
 #: wrong (touching pairs stay well under it; one object too few, well over).
@@ -198,3 +198,44 @@ def split_by_silhouettes(
             )
         )
     return parts, centres
+
+
+def _classify_regions(
+    matcher: ClassMatcher,
+    found: Sequence[Detection],
+    regions: Sequence[np.ndarray],
+    frame_shape: Sequence[int],
+    tops: Sequence[str | None] | None = None,
+) -> list[tuple[int, Detection, np.ndarray]]:
+    """Detections of colours (``color`` a colour's name) as detections of classes.
+
+    Each region's shape is measured (:func:`measure_shape`) unless it is merged or cut
+    by the image border (then ``shape`` is ``None``), and its class is
+    :meth:`ClassMatcher.match`'s; regions of no class are left out.
+
+    Args:
+        matcher: The classes.
+        found: The regions' detections, ``color`` the colour's name.
+        regions: Each one's mask over its box, 0/1 uint8.
+        frame_shape: The frame's (H, W, ...).
+        tops: Each region's shape judged by its top face in perspective, where known
+            (:func:`~mearm.vision.perspective_detection.top_fits`): it stands for the silhouette's.
+
+    Returns:
+        Each detection of a class, with its index in ``found`` and its region.
+    """
+    height, width = int(frame_shape[0]), int(frame_shape[1])
+    out = []
+    for k, (d, region) in enumerate(zip(found, regions, strict=True)):
+        measured = None
+        if not d.merged and not touches_border(d.bbox_px, width, height):
+            measured = measure_shape(region)
+        shape = None if measured is None else measured.shape
+        if tops is not None and tops[k] is not None:
+            shape = tops[k]
+        name = matcher.match(d.color, shape)
+        if name is None:
+            continue
+        yaw = None if measured is None or shape != "cube" else measured.yaw_px_deg
+        out.append((k, d.evolve(color=name, shape=shape, yaw_px_deg=yaw), region))
+    return out
