@@ -32,8 +32,8 @@ from mearm.kinematics.bodies import marker_in_tcp
 from mearm.kinematics.model import ArmModel
 from mearm.maker import calibrate_by_camera
 from mearm.maker.calibrate_by_camera import PLAY_US, ServoDoubt
-from mearm.maker.camera_calibration.points import free_joints
-from mearm.maker.camera_calibration.safe_moves import limits_of
+from mearm.maker.camera_calibration.points import free_joints, grid_points
+from mearm.maker.camera_calibration.safe_moves import SafeMoves, limits_of
 from mearm.maker.servo_truth import truth_fits
 from mearm.sim.twin.twin_bus import TwinArm
 from mearm.task.claw_fit import ClawCamera, ServoFit, Sighting
@@ -394,6 +394,46 @@ def test_the_moves_keep_inside_limits_a_fit_narrowed():
     others = [i for i in range(chain.m) if i != k]
     assert lower[others] == pytest.approx(chain.actuated_lower[others])
     assert upper[others] == pytest.approx(chain.actuated_upper[others])
+
+
+def test_the_quick_check_of_a_point_agrees_with_the_full_one_and_kept_poses_stay_true():
+    """``allows`` (the checks stopping at the first that fails) passes a pose exactly when
+    ``refusal`` finds nothing, before a fit and after one; a pose's kept lowest point and
+    tool points are the collision model's and the arm model's, and follow the marker's side."""
+    config = load_config(PERSPECTIVE, KIT)
+    with open_rig(config) as rig:
+        rig.bus.connect()
+        moves = SafeMoves(config, rig, _claw(config))
+        moves.executor.home_pose()
+        chain = moves.chain
+        points = grid_points(config, moves.planner(config.task.clearance_cm), moves.claw)
+        shares = np.random.default_rng(5).uniform(0.0, 1.0, (12, chain.m))
+        poses = [p.q for p in points[::6]] + [
+            chain.full(chain.actuated_lower + s * (chain.actuated_upper - chain.actuated_lower))
+            for s in shares
+        ]
+        outcomes = []
+        for learned in (False, True):
+            if learned:  # the doubt of a fit of the zeros about the pulses sighted
+                smap = moves.bus.servo_map
+                sightings = [Sighting({j.name: j.pulse_us(v) for j, v in
+                                       zip(smap.joints, chain.named_actuated(q).values(),
+                                           strict=True)}, np.zeros((4, 2)))
+                             for q in poses[:3]]  # fmt: skip
+                fit = ServoFit(smap.joints, np.zeros(3), 0.5, scales=False)
+                moves.doubt.learn(fit, sightings, smap)
+            for q in poses:
+                why = moves.refusal(q)[0]
+                assert moves.allows(q) == (why is None), why
+                kinds = ("passes", "its limits", "its travel", "the table")
+                outcomes.append(next(k for k in kinds if why is None or k in why))
+        assert set(outcomes) == {"passes", "its limits", "the table"}, set(outcomes)
+        col = moves.collision(config.task.clearance_cm)
+        for q in poses[:5]:
+            assert moves.lowest_cm(q) == col.tool_lowest_cm(q)[0]
+            assert np.array_equal(moves.kept_tool_points(q), moves.tool_points(q))
+        moves.claw.side = 0.9  # a new side empties the store: its centre moves by rounding
+        assert np.array_equal(moves.kept_tool_points(poses[0]), moves.tool_points(poses[0]))
 
 
 # ----------------------------------------------------------------- the marker's side

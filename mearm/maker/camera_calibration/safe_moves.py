@@ -73,6 +73,12 @@ class Slack:
     doubt: np.ndarray
 
 
+#: How far past a check's bound a slack may come and pass, for rounding: the joints'
+#: [model units] and the servos' travel [deg or cm]; the table's [cm].
+_TOL = 1e-9
+_TABLE_TOL_CM = 1e-6
+
+
 def limits_of(chain: Chain, config: Config) -> tuple[np.ndarray, np.ndarray]:
     """The actuated joints' limits, model units, (m,) each: the chain's, or the config's.
 
@@ -117,6 +123,8 @@ class SafeMoves:
         self.objects: list[tuple[str, str, float, float]] = []
         self._collision: dict[float, CollisionModel] = {}
         self._planner: dict[float, Planner] = {}
+        self._kept_for: tuple[CollisionModel, float] | None = None  # what _kept holds for
+        self._kept_poses: tuple[dict[bytes, float], dict[bytes, np.ndarray]] = ({}, {})
         self.raises = self._raising()
         self.tops_cm = tops_cm(config, [])
 
@@ -153,6 +161,37 @@ class SafeMoves:
         hang = tool.tcp_above_grip_cm + tool.gripper.jaw_length_cm / 2.0
         return np.array([p, p + (R @ self.model.approach_axis) * hang, self.claw.centre_cm(q)])
 
+    def lowest_cm(self, q: np.ndarray) -> float:
+        """The tool's lowest point above the table at ``q`` [cm] (the collision model's)."""
+        col, kept = self._kept()[:2]
+        key = np.ascontiguousarray(q, dtype=float).tobytes()
+        if key not in kept:
+            kept[key] = col.tool_lowest_cm(q)[0]
+        return kept[key]
+
+    def kept_tool_points(self, q: np.ndarray) -> np.ndarray:
+        """:meth:`tool_points`, kept per pose as :meth:`lowest_cm` is (read-only)."""
+        kept = self._kept()[2]
+        key = np.ascontiguousarray(q, dtype=float).tobytes()
+        if key not in kept:
+            kept[key] = self.tool_points(q)
+            kept[key].setflags(write=False)
+        return kept[key]
+
+    def _kept(self) -> tuple[CollisionModel, dict[bytes, float], dict[bytes, np.ndarray]]:
+        """The collision model; the tool's lowest points and points kept, by the pose's bits.
+
+        The checks look at the same poses again and again (a point's, turned by the same
+        doubt, at each choice of the next point). Both are functions of the pose, the
+        arm's shapes and the marker's apparent side alone: the stores are emptied when the
+        collision model or the side changes.
+        """
+        col = self.collision(self.present.task.clearance_cm)
+        held = self._kept_for
+        if held is None or held[0] is not col or held[1] != self.claw.side:
+            self._kept_for, self._kept_poses = (col, self.claw.side), ({}, {})
+        return col, *self._kept_poses
+
     def doubt_turns(self, q: np.ndarray) -> tuple[np.ndarray, list[tuple[np.ndarray, ...]]]:
         """Each actuated joint's doubt at ``q``, and the poses with it turned by it.
 
@@ -164,8 +203,9 @@ class SafeMoves:
         doubt = self.doubt.joints(self.bus.servo_map, chain.named_actuated(q))
         doubt = doubt * chain.scale[chain.actuated_index]
         a = chain.actuated_of(q)
+        eye = np.eye(len(a))
         return doubt, [
-            tuple(chain.full(a + sign * d * np.eye(len(a))[i]) for sign in (-1.0, 1.0))
+            tuple(chain.full(a + sign * d * eye[i]) for sign in (-1.0, 1.0))
             for i, d in enumerate(doubt)
         ]
 
@@ -175,24 +215,50 @@ class SafeMoves:
         Each joint's worst turn within its doubt, the table's and the tool's reach added
         up over the joints.
         """
+        doubt, turns = self.doubt_turns(q)
+        low = self.lowest_cm(q)
+        drop = reach = 0.0
+        for turned in turns:
+            drop += self._drop_cm(low, turned)
+        # above everything, the reach is 0 however far the tool strays sideways
+        above = low - drop >= self.tops_cm + self.present.task.clearance_cm
+        if not above:
+            points = self.kept_tool_points(q)
+            for turned in turns:
+                reach += max(
+                    float(np.linalg.norm(self.kept_tool_points(t) - points, axis=1).max())
+                    for t in turned
+                )
+        return Slack(self._joint_room(q, doubt), self.travel(q), low - drop - TABLE_MARGIN_CM,
+                     reach, low, drop, doubt)  # fmt: skip
+
+    def allows(self, q: np.ndarray) -> bool:
+        """Whether :meth:`refusal` passes ``q`` (no ``floor``), without the reach it returns.
+
+        The same checks in the same order, each stopping at its first failure: the
+        joints', the servos' travel, then the table's, joint by joint (the drop only grows).
+        """
+        doubt, turns = self.doubt_turns(q)
+        if np.any(self._joint_room(q, doubt) < -_TOL) or np.any(self.travel(q) < -_TOL):
+            return False
+        low, drop = self.lowest_cm(q), 0.0
+        for turned in turns:
+            drop += self._drop_cm(low, turned)
+            if low - drop - TABLE_MARGIN_CM < -_TABLE_TOL_CM:
+                return False
+        return True
+
+    def _joint_room(self, q: np.ndarray, doubt: np.ndarray) -> np.ndarray:
+        """Each actuated joint's room to its limits' margin within ``doubt`` (:class:`Slack`)."""
         chain = self.chain
         margin = JOINT_MARGIN * chain.scale[chain.actuated_index]
         a = chain.actuated_of(q)
-        doubt, turns = self.doubt_turns(q)
         lower, upper = self.limits()
-        joints = np.minimum(a - doubt - (lower + margin), upper - margin - a - doubt)
-        col = self.collision(self.present.task.clearance_cm)
-        low, points = col.tool_lowest_cm(q)[0], self.tool_points(q)
-        drop = reach = 0.0
-        for turned in turns:
-            drop += max(0.0, *(low - col.tool_lowest_cm(t)[0] for t in turned))
-            reach += max(
-                float(np.linalg.norm(self.tool_points(t) - points, axis=1).max()) for t in turned
-            )
-        if low - drop >= self.tops_cm + self.present.task.clearance_cm:
-            reach = 0.0  # above everything, however far it strays sideways
-        travel = self.travel(q)
-        return Slack(joints, travel, low - drop - TABLE_MARGIN_CM, reach, low, drop, doubt)
+        return np.minimum(a - doubt - (lower + margin), upper - margin - a - doubt)
+
+    def _drop_cm(self, low: float, turned: tuple[np.ndarray, ...]) -> float:
+        """How far below ``low`` the tool's lowest point comes at the ``turned`` poses [cm]."""
+        return max(0.0, *(low - self.lowest_cm(t) for t in turned))
 
     def limits(self) -> tuple[np.ndarray, np.ndarray]:
         """The actuated joints' limits with the fit the bus sends (:func:`limits_of`)."""
@@ -227,7 +293,7 @@ class SafeMoves:
         scale = chain.scale[chain.actuated_index]
         least = np.zeros_like(s.joints) if floor is None else np.minimum(0.0, floor.joints)
         for i, name in enumerate(chain.actuated):
-            if s.joints[i] < least[i] - 1e-9:
+            if s.joints[i] < least[i] - _TOL:
                 unit = chain.unit(int(chain.actuated_index[i]))
                 a = chain.actuated_of(q)[i] / scale[i]
                 return (
@@ -237,13 +303,13 @@ class SafeMoves:
                 )
         least = np.zeros_like(s.travel) if floor is None else np.minimum(0.0, floor.travel)
         for i, servo in enumerate(self.bus.servo_map.joints):
-            if s.travel[i] < least[i] - 1e-9:
+            if s.travel[i] < least[i] - _TOL:
                 return (
                     f"{servo.servo_text} could come within {JOINT_MARGIN:g} {servo.unit} of the "
                     "end of its travel",
                     s.reach_cm,
                 )
-        if s.table_cm < (0.0 if floor is None else min(0.0, floor.table_cm)) - 1e-6:
+        if s.table_cm < (0.0 if floor is None else min(0.0, floor.table_cm)) - _TABLE_TOL_CM:
             return (
                 f"the tool, {s.low_cm:.1f} cm above the table, could come down {s.drop_cm:.1f} "
                 f"cm (to within {TABLE_MARGIN_CM:g} cm of it)",

@@ -118,9 +118,7 @@ class CameraSession(SafeMoves):
 
     def may_try(self, point: Point) -> bool:
         """Whether ``point`` and its final move's start pass the checks, its marker in view."""
-        if self.refusal(point.q)[0] is not None:
-            return False
-        if self.refusal(self.turned(point.q, 1.0))[0] is not None:
+        if not self.allows(point.q) or not self.allows(self.turned(point.q, 1.0)):
             return False
         return in_frame(self.claw, point.q, VIEW_MARGIN_PX + self.sway_px(point.q))
 
