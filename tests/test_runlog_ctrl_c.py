@@ -15,6 +15,16 @@ from mearm.runlog import RunLog, read_runlog
 from mearm.runlog.errors import RunLogError
 
 
+@pytest.fixture
+def ctrl_c_raises():
+    """Ctrl-C raises KeyboardInterrupt, as in a terminal: a suite started in the background
+    (``cmd &`` without job control) inherits SIGINT ignored, and nothing would be raised."""
+    before = signal.signal(signal.SIGINT, signal.default_int_handler)
+    yield
+    signal.signal(signal.SIGINT, before)
+
+
+@pytest.mark.usefixtures("ctrl_c_raises")
 def test_ctrl_c_while_the_summary_is_written_takes_effect_after_it(tmp_path) -> None:
     log = tmp_path / "run.jsonl"
     with RunLog(log, fsync=False) as w:
