@@ -183,6 +183,30 @@ def test_lookup_table_agrees_with_the_model() -> None:
         assert (codes == 1).any() and (codes == 2).any() and (codes == 0).any()
 
 
+def test_chroma_floor_is_at_equal_lightness() -> None:
+    """The chroma floor scales with L* + 16: a pastel of the hue (lighter, less coloured)
+    is out, a darker shade of it in; without ``chroma_lightness`` the floor is flat."""
+    scaled = LearnedColour(
+        ab_mean=(50.0, 30.0),
+        ab_cov=(100.0, 0.0, 100.0),
+        lightness=(10.0, 95.0),
+        chroma_min=38.0,
+        chroma_lightness=50.0,
+    )
+    flat = scaled.model_copy(update={"chroma_lightness": None})
+    unit = np.array([50.0, 30.0]) / np.hypot(50.0, 30.0)
+    pastel = np.array([75.0, *(45.0 * unit)])  # chroma 45 < 38 · 91/66
+    shade = np.array([30.0, *(32.0 * unit)])  # chroma 32 > 38 · 46/66, < 38
+    assert not accepts(scaled, pastel) and accepts(flat, pastel)
+    assert accepts(scaled, shade) and not accepts(flat, shade)
+    # the floor is never under grey's chroma, however dark
+    wide = scaled.model_copy(update={"ab_cov": (900.0, 0.0, 900.0), "lightness": (0.0, 95.0)})
+    assert not accepts(wide, [2.0, *(11.0 * unit)])  # 38 · 18/66 = 10.4, but 11 < 12
+    assert accepts(wide, [2.0, *(13.0 * unit)])
+    samples = lab_of(np.array([[40, 40, 200], [50, 45, 190], [35, 30, 210]], np.uint8))
+    assert fit_colour(samples).chroma_lightness == pytest.approx(np.median(samples[:, 0]))
+
+
 def test_area_mask_is_the_polygon() -> None:
     """The work area's mask is its polygon's inside; ``None`` is the whole frame."""
     m = area_mask([(10, 10), (29, 10), (29, 19), (10, 19)], (40, 50))

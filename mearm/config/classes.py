@@ -55,14 +55,18 @@ class LearnedColour(Strict):
     centre μ in Mahalanobis distance, (c − μ)ᵀ Σ⁻¹ (c − μ) ≤ ``max_distance``², its
     lightness lies in ``lightness`` and its chroma √(a*² + b*²) reaches
     ``chroma_min`` (shadows and glare on a white table are faintly coloured, never as
-    much as an object). Written by ``mearm learn-colours``.
+    much as an object); with ``chroma_lightness`` L₀ the floor is ``chroma_min`` ·
+    (L* + 16) / (L₀ + 16), the chroma at equal lightness (a*, b* and L* + 16 scale
+    together with the light). Written by ``mearm learn-colours``.
 
     Attributes:
         ab_mean: The ellipse's centre (a*, b*) [-], CIELAB, D65.
         ab_cov: Its covariance (σ_aa, σ_ab, σ_bb) [-²].
         lightness: The lightness L* it accepts, (lo, hi) [0–100].
         max_distance: The Mahalanobis radius of the ellipse [-].
-        chroma_min: The least chroma it accepts [-].
+        chroma_min: The least chroma it accepts [-] (at ``chroma_lightness``, if given).
+        chroma_lightness: The lightness L* at which ``chroma_min`` holds [0–100];
+            ``None``: the same floor at every lightness.
     """
 
     ab_mean: tuple[Opponent, Opponent]
@@ -74,6 +78,7 @@ class LearnedColour(Strict):
     lightness: tuple[Lightness, Lightness]
     max_distance: Annotated[float, Field(gt=0, le=20, allow_inf_nan=False)] = 3.0
     chroma_min: Annotated[float, Field(ge=0, le=200, allow_inf_nan=False)] = 0.0
+    chroma_lightness: Lightness | None = None
 
     @model_validator(mode="after")
     def _proper(self) -> LearnedColour:

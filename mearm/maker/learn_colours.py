@@ -136,6 +136,11 @@ def learned_yaml(base: str, taught: Taught) -> dict:
                 "lightness": [round(v, 2) for v in m.lightness],
                 "max_distance": round(m.max_distance, 3),
                 "chroma_min": round(m.chroma_min, 2),
+                **(
+                    {}
+                    if m.chroma_lightness is None
+                    else {"chroma_lightness": round(m.chroma_lightness, 2)}
+                ),
             }
         }
     return {"extends": base, "vision": vision, "task": {"classes": classes}}

@@ -17,9 +17,14 @@ distances are roughly equal perceived differences:
   spread — with the lightness L* handled apart, as a range: shading moves L* far more
   than it moves a*b*. A pixel is of the colour when its Mahalanobis distance to the
   ellipse is at most ``max_distance``, its L* is in range and its chroma reaches 0.65 of the
-  samples' (a shadow or glare on a white table is faintly tinted, never that much); where
-  two colours claim a pixel the nearer wins. What lies in no ellipse is no class: an
-  orange cube is not red.
+  samples' at equal lightness (a shadow or glare on a white table is faintly tinted, never
+  that much); where two colours claim a pixel the nearer wins. What lies in no ellipse is
+  no class: an orange cube is not red.
+- *Chroma at equal lightness.* In CIELAB a*, b* and L* + 16 are all cube roots of the
+  light, so dimming a colour by any factor scales its chroma and L* + 16 alike: the floor
+  is the samples' chroma share at their lightness, scaled by (L* + 16) / (L₀ + 16). A
+  dark face of an object keeps its class (its chroma falls with its lightness), and a
+  pastel of the hue (lighter and less coloured: salmon or pink beside red) does not.
 - *Highlights.* A blown-out pixel (a channel clipped) keeps only a faint tint; it joins
   a region of the colour whose hue it has that it touches, so a yellow cube whose top is
   blown out to white is found whole from its yellow edges.
@@ -53,9 +58,12 @@ LIGHTNESS_MIN = 6.0
 MAX_DISTANCE = 3.0
 #: Smallest chroma a sample may have [-]: below it the pixel is grey, white or black.
 CHROMA_MIN = 12.0
-#: A learned colour accepts chroma down to this share of its samples' median chroma
-#: (chosen on the development photos, docs/vision.md: 0.5 let bluish shadows in).
+#: A learned colour accepts chroma down to this share of its samples' median chroma, at
+#: their lightness (chosen on the development photos, docs/vision.md: 0.5 let bluish
+#: shadows in).
 CHROMA_SHARE = 0.65
+#: L* + this is what a*, b* scale with when the light does (CIELAB's cube root) [L*].
+LIGHTNESS_OFFSET = 16.0
 #: Largest gain colour constancy applies to a channel (and smallest, its inverse).
 MAX_GAIN = 4.0
 #: Every this-many-th row and column gives the frame's median colour.
@@ -105,6 +113,7 @@ def fit_colour(lab: npt.ArrayLike, *, max_distance: float = MAX_DISTANCE) -> Lea
         ),
         max_distance=max_distance,
         chroma_min=float(max(CHROMA_MIN, CHROMA_SHARE * np.median(chroma(c)))),
+        chroma_lightness=float(np.clip(np.median(c[:, 0]), 0.0, 100.0)),
     )
 
 
@@ -117,11 +126,26 @@ def distance(model: LearnedColour, lab: npt.ArrayLike) -> np.ndarray:
     return np.sqrt(np.maximum((sbb * da * da - 2 * sab * da * db + saa * db * db) / det, 0.0))
 
 
+def chroma_floor(model: LearnedColour, lightness: npt.ArrayLike) -> np.ndarray:
+    """The least chroma the colour accepts at each lightness L* (...,) [-].
+
+    ``chroma_min`` at the samples' lightness L₀, times (L* + 16) / (L₀ + 16): the chroma
+    the samples' colour keeps when the light dims or brightens it (module docstring);
+    never under :data:`CHROMA_MIN`, where a pixel is grey. Without L₀, ``chroma_min``.
+    """
+    lit = np.asarray(lightness, dtype=float)
+    if model.chroma_lightness is None:
+        return np.full(lit.shape, model.chroma_min)
+    scale = (np.maximum(lit, 0.0) + LIGHTNESS_OFFSET) / (model.chroma_lightness + LIGHTNESS_OFFSET)
+    return np.maximum(model.chroma_min * scale, min(CHROMA_MIN, model.chroma_min))
+
+
 def accepts(model: LearnedColour, lab: npt.ArrayLike) -> np.ndarray:
     """Whether CIELAB colours (..., 3) are of the colour: in its ellipse and lightness."""
     c = np.asarray(lab, dtype=float)
     lo, hi = model.lightness
-    inside = (distance(model, c) <= model.max_distance) & (chroma(c) >= model.chroma_min)
+    floor = chroma_floor(model, c[..., 0])
+    inside = (distance(model, c) <= model.max_distance) & (chroma(c) >= floor)
     return inside & (c[..., 0] >= lo) & (c[..., 0] <= hi)
 
 
