@@ -8,11 +8,14 @@ shift mean the camera was knocked (:func:`check_view`).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Mapping
 from collections.abc import Set as AbstractSet
 from dataclasses import dataclass
 
+import cv2
 import numpy as np
+import numpy.typing as npt
 
 from mearm.config import Config
 from mearm.task.execute import View
@@ -24,6 +27,7 @@ from mearm.vision.errors import CameraError
 from mearm.vision.frame_check import FrameCheck
 from mearm.vision.tracking import Missing, distance_to_path, explain, nearest_pairs
 from mearm.vision.tracking import Seen as Sighting
+from mearm.vision.work_area import table_corners_cm
 
 #: A detection where no earlier look saw the table (the arm's body hid it) farther than
 #: this from where every missing object of its class may have gone is an object not seen
@@ -126,7 +130,7 @@ class TableTracking:
             detections = self.detector.detect(frame)
         else:
             detections = self.detector.detect(frame, exclude=hidden)
-        found = [(d, table_cm(d)) for d in detections]
+        found = self._believed([(d, table_cm(d)) for d in detections])
         seen = [(d, p) for d, p in found if not self._in_a_bin(p)]
         if track_new:
             self._confirm_in_bins(found)
@@ -142,6 +146,27 @@ class TableTracking:
                 ]
             )
         return seen
+
+    def _believed(self, found: Seen) -> Seen:
+        """The detections placed on the work surface; the others judged by their centre's ray.
+
+        A place off the calibrated field and its bins (:func:`work_surface_cm`, grown by an
+        object's diameter) is not where an object is: the fit of its outline failed (a
+        stack in a bin cut by the arm's body was placed 700 cm away, simulated). Such a
+        detection whose centre's ray meets the table in a bin is in that bin, placed there;
+        any other is not believed and left out, so no position off the table is kept.
+        """
+        surface = work_surface_cm(self.config)
+        out: Seen = []
+        for d, p in found:
+            r = self.config.task.class_named(d.color).diameter_cm
+            if on_surface(surface, p, r):
+                out.append((d, p))
+                continue
+            ray = np.asarray(self.calibration.pixel_to_table(d.centroid_px), dtype=float)
+            if self._in_a_bin(ray.reshape(2)):
+                out.append((d, ray.reshape(2)))
+        return out
 
     def _in_a_bin(self, xy_cm: np.ndarray) -> bool:
         """Whether a table point lies inside a class's bin (``ColorClass.in_bin``)."""
@@ -368,6 +393,24 @@ def check_view(shifts: list[tuple[TrackedObject, np.ndarray]], source: str) -> N
             f"{mean[1]:.2f}) cm); was the camera knocked? Fix its mount and recalibrate "
             "(tools/calibrate_camera.py)",
         )
+
+
+def work_surface_cm(config: Config) -> np.ndarray:
+    """The work surface's outline: the calibrated field and the bins' hull, (k, 1, 2) [cm].
+
+    The field is the frame's corners on the table by the calibration's homography
+    (:func:`~mearm.vision.work_area.table_corners_cm`); outside it the camera sees no table.
+    """
+    corners = table_corners_cm(config.calibration, config.camera, config.task.classes)
+    return cv2.convexHull(np.asarray(corners, dtype=np.float32).reshape(-1, 1, 2))
+
+
+def on_surface(surface_cm: np.ndarray, xy_cm: npt.ArrayLike, margin_cm: float) -> bool:
+    """Whether a table point is finite and within ``margin_cm`` of the outline ``surface_cm``."""
+    x, y = (float(v) for v in np.asarray(xy_cm, dtype=float).reshape(2))
+    if not (math.isfinite(x) and math.isfinite(y)):
+        return False
+    return cv2.pointPolygonTest(surface_cm, (x, y), measureDist=True) >= -margin_cm
 
 
 def table_cm(d: Detection) -> np.ndarray:
