@@ -25,7 +25,14 @@ from mearm.kinematics.collision import TOUCH_M, CollisionModel
 from mearm.kinematics.errors import JointLimitError, TargetError
 from mearm.task.claw_loop import TABLE_ROOM_CM, ClawEye, shifted
 from mearm.task.execute import Executor
-from mearm.task.looking_picks import aim_aside, aim_by_eye, aim_low, aim_over, beside_wall
+from mearm.task.looking_picks import (
+    aim_aside,
+    aim_by_eye,
+    aim_low,
+    aim_over,
+    beside_wall,
+    lower_by_looks,
+)
 from mearm.task.plan import Planner
 from mearm.task.route import Route
 from mearm.task.table_tracking import TableTracking, TrackedObject
@@ -242,6 +249,9 @@ class PickAndPlace(TableTracking):
         if self.eye is not None:  # (corrections go back up to where it last looked)
             pick, aim, self._seen_z_cm = aim_by_eye(
                 self.eye, self.planner, ex, obj, low or above, pick, aim
+            )
+            pick, aim = lower_by_looks(
+                self.planner, self.collision, ex, obj, low or above, pick, aim, self._seen_z_cm
             )
             self.eye.corrections.add(xy, aim[:2])
             self.eye.drops.looked(xy, self._seen_z_cm)
