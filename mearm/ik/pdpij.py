@@ -83,6 +83,7 @@ from mearm.ik import recovery
 from mearm.ik.bounded import bounded_lstsq
 from mearm.ik.failure import IKFailure
 from mearm.ik.pseudoinverse import PseudoInverse
+from mearm.ik.reach import ReachBound
 from mearm.ik.result import IKResult, Status
 from mearm.ik.solver import (
     APPROACH_TOLERANCE_DEG,
@@ -146,6 +147,7 @@ class PdPij(IKSolver):
         self._recovery = recovery.Recovery(
             model.chain, model.home, model.arm.target_box.z_cm.min, config
         )
+        self._reach = ReachBound(model, config.tolerance_cm2, APPROACH_TOLERANCE_DEG)
         self.mode = config.mode
         self._pin_model = model.model
         self._data = model.model.createData()  # own data: solvers never share state
@@ -344,6 +346,10 @@ class PdPij(IKSolver):
             return goal, len(attempt.q_path) // n - 1
 
         closed = q_solution if q_solution is not None and measure(q_solution)[1] else None
+        if closed is None and self._reach.beyond(t, a_d):
+            # no pose meets the stopping rule: every seed would run to its cap and fail
+            failure = self.stop_failure(run.status, run.q_path[-n:], target)
+            return self._run_result(run, target, len(run.q_path) // n - 1, failure)
         tcp0 = self._measure(q0, t, a_d)[0]
         found = self._recovery.find(
             q0, tcp0[2] * CM_PER_M, t[2] * CM_PER_M, closed, measure, solve_from

@@ -377,6 +377,11 @@ class CollisionModel:
             col_on[col] = True
             cols.append(col)
         self._object_cols = np.array(cols, dtype=int)
+        tool = np.flatnonzero(self._tool[: self._na]).tolist()  # the tool as placed now
+        half, cyl = self._half.tolist(), self._is_cyl.tolist()
+        self._tool_shapes = [
+            (g[k].parentJoint, g[k].placement, half[k], cyl[k], self._arm[k][0].name) for k in tool
+        ]
         self._col_of = {self._ob_names[c]: c for c in cols}
         self._row_on, self._col_on = row_on, col_on
         want = row_on[self._pair_rows] & col_on[self._pair_cols]
@@ -581,18 +586,25 @@ class CollisionModel:
     def tool_lowest_cm(self, q: npt.ArrayLike) -> tuple[float, str]:
         """The tool's lowest point at pose ``q``: its height above the table [cm], its shape.
 
-        The tool is the jaws (as open as the model holds them), their servo and the hand.
+        The tool is the jaws (as open as the model holds them), their servo and the hand:
+        only they are placed, and :func:`_lowest` worked in floats in the same order (the
+        bits of :meth:`_lowest_points`' rows; a calibration asks ten thousand times).
         """
-        low = self._lowest_points(q)[: self._na]
-        rows = np.flatnonzero(self._tool[: self._na])
-        k = int(rows[np.argmin(low[rows])])
-        return float(low[k]) / M_PER_CM, self._arm[k][0].name
+        pin.forwardKinematics(self.model.model, self.data, np.asarray(q, float))
+        oMi = self.data.oMi
+        best, name = math.inf, ""
+        for joint, placement, (hx, hy, hz), cyl, shape in self._tool_shapes:
+            M = oMi[joint] * placement
+            r0, r1, r2 = M.rotation[2].tolist()  # the world z of the shape's axes
+            down = (abs(r2) * hz + hx * math.sqrt(min(max(1.0 - r2 * r2, 0.0), 1.0)) if cyl
+                    else abs(r0) * hx + abs(r1) * hy + abs(r2) * hz)  # fmt: skip
+            low = float(M.translation[2]) - down
+            if low < best:
+                best, name = low, shape
+        return best / M_PER_CM, name
 
     def _lowest_points(self, q: npt.ArrayLike) -> np.ndarray:
-        """Each arm shape's lowest point's height at pose ``q`` [m], (rows,).
-
-        Every row, the held objects of the classes not held included.
-        """
+        """Each arm shape's lowest point's height at pose ``q`` [m], (rows,), held ones too."""
         pm = self.model.model
         pin.updateGeometryPlacements(pm, self.data, self.geometry, self.gdata, np.asarray(q, float))
         oMg = self.gdata.oMg
@@ -668,10 +680,7 @@ def _half_extents(shape: Shape) -> np.ndarray:
 
 
 def _lowest(R: np.ndarray, half: np.ndarray, is_cyl: np.ndarray) -> np.ndarray:
-    """How far each shape reaches below its centre [m], (k,).
-
-    A box's lowest corner, a cylinder's lowest rim point.
-    """
+    """How far each shape reaches below its centre [m], (k,): a box's corner, a cylinder's rim."""
     rz = R[:, 2, :]  # the world z of each of the shape's axes
     box = np.sum(np.abs(rz) * half, axis=1)
     axial = np.abs(rz[:, 2]) * half[:, 2]
