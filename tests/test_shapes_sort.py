@@ -114,7 +114,7 @@ def test_the_wrist_roll_turns_the_jaws_to_a_cubes_faces() -> None:
         assert planner.turn_jaws(route, yaw, 90.0)
         turned = route.plan.q
         np.testing.assert_allclose(planner.model.fk_cm(turned), planner.model.fk_cm(end), atol=1e-6)
-        opening = planner._opening_deg(turned)
+        opening = planner.opening_deg(turned)
         assert abs((opening - yaw + 45.0) % 90.0 - 45.0) < 1e-6
         turn = np.rad2deg(abs(turned[planner.model.chain.actuated_index[k]]
                               - end[planner.model.chain.actuated_index[k]]))  # fmt: skip

@@ -37,6 +37,10 @@ from mearm.task.plan import Planner
 from mearm.task.route import Route
 from mearm.task.table_tracking import TableTracking, TrackedObject
 
+#: The turns of the jaws' opening line tried over a round object whose way down is
+#: refused [deg]: a pad beside a wall or a neighbour swings off it (90°: along it).
+ROUND_TURNS_DEG = (30.0, -30.0, 60.0, -60.0, 90.0)
+
 
 class EpisodeRecorder(Protocol):
     """Records the run as episodes (:class:`mearm.dataset.DatasetRecorder`).
@@ -293,12 +297,47 @@ class PickAndPlace(TableTracking):
             blocked = self._claw_way_down(obj, above, pick, aim)
             if blocked is not None:
                 pick.failure, pick.failure_kind = blocked, "collision"
+        if failed is pick and pick.failure_kind == "collision" and above is not None:
+            self._turn_round_grip(obj, above, pick, aim)
         if failed.planned:
             return True
         if failed.failure_kind == "collision" and obj.blocked is None:
             obj.blocked = failed.failure  # another object may clear its way
             return False
         self._skip(obj, failed.failure or "no plan", failed, kind=failure_kind(failed))
+        return False
+
+    def _turn_round_grip(
+        self, obj: TrackedObject, above: Route, pick: Route, aim: np.ndarray
+    ) -> bool:
+        """Turn the jaws over a round object whose way down a collision refused.
+
+        A disc is gripped across any diameter, so where a pad would pass a bin's wall or
+        a neighbour within the clearance, jaws turned to close along it may clear it (the
+        5-DOF arm's wrist roll; an arm without one keeps its jaws). The opening lines
+        :data:`ROUND_TURNS_DEG` off the planned one are tried, least turn first: each turn
+        is appended to the route above and checked with it, and the way down is planned
+        again from there, in full (:meth:`Planner.turn_jaws`, :meth:`_claw_way_down`).
+        Returns whether a turn planned; otherwise both routes are as they were.
+        """
+        cls = self.config.task.class_named(obj.class_name)
+        if obj.yaw_deg is not None or cls.object_shape.symmetry_deg != 0.0:
+            return False
+        if above.plan is None or self.planner.roll_joint(above.plan.q) is None:
+            return False
+        kept_above = above.plan
+        kept_pick = (pick.plan, pick.failure, pick.failure_kind, pick.detour_cm)
+        phi = self.planner.opening_deg(above.plan.q)
+        for turn in sorted(ROUND_TURNS_DEG, key=abs):
+            above.plan = kept_above
+            if not self.planner.turn_jaws(above, phi + turn, 180.0, target=obj.id):
+                continue
+            pick.plan, pick.failure, pick.failure_kind, pick.detour_cm = None, None, None, None
+            self.planner.plan(pick, above.plan.q, target=obj.id)
+            if pick.planned and self._claw_way_down(obj, above, pick, aim) is None:
+                return True
+        above.plan = kept_above
+        pick.plan, pick.failure, pick.failure_kind, pick.detour_cm = kept_pick
         return False
 
     def _claw_way_down(

@@ -8,9 +8,11 @@ it moves.
 
 **Turning the jaws.** An arm with a joint that turns the jaws about a vertical approach
 axis without moving the TCP (a wrist roll) turns them, at the end of the route to above
-a cube, to close on two of its faces (:meth:`Planner.turn_jaws`); the turn is checked
-with the rest of the route, and an arm without such a joint, or a turn past the joint's
-limits or into something, keeps the jaws as they are.
+a cube, to close on two of its faces (:meth:`Planner.turn_jaws`); over a disc, whose any
+diameter grips it, where the way down passes a wall or a neighbour within the clearance
+(``mearm.task.pick_place``). The turn is checked with the rest of the route, and an arm
+without such a joint, or a turn past the joint's limits or into something, keeps the jaws
+as they are.
 
 **Collisions.** With a :class:`~mearm.kinematics.collision.CollisionModel` (the sorter
 always gives one) the whole path is checked against the table, the bins and the objects
@@ -228,7 +230,7 @@ class Planner:
         k, rate = found
         chain = self.model.chain
         a_end = chain.actuated_of(plan.q)
-        phi = self._opening_deg(plan.q)
+        phi = self.opening_deg(plan.q)
         lo, hi = chain.actuated_lower[k], chain.actuated_upper[k]
         turns = []
         for i in range(max(1, round(360.0 / symmetry_deg))):
@@ -275,7 +277,7 @@ class Planner:
         a0 = R0 @ self.model.approach_axis
         if abs(float(a0[2])) < math.cos(math.radians(8.0)):
             return None
-        phi0 = self._opening_deg(q0)
+        phi0 = self.opening_deg(q0)
         eps = 1e-4
         base = chain.actuated_of(q0)
         for k in range(chain.m):
@@ -289,12 +291,12 @@ class Planner:
                 np.linalg.norm(p1 - p0) > 1e-6
                 or np.linalg.norm(R1 @ self.model.approach_axis - a0) > 1e-6
             )
-            turn = ((self._opening_deg(q1) - phi0 + 180.0) % 360.0 - 180.0) / np.rad2deg(eps)
+            turn = ((self.opening_deg(q1) - phi0 + 180.0) % 360.0 - 180.0) / np.rad2deg(eps)
             if not moved and abs(abs(turn) - 1.0) < 1e-3:
                 return k, float(np.sign(turn))
         return None
 
-    def _opening_deg(self, q: npt.ArrayLike) -> float:
+    def opening_deg(self, q: npt.ArrayLike) -> float:
         """The direction the jaws open along, in the table plane, at ``q`` [deg]."""
         _, R = self.model.tcp_pose(q)
         o = R @ self._jaw_across
