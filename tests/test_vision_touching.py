@@ -149,3 +149,32 @@ def test_touching_tall_pairs_in_perspective_are_two(tilt: float, height: float) 
                 continue
         failures.append((seed, len(found)))
     assert good >= 0.96 * pairs, failures
+
+
+def _lying_disc(cls, x: float, y: float) -> list[Disc]:
+    """A 2 cm disc 1 cm tall tipped onto its side, seen from above: a 2 x 1 cm rectangle
+    (two 1 cm squares side by side along x)."""
+    return [
+        Disc(class_bgr(cls), x - 0.5, y, diameter_cm=1.0, shape="cube"),
+        Disc(class_bgr(cls), x + 0.5, y, diameter_cm=1.0, shape="cube"),
+    ]
+
+
+def test_a_disc_lying_on_its_side_is_one_object_not_two() -> None:
+    """Elongated (2:1, beyond the merged limit) but smaller than one disc's footprint: two
+    objects would show at least one footprint, so it is one, pickable at its centroid."""
+    (d,) = DETECTOR.detect(RENDERER.render(_lying_disc(CLASSES[0], 0.0, 45.0)))
+    assert d.elongation > CONFIG.vision.merged_elongation and not d.merged
+    assert np.linalg.norm(CAL.pixel_to_table(d.centroid_px) - (0.0, 45.0)) < 0.1
+
+
+def test_a_small_elongated_region_the_arm_borders_stays_flagged() -> None:
+    """The same rectangle with the arm's body (the excluded mask) along one side: the
+    rest may be hidden, so its centroid is not its centre and it stays flagged."""
+    frame = RENDERER.render(_lying_disc(CLASSES[0], 0.0, 45.0))
+    (d,) = DETECTOR.detect(frame)
+    x, y, w, h = d.bbox_px
+    exclude = np.zeros(frame.shape[:2], np.uint8)
+    exclude[:, x + w + 1 :] = 255  # the arm from one pixel past its right edge on
+    (hidden,) = DETECTOR.detect(frame, exclude=exclude)
+    assert hidden.merged

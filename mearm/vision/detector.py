@@ -31,7 +31,10 @@ between the objects) when any of these holds:
 - its area exceeds ``merged_area_ratio`` × ``A1`` — only with a calibration;
 - the ratio of its principal axes (from the second central moments) exceeds
   ``merged_elongation`` (1.5) × ``E1`` (``E1`` = 1 without perspective, below): one disc
-  gives 1.0, two touching discs √5 ≈ 2.24.
+  gives 1.0, two touching discs √5 ≈ 2.24 — and, with a calibration, its area could hold
+  two (:func:`~mearm.vision.plausible.may_hold_two`: two seen objects show at least one
+  flat footprint, so a smaller region is one object, e.g. a disc tipped onto its side,
+  unless the arm's body borders it and may hide the rest).
 
 ``A1``, one object's largest image area. Without ``camera_height_cm`` the calibration is
 taken to hold in the plane of the objects' tops, which the camera sees and nothing else
@@ -81,7 +84,7 @@ from mearm.vision.perspective_detection import (
     top_fits,
 )
 from mearm.vision.pinhole import PerspectiveCamera, TopFit
-from mearm.vision.plausible import plausible, surely_plausible, widths_cm
+from mearm.vision.plausible import may_hold_two, plausible, surely_plausible, widths_cm
 from mearm.vision.regions import (
     CORE_DEPTH,
     MIN_PART,
@@ -408,8 +411,10 @@ class ColorDetector:
                     for r, b in zip(sources, found.label_boxes, strict=True)
                 ]
                 return self._general(colors, centroid, areas, boxes, merged, elongations,
-                                     regions, frame_bgr)  # fmt: skip
-            merged = elongation > self.vision.merged_elongation * stretch
+                                     regions, frame_bgr, exclude)  # fmt: skip
+            merged = (elongation > self.vision.merged_elongation * stretch) & may_hold_two(
+                np.array(areas, float), flat, boxes, exclude
+            )
             table = np.array(cal.pixel_to_table(centroid))  # its own memory, then read-only
             table.setflags(write=False)
 
@@ -439,6 +444,7 @@ class ColorDetector:
         elongations: list[float],
         regions: list[np.ndarray],
         frame: np.ndarray,
+        exclude: np.ndarray | None = None,
     ) -> list[Detection]:
         """The detections of regions of which some must be split or are in perspective."""
         found = [
@@ -447,7 +453,7 @@ class ColorDetector:
                 colors, centroid, areas, boxes, merged, elongations, strict=True
             )
         ]
-        found, regions = self._resolve(found, regions, frame)
+        found, regions = self._resolve(found, regions, frame, exclude)
         found, regions = self._objects_only(found, regions, frame.shape)
         fits = self._top_fits(found, regions, frame)
         tops = (
@@ -606,7 +612,11 @@ class ColorDetector:
         return locate_in_perspective(cal, self._class_of, classed, frame, fits)
 
     def _resolve(
-        self, found: list[Detection], regions: list[np.ndarray], frame: np.ndarray
+        self,
+        found: list[Detection],
+        regions: list[np.ndarray],
+        frame: np.ndarray,
+        exclude: np.ndarray | None = None,
     ) -> tuple[list[Detection], list[np.ndarray]]:
         """Split the regions holding several objects; flag those that cannot be split.
 
@@ -627,7 +637,9 @@ class ColorDetector:
             found, regions, flat, limit, elong * stretch, strict=True
         ):
             if d.area_px <= a_max:
-                out.append(d.evolve(merged=bool(d.elongation > e_max)))
+                two = may_hold_two(np.array([d.area_px], float), np.array([a_flat]),
+                                   [d.bbox_px], exclude)[0]  # fmt: skip
+                out.append(d.evolve(merged=bool(d.elongation > e_max and two)))
                 masks.append(region)
                 continue
             if isinstance(self.calibration, PerspectiveCamera):

@@ -122,3 +122,28 @@ def plausible(
         return False
     most = max(1.0, area_px / (LEAST_SEEN * footprint_px))
     return long_px <= most * scale_px_per_cm * wide * elongation
+
+
+def may_hold_two(
+    areas_px: np.ndarray,
+    flat_px: np.ndarray,
+    boxes_px: Iterable[tuple[int, int, int, int]],
+    exclude: np.ndarray | None,
+) -> np.ndarray:
+    """Whether each region may be touching objects by its area, (N,) bool.
+
+    Two objects seen show at least :data:`LEAST_SEEN` of a footprint each, so a region of
+    less than one object's flat footprint (``flat_px``, at its place) is one object, seen
+    in part or lying on its side (a disc tipped over shows a rectangle, its diameter by
+    its height): however elongated, it is not two. Unless the arm's body (``exclude``,
+    0/255) borders it: then the rest of it is hidden, and its centroid is not its centre.
+    """
+    two = np.asarray(areas_px, dtype=float) >= 2 * LEAST_SEEN * np.asarray(flat_px, float)
+    if exclude is None or two.all():
+        return two
+    h, w = exclude.shape[:2]
+    for k, (x, y, bw, bh) in enumerate(boxes_px):
+        if not two[k]:  # a pixel round its box is the arm's: part of it may be hidden
+            x0, y0, x1, y1 = max(x - 2, 0), max(y - 2, 0), min(x + bw + 2, w), min(y + bh + 2, h)
+            two[k] = bool(exclude[y0:y1, x0:x1].any())
+    return two
