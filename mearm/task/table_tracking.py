@@ -12,6 +12,7 @@ import math
 from collections.abc import Callable, Mapping
 from collections.abc import Set as AbstractSet
 from dataclasses import dataclass
+from functools import cached_property
 
 import cv2
 import numpy as np
@@ -147,6 +148,11 @@ class TableTracking:
             )
         return seen
 
+    @cached_property
+    def _work_surface_cm(self) -> np.ndarray:
+        """:func:`work_surface_cm` of the run's config, once (the calibration is fixed)."""
+        return work_surface_cm(self.config)
+
     def _believed(self, found: Seen) -> Seen:
         """The detections placed on the work surface; the others judged by their centre's ray.
 
@@ -156,7 +162,7 @@ class TableTracking:
         detection whose centre's ray meets the table in a bin is in that bin, placed there;
         any other is not believed and left out, so no position off the table is kept.
         """
-        surface = work_surface_cm(self.config)
+        surface = self._work_surface_cm
         out: Seen = []
         for d, p in found:
             r = self.config.task.class_named(d.color).diameter_cm
