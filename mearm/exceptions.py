@@ -70,7 +70,7 @@ FAMILIES: dict[str, tuple[str, ...]] = {
     "mearm.sim.virtual_uno.errors": ("VirtualUnoError",),
     "mearm.task.scene": ("SceneError",),
     "mearm.task.armcheck": ("ArmCheckError", "NothingToCheck"),
-    "mearm.task.sorter": ("CollisionError", "SortAborted"),
+    "mearm.task.sorter": ("CollisionError", "SortAborted", "StartCalibrationFailed"),
     "mearm.experiment.errors": ("TrialFailed",),
     # the environments' and the baseline's (their packages import Gymnasium: mearm[gym])
     "mearm.envs.errors": ("EnvOptionError", "PolicyError"),

@@ -26,6 +26,10 @@ On servos that were never calibrated — a real board (``servo.backend`` ``seria
 ``ssc32``) or the twin with a kit of servos (``twin.kit``), without a
 ``servo.calibration_file`` — one line on stderr says so before the arm moves and names
 the ``mearm calibrate-servos`` command to run (not with ``--quiet``); the sort runs on.
+With ``servo.calibrate_at_start: when_uncalibrated`` it first calibrates them by the camera
+(:mod:`mearm.maker.camera_calibration.at_start`), prints one line (the fit's residual, the
+seconds of arm motion) and sorts with that calibration; ``--save-calibration FILE`` also
+writes it. A fit that does not converge stops the sort before its first pick (exit 1).
 """
 
 from __future__ import annotations
@@ -69,6 +73,7 @@ try:
     from mearm.hardware.errors import ServoError
     from mearm.task import Rig, SortAborted, check_scene, load_scene, random_scene, run_sort
     from mearm.task.check import calibration_note, check_consistency
+    from mearm.task.sorter import CalibrateFirst, calibrates_at_start, check_calibrate_at_start
     from mearm.vision.errors import CameraError
 finally:
     if _PAUSE_COLLECTOR:
@@ -149,6 +154,14 @@ def _parser() -> ArgumentParser:
         help="also write the whole scene (arm, table, bins, objects, camera) as one "
         "self-contained MJCF for MuJoCo's own viewer",
     )
+    parser.add_argument(
+        "--save-calibration",
+        type=Path,
+        metavar="FILE",
+        help="with servo.calibrate_at_start: when_uncalibrated, also write the servos' "
+        "calibration the sort makes at its start, as mearm calibrate-servos does (an "
+        "existing calibration is kept as FILE.bak)",
+    )
     add_record_arguments(parser)
     return parser
 
@@ -162,6 +175,32 @@ def _check_arguments(parser: ArgumentParser, args: argparse.Namespace) -> None:
         parser.error("--collision draws the collision model in the view: use it with --view")
     if args.save_mjcf is not None:
         check_output_file(args.save_mjcf, "--save-mjcf")
+    if args.save_calibration is not None:
+        check_output_file(args.save_calibration, "--save-calibration")
+
+
+def _calibrate_first(config: Config, save: Path | None) -> CalibrateFirst | None:
+    """What calibrates the servos at the start, if the config asks for it (exit 2: bad input).
+
+    Raises:
+        MearmError: a rig without what it needs, ``--save-calibration`` on a config that
+            makes no calibration, or over a file that is not a servo calibration.
+    """
+    check_calibrate_at_start(config)
+    if save is not None and not calibrates_at_start(config):
+        raise MearmError(
+            "--save-calibration writes the calibration a sort makes at its start "
+            "(servo.calibrate_at_start: when_uncalibrated, no servo.calibration_file): "
+            "this config makes none"
+        )
+    if not calibrates_at_start(config):
+        return None
+    from mearm.config.servo_file import check_replace  # noqa: PLC0415  (calibrating only)
+    from mearm.maker.camera_calibration.at_start import calibrator  # noqa: PLC0415
+
+    if save is not None:
+        check_replace(save)
+    return calibrator(save)
 
 
 def _view_factory(config: Config, *, collision: bool) -> Callable[[Rig], object]:
@@ -195,6 +234,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     _check_arguments(parser, args)
     config = config_from_args(args)
     check_consistency(config)  # before the scene, the log or any output: the config first
+    calibrate_first = _calibrate_first(config, args.save_calibration)
     scene = scene_from_args(args, config)
     mjcf = _scene_mjcf(config, scene) if args.save_mjcf is not None else None
     lines: list[str] = []
@@ -230,6 +270,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             view_factory=make_view if args.view else None,
             on_view=(lambda view: _hold(view.url)) if args.hold else None,
             recorder=recorder,
+            calibrate_first=calibrate_first,
         )
     except SortAborted as exc:
         if args.quiet:

@@ -348,6 +348,13 @@ class ServoConfig(Strict):
     """A servo calibration file written by ``mearm calibrate-servos`` (relative to the
     config file's folder): its fitted zero, µs per unit and direction replace those of
     the arm's actuators it names, when the config loads. ``None``: the config's own."""
+    calibrate_at_start: Literal["never", "when_uncalibrated"] = "never"
+    """``when_uncalibrated``: a sort whose servos were never calibrated (no
+    ``calibration_file``) first calibrates them by the camera, as ``mearm calibrate-servos
+    --camera`` does (the arm moves over the table, clear of the objects, for up to 3
+    minutes), and sorts with that calibration, kept for the run. Needs a marker on the
+    claw (``arm.tool.marker``) and a perspective calibration of the camera. ``never``: the
+    sort uses the arm's nominal calibration (no motion the user did not ask for)."""
     baud: int = Field(default=115200, ge=BAUD[0], le=BAUD[1])
     rate_hz: float = Field(default=50.0, ge=RATE_HZ[0], le=RATE_HZ[1], allow_inf_nan=False)
     """Commands per second at most (the servo frame rate); lower if the baud rate demands."""

@@ -17,6 +17,7 @@ import numpy as np
 
 from mearm.config import Config, SceneObject
 from mearm.hardware.errors import ServoError
+from mearm.maker.camera_calibration.at_start import for_config
 from mearm.runlog import RunLog
 from mearm.task import SortAborted, random_scene, run_sort
 from mearm.vision.errors import CameraError
@@ -115,7 +116,7 @@ def run_trials(
         try:
             run_sort(
                 plan.config, scene=plan.layout, log=log, trial=k, seed=plan.seed, echo=None,
-                recorder=recorder,
+                recorder=recorder, calibrate_first=for_config(plan.config),
             )  # fmt: skip
             outcomes[k] = None
         except SortAborted as exc:
@@ -200,7 +201,7 @@ def run_trial(
             with RunLog(part, exclusive=True, fsync=False) as log:
                 run_sort(
                     plan.config, scene=plan.layout, log=log, trial=number, seed=plan.seed,
-                    echo=None, recorder=capture,
+                    echo=None, recorder=capture, calibrate_first=for_config(plan.config),
                 )  # fmt: skip
             result = TrialResult(number)
         except SortAborted as exc:

@@ -190,7 +190,8 @@ def calibration_note(config: Config, config_args: Sequence[str]) -> str | None:
 
     Said for servos that are real (``servo.backend`` ``serial`` or ``ssc32``) or that the
     twin draws as a kit of real units (``twin.kit``), when the config applies no servo
-    calibration file: the arm's nominal calibration may be good enough, or not. With a
+    calibration file: the arm's nominal calibration may be good enough, or not (or, with
+    ``servo.calibrate_at_start: when_uncalibrated``, the sort calibrates them first). With a
     file, the limits it narrowed, if any (:func:`~mearm.config.servo_file.narrowed_limits_note`).
 
     Args:
@@ -211,6 +212,13 @@ def calibration_note(config: Config, config_args: Sequence[str]) -> str | None:
     import shlex  # noqa: PLC0415  (servos never calibrated only)
 
     command = shlex.join(["mearm", "calibrate-servos", *config_args, *extra])
+    if config.servo.calibrate_at_start == "when_uncalibrated":
+        return (
+            f"note: {what} have never been calibrated (no servo.calibration_file): the sort "
+            "calibrates them by the camera first (servo.calibrate_at_start), the arm moving "
+            "over the table clear of the objects; to keep a calibration, pass "
+            f"--save-calibration FILE or run {command}"
+        )
     return (
         f"note: {what} have never been calibrated (no servo.calibration_file): the sort "
         f"uses the arm's nominal calibration; to measure theirs, run {command}"

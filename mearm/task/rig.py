@@ -19,7 +19,7 @@ from mearm.kinematics import ArmModel
 from mearm.sim import World
 from mearm.task.check import check_consistency
 from mearm.task.report import SortReport
-from mearm.task.sorter import EpisodeRecorder, SortAborted, Sorter
+from mearm.task.sorter import CalibrateFirst, EpisodeRecorder, SortAborted, Sorter
 from mearm.vision import Camera
 
 if TYPE_CHECKING:
@@ -103,6 +103,7 @@ def run_sort(
     view_factory: Callable[[Rig], Any] | None = None,
     on_view: Callable[[Any], None] | None = None,
     recorder: RigRecorder | None = None,
+    calibrate_first: CalibrateFirst | None = None,
 ) -> SortReport:
     """Write the trial's header, open the rig, sort, close everything.
 
@@ -123,6 +124,9 @@ def run_sort(
         on_view: Called with the view after the sort (e.g. to keep it open).
         recorder: Records the sort as a dataset (:class:`mearm.dataset.DatasetRecorder`):
             attached to the rig's bus and camera while the sort runs.
+        calibrate_first: Calibrates servos never calibrated before the first pick, where
+            ``servo.calibrate_at_start`` asks for it
+            (:func:`mearm.maker.camera_calibration.at_start.for_config`).
 
     Raises:
         SortAborted: the sort stopped early (the log says why).
@@ -146,6 +150,7 @@ def run_sort(
             sorter = kind(
                 config, rig.camera, rig.bus, model=rig.model, log=log, view=view, echo=echo,
                 trial=trial, in_bins=rig.in_bins, recorder=recorder,
+                calibrate_first=calibrate_first,
             )  # fmt: skip
             started = True  # from here on the sorter logs its own faults
             if recorder is not None:

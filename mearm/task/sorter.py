@@ -35,12 +35,12 @@ The loop is here; its parts each have a module: following the objects from look 
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 
 from mearm.config import Config
-from mearm.errors import MearmError
+from mearm.errors import ConfigError, MearmError
 from mearm.hardware.bus import ServoBus
 from mearm.hardware.errors import ServoError
 from mearm.ik import IKTarget
@@ -122,6 +122,60 @@ class SortAborted(MearmError):
         super().__init__(reason)
 
 
+class StartCalibrationFailed(MearmError):
+    """The servos' calibration at the start of a sort gave none; nothing was picked."""
+
+
+class CalibrateFirst(Protocol):
+    """Calibrates servos never calibrated, the arm at home, before the first pick.
+
+    ``servo.calibrate_at_start`` (:mod:`mearm.maker.camera_calibration.at_start`, a layer
+    above the sort's: the commands that sort hand it over). Called with the sort's config,
+    camera, bus and arm model; returns the config with the calibration, which the bus then
+    sends, and the lines to print.
+
+    Raises:
+        StartCalibrationFailed: the fit did not converge or was refused (the arm parked).
+        ServoError: a fault while moving (the arm held where it is).
+    """
+
+    def __call__(  # noqa: D102
+        self, config: Config, camera: Camera, bus: ServoBus, model: ArmModel, *, simulated: bool
+    ) -> tuple[Config, list[str]]: ...
+
+
+def calibrates_at_start(config: Config) -> bool:
+    """Whether a sort on ``config`` calibrates its servos by the camera first."""
+    servo = config.servo
+    return servo.calibrate_at_start == "when_uncalibrated" and servo.calibration_file is None
+
+
+def check_calibrate_at_start(config: Config) -> None:
+    """Refuse a calibration at the start the rig cannot run, before anything moves.
+
+    Raises:
+        ConfigError: ``servo.calibrate_at_start`` asks for it, and the claw has no marker
+            or the camera no perspective calibration.
+    """
+    if not calibrates_at_start(config):
+        return
+    field, problems = "servo.calibrate_at_start", []
+    if config.arm.tool.marker is None:
+        problems.append(
+            f"{field}: when_uncalibrated needs a marker on the claw (arm.tool.marker), the "
+            f"arm {config.arm.name!r} has none: add one, or set {field} to never"
+        )
+    if config.calibration.model != "perspective":
+        problems.append(
+            f"{field}: when_uncalibrated needs a perspective calibration of the camera "
+            f"(calibration.model: perspective), not {config.calibration.model!r}: set "
+            f"{field} to never, or calibrate the camera as docs/calibration.md's "
+            "walkthrough does"
+        )
+    if problems:
+        raise ConfigError(None, problems)
+
+
 class Sorter(PickAndPlace):
     """Runs the sort on one table.
 
@@ -140,6 +194,12 @@ class Sorter(PickAndPlace):
         max_rounds: Pick attempts before the run gives up on a table that never clears
             (default: four per expected object and retry, at least 80 × (retries + 1)).
         recorder: Records each pick-and-place as an episode (``--record``), or ``None``.
+        calibrate_first: Calibrates servos never calibrated by the camera before the first
+            pick, where ``servo.calibrate_at_start`` asks for it; ``None``: the command
+            cannot (the sort says so and uses the nominal calibration).
+
+    Raises:
+        ConfigError: ``servo.calibrate_at_start`` on a rig without what it needs.
     """
 
     def __init__(
@@ -156,31 +216,19 @@ class Sorter(PickAndPlace):
         in_bins: Callable[[], Mapping[str, int]] | None = None,
         max_rounds: int | None = None,
         recorder: EpisodeRecorder | None = None,
+        calibrate_first: CalibrateFirst | None = None,
     ):
+        check_calibrate_at_start(config)  # before anything moves
         self.config = config
         self.recorder = recorder
         self.camera = camera
         self.bus = bus
+        #: What calibrates servos never calibrated before the first pick, where the config
+        #: asks for it (``servo.calibrate_at_start``); ``None``: this command cannot.
+        self.calibrate_first = calibrate_first
         self.model = model if model is not None else ArmModel(config.arm)
-        self.collision = collision_model(config, self.model, clearance_cm=config.task.clearance_cm)
-        self.planner = Planner(config, self.model, self.collision)
-        self.executor = Executor(config, bus, self.model, view)
+        self._calibrated_parts(config, view)
         self.reporter = Reporter(config, self.model.chain, log, echo, trial)
-        self.calibration = camera_geometry(config.calibration, config.camera)
-        self.detector = ColorDetector.from_config(
-            config.vision, config.calibration, config.camera, config.task.classes,
-            geometry=self.calibration,
-        )  # fmt: skip
-        #: The camera watching the claw's marker (picks that look), where the tool carries
-        #: one, the camera is calibrated as a perspective one and the config asks for it.
-        self.eye = claw_eye(config, self.model, self.calibration, camera.read, bus.hold)
-        #: The arm's body where the calibrated camera sees it (a perspective camera only:
-        #: a homography knows only the table's plane); no object is looked for there.
-        self.arm_view = arm_view(
-            self.calibration, self.model, self.collision.bodies,
-            opening_cm=config.arm.tool.gripper.open_cm,
-        )  # fmt: skip
-        self.arm_in_view = None if self.arm_view is None else self._arm_now
         self.frame_check = FrameCheck(camera.source)
         #: The object the arm last went for (the only one it may have moved since).
         self._active: TrackedObject | None = None
@@ -191,6 +239,58 @@ class Sorter(PickAndPlace):
         retries = config.task.pick_retries + 1
         self.max_rounds = max_rounds or 4 * (len(config.task.scene) + 20) * retries
         self._objects: list[TrackedObject] = []
+
+    def _calibrated_parts(self, config: Config, view: View | None) -> None:
+        """What depends on the servos' calibration: the checks, the planner, the moves, the eyes.
+
+        Built again once the camera has calibrated the servos at the start.
+        """
+        self.config = config
+        self.collision = collision_model(config, self.model, clearance_cm=config.task.clearance_cm)
+        self.planner = Planner(config, self.model, self.collision)
+        self.executor = Executor(config, self.bus, self.model, view)
+        self.calibration = camera_geometry(config.calibration, config.camera)
+        self.detector = ColorDetector.from_config(
+            config.vision, config.calibration, config.camera, config.task.classes,
+            geometry=self.calibration,
+        )  # fmt: skip
+        #: The camera watching the claw's marker (picks that look), where the tool carries
+        #: one, the camera is calibrated as a perspective one and the config asks for it.
+        self.eye = claw_eye(config, self.model, self.calibration, self.camera.read, self.bus.hold)
+        #: The arm's body where the calibrated camera sees it (a perspective camera only:
+        #: a homography knows only the table's plane); no object is looked for there.
+        self.arm_view = arm_view(
+            self.calibration, self.model, self.collision.bodies,
+            opening_cm=config.arm.tool.gripper.open_cm,
+        )  # fmt: skip
+        self.arm_in_view = None if self.arm_view is None else self._arm_now
+
+    def _calibrate_by_camera(self) -> None:
+        """Servos never calibrated: calibrate them by the camera, the arm at home, and use it.
+
+        ``servo.calibrate_at_start`` (:class:`CalibrateFirst`); a line says what it gave.
+        A command that cannot (no :attr:`calibrate_first`) says so and sorts as it is.
+
+        Raises:
+            StartCalibrationFailed: the fit did not converge or was refused.
+            ServoError: a fault while moving.
+        """
+        if self.calibrate_first is None:
+            self.reporter.echo(
+                "note: servo.calibrate_at_start: this command does not calibrate the servos "
+                "first; the sort uses the arm's nominal calibration"
+            )
+            return
+        simulated = self.in_bins is not None
+        config, lines = self.calibrate_first(
+            self.config, self.camera, self.bus, self.model, simulated=simulated
+        )
+        self.model = ArmModel(config.arm)  # its limits, narrowed where the fit says so
+        self._calibrated_parts(config, self.view)
+        for line in lines:
+            self.reporter.echo(line)
+        self.executor.move_joints(self.model.home, "travel", closed=False)
+        self.executor.home_pose()
 
     @property
     def report(self) -> SortReport:
@@ -304,6 +404,8 @@ class Sorter(PickAndPlace):
             if not self.bus.is_connected:
                 self.bus.connect()
             self.executor.home_pose()
+            if calibrates_at_start(self.config):
+                self._calibrate_by_camera()
             # since the last pick, from beside home (_look_aside: a camera that sees the arm)
             looked_aside = self.arm_view is None
             for _ in range(self.max_rounds):
@@ -337,6 +439,8 @@ class Sorter(PickAndPlace):
                 self.recorder.end_run()
         except (CameraError, ServoError, CollisionError) as exc:
             self._abort(str(exc), park=isinstance(exc, CameraError))
+        except StartCalibrationFailed as exc:  # the arm parked where it could be
+            self._abort(f"{exc}; nothing sorted", park=False)
         except KeyboardInterrupt:
             self._abort("interrupted (Ctrl-C)", park=True, interrupted=True)
         self.reporter.summary(ok=True, outcome=self.outcome(), motion=self.executor.motion)

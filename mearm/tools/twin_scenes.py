@@ -54,12 +54,13 @@ _WORK: tuple[Config, int] | None = None
 
 def _one(config: Config, objects: int, seed: int) -> Result:
     """Sort one scene: its :data:`Result`."""
+    from mearm.maker.camera_calibration.at_start import for_config
     from mearm.task.rig import run_sort
     from mearm.task.scene import random_scene
 
     scene = random_scene(config, objects, seed=seed)
     try:
-        report = run_sort(config, scene=scene, echo=None)
+        report = run_sort(config, scene=scene, echo=None, calibrate_first=for_config(config))
     except SortAborted as exc:
         if exc.outcome is None:
             return len(scene), 0, 0, {"fault": len(scene)}, exc.reason, []

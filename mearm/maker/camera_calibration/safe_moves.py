@@ -2,9 +2,10 @@
 
 No joint may come, within its doubt, nearer than :data:`JOINT_MARGIN` to its limits (nor
 a servo to the end of its travel); the tool's lowest point stays :data:`TABLE_MARGIN_CM`
-above the table however far the doubt could lower it; and the planner keeps
-``task.clearance_cm`` plus how far the doubt could move the tool wherever it could come
-below a bin wall's or an object's top. A move that fails a check is not made.
+(or a higher floor, :attr:`SafeMoves.floor_cm`) above the table however far the doubt
+could lower it; and the planner keeps ``task.clearance_cm`` plus how far the doubt could
+move the tool wherever it could come below a bin wall's or an object's top. A move that
+fails a check is not made.
 """
 
 from __future__ import annotations
@@ -55,7 +56,7 @@ class Slack:
         travel: Each joint servo's room to :data:`JOINT_MARGIN` inside its travel (the
             values the arm's own calibration puts at its ``min_us`` and ``max_us``: where
             its shaft stops) [deg or cm], (m,).
-        table_cm: The tool's lowest point's room to :data:`TABLE_MARGIN_CM` [cm].
+        table_cm: The tool's lowest point's room to :attr:`SafeMoves.floor_cm` [cm].
         reach_cm: How far the doubt may move a point of the tool, where that may bring
             it near a bin or an object; 0 where the tool, lowered by the doubt, stays
             above every bin wall and object by ``task.clearance_cm`` [cm].
@@ -106,11 +107,21 @@ class SafeMoves:
         doubt: How far each servo may be from where it is sent.
         objects: What the camera saw on the table at home (id, class, x, y).
         raises: Each actuated joint's way (±1) that raises the tool at home.
+        floor_cm: How high above the table the tool's lowest point stays, within the
+            doubt: :data:`TABLE_MARGIN_CM`, or more (``floor_cm``; a sort's calibration
+            keeps it above every object's top, seen or not) [cm].
     """
 
-    def __init__(self, config: Config, rig: Rig, claw: ClawCamera):
+    def __init__(
+        self, config: Config, rig: Rig, claw: ClawCamera, *, floor_cm: float = TABLE_MARGIN_CM
+    ):
         self.present = config
         self.config = config  # with the fit the bus sends, once one is used
+        self.floor_cm = max(TABLE_MARGIN_CM, floor_cm)
+        #: Whether the floor keeps the tool above every object's top: the objects seen
+        #: then keep ``task.clearance_cm`` from the arm's body as planned (the doubt lowers
+        #: the tool to the floor at worst), the bins that plus the doubt's reach.
+        self.over_objects = self.floor_cm > TABLE_MARGIN_CM
         own = replaced_calibration(config) or config  # the arm's calibration, before any file
         self.nominal_arm = own.arm
         self.shaft = ServoMap.from_arm(own.arm)  # where each servo's shaft stops: its pulse range
@@ -135,7 +146,9 @@ class SafeMoves:
         key = round(clearance_cm, 3)
         if key not in self._collision:
             col = collision_model(self.present, self.model, clearance_cm=key)
-            col.set_world(self.objects, opening_cm=self.present.arm.tool.gripper.open_cm)
+            base = round(self.present.task.clearance_cm, 3)
+            if not self.over_objects or key == base:  # else: objects_refusal
+                col.set_world(self.objects, opening_cm=self.present.arm.tool.gripper.open_cm)
             self._collision[key] = col
         if key not in self._planner:  # with the calibration the bus sends
             self._planner[key] = Planner(self.config, self.model, self._collision[key])
@@ -229,7 +242,7 @@ class SafeMoves:
                     float(np.linalg.norm(self.kept_tool_points(t) - points, axis=1).max())
                     for t in turned
                 )
-        return Slack(self._joint_room(q, doubt), self.travel(q), low - drop - TABLE_MARGIN_CM,
+        return Slack(self._joint_room(q, doubt), self.travel(q), low - drop - self.floor_cm,
                      reach, low, drop, doubt)  # fmt: skip
 
     def allows(self, q: np.ndarray) -> bool:
@@ -244,7 +257,7 @@ class SafeMoves:
         low, drop = self.lowest_cm(q), 0.0
         for turned in turns:
             drop += self._drop_cm(low, turned)
-            if low - drop - TABLE_MARGIN_CM < -_TABLE_TOL_CM:
+            if low - drop - self.floor_cm < -_TABLE_TOL_CM:
                 return False
         return True
 
@@ -312,7 +325,7 @@ class SafeMoves:
         if s.table_cm < (0.0 if floor is None else min(0.0, floor.table_cm)) - _TABLE_TOL_CM:
             return (
                 f"the tool, {s.low_cm:.1f} cm above the table, could come down {s.drop_cm:.1f} "
-                f"cm (to within {TABLE_MARGIN_CM:g} cm of it)",
+                f"cm (to within {self.floor_cm:g} cm of it)",
                 s.reach_cm,
             )
         return None, s.reach_cm
@@ -382,6 +395,8 @@ class SafeMoves:
                 return "the final move: " + why
             visit = dataclasses.replace(visit, lines=(*visit.lines, final))
             why, reach = self.path_refusal(visit.path())
+            if why is None and visit.route is not None:  # the lines were checked whole
+                why = self.objects_refusal(visit.route.plan.q_path)  # type: ignore[union-attr]
             if why is not None:
                 return why
             if self.clearance_cm(reach) <= clearance:
@@ -425,7 +440,17 @@ class SafeMoves:
         contact = self.collision(clearance_cm).first_contact(path)
         if contact is not None:
             return contact.describe(self.chain.names, self.chain.scale)
-        return None
+        return self.objects_refusal(path)
+
+    def objects_refusal(self, path: np.ndarray) -> str | None:
+        """Why ``path`` comes within ``task.clearance_cm`` of an object seen, or ``None``.
+
+        Only with :attr:`over_objects` (the planners with the doubt's reach leave them out).
+        """
+        if not self.over_objects or not self.objects:
+            return None
+        contact = self.collision(self.present.task.clearance_cm).first_contact(path)
+        return None if contact is None else contact.describe(self.chain.names, self.chain.scale)
 
     def go(self, visit: Visit) -> None:
         """Stream a visit's route, if any, then its lines (as checked)."""
@@ -473,21 +498,20 @@ class SafeMoves:
         room_cm = self.collision(self.present.task.clearance_cm).gap(home)[0] * 100.0
         reach = max(self.slack(q).reach_cm for q in ex.joint_path(home)[::5])
         clearance = self.clearance_cm(min(reach, room_cm - CLEARANCE_STEP_CM))
-        planner, collision = self.planner(clearance), self.collision(clearance)
-        contact = collision.first_contact(ex.joint_path(home))
-        if contact is not None:  # up first, to where the line home is clear
+        planner = self.planner(clearance)
+        why = self.line_refusal(ex.joint_path(home), clearance)
+        if why is not None:  # up first, to where the line home is clear
             x, y, z = (float(v) for v in ex.ee_now_cm())
             safe = planner.safe_height_cm(ex.q_now())
             approach = self.present.arm.tool.pick_approach
             up = Route("", "", "home", 1, IKTarget((x, y, max(z, safe)), approach))
-            if planner.plan(up, ex.q_now()).planned:
-                ex.stream(up, "travel", closed=False)
-                contact = collision.first_contact(ex.joint_path(home))
-        if contact is not None:
+            if planner.plan(up, ex.q_now()).planned and up.plan is not None:
+                if self.objects_refusal(up.plan.q_path) is None:
+                    ex.stream(up, "travel", closed=False)
+                    why = self.line_refusal(ex.joint_path(home), clearance)
+        if why is not None:
             raise CameraCalibrationFailed(
-                "not parked: the way home "
-                + contact.describe(self.chain.names, self.chain.scale)
-                + "; the arm stays where it is"
+                f"not parked: the way home: {why}; the arm stays where it is"
             )
         ex.move_joints(home, "travel", closed=False)
         ex.home_pose()

@@ -72,6 +72,8 @@ class CameraSession(SafeMoves):
         rig: The rig, its bus connected.
         camera: The calibrated camera.
         out: Where the progress goes.
+        floor_cm: The tool's lowest point stays this high above the table, within the
+            doubt (:class:`SafeMoves`; at least its table margin) [cm].
 
     Attributes:
         home: The marker seen with the arm at home (``None``: not seen), fitted alone
@@ -82,16 +84,25 @@ class CameraSession(SafeMoves):
         fit: The fit the bus sends (``None``: the present calibration).
         fits: How many fits the bus has sent so far.
         held_s: The time the arm was held still for the looks [s].
+        result: The calibration :meth:`run` returned (``None``: not yet, or none).
     """
 
-    def __init__(self, config: Config, rig: Rig, camera: PerspectiveCamera, out: TextIO):
+    def __init__(
+        self,
+        config: Config,
+        rig: Rig,
+        camera: PerspectiveCamera,
+        out: TextIO,
+        *,
+        floor_cm: float = 0.0,
+    ):
         marker = config.arm.tool.marker
         assert marker is not None  # check_inputs
         face = marker_in_tcp(config.arm, servo_named(config.twin.gripper_servo))
         assert face is not None  # the tool has a marker
         claw = ClawCamera(rig.model, ServoMap.from_arm(config.arm), face, marker.size_cm, camera,
                           fit_side=True)  # fmt: skip
-        super().__init__(config, rig, claw)
+        super().__init__(config, rig, claw, floor_cm=floor_cm)
         self.marker = marker
         self.home: Sighting | None = None
         self.above: list[tuple[str, Sighting]] = []
@@ -103,6 +114,7 @@ class CameraSession(SafeMoves):
         self.looks = 0
         self.visited: list[np.ndarray] = []
         self.out = out
+        self.result: CameraFit | None = None
 
     def say(self, text: str) -> None:
         """Print a line of progress."""
@@ -426,4 +438,5 @@ class CameraSession(SafeMoves):
                     "not where the arm puts it (a loose horn or plate, the camera moved "
                     "since its calibration?)"
                 )
-        return midway(self.claw, first, second)
+        self.result = midway(self.claw, first, second)
+        return self.result
