@@ -14,7 +14,9 @@ from mearm.backends import open_camera
 from mearm.config import Config, config_from_dict
 from mearm.exceptions import CameraError, ConfigError
 from mearm.sim import SimCamera, World
+from mearm.sim.kinematic.renderer import Disc, Paper, Shadow, TableRenderer, class_discs
 from mearm.vision import (
+    Calibration,
     ColorDetector,
     DeviceCamera,
     FileCamera,
@@ -61,6 +63,34 @@ def test_sim_frames_are_seeded() -> None:
     assert np.array_equal(first, b.read()) and np.array_equal(second, b.read())
     other = SimCamera(cfg(seed=1), World.from_config(config))
     assert not np.array_equal(first, other.read())
+
+
+def test_a_changed_table_is_drawn_as_a_fresh_renderer_draws_it() -> None:
+    """Frame for frame, bit for bit, a renderer that has drawn the scenes before draws a
+    table with objects taken, nudged and reordered (and distractors) as a new one does:
+    only the box of what changed is drawn again, in the order a whole frame is drawn."""
+    config = Config()
+    calibration = Calibration.from_config(config.calibration)
+    extras = (Shadow(0.0, 40.0, 3.0), Disc((10, 200, 30), 3.0, 45.0, 2.5), Paper(-5, 45, 10, 8))
+    rng = np.random.default_rng(4101)
+    for kept in ((), extras):
+        renderer = TableRenderer.from_config(config.camera, calibration, kept)
+        table = [
+            (c.name, *rng.uniform((-15.0, 30.0, 0.0), (15.0, 55.0, 90.0)))
+            for c in config.task.classes
+            for _ in range(4)
+        ]
+        for i in range(16):
+            discs = class_discs(config.task.classes, table)
+            fresh = TableRenderer.from_config(config.camera, calibration, kept)
+            assert np.array_equal(renderer.render(discs, i), fresh.render(discs, i)), i
+            if table:
+                table.pop(int(rng.integers(len(table))))
+            if table and i % 3 == 1:
+                name, x, y, yaw = table[0]
+                table[0] = (name, x + 0.4, y, yaw)
+            if i == 9:
+                table.reverse()
 
 
 def test_open_camera_builds_the_sim_world_from_the_scene() -> None:

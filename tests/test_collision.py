@@ -82,6 +82,41 @@ def test_the_bins_are_the_twins_bins() -> None:
             assert np.allclose(m.geom(shape.name).size, shape.size)
 
 
+@pytest.mark.parametrize("name", ["sim", "sim_5dof", "sim_mearm_v1", "sim_shapes"])
+def test_the_gap_is_the_nearest_of_every_pair_measured(name: str) -> None:
+    """The check measures only the pairs that could be nearest (a pair is no nearer than
+    its bound); its gap is the one measuring every pair finds, at random poses, tables and
+    openings, with an object held or none, on every reference arm."""
+    config = _config(name)
+    model = ArmModel(config.arm)
+    collision = collision_model(config, model)
+    chain, rng = model.chain, np.random.default_rng(4102)
+    names = config.task.class_names
+    for trial in range(60):
+        objects = [
+            (f"obj{k}", names[k % 3], *rng.uniform((-20.0, 25.0), (20.0, 60.0)))
+            for k in range(int(rng.integers(0, 12)))
+        ]
+        held = ("held1", names[trial % 3]) if trial % 4 == 0 else None
+        collision.set_world(objects, opening_cm=rng.uniform(2.0, 6.0), held=held)
+        q = chain.full(rng.uniform(chain.actuated_lower, chain.actuated_upper))
+        gap, part, obstacle = collision.gap(q)
+        jaws = [k for col in collision._between_jaws(None) for k in collision._jaw_pairs[col]]
+        active = np.flatnonzero(collision._active)
+        bounds = collision._lower_bounds(active)  # what the check skips a pair by
+        distances = [
+            pin.computeDistance(collision.geometry, collision.gdata, k).min_distance
+            for k in active.tolist()
+        ]
+        assert np.all(bounds <= np.array(distances) + 1e-9)
+        pairs = zip(distances, active.tolist(), strict=True)
+        measured = sorted((d, k) for d, k in pairs if k not in jaws)
+        nearest, k = measured[0]
+        assert gap == pytest.approx(nearest - collision.clearance_m, abs=1e-6)
+        if len(measured) == 1 or measured[1][0] - nearest > 1e-5:  # no near tie
+            assert (part, obstacle) == collision._pair_names(k)
+
+
 def test_the_table_counts_the_scene_and_the_belt() -> None:
     """Each bin's walls hold every object of its class, the scene's and the belt's, and one more."""
     config = _config("sim_conveyor")

@@ -66,6 +66,10 @@ TOUCH_CM = 0.005
 TOUCH_M = TOUCH_CM * 0.01
 #: The clearance kept from bins and objects when the config gives none [cm].
 DEFAULT_CLEARANCE_CM = 0.3
+#: How far coal's distance may fall below a pair's bound [m] before the broad phase of
+#: :meth:`CollisionModel._gap` could miss the nearest pair: coal's GJK converges to 1e-6 m,
+#: a hundredth of this.
+BROAD_PHASE_SLACK_M = 1e-4
 
 
 @dataclass(frozen=True)
@@ -193,6 +197,7 @@ class CollisionModel:
         self._objects: list[tuple[str, str, float, float]] = []
         self._opening_cm = arm.tool.gripper.open_cm
         self._reach_local = self._local_reach()
+        self._reach_of_opening = {self._opening_cm: self._reach_local}  # read only
         self._held: tuple[str, str] | None = None
         self._table_below_cm = 0.0  # the table as checked, below the real one [cm]
         self._on_table: set[str] = set()  # shapes standing on the table: the arm's mount
@@ -242,7 +247,10 @@ class CollisionModel:
             self._objects = list(objects)
         if opening_cm is not None and float(opening_cm) != self._opening_cm:
             self._opening_cm = float(opening_cm)
-            self._reach_local = self._local_reach()
+            reach = self._reach_of_opening.get(self._opening_cm)
+            if reach is None:  # (a simulator switches between a few openings at every grip)
+                reach = self._reach_of_opening[self._opening_cm] = self._local_reach()
+            self._reach_local = reach
         self._held = held
         self._table_below_cm = max(0.0, float(table_below_cm))
         if (self._objects, self._opening_cm, self._held, self._table_below_cm) == state:
@@ -344,6 +352,16 @@ class CollisionModel:
         )
         self._half = np.array([_half_extents(s) for s, _, _ in arm])
         self._is_cyl = np.array([s.kind == "cylinder" for s, _, _ in arm])
+        # the broad phase (:meth:`_lower_bounds`): a sphere about each arm shape
+        self._row_joint = np.array([joint for _, _, joint in arm])
+        self._row_local = np.array([T[:3, 3] for _, T, _ in arm])  # in its joint's frame
+        self._row_radius = np.array([s.radius_m for s, _, _ in arm])
+        # each obstacle's box along the world's axes (an object's holds its cylinder, one
+        # turned holds it turned), half extents; the table's row is never read
+        self._ob_half = np.array(
+            [np.zeros(3)] + [np.abs(T[:3, :3]) @ _half_extents(s) for s, T in obstacles if s]
+        )
+        self._pair_flat = self._pair_rows * len(obstacles) + self._pair_cols
         self._apply()
 
     def _apply(self) -> None:
@@ -352,7 +370,9 @@ class CollisionModel:
         g = self.geometry.geometryObjects
         for k, (shape, _, _) in enumerate(self._arm[: self._na]):
             if shape.jaw:
-                g[k].placement = _se3(self._in_joint(shape))
+                T = self._in_joint(shape)
+                g[k].placement = _se3(T)
+                self._row_local[k] = T[:3, 3]
         row_on = np.zeros(self._rows, dtype=bool)
         row_on[: self._na] = True
         self._arm_names = [s.name for s, _, _ in self._arm]
@@ -362,6 +382,7 @@ class CollisionModel:
             self._arm_names[self._held_row[color]] = f"held {oid}"
         table = np.array([0.0, 0.0, -self._table_below_cm * M_PER_CM])
         g[self._rows].placement = _se3(_translate(table))
+        self._table_z = table[2] - self.clearance_m  # the half-space's top face [m]
         col_on = np.zeros(len(self._obstacles), dtype=bool)
         col_on[: 1 + len(self.bins)] = True
         self._ob_names = list(self._base_names)
@@ -452,22 +473,61 @@ class CollisionModel:
             return self._last_gap
         jaws = [k for col in self._between_jaws(target) for k in self._jaw_pairs[col]]
         own = [k for k in floors if self._active[k] and k not in jaws]
-        off = jaws + own  # (the pairs with a floor of their own are measured one by one)
-        for k in off:
-            self.gdata.deactivateCollisionPair(k)
         pin.updateGeometryPlacements(pm, self.data, self.geometry, self.gdata)
-        k = pin.computeDistances(self.geometry, self.gdata)
-        for j in off:
-            self.gdata.activateCollisionPair(j)
+        on = self._active.copy()
+        on[jaws + own] = False  # (the pairs with a floor of their own are measured one by one)
         found = (math.inf, "", "", math.inf)
-        if k < len(self._pairs):  # some pair was switched on
-            d = self.gdata.distanceResults[k].min_distance
-            found = self._gap_of(k, d, self.clearance_m)
+        nearest = self._nearest_pair(on)
+        if nearest is not None:
+            found = self._gap_of(*nearest, self.clearance_m)
         for j in own:
             d = pin.computeDistance(self.geometry, self.gdata, j).min_distance
             found = min(found, self._gap_of(j, d, floors[j]))
         self._last_key, self._last_gap = key, found
         return found
+
+    def _nearest_pair(self, on: np.ndarray) -> tuple[int, float] | None:
+        """The nearest of the pairs ``on`` (bool, per pair) and their distance [m].
+
+        What ``pin.computeDistances`` finds with only those pairs switched on (the lowest
+        index of a tie included), without measuring each: a pair is no nearer than a sphere
+        about its arm shape is to a box about its obstacle (:meth:`_lower_bounds`). Pairs
+        are measured in the order of that bound until it passes the nearest distance
+        measured: some 20 of 300 pairs in the reference sort.
+        ``None``: no pair is on.
+        """
+        pairs = np.flatnonzero(on)
+        low = self._lower_bounds(pairs)
+        order = np.argsort(low, kind="stable")
+        best, best_k = math.inf, -1
+        geometry, gdata = self.geometry, self.gdata
+        for k, bound in zip(pairs[order].tolist(), low[order].tolist(), strict=True):
+            if bound > best + BROAD_PHASE_SLACK_M:
+                break
+            d = pin.computeDistance(geometry, gdata, k).min_distance
+            if d < best or (d == best and k < best_k):
+                best, best_k = d, k
+        return None if best_k < 0 else (best_k, best)
+
+    def _lower_bounds(self, pairs: np.ndarray) -> np.ndarray:
+        """Each pair's distance at least, at the last pose's kinematics [m], (len(pairs),).
+
+        The arm shape lies in a sphere about its centre (:attr:`Shape.radius_m`), the
+        obstacle in a box along the world's axes: the distance from the sphere to the box;
+        for the table, the sphere's height above the table's top face. Worked out for
+        every arm shape and obstacle at once (some 20 by 40), then picked per pair.
+        """
+        oMi = self.data.oMi
+        frames = range(self._last + 1)
+        R = np.array([oMi[j].rotation for j in frames])[self._row_joint]
+        t = np.array([oMi[j].translation for j in frames])[self._row_joint]
+        centre = (R @ self._row_local[:, :, None])[:, :, 0] + t
+        apart = np.abs(centre[:, None, :] - self._ob_centre[None, :, :])  # (shape, obstacle, 3)
+        out = np.maximum(apart - self._ob_half, 0.0)  # beyond the obstacle's box, per axis
+        low = np.sqrt(np.einsum("ijk,ijk->ij", out, out))
+        low[:, 0] = centre[:, 2] - self._table_z  # the table
+        low -= self._row_radius[:, None]
+        return low.ravel()[self._pair_flat[pairs]]
 
     def _gap_of(
         self, pair: int, distance_m: float, floor_m: float

@@ -280,7 +280,7 @@ class TableRenderer:
         """
         scene = (*self._extra_discs, *discs)
         if scene != self._scene:
-            self._clean = self._draw(scene)
+            self._clean = self._redraw(scene)
             self._scene = scene
         if self.noise_std <= 0:
             return np.clip(np.rint(self._clean), 0, 255).astype(np.uint8)
@@ -289,24 +289,73 @@ class TableRenderer:
 
     def _draw(self, discs: Sequence[Disc]) -> np.ndarray:
         """The table with ``discs`` on it, lit and highlighted, before noise (float32)."""
-        if len(self._patches) > self.PATCHES_KEPT:
-            self._patches.clear()
-            self._shades.clear()
-        img = self._background.copy()
-        for d in discs:
-            self._soft(img, d.x_cm + 0.25, d.y_cm - 0.25, d.diameter_cm / 2 + 0.1, 0.3, 0.5)
-        for d in discs:
-            self._disc(img, d)
-        for e in self.extras:
-            if isinstance(e, Shadow):
-                self._soft(img, e.x_cm, e.y_cm, e.radius_cm, e.depth, e.soft_cm)
-        img *= self._light
+        h, w = self.size
+        img = self._lit(discs, (slice(0, h), slice(0, w)))
         highlights = [e for e in self.extras if isinstance(e, Highlight)]
         if highlights:
             x_cm, y_cm = self._table_xy()
             for e in highlights:
                 r2 = (x_cm - e.x_cm) ** 2 + (y_cm - e.y_cm) ** 2
                 img += (255.0 * e.strength * np.exp(-0.5 * r2 / e.sigma_cm**2))[..., None]
+        return img
+
+    def _redraw(self, discs: Sequence[Disc]) -> np.ndarray:
+        """:meth:`_draw` of ``discs``, drawing again only where the last scene changed.
+
+        A sort takes one object at a time: the box of the shadows and tops that came or
+        went is drawn again (every step, for every disc there, in the order
+        :meth:`_draw` takes), and the rest of the last frame is kept as it is. The same
+        pixels, bit for bit.
+        """
+        box = self._changed_box(discs)
+        if box is None:
+            return self._draw(discs)
+        self._clean[box] = self._lit(discs, box)
+        return self._clean
+
+    def _changed_box(self, discs: Sequence[Disc]) -> tuple[slice, slice] | None:
+        """The pixel box where ``discs`` differ from the last scene; ``None``: draw all.
+
+        All is drawn again for a first scene, with highlights (they span the frame), and
+        when the discs that stay are not in the same order (or some is there twice): a
+        pixel two of them cover must see them in the same order as :meth:`_draw`.
+        """
+        old = self._scene
+        if old is None or any(isinstance(e, Highlight) for e in self.extras):
+            return None
+        if len(set(old)) != len(old) or len(set(discs)) != len(discs):
+            return None
+        gone, came = set(old) - set(discs), set(discs) - set(old)
+        if [d for d in old if d not in gone] != [d for d in discs if d not in came]:
+            return None
+        boxes = []
+        for d in gone | came:
+            shade, patch = self._shade(*_drop_shadow(d)), self._patch(d)
+            boxes += [part[0] for part in (shade, patch) if part is not None]
+        if not boxes:
+            return slice(0, 0), slice(0, 0)
+        rows = slice(min(b[0].start for b in boxes), max(b[0].stop for b in boxes))
+        cols = slice(min(b[1].start for b in boxes), max(b[1].stop for b in boxes))
+        return rows, cols
+
+    def _lit(self, discs: Sequence[Disc], box: tuple[slice, slice]) -> np.ndarray:
+        """Steps 1–5 of the module docstring in the pixel ``box`` (float32, its shape)."""
+        if len(self._patches) > self.PATCHES_KEPT:
+            self._patches.clear()
+            self._shades.clear()
+        img = self._background[box].copy()
+        for d in discs:
+            _multiply(img, box, self._shade(*_drop_shadow(d)))
+        for d in discs:
+            patch = self._patch(d)
+            if patch is not None:
+                roi, keep, paint = patch
+                _multiply(img, box, (roi, keep))
+                _add(img, box, (roi, paint))
+        for e in self.extras:
+            if isinstance(e, Shadow):
+                _multiply(img, box, self._shade(e.x_cm, e.y_cm, e.radius_cm, e.depth, e.soft_cm))
+        img *= self._light[box]
         return img
 
     def _noise(self, frame_index: int) -> np.ndarray:
@@ -339,7 +388,10 @@ class TableRenderer:
             return None
         return slice(v0, v1), slice(u0, u1)
 
-    def _soft(self, img: np.ndarray, x: float, y: float, r: float, depth: float, soft: float):
+    def _shade(
+        self, x: float, y: float, r: float, depth: float, soft: float
+    ) -> tuple[tuple[slice, slice], np.ndarray] | None:
+        """A soft darkening's box and the factor the table is multiplied by in it (kept)."""
         key = (x, y, r, depth, soft)
         if key not in self._shades:
             roi = self._roi(x, y, r + soft)
@@ -350,22 +402,18 @@ class TableRenderer:
                 dist = np.sqrt((x_cm - x) ** 2 + (y_cm - y) ** 2)
                 t = np.clip((r + soft / 2 - dist) / max(soft, 1e-6), 0.0, 1.0)
                 self._shades[key] = (roi, _per_channel(1.0 - depth * t * t * (3 - 2 * t)))
-        shade = self._shades[key]
-        if shade is not None:
-            roi, factor = shade
-            img[roi] *= factor
+        return self._shades[key]
 
-    def _disc(self, img: np.ndarray, d: Disc) -> None:
+    def _patch(self, d: Disc) -> tuple[tuple[slice, slice], np.ndarray, np.ndarray] | None:
+        """An object top's box, the share of the table kept and the colour added (kept)."""
         key = (*d.bgr, d.x_cm, d.y_cm, d.diameter_cm, d.shape, d.yaw_deg)
         patch = self._patches.get(key)
         if patch is None:
-            made = self._disc_patch(d)
-            if made is None:
-                return
-            self._patches[key] = patch = made
-        roi, keep, paint = patch
-        img[roi] *= keep
-        img[roi] += paint
+            patch = self._disc_patch(d)
+            if patch is None:
+                return None
+            self._patches[key] = patch
+        return patch
 
     def _disc_patch(self, d: Disc) -> tuple[tuple[slice, slice], np.ndarray, np.ndarray] | None:
         """An object top's box, the share of the table kept and the colour added in it."""
@@ -387,6 +435,47 @@ class TableRenderer:
         tone = shade.reshape(bh, n, bw, n).mean(axis=(1, 3)).astype(np.float32)
         color = np.array(d.bgr, np.float32)
         return roi, _per_channel(1.0 - cover), tone[..., None] * color
+
+
+def _drop_shadow(d: Disc) -> tuple[float, float, float, float, float]:
+    """A disc's drop shadow as :meth:`TableRenderer._shade` takes it: (x, y, r, depth, soft)."""
+    return d.x_cm + 0.25, d.y_cm - 0.25, d.diameter_cm / 2 + 0.1, 0.3, 0.5
+
+
+def _overlap(
+    box: tuple[slice, slice], roi: tuple[slice, slice]
+) -> tuple[tuple[slice, slice], tuple[slice, slice]] | None:
+    """Where ``roi`` meets ``box``: as indices into the box, and into the roi's own array."""
+    rows, cols = _meet(box[0], roi[0]), _meet(box[1], roi[1])
+    if rows is None or cols is None:
+        return None
+    return (rows[0], cols[0]), (rows[1], cols[1])
+
+
+def _meet(a: slice, b: slice) -> tuple[slice, slice] | None:
+    """Where the ranges ``a`` and ``b`` meet, as indices from a's start and from b's."""
+    lo, hi = max(a.start, b.start), min(a.stop, b.stop)
+    if lo >= hi:
+        return None
+    return slice(lo - a.start, hi - a.start), slice(lo - b.start, hi - b.start)
+
+
+def _multiply(
+    img: np.ndarray, box: tuple[slice, slice], part: tuple[tuple[slice, slice], np.ndarray] | None
+) -> None:
+    """``img`` (the pixels of ``box``) times a part's values where the part's roi meets it."""
+    where = None if part is None else _overlap(box, part[0])
+    if where is not None:
+        img[where[0]] *= part[1][where[1]]  # type: ignore[index]
+
+
+def _add(
+    img: np.ndarray, box: tuple[slice, slice], part: tuple[tuple[slice, slice], np.ndarray]
+) -> None:
+    """``img`` (the pixels of ``box``) plus a part's values where the part's roi meets it."""
+    where = _overlap(box, part[0])
+    if where is not None:
+        img[where[0]] += part[1][where[1]]
 
 
 def _per_channel(factor: np.ndarray) -> np.ndarray:
