@@ -17,6 +17,7 @@ from collections.abc import Callable, Iterable, Iterator, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, NoReturn, Protocol, TypeVar
 
+from mearm import interrupts
 from mearm.config import Config, load_config
 from mearm.errors import MearmError
 
@@ -296,6 +297,7 @@ def run(main: Callable[[Sequence[str] | None], int], argv: Sequence[str] | None 
     prog = _program_name()
     args = list(sys.argv[1:] if argv is None else argv)
     debug = "--debug" in args or os.environ.get("MEARM_DEBUG", "") not in ("", "0")
+    interrupts.install()  # a Ctrl-C inside a finalizer is not lost
     try:
         code = main(argv)
     except MearmError as exc:

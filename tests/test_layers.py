@@ -18,7 +18,10 @@ PACKAGE = ROOT / "mearm"
 
 #: Low to high: a module may import its own layer and those below, never one above.
 LAYERS: tuple[tuple[str, ...], ...] = (
-    ("mearm.errors", "mearm._lazy", "mearm.fileio", "mearm.yamlio", "mearm.data"),
+    (
+        "mearm.errors", "mearm._lazy", "mearm.fileio", "mearm.interrupts", "mearm.yamlio",
+        "mearm.data",
+    ),
     ("mearm.config",),
     ("mearm.kinematics", "mearm.runlog", "mearm.cli"),
     ("mearm.ik", "mearm.vision", "mearm.hardware"),
