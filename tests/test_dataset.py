@@ -9,7 +9,6 @@ from __future__ import annotations
 import json
 import os
 import shutil
-import signal
 import subprocess
 import sys
 import time
@@ -22,7 +21,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
 from built_once import built_once
-from conftest import ROOT
+from conftest import ROOT, interrupted
 
 from mearm.dataset.contact_sheet import THUMB_WIDTH_PX
 from mearm.dataset.format_check import RULES, check_dataset
@@ -241,8 +240,7 @@ def test_ctrl_c_keeps_every_finished_episode(tmp_path: Path) -> None:
         if (root / "meta/info.json").exists():
             break
         time.sleep(0.01)
-    os.killpg(proc.pid, signal.SIGINT)
-    proc.communicate(timeout=120)
+    interrupted(proc)
     assert proc.returncode == 130
     assert check_dataset(root) == []
     episodes = json.loads((root / "meta/info.json").read_text())["total_episodes"]

@@ -12,6 +12,7 @@ from collections import defaultdict
 
 import pytest
 from conftest import ROOT
+from package_source import package_modules
 
 PACKAGE = ROOT / "mearm"
 
@@ -47,8 +48,8 @@ def test_no_two_modules_share_a_name():
 def test_no_two_classes_share_a_name():
     """Each class name (exceptions, records, protocols, nested ones too) is defined once."""
     places = defaultdict(list)
-    for path in sorted(PACKAGE.rglob("*.py")):
-        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+    for module in package_modules():
+        for node in ast.walk(module.tree):
             if isinstance(node, ast.ClassDef):
-                places[node.name].append(f"{path.relative_to(ROOT)}:{node.lineno}")
+                places[node.name].append(f"{module.where}:{node.lineno}")
     assert {n: w for n, w in places.items() if len(w) > 1} == {}

@@ -12,7 +12,7 @@ import ast
 import functools
 
 import pytest
-from conftest import ROOT
+from package_source import package_modules, syntax
 
 #: Facts that must have exactly one definition, and its module.
 HOMES = {"M_PER_CM": "mearm/kinematics/chain.py", "RAD_PER_DEG": "mearm/kinematics/chain.py"}
@@ -22,14 +22,14 @@ HOMES = {"M_PER_CM": "mearm/kinematics/chain.py", "RAD_PER_DEG": "mearm/kinemati
 def _top_level_names() -> dict[str, list[str]]:
     """Name → every module of the package that assigns it at its top level."""
     where: dict[str, list[str]] = {}
-    for path in sorted((ROOT / "mearm").rglob("*.py")):
-        for node in ast.parse(path.read_text(encoding="utf-8")).body:
+    for module in package_modules():
+        for node in module.tree.body:
             targets = node.targets if isinstance(node, ast.Assign) else []
             if isinstance(node, ast.AnnAssign):
                 targets = [node.target]
             for t in targets:
                 if isinstance(t, ast.Name):
-                    where.setdefault(t.id, []).append(path.relative_to(ROOT).as_posix())
+                    where.setdefault(t.id, []).append(module.where)
     return where
 
 
@@ -67,10 +67,10 @@ def _half_angle_call(node: ast.expr, fn: str) -> str | None:
     return ast.dump(arg.left) if name == fn and halved else None  # type: ignore[union-attr]
 
 
-def _yaw_quaternions(source: str) -> int:
+def _yaw_quaternions(source: str | ast.Module) -> int:
     """How many ``[cos(a / 2), 0, 0, sin(a / 2)]`` (a turn about z) a source writes out."""
     n = 0
-    for node in ast.walk(ast.parse(source)):
+    for node in ast.walk(syntax(source)):
         if not isinstance(node, ast.List | ast.Tuple):
             continue
         for k in range(len(node.elts) - 3):  # also inside a longer list (a pose's 7)
@@ -79,16 +79,14 @@ def _yaw_quaternions(source: str) -> int:
     return n
 
 
-def _modules() -> list[tuple[str, str]]:
-    return [
-        (p.relative_to(ROOT).as_posix(), p.read_text(encoding="utf-8"))
-        for p in sorted((ROOT / "mearm").rglob("*.py"))
-    ]
+def _modules() -> list[tuple[str, ast.Module]]:
+    """(path, syntax) of every module of the package, parsed once per process."""
+    return [(m.where, m.tree) for m in package_modules()]
 
 
 def test_a_yaw_becomes_a_quaternion_in_one_place() -> None:
     """Only ``yaw_quat`` writes the quaternion of a turn about the vertical."""
-    where = {path: n for path, text in _modules() if (n := _yaw_quaternions(text))}
+    where = {path: n for path, tree in _modules() if (n := _yaw_quaternions(tree))}
     assert where == {YAW_HOME: 1}
 
 
@@ -114,10 +112,10 @@ NAMES_HOME = "mearm/kinematics/bodies.py"
 PREFIXES = ("bin_", "obj_")
 
 
-def _name_literals(source: str) -> list[int]:
+def _name_literals(source: str | ast.Module) -> list[int]:
     """Lines that spell a table name's prefix: ``"obj_"``, ``f"bin_{c}"``, ``"bin_red_…"``."""
     lines = []
-    for node in ast.walk(ast.parse(source)):
+    for node in ast.walk(syntax(source)):
         if isinstance(node, ast.JoinedStr) and node.values:
             first = node.values[0]
             text = first.value if isinstance(first, ast.Constant) else ""
@@ -133,8 +131,8 @@ def test_table_names_are_made_and_read_in_one_module() -> None:
     """``bin_name``/``class_of`` and ``object_name``/``object_of`` are the only spelling."""
     where = {
         path: lines
-        for path, text in _modules()
-        if path != NAMES_HOME and (lines := _name_literals(text))
+        for path, tree in _modules()
+        if path != NAMES_HOME and (lines := _name_literals(tree))
     }
     assert where == {}
 
@@ -171,13 +169,13 @@ def test_a_bin_name_reads_back_to_its_class() -> None:
 MEMBERSHIP_HOME = "mearm/config/classes.py"
 
 
-def _membership_functions(source: str) -> list[tuple[str, bool]]:
+def _membership_functions(source: str | ast.Module) -> list[tuple[str, bool]]:
     """Each function named like a membership test (``*in_bin*``), and whether it asks one.
 
     Asking: calling ``.in_bin`` or a method that does (``.objects_in_bin``, a counter's).
     """
     out = []
-    for node in ast.walk(ast.parse(source)):
+    for node in ast.walk(syntax(source)):
         if isinstance(node, ast.FunctionDef) and "in_bin" in node.name:
             uses = any(
                 isinstance(n, ast.Call)
@@ -191,7 +189,7 @@ def _membership_functions(source: str) -> list[tuple[str, bool]]:
 
 def test_every_bin_membership_uses_the_class_rule() -> None:
     """The simulators' answers (``World.in_bin``, ``TwinArm.objects_in_bin``) ask the class."""
-    found = {path: f for path, text in _modules() if (f := _membership_functions(text))}
+    found = {path: f for path, tree in _modules() if (f := _membership_functions(tree))}
     assert ("in_bin", False) in found.pop(MEMBERSHIP_HOME)  # the rule itself
     assert {"mearm/sim/kinematic/world.py", "mearm/sim/twin/twin_bus.py"} <= set(found)
     own = {path: [name for name, uses in f if not uses] for path, f in found.items()}

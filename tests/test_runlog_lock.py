@@ -9,7 +9,6 @@ which ends with a log ``mearm analyze --strict`` accepts.
 from __future__ import annotations
 
 import os
-import signal
 import subprocess
 import sys
 import time
@@ -17,6 +16,7 @@ from pathlib import Path
 
 import pytest
 from badinput import ROOT, check_bad_input_subprocess, run_in_process
+from conftest import interrupted
 
 from mearm.runlog import LogLock, RunLog, RunLogLockedError
 from mearm.runlog.lock import lock_holder
@@ -55,8 +55,7 @@ def test_a_second_writer_is_refused_naming_the_first(tmp_path: Path) -> None:
             assert "mearm experiment --trials 10000" in out.line, out
             assert "one run writes a log at a time" in out.line, out
     finally:
-        os.killpg(first.pid, signal.SIGINT)
-        _, err = first.communicate(timeout=120)
+        _, err = interrupted(first)
     assert first.returncode == 130, err.decode(errors="replace")[-3000:]
     out = run_in_process(["analyze", log, "--strict"], within_s=30)
     assert out.code == 0, out.stderr
