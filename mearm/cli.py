@@ -18,11 +18,12 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, NoReturn, Protocol, TypeVar
 
 from mearm import interrupts
-from mearm.config import Config, load_config
 from mearm.errors import MearmError
 
 if TYPE_CHECKING:  # only the pools' callers import concurrent.futures (7 ms)
     from concurrent.futures import Executor, Future
+
+    from mearm.config import Config
 
 _T = TypeVar("_T")
 
@@ -171,6 +172,8 @@ def add_config_argument(parser: ArgumentContainer) -> None:
 
 def config_from_args(args: argparse.Namespace) -> Config:
     """Load the config named by ``--config`` with every ``--set`` applied."""
+    from mearm.config import load_config  # noqa: PLC0415  (not for --help or --version)
+
     return load_config(args.config, getattr(args, "set", None) or ())
 
 
