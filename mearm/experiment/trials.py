@@ -17,9 +17,9 @@ import numpy as np
 
 from mearm.config import Config, SceneObject
 from mearm.hardware.errors import ServoError
-from mearm.maker.camera_calibration.at_start import for_config
 from mearm.runlog import RunLog
 from mearm.task import SortAborted, random_scene, run_sort
+from mearm.task.sorter import CalibrateFirst, calibrates_at_start
 from mearm.vision.errors import CameraError
 
 if TYPE_CHECKING:
@@ -72,6 +72,18 @@ def plan_trial(
     return TrialPlan(number, s, cfg, layout)
 
 
+def _calibrate_first(config: Config) -> CalibrateFirst | None:
+    """What calibrates a trial's servos by the camera first, where its config asks for it.
+
+    Imported only then: the camera's calibration costs every experiment 0.08 s of CPU.
+    """
+    if not calibrates_at_start(config):
+        return None
+    from mearm.maker.camera_calibration.at_start import calibrator  # noqa: PLC0415
+
+    return calibrator()
+
+
 def run_trials(
     config: Config,
     trials: int,
@@ -116,7 +128,7 @@ def run_trials(
         try:
             run_sort(
                 plan.config, scene=plan.layout, log=log, trial=k, seed=plan.seed, echo=None,
-                recorder=recorder, calibrate_first=for_config(plan.config),
+                recorder=recorder, calibrate_first=_calibrate_first(plan.config),
             )  # fmt: skip
             outcomes[k] = None
         except SortAborted as exc:
@@ -201,7 +213,7 @@ def run_trial(
             with RunLog(part, exclusive=True, fsync=False) as log:
                 run_sort(
                     plan.config, scene=plan.layout, log=log, trial=number, seed=plan.seed,
-                    echo=None, recorder=capture, calibrate_first=for_config(plan.config),
+                    echo=None, recorder=capture, calibrate_first=_calibrate_first(plan.config),
                 )  # fmt: skip
             result = TrialResult(number)
         except SortAborted as exc:
