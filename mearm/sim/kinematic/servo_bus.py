@@ -221,11 +221,12 @@ class SimArm(ServoBus):
             opening = self.config.task.class_named(held.color).diameter_cm
         else:
             opening = g.closed_cm if self.gripper_closed else g.open_cm
+        classes = self.config.task.class_names
         self._collision.set_world(
             [
                 (o.id, o.color, o.x_cm, o.y_cm)
                 for o in self.world.table_objects()
-                if o.color in self.config.task.class_names  # (another is the grip's error)
+                if o.color in classes  # (another is the grip's error)
             ],
             opening_cm=opening,
             held=None if held is None else (held.id, held.color),
