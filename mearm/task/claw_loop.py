@@ -32,6 +32,7 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 import numpy.typing as npt
@@ -41,9 +42,10 @@ from mearm.config.servo_models import servo_named
 from mearm.ik import IKTarget
 from mearm.kinematics import ArmModel
 from mearm.kinematics.bodies import marker_in_tcp
-from mearm.vision.aruco import diagonal_center
-from mearm.vision.claw_marker import MarkerSighting, find_claw_marker
 from mearm.vision.pinhole import PerspectiveCamera
+
+if TYPE_CHECKING:  # the marker's finder loads at the first look: a claw camera's sort only
+    from mearm.vision.claw_marker import MarkerSighting
 
 #: Looks at one pose at most (the first, and two corrections of it).
 MAX_LOOKS = 3
@@ -339,6 +341,9 @@ class ClawEye:
             The look, or ``None`` when the marker is not in view or is seen implausibly
             far (:data:`MAX_CORRECTION_CM`) from where it should be.
         """
+        from mearm.vision.aruco import diagonal_center  # noqa: PLC0415  (a claw camera's only)
+        from mearm.vision.claw_marker import find_claw_marker  # noqa: PLC0415
+
         self.hold(SETTLE_S)
         sighting = find_claw_marker(self.read(), self.marker, self.camera)
         if sighting is None:

@@ -357,14 +357,19 @@ class ColorDetector:
         work surface are kept (:mod:`.on_table`).
         """
         from mearm.vision.object_parts import whole_objects_and_widths
-        from mearm.vision.on_table import on_table
 
         prepared = None
         if self.vision.reference_bgr is not None and self.calibration is not None:
             prepared = self.area_and_gain(check_frame(frame_bgr), exclude)
         found = self._detect(frame_bgr, exclude=exclude, prepared=prepared)
         found, narrow = whole_objects_and_widths(found, self, frame_bgr.shape)
-        return found if prepared is None else on_table(found, frame_bgr, self, prepared, narrow)
+        if prepared is None:
+            return found
+        # imported by a detector that knows the table's colour only (with the teaching
+        # it takes its threshold from): a sort by hue bands never needs them
+        from mearm.vision.on_table import on_table  # noqa: PLC0415
+
+        return on_table(found, frame_bgr, self, prepared, narrow)
 
     def _detect(
         self,

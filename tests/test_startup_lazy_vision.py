@@ -1,0 +1,40 @@
+"""A sort by hue bands, without a claw camera, leaves the table-colour and marker code unloaded."""
+
+import os
+import subprocess
+import sys
+
+from conftest import ROOT
+
+#: Modules only a detector that knows the table's colour (``vision.reference_bgr``) or a
+#: sort that watches the claw's marker uses.
+ONLY_FOR_OTHER_RUNS = (
+    "mearm.vision.on_table",
+    "mearm.vision.teaching",
+    "mearm.vision.claw_marker",
+    "mearm.vision.aruco",
+)
+
+
+def test_the_reference_sort_imports_no_table_colour_or_marker_code():
+    """``mearm sort --config sim``, run whole, imports none of :data:`ONLY_FOR_OTHER_RUNS`."""
+    code = (
+        "import runpy, sys\n"
+        "sys.argv = ['mearm.sort', '--config', 'sim', '--quiet']\n"
+        "try:\n"
+        "    runpy.run_module('mearm.sort', run_name='__main__', alter_sys=True)\n"
+        "except SystemExit as exc:\n"
+        "    assert exc.code in (0, None), exc.code\n"
+        f"names = {ONLY_FOR_OTHER_RUNS!r}\n"
+        "print(sorted(n for n in names if n in sys.modules))"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+        env={**os.environ, "PYTHONPATH": str(ROOT)},
+        timeout=300,
+    )
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip().splitlines()[-1] == "[]", out.stdout[-2000:]
