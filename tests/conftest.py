@@ -10,6 +10,8 @@ import signal
 import subprocess
 import sys
 import time
+import warnings
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any, NoReturn
 
@@ -266,6 +268,7 @@ def rewrite_test_modules_once(config: pytest.Config) -> None:
         return
     if sys.dont_write_bytecode:
         return
+    stale = []
     for fn in _test_modules_named(config):
         pyc = get_cache_dir(fn) / (fn.name[:-3] + PYC_TAIL)
         source = fn.read_bytes()
@@ -274,12 +277,48 @@ def rewrite_test_modules_once(config: pytest.Config) -> None:
             header = importlib.util.MAGIC_NUMBER + b"\x03\x00\x00\x00"
             if f.read(16) == header + importlib.util.source_hash(source)[:8]:
                 continue
+        stale.append((fn, pyc))
+
+    def rewrite(fn: Path, pyc: Path) -> None:
         if try_makedirs(pyc.parent):
             try:
                 source_hash, code = _rewrite_test(fn, config)
             except SyntaxError:
-                continue  # the workers report it, as a collection error
+                return  # the workers report it, as a collection error
             _write_pyc(state, code, source_hash, pyc)
+
+    in_parts(stale, rewrite)
+
+
+def in_parts(work: list[tuple[Path, Path]], do: Callable[[Path, Path], None]) -> None:
+    """``do(*item)`` for each item of ``work``, shared by this process and one forked
+    process per further core it may use.
+
+    The controller does this before any worker starts: in a fresh clone, rewriting the
+    ~160 test modules on one core took 5 s of the run's wall time while the other core
+    waited. A forked process ends without a word; anything it left undone the workers
+    do themselves as they collect.
+    """
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else 1
+    parts = min(cores, len(work) // 8) if hasattr(os, "fork") else 1
+    children = []
+    for k in range(1, parts):
+        with warnings.catch_warnings():  # a newer Python warns of fork() beside threads
+            warnings.simplefilter("ignore", DeprecationWarning)
+            pid = os.fork()
+        if pid == 0:  # the child: its share, then out, whatever happened
+            try:
+                for item in work[k::parts]:
+                    do(*item)
+            finally:
+                os._exit(0)
+        children.append(pid)
+    try:
+        for item in work[0 : len(work) : max(parts, 1)]:
+            do(*item)
+    finally:
+        for pid in children:
+            os.waitpid(pid, 0)
 
 
 def _test_modules_named(config: pytest.Config) -> list[Path]:
