@@ -10,6 +10,7 @@ import sys
 
 import pytest
 from conftest import ROOT
+from package_source import package_modules
 
 import mearm
 from mearm import exceptions
@@ -71,10 +72,11 @@ def test_no_module_of_the_package_imports_the_facade():
     """Inside the package an error comes from its family: the façade names errors of every
     layer, so a lower layer importing it would reach up (only the package root may)."""
     offenders = []
-    for path in sorted(PACKAGE.rglob("*.py")):
+    for module in package_modules():  # parsed once per process for every scan
+        path = module.path
         if path in (PACKAGE / "__init__.py", PACKAGE / "exceptions.py"):
             continue
-        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        for node in ast.walk(module.tree):
             names = (
                 [node.module or ""]
                 if isinstance(node, ast.ImportFrom)

@@ -13,6 +13,7 @@ import functools
 from pathlib import Path
 
 from conftest import ROOT
+from package_source import package_modules
 
 PACKAGE = ROOT / "mearm"
 
@@ -45,8 +46,13 @@ MODULES = {_name(p): p for p in PACKAGE.rglob("*.py")}
 
 
 @functools.cache
+def _trees() -> dict[Path, ast.Module]:
+    """Each module's syntax, as parsed once per process for every scan of the package."""
+    return {module.path: module.tree for module in package_modules()}
+
+
 def _tree(name: str) -> ast.Module:
-    return ast.parse(MODULES[name].read_text(encoding="utf-8"))
+    return _trees()[MODULES[name]]
 
 
 def _module(dotted: str) -> str:
