@@ -19,6 +19,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 import pytest
+from badinput import run_in_process
 
 from mearm.config import load_config
 from mearm.tools.aruco_sheet import marker_sheet
@@ -136,12 +137,17 @@ def run_calibrate_tool(view: str, tmp_path: Path) -> Calibration:
     for marker_id, corners in marker_truth().items():
         x, y = (float(v) for v in corners.mean(axis=0))
         args += ["--marker", f"{marker_id}:{x!r},{y!r}"]
-    result = subprocess.run(
-        [sys.executable, str(ROOT / "tools" / "calibrate_camera.py"), *args],
-        capture_output=True, text=True, timeout=60,
-    )  # fmt: skip
-    assert result.returncode == 0, result.stderr
-    assert "fitted from 4 ArUco marker centres and corners" in result.stdout
+    if view == STRAIGHT[0]:  # the script as a user runs it, once
+        result = subprocess.run(
+            [sys.executable, str(ROOT / "tools" / "calibrate_camera.py"), *args],
+            capture_output=True, text=True, timeout=60,
+        )  # fmt: skip
+        code, stdout, stderr = result.returncode, result.stdout, result.stderr
+    else:  # the same command in this process (a process each cost 0.45 s of CPU)
+        out = run_in_process(["calibrate-camera", *args], within_s=6)
+        code, stdout, stderr = out.code, out.stdout, out.stderr
+    assert code == 0, stderr
+    assert "fitted from 4 ArUco marker centres and corners" in stdout
     return Calibration.from_config(load_config(config).calibration)
 
 
@@ -165,7 +171,7 @@ def table_error_cm(view: str, fitted: Calibration, *, whole_page: bool = False) 
 
 @pytest.mark.parametrize("view", STRAIGHT)
 def test_calibrate_tool_on_a_straight_view(view: str, tmp_path: Path) -> None:
-    """The tool, run as a script on the frame, maps the sheet's plane within 0.05 cm."""
+    """The tool (the first view through its script) maps the sheet's plane within 0.05 cm."""
     assert table_error_cm(view, run_calibrate_tool(view, tmp_path)) < 0.05
 
 

@@ -2,7 +2,7 @@ from pathlib import Path
 
 import pytest
 from badinput import run_in_process
-from conftest import ROOT, run_cli
+from conftest import ROOT
 
 from mearm.config import Config, config_from_dict, load_config
 from mearm.exceptions import ConfigError
@@ -113,10 +113,12 @@ def test_bad_arm_description_cli_exits_2_one_line(tmp_path):
         "arm:\n  name: x\n  joints:\n    - {name: a, coupling: {terms: {b: 1}}}\n"
         "  tool: {gripper: {servo: {channel: 4}, open_cm: 4, closed_cm: 1}}\n",
     )
-    r = run_cli("tools/dh_to_urdf.py", "--config", str(bad), "--output", str(tmp_path / "o"))
-    assert r.returncode == 2, r.stderr
+    # in this process (the script's exit 2 in a real process: tests/test_urdf.py)
+    r = run_in_process(["urdf", "--config", bad, "--output", tmp_path / "o"])
+    assert r.code == 2, r.stderr
     lines = r.stderr.strip().splitlines()
     assert len(lines) == 1 and "arm.joints" in lines[0] and "Traceback" not in r.stderr
+    assert not (tmp_path / "o").exists()
 
 
 def test_set_overrides_before_validation():
