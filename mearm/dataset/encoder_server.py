@@ -59,6 +59,15 @@ def pixel_sample(rgb: np.ndarray) -> np.ndarray:
     return rgb[::step, ::step].reshape(-1, 3).copy()
 
 
+def video_frame(av: Any, rgb: np.ndarray) -> Any:
+    """``rgb`` (h, w, 3) uint8 as a PyAV frame already in the videos' pixel format (yuv420p).
+
+    The same conversion the encoder makes of an RGB frame (its files are byte-identical),
+    done by whoever calls this: the drawing thread, so the encoding thread only encodes.
+    """
+    return av.VideoFrame.from_ndarray(rgb, format="rgb24").reformat(format=L.VIDEO_PIX_FMT)
+
+
 def open_episode_video(av: Any, path: Path, fps: int, size_hw: tuple[int, int], codec: str) -> Any:
     """An output container and stream for one episode's fragmented MP4."""
     os.environ.setdefault("SVT_LOG", "1")  # SVT-AV1: errors only, not its banner
@@ -202,7 +211,7 @@ class _Drawing:
         rgb = self._frames[slot]
         if kind != "draw":
             self._last = None
-            return self._av.VideoFrame.from_ndarray(rgb, format="rgb24"), pixel_sample(rgb)
+            return video_frame(self._av, rgb), pixel_sample(rgb)
         if self._drawer is None:
             raise RuntimeError(self._scene_error)
         state = self._states[slot, : self._size]
@@ -210,7 +219,7 @@ class _Drawing:
         if last is not None and np.array_equal(state, last[0]):
             return last[1], last[2]  # nothing moved: the same picture
         self._drawer.draw(state, rgb)
-        frame = self._av.VideoFrame.from_ndarray(rgb, format="rgb24")
+        frame = video_frame(self._av, rgb)
         sample = pixel_sample(rgb)
         self._last = (state.copy(), frame, sample)
         return frame, sample

@@ -74,8 +74,11 @@ class VideoCodec:
         out = {"crf": str(VIDEO_CRF), "preset": str(self.preset)}
         # One thread (LeRobot's ``encoder_threads=1``): the sort has the other core, and
         # SVT-AV1 spends about a quarter more CPU a 640×480 frame on two threads than on one.
+        # Screen-content tools off (``scm=0``): a camera's frames are not a screen's, and
+        # SVT-AV1's default, deciding frame by frame whether they are, cost 17 % of a
+        # frame's encoding for files of the same size (docs/datasets.md).
         if self.encoder == "libsvtav1":
-            out["svtav1-params"] = "lp=1"
+            out["svtav1-params"] = "lp=1:scm=0"
         else:
             out["threads"] = "1"
         return out

@@ -38,6 +38,7 @@ from mearm.dataset.encoder_server import (  # noqa: F401  (re-exported: the ring
     ring_bytes,
     ring_views,
     serve,
+    video_frame,
 )
 from mearm.dataset.errors import EncoderError
 
@@ -230,7 +231,7 @@ class InlineEncoder:
         return 0, self._buffer
 
     def frame(self, episode: int, slot: int, repeat: int = 1) -> None:  # noqa: D102
-        frame = self._av.VideoFrame.from_ndarray(self._buffer, format="rgb24")
+        frame = video_frame(self._av, self._buffer)
         self._writers[episode].add(frame, repeat, pixel_sample(self._buffer))
 
     def finish(self, episode: int) -> None:  # noqa: D102
