@@ -15,7 +15,7 @@ from mearm.hardware.bus import ArmCommand
 from mearm.ik import IKTarget
 from mearm.kinematics import ArmModel
 from mearm.kinematics.bodies import M_PER_CM, TableContents, bin_shapes, wall_height_m
-from mearm.kinematics.collision import TOUCH_CM, CollisionModel
+from mearm.kinematics.collision import TOUCH_CM, CollisionModel, _first_beyond
 from mearm.sim.kinematic.servo_bus import SimArm
 from mearm.sim.kinematic.world import World
 from mearm.sim.table_collision import collision_model
@@ -103,7 +103,7 @@ def test_the_gap_is_the_nearest_of_every_pair_measured(name: str) -> None:
         gap, part, obstacle = collision.gap(q)
         jaws = [k for col in collision._between_jaws(None) for k in collision._jaw_pairs[col]]
         active = np.flatnonzero(collision._active)
-        bounds = collision._lower_bounds(active)  # what the check skips a pair by
+        bounds = collision._lower_bounds(collision._broad_phase(active))  # what it skips by
         distances = [
             pin.computeDistance(collision.geometry, collision.gdata, k).min_distance
             for k in active.tolist()
@@ -115,6 +115,22 @@ def test_the_gap_is_the_nearest_of_every_pair_measured(name: str) -> None:
         assert gap == pytest.approx(nearest - collision.clearance_m, abs=1e-6)
         if len(measured) == 1 or measured[1][0] - nearest > 1e-5:  # no near tie
             assert (part, obstacle) == collision._pair_names(k)
+
+
+def test_the_next_check_is_found_as_numpy_finds_it() -> None:
+    """Where a path's sweeps first add up past the gap: the segment and the sum before it
+    that NumPy's cumulative sum and search give, bit for bit (the walk stops there)."""
+    rng = np.random.default_rng(4103)
+    for _ in range(3000):
+        sweep = np.abs(rng.normal(size=int(rng.integers(1, 12)))) * rng.uniform(0.0, 0.05)
+        sweep[rng.random(len(sweep)) < 0.1] = 0.0
+        t, g = float(rng.choice([0.0, rng.uniform()])), float(rng.uniform(0.0, 0.05))
+        ahead = np.cumsum(sweep) - sweep[0] * t
+        j = int(np.searchsorted(ahead, g, side="right"))
+        got = _first_beyond(sweep.tolist(), float(sweep[0]) * t, g)
+        assert got[0] == j
+        if 0 < j < len(sweep):
+            assert got[1] == ahead[j - 1]
 
 
 def test_the_table_counts_the_scene_and_the_belt() -> None:

@@ -39,6 +39,7 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import coal
 import numpy as np
@@ -70,8 +71,18 @@ DEFAULT_CLEARANCE_CM = 0.3
 #: :meth:`CollisionModel._gap` could miss the nearest pair: coal's GJK converges to 1e-6 m,
 #: a hundredth of this.
 BROAD_PHASE_SLACK_M = 1e-4
-#: The broad phase's pairs, in the order of their bounds, are read this many at a time.
-BROAD_PHASE_CHUNK = 32
+
+
+class _BroadPhase(NamedTuple):
+    """The pairs a gap is looked for among, and what their lower bounds take, per pair."""
+
+    pairs: np.ndarray  # pair indices, ascending
+    rows: np.ndarray  # each pair's arm shape (its row)
+    ob_centre: np.ndarray  # (pairs, 3) its obstacle's box: centre [m]
+    ob_half: np.ndarray  # (pairs, 3) and half extents [m]
+    radius: np.ndarray  # its arm shape's sphere's radius [m]
+    table: np.ndarray  # the places (in ``pairs``) of the pairs with the table
+    table_rows: np.ndarray  # and their arm shapes
 
 
 @dataclass(frozen=True)
@@ -196,10 +207,12 @@ class CollisionModel:
         self._grip_in_last = T[:3, :3] @ (self.bodies.approach * self.bodies.grip_m) + T[:3, 3]
         self._upper = np.triu(np.ones((self._last, self._last), dtype=bool))  # j ≥ i
         self._prismatic = np.asarray(model.chain.prismatic, dtype=bool)
+        self._any_prismatic = bool(self._prismatic.any())
         self.checks = 0
         self._world = 0  # counts the worlds put in the model (a gap is kept for its world)
         self._last_key: tuple[object, ...] | None = None
         self._last_gap: tuple[float, str, str, float] = (math.inf, "", "", math.inf)
+        self._last_frames: np.ndarray | None = None  # (:meth:`_frames` at that pose)
         self._frames_at: np.ndarray | None = None  # (:meth:`_frames`)
         self._objects: list[tuple[str, str, float, float]] = []
         self._opening_cm = arm.tool.gripper.open_cm
@@ -326,18 +339,19 @@ class CollisionModel:
             geometry = table if obstacle is None else _coal(obstacle)
             name = "table" if obstacle is None else obstacle.name
             g.addGeometryObject(pin.GeometryObject(name, 0, _se3(T), geometry))
-        rows, cols = [], []
-        for i in range(len(arm)):
-            for j in range(len(obstacles)):
-                if j == 0 and (i >= na or arm[i][0].name in self._on_table):
-                    continue
-                rows.append(i)
-                cols.append(j)
-                g.addCollisionPair(pin.CollisionPair(i, len(arm) + j))
+        # every arm shape with every obstacle, in that order (row by row); with the table
+        # neither a held object nor the arm's mount standing on it
+        with_table = [i < na and arm[i][0].name not in self._on_table for i in range(len(arm))]
+        pair = np.ones((len(arm), len(obstacles)), dtype=bool)
+        pair[:, 0] = with_table
+        every = np.zeros((len(arm) + len(obstacles),) * 2, dtype=bool)
+        every[: len(arm), len(arm) :] = pair
+        g.setCollisionPairs(every)  # the pairs (i, j), i < j, row by row
+        rows, cols = np.nonzero(pair)  # (row-major: the same order)
         self.geometry = g
         self.gdata = pin.GeometryData(g)
-        self._pairs = list(zip(rows, cols, strict=True))
-        self._pair_rows, self._pair_cols = np.array(rows), np.array(cols)
+        self._pairs = list(zip(rows.tolist(), cols.tolist(), strict=True))
+        self._pair_rows, self._pair_cols = rows, cols
         self._active = np.ones(len(rows), dtype=bool)
         self._arm = arm
         self._na = na
@@ -368,21 +382,26 @@ class CollisionModel:
         self._ob_half = np.array(
             [np.zeros(3)] + [np.abs(T[:3, :3]) @ _half_extents(s) for s, T in obstacles if s]
         )
-        self._pair_flat = self._pair_rows * len(obstacles) + self._pair_cols
+        self._base_arm_names = [s.name for s, _, _ in arm]
+        # a new model: the jaws and the objects are put in it afresh
+        self._placed_opening: float | None = None
+        self._placed_objects: list[tuple[str, str, float, float]] | None = None
         self._apply()
 
     def _apply(self) -> None:
-        """Put the world in the model: the objects in their places, the held one, the jaws."""
+        """Put the world in the model: the objects in their places, the held one, the jaws.
+
+        The jaws are placed again only for a new opening, and the objects only when they
+        changed (a simulator's world changes the held object and the opening at every
+        grip, the objects once a pick): what stays is as it was put.
+        """
         self._world += 1
         g = self.geometry.geometryObjects
-        for k, (shape, _, _) in enumerate(self._arm[: self._na]):
-            if shape.jaw:
-                T = self._in_joint(shape)
-                g[k].placement = _se3(T)
-                self._row_local[k] = T[:3, 3]
+        if self._opening_cm != self._placed_opening:
+            self._place_jaws(g)
         row_on = np.zeros(self._rows, dtype=bool)
         row_on[: self._na] = True
-        self._arm_names = [s.name for s, _, _ in self._arm]
+        self._arm_names = list(self._base_arm_names)
         if self._held is not None:
             oid, color = self._held
             row_on[self._held_row[color]] = True
@@ -390,8 +409,37 @@ class CollisionModel:
         table = np.array([0.0, 0.0, -self._table_below_cm * M_PER_CM])
         g[self._rows].placement = _se3(_translate(table))
         self._table_z = table[2] - self.clearance_m  # the half-space's top face [m]
+        if self._objects != self._placed_objects:
+            self._place_objects(g)
         col_on = np.zeros(len(self._obstacles), dtype=bool)
         col_on[: 1 + len(self.bins)] = True
+        col_on[self._object_cols] = True
+        self._row_on, self._col_on = row_on, col_on
+        want = row_on[self._pair_rows] & col_on[self._pair_cols]
+        for pair in np.flatnonzero(want != self._active).tolist():
+            if want[pair]:
+                self.gdata.activateCollisionPair(pair)
+            else:
+                self.gdata.deactivateCollisionPair(pair)
+        self._active = want
+        self._on = self._broad_phase(np.flatnonzero(want))
+
+    def _place_jaws(self, g: pin.StdVec_GeometryObject) -> None:
+        """The jaws' shapes where the opening puts them, and the tool's shapes as placed now."""
+        for k, (shape, _, _) in enumerate(self._arm[: self._na]):
+            if shape.jaw:
+                T = self._in_joint(shape)
+                g[k].placement = _se3(T)
+                self._row_local[k] = T[:3, 3]
+        tool = np.flatnonzero(self._tool[: self._na]).tolist()  # the tool as placed now
+        half, cyl = self._half.tolist(), self._is_cyl.tolist()
+        self._tool_shapes = [
+            (g[k].parentJoint, g[k].placement, half[k], cyl[k], self._arm[k][0].name) for k in tool
+        ]
+        self._placed_opening = self._opening_cm
+
+    def _place_objects(self, g: pin.StdVec_GeometryObject) -> None:
+        """Each object on the table in a place of its class; their names and columns."""
         self._ob_names = list(self._base_names)
         used: dict[str, int] = {}
         cols = []
@@ -402,23 +450,31 @@ class CollisionModel:
             g[self._rows + col].placement = pin.SE3(_NO_TURN, centre)
             self._ob_centre[col] = centre
             self._ob_names[col] = object_name(oid)
-            col_on[col] = True
             cols.append(col)
         self._object_cols = np.array(cols, dtype=int)
-        tool = np.flatnonzero(self._tool[: self._na]).tolist()  # the tool as placed now
-        half, cyl = self._half.tolist(), self._is_cyl.tolist()
-        self._tool_shapes = [
-            (g[k].parentJoint, g[k].placement, half[k], cyl[k], self._arm[k][0].name) for k in tool
-        ]
         self._col_of = {self._ob_names[c]: c for c in cols}
-        self._row_on, self._col_on = row_on, col_on
-        want = row_on[self._pair_rows] & col_on[self._pair_cols]
-        for pair in np.flatnonzero(want != self._active).tolist():
-            if want[pair]:
-                self.gdata.activateCollisionPair(pair)
-            else:
-                self.gdata.deactivateCollisionPair(pair)
-        self._active = want
+        self._objects_at = [
+            (c, x, y) for c, (x, y) in zip(cols, self._ob_centre[cols, :2].tolist(), strict=True)
+        ]
+        self._placed_objects = list(self._objects)
+
+    def _broad_phase(self, pairs: np.ndarray) -> _BroadPhase:
+        """What :meth:`_lower_bounds` reads of ``pairs`` (ascending pair indices), per pair.
+
+        Gathered once per world (the pairs switched on), and again only for a pose whose
+        jaws straddle an object or that holds pairs to a floor of their own.
+        """
+        rows, cols = self._pair_rows[pairs], self._pair_cols[pairs]
+        table = np.flatnonzero(cols == 0)
+        return _BroadPhase(
+            pairs,
+            rows,
+            self._ob_centre[cols],
+            self._ob_half[cols],
+            self._row_radius[rows],
+            table,
+            rows[table],
+        )
 
     def _local_reach(self) -> np.ndarray:
         """How far each joint frame's shapes reach from its origin [m], (n + 2,).
@@ -478,12 +534,16 @@ class CollisionModel:
         self._frames_at = None
         key = (self._world, target, q.tobytes(), tuple(floors.items()))
         if key == self._last_key:  # a path's end is the next path's start
+            self._frames_at = self._last_frames  # (the same pose's: the same numbers)
             return self._last_gap
         jaws = [k for col in self._between_jaws(target) for k in self._jaw_pairs[col]]
         own = [k for k in floors if self._active[k] and k not in jaws]
         pin.updateGeometryPlacements(pm, self.data, self.geometry, self.gdata)
-        on = self._active.copy()
-        on[jaws + own] = False  # (the pairs with a floor of their own are measured one by one)
+        on = self._on
+        if jaws or own:  # (the pairs with a floor of their own are measured one by one)
+            keep = self._active.copy()
+            keep[jaws + own] = False
+            on = self._broad_phase(np.flatnonzero(keep))
         found = (math.inf, "", "", math.inf)
         nearest = self._nearest_pair(on)
         if nearest is not None:
@@ -491,11 +551,11 @@ class CollisionModel:
         for j in own:
             d = pin.computeDistance(self.geometry, self.gdata, j).min_distance
             found = min(found, self._gap_of(j, d, floors[j]))
-        self._last_key, self._last_gap = key, found
+        self._last_key, self._last_gap, self._last_frames = key, found, self._frames_at
         return found
 
-    def _nearest_pair(self, on: np.ndarray) -> tuple[int, float] | None:
-        """The nearest of the pairs ``on`` (bool, per pair) and their distance [m].
+    def _nearest_pair(self, on: _BroadPhase) -> tuple[int, float] | None:
+        """The nearest of the pairs ``on`` and their distance [m].
 
         What ``pin.computeDistances`` finds with only those pairs switched on (the lowest
         index of a tie included), without measuring each: a pair is no nearer than a sphere
@@ -504,21 +564,31 @@ class CollisionModel:
         measured: some 20 of 300 pairs in the reference sort.
         ``None``: no pair is on.
         """
-        pairs = np.flatnonzero(on)
-        low = self._lower_bounds(pairs)
-        order = np.argsort(low, kind="stable")
-        ranked, bounds = pairs[order], low[order]
+        low = self._lower_bounds(on)
         best, best_k = math.inf, -1
+        if not len(low):
+            return None
         geometry, gdata = self.geometry, self.gdata
-        # read as Python numbers a few at a time: the loop stops after some 20 of 300
-        for start in range(0, len(order), BROAD_PHASE_CHUNK):
-            part = slice(start, start + BROAD_PHASE_CHUNK)
-            for k, bound in zip(ranked[part].tolist(), bounds[part].tolist(), strict=True):
-                if bound > best + BROAD_PHASE_SLACK_M:
-                    return None if best_k < 0 else (best_k, best)
-                d = pin.computeDistance(geometry, gdata, k).min_distance
-                if d < best or (d == best and k < best_k):
-                    best, best_k = d, k
+        first = int(np.argmin(low))  # the least bound (the first of a tie): the order's first
+        if low[first] != low[first]:  # a NaN bound (argmin finds it first): every pair, in order
+            order = np.argsort(low, kind="stable")
+        else:
+            k = int(on.pairs[first])
+            d = pin.computeDistance(geometry, gdata, k).min_distance
+            if d < best:
+                best, best_k = d, k
+            # the order goes on with the bounds up to the nearest distance so far (the
+            # loop stops at the first beyond it): those few sorted, not every pair
+            near = np.flatnonzero(low <= best + BROAD_PHASE_SLACK_M)
+            order = near[np.argsort(low[near], kind="stable")]
+            if len(order) and order[0] == first:
+                order = order[1:]
+        for k, bound in zip(on.pairs[order].tolist(), low[order].tolist(), strict=True):
+            if bound > best + BROAD_PHASE_SLACK_M:
+                break
+            d = pin.computeDistance(geometry, gdata, k).min_distance
+            if d < best or (d == best and k < best_k):
+                best, best_k = d, k
         return None if best_k < 0 else (best_k, best)
 
     def _frames(self) -> np.ndarray:
@@ -533,26 +603,26 @@ class CollisionModel:
             self._frames_at = np.array([oMi[j].homogeneous for j in range(self._last + 1)])
         return self._frames_at
 
-    def _lower_bounds(self, pairs: np.ndarray) -> np.ndarray:
-        """Each pair's distance at least, at the last pose's kinematics [m], (len(pairs),).
+    def _lower_bounds(self, on: _BroadPhase) -> np.ndarray:
+        """Each pair's distance at least, at the last pose's kinematics [m], (len(on.pairs),).
 
         The arm shape lies in a sphere about its centre (:attr:`Shape.radius_m`), the
         obstacle in a box along the world's axes: the distance from the sphere to the box;
         for the table, the sphere's height above the table's top face. Worked out for
-        every arm shape and obstacle at once (some 20 by 40), then picked per pair.
+        the pairs at once, each pair's own arithmetic (the bits of a table of every arm
+        shape by every obstacle, picked per pair).
         """
-        frames = self._frames()
-        R = frames[:, :3, :3][self._row_joint]
-        t = frames[:, :3, 3][self._row_joint]
-        centre = (R @ self._row_local[:, :, None])[:, :, 0] + t
-        out = centre[:, None, :] - self._ob_centre[None, :, :]  # (shape, obstacle, 3)
+        F = self._frames()[self._row_joint]  # each arm shape's joint frame, (rows, 4, 4)
+        centre = (F[:, :3, :3] @ self._row_local[:, :, None])[:, :, 0] + F[:, :3, 3]
+        out = centre[on.rows] - on.ob_centre  # (pair, 3)
         np.abs(out, out=out)
-        out -= self._ob_half
+        out -= on.ob_half
         np.maximum(out, 0.0, out=out)  # beyond the obstacle's box, per axis (in place)
-        low = np.sqrt(np.einsum("ijk,ijk->ij", out, out))
-        low[:, 0] = centre[:, 2] - self._table_z  # the table
-        low -= self._row_radius[:, None]
-        return low.ravel()[self._pair_flat[pairs]]
+        low = np.einsum("ij,ij->i", out, out)
+        np.sqrt(low, out=low)
+        low[on.table] = centre[on.table_rows, 2] - self._table_z  # the table
+        low -= on.radius
+        return low
 
     def _gap_of(
         self, pair: int, distance_m: float, floor_m: float
@@ -636,23 +706,30 @@ class CollisionModel:
                 near[color] = (self._arm_names[a], d)
         return [(c, part, d) for c, (part, d) in near.items()]
 
-    def _between_jaws(self, target: str | None) -> np.ndarray:
+    def _between_jaws(self, target: str | None) -> list[int]:
         """The object columns standing between the jaws at the last pose's kinematics.
 
         An object whose axis is within half the opening of the grip point, in the plane,
         is straddled or held by the jaws: their pads may touch it. ``target`` limits this
-        to that object (``None``: any object).
+        to that object (``None``: any object). In Python numbers, a few objects at a time
+        (the bits of :func:`_lengths`: a sum of two squares, its square root).
         """
-        cols = self._object_cols
-        if target is not None:
+        if target is None:
+            places = self._objects_at
+        else:
             col = self._col_of.get(object_name(target))
-            cols = cols[:0] if col is None else np.array([col])
-        if not cols.size:
-            return cols
+            places = [] if col is None else [(col, *self._ob_centre[col, :2].tolist())]
+        if not places:
+            return []
         M = self.data.oMi[self._last]
-        grip = M.rotation @ self._grip_in_last + M.translation
-        d = _lengths(self._ob_centre[cols, :2] - grip[:2])
-        return cols[d <= self._opening_cm * M_PER_CM / 2]
+        gx, gy, _ = (M.rotation @ self._grip_in_last + M.translation).tolist()
+        reach = self._opening_cm * M_PER_CM / 2
+        out = []
+        for col, x, y in places:
+            dx, dy = x - gx, y - gy
+            if math.sqrt(dx * dx + dy * dy) <= reach:
+                out.append(col)
+        return out
 
     def clear_height_cm(self, q: npt.ArrayLike) -> float:
         """The TCP height where the tool clears every bin wall and object [cm].
@@ -711,8 +788,8 @@ class CollisionModel:
         n = self._last
         origins = self._frames()[1 : n + 1, :3, 3]
         sep = _lengths(origins[None, :, :] - origins[:, None, :])  # (i, j)
-        far = np.where(self._upper, sep + self._reach_local[None, 1 : n + 1], 0.0)
-        return np.where(self._prismatic, 1.0, far.max(axis=1))
+        far = np.max(sep + self._reach_local[1 : n + 1], axis=1, where=self._upper, initial=0.0)
+        return np.where(self._prismatic, 1.0, far) if self._any_prismatic else far
 
     def first_contact(self, q_path: npt.ArrayLike, *, target: str | None = None) -> Contact | None:
         r"""The first pose along ``q_path`` that comes too close to something, or ``None``.
@@ -749,16 +826,32 @@ class CollisionModel:
                 return None
             # how far a point may move before the next check is g [m]: walk the segments'
             # sweeps (per unit of each) until they add up to more
-            sweep = seg[k:] @ (self._reach() + g)
-            ahead = np.cumsum(sweep)
-            ahead -= sweep[0] * t  # the first segment from t on
-            j = int(np.searchsorted(ahead, g, side="right"))
-            if j >= len(ahead):
+            sweep = (seg[k:] @ (self._reach() + g)).tolist()
+            j, ahead = _first_beyond(sweep, sweep[0] * t, g)
+            if j >= len(sweep):
                 k, t = last, 0.0
             elif j == 0:
                 t += g / sweep[0]
             else:
-                k, t = k + j, (g - ahead[j - 1]) / sweep[j]
+                k, t = k + j, (g - ahead) / sweep[j]
+
+
+def _first_beyond(sweep: list[float], done: float, g: float) -> tuple[int, float]:
+    """Where the running sum of ``sweep``, less ``done``, first passes ``g``.
+
+    Returns that index ``j`` (``len(sweep)``: nowhere) and the sum less ``done`` before it
+    (at ``j - 1``). The bits of ``np.cumsum(sweep) - done`` and ``np.searchsorted(..., g,
+    side="right")`` (a cumulative sum adds in order), stopped at the answer: a path's check
+    walks on from pose to pose, and the next check is mostly within a segment or two.
+    """
+    total, before = 0.0, 0.0
+    for j, s in enumerate(sweep):
+        total += s
+        ahead = total - done
+        if ahead > g or ahead != ahead:  # (a NaN sorts last, as in NumPy)
+            return j, before
+        before = ahead
+    return len(sweep), before
 
 
 def _lengths(v: np.ndarray) -> np.ndarray:
