@@ -17,9 +17,31 @@ import pinocchio as pin
 from mearm.config import ArmDescription
 from mearm.kinematics.chain import Chain
 from mearm.kinematics.errors import JointLimitError, ModelError
+from mearm.kinematics.per_arm import PerArm
 from mearm.kinematics.urdf import TCP_FRAME, generate_urdf, jaw_joint_names
 
 CM_PER_M = 100.0
+
+
+def _pinocchio_model(arm: ArmDescription, urdf: str) -> pin.Model:
+    """The Pinocchio model of a URDF of ``arm``, its jaws locked (the chain's joints only)."""
+    try:
+        full = pin.buildModelFromXML(urdf)
+    except (RuntimeError, ValueError) as exc:
+        raise ModelError(f"Pinocchio could not parse the URDF: {exc}") from None
+    locked = [full.getJointId(n) for n in jaw_joint_names(arm) if full.existJointName(n)]
+    return pin.buildReducedModel(full, locked, pin.neutral(full)) if locked else full
+
+
+def _generate(arm: ArmDescription) -> tuple[str, pin.Model]:
+    urdf = generate_urdf(arm)
+    return urdf, _pinocchio_model(arm, urdf)
+
+
+#: The generated URDF and its model, once per description: a run builds its arm model
+#: three times (the start-up check, the rig, the simulated servos); each takes its own
+#: data, and nothing changes a model once built.
+_generated = PerArm(_generate)
 
 
 class ArmModel:
@@ -44,18 +66,13 @@ class ArmModel:
         self.arm = arm
         self.chain = Chain.from_description(arm)
         if urdf_path is None:
-            self.urdf = generate_urdf(arm)
+            self.urdf, self.model = _generated(arm)
         else:
             try:
                 self.urdf = Path(urdf_path).read_text(encoding="utf-8")
             except OSError as exc:
                 raise ModelError(f"cannot read URDF {urdf_path}: {exc}") from None
-        try:
-            full = pin.buildModelFromXML(self.urdf)
-        except (RuntimeError, ValueError) as exc:
-            raise ModelError(f"Pinocchio could not parse the URDF: {exc}") from None
-        locked = [full.getJointId(n) for n in jaw_joint_names(arm) if full.existJointName(n)]
-        self.model = pin.buildReducedModel(full, locked, pin.neutral(full)) if locked else full
+            self.model = _pinocchio_model(arm, self.urdf)
         names = tuple(self.model.names)[1:]
         if names != self.chain.names:
             raise ModelError(

@@ -30,6 +30,7 @@ import numpy as np
 from mearm.config import ArmDescription, Gripper, Joint, Tool
 from mearm.kinematics.chain import Chain
 from mearm.kinematics.dh import dh_tcp_frame
+from mearm.kinematics.per_arm import PerArm
 
 CM = 0.01  # metres per centimetre
 
@@ -130,6 +131,15 @@ def _coupling_text(joint: Joint) -> str:
 
 
 def jaw_frame(arm: ArmDescription) -> np.ndarray:
+    """The jaws' axes in the TCP frame, unit columns (3, 3) (:func:`_jaw_frame`, a copy).
+
+    Worked out once per description (:class:`~mearm.kinematics.per_arm.PerArm`): a run
+    asks some 14 times.
+    """
+    return _jaw_frame_of(arm).copy()
+
+
+def _jaw_frame(arm: ArmDescription) -> np.ndarray:
     """The jaws' axes in the TCP frame, unit columns (3, 3).
 
     The columns are the approach axis, the axis across it the left jaw opens along, and
@@ -155,6 +165,9 @@ def jaw_frame(arm: ArmDescription) -> np.ndarray:
     if abs(float(across @ up)) > 1e-6 and np.linalg.norm(level) > 1e-6:
         across = level / np.linalg.norm(level)
     return np.column_stack([approach, across, np.cross(approach, across)])
+
+
+_jaw_frame_of = PerArm(_jaw_frame)
 
 
 def jaw_pad_length_m(gripper: Gripper) -> float:

@@ -187,9 +187,13 @@ def _time_law(total_s: float, accel: float, period_s: float) -> np.ndarray:
 
 def _check(samples: np.ndarray, chain: Chain, limits: SpeedLimits, period_s: float) -> None:
     """Refuse samples outside the joint limits or a step faster than a speed limit."""
-    for q in samples:
-        if not chain.within_limits(q, tol=1e-6):
-            raise ValueError(f"timed path leaves the limits at {chain.named(q)}")
+    tol = 1e-6  # every pose at once, as :meth:`Chain.within_limits` checks one (NaN: outside)
+    inside = np.all(samples >= chain.lower - tol, axis=1) & np.all(
+        samples <= chain.upper + tol, axis=1
+    )
+    if not inside.all():
+        q = samples[int(np.argmin(inside))]
+        raise ValueError(f"timed path leaves the limits at {chain.named(q)}")
     step = np.abs(np.diff(limits.values(chain.actuated_of(samples)), axis=0))
     bound = limits.velocity * period_s * (1 + STEP_RTOL) + 1e-12
     if np.any(step > bound):

@@ -135,6 +135,8 @@ class SimArm(ServoBus):
         self.last_release: ReleaseResult | None = None
         #: The arm's body against the world, checked on every move (built on first use).
         self._collision: CollisionModel | None = None
+        #: The joints the last checked move ended at, named and in model units.
+        self._last_after: tuple[dict[str, float], np.ndarray] | None = None
 
     @property
     def ee_cm(self) -> np.ndarray:
@@ -214,7 +216,12 @@ class SimArm(ServoBus):
                 self.config, self.model, clearance_cm=0.0, bins=self.world.bins_cm
             )
         chain = self.model.chain
-        path = np.array([chain.from_named(j) for j in (before, after)])
+        # a move starts where the last one ended: its joints as worked out then
+        last = self._last_after
+        start = last[1] if last is not None and last[0] == before else chain.from_named(before)
+        end = chain.from_named(after)
+        self._last_after = (dict(after), end)
+        path = np.array([start, end])
         held = self.world.held_object()
         g = self.config.arm.tool.gripper
         if held is not None:
