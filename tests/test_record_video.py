@@ -136,6 +136,30 @@ def test_the_twins_frame_drawn_from_its_state_elsewhere_is_its_peek(bump: bool) 
 
 
 @pytest.mark.heavy
+def test_the_twins_frame_source_unpickles_without_the_twin(tmp_path: Path) -> None:
+    """The encoder's process draws the twin's frames with NumPy and MuJoCo alone: the
+    pickled source brings in neither the simulators nor the config, whose imports its
+    start-up (which the sort's first frames wait for) would otherwise be."""
+    import pickle
+    import subprocess
+    import sys
+
+    config = load_config(ROOT / "configs" / "sim_mujoco.yaml")
+    with open_rig(config) as rig:
+        (tmp_path / "source.pkl").write_bytes(pickle.dumps(rig.camera.frame_source()))
+    code = (
+        "import pickle, sys; pickle.loads(open(sys.argv[1], 'rb').read()); "
+        "print(sorted(m for m in sys.modules if m.split('.')[0] in ('pinocchio', 'cv2') "
+        "or m.startswith(('mearm.sim', 'mearm.config'))))"
+    )
+    run = subprocess.run(
+        [sys.executable, "-c", code, str(tmp_path / "source.pkl")],
+        capture_output=True, text=True, check=True, cwd=ROOT,
+    )  # fmt: skip
+    assert run.stdout.strip() == "[]"
+
+
+@pytest.mark.heavy
 def test_a_black_frame_is_drawn_where_the_twin_runs() -> None:
     """Under a camera fault the frame has no state to send: frame_state says so."""
     config = load_config(
@@ -214,17 +238,69 @@ def _record_twin(root: Path, overrides: list[str]) -> np.ndarray:
 
 @pytest.mark.heavy
 def test_a_twin_recording_draws_no_frame_in_the_sorts_process(monkeypatch, tmp_path: Path) -> None:
-    """The twin's frames are drawn by the encoder's process: the sort's renderer never runs
-    for them, and the episodes are written, moving pictures of the scene."""
+    """While the encoder keeps up, the twin's frames are drawn by the encoder's process: the
+    sort's renderer never runs for them, and the episodes are written, moving pictures."""
+    from mearm.dataset import video_encoder
+    from mearm.dataset.encoder_server import SLOTS
     from mearm.sim.twin.twin_camera import TwinCamera
 
     def refuse(self, out):
         raise AssertionError("a recorded frame was drawn in the sort's process")
 
+    monkeypatch.setattr(video_encoder, "DRAW_HERE_BEHIND", SLOTS, raising=False)  # never behind
     monkeypatch.setattr(TwinCamera, "peek_rgb", refuse)
     frames = _record_twin(tmp_path / "ds", [])
     assert len(frames) >= 4 and frames.mean() > 40
     assert np.abs(np.diff(frames.astype(np.int16), axis=0)).max() > 50  # the arm moved
+
+
+@pytest.mark.heavy
+def test_an_encoder_behind_has_the_frames_drawn_here_the_same(monkeypatch, tmp_path: Path) -> None:
+    """An encoder whose process falls behind has the sort's process draw the next frames
+    (its renderer, peek_rgb): the video decodes to the very frames drawn over there."""
+    from mearm.dataset import video_encoder
+    from mearm.dataset.encoder_server import SLOTS
+    from mearm.sim.twin.twin_camera import TwinCamera
+
+    monkeypatch.setattr(video_encoder, "DRAW_HERE_BEHIND", SLOTS, raising=False)
+    there = _record_twin(tmp_path / "there", [])
+    drawn_here = []
+    peek_rgb = TwinCamera.peek_rgb
+
+    def counted(self, out):
+        drawn_here.append(1)
+        peek_rgb(self, out)
+
+    monkeypatch.setattr(video_encoder, "DRAW_HERE_BEHIND", 0, raising=False)  # always behind
+    monkeypatch.setattr(TwinCamera, "peek_rgb", counted)
+    here = _record_twin(tmp_path / "here", [])
+    assert len(drawn_here) >= len(here) // 2  # repeats are drawn once
+    assert here.shape == there.shape
+    np.testing.assert_array_equal(here, there)
+
+
+@pytest.mark.heavy
+def test_the_encoder_starts_with_the_trial_before_the_rig(tmp_path: Path) -> None:
+    """An experiment's trial starts the encoder's process (its imports run while the rig is
+    built), not the first episode's rig: one process, stopped when the recorder closes."""
+    import multiprocessing
+
+    from mearm.dataset.recorder import DatasetRecorder
+
+    def encoders() -> list[multiprocessing.Process]:
+        return [p for p in multiprocessing.active_children() if p.name == "mearm-encoder"]
+
+    config = load_config(ROOT / "configs" / "sim_mujoco.yaml")
+    rec = DatasetRecorder(tmp_path / "ds", config, fps=FPS, codec="h264")
+    try:
+        assert encoders() == []
+        rec.start_trial(101)
+        (process,) = encoders()
+        rec.start_trial(102)
+        assert encoders() == [process]
+    finally:
+        rec.close()
+    assert encoders() == []
 
 
 @pytest.mark.heavy

@@ -5,10 +5,13 @@ process and shares a ring of :data:`SLOTS` slots with it, each a frame's pixels 
 frame's state (:data:`STATE_CAPACITY` float64 values). A slot arrives as ``"frame"`` (its
 pixels drawn by the recording process: a camera that is not the twin's, a camera fault,
 a lens) or ``"draw"`` (its state: this process draws it, from the scene's model sent once
-as ``"scene"``, :mod:`mearm.sim.twin.twin_frame_state`). Drawing and encoding run in two
-threads of this process (MuJoCo's renderer and FFmpeg's encoders let go of the GIL), so
-on two cores the sort, the drawing and the encoding share both. A frame whose state is
-the last one's (nothing moved: every body asleep) is the last picture again, not drawn.
+as ``"scene"``, :mod:`mearm.sim.twin.twin_frame_state`). One thread takes the slots in
+order, draws or copies each frame out of its slot and gives the slot back; episode k is
+converted to yuv420p and encoded by encoding thread k mod :data:`ENCODING_THREADS`, so
+that an episode is encoded while the last one's frames still are (MuJoCo's renderer,
+swscale and FFmpeg's encoders let go of the GIL): on two cores the sort, the drawing and
+the encoding share both. A frame whose state is the last one's (nothing moved: every
+body asleep) is the last picture again, not drawn.
 
 Each frame's pixel sample for the image statistics (every :data:`STATS_PIXEL_STRIDE`-th
 row and column) goes back with the episode's ``"done"``.
@@ -20,6 +23,7 @@ import contextlib
 import os
 import queue
 import signal
+import sys
 import threading
 from multiprocessing.connection import Connection
 from multiprocessing.shared_memory import SharedMemory
@@ -35,8 +39,12 @@ from mearm.dataset.fragments import MOVFLAGS
 SLOTS = 24
 #: A slot's room for a frame's state [float64 values]: 64 kB (the 12-object twin's is 1 245).
 STATE_CAPACITY = 8192
-#: Frames drawn and waiting for the encoding thread at most (0.9 MB each at 640×480).
-DRAWN_QUEUE = 4
+#: Encoding threads: episode k is encoded by thread k mod this, so that the next episode
+#: is encoded while the last one's frames still are (each thread runs its own encoder).
+ENCODING_THREADS = 2
+#: Frames drawn and waiting for an encoding thread at most (0.9 MB each at 640×480): about
+#: a pick's episode (22 frames at 10 fps), so that the threads overlap by whole episodes.
+DRAWN_QUEUE = 24
 #: A frame's pixels kept for the image statistics: every this many rows and columns.
 STATS_PIXEL_STRIDE = 16
 
@@ -59,13 +67,37 @@ def pixel_sample(rgb: np.ndarray) -> np.ndarray:
     return rgb[::step, ::step].reshape(-1, 3).copy()
 
 
-def video_frame(av: Any, rgb: np.ndarray) -> Any:
-    """``rgb`` (h, w, 3) uint8 as a PyAV frame already in the videos' pixel format (yuv420p).
+def rgb_frame(av: Any, rgb: np.ndarray) -> Any:
+    """``rgb`` (h, w, 3) uint8 copied into a PyAV frame (rgb24): its slot is free again.
 
-    The same conversion the encoder makes of an RGB frame (its files are byte-identical),
-    done by whoever calls this: the drawing thread, so the encoding thread only encodes.
+    The drawing thread copies; the encoding thread converts (:class:`YuvConverter`) and
+    encodes, so the drawing, the thread that waits on the renderer, does no more.
     """
-    return av.VideoFrame.from_ndarray(rgb, format="rgb24").reformat(format=L.VIDEO_PIX_FMT)
+    return av.VideoFrame.from_ndarray(rgb, format="rgb24")
+
+
+class YuvConverter:
+    """RGB frames to the videos' pixel format (yuv420p), as the encoder would convert them.
+
+    The same swscale conversion PyAV's encoder makes of an RGB frame (the files are
+    byte-identical), with one scaling context kept and one thread: a context made for each
+    frame, with swscale's automatic threads, cost 0.7–1 ms more CPU a 640×480 frame. The
+    frame converted last is kept: a frame encoded again (nothing moved) is not converted
+    again.
+    """
+
+    def __init__(self, av: Any):
+        self._reformatter = av.video.reformatter.VideoReformatter()
+        self._last: tuple[Any, Any] = (None, None)
+
+    def __call__(self, frame: Any) -> Any:
+        """``frame`` in the videos' pixel format (itself if it is in it already)."""
+        if frame.format.name == L.VIDEO_PIX_FMT:
+            return frame
+        if frame is not self._last[0]:
+            yuv = self._reformatter.reformat(frame, format=L.VIDEO_PIX_FMT, threads=1)
+            self._last = (frame, yuv)
+        return self._last[1]
 
 
 def open_episode_video(av: Any, path: Path, fps: int, size_hw: tuple[int, int], codec: str) -> Any:
@@ -83,9 +115,18 @@ def open_episode_video(av: Any, path: Path, fps: int, size_hw: tuple[int, int], 
 class EpisodeWriter:
     """One episode's video being encoded, in whatever process holds it."""
 
-    def __init__(self, av: Any, path: Path, fps: int, size_hw: tuple[int, int], codec: str):
+    def __init__(
+        self,
+        av: Any,
+        path: Path,
+        fps: int,
+        size_hw: tuple[int, int],
+        codec: str,
+        convert: YuvConverter | None = None,
+    ):
         self.path = path
         self._av = av
+        self._convert = convert if convert is not None else YuvConverter(av)
         self._out, self._stream = open_episode_video(av, path, fps, size_hw, codec)
         self.frames = 0
         self.samples: list[np.ndarray] = []
@@ -93,8 +134,10 @@ class EpisodeWriter:
     def add(self, frame: Any, repeat: int = 1, sample: np.ndarray | None = None) -> None:
         """Encode ``frame`` (a PyAV ``VideoFrame``) ``repeat`` times, one frame period each.
 
-        ``sample``: its :func:`pixel_sample`, kept once per frame encoded.
+        Converted to the videos' pixel format once (:class:`YuvConverter`). ``sample``:
+        its :func:`pixel_sample`, kept once per frame encoded.
         """
+        frame = self._convert(frame)
         for _ in range(repeat):
             frame.pts = self.frames
             for packet in self._stream.encode(frame):
@@ -125,20 +168,35 @@ def _error(exc: Exception) -> str:
 
 
 class _Encoding(threading.Thread):
-    """The encoding thread: the episodes' writers, fed in order through a bounded queue."""
+    """An encoding thread: its episodes' writers, fed in order through a bounded queue.
 
-    def __init__(self, av: Any, send: Any, fps: int, size_hw: tuple[int, int], codec: str):
+    A frame of an episode dropped meanwhile (``dropped``, the recording process's last
+    cancelled episode) is not encoded: its file goes anyway; nor is anything once the
+    process is stopping (``stopping``: its unfinished episodes are dropped).
+    """
+
+    def __init__(
+        self,
+        av: Any,
+        send: Any,
+        video: tuple[int, tuple[int, int], str],
+        dropped: Any,
+        stopping: threading.Event,
+    ):
         super().__init__(name="mearm-encode")
         self.todo: queue.Queue[tuple[Any, ...] | None] = queue.Queue(DRAWN_QUEUE)
-        self._av, self._send = av, send
-        self._video = (fps, size_hw, codec)
+        self._av, self._send, self._dropped = av, send, dropped
+        self._stopping = stopping
+        self._video = video
+        self._convert = YuvConverter(av)  # this thread's: one scaling context
         self._writers: dict[int, EpisodeWriter] = {}
         self._errors: dict[int, str] = {}
 
     def run(self) -> None:  # noqa: D102
         try:
             while (item := self.todo.get()) is not None:
-                self._handle(item)
+                if not self._stopping.is_set():
+                    self._handle(item)
         finally:
             for writer in self._writers.values():
                 writer.discard()
@@ -148,7 +206,8 @@ class _Encoding(threading.Thread):
         if kind == "frame":
             _, _, frame, repeat, sample = item
             writer = self._writers.get(episode)
-            if writer is not None and episode not in self._errors:
+            dropped = episode == self._dropped.value
+            if writer is not None and episode not in self._errors and not dropped:
                 try:
                     writer.add(frame, repeat, sample)
                 except Exception as exc:  # noqa: BLE001  (said when the episode ends)
@@ -157,7 +216,9 @@ class _Encoding(threading.Thread):
             self._errors.setdefault(episode, item[2])
         elif kind == "open":
             try:
-                self._writers[episode] = EpisodeWriter(self._av, Path(item[2]), *self._video)
+                self._writers[episode] = EpisodeWriter(
+                    self._av, Path(item[2]), *self._video, convert=self._convert
+                )
             except Exception as exc:  # noqa: BLE001
                 self._errors[episode] = _error(exc)
         elif kind == "finish":
@@ -211,7 +272,7 @@ class _Drawing:
         rgb = self._frames[slot]
         if kind != "draw":
             self._last = None
-            return video_frame(self._av, rgb), pixel_sample(rgb)
+            return rgb_frame(self._av, rgb), pixel_sample(rgb)
         if self._drawer is None:
             raise RuntimeError(self._scene_error)
         state = self._states[slot, : self._size]
@@ -219,7 +280,7 @@ class _Drawing:
         if last is not None and np.array_equal(state, last[0]):
             return last[1], last[2]  # nothing moved: the same picture
         self._drawer.draw(state, rgb)
-        frame = video_frame(self._av, rgb)
+        frame = rgb_frame(self._av, rgb)
         sample = pixel_sample(rgb)
         self._last = (state.copy(), frame, sample)
         return frame, sample
@@ -240,7 +301,10 @@ def serve(
     codec: str,
     dropped: Any,
 ) -> None:
-    """The encoder process: draw and encode the frames it is sent until told to stop."""
+    """The encoder process: draw and encode the frames it is sent until told to stop.
+
+    It exits at once when done (:func:`os._exit`), or with the error that stopped it.
+    """
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     import av
 
@@ -252,23 +316,37 @@ def serve(
         with lock, contextlib.suppress(OSError):  # the recording process is gone
             conn.send(msg)
 
-    encoding = _Encoding(av, send, fps, shape[:2], codec)
+    stopping = threading.Event()
+    video = (fps, shape[:2], codec)
+    encodings = [_Encoding(av, send, video, dropped, stopping) for _ in range(ENCODING_THREADS)]
     drawing = _Drawing(av, frames, states)
-    encoding.start()
+    for encoding in encodings:
+        encoding.start()
     try:
-        _receive(conn, send, encoding, drawing, dropped)
+        _receive(conn, send, encodings, drawing, dropped)
     finally:
-        encoding.todo.put(None)
-        encoding.join()
+        stopping.set()
+        for encoding in encodings:
+            encoding.todo.put(None)
+        for encoding in encodings:
+            encoding.join()
         drawing.close()
         del frames, states
         shm.close()
+    # Stopped and cleaned up: leave without the interpreter's teardown (MuJoCo's, Mesa's
+    # and FFmpeg's modules: 0.15 s the recording process would wait for at its end).
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(0)
 
 
 def _receive(
-    conn: Connection, send: Any, encoding: _Encoding, drawing: _Drawing, dropped: Any
+    conn: Connection, send: Any, encodings: list[_Encoding], drawing: _Drawing, dropped: Any
 ) -> None:
-    """Take the recording process's messages in order until ``stop`` or its end."""
+    """Take the recording process's messages in order until ``stop`` or its end.
+
+    Each episode's messages go, in order, to its encoding thread (its number mod theirs).
+    """
     while True:
         try:
             msg = conn.recv()
@@ -286,10 +364,10 @@ def _receive(
                     item = ("error", episode, _error(exc))
             send(("free", slot))
             if item is not None:
-                encoding.todo.put(item)
+                encodings[episode % len(encodings)].todo.put(item)
         elif kind == "scene":
             drawing.scene(msg[2])
         elif kind == "stop":
             return
         else:  # open, finish, cancel: in order with the frames
-            encoding.todo.put(msg)
+            encodings[episode % len(encodings)].todo.put(msg)

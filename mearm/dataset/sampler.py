@@ -5,8 +5,8 @@ whenever the bus's clock (the command periods streamed, the holds and waits; the
 physics time) passes the next frame's time, it takes one frame at ``fps``: the state and
 the action (:mod:`mearm.dataset.recorder`), and the camera's frame: the twin's camera
 writes the state it is drawn from into the encoder's shared memory and the encoder's
-process draws it (:class:`DrawsElsewhere`), another camera's frame is drawn or converted
-into it here.
+process draws it (:class:`DrawsElsewhere`) unless that process is behind (then it is
+drawn here, the same pixels); another camera's frame is drawn or converted into it here.
 The sorter opens an episode per pick-and-place (or one per scene) and ends or abandons
 it; an ended episode goes on to :meth:`EpisodeSampler._accept` once its video is encoded,
 in order.
@@ -195,9 +195,17 @@ class EpisodeSampler:
         Each is tagged with the seed and its pick's number in the trial. A pick the
         dataset holds already (the trial ran before, and a kill cut it or its log short)
         is not recorded again.
+
+        The encoder starts here if it has not yet: its process's start-up (its imports,
+        about 0.25 s of CPU) then runs while this process builds the trial's rig, not
+        while the sort records. One that cannot start is tried again, and said, by
+        :meth:`attach`.
         """
         self._trial, self._picks = trial_seed, 0
         self._held = {pick for seed, pick in self._held_tags() if seed == trial_seed}
+        if self._encoder is None:
+            with contextlib.suppress(EncoderError):
+                self._encoder = self._open_encoder()
 
     @property
     def due_s(self) -> float:
@@ -219,7 +227,11 @@ class EpisodeSampler:
         assert self._camera is not None and encoder is not None
         slot, rgb = encoder.slot()
         elsewhere = self._elsewhere
-        if elsewhere is not None and elsewhere[1](elsewhere[0].state(slot)):
+        if (
+            elsewhere is not None
+            and not elsewhere[0].behind()
+            and elsewhere[1](elsewhere[0].state(slot))
+        ):
             elsewhere[0].draw(ep.number, slot, repeat)
         else:
             if self._draw_rgb is not None:

@@ -7,9 +7,13 @@ it from the scene's model, sent once, :meth:`EncoderProcess.scene`), any other c
 pixels (:meth:`EncoderProcess.frame`). The encoder process (:mod:`mearm.dataset.encoder_server`)
 turns it into a video frame, gives the slot back and encodes it into the episode's
 fragmented MP4 (:mod:`mearm.dataset.fragments`), while the sort goes on. A message says when an
-episode's file is complete. The ring bounds how far the encoder may fall behind
-(:data:`SLOTS` frames): a recording that draws faster than it encodes waits for a slot,
-and an interrupted run waits for at most that many frames to be encoded.
+episode's file is complete. When the encoder has :data:`DRAW_HERE_BEHIND` frames still to
+take, the twin's next frame is drawn by the recording process itself
+(:meth:`EncoderProcess.behind`): the cores are shared by whichever process has work. The
+ring bounds how far the encoder may fall behind (:data:`SLOTS` frames, and
+:data:`~mearm.dataset.encoder_server.DRAWN_QUEUE` drawn for each encoding thread): a
+recording that draws faster than it encodes waits for a slot, and an interrupted run
+waits for at most those frames of its finished episodes to be encoded.
 
 The encoder ignores Ctrl-C (the terminal sends it to both processes; the recording
 process decides what is kept) and ends when the recording process goes away, killed or
@@ -33,17 +37,21 @@ from mearm.dataset.encoder_server import (  # noqa: F401  (re-exported: the ring
     SLOTS,
     STATE_CAPACITY,
     EpisodeWriter,
+    YuvConverter,
     open_episode_video,
     pixel_sample,
+    rgb_frame,
     ring_bytes,
     ring_views,
     serve,
-    video_frame,
 )
 from mearm.dataset.errors import EncoderError
 
 #: How long to wait for the encoder process at a time before checking it is alive [s].
 POLL_S = 0.2
+#: Frames the encoder process may have still to take (draw, or copy) before the recording
+#: process draws the next one itself (:meth:`EncoderProcess.behind`).
+DRAW_HERE_BEHIND = 12
 
 
 class EncoderProcess:
@@ -114,6 +122,18 @@ class EncoderProcess:
                 self._pump(POLL_S)
         k = self._free.pop()
         return k, self._ring[k]
+
+    def behind(self) -> bool:
+        """Whether the encoder has :data:`DRAW_HERE_BEHIND` frames or more still to take.
+
+        Then the recording process draws the next frame itself (:meth:`frame`) rather than
+        send its state (:meth:`draw`): the encoder's process cannot keep up (its drawing
+        and its encoding share what the sort leaves of the cores), and the sort would
+        soon wait for a slot with nothing to do; drawn here, the frame costs the encoder
+        only its encoding. Called after :meth:`slot` (the slot taken is not counted).
+        """
+        self._pump(0)
+        return SLOTS - 1 - len(self._free) >= DRAW_HERE_BEHIND
 
     def frame(self, episode: int, slot: int, repeat: int = 1) -> None:
         """Encode the frame in ``slot`` as the next ``repeat`` frames of ``episode``."""
@@ -219,19 +239,20 @@ class InlineEncoder:
         self.shape = shape
         self._fps, self._codec = fps, codec
         self._buffer = np.empty(shape, np.uint8)
+        self._convert = YuvConverter(av)
         self._writers: dict[int, EpisodeWriter] = {}
         self._done: dict[int, tuple[str | None, np.ndarray | None]] = {}
 
     def open(self, episode: int, path: Path) -> None:  # noqa: D102
         self._writers[episode] = EpisodeWriter(
-            self._av, path, self._fps, self.shape[:2], self._codec
+            self._av, path, self._fps, self.shape[:2], self._codec, convert=self._convert
         )
 
     def slot(self) -> tuple[int, np.ndarray]:  # noqa: D102
         return 0, self._buffer
 
     def frame(self, episode: int, slot: int, repeat: int = 1) -> None:  # noqa: D102
-        frame = video_frame(self._av, self._buffer)
+        frame = rgb_frame(self._av, self._buffer)
         self._writers[episode].add(frame, repeat, pixel_sample(self._buffer))
 
     def finish(self, episode: int) -> None:  # noqa: D102

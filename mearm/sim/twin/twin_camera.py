@@ -81,6 +81,7 @@ import mujoco
 import numpy as np
 
 from mearm.config import Config
+from mearm.dataset.frame_drawer import offscreen_renderer
 from mearm.sim.twin.twin_frame_state import TwinFrameSource, pack_frame_state
 from mearm.sim.twin.twin_optics import (  # noqa: F401  (re-exported: where the camera is)
     CAMERA_HEIGHT_M,
@@ -161,27 +162,19 @@ class LensRenderer:
             render_model.vis.global_.offwidth = max(rw, model.vis.global_.offwidth)
             render_model.vis.global_.offheight = max(rh, model.vis.global_.offheight)
         self._model = render_model
-        # The GL context takes the samples and the shadow map's size from the model when
-        # it is made; the model is the twin's own (its renders follow the live model), so
-        # its values are put back at once.
-        quality = render_model.vis.quality
-        kept = (quality.offsamples, quality.shadowsize)
-        if msaa_samples is not None:
-            quality.offsamples = msaa_samples
-        if not shadows:
-            quality.shadowsize = 0
-        self.msaa_samples = int(quality.offsamples)
+        if msaa_samples is None:
+            msaa_samples = int(render_model.vis.quality.offsamples)
+        self.msaa_samples = msaa_samples
         try:
-            self._renderer = mujoco.Renderer(render_model, rh, rw)
+            self._renderer = offscreen_renderer(
+                render_model, (rw, rh), msaa_samples=msaa_samples, shadows=shadows
+            )
         except Exception as exc:  # MuJoCo raises plain errors for a missing GL
             raise CameraError(
                 "twin",
                 f"cannot render offscreen ({type(exc).__name__}: {exc}); install Mesa's EGL "
                 "or OSMesa and set MUJOCO_GL=egl or MUJOCO_GL=osmesa",
             ) from None
-        finally:
-            quality.offsamples, quality.shadowsize = kept
-        self._renderer.scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = shadows
 
     def render(self, data: mujoco.MjData) -> np.ndarray:
         """The camera's frame of ``data``'s state, (h, w, 3) uint8 BGR."""
@@ -339,11 +332,11 @@ class TwinCamera(NumberedCamera):
         A recording's frames are then drawn there from :meth:`frame_state`
         (:mod:`mearm.sim.twin.twin_frame_state`), pixel for pixel as :meth:`peek_rgb`.
         """
-        if self._lens.distorts:
-            return None
         lens = self._lens
+        if lens.distorts or lens.option is not None:
+            return None
         return TwinFrameSource(
-            self.twin.model, self._config, lens.msaa_samples, lens.shadows, LensRenderer
+            self.twin.model, lens.size_px, lens.camera, lens.msaa_samples, lens.shadows
         )
 
     def frame_state(self, out: np.ndarray) -> bool:
