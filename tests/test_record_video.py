@@ -138,8 +138,9 @@ def test_the_twins_frame_drawn_from_its_state_elsewhere_is_its_peek(bump: bool) 
 @pytest.mark.heavy
 def test_the_twins_frame_source_unpickles_without_the_twin(tmp_path: Path) -> None:
     """The encoder's process draws the twin's frames with NumPy and MuJoCo alone: the
-    pickled source brings in neither the simulators nor the config, whose imports its
-    start-up (which the sort's first frames wait for) would otherwise be."""
+    pickled source brings in neither the kinematic simulator, the twin's model and camera
+    modules, the kinematics nor the config, whose imports its start-up (which the sort's
+    first frames wait for) would otherwise be."""
     import pickle
     import subprocess
     import sys
@@ -150,7 +151,8 @@ def test_the_twins_frame_source_unpickles_without_the_twin(tmp_path: Path) -> No
     code = (
         "import pickle, sys; pickle.loads(open(sys.argv[1], 'rb').read()); "
         "print(sorted(m for m in sys.modules if m.split('.')[0] in ('pinocchio', 'cv2') "
-        "or m.startswith(('mearm.sim', 'mearm.config'))))"
+        "or m.startswith(('mearm.config', 'mearm.kinematics', 'mearm.sim.kinematic', "
+        "'mearm.sim.twin.twin_', 'mearm.sim.twin.mjcf'))))"
     )
     run = subprocess.run(
         [sys.executable, "-c", code, str(tmp_path / "source.pkl")],

@@ -15,25 +15,55 @@ The simulator sits above vision and hardware: it may import them, they never imp
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from mearm._lazy import lazy_exports
-from mearm.sim.kinematic.renderer import (
-    Disc,
-    Extra,
-    Highlight,
-    Paper,
-    Shadow,
-    TableRenderer,
-    class_bgr,
-    class_discs,
-)
-from mearm.sim.kinematic.table_camera import SimCamera
-from mearm.sim.kinematic.world import World, WorldObject
+
+if TYPE_CHECKING:  # the names' types, for the type checker; at run time each is lazy
+    from mearm.sim.kinematic.renderer import (
+        Disc,
+        Extra,
+        Highlight,
+        Paper,
+        Shadow,
+        TableRenderer,
+        class_bgr,
+        class_discs,
+    )
+    from mearm.sim.kinematic.servo_bus import GripResult, ReleaseResult, SimArm, quantize_deg
+    from mearm.sim.kinematic.table_camera import SimCamera
+    from mearm.sim.kinematic.world import World, WorldObject
+
+# ------------------------------------------------------------ the kinematic simulator
+# Imported on first access, so that a module of another simulator (the twin's frame
+# drawer, which the recorder's encoder process imports) loads without the kinematic
+# renderer, the config and the kinematics.
+_RENDERER = "mearm.sim.kinematic.renderer"
+_KINEMATIC: dict[str, str] = {
+    **dict.fromkeys(
+        (
+            "Disc",
+            "Extra",
+            "Highlight",
+            "Paper",
+            "Shadow",
+            "TableRenderer",
+            "class_bgr",
+            "class_discs",
+        ),
+        _RENDERER,
+    ),
+    "SimCamera": "mearm.sim.kinematic.table_camera",
+    "World": "mearm.sim.kinematic.world",
+    "WorldObject": "mearm.sim.kinematic.world",
+}
 
 # ---------------------------------------------------------------- simulated servo bus
 # ``mearm.sim.kinematic.servo_bus`` (SimArm and its records) is imported on first access, so this
 # package imports without it and without loading the hardware layer.
 _SERVO_BUS = "mearm.sim.kinematic.servo_bus"
 _LAZY: dict[str, str] = {
+    **_KINEMATIC,
     "GripResult": _SERVO_BUS,
     "ReleaseResult": _SERVO_BUS,
     "SimArm": _SERVO_BUS,

@@ -81,7 +81,7 @@ import mujoco
 import numpy as np
 
 from mearm.config import Config
-from mearm.dataset.frame_drawer import offscreen_renderer
+from mearm.sim.twin.frame_drawer import offscreen_renderer
 from mearm.sim.twin.twin_frame_state import TwinFrameSource, pack_frame_state
 from mearm.sim.twin.twin_optics import (  # noqa: F401  (re-exported: where the camera is)
     CAMERA_HEIGHT_M,

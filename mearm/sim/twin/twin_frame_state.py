@@ -5,9 +5,9 @@ renderer) and a few microseconds to describe: what ``mjv_updateScene`` reads of 
 physics' data, the poses of the bodies, geoms, sites, camera and light and the tendons'
 paths (:data:`FRAME_FIELDS`, about 10 kB for the 12-object scene). The recorder's encoder
 process builds its own renderer from a copy of the model once a scene
-(:class:`~mearm.dataset.frame_drawer.TwinFrameSource`, pickled: the model travels as
+(:class:`~mearm.sim.twin.frame_drawer.TwinFrameSource`, pickled: the model travels as
 MuJoCo's binary model) and draws each frame from its state
-(:meth:`~mearm.dataset.frame_drawer.TwinFrameDrawer.draw`; that module imports only NumPy
+(:meth:`~mearm.sim.twin.frame_drawer.TwinFrameDrawer.draw`; that module imports only NumPy
 and MuJoCo, for the encoder's process to start fast).
 
 The poses are sent, not ``qpos``: the twin samples after ``mj_step``, whose poses are
@@ -21,7 +21,7 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
-from mearm.dataset.frame_drawer import (  # noqa: F401  (re-exported: the frame's state)
+from mearm.sim.twin.frame_drawer import (  # noqa: F401  (re-exported: the frame's state)
     FRAME_FIELDS,
     TwinFrameDrawer,
     TwinFrameSource,
