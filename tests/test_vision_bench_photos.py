@@ -13,7 +13,8 @@ from mearm.cli import run
 from mearm.config import Config
 from mearm.sim import TableRenderer, class_discs
 from mearm.sim.kinematic.renderer import Disc
-from mearm.tools.photo_bench import load_photos, run_photo_bench
+from mearm.tools import photo_bench
+from mearm.tools.photo_bench import load_photos, run_click_study, run_photo_bench
 from mearm.tools.vision_bench import main
 from mearm.vision import Calibration
 
@@ -110,3 +111,39 @@ def test_command_prints_the_table(folder: Path, capsys: pytest.CaptureFixture[st
         run(main, ["--learn"])
     _, err = capsys.readouterr()
     assert info.value.code == 2 and "--learn needs --photos" in err
+
+
+def test_click_study_teaches_every_way(folder: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Each photo showing all classes teaches once per combination of clicked objects; a
+    click on a label off its object (b's first blue) is refused and counted; each teaching
+    scores both photos (23 of 24 found, 1 false: b's moved label)."""
+    monkeypatch.setattr(photo_bench, "CLICKS_PER_CLASS", 2)
+    source, everything = run_click_study(folder, CONFIG)
+    assert source["scope"] == "source x/y" and everything["scope"] == "all sources"
+    assert (source["teachings"], source["refused"]) == (12, 4)  # 2·2·2 from a, 4 from b
+    assert everything["teachings"] == 12 and everything["refused"] == 4
+    for row in (source, everything):
+        assert row["recall"]["min"] == row["recall"]["max"] == pytest.approx(23 / 24)
+        assert row["precision"]["min"] == row["precision"]["max"] == pytest.approx(23 / 24)
+
+
+def test_every_click_command(
+    folder: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``--photos DIR --every-click`` prints the spread per source and over all; it needs
+    ``--photos`` and is not given with ``--learn`` (exit 2, one line)."""
+    monkeypatch.setattr(photo_bench, "CLICKS_PER_CLASS", 1)
+    with pytest.raises(SystemExit) as info:
+        run(main, ["--photos", str(folder), "--every-click"])
+    out, _ = capsys.readouterr()
+    assert info.value.code == 0
+    lines = out.strip().splitlines()
+    assert lines[0].startswith("taught every way") and "median" in lines[0]
+    assert lines[1].startswith("source x/y") and lines[2].startswith("all sources")
+    assert lines[2].split()[2:4] == ["1", "1"] and lines[2].count("95.8%") == 8
+    for argv in (["--every-click"], ["--photos", str(folder), "--every-click", "--learn"]):
+        with pytest.raises(SystemExit) as info:
+            run(main, argv)
+        _, err = capsys.readouterr()
+        assert info.value.code == 2 and len(err.strip().splitlines()) == 1
+        assert "--every-click" in err

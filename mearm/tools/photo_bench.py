@@ -14,12 +14,21 @@ With ``learn``, each source's colours are taught from its first photo as a user 
 them: one click per class, on the first labelled object of that class (moved to its most
 coloured pixel within half an object when the centre is grey: a blown-out top),
 and the photos are scored with the config that makes.
+
+One click is one choice among many: another user clicks another cube, or teaches from
+another photo. :func:`run_click_study` teaches each source every way a user could with
+one photo and one click per class — from each photo that shows all the source's classes,
+once per combination of clicked objects (the first :data:`CLICKS_PER_CLASS` of each
+class) — scores the source's photos each time, and gives the spread: how much the
+figures owe to the click.
 """
 
 from __future__ import annotations
 
+import itertools
 import re
-from collections.abc import Callable, Sequence
+import statistics
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -30,6 +39,7 @@ from mearm.config import Config
 from mearm.errors import InputFileError
 from mearm.vision.calibration import Calibration, camera_geometry
 from mearm.vision.detector import ColorDetector, Detection
+from mearm.vision.errors import SampleError
 from mearm.vision.image import read_image
 from mearm.vision.inrange import detect_inrange
 from mearm.vision.learned import CHROMA_MIN, chroma, lab_of
@@ -38,6 +48,11 @@ from mearm.yamlio import load_yaml_file
 
 #: Each photo is scaled so that its objects are this many pixels across [px].
 OBJECT_PX = 32.0
+#: The click study clicks each of the first this-many labelled objects of a class.
+CLICKS_PER_CLASS = 4
+#: The click study draws at most this many combinations of the sources' teachings
+#: (all of them when there are fewer; else a sample, seeded).
+COMBINATIONS_MAX = 100_000
 
 
 @dataclass(frozen=True)
@@ -141,13 +156,13 @@ def score(photo: Photo, found: Sequence[Detection]) -> Score:
     return out
 
 
-def _click(photo: Photo, name: str) -> Sample:
-    """One click on the first labelled object of class ``name``.
+def _click(photo: Photo, name: str, index: int = 0) -> Sample:
+    """One click on the ``index``-th labelled object of class ``name``.
 
     At its centre, or at its most coloured pixel within half an object when the centre is
     grey (a blown-out top): where a user would click.
     """
-    u, v = photo.centres[name][0]
+    u, v = photo.centres[name][index]
     r = int(OBJECT_PX / 2)
     h, w = photo.frame.shape[:2]
     y0, y1, x0, x1 = (
@@ -163,10 +178,15 @@ def _click(photo: Photo, name: str) -> Sample:
     return Sample(name, float(x0 + i), float(y0 + j))
 
 
-def learned_config(config: Config, photo: Photo) -> Config:
-    """``config`` with the colours taught by one click per class on ``photo``."""
+def learned_config(config: Config, photo: Photo, clicks: Mapping[str, int] | None = None) -> Config:
+    """``config`` with the colours taught by one click per class on ``photo``.
+
+    ``clicks``: per class, which of its labelled objects is clicked (the first if absent).
+    """
     names = [n for n, c in photo.centres.items() if len(c) and n in config.task.class_names]
-    taught = teach([photo.frame], [_click(photo, n) for n in names], object_px=OBJECT_PX)
+    picked = clicks or {}
+    samples = [_click(photo, n, picked.get(n, 0)) for n in names]
+    taught = teach([photo.frame], samples, object_px=OBJECT_PX)
     classes = [
         c.model_copy(update={"learned_colour": taught.colours[c.name]})
         if c.name in taught.colours
@@ -237,4 +257,103 @@ def _row(scope: str, who: str, s: Score) -> dict:
         "false": false,
         "recall": found / (found + missed) if found + missed else None,
         "precision": found / (found + false) if found + false else None,
+    }
+
+
+def teachings(photos: Sequence[Photo], config: Config) -> Iterator[tuple[Photo, dict[str, int]]]:
+    """Every way to teach one source with one photo and one click per class.
+
+    Each photo of ``photos`` (one source's) that shows every class the source labels
+    (of ``config``'s), with each combination of clicked objects: the first
+    :data:`CLICKS_PER_CLASS` of each class.
+    """
+    wanted = config.task.class_names
+    labelled = {n for p in photos for n, c in p.centres.items() if len(c) and n in wanted}
+    for p in photos:
+        names = sorted(n for n, c in p.centres.items() if len(c) and n in wanted)
+        if set(names) != labelled:
+            continue
+        counts = [range(min(len(p.centres[n]), CLICKS_PER_CLASS)) for n in names]
+        for picked in itertools.product(*counts):
+            yield p, dict(zip(names, picked, strict=True))
+
+
+def run_click_study(folder: Path, config: Config) -> list[dict]:
+    """The spread of recall and precision over every way a user could teach each source.
+
+    Per source, its photos scored once per teaching (:func:`teachings`); over all sources,
+    the totals of every combination of one teaching per source (a seeded sample of
+    :data:`COMBINATIONS_MAX` when there are more). A teaching whose click the teacher
+    refuses (a label off its object's colour: grey or black there) is left out and
+    counted. Rows: ``scope`` (``source <repo>`` or ``all sources``), ``teachings`` (over
+    all sources: the combinations), ``refused``, and the ``recall`` and ``precision``
+    quantiles (``min``, ``q10``, ``median``, ``max``) as fractions.
+    """
+    photos = load_photos(folder)
+    sources: dict[str, list[Photo]] = {}
+    for p in photos:
+        sources.setdefault(p.source, []).append(p)
+    per_source: dict[str, list[tuple[int, int, int]]] = {}
+    refused: dict[str, int] = {}
+    for src, group in sources.items():
+        totals = []
+        for photo, picked in teachings(group, config):
+            try:
+                taught = learned_config(config, photo, picked)
+            except SampleError:  # a label off its object's colour: a user clicks again
+                refused[src] = refused.get(src, 0) + 1
+                continue
+            detect = _detectors(taught)["mearm"]
+            s = Score()
+            for q in group:
+                s.add(score(q, detect(q.frame)))
+            totals.append(s.totals())
+        if totals:
+            per_source[src] = totals
+    rows = [_spread(f"source {src}", t, refused.get(src, 0)) for src, t in per_source.items()]
+    if per_source:
+        combined = _combined(list(per_source.values()))
+        rows.append(_spread("all sources", combined, sum(refused.values())))
+    return rows
+
+
+def _combined(per_source: list[list[tuple[int, int, int]]]) -> list[tuple[int, int, int]]:
+    """Found, missed, false summed over one teaching per source, for each combination."""
+    n = 1
+    for t in per_source:
+        n *= len(t)
+    if n <= COMBINATIONS_MAX:
+        combos: Iterator[tuple[tuple[int, int, int], ...]] = itertools.product(*per_source)
+    else:
+        rng = np.random.default_rng(0)
+        picks = [rng.integers(0, len(t), COMBINATIONS_MAX) for t in per_source]
+        combos = (
+            tuple(t[int(k[i])] for t, k in zip(per_source, picks, strict=True))
+            for i in range(COMBINATIONS_MAX)
+        )
+    return [
+        (sum(c[0] for c in combo), sum(c[1] for c in combo), sum(c[2] for c in combo))
+        for combo in combos
+    ]
+
+
+def _spread(scope: str, totals: Sequence[tuple[int, int, int]], refused: int) -> dict:
+    recall = sorted(f / (f + m) if f + m else 1.0 for f, m, _ in totals)
+    precision = sorted(f / (f + x) if f + x else 1.0 for f, _, x in totals)
+    return {
+        "scope": scope,
+        "teachings": len(totals),
+        "refused": refused,
+        "recall": _quantiles(recall),
+        "precision": _quantiles(precision),
+    }
+
+
+def _quantiles(values: Sequence[float]) -> dict[str, float]:
+    """min, q10 (the lower of the two neighbours), median and max of sorted ``values``."""
+    return {
+        "min": values[0],
+        "q10": values[int(0.1 * (len(values) - 1))],
+        "median": statistics.median(values),
+        "max": values[-1],
     }

@@ -1,7 +1,7 @@
 """Vision benchmark: ms per 640×480 frame with the paper's 12 objects (paper §4).
 
     mearm vision-bench [--repeat N] [--seeds N]
-    mearm vision-bench --photos DIR [--config C] [--learn]
+    mearm vision-bench --photos DIR [--config C] [--learn | --every-click]
 
 Times, in the same run and interleaved round by round (so a busy machine slows all
 alike): the OpenCV detector (:class:`~mearm.vision.detector.ColorDetector`), the same
@@ -23,7 +23,9 @@ the worst and mean position error; and how well calibrations recover the rig
 ``--photos DIR`` scores a folder of labelled real photos instead
 (:mod:`mearm.tools.photo_bench`): recall and precision per photo, per class and over
 all, the detector of ``--config`` and the ``inRange`` recipe side by side; ``--learn``
-teaches the detector each source's colours from its first photo (one click per class).
+teaches the detector each source's colours from its first photo (one click per class);
+``--every-click`` teaches it every way one photo and one click per class can, and prints
+the spread of recall and precision (:func:`~mearm.tools.photo_bench.run_click_study`).
 
 Scenes are drawn by the simulator's renderer (:mod:`mearm.sim.kinematic.renderer`); this script
 sits on top of both layers and imports it where it draws.
@@ -362,6 +364,25 @@ def _print_photos(folder: Path, config: Config, *, learn: bool) -> int:
     return 0
 
 
+def _print_click_study(folder: Path, config: Config) -> int:
+    from mearm.tools.photo_bench import run_click_study
+
+    if not (folder / "manifest.yaml").is_file():
+        raise InputFileError(str(folder), "no manifest.yaml in it (the labelled photos' list)")
+    rows = run_click_study(folder, config)
+    if not rows:
+        raise InputFileError(str(folder), "no photo shows all its source's classes to teach from")
+    head = " ".join(f"{q:>7}" for q in ("min", "q10", "median", "max"))
+    print(f"{'taught every way':<44} {'teachings':>9} {'refused':>7}  recall {head}  "
+          f"precision {head}")  # fmt: skip
+    for r in rows:
+        rec = " ".join(f"{100 * r['recall'][q]:6.1f}%" for q in ("min", "q10", "median", "max"))
+        pre = " ".join(f"{100 * r['precision'][q]:6.1f}%" for q in ("min", "q10", "median", "max"))
+        print(f"{r['scope']:<44} {r['teachings']:>9} {r['refused']:>7}  {'':6} {rec}  "
+              f"{'':9} {pre}")  # fmt: skip
+    return 0
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Print the vision rows as a table."""
     parser = ArgumentParser(description="The detector's timings and accuracy on rendered scenes.")
@@ -373,10 +394,21 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument(
         "--learn", action="store_true", help="with --photos: teach each source from its first photo"
     )
+    parser.add_argument(
+        "--every-click",
+        action="store_true",
+        help="with --photos: teach each source every way one photo and one click per class "
+        "can, and print the spread of recall and precision",
+    )
     add_config_argument(parser)
     args = parser.parse_args(argv)
-    if args.learn and args.photos is None:
-        parser.error("--learn needs --photos DIR")
+    for flag, given in (("--learn", args.learn), ("--every-click", args.every_click)):
+        if given and args.photos is None:
+            parser.error(f"{flag} needs --photos DIR")
+    if args.learn and args.every_click:
+        parser.error("--learn and --every-click: give one (--every-click teaches every way)")
+    if args.photos is not None and args.every_click:
+        return _print_click_study(args.photos, config_from_args(args))
     if args.photos is not None:
         return _print_photos(args.photos, config_from_args(args), learn=args.learn)
     rows = run_vision_bench(args.repeat) + run_detection_peers(args.repeat)
