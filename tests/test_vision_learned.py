@@ -207,6 +207,29 @@ def test_chroma_floor_is_at_equal_lightness() -> None:
     assert fit_colour(samples).chroma_lightness == pytest.approx(np.median(samples[:, 0]))
 
 
+def test_more_coloured_pixels_of_the_hue_are_the_colour() -> None:
+    """The ellipse is open outwards along the hue: a more vivid pixel of the taught hue is
+    the colour however vivid, a pixel as vivid 30° off the hue is not, and a duller one is
+    measured as it is (the ellipse still bounds it)."""
+    model = LearnedColour(
+        ab_mean=(40.0, 0.0), ab_cov=(25.0, 0.0, 25.0), lightness=(10.0, 95.0), chroma_min=12.0
+    )
+
+    def at(c: float, hue_deg: float) -> np.ndarray:
+        h = np.radians(hue_deg)
+        return np.array([50.0, c * np.cos(h), c * np.sin(h)])
+
+    assert distance(model, at(90.0, 0.0)) == pytest.approx(0.0, abs=1e-9)
+    assert accepts(model, at(90.0, 0.0)) and accepts(model, at(90.0, 15.0))
+    assert distance(model, at(90.0, 15.0)) == pytest.approx(distance(model, at(40.0, 15.0)))
+    assert not accepts(model, at(90.0, 30.0))  # 40·sin 30° = 20 = 4σ off: another hue
+    assert not accepts(model, at(24.0, 0.0))  # duller: 16 under the centre, 3.2σ (floor 12)
+    assert distance(model, at(30.0, 0.0)) == pytest.approx(2.0)  # measured as it is
+    # a centre too faint to have a hue is measured as it is, outwards too
+    faint = model.model_copy(update={"ab_mean": (8.0, 0.0), "chroma_min": 0.0})
+    assert distance(faint, at(28.0, 0.0)) == pytest.approx(4.0)
+
+
 def test_area_mask_is_the_polygon() -> None:
     """The work area's mask is its polygon's inside; ``None`` is the whole frame."""
     m = area_mask([(10, 10), (29, 10), (29, 19), (10, 19)], (40, 50))

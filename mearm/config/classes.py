@@ -57,7 +57,9 @@ class LearnedColour(Strict):
     ``chroma_min`` (shadows and glare on a white table are faintly coloured, never as
     much as an object); with ``chroma_lightness`` L₀ the floor is ``chroma_min`` ·
     (L* + 16) / (L₀ + 16), the chroma at equal lightness (a*, b* and L* + 16 scale
-    together with the light). Written by ``mearm learn-colours``.
+    together with the light). A chroma c more coloured than μ is measured at μ's chroma,
+    along its own hue (c · |μ| / |c|): the ellipse is open outwards. Written by
+    ``mearm learn-colours``.
 
     Attributes:
         ab_mean: The ellipse's centre (a*, b*) [-], CIELAB, D65.

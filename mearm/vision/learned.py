@@ -18,8 +18,10 @@ distances are roughly equal perceived differences:
   than it moves a*b*. A pixel is of the colour when its Mahalanobis distance to the
   ellipse is at most ``max_distance``, its L* is in range and its chroma reaches 0.65 of the
   samples' at equal lightness (a shadow or glare on a white table is faintly tinted, never
-  that much); where two colours claim a pixel the nearer wins. What lies in no ellipse is
-  no class: an orange cube is not red.
+  that much); where two colours claim a pixel the nearer wins. A pixel more coloured
+  than the ellipse's centre is measured at the centre's chroma, along its own hue: the
+  ellipse is open outwards, so the cube the user clicked need not be the most vivid of
+  its class. What lies in no ellipse is no class: an orange cube is not red.
 - *Chroma at equal lightness.* In CIELAB a*, b* and L* + 16 are all cube roots of the
   light, so dimming a colour by any factor scales its chroma and L* + 16 alike: the floor
   is the samples' chroma share at their lightness, scaled by (L* + 16) / (L₀ + 16). A
@@ -118,11 +120,23 @@ def fit_colour(lab: npt.ArrayLike, *, max_distance: float = MAX_DISTANCE) -> Lea
 
 
 def distance(model: LearnedColour, lab: npt.ArrayLike) -> np.ndarray:
-    """Mahalanobis distance of CIELAB colours (..., 3) to a colour's a*b* ellipse [-]."""
+    """Mahalanobis distance of CIELAB colours (..., 3) to a colour's a*b* ellipse [-].
+
+    A colour more coloured than the ellipse's centre is first brought in along its own hue
+    to the centre's chroma: a more coloured pixel of the taught hue (a brighter lamp, a
+    camera's saturation, a more vivid cube of the class) is more of the colour, never
+    another one; the hue decides. A less coloured one is measured as it is (the ellipse and
+    the chroma floor keep out pastels, glare and shadows).
+    """
     c = np.asarray(lab, dtype=float)
     saa, sab, sbb = model.ab_cov
     det = saa * sbb - sab * sab
-    da, db = c[..., 1] - model.ab_mean[0], c[..., 2] - model.ab_mean[1]
+    a, b = c[..., 1], c[..., 2]
+    c0 = float(np.hypot(model.ab_mean[0], model.ab_mean[1]))
+    cc = np.hypot(a, b)
+    # a centre too faint to have a hue (chroma under CHROMA_MIN) is measured as it is
+    scale = np.where((cc > c0) & (c0 >= CHROMA_MIN), c0 / np.maximum(cc, 1e-12), 1.0)
+    da, db = a * scale - model.ab_mean[0], b * scale - model.ab_mean[1]
     return np.sqrt(np.maximum((sbb * da * da - 2 * sab * da * db + saa * db * db) / det, 0.0))
 
 
