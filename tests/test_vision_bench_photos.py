@@ -141,6 +141,17 @@ def test_every_click_command(
     assert lines[0].startswith("taught every way") and "median" in lines[0]
     assert lines[1].startswith("source x/y") and lines[2].startswith("all sources")
     assert lines[2].split()[2:4] == ["1", "1"] and lines[2].count("95.8%") == 8
+    lone = folder.parent / "lone"  # each photo labels one class: none shows all of them
+    lone.mkdir(exist_ok=True)
+    manifest = yaml.safe_load((folder / "manifest.yaml").read_text())
+    for entry, keep in zip(manifest["images"], ("red", "blue"), strict=True):
+        entry["file"] = str(folder / entry["file"])
+        entry["objects"] = {keep: entry["objects"][keep]}
+    (lone / "manifest.yaml").write_text(yaml.safe_dump(manifest))
+    with pytest.raises(SystemExit) as info:
+        run(main, ["--photos", str(lone), "--every-click"])
+    _, err = capsys.readouterr()
+    assert info.value.code == 2 and "no photo shows all its source's classes" in err
     for argv in (["--every-click"], ["--photos", str(folder), "--every-click", "--learn"]):
         with pytest.raises(SystemExit) as info:
             run(main, argv)

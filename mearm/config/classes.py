@@ -58,8 +58,8 @@ class LearnedColour(Strict):
     much as an object); with ``chroma_lightness`` L₀ the floor is ``chroma_min`` ·
     (L* + 16) / (L₀ + 16), the chroma at equal lightness (a*, b* and L* + 16 scale
     together with the light). A chroma c more coloured than μ is measured at μ's chroma,
-    along its own hue (c · |μ| / |c|): the ellipse is open outwards. Written by
-    ``mearm learn-colours``.
+    along its own hue (c · |μ| / |c|; when |μ| ≥ 12, a colour with a hue): the ellipse is
+    open outwards. Written by ``mearm learn-colours``.
 
     Attributes:
         ab_mean: The ellipse's centre (a*, b*) [-], CIELAB, D65.
