@@ -14,17 +14,19 @@ from mearm.sim import TableRenderer, class_discs
 from mearm.sim.kinematic.renderer import Disc
 from mearm.sim.kinematic.vision_scenes import BASE_OPTIONS, CONDITIONS, match_detections
 from mearm.vision import Calibration, ColorDetector
+from mearm.vision.errors import SampleError
 from mearm.vision.learned import (
     LearnedClassifier,
     accepts,
     area_mask,
     balance,
     distance,
+    ellipse_distance,
     fit_colour,
     lab_of,
     median_bgr,
 )
-from mearm.vision.teaching import Sample, teach
+from mearm.vision.teaching import Sample, _refuse_shared, teach
 
 CONFIG = Config()
 CAL = Calibration.from_config(CONFIG.calibration)
@@ -228,6 +230,29 @@ def test_more_coloured_pixels_of_the_hue_are_the_colour() -> None:
     # a centre too faint to have a hue is measured as it is, outwards too
     faint = model.model_copy(update={"ab_mean": (8.0, 0.0), "chroma_min": 0.0})
     assert distance(faint, at(28.0, 0.0)) == pytest.approx(4.0)
+
+
+def test_a_dull_class_beside_a_vivid_one_is_not_one_colour() -> None:
+    """Two classes are refused as sampled on one colour by their ellipses closed all round:
+    a dull green open outwards reaches a vivid yellow-green's centre (distance < 1 along
+    its hue), yet they were sampled on colours 5 σ apart, and teaching takes both."""
+
+    def at(c: float, hue_deg: float) -> tuple[float, float]:
+        h = np.radians(hue_deg)
+        return (c * np.cos(h), c * np.sin(h))
+
+    green = LearnedColour(
+        ab_mean=at(23.0, 140.0), ab_cov=(100.0, 0.0, 100.0), lightness=(10.0, 95.0)
+    )
+    yellow = LearnedColour(
+        ab_mean=at(70.0, 115.0), ab_cov=(100.0, 0.0, 100.0), lightness=(10.0, 95.0)
+    )
+    centre = np.array([50.0, *yellow.ab_mean])
+    assert distance(green, centre) < 1.0 < 4.0 < ellipse_distance(green, centre)
+    clicks = [Sample("green", 10.0, 10.0), Sample("yellow", 20.0, 20.0)]
+    _refuse_shared({"green": green, "yellow": yellow}, clicks)  # no SampleError
+    with pytest.raises(SampleError, match="sampled on the same colour"):
+        _refuse_shared({"green": green, "yellow": green}, clicks)
 
 
 def test_area_mask_is_the_polygon() -> None:

@@ -120,23 +120,36 @@ def fit_colour(lab: npt.ArrayLike, *, max_distance: float = MAX_DISTANCE) -> Lea
 
 
 def distance(model: LearnedColour, lab: npt.ArrayLike) -> np.ndarray:
-    """Mahalanobis distance of CIELAB colours (..., 3) to a colour's a*b* ellipse [-].
+    """Distance of CIELAB colours (..., 3) to a colour, the ellipse open outwards [-].
 
     A colour more coloured than the ellipse's centre is first brought in along its own hue
     to the centre's chroma: a more coloured pixel of the taught hue (a brighter lamp, a
     camera's saturation, a more vivid cube of the class) is more of the colour, never
     another one; the hue decides. A less coloured one is measured as it is (the ellipse and
-    the chroma floor keep out pastels, glare and shadows).
+    the chroma floor keep out pastels, glare and shadows). :func:`ellipse_distance` of the
+    colour so brought in.
     """
     c = np.asarray(lab, dtype=float)
-    saa, sab, sbb = model.ab_cov
-    det = saa * sbb - sab * sab
-    a, b = c[..., 1], c[..., 2]
     c0 = float(np.hypot(model.ab_mean[0], model.ab_mean[1]))
-    cc = np.hypot(a, b)
+    cc = np.hypot(c[..., 1], c[..., 2])
     # a centre too faint to have a hue (chroma under CHROMA_MIN) is measured as it is
     scale = np.where((cc > c0) & (c0 >= CHROMA_MIN), c0 / np.maximum(cc, 1e-12), 1.0)
-    da, db = a * scale - model.ab_mean[0], b * scale - model.ab_mean[1]
+    return _mahalanobis(model, c[..., 1] * scale, c[..., 2] * scale)
+
+
+def ellipse_distance(model: LearnedColour, lab: npt.ArrayLike) -> np.ndarray:
+    """Mahalanobis distance of CIELAB colours (..., 3) to a colour's a*b* ellipse [-].
+
+    The ellipse closed all round: how far a colour is from what the samples were.
+    """
+    c = np.asarray(lab, dtype=float)
+    return _mahalanobis(model, c[..., 1], c[..., 2])
+
+
+def _mahalanobis(model: LearnedColour, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    saa, sab, sbb = model.ab_cov
+    det = saa * sbb - sab * sab
+    da, db = a - model.ab_mean[0], b - model.ab_mean[1]
     return np.sqrt(np.maximum((sbb * da * da - 2 * sab * da * db + saa * db * db) / det, 0.0))
 
 

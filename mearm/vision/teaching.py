@@ -27,6 +27,7 @@ from mearm.vision.learned import (
     balance,
     chroma,
     distance,
+    ellipse_distance,
     fit_colour,
     lab_of,
     median_bgr,
@@ -218,14 +219,21 @@ def teach(
 
 
 def _refuse_shared(colours: dict[str, LearnedColour], samples: Sequence[Sample]) -> None:
-    """Raise if one class's colour lies inside another's ellipse: sampled on one colour."""
+    """Raise if one class's colour lies inside another's ellipse: sampled on one colour.
+
+    The ellipses closed all round (:func:`~mearm.vision.learned.ellipse_distance`): what
+    was sampled, not what each accepts (a dull class open outwards reaches far in chroma;
+    where two colours claim a pixel the nearer wins).
+    """
     names = list(colours)
     for i, a in enumerate(names):
         for b in names[i + 1 :]:
             ma, mb = colours[a], colours[b]
             centre_b = np.array([0.0, *mb.ab_mean])
             centre_a = np.array([0.0, *ma.ab_mean])
-            overlap = min(float(distance(ma, centre_b)), float(distance(mb, centre_a)))
+            overlap = min(
+                float(ellipse_distance(ma, centre_b)), float(ellipse_distance(mb, centre_a))
+            )
             la, lb = ma.lightness, mb.lightness
             if overlap <= 1.0 and la[0] < lb[1] and lb[0] < la[1]:
                 first = next(s for s in samples if s.name == b)
