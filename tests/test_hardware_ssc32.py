@@ -266,11 +266,11 @@ def test_late_stale_reply_is_never_read_as_a_later_answer(caplog):
     had ('+', the previous pulses). Were it read as the answer to the retry, the move
     would not be confirmed; it is discarded by the resync, and every move confirms.
 
-    The answer comes 0.25 s after the 0.5 s timeout, and the resync's own answer, queued
-    behind it, 0.25 s before the resync's timeout: margins a loaded machine keeps (at
+    The answer comes 0.5 s after the 1 s timeout, and the resync's own answer, queued
+    behind it, 0.5 s before the resync's timeout: margins a loaded machine keeps (at
     0.15 s and 0.2 s a delayed host read the late answer as on time)."""
-    faults = SSC32Faults(fault_at_move=2, late_answers=6, late_s=0.75, stale_late=True)
-    with FakeSSC32Board(faults) as board, connected(board, ack_timeout_s=0.5) as bus:
+    faults = SSC32Faults(fault_at_move=2, late_answers=6, late_s=1.5, stale_late=True)
+    with FakeSSC32Board(faults) as board, connected(board, ack_timeout_s=1.0) as bus:
         with caplog.at_level(logging.WARNING):
             for cmd in route(4):
                 bus.move(cmd)
