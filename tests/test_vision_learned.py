@@ -255,6 +255,27 @@ def test_a_dull_class_beside_a_vivid_one_is_not_one_colour() -> None:
         _refuse_shared({"green": green, "yellow": green}, clicks)
 
 
+def test_a_click_on_a_speck_teaches_the_objects_colour() -> None:
+    """A click on a dot no larger than the pointer (a printed mark, a glint) teaches the
+    object's colour, as a click beside it does; a patch wider than the pointer is what
+    the user clicked, and is taught."""
+
+    def dotted(radius_px: float, names: tuple[str, ...]) -> np.ndarray:
+        frame = render().copy()
+        yy, xx = np.mgrid[0:480, 0:640]
+        for s in (s for s in one_click_each() if s.name in names):
+            frame[(xx - s.u_px) ** 2 + (yy - s.v_px) ** 2 <= radius_px**2] = PURPLE_BGR
+        return frame
+
+    clean = teach([render()], one_click_each()).colours
+    specked = teach([dotted(1.0, tuple(clean))], one_click_each()).colours
+    for name, colour in clean.items():
+        assert np.hypot(*np.subtract(specked[name].ab_mean, colour.ab_mean)) < 2.0, name
+    purple = lab_of(np.array([[PURPLE_BGR]], np.uint8))[0, 0, 1:]
+    patched = teach([dotted(3.0, ("red",))], one_click_each()).colours
+    assert np.hypot(*np.subtract(patched["red"].ab_mean, purple)) < 2.0
+
+
 def test_area_mask_is_the_polygon() -> None:
     """The work area's mask is its polygon's inside; ``None`` is the whole frame."""
     m = area_mask([(10, 10), (29, 10), (29, 19), (10, 19)], (40, 50))

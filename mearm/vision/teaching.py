@@ -97,19 +97,60 @@ CLICK_DELTA = 15.0
 CLICK_LIGHTNESS = 100.0
 
 
-def _like_click(frame: np.ndarray, s: Sample, radius_px: float) -> np.ndarray:
+def _like_click(
+    frame: np.ndarray, s: Sample, radius_px: float, table_lab: np.ndarray
+) -> np.ndarray:
     """CIELAB of the pixels (N, 3) within ``radius_px`` of a click and of its colour.
 
-    The clicked colour is the median of its 3×3 pixels; the disc's pixels more than
+    The clicked colour is :func:`_clicked_colour`'s; the disc's pixels more than
     :data:`CLICK_DELTA` from it in a*b* or :data:`CLICK_LIGHTNESS` in L* (the white top
     beside a yellow edge, a letter printed on a block, the table beside a small object)
     are not the user's colour.
     """
-    clicked = np.median(lab_of(_disc(frame, s.u_px, s.v_px, 1.5)), axis=0)
     lab = lab_of(_disc(frame, s.u_px, s.v_px, radius_px))
+    clicked = _clicked_colour(frame, s, radius_px, table_lab)
     near = np.hypot(lab[:, 1] - clicked[1], lab[:, 2] - clicked[2]) <= CLICK_DELTA
     near &= np.abs(lab[:, 0] - clicked[0]) <= CLICK_LIGHTNESS
     return lab[near] if near.any() else clicked[None, :]
+
+
+#: The pixels under the pointer: within this of the click [px] (3 × 3).
+POINTER_PX = 1.5
+
+
+def _clicked_colour(
+    frame: np.ndarray, s: Sample, radius_px: float, table_lab: np.ndarray
+) -> np.ndarray:
+    """The colour a click picks (CIELAB, (3,)): the median of the pixels under the pointer.
+
+    Unless that colour is a speck: a printed dot, a mark or a glint no larger than the
+    pointer, which fewer of the pixels around it (out to ``radius_px``) share, within
+    :data:`CLICK_DELTA` in a*b*, than lie under the pointer. A click is on an object, so
+    then it picks the object's commonest colour around the pointer: of the pixels there
+    with a colour (chroma >= :data:`CHROMA_MIN`) and not the table's (farther than
+    :data:`TABLE_DELTA_E` from ``table_lab``), the one with the most others within
+    :data:`CLICK_DELTA`, and the median of those.
+    """
+    h, w = frame.shape[:2]
+    ys, xs = np.mgrid[0:h, 0:w]
+    d2 = (xs - s.u_px) ** 2 + (ys - s.v_px) ** 2
+    under = d2 <= POINTER_PX**2
+    if not under.any():
+        under[min(int(s.v_px), h - 1), min(int(s.u_px), w - 1)] = True
+    clicked = np.median(lab_of(frame[under]), axis=0)
+    around = lab_of(frame[~under & (d2 <= radius_px**2)])
+    same = np.hypot(around[:, 1] - clicked[1], around[:, 2] - clicked[2]) <= CLICK_DELTA
+    if same.sum() >= under.sum():
+        return clicked
+    obj = around[
+        (chroma(around) >= CHROMA_MIN)
+        & (np.linalg.norm(around - table_lab, axis=1) > TABLE_DELTA_E)
+    ]
+    if len(obj) == 0:
+        return clicked
+    ab = obj[:, 1:]
+    close = np.linalg.norm(ab[:, None, :] - ab[None, :, :], axis=-1) <= CLICK_DELTA
+    return np.median(obj[close[int(np.argmax(close.sum(axis=1)))]], axis=0)
 
 
 def _ring(frame: np.ndarray, samples: Sequence[Sample], inner: float, outer: float) -> np.ndarray:
@@ -194,7 +235,7 @@ def teach(
             raise SampleError(
                 str(s), f"is outside the image ({w}x{h} px): 0 <= U < {w}, 0 <= V < {h}"
             )
-        lab = _like_click(frame, s, radius_px)
+        lab = _like_click(frame, s, radius_px, table_lab)
         c, lightness = float(np.median(chroma(lab))), float(np.median(lab[:, 0]))
         if c < CHROMA_MIN or lightness < LIGHTNESS_MIN:
             raise SampleError(
