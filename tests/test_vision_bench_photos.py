@@ -14,7 +14,7 @@ from mearm.config import Config
 from mearm.sim import TableRenderer, class_discs
 from mearm.sim.kinematic.renderer import Disc
 from mearm.tools import photo_bench
-from mearm.tools.photo_bench import load_photos, run_click_study, run_photo_bench
+from mearm.tools.photo_bench import load_photos, object_px_of, run_click_study, run_photo_bench
 from mearm.tools.vision_bench import main
 from mearm.vision import Calibration
 
@@ -74,11 +74,27 @@ def by(rows: list[dict], scope: str, who: str) -> dict:
 
 def test_photos_are_scaled_to_the_calibration(folder: Path) -> None:
     """Each photo is scaled so its objects are 32 px, its labels with it."""
-    a, b = load_photos(folder)
-    assert a.frame.shape[:2] == (480, 640) and b.ignore == [(0.0, 5.0, 0.0, 5.0)]
+    assert object_px_of(CONFIG) == pytest.approx(32.0)
+    a, b = load_photos(folder, object_px_of(CONFIG))
+    assert a.frame.shape[:2] == (480, 640)
+    assert b.ignore == [pytest.approx((0.0, 5.0, 0.0, 5.0))]
     np.testing.assert_allclose(
         a.centres["red"][0], CAL.table_to_pixel(np.array([LAYOUT[0][1:]]))[0], atol=0.1
     )
+
+
+def test_a_nearer_cameras_calibration_scores_the_photos_larger(folder: Path) -> None:
+    """A calibration of 20 px/cm (a nearer camera) scales the photos so that objects are
+    40 px; taught and scored there, every object on the true labels is found."""
+    near = Config.model_validate(
+        {"calibration": {"homography": [[0.05, 0, -20.5], [0, -0.05, 59.0], [0, 0, 1]]}}
+    )
+    assert object_px_of(near) == pytest.approx(40.0)
+    a, _ = load_photos(folder, object_px_of(near))
+    assert a.frame.shape[:2] == (600, 800)
+    rows = run_photo_bench(folder, near, learn=True)
+    a_row = by(rows, "a.png", "mearm")
+    assert (a_row["found"], a_row["missed"], a_row["false"]) == (12, 0, 0)
 
 
 @pytest.mark.parametrize("learn", [False, True])

@@ -36,7 +36,7 @@ from mearm.cli import ArgumentParser, check_output_file, run, write_text_atomic
 from mearm.config import Config
 from mearm.config.files import load_config, resolve_config_path
 from mearm.errors import MearmError
-from mearm.vision.calibration import camera_geometry
+from mearm.vision.calibration import object_width_px
 from mearm.vision.image import read_image
 from mearm.vision.teaching import Sample, Taught, teach
 
@@ -64,21 +64,6 @@ def parse_point(text: str) -> tuple[float, float]:
     if not (math.isfinite(u) and math.isfinite(v)):
         raise ValueError(f"--work-area {text!r}: U and V must be finite")
     return u, v
-
-
-def object_size_px(config: Config, shape: Sequence[int]) -> float:
-    """About one object's width [px] at the frame's centre, through the calibration."""
-    diameter = max(c.diameter_cm for c in config.task.classes)
-    centre = np.array([[shape[1] / 2.0, shape[0] / 2.0]])
-    try:
-        area = float(
-            camera_geometry(config.calibration, config.camera).expected_disc_area_px(
-                centre, diameter
-            )[0]
-        )
-    except MearmError:
-        return 32.0
-    return 2.0 * math.sqrt(area / math.pi) if math.isfinite(area) and area > 0 else 32.0
 
 
 def pick_samples(frame: np.ndarray, names: Sequence[str]) -> list[Sample]:
@@ -269,7 +254,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         frames,
         samples,
         radius_px=args.radius,
-        object_px=object_size_px(config, frames[0].shape),
+        object_px=object_width_px(
+            config.calibration,
+            config.camera,
+            max(c.diameter_cm for c in config.task.classes),
+            frames[0].shape,
+        ),
         work_area_px=area,
         find_area=not args.whole_frame,
     )

@@ -3,12 +3,14 @@
 A folder of photos with a ``manifest.yaml`` (per image: ``file``, ``source_repo``,
 ``shapes`` with the objects' size as ``~N px``, ``objects`` per class with their
 ``centres`` [px], optional ``partial`` regions ``x A-B, y C-D`` whose detections are not
-counted) is scored as a user's camera would see it: each photo scaled so its objects
-are :data:`OBJECT_PX` across (2 cm under the paper's calibration), the detector of a
-config and the 8-bit ``inRange`` recipe run on it, and each detection matched to the
-nearest unmatched labelled object of its class within half an object. A detection that
-matches none (another colour's object, a distractor, a wrong class) is a false
-positive; a labelled object no detection matches is missed.
+counted) is scored as a user's camera would see it: each photo scaled so its objects are
+as wide as the config's calibration sees one at its camera's centre
+(:func:`object_px_of`: 32 px, 2 cm, under the paper's calibration; another calibration
+scores the photos as a nearer or farther camera sees them), the detector of a config and
+the 8-bit ``inRange`` recipe run on it, and each detection matched to the nearest
+unmatched labelled object of its class within half an object. A detection that matches
+none (another colour's object, a distractor, a wrong class) is a false positive; a
+labelled object no detection matches is missed.
 
 With ``learn``, each source's colours are taught from its first photo as a user teaches
 them: one click per class, on the first labelled object of that class (moved to its most
@@ -37,7 +39,7 @@ import numpy as np
 
 from mearm.config import Config
 from mearm.errors import InputFileError
-from mearm.vision.calibration import Calibration, camera_geometry
+from mearm.vision.calibration import Calibration, camera_geometry, object_width_px
 from mearm.vision.detector import ColorDetector, Detection
 from mearm.vision.errors import SampleError
 from mearm.vision.image import read_image
@@ -46,8 +48,6 @@ from mearm.vision.learned import CHROMA_MIN, chroma, lab_of
 from mearm.vision.teaching import Sample, teach
 from mearm.yamlio import load_yaml_file
 
-#: Each photo is scaled so that its objects are this many pixels across [px].
-OBJECT_PX = 32.0
 #: The click study clicks each of the first this-many labelled objects of a class.
 CLICKS_PER_CLASS = 4
 #: The click study draws at most this many combinations of the sources' teachings
@@ -57,13 +57,17 @@ COMBINATIONS_MAX = 100_000
 
 @dataclass(frozen=True)
 class Photo:
-    """One labelled photo, scaled: its frame, labelled centres per class, ignored boxes."""
+    """One labelled photo, scaled: frame, labelled centres, ignored boxes, object width.
+
+    ``object_px`` is the width its objects were scaled to [px].
+    """
 
     name: str
     source: str
     frame: np.ndarray = field(repr=False)
     centres: dict[str, np.ndarray] = field(repr=False)
     ignore: list[tuple[float, float, float, float]] = field(repr=False)
+    object_px: float
 
 
 @dataclass
@@ -107,15 +111,24 @@ def _boxes(entry: dict, scale: float) -> list[tuple[float, float, float, float]]
     return out
 
 
-def load_photos(folder: Path) -> list[Photo]:
-    """The labelled photos of ``folder`` (its ``manifest.yaml``), scaled to :data:`OBJECT_PX`."""
+def object_px_of(config: Config) -> float:
+    """One object's width [px] at the centre of ``config``'s camera, through its calibration."""
+    diameter = max(c.diameter_cm for c in config.task.classes)
+    return object_width_px(config.calibration, config.camera, diameter)
+
+
+def load_photos(folder: Path, object_px: float) -> list[Photo]:
+    """The labelled photos of ``folder`` (its ``manifest.yaml``), scaled.
+
+    Each is scaled so that its objects are ``object_px`` across [px].
+    """
     manifest = load_yaml_file(folder / "manifest.yaml")
     if not isinstance(manifest, dict) or not isinstance(manifest.get("images"), list):
         raise InputFileError(str(folder / "manifest.yaml"), "expected a mapping with 'images'")
     photos = []
     for entry in manifest["images"]:
         frame = read_image(folder / str(entry["file"]))
-        scale = OBJECT_PX / _size_px(entry)
+        scale = object_px / _size_px(entry)
         frame = cv2.resize(frame, None, fx=scale, fy=scale, interpolation=cv2.INTER_AREA)
         centres = {
             str(name): np.asarray(obj.get("centres") or [], dtype=float).reshape(-1, 2) * scale
@@ -128,6 +141,7 @@ def load_photos(folder: Path) -> list[Photo]:
                 frame,
                 centres,
                 _boxes(entry, scale),
+                object_px,
             )
         )
     return photos
@@ -146,7 +160,7 @@ def score(photo: Photo, found: Sequence[Detection]) -> Score:
         labels = photo.centres.get(d.color, np.zeros((0, 2)))
         free = left.get(d.color, [])
         dist = [float(np.hypot(*(labels[i] - (u, v)))) for i in free]
-        if dist and min(dist) <= OBJECT_PX / 2:
+        if dist and min(dist) <= photo.object_px / 2:
             free.pop(int(np.argmin(dist)))
             out.found[d.color] = out.found.get(d.color, 0) + 1
         else:
@@ -163,7 +177,7 @@ def _click(photo: Photo, name: str, index: int = 0) -> Sample:
     grey (a blown-out top): where a user would click.
     """
     u, v = photo.centres[name][index]
-    r = int(OBJECT_PX / 2)
+    r = int(photo.object_px / 2)
     h, w = photo.frame.shape[:2]
     y0, y1, x0, x1 = (
         max(int(v) - r, 0),
@@ -186,7 +200,7 @@ def learned_config(config: Config, photo: Photo, clicks: Mapping[str, int] | Non
     names = [n for n, c in photo.centres.items() if len(c) and n in config.task.class_names]
     picked = clicks or {}
     samples = [_click(photo, n, picked.get(n, 0)) for n in names]
-    taught = teach([photo.frame], samples, object_px=OBJECT_PX)
+    taught = teach([photo.frame], samples, object_px=photo.object_px)
     classes = [
         c.model_copy(update={"learned_colour": taught.colours[c.name]})
         if c.name in taught.colours
@@ -221,7 +235,7 @@ def run_photo_bench(folder: Path, config: Config, *, learn: bool = False) -> lis
     taught per source from its first photo (:func:`learned_config`); the recipe keeps the
     config's hue bands (it has no learned colours).
     """
-    photos = load_photos(folder)
+    photos = load_photos(folder, object_px_of(config))
     firsts: dict[str, Photo] = {}
     for p in photos:
         firsts.setdefault(p.source, p)
@@ -289,7 +303,7 @@ def run_click_study(folder: Path, config: Config) -> list[dict]:
     all sources: the combinations), ``refused``, and the ``recall`` and ``precision``
     quantiles (``min``, ``q10``, ``median``, ``max``) as fractions.
     """
-    photos = load_photos(folder)
+    photos = load_photos(folder, object_px_of(config))
     sources: dict[str, list[Photo]] = {}
     for p in photos:
         sources.setdefault(p.source, []).append(p)

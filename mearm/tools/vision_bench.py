@@ -361,7 +361,15 @@ def _print_photos(folder: Path, config: Config, *, learn: bool) -> int:
         pre = "-" if r["precision"] is None else f"{100 * r['precision']:.1f}%"
         print(f"{r['scope']:<28} {r['who']:<8} {r['found']:>5} {r['missed']:>6} {r['false']:>5} "
               f"{rec:>7} {pre:>9}")  # fmt: skip
+    _print_scale(config)
     return 0
+
+
+def _print_scale(config: Config) -> None:
+    from mearm.tools.photo_bench import object_px_of
+
+    print(f"photos scaled so that objects are {object_px_of(config):.1f} px across "
+          "(the config's calibration, at its camera's centre)")  # fmt: skip
 
 
 def _print_click_study(folder: Path, config: Config) -> int:
@@ -380,6 +388,7 @@ def _print_click_study(folder: Path, config: Config) -> int:
         pre = " ".join(f"{100 * r['precision'][q]:6.1f}%" for q in ("min", "q10", "median", "max"))
         print(f"{r['scope']:<44} {r['teachings']:>9} {r['refused']:>7}  {'':6} {rec}  "
               f"{'':9} {pre}")  # fmt: skip
+    _print_scale(config)
     return 0
 
 

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import itertools
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import cv2
@@ -26,6 +27,7 @@ import numpy.typing as npt
 from mearm.config import CalibrationConfig, CameraConfig
 from mearm.config.base import short_repr
 from mearm.config.errors import CalibrationError
+from mearm.errors import MearmError
 from mearm.vision.pinhole import PerspectiveCamera
 
 #: Twice a triangle's area over its longest side squared below this is "on one line"
@@ -226,3 +228,37 @@ def camera_geometry(calibration: CalibrationConfig, camera: CameraConfig) -> Cam
             "change camera.width_px/height_px"
         )
     return found
+
+
+#: One object's width where the calibration cannot say [px]: 2 cm under the paper's.
+DEFAULT_OBJECT_PX = 32.0
+
+
+def object_width_px(
+    calibration: CalibrationConfig,
+    camera: CameraConfig,
+    diameter_cm: float,
+    shape: Sequence[int] | None = None,
+) -> float:
+    """About one object's width [px] at the frame's centre, through the calibration.
+
+    Args:
+        calibration: The config's ``calibration`` section.
+        camera: The config's ``camera`` section.
+        diameter_cm: The object's diameter [cm].
+        shape: The frame's (height, width, ...); the camera's frame when ``None``.
+
+    Returns:
+        The width of a disc of ``diameter_cm`` at the frame's centre, or
+        :data:`DEFAULT_OBJECT_PX` where the calibration cannot say (files that cannot be
+        read, a centre off the table).
+    """
+    h, w = (camera.height_px, camera.width_px) if shape is None else shape[:2]
+    try:
+        geometry = camera_geometry(calibration, camera)
+        area = float(geometry.expected_disc_area_px(np.array([[w / 2.0, h / 2.0]]), diameter_cm)[0])
+    except MearmError:
+        return DEFAULT_OBJECT_PX
+    return (
+        2.0 * math.sqrt(area / math.pi) if math.isfinite(area) and area > 0 else DEFAULT_OBJECT_PX
+    )
