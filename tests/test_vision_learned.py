@@ -267,10 +267,11 @@ def test_a_click_on_a_speck_teaches_the_objects_colour() -> None:
             frame[(xx - s.u_px) ** 2 + (yy - s.v_px) ** 2 <= radius_px**2] = PURPLE_BGR
         return frame
 
-    clean = teach([render()], one_click_each()).colours
-    specked = teach([dotted(1.0, tuple(clean))], one_click_each()).colours
-    for name, colour in clean.items():
-        assert np.hypot(*np.subtract(specked[name].ab_mean, colour.ab_mean)) < 2.0, name
+    for radius in (4.0, 15.0):  # the default, and a wide one (evenly spaced candidates)
+        clean = teach([render()], one_click_each(), radius_px=radius).colours
+        specked = teach([dotted(1.0, tuple(clean))], one_click_each(), radius_px=radius).colours
+        for name, colour in clean.items():
+            assert np.hypot(*np.subtract(specked[name].ab_mean, colour.ab_mean)) < 2.0, name
     purple = lab_of(np.array([[PURPLE_BGR]], np.uint8))[0, 0, 1:]
     patched = teach([dotted(3.0, ("red",))], one_click_each()).colours
     assert np.hypot(*np.subtract(patched["red"].ab_mean, purple)) < 2.0
