@@ -12,6 +12,7 @@ black pixel, or two classes sampled on one colour.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -80,15 +81,31 @@ class Taught:
     table_lab: tuple[float, float, float]
 
 
+def _around(
+    frame: np.ndarray, u: float, v: float, radius_px: float
+) -> tuple[np.ndarray, np.ndarray, tuple[int, int]]:
+    """The window of ``frame`` holding every pixel within ``radius_px`` of (u, v).
+
+    Returns the window, each of its pixels' squared distance to (u, v) [px²], and the
+    pixel (u, v) is in, as (row, col) in the window.
+    """
+    h, w = frame.shape[:2]
+    r = math.ceil(radius_px) + 1
+    x0, x1 = max(int(u) - r, 0), min(int(u) + r + 1, w)
+    y0, y1 = max(int(v) - r, 0), min(int(v) + r + 1, h)
+    ys, xs = np.mgrid[y0:y1, x0:x1]
+    own = (min(int(v), h - 1) - y0, min(int(u), w - 1) - x0)
+    return frame[y0:y1, x0:x1], (xs - u) ** 2 + (ys - v) ** 2, own
+
+
 def _disc(frame: np.ndarray, u: float, v: float, radius_px: float) -> np.ndarray:
     """The pixels (N, 3) within ``radius_px`` of (u, v)."""
-    h, w = frame.shape[:2]
     r = max(radius_px, 0.5)
-    ys, xs = np.mgrid[0:h, 0:w]
-    near = (xs - u) ** 2 + (ys - v) ** 2 <= r * r
+    window, d2, own = _around(frame, u, v, r)
+    near = d2 <= r * r
     if not near.any():
-        near[min(int(v), h - 1), min(int(u), w - 1)] = True
-    return frame[near]
+        near[own] = True
+    return window[near]
 
 
 #: A sample's pixels: those of its disc within this a*b* distance of the clicked pixel.
@@ -133,14 +150,12 @@ def _clicked_colour(
     :data:`TABLE_DELTA_E` from ``table_lab``), the one with the most others within
     :data:`CLICK_DELTA`, and the median of those.
     """
-    h, w = frame.shape[:2]
-    ys, xs = np.mgrid[0:h, 0:w]
-    d2 = (xs - s.u_px) ** 2 + (ys - s.v_px) ** 2
+    window, d2, own = _around(frame, s.u_px, s.v_px, max(radius_px, POINTER_PX))
     under = d2 <= POINTER_PX**2
     if not under.any():
-        under[min(int(s.v_px), h - 1), min(int(s.u_px), w - 1)] = True
-    clicked = np.median(lab_of(frame[under]), axis=0)
-    around = lab_of(frame[~under & (d2 <= radius_px**2)])
+        under[own] = True
+    clicked = np.median(lab_of(window[under]), axis=0)
+    around = lab_of(window[~under & (d2 <= radius_px**2)])
     same = np.hypot(around[:, 1] - clicked[1], around[:, 2] - clicked[2]) <= CLICK_DELTA
     if same.sum() >= under.sum():
         return clicked
