@@ -20,6 +20,7 @@ from mearm.vision.learned import (
     accepts,
     area_mask,
     balance,
+    clipped_bgr,
     distance,
     ellipse_distance,
     fit_colour,
@@ -179,7 +180,11 @@ def test_lookup_table_agrees_with_the_model() -> None:
         centre = (scaled.astype(int) >> 2) * 4 + 1.5
         flat = (centre / 255.0).astype(np.float32).reshape(1, -1, 3)
         lab = cv2.cvtColor(flat, cv2.COLOR_BGR2Lab).reshape(-1, 3).astype(float)
-        d = [np.where(accepts(m, lab), distance(m, lab), np.inf) for m in (red, blue)]
+        clipped = clipped_bgr(centre)
+        d = [
+            np.where(accepts(m, lab, clipped), distance(m, lab, clipped), np.inf)
+            for m in (red, blue)
+        ]
         want = np.where(np.isfinite(np.minimum(*d)), np.where(d[0] <= d[1], 1, 2), 0)
         assert (codes == want).all()
         assert (codes == 1).any() and (codes == 2).any() and (codes == 0).any()
@@ -207,6 +212,41 @@ def test_chroma_floor_is_at_equal_lightness() -> None:
     assert accepts(wide, [2.0, *(13.0 * unit)])
     samples = lab_of(np.array([[40, 40, 200], [50, 45, 190], [35, 30, 210]], np.uint8))
     assert fit_colour(samples).chroma_lightness == pytest.approx(np.median(samples[:, 0]))
+
+
+def _srgb_dimmed(bgr: tuple[int, int, int], light: float) -> np.ndarray:
+    """An 8-bit sRGB colour with its linear light times ``light`` (the sRGB curve), (3,)."""
+    c = np.asarray(bgr, dtype=float) / 255.0
+    linear = np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4) * light
+    out = np.where(linear <= 0.0031308, 12.92 * linear, 1.055 * linear ** (1 / 2.4) - 0.055)
+    return np.round(np.clip(out, 0.0, 1.0) * 255).astype(np.uint8)
+
+
+def test_a_shaded_face_is_measured_at_the_samples_lightness() -> None:
+    """Dimming the light scales a*, b* and L* + 16 alike, so a colour is measured at its
+    samples' lightness: the taught blue in shade (its light × 0.5, × 0.3) is at the
+    ellipse's centre where, measured as it is, it is out; a pastel (lighter, less
+    coloured) is farther than it looks; a brighter pixel with a channel clipped is
+    measured as it is (the clipping took its chroma), a darker one never is."""
+    blue = (200, 60, 40)
+    model = fit_colour(lab_of(np.array([blue] * 3, np.uint8)))
+    as_is = model.model_copy(update={"chroma_lightness": None})
+    for light in (0.5, 0.3):
+        shade = lab_of(_srgb_dimmed(blue, light))
+        assert distance(model, shade) < 0.5 < model.max_distance < distance(as_is, shade)
+        assert accepts(model, shade) and not accepts(as_is, shade)
+    lighter = model.chroma_lightness + 30.0
+    pastel = np.array([lighter, *(0.8 * np.array(model.ab_mean))])
+    assert distance(model, pastel) > distance(as_is, pastel)
+    assert distance(model, pastel, clipped=True) == pytest.approx(distance(as_is, pastel))
+    darker = np.array([model.chroma_lightness - 20.0, *(0.8 * np.array(model.ab_mean))])
+    assert distance(model, darker, clipped=True) == pytest.approx(distance(model, darker))
+    assert distance(model, darker) < distance(as_is, darker)
+    assert clipped_bgr(np.array([[255, 10, 10], [251, 251, 251], [252, 0, 0]])).tolist() == [
+        True,
+        False,
+        True,
+    ]
 
 
 def test_more_coloured_pixels_of_the_hue_are_the_colour() -> None:

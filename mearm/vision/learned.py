@@ -24,9 +24,12 @@ distances are roughly equal perceived differences:
   its class. What lies in no ellipse is no class: an orange cube is not red.
 - *Chroma at equal lightness.* In CIELAB a*, b* and L* + 16 are all cube roots of the
   light, so dimming a colour by any factor scales its chroma and L* + 16 alike: the floor
-  is the samples' chroma share at their lightness, scaled by (L* + 16) / (L₀ + 16). A
-  dark face of an object keeps its class (its chroma falls with its lightness), and a
-  pastel of the hue (lighter and less coloured: salmon or pink beside red) does not.
+  is the samples' chroma share at their lightness, scaled by (L* + 16) / (L₀ + 16), and a
+  pixel's distance to the ellipse is measured with its a*, b* taken to L₀ the same way.
+  A dark face of an object keeps its class (its chroma falls with its lightness), and a
+  pastel of the hue (lighter and less coloured: salmon or pink beside red) does not. A
+  pixel brighter than the samples with a channel clipped is measured as it is: the
+  clipping, not the light, took its chroma.
 - *Highlights.* A blown-out pixel (a channel clipped) keeps only a faint tint; it joins
   a region of the colour whose hue it has that it touches, so a yellow cube whose top is
   blown out to white is found whole from its yellow edges.
@@ -78,6 +81,9 @@ HIGHLIGHT_CHROMA = 4.0
 HIGHLIGHT = 0x80
 #: Bits of each channel the learned classifier's table is indexed by.
 COLOUR_BITS = 6
+#: A channel at this level or above is clipped [8-bit]: the top cell of the classifier's
+#: table (:data:`COLOUR_BITS`).
+CLIPPED = 256 - (1 << (8 - COLOUR_BITS))
 
 
 def lab_of(pixels_bgr: npt.ArrayLike) -> np.ndarray:
@@ -119,22 +125,43 @@ def fit_colour(lab: npt.ArrayLike, *, max_distance: float = MAX_DISTANCE) -> Lea
     )
 
 
-def distance(model: LearnedColour, lab: npt.ArrayLike) -> np.ndarray:
-    """Distance of CIELAB colours (..., 3) to a colour, the ellipse open outwards [-].
+def distance(
+    model: LearnedColour, lab: npt.ArrayLike, clipped: npt.ArrayLike | None = None
+) -> np.ndarray:
+    """Distance of CIELAB colours (..., 3) to a colour, at its samples' lightness [-].
 
-    A colour more coloured than the ellipse's centre is first brought in along its own hue
-    to the centre's chroma: a more coloured pixel of the taught hue (a brighter lamp, a
-    camera's saturation, a more vivid cube of the class) is more of the colour, never
-    another one; the hue decides. A less coloured one is measured as it is (the ellipse and
-    the chroma floor keep out pastels, glare and shadows). :func:`ellipse_distance` of the
-    colour so brought in.
+    A colour is first taken to the samples' lightness L₀: its a*, b* times
+    (L₀ + 16) / (L* + 16), as dimming or brightening the light scales them (module
+    docstring), so a shaded face of an object is its own colour, and a pastel (lighter
+    and less coloured) is farther off than it looks. Not a pixel brighter than the
+    samples with a channel clipped (``clipped``, (...,) bool; :func:`clipped_bgr`): the
+    clipping took its chroma, so it is measured at its own lightness. Then a colour more
+    coloured than the ellipse's centre is brought in along its own hue to the centre's
+    chroma: a more coloured pixel of the taught hue (a brighter lamp, a camera's
+    saturation, a more vivid cube of the class) is more of the colour, never another one;
+    the hue decides. A less coloured one is measured as it is (the ellipse and the chroma
+    floor keep out pastels, glare and shadows). :func:`ellipse_distance` of the colour so
+    brought.
     """
     c = np.asarray(lab, dtype=float)
+    a, b = c[..., 1], c[..., 2]
+    if model.chroma_lightness is not None:
+        lit = (model.chroma_lightness + LIGHTNESS_OFFSET) / (
+            np.maximum(c[..., 0], 0.0) + LIGHTNESS_OFFSET
+        )
+        if clipped is not None:
+            lit = np.where(np.asarray(clipped, dtype=bool) & (lit < 1.0), 1.0, lit)
+        a, b = a * lit, b * lit
     c0 = float(np.hypot(model.ab_mean[0], model.ab_mean[1]))
-    cc = np.hypot(c[..., 1], c[..., 2])
+    cc = np.hypot(a, b)
     # a centre too faint to have a hue (chroma under CHROMA_MIN) is measured as it is
     scale = np.where((cc > c0) & (c0 >= CHROMA_MIN), c0 / np.maximum(cc, 1e-12), 1.0)
-    return _mahalanobis(model, c[..., 1] * scale, c[..., 2] * scale)
+    return _mahalanobis(model, a * scale, b * scale)
+
+
+def clipped_bgr(pixels_bgr: npt.ArrayLike) -> np.ndarray:
+    """Whether 8-bit BGR pixels (..., 3) have a channel clipped: at :data:`CLIPPED` or above."""
+    return np.asarray(pixels_bgr).max(axis=-1) >= CLIPPED
 
 
 def ellipse_distance(model: LearnedColour, lab: npt.ArrayLike) -> np.ndarray:
@@ -167,12 +194,17 @@ def chroma_floor(model: LearnedColour, lightness: npt.ArrayLike) -> np.ndarray:
     return np.maximum(model.chroma_min * scale, min(CHROMA_MIN, model.chroma_min))
 
 
-def accepts(model: LearnedColour, lab: npt.ArrayLike) -> np.ndarray:
-    """Whether CIELAB colours (..., 3) are of the colour: in its ellipse and lightness."""
+def accepts(
+    model: LearnedColour, lab: npt.ArrayLike, clipped: npt.ArrayLike | None = None
+) -> np.ndarray:
+    """Whether CIELAB colours (..., 3) are of the colour: in its ellipse and lightness.
+
+    ``clipped``: where the pixels have a channel clipped (:func:`distance`).
+    """
     c = np.asarray(lab, dtype=float)
     lo, hi = model.lightness
     floor = chroma_floor(model, c[..., 0])
-    inside = (distance(model, c) <= model.max_distance) & (chroma(c) >= floor)
+    inside = (distance(model, c, clipped) <= model.max_distance) & (chroma(c) >= floor)
     return inside & (c[..., 0] >= lo) & (c[..., 0] <= hi)
 
 
@@ -265,12 +297,12 @@ class LearnedClassifier:
         lab = cv2.cvtColor(flat, cv2.COLOR_BGR2Lab).reshape(-1, 3).astype(float)
         best = np.full(len(lab), np.inf)
         codes = np.zeros(len(lab), np.uint8)
+        clipped = clipped_bgr(centre)
         for code, model in self.models.items():
-            d = np.where(accepts(model, lab), distance(model, lab), np.inf)
+            d = np.where(accepts(model, lab, clipped), distance(model, lab, clipped), np.inf)
             nearer = d < best
             codes[nearer], best[nearer] = code, d[nearer]
         # blown-out pixels: a channel clipped, the hue of a colour, a little chroma
-        clipped = centre.max(axis=1) >= 255 - step
         hue = np.arctan2(lab[:, 2], lab[:, 1])
         c = chroma(lab)
         highlight = np.zeros(len(lab), np.uint8)

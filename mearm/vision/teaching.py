@@ -27,6 +27,7 @@ from mearm.vision.learned import (
     area_mask,
     balance,
     chroma,
+    clipped_bgr,
     distance,
     ellipse_distance,
     fit_colour,
@@ -266,7 +267,9 @@ def teach(
         pixels.setdefault(s.name, []).append(lab)
     colours = {name: fit_colour(np.concatenate(p)) for name, p in pixels.items()}
     _refuse_shared(colours, samples)
-    d_table = {n: float(distance(m, table_lab)) for n, m in colours.items()}
+    # the table as the classifier sees it (at the samples' lightness unless clipped)
+    table_clipped = clipped_bgr(np.array(reference))
+    d_table = {n: float(distance(m, table_lab, table_clipped)) for n, m in colours.items()}
     colours = {
         n: m.model_copy(update={"max_distance": max(MIN_DISTANCE, d_table[n] - TABLE_MARGIN)})
         if d_table[n] < m.max_distance + TABLE_MARGIN
