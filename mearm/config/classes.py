@@ -57,9 +57,11 @@ class LearnedColour(Strict):
     ``chroma_min`` (shadows and glare on a white table are faintly coloured, never as
     much as an object); with ``chroma_lightness`` L₀ the floor is ``chroma_min`` ·
     (L* + 16) / (L₀ + 16), the chroma at equal lightness (a*, b* and L* + 16 scale
-    together with the light). A chroma c more coloured than μ is measured at μ's chroma,
-    along its own hue (c · |μ| / |c|; when |μ| ≥ 12, a colour with a hue): the ellipse is
-    open outwards. Written by ``mearm learn-colours``.
+    together with the light), and c is taken to L₀ before its distance is measured,
+    c · (L₀ + 16) / (L* + 16) (not when L* > L₀ and a channel of the pixel is clipped,
+    ≥ 252). A chroma c more coloured than μ is measured at μ's chroma, along its own hue
+    (c · |μ| / |c|; when |μ| ≥ 12, a colour with a hue): the ellipse is open outwards.
+    Written by ``mearm learn-colours``.
 
     Attributes:
         ab_mean: The ellipse's centre (a*, b*) [-], CIELAB, D65.
@@ -67,8 +69,9 @@ class LearnedColour(Strict):
         lightness: The lightness L* it accepts, (lo, hi) [0–100].
         max_distance: The Mahalanobis radius of the ellipse [-].
         chroma_min: The least chroma it accepts [-] (at ``chroma_lightness``, if given).
-        chroma_lightness: The lightness L* at which ``chroma_min`` holds [0–100];
-            ``None``: the same floor at every lightness.
+        chroma_lightness: The lightness L* at which ``chroma_min`` holds and the
+            ellipse's distances are measured [0–100]; ``None``: the same floor at every
+            lightness, each pixel measured at its own.
     """
 
     ab_mean: tuple[Opponent, Opponent]

@@ -141,7 +141,7 @@ def distance(
     saturation, a more vivid cube of the class) is more of the colour, never another one;
     the hue decides. A less coloured one is measured as it is (the ellipse and the chroma
     floor keep out pastels, glare and shadows). :func:`ellipse_distance` of the colour so
-    brought.
+    brought in.
     """
     c = np.asarray(lab, dtype=float)
     a, b = c[..., 1], c[..., 2]
