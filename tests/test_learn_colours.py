@@ -92,6 +92,7 @@ def test_unsampled_classes_keep_their_bands(
     ("samples", "words"),
     [
         (["red=700,100"], "outside the image (640x480 px)"),
+        (["red=1e9,-1e9"], "outside the image (640x480 px)"),
         (["purple=100,100"], "no class 'purple'"),
         (
             [first("red"), first("red").replace("red=", "green=")],
@@ -118,6 +119,24 @@ def test_refusals(
     assert code == 2
     assert len(err.strip().splitlines()) == 1 and words in err, err
     assert not out.exists()
+
+
+def test_a_click_on_the_table_is_refused(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """On a wooden table, coloured enough to pass for a class, a click on the table is
+    refused with exit 2 and one line (a class taught there took the whole table), while
+    the objects' clicks on the same frame teach."""
+    frame = tmp_path / "wood.png"
+    renderer = TableRenderer(CAL, 640, 480, table="wood")
+    cv2.imwrite(str(frame), renderer.render(class_discs(CONFIG.task.classes, LAYOUT)))
+    out = tmp_path / "x.yaml"
+    argv = [str(frame), "--config", "sim", "--out", str(out), "--sample"]
+    code, _, err = call(main, [*argv, "red=5,5"], capsys)
+    assert code == 2 and len(err.strip().splitlines()) == 1, err
+    assert "on the table's colour" in err and not out.exists()
+    code, _, err = call(main, [*argv, first("red")], capsys)
+    assert code == 0 and out.exists(), err
 
 
 def test_usage_refusals(

@@ -17,7 +17,8 @@ pixel of an object of the class; ``--pick`` shows the first frame and asks for a
 on each class in turn (needs a display). A class not sampled keeps its hue bands.
 
 Refused (exit 2, one line): a sample outside its image, a class the config does not
-have, two classes sampled on one colour, a sample on a grey or black pixel.
+have, two classes sampled on one colour, a sample on a grey or black pixel or on the
+table's colour.
 """
 
 from __future__ import annotations

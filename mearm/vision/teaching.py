@@ -7,7 +7,7 @@ around the samples: the frame's pixels near the colour just outside them, the la
 such region's outline is the work area unless the user gives one, and each colour's
 ellipse is narrowed to keep the table's colour out. A sample that cannot teach is
 refused (:class:`~mearm.vision.errors.SampleError`): outside the image, on a grey or
-black pixel, or two classes sampled on one colour.
+black pixel, on the table's colour, or two classes sampled on one colour.
 """
 
 from __future__ import annotations
@@ -237,9 +237,15 @@ def teach(
         find_area: Find the table's outline as the work area when none is given.
 
     Raises:
-        SampleError: a sample outside its image, on a grey or black pixel, or two
-            classes sampled on the same colour.
+        SampleError: a sample outside its image, on a grey or black pixel or the
+            table's colour, or two classes sampled on the same colour.
     """
+    for s in samples:  # before anything is read around them
+        h, w = frames[s.image].shape[:2]
+        if not (0 <= s.u_px < w and 0 <= s.v_px < h):
+            raise SampleError(
+                str(s), f"is outside the image ({w}x{h} px): 0 <= U < {w}, 0 <= V < {h}"
+            )
     first = frames[0]
     area = work_area_px
     table_lab, found = find_table(first, [s for s in samples if s.image == 0], object_px)
@@ -250,19 +256,20 @@ def teach(
     balanced = [balance(f, reference, area_mask(area, f.shape) if area else None) for f in frames]
     pixels: dict[str, list[np.ndarray]] = {}
     for s in samples:
-        frame = balanced[s.image]
-        h, w = frame.shape[:2]
-        if not (0 <= s.u_px < w and 0 <= s.v_px < h):
-            raise SampleError(
-                str(s), f"is outside the image ({w}x{h} px): 0 <= U < {w}, 0 <= V < {h}"
-            )
-        lab = _like_click(frame, s, radius_px, table_lab)
+        lab = _like_click(balanced[s.image], s, radius_px, table_lab)
         c, lightness = float(np.median(chroma(lab))), float(np.median(lab[:, 0]))
         if c < CHROMA_MIN or lightness < LIGHTNESS_MIN:
             raise SampleError(
                 str(s),
                 f"is on a grey or black pixel (chroma {c:.0f}, lightness {lightness:.0f}; "
                 f"a colour needs chroma >= {CHROMA_MIN:g}): click on the object's colour",
+            )
+        off_table = float(np.linalg.norm(np.median(lab, axis=0) - table_lab))
+        if off_table <= TABLE_DELTA_E:
+            raise SampleError(
+                str(s),
+                f"is on the table's colour (ΔE {off_table:.0f} from it; an object's must "
+                f"differ by more than {TABLE_DELTA_E:g}): click on an object of the class",
             )
         pixels.setdefault(s.name, []).append(lab)
     colours = {name: fit_colour(np.concatenate(p)) for name, p in pixels.items()}
