@@ -228,7 +228,15 @@ def pytest_configure(config: pytest.Config) -> None:
     """Before xdist starts its workers, the controller does once what each of them would
     do at its start in a fresh clone: rewrite the test modules' asserts
     (:func:`rewrite_test_modules_once`) and compile the package's bytecode (each worker
-    imports most of it to collect; 0.6 s of CPU, on a warm tree a look at each header)."""
+    imports most of it to collect; 0.6 s of CPU, on a warm tree a look at each header).
+
+    A suite started in the background by a shell (``nohup make test &``) inherits Ctrl-C
+    ignored, and so would every program it starts: the Ctrl-C tests would see the signal
+    lost for a reason outside the code. Python's own handler is put back here, before the
+    workers start, so each program under test starts with Ctrl-C as a terminal gives it.
+    """
+    if signal.getsignal(signal.SIGINT) == signal.SIG_IGN:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
     if not hasattr(config, "workerinput") and config.getoption("numprocesses", None):
         # pytest's internals: whatever another release does to them, the workers rewrite
         with contextlib.suppress(Exception):
