@@ -278,9 +278,9 @@ class LearnedClassifier:
 
     The table is indexed by the pixel's colour with :data:`COLOUR_BITS` bits a channel
     (after the frame's gains): each of its 2^18 colours is classified once, at the
-    centre of its cell, when the classifier is made; a frame is then a per-channel
-    look-up (gains and quantisation at once), a reinterpretation of each pixel's bytes
-    as one integer, and a gather.
+    centre of its cell, when the classifier is made; a frame is then one colour
+    transform (gains and quantisation of the three channels at once), a reinterpretation
+    of each pixel's bytes as one integer, and a gather.
 
     Args:
         models: Per colour's code (1…), its learned colour.
@@ -288,7 +288,6 @@ class LearnedClassifier:
 
     def __init__(self, models: Mapping[int, LearnedColour]):
         self.models = dict(models)
-        self._zeros: dict[tuple[int, ...], np.ndarray] = {}  # per frame size, a 0 plane
         step = 1 << (8 - COLOUR_BITS)
         levels = np.arange(1 << COLOUR_BITS)
         b, g, r = np.meshgrid(levels, levels, levels, indexing="ij")
@@ -340,23 +339,29 @@ class LearnedClassifier:
         highlight alone never becomes an object).
         """
         looked_up = self._lut.take(self._index(frame_bgr, gain))
+        if cv2.minMaxLoc(looked_up)[1] < HIGHLIGHT:  # no blown-out pixel
+            return looked_up
         strong = cv2.threshold(looked_up, HIGHLIGHT - 1, 0, cv2.THRESH_TOZERO_INV)[1]
-        if not cv2.countNonZero(cv2.compare(looked_up, strong, cv2.CMP_NE)):
-            return strong
         weak = and_scalar(looked_up, HIGHLIGHT - 1)
         return grow_into_shadows(strong, weak, max(self.models, default=0))
 
     def _index(self, frame_bgr: np.ndarray, gain: npt.ArrayLike | None) -> np.ndarray:
-        """Each pixel's index in the tables, uint32 (H, W)."""
+        """Each pixel's index in the tables, uint32 (H, W).
+
+        Each channel's cell is its level times its gain, rounded, then shifted right by
+        8 − :data:`COLOUR_BITS` bits (as :func:`_channel_lut`'s): that is the level times
+        the gain over the cell's width, less ``3/8``, rounded, and held at the top cell,
+        which OpenCV's ``transform`` computes for all three channels at once (in single
+        precision: a level within a millionth of a cell's edge may fall in either cell).
+        The pixel's bytes b, g, r and a 0 then read as one little-endian integer.
+        """
         g = np.ones(3) if gain is None else np.asarray(gain, dtype=float)
-        lut = _channel_lut(g, 8 - COLOUR_BITS)
-        # one look-up per plane is several times cheaper than one 3-channel look-up
-        planes = [
-            cv2.LUT(p, np.ascontiguousarray(lut[:, 0, c]))
-            for c, p in enumerate(cv2.split(frame_bgr))
-        ]
-        shape = frame_bgr.shape[:2]
-        zero = self._zeros.get(shape)
-        if zero is None:  # the 4th byte of each index; never written
-            zero = self._zeros.setdefault(shape, np.zeros(shape, np.uint8))
-        return cv2.merge([*planes, zero]).view(np.uint32).reshape(shape)
+        width = 1 << (8 - COLOUR_BITS)
+        scale = np.zeros((3, 4))
+        scale[[0, 1, 2], [0, 1, 2]] = g / width
+        scale[:, 3] = 0.5 / width - 0.5  # floor((x + 1/2) / width), as a rounding
+        cells = cv2.transform(frame_bgr, scale)
+        top = (1 << COLOUR_BITS) - 1
+        # OpenCV takes a tuple as a Scalar; its stubs list only array overloads.
+        quads = cv2.min(cv2.cvtColor(cells, cv2.COLOR_BGR2BGRA), (top, top, top, 0))  # type: ignore[call-overload]
+        return quads.view(np.uint32).reshape(frame_bgr.shape[:2])
