@@ -88,10 +88,15 @@ def test_the_floors_as_thresholds_are_their_tables(s_min: float, v_min: float) -
 
 @pytest.mark.parametrize("seed", range(30))
 def test_the_median_colour_is_numpys(seed: int) -> None:
-    """``median_bgr`` from histograms equals ``np.median`` of the same pixels."""
+    """``median_bgr`` from histograms equals ``np.median`` of the same pixels: on frames
+    whose width is a multiple of the stride (read in place) and others, and on a view."""
     rng = np.random.default_rng(seed)
     h, w = (int(v) for v in rng.integers(1, 90, 2))
+    if seed % 4 < 2:  # rows read in place, as pixels of 3 x 8 channels
+        w = 8 * (w // 8 + 1)
     frame = rng.integers(0, 256 if seed % 3 else 4, (h, w, 3), dtype=np.uint8)
+    if seed % 5 == 0:  # a view, not C-contiguous
+        frame = frame[:, ::-1]
     mask = ((rng.random((h, w)) < rng.random()) * 255).astype(np.uint8) if seed % 2 else None
     sub = frame[::8, ::8].reshape(-1, 3)
     if mask is not None and (inside := mask[::8, ::8].reshape(-1) > 0).any():

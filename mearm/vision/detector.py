@@ -394,9 +394,9 @@ class ColorDetector:
         """
         masks, ox, oy = self._filtered(frame_bgr, exclude, prepared)
         # One image of class codes 1..N (0 = none); the filtered masks are disjoint.
-        index = np.zeros_like(next(iter(masks.values())))
-        for code, name in enumerate(self.class_names, start=1):
-            index = cv2.bitwise_or(index, and_scalar(masks[name], code))
+        index = and_scalar(masks[self.class_names[0]], 1)
+        for code, name in enumerate(self.class_names[1:], start=2):
+            np.bitwise_or(index, and_scalar(masks[name], code), out=index)
         found = find_regions(index, (ox, oy), self.vision.min_area_px)
         codes, areas, boxes, elongations = found.codes, found.areas, found.boxes, found.elongations
         sources, centroid, labels = found.sources, found.centroid, found.labels

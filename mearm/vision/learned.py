@@ -225,15 +225,28 @@ def median_bgr(frame_bgr: np.ndarray, mask: np.ndarray | None = None) -> np.ndar
     Read on every :data:`MEDIAN_STRIDE`-th row and column; the whole frame's if the mask
     is empty.
     """
-    sub = frame_bgr[::MEDIAN_STRIDE, ::MEDIAN_STRIDE].reshape(-1, 3)
+    step = MEDIAN_STRIDE
+    inside = None
     if mask is not None:
-        inside = mask[::MEDIAN_STRIDE, ::MEDIAN_STRIDE].reshape(-1) > 0
-        if inside.any():
-            sub = sub[inside]
+        inside = np.ascontiguousarray(mask[::step, ::step])
+        if not cv2.countNonZero(inside):
+            inside = None
+    width = frame_bgr.shape[1]
+    if width % step == 0 and frame_bgr.strides[1:] == (3, 1):
+        # every step-th row read as width/step pixels of 3·step channels, of which the
+        # first three are the sampled pixel's: its histograms without a copy
+        rows = frame_bgr[::step].reshape(-1, width // step, 3 * step)
+        count = rows.shape[0] * rows.shape[1] if inside is None else cv2.countNonZero(inside)
+        hist = [cv2.calcHist([rows], [c], inside, [256], [0, 256]).ravel() for c in range(3)]
+    else:
+        sub = frame_bgr[::step, ::step].reshape(-1, 3)
+        if inside is not None:
+            sub = sub[inside.reshape(-1) > 0]
+        count = len(sub)
+        hist = [np.bincount(sub[:, c], minlength=256) for c in range(3)]
     # np.median's value, from each channel's histogram (8-bit levels: no sort needed):
     # the mean of the two middle levels, (N − 1)//2-th and N//2-th (one when N is odd)
-    count = len(sub)
-    cum = np.cumsum([np.bincount(sub[:, c], minlength=256) for c in range(3)], axis=1)
+    cum = np.cumsum(hist, axis=1)
     lo, hi = np.argmax(cum > (count - 1) // 2, axis=1), np.argmax(cum > count // 2, axis=1)
     return (lo + hi) / 2.0
 
