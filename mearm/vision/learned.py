@@ -84,6 +84,9 @@ COLOUR_BITS = 6
 #: A channel at this level or above is clipped [8-bit]: the top cell of the classifier's
 #: table (:data:`COLOUR_BITS`).
 CLIPPED = 256 - (1 << (8 - COLOUR_BITS))
+#: Pixels of a frame classified together: the band's arrays (about 16 bytes a pixel,
+#: the look-up's index among them) fit in a processor's 1 MiB second-level cache.
+BAND_PX = 1 << 15
 
 
 def lab_of(pixels_bgr: npt.ArrayLike) -> np.ndarray:
@@ -337,7 +340,7 @@ class LearnedClassifier:
             frame_bgr: The frame, (H, W, 3) uint8.
             gain: Per-channel gains (B, G, R) to apply first (:func:`gains`); ``None``: 1.
         """
-        looked_up = self._lut.take(self._index(frame_bgr, gain))
+        looked_up = self._looked_up(frame_bgr, gain)
         return cv2.threshold(looked_up, HIGHLIGHT - 1, 0, cv2.THRESH_TOZERO_INV)[1]
 
     def classify_with_highlights(
@@ -351,30 +354,38 @@ class LearnedClassifier:
         of that colour it touches (:func:`mearm.vision.shadows.grow_into_shadows`: a
         highlight alone never becomes an object).
         """
-        looked_up = self._lut.take(self._index(frame_bgr, gain))
+        looked_up = self._looked_up(frame_bgr, gain)
         if cv2.minMaxLoc(looked_up)[1] < HIGHLIGHT:  # no blown-out pixel
             return looked_up
         strong = cv2.threshold(looked_up, HIGHLIGHT - 1, 0, cv2.THRESH_TOZERO_INV)[1]
         weak = and_scalar(looked_up, HIGHLIGHT - 1)
         return grow_into_shadows(strong, weak, max(self.models, default=0))
 
-    def _index(self, frame_bgr: np.ndarray, gain: npt.ArrayLike | None) -> np.ndarray:
-        """Each pixel's index in the tables, uint32 (H, W).
+    def _looked_up(self, frame_bgr: np.ndarray, gain: npt.ArrayLike | None) -> np.ndarray:
+        """Each pixel's entry in the table, uint8 (H, W).
 
-        Each channel's cell is its level times its gain, rounded, then shifted right by
-        8 − :data:`COLOUR_BITS` bits (as :func:`_channel_lut`'s): that is the level times
-        the gain over the cell's width, less ``3/8``, rounded, and held at the top cell,
-        which OpenCV's ``transform`` computes for all three channels at once (in single
-        precision: a level within a millionth of a cell's edge may fall in either cell).
-        The pixel's bytes b, g, r and a 0 then read as one little-endian integer.
+        A pixel's index is its cells' bytes b, g, r and a 0 read as one little-endian
+        integer. Each channel's cell is its level times its gain, rounded, then shifted
+        right by 8 − :data:`COLOUR_BITS` bits (as :func:`_channel_lut`'s): that is the
+        level times the gain over the cell's width, less ``3/8``, rounded, and held at the
+        top cell, which OpenCV's ``transform`` computes for all three channels at once (in
+        single precision: a level within a millionth of a cell's edge may fall in either
+        cell). The frame is taken in bands of :data:`BAND_PX` pixels, so the band's
+        arrays stay in the processor's cache from the transform to the gather.
         """
         g = np.ones(3) if gain is None else np.asarray(gain, dtype=float)
         width = 1 << (8 - COLOUR_BITS)
         scale = np.zeros((3, 4))
         scale[[0, 1, 2], [0, 1, 2]] = g / width
         scale[:, 3] = 0.5 / width - 0.5  # floor((x + 1/2) / width), as a rounding
-        cells = cv2.transform(frame_bgr, scale)
         top = (1 << COLOUR_BITS) - 1
-        # OpenCV takes a tuple as a Scalar; its stubs list only array overloads.
-        quads = cv2.min(cv2.cvtColor(cells, cv2.COLOR_BGR2BGRA), (top, top, top, 0))  # type: ignore[call-overload]
-        return quads.view(np.uint32).reshape(frame_bgr.shape[:2])
+        height, cols = frame_bgr.shape[:2]
+        out = np.empty((height, cols), np.uint8)
+        rows = max(1, BAND_PX // max(cols, 1))
+        for y in range(0, height, rows):
+            quads = cv2.cvtColor(cv2.transform(frame_bgr[y : y + rows], scale), cv2.COLOR_BGR2BGRA)
+            # OpenCV takes a tuple as a Scalar; its stubs list only array overloads.
+            cv2.min(quads, (top, top, top, 0), dst=quads)  # type: ignore[call-overload]
+            index = quads.view(np.uint32)[..., 0]  # every one inside the table
+            self._lut.take(index, out=out[y : y + rows], mode="clip")  # "raise" would buffer
+        return out
