@@ -188,6 +188,12 @@ def test_lookup_table_agrees_with_the_model() -> None:
         want = np.where(np.isfinite(np.minimum(*d)), np.where(d[0] <= d[1], 1, 2), 0)
         assert (codes == want).all()
         assert (codes == 1).any() and (codes == 2).any() and (codes == 0).any()
+        # a frame of one pixel, of a row, of a column (OpenCV takes 4 bytes for a Scalar)
+        for j in (*np.flatnonzero(want == 1)[:3], *np.flatnonzero(want == 2)[:3]):
+            one = px[:, j : j + 1]
+            assert classifier.classify(one, gain)[0, 0] == want[j]
+            assert classifier.classify_with_highlights(one, gain)[0, 0] == want[j]
+        assert (classifier.classify(px[:, :5].reshape(5, 1, 3), gain)[:, 0] == want[:5]).all()
 
 
 def test_chroma_floor_is_at_equal_lightness() -> None:

@@ -84,9 +84,6 @@ COLOUR_BITS = 6
 #: A channel at this level or above is clipped [8-bit]: the top cell of the classifier's
 #: table (:data:`COLOUR_BITS`).
 CLIPPED = 256 - (1 << (8 - COLOUR_BITS))
-#: Pixels of a frame classified together: the band's arrays (about 16 bytes a pixel,
-#: the look-up's index among them) fit in a processor's 1 MiB second-level cache.
-BAND_PX = 1 << 15
 
 
 def lab_of(pixels_bgr: npt.ArrayLike) -> np.ndarray:
@@ -295,8 +292,8 @@ class LearnedClassifier:
     The table is indexed by the pixel's colour with :data:`COLOUR_BITS` bits a channel
     (after the frame's gains): each of its 2^18 colours is classified once, at the
     centre of its cell, when the classifier is made; a frame is then one colour
-    transform (gains and quantisation of the three channels at once), a reinterpretation
-    of each pixel's bytes as one integer, and a gather.
+    transform (gains and quantisation of the three channels at once), and a look-up of
+    each pixel's cells, read as a place in the table, by ``remap``.
 
     Args:
         models: Per colour's code (1…), its learned colour.
@@ -325,11 +322,11 @@ class LearnedClassifier:
             h0 = np.arctan2(model.ab_mean[1], model.ab_mean[0])
             near = np.abs(np.angle(np.exp(1j * (hue - h0)))) <= np.radians(HIGHLIGHT_HUE_DEG)
             highlight[clipped & near & (c >= HIGHLIGHT_CHROMA) & (codes == 0)] = code
-        # the index of colour (b, g, r): its bytes b, g, r, 0 read as one little-endian int
-        index = (b | (g << 8) | (r << 16)).reshape(-1)
-        # one byte a colour: its code, or HIGHLIGHT | the code of the colour it may join
-        self._lut = np.zeros(1 << (16 + COLOUR_BITS), np.uint8)
-        self._lut[index] = np.where(
+        # one byte a colour: its code, or HIGHLIGHT | the code of the colour it may join;
+        # colour (b, g, r) at row r, column b + 256·g: where a pixel's bytes b, g, r, 0,
+        # read as two 16-bit integers, point (x, y), as OpenCV's remap reads them
+        self._table = np.zeros((1 << COLOUR_BITS, 1 << (8 + COLOUR_BITS)), np.uint8)
+        self._table[r.reshape(-1), (b | (g << 8)).reshape(-1)] = np.where(
             codes > 0, codes, np.where(highlight > 0, HIGHLIGHT | highlight, 0)
         )
 
@@ -364,14 +361,13 @@ class LearnedClassifier:
     def _looked_up(self, frame_bgr: np.ndarray, gain: npt.ArrayLike | None) -> np.ndarray:
         """Each pixel's entry in the table, uint8 (H, W).
 
-        A pixel's index is its cells' bytes b, g, r and a 0 read as one little-endian
-        integer. Each channel's cell is its level times its gain, rounded, then shifted
-        right by 8 − :data:`COLOUR_BITS` bits (as :func:`_channel_lut`'s): that is the
-        level times the gain over the cell's width, less ``3/8``, rounded, and held at the
-        top cell, which OpenCV's ``transform`` computes for all three channels at once (in
-        single precision: a level within a millionth of a cell's edge may fall in either
-        cell). The frame is taken in bands of :data:`BAND_PX` pixels, so the band's
-        arrays stay in the processor's cache from the transform to the gather.
+        Each channel's cell is its level times its gain, rounded, then shifted right by
+        8 − :data:`COLOUR_BITS` bits (as :func:`_channel_lut`'s): that is the level times
+        the gain over the cell's width, less ``3/8``, rounded, and held at the top cell,
+        which OpenCV's ``transform`` computes for all three channels at once (in single
+        precision: a level within a millionth of a cell's edge may fall in either cell).
+        The cells' bytes b, g, r and a 0 are then, read as two 16-bit integers, the
+        colour's place in the table, which ``remap`` reads (nearest, no interpolation).
         """
         g = np.ones(3) if gain is None else np.asarray(gain, dtype=float)
         width = 1 << (8 - COLOUR_BITS)
@@ -379,13 +375,12 @@ class LearnedClassifier:
         scale[[0, 1, 2], [0, 1, 2]] = g / width
         scale[:, 3] = 0.5 / width - 0.5  # floor((x + 1/2) / width), as a rounding
         top = (1 << COLOUR_BITS) - 1
-        height, cols = frame_bgr.shape[:2]
-        out = np.empty((height, cols), np.uint8)
-        rows = max(1, BAND_PX // max(cols, 1))
-        for y in range(0, height, rows):
-            quads = cv2.cvtColor(cv2.transform(frame_bgr[y : y + rows], scale), cv2.COLOR_BGR2BGRA)
+        quads = cv2.cvtColor(cv2.transform(frame_bgr, scale), cv2.COLOR_BGR2BGRA)
+        if quads.size > 4:
             # OpenCV takes a tuple as a Scalar; its stubs list only array overloads.
             cv2.min(quads, (top, top, top, 0), dst=quads)  # type: ignore[call-overload]
-            index = quads.view(np.uint32)[..., 0]  # every one inside the table
-            self._lut.take(index, out=out[y : y + rows], mode="clip")  # "raise" would buffer
-        return out
+        else:  # one pixel's four bytes, which OpenCV would take for a Scalar
+            np.minimum(quads, np.array([top, top, top, 0], np.uint8), out=quads)
+        places = quads.view(np.int16).reshape(*quads.shape[:2], 2)  # (x, y) a pixel
+        # no second map: the (x, y) pairs are whole in the first (its stubs ask for one)
+        return cv2.remap(self._table, places, None, cv2.INTER_NEAREST)  # type: ignore[call-overload]
