@@ -194,6 +194,14 @@ def test_lookup_table_agrees_with_the_model() -> None:
             assert classifier.classify(one, gain)[0, 0] == want[j]
             assert classifier.classify_with_highlights(one, gain)[0, 0] == want[j]
         assert (classifier.classify(px[:, :5].reshape(5, 1, 3), gain)[:, 0] == want[:5]).all()
+    # wider than one remap takes (32,767 px): classified in tiles, each pixel as alone
+    wide = np.tile(px[:, :4], (1, 10_000, 1))  # (1, 40 000, 3)
+    assert (
+        classifier.classify(wide)[0] == np.tile(classifier.classify(px[:, :4])[0], 10_000)
+    ).all()
+    assert (
+        classifier.classify(wide.transpose(1, 0, 2))[:, 0] == classifier.classify(wide)[0]
+    ).all()
 
 
 def test_chroma_floor_is_at_equal_lightness() -> None:

@@ -84,6 +84,8 @@ COLOUR_BITS = 6
 #: A channel at this level or above is clipped [8-bit]: the top cell of the classifier's
 #: table (:data:`COLOUR_BITS`).
 CLIPPED = 256 - (1 << (8 - COLOUR_BITS))
+#: OpenCV's remap takes images under this many pixels a side (SHRT_MAX).
+REMAP_MAX_PX = 32767
 
 
 def lab_of(pixels_bgr: npt.ArrayLike) -> np.ndarray:
@@ -382,5 +384,17 @@ class LearnedClassifier:
         else:  # one pixel's four bytes, which OpenCV would take for a Scalar
             np.minimum(quads, np.array([top, top, top, 0], np.uint8), out=quads)
         places = quads.view(np.int16).reshape(*quads.shape[:2], 2)  # (x, y) a pixel
+        height, cols = places.shape[:2]
+        if max(height, cols) < REMAP_MAX_PX:
+            return self._remap(places)
+        out = np.empty((height, cols), np.uint8)  # a frame too large for one remap: tiles
+        for y in range(0, height, REMAP_MAX_PX - 1):
+            for x in range(0, cols, REMAP_MAX_PX - 1):
+                tile = places[y : y + REMAP_MAX_PX - 1, x : x + REMAP_MAX_PX - 1]
+                out[y : y + tile.shape[0], x : x + tile.shape[1]] = self._remap(tile)
+        return out
+
+    def _remap(self, places: np.ndarray) -> np.ndarray:
+        """The table's entries at ``places`` ((h, w, 2) int16 (x, y)), uint8 (h, w)."""
         # no second map: the (x, y) pairs are whole in the first (its stubs ask for one)
         return cv2.remap(self._table, places, None, cv2.INTER_NEAREST)  # type: ignore[call-overload]
