@@ -230,7 +230,7 @@ def median_bgr(frame_bgr: np.ndarray, mask: np.ndarray | None = None) -> np.ndar
     step = MEDIAN_STRIDE
     inside = None
     if mask is not None:
-        inside = np.ascontiguousarray(mask[::step, ::step])
+        inside = (mask[::step, ::step] > 0).view(np.uint8)
         if not cv2.countNonZero(inside):
             inside = None
     width = frame_bgr.shape[1]
