@@ -38,6 +38,7 @@ from mearm.cli import (
     add_config_argument,
     config_from_args,
     float_list,
+    invoked_as,
     run,
     write_text_atomic,
 )
@@ -52,7 +53,9 @@ DEFAULT_TARGET_XY_CM = (-10.99, 49.70)
 
 
 def _parser() -> ArgumentParser:
-    parser = ArgumentParser(prog="python -m mearm.analyze", description=__doc__.splitlines()[0])
+    parser = ArgumentParser(
+        prog=invoked_as("python -m mearm.analyze"), description=__doc__.splitlines()[0]
+    )
     parser.add_argument("log", nargs="?", type=Path, help="run log (JSON lines) to analyse")
     parser.add_argument("--out", type=Path, help="write PNG plots and report.md into this folder")
     parser.add_argument("--json", action="store_true", help="print everything as JSON")

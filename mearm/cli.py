@@ -246,14 +246,26 @@ def _check_writable_folder(path: Path, flag: str) -> None:
         raise MearmError(f"{flag} {path}: cannot write: the folder {folder} is not writable")
 
 
-def _program_name() -> str:
-    """``python -m mearm.ik`` for a module run with -m, else the script's name."""
+def invoked_as(module_command: str) -> str:
+    """A command's name as the user typed it, for its usage and error lines.
+
+    ``mearm sort`` when run as a subcommand of the ``mearm`` command (which names itself
+    so in ``sys.argv[0]``), else ``module_command`` (``python -m mearm.sort``).
+    """
     if sys.argv and sys.argv[0].startswith("mearm "):
-        return sys.argv[0]  # a subcommand of the mearm command
+        return sys.argv[0]
+    return module_command
+
+
+def _program_name() -> str:
+    """The running command's name (:func:`invoked_as`).
+
+    ``python -m mearm.ik`` for a module run with -m, else the script's name.
+    """
     spec = getattr(sys.modules.get("__main__"), "__spec__", None)
     if spec is not None and spec.name and spec.name != "mearm.__main__":
-        return "python -m " + spec.name.removesuffix(".__main__")
-    return Path(sys.argv[0]).name if sys.argv and sys.argv[0] else "mearm"
+        return invoked_as("python -m " + spec.name.removesuffix(".__main__"))
+    return invoked_as(Path(sys.argv[0]).name if sys.argv and sys.argv[0] else "mearm")
 
 
 def crash_log_path() -> Path:

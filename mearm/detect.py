@@ -36,6 +36,7 @@ from mearm.cli import (
     add_config_argument,
     check_output_file,
     config_from_args,
+    invoked_as,
     run,
 )
 from mearm.config import Config
@@ -222,7 +223,9 @@ def annotate(
 
 def main(argv: Sequence[str] | None = None) -> int:  # noqa: PLR0912 (one branch per option)
     """Detect objects in each image and print them (text or JSON lines)."""
-    parser = ArgumentParser(prog="python -m mearm.detect", description=__doc__.splitlines()[0])
+    parser = ArgumentParser(
+        prog=invoked_as("python -m mearm.detect"), description=__doc__.splitlines()[0]
+    )
     add_config_argument(parser)
     parser.add_argument("images", nargs="*", type=Path, metavar="IMAGE", help="images to read")
     parser.add_argument(

@@ -13,13 +13,22 @@ from __future__ import annotations
 import json
 from collections.abc import Sequence
 
-from mearm.cli import ArgumentParser, add_config_argument, config_from_args, float_list, run
+from mearm.cli import (
+    ArgumentParser,
+    add_config_argument,
+    config_from_args,
+    float_list,
+    invoked_as,
+    run,
+)
 from mearm.kinematics import ArmModel
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Print every joint and the TCP position for the given actuated joints."""
-    parser = ArgumentParser(prog="python -m mearm.fk", description=__doc__.splitlines()[0])
+    parser = ArgumentParser(
+        prog=invoked_as("python -m mearm.fk"), description=__doc__.splitlines()[0]
+    )
     add_config_argument(parser)
     parser.add_argument(
         "--joints",

@@ -58,6 +58,7 @@ try:
         add_config_argument,
         check_output_file,
         config_from_args,
+        invoked_as,
         run,
         seed_value,
         write_text_atomic,
@@ -132,7 +133,9 @@ def _hold(url: str) -> None:
 
 def _parser() -> ArgumentParser:
     """The command line of :func:`main`."""
-    parser = ArgumentParser(prog="python -m mearm.sort", description=__doc__.splitlines()[0])
+    parser = ArgumentParser(
+        prog=invoked_as("python -m mearm.sort"), description=__doc__.splitlines()[0]
+    )
     add_config_argument(parser)
     add_scene_arguments(parser)
     parser.add_argument("--log", type=Path, help="append a JSON-lines run log here")

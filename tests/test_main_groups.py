@@ -4,10 +4,12 @@ from __future__ import annotations
 
 import importlib
 import re
+import sys
 
 import pytest
 
 from mearm.__main__ import GROUPS, SUBCOMMANDS, _usage, main
+from mearm.cli import run
 
 TITLES = [
     "start here",
@@ -72,3 +74,39 @@ def test_an_unknown_subcommand_exits_2_naming_the_choices(
     assert exc.value.code == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "unknown subcommand 'srot'" in err[0] and "init-config" in err[0]
+
+
+@pytest.mark.parametrize("name", list(SUBCOMMANDS))
+def test_each_subcommand_names_itself_as_typed(
+    name: str, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``mearm NAME --help`` shows ``usage: mearm NAME``, not the module it runs."""
+    monkeypatch.setattr(sys, "argv", sys.argv[:])  # the dispatcher renames the program
+    with pytest.raises(SystemExit) as exc:
+        main([name, "--help"])
+    assert exc.value.code == 0
+    assert capsys.readouterr().out.startswith(f"usage: mearm {name} ")
+
+
+@pytest.mark.parametrize(
+    ("argv", "module"), [(["sort"], "mearm.sort"), (["detect"], "mearm.detect")]
+)
+def test_a_bad_option_names_the_command_as_typed(
+    argv: list[str],
+    module: str,
+    capsys: pytest.CaptureFixture[str],
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Through ``mearm`` the error line says ``mearm sort``; run as a module, its -m name."""
+    monkeypatch.setattr(sys, "argv", sys.argv[:])
+    with pytest.raises(SystemExit) as exc:
+        main([*argv, "--bogus"])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [f"mearm {argv[0]}: error: unrecognized arguments: --bogus"]
+    monkeypatch.setattr(sys, "argv", [f"/somewhere/{module}.py"])
+    with pytest.raises(SystemExit) as exc:
+        run(importlib.import_module(module).main, ["--bogus"])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [f"python -m {module}: error: unrecognized arguments: --bogus"]

@@ -48,6 +48,7 @@ from mearm.cli import (
     ArgumentParser,
     add_config_argument,
     config_from_args,
+    invoked_as,
     seed_value,
     worker_count,
 )
@@ -133,7 +134,9 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 
 def _parser() -> ArgumentParser:
-    parser = ArgumentParser(prog="python -m mearm.experiment", description=__doc__.splitlines()[0])
+    parser = ArgumentParser(
+        prog=invoked_as("python -m mearm.experiment"), description=__doc__.splitlines()[0]
+    )
     add_config_argument(parser)
     parser.add_argument(
         "--trials", type=int, default=100, help="number of trials in all (default 100)"

@@ -27,6 +27,7 @@ from mearm.cli import (
     add_config_argument,
     config_from_args,
     float_list,
+    invoked_as,
     positive_number,
     run,
 )
@@ -38,7 +39,9 @@ from mearm.kinematics.errors import InvalidJointsError, InvalidTargetError
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Solve, print the result; see the module docstring."""
-    parser = ArgumentParser(prog="python -m mearm.ik", description=__doc__.splitlines()[0])
+    parser = ArgumentParser(
+        prog=invoked_as("python -m mearm.ik"), description=__doc__.splitlines()[0]
+    )
     add_config_argument(parser)
     parser.add_argument(
         "--start",
