@@ -145,6 +145,33 @@ def test_an_unknown_config_name_lists_the_packaged_ones(tmp_path, monkeypatch, g
         assert "lab, sim, sim_4colours" in message
 
 
+@pytest.mark.parametrize(
+    ("given", "meant"),
+    [
+        ("sim_mujuco", "'sim_mujoco'"),
+        ("lab.yml", "'lab'"),
+        ("sim_4colors.yaml", "'sim_4colours'"),
+        ("nothing_like_it", None),
+    ],
+)
+def test_a_mistyped_config_name_is_met_with_the_names_it_is_close_to(
+    tmp_path, monkeypatch, given, meant
+):
+    """A typo's error says which packaged names were likely meant, before the whole list."""
+    from mearm.config import load_config
+    from mearm.exceptions import ConfigError
+
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(ConfigError) as info:
+        load_config(given)
+    message = str(info.value)
+    if meant is None:
+        assert "did you mean" not in message
+    else:
+        assert f"(did you mean {meant}" in message
+        assert message.index("did you mean") < message.index("lab, sim, sim_4colours")
+
+
 def test_unknown_config_name_on_the_command_line(tmp_path):
     """``mearm fk --config nope``: exit 2, one line naming the choices."""
     import subprocess
@@ -157,7 +184,7 @@ def test_unknown_config_name_on_the_command_line(tmp_path):
         timeout=60,
     )
     assert r.returncode == 2
-    assert r.stderr.count("\n") == 1 and "packaged: lab, sim" in r.stderr
+    assert r.stderr.count("\n") == 1 and "(mearm --help lists them): lab, sim" in r.stderr
 
 
 def test_analyze_out_without_the_extra_names_it(tmp_path, monkeypatch, capsys):

@@ -48,12 +48,18 @@ def resolve_config_path(path: str | Path) -> Path:
     packaged = packaged_config(text)
     if packaged is not None:
         return packaged
-    names = ", ".join(config_names()) or "none"
+    import difflib  # noqa: PLC0415  (a name that is no config only)
+
+    known = config_names()
+    stem = given.stem if given.suffix in (".yaml", ".yml") else text
+    close = difflib.get_close_matches(stem, known, n=3, cutoff=0.75)
+    hint = f" (did you mean {' or '.join(map(repr, close))}?)" if close else ""
     raise ConfigError(
         text,
         [
-            f"config file not found, and no packaged config is named {text!r} "
-            f"(packaged: {names}); give a file's path or one of these names"
+            f"config file not found, and no packaged config is named {text!r}{hint}; give "
+            "a file's path or the name of a packaged config (mearm --help lists them): "
+            f"{', '.join(known) or 'none'}"
         ],
     )
 
