@@ -31,6 +31,9 @@ EXIT_OK = 0
 EXIT_FAILURE = 1
 EXIT_BAD_INPUT = 2
 EXIT_INTERRUPTED = 130
+#: Standard output's reader went away (``mearm detect | head -1``): what a program killed
+#: by SIGPIPE exits with in a shell, 128 + 13.
+EXIT_OUTPUT_CLOSED = 141
 
 
 class ArgumentParser(argparse.ArgumentParser):
@@ -302,12 +305,48 @@ def _one_line(exc: BaseException) -> str:
     return text
 
 
+def output_closed() -> bool:
+    """Whether standard output's reader has gone: a pipe whose other end is closed."""
+    import select  # noqa: PLC0415  (a broken pipe only)
+
+    try:
+        fd = sys.stdout.fileno()
+    except (AttributeError, OSError, ValueError):
+        return False
+    poll = select.poll()
+    poll.register(fd, select.POLLOUT)
+    return any(events & (select.POLLERR | select.POLLHUP) for _, events in poll.poll(0))
+
+
+def _silence_output() -> None:
+    """Send the rest of standard output nowhere (its reader has gone)."""
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(devnull, sys.stdout.fileno())
+    os.close(devnull)
+
+
+def echo_line(line: str) -> None:
+    """Print one line of a long run's report (a sort's); the run outlives its reader.
+
+    When standard output's reader goes (``mearm sort | head -3``), the rest of the lines go
+    nowhere and the run goes on: the arm finishes its job as it would on a terminal (the
+    run log keeps every route), and Ctrl-C still stops it.
+    """
+    try:
+        print(line)
+    except BrokenPipeError:
+        if not output_closed():
+            raise
+        _silence_output()
+
+
 def run(main: Callable[[Sequence[str] | None], int], argv: Sequence[str] | None = None) -> NoReturn:
     """Run a CLI ``main`` under the one guard every command shares.
 
     :class:`MearmError` (bad input) → exit 2; Ctrl-C → 130; any other exception → exit 1
     with one line naming the error and where its traceback was written (``--debug`` or
-    ``MEARM_DEBUG=1``: the traceback itself).
+    ``MEARM_DEBUG=1``: the traceback itself). Standard output's reader gone (a closed
+    pipe) → exit 141, quietly, as a shell's tools do.
     """
     prog = _program_name()
     args = list(sys.argv[1:] if argv is None else argv)
@@ -315,6 +354,8 @@ def run(main: Callable[[Sequence[str] | None], int], argv: Sequence[str] | None 
     interrupts.install()  # a Ctrl-C inside a finalizer is not lost
     try:
         code = main(argv)
+        if sys.stdout is not None:  # None: started with standard output closed (>&-)
+            sys.stdout.flush()  # what was printed reaches the reader, or its pipe is closed
     except MearmError as exc:
         print(f"{prog}: error: {_one_line(exc)}", file=sys.stderr)
         code = EXIT_BAD_INPUT
@@ -322,7 +363,11 @@ def run(main: Callable[[Sequence[str] | None], int], argv: Sequence[str] | None 
         print(f"{prog}: interrupted", file=sys.stderr)
         code = EXIT_INTERRUPTED
     except Exception as exc:
-        if debug:
+        code = EXIT_FAILURE
+        if isinstance(exc, BrokenPipeError) and output_closed():
+            _silence_output()
+            code = EXIT_OUTPUT_CLOSED
+        elif debug:
             traceback.print_exc()
             print(f"{prog}: unexpected error: {type(exc).__name__}", file=sys.stderr)
         else:
@@ -331,7 +376,6 @@ def run(main: Callable[[Sequence[str] | None], int], argv: Sequence[str] | None 
                 f"{prog}: unexpected error: {type(exc).__name__}: {_one_line(exc)} ({where})",
                 file=sys.stderr,
             )
-        code = EXIT_FAILURE
     sys.exit(code)
 
 

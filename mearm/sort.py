@@ -58,6 +58,7 @@ try:
         add_config_argument,
         check_output_file,
         config_from_args,
+        echo_line,
         invoked_as,
         run,
         seed_value,
@@ -241,7 +242,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     scene = scene_from_args(args, config)
     mjcf = _scene_mjcf(config, scene) if args.save_mjcf is not None else None
     lines: list[str] = []
-    echo = lines.append if args.quiet else print
+    echo = lines.append if args.quiet else echo_line
     recorder = recorder_from_args(args, config)  # its directory checked before any motion
 
     make_view = _view_factory(config, collision=args.collision)

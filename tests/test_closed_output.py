@@ -1,0 +1,59 @@
+"""A reader that goes away (``mearm detect | head -1``): a quiet exit, or a sort that goes on.
+
+Python raises ``BrokenPipeError`` on a write to a pipe whose reader has closed; a shell's
+tools die of SIGPIPE there, quietly (exit 141). A short command does so; a sort, whose
+arm is mid-job, finishes it with its lines going nowhere (the run log keeps them).
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+from conftest import ROOT
+
+from mearm.cli import EXIT_OUTPUT_CLOSED
+from mearm.runlog import read_runlog
+
+
+def _popen(args: list[str], cwd: Path) -> subprocess.Popen[bytes]:
+    env = {**os.environ, "PYTHONUNBUFFERED": "1"}  # each line written as it is printed
+    return subprocess.Popen(
+        [sys.executable, "-m", "mearm", *args],
+        cwd=cwd,
+        env=env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+    )
+
+
+def test_a_short_command_whose_reader_left_exits_141_quietly(tmp_path: Path) -> None:
+    """No "unexpected error" line and no crash log: the reader's leaving is no fault."""
+    state = Path(os.environ["MEARM_STATE_DIR"])
+    before = (state / "crash.log").read_bytes() if (state / "crash.log").exists() else b""
+    proc = _popen(["detect", "--config", "sim", "--camera"], tmp_path)
+    assert proc.stdout is not None and proc.stderr is not None
+    proc.stdout.close()  # gone before the first line (the command takes a second to start)
+    err = proc.stderr.read().decode()
+    assert proc.wait(timeout=120) == EXIT_OUTPUT_CLOSED, err
+    assert err == ""
+    after = (state / "crash.log").read_bytes() if (state / "crash.log").exists() else b""
+    assert after == before
+
+
+def test_a_sort_whose_reader_left_finishes_and_logs_every_route(tmp_path: Path) -> None:
+    """``mearm sort | head -1``: all 12 objects sorted, exit 0, the run log whole."""
+    log = tmp_path / "run.jsonl"
+    proc = _popen(["sort", "--config", "sim", "--log", str(log)], ROOT)
+    assert proc.stdout is not None and proc.stderr is not None
+    assert proc.stdout.readline().startswith(b"run log: ")
+    proc.stdout.close()
+    err = proc.stderr.read().decode()
+    assert proc.wait(timeout=120) == 0, err
+    assert err == ""
+    contents = read_runlog(log)
+    assert contents.complete and len(contents.routes) == 24 and not contents.faults
+    summary = contents.trials[-1].summary
+    assert summary is not None and summary.sorted == {"red": 4, "green": 4, "blue": 4}
