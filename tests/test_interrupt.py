@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import os
 import signal
+import sys
 import threading
 import time
 
@@ -18,6 +19,7 @@ import numpy as np
 import pytest
 from built_once import computed_once
 
+from mearm import interrupts
 from mearm.config import Config
 from mearm.runlog import read_runlog
 from mearm.sim.kinematic import servo_bus
@@ -92,7 +94,14 @@ def test_ctrl_c_at_fifty_moments_parks_the_arm(durations, tmp_path, monkeypatch,
 
 
 def _interrupt_runs(part, total, durations, tmp_path, monkeypatch, capsys) -> None:
-    """Part ``part`` of ``total`` sorts, each Ctrl-C'd at a random moment: every one parked."""
+    """Part ``part`` of ``total`` sorts, each Ctrl-C'd at a random moment: every one parked.
+
+    As in the command (:func:`mearm.cli.run`), a Ctrl-C that lands in a finalizer is sent
+    again (:mod:`mearm.interrupts`); pytest's hook for unraisable exceptions, which this
+    test's own replaces, would count it lost and the run as finished before the signal.
+    """
+    monkeypatch.setattr(sys, "unraisablehook", sys.unraisablehook)  # put back after
+    interrupts.install()
     arms: list[servo_bus.SimArm] = []
     real_init = servo_bus.SimArm.__init__
 
