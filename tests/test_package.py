@@ -207,3 +207,14 @@ def test_analyze_out_without_the_extra_names_it(tmp_path, monkeypatch, capsys):
     assert info.value.code == 2
     assert err.count("\n") == 1 and "pip install 'mearm[analysis]'" in err
     assert not (tmp_path / "plots").exists()
+
+
+def test_a_config_name_too_long_for_a_file_is_bad_input(tmp_path, monkeypatch):
+    """A name longer than any file's (ENAMETOOLONG from the look for it): a ConfigError
+    (exit 2, one line), not an unexpected OSError."""
+    from mearm.config import load_config
+    from mearm.exceptions import ConfigError
+
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(ConfigError):
+        load_config("x" * 5000)

@@ -43,7 +43,12 @@ def resolve_config_path(path: str | Path) -> Path:
     """
     given = Path(path)
     text = str(path)
-    if given.exists() or given.is_symlink() or "/" in text or "\\" in text:
+    if "/" in text or "\\" in text:
+        return given
+    try:
+        if given.exists() or given.is_symlink():
+            return given
+    except OSError:  # a name no file can have (too long): the reader says why
         return given
     packaged = packaged_config(text)
     if packaged is not None:
