@@ -415,6 +415,13 @@ def test_cli_text_output():
     assert "joints: base " in r.stdout
 
 
+def test_cli_text_output_counts_one_iteration_in_the_singular():
+    """The closed form solves in one step: "after 1 iteration", not "1 iterations"."""
+    r = run_in_process(["ik", "--target", "0,55,30", "--solver", "analytic"], within_s=30)
+    assert r.code == 0, r.stderr
+    assert r.stdout.splitlines()[0] == "analytic: converged after 1 iteration"
+
+
 @pytest.mark.parametrize(
     "args, needle",
     [

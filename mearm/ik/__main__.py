@@ -112,7 +112,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             f"{name} {v:.3f} {u}" for (name, v), u in zip(result.joints.items(), units, strict=True)
         )
         x, y, z = result.ee_cm
-        print(f"{result.solver}: {result.status} after {result.iterations} iterations")
+        plural = "" if result.iterations == 1 else "s"
+        print(f"{result.solver}: {result.status} after {result.iterations} iteration{plural}")
         if result.recovered_from is not None:
             print(
                 f"recovered ({result.method.replace('_', ' ')}): PD-PIJ alone "
