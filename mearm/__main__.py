@@ -162,9 +162,9 @@ def _load(target: str) -> Callable[[Sequence[str] | None], int]:
     return main
 
 
-def main(argv: Sequence[str] | None = None) -> None:
-    """Dispatch to a subcommand (exit 2 with the list on an unknown one)."""
-    args = list(sys.argv[1:] if argv is None else argv)
+def _own(argv: Sequence[str] | None) -> int:
+    """What the dispatcher answers itself: no subcommand, help, the version, a bad name."""
+    args = list(argv or ())
     if not args:
         print(_usage())
         print(
@@ -172,22 +172,35 @@ def main(argv: Sequence[str] | None = None) -> None:
             "mearm --help lists them)",
             file=sys.stderr,
         )
-        sys.exit(EXIT_BAD_INPUT)
-    if args[0] in ("-h", "--help", "help"):
-        print(_usage())
-        sys.exit(0)
+        return EXIT_BAD_INPUT
     if args[0] == "--version":
         from mearm import __version__
 
         print(f"mearm {__version__}")
-        sys.exit(0)
+        return 0
+    if args[0] in ("-h", "--help", "help"):
+        print(_usage())
+        return 0
+    print(
+        f"mearm: error: unknown subcommand {args[0]!r} (choose from {', '.join(SUBCOMMANDS)})",
+        file=sys.stderr,
+    )
+    return EXIT_BAD_INPUT
+
+
+def main(argv: Sequence[str] | None = None) -> None:
+    """Dispatch to a subcommand (exit 2 with the list on an unknown one).
+
+    ``mearm help NAME`` is ``mearm NAME --help``. What the dispatcher prints itself runs
+    under the same guard as a subcommand (:func:`mearm.cli.run`): ``mearm --help | head``
+    ends quietly.
+    """
+    args = list(sys.argv[1:] if argv is None else argv)
+    if args[:1] == ["help"] and len(args) > 1:
+        args = [args[1], "--help"] if args[1] in SUBCOMMANDS else args[1:]
+    if not args or args[0] not in SUBCOMMANDS:
+        run(_own, args)
     name, rest = args[0], args[1:]
-    if name not in SUBCOMMANDS:
-        print(
-            f"mearm: error: unknown subcommand {name!r} (choose from {', '.join(SUBCOMMANDS)})",
-            file=sys.stderr,
-        )
-        sys.exit(EXIT_BAD_INPUT)
     sys.argv = [f"mearm {name}", *rest]
     run(_load(SUBCOMMANDS[name][0]), rest)
 

@@ -43,6 +43,16 @@ def test_a_short_command_whose_reader_left_exits_141_quietly(tmp_path: Path) -> 
     assert after == before
 
 
+def test_the_dispatchers_own_help_whose_reader_left_exits_141_quietly(tmp_path: Path) -> None:
+    """``mearm --help | true``: the list of subcommands, not a traceback, meets the pipe."""
+    proc = _popen(["--help"], tmp_path)
+    assert proc.stdout is not None and proc.stderr is not None
+    proc.stdout.close()  # gone before the help is written (the interpreter takes longer)
+    err = proc.stderr.read().decode()
+    assert proc.wait(timeout=120) == EXIT_OUTPUT_CLOSED, err
+    assert err == ""
+
+
 def test_a_sort_whose_reader_left_finishes_and_logs_every_route(tmp_path: Path) -> None:
     """``mearm sort | head -1``: all 12 objects sorted, exit 0, the run log whole."""
     log = tmp_path / "run.jsonl"

@@ -76,6 +76,18 @@ def test_an_unknown_subcommand_exits_2_naming_the_choices(
     assert len(err) == 1 and "unknown subcommand 'srot'" in err[0] and "init-config" in err[0]
 
 
+def test_help_with_a_name_is_that_subcommands_help(capsys: pytest.CaptureFixture[str]) -> None:
+    """``mearm help sort`` is ``mearm sort --help``; ``mearm help srot`` names the typo."""
+    with pytest.raises(SystemExit) as exc:
+        main(["help", "fk"])
+    assert exc.value.code == 0
+    assert capsys.readouterr().out.startswith("usage: mearm fk ")
+    with pytest.raises(SystemExit) as exc:
+        main(["help", "srot"])
+    assert exc.value.code == 2
+    assert "unknown subcommand 'srot'" in capsys.readouterr().err
+
+
 @pytest.mark.parametrize("name", list(SUBCOMMANDS))
 def test_each_subcommand_names_itself_as_typed(
     name: str, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
