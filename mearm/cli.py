@@ -192,7 +192,6 @@ def write_text_atomic(path: Path, text: str) -> None:
     from mearm.fileio import write_atomic
 
     try:
-        path.parent.mkdir(parents=True, exist_ok=True)
         write_atomic(path, text)
     except OSError as exc:
         raise MearmError(f"cannot write {path}: {exc}") from None

@@ -6,9 +6,10 @@ plots, screenshots):
 1. A symbolic link is written *through*: the file it points to gets the new contents
    and the link stays a link (a config kept elsewhere and linked into ``configs/`` stays
    where it is).
-2. The data goes to a new, uniquely named temporary file ``.<name>.<random>.tmp`` in the
-   target's own folder (the same file system, so the rename below is atomic), which is
-   flushed and ``fsync``-ed.
+2. The target's folder is made if it is missing (as ``mkdir -p``). The data goes to a
+   new, uniquely named temporary file ``.<name>.<random>.tmp`` in the target's own
+   folder (the same file system, so the rename below is atomic), which is flushed and
+   ``fsync``-ed.
 3. It takes the old file's permission bits (a new file: ``0o666`` less the umask, as
    ``open`` would give it), then ``os.replace`` puts it in place in one step and the
    folder is ``fsync``-ed, so the rename itself survives a power cut.
@@ -55,16 +56,16 @@ def write_atomic(path: str | os.PathLike[str], data: bytes | str) -> Path:
     """Replace the file at ``path`` with ``data`` in one step (see the module docstring).
 
     Args:
-        path: The file to write. Its folder must exist. A symbolic link is followed to
-            the file it names, which is the one replaced.
+        path: The file to write; its folder is made if missing. A symbolic link is
+            followed to the file it names, which is the one replaced.
         data: The new contents; text is written as UTF-8.
 
     Returns:
         The file actually written (``path`` with its symbolic links resolved).
 
     Raises:
-        OSError: The folder is missing or not writable, the disk is full, ``path`` is a
-            folder or a loop of links, ...; the old file is unchanged and no temporary
+        OSError: The folder cannot be made or is not writable, the disk is full,
+            ``path`` is a folder or a loop of links, ...; the old file is unchanged and no temporary
             file is left.
     """
     payload = data.encode("utf-8") if isinstance(data, str) else bytes(data)
@@ -79,6 +80,7 @@ def write_atomic(path: str | os.PathLike[str], data: bytes | str) -> Path:
             stream.write(payload)
         return Path(path)
     target = resolve_target(path)
+    target.parent.mkdir(parents=True, exist_ok=True)
     mode = _mode_for(target)
     _install_handlers()
     fd, tmp = _make_temp(target)

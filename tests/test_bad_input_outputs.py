@@ -116,3 +116,16 @@ def test_sort_writes_the_mjcf_of_an_accepted_run(tmp_path: Path) -> None:
     out = run_in_process(["sort", "--quiet", "--scene", scene, "--save-mjcf", old], within_s=30)
     assert out.code == 0, out.stderr
     assert old.read_text().startswith("<mujoco") and 'name="obj_red1"' in old.read_text()
+
+
+def test_an_output_in_a_folder_not_made_yet_is_written(tmp_path: Path) -> None:
+    """``--annotate shots/a.png`` with no ``shots/``: the folder is made, as ``sort --log`` does.
+
+    ``check_output_file`` accepts such a path; the writer used to fail on it after the work
+    (``calibrate-camera --out calib/pose.yaml`` after the fit, an "unexpected error").
+    """
+    out = run_in_process(
+        ["detect", "--camera", "--annotate", tmp_path / "shots" / "new" / "a.png"], within_s=30
+    )
+    assert out.code == 0, out.stderr
+    assert (tmp_path / "shots" / "new" / "a.png").read_bytes().startswith(b"\x89PNG")

@@ -123,9 +123,19 @@ def test_a_device_is_written_to_not_replaced() -> None:
     assert stat.S_ISCHR(os.stat("/dev/null").st_mode)
 
 
-def test_a_missing_folder_is_an_error(tmp_path: Path) -> None:
-    with pytest.raises(FileNotFoundError):
-        write_atomic(tmp_path / "nope" / "x.yaml", "x")
+def test_a_missing_folder_is_made(tmp_path: Path) -> None:
+    """``--out calib/pose.yaml`` with no ``calib/`` yet: as ``mkdir -p``, then the file."""
+    assert write_atomic(tmp_path / "calib" / "new" / "x.yaml", "x") == (
+        tmp_path / "calib" / "new" / "x.yaml"
+    )
+    assert (tmp_path / "calib" / "new" / "x.yaml").read_text() == "x"
+
+
+def test_a_folder_under_a_regular_file_is_an_error(tmp_path: Path) -> None:
+    (tmp_path / "f").write_text("a file")
+    with pytest.raises(OSError):
+        write_atomic(tmp_path / "f" / "x.yaml", "x")
+    assert (tmp_path / "f").read_text() == "a file"
 
 
 @pytest.mark.parametrize("error", [OSError(28, "No space left on device"), KeyboardInterrupt()])

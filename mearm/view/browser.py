@@ -376,7 +376,7 @@ def screenshot(
 
     Args:
         url: The viewer page, e.g. ``ArmView.url``.
-        out_png: Where to write the PNG; its folder must exist.
+        out_png: Where to write the PNG; its folder is made if missing.
         width_px: View width [px].
         height_px: View height [px].
         expect: Wait until the page has this much of the scene (see
