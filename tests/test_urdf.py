@@ -42,6 +42,31 @@ def test_tool_set_changes_the_arm(tmp_path):
     assert '<origin xyz="0.25 0.0 0.0"' in out.read_text()
 
 
+def test_a_changed_arm_does_not_replace_its_reference_arms_urdf(tmp_path, monkeypatch):
+    """``mearm urdf --config my.yaml`` (``use: mearm_v1``, a limit changed) without --output.
+
+    robot_description/mearm_v1.urdf is the reference arm's: refused, exit 2, one line, the
+    file as it was. The unchanged arm (its own URDF again) and a name of its own are written.
+    """
+    from mearm.tools import dh_to_urdf
+
+    folder = tmp_path / "robot_description"
+    folder.mkdir()
+    (folder / "mearm_v1.urdf").write_text("the reference\n")
+    monkeypatch.setattr(dh_to_urdf, "output_folder", lambda: folder)
+    changed = ["urdf", "--config", "sim_mearm_v1", "--set", "arm.joints.shoulder.limits.max=120"]
+    r = run_in_process(changed)
+    assert r.code == 2 and len(r.stderr.strip().splitlines()) == 1, r.stderr
+    assert "reference arm 'mearm_v1'" in r.stderr and "--output" in r.stderr
+    assert (folder / "mearm_v1.urdf").read_text() == "the reference\n"
+    r = run_in_process([*changed, "--set", "arm.name=my_v1"])
+    assert r.code == 0, r.stderr
+    assert '<robot name="my_v1"' in (folder / "my_v1.urdf").read_text()
+    r = run_in_process(["urdf", "--config", "sim_mearm_v1"])
+    assert r.code == 0, r.stderr
+    assert (folder / "mearm_v1.urdf").read_text() == (DESCRIPTIONS / "mearm_v1.urdf").read_text()
+
+
 @pytest.mark.heavy
 def test_tool_bad_argument_exits_2(tmp_path):
     r = run_cli("tools/dh_to_urdf.py", "--config", str(tmp_path / "none.yaml"))

@@ -5,7 +5,9 @@
 
 Without ``--output`` the file goes to ``robot_description/``: the checkout's, when mearm
 runs from a source checkout (that is where the reference arms' URDFs are kept), else
-the one in the current folder.
+the one in the current folder. There, ``<arm>.urdf`` of a reference arm is that arm's
+own: a config that changes the arm and keeps its name is refused (exit 2), so that the
+reference file is not replaced by another arm's; give ``--output`` or a name of its own.
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ from mearm.cli import ArgumentParser, add_config_argument, config_from_args, run
 from mearm.config import ArmDescription
 from mearm.config.compose import reference_arm
 from mearm.data import arm_names, source_checkout
+from mearm.errors import MearmError
 from mearm.kinematics import ArmModel, generate_urdf
 
 
@@ -25,6 +28,10 @@ def output_folder() -> Path:
     """Where URDFs go without ``--output``: the checkout's robot_description/, else ./."""
     checkout = source_checkout()
     return (checkout if checkout is not None else Path()) / "robot_description"
+
+
+def _reference_urdf(name: str) -> str:
+    return generate_urdf(ArmDescription.model_validate(reference_arm(name)))
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -45,8 +52,15 @@ def main(argv: Sequence[str] | None = None) -> int:
         arms = [config_from_args(args).arm]
     for arm in arms:
         ArmModel(arm)  # Pinocchio must accept what we write
+        urdf = generate_urdf(arm)
         output = args.output or output_folder() / f"{arm.name}.urdf"
-        write_text_atomic(output, generate_urdf(arm))
+        if args.output is None and arm.name in arm_names() and urdf != _reference_urdf(arm.name):
+            raise MearmError(
+                f"{output} is the URDF of the reference arm {arm.name!r} "
+                f"(configs/arms/{arm.name}.yaml), and this config changes that arm: give "
+                "--output FILE, or the arm a name of its own (--set arm.name=my_arm)"
+            )
+        write_text_atomic(output, urdf)
         print(f"wrote {output}", file=sys.stderr)
     return 0
 
