@@ -116,6 +116,25 @@ def sim_config(port: str):
     return fast_config("serial", port, banner_timeout_s=5.0, ack_timeout_s=5.0, rate_hz=50.0)
 
 
+@pytest.mark.heavy
+def test_a_piped_command_is_answered_before_the_simulator_ends(simulator, firmware):
+    """``printf '0 V*46\\n' | mearm_sim mearm_servo.elf`` (tools/arduino/PROTOCOL.md).
+
+    The line arrives before the firmware's ``Serial.begin``, and stdin closes at once: the
+    line waits for the receiver, and the simulator ends only once the firmware has answered.
+    stdout is the UART's alone (simavr's "Loaded ..." lines go to stderr).
+    """
+    version = encode_command(0, "V")
+    r = subprocess.run(
+        [str(simulator), "-x", "0", str(firmware)], input=version,
+        capture_output=True, timeout=60,
+    )  # fmt: skip
+    assert r.returncode == 0, r.stderr
+    banner, reply = r.stdout.splitlines()
+    assert decode_line(banner).kind == "READY"
+    assert reply == encode_line("OK 0 mearm_servo 1.0 5 500 2500").rstrip(b"\n")
+
+
 def wait_for_pulses(chip: SimavrBoard, after_ms: int, frames: int = 5) -> list[list[float]]:
     """Widths of every channel over ``frames`` servo frames generated after ``after_ms``."""
     deadline = time.monotonic() + 5.0

@@ -17,10 +17,16 @@
  *             newline the UART transmits is reported as "line <simulated us>"; and
  *             "time <simulated us>" every 5 ms of simulated time.
  *
- * Exits when stdin closes. Build: make -C tools/arduino sim (needs libsimavr-dev, libelf-dev).
+ * stdin's bytes wait until the firmware has enabled UART0's receiver (Serial.begin): a
+ * real chip loses what arrives before, and a pipe cannot wait for the banner. When stdin
+ * closes, the firmware runs on until it has been quiet for 100 ms of simulated time (no
+ * byte received or sent), so it answers what it was given: printf '0 V*46\n' | mearm_sim
+ * prints the banner and the reply. simavr's own messages go to stderr.
+ * Build: make -C tools/arduino sim (needs libsimavr-dev, libelf-dev).
  */
 #include <errno.h>
 #include <fcntl.h>
+#include <stdarg.h>
 #include <poll.h>
 #include <stdint.h>
 #include <stdio.h>
@@ -37,6 +43,11 @@
 
 #define F_CPU 16000000UL
 #define SERVO_COUNT 5
+/* ATmega328P's UCSR0B (data-space address) and its receiver-enable bit RXEN0. */
+#define UCSR0B_ADDR 0xC1
+#define RXEN0_BIT 4
+/* After stdin closes: exit once nothing has crossed the UART for this long. */
+#define QUIET_CYCLES (F_CPU / 10)
 
 /* Uno pins D3, D5, D6, D9, D10 = PD3, PD5, PD6, PB1, PB2 (mearm_servo.ino SERVO_PINS). */
 static const char SERVO_PORT[SERVO_COUNT] = {'D', 'D', 'D', 'B', 'B'};
@@ -46,6 +57,7 @@ static avr_t *avr;
 static avr_cycle_count_t rise[SERVO_COUNT];
 static int xoff = 0;
 static int timing = 0; /* -t */
+static avr_cycle_count_t last_io = 0; /* the cycle of the last byte in or out */
 
 static unsigned long long sim_us(avr_cycle_count_t cycle) {
   return (unsigned long long)(cycle / (F_CPU / 1000000UL));
@@ -55,6 +67,7 @@ static void on_uart_out(struct avr_irq_t *irq, uint32_t value, void *param) {
   (void)irq;
   (void)param;
   uint8_t byte = (uint8_t)value;
+  last_io = avr->cycle;
   if (write(STDOUT_FILENO, &byte, 1) < 0) exit(0);
   if (timing && byte == '\n') {
     fprintf(stderr, "line %llu\n", sim_us(avr->cycle));
@@ -93,6 +106,11 @@ static void on_pin(struct avr_irq_t *irq, uint32_t value, void *param) {
   fflush(stderr);
 }
 
+/* simavr's messages ("Loaded 4246 .text ...") on stderr: stdout is the UART's alone. */
+static void log_to_stderr(avr_t *a, const int level, const char *format, va_list ap) {
+  if (!a || a->log >= level) vfprintf(stderr, format, ap);
+}
+
 static double wall_s(void) {
   struct timespec ts;
   clock_gettime(CLOCK_MONOTONIC, &ts);
@@ -122,6 +140,7 @@ int main(int argc, char **argv) {
     }
   }
   if (optind != argc - 1) return usage(argv[0]);
+  avr_global_logger_set(log_to_stderr);
   const char *elf = argv[optind];
   elf_firmware_t fw;
   memset(&fw, 0, sizeof(fw));
@@ -172,8 +191,11 @@ int main(int argc, char **argv) {
       else if (n == 0) stdin_open = 0;
       else if (errno != EAGAIN && errno != EWOULDBLOCK) stdin_open = 0;
     }
-    if (!stdin_open && head == tail) return 0;
-    if (head < tail && !xoff) avr_raise_irq(uart_in, queue[head++]);
+    if (!stdin_open && head == tail && avr->cycle - last_io > QUIET_CYCLES) return 0;
+    if (head < tail && !xoff && (avr->data[UCSR0B_ADDR] & (1 << RXEN0_BIT))) {
+      avr_raise_irq(uart_in, queue[head++]);
+      last_io = avr->cycle;
+    }
     if (head == tail) head = tail = 0;
     if (timing && avr->cycle >= next_tick) {
       fprintf(stderr, "time %llu\n", sim_us(avr->cycle));
