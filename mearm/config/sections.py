@@ -216,7 +216,7 @@ class VisionConfig(Strict):
     @classmethod
     def _odd(cls, k: int) -> int:
         if k % 2 == 0:
-            raise ValueError(f"must be odd, got {k}")
+            raise ValueError("must be odd")
         return k
 
 
