@@ -248,14 +248,17 @@ def _check_writable_folder(path: Path, flag: str) -> None:
         raise MearmError(f"{flag} {path}: cannot write: the folder {folder} is not writable")
 
 
-def invoked_as(module_command: str) -> str:
+def invoked_as(module_command: str, subcommand: str | None = None) -> str:
     """A command's name as the user typed it, for its usage and error lines.
 
     ``mearm sort`` when run as a subcommand of the ``mearm`` command (which names itself
-    so in ``sys.argv[0]``), else ``module_command`` (``python -m mearm.sort``).
+    so in ``sys.argv[0]``), else ``module_command`` (``python -m mearm.sort``). With
+    ``subcommand``, another command to suggest, named the same way (``mearm analyze``
+    after ``mearm experiment``, ``python -m mearm.analyze`` after ``python -m
+    mearm.experiment``).
     """
     if sys.argv and sys.argv[0].startswith("mearm "):
-        return sys.argv[0]
+        return sys.argv[0] if subcommand is None else f"mearm {subcommand}"
     return module_command
 
 

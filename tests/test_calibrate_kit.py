@@ -43,12 +43,15 @@ def _overrides() -> list[str]:
     return [KIT[i + 1] for i in range(0, len(KIT), 2)]
 
 
-def test_simulated_calibration_recovers_each_units_mapping(tmp_path: Path) -> None:
+def test_simulated_calibration_recovers_each_units_mapping(tmp_path: Path, capsys) -> None:
     """With no reading error the fit is each unit's own mapping, within 1.5° over its range.
 
     The remaining error is the servo's: its dead band, backlash and the load it holds.
+    Its output, captured (no terminal), is plain lines: no live status line's escapes.
     """
     path = _calibrate(tmp_path, "--reading-error", "0", "--reading-error-cm", "0")
+    out = capsys.readouterr().out
+    assert "[1/5] base" in out and "\x1b" not in out and "\r" not in out
     fits = {a.name: a for a in load_servo_calibration(path).actuators}
     twin = TwinArm(load_config(KITS, _overrides()))
     for servo in twin.servos:
@@ -131,6 +134,22 @@ def test_an_existing_file_is_kept_without_force(tmp_path: Path, capsys) -> None:
         calibrate_servos.run(calibrate_servos.main, argv)
     assert e.value.code == 2 and out.read_text() == "keep"
     assert len(capsys.readouterr().err.strip().splitlines()) == 1
+    # with --force, a file that is no servo calibration is still not replaced, and the
+    # line does not ask for the --force it was given
+    with pytest.raises(SystemExit) as e:
+        calibrate_servos.run(calibrate_servos.main, [*argv, "--force"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert e.value.code == 2 and out.read_text() == "keep" and len(err) == 1
+    assert "not replaced, even with --force" in err[0]
+
+
+def test_a_folder_as_output_is_refused_as_a_folder(tmp_path: Path, capsys) -> None:
+    """Not "exists: pass --force", which --force then refused as a folder."""
+    argv = ["--config", KITS, "--simulate", "--output", str(tmp_path)]
+    with pytest.raises(SystemExit) as e:
+        calibrate_servos.run(calibrate_servos.main, argv)
+    err = capsys.readouterr().err.strip().splitlines()
+    assert e.value.code == 2 and len(err) == 1 and "(a folder)" in err[0], err
 
 
 def test_the_procedure_has_no_one_sided_bias_at_the_papers_spread(tmp_path: Path) -> None:

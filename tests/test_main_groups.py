@@ -100,6 +100,18 @@ def test_each_subcommand_names_itself_as_typed(
     assert capsys.readouterr().out.startswith(f"usage: mearm {name} ")
 
 
+def test_a_command_suggested_next_is_named_as_this_one_was(monkeypatch: pytest.MonkeyPatch) -> None:
+    """After ``mearm experiment``: ``mearm analyze``; after ``python -m mearm.experiment``:
+    ``python -m mearm.analyze`` (it printed the module form after either)."""
+    from mearm.cli import invoked_as
+
+    monkeypatch.setattr(sys, "argv", ["mearm experiment", "--trials", "2"])
+    assert invoked_as("python -m mearm.analyze", "analyze") == "mearm analyze"
+    assert invoked_as("python -m mearm.experiment") == "mearm experiment"
+    monkeypatch.setattr(sys, "argv", ["/x/mearm/experiment/__main__.py", "--trials", "2"])
+    assert invoked_as("python -m mearm.analyze", "analyze") == "python -m mearm.analyze"
+
+
 @pytest.mark.parametrize(
     ("argv", "module"), [(["sort"], "mearm.sort"), (["detect"], "mearm.detect")]
 )

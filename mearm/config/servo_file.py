@@ -457,8 +457,8 @@ def check_replace(path: Path) -> None:
         load_servo_calibration(path)
     except ServoCalibrationError as exc:
         raise ServoCalibrationError(
-            f"{path} exists and is not a readable servo calibration ({exc.reason}): pass "
-            "--force to replace it, or write elsewhere with --output"
+            f"{path} is not replaced, even with --force: it exists and is not a readable "
+            f"servo calibration; write elsewhere with --output, or remove it ({exc.reason})"
         ) from None
 
 

@@ -315,7 +315,8 @@ def _run(
     )
     for k, reason in failed:
         print(f"  trial {k}: {reason}")
-    print(f"analyse: python -m mearm.analyze {args.log} --out report/")
+    analyze = invoked_as("python -m mearm.analyze", "analyze")
+    print(f"analyse: {analyze} {args.log} --out report/")
     print(_totals(args.log, args.trials))
     return EXIT_FAILURE if failed else 0
 

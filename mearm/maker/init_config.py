@@ -488,7 +488,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument(
         "out", type=Path, nargs="?", metavar="FILE", help="the config file to write"
     )
-    parser.add_argument("--arm", choices=list(ARMS), help="the reference arm closest to yours")
+    parser.add_argument(
+        "--arm",
+        choices=list(ARMS),
+        help="the reference arm closest to yours (with --of: the one whose simulated table, "
+        "camera and objects the twin uses; default there: the arm your config names)",
+    )
     parser.add_argument("--rig", choices=list(RIGS), help="what drives the servos, and the camera")
     parser.add_argument(
         "--of",

@@ -11,7 +11,7 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
-from mearm.cli import EXIT_FAILURE, EXIT_OK
+from mearm.cli import EXIT_FAILURE, EXIT_OK, check_output_file
 from mearm.config import Config
 from mearm.config.servo_file import (
     ActuatorFit,
@@ -47,8 +47,11 @@ def check_output(output: Path, *, force: bool) -> None:
     """Refuse to replace an existing calibration file without ``--force``.
 
     Raises:
-        MearmError: ``output`` exists and ``force`` is not given, or it cannot be replaced.
+        MearmError: ``output`` is a folder or a device, or cannot be written
+            (:func:`~mearm.cli.check_output_file`); it exists and ``force`` is not given;
+            or it is a file that is not a servo calibration.
     """
+    check_output_file(output, "--output")
     if output.exists():
         if not force:
             raise MearmError(

@@ -55,16 +55,20 @@ class Calibrator:
         self.keys = keys
         self.out = out
         self.step_index = 1
+        # a live status line is for a terminal; a file or pipe gets the lines alone
+        self.live = bool(getattr(out, "isatty", lambda: False)())
         # the arm's own calibration, before any file: what a fit's slope is compared with
         self.nominal_arm = (replaced_calibration(config) or config).arm
 
     def say(self, text: str = "") -> None:
         """Print a line (ending any live status line)."""
-        self.out.write("\r\x1b[K" + text + "\n")
+        self.out.write(("\r\x1b[K" if self.live else "") + text + "\n")
         self.out.flush()
 
     def status(self, act: Actuator, ref: float) -> None:
-        """Rewrite the live status line."""
+        """Rewrite the live status line (a terminal only)."""
+        if not self.live:
+            return
         p = self.session.pulses_us[act.name]
         lo, hi = self.session.limits_us(act.name)
         target = f"{act.what} = {ref:g}" if act.amap.combined else f"{ref:g}"
