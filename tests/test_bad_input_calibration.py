@@ -103,7 +103,7 @@ def test_a_config_that_is_not_a_file_is_refused(target: str, words: str, tmp_pat
     [("{dir}/folder", "not a regular file"), ("{dir}/fifo", "not a regular file"),
      ("/dev/null", "not a regular file"), ("/dev/full", "not a regular file"),
      ("{dir}/lab.yaml/inside.yaml", "cannot write"),
-     ("{dir}/no/such/folder/x.yaml", "cannot write")],
+     ("/proc/mearm-no-such-folder/x.yaml", "cannot write")],
 )  # fmt: skip
 def test_an_output_that_is_not_a_file_is_refused(output: str, words: str, lab: Path) -> None:
     """--output a folder, FIFO, device or impossible path: nothing written anywhere."""

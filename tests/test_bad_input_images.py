@@ -311,13 +311,14 @@ def test_a_file_over_the_byte_cap_is_refused_unread(
         ("{good}/x.png", "is a file, not a folder"),
         ("{fifo}", "exists and is not a regular file"),
         ("{dir}/out.gif2", "unknown image type"),
-        ("{dir}/no/such/folder/out.png", "cannot write the annotated image"),
+        ("/proc/mearm-no-such-folder/out.png", "cannot write the annotated image"),
     ],
 )
 def test_detect_annotate_never_overwrites_an_input(
     annotate: str, words: str, images: dict[str, Path], tmp_path: Path
 ) -> None:
-    """--annotate onto an input image, a FIFO or nowhere: refused; the input intact."""
+    """--annotate onto an input image, a FIFO or nowhere (a folder that cannot be made):
+    refused; the input intact."""
     fifo = tmp_path / "out.png"
     os.mkfifo(fifo)
     target = annotate.format(good=images["good"], folder=images["folder"], fifo=fifo, dir=tmp_path)
