@@ -153,6 +153,7 @@ def config_from_dict(
     if not isinstance(data, dict):
         raise ConfigError(source, [f"top level must be a mapping, got {type(data).__name__}"])
     data = expand_config(data, source=source, path=path)
+    own = data
     if overrides:
         data = apply_overrides(data, overrides, _default_data())
     try:
@@ -160,7 +161,18 @@ def config_from_dict(
     except ValidationError as exc:
         problems = [_in_user_words(e, data) for e in exc.errors()]
         hint = millimetre_hint(data)
+        if overrides and _valid(own):  # the file is good: a --set value is what is wrong
+            source = "--set"
         raise ConfigError(source, [hint, *problems] if hint else problems) from None
+
+
+def _valid(data: Any) -> bool:
+    """Whether ``data`` validates (asked on the error path only)."""
+    try:
+        Config.model_validate(data)
+    except ValidationError:
+        return False
+    return True
 
 
 def _named_loc(loc: Sequence[int | str], data: Any) -> tuple[int | str, ...]:
