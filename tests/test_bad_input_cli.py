@@ -184,7 +184,8 @@ CASES: list[tuple[list[str], str]] = [
     (["preview", "--screenshot", "{fifo}"], "must be a .png file"),
     # experiment
     (["experiment"], "the following arguments are required: --log"),
-    (["bench", "--only", "motion", "--out", "{tmp}/no/such/dir/bench.json"], "no such directory"),
+    (["bench", "--only", "motion", "--out", "{file}/dir/bench.json"], "is a file, not a directory"),
+    (["bench", "--only", "motion", "--out", "/proc/no/such/dir/bench.json"], "is not writable"),
     (["bench", "--only", "motion", "--out", "/tmp"], "is a directory"),
     (["bench", "--only", "motion", "--out", "/proc/bench.json"], "is not writable"),
     (["experiment", "--log", "{tmp}.jsonl", "--trials", "0"], "--trials must be ≥ 1"),

@@ -457,8 +457,9 @@ def check_replace(path: Path) -> None:
         load_servo_calibration(path)
     except ServoCalibrationError as exc:
         raise ServoCalibrationError(
-            f"{path} is not replaced, even with --force: it exists and is not a readable "
-            f"servo calibration; write elsewhere with --output, or remove it ({exc.reason})"
+            f"{path} is not replaced, even with --force: "
+            f"{exc.reason.removeprefix(f'{path}: ')}; write elsewhere with --output, or "
+            "remove it"
         ) from None
 
 

@@ -161,9 +161,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.repeat < 1:
         parser.error(f"--repeat must be at least 1, got {args.repeat}")
     if args.out is not None:  # checked before the sections run, not after minutes of work
-        folder = args.out.parent
+        folder = args.out.absolute().parent  # a missing one is made: its nearest existing one
+        while not folder.exists() and folder != folder.parent:
+            folder = folder.parent
         if not folder.is_dir():
-            parser.error(f"--out {args.out}: no such directory {str(folder)!r}")
+            parser.error(f"--out {args.out}: {str(folder)!r} is a file, not a directory")
         if args.out.is_dir():
             parser.error(f"--out {args.out}: is a directory; give a file name, e.g. bench.json")
         try:  # a file can be made there (root passes os.access where nothing can be made)
