@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import importlib.util
+import re
 
 import numpy as np
 import pytest
@@ -88,6 +89,25 @@ def test_the_command_refuses_an_output_that_is_not_pt(tmp_path):
 
     with pytest.raises(MearmError, match="--out must end in .pt"):
         bc_main(["--episodes", "1", "--out", str(tmp_path / "bc.bin")])
+
+
+@pytest.mark.parametrize(
+    ("args", "words"),
+    [
+        (["--env", "mearm/PickPlace-v1"], "--env must be one of mearm/PickPlace-v0"),
+        (["--demos", "."], "--demos .: exists and is not a file"),
+        (["--config", "sim_mujuco"], "did you mean 'sim_mujoco'"),
+        (["--out", "{folder}.pt"], "not a regular file (a folder)"),
+    ],
+)
+def test_the_command_refuses_bad_input_before_any_work(tmp_path, args, words):
+    """Each was an "unexpected error" (exit 1) or found only after the demonstrations."""
+    from mearm.errors import MearmError
+
+    (tmp_path / "folder.pt").mkdir()
+    argv = ["--out", str(tmp_path / "bc.pt"), *args]
+    with pytest.raises(MearmError, match=re.escape(words.format(folder=tmp_path / "folder"))):
+        bc_main(["--episodes", "1", *(a.format(folder=tmp_path / "folder") for a in argv)])
 
 
 def _spec():

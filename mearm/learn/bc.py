@@ -21,8 +21,9 @@ from typing import Any
 
 import numpy as np
 
-from mearm.cli import ArgumentParser, run, seed_value, worker_count
+from mearm.cli import ArgumentParser, check_output_file, run, seed_value, worker_count
 from mearm.config import load_config
+from mearm.envs import MAX_EPISODE_STEPS
 from mearm.envs.actions import ActionSpec
 from mearm.errors import MearmError
 from mearm.learn.baseline import HIDDEN, build_mlp, features, save_baseline
@@ -123,7 +124,16 @@ def main(argv: Sequence[str] | None = None) -> int:
         raise MearmError(
             f"--out must end in .pt (eval-policy knows a baseline by it), got {args.out}"
         )
+    if args.env not in MAX_EPISODE_STEPS:
+        raise MearmError(f"--env must be one of {', '.join(MAX_EPISODE_STEPS)}, got {args.env!r}")
+    check_output_file(args.out, "--out")
+    if args.demos is not None:
+        if args.demos.exists() and not args.demos.is_file():
+            raise MearmError(f"--demos {args.demos}: exists and is not a file; give a .npz file")
+        if not args.demos.exists():
+            check_output_file(args.demos, "--demos")
     import_torch()  # the missing extra is said before any work
+    joints = ActionSpec.of(load_config(args.config)).joints  # a bad config, before any work
     options = {"config": args.config}
     t0 = time.perf_counter()
     if args.demos is not None and args.demos.exists():
@@ -138,7 +148,6 @@ def main(argv: Sequence[str] | None = None) -> int:
         f"{len(demos.action)} steps of {kept} expert episodes in {time.perf_counter() - t0:.0f} s"
     )
     t1 = time.perf_counter()
-    joints = ActionSpec.of(load_config(args.config)).joints
     fit = train(demos, joints, steps=args.steps, batch=args.batch)
     meta = {"env_id": args.env, "env_options": options, "episodes": kept,
             "seeds": [int(demos.episode.min()), int(demos.episode.max())]}  # fmt: skip
