@@ -141,6 +141,16 @@ def test_dataset_of_a_file_or_a_folder_without_one(command: str, spots: dict[str
 
 
 @bad_input
+def test_show_refuses_a_folder_as_its_sheet_before_the_report(
+    dataset: Path, spots: dict[str, Path]
+) -> None:
+    """``dataset show DS --sheet .`` printed the whole report, then refused (exit 2)."""
+    out = check_bad_input(["dataset", "show", dataset, "--sheet", spots["dir"]], keep=[dataset])
+    assert f"--sheet {spots['dir']}: exists and is not a regular file (a folder)" in out.line
+    assert out.stdout == ""
+
+
+@bad_input
 def test_check_a_torn_last_episode(spots: dict[str, Path]) -> None:
     out = check_bad_input(["dataset", "check", spots["torn"]], code=1, keep=[spots["torn"]])
     assert "episode 1 is torn: data/chunk-000/file-000.parquet holds" in out.line
@@ -168,3 +178,16 @@ def test_record_with_a_camera_that_does_not_open(tmp_path: Path) -> None:
     out = check_bad_input(argv)
     assert "no such file (camera.path)" in out.line
     assert not (tmp_path / "ds").exists()
+
+
+@bad_input
+def test_resume_a_dataset_with_another_codec_names_the_codec(dataset: Path) -> None:
+    """The features differ only in the video's codec: the line names that key and both
+    codecs (it printed the two features mappings, cut before the difference)."""
+    argv = ["sort", "--config", SIM, "--record", dataset, "--resume", "--record-codec", "h264"]
+    out = check_bad_input(argv, keep=[dataset])
+    assert (
+        "--resume: the dataset's features.observation.images.table.info.video.codec is not "
+        'this run\'s ("av1" there, "h264" here)'
+    ) in out.line, out.line
+    assert "--record-codec" in out.line.split("here)")[1]

@@ -190,6 +190,20 @@ def test_check_finds_rows_after_the_last_episode(recorded: dict[str, Path], tmp_
     assert any("2 rows after its last episode (2)" in p for p in problems), problems
 
 
+@pytest.mark.parametrize("videos", [True, False])
+def test_check_finds_a_missing_video_file_with_or_without_decoding(
+    recorded: dict[str, Path], tmp_path: Path, videos: bool
+) -> None:
+    """The episodes rule names the missing MP4, once, whether or not videos are decoded
+    (``--no-videos`` passed such a dataset)."""
+    root = tmp_path / "ds"
+    shutil.copytree(recorded["root"], root)
+    rel = f"videos/{KEY}/chunk-000/file-000.mp4"
+    (root / rel).unlink()
+    problems = check_dataset(root, videos=videos)
+    assert problems == [f"episodes: episode 0: its file {rel} is missing"], problems
+
+
 def test_show_prints_episodes_and_saves_a_contact_sheet(
     recorded: dict[str, Path], capsys: pytest.CaptureFixture[str], tmp_path: Path
 ) -> None:

@@ -15,7 +15,7 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
-from mearm.cli import EXIT_FAILURE, EXIT_OK, ArgumentParser, run
+from mearm.cli import EXIT_FAILURE, EXIT_OK, ArgumentParser, check_output_file, run
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -52,9 +52,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     from mearm.dataset.format_check import check_dataset
 
     check_dataset(args.dir, videos=False)  # bad input (not a dataset) is exit 2 here
+    sheet = args.sheet or args.dir.with_name(args.dir.name + "-sheet.png")
+    check_output_file(sheet, "--sheet")  # before the report, not after it
     for line in describe(args.dir):
         print(line)
-    sheet = args.sheet or args.dir.with_name(args.dir.name + "-sheet.png")
     n = contact_sheet(args.dir, sheet)
     print(f"contact sheet: {sheet} ({n} frames)")
     return EXIT_OK

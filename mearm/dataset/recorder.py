@@ -260,11 +260,13 @@ class DatasetRecorder(EpisodeSampler):
         mine = {"fps": self.fps, "robot_type": self.robot_type, "features": self.features()}
         for key, value in mine.items():
             if info.get(key) != value:
+                where, there, here = _first_difference(info.get(key), value, key)
+                codec = where.endswith(("video.codec", "video.preset"))
                 raise DatasetError(
                     self.root,
-                    f"--resume: the dataset's {key} is not this run's "
-                    f"({_short(info.get(key))} there, {_short(value)} here): record into a "
-                    "new directory (or give the dataset's --record-codec)",
+                    f"--resume: the dataset's {where} is not this run's ({_short(there)} "
+                    f"there, {_short(here)} here): record into a new directory"
+                    + (" (or give the dataset's --record-codec)" if codec else ""),
                 )
         pq = self._pq
         self._tasks = [str(t) for t in pq.read_table(self.root / L.TASKS_PATH)["task"].to_pylist()]
@@ -578,6 +580,24 @@ def _stats_of_row(row: dict[str, Any]) -> dict[str, Stats]:
 
 def _mb(path: Path) -> float:
     return path.stat().st_size / 2**20 if path.exists() else 0.0
+
+
+def _first_difference(there: Any, here: Any, path: str) -> tuple[str, Any, Any]:
+    """The dotted path of the first value that differs between two JSON trees, and both.
+
+    ``features.observation.images.table.info.video.codec`` rather than the whole of two
+    ``features`` mappings, which a one-line message would cut before the difference.
+    """
+    if isinstance(there, dict) and isinstance(here, dict):
+        for key in [*here, *(k for k in there if k not in here)]:
+            if there.get(key, _MISSING) != here.get(key, _MISSING):
+                return _first_difference(
+                    there.get(key, _MISSING), here.get(key, _MISSING), f"{path}.{key}"
+                )
+    return path, None if there is _MISSING else there, None if here is _MISSING else here
+
+
+_MISSING = object()
 
 
 def _short(value: Any) -> str:
