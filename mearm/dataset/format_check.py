@@ -214,24 +214,28 @@ class _Checker:
             for task in row["tasks"]:
                 if task not in tasks:
                     self.fail("episodes", f"episode {k}: task {task!r} is not in tasks.parquet")
-            files = [L.chunk_file(L.DATA_PATH, row["data/chunk_index"], row["data/file_index"])]
-            files += [
-                L.chunk_file(
-                    L.VIDEO_PATH,
-                    row[f"videos/{key}/chunk_index"],
-                    row[f"videos/{key}/file_index"],
-                    video_key=key,
-                )
-                for key in video_keys
-            ]
-            for rel in files:  # checked here with or without --no-videos
-                if rel not in self.missing and not (self.root / rel).is_file():
-                    self.missing.add(rel)
-                    self.fail("episodes", f"episode {k}: its file {rel} is missing")
+            self._files_present(k, row, video_keys)
         if frames != info["total_frames"]:
             self.fail("episodes", f"the episodes hold {frames} frames, info.json says "
                       f"{info['total_frames']}")  # fmt: skip
         return rows
+
+    def _files_present(self, k: int, row: dict[str, Any], video_keys: list[str]) -> None:
+        """Episode ``k``'s data and video files are there (with or without --no-videos)."""
+        files = [L.chunk_file(L.DATA_PATH, row["data/chunk_index"], row["data/file_index"])]
+        files += [
+            L.chunk_file(
+                L.VIDEO_PATH,
+                row[f"videos/{key}/chunk_index"],
+                row[f"videos/{key}/file_index"],
+                video_key=key,
+            )
+            for key in video_keys
+        ]
+        for rel in files:
+            if rel not in self.missing and not (self.root / rel).is_file():
+                self.missing.add(rel)
+                self.fail("episodes", f"episode {k}: its file {rel} is missing")
 
     # ----------------------------------------------------------------- frames
 
