@@ -44,6 +44,8 @@ class ArgumentParser(argparse.ArgumentParser):
     """
 
     def __init__(self, *args: Any, **kwargs: Any):
+        if not args:  # the command as typed (python -m mearm.envs.replay), not replay.py
+            kwargs.setdefault("prog", _program_name())
         super().__init__(*args, **kwargs)
         self.add_argument(
             "--debug",

@@ -119,10 +119,12 @@ def test_command_prints_the_table(folder: Path, capsys: pytest.CaptureFixture[st
     out, _ = capsys.readouterr()
     assert info.value.code == 0
     assert "all photos" in out and "inRange" in out and "95.8%" in out
-    with pytest.raises(SystemExit) as info:
-        run(main, ["--photos", str(folder / "nowhere")])
-    _, err = capsys.readouterr()
-    assert info.value.code == 2 and "no manifest.yaml" in err and len(err.strip().splitlines()) == 1
+    (folder / "empty").mkdir(exist_ok=True)
+    for where, words in [("nowhere", "no such folder"), ("empty", "no manifest.yaml")]:
+        with pytest.raises(SystemExit) as info:
+            run(main, ["--photos", str(folder / where)])
+        _, err = capsys.readouterr()
+        assert info.value.code == 2 and words in err and len(err.strip().splitlines()) == 1
     with pytest.raises(SystemExit) as info:
         run(main, ["--learn"])
     _, err = capsys.readouterr()

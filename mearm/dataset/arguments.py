@@ -122,7 +122,8 @@ def close_recorder(recorder: DatasetRecorder | None, where: object) -> None:
     recorder.close()
     if recorder.episodes_written:
         print(
-            f"recorded {recorder.episodes_written} episodes "
+            f"recorded {recorder.episodes_written} "
+            f"episode{'' if recorder.episodes_written == 1 else 's'} "
             f"({recorder.frames_written} frames) to {where}",
             file=sys.stderr,
         )

@@ -304,7 +304,7 @@ def parse_record(text: str, *, trial_format: int | None = FORMAT_VERSION) -> Rec
     try:
         obj = json.loads(text)
     except json.JSONDecodeError as exc:
-        raise ValueError(f"not valid JSON ({exc.msg} at column {exc.colno})") from None
+        raise ValueError(f"not valid JSON ({exc.msg}: column {exc.colno})") from None
     except RecursionError:
         raise ValueError("not a record: JSON nested too deeply") from None
     except ValueError:  # an integer of more digits than Python converts

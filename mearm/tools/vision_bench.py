@@ -349,11 +349,23 @@ def _count(text: str) -> int:
     return n
 
 
+def _require_manifest(folder: Path) -> None:
+    """``--photos`` names a folder with its labels' ``manifest.yaml``.
+
+    Raises:
+        InputFileError: it does not exist, is a file, or holds no manifest.
+    """
+    if not folder.is_dir():
+        what = "is a file, not a folder" if folder.exists() else "no such folder"
+        raise InputFileError(str(folder), f"{what}: give the labelled photos' folder")
+    if not (folder / "manifest.yaml").is_file():
+        raise InputFileError(str(folder), "no manifest.yaml in it (the labelled photos' list)")
+
+
 def _print_photos(folder: Path, config: Config, *, learn: bool) -> int:
     from mearm.tools.photo_bench import run_photo_bench
 
-    if not (folder / "manifest.yaml").is_file():
-        raise InputFileError(str(folder), "no manifest.yaml in it (the labelled photos' list)")
+    _require_manifest(folder)
     print(f"{'photos':<28} {'detector':<8} {'found':>5} {'missed':>6} {'false':>5} "
           f"{'recall':>7} {'precision':>9}")  # fmt: skip
     for r in run_photo_bench(folder, config, learn=learn):
@@ -375,8 +387,7 @@ def _print_scale(config: Config) -> None:
 def _print_click_study(folder: Path, config: Config) -> int:
     from mearm.tools.photo_bench import run_click_study
 
-    if not (folder / "manifest.yaml").is_file():
-        raise InputFileError(str(folder), "no manifest.yaml in it (the labelled photos' list)")
+    _require_manifest(folder)
     rows = run_click_study(folder, config)
     if not rows:
         raise InputFileError(str(folder), "no photo shows all its source's classes to teach from")
