@@ -69,6 +69,13 @@ def test_the_trained_policy_imitates_the_expert_better_than_random(demos, tmp_pa
         errors["bc"].append(np.abs(policy.act(obs, {}) - expert)[:-1].mean())
         errors["random"].append(np.abs(rand.act(obs, {}) - expert)[:-1].mean())
     assert np.mean(errors["bc"]) < 0.25 * np.mean(errors["random"])
+    # eval-policy refuses it on another environment before running (each of its episodes
+    # failed on the observations' shapes, and the command exited 0)
+    from mearm.envs.errors import PolicyError
+    from mearm.tools.eval_policy import main as eval_main
+
+    with pytest.raises(PolicyError, match="trained on mearm/PickPlace-v0, not mearm/Sort-v0"):
+        eval_main(["--env", "mearm/Sort-v0", "--policy", str(path), "--episodes", "1"])
 
 
 def test_a_file_that_is_not_a_baseline_is_refused(tmp_path):

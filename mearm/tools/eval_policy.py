@@ -116,6 +116,16 @@ def main(argv: Sequence[str] | None = None) -> int:
         raise MearmError(f"--env must be mearm/PickPlace-v0 or mearm/Sort-v0, got {args.env!r}")
     if args.out is not None:
         check_output_file(args.out, "--out")
+    if args.policy.endswith(".pt"):  # a baseline knows its environment: say so before running
+        from mearm.envs.errors import PolicyError  # noqa: PLC0415
+        from mearm.learn.baseline import load_baseline  # noqa: PLC0415
+
+        trained_on = load_baseline(Path(args.policy)).meta.get("env_id")
+        if trained_on is not None and trained_on != args.env:
+            raise PolicyError(
+                f"policy {args.policy} was trained on {trained_on}, not {args.env}: its "
+                f"observations and actions are another environment's (give --env {trained_on})"
+            )
     options = {"config": args.config, **env_options(args.env_option)}
     video_dir = None
     if args.videos:
