@@ -129,7 +129,9 @@ def close_recorder(recorder: DatasetRecorder | None, where: object) -> None:
         )
     if recorder.episodes_skipped:
         print(
-            f"{recorder.episodes_skipped} picks of the trial run again were in {where} "
-            "already: not recorded twice",
+            f"{recorder.episodes_skipped} "
+            f"{'pick' if recorder.episodes_skipped == 1 else 'picks'} of the trial run again "
+            f"{'was' if recorder.episodes_skipped == 1 else 'were'} in {where} already: not "
+            "recorded twice",
             file=sys.stderr,
         )
