@@ -12,6 +12,7 @@ checkout's ``python tools/dh_to_urdf.py`` also runs) and takes the same argument
 
 from __future__ import annotations
 
+import gc
 import importlib
 import sys
 import textwrap
@@ -158,7 +159,22 @@ def _usage() -> str:
 
 
 def _load(target: str) -> Callable[[Sequence[str] | None], int]:
-    main: Callable[[Sequence[str] | None], int] = importlib.import_module(target).main
+    """The subcommand's ``main``, its module imported with the collector paused.
+
+    A subcommand's imports make tens of thousands of objects that live as long as the
+    process (pydantic's schemas, the arm's tables); collecting them frees nothing. They
+    are made with the collector paused and then set aside (``gc.freeze``), as
+    ``python -m mearm.sort`` does for itself (docs/benchmarks.md).
+    """
+    paused = gc.isenabled()
+    if paused:
+        gc.disable()
+    try:
+        main: Callable[[Sequence[str] | None], int] = importlib.import_module(target).main
+    finally:
+        if paused:
+            gc.freeze()
+            gc.enable()
     return main
 
 

@@ -30,3 +30,14 @@ def test_run_as_a_program_the_sort_sets_its_imports_aside_and_collects_again() -
         "print(f'{gc.isenabled()},{gc.get_freeze_count() > 10000}')"
     )
     assert _python(code) == "True,True"
+
+
+def test_the_mearm_command_sets_a_subcommands_imports_aside_and_collects_again() -> None:
+    """``mearm sort`` (the dispatcher imports mearm.sort as a module): the same pause."""
+    code = (
+        "import gc, sys\n"
+        "from mearm.__main__ import _load\n"
+        "main = _load('mearm.sort')\n"
+        "print(f'{gc.isenabled()},{gc.get_freeze_count() > 10000}')"
+    )
+    assert _python(code) == "True,True"
