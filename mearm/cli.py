@@ -156,14 +156,21 @@ class ArgumentContainer(Protocol):
     def add_argument(self, *args: Any, **kwargs: Any) -> argparse.Action: ...  # noqa: D102
 
 
-def add_config_argument(parser: ArgumentContainer) -> None:
-    """Add ``--config PATH`` and ``--set dotted.key=value`` to a parser or group."""
+def add_config_argument(parser: ArgumentContainer, default: str | None = None) -> None:
+    """Add ``--config PATH`` and ``--set dotted.key=value`` to a parser or group.
+
+    Args:
+        parser: The parser or group.
+        default: The shipped config a command uses without ``--config`` (``None``: the
+            built-in simulated rig, as ``sim``).
+    """
+    shown = "the built-in simulated rig, as sim" if default is None else default
     parser.add_argument(
         "--config",
         type=Path,
-        default=None,
+        default=None if default is None else Path(default),
         help="YAML config file, or the name of one shipped with mearm (sim, lab, virtual_uno, "
-        "...: mearm --help lists them; default: the built-in simulated rig, as sim)",
+        f"...: mearm --help lists them; default: {shown})",
     )
     parser.add_argument(
         "--set",

@@ -52,6 +52,8 @@ CASES: list[tuple[list[str], str]] = [
     (["twin-scenes", "--objects", "-1"], "--scenes and --objects must be ≥ 1"),
     (["twin-scenes", "--require", "2"], "--require in [0, 1]"),
     (["twin-scenes", "--jobs", "0"], "a number of workers must be ≥ 1"),
+    (["twin-scenes", "--config", "sim"],
+     "--config sim: simulator is 'kinematic'; twin-scenes sorts in the twin"),
     # servo-steps
     (["servo-steps", "--degrees", "nan"], "--degrees must be in (0, 90]"),
     (["servo-steps", "--degrees", "0"], "--degrees must be in (0, 90]"),

@@ -17,7 +17,6 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 
@@ -91,7 +90,7 @@ def run_speed(config: Config, speed_cm_s: float) -> SpeedRow:
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the sweep and print its table."""
     parser = ArgumentParser(prog="mearm conveyor-sweep", description=__doc__.splitlines()[0])
-    add_config_argument(parser)
+    add_config_argument(parser, default=DEFAULT_CONFIG)
     parser.add_argument(
         "--speeds",
         type=float_list(name="speeds"),
@@ -99,8 +98,6 @@ def main(argv: Sequence[str] | None = None) -> int:
         help="belt speeds [cm/s], comma-separated (default 1,2,3,4,5)",
     )
     args = parser.parse_args(argv)
-    if args.config is None:
-        args.config = Path(DEFAULT_CONFIG)
     config = config_from_args(args)
     if config.belt is None:
         raise MearmError(f"{args.config}: the config has no belt (set belt: …)")

@@ -134,7 +134,7 @@ def sweep(config: Config, objects: int, seeds: Sequence[int], jobs: int) -> Iter
 def main(argv: Sequence[str] | None = None) -> int:
     """Sort the scenes and print the counts; 1 if the share is under --require."""
     parser = ArgumentParser(description=__doc__.splitlines()[0])
-    add_config_argument(parser)
+    add_config_argument(parser, default="sim_mujoco")
     parser.add_argument("--scenes", type=int, default=50, help="scenes, seeds S … S+N−1")
     parser.add_argument(
         "--first-seed", type=int, default=0, help="S, the first scene's seed (default 0)"
@@ -161,7 +161,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     config = config_from_args(args)
     if config.simulator != "mujoco":
         raise MearmError(
-            f"{args.config}: simulator is {config.simulator!r}; this counts twin sorts"
+            f"--config {args.config}: simulator is {config.simulator!r}; twin-scenes sorts "
+            "in the twin: give a config with simulator: mujoco (sim_mujoco, ...)"
         )
     t0 = time.perf_counter()
     seen = done = binned = 0
