@@ -185,12 +185,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     wall = time.perf_counter() - t0
     held = args.scenes * args.objects
     share = binned / held
-    workers = "1 process" if args.jobs == 1 else f"{min(args.jobs, args.scenes)} workers"
+    pool = min(args.jobs, args.scenes)
+    workers = "1 process" if pool == 1 else f"{pool} workers"
     of = f"{seen} objects"
     if seen != held or binned != done:
         of = f"{seen} objects seen, {held} in the scenes; {binned} in their bins"
     print(
-        f"twin, {args.scenes} scenes of {args.objects}: sorted {done} of {of} "
+        f"twin, {args.scenes} {'scene' if args.scenes == 1 else 'scenes'} of {args.objects}: "
+        f"sorted {done} of {of} "
         f"({100 * share:.1f} %) in {wall:.0f} s, {60 * args.scenes / wall:.1f} scenes/min "
         f"({workers})"
     )
