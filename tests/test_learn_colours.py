@@ -185,3 +185,29 @@ def test_pick_without_a_display(
     argv = [str(frame_png), "--pick", "--config", "sim", "--out", str(tmp_path / "x.yaml")]
     code, _, err = call(main, argv, capsys)
     assert code == 2 and "--pick needs a display" in err and len(err.strip().splitlines()) == 1
+
+
+def test_a_config_already_written_is_not_lost(
+    frame_png: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``--out`` the ``--config`` it extends was written over with a config that extends
+    itself (then refused: the maker's config lost); any other existing file is replaced
+    only with ``--force``."""
+    mine = tmp_path / "mine.yaml"
+    mine.write_text("extends: sim\nservo: {rate_hz: 40}\n")
+    before = mine.read_text()
+    red = ["--sample", first("red")]
+    for extra in ([], ["--force"]):
+        argv = [str(frame_png), *red, "--config", str(mine), "--out", str(mine), *extra]
+        code, _, err = call(main, argv, capsys)
+        assert code == 2 and "is the config it extends" in err, err
+        assert mine.read_text() == before
+    out = tmp_path / "taught.yaml"
+    out.write_text("# kept\n")
+    argv = [str(frame_png), *red, "--config", str(mine), "--out", str(out)]
+    code, _, err = call(main, argv, capsys)
+    assert code == 2 and f"--out {out} exists: pass --force" in err, err
+    assert out.read_text() == "# kept\n"
+    code, _, err = call(main, [*argv, "--force"], capsys)
+    assert code == 0, err
+    assert load_config(out).servo.rate_hz == 40

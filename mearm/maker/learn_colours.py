@@ -36,10 +36,12 @@ import numpy as np
 from mearm.cli import ArgumentParser, check_output_file, run, write_text_atomic
 from mearm.config import Config
 from mearm.config.files import load_config, resolve_config_path
+from mearm.config.loader import config_from_dict
 from mearm.errors import MearmError
 from mearm.vision.calibration import object_width_px
 from mearm.vision.image import read_image
 from mearm.vision.teaching import Sample, Taught, teach
+from mearm.yamlio import load_yaml_text
 
 _SAMPLE = re.compile(r"^([^=\s]+)=([-+0-9.eE]+),([-+0-9.eE]+)(?:@(\d+))?$")
 
@@ -147,6 +149,9 @@ def _parser() -> ArgumentParser:
         "--out", type=Path, required=True, metavar="NEW.yaml", help="config to write"
     )
     parser.add_argument(
+        "--force", action="store_true", help="replace an existing NEW.yaml (never --config)"
+    )
+    parser.add_argument(
         "--sample",
         action="append",
         default=[],
@@ -224,6 +229,30 @@ def _frames(args: argparse.Namespace, config: Config) -> tuple[list[np.ndarray],
     return frames, sources
 
 
+def _check_not_replacing(out: Path, config_name: str, *, force: bool) -> None:
+    """Refuse, before any work, to write over the config extended, or over any file.
+
+    With ``force`` an existing file other than the one extended is replaced: a second run
+    must not lose a config a maker wrote unless asked to.
+
+    Raises:
+        MearmError: ``out`` is the ``--config`` file, or exists and ``force`` is not set.
+    """
+    if not out.exists():
+        return
+    try:
+        extended = resolve_config_path(config_name)
+    except MearmError:  # not a config at all: load_config says so next
+        extended = None
+    if extended is not None and extended.exists() and out.resolve() == extended.resolve():
+        raise MearmError(
+            f"--out {out} is the config it extends (--config {config_name}): the taught "
+            "colours go in a new file that extends it; give another --out"
+        )
+    if not force:
+        raise MearmError(f"--out {out} exists: pass --force to replace it")
+
+
 def _print_taught(taught: Taught) -> None:
     """One line per learned colour, then the table's colour and the work area."""
     for name, m in taught.colours.items():
@@ -245,6 +274,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
     samples, area = _checked_arguments(parser, args)
     check_output_file(args.out, "--out")
+    _check_not_replacing(args.out, args.config, force=args.force)
     config = load_config(args.config)
     names = config.task.class_names
     _check_samples(samples, names, args.config, len(args.images))
@@ -273,11 +303,16 @@ def main(argv: Sequence[str] | None = None) -> int:
     import yaml
 
     head = f"# mearm learn-colours: {' '.join(sources)}; samples {' '.join(map(str, samples))}\n"
-    write_text_atomic(
-        args.out,
-        head + yaml.safe_dump(learned_yaml(base, taught), sort_keys=False, default_flow_style=None),
+    text = head + yaml.safe_dump(
+        learned_yaml(base, taught), sort_keys=False, default_flow_style=None
     )
-    load_config(args.out)  # what was written loads, or exit 2 naming it
+    # what will be written loads (its extends found from its folder), or exit 2 naming it,
+    # before any file is touched
+    config_from_dict(
+        load_yaml_text(text, source=str(args.out)), source=str(args.out), path=args.out
+    )
+    write_text_atomic(args.out, text)
+    load_config(args.out)  # and its calibration files are found from there
     _print_taught(taught)
     print(f"wrote {args.out}")
     return 0
