@@ -206,8 +206,11 @@ def write_text_atomic(path: Path, text: str) -> None:
         raise MearmError(f"cannot write {path}: {exc}") from None
 
 
-def _existing_ancestor(path: Path) -> Path:
-    """The nearest of ``path``'s folders that exists (``path`` itself excluded)."""
+def existing_ancestor(path: Path) -> Path:
+    """The nearest of ``path``'s folders that exists (``path`` itself excluded).
+
+    Where a file written to ``path`` lands once the missing folders are made.
+    """
     parent = path.absolute().parent
     while not parent.exists() and parent != parent.parent:
         parent = parent.parent
@@ -250,7 +253,7 @@ def check_output_folder(path: Path, flag: str) -> None:
 
 
 def _check_writable_folder(path: Path, flag: str) -> None:
-    folder = _existing_ancestor(path)
+    folder = existing_ancestor(path)
     if not folder.is_dir():
         raise MearmError(f"{flag} {path}: cannot write: {folder} is a file, not a folder")
     if not os.access(folder, os.W_OK | os.X_OK):

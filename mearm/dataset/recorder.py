@@ -582,6 +582,10 @@ def _mb(path: Path) -> float:
     return path.stat().st_size / 2**20 if path.exists() else 0.0
 
 
+#: A key one JSON tree has and the other lacks (:func:`_first_difference`).
+_MISSING = object()
+
+
 def _first_difference(there: Any, here: Any, path: str) -> tuple[str, Any, Any]:
     """The dotted path of the first value that differs between two JSON trees, and both.
 
@@ -595,9 +599,6 @@ def _first_difference(there: Any, here: Any, path: str) -> tuple[str, Any, Any]:
                     there.get(key, _MISSING), here.get(key, _MISSING), f"{path}.{key}"
                 )
     return path, None if there is _MISSING else there, None if here is _MISSING else here
-
-
-_MISSING = object()
 
 
 def _short(value: Any) -> str:

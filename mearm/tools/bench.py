@@ -51,7 +51,7 @@ from collections.abc import Sequence
 from dataclasses import asdict
 from pathlib import Path
 
-from mearm.cli import ArgumentParser, run, write_text_atomic
+from mearm.cli import ArgumentParser, existing_ancestor, run, write_text_atomic
 from mearm.tools.benchmarks.bench_base import (
     SECTIONS,
     BenchOptions,
@@ -161,9 +161,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.repeat < 1:
         parser.error(f"--repeat must be at least 1, got {args.repeat}")
     if args.out is not None:  # checked before the sections run, not after minutes of work
-        folder = args.out.absolute().parent  # a missing one is made: its nearest existing one
-        while not folder.exists() and folder != folder.parent:
-            folder = folder.parent
+        folder = existing_ancestor(args.out)  # missing folders are made under it
         if not folder.is_dir():
             parser.error(f"--out {args.out}: {str(folder)!r} is a file, not a directory")
         if args.out.is_dir():

@@ -103,6 +103,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
     args = parser.parse_args(argv)
     _require_gymnasium()
+    from mearm.envs import MAX_EPISODE_STEPS  # noqa: PLC0415
     from mearm.envs.errors import EnvOptionError  # noqa: PLC0415
     from mearm.envs.evaluate import Job, run_episodes, summary  # noqa: PLC0415
 
@@ -112,8 +113,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         raise MearmError(f"--videos must be in [0, --episodes], got {args.videos}")
     if not 0 <= args.require <= 1:
         raise MearmError(f"--require is a share in [0, 1], got {args.require}")
-    if args.env not in ("mearm/PickPlace-v0", "mearm/Sort-v0"):
-        raise MearmError(f"--env must be mearm/PickPlace-v0 or mearm/Sort-v0, got {args.env!r}")
+    if args.env not in MAX_EPISODE_STEPS:  # the environments mearm.envs registers
+        raise MearmError(f"--env must be {' or '.join(MAX_EPISODE_STEPS)}, got {args.env!r}")
     if args.out is not None:
         check_output_file(args.out, "--out")
     if args.policy.endswith(".pt"):  # a baseline knows its environment: say so before running
