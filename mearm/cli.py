@@ -156,6 +156,20 @@ class ArgumentContainer(Protocol):
     def add_argument(self, *args: Any, **kwargs: Any) -> argparse.Action: ...  # noqa: D102
 
 
+def config_path_value(text: str) -> Path:
+    """``--config``'s value as a path that keeps what the user typed a path.
+
+    ``Path`` drops a leading ``./`` and a trailing ``/``, which would turn ``./sim`` or
+    ``sim/`` (a file or folder here) into the bare name of a shipped config
+    (:func:`mearm.config.files.resolve_config_path`). Such a value is kept a path, made
+    absolute, so the reader says what is wrong with the file it names.
+    """
+    path = Path(text)
+    if any(sep in text for sep in "/\\") and len(path.parts) == 1 and not path.is_absolute():
+        return Path.cwd() / path
+    return path
+
+
 def add_config_argument(parser: ArgumentContainer, default: str | None = None) -> None:
     """Add ``--config PATH`` and ``--set dotted.key=value`` to a parser or group.
 
@@ -167,7 +181,7 @@ def add_config_argument(parser: ArgumentContainer, default: str | None = None) -
     shown = "the built-in simulated rig, as sim" if default is None else default
     parser.add_argument(
         "--config",
-        type=Path,
+        type=config_path_value,
         default=None if default is None else Path(default),
         help="YAML config file, or the name of one shipped with mearm (sim, lab, virtual_uno, "
         f"...: mearm --help lists them; default: {shown})",

@@ -130,6 +130,38 @@ def test_a_file_wins_over_a_packaged_name(tmp_path, monkeypatch):
     assert load_config("sim.yaml").task.scene != []
 
 
+def test_a_folder_named_as_a_shipped_config_does_not_hide_it(tmp_path, monkeypatch):
+    """A folder is never a config: ``sim`` beside a folder ``sim/`` is still the shipped
+    one; a folder with no shipped config of its name is refused as a folder."""
+    from mearm.config import load_config
+    from mearm.exceptions import ConfigError
+
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "sim").mkdir()
+    (tmp_path / "runs").mkdir()
+    assert load_config("sim") == load_config(ROOT / "configs" / "sim.yaml")
+    with pytest.raises(ConfigError, match="is a directory, not a config file"):
+        load_config("runs")
+
+
+@pytest.mark.parametrize("typed", ["sim/", "./sim", "./sim.yaml"])
+def test_a_config_typed_as_a_path_is_never_the_shipped_one(tmp_path, monkeypatch, typed):
+    """``--config sim/`` or ``./sim`` name a file or folder here, as typed: ``Path`` would
+    drop the ``./`` and the ``/`` and load the shipped ``sim`` instead."""
+    from mearm.cli import ArgumentParser, add_config_argument, config_from_args
+    from mearm.exceptions import ConfigError
+
+    monkeypatch.chdir(tmp_path)
+    parser = ArgumentParser(prog="mearm sort")
+    add_config_argument(parser)
+    args = parser.parse_args(["--config", typed])
+    with pytest.raises(ConfigError, match="config file not found"):
+        config_from_args(args)
+    (tmp_path / "sim").mkdir()
+    with pytest.raises(ConfigError, match="is a directory|config file not found"):
+        config_from_args(args)
+
+
 @pytest.mark.parametrize("given", ["simm", "sim.yml", ".sim", "../sim"])
 def test_an_unknown_config_name_lists_the_packaged_ones(tmp_path, monkeypatch, given):
     from mearm.config import load_config

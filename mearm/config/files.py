@@ -34,7 +34,8 @@ def resolve_config_path(path: str | Path) -> Path:
     """The file a ``--config`` value names: a path, else the name of a packaged config.
 
     An existing path wins; a bare name (no folder: ``sim`` or ``sim.yaml``) that is no
-    file here names one of the configs the package ships (:mod:`mearm.data`). Any other
+    file here names one of the configs the package ships (:mod:`mearm.data`), as does a
+    shipped config's name that is a folder here (a folder is never a config). Any other
     missing path is returned as it is, for the reader's "config file not found".
 
     Raises:
@@ -46,11 +47,13 @@ def resolve_config_path(path: str | Path) -> Path:
     if "/" in text or "\\" in text:
         return given
     try:
-        if given.exists() or given.is_symlink():
-            return given
+        here = given.exists() or given.is_symlink()
+        folder = here and given.is_dir()
     except OSError:  # a name no file can have (too long): the reader says why
         return given
     packaged = packaged_config(text)
+    if here and not (folder and packaged is not None):
+        return given
     if packaged is not None:
         return packaged
     import difflib  # noqa: PLC0415  (a name that is no config only)
