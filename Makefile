@@ -38,7 +38,8 @@ demo: $(BASE_STAMP)
 	$(BIN)/mearm sort --config sim
 
 # The wheel (dist/mearm-VERSION-py3-none-any.whl): the package, its configs, arm
-# descriptions and firmware source; `pip install dist/mearm-*.whl` on another machine.
+# descriptions, firmware source and the docs' pages; `pip install dist/mearm-*.whl` on
+# another machine.
 wheel: $(BASE_STAMP)
 	$(BIN)/python -m pip wheel -q --no-deps -w dist .
 	@ls dist/mearm-*.whl

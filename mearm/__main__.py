@@ -19,7 +19,7 @@ import textwrap
 from collections.abc import Callable, Sequence
 
 from mearm.cli import EXIT_BAD_INPUT, run
-from mearm.data import config_names
+from mearm.data import config_names, doc_page
 
 #: The groups ``mearm --help`` shows, in order: a title (what you want to do), then each
 #: subcommand → (the module whose ``main(argv) -> int`` it runs, one line of help). A new
@@ -147,7 +147,8 @@ def _usage() -> str:
     return (
         "usage: mearm SUBCOMMAND [ARGS ...]\n\n"
         "A vision-guided colour-sorting robot arm, for any hobby arm described as data.\n"
-        "First time? mearm sort --config sim (a simulated sort), then docs/maker-path.md.\n\n"
+        "First time? mearm sort --config sim (a simulated sort), then "
+        f"{doc_page('maker-path.md')}.\n\n"
         f"{groups}\n\n"
         + textwrap.fill(
             "Every subcommand that reads a config takes --config FILE and --set KEY=VALUE; "

@@ -40,7 +40,7 @@ pytestmark = [
 ]
 
 #: What the build reads: the package (with its data links) and the folders they point to.
-BUILD_INPUTS = ("pyproject.toml", "README.md", "mearm", "configs", "robot_description")
+BUILD_INPUTS = ("pyproject.toml", "README.md", "mearm", "configs", "robot_description", "docs")
 FIRMWARE = Path("tools") / "arduino"
 #: Left out of the copy: caches and build outputs.
 IGNORED = shutil.ignore_patterns("__pycache__", "*.pyc", "build", "*.egg-info")
@@ -167,6 +167,8 @@ def test_the_wheel_ships_the_data(installed: Installed) -> None:
         if path.is_file() and "build" not in path.parts and path.name != ".gitignore":
             rel = path.relative_to(ROOT / FIRMWARE).as_posix()
             assert f"mearm/data/firmware/{rel}" in names, path
+    for path in (ROOT / "docs").glob("*.md"):
+        assert f"mearm/data/docs/{path.name}" in names, path
     assert "mearm/py.typed" in names
     assert not any(n.startswith(("tests/", "tools/", "configs/")) for n in names)
 
@@ -208,6 +210,23 @@ def test_help_lists_every_subcommand(installed: Installed) -> None:
     assert r.returncode == 0
     for name in SUBCOMMANDS:
         assert f"\n  {name} " in r.stdout, name
+
+
+def test_the_docs_the_commands_point_at_are_installed(installed: Installed) -> None:
+    """``mearm --help`` and init-config's steps name the maker's path: from the wheel, the
+    page the wheel installed (there is no docs/ folder beside a user's work)."""
+    r = _run([installed.mearm, "--help"], installed.work)
+    (line,) = [x for x in r.stdout.splitlines() if x.startswith("First time?")]
+    page = Path(line.removesuffix(".").rsplit(" then ", 1)[1])
+    assert page.is_absolute() and page.name == "maker-path.md", line
+    assert page.is_relative_to(installed.python.parent.parent), page
+    assert (ROOT / "docs" / "maker-path.md").read_text() == page.read_text()
+    r = _run(
+        [installed.mearm, "init-config", "--arm", "mearm_v1", "--rig", "uno", "docs_arm.yaml"],
+        installed.work,
+    )
+    assert r.returncode == 0, r.stderr
+    assert f"({page})" in r.stdout
 
 
 #: Run inside the fresh environment: every subcommand's ``--help``, in one process.

@@ -1,11 +1,11 @@
-"""The data the package ships: the reference configs and arms, the arms' URDFs, the firmware.
+"""The data the package ships: reference configs and arms, URDFs, firmware and the docs.
 
 The project keeps them in its fixed top-level folders (``configs/``, ``robot_description/``,
-``tools/arduino/``); this folder links to them (``configs``, ``robot_description``,
-``firmware`` are relative symbolic links), so an editable install reads the checkout's
-files, and building the wheel copies the files the links point to into
-``mearm/data/`` (``[tool.setuptools.package-data]`` in pyproject.toml). One lookup serves
-both: :data:`DATA_DIR`.
+``tools/arduino/``, ``docs/``); this folder links to them (``configs``,
+``robot_description``, ``firmware``, ``docs`` are relative symbolic links), so an editable
+install reads the checkout's files, and building the wheel copies the files the links point
+to into ``mearm/data/`` (``[tool.setuptools.package-data]`` in pyproject.toml; the docs'
+pages without their images). One lookup serves both: :data:`DATA_DIR`.
 """
 
 from __future__ import annotations
@@ -23,6 +23,8 @@ ARMS_DIR = CONFIGS_DIR / "arms"
 URDF_DIR = DATA_DIR / "robot_description"
 #: The Uno's firmware source and its Makefile (``tools/arduino/`` of the checkout).
 FIRMWARE_DIR = DATA_DIR / "firmware"
+#: The docs' pages (``maker-path.md`` …; in the wheel without their images).
+DOCS_DIR = DATA_DIR / "docs"
 #: What a packaged config's file name ends with.
 CONFIG_SUFFIX = ".yaml"
 
@@ -80,6 +82,20 @@ def firmware_source_dir() -> Path:
     return folder
 
 
+def doc_page(name: str) -> str:
+    """Where to read the docs' page ``name`` (``maker-path.md``), as a message shows it.
+
+    In the checkout it is ``docs/NAME``, relative to the current folder when that is the
+    checkout (as the README's commands are run), else absolute; from the wheel, the copy
+    it ships (:data:`DOCS_DIR`).
+    """
+    path = (DOCS_DIR / name).resolve()
+    try:
+        return path.relative_to(Path.cwd()).as_posix()
+    except (ValueError, OSError):  # elsewhere, or the current folder is gone
+        return str(path)
+
+
 def source_checkout() -> Path | None:
     """The source checkout the package runs from (an editable install), else ``None``.
 
@@ -96,11 +112,13 @@ __all__ = [
     "CONFIGS_DIR",
     "CONFIG_SUFFIX",
     "DATA_DIR",
+    "DOCS_DIR",
     "FIRMWARE_DIR",
     "FIRMWARE_FILES",
     "URDF_DIR",
     "arm_names",
     "config_names",
+    "doc_page",
     "firmware_source_dir",
     "packaged_arm",
     "packaged_config",

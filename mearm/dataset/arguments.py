@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from mearm.config import Config
+from mearm.data import doc_page
 from mearm.dataset.lerobot_format import DEFAULT_CODEC, VIDEO_CODECS
 
 if TYPE_CHECKING:
@@ -45,7 +46,7 @@ def add_record_arguments(parser: argparse.ArgumentParser) -> None:
         type=Path,
         metavar="DIR",
         help="record the run as a LeRobotDataset v3.0 in DIR (a new or empty directory; "
-        "needs the 'record' extra; docs/datasets.md)",
+        f"needs the 'record' extra; {doc_page('datasets.md')})",
     )
     parser.add_argument(
         "--resume", action="store_true", help="with --record: append to the dataset in DIR"

@@ -97,6 +97,7 @@ from mearm.config.servo_file import (
     narrowing_text,
     replaced_calibration,
 )
+from mearm.data import doc_page
 from mearm.errors import MearmError
 from mearm.hardware.errors import ServoError
 from mearm.maker.camera_calibration.doubt import ServoDoubt
@@ -235,7 +236,7 @@ def check_inputs(config: Config, args: argparse.Namespace, output: Path) -> Pers
             "--camera needs a perspective calibration of the camera (calibration.model: "
             f"perspective), not {config.calibration.model!r}: a table homography maps "
             "pixels to the table's plane only and cannot measure the marker 10-30 cm above "
-            "it; calibrate the camera as docs/calibration.md's walkthrough does"
+            f"it; calibrate the camera as {doc_page('calibration.md')}'s walkthrough does"
         )
     if args.simulate and config.simulator != "mujoco":
         raise MearmError(

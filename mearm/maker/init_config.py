@@ -220,7 +220,7 @@ RIGS: dict[str, RigChoice] = {
             _UNO_SERVO,
             _REAL_CAMERA,
             (
-                "wire the servos as the table below shows (docs/maker-path.md)",
+                "wire the servos as the table below shows ({maker_path})",
                 "mearm find-port --replug (names the Uno's port; set servo.port)",
                 "mearm flash --config {config} (puts the firmware on the Uno)",
                 "mearm calibrate-servos --config {config} (the horns go on at home first)",
@@ -235,7 +235,7 @@ RIGS: dict[str, RigChoice] = {
             _SSC32_SERVO,
             _REAL_CAMERA,
             (
-                "wire the servos as the table below shows (docs/maker-path.md)",
+                "wire the servos as the table below shows ({maker_path})",
                 "mearm find-port --replug (names the board's port; set servo.port)",
                 "mearm calibrate-servos --config {config} (the horns go on at home first)",
                 "mearm find-camera --out snapshots (set camera.device_index or camera.path)",
@@ -332,8 +332,10 @@ def render_config(arm: ArmChoice, rig: RigChoice, config_name: str) -> str:
 
 
 def _header(arm: ArmChoice, rig: RigChoice, source: str, config_name: str, arm_name: str) -> str:
+    maker_path = data.doc_page("maker-path.md")
     steps = "".join(
-        f"#   {n}. {step.format(config=config_name)}\n" for n, step in enumerate(rig.steps, 1)
+        f"#   {n}. {step.format(config=config_name, maker_path=maker_path)}\n"
+        for n, step in enumerate(rig.steps, 1)
     )
     wiring = ""
     if rig.real:
@@ -529,11 +531,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     check_rendered(text, out)
     write_text_atomic(out, text)
     print(f"wrote {out}: the {arm.name} arm on the {rig.name} rig. Next:")
+    maker_path = data.doc_page("maker-path.md")
     for n, step in enumerate(rig.steps, 1):
-        print(f"  {n}. {step.format(config=shlex.quote(str(out)))}")
+        print(f"  {n}. {step.format(config=shlex.quote(str(out)), maker_path=maker_path)}")
     if rig.real:
         board: Board = "uno" if rig.name == "uno" else "ssc32"
-        print(f"Wiring of the {arm.name} arm (docs/maker-path.md):")
+        print(f"Wiring of the {arm.name} arm ({maker_path}):")
         print(wiring_text(load_config(out).arm, board), end="")
     return EXIT_OK
 

@@ -40,6 +40,7 @@ from typing import TYPE_CHECKING, Protocol
 import numpy as np
 
 from mearm.config import Config
+from mearm.data import doc_page
 from mearm.errors import ConfigError, MearmError
 from mearm.hardware.bus import ServoBus
 from mearm.hardware.errors import ServoError
@@ -169,7 +170,7 @@ def check_calibrate_at_start(config: Config) -> None:
         problems.append(
             f"{field}: when_uncalibrated needs a perspective calibration of the camera "
             f"(calibration.model: perspective), not {config.calibration.model!r}: set "
-            f"{field} to never, or calibrate the camera as docs/calibration.md's "
+            f"{field} to never, or calibrate the camera as {doc_page('calibration.md')}'s "
             "walkthrough does"
         )
     if problems:
