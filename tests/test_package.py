@@ -102,6 +102,7 @@ def test_data_links_point_at_the_top_level_folders():
     assert data.URDF_DIR.resolve() == ROOT / "robot_description"
     assert data.FIRMWARE_DIR.resolve() == ROOT / "tools" / "arduino"
     assert (data.FIRMWARE_DIR / "mearm_servo" / "mearm_servo.ino").is_file()
+    assert data.DOCS_DIR.resolve() == ROOT / "docs"
 
 
 def test_config_by_name_is_the_packaged_file(tmp_path, monkeypatch):
