@@ -46,7 +46,7 @@ shows a small one).
 from __future__ import annotations
 
 import contextlib
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Callable, Iterable, Iterator, Mapping
 from contextlib import AbstractContextManager
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
@@ -79,12 +79,16 @@ class RigParts:
         bus: The servo bus, not yet connected.
         in_bins: In simulation, how many objects of each class lie in its bin (what a
             place is confirmed against); ``None`` on a real rig.
+        placed: In simulation, how many objects of each class lay on the table at the
+            start (a belt's, which arrive later, are not among them); ``None`` on a real
+            rig, where only what the camera sees is known.
     """
 
     world: World | None
     camera: Camera
     bus: ServoBus
     in_bins: Callable[[], Mapping[str, int]] | None = None
+    placed: Mapping[str, int] | None = None
 
 
 #: Opens a rig's parts and closes them on exit: ``(config, scene) -> context``; ``scene``
@@ -207,11 +211,23 @@ def _kinematic(config: Config, scene: list[SceneObject] | None) -> Iterator[RigP
         camera = stack.enter_context(open_camera(config, world=world))
         bus = open_bus(config, world=world)
         stack.callback(bus.close)
-        in_bins = None
+        in_bins = placed = None
         if world is not None:
             names = config.task.class_names
             in_bins = lambda: {c: len(world.in_bin(c)) for c in names}  # noqa: E731
-        yield RigParts(world, camera, bus, in_bins)
+        if world is not None and config.camera.kind == "sim":  # what the camera looks at
+            start = [(o.color, o.x_cm, o.y_cm) for o in world.objects if o.arrives_s is None]
+            placed = _on_table(config, start)
+        yield RigParts(world, camera, bus, in_bins, placed)
+
+
+def _on_table(config: Config, objects: Iterable[tuple[str, float, float]]) -> dict[str, int]:
+    """How many objects ``(class, x, y)`` of each class lie on the table, not in a bin."""
+    counts: dict[str, int] = {}
+    for color, x, y in objects:
+        if not any(c.in_bin(x, y) for c in config.task.classes):
+            counts[color] = counts.get(color, 0) + 1
+    return counts
 
 
 @contextlib.contextmanager
@@ -240,7 +256,8 @@ def _mujoco(config: Config, scene: list[SceneObject] | None) -> Iterator[RigPart
                 counts[name] = counts.get(name, 0) + 1
             return counts
 
-        yield RigParts(None, camera, twin, in_bins)
+        placed = _on_table(config, [(o.color, o.x, o.y) for o in config.task.scene])
+        yield RigParts(None, camera, twin, in_bins, placed)
 
 
 def _sim_bus(config: Config, world: World | None, port: str | None) -> ServoBus:

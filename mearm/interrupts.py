@@ -8,19 +8,88 @@ sort or an experiment runs on as though no one had pressed Ctrl-C (seen: a 10,00
 ``mearm experiment`` that ran on). :func:`install` puts a hook in place that sends such a
 Ctrl-C again, from another thread, so that it is raised where the finalizer returned to.
 Every other unraisable exception goes to the hook that was there before.
+
+SIGTERM and SIGHUP (what ``timeout``, ``systemctl stop``, ``docker stop`` and a closed
+terminal send) end a process at once, with nothing parked and nothing logged. A command
+that moves the arm takes them as Ctrl-C inside :func:`stop_signals_as_ctrl_c`: they raise
+:class:`Terminated`, a :class:`KeyboardInterrupt`, so the arm parks and the log says why,
+and the command exits 128 + the signal's number (143 for SIGTERM), as the shell reports
+a process that signal ended.
 """
 
 from __future__ import annotations
 
 import _thread
+import contextlib
 import os
 import signal
 import sys
+import threading
 import time
+from collections.abc import Iterator
+from types import FrameType
 from typing import Any
 
 #: How long after a lost Ctrl-C it is sent again [s].
 RESEND_AFTER_S = 0.02
+
+#: The signals a command that moves the arm takes as Ctrl-C.
+STOP_SIGNALS: tuple[signal.Signals, ...] = tuple(
+    getattr(signal, name) for name in ("SIGTERM", "SIGHUP") if hasattr(signal, name)
+)
+#: The stop signals received in this process, in order.
+_received: list[int] = []
+
+
+class Terminated(KeyboardInterrupt):
+    """A stop signal (:data:`STOP_SIGNALS`) taken as Ctrl-C.
+
+    Attributes:
+        signum: The signal's number.
+    """
+
+    def __init__(self, signum: int):
+        super().__init__(signal.Signals(signum).name)
+        self.signum = signum
+
+
+def named(exc: KeyboardInterrupt) -> str:
+    """What stopped the run, for a message: ``Ctrl-C``, or the signal's name (``SIGTERM``)."""
+    return signal.Signals(exc.signum).name if isinstance(exc, Terminated) else "Ctrl-C"
+
+
+def exit_status() -> int:
+    """130 after Ctrl-C; 128 + N once a stop signal N was taken as Ctrl-C (143: SIGTERM)."""
+    return 128 + _received[-1] if _received else 130
+
+
+@contextlib.contextmanager
+def stop_signals_as_ctrl_c() -> Iterator[None]:
+    """Inside the block SIGTERM and SIGHUP raise :class:`Terminated`, as Ctrl-C raises.
+
+    Only a signal that would end the process is taken (an ignored one, under ``nohup``,
+    stays ignored), and only in the main thread (only it may install handlers); on
+    leaving, the handlers before are put back. A temporary file being written when one
+    arrives is removed as the exception unwinds (:func:`mearm.fileio.write_atomic`).
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    from mearm.fileio import signal_ends_process  # noqa: PLC0415
+
+    def handler(signum: int, frame: FrameType | None) -> None:
+        _received.append(signum)
+        raise Terminated(signum)
+
+    previous = {}
+    for sig in STOP_SIGNALS:
+        if signal_ends_process(sig):
+            previous[sig] = signal.signal(sig, handler)
+    try:
+        yield
+    finally:
+        for sig, old in previous.items():
+            signal.signal(sig, old)
 
 
 def install() -> None:

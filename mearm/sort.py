@@ -16,10 +16,12 @@ bins' and the objects' shapes; docs/view.md).
 ``--record DIR`` also writes the run as a LeRobotDataset v3.0, one episode per
 pick-and-place (docs/datasets.md).
 
-Exit status: 0 only when every object seen was sorted; 1 when the run ended with objects
-left (out of reach, failed picks, a camera or servo fault, a servo port that cannot be
-opened); 2 on bad input, found before anything moves (a camera that cannot be opened as
-configured included); 130 on Ctrl-C (the arm is parked first). The run log is written
+Exit status: 0 only when every object seen was sorted (in simulation, every object: one
+the camera never saw is left too); 1 when the run ended with objects left (out of reach,
+failed picks, a camera or servo fault, a servo port that cannot be opened); 2 on bad
+input, found before anything moves (a camera that cannot be opened as configured
+included); 130 on Ctrl-C (the arm is parked first), 143 on SIGTERM and 129 on SIGHUP,
+taken as Ctrl-C is. The run log is written
 per route, so a failure loses nothing written before it.
 
 On servos that were never calibrated — a real board (``servo.backend`` ``serial`` or
@@ -49,10 +51,10 @@ _PAUSE_COLLECTOR = __name__ == "__main__" and gc.isenabled()
 if _PAUSE_COLLECTOR:
     gc.disable()
 try:
+    from mearm import interrupts
     from mearm.cli import (
         EXIT_BAD_INPUT,
         EXIT_FAILURE,
-        EXIT_INTERRUPTED,
         EXIT_OK,
         ArgumentParser,
         add_config_argument,
@@ -232,7 +234,12 @@ def _view_factory(config: Config, *, collision: bool) -> Callable[[Rig], object]
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Run the sort; see the module docstring."""
+    """Run the sort; see the module docstring. SIGTERM and SIGHUP stop it as Ctrl-C does."""
+    with interrupts.stop_signals_as_ctrl_c():
+        return _sort(argv)
+
+
+def _sort(argv: Sequence[str] | None) -> int:
     parser = _parser()
     args = parser.parse_args(argv)
     _check_arguments(parser, args)
@@ -280,17 +287,17 @@ def main(argv: Sequence[str] | None = None) -> int:
         if args.quiet:
             _print_summary(lines)
         print(f"mearm sort: stopped: {exc.reason}", file=sys.stderr)
-        return EXIT_INTERRUPTED if exc.interrupted else EXIT_FAILURE
+        return interrupts.exit_status() if exc.interrupted else EXIT_FAILURE
     except (CameraError, ServoError) as exc:
         # raised only before the sort started (inside it, a fault is SortAborted): a
         # camera or link that cannot be opened as configured, found before any motion
         print(f"mearm sort: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
-    except KeyboardInterrupt:
+    except KeyboardInterrupt as exc:
         # outside the sort's own loop (opening the rig or the view, closing them): the
         # arm is at home or was parked by the sorter
-        print("mearm sort: interrupted (Ctrl-C)", file=sys.stderr)
-        return EXIT_INTERRUPTED
+        print(f"mearm sort: interrupted ({interrupts.named(exc)})", file=sys.stderr)
+        return interrupts.exit_status()
     finally:
         if log is not None:
             log.close()

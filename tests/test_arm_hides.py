@@ -55,5 +55,5 @@ def test_a_carried_object_seen_in_its_bin_is_not_taken_for_one_that_appears():
     config = load_config("configs/sim_5dof_mujoco_kits.yaml")
     scene = random_scene(config, 9, seed=2400)
     out = run_sort(config, scene=scene, echo=None).outcome
-    assert out.n_seen == 9
+    assert out.n_objects == 9
     assert out.n_sorted == 9

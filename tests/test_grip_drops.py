@@ -190,7 +190,7 @@ def test_a_kit_whose_claw_is_low_is_never_lowered():
     assert picks
     lowest = [sorter.collision.tool_lowest_cm(r.plan.q)[0] for r in picks if r.plan is not None]
     assert min(lowest) > 0.4, lowest
-    assert report.outcome.n_sorted == 4 and report.outcome.n_seen <= 4
+    assert report.outcome.n_sorted == 4 and report.outcome.n_objects <= 4
 
 
 @pytest.mark.slow
@@ -226,4 +226,4 @@ def test_a_kit_whose_claw_is_high_misses_lowers_and_later_picks_start_lower(monk
         lowest = sorter.collision.tool_lowest_cm(r.plan.q)[0]
         assert lowest >= TABLE_ROOM_CM - below.get(r.object_id, 0.0) - 1e-3, (r, below)
     assert report.outcome.n_sorted == 3
-    assert report.outcome.n_seen <= 3
+    assert report.outcome.n_objects <= 3

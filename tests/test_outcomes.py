@@ -41,7 +41,7 @@ def test_outcome_line_counts_and_reasons():
         sorted={"red": 1, "blue": 0},
         left={"unreachable": 1, "pick_failed": 1},
     )
-    assert (o.n_seen, o.n_sorted, o.complete) == (3, 1, False)
+    assert (o.n_objects, o.n_sorted, o.complete) == (3, 1, False)
     assert o.line() == "sorted 1 of 3 objects (1 out of reach, 1 pick failed)"
     assert Outcome(seen={"red": 1}, sorted={"red": 1}).line() == "sorted 1 of 1 objects"
     assert set(LEFT_REASONS) >= {"unreachable", "pick_failed", "fault", "interrupted"}
@@ -208,3 +208,36 @@ def test_a_bin_refused_once_the_object_is_held_puts_it_back(tmp_path, capsys, mo
     assert len(blue) == 4 and all(o.on_table and o.bin is None for o in blue)
     for o in blue:  # put back where it was picked up, to the grip's error
         assert abs(o.x_cm - start[o.id][0]) < 1.0 and abs(o.y_cm - start[o.id][1]) < 1.0
+
+
+@pytest.mark.parametrize(
+    "spoiler",
+    [
+        "task.classes.red.diameter_cm=0.5",  # under vision.min_area_px at this calibration
+        "task.classes.red.hue_bands_deg=[{lo_deg: 10, hi_deg: 10}]",  # a band no hue is in
+    ],
+)
+def test_objects_the_camera_never_sees_are_left_not_forgotten(tmp_path, capsys, spoiler):
+    """In simulation the world knows every object: one the camera never sees lies on the
+    table still, and the run says so and exits 1 (it ended "sorted 8 of 8", exit 0)."""
+    log = tmp_path / "run.jsonl"
+    code, lines, err = _sort(capsys, "--set", spoiler, "--log", log, "--quiet")
+    assert code == 1, err
+    assert lines[-1] == "sorted 8 of 12 objects (4 never seen by the camera)"
+    assert [x.split() for x in lines if x.startswith("red ")] == [["red", "0", "0", "4"]]
+    s = _summary(log)
+    assert s.objects == {"red": 4, "green": 4, "blue": 4}
+    assert s.left == {"unseen": 4}
+
+
+@pytest.mark.heavy
+def test_the_twin_counts_the_objects_its_camera_never_sees(tmp_path, capsys):
+    """The physical twin's table, as the kinematic world's (its own way to open the rig)."""
+    scene = tmp_path / "scene.yaml"
+    scene.write_text("- {color: red, x: 0, y: 45}\n- {color: blue, x: 6, y: 42}\n")
+    code, lines, err = _sort(
+        capsys, "--config", "sim_mujoco", "--scene", scene, "--quiet",
+        "--set", "task.classes.red.diameter_cm=0.5",
+    )  # fmt: skip
+    assert code == 1, err
+    assert lines[-1] == "sorted 1 of 2 objects (1 never seen by the camera)"

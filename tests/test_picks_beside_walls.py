@@ -98,7 +98,7 @@ def test_an_object_by_a_wall_where_the_claw_goes_is_left_not_the_scene_stopped(m
     assert skips["red1"].kind == "collision"
     assert "where the claw goes" in skips["red1"].reason
     assert "red bin's wall" in skips["red1"].reason
-    assert report.outcome.n_seen <= 12
+    assert report.outcome.n_objects <= 12
     assert report.outcome.n_sorted >= 10
 
 
@@ -112,7 +112,7 @@ def test_a_pick_by_a_wall_where_the_camera_cannot_see_the_claw_is_not_made_blind
     report = _sort(52, 1510)
     blind = [s.object_id for s in report.skipped if "not picked blind" in s.reason]
     assert blind == []
-    assert report.outcome.n_seen <= 12
+    assert report.outcome.n_objects <= 12
     assert report.outcome.n_sorted >= 11
 
 
@@ -175,5 +175,5 @@ def test_picks_by_the_wall_where_the_claw_is_out_of_view_look_aside_not_left():
     report = _sort(21, 1710)
     blind = [s.object_id for s in report.skipped if "not picked blind" in s.reason]
     assert blind == []
-    assert report.outcome.n_seen <= 12
+    assert report.outcome.n_objects <= 12
     assert report.outcome.n_sorted >= 11

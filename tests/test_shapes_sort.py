@@ -79,7 +79,7 @@ def test_red_cubes_and_red_cylinders_go_to_their_own_bins_in_the_twin() -> None:
         twins = [v for v in vars(rig.bus).values() if isinstance(v, twin_bus.TwinArm)]
         twin = twins[0] if twins else rig.bus
         in_bins = twin.objects_in_bin()
-    assert report.complete and report.outcome.n_seen == 8
+    assert report.complete and report.outcome.n_objects == 8
     assert sorted(in_bins) == sorted(twin.object_ids) and len(in_bins) == 8
     assert all(oid.rstrip("0123456789") == cls for oid, cls in in_bins.items())
     picks = [r for r in report.routes if r.step == "pick" and r.class_name == "red_cube"]

@@ -229,7 +229,7 @@ def test_servo_link_dropped_mid_route(tmp_path, config):
     assert exc.value.last_joints is not None
     outcome = exc.value.outcome  # the summary's counts travel with the error
     assert outcome is not None and outcome.left.get("fault", 0) > 0
-    assert outcome.n_seen == outcome.n_sorted + sum(outcome.left.values())
+    assert outcome.n_objects == outcome.n_sorted + sum(outcome.left.values())
     trial = read_runlog(log_path).trials[0]
     assert trial.routes, "the route before the fault is in the log"
     fault = trial.faults[0]
@@ -260,8 +260,20 @@ def test_a_fault_on_the_way_to_the_bin_leaves_the_pick_unconfirmed(config):
 
 
 @pytest.mark.heavy
-def test_ctrl_c_parks_and_keeps_the_log(tmp_path):
-    """SIGINT mid-run: exit 130, one line on stderr, fault logged, arm parked at home."""
+@pytest.mark.parametrize(
+    ("sig", "status", "named"),
+    [
+        (signal.SIGINT, 130, "Ctrl-C"),
+        (signal.SIGTERM, 143, "SIGTERM"),
+        (signal.SIGHUP, 129, "SIGHUP"),
+    ],
+)
+def test_ctrl_c_parks_and_keeps_the_log(tmp_path, sig, status, named):
+    """SIGINT mid-run: exit 130, one line on stderr, fault logged, arm parked at home.
+
+    SIGTERM and SIGHUP (``timeout``, ``systemctl stop``, a closed terminal) the same, with
+    128 + the signal's number: they ended the process at once, the arm not parked, the
+    log without a fault or a summary."""
     cfg = tmp_path / "slow.yaml"
     cfg.write_text(yaml.safe_dump({"servo": {"sim_realtime": True, "rate_hz": 200.0}}))
     log = tmp_path / "run.jsonl"
@@ -279,16 +291,17 @@ def test_ctrl_c_parks_and_keeps_the_log(tmp_path):
         ):
             break
         time.sleep(0.05)
-    proc.send_signal(signal.SIGINT)
+    proc.send_signal(sig)
     out, err = proc.communicate(timeout=60)
-    assert proc.returncode == 130, err
+    assert proc.returncode == status, err
     lines = err.strip().splitlines()
-    assert len(lines) == 1 and "interrupted (Ctrl-C); arm parked at home" in lines[0]
+    assert len(lines) == 1 and f"interrupted ({named}); arm parked at home" in lines[0]
     assert "Traceback" not in err
     contents = read_runlog(log)
     assert contents.problem is None
     trial = contents.trials[0]
     assert trial.routes and "interrupted" in trial.faults[0].reason
+    assert trial.summary is not None and trial.summary.left.get("interrupted", 0) > 0
     assert trial.faults[0].last_joints == pytest.approx(
         {"base": 120, "shoulder": 93, "elbow": -132, "wrist": 39}, abs=1e-9
     )

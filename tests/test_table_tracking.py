@@ -103,7 +103,7 @@ def test_an_object_of_another_class_does_not_explain_one_that_appeared(config):
 
     _, report = _sort_pushing(config, scene, push)
     out = report.outcome
-    assert out.n_seen == 3 and out.seen == {"red": 2, "green": 0, "blue": 1}
+    assert out.n_objects == 3 and out.seen == {"red": 2, "green": 0, "blue": 1}
     assert out.sorted["red"] == 2
 
 

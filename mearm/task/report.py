@@ -34,6 +34,7 @@ LEFT_REASONS: dict[str, str] = {
     "not_confirmed": "not confirmed in its bin",
     "fault": "stopped by a fault",
     "interrupted": "interrupted",
+    "unseen": "never seen by the camera",
 }
 
 
@@ -72,17 +73,27 @@ class Outcome:
             end, per class, whether the sort saw them or not (it may take an object seen
             first where the arm hid the table for one carried off before); empty on a
             real rig.
+        unseen: In simulation, objects on the table the camera never saw, per class
+            (also in ``left`` as ``unseen``); empty on a real rig, which cannot know them.
     """
 
     seen: dict[str, int] = field(default_factory=dict)
     sorted: dict[str, int] = field(default_factory=dict)
     left: dict[str, int] = field(default_factory=dict)
     in_bins: dict[str, int] = field(default_factory=dict)
+    unseen: dict[str, int] = field(default_factory=dict)
 
     @property
-    def n_seen(self) -> int:
-        """Objects seen (M)."""
-        return sum(self.seen.values())
+    def n_objects(self) -> int:
+        """Objects seen, and in simulation those never seen (M)."""
+        return sum(self.seen.values()) + sum(self.unseen.values())
+
+    def objects(self) -> dict[str, int]:
+        """Objects per class: those seen and, in simulation, those never seen."""
+        out = dict(self.seen)
+        for name, n in self.unseen.items():
+            out[name] = out.get(name, 0) + n
+        return out
 
     @property
     def n_sorted(self) -> int:
@@ -91,12 +102,12 @@ class Outcome:
 
     @property
     def complete(self) -> bool:
-        """Whether every object seen was sorted."""
-        return self.n_sorted == self.n_seen
+        """Whether every object seen (and in simulation, every object) was sorted."""
+        return self.n_sorted == self.n_objects
 
     def line(self) -> str:
         """``sorted N of M objects (k out of reach, …)``: the run's last line."""
-        text = f"sorted {self.n_sorted} of {self.n_seen} objects"
+        text = f"sorted {self.n_sorted} of {self.n_objects} objects"
         reasons = [f"{n} {LEFT_REASONS.get(k, k)}" for k, n in self.left.items() if n]
         return f"{text} ({', '.join(reasons)})" if reasons else text
 
@@ -240,16 +251,18 @@ class Reporter:
                 trial=self.trial,
                 ok=ok,
                 sorted=dict(outcome.sorted),
-                objects=dict(outcome.seen),
+                objects=outcome.objects(),
                 left=dict(outcome.left),
             )
         width = max(7, *(len(c.name) + 1 for c in self.config.task.classes))
         self.echo("")
         self.echo(f"{'class':<{width}}   seen  sorted  left")
+        objects = outcome.objects()
         for cls in self.config.task.classes:
             n_seen = outcome.seen.get(cls.name, 0)
             n_sorted = outcome.sorted.get(cls.name, 0)
-            self.echo(f"{cls.name:<{width}} {n_seen:6d}  {n_sorted:6d}  {n_seen - n_sorted:4d}")
+            n_left = objects.get(cls.name, 0) - n_sorted
+            self.echo(f"{cls.name:<{width}} {n_seen:6d}  {n_sorted:6d}  {n_left:4d}")
         routes = [r for r in rep.routes if r.plan is not None]
         if routes:
             its = np.array([r.plan.iterations for r in routes if r.plan is not None])

@@ -15,6 +15,7 @@ from mearm.backends import open_parts, table_world, uses_world
 from mearm.config import Config, SceneObject
 from mearm.errors import MearmError
 from mearm.hardware.bus import ServoBus
+from mearm.interrupts import named
 from mearm.kinematics import ArmModel
 from mearm.sim import World
 from mearm.task.check import check_consistency
@@ -37,6 +38,8 @@ class Rig:
         model: The arm model.
         in_bins: In simulation, how many objects of each class lie in its bin (what a
             place is confirmed against); ``None`` on a real rig.
+        placed: In simulation, how many objects of each class lay on the table at the
+            start; ``None`` on a real rig.
     """
 
     world: World | None
@@ -44,6 +47,7 @@ class Rig:
     bus: ServoBus
     model: ArmModel
     in_bins: Callable[[], Mapping[str, int]] | None = None
+    placed: Mapping[str, int] | None = None
 
     @property
     def simulated(self) -> bool:
@@ -88,7 +92,7 @@ def open_rig(config: Config, scene: list[SceneObject] | None = None) -> Iterator
     """
     model = ArmModel(config.arm)
     with open_parts(config, scene) as parts:
-        yield Rig(parts.world, parts.camera, parts.bus, model, parts.in_bins)
+        yield Rig(parts.world, parts.camera, parts.bus, model, parts.in_bins, parts.placed)
 
 
 def run_sort(
@@ -149,7 +153,7 @@ def run_sort(
             kind = Sorter if config.belt is None else _conveyor_sorter()
             sorter = kind(
                 config, rig.camera, rig.bus, model=rig.model, log=log, view=view, echo=echo,
-                trial=trial, in_bins=rig.in_bins, recorder=recorder,
+                trial=trial, in_bins=rig.in_bins, placed=rig.placed, recorder=recorder,
                 calibrate_first=calibrate_first,
             )  # fmt: skip
             started = True  # from here on the sorter logs its own faults
@@ -164,7 +168,7 @@ def run_sort(
                 on_view(view)
             return report
     except (MearmError, KeyboardInterrupt) as exc:
-        reason = str(exc) if isinstance(exc, MearmError) else "interrupted (Ctrl-C)"
+        reason = str(exc) if isinstance(exc, MearmError) else f"interrupted ({named(exc)})"
         if log is not None and not started:
             with contextlib.suppress(MearmError):  # no header yet: nothing to close
                 log.fault(f"before the sort started: {reason}", trial=trial)

@@ -39,6 +39,7 @@ from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 
+from mearm import interrupts
 from mearm.config import Config
 from mearm.data import doc_page
 from mearm.errors import ConfigError, MearmError
@@ -192,6 +193,9 @@ class Sorter(PickAndPlace):
         in_bins: In simulation, how many objects of each class lie in its bin (the world,
             or the twin's physics): a place counts only up to that many; ``None`` on a
             real rig (the camera confirms: the object is no longer on the table).
+        placed: In simulation, how many objects of each class lay on the table at the
+            start: those the camera never saw are counted as left (``unseen``), not
+            forgotten; ``None`` on a real rig, where only what the camera sees is known.
         max_rounds: Pick attempts before the run gives up on a table that never clears
             (default: four per expected object and retry, at least 80 × (retries + 1)).
         recorder: Records each pick-and-place as an episode (``--record``), or ``None``.
@@ -215,6 +219,7 @@ class Sorter(PickAndPlace):
         echo: Callable[[str], None] | None = print,
         trial: int | None = None,
         in_bins: Callable[[], Mapping[str, int]] | None = None,
+        placed: Mapping[str, int] | None = None,
         max_rounds: int | None = None,
         recorder: EpisodeRecorder | None = None,
         calibrate_first: CalibrateFirst | None = None,
@@ -237,6 +242,7 @@ class Sorter(PickAndPlace):
         self._seen_px = None
         self.view = view
         self.in_bins = in_bins
+        self.placed = dict(placed or {})
         retries = config.task.pick_retries + 1
         self.max_rounds = max_rounds or 4 * (len(config.task.scene) + 20) * retries
         self._objects: list[TrackedObject] = []
@@ -442,8 +448,8 @@ class Sorter(PickAndPlace):
             self._abort(str(exc), park=isinstance(exc, CameraError))
         except StartCalibrationFailed as exc:  # the arm parked where it could be
             self._abort(f"{exc}; nothing sorted", park=False)
-        except KeyboardInterrupt:
-            self._abort("interrupted (Ctrl-C)", park=True, interrupted=True)
+        except KeyboardInterrupt as exc:
+            self._abort(f"interrupted ({interrupts.named(exc)})", park=True, interrupted=True)
         self.reporter.summary(ok=True, outcome=self.outcome(), motion=self.executor.motion)
         return self.report
 
@@ -455,7 +461,8 @@ class Sorter(PickAndPlace):
         left for no recorded reason is put down to ``stopped`` (a fault or Ctrl-C) or,
         after a complete run, to ``not_confirmed``. Each object counts once, wherever the
         arm pushed it (:mod:`mearm.task.table_tracking`): an object seen only in part, at
-        the image border, is one of them too.
+        the image border, is one of them too. In simulation an object the camera never
+        saw is left too (``unseen``): the world knows it is there.
         """
         out = Outcome()
         for cls in self.config.task.classes:
@@ -480,6 +487,11 @@ class Sorter(PickAndPlace):
                 leave(stopped)
             else:
                 leave("not_confirmed")
+        for name, n in self.placed.items():  # in simulation: never seen, still there
+            missing = n - out.seen.get(name, 0)
+            if missing > 0:
+                out.unseen[name] = missing
+                out.left["unseen"] = out.left.get("unseen", 0) + missing
         return out
 
     def _gone(self) -> None:
@@ -556,7 +568,8 @@ class Sorter(PickAndPlace):
                 self._home(keep_grip=True)
                 parked = "; arm parked at home"
             except (MearmError, KeyboardInterrupt) as exc:
-                parked = f"; parking failed ({exc})"
+                why = str(exc) if isinstance(exc, MearmError) else f"{interrupts.named(exc)} again"
+                parked = f"; parking failed ({why})"
                 bus.stop()
         else:
             parked = "; nothing more sent to the servos"

@@ -65,10 +65,17 @@ def _one(config: Config, objects: int, seed: int) -> Result:
         if exc.outcome is None:
             return len(scene), 0, 0, {"fault": len(scene)}, exc.reason, []
         out = exc.outcome  # what it sorted before the fault, and what the fault left
-        return out.n_seen, out.n_sorted, sum(out.in_bins.values()), dict(out.left), exc.reason, []
+        return (
+            out.n_objects,
+            out.n_sorted,
+            sum(out.in_bins.values()),
+            dict(out.left),
+            exc.reason,
+            [],
+        )
     out = report.outcome
     notes = [f"{s.object_id}: {s.reason}" for s in report.skipped]
-    return out.n_seen, out.n_sorted, sum(out.in_bins.values()), dict(out.left), None, notes
+    return out.n_objects, out.n_sorted, sum(out.in_bins.values()), dict(out.left), None, notes
 
 
 #: Whether this worker has seen Ctrl-C: the scenes it is handed after that are not sorted.

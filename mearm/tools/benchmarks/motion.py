@@ -21,7 +21,7 @@ def bench_motion(options: BenchOptions) -> list[Row]:
         report = run_sort(config, echo=None)
         motion = report.motion
         assert motion is not None  # the sort ran to its summary
-        done = f"sorted {report.outcome.n_sorted} of {report.outcome.n_seen}"
+        done = f"sorted {report.outcome.n_sorted} of {report.outcome.n_objects}"
         if not report.complete:
             done = f"INCOMPLETE: {done}"
         note = (

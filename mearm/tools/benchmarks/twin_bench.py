@@ -99,7 +99,7 @@ def twin_sort(config: Config) -> TwinSort:
         t0 = time.perf_counter()
         report = run_sort(config, echo=None)
         out.sort_s = time.perf_counter() - t0
-    out.sorted_text = f"sorted {report.outcome.n_sorted} of {report.outcome.n_seen}"
+    out.sorted_text = f"sorted {report.outcome.n_sorted} of {report.outcome.n_objects}"
     return out
 
 
