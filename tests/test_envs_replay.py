@@ -56,3 +56,72 @@ def test_the_replay_command_exits_2_on_a_folder_that_is_no_dataset(tmp_path):
     assert proc.returncode == 2
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and "not a LeRobot dataset" in lines[0]
+
+
+@pytest.fixture(scope="module")
+def recorded(tmp_path_factory: pytest.TempPathFactory):
+    """``mearm sort --random 2 --seed 7 --record`` per scene at the servo rate (the CLI)."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parent.parent
+    ds = tmp_path_factory.mktemp("replay") / "rec"
+    subprocess.run(
+        [sys.executable, "-m", "mearm", "sort", "--config", "sim_mujoco", "--random", "2",
+         "--seed", "7", "--record", str(ds), "--record-per", "scene", "--record-fps", "50",
+         "--record-codec", "h264", "--quiet"],
+        check=True, capture_output=True, cwd=root, timeout=300,
+    )  # fmt: skip
+    return ds
+
+
+def _replay_cli(ds, *args: str):
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parent.parent
+    return subprocess.run(
+        [sys.executable, "-m", "mearm.envs.replay", str(ds), *args],
+        capture_output=True, text=True, cwd=root, timeout=300,
+    )  # fmt: skip
+
+
+def test_the_replay_takes_the_recorded_scene(recorded):
+    """No --seed or --objects: the dataset's own (it kept --random 2 --seed 7)."""
+    proc = _replay_cli(recorded)
+    assert proc.returncode == 0, proc.stderr
+    assert "2 of 2 objects in their bins" in proc.stdout
+
+
+@pytest.mark.parametrize(
+    ("args", "says"),
+    [
+        (["--seed", "8"], "episode 0 was recorded with --random 2 --seed 7, not --seed 8"),
+        (["--objects", "3"], "episode 0 was recorded with --random 2 --seed 7, not --objects 3"),
+        (
+            ["--config", "sim_5dof_mujoco"],
+            "recorded with the arm 'mearm_paper', --config sim_5dof_mujoco has the arm",
+        ),
+        (["--episode", "1"], "has no episode 1 (it holds episodes 0..0)"),
+    ],
+)
+def test_the_replay_refuses_inputs_the_recording_disagrees_with(recorded, args, says):
+    """Exit 2, one line: not "0 of 2 in their bins" (exit 1) or a ValueError from a step."""
+    proc = _replay_cli(recorded, *args)
+    assert proc.returncode == 2, proc.stdout + proc.stderr
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and says in lines[0], lines
+
+
+def test_an_episode_without_a_scene_needs_seed_and_objects(tmp_path):
+    """Recorded without --random N --seed S: the replay asks for them, by name."""
+    config = load_config("sim_mujoco")
+    recorder = DatasetRecorder(tmp_path / "ds", config, fps=50, per="scene")
+    try:
+        run_sort(config, scene=random_scene(config, 1, seed=3), echo=None, recorder=recorder)
+    finally:
+        recorder.close()
+    with pytest.raises(DatasetError, match="episode 0 keeps no scene .*: give --seed"):
+        replay(tmp_path / "ds", 0, objects=1)

@@ -93,6 +93,9 @@ def check_record_arguments(parser: argparse.ArgumentParser, args: argparse.Names
 def recorder_from_args(args: argparse.Namespace, config: Config) -> DatasetRecorder | None:
     """The recorder ``--record`` asks for, its directory checked; ``None`` without it.
 
+    A sort's ``--random N --seed S`` (and ``--config``, ``--set``) is kept with each
+    episode: what a replay rebuilds the scene from (:mod:`mearm.envs.replay`).
+
     Raises:
         DatasetError: the directory is a file, not writable, or not empty without
             ``--resume``, or holds another recording.
@@ -100,8 +103,18 @@ def recorder_from_args(args: argparse.Namespace, config: Config) -> DatasetRecor
     """
     if args.record is None:
         return None
+    from mearm.dataset.reading import RecordedScene
     from mearm.dataset.recorder import DatasetRecorder
 
+    scene = None
+    if getattr(args, "random", None) is not None:  # a sort's --random N --seed S
+        given = getattr(args, "config", None)
+        scene = RecordedScene(
+            seed=args.seed,
+            objects=args.random,
+            config=None if given is None else str(given),
+            overrides=tuple(getattr(args, "set", None) or ()),
+        )
     return DatasetRecorder(
         args.record,
         config,
@@ -109,6 +122,7 @@ def recorder_from_args(args: argparse.Namespace, config: Config) -> DatasetRecor
         per=args.record_per,
         resume=args.resume,
         codec=args.record_codec,
+        scene=scene,
     )
 
 

@@ -6,7 +6,6 @@ its video, each captioned with the episode, the frame and its ``observation.stat
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Any
 
@@ -15,6 +14,15 @@ import numpy as np
 
 from mearm.dataset import lerobot_format as L
 from mearm.dataset.errors import DatasetError
+from mearm.dataset.reading import (
+    damaged,
+    read_episodes,
+    read_info,
+    read_json,
+    read_table,
+    read_tags,
+    read_tasks,
+)
 from mearm.dataset.recorder import import_extra
 
 #: The width of one frame on the contact sheet [px].
@@ -25,9 +33,11 @@ def describe(root: Path) -> list[str]:
     """The lines ``show`` prints: totals, episodes, tasks, statistics of the state.
 
     Raises:
-        DatasetError: not a dataset (:func:`check_dataset`'s first checks).
+        DatasetError: not a dataset (:func:`check_dataset`'s first checks), or a file of
+            it is damaged (:mod:`mearm.dataset.reading`).
     """
     info, episodes, tasks = _read(root)
+    tags, scenes = read_tags(root, len(episodes))
     lines = [
         f"{root}: LeRobot {info['codebase_version']}, robot {info.get('robot_type')}, "
         f"{info['fps']} fps, {info['total_episodes']} episodes, {info['total_frames']} frames, "
@@ -38,16 +48,27 @@ def describe(root: Path) -> list[str]:
     for row in episodes:
         seconds = row["length"] / info["fps"]
         tasks_text = "; ".join(row["tasks"])
-        lines.append(f"{row['episode_index']:7d}  {row['length']:6d}  {seconds:7.1f}  {tasks_text}")
+        k = row["episode_index"]
+        line = f"{k:7d}  {row['length']:6d}  {seconds:7.1f}  {tasks_text}"
+        trial, pick = tags[k] if 0 <= k < len(tags) else (None, None)
+        scene = scenes[k] if 0 <= k < len(scenes) else None
+        if scene is not None:
+            line += f" (--random {scene.objects} --seed {scene.seed})"
+        elif trial is not None:
+            line += f" (trial seed {trial}, pick {pick})"
+        lines.append(line)
     lines += ["", "task_index  task"]
     lines += [f"{k:10d}  {t}" for k, t in enumerate(tasks)]
-    stats = json.loads((root / L.STATS_PATH).read_text())
+    stats = read_json(root, L.STATS_PATH)
     for key in ("observation.state", "action"):
-        names = info["features"][key]["names"]
-        s = stats.get(key, {})
+        names = info["features"].get(key, {}).get("names") or []
+        s = stats.get(key, {}) if isinstance(stats, dict) else {}
         lines += ["", f"{key}: {'name':>14}  {'min':>8}  {'mean':>8}  {'std':>8}  {'max':>8}"]
         for i, name in enumerate(names):
-            values = [s[k][i] for k in ("min", "mean", "std", "max")]
+            try:
+                values = [float(s[k][i]) for k in ("min", "mean", "std", "max")]
+            except (KeyError, IndexError, TypeError, ValueError):
+                raise damaged(root, L.STATS_PATH, f"lacks the statistics of {key}") from None
             lines.append(
                 " " * (len(key) + 2) + f"{name:>14}  " + "  ".join(f"{v:8.2f}" for v in values)
             )
@@ -77,10 +98,10 @@ def contact_sheet(root: Path, path: Path, *, per_episode: int = 3, max_episodes:
             video_key=key,
         )  # fmt: skip
         t0 = row[f"videos/{key}/from_timestamp"]
-        frames = _frames_at(av, root / rel, [t0 + i / fps for i in picks])
+        frames = _frames_at(av, root, rel, [t0 + i / fps for i in picks])
         shown += len(frames)
-        data = pq.read_table(
-            root / L.chunk_file(L.DATA_PATH, row["data/chunk_index"], row["data/file_index"])
+        data = read_table(
+            pq, root, L.chunk_file(L.DATA_PATH, row["data/chunk_index"], row["data/file_index"])
         )
         states = data["observation.state"].to_pylist()
         first = row["dataset_from_index"] - int(data["index"][0].as_py())
@@ -106,31 +127,28 @@ def contact_sheet(root: Path, path: Path, *, per_episode: int = 3, max_episodes:
 
 
 def _read(root: Path) -> tuple[dict[str, Any], list[dict[str, Any]], list[str]]:
-    _, pq, _ = import_extra()
-    if not (root / L.INFO_PATH).is_file():
-        raise DatasetError(root, f"holds no {L.INFO_PATH}: not a LeRobot dataset")
-    info = json.loads((root / L.INFO_PATH).read_text())
-    episodes: list[dict[str, Any]] = []
-    for p in sorted((root / "meta" / "episodes").glob("chunk-*/file-*.parquet")):
-        episodes.extend(pq.read_table(p).to_pylist())
-    tasks = [str(t) for t in pq.read_table(root / L.TASKS_PATH)["task"].to_pylist()]
-    return info, episodes, tasks
+    _, pq, _ = import_extra(av_here=False)
+    info = read_info(root)
+    return info, read_episodes(pq, root, info), read_tasks(pq, root)
 
 
-def _frames_at(av: Any, path: Path, times_s: list[float]) -> list[np.ndarray]:
-    """The frames of a video at these times [s] (BGR), decoded in one pass."""
+def _frames_at(av: Any, root: Path, rel: str, times_s: list[float]) -> list[np.ndarray]:
+    """The frames of the video ``root / rel`` at these times [s] (BGR), decoded in one pass."""
     out: dict[int, np.ndarray] = {}
-    with av.open(str(path)) as container:
-        stream = container.streams.video[0]
-        for frame in container.decode(stream):
-            t = float(frame.pts * frame.time_base)
-            for j, want in enumerate(times_s):
-                if j not in out and abs(t - want) < 1e-3:
-                    out[j] = frame.to_ndarray(format="bgr24")
-            if len(out) == len(times_s):
-                break
+    try:
+        with av.open(str(root / rel)) as container:
+            stream = container.streams.video[0]
+            for frame in container.decode(stream):
+                t = float(frame.pts * frame.time_base)
+                for j, want in enumerate(times_s):
+                    if j not in out and abs(t - want) < 1e-3:
+                        out[j] = frame.to_ndarray(format="bgr24")
+                if len(out) == len(times_s):
+                    break
+    except (OSError, ValueError, IndexError) as exc:  # PyAV's errors are one or the other
+        raise damaged(root, rel, f"cannot be decoded ({type(exc).__name__})") from None
     if len(out) != len(times_s):
-        raise DatasetError(path, "lacks frames its episodes point to: run mearm dataset check")
+        raise damaged(root, rel, "lacks frames its episodes point to")
     return [out[j] for j in range(len(times_s))]
 
 

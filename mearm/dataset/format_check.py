@@ -17,6 +17,7 @@ import numpy as np
 
 from mearm.dataset import lerobot_format as L
 from mearm.dataset.errors import DatasetError
+from mearm.dataset.reading import read_tags
 from mearm.dataset.recorder import import_extra
 
 #: LeRobot's tolerance between a frame's timestamp and its video frame's time [s].
@@ -45,6 +46,9 @@ RULES: dict[str, str] = {
     "span [from_timestamp, to_timestamp) holds exactly its frames, at its timestamps",
     "stats": f"{L.STATS_PATH} has min, max, mean, std, count and the quantiles for every "
     "feature, shaped as the feature ((3, 1, 1) for a camera), count = total_frames",
+    "mearm": f'{L.TAGS_PATH} (mearm\'s own), if there, is JSON {{"episodes": [...]}} '
+    "with one entry per episode: [trial seed, pick], each null or a whole number, and "
+    "optionally the scene a replay rebuilds",
 }
 
 
@@ -95,6 +99,11 @@ class _Checker:
             if self.videos:
                 self._videos(info, episodes)
         self._stats(info)
+        try:
+            read_tags(self.root, info["total_episodes"])
+        except DatasetError as exc:
+            what = str(exc).split(": the dataset is damaged")[0]
+            self.fail("mearm", what.removeprefix(f"{self.root}/"))
         return self.problems
 
     # ----------------------------------------------------------------- meta

@@ -185,3 +185,37 @@ def file_header(path: Path) -> bytes | None:
     except FragmentError:
         return None
     return bytes(data[: moov.end])
+
+
+def tear(path: Path) -> str | None:
+    """What is wrong with a video file's top-level boxes, ``None`` if they fill it exactly.
+
+    Each box's header is read (a seek and 16 bytes), not its payload: a file cut short
+    (its last box runs past the end) is found without reading its frames. A missing file
+    is one.
+    """
+    try:
+        with path.open("rb") as f:
+            end = f.seek(0, 2)
+            at = 0
+            while at < end:
+                f.seek(at)
+                head = f.read(16)
+                if len(head) < 8:
+                    return f"cut short: {end - at} stray bytes at offset {at}"
+                size, kind = struct.unpack_from(">I4s", head)
+                header = 8
+                if size == 1 and len(head) == 16:
+                    (size,) = struct.unpack_from(">Q", head, 8)
+                    header = 16
+                elif size == 0:
+                    size = end - at
+                if size < header or at + size > end:
+                    name = kind.decode("latin-1")
+                    return f"cut short: box {name!r} at offset {at} runs past the end"
+                at += size
+    except FileNotFoundError:
+        return "is missing"
+    except OSError as exc:
+        return f"cannot be read ({exc.strerror})"
+    return None

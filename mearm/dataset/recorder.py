@@ -47,7 +47,19 @@ from mearm.config import Config
 from mearm.dataset import lerobot_format as L
 from mearm.dataset.errors import DatasetError, DatasetExistsError, ExtraMissingError
 from mearm.dataset.feature_stats import Stats, aggregate, image_stats, to_json, vector_stats
-from mearm.dataset.fragments import EpisodeVideo, file_header
+from mearm.dataset.fragments import EpisodeVideo, file_header, tear
+from mearm.dataset.reading import (
+    RecordedScene,
+    Tag,
+    damaged,
+    read_episodes,
+    read_info,
+    read_json,
+    read_table,
+    read_tags,
+    read_tasks,
+    tags_json,
+)
 from mearm.dataset.sampler import (  # noqa: F401  (re-exported: what an episode is)
     SCENE_TASK,
     STATS_PIXEL_STRIDE,
@@ -111,7 +123,13 @@ def finish_journal(root: Path) -> bool:
     journal = root / L.JOURNAL_PATH
     if not journal.exists():
         return False
-    entries = json.loads(journal.read_text())
+    entries = read_json(root, L.JOURNAL_PATH)
+    if not (
+        isinstance(entries, dict)
+        and isinstance(entries.get("replace"), dict)
+        and isinstance(entries.get("append", {}), dict)
+    ):
+        raise damaged(root, L.JOURNAL_PATH, 'not an object {"replace": {...}, "append": {...}}')
     for rel, append in entries.get("append", {}).items():
         fragment = root / append["from"]
         if fragment.exists():
@@ -176,10 +194,12 @@ class DatasetRecorder(EpisodeSampler):
         resume: Append to the dataset in ``root``.
         codec: The video encoding, a key of
             :data:`~mearm.dataset.lerobot_format.VIDEO_CODECS` (``"av1"``, ``"h264"``).
+        scene: The scene every episode of this run sorts, as a replay rebuilds it (a
+            sort's ``--random N --seed S``), kept with each episode; ``None``: not one.
 
     Raises:
         DatasetError: ``root`` is a file or not writable; with ``resume``, its dataset
-            has another fps, robot, features or encoding.
+            has another fps, robot, features or encoding, or a file of it is damaged.
         DatasetExistsError: ``root`` is not empty and ``resume`` is off.
         ExtraMissingError: pyarrow or PyAV is not installed.
         EncoderError: the encoder process could not be started.
@@ -195,6 +215,7 @@ class DatasetRecorder(EpisodeSampler):
         per: Per = "pick",
         resume: bool = False,
         codec: str = L.DEFAULT_CODEC,
+        scene: RecordedScene | None = None,
     ):
         root = Path(root)
         super().__init__(config, fps=fps, per=per, codec=codec, scratch=root / L.SCRATCH_DIR)
@@ -209,7 +230,9 @@ class DatasetRecorder(EpisodeSampler):
                 stale.unlink()
         shutil.rmtree(self._scratch, ignore_errors=True)
         self._episodes: list[dict[str, Any]] = []
-        self._tags: list[tuple[int | None, int | None]] = []
+        self._tags: list[Tag] = []
+        self._scenes: list[RecordedScene | None] = []  # each episode's, as self._tags
+        self.scene = scene
         self._tasks: list[str] = []
         self._stats: dict[str, Stats] = {}  # the dataset's, aggregated
         self._episodes_table: Any = None  # meta/episodes' table, as last written
@@ -255,8 +278,12 @@ class DatasetRecorder(EpisodeSampler):
         }
 
     def _load(self) -> None:
-        """Read the dataset to append to; refuse one recorded differently."""
-        info = json.loads((self.root / L.INFO_PATH).read_text())
+        """Read the dataset to append to; refuse one recorded differently or damaged.
+
+        Every file the next episode reads or joins is read here, before any motion: the
+        last data file is kept for it, the last video file's boxes walked to its end.
+        """
+        info = read_info(self.root)
         mine = {"fps": self.fps, "robot_type": self.robot_type, "features": self.features()}
         for key, value in mine.items():
             if info.get(key) != value:
@@ -268,17 +295,32 @@ class DatasetRecorder(EpisodeSampler):
                     f"there, {_short(here)} here): record into a new directory"
                     + (" (or give the dataset's --record-codec)" if codec else ""),
                 )
-        pq = self._pq
-        self._tasks = [str(t) for t in pq.read_table(self.root / L.TASKS_PATH)["task"].to_pylist()]
-        for path in sorted((self.root / "meta" / "episodes").glob("*/*.parquet")):
-            self._episodes.extend(pq.read_table(path).to_pylist())
-        if self._episodes:
+        pq, root = self._pq, self.root
+        self._tasks = read_tasks(pq, root)
+        self._episodes = read_episodes(pq, root, info)
+        self._tags, self._scenes = read_tags(root, len(self._episodes))
+        if not self._episodes:
+            return
+        try:
             per_episode = [_stats_of_row(ep) for ep in self._episodes]
             self._stats = {f: aggregate([s[f] for s in per_episode]) for f in per_episode[0]}
-        tags_path = self.root / L.TAGS_PATH
-        tags = json.loads(tags_path.read_text())["episodes"] if tags_path.exists() else []
-        self._tags = [(t[0], t[1]) for t in tags][: len(self._episodes)]
-        self._tags += [(None, None)] * (len(self._episodes) - len(self._tags))
+            last = self._episodes[-1]
+            data_rel = L.chunk_file(L.DATA_PATH, last["data/chunk_index"], last["data/file_index"])
+            key = self.video_key
+            video_rel = L.chunk_file(
+                L.VIDEO_PATH,
+                last[f"videos/{key}/chunk_index"],
+                last[f"videos/{key}/file_index"],
+                video_key=key,
+            )
+        except (KeyError, TypeError, ValueError) as exc:
+            raise damaged(
+                root, L.chunk_file(L.EPISODES_PATH, 0, 0), f"an episode's row lacks {exc}"
+            ) from None
+        self._data_table = (data_rel, read_table(pq, root, data_rel))
+        problem = tear(root / video_rel)
+        if problem is not None:
+            raise damaged(root, video_rel, problem)
 
     # ----------------------------------------------------------------- the run
 
@@ -289,7 +331,7 @@ class DatasetRecorder(EpisodeSampler):
         while self._writes and (wait or self._writes[0].done()):
             self._writes.popleft().result()  # a failed write is raised here
 
-    def _held_tags(self) -> list[tuple[int | None, int | None]]:
+    def _held_tags(self) -> list[Tag]:
         return self._tags
 
     def write_episodes(self, episodes: list[_Episode]) -> None:
@@ -415,7 +457,8 @@ class DatasetRecorder(EpisodeSampler):
         info = self._info(len(episodes), first_index + n)
         staged(L.INFO_PATH).write_text(json.dumps(info, indent=4))
         tags = [*self._tags, ep.tag]
-        staged(L.TAGS_PATH).write_text(json.dumps({"episodes": [list(t) for t in tags]}))
+        scenes = [*self._scenes, ep.scene]
+        staged(L.TAGS_PATH).write_text(tags_json(tags, scenes))
 
         for tmp in [*moves.values(), *(root / a["from"] for a in appends.values())]:
             with open(tmp, "rb") as f:
@@ -429,6 +472,7 @@ class DatasetRecorder(EpisodeSampler):
         self._episodes = episodes
         self._stats = dataset_stats
         self._tags = tags
+        self._scenes = scenes
         self._episodes_table = episodes_table
         self._data_table = (data_rel, table)
 

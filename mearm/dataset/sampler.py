@@ -34,6 +34,7 @@ from mearm.config import Config
 from mearm.dataset import lerobot_format as L
 from mearm.dataset.encoder_server import STATS_PIXEL_STRIDE  # noqa: F401  (re-exported)
 from mearm.dataset.errors import EncoderError
+from mearm.dataset.reading import RecordedScene
 from mearm.dataset.video_encoder import EncoderProcess, InlineEncoder
 from mearm.hardware.bus import MeasuresWorld, ServoBus
 from mearm.vision import Camera
@@ -69,6 +70,7 @@ class _Episode:
         tag: The trial's seed and the pick's number in the trial, if in an experiment.
         video: The encoded video's bytes, once carried to another process (a trial run
             by a worker process); ``None`` while it is at ``path``.
+        scene: The scene it sorts, as a replay rebuilds it, if known.
     """
 
     number: int
@@ -80,6 +82,7 @@ class _Episode:
     actions: list[np.ndarray] = field(default_factory=list)
     pixels: list[np.ndarray] = field(default_factory=list)
     video: bytes | None = None
+    scene: RecordedScene | None = None
 
     @property
     def length(self) -> int:
@@ -146,6 +149,8 @@ class EpisodeSampler:
         self._trial: int | None = None
         self._picks = 0
         self._held: set[int | None] = set()
+        #: The scene the episodes sort, as a replay rebuilds it, if known.
+        self.scene: RecordedScene | None = None
         self.episodes_written = 0
         self.frames_written = 0
         self.episodes_skipped = 0
@@ -280,7 +285,7 @@ class EpisodeSampler:
         path = self._scratch / f"episode-{number}.mp4"
         task = SCENE_TASK if self.per == "scene" else task_sentence(class_name)
         tag = (self._trial, pick if self._trial is not None else None)
-        self._episode = _Episode(number, path, self._bus.clock_s, task, tag)
+        self._episode = _Episode(number, path, self._bus.clock_s, task, tag, scene=self.scene)
         self._encoder.open(number, path)
         self.sample(self._bus)
 

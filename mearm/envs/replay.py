@@ -8,12 +8,18 @@ the clock reached frame k's time, so frames 1, 2, … are the actions of steps 0
 divide the servo rate); after the last action the objects are given up to
 :data:`SETTLE_S` to come to rest, as the sort gives them before it counts.
 
-    python -m mearm.envs.replay DIR --episode 0 --config sim_mujoco --objects 3 --seed 7
+    python -m mearm.envs.replay DIR --episode 0
+
+The dataset keeps each such episode's ``--seed``, ``--random`` count, ``--config`` and
+``--set`` (``meta/mearm_episodes.json``): the replay takes them from there, and refuses
+a ``--seed`` or ``--objects`` that disagrees (exit 2). An episode recorded without them
+(an older dataset, ``--scene``, an experiment's trial) needs both given. The config's
+arm must be the recording's (``robot_type`` and the action's names in ``info.json``),
+else exit 2 naming both.
 """
 
 from __future__ import annotations
 
-import json
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -21,10 +27,12 @@ from typing import Any
 
 import numpy as np
 
-from mearm.cli import ArgumentParser, run, seed_value
-from mearm.dataset import lerobot_format as L
+from mearm.cli import ArgumentParser, config_path_value, run, seed_value
+from mearm.config import Config, load_config
 from mearm.dataset.errors import DatasetError
+from mearm.dataset.reading import read_info, read_table, read_tags
 from mearm.dataset.recorder import import_extra
+from mearm.dataset.sampler import state_names
 
 #: How long the replay holds the last action for the objects to come to rest [s].
 SETTLE_S = 2.0
@@ -40,6 +48,7 @@ class Replayed:
         in_bins: Objects in their own class's bin.
         success: Whether every object is.
         refused: Steps whose action the environment refused.
+        objects: Objects in the scene.
     """
 
     steps: int
@@ -47,22 +56,125 @@ class Replayed:
     in_bins: int
     success: bool
     refused: int
+    objects: int = 0
 
 
-def episode_actions(root: Path, episode: int) -> tuple[np.ndarray, int]:
+@dataclass(frozen=True)
+class ReplayPlan:
+    """What a replay of an episode steps, and in which scene.
+
+    Attributes:
+        actions: The episode's ``action`` column, (k, n).
+        fps: The recording's frames per second.
+        seed: The scene's seed.
+        objects: Its number of objects.
+        config: The config the environment runs (its arm the recording's).
+    """
+
+    actions: np.ndarray
+    fps: int
+    seed: int
+    objects: int
+    config: Config
+
+
+def plan_replay(
+    root: Path,
+    episode: int,
+    *,
+    seed: int | None = None,
+    objects: int | None = None,
+    config: str | Path | Config | None = None,
+    overrides: Sequence[str] = (),
+) -> ReplayPlan:
+    """Check a replay's inputs against the recording, before any step.
+
+    ``seed``, ``objects`` and ``config`` default to the episode's recorded scene
+    (``meta/mearm_episodes.json``); without one, ``seed`` and ``objects`` must be given
+    and ``config`` is ``sim_mujoco``.
+
+    Raises:
+        DatasetError: no dataset there, no such episode, a file of it damaged, a
+            ``seed`` or ``objects`` the recorded scene disagrees with, none to default
+            to, or a config whose arm is not the recording's.
+        ConfigError: the config cannot be loaded.
+    """
+    info = read_info(root)
+    total = info["total_episodes"]
+    if not 0 <= episode < total:
+        raise DatasetError(root, f"has no episode {episode} (it holds episodes 0..{total - 1})")
+    recorded = read_tags(root, total)[1][episode]
+    if recorded is not None:
+        for flag, given, there in (
+            ("--seed", seed, recorded.seed),
+            ("--objects", objects, recorded.objects),
+        ):
+            if given is not None and given != there:
+                raise DatasetError(
+                    root,
+                    f"episode {episode} was recorded with --random {recorded.objects} "
+                    f"--seed {recorded.seed}, not {flag} {given}: leave {flag} out to "
+                    "replay the recorded scene",
+                )
+    elif seed is None or objects is None:
+        missing = "--seed" if seed is None else "--objects"
+        raise DatasetError(
+            root,
+            f"episode {episode} keeps no scene (recorded without --random N --seed S, or "
+            f"by an older mearm): give {missing} (the sort's --seed and --random N)",
+        )
+    if recorded is not None:
+        seed = recorded.seed if seed is None else seed
+        objects = recorded.objects if objects is None else objects
+    assert seed is not None and objects is not None  # given, else refused above
+    if config is None and recorded is not None:
+        config, overrides = recorded.config, recorded.overrides
+    elif config is None:
+        config = "sim_mujoco"
+    cfg = config if isinstance(config, Config) else load_config(config, tuple(overrides))
+    _check_arm(root, info, cfg, config)
+    actions, fps = episode_actions(root, episode, info)
+    return ReplayPlan(actions, fps, seed, objects, cfg)
+
+
+def _check_arm(root: Path, info: dict[str, Any], config: Config, name: object) -> None:
+    """Refuse a config whose arm is not the one the dataset was recorded with."""
+    shown = f"--config {name}"
+    if name is None or isinstance(name, Config):
+        shown = "the built-in sim" if name is None else "the config"
+    there = info.get("robot_type")
+    if there != config.arm.name:
+        raise DatasetError(
+            root,
+            f"recorded with the arm {there!r}, {shown} has the arm {config.arm.name!r}: "
+            "give the --config it was recorded with",
+        )
+    action = info["features"].get("action", {})
+    names = state_names(config)
+    if action.get("names") != names:
+        width = (action.get("shape") or [None])[0]
+        raise DatasetError(
+            root,
+            f"its action is {width} numbers ({', '.join(map(str, action.get('names') or []))}), "
+            f"{shown}'s arm takes {len(names)} ({', '.join(names)}): give the --config it "
+            "was recorded with",
+        )
+
+
+def episode_actions(
+    root: Path, episode: int, info: dict[str, Any] | None = None
+) -> tuple[np.ndarray, int]:
     """The ``action`` column of episode ``episode`` of a dataset, (k, n), and its fps.
 
     Raises:
-        DatasetError: no dataset there, or no such episode.
+        DatasetError: no dataset there, a file of it damaged, or no such episode.
     """
-    info_path = root / L.INFO_PATH
-    if not info_path.exists():
-        raise DatasetError(root, f"has no {L.INFO_PATH}: not a LeRobot dataset")
-    fps = int(json.loads(info_path.read_text())["fps"])
-    pq = import_extra()[1]
+    fps = int((info or read_info(root))["fps"])
+    pq = import_extra(av_here=False)[1]
     rows: list[Any] = []
+    columns = ["episode_index", "frame_index", "action"]
     for path in sorted((root / "data").glob("*/*.parquet")):
-        table = pq.read_table(path, columns=["episode_index", "frame_index", "action"])
+        table = read_table(pq, root, str(path.relative_to(root)), columns, only=True)
         mask = np.asarray(table["episode_index"].to_numpy()) == episode
         if mask.any():
             frames = np.asarray(table["frame_index"].to_numpy())[mask]
@@ -75,26 +187,46 @@ def episode_actions(root: Path, episode: int) -> tuple[np.ndarray, int]:
 
 
 def replay(
-    root: Path, episode: int, *, seed: int, env_id: str = "mearm/Sort-v0", **options: Any
+    root: Path,
+    episode: int,
+    *,
+    seed: int | None = None,
+    objects: int | None = None,
+    config: str | Path | Config | None = None,
+    overrides: Sequence[str] = (),
+    env_id: str = "mearm/Sort-v0",
+    **options: Any,
 ) -> Replayed:
     """Step episode ``episode``'s actions in ``env_id`` reset with ``seed`` (module docstring).
 
     Args:
         root: The dataset.
         episode: Its episode index.
-        seed: The scene's seed (``--seed`` of the recorded sort).
+        seed: The scene's seed (``--seed`` of the recorded sort); default: the recorded one.
+        objects: Its objects (``--random N``); default: the recorded number.
+        config: The sort's config; default: the recorded one (else ``sim_mujoco``).
+        overrides: ``--set`` values for a ``config`` given by name or file.
         env_id: The environment (``mearm/Sort-v0`` for a scene of ``objects``).
-        options: The environment's options (``config``, ``objects``, …).
+        options: The environment's other options.
+
+    Raises:
+        DatasetError: the inputs do not match the recording (:func:`plan_replay`).
     """
     import gymnasium as gym  # noqa: PLC0415
 
     import mearm.envs  # noqa: F401, PLC0415
     from mearm.envs.twin_env import TwinEnv  # noqa: PLC0415
 
-    actions, fps = episode_actions(root, episode)
-    env = gym.make(env_id, fps=fps, obs_type="state", max_episode_steps=None, **options)
+    plan = plan_replay(
+        root, episode, seed=seed, objects=objects, config=config, overrides=overrides
+    )
+    actions = plan.actions
+    env = gym.make(
+        env_id, fps=plan.fps, obs_type="state", max_episode_steps=None, config=plan.config,
+        objects=plan.objects, **options,
+    )  # fmt: skip
     try:
-        env.reset(seed=seed)
+        env.reset(seed=plan.seed)
         refused = 0
         for action in actions[1:]:
             *_, info = env.step(action.astype(np.float32))
@@ -106,7 +238,7 @@ def replay(
         bins = twin.objects_in_bin()
         own = dict(zip(twin.object_ids, (o.color for o in twin_env.scene), strict=True))
         in_bins = sum(1 for oid, cls in bins.items() if own[oid] == cls)
-        return Replayed(len(actions) - 1, bins, in_bins, in_bins == len(own), refused)
+        return Replayed(len(actions) - 1, bins, in_bins, in_bins == len(own), refused, len(own))
     finally:
         env.close()
 
@@ -116,16 +248,34 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("dataset", type=Path, help="the dataset's directory")
     parser.add_argument("--episode", type=int, default=0, help="episode index (default 0)")
-    parser.add_argument("--config", default="sim_mujoco", help="the recorded sort's config")
-    parser.add_argument("--objects", type=int, required=True, help="--random N of the sort")
-    parser.add_argument("--seed", type=seed_value, required=True, help="--seed of the sort")
+    parser.add_argument(
+        "--config",
+        type=config_path_value,
+        help="the recorded sort's config (default: the recorded one, else sim_mujoco)",
+    )
+    parser.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="override one value of --config (repeatable)",
+    )
+    parser.add_argument("--objects", type=int, help="--random N of the sort (default: recorded)")
+    parser.add_argument("--seed", type=seed_value, help="--seed of the sort (default: recorded)")
     args = parser.parse_args(argv)
+    if args.set and args.config is None:
+        parser.error("--set overrides --config: give --config too")
     out = replay(
-        args.dataset, args.episode, seed=args.seed, config=args.config, objects=args.objects
+        args.dataset,
+        args.episode,
+        seed=args.seed,
+        objects=args.objects,
+        config=args.config,
+        overrides=args.set,
     )
     where = ", ".join(f"{o} in {b}" for o, b in sorted(out.bins.items())) or "none in a bin"
     print(f"replayed {out.steps} steps ({out.refused} refused): {where}")
-    print(f"{out.in_bins} of {args.objects} objects in their bins (simulated)")
+    print(f"{out.in_bins} of {out.objects} objects in their bins (simulated)")
     return 0 if out.success else 1
 
 

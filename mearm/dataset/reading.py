@@ -1,0 +1,240 @@
+"""Reading a dataset's files: each one that cannot be read is a named :class:`DatasetError`.
+
+What ``--resume``, ``mearm dataset show`` and the replay read goes through here, so a
+damaged file (cut short, overwritten, of the wrong shape) is one line naming the file and
+what is wrong with it, exit 2, and nothing is written; ``mearm dataset check`` reports
+the same faults as broken rules.
+
+``meta/mearm_episodes.json`` is mearm's own (LeRobot does not read it): one entry per
+episode, ``[trial seed, pick]`` (both ``null`` outside an experiment), and a third, the
+scene a replay rebuilds (:class:`RecordedScene`), for an episode of
+``mearm sort --random N --seed S``. A dataset without the file (recorded by other tools)
+reads as untagged.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from mearm.dataset import lerobot_format as L
+from mearm.dataset.errors import DatasetError
+
+#: An episode's tag: its trial's seed and its pick's number in the trial (experiments).
+Tag = tuple[int | None, int | None]
+
+
+def damaged(root: Path, rel: str, what: str) -> DatasetError:
+    """The error of a dataset file that is there but cannot be read as it should."""
+    return DatasetError(
+        root / rel,
+        f"{what}: the dataset is damaged; `mearm dataset check {root}` lists what is wrong",
+    )
+
+
+def read_json(root: Path, rel: str) -> Any:
+    """A JSON file of the dataset.
+
+    Raises:
+        DatasetError: it is missing, unreadable or not valid JSON.
+    """
+    try:
+        text = (root / rel).read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise damaged(root, rel, "is missing") from None
+    except UnicodeDecodeError:
+        raise damaged(root, rel, "not valid JSON (not UTF-8 text)") from None
+    except OSError as exc:
+        raise damaged(root, rel, f"cannot be read ({exc.strerror})") from None
+    try:
+        return json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise damaged(root, rel, f"not valid JSON (line {exc.lineno})") from None
+
+
+def read_table(
+    pq: Any, root: Path, rel: str, columns: list[str] | None = None, *, only: bool = False
+) -> Any:
+    """A Parquet file of the dataset (pyarrow's ``pq``) that has ``columns``; ``only`` those.
+
+    Raises:
+        DatasetError: it is missing, not a readable Parquet file, or lacks a column.
+    """
+    path = root / rel
+    if not path.is_file():
+        raise damaged(root, rel, "is missing")
+    try:
+        names = pq.read_schema(path).names
+        missing = [c for c in columns or () if c not in names]
+        if missing:
+            raise damaged(root, rel, f"has no column {missing[0]}")
+        return pq.read_table(path, columns=columns if only else None)
+    except (OSError, ValueError) as exc:  # pyarrow's ArrowInvalid is a ValueError
+        raise damaged(root, rel, f"not a readable Parquet file ({_reason(exc, path)})") from None
+
+
+def read_info(root: Path) -> dict[str, Any]:
+    """``meta/info.json``: an object with ``fps`` ≥ 1, the totals and the features.
+
+    Raises:
+        DatasetError: it is missing (not a dataset), not JSON, or lacks those fields.
+    """
+    if not (root / L.INFO_PATH).is_file():
+        raise DatasetError(root, f"holds no {L.INFO_PATH}: not a LeRobot dataset")
+    info = read_json(root, L.INFO_PATH)
+    if not isinstance(info, dict):
+        raise damaged(root, L.INFO_PATH, "not a JSON object")
+    for key in ("fps", "total_episodes", "total_frames", "total_tasks"):
+        if not _whole(info.get(key)) or (key == "fps" and info[key] < 1):
+            need = "≥ 1" if key == "fps" else "≥ 0"
+            raise damaged(
+                root, L.INFO_PATH, f"{key} is {info.get(key)!r}, not a whole number {need}"
+            )
+    features = info.get("features")
+    if not isinstance(features, dict) or not all(
+        isinstance(f, dict) and "dtype" in f and isinstance(f.get("shape"), list)
+        for f in features.values()
+    ):
+        raise damaged(root, L.INFO_PATH, "its features are not each a dtype and a shape")
+    return info
+
+
+def read_tasks(pq: Any, root: Path) -> list[str]:
+    """The tasks of ``meta/tasks.parquet``, by ``task_index``.
+
+    Raises:
+        DatasetError: it is missing, unreadable or has no ``task`` column.
+    """
+    table = read_table(pq, root, L.TASKS_PATH, ["task"])
+    return [str(t) for t in table["task"].to_pylist()]
+
+
+def read_episodes(pq: Any, root: Path, info: dict[str, Any]) -> list[dict[str, Any]]:
+    """The rows of ``meta/episodes``, one per episode, in order.
+
+    Raises:
+        DatasetError: a file is unreadable, or they hold another number of episodes
+            than ``info.json``'s ``total_episodes``.
+    """
+    needed = ["episode_index", "tasks", "length", "data/chunk_index", "data/file_index"]
+    needed += ["dataset_from_index", "dataset_to_index"]
+    for key, feature in info["features"].items():
+        if feature["dtype"] == "video":
+            needed += [f"videos/{key}/{c}" for c in ("chunk_index", "file_index")]
+            needed += [f"videos/{key}/{c}" for c in ("from_timestamp", "to_timestamp")]
+    rows: list[dict[str, Any]] = []
+    for path in sorted((root / "meta" / "episodes").glob("chunk-*/file-*.parquet")):
+        rows.extend(read_table(pq, root, str(path.relative_to(root)), needed).to_pylist())
+    if len(rows) != info["total_episodes"]:
+        raise damaged(
+            root,
+            "meta/episodes",
+            f"holds {len(rows)} episodes, {L.INFO_PATH} says {info['total_episodes']}",
+        )
+    return rows
+
+
+@dataclass(frozen=True)
+class RecordedScene:
+    """The scene an episode sorted, as a replay rebuilds it (``mearm/Sort-v0``).
+
+    Attributes:
+        seed: ``--seed`` of the sort (the scene's and the environment's reset seed).
+        objects: ``--random N`` of the sort.
+        config: ``--config`` as given (``None``: the built-in simulated rig).
+        overrides: Its ``--set`` values, in order.
+    """
+
+    seed: int
+    objects: int
+    config: str | None = None
+    overrides: tuple[str, ...] = ()
+
+    def to_json(self) -> dict[str, Any]:
+        """As ``meta/mearm_episodes.json`` holds it."""
+        return {
+            "seed": self.seed,
+            "objects": self.objects,
+            "config": self.config,
+            "set": list(self.overrides),
+        }
+
+    @classmethod
+    def from_json(cls, value: Any) -> RecordedScene | None:
+        """The scene of an entry's third item; ``None`` if it is not one."""
+        if not isinstance(value, dict):
+            return None
+        seed, objects, config = value.get("seed"), value.get("objects"), value.get("config")
+        overrides = value.get("set", [])
+        if not (isinstance(seed, int) and isinstance(objects, int)):
+            return None
+        if not (_whole(seed) and _whole(objects) and (config is None or isinstance(config, str))):
+            return None
+        if not isinstance(overrides, list) or not all(isinstance(s, str) for s in overrides):
+            return None
+        return cls(seed, objects, config, tuple(overrides))
+
+
+def read_tags(root: Path, episodes: int) -> tuple[list[Tag], list[RecordedScene | None]]:
+    """``meta/mearm_episodes.json``: each episode's tag and recorded scene, in order.
+
+    Without the file every episode is untagged, with no scene.
+
+    Raises:
+        DatasetError: it is not JSON, not ``{"episodes": [...]}`` of entries
+            ``[seed, pick]`` or ``[seed, pick, scene]``, or not one entry per episode.
+    """
+    rel = L.TAGS_PATH
+    if not (root / rel).exists():
+        return [(None, None)] * episodes, [None] * episodes
+    data = read_json(root, rel)
+    entries = data.get("episodes") if isinstance(data, dict) else None
+    if not isinstance(entries, list):
+        raise damaged(root, rel, 'not an object {"episodes": [...]}')
+    tags: list[Tag] = []
+    scenes: list[RecordedScene | None] = []
+    for k, entry in enumerate(entries):
+        ok = isinstance(entry, list) and len(entry) in (2, 3)
+        ok = ok and all(v is None or _whole(v) for v in entry[:2])
+        scene = RecordedScene.from_json(entry[2]) if ok and len(entry) == 3 else None
+        if not ok or (len(entry) == 3 and scene is None):
+            raise damaged(
+                root,
+                rel,
+                f"entry {k} is {_short(entry)}, not [trial seed, pick] (each null or a whole "
+                'number ≥ 0), optionally with a scene {"seed", "objects", "config", "set"}',
+            )
+        tags.append((entry[0], entry[1]))
+        scenes.append(scene)
+    if len(entries) != episodes:
+        raise damaged(
+            root, rel, f"holds {len(entries)} entries for the {episodes} episodes of the dataset"
+        )
+    return tags, scenes
+
+
+def tags_json(tags: list[Tag], scenes: list[RecordedScene | None]) -> str:
+    """``meta/mearm_episodes.json``'s text (:func:`read_tags` reads it)."""
+    entries = [
+        [*tag, scene.to_json()] if scene is not None else list(tag)
+        for tag, scene in zip(tags, scenes, strict=True)
+    ]
+    return json.dumps({"episodes": entries})
+
+
+def _whole(value: Any) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool) and value >= 0
+
+
+def _reason(exc: BaseException, path: Path) -> str:
+    """The message of pyarrow's error, its first sentence, without the path it repeats."""
+    text = str(exc).replace(f"'{path}'", "").replace(str(path), "").strip()
+    first = text.split(". ")[0].strip().rstrip(".")
+    return (first[:120] + "...") if len(first) > 120 else first or type(exc).__name__
+
+
+def _short(value: Any) -> str:
+    text = json.dumps(value)
+    return text if len(text) <= 40 else text[:37] + "..."

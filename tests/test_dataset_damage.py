@@ -1,0 +1,133 @@
+"""A damaged dataset: every reader names the file and what is wrong (exit 2), none crashes.
+
+Each file of a small dataset cut to half its size: ``mearm dataset show`` and ``mearm
+sort --record DIR --resume`` refuse it in one line naming the file (nothing written),
+``mearm dataset check`` fails it. ``meta/mearm_episodes.json`` (mearm's own) is checked
+too: JSON, its shape, one entry per episode; a dataset without it (older, or another
+tool's) stays readable.
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+pytest.importorskip("pyarrow")
+pytest.importorskip("av")
+
+from badinput import ROOT, check_bad_input  # noqa: E402
+
+from mearm.config import load_config  # noqa: E402
+from mearm.dataset.format_check import check_dataset  # noqa: E402
+from mearm.dataset.reading import RecordedScene, read_tags  # noqa: E402
+from mearm.dataset.recorder import DatasetRecorder  # noqa: E402
+from mearm.hardware.command import ArmCommand  # noqa: E402
+from mearm.task import open_rig  # noqa: E402
+
+SIM = ROOT / "configs" / "sim.yaml"
+
+#: Each file of the dataset, cut to half.
+FILES = [
+    "meta/info.json",
+    "meta/tasks.parquet",
+    "meta/mearm_episodes.json",
+    "meta/episodes/chunk-000/file-000.parquet",
+    "data/chunk-000/file-000.parquet",
+    "videos/observation.images.table/chunk-000/file-000.mp4",
+]
+
+
+def _record(root: Path, episodes: int = 2, scene: RecordedScene | None = None) -> None:
+    config = load_config(SIM)
+    recorder = DatasetRecorder(root, config, fps=10, resume=root.exists(), scene=scene)
+    home = ArmCommand.home(config.arm)
+    with open_rig(config, []) as rig, rig.bus:
+        recorder.attach(rig.bus, rig.camera)
+        for episode in range(episodes):
+            recorder.begin("red")
+            for k in range(20):
+                joints = {n: v + np.sin(k / 10 + episode) for n, v in home.joints.items()}
+                rig.bus.move(ArmCommand(joints, home.tool, k > 10))
+            recorder.end()
+        recorder.close()
+
+
+@pytest.fixture(scope="module")
+def dataset(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """Two episodes on the kinematic rig."""
+    root = tmp_path_factory.mktemp("damage") / "ds"
+    _record(root)
+    assert check_dataset(root) == []
+    return root
+
+
+def _cut(dataset: Path, tmp_path: Path, rel: str) -> Path:
+    copy = tmp_path / "dsx"
+    shutil.copytree(dataset, copy)
+    path = copy / rel
+    with path.open("r+b") as f:
+        f.truncate(path.stat().st_size // 2)
+    return copy
+
+
+@pytest.mark.bad_input
+@pytest.mark.parametrize("rel", FILES)
+def test_show_and_resume_name_a_file_cut_short(dataset: Path, tmp_path: Path, rel: str) -> None:
+    """Exit 2, one line naming the file and the damage, the dataset untouched (it was
+    "unexpected error: JSONDecodeError/ArrowInvalid", exit 1, after the sort began)."""
+    copy = _cut(dataset, tmp_path, rel)
+    out = check_bad_input(["dataset", "show", copy, "--sheet", tmp_path / "s.png"], keep=[copy])
+    assert f"{copy / rel}: " in out.line and "the dataset is damaged" in out.line, out.line
+    argv = ["sort", "--config", SIM, "--random", "1", "--record", copy, "--resume"]
+    out = check_bad_input(argv, keep=[copy], within_s=10.0)
+    assert f"{copy / rel}: " in out.line and "the dataset is damaged" in out.line, out.line
+    assert "mearm dataset check" in out.line
+
+
+def test_check_fails_a_cut_tags_file(dataset: Path, tmp_path: Path) -> None:
+    """``mearm_episodes.json`` cut short passed the check, then crashed ``--resume``."""
+    copy = _cut(dataset, tmp_path, "meta/mearm_episodes.json")
+    out = check_bad_input(["dataset", "check", copy], code=1, keep=[copy], within_s=10.0)
+    assert "mearm: meta/mearm_episodes.json: not valid JSON (line 1)" in out.line
+
+
+@pytest.mark.parametrize(
+    ("tags", "says"),
+    [
+        ({"episodes": [[None, None]]}, "holds 1 entries for the 2 episodes"),
+        ({"episodes": [[None, None], [None, None], [1, 0]]}, "holds 3 entries for the 2"),
+        ([[None, None], [None, None]], 'not an object {"episodes": [...]}'),
+        ({"episodes": [[None, None], ["x", 0]]}, 'entry 1 is ["x", 0]'),
+        ({"episodes": [[None, None], [None, None, {"seed": 7}]]}, "entry 1 is"),
+    ],
+)
+def test_check_fails_a_tags_file_of_another_shape(
+    dataset: Path, tmp_path: Path, tags: object, says: str
+) -> None:
+    copy = tmp_path / "dsx"
+    shutil.copytree(dataset, copy)
+    (copy / "meta/mearm_episodes.json").write_text(json.dumps(tags))
+    problems = check_dataset(copy, videos=False)
+    assert len(problems) == 1 and problems[0].startswith("mearm: meta/mearm_episodes.json: ")
+    assert says in problems[0], problems[0]
+
+
+def test_a_dataset_without_tags_or_scenes_stays_readable(dataset: Path, tmp_path: Path) -> None:
+    """No tags file (another tool's), or entries of two (mearm before scenes): it passes,
+    and a resume keeps the old entries and adds its episodes' scenes."""
+    copy = tmp_path / "dsx"
+    shutil.copytree(dataset, copy)
+    (copy / "meta/mearm_episodes.json").unlink()
+    assert check_dataset(copy, videos=False) == []
+    assert read_tags(copy, 2) == ([(None, None)] * 2, [None] * 2)
+    scene = RecordedScene(seed=7, objects=2, config="sim_mujoco", overrides=("a.b=1",))
+    _record(copy, episodes=1, scene=scene)
+    assert check_dataset(copy) == []
+    tags = json.loads((copy / "meta/mearm_episodes.json").read_text())["episodes"]
+    want = {"seed": 7, "objects": 2, "config": "sim_mujoco", "set": ["a.b=1"]}
+    assert tags == [[None, None], [None, None], [None, None, want]]
+    assert read_tags(copy, 3)[1] == [None, None, scene]
