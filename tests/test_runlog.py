@@ -171,6 +171,24 @@ def test_a_torn_log_is_not_appended_to(tmp_path: Path) -> None:
     assert path.read_bytes() == before
 
 
+@pytest.mark.parametrize(
+    "text",
+    [
+        b"# My notes\n\nSome prose.\n",  # a --log typo that named a user's file
+        b"not json\n",
+        b'{"type":"route","trial":0}\n',  # JSON lines, but no run log's header first
+        b"\xff\xfe\n",
+    ],
+)
+def test_a_file_that_is_no_run_log_is_not_appended_to(tmp_path: Path, text: bytes) -> None:
+    """``sort --log README.md`` appended JSON records to the README; it is refused."""
+    path = tmp_path / "notes.md"
+    path.write_bytes(text)
+    with pytest.raises(RunLogError, match="is not a run log"):
+        RunLog(path)
+    assert path.read_bytes() == text
+
+
 def test_opening_for_append_never_truncates(tmp_path: Path) -> None:
     """Opening and closing an existing log, with or without writing, keeps every byte."""
     path = tmp_path / "run.jsonl"

@@ -50,6 +50,20 @@ def _plain(value: Any) -> Any:
     return value
 
 
+#: The longest first line read to tell a run log from another file [bytes] (a header holds
+#: the whole config: a few tens of kB).
+_FIRST_LINE_MAX = 4 << 20
+
+
+def _is_header(line: bytes) -> bool:
+    """Whether ``line`` is a run log's header record (of any format)."""
+    try:
+        record = json.loads(line)
+    except ValueError:  # not JSON, not UTF-8, or cut at the limit
+        return False
+    return isinstance(record, dict) and record.get("type") == "header"
+
+
 class RunLog:
     """Writes a run log, one durable line per record.
 
@@ -121,6 +135,7 @@ class RunLog:
                 raise
 
     def _refuse_torn_file(self) -> None:
+        """Refuse a file to append to that ends mid-line, or that is no run log at all."""
         try:
             with self.path.open("rb") as f:
                 f.seek(0, os.SEEK_END)
@@ -128,8 +143,16 @@ class RunLog:
                     return
                 f.seek(-1, os.SEEK_END)
                 last = f.read(1)
+                f.seek(0)
+                first = f.readline(_FIRST_LINE_MAX)
         except OSError as exc:
             raise RunLogError(self.path, f"cannot read: {exc}") from None
+        if not _is_header(first):
+            raise RunLogError(
+                self.path,
+                "is not a run log (its first line is no header record), so the run is not "
+                "appended to it: give a new file or a run log's",
+            )
         if last != b"\n":
             raise RunLogError(
                 self.path,
