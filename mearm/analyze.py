@@ -134,14 +134,18 @@ def _read_log(path: Path, *, strict: bool) -> RunLogContents:
     contents = contents.latest()
     if contents.problem is not None and not contents.routes:
         raise contents.problem  # nothing before the bad line to analyse: it is the error
-    if superseded:
-        numbers = sorted({t.number for t in superseded if t.number is not None})
-        print(
-            f"note: left out {len(superseded)} cut-off attempt(s) of trial(s) "
-            f"{', '.join(map(str, numbers))} (header line(s) "
-            f"{', '.join(str(t.line) for t in superseded)}), which were run again",
-            file=sys.stderr,
-        )
+    for kind, attempts in (
+        ("cut-off", [t for t in superseded if not t.interrupted]),
+        ("interrupted", [t for t in superseded if t.interrupted]),
+    ):
+        if attempts:
+            numbers = sorted({t.number for t in attempts if t.number is not None})
+            print(
+                f"note: left out {len(attempts)} {kind} attempt(s) of trial(s) "
+                f"{', '.join(map(str, numbers))} (header line(s) "
+                f"{', '.join(str(t.line) for t in attempts)}), which were run again",
+                file=sys.stderr,
+            )
     if contents.problem is not None:
         p = contents.problem
         print(

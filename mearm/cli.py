@@ -371,7 +371,8 @@ def echo_line(line: str) -> None:
 def run(main: Callable[[Sequence[str] | None], int], argv: Sequence[str] | None = None) -> NoReturn:
     """Run a CLI ``main`` under the one guard every command shares.
 
-    :class:`MearmError` (bad input) → exit 2; Ctrl-C → 130; any other exception → exit 1
+    :class:`MearmError` (bad input) → exit 2; Ctrl-C → 130 (a SIGTERM or SIGHUP taken as
+    Ctrl-C: 143, 129; :mod:`mearm.interrupts`); any other exception → exit 1
     with one line naming the error and where its traceback was written (``--debug`` or
     ``MEARM_DEBUG=1``: the traceback itself). Standard output's reader gone (a closed
     pipe) → exit 141, quietly, as a shell's tools do.
@@ -389,7 +390,7 @@ def run(main: Callable[[Sequence[str] | None], int], argv: Sequence[str] | None 
         code = EXIT_BAD_INPUT
     except KeyboardInterrupt:
         print(f"{prog}: interrupted", file=sys.stderr)
-        code = EXIT_INTERRUPTED
+        code = interrupts.exit_status()  # 130; 143 after a SIGTERM taken as Ctrl-C
     except Exception as exc:
         code = EXIT_FAILURE
         if isinstance(exc, BrokenPipeError) and output_closed():

@@ -39,6 +39,8 @@ STOP_SIGNALS: tuple[signal.Signals, ...] = tuple(
 )
 #: The stop signals received in this process, in order.
 _received: list[int] = []
+#: The stop signals taken as Ctrl-C now (inside :func:`stop_signals_as_ctrl_c`).
+_taken: set[int] = set()
 
 
 class Terminated(KeyboardInterrupt):
@@ -56,6 +58,27 @@ class Terminated(KeyboardInterrupt):
 def named(exc: KeyboardInterrupt) -> str:
     """What stopped the run, for a message: ``Ctrl-C``, or the signal's name (``SIGTERM``)."""
     return signal.Signals(exc.signum).name if isinstance(exc, Terminated) else "Ctrl-C"
+
+
+def taken_as_ctrl_c() -> tuple[int, ...]:
+    """The stop signals taken as Ctrl-C now: a handler of Ctrl-C of its own takes them too."""
+    return tuple(sorted(_taken))
+
+
+def received(signum: int) -> str:
+    """Note a stop signal a handler of its own took (for :func:`exit_status`); its name.
+
+    SIGINT is not noted (it is Ctrl-C): ``"Ctrl-C"``.
+    """
+    if signum == signal.SIGINT:
+        return "Ctrl-C"
+    _received.append(signum)
+    return signal.Signals(signum).name
+
+
+def stopped_by() -> str:
+    """What stopped the run, for a message: the last stop signal noted, else ``Ctrl-C``."""
+    return signal.Signals(_received[-1]).name if _received else "Ctrl-C"
 
 
 def exit_status() -> int:
@@ -78,18 +101,20 @@ def stop_signals_as_ctrl_c() -> Iterator[None]:
     from mearm.fileio import signal_ends_process  # noqa: PLC0415
 
     def handler(signum: int, frame: FrameType | None) -> None:
-        _received.append(signum)
+        received(signum)
         raise Terminated(signum)
 
     previous = {}
     for sig in STOP_SIGNALS:
         if signal_ends_process(sig):
             previous[sig] = signal.signal(sig, handler)
+            _taken.add(sig)
     try:
         yield
     finally:
         for sig, old in previous.items():
             signal.signal(sig, old)
+            _taken.discard(sig)
 
 
 def install() -> None:

@@ -241,7 +241,8 @@ def rig(tmp_path: Path, config) -> Path:
     empty = SimCamera(config, World(bins={c.name: c for c in config.task.classes})).read()
     cv2.imwrite(str(frames / "table.png"), empty)  # an empty table: each trial ends at once
     cfg = tmp_path / "rig.yaml"
-    cfg.write_text(f"camera:\n  kind: folder\n  path: {frames}\n  loop: true\n")
+    # nothing on the simulated table either: no object the camera cannot see is left
+    cfg.write_text(f"camera:\n  kind: folder\n  path: {frames}\n  loop: true\ntask:\n  scene: []\n")
     return cfg
 
 

@@ -21,15 +21,20 @@ records come back as data and are appended in trial order: the log is the serial
 continues the experiment: every trial already in it must have been written by this same
 run — trial k's header has the seed, config and layout that ``--config``, ``--set``,
 ``--seed`` and ``--scene`` give trial k — else the run refuses with exit 2 and names the
-first difference. It then starts at the trial after the last *complete* one (a trial
-with its summary, which includes one that stopped early on a fault or Ctrl-C and said
-so). A trial cut off before its summary (the process was killed) is run again under the
-same number and seed: its partial records stay in the log, and ``mearm analyze`` leaves
-them out because the same trial comes back complete later
-(:meth:`~mearm.runlog.RunLogContents.latest`). A torn last line (killed mid-write) is
-moved into a side file ``<log>.torn-<offset>`` first (:mod:`mearm.runlog.repair`). A log
-damaged anywhere else is not resumed. When the log already holds the trials asked for,
-the run says so and exits 0.
+first difference. It then starts at the trial after the last *finished* one (a trial
+with its summary, which includes one that stopped early on a fault of the rig and said
+so). A trial cut off before its summary (the process was killed) or stopped by Ctrl-C
+(:attr:`~mearm.runlog.Trial.interrupted`) is run again under the same number and seed:
+its partial records stay in the log, and ``mearm analyze`` leaves them out because the
+same trial comes back finished later (:meth:`~mearm.runlog.RunLogContents.latest`). A
+torn last line (killed mid-write) is moved into a side file ``<log>.torn-<offset>``
+first (:mod:`mearm.runlog.repair`). A log damaged anywhere else is not resumed. When the
+log already holds the trials asked for, the run says so and prints their totals.
+
+**Exit status.** 0 when every object of every trial in the log was sorted and no trial
+stopped early; 1 when objects were left or a trial stopped on a fault (the totals line
+``sorted N of M objects over K trials (…reasons…)`` says why, and is repeated on
+stderr), whether in this run or in the trials it resumed; 130 on Ctrl-C; 2 on bad input.
 """
 
 from __future__ import annotations
@@ -42,9 +47,9 @@ from contextlib import nullcontext
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from mearm import interrupts
 from mearm.cli import (
     EXIT_FAILURE,
-    EXIT_INTERRUPTED,
     ArgumentParser,
     add_config_argument,
     config_from_args,
@@ -114,7 +119,12 @@ def terminal_prompt(trials: int) -> Callable[[int], None]:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Run the trials; see the module docstring."""
+    """Run the trials; see the module docstring. SIGTERM and SIGHUP stop it as Ctrl-C does."""
+    with interrupts.stop_signals_as_ctrl_c():
+        return _experiment(argv)
+
+
+def _experiment(argv: Sequence[str] | None) -> int:
     args = _arguments(argv)
     config = config_from_args(args)
     check_consistency(config)  # before the scene, the log or any output: the config first
@@ -232,9 +242,14 @@ def _resume(
             f"{args.log} already holds {resume.done} complete trials (--trials {args.trials}): "
             "nothing to run"
         )
-        return 0
-    if resume.done or resume.cut_off:
-        again = f"; trial {resume.done} again, it was cut off" if resume.cut_off else ""
+        return _verdict(args.log, args.trials)
+    if resume.done or resume.cut_off or resume.interrupted:
+        why = " and ".join(
+            w
+            for w, n in (("interrupted (Ctrl-C)", resume.interrupted), ("cut off", resume.cut_off))
+            if n
+        )
+        again = f"; trial {resume.done} again, it was {why}" if why else ""
         print(
             f"resuming {args.log}: {resume.done} complete trials there, running trials "
             f"{resume.done}..{args.trials - 1}{again}"
@@ -301,10 +316,10 @@ def _run(
                     workers, numbers, args.log, lambda done: _step(bar, recorder), recorder
                 )
         except SortAborted as exc:
-            print(f"mearm.experiment: stopped: {exc.reason}", file=sys.stderr)
-            return EXIT_INTERRUPTED
+            print(f"{_prog()}: stopped: {exc.reason}", file=sys.stderr)
+            return interrupts.exit_status()
         except (CameraError, ServoError, TrialFailed) as exc:
-            print(f"mearm.experiment: {exc}", file=sys.stderr)
+            print(f"{_prog()}: {exc}", file=sys.stderr)
             return EXIT_FAILURE
     wall = time.perf_counter() - t0
     failed = [(k, r) for k, r in outcomes.items() if r is not None]
@@ -317,8 +332,27 @@ def _run(
         print(f"  trial {k}: {reason}")
     analyze = invoked_as("python -m mearm.analyze", "analyze")
     print(f"analyse: {analyze} {args.log} --out report/")
-    print(_totals(args.log, args.trials))
-    return EXIT_FAILURE if failed else 0
+    code = _verdict(args.log, args.trials)
+    return EXIT_FAILURE if failed else code
+
+
+def _prog() -> str:
+    """The command as typed (``mearm experiment``, ``python -m mearm.experiment``)."""
+    return invoked_as("python -m mearm.experiment")
+
+
+def _verdict(path: Path, trials: int) -> int:
+    """Print the totals line (:func:`_totals`); 0 if the trials left nothing, else 1.
+
+    Objects left are the experiment's data, and the log keeps them; but the command's job
+    was to sort them, so, as ``mearm sort``, it exits 1 and says why on stderr, too.
+    """
+    line, clean = _totals(path, trials)
+    print(line)
+    if clean:
+        return 0
+    print(f"{_prog()}: {line}", file=sys.stderr)
+    return EXIT_FAILURE
 
 
 def _recording(args: Any) -> Recording | None:
@@ -335,20 +369,25 @@ def _step(bar: Any, recorder: DatasetRecorder | None) -> None:
     bar.update(1)
 
 
-def _totals(path: Path, trials: int) -> str:
+def _totals(path: Path, trials: int) -> tuple[str, bool]:
     """``sorted N of M objects over K trials (…reasons…)``, from the log's summaries.
 
-    Counts each trial number once (its complete attempt), resumed trials included. Objects
-    left in a trial are the experiment's data, not a failure of the command.
+    Counts each trial number once (the attempt ``mearm analyze`` reads), resumed trials
+    included; ``; J stopped early`` ends it when trials stopped on a fault.
+
+    Returns:
+        The line, and whether every object was sorted and no trial stopped early.
     """
     total = Outcome()
     done: set[int] = set()
-    for trial in reversed(read_runlog(path).trials):
+    stopped = 0
+    for trial in read_runlog(path).latest().trials:
         s = trial.summary
         number = trial.header.trial
         if s is None or number is None or number in done or number >= trials:
             continue
         done.add(number)
+        stopped += not s.ok
         for name, n in (s.objects or s.sorted).items():
             total.seen[name] = total.seen.get(name, 0) + n
         for name, n in s.sorted.items():
@@ -357,4 +396,8 @@ def _totals(path: Path, trials: int) -> str:
             total.left[kind] = total.left.get(kind, 0) + n
     line = total.line()
     head, _, rest = line.partition(" objects")
-    return f"{head} objects over {len(done)} trials{rest}"
+    line = f"{head} objects over {len(done)} trials{rest}"
+    left = total.n_sorted != sum(total.seen.values()) or any(total.left.values())
+    if stopped:
+        line += f"; {stopped} stopped early"
+    return line, not left and not stopped

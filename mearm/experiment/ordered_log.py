@@ -2,7 +2,8 @@
 
 Whichever worker finishes first, the log gets the records the serial run writes, in the
 same order; Ctrl-C, a failed trial or a lost worker cancels what has not started and
-keeps every trial finished in order, so the log resumes.
+keeps every trial finished in order, so the log resumes. A trial Ctrl-C interrupted is
+the last one appended, as in the serial run: the log resumes by running it again.
 """
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ from contextlib import AbstractContextManager, contextmanager
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, BinaryIO
 
+from mearm import interrupts
 from mearm.config import Config, SceneObject
 from mearm.errors import MearmError
 from mearm.experiment.cluster import dask_cluster
@@ -56,7 +58,9 @@ def run_trials_parallel(
     not yet started are cancelled and every finished trial up to the first unfinished one
     is appended in order before this returns or raises: nothing that was finished in order
     is lost, and the log resumes. In worker processes the running trials finish first
-    (interrupted, on Ctrl-C); on Dask they are dropped (a Dask task cannot be
+    (interrupted, on Ctrl-C): the first of them in trial order is appended, as the
+    serial run leaves it, and none after it (the log resumes by running that trial
+    again, and the ones after it); on Dask they are dropped (a Dask task cannot be
     interrupted) and run again when the log resumes.
 
     Args:
@@ -112,7 +116,10 @@ def _ctrl_c() -> Iterator[threading.Event]:
     """Ctrl-C sets the event instead of raising; a second Ctrl-C raises KeyboardInterrupt.
 
     The first asks the trials to stop (the caller cancels them and appends what finished);
-    the second gives up waiting for them. Outside the main thread: an event never set.
+    the second gives up waiting for them. SIGTERM and SIGHUP, where the command takes them
+    as Ctrl-C (:func:`mearm.interrupts.stop_signals_as_ctrl_c`), do the same; only this
+    process gets them, so the workers finish the trials they run, each ending parked.
+    Outside the main thread: an event never set.
     """
     seen = threading.Event()
     if threading.current_thread() is not threading.main_thread():
@@ -120,15 +127,18 @@ def _ctrl_c() -> Iterator[threading.Event]:
         return
 
     def on_interrupt(signum: int, frame: object) -> None:
+        interrupts.received(signum)
         if seen.is_set():
             raise KeyboardInterrupt
         seen.set()
 
-    before = signal.signal(signal.SIGINT, on_interrupt)
+    sigs = (signal.SIGINT, *interrupts.taken_as_ctrl_c())
+    before = {sig: signal.signal(sig, on_interrupt) for sig in sigs}
     try:
         yield seen
     finally:
-        signal.signal(signal.SIGINT, before)
+        for sig, handler in before.items():
+            signal.signal(sig, handler)
 
 
 def _append_in_order(
@@ -185,7 +195,9 @@ def _append_in_order(
                 progress(len(outcomes))
             if result.interrupted:
                 stop = stop or SortAborted(result.reason or "interrupted", interrupted=True)
-            elif result.error is not None:
+                cancel()
+                break  # run again on resuming: a trial after it would leave a gap
+            if result.error is not None:
                 stop = stop or TrialFailed(f"trial {k}: {result.error}")
             if stop is not None:
                 cancel()
@@ -209,8 +221,8 @@ def _wait(
     # poll: Ctrl-C never lands inside the executor's wait; and look before each trial,
     # done or not (with workers faster than the writing, every future is done when reached)
     while stop is None and (ctrl_c.is_set() or not fut.done()):
-        if ctrl_c.wait(0.05):  # worker processes saw it, too
-            stop = SortAborted("interrupted (Ctrl-C)", interrupted=True)
+        if ctrl_c.wait(0.05):  # worker processes saw Ctrl-C, too
+            stop = SortAborted(f"interrupted ({interrupts.stopped_by()})", interrupted=True)
             cancel()
     while not fut.done():
         time.sleep(0.05)

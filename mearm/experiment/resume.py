@@ -1,7 +1,8 @@
 """Resuming an experiment's log: check it holds this run's trials, find where to go on.
 
 Trial k in the log must carry the seed, config and layout this run gives trial k; the
-run continues after the last complete trial, and a torn last line is set aside first.
+run continues after the last finished trial (a trial cut off before its summary, or
+stopped by Ctrl-C, is run again), and a torn last line is set aside first.
 """
 
 from __future__ import annotations
@@ -31,15 +32,18 @@ class Resume:
     """Where an experiment continues its log.
 
     Attributes:
-        done: Trials 0 .. ``done``−1 are complete in the log; the run starts at ``done``.
+        done: Trials 0 .. ``done``−1 are finished in the log; the run starts at ``done``.
         cut_off: Attempts of trial ``done`` in the log that stopped before their summary
             (it is run again).
+        interrupted: Attempts of trial ``done`` in the log that Ctrl-C stopped (it is run
+            again, too: :attr:`~mearm.runlog.Trial.interrupted`).
         torn: The log's unfinished last line, or ``None``.
         torn_is_record: Whether that line is a whole record missing only its newline.
     """
 
     done: int = 0
     cut_off: int = 0
+    interrupted: int = 0
     torn: TornEnd | None = None
     torn_is_record: bool = False
 
@@ -90,7 +94,7 @@ def resume_point(
             f"line {problem.line}: {problem.reason}; a damaged log is not resumed (mearm "
             "analyze reads it up to that line): write the new trials to another --log",
         )
-    done = cut_off = 0
+    done = cut_off = interrupted = 0
     plans: dict[int, TrialPlan] = {}
     for t in contents.trials:
         if t.number is None:
@@ -99,6 +103,10 @@ def resume_point(
                 f"line {t.line}: a sort run (trial null), not a trial of an experiment; "
                 "give the experiment its own --log",
             )
+        if interrupted and not cut_off and t.number == done + 1:
+            # written before interrupted trials were run again: that run went on to the
+            # next trial, and the interrupted one stands (analysed as it is)
+            done, interrupted = done + 1, 0
         if t.number != done:
             raise RunLogError(
                 path,
@@ -114,11 +122,15 @@ def resume_point(
                 f"trial {t.number} (line {t.line}) was written by another run: {why}; resume "
                 "with its --config, --set, --seed and --scene, or write to another --log",
             )
-        if t.complete:
-            done, cut_off = done + 1, 0
+        if t.finished:
+            done, cut_off, interrupted = done + 1, 0, 0
+        elif t.interrupted:
+            interrupted += 1
         else:
             cut_off += 1
-    return Resume(done, cut_off, torn, torn_is_record=torn is not None and problem is None)
+    return Resume(
+        done, cut_off, interrupted, torn, torn_is_record=torn is not None and problem is None
+    )
 
 
 def _differs(header: HeaderRecord, plan: TrialPlan, seed: int) -> str | None:

@@ -7,6 +7,7 @@ The format is described in :mod:`mearm.runlog`, repeated trial numbers in
 from __future__ import annotations
 
 import dataclasses
+import re
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -22,6 +23,11 @@ from mearm.runlog.records import (
     SummaryRecord,
     parse_record,
 )
+
+#: A fault's reason when Ctrl-C (or a stop signal taken as one) stopped the trial, as
+#: :mod:`mearm.task` words it: ``interrupted (Ctrl-C); arm parked at home``, ``before the
+#: sort started: interrupted (SIGTERM)``.
+_INTERRUPTED = re.compile(r"(?:^|: )interrupted \(")
 
 
 @dataclass(frozen=True)
@@ -53,6 +59,22 @@ class Trial:
     def complete(self) -> bool:
         """Whether the trial has its summary (it ran to the end, or stopped and said so)."""
         return self.summary is not None
+
+    @property
+    def interrupted(self) -> bool:
+        """Whether Ctrl-C stopped the trial: its summary is there, but the trial was not done."""
+        if self.summary is None:
+            return False
+        left = self.summary.left or {}
+        return "interrupted" in left or any(_INTERRUPTED.search(f.reason) for f in self.faults)
+
+    @property
+    def finished(self) -> bool:
+        """Whether the trial ran its course: complete, and not :attr:`interrupted`.
+
+        One that stopped on a fault of the rig is finished: the fault is its result.
+        """
+        return self.complete and not self.interrupted
 
     @property
     def records(self) -> tuple[Record, ...]:
@@ -104,9 +126,10 @@ class RunLogContents:
         """Attempts of a numbered trial that another attempt of it replaces.
 
         The experiment runner runs a trial again, under the same number and seed, when
-        its last attempt was cut off before its summary (:mod:`mearm.experiment`). Per
-        trial number, the complete attempt is kept (when none is complete, the last one)
-        and every other attempt is superseded. Lone sort runs (``trial: null``) are
+        its last attempt was cut off before its summary or :attr:`~Trial.interrupted`
+        (:mod:`mearm.experiment`). Per trial number, the :attr:`~Trial.finished` attempt
+        is kept (when none is, the last complete one; when none is complete, the last
+        one) and every other attempt is superseded. Lone sort runs (``trial: null``) are
         never superseded.
         """
         attempts: dict[int, list[Trial]] = {}
@@ -117,27 +140,31 @@ class RunLogContents:
         for tries in attempts.values():
             if len(tries) < 2:
                 continue
-            kept = next((t for t in tries if t.complete), tries[-1])
+            complete = [t for t in tries if t.complete]
+            kept = next((t for t in tries if t.finished), (complete or tries)[-1])
             out += [t for t in tries if t is not kept]
         return tuple(sorted(out, key=lambda t: t.line))
 
     def repeated_trials(self) -> dict[int, tuple[int, ...]]:
-        """Trial numbers complete more than once → the header lines of those attempts."""
+        """Trial numbers finished more than once → the header lines of those attempts.
+
+        (Interrupted attempts do not count: the experiment runs such a trial again.)
+        """
         lines: dict[int, list[int]] = {}
         for t in self.trials:
-            if t.number is not None and t.complete:
+            if t.number is not None and t.finished:
                 lines.setdefault(t.number, []).append(t.line)
         return {k: tuple(v) for k, v in lines.items() if len(v) > 1}
 
     def latest(self) -> RunLogContents:
         """These contents without the :attr:`superseded` attempts.
 
-        A trial that is cut off and run again reads as the one trial it became. A trial
-        number that is *complete* twice cannot be told apart that way (two runs written
-        to one file, or a file copied onto its end): it is refused.
+        A trial that is cut off or interrupted and run again reads as the one trial it
+        became. A trial number that is *finished* twice cannot be told apart that way
+        (two runs written to one file, or a file copied onto its end): it is refused.
 
         Raises:
-            RepeatedTrialError: A trial number is complete more than once.
+            RepeatedTrialError: A trial number is finished more than once.
         """
         repeated = self.repeated_trials()
         if repeated:
