@@ -198,7 +198,7 @@ LYING_SCENES: dict[str, tuple[str, str]] = {
                                 "outside the camera's view"),
     "5 m away": ("{color: blue, x: 500, y: 40}", "[12] (blue at x 500, y 40 cm): outside the "
                  "camera's view of the table (640x480 px through calibration): the whole "
-                 "object must be seen (centres within x -19.5…18.5, y 30.0…58.0 cm are)"),
+                 "object must be seen (centres within x -19.4…18.4, y 30.1…57.9 cm are)"),
     "half out of view": ("{color: red, x: 0, y: 58.5}", "outside the camera's view"),
     "on the base plate": ("{color: red, x: 1, y: 0}", "[12] (red at x 1, y 0 cm): not on the "
                           "table: it stands on the arm's base plate"),
@@ -235,8 +235,8 @@ def test_a_configured_scene_that_lies_is_refused(command: str, tmp_path: Path) -
         out = check_bad_input(argv)
         assert out.line.endswith("task.scene[0] (red at x 0, y -20 cm): outside the camera's "
                                  "view of the table (640x480 px through calibration): the "
-                                 "whole object must be seen (centres within x -19.5…18.5, "
-                                 "y 30.0…58.0 cm are)")  # fmt: skip
+                                 "whole object must be seen (centres within x -19.4…18.4, "
+                                 "y 30.1…57.9 cm are)")  # fmt: skip
     else:
         scene = tmp_path / "scene.yaml"
         scene.write_text(PAPER + "- {color: red, x: 0, y: -20}\n")

@@ -241,3 +241,27 @@ def test_the_twin_counts_the_objects_its_camera_never_sees(tmp_path, capsys):
     )  # fmt: skip
     assert code == 1, err
     assert lines[-1] == "sorted 1 of 2 objects (1 never seen by the camera)"
+
+
+@pytest.mark.parametrize("edge", ["x0", "x1", "y0", "y1"])
+def test_an_object_on_the_edge_of_the_stated_view_is_seen_whole(tmp_path, capsys, edge):
+    """check_scene states where centres must lie; an object on that edge passes it and is
+    then seen whole, not "cut by the image border" (the check allowed a rim on the
+    image's last pixel, which the detector counts as cut)."""
+    from mearm.config import load_config
+    from mearm.task.scene import BORDER_PX, camera_field_cm
+
+    config = load_config("sim")
+    r = config.task.class_named("red").diameter_cm / 2
+    x0, x1, y0, y1 = camera_field_cm(config, margin_cm=r, border_px=BORDER_PX)
+    inward = 0.005  # within the field as printed (one decimal) and rounded
+    x, y = {
+        "x0": (x0 + inward, y0 + 0.3),  # below the bins, which stand along this edge
+        "x1": (x1 - inward, 45.0),
+        "y0": (0.0, y0 + inward),
+        "y1": (0.0, y1 - inward),
+    }[edge]
+    scene = tmp_path / "scene.yaml"
+    scene.write_text(f"- {{color: red, x: {x}, y: {y}}}\n")
+    code, lines, err = _sort(capsys, "--scene", scene, "--quiet")
+    assert (code, lines[-1]) == (0, "sorted 1 of 1 objects"), err

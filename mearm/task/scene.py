@@ -83,6 +83,13 @@ def load_scene(path: str | Path, class_names: Sequence[str] | None = None) -> li
 RIM_POINTS = 16
 
 
+#: How far inside the image's edges an object's rim must map to be seen whole [px]: the
+#: detector takes a region that reaches the outermost row or column for one cut by the
+#: border (:func:`mearm.task.table_tracking.is_cut`), and the drawn rim's edge pixels
+#: blend a pixel beyond it.
+BORDER_PX = 1.5
+
+
 def check_scene(config: Config, scene: Sequence[SceneObject], source: str = "task.scene") -> None:
     """Refuse a simulated table the sort could not see whole: name the object and the rule.
 
@@ -125,13 +132,15 @@ def check_scene(config: Config, scene: Sequence[SceneObject], source: str = "tas
         points = np.array([obj.x, obj.y]) + r * rim
         px = geometry.table_to_pixel(points)
         back = geometry.pixel_to_table(px)
+        b = BORDER_PX
         inside = (
             np.all(np.isfinite(px))
-            and np.all((px[:, 0] >= 0) & (px[:, 0] <= w) & (px[:, 1] >= 0) & (px[:, 1] <= h))
+            and np.all((px[:, 0] >= b) & (px[:, 0] <= w - b))
+            and np.all((px[:, 1] >= b) & (px[:, 1] <= h - b))
             and np.allclose(back, points, atol=0.01)
         )
         if not inside:
-            x0, x1, y0, y1 = camera_field_cm(config, margin_cm=r)
+            x0, x1, y0, y1 = camera_field_cm(config, margin_cm=r, border_px=b)
             field = (
                 f" (centres within x {x0:.1f}…{x1:.1f}, y {y0:.1f}…{y1:.1f} cm are)"
                 if x0 < x1 and y0 < y1
@@ -174,15 +183,17 @@ FOOTPRINT_MARGIN_CM = 0.3
 PER_OBJECT_DRAWS = 1000
 
 
-def camera_field_cm(config: Config, margin_cm: float) -> tuple[float, float, float, float]:
+def camera_field_cm(
+    config: Config, margin_cm: float, border_px: float = 0.0
+) -> tuple[float, float, float, float]:
     """The table area the camera sees, shrunk by ``margin_cm``: (x_min, x_max, y_min, y_max).
 
-    Computed from the calibration homography at the image corners (an axis-aligned box
-    inside the imaged quadrilateral).
+    Computed from the calibration homography at the image's corners, ``border_px`` in
+    from its edges (an axis-aligned box inside the imaged quadrilateral).
     """
     H_inv = np.asarray(config.calibration.homography, dtype=float)
-    w, h = config.camera.width_px, config.camera.height_px
-    corners = np.array([[0, 0, 1], [w, 0, 1], [w, h, 1], [0, h, 1]], dtype=float)
+    w, h, b = config.camera.width_px, config.camera.height_px, border_px
+    corners = np.array([[b, b, 1], [w - b, b, 1], [w - b, h - b, 1], [b, h - b, 1]], dtype=float)
     xy = corners @ H_inv.T
     xy = xy[:, :2] / xy[:, 2:3]
     xs, ys = np.sort(xy[:, 0]), np.sort(xy[:, 1])
