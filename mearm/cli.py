@@ -164,6 +164,11 @@ def config_path_value(text: str) -> Path:
     (:func:`mearm.config.files.resolve_config_path`). Such a value is kept a path, made
     absolute, so the reader says what is wrong with the file it names.
     """
+    if not text.strip():
+        raise argparse.ArgumentTypeError(
+            "the value is empty: give a config file's path or the name of a shipped config "
+            "(mearm --help lists them)"
+        )
     path = Path(text)
     if any(sep in text for sep in "/\\") and len(path.parts) == 1 and not path.is_absolute():
         return Path.cwd() / path

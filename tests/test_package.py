@@ -251,3 +251,15 @@ def test_a_config_name_too_long_for_a_file_is_bad_input(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     with pytest.raises(ConfigError):
         load_config("x" * 5000)
+
+
+@pytest.mark.parametrize("typed", ["", "  "])
+def test_an_empty_config_value_is_named_empty(typed):
+    """``--config ''`` read as the current folder: ``.: is a directory``."""
+    from mearm.cli import ArgumentParser, add_config_argument
+
+    parser = ArgumentParser(prog="mearm sort")
+    add_config_argument(parser)
+    with pytest.raises(SystemExit) as info:
+        parser.parse_args(["--config", typed])
+    assert info.value.code == 2

@@ -7,9 +7,10 @@ table), so that nothing the validator accepts can overflow, hang or exhaust memo
 from __future__ import annotations
 
 import reprlib
-from typing import TYPE_CHECKING, Annotated
+from typing import TYPE_CHECKING, Annotated, Any
 
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import BaseModel, ConfigDict, Field, GetCoreSchemaHandler, model_validator
+from pydantic_core import PydanticCustomError, core_schema
 
 if TYPE_CHECKING:
     from pydantic_core import ErrorDetails
@@ -46,10 +47,82 @@ PathText = Annotated[str, Field(min_length=1, max_length=MAX_PATH_CHARS, pattern
 Vector3 = tuple[Length, Length, Length]
 
 
+#: The error type of a boolean given for a number (:func:`_refuse_bool`).
+NOT_A_NUMBER = "number_not_bool"
+
+
+def _refuse_bool(value: Any) -> Any:
+    """``value``, unless it is a boolean: pydantic's lax mode would read ``true`` as 1."""
+    if value is True or value is False:
+        got = "true" if value else "false"
+        raise PydanticCustomError(NOT_A_NUMBER, "expected a number, got {got}", {"got": got})
+    return value
+
+
+#: The keys of a core schema that hold the schemas it validates with.
+_INNER = ("schema", "items_schema", "keys_schema", "values_schema", "lax_schema",
+          "strict_schema", "json_schema", "python_schema")  # fmt: skip
+
+
+def _numbers_refuse_bool(node: Any, model: type) -> Any:
+    """``node`` (a core schema) with every int and float schema refusing a boolean.
+
+    Only the lax number schemas change (strict ones would also refuse ``"1e3"``, which
+    YAML 1.1 reads as a string), and only ``model``'s own: a nested model's schema is
+    its own class's, changed when that class was built. Wrapped schemas are left alone,
+    so a schema seen again is not wrapped twice.
+    """
+    if not isinstance(node, dict):
+        return node
+    kind = node.get("type")
+    if kind in ("int", "float") or (
+        kind == "literal" and all(type(v) in (int, float) for v in node["expected"])
+    ):  # a literal of numbers (``direction: 1``) takes ``true`` too, as ``true == 1``
+        return core_schema.no_info_before_validator_function(_refuse_bool, node)
+    if kind == "model" and node.get("cls") is not model:
+        return node
+    if kind == "function-before" and node["function"].get("function") is _refuse_bool:
+        return node
+    for key in _INNER:
+        if key in node:
+            node[key] = _numbers_refuse_bool(node[key], model)
+    if kind == "model-fields":
+        for field in node["fields"].values():
+            field["schema"] = _numbers_refuse_bool(field["schema"], model)
+    elif kind in ("tuple", "chain"):
+        key = "items_schema" if kind == "tuple" else "steps"
+        node[key] = [_numbers_refuse_bool(item, model) for item in node[key]]
+    elif kind == "union":
+        node["choices"] = [
+            (_numbers_refuse_bool(c[0], model), c[1])
+            if isinstance(c, tuple)
+            else _numbers_refuse_bool(c, model)
+            for c in node["choices"]
+        ]
+    elif kind == "tagged-union":
+        node["choices"] = {k: _numbers_refuse_bool(v, model) for k, v in node["choices"].items()}
+    elif kind == "definitions":
+        node["definitions"] = [_numbers_refuse_bool(d, model) for d in node["definitions"]]
+    return node
+
+
 class Strict(BaseModel):
-    """A frozen model that refuses unknown keys."""
+    """A frozen model that refuses unknown keys, and booleans where it takes numbers.
+
+    Pydantic's lax mode reads ``true`` as 1 and ``false`` as 0; a boolean given for a
+    number is a mistake (``kp: yes``), refused with the field's name. The check is built
+    into the validator once per class (:func:`_numbers_refuse_bool`), not run per field
+    in Python.
+    """
 
     model_config = ConfigDict(extra="forbid", frozen=True)
+
+    @classmethod
+    def __get_pydantic_core_schema__(
+        cls, source: type[BaseModel], handler: GetCoreSchemaHandler, /
+    ) -> core_schema.CoreSchema:
+        # called once as the class is built; handler(source) is how pydantic asks it be done
+        return _numbers_refuse_bool(handler(source), cls)
 
 
 class Range(Strict):
@@ -108,15 +181,29 @@ def _shown(value: object) -> str:
     return f" (got {short_repr(value, 60)})"
 
 
+def example_file(arm: str | None = None) -> str:
+    """The shipped file that shows every key, as the user can open it.
+
+    ``sim.yaml`` (every section), or with ``arm`` the reference arm's file: in the
+    checkout under ``configs/``, from the wheel the copy it ships
+    (:func:`mearm.data.shown_path`).
+    """
+    from mearm.data import ARMS_DIR, CONFIGS_DIR, shown_path  # noqa: PLC0415  (errors only)
+
+    return shown_path(CONFIGS_DIR / "sim.yaml" if arm is None else ARMS_DIR / f"{arm}.yaml")
+
+
 def describe_error(err: ErrorDetails) -> str:
     """One line for one pydantic error: the dotted path, what is wrong, the value given."""
     loc = loc_text(err["loc"]) or "(top level)"
     kind = err["type"]
     if kind == "extra_forbidden":
-        where = "configs/arms/mearm_paper.yaml" if loc.startswith("arm.") else "configs/sim.yaml"
+        where = example_file("mearm_paper" if loc.startswith("arm.") else None)
         return f"{loc}: unknown key (check the spelling; {where} shows every key)"
     if kind == "missing":
         return f"{loc}: required but missing"
+    if kind == NOT_A_NUMBER:
+        return f"{loc}: {err['msg']}"
     msg = err["msg"]
     if msg.startswith("Value error, "):
         msg = msg[len("Value error, ") :]

@@ -198,6 +198,17 @@ def _extended(name: Any, folder: Path, source: str | None, chain: tuple[Path, ..
             [f"{EXTENDS_KEY}: expected a config file's path or name, got {short_repr(name)}"],
         )
     given = folder / name
+    if given.is_symlink() and not given.is_file():  # a link here that leads to no file
+        try:
+            given.stat()
+        except OSError as exc:  # a loop, a dangling link: said as --config says it
+            raise ConfigError(
+                source,
+                [
+                    f"{EXTENDS_KEY}: cannot open {short_repr(name)} (looked for {given}): "
+                    f"{exc.strerror or exc}"
+                ],
+            ) from None
     path = given if given.is_file() else packaged_config(name)
     if path is None:
         raise ConfigError(

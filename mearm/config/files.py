@@ -13,6 +13,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from mearm.config.base import short_repr
 from mearm.config.loader import config_from_dict
 from mearm.config.root import Config
 from mearm.data import config_names, packaged_config
@@ -39,11 +40,20 @@ def resolve_config_path(path: str | Path) -> Path:
     missing path is returned as it is, for the reader's "config file not found".
 
     Raises:
-        ConfigError: a bare name that is neither a file nor a packaged config; the
-            message lists the packaged names.
+        ConfigError: an empty name (``Path`` would read it as the current folder), or a
+            bare name that is neither a file nor a packaged config; the message lists
+            the packaged names.
     """
     given = Path(path)
     text = str(path)
+    if not text:
+        raise ConfigError(
+            "--config",
+            [
+                "the value is empty: give a config file's path or the name of a packaged "
+                f"config (mearm --help lists them): {', '.join(config_names()) or 'none'}"
+            ],
+        )
     if "/" in text or "\\" in text:
         return given
     try:
@@ -63,10 +73,10 @@ def resolve_config_path(path: str | Path) -> Path:
     close = difflib.get_close_matches(stem, known, n=3, cutoff=0.75)
     hint = f" (did you mean {' or '.join(map(repr, close))}?)" if close else ""
     raise ConfigError(
-        text,
+        short_repr(text),  # quoted: a space or a control character in it shows
         [
-            f"config file not found, and no packaged config is named {text!r}{hint}; give "
-            "a file's path or the name of a packaged config (mearm --help lists them): "
+            f"config file not found, and no packaged config is named {short_repr(text)}{hint}; "
+            "give a file's path or the name of a packaged config (mearm --help lists them): "
             f"{', '.join(known) or 'none'}"
         ],
     )

@@ -23,7 +23,7 @@ from typing import Any
 from pydantic import ValidationError
 from pydantic_core import ErrorDetails
 
-from mearm.config.base import describe_error, loc_text, short_repr
+from mearm.config.base import describe_error, example_file, loc_text, short_repr
 from mearm.config.compose import expand_config
 from mearm.config.root import Config
 from mearm.data import packaged_arm
@@ -214,12 +214,12 @@ def _allowed_keys(loc: Sequence[int | str]) -> list[str]:
 
 
 def _arm_file(data: Any) -> str:
-    """The reference arm file the config's arm is, as a user finds it in the repository."""
+    """The reference arm file the config's arm is, as the user can open it."""
     arm = data.get("arm") if isinstance(data, dict) else None
     name = arm.get("name") if isinstance(arm, dict) else None
     if isinstance(name, str) and packaged_arm(name) is not None:
-        return f"configs/arms/{name}.yaml"
-    return "configs/arms/mearm_paper.yaml"
+        return example_file(name)
+    return example_file("mearm_paper")
 
 
 def _in_user_words(err: ErrorDetails, data: Any) -> str:
@@ -236,7 +236,7 @@ def _in_user_words(err: ErrorDetails, data: Any) -> str:
 
     close = difflib.get_close_matches(str(key), _allowed_keys(err["loc"][:-1]), n=1, cutoff=0.6)
     meant = f"; did you mean {close[0]}?" if close else ""
-    where = _arm_file(data) if loc and loc[0] == "arm" else "configs/sim.yaml"
+    where = _arm_file(data) if loc and loc[0] == "arm" else example_file()
     return f"{loc_text(loc)}: unknown key{meant} ({where} shows every key)"
 
 

@@ -47,7 +47,7 @@ import copy
 from collections.abc import Mapping
 from typing import Any
 
-from mearm.config.base import short_repr
+from mearm.config.base import example_file, short_repr
 from mearm.config.defaults import (
     PAPER_CLASS_NAMES,
     PAPER_HUE_BANDS_DEG,
@@ -140,7 +140,7 @@ def migrate_v1_config(data: Mapping[str, Any], *, source: str | None = None) -> 
             source,
             [
                 f"mixes format-1 keys ({', '.join(old)}) with current ones ({', '.join(new)}); "
-                "write the file in one format (configs/sim.yaml shows the current one)"
+                f"write the file in one format ({example_file()} shows the current one)"
             ],
         )
     if not old:

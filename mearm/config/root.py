@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from typing import Literal
 
 from pydantic import Field, field_validator, model_validator
@@ -154,6 +155,37 @@ class Config(Strict):
                 "objects or a wider-opening gripper"
             )
         return self
+
+    @model_validator(mode="after")
+    def _approach_in_box(self) -> Config:
+        """Every pick's point above the object (``task.approach_height_cm``) lies in the box.
+
+        The sort plans each pick via that point and refuses a target outside
+        ``arm.target_box``; found here, it is one line at load, not every object left. A
+        pick height itself outside the box is left to the consistency check
+        (:mod:`mearm.task.check`), which names the pick's own fields.
+        """
+        height = self.task.approach_height_cm
+        if height is None:
+            return self
+        box = self.arm.target_box.z_cm
+        tcp_cm = self.arm.tool.tcp_above_grip_cm
+        above: dict[float, list[str]] = {}  # pick height → the classes picked there
+        for c in self.task.classes:
+            z = c.grip_z_cm + tcp_cm
+            if box.contains(z) and not box.contains(z + height):
+                above.setdefault(z, []).append(c.name)
+        if not above:
+            return self
+        top = max(above)
+        most = math.floor((box.max - top) * 100) / 100  # shown to 0.01 cm, never too high
+        raise ValueError(
+            f"@task.approach_height_cm: {height:g} cm above the picks of "
+            f"{', '.join(above[top])} (at z = {top:.2f} cm) puts the TCP at z = "
+            f"{top + height:.2f} cm, above arm.target_box.z_cm [{box.min:g}, {box.max:g}]: at "
+            f"most {most:.2f} cm (pick height = grip height + "
+            "arm.tool.tcp_above_grip_cm)"
+        )
 
     @model_validator(mode="after")
     def _belt_followable(self) -> Config:

@@ -411,7 +411,8 @@ class TaskConfig(Strict):
     """Picks go via a point this far above the object and lift back to it with the object
     before the place, so the jaws neither sweep through other objects and bin walls nor
     drag what they hold [cm]; ``null``: the paper's direct routes (what the kinematic
-    simulator, which has no collisions, reproduces)."""
+    simulator, which has no collisions, reproduces). The point above every class's pick
+    must lie in ``arm.target_box``, as the pick must (refused when the config loads)."""
     look_at_claw: bool = True
     """Picks that look: before the jaws close, the camera sees where the claw's marker is
     and the pick is corrected (:mod:`mearm.task.claw_loop`). Only where the tool carries

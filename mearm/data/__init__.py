@@ -82,18 +82,27 @@ def firmware_source_dir() -> Path:
     return folder
 
 
-def doc_page(name: str) -> str:
-    """Where to read the docs' page ``name`` (``maker-path.md``), as a message shows it.
+def shown_path(path: Path) -> str:
+    """A shipped file's path as a message shows it, so that the user can open it.
 
-    In the checkout it is ``docs/NAME``, relative to the current folder when that is the
-    checkout (as the README's commands are run), else absolute; from the wheel, the copy
-    it ships (:data:`DOCS_DIR`).
+    The file the links lead to (in the checkout ``configs/sim.yaml`` …, in the wheel its
+    copy), relative to the current folder when it is under it (as the README's commands
+    are run in the checkout), else absolute.
     """
-    path = (DOCS_DIR / name).resolve()
+    path = path.resolve()
     try:
         return path.relative_to(Path.cwd()).as_posix()
     except (ValueError, OSError):  # elsewhere, or the current folder is gone
         return str(path)
+
+
+def doc_page(name: str) -> str:
+    """Where to read the docs' page ``name`` (``maker-path.md``), as a message shows it.
+
+    In the checkout it is ``docs/NAME``, from the wheel the copy it ships
+    (:data:`DOCS_DIR`), shown by :func:`shown_path`.
+    """
+    return shown_path(DOCS_DIR / name)
 
 
 def source_checkout() -> Path | None:
@@ -122,5 +131,6 @@ __all__ = [
     "firmware_source_dir",
     "packaged_arm",
     "packaged_config",
+    "shown_path",
     "source_checkout",
 ]

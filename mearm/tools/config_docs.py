@@ -1,7 +1,11 @@
 """Write the configuration reference (docs/configuration.md) from the config models.
 
-mearm config-docs                                  # writes docs/configuration.md
+mearm config-docs                                  # the source checkout's docs/configuration.md
+mearm config-docs --output FILE                    # anywhere (an installed wheel: required)
 mearm config-docs --check docs/configuration.md    # exit 1 if it is stale
+
+A file that is there is replaced only if it is a reference written before (it starts
+with the generated header) or with --force: nothing else of the user's is overwritten.
 """
 
 from __future__ import annotations
@@ -11,37 +15,72 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from mearm.cli import ArgumentParser, check_output_file, run, write_text_atomic
-from mearm.config.schema_doc import DEFAULT_OUTPUT, render
+from mearm.config.schema_doc import DEFAULT_OUTPUT, GENERATED_START, render
+from mearm.data import source_checkout
+from mearm.errors import MearmError
+
+
+def default_output() -> Path | None:
+    """The checkout's reference page, wherever the command runs; ``None`` from a wheel."""
+    checkout = source_checkout()
+    return None if checkout is None else checkout / DEFAULT_OUTPUT
+
+
+def is_generated(path: Path) -> bool:
+    """Whether the file at ``path`` starts with the header :func:`render` writes."""
+    try:
+        with path.open("rb") as fh:
+            head = fh.read(len(GENERATED_START.encode()))
+    except OSError:
+        return False
+    return head.decode("utf-8", errors="replace") == GENERATED_START
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Write the reference page, print it, or check that a written one is up to date."""
+    default = default_output()
     parser = ArgumentParser(description=__doc__.splitlines()[0])
     group = parser.add_mutually_exclusive_group()
-    group.add_argument(
-        "--output", type=Path, help=f"write it to this file (default: {DEFAULT_OUTPUT})"
+    where = (
+        f"the source checkout's, {default}, from any folder"
+        if default is not None
+        else "none: an installed mearm has no source checkout, so give --output"
     )
+    group.add_argument("--output", type=Path, help=f"write it to this file (default: {where})")
     group.add_argument(
         "--check", type=Path, metavar="FILE", help="exit 1 if FILE differs from the models"
     )
     group.add_argument("--stdout", action="store_true", help="print it instead")
+    parser.add_argument(
+        "--force",
+        action="store_true",
+        help="replace the output file even if it is not a reference written before",
+    )
     args = parser.parse_args(argv)
     if args.check is not None and not args.check.is_file():
         parser.error(f"--check {args.check}: no such file")
-    if args.output is not None:
-        check_output_file(args.output, "--output")
-    text = render()
     if args.stdout:
-        sys.stdout.write(text)
+        sys.stdout.write(render())
         return 0
     if args.check is not None:
-        if args.check.read_text(encoding="utf-8") != text:
+        if args.check.read_text(encoding="utf-8") != render():
             print(f"{args.check} is stale: run mearm config-docs --output {args.check}",
                   file=sys.stderr)  # fmt: skip
             return 1
         return 0
-    output = args.output or DEFAULT_OUTPUT
-    write_text_atomic(output, text)
+    output = args.output if args.output is not None else default
+    if output is None:
+        parser.error(
+            "no source checkout to write docs/configuration.md into (mearm is installed "
+            "from a wheel): give --output FILE, or --stdout"
+        )
+    check_output_file(output, "--output")
+    if output.exists() and not args.force and not is_generated(output):
+        raise MearmError(
+            f"--output {output}: exists and is not a configuration reference written before "
+            "(it lacks the generated header): not replaced; give another file, or --force"
+        )
+    write_text_atomic(output, render())
     print(f"wrote {output}")
     return 0
 
