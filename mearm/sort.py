@@ -94,7 +94,7 @@ def add_scene_arguments(parser: ArgumentParser) -> None:
         help="simulated table: a YAML list of {color, x, y} [cm] (color: a class name)",
     )
     group.add_argument("--random", type=int, metavar="N", help="simulated table: N random objects")
-    parser.add_argument("--seed", type=seed_value, default=0, help="seed for --random (default 0)")
+    parser.add_argument("--seed", type=seed_value, help="seed for --random (default 0)")
 
 
 def scene_from_args(args: object, config: Config) -> list[SceneObject] | None:
@@ -117,7 +117,7 @@ def scene_from_args(args: object, config: Config) -> list[SceneObject] | None:
     elif n is not None:
         if n < 0:
             raise MearmError(f"--random needs a number of objects ≥ 0, got {n}")
-        scene = random_scene(config, n, seed=getattr(args, "seed", 0))
+        scene = random_scene(config, n, seed=getattr(args, "seed", None) or 0)
     if config.camera.kind == "sim":
         source = str(scene_path) if scene_path is not None else "--random" if n else "task.scene"
         check_scene(config, config.task.scene if scene is None else scene, source)
@@ -175,6 +175,9 @@ def _parser() -> ArgumentParser:
 def _check_arguments(parser: ArgumentParser, args: argparse.Namespace) -> None:
     """Exit 2 (``parser.error``) on options that do not go together or a bad output path."""
     check_record_arguments(parser, args)
+    if args.seed is not None and args.random is None:
+        parser.error("--seed draws the scene of --random N: use it with --random")
+    args.seed = 0 if args.seed is None else args.seed
     if args.hold and not args.view:
         parser.error("--hold keeps the view open: use it with --view")
     if args.collision and not args.view:

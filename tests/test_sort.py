@@ -336,6 +336,7 @@ def test_scene_file_and_random_flags(tmp_path):
         (["--config", "configs/lab.yaml", "--random", "3"], "camera is 'device', not 'sim'"),
         (["--random", "3", "--scene", "x.yaml"], "not allowed with argument"),
         (["--hold"], "--hold keeps the view open: use it with --view"),
+        (["--seed", "5"], "--seed draws the scene of --random N: use it with --random"),
     ],
 )
 @pytest.mark.heavy
