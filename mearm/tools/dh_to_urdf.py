@@ -19,7 +19,7 @@ from pathlib import Path
 from mearm.cli import ArgumentParser, add_config_argument, config_from_args, run, write_text_atomic
 from mearm.config import ArmDescription
 from mearm.config.compose import reference_arm
-from mearm.data import arm_names, source_checkout
+from mearm.data import arm_names, shown_path, source_checkout
 from mearm.errors import MearmError
 from mearm.kinematics import ArmModel, generate_urdf
 
@@ -36,10 +36,16 @@ def _reference_urdf(name: str) -> str:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Write the URDF(s); 0 on success."""
-    parser = ArgumentParser(description="Arm description → URDF (metres, radians).")
+    folder = shown_path(output_folder())
+    parser = ArgumentParser(
+        description="Arm description → URDF (metres, radians). Without --config or --set: "
+        f"every reference arm's URDF, into {folder}/."
+    )
     add_config_argument(parser)
     parser.add_argument(
-        "--output", type=Path, help="URDF to write (default: robot_description/<arm name>.urdf)"
+        "--output",
+        type=Path,
+        help=f"URDF to write (with --config; default: {folder}/<arm name>.urdf)",
     )
     args = parser.parse_args(argv)
     if args.output is not None and args.output.exists() and not args.output.is_file():
