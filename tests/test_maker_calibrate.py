@@ -435,8 +435,11 @@ def operate_from_here(cmd: PtyCommand, name: str, truth: dict[str, TrueServo]) -
 
 
 @pytest.mark.slow
-def test_ctrl_c_writes_nothing_and_leaves_the_arm(board, tmp_path):
-    """Ctrl-C mid-session: exit 130, the old file untouched, the board's pulses unchanged."""
+@pytest.mark.parametrize(("stop", "status"), [("ctrl-c", 130), ("sigterm", 143)])
+def test_ctrl_c_writes_nothing_and_leaves_the_arm(board, tmp_path, stop, status):
+    """Ctrl-C mid-session: exit 130, the old file untouched, the board's pulses unchanged.
+
+    SIGTERM the same, exit 143 (it ended the process at once, the bus left as it was)."""
     out = tmp_path / "servos.yaml"
     out.write_text("old\n")
     cmd = PtyCommand(*_args(out, *serial_args(board.port), "--force"))
@@ -447,8 +450,11 @@ def test_ctrl_c_writes_nothing_and_leaves_the_arm(board, tmp_path):
         channels = ServoMap.from_arm(load_config(ROOT / "configs" / "sim.yaml").arm).channels
         held = board.steady_pulses_us(channels)
         moves = board.move_count()
-        cmd.send("\x03")
-        assert cmd.wait() == 130, cmd.text[-2000:]
+        if stop == "ctrl-c":
+            cmd.send("\x03")
+        else:
+            cmd.proc.send_signal(signal.SIGTERM)
+        assert cmd.wait() == status, cmd.text[-2000:]
     finally:
         cmd.close()
     assert out.read_text() == "old\n" and not (tmp_path / "servos.yaml.bak").exists()

@@ -67,6 +67,7 @@ import math
 from collections.abc import Sequence
 from pathlib import Path
 
+from mearm import interrupts
 from mearm.cli import ArgumentParser, add_config_argument, config_from_args, run, seed_value
 from mearm.config import Config
 from mearm.errors import MearmError
@@ -247,7 +248,15 @@ def _chosen(config: Config, names: str | None) -> list[Actuator]:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Run the command (see the module docstring); returns the exit status."""
+    """Run the command (see the module docstring); returns the exit status.
+
+    SIGTERM and SIGHUP stop it as Ctrl-C does: the arm held or parked, nothing written.
+    """
+    with interrupts.stop_signals_as_ctrl_c():
+        return _calibrate(argv)
+
+
+def _calibrate(argv: Sequence[str] | None) -> int:
     args = build_parser().parse_args(argv)
     config = config_from_args(args)
     output = args.output if args.output is not None else default_output(args.config)

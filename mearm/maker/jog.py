@@ -40,6 +40,7 @@ from typing import TextIO
 
 import numpy as np
 
+from mearm import interrupts
 from mearm.cli import (
     EXIT_FAILURE,
     EXIT_OK,
@@ -291,7 +292,15 @@ def build_parser() -> ArgumentParser:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Run the command (see the module docstring); returns the exit status."""
+    """Run the command (see the module docstring); returns the exit status.
+
+    SIGTERM and SIGHUP (the terminal closed) stop it as Ctrl-C does: the arm held.
+    """
+    with interrupts.stop_signals_as_ctrl_c():
+        return _jog(argv)
+
+
+def _jog(argv: Sequence[str] | None) -> int:
     args = build_parser().parse_args(argv)
     config = config_from_args(args)
     if args.servo_calibration is not None:
