@@ -1,20 +1,26 @@
 """What servo calibration is worth on the twin: final error before and after, kit by kit.
 
     python tools/calibration_worth.py --kits 20 --trials 1 --jobs 2 --out calib_worth
-        [--config configs/sim_mujoco_kits.yaml] [--sensitivity]
+        [--config configs/sim_mujoco_kits.yaml] [--sensitivity] [--reading-seed BASE]
+        [--same-readings]
 
 For each kit (``twin.kit.seed`` 1..N, ``per_trial: false``: one arm per kit) it runs the
 maker's procedure against the twin (``mearm calibrate-servos --simulate``, default reading
-error) into ``<out>/kit<k>.servos.yaml``, then ``mearm experiment`` on the same trials
-(same ``--seed``, so the same scenes) with the nominal calibration and with the file,
-and ``mearm analyze --json`` on each log. The nominal runs set
+error) into ``<out>/kit<k>.servos.yaml``, each kit with its own misreadings, as each maker
+misreads their own protractor: kit k's ``--reading-seed`` is :func:`reading_seed` of
+(``--reading-seed`` BASE, k), ``SeedSequence([BASE, k])``'s first word (not k itself:
+``default_rng(k)`` draws the kit's units; ``--same-readings`` gives every kit BASE, the
+same misreadings on every arm, as the tool did before 2026-11-30), then ``mearm
+experiment`` on the same trials (same ``--seed``, so the same scenes) with the nominal
+calibration and with the file, and ``mearm analyze --json`` on each log. The nominal runs set
 ``servo.calibrate_at_start=never``: a config that calibrates the servos by the camera at
 the start of each sort (``sim_mujoco_kits.yaml`` does) would otherwise not sort on the
 nominal calibration (a run with the file never does). ``--sensitivity`` adds one run per
 joint servo calibrated alone (the file with only that actuator). Prints a Markdown table
 of the mean final end-effector error and the first-attempt picks (simulated). Every file
 goes into ``--out``; a run already logged there is not repeated (the experiment resumes
-its log).
+its log), nor a calibration file already there (whatever reading seed wrote it: use a
+fresh ``--out`` for other reading seeds).
 """
 
 from __future__ import annotations
@@ -41,6 +47,16 @@ def mearm(*args: str, ok: tuple[int, ...] = (0,)) -> subprocess.CompletedProcess
         last = (done.stderr.strip().splitlines() or ["(no output)"])[-1]
         raise SystemExit(f"calibration_worth: mearm {args[0]} failed: {last}")
     return done
+
+
+def reading_seed(base: int, kit: int) -> int:
+    """Kit ``kit``'s reading seed: ``SeedSequence([base, kit])``'s first 32-bit word.
+
+    Each kit's maker misreads independently of the others' and of the kit's own units
+    (drawn by ``default_rng(kit)``, so not ``kit`` itself); the same (base, kit) gives
+    the same misreadings on every run.
+    """
+    return int(np.random.SeedSequence([base, kit]).generate_state(1)[0])
 
 
 def only(path: Path, name: str, out: Path) -> Path:
@@ -88,9 +104,23 @@ def main() -> int:
     p.add_argument("--jobs", type=int, default=2)
     p.add_argument("--out", type=Path, default=Path("calib_worth"))
     p.add_argument("--sensitivity", action="store_true")
+    p.add_argument(
+        "--reading-seed",
+        type=int,
+        default=0,
+        metavar="BASE",
+        help="base of the kits' reading seeds (kit k's: reading_seed(BASE, k); default 0)",
+    )
+    p.add_argument(
+        "--same-readings",
+        action="store_true",
+        help="every kit's reading seed is BASE itself: the same misreadings on every arm",
+    )
     args = p.parse_args()
     if args.kits < 1 or args.trials < 1 or args.jobs < 1:
         p.error("--kits, --trials and --jobs are integers ≥ 1")
+    if not 0 <= args.reading_seed < 2**32:
+        p.error("--reading-seed is an integer in [0, 2³²−1]")
     args.out.mkdir(parents=True, exist_ok=True)
     joints = ("base", "shoulder", "elbow", "gripper")
     jobs = []
@@ -108,6 +138,10 @@ def main() -> int:
                 f"twin.kit.seed={k}",
                 "--set",
                 "twin.kit.per_trial=false",
+                "--reading-seed",
+                str(
+                    args.reading_seed if args.same_readings else reading_seed(args.reading_seed, k)
+                ),
             )
         jobs.append((k, "before", None))
         jobs.append((k, "after", calib))
@@ -124,7 +158,15 @@ def main() -> int:
         results = list(pool.map(one, jobs))
     (args.out / "results.json").write_text(json.dumps(results, indent=1))
     labels = list(dict.fromkeys(label for _, label, _ in results))
-    print(f"{args.kits} kits (seeds 1..{args.kits}), {args.trials} trial(s) each, simulated\n")
+    readings = (
+        f"reading seed {args.reading_seed} for every kit"
+        if args.same_readings
+        else f"each kit's own reading seed (base {args.reading_seed})"
+    )
+    print(
+        f"{args.kits} kits (seeds 1..{args.kits}), {args.trials} trial(s) each, {readings}, "
+        "simulated\n"
+    )
     print(
         "| calibration | mean final error [cm] | mean over kits ± std [cm] "
         "| first-attempt picks | routes |"
