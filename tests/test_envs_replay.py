@@ -60,7 +60,8 @@ def test_the_replay_command_exits_2_on_a_folder_that_is_no_dataset(tmp_path):
 
 @pytest.fixture(scope="module")
 def recorded(tmp_path_factory: pytest.TempPathFactory):
-    """``mearm sort --random 2 --seed 7 --record`` per scene at the servo rate (the CLI)."""
+    """``mearm sort --random 2 --seed 7 --record`` per scene at the servo rate (the CLI),
+    its --config a path relative to the checkout (the replays run elsewhere)."""
     import subprocess
     import sys
     from pathlib import Path
@@ -68,9 +69,9 @@ def recorded(tmp_path_factory: pytest.TempPathFactory):
     root = Path(__file__).resolve().parent.parent
     ds = tmp_path_factory.mktemp("replay") / "rec"
     subprocess.run(
-        [sys.executable, "-m", "mearm", "sort", "--config", "sim_mujoco", "--random", "2",
-         "--seed", "7", "--record", str(ds), "--record-per", "scene", "--record-fps", "50",
-         "--record-codec", "h264", "--quiet"],
+        [sys.executable, "-m", "mearm", "sort", "--config", "configs/sim_mujoco.yaml",
+         "--random", "2", "--seed", "7", "--record", str(ds), "--record-per", "scene",
+         "--record-fps", "50", "--record-codec", "h264", "--quiet"],
         check=True, capture_output=True, cwd=root, timeout=300,
     )  # fmt: skip
     return ds
@@ -79,17 +80,16 @@ def recorded(tmp_path_factory: pytest.TempPathFactory):
 def _replay_cli(ds, *args: str):
     import subprocess
     import sys
-    from pathlib import Path
 
-    root = Path(__file__).resolve().parent.parent
     return subprocess.run(
         [sys.executable, "-m", "mearm.envs.replay", str(ds), *args],
-        capture_output=True, text=True, cwd=root, timeout=300,
+        capture_output=True, text=True, cwd=ds.parent, timeout=300,
     )  # fmt: skip
 
 
 def test_the_replay_takes_the_recorded_scene(recorded):
-    """No --seed or --objects: the dataset's own (it kept --random 2 --seed 7)."""
+    """No --seed or --objects: the dataset's own (it kept --random 2 --seed 7), and its
+    config from another folder than the sort's (kept by its absolute path)."""
     proc = _replay_cli(recorded)
     assert proc.returncode == 0, proc.stderr
     assert "2 of 2 objects in their bins" in proc.stdout

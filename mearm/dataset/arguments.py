@@ -90,6 +90,20 @@ def check_record_arguments(parser: argparse.ArgumentParser, args: argparse.Names
             parser.error(f"{given[0]} is an option of --record DIR: give --record too")
 
 
+def _config_kept(given: str | Path) -> str:
+    """``--config`` as a replay finds it from any folder.
+
+    A shipped config's name stays a name; a file is kept by its absolute path.
+    """
+    from mearm.config.files import resolve_config_path  # noqa: PLC0415
+    from mearm.data import packaged_config  # noqa: PLC0415
+
+    path = resolve_config_path(given)
+    if path == packaged_config(str(given)):
+        return str(given)
+    return str(path.resolve())
+
+
 def recorder_from_args(args: argparse.Namespace, config: Config) -> DatasetRecorder | None:
     """The recorder ``--record`` asks for, its directory checked; ``None`` without it.
 
@@ -112,7 +126,7 @@ def recorder_from_args(args: argparse.Namespace, config: Config) -> DatasetRecor
         scene = RecordedScene(
             seed=args.seed,
             objects=args.random,
-            config=None if given is None else str(given),
+            config=None if given is None else _config_kept(given),
             overrides=tuple(getattr(args, "set", None) or ()),
         )
     return DatasetRecorder(
