@@ -46,6 +46,41 @@ def test_twin_scenes_in_two_workers_print_what_one_process_prints():
     assert heads[0] == heads[1]
 
 
+@pytest.mark.heavy
+def test_sigterm_stops_twin_scenes_and_its_workers(tmp_path):
+    """SIGTERM to the command alone (as a supervisor sends it), while two workers sort:
+    exit 143, and no worker left behind (they used to wait for ever, orphaned)."""
+    import signal
+    import sys
+    import time
+
+    def children(pid: int) -> set[int]:
+        out = set()
+        for stat in Path("/proc").glob("[0-9]*/stat"):
+            with contextlib.suppress(OSError):  # a process that ended meanwhile
+                fields = stat.read_text().rsplit(")", 1)[1].split()
+                if int(fields[1]) == pid:
+                    out.add(int(stat.parent.name))
+        return out
+
+    cmd = [sys.executable, "-m", "mearm", "twin-scenes", "--config", "configs/sim_mujoco.yaml",
+           "--scenes", "20", "--jobs", "2"]  # fmt: skip
+    proc = subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and len(children(proc.pid)) < 2:  # the workers started
+        time.sleep(0.05)
+    workers = children(proc.pid)
+    assert len(workers) >= 2
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=300)
+    assert proc.returncode == 143, err
+    assert b"interrupted" in err
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline and any(Path(f"/proc/{w}").exists() for w in workers):
+        time.sleep(0.1)
+    assert not [w for w in workers if Path(f"/proc/{w}").exists()], "workers left behind"
+
+
 def here(*args: object) -> Outcome:
     """``mearm ARGS`` in this process, from the checkout: for refusals before any work (the
     runs above and below start real processes, whose exit codes they check)."""

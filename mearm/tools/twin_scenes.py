@@ -30,6 +30,7 @@ from collections import Counter
 from collections.abc import Iterator, Sequence
 from concurrent.futures import ProcessPoolExecutor
 
+from mearm import interrupts
 from mearm.cli import (
     ArgumentParser,
     add_config_argument,
@@ -139,7 +140,17 @@ def sweep(config: Config, objects: int, seeds: Sequence[int], jobs: int) -> Iter
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Sort the scenes and print the counts; 1 if the share is under --require."""
+    """Sort the scenes and print the counts; 1 if the share is under --require.
+
+    SIGTERM and SIGHUP stop it as Ctrl-C does; only this process gets them, so the
+    workers finish the scenes they sort and the pool is shut down (a SIGTERM used to end
+    this process alone and leave its workers waiting for ever).
+    """
+    with interrupts.stop_signals_as_ctrl_c():
+        return _twin_scenes(argv)
+
+
+def _twin_scenes(argv: Sequence[str] | None) -> int:
     parser = ArgumentParser(description=__doc__.splitlines()[0])
     add_config_argument(parser, default="sim_mujoco")
     parser.add_argument("--scenes", type=int, default=50, help="scenes, seeds S … S+N−1")
