@@ -168,7 +168,7 @@ def _write_report(
     """Write ``report.md`` into ``out``, linking the plots; return its path."""
     from mearm.analysis.document import report_markdown
 
-    report = out / "report.md"
+    report = out / OUTPUT_NAMES[0]
     rig = _rig(contents) if contents is not None else None
     write_text_atomic(
         report,
@@ -195,6 +195,21 @@ def _check_start(parser: ArgumentParser, config: Config, start: list[float] | No
         )
 
 
+#: The files ``--out`` receives (:func:`_report`, the plots).
+OUTPUT_NAMES = (
+    "report.md", "histogram.png", "success_vs_error.png", "ee_path_3d.png",
+    "joint_angles.png", "gains_kp.png", "gains_kd.png",
+)  # fmt: skip
+
+
+def _is_output(log: Path, out: Path) -> bool:
+    """Whether writing into ``out`` would replace ``log`` (one of :data:`OUTPUT_NAMES`)."""
+    try:
+        return log.name in OUTPUT_NAMES and log.resolve().parent == out.resolve()
+    except OSError:  # a loop of links: the readers say so
+        return False
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Analyse a run log and / or sweep the gains; print tables or JSON, write plots."""
     parser = _parser()
@@ -203,6 +218,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.error("give a run log to analyse, --gains, or both")
     if args.out is not None and args.out.exists() and not args.out.is_dir():
         parser.error(f"--out {args.out} is not a folder")
+    if args.out is not None and args.log is not None and _is_output(args.log, args.out):
+        parser.error(
+            f"{args.log} is the run log to analyse, and --out {args.out} would write "
+            f"{args.log.name} over it: give another --out folder"
+        )
     if not _extras_installed(parser.prog, plots=args.out is not None):
         return EXIT_BAD_INPUT
 

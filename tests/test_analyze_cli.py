@@ -74,6 +74,9 @@ def test_out_writes_plots_and_a_report_that_links_them(log: Path, tmp_path: Path
     report = out / "report.md"
     assert data["report"] == str(report)
     assert set(data["plots"]) == {"histogram", "success", "path3d", "joints"}
+    from mearm.analyze import OUTPUT_NAMES  # what a log there must not be called
+
+    assert {p.name for p in out.iterdir()} <= set(OUTPUT_NAMES)
     text = report.read_text()
     links = re.findall(r"!\[[^\]]*\]\(([^)]+)\)", text)
     assert sorted(links) == sorted(Path(p).name for p in data["plots"].values())
@@ -328,6 +331,18 @@ def test_report_and_plots_replace_old_ones_through_links(log: Path, tmp_path: Pa
     assert "histogram.png" in (kept / "report.md").read_text()
     assert (out / "histogram.png").read_bytes()[:8] == PNG_MAGIC
     assert not [p for d in (out, kept) for p in d.iterdir() if p.name.endswith(".tmp")]
+
+
+@pytest.mark.parametrize("name", ["report.md", "histogram.png"])
+def test_a_log_that_out_would_write_over_is_refused(log: Path, tmp_path: Path, name) -> None:
+    """A run log kept as ``report/report.md`` was replaced by its own report."""
+    out = tmp_path / "report"
+    out.mkdir()
+    kept = out / name
+    kept.write_bytes(log.read_bytes())
+    with pytest.raises(SystemExit) as e:
+        main([str(kept), "--out", str(out)])
+    assert e.value.code == 2 and kept.read_bytes() == log.read_bytes()
 
 
 def test_out_that_is_a_file_is_refused(log: Path, tmp_path: Path) -> None:
