@@ -55,8 +55,8 @@ CASES: list[tuple[list[str], str]] = [
     (["twin-scenes", "--config", "sim"],
      "--config sim: simulator is 'kinematic'; twin-scenes sorts in the twin"),
     # servo-steps
-    (["servo-steps", "--degrees", "nan"], "--degrees must be in (0, 90]"),
-    (["servo-steps", "--degrees", "0"], "--degrees must be in (0, 90]"),
+    (["servo-steps", "--degrees", "nan", "--csv", "s.csv"], "--degrees must be in (0, 90]"),
+    (["servo-steps", "--degrees", "0", "--csv", "s.csv"], "--degrees must be in (0, 90]"),
     (["servo-steps", "--csv", "{folder}"], "not a file in an existing folder"),
     # camera-accuracy
     (["camera-accuracy", "--heights", "x"], "--heights wants numbers like 1,2.5"),

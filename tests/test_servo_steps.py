@@ -47,11 +47,18 @@ def test_each_joint_reaches_its_step_and_the_plot_is_drawn(tmp_path):
 @pytest.mark.parametrize(
     ("args", "says"),
     [
-        (("--degrees", "0"), "--degrees must be in (0, 90]"),
-        (("--before", "missing.csv"), "--before missing.csv"),
-        (("--before", "empty.csv"), "--before empty.csv: no responses in it"),
-        (("--before", "inf.csv"), "--before inf.csv: line 3: step_deg, t_s and angle_deg must"),
+        (("--degrees", "0", "--csv", "s.csv"), "--degrees must be in (0, 90]"),
+        (("--before", "missing.csv", "--out", "p.png"), "--before missing.csv"),
+        (("--before", "empty.csv", "--out", "p.png"), "--before empty.csv: no responses in it"),
+        (
+            ("--before", "inf.csv", "--out", "p.png"),
+            "--before inf.csv: line 3: step_deg, t_s and angle_deg must",
+        ),
         (("--csv", "empty.csv/steps.csv"), "--csv empty.csv/steps.csv: not a file in an"),
+        ((), "nothing to write: give --csv FILE, --out FILE.png, or both"),  # it ran, silent
+        (("--before", "inf.csv", "--csv", "s.csv"), "--before is drawn in the plot"),
+        (("--out", "plot.txt"), "the plot is a PNG, so its name ends in .png"),
+        (("--csv", "inf.csv", "--before", "inf.csv", "--out", "p.png"), "three different"),
     ],
 )
 def test_bad_input_is_named(tmp_path, args, says):

@@ -119,23 +119,36 @@ def plot(rows: Rows, before: Rows, out: Path) -> None:
 def main(argv: Sequence[str] | None = None) -> int:
     """Measure the responses; write the CSV and the plot asked for."""
     parser = ArgumentParser(description=__doc__.splitlines()[0])
-    add_config_argument(parser)
+    add_config_argument(parser, default=str(DEFAULT_CONFIG))
     parser.add_argument("--degrees", type=float, nargs="+", default=[10.0, 60.0])
-    parser.add_argument("--csv", type=Path, help="write the responses here")
-    parser.add_argument("--before", type=Path, help="an earlier run's CSV, drawn dashed")
+    parser.add_argument("--csv", type=Path, help="write the responses here (CSV)")
+    parser.add_argument("--before", type=Path, help="an earlier run's CSV, drawn dashed (--out)")
     parser.add_argument("--out", type=Path, help="write the plot here (PNG)")
     args = parser.parse_args(argv)
+    if args.csv is None and args.out is None:
+        parser.error("nothing to write: give --csv FILE, --out FILE.png, or both")
+    if args.before is not None and args.out is None:
+        parser.error("--before is drawn in the plot: use it with --out FILE.png")
+    if args.out is not None and args.out.suffix.lower() != ".png":
+        parser.error(f"--out {args.out}: the plot is a PNG, so its name ends in .png")
     if any(not 0 < d <= 90 for d in args.degrees):
         raise MearmError("--degrees must be in (0, 90]")
     for flag, path in (("--csv", args.csv), ("--out", args.out)):
         if path is not None and (path.is_dir() or not path.resolve().parent.is_dir()):
             raise MearmError(f"{flag} {path}: not a file in an existing folder")
+    outputs = [p.resolve() for p in (args.csv, args.out) if p is not None]
+    if len(set(outputs)) < len(outputs) or (
+        args.before is not None and args.before.resolve() in outputs
+    ):
+        raise MearmError("--csv, --out and --before must be three different files")
     before = read_rows(args.before) if args.before else []
-    args.config = args.config or DEFAULT_CONFIG
     rows = responses(config_from_args(args), args.degrees)
-    if args.csv:
-        write_atomic(args.csv, csv_text(rows))
-        print(f"wrote {args.csv}")
-    if args.out:
-        plot(rows, before, args.out)
+    try:
+        if args.csv:
+            write_atomic(args.csv, csv_text(rows))
+            print(f"wrote {args.csv}")
+        if args.out:
+            plot(rows, before, args.out)
+    except OSError as exc:
+        raise MearmError(f"cannot write: {exc.strerror or exc} ({exc.filename})") from None
     return 0
