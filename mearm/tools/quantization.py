@@ -32,8 +32,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--seed", type=seed_value, default=0, help="seed of the poses")
     parser.add_argument("--json", action="store_true", help="print JSON")
     args = parser.parse_args(argv)
-    if args.poses < 1:
-        parser.error(f"--poses must be at least 1, got {args.poses}")
+    if not 1 <= args.poses <= 1_000_000:  # as ik-stalls' --targets: a typo is not an hour's run
+        parser.error(f"--poses must be in [1, 1000000], got {args.poses}")
     config = config_from_args(args)
     from mearm.sim.kinematic.servo_bus import quantization_ee_error_cm  # noqa: PLC0415
 
