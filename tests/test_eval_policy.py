@@ -9,7 +9,7 @@ import textwrap
 from pathlib import Path
 
 import pytest
-from badinput import run_in_process
+from badinput import check_bad_input, run_in_process
 
 from mearm.tools.eval_policy import main
 
@@ -40,6 +40,15 @@ class Raises:
         self.calls += 1
         if self.calls > 3:
             raise RuntimeError("the policy broke")
+        return HOME
+
+class RaisesOnce:
+    def __init__(self):
+        self.calls = 0
+    def __call__(self, observation):
+        self.calls += 1
+        if self.calls == 4:
+            raise RuntimeError("the policy broke once")
         return HOME
 """
 
@@ -82,14 +91,31 @@ def test_a_policy_that_holds_still_scores_zero_and_require_fails_it(tmp_path, po
 
 
 def test_a_policy_that_raises_ends_its_episode_as_a_named_failure(tmp_path, policies, capsys):
-    """The error is the episode's, named; the next episode runs (reset() was called)."""
+    """The error is the episode's, named; the next episode runs (reset() was called).
+
+    Every episode ended on the error, so nothing was scored: exit 1 with a line saying so
+    (it was exit 0 and "success 0.0 %", as if the policy had tried and failed).
+    """
     out = tmp_path / "raises.json"
-    assert _run("--policy", f"{policies}:Raises", "--episodes", "2", "--out", str(out)) == 0
+    assert _run("--policy", f"{policies}:Raises", "--episodes", "2", "--out", str(out)) == 1
     episodes = json.loads(out.read_text())["per_episode"]
     for e in episodes:
         assert not e["success"] and e["steps"] == 3
         assert e["error"] == "the policy raised RuntimeError: the policy broke"
-    assert "the policy raised RuntimeError" in capsys.readouterr().out
+    captured = capsys.readouterr()
+    assert "the policy raised RuntimeError" in captured.out
+    assert captured.err.strip() == (
+        "python -m mearm.tools.eval_policy: every episode ended on an error, so the policy "
+        "was not scored (the first: the policy raised RuntimeError: the policy broke)"
+    )
+
+
+def test_a_run_where_some_episodes_ran_is_scored(tmp_path, policies, capsys):
+    """One episode of two raised: the other was scored, so the run's outcome stands (0)."""
+    code = _run("--policy", f"{policies}:RaisesOnce", "--episodes", "2",
+                "--env-option", "max_episode_steps=10")  # fmt: skip
+    assert code == 0
+    assert capsys.readouterr().err == ""
 
 
 def test_videos_of_the_first_episodes_are_written(tmp_path):
@@ -140,6 +166,79 @@ def test_bad_input_exits_2_with_one_line_from_a_real_process(tmp_path, policies)
     assert proc.returncode == 2, proc.stderr
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and "has shape (3,)" in lines[0], proc.stderr
+
+
+def _baseline(path: Path, n_in: int, n_out: int, env_id: str) -> Path:
+    """An untrained baseline of ``n_in`` inputs and ``n_out`` actions, saved as mearm.learn does."""
+    import numpy as np
+
+    pytest.importorskip("torch")
+    from mearm.learn.baseline import build_mlp, save_baseline
+
+    scaling = np.stack([np.zeros(n_out), np.ones(n_out)])
+    net = build_mlp(n_in, n_out, 8)
+    meta = {"env_id": env_id, "env_options": {"config": "sim_mujoco"}}
+    mean, std = np.zeros(n_in, np.float32), np.ones(n_in, np.float32)  # as train() gives
+    save_baseline(path, net, mean, std, scaling, 4, meta)
+    return path
+
+
+def test_a_baseline_of_other_sizes_is_refused_before_any_episode(tmp_path):
+    """Trained on PickPlace's 10 inputs but labelled Sort-v0: each episode raised a shape
+    error and the run exited 0 with "success 0.0 %"; now exit 2 naming both sizes."""
+    policy = _baseline(tmp_path / "bcsort.pt", 10, 5, "mearm/Sort-v0")
+    out = check_bad_input(
+        ["eval-policy", "--env", "mearm/Sort-v0", "--policy", policy, "--jobs", "1",
+         "--episodes", "1", "--env-option", "obs_type=state"],
+        within_s=30, keep=[tmp_path],
+    )  # fmt: skip
+    assert "takes 10 inputs and gives 5 actions, but mearm/Sort-v0 here gives 54" in out.line
+    assert "another arm or number of objects (with config=sim_mujoco)" in out.line
+
+
+def test_a_baseline_of_the_right_sizes_runs(tmp_path):
+    """The same check passes a baseline that fits (Sort-v0 with one object: 10 inputs)."""
+    policy = _baseline(tmp_path / "bc1.pt", 10, 5, "mearm/Sort-v0")
+    argv = ["--env", "mearm/Sort-v0", "--policy", str(policy), "--episodes", "1",
+            "--env-option", "objects=1", "--env-option", "max_episode_steps=5"]  # fmt: skip
+    assert _run(*argv) == 0
+
+
+def test_out_onto_an_input_is_refused(tmp_path, monkeypatch):
+    """The scores' JSON replaced the 77 KB network it had just scored; and the config."""
+    policy = _baseline(tmp_path / "bcx.pt", 10, 5, "mearm/PickPlace-v0")
+    config = tmp_path / "twin.yaml"
+    config.write_text("extends: sim_mujoco\n")
+    monkeypatch.chdir(tmp_path)
+    for out, words in (("./bcx.pt", "--out bcx.pt is the --policy file"),
+                       (str(config), f"--out {config} is the --config file")):  # fmt: skip
+        result = check_bad_input(
+            ["eval-policy", "--policy", policy, "--config", config, "--jobs", "1",
+             "--episodes", "1", "--env-option", "obs_type=state", "--out", out],
+            within_s=10, keep=[tmp_path],
+        )  # fmt: skip
+        assert words in result.line
+
+
+def test_a_policy_that_is_a_folder_says_so(tmp_path):
+    """It said "no such file"."""
+    pytest.importorskip("torch")
+    (tmp_path / "dir.pt").mkdir()
+    out = check_bad_input(
+        ["eval-policy", "--policy", tmp_path / "dir.pt", "--jobs", "1", "--episodes", "1"],
+        within_s=10,
+    )
+    assert out.line.endswith(
+        f"policy {tmp_path / 'dir.pt'}: is a folder, not a baseline file (.pt)"
+    )
+
+
+def test_help_says_where_videos_go(capsys):
+    """--videos K: into videos/ beside --out, else ./videos/."""
+    with pytest.raises(SystemExit):
+        main(["--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    assert "MP4s into videos/ beside --out (without --out: ./videos/)" in text
 
 
 def test_a_baseline_without_pytorch_asks_for_the_extra(tmp_path, monkeypatch):

@@ -11,6 +11,7 @@ action less ``agent_pos``), each tool actuator's setting (a few discrete values)
 
 from __future__ import annotations
 
+import io
 from pathlib import Path
 from typing import Any
 
@@ -106,27 +107,39 @@ def save_baseline(
     joints: int,
     meta: dict[str, Any],
 ) -> None:
-    """Write the network, its input scaling and ``meta`` to ``path``."""
+    """Write the network, its input scaling and ``meta`` to ``path``, in one step.
+
+    Serialised in memory first, then :func:`mearm.fileio.write_atomic`: a full disk or a
+    signal leaves the old file (or none), never an empty or half ``.pt``.
+
+    Raises:
+        OSError: the file cannot be written.
+    """
+    from mearm.fileio import write_atomic  # noqa: PLC0415
+
     torch = import_torch()
-    path.parent.mkdir(parents=True, exist_ok=True)
     n_in = int(mean.shape[0])
     n_out = int(net[-1].out_features)
+    buffer = io.BytesIO()
     torch.save(
         {"state_dict": net.state_dict(), "mean": mean, "std": std, "scaling": scaling,
          "n_in": n_in, "n_out": n_out, "hidden": int(net[0].out_features), "joints": joints,
          "meta": meta, "format": "mearm-bc-3"},
-        path,
+        buffer,
     )  # fmt: skip
+    write_atomic(path, buffer.getvalue())
 
 
 def load_baseline(path: Path) -> BaselinePolicy:
     """The policy saved in ``path``.
 
     Raises:
-        PolicyError: no such file, or not a baseline mearm saved.
+        PolicyError: no such file, a folder, or not a baseline mearm saved.
         LearnExtraMissingError: PyTorch is not installed.
     """
     torch = import_torch()
+    if path.is_dir():
+        raise PolicyError(f"policy {path}: is a folder, not a baseline file (.pt)")
     if not path.is_file():
         raise PolicyError(f"policy {path}: no such file")
     try:

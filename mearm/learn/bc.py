@@ -4,7 +4,9 @@
     mearm eval-policy --env mearm/PickPlace-v0 --policy bc.pt --first-seed 100000
 
 Collects ``--episodes`` expert episodes (seeds ``--first-seed`` …, in ``--jobs``
-workers; ``--demos FILE.npz`` keeps them, or reuses them if the file exists), then fits
+workers; ``--demos FILE.npz`` keeps them, with what they were collected for, or reuses
+them if the file exists and was collected for the same ``--env``, ``--config``,
+``--first-seed`` and ``--episodes``; another file is refused), then fits
 the MLP of :mod:`mearm.learn.baseline` by Adam on the mean squared error of the joints'
 steps and the gripper's cross-entropy, for ``--steps`` minibatches of ``--batch``, on
 the CPU with a fixed seed. Evaluate it on seeds it never saw (``--first-seed`` of
@@ -27,8 +29,8 @@ from mearm.envs import MAX_EPISODE_STEPS
 from mearm.envs.actions import ActionSpec
 from mearm.errors import MearmError
 from mearm.learn.baseline import HIDDEN, build_mlp, features, save_baseline
-from mearm.learn.collect import Demos, collect
-from mearm.learn.errors import import_torch
+from mearm.learn.collect import Demos, collect, read_demos
+from mearm.learn.errors import DemosError, import_torch
 
 
 @dataclass(frozen=True)
@@ -105,6 +107,49 @@ def train(
     return Trained(net, mean, std, scaling, joints, loss_value)
 
 
+#: What decides a demos file's episodes, in the order a mismatch is named: key, flag.
+DEMOS_KEYS = (
+    ("env_id", "--env"),
+    ("config", "--config"),
+    ("first_seed", "--first-seed"),
+    ("episodes", "--episodes"),
+)
+
+
+def demos_meta(args: Any) -> dict[str, Any]:
+    """What this run's demonstrations are collected for (kept in the ``--demos`` file).
+
+    The config as the file it names, so that ``sim_mujoco`` and its path are one config.
+    """
+    from mearm.config.files import resolve_config_path  # noqa: PLC0415
+
+    return {
+        "env_id": args.env,
+        "config": str(resolve_config_path(args.config).resolve()),
+        "first_seed": args.first_seed,
+        "episodes": args.episodes,
+    }
+
+
+def check_demos_meta(path: Path, meta: dict[str, Any] | None, wanted: dict[str, Any]) -> None:
+    """Refuse a demos file collected for another run than this one (or that does not say).
+
+    Raises:
+        DemosError: no metadata (an older file), or the first key that differs.
+    """
+    redo = f"give another --demos path, or delete {path} to collect anew"
+    if meta is None:
+        raise DemosError(
+            f"--demos {path}: does not say what its episodes were collected for (an older "
+            f"file), so it cannot be checked against this run; {redo}"
+        )
+    for key, flag in DEMOS_KEYS:
+        if meta.get(key) != wanted[key]:
+            raise DemosError(
+                f"--demos {path}: collected with {flag} {meta.get(key)}, not {wanted[key]}; {redo}"
+            )
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Collect (or read) the demonstrations, train, save."""
     parser = ArgumentParser(description=__doc__.splitlines()[0])
@@ -113,7 +158,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--episodes", type=int, default=200, help="expert episodes to learn from")
     parser.add_argument("--first-seed", type=seed_value, default=0, help="their first seed")
     parser.add_argument("--jobs", type=worker_count, default=2, help="collecting workers")
-    parser.add_argument("--demos", type=Path, default=None, help="keep (or reuse) them here")
+    parser.add_argument(
+        "--demos",
+        type=Path,
+        default=None,
+        help="keep them here (.npz), or reuse them if collected for this --env, --config, "
+        "--first-seed and --episodes",
+    )
     parser.add_argument("--steps", type=int, default=10000, help="training minibatches")
     parser.add_argument("--batch", type=int, default=256, help="minibatch size")
     parser.add_argument("--out", type=Path, required=True, help="the baseline's file (.pt)")
@@ -130,19 +181,27 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.demos is not None:
         if args.demos.exists() and not args.demos.is_file():
             raise MearmError(f"--demos {args.demos}: exists and is not a file; give a .npz file")
+        if args.demos.resolve() == args.out.resolve():
+            raise MearmError(f"--out {args.out} is the --demos file: write the baseline elsewhere")
         if not args.demos.exists():
             check_output_file(args.demos, "--demos")
     import_torch()  # the missing extra is said before any work
     joints = ActionSpec.of(load_config(args.config)).joints  # a bad config, before any work
     options = {"config": args.config}
+    wanted = demos_meta(args)
+    demos: Demos | None = None
+    if args.demos is not None and args.demos.exists():  # read and checked before any work
+        demos, meta = read_demos(args.demos)
+        check_demos_meta(args.demos, meta, wanted)
     t0 = time.perf_counter()
-    if args.demos is not None and args.demos.exists():
-        demos = Demos.load(args.demos)
-    else:
+    if demos is None:
         seeds = range(args.first_seed, args.first_seed + args.episodes)
         demos = collect(args.env, options, seeds, args.jobs)
         if args.demos is not None:
-            demos.save(args.demos)
+            try:
+                demos.save(args.demos, wanted)
+            except OSError as exc:
+                raise MearmError(f"cannot write --demos {args.demos}: {exc}") from None
     kept = len(np.unique(demos.episode))
     print(
         f"{len(demos.action)} steps of {kept} expert episodes in {time.perf_counter() - t0:.0f} s"
@@ -151,7 +210,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     fit = train(demos, joints, steps=args.steps, batch=args.batch)
     meta = {"env_id": args.env, "env_options": options, "episodes": kept,
             "seeds": [int(demos.episode.min()), int(demos.episode.max())]}  # fmt: skip
-    save_baseline(args.out, fit.net, fit.mean, fit.std, fit.scaling, fit.joints, meta)
+    try:
+        save_baseline(args.out, fit.net, fit.mean, fit.std, fit.scaling, fit.joints, meta)
+    except OSError as exc:
+        raise MearmError(f"cannot write --out {args.out}: {exc}") from None
     wall = time.perf_counter() - t1
     print(f"trained {args.steps} steps in {wall:.0f} s (loss {fit.loss:.4f}): {args.out}")
     return 0

@@ -2,11 +2,15 @@
 
 Each worker makes the environment once (``obs_type="state"``, the sorter beside it) and
 runs the seeds it is handed; the episodes come back in seed order. Only successful
-episodes are kept: a demonstration shows the task done.
+episodes are kept: a demonstration shows the task done. A saved file also says what its
+episodes were collected for (:data:`META_KEY`), so that a later run can refuse demos
+of another environment, config or seed range instead of training on them unawares.
 """
 
 from __future__ import annotations
 
+import io
+import json
 from collections.abc import Sequence
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
@@ -14,6 +18,8 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+from mearm.learn.errors import DemosError
 
 
 @dataclass(frozen=True)
@@ -34,19 +40,86 @@ class Demos:
     episode: np.ndarray
     step: np.ndarray
 
-    def save(self, path: Path) -> None:
-        """Write as ``.npz``."""
-        path.parent.mkdir(parents=True, exist_ok=True)
-        np.savez_compressed(path, **self.__dict__)
+    def save(self, path: Path, meta: dict[str, Any] | None = None) -> None:
+        """Write as ``.npz``, with ``meta`` (what the episodes were collected for).
+
+        In one step (:func:`mearm.fileio.write_atomic`): a full disk or a signal leaves
+        no half file for the next run to reuse, and the name is kept as given (numpy
+        would add ``.npz`` to another suffix, and the next run would not find it).
+
+        Raises:
+            OSError: the file cannot be written.
+        """
+        from mearm.fileio import write_atomic  # noqa: PLC0415
+
+        arrays: dict[str, Any] = dict(self.__dict__)
+        if meta is not None:
+            arrays[META_KEY] = np.array(json.dumps(meta, sort_keys=True))
+        buffer = io.BytesIO()
+        np.savez_compressed(buffer, **arrays)
+        write_atomic(path, buffer.getvalue())
 
     @classmethod
     def load(cls, path: Path) -> Demos:
-        """Read what :meth:`save` wrote."""
-        with np.load(path) as data:
-            return cls(*(data[k] for k in FIELDS))
+        """Read what :meth:`save` wrote (:func:`read_demos`, without its metadata)."""
+        return read_demos(path)[0]
 
 
 FIELDS = ("agent_pos", "environment_state", "action", "episode", "step")
+
+#: The entry of a demos file that holds its metadata (JSON text).
+META_KEY = "meta"
+
+
+def read_demos(path: Path) -> tuple[Demos, dict[str, Any] | None]:
+    """The demonstrations in ``path`` and their metadata (``None``: an older file).
+
+    Raises:
+        DemosError: not an ``.npz`` file, one without the arrays :meth:`Demos.save`
+            writes, a damaged one, or arrays of disagreeing lengths.
+    """
+    what = f"--demos {path}"
+    hint = "give a file mearm.learn.bc saved, or a new path to collect into"
+    try:
+        with open(path, "rb") as f:
+            head = f.read(6)
+    except OSError as exc:
+        raise DemosError(f"{what}: cannot read it ({exc.strerror})") from None
+    if not head:
+        raise DemosError(f"{what}: the file is empty; {hint}")
+    if not head.startswith((b"PK\x03\x04", b"\x93NUMPY")):
+        raise DemosError(f"{what}: not a demonstrations file (.npz, a zip archive); {hint}")
+    try:
+        data = np.load(path, allow_pickle=False)
+        if not isinstance(data, np.lib.npyio.NpzFile):
+            raise DemosError(f"{what}: one array (.npy), not a demonstrations file (.npz); {hint}")
+        with data:
+            missing = [k for k in FIELDS if k not in data.files]
+            if missing:
+                raise DemosError(
+                    f"{what}: not a demonstrations file of mearm.learn: it has no "
+                    f"{', '.join(missing)}; {hint}"
+                )
+            demos = Demos(*(np.asarray(data[k]) for k in FIELDS))
+            meta = json.loads(str(data[META_KEY])) if META_KEY in data.files else None
+    except DemosError:
+        raise
+    except Exception as exc:  # numpy, zipfile and zlib each say "damaged" their own way
+        raise DemosError(
+            f"{what}: a damaged or truncated .npz ({type(exc).__name__}: "
+            f"{' '.join(str(exc).split())[:80]}); {hint}"
+        ) from None
+    k = len(demos.action)
+    shapes_ok = (
+        demos.agent_pos.ndim == demos.environment_state.ndim == demos.action.ndim == 2
+        and demos.episode.ndim == demos.step.ndim == 1
+        and all(len(getattr(demos, f)) == k for f in FIELDS)
+    )
+    if not shapes_ok:
+        raise DemosError(f"{what}: its arrays disagree in shape (a damaged demonstrations file)")
+    if meta is not None and not isinstance(meta, dict):
+        raise DemosError(f"{what}: its metadata is not a mapping (a damaged demonstrations file)")
+    return demos, meta
 
 
 def _episode(env: Any, seed: int) -> tuple[list[np.ndarray], list[np.ndarray], list[np.ndarray]]:

@@ -16,6 +16,10 @@ class LearnExtraMissingError(MearmError):
         )
 
 
+class DemosError(MearmError):
+    """A ``--demos`` file that cannot be read, or was collected for another run."""
+
+
 def import_torch() -> Any:
     """``torch``, or a one-line error naming the extra.
 

@@ -8,18 +8,23 @@ function of the observation, or a class whose instances are) or a baseline ``FIL
 (``mearm[learn]``). Episode k has seed ``--first-seed`` + k. Prints one line per episode
 as it ends (seed order) and the totals; ``--out`` writes them as JSON (``pc_success``,
 ``avg_sum_reward``, ``avg_max_reward`` and per episode its seed, outcome, return and
-steps); ``--videos K`` writes the first K episodes as MP4 beside it. ``--env-option
-key=value`` passes an option to the environment (``objects``, ``fps``, ``obs_type``,
-``image_size``, ``max_episode_steps``; values in YAML). Exit 0, or 1 if the success rate is
-below ``--require``; 2 on bad input (one line): a policy that does not load, an action
-of the wrong shape or not finite, an unknown option, ``--episodes`` below 1.
+steps); ``--videos K`` writes the first K episodes as MP4s into ``videos/`` beside it
+(``./videos/`` without ``--out``). ``--env-option key=value`` passes an option to the
+environment (``objects``, ``fps``, ``obs_type``, ``image_size``, ``max_episode_steps``;
+values in YAML). Exit 0, or 1 if the success rate is below ``--require`` or every
+episode ended on an error (the policy was not scored); 2 on bad input (one line): a
+policy that does not load, a baseline trained for another environment or of other
+input or output sizes, an action of the wrong shape or not finite, an unknown option,
+``--episodes`` below 1, an ``--out`` that is the policy's file or the config.
 """
 
 from __future__ import annotations
 
 import inspect
 import json
+import math
 import os
+import sys
 import time
 from collections.abc import Sequence
 from pathlib import Path
@@ -30,6 +35,7 @@ import yaml
 from mearm.cli import (
     ArgumentParser,
     check_output_file,
+    invoked_as,
     run,
     seed_value,
     worker_count,
@@ -81,6 +87,73 @@ def _require_gymnasium() -> None:
         ) from None
 
 
+def _refuse_an_input_as_out(out: Path, policy: str, config: str) -> None:
+    """Refuse an ``--out`` that is the policy's file or the config: the scores would replace it.
+
+    Raises:
+        MearmError: ``out`` is one of them (through links and ``./`` alike).
+    """
+    from mearm.config.files import resolve_config_path  # noqa: PLC0415
+
+    target = out.resolve()
+    if Path(policy).resolve() == target:
+        raise MearmError(f"--out {out} is the --policy file: write the scores elsewhere")
+    try:
+        config_file = resolve_config_path(config).resolve()
+    except MearmError:  # an unknown name: said when the environment loads it
+        return
+    if config_file == target:
+        raise MearmError(f"--out {out} is the --config file: write the scores elsewhere")
+
+
+def _check_baseline_fits(path: Path, env_id: str, options: dict[str, Any]) -> None:
+    """Refuse a baseline trained for another environment, before any episode runs.
+
+    By the environment it names, then by the sizes of its input and output against this
+    environment's observation and action (another arm, another number of objects): each
+    episode would otherwise end on a shape error and the run report 0 %.
+
+    Raises:
+        PolicyError: another environment, or sizes that do not match.
+        EnvOptionError: an option of the wrong type for the environment.
+    """
+    import gymnasium as gym  # noqa: PLC0415
+
+    import mearm.envs  # noqa: F401, PLC0415  (registers the environments)
+    from mearm.envs.errors import EnvOptionError, PolicyError  # noqa: PLC0415
+    from mearm.learn.baseline import load_baseline  # noqa: PLC0415
+
+    policy = load_baseline(path)
+    trained_on = policy.meta.get("env_id")
+    if trained_on is not None and trained_on != env_id:
+        raise PolicyError(
+            f"policy {path} was trained on {trained_on}, not {env_id}: its "
+            f"observations and actions are another environment's (give --env {trained_on})"
+        )
+    try:
+        probe = gym.make(env_id, **{**options, "obs_type": "state"})
+    except TypeError as exc:
+        raise EnvOptionError(f"--env-option: {exc}") from None
+    try:
+        observed = probe.observation_space
+        assert isinstance(observed, gym.spaces.Dict)
+        n_in = 1  # the clock
+        for key in ("agent_pos", "environment_state"):
+            n_in += math.prod(observed[key].shape or ())
+        n_out = math.prod(probe.action_space.shape or ())
+    finally:
+        probe.close()
+    takes, gives = int(policy.mean.shape[0]), int(policy.scaling.shape[1])
+    if (takes, gives) != (n_in, n_out):
+        options_then = policy.meta.get("env_options", {})
+        trained = ", ".join(f"{k}={v}" for k, v in options_then.items()) or "options unknown"
+        raise PolicyError(
+            f"policy {path} takes {takes} inputs and gives {gives} actions, but {env_id} here "
+            f"gives {n_in} (agent_pos, environment_state and the clock) and takes {n_out}: it "
+            f"was trained for another arm or number of objects (with {trained})"
+        )
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the episodes; print and write the scores; 1 below ``--require``."""
     parser = ArgumentParser(description=__doc__.splitlines()[0])
@@ -97,7 +170,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     )  # fmt: skip
     parser.add_argument("--env-option", action="append", default=[], metavar="KEY=VALUE")
     parser.add_argument("--out", type=Path, default=None, help="write the scores as JSON")
-    parser.add_argument("--videos", type=int, default=0, help="MP4s of the first K episodes")
+    parser.add_argument(
+        "--videos", type=int, default=0, metavar="K",
+        help="write the first K episodes as MP4s into videos/ beside --out (without --out: "
+        "./videos/), replacing any episode_*.mp4 of the same name",
+    )  # fmt: skip
     parser.add_argument(
         "--require", type=float, default=0.0, help="exit 1 below this success share"
     )
@@ -117,17 +194,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         raise MearmError(f"--env must be {' or '.join(MAX_EPISODE_STEPS)}, got {args.env!r}")
     if args.out is not None:
         check_output_file(args.out, "--out")
-    if args.policy.endswith(".pt"):  # a baseline knows its environment: say so before running
-        from mearm.envs.errors import PolicyError  # noqa: PLC0415
-        from mearm.learn.baseline import load_baseline  # noqa: PLC0415
-
-        trained_on = load_baseline(Path(args.policy)).meta.get("env_id")
-        if trained_on is not None and trained_on != args.env:
-            raise PolicyError(
-                f"policy {args.policy} was trained on {trained_on}, not {args.env}: its "
-                f"observations and actions are another environment's (give --env {trained_on})"
-            )
+        _refuse_an_input_as_out(args.out, args.policy, args.config)
     options = {"config": args.config, **env_options(args.env_option)}
+    if args.policy.endswith(".pt"):  # a baseline knows its environment: say so before running
+        _check_baseline_fits(Path(args.policy), args.env, options)
     video_dir = None
     if args.videos:
         video_dir = str((args.out.parent if args.out else Path(".")) / "videos")
@@ -155,6 +225,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         f"{scores['pc_success']:.1f} % of {len(results)} episodes, mean return "
         f"{scores['avg_sum_reward']:.2f}, in {wall:.0f} s"
     )
+    failed = [r for r in results if r.error]
     if args.out is not None:
         record = {
             "env": args.env,
@@ -165,6 +236,13 @@ def main(argv: Sequence[str] | None = None) -> int:
             **scores,
         }
         write_text_atomic(args.out, json.dumps(record, indent=2) + "\n")
+    if len(failed) == len(results):  # nothing was scored: not a 0 % policy, a broken run
+        print(
+            f"{invoked_as('python -m mearm.tools.eval_policy')}: every episode ended on an "
+            f"error, so the policy was not scored (the first: {failed[0].error})",
+            file=sys.stderr,
+        )
+        return 1
     return 0 if scores["pc_success"] >= 100 * args.require else 1
 
 
