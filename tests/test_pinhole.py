@@ -63,6 +63,30 @@ def test_solve_pose_recovers_the_camera_from_table_points(tilt: float) -> None:
         solve_pose(cam.intrinsics, px, pts * (1, -1, 1) + (0, 90, 0))  # y mirrored
 
 
+@pytest.mark.parametrize("yaw", [0.0, 90.0, 180.0, 270.0])
+@pytest.mark.parametrize("tilt", [0.0, 8.0])
+def test_solve_pose_recovers_a_camera_looking_straight_down_at_a_marker_grid(
+    tilt: float, yaw: float
+) -> None:
+    """IPPE's pose of a straight-down camera is a half-turn, which OpenCV garbles (#8)."""
+    cam = true_camera(tilt_deg=tilt, yaw_deg=yaw)
+    centres = [(x, y) for y in (33.0, 44.0, 55.0) for x in (-5.83, 4.83, 15.5)]
+    pts = np.array(
+        [
+            (x + dx, y + dy, 0.0)
+            for x, y in centres
+            for dx, dy in ((-2, 2), (2, 2), (2, -2), (-2, -2))
+        ]
+    )
+    px = cam.project(pts)
+    pose = solve_pose(cam.intrinsics, px, pts, markers=9)
+    assert np.linalg.norm(pose.position_cm - cam.centre_cm) < 1e-3
+    assert np.abs(pose.rotation - cam.extrinsics.rotation).max() < 1e-5
+    assert pose.rms_px < 1e-3
+    with pytest.raises(CalibrationError, match="below the table"):
+        solve_pose(cam.intrinsics, px, pts * (1, -1, 1) + (0, 88, 0))  # y mirrored
+
+
 def _intrinsics(rms: float, camera_id: str = "cam") -> Intrinsics:
     K = [[515.0, 0, 319.5], [0, 515.0, 239.5], [0, 0, 1]]
     return Intrinsics(K, [-0.1, 0.05, 0, 0, 0], (640, 480), rms, views=12, camera_id=camera_id)

@@ -385,6 +385,45 @@ def write_atomically(path: Path, text: str) -> None:
     write_atomic(path, text)
 
 
+def _identity(path: Path) -> tuple[int, int] | None:
+    """(device, inode) of an existing file, else ``None``: the same file by any name."""
+    try:
+        info = path.stat()
+    except (OSError, ValueError):
+        return None
+    return (info.st_dev, info.st_ino)
+
+
+def refuse_own_inputs(
+    outputs: Sequence[tuple[str, Path | None]], inputs: Sequence[tuple[str, Path | None]]
+) -> None:
+    """Refuse an output that is one of the run's inputs (by any name), even with --force.
+
+    As ``detect --annotate`` does: a file this run reads is not the place for what it
+    writes (the image would become YAML, the intrinsics a pose).
+
+    Raises:
+        MearmError: an output names the same file as an input.
+    """
+    seen = [(flag, path, _identity(path)) for flag, path in inputs if path is not None]
+    for out_flag, out in outputs:
+        if out is None:
+            continue
+        here = _identity(out)
+        for in_flag, path, ident in seen:
+            if here is not None and here == ident:
+                raise MearmError(
+                    f"{out_flag} {out}: is the {in_flag} file {path}, one of this run's "
+                    "inputs: write elsewhere"
+                )
+
+
+def backup_existing(path: Path) -> None:
+    """Keep an existing regular file's contents as ``<path>.bak`` before it is replaced."""
+    if path.is_file():
+        write_atomic(path.with_name(path.name + ".bak"), path.read_bytes())
+
+
 def _parser() -> ArgumentParser:
     """The command line of :func:`main`."""
     parser = ArgumentParser(
@@ -442,11 +481,40 @@ def _check_arguments(parser: ArgumentParser, args: argparse.Namespace) -> None:
         for flag, path in (("--output", args.output), ("--out", args.out)):
             if path is not None:
                 check_output_file(path, flag)
+        _check_own_inputs(args)
     _check_raised(parser, args)
     if args.marker_side_cm is not None and not 0 < args.marker_side_cm <= MAX_MARKER_SIDE_CM:
         parser.error(
             f"--marker-side-cm must be in (0, {MAX_MARKER_SIDE_CM:g}] cm, "
             f"got {args.marker_side_cm:g}"
+        )
+
+
+def _check_own_inputs(args: argparse.Namespace) -> None:
+    """Refuse (exit 2) outputs that are inputs, and an existing --output without --force.
+
+    Writing into --config itself is the command's normal mode (a better calibration in
+    it is kept); any other existing --output is replaced only with --force, and kept as
+    ``.bak``.
+    """
+    inputs = [
+        ("--image", args.image),
+        ("--raised-image", args.raised_image),
+        ("--intrinsics", args.intrinsics),
+    ]
+    output = args.output
+    if (
+        output is not None
+        and args.config is not None
+        and _identity(output) == _identity(args.config)
+    ):
+        output = None  # the same as writing into --config
+    refuse_own_inputs([("--output", output)], [*inputs, ("--out", args.out)])
+    refuse_own_inputs([("--out", args.out)], [*inputs, ("--config", args.config)])
+    if output is not None and output.exists() and not args.force:
+        raise MearmError(
+            f"--output {output}: the file exists; pass --force to replace it (the old file "
+            "is kept as .bak), or write elsewhere"
         )
 
 
@@ -501,8 +569,13 @@ def _fit_homography(
     return calibration, n_pairs, how
 
 
-def _write_config(target: Path, new_text: str, calibration: Calibration, *, force: bool) -> None:
-    """Write the updated config, unless (without ``force``) it holds a better homography."""
+def _write_config(
+    target: Path, new_text: str, calibration: Calibration, *, force: bool, keep: bool = False
+) -> None:
+    """Write the updated config, unless (without ``force``) it holds a better homography.
+
+    With ``keep`` (an --output other than --config), a replaced file is kept as ``.bak``.
+    """
     if not force and target.exists():
         try:
             old = load_yaml_text(read_text_file(target, what="config file"), source=str(target))
@@ -511,6 +584,8 @@ def _write_config(target: Path, new_text: str, calibration: Calibration, *, forc
         if isinstance(old, dict):
             _homography_no_worse(old, calibration, target)
     try:
+        if keep:
+            backup_existing(target)
         write_atomically(target, new_text)
     except OSError as exc:
         raise MearmError(f"cannot write {target}: {exc.strerror or exc}") from None
@@ -555,7 +630,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.dry_run:
         return 0
     target = args.output or args.config
-    _write_config(target, new_text, calibration, force=args.force)
+    elsewhere = args.output is not None and _identity(args.output) != _identity(args.config)
+    _write_config(target, new_text, calibration, force=args.force, keep=elsewhere)
     print(f"wrote the calibration into {target}", file=sys.stderr)
     return 0
 
@@ -610,6 +686,8 @@ def _pose(parser: ArgumentParser, args: argparse.Namespace) -> int:
     if new_config is not None:
         target = args.output or args.config
         try:
+            if args.output is not None and _identity(args.output) != _identity(args.config):
+                backup_existing(target)
             write_atomically(target, new_config)
         except OSError as exc:
             raise MearmError(f"cannot write {target}: {exc.strerror or exc}") from None

@@ -24,11 +24,15 @@ Prints one line per height: objects, mean and largest error [cm], objects missed
 detections extra, and the paper model's figures; where the classes are cubes, a line of
 their yaws' errors (modulo 90°) under both models. Exits 1 if the mean or the largest
 error exceeds ``--max-mean-cm`` / ``--max-error-cm`` (0.05 / 0.10 cm) or anything was
-missed or extra. Needs SciPy (``pip install 'mearm[analysis]'``) for the matching.
+missed or extra. ``--work DIR`` keeps the pictures and calibrations: a rerun into it
+replaces the pictures (render-calibration's ``--force``) and keeps the old
+``intrinsics.yaml`` and ``pose.yaml`` as ``.bak``; ``--json`` may not name one of them
+(or the config). Needs SciPy (``pip install 'mearm[analysis]'``) for the matching.
 """
 
 from __future__ import annotations
 
+import argparse
 import json
 import subprocess
 import sys
@@ -79,15 +83,38 @@ def _tool(*argv: str) -> str:
     return proc.stdout
 
 
+#: The calibrations --work holds beside render-calibration's pictures (and their .bak).
+_WORK_FILES = frozenset({"intrinsics.yaml", "pose.yaml", "intrinsics.yaml.bak", "pose.yaml.bak"})
+
+
+def _check_json_not_an_input(args: argparse.Namespace) -> None:
+    """Refuse (exit 2) a --json that is the config, or one of the files --work holds."""
+    from mearm.config.files import resolve_config_path
+    from mearm.tools.calibrate_camera import refuse_own_inputs
+    from mearm.tools.render_calibration import _OWN_NAMES
+
+    config = resolve_config_path(args.config) if args.config else None
+    refuse_own_inputs([("--json", args.json)], [("--config", config)])
+    if args.work is not None and args.json.resolve().parent == args.work.resolve():
+        name = args.json.name
+        if _OWN_NAMES.fullmatch(name) or name in _WORK_FILES or name == "boards":
+            raise MearmError(
+                f"--json {args.json}: is {name} of --work {args.work}, which this run writes "
+                "and reads: write elsewhere"
+            )
+
+
 def calibrate(config_path: str, overrides: list[str], work: Path, views: int, noise: float) -> dict:
     """Render the calibration pictures and run the two calibration tools on them."""
     sets = [a for s in overrides for a in ("--set", s)]
     _tool(
         "render-calibration", "--config", config_path, *sets, "--out", str(work),
-        "--views", str(views), "--noise-std", str(noise),
+        "--views", str(views), "--noise-std", str(noise), "--force",
     )  # fmt: skip
     folder = work / "boards"  # a folder: views where too little of the board shows are skipped
     folder.mkdir(exist_ok=True)
+    for p in folder.glob("board_*.png"):  # an earlier run's views: not this camera's
+        p.unlink()
     for p in work.glob("board_*.png"):
         p.replace(folder / p.name)
     out = _tool(
@@ -216,7 +243,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--objects", type=int, default=12, help="objects per scene")
     parser.add_argument("--views", type=int, default=15, help="board views for the intrinsics")
     parser.add_argument("--noise-std", type=float, default=2.0, help="sensor noise [8-bit levels]")
-    parser.add_argument("--work", type=Path, help="keep the pictures and calibrations here")
+    parser.add_argument(
+        "--work", type=Path,
+        help="keep the pictures and calibrations here (a rerun replaces the pictures; the "
+        "old intrinsics.yaml and pose.yaml are kept as .bak)",
+    )  # fmt: skip
     parser.add_argument("--json", type=Path, help="write the figures here")
     parser.add_argument("--max-mean-cm", type=positive_number(1e-6, 1000, "cm"), default=0.05)
     parser.add_argument("--max-error-cm", type=positive_number(1e-6, 1000, "cm"), default=0.10)
@@ -226,6 +257,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         check_output_file(args.json, "--json")
     if args.work is not None:
         check_output_folder(args.work, "--work")
+    if args.json is not None:
+        _check_json_not_an_input(args)
     heights = _numbers(args.heights)
     if not (1 <= args.scenes <= 100 and 1 <= args.objects <= 40 and 6 <= args.views <= 60):
         raise MearmError("--scenes must be 1 … 100, --objects 1 … 40 and --views 6 … 60")

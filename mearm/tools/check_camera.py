@@ -37,6 +37,8 @@ from mearm.cli import (
     config_from_args,
     run,
 )
+from mearm.config import Config
+from mearm.config.files import resolve_config_path
 from mearm.errors import MearmError
 from mearm.hardware.errors import ServoError
 from mearm.task.armcheck import (
@@ -48,6 +50,7 @@ from mearm.task.armcheck import (
     rms_cm,
     run_check,
 )
+from mearm.tools.calibrate_camera import refuse_own_inputs
 from mearm.vision.calibration import camera_geometry
 from mearm.vision.errors import CameraError
 from mearm.vision.pinhole import PerspectiveCamera, save_calibration
@@ -98,6 +101,12 @@ def report_lines(check: ArmCheck) -> list[str]:
 PROG = "mearm check-camera"
 
 
+def _intrinsics_file(config: Config) -> Path | None:
+    """The intrinsics file a perspective calibration reads, else ``None``."""
+    name = config.calibration.intrinsics_file
+    return Path(name) if name else None
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the check (and the refinement); the exit codes are the module's."""
     parser = ArgumentParser(
@@ -118,6 +127,16 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.refine is not None:
         check_output_file(args.refine, "--refine")
     config = config_from_args(args)
+    if args.refine is not None:
+        # the pose file it refines may be replaced (kept as .bak); the config and the
+        # intrinsics it reads may not, even with --force
+        refuse_own_inputs(
+            [("--refine", args.refine)],
+            [
+                ("--config", resolve_config_path(args.config) if args.config else None),
+                ("intrinsics", _intrinsics_file(config)),
+            ],
+        )
     if args.class_name is not None and args.class_name not in config.task.class_names:
         parser.error(
             f"--class {args.class_name!r}: no such class (classes: "

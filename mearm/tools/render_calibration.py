@@ -20,11 +20,16 @@ box H cm tall standing on the table
 twin's own camera, as a perfect calibration would find it. A config pointed at them
 (``calibration.intrinsics_file``, ``calibration.extrinsics_file``) tells what the camera's
 calibration costs a measurement from what the rest costs.
+
+A folder that is not empty is refused unless ``--force``, which first removes the files
+of the kinds named above (an earlier run's; other files are kept), so no view or truth
+file of another camera stays beside the new ones.
 """
 
 from __future__ import annotations
 
 import argparse
+import re
 from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -80,6 +85,24 @@ def _write_png(path: Path, image: np.ndarray) -> None:
         raise MearmError(f"cannot write {path}: {exc.strerror or exc}") from None
 
 
+#: The names this command writes: an earlier run's are removed before a new one (--force),
+#: so no view, truth file or raised view of another camera stays beside the new ones.
+_OWN_NAMES = re.compile(
+    r"board_\d+\.png|sheet\.png|sheet_markers\.txt|raised\.png|raised_markers\.txt"
+    r"|truth_(intrinsics|pose)\.yaml(\.bak)?"
+)
+
+
+def _remove_earlier_run(out: Path) -> None:
+    """Remove the files of the kinds this command writes from ``out`` (others are kept)."""
+    for path in sorted(out.iterdir()):
+        if _OWN_NAMES.fullmatch(path.name) and (path.is_file() or path.is_symlink()):
+            try:
+                path.unlink()
+            except OSError as exc:
+                raise MearmError(f"cannot remove {path}: {exc.strerror or exc}") from None
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Render the views and the sheet; 0 on success, 2 on bad input."""
     parser = ArgumentParser(description=__doc__.splitlines()[0] if __doc__ else None)
@@ -99,9 +122,19 @@ def main(argv: Sequence[str] | None = None) -> int:
         action="store_true",
         help="also write the twin's own camera as truth_intrinsics.yaml and truth_pose.yaml",
     )
+    parser.add_argument(
+        "--force",
+        action="store_true",
+        help="write into a folder that is not empty, removing the files of an earlier run",
+    )
     args = parser.parse_args(argv)
     if args.out.exists() and not args.out.is_dir():
         parser.error(f"--out {args.out}: exists and is not a directory")
+    if args.out.is_dir() and not args.force and any(args.out.iterdir()):
+        parser.error(
+            f"--out {args.out}: the folder is not empty; give a new folder, or pass --force "
+            "to replace an earlier run's files there"
+        )
     config = config_from_args(args)
     if config.simulator != "mujoco":
         raise MearmError(
@@ -133,6 +166,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         raised = raised_sheet_layout(config, args.raised_height_cm)
     sheet = render_sheet(config, layout, SHEET_SIDE_CM, noise_std=args.noise_std, seed=args.seed)
     frames = render_board_views(config, args.views, args.seed, noise_std=args.noise_std)
+    _remove_earlier_run(args.out)
     written = []
     for i, frame in enumerate(frames):
         path = args.out / f"board_{i:02d}.png"

@@ -626,7 +626,8 @@ def solve_pose(
     """The camera's pose from base-frame points (N ≥ 4, (N, 3) [cm]) and their pixels.
 
     The pixels are undistorted first; the pose is IPPE's for points on one plane (the
-    table), refined by Levenberg–Marquardt on all of them.
+    table), refined by Levenberg–Marquardt on all of them. Of the poses that fit, the
+    best one with the camera above the table and every point in front of it is kept.
 
     Raises:
         CalibrationError: fewer than 4 points, or no pose puts the points in front of
@@ -639,33 +640,78 @@ def solve_pose(
             f"a camera pose needs at least 4 point pairs, got {len(px)} pixels and "
             f"{len(pts)} points"
         )
-    xn = intrinsics.undistort(px)
-    eye, nodist = np.eye(3), np.zeros(5)
-    flat = bool(np.ptp(pts[:, 2]) < 1e-9)
-    method = cv2.SOLVEPNP_IPPE if flat else cv2.SOLVEPNP_ITERATIVE
-    ok, rvec, tvec = cv2.solvePnP(pts, xn, eye, nodist, flags=method)
-    if not ok:
+    candidates = _pose_candidates(intrinsics, pts, px)
+    if not candidates:
         raise CalibrationError("no camera pose fits these points: check the marker positions")
-    rvec, tvec = cv2.solvePnPRefineLM(
-        pts,
-        xn,
-        eye,
-        nodist,
-        rvec,
-        tvec,
-        (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 100, 1e-12),
-    )
-    proj, _ = cv2.projectPoints(pts, rvec, tvec, intrinsics.camera_matrix, intrinsics.distortion)
-    err = np.linalg.norm(proj.reshape(-1, 2) - px, axis=1)
-    rms = float(np.sqrt(np.mean(err**2)))
-    meta.setdefault("camera_id", intrinsics.camera_id)
-    meta.setdefault("size_px", intrinsics.size_px)
-    ext = Extrinsics.from_rvec_tvec(rvec, tvec, rms_px=rms, **meta)
-    depth = (pts - ext.position_cm) @ ext.rotation[:, 2]
-    if not np.all(depth > 0) or ext.position_cm[2] <= 0:
+    best = min(candidates, key=lambda c: c[0])
+    valid = [c for c in candidates if _in_front_and_above(pts, c[1], c[2])]
+    # A mirror image of the markers is fitted only by a camera under the table.
+    if not valid or min(c[0] for c in valid) > 2.0 * best[0] + _MIRROR_MARGIN:
         raise CalibrationError(
             "the fitted pose puts the camera below the table or points behind it: the "
             "marker positions do not "
             "match the image (swapped ids or mirrored x/y?)"
         )
-    return ext
+    rms, rvec, tvec = min(valid, key=lambda c: c[0])
+    meta.setdefault("camera_id", intrinsics.camera_id)
+    meta.setdefault("size_px", intrinsics.size_px)
+    return Extrinsics.from_rvec_tvec(rvec, tvec, rms_px=rms, **meta)
+
+
+# Frames the points are handed to IPPE in: the base frame and two half-turns of it.
+# OpenCV's IPPE returns a rotation vector from a formula that divides by sin(angle), so
+# a camera whose rotation from the frame is a half-turn (every camera looking straight
+# down at the table) comes back as garbage. Two half-turns about perpendicular axes
+# cannot both leave a half-turn for a camera above the table, so one frame is sound.
+_IPPE_FRAMES = (np.eye(3), np.diag([1.0, -1.0, -1.0]), np.diag([-1.0, 1.0, -1.0]))
+# How much (px) a pose under the table may fit better before the markers are called mirrored.
+_MIRROR_MARGIN = 0.5
+_LM_CRITERIA = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 100, 1e-12)
+
+
+def _pose_candidates(
+    intrinsics: Intrinsics, pts: np.ndarray, px: np.ndarray
+) -> list[tuple[float, np.ndarray, np.ndarray]]:
+    """Every pose that may fit, refined by Levenberg–Marquardt: (rms [px], rvec, tvec).
+
+    For points on one plane, both of IPPE's poses in each of :data:`_IPPE_FRAMES` (the
+    plane's pose is ambiguous, and the frames work around OpenCV's half-turn); else
+    the iterative solver's one.
+    """
+    xn = intrinsics.undistort(px)
+    eye, nodist = np.eye(3), np.zeros(5)
+    raw: list[tuple[np.ndarray, np.ndarray]] = []
+    if np.ptp(pts[:, 2]) < 1e-9:
+        for frame in _IPPE_FRAMES:
+            # p = frame @ q, so the camera's rotation of q is R @ frame
+            q = np.ascontiguousarray(pts @ frame)
+            _, rvecs, tvecs, _ = cv2.solvePnPGeneric(q, xn, eye, nodist, flags=cv2.SOLVEPNP_IPPE)
+            for r, t in zip(rvecs, tvecs, strict=True):
+                if np.all(np.isfinite(r)) and np.all(np.isfinite(t)):
+                    rot, _ = cv2.Rodrigues(np.asarray(r, dtype=float).reshape(3, 1))
+                    rvec, _ = cv2.Rodrigues(rot @ frame.T)
+                    raw.append((rvec, np.asarray(t, dtype=float).reshape(3, 1)))
+    else:
+        ok, r, t = cv2.solvePnP(pts, xn, eye, nodist, flags=cv2.SOLVEPNP_ITERATIVE)
+        if ok:
+            raw.append((r, t))
+    out = []
+    for rvec, tvec in raw:
+        rvec, tvec = cv2.solvePnPRefineLM(pts, xn, eye, nodist, rvec, tvec, _LM_CRITERIA)
+        if not (np.all(np.isfinite(rvec)) and np.all(np.isfinite(tvec))):
+            continue
+        proj, _ = cv2.projectPoints(
+            pts, rvec, tvec, intrinsics.camera_matrix, intrinsics.distortion
+        )
+        rms = float(np.sqrt(np.mean(np.sum((proj.reshape(-1, 2) - px) ** 2, axis=1))))
+        if math.isfinite(rms):
+            out.append((rms, rvec, tvec))
+    return out
+
+
+def _in_front_and_above(pts: np.ndarray, rvec: np.ndarray, tvec: np.ndarray) -> bool:
+    """Whether the pose sees every point in front of it from above the table (z > 0)."""
+    rot, _ = cv2.Rodrigues(rvec)
+    depth = pts @ rot[2] + float(np.ravel(tvec)[2])
+    centre_z = float((-rot.T @ np.ravel(tvec))[2])
+    return bool(np.all(depth > 0) and centre_z > 0)
