@@ -13,11 +13,12 @@ import os
 import re
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import pytest
 import serial
-from conftest import QUICK_SERVOS, ROOT, missing_tool
+from conftest import QUICK_SERVOS, ROOT, interrupted, missing_tool
 
 from mearm.backends import open_bus
 from mearm.config import config_from_dict
@@ -96,6 +97,70 @@ def test_swapped_channels_stop_the_sort_with_the_mismatch(cache_home):
     assert "nothing more sent to the servos" in r.stderr
     assert "Traceback" not in r.stderr
     assert r.stdout.splitlines()[-1].startswith("sorted 0 of")  # stopped at the first move
+
+
+def _simulators_of(cache_home: Path) -> list[int]:
+    """Pids of the running ``mearm_sim`` processes built under ``cache_home``."""
+    found = []
+    for entry in Path("/proc").iterdir():
+        if not entry.name.isdigit():
+            continue
+        try:
+            argv = (entry / "cmdline").read_bytes().split(b"\0")
+            state = (entry / "stat").read_text().rsplit(")", 1)[1].split()[0]
+        except OSError:  # it ended meanwhile
+            continue
+        if state != "Z" and argv[0].endswith(b"mearm_sim") and str(cache_home).encode() in argv[0]:
+            found.append(int(entry.name))
+    return found
+
+
+@pytest.mark.heavy
+def test_ctrl_c_at_the_terminal_parks_the_arm_on_the_virtual_uno(cache_home):
+    """A terminal's Ctrl-C goes to the whole foreground process group. The simulated board
+    is not in it (a real Uno does not die on Ctrl-C): the park that follows is acknowledged,
+    exit 130, and no simulator is left running."""
+    env = {**os.environ, "XDG_CACHE_HOME": str(cache_home)}
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "mearm.sort", "--config", "configs/virtual_uno.yaml",
+         "--set", "servo.ack_timeout_s=10"],
+        cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        start_new_session=True,
+    )  # fmt: skip
+    assert proc.stdout is not None
+    for line in proc.stdout:  # the first place: the board is up and moving
+        if line.startswith("place"):
+            break
+    assert _simulators_of(cache_home), "no simulator ran"
+    out, err = interrupted(proc)
+    assert proc.returncode == 130, out + err
+    assert err.strip().splitlines()[-1].endswith("interrupted (Ctrl-C); arm parked at home"), err
+    assert "parking failed" not in err
+    assert _simulators_of(cache_home) == []
+
+
+@pytest.mark.heavy
+def test_a_killed_mearm_leaves_no_simulator_running(cache_home):
+    """SIGKILL gives mearm no chance to stop its board: the simulator's stdin closes and it
+    ends by itself (it is in a process group of its own, so nothing else would end it)."""
+    env = {**os.environ, "XDG_CACHE_HOME": str(cache_home)}
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "mearm.sort", "--config", "configs/virtual_uno.yaml",
+         "--set", "servo.ack_timeout_s=10"],
+        cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True,
+    )  # fmt: skip
+    assert proc.stdout is not None
+    for line in proc.stdout:
+        if line.startswith("pick"):
+            break
+    running = _simulators_of(cache_home)
+    assert running, "no simulator ran"
+    proc.kill()
+    proc.communicate(timeout=60)
+    deadline = time.monotonic() + 60  # generous: a simulator still running then is the bug
+    while _simulators_of(cache_home) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert _simulators_of(cache_home) == []
 
 
 @pytest.mark.heavy

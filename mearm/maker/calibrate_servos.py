@@ -52,7 +52,10 @@ was calibrated and every fit passes its checks again, all together (else exit 1,
 nothing written). With ``--simulate`` no one is there to redo a fit: one refused twice
 ends the command with exit 1 and nothing written (no partial file). An existing file
 is replaced only after a y/N question (or with ``--force``/``--yes``), and only if it
-is a servo calibration; the old one is kept as ``<name>.bak``. Ctrl-C writes nothing
+is a servo calibration; the old one is kept as ``<name>.bak``. An ``--output`` that
+cannot be written (a folder, a path under a file, a read-only folder) is refused before
+anything opens; if the write still fails at the end (a full disk), the fits are printed
+as ``--set`` overrides before the error (exit 2). Ctrl-C writes nothing
 and leaves the arm where it is (exit 130); ``q`` writes nothing (exit 1). Needs a
 terminal: without one, exit 2 before anything opens.
 
@@ -243,6 +246,8 @@ def _chosen(config: Config, names: str | None) -> list[Actuator]:
     for name in (n.strip() for n in names.split(",")):
         if name not in by_name:
             raise MearmError(f"--actuators: no actuator {name!r}; this arm's: {', '.join(by_name)}")
+        if by_name[name] in chosen:  # twice would fit it twice and write one of them
+            raise MearmError(f"--actuators: {name!r} is named twice; name each actuator once")
         chosen.append(by_name[name])
     return chosen
 

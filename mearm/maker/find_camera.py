@@ -153,11 +153,47 @@ def probe_camera(source: int | str, timeout_s: float, out_dir: Path) -> CameraRe
 
 
 def _source(text: str) -> int | str:
-    """``--camera``: an index, or a path or URL as given."""
+    """``--camera``: an index, or a path or URL as given.
+
+    Checked before any camera is tried: a negative index, a folder, a path that does not
+    exist, or a file OpenCV cannot read as a video or an image is bad input, not "no
+    camera found".
+
+    Raises:
+        MearmError: the source cannot be a camera, and why.
+    """
     text = text.strip()
     if not text:
         raise MearmError("--camera needs an index, a device path or a URL, got ''")
-    return int(text) if text.isdigit() else text
+    if text.isdigit():
+        return int(text)
+    if re.fullmatch(r"-\d+", text):
+        raise MearmError(f"--camera {text}: a camera index is 0 or more")
+    if "://" in text:
+        return text
+    path = Path(text)
+    if path.is_dir():
+        raise MearmError(f"--camera {text} is a folder: give a camera device, a video or an image")
+    if not path.exists():
+        raise MearmError(f"--camera {text} does not exist (ls /dev/video* lists the cameras)")
+    if path.is_file() and not _readable_media(path):
+        raise MearmError(f"--camera {text}: OpenCV cannot read a frame from it (not a video or "
+                         "an image); give a camera device, a video or an image")  # fmt: skip
+    return text
+
+
+def _readable_media(path: Path) -> bool:
+    """Whether OpenCV reads a frame from the file (a video or an image)."""
+    import cv2
+
+    from mearm.vision.image import quiet_opencv
+
+    with quiet_opencv():
+        cap = cv2.VideoCapture(str(path))
+        try:
+            return bool(cap.isOpened() and cap.read()[0])
+        finally:
+            cap.release()
 
 
 def _config_hint(source: int | str) -> str:
@@ -206,7 +242,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.out.exists() and not args.out.is_dir():
         raise MearmError(f"--out {args.out} exists and is not a folder")
 
-    sources = [_source(s) for s in args.camera] or candidate_sources(args.indices)
+    given = list(dict.fromkeys(_source(s) for s in args.camera))  # each tried once
+    sources = given or candidate_sources(args.indices)
     if not sources:
         raise MearmError(
             "--indices 0 and no /dev/video* device here: nothing to try; give --indices N "

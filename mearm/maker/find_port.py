@@ -17,6 +17,9 @@ to unplug the board and press Enter, lists them again, asks you to plug it back 
 names the port that came back. Ports given with ``--port`` count as present while their
 path exists. It needs a terminal.
 
+A ``--port`` path that is a folder, or (without ``--replug``) does not exist, is bad
+input, as is ``--wait`` without ``--replug``: exit 2 before any port is opened.
+
 Exit status: 0 when a mearm board was found (``--replug``: when the replugged board's port
 was found), 1 when none was, 2 on bad input, 130 on Ctrl-C.
 """
@@ -364,6 +367,30 @@ def _run_replug(
 # --------------------------------------------------------------------------- main
 
 
+def check_given_port(port: str, *, replug: bool) -> None:
+    """Refuse a ``--port`` that cannot be a serial port, before any port is opened.
+
+    A folder never is; a path that does not exist is a typo or an unplugged board, except
+    with ``--replug``, where the board's port (a ``/dev/serial/by-id`` link) is gone while
+    it is unplugged.
+
+    Raises:
+        MearmError: as :func:`~mearm.config.port.check_port`, or the path is a folder, or
+            it does not exist (without ``replug``).
+    """
+    check_port(port)
+    if "://" in port:
+        return
+    if os.path.isdir(port):
+        raise MearmError(f"--port {port} is a folder, not a serial port (mearm find-port "
+                         "lists the ports)")  # fmt: skip
+    if not replug and not os.path.exists(port):
+        raise MearmError(
+            f"--port {port} does not exist: is the board plugged in? (mearm find-port "
+            "without --port lists the ports; --replug finds one)"
+        )
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """List the serial ports and name the mearm boards; see the module docstring."""
     parser = ArgumentParser(
@@ -403,25 +430,26 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument(
         "--wait",
         type=positive_number(0.1, 600.0, "s"),
-        default=REPLUG_WAIT_S,
+        default=None,
         metavar="SECONDS",
         help=f"--replug: after you plug the board back in, wait this long for its port, "
         f"in seconds (default {REPLUG_WAIT_S:g})",
     )
     args = parser.parse_args(argv)
+    if args.wait is not None and not args.replug:
+        raise MearmError("--wait is how long --replug waits for the replugged board: give "
+                         "--replug too, or leave --wait out")  # fmt: skip
     for port in args.port:
-        check_port(port)
+        check_given_port(port, replug=args.replug)
     config = config_from_args(args)
     baud = config.servo.baud
     timeout_s = args.timeout if args.timeout is not None else config.servo.banner_timeout_s
     if args.replug:
         prompt = _terminal_prompt()
-        return _run_replug(args.port, baud, timeout_s, args.wait, prompt, system=not args.only)
+        wait_s = args.wait if args.wait is not None else REPLUG_WAIT_S
+        return _run_replug(args.port, baud, timeout_s, wait_s, prompt, system=not args.only)
 
     ports = list_serial_ports(args.port, system=not args.only)
-    missing = [p for p in args.port if p not in {q.device for q in ports}]
-    for port in missing:
-        print(f"find-port: {port} does not exist", file=sys.stderr)
     if not ports:
         print(
             "find-port: no serial ports found: is the board plugged in? (--replug finds it "

@@ -15,8 +15,10 @@ and nothing is written (a missing tool is reported as a note; the exit status is
 
 Tools: ``sudo apt-get install make gcc-avr avr-libc arduino-core-avr avrdude``. A missing
 one stops the command before anything runs, with one line naming its Debian package
-(exit 2). The build goes to ``--build-dir`` (default ``~/.cache/mearm/firmware``), so
-the firmware source may be read-only (an installed package).
+(exit 2); so does a ``--port`` that does not exist or is a folder (not checked by
+``--dry-run``, which may run with no board plugged in). The build goes to
+``--build-dir`` (default ``~/.cache/mearm/firmware``), so the firmware source may be
+read-only (an installed package).
 """
 
 from __future__ import annotations
@@ -106,6 +108,16 @@ def _check_port(text: str) -> str:
     return text
 
 
+def _check_port_is_there(port: str) -> None:
+    """Refuse, before the build, a port avrdude could only fail on (a minute later)."""
+    if Path(port).is_dir():
+        raise MearmError(f"--port {port} is a folder, not a serial port (mearm find-port "
+                         "lists them)")  # fmt: skip
+    if not Path(port).exists():
+        raise MearmError(f"--port {port} does not exist: is the board plugged in? (mearm "
+                         "find-port lists the ports)")  # fmt: skip
+
+
 def _run_step(what: str, command: Sequence[str], timeout_s: float) -> bool:
     """Run ``command`` with its output on the terminal; ``False`` (said why) if it failed."""
     print(f"$ {shlex.join(command)}", flush=True)
@@ -185,6 +197,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     if missing:
         raise MearmError(describe_missing(missing))
+    _check_port_is_there(port)
     try:
         build_dir.mkdir(parents=True, exist_ok=True)
     except OSError as exc:

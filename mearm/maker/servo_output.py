@@ -74,6 +74,10 @@ def write_calibration(
 
     Each fit is checked again (:func:`~mearm.config.servo_file.check_fit`) and all of
     them together with the config's checks: one refused, nothing is written (exit 1).
+
+    Raises:
+        MearmError: the file could not be written (a full disk…); the fits are printed
+            first as ``--set`` overrides, so the session's measurements are kept.
     """
     if not fits:
         print("no actuator calibrated: nothing written", file=sys.stderr)
@@ -87,15 +91,27 @@ def write_calibration(
         print(f"mearm calibrate-servos: refused: {exc}; nothing written", file=sys.stderr)
         return EXIT_FAILURE
     cal = ServoCalibrationFile(config.arm.name, board, port, now_iso(), tuple(fits))
-    written = save_servo_calibration(output, cal, force=force)
+    try:
+        written = save_servo_calibration(output, cal, force=force)
+    except ServoCalibrationError as exc:
+        # the session's measurements (a real arm's can be 20 minutes of jogging) are not
+        # lost with the file: the fits go to stdout as overrides, then the error (exit 2)
+        print("not written; the fits, as overrides for a command or the config's servos:")
+        _print_overrides(config, fits)
+        raise MearmError(f"{exc}; the fits are printed above as --set overrides") from None
     print(f"wrote {written} ({len(fits)} actuator{'s' if len(fits) != 1 else ''})")
     print(
         f"to use it, add to the config's servo section:  calibration_file: {written}\n"
         "(relative to the config's folder), or add these overrides to a command:"
     )
+    _print_overrides(config, fits)
+    return EXIT_OK
+
+
+def _print_overrides(config: Config, fits: Sequence[ActuatorFit]) -> None:
     for line in servo_overrides(config.arm, fits):
         print(f"  --set '{line}'")
-    return EXIT_OK
+    sys.stdout.flush()
 
 
 def hold_arm(bus: ServoBus) -> None:

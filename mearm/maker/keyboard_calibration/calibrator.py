@@ -8,7 +8,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import TextIO
 
-from mearm.cli import EXIT_FAILURE
+from mearm.cli import EXIT_FAILURE, check_output_file
 from mearm.config import Config
 from mearm.config.servo_file import (
     ActuatorFit,
@@ -222,7 +222,10 @@ def calibrate_by_keyboard(
 
     Raises:
         KeyboardInterrupt: Ctrl-C, the arm held where it is (nothing written).
+        MearmError: an ``--output`` that cannot be written, before anything opens; or
+            the write failed at the end (the fits printed first, as ``--set`` lines).
     """
+    check_output_file(output, "--output")  # before the session: its work is not lost
     require_terminal("calibrate-servos")
     out = sys.stdout
     with KeyReader() as keys:

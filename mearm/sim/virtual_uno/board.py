@@ -271,8 +271,17 @@ class VirtualUno:
             self._reset_state()
             self.opens += 1
             try:
+                # A process group of its own: a Ctrl-C at the terminal goes to the
+                # terminal's foreground group, mearm, not to the board (a real Uno does
+                # not die on it, and the park or hold that follows needs it). It still
+                # ends with mearm: close() kills it, and if mearm dies unannounced
+                # (SIGKILL) its stdin closes and it exits within 100 ms of quiet.
                 proc = subprocess.Popen(
-                    argv, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE
+                    argv,
+                    stdin=subprocess.PIPE,
+                    stdout=subprocess.PIPE,
+                    stderr=subprocess.PIPE,
+                    process_group=0,
                 )
             except OSError as exc:  # the host sees no banner; the reason is kept here
                 self.stderr.append(f"cannot run {argv[0]}: {exc}")
