@@ -17,7 +17,8 @@ centroid, class and table position in its class's ``draw_rgb`` (each label once,
 filled box); with several images the i-th (from 0, in the order given) goes to
 ``OUT-i.png``. A missing or
 unreadable image stops the run before anything is printed: exit 2 with one line on
-stderr.
+stderr. An image of another size than the calibration's, or with no colour (a grayscale
+one), is read with a one-line warning on stderr.
 """
 
 from __future__ import annotations
@@ -73,6 +74,29 @@ def _identity(path: Path) -> tuple[int, int] | None:
     except (OSError, ValueError):
         return None
     return (info.st_dev, info.st_ino)
+
+
+def has_colour(frame: np.ndarray) -> bool:
+    """Whether a BGR frame has any pixel whose channels differ (a grayscale one has none)."""
+    b, g, r = frame[..., 0], frame[..., 1], frame[..., 2]
+    return not (np.array_equal(b, g) and np.array_equal(g, r))
+
+
+def _warn_if_odd(name: str, frame: np.ndarray, expected: tuple[int, int]) -> None:
+    """One line on stderr for a frame that is read but whose result is not to be trusted."""
+    h, w = frame.shape[:2]
+    if (w, h) != expected:
+        print(
+            f"warning: {name} is {w}x{h} px; the calibration is for "
+            f"{expected[0]}x{expected[1]}, so its cm are not to be trusted",
+            file=sys.stderr,
+        )
+    if not has_colour(frame):
+        print(
+            f"warning: {name} has no colour (every pixel grey: a grayscale image?), "
+            "so no colour class can be found in it",
+            file=sys.stderr,
+        )
 
 
 def annotation_paths(out: Path, count: int) -> list[Path]:
@@ -267,13 +291,7 @@ def main(argv: Sequence[str] | None = None) -> int:  # noqa: PLR0912 (one branch
     outs = annotation_paths(args.annotate, len(frames)) if args.annotate else []
     for i, (name, kept) in enumerate(frames):
         frame = kept if kept is not None else read_image(Path(name))
-        h, w = frame.shape[:2]
-        if (w, h) != expected:
-            print(
-                f"warning: {name} is {w}x{h} px; the calibration is for "
-                f"{expected[0]}x{expected[1]}, so its cm are not to be trusted",
-                file=sys.stderr,
-            )
+        _warn_if_odd(name, frame, expected)
         detections = detector.detect(frame)
         records = to_records(detections, frame.shape)
         if args.json:

@@ -17,8 +17,10 @@ pixel of an object of the class; ``--pick`` shows the first frame and asks for a
 on each class in turn (needs a display). A class not sampled keeps its hue bands.
 
 Refused (exit 2, one line): a sample outside its image, a class the config does not
-have, two classes sampled on one colour, a sample on a grey or black pixel or on the
-table's colour.
+have, two classes sampled on one colour or one class on two, a sample on a grey or black
+pixel or on the table's colour, a first image with no table around the samples, a
+``--work-area`` with no area or with none of a class's samples in it, and an ``--out``
+that is the ``--config`` or one of the images (even with ``--force``).
 """
 
 from __future__ import annotations
@@ -199,7 +201,19 @@ def _checked_arguments(
         parser.error(str(exc))
     if area is not None and len(area) < 3:
         parser.error(f"--work-area needs at least 3 points, got {len(area)}")
+    if area is not None and _enclosed_px2(area) < 1.0:
+        parser.error(
+            f"--work-area encloses {_enclosed_px2(area):g} px² (its points lie on one line): "
+            "give the corners of the area around the objects"
+        )
     return samples, area
+
+
+def _enclosed_px2(polygon: Sequence[tuple[float, float]]) -> float:
+    """The area a polygon (u, v) encloses [px²] (the shoelace formula)."""
+    u = np.array([p[0] for p in polygon])
+    v = np.array([p[1] for p in polygon])
+    return float(abs(np.dot(u, np.roll(v, -1)) - np.dot(v, np.roll(u, -1))) / 2.0)
 
 
 def _check_samples(
@@ -229,17 +243,27 @@ def _frames(args: argparse.Namespace, config: Config) -> tuple[list[np.ndarray],
     return frames, sources
 
 
-def _check_not_replacing(out: Path, config_name: str, *, force: bool) -> None:
-    """Refuse, before any work, to write over the config extended, or over any file.
+def _check_not_replacing(
+    out: Path, config_name: str, *, force: bool, images: Sequence[Path] = ()
+) -> None:
+    """Refuse, before any work, to write over the config extended, an image, or any file.
 
-    With ``force`` an existing file other than the one extended is replaced: a second run
-    must not lose a config a maker wrote unless asked to.
+    With ``force`` an existing file other than the inputs is replaced: a second run must
+    not lose a config a maker wrote unless asked to; the frames taught from are never
+    replaced (``--force`` is for an older NEW.yaml).
 
     Raises:
-        MearmError: ``out`` is the ``--config`` file, or exists and ``force`` is not set.
+        MearmError: ``out`` is the ``--config`` file or one of ``images`` (by any name),
+            or exists and ``force`` is not set.
     """
     if not out.exists():
         return
+    mine = _identity(out)
+    if mine is not None and any(_identity(p) == mine for p in images):
+        raise MearmError(
+            f"--out {out} is one of the images it learns from: give another --out "
+            "(NEW.yaml; --force never replaces an input)"
+        )
     try:
         extended = resolve_config_path(config_name)
     except MearmError:  # not a config at all: load_config says so next
@@ -251,6 +275,15 @@ def _check_not_replacing(out: Path, config_name: str, *, force: bool) -> None:
         )
     if not force:
         raise MearmError(f"--out {out} exists: pass --force to replace it")
+
+
+def _identity(path: Path) -> tuple[int, int] | None:
+    """(device, inode) of an existing file, else ``None``: the same file by any name."""
+    try:
+        info = path.stat()
+    except (OSError, ValueError):
+        return None
+    return (info.st_dev, info.st_ino)
 
 
 def _print_taught(taught: Taught) -> None:
@@ -274,7 +307,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
     samples, area = _checked_arguments(parser, args)
     check_output_file(args.out, "--out")
-    _check_not_replacing(args.out, args.config, force=args.force)
+    _check_not_replacing(args.out, args.config, force=args.force, images=args.images)
     config = load_config(args.config)
     names = config.task.class_names
     _check_samples(samples, names, args.config, len(args.images))

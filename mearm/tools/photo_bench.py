@@ -10,7 +10,9 @@ scores the photos as a nearer or farther camera sees them), the detector of a co
 the 8-bit ``inRange`` recipe run on it, and each detection matched to the nearest
 unmatched labelled object of its class within half an object. A detection that matches
 none (another colour's object, a distractor, a wrong class) is a false positive; a
-labelled object no detection matches is missed.
+labelled object no detection matches is missed. A manifest with no photo, or an entry
+without a size of at least 1 px, with a class the config lacks or a centre that is not a
+pixel of its photo, is refused (:class:`~mearm.errors.InputFileError` naming the entry).
 
 With ``learn``, each source's colours are taught from its first photo as a user teaches
 them: one click per class, on the first labelled object of that class (moved to its most
@@ -93,12 +95,70 @@ class Score:
         return sum(self.found.values()), sum(self.missed.values()), sum(self.false.values())
 
 
-def _size_px(entry: dict) -> float:
+def _size_px(entry: dict, where: str, manifest: Path) -> float:
+    """The objects' width [px] from an entry's ``shapes`` (``~N px`` or ``~A-B px``)."""
     match = re.search(r"~\s*(\d+)(?:\s*-\s*(\d+))?\s*px", str(entry.get("shapes", "")))
     if match is None:
-        raise InputFileError(str(entry.get("file")), "its 'shapes' gives no object size (~N px)")
+        raise InputFileError(str(manifest), f"{where}: its 'shapes' gives no object size (~N px)")
     lo, hi = match.group(1), match.group(2) or match.group(1)
-    return (float(lo) + float(hi)) / 2.0
+    size = (float(lo) + float(hi)) / 2.0
+    if size < 1.0:
+        raise InputFileError(
+            str(manifest), f"{where}: its 'shapes' gives objects {size:g} px wide (~N px, N >= 1)"
+        )
+    return size
+
+
+def _centres(
+    entry: dict, where: str, manifest: Path, shape: Sequence[int], classes: Sequence[str] | None
+) -> dict[str, np.ndarray]:
+    """An entry's labelled centres per class [px], each checked to be a pixel of the photo.
+
+    Raises:
+        InputFileError: ``objects`` is not a mapping of class to ``centres``, a class is
+            not one of ``classes``, or a centre is not a pair of numbers inside the photo.
+    """
+    h, w = int(shape[0]), int(shape[1])
+    objects = entry.get("objects") or {}
+    if not isinstance(objects, dict):
+        raise InputFileError(str(manifest), f"{where}: 'objects' must map each class to centres")
+    out = {}
+    for name, obj in objects.items():
+        if classes is not None and str(name) not in classes:
+            raise InputFileError(
+                str(manifest),
+                f"{where}: class '{name}' is not one of the config's ({', '.join(classes)}): "
+                "give a --config with it, or list those objects under 'other'",
+            )
+        given = obj.get("centres") if isinstance(obj, dict) else obj
+        pts = [] if given is None else given
+        ok = isinstance(obj, dict | None) and isinstance(pts, list)
+        if not ok or not all(
+            isinstance(c, list)
+            and len(c) == 2
+            and all(isinstance(x, int | float) and not isinstance(x, bool) for x in c)
+            for c in pts
+        ):
+            raise InputFileError(
+                str(manifest),
+                f"{where}: objects.{name} must be {{centres: [[u, v], ...]}} in pixels, "
+                f"got {obj!r:.60}",
+            )
+        arr = np.asarray(pts, dtype=float).reshape(-1, 2)
+        if not np.isfinite(arr).all():
+            raise InputFileError(
+                str(manifest), f"{where}: objects.{name} has a centre that is not a number"
+            )
+        bad = (arr[:, 0] < 0) | (arr[:, 0] >= w) | (arr[:, 1] < 0) | (arr[:, 1] >= h)
+        if bad.any():
+            u, v = arr[int(np.argmax(bad))]
+            raise InputFileError(
+                str(manifest),
+                f"{where}: objects.{name} centre [{u:g}, {v:g}] is outside the photo ({w}x{h} px): "
+                f"0 <= u < {w}, 0 <= v < {h}, at the photo's own size",
+            )
+        out[str(name)] = arr
+    return out
 
 
 def _boxes(entry: dict, scale: float) -> list[tuple[float, float, float, float]]:
@@ -117,29 +177,41 @@ def object_px_of(config: Config) -> float:
     return object_width_px(config.calibration, config.camera, diameter)
 
 
-def load_photos(folder: Path, object_px: float) -> list[Photo]:
+def load_photos(
+    folder: Path, object_px: float, classes: Sequence[str] | None = None
+) -> list[Photo]:
     """The labelled photos of ``folder`` (its ``manifest.yaml``), scaled.
 
-    Each is scaled so that its objects are ``object_px`` across [px].
+    Each is scaled so that its objects are ``object_px`` across [px]. ``classes``: the
+    class names the labels may use (any, if ``None``).
+
+    Raises:
+        InputFileError: the manifest lists no photo, or an entry is malformed (no
+            ``file``, no object size, a class not in ``classes``, a centre that is not a
+            pixel of its photo); the message names the entry.
     """
-    manifest = load_yaml_file(folder / "manifest.yaml")
+    path = folder / "manifest.yaml"
+    manifest = load_yaml_file(path, what="manifest")
     if not isinstance(manifest, dict) or not isinstance(manifest.get("images"), list):
-        raise InputFileError(str(folder / "manifest.yaml"), "expected a mapping with 'images'")
+        raise InputFileError(str(path), "expected a mapping with 'images'")
+    if not manifest["images"]:
+        raise InputFileError(str(path), "'images' is empty: list at least one labelled photo")
     photos = []
-    for entry in manifest["images"]:
+    for i, entry in enumerate(manifest["images"]):
+        if not isinstance(entry, dict) or not isinstance(entry.get("file"), str):
+            raise InputFileError(str(path), f"images[{i}]: expected a mapping with 'file'")
+        where = f"images[{i}] ({entry['file']})"
+        size = _size_px(entry, where, path)
         frame = read_image(folder / str(entry["file"]))
-        scale = object_px / _size_px(entry)
+        labels = _centres(entry, where, path, frame.shape, classes)
+        scale = object_px / size
         frame = cv2.resize(frame, None, fx=scale, fy=scale, interpolation=cv2.INTER_AREA)
-        centres = {
-            str(name): np.asarray(obj.get("centres") or [], dtype=float).reshape(-1, 2) * scale
-            for name, obj in (entry.get("objects") or {}).items()
-        }
         photos.append(
             Photo(
                 str(entry["file"]),
                 str(entry.get("source_repo", "")),
                 frame,
-                centres,
+                {name: c * scale for name, c in labels.items()},
                 _boxes(entry, scale),
                 object_px,
             )
@@ -235,7 +307,7 @@ def run_photo_bench(folder: Path, config: Config, *, learn: bool = False) -> lis
     taught per source from its first photo (:func:`learned_config`); the recipe keeps the
     config's hue bands (it has no learned colours).
     """
-    photos = load_photos(folder, object_px_of(config))
+    photos = load_photos(folder, object_px_of(config), config.task.class_names)
     firsts: dict[str, Photo] = {}
     for p in photos:
         firsts.setdefault(p.source, p)
@@ -303,7 +375,7 @@ def run_click_study(folder: Path, config: Config) -> list[dict]:
     all sources: the combinations), ``refused``, and the ``recall`` and ``precision``
     quantiles (``min``, ``q10``, ``median``, ``max``) as fractions.
     """
-    photos = load_photos(folder, object_px_of(config))
+    photos = load_photos(folder, object_px_of(config), config.task.class_names)
     sources: dict[str, list[Photo]] = {}
     for p in photos:
         sources.setdefault(p.source, []).append(p)

@@ -26,6 +26,8 @@ all, the detector of ``--config`` and the ``inRange`` recipe side by side; ``--l
 teaches the detector each source's colours from its first photo (one click per class);
 ``--every-click`` teaches it every way one photo and one click per class can, and prints
 the spread of recall and precision (:func:`~mearm.tools.photo_bench.run_click_study`).
+A manifest that cannot be scored is refused before any output (exit 2, one line naming
+the entry).
 
 Scenes are drawn by the simulator's renderer (:mod:`mearm.sim.kinematic.renderer`); this script
 sits on top of both layers and imports it where it draws.
@@ -366,9 +368,10 @@ def _print_photos(folder: Path, config: Config, *, learn: bool) -> int:
     from mearm.tools.photo_bench import run_photo_bench
 
     _require_manifest(folder)
+    rows = run_photo_bench(folder, config, learn=learn)  # a bad manifest: before any output
     print(f"{'photos':<28} {'detector':<8} {'found':>5} {'missed':>6} {'false':>5} "
           f"{'recall':>7} {'precision':>9}")  # fmt: skip
-    for r in run_photo_bench(folder, config, learn=learn):
+    for r in rows:
         rec = "-" if r["recall"] is None else f"{100 * r['recall']:.1f}%"
         pre = "-" if r["precision"] is None else f"{100 * r['precision']:.1f}%"
         print(f"{r['scope']:<28} {r['who']:<8} {r['found']:>5} {r['missed']:>6} {r['false']:>5} "

@@ -7,7 +7,8 @@ around the samples: the frame's pixels near the colour just outside them, the la
 such region's outline is the work area unless the user gives one, and each colour's
 ellipse is narrowed to keep the table's colour out. A sample that cannot teach is
 refused (:class:`~mearm.vision.errors.SampleError`): outside the image, on a grey or
-black pixel, on the table's colour, or two classes sampled on one colour.
+black pixel, on the table's colour, two classes sampled on one colour or one class on
+two, outside the work area given, or with no table around it.
 """
 
 from __future__ import annotations
@@ -195,11 +196,24 @@ def find_table(
     The table's colour is the median of the ring 1–2.5 objects from the samples; its
     region the pixels within :data:`TABLE_DELTA_E` of it, closed over the objects on it;
     its outline the convex hull of the largest region (``None`` if it covers less than
-    :data:`TABLE_MIN_SHARE` of the frame).
+    :data:`TABLE_MIN_SHARE` of the frame). With no samples, the frame's median colour.
+
+    Raises:
+        SampleError: no pixel of the frame is in the ring (a frame about one object wide:
+            a crop of one cube, a 1 × 1 image): no table to tell the objects from.
     """
     lab = lab_of(frame)
-    ring = lab_of(_ring(frame, samples, 1.0 * object_px, 2.5 * object_px))
-    table = np.median(ring, axis=0) if len(ring) else np.median(lab.reshape(-1, 3), axis=0)
+    ring = _ring(frame, samples, 1.0 * object_px, 2.5 * object_px)
+    if samples and not len(ring):
+        h, w = frame.shape[:2]
+        raise SampleError(
+            str(samples[0]),
+            f"the first image ({w}x{h} px) shows no table around the samples (its colour "
+            f"is read {object_px:.0f}-{2.5 * object_px:.0f} px from them): give whole "
+            "frames of the table with the objects on it",
+        )
+    # no samples: the frame's median
+    table = np.median(lab_of(ring) if len(ring) else lab.reshape(-1, 3), axis=0)
     near = (np.linalg.norm(lab - table, axis=-1) <= TABLE_DELTA_E).astype(np.uint8)
     k = max(3, int(2 * object_px) | 1)
     closed = cv2.morphologyEx(
@@ -238,7 +252,9 @@ def teach(
 
     Raises:
         SampleError: a sample outside its image, on a grey or black pixel or the
-            table's colour, or two classes sampled on the same colour.
+            table's colour, two classes sampled on the same colour or one class on two
+            colours, a class with no sample inside ``work_area_px``, or a first frame
+            with no table around the samples.
     """
     for s in samples:  # before anything is read around them
         h, w = frames[s.image].shape[:2]
@@ -248,7 +264,12 @@ def teach(
             )
     first = frames[0]
     area = work_area_px
-    table_lab, found = find_table(first, [s for s in samples if s.image == 0], object_px)
+    if area is not None:
+        _check_work_area(area, frames, samples)
+    # the table around the first frame's samples; with none there, around the others'
+    # pixels (one camera: the table is where the objects stand)
+    around = [s for s in samples if s.image == 0] or list(samples)
+    table_lab, found = find_table(first, around, object_px)
     if area is None and find_area:
         area = found
     ref = tuple(float(v) for v in median_bgr(first, area_mask(area, first.shape) if area else None))
@@ -272,6 +293,7 @@ def teach(
                 f"differ by more than {TABLE_DELTA_E:g}): click on an object of the class",
             )
         pixels.setdefault(s.name, []).append(lab)
+    _refuse_two_colours(pixels, samples)
     colours = {name: fit_colour(np.concatenate(p)) for name, p in pixels.items()}
     _refuse_shared(colours, samples)
     # the table as the classifier sees it (at the samples' lightness unless clipped)
@@ -287,6 +309,55 @@ def teach(
     return Taught(
         colours, ref, area, (float(table_lab[0]), float(table_lab[1]), float(table_lab[2]))
     )
+
+
+def _check_work_area(
+    area: Sequence[tuple[float, float]], frames: Sequence[np.ndarray], samples: Sequence[Sample]
+) -> None:
+    """Raise if a given work area holds none of a class's samples.
+
+    Nothing outside the work area is classified: such a config detects nothing of the
+    class and says nothing.
+    """
+    inside: dict[str, bool] = {}
+    for s in samples:
+        mask = area_mask(area, frames[s.image].shape)
+        inside[s.name] = inside.get(s.name, False) or bool(mask[int(s.v_px), int(s.u_px)])
+    for name, any_inside in inside.items():
+        if not any_inside:
+            given = " ".join(str(s) for s in samples if s.name == name)
+            raise SampleError(
+                given,
+                f"class '{name}' has no sample inside --work-area (nothing outside it is "
+                "classified): give a work area around the objects, or --whole-frame",
+            )
+
+
+def _refuse_two_colours(pixels: dict[str, list[np.ndarray]], samples: Sequence[Sample]) -> None:
+    """Raise if one class was sampled on two colours: one ellipse for both fits neither.
+
+    Each sample's colour is fitted alone (:func:`~mearm.vision.learned.fit_colour`); two
+    samples are two colours when neither's centre is a colour of the other, by the
+    distance the classifier uses (:func:`~mearm.vision.learned.distance`, open outwards:
+    a duller and a more vivid cube of one hue are one colour) beyond the fit's
+    ``max_distance``.
+    """
+    for name, labs in pixels.items():
+        clicks = [s for s in samples if s.name == name]
+        fits = [fit_colour(lab) for lab in labs]
+        centres = [np.array([m.chroma_lightness or 0.0, *m.ab_mean]) for m in fits]
+        for i in range(len(fits)):
+            for j in range(i + 1, len(fits)):
+                apart = min(
+                    float(distance(fits[i], centres[j])), float(distance(fits[j], centres[i]))
+                )
+                if apart > min(fits[i].max_distance, fits[j].max_distance):
+                    raise SampleError(
+                        f"{clicks[i]} {clicks[j]}",
+                        f"class '{name}' was sampled on two different colours (distance "
+                        f"{apart:.1f}, one colour within {fits[i].max_distance:g}): sample "
+                        "each class on its own objects",
+                    )
 
 
 def _refuse_shared(colours: dict[str, LearnedColour], samples: Sequence[Sample]) -> None:
