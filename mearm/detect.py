@@ -41,7 +41,7 @@ from mearm.cli import (
     run,
 )
 from mearm.config import Config
-from mearm.fileio import write_atomic
+from mearm.fileio import file_identity, write_atomic
 from mearm.vision.calibration import camera_geometry
 from mearm.vision.detector import ColorDetector, Detection
 from mearm.vision.errors import ImageError
@@ -65,15 +65,6 @@ def _read_all(paths: Sequence[Path]) -> list[tuple[str, np.ndarray | None]]:
         kept += frame.shape[0] * frame.shape[1]
         out.append((str(path), frame if kept <= KEEP_PIXELS else None))
     return out
-
-
-def _identity(path: Path) -> tuple[int, int] | None:
-    """(device, inode) of an existing file, else ``None``: the same file by any name."""
-    try:
-        info = path.stat()
-    except (OSError, ValueError):
-        return None
-    return (info.st_dev, info.st_ino)
 
 
 def has_colour(frame: np.ndarray) -> bool:
@@ -269,9 +260,9 @@ def main(argv: Sequence[str] | None = None) -> int:  # noqa: PLR0912 (one branch
         if not cv2.haveImageWriter(str(args.annotate)):
             parser.error(f"--annotate {args.annotate}: unknown image type (use .png or .jpg)")
         outs = annotation_paths(args.annotate, max(1, len(args.images)))
-        inputs = {_identity(p) for p in args.images} - {None}
+        inputs = {file_identity(p) for p in args.images} - {None}
         for out in outs:
-            if _identity(out) in inputs:
+            if file_identity(out) in inputs:
                 parser.error(f"--annotate {out}: is one of the input images (write elsewhere)")
             check_output_file(out, "--annotate")  # a folder, a path under a file: now
     config = config_from_args(args)

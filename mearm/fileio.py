@@ -100,6 +100,19 @@ def write_atomic(path: str | os.PathLike[str], data: bytes | str) -> Path:
     return target
 
 
+def file_identity(path: str | os.PathLike[str]) -> tuple[int, int] | None:
+    """(device, inode) of an existing file, else ``None``: the same file by any name.
+
+    ``./a``, a link and a hard link are all one: how a command refuses an output that is
+    one of its own inputs.
+    """
+    try:
+        info = os.stat(path)
+    except (OSError, ValueError):
+        return None
+    return (info.st_dev, info.st_ino)
+
+
 def resolve_target(path: str | os.PathLike[str]) -> Path:
     """The file a write to ``path`` should replace: ``path`` with every link followed.
 

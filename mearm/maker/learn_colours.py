@@ -40,6 +40,7 @@ from mearm.config import Config
 from mearm.config.files import load_config, resolve_config_path
 from mearm.config.loader import config_from_dict
 from mearm.errors import MearmError
+from mearm.fileio import file_identity
 from mearm.vision.calibration import object_width_px
 from mearm.vision.image import read_image
 from mearm.vision.teaching import Sample, Taught, teach
@@ -258,8 +259,8 @@ def _check_not_replacing(
     """
     if not out.exists():
         return
-    mine = _identity(out)
-    if mine is not None and any(_identity(p) == mine for p in images):
+    mine = file_identity(out)
+    if mine is not None and any(file_identity(p) == mine for p in images):
         raise MearmError(
             f"--out {out} is one of the images it learns from: give another --out "
             "(NEW.yaml; --force never replaces an input)"
@@ -275,15 +276,6 @@ def _check_not_replacing(
         )
     if not force:
         raise MearmError(f"--out {out} exists: pass --force to replace it")
-
-
-def _identity(path: Path) -> tuple[int, int] | None:
-    """(device, inode) of an existing file, else ``None``: the same file by any name."""
-    try:
-        info = path.stat()
-    except (OSError, ValueError):
-        return None
-    return (info.st_dev, info.st_ino)
 
 
 def _print_taught(taught: Taught) -> None:

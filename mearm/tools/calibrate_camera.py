@@ -64,7 +64,7 @@ from mearm.config import config_from_dict
 from mearm.config.base import MAX_LENGTH_CM, short_repr
 from mearm.config.errors import CalibrationError
 from mearm.errors import ConfigError, InputFileError, MearmError
-from mearm.fileio import write_atomic
+from mearm.fileio import file_identity, write_atomic
 from mearm.vision.aruco import (
     DEFAULT_DICTIONARY,
     calibration_from_markers,
@@ -385,15 +385,6 @@ def write_atomically(path: Path, text: str) -> None:
     write_atomic(path, text)
 
 
-def _identity(path: Path) -> tuple[int, int] | None:
-    """(device, inode) of an existing file, else ``None``: the same file by any name."""
-    try:
-        info = path.stat()
-    except (OSError, ValueError):
-        return None
-    return (info.st_dev, info.st_ino)
-
-
 def refuse_own_inputs(
     outputs: Sequence[tuple[str, Path | None]], inputs: Sequence[tuple[str, Path | None]]
 ) -> None:
@@ -405,11 +396,11 @@ def refuse_own_inputs(
     Raises:
         MearmError: an output names the same file as an input.
     """
-    seen = [(flag, path, _identity(path)) for flag, path in inputs if path is not None]
+    seen = [(flag, path, file_identity(path)) for flag, path in inputs if path is not None]
     for out_flag, out in outputs:
         if out is None:
             continue
-        here = _identity(out)
+        here = file_identity(out)
         for in_flag, path, ident in seen:
             if here is not None and here == ident:
                 raise MearmError(
@@ -506,7 +497,7 @@ def _check_own_inputs(args: argparse.Namespace) -> None:
     if (
         output is not None
         and args.config is not None
-        and _identity(output) == _identity(args.config)
+        and file_identity(output) == file_identity(args.config)
     ):
         output = None  # the same as writing into --config
     refuse_own_inputs([("--output", output)], [*inputs, ("--out", args.out)])
@@ -630,7 +621,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.dry_run:
         return 0
     target = args.output or args.config
-    elsewhere = args.output is not None and _identity(args.output) != _identity(args.config)
+    elsewhere = args.output is not None and file_identity(args.output) != file_identity(args.config)
     _write_config(target, new_text, calibration, force=args.force, keep=elsewhere)
     print(f"wrote the calibration into {target}", file=sys.stderr)
     return 0
@@ -686,7 +677,7 @@ def _pose(parser: ArgumentParser, args: argparse.Namespace) -> int:
     if new_config is not None:
         target = args.output or args.config
         try:
-            if args.output is not None and _identity(args.output) != _identity(args.config):
+            if args.output is not None and file_identity(args.output) != file_identity(args.config):
                 backup_existing(target)
             write_atomically(target, new_config)
         except OSError as exc:
