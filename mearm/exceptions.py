@@ -74,7 +74,7 @@ FAMILIES: dict[str, tuple[str, ...]] = {
     "mearm.experiment.errors": ("TrialFailed",),
     # the environments' and the baseline's (their packages import Gymnasium: mearm[gym])
     "mearm.envs.errors": ("EnvOptionError", "PolicyError"),
-    "mearm.learn.errors": ("LearnExtraMissingError",),
+    "mearm.learn.errors": ("DemosError", "LearnExtraMissingError"),
 }
 
 _LAZY = {name: module for module, names in FAMILIES.items() for name in names}

@@ -91,7 +91,11 @@ def pnm(width: int, height: int, data: bytes = b"") -> bytes:
 
 
 def real(ext: str, shape: tuple[int, ...] = (48, 64, 3)) -> bytes:
-    ok, buf = cv2.imencode(ext, np.full(shape, 90, np.uint8))
+    """An empty table's image: a faint tint in colour (a grey one gets detect's warning)."""
+    frame = np.full(shape, 90, np.uint8)
+    if len(shape) == 3 and shape[2] == 3:
+        frame[..., 2] = 96
+    ok, buf = cv2.imencode(ext, frame)
     assert ok
     return buf.tobytes()
 
