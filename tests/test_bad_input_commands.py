@@ -26,7 +26,11 @@ def spots(tmp_path_factory: pytest.TempPathFactory) -> dict[str, str]:
     d = tmp_path_factory.mktemp("commands")
     (d / "folder").mkdir()
     (d / "file.txt").write_text("keep me\n")
-    return {"dir": str(d), "folder": str(d / "folder"), "file": str(d / "file.txt")}
+    (d / "snap.png").write_bytes(b"a camera's snapshot")  # a .png a sheet must not replace
+    return {
+        "dir": str(d), "folder": str(d / "folder"), "file": str(d / "file.txt"),
+        "png": str(d / "snap.png"),
+    }  # fmt: skip
 
 
 @pytest.fixture(scope="module", autouse=True)
@@ -42,6 +46,8 @@ CASES: list[tuple[list[str], str]] = [
     (["aruco-sheet", "--output", "{dir}/s.png", "--side-cm", "nan"], "--side-cm must be in"),
     (["aruco-sheet", "--output", "{dir}/s.png", "--dpi", "0"], "--dpi must be in [72, 2400]"),
     (["aruco-sheet", "--output", "{folder}"], "--output must be a .png file"),
+    (["aruco-sheet", "--output", "{png}"], "exists; pass --force to replace it"),
+    (["charuco-board", "--output", "{png}"], "exists; pass --force to replace it"),
     (["aruco-sheet", "--output", "{dir}/s.png", "--dictionary", "NOPE"], "unknown ArUco dict"),
     # render-calibration (the twin's camera)
     (["render-calibration", "--out", "{file}"], "exists and is not a directory"),

@@ -636,7 +636,8 @@ def test_init_config_refuses_an_arm_with_more_servos_than_the_uno_drives(tmp_pat
 
 @pytest.mark.heavy
 def test_init_config_refuses_to_overwrite_without_force(tmp_path):
-    """An existing file stays as it was unless --force; with it, it is replaced."""
+    """An existing file stays as it was unless --force; with it, it is replaced, and the
+    maker's edits are kept as FILE.bak (as calibrate-servos keeps its file)."""
     out = tmp_path / "mine.yaml"
     out.write_text("# my edits\n")
     args = ("init_config", "--arm", "mearm_v1", "--rig", "ssc32", str(out))
@@ -647,6 +648,7 @@ def test_init_config_refuses_to_overwrite_without_force(tmp_path):
     assert forced.returncode == 0, forced.stderr
     assert load_config(out).servo.backend == "ssc32"
     assert f"mearm calibrate-servos --config {out}" in forced.stdout
+    assert (tmp_path / "mine.yaml.bak").read_text() == "# my edits\n"
 
 
 @pytest.mark.heavy

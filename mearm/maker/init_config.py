@@ -15,8 +15,9 @@ The simulated rigs (``sim``, ``sim_mujoco``) write the reference config as it is
 rigs (``uno``, ``ssc32``) replace its servo link and camera with a real board and a USB
 camera; the pixel-to-table calibration is then the reference's and must be redone for
 your camera. The file is checked to load before it is written; an existing file is only
-replaced with ``--force``. A reference config that builds on another (``extends``) is
-copied with its ``extends``, which then names the packaged config: the starter config is
+replaced with ``--force``, and kept as ``FILE.bak``. A reference config that builds on
+another (``extends``) is copied with its ``extends``, which then names the packaged
+config: the starter config is
 not written into a folder where a file of that name would be read instead. The real rigs'
 header and output carry the arm's wiring (:mod:`mearm.maker.wiring`).
 
@@ -43,6 +44,7 @@ from mearm.cli import EXIT_OK, ArgumentParser, run, write_text_atomic
 from mearm.config import Config, config_from_dict, load_config
 from mearm.config.compose import EXTENDS_KEY
 from mearm.errors import ConfigError, MearmError
+from mearm.fileio import write_atomic
 from mearm.maker.wiring import Board, wiring_text
 from mearm.yamlio import load_yaml_text
 
@@ -529,6 +531,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     text = render_config(arm, rig, shlex.quote(str(out)))
     check_folder(text, out)
     check_rendered(text, out)
+    _keep_old(out)
     write_text_atomic(out, text)
     print(f"wrote {out}: the {arm.name} arm on the {rig.name} rig. Next:")
     maker_path = data.doc_page("maker-path.md")
@@ -539,6 +542,16 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"Wiring of the {arm.name} arm ({maker_path}):")
         print(wiring_text(load_config(out).arm, board), end="")
     return EXIT_OK
+
+
+def _keep_old(out: Path) -> None:
+    """A config replaced with --force (a maker may have edited it) is kept as ``.bak``."""
+    if out.is_file():
+        bak = out.with_name(out.name + ".bak")
+        try:
+            write_atomic(bak, out.read_bytes())
+        except OSError as exc:
+            raise MearmError(f"cannot keep {out} as {bak}: {exc.strerror or exc}") from None
 
 
 def _write_twin(of: Path, out: Path, arm_name: str | None, rig: RigChoice) -> int:
@@ -556,6 +569,7 @@ def _write_twin(of: Path, out: Path, arm_name: str | None, rig: RigChoice) -> in
         config_from_dict(load_yaml_text(text, source=name), source=name, path=out)
     except ConfigError as exc:
         raise MearmError(f"the twin of {of} does not load: {exc}") from None
+    _keep_old(out)
     write_text_atomic(out, text)
     print(f"wrote {out}: your {of.name} on the {rig.name} rig (it extends {of.name}). Next:")
     print(f"  1. mearm sort --config {shlex.quote(name)}")

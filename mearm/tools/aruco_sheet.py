@@ -93,6 +93,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Write the marker sheet; 0 on success, 2 on bad input."""
     parser = ArgumentParser(description="Printable ArUco marker sheet.")
     parser.add_argument("--output", type=Path, required=True, help="PNG file to write")
+    parser.add_argument("--force", action="store_true", help="replace an existing --output")
     parser.add_argument("--ids", type=_ids, default=[0, 1, 2, 3], help="marker ids (0,1,2,3)")
     parser.add_argument("--side-cm", type=float, default=4.0, help="marker side [cm] (4)")
     parser.add_argument("--dpi", type=int, default=300, help="print resolution (300)")
@@ -110,6 +111,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.error(f"--output must be a .png file, got {args.output}")
     if args.output.exists() and not args.output.is_file():
         parser.error(f"--output {args.output}: exists and is not a regular file")
+    if args.output.exists() and not args.force:  # a camera's snapshot is a .png, too
+        parser.error(f"--output {args.output}: exists; pass --force to replace it")
     page = marker_sheet(args.ids, args.side_cm, args.dpi, args.dictionary)
     try:
         write_atomic(args.output, png_with_dpi(page, args.dpi))

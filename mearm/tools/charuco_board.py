@@ -71,6 +71,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Write the board page; 0 on success, 2 on bad input."""
     parser = ArgumentParser(description="Printable ChArUco board for calibrate-intrinsics.")
     parser.add_argument("--output", type=Path, required=True, help="PNG file to write")
+    parser.add_argument("--force", action="store_true", help="replace an existing --output")
     parser.add_argument("--dpi", type=int, default=300, help="print resolution (300)")
     args = parser.parse_args(argv)
     if not DPI_RANGE[0] <= args.dpi <= DPI_RANGE[1]:
@@ -79,6 +80,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.error(f"--output must be a .png file, got {args.output}")
     if args.output.exists() and not args.output.is_file():
         parser.error(f"--output {args.output}: exists and is not a regular file")
+    if args.output.exists() and not args.force:  # a camera's snapshot is a .png, too
+        parser.error(f"--output {args.output}: exists; pass --force to replace it")
     page = board_page(DEFAULT_BOARD, args.dpi)
     try:
         write_atomic(args.output, png_with_dpi(page, args.dpi))
