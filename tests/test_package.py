@@ -225,6 +225,7 @@ def test_analyze_out_without_the_extra_names_it(tmp_path, monkeypatch, capsys):
     exit 2, and nothing is written."""
     from mearm.__main__ import main
 
+    monkeypatch.setattr(sys, "argv", sys.argv[:])  # the dispatcher renames the program
     log = tmp_path / "run.jsonl"
     scene = "task.scene=[{color: red, x: 0.0, y: 45.0}]"
     with pytest.raises(SystemExit) as info:
