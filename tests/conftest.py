@@ -36,6 +36,16 @@ def _crash_log_in_tmp(tmp_path_factory: pytest.TempPathFactory) -> None:
     os.environ["MEARM_STATE_DIR"] = str(tmp_path_factory.mktemp("state"))
 
 
+@pytest.fixture(autouse=True)
+def _program_name_kept() -> Any:
+    """Each test starts with the worker's own ``sys.argv``: a command run in this process
+    through the ``mearm`` dispatcher renames the program (``mearm fk``), and a later
+    in-process test would read that name as its own (the commands' error prefixes do)."""
+    saved = sys.argv[:]
+    yield
+    sys.argv = saved
+
+
 @pytest.fixture(scope="session")
 def config() -> Config:
     return Config()
