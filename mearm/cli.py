@@ -256,6 +256,33 @@ def check_output_file(path: Path, flag: str) -> None:
     _check_writable_folder(path, flag)
 
 
+def refuse_own_inputs(
+    outputs: Sequence[tuple[str, Path | None]], inputs: Sequence[tuple[str, Path | None]]
+) -> None:
+    """Refuse an output that is one of the run's inputs (by any name), even with --force.
+
+    A file this run reads is not the place for what it writes (an image would become
+    YAML, the intrinsics a pose). Files are compared by identity
+    (:func:`mearm.fileio.file_identity`), so ``./a`` and a link are caught too.
+
+    Raises:
+        MearmError: an output names the same file as an input.
+    """
+    from mearm.fileio import file_identity  # noqa: PLC0415  (the commands that write)
+
+    seen = [(flag, path, file_identity(path)) for flag, path in inputs if path is not None]
+    for out_flag, out in outputs:
+        if out is None:
+            continue
+        here = file_identity(out)
+        for in_flag, path, ident in seen:
+            if here is not None and here == ident:
+                raise MearmError(
+                    f"{out_flag} {out}: is the {in_flag} file {path}, one of this run's "
+                    "inputs: write elsewhere"
+                )
+
+
 def check_output_folder(path: Path, flag: str) -> None:
     """As :func:`check_output_file`, for an output folder (missing folders are made).
 

@@ -59,7 +59,7 @@ import numpy as np
 from ruamel.yaml import YAML, YAMLError
 from ruamel.yaml.comments import CommentedMap, CommentedSeq
 
-from mearm.cli import ArgumentParser, check_output_file, run
+from mearm.cli import ArgumentParser, check_output_file, refuse_own_inputs, run
 from mearm.config import config_from_dict
 from mearm.config.base import MAX_LENGTH_CM, short_repr
 from mearm.config.errors import CalibrationError
@@ -383,30 +383,6 @@ def write_atomically(path: Path, text: str) -> None:
         if not stat.S_ISREG(info.st_mode):
             raise MearmError(f"{path}: not a regular file; write the calibration to a file")
     write_atomic(path, text)
-
-
-def refuse_own_inputs(
-    outputs: Sequence[tuple[str, Path | None]], inputs: Sequence[tuple[str, Path | None]]
-) -> None:
-    """Refuse an output that is one of the run's inputs (by any name), even with --force.
-
-    As ``detect --annotate`` does: a file this run reads is not the place for what it
-    writes (the image would become YAML, the intrinsics a pose).
-
-    Raises:
-        MearmError: an output names the same file as an input.
-    """
-    seen = [(flag, path, file_identity(path)) for flag, path in inputs if path is not None]
-    for out_flag, out in outputs:
-        if out is None:
-            continue
-        here = file_identity(out)
-        for in_flag, path, ident in seen:
-            if here is not None and here == ident:
-                raise MearmError(
-                    f"{out_flag} {out}: is the {in_flag} file {path}, one of this run's "
-                    "inputs: write elsewhere"
-                )
 
 
 def backup_existing(path: Path) -> None:

@@ -89,8 +89,8 @@ _WORK_FILES = frozenset({"intrinsics.yaml", "pose.yaml", "intrinsics.yaml.bak", 
 
 def _check_json_not_an_input(args: argparse.Namespace) -> None:
     """Refuse (exit 2) a --json that is the config, or one of the files --work holds."""
+    from mearm.cli import refuse_own_inputs
     from mearm.config.files import resolve_config_path
-    from mearm.tools.calibrate_camera import refuse_own_inputs
     from mearm.tools.render_calibration import _OWN_NAMES
 
     config = resolve_config_path(args.config) if args.config else None

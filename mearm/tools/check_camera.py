@@ -35,6 +35,7 @@ from mearm.cli import (
     add_config_argument,
     check_output_file,
     config_from_args,
+    refuse_own_inputs,
     run,
 )
 from mearm.config import Config
@@ -50,7 +51,6 @@ from mearm.task.armcheck import (
     rms_cm,
     run_check,
 )
-from mearm.tools.calibrate_camera import refuse_own_inputs
 from mearm.vision.calibration import camera_geometry
 from mearm.vision.errors import CameraError
 from mearm.vision.pinhole import PerspectiveCamera, save_calibration
