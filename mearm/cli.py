@@ -222,7 +222,8 @@ def write_text_atomic(path: Path, text: str) -> None:
     try:
         write_atomic(path, text)
     except OSError as exc:
-        raise MearmError(f"cannot write {path}: {exc}") from None
+        # strerror: the reason, not the temporary file's name the error carries
+        raise MearmError(f"cannot write {path}: {exc.strerror or exc}") from None
 
 
 def existing_ancestor(path: Path) -> Path:
@@ -254,6 +255,19 @@ def check_output_file(path: Path, flag: str) -> None:
     if path.exists() and not path.is_file():
         raise MearmError(f"{flag} {path}: exists and is not a regular file (a device or pipe)")
     _check_writable_folder(path, flag)
+
+
+def refuse_to_replace(path: Path | None, flag: str, force: bool) -> None:  # noqa: FBT001
+    """Refuse, before any work, an output that exists unless ``--force`` was given.
+
+    A second run, or a name shared with the user's own file, must not replace what is
+    there silently; the project's writers all say so in the same words.
+
+    Raises:
+        MearmError: ``path`` exists and ``force`` is false.
+    """
+    if path is not None and not force and (path.exists() or path.is_symlink()):
+        raise MearmError(f"{flag} {path}: exists; pass --force to replace it")
 
 
 def refuse_own_inputs(

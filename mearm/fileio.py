@@ -175,11 +175,27 @@ def _make_temp(target: Path) -> tuple[int, str]:
     """Create the temporary file and register it, with the cleanup signals held off."""
     held = _hold_signals()
     try:
-        fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
+        fd, tmp = tempfile.mkstemp(
+            prefix=f".{_short(target.name)}.", suffix=".tmp", dir=target.parent
+        )
         _live.add(tmp)
     finally:
         _release_signals(held)
     return fd, tmp
+
+
+#: The longest file name most file systems take, in bytes (ext4, tmpfs, APFS, NTFS).
+NAME_MAX = 255
+
+
+def _short(name: str) -> str:
+    """``name`` cut so ``.<name>.<8 random>.tmp`` still fits :data:`NAME_MAX`.
+
+    A target whose own name is legal (up to 255 bytes) must not fail for its temporary
+    file's longer one.
+    """
+    room = NAME_MAX - len("..") - 8 - len(".tmp")
+    return name.encode("utf-8")[:room].decode("utf-8", errors="ignore")
 
 
 def _hold_signals() -> set[int | signal.Signals] | None:

@@ -251,3 +251,18 @@ def test_write_text_atomic_names_the_file_it_cannot_write(tmp_path: Path) -> Non
     (tmp_path / "file").write_text("")
     with pytest.raises(MearmError, match=r"cannot write .*file/x\.txt"):
         write_text_atomic(tmp_path / "file" / "x.txt", "x")
+
+
+@pytest.mark.parametrize("name", ["a" * 251 + ".txt", "é" * 125 + ".txt"])
+def test_a_file_name_of_the_longest_legal_length_is_written(tmp_path: Path, name: str) -> None:
+    """255 bytes is a legal name: its temporary file's longer name must not refuse it."""
+    write_text_atomic(tmp_path / name, "x")
+    assert (tmp_path / name).read_text() == "x"
+    assert [p.name for p in tmp_path.iterdir()] == [name]  # no temporary file left
+
+
+def test_a_write_error_gives_the_reason_without_errno_noise(tmp_path: Path) -> None:
+    with pytest.raises(MearmError) as caught:
+        write_text_atomic(tmp_path / ("a" * 300), "x")
+    message = str(caught.value)
+    assert message == f"cannot write {tmp_path / ('a' * 300)}: File name too long"
