@@ -81,7 +81,8 @@ def test_returns_a_status_within_limits_with_error_never_rising(target, q0, mode
     converged — or, from a start low over the table, stalled because every joint-space
     move to a solution would take the TCP lower than it already is (the recovery refuses
     those, and says so); along PD-PIJ's own path (with the safeguard) |e| never rises, and
-    a recovery's joint-space move takes every actuated joint monotonically to its end."""
+    a recovery's joint-space move takes every actuated joint monotonically along each of
+    its legs (straight to the solution, or through home: the joint may turn there)."""
     result = solve_or_unreachable(SOLVERS[(mode, damping, True)], q0, target)
     if result is None:
         return
@@ -94,10 +95,11 @@ def test_returns_a_status_within_limits_with_error_never_rising(target, q0, mode
     assert result.final_error_cm**2 < CONFIG.controller.tolerance_cm2
     if result.method == "direct":
         assert np.all(np.diff(result.error_path_cm) <= 0.0)
-    else:
+    else:  # a recovery's move: straight, or through home (and one joint first or last)
         steps = np.diff(MODEL.chain.actuated_of(result.q_path), axis=0)
-        towards = np.sign(result.q_path[-1] - result.q_path[0])[MODEL.chain.actuated_index]
-        assert np.all(steps * towards >= -1e-12)
+        for joint in steps.T:  # each leg monotonic: at most two turns over three legs
+            signs = np.sign(joint[np.abs(joint) > 1e-12])
+            assert np.count_nonzero(np.diff(signs)) <= 2, joint
 
 
 @settings_
