@@ -112,11 +112,18 @@ def test_a_policy_that_raises_ends_its_episode_as_a_named_failure(tmp_path, poli
 
 
 def test_a_run_where_some_episodes_ran_is_scored(tmp_path, policies, capsys):
-    """One episode of two raised: the other was scored, so the run's outcome stands (0)."""
-    code = _run("--policy", f"{policies}:RaisesOnce", "--episodes", "2",
+    """One episode of two raised: the other was scored and --out written, but an episode
+    failed, so exit 1 with a line counting them (walk 5: as for a NaN action)."""
+    out = tmp_path / "once.json"
+    code = _run("--policy", f"{policies}:RaisesOnce", "--episodes", "2", "--out", str(out),
                 "--env-option", "max_episode_steps=10")  # fmt: skip
-    assert code == 0
-    assert capsys.readouterr().err == ""
+    assert code == 1
+    assert [bool(e["error"]) for e in json.loads(out.read_text())["per_episode"]] == [True, False]
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert line.endswith(
+        ": 1 of 2 episodes ended on an error (the first, seed 0: the policy raised "
+        "RuntimeError: the policy broke once)"
+    )
 
 
 def test_videos_of_the_first_episodes_are_written(tmp_path):
@@ -135,7 +142,6 @@ def test_videos_of_the_first_episodes_are_written(tmp_path):
         (["--policy", "my_policies:missing"], "has no missing"),
         (["--policy", "nonsense"], "give expert, random, module:callable"),
         (["--policy", "my_policies:wrong_shape"], "has shape (3,)"),
-        (["--policy", "my_policies:not_finite"], "is not finite"),
         (["--env-option", "colour=red"], "not an option of the environments"),
         (["--env-option", "objects"], "give key=value"),
         (["--env-option", "fps=7"], "fps must divide"),

@@ -3,17 +3,26 @@
 Each episode is one environment reset with its seed (``first_seed`` … + N − 1) and run
 until it succeeds, fails or reaches ``max_episode_steps``. ``jobs`` workers each make the
 environment and the policy once and take seeds; the records come back in seed order,
-whatever the number of workers. A policy that raises ends its episode as a failure that
-names the error; an action of the wrong shape or not finite stops the whole run
-(:class:`~mearm.envs.errors.PolicyError`: the policy is wrong, not the episode).
+whatever the number of workers. A policy that raises, or gives an action that is not
+finite (NaN after 50 good steps), ends its episode as a failure that names the error, and
+the next episode runs; an action that is not numbers or of the wrong shape stops the
+whole run (:class:`~mearm.envs.errors.PolicyError`: the policy is wired wrong).
+
+Stopping: when the pool is shut down before its work is done (Ctrl-C, SIGTERM or SIGHUP
+in the parent, which takes them as Ctrl-C; an error), the workers end the episodes they
+run at their next step, write no video of them and take no more (:class:`_Pool`); a
+worker that gets one of those signals itself does the same.
 """
 
 from __future__ import annotations
 
+import multiprocessing
+import multiprocessing.connection
 import os
 import signal
-from collections.abc import Iterator, Sequence
-from concurrent.futures import ProcessPoolExecutor
+import threading
+from collections.abc import Callable, Generator, Sequence
+from concurrent.futures import Future, ProcessPoolExecutor
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
@@ -21,8 +30,9 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
+from mearm import interrupts
 from mearm.cli import ordered_results
-from mearm.envs.policies import Policy, checked_action, load_policy
+from mearm.envs.policies import Policy, checked_action, load_policy, not_finite
 
 
 @dataclass(frozen=True)
@@ -37,7 +47,8 @@ class EpisodeResult:
         steps: Steps taken.
         in_bins: Objects in their bins at the end, of ``objects``.
         objects: Objects in the scene.
-        error: Why it failed besides the task: the policy raised (named), or a fault.
+        error: Why it failed besides the task: the policy raised (named) or gave an
+            action that is not finite, or a fault.
         video: The video written of it, or ``""``.
     """
 
@@ -61,6 +72,11 @@ class Job:
     policy: str
     video_dir: str | None = None
     videos: int = 0
+
+
+def video_name(index: int, seed: int) -> str:
+    """The file name of the video of the ``index``-th episode, of ``seed``."""
+    return f"episode_{index:03d}_seed_{seed}.mp4"
 
 
 def summary(results: Sequence[EpisodeResult]) -> dict[str, Any]:
@@ -93,9 +109,16 @@ class Runner:
         if job.videos:
             options["render_mode"] = "rgb_array"
         self.env = gym.make(job.env_id, **options)
+        #: Whether to stop now (a worker's: its pool is shut down, or it got a stop signal).
+        self.should_stop: Callable[[], bool] = lambda: False
 
     def episode(self, seed: int, index: int) -> EpisodeResult:
-        """Run the episode of ``seed`` (``index``: its place, for the video's name)."""
+        """Run the episode of ``seed`` (``index``: its place, for the video's name).
+
+        Raises:
+            PolicyError: an action that is not numbers or not the action's shape.
+            KeyboardInterrupt: :attr:`should_stop` said so (no video is written).
+        """
         env, policy = self.env, self.policy
         obs, info = env.reset(seed=seed)
         policy.reset(seed)
@@ -103,6 +126,8 @@ class Runner:
         total, best, steps, error = 0.0, -np.inf, 0, ""
         done = False
         while not done:
+            if self.should_stop():
+                raise KeyboardInterrupt("stopped")
             if frames is not None:
                 frames.append(env.render())  # type: ignore[arg-type]
             try:
@@ -110,7 +135,11 @@ class Runner:
             except Exception as exc:
                 error = f"the policy raised {type(exc).__name__}: {exc}"
                 break
-            obs, reward, terminated, truncated, info = env.step(checked_action(raw, self.space))
+            action = checked_action(raw, self.space)
+            error = not_finite(action)
+            if error:
+                break
+            obs, reward, terminated, truncated, info = env.step(action)
             total += float(reward)
             best = max(best, float(reward))
             steps += 1
@@ -119,7 +148,7 @@ class Runner:
                 error = f"fault: {info['fault']}"
         video = ""
         if frames and self.job.video_dir is not None:
-            video = str(Path(self.job.video_dir) / f"episode_{index:03d}_seed_{seed}.mp4")
+            video = str(Path(self.job.video_dir) / video_name(index, seed))
             write_video(Path(video), frames, int(env.metadata["render_fps"]))
         return EpisodeResult(
             seed,
@@ -138,42 +167,148 @@ class Runner:
 
 
 def write_video(path: Path, frames: Sequence[np.ndarray], fps: int) -> None:
-    """Frames (H, W, 3) RGB as an AV1 MP4 (PyAV, of ``mearm[record]``)."""
+    """Frames (H, W, 3) RGB as an AV1 MP4 (PyAV, of ``mearm[record]``), in one step.
+
+    Written beside ``path`` and renamed onto it once whole: a signal or a full disk
+    leaves the file that was there (``--force``) and no half video.
+    """
     from mearm.dataset import lerobot_format as L  # noqa: PLC0415
     from mearm.dataset.recorder import import_extra  # noqa: PLC0415
 
     av = import_extra()[2]
     os.environ.setdefault("SVT_LOG", "1")  # SVT-AV1: errors only, not its banner
     path.parent.mkdir(parents=True, exist_ok=True)
-    with av.open(str(path), "w") as out:
-        stream = out.add_stream(L.VIDEO_CODEC, rate=fps, options={"crf": str(L.VIDEO_CRF)})
-        stream.height, stream.width = frames[0].shape[:2]
-        stream.pix_fmt = L.VIDEO_PIX_FMT
-        for k, rgb in enumerate(frames):
-            frame = av.VideoFrame.from_ndarray(np.ascontiguousarray(rgb), format="rgb24")
-            frame.pts = k
-            for packet in stream.encode(frame):
+    part = path.with_name(f".{path.name}.{os.getpid()}.part")
+    try:
+        with av.open(str(part), "w", format="mp4") as out:
+            stream = out.add_stream(L.VIDEO_CODEC, rate=fps, options={"crf": str(L.VIDEO_CRF)})
+            stream.height, stream.width = frames[0].shape[:2]
+            stream.pix_fmt = L.VIDEO_PIX_FMT
+            for k, rgb in enumerate(frames):
+                frame = av.VideoFrame.from_ndarray(np.ascontiguousarray(rgb), format="rgb24")
+                frame.pts = k
+                for packet in stream.encode(frame):
+                    out.mux(packet)
+            for packet in stream.encode():
                 out.mux(packet)
-        for packet in stream.encode():
-            out.mux(packet)
+        os.replace(part, path)
+    except BaseException:
+        part.unlink(missing_ok=True)
+        raise
 
 
 #: The worker's runner, made once by :func:`_start_worker`.
 _RUNNER: Runner | None = None
+#: Set by the parent when it shuts the pool down (:class:`_Pool`).
+_STOP: Any = None
+#: Whether this worker got Ctrl-C, SIGTERM or SIGHUP, or its parent is gone.
+_SIGNALLED = False
+#: Whether its parent is gone (killed outright): the worker ends after the episode it runs.
+_ORPHANED = False
+#: Whether this worker runs an episode now.
+_BUSY = False
+#: The signals a worker takes as "stop" (and the parent defers while it starts them).
+_WORKER_SIGNALS = (signal.SIGINT, *interrupts.STOP_SIGNALS)
 
 
-def _start_worker(job: Job) -> None:
-    global _RUNNER
-    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent cancels; no worker tracebacks
+def _on_stop_signal(signum: int, frame: object) -> None:
+    """A worker's Ctrl-C, SIGTERM or SIGHUP: stop at the next step (no traceback here)."""
+    global _SIGNALLED
+    _SIGNALLED = True
+
+
+def _stopped() -> bool:
+    return _SIGNALLED or (_STOP is not None and _STOP.is_set())
+
+
+def _watch_parent(sentinel: int) -> None:
+    """End this worker once its parent has gone, whatever ended it (SIGKILL too).
+
+    An idle worker waits for work that will never come: it ends at once; a busy one ends
+    its episode at the next step, writes no video of it, and ends (:func:`_in_worker`).
+    """
+    global _SIGNALLED, _ORPHANED
+    multiprocessing.connection.wait([sentinel])
+    _SIGNALLED = _ORPHANED = True
+    if not _BUSY:
+        os._exit(1)
+
+
+def _start_worker(job: Job, stop: Any) -> None:
+    """A worker's setup: its stop signals only note the stop; its runner, made once.
+
+    With ``fork`` the worker would otherwise keep the parent's handlers (SIGTERM raising
+    wherever it waits, with a traceback of its own) or die of the signal mid-video. The
+    parent started it with those signals blocked (:meth:`_Pool.submit`): one sent since
+    arrives here, once the handler is in place.
+    """
+    global _RUNNER, _STOP
+    _STOP = stop
+    for sig in _WORKER_SIGNALS:
+        if signal.getsignal(sig) is not signal.SIG_IGN:  # under nohup: stays ignored
+            signal.signal(sig, _on_stop_signal)
+    if hasattr(signal, "pthread_sigmask"):
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, _WORKER_SIGNALS)
+    parent = multiprocessing.parent_process()
+    if parent is not None:
+        threading.Thread(target=_watch_parent, args=(parent.sentinel,), daemon=True).start()
     _RUNNER = Runner(job)
+    _RUNNER.should_stop = _stopped
 
 
 def _in_worker(seed: int, index: int) -> EpisodeResult:
+    global _BUSY
     assert _RUNNER is not None, "_start_worker was not run"
-    return _RUNNER.episode(seed, index)
+    _BUSY = True
+    try:
+        if _stopped():
+            raise KeyboardInterrupt("stopped")
+        return _RUNNER.episode(seed, index)
+    finally:
+        _BUSY = False
+        if _ORPHANED:  # no one takes the result
+            os._exit(1)
 
 
-def run_episodes(job: Job, seeds: Sequence[int], jobs: int) -> Iterator[EpisodeResult]:
+class _Pool(ProcessPoolExecutor):
+    """The workers, told to stop when the pool is shut down.
+
+    :func:`~mearm.cli.ordered_results` shuts the pool down, waiting for the workers,
+    when the parent leaves early (Ctrl-C, or SIGTERM taken as Ctrl-C): the workers then
+    end their episodes at the next step instead of running them out, so none outlives
+    the parent (a SIGTERM used to end the parent alone, and a worker went on to write a
+    video after it had gone).
+    """
+
+    def __init__(self, workers: int, job: Job):
+        context = multiprocessing.get_context()
+        self._stop = context.Event()
+        super().__init__(
+            max_workers=workers, mp_context=context, initializer=_start_worker,
+            initargs=(job, self._stop),
+        )  # fmt: skip
+
+    def submit(self, fn: Callable[..., Any], /, *args: Any, **kwargs: Any) -> Future[Any]:
+        """Submit with Ctrl-C, SIGTERM and SIGHUP held back until it returns.
+
+        The first submit starts the workers; a Ctrl-C raised inside it (between forking
+        them and starting the thread that manages them) left a pool that its shutdown
+        could not stop, and the parent waited at exit for workers that waited for work.
+        """
+        if not hasattr(signal, "pthread_sigmask"):
+            return super().submit(fn, *args, **kwargs)
+        held = signal.pthread_sigmask(signal.SIG_BLOCK, _WORKER_SIGNALS)
+        try:
+            return super().submit(fn, *args, **kwargs)
+        finally:
+            signal.pthread_sigmask(signal.SIG_SETMASK, held)
+
+    def shutdown(self, wait: bool = True, *, cancel_futures: bool = False) -> None:  # noqa: D102, FBT001, FBT002 - Executor's
+        self._stop.set()  # the work is done, or given up: either way, nothing more to run
+        super().shutdown(wait=wait, cancel_futures=cancel_futures)
+
+
+def run_episodes(job: Job, seeds: Sequence[int], jobs: int) -> Generator[EpisodeResult]:
     """Each seed's result, in the order of ``seeds``, from ``jobs`` workers (1: here).
 
     Raises:
@@ -189,7 +324,5 @@ def run_episodes(job: Job, seeds: Sequence[int], jobs: int) -> Iterator[EpisodeR
             runner.close()
         return
     Runner(Job(job.env_id, job.env_options, job.policy)).close()  # bad input: here, at once
-    pool = ProcessPoolExecutor(
-        max_workers=min(jobs, len(seeds)), initializer=_start_worker, initargs=(job,)
-    )
+    pool = _Pool(min(jobs, len(seeds)), job)
     yield from ordered_results(pool, _in_worker, ((s, i) for i, s in enumerate(seeds)))

@@ -130,8 +130,11 @@ def load_policy(spec: str, action_space: spaces.Box) -> Policy:
 def checked_action(action: Any, space: spaces.Box) -> np.ndarray:
     """A policy's action as the vector the environment takes.
 
+    Whether it is finite is the episode's to check (:func:`not_finite`): a policy that
+    gives NaN after some steps fails that episode, as one that raises does.
+
     Raises:
-        PolicyError: not ``space.shape`` numbers, or not all finite.
+        PolicyError: not numbers, or not ``space.shape`` (the policy is wired wrong).
     """
     try:
         a = np.asarray(action, dtype=float)
@@ -141,6 +144,11 @@ def checked_action(action: Any, space: spaces.Box) -> np.ndarray:
         raise PolicyError(
             f"the policy's action has shape {a.shape}; the environment takes {space.shape}"
         )
-    if not np.all(np.isfinite(a)):
-        raise PolicyError(f"the policy's action is not finite: {np.round(a, 3).tolist()}")
     return a
+
+
+def not_finite(action: np.ndarray) -> str:
+    """Why ``action`` cannot be taken, NaN or infinite values, or ``""``."""
+    if np.all(np.isfinite(action)):
+        return ""
+    return f"the policy's action is not finite: {np.round(action, 3).tolist()}"

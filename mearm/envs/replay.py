@@ -20,6 +20,7 @@ else exit 2 naming both.
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -228,9 +229,15 @@ def replay(
     try:
         env.reset(seed=plan.seed)
         refused = 0
-        for action in actions[1:]:
-            *_, info = env.step(action.astype(np.float32))
-            refused += bool(info["refused"])
+        with warnings.catch_warnings():
+            # the recording goes on past the step that put the last object in its bin (the
+            # sorter's way home): stepped as recorded, not a misuse of the ended episode
+            warnings.filterwarnings("ignore", message=r".*step\(\) after the episode returned")
+            for action in actions[1:]:
+                *_, info = env.step(action.astype(np.float32))
+                refused += bool(info["refused"])
+                if info.get("fault"):  # the physics diverged: the environment steps no more
+                    break
         twin_env = env.unwrapped
         assert isinstance(twin_env, TwinEnv) and twin_env.twin is not None
         twin = twin_env.twin

@@ -39,6 +39,7 @@ from gymnasium import spaces
 
 from mearm.config import Config, SceneObject, load_config
 from mearm.config.base import MAX_SEED
+from mearm.config.sections import MAX_SCENE_OBJECTS
 from mearm.dataset.recorder import CAMERA_NAME, SCENE_TASK, task_sentence
 from mearm.envs.actions import ActionSpec
 from mearm.envs.errors import EnvOptionError
@@ -47,6 +48,7 @@ from mearm.experiment import trial_config
 from mearm.hardware.command import ArmCommand
 from mearm.hardware.errors import JointLimitError, PulseRangeError, ServoError
 from mearm.kinematics import ArmModel
+from mearm.kinematics.bodies import TableContents, wall_height_m
 from mearm.sim.table_collision import collision_model
 from mearm.sim.twin.twin_bus import TwinArm
 from mearm.sim.twin.twin_camera import CAMERA_NAME as TWIN_CAMERA
@@ -67,9 +69,108 @@ SORT_OBJECTS = 12
 
 
 def _config(config: str | Path | Config, overrides: Sequence[str]) -> Config:
+    """The config, loaded with ``overrides`` (refused on a loaded one: it is not reloaded).
+
+    Raises:
+        EnvOptionError: ``overrides`` is not a list of strings (one string was split into
+            its characters), or is given with a loaded ``Config``.
+    """
+    if not isinstance(overrides, list | tuple) or not all(isinstance(o, str) for o in overrides):
+        one = f" (one override: overrides=[{overrides!r}])" if isinstance(overrides, str) else ""
+        raise EnvOptionError(
+            f"overrides must be a list of 'dotted.key=value' strings, got {overrides!r}{one}"
+        )
     if isinstance(config, Config):
+        if overrides:
+            raise EnvOptionError(
+                "overrides apply to a config loaded by name or file; with a loaded Config "
+                "apply them yourself (load_config(name, overrides))"
+            )
         return config
     return load_config(config, tuple(overrides))
+
+
+def _whole(name: str, value: object) -> int:
+    """``value`` as an int: a whole number, not a bool nor a float (2.5 was truncated to 2).
+
+    Raises:
+        EnvOptionError: anything else.
+    """
+    if isinstance(value, bool) or not isinstance(value, int | np.integer):
+        raise EnvOptionError(f"{name} must be a whole number, got {value!r}")
+    return int(value)
+
+
+def _image_size(value: object) -> tuple[int, int]:
+    """``image_size`` as (H, W): two whole numbers.
+
+    Raises:
+        EnvOptionError: a string, or not two whole numbers.
+    """
+    if isinstance(value, str | bytes) or not isinstance(value, Sequence | np.ndarray):
+        raise EnvOptionError(f"image_size must be (height, width) in px, got {value!r}")
+    if len(value) != 2:
+        raise EnvOptionError(
+            f"image_size must be two numbers, (height, width) in px, got {len(value)}: {value!r}"
+        )
+    return _whole("image_size's height", value[0]), _whole("image_size's width", value[1])
+
+
+def _objects(config: Config, task: str, objects: object) -> int:
+    """The objects of an episode's scene: ``objects`` checked against the task and the bins.
+
+    Raises:
+        EnvOptionError: not a whole number, not 1 for ``pick_place``, or more than the
+            bins hold (refused here, not at ``reset()`` by the scene or the twin's model).
+    """
+    if task == "pick_place":
+        if objects is not None and (isinstance(objects, bool) or objects != 1):
+            raise EnvOptionError(f"pick_place moves one object; objects must be 1, got {objects!r}")
+        return 1
+    n = SORT_OBJECTS if objects is None else _whole("objects", objects)
+    most = max_objects(config)
+    if most < 1:
+        raise EnvOptionError(
+            "the bins of this config hold no object: their walls reach where the arm "
+            "releases one (raise bin_cm z, task.classes)"
+        )
+    if not 1 <= n <= most:
+        given = "objects" if objects is not None else f"objects (default {n})"
+        raise EnvOptionError(
+            f"{given} must be at least 1 and at most {most}, got {n}: {most} is what the "
+            f"bins of this config hold, the objects dealt to its {len(config.task.classes)} "
+            "classes in turn (more: raise bin_cm z, task.classes)"
+        )
+    return n
+
+
+def max_objects(config: Config) -> int:
+    """The most objects a sort's scene of ``config`` may hold: what its bins hold.
+
+    A scene of N deals its objects to the classes in turn (:func:`random_scene`); the
+    twin stacks each class's in its bin, whose walls grow with them
+    (:func:`~mearm.kinematics.bodies.wall_height_m`) and must stay below where the arm
+    releases one (as the twin's model checks: ``bin_cm`` z less the tool's
+    ``tcp_above_grip_cm`` and the class's ``grip_z_cm``), with what the belt brings
+    besides. At most :data:`~mearm.config.sections.MAX_SCENE_OBJECTS`. 0: the bins hold
+    not even one.
+    """
+    task = config.task
+    classes = list(task.classes)
+    brought = TableContents.of(task.model_copy(update={"scene": []}), config.belt).belt
+
+    def fits(n: int) -> bool:
+        for i, c in enumerate(classes):
+            dealt = len(range(i, n, len(classes)))  # the i-th class's share of n, in turn
+            release_m = (c.bin_cm[2] - config.arm.tool.tcp_above_grip_cm - c.grip_z_cm) / 100
+            if wall_height_m(c, dealt + brought.get(c.name, 0)) > release_m:
+                return False
+        return True
+
+    n = 0
+    while n < MAX_SCENE_OBJECTS and fits(n + 1):
+        n += 1
+    return n
 
 
 class TwinEnv(gym.Env[dict[str, Any], np.ndarray]):
@@ -80,16 +181,22 @@ class TwinEnv(gym.Env[dict[str, Any], np.ndarray]):
             ``mujoco``.
         task: ``pick_place`` (one object of a class the seed draws, to its bin) or
             ``sort`` (``objects`` objects, each to its class's bin).
-        objects: Objects of a sort's scene (default :data:`SORT_OBJECTS`).
-        fps: Steps per second [Hz]; must divide ``servo.rate_hz`` (default: equal to it).
+        objects: Objects of a sort's scene (default :data:`SORT_OBJECTS`): a whole number
+            from 1 to what the config's bins hold (:func:`max_objects`).
+        fps: Steps per second [Hz], a whole number; must divide ``servo.rate_hz``
+            (default: equal to it).
         obs_type: ``pixels_agent_pos`` or ``state`` (no pixels).
-        image_size: ``pixels``' (H, W) [px].
-        render_mode: ``rgb_array`` or ``None``.
-        expert: Run the sorter beside each episode (``info["expert_action"]``).
-        overrides: ``dotted.key=value`` strings applied to a config loaded by name.
+        image_size: ``pixels``' (H, W) [px], two whole numbers.
+        render_mode: ``rgb_array`` or ``None``. (``gym.make(..., render_mode="human")``
+            makes this one ``rgb_array`` and wraps it in Gymnasium's ``HumanRendering``,
+            which needs pygame: the environment never sees "human".)
+        expert: Run the sorter beside each episode (``info["expert_action"]``): a bool.
+        overrides: A list of ``dotted.key=value`` strings applied to a config loaded by
+            name or file (not to a loaded ``Config``; one string is refused, not split).
 
     Raises:
-        EnvOptionError: an option out of range, or a config that is not the twin's.
+        EnvOptionError: an option out of range or of the wrong type, or a config that is
+            not the twin's.
     """
 
     metadata: dict[str, Any] = {"render_modes": ["rgb_array"], "render_fps": 50}
@@ -121,16 +228,14 @@ class TwinEnv(gym.Env[dict[str, Any], np.ndarray]):
             )
         if render_mode not in (None, "rgb_array"):
             raise EnvOptionError(f"render_mode must be 'rgb_array' or None, got {render_mode!r}")
+        if not isinstance(expert, bool | np.bool_):  # "no" is true: it ran the sorter
+            raise EnvOptionError(f"expert must be True or False, got {expert!r}")
         rate = float(base.servo.rate_hz)
-        fps = int(round(rate)) if fps is None else int(fps)
+        fps = int(round(rate)) if fps is None else _whole("fps", fps)
         if fps < 1 or abs(rate / fps - round(rate / fps)) > 1e-9:
             raise EnvOptionError(f"fps must divide servo.rate_hz = {rate:g} Hz, got {fps}")
-        n = 1 if task == "pick_place" else SORT_OBJECTS if objects is None else int(objects)
-        if task == "pick_place" and objects not in (None, 1):
-            raise EnvOptionError(f"pick_place moves one object; objects must be 1, got {objects}")
-        if n < 1:
-            raise EnvOptionError(f"objects must be at least 1, got {n}")
-        h, w = (int(v) for v in image_size)
+        n = _objects(base, task, objects)
+        h, w = _image_size(image_size)
         if not (8 <= h <= base.camera.height_px and 8 <= w <= base.camera.width_px):
             raise EnvOptionError(
                 f"image_size must be within 8…{base.camera.height_px} × 8…"
@@ -144,7 +249,9 @@ class TwinEnv(gym.Env[dict[str, Any], np.ndarray]):
         self.obs_type: ObsType = obs_type
         self.image_size = (h, w)
         self.render_mode = render_mode
-        self.use_expert = expert
+        self.use_expert = bool(expert)
+        self._ended = ""  # why the episode ended (terminated): "success", or the fault
+        self._warned = False  # that a step came after it ended
         self.metadata = {**self.metadata, "render_fps": fps}
         self.spec_actions = ActionSpec.of(base)
         a = self.spec_actions
@@ -195,7 +302,18 @@ class TwinEnv(gym.Env[dict[str, Any], np.ndarray]):
 
         The arm starts at home with the jaws open, as a sort does (one step of the home
         command, the sorter's first).
+
+        Raises:
+            EnvOptionError: ``options`` has a key (this environment takes none: a key it
+                ignored would look as though it had been applied), or the seed is out of
+                range.
         """
+        if options:
+            raise EnvOptionError(
+                f"reset() takes no options (options=None or {{}}), got {sorted(options)}; "
+                "the scene's options are gym.make's (objects, fps, obs_type, image_size, "
+                "expert, overrides, config)"
+            )
         super().reset(seed=seed)
         scene_seed = seed if seed is not None else int(self.np_random.integers(MAX_SEED))
         if not 0 <= scene_seed <= MAX_SEED:
@@ -212,6 +330,7 @@ class TwinEnv(gym.Env[dict[str, Any], np.ndarray]):
         tool = {t.name: t.setting("home") for t in config.arm.tool.actuators}
         self._send(ArmCommand(home, tool, gripper_closed=False))
         self._in_bin = self._count()
+        self._ended, self._warned = "", False
         if self.use_expert:
             from mearm.envs.expert import SorterExpert  # noqa: PLC0415
 
@@ -223,10 +342,20 @@ class TwinEnv(gym.Env[dict[str, Any], np.ndarray]):
 
         Raises:
             ValueError: ``action`` is not the action vector's shape, or not finite.
-            RuntimeError: before :meth:`reset`.
+            RuntimeError: before :meth:`reset`, or after a step that ended the episode on
+                a fault (``info["fault"]``: the physics diverged). After one that ended it
+                on success a step warns once, as Gymnasium's own environments do.
         """
         if self.twin is None or self.config is None:
             raise RuntimeError("call reset() before step()")
+        if self._ended.startswith("fault"):  # a fault stops motion: no step moves it on
+            raise RuntimeError(f"the episode ended on a {self._ended}: call reset() first")
+        if self._ended and not self._warned:  # Gymnasium's convention (its CartPole): warn
+            gym.logger.warn(
+                "step() after the episode returned terminated=True: call reset(); steps "
+                "after the end are undefined behaviour (Gymnasium's API)"
+            )
+            self._warned = True
         clipped = self.spec_actions.clip(action)
         command = self.spec_actions.command(clipped.vector)
         refused = self._refusal(command)
@@ -240,7 +369,10 @@ class TwinEnv(gym.Env[dict[str, Any], np.ndarray]):
                 fault = str(exc)
         if refused is not None:
             assert self.twin.commanded is not None
-            self._send(self.twin.commanded)
+            try:  # holding faults too when the physics diverges: a fault, not a crash
+                self._send(self.twin.commanded)
+            except ServoError as exc:
+                fault = str(exc)
         count = self._count()
         reward = float(count - self._in_bin)
         self._in_bin = count
@@ -251,13 +383,12 @@ class TwinEnv(gym.Env[dict[str, Any], np.ndarray]):
         info["refused"] = refused or ""
         if fault is not None:
             info["fault"] = fault
-        return (
-            self._observation(),
-            reward,
-            bool(info["is_success"]) or fault is not None,
-            False,
-            info,
-        )
+        terminated = bool(info["is_success"]) or fault is not None
+        if fault is not None:
+            self._ended = f"fault: {fault}"
+        elif terminated and not self._ended:
+            self._ended = "success"
+        return self._observation(), reward, terminated, False, info
 
     def _send(self, command: ArmCommand) -> None:
         """Send ``command`` for one step: ``periods`` commands of the servo stream."""

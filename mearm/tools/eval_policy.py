@@ -9,17 +9,23 @@ function of the observation, or a class whose instances are) or a baseline ``FIL
 as it ends (seed order) and the totals; ``--out`` writes them as JSON (``pc_success``,
 ``avg_sum_reward``, ``avg_max_reward`` and per episode its seed, outcome, return and
 steps); ``--videos K`` writes the first K episodes as MP4s into ``videos/`` beside it
-(``./videos/`` without ``--out``). ``--env-option key=value`` passes an option to the
+(``./videos/`` without ``--out``). An ``--out`` or a video that exists is refused before
+any episode runs, unless ``--force``. ``--env-option key=value`` passes an option to the
 environment (``objects``, ``fps``, ``obs_type``, ``image_size``, ``max_episode_steps``;
-values in YAML). Exit 0, or 1 if the success rate is below ``--require`` or every
-episode ended on an error (the policy was not scored); 2 on bad input (one line): a
-policy that does not load, a baseline trained for another environment or of other
-input or output sizes, an action of the wrong shape or not finite, an unknown option,
-``--episodes`` below 1, an ``--out`` that is the policy's file or the config.
+values in YAML). Exit 0; 1 if the success rate is below ``--require`` or an episode
+ended on an error (the policy raised, gave an action that is not finite, or a fault: the
+episode's ``error`` says which, the others are scored and ``--out`` is written); 2 on bad
+input (one line): a policy that does not load, a baseline trained for another
+environment or of other input or output sizes, an action of the wrong shape, an unknown
+option, ``--episodes`` below 1, an ``--out`` that is the policy's file or the config, an
+``--out`` or video that exists (without ``--force``), a ``videos`` that is not a folder.
+SIGTERM and SIGHUP stop it as Ctrl-C does (exit 143, 129; Ctrl-C 130), workers and all.
 """
 
 from __future__ import annotations
 
+import argparse
+import contextlib
 import inspect
 import json
 import math
@@ -32,10 +38,13 @@ from typing import Any
 
 import yaml
 
+from mearm import interrupts
 from mearm.cli import (
     ArgumentParser,
     check_output_file,
+    check_output_folder,
     invoked_as,
+    refuse_to_replace,
     run,
     seed_value,
     worker_count,
@@ -154,8 +163,58 @@ def _check_baseline_fits(path: Path, env_id: str, options: dict[str, Any]) -> No
         )
 
 
+def _check_videos(folder: Path, first_seed: int, k: int, *, force: bool) -> None:
+    """Refuse, before any episode, a ``videos`` that is not a folder or videos that exist.
+
+    Raises:
+        MearmError: ``folder`` is a file (it crashed on FileExistsError after the first
+            episode), or one of the K videos exists and ``force`` is false.
+    """
+    from mearm.envs.evaluate import video_name  # noqa: PLC0415
+
+    if folder.exists() and not folder.is_dir():
+        raise MearmError(
+            f"--videos: {folder} is a file, not a folder; the videos go into a folder of that "
+            "name (beside --out, else here): move the file or give --out elsewhere"
+        )
+    check_output_folder(folder, "--videos")
+    for i in range(k):
+        path = folder / video_name(i, first_seed + i)
+        check_output_file(path, "--videos")
+        refuse_to_replace(path, "--videos", force)
+
+
+def _check_outputs(args: argparse.Namespace) -> str | None:
+    """Refuse, before any episode, an ``--out`` or videos that cannot or may not be written.
+
+    Returns:
+        The videos' folder (``--videos``), else ``None``.
+
+    Raises:
+        MearmError: one of them, named.
+    """
+    if args.out is not None:
+        check_output_file(args.out, "--out")
+        _refuse_an_input_as_out(args.out, args.policy, args.config)
+        refuse_to_replace(args.out, "--out", args.force)
+    if not args.videos:
+        return None
+    folder = (args.out.parent if args.out else Path(".")) / "videos"
+    _check_videos(folder, args.first_seed, args.videos, force=args.force)
+    return str(folder)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
-    """Run the episodes; print and write the scores; 1 below ``--require``."""
+    """Run the episodes; print and write the scores; 1 below ``--require`` or on an error.
+
+    SIGTERM and SIGHUP stop it as Ctrl-C does: the workers end their episodes and the
+    pool is shut down (a SIGTERM used to end this process alone, and its workers ran on).
+    """
+    with interrupts.stop_signals_as_ctrl_c():
+        return _eval_policy(argv)
+
+
+def _eval_policy(argv: Sequence[str] | None) -> int:
     parser = ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--env", default="mearm/PickPlace-v0", help="environment id")
     parser.add_argument(
@@ -173,7 +232,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument(
         "--videos", type=int, default=0, metavar="K",
         help="write the first K episodes as MP4s into videos/ beside --out (without --out: "
-        "./videos/), replacing any episode_*.mp4 of the same name",
+        "./videos/); an episode_*.mp4 of the same name is refused unless --force",
+    )  # fmt: skip
+    parser.add_argument(
+        "--force", action="store_true",
+        help="replace an existing --out and the videos of the same names",
     )  # fmt: skip
     parser.add_argument(
         "--require", type=float, default=0.0, help="exit 1 below this success share"
@@ -192,30 +255,27 @@ def main(argv: Sequence[str] | None = None) -> int:
         raise MearmError(f"--require is a share in [0, 1], got {args.require}")
     if args.env not in MAX_EPISODE_STEPS:  # the environments mearm.envs registers
         raise MearmError(f"--env must be {' or '.join(MAX_EPISODE_STEPS)}, got {args.env!r}")
-    if args.out is not None:
-        check_output_file(args.out, "--out")
-        _refuse_an_input_as_out(args.out, args.policy, args.config)
+    video_dir = _check_outputs(args)
     options = {"config": args.config, **env_options(args.env_option)}
     if args.policy.endswith(".pt"):  # a baseline knows its environment: say so before running
         _check_baseline_fits(Path(args.policy), args.env, options)
-    video_dir = None
-    if args.videos:
-        video_dir = str((args.out.parent if args.out else Path(".")) / "videos")
     job = Job(args.env, options, args.policy, video_dir, args.videos)
     seeds = range(args.first_seed, args.first_seed + args.episodes)
     t0 = time.perf_counter()
     results = []
     try:
-        for k, result in enumerate(run_episodes(job, seeds, args.jobs), 1):
-            results.append(result)
-            outcome = "success" if result.success else "failure"
-            why = f"; {result.error}" if result.error else ""
-            print(
-                f"episode {k:3d}/{args.episodes} seed {result.seed}: {outcome}, "
-                f"{result.in_bins}/{result.objects} in their bins, return "
-                f"{result.sum_reward:g}, {result.steps} steps{why}",
-                flush=True,
-            )
+        episodes = contextlib.closing(run_episodes(job, seeds, args.jobs))
+        with episodes as each:  # left early (a signal while printing): the pool stops too
+            for k, result in enumerate(each, 1):
+                results.append(result)
+                outcome = "success" if result.success else "failure"
+                why = f"; {result.error}" if result.error else ""
+                print(
+                    f"episode {k:3d}/{args.episodes} seed {result.seed}: {outcome}, "
+                    f"{result.in_bins}/{result.objects} in their bins, return "
+                    f"{result.sum_reward:g}, {result.steps} steps{why}",
+                    flush=True,
+                )
     except TypeError as exc:  # an option of the wrong type for the environment
         raise EnvOptionError(f"--env-option: {exc}") from None
     scores = summary(results)
@@ -236,10 +296,18 @@ def main(argv: Sequence[str] | None = None) -> int:
             **scores,
         }
         write_text_atomic(args.out, json.dumps(record, indent=2) + "\n")
+    prog = invoked_as("python -m mearm.tools.eval_policy")
     if len(failed) == len(results):  # nothing was scored: not a 0 % policy, a broken run
         print(
-            f"{invoked_as('python -m mearm.tools.eval_policy')}: every episode ended on an "
-            f"error, so the policy was not scored (the first: {failed[0].error})",
+            f"{prog}: every episode ended on an error, so the policy was not scored (the "
+            f"first: {failed[0].error})",
+            file=sys.stderr,
+        )
+        return 1
+    if failed:  # the others are scored, but the run did not score what it was asked to
+        print(
+            f"{prog}: {len(failed)} of {len(results)} episodes ended on an error (the first, "
+            f"seed {failed[0].seed}: {failed[0].error})",
             file=sys.stderr,
         )
         return 1
