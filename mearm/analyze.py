@@ -17,8 +17,9 @@ cut-off one left out, with a note on stderr. A trial number that is *complete* t
 two runs written to one log — is refused (exit 2, naming the numbers): pooling them would
 count every such trial twice (:meth:`mearm.runlog.RunLogContents.latest`).
 
-Every file written under ``--out`` (the plots, ``report.md``) replaces the old one in a
-single step (:func:`mearm.fileio.write_atomic`).
+``--out`` refuses, before any work, to replace a file it would write there (``report.md``,
+a plot) unless ``--force`` is given; each is written in a single step
+(:func:`mearm.fileio.write_atomic`).
 """
 
 from __future__ import annotations
@@ -39,6 +40,8 @@ from mearm.cli import (
     config_from_args,
     float_list,
     invoked_as,
+    refuse_own_inputs,
+    refuse_to_replace,
     run,
     write_text_atomic,
 )
@@ -58,6 +61,9 @@ def _parser() -> ArgumentParser:
     )
     parser.add_argument("log", nargs="?", type=Path, help="run log (JSON lines) to analyse")
     parser.add_argument("--out", type=Path, help="write PNG plots and report.md into this folder")
+    parser.add_argument(
+        "--force", action="store_true", help="replace report.md and plots already in --out"
+    )
     parser.add_argument("--json", action="store_true", help="print everything as JSON")
     parser.add_argument(
         "--step",
@@ -195,11 +201,33 @@ def _check_start(parser: ArgumentParser, config: Config, start: list[float] | No
         )
 
 
-#: The files ``--out`` receives (:func:`_report`, the plots).
-OUTPUT_NAMES = (
-    "report.md", "histogram.png", "success_vs_error.png", "ee_path_3d.png",
-    "joint_angles.png", "gains_kp.png", "gains_kd.png",
-)  # fmt: skip
+#: The files ``--out`` receives from a run log (the report links them).
+LOG_OUTPUT_NAMES = ("histogram.png", "success_vs_error.png", "ee_path_3d.png", "joint_angles.png")
+#: The files ``--out`` receives from ``--gains``.
+GAIN_OUTPUT_NAMES = ("gains_kp.png", "gains_kd.png")
+#: The files ``--out`` receives (:func:`_write_report`, the plots).
+OUTPUT_NAMES = ("report.md", *LOG_OUTPUT_NAMES, *GAIN_OUTPUT_NAMES)
+
+
+def _may_write(args: argparse.Namespace) -> list[Path]:
+    """The files this run may write into ``--out`` (whether a plot is drawn shows later)."""
+    names = [OUTPUT_NAMES[0]]
+    names += LOG_OUTPUT_NAMES if args.log is not None else ()
+    names += GAIN_OUTPUT_NAMES if args.gains else ()
+    return [args.out / name for name in names]
+
+
+def _check_out_files(args: argparse.Namespace) -> None:
+    """Refuse (exit 2) a file --out would replace without --force, or one this run reads."""
+    from mearm.config.files import resolve_config_path
+
+    outputs = _may_write(args)
+    config = resolve_config_path(args.config) if args.gains and args.config else None
+    refuse_own_inputs(
+        [("--out", path) for path in outputs], [("run log", args.log), ("--config", config)]
+    )
+    for path in outputs:
+        refuse_to_replace(path, "--out", args.force)
 
 
 def _is_output(log: Path, out: Path) -> bool:
@@ -223,6 +251,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             f"{args.log} is the run log to analyse, and --out {args.out} would write "
             f"{args.log.name} over it: give another --out folder"
         )
+    if args.out is not None:
+        _check_out_files(args)
     if not _extras_installed(parser.prog, plots=args.out is not None):
         return EXIT_BAD_INPUT
 

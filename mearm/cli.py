@@ -417,7 +417,8 @@ def echo_line(line: str) -> None:
 def run(main: Callable[[Sequence[str] | None], int], argv: Sequence[str] | None = None) -> NoReturn:
     """Run a CLI ``main`` under the one guard every command shares.
 
-    :class:`MearmError` (bad input) → exit 2; Ctrl-C → 130 (a SIGTERM or SIGHUP taken as
+    :class:`MearmError` (bad input) → exit 2 (its ``exit_status``: 1 for a failure
+    of the run itself, such as a full disk); Ctrl-C → 130 (a SIGTERM or SIGHUP taken as
     Ctrl-C: 143, 129; :mod:`mearm.interrupts`); any other exception → exit 1
     with one line naming the error and where its traceback was written (``--debug`` or
     ``MEARM_DEBUG=1``: the traceback itself). Standard output's reader gone (a closed
@@ -433,7 +434,7 @@ def run(main: Callable[[Sequence[str] | None], int], argv: Sequence[str] | None 
             sys.stdout.flush()  # what was printed reaches the reader, or its pipe is closed
     except MearmError as exc:
         print(f"{prog}: error: {_one_line(exc)}", file=sys.stderr)
-        code = EXIT_BAD_INPUT
+        code = exc.exit_status  # EXIT_BAD_INPUT, or 1 for a failure of the run itself
     except KeyboardInterrupt:
         print(f"{prog}: interrupted", file=sys.stderr)
         code = interrupts.exit_status()  # 130; 143 after a SIGTERM taken as Ctrl-C

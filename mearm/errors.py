@@ -16,7 +16,14 @@ from collections.abc import Sequence
 
 
 class MearmError(Exception):
-    """Base class for all errors raised by mearm."""
+    """Base class for all errors raised by mearm.
+
+    Attributes:
+        exit_status: What a command that stops on this error exits with: 2, bad input,
+            unless the error is a failure of the run itself (a disk that filled: 1).
+    """
+
+    exit_status: int = 2
 
 
 class ConfigError(MearmError):

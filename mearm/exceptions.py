@@ -61,6 +61,7 @@ FAMILIES: dict[str, tuple[str, ...]] = {
     "mearm.dataset.errors": (
         "DatasetError",
         "DatasetExistsError",
+        "DatasetWriteError",
         "ExtraMissingError",
         "EncoderError",
     ),

@@ -5,7 +5,10 @@ Example::
     python -m mearm.fk --config configs/lab.yaml --joints 120,93,-132 --json
 
 ``--joints`` lists the actuated joints in the config's order and units (deg, or cm for a
-prismatic joint); passive joints follow from their couplings.
+prismatic joint); passive joints follow from their couplings. Joints outside their
+limits, or that a servo over several joints (the MeArm v1's elbow servo: shoulder +
+elbow) cannot be sent to within its pulse range, are refused (exit 2). The JSON's
+``joint_units`` gives each joint's unit.
 """
 
 from __future__ import annotations
@@ -21,6 +24,8 @@ from mearm.cli import (
     invoked_as,
     run,
 )
+from mearm.hardware.mapping import ServoMap
+from mearm.ik.target import decimal_list
 from mearm.kinematics import ArmModel
 
 
@@ -32,7 +37,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     add_config_argument(parser)
     parser.add_argument(
         "--joints",
-        type=float_list(None, "--joints"),
+        type=decimal_list(float_list(None, "--joints"), "--joints"),
         required=True,
         help="the actuated joints in deg (cm if prismatic), in the config's order",
     )
@@ -48,6 +53,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         )
     q = chain.from_named(dict(zip(chain.actuated, args.joints, strict=True)))
     model.check_limits(q)
+    found = ServoMap.from_arm(config.arm).outside_pulse_range(args.joints)
+    if found is not None:
+        raise found.error()  # a pose the servos cannot be sent to, as the planner refuses it
     ee_cm = model.fk_cm(q)
     approach = model.approach(q)
     named = chain.named(q)
@@ -56,6 +64,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             json.dumps(
                 {
                     "joints": {k: round(v, 9) for k, v in named.items()},
+                    "joint_units": {k: chain.unit(i) for i, k in enumerate(named)},
                     "ee_cm": [round(v, 9) for v in ee_cm.tolist()],
                     "approach": [round(v, 9) for v in approach.tolist()],
                 }

@@ -16,6 +16,9 @@ bins' and the objects' shapes; docs/view.md).
 ``--record DIR`` also writes the run as a LeRobotDataset v3.0, one episode per
 pick-and-place (docs/datasets.md).
 
+A config with a belt sorts what the belt brings (docs/sorting.md); ``--scene`` and
+``--random``, which lay objects on the table, are refused with it.
+
 Exit status: 0 only when every object seen was sorted (in simulation, every object: one
 the camera never saw is left too); 1 when the run ended with objects left (out of reach,
 failed picks, a camera or servo fault, a servo port that cannot be opened); 2 on bad
@@ -110,6 +113,13 @@ def scene_from_args(args: object, config: Config) -> list[SceneObject] | None:
         raise MearmError(
             "--scene and --random lay out the simulated table; this config's camera is "
             f"'{config.camera.kind}', not 'sim'"
+        )
+    if (scene_path is not None or n is not None) and config.belt is not None:
+        # the conveyor sorter takes only what lies on the belt: the table's would be left
+        raise MearmError(
+            "--scene and --random lay out objects on the table; a config with a belt sorts "
+            "only what the belt brings (belt.arrivals): drop them, or use a config without "
+            "a belt"
         )
     scene = None
     if scene_path is not None:
@@ -268,8 +278,11 @@ def _sort(argv: Sequence[str] | None) -> int:
     if recorder is not None:
         print(f"recording: {args.record}", flush=True)
     note = calibration_note(config, _config_args(args))
-    if note is not None and not args.quiet:  # every input accepted; nothing moved yet
+    # every input accepted, nothing moved yet; a camera that is not there ends the sort
+    # before it starts (logged, exit 2): one line on stderr then, not the note too
+    if note is not None and not args.quiet and _camera_opens(config):
         print(f"mearm sort: {note}", file=sys.stderr, flush=True)
+    stopped = ""  # why the sort stopped, said on stderr
     try:
         if mjcf is not None:  # the last of the inputs accepted (the log's lock included)
             write_text_atomic(args.save_mjcf, mjcf)
@@ -289,7 +302,8 @@ def _sort(argv: Sequence[str] | None) -> int:
     except SortAborted as exc:
         if args.quiet:
             _print_summary(lines)
-        print(f"mearm sort: stopped: {exc.reason}", file=sys.stderr)
+        stopped = exc.reason
+        print(f"mearm sort: stopped: {stopped}", file=sys.stderr)
         return interrupts.exit_status() if exc.interrupted else EXIT_FAILURE
     except (CameraError, ServoError) as exc:
         # raised only before the sort started (inside it, a fault is SortAborted): a
@@ -304,13 +318,29 @@ def _sort(argv: Sequence[str] | None) -> int:
     finally:
         if log is not None:
             log.close()
-        close_recorder(recorder, args.record)
+        close_recorder(recorder, args.record, said=stopped)
     if args.quiet:
         _print_summary(lines)
     if not report.complete:
         print(f"mearm sort: {report.outcome.line()}", file=sys.stderr)
         return EXIT_FAILURE
     return EXIT_OK
+
+
+def _camera_opens(config: Config) -> bool:
+    """Whether the config's camera opens (a real one is opened once and closed).
+
+    The simulated camera (``camera.kind: sim``) is always there.
+    """
+    if config.camera.kind == "sim":
+        return True
+    from mearm.backends import open_camera  # noqa: PLC0415  (a real camera only)
+
+    try:
+        with open_camera(config):
+            return True
+    except CameraError:
+        return False
 
 
 def _config_args(args: object) -> list[str]:

@@ -318,14 +318,15 @@ def test_two_runs_in_one_log_are_refused(log: Path, tmp_path: Path) -> None:
 
 @pytest.mark.heavy
 def test_report_and_plots_replace_old_ones_through_links(log: Path, tmp_path: Path, capsys):
-    """report.md linked elsewhere is written through the link; no temp file is left."""
+    """report.md linked elsewhere is written through the link (--force: it exists); no
+    temp file is left."""
     out, kept = tmp_path / "report", tmp_path / "kept"
     out.mkdir()
     kept.mkdir()
     (kept / "report.md").write_text("old")
     (out / "report.md").symlink_to(kept / "report.md")
     (out / "histogram.png").write_bytes(b"old png")
-    assert main([str(log), "--out", str(out)]) == 0
+    assert main([str(log), "--out", str(out), "--force"]) == 0
     capsys.readouterr()
     assert (out / "report.md").is_symlink()
     assert "histogram.png" in (kept / "report.md").read_text()

@@ -51,7 +51,8 @@ class BeltArrivals(Strict):
     max_gap_s: float = Field(default=9.0, gt=0, le=MAX_GAP_S, allow_inf_nan=False)
     """Longest time between two arrivals [s] (at least ``min_gap_s``)."""
     lateral_cm: float = Field(default=0.0, ge=0, le=MAX_LENGTH_CM, allow_inf_nan=False)
-    """Largest offset of an object from the belt's middle line [cm]."""
+    """Largest offset of an object from the belt's middle line [cm]: at most half the
+    belt's ``width_cm``, so that every object lands on the belt."""
     seed: Seed = 0
     """Seed of the draw."""
 
@@ -116,6 +117,17 @@ class BeltConfig(Strict):
     """What it brings, and when."""
     tracking: TrackingConfig = TrackingConfig()
     """How the camera's detections become tracks of the objects it carries."""
+
+    @model_validator(mode="after")
+    def _arrivals_on_belt(self) -> BeltConfig:
+        """An object's centre lands within the belt's width, or it is not on the belt."""
+        half = self.width_cm / 2
+        if self.arrivals.lateral_cm > half:
+            raise ValueError(
+                f"@arrivals.lateral_cm: {self.arrivals.lateral_cm:g} cm would land objects off "
+                f"the belt: at most half its width (width_cm {self.width_cm:g} cm), {half:g} cm"
+            )
+        return self
 
     def direction(self) -> tuple[float, float]:
         """The unit vector it runs along, base frame (x, y) [-]."""

@@ -3,8 +3,8 @@
 The mapping is validated by :func:`mearm.config.loader.config_from_dict` (with what it
 builds on, ``extends`` and ``arm.use``, merged in: :mod:`mearm.config.compose`); the files a
 config names (the servo calibration, the camera's calibration) are found relative to its
-folder, and the servo calibration file's fits replace the calibrations of the actuators
-it names (:mod:`mearm.config.servo_file`).
+folder (one a ``--set`` gives: to the current folder), and the servo calibration file's
+fits replace the calibrations of the actuators it names (:mod:`mearm.config.servo_file`).
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ from pathlib import Path
 from typing import Any
 
 from mearm.config.base import short_repr
-from mearm.config.loader import config_from_dict
+from mearm.config.loader import config_from_dict, file_keys_set
 from mearm.config.root import Config
 from mearm.data import config_names, packaged_config
 from mearm.errors import ConfigError
@@ -88,7 +88,8 @@ def load_config(path: str | Path | None = None, overrides: Sequence[str] = ()) -
     Args:
         path: The file, or the name of a packaged config (``sim`` is the shipped
             ``configs/sim.yaml``: :func:`resolve_config_path`), or ``None``.
-        overrides: ``dotted.key=value`` strings applied before validation.
+        overrides: ``dotted.key=value`` strings applied before validation (a relative
+            file path among them is relative to the current folder).
 
     Raises:
         ConfigError: the file is missing (a bare name: nor packaged), unreadable, not
@@ -97,16 +98,18 @@ def load_config(path: str | Path | None = None, overrides: Sequence[str] = ()) -
     if path is None:
         if not overrides:
             return Config()
-        return config_from_dict({}, source="--set", overrides=overrides)
+        config = config_from_dict({}, source="--set", overrides=overrides)
+        return _resolve_files(config, Path(), "--set", file_keys_set(overrides))
     path = resolve_config_path(path)
     config = config_from_dict(read_yaml(path), source=str(path), overrides=overrides, path=path)
-    return _resolve_files(config, path.parent, str(path))
+    return _resolve_files(config, path.parent, str(path), file_keys_set(overrides))
 
 
-def _resolve_files(config: Config, folder: Path, source: str) -> Config:
+def _resolve_files(config: Config, folder: Path, source: str, from_set: set[str]) -> Config:
     """``config`` with its calibration files found and its servo calibration applied.
 
-    Relative paths are relative to ``folder``; the servo calibration file
+    Relative paths are relative to ``folder`` (those of the keys in ``from_set``, given by
+    ``--set``, are absolute already); the servo calibration file
     (``servo.calibration_file``) replaces the calibrations of the actuators it names.
 
     Raises:
@@ -118,7 +121,8 @@ def _resolve_files(config: Config, folder: Path, source: str) -> Config:
         # imported only for a config that names such a file (every other load skips it)
         from mearm.config.servo_file import apply_servo_calibration_file  # noqa: PLC0415
 
-        resolved = _existing(folder, servo_file, "servo.calibration_file", source)
+        key = "servo.calibration_file"
+        resolved = _existing(folder, servo_file, key, "--set" if key in from_set else source)
         servo = config.servo.model_copy(update={"calibration_file": str(resolved)})
         config = apply_servo_calibration_file(config.model_copy(update={"servo": servo}), resolved)
     cal = config.calibration
@@ -126,7 +130,9 @@ def _resolve_files(config: Config, folder: Path, source: str) -> Config:
         return config
     changes: dict[str, str] = {}
     for name in ("intrinsics_file", "extrinsics_file"):
-        changes[name] = str(_existing(folder, getattr(cal, name), f"calibration.{name}", source))
+        key = f"calibration.{name}"
+        where = "--set" if key in from_set else source
+        changes[name] = str(_existing(folder, getattr(cal, name), key, where))
     return config.model_copy(update={"calibration": cal.model_copy(update=changes)})
 
 
@@ -134,15 +140,16 @@ def _existing(folder: Path, text: str, key: str, source: str) -> Path:
     """The file ``text`` names, relative to ``folder`` unless absolute.
 
     Raises:
-        ConfigError: it is not a file.
+        ConfigError: it is not a file; the message says where it looked and by which rule.
     """
     resolved = folder / text if not Path(text).is_absolute() else Path(text)
     if not resolved.is_file():
+        looked = "" if str(resolved) == text else f" (looked for {resolved})"
         raise ConfigError(
             source,
             [
-                f"{key}: {text!r} is not a file (looked for {resolved}); relative paths are "
-                "relative to the config file's folder"
+                f"{key}: {text!r} is not a file{looked}; a relative path in a config file is "
+                "relative to that file's folder, one given by --set to the current folder"
             ],
         )
     return resolved

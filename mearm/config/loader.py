@@ -8,7 +8,9 @@ An override is ``dotted.key=value``: the path walks mappings by key and lists by
 or, for lists of named items (joints, classes, tool actuators), by name —
 ``arm.joints.shoulder.limits.max=140``, ``task.classes.red.bin_cm=[-20,30,20]``. The value
 is read as YAML (``1.5``, ``true``, ``[1, 2]``, ``{min: 0, max: 90}``). Overrides are
-applied before validation, so a bad one gets the same one-line error as a bad file.
+applied before validation, so a bad one gets the same one-line error as a bad file. A
+relative file path an override gives is relative to the current folder (one a config
+file gives: to that file's folder).
 """
 
 from __future__ import annotations
@@ -23,8 +25,14 @@ from typing import Any
 from pydantic import ValidationError
 from pydantic_core import ErrorDetails
 
-from mearm.config.base import describe_error, example_file, loc_text, short_repr
-from mearm.config.compose import expand_config
+from mearm.config.base import (
+    MAX_LENGTH_CM,
+    describe_error,
+    example_file,
+    loc_text,
+    short_repr,
+)
+from mearm.config.compose import FILE_KEYS, expand_config
 from mearm.config.root import Config
 from mearm.data import packaged_arm
 from mearm.errors import ConfigError
@@ -104,7 +112,8 @@ def apply_overrides(
 
     A section the data leaves out is taken from ``defaults`` (the built-in config) before
     the override changes it, so ``--set arm.joints.base.home=90`` works on a file that
-    does not spell out the arm.
+    does not spell out the arm. A relative file path it sets (``servo.calibration_file``,
+    the camera's calibration files) is made absolute from the current folder.
 
     Raises:
         ConfigError: a malformed override, a list index or name that does not exist.
@@ -123,7 +132,37 @@ def apply_overrides(
             node[_index(node, last, where)] = value
         else:
             raise ConfigError("--set", [f"{where}: is a value, not a section"])
+        _paths_from_here(out, path)
     return out
+
+
+def file_keys_set(overrides: Sequence[str]) -> set[str]:
+    """The file-path keys (:data:`~mearm.config.compose.FILE_KEYS`) ``overrides`` set.
+
+    Raises:
+        ConfigError: a malformed override.
+    """
+    paths = [parse_override(text)[0] for text in overrides]
+    return {
+        f"{section}.{key}"
+        for section, key in FILE_KEYS
+        if any(path in ([section, key], [section]) for path in paths)
+    }
+
+
+def _paths_from_here(data: dict[str, Any], path: list[str]) -> None:
+    """Make a file path that ``--set`` just gave absolute from the current folder.
+
+    A path typed on the command line means what the shell means by it (the file
+    ``calibrate-servos --output F`` just wrote there), not a path beside the config file.
+    """
+    for section, key in FILE_KEYS:
+        part = data.get(section)
+        if path not in ([section, key], [section]) or not isinstance(part, dict):
+            continue
+        text = part.get(key)
+        if isinstance(text, str) and text.strip() and not Path(text).is_absolute():
+            part[key] = str(Path(text).absolute())
 
 
 def config_from_dict(
@@ -248,7 +287,8 @@ def millimetre_hint(data: Any) -> str | None:
     """A hint when the arm's link lengths look like millimetres, else ``None``.
 
     Hobby arms' links are a few to 30 cm; a DH ``a_cm`` or ``d_cm`` over
-    :data:`MM_SUSPECT_CM` is most likely a length in mm.
+    :data:`MM_SUSPECT_CM` (and within the bound a length may have) is most likely a
+    length in mm.
     """
     arm = data.get("arm") if isinstance(data, dict) else None
     joints = arm.get("joints") if isinstance(arm, dict) else None
@@ -259,7 +299,8 @@ def millimetre_hint(data: Any) -> str | None:
         dh = joint.get("dh") if isinstance(joint, dict) else None
         for key in ("a_cm", "d_cm"):
             value = dh.get(key) if isinstance(dh, dict) else None
-            if isinstance(value, int | float) and abs(value) > MM_SUSPECT_CM:
+            # beyond MAX_LENGTH_CM (inf, 1e300) no unit explains it: the bound's error alone
+            if isinstance(value, int | float) and MM_SUSPECT_CM < abs(value) <= MAX_LENGTH_CM:
                 name = joint.get("name", k)
                 long.append(f"{name}.dh.{key} = {value:g}")
     if not long:

@@ -87,7 +87,8 @@ depth; a mapping over a list of named items (`arm.joints`, `arm.tool.actuators`,
 `task.classes`) changes the items it names; anything else replaces, so a list is replaced
 whole (write the list out to add, remove or reorder items) and a value or `null` replaces
 the value. `arm.use` starts the arm afresh from its file: what an extended config said
-of its arm is dropped. Relative file paths stay relative to the config that wrote them.
+of its arm is dropped. Relative file paths stay relative to the config that wrote them
+(a path given by `--set` is relative to the current folder).
 A config that extends itself (or a loop of them), a missing file and an unknown arm are
 refused with one line naming it. The built-in arm is `{default_arm}`.
 

@@ -114,8 +114,8 @@ class CalibrationConfig(Strict):
     ``mearm calibrate-intrinsics``) and its pose in the base frame (from
     ``mearm calibrate-camera --intrinsics``), each in its own calibration file; each
     object is located by its top face at its class's ``height_cm``
-    (:mod:`mearm.vision.pinhole`). Relative file paths are relative to the config file's
-    folder.
+    (:mod:`mearm.vision.pinhole`). A relative file path is relative to the config file's
+    folder; one given by ``--set``, to the current folder.
     """
 
     model: Literal["homography", "perspective"] = "homography"
@@ -345,9 +345,10 @@ class ServoConfig(Strict):
     """Serial device, or a pyserial URL of an allowed scheme: ``socket://host:port``,
     ``rfc2217://host:port`` or ``loop://`` (no other: ``spy://`` writes files)."""
     calibration_file: PathText | None = None
-    """A servo calibration file written by ``mearm calibrate-servos`` (relative to the
-    config file's folder): its fitted zero, µs per unit and direction replace those of
-    the arm's actuators it names, when the config loads. ``None``: the config's own."""
+    """A servo calibration file written by ``mearm calibrate-servos`` (a relative path:
+    to the config file's folder; given by ``--set``, to the current folder): its fitted
+    zero, µs per unit and direction replace those of the arm's actuators it names, when
+    the config loads. ``None``: the config's own."""
     calibrate_at_start: Literal["never", "when_uncalibrated"] = "never"
     """``when_uncalibrated``: a sort whose servos were never calibrated (no
     ``calibration_file``) first calibrates them by the camera, as ``mearm calibrate-servos

@@ -12,6 +12,7 @@ __all__ = [
     "DatasetError",
     "DatasetExistsError",
     "DatasetRecorder",
+    "DatasetWriteError",
     "check_dataset",
 ]
 
@@ -19,6 +20,7 @@ _LAZY = {
     "DatasetError": "mearm.dataset.errors",
     "DatasetExistsError": "mearm.dataset.errors",
     "DatasetRecorder": "mearm.dataset.recorder",
+    "DatasetWriteError": "mearm.dataset.errors",
     "check_dataset": "mearm.dataset.format_check",
 }
 

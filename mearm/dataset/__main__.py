@@ -1,12 +1,13 @@
 """Check or show a LeRobot dataset recorded with --record (mearm dataset).
 
     mearm dataset check DIR        # every rule of the format (docs/datasets.md)
-    mearm dataset show DIR [--sheet PNG]
+    mearm dataset show DIR [--sheet PNG] [--force]
 
 "check" prints each broken rule and exits 1 if any is broken (0: the dataset passes);
 "show" prints the episodes, tasks and statistics of the state and the action, and saves
-a contact sheet of frames with their states (default DIR-sheet.png beside DIR).
-Exit 2 on bad input: DIR missing, a file, or holding no dataset.
+a contact sheet of frames with their states (default DIR-sheet.png beside DIR; a sheet
+that exists is replaced only with --force, and never one inside DIR).
+Exit 2 on bad input: DIR missing, a file, or holding no dataset; a sheet refused.
 """
 
 from __future__ import annotations
@@ -15,7 +16,15 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
-from mearm.cli import EXIT_FAILURE, EXIT_OK, ArgumentParser, check_output_file, run
+from mearm.cli import (
+    EXIT_FAILURE,
+    EXIT_OK,
+    ArgumentParser,
+    check_output_file,
+    refuse_to_replace,
+    run,
+)
+from mearm.errors import MearmError
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -29,7 +38,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
     show = sub.add_parser("show", help="print episodes, tasks, statistics; save a contact sheet")
     show.add_argument("dir", type=Path, metavar="DIR")
-    show.add_argument("--sheet", type=Path, metavar="PNG", help="default: DIR-sheet.png")
+    show.add_argument(
+        "--sheet", type=Path, metavar="PNG", help="default: DIR-sheet.png, beside DIR"
+    )
+    show.add_argument("--force", action="store_true", help="replace the sheet if it exists")
     for p in (check, show):
         p.error = parser.error  # type: ignore[method-assign]  # one line, exit 2
     args = parser.parse_args(argv)
@@ -52,13 +64,43 @@ def main(argv: Sequence[str] | None = None) -> int:
     from mearm.dataset.format_check import check_dataset
 
     check_dataset(args.dir, videos=False)  # bad input (not a dataset) is exit 2 here
-    sheet = args.sheet or args.dir.with_name(args.dir.name + "-sheet.png")
-    check_output_file(sheet, "--sheet")  # before the report, not after it
+    sheet = args.sheet or default_sheet(args.dir)
+    # before the report, not after it
+    check_output_file(sheet, "--sheet")
+    refuse_inside(sheet, args.dir)
+    refuse_to_replace(sheet, "--sheet", args.force)
     for line in describe(args.dir):
         print(line)
     n = contact_sheet(args.dir, sheet)
     print(f"contact sheet: {sheet} ({n} frames)")
     return EXIT_OK
+
+
+def default_sheet(root: Path) -> Path:
+    """``DIR-sheet.png`` beside DIR, named after the folder ``.`` or ``..`` stands for."""
+    if root.name in ("", ".."):
+        root = root.resolve()
+    return root.parent / f"{root.name or 'dataset'}-sheet.png"
+
+
+def refuse_inside(sheet: Path, root: Path) -> None:
+    """Refuse a sheet inside the dataset, even with --force: it would replace its files.
+
+    Both paths resolved: ``DIR/./meta/info.json``, a link into DIR, a name of DIR's own
+    folder by another way are all caught.
+
+    Raises:
+        MearmError: ``sheet`` resolves to a path under ``root``.
+    """
+    try:
+        target, folder = sheet.resolve(), root.resolve()
+    except (OSError, RuntimeError) as exc:  # a loop of links (RuntimeError before 3.13)
+        raise MearmError(f"--sheet {sheet}: cannot be resolved ({exc})") from None
+    if folder in target.parents:
+        raise MearmError(
+            f"--sheet {sheet}: is inside the dataset {root}, whose files it would replace: "
+            f"give a path outside it (default: {default_sheet(root)})"
+        )
 
 
 if __name__ == "__main__":

@@ -16,6 +16,7 @@ from mearm.data import doc_page
 from mearm.dataset.lerobot_format import DEFAULT_CODEC, VIDEO_CODECS
 
 if TYPE_CHECKING:
+    from mearm.dataset.errors import DatasetWriteError
     from mearm.dataset.recorder import DatasetRecorder
 
 #: Frames per second of a recording unless ``--record-fps`` says otherwise [Hz].
@@ -140,11 +141,19 @@ def recorder_from_args(args: argparse.Namespace, config: Config) -> DatasetRecor
     )
 
 
-def close_recorder(recorder: DatasetRecorder | None, where: object) -> None:
+def close_recorder(recorder: DatasetRecorder | None, where: object, said: str = "") -> None:
     """Close ``recorder`` and say on stderr what it recorded to ``where``.
 
     Its last episode is written whole or not at all; stderr, so that a command's summary
     stays the last line of its output.
+
+    A recording that stopped because a file could not be written (a full disk) ends the
+    command with that error (exit 1, its ``exit_status``), unless the command already
+    said it (``said``: the sort it stopped, which exits 1) or another exception is on its
+    way out (Ctrl-C, which still gets the failure's line).
+
+    Raises:
+        DatasetWriteError: the recording failed and nothing else is being raised.
     """
     if recorder is None:
         return
@@ -164,3 +173,17 @@ def close_recorder(recorder: DatasetRecorder | None, where: object) -> None:
             "recorded twice",
             file=sys.stderr,
         )
+    failure = recorder.failure  # the first write that failed, raised in the run or not
+    if failure is not None and str(failure) not in said:
+        _recording_failed(failure)
+
+
+def _recording_failed(failure: DatasetWriteError) -> None:
+    """Raise the failure, or say it on stderr when another exception is on its way out."""
+    from mearm.cli import _program_name  # noqa: PLC0415  (a failed recording only)
+
+    on_its_way = sys.exc_info()[1]  # close_recorder runs in the commands' finally blocks
+    if on_its_way is None:
+        raise failure
+    if on_its_way is not failure:
+        print(f"{_program_name()}: error: {failure}", file=sys.stderr)

@@ -24,6 +24,7 @@ from mearm.dataset.reading import (
     read_tasks,
 )
 from mearm.dataset.recorder import import_extra
+from mearm.fileio import write_atomic
 
 #: The width of one frame on the contact sheet [px].
 THUMB_WIDTH_PX = 320
@@ -120,7 +121,7 @@ def contact_sheet(root: Path, path: Path, *, per_episode: int = 3, max_episodes:
     try:
         if not ok:
             raise OSError("PNG encoding failed")
-        path.write_bytes(png.tobytes())
+        write_atomic(path, png.tobytes())  # a full disk leaves the file there as it was
     except OSError as exc:
         raise DatasetError(path, f"cannot write the contact sheet ({exc})") from None
     return shown

@@ -28,7 +28,7 @@ import threading
 from multiprocessing.connection import Connection
 from multiprocessing.shared_memory import SharedMemory
 from pathlib import Path
-from typing import Any
+from typing import Any, BinaryIO
 
 import numpy as np
 
@@ -100,11 +100,14 @@ class YuvConverter:
         return self._last[1]
 
 
-def open_episode_video(av: Any, path: Path, fps: int, size_hw: tuple[int, int], codec: str) -> Any:
-    """An output container and stream for one episode's fragmented MP4."""
+def open_episode_video(
+    av: Any, path: Path | BinaryIO, fps: int, size_hw: tuple[int, int], codec: str
+) -> Any:
+    """An output container and stream for one episode's fragmented MP4 (a path or a file)."""
     os.environ.setdefault("SVT_LOG", "1")  # SVT-AV1: errors only, not its banner
     spec = L.VIDEO_CODECS[codec]
-    out = av.open(str(path), "w", format="mp4", options={"movflags": MOVFLAGS})
+    target = str(path) if isinstance(path, Path) else path
+    out = av.open(target, "w", format="mp4", options={"movflags": MOVFLAGS})
     stream = out.add_stream(spec.encoder, rate=fps, options=spec.options())
     stream.height, stream.width = size_hw
     stream.pix_fmt = L.VIDEO_PIX_FMT
@@ -127,7 +130,14 @@ class EpisodeWriter:
         self.path = path
         self._av = av
         self._convert = convert if convert is not None else YuvConverter(av)
-        self._out, self._stream = open_episode_video(av, path, fps, size_hw, codec)
+        # written through a Python file: FFmpeg's own writes drop a full disk's error
+        # (the file is cut short, the close succeeds); these raise it, errno and all
+        self._file = open(path, "wb")  # noqa: SIM115  (closed by close() or discard())
+        try:
+            self._out, self._stream = open_episode_video(av, self._file, fps, size_hw, codec)
+        except BaseException:
+            self._file.close()
+            raise
         self.frames = 0
         self.samples: list[np.ndarray] = []
 
@@ -155,11 +165,14 @@ class EpisodeWriter:
         for packet in self._stream.encode():
             self._out.mux(packet)
         self._out.close()
+        self._file.close()  # what is still buffered: its write error is raised here
 
     def discard(self) -> None:
         """Stop and remove the file."""
         with contextlib.suppress(Exception):
             self._out.close()
+        with contextlib.suppress(OSError):
+            self._file.close()
         self.path.unlink(missing_ok=True)
 
 

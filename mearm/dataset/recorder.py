@@ -37,6 +37,7 @@ import os
 import shutil
 import tempfile
 from collections import deque
+from collections.abc import Iterator
 from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path
 from typing import Any
@@ -45,7 +46,12 @@ import numpy as np
 
 from mearm.config import Config
 from mearm.dataset import lerobot_format as L
-from mearm.dataset.errors import DatasetError, DatasetExistsError, ExtraMissingError
+from mearm.dataset.errors import (
+    DatasetError,
+    DatasetExistsError,
+    DatasetWriteError,
+    ExtraMissingError,
+)
 from mearm.dataset.feature_stats import Stats, aggregate, image_stats, to_json, vector_stats
 from mearm.dataset.fragments import EpisodeVideo, file_header, tear
 from mearm.dataset.reading import (
@@ -133,7 +139,7 @@ def finish_journal(root: Path) -> bool:
     for rel, append in entries.get("append", {}).items():
         fragment = root / append["from"]
         if fragment.exists():
-            with open(root / rel, "r+b") as f:
+            with _naming(root / rel), open(root / rel, "r+b") as f:
                 f.truncate(append["size"])
                 f.seek(0, os.SEEK_END)
                 f.write(fragment.read_bytes())
@@ -147,6 +153,31 @@ def finish_journal(root: Path) -> bool:
     return True
 
 
+@contextlib.contextmanager
+def _naming(path: Path) -> Iterator[None]:
+    """An OSError in the block names ``path`` (a write's own error names no file)."""
+    try:
+        yield
+    except OSError as exc:
+        if exc.filename is None and exc.errno is not None:
+            raise OSError(exc.errno, os.strerror(exc.errno), str(path)) from exc
+        raise
+
+
+def _holds_files(root: Path) -> bool:
+    """Whether ``root`` holds a file anywhere but in the scratch folder (not only folders).
+
+    A tree of empty folders holds nothing to lose: a recording that failed before its
+    first episode (an older mearm left them) is recorded into again without --resume.
+    """
+    for folder, dirs, files in os.walk(root):
+        if files or any(os.path.islink(os.path.join(folder, d)) for d in dirs):
+            return True  # a link to a folder is the user's too
+        if folder == str(root):
+            dirs[:] = [d for d in dirs if d != L.SCRATCH_DIR]
+    return False
+
+
 def check_root(root: Path, *, resume: bool) -> bool:
     """Check the directory to record into; whether it holds a dataset to append to.
 
@@ -154,7 +185,8 @@ def check_root(root: Path, *, resume: bool) -> bool:
 
     Raises:
         DatasetError: it is a file, or cannot be created or written.
-        DatasetExistsError: it is not empty and ``resume`` is off.
+        DatasetExistsError: it holds a file (empty folders do not count) and ``resume``
+            is off.
     """
     if root.exists() and not root.is_dir():
         raise DatasetError(root, "is a file, not a directory: give a directory to record into")
@@ -170,16 +202,16 @@ def check_root(root: Path, *, resume: bool) -> bool:
         raise DatasetError(
             root, f"is not writable ({exc.strerror}): give a directory you can write to"
         ) from None
-    entries = [p for p in root.iterdir() if p.name != L.SCRATCH_DIR]
-    if entries and not resume:
+    held = _holds_files(root)
+    if held and not resume:
         raise DatasetExistsError(root)
-    if entries:  # a first episode killed mid-renames has its info.json in the journal
+    if held:  # a first episode killed mid-renames has its info.json in the journal
         finish_journal(root)
-    if entries and not (root / L.INFO_PATH).exists():
+    if held and not (root / L.INFO_PATH).exists():
         raise DatasetError(
             root, f"--resume: holds files but no {L.INFO_PATH}: not a dataset to append to"
         )
-    return bool(entries)
+    return held
 
 
 class DatasetRecorder(EpisodeSampler):
@@ -223,7 +255,8 @@ class DatasetRecorder(EpisodeSampler):
         self.root = root
         self.video_key = L.IMAGES + CAMERA_NAME
         self.robot_type = config.arm.name
-        self._created = not self.root.exists()
+        # the folders this recorder makes, parents first: those left empty go at close()
+        self._made = [p for p in (root, *root.parents) if not p.exists()][::-1]
         existing = check_root(self.root, resume=resume)
         if not finish_journal(self.root):  # files of an episode whose journal was not written
             for stale in self.root.glob("**/*.tmp"):
@@ -244,6 +277,13 @@ class DatasetRecorder(EpisodeSampler):
         self._writer = ThreadPoolExecutor(max_workers=1, thread_name_prefix="mearm-dataset")
         self._writes: deque[Future[None]] = deque()
         self._failed = False
+        #: Why the recording stopped, if a write failed (a full disk): raised once, kept.
+        self.failure: DatasetWriteError | None = None
+        # the episode being written (:meth:`_commit`): its files staged (each new one by
+        # the one it replaces), all it wrote, and the file being written now
+        self._moves: dict[str, Path] = {}
+        self._temps: list[Path] = []
+        self._target = self.root
 
     def features(self) -> dict[str, dict[str, Any]]:
         """The ``features`` of ``meta/info.json``."""
@@ -327,6 +367,12 @@ class DatasetRecorder(EpisodeSampler):
     def _accept(self, ep: _Episode) -> None:
         self._writes.append(self._writer.submit(self._write, ep))
 
+    def _write_failed(self, path: Path, exc: OSError) -> DatasetWriteError:
+        self._failed = True  # no later episode is written: the disk is full
+        if self.failure is None:  # the first says why the recording stopped
+            self.failure = DatasetWriteError.of(path, exc, kept=len(self._episodes))
+        return self.failure
+
     def _settle(self, *, wait: bool) -> None:
         while self._writes and (wait or self._writes[0].done()):
             self._writes.popleft().result()  # a failed write is raised here
@@ -349,10 +395,23 @@ class DatasetRecorder(EpisodeSampler):
                 self._accept(ep)
             self._settle(wait=True)
 
+    def abandon(self) -> None:
+        """As :meth:`EpisodeSampler.abandon`; a write that fails here is kept, not raised.
+
+        The sorter abandons on its way out of a fault or Ctrl-C, before it parks the arm:
+        a full disk must not cut that short. :attr:`failure` keeps it, and the command
+        says it once the run is over (:func:`~mearm.dataset.arguments.close_recorder`).
+        """
+        with contextlib.suppress(DatasetWriteError):
+            super().abandon()
+
     def close(self) -> None:
         """Write the finished episodes, drop an unfinished one, stop the encoder.
 
-        The scratch folder goes (and DIR, if it was made for nothing).
+        The scratch folder goes, and so does each folder this recorder made that holds
+        nothing (DIR too, if it was made for nothing): a first recording that failed on
+        a full disk leaves nothing that would refuse the next one. A finished episode
+        that cannot be written here is :attr:`failure`.
         """
         try:
             super().close()
@@ -360,18 +419,35 @@ class DatasetRecorder(EpisodeSampler):
             self._failed = True  # a write still queued after an error is not made
             self._writer.shutdown(wait=True, cancel_futures=True)
             shutil.rmtree(self._scratch, ignore_errors=True)
-            if self._created and not self._episodes:
-                with contextlib.suppress(OSError):  # only if still empty
-                    self.root.rmdir()
+            for folder in reversed(self._made):  # the deepest first
+                with contextlib.suppress(OSError):  # only if empty: never a file
+                    folder.rmdir()
+
+    def _make_dirs(self, folder: Path) -> None:
+        """``mkdir -p folder``, each folder made remembered (:meth:`close`)."""
+        made = []
+        at = folder
+        while not at.exists():
+            made.append(at)
+            at = at.parent
+        folder.mkdir(parents=True, exist_ok=True)
+        self._made += made[::-1]
 
     # ----------------------------------------------------------------- writing
 
     def _write(self, ep: _Episode) -> None:
-        """Write one episode (in the writer thread)."""
+        """Write one episode (in the writer thread).
+
+        Raises:
+            DatasetWriteError: a file could not be written (a full disk): the episode is
+                dropped, its files removed, and no later one is written.
+        """
         if self._failed:
             return
         try:
             self._commit(ep)
+        except OSError as exc:
+            raise self._write_failed(self._target, exc) from exc
         except BaseException:
             self._failed = True
             raise
@@ -381,6 +457,65 @@ class DatasetRecorder(EpisodeSampler):
         self.frames_written += ep.length
 
     def _commit(self, ep: _Episode) -> None:
+        """Write one episode whole, or leave none of its files (its journal not written)."""
+        self._moves, self._temps = {}, []
+        try:
+            self._commit_files(ep)
+        except Exception:  # a full disk, mostly (a kill leaves them to the next open)
+            if self._roll_back():  # else the journal finishes it at the next open
+                for tmp in self._temps:
+                    with contextlib.suppress(OSError):
+                        tmp.unlink(missing_ok=True)
+            raise
+
+    def _staged(self, rel: str) -> Path:
+        """Where the episode's new file ``rel`` is written, beside the one it replaces."""
+        final = self.root / rel
+        self._make_dirs(final.parent)
+        tmp = final.with_name(final.name + ".tmp")
+        self._moves[rel] = tmp
+        self._temps.append(tmp)
+        self._target = final
+        return tmp
+
+    def _appended(self, rel: str) -> Path:
+        """Where the fragment to append to the video file ``rel`` is written."""
+        tmp = self.root / (rel + ".append.tmp")
+        self._temps.append(tmp)
+        self._target = self.root / rel
+        return tmp
+
+    def _roll_back(self) -> bool:
+        """Undo an episode that failed before its renames; whether it is undone.
+
+        Its journal written, its fragment's append can fail (a full disk): the video
+        file is cut back to its size before (the journal could still redo the append,
+        were this process killed now), then the journal goes. Once a rename is made,
+        the episode is the journal's to finish.
+        """
+        root = self.root
+        journal = root / L.JOURNAL_PATH
+        if not journal.exists():
+            return True
+        try:
+            entries = read_json(root, L.JOURNAL_PATH)
+            if not all((root / tmp).exists() for tmp in entries["replace"].values()):
+                return False
+            for rel, append in entries.get("append", {}).items():
+                with open(root / rel, "r+b") as f:
+                    f.truncate(append["size"])
+                    f.flush()
+                    os.fsync(f.fileno())
+            journal.unlink()
+        except (OSError, DatasetError, KeyError, TypeError, AttributeError):
+            return False
+        return True
+
+    def _commit_files(self, ep: _Episode) -> None:
+        """:meth:`_commit`'s work: each file it stages is in ``_temps`` as it begins.
+
+        The file being written is ``_target`` (a write's error does not name it).
+        """
         pa, pq = self._pa, self._pq
         root = self.root
         index = len(self._episodes)
@@ -392,14 +527,7 @@ class DatasetRecorder(EpisodeSampler):
         n = ep.length
         states = np.stack(ep.states)
         actions = np.stack(ep.actions)
-        moves: dict[str, Path] = {}
-
-        def staged(rel: str) -> Path:
-            final = root / rel
-            final.parent.mkdir(parents=True, exist_ok=True)
-            tmp = final.with_name(final.name + ".tmp")
-            moves[rel] = tmp
-            return tmp
+        staged = self._staged
 
         # data: appended to the last episode's file unless that has reached its limit
         chunk, file = (0, 0)
@@ -418,7 +546,7 @@ class DatasetRecorder(EpisodeSampler):
         pq.write_table(table, staged(data_rel), compression="snappy")
         data_meta = {"data/chunk_index": chunk, "data/file_index": file}
 
-        video_meta, appends = self._stage_video(ep, last, staged)
+        video_meta, appends = self._stage_video(ep, last)
 
         key = self.video_key
         ep_stats = {
@@ -460,14 +588,15 @@ class DatasetRecorder(EpisodeSampler):
         scenes = [*self._scenes, ep.scene]
         staged(L.TAGS_PATH).write_text(tags_json(tags, scenes))
 
-        for tmp in [*moves.values(), *(root / a["from"] for a in appends.values())]:
-            with open(tmp, "rb") as f:
+        for tmp in self._temps:
+            with _naming(tmp), open(tmp, "rb") as f:
                 os.fsync(f.fileno())
         journal = {
-            "replace": {rel: str(tmp.relative_to(root)) for rel, tmp in moves.items()},
+            "replace": {rel: str(tmp.relative_to(root)) for rel, tmp in self._moves.items()},
             "append": appends,
         }
-        write_atomic(root / L.JOURNAL_PATH, json.dumps(journal).encode())
+        self._target = root / L.JOURNAL_PATH
+        write_atomic(self._target, json.dumps(journal).encode())
         finish_journal(root)
         self._episodes = episodes
         self._stats = dataset_stats
@@ -486,7 +615,7 @@ class DatasetRecorder(EpisodeSampler):
         return pa.Table.from_pylist(episodes)
 
     def _stage_video(
-        self, ep: _Episode, last: dict[str, Any] | None, staged: Any
+        self, ep: _Episode, last: dict[str, Any] | None
     ) -> tuple[dict[str, Any], dict[str, dict[str, Any]]]:
         """The episode's video: its fragment appended to the last episode's file, or a new file.
 
@@ -513,12 +642,12 @@ class DatasetRecorder(EpisodeSampler):
             video_rel = L.chunk_file(L.VIDEO_PATH, vchunk, vfile, video_key=key)
             before = 0
         if before > 0:
-            tmp = self.root / (video_rel + ".append.tmp")
+            tmp = self._appended(video_rel)
             tmp.write_bytes(video.shifted(before, self.fps))
             size = old_video.stat().st_size
             appends[video_rel] = {"size": size, "from": str(tmp.relative_to(self.root))}
         else:
-            staged(video_rel).write_bytes(video.header + video.shifted(0, self.fps))
+            self._staged(video_rel).write_bytes(video.header + video.shifted(0, self.fps))
         meta = {
             f"videos/{key}/chunk_index": vchunk,
             f"videos/{key}/file_index": vfile,

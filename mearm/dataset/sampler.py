@@ -19,6 +19,8 @@ encoded in its own process, for a worker process to send back with its trial.
 from __future__ import annotations
 
 import contextlib
+import os
+import re
 import shutil
 import tempfile
 from collections import deque
@@ -33,7 +35,7 @@ import numpy as np
 from mearm.config import Config
 from mearm.dataset import lerobot_format as L
 from mearm.dataset.encoder_server import STATS_PIXEL_STRIDE  # noqa: F401  (re-exported)
-from mearm.dataset.errors import EncoderError
+from mearm.dataset.errors import DatasetWriteError, EncoderError
 from mearm.dataset.reading import RecordedScene
 from mearm.dataset.video_encoder import EncoderProcess, InlineEncoder
 from mearm.hardware.bus import MeasuresWorld, ServoBus
@@ -167,6 +169,10 @@ class EpisodeSampler:
 
     def _settle(self, *, wait: bool) -> None:
         """After :meth:`_accept`: ``wait`` until every episode accepted is written."""
+
+    def _write_failed(self, path: Path, exc: OSError) -> DatasetWriteError:
+        """The error of a file that could not be written (a full disk), to raise."""
+        return DatasetWriteError.of(path, exc, kept=self.episodes_written)
 
     def _held_tags(self) -> Iterable[tuple[int | None, int | None]]:
         """The (trial seed, pick) of the episodes held already (not recorded again)."""
@@ -353,6 +359,11 @@ class EpisodeSampler:
                 self._pending.popleft()
                 if error is not None:
                     ep.path.unlink(missing_ok=True)
+                    number = re.search(r"\[Errno (\d+)\]", error)
+                    if number is not None:  # its file could not be written (a full disk)
+                        self._settle(wait=True)  # the episodes before it are written first
+                        code = int(number.group(1))
+                        raise self._write_failed(ep.path, OSError(code, os.strerror(code)))
                     raise EncoderError(f"an episode's video failed: {error}")
                 ep.pixels = [] if pixels is None else [pixels]
                 self._accept(ep)

@@ -316,6 +316,8 @@ def _run(
                     workers, numbers, args.log, lambda done: _step(bar, recorder), recorder
                 )
         except SortAborted as exc:
+            if not exc.interrupted and recorder is not None and recorder.failure is not None:
+                raise recorder.failure from None  # one line, exit 1 (the log has the trial)
             print(f"{_prog()}: stopped: {exc.reason}", file=sys.stderr)
             return interrupts.exit_status()
         except (CameraError, ServoError, TrialFailed) as exc:

@@ -116,7 +116,8 @@ def run_trials(
         Per trial run, ``None`` if it cleared the table, else the reason it stopped.
 
     Raises:
-        SortAborted: a trial was interrupted with Ctrl-C (the log holds what was done).
+        SortAborted: a trial was interrupted with Ctrl-C, or stopped by a recording that
+            failed (a full disk); the log holds what was done.
     """
     outcomes: dict[int, str | None] = {}
     for k in range(start, trials):
@@ -132,8 +133,8 @@ def run_trials(
             )  # fmt: skip
             outcomes[k] = None
         except SortAborted as exc:
-            if exc.interrupted:
-                raise
+            if exc.interrupted or (recorder is not None and recorder.failure is not None):
+                raise  # Ctrl-C, or a recording that failed: no trial after it is recorded
             outcomes[k] = exc.reason
         if progress is not None:
             progress(len(outcomes))

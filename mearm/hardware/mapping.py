@@ -36,6 +36,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Literal
 
 import numpy as np
+import numpy.typing as npt
 
 from mearm.config import ArmDescription, JointServo, Range, ServoCalibration
 from mearm.config.arm import combination_text
@@ -193,18 +194,7 @@ class ActuatorMap:
         """
         pulse = self.pulse_us(servo_value)
         if not (self.min_us - 1e-6 <= pulse <= self.max_us + 1e-6):
-            lo, hi = self.pulse_limits
-            raise PulseRangeError(
-                self.servo_text,
-                servo_value,
-                lo,
-                hi,
-                channel=self.channel,
-                pulse_us=pulse,
-                min_us=self.min_us,
-                max_us=self.max_us,
-                unit=self.unit,
-            )
+            raise PulseViolation(0, self, servo_value).error()
 
     def command_us(self, value: float) -> int:
         """The integer pulse the serial backends send: nearest µs, kept in range [µs]."""
@@ -248,6 +238,43 @@ class ActuatorMap:
             s = round((self.pulse_us(value) - self.min_us) / self.servo_step_us)
             return self.value_of(self.servo_degree_us(s))
         raise ValueError(f"quantization must be none, degree or microsecond, got {mode!r}")
+
+
+@dataclass(frozen=True)
+class PulseViolation:
+    """A pose whose joint servo's value needs a pulse outside its channel's range.
+
+    Attributes:
+        pose: The pose's row among those checked (0 for a single pose).
+        servo: The servo's channel map.
+        value: The servo's value at that pose [deg or cm] (a combination's value for a
+            servo over several joints).
+    """
+
+    pose: int
+    servo: ActuatorMap
+    value: float
+
+    @property
+    def pulse_us(self) -> float:
+        """The pulse the value needs [µs]."""
+        return self.servo.pulse_us(self.value)
+
+    def error(self) -> PulseRangeError:
+        """The error that refuses it: the servo, its value and pulse, the range allowed."""
+        s = self.servo
+        lo, hi = s.pulse_limits
+        return PulseRangeError(
+            s.servo_text,
+            self.value,
+            lo,
+            hi,
+            channel=s.channel,
+            pulse_us=self.pulse_us,
+            min_us=s.min_us,
+            max_us=s.max_us,
+            unit=s.unit,
+        )
 
 
 def _names_problem(kind: str, given: Iterable[str], expected: tuple[str, ...]) -> str | None:
@@ -391,6 +418,39 @@ class ServoMap:
         """
         servo = self.servo_values(joints)
         return self.joints_of({j.name: j.realised(servo[j.name], mode) for j in self.joints})
+
+    def outside_pulse_range(self, q_actuated: npt.ArrayLike) -> PulseViolation | None:
+        """The first servo over a combination of joints that poses put past its pulse range.
+
+        A servo that turns its joint alone stays within its pulse range inside the joint's
+        limits (the config is checked so); one that turns a combination (the MeArm's
+        elbow servo: shoulder + elbow) can leave it there. The one check of this for every
+        caller: the planner's before anything is sent, ``mearm ik`` on its solution and
+        ``mearm fk`` on the joints it is given.
+
+        Args:
+            q_actuated: The actuated joints in config units (deg or cm), chain order, (m,)
+                for one pose or (k, m) for k poses.
+
+        Returns:
+            The first such servo (in chain order) and the first pose that puts it out of
+            range, or ``None`` when every pose is within every pulse range.
+        """
+        combination = self.combination
+        if combination is None:
+            return None
+        A, a = combination
+        values = np.atleast_2d(np.asarray(q_actuated, dtype=float)) @ A.T + a  # (poses, servos)
+        for k, servo in enumerate(self.joints):
+            if not servo.combined:
+                continue
+            lo, hi = servo.pulse_limits
+            # NaN fails both comparisons: a pose of NaN is not refused here but by the limits
+            out = np.flatnonzero((values[:, k] < lo - 1e-9) | (values[:, k] > hi + 1e-9))
+            if out.size:
+                i = int(out[0])
+                return PulseViolation(i, servo, float(values[i, k]))
+        return None
 
     def servo_range(self, name: str) -> tuple[float, float]:
         r"""The values a joint servo takes over the joints' limits, ascending [unit].

@@ -8,10 +8,14 @@ Example::
 ``--start`` lists the actuated joints in the config's order and units (deg, or cm for a
 prismatic joint); passive joints follow from their couplings. ``--approach`` asks the
 tool's approach axis to point along a base-frame direction (``pick``: the arm's
-``tool.pick_approach``).
+``tool.pick_approach``); an arm with three actuated joints or fewer needs them all to
+place the TCP, so its approach follows from the target and ``--approach`` is refused.
 
-Exit status: 0 converged, 1 not converged (stalled / max_iterations), 2 bad input (a
-target outside the box or out of reach, a start outside the limits, a bad option).
+Exit status: 0 converged, 1 not converged (stalled / max_iterations) or converged to a
+pose a servo over several joints cannot be sent to (the MeArm v1's elbow servo turns
+shoulder + elbow: its pulse range bounds the sum; ``failure_kind`` ``limit``, as the sort
+planner refuses it), 2 bad input (a target outside the box or out of reach, a start
+outside the limits or the servos' pulse ranges, a bad option).
 """
 
 from __future__ import annotations
@@ -19,6 +23,8 @@ from __future__ import annotations
 import argparse
 import json
 from collections.abc import Sequence
+
+import numpy as np
 
 from mearm.cli import (
     EXIT_FAILURE,
@@ -31,9 +37,13 @@ from mearm.cli import (
     positive_number,
     run,
 )
+from mearm.config import ArmDescription
+from mearm.hardware.mapping import ServoMap
 from mearm.ik.factory import solve_ik
-from mearm.ik.target import IKTarget
-from mearm.kinematics import ArmModel
+from mearm.ik.failure import IKFailure
+from mearm.ik.result import IKResult
+from mearm.ik.target import IKTarget, decimal_list
+from mearm.kinematics import ArmModel, Chain
 from mearm.kinematics.errors import InvalidJointsError, InvalidTargetError
 
 
@@ -45,12 +55,15 @@ def main(argv: Sequence[str] | None = None) -> int:
     add_config_argument(parser)
     parser.add_argument(
         "--start",
-        type=float_list(None, "--start"),
+        type=decimal_list(float_list(None, "--start"), "--start"),
         default=None,
         help="the actuated joints in deg (cm if prismatic); default: the config's home",
     )
     parser.add_argument(
-        "--target", type=float_list(3, "--target"), required=True, help="x,y,z in cm"
+        "--target",
+        type=decimal_list(float_list(3, "--target"), "--target"),
+        required=True,
+        help="x,y,z in cm",
     )
     parser.add_argument(
         "--approach",
@@ -80,54 +93,107 @@ def main(argv: Sequence[str] | None = None) -> int:
     controller = config.controller.updated(**changes)
     model = ArmModel(config.arm)
     chain = model.chain
-    if args.start is None:
-        q_start = model.home
+    servos = ServoMap.from_arm(config.arm)
+    q_start = _start_pose(args.start, model, servos)
+    target = _target(args.target, args.approach, config.arm, chain)
+    result = solve_ik(model, controller, target, q_start)
+    failure = result.failure
+    unsendable = False
+    if result.converged:
+        found = servos.outside_pulse_range(result.q_config[chain.actuated_index])
+        if found is not None:  # what the sort planner refuses before sending (task/plan.py)
+            unsendable = True
+            failure = IKFailure("limit", f"the solution cannot be sent: {found.error()}")
+    if args.json:
+        summary = result.summary()
+        if failure is not None:
+            summary.update(failure_kind=failure.kind, failure=failure.message)
+        print(json.dumps(summary))
     else:
-        if len(args.start) != chain.m:
-            raise InvalidJointsError(
-                args.start,
-                f"--start needs {chain.m} numbers, the actuated joints "
-                f"({', '.join(chain.actuated)}), got {len(args.start)}",
-            )
-        q_start = chain.from_named(dict(zip(chain.actuated, args.start, strict=True)))
+        _print_text(result, failure, chain, unsendable=unsendable)
+    return EXIT_OK if result.converged and not unsendable else EXIT_FAILURE
+
+
+def _start_pose(start: list[float] | None, model: ArmModel, servos: ServoMap) -> np.ndarray:
+    """``--start`` as every joint [model units]; home without one.
+
+    Raises:
+        InvalidJointsError: not one number per actuated joint.
+        JointLimitError: a joint outside its limits, or (PulseRangeError) a pose a servo
+            over several joints cannot be sent to.
+    """
+    chain = model.chain
+    if start is None:
+        return model.home
+    if len(start) != chain.m:
+        raise InvalidJointsError(
+            start,
+            f"--start needs {chain.m} numbers, the actuated joints "
+            f"({', '.join(chain.actuated)}), got {len(start)}",
+        )
+    q_start = chain.from_named(dict(zip(chain.actuated, start, strict=True)))
+    model.check_limits(q_start)
+    found = servos.outside_pulse_range(start)
+    if found is not None:
+        raise found.error()  # the arm cannot be at this start: its servo cannot be sent
+    return q_start
+
+
+def _target(position: list[float], text: str | None, arm: ArmDescription, chain: Chain) -> IKTarget:
+    """The target: ``--target`` and ``--approach`` (``pick``: the arm's pick approach).
+
+    Raises:
+        InvalidTargetError: an approach that is not three plain numbers or not a finite
+            non-zero vector, ``pick`` on an arm without a pick approach, or any approach
+            for an arm whose every actuated joint is needed to place the TCP.
+    """
     approach: tuple[float, ...] | None = None
-    if args.approach == "pick":
-        approach = config.arm.tool.pick_approach
+    if text == "pick":
+        approach = arm.tool.pick_approach
         if approach is None:
-            raise InvalidTargetError(
-                f"--approach pick: arm {config.arm.name!r} has no tool.pick_approach"
-            )
-    elif args.approach is not None:
+            raise InvalidTargetError(f"--approach pick: arm {arm.name!r} has no tool.pick_approach")
+    elif text is not None:
         try:
-            approach = tuple(float_list(3, "--approach")(args.approach))
+            approach = tuple(decimal_list(float_list(3, "--approach"), "--approach")(text))
         except argparse.ArgumentTypeError as exc:
             raise InvalidTargetError(str(exc)) from None
-    target = IKTarget(tuple(args.target), approach)  # type: ignore[arg-type]
-    result = solve_ik(model, controller, target, q_start)
-    if args.json:
-        print(json.dumps(result.summary()))
-    else:
-        units = [chain.unit(i) for i in range(chain.n)]
-        joints = ", ".join(
-            f"{name} {v:.3f} {u}" for (name, v), u in zip(result.joints.items(), units, strict=True)
+    target = IKTarget(tuple(position), approach)  # type: ignore[arg-type]
+    if target.approach is not None and chain.m <= 3:
+        # the solve would stop on the target with the approach off, "singular"
+        raise InvalidTargetError(
+            f"--approach: arm {arm.name!r} has {chain.m} actuated joints "
+            f"({', '.join(chain.actuated)}), all needed to place the TCP, so its approach "
+            "axis follows from the target and cannot be chosen; leave --approach out (an "
+            "arm orients its approach with more than 3 actuated joints)"
         )
-        x, y, z = result.ee_cm
-        plural = "" if result.iterations == 1 else "s"
-        print(f"{result.solver}: {result.status} after {result.iterations} iteration{plural}")
-        if result.recovered_from is not None:
-            print(
-                f"recovered ({result.method.replace('_', ' ')}): PD-PIJ alone "
-                f"{result.recovered_from.replace('_', ' ')}; {result.search_iterations} "
-                "updates searched, not in the path"
-            )
-        if result.failure is not None:
-            print(f"failure ({result.failure.kind}): {result.failure.message}")
-        print(f"error {result.initial_error_cm:.4f} -> {result.final_error_cm:.4f} cm")
-        if result.final_approach_error_deg is not None:
-            print(f"approach error {result.final_approach_error_deg:.3f} deg")
-        print(f"joints: {joints}")
-        print(f"ee = ({x:.3f}, {y:.3f}, {z:.3f}) cm")
-    return EXIT_OK if result.converged else EXIT_FAILURE
+    return target
+
+
+def _print_text(
+    result: IKResult, failure: IKFailure | None, chain: Chain, *, unsendable: bool
+) -> None:
+    """The result for people: status, failure, errors, joints, TCP."""
+    units = [chain.unit(i) for i in range(chain.n)]
+    joints = ", ".join(
+        f"{name} {v:.3f} {u}" for (name, v), u in zip(result.joints.items(), units, strict=True)
+    )
+    x, y, z = result.ee_cm
+    plural = "" if result.iterations == 1 else "s"
+    but = ", to a pose its servos cannot be sent to" if unsendable else ""
+    print(f"{result.solver}: {result.status} after {result.iterations} iteration{plural}{but}")
+    if result.recovered_from is not None:
+        print(
+            f"recovered ({result.method.replace('_', ' ')}): PD-PIJ alone "
+            f"{result.recovered_from.replace('_', ' ')}; {result.search_iterations} "
+            "updates searched, not in the path"
+        )
+    if failure is not None:
+        print(f"failure ({failure.kind}): {failure.message}")
+    print(f"error {result.initial_error_cm:.4f} -> {result.final_error_cm:.4f} cm")
+    if result.final_approach_error_deg is not None:
+        print(f"approach error {result.final_approach_error_deg:.3f} deg")
+    print(f"joints: {joints}")
+    print(f"ee = ({x:.3f}, {y:.3f}, {z:.3f}) cm")
 
 
 if __name__ == "__main__":

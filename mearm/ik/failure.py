@@ -4,8 +4,10 @@ Six kinds, each with one cause:
 
 - ``outside_box``: the target leaves the arm's target box (refused before any motion).
 - ``unreachable``: out of reach (a closed form proves it, before any motion).
-- ``limit``: the target needs a joint outside its limits, the start is outside them, or
-  the solver stopped with joints on their limits blocking every way down.
+- ``limit``: the target needs a joint outside its limits, the start is outside them, the
+  solver stopped with joints on their limits blocking every way down, or the solution
+  needs a servo over several joints past its pulse range (the sort planner and ``mearm
+  ik`` check that: :meth:`~mearm.hardware.mapping.ServoMap.outside_pulse_range`).
 - ``singular``: the target sits where the arm is singular (on the base axis), or the
   solver stopped at a pose where no joint motion changes the error to first order (the
   arm stretched towards a target out of reach, usually).

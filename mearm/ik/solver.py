@@ -366,10 +366,20 @@ class IKSolver(abc.ABC):
                 f"{chain.names[i]} at {q[i] / chain.scale[i]:.4g} {chain.unit(i)}" for i in blocked
             )
             text += f": the joint limits block every way closer ({held})"
-        elif kind == "singular":
+        elif kind == "singular" and target.approach is None:
             text += (
                 ": at a singular pose no joint motion reduces the error "
                 "(is the target out of reach?)"
+            )
+        elif kind == "singular" and error_cm * error_cm < self.config.tolerance_cm2:
+            text += (
+                ": the TCP is at the target, but no joint motion turns the approach closer "
+                "(the arm cannot point it that way there)"
+            )
+        elif kind == "singular":
+            text += (
+                ": at a singular pose no joint motion reduces the error (is the target out "
+                "of reach, or the approach one the arm cannot take there?)"
             )
         return IKFailure(kind, text)
 

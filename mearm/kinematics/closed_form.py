@@ -13,14 +13,17 @@ The TCP then sits at
     z = d_1 + a_2\sin\theta_2 + a_3\sin(\theta_2+\theta_3) + t_y
 
 along the horizontal direction θ1 (``t`` the TCP offset in the last frame). With θ3 < 0
-(the elbow-up branch) the solution is unique.
+(the elbow-up branch) the solution is unique. A link length a2 or a3 may be negative (the
+link points the other way from its joint's zero): the wrist point then lies within
+[||a2| − |a3||, |a2| + |a3|] of the shoulder, the formula holds with the signs, and each
+angle, known up to a turn, is taken within its limits.
 """
 
 from __future__ import annotations
 
 import abc
 from collections.abc import Callable
-from math import acos, atan2, cos, hypot, isfinite, sin  # local names: a solve is ~1 µs
+from math import acos, atan2, cos, hypot, isfinite, pi, sin  # local names: a solve is ~1 µs
 
 import numpy as np
 import numpy.typing as npt
@@ -37,6 +40,7 @@ from mearm.kinematics.errors import (
 )
 
 _EPS = 1e-12
+_TURN = 2.0 * pi
 
 
 def as_target_cm(target_cm: npt.ArrayLike) -> np.ndarray:
@@ -191,7 +195,9 @@ class PlanarWrist(ClosedForm):
             )
         tx, ty, _ = arm.tool.tcp_cm
         a2, a3 = j[1].dh.a_cm, j[2].dh.a_cm
-        self._reach_max, self._reach_min = a2 + a3, abs(a2 - a3)
+        # a DH length may be negative (the link points the other way): the wrist point is
+        # then as far from the shoulder as with |a|, and the formula below holds with signs
+        self._reach_max, self._reach_min = abs(a2) + abs(a3), abs(abs(a2) - abs(a3))
         self._lower = self.chain.lower.tolist()
         self._upper = self.chain.upper.tolist()
         # every constant of the formula and the checks as Python floats, computed once and
@@ -233,8 +239,16 @@ class PlanarWrist(ClosedForm):
         base, wrist = atan2(y, x), -(theta2 + theta3)
         if l0 <= base <= h0 and l1 <= theta2 <= h1 and l2 <= theta3 <= h2 and l3 <= wrist <= h3:
             return [base, theta2, theta3, wrist]  # the usual case, checked in one expression
-        q = [base, theta2, theta3, wrist]
         lo, hi = self._lower, self._upper
+        q = [base, theta2, theta3]
+        for i in range(3):  # each angle is known up to a turn: the one within its limits
+            v = q[i]
+            if not lo[i] - 1e-9 <= v <= hi[i] + 1e-9:
+                for turned in (v + _TURN, v - _TURN):
+                    if lo[i] - 1e-9 <= turned <= hi[i] + 1e-9:
+                        q[i] = turned
+                        break
+        q.append(-(q[1] + q[2]))
         for i in range(4):
             v = q[i]
             if v < lo[i]:

@@ -38,7 +38,27 @@ class JointLimitError(MearmError):
         super().__init__(
             f"{joint} = {self.value_deg:.4g} {unit} is outside its limits "
             f"[{self.lower_deg:.4g}, {self.upper_deg:.4g}] {unit}"
+            + past_limit_text(self.value_deg, self.lower_deg, self.upper_deg)
         )
+
+
+def past_limit_text(value: float, lower: float, upper: float) -> str:
+    """Where a value outside [lower, upper] that reads as a limit at 4 digits lies.
+
+    ``160.0000001`` prints as ``160`` beside the limit ``160``, which hides why it was
+    refused: then the value and the limit are shown with as many digits as tell them
+    apart, ``" (160.0000001 > 160)"``; otherwise nothing.
+    """
+    if not (value < lower or value > upper):
+        return ""  # within (a tolerance let it be refused) or NaN: the 4 digits say it
+    bound, sign = (lower, "<") if value < lower else (upper, ">")
+    if f"{value:.4g}" != f"{bound:.4g}":
+        return ""
+    for digits in range(5, 18):
+        shown, limit = f"{value:.{digits}g}", f"{bound:.{digits}g}"
+        if shown != limit:
+            return f" ({shown} {sign} {limit})"
+    return f" ({value!r} {sign} {bound!r})"
 
 
 class InvalidJointsError(MearmError):
@@ -125,7 +145,8 @@ class JointLimitTargetError(UnreachableTargetError):
         super().__init__(
             target_cm,
             f"needs {joint} = {self.value:.2f} {unit}, outside its limits "
-            f"[{self.lower:g}, {self.upper:g}] {unit}",
+            f"[{self.lower:g}, {self.upper:g}] {unit}"
+            + past_limit_text(self.value, self.lower, self.upper),
         )
 
 

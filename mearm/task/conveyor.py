@@ -25,7 +25,10 @@ r"""Sorting what a conveyor belt brings: track each object, pick it where it wil
 
 Lift, place, release and the outcome are the still table's
 (:class:`~mearm.task.sorter.Sorter`): in simulation an object counts as sorted only when
-the world or the twin's physics holds it in its bin.
+the world or the twin's physics holds it in its bin, and an object the belt brought that
+the camera never saw counts too, left ``unseen``. With a recorder (``--record``) each
+catch is an episode, as the still table's pick-and-place is
+(:meth:`~mearm.task.pick_place.PickAndPlace._recorded_pick`).
 """
 
 from __future__ import annotations
@@ -38,16 +41,15 @@ from typing import Any, Protocol, runtime_checkable
 import numpy as np
 
 from mearm.config import ColorClass, Config
+from mearm.errors import MearmError
 from mearm.hardware.bus import ReportsRelease, ServoBus
-from mearm.hardware.errors import ServoError
 from mearm.ik import IKTarget
-from mearm.sim.belt import Belt
-from mearm.task.report import SortReport
+from mearm.sim.belt import Belt, belt_arrivals
+from mearm.task.report import Outcome, SortReport
 from mearm.task.route import Route
-from mearm.task.sorter import CollisionError, Sorter, TrackedObject, _hex
+from mearm.task.sorter import Sorter, TrackedObject, _hex
 from mearm.task.timing import tool_move_s
 from mearm.vision import Camera
-from mearm.vision.errors import CameraError
 from mearm.vision.tracking import Track, Tracker, TrackState, whole_sightings
 
 #: How often the camera is read while the arm waits for an object [s].
@@ -114,6 +116,8 @@ class ConveyorSorter(Sorter):
         self.on_grip = on_grip
         self._by_track: dict[int, TrackedObject] = {}
         self._sightings: dict[int, int] = {}
+        #: Where each track's object was last seen (x, y) [cm]: a lost track's is said.
+        self._seen_cm: dict[int, tuple[float, float]] = {}
         self._t0 = time.monotonic()
         self._last_frame_s = -np.inf
         self._last_seen_s = 0.0
@@ -150,6 +154,7 @@ class ConveyorSorter(Sorter):
         for s in states:
             if s.seen:
                 self._sightings[s.id] = self._sightings.get(s.id, 0) + 1
+                self._seen_cm[s.id] = (float(s.position_cm[0]), float(s.position_cm[1]))
             obj = self._by_track.get(s.id)
             if obj is None:
                 n = sum(1 for o in self._objects if o.class_name == s.color) + 1
@@ -161,10 +166,12 @@ class ConveyorSorter(Sorter):
         for tid in set(self.tracker.lost) - before:
             obj = self._by_track.get(tid)
             if obj is not None and not obj.sorted and obj.skipped is None:
+                # where it was last seen, not where its prediction coasted to since
+                obj.x_cm, obj.y_cm = self._seen_cm.get(tid, (obj.x_cm, obj.y_cm))
                 self._skip(
                     obj,
-                    f"missed on the belt: its track was lost at ({obj.x_cm:.1f}, "
-                    f"{obj.y_cm:.1f}) cm",
+                    f"missed on the belt: its track was lost (last seen at ({obj.x_cm:.1f}, "
+                    f"{obj.y_cm:.1f}) cm)",
                     kind="missed_belt",
                 )
         return states
@@ -262,6 +269,26 @@ class ConveyorSorter(Sorter):
 
     # ----------------------------------------------------------------- one object
 
+    def _recorded_catch(self, obj: TrackedObject, tid: int) -> None:
+        """:meth:`_catch` as an episode of the recording, if there is one.
+
+        The still table's convention (:meth:`~mearm.task.pick_place.PickAndPlace._recorded_pick`):
+        the episode opens as the catch starts and ends once it has placed (or left) the
+        object; a fault or Ctrl-C abandons it. Per scene the first catch opens the one
+        episode, which the run's end writes.
+        """
+        recorder = self.recorder
+        if recorder is None:
+            self._catch(obj, tid)
+            return
+        recorder.begin(obj.class_name)
+        try:
+            self._catch(obj, tid)
+        except BaseException:
+            recorder.abandon()
+            raise
+        recorder.end()
+
     def _catch(self, obj: TrackedObject, tid: int) -> None:
         cls = self.config.task.class_named(obj.class_name)
         ex = self.executor
@@ -353,7 +380,7 @@ class ConveyorSorter(Sorter):
                 states = self._observe()
                 chosen = self._choose_track(states)
                 if chosen is not None:
-                    self._catch(*chosen)
+                    self._recorded_catch(*chosen)
                     self._observe()
                     self._home()
                     continue
@@ -367,12 +394,39 @@ class ConveyorSorter(Sorter):
                     break
                 self._wait()
             self._home()
-        except (CameraError, ServoError, CollisionError) as exc:
-            self._abort(str(exc), park=isinstance(exc, CameraError))
+            if self.recorder is not None:
+                self.recorder.end_run()
+        except MearmError as exc:
+            self._stop_on_fault(exc)
         except KeyboardInterrupt:
             self._abort("interrupted (Ctrl-C)", park=True, interrupted=True)
         self.reporter.summary(ok=True, outcome=self.outcome(), motion=self.executor.motion)
         return self.report
+
+    def outcome(self, stopped: str | None = None) -> Outcome:
+        """The still table's outcome, with the belt's objects the camera never saw.
+
+        In simulation the belt's arrivals are known (:func:`~mearm.sim.belt.belt_arrivals`):
+        each that has landed on the belt by now and was never seen (a belt out of the
+        camera's view, an object gone before it was seen whole) is left ``unseen``, with
+        the table's own (``placed``). A real rig knows only what its camera saw.
+        """
+        out = super().outcome(stopped)
+        if self.in_bins is None:
+            return out
+        expected = dict(self.placed)
+        now = self.now_s()
+        for a in belt_arrivals(self.config):
+            if a.t_s <= now:
+                expected[a.color] = expected.get(a.color, 0) + 1
+        out.unseen = {}
+        out.left.pop("unseen", None)
+        for name, n in expected.items():
+            missing = n - out.seen.get(name, 0)
+            if missing > 0:
+                out.unseen[name] = missing
+                out.left["unseen"] = out.left.get("unseen", 0) + missing
+        return out
 
 
 __all__ = ["ConveyorSorter", "GripAim", "KeepsTime"]

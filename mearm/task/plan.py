@@ -384,31 +384,25 @@ class Planner:
     def _outside_pulses(self, q: np.ndarray) -> IKFailure | None:
         """The first pose where a servo over a combination of joints leaves its pulse range.
 
-        The MeArm's elbow servo turns shoulder + elbow.
-
-        A servo that turns one joint stays in its pulse range within that joint's limits
-        (the config is checked so); one that turns a combination can leave it there.
+        The MeArm's elbow servo turns shoulder + elbow. The check is the servo map's
+        (:meth:`~mearm.hardware.mapping.ServoMap.outside_pulse_range`), the one ``mearm
+        ik`` and ``mearm fk`` make too.
         """
-        if self._combination is None:
+        if self._combination is None:  # every servo turns its own joint: nothing to check
             return None
-        A, a = self._combination
         chain = self.model.chain
-        q_a = chain.actuated_of(q) / chain.scale[chain.actuated_index]
-        values = q_a @ A.T + a  # (poses, servos) [deg or cm]
-        for k, servo in enumerate(self._servos.joints):
-            if not servo.combined:
-                continue
-            lo, hi = servo.pulse_limits
-            out = np.flatnonzero((values[:, k] < lo - 1e-9) | (values[:, k] > hi + 1e-9))
-            if out.size:
-                i = int(out[0])
-                return IKFailure(
-                    "limit",
-                    f"plan rejected before sending: pose {i} of {len(values) - 1} turns "
-                    f"{servo.servo_text} to {values[i, k]:.4g} {servo.unit}, outside what its "
-                    f"pulse range allows [{lo:.4g}, {hi:.4g}] {servo.unit}",
-                )
-        return None
+        index = chain.actuated_index
+        found = self._servos.outside_pulse_range(chain.actuated_of(q) / chain.scale[index])
+        if found is None:
+            return None
+        servo = found.servo
+        lo, hi = servo.pulse_limits
+        return IKFailure(
+            "limit",
+            f"plan rejected before sending: pose {found.pose} of {len(q) - 1} turns "
+            f"{servo.servo_text} to {found.value:.4g} {servo.unit}, outside what its "
+            f"pulse range allows [{lo:.4g}, {hi:.4g}] {servo.unit}",
+        )
 
 
 #: A joint-space move's step: no actuated joint turns more than this between poses

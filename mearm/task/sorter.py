@@ -444,10 +444,10 @@ class Sorter(PickAndPlace):
             self._home()
             if self.recorder is not None:
                 self.recorder.end_run()
-        except (CameraError, ServoError, CollisionError) as exc:
-            self._abort(str(exc), park=isinstance(exc, CameraError))
         except StartCalibrationFailed as exc:  # the arm parked where it could be
             self._abort(f"{exc}; nothing sorted", park=False)
+        except MearmError as exc:
+            self._stop_on_fault(exc)
         except KeyboardInterrupt as exc:
             self._abort(f"interrupted ({interrupts.named(exc)})", park=True, interrupted=True)
         self.reporter.summary(ok=True, outcome=self.outcome(), motion=self.executor.motion)
@@ -555,6 +555,18 @@ class Sorter(PickAndPlace):
     def _last_joints(self) -> dict[str, float] | None:
         state = self.bus.state
         return None if state is None else self.model.chain.named(self.executor.q_now())
+
+    def _stop_on_fault(self, exc: MearmError) -> None:
+        """Stop the sort on a fault, parked where the servos can still be trusted; else re-raise.
+
+        A camera's fault or a recording that failed (a full disk) parks the arm; a servo's
+        fault or a collision sends nothing more. Any other error is not a fault of the
+        run and goes on up unchanged.
+        """
+        recording = self.recorder is not None and exc is getattr(self.recorder, "failure", None)
+        if not (recording or isinstance(exc, (CameraError, ServoError, CollisionError))):
+            raise exc
+        self._abort(str(exc), park=recording or isinstance(exc, CameraError))
 
     def _abort(self, reason: str, *, park: bool, interrupted: bool = False) -> None:
         bus = self.bus

@@ -1,12 +1,19 @@
 """The project's benchmarks: timings, measured in one run, printed (never asserted).
 
-    mearm bench [--only SECTION ...] [--repeat N] [--json] [--out FILE]
+    mearm bench [--only SECTION ...] [--repeat N] [--json] [--out FILE [--force]]
 
 Each part of the project registers a section with ``@section("name")``: a function that
 takes the parsed :class:`BenchOptions` and returns :class:`Row` s. ``--only`` runs the
-named sections; without it every section runs. Timings are the best of ``--repeat``
-rounds (the least disturbed by other processes), and the sections being compared are
-measured interleaved within each round so that a busy machine slows all of them alike.
+named sections (each once, in the order given); without it every section runs. Timings
+are the best of ``--repeat`` rounds (the least disturbed by other processes), and the
+sections being compared are measured interleaved within each round so that a busy
+machine slows all of them alike. An existing ``--out`` is refused before any section
+runs unless ``--force``.
+
+A row held to a target says ``target met`` or ``target not met`` after its figure (in
+the JSON: ``target`` and ``met``), and the run ends with one line counting the targets
+met and missed. A missed target does not change the exit status (0): the bench measures,
+it does not test; the last line says so.
 
 Sections:
     ik: the peers on the same 500 seeded reachable targets, each held to |e| < 0.01 cm
@@ -45,13 +52,20 @@ Each section lives in its own module of :mod:`mearm.tools.benchmarks`.
 from __future__ import annotations
 
 import json
+import math
 import sys
 import tempfile
 from collections.abc import Sequence
 from dataclasses import asdict
 from pathlib import Path
 
-from mearm.cli import ArgumentParser, existing_ancestor, run, write_text_atomic
+from mearm.cli import (
+    ArgumentParser,
+    existing_ancestor,
+    refuse_to_replace,
+    run,
+    write_text_atomic,
+)
 from mearm.tools.benchmarks.bench_base import (
     SECTIONS,
     BenchOptions,
@@ -134,6 +148,7 @@ __all__ = [
     "reachable_targets",
     "rtb_ets",
     "section",
+    "summary",
     "table",
     "twin_process_seconds",
     "twin_rows",
@@ -143,12 +158,16 @@ __all__ = [
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the chosen sections and print their rows; 0 on success."""
-    parser = ArgumentParser(description="The project's benchmarks.")
+    parser = ArgumentParser(
+        description="The project's benchmarks. A row held to a target says 'target met' or "
+        "'target not met', and the last line counts them; a missed target still exits 0 "
+        "(the bench measures, it does not test)."
+    )
     parser.add_argument(
         "--only",
         action="append",
         choices=sorted(SECTIONS),
-        help="run only this section (repeatable); default: all",
+        help="run only this section (repeatable; each runs once); default: all",
     )
     parser.add_argument(
         "--repeat", type=int, default=5, help="rounds; the best is kept (default 5)"
@@ -157,6 +176,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument(
         "--out", type=Path, metavar="FILE", help="also write the rows as JSON to FILE"
     )
+    parser.add_argument("--force", action="store_true", help="replace an existing --out")
     args = parser.parse_args(argv)
     if args.repeat < 1:
         parser.error(f"--repeat must be at least 1, got {args.repeat}")
@@ -170,29 +190,74 @@ def main(argv: Sequence[str] | None = None) -> int:
             tempfile.TemporaryFile(dir=folder).close()
         except OSError as exc:
             parser.error(f"--out {args.out}: directory {str(folder)!r} is not writable ({exc})")
+        refuse_to_replace(args.out, "--out", args.force)
     options = BenchOptions(repeat=args.repeat)
     rows: list[Row] = []
-    for name in args.only or list(SECTIONS):
+    for name in dict.fromkeys(args.only or SECTIONS):  # a section named twice runs once
         rows += SECTIONS[name](options)
     machine_text = machine()
-    result = {"machine": machine_text, "rows": [asdict(r) for r in rows]}
+    last_line = summary(rows)
+    result = {
+        "machine": machine_text,
+        "rows": [_json_row(r) for r in rows],
+        "targets": {
+            "met": sum(r.met is True for r in rows),
+            "not_met": sum(r.met is False for r in rows),
+            "summary": last_line,
+        },
+    }
     if args.out is not None:  # whole or not at all: a run cut short leaves the old file
         write_text_atomic(args.out, json.dumps(result, indent=1) + "\n")
     if args.json:
         json.dump(result, sys.stdout, indent=1)
         print()
+        print(last_line, file=sys.stderr)  # stdout stays JSON
         return 0
     print("\n".join(table(machine_text, rows)))
+    print(last_line)
     return 0
 
 
+def _json_row(row: Row) -> dict[str, object]:
+    """A row as JSON: a figure that is not a number (none measured) is ``null``."""
+    out = asdict(row)
+    if not math.isfinite(row.value):
+        out["value"] = None
+    return out
+
+
+def summary(rows: Sequence[Row]) -> str:
+    """The bench's last line: the targets met and missed, and what a miss means for the exit."""
+    held = [r for r in rows if r.met is not None]
+    if not held:
+        return "targets: none in these sections"
+    missed = [f"[{r.section}] {r.name}" for r in held if not r.met]
+    met = len(held) - len(missed)
+    if not missed:
+        return f"targets: all {met} met"
+    return (
+        f"targets: {met} met, {len(missed)} not met ({'; '.join(missed)}); exit status 0 "
+        "all the same: the bench measures, it does not test"
+    )
+
+
 def table(machine_text: str, rows: Sequence[Row]) -> list[str]:
-    """The bench's printed lines: the machine, then one line per row."""
+    """The bench's printed lines: the machine, then one line per row.
+
+    A row with a target says ``target met`` or ``target not met`` after its figure.
+    """
     lines = [f"machine: {machine_text}"]
     for row in rows:
-        value = f"{row.value:12.3f} {row.unit}" if row.unit else f"{row.value:12.2f}"
+        if not math.isfinite(row.value):
+            value = f"{'—':>12} {row.unit}"  # not measured: the note says why
+        elif row.unit:
+            value = f"{row.value:12.3f} {row.unit}"
+        else:
+            value = f"{row.value:12.2f}"
         if row.unit == "" and row.value == 0.0:
             value = ""
+        if row.met is not None:
+            value += "  target met" if row.met else "  target not met"
         note = f"  ({row.note})" if row.note else ""
         lines.append(f"[{row.section}] {row.name:<58} {value}{note}")
     return lines

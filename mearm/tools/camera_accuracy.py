@@ -2,7 +2,7 @@ r"""Measure where the calibrated camera puts objects in the twin, calibrated by 
 
     mearm camera-accuracy --config sim_mujoco_perspective \
         [--set twin.camera.tilt_deg=0] [--heights 1,2.5] [--scenes 5] [--first-seed 0] \
-        [--objects 12] [--noise-std 2] [--work DIR] [--json FILE]
+        [--objects 12] [--noise-std 2] [--work DIR] [--json FILE [--force]]
 
 What a user does with a real camera, done with the twin's (a perspective camera with
 lens distortion that the software knows nothing about):
@@ -27,13 +27,24 @@ error exceeds ``--max-mean-cm`` / ``--max-error-cm`` (0.05 / 0.10 cm) or anythin
 missed or extra. ``--work DIR`` keeps the pictures and calibrations: a rerun into it
 replaces the pictures (render-calibration's ``--force``) and keeps the old
 ``intrinsics.yaml`` and ``pose.yaml`` as ``.bak``; ``--json`` may not name one of them
-(or the config). Needs SciPy (``pip install 'mearm[analysis]'``) for the matching.
+(or the config), and an existing ``--json`` is refused unless ``--force``. Needs SciPy
+(``pip install 'mearm[analysis]'``) for the matching.
+
+``--work`` is this command's folder, so that no file of the user's is replaced there:
+it must be new, empty, or one this command wrote before. The command marks it
+(:data:`WORK_MARKER`, the command's name and every file it left there with its SHA-256)
+and refuses, before any work, a folder that holds a file without that mark, or one
+changed since (a calibration of the user's copied over ``intrinsics.yaml``, say). After
+a run cut short, the files of the names it writes are accepted (it may have been
+writing them); any other file is still refused.
 """
 
 from __future__ import annotations
 
 import argparse
+import hashlib
 import json
+import re
 import subprocess
 import sys
 import tempfile
@@ -50,6 +61,7 @@ from mearm.cli import (
     check_output_folder,
     config_from_args,
     positive_number,
+    refuse_to_replace,
     run,
     write_text_atomic,
 )
@@ -85,6 +97,95 @@ def _tool(*argv: str) -> str:
 
 #: The calibrations --work holds beside render-calibration's pictures (and their .bak).
 _WORK_FILES = frozenset({"intrinsics.yaml", "pose.yaml", "intrinsics.yaml.bak", "pose.yaml.bak"})
+#: The file that marks a --work folder as this command's, listing what it wrote there.
+WORK_MARKER = ".mearm-camera-accuracy.json"
+_COMMAND = "mearm camera-accuracy"
+
+
+def _own_name(rel: str) -> bool:
+    """Whether ``rel`` (a path in --work, ``/``-separated) is a name this command writes."""
+    from mearm.tools.render_calibration import _OWN_NAMES
+
+    folder, _, name = rel.rpartition("/")
+    temp = re.fullmatch(r"\.(.+)\.[^.]+\.tmp", name)  # an atomic write cut short by a kill
+    name = temp.group(1) if temp else name
+    if folder == "boards":
+        return re.fullmatch(r"board_\d+\.png", name) is not None
+    return folder == "" and (_OWN_NAMES.fullmatch(name) is not None or name in _WORK_FILES)
+
+
+def _work_files(work: Path) -> dict[str, str]:
+    """Every file under ``work`` but the marker, by path relative to it: its SHA-256.
+
+    A link or anything else that is not a regular file gets a fingerprint no file has,
+    so it is never taken for one this command wrote (it writes none).
+    """
+    files: dict[str, str] = {}
+    if not work.is_dir():
+        return files
+    for path in sorted(work.rglob("*")):
+        rel = path.relative_to(work).as_posix()
+        if rel == WORK_MARKER or (path.is_dir() and not path.is_symlink()):
+            continue
+        if path.is_symlink() or not path.is_file():
+            files[rel] = "not a regular file"
+            continue
+        try:
+            files[rel] = hashlib.sha256(path.read_bytes()).hexdigest()
+        except OSError as exc:
+            raise MearmError(f"--work {work}: cannot read {rel}: {exc.strerror or exc}") from None
+    return files
+
+
+def _check_work(work: Path) -> dict[str, str]:
+    """Refuse a --work folder holding a file this command did not write; what it recorded.
+
+    A folder that is new or empty is taken; one marked by :data:`WORK_MARKER` must hold
+    only the files the marker lists, unchanged (after a run cut short, also files of
+    the names this command writes).
+
+    Raises:
+        MearmError: a file there is not this command's, or changed since it wrote it.
+    """
+    marker = work / WORK_MARKER
+    present = _work_files(work)
+    if not (marker.exists() or marker.is_symlink()):
+        if present:
+            first = next(iter(present))
+            raise MearmError(
+                f"--work {work}: holds files camera-accuracy did not write ({first}, "
+                f"{len(present)} in all), which this run may replace: give a new or empty "
+                "folder, or move them"
+            )
+        return {}
+    retry = "give a new or empty folder, or move the file"
+    try:
+        mark = json.loads(marker.read_text(encoding="utf-8"))
+        if mark["command"] != _COMMAND or not isinstance(mark["files"], dict):
+            raise ValueError("not this command's")
+        recorded = {str(k): str(v) for k, v in mark["files"].items()}
+        finished = mark["finished"] is True
+    except (OSError, ValueError, KeyError, TypeError, UnicodeDecodeError):
+        raise MearmError(
+            f"--work {work}: {WORK_MARKER} is not camera-accuracy's mark: give a new or "
+            "empty folder"
+        ) from None
+    for rel, digest in present.items():
+        if recorded.get(rel) == digest or (not finished and _own_name(rel)):
+            continue
+        why = (
+            "was changed since camera-accuracy wrote it, and this run may replace it"
+            if rel in recorded
+            else "was not written by camera-accuracy (its folder holds only what it wrote)"
+        )
+        raise MearmError(f"--work {work}: {rel} {why}: {retry}")
+    return recorded
+
+
+def _mark_work(work: Path, files: dict[str, str], *, finished: bool) -> None:
+    """Write the marker: this command's folder, and the files it holds (see :func:`_check_work`)."""
+    mark = {"command": _COMMAND, "finished": finished, "files": files}
+    write_text_atomic(work / WORK_MARKER, json.dumps(mark, indent=1, sort_keys=True) + "\n")
 
 
 def _check_json_not_an_input(args: argparse.Namespace) -> None:
@@ -97,11 +198,23 @@ def _check_json_not_an_input(args: argparse.Namespace) -> None:
     refuse_own_inputs([("--json", args.json)], [("--config", config)])
     if args.work is not None and args.json.resolve().parent == args.work.resolve():
         name = args.json.name
-        if _OWN_NAMES.fullmatch(name) or name in _WORK_FILES or name == "boards":
+        if _OWN_NAMES.fullmatch(name) or name in _WORK_FILES or name in ("boards", WORK_MARKER):
             raise MearmError(
                 f"--json {args.json}: is {name} of --work {args.work}, which this run writes "
                 "and reads: write elsewhere"
             )
+
+
+def _check_outputs(args: argparse.Namespace) -> dict[str, str]:
+    """Refuse (exit 2) outputs that cannot be written or must not be; what --work recorded."""
+    if args.json is not None:
+        check_output_file(args.json, "--json")
+    if args.work is not None:
+        check_output_folder(args.work, "--work")
+    if args.json is not None:
+        _check_json_not_an_input(args)
+        refuse_to_replace(args.json, "--json", args.force)
+    return _check_work(args.work) if args.work is not None else {}
 
 
 def calibrate(config_path: str, overrides: list[str], work: Path, views: int, noise: float) -> dict:
@@ -245,20 +358,18 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--noise-std", type=float, default=2.0, help="sensor noise [8-bit levels]")
     parser.add_argument(
         "--work", type=Path,
-        help="keep the pictures and calibrations here (a rerun replaces the pictures; the "
-        "old intrinsics.yaml and pose.yaml are kept as .bak)",
+        help="keep the pictures and calibrations here: a new or empty folder, or one this "
+        f"command wrote before (it marks it, {WORK_MARKER}); a folder holding any other "
+        "file, or one of its files changed since, is refused so that nothing of yours is "
+        "replaced. A rerun replaces the pictures; the old intrinsics.yaml and pose.yaml "
+        "are kept as .bak",
     )  # fmt: skip
     parser.add_argument("--json", type=Path, help="write the figures here")
+    parser.add_argument("--force", action="store_true", help="replace an existing --json")
     parser.add_argument("--max-mean-cm", type=positive_number(1e-6, 1000, "cm"), default=0.05)
     parser.add_argument("--max-error-cm", type=positive_number(1e-6, 1000, "cm"), default=0.10)
     args = parser.parse_args(argv)
-    # outputs before the work: the measurement takes minutes
-    if args.json is not None:
-        check_output_file(args.json, "--json")
-    if args.work is not None:
-        check_output_folder(args.work, "--work")
-    if args.json is not None:
-        _check_json_not_an_input(args)
+    recorded = _check_outputs(args)  # before the work: the measurement takes minutes
     heights = _numbers(args.heights)
     if not (1 <= args.scenes <= 100 and 1 <= args.objects <= 40 and 6 <= args.views <= 60):
         raise MearmError("--scenes must be 1 … 100, --objects 1 … 40 and --views 6 … 60")
@@ -282,6 +393,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     with tempfile.TemporaryDirectory(prefix="mearm-accuracy-") as tmp:
         work = args.work or Path(tmp)
         work.mkdir(parents=True, exist_ok=True)
+        if args.work is not None:  # claimed before anything is written into it
+            _mark_work(work, recorded, finished=False)
         cal = calibrate(str(args.config), list(args.set or []), work, args.views, args.noise_std)
         print(cal["intrinsics_output"].splitlines()[0] if cal["intrinsics_output"] else "")
         for line in cal["pose_output"].splitlines()[1:4]:
@@ -316,6 +429,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.json:
         text = json.dumps({"rows": rows, "calibration": cal}, indent=2) + "\n"
         write_text_atomic(args.json, text)
+    if args.work is not None:  # what it holds now is this command's (checked, then written)
+        _mark_work(args.work, _work_files(args.work), finished=True)
     if not ok:
         print(
             f"camera accuracy: NOT within mean {args.max_mean_cm:g} cm, max "

@@ -17,8 +17,10 @@ an existing file holding a better calibration is kept unless ``--force``), and p
 the residuals the refined pose gives on the same frames.
 
 Exit 0: the check ran and printed its figures; 1: it could not complete (no object seen,
-a point that failed, a camera or servo fault: one line on stderr says which, and OUT is
-not written); 2: bad input, one line on stderr (OUT is checked before the arm moves).
+a point that failed, a camera or servo fault during the check: one line on stderr says
+which, and OUT is not written); 2: bad input, one line on stderr (OUT is checked before
+the arm moves), a camera that cannot be opened included (as ``mearm sort`` and ``mearm
+detect`` say it).
 """
 
 from __future__ import annotations
@@ -107,6 +109,24 @@ def _intrinsics_file(config: Config) -> Path | None:
     return Path(name) if name else None
 
 
+def _check_camera_opens(config: Config) -> None:
+    """Open the config's camera once and close it, before the arm moves.
+
+    A camera that is not there is bad input (exit 2), as for ``mearm sort`` and ``mearm
+    detect``; inside the check a camera fault stops it (exit 1). The simulated camera
+    (``camera.kind: sim``) is always there: it is opened with the rig's table.
+
+    Raises:
+        CameraError: it cannot be opened, and why.
+    """
+    if config.camera.kind == "sim":
+        return
+    from mearm.backends import open_camera  # noqa: PLC0415  (a real camera only)
+
+    with open_camera(config):
+        pass
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the check (and the refinement); the exit codes are the module's."""
     parser = ArgumentParser(
@@ -150,6 +170,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             "intrinsics_file and extrinsics_file); this config has the homography"
         )
 
+    _check_camera_opens(config)
     try:
         check = run_check(
             config, points=args.points, class_name=args.class_name,

@@ -3,8 +3,10 @@
 Targets are the TCP of random joint poses within the limits (each joint within 0.5° of a
 limit with probability 1/4), kept when inside the target box; an arm that picks with an
 approach axis gets the sampled pose's axis too. Starts: home, uniform in the limits, and
-near the limits (each joint within 0.5° of one with probability 1/2). Every pose of every
-path is checked against the limits.
+near the limits (each joint within 0.5° of one with probability 1/2). Targets and starts
+are poses every servo can be sent to (the MeArm v1's elbow servo turns shoulder + elbow,
+whose pulse range is narrower than the two joints' limits). Every pose of every path is
+checked against the limits, and every solution against the servos' pulse ranges.
 
     mearm ik-stalls [--targets 2000] [--seed 0] [--no-recover] [CONFIG ...]
 
@@ -24,6 +26,7 @@ import numpy as np
 
 from mearm.cli import ArgumentParser, run, seed_value
 from mearm.config import Config, load_config
+from mearm.hardware.mapping import ServoMap
 from mearm.ik import IKTarget, PdPij, make_solver
 from mearm.kinematics import ArmModel
 
@@ -55,6 +58,13 @@ def measure(config: Config, n: int, seed: int, *, recover: bool | None) -> list[
         else PdPij(model, config.controller, recover=recover)
     )
     lo, hi = chain.actuated_lower, chain.actuated_upper
+    servos = ServoMap.from_arm(config.arm)
+    scale = chain.scale[chain.actuated_index]
+
+    def sendable(q_actuated: np.ndarray) -> bool:
+        """Whether every servo can be sent to this pose (model units, actuated joints)."""
+        return servos.outside_pulse_range(q_actuated / scale) is None
+
     box = config.arm.target_box
     with_axis = config.arm.tool.pick_approach is not None
     rows = []
@@ -65,7 +75,10 @@ def measure(config: Config, n: int, seed: int, *, recover: bool | None) -> list[
         methods: Counter[str] = Counter()
         t0 = time.perf_counter()
         while solved < n:
-            q_target = chain.full(_sample(rng, lo, hi, 0.25))
+            q_sampled = _sample(rng, lo, hi, 0.25)
+            if not sendable(q_sampled):  # a target only a pose the servos cannot take reaches
+                continue
+            q_target = chain.full(q_sampled)
             p = model.fk_cm(q_target)
             if not (
                 box.x_cm.contains(p[0]) and box.y_cm.contains(p[1]) and box.z_cm.contains(p[2])
@@ -74,7 +87,12 @@ def measure(config: Config, n: int, seed: int, *, recover: bool | None) -> list[
             axis = _xyz(model.approach(q_target)) if with_axis else None
             target = IKTarget(_xyz(p), axis)
             edge = {"home": None, "uniform": 0.0, "near a limit": 0.5}[start]
-            q0 = model.home if edge is None else chain.full(_sample(rng, lo, hi, edge))
+            q0 = model.home
+            while edge is not None:  # a start the servos can be at
+                q_start = _sample(rng, lo, hi, edge)
+                if sendable(q_start):
+                    q0 = chain.full(q_start)
+                    break
             result = solver.solve(target, q0)
             solved += 1
             if not result.converged:
@@ -82,7 +100,11 @@ def measure(config: Config, n: int, seed: int, *, recover: bool | None) -> list[
                 failure = getattr(result, "failure", None)
                 kinds[getattr(failure, "kind", result.status)] += 1
             methods[str(getattr(result, "method", "direct"))] += 1
-            if not all(chain.within_limits(q, tol=1e-9) for q in result.q_path):
+            # the solution, not the path: one that swings past a servo's range on the way
+            # is sent by the planner as a joint-space move, never as this path
+            if not all(chain.within_limits(q, tol=1e-9) for q in result.q_path) or (
+                result.converged and not sendable(chain.actuated_of(result.q))
+            ):
                 violations += 1
         rows.append(
             {

@@ -12,7 +12,7 @@ Examples::
     mearm preview --joints shoulder=60,elbow=-100  # others stay at home
     mearm preview --sweep                        # each actuated joint, then the jaws
     mearm preview --sweep shoulder               # only the shoulder
-    mearm preview --screenshot arm.png           # render headless and exit
+    mearm preview --screenshot arm.png           # render headless and exit (--force: replace)
     mearm preview --collision                    # and the collision model, translucent
 """
 
@@ -26,7 +26,16 @@ from pathlib import Path
 
 import numpy as np
 
-from mearm.cli import ArgumentParser, add_config_argument, config_from_args, positive_number, run
+from mearm.cli import (
+    ArgumentParser,
+    add_config_argument,
+    config_from_args,
+    positive_number,
+    refuse_own_inputs,
+    refuse_to_replace,
+    run,
+)
+from mearm.config.files import resolve_config_path
 from mearm.kinematics import ArmModel
 from mearm.sim.table_collision import collision_model
 from mearm.view import ArmView
@@ -49,8 +58,19 @@ def _named_values(text: str) -> dict[str, float]:
                 f"--joints must be NAME=VALUE pairs with finite values, e.g. "
                 f"shoulder=60,elbow=-100; got {text!r}"
             )
+        if name.strip() in out:  # which of the two was meant is not ours to guess
+            raise argparse.ArgumentTypeError(
+                f"--joints names {name.strip()!r} twice; give each joint once, got {text!r}"
+            )
         out[name.strip()] = number
     return out
+
+
+def _png_path(text: str) -> Path:
+    """--screenshot's value; an empty one is refused (``Path('')`` is the current folder)."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("the value is empty: give the path of a .png file")
+    return Path(text)
 
 
 def _window_size(text: str) -> tuple[int, int]:
@@ -126,7 +146,12 @@ def _parser() -> ArgumentParser:
     parser.add_argument(
         "--rate-hz", type=positive_number(0.1, 1000.0), default=50.0, help="sweep frame rate [Hz]"
     )
-    parser.add_argument("--screenshot", type=Path, metavar="OUT.png", help="render to a PNG, exit")
+    parser.add_argument(
+        "--screenshot", type=_png_path, metavar="OUT.png", help="render to a PNG, exit"
+    )
+    parser.add_argument(
+        "--force", action="store_true", help="replace the --screenshot file if it exists"
+    )
     parser.add_argument("--size", type=_window_size, default=(1280, 800), help="PNG size WxH")
     parser.add_argument("--hold", action="store_true", help="keep serving after --screenshot")
     parser.add_argument(
@@ -165,6 +190,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     shot = args.screenshot
     if shot is not None and (shot.suffix.lower() != ".png" or shot.exists() and not shot.is_file()):
         parser.error(f"--screenshot {shot}: must be a .png file (not a folder or a device)")
+    if shot is not None:
+        config_file = resolve_config_path(args.config) if args.config is not None else None
+        refuse_own_inputs([("--screenshot", shot)], [("--config", config_file)])
+        refuse_to_replace(shot, "--screenshot", args.force)
 
     config = config_from_args(args)
     model = ArmModel(config.arm)

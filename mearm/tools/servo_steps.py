@@ -1,7 +1,7 @@
 r"""The twin's servo step responses, as a table and a plot (docs/twin.md).
 
     mearm servo-steps --csv steps.csv                    # this model's responses
-    mearm servo-steps --before old.csv --out docs/images/servo_steps.png
+    mearm servo-steps --before old.csv --out docs/images/servo_steps.png --force
 
 (``python tools/servo_steps.py`` from the checkout.) Each response starts from a fresh
 twin at home (``configs/sim_mujoco.yaml`` unless ``--config``): one joint is commanded
@@ -10,7 +10,9 @@ of the real bus, and the physics runs on with that command; its measured angle i
 sampled every 4 ms for 0.6 s (simulated). ``--csv`` writes
 ``joint,step_deg,t_s,angle_deg`` rows; ``--before`` draws another run's CSV (an earlier
 model's, written by this command run against it) dashed under this model's, which is
-how the plot in docs/twin.md compares the servo model before and after a change.
+how the plot in docs/twin.md compares the servo model before and after a change. An
+existing ``--csv`` or ``--out`` is refused before the measurement unless ``--force``
+(the plot in docs/images is redrawn with it).
 """
 
 from __future__ import annotations
@@ -21,7 +23,7 @@ import math
 from collections.abc import Sequence
 from pathlib import Path
 
-from mearm.cli import ArgumentParser, add_config_argument, config_from_args
+from mearm.cli import ArgumentParser, add_config_argument, config_from_args, refuse_to_replace
 from mearm.config import Config
 from mearm.errors import MearmError
 from mearm.fileio import write_atomic
@@ -124,6 +126,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--csv", type=Path, help="write the responses here (CSV)")
     parser.add_argument("--before", type=Path, help="an earlier run's CSV, drawn dashed (--out)")
     parser.add_argument("--out", type=Path, help="write the plot here (PNG)")
+    parser.add_argument("--force", action="store_true", help="replace an existing --csv or --out")
     args = parser.parse_args(argv)
     if args.csv is None and args.out is None:
         parser.error("nothing to write: give --csv FILE, --out FILE.png, or both")
@@ -141,6 +144,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         args.before is not None and args.before.resolve() in outputs
     ):
         raise MearmError("--csv, --out and --before must be three different files")
+    refuse_to_replace(args.csv, "--csv", args.force)
+    refuse_to_replace(args.out, "--out", args.force)
     before = read_rows(args.before) if args.before else []
     rows = responses(config_from_args(args), args.degrees)
     try:

@@ -6,7 +6,9 @@ the emulated pins produce after the acknowledgement: the difference from the com
 per pulse [µs]. Builds the firmware and the harness on first use (needs make, gcc-avr,
 avr-libc, arduino-core-avr, gcc, libsimavr-dev, libelf-dev).
 
-    mearm virtual-uno-pulses --commands 2000
+    mearm virtual-uno-pulses --commands 2000 [--json FILE [--force]]
+
+An existing ``--json`` is refused before the measurement unless ``--force``.
 """
 
 from __future__ import annotations
@@ -26,6 +28,7 @@ from mearm.cli import (
     ArgumentParser,
     check_output_file,
     positive_number,
+    refuse_to_replace,
     run,
     seed_value,
     write_text_atomic,
@@ -95,9 +98,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     )  # fmt: skip
     parser.add_argument("--seed", type=seed_value, default=0, help="random seed (default 0)")
     parser.add_argument("--json", type=Path, help="write the figures here")
+    parser.add_argument("--force", action="store_true", help="replace an existing --json")
     args = parser.parse_args(argv)
-    if args.json is not None:
-        check_output_file(args.json, "--json")  # before the measurement, not after it
+    if args.json is not None:  # before the measurement, not after it
+        check_output_file(args.json, "--json")
+        refuse_to_replace(args.json, "--json", args.force)
     errors = pulse_errors(int(args.commands), args.seed)
     s = summary(errors)
     tolerance = VirtualUnoConfig().pulse_tolerance_us

@@ -20,6 +20,10 @@ noise seeds — how many scenes gave exactly the 12 objects with the right class
 the worst and mean position error; and how well calibrations recover the rig
 (:func:`run_calibration_study`).
 
+A cost per object is a difference of two timings: one that comes out at or under zero
+(too few ``--repeat`` rounds, or a busy machine) is no measurement and prints ``—`` with
+"below timing resolution" (its value is NaN), never a negative cost.
+
 ``--photos DIR`` scores a folder of labelled real photos instead
 (:mod:`mearm.tools.photo_bench`): recall and precision per photo, per class and over
 all, the detector of ``--config`` and the ``inRange`` recipe side by side; ``--learn``
@@ -249,13 +253,34 @@ def run_detection_peers(repeat: int = 50, counts: Sequence[int] = PEER_COUNTS) -
     lo, hi = min(counts), max(counts)
     if hi > lo:
         for key, label in (("mearm", "mearm"), ("inRange", "8-bit inRange recipe")):
-            slope = (us[f"{key}/{hi}"] - us[f"{key}/{lo}"]) / (hi - lo)
-            rows.append((f"detect, {label}: per object", slope, "µs/object",
-                         f"slope from {lo} to {hi} objects"))  # fmt: skip
+            rows.append(
+                per_object_row(f"detect, {label}: per object", us[f"{key}/{lo}"],
+                               us[f"{key}/{hi}"], lo, hi, repeat)
+            )  # fmt: skip
     return [
         {"section": "vision", "name": n, "value": float(v), "unit": u, "note": note}
         for n, v, u, note in rows
     ]
+
+
+def per_object_row(
+    name: str, lo_us: float, hi_us: float, lo: int, hi: int, repeat: int
+) -> tuple[str, float, str, str]:
+    """The cost of one more object: the slope from ``lo`` objects (``lo_us`` a frame) to ``hi``.
+
+    A difference of two timings: one at or under zero is the rounds' noise, not a cost,
+    and is no figure (NaN) with "below timing resolution" in its note, never a negative
+    cost printed as a measurement.
+    """
+    slope = (hi_us - lo_us) / (hi - lo)
+    note = f"slope from {lo} to {hi} objects"
+    if slope > 0:
+        return name, slope, "µs/object", note
+    why = (
+        f"below timing resolution: {hi} objects timed no slower than {lo} ({hi_us:.1f} vs "
+        f"{lo_us:.1f} µs/frame, best of {repeat} rounds; more --repeat may resolve it)"
+    )
+    return name, float("nan"), "µs/object", f"{why}; {note}"
 
 
 def run_vision_accuracy(seeds: int = 3) -> list[dict]:
@@ -438,7 +463,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     rows += run_vision_accuracy(args.seeds)
     for row in rows + run_calibration_study():
         note = f"  ({row['note']})" if row["note"] else ""
-        print(f"{row['name']:<62} {row['value']:9.3f} {row['unit']:<9}{note}")
+        value = f"{row['value']:9.3f}" if math.isfinite(row["value"]) else f"{'—':>9}"
+        print(f"{row['name']:<62} {value} {row['unit']:<9}{note}")
     return 0
 
 

@@ -6,9 +6,10 @@ server (the server replays its scene tree to every browser that connects). A pla
 object only once its image has been decoded, which virtual time does not wait for. So
 the page is driven over the DevTools protocol instead: the picture is taken once the
 viewer has received the expected number of messages, holds the expected number of
-objects, and has drawn two more frames. WebGL runs on SwiftShader, the CPU
-renderer, so no GPU or display is needed. A :class:`HeadlessBrowser` kept running draws
-many pages, one tab each, for callers that take many pictures.
+objects, and has drawn two more frames; every call to the browser has the screenshot's
+deadline, so a browser that stops answering is an error naming the step. WebGL runs on
+SwiftShader, the CPU renderer, so no GPU or display is needed. A :class:`HeadlessBrowser`
+kept running draws many pages, one tab each, for callers that take many pictures.
 
 Nothing is left behind, whatever ends the screenshot: the browser runs in a process
 group of its own, which is ended as a whole (its helper processes too), and its
@@ -30,11 +31,11 @@ import subprocess
 import tempfile
 import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Awaitable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from types import FrameType
-from typing import Any
+from typing import Any, TypeVar
 
 import tornado.websocket
 
@@ -74,6 +75,14 @@ UNWIND_SIGNALS: tuple[signal.Signals, ...] = tuple(
 )
 #: How long the browser may take to quit when asked before it is killed [s].
 QUIT_TIMEOUT_S = 10.0
+#: The browser's window [px]. Each page sets its own size (a device-metrics override,
+#: larger or smaller than the window), so the window is never the picture's size: headless
+#: Chromium keeps 87 px of a window's height for its (undrawn) toolbars and a window at
+#: least 500 px wide, so a window 87 px high or less has no page area, draws no frame,
+#: and its screenshot never comes (a 64x64 window hung; Chromium 156).
+WINDOW_PX = (1280, 800)
+
+_T = TypeVar("_T")
 
 # [socket state, messages received, objects drawn under /meshcat]. meshcat keeps each
 # object in a scene-tree node named "<object>", created only once the object is added
@@ -128,11 +137,19 @@ def find_browser() -> str:
 class _DevTools:
     """A minimal DevTools-protocol client over the browser's WebSocket."""
 
-    def __init__(self, conn: tornado.websocket.WebSocketClientConnection):
+    def __init__(self, conn: tornado.websocket.WebSocketClientConnection, deadline: float):
         self.conn = conn
+        self.deadline = deadline
         self.next_id = 0
 
-    async def call(self, method: str, session: str | None = None, **params: Any) -> dict:
+    async def call(self, step: str, method: str, session: str | None = None, **params: Any) -> dict:
+        """``method``'s result; a :class:`ViewError` naming ``step`` past the deadline.
+
+        A browser that stops drawing never answers a call that waits for a frame.
+        """
+        return await _by_deadline(self._call(method, session, params), step, method, self.deadline)
+
+    async def _call(self, method: str, session: str | None, params: dict[str, Any]) -> dict:
         self.next_id += 1
         msg: dict[str, Any] = {"id": self.next_id, "method": method, "params": params}
         if session is not None:
@@ -227,19 +244,38 @@ def _devtools_url(profile: Path, proc: subprocess.Popen, deadline: float) -> str
     raise ViewError("the browser did not open its DevTools port in time")
 
 
+async def _by_deadline(awaitable: Awaitable[_T], step: str, what: str, deadline: float) -> _T:
+    """``awaitable``'s result, or a :class:`ViewError` naming ``step`` once ``deadline`` passes."""
+    start = time.monotonic()
+    try:
+        return await asyncio.wait_for(awaitable, max(0.0, deadline - start))
+    except TimeoutError:
+        raise ViewError(
+            f"the browser did not {step} in time: {what} got no answer in "
+            f"{time.monotonic() - start:.0f} s (the screenshot's timeout_s ran out)"
+        ) from None
+
+
 async def _capture(
     ws_url: str, url: str, size: tuple[int, int], expect: SceneCounts | None, deadline: float
 ) -> bytes:
-    conn = await tornado.websocket.websocket_connect(ws_url, max_message_size=256 * 2**20)
-    tools = _DevTools(conn)
+    """PNG bytes of ``url`` in a new tab; every call to the browser ends by ``deadline``."""
+    conn = await _by_deadline(
+        tornado.websocket.websocket_connect(ws_url, max_message_size=256 * 2**20),
+        "accept the DevTools connection",
+        "the WebSocket handshake",
+        deadline,
+    )
+    tools = _DevTools(conn, deadline)
     try:
-        target = await tools.call("Target.createTarget", url="about:blank")
+        target = await tools.call("open a tab", "Target.createTarget", url="about:blank")
         attached = await tools.call(
-            "Target.attachToTarget", targetId=target["targetId"], flatten=True
+            "attach to its tab", "Target.attachToTarget", targetId=target["targetId"], flatten=True
         )
         sid = attached["sessionId"]
         width, height = size
         await tools.call(
+            f"size the page to {width}x{height} px",
             "Emulation.setDeviceMetricsOverride",
             sid,
             width=width,
@@ -247,12 +283,16 @@ async def _capture(
             deviceScaleFactor=1,
             mobile=False,
         )
-        await tools.call("Page.navigate", sid, url=url)
+        await tools.call(f"load {url}", "Page.navigate", sid, url=url)
         want = expect or SceneCounts(messages=1, objects=0)
         state = None
         while True:
             result = await tools.call(
-                "Runtime.evaluate", sid, expression=_STATE_JS, returnByValue=True
+                f"report the state of the view at {url}",
+                "Runtime.evaluate",
+                sid,
+                expression=_STATE_JS,
+                returnByValue=True,
             )
             state = result.get("result", {}).get("value")
             if state and state[0] == 1 and state[1] >= want.messages and state[2] >= want.objects:
@@ -266,10 +306,18 @@ async def _capture(
             await asyncio.sleep(0.1)
         if expect is None:  # no counts to wait for: let the messages settle a little
             await asyncio.sleep(0.5)
-        await tools.call("Runtime.evaluate", sid, expression=_TWO_FRAMES_JS, awaitPromise=True)
-        shot = await tools.call("Page.captureScreenshot", sid, format="png")
+        await tools.call(
+            f"draw two frames of the view at {url}",
+            "Runtime.evaluate",
+            sid,
+            expression=_TWO_FRAMES_JS,
+            awaitPromise=True,
+        )
+        shot = await tools.call(
+            f"take the picture of {url}", "Page.captureScreenshot", sid, format="png"
+        )
         # a browser that draws more pages keeps no old tab (after a failure it is ended)
-        await tools.call("Target.closeTarget", targetId=target["targetId"])
+        await tools.call("close its tab", "Target.closeTarget", targetId=target["targetId"])
         return base64.b64decode(shot["data"])
     finally:
         conn.close()
@@ -284,18 +332,13 @@ class HeadlessBrowser:
     the browser's process group is ended and its temporary profile removed.
     """
 
-    def __init__(
-        self,
-        browser: str | None = None,
-        *,
-        window_px: tuple[int, int] = (1280, 800),
-        timeout_s: float = 60.0,
-    ):
+    def __init__(self, browser: str | None = None, *, timeout_s: float = 60.0):
         """Start the browser and wait for its DevTools port.
+
+        Its window is :data:`WINDOW_PX` whatever the pictures' sizes: each page sets its own.
 
         Args:
             browser: The browser executable; default :func:`find_browser`.
-            window_px: Its window size (each page sets its own viewport) [px].
             timeout_s: Give up waiting for the port after this long [s].
 
         Raises:
@@ -313,7 +356,7 @@ class HeadlessBrowser:
             exe,
             *HEADLESS_FLAGS,
             f"--user-data-dir={profile}",
-            f"--window-size={window_px[0]},{window_px[1]}",
+            f"--window-size={WINDOW_PX[0]},{WINDOW_PX[1]}",
             "about:blank",
         ]
         self._proc: subprocess.Popen | None = None
@@ -382,7 +425,8 @@ def screenshot(
         expect: Wait until the page has this much of the scene (see
             ``ArmView.screenshot``, which knows); ``None`` waits for the first message
             and half a second more.
-        timeout_s: Give up after this long [s].
+        timeout_s: Give up after this long [s]: the browser's start, the scene's
+            arrival and every call to the browser after it end by then.
         browser: The browser executable; default :func:`find_browser`.
         session: A running :class:`HeadlessBrowser` to draw in (a new tab, closed after;
             ``browser`` is then unused); default: start one for this picture, end it after.
@@ -393,9 +437,10 @@ def screenshot(
     Raises:
         BrowserNotFoundError: No browser.
         ViewInputError: A size out of range, or no folder for ``out_png``.
-        ViewError: The browser failed, the scene was not drawn within ``timeout_s``, or
-            the PNG cannot be written (it is written in one step: an old file stays
-            whole until the new one replaces it).
+        ViewError: The browser failed, the scene was not drawn or the browser did not
+            answer within ``timeout_s`` (the error names the step), or the PNG cannot be
+            written (it is written in one step: an old file stays whole until the new
+            one replaces it).
     """
     out = Path(out_png).resolve()
     if not out.parent.is_dir():
@@ -411,10 +456,11 @@ def screenshot(
         else:
             exe = browser or find_browser()
             start_s = deadline - time.monotonic()
-            with HeadlessBrowser(exe, window_px=size, timeout_s=start_s) as own:
+            with HeadlessBrowser(exe, timeout_s=start_s) as own:
                 png = own.render(url, size, expect, deadline)
     try:
         write_atomic(out, png)
     except OSError as exc:
-        raise ViewError(f"cannot write {out}: {exc}") from None
+        # strerror: the reason, not the temporary file's name the error carries
+        raise ViewError(f"cannot write {out}: {exc.strerror or exc}") from None
     return out

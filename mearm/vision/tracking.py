@@ -25,7 +25,13 @@ track coasts.
 **Association.** A detection can only be of a track of its class, within ``gate_cm``
 and three standard deviations of the track's predicted position (:meth:`Track.gate_cm`:
 wider while a track's velocity is little known: an object seen once is taken to ride at
-the belt's velocity, give or take the belt's speed);
+the belt's velocity, give or take the belt's speed). An object slower than the belt
+(one that landed at rest and is still being brought up to its speed: at 100 cm/s in the
+twin that takes some 0.17 s, two frames) may be anywhere from its prediction to where
+the belt's velocity would have carried it since it was last seen: the distance is to
+that stretch (:meth:`Track.reach_cm`), and a detection only the belt's pull explains
+makes the track learn its velocity afresh (:meth:`Track.pulled`) rather than start a
+second track of the same object;
 the pairs are taken nearest first (greedily: on a belt objects of a class lie
 centimetres apart, far more than the gate, so nearest-first and an optimal assignment
 agree). A detection left over starts a track; a track left
@@ -152,6 +158,7 @@ class Track:
         self.id = track_id
         self.color = seen.color
         self._accel_var = tracking.accel_std_cm_s2**2
+        self._belt = None if belt_cm_s is None else np.array(belt_cm_s, dtype=float)
         kf = cv2.KalmanFilter(4, 2, 0, cv2.CV_64F)
         kf.measurementMatrix = np.hstack([np.eye(2), np.zeros((2, 2))])
         kf.measurementNoiseCov = np.eye(2) * tracking.measurement_std_cm**2
@@ -204,6 +211,37 @@ class Track:
         """
         cov = self._kf.errorCovPost[:2, :2]
         return gate_cm + 3.0 * math.sqrt(float(np.max(np.linalg.eigvalsh(cov))))
+
+    def _pull(self) -> tuple[np.ndarray, float]:
+        """The belt's velocity less the estimate's (2,) [cm/s], and the time unseen [s]."""
+        if self._belt is None:
+            return np.zeros(2), 0.0
+        return self._belt - self.velocity_cm_s, self.t_s - self.last_seen_s
+
+    def reach_cm(self) -> np.ndarray:
+        """Where the object may be now: the stretch's two ends, (2, 2) [cm].
+
+        From the prediction to where the object would be had it ridden at the belt's
+        velocity since it was last seen: one slower than the belt is being brought up to
+        its speed (it landed at rest), so it has gone at least as far as its estimate
+        says and at most as far as the belt carries. Without a belt, or at the belt's
+        velocity, both ends are the prediction.
+        """
+        dv, dt = self._pull()
+        p = self.position_cm
+        return np.array([p, p + dv * dt])
+
+    def pulled(self) -> None:
+        """The belt's pull sped the object up: take its next detection to learn from.
+
+        The detection is farther down the belt than the estimate put it. The velocity
+        since the object was last seen is uncertain by its difference from the belt's, so
+        the correction learns it afresh.
+        """
+        dv, dt = self._pull()
+        var = float(dv @ dv)
+        block = np.array([[dt * dt, dt], [dt, 1.0]]) * var
+        self._kf.errorCovPost = self._kf.errorCovPost + np.kron(block, np.eye(2))
 
     @property
     def position_cm(self) -> np.ndarray:
@@ -265,15 +303,19 @@ class Tracker:
         self._t_s = t_s
         ids = list(self.tracks)
         predicted = [self.tracks[tid].predict(t_s) for tid in ids]
+        reach = [self.tracks[tid].reach_cm() for tid in ids]
         distance = np.full((len(ids), len(detections)), math.inf)
         for i, tid in enumerate(ids):
             for k, d in enumerate(detections):
                 if d.color == self.tracks[tid].color:
-                    distance[i, k] = float(np.hypot(*(predicted[i] - (d.x_cm, d.y_cm))))
+                    distance[i, k] = distance_to_path(reach[i], (d.x_cm, d.y_cm))
         gates = [self.tracks[tid].gate_cm(self.tracking.gate_cm) for tid in ids]
         taken_detections: set[int] = set()
         for i, k in nearest_pairs(distance, gates):
-            self.tracks[ids[i]].correct(detections[k])
+            track, d = self.tracks[ids[i]], detections[k]
+            if float(np.hypot(*(predicted[i] - (d.x_cm, d.y_cm)))) > gates[i]:
+                track.pulled()  # only the belt's pull explains it
+            track.correct(d)
             taken_detections.add(k)
         for tid in list(self.tracks):
             if t_s - self.tracks[tid].last_seen_s > self.tracking.coast_s:

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+import math
 import os
 import platform
 import sys
@@ -27,13 +29,59 @@ class BenchOptions:
 
 @dataclass(frozen=True)
 class Row:
-    """One measured figure."""
+    """One measured figure.
+
+    Attributes:
+        target: What the figure is held to (``"≤ +100 %"``), or ``""``: none.
+        met: Whether the figure met ``target`` (``None``: no target). A missed target
+            is said in the row and the bench's last line; it is not a failure of the run.
+    """
 
     section: str
     name: str
     value: float
     unit: str
     note: str = ""
+    target: str = ""
+    met: bool | None = None
+
+
+def against(
+    row: Row,
+    target: str,
+    *,
+    at_most: float | None = None,
+    at_least: float | None = None,
+    valid: bool = True,
+) -> Row:
+    """``row`` held to ``target``: ``met`` when its value is within the bound(s).
+
+    ``valid`` false (a measured run failed) or a value that is not a number is not met.
+    """
+    value = row.value
+    met = (
+        valid
+        and math.isfinite(value)
+        and (at_most is None or value <= at_most)
+        and (at_least is None or value >= at_least)
+    )
+    return dataclasses.replace(row, target=target, met=met)
+
+
+#: What a row shows in place of a difference of timings that came out ≤ 0: no figure.
+BELOW_RESOLUTION = "below timing resolution"
+
+
+def difference_row(section: str, name: str, value: float, unit: str, note: str, parts: str) -> Row:
+    """A figure from a difference of timings; not a number (and said so) unless > 0.
+
+    A difference at or under zero is the timings' noise, not a cost: printed as a
+    measurement it would be a negative cost. ``parts`` names the two timings.
+    """
+    if value > 0:
+        return Row(section, name, value, unit, note)
+    why = f"{BELOW_RESOLUTION}: {parts}"
+    return Row(section, name, float("nan"), unit, f"{why}; {note}" if note else why)
 
 
 Section = Callable[[BenchOptions], list[Row]]

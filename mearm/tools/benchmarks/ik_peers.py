@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from mearm.tools.benchmarks.bench_base import BenchOptions, Row
+from mearm.tools.benchmarks.bench_base import BenchOptions, Row, against, difference_row
 
 if TYPE_CHECKING:
     from mearm.config import Config
@@ -22,6 +22,9 @@ PEER_SEED = 16
 PEER_TOLERANCE_CM = 0.01
 #: Targets the NumPy port of the paper's loop solves (about 5 ms each): the first ones.
 PORT_TARGETS = 50
+#: mearm's fastest solve over RTB ``ik_LM``'s, from the same start, must stay at or below
+#: this [×].
+FASTEST_OVER_RTB_TARGET = 0.25
 
 
 def reachable_targets(config: Config, n: int, seed: int) -> np.ndarray:
@@ -115,7 +118,8 @@ def ik_peer_rows(config: Config, options: BenchOptions, n_targets: int = PEER_TA
     per_solve = {k: best[k] / (n_port if k == "numpy port" else n) for k in runs}
     timed = _Timed(best, per_solve, _successes(peers, out), out)
     rows = _solver_rows(peers, timed, options.repeat, rtb_note)
-    return rows + _ratio_rows(per_solve)
+    solved_all = timed.success["fastest"] == n  # a target is met by solves that succeed
+    return rows + _ratio_rows(per_solve, fastest_solved_all=solved_all)
 
 
 @dataclass(frozen=True)
@@ -342,32 +346,39 @@ def _pdpij_rows(mode: str, timed: _Timed, n: int) -> list[Row]:
             "µs",
             "a converged solve started on its target: checks, 1 FK, the record",
         ),
-        Row(
+        difference_row(
             "ik",
             f"PD-PIJ {mode}: per iteration",
             per_it * 1e6,
             "µs",
             "(solve − fixed cost) / iterations",
+            "the solves took no longer than their fixed cost (more --repeat rounds may resolve it)",
         ),
     ]
 
 
-def _ratio_rows(per_solve: dict[str, float]) -> list[Row]:
-    """Each of mearm's solvers over RTB ``ik_LM`` (when it ran), and PD-PIJ over the fastest."""
+def _ratio_rows(per_solve: dict[str, float], *, fastest_solved_all: bool = True) -> list[Row]:
+    """Each of mearm's solvers over RTB ``ik_LM`` (when it ran), and PD-PIJ over the fastest.
+
+    The fastest solve's ratio is held to :data:`FASTEST_OVER_RTB_TARGET`; not met when
+    it failed a target (``fastest_solved_all`` false).
+    """
     rows = []
     if "RTB ik_LM" in per_solve:
         rtb = per_solve["RTB ik_LM"]
+        bound = FASTEST_OVER_RTB_TARGET
         for key, label, target in (
-            ("fastest", "mearm fastest", "target ≤ 0.25×, the same start (home)"),
+            ("fastest", "mearm fastest", f"target ≤ {bound:g}×, the same start (home)"),
             ("fastest chained", "mearm fastest, a new start each", ""),
             ("batch", "mearm batch", ""),
             ("generic", "mearm generic", ""),
             ("PD-PIJ", "PD-PIJ", ""),
             ("numpy port", "numpy port", ""),
         ):
-            rows.append(
-                Row("ik", f"{label} / RTB ik_LM, per solve", per_solve[key] / rtb, "×", target)
-            )
+            row = Row("ik", f"{label} / RTB ik_LM, per solve", per_solve[key] / rtb, "×", target)
+            if target:
+                row = against(row, f"≤ {bound:g}×", at_most=bound, valid=fastest_solved_all)
+            rows.append(row)
     rows.append(
         Row(
             "ik",
