@@ -236,4 +236,3 @@ def test_no_mm_hint_for_a_length_mm_cannot_explain(tmp_path, value):
     path = negative_arm(tmp_path, "a_cm: 22.3", f"a_cm: {value}")
     r = mearm("fk", "--config", str(path), "--joints", "120,93,-132")
     assert r.code == 2 and "look like mm" not in one_line(r), one_line(r)
-
