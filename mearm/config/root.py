@@ -206,6 +206,16 @@ class Config(Strict):
         return self
 
     @model_validator(mode="after")
+    def _belt_or_table(self) -> Config:
+        """A belt's sort picks only what the belt brings: objects on the table stay there."""
+        if self.belt is not None and self.task.scene:
+            raise ValueError(
+                f"@task.scene: {len(self.task.scene)} object(s) on the table, but a config "
+                "with a belt sorts only what the belt brings (belt.arrivals): set task.scene: []"
+            )
+        return self
+
+    @model_validator(mode="after")
     def _names_known(self) -> Config:
         actuated = [j.name for j in self.arm.actuated_joints()]
         for name in self.servo.error_model.offset_deg:

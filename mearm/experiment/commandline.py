@@ -127,6 +127,12 @@ def main(argv: Sequence[str] | None = None) -> int:
 def _experiment(argv: Sequence[str] | None) -> int:
     args = _arguments(argv)
     config = config_from_args(args)
+    if config.belt is not None:  # each trial lays a table the conveyor sorter would ignore
+        raise MearmError(
+            "experiment lays random objects on the table each trial; a config with a belt "
+            "sorts only what the belt brings: run repeated belt sorts with mearm "
+            "conveyor-sweep, or one with mearm sort"
+        )
     check_consistency(config)  # before the scene, the log or any output: the config first
     scene = _scene(args, config)
     wait = None
