@@ -164,6 +164,22 @@ def run_cli(*args: str, timeout: float = 60, cwd: Path = ROOT) -> subprocess.Com
     )
 
 
+def processes_under(folder: Path) -> list[int]:
+    """The processes whose command line names ``folder``: a browser and its helpers a
+    test started with its profile there, still running or not."""
+    out = []
+    for entry in Path("/proc").iterdir():
+        if not entry.name.isdigit():
+            continue
+        try:
+            cmdline = (entry / "cmdline").read_bytes()
+        except OSError:
+            continue
+        if str(folder).encode() in cmdline:
+            out.append(int(entry.name))
+    return out
+
+
 #: The start of every skip reason for a system tool that is not installed; the summary
 #: gathers them (pytest_terminal_summary) and `make system-deps` installs them all.
 MISSING = "needs a system tool: "

@@ -280,7 +280,7 @@ def test_a_step_after_success_warns_once_as_gymnasiums_envs_do():
         action = np.asarray(info["expert_action"])
         with pytest.warns(UserWarning, match=r"step\(\) after the episode returned terminated"):
             env.step(action)
-        with warnings_as_errors():
+        with warnings_taken("error"):
             env.step(action)  # once per episode
         env.reset(seed=1)
     finally:
@@ -288,11 +288,12 @@ def test_a_step_after_success_warns_once_as_gymnasiums_envs_do():
 
 
 @contextlib.contextmanager
-def warnings_as_errors():
+def warnings_taken(action: str):
+    """Warnings inside the block are taken as ``action`` ("error", "ignore")."""
     import warnings
 
     with warnings.catch_warnings():
-        warnings.simplefilter("error")
+        warnings.simplefilter(action)
         yield
 
 
@@ -318,7 +319,7 @@ def test_a_step_after_a_fault_is_refused(tmp_path, monkeypatch, refused):
         inner = env.unwrapped
         action = _refused_action(inner) if refused else obs["agent_pos"]  # or: hold still
         inner.twin.data.qvel[:] = np.nan  # as a diverged physics step leaves it
-        with warnings_ignored():  # the checker: the diverged step's observation
+        with warnings_taken("ignore"):  # the checker: the diverged step's observation
             *_, terminated, _, info = env.step(action)
         assert terminated and "diverged" in info["fault"]
         assert bool(info["refused"]) == refused
@@ -328,12 +329,3 @@ def test_a_step_after_a_fault_is_refused(tmp_path, monkeypatch, refused):
         env.step(action)
     finally:
         env.close()
-
-
-@contextlib.contextmanager
-def warnings_ignored():
-    import warnings
-
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        yield

@@ -13,7 +13,7 @@ import time
 from pathlib import Path
 
 import pytest
-from conftest import ROOT, browser_or_skip
+from conftest import ROOT, browser_or_skip, processes_under
 
 from mearm.fileio import signal_ends_process
 
@@ -24,21 +24,6 @@ import sys
 from mearm.view import screenshot
 screenshot("about:blank", sys.argv[1], timeout_s=120, browser=sys.argv[2])
 """
-
-
-def _processes_under(folder: Path) -> list[int]:
-    """The processes whose command line names ``folder`` (the browser and its helpers)."""
-    out = []
-    for entry in Path("/proc").iterdir():
-        if not entry.name.isdigit():
-            continue
-        try:
-            cmdline = (entry / "cmdline").read_bytes()
-        except OSError:
-            continue
-        if str(folder).encode() in cmdline:
-            out.append(int(entry.name))
-    return out
 
 
 @pytest.mark.slow
@@ -61,17 +46,17 @@ def test_a_signal_mid_screenshot_ends_the_browser_and_removes_its_profile(tmp_pa
             assert child.poll() is None, "the screenshot ended before the browser was up"
             assert time.monotonic() < deadline, "the browser did not start"
             time.sleep(0.05)
-        assert _processes_under(tmp)  # the browser runs, with its profile in there
+        assert processes_under(tmp)  # the browser runs, with its profile in there
         child.send_signal(sig)
         assert child.wait(timeout=60) == -sig
         assert list(tmp.iterdir()) == [], "the profile folder is left"
-        assert _processes_under(tmp) == [], "browser processes are left"
+        assert processes_under(tmp) == [], "browser processes are left"
         assert not (tmp_path / "view.png").exists()
     finally:
         if child.poll() is None:
             child.kill()
             child.wait()
-        for pid in _processes_under(tmp):  # only what this test started
+        for pid in processes_under(tmp):  # only what this test started
             try:
                 os.kill(pid, signal.SIGKILL)
             except ProcessLookupError:

@@ -20,7 +20,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 import pytest
-from conftest import ROOT, browser_or_skip
+from conftest import ROOT, browser_or_skip, processes_under
 
 #: Bounds every run here: a hang is the failure.
 HANG_S = 120
@@ -48,21 +48,6 @@ run(main, sys.argv[1:])
 """
 
 
-def _processes_under(folder: Path) -> list[int]:
-    """The processes whose command line names ``folder`` (the browser and its helpers)."""
-    out = []
-    for entry in Path("/proc").iterdir():
-        if not entry.name.isdigit():
-            continue
-        try:
-            cmdline = (entry / "cmdline").read_bytes()
-        except OSError:
-            continue
-        if str(folder).encode() in cmdline:
-            out.append(int(entry.name))
-    return out
-
-
 @pytest.fixture
 def browser_tmp() -> Iterator[Path]:
     """A short $TMPDIR for the run (the browser's profile, its sockets: at most 107 bytes);
@@ -73,7 +58,7 @@ def browser_tmp() -> Iterator[Path]:
     try:
         yield tmp
     finally:
-        for pid in _processes_under(tmp):
+        for pid in processes_under(tmp):
             try:
                 os.kill(pid, signal.SIGKILL)
             except ProcessLookupError:
@@ -121,7 +106,7 @@ def test_preview_screenshot_of_any_allowed_size_is_written(size, arm_seen, brows
         hsv = cv2.cvtColor(img, cv2.COLOR_BGR2HSV)
         orange = (hsv[..., 0] >= 10) & (hsv[..., 0] <= 22) & (hsv[..., 1] >= 150)
         assert np.count_nonzero(orange) > 0
-    assert _processes_under(browser_tmp) == [], "browser processes are left"
+    assert processes_under(browser_tmp) == [], "browser processes are left"
 
 
 @pytest.mark.slow
@@ -139,5 +124,5 @@ def test_a_browser_that_never_draws_is_a_named_error_at_the_timeout(browser_tmp,
     assert "the browser did not draw two frames of the view at file://" in err
     assert "Runtime.evaluate got no answer" in err
     assert not out.exists()
-    assert _processes_under(browser_tmp) == [], "browser processes are left"
+    assert processes_under(browser_tmp) == [], "browser processes are left"
     assert list(browser_tmp.iterdir()) == [], "the profile folder is left"
