@@ -180,6 +180,31 @@ def processes_under(folder: Path) -> list[int]:
     return out
 
 
+def record_by_hand(root: Path, *, episodes: int = 2, frames: int = 40, **options: Any) -> Path:
+    """A small dataset at ``root``: ``episodes`` of ``frames`` moves each on the kinematic
+    rig of configs/sim.yaml, the jaws closing halfway; ``options`` go to the recorder
+    (``codec``, ``resume``, ``scene``)."""
+    import numpy as np  # noqa: PLC0415  (the dataset tests only)
+
+    from mearm.dataset.recorder import DatasetRecorder  # noqa: PLC0415
+    from mearm.hardware.command import ArmCommand  # noqa: PLC0415
+    from mearm.task import open_rig  # noqa: PLC0415
+
+    config = load_config(ROOT / "configs" / "sim.yaml")
+    recorder = DatasetRecorder(root, config, fps=10, **options)
+    home = ArmCommand.home(config.arm)
+    with open_rig(config, []) as rig, rig.bus:
+        recorder.attach(rig.bus, rig.camera)
+        for episode in range(episodes):
+            recorder.begin("red")
+            for k in range(frames):
+                joints = {n: v + np.sin(k / 10 + episode) for n, v in home.joints.items()}
+                rig.bus.move(ArmCommand(joints, home.tool, k > frames // 2))
+            recorder.end()
+        recorder.close()
+    return root
+
+
 #: The start of every skip reason for a system tool that is not installed; the summary
 #: gathers them (pytest_terminal_summary) and `make system-deps` installs them all.
 MISSING = "needs a system tool: "

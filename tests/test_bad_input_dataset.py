@@ -13,15 +13,10 @@ import shutil
 import sys
 from pathlib import Path
 
-import numpy as np
 import pyarrow.parquet as pq
 import pytest
 from badinput import ROOT, check_bad_input
-
-from mearm.config import load_config
-from mearm.dataset.recorder import DatasetRecorder
-from mearm.hardware.command import ArmCommand
-from mearm.task import open_rig
+from conftest import record_by_hand
 
 bad_input = pytest.mark.bad_input
 
@@ -31,20 +26,7 @@ SIM = ROOT / "configs" / "sim.yaml"
 @pytest.fixture(scope="module")
 def dataset(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """A small dataset of two episodes on the kinematic rig, recorded in this process."""
-    root = tmp_path_factory.mktemp("bad-dataset") / "ds"
-    config = load_config(SIM)
-    recorder = DatasetRecorder(root, config, fps=10)
-    home = ArmCommand.home(config.arm)
-    with open_rig(config, []) as rig, rig.bus:
-        recorder.attach(rig.bus, rig.camera)
-        for episode in range(2):
-            recorder.begin("red")
-            for k in range(40):
-                joints = {n: v + np.sin(k / 10 + episode) for n, v in home.joints.items()}
-                rig.bus.move(ArmCommand(joints, home.tool, k > 20))
-            recorder.end()
-        recorder.close()
-    return root
+    return record_by_hand(tmp_path_factory.mktemp("bad-dataset") / "ds", frames=40)
 
 
 @pytest.fixture(scope="module")

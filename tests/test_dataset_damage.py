@@ -13,20 +13,16 @@ import json
 import shutil
 from pathlib import Path
 
-import numpy as np
 import pytest
 
 pytest.importorskip("pyarrow")
 pytest.importorskip("av")
 
 from badinput import ROOT, check_bad_input  # noqa: E402
+from conftest import record_by_hand  # noqa: E402
 
-from mearm.config import load_config  # noqa: E402
 from mearm.dataset.format_check import check_dataset  # noqa: E402
 from mearm.dataset.reading import RecordedScene, read_tags  # noqa: E402
-from mearm.dataset.recorder import DatasetRecorder  # noqa: E402
-from mearm.hardware.command import ArmCommand  # noqa: E402
-from mearm.task import open_rig  # noqa: E402
 
 SIM = ROOT / "configs" / "sim.yaml"
 
@@ -42,18 +38,7 @@ FILES = [
 
 
 def _record(root: Path, episodes: int = 2, scene: RecordedScene | None = None) -> None:
-    config = load_config(SIM)
-    recorder = DatasetRecorder(root, config, fps=10, resume=root.exists(), scene=scene)
-    home = ArmCommand.home(config.arm)
-    with open_rig(config, []) as rig, rig.bus:
-        recorder.attach(rig.bus, rig.camera)
-        for episode in range(episodes):
-            recorder.begin("red")
-            for k in range(20):
-                joints = {n: v + np.sin(k / 10 + episode) for n, v in home.joints.items()}
-                rig.bus.move(ArmCommand(joints, home.tool, k > 10))
-            recorder.end()
-        recorder.close()
+    record_by_hand(root, episodes=episodes, frames=20, resume=root.exists(), scene=scene)
 
 
 @pytest.fixture(scope="module")

@@ -22,6 +22,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from badinput import ROOT, check_bad_input, run_in_process
+from conftest import record_by_hand
 
 from mearm.config import load_config
 from mearm.dataset.format_check import check_dataset
@@ -37,20 +38,7 @@ PNG = b"\x89PNG\r\n\x1a\n"
 def recorded(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """Two episodes on the kinematic rig, H.264 (as ``sort --config sim --record-codec
     h264`` records them): copy it to change anything beside it."""
-    root = tmp_path_factory.mktemp("outputs") / "ds"
-    config = load_config(SIM)
-    recorder = DatasetRecorder(root, config, fps=10, codec="h264")
-    home = ArmCommand.home(config.arm)
-    with open_rig(config, []) as rig, rig.bus:
-        recorder.attach(rig.bus, rig.camera)
-        for episode in range(2):
-            recorder.begin("red")
-            for k in range(30):
-                joints = {n: v + np.sin(k / 10 + episode) for n, v in home.joints.items()}
-                rig.bus.move(ArmCommand(joints, home.tool, k > 15))
-            recorder.end()
-        recorder.close()
-    return root
+    return record_by_hand(tmp_path_factory.mktemp("outputs") / "ds", frames=30, codec="h264")
 
 
 @pytest.fixture
