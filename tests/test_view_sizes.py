@@ -116,7 +116,8 @@ def test_a_browser_that_never_draws_is_a_named_error_at_the_timeout(browser_tmp,
     page = tmp_path / "never_draws.html"
     page.write_text(NEVER_DRAWS)
     out = tmp_path / "view.png"
-    proc = _run(["-c", SHOOT, page.as_uri(), str(out), "10"], browser_tmp)
+    # 20 s: the one deadline covers the browser's start too, slow on a loaded machine
+    proc = _run(["-c", SHOOT, page.as_uri(), str(out), "20"], browser_tmp)
     assert proc.returncode == 2, proc.stderr
     err = proc.stderr.strip()
     assert len(err.splitlines()) == 1, err
