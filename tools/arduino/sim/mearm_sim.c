@@ -8,7 +8,8 @@
  * transmitter goes to stdout. Every servo pulse is reported on stderr as
  * "pulse <channel> <width in 0.1 us> <simulated ms>", measured in CPU cycles between the
  * pin's rising and falling edge. Simulated time is kept in step with the
- * wall clock (never ahead), so the firmware's timeouts mean what they say.
+ * wall clock (never ahead; when it falls behind, the time lost is dropped, never run
+ * fast to catch up), so the firmware's timeouts mean what they say.
  *
  *   -x SPEED  simulated seconds per wall-clock second (default 1: real time; 0: as fast
  *             as the computer runs it). The firmware's timeouts are simulated time.
@@ -48,6 +49,8 @@
 #define RXEN0_BIT 4
 /* After stdin closes: exit once nothing has crossed the UART for this long. */
 #define QUIET_CYCLES (F_CPU / 10)
+/* Simulated time may fall this far behind the wall clock [s] before the rest is dropped. */
+#define MAX_LAG_S 0.02
 
 /* Uno pins D3, D5, D6, D9, D10 = PD3, PD5, PD6, PB1, PB2 (mearm_servo.ino SERVO_PINS). */
 static const char SERVO_PORT[SERVO_COUNT] = {'D', 'D', 'D', 'B', 'B'};
@@ -205,6 +208,10 @@ int main(int argc, char **argv) {
     if (speed > 0.0) {
       double ahead = (double)avr->cycle / F_CPU / speed - (wall_s() - start);
       if (ahead > 0.002) usleep((useconds_t)(ahead * 1e6));
+      /* Behind (the process was paused or starved on a loaded machine): the lost time is
+       * dropped, not run flat out to catch up. A real chip's time does not jump, and a
+       * burst would fire the firmware's 1 s watchdog between two of the host's lines. */
+      else if (ahead < -MAX_LAG_S) start += -ahead - MAX_LAG_S;
     }
   }
 }
