@@ -202,6 +202,48 @@ def test_a_stop_signal_to_eval_policy_ends_its_workers_too(tmp_path, sig, code, 
         proc.wait()
 
 
+def test_a_worker_sees_its_parent_killed_while_its_sibling_is_stuck(tmp_path):
+    """SIGKILL to the parent while the younger worker is stopped (SIGSTOP: stuck in a
+    driver, say): the older one still ends. With ``fork`` the younger holds the parent's
+    end of the older's sentinel pipe, so the older waited for its sibling to end first."""
+    cmd = [sys.executable, "-m", "mearm", "eval-policy", "--policy", "random",
+           "--episodes", "200", "--jobs", "2", "--out", tmp_path / "t.json",
+           "--env-option", "obs_type=state", "--env-option", "image_size=[24, 32]"]  # fmt: skip
+    out = tmp_path / "progress.txt"
+    env = {**os.environ, "MUJOCO_GL": "egl"}
+    with out.open("w") as progress:
+        proc = subprocess.Popen(
+            list(map(str, cmd)), cwd=ROOT, env=env, stdout=progress,
+            stderr=subprocess.DEVNULL, start_new_session=True,
+        )  # fmt: skip
+    workers: list[int] = []
+    try:
+        deadline = time.monotonic() + 300
+        while time.monotonic() < deadline and "episode   1/200" not in out.read_text():
+            assert proc.poll() is None
+            time.sleep(0.05)
+        workers = sorted(_workers(proc.pid), key=_started)
+        assert len(workers) == 2
+        older, younger = workers
+        os.kill(younger, signal.SIGSTOP)
+        proc.kill()
+        proc.wait()
+        deadline = time.monotonic() + 120  # a hang (the orphan at work) is the failure
+        while time.monotonic() < deadline and _alive(older):
+            time.sleep(0.1)
+        assert not _alive(older), "the older worker outlived its parent"
+    finally:
+        for pid in [w for w in workers if _alive(w)] + [proc.pid] * (proc.poll() is None):
+            with contextlib.suppress(ProcessLookupError):
+                os.kill(pid, signal.SIGKILL)
+        proc.wait()
+
+
+def _started(pid: int) -> int:
+    """When ``pid`` started [clock ticks since boot]."""
+    return int(Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[19])
+
+
 # ----------------------------------------------------------------- the env's options
 
 

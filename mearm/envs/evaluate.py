@@ -207,6 +207,8 @@ _SIGNALLED = False
 _ORPHANED = False
 #: Whether this worker runs an episode now.
 _BUSY = False
+#: How often a worker checks that its parent is still there [s].
+PARENT_POLL_S = 0.2
 #: The signals a worker takes as "stop" (and the parent defers while it starts them).
 _WORKER_SIGNALS = (signal.SIGINT, *interrupts.STOP_SIGNALS)
 
@@ -226,9 +228,17 @@ def _watch_parent(sentinel: int) -> None:
 
     An idle worker waits for work that will never come: it ends at once; a busy one ends
     its episode at the next step, writes no video of it, and ends (:func:`_in_worker`).
+
+    The sentinel alone is not enough: with ``fork``, a worker started later inherits the
+    parent's end of an earlier worker's sentinel pipe, so the earlier one saw its parent
+    die only once every later sibling had ended (and never, beside a stuck one). The
+    parent's process id is watched too: an orphan is given to another parent.
     """
     global _SIGNALLED, _ORPHANED
-    multiprocessing.connection.wait([sentinel])
+    parent = os.getppid()
+    while not multiprocessing.connection.wait([sentinel], timeout=PARENT_POLL_S):
+        if os.getppid() != parent:
+            break
     _SIGNALLED = _ORPHANED = True
     if not _BUSY:
         os._exit(1)
