@@ -359,6 +359,12 @@ class CollisionModel:
         self._slots = slots
         self._obstacles = obstacles
         self._base_names = ["table", *(s.name for s, _ in obstacles[1:])]  # type: ignore[union-attr]
+        # the pairs with a bin's part, and its class (:meth:`bins_at`): bins do not move
+        self._bin_pairs = [
+            (k, bin_class, a)
+            for k, (a, b) in enumerate(self._pairs)
+            if (bin_class := class_of(self._base_names[b])) is not None
+        ]
         self._ob_centre = np.array([T[:3, 3] for _, T in obstacles]).reshape(-1, 3)
         jaw_rows = [i for i, (s, _, _) in enumerate(arm) if s.jaw]
         # per object place, the jaws' pairs with it (switched off while it is between them)
@@ -697,9 +703,8 @@ class CollisionModel:
         pin.updateGeometryPlacements(pm, self.data, self.geometry, self.gdata, np.asarray(q, float))
         self._frames_at = None
         near: dict[str, tuple[str, float]] = {}
-        for k, (a, b) in enumerate(self._pairs):
-            color = class_of(self._ob_names[b])
-            if not self._active[k] or color is None:
+        for k, color, a in self._bin_pairs:
+            if not self._active[k]:
                 continue
             d = pin.computeDistance(self.geometry, self.gdata, k).min_distance / M_PER_CM
             if color not in near or d < near[color][1]:
