@@ -56,7 +56,13 @@ FAMILIES: dict[str, tuple[str, ...]] = {
         "UnsolicitedBytesError",
         "ServoStallError",
     ),
-    "mearm.view.errors": ("ViewError", "ViewPortError", "ViewInputError", "BrowserNotFoundError"),
+    "mearm.view.errors": (
+        "ViewError",
+        "ViewRunError",
+        "ViewPortError",
+        "ViewInputError",
+        "BrowserNotFoundError",
+    ),
     "mearm.analysis.errors": ("AnalysisError",),
     "mearm.dataset.errors": (
         "DatasetError",

@@ -13,14 +13,18 @@ import importlib
 import json
 import os
 import re
+import shutil
 import signal
 import socket
 import subprocess
 import sys
 import urllib.request
+from collections.abc import Callable
+from functools import partial
 from pathlib import Path
 
 import cv2
+import meshcat
 import numpy as np
 import pinocchio as pin
 import pytest
@@ -40,6 +44,7 @@ from mearm.sim import SimCamera, World
 from mearm.view import (
     ArmView,
     HeadlessBrowser,
+    MeshcatServer,
     SceneLayout,
     ViewCamera,
     find_browser,
@@ -591,6 +596,82 @@ def test_screenshot_checks_its_arguments(tmp_path):
         screenshot("http://127.0.0.1:1/", tmp_path / "no" / "x.png", browser="unused")
     with pytest.raises(ViewInputError, match="width_px"):
         screenshot("http://127.0.0.1:1/", tmp_path / "x.png", width_px=4, browser="unused")
+
+
+def exit_of(action: Callable[[], object], capsys: pytest.CaptureFixture[str]) -> tuple[int, str]:
+    """What a command that does ``action`` exits with under mearm's guard, and its stderr."""
+
+    def main(argv: object) -> int:
+        action()
+        return 0
+
+    with pytest.raises(SystemExit) as exit_:
+        run(main, [])
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "Traceback" not in err, err
+    return exit_.value.code, err
+
+
+def test_no_browser_or_one_that_cannot_be_run_is_bad_input(monkeypatch, tmp_path, capsys):
+    """What the environment lacks before any work (no browser installed, a "browser" that
+    is not an executable) is exit 2, as a missing camera is."""
+    monkeypatch.setenv("PATH", str(tmp_path))
+    monkeypatch.setenv("MEARM_CHROMIUM", str(tmp_path / "nope"))
+    shoot = partial(screenshot, "http://127.0.0.1:1/", tmp_path / "x.png")
+    code, err = exit_of(shoot, capsys)
+    assert code == 2 and "no headless browser found" in err
+    text = tmp_path / "browser.txt"
+    text.write_text("not a program\n")
+    code, err = exit_of(partial(shoot, browser=str(text)), capsys)
+    assert code == 2 and f"cannot run {text}: " in err
+
+
+def test_a_browser_that_exits_at_start_is_a_failure_of_the_run(tmp_path, capsys):
+    """A browser that runs but quits before it is ready fails the run: exit 1, not 2."""
+    false = shutil.which("false")
+    assert false is not None
+    shoot = partial(screenshot, "http://127.0.0.1:1/", tmp_path / "x.png", browser=false)
+    code, err = exit_of(shoot, capsys)
+    assert code == 1 and "the browser exited (1) before it was ready" in err
+    assert not (tmp_path / "x.png").exists()
+
+
+def test_a_view_server_that_does_not_answer_is_a_failure_of_the_run(capsys):
+    """A command the meshcat server does not answer within its timeout fails the run
+    (exit 1) naming the server, instead of blocking forever."""
+    server = MeshcatServer(port=0, timeout_s=0.5)
+    window = server.window()
+    try:
+        server.close()
+        vis = meshcat.Visualizer(window=window)
+        code, err = exit_of(vis["table"].delete, capsys)
+    finally:
+        window.close()
+    assert code == 1
+    assert f"the meshcat server at {server.web_url} did not answer within 0.5 s" in err
+
+
+@pytest.mark.heavy
+def test_a_png_the_disk_has_no_room_for_fails_the_run(
+    view: ArmView, chromium: HeadlessBrowser, capsys
+):
+    """The picture was drawn, the disk is full (/dev/full): exit 1, not bad input."""
+    full = Path("/dev/full")
+    if not full.exists():
+        pytest.skip("no /dev/full")
+    shoot = partial(view.screenshot, full, width_px=64, height_px=64, session=chromium)
+    code, err = exit_of(shoot, capsys)
+    assert code == 1 and "cannot write /dev/full: No space left on device" in err
+
+
+@pytest.mark.heavy
+def test_an_address_the_browser_cannot_load_is_bad_input(tmp_path, chromium, capsys):
+    """The browser refusing the url it was given is the caller's error: exit 2."""
+    code, err = exit_of(
+        partial(screenshot, "not a url", tmp_path / "x.png", session=chromium), capsys
+    )
+    assert code == 2 and "Page.navigate failed: Cannot navigate to invalid URL" in err
+    assert not (tmp_path / "x.png").exists()
 
 
 @pytest.mark.heavy

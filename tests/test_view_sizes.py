@@ -113,13 +113,14 @@ def test_preview_screenshot_of_any_allowed_size_is_written(size, arm_seen, brows
 
 @pytest.mark.slow
 def test_a_browser_that_never_draws_is_a_named_error_at_the_timeout(browser_tmp, tmp_path):
-    """A page that never draws a frame ends the screenshot at its timeout_s with exit 2 and
-    one line naming the step the browser did not finish; no PNG, no browser left."""
+    """A page that never draws a frame ends the screenshot at its timeout_s with exit 1 (a
+    failure of the run, not bad input) and one line naming the step the browser did not
+    finish; no PNG, no browser left."""
     page = tmp_path / "never_draws.html"
     page.write_text(NEVER_DRAWS)
     out = tmp_path / "view.png"
     proc = _run(["-c", SHOOT, page.as_uri(), str(out), "8"], browser_tmp)
-    assert proc.returncode == 2, proc.stderr
+    assert proc.returncode == 1, proc.stderr
     err = proc.stderr.strip()
     assert len(err.splitlines()) == 1, err
     assert "Traceback" not in err

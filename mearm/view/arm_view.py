@@ -122,7 +122,9 @@ class ArmView:
 
     Raises:
         ViewPortError: ``port`` is in use.
-        ViewError: The server did not start.
+        ViewError: No free port from 7000 (``port=None``).
+        ViewRunError: The server did not start, or did not answer (any method may
+            raise it: the server did not reply within its timeout).
     """
 
     def __init__(
@@ -200,7 +202,10 @@ class ArmView:
 
         Raises:
             BrowserNotFoundError: No Chromium-family browser.
-            ViewError: The browser failed or did not draw the scene in time.
+            ViewInputError: A size out of range, or no folder for ``out_png``.
+            ViewError: The view is closed; ``out_png`` cannot take a file.
+            ViewRunError: The browser failed or did not draw the scene in time; the
+                storage failed writing the PNG.
         """
         self._check_open()
         expect = self._server.scene_counts()

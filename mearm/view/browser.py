@@ -7,7 +7,9 @@ object only once its image has been decoded, which virtual time does not wait fo
 the page is driven over the DevTools protocol instead: the picture is taken once the
 viewer has received the expected number of messages, holds the expected number of
 objects, and has drawn two more frames; every call to the browser has the screenshot's
-deadline, so a browser that stops answering is an error naming the step. WebGL runs on
+deadline, so a browser that stops answering is an error naming the step (a
+:class:`ViewRunError`, exit 1, as is any failure of the browser once it runs; what the
+caller gave, e.g. a size out of range, is a :class:`ViewInputError`, exit 2). WebGL runs on
 SwiftShader, the CPU renderer, so no GPU or display is needed. A :class:`HeadlessBrowser`
 kept running draws many pages, one tab each, for callers that take many pictures.
 
@@ -23,6 +25,7 @@ from __future__ import annotations
 import asyncio
 import base64
 import contextlib
+import errno
 import json
 import os
 import shutil
@@ -40,7 +43,7 @@ from typing import Any, TypeVar
 import tornado.websocket
 
 from mearm.fileio import signal_ends_process, write_atomic
-from mearm.view.errors import BrowserNotFoundError, ViewError, ViewInputError
+from mearm.view.errors import BrowserNotFoundError, ViewError, ViewInputError, ViewRunError
 
 #: Executable names tried in order; ``$MEARM_CHROMIUM`` (a path or name) comes first.
 BROWSER_NAMES: tuple[str, ...] = (
@@ -81,6 +84,10 @@ QUIT_TIMEOUT_S = 10.0
 #: least 500 px wide, so a window 87 px high or less has no page area, draws no frame,
 #: and its screenshot never comes (a 64x64 window hung; Chromium 156).
 WINDOW_PX = (1280, 800)
+#: Why a PNG is not written that is the storage failing, not the path given (which is
+#: bad input, as for every writer of the project): a full disk or quota, a file too
+#: large, an I/O error.
+STORAGE_FAILURES = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EFBIG, errno.EIO})
 
 _T = TypeVar("_T")
 
@@ -142,14 +149,27 @@ class _DevTools:
         self.deadline = deadline
         self.next_id = 0
 
-    async def call(self, step: str, method: str, session: str | None = None, **params: Any) -> dict:
-        """``method``'s result; a :class:`ViewError` naming ``step`` past the deadline.
+    async def call(
+        self,
+        step: str,
+        method: str,
+        session: str | None = None,
+        *,
+        refused: type[ViewError] = ViewRunError,
+        **params: Any,
+    ) -> dict:
+        """``method``'s result; a :class:`ViewRunError` naming ``step`` past the deadline.
 
-        A browser that stops drawing never answers a call that waits for a frame.
+        A browser that stops drawing never answers a call that waits for a frame. A
+        method the browser answers with an error raises ``refused``: a failure of the
+        run, unless what it refused is the caller's (an address it cannot load).
         """
-        return await _by_deadline(self._call(method, session, params), step, method, self.deadline)
+        call = self._call(method, session, params, refused)
+        return await _by_deadline(call, step, method, self.deadline)
 
-    async def _call(self, method: str, session: str | None, params: dict[str, Any]) -> dict:
+    async def _call(
+        self, method: str, session: str | None, params: dict[str, Any], refused: type[ViewError]
+    ) -> dict:
         self.next_id += 1
         msg: dict[str, Any] = {"id": self.next_id, "method": method, "params": params}
         if session is not None:
@@ -158,11 +178,11 @@ class _DevTools:
         while True:
             raw = await self.conn.read_message()
             if raw is None:
-                raise ViewError(f"the browser closed its DevTools connection during {method}")
+                raise ViewRunError(f"the browser closed its DevTools connection during {method}")
             reply = json.loads(raw)
             if reply.get("id") == self.next_id:
                 if "error" in reply:
-                    raise ViewError(f"DevTools {method} failed: {reply['error'].get('message')}")
+                    raise refused(f"DevTools {method} failed: {reply['error'].get('message')}")
                 return reply.get("result", {})
 
 
@@ -235,22 +255,22 @@ def _devtools_url(profile: Path, proc: subprocess.Popen, deadline: float) -> str
     port_file = profile / "DevToolsActivePort"
     while time.monotonic() < deadline:
         if proc.poll() is not None:
-            raise ViewError(f"the browser exited ({proc.returncode}) before it was ready")
+            raise ViewRunError(f"the browser exited ({proc.returncode}) before it was ready")
         try:
             port, path = port_file.read_text().split()[:2]
             return f"ws://127.0.0.1:{port}{path}"
         except (OSError, ValueError):
             time.sleep(0.05)
-    raise ViewError("the browser did not open its DevTools port in time")
+    raise ViewRunError("the browser did not open its DevTools port in time")
 
 
 async def _by_deadline(awaitable: Awaitable[_T], step: str, what: str, deadline: float) -> _T:
-    """``awaitable``'s result, or a :class:`ViewError` naming ``step`` once ``deadline`` passes."""
+    """``awaitable``'s result; a :class:`ViewRunError` naming ``step`` once ``deadline`` passes."""
     start = time.monotonic()
     try:
         return await asyncio.wait_for(awaitable, max(0.0, deadline - start))
     except TimeoutError:
-        raise ViewError(
+        raise ViewRunError(
             f"the browser did not {step} in time: {what} got no answer in "
             f"{time.monotonic() - start:.0f} s (the screenshot's timeout_s ran out)"
         ) from None
@@ -283,7 +303,8 @@ async def _capture(
             deviceScaleFactor=1,
             mobile=False,
         )
-        await tools.call(f"load {url}", "Page.navigate", sid, url=url)
+        # its one refusal is of the address itself ("Cannot navigate to invalid URL")
+        await tools.call(f"load {url}", "Page.navigate", sid, refused=ViewError, url=url)
         want = expect or SceneCounts(messages=1, objects=0)
         state = None
         while True:
@@ -298,7 +319,7 @@ async def _capture(
             if state and state[0] == 1 and state[1] >= want.messages and state[2] >= want.objects:
                 break
             if time.monotonic() > deadline:
-                raise ViewError(
+                raise ViewRunError(
                     f"the view at {url} was not drawn in time: [socket state, messages, "
                     f"objects] = {state}, expected at least {want.messages} messages and "
                     f"{want.objects} objects"
@@ -343,7 +364,8 @@ class HeadlessBrowser:
 
         Raises:
             BrowserNotFoundError: No browser.
-            ViewError: It cannot run, or exited or did not open its port in time.
+            ViewError: It cannot be run (not an executable).
+            ViewRunError: It exited or did not open its port in time.
         """
         exe = browser or find_browser()
         # its own temporary files (org.chromium.Chromium.*, which it leaves in $TMPDIR
@@ -380,13 +402,18 @@ class HeadlessBrowser:
     def render(
         self, url: str, size: tuple[int, int], expect: SceneCounts | None, deadline: float
     ) -> bytes:
-        """PNG bytes of ``url`` drawn in a new tab of ``size`` px (see :func:`screenshot`)."""
+        """PNG bytes of ``url`` drawn in a new tab of ``size`` px (see :func:`screenshot`).
+
+        Raises:
+            ViewError: The browser was closed.
+            ViewRunError: It failed, or did not answer by ``deadline``.
+        """
         if self._proc is None:
             raise ViewError("the browser was closed")
         try:
             return asyncio.run(_capture(self._ws_url, url, size, expect, deadline))
         except (OSError, tornado.websocket.WebSocketClosedError) as exc:
-            raise ViewError(f"lost the browser while rendering {url}: {exc}") from None
+            raise ViewRunError(f"lost the browser while rendering {url}: {exc}") from None
 
     def close(self) -> None:
         """End the browser's process group and remove its profile. Safe to call twice."""
@@ -419,7 +446,7 @@ def screenshot(
 
     Args:
         url: The viewer page, e.g. ``ArmView.url``.
-        out_png: Where to write the PNG; its folder is made if missing.
+        out_png: Where to write the PNG, in an existing folder.
         width_px: View width [px].
         height_px: View height [px].
         expect: Wait until the page has this much of the scene (see
@@ -435,12 +462,15 @@ def screenshot(
         The PNG's path.
 
     Raises:
-        BrowserNotFoundError: No browser.
-        ViewInputError: A size out of range, or no folder for ``out_png``.
-        ViewError: The browser failed, the scene was not drawn or the browser did not
-            answer within ``timeout_s`` (the error names the step), or the PNG cannot be
-            written (it is written in one step: an old file stays whole until the new
-            one replaces it).
+        BrowserNotFoundError: No browser (exit 2).
+        ViewInputError: A size out of range, or no folder for ``out_png`` (exit 2).
+        ViewError: The browser cannot be run, ``session`` was closed, ``url`` is not an
+            address the browser can load, or ``out_png``'s folder takes no new file (not
+            writable, /proc): exit 2.
+        ViewRunError: The browser failed, the scene was not drawn or the browser did not
+            answer within ``timeout_s`` (the error names the step), or the storage
+            failed writing the PNG (:data:`STORAGE_FAILURES`): exit 1. The PNG is
+            written in one step: an old file stays whole until the new one replaces it.
     """
     out = Path(out_png).resolve()
     if not out.parent.is_dir():
@@ -461,6 +491,7 @@ def screenshot(
     try:
         write_atomic(out, png)
     except OSError as exc:
+        error = ViewRunError if exc.errno in STORAGE_FAILURES else ViewError
         # strerror: the reason, not the temporary file's name the error carries
-        raise ViewError(f"cannot write {out}: {exc.strerror or exc}") from None
+        raise error(f"cannot write {out}: {exc.strerror or exc}") from None
     return out

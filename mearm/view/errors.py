@@ -1,4 +1,10 @@
-"""Errors of the meshcat view and its headless screenshots."""
+"""Errors of the meshcat view and its headless screenshots.
+
+What the caller gave or has (a value out of range, a port in use, no browser installed,
+a view already closed) is bad input: exit 2, as every :class:`ViewError`. What fails
+while the view runs (a browser that crashes or stops answering, a scene that is never
+drawn, a server that does not reply, a disk that fills) is :class:`ViewRunError`: exit 1.
+"""
 
 from __future__ import annotations
 
@@ -6,7 +12,18 @@ from mearm.errors import MearmError
 
 
 class ViewError(MearmError):
-    """The meshcat view cannot be started, updated or rendered."""
+    """The meshcat view cannot be started, updated or rendered as asked."""
+
+
+class ViewRunError(ViewError):
+    """The view failed while it ran; what it was given was good.
+
+    A browser that exits or stops answering, a scene not drawn or a meshcat server that
+    does not reply within the timeout, a PNG the disk has no room for. Running the
+    same command again may succeed; changing it is not what is needed.
+    """
+
+    exit_status = 1  # the run failed; the input was good
 
 
 class ViewPortError(ViewError):

@@ -16,7 +16,7 @@ import meshcat.transformations as tf
 import numpy as np
 
 from mearm.config import ColorClass
-from mearm.view.errors import ViewError
+from mearm.view.errors import ViewRunError
 from mearm.view.frame_plane import FramePlane
 from mearm.view.layout import SceneLayout
 from mearm.view.view_items import rgb_int
@@ -52,7 +52,7 @@ def png_bytes(bgra: np.ndarray) -> bytes:
     """An 8-bit BGRA image encoded as PNG."""
     ok, buf = cv2.imencode(".png", bgra)
     if not ok:  # pragma: no cover - OpenCV encodes any uint8 BGRA image
-        raise ViewError("OpenCV could not encode the camera frame as PNG")
+        raise ViewRunError("OpenCV could not encode the camera frame as PNG")
     return buf.tobytes()
 
 

@@ -40,7 +40,7 @@ from meshcat.servers.zmqserver import (
 from meshcat.visualizer import ViewerWindow
 
 from mearm.view.browser import SceneCounts
-from mearm.view.errors import ViewError, ViewPortError
+from mearm.view.errors import ViewError, ViewPortError, ViewRunError
 
 LOOPBACK = "127.0.0.1"
 #: First web port tried when none is given (meshcat's own default), and how many after it.
@@ -206,7 +206,7 @@ class _Window(ViewerWindow):
     """The client end of the ZMQ link, with a reply timeout.
 
     meshcat's window blocks forever when the server does not answer; this one raises
-    :class:`ViewError` after ``timeout_s``.
+    :class:`ViewRunError` after ``timeout_s``.
     """
 
     def __init__(self, zmq_url: str, web_url: str, timeout_s: float):  # no server, no print
@@ -227,7 +227,7 @@ class _Window(ViewerWindow):
         try:
             super().send(command)
         except zmq.ZMQError as exc:
-            raise ViewError(
+            raise ViewRunError(
                 f"the meshcat server at {self.web_url} did not answer within "
                 f"{self.timeout_ms / 1000:g} s ({exc}); was the view closed?"
             ) from None
@@ -236,7 +236,7 @@ class _Window(ViewerWindow):
         try:
             return super().get_scene()
         except zmq.ZMQError as exc:
-            raise ViewError(
+            raise ViewRunError(
                 f"the meshcat server at {self.web_url} did not answer ({exc})"
             ) from None
 
@@ -259,7 +259,8 @@ class MeshcatServer:
 
     Raises:
         ViewPortError: ``port`` is in use.
-        ViewError: The server did not start.
+        ViewError: No free port from 7000 (``port=None``).
+        ViewRunError: The server did not start in time.
     """
 
     def __init__(self, port: int | None = None, timeout_s: float = 10.0):
@@ -272,7 +273,7 @@ class MeshcatServer:
         )
         self._thread.start()
         if not self._ready.wait(timeout_s):
-            raise ViewError(f"the meshcat server did not start within {timeout_s:g} s")
+            raise ViewRunError(f"the meshcat server did not start within {timeout_s:g} s")
         if self._error is not None:
             raise self._error
         assert self._bridge is not None
@@ -309,9 +310,13 @@ class MeshcatServer:
         return len(self._bridge.websocket_pool) if self._bridge and self.running else 0
 
     def scene_counts(self) -> SceneCounts:
-        """How many commands a browser connecting now receives, and objects under /meshcat."""
+        """How many commands a browser connecting now receives, and objects under /meshcat.
+
+        Raises:
+            ViewRunError: The server is not running (it stopped, or was closed).
+        """
         if self._bridge is None or not self.running:
-            raise ViewError(f"the meshcat server at {self.web_url} is not running")
+            raise ViewRunError(f"the meshcat server at {self.web_url} is not running")
         messages = 0
         for node in walk(self._bridge.tree):
             messages += (node.object is not None) + len(node.properties)
