@@ -4,7 +4,8 @@
 ``meta/info.json``), an existing one only with ``--force``, and ``show .`` names it after
 the folder (it crashed). ``--record`` on a full disk: a named error, exit 1, and a first
 recording leaves nothing that refuses the next one (empty ``data/chunk-000`` folders
-did). The full disk is a small tmpfs: mounted only as root (CI runs as root).
+did). The full disk is a small tmpfs: mounted only as root (CI runs as root); a full
+``/dev/shm`` one mounted there in a mount namespace of the sort's own.
 """
 
 from __future__ import annotations
@@ -156,12 +157,22 @@ def _tmpfs(path: Path, size: str) -> Iterator[Path]:
             subprocess.run(["umount", "-l", str(path)], check=False)
 
 
-def _record(root: Path, *more: str, random: int = 2) -> subprocess.CompletedProcess[str]:
-    """``mearm sort --config sim --random N --record ROOT`` in a process of its own."""
+def _record(
+    root: Path, *more: str, random: int = 2, shm: str | None = None
+) -> subprocess.CompletedProcess[str]:
+    """``mearm sort --config sim --random N --record ROOT`` in a process of its own.
+
+    ``shm``: the options of a tmpfs mounted on ``/dev/shm`` for that process only (a
+    mount namespace of its own: the machine's stays as it is).
+    """
     argv = ["sort", "--config", str(SIM), "--random", str(random), "--quiet",
             "--record", str(root), "--record-codec", "h264", *more]  # fmt: skip
+    on_shm: list[str] = []
+    if shm is not None:
+        mount = f'mount -t tmpfs -o {shm} tmpfs /dev/shm && exec "$@"'
+        on_shm = ["unshare", "--mount", "--propagation", "private", "sh", "-c", mount, "sh"]
     return subprocess.run(
-        [sys.executable, "-m", "mearm", *argv],
+        [*on_shm, sys.executable, "-m", "mearm", *argv],
         capture_output=True, text=True, timeout=300, cwd=ROOT,
         env={**os.environ, "PYTHONPATH": str(ROOT)},
     )  # fmt: skip
@@ -189,6 +200,47 @@ def test_a_first_recording_on_a_full_disk_leaves_nothing_and_says_so(tmp_path: P
             line = _assert_disk_full(_record(root), root)
             assert line.endswith("nothing was recorded"), (attempt, line)
             assert list(small.iterdir()) == [], attempt
+
+
+def _own_shm_possible() -> None:
+    """Skip unless this process can mount a tmpfs on ``/dev/shm`` in a namespace of its own."""
+    if os.geteuid() != 0 or shutil.which("unshare") is None:
+        pytest.skip("a full /dev/shm is a small tmpfs: mounting one needs root and unshare")
+    probe = subprocess.run(
+        ["unshare", "--mount", "--propagation", "private", "sh", "-c",
+         "mount -t tmpfs -o size=4k tmpfs /dev/shm"],
+        capture_output=True, text=True, check=False,
+    )  # fmt: skip
+    if probe.returncode != 0:
+        pytest.skip(f"cannot mount a tmpfs on /dev/shm here: {probe.stderr.strip()}")
+
+
+@pytest.mark.parametrize(
+    "shm",
+    [
+        "size=64k",  # room for the segment, not its pages: the first frame died of SIGBUS
+        "size=1m,nr_inodes=1",  # no room for a segment: an "unexpected error: OSError"
+    ],
+)
+def test_a_full_dev_shm_at_the_encoders_start_fails_as_a_full_disk(
+    tmp_path: Path, shm: str
+) -> None:
+    """The encoder's ring of frames cannot be had in ``/dev/shm``: exit 1, one line naming
+    the segment and what it needs, before any motion; nothing left behind (no dataset
+    folder, no segment)."""
+    _own_shm_possible()
+    root = tmp_path / "ds"
+    run = _record(root, shm=shm)
+    assert run.returncode == 1, run.stderr
+    assert "Traceback" not in run.stderr and "unexpected error" not in run.stderr, run.stderr
+    lines = run.stderr.strip().splitlines()
+    assert len(lines) == 1, lines
+    assert lines[0].startswith("mearm sort: error: /dev/shm/psm_"), lines
+    assert lines[0].endswith(
+        ": cannot be written: disk full (No space left on device; the video encoder's 24 "
+        "frames need 23.7 MB of shared memory); recording stopped, nothing was recorded"
+    ), lines
+    assert not root.exists()
 
 
 @pytest.mark.parametrize("room", ["32k", "160k", "320k"])

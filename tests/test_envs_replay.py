@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import pytest
+import yaml
 
 pytest.importorskip("pyarrow")
 pytest.importorskip("av")
@@ -10,7 +11,7 @@ pytest.importorskip("av")
 from mearm.config import load_config  # noqa: E402
 from mearm.dataset.errors import DatasetError  # noqa: E402
 from mearm.dataset.recorder import DatasetRecorder  # noqa: E402
-from mearm.envs.replay import replay  # noqa: E402
+from mearm.envs.replay import plan_replay, replay  # noqa: E402
 from mearm.task.rig import run_sort  # noqa: E402
 from mearm.task.scene import random_scene  # noqa: E402
 
@@ -58,18 +59,41 @@ def test_the_replay_command_exits_2_on_a_folder_that_is_no_dataset(tmp_path):
     assert len(lines) == 1 and "not a LeRobot dataset" in lines[0]
 
 
+def _servo_file(folder):
+    """A servo calibration file of the twin's arm: its base servo's own calibration
+    (a sort with it runs as one without)."""
+    from mearm.config.servo_file import (
+        ActuatorFit,
+        ServoCalibrationFile,
+        save_servo_calibration,
+        servo_of,
+    )
+
+    arm = load_config("sim_mujoco").arm
+    base = servo_of(arm, "base")
+    fit = ActuatorFit("base", "deg", base, (), 0.0, replaces=base)
+    cal = ServoCalibrationFile(arm.name, "test", "", "2026-01-01T00:00:00+00:00", (fit,))
+    folder.mkdir()
+    return save_servo_calibration(folder / "base.servos.yaml", cal)
+
+
 @pytest.fixture(scope="module")
 def recorded(tmp_path_factory: pytest.TempPathFactory):
     """``mearm sort --random 2 --seed 7 --record`` per scene at the servo rate (the CLI),
-    its --config a path relative to the checkout (the replays run elsewhere)."""
+    its --config a path relative to the checkout and a servo calibration file by --set,
+    relative to the checkout too (the replays run elsewhere)."""
+    import os
     import subprocess
     import sys
     from pathlib import Path
 
     root = Path(__file__).resolve().parent.parent
-    ds = tmp_path_factory.mktemp("replay") / "rec"
+    here = tmp_path_factory.mktemp("replay")
+    ds = here / "rec"
+    servo_file = os.path.relpath(_servo_file(here / "sort"), root)
     subprocess.run(
         [sys.executable, "-m", "mearm", "sort", "--config", "configs/sim_mujoco.yaml",
+         "--set", f"servo.calibration_file={servo_file}",
          "--random", "2", "--seed", "7", "--record", str(ds), "--record-per", "scene",
          "--record-fps", "50", "--record-codec", "h264", "--quiet"],
         check=True, capture_output=True, cwd=root, timeout=300,
@@ -89,7 +113,8 @@ def _replay_cli(ds, *args: str):
 
 def test_the_replay_takes_the_recorded_scene(recorded):
     """No --seed or --objects: the dataset's own (it kept --random 2 --seed 7), and its
-    config from another folder than the sort's (kept by its absolute path)."""
+    config and --set servo calibration file from another folder than the sort's (kept by
+    their absolute paths: the replay said the file "is not a file")."""
     proc = _replay_cli(recorded)
     assert proc.returncode == 0, proc.stderr
     assert "2 of 2 objects in their bins" in proc.stdout
@@ -125,3 +150,46 @@ def test_an_episode_without_a_scene_needs_seed_and_objects(tmp_path):
         recorder.close()
     with pytest.raises(DatasetError, match="episode 0 keeps no scene .*: give --seed"):
         replay(tmp_path / "ds", 0, objects=1)
+
+
+def _kept_scene(ds):
+    import json
+
+    return json.loads((ds / "meta" / "mearm_episodes.json").read_text())["episodes"][0][2]
+
+
+def test_a_file_path_given_by_set_is_kept_absolute(recorded):
+    """The --set value that names a file names it by its absolute path; the file is the
+    one the sort used."""
+    from pathlib import Path
+
+    (kept,) = _kept_scene(recorded)["set"]
+    key, _, value = kept.partition("=")
+    path = Path(yaml.safe_load(value))
+    assert key == "servo.calibration_file" and path.is_absolute()
+    assert path.resolve() == (recorded.parent / "sort" / "base.servos.yaml").resolve()
+
+
+def test_an_older_dataset_with_a_relative_set_path_reads_as_before(recorded, tmp_path, monkeypatch):
+    """Recorded before paths were kept absolute: its --set path is relative to the folder
+    the replay runs in, as it was (found from the sort's folder, refused elsewhere)."""
+    import json
+    import os
+    import shutil
+    from pathlib import Path
+
+    from mearm.errors import ConfigError
+
+    ds = tmp_path / "old"
+    shutil.copytree(recorded, ds)
+    root = Path(__file__).resolve().parent.parent
+    tags = json.loads((ds / "meta" / "mearm_episodes.json").read_text())
+    servo_file = recorded.parent / "sort" / "base.servos.yaml"
+    tags["episodes"][0][2]["set"] = [f"servo.calibration_file={os.path.relpath(servo_file, root)}"]
+    (ds / "meta" / "mearm_episodes.json").write_text(json.dumps(tags))
+    monkeypatch.chdir(root)
+    plan = plan_replay(ds, 0)
+    assert Path(str(plan.config.servo.calibration_file)).resolve() == servo_file.resolve()
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(ConfigError, match="is not a file"):
+        plan_replay(ds, 0)

@@ -7,11 +7,14 @@ given.
 from __future__ import annotations
 
 import argparse
+import json
 import sys
+from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 from mearm.config import Config
+from mearm.config.loader import apply_overrides, file_keys_set, parse_override
 from mearm.data import doc_page
 from mearm.dataset.lerobot_format import DEFAULT_CODEC, VIDEO_CODECS
 
@@ -105,11 +108,36 @@ def _config_kept(given: str | Path) -> str:
     return str(path.resolve())
 
 
+def _overrides_kept(overrides: Sequence[str]) -> tuple[str, ...]:
+    """``--set`` values as a replay finds what they name from any folder.
+
+    A file path one sets (``servo.calibration_file``, the camera's calibration files) is
+    relative to the current folder: it is kept as the absolute path the config loader
+    made of it (:func:`~mearm.config.loader.apply_overrides`); every other value as typed.
+    """
+    kept = []
+    for text in overrides:
+        if not file_keys_set([text]):
+            kept.append(text)
+            continue
+        path, value = parse_override(text)
+        resolved: object = apply_overrides({}, [text])
+        for part in path:
+            assert isinstance(resolved, dict)  # a file key's path walks sections only
+            resolved = resolved[part]
+        same = resolved == value
+        kept.append(
+            text if same else f"{'.'.join(path)}={json.dumps(resolved, ensure_ascii=False)}"
+        )
+    return tuple(kept)
+
+
 def recorder_from_args(args: argparse.Namespace, config: Config) -> DatasetRecorder | None:
     """The recorder ``--record`` asks for, its directory checked; ``None`` without it.
 
     A sort's ``--random N --seed S`` (and ``--config``, ``--set``) is kept with each
-    episode: what a replay rebuilds the scene from (:mod:`mearm.envs.replay`).
+    episode: what a replay rebuilds the scene from (:mod:`mearm.envs.replay`), from any
+    folder (a file either names, by its absolute path).
 
     Raises:
         DatasetError: the directory is a file, not writable, or not empty without
@@ -128,7 +156,7 @@ def recorder_from_args(args: argparse.Namespace, config: Config) -> DatasetRecor
             seed=args.seed,
             objects=args.random,
             config=None if given is None else _config_kept(given),
-            overrides=tuple(getattr(args, "set", None) or ()),
+            overrides=_overrides_kept(getattr(args, "set", None) or ()),
         )
     return DatasetRecorder(
         args.record,

@@ -65,14 +65,18 @@ class DatasetWriteError(DatasetError):
         super().__init__(path, f"cannot be written: {what}; recording stopped, {after}")
 
     @classmethod
-    def of(cls, path: Path, exc: OSError, *, kept: int) -> DatasetWriteError:
-        """The error of ``exc``, raised writing ``path`` (its own file name, if it has one)."""
+    def of(cls, path: Path, exc: OSError, *, kept: int, why: str = "") -> DatasetWriteError:
+        """The error of ``exc``, raised writing ``path`` (its own file name, if it has one).
+
+        ``why``: what the file is for, said after the system's words (a file outside the
+        dataset, such as the encoder's shared memory).
+        """
         where = Path(exc.filename) if exc.filename else path
         # the system's words for the number (pyarrow's strerror wraps them in its own)
         detail = (os.strerror(exc.errno) if exc.errno else " ".join(str(exc).split())) or type(
             exc
         ).__name__
-        return cls(where, exc.errno, detail, kept=kept)
+        return cls(where, exc.errno, f"{detail}; {why}" if why else detail, kept=kept)
 
 
 class ExtraMissingError(MearmError):

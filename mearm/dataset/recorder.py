@@ -367,10 +367,10 @@ class DatasetRecorder(EpisodeSampler):
     def _accept(self, ep: _Episode) -> None:
         self._writes.append(self._writer.submit(self._write, ep))
 
-    def _write_failed(self, path: Path, exc: OSError) -> DatasetWriteError:
+    def _write_failed(self, path: Path, exc: OSError, why: str = "") -> DatasetWriteError:
         self._failed = True  # no later episode is written: the disk is full
         if self.failure is None:  # the first says why the recording stopped
-            self.failure = DatasetWriteError.of(path, exc, kept=len(self._episodes))
+            self.failure = DatasetWriteError.of(path, exc, kept=len(self._episodes), why=why)
         return self.failure
 
     def _settle(self, *, wait: bool) -> None:

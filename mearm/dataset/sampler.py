@@ -37,7 +37,7 @@ from mearm.dataset import lerobot_format as L
 from mearm.dataset.encoder_server import STATS_PIXEL_STRIDE  # noqa: F401  (re-exported)
 from mearm.dataset.errors import DatasetWriteError, EncoderError
 from mearm.dataset.reading import RecordedScene
-from mearm.dataset.video_encoder import EncoderProcess, InlineEncoder
+from mearm.dataset.video_encoder import EncoderProcess, InlineEncoder, RingMemoryError
 from mearm.hardware.bus import MeasuresWorld, ServoBus
 from mearm.vision import Camera
 
@@ -170,27 +170,50 @@ class EpisodeSampler:
     def _settle(self, *, wait: bool) -> None:
         """After :meth:`_accept`: ``wait`` until every episode accepted is written."""
 
-    def _write_failed(self, path: Path, exc: OSError) -> DatasetWriteError:
-        """The error of a file that could not be written (a full disk), to raise."""
-        return DatasetWriteError.of(path, exc, kept=self.episodes_written)
+    def _write_failed(self, path: Path, exc: OSError, why: str = "") -> DatasetWriteError:
+        """The error of a file that could not be written (a full disk), to raise.
+
+        ``why``: what the file is for (:meth:`DatasetWriteError.of`).
+        """
+        return DatasetWriteError.of(path, exc, kept=self.episodes_written, why=why)
 
     def _held_tags(self) -> Iterable[tuple[int | None, int | None]]:
         """The (trial seed, pick) of the episodes held already (not recorded again)."""
         return ()
 
     def attach(self, bus: ServoBus, camera: Camera) -> None:
-        """Sample this rig from now on: its bus's commands and clock, its camera."""
+        """Sample this rig from now on: its bus's commands and clock, its camera.
+
+        Raises:
+            DatasetWriteError, EncoderError: the encoder cannot start
+                (:meth:`_start_encoder`); the rig is left as it was.
+        """
+        if self._encoder is None:
+            self._encoder = self._start_encoder()
         self._bus, self._camera = bus, camera
         # looked up once: a runtime protocol's isinstance walks its members every time
         self._draw_rgb = camera.peek_rgb if isinstance(camera, DrawsRGB) else None
         bus.sampler = self
-        if self._encoder is None:
-            self._encoder = self._open_encoder()
         self._elsewhere = None
         if isinstance(camera, DrawsElsewhere) and isinstance(self._encoder, EncoderProcess):
             source = camera.frame_source()
             if source is not None and self._encoder.scene(source):
                 self._elsewhere = (self._encoder, camera.frame_state)
+
+    def _start_encoder(self) -> Encoder:
+        """:meth:`_open_encoder`; its shared memory not to be had is a failed write.
+
+        A full ``/dev/shm`` fails the recording as a full disk does (exit 1, one line
+        naming the segment), before the sort moves the arm.
+
+        Raises:
+            DatasetWriteError: the encoder's shared memory cannot be had.
+            EncoderError: its process could not be started.
+        """
+        try:
+            return self._open_encoder()
+        except RingMemoryError as exc:
+            raise self._write_failed(Path(exc.filename), exc, why=exc.what) from None
 
     def detach(self) -> None:
         """Stop sampling the rig (an open episode is dropped; finished ones are written)."""
@@ -215,7 +238,7 @@ class EpisodeSampler:
         self._trial, self._picks = trial_seed, 0
         self._held = {pick for seed, pick in self._held_tags() if seed == trial_seed}
         if self._encoder is None:
-            with contextlib.suppress(EncoderError):
+            with contextlib.suppress(EncoderError, RingMemoryError):
                 self._encoder = self._open_encoder()
 
     @property

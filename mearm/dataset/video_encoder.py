@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import contextlib
 import multiprocessing
+import os
 import signal
 import threading
 from multiprocessing.shared_memory import SharedMemory
@@ -52,6 +53,52 @@ POLL_S = 0.2
 #: Frames the encoder process may have still to take (draw, or copy) before the recording
 #: process draws the next one itself (:meth:`EncoderProcess.behind`).
 DRAW_HERE_BEHIND = 12
+#: Where Linux keeps POSIX shared memory (:class:`SharedMemory`'s segments): a tmpfs.
+SHM_DIR = Path("/dev/shm")
+
+
+class RingMemoryError(OSError):
+    """The ring's shared memory cannot be had: a full ``/dev/shm``, mostly.
+
+    Attributes:
+        filename: The segment's path.
+        needs: The ring's size [bytes].
+    """
+
+    def __init__(self, exc: OSError, name: str, needs: int):
+        super().__init__(exc.errno, exc.strerror, str(SHM_DIR / name.lstrip("/")))
+        self.needs = needs
+
+    @property
+    def what(self) -> str:
+        """What the memory is for, in a user's words."""
+        return f"the video encoder's {SLOTS} frames need {self.needs / 1e6:.1f} MB of shared memory"
+
+
+def ring_memory(size: int) -> SharedMemory:
+    """``size`` bytes of shared memory, every page of it had now.
+
+    A segment's pages are otherwise had when first written: in a full ``/dev/shm`` (a
+    tmpfs) the first frame written into the ring killed the sort with SIGBUS ("Bus
+    error"), the arm mid-move. Reserved here (``posix_fallocate``), a full one is an
+    error before the sort starts.
+
+    Raises:
+        RingMemoryError: the segment cannot be made or its pages had (ENOSPC: full).
+    """
+    try:
+        shm = SharedMemory(create=True, size=size)
+    except OSError as exc:
+        raise RingMemoryError(exc, str(exc.filename or ""), size) from None
+    fd = getattr(shm, "_fd", -1)  # CPython's, on POSIX; Windows commits it as it maps it
+    if fd >= 0 and hasattr(os, "posix_fallocate"):
+        try:
+            os.posix_fallocate(fd, 0, size)
+        except OSError as exc:
+            shm.close()
+            shm.unlink()
+            raise RingMemoryError(exc, shm.name, size) from None
+    return shm
 
 
 class EncoderProcess:
@@ -63,13 +110,14 @@ class EncoderProcess:
         codec: A key of :data:`~mearm.dataset.lerobot_format.VIDEO_CODECS`.
 
     Raises:
+        RingMemoryError: the ring's shared memory cannot be had (a full ``/dev/shm``).
         EncoderError: the process could not be started.
     """
 
     def __init__(self, shape: tuple[int, int, int], fps: int, codec: str):
         self.shape = shape
         ctx = multiprocessing.get_context("spawn")  # no copy of the sort's GL context, threads
-        self._shm = SharedMemory(create=True, size=ring_bytes(shape))
+        self._shm = ring_memory(ring_bytes(shape))
         self._ring, self._states = ring_views(self._shm.buf, shape)
         self._dropped = ctx.Value("q", -1, lock=False)
         self._conn, child = ctx.Pipe()
