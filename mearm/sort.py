@@ -277,11 +277,10 @@ def _sort(argv: Sequence[str] | None) -> int:
         print(f"run log: {args.log}", flush=True)
     if recorder is not None:
         print(f"recording: {args.record}", flush=True)
-    note = calibration_note(config, _config_args(args))
-    # every input accepted, nothing moved yet; a camera that is not there ends the sort
-    # before it starts (logged, exit 2): one line on stderr then, not the note too
-    if note is not None and not args.quiet and _camera_opens(config):
-        print(f"mearm sort: {note}", file=sys.stderr, flush=True)
+    note = None if args.quiet else calibration_note(config, _config_args(args))
+    # said once the rig is open, before the arm moves: a camera that is not there ends the
+    # sort before it starts (logged, exit 2) with one line on stderr, not the note too;
+    # and a real camera is opened once (some webcams are slow to, or fail to, reopen)
     stopped = ""  # why the sort stopped, said on stderr
     try:
         if mjcf is not None:  # the last of the inputs accepted (the log's lock included)
@@ -298,6 +297,7 @@ def _sort(argv: Sequence[str] | None) -> int:
             on_view=(lambda view: _hold(view.url)) if args.hold else None,
             recorder=recorder,
             calibrate_first=calibrate_first,
+            on_open=_said_on_open(note),
         )
     except SortAborted as exc:
         if args.quiet:
@@ -327,20 +327,12 @@ def _sort(argv: Sequence[str] | None) -> int:
     return EXIT_OK
 
 
-def _camera_opens(config: Config) -> bool:
-    """Whether the config's camera opens (a real one is opened once and closed).
-
-    The simulated camera (``camera.kind: sim``) is always there.
-    """
-    if config.camera.kind == "sim":
-        return True
-    from mearm.backends import open_camera  # noqa: PLC0415  (a real camera only)
-
-    try:
-        with open_camera(config):
-            return True
-    except CameraError:
-        return False
+def _said_on_open(note: str | None) -> Callable[[Rig], None] | None:
+    """What prints ``note`` as one line on stderr once the rig is open (``None``: no note)."""
+    if note is None:
+        return None
+    line = f"mearm sort: {note}"
+    return lambda rig: print(line, file=sys.stderr, flush=True)
 
 
 def _config_args(args: object) -> list[str]:

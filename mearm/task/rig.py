@@ -108,6 +108,7 @@ def run_sort(
     on_view: Callable[[Any], None] | None = None,
     recorder: RigRecorder | None = None,
     calibrate_first: CalibrateFirst | None = None,
+    on_open: Callable[[Rig], None] | None = None,
 ) -> SortReport:
     """Write the trial's header, open the rig, sort, close everything.
 
@@ -131,6 +132,9 @@ def run_sort(
         calibrate_first: Calibrates servos never calibrated before the first pick, where
             ``servo.calibrate_at_start`` asks for it
             (:func:`mearm.maker.camera_calibration.at_start.for_config`).
+        on_open: Called with the rig once it is open, before the view and the sort: for
+            what is worth saying only of a rig whose camera opened (``mearm sort``'s
+            note on servos never calibrated), without opening the camera twice.
 
     Raises:
         SortAborted: the sort stopped early (the log says why).
@@ -146,6 +150,8 @@ def run_sort(
             for note in consistency.notes:
                 echo(note)
         with open_rig(config, scene) as rig:
+            if on_open is not None:
+                on_open(rig)
             if view_factory is not None:
                 view = view_factory(rig)
                 rig.bus.paced = True  # let the eye follow the arm
