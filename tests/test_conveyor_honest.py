@@ -102,16 +102,17 @@ def test_a_belt_out_of_the_cameras_view_counts_what_it_brought():
 
 
 def test_objects_landing_off_the_belt_are_refused_at_load():
-    """``belt.arrivals.lateral_cm`` beyond half the belt's width would land objects off
-    it: refused with the key, the value and what is allowed; half the width is taken."""
+    """``belt.arrivals.lateral_cm`` plus the largest object's footprint radius beyond half
+    the belt's width would land objects off it: refused with the key, the value and what
+    is allowed; half the width less the radius is taken (tests/test_belt_object_size.py)."""
     with pytest.raises(ConfigError, match=r"belt\.arrivals\.lateral_cm: 3\.5 cm would land"):
         load_config(KINEMATIC, ["belt.arrivals.lateral_cm=3.5"])
-    assert load_config(KINEMATIC, ["belt.arrivals.lateral_cm=3"]).belt.arrivals.lateral_cm == 3
+    assert load_config(KINEMATIC, ["belt.arrivals.lateral_cm=2"]).belt.arrivals.lateral_cm == 2
     sort = _mearm("sort", "--config", KINEMATIC, *_sets("belt.arrivals.lateral_cm=100"))
     assert sort.returncode == 2 and sort.stdout == ""
     (line,) = sort.stderr.splitlines()
     assert "belt.arrivals.lateral_cm: 100 cm would land objects off the belt" in line
-    assert "at most half its width (width_cm 6 cm), 3 cm" in line
+    assert "beyond half the belt's width (width_cm 6 cm), 3 cm: at most 2 cm" in line
 
 
 def test_the_twin_at_100_cm_s_counts_each_arrival_once():

@@ -7,7 +7,9 @@ seeded times (:class:`BeltArrivals`), each of a class drawn from ``task.classes`
 ride along at ``speed_cm_s`` until something picks them up or they fall off its
 downstream end. The bins stay where their classes put them (``task.classes[*].bin_cm``).
 
-A belt the arm cannot follow is refused at load (:func:`follow_limit_cm_s`).
+A belt the arm cannot follow is refused at load (:func:`follow_limit_cm_s`), as are
+arrivals that would land an object partly off it (:func:`overhang_cm`): both need more
+of the config than the belt's section, so the whole config checks them.
 """
 
 from __future__ import annotations
@@ -51,8 +53,10 @@ class BeltArrivals(Strict):
     max_gap_s: float = Field(default=9.0, gt=0, le=MAX_GAP_S, allow_inf_nan=False)
     """Longest time between two arrivals [s] (at least ``min_gap_s``)."""
     lateral_cm: float = Field(default=0.0, ge=0, le=MAX_LENGTH_CM, allow_inf_nan=False)
-    """Largest offset of an object from the belt's middle line [cm]: at most half the
-    belt's ``width_cm``, so that every object lands on the belt."""
+    """Largest offset of an object's centre from the belt's middle line [cm]: at most half
+    the belt's ``width_cm`` less the footprint radius of the largest object of
+    ``task.classes`` (the smallest circle around it: it lands at any yaw), so that every
+    object lands wholly on the belt."""
     seed: Seed = 0
     """Seed of the draw."""
 
@@ -118,17 +122,6 @@ class BeltConfig(Strict):
     tracking: TrackingConfig = TrackingConfig()
     """How the camera's detections become tracks of the objects it carries."""
 
-    @model_validator(mode="after")
-    def _arrivals_on_belt(self) -> BeltConfig:
-        """An object's centre lands within the belt's width, or it is not on the belt."""
-        half = self.width_cm / 2
-        if self.arrivals.lateral_cm > half:
-            raise ValueError(
-                f"@arrivals.lateral_cm: {self.arrivals.lateral_cm:g} cm would land objects off "
-                f"the belt: at most half its width (width_cm {self.width_cm:g} cm), {half:g} cm"
-            )
-        return self
-
     def direction(self) -> tuple[float, float]:
         """The unit vector it runs along, base frame (x, y) [-]."""
         a = math.radians(self.heading_deg)
@@ -169,6 +162,21 @@ def arrival_draws(
 def belt_classes(belt: BeltConfig | None, classes: Sequence[ColorClass]) -> list[str]:
     """The classes of the objects the belt brings, in arrival order."""
     return [name for name, *_ in arrival_draws(belt, classes)]
+
+
+def overhang_cm(belt: BeltConfig, classes: Sequence[ColorClass]) -> tuple[float, ColorClass]:
+    """How far the farthest-out arrival's footprint may reach past the belt's edge [cm].
+
+    An object lands with its centre up to ``arrivals.lateral_cm`` off the middle line and
+    at any yaw, so the smallest circle around its footprint
+    (:attr:`~mearm.config.classes.ColorClass.footprint_radius_cm`) may reach that much
+    farther; ≤ 0 when every object of every class lands wholly on the belt.
+
+    Returns:
+        The overhang [cm] and the class of the largest footprint (the first if several).
+    """
+    largest = max(classes, key=lambda c: c.footprint_radius_cm)
+    return belt.arrivals.lateral_cm + largest.footprint_radius_cm - belt.width_cm / 2, largest
 
 
 def follow_limit_cm_s(sweep_deg_s: float, belt: BeltConfig) -> float:

@@ -9,7 +9,7 @@ from pydantic import Field, field_validator, model_validator
 
 from mearm.config.arm import ArmDescription
 from mearm.config.base import MAX_LENGTH_CM, Seed, Strict
-from mearm.config.belt_config import FOLLOW_SHARE, BeltConfig, follow_limit_cm_s
+from mearm.config.belt_config import FOLLOW_SHARE, BeltConfig, follow_limit_cm_s, overhang_cm
 from mearm.config.defaults import paper_arm
 from mearm.config.sections import (
     CalibrationConfig,
@@ -204,6 +204,35 @@ class Config(Strict):
                 "from the base axis); slow the belt or move it further out"
             )
         return self
+
+    @model_validator(mode="after")
+    def _arrivals_on_belt(self) -> Config:
+        """Every object the belt brings lands wholly on it (:func:`overhang_cm`).
+
+        The offset is the belt's (``belt.arrivals.lateral_cm``), the objects' sizes are
+        the classes' (``task.classes``): only the whole config sees both.
+        """
+        belt = self.belt
+        if belt is None:
+            return self
+        over, largest = overhang_cm(belt, self.task.classes)
+        if over <= 0:
+            return self
+        lateral, radius = belt.arrivals.lateral_cm, largest.footprint_radius_cm
+        half = belt.width_cm / 2
+        most = math.floor((half - radius) * 100) / 100  # shown to 0.01 cm, never too much
+        allowed = (
+            f"at most {most:g} cm"
+            if most >= 0
+            else f"none: its {largest.name} objects ({2 * radius:.4g} cm across) are wider "
+            "than the belt"
+        )
+        raise ValueError(
+            f"@belt.arrivals.lateral_cm: {lateral:g} cm would land objects off the belt: "
+            f"that offset plus the footprint radius of the largest object of task.classes "
+            f"({largest.name}, {radius:.4g} cm) is {lateral + radius:.4g} cm, beyond half "
+            f"the belt's width (width_cm {belt.width_cm:g} cm), {half:g} cm: {allowed}"
+        )
 
     @model_validator(mode="after")
     def _belt_or_table(self) -> Config:
