@@ -8,6 +8,7 @@ was written (``--debug`` prints it instead).
 from __future__ import annotations
 
 import argparse
+import contextlib
 import datetime
 import os
 import re
@@ -15,7 +16,7 @@ import sys
 import traceback
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, NoReturn, Protocol, TypeVar
+from typing import TYPE_CHECKING, Any, NoReturn, Protocol, TextIO, TypeVar, cast
 
 from mearm import interrupts
 from mearm.errors import MearmError
@@ -78,10 +79,38 @@ class ArgumentParser(argparse.ArgumentParser):
         return out
 
 
+#: What a number typed on the command line may be made of, for the errors that refuse one.
+PLAIN_DECIMAL = "ASCII digits 0-9, sign, point, exponent; no '_'"
+PLAIN_INTEGER = "ASCII digits 0-9 and sign; no '_'"
+
+
+def check_plain_number(text: str, must_be: str) -> None:
+    """Refuse number text that Python reads but nobody types as a number.
+
+    ``float`` and ``int`` also read ``1_20`` and other scripts' digits (Arabic-Indic
+    ``١٢٠``, fullwidth ``１２０``) as 120: an option typed so is refused, not read as a
+    number nobody wrote. Every numeric argparse type here checks its text with this
+    first, so every command reads numbers alike.
+
+    Args:
+        text: The option's value as typed.
+        must_be: What it must be and what is allowed, the error's start, e.g.
+            ``f"--joints must be plain decimal numbers ({PLAIN_DECIMAL}), comma-separated"``.
+
+    Raises:
+        argparse.ArgumentTypeError: ``text`` holds a non-ASCII character or an ``_``.
+    """
+    if not text.isascii() or "_" in text:
+        raise argparse.ArgumentTypeError(f"{must_be}, got {text[:60]!r}")
+
+
 def float_list(n: int | None = None, name: str = "values") -> Callable[[str], list[float]]:
     """An argparse type for comma-separated numbers, e.g. ``120,93,-132``."""
 
     def parse(text: str) -> list[float]:
+        check_plain_number(
+            text, f"{name} must be plain decimal numbers ({PLAIN_DECIMAL}), comma-separated"
+        )
         try:
             values = [float(v) for v in text.split(",")]
         except ValueError:
@@ -107,6 +136,7 @@ def positive_number(lo: float, hi: float, unit: str = "") -> Callable[[str], flo
     suffix = f" {unit}" if unit else ""
 
     def parse(text: str) -> float:
+        check_plain_number(text, f"must be a plain decimal number ({PLAIN_DECIMAL})")
         try:
             value = float(text)
         except ValueError:
@@ -128,6 +158,7 @@ def seed_value(text: str) -> int:
     """An argparse type for a random seed: an integer in [0, 2³²−1] (what NumPy takes)."""
     from mearm.config.base import MAX_SEED
 
+    check_plain_number(text, f"a seed is a plain integer ({PLAIN_INTEGER})")
     try:
         value = int(text)
     except ValueError:
@@ -139,6 +170,7 @@ def seed_value(text: str) -> int:
 
 def worker_count(text: str) -> int:
     """An argparse type for ``--jobs``: a number of worker processes, an integer ≥ 1."""
+    check_plain_number(text, f"a number of workers is a plain integer ({PLAIN_INTEGER})")
     try:
         value = int(text)
     except ValueError:
@@ -337,10 +369,13 @@ def invoked_as(module_command: str, subcommand: str | None = None) -> str:
 def _program_name() -> str:
     """The running command's name (:func:`invoked_as`).
 
-    ``python -m mearm.ik`` for a module run with -m, else the script's name.
+    ``python -m mearm.ik`` for a module run with -m, ``mearm`` for ``python -m mearm``
+    (its file is ``__main__.py``), else the script's name.
     """
     spec = getattr(sys.modules.get("__main__"), "__spec__", None)
-    if spec is not None and spec.name and spec.name != "mearm.__main__":
+    if spec is not None and spec.name == "mearm.__main__":
+        return invoked_as("mearm")
+    if spec is not None and spec.name:
         return invoked_as("python -m " + spec.name.removesuffix(".__main__"))
     return invoked_as(Path(sys.argv[0]).name if sys.argv and sys.argv[0] else "mearm")
 
@@ -414,6 +449,60 @@ def echo_line(line: str) -> None:
         _silence_output()
 
 
+class _OutputUnwritable(Exception):
+    """Standard output refused what was printed (a full disk, ``> /dev/full``, an I/O error)."""
+
+
+class _CheckedOutput:
+    """Standard output under :func:`run`, whose write errors are known as its own.
+
+    An ``OSError`` from a ``print`` names no file, so the run could not tell a full disk
+    under standard output from one under a file the command writes; and argparse drops
+    write errors, so ``--help > /dev/full`` exited 0 having shown nothing. Here a write or
+    flush that fails raises :class:`_OutputUnwritable` instead. A closed pipe
+    (``BrokenPipeError``) passes as it is: :func:`echo_line` and :func:`run` end quietly on
+    it. Everything else is the stream's own.
+    """
+
+    def __init__(self, stream: TextIO):
+        self._stream = stream
+
+    def write(self, text: str) -> int:  # noqa: D102
+        try:
+            return self._stream.write(text)
+        except BrokenPipeError:
+            raise
+        except OSError as exc:
+            raise _OutputUnwritable(exc.strerror or str(exc)) from exc
+
+    def flush(self) -> None:  # noqa: D102
+        try:
+            self._stream.flush()
+        except BrokenPipeError:
+            raise
+        except OSError as exc:
+            raise _OutputUnwritable(exc.strerror or str(exc)) from exc
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._stream, name)
+
+
+def _flush_or_drop_output() -> None:
+    """Flush standard output as a run ends; what cannot be written goes nowhere.
+
+    The interpreter flushes standard output again at exit, and output it cannot write
+    then would add a traceback ("Exception ignored") and turn the exit status into 120.
+    The run's own line on stderr has already said what went wrong.
+    """
+    if sys.stdout is None:
+        return
+    try:
+        sys.stdout.flush()
+    except (OSError, ValueError):  # ValueError: closed
+        with contextlib.suppress(OSError, ValueError):  # no file descriptor to point away
+            _silence_output()
+
+
 def run(main: Callable[[Sequence[str] | None], int], argv: Sequence[str] | None = None) -> NoReturn:
     """Run a CLI ``main`` under the one guard every command shares.
 
@@ -422,15 +511,24 @@ def run(main: Callable[[Sequence[str] | None], int], argv: Sequence[str] | None 
     Ctrl-C: 143, 129; :mod:`mearm.interrupts`); any other exception → exit 1
     with one line naming the error and where its traceback was written (``--debug`` or
     ``MEARM_DEBUG=1``: the traceback itself). Standard output's reader gone (a closed
-    pipe) → exit 141, quietly, as a shell's tools do.
+    pipe) → exit 141, quietly, as a shell's tools do. Standard output that cannot be
+    written (a full disk, ``> /dev/full``) → exit 1 with one line saying so, whether the
+    write fails in the command, at its end (what was buffered) or after ``--help``.
     """
     prog = _program_name()
     args = list(sys.argv[1:] if argv is None else argv)
     debug = "--debug" in args or os.environ.get("MEARM_DEBUG", "") not in ("", "0")
     interrupts.install()  # a Ctrl-C inside a finalizer is not lost
+    stdout = sys.stdout  # None: started with standard output closed (>&-)
+    if stdout is not None:
+        sys.stdout = cast("TextIO", _CheckedOutput(stdout))
+    code: int | str | None
     try:
-        code = main(argv)
-        if sys.stdout is not None:  # None: started with standard output closed (>&-)
+        try:
+            code = main(argv)
+        except SystemExit as stop:  # argparse's --help: what it printed must arrive too
+            code = stop.code  # the same exit, once standard output is flushed
+        if sys.stdout is not None:
             sys.stdout.flush()  # what was printed reaches the reader, or its pipe is closed
     except MearmError as exc:
         print(f"{prog}: error: {_one_line(exc)}", file=sys.stderr)
@@ -438,6 +536,9 @@ def run(main: Callable[[Sequence[str] | None], int], argv: Sequence[str] | None 
     except KeyboardInterrupt:
         print(f"{prog}: interrupted", file=sys.stderr)
         code = interrupts.exit_status()  # 130; 143 after a SIGTERM taken as Ctrl-C
+    except _OutputUnwritable as exc:
+        print(f"{prog}: error: cannot write standard output: {exc}", file=sys.stderr)
+        code = EXIT_FAILURE
     except Exception as exc:
         code = EXIT_FAILURE
         if isinstance(exc, BrokenPipeError) and output_closed():
@@ -452,6 +553,9 @@ def run(main: Callable[[Sequence[str] | None], int], argv: Sequence[str] | None 
                 f"{prog}: unexpected error: {type(exc).__name__}: {_one_line(exc)} ({where})",
                 file=sys.stderr,
             )
+    finally:
+        sys.stdout = stdout
+    _flush_or_drop_output()
     sys.exit(code)
 
 

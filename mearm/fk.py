@@ -25,7 +25,7 @@ from mearm.cli import (
     run,
 )
 from mearm.hardware.mapping import ServoMap
-from mearm.ik.target import decimal_list
+from mearm.ik.result import joint_units
 from mearm.kinematics import ArmModel
 
 
@@ -37,7 +37,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     add_config_argument(parser)
     parser.add_argument(
         "--joints",
-        type=decimal_list(float_list(None, "--joints"), "--joints"),
+        type=float_list(None, "--joints"),
         required=True,
         help="the actuated joints in deg (cm if prismatic), in the config's order",
     )
@@ -64,7 +64,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             json.dumps(
                 {
                     "joints": {k: round(v, 9) for k, v in named.items()},
-                    "joint_units": {k: chain.unit(i) for i, k in enumerate(named)},
+                    "joint_units": joint_units(chain.names, chain.scale),
                     "ee_cm": [round(v, 9) for v in ee_cm.tolist()],
                     "approach": [round(v, 9) for v in approach.tolist()],
                 }

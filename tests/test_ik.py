@@ -5,8 +5,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import yaml
 from badinput import run_in_process
-from conftest import run_cli
+from conftest import planar_yaw_arm_data, run_cli
 
 import mearm.ik  # MinkSolver on first use: mink costs each worker's collection 0.3 s
 from mearm.config import ControllerConfig, config_from_dict, load_config
@@ -51,6 +52,7 @@ SUMMARY_KEYS = {
     "final_error_cm",
     "final_approach_error_deg",
     "joints",
+    "joint_units",
     "ee_cm",
 }
 
@@ -405,6 +407,19 @@ def test_cli_solvers_and_tolerance():
         assert r.code == 0, r.stderr
         out = json.loads(r.stdout)
         assert out["final_error_cm"] ** 2 < 1e-8
+
+
+def test_cli_json_gives_each_joints_unit_as_fk_does(tmp_path):
+    """ik --json names each joint's unit (a prismatic rail's in cm) in fk's own key."""
+    rail = tmp_path / "rail.yaml"
+    rail.write_text(yaml.safe_dump({"arm": planar_yaw_arm_data(rail=True)}), encoding="utf-8")
+    ik = run_in_process(["ik", "--config", rail, "--target=0,10,30", "--json"], within_s=30)
+    fk = run_in_process(["fk", "--config", rail, "--joints", "2,90,80,-100", "--json"])
+    assert ik.code == 0 and fk.code == 0, ik.stderr + fk.stderr
+    units = json.loads(ik.stdout)["joint_units"]
+    assert units == {"rail": "cm", "yaw": "deg", "upper": "deg", "fore": "deg"}
+    assert units == json.loads(fk.stdout)["joint_units"]
+    assert list(units) == list(json.loads(ik.stdout)["joints"])
 
 
 def test_cli_text_output():

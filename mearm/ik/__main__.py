@@ -42,7 +42,7 @@ from mearm.hardware.mapping import ServoMap
 from mearm.ik.factory import solve_ik
 from mearm.ik.failure import IKFailure
 from mearm.ik.result import IKResult
-from mearm.ik.target import IKTarget, decimal_list
+from mearm.ik.target import IKTarget
 from mearm.kinematics import ArmModel, Chain
 from mearm.kinematics.errors import InvalidJointsError, InvalidTargetError
 
@@ -55,13 +55,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     add_config_argument(parser)
     parser.add_argument(
         "--start",
-        type=decimal_list(float_list(None, "--start"), "--start"),
+        type=float_list(None, "--start"),
         default=None,
         help="the actuated joints in deg (cm if prismatic); default: the config's home",
     )
     parser.add_argument(
         "--target",
-        type=decimal_list(float_list(3, "--target"), "--target"),
+        type=float_list(3, "--target"),
         required=True,
         help="x,y,z in cm",
     )
@@ -154,7 +154,7 @@ def _target(position: list[float], text: str | None, arm: ArmDescription, chain:
             raise InvalidTargetError(f"--approach pick: arm {arm.name!r} has no tool.pick_approach")
     elif text is not None:
         try:
-            approach = tuple(decimal_list(float_list(3, "--approach"), "--approach")(text))
+            approach = tuple(float_list(3, "--approach")(text))
         except argparse.ArgumentTypeError as exc:
             raise InvalidTargetError(str(exc)) from None
     target = IKTarget(tuple(position), approach)  # type: ignore[arg-type]

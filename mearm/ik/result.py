@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Literal
 
@@ -10,6 +10,7 @@ import numpy as np
 import numpy.typing as npt
 
 from mearm.ik.failure import IKFailure
+from mearm.kinematics.chain import M_PER_CM
 
 Status = Literal["converged", "max_iterations", "stalled"]
 STATUSES: tuple[Status, ...] = ("converged", "max_iterations", "stalled")
@@ -44,6 +45,19 @@ def path_deviation_cm(ee_path_cm: npt.ArrayLike, target_cm: npt.ArrayLike) -> fl
         return float(np.linalg.norm(rel, axis=1).max())
     lam = np.clip(rel @ seg / length2, 0.0, 1.0)
     return float(np.linalg.norm(rel - lam[:, None] * seg, axis=1).max())
+
+
+def joint_units(joint_names: Sequence[str], scale: npt.ArrayLike) -> dict[str, str]:
+    """Each joint's unit by name: ``cm`` for a prismatic joint, else ``deg``.
+
+    The ``joint_units`` of ``mearm fk --json`` and ``mearm ik --json`` (:meth:`IKResult.summary`),
+    one rule for both, read off the model units per config unit that a chain and every
+    record carry (``M_PER_CM`` for a prismatic joint, π/180 for a revolute one).
+    """
+    return {
+        name: "cm" if s == M_PER_CM else "deg"
+        for name, s in zip(joint_names, np.asarray(scale).tolist(), strict=True)
+    }
 
 
 class JumpStart:
@@ -316,9 +330,10 @@ class IKResult:
     def summary(self) -> dict[str, object]:
         """The CLI's JSON record: status, method, iterations, errors, joints, TCP [cm].
 
-        Joints are in degrees (centimetres for a prismatic joint); the approach error in
-        degrees, ``None`` without an approach; ``failure_kind`` and ``failure`` ``None``
-        when converged.
+        Joints are in degrees (centimetres for a prismatic joint), each one's unit in
+        ``joint_units`` (as ``mearm fk --json`` gives them); the approach error in degrees,
+        ``None`` without an approach; ``failure_kind`` and ``failure`` ``None`` when
+        converged.
         """
         return {
             "status": self.status,
@@ -330,5 +345,6 @@ class IKResult:
             "final_error_cm": self.final_error_cm,
             "final_approach_error_deg": self.final_approach_error_deg,
             "joints": self.joints,
+            "joint_units": joint_units(self.joint_names, self.scale),
             "ee_cm": [float(v) for v in self.ee_cm],
         }

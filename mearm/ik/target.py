@@ -2,9 +2,7 @@
 
 from __future__ import annotations
 
-import argparse
 import math
-from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -61,22 +59,3 @@ def approach_error_deg(approach: npt.ArrayLike, desired: npt.ArrayLike) -> float
     """Angle between two unit vectors [deg]."""
     c = float(np.dot(approach, desired))
     return math.degrees(math.acos(min(1.0, max(-1.0, c))))
-
-
-def decimal_list(parse: Callable[[str], list[float]], name: str) -> Callable[[str], list[float]]:
-    """An argparse type: ``parse`` (comma-separated numbers) of plain decimal text only.
-
-    Python's ``float`` also reads ``1_20`` and other scripts' digits (``١٢٠``) as 120: a
-    joint or target typed so is refused, not read as a number nobody wrote. What is
-    allowed: ASCII digits, sign, point and exponent, separated by commas.
-    """
-
-    def check(text: str) -> list[float]:
-        if not text.isascii() or "_" in text:
-            raise argparse.ArgumentTypeError(
-                f"{name} must be plain decimal numbers (ASCII digits 0-9, sign, point, "
-                f"exponent; no '_'), comma-separated, got {text!r}"
-            )
-        return parse(text)
-
-    return check
