@@ -27,8 +27,8 @@ import numpy as np
 from mearm.cli import ArgumentParser, run, seed_value
 from mearm.config import Config, load_config
 from mearm.hardware.mapping import ServoMap
-from mearm.ik import IKTarget, PdPij, make_solver
-from mearm.kinematics import ArmModel
+from mearm.ik import IKResult, IKTarget, PdPij, make_solver
+from mearm.kinematics import ArmModel, Chain
 
 CONFIGS = ("sim", "sim_mearm_v1", "sim_5dof")
 STARTS = ("home", "uniform", "near a limit")
@@ -48,6 +48,62 @@ def _sample(rng: np.random.Generator, lo: np.ndarray, hi: np.ndarray, p_edge: fl
     return q
 
 
+def sendable(servos: ServoMap, chain: Chain, q_actuated: np.ndarray) -> bool:
+    """Whether every servo can be sent to this pose (model units, actuated joints)."""
+    return servos.outside_pulse_range(q_actuated / chain.scale[chain.actuated_index]) is None
+
+
+def draw_target(
+    rng: np.random.Generator, model: ArmModel, servos: ServoMap
+) -> tuple[np.ndarray, IKTarget]:
+    """A target in the box, reached by a random pose every servo can be sent to.
+
+    A target that only a pose past a servo's pulse range reaches (the MeArm v1's elbow
+    servo turns shoulder + elbow) is one no sort is given: it is not drawn. An arm that
+    picks with an approach axis gets the pose's axis too.
+
+    Returns:
+        The pose (every joint, model units, (n,)) and its target.
+    """
+    chain = model.chain
+    box = model.arm.target_box
+    with_axis = model.arm.tool.pick_approach is not None
+    while True:
+        q_sampled = _sample(rng, chain.actuated_lower, chain.actuated_upper, 0.25)
+        if not sendable(servos, chain, q_sampled):
+            continue
+        q = chain.full(q_sampled)
+        p = model.fk_cm(q)
+        if box.x_cm.contains(p[0]) and box.y_cm.contains(p[1]) and box.z_cm.contains(p[2]):
+            return q, IKTarget(_xyz(p), _xyz(model.approach(q)) if with_axis else None)
+
+
+def draw_start(
+    rng: np.random.Generator, model: ArmModel, servos: ServoMap, p_edge: float | None
+) -> np.ndarray:
+    """A start every servo can be at (every joint, model units, (n,)).
+
+    ``p_edge``: each joint's chance to be within 0.5° of a limit; ``None``: home.
+    """
+    chain = model.chain
+    while p_edge is not None:
+        q_start = _sample(rng, chain.actuated_lower, chain.actuated_upper, p_edge)
+        if sendable(servos, chain, q_start):
+            return chain.full(q_start)
+    return model.home
+
+
+def violates(result: IKResult, chain: Chain, servos: ServoMap) -> bool:
+    """Whether a solve left the limits on its path, or converged where a servo cannot go.
+
+    The solution, not the path: one that swings past a servo's range on the way is sent
+    by the planner as a joint-space move, never as this path.
+    """
+    return not all(chain.within_limits(q, tol=1e-9) for q in result.q_path) or (
+        result.converged and not sendable(servos, chain, chain.actuated_of(result.q))
+    )
+
+
 def measure(config: Config, n: int, seed: int, *, recover: bool | None) -> list[dict[str, object]]:
     """One row per kind of start: stops, their kinds, how solves got there, violations."""
     model = ArmModel(config.arm)
@@ -57,55 +113,24 @@ def measure(config: Config, n: int, seed: int, *, recover: bool | None) -> list[
         if recover is None
         else PdPij(model, config.controller, recover=recover)
     )
-    lo, hi = chain.actuated_lower, chain.actuated_upper
     servos = ServoMap.from_arm(config.arm)
-    scale = chain.scale[chain.actuated_index]
-
-    def sendable(q_actuated: np.ndarray) -> bool:
-        """Whether every servo can be sent to this pose (model units, actuated joints)."""
-        return servos.outside_pulse_range(q_actuated / scale) is None
-
-    box = config.arm.target_box
-    with_axis = config.arm.tool.pick_approach is not None
     rows = []
     for start in STARTS:
         rng = np.random.default_rng(seed)
-        solved = stopped = violations = 0
+        stopped = violations = 0
         kinds: Counter[str] = Counter()
         methods: Counter[str] = Counter()
         t0 = time.perf_counter()
-        while solved < n:
-            q_sampled = _sample(rng, lo, hi, 0.25)
-            if not sendable(q_sampled):  # a target only a pose the servos cannot take reaches
-                continue
-            q_target = chain.full(q_sampled)
-            p = model.fk_cm(q_target)
-            if not (
-                box.x_cm.contains(p[0]) and box.y_cm.contains(p[1]) and box.z_cm.contains(p[2])
-            ):
-                continue
-            axis = _xyz(model.approach(q_target)) if with_axis else None
-            target = IKTarget(_xyz(p), axis)
+        for _ in range(n):
+            _, target = draw_target(rng, model, servos)
             edge = {"home": None, "uniform": 0.0, "near a limit": 0.5}[start]
-            q0 = model.home
-            while edge is not None:  # a start the servos can be at
-                q_start = _sample(rng, lo, hi, edge)
-                if sendable(q_start):
-                    q0 = chain.full(q_start)
-                    break
-            result = solver.solve(target, q0)
-            solved += 1
+            result = solver.solve(target, draw_start(rng, model, servos, edge))
             if not result.converged:
                 stopped += 1
                 failure = getattr(result, "failure", None)
                 kinds[getattr(failure, "kind", result.status)] += 1
             methods[str(getattr(result, "method", "direct"))] += 1
-            # the solution, not the path: one that swings past a servo's range on the way
-            # is sent by the planner as a joint-space move, never as this path
-            if not all(chain.within_limits(q, tol=1e-9) for q in result.q_path) or (
-                result.converged and not sendable(chain.actuated_of(result.q))
-            ):
-                violations += 1
+            violations += violates(result, chain, servos)
         rows.append(
             {
                 "start": start, "targets": n, "stopped": stopped, "kinds": dict(kinds),
