@@ -439,14 +439,24 @@ def echo_line(line: str) -> None:
 
     When standard output's reader goes (``mearm sort | head -3``), the rest of the lines go
     nowhere and the run goes on: the arm finishes its job as it would on a terminal (the
-    run log keeps every route), and Ctrl-C still stops it.
+    run log keeps every route), and Ctrl-C still stops it. Standard output that cannot
+    be written (a full disk, ``> /dev/full``) is no reason to leave the arm mid-job
+    either: the rest goes nowhere, and :func:`run` says so as the run ends (exit 1).
     """
+    global _OUTPUT_LOST
     try:
         print(line)
     except BrokenPipeError:
         if not output_closed():
             raise
         _silence_output()
+    except _OutputUnwritable as exc:
+        _OUTPUT_LOST = _OUTPUT_LOST or str(exc)
+        _silence_output()
+
+
+#: Why standard output could not be written while a long run went on (:func:`echo_line`).
+_OUTPUT_LOST = ""
 
 
 class _OutputUnwritable(Exception):
@@ -530,6 +540,8 @@ def run(main: Callable[[Sequence[str] | None], int], argv: Sequence[str] | None 
             code = stop.code  # the same exit, once standard output is flushed
         if sys.stdout is not None:
             sys.stdout.flush()  # what was printed reaches the reader, or its pipe is closed
+        if _OUTPUT_LOST and code in (0, None):  # the job was done; its report was not
+            raise _OutputUnwritable(_OUTPUT_LOST)
     except MearmError as exc:
         print(f"{prog}: error: {_one_line(exc)}", file=sys.stderr)
         code = exc.exit_status  # EXIT_BAD_INPUT, or 1 for a failure of the run itself
