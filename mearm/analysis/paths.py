@@ -22,9 +22,8 @@ from pydantic import ValidationError
 
 from mearm.analysis.errors import AnalysisError
 from mearm.config import Config, ControllerConfig
-from mearm.ik.result import path_deviation_cm
+from mearm.ik.result import joint_units, path_deviation_cm
 from mearm.kinematics import ArmModel
-from mearm.kinematics.chain import M_PER_CM
 from mearm.runlog import RouteRecord
 
 
@@ -80,8 +79,8 @@ class SolvedRoute:
 
     @property
     def joint_units(self) -> tuple[str, ...]:
-        """``"deg"`` or ``"cm"`` (a prismatic joint) per joint, (n,)."""
-        return tuple("cm" if s == M_PER_CM else "deg" for s in np.asarray(self.scale).tolist())
+        """``"deg"`` or ``"cm"`` (a prismatic joint) per joint, (n,): fk's and ik's rule."""
+        return tuple(joint_units(self.joint_names, self.scale).values())
 
     @property
     def start_joints(self) -> dict[str, float]:
