@@ -92,3 +92,5 @@ class ExtraMissingError(MearmError):
 
 class EncoderError(MearmError):
     """The process encoding a recording's video failed or stopped."""
+
+    exit_status = 1  # a failure of the run: what was asked for was good

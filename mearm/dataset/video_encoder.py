@@ -95,10 +95,21 @@ def ring_memory(size: int) -> SharedMemory:
         try:
             os.posix_fallocate(fd, 0, size)
         except OSError as exc:
-            shm.close()
-            shm.unlink()
+            _remove(shm)
             raise RingMemoryError(exc, shm.name, size) from None
     return shm
+
+
+def _remove(shm: SharedMemory) -> None:
+    """Unmap ``shm`` and remove its segment from ``/dev/shm``.
+
+    A segment left there keeps its memory (the ring's ~24 MB) until this process ends
+    (:mod:`multiprocessing`'s resource tracker removes it then): a long run whose encoder
+    failed to start again and again filled ``/dev/shm``.
+    """
+    shm.close()
+    with contextlib.suppress(FileNotFoundError):  # removed already
+        shm.unlink()
 
 
 class EncoderProcess:
@@ -111,29 +122,35 @@ class EncoderProcess:
 
     Raises:
         RingMemoryError: the ring's shared memory cannot be had (a full ``/dev/shm``).
-        EncoderError: the process could not be started.
+        EncoderError: the process could not be started (out of file descriptors or
+            processes); nothing made for it is left (the ring's segment removed).
     """
 
     def __init__(self, shape: tuple[int, int, int], fps: int, codec: str):
         self.shape = shape
         ctx = multiprocessing.get_context("spawn")  # no copy of the sort's GL context, threads
         self._shm = ring_memory(ring_bytes(shape))
-        self._ring, self._states = ring_views(self._shm.buf, shape)
-        self._dropped = ctx.Value("q", -1, lock=False)
-        self._conn, child = ctx.Pipe()
-        self._proc = ctx.Process(
-            target=serve,
-            args=(child, self._shm.name, shape, fps, codec, self._dropped),
-            name="mearm-encoder",
-            daemon=True,
-        )
-        try:
-            with _sigint_ignored():  # a Ctrl-C while it starts must not kill it
-                self._proc.start()
-        except OSError as exc:
-            self._release()
-            raise EncoderError(f"cannot start the video encoder process ({exc})") from None
-        child.close()
+        # a step after the ring that fails releases what was made, the ring's segment too
+        with contextlib.ExitStack() as made:
+            made.callback(_remove, self._shm)
+            self._ring, self._states = ring_views(self._shm.buf, shape)
+            made.callback(self._drop_views)  # first: the segment cannot close under them
+            try:
+                self._dropped = ctx.Value("q", -1, lock=False)
+                self._conn, child = ctx.Pipe()
+                made.callback(self._conn.close)
+                with child:  # the process started has its own end
+                    self._proc = ctx.Process(
+                        target=serve,
+                        args=(child, self._shm.name, shape, fps, codec, self._dropped),
+                        name="mearm-encoder",
+                        daemon=True,
+                    )
+                    with _sigint_ignored():  # a Ctrl-C while it starts must not kill it
+                        self._proc.start()
+            except OSError as exc:  # out of file descriptors or processes
+                raise EncoderError(f"cannot start the video encoder process ({exc})") from None
+            made.pop_all()
         self._free = list(range(SLOTS))
         self._done: dict[int, tuple[str | None, np.ndarray | None]] = {}
 
@@ -225,14 +242,13 @@ class EncoderProcess:
             if self._proc.is_alive():
                 self._proc.kill()
                 self._proc.join()
-        self._release()
-
-    def _release(self) -> None:
         self._conn.close()
+        self._drop_views()
+        _remove(self._shm)
+
+    def _drop_views(self) -> None:
+        """Let go of the arrays on the ring's memory (while they are there it cannot close)."""
         del self._ring, self._states
-        self._shm.close()
-        with contextlib.suppress(FileNotFoundError):
-            self._shm.unlink()
 
     def _send(self, msg: tuple[Any, ...]) -> None:
         try:

@@ -114,8 +114,8 @@ def run_sort(
 
     The config's consistency is checked first (:func:`~mearm.task.check.check_consistency`),
     before any device opens. A failure before the sort starts (an inconsistent config, a
-    camera or servo that never opens) still leaves a fault and a summary in the log after
-    the header.
+    camera or servo that never opens, a recording whose encoder cannot start) still leaves
+    a fault and a summary in the log after the header.
 
     Args:
         config: The whole configuration.
@@ -162,9 +162,10 @@ def run_sort(
                 trial=trial, in_bins=rig.in_bins, placed=rig.placed, recorder=recorder,
                 calibrate_first=calibrate_first,
             )  # fmt: skip
-            started = True  # from here on the sorter logs its own faults
             if recorder is not None:
+                # its encoder failing to start (a full /dev/shm) is before the sort, too
                 recorder.attach(rig.bus, rig.camera)
+            started = True  # from here on the sorter logs its own faults
             try:
                 report = sorter.run()
             finally:
