@@ -104,6 +104,35 @@ def check_plain_number(text: str, must_be: str) -> None:
         raise argparse.ArgumentTypeError(f"{must_be}, got {text[:60]!r}")
 
 
+def plain_int(text: str) -> int:
+    """An argparse type for an integer option (a count, an index, a port, a resolution).
+
+    ``type=int`` would read ``1_20`` and other scripts' digits as 120
+    (:func:`check_plain_number`) and say only ``invalid int value`` of the rest. The
+    option's range is its own check, after parsing.
+    """
+    must_be = f"must be a plain integer ({PLAIN_INTEGER})"
+    check_plain_number(text, must_be)
+    try:
+        return int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{must_be}, got {text[:40]!r}") from None
+
+
+def plain_float(text: str) -> float:
+    """An argparse type for a number option (a size, a share, a noise level).
+
+    As :func:`plain_int`, for ``type=float``. ``nan`` and ``inf`` are read as ``float``
+    reads them: each option's range check refuses them in its own words.
+    """
+    must_be = f"must be a plain decimal number ({PLAIN_DECIMAL})"
+    check_plain_number(text, must_be)
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{must_be}, got {text[:40]!r}") from None
+
+
 def float_list(n: int | None = None, name: str = "values") -> Callable[[str], list[float]]:
     """An argparse type for comma-separated numbers, e.g. ``120,93,-132``."""
 

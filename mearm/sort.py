@@ -65,6 +65,7 @@ try:
         config_from_args,
         echo_line,
         invoked_as,
+        plain_int,
         run,
         seed_value,
         write_text_atomic,
@@ -96,7 +97,9 @@ def add_scene_arguments(parser: ArgumentParser) -> None:
         type=Path,
         help="simulated table: a YAML list of {color, x, y} [cm] (color: a class name)",
     )
-    group.add_argument("--random", type=int, metavar="N", help="simulated table: N random objects")
+    group.add_argument(
+        "--random", type=plain_int, metavar="N", help="simulated table: N random objects"
+    )
     parser.add_argument("--seed", type=seed_value, help="seed for --random (default 0)")
 
 

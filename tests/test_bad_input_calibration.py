@@ -152,7 +152,7 @@ BAD_ARGS: list[tuple[list[str], str]] = [
     (["--image", "x.png", "--marker", "0:1,2", "--marker-side-cm", "nan"], "--marker-side-cm"),
     (["--image", "x.png", "--marker", "0:1,2", "--marker-side-cm", "inf"], "--marker-side-cm"),
     (["--image", "x.png", "--marker", "0:1,2", "--marker-side-cm", "1e9"], "--marker-side-cm"),
-    (["--image", "x.png", "--marker", "0:1,2", "--marker-side-cm", "four"], "invalid float"),
+    (["--image", "x.png", "--marker", "0:1,2", "--marker-side-cm", "four"], "plain decimal number"),
     (["--image", "{image}", "--marker", "0:1,2", "--dictionary", "DICT_NOPE"],
      "unknown ArUco dictionary 'DICT_NOPE'"),
     (["--image", "{image}", "--marker", "0:-17,56", "--marker", "1:16,56", "--marker", "2:16,32",

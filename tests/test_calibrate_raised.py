@@ -203,7 +203,7 @@ def test_a_raised_view_without_its_markers_exits_2(pictures, tmp_path: Path):
         ({"--raised-height-cm": "-3"}, "--raised-height-cm must be in (0, 100] cm, got -3"),
         ({"--raised-height-cm": "nan"}, "--raised-height-cm must be in (0, 100] cm"),
         ({"--raised-height-cm": "1e9"}, "--raised-height-cm must be in (0, 100] cm"),
-        ({"--raised-height-cm": "tall"}, "invalid float value: 'tall'"),
+        ({"--raised-height-cm": "tall"}, "--raised-height-cm: must be a plain decimal number"),
         ({"--raised-height-cm": None}, "--raised-image needs --raised-height-cm"),
         ({"--raised-image": None}, "--raised-height-cm and --raised-marker need --raised-image"),
         ({"--raised-marker": 2}, "for 3 or more markers on the support, got 2"),

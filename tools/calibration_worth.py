@@ -35,6 +35,8 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from mearm.cli import plain_int
+
 ROOT = Path(__file__).resolve().parent.parent
 
 
@@ -98,15 +100,15 @@ def main() -> int:
     """Run the kits; print the table."""
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--config", default=str(ROOT / "configs" / "sim_mujoco_kits.yaml"))
-    p.add_argument("--kits", type=int, default=20)
-    p.add_argument("--trials", type=int, default=1)
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--jobs", type=int, default=2)
+    p.add_argument("--kits", type=plain_int, default=20)
+    p.add_argument("--trials", type=plain_int, default=1)
+    p.add_argument("--seed", type=plain_int, default=0)
+    p.add_argument("--jobs", type=plain_int, default=2)
     p.add_argument("--out", type=Path, default=Path("calib_worth"))
     p.add_argument("--sensitivity", action="store_true")
     p.add_argument(
         "--reading-seed",
-        type=int,
+        type=plain_int,
         default=0,
         metavar="BASE",
         help="base of the kits' reading seeds (kit k's: reading_seed(BASE, k); default 0)",

@@ -34,7 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from mearm.cli import ArgumentParser, add_config_argument, config_from_args, run
+from mearm.cli import ArgumentParser, add_config_argument, config_from_args, plain_int, run
 from mearm.config import ArmDescription, Config
 from mearm.config.arm import US_PER_SERVO_DEG
 from mearm.errors import MearmError
@@ -162,7 +162,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = ArgumentParser(prog="python -m mearm.analysis.servo_bound")
     add_config_argument(parser)
     parser.add_argument("log", help="run log whose picks' poses are bounded")
-    parser.add_argument("--samples", type=int, default=4000, help="draws per pose")
+    parser.add_argument("--samples", type=plain_int, default=4000, help="draws per pose")
     args = parser.parse_args(argv)
     if not 1 <= args.samples <= MAX_SAMPLES:
         parser.error(f"--samples must be in [1, {MAX_SAMPLES}], got {args.samples}")

@@ -28,7 +28,7 @@ from typing import Any
 
 import numpy as np
 
-from mearm.cli import ArgumentParser, config_path_value, run, seed_value
+from mearm.cli import ArgumentParser, config_path_value, plain_int, run, seed_value
 from mearm.config import Config, load_config
 from mearm.dataset.errors import DatasetError
 from mearm.dataset.reading import read_info, read_table, read_tags
@@ -254,7 +254,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Replay one episode and print where its objects ended; 1 if not all in their bins."""
     parser = ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("dataset", type=Path, help="the dataset's directory")
-    parser.add_argument("--episode", type=int, default=0, help="episode index (default 0)")
+    parser.add_argument("--episode", type=plain_int, default=0, help="episode index (default 0)")
     parser.add_argument(
         "--config",
         type=config_path_value,
@@ -267,7 +267,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         metavar="KEY=VALUE",
         help="override one value of --config (repeatable)",
     )
-    parser.add_argument("--objects", type=int, help="--random N of the sort (default: recorded)")
+    parser.add_argument(
+        "--objects", type=plain_int, help="--random N of the sort (default: recorded)"
+    )
     parser.add_argument("--seed", type=seed_value, help="--seed of the sort (default: recorded)")
     args = parser.parse_args(argv)
     if args.set and args.config is None:

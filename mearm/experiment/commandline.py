@@ -54,6 +54,7 @@ from mearm.cli import (
     add_config_argument,
     config_from_args,
     invoked_as,
+    plain_int,
     seed_value,
     worker_count,
 )
@@ -155,7 +156,7 @@ def _parser() -> ArgumentParser:
     )
     add_config_argument(parser)
     parser.add_argument(
-        "--trials", type=int, default=100, help="number of trials in all (default 100)"
+        "--trials", type=plain_int, default=100, help="number of trials in all (default 100)"
     )
     parser.add_argument("--seed", type=seed_value, default=0, help="base seed (default 0)")
     parser.add_argument(

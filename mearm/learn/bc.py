@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from mearm.cli import ArgumentParser, check_output_file, run, seed_value, worker_count
+from mearm.cli import ArgumentParser, check_output_file, plain_int, run, seed_value, worker_count
 from mearm.config import load_config
 from mearm.envs import MAX_EPISODE_STEPS
 from mearm.envs.actions import ActionSpec
@@ -155,7 +155,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--env", default="mearm/PickPlace-v0", help="environment id")
     parser.add_argument("--config", default="sim_mujoco", help="twin config (name or file)")
-    parser.add_argument("--episodes", type=int, default=200, help="expert episodes to learn from")
+    parser.add_argument(
+        "--episodes", type=plain_int, default=200, help="expert episodes to learn from"
+    )
     parser.add_argument("--first-seed", type=seed_value, default=0, help="their first seed")
     parser.add_argument("--jobs", type=worker_count, default=2, help="collecting workers")
     parser.add_argument(
@@ -165,8 +167,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         help="keep them here (.npz), or reuse them if collected for this --env, --config, "
         "--first-seed and --episodes",
     )
-    parser.add_argument("--steps", type=int, default=10000, help="training minibatches")
-    parser.add_argument("--batch", type=int, default=256, help="minibatch size")
+    parser.add_argument("--steps", type=plain_int, default=10000, help="training minibatches")
+    parser.add_argument("--batch", type=plain_int, default=256, help="minibatch size")
     parser.add_argument("--out", type=Path, required=True, help="the baseline's file (.pt)")
     args = parser.parse_args(argv)
     if args.episodes < 1 or args.steps < 1 or args.batch < 1:

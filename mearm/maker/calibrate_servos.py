@@ -71,7 +71,15 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from mearm import interrupts
-from mearm.cli import ArgumentParser, add_config_argument, config_from_args, run, seed_value
+from mearm.cli import (
+    PLAIN_DECIMAL,
+    ArgumentParser,
+    add_config_argument,
+    check_plain_number,
+    config_from_args,
+    run,
+    seed_value,
+)
 from mearm.config import Config
 from mearm.errors import MearmError
 from mearm.maker.keyboard_calibration.calibrator import (
@@ -226,6 +234,7 @@ def build_parser() -> ArgumentParser:
 
 def reading_error(text: str) -> float:
     """An argparse type: a reading error, a finite number in [0, 10]."""
+    check_plain_number(text, f"a reading error is a plain decimal number ({PLAIN_DECIMAL})")
     try:
         value = float(text)
     except ValueError:

@@ -34,6 +34,7 @@ from mearm.cli import (
     ArgumentParser,
     add_config_argument,
     config_from_args,
+    plain_int,
     run,
 )
 from mearm.errors import MearmError
@@ -221,7 +222,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
     parser.add_argument(
         "--indices",
-        type=int,
+        type=plain_int,
         default=DEFAULT_INDICES,
         metavar="N",
         help=f"also try camera indices 0 to N-1 (default {DEFAULT_INDICES}; at most "

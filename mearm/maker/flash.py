@@ -36,6 +36,7 @@ from mearm.cli import (
     ArgumentParser,
     add_config_argument,
     config_from_args,
+    plain_int,
     run,
 )
 from mearm.data import firmware_source_dir
@@ -155,7 +156,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
     parser.add_argument(
         "--upload-baud",
-        type=int,
+        type=plain_int,
         choices=UPLOAD_BAUDS,
         default=UPLOAD_BAUD,
         help="the bootloader's baud rate (default 115200, the Uno's; 57600 for an old Uno "

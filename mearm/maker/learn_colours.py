@@ -35,7 +35,7 @@ from typing import Any
 
 import numpy as np
 
-from mearm.cli import ArgumentParser, check_output_file, run, write_text_atomic
+from mearm.cli import ArgumentParser, check_output_file, plain_float, run, write_text_atomic
 from mearm.config import Config
 from mearm.config.files import load_config, resolve_config_path
 from mearm.config.loader import config_from_dict
@@ -167,7 +167,7 @@ def _parser() -> ArgumentParser:
     parser.add_argument("--pick", action="store_true", help="click the samples on the first frame")
     parser.add_argument(
         "--radius",
-        type=float,
+        type=plain_float,
         default=4.0,
         metavar="PX",
         help="pixels within this of a sample are its colour (default 4)",

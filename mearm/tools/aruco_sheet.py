@@ -20,7 +20,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from mearm.cli import ArgumentParser, run
+from mearm.cli import ArgumentParser, plain_float, plain_int, run
 from mearm.errors import MearmError
 from mearm.fileio import write_atomic
 from mearm.vision.aruco import DEFAULT_DICTIONARY, get_dictionary, marker_image
@@ -95,8 +95,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--output", type=Path, required=True, help="PNG file to write")
     parser.add_argument("--force", action="store_true", help="replace an existing --output")
     parser.add_argument("--ids", type=_ids, default=[0, 1, 2, 3], help="marker ids (0,1,2,3)")
-    parser.add_argument("--side-cm", type=float, default=4.0, help="marker side [cm] (4)")
-    parser.add_argument("--dpi", type=int, default=300, help="print resolution (300)")
+    parser.add_argument("--side-cm", type=plain_float, default=4.0, help="marker side [cm] (4)")
+    parser.add_argument("--dpi", type=plain_int, default=300, help="print resolution (300)")
     parser.add_argument("--dictionary", default=DEFAULT_DICTIONARY, help="ArUco dictionary")
     args = parser.parse_args(argv)
     if not SIDE_CM[0] <= args.side_cm <= SIDE_CM[1]:

@@ -62,6 +62,7 @@ from pathlib import Path
 from mearm.cli import (
     ArgumentParser,
     existing_ancestor,
+    plain_int,
     refuse_to_replace,
     run,
     write_text_atomic,
@@ -170,7 +171,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         help="run only this section (repeatable; each runs once); default: all",
     )
     parser.add_argument(
-        "--repeat", type=int, default=5, help="rounds; the best is kept (default 5)"
+        "--repeat", type=plain_int, default=5, help="rounds; the best is kept (default 5)"
     )
     parser.add_argument("--json", action="store_true", help="print JSON instead of the table")
     parser.add_argument(

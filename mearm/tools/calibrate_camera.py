@@ -59,7 +59,15 @@ import numpy as np
 from ruamel.yaml import YAML, YAMLError
 from ruamel.yaml.comments import CommentedMap, CommentedSeq
 
-from mearm.cli import ArgumentParser, check_output_file, refuse_own_inputs, run
+from mearm.cli import (
+    PLAIN_DECIMAL,
+    ArgumentParser,
+    check_output_file,
+    check_plain_number,
+    plain_float,
+    refuse_own_inputs,
+    run,
+)
 from mearm.config import config_from_dict
 from mearm.config.base import MAX_LENGTH_CM, short_repr
 from mearm.config.errors import CalibrationError
@@ -100,6 +108,7 @@ MIN_RAISED_MARKERS = 3
 
 def _numbers(text: str, n: int, what: str, limit: float) -> list[float]:
     shown = short_repr(text, 40)
+    check_plain_number(text, f"{what} must be plain decimal numbers ({PLAIN_DECIMAL})")
     try:
         values = [float(v) for v in text.split(",")]
     except ValueError:
@@ -404,7 +413,7 @@ def _parser() -> ArgumentParser:
         help="a marker's id and its centre's table position [cm] (4 or more)",
     )  # fmt: skip
     parser.add_argument(
-        "--marker-side-cm", type=float, help="printed marker side [cm]: use the corners too"
+        "--marker-side-cm", type=plain_float, help="printed marker side [cm]: use the corners too"
     )
     parser.add_argument("--dictionary", default=DEFAULT_DICTIONARY, help="ArUco dictionary")
     parser.add_argument(
@@ -421,7 +430,7 @@ def _parser() -> ArgumentParser:
         help="with --intrinsics: a picture of markers on a support above the table",
     )  # fmt: skip
     parser.add_argument(
-        "--raised-height-cm", type=float, help="the support's top above the table [cm]"
+        "--raised-height-cm", type=plain_float, help="the support's top above the table [cm]"
     )
     parser.add_argument(
         "--raised-marker", type=parse_marker, action="append", default=[], metavar="ID:X,Y",

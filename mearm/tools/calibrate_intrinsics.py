@@ -28,7 +28,14 @@ import time
 from collections.abc import Sequence
 from pathlib import Path
 
-from mearm.cli import ArgumentParser, check_output_file, positive_number, run
+from mearm.cli import (
+    PLAIN_INTEGER,
+    ArgumentParser,
+    check_output_file,
+    check_plain_number,
+    positive_number,
+    run,
+)
 from mearm.config import CameraConfig
 from mearm.config.errors import CalibrationError
 from mearm.config.sections import MAX_DEVICE_INDEX
@@ -70,6 +77,7 @@ def _device(text: str) -> int | str:
 
 
 def _frames(text: str) -> int:
+    check_plain_number(text, f"--frames must be a plain integer ({PLAIN_INTEGER})")
     try:
         value = int(text)
     except ValueError:

@@ -60,6 +60,8 @@ from mearm.cli import (
     check_output_file,
     check_output_folder,
     config_from_args,
+    plain_float,
+    plain_int,
     positive_number,
     refuse_to_replace,
     run,
@@ -351,11 +353,15 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = ArgumentParser(description=__doc__.splitlines()[0] if __doc__ else None)
     add_config_argument(parser)
     parser.add_argument("--heights", type=str, default="1,2.5", help="object heights [cm]")
-    parser.add_argument("--scenes", type=int, default=5, help="scenes per height")
-    parser.add_argument("--first-seed", type=int, default=0, help="seed of the first scene")
-    parser.add_argument("--objects", type=int, default=12, help="objects per scene")
-    parser.add_argument("--views", type=int, default=15, help="board views for the intrinsics")
-    parser.add_argument("--noise-std", type=float, default=2.0, help="sensor noise [8-bit levels]")
+    parser.add_argument("--scenes", type=plain_int, default=5, help="scenes per height")
+    parser.add_argument("--first-seed", type=plain_int, default=0, help="seed of the first scene")
+    parser.add_argument("--objects", type=plain_int, default=12, help="objects per scene")
+    parser.add_argument(
+        "--views", type=plain_int, default=15, help="board views for the intrinsics"
+    )
+    parser.add_argument(
+        "--noise-std", type=plain_float, default=2.0, help="sensor noise [8-bit levels]"
+    )
     parser.add_argument(
         "--work", type=Path,
         help="keep the pictures and calibrations here: a new or empty folder, or one this "

@@ -18,7 +18,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from mearm.cli import ArgumentParser, run
+from mearm.cli import ArgumentParser, plain_int, run
 from mearm.errors import MearmError
 from mearm.fileio import write_atomic
 from mearm.tools.aruco_sheet import A4_CM, CM_PER_INCH, png_with_dpi
@@ -72,7 +72,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = ArgumentParser(description="Printable ChArUco board for calibrate-intrinsics.")
     parser.add_argument("--output", type=Path, required=True, help="PNG file to write")
     parser.add_argument("--force", action="store_true", help="replace an existing --output")
-    parser.add_argument("--dpi", type=int, default=300, help="print resolution (300)")
+    parser.add_argument("--dpi", type=plain_int, default=300, help="print resolution (300)")
     args = parser.parse_args(argv)
     if not DPI_RANGE[0] <= args.dpi <= DPI_RANGE[1]:
         parser.error(f"--dpi must be in [{DPI_RANGE[0]}, {DPI_RANGE[1]}], got {args.dpi}")

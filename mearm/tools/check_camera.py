@@ -33,9 +33,11 @@ from pathlib import Path
 import numpy as np
 
 from mearm.cli import (
+    PLAIN_INTEGER,
     ArgumentParser,
     add_config_argument,
     check_output_file,
+    check_plain_number,
     config_from_args,
     refuse_own_inputs,
     run,
@@ -59,6 +61,7 @@ from mearm.vision.pinhole import PerspectiveCamera, save_calibration
 
 
 def _points(text: str) -> int:
+    check_plain_number(text, f"must be a plain whole number ({PLAIN_INTEGER})")
     try:
         n = int(text)
     except ValueError:

@@ -44,6 +44,8 @@ from mearm.cli import (
     check_output_file,
     check_output_folder,
     invoked_as,
+    plain_float,
+    plain_int,
     refuse_to_replace,
     run,
     seed_value,
@@ -221,7 +223,7 @@ def _eval_policy(argv: Sequence[str] | None) -> int:
         "--policy", default="expert", help="expert, random, module:callable, FILE.pt"
     )
     parser.add_argument("--config", default="sim_mujoco", help="twin config (name or file)")
-    parser.add_argument("--episodes", type=int, default=50, help="episodes, seeds S … S+N−1")
+    parser.add_argument("--episodes", type=plain_int, default=50, help="episodes, seeds S … S+N−1")
     parser.add_argument("--first-seed", type=seed_value, default=0, help="S (default 0)")
     parser.add_argument(
         "--jobs", type=worker_count, default=2,
@@ -230,7 +232,7 @@ def _eval_policy(argv: Sequence[str] | None) -> int:
     parser.add_argument("--env-option", action="append", default=[], metavar="KEY=VALUE")
     parser.add_argument("--out", type=Path, default=None, help="write the scores as JSON")
     parser.add_argument(
-        "--videos", type=int, default=0, metavar="K",
+        "--videos", type=plain_int, default=0, metavar="K",
         help="write the first K episodes as MP4s into videos/ beside --out (without --out: "
         "./videos/); an episode_*.mp4 of the same name is refused unless --force",
     )  # fmt: skip
@@ -239,7 +241,7 @@ def _eval_policy(argv: Sequence[str] | None) -> int:
         help="replace an existing --out and the videos of the same names",
     )  # fmt: skip
     parser.add_argument(
-        "--require", type=float, default=0.0, help="exit 1 below this success share"
+        "--require", type=plain_float, default=0.0, help="exit 1 below this success share"
     )
     args = parser.parse_args(argv)
     _require_gymnasium()

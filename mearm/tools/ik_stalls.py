@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from mearm.cli import ArgumentParser, run, seed_value
+from mearm.cli import ArgumentParser, plain_int, run, seed_value
 from mearm.config import Config, load_config
 from mearm.hardware.mapping import ServoMap
 from mearm.ik import IKResult, IKTarget, PdPij, make_solver
@@ -150,7 +150,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         type=Path,
         help=f"config files or packaged config names (default: {', '.join(CONFIGS)})",
     )
-    parser.add_argument("--targets", type=int, default=2000, help="targets per kind of start")
+    parser.add_argument("--targets", type=plain_int, default=2000, help="targets per kind of start")
     parser.add_argument(
         "--seed", type=seed_value, default=0, help="seed of the targets (default 0)"
     )

@@ -27,9 +27,13 @@ from pathlib import Path
 import numpy as np
 
 from mearm.cli import (
+    PLAIN_DECIMAL,
+    PLAIN_INTEGER,
     ArgumentParser,
     add_config_argument,
+    check_plain_number,
     config_from_args,
+    plain_int,
     positive_number,
     refuse_own_inputs,
     refuse_to_replace,
@@ -49,6 +53,9 @@ def _named_values(text: str) -> dict[str, float]:
     out: dict[str, float] = {}
     for item in text.split(","):
         name, sep, value = item.partition("=")
+        check_plain_number(
+            value, f"--joints must be NAME=VALUE pairs with plain decimal values ({PLAIN_DECIMAL})"
+        )
         try:
             number = float(value)
         except ValueError:
@@ -74,6 +81,7 @@ def _png_path(text: str) -> Path:
 
 
 def _window_size(text: str) -> tuple[int, int]:
+    check_plain_number(text, f"--size must be WxH in plain integers ({PLAIN_INTEGER})")
     try:
         w, h = (int(v) for v in text.lower().split("x"))
     except ValueError:
@@ -161,7 +169,10 @@ def _parser() -> ArgumentParser:
         "shapes, translucent), moving with the arm",
     )
     parser.add_argument(
-        "--port", type=int, default=None, help="web port (default: 7000 or the next free; 0: any)"
+        "--port",
+        type=plain_int,
+        default=None,
+        help="web port (default: 7000 or the next free; 0: any)",
     )
     return parser
 

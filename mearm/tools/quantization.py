@@ -18,7 +18,14 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from mearm.cli import ArgumentParser, add_config_argument, config_from_args, run, seed_value
+from mearm.cli import (
+    ArgumentParser,
+    add_config_argument,
+    config_from_args,
+    plain_int,
+    run,
+    seed_value,
+)
 from mearm.hardware.mapping import Quantization
 
 MODES: tuple[Quantization, ...] = ("degree", "microsecond", "none")
@@ -28,7 +35,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Print mean, std, 95th percentile and max TCP error per quantisation mode."""
     parser = ArgumentParser(prog="mearm quantization", description=__doc__.splitlines()[0])
     add_config_argument(parser)
-    parser.add_argument("--poses", type=int, default=2000, help="random reachable poses")
+    parser.add_argument("--poses", type=plain_int, default=2000, help="random reachable poses")
     parser.add_argument("--seed", type=seed_value, default=0, help="seed of the poses")
     parser.add_argument("--json", action="store_true", help="print JSON")
     args = parser.parse_args(argv)

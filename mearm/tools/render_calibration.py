@@ -37,7 +37,16 @@ from typing import TYPE_CHECKING
 import cv2
 import numpy as np
 
-from mearm.cli import ArgumentParser, add_config_argument, config_from_args, run, seed_value
+from mearm.cli import (
+    PLAIN_DECIMAL,
+    PLAIN_INTEGER,
+    ArgumentParser,
+    add_config_argument,
+    check_plain_number,
+    config_from_args,
+    run,
+    seed_value,
+)
 from mearm.config import Config
 from mearm.errors import MearmError
 from mearm.fileio import write_atomic
@@ -52,6 +61,7 @@ MAX_VIEWS = 200
 def _views(text: str) -> int:
     import argparse
 
+    check_plain_number(text, f"--views is a plain integer ({PLAIN_INTEGER})")
     try:
         value = int(text)
     except ValueError:
@@ -64,6 +74,7 @@ def _views(text: str) -> int:
 def _noise(text: str) -> float:
     import argparse
 
+    check_plain_number(text, f"--noise-std must be a plain decimal number ({PLAIN_DECIMAL})")
     try:
         value = float(text)
     except ValueError:
@@ -202,6 +213,7 @@ def _height(text: str) -> float:
 
     from mearm.sim.twin.calibration_scenes import MAX_SUPPORT_CM
 
+    check_plain_number(text, f"--raised-height-cm must be a plain decimal number ({PLAIN_DECIMAL})")
     try:
         value = float(text)
     except ValueError:

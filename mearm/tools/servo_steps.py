@@ -23,7 +23,13 @@ import math
 from collections.abc import Sequence
 from pathlib import Path
 
-from mearm.cli import ArgumentParser, add_config_argument, config_from_args, refuse_to_replace
+from mearm.cli import (
+    ArgumentParser,
+    add_config_argument,
+    config_from_args,
+    plain_float,
+    refuse_to_replace,
+)
 from mearm.config import Config
 from mearm.errors import MearmError
 from mearm.fileio import write_atomic
@@ -122,7 +128,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Measure the responses; write the CSV and the plot asked for."""
     parser = ArgumentParser(description=__doc__.splitlines()[0])
     add_config_argument(parser, default=str(DEFAULT_CONFIG))
-    parser.add_argument("--degrees", type=float, nargs="+", default=[10.0, 60.0])
+    parser.add_argument("--degrees", type=plain_float, nargs="+", default=[10.0, 60.0])
     parser.add_argument("--csv", type=Path, help="write the responses here (CSV)")
     parser.add_argument("--before", type=Path, help="an earlier run's CSV, drawn dashed (--out)")
     parser.add_argument("--out", type=Path, help="write the plot here (PNG)")

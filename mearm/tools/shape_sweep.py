@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from mearm.cli import ArgumentParser, add_config_argument, config_from_args
+from mearm.cli import ArgumentParser, add_config_argument, config_from_args, plain_float, plain_int
 from mearm.config import Config
 from mearm.config.shape_catalogue import SHAPES
 from mearm.errors import MearmError
@@ -124,10 +124,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Run the sweep and print its table."""
     parser = ArgumentParser(prog="mearm shape-sweep", description=__doc__.splitlines()[0])
     add_config_argument(parser)
-    parser.add_argument("--objects", type=int, default=240, help="objects to draw (default 240)")
-    parser.add_argument("--seed", type=int, default=0, help="seed of the draws (default 0)")
-    parser.add_argument("--min-cm", type=float, default=1.0, help="smallest size (default 1)")
-    parser.add_argument("--max-cm", type=float, default=3.0, help="largest size (default 3)")
+    parser.add_argument(
+        "--objects", type=plain_int, default=240, help="objects to draw (default 240)"
+    )
+    parser.add_argument("--seed", type=plain_int, default=0, help="seed of the draws (default 0)")
+    parser.add_argument("--min-cm", type=plain_float, default=1.0, help="smallest size (default 1)")
+    parser.add_argument("--max-cm", type=plain_float, default=3.0, help="largest size (default 3)")
     args = parser.parse_args(argv)
     if not 1 <= args.objects <= MAX_OBJECTS:
         raise MearmError(f"--objects must be in [1, {MAX_OBJECTS}], got {args.objects}")

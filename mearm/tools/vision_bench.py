@@ -48,7 +48,14 @@ from pathlib import Path
 
 import numpy as np
 
-from mearm.cli import ArgumentParser, add_config_argument, config_from_args, run
+from mearm.cli import (
+    PLAIN_INTEGER,
+    ArgumentParser,
+    add_config_argument,
+    check_plain_number,
+    config_from_args,
+    run,
+)
 from mearm.config import ColorClass, Config
 from mearm.errors import InputFileError
 from mearm.sim.kinematic.vision_scenes import (
@@ -367,6 +374,7 @@ def run_calibration_study(draws: int = 200) -> list[dict]:
 
 def _count(text: str) -> int:
     """An argparse type: a whole number from 1 to 100 000."""
+    check_plain_number(text, f"expected a plain whole number ({PLAIN_INTEGER})")
     try:
         n = int(text)
     except ValueError:
