@@ -29,6 +29,7 @@ from mearm.cli import (
     seed_value,
     worker_count,
 )
+from mearm.errors import MearmError
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -184,3 +185,34 @@ def test_developer_script_refuses_numbers_nobody_typed(tmp_path):
     assert done.returncode == 2, done.stderr
     assert _refused_as_typed(done.stderr.strip().splitlines()[-1], "--kits", "1_20"), done.stderr
     assert not (tmp_path / "out").exists()
+
+
+ARABIC_ONE = "\u0661"  # ١
+
+
+@pytest.mark.parametrize(
+    ("parse", "text"),
+    [
+        ("mearm.maker.learn_colours:parse_sample", f"red=1,2@{ARABIC_ONE}"),
+        ("mearm.maker.learn_colours:parse_point", "1_0,2"),
+        ("mearm.maker.learn_colours:parse_point", f"{FULLWIDTH},2"),
+        ("mearm.tools.camera_accuracy:_numbers", "1_0"),
+        ("mearm.tools.camera_accuracy:_numbers", "\uff12"),  # ２, within its range
+    ],
+)
+def test_numbers_read_after_the_parser_are_plain_too(parse, text):
+    """Options whose text is split after argparse (``--sample CLASS=U,V@I``,
+    ``--work-area``, ``--heights``) read the same plain numbers: ``@١`` was image 1,
+    ``1_0`` was 10."""
+    module, name = parse.split(":")
+    with pytest.raises((ValueError, MearmError)):
+        getattr(importlib.import_module(module), name)(text)
+
+
+def test_a_camera_index_is_ascii_digits():
+    """``find-camera --camera ١`` was camera 1; it is now a path, which does not exist."""
+    from mearm.maker.find_camera import _source
+
+    assert _source("1") == 1
+    with pytest.raises(MearmError, match="does not exist|no such"):
+        _source(ARABIC_ONE)

@@ -166,9 +166,9 @@ def _source(text: str) -> int | str:
     text = text.strip()
     if not text:
         raise MearmError("--camera needs an index, a device path or a URL, got ''")
-    if text.isdigit():
+    if text.isascii() and text.isdigit():  # not other scripts' digits (١ is not camera 1)
         return int(text)
-    if re.fullmatch(r"-\d+", text):
+    if re.fullmatch(r"-[0-9]+", text):
         raise MearmError(f"--camera {text}: a camera index is 0 or more")
     if "://" in text:
         return text

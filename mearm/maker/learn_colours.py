@@ -46,7 +46,8 @@ from mearm.vision.image import read_image
 from mearm.vision.teaching import Sample, Taught, teach
 from mearm.yamlio import load_yaml_text
 
-_SAMPLE = re.compile(r"^([^=\s]+)=([-+0-9.eE]+),([-+0-9.eE]+)(?:@(\d+))?$")
+#: ASCII digits only: ``\d`` matches other scripts' digits too (``@١`` read as image 1).
+_SAMPLE = re.compile(r"^([^=\s]+)=([-+0-9.eE]+),([-+0-9.eE]+)(?:@([0-9]+))?$")
 
 
 def parse_sample(text: str) -> Sample:
@@ -63,6 +64,8 @@ def parse_sample(text: str) -> Sample:
 def parse_point(text: str) -> tuple[float, float]:
     """``U,V`` as a pixel (ValueError if malformed)."""
     parts = text.split(",")
+    if not text.isascii() or "_" in text:  # float() reads 1_0 and other scripts' digits
+        raise ValueError(f"--work-area {text!r}: expected U,V pixels in plain decimals")
     try:
         u, v = (float(p) for p in parts)
     except ValueError:

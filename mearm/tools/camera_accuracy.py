@@ -78,6 +78,8 @@ EDGE_PX = 4.0
 
 
 def _numbers(text: str) -> list[float]:
+    if not text.isascii() or "_" in text:  # float() reads 1_0 and other scripts' digits
+        raise MearmError(f"--heights wants plain decimal numbers like 1,2.5, got {text!r}")
     try:
         values = [float(v) for v in text.split(",")]
     except ValueError:
