@@ -137,6 +137,8 @@ OPTION_CASES = [
     (["calibrate-camera", "--point", "1_0,2:3,4"], "--point", "1_0,2"),
     (["calibrate-camera", "--marker", f"0:{FULLWIDTH},4"], "--marker", f"{FULLWIDTH},4"),
     (["calibrate-servos", "--reading-error", "1_0"], "--reading-error", "1_0"),
+    (["sort", "--record-fps", "1_0"], "--record-fps", "1_0"),
+    (["experiment", "--record-fps", FULLWIDTH], "--record-fps", FULLWIDTH),
 ]
 
 

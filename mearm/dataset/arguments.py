@@ -13,6 +13,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from mearm.cli import PLAIN_INTEGER, check_plain_number
 from mearm.config import Config
 from mearm.config.loader import apply_overrides, file_keys_set, parse_override
 from mearm.data import doc_page
@@ -32,6 +33,7 @@ MAX_FPS = 1000
 
 def fps_value(text: str) -> int:
     """An argparse type: a whole number of frames per second in 1..MAX_FPS."""
+    check_plain_number(text, f"must be a whole number of frames per second ({PLAIN_INTEGER})")
     try:
         fps = int(text)
     except ValueError:
