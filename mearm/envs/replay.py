@@ -13,7 +13,9 @@ divide the servo rate); after the last action the objects are given up to
 The dataset keeps each such episode's ``--seed``, ``--random`` count, ``--config`` and
 ``--set`` (``meta/mearm_episodes.json``): the replay takes them from there, and refuses
 a ``--seed`` or ``--objects`` that disagrees (exit 2). An episode recorded without them
-(an older dataset, ``--scene``, an experiment's trial) needs both given. The config's
+by an older mearm needs both given. One of a ``--scene`` sort or of an experiment's
+trial keeps none, and no seed rebuilds it: its table is not a ``random_scene(config, N,
+seed)`` (a trial draws 4 of each class, class by class). The config's
 arm must be the recording's (``robot_type`` and the action's names in ``info.json``),
 else exit 2 naming both.
 """
