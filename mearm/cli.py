@@ -27,6 +27,7 @@ if TYPE_CHECKING:  # only the pools' callers import concurrent.futures (7 ms)
     from mearm.config import Config
 
 _T = TypeVar("_T")
+_N = TypeVar("_N", int, float)
 
 EXIT_OK = 0
 EXIT_FAILURE = 1
@@ -111,12 +112,7 @@ def plain_int(text: str) -> int:
     (:func:`check_plain_number`) and say only ``invalid int value`` of the rest. The
     option's range is its own check, after parsing.
     """
-    must_be = f"must be a plain integer ({PLAIN_INTEGER})"
-    check_plain_number(text, must_be)
-    try:
-        return int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{must_be}, got {text[:40]!r}") from None
+    return _read_plain(text, int, f"must be a plain integer ({PLAIN_INTEGER})")
 
 
 def plain_float(text: str) -> float:
@@ -125,10 +121,14 @@ def plain_float(text: str) -> float:
     As :func:`plain_int`, for ``type=float``. ``nan`` and ``inf`` are read as ``float``
     reads them: each option's range check refuses them in its own words.
     """
-    must_be = f"must be a plain decimal number ({PLAIN_DECIMAL})"
+    return _read_plain(text, float, f"must be a plain decimal number ({PLAIN_DECIMAL})")
+
+
+def _read_plain(text: str, kind: Callable[[str], _N], must_be: str) -> _N:
+    """``kind(text)`` of a plain number; ``must_be`` starts the error of anything else."""
     check_plain_number(text, must_be)
     try:
-        return float(text)
+        return kind(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"{must_be}, got {text[:40]!r}") from None
 
