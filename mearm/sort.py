@@ -266,7 +266,8 @@ def _sort(argv: Sequence[str] | None) -> int:
     mjcf = _scene_mjcf(config, scene) if args.save_mjcf is not None else None
     lines: list[str] = []
     echo = lines.append if args.quiet else echo_line
-    recorder = recorder_from_args(args, config)  # its directory checked before any motion
+    # its directory checked before any motion; a --scene table kept for a replay
+    recorder = recorder_from_args(args, config, scene)
 
     make_view = _view_factory(config, collision=args.collision)
 

@@ -94,7 +94,9 @@ def test_sigkill_mid_trial_then_resume_records_each_pick_once(tmp_path: Path) ->
 
     seeds = [trial_seed(3, k) for k in range(2)]
     tags = json.loads((root / "meta/mearm_episodes.json").read_text())["episodes"]
-    assert tags == [[s, p] for s in seeds for p in range(2)]
+    assert [tag[:2] for tag in tags] == [[s, p] for s in seeds for p in range(2)]
+    # each keeps its trial's table, the --scene here (tests/test_replay_tables.py)
+    assert all(len(tag[2]["table"]) == 2 for tag in tags)
     episodes = pq.read_table(root / "meta/episodes/chunk-000/file-000.parquet").to_pylist()
     assert [e["episode_index"] for e in episodes] == list(range(4))
     assert check_dataset(root) == []

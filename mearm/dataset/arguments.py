@@ -14,7 +14,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from mearm.cli import PLAIN_INTEGER, check_plain_number
-from mearm.config import Config
+from mearm.config import Config, SceneObject
 from mearm.config.loader import apply_overrides, file_keys_set, parse_override
 from mearm.data import doc_page
 from mearm.dataset.lerobot_format import DEFAULT_CODEC, VIDEO_CODECS
@@ -134,12 +134,24 @@ def _overrides_kept(overrides: Sequence[str]) -> tuple[str, ...]:
     return tuple(kept)
 
 
-def recorder_from_args(args: argparse.Namespace, config: Config) -> DatasetRecorder | None:
+def kept_config(args: argparse.Namespace) -> tuple[str | None, tuple[str, ...]]:
+    """``--config`` and ``--set`` as a replay finds them from any folder (a recorded scene's)."""
+    given = getattr(args, "config", None)
+    config = None if given is None else _config_kept(given)
+    return config, _overrides_kept(getattr(args, "set", None) or ())
+
+
+def recorder_from_args(
+    args: argparse.Namespace, config: Config, table: Sequence[SceneObject] | None = None
+) -> DatasetRecorder | None:
     """The recorder ``--record`` asks for, its directory checked; ``None`` without it.
 
-    A sort's ``--random N --seed S`` (and ``--config``, ``--set``) is kept with each
-    episode: what a replay rebuilds the scene from (:mod:`mearm.envs.replay`), from any
-    folder (a file either names, by its absolute path).
+    A sort's ``--random N --seed S``, or its ``--scene`` table (``table``), is kept with
+    each episode, with ``--config`` and ``--set``: what a replay rebuilds the scene from
+    (:mod:`mearm.envs.replay`), from any folder (a file either names, by its absolute
+    path). An experiment's trials keep their own tables
+    (:meth:`~mearm.dataset.sampler.EpisodeSampler.start_trial`, with
+    :attr:`~mearm.dataset.sampler.EpisodeSampler.kept_config`).
 
     Raises:
         DatasetError: the directory is a file, not writable, or not empty without
@@ -151,16 +163,15 @@ def recorder_from_args(args: argparse.Namespace, config: Config) -> DatasetRecor
     from mearm.dataset.reading import RecordedScene
     from mearm.dataset.recorder import DatasetRecorder
 
+    kept = kept_config(args)
     scene = None
     if getattr(args, "random", None) is not None:  # a sort's --random N --seed S
-        given = getattr(args, "config", None)
         scene = RecordedScene(
-            seed=args.seed,
-            objects=args.random,
-            config=None if given is None else _config_kept(given),
-            overrides=_overrides_kept(getattr(args, "set", None) or ()),
+            seed=args.seed, objects=args.random, config=kept[0], overrides=kept[1]
         )
-    return DatasetRecorder(
+    elif table is not None:  # a sort's --scene FILE
+        scene = RecordedScene.laid(table, *kept)
+    recorder = DatasetRecorder(
         args.record,
         config,
         fps=args.record_fps,
@@ -169,6 +180,8 @@ def recorder_from_args(args: argparse.Namespace, config: Config) -> DatasetRecor
         codec=args.record_codec,
         scene=scene,
     )
+    recorder.kept_config = kept
+    return recorder
 
 
 def close_recorder(recorder: DatasetRecorder | None, where: object, said: str = "") -> None:

@@ -8,17 +8,23 @@ the same faults as broken rules.
 ``meta/mearm_episodes.json`` is mearm's own (LeRobot does not read it): one entry per
 episode, ``[trial seed, pick]`` (both ``null`` outside an experiment), and a third, the
 scene a replay rebuilds (:class:`RecordedScene`), for an episode of
-``mearm sort --random N --seed S``. A dataset without the file (recorded by other tools)
-reads as untagged.
+``mearm sort --random N --seed S`` or ``--scene FILE``, or of an experiment's trial on a
+simulated table. A dataset without the file (recorded by other tools) reads as untagged.
 """
 
 from __future__ import annotations
 
 import json
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from pydantic import TypeAdapter, ValidationError
+
+from mearm.config import SceneObject
+from mearm.config.base import MAX_SEED
+from mearm.config.sections import MAX_SCENE_OBJECTS
 from mearm.dataset import lerobot_format as L
 from mearm.dataset.errors import DatasetError
 
@@ -136,45 +142,97 @@ def read_episodes(pq: Any, root: Path, info: dict[str, Any]) -> list[dict[str, A
     return rows
 
 
+#: A recorded table: the objects as a ``--scene`` file holds them.
+_TABLE = TypeAdapter(list[SceneObject])
+
+
 @dataclass(frozen=True)
 class RecordedScene:
     """The scene an episode sorted, as a replay rebuilds it (``mearm/Sort-v0``).
 
+    Either drawn again, ``random_scene(config, objects, seed)`` (a sort's ``--random N
+    --seed S``), or laid as it was: ``table`` (a ``--scene`` sort's file, an experiment
+    trial's table, which ``--random N --seed S`` cannot draw: it deals the classes in
+    turn, a trial draws them class by class).
+
     Attributes:
-        seed: ``--seed`` of the sort (the scene's and the environment's reset seed).
-        objects: ``--random N`` of the sort.
+        seed: ``--seed`` of a ``--random`` sort (the scene's); ``None`` with a ``table``.
+        objects: ``--random N`` of the sort; with a ``table``, its length.
         config: ``--config`` as given (``None``: the built-in simulated rig).
         overrides: Its ``--set`` values, in order.
+        table: The objects laid, each its class and place; ``None``: drawn from ``seed``.
+        noise_seed: The seed the sort's servo and camera noise were drawn from in place
+            of the config's own (:func:`~mearm.experiment.trial_config`, an experiment's
+            trial's seed: with ``twin.kit.per_trial``, its servo kit); ``None``: the
+            config's own (a ``mearm sort``'s).
     """
 
-    seed: int
+    seed: int | None
     objects: int
     config: str | None = None
     overrides: tuple[str, ...] = ()
+    table: tuple[SceneObject, ...] | None = None
+    noise_seed: int | None = None
+
+    @classmethod
+    def laid(
+        cls,
+        table: Sequence[SceneObject],
+        config: str | None,
+        overrides: Sequence[str],
+        noise_seed: int | None = None,
+    ) -> RecordedScene:
+        """The record of a table laid as it is (a ``--scene`` sort's, a trial's)."""
+        return cls(None, len(table), config, tuple(overrides), tuple(table), noise_seed)
 
     def to_json(self) -> dict[str, Any]:
-        """As ``meta/mearm_episodes.json`` holds it."""
-        return {
-            "seed": self.seed,
-            "objects": self.objects,
-            "config": self.config,
-            "set": list(self.overrides),
-        }
+        """As ``meta/mearm_episodes.json`` holds it.
+
+        A drawn scene: ``{"seed", "objects", "config", "set"}``. A laid one: ``{"table",
+        "config", "set"}``, no ``seed`` nor ``objects``: an older mearm refuses it rather
+        than draw another table. Either with ``"noise_seed"`` if it has one (a trial's).
+        """
+        kept: dict[str, Any] = {"config": self.config, "set": list(self.overrides)}
+        if self.noise_seed is not None:
+            kept["noise_seed"] = self.noise_seed
+        if self.table is None:
+            return {"seed": self.seed, "objects": self.objects, **kept}
+        return {"table": [o.model_dump() for o in self.table], **kept}
 
     @classmethod
     def from_json(cls, value: Any) -> RecordedScene | None:
         """The scene of an entry's third item; ``None`` if it is not one."""
         if not isinstance(value, dict):
             return None
-        seed, objects, config = value.get("seed"), value.get("objects"), value.get("config")
-        overrides = value.get("set", [])
-        if not (isinstance(seed, int) and isinstance(objects, int)):
-            return None
-        if not (_whole(seed) and _whole(objects) and (config is None or isinstance(config, str))):
+        config, overrides = value.get("config"), value.get("set", [])
+        noise_seed = value.get("noise_seed")
+        if not (config is None or isinstance(config, str)):
             return None
         if not isinstance(overrides, list) or not all(isinstance(s, str) for s in overrides):
             return None
-        return cls(seed, objects, config, tuple(overrides))
+        if not (noise_seed is None or (_whole(noise_seed) and noise_seed <= MAX_SEED)):
+            return None
+        if "table" in value:
+            table = _table(value["table"])
+            if table is None or "seed" in value or "objects" in value:
+                return None
+            return cls.laid(table, config, overrides, noise_seed)
+        seed, objects = value.get("seed"), value.get("objects")
+        if not (isinstance(seed, int) and isinstance(objects, int)):
+            return None
+        if not (_whole(seed) and _whole(objects)):
+            return None
+        return cls(seed, objects, config, tuple(overrides), None, noise_seed)
+
+
+def _table(value: Any) -> list[SceneObject] | None:
+    """A recorded table: 1 to MAX_SCENE_OBJECTS objects; ``None`` if it is not one."""
+    if not isinstance(value, list) or not 1 <= len(value) <= MAX_SCENE_OBJECTS:
+        return None
+    try:
+        return _TABLE.validate_python(value)
+    except ValidationError:
+        return None
 
 
 def read_tags(root: Path, episodes: int) -> tuple[list[Tag], list[RecordedScene | None]]:
@@ -204,7 +262,8 @@ def read_tags(root: Path, episodes: int) -> tuple[list[Tag], list[RecordedScene 
                 root,
                 rel,
                 f"entry {k} is {_short(entry)}, not [trial seed, pick] (each null or a whole "
-                'number ≥ 0), optionally with a scene {"seed", "objects", "config", "set"}',
+                'number ≥ 0), optionally with a scene {"seed", "objects", "config", "set"} '
+                'or {"table", "config", "set"}',
             )
         tags.append((entry[0], entry[1]))
         scenes.append(scene)

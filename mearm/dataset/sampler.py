@@ -24,7 +24,7 @@ import re
 import shutil
 import tempfile
 from collections import deque
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal, Protocol, runtime_checkable
@@ -32,7 +32,7 @@ from typing import Any, Literal, Protocol, runtime_checkable
 import cv2
 import numpy as np
 
-from mearm.config import Config
+from mearm.config import Config, SceneObject
 from mearm.dataset import lerobot_format as L
 from mearm.dataset.encoder_server import STATS_PIXEL_STRIDE  # noqa: F401  (re-exported)
 from mearm.dataset.errors import DatasetWriteError, EncoderError
@@ -153,6 +153,10 @@ class EpisodeSampler:
         self._held: set[int | None] = set()
         #: The scene the episodes sort, as a replay rebuilds it, if known.
         self.scene: RecordedScene | None = None
+        #: ``--config`` and ``--set`` as a replay finds them
+        #: (:func:`~mearm.dataset.arguments.kept_config`), if known: with them each
+        #: trial's episodes keep its table (:meth:`start_trial`).
+        self.kept_config: tuple[str | None, tuple[str, ...]] | None = None
         self.episodes_written = 0
         self.frames_written = 0
         self.episodes_skipped = 0
@@ -223,12 +227,15 @@ class EpisodeSampler:
         self._bus = self._camera = None
         self._elsewhere = None
 
-    def start_trial(self, trial_seed: int) -> None:
+    def start_trial(self, trial_seed: int, table: Sequence[SceneObject] | None = None) -> None:
         """The episodes from here on are of the experiment's trial with this seed.
 
         Each is tagged with the seed and its pick's number in the trial. A pick the
         dataset holds already (the trial ran before, and a kill cut it or its log short)
-        is not recorded again.
+        is not recorded again. With :attr:`kept_config`, each keeps the trial's simulated
+        ``table`` (``None``: a real rig's, not known) as the scene a replay lays, its
+        noise drawn from ``trial_seed``, as the trial's config
+        (:func:`~mearm.experiment.trial_config`).
 
         The encoder starts here if it has not yet: its process's start-up (its imports,
         about 0.25 s of CPU) then runs while this process builds the trial's rig, not
@@ -236,6 +243,10 @@ class EpisodeSampler:
         :meth:`attach`.
         """
         self._trial, self._picks = trial_seed, 0
+        if self.kept_config is not None:
+            self.scene = None
+            if table is not None:
+                self.scene = RecordedScene.laid(table, *self.kept_config, noise_seed=trial_seed)
         self._held = {pick for seed, pick in self._held_tags() if seed == trial_seed}
         if self._encoder is None:
             with contextlib.suppress(EncoderError, RingMemoryError):

@@ -10,14 +10,19 @@ divide the servo rate); after the last action the objects are given up to
 
     python -m mearm.envs.replay DIR --episode 0
 
-The dataset keeps each such episode's ``--seed``, ``--random`` count, ``--config`` and
-``--set`` (``meta/mearm_episodes.json``): the replay takes them from there, and refuses
-a ``--seed`` or ``--objects`` that disagrees (exit 2). An episode recorded without them
-by an older mearm needs both given. One of a ``--scene`` sort or of an experiment's
-trial keeps none, and no seed rebuilds it: its table is not a ``random_scene(config, N,
-seed)`` (a trial draws 4 of each class, class by class). The config's
-arm must be the recording's (``robot_type`` and the action's names in ``info.json``),
-else exit 2 naming both.
+The dataset keeps each such episode's scene with its ``--config`` and ``--set``
+(``meta/mearm_episodes.json``): a ``--random`` sort's ``--seed`` and count, or the table
+itself, each object's class and place (a ``--scene`` sort's, an experiment trial's, with
+the trial's seed). The replay lays that scene and runs the config as the sort ran it:
+its own servo and camera seeds for a ``mearm sort``, the trial's
+(:func:`~mearm.experiment.trial_config`) for a trial. It refuses a ``--seed`` or
+``--objects`` that disagrees, or any with a table (exit 2). An episode recorded without
+a scene by an older mearm needs both given (its table drawn by ``random_scene(config,
+N, seed)``; a ``--scene`` sort's or a trial's cannot be). The config's arm must be the
+recording's (``robot_type`` and the action's names in ``info.json``), else exit 2
+naming both. A sort that calibrated its servos by the camera at its start
+(``servo.calibrate_at_start``) ran with a calibration the dataset does not keep: give
+the file its ``--save-calibration`` wrote (``--set servo.calibration_file=FILE``).
 """
 
 from __future__ import annotations
@@ -31,7 +36,7 @@ from typing import Any
 import numpy as np
 
 from mearm.cli import ArgumentParser, config_path_value, plain_int, run, seed_value
-from mearm.config import Config, load_config
+from mearm.config import Config, SceneObject, load_config
 from mearm.dataset.errors import DatasetError
 from mearm.dataset.reading import read_info, read_table, read_tags
 from mearm.dataset.recorder import import_extra
@@ -52,6 +57,7 @@ class Replayed:
         success: Whether every object is.
         refused: Steps whose action the environment refused.
         objects: Objects in the scene.
+        table: The scene laid, each object's class and place, in the twin's order.
     """
 
     steps: int
@@ -60,6 +66,7 @@ class Replayed:
     success: bool
     refused: int
     objects: int = 0
+    table: tuple[SceneObject, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -69,9 +76,12 @@ class ReplayPlan:
     Attributes:
         actions: The episode's ``action`` column, (k, n).
         fps: The recording's frames per second.
-        seed: The scene's seed.
+        seed: The environment's reset seed: the scene's, drawn by it (a ``--random``
+            sort's); with a ``table``, the trial's (else 0), which then draws nothing.
         objects: Its number of objects.
-        config: The config the environment runs (its arm the recording's).
+        config: The config the environment runs as the sort ran it (its arm the
+            recording's, a trial's noise seeds its own), not reseeded.
+        table: The table laid as it was recorded, or ``None``: drawn from ``seed``.
     """
 
     actions: np.ndarray
@@ -79,6 +89,7 @@ class ReplayPlan:
     seed: int
     objects: int
     config: Config
+    table: tuple[SceneObject, ...] | None = None
 
 
 def plan_replay(
@@ -94,12 +105,14 @@ def plan_replay(
 
     ``seed``, ``objects`` and ``config`` default to the episode's recorded scene
     (``meta/mearm_episodes.json``); without one, ``seed`` and ``objects`` must be given
-    and ``config`` is ``sim_mujoco``.
+    and ``config`` is ``sim_mujoco``. A recorded table is laid as it is: no ``seed`` nor
+    ``objects`` draws it.
 
     Raises:
         DatasetError: no dataset there, no such episode, a file of it damaged, a
-            ``seed`` or ``objects`` the recorded scene disagrees with, none to default
-            to, or a config whose arm is not the recording's.
+            ``seed`` or ``objects`` the recorded scene disagrees with (any, with a
+            recorded table), none to default to, or a config whose arm is not the
+            recording's.
         ConfigError: the config cannot be loaded.
     """
     info = read_info(root)
@@ -107,28 +120,40 @@ def plan_replay(
     if not 0 <= episode < total:
         raise DatasetError(root, f"has no episode {episode} (it holds episodes 0..{total - 1})")
     recorded = read_tags(root, total)[1][episode]
-    if recorded is not None:
-        for flag, given, there in (
+    table = None
+    if recorded is None:
+        if seed is None or objects is None:
+            missing = "--seed" if seed is None else "--objects"
+            raise DatasetError(
+                root,
+                f"episode {episode} keeps no scene (recorded without --random N --seed S, "
+                f"or by an older mearm): give {missing} (the sort's --seed and --random N)",
+            )
+    elif recorded.table is not None:
+        given = "--seed" if seed is not None else "--objects" if objects is not None else ""
+        if given:
+            raise DatasetError(
+                root,
+                f"episode {episode} was recorded on a table of {recorded.objects} objects "
+                "laid as they were (a --scene sort's or an experiment trial's), not drawn "
+                f"by --random N --seed S: leave {given} out to replay it",
+            )
+        table = recorded.table
+        seed = 0 if recorded.noise_seed is None else recorded.noise_seed
+        objects = recorded.objects
+    else:
+        for flag, given_value, there in (
             ("--seed", seed, recorded.seed),
             ("--objects", objects, recorded.objects),
         ):
-            if given is not None and given != there:
+            if given_value is not None and given_value != there:
                 raise DatasetError(
                     root,
                     f"episode {episode} was recorded with --random {recorded.objects} "
-                    f"--seed {recorded.seed}, not {flag} {given}: leave {flag} out to "
+                    f"--seed {recorded.seed}, not {flag} {given_value}: leave {flag} out to "
                     "replay the recorded scene",
                 )
-    elif seed is None or objects is None:
-        missing = "--seed" if seed is None else "--objects"
-        raise DatasetError(
-            root,
-            f"episode {episode} keeps no scene (recorded without --random N --seed S, or "
-            f"by an older mearm): give {missing} (the sort's --seed and --random N)",
-        )
-    if recorded is not None:
-        seed = recorded.seed if seed is None else seed
-        objects = recorded.objects if objects is None else objects
+        seed, objects = recorded.seed, recorded.objects
     assert seed is not None and objects is not None  # given, else refused above
     if config is None and recorded is not None:
         config, overrides = recorded.config, recorded.overrides
@@ -136,8 +161,12 @@ def plan_replay(
         config = "sim_mujoco"
     cfg = config if isinstance(config, Config) else load_config(config, tuple(overrides))
     _check_arm(root, info, cfg, config)
+    if recorded is not None and recorded.noise_seed is not None:
+        from mearm.experiment.trials import trial_config  # noqa: PLC0415
+
+        cfg = trial_config(cfg, recorded.noise_seed)  # the trial's servo kit and noise
     actions, fps = episode_actions(root, episode, info)
-    return ReplayPlan(actions, fps, seed, objects, cfg)
+    return ReplayPlan(actions, fps, seed, objects, cfg, table)
 
 
 def _check_arm(root: Path, info: dict[str, Any], config: Config, name: object) -> None:
@@ -200,13 +229,18 @@ def replay(
     env_id: str = "mearm/Sort-v0",
     **options: Any,
 ) -> Replayed:
-    """Step episode ``episode``'s actions in ``env_id`` reset with ``seed`` (module docstring).
+    """Step episode ``episode``'s actions in ``env_id`` on its scene (module docstring).
+
+    The environment runs the config as the sort ran it (``reseed=False``: the sort's own
+    servo and camera seeds, a trial's its trial's), on the recorded table if there is one.
 
     Args:
         root: The dataset.
         episode: Its episode index.
-        seed: The scene's seed (``--seed`` of the recorded sort); default: the recorded one.
-        objects: Its objects (``--random N``); default: the recorded number.
+        seed: The scene's seed (``--seed`` of the recorded sort); default: the recorded
+            one. None with a recorded table.
+        objects: Its objects (``--random N``); default: the recorded number. None with a
+            recorded table.
         config: The sort's config; default: the recorded one (else ``sim_mujoco``).
         overrides: ``--set`` values for a ``config`` given by name or file.
         env_id: The environment (``mearm/Sort-v0`` for a scene of ``objects``).
@@ -226,7 +260,7 @@ def replay(
     actions = plan.actions
     env = gym.make(
         env_id, fps=plan.fps, obs_type="state", max_episode_steps=None, config=plan.config,
-        objects=plan.objects, **options,
+        objects=plan.objects, scene=plan.table, reseed=False, **options,
     )  # fmt: skip
     try:
         env.reset(seed=plan.seed)
@@ -247,7 +281,10 @@ def replay(
         bins = twin.objects_in_bin()
         own = dict(zip(twin.object_ids, (o.color for o in twin_env.scene), strict=True))
         in_bins = sum(1 for oid, cls in bins.items() if own[oid] == cls)
-        return Replayed(len(actions) - 1, bins, in_bins, in_bins == len(own), refused, len(own))
+        return Replayed(
+            len(actions) - 1, bins, in_bins, in_bins == len(own), refused, len(own),
+            tuple(twin_env.scene),
+        )  # fmt: skip
     finally:
         env.close()
 

@@ -3,7 +3,9 @@
 ``gymnasium.make("mearm/Sort-v0", config="sim_mujoco")`` (or ``mearm/PickPlace-v0``) on
 any config whose ``simulator`` is ``mujoco``. Each episode is a seeded scene
 (:func:`mearm.task.scene.random_scene`) with the seed's servo kit and noise
-(:func:`mearm.experiment.trial_config`): the same seed, the same episode.
+(:func:`mearm.experiment.trial_config`): the same seed, the same episode. ``scene=``
+lays one fixed table every episode instead (a recorded sort's, :mod:`mearm.envs.replay`);
+``reseed=False`` keeps the config's own servo and camera seeds, as ``mearm sort`` runs it.
 
 - **Observation** (LeRobot's keys): ``pixels/<camera>`` (uint8 H×W×3 RGB of the table
   camera, ``image_size`` (H, W), 96×128 by default), ``agent_pos`` (the measured joints,
@@ -28,7 +30,7 @@ any config whose ``simulator`` is ``mujoco``. Each episode is a seeded scene
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal
 
@@ -36,9 +38,10 @@ import gymnasium as gym
 import mujoco
 import numpy as np
 from gymnasium import spaces
+from pydantic import TypeAdapter, ValidationError
 
 from mearm.config import Config, SceneObject, load_config
-from mearm.config.base import MAX_SEED
+from mearm.config.base import MAX_SEED, short_repr
 from mearm.config.sections import MAX_SCENE_OBJECTS
 from mearm.dataset.recorder import CAMERA_NAME, SCENE_TASK, task_sentence
 from mearm.envs.actions import ActionSpec
@@ -52,7 +55,7 @@ from mearm.kinematics.bodies import TableContents, wall_height_m
 from mearm.sim.table_collision import collision_model
 from mearm.sim.twin.twin_bus import TwinArm
 from mearm.sim.twin.twin_camera import CAMERA_NAME as TWIN_CAMERA
-from mearm.task.scene import random_scene
+from mearm.task.scene import SceneError, check_scene, random_scene
 
 if TYPE_CHECKING:
     from mearm.envs.expert import SorterExpert  # the sorter's thread: only with expert=True
@@ -66,6 +69,8 @@ IMAGE_SIZE = (96, 128)
 RENDER_SIZE = (240, 320)
 #: Objects of a sort's scene unless ``objects`` says otherwise.
 SORT_OBJECTS = 12
+
+_TABLE = TypeAdapter(list[SceneObject])
 
 
 def _config(config: str | Path | Config, overrides: Sequence[str]) -> Config:
@@ -155,22 +160,86 @@ def max_objects(config: Config) -> int:
     besides. At most :data:`~mearm.config.sections.MAX_SCENE_OBJECTS`. 0: the bins hold
     not even one.
     """
-    task = config.task
-    classes = list(task.classes)
-    brought = TableContents.of(task.model_copy(update={"scene": []}), config.belt).belt
-
-    def fits(n: int) -> bool:
-        for i, c in enumerate(classes):
-            dealt = len(range(i, n, len(classes)))  # the i-th class's share of n, in turn
-            release_m = (c.bin_cm[2] - config.arm.tool.tcp_above_grip_cm - c.grip_z_cm) / 100
-            if wall_height_m(c, dealt + brought.get(c.name, 0)) > release_m:
-                return False
-        return True
-
+    names = config.task.class_names
+    brought = _brought(config)
     n = 0
-    while n < MAX_SCENE_OBJECTS and fits(n + 1):
+    while n < MAX_SCENE_OBJECTS:
+        # the i-th class's share of n + 1, in turn
+        dealt = {c: len(range(i, n + 1, len(names))) for i, c in enumerate(names)}
+        if _overfull(config, dealt, brought) is not None:
+            break
         n += 1
     return n
+
+
+def _brought(config: Config) -> dict[str, int]:
+    """The objects of each class the belt brings besides the table's."""
+    return dict(TableContents.of(config.task.model_copy(update={"scene": []}), config.belt).belt)
+
+
+def _overfull(config: Config, counts: Mapping[str, int], brought: Mapping[str, int]) -> str | None:
+    """The first class whose bin does not hold its ``counts`` with what is ``brought``.
+
+    The twin stacks a class's objects in its bin, whose walls grow with them
+    (:func:`~mearm.kinematics.bodies.wall_height_m`): they must stay below where the arm
+    releases one. ``None``: every bin holds its class's.
+    """
+    for c in config.task.classes:
+        release_m = (c.bin_cm[2] - config.arm.tool.tcp_above_grip_cm - c.grip_z_cm) / 100
+        if wall_height_m(c, counts.get(c.name, 0) + brought.get(c.name, 0)) > release_m:
+            return c.name
+    return None
+
+
+def _table(
+    config: Config, task: str, scene: object, objects: object
+) -> tuple[SceneObject, ...] | None:
+    """``scene``, the fixed table of every episode, checked; ``None``: drawn per seed.
+
+    Raises:
+        EnvOptionError: not a list of objects ``{color, x, y}`` (``yaw_deg`` optional) of
+            the config's classes, with ``pick_place``, with an ``objects`` that is not its
+            length, more than the bins hold, or a table the sort could not see whole
+            (:func:`~mearm.task.scene.check_scene`).
+    """
+    if scene is None:
+        return None
+    if task != "sort":
+        raise EnvOptionError("scene lays a sort's table; pick_place draws its object from the seed")
+    if isinstance(scene, str | bytes | Mapping) or not isinstance(scene, Sequence):
+        raise EnvOptionError(
+            f"scene must be a list of objects {{color, x, y}} [cm], got {short_repr(scene)}"
+        )
+    try:
+        table = tuple(_TABLE.validate_python(list(scene)))
+    except ValidationError as exc:
+        first = exc.errors()[0]
+        where = ".".join(map(str, first["loc"]))
+        raise EnvOptionError(
+            f"scene must be a list of objects {{color, x, y}} [cm]: [{where}]: {first['msg']}"
+        ) from None
+    if not 1 <= len(table) <= MAX_SCENE_OBJECTS:
+        raise EnvOptionError(f"scene must hold 1 to {MAX_SCENE_OBJECTS} objects, got {len(table)}")
+    names = config.task.class_names
+    unknown = sorted({o.color for o in table} - set(names))
+    if unknown:
+        raise EnvOptionError(f"scene: no class {unknown[0]!r} (classes: {', '.join(names)})")
+    if objects is not None and _whole("objects", objects) != len(table):
+        raise EnvOptionError(
+            f"objects is the scene's length, {len(table)}, when a scene is given; got {objects!r}"
+        )
+    counts = {c: sum(1 for o in table if o.color == c) for c in names}
+    full = _overfull(config, counts, _brought(config))
+    if full is not None:
+        raise EnvOptionError(
+            f"scene: the {full} bin of this config does not hold its {counts[full]} objects: "
+            "their walls reach where the arm releases one (raise bin_cm z, task.classes)"
+        )
+    try:
+        check_scene(config, table, "scene")
+    except SceneError as exc:
+        raise EnvOptionError(str(exc)) from None
+    return table
 
 
 class TwinEnv(gym.Env[dict[str, Any], np.ndarray]):
@@ -183,6 +252,13 @@ class TwinEnv(gym.Env[dict[str, Any], np.ndarray]):
             ``sort`` (``objects`` objects, each to its class's bin).
         objects: Objects of a sort's scene (default :data:`SORT_OBJECTS`): a whole number
             from 1 to what the config's bins hold (:func:`max_objects`).
+        scene: A sort's fixed table, laid every episode instead of one drawn from the
+            seed: a list of :class:`~mearm.config.SceneObject` or ``{color, x, y}``
+            dicts [cm] (``yaw_deg`` optional), as a ``--scene`` file holds them; its
+            length is ``objects``. ``None``: drawn.
+        reseed: Draw each episode's servo and camera noise (a ``twin.kit`` with
+            ``per_trial``: its servo kit) from its seed, as an experiment's trial; ``False``:
+            the config's own seeds, as ``mearm sort`` runs it.
         fps: Steps per second [Hz], a whole number; must divide ``servo.rate_hz``
             (default: equal to it).
         obs_type: ``pixels_agent_pos`` or ``state`` (no pixels).
@@ -207,6 +283,8 @@ class TwinEnv(gym.Env[dict[str, Any], np.ndarray]):
         *,
         task: Task = "sort",
         objects: int | None = None,
+        scene: Sequence[SceneObject | Mapping[str, Any]] | None = None,
+        reseed: bool = True,
         fps: int | None = None,
         obs_type: ObsType = "pixels_agent_pos",
         image_size: tuple[int, int] = IMAGE_SIZE,
@@ -230,11 +308,14 @@ class TwinEnv(gym.Env[dict[str, Any], np.ndarray]):
             raise EnvOptionError(f"render_mode must be 'rgb_array' or None, got {render_mode!r}")
         if not isinstance(expert, bool | np.bool_):  # "no" is true: it ran the sorter
             raise EnvOptionError(f"expert must be True or False, got {expert!r}")
+        if not isinstance(reseed, bool | np.bool_):
+            raise EnvOptionError(f"reseed must be True or False, got {reseed!r}")
         rate = float(base.servo.rate_hz)
         fps = int(round(rate)) if fps is None else _whole("fps", fps)
         if fps < 1 or abs(rate / fps - round(rate / fps)) > 1e-9:
             raise EnvOptionError(f"fps must divide servo.rate_hz = {rate:g} Hz, got {fps}")
-        n = _objects(base, task, objects)
+        table = _table(base, task, scene, objects)
+        n = _objects(base, task, objects) if table is None else len(table)
         h, w = _image_size(image_size)
         if not (8 <= h <= base.camera.height_px and 8 <= w <= base.camera.width_px):
             raise EnvOptionError(
@@ -244,6 +325,9 @@ class TwinEnv(gym.Env[dict[str, Any], np.ndarray]):
         self.base_config = base
         self.task_kind: Task = task
         self.objects = n
+        #: The fixed table every episode lays, or ``None``: one drawn from its seed.
+        self.table = table
+        self.reseed = bool(reseed)
         self.fps = fps
         self.periods = int(round(rate / fps))
         self.obs_type: ObsType = obs_type
@@ -285,8 +369,10 @@ class TwinEnv(gym.Env[dict[str, Any], np.ndarray]):
 
     def _scene(self, seed: int) -> tuple[Config, list[SceneObject]]:
         """The episode's config and scene of ``seed``."""
-        config = trial_config(self.base_config, seed)
-        if self.task_kind == "pick_place":
+        config = trial_config(self.base_config, seed) if self.reseed else self.base_config
+        if self.table is not None:
+            scene = list(self.table)
+        elif self.task_kind == "pick_place":
             names = config.task.class_names
             cls = names[int(np.random.default_rng(seed).integers(len(names)))]
             scene = random_scene(config, {cls: 1}, seed)
@@ -311,8 +397,8 @@ class TwinEnv(gym.Env[dict[str, Any], np.ndarray]):
         if options:
             raise EnvOptionError(
                 f"reset() takes no options (options=None or {{}}), got {sorted(options)}; "
-                "the scene's options are gym.make's (objects, fps, obs_type, image_size, "
-                "expert, overrides, config)"
+                "the scene's options are gym.make's (objects, scene, reseed, fps, obs_type, "
+                "image_size, expert, overrides, config)"
             )
         super().reset(seed=seed)
         scene_seed = seed if seed is not None else int(self.np_random.integers(MAX_SEED))

@@ -63,6 +63,7 @@ from mearm.dataset.arguments import (
     add_record_arguments,
     check_record_arguments,
     close_recorder,
+    kept_config,
     recorder_from_args,
 )
 from mearm.errors import MearmError
@@ -368,7 +369,7 @@ def _recording(args: Any) -> Recording | None:
     """What the worker processes record, with ``--record``."""
     if args.record is None:
         return None
-    return Recording(args.record_fps, args.record_per, args.record_codec)
+    return Recording(args.record_fps, args.record_per, args.record_codec, kept_config(args))
 
 
 def _step(bar: Any, recorder: DatasetRecorder | None) -> None:

@@ -125,7 +125,7 @@ def run_trials(
         if wait_for_user is not None:
             wait_for_user(k)
         if recorder is not None:
-            recorder.start_trial(plan.seed)
+            recorder.start_trial(plan.seed, plan.layout)
         try:
             run_sort(
                 plan.config, scene=plan.layout, log=log, trial=k, seed=plan.seed, echo=None,
@@ -149,11 +149,15 @@ class Recording:
         fps: Frames per second of the run's time [Hz].
         per: ``"pick"`` or ``"scene"``: what an episode is.
         codec: The video's codec (``--record-codec``).
+        kept_config: ``--config`` and ``--set`` as a replay finds them
+            (:func:`~mearm.dataset.arguments.kept_config`): each trial's episodes keep
+            its table with them; ``None``: no table kept.
     """
 
     fps: int
     per: str
     codec: str
+    kept_config: tuple[str | None, tuple[str, ...]] | None = None
 
 
 @dataclass(frozen=True)
@@ -210,7 +214,8 @@ def run_trial(
                     plan.config, fps=recording.fps, per=recording.per,  # type: ignore[arg-type]
                     codec=recording.codec,
                 )  # fmt: skip
-                capture.start_trial(plan.seed)
+                capture.kept_config = recording.kept_config
+                capture.start_trial(plan.seed, plan.layout)
             with RunLog(part, exclusive=True, fsync=False) as log:
                 run_sort(
                     plan.config, scene=plan.layout, log=log, trial=number, seed=plan.seed,
