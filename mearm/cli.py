@@ -547,7 +547,8 @@ def run(main: Callable[[Sequence[str] | None], int], argv: Sequence[str] | None 
 
     :class:`MearmError` (bad input) → exit 2 (its ``exit_status``: 1 for a failure
     of the run itself, such as a full disk); Ctrl-C → 130 (a SIGTERM or SIGHUP taken as
-    Ctrl-C: 143, 129; :mod:`mearm.interrupts`); any other exception → exit 1
+    Ctrl-C: 143, 129; :mod:`mearm.interrupts`), also when a library turned it into an
+    error of its own (:func:`mearm.interrupts.hidden_in`); any other exception → exit 1
     with one line naming the error and where its traceback was written (``--debug`` or
     ``MEARM_DEBUG=1``: the traceback itself). Standard output's reader gone (a closed
     pipe) → exit 141, quietly, as a shell's tools do. Standard output that cannot be
@@ -567,6 +568,10 @@ def run(main: Callable[[Sequence[str] | None], int], argv: Sequence[str] | None 
             code = main(argv)
         except SystemExit as stop:  # argparse's --help: what it printed must arrive too
             code = stop.code  # the same exit, once standard output is flushed
+        except Exception as exc:
+            if not interrupts.hidden_in(exc):
+                raise
+            raise KeyboardInterrupt from exc  # a Ctrl-C a library turned into an error
         if sys.stdout is not None:
             sys.stdout.flush()  # what was printed reaches the reader, or its pipe is closed
         if _OUTPUT_LOST and code in (0, None):  # the job was done; its report was not
@@ -597,6 +602,7 @@ def run(main: Callable[[Sequence[str] | None], int], argv: Sequence[str] | None 
     finally:
         sys.stdout = stdout
     _flush_or_drop_output()
+    interrupts.clear_python_exit_by_signal()  # this status, also after a Ctrl-C in an import
     sys.exit(code)
 
 

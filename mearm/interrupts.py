@@ -60,6 +60,48 @@ def named(exc: KeyboardInterrupt) -> str:
     return signal.Signals(exc.signum).name if isinstance(exc, Terminated) else "Ctrl-C"
 
 
+def hidden_in(exc: BaseException) -> bool:
+    """Whether ``exc`` is a Ctrl-C (or a stop signal taken as one) a library made an error of.
+
+    Two libraries do so while a command starts: a C extension that initialises (``import
+    mujoco``, pybind11) raises ``ImportError: initialization failed`` *from* the
+    KeyboardInterrupt, and pydantic-core, which builds a model's validators in Rust,
+    keeps only its name in the text of a ``SchemaError`` ("... KeyboardInterrupt: ").
+    Code that takes such an ImportError for a missing package (``raise MearmError("...
+    not installed") from None``) keeps it as its context. So every exception on the
+    chain, causes and contexts alike, is looked at for a KeyboardInterrupt as its
+    *cause* or in its text. An error that only happened while a Ctrl-C was being handled
+    (a clean-up that failed: the KeyboardInterrupt is its context, not its cause) is
+    not one: it is an error of its own.
+    """
+    seen: set[int] = set()
+    chain: list[BaseException] = [exc]
+    while chain:
+        link = chain.pop()
+        if id(link) in seen:
+            continue
+        seen.add(id(link))
+        if isinstance(link.__cause__, KeyboardInterrupt):
+            return True
+        if not isinstance(link, KeyboardInterrupt) and "KeyboardInterrupt" in str(link):
+            return True
+        chain.extend(e for e in (link.__cause__, link.__context__) if e is not None)
+    return False
+
+
+def clear_python_exit_by_signal() -> None:
+    """Let the process end with the status the command chose, after a Ctrl-C it handled.
+
+    CPython marks a KeyboardInterrupt that escapes an ``exec``/``eval`` of a string, and a
+    ``python -m`` run so marked ends by SIGINT (status -2 to a parent process, no matter
+    what ``sys.exit`` said) even though the interrupt was handled afterwards.
+    ``dataclasses`` and ``collections.namedtuple`` build their methods that way, so a
+    Ctrl-C while a command's modules are imported often lands in one. The mark is
+    cleared by the next string that is evaluated without one.
+    """
+    eval("None")  # a constant; only evaluating a string clears the mark
+
+
 def taken_as_ctrl_c() -> tuple[int, ...]:
     """The stop signals taken as Ctrl-C now: a handler of Ctrl-C of its own takes them too."""
     return tuple(sorted(_taken))

@@ -1,0 +1,207 @@
+"""Ctrl-C while a command starts: exit 130 and one line, never a traceback.
+
+A command spends most of its first half second importing its modules (pydantic's
+schemas, OpenCV, NumPy). Three things went wrong there:
+
+- the ``mearm`` dispatcher imported them before the guard every command runs under
+  (:func:`mearm.cli.run`) was in place, so a Ctrl-C printed an 80-line traceback;
+- a Ctrl-C while a C extension initialises (``import mujoco``) comes out as
+  ``ImportError: initialization failed`` (pydantic-core, which builds a model's
+  validators in Rust, makes a ``SchemaError`` of it), which the guard took for a crash:
+  exit 1, "unexpected error", and a record in the crash log;
+- CPython ends a ``python -m`` run by SIGINT (status -2, whatever the command chose)
+  once a Ctrl-C has escaped an ``exec`` of a string, as while a dataclass is built.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from conftest import interrupted
+from pydantic_core import SchemaError
+
+from mearm import cli, interrupts
+from mearm.errors import MearmError
+
+#: The line ``python -X importtime`` prints once the guard's module is imported; the
+#: dispatcher runs its subcommand under the guard a fraction of a millisecond later.
+GUARD_LOADED = "| mearm.cli"
+
+
+def _crash_records(state: Path) -> str:
+    log = state / "crash.log"
+    return log.read_text() if log.exists() else ""
+
+
+@pytest.mark.parametrize(
+    ("argv", "after_s"),
+    [
+        *(
+            pytest.param(["detect", "--config", "sim", "--camera"], s, id=f"detect-{s}s")
+            for s in (0.05, 0.1, 0.15, 0.2, 0.25)
+        ),
+        *(pytest.param(["sort", "--config", "sim"], s, id=f"sort-{s}s") for s in (0.1, 0.2)),
+    ],
+)
+def test_ctrl_c_while_a_subcommand_starts_is_one_line_and_130(
+    tmp_path: Path, argv: list[str], after_s: float
+) -> None:
+    """A real SIGINT ``after_s`` after the dispatcher has its guard, mostly while the
+    subcommand's modules are imported: exit 130, ``mearm NAME: interrupted``, nothing in
+    the crash log. The interpreter's own import trace (``-X importtime``, on stderr)
+    says when the guard's module is in; its lines are left out of what is checked."""
+    state = tmp_path / "state"
+    env = {**os.environ, "MEARM_STATE_DIR": str(state)}
+    proc = subprocess.Popen(
+        [sys.executable, "-X", "importtime", "-m", "mearm", *argv],
+        cwd=tmp_path, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+        bufsize=0, start_new_session=True,  # unbuffered: no line read ahead and then lost
+    )  # fmt: skip
+    assert proc.stderr is not None
+    for raw in proc.stderr:
+        if raw.decode(errors="replace").rstrip().endswith(GUARD_LOADED):
+            break
+    else:
+        pytest.fail(f"mearm {argv[0]} ended before importing mearm.cli: exit {proc.wait()}")
+    try:
+        proc.wait(timeout=after_s)
+    except subprocess.TimeoutExpired:
+        pass  # still starting, as it should be: now the Ctrl-C
+    else:
+        pytest.fail(f"mearm {argv[0]} ended within {after_s} s, before the Ctrl-C")
+    _, err_bytes = interrupted(proc)  # a hang (the Ctrl-C lost) is the failure
+    err = err_bytes.decode(errors="replace")
+    lines = [line for line in err.splitlines() if not line.startswith("import time:")]
+    assert "Traceback" not in err, err[-3000:]
+    assert proc.returncode == 130, (proc.returncode, lines[-20:])
+    assert len(lines) == 1, lines[-20:]
+    assert lines[0].startswith(f"mearm {argv[0]}: "), lines
+    assert "interrupted" in lines[0], lines
+    assert _crash_records(state) == ""
+
+
+def _ctrl_c_in_an_import() -> ImportError:
+    """What pybind11 makes of a Ctrl-C while its module initialises (``import mujoco``)."""
+    try:
+        raise KeyboardInterrupt
+    except KeyboardInterrupt as ctrl_c:
+        try:
+            raise ImportError("initialization failed") from ctrl_c
+        except ImportError as exc:
+            return exc
+
+
+def _run(main, capsys: pytest.CaptureFixture[str]) -> tuple[int | str | None, list[str]]:
+    with pytest.raises(SystemExit) as stop:
+        cli.run(main, [])
+    return stop.value.code, capsys.readouterr().err.splitlines()
+
+
+def _hidden_ctrl_c(argv: object) -> int:
+    raise _ctrl_c_in_an_import()
+
+
+def _hidden_ctrl_c_taken_for_a_missing_package(argv: object) -> int:
+    try:
+        raise _ctrl_c_in_an_import()
+    except ImportError:
+        raise MearmError("this needs SciPy, which is not installed") from None
+
+
+def _ctrl_c_in_a_pydantic_schema(argv: object) -> int:
+    """The error seen when a Ctrl-C landed while ``mearm.config`` built its models."""
+    raise SchemaError(
+        'Error building "function-after" validator:\n  SchemaError: Field "order":\n'
+        '  SchemaError: Error building "literal" validator:\n  KeyboardInterrupt: '
+    )
+
+
+@pytest.mark.parametrize(
+    "main",
+    [_hidden_ctrl_c, _hidden_ctrl_c_taken_for_a_missing_package, _ctrl_c_in_a_pydantic_schema],
+)
+def test_a_ctrl_c_a_library_turned_into_an_error_is_the_interrupt(
+    main, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``ImportError: initialization failed`` from a KeyboardInterrupt, as it is or taken
+    for a missing package, and pydantic-core's ``SchemaError`` that names it: exit 130 and
+    ``interrupted``, not a crash (exit 1, a record in the crash log) nor "not installed"
+    (exit 2)."""
+    state = Path(os.environ["MEARM_STATE_DIR"])
+    before = _crash_records(state)
+    code, err = _run(main, capsys)
+    assert (code, len(err)) == (130, 1), err
+    assert err[0].endswith(": interrupted"), err
+    assert _crash_records(state) == before
+
+
+def test_a_sigterm_an_import_turned_into_an_error_exits_143(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A SIGTERM taken as Ctrl-C (:class:`mearm.interrupts.Terminated`) keeps its status."""
+    monkeypatch.setattr(interrupts, "_received", [])
+
+    def main(argv: object) -> int:
+        interrupts.received(signal.SIGTERM)  # as the handler of stop_signals_as_ctrl_c does
+        try:
+            raise interrupts.Terminated(signal.SIGTERM)
+        except KeyboardInterrupt as stop:
+            raise ImportError("initialization failed") from stop
+
+    code, err = _run(main, capsys)
+    assert (code, len(err)) == (143, 1), err
+    assert err[0].endswith(": interrupted"), err
+
+
+def test_an_error_while_handling_a_ctrl_c_is_still_reported(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    """A clean-up that fails after a Ctrl-C (the KeyboardInterrupt is the error's context,
+    not its cause) is an error of its own: exit 1 and a crash record, not hidden behind
+    "interrupted"."""
+    state = Path(os.environ["MEARM_STATE_DIR"])
+    before = _crash_records(state)
+
+    def main(argv: object) -> int:
+        try:
+            raise KeyboardInterrupt
+        except KeyboardInterrupt:
+            raise OSError("the run log could not be closed")  # noqa: B904
+
+    code, err = _run(main, capsys)
+    assert code == 1, err
+    assert "unexpected error: OSError" in err[0], err
+    assert len(_crash_records(state)) > len(before)
+
+
+#: A command, run as ``python -m``, that handles a Ctrl-C which escaped the ``exec`` of a
+#: string: what a Ctrl-C while a dataclass is built (``dataclasses`` makes its methods so)
+#: comes to.
+CTRL_C_IN_EXEC = """
+from mearm.cli import run
+
+
+def main(argv):
+    exec("raise KeyboardInterrupt")
+
+
+run(main)
+"""
+
+
+def test_a_ctrl_c_that_escaped_an_exec_still_exits_130(tmp_path: Path) -> None:
+    """Exit 130 as the guard says, not death by SIGINT (-2) after "interrupted"."""
+    (tmp_path / "ctrl_c_in_exec.py").write_text(CTRL_C_IN_EXEC)
+    out = subprocess.run(
+        [sys.executable, "-m", "ctrl_c_in_exec"],
+        cwd=tmp_path, capture_output=True, text=True, timeout=120,
+    )  # fmt: skip
+    assert (out.returncode, out.stderr.splitlines()) == (
+        130,
+        ["python -m ctrl_c_in_exec: interrupted"],
+    ), out.stderr[-2000:]
