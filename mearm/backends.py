@@ -55,6 +55,8 @@ from mearm.config import Config, SceneObject
 from mearm.errors import ConfigError
 
 if TYPE_CHECKING:
+    import numpy as np
+
     from mearm.hardware.bus import ServoBus
     from mearm.sim.kinematic.world import World
     from mearm.vision.camera import Camera
@@ -199,6 +201,27 @@ def open_camera(config: Config, world: World | None = None) -> Camera:
     return opener(config, world)
 
 
+def grab_frame(config: Config) -> np.ndarray:
+    """One frame of the config's camera, the frame a sort's first look sees (BGR).
+
+    Under the kinematic simulator (or on a real rig) the camera of ``camera.kind`` alone:
+    no servo bus is opened. Under another simulator (the MuJoCo twin) its own render,
+    the arm at home: its camera is part of its scene, and a perspective calibration
+    fits only that one (``camera.kind``'s ``sim`` would draw the kinematic table).
+    ``mearm detect --camera`` and ``mearm learn-colours --camera`` both read it, so
+    colours are taught on what is detected.
+
+    Raises:
+        CameraError: the source cannot be opened or read.
+        ConfigError: a kind no opener registered.
+    """
+    if config.simulator == "kinematic":
+        with open_camera(config) as camera:
+            return camera.read()
+    with open_parts(config) as parts:
+        return parts.camera.read()
+
+
 # --------------------------------------------------------------------------- built-in kinds
 # Each imports its package only when opened: a command that never opens a virtual Uno
 # never loads it.
@@ -331,6 +354,7 @@ __all__ = [
     "SimulatorOpener",
     "bus_kinds",
     "camera_kinds",
+    "grab_frame",
     "open_bus",
     "open_camera",
     "open_parts",

@@ -31,7 +31,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from mearm.backends import open_camera, open_parts
+from mearm.backends import grab_frame
 from mearm.cli import (
     ArgumentParser,
     add_config_argument,
@@ -40,7 +40,6 @@ from mearm.cli import (
     invoked_as,
     run,
 )
-from mearm.config import Config
 from mearm.fileio import file_identity, write_atomic
 from mearm.vision.calibration import camera_geometry
 from mearm.vision.detector import ColorDetector, Detection
@@ -95,19 +94,6 @@ def annotation_paths(out: Path, count: int) -> list[Path]:
     if count == 1:
         return [out]
     return [out.with_name(f"{out.stem}-{i}{out.suffix}") for i in range(count)]
-
-
-def _grab(config: Config) -> np.ndarray:
-    """One frame from the config's camera.
-
-    Where the simulator is the twin, its own render (not the kinematic table's drawing:
-    a perspective calibration fits only the twin's camera); else ``camera.kind``'s.
-    """
-    if config.simulator == "kinematic":
-        with open_camera(config) as camera:
-            return camera.read()
-    with open_parts(config) as parts:  # the arm at home, as a sort's first look
-        return parts.camera.read()
 
 
 def to_records(detections: Sequence[Detection], frame_shape: Sequence[int]) -> list[dict]:
@@ -273,7 +259,7 @@ def main(argv: Sequence[str] | None = None) -> int:  # noqa: PLR0912 (one branch
 
     frames: list[tuple[str, np.ndarray | None]]
     if args.camera:
-        frames = [("camera", _grab(config))]
+        frames = [("camera", grab_frame(config))]
     else:
         frames = _read_all(args.images)  # all readable, or exit 2 before any output
 

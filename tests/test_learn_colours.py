@@ -211,3 +211,139 @@ def test_a_config_already_written_is_not_lost(
     code, _, err = call(main, [*argv, "--force"], capsys)
     assert code == 0, err
     assert load_config(out).servo.rate_hz == 40
+
+
+def _ignoring_what_is_taught(config: Config) -> dict:
+    """A config's data without what learn-colours teaches (colours, reference, work area)."""
+    data = config.model_dump(mode="json")
+    data["vision"].update(reference_bgr=None, work_area_px=None)
+    for c in data["task"]["classes"]:
+        c["learned_colour"] = None
+    return data
+
+
+def test_set_changes_the_config_taught_with_and_the_one_written(
+    frame_png: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``--set`` (refused as an unrecognized argument, though ``mearm --help`` promises it
+    to every command that reads a config): NEW.yaml, written in another folder, extends
+    the config given and keeps each value set, a class's by its name, a list whole."""
+    mine = tmp_path / "rig" / "mine.yaml"
+    mine.parent.mkdir()
+    mine.write_text("extends: sim\nservo: {rate_hz: 40}\n")
+    out = tmp_path / "taught" / "new.yaml"
+    sets = ["task.classes.0.shape=cube", "task.classes.blue.bin_cm=[-20,60,20]",
+            "camera.noise_std=0", "calibration.homography.0.2=-20.5"]  # fmt: skip
+    argv = [str(frame_png), "--sample", first("red"), "--config", str(mine), "--out", str(out)]
+    code, _, err = call(main, [*argv, *(a for s in sets for a in ("--set", s))], capsys)
+    assert code == 0, err
+    assert "extends: ../rig/mine.yaml\n" in out.read_text()
+    taught = load_config(out)
+    assert taught.task.class_named("red").learned_colour is not None
+    assert taught.servo.rate_hz == 40 and taught.task.class_named("red").shape == "cube"
+    assert _ignoring_what_is_taught(taught) == _ignoring_what_is_taught(load_config(mine, sets))
+
+
+@pytest.mark.parametrize(("sets", "grey"), [([], False), (["--set", "camera.table=grey"], True)])
+def test_set_changes_the_camera_taught_from(
+    sets: list[str], grey: bool, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``--camera --set camera.table=grey`` teaches on the grey table the value draws, not
+    on sim's wooden one (the table's colour printed: a*, b* near 0 on grey only)."""
+    out = tmp_path / "x.yaml"
+    argv = ["--camera", "--sample", first("red"), "--config", "sim", "--out", str(out), *sets]
+    code, text, err = call(main, argv, capsys)
+    assert code == 0, err
+    _, a, b = (float(v) for v in text.split("table L*a*b* (")[1].split(")")[0].split(", "))
+    assert (abs(a) < 3 and abs(b) < 3) == grey, text
+    assert (load_config(out).camera.table == "grey") == grey
+
+
+@pytest.mark.parametrize("joined", [False, True])
+def test_a_work_area_past_the_frame_is_clipped(
+    joined: bool, frame_png: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Points left of or above the frame, as ``--work-area -50,-50 ...`` or
+    ``--work-area=-50,-50 ...`` (argparse took them for options: "unrecognized
+    arguments"), are written as given, and detect finds every object inside the frame."""
+    out = tmp_path / "x.yaml"
+    points = ["-50,-50", "700,-50", "700,600", "-50,600"]
+    area = [f"--work-area={points[0]}", *points[1:]] if joined else ["--work-area", *points]
+    samples = [a for n in ("red", "green", "blue") for a in ("--sample", first(n))]
+    argv = [str(frame_png), *samples, *area, "--config", "sim", "--out", str(out)]
+    code, _, err = call(main, argv, capsys)
+    assert code == 0, err
+    assert load_config(out).vision.work_area_px == [(-50, -50), (700, -50), (700, 600), (-50, 600)]
+    code, text, err = call(detect_main, ["--config", str(out), str(frame_png), "--json"], capsys)
+    assert sorted(d["color"] for d in json.loads(text)) == sorted(c for c, _, _ in LAYOUT)
+
+
+@pytest.mark.parametrize("point", ["9000,0", "0,-5000"])
+def test_a_work_area_point_out_of_range_names_the_option(
+    point: str, frame_png: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A point past what a config holds is refused naming ``--work-area`` and the range
+    (it named NEW.yaml and the key vision.work_area_px.1.0); nothing is written."""
+    out = tmp_path / "x.yaml"
+    argv = [str(frame_png), "--sample", first("red"), "--config", "sim", "--out", str(out),
+            "--work-area", "0,0", point, "600,400"]  # fmt: skip
+    code, _, err = call(main, argv, capsys)
+    assert code == 2 and len(err.strip().splitlines()) == 1, err
+    assert f"error: --work-area {point}: U and V must be from -4096 to 8192 px" in err, err
+    assert not out.exists()
+
+
+@pytest.mark.heavy
+def test_a_frame_four_times_the_calibrations_finds_its_table(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """On a frame 4 times the calibration's size the table's colour was read 32-80 px from
+    the clicks, inside the objects (now 4 times that): a table darker than the grey one
+    and part of it for the work area; with the table found, detect finds all 12 objects."""
+    k = 4
+    r = TableRenderer(CAL, 640, 480, table="grey")
+    small = r.render(class_discs(CONFIG.task.classes, LAYOUT))
+    frame = tmp_path / "big.png"
+    cv2.imwrite(str(frame), cv2.resize(small, None, fx=k, fy=k, interpolation=cv2.INTER_NEAREST))
+    samples = []
+    for n in ("red", "green", "blue"):
+        u, v = (float(t) for t in first(n).split("=")[1].split(","))
+        samples += ["--sample", f"{n}={u * k:.0f},{v * k:.0f}"]
+    out = tmp_path / "big.yaml"
+    code, text, err = call(
+        main, [str(frame), *samples, "--config", "sim", "--out", str(out)], capsys
+    )
+    assert code == 0, err
+    table = [float(v) for v in text.split("table L*a*b* (")[1].split(")")[0].split(", ")]
+    assert np.allclose(table, [50, 0, 0], atol=2), text
+    corners = [(2559, 1919), (0, 1919), (0, 0), (2559, 0)]
+    assert np.allclose(load_config(out).vision.work_area_px, corners, atol=1), text  # all of it
+    code, text, err = call(detect_main, ["--config", str(out), str(frame), "--json"], capsys)
+    assert sorted(d["color"] for d in json.loads(text)) == sorted(c for c, _, _ in LAYOUT)
+
+
+def test_a_whole_frame_not_asked_for_says_why(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A frame whose table shows only around the object: the table's colour covers under
+    5 % of it, so no work area is found, and the line says so (it said "whole frame" as
+    for ``--whole-frame``)."""
+    frame = np.full((480, 640, 3), (40, 160, 40), np.uint8)  # a green field
+    cv2.circle(frame, (320, 240), 65, (128, 128, 128), -1)  # the table, 4.3 % of the frame
+    cv2.circle(frame, (320, 240), 16, (40, 40, 200), -1)  # a red object on it
+    path = tmp_path / "f.png"
+    cv2.imwrite(str(path), frame)
+    argv = [
+        str(path),
+        "--sample",
+        "red=320,240",
+        "--config",
+        "sim",
+        "--out",
+        str(tmp_path / "x.yaml"),
+    ]
+    code, text, err = call(main, argv, capsys)
+    assert code == 0, err
+    assert "work area: whole frame (no table found: " in text and "under 5%" in text, text
+    code, text, err = call(main, [*argv, "--force", "--whole-frame"], capsys)
+    assert code == 0 and "work area: whole frame\n" in text, err

@@ -15,39 +15,61 @@ colours) and the work area (the table's outline found around the samples, or
 ``--sample CLASS=U,V`` (repeatable; ``CLASS=U,V@I`` for the I-th image, from 0) names a
 pixel of an object of the class; ``--pick`` shows the first frame and asks for a click
 on each class in turn (needs a display). A class not sampled keeps its hue bands.
+``--camera`` reads the frame ``mearm detect --camera`` reads (the twin's render under
+``simulator: mujoco``). ``--set KEY=VALUE`` changes the config before teaching, and the
+new config carries each value set. ``--work-area`` points may lie past the frame (from
+-4096 to 8192 px; ``--work-area -5,3 ...`` and ``--work-area=-5,3 ...`` alike): the
+polygon is clipped to it.
 
 Refused (exit 2, one line): a sample outside its image, a class the config does not
 have, two classes sampled on one colour or one class on two, a sample on a grey or black
 pixel or on the table's colour, a first image with no table around the samples, a
-``--work-area`` with no area or with none of a class's samples in it, and an ``--out``
-that is the ``--config`` or one of the images (even with ``--force``).
+``--work-area`` with no area, with a point out of that range or with none of a class's
+samples in it, and an ``--out`` that is the ``--config`` or one of the images (even with
+``--force``).
 """
 
 from __future__ import annotations
 
 import argparse
+import copy
 import math
 import os
 import re
+import sys
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from mearm.cli import ArgumentParser, check_output_file, plain_float, run, write_text_atomic
+from mearm.cli import (
+    ArgumentParser,
+    check_output_file,
+    config_from_args,
+    config_path_value,
+    plain_float,
+    run,
+    write_text_atomic,
+)
 from mearm.config import Config
+from mearm.config.compose import merge
 from mearm.config.files import load_config, resolve_config_path
-from mearm.config.loader import config_from_dict
+from mearm.config.loader import config_from_dict, parse_override
+from mearm.config.sections import MAX_FRAME_SIDE_PX
 from mearm.errors import MearmError
 from mearm.fileio import file_identity
 from mearm.vision.calibration import object_width_px
 from mearm.vision.image import read_image
-from mearm.vision.teaching import Sample, Taught, teach
+from mearm.vision.teaching import TABLE_MIN_SHARE, Sample, Taught, teach
 from mearm.yamlio import load_yaml_text
 
 #: ASCII digits only: ``\d`` matches other scripts' digits too (``@١`` read as image 1).
 _SAMPLE = re.compile(r"^([^=\s]+)=([-+0-9.eE]+),([-+0-9.eE]+)(?:@([0-9]+))?$")
+#: A ``--work-area`` point as typed: U,V, each a plain decimal, either signed.
+_POINT = re.compile(r"^[-+]?[0-9.]+(?:[eE][-+]?[0-9]+)?,[-+]?[0-9.]+(?:[eE][-+]?[0-9]+)?$")
+#: The pixels a work-area point may be at: the config's bounds (past the frame: clipped).
+WORK_AREA_RANGE_PX = (-MAX_FRAME_SIDE_PX, 2 * MAX_FRAME_SIDE_PX)
 
 
 def parse_sample(text: str) -> Sample:
@@ -72,7 +94,33 @@ def parse_point(text: str) -> tuple[float, float]:
         raise ValueError(f"--work-area {text!r}: expected U,V pixels") from None
     if not (math.isfinite(u) and math.isfinite(v)):
         raise ValueError(f"--work-area {text!r}: U and V must be finite")
+    lo, hi = WORK_AREA_RANGE_PX
+    if not (lo <= u <= hi and lo <= v <= hi):
+        raise ValueError(
+            f"--work-area {text}: U and V must be from {lo} to {hi} px (a polygon past "
+            "the image is clipped to it)"
+        )
     return u, v
+
+
+def attach_work_area_points(argv: Sequence[str]) -> list[str]:
+    """``--work-area -5,3 700,-50 ...`` as ``--work-area=-5,3 --work-area=700,-50 ...``.
+
+    argparse takes a value that starts with ``-`` for an option, so a polygon reaching
+    past the frame's left or top edge was refused as "unrecognized arguments"; each
+    point that follows ``--work-area`` (or ``--work-area=U,V``) is attached to it.
+    """
+    out: list[str] = []
+    taking = False
+    for arg in argv:
+        if taking and _POINT.match(arg):
+            if out[-1] == "--work-area":
+                out.pop()
+            out.append(f"--work-area={arg}")
+            continue
+        taking = arg == "--work-area" or arg.startswith("--work-area=")
+        out.append(arg)
+    return out
 
 
 def pick_samples(frame: np.ndarray, names: Sequence[str]) -> list[Sample]:
@@ -116,8 +164,46 @@ def pick_samples(frame: np.ndarray, names: Sequence[str]) -> list[Sample]:
     return out
 
 
-def learned_yaml(base: str, taught: Taught) -> dict:
-    """The new config's data: ``extends`` the old one, with what was learned."""
+def set_values(config: Config, overrides: Sequence[str]) -> dict[str, Any]:
+    """The keys ``--set`` changed, with their values in ``config``, as a config's mapping.
+
+    ``config`` is the one loaded with every ``--set``: merged over the config extended
+    (an ``extends``), the mapping gives it back. A list of named items (``task.classes``,
+    ``arm.joints``) is entered by its items' names, as ``extends`` merges them; any other
+    list is written whole.
+    """
+    data = config.model_dump(mode="json")
+    out: dict[str, Any] = {}
+    for text in overrides:
+        path, _ = parse_override(text)
+        value: Any = data
+        keys: list[str] = []
+        for part in path:
+            if isinstance(value, list):
+                if not all(isinstance(item, dict) and "name" in item for item in value):
+                    break  # a list of values or points: written whole
+                named = [item for item in value if item["name"] == part]
+                value = named[0] if named else value[int(part)]  # by name or by index
+                keys.append(value["name"])
+            else:
+                value = value[part]
+                keys.append(part)
+        node = out
+        for key in keys[:-1]:
+            node = node.setdefault(key, {})
+            if not isinstance(node, dict):  # a whole list set: it holds this value already
+                break
+        else:
+            node[keys[-1]] = copy.deepcopy(value)
+    return out
+
+
+def learned_yaml(base: str, taught: Taught, settings: dict[str, Any] | None = None) -> dict:
+    """The new config's data: ``extends`` the old one, with what was learned.
+
+    ``settings`` (:func:`set_values`: what ``--set`` changed) come first; what was
+    learned is merged over them.
+    """
     vision: dict[str, Any] = {"reference_bgr": [round(v, 2) for v in taught.reference_bgr]}
     if taught.work_area_px is not None:
         vision["work_area_px"] = [[round(u, 1), round(v, 1)] for u, v in taught.work_area_px]
@@ -137,7 +223,8 @@ def learned_yaml(base: str, taught: Taught) -> dict:
                 ),
             }
         }
-    return {"extends": base, "vision": vision, "task": {"classes": classes}}
+    learned = {"vision": vision, "task": {"classes": classes}}
+    return {"extends": base, **merge(settings or {}, learned)}
 
 
 def _parser() -> ArgumentParser:
@@ -150,7 +237,20 @@ def _parser() -> ArgumentParser:
     parser.add_argument(
         "images", nargs="*", type=Path, metavar="IMAGE", help="frames to learn from"
     )
-    parser.add_argument("--config", type=str, required=True, help="the config to extend")
+    parser.add_argument(
+        "--config",
+        type=config_path_value,
+        required=True,
+        help="the config to extend: a YAML file, or the name of one shipped with mearm",
+    )
+    parser.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="change one config value before teaching, e.g. --set camera.noise_std=0; "
+        "NEW.yaml keeps it (repeatable)",
+    )
     parser.add_argument(
         "--out", type=Path, required=True, metavar="NEW.yaml", help="config to write"
     )
@@ -178,9 +278,10 @@ def _parser() -> ArgumentParser:
     parser.add_argument(
         "--work-area",
         nargs="+",
+        action="extend",
         default=None,
         metavar="U,V",
-        help="the work area's polygon in pixels (default: the table found)",
+        help="the work area's polygon in pixels, clipped to the frame (default: the table found)",
     )
     parser.add_argument("--whole-frame", action="store_true", help="no work area: the whole frame")
     return parser
@@ -234,12 +335,16 @@ def _check_samples(
 
 
 def _frames(args: argparse.Namespace, config: Config) -> tuple[list[np.ndarray], list[str]]:
-    """The frames to learn from and where each came from."""
-    if args.camera:
-        from mearm.backends import open_camera
+    """The frames to learn from and where each came from.
 
-        with open_camera(config) as camera:
-            frames = [camera.read()]
+    ``--camera``: the frame ``mearm detect --camera`` reads, the twin's render under
+    the MuJoCo twin (:func:`mearm.backends.grab_frame`), so what is taught is what is
+    detected.
+    """
+    if args.camera:
+        from mearm.backends import grab_frame
+
+        frames = [grab_frame(config)]
         sources = ["camera"]
     else:
         frames = [read_image(p) for p in args.images]
@@ -281,31 +386,56 @@ def _check_not_replacing(
         raise MearmError(f"--out {out} exists: pass --force to replace it")
 
 
-def _print_taught(taught: Taught) -> None:
-    """One line per learned colour, then the table's colour and the work area."""
+def frame_object_px(config: Config, shape: Sequence[int]) -> float:
+    """About one object's width [px] in a frame of ``shape`` (H, W, ...).
+
+    The calibration's, at the centre of its frame; a frame of another size (a photo
+    resized, a camera set to another resolution) is taken for the same view at another
+    scale: the width times the mean (geometric) of the two sides' ratios. The table's
+    colour is read 1-2.5 object widths from the samples, so on a 4000x3000 photo of a
+    640x480 calibration an unscaled width read it inside the objects.
+    """
+    camera = config.camera
+    width = object_width_px(
+        config.calibration, camera, max(c.diameter_cm for c in config.task.classes)
+    )
+    h, w = int(shape[0]), int(shape[1])
+    return width * math.sqrt((w / camera.width_px) * (h / camera.height_px))
+
+
+def _print_taught(taught: Taught, *, whole_frame: bool) -> None:
+    """One line per learned colour, then the table's colour and the work area.
+
+    A work area of the whole frame not asked for (``whole_frame``) says why: no table
+    was found around the samples.
+    """
     for name, m in taught.colours.items():
         print(
             f"{name}: a*b* ({m.ab_mean[0]:.1f}, {m.ab_mean[1]:.1f}), chroma >= {m.chroma_min:.1f}, "
             f"L* {m.lightness[0]:.0f}-{m.lightness[1]:.0f}, radius {m.max_distance:.2f}"
         )
-    where = (
-        "whole frame"
-        if taught.work_area_px is None
-        else f"{len(taught.work_area_px)}-point polygon"
-    )
+    if taught.work_area_px is not None:
+        where = f"{len(taught.work_area_px)}-point polygon"
+    elif whole_frame:
+        where = "whole frame"
+    else:
+        where = (
+            "whole frame (no table found: the pixels of the colour read around the samples "
+            f"cover under {TABLE_MIN_SHARE:.0%} of the frame; --work-area U,V ... gives one)"
+        )
     print(f"table L*a*b* ({', '.join(f'{v:.1f}' for v in taught.table_lab)}); work area: {where}")
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Teach the classes their colours and write the new config; see the module docstring."""
     parser = _parser()
-    args = parser.parse_args(argv)
+    args = parser.parse_args(attach_work_area_points(sys.argv[1:] if argv is None else argv))
     samples, area = _checked_arguments(parser, args)
     check_output_file(args.out, "--out")
     _check_not_replacing(args.out, args.config, force=args.force, images=args.images)
-    config = load_config(args.config)
+    config = config_from_args(args)
     names = config.task.class_names
-    _check_samples(samples, names, args.config, len(args.images))
+    _check_samples(samples, names, str(args.config), len(args.images))
     frames, sources = _frames(args, config)
     if args.pick:
         samples += pick_samples(frames[0], [n for n in names if n not in {s.name for s in samples}])
@@ -313,35 +443,35 @@ def main(argv: Sequence[str] | None = None) -> int:
         frames,
         samples,
         radius_px=args.radius,
-        object_px=object_width_px(
-            config.calibration,
-            config.camera,
-            max(c.diameter_cm for c in config.task.classes),
-            frames[0].shape,
-        ),
+        object_px=frame_object_px(config, frames[0].shape),
         work_area_px=area,
         find_area=not args.whole_frame,
     )
-    given = Path(args.config)
     base = (
         os.path.relpath(resolve_config_path(args.config).resolve(), args.out.resolve().parent)
-        if given.exists()
-        else args.config
+        if args.config.exists()
+        else str(args.config)
     )
     import yaml
 
-    head = f"# mearm learn-colours: {' '.join(sources)}; samples {' '.join(map(str, samples))}\n"
-    text = head + yaml.safe_dump(
-        learned_yaml(base, taught), sort_keys=False, default_flow_style=None
+    said = f"{' '.join(sources)}; samples {' '.join(map(str, samples))}"
+    said += "".join(f"; --set {s}" for s in args.set)
+    said = said if said.isprintable() else repr(said)  # a line break would end the comment
+    text = f"# mearm learn-colours: {said}\n" + yaml.safe_dump(
+        learned_yaml(base, taught, set_values(config, args.set)),
+        sort_keys=False,
+        default_flow_style=None,
     )
     # what will be written loads (its extends found from its folder), or exit 2 naming it,
-    # before any file is touched
-    config_from_dict(
-        load_yaml_text(text, source=str(args.out)), source=str(args.out), path=args.out
-    )
+    # before any file is touched; in a folder not made yet, "new/../rig/c.yaml" is found
+    # by the path it stands for (the system finds no "new/..")
+    data = load_yaml_text(text, source=str(args.out))
+    if args.config.exists() and not args.out.parent.exists():
+        data["extends"] = str(resolve_config_path(args.config).resolve())
+    config_from_dict(data, source=str(args.out), path=args.out)
     write_text_atomic(args.out, text)
     load_config(args.out)  # and its calibration files are found from there
-    _print_taught(taught)
+    _print_taught(taught, whole_frame=args.whole_frame)
     print(f"wrote {args.out}")
     return 0
 
