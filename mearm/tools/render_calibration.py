@@ -21,17 +21,26 @@ twin's own camera, as a perfect calibration would find it. A config pointed at t
 (``calibration.intrinsics_file``, ``calibration.extrinsics_file``) tells what the camera's
 calibration costs a measurement from what the rest costs.
 
-A folder that is not empty is refused unless ``--force``, which first removes the files
-of the kinds named above (an earlier run's; other files are kept), so no view or truth
-file of another camera stays beside the new ones.
+A folder that is not empty is refused unless ``--force``, which replaces the files of the
+kinds named above (an earlier run's; other files are kept), so no view or truth file of
+another camera stays beside the new ones. The new files are written into a hidden folder
+inside OUT first and put in place of the earlier run's only once all are written, so a
+Ctrl-C, SIGTERM, SIGHUP or a failure at any moment leaves the earlier run or the new one,
+whole (a SIGKILL can leave the hidden folder behind: the next run removes it).
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
+import os
 import re
-from collections.abc import Sequence
+import shutil
+import signal
+import threading
+from collections.abc import Iterator, Sequence
 from pathlib import Path
+from types import FrameType
 from typing import TYPE_CHECKING
 
 import cv2
@@ -49,7 +58,8 @@ from mearm.cli import (
 )
 from mearm.config import Config
 from mearm.errors import MearmError
-from mearm.fileio import write_atomic
+from mearm.fileio import CLEANUP_SIGNALS, write_atomic
+from mearm.interrupts import stop_signals_as_ctrl_c
 
 if TYPE_CHECKING:
     from mearm.sim.twin.calibration_scenes import Support
@@ -96,22 +106,115 @@ def _write_png(path: Path, image: np.ndarray) -> None:
         raise MearmError(f"cannot write {path}: {exc.strerror or exc}") from None
 
 
-#: The names this command writes: an earlier run's are removed before a new one (--force),
+#: The names this command writes: an earlier run's are replaced by a new one's (--force),
 #: so no view, truth file or raised view of another camera stays beside the new ones.
 _OWN_NAMES = re.compile(
     r"board_\d+\.png|sheet\.png|sheet_markers\.txt|raised\.png|raised_markers\.txt"
     r"|truth_(intrinsics|pose)\.yaml(\.bak)?"
 )
+#: The hidden folder inside --out that a run writes its files into before they replace the
+#: earlier run's (:func:`_replace_earlier_run`); one a SIGKILL or a power cut left behind is
+#: removed by the next run.
+_STAGING_PREFIX, _STAGING_SUFFIX = ".render_calibration.", ".tmp"
+_STAGING = re.compile(re.escape(_STAGING_PREFIX) + r"\d+" + re.escape(_STAGING_SUFFIX))
 
 
-def _remove_earlier_run(out: Path) -> None:
-    """Remove the files of the kinds this command writes from ``out`` (others are kept)."""
+def _is_own(path: Path) -> bool:
+    """Whether ``path`` is a file of the kinds this command writes (an earlier run's)."""
+    return bool(_OWN_NAMES.fullmatch(path.name)) and (path.is_file() or path.is_symlink())
+
+
+def _is_staging(path: Path) -> bool:
+    """Whether ``path`` is a hidden folder a run of this command writes into first."""
+    return bool(_STAGING.fullmatch(path.name)) and path.is_dir() and not path.is_symlink()
+
+
+@contextlib.contextmanager
+def _signals_deferred() -> Iterator[None]:
+    """Take Ctrl-C, SIGTERM and SIGHUP after the block, not inside it (only renames run there).
+
+    Not by blocking them (``pthread_sigmask``): that holds them back from the main thread
+    only, and once MuJoCo's renderer and NumPy have started threads of their own, one of
+    those receives the signal and Python raises ``KeyboardInterrupt`` in the main thread,
+    inside the block, all the same. Instead a handler that only notes the signal stands in
+    for each (Python runs handlers in the main thread, whichever thread received the
+    signal); when the handlers before are back, a signal that came is raised again and
+    takes its usual course (Ctrl-C: ``KeyboardInterrupt``).
+    """
+    if threading.current_thread() is not threading.main_thread():  # only it sets handlers
+        yield
+        return
+    noted: list[int] = []
+
+    def note(signum: int, frame: FrameType | None) -> None:
+        noted.append(signum)
+
+    previous = {sig: signal.signal(sig, note) for sig in CLEANUP_SIGNALS}
+    try:
+        yield
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, signal.SIG_DFL if handler is None else handler)
+        for signum in dict.fromkeys(noted):
+            signal.raise_signal(signum)
+
+
+def _remove_leftovers(out: Path) -> None:
+    """Remove the hidden folders of runs that were killed (SIGKILL, a power cut) in ``out``."""
     for path in sorted(out.iterdir()):
-        if _OWN_NAMES.fullmatch(path.name) and (path.is_file() or path.is_symlink()):
-            try:
-                path.unlink()
-            except OSError as exc:
-                raise MearmError(f"cannot remove {path}: {exc.strerror or exc}") from None
+        if _is_staging(path):
+            shutil.rmtree(path, ignore_errors=True)
+
+
+def _replace_earlier_run(staging: Path, out: Path, names: list[str]) -> None:
+    """Put the new run's files (``names`` in ``staging``) in ``out`` in place of an earlier run's.
+
+    Only renames, with Ctrl-C, SIGTERM and SIGHUP taken after the last of them
+    (:func:`_signals_deferred`), so a signal leaves the earlier run or the new one, whole.
+    The earlier run's files are moved aside into ``staging`` first, the stale names
+    (a view or a truth file the new run does not write) with them; if a rename fails, what
+    was moved is moved back, and the earlier run stays as it was.
+    """
+    aside = staging / "earlier"
+    moved_aside: list[str] = []
+    moved_in: list[str] = []
+    with _signals_deferred():
+        try:
+            aside.mkdir()
+            for path in sorted(out.iterdir()):
+                if _is_own(path):
+                    os.rename(path, aside / path.name)
+                    moved_aside.append(path.name)
+            for name in names:
+                os.rename(staging / name, out / name)
+                moved_in.append(name)
+        except OSError as exc:
+            for name in reversed(moved_in):
+                os.rename(out / name, staging / name)
+            for name in reversed(moved_aside):
+                os.rename(aside / name, out / name)
+            shutil.rmtree(staging, ignore_errors=True)
+            name = Path(exc.filename2 or exc.filename or "?").name  # the same in out and aside
+            raise MearmError(
+                f"cannot replace {name} in --out {out}: {exc.strerror or exc}; the earlier "
+                "run's files are kept as they were"
+            ) from None
+        shutil.rmtree(staging, ignore_errors=True)  # the earlier run's files, now replaced
+    _sync_folder(out)
+
+
+def _sync_folder(folder: Path) -> None:
+    """Make the renames durable, as :func:`~mearm.fileio.write_atomic` makes its own."""
+    try:
+        fd = os.open(folder, os.O_RDONLY | getattr(os, "O_DIRECTORY", 0))
+    except OSError:
+        return  # some systems cannot open a folder
+    try:
+        os.fsync(fd)
+    except OSError:
+        pass  # nor sync one
+    finally:
+        os.close(fd)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -136,12 +239,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument(
         "--force",
         action="store_true",
-        help="write into a folder that is not empty, removing the files of an earlier run",
+        help="write into a folder that is not empty, replacing the files of an earlier run",
     )
     args = parser.parse_args(argv)
     if args.out.exists() and not args.out.is_dir():
         parser.error(f"--out {args.out}: exists and is not a directory")
-    if args.out.is_dir() and not args.force and any(args.out.iterdir()):
+    if args.out.is_dir() and not args.force and not all(map(_is_staging, args.out.iterdir())):
         parser.error(
             f"--out {args.out}: the folder is not empty; give a new folder, or pass --force "
             "to replace an earlier run's files there"
@@ -167,42 +270,36 @@ def main(argv: Sequence[str] | None = None) -> int:
         SHEET_SIDE_CM,
         default_sheet_layout,
         raised_sheet_layout,
-        render_board_views,
-        render_sheet,
     )
 
     layout = default_sheet_layout(config)
     raised = None
     if args.raised_height_cm is not None:  # refused (exit 2) before anything is rendered
         raised = raised_sheet_layout(config, args.raised_height_cm)
-    sheet = render_sheet(config, layout, SHEET_SIDE_CM, noise_std=args.noise_std, seed=args.seed)
-    frames = render_board_views(config, args.views, args.seed, noise_std=args.noise_std)
-    _remove_earlier_run(args.out)
-    written = []
-    for i, frame in enumerate(frames):
-        path = args.out / f"board_{i:02d}.png"
-        _write_png(path, frame)
-        written.append(path)
-    _write_png(args.out / "sheet.png", sheet)
-    written.append(args.out / "sheet.png")
-    lines = [f"--marker {i}:{x:g},{y:g}" for i, (x, y) in layout.items()]
-    lines.append(f"--marker-side-cm {SHEET_SIDE_CM:g}")
-    markers_txt = _write_arguments(args.out / "sheet_markers.txt", lines)
-    written.append(markers_txt)
-    if raised is not None:
-        written += _write_raised(config, args, *raised)
-    if args.truth:
-        written += _write_truth(config, args.out)
+    with stop_signals_as_ctrl_c():  # a SIGTERM or SIGHUP, too, removes the hidden folder
+        _remove_leftovers(args.out)
+        staging = args.out / f"{_STAGING_PREFIX}{os.getpid()}{_STAGING_SUFFIX}"
+        try:
+            names = _write_run(staging, config, args, layout, raised)
+        except BaseException:
+            with _signals_deferred():  # a second Ctrl-C does not leave the folder behind
+                shutil.rmtree(staging, ignore_errors=True)
+            raise
+        _replace_earlier_run(staging, args.out, names)
     print(
-        f"wrote {len(frames)} board views ({args.out / 'board_00.png'} …), "
+        f"wrote {args.views} board views ({args.out / 'board_00.png'} …), "
         f"{args.out / 'sheet.png'} ({len(layout)} markers of {SHEET_SIDE_CM:g} cm) "
-        f"and {markers_txt}"
+        f"and {args.out / 'sheet_markers.txt'}"
         + (
             f"; markers on a box {args.raised_height_cm:g} cm tall in {args.out / 'raised.png'}"
             if raised is not None
             else ""
         )
-        + (f"; the twin's own camera in {written[-2]} and {written[-1]}" if args.truth else "")
+        + (
+            f"; the twin's own camera in {args.out / names[-2]} and {args.out / names[-1]}"
+            if args.truth
+            else ""
+        )
     )
     return 0
 
@@ -225,56 +322,102 @@ def _height(text: str) -> float:
     return value
 
 
-def _write_raised(
+def _write_run(
+    staging: Path,
     config: Config,
     args: argparse.Namespace,
     layout: dict[int, tuple[float, float]],
+    raised: tuple[dict[int, tuple[float, float]], Support] | None,
+) -> list[str]:
+    """Render the run and write all its files into the new folder ``staging``.
+
+    Returns:
+        The names written, in the order the summary line names them.
+    """
+    from mearm.sim.twin.calibration_scenes import (
+        SHEET_SIDE_CM,
+        render_board_views,
+        render_sheet,
+    )
+
+    try:
+        staging.mkdir()
+    except OSError as exc:
+        raise MearmError(f"cannot write into --out {args.out}: {exc.strerror or exc}") from None
+    sheet = render_sheet(config, layout, SHEET_SIDE_CM, noise_std=args.noise_std, seed=args.seed)
+    frames = render_board_views(config, args.views, args.seed, noise_std=args.noise_std)
+    names = [f"board_{i:02d}.png" for i in range(len(frames))]
+    for name, frame in zip(names, frames, strict=True):
+        _write_png(staging / name, frame)
+    _write_png(staging / "sheet.png", sheet)
+    lines = [f"--marker {i}:{x:g},{y:g}" for i, (x, y) in layout.items()]
+    lines.append(f"--marker-side-cm {SHEET_SIDE_CM:g}")
+    _write_arguments(staging / "sheet_markers.txt", lines)
+    names += ["sheet.png", "sheet_markers.txt"]
+    if raised is not None:
+        names += _write_raised(config, args, staging, *raised)
+    if args.truth:
+        names += _write_truth(config, staging)
+    return names
+
+
+def _write_raised(
+    config: Config,
+    args: argparse.Namespace,
+    folder: Path,
+    layout: dict[int, tuple[float, float]],
     support: Support,
-) -> list[Path]:
-    """The raised view and its arguments: markers on a box ``--raised-height-cm`` tall."""
+) -> list[str]:
+    """The raised view and its arguments: markers on a box ``--raised-height-cm`` tall.
+
+    Returns:
+        The names written into ``folder``.
+    """
     from mearm.sim.twin.calibration_scenes import SHEET_SIDE_CM, render_sheet
 
     h = args.raised_height_cm
     frame = render_sheet(
         config, layout, SHEET_SIDE_CM, noise_std=args.noise_std, seed=args.seed, support=support
     )
-    image = args.out / "raised.png"
-    _write_png(image, frame)
+    _write_png(folder / "raised.png", frame)
     lines = [f"--raised-marker {i}:{x:g},{y:g}" for i, (x, y) in layout.items()]
     lines.append(f"--raised-height-cm {h:g}")
-    return [image, _write_arguments(args.out / "raised_markers.txt", lines)]
+    _write_arguments(folder / "raised_markers.txt", lines)
+    return ["raised.png", "raised_markers.txt"]
 
 
-def _write_arguments(path: Path, lines: list[str]) -> Path:
-    """Write ``calibrate-camera``'s arguments for a picture, one a line; returns ``path``."""
+def _write_arguments(path: Path, lines: list[str]) -> None:
+    """Write ``calibrate-camera``'s arguments for a picture, one a line."""
     try:
         write_atomic(path, "\n".join(lines) + "\n")
     except OSError as exc:
         raise MearmError(f"cannot write {path}: {exc.strerror or exc}") from None
-    return path
 
 
-def _write_truth(config: Config, out: Path) -> list[Path]:
-    """The twin's camera as calibration files: intrinsics and pose, each with rms 0."""
+def _write_truth(config: Config, folder: Path) -> list[str]:
+    """The twin's camera as calibration files: intrinsics and pose, each with rms 0.
+
+    Returns:
+        The names written into ``folder``.
+    """
     from mearm.sim.twin.twin_optics import twin_camera_model
     from mearm.vision.calibration_file import Extrinsics, Intrinsics, save_calibration
 
     truth = twin_camera_model(config)
     size = (config.camera.width_px, config.camera.height_px)
     files = (
-        (out / "truth_intrinsics.yaml", Intrinsics(truth.K, truth.dist, size, 0.0, 0, "twin")),
+        ("truth_intrinsics.yaml", Intrinsics(truth.K, truth.dist, size, 0.0, 0, "twin")),
         (
-            out / "truth_pose.yaml",
+            "truth_pose.yaml",
             Extrinsics(truth.R_base_cam, truth.camera_centre_cm, 0.0, 0, "twin", size),
         ),
     )
-    written = []
-    for path, cal in files:
+    for name, cal in files:
         try:
-            written.append(save_calibration(path, cal, force=True))
+            save_calibration(folder / name, cal, force=True)
         except OSError as exc:
-            raise MearmError(f"cannot write {path}: {exc.strerror or exc}") from None
-    return written
+            raise MearmError(f"cannot write {folder / name}: {exc.strerror or exc}") from None
+    return [name for name, _ in files]
 
 
 if __name__ == "__main__":
