@@ -38,7 +38,7 @@ import tempfile
 import threading
 from pathlib import Path
 from types import FrameType
-from typing import Any
+from typing import Any, BinaryIO
 
 #: The signals after which no temporary file is left behind.
 CLEANUP_SIGNALS: tuple[signal.Signals, ...] = tuple(
@@ -83,9 +83,11 @@ def write_atomic(path: str | os.PathLike[str], data: bytes | str) -> Path:
     target.parent.mkdir(parents=True, exist_ok=True)
     mode = _mode_for(target)
     _install_handlers()
-    fd, tmp = _make_temp(target)
+    made: list[tuple[BinaryIO, str]] = []  # filled while the signals are held
     try:
-        with os.fdopen(fd, "wb") as f:
+        _make_temp(target, made)
+        f, tmp = made[0]
+        with f:
             f.write(payload)
             f.flush()
             _fsync(f.fileno())
@@ -93,10 +95,13 @@ def write_atomic(path: str | os.PathLike[str], data: bytes | str) -> Path:
         os.replace(tmp, target)
         _fsync_folder(target.parent)
     except BaseException:
-        _unlink_quietly(tmp)
+        for f, tmp in made:
+            f.close()
+            _unlink_quietly(tmp)
         raise
     finally:
-        _live.discard(tmp)
+        for _, tmp in made:
+            _live.discard(tmp)
     return target
 
 
@@ -171,17 +176,22 @@ def _umask() -> int:
     return mask
 
 
-def _make_temp(target: Path) -> tuple[int, str]:
-    """Create the temporary file and register it, with the cleanup signals held off."""
+def _make_temp(target: Path, made: list[tuple[BinaryIO, str]]) -> None:
+    """Create the temporary file, open it and register it, with the cleanup signals held.
+
+    It goes into ``made``, the caller's, before the signals are let go: a Ctrl-C held
+    meanwhile is raised as they are, inside the caller's ``try``, which then knows the
+    file to remove (returned instead, it was left behind).
+    """
     held = _hold_signals()
     try:
         fd, tmp = tempfile.mkstemp(
             prefix=f".{_short(target.name)}.", suffix=".tmp", dir=target.parent
         )
+        made.append((os.fdopen(fd, "wb"), tmp))
         _live.add(tmp)
     finally:
         _release_signals(held)
-    return fd, tmp
 
 
 #: The longest file name most file systems take, in bytes (ext4, tmpfs, APFS, NTFS).

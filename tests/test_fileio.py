@@ -266,3 +266,25 @@ def test_a_write_error_gives_the_reason_without_errno_noise(tmp_path: Path) -> N
         write_text_atomic(tmp_path / ("a" * 300), "x")
     message = str(caught.value)
     assert message == f"cannot write {tmp_path / ('a' * 300)}: File name too long"
+
+
+def test_a_ctrl_c_held_while_the_temp_file_is_made_leaves_none(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The signals are held while the temporary file is made; a Ctrl-C that came then is
+    raised as they are let go. It used to be raised before the writer knew the file's
+    name, which was left behind (a new-user walk found one beside a rendered view)."""
+    release = fileio._release_signals
+
+    def release_then_ctrl_c(previous):
+        release(previous)
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(fileio, "_release_signals", release_then_ctrl_c)
+    target = tmp_path / "out.txt"
+    target.write_text("old")
+    with pytest.raises(KeyboardInterrupt):
+        write_atomic(target, "new")
+    assert target.read_text() == "old"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out.txt"]
+    assert live_temp_files() == frozenset()
