@@ -522,6 +522,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     out: Path = args.out
     if out.is_dir():
         raise MearmError(f"{out} is a folder: give the config file's name, e.g. {out}/my_arm.yaml")
+    if out.exists() and not out.is_file():  # before a "wrote" line: nothing is written there
+        raise MearmError(
+            f"{out}: not a regular file (a device, FIFO or socket): give the config file's name"
+        )
     if out.exists() and not args.force:
         raise MearmError(f"{out} exists: pass --force to replace it")
     rig = RIGS[args.rig]

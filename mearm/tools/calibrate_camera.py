@@ -100,6 +100,11 @@ MAX_MARKER_SIDE_CM = 100.0
 #: measured a millimetre off moves its corners about a pixel at the paper's 50 cm; above
 #: this, positions are wrong by several millimetres on every marker, or one is mistyped.
 MAX_POSE_RMS_PX = 5.0
+#: Largest reprojection error of a homography fit that is written [cm, rms]. The same
+#: 5 mm that :data:`MAX_POSE_RMS_PX` stands for at the paper's 50 cm (1 px ≈ 1 mm), and
+#: ten times what the homography reached on the twin's tilted, distorting camera
+#: (0.054 cm, docs/calibration.md): above it a marker is mistyped or the side is wrong.
+MAX_HOMOGRAPHY_RMS_CM = 0.5
 #: Tallest support of the raised view [cm]: the camera must see its markers whole.
 MAX_RAISED_HEIGHT_CM = 100.0
 #: Fewest markers on the raised support: spread along x and y.
@@ -539,10 +544,42 @@ def _fit_homography(
         calibration = calibration_from_markers(
             frame, centers, side_cm=args.marker_side_cm, dictionary=args.dictionary
         )
+        _refuse_mirrored(calibration, centers)
         corners = " and corners" if args.marker_side_cm else ""
         n_pairs = len(centers) * (5 if args.marker_side_cm else 1)
         how = f"{len(centers)} ArUco marker centres{corners} in {args.image.name}"
+    rms = calibration.reprojection_error_cm
+    if rms is not None and rms > MAX_HOMOGRAPHY_RMS_CM:
+        given = "--point pairs" if args.point else "--marker positions or --marker-side-cm"
+        raise CalibrationError(
+            f"the fit is {rms:.3f} cm rms (max {calibration.max_error_cm:.3f} cm) from the "
+            f"given points (the twin's camera fits to 0.05 cm; refused above "
+            f"{MAX_HOMOGRAPHY_RMS_CM:g} cm): the {given} do not match the picture; nothing written"
+        )
     return calibration, n_pairs, how
+
+
+def _refuse_mirrored(calibration: Calibration, centers: dict[int, tuple[float, float]]) -> None:
+    """Refuse a marker fit that maps the image mirrored onto the table.
+
+    Seen from above, the image's axes (u right, v down) and the table's (x, y, with z up)
+    have opposite handedness, so a camera's pixel → table map reverses orientation: its
+    Jacobian determinant ``det H / w³`` is negative. An ArUco marker cannot be decoded in
+    a mirrored image, so a positive one means two --marker ids were swapped; with only
+    their centres that fit can even be exact. (--point pairs are not checked: a camera
+    may mirror its picture, and its detections with it.)
+
+    Raises:
+        CalibrationError: the fitted map keeps orientation.
+    """
+    pixels = calibration.table_to_pixel(np.array(list(centers.values()), dtype=float))
+    w = pixels @ calibration.H[2, :2] + calibration.H[2, 2]
+    if np.all(np.linalg.det(calibration.H) / w**3 > 0):
+        raise CalibrationError(
+            "the fit maps the picture mirrored onto the table, which a picture of ArUco "
+            "markers cannot be: --marker ids are swapped (left for right, or near for far); "
+            "nothing written"
+        )
 
 
 def _write_config(
@@ -550,7 +587,8 @@ def _write_config(
 ) -> None:
     """Write the updated config, unless (without ``force``) it holds a better homography.
 
-    With ``keep`` (an --output other than --config), a replaced file is kept as ``.bak``.
+    With ``force`` (it may replace a better calibration) or ``keep`` (an --output other
+    than --config), a replaced file is kept as ``.bak``.
     """
     if not force and target.exists():
         try:
@@ -560,7 +598,7 @@ def _write_config(
         if isinstance(old, dict):
             _homography_no_worse(old, calibration, target)
     try:
-        if keep:
+        if keep or force:
             backup_existing(target)
         write_atomically(target, new_text)
     except OSError as exc:
