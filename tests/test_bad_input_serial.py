@@ -3,9 +3,10 @@
 Each case puts a pty fake board (``tests/fakeboard.py``) behind ``mearm sort`` and runs
 it in-process through :func:`badinput.check_bad_input`: the fault from the board ends
 the sort with exit 1 and one line on stderr naming it, within the time bound, the
-config file intact. Then the fake is asked what it received: no move after the fault
-struck (a resend of the very frame that failed is not a new move), none at all when the
-handshake failed.
+config file intact; a handshake that fails is found as the rig opens, before the sort
+starts (exit 2 and one line, as a camera that cannot be opened). Then the fake is asked
+what it received: no move after the fault struck (a resend of the very frame that
+failed is not a new move), none at all when the handshake failed.
 
 ``servo.port`` values that are not device paths or allowed URLs are refused before
 anything opens (exit 2), and :func:`test_one_line_in_a_real_process` checks the one-line
@@ -188,14 +189,17 @@ def assert_no_move_after_fault(board: FakeBoard, at_move: int | None) -> None:
 @pytest.mark.parametrize("name", list(CASES))
 @pytest.mark.heavy
 def test_bad_serial_bytes_end_the_sort(tmp_path: Path, name: str) -> None:
-    """A board sending bad bytes stops the sort: exit 1, one line, no move after it."""
+    """A board sending bad bytes stops the sort: exit 1, one line, no move after it; in
+    the handshake, before the sort starts: exit 2, one line, no move at all."""
     case = CASES[name]
+    handshake = case.at_move is None
     with case.make() as board:
         backend = "ssc32" if isinstance(board, FakeSSC32Board) else "serial"
         cfg = write_config(tmp_path, backend, board.port)
-        out = check_bad_input(sort_argv(cfg), code=1, within_s=WITHIN_S, keep=[cfg])
+        code = 2 if handshake else 1
+        out = check_bad_input(sort_argv(cfg), code=code, within_s=WITHIN_S, keep=[cfg])
         assert case.needle in out.line, out.line
-        assert out.line.startswith("mearm sort: stopped: ")
+        assert out.line.startswith("mearm sort: error: " if handshake else "mearm sort: stopped: ")
         assert_no_move_after_fault(board, case.at_move)
 
 

@@ -4,7 +4,7 @@ Its note on servos never calibrated is said only of a rig whose camera opened; i
 checked by opening the camera, closing it and letting the rig open it again, which some
 webcams take slowly or refuse. Now the rig's own opening decides. The USB camera is the
 one part mocked (``cv2.VideoCapture``, counting its opens); the config, the sort, the
-run log and the servo link that cannot be opened are real.
+run log and the servo link are real (a fake Uno on a pty, or a port no machine has).
 """
 
 from __future__ import annotations
@@ -13,12 +13,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from fakeboard import FakeMearmBoard, MearmFaults
 
 from mearm import sort
 from mearm.vision import camera
 
 ROOT = Path(__file__).resolve().parent.parent
-#: The real rig's servos on a port no machine has: the sort stops at its first move.
+#: The real rig's servos on a port no machine has: found as the rig opens.
 LAB = ["--config", str(ROOT / "configs" / "lab.yaml"), "--set", "servo.port=/nonexistent/tty"]
 NOTE = "mearm sort: note: the servos on the serial board have never been calibrated"
 
@@ -54,9 +55,11 @@ def capture(monkeypatch):
 
 def test_the_note_is_said_with_the_camera_opened_once(capture, capsys, tmp_path):
     """The camera is there: the note is the first line on stderr, the camera opened once."""
-    code = sort.main([*LAB, "--log", str(tmp_path / "run.jsonl")])
+    with FakeMearmBoard(MearmFaults(silent_from_move=1)) as board:
+        argv = [*LAB, "--set", f"servo.port={board.port}", "--set", "servo.ack_timeout_s=0.5"]
+        code = sort.main([*argv, "--log", str(tmp_path / "run.jsonl")])
     err = capsys.readouterr().err
-    assert code == 1, err  # the servo link cannot be opened: the sort stops, exit 1
+    assert code == 1, err  # the board answers no move: the sort stops, exit 1
     assert err.splitlines()[0].startswith(NOTE), err
     assert capture.opens == 1
 

@@ -108,7 +108,8 @@ class SerialServoBus(ServoBus):
             raise LinkError(
                 self.port,
                 f"cannot open at {self.baud} baud: {exc}. Is the board plugged in and "
-                "servo.port right? (Linux: the user must be in the dialout group)",
+                "servo.port right? (mearm find-port lists the ports; Linux: the user must be "
+                "in the dialout group)",
             ) from None
         self._serial = ser
         self._rx.clear()

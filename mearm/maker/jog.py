@@ -308,8 +308,11 @@ def _jog(argv: Sequence[str] | None) -> int:
     require_terminal("jog")
     out = sys.stdout
     bus = open_arm_bus(config, args.port)
+    # connected before the keys are taken: a port that cannot be opened (or a board that
+    # does not answer) is bad input, said in one line (exit 2) before anything moves
+    bus.connect()
     try:
-        with KeyReader() as keys, bus:
+        with bus, KeyReader() as keys:
             jogger = Jogger(config, bus, out)
             try:
                 jogger.session(keys)

@@ -34,7 +34,7 @@ class Rig:
     Attributes:
         world: The simulated table, or ``None`` on a real rig (camera and servos real).
         camera: The frame source.
-        bus: The servo bus (not yet connected).
+        bus: The servo bus, connected (:func:`open_rig` connects it).
         model: The arm model.
         in_bins: In simulation, how many objects of each class lie in its bin (what a
             place is confirmed against); ``None`` on a real rig.
@@ -86,12 +86,21 @@ def scene_layout(config: Config, scene: list[SceneObject] | None = None) -> list
 def open_rig(config: Config, scene: list[SceneObject] | None = None) -> Iterator[Rig]:
     """Open the rig of ``config.simulator`` (:func:`~mearm.backends.open_parts`); close it on exit.
 
+    The servo bus is connected here, with the camera, before anything moves: a serial port
+    that cannot be opened (or a board that does not answer) is found as the rig opens, as
+    a camera that cannot be opened is, not by the first move of a sort.
+
     Args:
         config: The whole configuration.
         scene: Objects for the simulated table (default: ``config.task.scene``).
+
+    Raises:
+        CameraError: the camera cannot be opened.
+        ServoError: the servo bus cannot be connected (e.g. a ``LinkError``).
     """
     model = ArmModel(config.arm)
     with open_parts(config, scene) as parts:
+        parts.bus.connect()
         yield Rig(parts.world, parts.camera, parts.bus, model, parts.in_bins, parts.placed)
 
 
