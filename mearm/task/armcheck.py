@@ -28,9 +28,21 @@ the commanded ones (least squares: Kabsch/Umeyama in 2-D, no scale) are
 :math:`R' = R_z R`, :math:`C' = R_z C + (t_x, t_y, 0)`, moves every ray, and so every
 located point on a horizontal plane, by it.
 
-Every motion is planned in full (:class:`~mearm.task.plan.Planner`) before any of it is
-sent (:class:`~mearm.task.execute.Executor`), as in the sort; a move whose plan fails
-is not made and its point carries the reason.
+Every route to and from the object is planned in full (:class:`~mearm.task.plan.Planner`)
+before any of it is sent (:class:`~mearm.task.execute.Executor`), as in the sort, and
+checked against the bins, the table and the other objects (the sort's collision model,
+:func:`~mearm.sim.table_collision.collision_model`); a move whose plan fails is not made
+and its point carries the reason. From above the point the arm goes home along a
+straight line in joint space.
+
+**Where the points lie.** A set-down leaves the object near, not at, its point: the arm
+stops a little short of its pose and the object sits a little off-centre in the jaws
+(the twin's arm: up to 0.9 cm along x, 0.4 cm along y, at the far corners of the
+perspective rig's view). The next move picks it where the camera sees it, so a point is
+taken only where the object can be taken up from anywhere within
+:data:`SET_DOWN_SLIP_CM` of it along x and y: the re-pick never lands past the reach, a
+joint's limits or a servo's pulse range, nor with the jaws on a bin's wall or another
+object. An object that can no longer be taken up where it lies stops the check.
 """
 
 from __future__ import annotations
@@ -39,6 +51,7 @@ import dataclasses
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 import numpy.typing as npt
@@ -47,11 +60,13 @@ from mearm.config import ColorClass, Config
 from mearm.config.errors import CalibrationError
 from mearm.errors import MearmError
 from mearm.ik import IKTarget
+from mearm.sim.table_collision import collision_model
 from mearm.task.execute import Executor
 from mearm.task.plan import Planner
 from mearm.task.rig import open_rig
 from mearm.task.route import Route
 from mearm.vision import Camera, ColorDetector, Detection
+from mearm.vision.arm_mask import RIM_POINTS, arm_view
 from mearm.vision.calibration import CameraGeometry, camera_geometry
 from mearm.vision.pinhole import Extrinsics, PerspectiveCamera, today
 
@@ -63,6 +78,16 @@ LATTICE_CM = 1.0
 FIND_RADIUS_CM = 5.0
 #: A detection this near to another object's place is that object, not the one moved [cm].
 SAME_OBJECT_CM = 1.5
+#: How far from its point a set-down may leave the object, along x and along y [cm]:
+#: every point keeps this much room for the re-pick (the module docstring). The twins
+#: put it down up to 0.90 cm off along x and 0.38 cm along y (``configs/sim_mujoco*``,
+#: ``sim_5dof_mujoco*`` and ``sim_shapes_mujoco`` but the uncalibrated kits, 2 … 12
+#: points each; simulated, 2026-11-30).
+SET_DOWN_SLIP_CM = 1.0
+#: The survey that finds where the arm reaches checks about this many lattice points.
+SURVEY_POINTS = 100
+#: The collision model's id of the object the check moves.
+MOVED_ID = "checked"
 
 
 class ArmCheckError(MearmError):
@@ -200,138 +225,127 @@ def refine_extrinsics(ext: Extrinsics, theta_rad: float, shift_cm: npt.ArrayLike
     )
 
 
-# --------------------------------------------------------------------- check points
+# --------------------------------------------------------------------- moving the object
 
 
-def _field_cm(geometry: CameraGeometry, config: Config, margin_cm: float) -> np.ndarray:
-    """The table box the camera sees, shrunk by ``margin_cm``: (x0, x1, y0, y1) [cm]."""
-    w, h = config.camera.width_px, config.camera.height_px
-    corners = np.array([[0, 0], [w - 1, 0], [w - 1, h - 1], [0, h - 1]], dtype=float)
-    xy = np.asarray(geometry.pixel_to_table(corners), dtype=float)
-    xs, ys = np.sort(xy[:, 0]), np.sort(xy[:, 1])
-    return np.array([xs[1] + margin_cm, xs[2] - margin_cm, ys[1] + margin_cm, ys[2] - margin_cm])
+@dataclass(frozen=True)
+class Refusal:
+    """A move of the object that was not made, because part of it could not be planned.
 
-
-def jaw_reach_cm(config: Config) -> float:
-    """How far the open jaws' outer faces reach from the object's centre [cm]."""
-    g = config.arm.tool.gripper
-    return g.open_cm / 2 + g.jaw_thickness_cm
-
-
-def check_points(
-    config: Config,
-    geometry: CameraGeometry,
-    planner: Planner,
-    cls: ColorClass,
-    n: int,
-    others_cm: Sequence[tuple[float, float, float]],
-) -> np.ndarray:
-    """``n`` check points on a grid over the reachable part of the camera's view, (n, 2) [cm].
-
-    A candidate (a lattice point of :data:`LATTICE_CM`) lies one object diameter inside
-    the camera's view, the open jaws around it clear every bin's footprint and every
-    other object (``others_cm``: x, y, radius [cm]), and its pick and approach points
-    are planned from home. The grid has ⌊√n⌋ rows over the candidates' extent; each node
-    takes the nearest candidate not taken.
-
-    Raises:
-        NothingToCheck: fewer than ``n`` candidates.
+    Attributes:
+        why: The step that could not be planned, and the planner's reason.
+        taking_up: Whether it was taking the object up where it lies (then it cannot
+            leave that place), rather than putting it down at the point.
     """
-    reach = jaw_reach_cm(config)
-    x0, x1, y0, y1 = _field_cm(geometry, config, cls.diameter_cm)
-    xs = np.arange(math.ceil(x0 / LATTICE_CM), math.floor(x1 / LATTICE_CM) + 1) * LATTICE_CM
-    ys = np.arange(math.ceil(y0 / LATTICE_CM), math.floor(y1 / LATTICE_CM) + 1) * LATTICE_CM
-    cand = np.array([(x, y) for y in ys for x in xs], dtype=float).reshape(-1, 2)
-    keep = np.ones(len(cand), dtype=bool)
-    for c in config.task.classes:
-        half = c.bin_inner_width_cm / 2 + reach
-        keep &= ~(
-            (np.abs(cand[:, 0] - c.bin_cm[0]) <= half) & (np.abs(cand[:, 1] - c.bin_cm[1]) <= half)
-        )
-    for ox, oy, r in others_cm:
-        keep &= np.hypot(cand[:, 0] - ox, cand[:, 1] - oy) >= reach + r
-    cand = cand[keep]
-    home = planner.model.home
-    reachable: dict[int, bool] = {}
 
-    def reaches(i: int) -> bool:
-        if i not in reachable:
-            pick = planner.pick_target(cls, *cand[i])
-            targets = [pick]
-            h = config.task.approach_height_cm
-            if h is not None:
-                targets.append(planner.above_target(pick, h))
-            reachable[i] = all(
-                planner.plan(Route("", cls.name, "pick", 1, t), home).planned for t in targets
-            )
-        return reachable[i]
-
-    # the extent first: the candidates any node could take
-    rows = max(1, math.isqrt(n))
-    cols = math.ceil(n / rows)
-    chosen: list[int] = []
-    if len(cand):
-        lo, hi = cand.min(axis=0), cand.max(axis=0)
-        for k in range(rows * cols):
-            if len(chosen) == n:
-                break
-            i, j = divmod(k, cols)
-            node = lo + (hi - lo) * np.array([(j + 0.5) / cols, (i + 0.5) / rows])
-            order = np.argsort(np.hypot(*(cand - node).T), kind="stable")
-            for idx in order[:400]:
-                if int(idx) not in chosen and reaches(int(idx)):
-                    chosen.append(int(idx))
-                    break
-    if len(chosen) < n:
-        raise NothingToCheck(
-            f"found room for {len(chosen)} of {n} check points in the camera's view that the "
-            "arm reaches, clear of the bins and the other objects: ask for fewer points or "
-            "clear the table"
-        )
-    return cand[chosen]
-
-
-# --------------------------------------------------------------------- the check
+    why: str
+    taking_up: bool
 
 
 class _Arm:
-    """Moves one object with the sort's planner and executor, every move planned first."""
+    """Moves one object with the sort's planner, collision model and executor.
 
-    def __init__(self, config: Config, planner: Planner, executor: Executor):
+    Every route is planned in full, and checked against the bins, the table and the
+    other objects (``others``: ``(id, class, x_cm, y_cm)`` each), before the first is
+    sent; the object moved is :data:`MOVED_ID` to the collision model.
+    """
+
+    def __init__(
+        self,
+        config: Config,
+        planner: Planner,
+        executor: Executor,
+        cls: ColorClass,
+        others: Sequence[tuple[str, str, float, float]],
+    ):
+        assert planner.collision is not None
         self.config = config
         self.planner = planner
+        self.collision = planner.collision
         self.ex = executor
+        self.cls = cls
+        self.others = list(others)
 
-    def transfer(
-        self, cls: ColorClass, from_cm: npt.ArrayLike, to_cm: npt.ArrayLike, object_id: str
-    ) -> str | None:
-        """Take the object at ``from_cm`` to ``to_cm`` and go home; the failure, or ``None``.
+    def _lying_at(self, xy_cm: npt.ArrayLike) -> None:
+        """The collision model's world: the object on the table at ``xy_cm``, jaws open."""
+        x, y = (float(v) for v in np.asarray(xy_cm, dtype=float))
+        self.collision.set_world(
+            [*self.others, (MOVED_ID, self.cls.name, x, y)],
+            opening_cm=self.config.arm.tool.gripper.open_cm,
+        )
+
+    def _holding(self) -> None:
+        """The collision model's world: the object in the jaws, closed on it."""
+        self.collision.set_world(
+            self.others, opening_cm=self.cls.diameter_cm, held=(MOVED_ID, self.cls.name)
+        )
+
+    def _above(self, target: IKTarget) -> IKTarget:
+        """Where a route down to ``target`` starts and the way up from it ends."""
+        p, h = self.planner, self.config.task.approach_height_cm
+        return p.above_target(target, h) if h is not None else p.lift_target(target)
+
+    def _plan(
+        self, steps: Sequence[tuple[str, IKTarget, Callable[[], None], str | None]], q: np.ndarray
+    ) -> tuple[list[Route], str | None]:
+        """Plan ``steps`` in turn, each from where the one before ends.
+
+        Each step: its name, its target, the world it moves in (sets the collision model's)
+        and what its jaws close on (``None``: nothing). Returns the routes planned and the
+        first failure (``None``: every step planned).
+        """
+        routes: list[Route] = []
+        for step, target, world, closes_on in steps:
+            world()
+            route = Route(MOVED_ID, self.cls.name, step, 1, target)  # type: ignore[arg-type]
+            if not self.planner.plan(route, q, target=closes_on).planned:
+                where = ", ".join(f"{v:.2f}" for v in target.position_cm)
+                return routes, f"{step} to ({where}) cm cannot be planned: {route.failure}"
+            assert route.plan is not None
+            q = route.plan.q
+            routes.append(route)
+        return routes, None
+
+    def plan_take_up(self, at_cm: npt.ArrayLike, q: np.ndarray) -> tuple[list[Route], str | None]:
+        """Plan taking the object up where it lies at ``at_cm``, from pose ``q``.
+
+        Above it (with ``task.approach_height_cm``), down around it, and up with it: the
+        routes planned, and the first failure (``None``: all planned).
+        """
+        pick = self.planner.pick_target(self.cls, *np.asarray(at_cm, dtype=float))
+        lying = partial(self._lying_at, at_cm)
+        steps: list[tuple[str, IKTarget, Callable[[], None], str | None]] = []
+        if self.config.task.approach_height_cm is not None:
+            steps.append(("approach", self._above(pick), lying, None))
+        steps += [("pick", pick, lying, MOVED_ID), ("lift", self._above(pick), self._holding, None)]
+        return self._plan(steps, q)
+
+    def takes_up_at(self, at_cm: npt.ArrayLike) -> bool:
+        """Whether the object lying at ``at_cm`` can be taken up from home."""
+        return self.plan_take_up(at_cm, self.planner.model.home)[1] is None
+
+    def transfer(self, from_cm: npt.ArrayLike, to_cm: npt.ArrayLike) -> Refusal | None:
+        """Take the object at ``from_cm`` to ``to_cm`` and go home; what refused it, or ``None``.
 
         Every route (above, down, up, across, down, up) is planned in full, each from
         where the one before ends, before the first is sent.
         """
-        p, h = self.planner, self.config.task.approach_height_cm
-        pick = p.pick_target(cls, *np.asarray(from_cm, dtype=float))
-        place = p.pick_target(cls, *np.asarray(to_cm, dtype=float))
-        steps: list[tuple[str, IKTarget]] = []
-        if h is not None:
-            steps.append(("approach", p.above_target(pick, h)))
-        steps.append(("pick", pick))
-        up_pick = p.above_target(pick, h) if h is not None else p.lift_target(pick)
-        up_place = p.above_target(place, h) if h is not None else p.lift_target(place)
-        steps += [("lift", up_pick), ("approach", up_place), ("pick", place), ("lift", up_place)]
-        routes: list[Route] = []
-        q = self.ex.q_now()
-        for step, target in steps:
-            route = Route(object_id, cls.name, step, 1, target)  # type: ignore[arg-type]
-            if not p.plan(route, q).planned:
-                where = ", ".join(f"{v:.2f}" for v in target.position_cm)
-                return f"{step} to ({where}) cm cannot be planned: {route.failure}"
-            assert route.plan is not None
-            q = route.plan.q
-            routes.append(route)
+        taking, failure = self.plan_take_up(from_cm, self.ex.q_now())
+        if failure is not None:
+            return Refusal(failure, taking_up=True)
+        place = self.planner.pick_target(self.cls, *np.asarray(to_cm, dtype=float))
+        lying = partial(self._lying_at, to_cm)
+        putting, failure = self._plan(
+            [("approach", self._above(place), self._holding, None),
+             ("pick", place, self._holding, None),
+             ("lift", self._above(place), lying, MOVED_ID)],  # the open jaws around it
+            taking[-1].plan.q,  # type: ignore[union-attr]
+        )  # fmt: skip
+        if failure is not None:
+            return Refusal(failure, taking_up=False)
         ex = self.ex
-        *to_pick, lift, across, down, up = routes
+        *to_pick, lift = taking
+        across, down, up = putting
         for route in to_pick:
             ex.stream(route, "travel", closed=False)
         ex.set_tool("grip", closed=False)
@@ -350,6 +364,169 @@ class _Arm:
         """Home along a straight line in joint space, the gripper open."""
         self.ex.move_joints(self.planner.model.home, "travel", closed=False)
         self.ex.home_pose()
+
+
+# --------------------------------------------------------------------- check points
+
+
+def _field_cm(geometry: CameraGeometry, config: Config, margin_cm: float) -> np.ndarray:
+    """The table box the camera sees, shrunk by ``margin_cm``: (x0, x1, y0, y1) [cm]."""
+    w, h = config.camera.width_px, config.camera.height_px
+    corners = np.array([[0, 0], [w - 1, 0], [w - 1, h - 1], [0, h - 1]], dtype=float)
+    xy = np.asarray(geometry.pixel_to_table(corners), dtype=float)
+    xs, ys = np.sort(xy[:, 0]), np.sort(xy[:, 1])
+    return np.array([xs[1] + margin_cm, xs[2] - margin_cm, ys[1] + margin_cm, ys[2] - margin_cm])
+
+
+def jaw_reach_cm(config: Config) -> float:
+    """How far the open jaws' outer faces reach from the object's centre [cm]."""
+    g = config.arm.tool.gripper
+    return g.open_cm / 2 + g.jaw_thickness_cm
+
+
+def room_cells(slip_cm: float = SET_DOWN_SLIP_CM) -> list[tuple[int, int]]:
+    """The lattice steps around a point where its room is checked, nearest first.
+
+    The point itself and every lattice point of the square of half-side ``slip_cm``
+    around it (rounded up to whole pitches of :data:`LATTICE_CM`).
+    """
+    k = math.ceil(slip_cm / LATTICE_CM - 1e-9)
+    cells = [(i, j) for i in range(-k, k + 1) for j in range(-k, k + 1)]
+    return sorted(cells, key=lambda c: (c[0] ** 2 + c[1] ** 2, c))
+
+
+def _hidden_by_arm(
+    config: Config, geometry: CameraGeometry, arm: _Arm, cand: np.ndarray
+) -> np.ndarray:
+    """Which candidates (x, y) [cm], (k, 2), the arm at home hides from the camera, (k,) bool.
+
+    The object, wherever within :data:`SET_DOWN_SLIP_CM` of the candidate a set-down
+    leaves it (its centre, and a ring around its footprint at the table and at its top),
+    must show clear of the arm's body in the frame (:mod:`mearm.vision.arm_mask`), and
+    inside the frame: an object the arm hides in part is not found, or found off its
+    place. A homography knows nothing of bodies above the table: none is hidden.
+    """
+    body = arm_view(
+        geometry, arm.planner.model, arm.collision.bodies,
+        opening_cm=config.arm.tool.gripper.open_cm,
+    )  # fmt: skip
+    if body is None or not len(cand):
+        return np.zeros(len(cand), dtype=bool)
+    assert isinstance(geometry, PerspectiveCamera)
+    w, h = config.camera.width_px, config.camera.height_px
+    shown = body.mask(arm.planner.model.home, (h, w)) > 0
+    r = arm.cls.footprint_radius_cm + SET_DOWN_SLIP_CM * math.sqrt(2)
+    a = np.linspace(0.0, 2 * math.pi, RIM_POINTS, endpoint=False)
+    ring = np.vstack([np.zeros(2), r * np.column_stack([np.cos(a), np.sin(a)])])
+    xy = (cand[:, None, :] + ring[None, :, :]).reshape(-1, 2)
+    points = np.concatenate(
+        [np.column_stack([xy, np.full(len(xy), z)]) for z in (0.0, arm.cls.height_cm)]
+    )
+    u, v = np.round(geometry.project(points)).astype(int).T
+    outside = (u < 0) | (u >= w) | (v < 0) | (v >= h)
+    hidden = outside | shown[np.clip(v, 0, h - 1), np.clip(u, 0, w - 1)]
+    return hidden.reshape(2, len(cand), len(ring)).any(axis=(0, 2))
+
+
+def _near_reach(cells: np.ndarray, takes_up: Callable[[tuple[int, int]], bool]) -> np.ndarray:
+    """Which of ``cells`` (lattice indices, (k, 2)) lie where the arm reaches, (k,) bool.
+
+    A survey of every m-th lattice point (m chosen so that it checks about
+    :data:`SURVEY_POINTS` of them) finds where the object can be taken up; a cell counts
+    when it lies within m - 1 steps (along x and y) of a surveyed point that can. The
+    grid's nodes spread over these, and search only these: nodes over the whole view
+    would lie out of reach, and search through every pose the arm cannot take.
+    """
+    if not len(cells):
+        return np.zeros(0, dtype=bool)
+    m = max(1, round(math.sqrt(len(cells) / SURVEY_POINTS)))
+    # the survey's lattice is centred on the cells' box so that it spans them evenly
+    mid = (cells.min(axis=0) + cells.max(axis=0)) // 2
+    on = np.all((cells - mid) % m == 0, axis=1)
+    reached = np.array(
+        [c for c in cells[on] if takes_up((int(c[0]), int(c[1])))], dtype=int
+    ).reshape(-1, 2)
+    if not len(reached):
+        return np.zeros(len(cells), dtype=bool)
+    steps = np.abs(cells[:, None, :] - reached[None, :, :]).max(axis=2).min(axis=1)
+    return steps < m
+
+
+def check_points(config: Config, geometry: CameraGeometry, arm: _Arm, n: int) -> np.ndarray:
+    """``n`` check points on a grid over the reachable part of the camera's view, (n, 2) [cm].
+
+    A candidate (a lattice point of :data:`LATTICE_CM`) lies one object diameter inside
+    the camera's view, the open jaws around it clear every bin's footprint and every
+    other object (``arm.others``), and the arm at home hides no part of an object set
+    down there (:func:`_hidden_by_arm`). It is taken only where the object lying there, or at
+    any lattice point within :data:`SET_DOWN_SLIP_CM` of it along x and y
+    (:func:`room_cells`), can be taken up from home
+    (:meth:`_Arm.takes_up_at`, checked against the bins, the table and the other
+    objects): wherever a set-down leaves it, the next move can pick it. Each lattice
+    point is planned once, shared by the candidates around it. The grid has ⌊√n⌋ rows
+    over the candidates' extent; each node takes the nearest candidate not taken.
+
+    Raises:
+        NothingToCheck: fewer than ``n`` candidates.
+    """
+    cls = arm.cls
+    reach = jaw_reach_cm(config)
+    x0, x1, y0, y1 = _field_cm(geometry, config, cls.diameter_cm)
+    ix = np.arange(math.ceil(x0 / LATTICE_CM), math.floor(x1 / LATTICE_CM) + 1)
+    iy = np.arange(math.ceil(y0 / LATTICE_CM), math.floor(y1 / LATTICE_CM) + 1)
+    cells = np.array([(i, j) for j in iy for i in ix], dtype=int).reshape(-1, 2)
+    cand = cells * LATTICE_CM
+    keep = np.ones(len(cand), dtype=bool)
+    for c in config.task.classes:
+        half = c.bin_inner_width_cm / 2 + reach
+        keep &= ~(
+            (np.abs(cand[:, 0] - c.bin_cm[0]) <= half) & (np.abs(cand[:, 1] - c.bin_cm[1]) <= half)
+        )
+    for _, color, ox, oy in arm.others:
+        r = config.task.class_named(color).footprint_radius_cm
+        keep &= np.hypot(cand[:, 0] - ox, cand[:, 1] - oy) >= reach + r
+    keep[keep] = ~_hidden_by_arm(config, geometry, arm, cand[keep])
+    cells, cand = cells[keep], cand[keep]
+    around = room_cells()
+    takes: dict[tuple[int, int], bool] = {}
+
+    def takes_up(cell: tuple[int, int]) -> bool:
+        if cell not in takes:
+            takes[cell] = arm.takes_up_at(np.array(cell, dtype=float) * LATTICE_CM)
+        return takes[cell]
+
+    def has_room(k: int) -> bool:
+        i, j = (int(v) for v in cells[k])
+        return all(takes_up((i + di, j + dj)) for di, dj in around)
+
+    near = _near_reach(cells, takes_up)
+    cells, cand = cells[near], cand[near]
+    rows = max(1, math.isqrt(n))
+    cols = math.ceil(n / rows)
+    chosen: list[int] = []
+    if len(cand):
+        lo, hi = cand.min(axis=0), cand.max(axis=0)
+        for k in range(rows * cols):
+            if len(chosen) == n:
+                break
+            i, j = divmod(k, cols)
+            node = lo + (hi - lo) * np.array([(j + 0.5) / cols, (i + 0.5) / rows])
+            order = np.argsort(np.hypot(*(cand - node).T), kind="stable")
+            for idx in order:
+                if int(idx) not in chosen and has_room(int(idx)):
+                    chosen.append(int(idx))
+                    break
+    if len(chosen) < n:
+        raise NothingToCheck(
+            f"found room for {len(chosen)} of {n} check points in the camera's view that the "
+            f"arm reaches, with {SET_DOWN_SLIP_CM:g} cm around each for a set-down's slip, "
+            "clear of the bins, the other objects and the arm at home: ask for fewer points "
+            "or clear the table"
+        )
+    return cand[chosen]
+
+
+# --------------------------------------------------------------------- the check
 
 
 def _table_detections(
@@ -413,7 +590,8 @@ def run_check(
     geometry = _checked_geometry(config, points, class_name, refine=refine)
     detector = ColorDetector(config.vision, geometry, config.task.classes)
     with open_rig(config) as rig:
-        planner = Planner(config, rig.model)
+        collision = collision_model(config, rig.model, clearance_cm=config.task.clearance_cm)
+        planner = Planner(config, rig.model, collision)
         ex = Executor(config, rig.bus, rig.model)
         if not rig.bus.is_connected:
             rig.bus.connect()
@@ -423,20 +601,19 @@ def run_check(
         cls = config.task.class_named(obj.color)
         assert obj.table_cm is not None
         start = np.array(obj.table_cm, dtype=float)
-        others_xy, others_cm = _other_objects(config, found, obj)
-        targets = check_points(config, geometry, planner, cls, points, others_cm)
+        others = _other_objects(found, obj)
+        others_xy = np.array([xy for *_, xy in others], dtype=float).reshape(-1, 2)
+        arm = _Arm(config, planner, ex, cls, [(i, c, *xy) for i, c, xy in others])
+        targets = check_points(config, geometry, arm, points)
         say(f"object: {cls.name} at ({start[0]:.2f}, {start[1]:.2f}) cm")
-        arm = _Arm(config, planner, ex)
-        visit = _visit_points(
-            arm, rig.camera, detector, config, cls, start, targets, others_xy, say
-        )
+        visit = _visit_points(arm, rig.camera, detector, config, start, targets, others_xy, say)
         returned = False
         failure = visit.failure
         if failure is None:
-            problem = arm.transfer(cls, visit.here, start, cls.name)
-            returned = problem is None
-            if problem is not None:
-                failure = f"the object was not put back: {problem}"
+            refusal = arm.transfer(visit.here, start)
+            returned = refusal is None
+            if refusal is not None:
+                failure = f"the object was not put back: {refusal.why}"
         refined = refined_seen = None
         measured = [r for r in visit.records if r.seen_cm is not None]
         if refine and len(measured) >= 2:
@@ -483,17 +660,13 @@ def _chosen_object(found: list[Detection], class_name: str | None) -> Detection:
     return chosen[0]
 
 
-def _other_objects(
-    config: Config, found: list[Detection], obj: Detection
-) -> tuple[np.ndarray, list[tuple[float, float, float]]]:
-    """The other objects seen: their centres (k, 2) and (x, y, radius) each [cm]."""
-    others = [d for d in found if d is not obj]
-    others_xy = np.array([d.table_cm for d in others], dtype=float).reshape(-1, 2)
-    others_cm = [
-        (float(x), float(y), config.task.class_named(d.color).diameter_cm / 2)
-        for d, (x, y) in zip(others, others_xy, strict=True)
-    ]
-    return others_xy, others_cm
+def _other_objects(found: list[Detection], obj: Detection) -> list[tuple[str, str, np.ndarray]]:
+    """The other objects seen: an id for the collision model, the class, the centre [cm]."""
+    others = []
+    for k, d in enumerate((d for d in found if d is not obj), 1):
+        assert d.table_cm is not None
+        others.append((f"seen{k}", d.color, np.array(d.table_cm, dtype=float)))
+    return others
 
 
 @dataclass
@@ -511,19 +684,29 @@ def _visit_points(
     camera: Camera,
     detector: ColorDetector,
     config: Config,
-    cls: ColorClass,
     start: np.ndarray,
     targets: np.ndarray,
     others_xy: np.ndarray,
     say: Callable[[str], None],
 ) -> _Visit:
-    """Move the object to each target in turn and find it there; stop at the first loss."""
+    """Move the object to each target in turn and find it there.
+
+    A point the object cannot be put down at is skipped; the check stops at the first
+    loss: the object not seen after a set-down, or where it lies, not to be taken up.
+    """
+    cls = arm.cls
     visit = _Visit(records=[], frames=[], here=start, failure=None)
     for k, target in enumerate(targets, 1):
-        problem = arm.transfer(cls, visit.here, target, cls.name)
-        if problem is not None:
-            visit.records.append(CheckPoint(target, failure=problem))
-            say(f"point {k}: skipped: {problem}")
+        refusal = arm.transfer(visit.here, target)
+        if refusal is not None and refusal.taking_up:
+            x, y = visit.here
+            why = f"the object at ({x:.2f}, {y:.2f}) cm cannot be taken up: {refusal.why}"
+            visit.failure = f"point {k}: {why}"
+            visit.records.append(CheckPoint(target, failure=why))
+            break
+        if refusal is not None:
+            visit.records.append(CheckPoint(target, failure=refusal.why))
+            say(f"point {k}: skipped: {refusal.why}")
             continue
         frame = camera.read()
         seen = _find(_table_detections(detector, config, frame), cls, target, others_xy)

@@ -5,10 +5,11 @@
 
 The arm takes one object lying on the table (the first detected, or one of ``--class``)
 and sets it down at ``--points`` check points spread over the part of the camera's view
-it reaches, clear of the bins and the other objects; after each it goes home and the
-camera locates the object. It prints each point's residual (seen − commanded, [cm]),
-their RMS and the largest, and puts the object back where it lay
-(:mod:`mearm.task.armcheck`).
+it reaches, clear of the bins and the other objects, each with room around it for where
+a set-down leaves the object; after each it goes home and the camera locates the object
+(every move planned and checked against the bins and the objects first). It prints each
+point's residual (seen − commanded, [cm]), their RMS and the largest, and puts the object
+back where it lay (:mod:`mearm.task.armcheck`).
 
 With ``--refine OUT`` (a perspective calibration only) it fits the rotation about the
 vertical and the shift on the table that best map the seen points onto the commanded
@@ -17,10 +18,10 @@ an existing file holding a better calibration is kept unless ``--force``), and p
 the residuals the refined pose gives on the same frames.
 
 Exit 0: the check ran and printed its figures; 1: it could not complete (no object seen,
-a point that failed, a camera or servo fault during the check: one line on stderr says
-which, and OUT is not written); 2: bad input, one line on stderr (OUT is checked before
-the arm moves), a camera that cannot be opened included (as ``mearm sort`` and ``mearm
-detect`` say it).
+no room for as many points as asked, a point that failed, a camera or servo fault during
+the check: one line on stderr says which, and OUT is not written); 2: bad input, one line
+on stderr (OUT is checked before the arm moves), a camera that cannot be opened included
+(as ``mearm sort`` and ``mearm detect`` say it).
 """
 
 from __future__ import annotations
