@@ -177,8 +177,10 @@ def test_host_drives_the_firmware(chip):
 def test_a_paused_simulator_does_not_jump_its_time_and_hold(chip):
     """A simulator the machine pauses (a loaded CI runner) drops the time it lost. Run fast
     to catch up, it counted more than the watchdog's 1 s between two of the host's lines
-    0.6 s apart, and held, which a real chip never does (seen once in the suite, as a
-    HOLD where ``test_host_drives_the_firmware`` expected RUN)."""
+    and held, which a real chip never does (seen once in the suite, as a HOLD where
+    ``test_host_drives_the_firmware`` expected RUN). What is checked is the cause, with no
+    bound on this host's speed: after the pause, simulated time never runs ahead of the
+    wall clock (it may run behind on a busy machine)."""
     config = sim_config(chip.port)
     with ArduinoBus(config.arm, config.servo) as bus:
         bus.move(HOME)
@@ -191,8 +193,10 @@ def test_a_paused_simulator_does_not_jump_its_time_and_hold(chip):
         finally:
             os.kill(proc.pid, signal.SIGCONT)
         bus.move(HOME)  # acknowledged as the simulator resumes, 3 s behind the wall clock
-        time.sleep(0.6)  # under the watchdog's 1 s, in a real chip's time and the host's
-        assert bus.query().mode == "RUN"
+        sim0, wall0 = chip.now_ms, time.monotonic()
+        time.sleep(0.6)
+        sim_s, wall_s = (chip.now_ms - sim0) / 1000, time.monotonic() - wall0
+        assert sim_s <= wall_s + 0.1, f"{sim_s:.2f} s simulated in {wall_s:.2f} s"
 
 
 def _exchange(port: str, lines: list[bytes]) -> list[bytes]:
