@@ -20,15 +20,33 @@ import pytest
 from badinput import run_in_process
 from test_dataset_outputs import SIM, _own_shm_possible, _record
 
+from mearm.dataset import video_encoder
 from mearm.dataset.errors import EncoderError
 from mearm.dataset.video_encoder import SHM_DIR, EncoderProcess
 
 SHAPE = (48, 64, 3)
 
 
-def _segments() -> set[str]:
-    """The POSIX shared-memory segments :class:`SharedMemory` makes (``psm_*``)."""
-    return {p.name for p in SHM_DIR.glob("psm_*")}
+@pytest.fixture
+def rings(monkeypatch: pytest.MonkeyPatch) -> list[str]:
+    """The names of the rings this test's encoders make (not another test's: the suite's
+    workers record at the same time, and /dev/shm is the machine's)."""
+    made: list[str] = []
+    make = video_encoder.ring_memory
+
+    def recorded(size: int):  # noqa: ANN202
+        shm = make(size)
+        made.append(shm.name.lstrip("/"))
+        return shm
+
+    monkeypatch.setattr(video_encoder, "ring_memory", recorded)
+    return made
+
+
+def _left(rings: list[str]) -> set[str]:
+    """Those of ``rings`` still in /dev/shm; asserting the list is not empty first."""
+    assert rings, "no ring was made: the test did not reach the step it is about"
+    return {name for name in rings if (SHM_DIR / name).exists()}
 
 
 def _open_fds() -> set[int]:
@@ -59,13 +77,12 @@ def test_a_full_dev_shm_is_logged_before_the_sort(tmp_path: Path) -> None:
 
 
 def test_an_encoder_process_that_cannot_start_is_logged_before_the_sort(
-    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, rings: list[str]
 ) -> None:
     """The encoder's process cannot be started (fork fails): the log's fault says the
     sort never started; one line on stderr, exit 1 (the run failed; the input was good)."""
     monkeypatch.setattr(multiprocessing.context.SpawnProcess, "start", _cannot_fork)
     root, log = tmp_path / "ds", tmp_path / "run.jsonl"
-    before = _segments()
     run = run_in_process(
         ["sort", "--config", SIM, "--random", "2", "--quiet", "--record", root,
          "--record-codec", "h264", "--log", log],
@@ -75,7 +92,7 @@ def test_an_encoder_process_that_cannot_start_is_logged_before_the_sort(
     assert run.code == 1, run.stderr  # a failure of the run, not bad input
     assert run.stderr.splitlines() == [f"mearm sort: error: {said}{os.strerror(errno.EAGAIN)})"]
     assert _faults(log) == [f"before the sort started: {said}{os.strerror(errno.EAGAIN)})"]
-    assert _segments() == before
+    assert _left(rings) == set()
 
 
 @pytest.fixture
@@ -110,29 +127,29 @@ def fds_for_the_ring_only(made_once: None) -> Iterator[None]:
 
 
 def test_out_of_file_descriptors_after_the_ring_leaves_no_segment(
-    fds_for_the_ring_only: None,
+    fds_for_the_ring_only: None, rings: list[str]
 ) -> None:
     """Out of file descriptors once the ring is made (for the pipe): an
     :class:`EncoderError` (a recording then fails as when the process cannot start), the
     segment removed and its descriptor closed."""
-    before, fds = _segments(), _open_fds()
+    fds = _open_fds()
     with pytest.raises(
         EncoderError, match=r"cannot start the video encoder process \(\[Errno 24\]"
     ):
         EncoderProcess(SHAPE, 10, "h264")
-    assert _segments() == before
+    assert _left(rings) == set()
     assert _open_fds() == fds
 
 
 def test_a_process_that_cannot_start_leaves_no_segment_and_no_pipe(
-    made_once: None, monkeypatch: pytest.MonkeyPatch
+    made_once: None, monkeypatch: pytest.MonkeyPatch, rings: list[str]
 ) -> None:
     """The process cannot be started: the same :class:`EncoderError` as before, the
     segment removed, both ends of the pipe closed, while the error is still held (the
     process's end was left to the garbage collector, kept open by the error's traceback)."""
     monkeypatch.setattr(multiprocessing.context.SpawnProcess, "start", _cannot_fork)
-    before, fds = _segments(), _open_fds()
+    fds = _open_fds()
     with pytest.raises(EncoderError, match="cannot start the video encoder process") as raised:
         EncoderProcess(SHAPE, 10, "h264")
-    assert _segments() == before
+    assert _left(rings) == set()
     assert _open_fds() == fds, raised.value
