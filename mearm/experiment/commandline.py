@@ -34,7 +34,10 @@ log already holds the trials asked for, the run says so and prints their totals.
 **Exit status.** 0 when every object of every trial in the log was sorted and no trial
 stopped early; 1 when objects were left or a trial stopped on a fault (the totals line
 ``sorted N of M objects over K trials (…reasons…)`` says why, and is repeated on
-stderr), whether in this run or in the trials it resumed; 130 on Ctrl-C; 2 on bad input.
+stderr), whether in this run or in the trials it resumed; 130 on Ctrl-C; 2 on bad input,
+a rig that does not open included: a servo port that cannot be opened, a board that does
+not answer its handshake or a camera that cannot be opened is found before the first
+trial, with nothing written (:func:`~mearm.experiment.trials.check_rig_opens`).
 """
 
 from __future__ import annotations
@@ -49,6 +52,7 @@ from typing import TYPE_CHECKING, Any
 
 from mearm import interrupts
 from mearm.cli import (
+    EXIT_BAD_INPUT,
     EXIT_FAILURE,
     ArgumentParser,
     add_config_argument,
@@ -72,7 +76,7 @@ from mearm.experiment.errors import TrialFailed
 from mearm.experiment.ordered_log import _append_in_order, open_workers
 from mearm.experiment.pool import Workers
 from mearm.experiment.resume import Resume, ready_to_append, resume_point
-from mearm.experiment.trials import Recording, run_trials
+from mearm.experiment.trials import Recording, check_rig_opens, run_trials
 from mearm.hardware.errors import ServoError
 from mearm.runlog import LogLock, RunLog, read_runlog
 from mearm.task import SortAborted, check_scene, load_scene
@@ -251,6 +255,12 @@ def _resume(
             "nothing to run"
         )
         return _verdict(args.log, args.trials)
+    try:
+        check_rig_opens(config, args.seed, resume.done, scene)  # before any trial is written
+    except (CameraError, ServoError) as exc:
+        # bad input, as for mearm sort: one line, exit 2, the log as it was
+        print(f"{_prog()}: error: {exc}", file=sys.stderr)
+        return EXIT_BAD_INPUT
     if resume.done or resume.cut_off or resume.interrupted:
         why = " and ".join(
             w

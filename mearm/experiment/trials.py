@@ -19,6 +19,7 @@ from mearm.config import Config, SceneObject
 from mearm.hardware.errors import ServoError
 from mearm.runlog import RunLog
 from mearm.task import SortAborted, random_scene, run_sort
+from mearm.task.rig import open_rig
 from mearm.task.sorter import CalibrateFirst, calibrates_at_start
 from mearm.vision.errors import CameraError
 
@@ -70,6 +71,38 @@ def plan_trial(
     if layout is None and cfg.camera.kind == "sim":
         layout = random_scene(cfg, dict.fromkeys(cfg.task.class_names, PER_CLASS), s)
     return TrialPlan(number, s, cfg, layout)
+
+
+def _opens_devices(config: Config) -> bool:
+    """Whether the rig opens a device that may not be there.
+
+    A servo board on a port, or a camera that is not simulated: a simulated part is
+    always there.
+    """
+    return config.servo.backend in ("serial", "ssc32") or config.camera.kind != "sim"
+
+
+def check_rig_opens(
+    config: Config, seed: int, number: int, scene: list[SceneObject] | None = None
+) -> None:
+    """Open the rig of trial ``number`` and close it again, where it has devices.
+
+    Each trial opens the rig itself (:func:`~mearm.task.run_sort`), which connects the
+    servo bus with the camera; a rig that does not open there is logged as a trial that
+    stopped before its sort (header, fault, summary): a trial the log holds as finished,
+    that a resumed run does not run again. A port that cannot be opened, a board that does
+    not answer its handshake or a camera that cannot be opened is bad input, found by this
+    before the log, the dataset or the first prompt is touched. Nothing moves.
+
+    Raises:
+        ServoError: the servo bus cannot be connected (e.g. a ``LinkError``).
+        CameraError: the camera cannot be opened.
+    """
+    if not _opens_devices(config):
+        return
+    plan = plan_trial(config, seed, number, scene)
+    with open_rig(plan.config, plan.layout):
+        pass
 
 
 def _calibrate_first(config: Config) -> CalibrateFirst | None:

@@ -73,7 +73,9 @@ too.
 **Objects on the table**: the camera looks once with the arm at home, and the moves keep
 clear of what it sees there, as the sort's do (``--simulate``: the table is empty).
 
-**Exits**: 0 written; 1 a fault while moving (the arm holds where it is), the marker not
+**Exits**: 0 written; 2 a servo port that cannot be opened, a board that does not answer
+its handshake or a camera that cannot be opened (found as the rig opens, before anything
+moves: one line); 1 a fault while moving (the arm holds where it is), the marker not
 seen at home nor at the first points (:data:`FIRST_FEW` looks), a fit that does not
 converge or is refused, or no way home (nothing written in each case; the arm parked
 where it can be); 130 on Ctrl-C (the arm parked first, nothing written). The arm's
@@ -88,7 +90,7 @@ import sys
 from pathlib import Path
 from typing import TextIO
 
-from mearm.cli import EXIT_FAILURE, check_output_file
+from mearm.cli import EXIT_BAD_INPUT, EXIT_FAILURE, check_output_file
 from mearm.config import Config
 from mearm.config.errors import CalibrationError
 from mearm.config.servo_file import (
@@ -311,18 +313,23 @@ def calibrate_by_camera(config: Config, output: Path, args: argparse.Namespace) 
     if args.simulate:  # the twin on an empty table
         config = config.model_copy(update={"task": config.task.model_copy(update={"scene": []})})
     out = sys.stdout
+    opened = False
     try:
-        with open_rig(config) as rig:
-            rig.bus.connect()
+        with open_rig(config) as rig:  # its bus connected, with the camera
+            opened = True
             board, port = board_text(config, rig, simulate=args.simulate)
             out.write(f"connected: {board}{' on ' + port if port else ''}\n")
             session = CameraSession(config, rig, camera, out)
             fits = measure(session, simulate=args.simulate)
-    except ServoError as exc:
-        print(f"{PROG}: servo fault: {exc}; nothing written", file=sys.stderr)
-        return EXIT_FAILURE
-    except CameraError as exc:  # the camera did not open
-        print(f"{PROG}: camera: {exc}; nothing written", file=sys.stderr)
+    except (ServoError, CameraError) as exc:
+        if not opened:
+            # a port that cannot be opened, a board that does not answer its handshake or
+            # a camera that cannot be opened, found before anything moved: bad input, said
+            # whole in one line (the port's hint ends it), as mearm sort says it
+            print(f"{PROG}: error: {exc}", file=sys.stderr)
+            return EXIT_BAD_INPUT
+        what = "servo fault" if isinstance(exc, ServoError) else "camera"
+        print(f"{PROG}: {what}: {exc}; nothing written", file=sys.stderr)
         return EXIT_FAILURE
     except CameraCalibrationFailed as exc:
         print(f"{PROG}: {exc}; nothing written", file=sys.stderr)

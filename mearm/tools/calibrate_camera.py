@@ -105,6 +105,9 @@ MAX_POSE_RMS_PX = 5.0
 #: ten times what the homography reached on the twin's tilted, distorting camera
 #: (0.054 cm, docs/calibration.md): above it a marker is mistyped or the side is wrong.
 MAX_HOMOGRAPHY_RMS_CM = 0.5
+#: Largest turn of a marker on the table, in a marker fit, from lying with its top edge
+#: towards +y [deg]: halfway to a quarter turn, the nearest other way a square marker lies.
+MAX_MARKER_TURN_DEG = 45.0
 #: Tallest support of the raised view [cm]: the camera must see its markers whole.
 MAX_RAISED_HEIGHT_CM = 100.0
 #: Fewest markers on the raised support: spread along x and y.
@@ -545,6 +548,8 @@ def _fit_homography(
             frame, centers, side_cm=args.marker_side_cm, dictionary=args.dictionary
         )
         _refuse_mirrored(calibration, centers)
+        found = find_markers(frame, centers, args.dictionary)
+        _refuse_turned(calibration, {i: found[i] for i in centers})
         corners = " and corners" if args.marker_side_cm else ""
         n_pairs = len(centers) * (5 if args.marker_side_cm else 1)
         how = f"{len(centers)} ArUco marker centres{corners} in {args.image.name}"
@@ -580,6 +585,62 @@ def _refuse_mirrored(calibration: Calibration, centers: dict[int, tuple[float, f
             "markers cannot be: --marker ids are swapped (left for right, or near for far); "
             "nothing written"
         )
+
+
+def marker_turns_deg(calibration: Calibration, found: dict[int, np.ndarray]) -> dict[int, float]:
+    """How far each marker lies turned on the table in ``calibration``'s map [deg].
+
+    0 for a marker lying as :func:`~mearm.vision.aruco.table_corners_cm` has it, its top
+    edge towards +y; positive anticlockwise seen from above, within ±180.
+
+    Args:
+        calibration: The fitted pixel → table map.
+        found: Marker id → its corners in the picture, in ArUco's order (TL, TR, BR, BL).
+    """
+    turns: dict[int, float] = {}
+    for marker_id, corners in found.items():
+        tl, tr, br, bl = calibration.pixel_to_table(corners)
+        right = (tr - tl) + (br - bl)  # along +x, laid as it should be
+        up = (tl - bl) + (tr - br)  # along +y
+        along_x = right + np.array([up[1], -up[0]])  # up turned back a quarter: +x too
+        turns[marker_id] = float(np.degrees(np.arctan2(along_x[1], along_x[0])))
+    return turns
+
+
+def _refuse_turned(calibration: Calibration, found: dict[int, np.ndarray]) -> None:
+    """Refuse a marker fit in which the markers do not lie with their top edge towards +y.
+
+    ArUco reads each marker's corners in its own order (TL, TR, BR, BL), so a marker's
+    picture says which way it lies, whatever the camera's turn; mapped by the fit, the
+    top edge of each must face +y, as the markers are laid. Ids swapped diagonally (0 for
+    2 and 1 for 3 of a rectangle) turn the fit half a turn, which keeps its orientation
+    (so :func:`_refuse_mirrored` passes it) and, with only the centres, fits exactly.
+
+    Args:
+        calibration: The fitted pixel → table map.
+        found: Marker id → its corners in the picture (ArUco's order), every --marker's.
+
+    Raises:
+        CalibrationError: a marker lies turned more than :data:`MAX_MARKER_TURN_DEG`.
+    """
+    turns = marker_turns_deg(calibration, found)
+    turned = {i: t for i, t in sorted(turns.items()) if abs(t) > MAX_MARKER_TURN_DEG}
+    if not turned:
+        return
+    if len(turned) == len(turns) and all(
+        abs(t) > 180.0 - MAX_MARKER_TURN_DEG for t in turned.values()
+    ):
+        raise CalibrationError(
+            "the fit turns the picture half a turn on the table: every marker's top edge "
+            "would face -y (towards the robot): --marker ids are swapped diagonally (e.g. "
+            "0 for 2 and 1 for 3), or the markers lie upside down; nothing written"
+        )
+    listed = ", ".join(f"marker {i} by {t:+.0f} deg" for i, t in turned.items())
+    raise CalibrationError(
+        f"the fit has markers turned from lying with their top edge towards +y ({listed}): "
+        "a --marker position belongs to another id, or a marker is not laid top edge "
+        "towards +y; nothing written"
+    )
 
 
 def _write_config(
