@@ -18,7 +18,11 @@ filled box); with several images the i-th (from 0, in the order given) goes to
 ``OUT-i.png``. A missing or
 unreadable image stops the run before anything is printed: exit 2 with one line on
 stderr. An image of another size than the calibration's, or with no colour (a grayscale
-one), is read with a one-line warning on stderr.
+one), is read with a one-line warning on stderr. A ``vision.work_area_px`` polygon is
+checked against each frame's size (:func:`~mearm.vision.work_area.check_work_area`): one
+with no pixel in a frame stops the run the same way (nothing could be found there), and
+one that leaves out most of a frame while lying mostly outside it (drawn on frames of
+another size: a config taught on a photo, used on the camera) is named in a warning.
 """
 
 from __future__ import annotations
@@ -46,23 +50,26 @@ from mearm.vision.detector import ColorDetector, Detection
 from mearm.vision.errors import ImageError
 from mearm.vision.image import quiet_opencv, read_image
 from mearm.vision.shapes import touches_border
+from mearm.vision.work_area import check_work_area
 
 #: Decoded frames kept between checking every image and detecting in each [px]; the
 #: images past it are decoded twice (checked, dropped, read again) to bound the memory.
 KEEP_PIXELS = 100_000_000
 
 
-def _read_all(paths: Sequence[Path]) -> list[tuple[str, np.ndarray | None]]:
+def _read_all(paths: Sequence[Path]) -> list[tuple[str, np.ndarray | None, tuple[int, int]]]:
     """Decode every image, so a bad one stops the run before any output.
 
-    The first :data:`KEEP_PIXELS` worth of frames are kept; ``None`` stands for the rest.
+    Each as its name, the frame, and its (width, height) [px]. The first
+    :data:`KEEP_PIXELS` worth of frames are kept; ``None`` stands for the rest.
     """
-    out: list[tuple[str, np.ndarray | None]] = []
+    out: list[tuple[str, np.ndarray | None, tuple[int, int]]] = []
     kept = 0
     for path in paths:
         frame = read_image(path)
-        kept += frame.shape[0] * frame.shape[1]
-        out.append((str(path), frame if kept <= KEEP_PIXELS else None))
+        h, w = frame.shape[:2]
+        kept += w * h
+        out.append((str(path), frame if kept <= KEEP_PIXELS else None, (w, h)))
     return out
 
 
@@ -72,8 +79,13 @@ def has_colour(frame: np.ndarray) -> bool:
     return not (np.array_equal(b, g) and np.array_equal(g, r))
 
 
-def _warn_if_odd(name: str, frame: np.ndarray, expected: tuple[int, int]) -> None:
-    """One line on stderr for a frame that is read but whose result is not to be trusted."""
+def _warn_if_odd(
+    name: str, frame: np.ndarray, expected: tuple[int, int], area_note: str | None = None
+) -> None:
+    """One line on stderr for a frame that is read but whose result is not to be trusted.
+
+    ``area_note``: how the work area fits the frame (:func:`_work_area_notes`), if amiss.
+    """
     h, w = frame.shape[:2]
     if (w, h) != expected:
         print(
@@ -87,6 +99,22 @@ def _warn_if_odd(name: str, frame: np.ndarray, expected: tuple[int, int]) -> Non
             "so no colour class can be found in it",
             file=sys.stderr,
         )
+    if area_note is not None:
+        print(f"warning: {area_note}", file=sys.stderr)
+
+
+def _work_area_notes(
+    polygon_px: Sequence[tuple[float, float]] | None,
+    frames: Sequence[tuple[str, np.ndarray | None, tuple[int, int]]],
+) -> list[str | None]:
+    """Per frame, a warning about how the work area fits it (``None``: it fits).
+
+    Raises:
+        ConfigError: the work area has no pixel in one of the frames (before any output).
+    """
+    if polygon_px is None:
+        return [None] * len(frames)
+    return [check_work_area(polygon_px, size, name) for name, _, size in frames]
 
 
 def annotation_paths(out: Path, count: int) -> list[Path]:
@@ -257,18 +285,20 @@ def main(argv: Sequence[str] | None = None) -> int:  # noqa: PLR0912 (one branch
         config.vision, config.calibration, config.camera, config.task.classes, geometry=calibration
     )
 
-    frames: list[tuple[str, np.ndarray | None]]
+    frames: list[tuple[str, np.ndarray | None, tuple[int, int]]]
     if args.camera:
-        frames = [("camera", grab_frame(config))]
+        grabbed = grab_frame(config)
+        frames = [("camera", grabbed, (grabbed.shape[1], grabbed.shape[0]))]
     else:
         frames = _read_all(args.images)  # all readable, or exit 2 before any output
+    area_notes = _work_area_notes(config.vision.work_area_px, frames)
 
     expected = (config.camera.width_px, config.camera.height_px)
     width = max(len(name) for name in config.task.class_names)
     outs = annotation_paths(args.annotate, len(frames)) if args.annotate else []
-    for i, (name, kept) in enumerate(frames):
+    for i, (name, kept, _) in enumerate(frames):
         frame = kept if kept is not None else read_image(Path(name))
-        _warn_if_odd(name, frame, expected)
+        _warn_if_odd(name, frame, expected, area_notes[i])
         detections = detector.detect(frame)
         records = to_records(detections, frame.shape)
         if args.json:

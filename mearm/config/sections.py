@@ -4,7 +4,14 @@ from __future__ import annotations
 
 from typing import Annotated, Any, Literal
 
-from pydantic import Field, ValidationError, field_validator, model_validator
+from pydantic import (
+    Field,
+    ValidationError,
+    ValidatorFunctionWrapHandler,
+    field_serializer,
+    field_validator,
+    model_validator,
+)
 
 from mearm.config.base import (
     MAX_ANGLE_DEG,
@@ -169,6 +176,15 @@ PixelPoint = tuple[
     Annotated[float, Field(ge=-MAX_FRAME_SIDE_PX, le=2 * MAX_FRAME_SIDE_PX, allow_inf_nan=False)],
     Annotated[float, Field(ge=-MAX_FRAME_SIDE_PX, le=2 * MAX_FRAME_SIDE_PX, allow_inf_nan=False)],
 ]
+#: ``vision.work_area_px: whole_frame``: the work area is every pixel of the frame.
+WHOLE_FRAME = "whole_frame"
+#: What ``whole_frame`` is held as: a square from the origin past the largest image mearm
+#: reads (65,535 px a side, :data:`mearm.vision.image.MAX_IMAGE_SIDE_PX`), so that every
+#: user of the polygon (the detector, the benches) covers the whole frame with no case of
+#: its own; a config's dump writes it back as ``whole_frame``.
+WHOLE_FRAME_PX: list[tuple[float, float]] = [
+    (0.0, 0.0), (65536.0, 0.0), (65536.0, 65536.0), (0.0, 65536.0)
+]  # fmt: skip
 
 
 class VisionConfig(Strict):
@@ -199,9 +215,39 @@ class VisionConfig(Strict):
     so that its own median matches it before any class is classified, which undoes the
     camera's white balance and exposure; ``null``: frames as they come."""
     work_area_px: Annotated[list[PixelPoint], Field(min_length=3, max_length=64)] | None = None
-    """Where objects can be: a polygon (u, v) [px] in the camera's frame; nothing outside
-    it is detected; ``null``: the whole frame. ``mearm learn-colours`` writes the table's
-    outline it finds, or the polygon given with ``--work-area``."""
+    """Where objects can be: a polygon (u, v) [px] in the pixels of the frames detected in
+    (the camera's: ``camera.width_px`` × ``camera.height_px``), clipped to the frame;
+    nothing outside it is detected. ``whole_frame``: every pixel of the frame, whatever the
+    config it extends says. ``null``: with a perspective calibration the calibrated table's
+    outline, else the whole frame. ``mearm learn-colours`` writes the table's outline it
+    finds, the polygon given with ``--work-area``, or ``whole_frame`` (``--whole-frame``, or
+    no table found). ``mearm detect`` refuses a polygon with no pixel in a frame and warns
+    when one leaves out most of a frame while most of it lies outside (drawn on frames of
+    another size)."""
+
+    @field_validator("work_area_px", mode="wrap")
+    @classmethod
+    def _whole_frame(
+        cls, value: Any, handler: ValidatorFunctionWrapHandler
+    ) -> list[tuple[float, float]] | None:
+        # whole_frame's polygon reaches past the points' bounds: not validated as one
+        if isinstance(value, str):
+            if value != WHOLE_FRAME:
+                raise ValueError(
+                    f"expected a polygon [[u, v], ...] of 3 to 64 points, {WHOLE_FRAME} or null"
+                )
+            return list(WHOLE_FRAME_PX)
+        held = isinstance(value, list) and all(isinstance(p, tuple) for p in value)
+        if held and value == WHOLE_FRAME_PX:  # as held: a config's fields revalidate as they are
+            return list(WHOLE_FRAME_PX)
+        polygon: list[tuple[float, float]] | None = handler(value)
+        return polygon
+
+    @field_serializer("work_area_px")
+    def _write_whole_frame(
+        self, polygon: list[tuple[float, float]] | None
+    ) -> list[tuple[float, float]] | str | None:
+        return WHOLE_FRAME if polygon == WHOLE_FRAME_PX else polygon
 
     @model_validator(mode="after")
     def _shadow_below_value(self) -> VisionConfig:

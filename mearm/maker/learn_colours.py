@@ -6,7 +6,11 @@ a*b* plane with a lightness range, on frames white-balanced against the table. T
 config extends the old one with the learned colours, the table's median colour (each
 frame is balanced to it: a lamp or the camera's auto white balance does not move the
 colours) and the work area (the table's outline found around the samples, or
-``--work-area``); ``mearm detect --config NEW.yaml`` uses them. ::
+``--work-area``; ``whole_frame`` with ``--whole-frame`` or when no table is found, so that
+no polygon of the config extended is kept); ``mearm detect --config NEW.yaml`` uses them.
+The work area is in the first image's pixels: when its size is not the config's camera's
+(``camera.width_px`` × ``camera.height_px``) and it does not cover the camera's whole
+frame, a warning line says how much of it it covers. ::
 
     mearm learn-colours frame.png --sample red=212,340 --sample blue=400,236 \
         --config sim --out mine.yaml
@@ -21,12 +25,12 @@ new config carries each value set. ``--work-area`` points may lie past the frame
 -4096 to 8192 px; ``--work-area -5,3 ...`` and ``--work-area=-5,3 ...`` alike): the
 polygon is clipped to it.
 
-Refused (exit 2, one line): a sample outside its image, a class the config does not
-have, two classes sampled on one colour or one class on two, a sample on a grey or black
-pixel or on the table's colour, a first image with no table around the samples, a
-``--work-area`` with no area, with a point out of that range or with none of a class's
-samples in it, and an ``--out`` that is the ``--config`` or one of the images (even with
-``--force``).
+Refused (exit 2, one line; a sample quoted as typed): a sample outside its image, a
+class the config does not have, two classes sampled on one colour or one class on two, a
+sample on a grey or black pixel or on the table's colour, a first image with no table
+around the samples, a ``--work-area`` with no area, with a point out of that range or
+with none of a class's samples in it, and an ``--out`` that is the ``--config`` or one of
+the images (even with ``--force``).
 """
 
 from __future__ import annotations
@@ -56,12 +60,13 @@ from mearm.config import Config
 from mearm.config.compose import merge
 from mearm.config.files import load_config, resolve_config_path
 from mearm.config.loader import config_from_dict, parse_override
-from mearm.config.sections import MAX_FRAME_SIDE_PX
+from mearm.config.sections import MAX_FRAME_SIDE_PX, WHOLE_FRAME
 from mearm.errors import MearmError
 from mearm.fileio import file_identity
 from mearm.vision.calibration import object_width_px
 from mearm.vision.image import read_image
 from mearm.vision.teaching import TABLE_MIN_SHARE, Sample, Taught, teach
+from mearm.vision.work_area import enclosed_px2, pixels_inside
 from mearm.yamlio import load_yaml_text
 
 #: ASCII digits only: ``\d`` matches other scripts' digits too (``@١`` read as image 1).
@@ -80,7 +85,7 @@ def parse_sample(text: str) -> Sample:
     u, v = float(m.group(2)), float(m.group(3))
     if not (math.isfinite(u) and math.isfinite(v)):
         raise ValueError(f"--sample {text!r}: U and V must be finite pixels")
-    return Sample(m.group(1), u, v, int(m.group(4) or 0))
+    return Sample(m.group(1), u, v, int(m.group(4) or 0), typed=text.strip())
 
 
 def parse_point(text: str) -> tuple[float, float]:
@@ -202,11 +207,15 @@ def learned_yaml(base: str, taught: Taught, settings: dict[str, Any] | None = No
     """The new config's data: ``extends`` the old one, with what was learned.
 
     ``settings`` (:func:`set_values`: what ``--set`` changed) come first; what was
-    learned is merged over them.
+    learned is merged over them. No work area taught is ``whole_frame``, not nothing: the
+    reference colour is the whole frame's, and the config extended may hold a polygon (or
+    ``null``, the table's outline under a perspective calibration).
     """
     vision: dict[str, Any] = {"reference_bgr": [round(v, 2) for v in taught.reference_bgr]}
-    if taught.work_area_px is not None:
-        vision["work_area_px"] = [[round(u, 1), round(v, 1)] for u, v in taught.work_area_px]
+    area = taught.work_area_px
+    vision["work_area_px"] = (
+        WHOLE_FRAME if area is None else [[round(u, 1), round(v, 1)] for u, v in area]
+    )
     classes = {}
     for name, m in taught.colours.items():
         classes[name] = {
@@ -283,7 +292,11 @@ def _parser() -> ArgumentParser:
         metavar="U,V",
         help="the work area's polygon in pixels, clipped to the frame (default: the table found)",
     )
-    parser.add_argument("--whole-frame", action="store_true", help="no work area: the whole frame")
+    parser.add_argument(
+        "--whole-frame",
+        action="store_true",
+        help="the work area is the whole frame (work_area_px: whole_frame)",
+    )
     return parser
 
 
@@ -306,19 +319,12 @@ def _checked_arguments(
         parser.error(str(exc))
     if area is not None and len(area) < 3:
         parser.error(f"--work-area needs at least 3 points, got {len(area)}")
-    if area is not None and _enclosed_px2(area) < 1.0:
+    if area is not None and enclosed_px2(area) < 1.0:
         parser.error(
-            f"--work-area encloses {_enclosed_px2(area):g} px² (its points lie on one line): "
+            f"--work-area encloses {enclosed_px2(area):g} px² (its points lie on one line): "
             "give the corners of the area around the objects"
         )
     return samples, area
-
-
-def _enclosed_px2(polygon: Sequence[tuple[float, float]]) -> float:
-    """The area a polygon (u, v) encloses [px²] (the shoelace formula)."""
-    u = np.array([p[0] for p in polygon])
-    v = np.array([p[1] for p in polygon])
-    return float(abs(np.dot(u, np.roll(v, -1)) - np.dot(v, np.roll(u, -1))) / 2.0)
 
 
 def _check_samples(
@@ -403,6 +409,31 @@ def frame_object_px(config: Config, shape: Sequence[int]) -> float:
     return width * math.sqrt((w / camera.width_px) * (h / camera.height_px))
 
 
+def _warn_if_another_size(
+    taught: Taught, config: Config, size_px: tuple[int, int], source: str
+) -> None:
+    """One line on stderr when the work area is not in the camera's pixels.
+
+    The polygon is in the first frame's pixels (``size_px``, (width, height)); the
+    config's camera gives frames of ``camera.width_px`` × ``camera.height_px`` (and refuses
+    any other), where the polygon keeps other pixels unless it covers them all: taught on
+    a photo, a config used on the camera saw nothing outside that part and said nothing.
+    """
+    camera = (config.camera.width_px, config.camera.height_px)
+    if taught.work_area_px is None or size_px == camera:
+        return
+    share = pixels_inside(taught.work_area_px, camera) / (camera[0] * camera[1])
+    if share == 1.0:
+        return
+    print(
+        f"warning: vision.work_area_px is in the pixels of {source} ({size_px[0]}x{size_px[1]} "
+        f"px), but the config's camera gives {camera[0]}x{camera[1]} px frames "
+        f"(camera.width_px, camera.height_px), of which it covers {share:.0%}: to detect on "
+        "the camera, teach on its frames (--camera) or give --whole-frame",
+        file=sys.stderr,
+    )
+
+
 def _print_taught(taught: Taught, *, whole_frame: bool) -> None:
     """One line per learned colour, then the table's colour and the work area.
 
@@ -454,7 +485,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
     import yaml
 
-    said = f"{' '.join(sources)}; samples {' '.join(map(str, samples))}"
+    sizes = " ".join(
+        f"{src} ({f.shape[1]}x{f.shape[0]} px)" for src, f in zip(sources, frames, strict=True)
+    )
+    said = f"{sizes}; samples {' '.join(map(str, samples))}"
     said += "".join(f"; --set {s}" for s in args.set)
     said = said if said.isprintable() else repr(said)  # a line break would end the comment
     text = f"# mearm learn-colours: {said}\n" + yaml.safe_dump(
@@ -471,6 +505,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     config_from_dict(data, source=str(args.out), path=args.out)
     write_text_atomic(args.out, text)
     load_config(args.out)  # and its calibration files are found from there
+    first = (frames[0].shape[1], frames[0].shape[0])
+    _warn_if_another_size(taught, config, first, sources[0])
     _print_taught(taught, whole_frame=args.whole_frame)
     print(f"wrote {args.out}")
     return 0

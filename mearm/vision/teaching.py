@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import cv2
 import numpy as np
@@ -55,15 +55,21 @@ class Sample:
         u_px: Column from the left [px].
         v_px: Row from the top [px].
         image: Which of the frames it is on (0 for the first).
+        typed: The ``--sample`` as the user typed it (``''``: a click); messages quote
+            it, so that ``red=212.0,340@1`` is not shown as ``red=212,340``.
     """
 
     name: str
     u_px: float
     v_px: float
     image: int = 0
+    typed: str = field(default="", compare=False)
 
     def __str__(self) -> str:
-        return f"{self.name}={self.u_px:g},{self.v_px:g}"
+        if self.typed:
+            return self.typed
+        on = f"@{self.image}" if self.image else ""
+        return f"{self.name}={self.u_px:g},{self.v_px:g}{on}"
 
 
 @dataclass(frozen=True)

@@ -1,4 +1,4 @@
-"""The work area by default: the calibrated table's outline seen by a calibrated camera.
+"""The work area: by default the calibrated table's outline; a given one, fitted to a frame.
 
 Objects can only be on the table. The table the rig was calibrated on is the
 calibrated field (the frame's corners mapped by the calibration's ``homography`` onto the
@@ -6,6 +6,10 @@ table, as the twin builds its table) and the classes' bins beside it; with a per
 calibration its outline is those corners on the table plane projected into the frame
 (:meth:`~mearm.vision.pinhole.PerspectiveCamera.table_to_pixel`), their convex hull
 clipped to the frame. Outside it lie the arm's base, the room and the table's edge.
+
+A polygon given in ``vision.work_area_px`` is in the pixels of the frames it was drawn
+on; on frames of another size (a config taught on a photo, used on the camera) it may
+leave out most of the frame or all of it: :func:`check_work_area` says so.
 """
 
 from __future__ import annotations
@@ -17,9 +21,11 @@ import numpy as np
 import numpy.typing as npt
 
 from mearm.config import CalibrationConfig, CameraConfig, ColorClass, VisionConfig
+from mearm.errors import ConfigError
 from mearm.kinematics.bodies import bin_half_outer_m
 from mearm.kinematics.chain import M_PER_CM
 from mearm.vision.calibration import CameraGeometry
+from mearm.vision.learned import area_mask
 from mearm.vision.pinhole import PerspectiveCamera
 
 
@@ -76,3 +82,68 @@ def default_work_area(
         return None
     corners = table_corners_cm(calibration, camera, classes)
     return outline_px(geometry, corners, (camera.width_px, camera.height_px))
+
+
+#: A work area leaving out more than this share of a frame, with more than this share of
+#: its own area outside the frame, was drawn on frames of another size (a small table
+#: seen whole lies inside the frame; a polygon reaching past the frame to take in its
+#: edges covers nearly all of it).
+DRAWN_ELSEWHERE_SHARE = 0.5
+
+
+def enclosed_px2(polygon_px: Sequence[tuple[float, float]]) -> float:
+    """The area a polygon (u, v) encloses [px²] (the shoelace formula)."""
+    u = np.array([p[0] for p in polygon_px], dtype=float)
+    v = np.array([p[1] for p in polygon_px], dtype=float)
+    return float(abs(np.dot(u, np.roll(v, -1)) - np.dot(v, np.roll(u, -1))) / 2.0)
+
+
+def pixels_inside(polygon_px: Sequence[tuple[float, float]], size_px: tuple[int, int]) -> int:
+    """How many pixels of a frame of ``size_px`` (width, height) the polygon keeps."""
+    w, h = size_px
+    return int(cv2.countNonZero(area_mask(polygon_px, (h, w))))
+
+
+def check_work_area(
+    polygon_px: Sequence[tuple[float, float]], size_px: tuple[int, int], frame: str
+) -> str | None:
+    """How a work-area polygon fits a frame: a warning line, or ``None`` when it fits.
+
+    The frame's pixels inside the polygon are the ones detection keeps
+    (:func:`~mearm.vision.learned.area_mask`). None of them: nothing can ever be detected
+    in such frames, so the polygon is refused. Under :data:`DRAWN_ELSEWHERE_SHARE` of the
+    frame while most of the polygon lies outside it: the polygon was drawn on frames of
+    another size, and objects in the rest of the frame are never seen; a warning.
+
+    Args:
+        polygon_px: ``vision.work_area_px``.
+        size_px: The frame's (width, height) [px].
+        frame: The frame, for messages (an image's path, ``camera``).
+
+    Raises:
+        ConfigError: no pixel of the frame lies in the polygon.
+    """
+    w, h = size_px
+    inside = pixels_inside(polygon_px, size_px)
+    u = [p[0] for p in polygon_px]
+    v = [p[1] for p in polygon_px]
+    where = f"vision.work_area_px (u {min(u):g} to {max(u):g}, v {min(v):g} to {max(v):g} px) "
+    if inside == 0:
+        raise ConfigError(
+            None,
+            [
+                f"{where}has no pixel in {frame}'s {w}x{h} px frame, so nothing can be "
+                "detected there: it was drawn on frames of another size? teach the colours "
+                "again on these frames (mearm learn-colours), or give a polygon in their "
+                "pixels or whole_frame"
+            ],
+        )
+    covered = inside / (w * h)
+    own = max(enclosed_px2(polygon_px), 1.0)
+    if covered < DRAWN_ELSEWHERE_SHARE and inside / own < DRAWN_ELSEWHERE_SHARE:
+        return (
+            f"{where}covers {covered:.0%} of {frame}'s {w}x{h} px frame and lies mostly "
+            "outside it (drawn on frames of another size?): objects elsewhere in the frame "
+            "are never detected"
+        )
+    return None
