@@ -12,6 +12,15 @@ import logging
 import os
 import sys
 
+# Run as a program (python -m mearm.sort), a module imports what it needs before its main
+# runs under the guard every command shares (mearm.cli.run): a Ctrl-C there is one line
+# and exit 130 too, not Python's traceback. Only then: a program that imports mearm keeps
+# Python's own handling (mearm.interrupts.guard_program_start).
+if sys.argv[:1] == ["-m"]:  # Python's mark while it imports the packages of a -m module
+    from mearm.interrupts import guard_program_start
+
+    guard_program_start()
+
 # MuJoCo picks its OpenGL backend when it is first imported: without a display, render
 # offscreen with Mesa's EGL (the physical twin's camera) unless the user chose one.
 if sys.platform.startswith("linux") and not os.environ.get("DISPLAY"):

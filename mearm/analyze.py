@@ -34,7 +34,6 @@ from typing import Any
 import numpy as np
 
 from mearm.cli import (
-    EXIT_BAD_INPUT,
     ArgumentParser,
     add_config_argument,
     config_from_args,
@@ -116,21 +115,27 @@ def _parser() -> ArgumentParser:
     return parser
 
 
-def _extras_installed(prog: str, *, plots: bool) -> bool:
-    """Whether SciPy (and Matplotlib, for ``plots``) import; if not, say so on stderr."""
+def _require_extras(*, plots: bool) -> None:
+    """Refuse (exit 2) in one line unless SciPy (and Matplotlib, for ``plots``) import.
+
+    Raised from the ImportError, not printed here: :func:`mearm.cli.run` knows an
+    ImportError a Ctrl-C turned into one (a C extension that was initialising,
+    :func:`mearm.interrupts.hidden_in`) by the error's context, and ends it as the
+    interruption it is, exit 130, not as a package that is not installed.
+
+    Raises:
+        MearmError: SciPy or Matplotlib is not installed.
+    """
     try:
         import scipy  # noqa: F401
 
         if plots:
             import matplotlib  # noqa: F401
     except ImportError as exc:
-        print(
-            f"{prog}: error: {exc.name or 'SciPy or Matplotlib'} is not installed "
-            "(analyze needs SciPy, and Matplotlib for --out): pip install 'mearm[analysis]'",
-            file=sys.stderr,
-        )
-        return False
-    return True
+        raise MearmError(
+            f"{exc.name or 'SciPy or Matplotlib'} is not installed (analyze needs SciPy, "
+            "and Matplotlib for --out): pip install 'mearm[analysis]'"
+        ) from None
 
 
 def _read_log(path: Path, *, strict: bool) -> RunLogContents:
@@ -253,8 +258,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         )
     if args.out is not None:
         _check_out_files(args)
-    if not _extras_installed(parser.prog, plots=args.out is not None):
-        return EXIT_BAD_INPUT
+    _require_extras(plots=args.out is not None)
 
     from mearm.analysis.run_analysis import analyze, jsonable, to_json
     from mearm.analysis.tables import analysis_tables, gain_table, render_text

@@ -15,20 +15,33 @@ that moves the arm takes them as Ctrl-C inside :func:`stop_signals_as_ctrl_c`: t
 :class:`Terminated`, a :class:`KeyboardInterrupt`, so the arm parks and the log says why,
 and the command exits 128 + the signal's number (143 for SIGTERM), as the shell reports
 a process that signal ended.
+
+Run as a program (``python -m mearm.sort``), a module imports what it needs before its
+``main`` runs under the guard every command shares (:func:`mearm.cli.run`): a Ctrl-C
+there is one line and exit 130 too (:func:`guard_program_start`, which ``import mearm``
+calls then, and only then). A Ctrl-C while the interpreter shuts down after the command
+chose its exit status does not change that status (:func:`clear_python_exit_by_signal`).
+A block that must not be cut in two (renames that swap one set of files for another,
+freeing a GL context) takes Ctrl-C and the stop signals after it
+(:func:`signals_deferred`).
 """
 
 from __future__ import annotations
 
 import _thread
+import atexit
 import contextlib
 import os
 import signal
 import sys
 import threading
 import time
-from collections.abc import Iterator
-from types import FrameType
+from collections.abc import Callable, Iterator
+from types import FrameType, TracebackType
 from typing import Any
+
+#: What :data:`sys.excepthook` is called with: the type, the exception, its traceback.
+ExceptHook = Callable[[type[BaseException], BaseException, TracebackType | None], Any]
 
 #: How long after a lost Ctrl-C it is sent again [s].
 RESEND_AFTER_S = 0.02
@@ -37,6 +50,8 @@ RESEND_AFTER_S = 0.02
 STOP_SIGNALS: tuple[signal.Signals, ...] = tuple(
     getattr(signal, name) for name in ("SIGTERM", "SIGHUP") if hasattr(signal, name)
 )
+#: The signals :func:`signals_deferred` takes after its block: Ctrl-C and the stop signals.
+DEFERRED_SIGNALS: tuple[signal.Signals, ...] = (signal.SIGINT, *STOP_SIGNALS)
 #: The stop signals received in this process, in order.
 _received: list[int] = []
 #: The stop signals taken as Ctrl-C now (inside :func:`stop_signals_as_ctrl_c`).
@@ -90,7 +105,7 @@ def hidden_in(exc: BaseException) -> bool:
 
 
 def clear_python_exit_by_signal() -> None:
-    """Let the process end with the status the command chose, after a Ctrl-C it handled.
+    """Let the process end with the status the command chose: after a Ctrl-C it handled, too.
 
     CPython marks a KeyboardInterrupt that escapes an ``exec``/``eval`` of a string, and a
     ``python -m`` run so marked ends by SIGINT (status -2 to a parent process, no matter
@@ -98,8 +113,93 @@ def clear_python_exit_by_signal() -> None:
     ``dataclasses`` and ``collections.namedtuple`` build their methods that way, so a
     Ctrl-C while a command's modules are imported often lands in one. The mark is
     cleared by the next string that is evaluated without one.
+
+    A Ctrl-C while the interpreter then shuts down (MuJoCo's renderers and their EGL
+    contexts are freed there: a tenth of a second or more after a render) would end the
+    process by SIGINT too: Python puts the signal's default action back before it frees
+    what is left. So it is ignored from the start of the shutdown
+    (:func:`_keep_exit_status`).
     """
     eval("None")  # a constant; only evaluating a string clears the mark
+    _keep_exit_status()
+
+
+def _keep_exit_status() -> None:
+    """Ignore Ctrl-C from when the interpreter starts to shut down, this process's work done.
+
+    At the first of the exit functions (:mod:`atexit` calls the one registered last
+    first; registered again, it is last again), not at once: a caller that goes on after
+    :class:`SystemExit` (a test running a command in its own process) keeps its Ctrl-C.
+    Only an ignored signal outlasts the shutdown: Python sets the default action back
+    for one it handles, and a Ctrl-C then ends the process by SIGINT. A Ctrl-C while
+    Python still waits for the threads to end, before the exit functions, stops that
+    wait as it always did, and the status stays: the hook of :func:`install` sends it
+    again :data:`RESEND_AFTER_S` later, when the exit functions have begun to ignore it.
+    """
+    atexit.unregister(_ignore_ctrl_c)
+    atexit.register(_ignore_ctrl_c)
+
+
+def _ignore_ctrl_c() -> None:
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+def module_run_as_program() -> str | None:
+    """The module ``python -m`` is about to run, while it imports that module's packages.
+
+    Python sets ``sys.argv[0]`` to ``"-m"`` while it locates the module (as its
+    documentation of ``-m`` says) and keeps the command line as it was given in
+    ``sys.orig_argv``, where the module's name comes right before the program's own
+    arguments, after ``-m`` or joined to it (``-mmearm.sort``, ``-Im mearm.sort``).
+    ``None`` at any other time, and in a process that is not a ``python -m`` run.
+    """
+    if sys.argv[:1] != ["-m"] or len(sys.orig_argv) <= len(sys.argv):
+        return None
+    given = sys.orig_argv[len(sys.orig_argv) - len(sys.argv)]
+    return given.partition("m")[2] if given.startswith("-") else given
+
+
+def guard_program_start() -> None:
+    """Make a Ctrl-C before ``python -m mearm.X``'s main runs one line and exit 130.
+
+    ``python -m mearm.sort`` imports the package ``mearm`` first, then runs
+    ``mearm/sort.py``, whose imports (pydantic's schemas, OpenCV, MuJoCo: its first half
+    second) come before its ``main`` runs under :func:`mearm.cli.run`. A Ctrl-C there
+    printed Python's traceback and ended the process by SIGINT. Called by ``import
+    mearm`` while such a run imports it, this puts a hook in :data:`sys.excepthook` that
+    takes a KeyboardInterrupt that no one caught, or one a library made an error of
+    (:func:`hidden_in`), as :func:`mearm.cli.run` does: ``python -m mearm.sort:
+    interrupted`` and exit 130. Every other error goes to the hook before. It does
+    nothing when the module run is not mearm's, so a program that imports mearm keeps
+    Python's own handling.
+    """
+    name = module_run_as_program()
+    if name is None or name.partition(".")[0] != "mearm":
+        return
+    name = name.removesuffix(".__main__")
+    prog = "mearm" if name == "mearm" else f"python -m {name}"
+    sys.excepthook = _interrupted_hook(prog, sys.excepthook)
+
+
+def _interrupted_hook(prog: str, previous: ExceptHook) -> ExceptHook:
+    """A :data:`sys.excepthook` that ends a Ctrl-C as :func:`mearm.cli.run` does.
+
+    The :class:`SystemExit` it raises is the process's exit: CPython exits with the code
+    of one its excepthook raises (``PyErr_PrintEx``), after the usual shutdown, not by
+    SIGINT as after a KeyboardInterrupt it printed itself.
+    """
+
+    def hook(exc_type: type[BaseException], exc: BaseException, tb: TracebackType | None) -> None:
+        if not (isinstance(exc, KeyboardInterrupt) or hidden_in(exc)):
+            previous(exc_type, exc, tb)
+            return
+        if sys.stderr is not None:
+            with contextlib.suppress(OSError, ValueError):  # no stderr to say it on
+                print(f"{prog}: interrupted", file=sys.stderr, flush=True)
+        _keep_exit_status()
+        raise SystemExit(exit_status())
+
+    return hook
 
 
 def taken_as_ctrl_c() -> tuple[int, ...]:
@@ -157,6 +257,45 @@ def stop_signals_as_ctrl_c() -> Iterator[None]:
         for sig, old in previous.items():
             signal.signal(sig, old)
             _taken.discard(sig)
+
+
+@contextlib.contextmanager
+def signals_deferred() -> Iterator[None]:
+    """Take Ctrl-C, SIGTERM and SIGHUP after the block, not inside it.
+
+    For a block that a signal must not cut in two: renames that put one run's files in
+    place of another's (``mearm render-calibration``), freeing a renderer's GL context
+    (a Ctrl-C inside MuJoCo's ``Renderer.close`` left a context it had destroyed still
+    named, and freed again at exit: an "Exception ignored ... EGL_BAD_CONTEXT" block
+    after "interrupted"). Keep the block short: a Ctrl-C waits for it.
+
+    Not by blocking the signals (``pthread_sigmask``): that holds them back from the
+    main thread only, and once MuJoCo's renderer and NumPy have started threads of
+    their own, one of those receives the signal and Python raises
+    ``KeyboardInterrupt`` in the main thread, inside the block, all the same. Instead a
+    handler that only notes the signal stands in for each (Python runs handlers in the
+    main thread, whichever thread received the signal); when the handlers before are
+    back, a signal that came is raised again and takes its usual course (Ctrl-C:
+    ``KeyboardInterrupt``; an ignored one stays ignored). Outside the main thread,
+    which alone may set handlers and where Python raises no ``KeyboardInterrupt``, the
+    block just runs.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    noted: list[int] = []
+
+    def note(signum: int, frame: FrameType | None) -> None:
+        noted.append(signum)
+
+    previous = {sig: signal.signal(sig, note) for sig in DEFERRED_SIGNALS}
+    try:
+        yield
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, signal.SIG_DFL if handler is None else handler)
+        for signum in dict.fromkeys(noted):
+            signal.raise_signal(signum)
 
 
 def install() -> None:

@@ -28,7 +28,8 @@ import pytest
 from badinput import run_in_process
 
 from mearm.errors import MearmError
-from mearm.tools.render_calibration import _replace_earlier_run, _signals_deferred
+from mearm.interrupts import signals_deferred
+from mearm.tools.render_calibration import _replace_earlier_run
 
 COMMAND = ["render-calibration", "--config", "sim_mujoco"]
 #: The earlier run, and the new one: fewer views and no raised view or truth files, so an
@@ -186,7 +187,7 @@ def test_a_ctrl_c_during_the_swap_is_taken_after_it() -> None:
     other.start()
     ran = []
     try:
-        with pytest.raises(KeyboardInterrupt), _signals_deferred():
+        with pytest.raises(KeyboardInterrupt), signals_deferred():
             assert other.ident is not None
             signal.pthread_kill(other.ident, signal.SIGINT)
             for _ in range(50):  # Python code, where a KeyboardInterrupt would be raised

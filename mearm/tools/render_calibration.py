@@ -32,15 +32,11 @@ whole (a SIGKILL can leave the hidden folder behind: the next run removes it).
 from __future__ import annotations
 
 import argparse
-import contextlib
 import os
 import re
 import shutil
-import signal
-import threading
-from collections.abc import Iterator, Sequence
+from collections.abc import Sequence
 from pathlib import Path
-from types import FrameType
 from typing import TYPE_CHECKING
 
 import cv2
@@ -58,8 +54,8 @@ from mearm.cli import (
 )
 from mearm.config import Config
 from mearm.errors import MearmError
-from mearm.fileio import CLEANUP_SIGNALS, write_atomic
-from mearm.interrupts import stop_signals_as_ctrl_c
+from mearm.fileio import write_atomic
+from mearm.interrupts import signals_deferred, stop_signals_as_ctrl_c
 
 if TYPE_CHECKING:
     from mearm.sim.twin.calibration_scenes import Support
@@ -129,36 +125,6 @@ def _is_staging(path: Path) -> bool:
     return bool(_STAGING.fullmatch(path.name)) and path.is_dir() and not path.is_symlink()
 
 
-@contextlib.contextmanager
-def _signals_deferred() -> Iterator[None]:
-    """Take Ctrl-C, SIGTERM and SIGHUP after the block, not inside it (only renames run there).
-
-    Not by blocking them (``pthread_sigmask``): that holds them back from the main thread
-    only, and once MuJoCo's renderer and NumPy have started threads of their own, one of
-    those receives the signal and Python raises ``KeyboardInterrupt`` in the main thread,
-    inside the block, all the same. Instead a handler that only notes the signal stands in
-    for each (Python runs handlers in the main thread, whichever thread received the
-    signal); when the handlers before are back, a signal that came is raised again and
-    takes its usual course (Ctrl-C: ``KeyboardInterrupt``).
-    """
-    if threading.current_thread() is not threading.main_thread():  # only it sets handlers
-        yield
-        return
-    noted: list[int] = []
-
-    def note(signum: int, frame: FrameType | None) -> None:
-        noted.append(signum)
-
-    previous = {sig: signal.signal(sig, note) for sig in CLEANUP_SIGNALS}
-    try:
-        yield
-    finally:
-        for sig, handler in previous.items():
-            signal.signal(sig, signal.SIG_DFL if handler is None else handler)
-        for signum in dict.fromkeys(noted):
-            signal.raise_signal(signum)
-
-
 def _remove_leftovers(out: Path) -> None:
     """Remove the hidden folders of runs that were killed (SIGKILL, a power cut) in ``out``."""
     for path in sorted(out.iterdir()):
@@ -170,15 +136,15 @@ def _replace_earlier_run(staging: Path, out: Path, names: list[str]) -> None:
     """Put the new run's files (``names`` in ``staging``) in ``out`` in place of an earlier run's.
 
     Only renames, with Ctrl-C, SIGTERM and SIGHUP taken after the last of them
-    (:func:`_signals_deferred`), so a signal leaves the earlier run or the new one, whole.
-    The earlier run's files are moved aside into ``staging`` first, the stale names
-    (a view or a truth file the new run does not write) with them; if a rename fails, what
-    was moved is moved back, and the earlier run stays as it was.
+    (:func:`~mearm.interrupts.signals_deferred`), so a signal leaves the earlier run or the
+    new one, whole. The earlier run's files are moved aside into ``staging`` first, the
+    stale names (a view or a truth file the new run does not write) with them; if a
+    rename fails, what was moved is moved back, and the earlier run stays as it was.
     """
     aside = staging / "earlier"
     moved_aside: list[str] = []
     moved_in: list[str] = []
-    with _signals_deferred():
+    with signals_deferred():
         try:
             aside.mkdir()
             for path in sorted(out.iterdir()):
@@ -282,7 +248,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         try:
             names = _write_run(staging, config, args, layout, raised)
         except BaseException:
-            with _signals_deferred():  # a second Ctrl-C does not leave the folder behind
+            with signals_deferred():  # a second Ctrl-C does not leave the folder behind
                 shutil.rmtree(staging, ignore_errors=True)
             raise
         _replace_earlier_run(staging, args.out, names)

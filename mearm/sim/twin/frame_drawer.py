@@ -6,9 +6,10 @@ physics (:data:`FRAME_FIELDS`, written by
 (:mod:`mearm.dataset.encoder_server`) unpickles a :class:`TwinFrameSource` once a scene
 and draws each frame from its state (:meth:`TwinFrameDrawer.draw`) as the sort's renderer
 (:class:`~mearm.sim.twin.twin_camera.LensRenderer` without a lens) draws it, pixel for
-pixel. Only NumPy and MuJoCo are imported here: that process's start-up, which the
-sort's first frames wait for, is its imports, and the twin's camera module with the
-config and the kinematics cost 0.2–0.3 s of CPU more.
+pixel. Only NumPy and MuJoCo are imported here (and :mod:`mearm.interrupts`, the
+standard library's): that process's start-up, which the sort's first frames wait for,
+is its imports, and the twin's camera module with the config and the kinematics cost
+0.2–0.3 s of CPU more.
 """
 
 from __future__ import annotations
@@ -17,6 +18,8 @@ from dataclasses import dataclass
 
 import mujoco
 import numpy as np
+
+from mearm.interrupts import signals_deferred
 
 #: What ``mjv_updateScene`` reads of ``MjData`` for the sorter's frame (no contacts,
 #: joints or inertia drawn): each one's values, in this order, are a frame's state.
@@ -80,6 +83,18 @@ def offscreen_renderer(
     return renderer
 
 
+def close_renderer(renderer: mujoco.Renderer) -> None:
+    """Free ``renderer``'s GL context, a Ctrl-C or a stop signal taken after, not inside.
+
+    MuJoCo forgets the context only once it has been destroyed: a Ctrl-C in between
+    left it named, and the renderer's ``__del__`` destroyed it again at exit, which
+    printed an "Exception ignored ... EGL_BAD_CONTEXT" block after the command's
+    "interrupted" (:func:`~mearm.interrupts.signals_deferred`).
+    """
+    with signals_deferred():
+        renderer.close()
+
+
 @dataclass
 class TwinFrameSource:
     """What another process needs to draw the twin's camera frames: sent once a scene.
@@ -139,5 +154,5 @@ class TwinFrameDrawer:
         self._renderer.render(out=out)
 
     def close(self) -> None:
-        """Free the renderer's GL context."""
-        self._renderer.close()
+        """Free the renderer's GL context (:func:`close_renderer`)."""
+        close_renderer(self._renderer)

@@ -82,7 +82,7 @@ import mujoco
 import numpy as np
 
 from mearm.config import Config
-from mearm.sim.twin.frame_drawer import offscreen_renderer
+from mearm.sim.twin.frame_drawer import close_renderer, offscreen_renderer
 from mearm.sim.twin.twin_frame_state import TwinFrameSource, pack_frame_state
 from mearm.sim.twin.twin_optics import (  # noqa: F401  (re-exported: where the camera is)
     CAMERA_HEIGHT_M,
@@ -203,8 +203,8 @@ class LensRenderer:
         return True
 
     def close(self) -> None:
-        """Free the renderer's GL context."""
-        self._renderer.close()
+        """Free the renderer's GL context (:func:`~mearm.sim.twin.frame_drawer.close_renderer`)."""
+        close_renderer(self._renderer)
 
 
 def _lens_maps(

@@ -1,0 +1,147 @@
+"""Ctrl-C before a command's main runs under :func:`mearm.cli.run`: one line and exit 130.
+
+Two holes were left after the guard of ``mearm SUBCOMMAND`` (``tests/test_ctrl_c_at_start.py``):
+
+- ``python -m mearm.sort`` imports its modules (its first half second) before its
+  ``main`` runs under the guard: a Ctrl-C there printed Python's traceback and the
+  process ended by SIGINT. ``import mearm``, which such a run does first, now puts a hook
+  in place for it (:func:`mearm.interrupts.guard_program_start`), and only for it;
+- ``mearm analyze`` printed "not installed" and exited 2 for an ``ImportError`` that a
+  Ctrl-C had made while a C extension initialised (:func:`mearm.interrupts.hidden_in`).
+"""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from collections.abc import Sequence
+from importlib.machinery import ModuleSpec
+from pathlib import Path
+
+import pytest
+from conftest import interrupted
+
+from mearm import analyze, cli, interrupts
+
+#: The line ``python -X importtime`` prints once ``mearm.cli`` is imported: ``mearm.sort``
+#: imports it among its first modules, pydantic's schemas and the rest still to come.
+CLI_IMPORTED = "| mearm.cli"
+
+
+def test_ctrl_c_while_python_m_imports_its_modules_is_one_line_and_130(tmp_path: Path) -> None:
+    """A real SIGINT once ``python -m mearm.sort`` has imported ``mearm.cli``, before its
+    main runs: exit 130 and ``python -m mearm.sort: interrupted``, not Python's traceback
+    and death by SIGINT (-2). ``-X importtime`` (on stderr) says when to send it; its lines
+    are left out of what is checked."""
+    proc = subprocess.Popen(
+        [sys.executable, "-X", "importtime", "-m", "mearm.sort", "--config", "sim"],
+        cwd=tmp_path, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+        bufsize=0, start_new_session=True,  # unbuffered: no line read ahead and then lost
+    )  # fmt: skip
+    assert proc.stderr is not None
+    for raw in proc.stderr:
+        if raw.decode(errors="replace").rstrip().endswith(CLI_IMPORTED):
+            break
+    else:
+        pytest.fail(f"python -m mearm.sort ended before importing mearm.cli: exit {proc.wait()}")
+    _, err_bytes = interrupted(proc)  # a hang (the Ctrl-C lost) is the failure
+    err = err_bytes.decode(errors="replace")
+    lines = [line for line in err.splitlines() if not line.startswith("import time:")]
+    assert "Traceback" not in err, err[-3000:]
+    assert (proc.returncode, lines) == (130, ["python -m mearm.sort: interrupted"]), lines[-20:]
+
+
+@pytest.mark.parametrize(
+    ("orig_argv", "argv", "module"),
+    [
+        (
+            ["python", "-m", "mearm.sort", "--config", "sim"],
+            ["-m", "--config", "sim"],
+            "mearm.sort",
+        ),
+        (["python", "-X", "importtime", "-Im", "mearm.fk"], ["-m"], "mearm.fk"),
+        (["python", "-mmearm.sort", "-m"], ["-m", "-m"], "mearm.sort"),
+        (["python", "-Bmmearm", "x"], ["-m", "x"], "mearm"),
+        (["python", "-c", "import mearm", "-m"], ["-c", "-m"], None),
+        (["python", "run.py", "-m"], ["run.py", "-m"], None),
+        (["python", "-m", "mearm.sort"], ["/x/mearm/sort.py"], None),  # the module runs now
+    ],
+)
+def test_the_module_python_m_runs_is_read_off_its_command_line(
+    monkeypatch: pytest.MonkeyPatch, orig_argv: list[str], argv: list[str], module: str | None
+) -> None:
+    """Only while ``python -m`` imports the module's packages (``sys.argv[0]`` is ``-m``),
+    its name after ``-m`` or joined to it."""
+    monkeypatch.setattr(sys, "orig_argv", orig_argv)
+    monkeypatch.setattr(sys, "argv", argv)
+    assert interrupts.module_run_as_program() == module
+
+
+def _hook_when_running(monkeypatch: pytest.MonkeyPatch, module: str) -> interrupts.ExceptHook:
+    """The excepthook after ``import mearm`` ran :func:`guard_program_start` as it does
+    while ``python -m MODULE`` imports the package: the one before when nothing was put."""
+    monkeypatch.setattr(sys, "orig_argv", ["python", "-m", module])
+    monkeypatch.setattr(sys, "argv", ["-m"])
+    monkeypatch.setattr(sys, "excepthook", sys.__excepthook__)
+    interrupts.guard_program_start()
+    return sys.excepthook
+
+
+def test_a_program_that_imports_mearm_keeps_pythons_own_handling(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """``python -m tool.main`` whose package imports mearm: no hook of mearm's."""
+    assert _hook_when_running(monkeypatch, "tool.main") is sys.__excepthook__
+    assert _hook_when_running(monkeypatch, "mearmish.main") is sys.__excepthook__
+
+
+def _ctrl_c_in_an_import() -> ImportError:
+    """What pybind11 makes of a Ctrl-C while its module initialises (``import mujoco``)."""
+    try:
+        raise KeyboardInterrupt
+    except KeyboardInterrupt as ctrl_c:
+        try:
+            raise ImportError("initialization failed") from ctrl_c
+        except ImportError as exc:
+            return exc
+
+
+@pytest.mark.parametrize("error", [KeyboardInterrupt(), _ctrl_c_in_an_import()])
+def test_the_hook_ends_a_ctrl_c_as_the_guard_does(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str], error: BaseException
+) -> None:
+    """A Ctrl-C no one caught, or one a library made an error of: the line, exit 130; any
+    other error goes to the hook before (Python's traceback)."""
+    monkeypatch.setattr(interrupts, "_received", [])
+    hook = _hook_when_running(monkeypatch, "mearm.tools.render_calibration")
+    with pytest.raises(SystemExit) as stop:
+        hook(type(error), error, None)
+    assert stop.value.code == 130
+    assert capsys.readouterr().err == "python -m mearm.tools.render_calibration: interrupted\n"
+    other = ValueError("a bug")
+    hook(ValueError, other, None)
+    assert capsys.readouterr().err == "ValueError: a bug\n"
+
+
+class _CtrlCWhileScipyInitialises:
+    """A finder that makes ``import scipy`` fail as a Ctrl-C inside a C extension does."""
+
+    def find_spec(
+        self, name: str, path: Sequence[str] | None, target: object = None
+    ) -> ModuleSpec | None:
+        if name == "scipy":
+            raise _ctrl_c_in_an_import()
+        return None  # every other module: the next finder
+
+
+def test_analyze_takes_a_ctrl_c_in_import_scipy_for_the_interrupt(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Exit 130 and ``interrupted``, not "scipy is not installed" and exit 2."""
+    monkeypatch.delitem(sys.modules, "scipy", raising=False)
+    monkeypatch.setattr(sys, "meta_path", [_CtrlCWhileScipyInitialises(), *sys.meta_path])
+    with pytest.raises(SystemExit) as stop:
+        cli.run(analyze.main, [str(tmp_path / "trials.jsonl")])
+    err = capsys.readouterr().err.splitlines()
+    assert (stop.value.code, len(err)) == (130, 1), err
+    assert err[0].endswith(": interrupted"), err
