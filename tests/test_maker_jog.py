@@ -179,19 +179,20 @@ def test_jog_on_a_board_reaches_the_poses_and_parks(board):
 
 @pytest.mark.slow
 def test_a_move_past_a_limit_is_refused_and_sends_nothing(board):
-    """Shoulder at 93° in 10° steps: 133° goes, 143° is refused with its limits named, and
-    no frame reaches the board; a TCP step out of the target box is refused the same way."""
+    """Shoulder at 93° in 10° steps: 133° goes, the step to 143° stops on the 135° limit,
+    and the next, to 145°, is refused with its limits named, and no frame reaches the
+    board; a TCP step out of the target box is refused the same way."""
     cmd = PtyCommand("jog", *serial_args(board.port))
     try:
         readout(cmd)
-        cmd.send("2]]" + "+" * 4)
-        for _ in range(7):
+        cmd.send("2]]" + "+" * 5)
+        for _ in range(8):
             joints, _ = readout(cmd)
-        assert joints["shoulder"] == pytest.approx(133.0, abs=1e-3)
+        assert joints["shoulder"] == pytest.approx(135.0, abs=1e-3)
         held, moves = pulses_at(board, joints), board.move_count()
         cmd.send("+")
         cmd.expect(
-            r"refused: shoulder would be at 143 deg, outside its limits \[30, 135\] deg; "
+            r"refused: shoulder would be at 145 deg, outside its limits \[30, 135\] deg; "
             r"nothing sent"
         )
         assert settled_pulses(board) == pytest.approx(held, abs=board.accuracy_us)

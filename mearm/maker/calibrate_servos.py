@@ -47,6 +47,20 @@ session starts by sending every actuator its home value under the present calibr
 then only changes the actuator being calibrated (and, before a joint's references, the
 other joints as above).
 
+The keys are not stopped at the limits: the calibration being measured is what says
+where they are, and a fit may need a pulse past them. But under the present calibration
+the arm may really be past them (the MeArm v1's base read 180.9° at 544 µs, its limits
+[45, 135]°), where the links may collide: a jog that takes an actuator past its limits
+prints one line, ``warning: base is at 135.5 deg, past its limits [45, 135] deg: the
+links may collide with each other, the base or the table`` (for a servo that turns a
+combination, the joint it sits in), once each time it crosses out, and one when it is
+back inside; the status line says ``(past the limits: base)`` meanwhile.
+
+On a simulated arm the status line also shows the arm's reading of the actuator
+(``simulated arm: 4.00 cm``; on the virtual Uno every actuator's measured pulse under the
+present calibration), or says there is none (the kinematic simulator's gripper is only
+open or closed).
+
 The calibration file is written at the end, atomically, only if at least one actuator
 was calibrated and every fit passes its checks again, all together (else exit 1,
 nothing written). With ``--simulate`` no one is there to redo a fit: one refused twice

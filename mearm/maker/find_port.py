@@ -20,8 +20,14 @@ path exists. It needs a terminal.
 A ``--port`` path that is a folder, or (without ``--replug``) does not exist, is bad
 input, as is ``--wait`` without ``--replug``: exit 2 before any port is opened.
 
+A config whose board is the virtual Uno (``servo.backend: virtual_uno``) has no port to
+find: each command that uses it starts the board on a pseudo-terminal of its own. Without
+``--port`` the command says so in one line and exits 0, no port opened (``--replug``
+too); with ``--port`` it tries those ports as usual.
+
 Exit status: 0 when a mearm board was found (``--replug``: when the replugged board's port
-was found), 1 when none was, 2 on bad input, 130 on Ctrl-C.
+was found) or the config's board is the virtual Uno, 1 when none was, 2 on bad input, 130
+on Ctrl-C.
 """
 
 from __future__ import annotations
@@ -398,7 +404,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         description="List the serial ports and name the one with a mearm board "
         "(the firmware's banner), or find an unknown board by unplugging and replugging it.",
         epilog="Exit status: 0 a mearm board was found (--replug: the board's port was "
-        "found), 1 none was, 2 bad input.",
+        "found) or the config's board is the virtual Uno (nothing to find), 1 none was, "
+        "2 bad input.",
     )
     add_config_argument(parser)
     parser.add_argument(
@@ -442,6 +449,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     for port in args.port:
         check_given_port(port, replug=args.replug)
     config = config_from_args(args)
+    if config.servo.backend == "virtual_uno" and not args.port:
+        # its port exists only inside each command that starts it: none to find or set
+        print(
+            "find-port: nothing to do: the config's board is the virtual Uno (servo.backend: "
+            "virtual_uno), which each command that uses the config starts on a port of its "
+            "own; there is no port to find or set"
+        )
+        return EXIT_OK
     baud = config.servo.baud
     timeout_s = args.timeout if args.timeout is not None else config.servo.banner_timeout_s
     if args.replug:

@@ -19,6 +19,11 @@ one stops the command before anything runs, with one line naming its Debian pack
 ``--dry-run``, which may run with no board plugged in). The build goes to
 ``--build-dir`` (default ``~/.cache/mearm/firmware``), so the firmware source may be
 read-only (an installed package).
+
+A config whose board is the virtual Uno (``servo.backend: virtual_uno``) has nothing to
+flash: that board runs the firmware built from the source each time a command starts
+it, and has no port. Without ``--port`` the command says so in one line and exits 0,
+nothing built or run (``--dry-run`` too); with ``--port`` it flashes that board.
 """
 
 from __future__ import annotations
@@ -144,8 +149,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         description="Build the mearm firmware and upload it to an Arduino Uno with avrdude, "
         "then check that the board prints the firmware's banner.",
         epilog="Needs: sudo apt-get install make gcc-avr avr-libc arduino-core-avr avrdude. "
-        "Exit status: 0 flashed and answering (--dry-run: commands printed), 1 the build, "
-        "the upload or the check failed, 2 bad input or a missing tool.",
+        "Exit status: 0 flashed and answering (--dry-run: commands printed; a virtual Uno "
+        "config without --port: nothing to flash), 1 the build, the upload or the check "
+        "failed, 2 bad input or a missing tool.",
     )
     add_config_argument(parser)
     parser.add_argument(
@@ -181,8 +187,16 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
     args = parser.parse_args(argv)
     config = config_from_args(args)
-    port = _check_port(args.port if args.port is not None else config.servo.port)
     source = firmware_source_dir()
+    if config.servo.backend == "virtual_uno" and args.port is None:
+        # its board already runs the firmware it would get, and has no port to upload to
+        print(
+            "flash: nothing to do: the config's board is the virtual Uno (servo.backend: "
+            f"virtual_uno), which runs the firmware built from {source} each time a command "
+            "starts it; --port flashes a real board"
+        )
+        return EXIT_OK
+    port = _check_port(args.port if args.port is not None else config.servo.port)
     build_dir = args.build_dir if args.build_dir is not None else default_build_dir()
     plan = plan_flash(source, build_dir, port, args.upload_baud)
     missing = toolchain.missing((*FIRMWARE_BUILD, *UPLOAD))

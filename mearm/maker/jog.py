@@ -10,7 +10,10 @@ The arm first goes home (as the sort's first move does). Then:
   the base frame's axis, solved with the config's IK (``controller.solver``); steps in a
   row aim at the previous target, so small IK errors do not add up;
 - ``[``/``]`` make the step smaller/larger (joints 0.5–10°, or cm for a prismatic joint;
-  TCP 0.2–5 cm); ``g`` opens/closes the gripper; ``h`` goes home; ``?`` lists the keys;
+  TCP 0.2–5 cm); a joint step that would cross a joint's limit (the selected joint's, or
+  a passive joint's that follows it) stops on that limit, so every limit is reached
+  exactly whatever the step; ``g`` opens/closes the gripper; ``h`` goes home; ``?``
+  lists the keys;
 - ``q`` goes home and quits; ``Q`` quits and leaves the arm where it is (holding); Ctrl-C
   stops at once and leaves the arm where it is (exit 130).
 
@@ -68,6 +71,9 @@ CARTESIAN_STEPS_CM = (0.2, 0.5, 1.0, 2.0, 5.0)
 #: The tool settings while jogging: the tool actuators at home.
 PHASE: Phase = "home"
 AXES = {"x": 0, "y": 1, "z": 2}
+#: Closer than this to a limit [rad or m] a joint is on it: a step past it is refused, not
+#: shortened to a rounding error's length.
+ON_LIMIT = 1e-9
 
 HELP = (
     "keys: 1-9 or ←/→ select joint, +/↑ -/↓ move it; x/X y/Y z/Z move the TCP -/+; "
@@ -169,13 +175,50 @@ class Jogger:
     # ----------------------------------------------------------------- moves
 
     def move_joint(self, sign: int) -> None:
-        """Move the selected joint by one step (a straight joint-space path)."""
+        """Move the selected joint by one step (a straight joint-space path).
+
+        A step that would take a joint (the selected one, or a passive joint coupled to
+        it) across its limit stops on that limit, so every limit is reachable whatever
+        the step; a step from a joint's limit onwards is refused (:meth:`_go_joints`).
+        """
         c = self.chain
         i = int(c.actuated_index[self.selected])
         a = c.actuated_of(self.executor.q_now()).copy()
-        a[self.selected] += sign * JOINT_STEPS[self.step_index] * c.scale[i]
+        q_from = c.full(a)
+        step = sign * JOINT_STEPS[self.step_index] * c.scale[i]
+        a[self.selected] += step
+        crossed = self._first_limit_crossed(q_from, c.full(a))
+        if crossed is not None:
+            fraction, joint, limit = crossed
+            a[self.selected] = limit if joint == i else q_from[i] + fraction * step
         self._go_joints(c.full(a))
         self.target_cm = None
+
+    def _first_limit_crossed(
+        self, q_from: np.ndarray, q_to: np.ndarray
+    ) -> tuple[float, int, float] | None:
+        """The first limit a straight move from ``q_from`` to ``q_to`` crosses, if any.
+
+        Only a joint inside its limits at ``q_from`` crosses one (one already on or past
+        it, to :data:`ON_LIMIT`, is left to the limit check to refuse).
+
+        Returns:
+            The fraction of the move at which it reaches the limit, in (0, 1); the
+            joint's index; the limit [model units]. ``None``: no joint crosses one.
+        """
+        c = self.chain
+        first: tuple[float, int, float] | None = None
+        for k in range(c.n):
+            delta = q_to[k] - q_from[k]
+            if delta == 0:
+                continue
+            limit = c.upper[k] if delta > 0 else c.lower[k]
+            way = 1.0 if delta > 0 else -1.0
+            if way * (limit - q_from[k]) > ON_LIMIT and way * (q_to[k] - limit) > 0:
+                fraction = float((limit - q_from[k]) / delta)
+                if first is None or fraction < first[0]:
+                    first = (fraction, k, float(limit))
+        return first
 
     def _go_joints(self, q_to: np.ndarray) -> None:
         problem = self._limit_problem(q_to)

@@ -59,6 +59,8 @@ class Calibrator:
         self.live = bool(getattr(out, "isatty", lambda: False)())
         # the arm's own calibration, before any file: what a fit's slope is compared with
         self.nominal_arm = (replaced_calibration(config) or config).arm
+        # the actuators past their limits, each warned about once when it crossed
+        self.past_limits: set[str] = set()
 
     def say(self, text: str = "") -> None:
         """Print a line (ending any live status line)."""
@@ -79,8 +81,12 @@ class Calibrator:
         sim = self.session.simulated_value(act.name)
         if sim is not None:
             text += f"  simulated arm: {sim:.2f} {act.amap.unit}"
+        elif self.session.simulated:  # said, not left blank beside the joints' readings
+            text += f"  simulated arm: no reading of {act.name} (not measured by this simulator)"
         if p in (lo, hi):
             text += "  (end of the pulse range)"
+        if self.past_limits:
+            text += f"  (past the limits: {', '.join(sorted(self.past_limits))})"
         self.out.write("\r\x1b[K" + text)
         self.out.flush()
 
@@ -147,6 +153,41 @@ class Calibrator:
                 self.say(narrowing)
             return fit
 
+    def warn_past_limits(self) -> None:
+        """Warn, once per crossing, about each actuator the pulses put past its limits.
+
+        The keys range over the whole pulse range, not the limits: the present
+        calibration is what is being measured, so its limits may not be where the arm's
+        are, and a reference may need a pulse past them. But under it the arm may really
+        be past them (the MeArm v1's base read 180.9° against its [45, 135]° with the
+        horns on), where the links may hit each other, the base or the table. The line
+        names the actuator (the joint itself for a servo that turns a combination), its
+        value and its limits, when it crosses out; one more says when it is back inside.
+        """
+        smap = self.session.servo_map
+        past = set()
+        for name, value in self.session.actuator_values().items():
+            a = smap[name]
+            # the whole-µs pulse nearest a limit is at it, not past it
+            slack = 0.5 / a.us_per_unit
+            if a.lower - slack <= value <= a.upper + slack:
+                if name in self.past_limits:
+                    limits = f"[{a.lower:g}, {a.upper:g}] {a.unit}"
+                    self.say(f"{name} is back inside its limits {limits}")
+                continue
+            past.add(name)
+            if name not in self.past_limits:
+                harm = (
+                    "its jaws may jam on each other or on their stops"
+                    if name == smap.gripper.name
+                    else "the links may collide with each other, the base or the table"
+                )
+                self.say(
+                    f"warning: {name} is at {value:.4g} {a.unit}, past its limits "
+                    f"[{a.lower:g}, {a.upper:g}] {a.unit}: {harm}"
+                )
+        self.past_limits = past
+
     def refuse(self, act: Actuator, exc: MearmError) -> None:
         """Say why a fit was refused; the references are done again."""
         self.say(f"{act.name}: fit refused: {exc}")
@@ -171,6 +212,7 @@ class Calibrator:
         for n, v in moved.items():
             session.pulses_us[n] = smap[n].command_us(v)
         session.send()
+        self.warn_past_limits()
         where = ", ".join(
             f"{smap[n].combination_text} to {v:.4g} {smap[n].unit}" for n, v in moved.items()
         )
@@ -188,8 +230,10 @@ class Calibrator:
             step = STEPS_US[self.step_index]
             if key in ("+", "=", "right"):
                 self.session.set_pulse(act.name, self.session.pulses_us[act.name] + step)
+                self.warn_past_limits()
             elif key in ("-", "_", "left"):
                 self.session.set_pulse(act.name, self.session.pulses_us[act.name] - step)
+                self.warn_past_limits()
             elif key == "up":
                 self.step_index = min(len(STEPS_US) - 1, self.step_index + 1)
             elif key == "down":

@@ -61,6 +61,20 @@ class PulseSession:
         """Each joint servo's value now: its pulse under the present calibration [unit]."""
         return {a.name: a.value_of(self.pulses_us[a.name]) for a in self._original.joints}
 
+    def actuator_values(self) -> dict[str, float]:
+        """Every actuator's value now under the present calibration [deg or cm].
+
+        Each actuated joint (solved from the joint servos' values: the MeArm v1's elbow
+        servo moves the elbow joint, shoulder + elbow being what it sets), each tool
+        actuator, and the gripper's opening.
+        """
+        smap = self._original
+        values = smap.joints_of(self.joint_values())
+        values.update(
+            {a.name: a.value_of(self.pulses_us[a.name]) for a in (*smap.tool, smap.gripper)}
+        )
+        return values
+
     def limits_us(self, name: str) -> tuple[int, int]:
         """The pulse range of an actuator [µs]."""
         a = self._original[name]
@@ -93,10 +107,19 @@ class PulseSession:
         tool = {a.name: a.value_of(self.pulses_us[a.name]) for a in self._tool}
         self.bus.move(ArmCommand(joints, tool, gripper_closed=False))
 
+    @property
+    def simulated(self) -> bool:
+        """Whether the bus is a simulated arm (it reports the joints it realised)."""
+        return isinstance(getattr(self.bus, "actual_joints", None), dict)
+
     def simulated_value(self, name: str) -> float | None:
         """What a simulated arm realised for an actuator's servo, else ``None``.
 
-        A joint servo's value: the joint's, or the combination it turns.
+        A joint servo's value: the joint's, or the combination it turns. The virtual Uno
+        measures every pin: a tool actuator's or the gripper's value is its measured pulse
+        under the present calibration, as its joints' are. The kinematic simulator's
+        gripper is only open or closed: no value (:attr:`simulated` tells it from a real
+        board's).
         """
         joints = getattr(self.bus, "actual_joints", None)
         if isinstance(joints, dict) and name in self._original.joint_names:
@@ -104,6 +127,10 @@ class PulseSession:
                 return self._original[name].servo_value(joints)
             except KeyError:  # a joint the simulator does not report
                 return None
+        actuator = self._original[name]
+        measured = getattr(getattr(self.bus, "last_frame", None), "widths_us", None)
+        if measured is not None and actuator.channel in measured:  # the virtual Uno's pins
+            return actuator.value_of(measured[actuator.channel])
         values = getattr(self.bus, "actual_tool", None)
         if isinstance(values, dict) and name in values:
             return float(values[name])
