@@ -7,11 +7,14 @@ the paper's 12-object layout unless ``--scene`` or ``--random`` says otherwise::
     python -m mearm.sort --config configs/sim.yaml --log run.jsonl [--view [--collision]]
 
 The last line printed is ``sorted N of M objects (…reasons…)``; the run log's summary
-record holds the same counts, per class and per reason. An object counts as sorted only
-when its place is confirmed (simulated: the world has it in its bin; real rig: the camera
-no longer sees it on the table). With ``--view --collision`` the view also draws, in
-translucent colours, the collision model the routes are checked against (the arm's, the
-bins' and the objects' shapes; docs/view.md).
+record holds the same counts, per class and per reason, and the ``motion`` line's figure
+as its ``motion_s``. ``--quiet`` prints only the summary: the route statistics, the
+motion time, the objects left and why, and that last line (no line per route, no
+per-class table). An object counts as sorted only when its place is confirmed
+(simulated: the world has it in its bin; real rig: the camera no longer sees it on the
+table). With ``--view --collision`` the view also draws, in translucent colours, the
+collision model the routes are checked against (the arm's, the bins' and the objects'
+shapes; docs/view.md).
 
 ``--record DIR`` also writes the run as a LeRobotDataset v3.0, one episode per
 pick-and-place (docs/datasets.md).
@@ -81,6 +84,7 @@ try:
     from mearm.hardware.errors import ServoError
     from mearm.task import Rig, SortAborted, check_scene, load_scene, random_scene, run_sort
     from mearm.task.check import calibration_note, check_consistency
+    from mearm.task.report import summary_without_table
     from mearm.task.sorter import CalibrateFirst, calibrates_at_start, check_calibrate_at_start
     from mearm.vision.errors import CameraError
 finally:
@@ -165,7 +169,13 @@ def _parser() -> ArgumentParser:
         help="with --view: also draw the collision model the sort plans with (the arm's, "
         "the bins' and the objects' shapes, translucent)",
     )
-    parser.add_argument("--quiet", action="store_true", help="print only the summary")
+    parser.add_argument(
+        "--quiet",
+        action="store_true",
+        help="print only the summary: the route statistics, the motion time, the objects "
+        "left and why, and the last line (sorted N of M objects); no line per route, no "
+        "per-class table",
+    )
     parser.add_argument(
         "--save-mjcf",
         type=Path,
@@ -305,7 +315,7 @@ def _sort(argv: Sequence[str] | None) -> int:
         )
     except SortAborted as exc:
         if args.quiet:
-            _print_summary(lines)
+            _print_summary(lines, config)
         stopped = exc.reason
         print(f"mearm sort: stopped: {stopped}", file=sys.stderr)
         return interrupts.exit_status() if exc.interrupted else EXIT_FAILURE
@@ -324,7 +334,7 @@ def _sort(argv: Sequence[str] | None) -> int:
             log.close()
         close_recorder(recorder, args.record, said=stopped)
     if args.quiet:
-        _print_summary(lines)
+        _print_summary(lines, config)
     if not report.complete:
         print(f"mearm sort: {report.outcome.line()}", file=sys.stderr)
         return EXIT_FAILURE
@@ -359,9 +369,9 @@ def _scene_mjcf(config: Config, scene: list[SceneObject] | None) -> str:
     return generate_mjcf(config)
 
 
-def _print_summary(lines: list[str]) -> None:
-    """The summary part of the sort's output (after the blank line that opens it)."""
-    print("\n".join(lines[lines.index("") + 1 :] if "" in lines else lines))
+def _print_summary(lines: list[str], config: Config) -> None:
+    """What ``--quiet`` prints of the sort's lines: the summary without the per-class table."""
+    print("\n".join(summary_without_table(lines, len(config.task.classes))))
 
 
 if __name__ == "__main__":

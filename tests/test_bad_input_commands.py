@@ -66,7 +66,8 @@ CASES: list[tuple[list[str], str]] = [
     (["servo-steps", "--csv", "{folder}"], "not a file in an existing folder"),
     # camera-accuracy
     (["camera-accuracy", "--heights", "x"], "--heights wants numbers like 1,2.5"),
-    (["camera-accuracy", "--config", TWIN, "--views", "0"], "--views 6 … 60"),
+    (["camera-accuracy", "--config", TWIN, "--views", "0"],
+     "--views must be a whole number in 6 … 60, got 0"),
     (["camera-accuracy"], "the built-in config: simulator is 'kinematic'; this needs the twin"),
     # the twin's injected faults
     (["sort", "--config", TWIN, "--set", "twin.faults=[{kind: melt, at_s: 1}]"], "twin.faults"),

@@ -118,10 +118,12 @@ def test_objects_landing_off_the_belt_are_refused_at_load():
 def test_the_twin_at_100_cm_s_counts_each_arrival_once():
     """At 100 cm/s an object lands at rest and takes two frames to reach the belt's
     speed: it is one track, one object, not two (the run said "0 of 4" for 2)."""
-    sort = _mearm("sort", "--config", TWIN, *_sets(*FEW, "belt.speed_cm_s=100"), "--quiet")
+    sort = _mearm("sort", "--config", TWIN, *_sets(*FEW, "belt.speed_cm_s=100"))
     assert sort.returncode == 1, sort.stdout + sort.stderr
-    assert " of 2 objects" in sort.stdout.splitlines()[-1], sort.stdout
-    rows = {r.split()[0]: r.split()[1:] for r in sort.stdout.splitlines()[1:4]}
+    lines = sort.stdout.splitlines()
+    assert " of 2 objects" in lines[-1], sort.stdout
+    table = lines.index("") + 2  # the per-class table, after its heading (not in --quiet)
+    rows = {r.split()[0]: r.split()[1:] for r in lines[table : table + 3]}
     brought = [a.color for a in belt_arrivals(load_config(TWIN, FEW))]
     for name, (seen, *_rest) in rows.items():
         assert int(seen) == brought.count(name), sort.stdout

@@ -163,7 +163,10 @@ def test_camera_accuracy_reruns_into_its_own_work_folder_and_no_other_file(
     mark["finished"] = False
     (work / WORK_MARKER).write_text(json.dumps(mark))
     bad = ["camera-accuracy", *QUICK, "--scenes", "0", "--work", work]
-    assert "--scenes must be 1 … 100" in check_bad_input(bad, keep=[work]).line
+    assert (
+        "--scenes must be a whole number in 1 … 100, got 0"
+        in check_bad_input(bad, keep=[work]).line
+    )
     (work / "notes.txt").write_text("mine\n")
     out = check_bad_input(["camera-accuracy", *QUICK, "--work", work], keep=[work])
     assert "notes.txt was not written by camera-accuracy" in out.line

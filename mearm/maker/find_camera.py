@@ -14,7 +14,8 @@ apart and put the right one in your config (``camera.kind: device`` with
 a stream URL.
 
 Exit status: 0 when at least one camera gave a frame; 1 when none did (the command could
-not do its job: there is no snapshot to look at); 2 on bad input; 130 on Ctrl-C.
+not do its job: there is no snapshot to look at); 2 on bad input (a ``--out`` that cannot
+be written included, refused before any camera is opened); 130 on Ctrl-C.
 """
 
 from __future__ import annotations
@@ -22,6 +23,7 @@ from __future__ import annotations
 import glob
 import re
 import sys
+import tempfile
 import threading
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -33,7 +35,9 @@ from mearm.cli import (
     EXIT_OK,
     ArgumentParser,
     add_config_argument,
+    check_output_folder,
     config_from_args,
+    existing_ancestor,
     plain_int,
     run,
 )
@@ -153,6 +157,27 @@ def probe_camera(source: int | str, timeout_s: float, out_dir: Path) -> CameraRe
     )
 
 
+def check_snapshot_folder(out_dir: Path) -> None:
+    """Refuse, before any camera is opened, a ``--out`` the snapshots cannot be written to.
+
+    Permission bits are checked (:func:`mearm.cli.check_output_folder`), then a file is
+    made and removed where the snapshots would go: root passes the bits of a read-only
+    mount or of ``/sys``, where nothing can be made. Nothing is left, and no folder made.
+
+    Raises:
+        MearmError: ``out_dir`` is not a folder, or no file can be written where it is.
+    """
+    check_output_folder(out_dir, "--out")
+    folder = out_dir if out_dir.is_dir() else existing_ancestor(out_dir)
+    try:
+        tempfile.TemporaryFile(dir=folder).close()
+    except OSError as exc:
+        raise MearmError(
+            f"--out {out_dir}: cannot write: the folder {folder} is not writable "
+            f"({exc.strerror or exc})"
+        ) from None
+
+
 def _source(text: str) -> int | str:
     """``--camera``: an index, or a path or URL as given.
 
@@ -240,8 +265,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.error(f"--indices must be in [0, {MAX_INDICES}], got {args.indices}")
     config = config_from_args(args)
     timeout_s = config.camera.open_timeout_s
-    if args.out.exists() and not args.out.is_dir():
-        raise MearmError(f"--out {args.out} exists and is not a folder")
+    check_snapshot_folder(args.out)  # before any camera is read, not after each one
 
     given = list(dict.fromkeys(_source(s) for s in args.camera))  # each tried once
     sources = given or candidate_sources(args.indices)

@@ -256,8 +256,8 @@ class RunLog:
         Fields not given are computed from the records written since the header:
         ``sorted`` (successful places per colour), ``failures`` (routes whose
         ``success`` is false), ``skipped``, ``routes``, ``mean_iterations``,
-        ``mean_final_error_cm`` (the solver's), ``motion_s`` (sum over routes) and
-        ``ok`` (no fault was written).
+        ``mean_final_error_cm`` (the solver's), ``motion_s`` (sum over routes; a sort
+        gives its whole run's, the figure it prints) and ``ok`` (no fault was written).
         """
         trial = self._current("summary")
         routes = trial.routes

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
@@ -232,9 +232,10 @@ class Reporter:
             self.log.fault(reason, last_joints, trial=self.trial)
 
     def summary(self, *, ok: bool, outcome: Outcome, motion: MotionTime | None = None) -> None:
-        """Close the trial in the log and print the per-class table.
+        """Close the trial in the log and print the per-class table and the figures.
 
-        The last line printed is :meth:`Outcome.line`.
+        The last line printed is :meth:`Outcome.line`. The ``motion`` line printed and the
+        log's ``motion_s`` are the same figure.
 
         Args:
             ok: Whether the run ended without a fault.
@@ -246,6 +247,11 @@ class Reporter:
         rep = self.report
         rep.outcome = outcome
         rep.motion = motion
+        routes = [r for r in rep.routes if r.plan is not None]
+        # one figure for the screen and the log: the whole run's motion, home moves, tool
+        # settings and the parking after a fault or Ctrl-C included (the logged routes'
+        # own sum leaves them out)
+        motion_s = sum(r.motion_s for r in routes) if motion is None else motion.total_s
         if self.log is not None:
             self.log.summary(
                 trial=self.trial,
@@ -253,6 +259,7 @@ class Reporter:
                 sorted=dict(outcome.sorted),
                 objects=outcome.objects(),
                 left=dict(outcome.left),
+                motion_s=float(motion_s),
             )
         width = max(7, *(len(c.name) + 1 for c in self.config.task.classes))
         self.echo("")
@@ -263,29 +270,41 @@ class Reporter:
             n_sorted = outcome.sorted.get(cls.name, 0)
             n_left = objects.get(cls.name, 0) - n_sorted
             self.echo(f"{cls.name:<{width}} {n_seen:6d}  {n_sorted:6d}  {n_left:4d}")
-        routes = [r for r in rep.routes if r.plan is not None]
         if routes:
             its = np.array([r.plan.iterations for r in routes if r.plan is not None])
             solver_err = np.array([r.plan.final_error_cm for r in routes if r.plan is not None])
             arm_err = np.array([np.linalg.norm(r.error_cm) for r in routes])
-            rate = self.config.servo.rate_hz
-            if motion is None:
-                streamed = sum(r.motion_s for r in routes)
-                motion_text = f"motion {streamed:.1f} s (these routes, streamed at {rate:g} Hz)"
-            else:
-                motion_text = motion.line()
             self.echo(
                 f"routes {len(routes)}, failed picks {rep.failed_picks}, "
                 f"iterations mean {its.mean():.1f} ({its.min()}–{its.max()}), "
                 f"solver error mean {solver_err.mean():.4f} cm, "
                 f"arm error mean {arm_err.mean():.3f} cm"
             )
-            self.echo(motion_text)
+        if motion is not None and (routes or motion_s > 0):
+            self.echo(motion.line())
+        elif routes:
+            rate = self.config.servo.rate_hz
+            self.echo(f"motion {motion_s:.1f} s (these routes, streamed at {rate:g} Hz)")
         for s in rep.skipped:
             self.echo(f"not sorted: {s.object_id} ({s.class_name}): {s.reason}")
         if rep.fault:
             self.echo(f"stopped: {rep.fault}")
         self.echo(outcome.line())
+
+
+def summary_without_table(lines: Sequence[str], classes: int) -> list[str]:
+    """What ``mearm sort --quiet`` prints of the lines a run echoed: its summary, no table.
+
+    The summary starts after the blank line :meth:`Reporter.summary` opens it with; its
+    per-class table (a heading and one row for each of ``classes`` classes) is left out,
+    so what remains is the route statistics, the motion time, the objects left and why,
+    a fault, and the last line, :meth:`Outcome.line`. Lines that hold no summary are
+    returned as they are.
+    """
+    if "" not in lines:
+        return list(lines)
+    start = len(lines) - lines[::-1].index("")  # after the last blank line
+    return list(lines[start + 1 + classes :])
 
 
 def _finite(cm: np.ndarray | None) -> list[float] | None:

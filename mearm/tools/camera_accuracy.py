@@ -75,6 +75,11 @@ from mearm.errors import MearmError
 MATCH_CM = 1.0
 #: Objects whose outline comes closer than this to the frame's edge are left out [px].
 EDGE_PX = 4.0
+#: The whole numbers ``--scenes`` (per height), ``--objects`` (per scene) and ``--views``
+#: (board pictures for the intrinsics) may be, each (least, most).
+SCENES = (1, 100)
+OBJECTS = (1, 40)
+VIEWS = (6, 60)
 
 
 def _numbers(text: str) -> list[float]:
@@ -355,11 +360,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = ArgumentParser(description=__doc__.splitlines()[0] if __doc__ else None)
     add_config_argument(parser)
     parser.add_argument("--heights", type=str, default="1,2.5", help="object heights [cm]")
-    parser.add_argument("--scenes", type=plain_int, default=5, help="scenes per height")
+    parser.add_argument("--scenes", type=plain_int, default=5, help="scenes per height (1 … 100)")
     parser.add_argument("--first-seed", type=plain_int, default=0, help="seed of the first scene")
-    parser.add_argument("--objects", type=plain_int, default=12, help="objects per scene")
+    parser.add_argument("--objects", type=plain_int, default=12, help="objects per scene (1 … 40)")
     parser.add_argument(
-        "--views", type=plain_int, default=15, help="board views for the intrinsics"
+        "--views", type=plain_int, default=15, help="board views for the intrinsics (6 … 60)"
     )
     parser.add_argument(
         "--noise-std", type=plain_float, default=2.0, help="sensor noise [8-bit levels]"
@@ -379,8 +384,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
     recorded = _check_outputs(args)  # before the work: the measurement takes minutes
     heights = _numbers(args.heights)
-    if not (1 <= args.scenes <= 100 and 1 <= args.objects <= 40 and 6 <= args.views <= 60):
-        raise MearmError("--scenes must be 1 … 100, --objects 1 … 40 and --views 6 … 60")
+    for flag, value, (lo, hi) in (
+        ("--scenes", args.scenes, SCENES),
+        ("--objects", args.objects, OBJECTS),
+        ("--views", args.views, VIEWS),
+    ):
+        if not lo <= value <= hi:
+            raise MearmError(f"{flag} must be a whole number in {lo} … {hi}, got {value}")
     if not 0 <= args.first_seed <= 1_000_000:
         raise MearmError(f"--first-seed must be in 0 … 1000000, got {args.first_seed}")
     if not 0 <= args.noise_std <= 50:
