@@ -28,6 +28,14 @@ the commanded ones (least squares: Kabsch/Umeyama in 2-D, no scale) are
 :math:`R' = R_z R`, :math:`C' = R_z C + (t_x, t_y, 0)`, moves every ray, and so every
 located point on a horizontal plane, by it.
 
+The refined pose records its own residual in ``rms_px``, as a marker fit records its
+markers' (the unit the calibration file's rule compares, :func:`refine_extrinsics`): the
+RMS distance in the frames between where the object was seen and where the pose projects
+the commanded points, on the plane of the object's top (:func:`points_rms_px`). The pose
+checked gets the same figure over the same points, so the two can be compared like with
+like. The moved camera projects a point :math:`X` where the camera checked projects
+:math:`R_z^T (X - (t_x, t_y, 0))`.
+
 Every route to and from the object is planned in full (:class:`~mearm.task.plan.Planner`)
 before any of it is sent (:class:`~mearm.task.execute.Executor`), as in the sort, and
 checked against the bins, the table and the other objects (the sort's collision model,
@@ -60,11 +68,13 @@ from mearm.config import ColorClass, Config
 from mearm.config.errors import CalibrationError
 from mearm.errors import MearmError
 from mearm.ik import IKTarget
+from mearm.kinematics import ArmModel
 from mearm.sim.table_collision import collision_model
 from mearm.task.execute import Executor
 from mearm.task.plan import Planner
-from mearm.task.rig import open_rig
+from mearm.task.rig import Rig, open_rig
 from mearm.task.route import Route
+from mearm.task.sorter import CalibrateFirst, calibrates_at_start, check_calibrate_at_start
 from mearm.vision import Camera, ColorDetector, Detection
 from mearm.vision.arm_mask import RIM_POINTS, arm_view
 from mearm.vision.calibration import CameraGeometry, camera_geometry
@@ -128,11 +138,16 @@ class ArmCheck:
         start_cm: Where it lay at first, as the camera saw it (x, y) [cm], (2,).
         points: One record per check point, in the order visited.
         refined: The camera pose refined by the points, or ``None`` (not asked for, or
-            not enough points measured).
+            not enough points measured); its ``rms_px`` is its own residual over the
+            points (:func:`refit_pose`).
         refined_seen_cm: Where the refined camera sees the object in the same frames,
             (k, 2) for the measured points, or ``None``.
+        checked_rms_px: The pose checked: its residual over the same points, the figure
+            the refined pose's ``rms_px`` compares with [px], or ``None`` (not refined).
         returned: Whether the object was put back where it lay.
         failure: Why the check could not complete, or ``None``.
+        notes: The lines the servos' calibration at the start gave
+            (``servo.calibrate_at_start``), to print before the figures.
     """
 
     class_name: str
@@ -140,8 +155,10 @@ class ArmCheck:
     points: tuple[CheckPoint, ...]
     refined: Extrinsics | None = None
     refined_seen_cm: np.ndarray | None = None
+    checked_rms_px: float | None = None
     returned: bool = False
     failure: str | None = None
+    notes: tuple[str, ...] = ()
 
     @property
     def measured(self) -> tuple[CheckPoint, ...]:
@@ -207,11 +224,16 @@ def _rz2(theta: float) -> np.ndarray:
     return np.array([[c, -s], [s, c]])
 
 
-def refine_extrinsics(ext: Extrinsics, theta_rad: float, shift_cm: npt.ArrayLike) -> Extrinsics:
+def refine_extrinsics(
+    ext: Extrinsics, theta_rad: float, shift_cm: npt.ArrayLike, *, rms_px: float
+) -> Extrinsics:
     """The camera moved by R_z(θ) and the table shift: R' = R_z·R, C' = R_z·C + (t, 0).
 
-    The reprojection error of the markers it was fitted to (``rms_px``) is kept; the
-    result is marked ``refined_by_arm``.
+    The result is marked ``refined_by_arm`` and carries ``rms_px``, the moved pose's own
+    residual over the arm's points (:func:`refit_pose`): the markers' error the pose was
+    fitted with no longer describes it, and a calibration file is replaced only by one
+    whose ``rms_px`` is no higher, so keeping the markers' let every refined pose replace
+    the pose it refined.
     """
     Rz = np.eye(3)
     Rz[:2, :2] = _rz2(theta_rad)
@@ -220,9 +242,50 @@ def refine_extrinsics(ext: Extrinsics, theta_rad: float, shift_cm: npt.ArrayLike
         ext,
         rotation=Rz @ ext.rotation,
         position_cm=Rz @ ext.position_cm + np.array([t[0], t[1], 0.0]),
+        rms_px=rms_px,
         refined_by_arm=True,
         date=today(),
     )
+
+
+def points_rms_px(
+    camera: PerspectiveCamera, seen_px: npt.ArrayLike, points_cm: npt.ArrayLike, z_cm: float
+) -> float:
+    """RMS distance [px] between pixels seen (k, 2) and where ``camera`` projects points.
+
+    ``points_cm``: (x, y) [cm], (k, 2), on the plane z = ``z_cm``: a pose's reprojection
+    error over the arm's check points, in the unit of a marker fit's ``rms_px``.
+    """
+    seen = np.asarray(seen_px, dtype=float).reshape(-1, 2)
+    projected = camera.table_to_pixel(np.asarray(points_cm, dtype=float).reshape(-1, 2), z_cm)
+    return float(np.sqrt(np.mean(np.sum((projected - seen) ** 2, axis=1))))
+
+
+def refit_pose(
+    camera: PerspectiveCamera, seen_cm: npt.ArrayLike, commanded_cm: npt.ArrayLike, z_cm: float
+) -> tuple[Extrinsics, float, tuple[float, np.ndarray]]:
+    """The camera's pose refined by the check points, and the residuals of both poses.
+
+    Args:
+        camera: The camera checked.
+        seen_cm: Where it saw the object's top (x, y) [cm], (k, 2), k ≥ 2.
+        commanded_cm: Where the arm set the object down (x, y) [cm], (k, 2).
+        z_cm: The height of the object's top, where it was seen [cm].
+
+    Returns:
+        The refined pose (its ``rms_px`` its residual over the points), the checked
+        pose's residual over the same points [px], and the motion (θ [rad], t [cm])
+        that moved it (:func:`fit_planar_rigid`).
+    """
+    seen = np.asarray(seen_cm, dtype=float).reshape(-1, 2)
+    commanded = np.asarray(commanded_cm, dtype=float).reshape(-1, 2)
+    theta, t = fit_planar_rigid(seen, commanded)
+    seen_px = camera.table_to_pixel(seen, z_cm)  # where the object's top was in the frames
+    checked_px = points_rms_px(camera, seen_px, commanded, z_cm)
+    # the moved camera projects X where this one projects R_zᵀ(X − t) (module docstring)
+    refined_px = points_rms_px(camera, seen_px, (commanded - t) @ _rz2(theta), z_cm)
+    refined = refine_extrinsics(camera.extrinsics, theta, t, rms_px=refined_px)
+    return refined, checked_px, (theta, t)
 
 
 # --------------------------------------------------------------------- moving the object
@@ -570,6 +633,7 @@ def run_check(
     class_name: str | None = None,
     refine: bool = False,
     echo: Callable[[str], None] | None = print,
+    calibrate_first: CalibrateFirst | None = None,
 ) -> ArmCheck:
     """Open the rig, run the arm's check of the camera, put the object back, close the rig.
 
@@ -579,23 +643,35 @@ def run_check(
         class_name: Take an object of this class (default: the first detected).
         refine: Also fit the camera pose to the points (needs a perspective calibration).
         echo: Called with one line per step (``None``: silent).
+        calibrate_first: Calibrates servos never calibrated, the arm at home, before the
+            object is looked for, where ``servo.calibrate_at_start`` asks for it, as the
+            sort's does (:func:`mearm.maker.camera_calibration.at_start.for_config`);
+            ``None``: the command cannot (a note says so, and the check uses the arm's
+            nominal calibration).
 
     Raises:
         ArmCheckError: a bad argument (before the rig opens).
+        ConfigError: ``servo.calibrate_at_start`` on a rig without what it needs (before
+            the rig opens).
         NothingToCheck: no object of the class on the table, or no room for the points
-            (before anything but going home moves).
+            (before anything but going home, and the servos' calibration, moves).
+        StartCalibrationFailed: the servos' calibration at the start gave none.
         CalibrationError: ``refine`` without a perspective calibration.
     """
     say = echo if echo is not None else (lambda _line: None)
     geometry = _checked_geometry(config, points, class_name, refine=refine)
+    check_calibrate_at_start(config)  # before anything moves, as the sort's
     detector = ColorDetector(config.vision, geometry, config.task.classes)
     with open_rig(config) as rig:
-        collision = collision_model(config, rig.model, clearance_cm=config.task.clearance_cm)
-        planner = Planner(config, rig.model, collision)
-        ex = Executor(config, rig.bus, rig.model)
         if not rig.bus.is_connected:
             rig.bus.connect()
+        ex = Executor(config, rig.bus, rig.model)
         ex.home_pose()
+        config, ex, notes = _servos_calibrated(config, rig, ex, calibrate_first)
+        for line in notes:
+            say(line)
+        collision = collision_model(config, ex.model, clearance_cm=config.task.clearance_cm)
+        planner = Planner(config, ex.model, collision)
         found = _table_detections(detector, config, rig.camera.read())
         obj = _chosen_object(found, class_name)
         cls = config.task.class_named(obj.color)
@@ -614,11 +690,11 @@ def run_check(
             returned = refusal is None
             if refusal is not None:
                 failure = f"the object was not put back: {refusal.why}"
-        refined = refined_seen = None
+        refined = refined_seen = checked_px = None
         measured = [r for r in visit.records if r.seen_cm is not None]
         if refine and len(measured) >= 2:
             assert isinstance(geometry, PerspectiveCamera)
-            refined, refined_seen = _refit_pose(
+            refined, checked_px, refined_seen = _refit_pose(
                 config, geometry, cls, measured, visit.frames, others_xy
             )
     return ArmCheck(
@@ -627,9 +703,40 @@ def run_check(
         points=tuple(visit.records),
         refined=refined,
         refined_seen_cm=refined_seen,
+        checked_rms_px=checked_px,
         returned=returned,
         failure=failure,
+        notes=tuple(notes),
     )
+
+
+def _servos_calibrated(
+    config: Config, rig: Rig, ex: Executor, calibrate_first: CalibrateFirst | None
+) -> tuple[Config, Executor, list[str]]:
+    """The sort's calibration at the start (``servo.calibrate_at_start``), the arm at home.
+
+    Servos never calibrated are calibrated by the camera as the sort's are
+    (:meth:`mearm.task.sorter.Sorter.run`), and the arm goes home in the calibration
+    found: the config and the executor to check with, and the lines to print. Else
+    ``config`` and ``ex`` as they are.
+
+    Raises:
+        StartCalibrationFailed: the fit did not converge or was refused.
+        ServoError: a fault while moving.
+    """
+    if not calibrates_at_start(config):
+        return config, ex, []
+    if calibrate_first is None:
+        return config, ex, [
+            "note: servo.calibrate_at_start: this command does not calibrate the servos "
+            "first; the check uses the arm's nominal calibration"
+        ]  # fmt: skip
+    config, lines = calibrate_first(config, rig.camera, rig.bus, ex.model, simulated=rig.simulated)
+    model = ArmModel(config.arm)  # its limits, narrowed where the fit says so
+    ex = Executor(config, rig.bus, model)
+    ex.move_joints(model.home, "travel", closed=False)
+    ex.home_pose()
+    return config, ex, lines
 
 
 def _checked_geometry(
@@ -731,18 +838,22 @@ def _refit_pose(
     measured: list[CheckPoint],
     frames: list[np.ndarray],
     others_xy: np.ndarray,
-) -> tuple[Extrinsics, np.ndarray]:
-    """Fit the camera pose to the measured points and find the object again with it."""
+) -> tuple[Extrinsics, float, np.ndarray]:
+    """Fit the camera pose to the measured points and find the object again with it.
+
+    The refined pose, the checked pose's residual over the points [px]
+    (:func:`refit_pose`), and where the refined camera sees the object, (k, 2) [cm].
+    """
     seen_xy = np.array([r.seen_cm for r in measured], dtype=float)
-    theta, t = fit_planar_rigid(seen_xy, [r.commanded_cm for r in measured])
-    refined = refine_extrinsics(geometry.extrinsics, theta, t)
+    commanded = np.array([r.commanded_cm for r in measured], dtype=float)
+    refined, checked_px, (theta, t) = refit_pose(geometry, seen_xy, commanded, cls.height_cm)
     relocate = ColorDetector(config.vision, geometry.with_extrinsics(refined), config.task.classes)
     seen_again = []
     for r, frame in zip(measured, frames, strict=True):
         d = _find(_table_detections(relocate, config, frame), cls, r.commanded_cm,
                   _moved(others_xy, theta, t))  # fmt: skip
         seen_again.append(np.full(2, np.nan) if d is None else d.table_cm)
-    return refined, np.array(seen_again, dtype=float).reshape(-1, 2)
+    return refined, checked_px, np.array(seen_again, dtype=float).reshape(-1, 2)
 
 
 def _moved(points_cm: np.ndarray, theta: float, t: np.ndarray) -> np.ndarray:

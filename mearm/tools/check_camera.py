@@ -11,17 +11,25 @@ a set-down leaves the object; after each it goes home and the camera locates the
 point's residual (seen − commanded, [cm]), their RMS and the largest, and puts the object
 back where it lay (:mod:`mearm.task.armcheck`).
 
+With ``servo.calibrate_at_start: when_uncalibrated`` (and no ``servo.calibration_file``)
+it first calibrates the servos by the camera, the arm at home, as ``mearm sort`` does
+(:mod:`mearm.maker.camera_calibration.at_start`), and checks with that calibration.
+
 With ``--refine OUT`` (a perspective calibration only) it fits the rotation about the
 vertical and the shift on the table that best map the seen points onto the commanded
-ones, moves the camera's pose by them and writes it to OUT (marked ``refined_by_arm``;
-an existing file holding a better calibration is kept unless ``--force``), and prints
-the residuals the refined pose gives on the same frames.
+ones, moves the camera's pose by them and writes it to OUT (marked ``refined_by_arm``,
+its ``rms_px`` its own reprojection error over the check points), and prints the
+residuals the refined pose gives on the same frames. An existing OUT is replaced (and
+kept as ``OUT.bak``) only by a pose no worse, compared like with like
+(:func:`write_refined`); a marker-fitted pose a refine displaces is kept as
+``OUT.markers.bak``, which no refine replaces.
 
 Exit 0: the check ran and printed its figures; 1: it could not complete (no object seen,
 no room for as many points as asked, a point that failed, a camera or servo fault during
-the check: one line on stderr says which, and OUT is not written); 2: bad input, one line
-on stderr (OUT is checked before the arm moves), a camera that cannot be opened included
-(as ``mearm sort`` and ``mearm detect`` say it).
+the check, a calibration of the servos at the start that gave none: one line on stderr
+says which, and OUT is not written); 2: bad input, one line on stderr (OUT is checked
+before the arm moves), a camera that cannot be opened included (as ``mearm sort`` and
+``mearm detect`` say it), and an OUT kept after the check (a better pose in it).
 """
 
 from __future__ import annotations
@@ -44,8 +52,10 @@ from mearm.cli import (
     run,
 )
 from mearm.config import Config
+from mearm.config.errors import CalibrationError
 from mearm.config.files import resolve_config_path
 from mearm.errors import MearmError
+from mearm.fileio import write_atomic
 from mearm.hardware.errors import ServoError
 from mearm.task.armcheck import (
     MAX_POINTS,
@@ -56,9 +66,10 @@ from mearm.task.armcheck import (
     rms_cm,
     run_check,
 )
+from mearm.task.sorter import StartCalibrationFailed
 from mearm.vision.calibration import camera_geometry
 from mearm.vision.errors import CameraError
-from mearm.vision.pinhole import PerspectiveCamera, save_calibration
+from mearm.vision.pinhole import Extrinsics, PerspectiveCamera, load_calibration, save_calibration
 
 
 def _points(text: str) -> int:
@@ -77,8 +88,12 @@ def _xy(v: np.ndarray) -> str:
 
 
 def report_lines(check: ArmCheck) -> list[str]:
-    """The check's figures, one line each: every point, then the RMS and the largest."""
-    lines = [f"object: {check.class_name}, lay at {_xy(check.start_cm)} cm"]
+    """The check's figures, one line each: every point, then the RMS and the largest.
+
+    The lines of the servos' calibration at the start come first; with a refined pose,
+    its points and figures, and both poses' residuals over the points [px] follow.
+    """
+    lines = [*check.notes, f"object: {check.class_name}, lay at {_xy(check.start_cm)} cm"]
     for k, p in enumerate(check.points, 1):
         r = p.residual_cm
         if r is None:
@@ -99,6 +114,11 @@ def report_lines(check: ArmCheck) -> list[str]:
             lines.append(f"refined point {k}: residual {_xy(r)} |r| {float(np.hypot(*r)):.3f} cm")
         lines.append(
             f"refined residual: rms {rms_cm(refined):.3f} cm, max {max_cm(refined):.3f} cm"
+        )
+    if check.refined is not None and check.checked_rms_px is not None:
+        lines.append(
+            f"pose residual over the points: rms {check.checked_rms_px:.3f} px checked, "
+            f"{check.refined.rms_px:.3f} px refined"
         )
     return lines
 
@@ -129,6 +149,110 @@ def _check_camera_opens(config: Config) -> None:
 
     with open_camera(config):
         pass
+
+
+#: A refine keeps the marker-fitted pose it displaces as ``OUT`` + this (never replaced).
+MARKER_FIT_SUFFIX = ".markers.bak"
+
+
+def _pose_in(path: Path) -> Extrinsics | None:
+    """The camera pose a regular file holds, or ``None`` (none there, or not a pose)."""
+    if not path.is_file():
+        return None
+    try:
+        cal = load_calibration(path)
+    except CalibrationError:
+        return None
+    return cal if isinstance(cal, Extrinsics) else None
+
+
+def _same_pose(a: Extrinsics, b: Extrinsics) -> bool:
+    """Whether two calibrations hold the same camera's same pose."""
+    return (
+        a.camera_id == b.camera_id
+        and a.size_px == b.size_px
+        and np.array_equal(a.rotation, b.rotation)
+        and np.array_equal(a.position_cm, b.position_cm)
+    )
+
+
+def _marker_fit(pose: Extrinsics | None) -> bool:
+    """Whether ``pose`` is a pose fitted to markers (not refined by the arm)."""
+    return pose is not None and not pose.refined_by_arm
+
+
+def check_refine_output(out: Path, checked: Extrinsics, *, force: bool) -> Path | None:
+    """Refuse an OUT whose pose a refine cannot weigh, or whose write would lose a marker fit.
+
+    Called before the arm moves, and again just before the write. A marker-fitted pose
+    in OUT other than the one checked is not replaced without ``force``: its ``rms_px``
+    is over its markers, a refined pose's over the arm's points, and this check did not
+    measure it. Writing OUT replaces ``OUT.bak``: where that holds a marker-fitted pose,
+    it is kept as ``OUT.markers.bak`` first (the path returned; ``None``: nothing to
+    keep), which no refine replaces when it holds another.
+
+    Raises:
+        CalibrationError: either, and what to do.
+    """
+    old = _pose_in(out)
+    if not force and old is not None and not old.refined_by_arm and not _same_pose(old, checked):
+        raise CalibrationError(
+            f"--refine {out}: holds a marker-fitted pose this check does not measure (its "
+            "rms_px is over markers, a refined one's over the arm's points): write "
+            "elsewhere, check that pose, or pass --force"
+        )
+    backup = out.with_name(out.name + ".bak")
+    if not (out.is_file() and _marker_fit(_pose_in(backup))):
+        return None
+    keep_as = out.with_name(out.name + MARKER_FIT_SUFFIX)
+    if not keep_as.exists():
+        return keep_as
+    if not keep_as.is_file() or keep_as.read_bytes() != backup.read_bytes():
+        raise CalibrationError(
+            f"--refine {out}: {backup.name} holds a marker-fitted pose, which writing OUT "
+            f"replaces, and {keep_as.name}, where a refine keeps it, another: move one away, "
+            "or write elsewhere"
+        )
+    return None  # kept there already
+
+
+def write_refined(out: Path, check: ArmCheck, checked: Extrinsics, *, force: bool) -> None:
+    """Write the refined pose to ``out``, unless that would lose a better or unweighed pose.
+
+    Like with like: where ``out`` holds the pose checked, the refined pose's residual
+    over the check points is compared with that pose's over the same points
+    (:attr:`ArmCheck.checked_rms_px`; not with its ``rms_px``, which may be over its
+    markers); where it holds another pose refined by the arm, the two ``rms_px`` (each
+    over its own check's points) are compared by
+    :func:`~mearm.vision.pinhole.save_calibration`'s rule. The worse is not written
+    without ``force``. The pose ``out`` held is kept as ``out.bak``, and a marker-fitted
+    one that ``out.bak`` held as ``out.markers.bak`` (:func:`check_refine_output`).
+
+    Raises:
+        CalibrationError: the pose in ``out`` is better, or not to be weighed.
+        MearmError: a file cannot be written.
+    """
+    refined = check.refined
+    assert refined is not None and check.checked_rms_px is not None
+    keep_as = check_refine_output(out, checked, force=force)
+    old = _pose_in(out)
+    holds_checked = old is not None and _same_pose(old, checked)
+    if holds_checked and not force and refined.rms_px > check.checked_rms_px:
+        raise CalibrationError(
+            f"{out} holds the pose checked, which fits the check's points better (rms "
+            f"{check.checked_rms_px:.3f} px) than the refined one (rms {refined.rms_px:.3f} "
+            "px): kept; pass --force to replace it"
+        )
+    if keep_as is not None:
+        try:
+            write_atomic(keep_as, out.with_name(out.name + ".bak").read_bytes())
+        except OSError as exc:
+            raise MearmError(f"cannot write {keep_as}: {exc.strerror or exc}") from None
+    try:
+        # the pose checked is weighed above; any other by the file's own rule
+        save_calibration(out, refined, force=force or holds_checked)
+    except OSError as exc:
+        raise MearmError(f"cannot write {out}: {exc.strerror or exc}") from None
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -166,24 +290,28 @@ def main(argv: Sequence[str] | None = None) -> int:
             f"--class {args.class_name!r}: no such class (classes: "
             f"{', '.join(config.task.class_names)})"
         )
-    if args.refine is not None and not isinstance(
-        camera_geometry(config.calibration, config.camera), PerspectiveCamera
-    ):
-        parser.error(
-            "--refine needs a perspective calibration (calibration.model: perspective with "
-            "intrinsics_file and extrinsics_file); this config has the homography"
-        )
+    checked = None
+    if args.refine is not None:
+        geometry = camera_geometry(config.calibration, config.camera)
+        if not isinstance(geometry, PerspectiveCamera):
+            parser.error(
+                "--refine needs a perspective calibration (calibration.model: perspective "
+                "with intrinsics_file and extrinsics_file); this config has the homography"
+            )
+        checked = geometry.extrinsics
+        check_refine_output(args.refine, checked, force=args.force)
+    from mearm.maker.camera_calibration.at_start import for_config  # noqa: PLC0415  (the sort's)
 
     _check_camera_opens(config)
     try:
         check = run_check(
             config, points=args.points, class_name=args.class_name,
-            refine=args.refine is not None, echo=None,
+            refine=args.refine is not None, echo=None, calibrate_first=for_config(config),
         )  # fmt: skip
     except NothingToCheck as exc:
         print(f"{PROG}: check not run: {exc}", file=sys.stderr)
         return 1
-    except (CameraError, ServoError) as exc:
+    except (CameraError, ServoError, StartCalibrationFailed) as exc:
         print(f"{PROG}: check stopped: {exc}", file=sys.stderr)
         return 1
     print("\n".join(report_lines(check)))
@@ -195,10 +323,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"{PROG}: check incomplete: {why}{kept}", file=sys.stderr)
         return 1
     if check.refined is not None:
-        try:
-            save_calibration(args.refine, check.refined, force=args.force)
-        except OSError as exc:
-            raise MearmError(f"cannot write {args.refine}: {exc.strerror or exc}") from None
+        assert checked is not None
+        write_refined(args.refine, check, checked, force=args.force)
         print(f"wrote {args.refine}")
     return 0
 
