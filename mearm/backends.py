@@ -149,8 +149,8 @@ def open_parts(
 
 
 def uses_world(config: Config) -> bool:
-    """Whether the camera or the servos are simulated, so a table of objects is laid out."""
-    return config.camera.kind == "sim" or config.servo.backend == "sim"
+    """Whether a table of objects is laid out (:attr:`~mearm.config.Config.simulated_table`)."""
+    return config.simulated_table
 
 
 def table_world(config: Config, scene: list[SceneObject] | None = None) -> World:

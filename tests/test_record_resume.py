@@ -102,6 +102,9 @@ def test_sigkill_mid_trial_then_resume_records_each_pick_once(tmp_path: Path) ->
     assert check_dataset(root) == []
     latest = read_runlog(log).latest().trials
     assert [(t.number, t.complete) for t in latest] == [(0, True), (1, True)]
+    # where each starts, for a replay: each trial's first at the reset, its second after
+    # it; the resumed pick's not known (its pick before was recorded by the killed run)
+    assert _afters(root) == [None, 0, None, "not known"]
 
     # the same experiment uninterrupted, its trials in 2 worker processes: the same dataset
     whole = tmp_path / "whole"
@@ -112,11 +115,18 @@ def test_sigkill_mid_trial_then_resume_records_each_pick_once(tmp_path: Path) ->
     assert run.returncode == 0, err.decode()
     for rel in (DATA, TAGS, VIDEO):
         assert _contents(whole / rel) == _contents(root / rel), rel
+    assert _afters(whole) == [None, 0, None, 2]  # a worker's trial: one sort
 
 
 DATA = "data/chunk-000/file-000.parquet"
 TAGS = "meta/mearm_episodes.json"
 VIDEO = "videos/observation.images.table/chunk-000/file-000.mp4"
+
+
+def _afters(root: Path) -> list[object]:
+    """The episode each episode of the dataset continues (``meta/mearm_starts.json``)."""
+    starts = json.loads((root / "meta/mearm_starts.json").read_text())["episodes"]
+    return [start.get("after", "not known") for start in starts]
 
 
 def _contents(path: Path) -> object:

@@ -114,6 +114,11 @@ class Config(Strict):
     ``kinematic`` (a grasp succeeds within ``servo.grip_tolerance_cm``; drawn camera) or
     ``mujoco`` (the physical twin: servos, contacts and friction decide; rendered camera)."""
 
+    @property
+    def simulated_table(self) -> bool:
+        """Whether the camera or the servos are simulated, so a table of objects is laid out."""
+        return self.camera.kind == "sim" or self.servo.backend == "sim"
+
     @model_validator(mode="after")
     def _twin_simulates_both(self) -> Config:
         if self.simulator == "mujoco" and (

@@ -109,6 +109,13 @@ JOURNAL_PATH = "meta/.commit.json"
 #: episode order: what a resumed experiment reads to record no pick twice. LeRobot
 #: reads only the files above.
 TAGS_PATH = "meta/mearm_episodes.json"
+#: mearm's own record of where each episode starts (the episode of the same sort it
+#: continues) and the servo calibration it ran, in episode order: what a replay needs
+#: besides the scene (:mod:`mearm.envs.replay`).
+STARTS_PATH = "meta/mearm_starts.json"
+#: A servo calibration a sort made at its start (``servo.calibrate_at_start``), as a servo
+#: calibration file, named by the first episode that ran it.
+SERVOS_PATH = "meta/mearm_servos/episode-{episode_index:06d}.servos.yaml"
 #: The writer's scratch folder inside the dataset (the episode's video being encoded).
 SCRATCH_DIR = ".recording"
 

@@ -26,6 +26,12 @@ logs how its sort ended (:meth:`DatasetRecorder.abandon`).
 In an experiment each episode is tagged with its trial's seed and its pick's number
 (:meth:`DatasetRecorder.start_trial`): a trial cut off by a kill and run again records
 only the picks the dataset does not hold.
+
+What a replay needs besides the scene is kept with each episode (:class:`EpisodeStart`,
+``meta/mearm_starts.json``): the episode of the same sort it continues (an episode per
+pick after a sort's first starts where the one before left the arm and the table), and
+the servo calibration the sort made at its start (``servo.calibrate_at_start``), as a
+servo calibration file in the dataset (:meth:`DatasetRecorder.servos_calibrated`).
 """
 
 from __future__ import annotations
@@ -39,12 +45,13 @@ import tempfile
 from collections import deque
 from collections.abc import Iterator
 from concurrent.futures import Future, ThreadPoolExecutor
-from pathlib import Path
-from typing import Any
+from dataclasses import dataclass, replace
+from pathlib import Path, PurePosixPath
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from mearm.config import Config
+from mearm.config import Config, SceneObject
 from mearm.dataset import lerobot_format as L
 from mearm.dataset.errors import (
     DatasetError,
@@ -77,6 +84,11 @@ from mearm.dataset.sampler import (  # noqa: F401  (re-exported: what an episode
     state_names,
     task_sentence,
 )
+
+if TYPE_CHECKING:
+    from mearm.config.servo_file import ServoCalibrationFile
+    from mearm.hardware.bus import ServoBus
+    from mearm.vision import Camera
 
 #: The name of the camera's feature (``observation.images.table``): it looks at the table.
 CAMERA_NAME = "table"
@@ -118,6 +130,167 @@ def write_atomic(path: Path, data: bytes) -> None:
         with contextlib.suppress(OSError):
             os.unlink(tmp)
         raise
+
+
+@dataclass(frozen=True)
+class EpisodeStart:
+    """Where an episode starts, as a replay rebuilds it, and the servos it ran.
+
+    An episode per pick after a sort's first starts where the one before it left the arm
+    and the table, not where the environment's reset does: its replay steps the sort's
+    episodes before it first (:mod:`mearm.envs.replay`).
+
+    Attributes:
+        known: Whether the recording knows where it starts (not: recorded by an older
+            mearm, or the pick before it was not recorded by this run).
+        after: The episode of the same sort it continues (the pick before it); ``None``:
+            it starts where the environment's reset leaves the arm (a sort's first).
+        gap_frames: The frames of the sort's time between the last frame of ``after``
+            and its own first (the sort looking at the table, or going home to look
+            again; no frame is recorded then) [frames of 1/fps].
+        servos: The servo calibration the sort made at its start
+            (``servo.calibrate_at_start``): a servo calibration file in the dataset, its
+            path relative to the dataset; ``None``: the config's own.
+    """
+
+    known: bool = False
+    after: int | None = None
+    gap_frames: int = 0
+    servos: str | None = None
+
+    def to_json(self) -> dict[str, Any]:
+        """As ``meta/mearm_starts.json`` holds it: ``{}`` when not known.
+
+        ``{"after": null}`` (a reset's start) or ``{"after": K, "gap_frames": G}``, each
+        with ``"servos": "meta/mearm_servos/…"`` where the sort calibrated them.
+        """
+        out: dict[str, Any] = {}
+        if self.known:
+            out["after"] = self.after
+            if self.after is not None:
+                out["gap_frames"] = self.gap_frames
+        if self.servos is not None:
+            out["servos"] = self.servos
+        return out
+
+    @classmethod
+    def from_json(cls, value: Any, episode: int) -> EpisodeStart | None:
+        """Episode ``episode``'s entry; ``None`` if it is not one."""
+        if not isinstance(value, dict) or set(value) - {"after", "gap_frames", "servos"}:
+            return None
+        after, gap, servos = value.get("after"), value.get("gap_frames", 0), value.get("servos")
+        if after is not None and not (_count(after) and after < episode):
+            return None  # an episode continues one before it
+        if not _count(gap) or ("gap_frames" in value and after is None):
+            return None
+        if servos is not None and not _inside(servos):
+            return None
+        return cls("after" in value, after, gap, servos)
+
+
+def _count(value: Any) -> bool:
+    """Whether ``value`` is a whole number ≥ 0 (not a bool)."""
+    return isinstance(value, int) and not isinstance(value, bool) and value >= 0
+
+
+def _inside(rel: Any) -> bool:
+    """Whether ``rel`` is a path inside the dataset (relative, no ``..``)."""
+    if not isinstance(rel, str) or not rel:
+        return False
+    path = PurePosixPath(rel)
+    return not path.is_absolute() and ".." not in path.parts
+
+
+def read_starts(root: Path, episodes: int) -> list[EpisodeStart]:
+    """``meta/mearm_starts.json``: each episode's :class:`EpisodeStart`, in order.
+
+    Without the file (a dataset recorded by an older mearm) no episode's start is known.
+
+    Raises:
+        DatasetError: it is not JSON, not ``{"episodes": [...]}`` of entries, or not one
+            entry per episode.
+    """
+    rel = L.STARTS_PATH
+    if not (root / rel).exists():
+        return [EpisodeStart()] * episodes
+    data = read_json(root, rel)
+    entries = data.get("episodes") if isinstance(data, dict) else None
+    if not isinstance(entries, list):
+        raise damaged(root, rel, 'not an object {"episodes": [...]}')
+    starts = []
+    for k, entry in enumerate(entries):
+        start = EpisodeStart.from_json(entry, k)
+        if start is None:
+            text = json.dumps(entry)
+            raise damaged(
+                root,
+                rel,
+                f"entry {k} is {text if len(text) <= 40 else text[:37] + '...'}, not "
+                '{"after": null or an earlier episode, "gap_frames": frames ≥ 0, "servos": '
+                "a file in the dataset} (each optional)",
+            )
+        starts.append(start)
+    if len(entries) != episodes:
+        raise damaged(
+            root, rel, f"holds {len(entries)} entries for the {episodes} episodes of the dataset"
+        )
+    return starts
+
+
+def starts_json(starts: list[EpisodeStart]) -> str:
+    """``meta/mearm_starts.json``'s text (:func:`read_starts` reads it)."""
+    return json.dumps({"episodes": [s.to_json() for s in starts]})
+
+
+def start_calibration(nominal: Config, calibrated: Config) -> ServoCalibrationFile | None:
+    """The servo calibration file that gives ``nominal`` the servos of ``calibrated``.
+
+    Each actuator whose servo (or narrowed limits) the calibration changed, replacing the
+    nominal one (``replaces``: a twin with a kit of servos keeps its physics, as the sort's
+    did). ``None``: it changed none. What the sort's calibration at its start
+    (``servo.calibrate_at_start``) hands back is the calibrated config, not its fits.
+    """
+    from mearm.config.servo_file import (  # noqa: PLC0415  (a sort that calibrated only)
+        ActuatorFit,
+        ServoCalibrationFile,
+        now_iso,
+        servo_of,
+    )
+    from mearm.hardware.mapping import ServoMap  # noqa: PLC0415
+
+    def limits(config: Config) -> dict[str, tuple[float, float]]:
+        arm = config.arm
+        out = {j.name: (j.limits.min, j.limits.max) for j in arm.actuated_joints() if j.limits}
+        out.update({a.name: (a.limits.min, a.limits.max) for a in arm.tool.actuators})
+        return out
+
+    was_limits, now_limits = limits(nominal), limits(calibrated)
+    smap = ServoMap.from_arm(nominal.arm)
+    fits = []
+    for actuator in (*smap.joints, *smap.tool, smap.gripper):
+        name = actuator.name
+        was, now = servo_of(nominal.arm, name), servo_of(calibrated.arm, name)
+        narrowed = now_limits.get(name)
+        narrowed = narrowed if narrowed != was_limits.get(name) else None
+        if now != was or narrowed is not None:
+            fits.append(ActuatorFit(name, actuator.unit, now, (), 0.0, was, narrowed))
+    if not fits:
+        return None
+    board = "the servos' calibration by the camera at a sort's start, kept by its recording"
+    return ServoCalibrationFile(nominal.arm.name, board, "", now_iso(), tuple(fits))
+
+
+@dataclass(frozen=True)
+class _Run:
+    """The sort whose episodes are being recorded (:meth:`DatasetRecorder.attach`).
+
+    Attributes:
+        number: Its number in this recorder: episodes of one sort continue one another.
+        servos: The text of the servo calibration file it made at its start, or ``None``.
+    """
+
+    number: int
+    servos: str | None = None
 
 
 def finish_journal(root: Path) -> bool:
@@ -227,7 +400,9 @@ class DatasetRecorder(EpisodeSampler):
         codec: The video encoding, a key of
             :data:`~mearm.dataset.lerobot_format.VIDEO_CODECS` (``"av1"``, ``"h264"``).
         scene: The scene every episode of this run sorts, as a replay rebuilds it (a
-            sort's ``--random N --seed S``), kept with each episode; ``None``: not one.
+            sort's ``--random N --seed S``), kept with each episode; ``None``: not one,
+            or on a simulated table without a belt, the config's own (``task.scene``),
+            kept as it is laid once :attr:`kept_config` says which config that is.
 
     Raises:
         DatasetError: ``root`` is a file or not writable; with ``resume``, its dataset
@@ -265,7 +440,17 @@ class DatasetRecorder(EpisodeSampler):
         self._episodes: list[dict[str, Any]] = []
         self._tags: list[Tag] = []
         self._scenes: list[RecordedScene | None] = []  # each episode's, as self._tags
+        self._starts: list[EpisodeStart] = []  # each episode's, as self._tags
         self.scene = scene
+        #: The table a sort lays when no scene is given (:meth:`attach`), if simulated.
+        self._own_table: tuple[SceneObject, ...] = ()
+        if scene is None and config.simulated_table and config.belt is None:
+            self._own_table = tuple(config.task.scene)
+        self._run = _Run(0)  # the sort being recorded
+        # written by the writer thread: the last episode written (its sort's number, its
+        # start on the bus's clock, its length and tag) and each sort's servo file
+        self._last: tuple[int, float, int, Tag] | None = None
+        self._servo_files: dict[int, str | None] = {}
         self._tasks: list[str] = []
         self._stats: dict[str, Stats] = {}  # the dataset's, aggregated
         self._episodes_table: Any = None  # meta/episodes' table, as last written
@@ -280,10 +465,11 @@ class DatasetRecorder(EpisodeSampler):
         #: Why the recording stopped, if a write failed (a full disk): raised once, kept.
         self.failure: DatasetWriteError | None = None
         # the episode being written (:meth:`_commit`): its files staged (each new one by
-        # the one it replaces), all it wrote, and the file being written now
+        # the one it replaces), all it wrote, the file being written now, and its sort
         self._moves: dict[str, Path] = {}
         self._temps: list[Path] = []
         self._target = self.root
+        self._writing = self._run
 
     def features(self) -> dict[str, dict[str, Any]]:
         """The ``features`` of ``meta/info.json``."""
@@ -339,6 +525,7 @@ class DatasetRecorder(EpisodeSampler):
         self._tasks = read_tasks(pq, root)
         self._episodes = read_episodes(pq, root, info)
         self._tags, self._scenes = read_tags(root, len(self._episodes))
+        self._starts = read_starts(root, len(self._episodes))
         if not self._episodes:
             return
         try:
@@ -364,8 +551,30 @@ class DatasetRecorder(EpisodeSampler):
 
     # ----------------------------------------------------------------- the run
 
+    def attach(self, bus: ServoBus, camera: Camera) -> None:
+        """As :meth:`EpisodeSampler.attach`: a sort begins, its episodes continue one another.
+
+        A sort of the config's own table (no scene given, not an experiment's trial) keeps
+        that table as its scene, with :attr:`kept_config`: a replay lays it as it was,
+        whatever the config's table is by then.
+        """
+        super().attach(bus, camera)
+        self._run = _Run(self._run.number + 1)
+        own = self._own_table
+        if own and self.scene is None and self._trial is None and self.kept_config is not None:
+            self.scene = RecordedScene.laid(own, *self.kept_config)
+
+    def servos_calibrated(self, nominal: Config, calibrated: Config) -> None:
+        """The sort calibrated its servos at its start: its episodes keep that calibration.
+
+        As a servo calibration file in the dataset (:func:`start_calibration`), written
+        with the sort's first episode; a replay applies it.
+        """
+        cal = start_calibration(nominal, calibrated)
+        self._run = replace(self._run, servos=None if cal is None else cal.text())
+
     def _accept(self, ep: _Episode) -> None:
-        self._writes.append(self._writer.submit(self._write, ep))
+        self._writes.append(self._writer.submit(self._write, ep, self._run))
 
     def _write_failed(self, path: Path, exc: OSError, why: str = "") -> DatasetWriteError:
         self._failed = True  # no later episode is written: the disk is full
@@ -387,6 +596,7 @@ class DatasetRecorder(EpisodeSampler):
         holds already is not written again.
         """
         held = set(self._tags)
+        self._run = _Run(self._run.number + 1)  # a trial's: they continue one another
         with no_interrupt():
             for ep in episodes:
                 if ep.tag[0] is not None and ep.tag in held:
@@ -435,8 +645,8 @@ class DatasetRecorder(EpisodeSampler):
 
     # ----------------------------------------------------------------- writing
 
-    def _write(self, ep: _Episode) -> None:
-        """Write one episode (in the writer thread).
+    def _write(self, ep: _Episode, run: _Run) -> None:
+        """Write one episode of the sort ``run`` (in the writer thread).
 
         Raises:
             DatasetWriteError: a file could not be written (a full disk): the episode is
@@ -445,6 +655,7 @@ class DatasetRecorder(EpisodeSampler):
         if self._failed:
             return
         try:
+            self._writing = run
             self._commit(ep)
         except OSError as exc:
             raise self._write_failed(self._target, exc) from exc
@@ -587,6 +798,7 @@ class DatasetRecorder(EpisodeSampler):
         tags = [*self._tags, ep.tag]
         scenes = [*self._scenes, ep.scene]
         staged(L.TAGS_PATH).write_text(tags_json(tags, scenes))
+        starts, servo_file = self._stage_start(ep, index)
 
         for tmp in self._temps:
             with _naming(tmp), open(tmp, "rb") as f:
@@ -602,8 +814,46 @@ class DatasetRecorder(EpisodeSampler):
         self._stats = dataset_stats
         self._tags = tags
         self._scenes = scenes
+        self._starts = starts
+        self._last = (self._writing.number, ep.start_s, ep.length, ep.tag)
+        self._servo_files[self._writing.number] = servo_file
         self._episodes_table = episodes_table
         self._data_table = (data_rel, table)
+
+    def _stage_start(self, ep: _Episode, index: int) -> tuple[list[EpisodeStart], str | None]:
+        """Stage the starts with episode ``index``'s, and its sort's servo file if new.
+
+        Returns:
+            The episodes' starts, and the servo calibration file its sort made (written
+            with the sort's first episode), or ``None``.
+        """
+        run = self._writing
+        servo_file = self._servo_files.get(run.number)
+        if run.servos is not None and servo_file is None:  # the sort's first episode
+            servo_file = L.SERVOS_PATH.format(episode_index=index)
+            self._staged(servo_file).write_text(run.servos)
+        start = replace(self._start_of(ep, run, index), servos=servo_file)
+        starts = [*self._starts, start]
+        self._staged(L.STARTS_PATH).write_text(starts_json(starts))
+        return starts, servo_file
+
+    def _start_of(self, ep: _Episode, run: _Run, index: int) -> EpisodeStart:
+        """Where episode ``index`` starts: where a reset leaves the arm, or after another.
+
+        The first of its sort starts where the reset does (the arm at home, the table as
+        laid), unless it is a trial's pick after the first (the picks before it are in the
+        dataset already, from an earlier run: not known). A later one continues the one
+        written before it, the time between them counted in frames, unless that one is not
+        its trial's pick before (not known).
+        """
+        pick, last = ep.tag[1], self._last
+        if last is None or last[0] != run.number:
+            return EpisodeStart(known=pick in (None, 0))
+        _, start_s, length, tag = last
+        if pick is not None and (tag[0] != ep.tag[0] or tag[1] is None or pick != tag[1] + 1):
+            return EpisodeStart()
+        gap = max(0, round((ep.start_s - start_s) * self.fps) - (length - 1))
+        return EpisodeStart(known=True, after=index - 1, gap_frames=gap)
 
     def _with_row(self, row: dict[str, Any], episodes: list[dict[str, Any]]) -> Any:
         """``meta/episodes``' table with ``row`` added: to the last one written, if it fits."""

@@ -10,37 +10,50 @@ divide the servo rate); after the last action the objects are given up to
 
     python -m mearm.envs.replay DIR --episode 0
 
+An episode per pick after a sort's first starts where the one before it left the arm
+and the table (``meta/mearm_starts.json``,
+:class:`~mearm.dataset.recorder.EpisodeStart`): the replay steps the sort's episodes
+before it first, from the reset, each one's first action held over the time between
+them (the sort looking at the table; going home to look again is not recorded, and is
+replayed as the straight way to where the next pick begins). It succeeds when the pick
+put one more object in its own bin, of its task's class; a scene's, when every object is
+in its own.
+
 The dataset keeps each such episode's scene with its ``--config`` and ``--set``
 (``meta/mearm_episodes.json``): a ``--random`` sort's ``--seed`` and count, or the table
-itself, each object's class and place (a ``--scene`` sort's, an experiment trial's, with
-the trial's seed). The replay lays that scene and runs the config as the sort ran it:
-its own servo and camera seeds for a ``mearm sort``, the trial's
-(:func:`~mearm.experiment.trial_config`) for a trial. It refuses a ``--seed`` or
-``--objects`` that disagrees, or any with a table (exit 2). An episode recorded without
-a scene by an older mearm needs both given (its table drawn by ``random_scene(config,
-N, seed)``; a ``--scene`` sort's or a trial's cannot be). The config's arm must be the
-recording's (``robot_type`` and the action's names in ``info.json``), else exit 2
-naming both. A sort that calibrated its servos by the camera at its start
-(``servo.calibrate_at_start``) ran with a calibration the dataset does not keep: give
-the file its ``--save-calibration`` wrote (``--set servo.calibration_file=FILE``).
+itself, each object's class and place (a ``--scene`` sort's, a sort's of the config's
+own table, an experiment trial's, with the trial's seed). The replay lays that scene and
+runs the config as the sort ran it: its own servo and camera seeds for a ``mearm sort``,
+the trial's (:func:`~mearm.experiment.trial_config`) for a trial, and the servo
+calibration a sort made at its start (``servo.calibrate_at_start``), kept in the dataset
+as a servo calibration file, unless the config names one of its own. It refuses a
+``--seed`` or ``--objects`` that disagrees, or any with a table (exit 2). An episode
+recorded without a scene by an older mearm needs both given (its table drawn by
+``random_scene(config, N, seed)``; a ``--scene`` sort's or a trial's cannot be). The
+config's arm must be the recording's (``robot_type`` and the action's names in
+``info.json``), else exit 2 naming both.
 """
 
 from __future__ import annotations
 
+import sys
 import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from mearm.cli import ArgumentParser, config_path_value, plain_int, run, seed_value
 from mearm.config import Config, SceneObject, load_config
 from mearm.dataset.errors import DatasetError
-from mearm.dataset.reading import read_info, read_table, read_tags
-from mearm.dataset.recorder import import_extra
-from mearm.dataset.sampler import state_names
+from mearm.dataset.reading import damaged, read_info, read_table, read_tags, read_tasks
+from mearm.dataset.recorder import EpisodeStart, import_extra, read_starts
+from mearm.dataset.sampler import state_names, task_sentence
+
+if TYPE_CHECKING:
+    import gymnasium as gym
 
 #: How long the replay holds the last action for the objects to come to rest [s].
 SETTLE_S = 2.0
@@ -51,13 +64,24 @@ class Replayed:
     """How a replay ended.
 
     Attributes:
-        steps: Actions stepped.
+        steps: The episode's actions stepped.
         bins: Each object in a bin → that bin's class (:meth:`TwinArm.objects_in_bin`).
         in_bins: Objects in their own class's bin.
-        success: Whether every object is.
-        refused: Steps whose action the environment refused.
+        success: A scene's episode: whether every object is. A pick's: whether it put
+            one more object in its own bin, of its task's class (:attr:`pick`), and took
+            none out.
+        refused: Steps whose action the environment refused (the sort's before the
+            episode's included).
         objects: Objects in the scene.
         table: The scene laid, each object's class and place, in the twin's order.
+        lead_steps: The actions stepped before the episode's own: the sort's episodes
+            before it, and the time between them (:attr:`ReplayPlan.lead`).
+        before: Objects in their own class's bin as the episode's own actions began.
+        start_state: The arm as the episode's own actions began, measured as its
+            ``observation.state`` (its frame 0, as recorded); empty if a fault came first.
+        pick: A pick's episode: its task's class; ``None``: a scene's.
+        start_known: Whether the recording says where the episode starts (else it is
+            replayed from the reset's start).
     """
 
     steps: int
@@ -67,6 +91,11 @@ class Replayed:
     refused: int
     objects: int = 0
     table: tuple[SceneObject, ...] = ()
+    lead_steps: int = 0
+    before: int = 0
+    start_state: tuple[float, ...] = ()
+    pick: str | None = None
+    start_known: bool = True
 
 
 @dataclass(frozen=True)
@@ -80,8 +109,18 @@ class ReplayPlan:
             sort's); with a ``table``, the trial's (else 0), which then draws nothing.
         objects: Its number of objects.
         config: The config the environment runs as the sort ran it (its arm the
-            recording's, a trial's noise seeds its own), not reseeded.
+            recording's, a trial's noise seeds its own, the servo calibration the sort
+            made at its start), not reseeded.
         table: The table laid as it was recorded, or ``None``: drawn from ``seed``.
+        lead: The actions stepped from the reset before the episode's own, (m, n): an
+            episode per pick after its sort's first starts where the one before it
+            ended, so each episode of the sort before it, from the sort's first, with
+            its first action held over the frames between them
+            (:class:`~mearm.dataset.recorder.EpisodeStart`); none for a sort's first.
+        pick: A pick's episode: its task's class; ``None``: a scene's (or a task that
+            names none of the config's classes).
+        start_known: Whether the recording says where the episode starts; if not (an
+            older mearm's), it is replayed from the reset's start.
     """
 
     actions: np.ndarray
@@ -90,6 +129,9 @@ class ReplayPlan:
     objects: int
     config: Config
     table: tuple[SceneObject, ...] | None = None
+    lead: np.ndarray | None = None
+    pick: str | None = None
+    start_known: bool = True
 
 
 def plan_replay(
@@ -106,7 +148,8 @@ def plan_replay(
     ``seed``, ``objects`` and ``config`` default to the episode's recorded scene
     (``meta/mearm_episodes.json``); without one, ``seed`` and ``objects`` must be given
     and ``config`` is ``sim_mujoco``. A recorded table is laid as it is: no ``seed`` nor
-    ``objects`` draws it.
+    ``objects`` draws it. The servo calibration the sort made at its start is applied
+    unless the config names a ``servo.calibration_file`` of its own.
 
     Raises:
         DatasetError: no dataset there, no such episode, a file of it damaged, a
@@ -114,6 +157,7 @@ def plan_replay(
             recorded table), none to default to, or a config whose arm is not the
             recording's.
         ConfigError: the config cannot be loaded.
+        ServoCalibrationError: the recorded servo calibration is not one of this arm's.
     """
     info = read_info(root)
     total = info["total_episodes"]
@@ -165,8 +209,57 @@ def plan_replay(
         from mearm.experiment.trials import trial_config  # noqa: PLC0415
 
         cfg = trial_config(cfg, recorded.noise_seed)  # the trial's servo kit and noise
-    actions, fps = episode_actions(root, episode, info)
-    return ReplayPlan(actions, fps, seed, objects, cfg, table)
+    starts = read_starts(root, total)
+    servos = starts[episode].servos
+    if servos is not None and cfg.servo.calibration_file is None:
+        cfg = _calibrated(root, servos, cfg)
+    chain = _chain(starts, episode)
+    columns, fps = _actions(root, {*(chain or [episode])}, info)
+    actions, task = columns[episode]
+    lead = _lead(chain, starts, columns) if chain else actions[:0]
+    pick = next((c for c in cfg.task.class_names if task_sentence(c) == task), None)
+    return ReplayPlan(actions, fps, seed, objects, cfg, table, lead, pick, chain is not None)
+
+
+def _calibrated(root: Path, rel: str, config: Config) -> Config:
+    """``config`` with the servo calibration file ``rel`` of the dataset, as a config names it.
+
+    Raises:
+        DatasetError: the file is not there.
+        ServoCalibrationError: it is not a servo calibration of the config's arm.
+    """
+    from mearm.config.servo_file import apply_servo_calibration_file  # noqa: PLC0415
+
+    path = (root / rel).resolve()
+    if not path.is_file():
+        raise damaged(root, rel, "is missing (the servo calibration an episode ran)")
+    servo = config.servo.model_copy(update={"calibration_file": str(path)})
+    return apply_servo_calibration_file(config.model_copy(update={"servo": servo}), path)
+
+
+def _chain(starts: list[EpisodeStart], episode: int) -> list[int] | None:
+    """The episodes of ``episode``'s sort from its first to it; ``None``: not known."""
+    chain = [episode]
+    while True:
+        start = starts[chain[-1]]
+        if not start.known:
+            return None
+        if start.after is None:
+            return chain[::-1]
+        chain.append(start.after)
+
+
+def _lead(
+    chain: list[int], starts: list[EpisodeStart], columns: dict[int, tuple[np.ndarray, str]]
+) -> np.ndarray:
+    """The actions stepped before the last episode of ``chain``'s own (:attr:`ReplayPlan.lead`)."""
+    parts = []
+    for k in chain:  # the first's gap is none: it starts at the reset
+        actions = columns[k][0]
+        parts.append(np.repeat(actions[:1], starts[k].gap_frames, axis=0))
+        if k != chain[-1]:
+            parts.append(actions[1:])
+    return np.concatenate(parts)
 
 
 def _check_arm(root: Path, info: dict[str, Any], config: Config, name: object) -> None:
@@ -201,21 +294,46 @@ def episode_actions(
     Raises:
         DatasetError: no dataset there, a file of it damaged, or no such episode.
     """
+    columns, fps = _actions(root, {episode}, info)
+    return columns[episode][0], fps
+
+
+def _actions(
+    root: Path, episodes: set[int], info: dict[str, Any] | None = None
+) -> tuple[dict[int, tuple[np.ndarray, str]], int]:
+    """Each of ``episodes``' ``action`` column, (k, n), and task; the dataset's fps.
+
+    The data files are read once for them all.
+
+    Raises:
+        DatasetError: no dataset there, a file of it damaged, or no such episode.
+    """
     fps = int((info or read_info(root))["fps"])
     pq = import_extra(av_here=False)[1]
-    rows: list[Any] = []
-    columns = ["episode_index", "frame_index", "action"]
+    rows: dict[int, list[Any]] = {k: [] for k in episodes}
+    task_of: dict[int, int] = {}
+    columns = ["episode_index", "frame_index", "action", "task_index"]
     for path in sorted((root / "data").glob("*/*.parquet")):
-        table = read_table(pq, root, str(path.relative_to(root)), columns, only=True)
-        mask = np.asarray(table["episode_index"].to_numpy()) == episode
-        if mask.any():
-            frames = np.asarray(table["frame_index"].to_numpy())[mask]
-            actions = np.array(table["action"].to_pylist(), dtype=np.float64)[mask]
-            rows.extend(zip(frames.tolist(), actions, strict=True))
-    if not rows:
-        raise DatasetError(root, f"has no episode {episode}")
-    rows.sort(key=lambda r: r[0])
-    return np.stack([a for _, a in rows]), fps
+        rel = str(path.relative_to(root))
+        table = read_table(pq, root, rel, columns, only=True)
+        index = np.asarray(table["episode_index"].to_numpy())
+        for k in episodes:
+            mask = index == k
+            if mask.any():
+                frames = np.asarray(table["frame_index"].to_numpy())[mask]
+                actions = np.array(table["action"].to_pylist(), dtype=np.float64)[mask]
+                rows[k].extend(zip(frames.tolist(), actions, strict=True))
+                task_of[k] = int(np.asarray(table["task_index"].to_numpy())[mask][0])
+    tasks = read_tasks(pq, root) if task_of else []
+    out = {}
+    for k in sorted(episodes):
+        if not rows[k]:
+            raise DatasetError(root, f"has no episode {k}")
+        if not 0 <= task_of[k] < len(tasks):
+            raise damaged(root, "data", f"episode {k}'s task_index {task_of[k]} names no task")
+        rows[k].sort(key=lambda r: r[0])
+        out[k] = (np.stack([a for _, a in rows[k]]), tasks[task_of[k]])
+    return out, fps
 
 
 def replay(
@@ -232,7 +350,9 @@ def replay(
     """Step episode ``episode``'s actions in ``env_id`` on its scene (module docstring).
 
     The environment runs the config as the sort ran it (``reseed=False``: the sort's own
-    servo and camera seeds, a trial's its trial's), on the recorded table if there is one.
+    servo and camera seeds, a trial's its trial's, the servo calibration it made at its
+    start), on the recorded table if there is one; an episode per pick after its sort's
+    first starts after the sort's episodes before it (:attr:`ReplayPlan.lead`).
 
     Args:
         root: The dataset.
@@ -258,35 +378,61 @@ def replay(
         root, episode, seed=seed, objects=objects, config=config, overrides=overrides
     )
     actions = plan.actions
+    lead = plan.lead if plan.lead is not None else actions[:0]
     env = gym.make(
         env_id, fps=plan.fps, obs_type="state", max_episode_steps=None, config=plan.config,
         objects=plan.objects, scene=plan.table, reseed=False, **options,
     )  # fmt: skip
     try:
         env.reset(seed=plan.seed)
-        refused = 0
+        twin_env = env.unwrapped
+        assert isinstance(twin_env, TwinEnv) and twin_env.twin is not None
+        twin = twin_env.twin
+        own = dict(zip(twin.object_ids, (o.color for o in twin_env.scene), strict=True))
+
+        def in_own_bins() -> set[str]:
+            return {oid for oid, cls in twin.objects_in_bin().items() if own[oid] == cls}
+
         with warnings.catch_warnings():
             # the recording goes on past the step that put the last object in its bin (the
             # sorter's way home): stepped as recorded, not a misuse of the ended episode
             warnings.filterwarnings("ignore", message=r".*step\(\) after the episode returned")
-            for action in actions[1:]:
-                *_, info = env.step(action.astype(np.float32))
-                refused += bool(info["refused"])
-                if info.get("fault"):  # the physics diverged: the environment steps no more
-                    break
-        twin_env = env.unwrapped
-        assert isinstance(twin_env, TwinEnv) and twin_env.twin is not None
-        twin = twin_env.twin
+            refused, fault = _step(env, lead)
+            start: tuple[float, ...] = ()
+            before: set[str] = set()
+            if not fault:
+                start = tuple(float(v) for v in twin_env.spec_actions.agent_pos(twin))
+                before = in_own_bins()
+                more, fault = _step(env, actions[1:])
+                refused += more
         twin.settle_objects(SETTLE_S)
         bins = twin.objects_in_bin()
-        own = dict(zip(twin.object_ids, (o.color for o in twin_env.scene), strict=True))
-        in_bins = sum(1 for oid, cls in bins.items() if own[oid] == cls)
+        after = in_own_bins()
+        if plan.pick is None:
+            success = len(after) == len(own)
+        else:
+            new = after - before
+            success = before <= after and [own[oid] for oid in new] == [plan.pick]
         return Replayed(
-            len(actions) - 1, bins, in_bins, in_bins == len(own), refused, len(own),
-            tuple(twin_env.scene),
+            len(actions) - 1, bins, len(after), success, refused, len(own),
+            tuple(twin_env.scene), len(lead), len(before), start, plan.pick, plan.start_known,
         )  # fmt: skip
     finally:
         env.close()
+
+
+def _step(env: gym.Env[Any, Any], actions: np.ndarray) -> tuple[int, bool]:
+    """Step each action; the steps refused, and whether a fault stopped the stepping.
+
+    After a fault (the physics diverged) the environment steps no more.
+    """
+    refused = 0
+    for action in actions:
+        *_, info = env.step(action.astype(np.float32))
+        refused += bool(info["refused"])
+        if info.get("fault"):
+            return refused, True
+    return refused, False
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -321,9 +467,24 @@ def main(argv: Sequence[str] | None = None) -> int:
         config=args.config,
         overrides=args.set,
     )
+    if out.pick is not None and not out.start_known:
+        print(
+            f"note: episode {args.episode} is a pick whose start the dataset does not keep "
+            "(recorded by an older mearm, or the pick before it by an earlier run): replayed "
+            "from where the environment's reset leaves the arm",
+            file=sys.stderr,
+        )
     where = ", ".join(f"{o} in {b}" for o, b in sorted(out.bins.items())) or "none in a bin"
-    print(f"replayed {out.steps} steps ({out.refused} refused): {where}")
-    print(f"{out.in_bins} of {out.objects} objects in their bins (simulated)")
+    lead = f" after {out.lead_steps} of its sort's before it" if out.lead_steps else ""
+    print(f"replayed {out.steps} steps{lead} ({out.refused} refused): {where}")
+    if out.pick is None:
+        print(f"{out.in_bins} of {out.objects} objects in their bins (simulated)")
+    else:
+        print(
+            f"{out.in_bins} of {out.objects} objects in their bins, {out.before} before this "
+            f"pick of a {out.pick} object: {'one' if out.success else 'not one'} more of it "
+            "(simulated)"
+        )
     return 0 if out.success else 1
 
 

@@ -292,6 +292,10 @@ class Sorter(PickAndPlace):
         config, lines = self.calibrate_first(
             self.config, self.camera, self.bus, self.model, simulated=simulated
         )
+        # a recording keeps the calibration: its replay runs the servos as this sort does
+        keep = getattr(self.recorder, "servos_calibrated", None)
+        if keep is not None:
+            keep(self.config, config)
         self.model = ArmModel(config.arm)  # its limits, narrowed where the fit says so
         self._calibrated_parts(config, self.view)
         for line in lines:
