@@ -29,9 +29,11 @@ import signal
 import subprocess
 import sys
 import time
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+
+import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -118,6 +120,22 @@ def run_in_process(argv: Sequence[str], *, within_s: float = 5.0) -> Outcome:
     elapsed = time.perf_counter() - t0
     return Outcome(int(code or 0) if not isinstance(code, str) else 1, out.getvalue(),
                    err.getvalue(), elapsed)  # fmt: skip
+
+
+def run_guarded(
+    fn: Callable[..., int | None], argv: Sequence[str], capsys: pytest.CaptureFixture[str]
+) -> tuple[int, str, str]:
+    """Run a command's ``main`` under the guard every command shares (:func:`mearm.cli.run`).
+
+    Returns:
+        Its exit status, and what it printed on stdout and on stderr (``capsys``).
+    """
+    from mearm.cli import run
+
+    with pytest.raises(SystemExit) as info:
+        run(fn, list(argv))
+    out, err = capsys.readouterr()
+    return int(info.value.code or 0), out, err
 
 
 def check_bad_input(

@@ -20,6 +20,7 @@ from pathlib import Path
 
 import pytest
 from conftest import interrupted
+from test_ctrl_c_at_start import _ctrl_c_in_an_import
 
 from mearm import analyze, cli, interrupts
 
@@ -93,17 +94,6 @@ def test_a_program_that_imports_mearm_keeps_pythons_own_handling(
     """``python -m tool.main`` whose package imports mearm: no hook of mearm's."""
     assert _hook_when_running(monkeypatch, "tool.main") is sys.__excepthook__
     assert _hook_when_running(monkeypatch, "mearmish.main") is sys.__excepthook__
-
-
-def _ctrl_c_in_an_import() -> ImportError:
-    """What pybind11 makes of a Ctrl-C while its module initialises (``import mujoco``)."""
-    try:
-        raise KeyboardInterrupt
-    except KeyboardInterrupt as ctrl_c:
-        try:
-            raise ImportError("initialization failed") from ctrl_c
-        except ImportError as exc:
-            return exc
 
 
 @pytest.mark.parametrize("error", [KeyboardInterrupt(), _ctrl_c_in_an_import()])

@@ -15,8 +15,8 @@ from pathlib import Path
 
 import cv2
 import pytest
+from badinput import run_guarded as call
 
-from mearm.cli import run
 from mearm.config import Config
 from mearm.detect import main as detect_main
 from mearm.maker.learn_colours import main as learn_main
@@ -28,13 +28,6 @@ CAL = Calibration.from_config(CONFIG.calibration)
 LAYOUT = [(o.color, o.x, o.y) for o in CONFIG.task.scene]
 #: A table's outline on a 2560x1920 photo: outside a 640x480 frame entirely.
 PHOTO_AREA = "[[700, 500], [2400, 500], [2400, 1800], [700, 1800]]"
-
-
-def call(fn, argv: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, str, str]:
-    with pytest.raises(SystemExit) as info:
-        run(fn, argv)
-    out, err = capsys.readouterr()
-    return int(info.value.code or 0), out, err
 
 
 def render(scale: int) -> cv2.typing.MatLike:

@@ -11,17 +11,10 @@ from pathlib import Path
 import cv2
 import numpy as np
 import pytest
+from badinput import run_guarded as call
 
-from mearm.cli import run
 from mearm.maker.learn_colours import main as learn_main
 from mearm.vision.teaching import Sample
-
-
-def call(fn, argv: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, str, str]:
-    with pytest.raises(SystemExit) as info:
-        run(fn, argv)
-    out, err = capsys.readouterr()
-    return int(info.value.code or 0), out, err
 
 
 @pytest.fixture(scope="module")

@@ -13,8 +13,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 import pytest
+from badinput import run_guarded as call
 
-from mearm.cli import run
 from mearm.config import Config, config_from_dict, load_config
 from mearm.detect import main as detect_main
 from mearm.errors import ConfigError
@@ -30,13 +30,6 @@ LAYOUT = [(o.color, o.x, o.y) for o in CONFIG.task.scene]
 #: One object of each class, all left of u = 340 (the base config's work area).
 SAMPLES = ["--sample", "red=152,149", "--sample", "green=195,83", "--sample", "blue=167,240"]
 LEFT_HALF = "[[0, 0], [340, 0], [340, 480], [0, 480]]"
-
-
-def call(fn, argv: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, str, str]:
-    with pytest.raises(SystemExit) as info:
-        run(fn, argv)
-    out, err = capsys.readouterr()
-    return int(info.value.code or 0), out, err
 
 
 @pytest.fixture(scope="module")

@@ -9,8 +9,8 @@ import cv2
 import numpy as np
 import pytest
 import yaml
+from badinput import run_guarded as call
 
-from mearm.cli import run
 from mearm.config import Config
 from mearm.detect import main as detect_main
 from mearm.maker.learn_colours import main as learn_main
@@ -41,13 +41,6 @@ def frame_png(tmp_path_factory: pytest.TempPathFactory) -> Path:
     path = tmp_path_factory.mktemp("frames") / "frame.png"
     cv2.imwrite(str(path), r.render(class_discs(CONFIG.task.classes, LAYOUT)))
     return path
-
-
-def call(fn, argv: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, str, str]:
-    with pytest.raises(SystemExit) as info:
-        run(fn, argv)
-    out, err = capsys.readouterr()
-    return int(info.value.code or 0), out, err
 
 
 def refused(code: int, err: str, *words: str) -> bool:
