@@ -436,11 +436,55 @@ def _record_crash(prog: str, argv: Sequence[str]) -> str:
     return f"traceback in {path}; --debug prints it"
 
 
+#: An error line up to this long is said whole (:func:`_one_line`) [characters]: a dozen
+#: rows of a terminal; a longer one quotes something huge.
+LINE_MAX = 1000
+#: Shortening a line, no run of characters without a space is cut below this [characters].
+WORD_MIN = 40
+
+
+def _middle_cut(text: str, size: int, head: int) -> str:
+    """``text`` cut to ``size`` characters: its first ``head``, "…", and its end."""
+    if len(text) <= size:
+        return text
+    return text[:head] + "…" + text[len(text) - (size - head - 1) :]
+
+
+def _longest_word(text: str, room: int) -> int:
+    """How long the runs without a space in ``text`` may stay for it to fit in ``room``.
+
+    Each run longer is cut to that length; it is at least :data:`WORD_MIN`.
+    """
+    long = [len(w) for w in text.split(" ") if len(w) > WORD_MIN]
+    rest = len(text) - sum(long)  # the shorter runs and the spaces
+
+    def length(cap: int) -> int:
+        return rest + sum(min(n, cap) for n in long)
+
+    low, high = WORD_MIN, max(long, default=WORD_MIN)
+    while low < high:  # the largest cap whose line fits (length grows with the cap)
+        mid = (low + high + 1) // 2
+        low, high = (mid, high) if length(mid) <= room else (low, mid - 1)
+    return low
+
+
 def _one_line(exc: BaseException) -> str:
+    """An error's message as one line on stderr, at most :data:`LINE_MAX` characters.
+
+    A mearm message names what failed first and says what to do last (``… (mearm
+    find-port lists the ports)``), so a line too long is never cut at its end. What
+    makes a line that long is text it quotes (a path typed, the system's own message
+    quoting it again, a value), not its prose: first the longest runs without a space
+    are cut in their middle, evenly and no more than the line needs, each keeping its
+    two ends (a path its first folders and its file's name) around "…"; a line still too
+    long (a huge text of short words) keeps its first third and its end around "…".
+    """
     text = " ".join(str(exc).split())
-    if len(text) > 300:
-        text = text[:297] + "..."
-    return text
+    if len(text) <= LINE_MAX:
+        return text
+    cap = _longest_word(text, LINE_MAX)
+    text = " ".join(_middle_cut(w, cap, cap // 2) for w in text.split(" "))
+    return _middle_cut(text, LINE_MAX, LINE_MAX // 3)
 
 
 def output_closed() -> bool:

@@ -24,11 +24,18 @@ A config with a belt sorts what the belt brings (docs/sorting.md); ``--scene`` a
 
 Exit status: 0 only when every object seen was sorted (in simulation, every object: one
 the camera never saw is left too); 1 when the run ended with objects left (out of reach,
-failed picks, a camera or servo fault, a servo port that cannot be opened); 2 on bad
-input, found before anything moves (a camera that cannot be opened as configured
-included); 130 on Ctrl-C (the arm is parked first), 143 on SIGTERM and 129 on SIGHUP,
-taken as Ctrl-C is. The run log is written
-per route, so a failure loses nothing written before it.
+failed picks, a camera or servo fault); 2 on bad input, found before anything moves (a
+camera or servo port that cannot be opened as configured, a board that does not answer
+its handshake, a ``vision.work_area_px`` with no pixel in the camera's frames included);
+130 on Ctrl-C (the arm is parked first), 143 on SIGTERM and 129 on SIGHUP, taken as
+Ctrl-C is. The run log is written per route, so a failure loses nothing written before
+it.
+
+A ``vision.work_area_px`` polygon is checked against the camera's frames
+(``camera.width_px`` × ``height_px``) before anything else, as ``mearm detect`` checks
+it: one that keeps no pixel of them is refused (exit 2); one that keeps under half of
+them while lying mostly outside them (taught on a photo of another size) is named in one
+line on stderr (``mearm sort: warning: …``, also with ``--quiet``), and the sort goes on.
 
 On servos that were never calibrated — a real board (``servo.backend`` ``serial`` or
 ``ssc32``) or the twin with a kit of servos (``twin.kit``), without a
@@ -87,6 +94,7 @@ try:
     from mearm.task.report import summary_without_table
     from mearm.task.sorter import CalibrateFirst, calibrates_at_start, check_calibrate_at_start
     from mearm.vision.errors import CameraError
+    from mearm.vision.work_area import check_work_area  # loaded by the sorter's tracking
 finally:
     if _PAUSE_COLLECTOR:
         gc.freeze()
@@ -211,6 +219,26 @@ def _check_arguments(parser: ArgumentParser, args: argparse.Namespace) -> None:
         check_output_file(args.save_calibration, "--save-calibration")
 
 
+def _check_work_area(config: Config) -> None:
+    """Check ``vision.work_area_px`` against the camera's frames, before anything moves.
+
+    A polygon taught on a photo of another size may keep none of the camera's frame
+    (nothing could ever be found: refused) or only a corner of it (the objects elsewhere
+    are never seen: one warning line on stderr, and the sort goes on), as ``mearm
+    detect`` says it (:func:`~mearm.vision.work_area.check_work_area`).
+
+    Raises:
+        ConfigError: no pixel of the camera's frame lies in the polygon.
+    """
+    polygon = config.vision.work_area_px
+    if polygon is None:
+        return
+    size = (config.camera.width_px, config.camera.height_px)
+    warning = check_work_area(polygon, size, "the camera")
+    if warning is not None:
+        print(f"mearm sort: warning: {warning}", file=sys.stderr, flush=True)
+
+
 def _calibrate_first(config: Config, save: Path | None) -> CalibrateFirst | None:
     """What calibrates the servos at the start, if the config asks for it (exit 2: bad input).
 
@@ -271,6 +299,7 @@ def _sort(argv: Sequence[str] | None) -> int:
     _check_arguments(parser, args)
     config = config_from_args(args)
     check_consistency(config)  # before the scene, the log or any output: the config first
+    _check_work_area(config)
     calibrate_first = _calibrate_first(config, args.save_calibration)
     scene = scene_from_args(args, config)
     mjcf = _scene_mjcf(config, scene) if args.save_mjcf is not None else None

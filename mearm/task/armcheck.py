@@ -67,6 +67,7 @@ import numpy.typing as npt
 from mearm.config import ColorClass, Config
 from mearm.config.errors import CalibrationError
 from mearm.errors import MearmError
+from mearm.hardware.errors import ServoError
 from mearm.ik import IKTarget
 from mearm.kinematics import ArmModel
 from mearm.sim.table_collision import collision_model
@@ -78,6 +79,7 @@ from mearm.task.sorter import CalibrateFirst, calibrates_at_start, check_calibra
 from mearm.vision import Camera, ColorDetector, Detection
 from mearm.vision.arm_mask import RIM_POINTS, arm_view
 from mearm.vision.calibration import CameraGeometry, camera_geometry
+from mearm.vision.errors import CameraError
 from mearm.vision.pinhole import Extrinsics, PerspectiveCamera, today
 
 #: How many check points the check takes at least and at most.
@@ -106,6 +108,16 @@ class ArmCheckError(MearmError):
 
 class NothingToCheck(ArmCheckError):
     """The table does not allow the check: no object to take, or no room for the points."""
+
+
+class RigNotOpened(MearmError):
+    """The rig did not open: its camera, its servo port or its board's handshake.
+
+    A servo port that cannot be opened, a board that does not answer its handshake or a
+    camera that cannot be opened is found before anything moves, so it is bad input
+    (exit 2), as for ``mearm sort``; the same fault once the rig is open stops the check
+    (a ``ServoError`` or ``CameraError``, exit 1).
+    """
 
 
 @dataclass(frozen=True)
@@ -657,46 +669,73 @@ def run_check(
             (before anything but going home, and the servos' calibration, moves).
         StartCalibrationFailed: the servos' calibration at the start gave none.
         CalibrationError: ``refine`` without a perspective calibration.
+        RigNotOpened: the camera or the servo bus did not open (before anything moves).
+        ServoError, CameraError: a fault once the rig is open.
     """
     say = echo if echo is not None else (lambda _line: None)
     geometry = _checked_geometry(config, points, class_name, refine=refine)
     check_calibrate_at_start(config)  # before anything moves, as the sort's
     detector = ColorDetector(config.vision, geometry, config.task.classes)
-    with open_rig(config) as rig:
-        if not rig.bus.is_connected:
-            rig.bus.connect()
-        ex = Executor(config, rig.bus, rig.model)
-        ex.home_pose()
-        config, ex, notes = _servos_calibrated(config, rig, ex, calibrate_first)
-        for line in notes:
-            say(line)
-        collision = collision_model(config, ex.model, clearance_cm=config.task.clearance_cm)
-        planner = Planner(config, ex.model, collision)
-        found = _table_detections(detector, config, rig.camera.read())
-        obj = _chosen_object(found, class_name)
-        cls = config.task.class_named(obj.color)
-        assert obj.table_cm is not None
-        start = np.array(obj.table_cm, dtype=float)
-        others = _other_objects(found, obj)
-        others_xy = np.array([xy for *_, xy in others], dtype=float).reshape(-1, 2)
-        arm = _Arm(config, planner, ex, cls, [(i, c, *xy) for i, c, xy in others])
-        targets = check_points(config, geometry, arm, points)
-        say(f"object: {cls.name} at ({start[0]:.2f}, {start[1]:.2f}) cm")
-        visit = _visit_points(arm, rig.camera, detector, config, start, targets, others_xy, say)
-        returned = False
-        failure = visit.failure
-        if failure is None:
-            refusal = arm.transfer(visit.here, start)
-            returned = refusal is None
-            if refusal is not None:
-                failure = f"the object was not put back: {refusal.why}"
-        refined = refined_seen = checked_px = None
-        measured = [r for r in visit.records if r.seen_cm is not None]
-        if refine and len(measured) >= 2:
-            assert isinstance(geometry, PerspectiveCamera)
-            refined, checked_px, refined_seen = _refit_pose(
-                config, geometry, cls, measured, visit.frames, others_xy
-            )
+    opened = False
+    try:
+        with open_rig(config) as rig:  # its camera open and its bus connected
+            opened = True
+            check = _check(
+                config, rig, geometry, detector, points=points, class_name=class_name,
+                refine=refine, calibrate_first=calibrate_first, say=say,
+            )  # fmt: skip
+    except (CameraError, ServoError) as exc:
+        if opened:
+            raise
+        raise RigNotOpened(str(exc)) from exc
+    return check
+
+
+def _check(
+    config: Config,
+    rig: Rig,
+    geometry: CameraGeometry,
+    detector: ColorDetector,
+    *,
+    points: int,
+    class_name: str | None,
+    refine: bool,
+    calibrate_first: CalibrateFirst | None,
+    say: Callable[[str], None],
+) -> ArmCheck:
+    """:func:`run_check`'s work on the open rig."""
+    ex = Executor(config, rig.bus, rig.model)
+    ex.home_pose()
+    config, ex, notes = _servos_calibrated(config, rig, ex, calibrate_first)
+    for line in notes:
+        say(line)
+    collision = collision_model(config, ex.model, clearance_cm=config.task.clearance_cm)
+    planner = Planner(config, ex.model, collision)
+    found = _table_detections(detector, config, rig.camera.read())
+    obj = _chosen_object(found, class_name)
+    cls = config.task.class_named(obj.color)
+    assert obj.table_cm is not None
+    start = np.array(obj.table_cm, dtype=float)
+    others = _other_objects(found, obj)
+    others_xy = np.array([xy for *_, xy in others], dtype=float).reshape(-1, 2)
+    arm = _Arm(config, planner, ex, cls, [(i, c, *xy) for i, c, xy in others])
+    targets = check_points(config, geometry, arm, points)
+    say(f"object: {cls.name} at ({start[0]:.2f}, {start[1]:.2f}) cm")
+    visit = _visit_points(arm, rig.camera, detector, config, start, targets, others_xy, say)
+    returned = False
+    failure = visit.failure
+    if failure is None:
+        refusal = arm.transfer(visit.here, start)
+        returned = refusal is None
+        if refusal is not None:
+            failure = f"the object was not put back: {refusal.why}"
+    refined = refined_seen = checked_px = None
+    measured = [r for r in visit.records if r.seen_cm is not None]
+    if refine and len(measured) >= 2:
+        assert isinstance(geometry, PerspectiveCamera)
+        refined, checked_px, refined_seen = _refit_pose(
+            config, geometry, cls, measured, visit.frames, others_xy
+        )
     return ArmCheck(
         class_name=cls.name,
         start_cm=start,

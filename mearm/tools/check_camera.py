@@ -28,8 +28,10 @@ Exit 0: the check ran and printed its figures; 1: it could not complete (no obje
 no room for as many points as asked, a point that failed, a camera or servo fault during
 the check, a calibration of the servos at the start that gave none: one line on stderr
 says which, and OUT is not written); 2: bad input, one line on stderr (OUT is checked
-before the arm moves), a camera that cannot be opened included (as ``mearm sort`` and
-``mearm detect`` say it), and an OUT kept after the check (a better pose in it).
+before the arm moves), a camera that cannot be opened, a servo port that cannot be opened
+and a board that does not answer its handshake included (found as the rig opens, before
+anything moves, as ``mearm sort`` says them), and an OUT kept after the check (a better
+pose in it).
 """
 
 from __future__ import annotations
@@ -131,24 +133,6 @@ def _intrinsics_file(config: Config) -> Path | None:
     """The intrinsics file a perspective calibration reads, else ``None``."""
     name = config.calibration.intrinsics_file
     return Path(name) if name else None
-
-
-def _check_camera_opens(config: Config) -> None:
-    """Open the config's camera once and close it, before the arm moves.
-
-    A camera that is not there is bad input (exit 2), as for ``mearm sort`` and ``mearm
-    detect``; inside the check a camera fault stops it (exit 1). The simulated camera
-    (``camera.kind: sim``) is always there: it is opened with the rig's table.
-
-    Raises:
-        CameraError: it cannot be opened, and why.
-    """
-    if config.camera.kind == "sim":
-        return
-    from mearm.backends import open_camera  # noqa: PLC0415  (a real camera only)
-
-    with open_camera(config):
-        pass
 
 
 #: A refine keeps the marker-fitted pose it displaces as ``OUT`` + this (never replaced).
@@ -302,8 +286,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         check_refine_output(args.refine, checked, force=args.force)
     from mearm.maker.camera_calibration.at_start import for_config  # noqa: PLC0415  (the sort's)
 
-    _check_camera_opens(config)
     try:
+        # a rig that does not open raises RigNotOpened: bad input, said by run() (exit 2)
         check = run_check(
             config, points=args.points, class_name=args.class_name,
             refine=args.refine is not None, echo=None, calibrate_first=for_config(config),
