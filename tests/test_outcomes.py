@@ -221,7 +221,7 @@ def test_objects_the_camera_never_sees_are_left_not_forgotten(tmp_path, capsys, 
     """In simulation the world knows every object: one the camera never sees lies on the
     table still, and the run says so and exits 1 (it ended "sorted 8 of 8", exit 0)."""
     log = tmp_path / "run.jsonl"
-    code, lines, err = _sort(capsys, "--set", spoiler, "--log", log, "--quiet")
+    code, lines, err = _sort(capsys, "--set", spoiler, "--log", log)  # the class table too
     assert code == 1, err
     assert lines[-1] == "sorted 8 of 12 objects (4 never seen by the camera)"
     assert [x.split() for x in lines if x.startswith("red ")] == [["red", "0", "0", "4"]]

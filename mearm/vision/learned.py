@@ -18,7 +18,8 @@ distances are roughly equal perceived differences:
   than it moves a*b*. A pixel is of the colour when its Mahalanobis distance to the
   ellipse is at most ``max_distance``, its L* is in range and its chroma reaches 0.65 of the
   samples' at equal lightness (a shadow or glare on a white table is faintly tinted, never
-  that much); where two colours claim a pixel the nearer wins. A pixel more coloured
+  that much; with several clicks, the least of each click's own); where two colours claim
+  a pixel the nearer wins. A pixel more coloured
   than the ellipse's centre is measured at the centre's chroma, along its own hue: the
   ellipse is open outwards, so the cube the user clicked need not be the most vivid of
   its class. What lies in no ellipse is no class: an orange cube is not red.
@@ -125,6 +126,37 @@ def fit_colour(lab: npt.ArrayLike, *, max_distance: float = MAX_DISTANCE) -> Lea
         chroma_min=float(max(CHROMA_MIN, CHROMA_SHARE * np.median(chroma(c)))),
         chroma_lightness=float(np.clip(np.median(c[:, 0]), 0.0, 100.0)),
     )
+
+
+def fit_clicks(
+    clicks: Sequence[npt.ArrayLike], *, max_distance: float = MAX_DISTANCE
+) -> LearnedColour:
+    """A class's colour from its clicks: their samples pooled, the chroma floor the least.
+
+    :func:`fit_colour` of every click's samples together, but its chroma floor the least
+    of each click's own. Each click is a cube the user says is of the class; a floor at
+    0.65 of the pooled samples' median chroma lay over a clicked cube duller than that
+    share of the others (a second click on a duller cube, the remedy for one click's
+    floor, did not make that cube found). Each click's floor (:func:`fit_colour`'s, at its
+    own samples' lightness) is taken to the pooled samples' lightness L₀ as
+    :func:`chroma_floor` scales it with the lightness, and the least is the class's. One
+    click: :func:`fit_colour`'s colour, unchanged.
+
+    Args:
+        clicks: Each click's samples' CIELAB colours, (N_i, 3) each, N_i ≥ 1; at least one.
+        max_distance: The ellipse's Mahalanobis radius [-].
+    """
+    labs = [np.asarray(lab, dtype=float).reshape(-1, 3) for lab in clicks]
+    pooled = fit_colour(np.concatenate(labs), max_distance=max_distance)
+    floors = []
+    for lab in labs:
+        own = fit_colour(lab, max_distance=max_distance)
+        assert own.chroma_lightness is not None and pooled.chroma_lightness is not None
+        scale = (pooled.chroma_lightness + LIGHTNESS_OFFSET) / (
+            own.chroma_lightness + LIGHTNESS_OFFSET
+        )
+        floors.append(own.chroma_min * scale)
+    return pooled.model_copy(update={"chroma_min": float(min(floors))})
 
 
 def distance(

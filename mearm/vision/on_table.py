@@ -16,10 +16,15 @@ A ring pixel is *of the surface* when it is:
   the colours were taught, which the table fills);
 - or an object: of any class's colour (touching objects).
 
-Ring pixels outside the frame, the work area or the excluded mask are not counted (an
-object at the frame's edge is judged on what is seen). A detection is kept when at least
-:data:`SURFACE_SHARE` of its counted ring is of the surface. Needs a reference colour and
-a calibration (one object's size); without either every detection is kept.
+Ring pixels beyond the frame's edge count as the surface, as the quick test below counts
+its points there: nothing seen there is against the object, and the share stays one of
+the whole ring. Left out, they made the robot along one side of an object near the edge
+weigh more than the quarter of the ring it is (a third of the rest when a quarter of the
+ring is beyond the edge: the object dropped, where mid-frame it is kept). Ring pixels
+inside the frame but outside the work area or in the excluded mask are not counted. A
+detection is kept when at least :data:`SURFACE_SHARE` of its counted ring is of the
+surface. Needs a reference colour and a calibration (one object's size); without either
+every detection is kept.
 
 Cost: each colour's verdict (class code, table or not) is looked up in a table of
 2^18 colours made once per detector (:func:`surface_table`), and a detection whose box,
@@ -237,10 +242,19 @@ def _on_table(
     x, y, bw, bh = d.bbox_px
     x0, y0 = max(x - reach, 0), max(y - reach, 0)
     x1, y1 = min(x + bw + reach, width), min(y + bh + reach, height)
-    entries = _looked_up(frame_bgr[y0:y1, x0:x1], gain, lut)
+    # the window reaches ``reach`` beyond the box on every side, the frame's edge or not:
+    # its part beyond the edge is the surface, and counted (module docstring)
+    beyond = (
+        (y0 - (y - reach), y + bh + reach - y1),
+        (x0 - (x - reach), x + bw + reach - x1),
+    )
+    seen = _looked_up(frame_bgr[y0:y1, x0:x1], gain, lut)
+    entries = np.pad(seen, beyond, constant_values=TABLE)
     own = np.zeros(entries.shape, bool)
-    own[y - y0 : y - y0 + bh, x - x0 : x - x0 + bw] = True
+    own[reach : reach + bh, reach : reach + bw] = True
     own &= (entries & 0xFF) == code
-    where = None if counted is None else counted[y0:y1, x0:x1] > 0
+    where = (
+        None if counted is None else np.pad(counted[y0:y1, x0:x1] > 0, beyond, constant_values=True)
+    )
     share = surface_share(entries > 0, own, where, inner, outer)
     return share is None or share >= SURFACE_SHARE

@@ -2,7 +2,8 @@
 
 The user clicks once (or more) on an object of each class (``mearm learn-colours``);
 the pixels within a few pixels of each click, on the white-balanced frame, give the
-class's CIELAB ellipse (:func:`mearm.vision.learned.fit_colour`). The table is found
+class's CIELAB ellipse (:func:`mearm.vision.learned.fit_clicks`: its clicks' pixels
+pooled, its chroma floor the least of each click's own). The table is found
 around the samples: the frame's pixels near the colour just outside them, the largest
 such region's outline is the work area unless the user gives one, and each colour's
 ellipse is narrowed to keep the table's colour out. A sample that cannot teach is
@@ -31,6 +32,7 @@ from mearm.vision.learned import (
     clipped_bgr,
     distance,
     ellipse_distance,
+    fit_clicks,
     fit_colour,
     lab_of,
     median_bgr,
@@ -317,7 +319,7 @@ def teach(
             )
         pixels.setdefault(s.name, []).append(lab)
     _refuse_two_colours(pixels, samples)
-    colours = {name: fit_colour(np.concatenate(p)) for name, p in pixels.items()}
+    colours = {name: fit_clicks(p) for name, p in pixels.items()}
     _refuse_shared(colours, samples)
     # the table as the classifier sees it (at the samples' lightness unless clipped)
     table_clipped = clipped_bgr(np.array(reference))
