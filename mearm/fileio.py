@@ -30,15 +30,19 @@ to, one ``fsync``-ed line at a time (:class:`mearm.runlog.RunLog`).
 
 from __future__ import annotations
 
+import contextlib
 import errno
 import os
 import signal
 import stat
 import tempfile
 import threading
+from collections.abc import Iterator
 from pathlib import Path
 from types import FrameType
 from typing import Any, BinaryIO
+
+from mearm import interrupts
 
 #: The signals after which no temporary file is left behind.
 CLEANUP_SIGNALS: tuple[signal.Signals, ...] = tuple(
@@ -132,16 +136,9 @@ def resolve_target(path: str | os.PathLike[str]) -> Path:
         return Path(os.path.realpath(path))
 
 
-def signal_ends_process(sig: int) -> bool:
-    """Whether ``sig`` would end the process now.
-
-    It would with its default action, also after this module's clean-up; a Python
-    handler or an ignored signal would not.
-    """
-    handler = signal.getsignal(sig)
-    if handler is _on_signal:
-        handler = _previous.get(sig, signal.SIG_DFL)
-    return handler == signal.SIG_DFL
+#: Whether a signal would end the process now (:func:`mearm.interrupts.signal_ends_process`:
+#: its default action, also after this module's clean-up, :func:`_on_signal`).
+signal_ends_process = interrupts.signal_ends_process
 
 
 def live_temp_files() -> frozenset[str]:
@@ -208,15 +205,43 @@ def _short(name: str) -> str:
     return name.encode("utf-8")[:room].decode("utf-8", errors="ignore")
 
 
-def _hold_signals() -> set[int | signal.Signals] | None:
+@contextlib.contextmanager
+def signals_held() -> Iterator[None]:
+    """Take SIGINT, SIGTERM and SIGHUP after the block, not inside it, in any thread.
+
+    In the main thread by :func:`mearm.interrupts.signals_deferred`: blocking them there
+    (``pthread_sigmask``) holds them back from that thread only, and while another thread
+    that takes signals is alive (a dataset recorder's writer thread; NumPy's, imported
+    before mearm), the kernel gives the signal to that one and Python raises
+    ``KeyboardInterrupt`` in the main thread, inside the block, all the same. In another
+    thread (a writer thread, a Dask worker's), where Python raises nothing and no
+    handler can be set, they are blocked in that thread until the block ends, so the
+    kernel gives them to a thread outside the block.
+    """
+    if threading.current_thread() is threading.main_thread():
+        with interrupts.signals_deferred():
+            yield
+        return
     if not hasattr(signal, "pthread_sigmask"):  # not on Windows
-        return None
-    return signal.pthread_sigmask(signal.SIG_BLOCK, CLEANUP_SIGNALS)
-
-
-def _release_signals(previous: set[int | signal.Signals] | None) -> None:
-    if previous is not None:
+        yield
+        return
+    previous = signal.pthread_sigmask(signal.SIG_BLOCK, CLEANUP_SIGNALS)
+    try:
+        yield
+    finally:
         signal.pthread_sigmask(signal.SIG_SETMASK, previous)
+
+
+def _hold_signals() -> contextlib.ExitStack:
+    """:func:`signals_held` from now until :func:`_release_signals` is given what it returns."""
+    held = contextlib.ExitStack()
+    held.enter_context(signals_held())
+    return held
+
+
+def _release_signals(held: contextlib.ExitStack) -> None:
+    """Let the signals :func:`_hold_signals` held go: one that came meanwhile is taken now."""
+    held.close()
 
 
 def _fsync(fd: int) -> None:
@@ -282,3 +307,12 @@ def _on_signal(signum: int, frame: FrameType | None) -> None:
     if hasattr(signal, "pthread_sigmask"):  # the handler may run while it is held off
         signal.pthread_sigmask(signal.SIG_UNBLOCK, {signum})
     os.kill(os.getpid(), signum)
+
+
+def _passes_on(signum: int) -> Any:
+    """The handler :func:`_on_signal` hands ``signum`` on to, after its clean-up."""
+    return _previous.get(signum, signal.SIG_DFL)
+
+
+# read by mearm.interrupts.signal_ends_process: the handler behind this module's clean-up
+_on_signal.passes_on = _passes_on  # type: ignore[attr-defined]

@@ -228,6 +228,20 @@ def exit_status() -> int:
     return 128 + _received[-1] if _received else 130
 
 
+def signal_ends_process(sig: int) -> bool:
+    """Whether ``sig`` would end the process now.
+
+    It would with its default action, also behind a handler that only cleans up and then
+    hands the signal on (one with a ``passes_on`` attribute, the handler it hands each
+    signal on to: :mod:`mearm.fileio`'s); a Python handler or an ignored signal would not.
+    """
+    handler = signal.getsignal(sig)
+    passes_on = getattr(handler, "passes_on", None)
+    if passes_on is not None:
+        handler = passes_on(sig)
+    return bool(handler == signal.SIG_DFL)
+
+
 @contextlib.contextmanager
 def stop_signals_as_ctrl_c() -> Iterator[None]:
     """Inside the block SIGTERM and SIGHUP raise :class:`Terminated`, as Ctrl-C raises.
@@ -240,7 +254,6 @@ def stop_signals_as_ctrl_c() -> Iterator[None]:
     if threading.current_thread() is not threading.main_thread():
         yield
         return
-    from mearm.fileio import signal_ends_process  # noqa: PLC0415
 
     def handler(signum: int, frame: FrameType | None) -> None:
         received(signum)
@@ -270,9 +283,10 @@ def signals_deferred() -> Iterator[None]:
     after "interrupted"). Keep the block short: a Ctrl-C waits for it.
 
     Not by blocking the signals (``pthread_sigmask``): that holds them back from the
-    main thread only, and once MuJoCo's renderer and NumPy have started threads of
-    their own, one of those receives the signal and Python raises
-    ``KeyboardInterrupt`` in the main thread, inside the block, all the same. Instead a
+    main thread only, and once other threads run (a dataset's writer thread, a
+    library's own that does not block signals), one of those receives the signal and
+    Python raises ``KeyboardInterrupt`` in the main thread, inside the block, all the
+    same. Instead a
     handler that only notes the signal stands in for each (Python runs handlers in the
     main thread, whichever thread received the signal); when the handlers before are
     back, a signal that came is raised again and takes its usual course (Ctrl-C:

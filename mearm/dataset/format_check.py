@@ -10,15 +10,22 @@ frames and the videos that its reader relies on (a frame's video time is its epi
 from __future__ import annotations
 
 import json
-from pathlib import Path
-from typing import Any
+from collections.abc import Callable
+from pathlib import Path, PurePosixPath
+from typing import Any, TypeVar
 
 import numpy as np
 
 from mearm.dataset import lerobot_format as L
 from mearm.dataset.errors import DatasetError
-from mearm.dataset.reading import read_tags
+from mearm.dataset.reading import EpisodeStart, RecordedScene, Tag, read_starts, read_tags
 from mearm.dataset.recorder import import_extra
+
+#: What a reader of mearm's own files returns.
+T = TypeVar("T")
+
+#: The folder of the servo calibrations sorts made at their start (``meta/mearm_servos``).
+SERVOS_DIR = str(PurePosixPath(L.SERVOS_PATH).parent)
 
 #: LeRobot's tolerance between a frame's timestamp and its video frame's time [s].
 TOLERANCE_S = 1e-4
@@ -48,7 +55,11 @@ RULES: dict[str, str] = {
     "feature, shaped as the feature ((3, 1, 1) for a camera), count = total_frames",
     "mearm": f'{L.TAGS_PATH} (mearm\'s own), if there, is JSON {{"episodes": [...]}} '
     "with one entry per episode: [trial seed, pick], each null or a whole number, and "
-    "optionally the scene a replay rebuilds",
+    f"optionally the scene a replay rebuilds; {L.STARTS_PATH}, if there, too: each "
+    "episode's start (none known, the reset's, or after an earlier episode of its sort: "
+    "the pick before it in its trial, of the same scene and servos) and optionally the "
+    "servo calibration its sort ran, a file of the dataset's arm that is there; every "
+    f"file in {SERVOS_DIR}/ is one an episode names",
 }
 
 
@@ -99,11 +110,7 @@ class _Checker:
             if self.videos:
                 self._videos(info, episodes)
         self._stats(info)
-        try:
-            read_tags(self.root, info["total_episodes"])
-        except DatasetError as exc:
-            what = str(exc).split(": the dataset is damaged")[0]
-            self.fail("mearm", what.removeprefix(f"{self.root}/"))
+        self._mearm(info)
         return self.problems
 
     # ----------------------------------------------------------------- meta
@@ -404,3 +411,112 @@ class _Checker:
                         self.fail("stats", f"{key} count is {s[name]}, not [total_frames]")
                 elif shape != want:
                     self.fail("stats", f"{key} {name} is shaped {shape}, not {want}")
+
+    # ----------------------------------------------------------------- mearm's own
+
+    def _mearm(self, info: dict[str, Any]) -> None:
+        """The files of mearm's own: the tags, the starts and the servo calibrations named.
+
+        What a replay and ``--resume`` read: a fault here is one they refuse (a damaged
+        file) or one that replays an episode from the wrong start or with the wrong
+        servos (files that disagree with each other).
+        """
+        total = info["total_episodes"]
+        tags = self._read_mearm(lambda: read_tags(self.root, total))
+        starts = self._read_mearm(lambda: read_starts(self.root, total))
+        if starts is None:  # which servo files it names is not known
+            return
+        named = self._servo_files(info, starts)
+        folder = self.root / SERVOS_DIR
+        kept = sorted(folder.iterdir()) if folder.is_dir() else []
+        for path in kept:
+            rel = str(path.relative_to(self.root))
+            if path.is_file() and not path.name.endswith(".tmp") and rel not in named:
+                self.fail("mearm", f"{rel} belongs to no episode (no entry of "
+                          f"{L.STARTS_PATH} names it)")  # fmt: skip
+        if tags is not None:
+            self._continued(starts, *tags)
+
+    def _read_mearm(self, read: Callable[[], T]) -> T | None:
+        """What ``read`` reads of mearm's files; ``None``, the fault said, if it cannot."""
+        try:
+            return read()
+        except DatasetError as exc:
+            what = str(exc).split(": the dataset is damaged")[0]
+            self.fail("mearm", what.removeprefix(f"{self.root}/"))
+            return None
+
+    def _servo_files(self, info: dict[str, Any], starts: list[EpisodeStart]) -> set[str]:
+        """Check each servo calibration file an episode names; the files named."""
+        from mearm.config.errors import ServoCalibrationError  # noqa: PLC0415
+        from mearm.config.servo_file import load_servo_calibration  # noqa: PLC0415
+
+        named: dict[str, int] = {}  # each file, by the first episode that names it
+        for k, start in enumerate(starts):
+            if start.servos is not None:
+                named.setdefault(start.servos, k)
+        robot = info.get("robot_type")
+        for rel, k in named.items():
+            path = self.root / rel
+            if not path.is_file():
+                self.fail("mearm", f"episode {k}: its servo calibration {rel} is missing")
+                continue
+            try:
+                cal = load_servo_calibration(path)
+            except ServoCalibrationError as exc:
+                self.fail("mearm", f"episode {k}: {str(exc).replace(f'{self.root}/', '')}")
+                continue
+            if isinstance(robot, str) and cal.arm != robot:
+                self.fail(
+                    "mearm",
+                    f"episode {k}: {rel} is a servo calibration of the arm {cal.arm!r}, the "
+                    f"dataset's robot_type is {robot!r}",
+                )
+        return set(named)
+
+    def _continued(
+        self, starts: list[EpisodeStart], tags: list[Tag], scenes: list[RecordedScene | None]
+    ) -> None:
+        """Each episode continues one of its own sort: the pick before it, its scene, servos.
+
+        A sort's picks are recorded in a row, each tagged with its trial's seed and its
+        number in the trial (``[null, null]`` outside an experiment), each with the sort's
+        scene and servo calibration; a trial's pick after its first never starts at the
+        reset.
+        """
+        for k, start in enumerate(starts):
+            seed, pick = tags[k]
+            before = start.after
+            if before is None:
+                if start.known and pick not in (None, 0):
+                    self.fail(
+                        "mearm",
+                        f"{L.STARTS_PATH}: episode {k}, pick {pick} of its trial, starts where "
+                        "the reset leaves the arm, not after the pick before it",
+                    )
+                continue
+            was = (seed, None if pick is None else pick - 1)
+            if tags[before] != was:
+                self.fail(
+                    "mearm",
+                    f"{L.STARTS_PATH}: episode {k} continues episode {before}, but "
+                    f"{L.TAGS_PATH} tags them {list(tags[k])} and {list(tags[before])}: not "
+                    "one sort's picks in a row",
+                )
+            if scenes[before] != scenes[k]:
+                self.fail(
+                    "mearm",
+                    f"{L.STARTS_PATH}: episode {k} continues episode {before}, which sorts "
+                    f"another scene ({L.TAGS_PATH})",
+                )
+            if starts[before].servos != start.servos:
+                self.fail(
+                    "mearm",
+                    f"{L.STARTS_PATH}: episode {k} continues episode {before}, which ran "
+                    f"other servos ({_servos(starts[before])}, not {_servos(start)})",
+                )
+
+
+def _servos(start: EpisodeStart) -> str:
+    """The servo calibration an episode ran, for a message."""
+    return start.servos or "the config's own"

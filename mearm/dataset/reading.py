@@ -10,6 +10,8 @@ episode, ``[trial seed, pick]`` (both ``null`` outside an experiment), and a thi
 scene a replay rebuilds (:class:`RecordedScene`), for an episode of
 ``mearm sort --random N --seed S`` or ``--scene FILE``, or of an experiment's trial on a
 simulated table. A dataset without the file (recorded by other tools) reads as untagged.
+``meta/mearm_starts.json``, mearm's too, says where each episode starts and the servo
+calibration its sort ran (:class:`EpisodeStart`).
 """
 
 from __future__ import annotations
@@ -17,7 +19,7 @@ from __future__ import annotations
 import json
 from collections.abc import Sequence
 from dataclasses import dataclass
-from pathlib import Path
+from pathlib import Path, PurePosixPath
 from typing import Any
 
 from pydantic import TypeAdapter, ValidationError
@@ -297,3 +299,107 @@ def _reason(exc: BaseException, path: Path) -> str:
 def _short(value: Any) -> str:
     text = json.dumps(value)
     return text if len(text) <= 40 else text[:37] + "..."
+
+
+@dataclass(frozen=True)
+class EpisodeStart:
+    """Where an episode starts, as a replay rebuilds it, and the servos it ran.
+
+    An episode per pick after a sort's first starts where the one before it left the arm
+    and the table, not where the environment's reset does: its replay steps the sort's
+    episodes before it first (:mod:`mearm.envs.replay`).
+
+    Attributes:
+        known: Whether the recording knows where it starts (not: recorded by an older
+            mearm, or the pick before it was not recorded by this run).
+        after: The episode of the same sort it continues (the pick before it); ``None``:
+            it starts where the environment's reset leaves the arm (a sort's first).
+        gap_frames: The frames of the sort's time between the last frame of ``after``
+            and its own first (the sort looking at the table, or going home to look
+            again; no frame is recorded then) [frames of 1/fps].
+        servos: The servo calibration the sort made at its start
+            (``servo.calibrate_at_start``): a servo calibration file in the dataset, its
+            path relative to the dataset; ``None``: the config's own.
+    """
+
+    known: bool = False
+    after: int | None = None
+    gap_frames: int = 0
+    servos: str | None = None
+
+    def to_json(self) -> dict[str, Any]:
+        """As ``meta/mearm_starts.json`` holds it: ``{}`` when not known.
+
+        ``{"after": null}`` (a reset's start) or ``{"after": K, "gap_frames": G}``, each
+        with ``"servos": "meta/mearm_servos/…"`` where the sort calibrated them.
+        """
+        out: dict[str, Any] = {}
+        if self.known:
+            out["after"] = self.after
+            if self.after is not None:
+                out["gap_frames"] = self.gap_frames
+        if self.servos is not None:
+            out["servos"] = self.servos
+        return out
+
+    @classmethod
+    def from_json(cls, value: Any, episode: int) -> EpisodeStart | None:
+        """Episode ``episode``'s entry; ``None`` if it is not one."""
+        if not isinstance(value, dict) or set(value) - {"after", "gap_frames", "servos"}:
+            return None
+        after, gap, servos = value.get("after"), value.get("gap_frames", 0), value.get("servos")
+        if after is not None and not (_whole(after) and after < episode):
+            return None  # an episode continues one before it
+        if not _whole(gap) or ("gap_frames" in value and after is None):
+            return None
+        if servos is not None and not _inside(servos):
+            return None
+        return cls("after" in value, after, gap, servos)
+
+
+def _inside(rel: Any) -> bool:
+    """Whether ``rel`` is a path inside the dataset (relative, no ``..``)."""
+    if not isinstance(rel, str) or not rel:
+        return False
+    path = PurePosixPath(rel)
+    return not path.is_absolute() and ".." not in path.parts
+
+
+def read_starts(root: Path, episodes: int) -> list[EpisodeStart]:
+    """``meta/mearm_starts.json``: each episode's :class:`EpisodeStart`, in order.
+
+    Without the file (a dataset recorded by an older mearm) no episode's start is known.
+
+    Raises:
+        DatasetError: it is not JSON, not ``{"episodes": [...]}`` of entries, or not one
+            entry per episode.
+    """
+    rel = L.STARTS_PATH
+    if not (root / rel).exists():
+        return [EpisodeStart()] * episodes
+    data = read_json(root, rel)
+    entries = data.get("episodes") if isinstance(data, dict) else None
+    if not isinstance(entries, list):
+        raise damaged(root, rel, 'not an object {"episodes": [...]}')
+    starts = []
+    for k, entry in enumerate(entries):
+        start = EpisodeStart.from_json(entry, k)
+        if start is None:
+            raise damaged(
+                root,
+                rel,
+                f"entry {k} is {_short(entry)}, not "
+                '{"after": null or an earlier episode, "gap_frames": frames ≥ 0, "servos": '
+                "a file in the dataset} (each optional)",
+            )
+        starts.append(start)
+    if len(entries) != episodes:
+        raise damaged(
+            root, rel, f"holds {len(entries)} entries for the {episodes} episodes of the dataset"
+        )
+    return starts
+
+
+def starts_json(starts: list[EpisodeStart]) -> str:
+    """``meta/mearm_starts.json``'s text (:func:`read_starts` reads it)."""
+    return json.dumps({"episodes": [s.to_json() for s in starts]})

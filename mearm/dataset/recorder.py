@@ -31,7 +31,9 @@ What a replay needs besides the scene is kept with each episode (:class:`Episode
 ``meta/mearm_starts.json``): the episode of the same sort it continues (an episode per
 pick after a sort's first starts where the one before left the arm and the table), and
 the servo calibration the sort made at its start (``servo.calibrate_at_start``), as a
-servo calibration file in the dataset (:meth:`DatasetRecorder.servos_calibrated`).
+servo calibration file in the dataset, which each episode carries to it
+(:meth:`~mearm.dataset.sampler.EpisodeSampler.servos_calibrated`): one a worker process
+recorded (``mearm experiment --jobs N``) too.
 """
 
 from __future__ import annotations
@@ -46,7 +48,7 @@ from collections import deque
 from collections.abc import Iterator
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, replace
-from pathlib import Path, PurePosixPath
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -61,16 +63,19 @@ from mearm.dataset.errors import (
 )
 from mearm.dataset.feature_stats import Stats, aggregate, image_stats, to_json, vector_stats
 from mearm.dataset.fragments import EpisodeVideo, file_header, tear
-from mearm.dataset.reading import (
+from mearm.dataset.reading import (  # noqa: F401  (EpisodeStart, read_starts re-exported)
+    EpisodeStart,
     RecordedScene,
     Tag,
     damaged,
     read_episodes,
     read_info,
     read_json,
+    read_starts,
     read_table,
     read_tags,
     read_tasks,
+    starts_json,
     tags_json,
 )
 from mearm.dataset.sampler import (  # noqa: F401  (re-exported: what an episode is)
@@ -86,7 +91,6 @@ from mearm.dataset.sampler import (  # noqa: F401  (re-exported: what an episode
 )
 
 if TYPE_CHECKING:
-    from mearm.config.servo_file import ServoCalibrationFile
     from mearm.hardware.bus import ServoBus
     from mearm.vision import Camera
 
@@ -133,164 +137,14 @@ def write_atomic(path: Path, data: bytes) -> None:
 
 
 @dataclass(frozen=True)
-class EpisodeStart:
-    """Where an episode starts, as a replay rebuilds it, and the servos it ran.
-
-    An episode per pick after a sort's first starts where the one before it left the arm
-    and the table, not where the environment's reset does: its replay steps the sort's
-    episodes before it first (:mod:`mearm.envs.replay`).
-
-    Attributes:
-        known: Whether the recording knows where it starts (not: recorded by an older
-            mearm, or the pick before it was not recorded by this run).
-        after: The episode of the same sort it continues (the pick before it); ``None``:
-            it starts where the environment's reset leaves the arm (a sort's first).
-        gap_frames: The frames of the sort's time between the last frame of ``after``
-            and its own first (the sort looking at the table, or going home to look
-            again; no frame is recorded then) [frames of 1/fps].
-        servos: The servo calibration the sort made at its start
-            (``servo.calibrate_at_start``): a servo calibration file in the dataset, its
-            path relative to the dataset; ``None``: the config's own.
-    """
-
-    known: bool = False
-    after: int | None = None
-    gap_frames: int = 0
-    servos: str | None = None
-
-    def to_json(self) -> dict[str, Any]:
-        """As ``meta/mearm_starts.json`` holds it: ``{}`` when not known.
-
-        ``{"after": null}`` (a reset's start) or ``{"after": K, "gap_frames": G}``, each
-        with ``"servos": "meta/mearm_servos/…"`` where the sort calibrated them.
-        """
-        out: dict[str, Any] = {}
-        if self.known:
-            out["after"] = self.after
-            if self.after is not None:
-                out["gap_frames"] = self.gap_frames
-        if self.servos is not None:
-            out["servos"] = self.servos
-        return out
-
-    @classmethod
-    def from_json(cls, value: Any, episode: int) -> EpisodeStart | None:
-        """Episode ``episode``'s entry; ``None`` if it is not one."""
-        if not isinstance(value, dict) or set(value) - {"after", "gap_frames", "servos"}:
-            return None
-        after, gap, servos = value.get("after"), value.get("gap_frames", 0), value.get("servos")
-        if after is not None and not (_count(after) and after < episode):
-            return None  # an episode continues one before it
-        if not _count(gap) or ("gap_frames" in value and after is None):
-            return None
-        if servos is not None and not _inside(servos):
-            return None
-        return cls("after" in value, after, gap, servos)
-
-
-def _count(value: Any) -> bool:
-    """Whether ``value`` is a whole number ≥ 0 (not a bool)."""
-    return isinstance(value, int) and not isinstance(value, bool) and value >= 0
-
-
-def _inside(rel: Any) -> bool:
-    """Whether ``rel`` is a path inside the dataset (relative, no ``..``)."""
-    if not isinstance(rel, str) or not rel:
-        return False
-    path = PurePosixPath(rel)
-    return not path.is_absolute() and ".." not in path.parts
-
-
-def read_starts(root: Path, episodes: int) -> list[EpisodeStart]:
-    """``meta/mearm_starts.json``: each episode's :class:`EpisodeStart`, in order.
-
-    Without the file (a dataset recorded by an older mearm) no episode's start is known.
-
-    Raises:
-        DatasetError: it is not JSON, not ``{"episodes": [...]}`` of entries, or not one
-            entry per episode.
-    """
-    rel = L.STARTS_PATH
-    if not (root / rel).exists():
-        return [EpisodeStart()] * episodes
-    data = read_json(root, rel)
-    entries = data.get("episodes") if isinstance(data, dict) else None
-    if not isinstance(entries, list):
-        raise damaged(root, rel, 'not an object {"episodes": [...]}')
-    starts = []
-    for k, entry in enumerate(entries):
-        start = EpisodeStart.from_json(entry, k)
-        if start is None:
-            text = json.dumps(entry)
-            raise damaged(
-                root,
-                rel,
-                f"entry {k} is {text if len(text) <= 40 else text[:37] + '...'}, not "
-                '{"after": null or an earlier episode, "gap_frames": frames ≥ 0, "servos": '
-                "a file in the dataset} (each optional)",
-            )
-        starts.append(start)
-    if len(entries) != episodes:
-        raise damaged(
-            root, rel, f"holds {len(entries)} entries for the {episodes} episodes of the dataset"
-        )
-    return starts
-
-
-def starts_json(starts: list[EpisodeStart]) -> str:
-    """``meta/mearm_starts.json``'s text (:func:`read_starts` reads it)."""
-    return json.dumps({"episodes": [s.to_json() for s in starts]})
-
-
-def start_calibration(nominal: Config, calibrated: Config) -> ServoCalibrationFile | None:
-    """The servo calibration file that gives ``nominal`` the servos of ``calibrated``.
-
-    Each actuator whose servo (or narrowed limits) the calibration changed, replacing the
-    nominal one (``replaces``: a twin with a kit of servos keeps its physics, as the sort's
-    did). ``None``: it changed none. What the sort's calibration at its start
-    (``servo.calibrate_at_start``) hands back is the calibrated config, not its fits.
-    """
-    from mearm.config.servo_file import (  # noqa: PLC0415  (a sort that calibrated only)
-        ActuatorFit,
-        ServoCalibrationFile,
-        now_iso,
-        servo_of,
-    )
-    from mearm.hardware.mapping import ServoMap  # noqa: PLC0415
-
-    def limits(config: Config) -> dict[str, tuple[float, float]]:
-        arm = config.arm
-        out = {j.name: (j.limits.min, j.limits.max) for j in arm.actuated_joints() if j.limits}
-        out.update({a.name: (a.limits.min, a.limits.max) for a in arm.tool.actuators})
-        return out
-
-    was_limits, now_limits = limits(nominal), limits(calibrated)
-    smap = ServoMap.from_arm(nominal.arm)
-    fits = []
-    for actuator in (*smap.joints, *smap.tool, smap.gripper):
-        name = actuator.name
-        was, now = servo_of(nominal.arm, name), servo_of(calibrated.arm, name)
-        narrowed = now_limits.get(name)
-        narrowed = narrowed if narrowed != was_limits.get(name) else None
-        if now != was or narrowed is not None:
-            fits.append(ActuatorFit(name, actuator.unit, now, (), 0.0, was, narrowed))
-    if not fits:
-        return None
-    board = "the servos' calibration by the camera at a sort's start, kept by its recording"
-    return ServoCalibrationFile(nominal.arm.name, board, "", now_iso(), tuple(fits))
-
-
-@dataclass(frozen=True)
-class _Run:
+class _SortRun:
     """The sort whose episodes are being recorded (:meth:`DatasetRecorder.attach`).
 
     Attributes:
         number: Its number in this recorder: episodes of one sort continue one another.
-        servos: The text of the servo calibration file it made at its start, or ``None``.
     """
 
     number: int
-    servos: str | None = None
 
 
 def finish_journal(root: Path) -> bool:
@@ -446,7 +300,7 @@ class DatasetRecorder(EpisodeSampler):
         self._own_table: tuple[SceneObject, ...] = ()
         if scene is None and config.simulated_table and config.belt is None:
             self._own_table = tuple(config.task.scene)
-        self._run = _Run(0)  # the sort being recorded
+        self._run = _SortRun(0)  # the sort being recorded
         # written by the writer thread: the last episode written (its sort's number, its
         # start on the bus's clock, its length and tag) and each sort's servo file
         self._last: tuple[int, float, int, Tag] | None = None
@@ -559,19 +413,10 @@ class DatasetRecorder(EpisodeSampler):
         whatever the config's table is by then.
         """
         super().attach(bus, camera)
-        self._run = _Run(self._run.number + 1)
+        self._run = _SortRun(self._run.number + 1)
         own = self._own_table
         if own and self.scene is None and self._trial is None and self.kept_config is not None:
             self.scene = RecordedScene.laid(own, *self.kept_config)
-
-    def servos_calibrated(self, nominal: Config, calibrated: Config) -> None:
-        """The sort calibrated its servos at its start: its episodes keep that calibration.
-
-        As a servo calibration file in the dataset (:func:`start_calibration`), written
-        with the sort's first episode; a replay applies it.
-        """
-        cal = start_calibration(nominal, calibrated)
-        self._run = replace(self._run, servos=None if cal is None else cal.text())
 
     def _accept(self, ep: _Episode) -> None:
         self._writes.append(self._writer.submit(self._write, ep, self._run))
@@ -596,7 +441,7 @@ class DatasetRecorder(EpisodeSampler):
         holds already is not written again.
         """
         held = set(self._tags)
-        self._run = _Run(self._run.number + 1)  # a trial's: they continue one another
+        self._run = _SortRun(self._run.number + 1)  # a trial's: they continue one another
         with no_interrupt():
             for ep in episodes:
                 if ep.tag[0] is not None and ep.tag in held:
@@ -645,7 +490,7 @@ class DatasetRecorder(EpisodeSampler):
 
     # ----------------------------------------------------------------- writing
 
-    def _write(self, ep: _Episode, run: _Run) -> None:
+    def _write(self, ep: _Episode, run: _SortRun) -> None:
         """Write one episode of the sort ``run`` (in the writer thread).
 
         Raises:
@@ -825,19 +670,19 @@ class DatasetRecorder(EpisodeSampler):
 
         Returns:
             The episodes' starts, and the servo calibration file its sort made (written
-            with the sort's first episode), or ``None``.
+            with the sort's first episode, from the calibration it carries), or ``None``.
         """
         run = self._writing
         servo_file = self._servo_files.get(run.number)
-        if run.servos is not None and servo_file is None:  # the sort's first episode
+        if ep.servos is not None and servo_file is None:  # the sort's first episode
             servo_file = L.SERVOS_PATH.format(episode_index=index)
-            self._staged(servo_file).write_text(run.servos)
+            self._staged(servo_file).write_text(ep.servos)
         start = replace(self._start_of(ep, run, index), servos=servo_file)
         starts = [*self._starts, start]
         self._staged(L.STARTS_PATH).write_text(starts_json(starts))
         return starts, servo_file
 
-    def _start_of(self, ep: _Episode, run: _Run, index: int) -> EpisodeStart:
+    def _start_of(self, ep: _Episode, run: _SortRun, index: int) -> EpisodeStart:
         """Where episode ``index`` starts: where a reset leaves the arm, or after another.
 
         The first of its sort starts where the reset does (the arm at home, the table as

@@ -9,7 +9,10 @@ process draws it (:class:`DrawsElsewhere`) unless that process is behind (then i
 drawn here, the same pixels); another camera's frame is drawn or converted into it here.
 The sorter opens an episode per pick-and-place (or one per scene) and ends or abandons
 it; an ended episode goes on to :meth:`EpisodeSampler._accept` once its video is encoded,
-in order.
+in order. A sort that calibrates its servos by the camera at its start hands the
+calibration over (:meth:`EpisodeSampler.servos_calibrated`) and each of its episodes
+carries it, so a replay runs the servos the sort ran, however the episode reaches the
+dataset.
 
 Two kinds: :class:`~mearm.dataset.recorder.DatasetRecorder` writes each into a dataset
 (the video encoded by another process); :class:`EpisodeCapture` keeps them, videos
@@ -24,10 +27,10 @@ import re
 import shutil
 import tempfile
 from collections import deque
-from collections.abc import Callable, Iterable, Iterator, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Literal, Protocol, runtime_checkable
+from typing import TYPE_CHECKING, Any, Literal, Protocol, runtime_checkable
 
 import cv2
 import numpy as np
@@ -38,8 +41,12 @@ from mearm.dataset.encoder_server import STATS_PIXEL_STRIDE  # noqa: F401  (re-e
 from mearm.dataset.errors import DatasetWriteError, EncoderError
 from mearm.dataset.reading import RecordedScene
 from mearm.dataset.video_encoder import EncoderProcess, InlineEncoder, RingMemoryError
+from mearm.fileio import signals_held
 from mearm.hardware.bus import MeasuresWorld, ServoBus
 from mearm.vision import Camera
+
+if TYPE_CHECKING:
+    from mearm.config.servo_file import ServoCalibrationFile
 
 Per = Literal["pick", "scene"]
 Encoder = EncoderProcess | InlineEncoder
@@ -60,6 +67,44 @@ def task_sentence(class_name: str) -> str:
 SCENE_TASK = "put each object in the bin of its class"
 
 
+def start_calibration(nominal: Config, calibrated: Config) -> ServoCalibrationFile | None:
+    """The servo calibration file that gives ``nominal`` the servos of ``calibrated``.
+
+    Each actuator whose servo (or narrowed limits) the calibration changed, replacing the
+    nominal one (``replaces``: a twin with a kit of servos keeps its physics, as the sort's
+    did). ``None``: it changed none. What the sort's calibration at its start
+    (``servo.calibrate_at_start``) hands back is the calibrated config, not its fits.
+    """
+    from mearm.config.servo_file import (  # noqa: PLC0415  (a sort that calibrated only)
+        ActuatorFit,
+        ServoCalibrationFile,
+        now_iso,
+        servo_of,
+    )
+    from mearm.hardware.mapping import ServoMap  # noqa: PLC0415
+
+    def limits(config: Config) -> dict[str, tuple[float, float]]:
+        arm = config.arm
+        out = {j.name: (j.limits.min, j.limits.max) for j in arm.actuated_joints() if j.limits}
+        out.update({a.name: (a.limits.min, a.limits.max) for a in arm.tool.actuators})
+        return out
+
+    was_limits, now_limits = limits(nominal), limits(calibrated)
+    smap = ServoMap.from_arm(nominal.arm)
+    fits = []
+    for actuator in (*smap.joints, *smap.tool, smap.gripper):
+        name = actuator.name
+        was, now = servo_of(nominal.arm, name), servo_of(calibrated.arm, name)
+        narrowed = now_limits.get(name)
+        narrowed = narrowed if narrowed != was_limits.get(name) else None
+        if now != was or narrowed is not None:
+            fits.append(ActuatorFit(name, actuator.unit, now, (), 0.0, was, narrowed))
+    if not fits:
+        return None
+    board = "the servos' calibration by the camera at a sort's start, kept by its recording"
+    return ServoCalibrationFile(nominal.arm.name, board, "", now_iso(), tuple(fits))
+
+
 @dataclass
 class _Episode:
     """An episode being recorded, then waiting for its video to be encoded.
@@ -73,6 +118,9 @@ class _Episode:
         video: The encoded video's bytes, once carried to another process (a trial run
             by a worker process); ``None`` while it is at ``path``.
         scene: The scene it sorts, as a replay rebuilds it, if known.
+        servos: The text of the servo calibration file of its sort's calibration at the
+            start (:meth:`EpisodeSampler.servos_calibrated`); ``None``: the config's own.
+            Carried with the episode, so one a worker process recorded keeps it too.
     """
 
     number: int
@@ -85,6 +133,7 @@ class _Episode:
     pixels: list[np.ndarray] = field(default_factory=list)
     video: bytes | None = None
     scene: RecordedScene | None = None
+    servos: str | None = None
 
     @property
     def length(self) -> int:
@@ -153,6 +202,8 @@ class EpisodeSampler:
         self._held: set[int | None] = set()
         #: The scene the episodes sort, as a replay rebuilds it, if known.
         self.scene: RecordedScene | None = None
+        #: The sort's servo calibration at its start, as a file's text (each episode's).
+        self._servos: str | None = None
         #: ``--config`` and ``--set`` as a replay finds them
         #: (:func:`~mearm.dataset.arguments.kept_config`), if known: with them each
         #: trial's episodes keep its table (:meth:`start_trial`).
@@ -188,6 +239,9 @@ class EpisodeSampler:
     def attach(self, bus: ServoBus, camera: Camera) -> None:
         """Sample this rig from now on: its bus's commands and clock, its camera.
 
+        A sort begins: its servos are the config's until it says it calibrated them
+        (:meth:`servos_calibrated`).
+
         Raises:
             DatasetWriteError, EncoderError: the encoder cannot start
                 (:meth:`_start_encoder`); the rig is left as it was.
@@ -195,6 +249,7 @@ class EpisodeSampler:
         if self._encoder is None:
             self._encoder = self._start_encoder()
         self._bus, self._camera = bus, camera
+        self._servos = None
         # looked up once: a runtime protocol's isinstance walks its members every time
         self._draw_rgb = camera.peek_rgb if isinstance(camera, DrawsRGB) else None
         bus.sampler = self
@@ -226,6 +281,18 @@ class EpisodeSampler:
             self._bus.sampler = None
         self._bus = self._camera = None
         self._elsewhere = None
+
+    def servos_calibrated(self, nominal: Config, calibrated: Config) -> None:
+        """The sort calibrated its servos at its start: its episodes keep that calibration.
+
+        The sorter says so (``servo.calibrate_at_start``) after :meth:`attach`, before its
+        first pick. Each episode opened from here on carries it as a servo calibration
+        file's text (:func:`start_calibration`), which the dataset keeps with the sort's
+        first episode written and a replay applies: in this process or, sent back with a
+        worker's trial (:class:`EpisodeCapture`), in the command's.
+        """
+        cal = start_calibration(nominal, calibrated)
+        self._servos = None if cal is None else cal.text()
 
     def start_trial(self, trial_seed: int, table: Sequence[SceneObject] | None = None) -> None:
         """The episodes from here on are of the experiment's trial with this seed.
@@ -325,7 +392,9 @@ class EpisodeSampler:
         path = self._scratch / f"episode-{number}.mp4"
         task = SCENE_TASK if self.per == "scene" else task_sentence(class_name)
         tag = (self._trial, pick if self._trial is not None else None)
-        self._episode = _Episode(number, path, self._bus.clock_s, task, tag, scene=self.scene)
+        self._episode = _Episode(
+            number, path, self._bus.clock_s, task, tag, scene=self.scene, servos=self._servos
+        )
         self._encoder.open(number, path)
         self.sample(self._bus)
 
@@ -435,17 +504,13 @@ class EpisodeCapture(EpisodeSampler):
             shutil.rmtree(self._scratch, ignore_errors=True)
 
 
-@contextlib.contextmanager
-def no_interrupt() -> Iterator[None]:
-    """Hold Ctrl-C (SIGINT) back until the block ends; it is delivered then."""
-    import signal
+def no_interrupt() -> contextlib.AbstractContextManager[None]:
+    """Hold Ctrl-C back until the block ends (an episode being written); it comes then.
 
-    try:
-        old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
-    except (ValueError, OSError):  # not possible here (another thread): run as is
-        yield
-        return
-    try:
-        yield
-    finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+    SIGTERM and SIGHUP too (:func:`mearm.fileio.signals_held`): in the main thread
+    they are taken after the block, whichever thread the kernel gave them to (blocked
+    in the main thread alone, they went to another, the recorder's writer thread, and
+    Python raised ``KeyboardInterrupt`` inside the block all the same); in another
+    thread (a Dask worker's trial), blocked there until it ends.
+    """
+    return signals_held()
