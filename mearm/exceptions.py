@@ -76,7 +76,7 @@ FAMILIES: dict[str, tuple[str, ...]] = {
     "mearm.sim.kinematic.servo_bus": ("SimCollisionError",),
     "mearm.sim.virtual_uno.errors": ("VirtualUnoError",),
     "mearm.task.scene": ("SceneError",),
-    "mearm.task.armcheck": ("ArmCheckError", "NothingToCheck"),
+    "mearm.task.armcheck": ("ArmCheckError", "NothingToCheck", "RigNotOpened"),
     "mearm.task.sorter": ("CollisionError", "SortAborted", "StartCalibrationFailed"),
     "mearm.experiment.errors": ("TrialFailed",),
     # the environments' and the baseline's (their packages import Gymnasium: mearm[gym])
