@@ -11,7 +11,8 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-from test_maker_calibrate import ROOT, PtyCommand
+from test_maker_calibrate import ROOT
+from test_missing_port import pty_error_line
 
 from mearm import cli
 from mearm.errors import MearmError
@@ -29,17 +30,10 @@ def test_jog_on_a_long_port_path_ends_with_the_find_port_hint(tmp_path: Path) ->
     """On a terminal: exit 2, one line naming the port's two ends and ending with the hint."""
     port = str(tmp_path / ("p" * (250 - len(str(tmp_path)) - 2))) + "Z"
     assert len(port) == 250
-    cmd = PtyCommand(
+    line = pty_error_line(
         "jog", "--config", str(ROOT / "configs" / "sim.yaml"),
         "--set", "servo.backend=serial", "--set", f"servo.port={port}",
     )  # fmt: skip
-    try:
-        assert cmd.wait() == 2, cmd.text
-    finally:
-        cmd.close()
-    lines = cmd.text.strip().splitlines()
-    assert len(lines) == 1, cmd.text
-    line = lines[0]
     assert line.startswith(f"mearm jog: error: {port[:20]}"), line
     assert "pZ: cannot open at" in line, line  # the path's end, where its name is
     assert line.endswith(HINT_END), line

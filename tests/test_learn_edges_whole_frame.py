@@ -14,12 +14,12 @@ import cv2
 import numpy as np
 import pytest
 from badinput import run_guarded as call
+from test_teaching_inputs import frame_png  # noqa: F401  (a fixture: the rendered table)
 
 from mearm.config import Config, config_from_dict, load_config
 from mearm.detect import main as detect_main
 from mearm.errors import ConfigError
 from mearm.maker.learn_colours import main as learn_main
-from mearm.sim import TableRenderer, class_discs
 from mearm.vision import Calibration, ColorDetector
 from mearm.vision.calibration import camera_geometry
 
@@ -32,14 +32,6 @@ SAMPLES = ["--sample", "red=152,149", "--sample", "green=195,83", "--sample", "b
 LEFT_HALF = "[[0, 0], [340, 0], [340, 480], [0, 480]]"
 
 
-@pytest.fixture(scope="module")
-def frame_png(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    r = TableRenderer(CAL, 640, 480, table="grey")
-    path = tmp_path_factory.mktemp("frames") / "frame.png"
-    cv2.imwrite(str(path), r.render(class_discs(CONFIG.task.classes, LAYOUT)))
-    return path
-
-
 @pytest.fixture
 def left_half(tmp_path: Path) -> Path:
     """A config whose work area is the frame's left half (6 of the 12 objects)."""
@@ -49,7 +41,10 @@ def left_half(tmp_path: Path) -> Path:
 
 
 def test_whole_frame_replaces_the_polygon_extended(
-    frame_png: Path, left_half: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+    frame_png: Path,  # noqa: F811  (the fixture imported above)
+    left_half: Path,
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
 ) -> None:
     """``--whole-frame`` over a config with a polygon: NEW.yaml says ``whole_frame`` and
     detect finds all 12 objects (it kept the left half: 6)."""

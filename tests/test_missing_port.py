@@ -40,12 +40,18 @@ def test_sort_on_a_port_that_does_not_exist_is_exit_2_before_the_sort(tmp_path: 
 @pytest.mark.heavy
 def test_jog_on_a_port_that_does_not_exist_is_exit_2_in_one_line():
     """On a terminal, before the keys are taken: exit 2, one line naming the port."""
-    cmd = PtyCommand("jog", *ON_NO_PORT, "--port", NO_PORT)
+    line = pty_error_line("jog", *ON_NO_PORT, "--port", NO_PORT)
+    assert line.startswith(f"mearm jog: error: {NO_PORT}: cannot open"), line
+    assert "mearm find-port" in line
+
+
+def pty_error_line(*argv: str) -> str:
+    """``mearm ARGV`` on a terminal: exit 2, and the one line it printed."""
+    cmd = PtyCommand(*argv)
     try:
         assert cmd.wait() == 2, cmd.text
     finally:
         cmd.close()
     lines = cmd.text.strip().splitlines()
     assert len(lines) == 1, cmd.text
-    assert lines[0].startswith(f"mearm jog: error: {NO_PORT}: cannot open"), cmd.text
-    assert "mearm find-port" in lines[0]
+    return lines[0]
