@@ -13,6 +13,9 @@ import pytest
 
 from mearm.vision.pinhole import load_calibration
 
+#: Each test runs a command or two in a child process (renders, fits): heavy.
+pytestmark = pytest.mark.heavy
+
 ROOT = Path(__file__).resolve().parents[1]
 ENV = {**os.environ, "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl")}
 

@@ -12,6 +12,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
 from conftest import ROOT
 
 from mearm.cli import EXIT_OUTPUT_CLOSED
@@ -53,6 +54,7 @@ def test_the_dispatchers_own_help_whose_reader_left_exits_141_quietly(tmp_path: 
     assert err == ""
 
 
+@pytest.mark.heavy
 def test_a_sort_whose_reader_left_finishes_and_logs_every_route(tmp_path: Path) -> None:
     """``mearm sort | head -1``: all 12 objects sorted, exit 0, the run log whole."""
     log = tmp_path / "run.jsonl"

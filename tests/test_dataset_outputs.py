@@ -191,6 +191,7 @@ def _assert_disk_full(run: subprocess.CompletedProcess[str], root: Path) -> str:
     return line.removesuffix("; arm parked at home")
 
 
+@pytest.mark.heavy
 def test_a_first_recording_on_a_full_disk_leaves_nothing_and_says_so(tmp_path: Path) -> None:
     """It said "unexpected error: OSError", exit 1, and left empty ``data/chunk-000``
     folders: the same command then refused DIR as not empty."""

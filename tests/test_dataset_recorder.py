@@ -60,6 +60,7 @@ def test_abandoned_and_still_attempts_are_not_written(sim: Config, tmp_path: Pat
     assert not (tmp_path / "ds" / ".recording").exists()
 
 
+@pytest.mark.heavy
 def test_a_kill_after_the_journal_is_finished_on_resume(
     sim: Config, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
@@ -85,6 +86,7 @@ def test_a_kill_after_the_journal_is_finished_on_resume(
     assert check_dataset(root) == []
 
 
+@pytest.mark.heavy
 def test_a_kill_before_the_journal_leaves_the_dataset_as_it_was(
     sim: Config, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:

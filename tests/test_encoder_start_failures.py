@@ -63,6 +63,7 @@ def _cannot_fork(*_args: object) -> None:
     raise OSError(errno.EAGAIN, os.strerror(errno.EAGAIN))  # fork() out of processes
 
 
+@pytest.mark.heavy
 def test_a_full_dev_shm_is_logged_before_the_sort(tmp_path: Path) -> None:
     """The ring's shared memory cannot be had: the log's fault says the sort never
     started; exit status and stderr's one line are as before."""

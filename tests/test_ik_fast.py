@@ -129,6 +129,7 @@ def test_newton_rejects_bad_settings():
         NewtonIK(MODEL, max_iterations=0)
 
 
+@pytest.mark.heavy
 def test_rtb_ets_is_the_arms_kinematics():
     """The peer's ETS maps the 3 actuated joints to mearm's TCP (when RTB is installed)."""
     ets, note = rtb_ets(PAPER)

@@ -88,6 +88,7 @@ def test_the_page_shows_every_step_of_the_path() -> None:
     assert names.index("find-port") < names.index("flash") < names.index("calibrate-servos")
 
 
+@pytest.mark.heavy
 def test_a_mearm_v1_walks_the_path_without_hardware(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:

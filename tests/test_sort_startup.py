@@ -66,6 +66,7 @@ def _run(code):
     return out.stdout.strip()
 
 
+@pytest.mark.heavy
 def test_the_sort_imports_no_conveyor_and_compiles_no_tokenizer():
     """``import mearm.sort`` leaves the belt's sorter and tokenize's patterns for who needs them.
 
@@ -105,6 +106,7 @@ def test_list_and_mapping_defaults_are_each_model_s_own():
         assert x is not y
 
 
+@pytest.mark.heavy
 def test_the_sort_leaves_what_only_other_runs_need_unimported():
     """``import mearm.sort`` and loading ``sim`` import none of what only other runs need.
 

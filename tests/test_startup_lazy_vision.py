@@ -4,6 +4,7 @@ import os
 import subprocess
 import sys
 
+import pytest
 from conftest import ROOT
 
 #: Modules only a detector that knows the table's colour (``vision.reference_bgr``) or a
@@ -16,6 +17,7 @@ ONLY_FOR_OTHER_RUNS = (
 )
 
 
+@pytest.mark.heavy
 def test_the_reference_sort_imports_no_table_colour_or_marker_code():
     """``mearm sort --config sim``, run whole, imports none of :data:`ONLY_FOR_OTHER_RUNS`."""
     code = (

@@ -251,6 +251,7 @@ def _bus_config(**virtual_uno):
     )
 
 
+@pytest.mark.heavy
 def test_the_arm_follows_the_measured_pulses(cache_home, monkeypatch):
     """open_bus gives the virtual Uno's bus; after a move the simulated arm is where the
     pins' pulses put it: the commanded pose to within the pulse tolerance."""
@@ -271,6 +272,7 @@ def test_the_arm_follows_the_measured_pulses(cache_home, monkeypatch):
             )
 
 
+@pytest.mark.heavy
 def test_a_mismatch_faults_the_bus_and_keeps_the_last_confirmed_pose(cache_home, monkeypatch):
     """Swapped channels: the move raises MoveNotConfirmedError, the arm is where the pins
     put it (not where it was sent), no pose is confirmed and nothing more is sent."""

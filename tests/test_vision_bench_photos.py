@@ -131,6 +131,7 @@ def test_command_prints_the_table(folder: Path, capsys: pytest.CaptureFixture[st
     assert info.value.code == 2 and "--learn needs --photos" in err
 
 
+@pytest.mark.heavy
 def test_click_study_teaches_every_way(folder: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """Each photo showing all classes teaches once per combination of clicked objects; a
     click on a label off its object (b's first blue) is refused and counted; each teaching
