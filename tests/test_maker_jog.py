@@ -302,36 +302,53 @@ def test_jog_with_a_bad_calibration_file_is_exit_2(tmp_path: Path):
 
 def test_jog_checks_the_mearm_forearm_servo_on_shoulder_plus_elbow():
     """The MeArm v1 on the sim: the readout shows the elbow servo's value, shoulder +
-    elbow, and its room to each end of the pulse range; a shoulder move that keeps every
-    joint inside its limits but takes that sum past +75° is refused, nothing sent."""
+    elbow, and its room to each end of the pulse range; a 10° shoulder step that keeps
+    every joint inside its limits but would take that sum from +70° to +80° stops where
+    it reaches the end of the pulse range (+75.0002°, 2400 µs), the readout showing no
+    room left; the next step is refused, nothing sent."""
     import io
 
     from mearm.maker.calibrate_servos import open_arm_bus
-    from mearm.maker.jog import Jogger
+    from mearm.maker.jog import Jogger, Refused
 
     config = load_config(ROOT / "configs" / "sim_mearm_v1.yaml")
+    forearm = ServoMap.from_arm(config.arm)["elbow"]
+    end = forearm.pulse_limits[1]  # 75.0002°: 2400 µs
     out = io.StringIO()
     with open_arm_bus(config) as bus:
         jogger = Jogger(config, bus, out)
         jogger.executor.home_pose()
         jogger.readout()
-        line = r"  elbow's servo \(shoulder \+ elbow\): (-?[\d.]+) deg   to its pulse range"
-        assert float(re.findall(line, out.getvalue())[-1]) == pytest.approx(0.0)
+        line = (
+            r"  elbow's servo \(shoulder \+ elbow\): (-?[\d.]+) deg   to its pulse range "
+            r"-[\d.]+ / \+(-?[\d.]+) deg"
+        )
+        assert float(re.findall(line, out.getvalue())[-1][0]) == pytest.approx(0.0)
         jogger.step_index = JOINT_STEPS.index(10.0)
         jogger.selected = 2  # the elbow joint: up to -20°, the forearm at +70°
         for _ in range(7):
             jogger.move_joint(+1)
         jogger.readout()
-        assert float(re.findall(line, out.getvalue())[-1]) == pytest.approx(70.0)
+        assert float(re.findall(line, out.getvalue())[-1][0]) == pytest.approx(70.0)
+        jogger.selected = 1  # the shoulder from 90° to 100° would put the forearm at +80°
+        jogger.move_joint(+1)
+        joints = jogger.chain.named(jogger.executor.q_now())
+        assert joints["shoulder"] + joints["elbow"] == pytest.approx(end, abs=1e-9)
+        assert joints["shoulder"] + joints["elbow"] <= end  # on the end, not past it
+        assert joints["shoulder"] == pytest.approx(90.0 + end - 70.0, abs=1e-9)
+        assert bus.state is not None
+        assert forearm.command_us(forearm.servo_value(bus.state.joints)) == 2400
+        jogger.readout()
+        assert re.findall(line, out.getvalue())[-1] == ("75.000", "0.000")
         sent = bus.state
-        jogger.selected = 1  # the shoulder to 100°: inside its limits, the forearm at +80°
         past = (
             r"elbow's servo \(shoulder \+ elbow\) = 7[5-9][.\d]* deg needs a [\d.]+ µs "
             r"pulse on channel 2, outside its \[544, 2400\]"
         )
-        with pytest.raises(Exception, match=past):
+        with pytest.raises(Refused, match=past):
             jogger.move_joint(+1)  # the first pose of the path past +75° is named
         assert bus.state == sent  # refused before anything was sent
         jogger.selected = 2  # the elbow joint past its own limit: refused by the joint's
-        with pytest.raises(Exception, match=r"elbow would be at -10 deg, outside its limits"):
+        with pytest.raises(Refused, match=r"elbow would be at -10 deg, outside its limits"):
             jogger.move_joint(+1)
+        assert bus.state == sent

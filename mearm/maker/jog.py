@@ -10,10 +10,11 @@ The arm first goes home (as the sort's first move does). Then:
   the base frame's axis, solved with the config's IK (``controller.solver``); steps in a
   row aim at the previous target, so small IK errors do not add up;
 - ``[``/``]`` make the step smaller/larger (joints 0.5–10°, or cm for a prismatic joint;
-  TCP 0.2–5 cm); a joint step that would cross a joint's limit (the selected joint's, or
-  a passive joint's that follows it) stops on that limit, so every limit is reached
-  exactly whatever the step; ``g`` opens/closes the gripper; ``h`` goes home; ``?``
-  lists the keys;
+  TCP 0.2–5 cm); a joint step that would cross a bound it is checked on — a joint's
+  limit (the selected joint's, or a passive joint's that follows it) or the end of a
+  servo's pulse range (below) — stops on the first it reaches, so every bound is reached
+  exactly whatever the step, and only a step from a bound onwards is refused; ``g``
+  opens/closes the gripper; ``h`` goes home; ``?`` lists the keys;
 - ``q`` goes home and quits; ``Q`` quits and leaves the arm where it is (holding); Ctrl-C
   stops at once and leaves the arm where it is (exit 130).
 
@@ -22,8 +23,8 @@ After every key the screen shows every joint's value and its distance to each li
 turns a combination of joints (its ``drives``: the MeArm's elbow servo turns the
 forearm's angle to the table, shoulder + elbow) gets a line of its own: the
 combination's value and its distance to each end of the servo's pulse range, which
-bounds the combination, not a joint — moving the shoulder moves the forearm's angle too,
-and a move that takes it past either end is refused.
+bounds the combination, not a joint — moving the shoulder moves the forearm's angle too:
+a joint step stops on either end, and a move past it is refused.
 
 Every move goes through the sort's checks before anything is sent: a joint move is a
 straight line in joint space planned in full and checked against every limit
@@ -71,9 +72,10 @@ CARTESIAN_STEPS_CM = (0.2, 0.5, 1.0, 2.0, 5.0)
 #: The tool settings while jogging: the tool actuators at home.
 PHASE: Phase = "home"
 AXES = {"x": 0, "y": 1, "z": 2}
-#: Closer than this to a limit [rad or m] a joint is on it: a step past it is refused, not
-#: shortened to a rounding error's length.
-ON_LIMIT = 1e-9
+#: Closer than this to a bound (a joint's limit [rad or m], the end of a servo's pulse
+#: range [deg or cm]) a move starts on it: a step past it is refused, not shortened to a
+#: rounding error's length.
+ON_BOUND = 1e-9
 
 HELP = (
     "keys: 1-9 or ←/→ select joint, +/↑ -/↓ move it; x/X y/Y z/Z move the TCP -/+; "
@@ -177,48 +179,73 @@ class Jogger:
     def move_joint(self, sign: int) -> None:
         """Move the selected joint by one step (a straight joint-space path).
 
-        A step that would take a joint (the selected one, or a passive joint coupled to
-        it) across its limit stops on that limit, so every limit is reachable whatever
-        the step; a step from a joint's limit onwards is refused (:meth:`_go_joints`).
+        A step that would cross a bound the move is checked on before anything is sent
+        stops on the first it reaches (:meth:`_stop_on_first_bound`), so every bound is
+        reachable whatever the step; a step from a bound onwards is refused
+        (:meth:`_go_joints`).
         """
         c = self.chain
-        i = int(c.actuated_index[self.selected])
-        a = c.actuated_of(self.executor.q_now()).copy()
-        q_from = c.full(a)
-        step = sign * JOINT_STEPS[self.step_index] * c.scale[i]
-        a[self.selected] += step
-        crossed = self._first_limit_crossed(q_from, c.full(a))
-        if crossed is not None:
-            fraction, joint, limit = crossed
-            a[self.selected] = limit if joint == i else q_from[i] + fraction * step
+        k = self.selected
+        a_from = c.actuated_of(self.executor.q_now())
+        a = a_from.copy()
+        a[k] += sign * JOINT_STEPS[self.step_index] * c.scale[int(c.actuated_index[k])]
+        a[k] = self._stop_on_first_bound(a_from, a, k)
         self._go_joints(c.full(a))
         self.target_cm = None
 
-    def _first_limit_crossed(
-        self, q_from: np.ndarray, q_to: np.ndarray
-    ) -> tuple[float, int, float] | None:
-        """The first limit a straight move from ``q_from`` to ``q_to`` crosses, if any.
+    def _bounded(self, q: np.ndarray) -> np.ndarray:
+        """What a joint move is checked on, at the full pose ``q``.
 
-        Only a joint inside its limits at ``q_from`` crosses one (one already on or past
-        it, to :data:`ON_LIMIT`, is left to the limit check to refuse).
+        Every joint [model units], then every joint servo's value [deg or cm]: the
+        joint's, or the combination it turns.
+        """
+        named = self.chain.named_actuated(q)
+        servos = [j.servo_value(named) for j in self.bus.servo_map.joints]
+        return np.concatenate([q, servos])
 
-        Returns:
-            The fraction of the move at which it reaches the limit, in (0, 1); the
-            joint's index; the limit [model units]. ``None``: no joint crosses one.
+    def _bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """The lower and upper bounds of :meth:`_bounded`.
+
+        The joints' limits, then the values each joint servo's pulse range allows.
+        """
+        ranges = np.array([j.pulse_limits for j in self.bus.servo_map.joints]).reshape(-1, 2)
+        c = self.chain
+        return np.concatenate([c.lower, ranges[:, 0]]), np.concatenate([c.upper, ranges[:, 1]])
+
+    def _stop_on_first_bound(self, a_from: np.ndarray, a_to: np.ndarray, k: int) -> float:
+        """Where moving actuated joint ``k`` from ``a_from`` to ``a_to`` first reaches a bound.
+
+        Returns joint ``k``'s value there [model units], or ``a_to[k]`` if the move (of
+        that joint alone) reaches none. The bounds are those the move is checked on
+        before it is sent (:meth:`_bounded`): the joints' limits (the selected joint's,
+        or a passive joint's coupled to it) and the ends of the joint servos' pulse
+        ranges — for a servo that turns a combination of joints, a bound on the
+        combination (the MeArm v1's elbow servo holds shoulder + elbow within ±75°),
+        which the shoulder reaches too. All are linear along the move. A step that goes on
+        past a bound the start is on (within :data:`ON_BOUND`) or past is left whole, for
+        the checks to refuse (not stopped on a bound farther along, past that one).
         """
         c = self.chain
-        first: tuple[float, int, float] | None = None
-        for k in range(c.n):
-            delta = q_to[k] - q_from[k]
-            if delta == 0:
-                continue
-            limit = c.upper[k] if delta > 0 else c.lower[k]
-            way = 1.0 if delta > 0 else -1.0
-            if way * (limit - q_from[k]) > ON_LIMIT and way * (q_to[k] - limit) > 0:
-                fraction = float((limit - q_from[k]) / delta)
-                if first is None or fraction < first[0]:
-                    first = (fraction, k, float(limit))
-        return first
+        lower, upper = self._bounds()
+        v0, v1 = self._bounded(c.full(a_from)), self._bounded(c.full(a_to))
+        way = np.sign(v1 - v0)
+        bound = np.where(way > 0, upper, lower)
+        past = (way != 0) & (way * (v1 - bound) > 0)  # the bounds the whole step ends past
+        if not past.any() or (way * (bound - v0) <= ON_BOUND)[past].any():
+            # none, or the step goes on from one the start is on (or past): refused whole
+            return float(a_to[k])
+        fraction = np.full(len(v0), np.inf)
+        fraction[past] = (bound - v0)[past] / (v1 - v0)[past]
+        first = int(np.argmin(fraction))  # a tie: a joint's limit, listed first
+        if first == int(c.actuated_index[k]):
+            return float(bound[first])  # the selected joint's own limit, exactly
+        landed = float(a_from[k] + fraction[first] * (a_to[k] - a_from[k]))
+        a = a_from.copy()
+        while True:  # rounding may land a hair past the bound: back onto it, ulp by ulp
+            a[k] = landed
+            if way[first] * (self._bounded(c.full(a))[first] - bound[first]) <= 0:
+                return landed
+            landed = float(np.nextafter(landed, a_from[k]))
 
     def _go_joints(self, q_to: np.ndarray) -> None:
         problem = self._limit_problem(q_to)

@@ -4,10 +4,25 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from typing import Protocol, runtime_checkable
 
 from mearm.backends import open_bus
 from mearm.config import Config
 from mearm.hardware import ActuatorMap, ArmCommand, ServoBus, ServoMap
+
+
+@runtime_checkable
+class MeasuresPulses(Protocol):
+    """A bus whose board measures the pulses its pins output (the virtual Uno's).
+
+    It reports pulses, not values
+    (:meth:`~mearm.sim.virtual_uno.VirtualUnoBus.measured_pulses_us`): the session maps
+    them through the present calibration (the bus's own map is the widened one the
+    session sends with).
+    """
+
+    def measured_pulses_us(self) -> dict[int, float]:
+        """Channel → width [µs] of the pulses measured after the last move."""
 
 
 class PulseSession:
@@ -115,11 +130,11 @@ class PulseSession:
     def simulated_value(self, name: str) -> float | None:
         """What a simulated arm realised for an actuator's servo, else ``None``.
 
-        A joint servo's value: the joint's, or the combination it turns. The virtual Uno
-        measures every pin: a tool actuator's or the gripper's value is its measured pulse
-        under the present calibration, as its joints' are. The kinematic simulator's
-        gripper is only open or closed: no value (:attr:`simulated` tells it from a real
-        board's).
+        A joint servo's value: the joint's, or the combination it turns. A bus that
+        measures its board's pins (:class:`MeasuresPulses`: the virtual Uno) gives a tool
+        actuator's or the gripper's value as its measured pulse under the present
+        calibration, as its joints' are. The kinematic simulator's gripper is only open or
+        closed: no value (:attr:`simulated` tells it from a real board's).
         """
         joints = getattr(self.bus, "actual_joints", None)
         if isinstance(joints, dict) and name in self._original.joint_names:
@@ -128,8 +143,10 @@ class PulseSession:
             except KeyError:  # a joint the simulator does not report
                 return None
         actuator = self._original[name]
-        measured = getattr(getattr(self.bus, "last_frame", None), "widths_us", None)
-        if measured is not None and actuator.channel in measured:  # the virtual Uno's pins
+        if isinstance(self.bus, MeasuresPulses):  # the virtual Uno: every pin measured
+            measured = self.bus.measured_pulses_us()
+            if actuator.channel not in measured:  # a silent pin: nothing to read
+                return None
             return actuator.value_of(measured[actuator.channel])
         values = getattr(self.bus, "actual_tool", None)
         if isinstance(values, dict) and name in values:

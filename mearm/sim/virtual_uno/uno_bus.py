@@ -80,6 +80,17 @@ class VirtualUnoBus(ArduinoBus):
         """The actuated joints the pulses stand for, name → deg or cm."""
         return dict(self.arm.actual_joints)
 
+    def measured_pulses_us(self) -> dict[int, float]:
+        """What the board measured: channel → pulse width [µs].
+
+        The pulses of the frame that confirmed (or refused) the last move; empty before
+        the first move, and without the channels the board left silent. Pulses, not
+        values: a caller that holds a calibration of its own maps them through it
+        (``calibrate-servos`` replaces the bus's map while it measures one:
+        :class:`~mearm.maker.keyboard_calibration.pulse_session.MeasuresPulses`).
+        """
+        return {} if self.last_frame is None else dict(self.last_frame.widths_us)
+
     @property
     def last_grip(self) -> GripResult | None:
         """What the last close of the gripper did."""
