@@ -14,8 +14,10 @@ apart and put the right one in your config (``camera.kind: device`` with
 a stream URL.
 
 Exit status: 0 when at least one camera gave a frame; 1 when none did (the command could
-not do its job: there is no snapshot to look at); 2 on bad input (a ``--out`` that cannot
-be written included, refused before any camera is opened); 130 on Ctrl-C.
+not do its job: there is no snapshot to look at) or a snapshot could not be written after
+all (a full disk: the file is not left half-written, nor a folder the run made for
+nothing); 2 on bad input (a ``--out`` that cannot be written included, refused before
+any camera is opened); 130 on Ctrl-C.
 """
 
 from __future__ import annotations
@@ -47,6 +49,16 @@ from mearm.errors import MearmError
 DEFAULT_INDICES = 2
 #: Most indices tried (each failed index costs a backend probe).
 MAX_INDICES = 16
+
+
+class SnapshotWriteError(MearmError):
+    """A snapshot could not be written once ``--out`` had passed its check (a full disk).
+
+    Not bad input: ``--out`` was checked before any camera was opened
+    (:func:`check_snapshot_folder`), so the run itself failed.
+    """
+
+    exit_status = EXIT_FAILURE
 
 
 @dataclass(frozen=True)
@@ -149,9 +161,12 @@ def probe_camera(source: int | str, timeout_s: float, out_dir: Path) -> CameraRe
     path = out_dir / snapshot_name(source)
     try:
         out_dir.mkdir(parents=True, exist_ok=True)
-        write_atomic(path, png.tobytes())
+        write_atomic(path, png.tobytes())  # whole or not at all: no temporary file is left
     except OSError as exc:
-        raise MearmError(f"cannot write the snapshot {path}: {exc}") from None
+        # strerror: the reason, not the temporary file's name the error carries
+        raise SnapshotWriteError(
+            f"cannot write the snapshot {path}: {exc.strerror or exc}"
+        ) from None
     return CameraReport(
         source, ok=True, detail=f"{w}x{h} px, snapshot {path}", size_px=(w, h), snapshot=path
     )
@@ -176,6 +191,29 @@ def check_snapshot_folder(out_dir: Path) -> None:
             f"--out {out_dir}: cannot write: the folder {folder} is not writable "
             f"({exc.strerror or exc})"
         ) from None
+
+
+def _missing_folders(out_dir: Path) -> list[Path]:
+    """The folders of ``out_dir`` a snapshot would make, the deepest first."""
+    missing = []
+    at = out_dir.absolute()
+    while not at.exists():
+        missing.append(at)
+        at = at.parent
+    return missing
+
+
+def _remove_empty(folders: list[Path]) -> None:
+    """Remove the folders this run made (deepest first) that hold nothing.
+
+    A failed run leaves no empty ``--out`` behind; one that holds another camera's
+    snapshot stays, with its parents.
+    """
+    for folder in folders:
+        try:
+            folder.rmdir()
+        except OSError:
+            return  # it holds a snapshot (or is gone): its parents stay too
 
 
 def _source(text: str) -> int | str:
@@ -235,7 +273,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         prog="mearm find-camera",
         description="List the cameras OpenCV can open, with the resolution of each and a "
         "snapshot to tell them apart.",
-        epilog="Exit status: 0 at least one camera gave a frame, 1 none did, 2 bad input.",
+        epilog="Exit status: 0 at least one camera gave a frame, 1 none did or a snapshot could "
+        "not be written (a full disk), 2 bad input.",
     )
     add_config_argument(parser)
     parser.add_argument(
@@ -275,9 +314,14 @@ def main(argv: Sequence[str] | None = None) -> int:
             f"(1 to {MAX_INDICES}) or --camera SOURCE"
         )
     print(f"trying {len(sources)} camera source{'s' if len(sources) != 1 else ''}:")
+    made = _missing_folders(args.out)
     reports = []
     for source in sources:
-        report = probe_camera(source, timeout_s, args.out)
+        try:
+            report = probe_camera(source, timeout_s, args.out)
+        except SnapshotWriteError:
+            _remove_empty(made)
+            raise
         reports.append(report)
         print(f"  {source!s:<14}  {'camera' if report.ok else 'no camera'}: {report.detail}")
     found = [r for r in reports if r.ok]

@@ -21,6 +21,9 @@ twin's own camera, as a perfect calibration would find it. A config pointed at t
 (``calibration.intrinsics_file``, ``calibration.extrinsics_file``) tells what the camera's
 calibration costs a measurement from what the rest costs.
 
+One line on standard output names every file written (the board views by their number
+and the first one's path).
+
 A folder that is not empty is refused unless ``--force``, which replaces the files of the
 kinds named above (an earlier run's; other files are kept), so no view or truth file of
 another camera stays beside the new ones. The new files are written into a hidden folder
@@ -257,7 +260,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         f"{args.out / 'sheet.png'} ({len(layout)} markers of {SHEET_SIDE_CM:g} cm) "
         f"and {args.out / 'sheet_markers.txt'}"
         + (
-            f"; markers on a box {args.raised_height_cm:g} cm tall in {args.out / 'raised.png'}"
+            f"; markers on a box {args.raised_height_cm:g} cm tall in {args.out / 'raised.png'} "
+            f"and {args.out / 'raised_markers.txt'}"
             if raised is not None
             else ""
         )
