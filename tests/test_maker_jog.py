@@ -30,7 +30,7 @@ from test_maker_calibrate import (  # noqa: F401  (virtual_uno_build: a fixture)
 from mearm.config import load_config
 from mearm.hardware import ServoMap
 from mearm.kinematics import ArmModel
-from mearm.maker.jog import CARTESIAN_STEPS_CM, JOINT_STEPS
+from mearm.maker.jog import CARTESIAN_STEPS_CM, JOINT_STEPS, TCP_ON_BOUND_CM
 
 SIM = ROOT / "configs" / "sim.yaml"
 
@@ -181,7 +181,8 @@ def test_jog_on_a_board_reaches_the_poses_and_parks(board):
 def test_a_move_past_a_limit_is_refused_and_sends_nothing(board):
     """Shoulder at 93° in 10° steps: 133° goes, the step to 143° stops on the 135° limit,
     and the next, to 145°, is refused with its limits named, and no frame reaches the
-    board; a TCP step out of the target box is refused the same way."""
+    board; so does a TCP step up out of the target box: it stops at the box's top (said,
+    the board at the pose the screen shows), and the next is refused."""
     cmd = PtyCommand("jog", *serial_args(board.port))
     try:
         readout(cmd)
@@ -197,13 +198,16 @@ def test_a_move_past_a_limit_is_refused_and_sends_nothing(board):
         )
         assert settled_pulses(board) == pytest.approx(held, abs=board.accuracy_us)
         assert board.move_count() == moves  # None == None on the simavr board
-        cmd.send("Z" * 6)  # 5 cm steps up: the box ends at z = 60 cm, the reach before
-        cmd.expect(r"refused: .*; nothing sent")
-        joints_after, tcp_after = last_readout(cmd)
-        assert tcp_after[2] > fk_of(joints)[2] + 4.0  # the Z steps before the refusal moved
+        cmd.send("Z" * 6)  # 5 cm steps up from z 34.9 cm: the box ends at z = 60 cm
+        cmd.expect(
+            r"stopped after 0\.\d\d of the 5 cm step along \+z: z = 60\.?\d* is outside the "
+            r"target box z ∈ \[10, 60\] cm"
+        )
+        joints_after, tcp_after = readout(cmd)
+        assert tcp_after[2] == pytest.approx(60.0, abs=TCP_ON_BOUND_CM + IK_TOL_CM + 2e-3)
         held, moves = pulses_at(board, joints_after), board.move_count()
         cmd.send("Z")
-        cmd.expect(r"refused: .*; nothing sent")
+        cmd.expect(r"refused: z = 65 is outside the target box .*; nothing sent")
         assert settled_pulses(board) == pytest.approx(held, abs=board.accuracy_us)
         assert board.move_count() == moves
         cmd.send("Q")
@@ -351,4 +355,80 @@ def test_jog_checks_the_mearm_forearm_servo_on_shoulder_plus_elbow():
         jogger.selected = 2  # the elbow joint past its own limit: refused by the joint's
         with pytest.raises(Refused, match=r"elbow would be at -10 deg, outside its limits"):
             jogger.move_joint(+1)
+        assert bus.state == sent
+
+
+# --------------------------------------------------------------------------- a TCP step on a bound
+
+
+def test_a_tcp_step_past_the_target_box_stops_at_its_edge():
+    """The sim's TCP in 5 cm steps along +y from home (y 34.9 cm): five go whole; the
+    sixth, to 64.9 cm past the box's y = 60 cm, stops within TCP_ON_BOUND_CM of it and
+    says so, the TCP there within the IK tolerance and x, z aimed as before; the seventh
+    is refused whole, nothing sent; a step back goes whole."""
+    import io
+
+    from mearm.maker.calibrate_servos import open_arm_bus
+    from mearm.maker.jog import Jogger, Refused
+
+    out = io.StringIO()
+    with open_arm_bus(CONFIG) as bus:
+        jogger = Jogger(CONFIG, bus, out)
+        jogger.executor.home_pose()
+        jogger.step_index = CARTESIAN_STEPS_CM.index(5.0)
+        start = MODEL.fk_cm(jogger.executor.q_now())
+        for _ in range(5):
+            jogger.move_tcp(1, +1)
+        assert "stopped" not in out.getvalue()
+        jogger.move_tcp(1, +1)
+        said = out.getvalue().strip().splitlines()[-1]
+        assert re.fullmatch(
+            r"stopped after 0\.\d\d of the 5 cm step along \+y: y = 60\.0\d* is outside the "
+            r"target box y ∈ \[20, 60\] cm",
+            said,
+        ), said
+        assert jogger.target_cm is not None
+        assert 60.0 - TCP_ON_BOUND_CM <= jogger.target_cm[1] <= 60.0
+        assert jogger.target_cm[[0, 2]] == pytest.approx(start[[0, 2]], abs=1e-12)
+        tcp = MODEL.fk_cm(jogger.executor.q_now())
+        assert np.linalg.norm(tcp - jogger.target_cm) <= IK_TOL_CM
+        assert bus.state is not None
+        assert fk_of(bus.state.joints) == pytest.approx(tcp, abs=1e-9)  # sent
+        sent = bus.state
+        with pytest.raises(Refused, match=r"y = 65 is outside the target box"):
+            jogger.move_tcp(1, +1)
+        assert bus.state == sent
+        jogger.move_tcp(1, -1)
+        assert jogger.target_cm[1] == pytest.approx(60.0 - 5.0, abs=TCP_ON_BOUND_CM)
+
+
+def test_a_tcp_step_stops_before_a_joint_would_pass_its_limit():
+    """The MeArm v1's TCP in 5 cm steps along -x from home (x 0): two go whole; the third
+    would need the elbow past its -20° limit (the arm stretched out) and stops where the
+    IK still lands inside it, saying which limit; the next is refused, nothing sent."""
+    import io
+
+    from mearm.maker.calibrate_servos import open_arm_bus
+    from mearm.maker.jog import Jogger, Refused
+
+    config = load_config(ROOT / "configs" / "sim_mearm_v1.yaml")
+    out = io.StringIO()
+    with open_arm_bus(config) as bus:
+        jogger = Jogger(config, bus, out)
+        jogger.executor.home_pose()
+        jogger.step_index = CARTESIAN_STEPS_CM.index(5.0)
+        for _ in range(3):
+            jogger.move_tcp(0, -1)
+        said = out.getvalue().strip().splitlines()[-1]
+        assert re.fullmatch(
+            r"stopped after [34]\.\d\d of the 5 cm step along -x: needs elbow = -19\.9\d* deg, "
+            r"outside its limits \[-150, -20\] deg",
+            said,
+        ), said
+        assert jogger.target_cm is not None and -15.0 < jogger.target_cm[0] < -10.0
+        elbow = jogger.chain.named(jogger.executor.q_now())["elbow"]
+        assert -22.0 < elbow <= -20.0  # inside, near the limit (stretched out: IK tolerance)
+        sent = bus.state
+        with pytest.raises(Refused):
+            jogger.move_tcp(0, -1)
         assert bus.state == sent

@@ -1,7 +1,7 @@
 """``calibrate-servos`` reads a simulated board's pins through an interface, not by name.
 
 A bus whose board measures the pulses it outputs says so by
-:class:`~mearm.maker.keyboard_calibration.pulse_session.MeasuresPulses` (its
+:class:`~mearm.hardware.bus.MeasuresPulses` (its
 ``measured_pulses_us``): the virtual Uno's bus does, and the calibration session reads a
 tool actuator's or the gripper's value from it, mapped through the present calibration
 (not the widened map the session sends with). The session is driven in-process, first
@@ -82,7 +82,7 @@ def test_the_virtual_unos_bus_reports_what_its_board_measured(
     """The virtual Uno's bus is a MeasuresPulses: nothing measured before the first move,
     then every channel's pulse within the board's tolerance of the one sent; a session
     over it reads the gripper 40 µs on from its start through the present calibration."""
-    from mearm.maker.keyboard_calibration.pulse_session import MeasuresPulses
+    from mearm.hardware.bus import MeasuresPulses
     from mearm.sim.virtual_uno import VirtualUnoBus
 
     monkeypatch.setenv("XDG_CACHE_HOME", str(cache_home))

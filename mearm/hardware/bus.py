@@ -16,7 +16,7 @@ from __future__ import annotations
 import logging
 import time
 from abc import ABC, abstractmethod
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from types import TracebackType
 from typing import Any, Protocol, TypeVar, runtime_checkable
 
@@ -40,7 +40,44 @@ class MeasuresTcp(Protocol):
 
 
 @runtime_checkable
-class MeasuresWorld(MeasuresTcp, Protocol):
+class MeasuresJoints(Protocol):
+    """A bus that knows where its arm's actuated joints really are (a simulator's).
+
+    ``actual_joints``: name → deg or cm, what the arm realised (not what was commanded).
+    A read-only mapping is enough: a caller copies what it keeps.
+    """
+
+    @property
+    def actual_joints(self) -> Mapping[str, float]: ...  # noqa: D102
+
+
+@runtime_checkable
+class MeasuresTool(Protocol):
+    """A bus that knows where its arm's tool actuators really are (the kinematic sim's).
+
+    ``actual_tool``: name → deg, what the arm realised (the twin has no tool actuators).
+    """
+
+    @property
+    def actual_tool(self) -> Mapping[str, float]: ...  # noqa: D102
+
+
+@runtime_checkable
+class MeasuresPulses(Protocol):
+    """A bus whose board measures the pulses its pins output (the virtual Uno's).
+
+    It reports pulses, not values
+    (:meth:`~mearm.sim.virtual_uno.VirtualUnoBus.measured_pulses_us`): a caller that
+    holds a calibration of its own maps them through it (``calibrate-servos`` replaces
+    the bus's map with a widened one while it measures the calibration).
+    """
+
+    def measured_pulses_us(self) -> dict[int, float]:
+        """Channel → width [µs] of the pulses measured after the last move."""
+
+
+@runtime_checkable
+class MeasuresWorld(MeasuresTcp, MeasuresJoints, Protocol):
     """A bus that measures its arm and the objects (the physical twin's).
 
     The view draws what it measures, and the run log records it.
@@ -48,8 +85,6 @@ class MeasuresWorld(MeasuresTcp, Protocol):
 
     @property
     def object_ids(self) -> tuple[str, ...]: ...  # noqa: D102
-    @property
-    def actual_joints(self) -> dict[str, float]: ...  # noqa: D102
     @property
     def opening_cm(self) -> float: ...  # noqa: D102
     def object_pose(self, object_id: str) -> Any: ...  # noqa: D102

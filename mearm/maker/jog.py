@@ -8,7 +8,11 @@ The arm first goes home (as the sort's first move does). Then:
   by the step;
 - Cartesian: ``x``/``X``, ``y``/``Y``, ``z``/``Z`` move the TCP by −/+ the step along
   the base frame's axis, solved with the config's IK (``controller.solver``); steps in a
-  row aim at the previous target, so small IK errors do not add up;
+  row aim at the previous target, so small IK errors do not add up; a step that would
+  cross a bound (the target box, the reach, a joint's limit, a servo's pulse range)
+  stops at the last point of its line the checks pass, to within
+  :data:`TCP_ON_BOUND_CM`, and says how far it went and what lies past it; a step from
+  there on is refused;
 - ``[``/``]`` make the step smaller/larger (joints 0.5–10°, or cm for a prismatic joint;
   TCP 0.2–5 cm); a joint step that would cross a bound it is checked on — a joint's
   limit (the selected joint's, or a passive joint's that follows it) or the end of a
@@ -31,8 +35,9 @@ straight line in joint space planned in full and checked against every limit
 (:meth:`~mearm.task.Executor.joint_path`); a Cartesian move is a route planned in full by
 the sort's :class:`~mearm.task.Planner` (target box, reach, convergence, every pose within
 the limits) and sent only if it is :attr:`~mearm.task.Route.planned`; every pose's pulses
-are checked against the servos' ranges before the first is sent. A refused move prints
-why and sends nothing.
+are checked against the servos' ranges before the first is sent; a Cartesian step cut
+short sends the route of the length found, which passed all of them. A refused move
+prints why and sends nothing.
 """
 
 from __future__ import annotations
@@ -76,6 +81,10 @@ AXES = {"x": 0, "y": 1, "z": 2}
 #: range [deg or cm]) a move starts on it: a step past it is refused, not shortened to a
 #: rounding error's length.
 ON_BOUND = 1e-9
+#: A TCP step the checks refuse stops within this of where they start refusing along its
+#: line [cm] (under what a 1 µs pulse moves the TCP at the arms' reach); closer than this, a
+#: step is refused, not crept along.
+TCP_ON_BOUND_CM = 0.01
 
 HELP = (
     "keys: 1-9 or ←/→ select joint, +/↑ -/↓ move it; x/X y/Y z/Z move the TCP -/+; "
@@ -257,20 +266,82 @@ class Jogger:
             self.executor.send(q, PHASE, closed=self.closed)
 
     def move_tcp(self, axis: int, sign: int) -> None:
-        """Move the TCP one step along a base axis: a route planned in full, then sent."""
+        """Move the TCP one step along a base axis: a route planned in full, then sent.
+
+        A step the checks refuse (:meth:`_tcp_route`) stops at the last point along its
+        line they pass (:meth:`_last_passed`), and says so: every bound is reached
+        whatever the step, as a joint step's. A step that cannot go
+        :data:`TCP_ON_BOUND_CM` (the TCP on a bound already) is refused whole, with the
+        whole step's reason.
+        """
         q0 = self.executor.q_now()
         start = self.target_cm if self.target_cm is not None else self.model.fk_cm(q0)
-        target = np.array(start, dtype=float)
-        target[axis] += sign * CARTESIAN_STEPS_CM[self.step_index]
+        start = np.array(start, dtype=float)
+        way = np.zeros(3)
+        way[axis] = sign
+        step = CARTESIAN_STEPS_CM[self.step_index]
+        route, problem = self._tcp_route(q0, start + step * way)
+        length, beyond = step, None
+        if route is None:
+            assert problem is not None
+            length, route, beyond = self._last_passed(q0, start, way, step, problem)
+            if route is None:
+                raise Refused(problem)
+        self.executor.stream(route, PHASE, closed=self.closed)
+        self.target_cm = start + length * way
+        if beyond is not None:
+            along = f"{'+' if sign > 0 else '-'}{'xyz'[axis]}"
+            self.say(f"stopped after {length:.2f} of the {step:g} cm step along {along}: {beyond}")
+
+    def _tcp_route(self, q0: np.ndarray, target_cm: np.ndarray) -> tuple[Route | None, str | None]:
+        """The route from ``q0`` to put the TCP at ``target_cm``, or why it is refused.
+
+        Planned in full by the sort's planner (target box, reach, convergence, every pose
+        within the limits), then every pose's pulses checked against the servos' ranges;
+        nothing is sent.
+        """
         approach = self.config.arm.tool.pick_approach
-        route = Route("", "", "approach", 1, IKTarget(tuple(target), approach))
+        route = Route("", "", "approach", 1, IKTarget(tuple(target_cm), approach))
         route = self.planner.plan(route, q0)
         if not route.planned:
-            raise Refused(route.failure or "no plan")
+            return None, route.failure or "no plan"
         assert route.plan is not None
-        self._check_pulses(route.plan.q_path, closed=self.closed)
-        self.executor.stream(route, PHASE, closed=self.closed)
-        self.target_cm = target
+        try:
+            self._check_pulses(route.plan.q_path, closed=self.closed)
+        except Refused as exc:
+            return None, str(exc)
+        return route, None
+
+    def _last_passed(
+        self, q0: np.ndarray, start: np.ndarray, way: np.ndarray, step: float, problem: str
+    ) -> tuple[float, Route | None, str]:
+        """How far along ``way`` from ``start`` a refused step of ``step`` cm can go.
+
+        Bisection on the length, each probe through :meth:`_tcp_route`'s checks: the
+        shorter end always passes (at first 0, where the step starts), the longer never
+        (at first the whole step, refused for ``problem``), until they are within
+        :data:`TCP_ON_BOUND_CM`. If the checks refuse past a point of the line and pass
+        before it (a bound crossed: the box, the reach, a limit), that point is found.
+
+        Returns:
+            The length [cm] and its route, and why the checks refuse the nearest length
+            past it; the length 0 and no route when under :data:`TCP_ON_BOUND_CM` passes
+            (the TCP on the bound: a step from there is refused, not crept along).
+        """
+        passed, refused = 0.0, step
+        route: Route | None = None
+        beyond = problem
+        while refused - passed > TCP_ON_BOUND_CM:
+            length = 0.5 * (passed + refused)
+            probe, why = self._tcp_route(q0, start + length * way)
+            if probe is None:
+                assert why is not None
+                refused, beyond = length, why
+            else:
+                passed, route = length, probe
+        if passed < TCP_ON_BOUND_CM:
+            return 0.0, None, beyond
+        return passed, route, beyond
 
     def home(self) -> None:
         """Go home along a planned joint path, gripper as it is."""

@@ -4,25 +4,11 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from typing import Protocol, runtime_checkable
 
 from mearm.backends import open_bus
 from mearm.config import Config
 from mearm.hardware import ActuatorMap, ArmCommand, ServoBus, ServoMap
-
-
-@runtime_checkable
-class MeasuresPulses(Protocol):
-    """A bus whose board measures the pulses its pins output (the virtual Uno's).
-
-    It reports pulses, not values
-    (:meth:`~mearm.sim.virtual_uno.VirtualUnoBus.measured_pulses_us`): the session maps
-    them through the present calibration (the bus's own map is the widened one the
-    session sends with).
-    """
-
-    def measured_pulses_us(self) -> dict[int, float]:
-        """Channel → width [µs] of the pulses measured after the last move."""
+from mearm.hardware.bus import MeasuresJoints, MeasuresPulses, MeasuresTool
 
 
 class PulseSession:
@@ -124,33 +110,35 @@ class PulseSession:
 
     @property
     def simulated(self) -> bool:
-        """Whether the bus is a simulated arm (it reports the joints it realised)."""
-        return isinstance(getattr(self.bus, "actual_joints", None), dict)
+        """Whether the bus is a simulated arm (:class:`~mearm.hardware.bus.MeasuresJoints`)."""
+        return isinstance(self.bus, MeasuresJoints)
 
     def simulated_value(self, name: str) -> float | None:
         """What a simulated arm realised for an actuator's servo, else ``None``.
 
-        A joint servo's value: the joint's, or the combination it turns. A bus that
-        measures its board's pins (:class:`MeasuresPulses`: the virtual Uno) gives a tool
+        A joint servo's value: the joint's, or the combination it turns
+        (:class:`~mearm.hardware.bus.MeasuresJoints`). A bus that measures its board's
+        pins (:class:`~mearm.hardware.bus.MeasuresPulses`: the virtual Uno) gives a tool
         actuator's or the gripper's value as its measured pulse under the present
-        calibration, as its joints' are. The kinematic simulator's gripper is only open or
-        closed: no value (:attr:`simulated` tells it from a real board's).
+        calibration, as its joints' are; one that reports its tool actuators
+        (:class:`~mearm.hardware.bus.MeasuresTool`: the kinematic simulator) gives
+        theirs. The kinematic simulator's gripper is only open or closed: no value
+        (:attr:`simulated` tells it from a real board's).
         """
-        joints = getattr(self.bus, "actual_joints", None)
-        if isinstance(joints, dict) and name in self._original.joint_names:
+        actuator = self._original[name]
+        if name in self._original.joint_names and isinstance(self.bus, MeasuresJoints):
             try:
-                return self._original[name].servo_value(joints)
+                return actuator.servo_value(self.bus.actual_joints)
             except KeyError:  # a joint the simulator does not report
                 return None
-        actuator = self._original[name]
         if isinstance(self.bus, MeasuresPulses):  # the virtual Uno: every pin measured
             measured = self.bus.measured_pulses_us()
             if actuator.channel not in measured:  # a silent pin: nothing to read
                 return None
             return actuator.value_of(measured[actuator.channel])
-        values = getattr(self.bus, "actual_tool", None)
-        if isinstance(values, dict) and name in values:
-            return float(values[name])
+        if isinstance(self.bus, MeasuresTool):
+            value = self.bus.actual_tool.get(name)
+            return None if value is None else float(value)
         return None
 
 

@@ -87,7 +87,7 @@ class VirtualUnoBus(ArduinoBus):
         the first move, and without the channels the board left silent. Pulses, not
         values: a caller that holds a calibration of its own maps them through it
         (``calibrate-servos`` replaces the bus's map while it measures one:
-        :class:`~mearm.maker.keyboard_calibration.pulse_session.MeasuresPulses`).
+        :class:`~mearm.hardware.bus.MeasuresPulses`).
         """
         return {} if self.last_frame is None else dict(self.last_frame.widths_us)
 
