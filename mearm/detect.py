@@ -15,7 +15,8 @@ when merged or cut); ``yaw_deg``: a cube's sides' direction in the base frame, i
 [0, 90) (``null`` for other shapes). ``--annotate OUT.png`` draws each region's contour,
 centroid, class and table position in its class's ``draw_rgb`` (each label once, on a
 filled box); with several images the i-th (from 0, in the order given) goes to
-``OUT-i.png``. A missing or
+``OUT-i.png``; a ``wrote PATH`` line follows each image's objects (on stderr with
+``--json``, whose stdout holds the JSON lists alone). A missing or
 unreadable image stops the run before anything is printed: exit 2 with one line on
 stderr. An image of another size than the calibration's, or with no colour (a grayscale
 one), is read with a one-line warning on stderr. A ``vision.work_area_px`` polygon is
@@ -329,6 +330,8 @@ def main(argv: Sequence[str] | None = None) -> int:  # noqa: PLR0912 (one branch
                 write_atomic(outs[i], data.tobytes())
             except OSError as exc:
                 raise ImageError(str(outs[i]), f"cannot write the annotated image: {exc}") from None
+            # stdout under --json holds only the JSON lists: the file is a note there
+            print(f"wrote {outs[i]}", file=sys.stderr if args.json else sys.stdout)
     return 0
 
 

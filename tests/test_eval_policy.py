@@ -77,7 +77,8 @@ def test_the_expert_succeeds_and_the_json_has_each_episode(tmp_path, capsys):
     assert scores["simulated"] is True
     lines = capsys.readouterr().out.splitlines()
     assert lines[0].startswith("episode   1/2 seed 7: success")
-    assert "success 100.0 % of 2 episodes" in lines[-1]
+    assert lines[-2] == f"wrote {out}"
+    assert "success 100.0 % of 2 episodes" in lines[-1]  # the totals last
 
 
 def test_a_policy_that_holds_still_scores_zero_and_require_fails_it(tmp_path, policies):

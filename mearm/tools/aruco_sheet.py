@@ -13,7 +13,6 @@ from __future__ import annotations
 import argparse
 import math
 import struct
-import sys
 import zlib
 from collections.abc import Sequence
 from pathlib import Path
@@ -185,7 +184,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         write_atomic(args.output, png_with_dpi(page, args.dpi))
     except OSError as exc:
         raise MearmError(f"cannot write {args.output}: {exc.strerror or exc}") from None
-    print(f"wrote {args.output}: print at 100 % and check the 5 cm bar", file=sys.stderr)
+    print(f"wrote {args.output}: print at 100 % and check the 5 cm bar")
     return 0
 
 

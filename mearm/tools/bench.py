@@ -8,7 +8,8 @@ named sections (each once, in the order given); without it every section runs. T
 are the best of ``--repeat`` rounds (the least disturbed by other processes), and the
 sections being compared are measured interleaved within each round so that a busy
 machine slows all of them alike. An existing ``--out`` is refused before any section
-runs unless ``--force``.
+runs unless ``--force``; the file written is named before the last line (``wrote FILE``;
+with ``--json``, as the key ``out`` of the JSON printed).
 
 A row held to a target says ``target met`` or ``target not met`` after its figure (in
 the JSON: ``target`` and ``met``), and the run ends with one line counting the targets
@@ -209,12 +210,15 @@ def main(argv: Sequence[str] | None = None) -> int:
     }
     if args.out is not None:  # whole or not at all: a run cut short leaves the old file
         write_text_atomic(args.out, json.dumps(result, indent=1) + "\n")
-    if args.json:
-        json.dump(result, sys.stdout, indent=1)
+    if args.json:  # stdout stays JSON: the file it wrote is named in it, as "out"
+        shown = result if args.out is None else {**result, "out": str(args.out)}
+        json.dump(shown, sys.stdout, indent=1)
         print()
-        print(last_line, file=sys.stderr)  # stdout stays JSON
+        print(last_line, file=sys.stderr)
         return 0
     print("\n".join(table(machine_text, rows)))
+    if args.out is not None:
+        print(f"wrote {args.out}")
     print(last_line)
     return 0
 

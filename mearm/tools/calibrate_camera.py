@@ -49,7 +49,6 @@ import argparse
 import io
 import math
 import stat
-import sys
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from datetime import date
@@ -707,7 +706,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     target = args.output or args.config
     elsewhere = args.output is not None and file_identity(args.output) != file_identity(args.config)
     _write_config(target, new_text, calibration, force=args.force, keep=elsewhere)
-    print(f"wrote the calibration into {target}", file=sys.stderr)
+    print(f"wrote the calibration into {target}")
     return 0
 
 
@@ -757,7 +756,7 @@ def _pose(parser: ArgumentParser, args: argparse.Namespace) -> int:
             config_text, args.intrinsics, args.out, args.output or args.config, str(args.config)
         )
     save_calibration(args.out, pose, force=args.force)
-    print(f"wrote the camera pose to {args.out}", file=sys.stderr)
+    print(f"wrote the camera pose to {args.out}")
     if new_config is not None:
         target = args.output or args.config
         try:
@@ -766,7 +765,7 @@ def _pose(parser: ArgumentParser, args: argparse.Namespace) -> int:
             write_atomically(target, new_config)
         except OSError as exc:
             raise MearmError(f"cannot write {target}: {exc.strerror or exc}") from None
-        print(f"pointed {target} at {args.intrinsics} and {args.out}", file=sys.stderr)
+        print(f"pointed {target} at {args.intrinsics} and {args.out}")
     return 0
 
 

@@ -27,7 +27,9 @@ error exceeds ``--max-mean-cm`` / ``--max-error-cm`` (0.05 / 0.10 cm) or anythin
 missed or extra. ``--work DIR`` keeps the pictures and calibrations: a rerun into it
 replaces the pictures (render-calibration's ``--force``) and keeps the old
 ``intrinsics.yaml`` and ``pose.yaml`` as ``.bak``; ``--json`` may not name one of them
-(or the config), and an existing ``--json`` is refused unless ``--force``. Needs SciPy
+(or the config), and an existing ``--json`` is refused unless ``--force``. Each is named
+on stdout once written (``wrote FILE``, ``wrote the pictures and calibrations into
+DIR/``), also when the figures fail their bounds. Needs SciPy
 (``pip install 'mearm[analysis]'``) for the matching.
 
 ``--work`` is this command's folder, so that no file of the user's is replaced there:
@@ -447,8 +449,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.json:
         text = json.dumps({"rows": rows, "calibration": cal}, indent=2) + "\n"
         write_text_atomic(args.json, text)
+        print(f"wrote {args.json}")
     if args.work is not None:  # what it holds now is this command's (checked, then written)
         _mark_work(args.work, _work_files(args.work), finished=True)
+        print(f"wrote the pictures and calibrations into {args.work}/")
     if not ok:
         print(
             f"camera accuracy: NOT within mean {args.max_mean_cm:g} cm, max "

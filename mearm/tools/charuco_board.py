@@ -11,7 +11,6 @@ with ``mearm calibrate-intrinsics``.
 
 from __future__ import annotations
 
-import sys
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -89,8 +88,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         raise MearmError(f"cannot write {args.output}: {exc.strerror or exc}") from None
     print(
         f"wrote {args.output}: print at 100 % and check the 5 cm bar and the "
-        f"{DEFAULT_BOARD.square_cm:g} cm squares",
-        file=sys.stderr,
+        f"{DEFAULT_BOARD.square_cm:g} cm squares"
     )
     return 0
 

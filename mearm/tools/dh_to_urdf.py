@@ -15,7 +15,6 @@ never one the config is read from.
 from __future__ import annotations
 
 import argparse
-import sys
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
@@ -208,7 +207,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         jobs.append((output, urdf))
     for output, urdf in jobs:  # every check passed: nothing is half done
         write_text_atomic(output, urdf)
-        print(f"wrote {output}", file=sys.stderr)
+        print(f"wrote {output}")
     return 0
 
 

@@ -9,16 +9,19 @@ function of the observation, or a class whose instances are) or a baseline ``FIL
 as it ends (seed order) and the totals; ``--out`` writes them as JSON (``pc_success``,
 ``avg_sum_reward``, ``avg_max_reward`` and per episode its seed, outcome, return and
 steps); ``--videos K`` writes the first K episodes as MP4s into ``videos/`` beside it
-(``./videos/`` without ``--out``). An ``--out`` or a video that exists is refused before
-any episode runs, unless ``--force``. ``--env-option key=value`` passes an option to the
-environment (``objects``, ``fps``, ``obs_type``, ``image_size``, ``max_episode_steps``;
-values in YAML). Exit 0; 1 if the success rate is below ``--require`` or an episode
-ended on an error (the policy raised, gave an action that is not finite, or a fault: the
-episode's ``error`` says which, the others are scored and ``--out`` is written); 2 on bad
-input (one line): a policy that does not load, a baseline trained for another
-environment or of other input or output sizes, an action of the wrong shape, an unknown
-option, ``--episodes`` below 1, an ``--out`` that is the policy's file or the config, an
-``--out`` or video that exists (without ``--force``), a ``videos`` that is not a folder.
+(``./videos/`` without ``--out``). Each file is named as it is written: ``wrote
+videos/episode_….mp4`` after its episode's line, ``wrote OUT`` before the totals, which
+stay last. An ``--out`` or a video that exists is refused before any episode runs, unless
+``--force``.
+``--env-option key=value`` passes an option to the environment (``objects``, ``fps``,
+``obs_type``, ``image_size``, ``max_episode_steps``; values in YAML). Exit 0; 1 if the
+success rate is below ``--require`` or an episode ended on an error (the policy raised,
+gave an action that is not finite, or a fault: the episode's ``error`` says which, the
+others are scored and ``--out`` is written); 2 on bad input (one line): a policy that
+does not load, a baseline trained for another environment or of other input or output
+sizes, an action of the wrong shape, an unknown option, ``--episodes`` below 1, an
+``--out`` that is the policy's file or the config, an ``--out`` or video that exists
+(without ``--force``), a ``videos`` that is not a folder.
 SIGTERM and SIGHUP stop it as Ctrl-C does (exit 143, 129; Ctrl-C 130), workers and all.
 """
 
@@ -278,15 +281,12 @@ def _eval_policy(argv: Sequence[str] | None) -> int:
                     f"{result.sum_reward:g}, {result.steps} steps{why}",
                     flush=True,
                 )
+                if result.video:  # written by the time its episode is reported
+                    print(f"wrote {result.video}", flush=True)
     except TypeError as exc:  # an option of the wrong type for the environment
         raise EnvOptionError(f"--env-option: {exc}") from None
     scores = summary(results)
     wall = time.perf_counter() - t0
-    print(
-        f"{args.policy} on {args.env} ({args.config}, simulated): success "
-        f"{scores['pc_success']:.1f} % of {len(results)} episodes, mean return "
-        f"{scores['avg_sum_reward']:.2f}, in {wall:.0f} s"
-    )
     failed = [r for r in results if r.error]
     if args.out is not None:
         record = {
@@ -298,6 +298,13 @@ def _eval_policy(argv: Sequence[str] | None) -> int:
             **scores,
         }
         write_text_atomic(args.out, json.dumps(record, indent=2) + "\n")
+        print(f"wrote {args.out}")
+    # the totals last: the line that says whether the policy passed
+    print(
+        f"{args.policy} on {args.env} ({args.config}, simulated): success "
+        f"{scores['pc_success']:.1f} % of {len(results)} episodes, mean return "
+        f"{scores['avg_sum_reward']:.2f}, in {wall:.0f} s"
+    )
     prog = invoked_as("python -m mearm.tools.eval_policy")
     if len(failed) == len(results):  # nothing was scored: not a 0 % policy, a broken run
         print(

@@ -8,7 +8,8 @@ avr-libc, arduino-core-avr, gcc, libsimavr-dev, libelf-dev).
 
     mearm virtual-uno-pulses --commands 2000 [--json FILE [--force]]
 
-An existing ``--json`` is refused before the measurement unless ``--force``.
+An existing ``--json`` is refused before the measurement unless ``--force``; once
+written, ``wrote FILE`` follows the figures (also when a pulse is beyond the tolerance).
 """
 
 from __future__ import annotations
@@ -113,6 +114,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
     if args.json:
         write_text_atomic(args.json, json.dumps(s, indent=2) + "\n")
+        print(f"wrote {args.json}")
     if s["max_us"] > tolerance:
         print(
             f"mearm virtual-uno-pulses: a pulse is {s['max_us']:.1f} µs off, beyond the "
