@@ -172,13 +172,35 @@ def guard_program_start() -> None:
     interrupted`` and exit 130. Every other error goes to the hook before. It does
     nothing when the module run is not mearm's, so a program that imports mearm keeps
     Python's own handling.
+
+    ``python -m mearm detect`` (the dispatcher) is named ``mearm detect``, as the guard
+    names it: the dispatcher imports its own modules (``mearm.cli``, ``mearm.data``)
+    before that guard is in place, and a Ctrl-C there said ``mearm: interrupted`` (seen
+    on a loaded machine, where a process can wait a tenth of a second between two
+    lines). Its first argument is taken as the subcommand as typed (``mearm help``
+    for ``mearm help detect``) until the dispatcher names it itself (:func:`_prog_now`).
     """
     name = module_run_as_program()
     if name is None or name.partition(".")[0] != "mearm":
         return
     name = name.removesuffix(".__main__")
-    prog = "mearm" if name == "mearm" else f"python -m {name}"
+    if name == "mearm":
+        args = sys.argv[1:]  # the command line's own arguments, after "-m mearm"
+        prog = f"mearm {args[0]}" if args and not args[0].startswith("-") else "mearm"
+    else:
+        prog = f"python -m {name}"
     sys.excepthook = _interrupted_hook(prog, sys.excepthook)
+
+
+def _prog_now(prog: str) -> str:
+    """The command's name for its line: the dispatcher's name for its subcommand, once set.
+
+    ``mearm``'s dispatcher names the subcommand it runs in ``sys.argv[0]`` (``mearm
+    detect``, also for ``mearm help detect``), as :func:`mearm.cli.invoked_as` reads it;
+    before that, ``prog``.
+    """
+    given = sys.argv[0] if sys.argv else ""
+    return given if given.startswith("mearm ") else prog
 
 
 def _interrupted_hook(prog: str, previous: ExceptHook) -> ExceptHook:
@@ -195,7 +217,7 @@ def _interrupted_hook(prog: str, previous: ExceptHook) -> ExceptHook:
             return
         if sys.stderr is not None:
             with contextlib.suppress(OSError, ValueError):  # no stderr to say it on
-                print(f"{prog}: interrupted", file=sys.stderr, flush=True)
+                print(f"{_prog_now(prog)}: interrupted", file=sys.stderr, flush=True)
         _keep_exit_status()
         raise SystemExit(exit_status())
 

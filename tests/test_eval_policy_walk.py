@@ -209,18 +209,18 @@ def test_a_worker_sees_its_parent_killed_while_its_sibling_is_stuck(tmp_path):
     cmd = [sys.executable, "-m", "mearm", "eval-policy", "--policy", "random",
            "--episodes", "200", "--jobs", "2", "--out", tmp_path / "t.json",
            "--env-option", "obs_type=state", "--env-option", "image_size=[24, 32]"]  # fmt: skip
-    out = tmp_path / "progress.txt"
+    out, errors = tmp_path / "progress.txt", tmp_path / "stderr.txt"
     env = {**os.environ, "MUJOCO_GL": "egl"}
-    with out.open("w") as progress:
+    with out.open("w") as progress, errors.open("w") as stderr:  # files: orphans hold pipes
         proc = subprocess.Popen(
-            list(map(str, cmd)), cwd=ROOT, env=env, stdout=progress,
-            stderr=subprocess.DEVNULL, start_new_session=True,
+            list(map(str, cmd)), cwd=ROOT, env=env, stdout=progress, stderr=stderr,
+            start_new_session=True,
         )  # fmt: skip
     workers: list[int] = []
     try:
         deadline = time.monotonic() + 300
         while time.monotonic() < deadline and "episode   1/200" not in out.read_text():
-            assert proc.poll() is None
+            assert proc.poll() is None, errors.read_text()
             time.sleep(0.05)
         workers = sorted(_workers(proc.pid), key=_started)
         assert len(workers) == 2
@@ -239,9 +239,77 @@ def test_a_worker_sees_its_parent_killed_while_its_sibling_is_stuck(tmp_path):
         proc.wait()
 
 
-def _started(pid: int) -> int:
-    """When ``pid`` started [clock ticks since boot]."""
-    return int(Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[19])
+def _started(pid: int) -> tuple[int, int]:
+    """When ``pid`` started [clock ticks since boot], then ``pid``: the order of two forks.
+
+    Two workers forked in one clock tick (a hundredth of a second) have the same start;
+    the later fork has the higher process id (ids are handed out in turn). Without it the
+    older of such two was taken by the order of a set, and the test stopped the wrong one.
+    """
+    return int(Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[19]), pid
+
+
+#: A parent that forks two workers of eval-policy's as its pool does (``fork``) and
+#: prints their ids: the older starts (``_start_worker``) only once its parent is gone,
+#: as on a machine that kept it waiting until then; the younger, forked after it, holds
+#: the parent's end of the older's sentinel pipe and never ends (stuck in a driver, say).
+LATE_WORKER = """
+import multiprocessing, os, threading, time
+from mearm.envs.evaluate import Job, _start_worker
+
+def late(parent):
+    while os.getppid() == parent:
+        time.sleep(0.01)
+    _start_worker(Job("mearm/PickPlace-v0", {"obs_type": "state"}, "random"), None)
+    threading.Event().wait()  # idle: waits for work that will never come
+
+def stuck():
+    threading.Event().wait()
+
+if __name__ == "__main__":
+    fork = multiprocessing.get_context("fork")
+    older = fork.Process(target=late, args=(os.getpid(),))
+    older.start()
+    younger = fork.Process(target=stuck)
+    younger.start()
+    print(older.pid, younger.pid, flush=True)
+    threading.Event().wait()
+"""
+
+
+def test_a_worker_that_starts_after_its_parent_was_killed_still_ends(tmp_path):
+    """A worker that begins to watch its parent only once the parent is dead (SIGKILL
+    while the machine kept the new worker waiting), beside a stuck younger sibling: it
+    took the id of the process it had been given to for its parent's, which never
+    changed, and the sentinel stays open while the sibling lives, so it waited for work
+    for ever. It ends now, the sibling still there (the parent's id did it)."""
+    (tmp_path / "late_worker.py").write_text(LATE_WORKER)
+    out, errors = tmp_path / "pids.txt", tmp_path / "stderr.txt"
+    env = {**os.environ, "PYTHONPATH": str(ROOT), "MUJOCO_GL": "egl"}
+    with out.open("w") as pids, errors.open("w") as stderr:  # files: orphans hold pipes
+        proc = subprocess.Popen(
+            [sys.executable, "late_worker.py"], cwd=tmp_path, env=env, stdout=pids,
+            stderr=stderr, start_new_session=True,
+        )  # fmt: skip
+    workers: list[int] = []
+    try:
+        deadline = time.monotonic() + 120
+        while time.monotonic() < deadline and not out.read_text().strip():
+            assert proc.poll() is None, errors.read_text()
+            time.sleep(0.05)
+        older, younger = workers = [int(pid) for pid in out.read_text().split()]
+        proc.kill()
+        proc.wait()
+        deadline = time.monotonic() + 120  # a hang (the orphan waiting for work) is the failure
+        while time.monotonic() < deadline and _alive(older):
+            time.sleep(0.1)
+        assert not _alive(older), f"the worker outlived its parent: {errors.read_text()}"
+        assert _alive(younger)
+    finally:
+        for pid in [w for w in workers if _alive(w)] + [proc.pid] * (proc.poll() is None):
+            with contextlib.suppress(ProcessLookupError):
+                os.kill(pid, signal.SIGKILL)
+        proc.wait()
 
 
 # ----------------------------------------------------------------- the env's options

@@ -223,8 +223,8 @@ def _stopped() -> bool:
     return _SIGNALLED or (_STOP is not None and _STOP.is_set())
 
 
-def _watch_parent(sentinel: int) -> None:
-    """End this worker once its parent has gone, whatever ended it (SIGKILL too).
+def _watch_parent(sentinel: int, parent: int) -> None:
+    """End this worker once its parent (``parent``: its id) has gone, whatever ended it.
 
     An idle worker waits for work that will never come: it ends at once; a busy one ends
     its episode at the next step, writes no video of it, and ends (:func:`_in_worker`).
@@ -232,10 +232,13 @@ def _watch_parent(sentinel: int) -> None:
     The sentinel alone is not enough: with ``fork``, a worker started later inherits the
     parent's end of an earlier worker's sentinel pipe, so the earlier one saw its parent
     die only once every later sibling had ended (and never, beside a stuck one). The
-    parent's process id is watched too: an orphan is given to another parent.
+    parent's process id is watched too: an orphan is given to another parent. The id is
+    the one the parent recorded before it forked, not this worker's ``getppid()`` when
+    the watch starts: a parent killed before that (a loaded machine can keep a new
+    worker waiting that long) had already given the worker to another parent, whose id
+    never changed after.
     """
     global _SIGNALLED, _ORPHANED
-    parent = os.getppid()
     while not multiprocessing.connection.wait([sentinel], timeout=PARENT_POLL_S):
         if os.getppid() != parent:
             break
@@ -261,7 +264,8 @@ def _start_worker(job: Job, stop: Any) -> None:
         signal.pthread_sigmask(signal.SIG_UNBLOCK, _WORKER_SIGNALS)
     parent = multiprocessing.parent_process()
     if parent is not None:
-        threading.Thread(target=_watch_parent, args=(parent.sentinel,), daemon=True).start()
+        watch = (parent.sentinel, parent.pid)
+        threading.Thread(target=_watch_parent, args=watch, daemon=True).start()
     _RUNNER = Runner(job)
     _RUNNER.should_stop = _stopped
 
