@@ -56,8 +56,9 @@ RULES: dict[str, str] = {
     "mearm": f'{L.TAGS_PATH} (mearm\'s own), if there, is JSON {{"episodes": [...]}} '
     "with one entry per episode: [trial seed, pick], each null or a whole number, and "
     f"optionally the scene a replay rebuilds; {L.STARTS_PATH}, if there, too: each "
-    "episode's start (none known, the reset's, or after an earlier episode of its sort: "
-    "the pick before it in its trial, of the same scene and servos) and optionally the "
+    "episode's start (not known, optionally with why in a sentence, the reset's, or after "
+    "an earlier episode of its sort: the pick before it in its trial, of the same scene "
+    "and servos) and optionally the "
     "servo calibration its sort ran, a file of the dataset's arm that is there; every "
     f"file in {SERVOS_DIR}/ is one an episode names",
 }

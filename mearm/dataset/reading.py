@@ -310,8 +310,7 @@ class EpisodeStart:
     episodes before it first (:mod:`mearm.envs.replay`).
 
     Attributes:
-        known: Whether the recording knows where it starts (not: recorded by an older
-            mearm, or the pick before it was not recorded by this run).
+        known: Whether the recording knows where it starts.
         after: The episode of the same sort it continues (the pick before it); ``None``:
             it starts where the environment's reset leaves the arm (a sort's first).
         gap_frames: The frames of the sort's time between the last frame of ``after``
@@ -320,24 +319,31 @@ class EpisodeStart:
         servos: The servo calibration the sort made at its start
             (``servo.calibrate_at_start``): a servo calibration file in the dataset, its
             path relative to the dataset; ``None``: the config's own.
+        why: Why its start is not known, a sentence the replay prints (the recorder
+            writes it); ``None`` when known, or not said (a dataset of a mearm that kept
+            no reason).
     """
 
     known: bool = False
     after: int | None = None
     gap_frames: int = 0
     servos: str | None = None
+    why: str | None = None
 
     def to_json(self) -> dict[str, Any]:
-        """As ``meta/mearm_starts.json`` holds it: ``{}`` when not known.
+        """As ``meta/mearm_starts.json`` holds it: ``{}`` when not known, or its reason.
 
-        ``{"after": null}`` (a reset's start) or ``{"after": K, "gap_frames": G}``, each
-        with ``"servos": "meta/mearm_servos/…"`` where the sort calibrated them.
+        ``{"after": null}`` (a reset's start) or ``{"after": K, "gap_frames": G}``; not
+        known, ``{"why_not_known": "..."}`` or ``{}``; each with ``"servos":
+        "meta/mearm_servos/…"`` where the sort calibrated them.
         """
         out: dict[str, Any] = {}
         if self.known:
             out["after"] = self.after
             if self.after is not None:
                 out["gap_frames"] = self.gap_frames
+        elif self.why is not None:
+            out["why_not_known"] = self.why
         if self.servos is not None:
             out["servos"] = self.servos
         return out
@@ -345,16 +351,20 @@ class EpisodeStart:
     @classmethod
     def from_json(cls, value: Any, episode: int) -> EpisodeStart | None:
         """Episode ``episode``'s entry; ``None`` if it is not one."""
-        if not isinstance(value, dict) or set(value) - {"after", "gap_frames", "servos"}:
+        keys = {"after", "gap_frames", "servos", "why_not_known"}
+        if not isinstance(value, dict) or set(value) - keys:
             return None
         after, gap, servos = value.get("after"), value.get("gap_frames", 0), value.get("servos")
+        why = value.get("why_not_known")
         if after is not None and not (_whole(after) and after < episode):
             return None  # an episode continues one before it
         if not _whole(gap) or ("gap_frames" in value and after is None):
             return None
         if servos is not None and not _inside(servos):
             return None
-        return cls("after" in value, after, gap, servos)
+        if "why_not_known" in value and (not isinstance(why, str) or not why or "after" in value):
+            return None  # a reason is a sentence, of a start not known
+        return cls("after" in value, after, gap, servos, why)
 
 
 def _inside(rel: Any) -> bool:
@@ -365,10 +375,15 @@ def _inside(rel: Any) -> bool:
     return not path.is_absolute() and ".." not in path.parts
 
 
+#: Why no episode's start is known in a dataset without ``meta/mearm_starts.json``.
+NO_STARTS_KEPT = f"recorded by a mearm that kept no {L.STARTS_PATH}"
+
+
 def read_starts(root: Path, episodes: int) -> list[EpisodeStart]:
     """``meta/mearm_starts.json``: each episode's :class:`EpisodeStart`, in order.
 
-    Without the file (a dataset recorded by an older mearm) no episode's start is known.
+    Without the file (a dataset recorded by an older mearm) no episode's start is known
+    (:data:`NO_STARTS_KEPT` says why).
 
     Raises:
         DatasetError: it is not JSON, not ``{"episodes": [...]}`` of entries, or not one
@@ -376,7 +391,7 @@ def read_starts(root: Path, episodes: int) -> list[EpisodeStart]:
     """
     rel = L.STARTS_PATH
     if not (root / rel).exists():
-        return [EpisodeStart()] * episodes
+        return [EpisodeStart(why=NO_STARTS_KEPT)] * episodes
     data = read_json(root, rel)
     entries = data.get("episodes") if isinstance(data, dict) else None
     if not isinstance(entries, list):
@@ -390,7 +405,7 @@ def read_starts(root: Path, episodes: int) -> list[EpisodeStart]:
                 rel,
                 f"entry {k} is {_short(entry)}, not "
                 '{"after": null or an earlier episode, "gap_frames": frames ≥ 0, "servos": '
-                "a file in the dataset} (each optional)",
+                'a file in the dataset} (each optional) or {"why_not_known": a sentence}',
             )
         starts.append(start)
     if len(entries) != episodes:

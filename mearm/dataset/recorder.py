@@ -25,7 +25,9 @@ logs how its sort ended (:meth:`DatasetRecorder.abandon`).
 
 In an experiment each episode is tagged with its trial's seed and its pick's number
 (:meth:`DatasetRecorder.start_trial`): a trial cut off by a kill and run again records
-only the picks the dataset does not hold.
+only the picks the dataset does not hold. The first pick it records continues the held
+one before it: the run timed that pick again (:class:`~mearm.dataset.sampler.Rerun`),
+and its actions are checked against the held episode's (:meth:`DatasetRecorder._after_held`).
 
 What a replay needs besides the scene is kept with each episode (:class:`EpisodeStart`,
 ``meta/mearm_starts.json``): the episode of the same sort it continues (an episode per
@@ -84,6 +86,7 @@ from mearm.dataset.sampler import (  # noqa: F401  (re-exported: what an episode
     EpisodeCapture,
     EpisodeSampler,
     Per,
+    Rerun,
     _Episode,
     no_interrupt,
     state_names,
@@ -438,15 +441,19 @@ class DatasetRecorder(EpisodeSampler):
         """Write episodes recorded elsewhere (:class:`EpisodeCapture`, a worker's trial).
 
         In order, each whole, before this returns; one whose (trial, pick) the dataset
-        holds already is not written again.
+        holds already is not written again: the episode after it continues the held one
+        (:class:`~mearm.dataset.sampler.Rerun`, as a held pick run in this process).
         """
         held = set(self._tags)
         self._run = _SortRun(self._run.number + 1)  # a trial's: they continue one another
+        reran = None
         with no_interrupt():
             for ep in episodes:
                 if ep.tag[0] is not None and ep.tag in held:
                     self.episodes_skipped += 1
+                    reran = Rerun(ep.tag, ep.start_s, ep.actions)
                     continue
+                ep.before, reran = reran, None
                 self._accept(ep)
             self._settle(wait=True)
 
@@ -670,14 +677,19 @@ class DatasetRecorder(EpisodeSampler):
 
         Returns:
             The episodes' starts, and the servo calibration file its sort made (written
-            with the sort's first episode, from the calibration it carries), or ``None``.
+            with the sort's first episode, from the calibration it carries; the held
+            episode's it continues, the same calibration), or ``None``.
         """
         run = self._writing
         servo_file = self._servo_files.get(run.number)
+        start = self._start_of(ep, run, index)
         if ep.servos is not None and servo_file is None:  # the sort's first episode
-            servo_file = L.SERVOS_PATH.format(episode_index=index)
-            self._staged(servo_file).write_text(ep.servos)
-        start = replace(self._start_of(ep, run, index), servos=servo_file)
+            if start.after is not None and ep.before is not None:  # the same, checked
+                servo_file = self._starts[start.after].servos
+            else:
+                servo_file = L.SERVOS_PATH.format(episode_index=index)
+                self._staged(servo_file).write_text(ep.servos)
+        start = replace(start, servos=servo_file)
         starts = [*self._starts, start]
         self._staged(L.STARTS_PATH).write_text(starts_json(starts))
         return starts, servo_file
@@ -686,19 +698,119 @@ class DatasetRecorder(EpisodeSampler):
         """Where episode ``index`` starts: where a reset leaves the arm, or after another.
 
         The first of its sort starts where the reset does (the arm at home, the table as
-        laid), unless it is a trial's pick after the first (the picks before it are in the
-        dataset already, from an earlier run: not known). A later one continues the one
-        written before it, the time between them counted in frames, unless that one is not
-        its trial's pick before (not known).
+        laid), unless it is a trial's pick after the first: then it continues the held
+        episode of the pick before it, which this run ran again (:meth:`_after_held`). A
+        later one continues the one written before it, the time between them counted in
+        frames. Not known, with the reason, when its trial's pick before it is not the
+        episode it would continue.
         """
-        pick, last = ep.tag[1], self._last
+        seed, pick = ep.tag
+        if ep.before is not None:
+            return self._after_held(ep, ep.before)
+        last = self._last
         if last is None or last[0] != run.number:
-            return EpisodeStart(known=pick in (None, 0))
+            return self._no_pick_before(ep) if pick not in (None, 0) else EpisodeStart(known=True)
         _, start_s, length, tag = last
-        if pick is not None and (tag[0] != ep.tag[0] or tag[1] is None or pick != tag[1] + 1):
-            return EpisodeStart()
-        gap = max(0, round((ep.start_s - start_s) * self.fps) - (length - 1))
-        return EpisodeStart(known=True, after=index - 1, gap_frames=gap)
+        if pick is not None and (tag[0] != seed or tag[1] is None or pick != tag[1] + 1):
+            return self._no_pick_before(ep)
+        return EpisodeStart(known=True, after=index - 1, gap_frames=self._gap(ep, start_s, length))
+
+    def _gap(self, ep: _Episode, start_s: float, length: int) -> int:
+        """The frames between the last of an episode (its start, length) and ``ep``'s first."""
+        return max(0, round((ep.start_s - start_s) * self.fps) - (length - 1))
+
+    def _no_pick_before(self, ep: _Episode) -> EpisodeStart:
+        """A trial's pick whose pick before it this run did not record nor time: why."""
+        seed, pick = ep.tag
+        assert pick is not None
+        was = (seed, pick - 1)
+        if was not in self._tags:
+            why = (
+                f"pick {pick - 1} of its trial, before it, is not in the dataset (a pick of "
+                "fewer than 2 frames is not recorded)"
+            )
+        else:
+            why = (
+                f"pick {pick - 1} of its trial, before it (episode {self._tags.index(was)}), "
+                "was recorded by an earlier run, and this run did not run it again"
+            )
+        return EpisodeStart(why=why)
+
+    def _after_held(self, ep: _Episode, before: Rerun) -> EpisodeStart:
+        """A pick after one the dataset holds, which this run ran again: after that episode.
+
+        ``mearm experiment --resume`` runs a trial cut off by a kill again from its start;
+        its picks the killed run recorded are timed, not recorded. The held episode is the
+        pick before as this run ran it if its actions are the same, frame for frame, and
+        its sort's servo calibration at the start too (the twin runs a trial the same way
+        each time): the gap is then counted on this run's clock. Else not known, the
+        reason said.
+        """
+        seed, pick = ep.tag
+        if pick is None or before.tag != (seed, pick - 1) or before.tag not in self._tags:
+            return self._no_pick_before(ep)
+        held = self._tags.index(before.tag)
+        what = f"pick {pick - 1} of its trial, before it (episode {held}, an earlier run's),"
+        recorded = self._held_actions(held)
+        ran = np.stack(before.actions) if before.actions else np.zeros((0, len(self.names)))
+        if isinstance(recorded, str):
+            return EpisodeStart(why=f"{what} cannot be read ({recorded})")
+        if len(ran) != len(recorded):
+            return EpisodeStart(
+                why=f"{what} ran {len(ran)} frames when its trial ran again, not "
+                f"{len(recorded)}: the trial did not run as it had"
+            )
+        same = np.all((ran == recorded) | (np.isnan(ran) & np.isnan(recorded)), axis=1)
+        if not same.all():
+            return EpisodeStart(
+                why=f"{what} sent another action at its frame {int(np.argmin(same))} when its "
+                "trial ran again: the trial did not run as it had"
+            )
+        servos = self._starts[held].servos
+        if not self._same_servos(servos, ep.servos):
+            kept = servos or "the config's own"
+            return EpisodeStart(
+                why=f"{what} ran other servos ({kept}) than its trial's calibration at the "
+                "start when the trial ran again"
+            )
+        gap = self._gap(ep, before.start_s, before.length)
+        return EpisodeStart(known=True, after=held, gap_frames=gap)
+
+    def _held_actions(self, episode: int) -> np.ndarray | str:
+        """The ``action`` column of an episode in the dataset, (k, n); why not, if it cannot."""
+        row = self._episodes[episode]
+        rel = L.chunk_file(L.DATA_PATH, row["data/chunk_index"], row["data/file_index"])
+        cached = self._data_table
+        try:
+            table = (
+                cached[1]
+                if cached and cached[0] == rel
+                else read_table(self._pq, self.root, rel, ["episode_index", "action"])
+            )
+        except DatasetError as exc:  # the check's to report: this episode is not lost for it
+            return str(exc).removeprefix(f"{self.root}/")
+        rows = np.flatnonzero(np.asarray(table["episode_index"].to_numpy()) == episode)
+        actions = table["action"].take(rows).combine_chunks().flatten()
+        return np.asarray(actions.to_numpy(zero_copy_only=False), np.float32).reshape(
+            len(rows), len(self.names)
+        )
+
+    def _same_servos(self, rel: str | None, text: str | None) -> bool:
+        """Whether the dataset's servo file ``rel`` holds the calibration ``text`` holds.
+
+        The same fits made again differ in their date only (``date:``, when it was made).
+        """
+        if rel is None or text is None:
+            return rel is None and text is None
+        try:
+            kept = (self.root / rel).read_text()
+        except OSError:
+            return False
+
+        def undated(yaml_text: str) -> list[str]:
+            return [line for line in yaml_text.splitlines() if not line.startswith("date:")]
+
+        return undated(kept) == undated(text)
 
     def _with_row(self, row: dict[str, Any], episodes: list[dict[str, Any]]) -> Any:
         """``meta/episodes``' table with ``row`` added: to the last one written, if it fits."""

@@ -12,7 +12,9 @@ it; an ended episode goes on to :meth:`EpisodeSampler._accept` once its video is
 in order. A sort that calibrates its servos by the camera at its start hands the
 calibration over (:meth:`EpisodeSampler.servos_calibrated`) and each of its episodes
 carries it, so a replay runs the servos the sort ran, however the episode reaches the
-dataset.
+dataset. A pick the dataset holds already, run again as a trial cut off by a kill is
+resumed, is not recorded but timed (:class:`Rerun`): the pick after it carries that, so
+the dataset says where it starts, after the held episode.
 
 Two kinds: :class:`~mearm.dataset.recorder.DatasetRecorder` writes each into a dataset
 (the video encoded by another process); :class:`EpisodeCapture` keeps them, videos
@@ -106,6 +108,32 @@ def start_calibration(nominal: Config, calibrated: Config) -> ServoCalibrationFi
 
 
 @dataclass
+class Rerun:
+    """A pick the dataset holds already, run again as its trial is: timed, not recorded.
+
+    ``mearm experiment --resume`` runs a trial cut off by a kill again from its start,
+    and records only the picks the dataset does not hold. The pick after a held one
+    starts where the held one left the arm: to say so, the dataset needs when the held
+    pick began on this run's bus clock and its actions, one a frame as an episode's
+    (to check that it ran as recorded), not its frames.
+
+    Attributes:
+        tag: The trial's seed and the pick's number in it.
+        start_s: The bus clock when it began [s].
+        actions: Its ``action`` at each frame's time, as an episode's.
+    """
+
+    tag: tuple[int | None, int | None]
+    start_s: float
+    actions: list[np.ndarray] = field(default_factory=list)
+
+    @property
+    def length(self) -> int:
+        """Its frames so far."""
+        return len(self.actions)
+
+
+@dataclass
 class _Episode:
     """An episode being recorded, then waiting for its video to be encoded.
 
@@ -121,6 +149,8 @@ class _Episode:
         servos: The text of the servo calibration file of its sort's calibration at the
             start (:meth:`EpisodeSampler.servos_calibrated`); ``None``: the config's own.
             Carried with the episode, so one a worker process recorded keeps it too.
+        before: The pick before it, if the dataset holds that one already and this run
+            ran it again (:class:`Rerun`): the episode continues the held one.
     """
 
     number: int
@@ -134,6 +164,7 @@ class _Episode:
     video: bytes | None = None
     scene: RecordedScene | None = None
     servos: str | None = None
+    before: Rerun | None = None
 
     @property
     def length(self) -> int:
@@ -200,6 +231,9 @@ class EpisodeSampler:
         self._trial: int | None = None
         self._picks = 0
         self._held: set[int | None] = set()
+        # a held pick being run again (timed, not recorded), and the last one that ended
+        self._rerun: Rerun | None = None
+        self._reran: Rerun | None = None
         #: The scene the episodes sort, as a replay rebuilds it, if known.
         self.scene: RecordedScene | None = None
         #: The sort's servo calibration at its start, as a file's text (each episode's).
@@ -250,6 +284,7 @@ class EpisodeSampler:
             self._encoder = self._start_encoder()
         self._bus, self._camera = bus, camera
         self._servos = None
+        self._rerun = self._reran = None
         # looked up once: a runtime protocol's isinstance walks its members every time
         self._draw_rgb = camera.peek_rgb if isinstance(camera, DrawsRGB) else None
         bus.sampler = self
@@ -321,20 +356,27 @@ class EpisodeSampler:
 
     @property
     def due_s(self) -> float:
-        """The bus clock's time of the next frame [s] (infinite with no episode open)."""
-        ep = self._episode
-        return float("inf") if ep is None else ep.start_s + ep.length / self.fps
+        """The bus clock's time of the next frame [s] (infinite with no episode open).
+
+        A held pick run again (:class:`Rerun`) is timed at the frames an episode's are.
+        """
+        timed = self._episode if self._episode is not None else self._rerun
+        return float("inf") if timed is None else timed.start_s + timed.length / self.fps
 
     def sample(self, bus: ServoBus) -> None:
         """Take every frame due by the bus's clock, as the run is now (drawn once)."""
         ep = self._episode
-        if ep is None:
+        if ep is None and self._rerun is None:
             return
         due = self.due_s
         if bus.clock_s < due - 1e-9:
             return
         repeat = int((bus.clock_s - due + 1e-9) * self.fps) + 1
         state, action = self._measure(bus)
+        if ep is None:  # a held pick run again: its actions only, nothing drawn
+            assert self._rerun is not None
+            self._rerun.actions.extend([action] * repeat)
+            return
         encoder = self._encoder
         assert self._camera is not None and encoder is not None
         slot, rgb = encoder.slot()
@@ -374,7 +416,8 @@ class EpisodeSampler:
         """A pick-and-place of an object of ``class_name`` starts: open its episode.
 
         Per scene, the first call opens the scene's episode and later ones do nothing.
-        A pick of a trial run again that the dataset holds already is not recorded.
+        A pick of a trial run again that the dataset holds already is not recorded, but
+        timed (per pick, :class:`Rerun`): the episode of the pick after it carries that.
         """
         if self._episode is not None:
             if self.per == "scene":
@@ -383,8 +426,12 @@ class EpisodeSampler:
         if self._bus is None or self._encoder is None:
             raise RuntimeError("attach() the recorder to a rig before an episode")
         pick, self._picks = self._picks, self._picks + 1
+        reran, self._rerun, self._reran = self._reran, None, None
         if pick in self._held:
             self.episodes_skipped += 1
+            if self.per == "pick":
+                self._rerun = Rerun((self._trial, pick), self._bus.clock_s)
+                self.sample(self._bus)
             return
         self._take_encoded(wait=False)
         self._scratch.mkdir(parents=True, exist_ok=True)
@@ -393,14 +440,19 @@ class EpisodeSampler:
         task = SCENE_TASK if self.per == "scene" else task_sentence(class_name)
         tag = (self._trial, pick if self._trial is not None else None)
         self._episode = _Episode(
-            number, path, self._bus.clock_s, task, tag, scene=self.scene, servos=self._servos
-        )
+            number, path, self._bus.clock_s, task, tag, scene=self.scene, servos=self._servos,
+            before=reran,
+        )  # fmt: skip
         self._encoder.open(number, path)
         self.sample(self._bus)
 
     def end(self) -> None:
-        """The pick-and-place ended: its episode is written once encoded (per pick)."""
+        """The pick-and-place ended: its episode is written once encoded (per pick).
+
+        A held pick run again ends its timing: the next pick's episode carries it.
+        """
         if self.per == "pick":
+            self._reran, self._rerun = self._rerun, None
             self._finish()
 
     def end_run(self) -> None:
@@ -431,6 +483,7 @@ class EpisodeSampler:
             self._pending.clear()
 
     def _drop(self) -> None:
+        self._rerun = self._reran = None
         ep, self._episode = self._episode, None
         if ep is not None and self._encoder is not None:
             self._encoder.cancel(ep.number)

@@ -17,7 +17,9 @@ before it first, from the reset, each one's first action held over the time betw
 them (the sort looking at the table; going home to look again is not recorded, and is
 replayed as the straight way to where the next pick begins). It succeeds when the pick
 put one more object in its own bin, of its task's class; a scene's, when every object is
-in its own.
+in its own. A pick whose start the dataset does not know (its
+:attr:`~mearm.dataset.recorder.EpisodeStart.why`, or that of an episode before it in its
+sort) is replayed from the reset, the reason said on stderr.
 
 The dataset keeps each such episode's scene with its ``--config`` and ``--set``
 (``meta/mearm_episodes.json``): a ``--random`` sort's ``--seed`` and count, or the table
@@ -82,6 +84,7 @@ class Replayed:
         pick: A pick's episode: its task's class; ``None``: a scene's.
         start_known: Whether the recording says where the episode starts (else it is
             replayed from the reset's start).
+        why_not_known: If not, why (:attr:`ReplayPlan.why_not_known`).
     """
 
     steps: int
@@ -96,6 +99,7 @@ class Replayed:
     start_state: tuple[float, ...] = ()
     pick: str | None = None
     start_known: bool = True
+    why_not_known: str = ""
 
 
 @dataclass(frozen=True)
@@ -119,8 +123,11 @@ class ReplayPlan:
             (:class:`~mearm.dataset.recorder.EpisodeStart`); none for a sort's first.
         pick: A pick's episode: its task's class; ``None``: a scene's (or a task that
             names none of the config's classes).
-        start_known: Whether the recording says where the episode starts; if not (an
-            older mearm's), it is replayed from the reset's start.
+        start_known: Whether the recording says where the episode starts, and where
+            each episode before it in its sort does; if not, it is replayed from the
+            reset's start.
+        why_not_known: If not, why: the recording's reason (:class:`EpisodeStart`), of
+            the episode or of the one before it in its sort whose start is not known.
     """
 
     actions: np.ndarray
@@ -132,6 +139,7 @@ class ReplayPlan:
     lead: np.ndarray | None = None
     pick: str | None = None
     start_known: bool = True
+    why_not_known: str = ""
 
 
 def plan_replay(
@@ -214,11 +222,12 @@ def plan_replay(
     if servos is not None and cfg.servo.calibration_file is None:
         cfg = _calibrated(root, servos, cfg)
     chain = _chain(starts, episode)
-    columns, fps = _actions(root, {*(chain or [episode])}, info)
+    why = chain if isinstance(chain, str) else ""
+    columns, fps = _actions(root, set(chain) if isinstance(chain, list) else {episode}, info)
     actions, task = columns[episode]
-    lead = _lead(chain, starts, columns) if chain else actions[:0]
+    lead = _lead(chain, starts, columns) if isinstance(chain, list) else actions[:0]
     pick = next((c for c in cfg.task.class_names if task_sentence(c) == task), None)
-    return ReplayPlan(actions, fps, seed, objects, cfg, table, lead, pick, chain is not None)
+    return ReplayPlan(actions, fps, seed, objects, cfg, table, lead, pick, not why, why)
 
 
 def _calibrated(root: Path, rel: str, config: Config) -> Config:
@@ -237,13 +246,25 @@ def _calibrated(root: Path, rel: str, config: Config) -> Config:
     return apply_servo_calibration_file(config.model_copy(update={"servo": servo}), path)
 
 
-def _chain(starts: list[EpisodeStart], episode: int) -> list[int] | None:
-    """The episodes of ``episode``'s sort from its first to it; ``None``: not known."""
+#: Why an episode's start is not known, when its entry does not say (``{}``, written by
+#: a mearm that kept no reason).
+NO_REASON_KEPT = (
+    "the dataset does not say why (recorded by a mearm that kept no reason; mostly a "
+    "trial's pick run again by --resume, the pick before it recorded by the killed run)"
+)
+
+
+def _chain(starts: list[EpisodeStart], episode: int) -> list[int] | str:
+    """The episodes of ``episode``'s sort from its first to it; not known: why."""
     chain = [episode]
     while True:
-        start = starts[chain[-1]]
+        k = chain[-1]
+        start = starts[k]
         if not start.known:
-            return None
+            why = start.why or NO_REASON_KEPT
+            if k == episode:
+                return why
+            return f"it continues episode {k} of its sort, whose start is not known: {why}"
         if start.after is None:
             return chain[::-1]
         chain.append(start.after)
@@ -416,6 +437,7 @@ def replay(
         return Replayed(
             len(actions) - 1, bins, len(after), success, refused, len(own),
             tuple(twin_env.scene), len(lead), len(before), start, plan.pick, plan.start_known,
+            plan.why_not_known,
         )  # fmt: skip
     finally:
         env.close()
@@ -469,9 +491,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
     if out.pick is not None and not out.start_known:
         print(
-            f"note: episode {args.episode} is a pick whose start the dataset does not keep "
-            "(recorded by an older mearm, or the pick before it by an earlier run): replayed "
-            "from where the environment's reset leaves the arm",
+            f"note: episode {args.episode} is a pick whose start the dataset does not keep: "
+            f"{out.why_not_known}; replayed from where the environment's reset leaves the arm",
             file=sys.stderr,
         )
     where = ", ".join(f"{o} in {b}" for o, b in sorted(out.bins.items())) or "none in a bin"
