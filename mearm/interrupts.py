@@ -334,6 +334,43 @@ def signals_deferred() -> Iterator[None]:
             signal.raise_signal(signum)
 
 
+#: How often a worker process looks whether its parent is still there [s].
+PARENT_POLL_S = 0.5
+#: How long an orphaned worker's work has to stop, interrupted, before it ends [s].
+ORPHAN_GRACE_S = 10.0
+
+
+def end_when_orphaned(parent: int, busy: Callable[[], bool] = lambda: True) -> None:
+    """In a pool's worker process: end it once its parent (``parent``: its id) is gone.
+
+    A ``concurrent.futures`` worker waits on its call queue, whose other end the
+    siblings forked with it keep open, so it never sees its parent die: after a ``kill
+    -9`` of the command, the workers lived on, orphans. An orphan is given to another
+    parent, so its parent's id changes; a thread of this worker's looks every
+    :data:`PARENT_POLL_S`. Then an idle worker ends at once (exit status 1); a ``busy``
+    one has its work interrupted as by Ctrl-C (the arm parked, a recording's episode left
+    whole or not at all) and ends when it is done, or after :data:`ORPHAN_GRACE_S`.
+    ``parent`` is the id the parent recorded before it started the pool: one killed
+    before this watch starts had already given the worker to another.
+
+    Args:
+        parent: The parent's process id, recorded before the pool started.
+        busy: Whether the worker runs work now (default: always, as far as it knows).
+    """
+
+    def watch() -> None:
+        while os.getppid() == parent:
+            time.sleep(PARENT_POLL_S)
+        if busy():
+            os.kill(os.getpid(), signal.SIGINT)  # as Ctrl-C: the work stops, cleans up
+            deadline = time.monotonic() + ORPHAN_GRACE_S
+            while busy() and time.monotonic() < deadline:
+                time.sleep(0.05)
+        os._exit(1)
+
+    threading.Thread(target=watch, name="mearm-orphan-watch", daemon=True).start()
+
+
 def install() -> None:
     """Let no Ctrl-C be lost in a finalizer (once; the previous hook kept for the rest)."""
     if getattr(sys.unraisablehook, "_mearm_resends_ctrl_c", False):

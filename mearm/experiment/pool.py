@@ -2,11 +2,14 @@
 
 Each worker process keeps its settings and its Ctrl-C state in one :class:`WorkerProcess`
 (one per process, set up by the pool's initializer): after Ctrl-C it interrupts the
-trial it runs and starts no more.
+trial it runs and starts no more. A worker whose parent is gone (``kill -9`` of the
+command) interrupts its trial as Ctrl-C does and ends
+(:func:`mearm.interrupts.end_when_orphaned`): it would otherwise wait for work forever.
 """
 
 from __future__ import annotations
 
+import os
 import signal
 from collections.abc import Callable, Iterator
 from concurrent.futures import ProcessPoolExecutor
@@ -15,6 +18,7 @@ from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Any
 
+from mearm import interrupts
 from mearm.config import Config, SceneObject
 from mearm.experiment.trials import Recording, TrialResult, run_trial
 
@@ -85,9 +89,14 @@ _WORKER = WorkerProcess()
 
 
 def _start_worker(
-    config: Config, seed: int, scene: list[SceneObject] | None, recording: Recording | None
+    config: Config,
+    seed: int,
+    scene: list[SceneObject] | None,
+    recording: Recording | None,
+    parent: int,
 ) -> None:
     _WORKER.start(config, seed, scene, recording)
+    interrupts.end_when_orphaned(parent, busy=lambda: _WORKER.running)
 
 
 def _trial_in_worker(number: int) -> TrialResult:
@@ -104,7 +113,9 @@ def process_pool(
 ) -> Iterator[Workers]:
     """``jobs`` worker processes on this machine; closed (waiting for them) on the way out."""
     pool = ProcessPoolExecutor(
-        max_workers=jobs, initializer=_start_worker, initargs=(config, seed, scene, recording)
+        max_workers=jobs,
+        initializer=_start_worker,
+        initargs=(config, seed, scene, recording, os.getpid()),
     )
     try:
         yield Workers(

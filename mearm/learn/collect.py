@@ -9,8 +9,10 @@ of another environment, config or seed range instead of training on them unaware
 
 from __future__ import annotations
 
+import functools
 import io
 import json
+import os
 from collections.abc import Sequence
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
@@ -19,6 +21,7 @@ from typing import Any
 
 import numpy as np
 
+from mearm import interrupts
 from mearm.learn.errors import DemosError
 
 
@@ -175,7 +178,9 @@ def collect(env_id: str, options: dict[str, Any], seeds: Sequence[int], jobs: in
     if jobs == 1 or len(seeds) < 2:
         return _collect(env_id, options, seeds)
     parts = [seeds[k::jobs] for k in range(jobs)]
-    with ProcessPoolExecutor(max_workers=jobs) as pool:
+    # a worker whose parent is gone ends (kill -9 of the command): not an orphan at work
+    orphaned = functools.partial(interrupts.end_when_orphaned, os.getpid())
+    with ProcessPoolExecutor(max_workers=jobs, initializer=orphaned) as pool:
         done = list(pool.map(_collect, [env_id] * jobs, [options] * jobs, parts))
     order = np.argsort(np.concatenate([d.episode for d in done]), kind="stable")
     return Demos(*(np.concatenate([getattr(d, f) for d in done])[order] for f in FIELDS))

@@ -95,15 +95,17 @@ def _on_interrupt(signum: int, frame: object) -> None:
         raise KeyboardInterrupt
 
 
-def _start_worker(config: Config, objects: int) -> None:
+def _start_worker(config: Config, objects: int, parent: int) -> None:
     """A worker's one-time setup: keep the config, import what every scene needs.
 
     Ctrl-C (the terminal sends it to the workers, too) stops the scene a worker sorts as
     an interrupted sort, and the scenes already queued for it are not started; the parent
-    cancels the rest. An idle worker does not die of it with a traceback of its own.
+    cancels the rest. An idle worker does not die of it with a traceback of its own. A
+    worker whose parent (``parent``) is gone ends (:func:`mearm.interrupts.end_when_orphaned`).
     """
     global _WORK
     signal.signal(signal.SIGINT, _on_interrupt)
+    interrupts.end_when_orphaned(parent, busy=lambda: _SORTING)
     _WORK = (config, objects)
     import mearm.sim.twin.twin_bus  # noqa: F401, PLC0415  (MuJoCo, the model builder)
     import mearm.sim.twin.twin_camera  # noqa: F401, PLC0415  (the renderer, OpenCV)
@@ -136,7 +138,9 @@ def sweep(config: Config, objects: int, seeds: Sequence[int], jobs: int) -> Iter
             yield _one(config, objects, seed)
         return
     pool = ProcessPoolExecutor(
-        max_workers=min(jobs, len(seeds)), initializer=_start_worker, initargs=(config, objects)
+        max_workers=min(jobs, len(seeds)),
+        initializer=_start_worker,
+        initargs=(config, objects, os.getpid()),
     )
     yield from ordered_results(pool, _in_worker, ((s,) for s in seeds))
 
