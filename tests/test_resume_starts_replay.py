@@ -22,29 +22,12 @@ import numpy as np
 import pyarrow.parquet as pq
 import pytest
 from conftest import ROOT
+from test_record_resume import KILLED, SCENE  # the experiment killed after episode 3
 
 from mearm.dataset.format_check import check_dataset
 from mearm.envs.replay import replay
 
 pytestmark = pytest.mark.heavy
-
-#: Two objects a trial: the kill after episode 3 falls in trial 1, one pick to go.
-SCENE = "- {color: red, x: -10.99, y: 49.70}\n- {color: blue, x: 5.0, y: 45.0}\n"
-KILL_AFTER = 3
-
-#: The experiment, killed by SIGKILL once the dataset holds KILL_AFTER episodes.
-KILLED = f"""
-import os, signal, sys
-from mearm.dataset import recorder
-real = recorder.DatasetRecorder._commit
-def commit(self, ep):
-    real(self, ep)
-    if len(self._episodes) == {KILL_AFTER}:
-        os.kill(os.getpid(), signal.SIGKILL)
-recorder.DatasetRecorder._commit = commit
-from mearm.experiment import main
-sys.exit(main(sys.argv[1:]))
-"""
 
 
 def _experiment(head: list[str], args: list[str]) -> subprocess.CompletedProcess[str]:
