@@ -59,17 +59,7 @@ def test_ctrl_c_while_a_subcommand_starts_is_one_line_and_130(
     says when the guard's module is in; its lines are left out of what is checked."""
     state = tmp_path / "state"
     env = {**os.environ, "MEARM_STATE_DIR": str(state)}
-    proc = subprocess.Popen(
-        [sys.executable, "-X", "importtime", "-m", "mearm", *argv],
-        cwd=tmp_path, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
-        bufsize=0, start_new_session=True,  # unbuffered: no line read ahead and then lost
-    )  # fmt: skip
-    assert proc.stderr is not None
-    for raw in proc.stderr:
-        if raw.decode(errors="replace").rstrip().endswith(GUARD_LOADED):
-            break
-    else:
-        pytest.fail(f"mearm {argv[0]} ended before importing mearm.cli: exit {proc.wait()}")
+    proc = started_past_the_guard(["mearm", *argv], tmp_path, env)
     try:
         proc.wait(timeout=after_s)
     except subprocess.TimeoutExpired:
@@ -120,6 +110,23 @@ def test_a_ctrl_c_before_the_dispatcher_runs_its_subcommand_names_it(
     with pytest.raises(SystemExit) as stop:
         hook(KeyboardInterrupt, KeyboardInterrupt(), None)
     assert (stop.value.code, capsys.readouterr().err) == (130, f"{line}\n")
+
+
+def started_past_the_guard(
+    module_argv: list[str], cwd: Path, env: dict[str, str] | None = None
+) -> subprocess.Popen[bytes]:
+    """``python -X importtime -m MODULE ARGS`` (``module_argv``), once it has imported
+    ``mearm.cli`` (its guard): the interpreter's import trace, on stderr, says when."""
+    proc = subprocess.Popen(
+        [sys.executable, "-X", "importtime", "-m", *module_argv],
+        cwd=cwd, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+        bufsize=0, start_new_session=True,  # unbuffered: no line read ahead and then lost
+    )  # fmt: skip
+    assert proc.stderr is not None
+    for raw in proc.stderr:
+        if raw.decode(errors="replace").rstrip().endswith(GUARD_LOADED):
+            return proc
+    pytest.fail(f"{' '.join(module_argv)} ended before importing mearm.cli: exit {proc.wait()}")
 
 
 def _ctrl_c_in_an_import() -> ImportError:

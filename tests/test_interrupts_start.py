@@ -12,7 +12,6 @@ Two holes were left after the guard of ``mearm SUBCOMMAND`` (``tests/test_ctrl_c
 
 from __future__ import annotations
 
-import subprocess
 import sys
 from collections.abc import Sequence
 from importlib.machinery import ModuleSpec
@@ -20,13 +19,9 @@ from pathlib import Path
 
 import pytest
 from conftest import interrupted
-from test_ctrl_c_at_start import _ctrl_c_in_an_import
+from test_ctrl_c_at_start import _ctrl_c_in_an_import, started_past_the_guard
 
 from mearm import analyze, cli, interrupts
-
-#: The line ``python -X importtime`` prints once ``mearm.cli`` is imported: ``mearm.sort``
-#: imports it among its first modules, pydantic's schemas and the rest still to come.
-CLI_IMPORTED = "| mearm.cli"
 
 
 def test_ctrl_c_while_python_m_imports_its_modules_is_one_line_and_130(tmp_path: Path) -> None:
@@ -34,17 +29,7 @@ def test_ctrl_c_while_python_m_imports_its_modules_is_one_line_and_130(tmp_path:
     main runs: exit 130 and ``python -m mearm.sort: interrupted``, not Python's traceback
     and death by SIGINT (-2). ``-X importtime`` (on stderr) says when to send it; its lines
     are left out of what is checked."""
-    proc = subprocess.Popen(
-        [sys.executable, "-X", "importtime", "-m", "mearm.sort", "--config", "sim"],
-        cwd=tmp_path, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
-        bufsize=0, start_new_session=True,  # unbuffered: no line read ahead and then lost
-    )  # fmt: skip
-    assert proc.stderr is not None
-    for raw in proc.stderr:
-        if raw.decode(errors="replace").rstrip().endswith(CLI_IMPORTED):
-            break
-    else:
-        pytest.fail(f"python -m mearm.sort ended before importing mearm.cli: exit {proc.wait()}")
+    proc = started_past_the_guard(["mearm.sort", "--config", "sim"], tmp_path)
     _, err_bytes = interrupted(proc)  # a hang (the Ctrl-C lost) is the failure
     err = err_bytes.decode(errors="replace")
     lines = [line for line in err.splitlines() if not line.startswith("import time:")]
