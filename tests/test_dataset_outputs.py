@@ -10,20 +10,18 @@ did). The full disk is a small tmpfs: mounted only as root (CI runs as root); a 
 
 from __future__ import annotations
 
-import contextlib
 import errno
 import hashlib
 import os
 import shutil
 import subprocess
 import sys
-from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
 import pytest
 from badinput import ROOT, check_bad_input, run_in_process
-from conftest import record_by_hand
+from conftest import record_by_hand, tmpfs
 
 from mearm.config import load_config
 from mearm.dataset.format_check import check_dataset
@@ -138,25 +136,6 @@ def test_record_into_the_empty_folders_a_failed_recording_left(tmp_path: Path) -
 # ----------------------------------------------------------------- a full disk (root)
 
 
-@contextlib.contextmanager
-def _tmpfs(path: Path, size: str) -> Iterator[Path]:
-    """A tmpfs of ``size`` at ``path``, unmounted afterwards; skip where none can be made."""
-    if os.geteuid() != 0 or shutil.which("mount") is None:
-        pytest.skip("a full disk is a small tmpfs: mounting one needs root")
-    path.mkdir(parents=True, exist_ok=True)
-    made = subprocess.run(
-        ["mount", "-t", "tmpfs", "-o", f"size={size}", "tmpfs", str(path)],
-        capture_output=True, text=True, check=False,
-    )  # fmt: skip
-    if made.returncode != 0:
-        pytest.skip(f"cannot mount a tmpfs here: {made.stderr.strip()}")
-    try:
-        yield path
-    finally:
-        if subprocess.run(["umount", str(path)], check=False).returncode != 0:
-            subprocess.run(["umount", "-l", str(path)], check=False)
-
-
 def _record(
     root: Path, *more: str, random: int = 2, shm: str | None = None
 ) -> subprocess.CompletedProcess[str]:
@@ -195,7 +174,7 @@ def _assert_disk_full(run: subprocess.CompletedProcess[str], root: Path) -> str:
 def test_a_first_recording_on_a_full_disk_leaves_nothing_and_says_so(tmp_path: Path) -> None:
     """It said "unexpected error: OSError", exit 1, and left empty ``data/chunk-000``
     folders: the same command then refused DIR as not empty."""
-    with _tmpfs(tmp_path / "small", "64k") as small:
+    with tmpfs(tmp_path / "small", "64k") as small:
         root = small / "ds"
         for attempt in range(2):  # the retry fails the same way: nothing refuses it
             line = _assert_disk_full(_record(root), root)
@@ -252,7 +231,7 @@ def test_a_resumed_recording_on_a_full_disk_keeps_the_dataset(
     byte as it was (no journal, no staged file, no fragment half appended)."""
     used = sum(p.stat().st_size for p in recorded.rglob("*") if p.is_file())
     size = (used // 4096 + 16) * 4096 + int(room[:-1]) * 1024  # the files' pages, and room
-    with _tmpfs(tmp_path / "small", str(size)) as small:
+    with tmpfs(tmp_path / "small", str(size)) as small:
         root = small / "ds"
         shutil.copytree(recorded, root)
         before = _digests(root)
@@ -270,7 +249,7 @@ def test_an_episode_video_on_a_full_disk_raises_its_error(tmp_path: Path) -> Non
     from mearm.dataset.encoder_server import EpisodeWriter, rgb_frame
 
     rng = np.random.default_rng(0)
-    with _tmpfs(tmp_path / "small", "8k") as small:
+    with tmpfs(tmp_path / "small", "8k") as small:
         writer = EpisodeWriter(av, small / "e.mp4", 10, (120, 160), "h264")
         with pytest.raises(OSError) as raised:  # noqa: PT012  (the write or the close)
             for _ in range(20):
@@ -317,7 +296,7 @@ def test_an_append_cut_off_by_a_full_disk_is_cut_back(recorded: Path, tmp_path: 
     # the old files, the staged ones, the episode's encoded video (its header and the
     # fragment), the fragment staged to append, the journal: then half the fragment fits
     pages = sum(map(_pages, before.values())) + staged + 2 * _pages(fragment) + 1 + 1
-    with _tmpfs(tmp_path / "small", str((pages + 1) * 4096 + fragment // 2)) as small:
+    with tmpfs(tmp_path / "small", str((pages + 1) * 4096 + fragment // 2)) as small:
         root = small / "ds"
         shutil.copytree(recorded, root)
         digests = _digests(root)

@@ -2,15 +2,19 @@
 
 from __future__ import annotations
 
+import errno
 import json
 import subprocess
 import sys
 import textwrap
 from pathlib import Path
 
+import numpy as np
 import pytest
 from badinput import check_bad_input, run_in_process
+from conftest import tmpfs
 
+from mearm.envs.evaluate import write_video
 from mearm.tools.eval_policy import main
 
 pytestmark = pytest.mark.heavy
@@ -134,6 +138,18 @@ def test_videos_of_the_first_episodes_are_written(tmp_path):
                  "--env-option", "image_size=[24, 32]"]) == 0  # fmt: skip
     video = Path(json.loads(out.read_text())["per_episode"][0]["video"])
     assert video.parent == tmp_path / "videos" and video.stat().st_size > 1000
+
+
+def test_a_video_on_a_full_disk_raises_its_error_and_leaves_no_part(tmp_path):
+    """A video on a full disk: the error is raised, errno and all, and neither the video
+    nor its temporary file is left behind (the MP4's index, written last, fails)."""
+    rng = np.random.default_rng(0)
+    frames = [rng.integers(0, 255, (120, 160, 3), dtype=np.uint8) for _ in range(20)]
+    with tmpfs(tmp_path / "small", "8k") as small:
+        with pytest.raises(OSError) as raised:
+            write_video(small / "episode_000_seed_0.mp4", frames, 10)
+        assert raised.value.errno == errno.ENOSPC
+        assert list(small.iterdir()) == []
 
 
 @pytest.mark.parametrize(

@@ -171,7 +171,8 @@ def test_a_stop_signal_to_eval_policy_ends_its_workers_too(tmp_path, sig, code, 
     cmd = [sys.executable, "-m", "mearm", "eval-policy", "--policy", "random",
            "--episodes", "200", "--jobs", "2", "--videos", "200", "--out", tmp_path / "t.json",
            "--env-option", "obs_type=state", "--env-option", "image_size=[24, 32]"]  # fmt: skip
-    env = {**os.environ, "MUJOCO_GL": "egl"}
+    # faulthandler: on a hang, SIGABRT has each process print where its threads are
+    env = {**os.environ, "MUJOCO_GL": "egl", "PYTHONFAULTHANDLER": "1"}
     with out.open("w") as progress, errors.open("w") as stderr:  # files: orphans hold pipes
         proc = subprocess.Popen(
             list(map(str, cmd)), cwd=ROOT, env=env, stdout=progress, stderr=stderr,
@@ -186,7 +187,7 @@ def test_a_stop_signal_to_eval_policy_ends_its_workers_too(tmp_path, sig, code, 
         workers = _workers(proc.pid)
         assert len(workers) == 2
         proc.send_signal(sig)
-        assert proc.wait(timeout=300) == code, errors.read_text()
+        assert _wait_or_dump(proc, workers, errors) == code, errors.read_text()
         assert errors.read_text().strip().splitlines() == said
         deadline = time.monotonic() + 120  # a hang (orphans at work) is the failure
         while time.monotonic() < deadline and any(_alive(w) for w in workers):
@@ -200,6 +201,37 @@ def test_a_stop_signal_to_eval_policy_ends_its_workers_too(tmp_path, sig, code, 
             with contextlib.suppress(ProcessLookupError):
                 os.kill(pid, signal.SIGKILL)
         proc.wait()
+
+
+def _wait_or_dump(proc: subprocess.Popen, workers: set[int], errors: Path) -> int:
+    """``proc``'s exit status; if it has not ended within 300 s (a hang), fail with
+    where each of its processes' threads are (faulthandler, on SIGABRT).
+
+    Once, on a loaded machine, the parent had not ended 300 s after SIGTERM; its stderr
+    held only an AV1 encoder's errors, which did not say which process waited on what.
+    """
+    try:
+        return proc.wait(timeout=300)
+    except subprocess.TimeoutExpired:
+        alive = [w for w in workers if _alive(w)]
+        states = {pid: _state(pid) for pid in [proc.pid, *alive]}
+        for pid in [proc.pid, *alive]:
+            with contextlib.suppress(ProcessLookupError):
+                os.kill(pid, signal.SIGABRT)
+        with contextlib.suppress(subprocess.TimeoutExpired):
+            proc.wait(timeout=10)
+        time.sleep(1)  # the workers' dumps
+        pytest.fail(f"no exit 300 s after the signal; states {states}; stderr:\n"
+                    f"{errors.read_text()}")  # fmt: skip
+
+
+def _state(pid: int) -> str:
+    """``pid``'s state and what its threads wait in (``/proc``), e.g. ``S futex_wait``."""
+    with contextlib.suppress(OSError):
+        tasks = sorted(Path(f"/proc/{pid}/task").iterdir())
+        waits = [(t / "wchan").read_text() for t in tasks]
+        return f"{Path(f'/proc/{pid}/stat').read_text().rsplit(')', 1)[1].split()[0]} {waits}"
+    return "gone"
 
 
 def test_a_worker_sees_its_parent_killed_while_its_sibling_is_stuck(tmp_path):
