@@ -67,6 +67,17 @@ def test_reference_covers_every_key() -> None:
         assert f"**`{key}`**" in text, key
 
 
+def test_the_type_column_names_the_words_a_key_takes() -> None:
+    """``vision.work_area_px: whole_frame`` loads, so the reference's type column says
+    so (it said "list of 2 × number or null", and only the description named it)."""
+    from mearm.config import VisionConfig
+
+    assert VisionConfig(work_area_px="whole_frame").work_area_px is not None
+    key = "- **`vision.work_area_px`** — "
+    line = next(x for x in render().splitlines() if x.startswith(key))
+    assert line.startswith(key + "list of 2 × number, `whole_frame` or null;")
+
+
 @pytest.mark.parametrize("doc", DOCS, ids=lambda p: str(p.relative_to(ROOT)))
 def test_relative_links_resolve(doc: Path) -> None:
     """Every relative link names a file in the repository (and an anchor it has)."""

@@ -47,6 +47,9 @@ PathText = Annotated[str, Field(min_length=1, max_length=MAX_PATH_CHARS, pattern
 Vector3 = tuple[Length, Length, Length]
 
 
+#: A field's ``json_schema_extra`` key listing the words it takes besides its type's
+#: values (its validator turns them into one), for the reference's type column.
+SPELLINGS = "mearm_spellings"
 #: The error type of a boolean given for a number (:func:`_refuse_bool`).
 NOT_A_NUMBER = "number_not_bool"
 

@@ -32,6 +32,7 @@ from pydantic.fields import FieldInfo
 from pydantic_core import PydanticUndefined
 
 from mearm.config.arm import ArmDescription
+from mearm.config.base import SPELLINGS
 from mearm.config.defaults import DEFAULT_ARM
 from mearm.config.root import Config
 from mearm.data import arm_names
@@ -135,6 +136,9 @@ class FieldDoc:
         default: The default as YAML, or ``required``.
         allowed: The bounds, pattern or lengths the validator enforces ('' when none).
         text: What the key means, from the model's docstrings.
+        spellings: Words the key takes besides its type's values (its validator turns
+            them into one: ``work_area_px: whole_frame``), from the field's
+            ``json_schema_extra`` under :data:`SPELLINGS`.
     """
 
     path: str
@@ -142,6 +146,7 @@ class FieldDoc:
     default: str
     allowed: str
     text: str
+    spellings: tuple[str, ...] = ()
 
 
 # --------------------------------------------------------------------- docstrings
@@ -410,6 +415,22 @@ def _nested_models(annotation: Any) -> Iterator[tuple[str, type[BaseModel]]]:
             yield ".NAME" + suffix, m
 
 
+def _spellings(info: FieldInfo) -> tuple[str, ...]:
+    extra = info.json_schema_extra
+    words = extra.get(SPELLINGS) if isinstance(extra, dict) else None
+    return tuple(str(w) for w in words) if isinstance(words, list) else ()
+
+
+def _with_spellings(type_words: str, doc: FieldDoc) -> str:
+    """``type_words`` with the key's other spellings before its ``or null``."""
+    if not doc.spellings:
+        return type_words
+    words = ", ".join(f"`{w}`" for w in doc.spellings)
+    if type_words.endswith(" or null"):
+        return f"{type_words.removesuffix(' or null')}, {words} or null"
+    return f"{type_words} or {words}"
+
+
 def walk(
     model: type[BaseModel] = Config, prefix: str = ""
 ) -> Iterator[tuple[str, type[BaseModel], list[FieldDoc]]]:
@@ -432,6 +453,7 @@ def walk(
                 default=default_text(info),
                 allowed=allowed_text(info),
                 text=texts[name],
+                spellings=_spellings(info),
             )
             for name, info in m.model_fields.items()
         ]
@@ -471,7 +493,8 @@ def render(model: type[BaseModel] = Config) -> str:
         if summary:
             out.append(f"*{m.__name__}*. {summary}\n")
         for d in docs:
-            line = f"- **`{d.path}`** — {type_text(d.annotation, link)}; default {d.default}"
+            line = f"- **`{d.path}`** — {_with_spellings(type_text(d.annotation, link), d)}"
+            line += f"; default {d.default}"
             if d.allowed:
                 line += f"; {d.allowed}"
             line += "."

@@ -16,6 +16,7 @@ from pydantic import (
 from mearm.config.base import (
     MAX_ANGLE_DEG,
     MAX_LENGTH_CM,
+    SPELLINGS,
     Angle,
     Length,
     Name,
@@ -214,7 +215,9 @@ class VisionConfig(Strict):
     were learned from (``mearm learn-colours`` writes it); each frame's channels are scaled
     so that its own median matches it before any class is classified, which undoes the
     camera's white balance and exposure; ``null``: frames as they come."""
-    work_area_px: Annotated[list[PixelPoint], Field(min_length=3, max_length=64)] | None = None
+    work_area_px: Annotated[list[PixelPoint], Field(min_length=3, max_length=64)] | None = Field(
+        default=None, json_schema_extra={SPELLINGS: [WHOLE_FRAME]}
+    )
     """Where objects can be: a polygon (u, v) [px] in the pixels of the frames detected in
     (the camera's: ``camera.width_px`` × ``camera.height_px``), clipped to the frame;
     nothing outside it is detected. ``whole_frame``: every pixel of the frame, whatever the
