@@ -18,7 +18,7 @@ import sys
 import textwrap
 from collections.abc import Callable, Sequence
 
-from mearm.cli import EXIT_BAD_INPUT, run
+from mearm.cli import EXIT_BAD_INPUT, one_line, run
 from mearm.data import config_names, doc_page
 
 #: The groups ``mearm --help`` shows, in order: a title (what you want to do), then each
@@ -198,10 +198,8 @@ def _own(argv: Sequence[str] | None) -> int:
     if args[0] in ("-h", "--help", "help"):
         print(_usage())
         return 0
-    print(
-        f"mearm: error: unknown subcommand {args[0]!r} (choose from {', '.join(SUBCOMMANDS)})",
-        file=sys.stderr,
-    )
+    said = one_line(f"unknown subcommand {args[0]!r} (choose from {', '.join(SUBCOMMANDS)})")
+    print(f"mearm: error: {said}", file=sys.stderr)
     return EXIT_BAD_INPUT
 
 

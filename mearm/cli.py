@@ -56,7 +56,7 @@ class ArgumentParser(argparse.ArgumentParser):
         )
 
     def error(self, message: str) -> NoReturn:  # noqa: D102
-        self.exit(EXIT_BAD_INPUT, f"{self.prog}: error: {message}\n")
+        self.exit(EXIT_BAD_INPUT, f"{self.prog}: error: {one_line(message)}\n")
 
     def parse_known_args(  # type: ignore[override]  # noqa: D102
         self, args: Sequence[str] | None = None, namespace: argparse.Namespace | None = None
@@ -469,7 +469,12 @@ def _longest_word(text: str, room: int) -> int:
 
 
 def _one_line(exc: BaseException) -> str:
-    """An error's message as one line on stderr, at most :data:`LINE_MAX` characters.
+    """An error's message as one line on stderr (:func:`one_line`)."""
+    return one_line(str(exc))
+
+
+def one_line(message: str) -> str:
+    """An error message as one line on stderr, at most :data:`LINE_MAX` characters.
 
     A mearm message names what failed first and says what to do last (``… (mearm
     find-port lists the ports)``), so a line too long is never cut at its end. What
@@ -479,7 +484,7 @@ def _one_line(exc: BaseException) -> str:
     two ends (a path its first folders and its file's name) around "…"; a line still too
     long (a huge text of short words) keeps its first third and its end around "…".
     """
-    text = " ".join(str(exc).split())
+    text = " ".join(message.split())
     if len(text) <= LINE_MAX:
         return text
     cap = _longest_word(text, LINE_MAX)

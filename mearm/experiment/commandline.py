@@ -52,7 +52,6 @@ from typing import TYPE_CHECKING, Any
 
 from mearm import interrupts
 from mearm.cli import (
-    EXIT_BAD_INPUT,
     EXIT_FAILURE,
     ArgumentParser,
     add_config_argument,
@@ -255,12 +254,9 @@ def _resume(
             "nothing to run"
         )
         return _verdict(args.log, args.trials)
-    try:
-        check_rig_opens(config, args.seed, resume.done, scene)  # before any trial is written
-    except (CameraError, ServoError) as exc:
-        # bad input, as for mearm sort: one line, exit 2, the log as it was
-        print(f"{_prog()}: error: {exc}", file=sys.stderr)
-        return EXIT_BAD_INPUT
+    # before any trial is written: a rig that does not open raises RigNotOpened, bad input
+    # said by run() (one line, exit 2), the log as it was
+    check_rig_opens(config, args.seed, resume.done, scene)
     if resume.done or resume.cut_off or resume.interrupted:
         why = " and ".join(
             w

@@ -95,14 +95,20 @@ def check_rig_opens(
     before the log, the dataset or the first prompt is touched. Nothing moves.
 
     Raises:
-        ServoError: the servo bus cannot be connected (e.g. a ``LinkError``).
-        CameraError: the camera cannot be opened.
+        RigNotOpened: the servo bus cannot be connected (e.g. a ``LinkError``) or the
+            camera cannot be opened: bad input (exit 2), said by :func:`mearm.cli.run` as
+            every command's error line is (``mearm check-camera``'s, too).
     """
     if not _opens_devices(config):
         return
     plan = plan_trial(config, seed, number, scene)
-    with open_rig(plan.config, plan.layout):
-        pass
+    try:
+        with open_rig(plan.config, plan.layout):
+            pass
+    except (CameraError, ServoError) as exc:
+        from mearm.task.armcheck import RigNotOpened  # noqa: PLC0415  (a rig that did not open)
+
+        raise RigNotOpened(str(exc)) from exc
 
 
 def _calibrate_first(config: Config) -> CalibrateFirst | None:

@@ -90,7 +90,7 @@ import sys
 from pathlib import Path
 from typing import TextIO
 
-from mearm.cli import EXIT_BAD_INPUT, EXIT_FAILURE, check_output_file
+from mearm.cli import EXIT_FAILURE, check_output_file
 from mearm.config import Config
 from mearm.config.errors import CalibrationError
 from mearm.config.servo_file import (
@@ -307,6 +307,8 @@ def calibrate_by_camera(config: Config, output: Path, args: argparse.Namespace) 
 
     Raises:
         MearmError: bad input (:func:`check_inputs`), before anything opens.
+        RigNotOpened: the servo bus or the camera did not open (bad input, before
+            anything moves).
         KeyboardInterrupt: Ctrl-C, once the arm is parked (nothing written).
     """
     camera = check_inputs(config, args, output)
@@ -325,9 +327,10 @@ def calibrate_by_camera(config: Config, output: Path, args: argparse.Namespace) 
         if not opened:
             # a port that cannot be opened, a board that does not answer its handshake or
             # a camera that cannot be opened, found before anything moved: bad input, said
-            # whole in one line (the port's hint ends it), as mearm sort says it
-            print(f"{PROG}: error: {exc}", file=sys.stderr)
-            return EXIT_BAD_INPUT
+            # by run() in one line (exit 2), as mearm check-camera says it
+            from mearm.task.armcheck import RigNotOpened  # noqa: PLC0415  (did not open)
+
+            raise RigNotOpened(str(exc)) from exc
         what = "servo fault" if isinstance(exc, ServoError) else "camera"
         print(f"{PROG}: {what}: {exc}; nothing written", file=sys.stderr)
         return EXIT_FAILURE
