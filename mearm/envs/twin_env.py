@@ -53,6 +53,7 @@ from mearm.hardware.errors import JointLimitError, PulseRangeError, ServoError
 from mearm.kinematics import ArmModel
 from mearm.kinematics.bodies import TableContents, wall_height_m
 from mearm.sim.table_collision import collision_model
+from mearm.sim.twin.frame_drawer import close_renderer, offscreen_renderer
 from mearm.sim.twin.twin_bus import TwinArm
 from mearm.sim.twin.twin_camera import CAMERA_NAME as TWIN_CAMERA
 from mearm.task.scene import SceneError, check_scene, random_scene
@@ -549,19 +550,14 @@ class TwinEnv(gym.Env[dict[str, Any], np.ndarray]):
         renderer = self._renderers.get(size)
         model = self.twin.model
         if renderer is None:
-            quality = model.vis.quality
-            kept = (quality.offsamples, quality.shadowsize)
-            quality.offsamples, quality.shadowsize = 0, 0
+            h, w = size
             try:
-                renderer = mujoco.Renderer(model, *size)
+                renderer = offscreen_renderer(model, (w, h), msaa_samples=0, shadows=False)
             except Exception as exc:  # MuJoCo raises plain errors for a missing GL
                 raise MearmError(
                     f"cannot render offscreen ({type(exc).__name__}: {exc}); set "
                     "MUJOCO_GL=egl or osmesa, or pass obs_type='state'"
                 ) from None
-            finally:
-                quality.offsamples, quality.shadowsize = kept
-            renderer.scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = False
             self._renderers[size] = renderer
         renderer.update_scene(self.twin.data, camera=TWIN_CAMERA)
         return renderer.render().copy()
@@ -573,12 +569,17 @@ class TwinEnv(gym.Env[dict[str, Any], np.ndarray]):
         return self._frame(RENDER_SIZE)
 
     def _close_episode(self) -> None:
+        """End the episode's expert, free its renderers, close its twin.
+
+        Each renderer is forgotten before it is freed (:func:`close_renderer`: a Ctrl-C
+        is taken after the free, not inside it), so a Ctrl-C that stops this part-way
+        leaves the others to the next :meth:`close` and none is freed twice.
+        """
         if self.expert is not None:
             self.expert.close()
             self.expert = None
-        for renderer in self._renderers.values():
-            renderer.close()
-        self._renderers = {}
+        while self._renderers:
+            close_renderer(self._renderers.popitem()[1])
         if self.twin is not None:
             self.twin.close()
             self.twin = None

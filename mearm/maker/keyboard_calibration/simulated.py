@@ -8,7 +8,7 @@ import math
 import sys
 from collections.abc import Sequence
 from pathlib import Path
-from typing import TextIO
+from typing import Protocol, TextIO, runtime_checkable
 
 import numpy as np
 
@@ -16,6 +16,7 @@ from mearm.cli import EXIT_FAILURE
 from mearm.config import Config
 from mearm.config.servo_file import ActuatorFit, replaced_calibration, servo_of
 from mearm.errors import MearmError
+from mearm.hardware.bus import MeasuresTcp
 from mearm.hardware.errors import ServoError
 from mearm.maker.keyboard_calibration.calibrator import Calibrator
 from mearm.maker.keyboard_calibration.pulse_session import PulseSession
@@ -39,6 +40,20 @@ READING_ERROR = {"deg": 0.5, "cm": 0.05}
 
 class FitRefused(MearmError):
     """A fit the checks refuse ended the session: nothing is written (exit 1)."""
+
+
+@runtime_checkable
+class SettlingArm(MeasuresTcp, Protocol):
+    """The twin as the observer uses it: it lets the arm settle, reads the jaws and the TCP.
+
+    What :class:`~mearm.sim.twin.twin_bus.TwinArm` has besides a servo bus's work. A
+    protocol, not the class: every ``calibrate-servos`` imports this module, and the
+    twin's module imports MuJoCo.
+    """
+
+    @property
+    def opening_cm(self) -> float: ...  # noqa: D102
+    def settle(self, seconds: float) -> None: ...  # noqa: D102
 
 
 class SimulatedCalibrator(Calibrator):
@@ -70,6 +85,9 @@ class SimulatedCalibrator(Calibrator):
         out: Where the log of the session goes.
         reading_error: The reading error by unit (``deg``, ``cm``), one std.
         seed: The reading errors' seed.
+
+    Raises:
+        TypeError: the session's bus is not the twin (:class:`SettlingArm`).
     """
 
     def __init__(
@@ -81,6 +99,10 @@ class SimulatedCalibrator(Calibrator):
         seed: int = 0,
     ):
         super().__init__(config, session, None, out)
+        if not isinstance(session.bus, SettlingArm):
+            raise TypeError(f"the simulated maker needs the twin's bus, got {session.bus!r}")
+        #: The session's bus, as the twin the observer reads.
+        self.twin: SettlingArm = session.bus
         self.reading_error = dict(READING_ERROR if reading_error is None else reading_error)
         self.rng = np.random.default_rng(seed)
         self.reads = 0
@@ -89,11 +111,10 @@ class SimulatedCalibrator(Calibrator):
     def read(self, act: Actuator, pulse_us: int) -> float:
         """Send ``pulse_us`` to the actuator, let the twin settle, read the arm."""
         self.session.set_pulse(act.name, pulse_us)
-        bus = self.session.bus
-        bus.settle(SIM_SETTLE_S)  # type: ignore[attr-defined]
+        self.twin.settle(SIM_SETTLE_S)
         self.reads += 1
         if act.kind == "gripper":
-            return float(bus.opening_cm)  # type: ignore[attr-defined]
+            return float(self.twin.opening_cm)
         value = self.session.simulated_value(act.name)
         if value is None:
             raise MearmError(f"the twin does not report {act.name}'s position")
@@ -137,7 +158,7 @@ class SimulatedCalibrator(Calibrator):
         settings = poses_inside(smap, act, choices) or [
             reference_pose(smap, act, {n: now[n] for n in choices}, session.home_values)
         ]
-        bus = session.bus
+        twin = self.twin
         best: tuple[float, tuple[int, ...]] | None = None
         for values in settings:
             setting = tuple(smap[a.name].command_us(values[a.name]) for a in others)
@@ -146,15 +167,15 @@ class SimulatedCalibrator(Calibrator):
             low = math.inf
             for ref in act.references:
                 self.session.set_pulse(act.name, act.amap.command_us(ref))
-                bus.settle(SIM_SETTLE_S)  # type: ignore[attr-defined]
-                low = min(low, float(bus.ee_cm[2]))  # type: ignore[attr-defined]
+                twin.settle(SIM_SETTLE_S)
+                low = min(low, float(twin.ee_cm[2]))
             if best is None or low > best[0]:
                 best = (low, setting)
         assert best is not None
         for a, p in zip(others, best[1], strict=True):
             self.session.pulses_us[a.name] = p
         self.session.send()
-        bus.settle(SIM_SETTLE_S)  # type: ignore[attr-defined]
+        twin.settle(SIM_SETTLE_S)
 
     def _jog_until_recorded(self, act: Actuator, ref: float) -> str:
         """Jog the twin's actuator until its reading is at ``ref``; always ``record``."""
