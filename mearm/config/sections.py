@@ -208,8 +208,10 @@ class VisionConfig(Strict):
     """Grow each region into its own shadow: a pixel of the class's hue and saturation
     whose value is under ``value_min`` but at least this [-] counts when it joins a region
     that passes ``value_min`` (hysteresis), so that a lamp's shadow across an object does
-    not cut its outline; ``null``: never (the paper's recipe). Hue bands only: not used
-    with learned colours, ``reference_bgr`` or ``work_area_px``."""
+    not cut its outline; ``null``: never (the paper's recipe). Hue bands on frames as
+    they come only: not used with learned colours or ``reference_bgr``. With a work area
+    (``work_area_px``, ``whole_frame`` or the calibrated table's outline) a region grows up
+    to its edge and no further, and never into the arm's mask."""
     reference_bgr: tuple[PixelLevel, PixelLevel, PixelLevel] | None = None
     """Colour constancy: the work area's median colour (B, G, R) in the frames the colours
     were learned from (``mearm learn-colours`` writes it); each frame's channels are scaled

@@ -180,9 +180,11 @@ class ColorDetector:
         given = vision.work_area_px
         self._area_px = list(given) if given is not None else table_area_px
         shadow = vision.shadow_value_min
-        # hysteresis on value is for hue bands on raw frames: not with learned colours,
-        # a reference colour or a work area
-        plain = not learned and vision.reference_bgr is None and vision.work_area_px is None
+        # hysteresis on value is for hue bands on raw frames: not with learned colours
+        # (their lightness range reaches into shadows already) or a reference colour (the
+        # strong pixels are classified on the balanced frame); a work area or the
+        # excluded pixels bound the weak pixels as they do the strong ones (_filtered)
+        plain = not learned and vision.reference_bgr is None
         self._weak = (
             None if shadow is None or not plain else weak_classifier(self.thresholds, shadow)
         )
@@ -247,16 +249,16 @@ class ColorDetector:
         return self._areas[key]
 
     def _classify(
-        self, frame: np.ndarray, exclude: np.ndarray | None = None, prepared: Prepared | None = None
+        self, frame: np.ndarray, prepared: Prepared
     ) -> tuple[np.ndarray, tuple[int, int, int, int]]:
         """Class codes of a frame and the box outside which all are 0 (may be loose).
 
         The frame is white-balanced first when the config holds a reference colour, the
         learned colours' codes take their pixels before the hue bands', and nothing
-        outside the work area, or inside ``exclude`` (0/255, (H, W)), is kept
-        (:mod:`mearm.vision.learned`). ``prepared``: :meth:`area_and_gain`'s, if known.
+        outside the area looked in (the work area less the excluded pixels) is kept
+        (:mod:`mearm.vision.learned`). ``prepared``: :meth:`area_and_gain`'s.
         """
-        area, whole, gain = prepared or self.area_and_gain(frame, exclude)
+        area, whole, gain = prepared
         if self.learned is None and area is None:
             balanced = frame if gain is None else balance_by(frame, gain)
             return self.classifier.classify_with_box(balanced)
@@ -313,12 +315,19 @@ class ColorDetector:
         """Filtered masks of the box around every classified pixel, and the box origin.
 
         Outside that box (grown by the median's reach) every mask is 0, so working
-        inside it gives the full frame's result exactly, for less work.
+        inside it gives the full frame's result exactly, for less work. With
+        ``vision.shadow_value_min`` the regions are grown into their shadows inside the
+        area looked in only, as the strong pixels are classified there: a shadow is not
+        followed out of the work area or into the arm's mask.
         """
         frame = check_frame(frame_bgr)
-        codes, (x, y, w, h) = self._classify(frame, exclude, prepared)
+        prepared = prepared or self.area_and_gain(frame, exclude)
+        codes, (x, y, w, h) = self._classify(frame, prepared)
         if self._weak is not None:  # regions grown into their shadows (mearm.vision.shadows)
             weak, (x, y, w, h) = self._weak.classify_with_box(frame)
+            area, whole, _ = prepared
+            if area is not None and not whole:  # no shadow grown past the work area
+                weak = cv2.bitwise_and(weak, area)
             codes = grow_into_shadows(codes, weak, len(self.class_names))
         k = self.vision.median_kernel
         if w == 0 or h == 0:

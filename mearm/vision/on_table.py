@@ -21,7 +21,12 @@ its points there: nothing seen there is against the object, and the share stays 
 the whole ring. Left out, they made the robot along one side of an object near the edge
 weigh more than the quarter of the ring it is (a third of the rest when a quarter of the
 ring is beyond the edge: the object dropped, where mid-frame it is kept). Ring pixels
-inside the frame but outside the work area or in the excluded mask are not counted. A
+outside the work area count as the surface too, for the same reasons: the work area says
+where objects can be and nothing is looked for past it, so what is seen there (the
+floor, the robot's base beyond the table's outline) is no evidence against an object in
+it; the quick test counts its points there as the surface already; and left out, they
+weighed the rest of the ring as the frame's edge did. Ring pixels in the excluded mask
+(the arm's body, inside the work area) are not counted: the arm is there, seen or not. A
 detection is kept when at least :data:`SURFACE_SHARE` of its counted ring is of the
 surface. Needs a reference colour and a calibration (one object's size); without either
 every detection is kept.
@@ -68,6 +73,10 @@ class SurfaceDetector(ObjectBounds, Protocol):
 
     def codes_of(self, frame: np.ndarray, gain: np.ndarray | None) -> np.ndarray:
         """Class codes (0: none) of a frame or window after ``gain``."""
+        ...
+
+    def work_area(self, shape: Sequence[int]) -> np.ndarray | None:
+        """The work area's 0/255 mask for frames of ``shape``, or ``None``: the whole frame."""
         ...
 
 
@@ -175,6 +184,7 @@ def on_table(
         return found
     area, whole, gain = prepared
     counted = None if whole else area
+    work = None if whole else detector.work_area(frame_bgr.shape)
     lut = surface_table(detector)
     narrow = narrowest_px(found, detector, frame_bgr.shape) if narrow_px is None else narrow_px
     sure = _surely_on_table(found, narrow, frame_bgr, counted, gain, lut)
@@ -182,7 +192,8 @@ def on_table(
         return found
     colours = colours_of(found, detector)
     keep = [
-        bool(s) or _on_table(d, w, detector.class_names.index(c) + 1, frame_bgr, counted, gain, lut)
+        bool(s)
+        or _on_table(d, w, detector.class_names.index(c) + 1, frame_bgr, (counted, work), gain, lut)
         for d, w, c, s in zip(found, narrow, colours, sure, strict=True)
     ]
     return [d for d, k in zip(found, keep, strict=True) if k]
@@ -228,14 +239,18 @@ def _on_table(
     narrow_px: float,
     code: int,
     frame_bgr: np.ndarray,
-    counted: np.ndarray | None,
+    areas: tuple[np.ndarray | None, np.ndarray | None],
     gain: np.ndarray | None,
     lut: np.ndarray,
 ) -> bool:
     """Whether at least :data:`SURFACE_SHARE` of one detection's ring is the surface.
 
-    ``code``: the class code of its colour.
+    ``code``: the class code of its colour. ``areas``: the area looked in and the work
+    area (0/255 (H, W) each, ``None``: everywhere); ring pixels outside the work area are
+    the surface, those in the area looked in or outside the work area are counted
+    (module docstring).
     """
+    counted, work = areas
     inner, outer = RING[0] * narrow_px, RING[1] * narrow_px
     reach = math.ceil(outer) + 1
     height, width = frame_bgr.shape[:2]
@@ -249,12 +264,16 @@ def _on_table(
         (x0 - (x - reach), x + bw + reach - x1),
     )
     seen = _looked_up(frame_bgr[y0:y1, x0:x1], gain, lut)
+    where = None if counted is None else counted[y0:y1, x0:x1] > 0
+    if work is not None and where is not None:
+        # outside the work area as beyond the frame: the surface, and counted
+        outside = work[y0:y1, x0:x1] == 0
+        seen = np.where(outside, TABLE, seen)
+        where |= outside
     entries = np.pad(seen, beyond, constant_values=TABLE)
     own = np.zeros(entries.shape, bool)
     own[reach : reach + bh, reach : reach + bw] = True
     own &= (entries & 0xFF) == code
-    where = (
-        None if counted is None else np.pad(counted[y0:y1, x0:x1] > 0, beyond, constant_values=True)
-    )
+    where = None if where is None else np.pad(where, beyond, constant_values=True)
     share = surface_share(entries > 0, own, where, inner, outer)
     return share is None or share >= SURFACE_SHARE
