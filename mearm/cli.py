@@ -269,6 +269,17 @@ def config_from_args(args: argparse.Namespace) -> Config:
     return load_config(args.config, getattr(args, "set", None) or ())
 
 
+def backup_written(path: Path) -> str:
+    """The line naming the backup of ``path`` once kept: ``wrote PATH.bak (the old PATH)``.
+
+    Every file a command writes is named on stdout, a backup of the file it replaces
+    (:func:`mearm.fileio.backup_path`) before the file that replaced it.
+    """
+    from mearm.fileio import backup_path
+
+    return f"wrote {backup_path(path)} (the old {path})"
+
+
 def write_text_atomic(path: Path, text: str) -> None:
     """Write ``text`` to ``path`` in one step (:func:`mearm.fileio.write_atomic`).
 

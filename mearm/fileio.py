@@ -56,6 +56,11 @@ _previous: dict[int, Any] = {}
 _install_lock = threading.Lock()
 
 
+def backup_path(path: Path) -> Path:
+    """Where a file a command replaces is kept: ``<path>.bak`` beside it."""
+    return path.with_name(path.name + ".bak")
+
+
 def write_atomic(path: str | os.PathLike[str], data: bytes | str) -> Path:
     """Replace the file at ``path`` with ``data`` in one step (see the module docstring).
 

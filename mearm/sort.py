@@ -45,6 +45,11 @@ With ``servo.calibrate_at_start: when_uncalibrated`` it first calibrates them by
 (:mod:`mearm.maker.camera_calibration.at_start`), prints one line (the fit's residual, the
 seconds of arm motion) and sorts with that calibration; ``--save-calibration FILE`` also
 writes it. A fit that does not converge stops the sort before its first pick (exit 1).
+
+Each file the sort writes is named on stdout as it lands, also with ``--quiet``:
+``wrote PATH`` for ``--save-mjcf PATH`` (before the run) and ``--save-calibration FILE``
+(after the calibration's line; an existing FILE kept first, ``wrote FILE.bak (the old
+FILE)``). The outcome stays the last line.
 """
 
 from __future__ import annotations
@@ -304,7 +309,7 @@ def _sort(argv: Sequence[str] | None) -> int:
     scene = scene_from_args(args, config)
     mjcf = _scene_mjcf(config, scene) if args.save_mjcf is not None else None
     lines: list[str] = []
-    echo = lines.append if args.quiet else echo_line
+    echo = _quiet_echo(lines) if args.quiet else echo_line
     # its directory checked before any motion; a --scene table kept for a replay
     recorder = recorder_from_args(args, config, scene)
 
@@ -328,7 +333,7 @@ def _sort(argv: Sequence[str] | None) -> int:
     try:
         if mjcf is not None:  # the last of the inputs accepted (the log's lock included)
             write_text_atomic(args.save_mjcf, mjcf)
-            print(f"MJCF: {args.save_mjcf}", flush=True)
+            print(f"wrote {args.save_mjcf}", flush=True)
         report = run_sort(
             config,
             scene=scene,
@@ -368,6 +373,23 @@ def _sort(argv: Sequence[str] | None) -> int:
         print(f"mearm sort: {report.outcome.line()}", file=sys.stderr)
         return EXIT_FAILURE
     return EXIT_OK
+
+
+def _quiet_echo(lines: list[str]) -> Callable[[str], None]:
+    """What ``--quiet`` echoes the run's lines with: each kept in ``lines``, or printed.
+
+    A ``wrote PATH`` line (``--save-calibration``) is printed at once, the others kept for
+    the summary: every file a command writes is named on stdout, and the summary keeps
+    only its own lines.
+    """
+
+    def echo(line: str) -> None:
+        if line.startswith("wrote "):
+            echo_line(line)
+        else:
+            lines.append(line)
+
+    return echo
 
 
 def _said_on_open(note: str | None) -> Callable[[Rig], None] | None:

@@ -111,7 +111,7 @@ def test_an_uncalibrated_kit_calibrates_clear_of_the_objects_then_sorts(tmp_path
     assert watched["clock_s"] <= 180.0  # type: ignore[operator]
     (said,) = [ln for ln in lines if ln.startswith("servos calibrated by the camera")]
     assert "rms" in said and "s of arm motion" in said
-    assert f"calibration written: {out}" in lines
+    assert f"wrote {out}" in lines
     assert sorter.config.servo.calibration_file is None  # kept in memory
     assert sorter.config.arm != config.arm  # the fit, not the nominal calibration
     assert {a.name for a in load_servo_calibration(out).actuators} == {

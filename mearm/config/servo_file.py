@@ -87,7 +87,7 @@ from mearm.config.servo_reach import (  # noqa: F401  (the checks on a fit, used
     turns,
 )
 from mearm.errors import ConfigError
-from mearm.fileio import write_atomic
+from mearm.fileio import backup_path, write_atomic
 from mearm.yamlio import load_yaml_file
 
 FORMAT = "mearm-servo-calibration"
@@ -484,7 +484,7 @@ def save_servo_calibration(
                     f"{target.name}.bak)"
                 )
             if target.is_file():
-                write_atomic(target.with_name(target.name + ".bak"), target.read_bytes())
+                write_atomic(backup_path(target), target.read_bytes())
         target.parent.mkdir(parents=True, exist_ok=True)
         return write_atomic(target, cal.text())
     except OSError as exc:

@@ -18,7 +18,9 @@ one stops the command before anything runs, with one line naming its Debian pack
 (exit 2); so does a ``--port`` that does not exist or is a folder (not checked by
 ``--dry-run``, which may run with no board plugged in). The build goes to
 ``--build-dir`` (default ``~/.cache/mearm/firmware``), so the firmware source may be
-read-only (an installed package).
+read-only (an installed package); once built, it is named on stdout before the upload
+(``wrote DIR/ (the firmware's build: mearm_servo.hex and its objects)``), as every file or
+folder a command writes is.
 
 A config whose board is the virtual Uno (``servo.backend: virtual_uno``) has nothing to
 flash: that board runs the firmware built from the source each time a command starts
@@ -222,6 +224,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     if not plan.hex_file.is_file():
         print(f"flash: the build wrote no {plan.hex_file}", file=sys.stderr)
         return EXIT_FAILURE
+    print(f"wrote {plan.hex_file.parent}/ (the firmware's build: {plan.hex_file.name} and "
+          "its objects)", flush=True)  # fmt: skip
     if not _run_step("upload", plan.upload, UPLOAD_TIMEOUT_S):
         print(
             "flash: check the port (mearm find-port), that no other program holds it, and "

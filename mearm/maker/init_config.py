@@ -15,7 +15,8 @@ The simulated rigs (``sim``, ``sim_mujoco``) write the reference config as it is
 rigs (``uno``, ``ssc32``) replace its servo link and camera with a real board and a USB
 camera; the pixel-to-table calibration is then the reference's and must be redone for
 your camera. The file is checked to load before it is written; an existing file is only
-replaced with ``--force``, and kept as ``FILE.bak``. A reference config that builds on
+replaced with ``--force``, and kept as ``FILE.bak`` (named on stdout first: ``wrote
+FILE.bak (the old FILE)``). A reference config that builds on
 another (``extends``) is copied with its ``extends``, which then names the packaged
 config: the starter config is
 not written into a folder where a file of that name would be read instead. The real rigs'
@@ -40,11 +41,11 @@ from typing import Any
 import yaml
 
 from mearm import __version__, data
-from mearm.cli import EXIT_OK, ArgumentParser, run, write_text_atomic
+from mearm.cli import EXIT_OK, ArgumentParser, backup_written, run, write_text_atomic
 from mearm.config import Config, config_from_dict, load_config
 from mearm.config.compose import EXTENDS_KEY
 from mearm.errors import ConfigError, MearmError
-from mearm.fileio import write_atomic
+from mearm.fileio import backup_path, write_atomic
 from mearm.maker.wiring import Board, wiring_text
 from mearm.yamlio import load_yaml_text
 
@@ -549,13 +550,17 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 
 def _keep_old(out: Path) -> None:
-    """A config replaced with --force (a maker may have edited it) is kept as ``.bak``."""
+    """A config replaced with --force (a maker may have edited it) is kept as ``.bak``.
+
+    The backup is named on stdout once written, as every file a command writes is.
+    """
     if out.is_file():
-        bak = out.with_name(out.name + ".bak")
+        bak = backup_path(out)
         try:
             write_atomic(bak, out.read_bytes())
         except OSError as exc:
             raise MearmError(f"cannot keep {out} as {bak}: {exc.strerror or exc}") from None
+        print(backup_written(out))
 
 
 def _write_twin(of: Path, out: Path, arm_name: str | None, rig: RigChoice) -> int:

@@ -11,7 +11,7 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
-from mearm.cli import EXIT_FAILURE, EXIT_OK, check_output_file
+from mearm.cli import EXIT_FAILURE, EXIT_OK, backup_written, check_output_file
 from mearm.config import Config
 from mearm.config.servo_file import (
     ActuatorFit,
@@ -73,7 +73,9 @@ def write_calibration(
     """Check the fits together, write the file, print how a config uses it.
 
     Each fit is checked again (:func:`~mearm.config.servo_file.check_fit`) and all of
-    them together with the config's checks: one refused, nothing is written (exit 1).
+    them together with the config's checks: one refused, nothing is written (exit 1). A
+    file replaced (``force``) is kept as ``<output>.bak``, named on stdout before the file
+    itself, as every file a command writes is.
 
     Raises:
         MearmError: the file could not be written (a full disk…); the fits are printed
@@ -91,6 +93,7 @@ def write_calibration(
         print(f"mearm calibrate-servos: refused: {exc}; nothing written", file=sys.stderr)
         return EXIT_FAILURE
     cal = ServoCalibrationFile(config.arm.name, board, port, now_iso(), tuple(fits))
+    replaces = output.is_file()  # save_servo_calibration keeps a file it replaces as .bak
     try:
         written = save_servo_calibration(output, cal, force=force)
     except ServoCalibrationError as exc:
@@ -99,6 +102,8 @@ def write_calibration(
         print("not written; the fits, as overrides for a command or the config's servos:")
         _print_overrides(config, fits)
         raise MearmError(f"{exc}; the fits are printed above as --set overrides") from None
+    if replaces:
+        print(backup_written(output))
     print(f"wrote {written} ({len(fits)} actuator{'s' if len(fits) != 1 else ''})")
     print(
         f"to use it, add to the config's servo section:  calibration_file: {written}\n"

@@ -41,6 +41,10 @@ second picture of markers lying on a box of measured height (``--raised-image``,
 ``--raised-height-cm``, ``--raised-marker ID:X,Y`` each, the centres measured as on
 the table) puts points at two heights into one (non-planar) pose fit, which that
 rotation no longer fits.
+
+A file replaced is kept beside it as ``<name>.bak`` (a config with ``--force`` or as an
+``--output`` other than ``--config``, a pose file always), named on stdout before the file
+that replaced it: ``wrote <name>.bak (the old <name>)``.
 """
 
 from __future__ import annotations
@@ -61,6 +65,7 @@ from ruamel.yaml.comments import CommentedMap, CommentedSeq
 from mearm.cli import (
     PLAIN_DECIMAL,
     ArgumentParser,
+    backup_written,
     check_output_file,
     check_plain_number,
     plain_float,
@@ -71,7 +76,7 @@ from mearm.config import config_from_dict
 from mearm.config.base import MAX_LENGTH_CM, short_repr
 from mearm.config.errors import CalibrationError
 from mearm.errors import ConfigError, InputFileError, MearmError
-from mearm.fileio import file_identity, write_atomic
+from mearm.fileio import backup_path, file_identity, write_atomic
 from mearm.vision.aruco import (
     DEFAULT_DICTIONARY,
     calibration_from_markers,
@@ -402,9 +407,13 @@ def write_atomically(path: Path, text: str) -> None:
 
 
 def backup_existing(path: Path) -> None:
-    """Keep an existing regular file's contents as ``<path>.bak`` before it is replaced."""
+    """Keep an existing regular file's contents as ``<path>.bak`` before it is replaced.
+
+    The backup is named on stdout once written, as every file a command writes is.
+    """
     if path.is_file():
-        write_atomic(path.with_name(path.name + ".bak"), path.read_bytes())
+        write_atomic(backup_path(path), path.read_bytes())
+        print(backup_written(path))
 
 
 def _parser() -> ArgumentParser:
@@ -755,7 +764,10 @@ def _pose(parser: ArgumentParser, args: argparse.Namespace) -> int:
         new_config = point_config_at_files(
             config_text, args.intrinsics, args.out, args.output or args.config, str(args.config)
         )
+    replaces = args.out.is_file()  # save_calibration keeps a file it replaces as .bak
     save_calibration(args.out, pose, force=args.force)
+    if replaces:
+        print(backup_written(args.out))
     print(f"wrote the camera pose to {args.out}")
     if new_config is not None:
         target = args.output or args.config

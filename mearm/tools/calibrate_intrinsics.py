@@ -13,7 +13,9 @@ corner of the view, tilted up to ~40° in different directions, 20–50 cm away)
 It prints the RMS error, each view's error, the camera matrix and distortion, and writes
 the versioned calibration file (:func:`mearm.vision.pinhole.save_calibration`): an
 existing file holding a better calibration of the same camera is kept unless
-``--force`` (the replaced file is kept as ``<name>.bak``). ``--dry-run`` writes nothing.
+``--force`` (the replaced file is kept as ``<name>.bak``). Each file written is named on
+stdout: ``wrote <name>.bak (the old <name>)``, then ``wrote <name>``. ``--dry-run`` writes
+nothing.
 Print the board with ``mearm charuco-board``.
 
 With explicit image files every image must show the board; in a folder, images without
@@ -31,6 +33,7 @@ from pathlib import Path
 from mearm.cli import (
     PLAIN_INTEGER,
     ArgumentParser,
+    backup_written,
     check_output_file,
     check_plain_number,
     positive_number,
@@ -209,10 +212,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.dry_run:
         print(f"dry run: {args.out} not written")
         return 0
+    replaces = args.out.is_file()  # save_calibration keeps a file it replaces as .bak
     try:
         save_calibration(args.out, report.intrinsics, force=args.force)
     except OSError as exc:
         raise MearmError(f"cannot write {args.out}: {exc.strerror or exc}") from None
+    if replaces:
+        print(backup_written(args.out))
     print(f"wrote {args.out}")
     return 0
 

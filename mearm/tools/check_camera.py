@@ -22,7 +22,9 @@ its ``rms_px`` its own reprojection error over the check points), and prints the
 residuals the refined pose gives on the same frames. An existing OUT is replaced (and
 kept as ``OUT.bak``) only by a pose no worse, compared like with like
 (:func:`write_refined`); a marker-fitted pose a refine displaces is kept as
-``OUT.markers.bak``, which no refine replaces.
+``OUT.markers.bak``, which no refine replaces. Each file written is named on stdout, the
+backups first (``wrote OUT.markers.bak (the marker-fitted pose OUT.bak held)``,
+``wrote OUT.bak (the old OUT)``), then ``wrote OUT``.
 
 Exit 0: the check ran and printed its figures; 1: it could not complete (no object seen,
 no room for as many points as asked, a point that failed, a camera or servo fault during
@@ -47,6 +49,7 @@ from mearm.cli import (
     PLAIN_INTEGER,
     ArgumentParser,
     add_config_argument,
+    backup_written,
     check_output_file,
     check_plain_number,
     config_from_args,
@@ -57,7 +60,7 @@ from mearm.config import Config
 from mearm.config.errors import CalibrationError
 from mearm.config.files import resolve_config_path
 from mearm.errors import MearmError
-from mearm.fileio import write_atomic
+from mearm.fileio import backup_path, write_atomic
 from mearm.hardware.errors import ServoError
 from mearm.task.armcheck import (
     MAX_POINTS,
@@ -185,7 +188,7 @@ def check_refine_output(out: Path, checked: Extrinsics, *, force: bool) -> Path 
             "rms_px is over markers, a refined one's over the arm's points): write "
             "elsewhere, check that pose, or pass --force"
         )
-    backup = out.with_name(out.name + ".bak")
+    backup = backup_path(out)
     if not (out.is_file() and _marker_fit(_pose_in(backup))):
         return None
     keep_as = out.with_name(out.name + MARKER_FIT_SUFFIX)
@@ -210,7 +213,9 @@ def write_refined(out: Path, check: ArmCheck, checked: Extrinsics, *, force: boo
     over its own check's points) are compared by
     :func:`~mearm.vision.pinhole.save_calibration`'s rule. The worse is not written
     without ``force``. The pose ``out`` held is kept as ``out.bak``, and a marker-fitted
-    one that ``out.bak`` held as ``out.markers.bak`` (:func:`check_refine_output`).
+    one that ``out.bak`` held as ``out.markers.bak`` (:func:`check_refine_output`); each
+    backup is named on stdout once written (``wrote PATH (…)``), so a user sees every file
+    the refine changed. The caller names ``out``.
 
     Raises:
         CalibrationError: the pose in ``out`` is better, or not to be weighed.
@@ -227,16 +232,21 @@ def write_refined(out: Path, check: ArmCheck, checked: Extrinsics, *, force: boo
             f"{check.checked_rms_px:.3f} px) than the refined one (rms {refined.rms_px:.3f} "
             "px): kept; pass --force to replace it"
         )
+    backup = backup_path(out)
     if keep_as is not None:
         try:
-            write_atomic(keep_as, out.with_name(out.name + ".bak").read_bytes())
+            write_atomic(keep_as, backup.read_bytes())
         except OSError as exc:
             raise MearmError(f"cannot write {keep_as}: {exc.strerror or exc}") from None
+        print(f"wrote {keep_as} (the marker-fitted pose {backup} held)")
+    replaces = out.is_file()  # save_calibration keeps a file it replaces as out.bak
     try:
         # the pose checked is weighed above; any other by the file's own rule
         save_calibration(out, refined, force=force or holds_checked)
     except OSError as exc:
         raise MearmError(f"cannot write {out}: {exc.strerror or exc}") from None
+    if replaces:
+        print(backup_written(out))
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -26,7 +26,7 @@ import yaml
 from mearm.config.base import short_repr
 from mearm.config.errors import CalibrationError
 from mearm.errors import ConfigError
-from mearm.fileio import write_atomic
+from mearm.fileio import backup_path, write_atomic
 from mearm.yamlio import load_yaml_file
 
 FORMAT = "mearm-camera-calibration"
@@ -345,7 +345,7 @@ def save_calibration(path: str | Path, cal: CalibrationFile, *, force: bool = Fa
         if not force:
             _check_replace(target, cal)
         if old_text is not None:
-            write_atomic(target.with_name(target.name + ".bak"), old_text)
+            write_atomic(backup_path(target), old_text)
     return write_atomic(target, calibration_text(cal))
 
 

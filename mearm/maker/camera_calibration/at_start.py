@@ -31,6 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
+from mearm.cli import backup_written
 from mearm.config import Config
 from mearm.config.servo_file import (
     ActuatorFit,
@@ -96,12 +97,19 @@ class Calibrated:
             "motion; kept for this run"
         )
 
-    def save(self, output: Path) -> Path:
-        """Write the fit as ``mearm calibrate-servos`` does (an existing file is kept as .bak)."""
+    def save(self, output: Path) -> list[str]:
+        """Write the fit as ``mearm calibrate-servos`` does: the lines that name what it wrote.
+
+        An existing file is kept as ``<output>.bak``, named first (``wrote <output>.bak (the
+        old <output>)``), then ``wrote <output>``: the sort names every file it writes.
+        """
         cal = ServoCalibrationFile(
             self.config.arm.name, self.board, self.port, now_iso(), tuple(self.fits)
         )
-        return save_servo_calibration(output, cal, force=True)
+        replaces = output.is_file()  # save_servo_calibration keeps it as .bak
+        written = save_servo_calibration(output, cal, force=True)
+        kept = [backup_written(output)]
+        return [*(kept if replaces else []), f"wrote {written}"]
 
 
 def calibrate(config: Config, rig: Rig, *, simulated: bool) -> Calibrated:
@@ -168,7 +176,7 @@ def calibrator(save: Path | None = None) -> CalibrateFirst:
         hand_over(bus, ArmModel(done.config.arm), done.config)
         lines = [done.line()]
         if save is not None:
-            lines.append(f"calibration written: {done.save(save)}")
+            lines += done.save(save)
         return done.config, lines
 
     return calibrate_first
