@@ -71,7 +71,6 @@ if _PAUSE_COLLECTOR:
 try:
     from mearm import interrupts
     from mearm.cli import (
-        EXIT_BAD_INPUT,
         EXIT_FAILURE,
         EXIT_OK,
         ArgumentParser,
@@ -355,9 +354,11 @@ def _sort(argv: Sequence[str] | None) -> int:
         return interrupts.exit_status() if exc.interrupted else EXIT_FAILURE
     except (CameraError, ServoError) as exc:
         # raised only before the sort started (inside it, a fault is SortAborted): a
-        # camera or link that cannot be opened as configured, found before any motion
-        print(f"mearm sort: error: {exc}", file=sys.stderr)
-        return EXIT_BAD_INPUT
+        # camera or link that cannot be opened as configured, found before any motion:
+        # bad input, said by run() as every command's error line is (one line, exit 2)
+        from mearm.task.armcheck import RigNotOpened  # noqa: PLC0415  (did not open)
+
+        raise RigNotOpened(str(exc)) from exc
     except KeyboardInterrupt as exc:
         # outside the sort's own loop (opening the rig or the view, closing them): the
         # arm is at home or was parked by the sorter

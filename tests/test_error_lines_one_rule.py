@@ -105,3 +105,15 @@ def test_an_option_value_too_long_to_say_whole_is_cut_in_the_middle() -> None:
     assert len(result.line) <= len("mearm ik: error: ") + cli.LINE_MAX, len(result.line)
     assert result.line.startswith("mearm ik: error: argument --target")
     assert "…" in result.line
+
+
+@pytest.mark.bad_input
+def test_sort_cuts_a_long_rig_line_in_the_middle(tmp_path: Path) -> None:
+    """``sort`` printed its rig-not-open line itself too: the same cut, exit 2, one line."""
+    port = long_port(tmp_path)
+    result = check_bad_input(
+        ["sort", "--config", ROOT / "configs" / "sim.yaml", "--set", "servo.backend=serial",
+         "--set", f"servo.port={port}"],
+        within_s=5, keep=[tmp_path],
+    )  # fmt: skip
+    check_cut_line(result.line, "mearm sort", port)

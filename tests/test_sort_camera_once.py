@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from badinput import run_in_process
 from fakeboard import FakeMearmBoard, MearmFaults
 
 from mearm import sort
@@ -64,11 +65,11 @@ def test_the_note_is_said_with_the_camera_opened_once(capture, capsys, tmp_path)
     assert capture.opens == 1
 
 
-def test_a_camera_not_there_is_tried_once_and_said_alone(capture, capsys, monkeypatch):
+def test_a_camera_not_there_is_tried_once_and_said_alone(capture, monkeypatch):
     """The camera is not there: one line, the error (exit 2), no note; one try to open it."""
     monkeypatch.setattr(CountingCapture, "plugged", False)
-    code = sort.main(LAB)
-    lines = capsys.readouterr().err.splitlines()
-    assert code == 2
+    out = run_in_process(["sort", *LAB])  # said by the guard every command runs under
+    lines = out.stderr.splitlines()
+    assert out.code == 2
     assert len(lines) == 1 and lines[0].startswith("mearm sort: error: camera (device 0)"), lines
     assert capture.opens == 1
