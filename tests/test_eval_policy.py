@@ -132,12 +132,20 @@ def test_a_run_where_some_episodes_ran_is_scored(tmp_path, policies, capsys):
 
 
 def test_videos_of_the_first_episodes_are_written(tmp_path):
-    """--videos 1 writes the first episode as an MP4 beside the JSON."""
+    """--videos 1 writes the first episode as an H.264 MP4 beside the JSON, every frame
+    (lerobot-eval's encoding; SVT-AV1 at its defaults deadlocked under load)."""
+    import av
+
     out = tmp_path / "v.json"
     assert main(["--jobs", "1", "--episodes", "1", "--videos", "1", "--out", str(out),
                  "--env-option", "image_size=[24, 32]"]) == 0  # fmt: skip
-    video = Path(json.loads(out.read_text())["per_episode"][0]["video"])
+    episode = json.loads(out.read_text())["per_episode"][0]
+    video = Path(episode["video"])
     assert video.parent == tmp_path / "videos" and video.stat().st_size > 1000
+    with av.open(str(video)) as container:
+        stream = container.streams.video[0]
+        assert stream.codec_context.name == "h264"
+        assert sum(1 for _ in container.decode(stream)) == episode["steps"]
 
 
 def test_a_video_on_a_full_disk_raises_its_error_and_leaves_no_part(tmp_path):

@@ -34,6 +34,10 @@ from mearm import interrupts
 from mearm.cli import ordered_results
 from mearm.envs.policies import Policy, checked_action, load_policy, not_finite
 
+#: The encoding of ``--videos`` (a key of :data:`mearm.dataset.lerobot_format.VIDEO_CODECS`):
+#: H.264, as ``lerobot-eval`` writes its videos.
+EVAL_VIDEO_CODEC = "h264"
+
 
 @dataclass(frozen=True)
 class EpisodeResult:
@@ -167,21 +171,26 @@ class Runner:
 
 
 def write_video(path: Path, frames: Sequence[np.ndarray], fps: int) -> None:
-    """Frames (H, W, 3) RGB as an AV1 MP4 (PyAV, of ``mearm[record]``), in one step.
+    """Frames (H, W, 3) RGB as an H.264 MP4 (PyAV, of ``mearm[record]``), in one step.
 
-    Written beside ``path`` and renamed onto it once whole: a signal or a full disk
-    leaves the file that was there (``--force``) and no half video.
+    H.264 as ``lerobot-eval`` writes its videos (libx264, yuv420p), at the settings of
+    ``--record-codec h264`` (:data:`~mearm.dataset.lerobot_format.VIDEO_CODECS`: one
+    thread, a worker's core each). Not SVT-AV1 at its defaults, as before: under load its
+    threads deadlocked now and then, the encode blocked in ``svt_av1_enc_get_packet``
+    for good, and with it the worker and a parent stopping its pool. Written beside
+    ``path`` and renamed onto it once whole: a signal or a full disk leaves the file that
+    was there (``--force``) and no half video.
     """
     from mearm.dataset import lerobot_format as L  # noqa: PLC0415
     from mearm.dataset.recorder import import_extra  # noqa: PLC0415
 
     av = import_extra()[2]
-    os.environ.setdefault("SVT_LOG", "1")  # SVT-AV1: errors only, not its banner
+    spec = L.VIDEO_CODECS[EVAL_VIDEO_CODEC]
     path.parent.mkdir(parents=True, exist_ok=True)
     part = path.with_name(f".{path.name}.{os.getpid()}.part")
     try:
         with av.open(str(part), "w", format="mp4") as out:
-            stream = out.add_stream(L.VIDEO_CODEC, rate=fps, options={"crf": str(L.VIDEO_CRF)})
+            stream = out.add_stream(spec.encoder, rate=fps, options=spec.options())
             stream.height, stream.width = frames[0].shape[:2]
             stream.pix_fmt = L.VIDEO_PIX_FMT
             for k, rgb in enumerate(frames):
@@ -317,9 +326,17 @@ class _Pool(ProcessPoolExecutor):
         finally:
             signal.pthread_sigmask(signal.SIG_SETMASK, held)
 
-    def shutdown(self, wait: bool = True, *, cancel_futures: bool = False) -> None:  # noqa: D102, FBT001, FBT002 - Executor's
-        self._stop.set()  # the work is done, or given up: either way, nothing more to run
-        super().shutdown(wait=wait, cancel_futures=cancel_futures)
+    def shutdown(self, wait: bool = True, *, cancel_futures: bool = False) -> None:  # noqa: FBT001, FBT002 - Executor's
+        """Tell the workers to stop, and shut the pool down whole: a Ctrl-C is taken after.
+
+        A second Ctrl-C (or SIGTERM) while the pool waited for its workers to end their
+        episodes cut the shutdown in two: the workers were never told to end, and the
+        parent, after "interrupted", waited at exit for them forever (two SIGINTs 10 ms
+        apart, as ``timeout -s INT`` sends one to the command and one to its group).
+        """
+        with interrupts.signals_deferred():
+            self._stop.set()  # the work is done, or given up: either way, nothing more to run
+            super().shutdown(wait=wait, cancel_futures=cancel_futures)
 
 
 def run_episodes(job: Job, seeds: Sequence[int], jobs: int) -> Generator[EpisodeResult]:
