@@ -243,9 +243,15 @@ class FakeMearmBoard(FakeBoard):
             self.mode = "HOLD"
             self.send(encode_line("! HOLD"))
 
-    def _reply(self, body: str) -> None:
+    def _reply(self, body: str, *, remember: bool = True) -> None:
+        """Send a reply; ``remember``: the one a resend of the command gets again.
+
+        As the firmware's ``out_send(seq >= 0)``: an ``ERR -`` (no ``seq`` read) answers
+        no command, so a resend after it gets the reply before it.
+        """
         line = encode_line(body)
-        self._last_reply = line
+        if remember:
+            self._last_reply = line
         self._transmit(line)
 
     def _transmit(self, line: bytes) -> None:
@@ -294,20 +300,20 @@ class FakeMearmBoard(FakeBoard):
     def _execute(self, line: bytes) -> None:
         """What the firmware's ``handle_line`` does, in the same order."""
         if len(line) > MAX_LINE:
-            self._reply(f"ERR - {ERR_LINE_TOO_LONG} long")
+            self._reply(f"ERR - {ERR_LINE_TOO_LONG} long", remember=False)
             return
         split = split_frame(line)
         if split is None:
-            self._reply(f"ERR - {ERR_MALFORMED} syntax")
+            self._reply(f"ERR - {ERR_MALFORMED} syntax", remember=False)
             return
         body, ok = split
         if not ok:
-            self._reply(f"ERR - {ERR_CHECKSUM} checksum")
+            self._reply(f"ERR - {ERR_CHECKSUM} checksum", remember=False)
             return
         tokens = body.decode("ascii").split(" ")
         seq = tokens[0]
         if not (seq.isdigit() and len(seq) <= 3 and int(seq) <= 255):
-            self._reply(f"ERR - {ERR_MALFORMED} syntax")
+            self._reply(f"ERR - {ERR_MALFORMED} syntax", remember=False)
             return
         if line == self._last_frame and self._last_reply is not None:
             self._transmit(self._last_reply)  # a resend: answer again, do not act twice

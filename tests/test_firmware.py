@@ -230,6 +230,8 @@ CONFORMANCE = [
     encode_command(9, "M", [0, 2500, 500, 0, 1200]).rstrip(),
     encode_command(10, "S").rstrip(),
     encode_command(11, "Q").rstrip(),
+    b"12 V*00",  # bad checksum: ERR -, which is no answer to a command
+    encode_command(11, "Q").rstrip(),  # so a resend after it is answered as before
 ]
 
 
@@ -243,7 +245,10 @@ def test_firmware_and_fake_board_answer_alike(chip):
     codes = [decode_line(r) for r in firmware_replies]
     assert [c.kind for c in codes[:4]] == ["OK"] * 4 and firmware_replies[1] == firmware_replies[2]
     assert [c.code for c in codes[4:12]] == [1, 2, 5, 4, 3, 2, 6, 2]
-    assert firmware_replies[-1].startswith(b"OK 11 HOLD 0 2500 500 0 1200*")
+    assert firmware_replies[-3].startswith(b"OK 11 HOLD 0 2500 500 0 1200*")
+    assert (
+        decode_line(firmware_replies[-2]).code == 1 and firmware_replies[-1] == firmware_replies[-3]
+    )
 
 
 @pytest.mark.heavy

@@ -29,6 +29,7 @@ from mearm.hardware.mearm_protocol import (
     ERR_CHECKSUM,
     ERROR_CODES,
     FIRMWARE_NAME,
+    MAX_LINE,
     PROTOCOL_MAJOR,
     SEQ_MODULO,
     BadChecksum,
@@ -174,6 +175,17 @@ class ArduinoBus(SerialServoBus):
                     f"{self.port}: {j.name}'s pulse range [{j.min_us}, {j.max_us}] µs is "
                     f"wider than the board's [{info.min_us}, {info.max_us}] µs"
                 )
+        # a move names every channel the board drives: it must fit one line, or every
+        # move would fail to encode (a ValueError, not a fault) after a handshake passed
+        longest = max(j.max_us for j in self.servo_map.actuators)
+        try:
+            encode_command(SEQ_MODULO - 1, "M", [longest] * info.servo_count)
+        except ValueError:
+            raise HandshakeError(
+                f"{self.port}: the board reports {info.servo_count} servo channels; a move "
+                f"to that many does not fit the protocol's {MAX_LINE}-character line (the "
+                "firmware drives 5): flash tools/arduino/mearm_servo"
+            ) from None
         return info
 
     def _next_seq(self) -> int:
@@ -187,13 +199,15 @@ class ArduinoBus(SerialServoBus):
             NoAckError: no reply in time.
             BoardError: a numbered error other than a checksum failure.
             ChecksumError: every try failed its checksum.
-            BoardResetError: the board printed its banner instead.
+            BoardResetError: the board printed its banner instead, or before the
+                command went out (:meth:`_settle`).
             LinkDroppedError: the port failed.
         """
         frame = encode_command(self._next_seq(), command, args or [])
         tries = 1 + self.link.retries
         bad = b""
         for attempt in range(1, tries + 1):
+            self._settle()
             self._write(frame)
             reply = self._await_reply(self._seq, frame)
             if isinstance(reply, Reply) and reply.kind == "OK":
@@ -212,6 +226,37 @@ class ArduinoBus(SerialServoBus):
                 "%s: try %d/%d of %r failed: %s (%r)", self.port, attempt, tries, frame, why, bad
             )
         raise ChecksumError(frame, tries, bad, "checksum failure", last_state=self.state)
+
+    def _settle(self) -> None:
+        """Take every line that came since the last reply, before a command goes out.
+
+        None of them can answer a command not yet sent: late replies, notices and junk are
+        logged and dropped. A banner among them means the board restarted between two
+        commands (a brown-out during a hold or a pause): its pulses stopped and the arm's
+        pose is unknown, so nothing more may reach it, above all not the next move, which
+        the freshly booted firmware would make at once.
+
+        Raises:
+            BoardResetError: the board printed its banner since the last reply.
+            LinkDroppedError: the port failed.
+        """
+        self._take_waiting()
+        while (line := self._read_line(deadline=0.0)) is not None:
+            decoded = decode_line(line)
+            if isinstance(decoded, Reply) and decoded.kind == "READY":
+                raise self._board_reset(line)
+            if isinstance(decoded, Reply) and decoded.kind == "NOTE":
+                log.info("%s: board notice %r", self.port, line)
+            elif decoded.raw:
+                log.warning("%s: dropped a line that came unasked %r", self.port, line[:80])
+
+    def _board_reset(self, banner: bytes) -> BoardResetError:
+        """The fault of a board that printed its ``banner`` in the middle of a session."""
+        return BoardResetError(
+            f"{self.port}: the board restarted (banner {banner!r}) and stopped its "
+            "pulses: a brown-out? Power the servos separately from the board",
+            last_state=self.state,
+        )
 
     def _await_reply(self, seq: int, frame: bytes) -> Reply | BadChecksum:
         """The reply to ``seq``: an OK or ERR for it, an ``ERR -``, or a corrupted line."""
@@ -235,11 +280,7 @@ class ArduinoBus(SerialServoBus):
             if isinstance(decoded, BadChecksum):
                 return decoded
             if decoded.kind == "READY":
-                raise BoardResetError(
-                    f"{self.port}: the board restarted (banner {line!r}) and stopped its "
-                    "pulses: a brown-out? Power the servos separately from the board",
-                    last_state=self.state,
-                )
+                raise self._board_reset(line)
             if decoded.kind == "NOTE":
                 log.info("%s: board notice %r", self.port, line)
                 continue

@@ -233,12 +233,18 @@ static void handle_line(char *line) {
     return;
   }
   *star = '\0';
+  // One space between fields, none around them (PROTOCOL.md): strtok alone would take
+  // "5  M" or "5 V " as well formed, where the fake board of the tests refuses them.
+  if (line[0] == ' ') {
+    reply_error(-1, E_MALFORMED, "syntax");
+    return;
+  }
+  bool bad_arg = strstr(line, "  ") != NULL || (star > line && star[-1] == ' ');
 
   char *tokens[2] = {NULL, NULL};  // seq, command
   uint16_t args[MAX_ARGS];
   uint8_t ntok = 0;
   uint8_t nargs = 0;
-  bool bad_arg = false;
   for (char *tok = strtok(line, " "); tok != NULL; tok = strtok(NULL, " ")) {
     if (ntok < 2) {
       tokens[ntok++] = tok;

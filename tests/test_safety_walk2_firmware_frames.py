@@ -1,0 +1,51 @@
+"""The firmware reads a frame's fields as PROTOCOL.md writes them: one space between them.
+
+``strtok`` let the firmware take ``5  V`` or ``5 V `` as well formed, where the fake Uno of
+the backend's fault tests (and the protocol) refuse them: the two no longer answered
+alike, byte for byte. The real firmware runs in simavr.
+"""
+
+from __future__ import annotations
+
+import pytest
+import serial
+from conftest import firmware_build, simulator_build
+from fakeboard import FakeMearmBoard, MearmFaults, SimavrBoard
+
+from mearm.hardware.mearm_protocol import decode_line, encode_command, encode_line
+
+SPACING = [
+    encode_line("1  V").rstrip(),  # two spaces between seq and command
+    encode_line("2 V ").rstrip(),  # a trailing space
+    encode_line(" 3 V").rstrip(),  # a leading space: no seq to answer
+    encode_line("4 M 1500  1500 1500 1500 1500").rstrip(),  # two spaces between arguments
+    encode_command(5, "V").rstrip(),  # and a good frame after them
+]
+
+
+def _exchange(port: str, lines: list[bytes]) -> list[bytes]:
+    """Open the port (a reset), wait for the banner, send each line, read one reply each."""
+    replies = []
+    with serial.Serial(port, 115200, timeout=30.0) as link:  # a hang bound only
+        while b"READY" not in link.readline():
+            pass
+        for line in lines:
+            link.write(line + b"\n")
+            replies.append(link.readline().rstrip(b"\n"))
+    return replies
+
+
+@pytest.mark.heavy
+def test_extra_spaces_are_refused_as_the_fake_board_refuses_them(tmp_path_factory):
+    firmware_build(tmp_path_factory)
+    folder = simulator_build(tmp_path_factory)
+    with SimavrBoard(str(folder / "mearm_sim"), str(folder / "mearm_servo.elf")) as chip:
+        firmware = _exchange(chip.port, SPACING)
+        assert chip.pulses == []  # the badly spaced M was not made
+    with FakeMearmBoard(MearmFaults(boot_noise=b"")) as fake:
+        assert _exchange(fake.port, SPACING) == firmware
+    codes = [decode_line(r) for r in firmware]
+    assert [(c.kind, c.seq, c.code) for c in codes[:4]] == [
+        ("ERR", 1, 2), ("ERR", 2, 2), ("ERR", None, 2), ("ERR", 4, 2)
+    ]  # fmt: skip
+    assert codes[4].kind == "OK" and codes[4].seq == 5
