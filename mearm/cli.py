@@ -606,9 +606,11 @@ def run(main: Callable[[Sequence[str] | None], int], argv: Sequence[str] | None 
     """Run a CLI ``main`` under the one guard every command shares.
 
     :class:`MearmError` (bad input) → exit 2 (its ``exit_status``: 1 for a failure
-    of the run itself, such as a full disk); Ctrl-C → 130 (a SIGTERM or SIGHUP taken as
-    Ctrl-C: 143, 129; :mod:`mearm.interrupts`), also when a library turned it into an
-    error of its own (:func:`mearm.interrupts.hidden_in`); any other exception → exit 1
+    of the run itself, such as a full disk); Ctrl-C → 130 (SIGTERM and SIGHUP are taken
+    as Ctrl-C in every command, so a supervisor's stop parks an arm, removes a temporary
+    file and ends a browser as Ctrl-C does: 143, 129; :mod:`mearm.interrupts`), also when
+    a library turned it into an error of its own (:func:`mearm.interrupts.hidden_in`);
+    any other exception → exit 1
     with one line naming the error and where its traceback was written (``--debug`` or
     ``MEARM_DEBUG=1``: the traceback itself). Standard output's reader gone (a closed
     pipe) → exit 141, quietly, as a shell's tools do. Standard output that cannot be
@@ -625,7 +627,8 @@ def run(main: Callable[[Sequence[str] | None], int], argv: Sequence[str] | None 
     code: int | str | None
     try:
         try:
-            code = main(argv)
+            with interrupts.stop_signals_as_ctrl_c():  # SIGTERM, SIGHUP: in every command
+                code = main(argv)
         except SystemExit as stop:  # argparse's --help: what it printed must arrive too
             code = stop.code  # the same exit, once standard output is flushed
         except Exception as exc:

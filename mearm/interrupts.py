@@ -10,9 +10,10 @@ Ctrl-C again, from another thread, so that it is raised where the finalizer retu
 Every other unraisable exception goes to the hook that was there before.
 
 SIGTERM and SIGHUP (what ``timeout``, ``systemctl stop``, ``docker stop`` and a closed
-terminal send) end a process at once, with nothing parked and nothing logged. A command
-that moves the arm takes them as Ctrl-C inside :func:`stop_signals_as_ctrl_c`: they raise
-:class:`Terminated`, a :class:`KeyboardInterrupt`, so the arm parks and the log says why,
+terminal send) end a process at once, with nothing parked and nothing logged. Every
+command takes them as Ctrl-C (:func:`mearm.cli.run` runs it inside
+:func:`stop_signals_as_ctrl_c`): they raise :class:`Terminated`, a
+:class:`KeyboardInterrupt`, so the arm parks, the log says why and temporary files go,
 and the command exits 128 + the signal's number (143 for SIGTERM), as the shell reports
 a process that signal ended.
 
