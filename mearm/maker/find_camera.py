@@ -5,7 +5,11 @@ indices 0 to ``--indices`` − 1 — reads one frame from each (within
 ``camera.open_timeout_s`` of the config), prints its resolution and saves the frame as
 ``camera<N>.png`` in ``--out`` (default ``camera_snapshots``), so you can tell the cameras
 apart and put the right one in your config (``camera.kind: device`` with
-``camera.device_index`` or ``camera.path``). ::
+``camera.device_index`` or ``camera.path``). Each snapshot is named on stdout once in
+place (``wrote PATH``). On a second run (the maker's path takes its snapshot of the
+markers on the table that way), a snapshot already there is kept as ``PATH.bak`` first
+(``wrote PATH.bak (the old PATH)``): the frame a calibration was fitted on is not lost
+to the next look. ::
 
     mearm find-camera
     mearm find-camera --out snapshots --camera /dev/v4l/by-id/usb-046d_C310-video-index0
@@ -14,7 +18,8 @@ apart and put the right one in your config (``camera.kind: device`` with
 a stream URL.
 
 Exit status: 0 when at least one camera gave a frame; 1 when none did (the command could
-not do its job: there is no snapshot to look at) or a snapshot could not be written after
+not do its job: there is no snapshot to look at; one line ``mearm find-camera: error: no
+cameras found …``, as every command's failure) or a snapshot could not be written after
 all (a full disk: the file is not left half-written, nor a folder the run made for
 nothing); 2 on bad input (a ``--out`` that cannot be written included, refused before
 any camera is opened); 130 on Ctrl-C.
@@ -24,7 +29,6 @@ from __future__ import annotations
 
 import glob
 import re
-import sys
 import tempfile
 import threading
 from collections.abc import Sequence
@@ -37,6 +41,7 @@ from mearm.cli import (
     EXIT_OK,
     ArgumentParser,
     add_config_argument,
+    backup_written,
     check_output_folder,
     config_from_args,
     existing_ancestor,
@@ -61,6 +66,16 @@ class SnapshotWriteError(MearmError):
     exit_status = EXIT_FAILURE
 
 
+class NoCameraFound(MearmError):
+    """No source gave a frame: the run could not do its job (exit 1), though its input was fine.
+
+    Raised, not printed, so the line is the one every command ends a failure with
+    (``mearm find-camera: error: …``, :func:`mearm.cli.run`).
+    """
+
+    exit_status = EXIT_FAILURE
+
+
 @dataclass(frozen=True)
 class CameraReport:
     """What one camera source gave.
@@ -71,6 +86,8 @@ class CameraReport:
         detail: ``W x H px`` and the snapshot's path, or why no frame came.
         size_px: (width, height) of the frame [px], when one came.
         snapshot: Where the frame was saved, when it was.
+        kept_old: Whether a snapshot already there was kept as ``snapshot``'s ``.bak``
+            before it was replaced.
     """
 
     source: int | str
@@ -78,6 +95,7 @@ class CameraReport:
     detail: str
     size_px: tuple[int, int] | None = None
     snapshot: Path | None = None
+    kept_old: bool = False
 
 
 def video_devices() -> list[str]:
@@ -144,12 +162,16 @@ def snapshot_name(source: int | str) -> str:
 def probe_camera(source: int | str, timeout_s: float, out_dir: Path) -> CameraReport:
     """Read a frame from ``source`` and save it in ``out_dir`` (made if missing).
 
+    A snapshot of an earlier run at that name is kept as its ``.bak`` first: it may be the
+    frame the camera's calibration was fitted on.
+
     Raises:
-        MearmError: the snapshot cannot be written.
+        MearmError: the snapshot (or the old one's backup) cannot be written; the old
+            snapshot is then as it was.
     """
     import cv2
 
-    from mearm.fileio import write_atomic
+    from mearm.fileio import backup_path, write_atomic
 
     frame, why = grab_frame(source, timeout_s)
     if frame is None:
@@ -159,7 +181,10 @@ def probe_camera(source: int | str, timeout_s: float, out_dir: Path) -> CameraRe
     if not ok:
         return CameraReport(source, ok=False, detail=f"{w}x{h} px, but the frame cannot be encoded")
     path = out_dir / snapshot_name(source)
+    kept_old = path.is_file()
     try:
+        if kept_old:
+            write_atomic(backup_path(path), path.read_bytes())
         out_dir.mkdir(parents=True, exist_ok=True)
         write_atomic(path, png.tobytes())  # whole or not at all: no temporary file is left
     except OSError as exc:
@@ -168,7 +193,12 @@ def probe_camera(source: int | str, timeout_s: float, out_dir: Path) -> CameraRe
             f"cannot write the snapshot {path}: {exc.strerror or exc}"
         ) from None
     return CameraReport(
-        source, ok=True, detail=f"{w}x{h} px, snapshot {path}", size_px=(w, h), snapshot=path
+        source,
+        ok=True,
+        detail=f"{w}x{h} px, snapshot {path}",
+        size_px=(w, h),
+        snapshot=path,
+        kept_old=kept_old,
     )
 
 
@@ -324,15 +354,17 @@ def main(argv: Sequence[str] | None = None) -> int:
             raise
         reports.append(report)
         print(f"  {source!s:<14}  {'camera' if report.ok else 'no camera'}: {report.detail}")
+        if report.snapshot is not None:
+            if report.kept_old:
+                print(backup_written(report.snapshot))
+            print(f"wrote {report.snapshot}")
     found = [r for r in reports if r.ok]
     if not found:
         where = ", ".join(str(s) for s in sources)
-        print(
-            f"find-camera: no cameras found (tried {where}): is one plugged in, and not held "
-            "by another program? (Linux: ls /dev/video*; your user must be in the video group)",
-            file=sys.stderr,
+        raise NoCameraFound(
+            f"no cameras found (tried {where}): is one plugged in, and not held by another "
+            "program? (Linux: ls /dev/video*; your user must be in the video group)"
         )
-        return EXIT_FAILURE
     for r in found:
         w, h = r.size_px or (0, 0)
         print(f"in your config: {_config_hint(r.source)}, camera.width_px: {w}, "

@@ -26,8 +26,9 @@ find: each command that uses it starts the board on a pseudo-terminal of its own
 too); with ``--port`` it tries those ports as usual.
 
 Exit status: 0 when a mearm board was found (``--replug``: when the replugged board's port
-was found) or the config's board is the virtual Uno, 1 when none was, 2 on bad input, 130
-on Ctrl-C.
+was found) or the config's board is the virtual Uno, 1 when none was (one line, ``mearm
+find-port: error: no mearm board found …``, as every command's failure), 2 on bad input,
+130 on Ctrl-C.
 """
 
 from __future__ import annotations
@@ -85,6 +86,17 @@ _HEARD_KEPT = 40
 REPLUG_WAIT_S = 10.0
 #: How often the port list is read while waiting [s].
 REPLUG_POLL_S = 0.2
+
+
+class NoBoardFound(MearmError):
+    """No board was found: the run could not do its job (exit 1), though its input was fine.
+
+    Raised, not printed, so the line is the one every command ends a failure with
+    (``mearm find-port: error: …``, :func:`mearm.cli.run`).
+    """
+
+    exit_status = EXIT_FAILURE
+
 
 NEEDS_TERMINAL = (
     "--replug asks you to unplug and replug the board: it needs a terminal (standard input "
@@ -346,15 +358,12 @@ def _run_replug(
                 "no port went away or came back: a charge-only USB cable, or a board whose "
                 "USB driver is missing (see the kernel log: sudo dmesg | tail)"
             )
-        print(f"find-port: no board found: {why}", file=sys.stderr)
-        return EXIT_FAILURE
+        raise NoBoardFound(f"no board found: {why}")
     if len(result.new) > 1:
-        print(
-            f"find-port: several ports came back ({', '.join(result.new)}): unplug the other "
-            "devices and try again",
-            file=sys.stderr,
+        raise NoBoardFound(
+            f"several ports came back ({', '.join(result.new)}): unplug the other devices "
+            "and try again"
         )
-        return EXIT_FAILURE
     device = result.new[0]
     ports = {p.device: p for p in list_serial_ports(extra, system=system)}
     port = ports.get(device, SerialPort(device))
@@ -466,12 +475,10 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     ports = list_serial_ports(args.port, system=not args.only)
     if not ports:
-        print(
-            "find-port: no serial ports found: is the board plugged in? (--replug finds it "
-            "by unplugging and replugging)",
-            file=sys.stderr,
+        raise NoBoardFound(
+            "no serial ports found: is the board plugged in? (--replug finds it by "
+            "unplugging and replugging)"
         )
-        return EXIT_FAILURE
     print(
         f"{len(ports)} serial port{'s' if len(ports) != 1 else ''}; listening on each for "
         f"{timeout_s:g} s at {baud} baud (opening a port resets an Arduino):"
@@ -482,12 +489,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(format_report(report, width))
     boards = [r.port.device for r in reports if r.status == "mearm"]
     if not boards:
-        print(
-            "find-port: no mearm board found: flash one (mearm flash --port PORT), or find "
-            "an unknown board with mearm find-port --replug",
-            file=sys.stderr,
+        raise NoBoardFound(
+            "no mearm board found: flash one (mearm flash --port PORT), or find an unknown "
+            "board with mearm find-port --replug"
         )
-        return EXIT_FAILURE
     if len(boards) == 1:
         print(f"set servo.port: {boards[0]} in your config (or --set servo.port={boards[0]})")
     return EXIT_OK

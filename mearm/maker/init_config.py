@@ -402,6 +402,15 @@ def _yaml(data: dict[str, Any]) -> str:
     )
 
 
+def twin_extends(of: Path, out: Path) -> str:
+    """The twin's ``extends``: the maker's config ``of`` relative to the twin's folder.
+
+    The loader reads ``extends`` relative to the file that holds it; the line that says
+    what was written names it the same way, so ``--of ../my_arm.yaml`` reads as it is.
+    """
+    return os.path.relpath(of.absolute(), out.absolute().parent)
+
+
 def render_twin(of: Path, out: Path, arm: ArmChoice, rig: RigChoice) -> str:
     """A config that extends the maker's own ``of`` and simulates it on ``rig``.
 
@@ -413,7 +422,7 @@ def render_twin(of: Path, out: Path, arm: ArmChoice, rig: RigChoice) -> str:
     """
     folder = reference_config_dir()
     sim = load_config(folder / arm.sim)
-    extends = os.path.relpath(of.absolute(), out.absolute().parent)
+    extends = twin_extends(of, out)
     own: dict[str, Any] = {}
     if rig.name == "sim_mujoco":
         twin = load_yaml_text((folder / arm.twin).read_text(encoding="utf-8"), source=arm.twin)
@@ -580,7 +589,8 @@ def _write_twin(of: Path, out: Path, arm_name: str | None, rig: RigChoice) -> in
         raise MearmError(f"the twin of {of} does not load: {exc}") from None
     _keep_old(out)
     write_text_atomic(out, text)
-    print(f"wrote {out}: your {of.name} on the {rig.name} rig (it extends {of.name}). Next:")
+    extends = twin_extends(of, out)
+    print(f"wrote {out}: your {of.name} on the {rig.name} rig (it extends {extends}). Next:")
     print(f"  1. mearm sort --config {shlex.quote(name)}")
     return EXIT_OK
 
