@@ -61,7 +61,9 @@ mass and their compliance and play.
 cut acrylic plate :data:`LINK_THICKNESS_M` thick and as wide as the URDF draws it; each
 actuated joint's servo is a box of its datasheet size and mass at the joint, in the body
 before it (a real MeArm keeps its shoulder and elbow servos at the base: this errs
-heavy); the gripper's servo sits behind the TCP. Objects are solid PLA cylinders of their
+heavy); the gripper's servo sits behind the TCP. A body that holds neither (a row with
+a = d = 0 before a passive joint) gets a hub's mass, a square plate as wide as the links
+(:func:`_hubs`): MuJoCo moves no massless body. Objects are solid PLA cylinders of their
 class's size.
 
 **The servos** are :class:`ServoSpec` records from typical datasheets
@@ -155,8 +157,11 @@ from mearm.fileio import write_atomic
 from mearm.kinematics.bodies import (
     BIN_MIN_WALL_HEIGHT_M,  # noqa: F401  (re-exported)
     BIN_WALL_HEIGHT_PER_HEIGHT,  # noqa: F401
+    LINK_THICKNESS_M,
     ArmBodies,
     arm_bodies,
+    link_width_m,
+    plate_mass_kg,
 )
 from mearm.kinematics.chain import Chain
 from mearm.kinematics.errors import ModelError
@@ -447,6 +452,30 @@ def _arm(
         _shape_geom(model.body(shape.body), shape, kind)
     if shapes.marker_in_tcp is not None:
         _claw_marker(model, model.body(TCP_FRAME), config, shapes.marker_in_tcp)
+    _hubs(model, config, shapes)
+
+
+def _hubs(model: mujoco.MjSpec, config: Config, shapes: ArmBodies) -> None:
+    """A hub's mass in each link body that carries no shape, so MuJoCo can move it.
+
+    A row with a = d = 0 has no plate, and a servo sits in the body before its joint:
+    a zero-length row followed by a passive joint (a wrist roll coupled to the base)
+    leaves its body empty, and MuJoCo refuses a moving body without mass. What joins the
+    two joints there is a hub; it gets a square acrylic plate's mass, as wide as the
+    links, with that plate's inertia, and no geom (nothing to draw or collide with).
+    """
+    width = link_width_m(config.arm)
+    mass = plate_mass_kg(width, width, ACRYLIC_DENSITY)
+    filled = {shape.body for shape in shapes.shapes}
+    for joint in config.arm.joints:
+        name = f"link_{joint.name}"
+        if name in filled:
+            continue
+        body = model.body(name)
+        body.explicitinertial = True
+        body.mass = mass
+        edge, thick = mass * width**2 / 12, mass * LINK_THICKNESS_M**2 / 12
+        body.inertia = [edge + thick, edge + thick, 2 * edge]
 
 
 def _couplings(model: mujoco.MjSpec, config: Config, chain: Chain) -> None:
