@@ -146,8 +146,9 @@ def _read_log(path: Path, *, strict: bool) -> RunLogContents:
     if contents.problem is not None and not contents.routes:
         raise contents.problem  # nothing before the bad line to analyse: it is the error
     for kind, attempts in (
-        ("cut-off", [t for t in superseded if not t.interrupted]),
+        ("cut-off", [t for t in superseded if not (t.interrupted or t.recording_stopped)]),
         ("interrupted", [t for t in superseded if t.interrupted]),
+        ("recording-stopped", [t for t in superseded if t.recording_stopped]),
     ):
         if attempts:
             numbers = sorted({t.number for t in attempts if t.number is not None})

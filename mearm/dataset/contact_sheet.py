@@ -14,6 +14,7 @@ import numpy as np
 
 from mearm.dataset import lerobot_format as L
 from mearm.dataset.errors import DatasetError
+from mearm.dataset.fragments import tear
 from mearm.dataset.reading import (
     damaged,
     read_episodes,
@@ -35,9 +36,11 @@ def describe(root: Path) -> list[str]:
 
     Raises:
         DatasetError: not a dataset (:func:`check_dataset`'s first checks), or a file of
-            it is damaged (:mod:`mearm.dataset.reading`).
+            it is damaged (:mod:`mearm.dataset.reading`), its episodes' data and video
+            files included (missing, cut short).
     """
     info, episodes, tasks = _read(root)
+    _check_files(root, info, episodes)
     tags, scenes = read_tags(root, len(episodes))
     lines = [
         f"{root}: LeRobot {info['codebase_version']}, robot {info.get('robot_type')}, "
@@ -131,6 +134,39 @@ def _read(root: Path) -> tuple[dict[str, Any], list[dict[str, Any]], list[str]]:
     _, pq, _ = import_extra(av_here=False)
     info = read_info(root)
     return info, read_episodes(pq, root, info), read_tasks(pq, root)
+
+
+def _check_files(root: Path, info: dict[str, Any], episodes: list[dict[str, Any]]) -> None:
+    """Refuse a dataset whose episodes' data or video files are missing or cut short.
+
+    Before the report is printed: ``show`` printed the whole report of such a dataset
+    and then refused it (a data file cut short), or drew the sheet and exited 0 (the
+    last video's fragment cut short, which ``--resume`` refuses). Each data file's
+    footer and each video file's boxes are read, not their frames.
+
+    Raises:
+        DatasetError: a file is missing or cut short.
+    """
+    _, pq, _ = import_extra(av_here=False)
+    keys = [k for k, f in info["features"].items() if f.get("dtype") == "video"]
+    data: set[str] = set()
+    videos: set[str] = set()
+    try:
+        for row in episodes:
+            data.add(L.chunk_file(L.DATA_PATH, row["data/chunk_index"], row["data/file_index"]))
+            for key in keys:
+                chunk, file = row[f"videos/{key}/chunk_index"], row[f"videos/{key}/file_index"]
+                videos.add(L.chunk_file(L.VIDEO_PATH, chunk, file, video_key=key))
+    except (KeyError, TypeError, ValueError) as exc:
+        raise damaged(
+            root, L.chunk_file(L.EPISODES_PATH, 0, 0), f"an episode's row lacks {exc}"
+        ) from None
+    for rel in sorted(data):
+        read_table(pq, root, rel, ["index"], only=True)
+    for rel in sorted(videos):
+        problem = tear(root / rel)
+        if problem is not None:
+            raise damaged(root, rel, problem)
 
 
 def _frames_at(av: Any, root: Path, rel: str, times_s: list[float]) -> list[np.ndarray]:

@@ -23,8 +23,10 @@ run — trial k's header has the seed, config and layout that ``--config``, ``--
 ``--seed`` and ``--scene`` give trial k — else the run refuses with exit 2 and names the
 first difference. It then starts at the trial after the last *finished* one (a trial
 with its summary, which includes one that stopped early on a fault of the rig and said
-so). A trial cut off before its summary (the process was killed) or stopped by Ctrl-C
-(:attr:`~mearm.runlog.Trial.interrupted`) is run again under the same number and seed:
+so). A trial cut off before its summary (the process was killed), stopped by Ctrl-C
+(:attr:`~mearm.runlog.Trial.interrupted`) or by its recording, a file of the dataset not
+written (:attr:`~mearm.runlog.Trial.recording_stopped`), is run again under the same
+number and seed:
 its partial records stay in the log, and ``mearm analyze`` leaves them out because the
 same trial comes back finished later (:meth:`~mearm.runlog.RunLogContents.latest`). A
 torn last line (killed mid-write) is moved into a side file ``<log>.torn-<offset>``
@@ -257,10 +259,14 @@ def _resume(
     # before any trial is written: a rig that does not open raises RigNotOpened, bad input
     # said by run() (one line, exit 2), the log as it was
     check_rig_opens(config, args.seed, resume.done, scene)
-    if resume.done or resume.cut_off or resume.interrupted:
+    if resume.done or resume.cut_off or resume.interrupted or resume.recording_stopped:
         why = " and ".join(
             w
-            for w, n in (("interrupted (Ctrl-C)", resume.interrupted), ("cut off", resume.cut_off))
+            for w, n in (
+                ("interrupted (Ctrl-C)", resume.interrupted),
+                ("stopped by its recording (a file not written)", resume.recording_stopped),
+                ("cut off", resume.cut_off),
+            )
             if n
         )
         again = f"; trial {resume.done} again, it was {why}" if why else ""

@@ -2,7 +2,7 @@
 
 Trial k in the log must carry the seed, config and layout this run gives trial k; the
 run continues after the last finished trial (a trial cut off before its summary, or
-stopped by Ctrl-C, is run again), and a torn last line is set aside first.
+stopped by Ctrl-C or by its recording, is run again), and a torn last line is set aside first.
 """
 
 from __future__ import annotations
@@ -37,6 +37,9 @@ class Resume:
             (it is run again).
         interrupted: Attempts of trial ``done`` in the log that Ctrl-C stopped (it is run
             again, too: :attr:`~mearm.runlog.Trial.interrupted`).
+        recording_stopped: Attempts of trial ``done`` in the log that its recording
+            stopped, a file of the dataset not written (run again, too:
+            :attr:`~mearm.runlog.Trial.recording_stopped`).
         torn: The log's unfinished last line, or ``None``.
         torn_is_record: Whether that line is a whole record missing only its newline.
     """
@@ -44,6 +47,7 @@ class Resume:
     done: int = 0
     cut_off: int = 0
     interrupted: int = 0
+    recording_stopped: int = 0
     torn: TornEnd | None = None
     torn_is_record: bool = False
 
@@ -94,7 +98,7 @@ def resume_point(
             f"line {problem.line}: {problem.reason}; a damaged log is not resumed (mearm "
             "analyze reads it up to that line): write the new trials to another --log",
         )
-    done = cut_off = interrupted = 0
+    done = cut_off = interrupted = recording_stopped = 0
     plans: dict[int, TrialPlan] = {}
     for t in contents.trials:
         if t.number is None:
@@ -103,10 +107,10 @@ def resume_point(
                 f"line {t.line}: a sort run (trial null), not a trial of an experiment; "
                 "give the experiment its own --log",
             )
-        if interrupted and not cut_off and t.number == done + 1:
-            # written before interrupted trials were run again: that run went on to the
-            # next trial, and the interrupted one stands (analysed as it is)
-            done, interrupted = done + 1, 0
+        if (interrupted or recording_stopped) and not cut_off and t.number == done + 1:
+            # written before such trials were run again: that run went on to the next
+            # trial, and the stopped one stands (analysed as it is)
+            done, interrupted, recording_stopped = done + 1, 0, 0
         if t.number != done:
             raise RunLogError(
                 path,
@@ -123,14 +127,17 @@ def resume_point(
                 "with its --config, --set, --seed and --scene, or write to another --log",
             )
         if t.finished:
-            done, cut_off, interrupted = done + 1, 0, 0
+            done, cut_off, interrupted, recording_stopped = done + 1, 0, 0, 0
         elif t.interrupted:
             interrupted += 1
+        elif t.recording_stopped:
+            recording_stopped += 1
         else:
             cut_off += 1
     return Resume(
-        done, cut_off, interrupted, torn, torn_is_record=torn is not None and problem is None
-    )
+        done, cut_off, interrupted, recording_stopped, torn,
+        torn_is_record=torn is not None and problem is None,
+    )  # fmt: skip
 
 
 def _differs(header: HeaderRecord, plan: TrialPlan, seed: int) -> str | None:

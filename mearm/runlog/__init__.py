@@ -47,11 +47,12 @@ command that reads a log before appending to it takes a :class:`LogLock` first a
 it to the :class:`RunLog`.
 
 **Repeated trial numbers.** The experiment runner runs a trial again under the same
-number when its last attempt was cut off before its summary, or stopped by Ctrl-C
-(:attr:`Trial.interrupted`). Reading keeps every attempt; :meth:`RunLogContents.latest`
-keeps the finished one (or, if none is, the last complete one, else the last) and
-refuses a number that is finished twice (:class:`RepeatedTrialError`): that is two runs
-in one file, which ``mearm analyze`` will not pool.
+number when its last attempt was cut off before its summary, stopped by Ctrl-C
+(:attr:`Trial.interrupted`) or by its recording (:attr:`Trial.recording_stopped`).
+Reading keeps every attempt; :meth:`RunLogContents.latest` keeps the finished one (or,
+if none is, the last complete one, else the last) and refuses a number that is finished
+twice (:class:`RepeatedTrialError`): that is two runs in one file, which ``mearm
+analyze`` will not pool.
 
 **Durability.** Each record is written as one ``write`` of one line, then flushed and
 ``fsync``-ed, so a crash loses at most the record being written.

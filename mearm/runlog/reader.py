@@ -29,6 +29,12 @@ from mearm.runlog.records import (
 #: sort started: interrupted (SIGTERM)``.
 _INTERRUPTED = re.compile(r"(?:^|: )interrupted \(")
 
+#: A fault's reason when the trial's recording could not be written (a full disk) and
+#: stopped the trial, as :class:`~mearm.dataset.errors.DatasetWriteError` words it:
+#: ``ds/data/chunk-000/file-000.parquet: cannot be written: disk full (…); recording
+#: stopped, the dataset keeps the 2 episodes written before; arm parked at home``.
+_RECORDING_STOPPED = re.compile(r": cannot be written: .*; recording stopped, ")
+
 
 @dataclass(frozen=True)
 class Trial:
@@ -69,12 +75,26 @@ class Trial:
         return "interrupted" in left or any(_INTERRUPTED.search(f.reason) for f in self.faults)
 
     @property
-    def finished(self) -> bool:
-        """Whether the trial ran its course: complete, and not :attr:`interrupted`.
+    def recording_stopped(self) -> bool:
+        """Whether its recording stopped the trial: a file of the dataset could not be written.
 
-        One that stopped on a fault of the rig is finished: the fault is its result.
+        Not the arm's result, as Ctrl-C is not: the experiment runs the trial again once
+        there is room (the picks the dataset holds are not recorded twice). A stopped
+        trial that counted as finished was never run again, its picks after the failure
+        missing from the dataset for good.
         """
-        return self.complete and not self.interrupted
+        return self.summary is not None and any(
+            _RECORDING_STOPPED.search(f.reason) for f in self.faults
+        )
+
+    @property
+    def finished(self) -> bool:
+        """Whether the trial ran its course: complete, not stopped by Ctrl-C nor its recording.
+
+        Neither :attr:`interrupted` nor :attr:`recording_stopped`. One that stopped on a
+        fault of the rig is finished: the fault is its result.
+        """
+        return self.complete and not self.interrupted and not self.recording_stopped
 
     @property
     def records(self) -> tuple[Record, ...]:
@@ -126,11 +146,11 @@ class RunLogContents:
         """Attempts of a numbered trial that another attempt of it replaces.
 
         The experiment runner runs a trial again, under the same number and seed, when
-        its last attempt was cut off before its summary or :attr:`~Trial.interrupted`
-        (:mod:`mearm.experiment`). Per trial number, the :attr:`~Trial.finished` attempt
-        is kept (when none is, the last complete one; when none is complete, the last
-        one) and every other attempt is superseded. Lone sort runs (``trial: null``) are
-        never superseded.
+        its last attempt was cut off before its summary, :attr:`~Trial.interrupted` or
+        :attr:`~Trial.recording_stopped` (:mod:`mearm.experiment`). Per trial number,
+        the :attr:`~Trial.finished` attempt is kept (when none is, the last complete one;
+        when none is complete, the last one) and every other attempt is superseded. Lone
+        sort runs (``trial: null``) are never superseded.
         """
         attempts: dict[int, list[Trial]] = {}
         for t in self.trials:
@@ -148,7 +168,8 @@ class RunLogContents:
     def repeated_trials(self) -> dict[int, tuple[int, ...]]:
         """Trial numbers finished more than once → the header lines of those attempts.
 
-        (Interrupted attempts do not count: the experiment runs such a trial again.)
+        (Interrupted attempts, and those their recording stopped, do not count: the
+        experiment runs such a trial again.)
         """
         lines: dict[int, list[int]] = {}
         for t in self.trials:
