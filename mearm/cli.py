@@ -682,7 +682,8 @@ def ordered_results(
         futures = [pool.submit(fn, *args) for args in calls]
         for fut in futures:
             yield fut.result()
-    finally:
-        for fut in futures:
-            fut.cancel()
-        pool.shutdown(wait=True, cancel_futures=True)
+    finally:  # whole: a second Ctrl-C here left workers no one told to end
+        with interrupts.signals_deferred():
+            for fut in futures:
+                fut.cancel()
+            pool.shutdown(wait=True, cancel_futures=True)

@@ -9,8 +9,9 @@ them if the file exists and was collected for the same ``--env``, ``--config``,
 ``--first-seed`` and ``--episodes``; another file is refused), then fits
 the MLP of :mod:`mearm.learn.baseline` by Adam on the mean squared error of the joints'
 steps and the gripper's cross-entropy, for ``--steps`` minibatches of ``--batch``, on
-the CPU with a fixed seed. Evaluate it on seeds it never saw (``--first-seed`` of
-eval-policy past the training seeds).
+the CPU with a fixed seed. Names each file it writes (``wrote FILE``: the demonstrations
+once collected, then the baseline). Evaluate it on seeds it never saw (``--first-seed``
+of eval-policy past the training seeds).
 """
 
 from __future__ import annotations
@@ -204,6 +205,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                 demos.save(args.demos, wanted)
             except OSError as exc:
                 raise MearmError(f"cannot write --demos {args.demos}: {exc}") from None
+            print(f"wrote {args.demos}")
     kept = len(np.unique(demos.episode))
     print(
         f"{len(demos.action)} steps of {kept} expert episodes in {time.perf_counter() - t0:.0f} s"
@@ -217,7 +219,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     except OSError as exc:
         raise MearmError(f"cannot write --out {args.out}: {exc}") from None
     wall = time.perf_counter() - t1
-    print(f"trained {args.steps} steps in {wall:.0f} s (loss {fit.loss:.4f}): {args.out}")
+    print(f"trained {args.steps} steps in {wall:.0f} s (loss {fit.loss:.4f})")
+    print(f"wrote {args.out}")
     return 0
 
 

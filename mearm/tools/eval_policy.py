@@ -88,7 +88,28 @@ def env_options(pairs: Sequence[str]) -> dict[str, Any]:
             raise EnvOptionError(f"--env-option {pair!r}: the value is not YAML") from None
         if key == "image_size" and isinstance(out[key], list):
             out[key] = tuple(out[key])
+        if key == "max_episode_steps":
+            _check_max_episode_steps(out[key])
     return out
+
+
+def _check_max_episode_steps(value: object) -> None:
+    """Refuse a step limit that is not a whole number ≥ 1 (``null``: the environment's).
+
+    Gymnasium's own check took 0 and -3 for a crash ("unexpected error", exit 1) and
+    ``true`` for one step.
+
+    Raises:
+        EnvOptionError: a bool, not a whole number, or below 1.
+    """
+    from mearm.envs.errors import EnvOptionError  # noqa: PLC0415
+
+    if value is None:
+        return
+    if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+        raise EnvOptionError(
+            f"--env-option max_episode_steps must be a whole number of at least 1, got {value!r}"
+        )
 
 
 def _require_gymnasium() -> None:
