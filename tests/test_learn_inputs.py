@@ -129,6 +129,17 @@ def test_out_onto_the_demos_file_is_refused(demos, tmp_path, capsys):
     assert code == 2 and "is the --demos file" in err and not both.exists()
 
 
+def test_a_baseline_that_exists_is_kept_without_force(demos, tmp_path, capsys):
+    """A second run (learning.md's own --steps 3000 retry) replaced bc.pt, a baseline
+    trained for minutes, without a word: now exit 2, one line, the file as it was."""
+    out = tmp_path / "bc.pt"
+    out.write_bytes(b"the earlier baseline")
+    code, err = _bc(capsys, *RUN, "--demos", demos, "--out", out)
+    assert code == 2 and len(err.strip().splitlines()) == 1, err
+    assert f"--out {out}: exists; pass --force to replace it" in err
+    assert out.read_bytes() == b"the earlier baseline"
+
+
 def _file_size_limit(limit: int):
     def apply() -> None:  # in the child: writes past `limit` bytes fail (EFBIG), as on a full disk
         signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
@@ -145,7 +156,8 @@ def test_an_out_that_cannot_be_written_keeps_the_old_file_and_leaves_no_part(dem
     out.write_bytes(b"the earlier baseline")
     env = {**os.environ, "PYTHONPATH": str(ROOT), "PYTHONDONTWRITEBYTECODE": "1"}
     proc = subprocess.run(
-        [sys.executable, "-m", "mearm.learn.bc", *RUN, "--demos", str(demos), "--out", str(out)],
+        [sys.executable, "-m", "mearm.learn.bc", *RUN, "--demos", str(demos), "--out", str(out),
+         "--force"],
         capture_output=True, text=True, env=env, cwd=tmp_path, timeout=300,
         preexec_fn=_file_size_limit(20_000),
     )  # fmt: skip

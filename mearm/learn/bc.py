@@ -24,7 +24,15 @@ from typing import Any
 
 import numpy as np
 
-from mearm.cli import ArgumentParser, check_output_file, plain_int, run, seed_value, worker_count
+from mearm.cli import (
+    ArgumentParser,
+    check_output_file,
+    plain_int,
+    refuse_to_replace,
+    run,
+    seed_value,
+    worker_count,
+)
 from mearm.config import load_config
 from mearm.envs import MAX_EPISODE_STEPS
 from mearm.envs.actions import ActionSpec
@@ -171,6 +179,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--steps", type=plain_int, default=10000, help="training minibatches")
     parser.add_argument("--batch", type=plain_int, default=256, help="minibatch size")
     parser.add_argument("--out", type=Path, required=True, help="the baseline's file (.pt)")
+    parser.add_argument(
+        "--force", action="store_true", help="replace an existing --out (a baseline trained before)"
+    )
     args = parser.parse_args(argv)
     if args.episodes < 1 or args.steps < 1 or args.batch < 1:
         raise MearmError("--episodes, --steps and --batch must be at least 1")
@@ -181,6 +192,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.env not in MAX_EPISODE_STEPS:
         raise MearmError(f"--env must be one of {', '.join(MAX_EPISODE_STEPS)}, got {args.env!r}")
     check_output_file(args.out, "--out")
+    refuse_to_replace(args.out, "--out", args.force)  # a baseline trained for minutes
     if args.demos is not None:
         if args.demos.exists() and not args.demos.is_file():
             raise MearmError(f"--demos {args.demos}: exists and is not a file; give a .npz file")
