@@ -221,7 +221,11 @@ class ArduinoBus(SerialServoBus):
                     last_state=self.state,
                 )
             bad = reply.raw
-            why = "the board saw a bad checksum" if isinstance(reply, Reply) else "bad reply"
+            why = (  # an ERR - (no seq read): the line came garbled, checksum or not
+                f"the board could not read the line ({reply.detail or 'ERR -'})"
+                if isinstance(reply, Reply)
+                else "bad reply"
+            )
             log.warning(
                 "%s: try %d/%d of %r failed: %s (%r)", self.port, attempt, tries, frame, why, bad
             )
