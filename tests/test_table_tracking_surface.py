@@ -72,7 +72,7 @@ def test_seed_6503_of_the_kit_twin_prints_no_place_off_the_table():
     from mearm.tools.twin_scenes import _one
 
     kits = load_config(ROOT / "configs" / "sim_mujoco_kits.yaml")
-    seen, sorted_, in_bins, left, fault, notes = _one(kits, 12, 6503)
+    objects, seen, sorted_, in_bins, left, fault, notes = _one(kits, 12, 6503)
     assert fault is None
     assert notes == []
-    assert (seen, sorted_, in_bins) == (12, 12, 12)
+    assert (objects, seen, sorted_, in_bins) == (12, 12, 12, 12)

@@ -8,7 +8,7 @@ header says how to change what differs on yours. ::
 
     mearm init-config --list
     mearm init-config --arm mearm_v1 --rig uno my_arm.yaml        # prints the wiring too
-    mearm init-config --of my_arm.yaml --rig sim_mujoco my_twin.yaml
+    mearm init-config --of my_arm.yaml --arm mearm_v1 --rig sim_mujoco my_twin.yaml
     mearm sort --config my_twin.yaml
 
 The simulated rigs (``sim``, ``sim_mujoco``) write the reference config as it is. The real
@@ -16,7 +16,11 @@ rigs (``uno``, ``ssc32``) replace its servo link and camera with a real board an
 camera; the pixel-to-table calibration is then the reference's and must be redone for
 your camera. The file is checked to load before it is written; an existing file is only
 replaced with ``--force``, and kept as ``FILE.bak`` (named on stdout first: ``wrote
-FILE.bak (the old FILE)``). A reference config that builds on
+FILE.bak (the old FILE)``). FILE is checked as every command's output is
+(:func:`mearm.cli.check_output_file`): a folder on its path that does not exist yet is
+made, as by the project's other commands, and the ``wrote`` line names it (``wrote
+confgis/my_arm.yaml (made the folder confgis): …``), so a mistyped folder shows at once.
+A reference config that builds on
 another (``extends``) is copied with its ``extends``, which then names the packaged
 config: the starter config is
 not written into a folder where a file of that name would be read instead. The real rigs'
@@ -25,7 +29,9 @@ header and output carry the arm's wiring (:mod:`mearm.maker.wiring`).
 ``--of MY_CONFIG`` writes a twin of the maker's own config instead: a file that extends
 it (so the arm measured into it is the arm simulated) and replaces only the rig — the
 simulated servos and camera, and the reference's simulated table
-(:func:`render_twin`).
+(:func:`render_twin`). ``--arm`` names the reference arm whose table that is; it may be
+left out only when MY_CONFIG's arm is a reference arm by name (``arm: {use: mearm_v1}``
+without a ``name`` of its own).
 """
 
 from __future__ import annotations
@@ -41,7 +47,14 @@ from typing import Any
 import yaml
 
 from mearm import __version__, data
-from mearm.cli import EXIT_OK, ArgumentParser, backup_written, run, write_text_atomic
+from mearm.cli import (
+    EXIT_OK,
+    ArgumentParser,
+    backup_written,
+    check_output_file,
+    run,
+    write_text_atomic,
+)
 from mearm.config import Config, config_from_dict, load_config
 from mearm.config.compose import EXTENDS_KEY
 from mearm.errors import ConfigError, MearmError
@@ -102,7 +115,7 @@ class RigChoice:
         servo_block: The config's ``servo:`` section (``None``: the reference's).
         camera_block: The config's ``camera:`` section (``None``: the reference's).
         steps: What to do next, one command or sentence per item; ``{config}`` is the
-            written file.
+            written file, ``{arm}`` the reference arm chosen (``--arm``).
     """
 
     name: str
@@ -196,7 +209,7 @@ CAMERA_STEP = (
 #: The simulated rigs' second step: the maker's own config, simulated as it is.
 OWN_CONFIG_STEP = (
     "to simulate your own config as it is: mearm init-config --of MY_CONFIG.yaml "
-    "--rig sim_mujoco MY_TWIN.yaml"
+    "--arm {arm} --rig sim_mujoco MY_TWIN.yaml"
 )
 
 RIGS: dict[str, RigChoice] = {
@@ -337,7 +350,7 @@ def render_config(arm: ArmChoice, rig: RigChoice, config_name: str) -> str:
 def _header(arm: ArmChoice, rig: RigChoice, source: str, config_name: str, arm_name: str) -> str:
     maker_path = data.doc_page("maker-path.md")
     steps = "".join(
-        f"#   {n}. {step.format(config=config_name, maker_path=maker_path)}\n"
+        f"#   {n}. {step.format(config=config_name, maker_path=maker_path, arm=arm.name)}\n"
         for n, step in enumerate(rig.steps, 1)
     )
     wiring = ""
@@ -536,6 +549,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         raise MearmError(
             f"{out}: not a regular file (a device, FIFO or socket): give the config file's name"
         )
+    check_output_file(out, "FILE")  # under a regular file, or in a folder not writable
     if out.exists() and not args.force:
         raise MearmError(f"{out} exists: pass --force to replace it")
     rig = RIGS[args.rig]
@@ -546,16 +560,27 @@ def main(argv: Sequence[str] | None = None) -> int:
     check_folder(text, out)
     check_rendered(text, out)
     _keep_old(out)
+    made = _made_folder(out)
     write_text_atomic(out, text)
-    print(f"wrote {out}: the {arm.name} arm on the {rig.name} rig. Next:")
+    print(f"wrote {out}{made}: the {arm.name} arm on the {rig.name} rig. Next:")
     maker_path = data.doc_page("maker-path.md")
     for n, step in enumerate(rig.steps, 1):
-        print(f"  {n}. {step.format(config=shlex.quote(str(out)), maker_path=maker_path)}")
+        filled = step.format(config=shlex.quote(str(out)), maker_path=maker_path, arm=arm.name)
+        print(f"  {n}. {filled}")
     if rig.real:
         board: Board = "uno" if rig.name == "uno" else "ssc32"
         print(f"Wiring of the {arm.name} arm ({maker_path}):")
         print(wiring_text(load_config(out).arm, board), end="")
     return EXIT_OK
+
+
+def _made_folder(out: Path) -> str:
+    """`` (made the folder F)`` when ``out``'s folder does not exist yet, else nothing.
+
+    The write makes the missing folders (``mkdir -p``, as every command's output does);
+    the ``wrote`` line says so, so a mistyped folder name is seen, not silently made.
+    """
+    return "" if out.parent.exists() else f" (made the folder {out.parent})"
 
 
 def _keep_old(out: Path) -> None:
@@ -583,14 +608,18 @@ def _write_twin(of: Path, out: Path, arm_name: str | None, rig: RigChoice) -> in
     arm = ARMS[arm_name] if arm_name else arm_of(mine)
     text = render_twin(of, out, arm, rig)
     name = str(out)
+    twin = load_yaml_text(text, source=name)
+    if not out.parent.exists():  # made on writing: "new/../my_arm.yaml" cannot be read yet
+        twin[EXTENDS_KEY] = str(of.absolute())
     try:
-        config_from_dict(load_yaml_text(text, source=name), source=name, path=out)
+        config_from_dict(twin, source=name, path=out)
     except ConfigError as exc:
         raise MearmError(f"the twin of {of} does not load: {exc}") from None
     _keep_old(out)
+    made = _made_folder(out)
     write_text_atomic(out, text)
     extends = twin_extends(of, out)
-    print(f"wrote {out}: your {of.name} on the {rig.name} rig (it extends {extends}). Next:")
+    print(f"wrote {out}{made}: your {of.name} on the {rig.name} rig (it extends {extends}). Next:")
     print(f"  1. mearm sort --config {shlex.quote(name)}")
     return EXIT_OK
 
