@@ -215,7 +215,7 @@ def test_show_prints_episodes_and_saves_a_contact_sheet(
     out = capsys.readouterr().out
     assert task_sentence("red") in out and "observation.state" in out
     assert sheet.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
-    assert "(9 frames)" in out
+    assert "9 frames)" in out
     image = cv2.imread(str(sheet))
     assert image.shape[1] == 3 * THUMB_WIDTH_PX
 

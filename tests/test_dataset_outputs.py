@@ -114,7 +114,7 @@ def test_show_dot_names_the_sheet_after_the_folder(
     assert out.code == 0, out.stderr
     sheet = dataset.resolve().parent / "ds-sheet.png"
     assert sheet.read_bytes()[:8] == PNG
-    assert f"contact sheet: {sheet}" in out.stdout
+    assert f"wrote {sheet} (the contact sheet, " in out.stdout
     assert check_dataset(dataset, videos=False) == []
 
 
@@ -215,7 +215,7 @@ def test_a_full_dev_shm_at_the_encoders_start_fails_as_a_full_disk(
     assert "Traceback" not in run.stderr and "unexpected error" not in run.stderr, run.stderr
     lines = run.stderr.strip().splitlines()
     assert len(lines) == 1, lines
-    assert lines[0].startswith("mearm sort: error: /dev/shm/psm_"), lines
+    assert lines[0].startswith("mearm sort: error: /dev/shm/mearm-ring-"), lines
     assert lines[0].endswith(
         ": cannot be written: disk full (No space left on device; the video encoder's 24 "
         "frames need 23.7 MB of shared memory); recording stopped, nothing was recorded"

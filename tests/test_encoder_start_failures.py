@@ -72,7 +72,7 @@ def test_a_full_dev_shm_is_logged_before_the_sort(tmp_path: Path) -> None:
     run = _record(root, "--log", str(log), shm="size=64k")
     assert run.returncode == 1, run.stderr
     lines = run.stderr.strip().splitlines()
-    assert len(lines) == 1 and lines[0].startswith("mearm sort: error: /dev/shm/psm_"), lines
+    assert len(lines) == 1 and lines[0].startswith("mearm sort: error: /dev/shm/mearm-ring-"), lines
     said = lines[0].removeprefix("mearm sort: error: ")
     assert _faults(log) == [f"before the sort started: {said}"]
 

@@ -185,7 +185,7 @@ def test_a_torn_last_line_is_set_aside_and_the_run_goes_on(tmp_path, scene):
     assert out.code == 0, out.stderr
     (side,) = tmp_path.glob("trials.jsonl.torn-*")
     assert side.read_bytes() == data[data.rindex(b"\n", 0, torn_at) + 1 : torn_at]
-    assert f"moved to {side}" in out.stderr
+    assert f"wrote {side} (the torn last line of {log}" in out.stdout
     contents = read_runlog(log)
     assert contents.complete and [(t.number, t.complete) for t in contents.latest().trials] == [
         (0, True),

@@ -70,7 +70,7 @@ def test_objects_left_exit_1_and_the_totals_say_why(tmp_path):
 def test_a_clean_experiment_exits_0(tmp_path):
     r = experiment("--trials", 1, "--scene", scene(tmp_path, ONE), "--log", tmp_path / "t.jsonl")
     assert r.code == 0 and not r.stderr.strip(), r.stderr
-    assert r.stdout.splitlines()[-1] == "sorted 1 of 1 objects over 1 trials"
+    assert r.stdout.splitlines()[-1] == "sorted 1 of 1 objects over 1 trial"
 
 
 def test_objects_left_in_the_resumed_trials_count_too(tmp_path):
@@ -84,7 +84,7 @@ def test_objects_left_in_the_resumed_trials_count_too(tmp_path):
     log.write_text("".join(lines[:-1]) + json.dumps(summary) + "\n")  # trial 0 left its object
     r = experiment("--trials", 2, "--scene", one, "--log", log)
     assert r.code == 1, r.stderr
-    assert "1 trials written" in r.stdout and "0 stopped early" in r.stdout
+    assert "1 trial written" in r.stdout and "0 stopped early" in r.stdout
     assert r.stdout.splitlines()[-1] == "sorted 1 of 2 objects over 2 trials (1 pick failed)"
 
 

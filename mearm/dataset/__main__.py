@@ -72,7 +72,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     for line in describe(args.dir):
         print(line)
     n = contact_sheet(args.dir, sheet)
-    print(f"contact sheet: {sheet} ({n} frames)")
+    print(f"wrote {sheet} (the contact sheet, {n} frames)")
     return EXIT_OK
 
 

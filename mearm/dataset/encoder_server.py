@@ -319,9 +319,14 @@ def serve(
     It exits at once when done (:func:`os._exit`), or with the error that stopped it.
     """
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    shm = SharedMemory(shm_name)
+    # Mapped here and in the recording process: its name can go, and with it the memory
+    # once both processes end, killed or not (a kill of the process group takes the
+    # resource tracker too, which would otherwise remove it).
+    with contextlib.suppress(FileNotFoundError):  # the recording process removed it
+        shm.unlink()
     import av
 
-    shm = SharedMemory(shm_name)
     frames, states = ring_views(shm.buf, shape)
     lock = threading.Lock()
 

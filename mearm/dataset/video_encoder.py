@@ -17,8 +17,16 @@ waits for at most those frames of its finished episodes to be encoded.
 
 The encoder ignores Ctrl-C (the terminal sends it to both processes; the recording
 process decides what is kept) and ends when the recording process goes away, killed or
-not. LeRobot encodes in a thread of the recording process (``StreamingVideoEncoder``),
-where SVT-AV1's and the frame conversion's CPU share the sort's core.
+not. The ring's segment leaves ``/dev/shm`` as soon as the encoder process has it
+mapped (:func:`~mearm.dataset.encoder_server.serve` unlinks its name): the kernel frees
+its memory when the last of the two processes lets go, however they end. A kill of both
+before that (within a second of the start, say ``kill -9`` of the process group, which
+takes :mod:`multiprocessing`'s resource tracker too) leaves the segment named, by its
+creator's process id (:data:`RING_PREFIX`): the next ring made removes it
+(:func:`remove_stale_rings`), before ``/dev/shm`` fills with them.
+
+LeRobot encodes in a thread of the recording process (``StreamingVideoEncoder``), where
+SVT-AV1's and the frame conversion's CPU share the sort's core.
 """
 
 from __future__ import annotations
@@ -26,6 +34,7 @@ from __future__ import annotations
 import contextlib
 import multiprocessing
 import os
+import secrets
 import signal
 import threading
 from multiprocessing.shared_memory import SharedMemory
@@ -55,6 +64,8 @@ POLL_S = 0.2
 DRAW_HERE_BEHIND = 12
 #: Where Linux keeps POSIX shared memory (:class:`SharedMemory`'s segments): a tmpfs.
 SHM_DIR = Path("/dev/shm")
+#: How a ring's segment is named: ``mearm-ring-<pid of its creator>-<random hex>``.
+RING_PREFIX = "mearm-ring-"
 
 
 class RingMemoryError(OSError):
@@ -86,10 +97,16 @@ def ring_memory(size: int) -> SharedMemory:
     Raises:
         RingMemoryError: the segment cannot be made or its pages had (ENOSPC: full).
     """
-    try:
-        shm = SharedMemory(create=True, size=size)
-    except OSError as exc:
-        raise RingMemoryError(exc, str(exc.filename or ""), size) from None
+    remove_stale_rings()
+    while True:
+        name = f"{RING_PREFIX}{os.getpid()}-{secrets.token_hex(4)}"
+        try:
+            shm = SharedMemory(name, create=True, size=size)
+            break
+        except FileExistsError:  # another ring of this process's: draw another name
+            continue
+        except OSError as exc:
+            raise RingMemoryError(exc, str(exc.filename or name), size) from None
     fd = getattr(shm, "_fd", -1)  # CPython's, on POSIX; Windows commits it as it maps it
     if fd >= 0 and hasattr(os, "posix_fallocate"):
         try:
@@ -100,8 +117,41 @@ def ring_memory(size: int) -> SharedMemory:
     return shm
 
 
+def remove_stale_rings() -> list[str]:
+    """Remove the rings in ``/dev/shm`` whose creator is gone; their names.
+
+    Only a ring both of whose processes were killed before the encoder had mapped it is
+    still named there (module docstring); its creator's process id is in its name. One of
+    a process that is alive (or of another user's, which this one may not signal) stays.
+    """
+    try:
+        names = [n for n in os.listdir(SHM_DIR) if n.startswith(RING_PREFIX)]
+    except OSError:  # no /dev/shm (not Linux), or not readable: nothing to look after
+        return []
+    removed = []
+    for name in names:
+        pid = name.removeprefix(RING_PREFIX).partition("-")[0]
+        if not pid.isdigit() or _alive(int(pid)):
+            continue
+        with contextlib.suppress(OSError):  # removed meanwhile, or not ours to remove
+            (SHM_DIR / name).unlink()
+            removed.append(name)
+    return removed
+
+
+def _alive(pid: int) -> bool:
+    """Whether process ``pid`` exists (a process of another user's does)."""
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
 def _remove(shm: SharedMemory) -> None:
-    """Unmap ``shm`` and remove its segment from ``/dev/shm``.
+    """Unmap ``shm`` and remove its segment from ``/dev/shm`` (if the encoder did not).
 
     A segment left there keeps its memory (the ring's ~24 MB) until this process ends
     (:mod:`multiprocessing`'s resource tracker removes it then): a long run whose encoder

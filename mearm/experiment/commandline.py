@@ -252,41 +252,89 @@ def _resume(
     resume = resume_point(args.log, config, args.seed, scene)
     if resume.done >= args.trials:
         print(
-            f"{args.log} already holds {resume.done} complete trials (--trials {args.trials}): "
-            "nothing to run"
+            f"{args.log} already holds {_trials(resume.done, 'complete trial')} "
+            f"(--trials {args.trials}): nothing to run"
         )
         return _verdict(args.log, args.trials)
     # before any trial is written: a rig that does not open raises RigNotOpened, bad input
     # said by run() (one line, exit 2), the log as it was
     check_rig_opens(config, args.seed, resume.done, scene)
-    if resume.done or resume.cut_off or resume.interrupted or resume.recording_stopped:
-        why = " and ".join(
-            w
-            for w, n in (
-                ("interrupted (Ctrl-C)", resume.interrupted),
-                ("stopped by its recording (a file not written)", resume.recording_stopped),
-                ("cut off", resume.cut_off),
-            )
-            if n
-        )
-        again = f"; trial {resume.done} again, it was {why}" if why else ""
-        print(
-            f"resuming {args.log}: {resume.done} complete trials there, running trials "
-            f"{resume.done}..{args.trials - 1}{again}"
-        )
     recorder = recorder_from_args(args, config)  # its directory checked before any trial
-    # Workers first: a scheduler that cannot be used leaves the log as it was.
-    parallel = args.jobs > 1 or args.scheduler is not None
-    jobs = min(args.jobs, args.trials - resume.done)
-    with (
-        open_workers(config, args.seed, scene, jobs, args.scheduler, _recording(args))
-        if parallel
-        else nullcontext()
-    ) as workers:
+    written = _Written(args.log, recorder, args.record)
+    try:
+        # Workers first: a scheduler that cannot be used leaves the log as it was.
+        parallel = args.jobs > 1 or args.scheduler is not None
+        jobs = min(args.jobs, args.trials - resume.done)
+        with (
+            open_workers(config, args.seed, scene, jobs, args.scheduler, _recording(args))
+            if parallel
+            else nullcontext()
+        ) as workers:
+            stopped, failed = _run(args, config, scene, resume, wait, workers, recorder, held)
+    finally:
         try:
-            return _run(args, config, scene, resume, wait, workers, recorder, held)
-        finally:
             close_recorder(recorder, args.record)
+        finally:
+            written.say()  # what is in place, stopped or not, before the totals line
+    if stopped is not None:
+        return stopped
+    return _verdict(args.log, args.trials, failed=failed)
+
+
+class _Written:
+    """The files of a run, named in ``wrote`` lines once it is over (if it wrote them).
+
+    Every file a command writes is named on stdout; a run stopped by Ctrl-C or a failure
+    names what it wrote too, before its line on stderr. A log the run did not append to
+    (it stopped before its first record) is not named.
+    """
+
+    def __init__(self, log: Path, recorder: DatasetRecorder | None, record: Path | None):
+        self.log, self.recorder, self.record = log, recorder, record
+        self._size = _size(log)
+
+    def say(self) -> None:
+        """Print a ``wrote`` line for the log and the dataset, each if it was written."""
+        if _size(self.log) != self._size:
+            print(f"wrote {self.log}", flush=True)
+        recorder = self.recorder
+        if recorder is not None and recorder.episodes_written:
+            episodes = _trials(recorder.episodes_written, "episode")
+            frames = _trials(recorder.frames_written, "frame")
+            print(f"wrote {self.record}/ ({episodes}, {frames})", flush=True)
+
+
+def _size(path: Path) -> int | None:
+    """The size of file ``path`` [bytes], ``None`` if there is none."""
+    try:
+        return path.stat().st_size
+    except OSError:
+        return None
+
+
+def _trials(n: int, what: str) -> str:
+    """``1 trial``, ``2 trials``: ``n`` and ``what``, plural unless ``n`` is 1."""
+    return f"{n} {what}{'' if n == 1 else 's'}"
+
+
+def _say_resuming(log: Path, resume: Resume, trials: int) -> None:
+    """The ``resuming LOG: …`` line, when the log holds trials of this run (or attempts)."""
+    if not (resume.done or resume.cut_off or resume.interrupted or resume.recording_stopped):
+        return
+    why = " and ".join(
+        w
+        for w, n in (
+            ("interrupted (Ctrl-C)", resume.interrupted),
+            ("stopped by its recording (a file not written)", resume.recording_stopped),
+            ("cut off", resume.cut_off),
+        )
+        if n
+    )
+    again = f"; trial {resume.done} again, it was {why}" if why else ""
+    print(
+        f"resuming {log}: {_trials(resume.done, 'complete trial')} there, running trials "
+        f"{resume.done}..{trials - 1}{again}"
+    )
 
 
 def _run(
@@ -298,14 +346,21 @@ def _run(
     workers: Workers | None,
     recorder: DatasetRecorder | None = None,
     held: LogLock | None = None,
-) -> int:
-    """The run of :func:`main` once its input is checked (and its workers are ready)."""
+) -> tuple[int | None, bool]:
+    """The run of :func:`main` once its input is checked (and its workers are ready).
+
+    Returns:
+        The exit status of a run that stopped (Ctrl-C, a failure), else ``None``: the
+        totals line follows once the dataset is closed (:func:`_verdict`); and whether a
+        trial of this run stopped early.
+    """
+    _say_resuming(args.log, resume, args.trials)  # every input accepted
     set_aside = ready_to_append(args.log, resume)
     if set_aside is not None:
         print(
-            f"note: {args.log} ended in a torn line (killed mid-write); its "
-            f"{len(resume.torn.data) if resume.torn else 0} bytes were moved to {set_aside}",
-            file=sys.stderr,
+            f"wrote {set_aside} (the torn last line of {args.log}, killed mid-write: its "
+            f"{len(resume.torn.data) if resume.torn else 0} bytes moved there)",
+            flush=True,
         )
 
     from tqdm import tqdm
@@ -339,23 +394,22 @@ def _run(
             if not exc.interrupted and recorder is not None and recorder.failure is not None:
                 raise recorder.failure from None  # one line, exit 1 (the log has the trial)
             print(f"{_prog()}: stopped: {exc.reason}", file=sys.stderr)
-            return interrupts.exit_status()
+            return interrupts.exit_status(), False
         except (CameraError, ServoError, TrialFailed) as exc:
             print(f"{_prog()}: {exc}", file=sys.stderr)
-            return EXIT_FAILURE
+            return EXIT_FAILURE, False
     wall = time.perf_counter() - t0
     failed = [(k, r) for k, r in outcomes.items() if r is not None]
     where = "1 process" if workers is None else f"{workers.count} {workers.where}"
     print(
-        f"{len(outcomes)} trials written to {args.log} in {wall:.0f} s "
+        f"{_trials(len(outcomes), 'trial')} written to {args.log} in {wall:.0f} s "
         f"({60 * len(outcomes) / wall:.1f} trials/min, {where}); {len(failed)} stopped early"
     )
     for k, reason in failed:
         print(f"  trial {k}: {reason}")
     analyze = invoked_as("python -m mearm.analyze", "analyze")
     print(f"analyse: {analyze} {args.log} --out report/")
-    code = _verdict(args.log, args.trials)
-    return EXIT_FAILURE if failed else code
+    return None, bool(failed)
 
 
 def _prog() -> str:
@@ -363,8 +417,10 @@ def _prog() -> str:
     return invoked_as("python -m mearm.experiment")
 
 
-def _verdict(path: Path, trials: int) -> int:
+def _verdict(path: Path, trials: int, *, failed: bool = False) -> int:
     """Print the totals line (:func:`_totals`); 0 if the trials left nothing, else 1.
+
+    ``failed``: a trial of this run stopped early (exit 1 whatever the totals say).
 
     Objects left are the experiment's data, and the log keeps them; but the command's job
     was to sort them, so, as ``mearm sort``, it exits 1 and says why on stderr, too.
@@ -372,7 +428,7 @@ def _verdict(path: Path, trials: int) -> int:
     line, clean = _totals(path, trials)
     print(line)
     if clean:
-        return 0
+        return EXIT_FAILURE if failed else 0
     print(f"{_prog()}: {line}", file=sys.stderr)
     return EXIT_FAILURE
 
@@ -418,7 +474,7 @@ def _totals(path: Path, trials: int) -> tuple[str, bool]:
             total.left[kind] = total.left.get(kind, 0) + n
     line = total.line()
     head, _, rest = line.partition(" objects")
-    line = f"{head} objects over {len(done)} trials{rest}"
+    line = f"{head} objects over {_trials(len(done), 'trial')}{rest}"
     left = total.n_sorted != sum(total.seen.values()) or any(total.left.values())
     if stopped:
         line += f"; {stopped} stopped early"
