@@ -58,7 +58,7 @@ def test_the_millimetre_line_is_the_sorts(tmp_path):
         encoding="utf-8",
     )
     line = _one_line(_mearm("sort", "--config", "mm.yaml", cwd=tmp_path), code=2)
-    quoted = _quoted("mearm sort: error: 5 problems: arm.joints:")
+    quoted = _quoted("mearm sort: error: mm.yaml: 3 problems: arm.joints:")
     assert quoted.endswith(" …") and line.startswith(quoted.removesuffix(" …")), (line, quoted)
 
 

@@ -5,10 +5,14 @@ builds on, ``extends`` and ``arm.use``, merged in: :mod:`mearm.config.compose`);
 config names (the servo calibration, the camera's calibration) are found relative to its
 folder (one a ``--set`` gives: to the current folder), and the servo calibration file's
 fits replace the calibrations of the actuators it names (:mod:`mearm.config.servo_file`).
+
+A loaded config remembers where it came from (:func:`config_source`), so a check of the
+whole config (:mod:`mearm.task.check`) names the file as a bad field's error does.
 """
 
 from __future__ import annotations
 
+import weakref
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -66,11 +70,8 @@ def resolve_config_path(path: str | Path) -> Path:
         return given
     if packaged is not None:
         return packaged
-    import difflib  # noqa: PLC0415  (a name that is no config only)
-
     known = config_names()
-    stem = given.stem if given.suffix in (".yaml", ".yml") else text
-    close = difflib.get_close_matches(stem, known, n=3, cutoff=0.75)
+    close = _close_names(given, known)
     hint = f" (did you mean {' or '.join(map(repr, close))}?)" if close else ""
     raise ConfigError(
         short_repr(text),  # quoted: a space or a control character in it shows
@@ -80,6 +81,59 @@ def resolve_config_path(path: str | Path) -> Path:
             f"{', '.join(known) or 'none'}"
         ],
     )
+
+
+#: Most files of the current folder looked at for a "did you mean" (a huge folder is cut).
+MAX_FOLDER_FILES = 1000
+
+
+def _close_names(given: Path, known: Sequence[str]) -> list[str]:
+    """What a bare ``--config`` name that is nothing most likely meant, best first.
+
+    ``my_arm`` when ``my_arm.yaml`` is here (the name without its suffix), else the
+    shipped names and this folder's YAML files that are close, case aside (``Sim``:
+    ``sim``).
+    """
+    import difflib  # noqa: PLC0415  (a name that is no config only)
+    import itertools  # noqa: PLC0415
+
+    text = str(given)
+    stem = given.stem if given.suffix in (".yaml", ".yml") else text
+    here = [f"{stem}{suffix}" for suffix in (".yaml", ".yml") if Path(f"{stem}{suffix}").is_file()]
+    if here:
+        return here[:1]
+    candidates = {name.lower(): name for name in known}
+    try:
+        files = list(itertools.islice(Path().iterdir(), MAX_FOLDER_FILES))
+    except OSError:  # an unreadable current folder: the shipped names only
+        files = []
+    for path in files:
+        if path.suffix in (".yaml", ".yml") and path.name != text:
+            candidates.setdefault(path.stem.lower(), path.name)
+    if stem.lower() in candidates:  # the name but for its case: that one only
+        return [candidates[stem.lower()]]
+    close = difflib.get_close_matches(stem.lower(), list(candidates), n=3, cutoff=0.75)
+    return [candidates[c] for c in close]
+
+
+#: Where each loaded config came from, by the config object's id, while it lives.
+_SOURCES: dict[int, str] = {}
+
+
+def config_source(config: Config) -> str | None:
+    """The file ``config`` was read from, as its field errors name it, else ``None``.
+
+    ``FILE``, ``FILE with --set``, or ``--set`` (no file) for a config that
+    :func:`load_config` returned; ``None`` for one built in code or a changed copy.
+    """
+    return _SOURCES.get(id(config))
+
+
+def _remember_source(config: Config, source: str) -> Config:
+    """``config``, recorded as read from ``source`` until it is freed."""
+    _SOURCES[id(config)] = source
+    weakref.finalize(config, _SOURCES.pop, id(config), None)
+    return config
 
 
 def load_config(path: str | Path | None = None, overrides: Sequence[str] = ()) -> Config:
@@ -99,10 +153,12 @@ def load_config(path: str | Path | None = None, overrides: Sequence[str] = ()) -
         if not overrides:
             return Config()
         config = config_from_dict({}, source="--set", overrides=overrides)
-        return _resolve_files(config, Path(), "--set", file_keys_set(overrides))
+        config = _resolve_files(config, Path(), "--set", file_keys_set(overrides))
+        return _remember_source(config, "--set")
     path = resolve_config_path(path)
     config = config_from_dict(read_yaml(path), source=str(path), overrides=overrides, path=path)
-    return _resolve_files(config, path.parent, str(path), file_keys_set(overrides))
+    config = _resolve_files(config, path.parent, str(path), file_keys_set(overrides))
+    return _remember_source(config, f"{path} with --set" if overrides else str(path))
 
 
 def _resolve_files(config: Config, folder: Path, source: str, from_set: set[str]) -> Config:
@@ -155,4 +211,4 @@ def _existing(folder: Path, text: str, key: str, source: str) -> Path:
     return resolved
 
 
-__all__ = ["load_config", "read_yaml", "resolve_config_path"]
+__all__ = ["config_source", "load_config", "read_yaml", "resolve_config_path"]

@@ -30,6 +30,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from mearm.config import ColorClass, Config
+from mearm.config.files import config_source
 from mearm.config.loader import millimetre_hint
 from mearm.errors import ConfigError, MearmError
 from mearm.ik import APPROACH_TOLERANCE_DEG
@@ -85,9 +86,7 @@ def check_consistency(config: Config, model: ArmModel | None = None) -> Consiste
     model = model if model is not None else ArmModel(config.arm)
     planner = Planner(config, model)
     found = Consistency()
-    problems: list[str] = []
-    for cls in config.task.classes:
-        problems += _check_bin(planner, model, cls)
+    problems = _check_bins(planner, model, config.task.classes)
     table = collision_model(config, model, clearance_cm=0.0)  # bins and table, for both checks
     problems += _check_bodies(config, model, table)
     problems += _check_home_above_table(config, model, table)
@@ -146,7 +145,7 @@ def check_consistency(config: Config, model: ArmModel | None = None) -> Consiste
     if problems:
         hint = millimetre_hint(config.model_dump(mode="json"))
         problems = [hint, *problems] if hint else problems
-        raise ConfigError(None, _blame_calibration_file(config, problems))
+        raise ConfigError(config_source(config), _blame_calibration_file(config, problems))
     _CACHE[key] = found
     return found
 
@@ -230,16 +229,46 @@ def _pick_field(cls: ColorClass) -> str:
     return f"task.classes.{cls.name}.{what}"
 
 
-def _check_bin(planner: Planner, model: ArmModel, cls: ColorClass) -> list[str]:
-    route = Route("", cls.name, "place", 1, planner.place_target(cls))
-    planner.plan(route, model.home)
-    if route.planned:
-        return []
-    x, y, z = cls.bin_cm
-    return [
-        f"task.classes.{cls.name}.bin_cm: [{x:g}, {y:g}, {z:g}] cannot be reached from home "
-        f"within the joint limits: {route.failure}"
-    ]
+#: How a bin inside the target box is missed when the arm is described otherwise than it
+#: is built (not ``outside_box``: the bin's place; not ``collision``: what stands in the way).
+ARM_FAILURES = frozenset({"unreachable", "limit", "stalled", "singular"})
+
+
+def _check_bins(planner: Planner, model: ArmModel, classes: Sequence[ColorClass]) -> list[str]:
+    """Every class's bin planned from home; one problem per bin missed.
+
+    Two or more bins inside the target box that the arm misses (:data:`ARM_FAILURES`)
+    make one problem instead, said first: their names, the likely cause (an arm described
+    otherwise than it is built: a DH row's sign, a joint's limits, which ``mearm preview``
+    draws) and the first one's reason.
+    """
+    problems: list[str] = []
+    missed: list[str] = []  # the classes whose bins the arm misses
+    reasons: list[str] = []  # each one's bin and reason
+    for cls in classes:
+        route = Route("", cls.name, "place", 1, planner.place_target(cls))
+        planner.plan(route, model.home)
+        if route.planned:
+            continue
+        place = f"[{', '.join(f'{v:g}' for v in cls.bin_cm)}]"
+        if route.failure_kind in ARM_FAILURES:
+            missed.append(cls.name)
+            reasons.append(f"{cls.name} {place}: {route.failure}")
+        problems.append(
+            f"task.classes.{cls.name}.bin_cm: {place} cannot be reached from home within the "
+            f"joint limits: {route.failure}"
+        )
+    if len(missed) < 2:
+        return problems
+    summary = (
+        f"task.classes.{{{','.join(missed)}}}.bin_cm: {len(missed)} bins inside "
+        "arm.target_box cannot be reached from home within the joint limits: the arm's "
+        "description is the likely cause; check the signs of its DH rows (arm.joints.*.dh: "
+        "alpha_deg, a_cm, d_cm, theta_deg) and its joint limits against the real arm, drawn "
+        f"as described by mearm preview --sweep (the same --config and --set): {reasons[0]}"
+    )
+    kept = [p for p in problems if not any(p.startswith(f"task.classes.{n}.") for n in missed)]
+    return [summary, *kept]
 
 
 def _check_bodies(config: Config, model: ArmModel, collision: CollisionModel) -> list[str]:

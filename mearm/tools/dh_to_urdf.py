@@ -15,6 +15,7 @@ never one the config is read from.
 from __future__ import annotations
 
 import argparse
+import sys
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
@@ -30,7 +31,8 @@ from mearm.cli import (
 )
 from mearm.config import ArmDescription, Config
 from mearm.config.compose import EXTENDS_KEY, MAX_EXTENDS, USE_KEY, reference_arm
-from mearm.config.files import read_yaml, resolve_config_path
+from mearm.config.files import config_source, read_yaml, resolve_config_path
+from mearm.config.loader import millimetre_hint
 from mearm.data import (
     URDF_DIR,
     arm_names,
@@ -146,6 +148,24 @@ def _check_output(output: Path, name: str, urdf: str, *, given: bool, force: boo
     refuse_to_replace(output, "--output" if given else "the default output", force)
 
 
+def _warn_millimetres(prog: str, config: Config) -> None:
+    """Say on stderr, in the words of a sort's config check, when lengths look like mm.
+
+    An 80 cm link is a valid arm (so the URDF is written, exit 0), but most likely a
+    hobby arm's 8 cm written in mm (:func:`~mearm.config.loader.millimetre_hint`); a URDF
+    ten times too large is not found by looking at it.
+    """
+    hint = millimetre_hint(config.model_dump(mode="json"))
+    if hint is not None:
+        where = config_source(config)
+        print(
+            f"{prog}: warning: {where + ': ' if where else ''}{hint}; the URDF is written "
+            "with the lengths as given",
+            file=sys.stderr,
+            flush=True,
+        )
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Write the URDF(s); 0 on success."""
     default_folder = output_folder()
@@ -205,6 +225,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         refuse_own_inputs([("--output" if given else "the default output", output)], inputs)
         _check_output(output, arm.name, urdf, given=given, force=args.force)
         jobs.append((output, urdf))
+    if not every:  # every check passed: the warning is the only line on stderr
+        _warn_millimetres(parser.prog, config)
     for output, urdf in jobs:  # every check passed: nothing is half done
         write_text_atomic(output, urdf)
         print(f"wrote {output}")

@@ -194,18 +194,30 @@ def _check_joint_names(
         )
 
 
+def _check_screenshot(parser: argparse.ArgumentParser, args: argparse.Namespace) -> None:
+    """Refuse, before the view starts, a --screenshot file that cannot be written (exit 2).
+
+    Named as the flag: the view's own check would name its parameter (``out_png``).
+    """
+    shot = args.screenshot
+    if shot.suffix.lower() != ".png" or shot.exists() and not shot.is_file():
+        parser.error(f"--screenshot {shot}: must be a .png file (not a folder or a device)")
+    if not shot.absolute().parent.is_dir():
+        parser.error(
+            f"--screenshot {shot}: no folder {shot.absolute().parent}: give a path in an "
+            "existing folder"
+        )
+    config_file = resolve_config_path(args.config) if args.config is not None else None
+    refuse_own_inputs([("--screenshot", shot)], [("--config", config_file)])
+    refuse_to_replace(shot, "--screenshot", args.force)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Serve (or render) the bare arm; see the module docstring."""
     parser = _parser()
     args = parser.parse_args(argv)
-    shot = args.screenshot
-    if shot is not None and (shot.suffix.lower() != ".png" or shot.exists() and not shot.is_file()):
-        parser.error(f"--screenshot {shot}: must be a .png file (not a folder or a device)")
-    if shot is not None:
-        config_file = resolve_config_path(args.config) if args.config is not None else None
-        refuse_own_inputs([("--screenshot", shot)], [("--config", config_file)])
-        refuse_to_replace(shot, "--screenshot", args.force)
-
+    if args.screenshot is not None:
+        _check_screenshot(parser, args)
     config = config_from_args(args)
     model = ArmModel(config.arm)
     chain = model.chain
