@@ -2,11 +2,15 @@
 
 On the real rig (``configs/lab.yaml``) the camera and the Arduino do the work; on the
 simulated rig (``configs/sim.yaml``, the default) both are simulated and the table holds
-the paper's 12-object layout unless ``--scene`` or ``--random`` says otherwise::
+the paper's 12-object layout unless ``--scene`` or ``--random N`` (1 to 500 objects) says
+otherwise::
 
     python -m mearm.sort --config configs/sim.yaml --log run.jsonl [--view [--collision]]
 
-The last line printed is ``sorted N of M objects (…reasons…)``; the run log's summary
+The last line printed is ``sorted N of M objects (…reasons…)``, labelled simulated on a
+simulated rig (``sorted 12 of 12 objects (simulated)``, ``… (simulated; 2 out of
+reach)``); a run that sorted every object but then stopped on a fault (the arm could not
+park) ends ``…; then stopped: not parked: …`` and exits 1. The run log's summary
 record holds the same counts, per class and per reason, and the ``motion`` line's figure
 as its ``motion_s``. ``--quiet`` prints only the summary: the route statistics, the
 motion time, the objects left and why, and that last line (no line per route, no
@@ -17,14 +21,16 @@ collision model the routes are checked against (the arm's, the bins' and the obj
 shapes; docs/view.md).
 
 ``--record DIR`` also writes the run as a LeRobotDataset v3.0, one episode per
-pick-and-place (docs/datasets.md).
+pick-and-place (docs/datasets.md); the dataset is written when the run is over, and
+named then, before the summary: ``wrote DIR/ (N episodes, F frames)``.
 
 A config with a belt sorts what the belt brings (docs/sorting.md); ``--scene`` and
 ``--random``, which lay objects on the table, are refused with it.
 
 Exit status: 0 only when every object seen was sorted (in simulation, every object: one
 the camera never saw is left too); 1 when the run ended with objects left (out of reach,
-failed picks, a camera or servo fault); 2 on bad input, found before anything moves (a
+failed picks, a camera or servo fault) or stopped on a fault after the last (the arm not
+parked); 2 on bad input, found before anything moves (a
 camera or servo port that cannot be opened as configured, a board that does not answer
 its handshake, a ``vision.work_area_px`` with no pixel in the camera's frames included);
 130 on Ctrl-C (the arm is parked first), 143 on SIGTERM and 129 on SIGHUP, taken as
@@ -49,7 +55,9 @@ writes it. A fit that does not converge stops the sort before its first pick (ex
 Each file the sort writes is named on stdout as it lands, also with ``--quiet``:
 ``wrote PATH`` for ``--save-mjcf PATH`` (before the run) and ``--save-calibration FILE``
 (after the calibration's line; an existing FILE kept first, ``wrote FILE.bak (the old
-FILE)``). The outcome stays the last line.
+FILE)``), and ``wrote DIR/ (N episodes, F frames)`` for ``--record DIR`` (once the
+run is over and the dataset written, before the summary). The outcome stays the last
+line.
 """
 
 from __future__ import annotations
@@ -60,6 +68,7 @@ import sys
 import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 # The imports below make some 50,000 objects that live as long as the process (pydantic's
 # schemas, the arm's and the camera's tables). Collecting them frees nothing: run as a
@@ -85,6 +94,7 @@ try:
         write_text_atomic,
     )
     from mearm.config import Config, SceneObject
+    from mearm.config.sections import MAX_SCENE_OBJECTS
     from mearm.dataset.arguments import (
         add_record_arguments,
         check_record_arguments,
@@ -95,7 +105,7 @@ try:
     from mearm.hardware.errors import ServoError
     from mearm.task import Rig, SortAborted, check_scene, load_scene, random_scene, run_sort
     from mearm.task.check import calibration_note, check_consistency
-    from mearm.task.report import summary_without_table
+    from mearm.task.report import SortReport, summary_without_table
     from mearm.task.sorter import CalibrateFirst, calibrates_at_start, check_calibrate_at_start
     from mearm.vision.errors import CameraError
     from mearm.vision.work_area import check_work_area  # loaded by the sorter's tracking
@@ -103,6 +113,10 @@ finally:
     if _PAUSE_COLLECTOR:
         gc.freeze()
         gc.enable()
+
+
+if TYPE_CHECKING:
+    from mearm.dataset.recorder import DatasetRecorder  # imported with --record only
 
 
 def add_scene_arguments(parser: ArgumentParser) -> None:
@@ -114,7 +128,10 @@ def add_scene_arguments(parser: ArgumentParser) -> None:
         help="simulated table: a YAML list of {color, x, y} [cm] (color: a class name)",
     )
     group.add_argument(
-        "--random", type=plain_int, metavar="N", help="simulated table: N random objects"
+        "--random",
+        type=plain_int,
+        metavar="N",
+        help=f"simulated table: N random objects (1 to {MAX_SCENE_OBJECTS})",
     )
     parser.add_argument("--seed", type=seed_value, help="seed for --random (default 0)")
 
@@ -143,9 +160,7 @@ def scene_from_args(args: object, config: Config) -> list[SceneObject] | None:
     scene = None
     if scene_path is not None:
         scene = load_scene(scene_path, config.task.class_names)
-    elif n is not None:
-        if n < 0:
-            raise MearmError(f"--random needs a number of objects ≥ 0, got {n}")
+    elif n is not None:  # in 1..MAX_SCENE_OBJECTS (_check_arguments)
         scene = random_scene(config, n, seed=getattr(args, "seed", None) or 0)
     if config.camera.kind == "sim":
         source = str(scene_path) if scene_path is not None else "--random" if n else "task.scene"
@@ -210,6 +225,12 @@ def _parser() -> ArgumentParser:
 def _check_arguments(parser: ArgumentParser, args: argparse.Namespace) -> None:
     """Exit 2 (``parser.error``) on options that do not go together or a bad output path."""
     check_record_arguments(parser, args)
+    if args.random is not None and not 1 <= args.random <= MAX_SCENE_OBJECTS:
+        # none would sort nothing and call it done (exit 0)
+        parser.error(
+            f"--random N lays N objects on the table: N must be 1 to {MAX_SCENE_OBJECTS}, "
+            f"got {args.random}"
+        )
     if args.seed is not None and args.random is None:
         parser.error("--seed draws the scene of --random N: use it with --random")
     args.seed = 0 if args.seed is None else args.seed
@@ -307,10 +328,13 @@ def _sort(argv: Sequence[str] | None) -> int:
     calibrate_first = _calibrate_first(config, args.save_calibration)
     scene = scene_from_args(args, config)
     mjcf = _scene_mjcf(config, scene) if args.save_mjcf is not None else None
-    lines: list[str] = []
-    echo = _quiet_echo(lines) if args.quiet else echo_line
     # its directory checked before any motion; a --scene table kept for a replay
     recorder = recorder_from_args(args, config, scene)
+    lines: list[str] = []
+    # the summary waits for the dataset's wrote line (the dataset is written as the
+    # recorder closes, after the run): quiet, it is printed at the end anyway
+    held = _SummaryHeld()
+    echo = _quiet_echo(lines) if args.quiet else held if recorder is not None else echo_line
 
     make_view = _view_factory(config, collision=args.collision)
 
@@ -322,13 +346,12 @@ def _sort(argv: Sequence[str] | None) -> int:
         log = None
     if log is not None:
         print(f"run log: {args.log}", flush=True)
-    if recorder is not None:
-        print(f"recording: {args.record}", flush=True)
     note = None if args.quiet else calibration_note(config, _config_args(args))
     # said once the rig is open, before the arm moves: a camera that is not there ends the
     # sort before it starts (logged, exit 2) with one line on stderr, not the note too;
     # and a real camera is opened once (some webcams are slow to, or fail to, reopen)
-    stopped = ""  # why the sort stopped, said on stderr
+    report: SortReport | None = None
+    aborted: SortAborted | None = None  # why the sort stopped, said on stderr
     try:
         if mjcf is not None:  # the last of the inputs accepted (the log's lock included)
             write_text_atomic(args.save_mjcf, mjcf)
@@ -347,11 +370,7 @@ def _sort(argv: Sequence[str] | None) -> int:
             on_open=_said_on_open(note),
         )
     except SortAborted as exc:
-        if args.quiet:
-            _print_summary(lines, config)
-        stopped = exc.reason
-        print(f"mearm sort: stopped: {stopped}", file=sys.stderr)
-        return interrupts.exit_status() if exc.interrupted else EXIT_FAILURE
+        aborted = exc
     except (CameraError, ServoError) as exc:
         # raised only before the sort started (inside it, a fault is SortAborted): a
         # camera or link that cannot be opened as configured, found before any motion:
@@ -367,13 +386,60 @@ def _sort(argv: Sequence[str] | None) -> int:
     finally:
         if log is not None:
             log.close()
-        close_recorder(recorder, args.record, said=stopped)
-    if args.quiet:
-        _print_summary(lines, config)
+        try:
+            close_recorder(recorder, args.record, said="" if aborted is None else aborted.reason)
+            _say_dataset_written(recorder, args.record)
+        finally:  # the summary, its outcome last, once the dataset is named
+            held.flush()
+            if args.quiet and (report is not None or aborted is not None):
+                _print_summary(lines, config)
+    if aborted is not None:
+        print(f"mearm sort: stopped: {aborted.reason}", file=sys.stderr)
+        return interrupts.exit_status() if aborted.interrupted else EXIT_FAILURE
+    assert report is not None  # run_sort returned
     if not report.complete:
-        print(f"mearm sort: {report.outcome.line()}", file=sys.stderr)
+        print(f"mearm sort: {report.line()}", file=sys.stderr)
         return EXIT_FAILURE
     return EXIT_OK
+
+
+class _SummaryHeld:
+    """Echoes a sort's lines as they come, but holds its summary back until :meth:`flush`.
+
+    A recording's dataset is written as the recorder closes, after the sort's summary:
+    the ``wrote DIR/`` line that names it comes before the summary, so the outcome stays
+    the last line. The summary opens with a blank line
+    (:meth:`~mearm.task.report.Reporter.summary`).
+    """
+
+    def __init__(self) -> None:
+        self._summary: list[str] = []
+
+    def __call__(self, line: str) -> None:
+        if self._summary or line == "":
+            self._summary.append(line)
+        else:
+            echo_line(line)
+
+    def flush(self) -> None:
+        """Print the summary held back (nothing if there is none)."""
+        for line in self._summary:
+            echo_line(line)
+        self._summary.clear()
+
+
+def _say_dataset_written(recorder: DatasetRecorder | None, where: Path) -> None:
+    """``wrote DIR/ (N episodes, F frames)`` once the recorder is closed, if it wrote any.
+
+    As ``mearm experiment`` names its dataset; with ``--resume``, the episodes this run
+    added. A recording that wrote no episode leaves no folder it made (nothing to name).
+    """
+    if recorder is None or not recorder.episodes_written:
+        return
+    n = recorder.episodes_written
+    echo_line(
+        f"wrote {where}/ ({n} episode{'' if n == 1 else 's'}, {recorder.frames_written} frames)"
+    )
 
 
 def _quiet_echo(lines: list[str]) -> Callable[[str], None]:

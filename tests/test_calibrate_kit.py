@@ -313,4 +313,4 @@ def test_each_reference_arms_simulated_calibration_sorts(tmp_path: Path, name: s
     assert sort.main(["--config", config, "--set", sets[0], "--quiet"]) == 0
     last = capsys.readouterr().out.strip().splitlines()[-1]
     seen = len(plain.task.scene)
-    assert last == f"sorted {seen} of {seen} objects"
+    assert last == f"sorted {seen} of {seen} objects (simulated)"

@@ -97,7 +97,7 @@ def test_mearm_sort_reports_a_miss_in_its_log_and_exits_1(tmp_path):
     argv = ["sort", "--config", str(KINEMATIC), "--log", str(log), "--quiet"]
     out = run_in_process([*argv, *(a for s in sets for a in ("--set", s))], within_s=10)
     assert out.code == 1
-    assert out.line == "mearm sort: sorted 0 of 1 objects (1 missed on the belt)"
+    assert out.line == "mearm sort: sorted 0 of 1 objects (simulated; 1 missed on the belt)"
     records = [json.loads(line) for line in log.read_text().splitlines()]
     (skip,) = [r for r in records if r["type"] == "skip"]
     assert skip["reason"].startswith("missed on the belt: it would be")

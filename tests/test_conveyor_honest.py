@@ -64,8 +64,8 @@ def test_a_belt_sort_records_one_episode_per_catch(tmp_path, config):
     sort = _mearm("sort", "--config", config, *_sets(*FEW), "--quiet", "--record", root,
                   "--record-codec", "h264")  # fmt: skip
     assert sort.returncode == 0, sort.stdout + sort.stderr
-    assert sort.stdout.splitlines()[-1] == "sorted 2 of 2 objects"
-    assert "recorded 2 episodes" in sort.stderr, sort.stderr
+    assert sort.stdout.splitlines()[-1] == "sorted 2 of 2 objects (simulated)"
+    assert f"wrote {root}/ (2 episodes, " in sort.stdout, sort.stdout
     check = _mearm("dataset", "check", root)
     assert check.returncode == 0, check.stdout + check.stderr
     info = json.loads((root / "meta" / "info.json").read_text())
@@ -80,7 +80,7 @@ def test_a_belt_sort_records_one_episode_per_scene(tmp_path):
     sort = _mearm("sort", "--config", KINEMATIC, *_sets(*FEW), "--quiet", "--record", root,
                   "--record-per", "scene", "--record-codec", "h264")  # fmt: skip
     assert sort.returncode == 0, sort.stdout + sort.stderr
-    assert "recorded 1 episode " in sort.stderr, sort.stderr
+    assert f"wrote {root}/ (1 episode, " in sort.stdout, sort.stdout
     check = _mearm("dataset", "check", root)
     assert check.returncode == 0, check.stdout + check.stderr
     assert json.loads((root / "meta" / "info.json").read_text())["total_episodes"] == 1
@@ -96,7 +96,7 @@ def test_a_belt_out_of_the_cameras_view_counts_what_it_brought():
     sort = _mearm("sort", "--config", KINEMATIC, *_sets(*FEW, "belt.start_cm=[500,500]"),
                   "--quiet")  # fmt: skip
     assert sort.returncode == 1, sort.stdout + sort.stderr
-    line = "sorted 0 of 2 objects (2 never seen by the camera)"
+    line = "sorted 0 of 2 objects (simulated; 2 never seen by the camera)"
     assert sort.stdout.splitlines()[-1] == line
     assert sort.stderr.splitlines()[-1] == f"mearm sort: {line}"
 

@@ -51,7 +51,7 @@ def test_a_full_sort_exits_0_and_says_so(tmp_path, capsys):
     log = tmp_path / "run.jsonl"
     code, lines, err = _sort(capsys, "--config", "configs/sim.yaml", "--log", log, "--quiet")
     assert code == 0, err
-    assert lines[-1] == "sorted 12 of 12 objects"
+    assert lines[-1] == "sorted 12 of 12 objects (simulated)"
     s = _summary(log)
     assert s.objects == s.sorted == {"red": 4, "green": 4, "blue": 4} and s.left == {}
 
@@ -73,8 +73,8 @@ def test_an_arm_that_cannot_reach_the_objects_exits_1(tmp_path, capsys):
     # out of reach, or reachable only with a joint beyond its limits
     assert set(s.left) <= {"unreachable", "limit"} and sum(s.left.values()) == 12
     words = ", ".join(f"{s.left[k]} {LEFT_REASONS[k]}" for k in s.left)
-    assert lines[-1] == f"sorted 0 of 12 objects ({words})"
-    assert err.strip() == f"mearm sort: sorted 0 of 12 objects ({words})"
+    assert lines[-1] == f"sorted 0 of 12 objects (simulated; {words})"
+    assert err.strip() == f"mearm sort: sorted 0 of 12 objects (simulated; {words})"
 
 
 @pytest.mark.heavy
@@ -84,7 +84,7 @@ def test_a_base_servo_8_degrees_off_exits_1(tmp_path, capsys):
         capsys, "--quiet", "--log", log, "--set", "servo.error_model.offset_deg.base=8"
     )
     assert code == 1, err
-    assert lines[-1] == "sorted 0 of 12 objects (12 pick failed)"
+    assert lines[-1] == "sorted 0 of 12 objects (simulated; 12 pick failed)"
     s = _summary(log)
     assert s.left == {"pick_failed": 12} and sum(s.sorted.values()) == 0
 
@@ -110,7 +110,7 @@ def test_a_board_whose_arm_never_moves_exits_1(tmp_path, capsys):
         cfg.write_text(yaml.safe_dump(data), encoding="utf-8")
         code, lines, err = _sort(capsys, "--config", cfg, "--log", log, "--quiet", *QUICK_SERVOS)
     assert code == 1, err
-    assert lines[-1] == "sorted 0 of 12 objects (12 pick failed)"
+    assert lines[-1] == "sorted 0 of 12 objects (simulated; 12 pick failed)"
     assert _summary(log).left == {"pick_failed": 12}
     assert board.received  # the moves did reach the board
 
@@ -138,7 +138,9 @@ def test_objects_left_by_a_fault_are_counted(tmp_path, capsys):
     s = _summary(log)
     n_sorted = sum(s.sorted.values())
     assert 0 < n_sorted < 12 and s.left == {"fault": 12 - n_sorted}
-    assert lines[-1] == f"sorted {n_sorted} of 12 objects ({12 - n_sorted} stopped by a fault)"
+    assert lines[-1] == (
+        f"sorted {n_sorted} of 12 objects (simulated; {12 - n_sorted} stopped by a fault)"
+    )
 
 
 def test_an_object_cut_by_the_image_border_is_never_picked(tmp_path):
@@ -199,7 +201,7 @@ def test_a_bin_refused_once_the_object_is_held_puts_it_back(tmp_path, capsys, mo
     log = tmp_path / "run.jsonl"
     code, lines, err = _sort(capsys, "--config", "configs/sim.yaml", "--log", log, "--quiet")
     assert code == 1, err
-    assert lines[-1] == "sorted 8 of 12 objects (4 bin out of reach)"
+    assert lines[-1] == "sorted 8 of 12 objects (simulated; 4 bin out of reach)"
     s = _summary(log)
     assert s.sorted == {"red": 4, "green": 4, "blue": 0} and s.left == {"bin_unreachable": 4}
     trial = read_runlog(log).trials[-1]
@@ -223,7 +225,7 @@ def test_objects_the_camera_never_sees_are_left_not_forgotten(tmp_path, capsys, 
     log = tmp_path / "run.jsonl"
     code, lines, err = _sort(capsys, "--set", spoiler, "--log", log)  # the class table too
     assert code == 1, err
-    assert lines[-1] == "sorted 8 of 12 objects (4 never seen by the camera)"
+    assert lines[-1] == "sorted 8 of 12 objects (simulated; 4 never seen by the camera)"
     assert [x.split() for x in lines if x.startswith("red ")] == [["red", "0", "0", "4"]]
     s = _summary(log)
     assert s.objects == {"red": 4, "green": 4, "blue": 4}
@@ -240,7 +242,7 @@ def test_the_twin_counts_the_objects_its_camera_never_sees(tmp_path, capsys):
         "--set", "task.classes.red.diameter_cm=0.5",
     )  # fmt: skip
     assert code == 1, err
-    assert lines[-1] == "sorted 1 of 2 objects (1 never seen by the camera)"
+    assert lines[-1] == "sorted 1 of 2 objects (simulated; 1 never seen by the camera)"
 
 
 @pytest.mark.parametrize("edge", ["x0", "x1", "y0", "y1"])
@@ -264,4 +266,4 @@ def test_an_object_on_the_edge_of_the_stated_view_is_seen_whole(tmp_path, capsys
     scene = tmp_path / "scene.yaml"
     scene.write_text(f"- {{color: red, x: {x}, y: {y}}}\n")
     code, lines, err = _sort(capsys, "--scene", scene, "--quiet")
-    assert (code, lines[-1]) == (0, "sorted 1 of 1 objects"), err
+    assert (code, lines[-1]) == (0, "sorted 1 of 1 objects (simulated)"), err

@@ -234,14 +234,15 @@ def test_detect_json_keeps_stdout_json_and_notes_its_pictures_on_stderr(
     ],
     ids=["sort", "experiment"],
 )
-def test_a_recording_is_named_on_stderr_after_the_outcome(
+def test_a_recording_is_named_on_stdout_before_the_outcome(
     make_argv: Callable[[], list[str]], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    """The dataset is closed after the outcome: stdout still ends with it, and the
-    recording is named on stderr."""
+    """The dataset is named on stdout once closed, as every file written is, and the
+    outcome still ends it; stderr does not name it again."""
     monkeypatch.chdir(tmp_path)
     monkeypatch.setenv("MUJOCO_GL", "egl")
     out = run_in_process(make_argv(), within_s=60)
     assert out.code == 0, out.stdout + out.stderr
     assert out.stdout.splitlines()[-1].startswith("sorted 1 of 1 objects"), out.stdout
-    assert re.search(r"^recorded 1 episode \(\d+ frames\) to ds$", out.stderr, re.M), out.stderr
+    assert re.search(r"^wrote ds/ \(1 episode, \d+ frames\)$", out.stdout, re.M), out.stdout
+    assert "recorded" not in out.stderr, out.stderr

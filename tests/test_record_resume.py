@@ -90,7 +90,7 @@ def test_sigkill_mid_trial_then_resume_records_each_pick_once(tmp_path: Path) ->
     resumed = _experiment(None, [*args, "--resume"])
     out, err = resumed.communicate(timeout=240)
     assert resumed.returncode == 0, err.decode()
-    assert "recorded 1 episode (" in err.decode()
+    assert f"wrote {root}/ (1 episode, " in out.decode()
 
     seeds = [trial_seed(3, k) for k in range(2)]
     tags = json.loads((root / "meta/mearm_episodes.json").read_text())["episodes"]

@@ -86,7 +86,7 @@ def test_the_sort_runs_with_the_truth(tmp_path: Path, capsys) -> None:
     assert sort.main(["--config", CONFIG, *_argv(*sets), "--quiet"]) == 0
     last = capsys.readouterr().out.strip().splitlines()[-1]
     seen = len(load_config(CONFIG).task.scene)
-    assert last == f"sorted {seen} of {seen} objects"
+    assert last == f"sorted {seen} of {seen} objects (simulated)"
 
 
 @pytest.mark.parametrize(

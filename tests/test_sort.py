@@ -35,7 +35,7 @@ def test_cli_sorts_the_paper_layout(tmp_path):
     log = tmp_path / "run.jsonl"
     r = run_cli("-m", "mearm.sort", "--config", "configs/sim.yaml", "--log", str(log))
     assert r.returncode == 0, r.stderr
-    assert r.stdout.splitlines()[-1] == "sorted 12 of 12 objects"
+    assert r.stdout.splitlines()[-1] == "sorted 12 of 12 objects (simulated)"
     assert "red          4       4     0" in r.stdout and "blue         4       4     0" in r.stdout
     contents = read_runlog(log)
     assert contents.problem is None and contents.complete
@@ -321,7 +321,7 @@ def test_scene_file_and_random_flags(tmp_path):
     scene.write_text("- {color: green, x: 0.0, y: 45.0}\n- {color: red, x: -6.0, y: 40.0}\n")
     r = _sort_cli("--scene", scene, "--quiet")
     assert r.code == 0, r.stderr
-    assert r.stdout.splitlines()[-1] == "sorted 2 of 2 objects"
+    assert r.stdout.splitlines()[-1] == "sorted 2 of 2 objects (simulated)"
     r = _sort_cli("--random", "3", "--seed", "4", "--quiet", "--log", tmp_path / "l.jsonl")
     assert r.code == 0, r.stderr
     header = json.loads((tmp_path / "l.jsonl").read_text().splitlines()[0])
@@ -331,7 +331,7 @@ def test_scene_file_and_random_flags(tmp_path):
 @pytest.mark.parametrize(
     "args, needle",
     [
-        (["--random", "-1"], "--random needs a number of objects ≥ 0"),
+        (["--random", "-1"], "--random N lays N objects on the table: N must be 1 to 500"),
         (["--scene", "missing.yaml"], "scene file not found"),
         (["--config", "configs/lab.yaml", "--random", "3"], "camera is 'device', not 'sim'"),
         (["--random", "3", "--scene", "x.yaml"], "not allowed with argument"),

@@ -79,7 +79,7 @@ def test_an_object_knocked_off_the_table_is_left_with_its_reason(tmp_path, capsy
     summary = contents.summary
     assert summary is not None
     assert summary.sorted["red"] == 1 and summary.left == {"off_table": 1}
-    assert "(1 no longer on the table)" in err
+    assert "(simulated; 1 no longer on the table)" in err
     assert not contents.faults
 
 
@@ -144,7 +144,7 @@ def test_looking_twice_at_one_instant_is_not_a_frozen_stream(tmp_path, capsys):
     log = tmp_path / "run.jsonl"
     code = sort_main(["--config", str(CONFIG), "--set", scene, "--log", str(log), "--quiet"])
     assert code == 1
-    assert "(2 no route clear of collisions)" in capsys.readouterr().err
+    assert "(simulated; 2 no route clear of collisions)" in capsys.readouterr().err
     (trial,) = read_runlog(log, strict=True).trials
     assert trial.complete and not trial.faults
 

@@ -71,7 +71,7 @@ def test_virtual_uno_sorts_the_paper_layout(cache_home):
     pins' measured pulses, exit 0."""
     r = _sort(cache_home, "--quiet", *QUICK_SERVOS)
     assert r.returncode == 0, r.stdout + r.stderr
-    assert r.stdout.splitlines()[-1] == "sorted 12 of 12 objects"
+    assert r.stdout.splitlines()[-1] == "sorted 12 of 12 objects (simulated)"
     assert "Traceback" not in r.stderr
 
 
@@ -323,4 +323,4 @@ def test_virtual_uno_sorts_the_mearm_whose_elbow_servo_turns_the_forearm(cache_h
         capture_output=True, text=True, timeout=300, cwd=ROOT, env=env,
     )  # fmt: skip
     assert r.returncode == 0, r.stdout + r.stderr
-    assert r.stdout.splitlines()[-1] == "sorted 2 of 2 objects"
+    assert r.stdout.splitlines()[-1] == "sorted 2 of 2 objects (simulated)"

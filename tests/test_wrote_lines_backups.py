@@ -239,5 +239,5 @@ def test_the_sort_names_its_mjcf_and_calibration_also_when_quiet(tmp_path: Path)
     assert done.code == 0, done.stdout + done.stderr
     lines = done.stdout.splitlines()
     assert lines[:3] == [f"wrote {mjcf}", _kept(servos), f"wrote {servos}"], done.stdout
-    assert lines[-1] == "sorted 2 of 2 objects"
+    assert lines[-1] == "sorted 2 of 2 objects (simulated)"
     assert Path(f"{servos}.bak").read_bytes() == old and mjcf.is_file()

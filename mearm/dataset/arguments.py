@@ -185,10 +185,11 @@ def recorder_from_args(
 
 
 def close_recorder(recorder: DatasetRecorder | None, where: object, said: str = "") -> None:
-    """Close ``recorder`` and say on stderr what it recorded to ``where``.
+    """Close ``recorder``: its last episode is written whole or not at all.
 
-    Its last episode is written whole or not at all; stderr, so that a command's summary
-    stays the last line of its output.
+    The command names the dataset on stdout once this returns (``wrote DIR/ (N episodes,
+    F frames)``, before its summary); picks of a trial run again that the dataset held
+    already are said here, on stderr.
 
     A recording that stopped because a file could not be written (a full disk) ends the
     command with that error (exit 1, its ``exit_status``), unless the command already
@@ -201,13 +202,6 @@ def close_recorder(recorder: DatasetRecorder | None, where: object, said: str = 
     if recorder is None:
         return
     recorder.close()
-    if recorder.episodes_written:
-        print(
-            f"recorded {recorder.episodes_written} "
-            f"episode{'' if recorder.episodes_written == 1 else 's'} "
-            f"({recorder.frames_written} frames) to {where}",
-            file=sys.stderr,
-        )
     if recorder.episodes_skipped:
         print(
             f"{recorder.episodes_skipped} "

@@ -105,11 +105,18 @@ class Outcome:
         """Whether every object seen (and in simulation, every object) was sorted."""
         return self.n_sorted == self.n_objects
 
-    def line(self) -> str:
-        """``sorted N of M objects (k out of reach, …)``: the run's last line."""
+    def line(self, *, simulated: bool = False) -> str:
+        """``sorted N of M objects (k out of reach, …)``: the run's last line.
+
+        Args:
+            simulated: The objects were simulated (``(simulated)``, or ``(simulated; k out
+                of reach, …)``): a simulated figure is labelled so, as the sort prints it.
+        """
         text = f"sorted {self.n_sorted} of {self.n_objects} objects"
-        reasons = [f"{n} {LEFT_REASONS.get(k, k)}" for k, n in self.left.items() if n]
-        return f"{text} ({', '.join(reasons)})" if reasons else text
+        notes = ", ".join(f"{n} {LEFT_REASONS.get(k, k)}" for k, n in self.left.items() if n)
+        if simulated:
+            notes = f"simulated; {notes}" if notes else "simulated"
+        return f"{text} ({notes})" if notes else text
 
 
 @dataclass
@@ -122,6 +129,7 @@ class SortReport:
         fault: Why the run stopped early, or ``None``.
         outcome: Objects seen, sorted and left (set when the run ends).
         motion: The whole run's commanded motion (set when the run ends), or ``None``.
+        simulated: Whether the objects were simulated (a world judged the places).
     """
 
     routes: list[Route] = field(default_factory=list)
@@ -129,11 +137,26 @@ class SortReport:
     fault: str | None = None
     outcome: Outcome = field(default_factory=Outcome)
     motion: MotionTime | None = None
+    simulated: bool = False
 
     @property
     def complete(self) -> bool:
         """Whether the run ended without a fault and with every object seen sorted."""
         return self.fault is None and self.outcome.complete
+
+    def line(self) -> str:
+        """The run's last line: how it ended.
+
+        The outcome's count (:meth:`Outcome.line`), labelled simulated in simulation. A
+        run that sorted every object and then stopped on a fault (the arm could not park,
+        Ctrl-C on the way home) adds the fault's first clause, ``; then stopped: not
+        parked: …``: its count alone would read as a success. A fault that left objects
+        is in the count already (``k stopped by a fault``).
+        """
+        text = self.outcome.line(simulated=self.simulated)
+        if self.fault is not None and self.outcome.complete:
+            text += f"; then stopped: {self.fault.split('; ')[0]}"
+        return text
 
     def sorted_per_class(self) -> dict[str, int]:
         """Place routes that succeeded, per class (unconfirmed: see :attr:`outcome`)."""
@@ -158,6 +181,7 @@ class Reporter:
         log: The run log, or ``None``.
         echo: Called with each line (``None``: silent).
         trial: Trial number for the log.
+        simulated: The objects are simulated: the last line says so.
     """
 
     def __init__(
@@ -167,13 +191,15 @@ class Reporter:
         log: RunLog | None,
         echo: Callable[[str], None] | None,
         trial: int | None,
+        *,
+        simulated: bool = False,
     ):
         self.config = config
         self.chain = chain
         self.log = log
         self.echo = echo or (lambda _line: None)
         self.trial = trial
-        self.report = SortReport()
+        self.report = SortReport(simulated=simulated)
 
     def route(self, route: Route) -> None:
         """Record a pick or place route."""
@@ -234,7 +260,7 @@ class Reporter:
     def summary(self, *, ok: bool, outcome: Outcome, motion: MotionTime | None = None) -> None:
         """Close the trial in the log and print the per-class table and the figures.
 
-        The last line printed is :meth:`Outcome.line`. The ``motion`` line printed and the
+        The last line printed is :meth:`SortReport.line`. The ``motion`` line printed and the
         log's ``motion_s`` are the same figure.
 
         Args:
@@ -289,7 +315,7 @@ class Reporter:
             self.echo(f"not sorted: {s.object_id} ({s.class_name}): {s.reason}")
         if rep.fault:
             self.echo(f"stopped: {rep.fault}")
-        self.echo(outcome.line())
+        self.echo(rep.line())
 
 
 def summary_without_table(lines: Sequence[str], classes: int) -> list[str]:
@@ -298,7 +324,7 @@ def summary_without_table(lines: Sequence[str], classes: int) -> list[str]:
     The summary starts after the blank line :meth:`Reporter.summary` opens it with; its
     per-class table (a heading and one row for each of ``classes`` classes) is left out,
     so what remains is the route statistics, the motion time, the objects left and why,
-    a fault, and the last line, :meth:`Outcome.line`. Lines that hold no summary are
+    a fault, and the last line, :meth:`SortReport.line`. Lines that hold no summary are
     returned as they are.
     """
     if "" not in lines:

@@ -234,7 +234,9 @@ class Sorter(PickAndPlace):
         self.calibrate_first = calibrate_first
         self.model = model if model is not None else ArmModel(config.arm)
         self._calibrated_parts(config, view)
-        self.reporter = Reporter(config, self.model.chain, log, echo, trial)
+        self.reporter = Reporter(
+            config, self.model.chain, log, echo, trial, simulated=in_bins is not None
+        )
         self.frame_check = FrameCheck(camera.source)
         #: The object the arm last went for (the only one it may have moved since).
         self._active: TrackedObject | None = None
