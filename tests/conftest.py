@@ -164,6 +164,27 @@ def run_cli(*args: str, timeout: float = 60, cwd: Path = ROOT) -> subprocess.Com
     )
 
 
+def mearm_cli(*args: object, cwd: Path, timeout: float = 300) -> subprocess.CompletedProcess[str]:
+    """``python -m mearm ARGS`` in a process of its own, in ``cwd``, rendering offscreen.
+
+    ``timeout`` bounds a hang only.
+    """
+    env = {**os.environ, "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl")}
+    return subprocess.run(
+        [sys.executable, "-m", "mearm", *map(str, args)],
+        cwd=cwd, env=env, capture_output=True, text=True, timeout=timeout, check=False,
+    )  # fmt: skip
+
+
+def one_stderr_line(proc: subprocess.CompletedProcess[str], code: int) -> str:
+    """The one line ``proc`` said on stderr, once it is checked that it exited ``code``,
+    said exactly one line and printed no traceback."""
+    lines = proc.stderr.strip().splitlines()
+    assert proc.returncode == code and len(lines) == 1, (proc.returncode, proc.stderr)
+    assert "Traceback" not in proc.stderr + proc.stdout
+    return lines[0]
+
+
 def processes_under(folder: Path) -> list[int]:
     """The processes whose command line names ``folder``: a browser and its helpers a
     test started with its profile there, still running or not."""

@@ -2,14 +2,13 @@
 
 from __future__ import annotations
 
-import os
 import shutil
 import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import mearm_cli
 
 from mearm.vision.pinhole import load_calibration
 
@@ -17,14 +16,6 @@ from mearm.vision.pinhole import load_calibration
 pytestmark = pytest.mark.heavy
 
 ROOT = Path(__file__).resolve().parents[1]
-ENV = {**os.environ, "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl")}
-
-
-def mearm(*args: object, cwd: Path) -> subprocess.CompletedProcess[str]:
-    return subprocess.run(
-        [sys.executable, "-m", "mearm", *map(str, args)],
-        cwd=cwd, env=ENV, capture_output=True, text=True, timeout=300, check=False,
-    )  # fmt: skip
 
 
 def refused(proc: subprocess.CompletedProcess[str], text: str) -> None:
@@ -37,7 +28,7 @@ def refused(proc: subprocess.CompletedProcess[str], text: str) -> None:
 def overhead(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """The twin's straight-down camera's sheet, markers and truth (sim_mujoco)."""
     out = tmp_path_factory.mktemp("overhead") / "rc"
-    proc = mearm("render-calibration", "--config", "sim_mujoco", "--out", out, "--views", "1",
+    proc = mearm_cli("render-calibration", "--config", "sim_mujoco", "--out", out, "--views", "1",
                  "--truth", cwd=out.parent)  # fmt: skip
     assert proc.returncode == 0, proc.stderr
     return out
@@ -49,7 +40,7 @@ def markers(folder: Path) -> list[str]:
 
 def test_a_camera_looking_straight_down_gets_its_pose(overhead: Path, tmp_path: Path) -> None:
     """OpenCV's IPPE garbles a half-turn; the pose was refused as 'below the table' (#8)."""
-    proc = mearm("calibrate-camera", "--intrinsics", overhead / "truth_intrinsics.yaml",
+    proc = mearm_cli("calibrate-camera", "--intrinsics", overhead / "truth_intrinsics.yaml",
                  "--out", "pose.yaml", "--image", overhead / "sheet.png", *markers(overhead),
                  cwd=tmp_path)  # fmt: skip
     assert proc.returncode == 0, proc.stderr
@@ -64,19 +55,19 @@ def test_calibrate_camera_refuses_to_write_over_its_inputs(overhead: Path, tmp_p
     image = tmp_path / "photo.png"
     shutil.copy(overhead / "sheet.png", image)
     config = tmp_path / "h.yaml"
-    assert mearm("init-config", config, "--arm", "paper", "--rig", "sim_mujoco",
+    assert mearm_cli("init-config", config, "--arm", "paper", "--rig", "sim_mujoco",
                  cwd=tmp_path).returncode == 0  # fmt: skip
     before = image.read_bytes()
     args = ["--image", image, *markers(overhead)]
-    proc = mearm("calibrate-camera", "--config", config, *args, "--output", "./photo.png",
+    proc = mearm_cli("calibrate-camera", "--config", config, *args, "--output", "./photo.png",
                  "--force", cwd=tmp_path)  # fmt: skip
     refused(proc, "is the --image file")
     intrinsics = overhead / "truth_intrinsics.yaml"
     kept = intrinsics.read_bytes()
-    proc = mearm("calibrate-camera", "--intrinsics", intrinsics, "--out", intrinsics, *args,
+    proc = mearm_cli("calibrate-camera", "--intrinsics", intrinsics, "--out", intrinsics, *args,
                  "--force", cwd=tmp_path)  # fmt: skip
     refused(proc, "is the --intrinsics file")
-    proc = mearm("calibrate-camera", "--intrinsics", intrinsics, "--out", "p.yaml", *args,
+    proc = mearm_cli("calibrate-camera", "--intrinsics", intrinsics, "--out", "p.yaml", *args,
                  "--config", config, "--output", image, "--force", cwd=tmp_path)  # fmt: skip
     refused(proc, "is the --image file")
     assert image.read_bytes() == before and intrinsics.read_bytes() == kept
@@ -85,22 +76,24 @@ def test_calibrate_camera_refuses_to_write_over_its_inputs(overhead: Path, tmp_p
 
 def test_calibrate_camera_output_needs_force_and_keeps_a_backup(tmp_path: Path) -> None:
     config = tmp_path / "h.yaml"
-    assert mearm("init-config", config, "--arm", "paper", "--rig", "sim",
+    assert mearm_cli("init-config", config, "--arm", "paper", "--rig", "sim",
                  cwd=tmp_path).returncode == 0  # fmt: skip
     other = tmp_path / "other.yaml"
     other.write_text("keep: me\n")
     points = [a for p in ("1,1:0,30", "600,1:20,30", "600,400:20,50", "1,400:0,50",
                           "300,200:10,40") for a in ("--point", p)]  # fmt: skip
-    proc = mearm("calibrate-camera", "--config", config, *points, "--output", other, cwd=tmp_path)
+    proc = mearm_cli(
+        "calibrate-camera", "--config", config, *points, "--output", other, cwd=tmp_path
+    )
     refused(proc, "pass --force")
     assert other.read_text() == "keep: me\n"
-    proc = mearm("calibrate-camera", "--config", config, *points, "--output", other, "--force",
+    proc = mearm_cli("calibrate-camera", "--config", config, *points, "--output", other, "--force",
                  cwd=tmp_path)  # fmt: skip
     assert proc.returncode == 0, proc.stderr
     assert (tmp_path / "other.yaml.bak").read_text() == "keep: me\n"
     assert "homography" in other.read_text()
     # writing into --config itself (named either way) is the normal mode: no --force
-    proc = mearm("calibrate-camera", "--config", config, *points, "--output", "./h.yaml",
+    proc = mearm_cli("calibrate-camera", "--config", config, *points, "--output", "./h.yaml",
                  cwd=tmp_path)  # fmt: skip
     assert proc.returncode == 0, proc.stderr
 
@@ -116,7 +109,7 @@ def test_check_camera_refine_refuses_its_config_and_intrinsics(tmp_path: Path) -
     )
     texts = {p: p.read_bytes() for p in tmp_path.iterdir()}
     for out, what in (("twin_intrinsics.yaml", "intrinsics file"), ("my.yaml", "--config")):
-        proc = mearm("check-camera", "--config", config, "--refine", out, "--force",
+        proc = mearm_cli("check-camera", "--config", config, "--refine", out, "--force",
                      cwd=tmp_path)  # fmt: skip
         refused(proc, what)
     assert {p: p.read_bytes() for p in tmp_path.iterdir()} == texts
@@ -124,14 +117,14 @@ def test_check_camera_refine_refuses_its_config_and_intrinsics(tmp_path: Path) -
 
 def test_render_calibration_replaces_an_earlier_run_only_with_force(tmp_path: Path) -> None:
     out = tmp_path / "calib"
-    proc = mearm("render-calibration", "--config", "sim_mujoco", "--out", out, "--views", "3",
+    proc = mearm_cli("render-calibration", "--config", "sim_mujoco", "--out", out, "--views", "3",
                  "--truth", "--raised-height-cm", "10", cwd=tmp_path)  # fmt: skip
     assert proc.returncode == 0, proc.stderr
     (out / "notes.txt").write_text("mine\n")
     again = ["render-calibration", "--config", "sim_mujoco", "--out", out, "--views", "1"]
-    refused(mearm(*again, cwd=tmp_path), "not empty")
+    refused(mearm_cli(*again, cwd=tmp_path), "not empty")
     assert (out / "board_02.png").exists()
-    proc = mearm(*again, "--force", cwd=tmp_path)
+    proc = mearm_cli(*again, "--force", cwd=tmp_path)
     assert proc.returncode == 0, proc.stderr
     names = sorted(p.name for p in out.iterdir())
     assert names == ["board_00.png", "notes.txt", "sheet.png", "sheet_markers.txt"]
@@ -141,10 +134,10 @@ def test_camera_accuracy_json_may_not_be_an_input(tmp_path: Path) -> None:
     config = tmp_path / "c.yaml"
     config.write_text(f"extends: {ROOT / 'configs' / 'sim_mujoco_perspective.yaml'}\n")
     before = config.read_text()
-    proc = mearm("camera-accuracy", "--config", config, "--json", config, cwd=tmp_path)
+    proc = mearm_cli("camera-accuracy", "--config", config, "--json", config, cwd=tmp_path)
     refused(proc, "is the --config file")
     work = tmp_path / "work"
-    proc = mearm("camera-accuracy", "--config", config, "--work", work, "--json",
+    proc = mearm_cli("camera-accuracy", "--config", config, "--work", work, "--json",
                  work / "pose.yaml", cwd=tmp_path)  # fmt: skip
     refused(proc, "write elsewhere")
     assert config.read_text() == before

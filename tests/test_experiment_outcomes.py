@@ -168,10 +168,11 @@ def test_sigterm_stops_a_trial_as_ctrl_c_does(tmp_path):
             break
         time.sleep(0.01)
     proc.send_signal(signal.SIGTERM)
-    _, err = proc.communicate(timeout=120)
+    out, err = proc.communicate(timeout=120)
     assert proc.returncode == 143, err
     assert b"mearm experiment: stopped: interrupted (SIGTERM); arm parked at home" in err
     assert attempts(log) == [(0, "interrupted")]
+    assert out.decode().splitlines() == [f"wrote {log}"]  # it wrote the log: it says so
 
 
 def test_workers_append_no_trial_after_an_interrupted_one(tmp_path):

@@ -10,28 +10,13 @@ from __future__ import annotations
 
 import os
 import re
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
+from conftest import mearm_cli, one_stderr_line
 
 ROOT = Path(__file__).resolve().parents[1]
 PAGE = ROOT / "docs" / "troubleshooting.md"
-ENV = {**os.environ, "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl")}
-
-
-def _mearm(*args: object, cwd: Path) -> subprocess.CompletedProcess[str]:
-    return subprocess.run(
-        [sys.executable, "-m", "mearm", *map(str, args)],
-        cwd=cwd, env=ENV, capture_output=True, text=True, timeout=300, check=False,
-    )  # fmt: skip
-
-
-def _one_line(proc: subprocess.CompletedProcess[str], code: int) -> str:
-    lines = proc.stderr.strip().splitlines()
-    assert proc.returncode == code and len(lines) == 1, (proc.returncode, proc.stderr)
-    return lines[0]
 
 
 def _quoted(start: str) -> str:
@@ -45,8 +30,8 @@ def test_problems_share_one_line_as_the_page_says(tmp_path):
     (tmp_path / "bad.yaml").write_text(
         "extends: sim\ncontroller:\n  kp: -1\n  max_iterations: 0\n", encoding="utf-8"
     )
-    proc = _mearm("fk", "--config", "bad.yaml", "--joints", "90,90,-90", cwd=tmp_path)
-    assert _one_line(proc, code=2) == _quoted("mearm fk: error: bad.yaml: 2 problems:")
+    proc = mearm_cli("fk", "--config", "bad.yaml", "--joints", "90,90,-90", cwd=tmp_path)
+    assert one_stderr_line(proc, code=2) == _quoted("mearm fk: error: bad.yaml: 2 problems:")
     assert "one line per bad key" not in PAGE.read_text(encoding="utf-8")
 
 
@@ -57,7 +42,7 @@ def test_the_millimetre_line_is_the_sorts(tmp_path):
         "    elbow: {dh: {a_cm: 80}}\n",
         encoding="utf-8",
     )
-    line = _one_line(_mearm("sort", "--config", "mm.yaml", cwd=tmp_path), code=2)
+    line = one_stderr_line(mearm_cli("sort", "--config", "mm.yaml", cwd=tmp_path), code=2)
     quoted = _quoted("mearm sort: error: mm.yaml: 3 problems: arm.joints:")
     assert quoted.endswith(" …") and line.startswith(quoted.removesuffix(" …")), (line, quoted)
 
@@ -67,16 +52,19 @@ def test_the_millimetre_line_is_the_sorts(tmp_path):
     reason="this machine has cameras",
 )
 def test_find_cameras_quoted_failure_is_its_own(tmp_path):
-    line = _one_line(_mearm("find-camera", "--out", tmp_path / "s", cwd=tmp_path), code=1)
+    line = one_stderr_line(mearm_cli("find-camera", "--out", tmp_path / "s", cwd=tmp_path), code=1)
     assert line == _quoted("mearm find-camera: error:")
 
 
 def test_find_ports_quoted_failure_is_its_own(tmp_path):
     master, slave = os.openpty()  # a port that never prints the firmware's banner
     try:
-        proc = _mearm("find-port", "--only", "--port", os.ttyname(slave), "--timeout", "0.2",
+        proc = mearm_cli("find-port", "--only", "--port", os.ttyname(slave), "--timeout", "0.2",
                       cwd=tmp_path)  # fmt: skip
     finally:
         os.close(slave)
         os.close(master)
-    assert _one_line(proc, code=1) == _quoted("mearm find-port: error:")
+    line = one_stderr_line(proc, code=1)  # find-port's failure is the one error line
+    assert line == _quoted("mearm find-port: error:")
+    assert line.startswith("mearm find-port: error: no mearm board found"), line
+    assert "not a mearm board" in proc.stdout

@@ -16,32 +16,14 @@ pseudo-terminal: the only stand-ins.
 
 from __future__ import annotations
 
-import os
-import subprocess
-import sys
 from pathlib import Path
 
 import cv2
 import numpy as np
 import yaml
+from conftest import mearm_cli, one_stderr_line
 
 from mearm.maker import find_camera, init_config
-
-ENV = {**os.environ, "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl")}
-
-
-def _mearm(*args: object, cwd: Path) -> subprocess.CompletedProcess[str]:
-    return subprocess.run(
-        [sys.executable, "-m", "mearm", *map(str, args)],
-        cwd=cwd, env=ENV, capture_output=True, text=True, timeout=120, check=False,
-    )  # fmt: skip
-
-
-def _one_line(proc: subprocess.CompletedProcess[str], code: int) -> str:
-    lines = proc.stderr.strip().splitlines()
-    assert proc.returncode == code and len(lines) == 1, (proc.returncode, proc.stderr)
-    assert "Traceback" not in proc.stderr
-    return lines[0]
 
 
 def _image(path: Path, bgr: tuple[int, int, int]) -> Path:
@@ -71,23 +53,10 @@ def test_find_camera_twice_keeps_the_first_snapshot_and_names_every_file(tmp_pat
 
 
 def test_find_camera_that_finds_none_ends_with_the_commands_error_line(tmp_path):
-    proc = _mearm("find-camera", "--camera", "/dev/null", "--out", tmp_path / "s", cwd=tmp_path)
-    line = _one_line(proc, code=1)
+    proc = mearm_cli("find-camera", "--camera", "/dev/null", "--out", tmp_path / "s", cwd=tmp_path)
+    line = one_stderr_line(proc, code=1)
     assert line.startswith("mearm find-camera: error: no cameras found (tried /dev/null)"), line
     assert not (tmp_path / "s").exists()
-
-
-def test_find_port_that_finds_no_board_ends_with_the_commands_error_line(tmp_path):
-    master, slave = os.openpty()  # a port that never prints the firmware's banner
-    try:
-        proc = _mearm("find-port", "--only", "--port", os.ttyname(slave), "--timeout", "0.2",
-                      cwd=tmp_path)  # fmt: skip
-    finally:
-        os.close(slave)
-        os.close(master)
-    line = _one_line(proc, code=1)
-    assert line.startswith("mearm find-port: error: no mearm board found"), line
-    assert "not a mearm board" in proc.stdout
 
 
 def test_init_config_twin_says_what_it_extends_as_the_file_does(tmp_path, monkeypatch, capsys):

@@ -44,7 +44,7 @@ def _table_picture(name: str) -> str:
     return name
 
 
-def _points() -> list[str]:
+def calibration_points() -> list[str]:
     """Five pixel ↔ table pairs of the built-in calibration (``--point U,V:X,Y`` each)."""
     calibration = Calibration.from_config(Config().calibration)
     pixels = [(0, 0), (640, 0), (640, 480), (0, 480), (320, 240)]
@@ -55,7 +55,7 @@ def _points() -> list[str]:
 
 def _homography() -> list[str]:
     shutil.copy(ROOT / "configs" / "lab.yaml", "lab.yaml")
-    return ["calibrate-camera", "--config", "lab.yaml", *_points()]
+    return ["calibrate-camera", "--config", "lab.yaml", *calibration_points()]
 
 
 def _pose() -> list[str]:

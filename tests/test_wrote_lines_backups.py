@@ -21,10 +21,9 @@ import pytest
 from badinput import ROOT, run_in_process
 from charuco_render import TrueCamera, board_poses, render_view
 from conftest import firmware_build
+from test_output_streams_wrote import calibration_points
 
-from mearm.config import Config
 from mearm.task.armcheck import ArmCheck, CheckPoint
-from mearm.vision import Calibration
 from mearm.vision.pinhole import Extrinsics, load_calibration
 
 CALIB = ROOT / "configs" / "calibration"
@@ -67,22 +66,13 @@ def test_calibrate_servos_names_the_calibration_it_kept(tmp_path: Path) -> None:
     assert Path(f"{out}.bak").read_bytes() == old
 
 
-def _points() -> list[str]:
-    """Five pixel ↔ table pairs of the built-in calibration (``--point U,V:X,Y`` each)."""
-    calibration = Calibration.from_config(Config().calibration)
-    pixels = [(0, 0), (640, 0), (640, 480), (0, 480), (320, 240)]
-    table = calibration.pixel_to_table(pixels)
-    return [a for (u, v), (x, y) in zip(pixels, table, strict=True)
-            for a in ("--point", f"{u},{v}:{float(x)!r},{float(y)!r}")]  # fmt: skip
-
-
 def test_calibrate_camera_names_the_config_it_kept(tmp_path: Path) -> None:
     """An existing --output replaced (--force): its .bak named before the calibration's line."""
     config, out = tmp_path / "lab.yaml", tmp_path / "mine.yaml"
     shutil.copy(ROOT / "configs" / "lab.yaml", config)
     out.write_text("# mine\n")
     done = run_in_process(
-        ["calibrate-camera", "--config", config, *_points(), "--output", out, "--force"]
+        ["calibrate-camera", "--config", config, *calibration_points(), "--output", out, "--force"]
     )
     assert done.code == 0, done.stderr
     lines = done.stdout.splitlines()
