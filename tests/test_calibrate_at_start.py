@@ -162,3 +162,12 @@ def test_a_fit_that_cannot_be_made_stops_the_sort_before_its_first_pick(
 def test_bad_input_exits_2_with_one_line_before_anything_moves(argv, said, tmp_path) -> None:
     result = check_bad_input(["sort", *argv], code=2, within_s=10, keep=[tmp_path])
     assert said in result.line, result.line
+
+
+@pytest.mark.bad_input
+def test_a_calibration_at_start_the_rig_cannot_run_names_the_config_file(tmp_path) -> None:
+    """Said like every whole-config problem: after the file it came from."""
+    config = ROOT / "configs" / "sim.yaml"
+    argv = ["sort", "--config", config, "--set", "servo.calibrate_at_start=when_uncalibrated"]
+    result = check_bad_input(argv, code=2, within_s=10, keep=[tmp_path])
+    assert f"error: {config} with --set: servo.calibrate_at_start: " in result.line, result.line

@@ -41,6 +41,7 @@ import numpy as np
 
 from mearm import interrupts
 from mearm.config import Config
+from mearm.config.files import config_source
 from mearm.data import doc_page
 from mearm.errors import ConfigError, MearmError
 from mearm.hardware.bus import ServoBus
@@ -174,8 +175,8 @@ def check_calibrate_at_start(config: Config) -> None:
             f"{field} to never, or calibrate the camera as {doc_page('calibration.md')}'s "
             "walkthrough does"
         )
-    if problems:
-        raise ConfigError(None, problems)
+    if problems:  # named by the config's file, as a bad key's line is
+        raise ConfigError(config_source(config), problems)
 
 
 class Sorter(PickAndPlace):
