@@ -17,7 +17,10 @@ pixel of its photo, is refused (:class:`~mearm.errors.InputFileError` naming the
 With ``learn``, each source's colours are taught from its first photo as a user teaches
 them: one click per class, on the first labelled object of that class (moved to its most
 coloured pixel within half an object when the centre is grey: a blown-out top),
-and the photos are scored with the config that makes.
+and the photos are scored with the config that makes. A click the teacher refuses (a
+label on grey, on the table, or two classes labelled on one colour) is the manifest's
+fault: :class:`~mearm.errors.InputFileError` naming the entry and the label. Without
+``learn`` nothing is taught, so such labels are only scored.
 
 One click is one choice among many: another user clicks another cube, or teaches from
 another photo. :func:`run_click_study` teaches each source every way a user could with
@@ -61,7 +64,9 @@ COMBINATIONS_MAX = 100_000
 class Photo:
     """One labelled photo, scaled: frame, labelled centres, ignored boxes, object width.
 
-    ``object_px`` is the width its objects were scaled to [px].
+    ``object_px`` is the width its objects were scaled to [px]; ``scale`` the factor the
+    photo was scaled by, and ``entry`` its manifest entry (``images[i] (file)``), so that
+    a label a teaching refuses is named as the manifest gives it.
     """
 
     name: str
@@ -70,6 +75,8 @@ class Photo:
     centres: dict[str, np.ndarray] = field(repr=False)
     ignore: list[tuple[float, float, float, float]] = field(repr=False)
     object_px: float
+    scale: float = 1.0
+    entry: str = ""
 
 
 @dataclass
@@ -214,6 +221,8 @@ def load_photos(
                 {name: c * scale for name, c in labels.items()},
                 _boxes(entry, scale),
                 object_px,
+                scale,
+                where,
             )
         )
     return photos
@@ -287,6 +296,29 @@ def learned_config(config: Config, photo: Photo, clicks: Mapping[str, int] | Non
     )
 
 
+def refused_labels(
+    manifest: Path, photo: Photo, exc: SampleError, clicks: Mapping[str, int] | None = None
+) -> InputFileError:
+    """A teaching's refusal as the manifest's fault, naming the labels clicked.
+
+    The teacher names its samples in the scaled photo's pixels (``red=35,401``), which
+    are nowhere in the manifest: the error names the entry and each refused class's
+    clicked centre as labelled (the photo's own pixels), then the teacher's reason.
+    """
+    picked = clicks or {}
+    named = []
+    for name in dict.fromkeys(re.findall(r"([^\s=]+)=", exc.sample)):
+        if name in photo.centres and len(photo.centres[name]):
+            u, v = photo.centres[name][picked.get(name, 0)] / photo.scale
+            named.append(f"objects.{name} centre [{u:g}, {v:g}]")
+    labels = " and ".join(named) or exc.sample
+    return InputFileError(
+        str(manifest),
+        f"{photo.entry}: a click on {labels} cannot teach its class: {exc.reason} "
+        "(check that label)",
+    )
+
+
 def _detectors(config: Config) -> dict[str, Callable[[np.ndarray], Sequence[Detection]]]:
     cal = camera_geometry(config.calibration, config.camera)
     detector = ColorDetector(config.vision, cal, config.task.classes)
@@ -312,7 +344,12 @@ def run_photo_bench(folder: Path, config: Config, *, learn: bool = False) -> lis
     for p in photos:
         firsts.setdefault(p.source, p)
     plain = _detectors(config)
-    taught = {s: _detectors(learned_config(config, p))["mearm"] for s, p in firsts.items()}
+    taught = {}
+    for src, first in firsts.items() if learn else ():  # the shipped bands teach nothing
+        try:
+            taught[src] = _detectors(learned_config(config, first))["mearm"]
+        except SampleError as exc:
+            raise refused_labels(folder / "manifest.yaml", first, exc) from None
     totals: dict[str, Score] = {"mearm": Score(), "inRange": Score()}
     sources = {(src, who): Score() for src in firsts for who in totals}
     rows = []
@@ -371,9 +408,11 @@ def run_click_study(folder: Path, config: Config) -> list[dict]:
     the totals of every combination of one teaching per source (a seeded sample of
     :data:`COMBINATIONS_MAX` when there are more). A teaching whose click the teacher
     refuses (a label off its object's colour: grey or black there) is left out and
-    counted. Rows: ``scope`` (``source <repo>`` or ``all sources``), ``teachings`` (over
-    all sources: the combinations), ``refused``, and the ``recall`` and ``precision``
-    quantiles (``min``, ``q10``, ``median``, ``max``) as fractions.
+    counted; a source whose every teaching is refused stops the study
+    (:class:`~mearm.errors.InputFileError` naming the first refused label). Rows:
+    ``scope`` (``source <repo>`` or ``all sources``), ``teachings`` (over all sources: the
+    combinations), ``refused``, and the ``recall`` and ``precision`` quantiles
+    (``min``, ``q10``, ``median``, ``max``) as fractions.
     """
     photos = load_photos(folder, object_px_of(config), config.task.class_names)
     sources: dict[str, list[Photo]] = {}
@@ -383,17 +422,26 @@ def run_click_study(folder: Path, config: Config) -> list[dict]:
     refused: dict[str, int] = {}
     for src, group in sources.items():
         totals = []
+        first_refusal: InputFileError | None = None
         for photo, picked in teachings(group, config):
             try:
                 taught = learned_config(config, photo, picked)
-            except SampleError:  # a label off its object's colour: a user clicks again
+            except SampleError as exc:  # a label off its object's colour: a user clicks again
                 refused[src] = refused.get(src, 0) + 1
+                if first_refusal is None:
+                    first_refusal = refused_labels(folder / "manifest.yaml", photo, exc, picked)
                 continue
             detect = _detectors(taught)["mearm"]
             s = Score()
             for q in group:
                 s.add(score(q, detect(q.frame)))
             totals.append(s.totals())
+        if first_refusal is not None and not totals:  # no row for it would say why
+            raise InputFileError(
+                first_refusal.path,
+                f"source {src}: each of its {refused[src]} teachings was refused; the first: "
+                f"{first_refusal.reason}",
+            )
         if totals:
             per_source[src] = totals
     rows = [_spread(f"source {src}", t, refused.get(src, 0)) for src, t in per_source.items()]
