@@ -40,6 +40,7 @@ from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
+from mearm import interrupts
 from mearm.config import ColorClass, Config
 from mearm.errors import MearmError
 from mearm.hardware.bus import ReportsRelease, ServoBus
@@ -398,8 +399,8 @@ class ConveyorSorter(Sorter):
                 self.recorder.end_run()
         except MearmError as exc:
             self._stop_on_fault(exc)
-        except KeyboardInterrupt:
-            self._abort("interrupted (Ctrl-C)", park=True, interrupted=True)
+        except KeyboardInterrupt as exc:  # Ctrl-C, or SIGTERM/SIGHUP taken as one
+            self._abort(f"interrupted ({interrupts.named(exc)})", park=True, interrupted=True)
         self.reporter.summary(ok=True, outcome=self.outcome(), motion=self.executor.motion)
         return self.report
 
@@ -409,7 +410,11 @@ class ConveyorSorter(Sorter):
         In simulation the belt's arrivals are known (:func:`~mearm.sim.belt.belt_arrivals`):
         each that has landed on the belt by now and was never seen (a belt out of the
         camera's view, an object gone before it was seen whole) is left ``unseen``, with
-        the table's own (``placed``). A real rig knows only what its camera saw.
+        the table's own (``placed``). A run that stopped (``stopped``: Ctrl-C, a fault)
+        leaves them to that instead: the belt brings objects all the time, one has
+        usually just landed, and the run ended before the camera could see it (still one
+        of the M objects, so the last line names the stop). A real rig knows only what its
+        camera saw.
         """
         out = super().outcome(stopped)
         if self.in_bins is None:
@@ -425,7 +430,8 @@ class ConveyorSorter(Sorter):
             missing = n - out.seen.get(name, 0)
             if missing > 0:
                 out.unseen[name] = missing
-                out.left["unseen"] = out.left.get("unseen", 0) + missing
+                why = stopped or "unseen"
+                out.left[why] = out.left.get(why, 0) + missing
         return out
 
 
