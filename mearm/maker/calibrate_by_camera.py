@@ -71,7 +71,9 @@ also visited with them at :data:`FREE_SHARES` of their range, so their scales ar
 too.
 
 **Objects on the table**: the camera looks once with the arm at home, and the moves keep
-clear of what it sees there, as the sort's do (``--simulate``: the table is empty).
+clear of what it sees there, and the tool's lowest point, within the doubt,
+:data:`TABLE_MARGIN_CM` above the tallest class's top, as a sort's calibration at its
+start does (``--simulate``: the table is empty, and the tool may come lower).
 
 **Exits**: 0 written; 2 a servo port that cannot be opened, a board that does not answer
 its handshake or a camera that cannot be opened (found as the rig opens, before anything
@@ -151,6 +153,7 @@ from mearm.maker.camera_calibration.settings import (
     TABLE_MARGIN_CM,
     VIEW_MARGIN_PX,
     ZERO_PRIOR_US,
+    floor_cm,
 )
 from mearm.maker.servo_output import board_identity, check_output, hold_arm, write_calibration
 from mearm.task.rig import Rig, open_rig
@@ -321,7 +324,11 @@ def calibrate_by_camera(config: Config, output: Path, args: argparse.Namespace) 
             opened = True
             board, port = board_text(config, rig, simulate=args.simulate)
             out.write(f"connected: {board}{' on ' + port if port else ''}\n")
-            session = CameraSession(config, rig, camera, out)
+            # objects may lie on the table (not on --simulate's): the tool stays above the
+            # tallest class's top, as a sort's calibration at its start keeps it; with the
+            # doubt's margin round every object seen, no point passed the checks otherwise
+            floor = 0.0 if args.simulate else floor_cm(config)
+            session = CameraSession(config, rig, camera, out, floor_cm=floor)
             fits = measure(session, simulate=args.simulate)
     except (ServoError, CameraError) as exc:
         if not opened:

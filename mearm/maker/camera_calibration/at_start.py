@@ -48,22 +48,13 @@ from mearm.kinematics import ArmModel
 from mearm.maker.calibrate_by_camera import board_text, measure
 from mearm.maker.camera_calibration.errors import CameraCalibrationFailed
 from mearm.maker.camera_calibration.session import CameraSession
-from mearm.maker.camera_calibration.settings import TABLE_MARGIN_CM
+from mearm.maker.camera_calibration.settings import floor_cm
 from mearm.task.check import check_consistency
 from mearm.task.rig import Rig
 from mearm.task.sorter import CalibrateFirst, StartCalibrationFailed, calibrates_at_start
 from mearm.vision import Camera
 from mearm.vision.calibration import camera_geometry
 from mearm.vision.pinhole import PerspectiveCamera
-
-
-def floor_cm(config: Config) -> float:
-    """How high the tool's lowest point stays above the table, within the doubt [cm].
-
-    :data:`TABLE_MARGIN_CM` above the tallest class's objects: the moves then pass over
-    every object, whether the camera saw it from home or not.
-    """
-    return max(c.height_cm for c in config.task.classes) + TABLE_MARGIN_CM
 
 
 @dataclass(frozen=True)

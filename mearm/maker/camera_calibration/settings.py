@@ -2,6 +2,11 @@
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from mearm.config import Config
+
 # --- the doubt: how far a servo may be from where it is sent [µs of pulse] ---------------
 #: The gears' play: half a unit's backlash (up to 2° of shaft) and its dead band (up to
 #: 10 µs), 1° each at 10 µs per degree (the twin's kits, servo_kit's sourced ranges).
@@ -65,3 +70,13 @@ MAX_SQUARE_RMS_PX = 1.5
 #: The arm's motion (moves, waits and holds) stops taking points past this [s], so that
 #: parking keeps the whole within 3 minutes.
 MOTION_BUDGET_S = 150.0
+
+
+def floor_cm(config: Config) -> float:
+    """How high the tool's lowest point stays above a table with objects, within the doubt [cm].
+
+    :data:`TABLE_MARGIN_CM` above the tallest class's objects: the moves then pass over
+    every object, whether the camera saw it from home or not (a sort's calibration at its
+    start, and ``calibrate-servos --camera`` on a table with objects).
+    """
+    return max(c.height_cm for c in config.task.classes) + TABLE_MARGIN_CM

@@ -143,14 +143,17 @@ class PulseSession:
 
 
 def open_arm_bus(config: Config, port: str | None = None) -> ServoBus:
-    """The config's servo bus, not connected; the ``sim`` backend gets a cleared table.
+    """The config's servo bus, not connected; a simulated arm gets a cleared table.
 
     Calibration turns each servo alone across its range, where the arm's body may sweep
     low over the table: it is done with the table cleared (no bins, no objects), and the
-    simulated arm, which faults on whatever it touches, stands on a cleared table too.
+    simulated arm, which faults on whatever it touches, stands on a cleared table too —
+    the ``sim`` backend's and the virtual Uno's, which would otherwise lay out the
+    config's bins (the paper arm's shoulder at its 50° reference, the base at 130°, put
+    the gripper into the red bin's wall).
     """
     world = None
-    if config.servo.backend == "sim":
+    if config.servo.backend in ("sim", "virtual_uno"):
         from mearm.sim import World
 
         world = World()
