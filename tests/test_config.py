@@ -154,6 +154,14 @@ def test_bad_set_is_one_line(override, message):
     assert len(str(exc.value).splitlines()) == 1
 
 
+def test_a_key_set_in_a_null_section_makes_the_section():
+    """``--set twin.lamp.kind=spot`` on a config whose ``twin.lamp`` is null (no lamp)
+    said "twin.lamp: is a value, not a section"; a null section is made as a missing one
+    is, the rest of it the model's defaults."""
+    c = load_config(ROOT / "configs" / "sim.yaml", ["twin.lamp.kind=spot"])
+    assert c.twin.lamp is not None and c.twin.lamp.kind == "spot"
+
+
 def test_missing_file(tmp_path):
     with pytest.raises(ConfigError, match="nope.yaml: config file not found"):
         load_config(tmp_path / "nope.yaml")

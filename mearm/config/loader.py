@@ -81,7 +81,7 @@ def _child(node: Any, default: Any, part: str, where: str) -> tuple[Any, Any]:
     """The child ``part`` of ``node`` and of its default (created from it when missing)."""
     if isinstance(node, dict):
         sub_default = default.get(part) if isinstance(default, dict) else None
-        if part not in node:
+        if node.get(part) is None:  # missing, or null ("twin.lamp: null"): made, as asked
             node[part] = copy.deepcopy(sub_default) if sub_default is not None else {}
         return node[part], sub_default
     if isinstance(node, list):
