@@ -32,7 +32,7 @@ import numpy as np
 
 from mearm.config import Config
 from mearm.errors import MearmError
-from mearm.hardware.bus import ArmCommand, ServoBus
+from mearm.hardware.bus import ArmCommand, ArmState, ServoBus
 from mearm.hardware.errors import ServoError
 from mearm.hardware.mapping import ActuatorMap, Quantization, ServoMap
 from mearm.kinematics import ArmModel, check_target, closed_form_for
@@ -175,7 +175,12 @@ class SimArm(ServoBus):
         )
 
     def actuate(
-        self, joints: Mapping[str, float], tool: Mapping[str, float], *, gripper_closed: bool
+        self,
+        joints: Mapping[str, float],
+        tool: Mapping[str, float],
+        *,
+        gripper_closed: bool,
+        last_state: ArmState | None,
     ) -> None:
         """Put the arm where its servos are: realised values, not commands.
 
@@ -188,12 +193,20 @@ class SimArm(ServoBus):
             joints: Realised actuated joints, name → deg or cm; joints not named stay.
             tool: Realised tool actuators, name → deg; actuators not named stay.
             gripper_closed: Whether the gripper is closed.
+            last_state: The last pose the bus driving the arm confirmed: a collision's
+                fault carries it. Given by the caller, as only the bus that drives the
+                arm knows it: the virtual Uno's bus never moves this arm through
+                :meth:`move`, so the arm's own :attr:`state` stays ``None`` there.
+
+        Raises:
+            SimCollisionError: the move runs the arm into something; it stays where it
+                was.
         """
         before = self.actual_joints
         self.actual_joints = {**self.actual_joints, **joints}
         self.actual_tool = {**self.actual_tool, **tool}
         if self.actual_joints != before:
-            self._check_move(before, self.actual_joints)
+            self._check_move(before, self.actual_joints, last_state)
         if gripper_closed and not self.gripper_closed:
             self.gripper_closed = True
             self.last_grip = self._close_gripper()
@@ -201,7 +214,12 @@ class SimArm(ServoBus):
             self.gripper_closed = False
             self._open_gripper()
 
-    def _check_move(self, before: Mapping[str, float], after: Mapping[str, float]) -> None:
+    def _check_move(
+        self,
+        before: Mapping[str, float],
+        after: Mapping[str, float],
+        last_state: ArmState | None,
+    ) -> None:
         """Fault if the arm's body, moving from ``before`` to ``after``, touches anything.
 
         The same check as the planner's (:meth:`CollisionModel.first_contact`), against
@@ -209,7 +227,8 @@ class SimArm(ServoBus):
         jaws. The jaws' pads may touch an object standing between them.
 
         Raises:
-            SimCollisionError: they touch; the arm stays where it was.
+            SimCollisionError: they touch; the arm stays where it was, and the fault
+                carries ``last_state``, the last pose the driving bus confirmed.
         """
         if self._collision is None:
             self._collision = collision_model(
@@ -242,7 +261,8 @@ class SimArm(ServoBus):
         if contact is not None:
             self.actual_joints = dict(before)
             raise SimCollisionError(
-                "sim: the arm ran into something: " + contact.describe(chain.names, chain.scale)
+                "sim: the arm ran into something: " + contact.describe(chain.names, chain.scale),
+                last_state=last_state,
             )
 
     def _send_move(self, command: ArmCommand, pulses_us: dict[int, int]) -> None:
@@ -255,7 +275,7 @@ class SimArm(ServoBus):
         )
         q = self.error_model.quantization
         tool = {a.name: a.realised(command.tool[a.name], q) for a in self.servo_map.tool}
-        self.actuate(joints, tool, gripper_closed=command.gripper_closed)
+        self.actuate(joints, tool, gripper_closed=command.gripper_closed, last_state=self.state)
         # the servos take the command for one period, while the table's time runs on
         self.world.advance(self.period_s)
 

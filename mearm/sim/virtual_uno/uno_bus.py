@@ -151,7 +151,12 @@ class VirtualUnoBus(ArduinoBus):
     # ----------------------------------------------------------------- measured pose
 
     def _follow(self, widths_us: Mapping[int, float]) -> None:
-        """Put the simulated arm where the measured pulses put its servos."""
+        """Put the simulated arm where the measured pulses put its servos.
+
+        Raises:
+            SimCollisionError: the arm ran into something; it stays, and the fault
+                carries this bus's last confirmed pose.
+        """
         smap = self.servo_map
         joints: dict[str, float] = {}
         if all(j.channel in widths_us for j in smap.joints):
@@ -171,7 +176,9 @@ class VirtualUnoBus(ArduinoBus):
         if g.channel in widths_us:
             opening = g.value_of(widths_us[g.channel])
             closed = abs(opening - smap.gripper_closed_cm) < abs(opening - smap.gripper_open_cm)
-        self.arm.actuate(joints, tool, gripper_closed=closed)
+        # the arm's own state is None (it is never moved by move()): a collision's fault
+        # names the last pose this bus confirmed, as the serial backend's faults do
+        self.arm.actuate(joints, tool, gripper_closed=closed, last_state=self.state)
 
     def _mismatches(
         self, command: ArmCommand, pulses_us: Mapping[int, int], widths_us: Mapping[int, float]
