@@ -7,7 +7,7 @@ import pytest
 from conftest import ROOT
 
 from mearm.config import config_from_dict, load_config
-from mearm.exceptions import ModelError
+from mearm.exceptions import ConfigError, ModelError
 from mearm.sim.belt import Belt, belt_arrivals
 from mearm.sim.twin.mjcf import twin_model
 from mearm.sim.twin.twin_bus import TwinArm
@@ -71,7 +71,7 @@ def test_a_belt_over_a_bin_is_refused():
 
 
 def test_a_belt_over_the_base_is_refused():
-    """The twin refuses a belt across the arm's base."""
-    config = _config(start_cm=[19.0, 2.0], arrivals={"count": 0})
-    with pytest.raises(ModelError, match="over the arm's base"):
-        twin_model(config)
+    """A belt across the arm's base is refused as the config loads, before any twin is
+    built (the twin's own check, which refused it first, is now a second line)."""
+    with pytest.raises(ConfigError, match="the belt crosses the arm's base"):
+        _config(start_cm=[19.0, 2.0], arrivals={"count": 1})

@@ -316,3 +316,19 @@ class ArmDescription(Strict):
             f"at {_RANK_POSES} poses within the limits; a sorting arm needs {need}"
             " (check the DH rows: lengths a_cm/d_cm and twists alpha_deg)"
         )
+
+
+def link_width_m(arm: ArmDescription) -> float:
+    """The plates' width: a sixtieth of the arm's reach, 6–20 mm (as the URDF draws it).
+
+    Here, with the arm's description, so that the config's own checks (a belt clear of
+    the base plate) and every model (:mod:`mearm.kinematics.bodies`) size the plates
+    alike.
+    """
+    reach = sum(abs(j.dh.a_cm) + abs(j.dh.d_cm) for j in arm.joints) * 0.01  # [m]
+    return max(0.006, min(0.02, reach / 60))
+
+
+def base_radius_m(arm: ArmDescription) -> float:
+    """The base plate's radius [m]."""
+    return link_width_m(arm) * 3.3

@@ -99,7 +99,8 @@ class BeltConfig(Strict):
     It starts at ``start_cm`` and runs ``length_cm`` along ``heading_deg``; objects arrive
     on its upstream end (``arrivals``) and ride along at ``speed_cm_s`` until the arm
     picks them up or they drop off its downstream end onto the table. The bins stay where
-    ``task.classes`` puts them; the twin refuses a belt over a bin or the arm's base.
+    ``task.classes`` puts them; a belt over the arm's base is refused at load, and the
+    twin refuses one over a bin.
     Conveyor: [Sorting](sorting.md#a-conveyor-belt).
     """
 

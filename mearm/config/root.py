@@ -7,7 +7,7 @@ from typing import Literal
 
 from pydantic import Field, field_validator, model_validator
 
-from mearm.config.arm import ArmDescription
+from mearm.config.arm import ArmDescription, base_radius_m
 from mearm.config.base import MAX_LENGTH_CM, Seed, Strict
 from mearm.config.belt_config import FOLLOW_SHARE, BeltConfig, follow_limit_cm_s, overhang_cm
 from mearm.config.defaults import paper_arm
@@ -191,6 +191,29 @@ class Config(Strict):
             f"most {most:.2f} cm (pick height = grip height + "
             "arm.tool.tcp_above_grip_cm)"
         )
+
+    @model_validator(mode="after")
+    def _belt_clear_of_base(self) -> Config:
+        """The belt must pass beside the arm's base plate, not over it.
+
+        Checked before the speed bound (:meth:`_belt_followable`, run after this one): a
+        belt whose middle line passes near the base axis leaves the arm no speed to follow
+        it, and that bound (``at most 0 cm/s``) would not say what is wrong.
+        """
+        belt = self.belt
+        if belt is None:
+            return self
+        base_cm = base_radius_m(self.arm) * 100.0  # the plate every model draws [cm]
+        least = base_cm + belt.width_cm / 2
+        if belt.nearest_cm() < least:
+            raise ValueError(
+                f"@belt.start_cm: the belt crosses the arm's base: its middle line passes "
+                f"{belt.nearest_cm():.3g} cm from the base axis, and with its "
+                f"{belt.width_cm:g} cm width it covers the base plate ({base_cm:.3g} cm "
+                f"radius); the middle line must pass at least {least:.3g} cm from the base "
+                "axis: move it (belt.start_cm, belt.heading_deg)"
+            )
+        return self
 
     @model_validator(mode="after")
     def _belt_followable(self) -> Config:

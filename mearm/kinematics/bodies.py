@@ -34,6 +34,7 @@ from typing import Literal
 import numpy as np
 
 from mearm.config import ArmDescription, BeltConfig, ClawMarker, ColorClass, Joint, TaskConfig
+from mearm.config.arm import base_radius_m, link_width_m
 from mearm.config.belt_config import belt_classes
 from mearm.config.classes import class_named
 from mearm.config.servo_models import ServoSpec
@@ -155,17 +156,6 @@ def object_of(name: str) -> str | None:
 
 
 # --------------------------------------------------------------------------- helpers
-
-
-def link_width_m(arm: ArmDescription) -> float:
-    """The plates' width: a sixtieth of the arm's reach, 6–20 mm (as the URDF draws it)."""
-    reach = sum(abs(j.dh.a_cm) + abs(j.dh.d_cm) for j in arm.joints) * M_PER_CM
-    return max(0.006, min(0.02, reach / 60))
-
-
-def base_radius_m(arm: ArmDescription) -> float:
-    """The base plate's radius [m]."""
-    return link_width_m(arm) * 3.3
 
 
 def fixed_part(joint: Joint) -> np.ndarray:

@@ -17,6 +17,7 @@ from pydantic import TypeAdapter, ValidationError
 
 from mearm.config import ColorClass, Config, SceneObject
 from mearm.config.base import MAX_SEED, loc_text, short_repr
+from mearm.config.belt_config import MAX_ARRIVALS
 from mearm.config.sections import MAX_SCENE_OBJECTS
 from mearm.errors import ConfigError, MearmError
 from mearm.kinematics import ArmModel, check_in_box, closed_form_for
@@ -100,16 +101,22 @@ def check_scene(config: Config, scene: Sequence[SceneObject], source: str = "tas
     these would be left unseen, or seen as part of another, and the sort would report a
     table of fewer objects than it was given.
 
+    A table with nothing to sort is refused too: no objects, and no belt bringing any
+    (``belt.arrivals.count`` 0). The sort would end ``sorted 0 of 0 objects`` with exit 0,
+    a success that did nothing, as ``--random 0`` did before it was refused.
+
     Args:
-        config: The camera and its calibration, the classes (diameters, bins), the arm.
+        config: The camera and its calibration, the classes (diameters, bins), the arm,
+            the belt.
         scene: The objects.
         source: How messages name the scene (a file's path, ``task.scene``).
 
     Raises:
         SceneError: one line naming the first object that breaks a rule, the rule and what
-            is allowed (``(+N more)`` when others do too).
+            is allowed (``(+N more)`` when others do too); or saying there is nothing to sort.
     """
     if not scene:
+        _check_something_to_sort(config, source)
         return
     base_cm = base_radius_m(config.arm) / M_PER_CM
     bins = [(c, bin_half_outer_m(c) / M_PER_CM) for c in config.task.classes]
@@ -173,6 +180,21 @@ def check_scene(config: Config, scene: Sequence[SceneObject], source: str = "tas
     if problems:
         more = f" (+{len(problems) - 1} more)" if len(problems) > 1 else ""
         raise SceneError(problems[0] + more)
+
+
+def _check_something_to_sort(config: Config, source: str) -> None:
+    """Refuse an empty table that no belt brings objects to (:func:`check_scene`)."""
+    belt = config.belt
+    if belt is None:
+        raise SceneError(
+            f"{source}: no objects: nothing to sort (a scene holds 1 to {MAX_SCENE_OBJECTS} "
+            "objects {color, x, y})"
+        )
+    if belt.arrivals.count == 0:
+        raise SceneError(
+            "belt.arrivals.count: 0: the belt brings nothing to sort (it must bring 1 to "
+            f"{MAX_ARRIVALS} objects)"
+        )
 
 
 #: What a random scene's picks keep from bins and neighbours beyond the clearance [cm]:

@@ -469,7 +469,10 @@ class Sorter(PickAndPlace):
         after a complete run, to ``not_confirmed``. Each object counts once, wherever the
         arm pushed it (:mod:`mearm.task.table_tracking`): an object seen only in part, at
         the image border, is one of them too. In simulation an object the camera never
-        saw is left too (``unseen``): the world knows it is there.
+        saw is left too (``unseen``): the world knows it is there. A run that stopped
+        (``stopped``) leaves it to the stop instead, as a belt's run does: the run ended
+        before its last looks (from home, and beside it where the arm hides part of the
+        table), so the camera was not yet done looking, and the last line names the stop.
         """
         out = Outcome()
         for cls in self.config.task.classes:
@@ -498,7 +501,8 @@ class Sorter(PickAndPlace):
             missing = n - out.seen.get(name, 0)
             if missing > 0:
                 out.unseen[name] = missing
-                out.left["unseen"] = out.left.get("unseen", 0) + missing
+                why = stopped or "unseen"
+                out.left[why] = out.left.get(why, 0) + missing
         return out
 
     def _gone(self) -> None:
