@@ -21,7 +21,9 @@ unreadable image stops the run before anything is printed: exit 2 with one line 
 stderr. An image of another size than the calibration's, or with no colour (a grayscale
 one), is read with a one-line warning on stderr. A ``vision.work_area_px`` polygon is
 checked against each frame's size (:func:`~mearm.vision.work_area.check_work_area`): one
-with no pixel in a frame stops the run the same way (nothing could be found there), and
+whose points lie on one line (no area: ``learn-colours --work-area`` and ``sort`` refuse
+it too) or with no pixel in a frame stops the run the same way (nothing could be found
+there), and
 one that leaves out most of a frame while lying mostly outside it (drawn on frames of
 another size: a config taught on a photo, used on the camera) is named in a warning.
 """

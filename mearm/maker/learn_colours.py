@@ -28,9 +28,13 @@ polygon is clipped to it.
 Refused (exit 2, one line; a sample quoted as typed): a sample outside its image, a
 class the config does not have, two classes sampled on one colour or one class on two, a
 sample on a grey or black pixel or on the table's colour, a first image with no table
-around the samples, a ``--work-area`` with no area, with a point out of that range or
-with none of a class's samples in it, and an ``--out`` that is the ``--config`` or one of
-the images (even with ``--force``).
+around the samples, a ``--work-area`` with no area (as ``mearm detect`` refuses it in
+``vision.work_area_px``), with a point out of that range, with no pixel in a frame (the
+message gives the frame's size) or with none of a class's samples in it, a work area
+whose median colour (taken for the table's) is a clicked object's, colours taught that
+do not keep a clicked object as an object of its class on the frame it was clicked on
+(the config would find nothing there), and an ``--out`` that is the ``--config`` or one
+of the images (even with ``--force``).
 """
 
 from __future__ import annotations
@@ -45,6 +49,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+import cv2
 import numpy as np
 
 from mearm.cli import (
@@ -63,10 +68,13 @@ from mearm.config.loader import config_from_dict, parse_override
 from mearm.config.sections import MAX_FRAME_SIDE_PX, WHOLE_FRAME
 from mearm.errors import MearmError
 from mearm.fileio import file_identity
-from mearm.vision.calibration import object_width_px
+from mearm.vision.calibration import camera_geometry, object_width_px
+from mearm.vision.detector import ColorDetector
+from mearm.vision.errors import SampleError
 from mearm.vision.image import read_image
-from mearm.vision.teaching import TABLE_MIN_SHARE, Sample, Taught, teach
-from mearm.vision.work_area import enclosed_px2, pixels_inside
+from mearm.vision.learned import lab_of
+from mearm.vision.teaching import TABLE_DELTA_E, TABLE_MIN_SHARE, Sample, Taught, teach
+from mearm.vision.work_area import check_work_area, flat_work_area, pixels_inside
 from mearm.yamlio import load_yaml_text
 
 #: ASCII digits only: ``\d`` matches other scripts' digits too (``@١`` read as image 1).
@@ -319,11 +327,9 @@ def _checked_arguments(
         parser.error(str(exc))
     if area is not None and len(area) < 3:
         parser.error(f"--work-area needs at least 3 points, got {len(area)}")
-    if area is not None and enclosed_px2(area) < 1.0:
-        parser.error(
-            f"--work-area encloses {enclosed_px2(area):g} px² (its points lie on one line): "
-            "give the corners of the area around the objects"
-        )
+    flat = None if area is None else flat_work_area(area, "--work-area")
+    if flat is not None:
+        parser.error(flat)  # mearm detect and mearm sort refuse the same polygon
     return samples, area
 
 
@@ -390,6 +396,130 @@ def _check_not_replacing(
         )
     if not force:
         raise MearmError(f"--out {out} exists: pass --force to replace it")
+
+
+def _check_area_on_frames(
+    area: Sequence[tuple[float, float]], frames: Sequence[np.ndarray], sources: Sequence[str]
+) -> None:
+    """Refuse a ``--work-area`` that keeps no pixel of a frame taught on.
+
+    Its points are in the frames' pixels and may lie past them (clipped), but a polygon
+    wholly off a frame keeps nothing of it: the user must move its points into the frame,
+    so the message says where the polygon lies and the frame's size (the samples, all
+    outside it then, are not the cause). The check is ``mearm detect``'s
+    (:func:`~mearm.vision.work_area.check_work_area`); its warning (a polygon drawn on
+    frames of another size) cannot apply to one given for these frames.
+
+    Raises:
+        ConfigError: no pixel of one of the frames lies in the polygon.
+    """
+    for frame, source in zip(frames, sources, strict=True):
+        h, w = frame.shape[:2]
+        check_work_area(
+            area,
+            (w, h),
+            source,
+            name="--work-area",
+            advice=f"give its points in that frame's pixels (0 <= U < {w}, 0 <= V < {h}; "
+            "a polygon past the frame is clipped to it)",
+        )
+
+
+def clicked_region_px(mask: np.ndarray, s: Sample, radius_px: float) -> int:
+    """The largest 8-connected region of ``mask`` within ``radius_px`` of a click [px].
+
+    8-connected, as the detector's regions are; 0: the mask keeps nothing there.
+    """
+    h, w = mask.shape[:2]
+    r = math.ceil(radius_px)
+    u, v = int(s.u_px), int(s.v_px)
+    x0, x1, y0, y1 = max(u - r, 0), min(u + r + 1, w), max(v - r, 0), min(v + r + 1, h)
+    ys, xs = np.mgrid[y0:y1, x0:x1]
+    near = (xs - s.u_px) ** 2 + (ys - s.v_px) ** 2 <= radius_px**2
+    if not mask[y0:y1, x0:x1][near].any():
+        return 0
+    _, labels, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
+    touched = np.unique(labels[y0:y1, x0:x1][near & (mask[y0:y1, x0:x1] > 0)])
+    return int(stats[touched, cv2.CC_STAT_AREA].max())
+
+
+def _check_reference_is_not_an_object(
+    taught: Taught, frames: Sequence[np.ndarray], samples: Sequence[Sample], radius_px: float
+) -> None:
+    """Refuse a work area whose median colour is a clicked object's.
+
+    The work area's median colour is taken for the table's (``vision.reference_bgr``):
+    every frame is balanced to it, and a detection is kept only where it stands on that
+    colour. A ``--work-area`` drawn tightly around an object makes the object the table:
+    the config written found nothing, even on the frame it was taught on. The rule is
+    the teaching's own for a click on the table's colour (within ΔE
+    :data:`~mearm.vision.teaching.TABLE_DELTA_E`), the other way round: a table on a
+    click's colour. Bad input (exit 2): the work area given is at fault.
+
+    Raises:
+        SampleError: the reference colour is within that ΔE of a click's colour.
+    """
+    reference = lab_of(np.clip(np.round(taught.reference_bgr), 0, 255))
+    for s in samples:
+        frame = frames[s.image]
+        u, v, k = int(s.u_px), int(s.v_px), max(1, round(radius_px))
+        near = frame[max(v - k, 0) : v + k + 1, max(u - k, 0) : u + k + 1].reshape(-1, 3)
+        off = float(np.linalg.norm(lab_of(np.median(near, axis=0)) - reference))
+        if off <= TABLE_DELTA_E:
+            raise SampleError(
+                str(s),
+                f"the work area's median colour, which stands for the table's "
+                f"(vision.reference_bgr), is this object's (ΔE {off:.0f}; the table's must "
+                f"differ by more than {TABLE_DELTA_E:g}), so the config would find nothing: "
+                "give a --work-area around the table, not around the object (or --whole-frame)",
+            )
+
+
+def _check_taught_finds(
+    config: Config,
+    learned: Config,
+    frames: Sequence[np.ndarray],
+    sources: Sequence[str],
+    samples: Sequence[Sample],
+    radius_px: float,
+) -> None:
+    """Refuse colours that do not keep the objects they were taught on.
+
+    The detector of ``learned`` (the config to be written; the camera's geometry is
+    ``config``'s: teaching changes only the vision and the classes) classifies the
+    frames taught on as ``mearm detect --config NEW.yaml`` does: the work area, each
+    frame balanced to ``vision.reference_bgr``, the colours taught. Each clicked object
+    must be kept as its class, a region (:func:`clicked_region_px`) of at least
+    ``vision.min_area_px``, the least the detector takes for an object; otherwise the
+    config finds nothing there, on the very frames it was taught on. What the detector
+    does with a region after its colour (the class's shape, how regions merge) is not
+    what teaching changes, so it is not judged here. Bad input (exit 2): the clicks or
+    the work area given are at fault, and the message names the click.
+
+    Raises:
+        SampleError: a clicked object is not kept as its class with the colours taught.
+    """
+    detector = ColorDetector.from_config(
+        learned.vision,
+        config.calibration,
+        config.camera,
+        learned.task.classes,
+        geometry=camera_geometry(config.calibration, config.camera),
+    )
+    least = learned.vision.min_area_px
+    masks: dict[int, dict[str, np.ndarray]] = {}
+    for s in samples:
+        if s.image not in masks:
+            masks[s.image] = detector.masks(frames[s.image])
+        kept = clicked_region_px(masks[s.image][s.name], s, radius_px)
+        if kept < least:
+            raise SampleError(
+                str(s),
+                f"the colours taught keep {kept} px of '{s.name}' at the click in "
+                f"{sources[s.image]} (an object needs vision.min_area_px, {least:g}), so "
+                "the config would find nothing there: click on the middle of an object of "
+                "the class, or give a work area that holds the whole object",
+            )
 
 
 def frame_object_px(config: Config, shape: Sequence[int]) -> float:
@@ -468,6 +598,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     names = config.task.class_names
     _check_samples(samples, names, str(args.config), len(args.images))
     frames, sources = _frames(args, config)
+    if area is not None:
+        _check_area_on_frames(area, frames, sources)
     if args.pick:
         samples += pick_samples(frames[0], [n for n in names if n not in {s.name for s in samples}])
     taught = teach(
@@ -478,6 +610,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         work_area_px=area,
         find_area=not args.whole_frame,
     )
+    _check_reference_is_not_an_object(taught, frames, samples, args.radius)
     base = (
         os.path.relpath(resolve_config_path(args.config).resolve(), args.out.resolve().parent)
         if args.config.exists()
@@ -502,7 +635,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     data = load_yaml_text(text, source=str(args.out))
     if args.config.exists() and not args.out.parent.exists():
         data["extends"] = str(resolve_config_path(args.config).resolve())
-    config_from_dict(data, source=str(args.out), path=args.out)
+    learned = config_from_dict(data, source=str(args.out), path=args.out)
+    _check_taught_finds(config, learned, frames, sources, samples, args.radius)
     write_text_atomic(args.out, text)
     load_config(args.out)  # and its calibration files are found from there
     first = (frames[0].shape[1], frames[0].shape[0])

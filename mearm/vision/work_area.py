@@ -9,7 +9,9 @@ clipped to the frame. Outside it lie the arm's base, the room and the table's ed
 
 A polygon given in ``vision.work_area_px`` is in the pixels of the frames it was drawn
 on; on frames of another size (a config taught on a photo, used on the camera) it may
-leave out most of the frame or all of it: :func:`check_work_area` says so.
+leave out most of the frame or all of it: :func:`check_work_area` says so. A polygon
+whose points lie on one line holds no object in any frame: refused
+(:func:`flat_work_area`), by every command that takes one.
 """
 
 from __future__ import annotations
@@ -104,11 +106,58 @@ def pixels_inside(polygon_px: Sequence[tuple[float, float]], size_px: tuple[int,
     return int(cv2.countNonZero(area_mask(polygon_px, (h, w))))
 
 
+#: A polygon enclosing less than this [px²] has its points on one line (or on one point):
+#: it holds no object, and a frame's pixels it keeps are the line's, by rounding.
+MIN_ENCLOSED_PX2 = 1.0
+
+#: What a user can do about a ``vision.work_area_px`` with no pixel in a frame.
+OTHER_SIZE_ADVICE = (
+    "it was drawn on frames of another size? teach the colours again on these frames "
+    "(mearm learn-colours), or give a polygon in their pixels or whole_frame"
+)
+
+
+def extent(polygon_px: Sequence[tuple[float, float]]) -> str:
+    """Where a polygon's points lie, for messages: ``u U0 to U1, v V0 to V1 px``."""
+    u = [p[0] for p in polygon_px]
+    v = [p[1] for p in polygon_px]
+    return f"u {min(u):g} to {max(u):g}, v {min(v):g} to {max(v):g} px"
+
+
+def flat_work_area(
+    polygon_px: Sequence[tuple[float, float]], name: str = "vision.work_area_px"
+) -> str | None:
+    """Why a work-area polygon can hold no object whatever the frame, or ``None``.
+
+    Its points on one line enclose no area: the only pixels it keeps are those the line
+    crosses, so nothing is ever detected. ``mearm learn-colours --work-area``,
+    ``mearm detect`` and ``mearm sort`` refuse it through this one check, so no command
+    accepts a polygon another refuses.
+
+    Args:
+        polygon_px: The polygon (u, v) [px].
+        name: How the user gave it, for the message (``--work-area``).
+    """
+    area = enclosed_px2(polygon_px)
+    if area >= MIN_ENCLOSED_PX2:
+        return None
+    return (
+        f"{name} encloses {area:g} px² (its points, {extent(polygon_px)}, lie on one line), "
+        "so nothing can be detected in it: give the corners of the area around the objects"
+    )
+
+
 def check_work_area(
-    polygon_px: Sequence[tuple[float, float]], size_px: tuple[int, int], frame: str
+    polygon_px: Sequence[tuple[float, float]],
+    size_px: tuple[int, int],
+    frame: str,
+    *,
+    name: str = "vision.work_area_px",
+    advice: str = OTHER_SIZE_ADVICE,
 ) -> str | None:
     """How a work-area polygon fits a frame: a warning line, or ``None`` when it fits.
 
+    A polygon enclosing no area (:func:`flat_work_area`) is refused whatever the frame.
     The frame's pixels inside the polygon are the ones detection keeps
     (:func:`~mearm.vision.learned.area_mask`). None of them: nothing can ever be detected
     in such frames, so the polygon is refused. Under :data:`DRAWN_ELSEWHERE_SHARE` of the
@@ -119,23 +168,24 @@ def check_work_area(
         polygon_px: ``vision.work_area_px``.
         size_px: The frame's (width, height) [px].
         frame: The frame, for messages (an image's path, ``camera``).
+        name: How the user gave the polygon, for messages (``--work-area``).
+        advice: What to do about a polygon with no pixel in the frame.
 
     Raises:
-        ConfigError: no pixel of the frame lies in the polygon.
+        ConfigError: the polygon encloses no area, or no pixel of the frame lies in it.
     """
+    flat = flat_work_area(polygon_px, name)
+    if flat is not None:
+        raise ConfigError(None, [flat])
     w, h = size_px
     inside = pixels_inside(polygon_px, size_px)
-    u = [p[0] for p in polygon_px]
-    v = [p[1] for p in polygon_px]
-    where = f"vision.work_area_px (u {min(u):g} to {max(u):g}, v {min(v):g} to {max(v):g} px) "
+    where = f"{name} ({extent(polygon_px)}) "
     if inside == 0:
         raise ConfigError(
             None,
             [
                 f"{where}has no pixel in {frame}'s {w}x{h} px frame, so nothing can be "
-                "detected there: it was drawn on frames of another size? teach the colours "
-                "again on these frames (mearm learn-colours), or give a polygon in their "
-                "pixels or whole_frame"
+                f"detected there: {advice}"
             ],
         )
     covered = inside / (w * h)
