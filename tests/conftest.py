@@ -71,6 +71,22 @@ def reference_config(request: pytest.FixtureRequest) -> Config:
     return load_config(ROOT / "configs" / request.param)
 
 
+@pytest.fixture(scope="session")
+def frame_png(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The simulated rig's 12 objects (``sim``) on the grey table, rendered once (640x480)."""
+    import cv2
+
+    from mearm.sim import TableRenderer, class_discs
+    from mearm.vision import Calibration
+
+    config = Config()
+    layout = [(o.color, o.x, o.y) for o in config.task.scene]
+    r = TableRenderer(Calibration.from_config(config.calibration), 640, 480, table="grey")
+    path = tmp_path_factory.mktemp("frames") / "frame.png"
+    cv2.imwrite(str(path), r.render(class_discs(config.task.classes, layout)))
+    return path
+
+
 def yourdfpy_urdf(text: str, **kwargs: Any) -> Any:
     """``text`` read by yourdfpy, without meshes (imported here: with trimesh it takes 0.6 s,
     which only the workers that run its tests should pay, not every worker's collection)."""

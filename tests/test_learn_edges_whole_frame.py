@@ -14,7 +14,6 @@ import cv2
 import numpy as np
 import pytest
 from badinput import run_guarded as call
-from test_teaching_inputs import frame_png  # noqa: F401  (a fixture: the rendered table)
 
 from mearm.config import Config, config_from_dict, load_config
 from mearm.detect import main as detect_main
@@ -41,7 +40,7 @@ def left_half(tmp_path: Path) -> Path:
 
 
 def test_whole_frame_replaces_the_polygon_extended(
-    frame_png: Path,  # noqa: F811  (the fixture imported above)
+    frame_png: Path,  # conftest's: the rendered table
     left_half: Path,
     tmp_path: Path,
     capsys: pytest.CaptureFixture[str],

@@ -14,7 +14,6 @@ from badinput import run_guarded as call
 from mearm.config import Config
 from mearm.detect import main as detect_main
 from mearm.maker.learn_colours import main as learn_main
-from mearm.sim import TableRenderer, class_discs
 from mearm.tools.vision_bench import main as bench_main
 from mearm.vision import Calibration
 
@@ -33,14 +32,6 @@ def nth(name: str, n: int = 0) -> str:
     _, x, y = [o for o in LAYOUT if o[0] == name][n]
     u, v = pixel(x, y)
     return f"{name}={u:.0f},{v:.0f}"
-
-
-@pytest.fixture(scope="module")
-def frame_png(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    r = TableRenderer(CAL, 640, 480, table="grey")
-    path = tmp_path_factory.mktemp("frames") / "frame.png"
-    cv2.imwrite(str(path), r.render(class_discs(CONFIG.task.classes, LAYOUT)))
-    return path
 
 
 def refused(code: int, err: str, *words: str) -> bool:

@@ -26,7 +26,6 @@ from badinput import run_guarded as call
 from mearm.config import Config
 from mearm.detect import main as detect_main
 from mearm.maker.learn_colours import main as learn_main
-from mearm.sim import TableRenderer, class_discs
 from mearm.vision import Calibration
 
 CONFIG = Config()
@@ -40,15 +39,6 @@ def _red_click() -> tuple[int, int]:
     _, x, y = next(o for o in LAYOUT if o[0] == "red")
     ((u, v),) = CAL.table_to_pixel(np.array([[x, y]]))
     return round(float(u)), round(float(v))
-
-
-@pytest.fixture(scope="module")
-def frame_png(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """sim's 12 objects on the grey table, rendered (640x480)."""
-    r = TableRenderer(CAL, 640, 480, table="grey")
-    path = tmp_path_factory.mktemp("frames") / "frame.png"
-    cv2.imwrite(str(path), r.render(class_discs(CONFIG.task.classes, LAYOUT)))
-    return path
 
 
 def _red_box(frame_png: Path) -> tuple[int, int, int, int]:
