@@ -621,6 +621,7 @@ def run(main: Callable[[Sequence[str] | None], int], argv: Sequence[str] | None 
     args = list(sys.argv[1:] if argv is None else argv)
     debug = "--debug" in args or os.environ.get("MEARM_DEBUG", "") not in ("", "0")
     interrupts.install()  # a Ctrl-C inside a finalizer is not lost
+    signals_before = interrupts.stop_signals_noted()
     stdout = sys.stdout  # None: started with standard output closed (>&-)
     if stdout is not None:
         sys.stdout = cast("TextIO", _CheckedOutput(stdout))
@@ -632,7 +633,8 @@ def run(main: Callable[[Sequence[str] | None], int], argv: Sequence[str] | None 
         except SystemExit as stop:  # argparse's --help: what it printed must arrive too
             code = stop.code  # the same exit, once standard output is flushed
         except Exception as exc:
-            if not interrupts.hidden_in(exc):
+            stopped = interrupts.stop_signals_noted() > signals_before  # one came meanwhile
+            if not (stopped or interrupts.hidden_in(exc)):
                 raise
             raise KeyboardInterrupt from exc  # a Ctrl-C a library turned into an error
         if sys.stdout is not None:

@@ -246,6 +246,17 @@ def stopped_by() -> str:
     return signal.Signals(_received[-1]).name if _received else "Ctrl-C"
 
 
+def stop_signals_noted() -> int:
+    """How many stop signals this process has taken as Ctrl-C so far (:func:`received`).
+
+    A command compares it before and after: a library may swallow the
+    :class:`Terminated` its handler raised (pybind11, converting a call's arguments,
+    takes it for a conversion that failed and says "incompatible function arguments"),
+    and an error that ends a command after a stop signal came is that stop.
+    """
+    return len(_received)
+
+
 def exit_status() -> int:
     """130 after Ctrl-C; 128 + N once a stop signal N was taken as Ctrl-C (143: SIGTERM)."""
     return 128 + _received[-1] if _received else 130

@@ -41,3 +41,31 @@ def test_a_stop_signal_ends_a_command_that_serves_as_ctrl_c(tmp_path, sig, code)
         if proc.poll() is None:
             proc.kill()
             proc.wait()
+
+
+#: A command whose library swallows the stop signal's exception and fails with an error
+#: of its own, as pybind11 does converting a call's arguments ("incompatible function
+#: arguments", a TypeError with no trace of the signal): it must still end as stopped.
+SWALLOWED = """
+import os, signal, time
+from mearm.cli import run
+
+def main(argv):
+    try:
+        os.kill(os.getpid(), signal.SIGTERM)
+        time.sleep(30)  # the handler raises here
+    except KeyboardInterrupt:
+        pass  # swallowed, as a C extension's argument conversion does
+    raise TypeError("(): incompatible function arguments")
+
+run(main)
+"""
+
+
+def test_a_stop_signal_a_library_swallowed_still_ends_the_command_as_stopped():
+    """render-calibration, SIGTERM mid-run: MuJoCo's spec setter (pybind11) swallowed it
+    and raised a TypeError: 'unexpected error' and exit 1, where it was stopped (143)."""
+    proc = subprocess.run([sys.executable, "-c", SWALLOWED], cwd=ROOT, capture_output=True,
+                          text=True, timeout=120)  # fmt: skip
+    assert proc.returncode == 143, proc.stderr
+    assert proc.stderr.strip().splitlines() == ["-c: interrupted"], proc.stderr
