@@ -185,3 +185,26 @@ def test_a_limp_servo_leaves_the_callers_model_whole():
     assert [type(f).__name__ for f in twin.faults.struck] == ["LimpServo"]
     assert twin.model.actuator("shoulder").gainprm[0] == 0.0
     assert shared.actuator("shoulder").gainprm[0] > 0.0
+
+
+@pytest.mark.heavy
+@pytest.mark.parametrize(
+    ("fault", "reason"),
+    [
+        ("{kind: camera_black, at_s: 1.0}", "camera (twin): the frame is black"),
+        ("{kind: camera_frozen, at_s: 1.0}", "camera (twin): the stream froze"),
+    ],
+    ids=["black", "frozen"],
+)
+def test_a_camera_fault_stops_a_belt_sort_too(fault, reason, tmp_path, capsys):
+    """The belt's watch checked no frame: with the camera black from 1 s it ran on and
+    ended 'sorted 1 of 2 objects (simulated; 1 never seen by the camera)'. Now it stops
+    on the fault and parks, as the still table's look does."""
+    log = tmp_path / "run.jsonl"
+    code = sort_main(
+        ["--config", str(ROOT / "configs" / "sim_conveyor.yaml"),
+         "--set", f"twin.faults=[{fault}]", "--log", str(log), "--quiet"]
+    )  # fmt: skip
+    err = capsys.readouterr().err
+    assert code == 1
+    assert f"mearm sort: stopped: {reason}" in err and PARKED in err, err

@@ -133,8 +133,15 @@ class ConveyorSorter(Sorter):
         return time.monotonic() - self._t0
 
     def _observe(self) -> list[TrackState]:
-        """Read a frame, feed its whole objects on the belt to the tracker."""
+        """Read a frame, feed its whole objects on the belt to the tracker.
+
+        Raises:
+            CameraError: the frame is black, or the stream froze (:class:`FrameCheck`, as
+                the still table's looks check): the sort stops on it and parks, where a
+                belt watched by a dead camera ran on, every later object "never seen".
+        """
         frame = self.camera.read()
+        self.frame_check.check(frame, self.camera.frame_time_s, self.camera.clock_s)
         taken = max(self.now_s() - self.config.camera.latency_s, self._last_frame_s)
         self._last_frame_s = taken
         tracking = self.tracker.tracking
