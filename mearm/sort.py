@@ -117,6 +117,7 @@ finally:
 
 if TYPE_CHECKING:
     from mearm.dataset.recorder import DatasetRecorder  # imported with --record only
+    from mearm.view import ArmView  # imported with --view only
 
 
 def add_scene_arguments(parser: ArgumentParser) -> None:
@@ -169,9 +170,12 @@ def scene_from_args(args: object, config: Config) -> list[SceneObject] | None:
 
 
 def _hold(url: str) -> None:
-    """Keep serving the view until Ctrl-C."""
-    print(f"meshcat view stays open at {url}; Ctrl-C to close", flush=True)
-    try:
+    """Keep serving the view until Ctrl-C.
+
+    Said on stderr: the sort's outcome, printed before, stays stdout's last line.
+    """
+    try:  # (a Ctrl-C as soon as the line is read closes the view as well)
+        print(f"meshcat view stays open at {url}; Ctrl-C to close", file=sys.stderr, flush=True)
         while True:
             time.sleep(1.0)
     except KeyboardInterrupt:
@@ -352,6 +356,13 @@ def _sort(argv: Sequence[str] | None) -> int:
     # and a real camera is opened once (some webcams are slow to, or fail to, reopen)
     report: SortReport | None = None
     aborted: SortAborted | None = None  # why the sort stopped, said on stderr
+    outcome = _Outcome(recorder, args, held, lines, config)
+
+    def hold(view: ArmView) -> None:
+        """``--hold``: the outcome first, then the view kept open until Ctrl-C."""
+        outcome.say(sorted_=True)
+        _hold(view.url)
+
     try:
         if mjcf is not None:  # the last of the inputs accepted (the log's lock included)
             write_text_atomic(args.save_mjcf, mjcf)
@@ -364,7 +375,7 @@ def _sort(argv: Sequence[str] | None) -> int:
             argv=list(sys.argv[1:] if argv is None else argv),
             echo=echo,
             view_factory=make_view if args.view else None,
-            on_view=(lambda view: _hold(view.url)) if args.hold else None,
+            on_view=hold if args.hold else None,
             recorder=recorder,
             calibrate_first=calibrate_first,
             on_open=_said_on_open(note),
@@ -386,13 +397,10 @@ def _sort(argv: Sequence[str] | None) -> int:
     finally:
         if log is not None:
             log.close()
-        try:
-            close_recorder(recorder, args.record, said="" if aborted is None else aborted.reason)
-            _say_dataset_written(recorder, args.record)
-        finally:  # the summary, its outcome last, once the dataset is named
-            held.flush()
-            if args.quiet and (report is not None or aborted is not None):
-                _print_summary(lines, config)
+        outcome.say(
+            sorted_=report is not None or aborted is not None,
+            stopped="" if aborted is None else aborted.reason,
+        )
     if aborted is not None:
         print(f"mearm sort: stopped: {aborted.reason}", file=sys.stderr)
         return interrupts.exit_status() if aborted.interrupted else EXIT_FAILURE
@@ -401,6 +409,44 @@ def _sort(argv: Sequence[str] | None) -> int:
         print(f"mearm sort: {report.line()}", file=sys.stderr)
         return EXIT_FAILURE
     return EXIT_OK
+
+
+class _Outcome:
+    """The sort's outputs once it has run: the dataset named, then the summary.
+
+    The outcome is the last line. Said once: before a ``--hold``'s wait, or as the
+    command ends.
+    """
+
+    def __init__(
+        self,
+        recorder: DatasetRecorder | None,
+        args: argparse.Namespace,
+        held: _SummaryHeld,
+        lines: list[str],
+        config: Config,
+    ) -> None:
+        self._recorder, self._args, self._held = recorder, args, held
+        self._lines, self._config = lines, config
+        self._said = False
+
+    def say(self, *, sorted_: bool, stopped: str = "") -> None:
+        """Close the recorder, name its dataset and print the summary held back.
+
+        Args:
+            sorted_: Whether the sort ran (``--quiet``: its summary is printed).
+            stopped: Why the sort stopped, if it did (said already: not said again).
+        """
+        if self._said:
+            return
+        self._said = True
+        try:
+            close_recorder(self._recorder, self._args.record, said=stopped)
+            _say_dataset_written(self._recorder, self._args.record)
+        finally:  # the summary, its outcome last, once the dataset is named
+            self._held.flush()
+            if self._args.quiet and sorted_:
+                _print_summary(self._lines, self._config)
 
 
 class _SummaryHeld:
