@@ -29,6 +29,14 @@ from mearm.ik.result import joint_units
 from mearm.kinematics import ArmModel
 
 
+def _rounded(value: float) -> float:
+    """``value`` to 9 decimals, with ``-0.0`` as ``0.0``.
+
+    A cosine of 90° is ±6e-17: rounded, the JSON would print an axis as ``-0.0``.
+    """
+    return round(value, 9) + 0.0
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Print every joint and the TCP position for the given actuated joints."""
     parser = ArgumentParser(
@@ -63,10 +71,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(
             json.dumps(
                 {
-                    "joints": {k: round(v, 9) for k, v in named.items()},
+                    "joints": {k: _rounded(v) for k, v in named.items()},
                     "joint_units": joint_units(chain.names, chain.scale),
-                    "ee_cm": [round(v, 9) for v in ee_cm.tolist()],
-                    "approach": [round(v, 9) for v in approach.tolist()],
+                    "ee_cm": [_rounded(v) for v in ee_cm.tolist()],
+                    "approach": [_rounded(v) for v in approach.tolist()],
                 }
             )
         )

@@ -195,8 +195,9 @@ class RecoveryResult:
         path: The move from the start (poses after it and their TCPs [m]), or ``None``.
         method: ``closed_form`` or ``multi_start``: where its solution came from.
         searched: Solver updates run on seeds [-] (not in the path).
-        floor_cm: Set when solutions were found but every move to them went below
-            this floor [cm]; else ``None``.
+        floor_cm: Set when solutions were found, no move to them was safe and some
+            went below this floor [cm]; ``None`` when none did (every move was refused
+            for not reaching its solution within the iteration cap, say).
     """
 
     path: Path | None
@@ -242,29 +243,36 @@ class Recovery:
             solve_from: Runs the solver from a seed.
         """
         floor_cm = min(self.floor_cm, start_z_cm, target_z_cm)
-        unsafe = False
+        dipped = False  # a move to a solution was refused for the floor
         if q_closed_form is not None:
-            path = self._safe_move(q_start, q_closed_form, measure, floor_cm)
+            path, dipped = self._safe_move(q_start, q_closed_form, measure, floor_cm)
             if path is not None:
                 return RecoveryResult(path, "closed_form", 0)
-            unsafe = True
         searched = 0
         for seed in seeds(self.chain, MULTI_STARTS):
             goal, updates = solve_from(seed)
             searched += updates
             if goal is not None:
-                path = self._safe_move(q_start, goal, measure, floor_cm)
+                path, below = self._safe_move(q_start, goal, measure, floor_cm)
                 if path is not None:
                     return RecoveryResult(path, "multi_start", searched)
-                unsafe = True
-        return RecoveryResult(None, "multi_start", searched, floor_cm if unsafe else None)
+                dipped = dipped or below
+        return RecoveryResult(None, "multi_start", searched, floor_cm if dipped else None)
 
     def _safe_move(
         self, q_start: np.ndarray, goal: np.ndarray, measure: Measure, floor_cm: float
-    ) -> Path | None:
-        """The first move to ``goal`` of :meth:`_vias` that stays above the floor."""
+    ) -> tuple[Path | None, bool]:
+        """The first move to ``goal`` of :meth:`_vias` that stays above the floor.
+
+        Returns:
+            ``(path, dipped)``: the move, or ``None`` and whether a move was refused for
+            going below the floor. A move that does not reach ``goal`` within the
+            iteration cap is refused too, but not for the floor: the failure must not
+            blame the table for a cap set too low.
+        """
         cfg = self.config
         floor_m = floor_cm / 100.0 - 1e-9
+        dipped = False
         for waypoints in self._vias(q_start, goal):
             path = path_via(
                 self.chain,
@@ -276,9 +284,12 @@ class Recovery:
                 kd=cfg.kd,
                 max_steps=cfg.max_iterations,
             )
-            if path is not None and min(tcp[2] for tcp in path[1]) >= floor_m:
-                return path
-        return None
+            if path is None:
+                continue  # past the cap, or a waypoint outside the limits
+            if min(tcp[2] for tcp in path[1]) >= floor_m:
+                return path, False
+            dipped = True
+        return None, dipped
 
     def _vias(self, q_start: np.ndarray, goal: np.ndarray) -> Iterator[list[np.ndarray]]:
         """The waypoints of each move :meth:`_safe_move` tries, in turn.

@@ -6,10 +6,12 @@ From home: pick red1 at z = 12.76, place it in the red bin, pick red2 from there
 reds, then the greens, then the blues (paper §1, §4: the paper's M1…, H1…, B1…); each
 route starts where the last ended. Any config with a scene works; the paper's figures
 are for the default one.
-Prints one row per route (object, pick/place, iterations, initial and final error, the
-largest distance of the EE path from the straight start→target segment), the means next
-to the paper's (paper §3: 82 iterations, 73–93; initial error 24.99 cm; final error
-0.0305 cm) and the x, y, z range along all paths.
+``--mode`` is ``paper`` unless given. Prints one row per route (object, pick/place,
+iterations, initial and final error, the largest distance of the EE path from the
+straight start→target segment), the means next to the paper's (paper §3: 82 iterations,
+73–93; initial error 24.99 cm; final error 0.0305 cm) and the x, y, z range along all
+paths; labelled simulated (ideal kinematics: no servos, no noise) beside the paper's
+real-arm figures.
 """
 
 from __future__ import annotations
@@ -99,7 +101,8 @@ def print_table(report: dict) -> None:
     """Print the routes' table and the means next to the paper's."""
     s, p = report["summary"], report["paper"]
     print(
-        f"PD-PIJ, {report['mode']} mode: kp = {report['kp']:g}, kd = {report['kd']:g}, "
+        f"PD-PIJ on simulated kinematics, {report['mode']} mode: kp = {report['kp']:g}, "
+        f"kd = {report['kd']:g}, "
         f"stop when |e|² < {report['tolerance_cm2']:g} cm²; {s['routes']} routes from home"
     )
     print(
@@ -145,7 +148,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Run the demo routes and print the comparison; 0 on success."""
     parser = ArgumentParser(description="The paper's 24 demo routes with PD-PIJ.")
     add_config_argument(parser)
-    parser.add_argument("--mode", choices=("paper", "coupled"), default="paper")
+    parser.add_argument(
+        "--mode",
+        choices=("paper", "coupled"),
+        default="paper",
+        help="PD-PIJ mode (default: paper, the paper's algorithm)",
+    )
     parser.add_argument("--json", action="store_true", help="print JSON")
     args = parser.parse_args(argv)
     report = reproduce(config_from_args(args), args.mode)
