@@ -44,6 +44,7 @@ FAMILIES: dict[str, tuple[str, ...]] = {
         "ServoNotConnectedError",
         "ServoFaultedError",
         "HandshakeError",
+        "FirmwareVersionError",
         "LinkError",
         "LinkDroppedError",
         "BannerTimeoutError",

@@ -164,6 +164,10 @@ class MearmFaults:
         garbage_from_move: From this move on, answer only junk.
         corrupt_incoming: The next n frames arrive with one byte flipped (line noise).
         corrupt_replies: The next n replies leave with a wrong checksum.
+        garble_incoming: (old, new): the next frame holding ``old`` arrives with ``new``
+            in its place, its check value as sent (line noise a weak check may miss, such
+            as ``1500 1500`` read as ``1400 1501``: the same bit flipped in two bytes).
+        garble_reply: (old, new): the same for the next reply holding ``old``.
         error_at_move: (move, error number): answer that move with the numbered error.
         drop_at_move: Pull the cable when this move arrives, before answering it.
         reset_at_move: Reboot (print the banner again) instead of answering this move.
@@ -179,6 +183,8 @@ class MearmFaults:
     garbage_from_move: int | None = None
     corrupt_incoming: int = 0
     corrupt_replies: int = 0
+    garble_incoming: tuple[bytes, bytes] | None = None
+    garble_reply: tuple[bytes, bytes] | None = None
     error_at_move: tuple[int, int] | None = None
     drop_at_move: int | None = None
     reset_at_move: int | None = None
@@ -207,7 +213,7 @@ class FakeMearmBoard(FakeBoard):
         faults: MearmFaults | None = None,
         *,
         servo_count: int = 5,
-        version: str = "1.0",
+        version: str = "2.0",
         name: str = "mearm_servo",
         hold_timeout_s: float = 1.0,
     ):
@@ -260,8 +266,12 @@ class FakeMearmBoard(FakeBoard):
         if self.faults.corrupt_replies > 0:
             self.faults.corrupt_replies -= 1
             star = line.rfind(b"*")
-            wrong = (int(line[star + 1 : star + 3], 16) ^ 0x5A) & 0xFF
-            line = line[: star + 1] + b"%02X\n" % wrong
+            wrong = int(line[star + 1 : star + 5], 16) ^ 0x5A5A
+            line = line[: star + 1] + b"%04X\n" % wrong
+        if self.faults.garble_reply is not None and self.faults.garble_reply[0] in line:
+            old, new = self.faults.garble_reply
+            self.faults.garble_reply = None
+            line = line.replace(old, new, 1)
         self.send(line)
 
     def on_line(self, line: bytes) -> None:
@@ -272,6 +282,10 @@ class FakeMearmBoard(FakeBoard):
         if f.corrupt_incoming > 0:
             f.corrupt_incoming -= 1
             line = bytes([line[0] ^ 0x01]) + line[1:]
+        if f.garble_incoming is not None and f.garble_incoming[0] in line:
+            old, new = f.garble_incoming
+            f.garble_incoming = None
+            line = line.replace(old, new, 1)
         is_move = b" M " in line or line.endswith(b" M")
         if is_move:
             self.move_count += 1

@@ -66,9 +66,13 @@ CASES: dict[str, Case] = {
     "uno-banner-garbage": uno(NO_BANNER, banner=False, boot_noise=b"\x8f\x13 gar\xffbage\r\n"),
     "uno-banner-nul-flood": uno(NO_BANNER, banner=False, boot_noise=NUL_FLOOD),
     "uno-banner-oversized-line": uno(NO_BANNER, banner=False, boot_noise=LONG_LINE + b"\n"),
-    "uno-banner-non-utf8": uno(NO_BANNER, banner=False, boot_noise=b"READY \xc3\x28\xff*25\n"),
+    "uno-banner-non-utf8": uno(NO_BANNER, banner=False, boot_noise=b"READY \xc3\x28\xff*0025\n"),
     "uno-banner-wrong-checksum": uno(
-        NO_BANNER, banner=False, boot_noise=b"READY mearm_servo 1.0 5*00\n"
+        NO_BANNER, banner=False, boot_noise=b"READY mearm_servo 2.0 5*0000\n"
+    ),
+    # the banner of the firmware before the CRC-16, byte for byte: refused by name
+    "uno-banner-protocol-1": uno(
+        "speaks protocol 1", banner=False, boot_noise=b"READY mearm_servo 1.0 5*25\n"
     ),
     "uno-banner-truncated": uno(NO_BANNER, banner=False, boot_noise=b"READY mearm_se"),
     # ---- our protocol: the version reply
@@ -76,29 +80,29 @@ CASES: dict[str, Case] = {
         "not running mearm_servo", v_reply=encode_line("OK 0 grbl 1.1 5 500 2500")
     ),
     "uno-version-other-protocol": uno(
-        "speaks protocol 2", v_reply=encode_line("OK 0 mearm_servo 2.0 5 500 2500")
+        "speaks protocol 3", v_reply=encode_line("OK 0 mearm_servo 3.0 5 500 2500")
     ),
-    "uno-version-truncated": uno(NO_ACK, v_reply=b"OK 0 mearm_servo 1.0"),
+    "uno-version-truncated": uno(NO_ACK, v_reply=b"OK 0 mearm_servo 2.0"),
     "uno-version-wrong-checksum": uno(
-        "checksum failure on all 3 tries", v_reply=b"OK 0 mearm_servo 1.0 5 500 2500*00\n"
+        "checksum failure on all 3 tries", v_reply=b"OK 0 mearm_servo 2.0 5 500 2500*0000\n"
     ),
     "uno-version-nul-flood": uno("received only garbage", v_reply=NUL_FLOOD),
     "uno-version-non-utf8": uno(
-        "received only garbage", v_reply=b"OK 0 mearm_servo\xff 1.0 5 500 2500*1C\n"
+        "received only garbage", v_reply=b"OK 0 mearm_servo\xff 2.0 5 500 2500*001C\n"
     ),
     # ---- our protocol: acknowledgements of moves
     "uno-move-silent": uno(NO_ACK, 2, silent_from_move=2),
     "uno-move-garbage": uno("received only garbage", 2, garbage_from_move=2),
     "uno-move-wrong-checksum": uno(
-        "checksum failure on all 3 tries", 2, raw_reply_from_move=(2, b"OK 2*00\n")
+        "checksum failure on all 3 tries", 2, raw_reply_from_move=(2, b"OK 2*0000\n")
     ),
     "uno-move-truncated": uno(NO_ACK, 2, raw_reply_from_move=(2, b"OK 2*")),
     "uno-move-nul-flood": uno(NO_ACK, 2, raw_reply_from_move=(2, NUL_FLOOD)),
     "uno-move-oversized-line": uno(NO_ACK, 2, raw_reply_from_move=(2, b"OK 2 " + LONG_LINE)),
-    "uno-move-non-utf8": uno(NO_ACK, 2, raw_reply_from_move=(2, b"OK 2 \xe9\xff*1F\n")),
+    "uno-move-non-utf8": uno(NO_ACK, 2, raw_reply_from_move=(2, b"OK 2 \xe9\xff*001F\n")),
     "uno-move-late-reply": uno(NO_ACK, 2, raw_reply_from_move=(2, encode_line("OK 1"))),
     "uno-move-garbled-banner": uno(
-        "checksum failure", 2, raw_reply_from_move=(2, b"READY mearm_servo 1.0 5*00\n")
+        "checksum failure", 2, raw_reply_from_move=(2, b"READY mearm_servo 2.0 5*0000\n")
     ),
     "uno-move-unknown-error-number": uno(
         "board error 99: unknown error number",
@@ -116,7 +120,7 @@ CASES: dict[str, Case] = {
     "ssc32-version-oversized-line": ssc("not an SSC-32", ver_reply=b"SSC32-" + LONG_LINE + b"\r"),
     "ssc32-version-non-utf8": ssc("not an SSC-32", ver_reply=b"SSC32-V2.50\xc3\x28\xff\r"),
     "ssc32-version-truncated": ssc(NO_ACK, ver_reply=b"SSC32-V2"),
-    "ssc32-version-uno-banner": ssc("not an SSC-32", ver_reply=b"READY mearm_servo 1.0 5*25\n"),
+    "ssc32-version-uno-banner": ssc("not an SSC-32", ver_reply=b"READY mearm_servo 2.0 5*8003\n"),
     # ---- the SSC-32: answers to Q and QP
     "ssc32-answers-garbage": ssc(
         "no '.'/'+' answer to Q", 2, fault_at_move=2, garbage_answers=10**6

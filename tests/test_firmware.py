@@ -69,7 +69,7 @@ def test_firmware_does_not_use_the_servo_library():
 def test_firmware_boots_with_banner_in_simavr(firmware):
     """Run the ELF in simavr (ATmega328P, 16 MHz): its UART prints the protocol banner."""
     simavr = require_tool("simavr")
-    banner = encode_line("READY mearm_servo 1.0 5").rstrip(b"\n")
+    banner = encode_line("READY mearm_servo 2.0 5").rstrip(b"\n")
     # simavr runs until killed: read its output until the banner comes (within a generous
     # bound, a hang being the failure; a fixed 1.5 s run missed it on a loaded machine)
     proc = subprocess.Popen(
@@ -119,7 +119,7 @@ def sim_config(port: str):
 
 @pytest.mark.heavy
 def test_a_piped_command_is_answered_before_the_simulator_ends(simulator, firmware):
-    """``printf '0 V*46\\n' | mearm_sim mearm_servo.elf`` (tools/arduino/PROTOCOL.md).
+    """``printf '0 V*F970\\n' | mearm_sim mearm_servo.elf`` (tools/arduino/PROTOCOL.md).
 
     The line arrives before the firmware's ``Serial.begin``, and stdin closes at once: the
     line waits for the receiver, and the simulator ends only once the firmware has answered.
@@ -133,7 +133,7 @@ def test_a_piped_command_is_answered_before_the_simulator_ends(simulator, firmwa
     assert r.returncode == 0, r.stderr
     banner, reply = r.stdout.splitlines()
     assert decode_line(banner).kind == "READY"
-    assert reply == encode_line("OK 0 mearm_servo 1.0 5 500 2500").rstrip(b"\n")
+    assert reply == encode_line("OK 0 mearm_servo 2.0 5 500 2500").rstrip(b"\n")
 
 
 def wait_for_pulses(chip: SimavrBoard, after_ms: int, frames: int = 5) -> list[list[float]]:
@@ -153,8 +153,8 @@ def test_host_drives_the_firmware(chip):
     Timer1 pulses measured in CPU cycles are the commanded ones to within 1 µs."""
     config = sim_config(chip.port)
     with ArduinoBus(config.arm, config.servo) as bus:
-        assert bus.banner == b"READY mearm_servo 1.0 5*25"
-        assert (bus.firmware.version, bus.firmware.servo_count) == ("1.0", 5)
+        assert bus.banner == b"READY mearm_servo 2.0 5*8003"
+        assert (bus.firmware.version, bus.firmware.servo_count) == ("2.0", 5)
         assert chip.pulses == []  # no pulses before the first move
         bus.move(HOME)
         widths = wait_for_pulses(chip, chip.now_ms)
@@ -215,11 +215,11 @@ def _exchange(port: str, lines: list[bytes]) -> list[bytes]:
 
 
 CONFORMANCE = [
-    b"0 V*46",
+    b"0 V*F970",
     encode_command(1, "M", [1500, 1500, 1500, 1500, 1500]).rstrip(),
     encode_command(1, "M", [1500, 1500, 1500, 1500, 1500]).rstrip(),  # resend
     encode_command(2, "Q").rstrip(),
-    b"3 M 1500 1500 1500 1500 1500*00",  # bad checksum
+    b"3 M 1500 1500 1500 1500 1500*0000",  # bad checksum
     b"3 S",  # no checksum
     encode_command(4, "M", [3000, 0, 0, 0, 0]).rstrip(),  # pulse out of range
     encode_command(5, "M", [1500]).rstrip(),  # argument count
@@ -230,7 +230,7 @@ CONFORMANCE = [
     encode_command(9, "M", [0, 2500, 500, 0, 1200]).rstrip(),
     encode_command(10, "S").rstrip(),
     encode_command(11, "Q").rstrip(),
-    b"12 V*00",  # bad checksum: ERR -, which is no answer to a command
+    b"12 V*0000",  # bad checksum: ERR -, which is no answer to a command
     encode_command(11, "Q").rstrip(),  # so a resend after it is answered as before
 ]
 

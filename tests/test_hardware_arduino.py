@@ -54,11 +54,11 @@ def board():
 def test_handshake_reads_banner_and_version(board):
     """Connecting waits for the banner through boot noise, then asks V."""
     with connected(board) as bus:
-        assert bus.banner == b"READY mearm_servo 1.0 5*25"
+        assert bus.banner == b"READY mearm_servo 2.0 5*8003"
         assert bus.firmware.name == "mearm_servo"
         assert bus.firmware.servo_count == 5
         assert (bus.firmware.min_us, bus.firmware.max_us) == (500, 2500)
-        assert board.received == [b"0 V*46"]
+        assert board.received == [b"0 V*F970"]
         assert bus.state is None
 
 
@@ -66,13 +66,13 @@ def test_move_sends_byte_exact_frame_and_confirms(board):
     """Home goes out as one M frame with every channel's pulse; the ack sets the state."""
     with connected(board) as bus:
         bus.move(HOME)
-        assert board.received[-1] == b"1 M 1800 1530 1080 2100 1000*79"
+        assert board.received[-1] == b"1 M 1800 1530 1080 2100 1000*86A0"
         assert board.pulses_us == HOME_PULSES
         assert bus.state == ArmState(
             {"base": 120.0, "shoulder": 93.0, "elbow": -132.0}, {"gripper_arm": 60.0}, False
         )
         bus.move(command(120.0, 93.0, -132.0, 60.0, closed=True))
-        assert board.received[-1] == b"2 M 1800 1530 1080 2100 1900*73"
+        assert board.received[-1] == b"2 M 1800 1530 1080 2100 1900*758D"
 
 
 def test_frames_match_the_encoder_for_a_route(board):
@@ -167,7 +167,7 @@ def test_pulse_range_refused_before_sending(board):
             bus.move(command(25.0, 93.0, -132.0))
         assert err.value.joint == "base" and err.value.pulse_us == 850.0
         assert "[900, 2400] µs" in str(err.value) and "[30, 180] deg" in str(err.value)
-        assert board.received == [b"0 V*46"]
+        assert board.received == [b"0 V*F970"]
 
 
 @pytest.mark.parametrize(
@@ -231,8 +231,8 @@ def test_wrong_firmware_refused():
 
 
 def test_wrong_protocol_version_refused():
-    with FakeMearmBoard(version="2.0") as board:
-        with pytest.raises(HandshakeError, match="speaks protocol 2"):
+    with FakeMearmBoard(version="3.0") as board:
+        with pytest.raises(HandshakeError, match="speaks protocol 3"):
             connected(board)
 
 
@@ -308,7 +308,7 @@ def test_bad_reply_checksum_retried_then_ok(caplog):
             bus.connect()
         tries = [r.message for r in caplog.records if "try" in r.message]
         assert len(tries) == 2 and "try 1/3" in tries[0] and "try 2/3" in tries[1]
-        assert board.received == [b"0 V*46"] * 3
+        assert board.received == [b"0 V*F970"] * 3
         bus.move(HOME)
         bus.close()
 
@@ -384,10 +384,10 @@ def test_reconnect_after_fault_clears_it():
 
 
 def test_pacing_never_faster_than_the_baud_rate():
-    """At 9600 baud a 44-byte move + ack takes 45.8 ms: the period grows past 1/50 s."""
+    """At 9600 baud a 48-byte move + ack takes 50 ms: the period grows past 1/50 s."""
     slow = open_bus(fast_config("serial", rate_hz=50.0, baud=9600))
     fast = open_bus(fast_config("serial", rate_hz=50.0, baud=115200))
-    assert slow.wire_bytes_per_move == len(b"255 M 2500 2500 2500 2500 2500*00\n") + 10
+    assert slow.wire_bytes_per_move == len(b"255 M 2500 2500 2500 2500 2500*0000\n") + 12
     assert slow.period_s == pytest.approx(10 * slow.wire_bytes_per_move / 9600)
     assert slow.period_s > 1 / 50
     assert fast.period_s == pytest.approx(1 / 50)
@@ -395,7 +395,7 @@ def test_pacing_never_faster_than_the_baud_rate():
 
 def test_a_stream_at_a_low_baud_steps_as_far_as_the_period_allows():
     """The board sets each pulse at once and the servo turns at its own speed: the
-    executor sizes each step for the whole period (45.8 ms at 9600 baud, not the 20 ms
+    executor sizes each step for the whole period (50 ms at 9600 baud, not the 20 ms
     of servo.rate_hz) and counts a period for it, so the arm keeps its planned speed and
     the reported motion time is the time the link takes."""
     durations = {}

@@ -96,7 +96,7 @@ def test_frame_errors(pulses, time_ms, match):
 
 def test_banner_recognised():
     assert looks_like_banner(b"\x00SSC32-V2.50USB") and looks_like_banner(b"ssc-32 v2")
-    assert not looks_like_banner(b"READY mearm_servo 1.0 5*25")
+    assert not looks_like_banner(b"READY mearm_servo 2.0 5*8003")
 
 
 # ------------------------------------------------------------------ the happy path

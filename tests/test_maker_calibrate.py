@@ -383,7 +383,7 @@ def test_calibrate_on_a_board_fits_its_servos_and_sends_only_allowed_pulses(boar
     config = load_config(ROOT / "configs" / "sim.yaml")
     smap = ServoMap.from_arm(config.arm)
     try:
-        cmd.expect(r"connected: mearm_servo 1\.0 5 on ")
+        cmd.expect(r"connected: mearm_servo 2\.0 5 on ")
         # first actuator: hammer 20 µs steps far past the end of its range, then operate
         cmd.expect(r"base: pulse (\d+) µs")
         cmd.send("3" + "\x1b[D" * 80)
@@ -411,7 +411,7 @@ def test_calibrate_on_a_board_fits_its_servos_and_sends_only_allowed_pulses(boar
     refs = {a.name: reference_values(a.lower, a.upper, a.unit) for a in smap.actuators}
     check_fit(out, BOARD_TRUTH, refs)
     cal = load_servo_calibration(out)
-    assert cal.board_id == "mearm_servo 1.0 5" and cal.port == board.port
+    assert cal.board_id == "mearm_servo 2.0 5" and cal.port == board.port
     calibrated = apply_servo_calibration_file(config, out)
     assert calibrated.arm.tool.gripper.servo.direction == -1
 

@@ -126,4 +126,4 @@ def test_find_port_with_the_virtual_uno_and_a_port_tries_that_port():
         out = run_in_process(["find-port", "--config", "virtual_uno", "--only", "--port",
                               board.port, "--timeout", "5"], within_s=12)  # fmt: skip
     assert out.code == 0, out.stdout + out.stderr
-    assert "mearm board: mearm_servo 1.0" in out.stdout
+    assert "mearm board: mearm_servo 2.0" in out.stdout

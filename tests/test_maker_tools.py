@@ -114,7 +114,7 @@ def test_find_port_names_the_fake_board_and_says_what_the_others_are():
     assert "Traceback" not in result.stderr
     out = result.stdout
     assert line_of(out, board.port).endswith(
-        "mearm board: mearm_servo 1.0, 5 servos, pulses 500..2500 µs"
+        "mearm board: mearm_servo 2.0, 5 servos, pulses 500..2500 µs"
     )
     assert "its banner names firmware 'grbl'" in line_of(out, other_firmware.port)
     assert 'not a mearm board: no mearm banner in 1 s; heard b"Grbl 1.1h' in line_of(
@@ -250,7 +250,7 @@ def test_replug_on_a_terminal_finds_the_board_that_was_unplugged_and_replugged(t
         code = term.wait()
     assert code == 0, term.output
     assert f"the board is on {link}" in term.output
-    assert "mearm board: mearm_servo 1.0, 5 servos" in term.output
+    assert "mearm board: mearm_servo 2.0, 5 servos" in term.output
     assert second.opens == 1
 
 
@@ -326,7 +326,7 @@ def test_find_port_names_the_real_firmware_in_simavr(tmp_path_factory):
         found = run_tool("find_port", "--only", "--timeout", "5", "--port", chip.port)
     assert found.returncode == 0, found.stdout + found.stderr
     assert line_of(found.stdout, chip.port).endswith(
-        "mearm board: mearm_servo 1.0, 5 servos, pulses 500..2500 µs"
+        "mearm board: mearm_servo 2.0, 5 servos, pulses 500..2500 µs"
     )
 
 

@@ -27,7 +27,8 @@ def test_a_board_with_more_channels_than_a_line_holds_is_refused():
 
 
 def test_the_most_channels_a_line_holds_still_move():
-    """14 channels at 4 digits: ``255 M 2500 … 2500*HH`` is 78 characters."""
+    """14 channels at 4 digits: ``255 M 2500 … 2500*HHHH`` is 80 characters, the most a
+    line holds (15 would be 85)."""
     with FakeMearmBoard(servo_count=14) as board:
         bus = open_bus(fast_config("serial", board.port))
         assert isinstance(bus, ArduinoBus)

@@ -228,7 +228,7 @@ def test_opening_the_port_resets_the_board(cache_home, monkeypatch):
             # the read returns at the banner's end: the timeout only bounds a hang (2 s
             # failed once, the chip restarted under a loaded machine)
             with serial.Serial(board.port, 115200, timeout=30.0) as link:
-                assert link.readline() == b"READY mearm_servo 1.0 5*25\n"
+                assert link.readline() == b"READY mearm_servo 2.0 5*8003\n"
             assert board.opens == opens
         assert board.pulses == []
 

@@ -21,7 +21,7 @@ and ``residual_us`` the largest distance of a point from it.
     version: 1
     kind: servos
     arm: paper_mearm
-    board_id: mearm_servo 1.0, 5 channels
+    board_id: mearm_servo 2.0, 5 channels
     port: /dev/ttyACM0
     date: '2026-11-23T23:10:00+00:00'
     actuators:

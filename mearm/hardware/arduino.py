@@ -2,11 +2,13 @@
 
 Connecting opens the port, which resets an Uno (DTR), waits for its ``READY`` banner
 (``servo.banner_timeout_s``), then asks ``V`` for the firmware name, version, servo count
-and pulse range and checks them against the config. Each command then waits
-``servo.ack_timeout_s`` for its ``OK``; a checksum failure in either direction is resent
-with the same sequence number up to ``servo.retries`` times, each failed try logged; no
-acknowledgement, a numbered board error, a lost link or a board reset stops the bus with
-a named error carrying the last acknowledged pose.
+and pulse range and checks them against the config. A banner of another protocol version
+(above all protocol 1's, checked by an XOR: a board flashed before the CRC-16) is refused
+with :class:`~mearm.hardware.errors.FirmwareVersionError` before anything is sent. Each
+command then waits ``servo.ack_timeout_s`` for its ``OK``; a checksum failure in either
+direction is resent with the same sequence number up to ``servo.retries`` times, each
+failed try logged; no acknowledgement, a numbered board error, a lost link or a board
+reset stops the bus with a named error carrying the last acknowledged pose.
 """
 
 from __future__ import annotations
@@ -22,6 +24,7 @@ from mearm.hardware.errors import (
     BoardError,
     BoardResetError,
     ChecksumError,
+    FirmwareVersionError,
     HandshakeError,
     NoAckError,
 )
@@ -37,15 +40,17 @@ from mearm.hardware.mearm_protocol import (
     Reply,
     Unparseable,
     decode_line,
+    decode_protocol1_banner,
     encode_command,
     parse_firmware_info,
+    version_major,
 )
 from mearm.hardware.serial_bus import SerialServoBus
 
 log = logging.getLogger(__name__)
 
-#: Bytes of an ``OK <seq>*HH\n`` acknowledgement, at most.
-_ACK_BYTES = 10
+#: Bytes of an ``OK <seq>*HHHH\n`` acknowledgement, at most.
+_ACK_BYTES = 12
 #: Garbage kept for an error message [bytes]; a flood is cut here.
 _GARBAGE_KEPT = 256
 
@@ -133,6 +138,12 @@ class ArduinoBus(SerialServoBus):
     # ----------------------------------------------------------------- protocol
 
     def _await_banner(self) -> bytes:
+        """The board's banner line, once it came.
+
+        Raises:
+            BannerTimeoutError: none came in ``servo.banner_timeout_s``.
+            FirmwareVersionError: the banner is of another protocol version.
+        """
         timeout = self.link.banner_timeout_s
         deadline = time.monotonic() + timeout
         seen = bytearray()
@@ -143,7 +154,18 @@ class ArduinoBus(SerialServoBus):
             decoded = decode_line(line)
             if isinstance(decoded, Reply) and decoded.kind == "READY":
                 log.info("%s: banner %r", self.port, line)
+                # another firmware's banner is left to the V reply's check
+                name, version = (*decoded.fields, "", "")[:2]
+                major = version_major(version)
+                if name == FIRMWARE_NAME and major != PROTOCOL_MAJOR:
+                    raise FirmwareVersionError(
+                        self.port, f"{name} {version}", major, PROTOCOL_MAJOR
+                    )
                 return line
+            old = decode_protocol1_banner(line)
+            if old is not None:  # its V reply could not even be read: refused by its line
+                firmware = " ".join(old.fields[:2]) or "a firmware of protocol 1"
+                raise FirmwareVersionError(self.port, firmware, 1, PROTOCOL_MAJOR)
             if len(seen) < _GARBAGE_KEPT:
                 seen += line[:_GARBAGE_KEPT] + b"\n"
             log.debug("%s: skipped before the banner: %r", self.port, line[:80])
@@ -157,10 +179,8 @@ class ArduinoBus(SerialServoBus):
                 f"(its V reply was {reply.raw!r}); flash tools/arduino/mearm_servo"
             )
         if info.major != PROTOCOL_MAJOR:
-            raise HandshakeError(
-                f"{self.port}: firmware {info.version} speaks protocol {info.major}, "
-                f"this host speaks {PROTOCOL_MAJOR}; flash tools/arduino/mearm_servo "
-                "from this checkout"
+            raise FirmwareVersionError(
+                self.port, f"{info.name} {info.version}", info.major, PROTOCOL_MAJOR, sent=True
             )
         highest = max(self.servo_map.channels)
         if highest >= info.servo_count:

@@ -104,6 +104,37 @@ class HandshakeError(ServoError):
     """
 
 
+class FirmwareVersionError(HandshakeError):
+    """The board's firmware speaks another protocol version than this host: reflash it.
+
+    Found from its banner, before anything is sent (``sent``: from its ``V`` reply, when
+    the banner named the right version): a board of another protocol would read this
+    host's lines as garbled at best. Version 1 (lines checked by an XOR) is the
+    firmware flashed before the CRC-16; ``mearm flash`` puts this checkout's on the board.
+
+    Attributes:
+        port: The serial port or URL.
+        firmware: What the board reports, e.g. ``mearm_servo 1.0``.
+        board_major: The protocol major version the board speaks.
+        host_major: The one this host speaks.
+    """
+
+    def __init__(
+        self, port: str, firmware: str, board_major: int, host_major: int, *, sent: bool = False
+    ):
+        self.port = port
+        self.firmware = firmware
+        self.board_major = int(board_major)
+        self.host_major = int(host_major)
+        check = " (lines checked by an XOR, not a CRC-16)" if board_major == 1 else ""
+        super().__init__(
+            f"{port}: the board runs {firmware}, which speaks protocol {board_major}{check}; "
+            f"this host speaks protocol {host_major}: reflash the board with this checkout's "
+            f"firmware (mearm flash --port {port}, docs/maker-path.md)"
+            + ("" if sent else "; nothing was sent to it")
+        )
+
+
 class LinkError(ServoError):
     """The serial link cannot be opened or was lost.
 

@@ -1,35 +1,45 @@
 r"""Our servo protocol (``tools/arduino/PROTOCOL.md``): frames, checksum and parser.
 
-ASCII lines a person can read in a serial monitor. Every line ends ``*HH\n``, where
-``HH`` is the XOR of all bytes before the ``*`` in two upper-case hex digits (NMEA style).
+ASCII lines a person can read in a serial monitor. Every line ends ``*HHHH\n``, where
+``HHHH`` is the CRC-16/XMODEM (polynomial 0x1021, initial value 0) of all bytes before
+the ``*`` in four upper-case hex digits: :func:`binascii.crc_hqx` here, avr-libc's
+``_crc_xmodem_update`` in the firmware. On lines of at most 80 characters it catches
+every error of 1, 2 or 3 bits and every burst of up to 16 bits; protocol 1 ended its
+lines in the XOR of the bytes (``*HH``), which missed the same bit flipped in two bytes
+(``1500 1500`` read as ``1400 1501``). A board still speaking protocol 1 is recognised by
+its banner (:func:`decode_protocol1_banner`) and refused before anything is sent.
 
-Host → board, ``<seq> <cmd>[ <arg>…]*HH\n`` with ``seq`` in 0–255 (a resend keeps its
+Host → board, ``<seq> <cmd>[ <arg>…]*HHHH\n`` with ``seq`` in 0–255 (a resend keeps its
 number, so the board acknowledges a duplicate without acting on it twice)::
 
-    7 V*HH                          version: name, version, servo count, pulse range
-    8 M 1800 1530 1080 2100 1000*HH one pulse per channel [µs]; 0 = no pulse
-    9 S*HH                          stop: hold the current pulses
-    10 Q*HH                         query: state and current pulses
+    7 V*HHHH                            version: name, version, servo count, pulse range
+    8 M 1800 1530 1080 2100 1000*HHHH   one pulse per channel [µs]; 0 = no pulse
+    9 S*HHHH                            stop: hold the current pulses
+    10 Q*HHHH                           query: state and current pulses
 
 Board → host::
 
-    READY mearm_servo 1.0 5*HH      banner, printed on boot (DTR reset)
-    OK <seq>[ <field>…]*HH          acknowledgement
-    ERR <seq|-> <code> <word>*HH    numbered error (:data:`ERROR_CODES`)
-    ! <text>*HH                     notice, e.g. ``! HOLD`` when the watchdog holds
+    READY mearm_servo 2.0 5*HHHH        banner, printed on boot (DTR reset)
+    OK <seq>[ <field>…]*HHHH            acknowledgement
+    ERR <seq|-> <code> <word>*HHHH      numbered error (:data:`ERROR_CODES`)
+    ! <text>*HHHH                       notice, e.g. ``! HOLD`` when the watchdog holds
 
 This module does no I/O; :class:`mearm.hardware.arduino.ArduinoBus` does.
 """
 
 from __future__ import annotations
 
+import binascii
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Literal
 
 FIRMWARE_NAME = "mearm_servo"
-#: Protocol major version: a board with another major version is refused.
-PROTOCOL_MAJOR = 1
+#: Protocol major version: a board with another major version is refused. 2: lines end
+#: in a CRC-16; 1 (the firmware before it): in an XOR.
+PROTOCOL_MAJOR = 2
+#: Hex digits of the check value after the ``*``.
+CHECK_DIGITS = 4
 #: Longest line either side sends, without the newline [bytes] (the firmware's buffer).
 MAX_LINE = 80
 SEQ_MODULO = 256
@@ -55,7 +65,12 @@ _HEX = frozenset(b"0123456789ABCDEFabcdef")
 
 
 def checksum(body: bytes) -> int:
-    """XOR of all bytes of ``body`` (the part of a line before ``*``)."""
+    """CRC-16/XMODEM of ``body`` (the part of a line before ``*``), as the firmware's."""
+    return binascii.crc_hqx(body, 0)
+
+
+def _xor(body: bytes) -> int:
+    """Protocol 1's check value: the XOR of all bytes (only to recognise an old board)."""
     value = 0
     for b in body:
         value ^= b
@@ -63,7 +78,7 @@ def checksum(body: bytes) -> int:
 
 
 def encode_line(body: str) -> bytes:
-    r"""A full line: ``body*HH\n``.
+    r"""A full line: ``body*HHHH\n``.
 
     Raises:
         ValueError: ``body`` is not printable ASCII, contains ``*`` or is too long.
@@ -71,14 +86,14 @@ def encode_line(body: str) -> bytes:
     raw = body.encode("ascii")
     if any(b < 0x20 or b > 0x7E for b in raw) or b"*" in raw:
         raise ValueError(f"frame body must be printable ASCII without '*': {body!r}")
-    line = raw + b"*%02X" % checksum(raw)
+    line = raw + b"*%04X" % checksum(raw)
     if len(line) > MAX_LINE:
         raise ValueError(f"frame of {len(line)} bytes exceeds {MAX_LINE}: {body!r}")
     return line + b"\n"
 
 
 def encode_command(seq: int, command: str, args: Sequence[int] = ()) -> bytes:
-    r"""A host command frame: ``encode_command(8, "M", [1500, 0])`` → ``b"8 M 1500 0*HH\n"``.
+    r"""A host command frame: ``encode_command(8, "M", [1500, 0])`` → ``b"8 M 1500 0*HHHH\n"``.
 
     Raises:
         ValueError: ``seq`` outside 0–255, a bad command letter or a negative argument.
@@ -144,16 +159,25 @@ def _seq(token: str) -> int | None:
     return None
 
 
-def split_frame(line: bytes) -> tuple[bytes, bool] | None:
-    """Split ``body*HH`` into (body, checksum ok); ``None`` if it is not frame-shaped."""
+def _split(line: bytes, digits: int) -> tuple[bytes, int] | None:
+    """``body*`` and ``digits`` hex digits → (body, the check value sent), else ``None``."""
     line = line.rstrip(b"\r\n")
     star = line.rfind(b"*")
-    if star < 0 or len(line) - star != 3 or not set(line[star + 1 :]) <= _HEX:
+    if star < 0 or len(line) - star != 1 + digits or not set(line[star + 1 :]) <= _HEX:
         return None
     body = line[:star]
     if any(b < 0x20 or b > 0x7E for b in body):
         return None
-    return body, checksum(body) == int(line[star + 1 :], 16)
+    return body, int(line[star + 1 :], 16)
+
+
+def split_frame(line: bytes) -> tuple[bytes, bool] | None:
+    """Split ``body*HHHH`` into (body, checksum ok); ``None`` if it is not frame-shaped."""
+    split = _split(line, CHECK_DIGITS)
+    if split is None:
+        return None
+    body, sent = split
+    return body, checksum(body) == sent
 
 
 def decode_line(line: bytes) -> Decoded:
@@ -179,6 +203,30 @@ def decode_line(line: bytes) -> Decoded:
     return Unparseable(raw)
 
 
+def decode_protocol1_banner(line: bytes) -> Reply | None:
+    """The banner of a board still running protocol 1 (``READY mearm_servo 1.0 5*25``).
+
+    Its lines end in the XOR of their bytes (``*HH``), which :func:`decode_line` takes
+    for noise. Recognised by its intact XOR, so that such a board is refused by name
+    (reflash it) rather than waited on until no banner seems to have come.
+
+    Returns:
+        The banner as a ``READY`` :class:`Reply`, or ``None`` if ``line`` is not one.
+    """
+    raw = line.rstrip(b"\r\n")
+    split = _split(raw, 2)
+    if split is None or _xor(split[0]) != split[1]:
+        return None
+    head, *rest = split[0].decode("ascii").split(" ")
+    return Reply("READY", None, tuple(rest), raw) if head == "READY" else None
+
+
+def version_major(version: str) -> int:
+    """The major number of a ``major.minor`` version (``-1`` if it is not one)."""
+    head = version.split(".")[0]
+    return int(head) if head.isdigit() else -1
+
+
 @dataclass(frozen=True)
 class FirmwareInfo:
     """What the board reports in its ``V`` reply.
@@ -200,8 +248,7 @@ class FirmwareInfo:
     @property
     def major(self) -> int:
         """The protocol major version (``-1`` if the version is not ``major.minor``)."""
-        head = self.version.split(".")[0]
-        return int(head) if head.isdigit() else -1
+        return version_major(self.version)
 
 
 def parse_firmware_info(reply: Reply) -> FirmwareInfo | None:

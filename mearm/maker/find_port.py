@@ -2,7 +2,7 @@
 
 Lists the serial ports the system knows, opens each one briefly at the config's baud rate
 and listens for the banner the mearm firmware prints when it starts
-(``READY mearm_servo 1.0 5``; ``tools/arduino/PROTOCOL.md``). Opening a port resets an
+(``READY mearm_servo 2.0 5``; ``tools/arduino/PROTOCOL.md``). Opening a port resets an
 Arduino Uno, so a board running the firmware always prints it. A board that prints it is
 asked for its version (``V``) and named; a port that cannot be opened is reported with
 the reason. ::

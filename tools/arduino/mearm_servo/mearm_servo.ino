@@ -14,11 +14,13 @@
 #include <avr/io.h>
 #include <stdlib.h>
 #include <string.h>
+#include <util/crc16.h>
 
 // ---------------------------------------------------------------- configuration
 
 #define FIRMWARE_NAME "mearm_servo"
-#define FIRMWARE_VERSION "1.0"  // major.minor; the host refuses another major version
+// major.minor; the host refuses another major version. 2: lines end in a CRC-16 (1: an XOR).
+#define FIRMWARE_VERSION "2.0"
 #define BAUD 115200UL
 #define SERVO_COUNT 5
 // Channel i drives pin SERVO_PINS[i]: 0 theta1, 1 theta2, 2 theta3, 3 theta5, 4 gripper
@@ -137,8 +139,11 @@ static const char HEX_DIGITS[] = "0123456789ABCDEF";
 
 static void out_begin(void) { out_len = 0; }
 
+// Room kept at the end of out[] for "*HHHH\n".
+#define CHECK_TAIL 6
+
 static void out_str(const char *s) {
-  while (*s && out_len < sizeof(out) - 5) out[out_len++] = *s++;
+  while (*s && out_len < sizeof(out) - CHECK_TAIL) out[out_len++] = *s++;
 }
 
 static void out_uint(unsigned int v) {
@@ -148,13 +153,21 @@ static void out_uint(unsigned int v) {
   out_str(buf);
 }
 
-// Appends *HH and the newline, sends, and keeps it for a duplicate frame if asked.
+// CRC-16/XMODEM (polynomial 0x1021, initial value 0) of n bytes: avr-libc's, as the
+// host's binascii.crc_hqx(data, 0).
+static uint16_t crc16(const char *data, uint8_t n) {
+  uint16_t crc = 0;
+  for (uint8_t i = 0; i < n; i++) crc = _crc_xmodem_update(crc, (uint8_t)data[i]);
+  return crc;
+}
+
+// Appends *HHHH and the newline, sends, and keeps it for a duplicate frame if asked.
 static void out_send(bool remember) {
-  uint8_t ck = 0;
-  for (uint8_t i = 0; i < out_len; i++) ck ^= (uint8_t)out[i];
+  uint16_t crc = crc16(out, out_len);
   out[out_len++] = '*';
-  out[out_len++] = HEX_DIGITS[ck >> 4];
-  out[out_len++] = HEX_DIGITS[ck & 0x0F];
+  for (int8_t shift = 12; shift >= 0; shift -= 4) {
+    out[out_len++] = HEX_DIGITS[(crc >> shift) & 0x0F];
+  }
   out[out_len++] = '\n';
   Serial.write((const uint8_t *)out, out_len);
   if (remember) {
@@ -186,7 +199,7 @@ static uint16_t current_us[SERVO_COUNT];  // 0 = no pulse
 static unsigned long last_valid_ms = 0;
 static bool have_last = false;
 static uint8_t last_seq = 0;
-static uint8_t last_ck = 0;
+static uint16_t last_crc = 0;
 
 static const char *mode_name(void) {
   return mode == MODE_RUN ? "RUN" : (mode == MODE_HOLD ? "HOLD" : "IDLE");
@@ -215,20 +228,27 @@ static long parse_uint(const char *s, uint8_t max_digits) {
 // One complete line (no newline): check, then act. Same order as tests/fakeboard.py.
 static void handle_line(char *line) {
   char *star = strrchr(line, '*');
-  if (star == NULL || strlen(star) != 3 || hex_value(star[1]) < 0 || hex_value(star[2]) < 0) {
+  if (star == NULL || strlen(star) != 5) {
     reply_error(-1, E_MALFORMED, "syntax");
     return;
   }
-  uint8_t ck = 0;
+  uint16_t sent_crc = 0;
+  for (uint8_t i = 1; i <= 4; i++) {
+    int digit = hex_value(star[i]);
+    if (digit < 0) {
+      reply_error(-1, E_MALFORMED, "syntax");
+      return;
+    }
+    sent_crc = (uint16_t)(sent_crc << 4 | digit);
+  }
   for (char *p = line; p < star; p++) {
     if (*p < 0x20 || *p > 0x7E) {
       reply_error(-1, E_MALFORMED, "syntax");
       return;
     }
-    ck ^= (uint8_t)*p;
   }
-  uint8_t sent_ck = (uint8_t)(hex_value(star[1]) * 16 + hex_value(star[2]));
-  if (ck != sent_ck) {
+  uint16_t crc = crc16(line, (uint8_t)(star - line));
+  if (crc != sent_crc) {
     reply_error(-1, E_CHECKSUM, "checksum");
     return;
   }
@@ -260,13 +280,13 @@ static void handle_line(char *line) {
     reply_error(-1, E_MALFORMED, "syntax");
     return;
   }
-  if (have_last && (uint8_t)seq == last_seq && ck == last_ck) {
+  if (have_last && (uint8_t)seq == last_seq && crc == last_crc) {
     Serial.write((const uint8_t *)last_reply, last_reply_len);  // a resend: do not act twice
     return;
   }
   have_last = true;
   last_seq = (uint8_t)seq;
-  last_ck = ck;
+  last_crc = crc;
   last_valid_ms = millis();
 
   if (ntok < 2 || strlen(tokens[1]) != 1 || bad_arg) {

@@ -21,7 +21,7 @@
  * stdin's bytes wait until the firmware has enabled UART0's receiver (Serial.begin): a
  * real chip loses what arrives before, and a pipe cannot wait for the banner. When stdin
  * closes, the firmware runs on until it has been quiet for 100 ms of simulated time (no
- * byte received or sent), so it answers what it was given: printf '0 V*46\n' | mearm_sim
+ * byte received or sent), so it answers what it was given: printf '0 V*F970\n' | mearm_sim
  * prints the banner and the reply. simavr's own messages go to stderr.
  * Build: make -C tools/arduino sim (needs libsimavr-dev, libelf-dev).
  */
