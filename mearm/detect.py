@@ -15,7 +15,9 @@ when merged or cut); ``yaw_deg``: a cube's sides' direction in the base frame, i
 [0, 90) (``null`` for other shapes). ``--annotate OUT.png`` draws each region's contour,
 centroid, class and table position in its class's ``draw_rgb`` (each label once, on a
 filled box); with several images the i-th (from 0, in the order given) goes to
-``OUT-i.png``; a ``wrote PATH`` line follows each image's objects (on stderr with
+``OUT-i.png``. An annotated picture already there (a second run's, or the user's own
+file of that name) is replaced only with ``--force``: without it the run is refused
+before any work (exit 2). A ``wrote PATH`` line follows each image's objects (on stderr with
 ``--json``, whose stdout holds the JSON lists alone). A missing or
 unreadable image stops the run before anything is printed: exit 2 with one line on
 stderr. An image of another size than the calibration's, or with no colour (a grayscale
@@ -30,6 +32,7 @@ another size: a config taught on a photo, used on the camera) is named in a warn
 
 from __future__ import annotations
 
+import argparse
 import json
 import sys
 from collections.abc import Sequence
@@ -45,6 +48,7 @@ from mearm.cli import (
     check_output_file,
     config_from_args,
     invoked_as,
+    refuse_to_replace,
     run,
 )
 from mearm.fileio import file_identity, write_atomic
@@ -253,6 +257,23 @@ def annotate(
     return out
 
 
+def _check_annotate_outputs(parser: ArgumentParser, args: argparse.Namespace) -> None:
+    """Refuse, before any work, ``--annotate`` pictures that cannot or must not be written.
+
+    An unknown image type, one of the input images, a folder or a path under a file, and
+    a picture already there without ``--force`` (a second run must not replace it
+    silently): each exit 2 with one line.
+    """
+    if not cv2.haveImageWriter(str(args.annotate)):
+        parser.error(f"--annotate {args.annotate}: unknown image type (use .png or .jpg)")
+    inputs = {file_identity(p) for p in args.images} - {None}
+    for out in annotation_paths(args.annotate, max(1, len(args.images))):
+        if file_identity(out) in inputs:
+            parser.error(f"--annotate {out}: is one of the input images (write elsewhere)")
+        check_output_file(out, "--annotate")  # a folder, a path under a file: now
+        refuse_to_replace(out, "--annotate", args.force)
+
+
 def main(argv: Sequence[str] | None = None) -> int:  # noqa: PLR0912 (one branch per option)
     """Detect objects in each image and print them (text or JSON lines)."""
     parser = ArgumentParser(
@@ -270,18 +291,14 @@ def main(argv: Sequence[str] | None = None) -> int:  # noqa: PLR0912 (one branch
         metavar="OUT.png",
         help="write an annotated copy (several images: OUT-0.png, OUT-1.png, ...)",
     )
+    parser.add_argument(
+        "--force", action="store_true", help="replace an --annotate picture that is already there"
+    )
     args = parser.parse_args(argv)
     if bool(args.images) == args.camera:
         parser.error("give IMAGE paths or --camera (one of the two)")
     if args.annotate is not None:
-        if not cv2.haveImageWriter(str(args.annotate)):
-            parser.error(f"--annotate {args.annotate}: unknown image type (use .png or .jpg)")
-        outs = annotation_paths(args.annotate, max(1, len(args.images)))
-        inputs = {file_identity(p) for p in args.images} - {None}
-        for out in outs:
-            if file_identity(out) in inputs:
-                parser.error(f"--annotate {out}: is one of the input images (write elsewhere)")
-            check_output_file(out, "--annotate")  # a folder, a path under a file: now
+        _check_annotate_outputs(parser, args)
     config = config_from_args(args)
     calibration = camera_geometry(config.calibration, config.camera)
     detector = ColorDetector.from_config(

@@ -170,7 +170,7 @@ def test_every_click_command(
     with pytest.raises(SystemExit) as info:
         run(main, ["--photos", str(lone), "--every-click"])
     _, err = capsys.readouterr()
-    assert info.value.code == 2 and "no photo shows all its source's classes" in err
+    assert info.value.code == 2 and "source x/y: no photo shows every class it labels" in err
     for argv in (["--every-click"], ["--photos", str(folder), "--every-click", "--learn"]):
         with pytest.raises(SystemExit) as info:
             run(main, argv)

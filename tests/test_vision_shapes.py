@@ -200,7 +200,9 @@ def test_shape_sweep_prints_its_table(capsys) -> None:
     assert [line.split()[:4] for line in lines[1:4]] == [
         [name, "8", "8", "8"] for name in ("cylinder", "cube", "prism")
     ]
-    assert lines[-1] == "24 of 24 objects found once with the right shape"
+    assert (
+        lines[-1] == "24 of 24 objects found once with the right shape (simulated: rendered frames)"
+    )
 
 
 @pytest.mark.bad_input

@@ -14,8 +14,9 @@ labelled object no detection matches is missed. A manifest with no photo, or an 
 without a size of at least 1 px, with a class the config lacks or a centre that is not a
 pixel of its photo, is refused (:class:`~mearm.errors.InputFileError` naming the entry).
 
-With ``learn``, each source's colours are taught from its first photo as a user teaches
-them: one click per class, on the first labelled object of that class (moved to its most
+With ``learn``, each source's colours are taught from its first photo that shows every
+class the source labels (a source with none is refused), as a user teaches them: one
+click per class, on the first labelled object of that class (moved to its most
 coloured pixel within half an object when the centre is grey: a blown-out top),
 and the photos are scored with the config that makes. A click the teacher refuses (a
 label on grey, on the table, or two classes labelled on one colour) is the manifest's
@@ -336,22 +337,29 @@ def run_photo_bench(folder: Path, config: Config, *, learn: bool = False) -> lis
     detector was developed on the others), per class (``scope``) and over all, for
     each detector (``who``):
     found, missed, false, recall, precision. With ``learn`` the detector's config is
-    taught per source from its first photo (:func:`learned_config`); the recipe keeps the
-    config's hue bands (it has no learned colours).
+    taught per source from its first photo that shows every class the source labels
+    (:func:`teaching_photos`, :func:`learned_config`); the recipe keeps the config's hue
+    bands (it has no learned colours).
+
+    Raises:
+        InputFileError: a bad manifest (:func:`load_photos`), a source with no photo to
+            teach it from, or a click the teacher refuses (with ``learn``).
     """
     photos = load_photos(folder, object_px_of(config), config.task.class_names)
-    firsts: dict[str, Photo] = {}
+    groups: dict[str, list[Photo]] = {}
     for p in photos:
-        firsts.setdefault(p.source, p)
+        groups.setdefault(p.source, []).append(p)
+    manifest = folder / "manifest.yaml"
     plain = _detectors(config)
     taught = {}
-    for src, first in firsts.items() if learn else ():  # the shipped bands teach nothing
+    for src, group in groups.items() if learn else ():  # the shipped bands teach nothing
+        first = teaching_photos(manifest, group, config)[0]
         try:
             taught[src] = _detectors(learned_config(config, first))["mearm"]
         except SampleError as exc:
-            raise refused_labels(folder / "manifest.yaml", first, exc) from None
+            raise refused_labels(manifest, first, exc) from None
     totals: dict[str, Score] = {"mearm": Score(), "inRange": Score()}
-    sources = {(src, who): Score() for src in firsts for who in totals}
+    sources = {(src, who): Score() for src in groups for who in totals}
     rows = []
     for p in photos:
         runs = {"mearm": taught[p.source] if learn else plain["mearm"], "inRange": plain["inRange"]}
@@ -383,17 +391,42 @@ def _row(scope: str, who: str, s: Score) -> dict:
     }
 
 
+def _shown(photo: Photo, config: Config) -> set[str]:
+    """The classes of ``config`` with at least one labelled object in ``photo``."""
+    return {n for n, c in photo.centres.items() if len(c) and n in config.task.class_names}
+
+
+def teaching_photos(manifest: Path, photos: Sequence[Photo], config: Config) -> list[Photo]:
+    """The photos of one source a user can teach it from: those showing every class it labels.
+
+    A photo without one of them would leave that class untaught, scored with the
+    config's hue bands under the name of taught colours.
+
+    Raises:
+        InputFileError: no photo of the source shows all its classes (names the source).
+    """
+    labelled = set().union(*(_shown(p, config) for p in photos))
+    fit = [p for p in photos if _shown(p, config) == labelled]
+    if not fit:
+        raise InputFileError(
+            str(manifest),
+            f"source {photos[0].source}: no photo shows every class it labels "
+            f"({', '.join(sorted(labelled))}), so no one photo can teach it: "
+            "add one that does, or label those objects on one",
+        )
+    return fit
+
+
 def teachings(photos: Sequence[Photo], config: Config) -> Iterator[tuple[Photo, dict[str, int]]]:
     """Every way to teach one source with one photo and one click per class.
 
     Each photo of ``photos`` (one source's) that shows every class the source labels
     (of ``config``'s), with each combination of clicked objects: the first
-    :data:`CLICKS_PER_CLASS` of each class.
+    :data:`CLICKS_PER_CLASS` of each class; a photo that shows fewer teaches none.
     """
-    wanted = config.task.class_names
-    labelled = {n for p in photos for n, c in p.centres.items() if len(c) and n in wanted}
+    labelled = set().union(*(_shown(p, config) for p in photos))
     for p in photos:
-        names = sorted(n for n, c in p.centres.items() if len(c) and n in wanted)
+        names = sorted(_shown(p, config))
         if set(names) != labelled:
             continue
         counts = [range(min(len(p.centres[n]), CLICKS_PER_CLASS)) for n in names]
@@ -421,6 +454,7 @@ def run_click_study(folder: Path, config: Config) -> list[dict]:
     per_source: dict[str, list[tuple[int, int, int]]] = {}
     refused: dict[str, int] = {}
     for src, group in sources.items():
+        teaching_photos(folder / "manifest.yaml", group, config)  # none: refused, not left out
         totals = []
         first_refusal: InputFileError | None = None
         for photo, picked in teachings(group, config):

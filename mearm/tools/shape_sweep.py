@@ -6,12 +6,13 @@ Renders frames of the simulated camera (the config's calibration and frame size,
 ``configs/sim.yaml`` unless ``--config``), each with 24 objects on a grid 6 cm apart:
 every shape of the catalogue in turn, each of a size drawn uniformly in
 ``--min-cm``–``--max-cm`` and a yaw drawn uniformly in [0°, 360°), its centre jittered by
-up to 0.5 cm; the frames alternate a wooden and a grey table and each has its own noise.
+up to 0.5 cm (a calibration under which the grid leaves the frame is refused); the
+frames alternate a wooden and a grey table and each has its own noise.
 The detector's classes are the config's first class with each size allowed
 (``diameter_cm`` = ``--max-cm``), so only the shape is judged. Prints, per shape, the
 objects drawn, found, and classified right, the range of their fill (area over the
-smallest enclosing circle's) and, for cubes, the largest yaw error; exits 1 when an
-object is missed or misclassified.
+smallest enclosing circle's) and, for cubes, the largest yaw error, and a last line
+labelled simulated; exits 1 when an object is missed or misclassified.
 """
 
 from __future__ import annotations
@@ -30,6 +31,8 @@ from mearm.errors import MearmError
 #: The grid's columns and rows [cm] (a 3 cm cube's diagonal is 4.2 cm).
 GRID_X_CM = (-15.0, -9.0, -3.0, 3.0, 9.0, 15.0)
 GRID_Y_CM = (35.0, 41.0, 47.0, 53.0)
+#: How far an object's centre is moved off its grid point, at most, along x and y [cm].
+JITTER_CM = 0.5
 #: Most objects one sweep draws.
 MAX_OBJECTS = 100_000
 
@@ -43,6 +46,40 @@ class ShapeTally:
     right: int = 0
     fills: list[float] = field(default_factory=list)
     yaw_errors_deg: list[float] = field(default_factory=list)
+
+
+def check_grid_in_frame(config: Config, max_cm: float) -> None:
+    """Refuse a calibration under which the grid's objects would be drawn off the frame.
+
+    A nearer camera (a larger scale) or another frame size can put the grid's outer
+    objects past the frame's edge, where no detector sees them: the sweep would report
+    them as missed, a fault of the sweep's layout, not of the shapes.
+
+    Raises:
+        MearmError: an object of the grid, at its largest size and jitter, leaves the frame.
+    """
+    from mearm.vision.calibration import Calibration
+
+    reach = JITTER_CM + max_cm / math.sqrt(2)  # a cube's half diagonal, the widest shape
+    corners = [
+        (x + dx, y + dy)
+        for x in (GRID_X_CM[0], GRID_X_CM[-1])
+        for y in (GRID_Y_CM[0], GRID_Y_CM[-1])
+        for dx in (-reach, reach)
+        for dy in (-reach, reach)
+    ]
+    uv = Calibration.from_config(config.calibration).table_to_pixel(corners)
+    w, h = config.camera.width_px, config.camera.height_px
+    if not (np.all(np.isfinite(uv)) and np.all(uv >= 0) and np.all(uv[:, 0] < w - 1)
+            and np.all(uv[:, 1] < h - 1)):  # fmt: skip
+        raise MearmError(
+            f"the sweep's grid (x {GRID_X_CM[0]:g} to {GRID_X_CM[-1]:g}, y {GRID_Y_CM[0]:g} to "
+            f"{GRID_Y_CM[-1]:g} cm, objects up to {max_cm:g} cm) reaches past the {w}x{h} px "
+            "frame under this calibration (pixels u "
+            f"{uv[:, 0].min():.0f} to {uv[:, 0].max():.0f}, v {uv[:, 1].min():.0f} to "
+            f"{uv[:, 1].max():.0f}): the grid lies where the paper's camera looks "
+            "(configs/sim.yaml); give a --config whose camera sees all of it"
+        )
 
 
 def sweep(
@@ -77,7 +114,7 @@ def sweep(
         discs = []
         for x, y in grid[: objects - drawn]:
             shape = names[drawn % len(names)]
-            jitter = rng.uniform(-0.5, 0.5, 2)
+            jitter = rng.uniform(-JITTER_CM, JITTER_CM, 2)
             discs.append(
                 Disc(bgr, x + jitter[0], y + jitter[1], float(rng.uniform(min_cm, max_cm)),
                      shape, float(rng.uniform(0.0, 360.0)))
@@ -141,12 +178,15 @@ def main(argv: Sequence[str] | None = None) -> int:
             f"got {args.min_cm:g} and {args.max_cm:g}"
         )
     config = config_from_args(args)
+    check_grid_in_frame(config, args.max_cm)
     tally = sweep(config, args.objects, args.seed, args.min_cm, args.max_cm)
     for line in report(tally):
         print(line)
     drawn = sum(t.drawn for t in tally.values())
     right = sum(t.right for t in tally.values())
-    print(f"{right} of {drawn} objects found once with the right shape")
+    print(
+        f"{right} of {drawn} objects found once with the right shape (simulated: rendered frames)"
+    )
     return 0 if right == drawn else 1
 
 
