@@ -23,8 +23,9 @@ import pytest
 from badinput import ROOT, check_bad_input
 from badinput import run_guarded as call
 
-from mearm.config import Config
+from mearm.config import Config, load_config
 from mearm.detect import main as detect_main
+from mearm.errors import ConfigError
 from mearm.maker.learn_colours import main as learn_main
 from mearm.vision import Calibration
 
@@ -81,10 +82,21 @@ def test_a_polygon_on_one_line_is_refused_alike_by_every_command(
     assert not out.exists()
     said = "encloses 0 px² (its points, "
     assert learn.line.startswith(f"mearm learn-colours: error: --work-area {said}"), learn.line
-    assert detect.line.startswith(f"mearm detect: error: vision.work_area_px {said}"), detect
-    assert sort.line.startswith(f"mearm sort: error: vision.work_area_px {said}"), sort.line
+    # the config refuses it as it loads (the --set names the setting)
+    assert detect.line.startswith(f"mearm detect: error: --set: vision.work_area_px: {said}")
+    assert sort.line.startswith(f"mearm sort: error: --set: vision.work_area_px: {said}")
     assert learn.line.split(said)[1] == detect.line.split(said)[1] == sort.line.split(said)[1]
     assert detect.stdout == ""
+
+
+def test_a_config_file_with_a_flat_work_area_is_refused_as_it_loads(tmp_path: Path) -> None:
+    """A file's ``vision.work_area_px`` on one line: refused at load, naming the file (it
+    loaded, and only the commands that check it against a frame refused it)."""
+    path = tmp_path / "flat.yaml"
+    path.write_text(f"extends: {SIM}\nvision:\n  work_area_px: [[10, 20], [30, 40], [50, 60]]\n")
+    with pytest.raises(ConfigError, match=r"flat\.yaml: vision\.work_area_px: encloses 0 px²"):
+        load_config(path)
+    assert load_config(SIM).vision.work_area_px is None  # (the file it extends: no polygon)
 
 
 @pytest.mark.bad_input

@@ -29,6 +29,7 @@ from mearm.config.base import (
 from mearm.config.classes import ColorClass, class_named
 from mearm.config.defaults import PAPER_LAYOUT, default_classes
 from mearm.config.errors import SerialPortError
+from mearm.config.polygon import why_flat
 from mearm.config.port import check_port
 from mearm.errors import ConfigError
 
@@ -226,7 +227,9 @@ class VisionConfig(Strict):
     config it extends says. ``null``: with a perspective calibration the calibrated table's
     outline, else the whole frame. ``mearm learn-colours`` writes the table's outline it
     finds, the polygon given with ``--work-area``, or ``whole_frame`` (``--whole-frame``, or
-    no table found). ``mearm detect`` refuses a polygon with no pixel in a frame and warns
+    no table found). A polygon whose points lie on one line (enclosing under 1 px²) is
+    refused as the config loads. ``mearm detect`` refuses a polygon with no pixel in a
+    frame and warns
     when one leaves out most of a frame while most of it lies outside (drawn on frames of
     another size)."""
 
@@ -246,6 +249,9 @@ class VisionConfig(Strict):
         if held and value == WHOLE_FRAME_PX:  # as held: a config's fields revalidate as they are
             return list(WHOLE_FRAME_PX)
         polygon: list[tuple[float, float]] | None = handler(value)
+        flat = None if polygon is None else why_flat(polygon)
+        if flat is not None:  # refused as it loads, as every command that takes one does
+            raise ValueError(flat)
         return polygon
 
     @field_serializer("work_area_px")

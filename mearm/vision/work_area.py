@@ -11,7 +11,7 @@ A polygon given in ``vision.work_area_px`` is in the pixels of the frames it was
 on; on frames of another size (a config taught on a photo, used on the camera) it may
 leave out most of the frame or all of it: :func:`check_work_area` says so. A polygon
 whose points lie on one line holds no object in any frame: refused
-(:func:`flat_work_area`), by every command that takes one.
+(:func:`flat_work_area`), by every command that takes one, and by the config as it loads.
 """
 
 from __future__ import annotations
@@ -23,6 +23,7 @@ import numpy as np
 import numpy.typing as npt
 
 from mearm.config import CalibrationConfig, CameraConfig, ColorClass, VisionConfig
+from mearm.config.polygon import enclosed_px2, extent, why_flat
 from mearm.errors import ConfigError
 from mearm.kinematics.bodies import bin_half_outer_m
 from mearm.kinematics.chain import M_PER_CM
@@ -93,35 +94,17 @@ def default_work_area(
 DRAWN_ELSEWHERE_SHARE = 0.5
 
 
-def enclosed_px2(polygon_px: Sequence[tuple[float, float]]) -> float:
-    """The area a polygon (u, v) encloses [px²] (the shoelace formula)."""
-    u = np.array([p[0] for p in polygon_px], dtype=float)
-    v = np.array([p[1] for p in polygon_px], dtype=float)
-    return float(abs(np.dot(u, np.roll(v, -1)) - np.dot(v, np.roll(u, -1))) / 2.0)
-
-
 def pixels_inside(polygon_px: Sequence[tuple[float, float]], size_px: tuple[int, int]) -> int:
     """How many pixels of a frame of ``size_px`` (width, height) the polygon keeps."""
     w, h = size_px
     return int(cv2.countNonZero(area_mask(polygon_px, (h, w))))
 
 
-#: A polygon enclosing less than this [px²] has its points on one line (or on one point):
-#: it holds no object, and a frame's pixels it keeps are the line's, by rounding.
-MIN_ENCLOSED_PX2 = 1.0
-
 #: What a user can do about a ``vision.work_area_px`` with no pixel in a frame.
 OTHER_SIZE_ADVICE = (
     "it was drawn on frames of another size? teach the colours again on these frames "
     "(mearm learn-colours), or give a polygon in their pixels or whole_frame"
 )
-
-
-def extent(polygon_px: Sequence[tuple[float, float]]) -> str:
-    """Where a polygon's points lie, for messages: ``u U0 to U1, v V0 to V1 px``."""
-    u = [p[0] for p in polygon_px]
-    v = [p[1] for p in polygon_px]
-    return f"u {min(u):g} to {max(u):g}, v {min(v):g} to {max(v):g} px"
 
 
 def flat_work_area(
@@ -138,13 +121,8 @@ def flat_work_area(
         polygon_px: The polygon (u, v) [px].
         name: How the user gave it, for the message (``--work-area``).
     """
-    area = enclosed_px2(polygon_px)
-    if area >= MIN_ENCLOSED_PX2:
-        return None
-    return (
-        f"{name} encloses {area:g} px² (its points, {extent(polygon_px)}, lie on one line), "
-        "so nothing can be detected in it: give the corners of the area around the objects"
-    )
+    why = why_flat(polygon_px)
+    return None if why is None else f"{name} {why}"
 
 
 def check_work_area(
