@@ -19,7 +19,8 @@ old file is untouched). ``--output`` writes elsewhere, ``--dry-run`` writes noth
 Print markers with ``mearm aruco-sheet``.
 
 A config that holds a calibration with a known error (``reprojection_error_cm``) is not
-given a worse one without ``--force``.
+given a worse one without ``--force``, nor one of unknown error: 4 pairs fit exactly, so
+their error (0 by construction) measures nothing and is recorded as ``null``.
 
 **The camera's pose (perspective calibration).** With the camera's intrinsics file
 (``mearm calibrate-intrinsics``), the same image and markers give the camera's pose in
@@ -42,9 +43,9 @@ second picture of markers lying on a box of measured height (``--raised-image``,
 the table) puts points at two heights into one (non-planar) pose fit, which that
 rotation no longer fits.
 
-A file replaced is kept beside it as ``<name>.bak`` (a config with ``--force`` or as an
-``--output`` other than ``--config``, a pose file always), named on stdout before the file
-that replaced it: ``wrote <name>.bak (the old <name>)``.
+A file replaced is kept beside it as ``<name>.bak`` (a config whenever its text changes,
+a pose file always), named on stdout before the file that replaced it: ``wrote <name>.bak
+(the old <name>)``.
 """
 
 from __future__ import annotations
@@ -375,10 +376,23 @@ def _culprit(intrinsics: Intrinsics, pixels: np.ndarray, pts3: np.ndarray, names
 
 
 def _homography_no_worse(data: dict[str, object], calibration: Calibration, where: Path) -> None:
+    """Refuse to replace a homography of known error with a worse one, or one of unknown error.
+
+    An exact fit (4 pairs) has no measured error (``None``): it cannot be weighed against
+    one that has, so it does not replace it without ``--force``.
+    """
     section = data.get("calibration")
     old = section.get("reprojection_error_cm") if isinstance(section, dict) else None
     new = calibration.reprojection_error_cm
-    if isinstance(old, (int, float)) and new is not None and new > old:
+    if not isinstance(old, (int, float)):
+        return
+    if new is None:
+        raise CalibrationError(
+            f"{where} holds a calibration of measured error ({old:.4f} cm); the new one fits "
+            "4 pairs exactly, so its error is unknown: kept; add pairs (or --marker-side-cm), "
+            "or pass --force to replace it"
+        )
+    if new > old:
         raise CalibrationError(
             f"{where} holds a better calibration (reprojection error {old:.4f} cm) than the "
             f"new one ({new:.4f} cm): kept; pass --force to replace it"
@@ -406,12 +420,14 @@ def write_atomically(path: Path, text: str) -> None:
     write_atomic(path, text)
 
 
-def backup_existing(path: Path) -> None:
+def backup_existing(path: Path, new_text: str | None = None) -> None:
     """Keep an existing regular file's contents as ``<path>.bak`` before it is replaced.
 
+    With ``new_text``, only when that changes the file: rewriting the same bytes loses
+    nothing, and a backup of them would replace an older ``.bak`` that still differs.
     The backup is named on stdout once written, as every file a command writes is.
     """
-    if path.is_file():
+    if path.is_file() and (new_text is None or path.read_bytes() != new_text.encode("utf-8")):
         write_atomic(backup_path(path), path.read_bytes())
         print(backup_written(path))
 
@@ -656,8 +672,9 @@ def _write_config(
 ) -> None:
     """Write the updated config, unless (without ``force``) it holds a better homography.
 
-    With ``force`` (it may replace a better calibration) or ``keep`` (an --output other
-    than --config), a replaced file is kept as ``.bak``.
+    A replaced file is kept as ``.bak``: with ``keep`` (an --output other than --config)
+    always, else when the new text changes it (the homography it held is not lost to a
+    second run that fits a better one).
     """
     if not force and target.exists():
         try:
@@ -667,8 +684,7 @@ def _write_config(
         if isinstance(old, dict):
             _homography_no_worse(old, calibration, target)
     try:
-        if keep or force:
-            backup_existing(target)
+        backup_existing(target, None if keep else new_text)
         write_atomically(target, new_text)
     except OSError as exc:
         raise MearmError(f"cannot write {target}: {exc.strerror or exc}") from None
@@ -699,14 +715,17 @@ def main(argv: Sequence[str] | None = None) -> int:
         raise ConfigError(str(args.config), ["top level must be a mapping"])
 
     calibration, n_pairs, how = _fit_homography(parser, args)
+    rms, worst = calibration.reprojection_error_cm, calibration.max_error_cm
+    if n_pairs == 4:  # an exact fit: its 0 measures nothing, so none is recorded
+        calibration = replace(calibration, reprojection_error_cm=None)
 
     note = f"fitted {date.today().isoformat()} by tools/calibrate_camera.py from {how}"
     new_text = update_config_text(text, calibration, note, str(args.config))  # or exit 2
-    rms, worst = calibration.reprojection_error_cm, calibration.max_error_cm
     print(f"fitted from {how}")
     print(f"reprojection error: rms {rms:.4f} cm, max {worst:.4f} cm")
     if n_pairs == 4:
-        print("note: 4 pairs fit exactly, so the error is 0 by construction; add points (or")
+        print("note: 4 pairs fit exactly, so the error is 0 by construction and measures")
+        print("      nothing (written as reprojection_error_cm: null); add points (or")
         print("      --marker-side-cm) for an error that measures something")
     for row in calibration.H:
         print("  [" + ", ".join(f"{v: .9g}" for v in row) + "]")
@@ -772,8 +791,10 @@ def _pose(parser: ArgumentParser, args: argparse.Namespace) -> int:
     if new_config is not None:
         target = args.output or args.config
         try:
-            if args.output is not None and file_identity(args.output) != file_identity(args.config):
-                backup_existing(target)
+            elsewhere = args.output is not None and (
+                file_identity(args.output) != file_identity(args.config)
+            )
+            backup_existing(target, None if elsewhere else new_config)
             write_atomically(target, new_config)
         except OSError as exc:
             raise MearmError(f"cannot write {target}: {exc.strerror or exc}") from None

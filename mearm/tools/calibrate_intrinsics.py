@@ -19,7 +19,8 @@ nothing.
 Print the board with ``mearm charuco-board``.
 
 With explicit image files every image must show the board; in a folder, images without
-it are skipped with a note. Bad input of any kind is exit 2 with one line.
+it are skipped with a note. ``--out`` may not name one of the images read, even
+with ``--force``. Bad input of any kind is exit 2 with one line.
 """
 
 from __future__ import annotations
@@ -37,6 +38,7 @@ from mearm.cli import (
     check_output_file,
     check_plain_number,
     positive_number,
+    refuse_own_inputs,
     run,
 )
 from mearm.config import CameraConfig
@@ -198,6 +200,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if not args.dry_run:
         check_output_file(args.out, "--out")  # before the views are read and fitted
+        if args.images:
+            # an image the fit reads is no place for its YAML, even with --force
+            refuse_own_inputs(
+                [("--out", args.out)],
+                [("--images", path) for path, _ in image_files(args.images)],
+            )
     if args.camera_id is not None and not (0 < len(args.camera_id) <= 200):
         parser.error("--camera-id must be 1 … 200 characters")
 

@@ -379,10 +379,18 @@ def main(argv: Sequence[str] | None = None) -> int:
         "replaced. A rerun replaces the pictures; the old intrinsics.yaml and pose.yaml "
         "are kept as .bak",
     )  # fmt: skip
-    parser.add_argument("--json", type=Path, help="write the figures here")
+    parser.add_argument(
+        "--json", type=Path, help='write the figures here (marked "simulated": true)'
+    )
     parser.add_argument("--force", action="store_true", help="replace an existing --json")
-    parser.add_argument("--max-mean-cm", type=positive_number(1e-6, 1000, "cm"), default=0.05)
-    parser.add_argument("--max-error-cm", type=positive_number(1e-6, 1000, "cm"), default=0.10)
+    parser.add_argument(
+        "--max-mean-cm", type=positive_number(1e-6, 1000, "cm"), default=0.05,
+        help="exit 1 when a height's mean error is above this [cm] (0.05)",
+    )  # fmt: skip
+    parser.add_argument(
+        "--max-error-cm", type=positive_number(1e-6, 1000, "cm"), default=0.10,
+        help="exit 1 when any object's error is above this [cm] (0.10)",
+    )  # fmt: skip
     args = parser.parse_args(argv)
     recorded = _check_outputs(args)  # before the work: the measurement takes minutes
     heights = _numbers(args.heights)
@@ -447,7 +455,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         ok &= r["missed"] == 0 and r["extra"] == 0
     print(f"({time.perf_counter() - t0:.0f} s; simulated: the twin's rendered camera)")
     if args.json:
-        text = json.dumps({"rows": rows, "calibration": cal}, indent=2) + "\n"
+        # the figures are the twin's: the file says so as the printed table does
+        record = {"simulated": True, "rows": rows, "calibration": cal}
+        text = json.dumps(record, indent=2) + "\n"
         write_text_atomic(args.json, text)
         print(f"wrote {args.json}")
     if args.work is not None:  # what it holds now is this command's (checked, then written)
