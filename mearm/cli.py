@@ -385,11 +385,27 @@ def check_output_folder(path: Path, flag: str) -> None:
 
 
 def _check_writable_folder(path: Path, flag: str) -> None:
+    """Refuse ``path`` unless a file can be made in its nearest existing folder.
+
+    The folder's permissions first, then a file made there and removed at once: the
+    permissions pass for root everywhere, and a read-only mount or ``/proc`` refuses only
+    the write (found here, not after the run that was to be saved).
+    """
     folder = existing_ancestor(path)
     if not folder.is_dir():
         raise MearmError(f"{flag} {path}: cannot write: {folder} is a file, not a folder")
     if not os.access(folder, os.W_OK | os.X_OK):
         raise MearmError(f"{flag} {path}: cannot write: the folder {folder} is not writable")
+    import tempfile  # noqa: PLC0415  (only a command that writes a file)
+
+    try:
+        with tempfile.TemporaryFile(dir=folder, prefix=".mearm-probe-"):
+            pass
+    except OSError as exc:
+        raise MearmError(
+            f"{flag} {path}: cannot write: the folder {folder} is not writable "
+            f"({exc.strerror or exc})"
+        ) from None
 
 
 def invoked_as(module_command: str, subcommand: str | None = None) -> str:

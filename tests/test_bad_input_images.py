@@ -315,7 +315,7 @@ def test_a_file_over_the_byte_cap_is_refused_unread(
         ("{good}/x.png", "is a file, not a folder"),
         ("{fifo}", "exists and is not a regular file"),
         ("{dir}/out.gif2", "unknown image type"),
-        ("/proc/mearm-no-such-folder/out.png", "cannot write the annotated image"),
+        ("/proc/mearm-no-such-folder/out.png", "the folder /proc is not writable"),
     ],
 )
 def test_detect_annotate_never_overwrites_an_input(

@@ -129,3 +129,20 @@ def test_an_output_in_a_folder_not_made_yet_is_written(tmp_path: Path) -> None:
     )
     assert out.code == 0, out.stderr
     assert (tmp_path / "shots" / "new" / "a.png").read_bytes().startswith(b"\x89PNG")
+
+
+@bad_input
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["check-camera", "--config", "sim_mujoco_perspective", "--refine", "/proc/mearm/r.yaml"],
+        ["detect", "--camera", "--annotate", "/proc/mearm/a.png"],
+    ],
+    ids=["check-camera", "detect"],
+)
+def test_a_folder_that_refuses_a_new_file_is_refused_before_the_work(argv: list[str]) -> None:
+    """``/proc`` passes the permission check for root (CI runs as root) but takes no file:
+    found by a file made there and removed, before the arm's check (whose refined pose
+    was lost to the failed write after it)."""
+    out = check_bad_input(argv)
+    assert "cannot write: the folder /proc is not writable" in out.line, out.line
