@@ -29,19 +29,23 @@ Sections:
         next to the NumPy port and the mink cross-check.
     vision: ms per 640x480 frame with 12 objects, OpenCV detector next to a plain
         NumPy/SciPy port of the same recipe (:mod:`mearm.tools.vision_bench`) and the paper's
-        0.263 s; detection accuracy on rendered scenes; calibration recovery.
+        0.263 s; the detector at 12 and 40 objects beside the plain 8-bit ``inRange``
+        OpenCV recipe, and each one's cost per object; detection accuracy on rendered
+        scenes; calibration recovery.
     sort-cpu: CPU time (user + sys, median of 3) of the 12-object simulated sort as a
         child process, interpreter start included, with and without the bytecode cache,
         beside its peer, importing its dependencies (numpy, cv2, pinocchio, yaml,
-        pydantic), and the ratio with its target (≤ 2×); the sort's imports, a bare
-        interpreter and the 5-DOF arm's sort (its start-up check solves in a batch).
+        pydantic), and the ratio with its target (≤ 2×), the sort's own target (≤ 1 s);
+        the sort's imports, a bare interpreter and the 5-DOF arm's sort (its start-up
+        check solves in a batch); the shares beyond the imports (none made of a failed run).
     motion: the predicted motion time of the paper's 12-object scene (servo speed limits,
         gripper settings and settling) in the paper's colour order and nearest-first,
         beside the paper's ≈ 144 s.
     twin: the MuJoCo physical twin's real-time factor (simulated seconds per wall
         second) on ``configs/sim_mujoco.yaml`` and ``configs/sim_5dof_mujoco.yaml``: its
         physics alone during a whole sort, MuJoCo's bare stepping at rest, and the whole
-        sort with the rendered camera. A sort takes seconds: at most
+        sort with the rendered camera, in this process and as a whole
+        ``python -m mearm.sort`` process. A sort takes seconds: at most
         :data:`TWIN_ROUNDS` rounds.
     record: a 3-trial twin experiment unrecorded, recorded as AV1 and as H.264, as fast
         as the twin runs: walls, CPU and the recorded runs' wall over the unrecorded one's,

@@ -56,8 +56,9 @@ def bench_sort_cpu(options: BenchOptions) -> list[Row]:
         rows.append(row)
     sort_s = cpu[sort_key]
     deps_s = cpu[deps_key]
-    imports_s = cpu["imports of the sort (python -c 'import mearm.sort'): CPU"]
-    config_s = cpu["imports of the config (the five, then mearm.config): CPU"]
+    imports_key = "imports of the sort (python -c 'import mearm.sort'): CPU"
+    config_key = "imports of the config (the five, then mearm.config): CPU"
+    imports_s, config_s = cpu[imports_key], cpu[config_key]
     ratio_target = f"≤ {SORT_OVER_DEPS_TARGET:g}×"
     ratio = Row(
         "sort-cpu",
@@ -73,27 +74,27 @@ def bench_sort_cpu(options: BenchOptions) -> list[Row]:
             at_most=SORT_OVER_DEPS_TARGET,
             valid=ran[sort_key] and ran[deps_key],
         ),
-        difference_row(
-            "sort-cpu",
+        _share(
+            ran,
             "import mearm.sort beyond its dependencies: CPU",
+            (imports_key, deps_key),
             imports_s - deps_s,
-            "s",
             "mearm's own modules and what they import besides the five",
             "importing mearm.sort took no more CPU than the five alone",
         ),
-        difference_row(
-            "sort-cpu",
+        _share(
+            ran,
             "import mearm.config beyond its dependencies: CPU",
+            (config_key, deps_key),
             config_s - deps_s,
-            "s",
             "pydantic's model machinery and plugin scan, and the config's models",
             "importing mearm.config took no more CPU than the five alone",
         ),
-        difference_row(
-            "sort-cpu",
+        _share(
+            ran,
             "the sort beyond its imports: CPU",
+            (sort_key, imports_key),
             sort_s - imports_s,
-            "s",
             "loading the config, the start-up checks, the rig, 12 picks and places",
             "the sort took no more CPU than its imports",
         ),
@@ -101,6 +102,23 @@ def bench_sort_cpu(options: BenchOptions) -> list[Row]:
     wall = statistics.median(r[1] for r in runs["sim sort, 12 objects: CPU"])
     rows.append(Row("sort-cpu", "sim sort, 12 objects: wall", wall, "s", "median, same runs"))
     return rows
+
+
+def _share(
+    ran: dict[str, bool], name: str, parts: tuple[str, str], value: float, note: str, noise: str
+) -> Row:
+    """A share of the CPU, the difference of two commands' medians; none if either failed.
+
+    A command that exited non-zero did not do the work its row names: the difference
+    would be a figure of nothing (a sort that failed at its start would show a negative
+    cost, or the timing noise's note), so the row says which run failed instead.
+    """
+    failed = [key for key in parts if not ran[key]]
+    if failed:
+        rows = " and ".join(f"'{key}'" for key in failed)
+        why = f"not measured: a run failed (its EXIT STATUS in {rows})"
+        return Row("sort-cpu", name, float("nan"), "s", f"{why}; {note}")
+    return difference_row("sort-cpu", name, value, "s", note, noise)
 
 
 def _child_runs() -> dict[str, list[tuple[float, float, int]]]:
