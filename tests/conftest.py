@@ -192,6 +192,19 @@ def mearm_cli(*args: object, cwd: Path, timeout: float = 300) -> subprocess.Comp
     )  # fmt: skip
 
 
+def run_main(
+    capsys: pytest.CaptureFixture[str], main: Callable[..., int], *args: object
+) -> tuple[int, str, str]:
+    """``main(ARGS)`` in this process as the ``mearm`` command runs it (:func:`mearm.cli.run`:
+    its exit statuses and error lines): exit code, stdout, stderr."""
+    from mearm.cli import run  # noqa: PLC0415
+
+    with pytest.raises(SystemExit) as info:
+        run(main, [str(a) for a in args])
+    out, err = capsys.readouterr()
+    return int(info.value.code), out, err
+
+
 def one_stderr_line(proc: subprocess.CompletedProcess[str], code: int) -> str:
     """The one line ``proc`` said on stderr, once it is checked that it exited ``code``,
     said exactly one line and printed no traceback."""

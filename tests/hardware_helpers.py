@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from typing import Any
 
+import serial
+
 from mearm.config import Config, config_from_dict
 from mearm.hardware import ArmCommand
 
@@ -61,3 +63,15 @@ def timed_move(config: Config, bus: Any, share: float) -> tuple[Any, Any]:
     lo, hi = model.chain.actuated_lower, model.chain.actuated_upper
     target = model.chain.full(lo + share * (hi - lo))
     return executor, executor.timed(executor.joint_path(target))
+
+
+def exchange_lines(port: str, lines: list[bytes]) -> list[bytes]:
+    """Open the port (a reset), wait for the banner, send each line, read one reply each."""
+    replies = []
+    with serial.Serial(port, 115200, timeout=30.0) as link:  # a hang bound only
+        while b"READY" not in link.readline():
+            pass
+        for line in lines:
+            link.write(line + b"\n")
+            replies.append(link.readline().rstrip(b"\n"))
+    return replies

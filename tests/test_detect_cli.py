@@ -10,6 +10,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 import pytest
+from conftest import run_main
 
 from mearm import detect
 from mearm.backends import open_camera
@@ -38,10 +39,7 @@ def images(tmp_path_factory) -> list[Path]:
 
 
 def run_cli(capsys, *args: str) -> tuple[int, str, str]:
-    with pytest.raises(SystemExit) as info:
-        detect.run(detect.main, list(args))
-    out = capsys.readouterr()
-    return int(info.value.code), out.out, out.err
+    return run_main(capsys, detect.main, *args)
 
 
 def test_json_one_list_per_image(capsys, images: list[Path]) -> None:

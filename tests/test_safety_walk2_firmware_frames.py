@@ -8,9 +8,9 @@ alike, byte for byte. The real firmware runs in simavr.
 from __future__ import annotations
 
 import pytest
-import serial
 from conftest import firmware_build, simulator_build
 from fakeboard import FakeMearmBoard, MearmFaults, SimavrBoard
+from hardware_helpers import exchange_lines
 
 from mearm.hardware.mearm_protocol import decode_line, encode_command, encode_line
 
@@ -23,27 +23,15 @@ SPACING = [
 ]
 
 
-def _exchange(port: str, lines: list[bytes]) -> list[bytes]:
-    """Open the port (a reset), wait for the banner, send each line, read one reply each."""
-    replies = []
-    with serial.Serial(port, 115200, timeout=30.0) as link:  # a hang bound only
-        while b"READY" not in link.readline():
-            pass
-        for line in lines:
-            link.write(line + b"\n")
-            replies.append(link.readline().rstrip(b"\n"))
-    return replies
-
-
 @pytest.mark.heavy
 def test_extra_spaces_are_refused_as_the_fake_board_refuses_them(tmp_path_factory):
     firmware_build(tmp_path_factory)
     folder = simulator_build(tmp_path_factory)
     with SimavrBoard(str(folder / "mearm_sim"), str(folder / "mearm_servo.elf")) as chip:
-        firmware = _exchange(chip.port, SPACING)
+        firmware = exchange_lines(chip.port, SPACING)
         assert chip.pulses == []  # the badly spaced M was not made
     with FakeMearmBoard(MearmFaults(boot_noise=b"")) as fake:
-        assert _exchange(fake.port, SPACING) == firmware
+        assert exchange_lines(fake.port, SPACING) == firmware
     codes = [decode_line(r) for r in firmware]
     assert [(c.kind, c.seq, c.code) for c in codes[:4]] == [
         ("ERR", 1, 2), ("ERR", 2, 2), ("ERR", None, 2), ("ERR", 4, 2)

@@ -9,16 +9,13 @@ dropped the same way. A user who gives one takes it as obeyed.
 from __future__ import annotations
 
 import pytest
+from conftest import run_main
 
-from mearm.cli import run
 from mearm.tools.vision_bench import main
 
 
 def _run(capsys: pytest.CaptureFixture[str], argv: list[str]) -> tuple[int, str, str]:
-    with pytest.raises(SystemExit) as info:
-        run(main, argv)
-    out, err = capsys.readouterr()
-    return int(info.value.code), out, err
+    return run_main(capsys, main, *argv)
 
 
 @pytest.mark.parametrize(

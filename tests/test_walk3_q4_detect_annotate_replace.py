@@ -10,6 +10,7 @@ from pathlib import Path
 
 import cv2
 import pytest
+from conftest import run_main
 
 from mearm import detect
 from mearm.config import Config
@@ -30,10 +31,7 @@ def layout(tmp_path_factory) -> Path:
 
 
 def run_cli(capsys, *args: str) -> tuple[int, str, str]:
-    with pytest.raises(SystemExit) as info:
-        detect.run(detect.main, list(args))
-    out = capsys.readouterr()
-    return int(info.value.code), out.out, out.err
+    return run_main(capsys, detect.main, *args)
 
 
 def test_existing_picture_is_refused_before_any_work(capsys, tmp_path, layout) -> None:

@@ -13,10 +13,9 @@ from __future__ import annotations
 import itertools
 
 import pytest
-import serial
 from conftest import firmware_build, simulator_build
 from fakeboard import FakeMearmBoard, MearmFaults, SimavrBoard
-from hardware_helpers import command, fast_config
+from hardware_helpers import command, exchange_lines, fast_config
 
 from mearm.backends import open_bus
 from mearm.hardware.errors import FirmwareVersionError
@@ -124,18 +123,6 @@ def test_a_board_of_another_protocol_is_refused_before_anything_is_sent(faults, 
 # --------------------------------------------------------------------------- the firmware
 
 
-def _exchange(port: str, lines: list[bytes]) -> list[bytes]:
-    """Open the port (a reset), wait for the banner, send each line, read one reply each."""
-    replies = []
-    with serial.Serial(port, 115200, timeout=30.0) as link:  # a hang bound only
-        while b"READY" not in link.readline():
-            pass
-        for line in lines:
-            link.write(line + b"\n")
-            replies.append(link.readline().rstrip(b"\n"))
-    return replies
-
-
 FRAMES = [
     garbled(encode_command(1, "M", [1500, 1500, 1080, 2100, 1000]).rstrip()),
     b"2 V*44",  # a protocol-1 line (its XOR): not a frame of protocol 2
@@ -148,10 +135,10 @@ def test_the_firmware_refuses_the_two_byte_flip_as_the_fake_board_does(tmp_path_
     firmware_build(tmp_path_factory)
     folder = simulator_build(tmp_path_factory)
     with SimavrBoard(str(folder / "mearm_sim"), str(folder / "mearm_servo.elf")) as chip:
-        firmware = _exchange(chip.port, FRAMES)
+        firmware = exchange_lines(chip.port, FRAMES)
         assert chip.pulses == []  # the garbled move was not made
     with FakeMearmBoard(MearmFaults(boot_noise=b"")) as fake:
-        assert _exchange(fake.port, FRAMES) == firmware
+        assert exchange_lines(fake.port, FRAMES) == firmware
     codes = [decode_line(r) for r in firmware]
     assert [(c.kind, c.seq, c.code) for c in codes] == [  # type: ignore[union-attr]
         ("ERR", None, ERR_CHECKSUM), ("ERR", None, 2), ("OK", 3, 0)
