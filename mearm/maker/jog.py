@@ -35,9 +35,13 @@ straight line in joint space planned in full and checked against every limit
 (:meth:`~mearm.task.Executor.joint_path`); a Cartesian move is a route planned in full by
 the sort's :class:`~mearm.task.Planner` (target box, reach, convergence, every pose within
 the limits) and sent only if it is :attr:`~mearm.task.Route.planned`; every pose's pulses
-are checked against the servos' ranges before the first is sent; a Cartesian step cut
-short sends the route of the length found, which passed all of them. A refused move
-prints why and sends nothing.
+are checked against the servos' ranges, and the whole path against the table and the
+bins with the sort's collision model (:mod:`mearm.kinematics.collision`: no arm shape
+below the table, ``task.clearance_cm`` from every bin), before the first is sent. The
+jog has no camera: objects on the table are not known, and not avoided. A Cartesian step
+cut short (a collision included) sends the route of the length found, which passed all
+of them; a joint step into a collision is refused whole (a smaller step goes nearer). A
+refused move prints why and sends nothing.
 """
 
 from __future__ import annotations
@@ -68,6 +72,7 @@ from mearm.kinematics import ArmModel
 from mearm.maker.calibrate_servos import open_arm_bus
 from mearm.maker.keys import KeyReader, require_terminal
 from mearm.maker.servo_output import hold_arm
+from mearm.sim.table_collision import collision_model
 from mearm.task import Executor, Planner, Route
 from mearm.task.execute import Phase
 
@@ -112,6 +117,10 @@ class Jogger:
         self.model = ArmModel(config.arm)
         self.chain = self.model.chain
         self.planner = Planner(config, self.model)
+        #: The table and the bins, as the sort's planner sees them (no objects: no
+        #: camera); checked along every path before it is sent (:meth:`_contact_problem`).
+        #: Not the planner's: a step into a bin is cut short, not detoured over it.
+        self.collision = collision_model(config, self.model, clearance_cm=config.task.clearance_cm)
         self.executor = Executor(config, bus, self.model)
         self.selected = 0
         self.step_index = 2
@@ -170,6 +179,19 @@ class Jogger:
                 self.bus.servo_map.check(ArmCommand(self.chain.named_actuated(q), tool, closed))
             except MearmError as exc:
                 raise Refused(str(exc)) from None
+
+    def _contact_problem(self, path: np.ndarray) -> str | None:
+        """Why ``path`` may not be sent, or ``None`` if it keeps clear all along.
+
+        Where it first touches the table or comes within ``task.clearance_cm`` of a bin.
+        """
+        contact = self.collision.first_contact(path)
+        if contact is None:
+            return None
+        text = "collision: " + contact.describe(self.chain.names, self.chain.scale)
+        if contact.obstacle != "table":  # the table gets no margin, the bins the clearance
+            text += f" (task.clearance_cm: {self.config.task.clearance_cm:g} cm)"
+        return text
 
     def _limit_problem(self, q: np.ndarray) -> str | None:
         c = self.chain
@@ -262,6 +284,9 @@ class Jogger:
             raise Refused(problem)
         path = self.executor.joint_path(q_to)
         self._check_pulses(path, closed=self.closed)
+        problem = self._contact_problem(path)
+        if problem is not None:
+            raise Refused(problem)
         for q in path[1:]:
             self.executor.send(q, PHASE, closed=self.closed)
 
@@ -297,8 +322,9 @@ class Jogger:
         """The route from ``q0`` to put the TCP at ``target_cm``, or why it is refused.
 
         Planned in full by the sort's planner (target box, reach, convergence, every pose
-        within the limits), then every pose's pulses checked against the servos' ranges;
-        nothing is sent.
+        within the limits), then every pose's pulses checked against the servos' ranges
+        and the path against the table and the bins (:meth:`_contact_problem`); nothing
+        is sent.
         """
         approach = self.config.arm.tool.pick_approach
         route = Route("", "", "approach", 1, IKTarget(tuple(target_cm), approach))
@@ -310,6 +336,9 @@ class Jogger:
             self._check_pulses(route.plan.q_path, closed=self.closed)
         except Refused as exc:
             return None, str(exc)
+        problem = self._contact_problem(route.plan.q_path)
+        if problem is not None:
+            return None, problem
         return route, None
 
     def _last_passed(
