@@ -71,7 +71,8 @@ cannot be written (a folder, a path under a file, a read-only folder) is refused
 anything opens; if the write still fails at the end (a full disk), the fits are printed
 as ``--set`` overrides before the error (exit 2). Ctrl-C writes nothing
 and leaves the arm where it is (exit 130); ``q`` writes nothing (exit 1). Needs a
-terminal: without one, exit 2 before anything opens.
+terminal: without one, exit 2 before anything opens; a port that cannot be opened, or a
+board that does not answer, is exit 2 too (one line), before anything moves.
 
 A config uses the file through ``servo.calibration_file`` (relative to the config's
 folder); the command prints that line, and the equivalent ``--set`` overrides.

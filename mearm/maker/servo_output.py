@@ -31,12 +31,21 @@ from mearm.hardware.bus import ServoBus
 
 
 def board_identity(bus: ServoBus) -> tuple[str, str]:
-    """The board's id (from its banner, else its version reply) and its port."""
+    """The board's id (from its banner, else its version reply) and its port.
+
+    A simulated board (the virtual Uno: ``simulated_as``) is said to be one, with no
+    port (its pseudo-terminal is gone with the command): a calibration measured on its
+    simulated arm is not taken for a real arm's.
+    """
     port = str(getattr(bus, "port", ""))
     banner = getattr(bus, "banner", None)
+    simulated = getattr(bus, "simulated_as", None)
     if isinstance(banner, bytes) and banner:
         text = banner.decode("ascii", "replace").split("*")[0].strip()
-        return text.removeprefix("READY").strip(), port
+        text = text.removeprefix("READY").strip()
+        if simulated:
+            return f"simulated: {simulated} ({text})", ""
+        return text, port
     version = getattr(bus, "version", None)
     if version:
         return str(version), port

@@ -266,7 +266,8 @@ def calibrate_by_keyboard(
 
     Raises:
         KeyboardInterrupt: Ctrl-C, the arm held where it is (nothing written).
-        MearmError: an ``--output`` that cannot be written, before anything opens; or
+        MearmError: an ``--output`` that cannot be written, before anything opens; a
+            board that cannot be opened or does not answer, before anything moves; or
             the write failed at the end (the fits printed first, as ``--set`` lines).
     """
     check_output_file(output, "--output")  # before the session: its work is not lost
@@ -282,6 +283,10 @@ def calibrate_by_keyboard(
                     return EXIT_FAILURE
             force = True
         bus = open_arm_bus(config, args.port)
+        # connected before the session: a port that cannot be opened (or a board that does
+        # not answer) is bad input, said in one line (exit 2) as jog and --camera say it,
+        # not a servo fault of a session that never started
+        bus.connect()
         try:
             with bus:
                 board, port = board_identity(bus)

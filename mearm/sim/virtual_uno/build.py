@@ -61,6 +61,16 @@ class VirtualUnoBuild:
     firmware: Path
     simulator: Path
 
+    @classmethod
+    def in_folder(cls, folder: Path) -> VirtualUnoBuild:
+        """The build a cache folder holds when it is whole."""
+        return cls(folder / f"{SKETCH}.elf", folder / "mearm_sim")
+
+    @property
+    def whole(self) -> bool:
+        """Both files are there."""
+        return self.firmware.is_file() and self.simulator.is_file()
+
 
 def build_virtual_uno(
     defines: Sequence[str] = (), *, cache_dir: Path | None = None, source: Path | None = None
@@ -69,7 +79,8 @@ def build_virtual_uno(
 
     Each combination of sources and ``defines`` is built once, into its own folder named
     by their hash under ``cache_dir``; a build goes to a temporary folder first and is
-    renamed into place, so an interrupted or concurrent build leaves no half of one.
+    renamed into place, so an interrupted or concurrent build leaves no half of one. A
+    folder that lost a file since (a cache cleaner, a hand) is built again and replaced.
 
     Args:
         defines: Compile-time options of a firmware variant, ``NAME`` or ``NAME=VALUE``
@@ -89,8 +100,8 @@ def build_virtual_uno(
     source = source if source is not None else firmware_source_dir()
     root = cache_dir if cache_dir is not None else cache_root()
     folder = root / _build_hash(source, defines)
-    built = VirtualUnoBuild(folder / f"{SKETCH}.elf", folder / "mearm_sim")
-    if built.firmware.is_file() and built.simulator.is_file():
+    built = VirtualUnoBuild.in_folder(folder)
+    if built.whole:
         return built
     missing = missing_requirements()
     if missing:
@@ -98,9 +109,8 @@ def build_virtual_uno(
             f"cannot build the firmware and its simulator: {describe_missing(missing)}",
             toolchain.packages(missing),
         )
-    root.mkdir(parents=True, exist_ok=True)
     _make_into(source, defines, folder)
-    if not (built.firmware.is_file() and built.simulator.is_file()):
+    if not built.whole:
         raise VirtualUnoError(f"the build left no {built.firmware.name} and mearm_sim")
     return built
 
@@ -115,8 +125,20 @@ def _build_hash(source: Path, defines: Sequence[str]) -> str:
 
 
 def _make_into(source: Path, defines: Sequence[str], folder: Path) -> None:
-    """Run the build in a temporary folder beside ``folder``, then rename it into place."""
-    work = Path(tempfile.mkdtemp(prefix="build-", dir=folder.parent))
+    """Run the build in a temporary folder beside ``folder``, then rename it into place.
+
+    Raises:
+        VirtualUnoError: the cache folder cannot be made or written (a read-only home, a
+            file where a folder goes), or the build failed or took too long.
+    """
+    try:
+        folder.parent.mkdir(parents=True, exist_ok=True)
+        work = Path(tempfile.mkdtemp(prefix="build-", dir=folder.parent))
+    except OSError as exc:
+        raise VirtualUnoError(
+            f"cannot build into {folder.parent}: {exc.strerror or exc}; set XDG_CACHE_HOME "
+            "to a folder you can write"
+        ) from None
     command = ["make", "-C", str(source), f"BUILD_DIR={work}", "all", "sim"]
     if defines:
         command.append("EXTRA_DEFS=" + " ".join(f"-D{d}" for d in defines))
@@ -129,8 +151,13 @@ def _make_into(source: Path, defines: Sequence[str], folder: Path) -> None:
                 f"building the firmware and its simulator failed ({' '.join(command)}, exit "
                 f"{result.returncode}): {lines[-1]}"
             )
-        with contextlib.suppress(OSError):  # another process built the same: keep theirs
+        try:
             os.replace(work, folder)
+        except OSError:  # the folder is there: another process's build (keep it), or a damaged one
+            if not VirtualUnoBuild.in_folder(folder).whole:
+                shutil.rmtree(folder, ignore_errors=True)
+                with contextlib.suppress(OSError):  # another process replaced it first
+                    os.replace(work, folder)
     except subprocess.TimeoutExpired:
         raise VirtualUnoError(f"the build took over {BUILD_TIMEOUT_S:.0f} s") from None
     finally:

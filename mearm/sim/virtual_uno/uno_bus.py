@@ -54,6 +54,10 @@ class VirtualUnoBus(ArduinoBus):
         VirtualUnoError: the firmware or the harness cannot be built (missing tools).
     """
 
+    #: What the board is, for what records it (a servo calibration's ``board_id``): not a
+    #: real Uno (:func:`mearm.maker.servo_output.board_identity`).
+    simulated_as = "the virtual Uno, the firmware in simavr"
+
     def __init__(self, config: Config, world: World | None = None, model: ArmModel | None = None):
         settings = config.servo.virtual_uno
         self.built = build_virtual_uno(settings.defines)
