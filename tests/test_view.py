@@ -585,7 +585,7 @@ def test_add_path_rejects_bad_input(view: ArmView, points, color, match):
 
 def test_no_browser_is_a_named_error(monkeypatch, tmp_path):
     monkeypatch.setenv("PATH", str(tmp_path))
-    monkeypatch.setenv("MEARM_CHROMIUM", str(tmp_path / "nope"))
+    monkeypatch.delenv("MEARM_CHROMIUM", raising=False)
     with pytest.raises(BrowserNotFoundError, match="apt-get install chromium") as err:
         find_browser()
     assert "chromium" in err.value.candidates
@@ -616,7 +616,7 @@ def test_no_browser_or_one_that_cannot_be_run_is_bad_input(monkeypatch, tmp_path
     """What the environment lacks before any work (no browser installed, a "browser" that
     is not an executable) is exit 2, as a missing camera is."""
     monkeypatch.setenv("PATH", str(tmp_path))
-    monkeypatch.setenv("MEARM_CHROMIUM", str(tmp_path / "nope"))
+    monkeypatch.delenv("MEARM_CHROMIUM", raising=False)
     shoot = partial(screenshot, "http://127.0.0.1:1/", tmp_path / "x.png")
     code, err = exit_of(shoot, capsys)
     assert code == 2 and "no headless browser found" in err

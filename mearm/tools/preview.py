@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+import tempfile
 import time
 from collections.abc import Iterator, Sequence
 from pathlib import Path
@@ -42,10 +43,14 @@ from mearm.cli import (
 from mearm.config.files import resolve_config_path
 from mearm.kinematics import ArmModel
 from mearm.sim.table_collision import collision_model
-from mearm.view import ArmView
+from mearm.view import ArmView, find_browser
 
 #: The --sweep argument meaning every actuated joint, then the gripper.
 SWEEP_ALL = "all"
+#: --step-deg, --rate-hz and --size when not given.
+DEFAULT_STEP = 1.0
+DEFAULT_RATE_HZ = 50.0
+DEFAULT_SIZE = (1280, 800)
 
 
 def _named_values(text: str) -> dict[str, float]:
@@ -148,20 +153,31 @@ def _parser() -> ArgumentParser:
     parser.add_argument(
         "--step-deg",
         type=positive_number(0.01, 360.0),
-        default=1.0,
-        help="sweep step [deg, or cm if prismatic], 0.01 … 360",
+        default=None,
+        help=f"with --sweep: its step [deg, or cm if prismatic], 0.01 … 360 (default "
+        f"{DEFAULT_STEP:g})",
     )
     parser.add_argument(
-        "--rate-hz", type=positive_number(0.1, 1000.0), default=50.0, help="sweep frame rate [Hz]"
+        "--rate-hz",
+        type=positive_number(0.1, 1000.0),
+        default=None,
+        help=f"with --sweep: its frame rate [Hz] (default {DEFAULT_RATE_HZ:g})",
     )
     parser.add_argument(
         "--screenshot", type=_png_path, metavar="OUT.png", help="render to a PNG, exit"
     )
     parser.add_argument(
-        "--force", action="store_true", help="replace the --screenshot file if it exists"
+        "--force", action="store_true", help="with --screenshot: replace the file if it exists"
     )
-    parser.add_argument("--size", type=_window_size, default=(1280, 800), help="PNG size WxH")
-    parser.add_argument("--hold", action="store_true", help="keep serving after --screenshot")
+    parser.add_argument(
+        "--size",
+        type=_window_size,
+        default=None,
+        help=f"with --screenshot: the PNG's size WxH (default {DEFAULT_SIZE[0]}x{DEFAULT_SIZE[1]})",
+    )
+    parser.add_argument(
+        "--hold", action="store_true", help="with --screenshot: keep serving after it"
+    )
     parser.add_argument(
         "--collision",
         action="store_true",
@@ -194,6 +210,25 @@ def _check_joint_names(
         )
 
 
+def _check_needed_flags(parser: ArgumentParser, args: argparse.Namespace) -> None:
+    """Exit 2 on a flag that would do nothing: the one it works with was not given.
+
+    ``--size 640x480`` without ``--screenshot`` would otherwise be dropped in silence
+    while the user looks for its effect in the browser (as the sort refuses ``--hold``
+    without ``--view``).
+    """
+    shot, sweep = "--screenshot", "--sweep"
+    for flag, given, needs, needed, does in (
+        ("--size", args.size is not None, shot, args.screenshot, "sizes the --screenshot PNG"),
+        ("--force", args.force, shot, args.screenshot, "replaces the --screenshot file"),
+        ("--hold", args.hold, shot, args.screenshot, "keeps serving after --screenshot"),
+        ("--step-deg", args.step_deg is not None, sweep, args.sweep, "is the --sweep's step"),
+        ("--rate-hz", args.rate_hz is not None, sweep, args.sweep, "paces the --sweep"),
+    ):
+        if given and needed is None:
+            parser.error(f"{flag} {does}: use it with {needs}")
+
+
 def _check_screenshot(parser: argparse.ArgumentParser, args: argparse.Namespace) -> None:
     """Refuse, before the view starts, a --screenshot file that cannot be written (exit 2).
 
@@ -207,6 +242,11 @@ def _check_screenshot(parser: argparse.ArgumentParser, args: argparse.Namespace)
             f"--screenshot {shot}: no folder {shot.absolute().parent}: give a path in an "
             "existing folder"
         )
+    try:  # root passes every permission; /proc or a read-only mount refuse only a write
+        with tempfile.TemporaryFile(dir=shot.absolute().parent, prefix=".mearm-probe-"):
+            pass
+    except OSError as exc:
+        parser.error(f"--screenshot: cannot write {shot}: {exc.strerror or exc}")
     config_file = resolve_config_path(args.config) if args.config is not None else None
     refuse_own_inputs([("--screenshot", shot)], [("--config", config_file)])
     refuse_to_replace(shot, "--screenshot", args.force)
@@ -216,8 +256,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Serve (or render) the bare arm; see the module docstring."""
     parser = _parser()
     args = parser.parse_args(argv)
+    _check_needed_flags(parser, args)
+    browser = None
     if args.screenshot is not None:
         _check_screenshot(parser, args)
+        browser = find_browser()  # none installed: exit 2 before anything is served
     config = config_from_args(args)
     model = ArmModel(config.arm)
     chain = model.chain
@@ -234,7 +277,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     gripper = config.arm.tool.gripper
 
     def sweep(*, pace: bool) -> None:
-        period = 1.0 / args.rate_hz
+        period = 1.0 / (args.rate_hz or DEFAULT_RATE_HZ)
         deadline = time.monotonic()
 
         def wait() -> None:
@@ -243,7 +286,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                 deadline += period
                 time.sleep(max(0.0, deadline - time.monotonic()))
 
-        for pose in sweep_poses_deg(start, lower, upper, joints, args.step_deg):
+        for pose in sweep_poses_deg(start, lower, upper, joints, args.step_deg or DEFAULT_STEP):
             q = chain.full(pose * scale)
             model.check_limits(q)
             view.show_joints(q)
@@ -265,8 +308,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         if args.screenshot is not None:
             if args.sweep:
                 sweep(pace=False)
-            w, h = args.size
-            out = view.screenshot(args.screenshot, width_px=w, height_px=h)
+            w, h = args.size or DEFAULT_SIZE
+            out = view.screenshot(args.screenshot, width_px=w, height_px=h, browser=browser)
             print(f"wrote {out}", flush=True)
             if not args.hold:
                 return 0

@@ -127,18 +127,27 @@ class SceneCounts:
 
 
 def find_browser() -> str:
-    """Path of a Chromium-family browser.
+    """Path of a Chromium-family browser: ``$MEARM_CHROMIUM`` if set, else one on PATH.
+
+    A ``$MEARM_CHROMIUM`` that names no executable is refused, not passed over for
+    another browser: whoever set it chose that browser, and pictures from a different
+    one would be taken without a word.
 
     Raises:
-        BrowserNotFoundError: None on PATH and ``$MEARM_CHROMIUM`` unset or not found.
+        BrowserNotFoundError: ``$MEARM_CHROMIUM`` is set and not found, or it is unset
+            and none is on PATH.
     """
     override = os.environ.get("MEARM_CHROMIUM")
-    names = ((override,) if override else ()) + BROWSER_NAMES
-    for name in names:
+    if override:
+        path = shutil.which(override)
+        if path is None:
+            raise BrowserNotFoundError((override,), from_env=True)
+        return path
+    for name in BROWSER_NAMES:
         path = shutil.which(name)
         if path:
             return path
-    raise BrowserNotFoundError(names)
+    raise BrowserNotFoundError(BROWSER_NAMES)
 
 
 class _DevTools:
@@ -462,7 +471,7 @@ def screenshot(
         The PNG's path.
 
     Raises:
-        BrowserNotFoundError: No browser (exit 2).
+        BrowserNotFoundError: No browser, or ``$MEARM_CHROMIUM`` names none (exit 2).
         ViewInputError: A size out of range, or no folder for ``out_png`` (exit 2).
         ViewError: The browser cannot be run, ``session`` was closed, ``url`` is not an
             address the browser can load, or ``out_png``'s folder takes no new file (not

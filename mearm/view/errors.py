@@ -65,11 +65,20 @@ class BrowserNotFoundError(ViewError):
 
     Attributes:
         candidates: The executable names looked up on PATH.
+        from_env: Whether the one candidate is ``$MEARM_CHROMIUM``'s, found nowhere.
     """
 
-    def __init__(self, candidates: tuple[str, ...]):
+    def __init__(self, candidates: tuple[str, ...], *, from_env: bool = False):
         self.candidates = tuple(candidates)
-        super().__init__(
-            f"no headless browser found (looked for {', '.join(self.candidates)} on PATH, "
-            "and $MEARM_CHROMIUM); install one, e.g. `apt-get install chromium`"
-        )
+        self.from_env = from_env
+        if from_env:
+            message = (
+                f"$MEARM_CHROMIUM = {self.candidates[0]!r}: no such executable (give a "
+                "browser's path or a name on PATH, or unset it to use chromium from PATH)"
+            )
+        else:
+            message = (
+                f"no headless browser found (looked for {', '.join(self.candidates)} on "
+                "PATH; $MEARM_CHROMIUM unset); install one, e.g. `apt-get install chromium`"
+            )
+        super().__init__(message)
