@@ -30,6 +30,7 @@ from mearm.hardware.mearm_protocol import (
     encode_command,
     encode_line,
 )
+from mearm.maker.find_port import SerialPort, format_report, probe_port
 
 #: The same bit (the lowest) flipped in two bytes: '5' → '4' and '0' → '1'.
 SENT, READ = b"1500 1500", b"1400 1501"
@@ -118,6 +119,27 @@ def test_a_board_of_another_protocol_is_refused_before_anything_is_sent(faults, 
     assert f"speaks protocol {speaks}" in message and "this host speaks protocol 2" in message
     assert "mearm flash" in message and "nothing was sent" in message
     assert "\n" not in message
+
+
+@pytest.mark.parametrize(
+    ("faults", "version", "says"),
+    [
+        (MearmFaults(banner=False, boot_noise=b"\x00\xfe\r\n" + PROTOCOL_1_BANNER), "2.0",
+         "mearm_servo 1.0 speaks protocol 1"),
+        (MearmFaults(), "3.0", "mearm_servo 3.0 speaks protocol 3"),
+    ],
+    ids=["protocol-1-banner", "crc-banner-version-3"],
+)  # fmt: skip
+def test_find_port_says_to_reflash_a_board_of_another_protocol(faults, version, says):
+    """``find-port`` (and ``flash``'s check after it uploads) said a protocol-1 board was
+    "not a mearm board … wrong baud rate?": it is the mearm firmware, to be reflashed."""
+    with FakeMearmBoard(faults, version=version) as board:
+        report = probe_port(SerialPort(board.port), 115200, 5.0)
+        assert board.received == []
+    assert report.status == "outdated"
+    line = format_report(report, len(board.port))
+    assert f"mearm board of another protocol: {says}, this host 2: reflash it" in line
+    assert f"(mearm flash --port {board.port})" in line
 
 
 # --------------------------------------------------------------------------- the firmware

@@ -59,11 +59,14 @@ from mearm.config.port import check_port
 from mearm.errors import MearmError
 from mearm.hardware.mearm_protocol import (
     FIRMWARE_NAME,
+    PROTOCOL_MAJOR,
     FirmwareInfo,
     Reply,
     decode_line,
+    decode_protocol1_banner,
     encode_command,
     parse_firmware_info,
+    version_major,
 )
 
 #: USB ids of the boards that run the firmware (the Uno's ``upload_port`` ids in the
@@ -137,14 +140,15 @@ class PortReport:
 
     Attributes:
         port: The port.
-        status: ``mearm`` (the firmware's banner), ``unknown`` (opened, no banner) or
+        status: ``mearm`` (the firmware's banner), ``outdated`` (the firmware's banner,
+            of another protocol version: reflash it), ``unknown`` (opened, no banner) or
             ``error`` (could not be opened).
         detail: The firmware, what was heard instead of a banner, or why it did not open.
         firmware: The firmware's answer to ``V`` (``mearm`` only, when it answered).
     """
 
     port: SerialPort
-    status: Literal["mearm", "unknown", "error"]
+    status: Literal["mearm", "outdated", "unknown", "error"]
     detail: str
     firmware: FirmwareInfo | None = None
 
@@ -227,7 +231,13 @@ def _listen(ser: serial.SerialBase, port: SerialPort, timeout_s: float) -> PortR
             name = decoded.fields[0] if decoded.fields else ""
             if name != FIRMWARE_NAME:
                 return PortReport(port, "unknown", f"its banner names firmware {name!r}")
+            version = decoded.fields[1] if len(decoded.fields) > 1 else ""
+            if version_major(version) not in (PROTOCOL_MAJOR, -1):  # (-1: none given)
+                return _outdated(port, f"{name} {version}", version_major(version))
             return _ask_version(ser, port, decoded)
+        old = decode_protocol1_banner(line)  # lines checked by an XOR: flashed before
+        if old is not None:
+            return _outdated(port, " ".join(old.fields[:2]), 1)
         if len(heard) < _HEARD_KEPT:
             heard += line[: _HEARD_KEPT - len(heard)] + b"\n"
     if heard.strip(b"\x00\r\n \xfe"):
@@ -238,6 +248,19 @@ def _listen(ser: serial.SerialBase, port: SerialPort, timeout_s: float) -> PortR
             "(another program, or the wrong baud rate?)",
         )
     return PortReport(port, "unknown", f"silent for {timeout_s:g} s: no mearm banner")
+
+
+def _outdated(port: SerialPort, firmware: str, major: int) -> PortReport:
+    """A board running the mearm firmware of another protocol: reflash it.
+
+    No command of this host's would be read; ``mearm flash`` puts this checkout's on it.
+    """
+    return PortReport(
+        port,
+        "outdated",
+        f"{firmware} speaks protocol {major}, this host {PROTOCOL_MAJOR}: reflash it "
+        f"(mearm flash --port {port.device})",
+    )
 
 
 def _ask_version(ser: serial.SerialBase, port: SerialPort, banner: Reply) -> PortReport:
@@ -269,6 +292,7 @@ def format_report(report: PortReport, width: int) -> str:
     """One line: the port, what is on it, and what the system calls it."""
     what = {
         "mearm": "mearm board:",
+        "outdated": "mearm board of another protocol:",
         "unknown": "not a mearm board:",
         "error": "cannot open:",
     }[report.status]
