@@ -124,7 +124,7 @@ def test_points_rewrite_only_the_calibration(tmp_path: Path, capsys) -> None:
     assert "fitted from 5 point pairs" in out and "reprojection error: rms" in out
     new = path.read_text()
     assert outside_calibration(new) == outside_calibration(original)
-    assert "fitted " in new and "by tools/calibrate_camera.py from 5 point pairs" in new
+    assert "fitted " in new and "by mearm calibrate-camera from 5 point pairs" in new
     fitted = Calibration.from_config(load_config(path).calibration)
     assert field_error_cm(fitted, truth) < 1e-6
     assert load_config(path).calibration.reprojection_error_cm < 1e-6
@@ -144,16 +144,19 @@ def test_markers_rewrite_the_calibration(tmp_path: Path) -> None:
     assert field_error_cm(fitted, TILTED) < 0.02
 
 
-def test_output_and_dry_run(tmp_path: Path) -> None:
-    """--output leaves --config alone; --dry-run writes nothing."""
+def test_output_and_dry_run(tmp_path: Path, capsys) -> None:
+    """--output leaves --config alone; --dry-run writes nothing, and says so."""
     src = tmp_path / "sim.yaml"
     text = (ROOT / "configs" / "sim.yaml").read_text()
     src.write_text(text)
     out = tmp_path / "new.yaml"
     assert calibrate.main(["--config", str(src), "--output", str(out), *point_args()]) == 0
     assert src.read_text() == text and out.exists()
+    capsys.readouterr()
     assert calibrate.main(["--config", str(src), "--dry-run", *point_args()]) == 0
     assert src.read_text() == text
+    said = capsys.readouterr().out.splitlines()
+    assert said[-1] == f"--dry-run: nothing written ({src} is as it was)", said
 
 
 def run_tool(capsys, *args: str) -> tuple[int, str]:

@@ -719,7 +719,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     if n_pairs == 4:  # an exact fit: its 0 measures nothing, so none is recorded
         calibration = replace(calibration, reprojection_error_cm=None)
 
-    note = f"fitted {date.today().isoformat()} by tools/calibrate_camera.py from {how}"
+    note = f"fitted {date.today().isoformat()} by mearm calibrate-camera from {how}"
     new_text = update_config_text(text, calibration, note, str(args.config))  # or exit 2
     print(f"fitted from {how}")
     print(f"reprojection error: rms {rms:.4f} cm, max {worst:.4f} cm")
@@ -730,6 +730,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     for row in calibration.H:
         print("  [" + ", ".join(f"{v: .9g}" for v in row) + "]")
     if args.dry_run:
+        print(f"--dry-run: nothing written ({args.output or args.config} is as it was)")
         return 0
     target = args.output or args.config
     elsewhere = args.output is not None and file_identity(args.output) != file_identity(args.config)
@@ -777,6 +778,7 @@ def _pose(parser: ArgumentParser, args: argparse.Namespace) -> int:
         f"camera at ({c[0]:.2f}, {c[1]:.2f}, {c[2]:.2f}) cm, its axis {tilt:.2f} deg from vertical"
     )
     if args.dry_run:
+        print(f"--dry-run: nothing written ({args.out} is as it was)")
         return 0
     new_config = None
     if args.config is not None and config_text is not None:
