@@ -56,6 +56,8 @@ CASES: list[tuple[list[str], str]] = [
      "--output {under}: cannot write: {file} is a file, not a folder"),
     (["detect", "--camera", "--annotate", "{under}.png"],
      "--annotate {under}.png: cannot write: {file} is a file, not a folder"),
+    (["flash", "--port", "/dev/null", "--build-dir", "{file}"],
+     "--build-dir {file}: exists and is not a folder"),
     (["config-docs", "--output", "{under}"],
      "--output {under}: cannot write: {file} is a file, not a folder"),
 ]  # fmt: skip

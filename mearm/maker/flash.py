@@ -42,6 +42,7 @@ from mearm.cli import (
     EXIT_OK,
     ArgumentParser,
     add_config_argument,
+    check_output_folder,
     config_from_args,
     plain_int,
     run,
@@ -200,6 +201,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         return EXIT_OK
     port = _check_port(args.port if args.port is not None else config.servo.port)
     build_dir = args.build_dir if args.build_dir is not None else default_build_dir()
+    check_output_folder(build_dir, "--build-dir")  # a file there: said before anything runs
     plan = plan_flash(source, build_dir, port, args.upload_baud)
     missing = toolchain.missing((*FIRMWARE_BUILD, *UPLOAD))
 
