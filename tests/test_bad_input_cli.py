@@ -94,8 +94,8 @@ CASES: list[tuple[list[str], str]] = [
     (["ik", "--target", M1, "--tolerance", "-1"], "must be a positive number"),
     (["ik", "--target", M1, "--tolerance", "nan"], "must be a positive number"),
     (["ik", "--target", M1, "--tolerance", "inf"], "must be a positive number"),
-    (["ik", "--target", M1, "--tolerance", "1e-300"], "controller.tolerance_cm2"),
-    (["ik", "--target", M1, "--tolerance", "1e9"], "controller.tolerance_cm2"),
+    (["ik", "--target", M1, "--tolerance", "1e-300"], "--tolerance: must be in [1e-12, 100] cm²"),
+    (["ik", "--target", M1, "--tolerance", "1e9"], "--tolerance: must be in [1e-12, 100] cm²"),
     (
         ["ik", "--target", M1, "--solver", "mink", "--set", "controller.qp_solver=nope"],
         "QP solver 'nope' is not installed",

@@ -280,6 +280,10 @@ class VisionConfig(Strict):
 # --------------------------------------------------------------------------- controller
 
 
+#: The solver's stopping tolerance may lie in [lo, hi] [cm²] (``mearm ik --tolerance`` too).
+TOLERANCE_CM2_RANGE = (1e-12, 100.0)
+
+
 class ControllerConfig(Strict):
     """The IK solver: PD-PIJ (paper §3), or mink / the closed form as cross-checks.
 
@@ -295,7 +299,9 @@ class ControllerConfig(Strict):
     """Proportional gain [-]."""
     kd: float = Field(default=0.01, ge=0, allow_inf_nan=False)
     """Derivative gain [-]."""
-    tolerance_cm2: float = Field(default=1e-3, ge=1e-12, le=100, allow_inf_nan=False)
+    tolerance_cm2: float = Field(
+        default=1e-3, ge=TOLERANCE_CM2_RANGE[0], le=TOLERANCE_CM2_RANGE[1], allow_inf_nan=False
+    )
     """Stop when |e|² is below this [cm²] (paper §3, eq. 6)."""
     max_iterations: int = Field(default=1000, ge=1, le=MAX_ITERATIONS)
     """Give up (status ``max_iterations``) after this many updates."""

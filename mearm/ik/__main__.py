@@ -38,6 +38,7 @@ from mearm.cli import (
     run,
 )
 from mearm.config import ArmDescription
+from mearm.config.sections import TOLERANCE_CM2_RANGE
 from mearm.hardware.mapping import ServoMap
 from mearm.ik.factory import solve_ik
 from mearm.ik.failure import IKFailure
@@ -74,7 +75,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--solver", choices=("pdpij", "mink", "analytic"), help="solver")
     parser.add_argument(
         "--tolerance",
-        type=positive_number(0.0, float("inf"), "cm²"),  # the range: controller.tolerance_cm2
+        type=positive_number(*TOLERANCE_CM2_RANGE, "cm²"),  # controller.tolerance_cm2's
         metavar="CM2",
         help="stop when |e|² < CM2 [cm²]",
     )
