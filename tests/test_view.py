@@ -40,6 +40,7 @@ from mearm.exceptions import (
     ViewPortError,
 )
 from mearm.kinematics import ArmModel, jaw_joint_names
+from mearm.kinematics.bodies import bin_half_outer_m
 from mearm.sim import SimCamera, World
 from mearm.view import (
     ArmView,
@@ -923,14 +924,14 @@ def test_each_reference_arm_is_drawn_with_its_links_jaws_and_classes(reference):
         assert_arm_drawn_at(v, model.home, config.arm.tool.gripper.closed_cm)
 
 
-def test_each_reference_layout_keeps_bins_apart_and_on_the_table(reference):
-    """Bins do not overlap, and the table holds the base, every bin and every object."""
+def test_each_reference_layout_holds_the_bins_on_the_table(reference):
+    """The table holds the base, every bin's whole footprint (the collision model's outer
+    width) and every object."""
     _, config, model = reference
     layout = SceneLayout.of(model, config)
     bins = np.array([c.bin_cm[:2] for c in config.task.classes])
-    d = np.abs(bins[:, None] - bins[None]).max(axis=2) + np.eye(len(bins)) * 1e9
-    assert (d > layout.bin_side_cm).all()
-    xy = np.vstack([[0.0, 0.0], bins, [[o.x, o.y] for o in config.task.scene]])
+    half = np.array([[bin_half_outer_m(c) * 100] for c in config.task.classes])
+    xy = np.vstack([[0.0, 0.0], bins - half, bins + half, [[o.x, o.y] for o in config.task.scene]])
     (x0, x1), (y0, y1) = layout.table_x_cm, layout.table_y_cm
     assert (xy[:, 0] > x0).all() and (xy[:, 0] < x1).all()
     assert (xy[:, 1] > y0).all() and (xy[:, 1] < y1).all()

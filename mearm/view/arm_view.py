@@ -9,7 +9,8 @@ works in metres, so centimetres from the config are divided by 100 here and nowh
 Scene tree (below ``/meshcat``)::
 
     table                       a thin slab whose top is the plane z = 0
-    bins/<class>/…              an open box on the table under each class's drop point
+    bins/<class>/<part>         each class's open bin under its drop point: its floor
+                                and walls, the collision model's and the twin's
     arm/visuals/<link>_<k>      the URDF's visuals (Pinocchio), jaws included
     objects/<id>                cylinders of their class's size at their table positions
                                 (the detections; not drawn once the twin's bodies are)
@@ -39,6 +40,7 @@ import numpy.typing as npt
 
 from mearm.config import ColorClass, Config
 from mearm.kinematics import ArmModel
+from mearm.kinematics.bodies import TableContents
 from mearm.kinematics.collision import CollisionModel
 from mearm.view.browser import screenshot
 from mearm.view.collision_drawing import CollisionDrawing
@@ -46,7 +48,6 @@ from mearm.view.errors import ViewError, ViewInputError
 from mearm.view.frame_plane import FramePlane, PixelToTable, frame_plane
 from mearm.view.layout import SceneLayout
 from mearm.view.scene_meshes import (
-    BIN_WALL_CM,
     TABLE_RGB,
     TABLE_THICKNESS_CM,
     camera_frame_mesh,
@@ -71,7 +72,6 @@ from mearm.view.viewpoint import M_PER_CM, ViewCamera
 __all__ = [
     "BACKGROUND_BOTTOM",
     "BACKGROUND_TOP",
-    "BIN_WALL_CM",
     "FRAME_LIFT_CM",
     "PATH_RGB",
     "TABLE_RGB",
@@ -109,7 +109,7 @@ class ArmView:
         url: The address to open in a browser, ``http://127.0.0.1:<port>/static/``.
         viewer: The ``meshcat.Visualizer`` at ``/meshcat`` (base frame, metres), for
             anything else a caller wants to draw.
-        layout: The table, bin size and default viewpoint for this arm and config.
+        layout: The table and the default viewpoint for this arm and config.
         camera: The viewpoint set.
         joints: The chain's joints drawn now, model units, (n,).
         opening_cm: The gripper opening drawn now [cm].
@@ -249,8 +249,9 @@ class ArmView:
         self.camera.apply(vis)
 
         draw_table(vis, self.layout)
-        for c in self.config.task.classes:
-            draw_bin(vis, self.layout, c, c.bin_cm[0], c.bin_cm[1])
+        table = TableContents.of(self.config.task, self.config.belt)  # as the planner's
+        for c in table.classes:
+            draw_bin(vis, table, c)
 
     # ------------------------------------------------------------------ arm
 

@@ -1,10 +1,10 @@
-"""Where the view puts the table, how big it makes the bins, and where it looks from.
+"""Where the view puts the table, and where it looks from.
 
-Nothing here knows an arm or a class: the layout follows from the config. The table
-covers everything on it (the base, the bins, the scene's objects, the camera's field)
-with a margin; each bin is a square as large as it can be without touching its
-neighbours (at most :data:`BIN_SIDE_MAX_CM`, and four object diameters); the camera
-frames the arm at home and everything on the table.
+The layout follows from the config. The table covers everything on it (the base, each
+bin's footprint, the scene's objects, the camera's field) with a margin; the camera
+frames the arm at home and everything on the table. The bins themselves are the
+collision model's (:func:`mearm.kinematics.bodies.bin_shapes`, drawn by
+:func:`mearm.view.scene_meshes.draw_bin`).
 """
 
 from __future__ import annotations
@@ -16,17 +16,10 @@ import pinocchio as pin
 
 from mearm.config import Config
 from mearm.kinematics import CM_PER_M, ArmModel
+from mearm.kinematics.bodies import bin_half_outer_m
 from mearm.view.viewpoint import ViewCamera
 from mearm.vision.calibration import camera_geometry
 
-#: Largest bin footprint side [cm] (bins 10 cm apart, the paper's Table 2, fit 8 cm).
-BIN_SIDE_MAX_CM = 8.0
-#: A bin's side is at most this many of the largest object's diameter [-].
-BIN_SIDE_PER_DIAMETER = 4.0
-#: A bin's wall height per side [-] (8 cm bins: 4.8 cm walls).
-BIN_HEIGHT_PER_SIDE = 0.6
-#: Share of the distance to the nearest other bin a bin's side may take [-].
-BIN_SIDE_SHARE = 0.9
 #: Table margin around everything on it: at least this [cm], or this share of its size.
 TABLE_MARGIN_CM = 12.0
 TABLE_MARGIN_SHARE = 0.15
@@ -39,24 +32,19 @@ class SceneLayout:
     Attributes:
         table_x_cm: The table top's extent along x [cm], (min, max).
         table_y_cm: Its extent along y [cm], (min, max).
-        bin_side_cm: Each bin's square footprint side [cm].
-        bin_height_cm: Each bin's wall height [cm].
         camera: The viewpoint that frames the arm at home and the table's contents.
     """
 
     table_x_cm: tuple[float, float]
     table_y_cm: tuple[float, float]
-    bin_side_cm: float
-    bin_height_cm: float
     camera: ViewCamera
 
     @classmethod
     def of(cls, model: ArmModel, config: Config) -> SceneLayout:
         """The layout for ``model`` at home on the rig and task of ``config``."""
         bins = np.array([c.bin_cm[:2] for c in config.task.classes], dtype=float)  # (k, 2)
-        largest_cm = max(c.diameter_cm for c in config.task.classes)
-        bin_side = min(bin_side_cm(bins), BIN_SIDE_PER_DIAMETER * largest_cm)
-        table_points = [np.zeros((1, 2)), bins - bin_side / 2, bins + bin_side / 2]
+        half = np.array([[bin_half_outer_m(c) * CM_PER_M] for c in config.task.classes])
+        table_points = [np.zeros((1, 2)), bins - half, bins + half]
         table_points.append(np.array([[o.x, o.y] for o in config.task.scene]).reshape(-1, 2))
         table_points.append(camera_field_cm(config))
         xy = np.vstack(table_points)
@@ -70,23 +58,8 @@ class SceneLayout:
         return cls(
             table_x_cm=(float(lo[0]), float(hi[0])),
             table_y_cm=(float(lo[1]), float(hi[1])),
-            bin_side_cm=bin_side,
-            bin_height_cm=BIN_HEIGHT_PER_SIDE * bin_side,
             camera=camera,
         )
-
-
-def bin_side_cm(bins_xy_cm: np.ndarray) -> float:
-    """The bins' common footprint side [cm].
-
-    :data:`BIN_SIDE_SHARE` of the least Chebyshev distance between two bins (squares
-    that far apart do not overlap), at most :data:`BIN_SIDE_MAX_CM`.
-    """
-    if len(bins_xy_cm) < 2:
-        return BIN_SIDE_MAX_CM
-    d = np.abs(bins_xy_cm[:, None, :] - bins_xy_cm[None, :, :]).max(axis=2)
-    np.fill_diagonal(d, np.inf)
-    return float(min(BIN_SIDE_MAX_CM, BIN_SIDE_SHARE * d.min()))
 
 
 def camera_field_cm(config: Config) -> np.ndarray:

@@ -2,7 +2,9 @@
 
 The table (its top the plane z = 0), one open bin per class, a class's object as a
 cylinder, and the camera frame as a textured plane. Sizes come in centimetres and go
-to meshcat in metres.
+to meshcat in metres; the bins come in metres already, as the shapes of
+:func:`mearm.kinematics.bodies.bin_shapes`: the planner's collision model and the MuJoCo
+twin are built from the same shapes, so the bins drawn are the bins the arm avoids.
 """
 
 from __future__ import annotations
@@ -16,6 +18,7 @@ import meshcat.transformations as tf
 import numpy as np
 
 from mearm.config import ColorClass
+from mearm.kinematics.bodies import TableContents, bin_name, bin_origin_m, bin_shapes
 from mearm.view.errors import ViewRunError
 from mearm.view.frame_plane import FramePlane
 from mearm.view.layout import SceneLayout
@@ -24,8 +27,6 @@ from mearm.view.viewpoint import M_PER_CM
 
 TABLE_RGB = 0xD8D5CE
 TABLE_THICKNESS_CM = 2.0
-#: Open bins: wall thickness [cm]; side and height come from the layout.
-BIN_WALL_CM = 0.4
 
 
 class PlaneGeometry(mg.Geometry):
@@ -65,27 +66,20 @@ def draw_table(vis: meshcat.Visualizer, layout: SceneLayout) -> None:
     vis["table"].set_transform(tf.translation_matrix(center_m))
 
 
-def draw_bin(
-    vis: meshcat.Visualizer,
-    layout: SceneLayout,
-    color_class: ColorClass,
-    x_cm: float,
-    y_cm: float,
-) -> None:
-    """An open box in the class's colour standing on the table under (x, y, ·)."""
-    s, h, t = layout.bin_side_cm, layout.bin_height_cm, BIN_WALL_CM
+def draw_bin(vis: meshcat.Visualizer, table: TableContents, color_class: ColorClass) -> None:
+    """A class's open bin in its colour, standing on the table under its ``bin_cm``.
+
+    Its floor and walls are :func:`~mearm.kinematics.bodies.bin_shapes` (the walls as high
+    as the table's objects of the class need, :meth:`TableContents.objects`), each drawn
+    under ``bins/<class>/<part>`` (``floor``, ``wall_px``, …), the part its shape names.
+    """
     material = mg.MeshLambertMaterial(color=rgb_int(color_class.draw_rgb))
-    parts = {  # name: (size, centre) relative to the bin's footprint centre [cm]
-        "floor": ((s, s, t), (0, 0, t / 2)),
-        "wall_xn": ((t, s, h), (-(s - t) / 2, 0, h / 2)),
-        "wall_xp": ((t, s, h), ((s - t) / 2, 0, h / 2)),
-        "wall_yn": ((s - 2 * t, t, h), (0, -(s - t) / 2, h / 2)),
-        "wall_yp": ((s - 2 * t, t, h), (0, (s - t) / 2, h / 2)),
-    }
-    for name, (size, (cx, cy, cz)) in parts.items():
-        node = vis[f"bins/{color_class.name}/{name}"]
-        node.set_object(mg.Box([v * M_PER_CM for v in size]), material)
-        node.set_transform(tf.translation_matrix(np.array([x_cm + cx, y_cm + cy, cz]) * M_PER_CM))
+    origin = tf.translation_matrix(bin_origin_m(color_class))
+    prefix = bin_name(color_class.name, "")
+    for shape in bin_shapes(color_class, table.objects(color_class.name)):
+        node = vis[f"bins/{color_class.name}/{shape.name.removeprefix(prefix)}"]
+        node.set_object(mg.Box([2 * half for half in shape.size]), material)  # half-sizes
+        node.set_transform(origin @ shape.pose)
 
 
 def class_cylinder(cls: ColorClass) -> tuple[mg.Geometry, mg.Material]:
