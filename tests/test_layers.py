@@ -66,13 +66,31 @@ def _module(dotted: str) -> str:
 
 @functools.cache
 def _reexports(package: str) -> dict[str, str]:
-    """Names a package's ``__init__`` takes from its modules: name → module."""
+    """Names a package's ``__init__`` takes from its modules: name → module.
+
+    Those it imports, and those it imports lazily (:func:`mearm._lazy.lazy_exports`: a
+    dict of names to module names), so that an import through either is an arrow.
+    """
     out = {}
     for node in ast.walk(_tree(package)):
         if isinstance(node, ast.ImportFrom) and (node.module or "").startswith("mearm"):
             for alias in node.names:
                 out[alias.asname or alias.name] = _module(str(node.module))
+        elif isinstance(node, (ast.Assign, ast.AnnAssign)) and isinstance(node.value, ast.Dict):
+            for key, value in zip(node.value.keys, node.value.values, strict=True):
+                if (
+                    isinstance(key, ast.Constant)
+                    and isinstance(value, ast.Constant)
+                    and isinstance(value.value, str)
+                    and value.value.startswith("mearm.")
+                ):
+                    out[str(key.value)] = _module(value.value)
     return out
+
+
+def test_lazy_exports_are_followed():
+    """A name a package exports lazily leads to the module that defines it."""
+    assert _reexports("mearm.vision")["detect_markers"] == "mearm.vision.aruco"
 
 
 def _arrows(name: str) -> set[str]:
