@@ -398,25 +398,27 @@ def test_play_is_sent_half_further_the_way_the_pulse_moved():
     play = PlayCompensation(_with_play(12.0))
     base = BASE.channel
     first = SMAP.pulses_us(HOME)
-    assert play.apply(first) == first  # no side known yet
+    bounds = SMAP.limit_pulses_us(HOME)  # home is far inside every limit
+    assert play.apply(first, bounds) == first  # no side known yet
     up = {**first, base: first[base] + 20}
-    assert play.apply(up)[base] == first[base] + 26
-    assert play.apply(up)[base] == first[base] + 26  # held: still from below
+    assert play.apply(up, bounds)[base] == first[base] + 26
+    assert play.apply(up, bounds)[base] == first[base] + 26  # held: still from below
     down = {**first, base: first[base] + 10}
-    assert play.apply(down)[base] == first[base] + 4
-    sent = play.apply(down)
+    assert play.apply(down, bounds)[base] == first[base] + 4
+    sent = play.apply(down, bounds)
     assert sent[SMAP.gripper.channel] == first[SMAP.gripper.channel]  # no play: as given
     play.reset()
-    assert play.apply(down) == down
+    assert play.apply(down, bounds) == down
 
 
 def test_play_never_leaves_the_pulse_range():
-    """A pulse at max_us moved up is sent at max_us, not beyond."""
+    """A pulse at max_us moved up is sent at max_us, not beyond (bounds wider than it)."""
     play = PlayCompensation(_with_play(40.0))
     base = BASE.channel
     pulses = SMAP.pulses_us(HOME)
-    play.apply({**pulses, base: BASE.max_us - 5})
-    assert play.apply({**pulses, base: BASE.max_us})[base] == BASE.max_us
+    wide = {ch: (0.0, 5000.0) for ch in pulses}
+    play.apply({**pulses, base: BASE.max_us - 5}, wide)
+    assert play.apply({**pulses, base: BASE.max_us}, wide)[base] == BASE.max_us
 
 
 def test_a_map_without_play_compensates_nothing():

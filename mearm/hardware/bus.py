@@ -267,7 +267,9 @@ class ServoBus(ABC):
             ServoError: the link or board failed; the bus is stopped from then on.
         """
         self._require_ready()
-        pulses = self._play.apply(self.servo_map.pulses_us(command))
+        pulses = self.servo_map.pulses_us(command)
+        if self._play.active:
+            pulses = self._play.apply(pulses, self.servo_map.limit_pulses_us(command))
         if self.paced:
             self._rate.wait(self.period_s)
         self._sent = command

@@ -540,6 +540,49 @@ class ServoMap:
         pulses[g.channel] = g.command_us(self.gripper_opening_cm(closed=command.gripper_closed))
         return dict(sorted(pulses.items()))
 
+    def limit_pulses_us(self, command: ArmCommand) -> dict[int, tuple[float, float]]:
+        r"""Each channel's pulses that keep every actuator within its limits, the others held.
+
+        The bounds :class:`PlayCompensation` keeps a compensated pulse within: a joint
+        servo's pulse may move only as far as keeps every joint it turns within its limits
+        while the other servos keep their values (:math:`\delta q = A^{-1} e_k\,\delta v_k`:
+        the MeArm's elbow servo moves the elbow joint alone), a tool actuator's within its
+        limits; all within ``[min_us, max_us]``, the gripper's pulse range alone (open and
+        closed are where its jaws are sent, compensated like any servo, not limits).
+
+        Args:
+            command: A command :meth:`check` passes.
+
+        Returns:
+            Channel → (lowest, highest) pulse [µs], exact (not rounded).
+        """
+        bounds: dict[int, tuple[float, float]] = {}
+        names = self.joint_names
+        q = np.array([float(command.joints[n]) for n in names])
+        lower = np.array([j.lower for j in self.joints])
+        upper = np.array([j.upper for j in self.joints])
+        m = self._matrix
+        inv = np.eye(len(names)) if m is None else m[2]
+        servo = self.servo_values(command.joints)
+        for k, j in enumerate(self.joints):
+            lo, hi = -math.inf, math.inf  # how far the servo's value may move [unit]
+            for r, c in enumerate(inv[:, k]):
+                if abs(c) > 1e-12:
+                    a, b = sorted(((lower[r] - q[r]) / c, (upper[r] - q[r]) / c))
+                    lo, hi = max(lo, a), min(hi, b)
+            bounds[j.channel] = _pulse_bounds(j, servo[j.name] + lo, servo[j.name] + hi)
+        for t in self.tool:
+            bounds[t.channel] = _pulse_bounds(t, t.lower, t.upper)
+        g = self.gripper  # open and closed are where its jaws go, not limits to keep
+        bounds[g.channel] = (float(g.min_us), float(g.max_us))
+        return bounds
+
+
+def _pulse_bounds(a: ActuatorMap, v0: float, v1: float) -> tuple[float, float]:
+    """The pulses of values ``v0`` … ``v1`` of ``a``'s servo, within ``[min_us, max_us]``."""
+    p0, p1 = sorted((a.pulse_us(v0), a.pulse_us(v1)))
+    return (max(float(a.min_us), p0), min(float(a.max_us), p1))
+
 
 class PlayCompensation:
     """Backlash compensation: each pulse sent half a servo's play further the way it moved.
@@ -550,8 +593,11 @@ class PlayCompensation:
     it needs reached falling, and the calibration's line is midway between the two; so a
     pulse moved up is sent ``play_us / 2`` higher and one moved down as much lower (the
     other way where ``play_us`` is negative); a pulse that does not change keeps the
-    offset of its last move, and one never moved yet has none. Sent pulses stay in
-    ``[min_us, max_us]``.
+    offset of its last move, and one never moved yet has none. The offset never takes a
+    pulse past its bounds (:meth:`ServoMap.limit_pulses_us`: the pulses of the limits,
+    inside ``[min_us, max_us]``): a play in the calibration larger than the servo's own,
+    a file from another servo, would otherwise turn a joint commanded to its limit past
+    it; at a limit the shaft stops short by its play instead, inside.
     """
 
     def __init__(self, servo_map: ServoMap):
@@ -570,8 +616,18 @@ class PlayCompensation:
         self._last.clear()
         self._side.clear()
 
-    def apply(self, pulses_us: Mapping[int, int]) -> dict[int, int]:
-        """The pulses to send for the calibrated ``pulses_us`` (channel → µs)."""
+    def apply(
+        self, pulses_us: Mapping[int, int], bounds_us: Mapping[int, tuple[float, float]]
+    ) -> dict[int, int]:
+        """The pulses to send for the calibrated ``pulses_us`` (channel → µs).
+
+        Args:
+            pulses_us: The command's pulses (:meth:`ServoMap.pulses_us`).
+            bounds_us: How far each channel's pulse may go for this command
+                (:meth:`ServoMap.limit_pulses_us`): the offset takes no pulse past them,
+                nor past ``[min_us, max_us]``, unless the command's own pulse lies there
+                (its rounding to the µs), which is then sent as it is.
+        """
         out = dict(pulses_us)
         for channel, half in self._half.items():
             pulse = pulses_us[channel]
@@ -580,6 +636,9 @@ class PlayCompensation:
                 self._side[channel] = 1 if pulse > last else -1
             self._last[channel] = pulse
             lo, hi = self._range[channel]
+            low, high = bounds_us[channel]
+            lo = min(pulse, max(lo, math.ceil(low - 1e-6)))
+            hi = max(pulse, min(hi, math.floor(high + 1e-6)))
             shifted = math.floor(pulse + self._side.get(channel, 0) * half + 0.5)
             out[channel] = min(hi, max(lo, shifted))
         return out
