@@ -56,7 +56,8 @@ first) and only if it is a servo calibration, and keeps the old one as ``<name>.
 :func:`apply_servo_calibration` puts a file's calibrations into a config and validates
 the result with the config's own checks (limits, home, tool settings inside each
 servo's pulse range); it sets the calibrated fields of each servo and keeps the rest
-(its speed, ``seconds_per_60deg``) as the config has it.
+(its speed, ``seconds_per_60deg``) as the config has it. The file's pulse range narrows
+the config's, never widens it.
 """
 
 from __future__ import annotations
@@ -516,8 +517,9 @@ def servo_overrides(arm: ArmDescription, fits: Sequence[ActuatorFit]) -> list[st
     """The ``--set KEY=VALUE`` overrides that give a config these calibrations.
 
     Each replaces the actuator's whole ``servo``: the calibrated fields from the fit, the
-    others (``seconds_per_60deg``, ``max_accel_deg_s2``) as the arm has them. A fit that
-    narrowed its joint's limits sets them too, where they are narrower than the arm's.
+    others (``seconds_per_60deg``, ``max_accel_deg_s2``) as the arm has them, and the
+    pulse range never wider than the arm's. A fit that narrowed its joint's limits sets
+    them too, where they are narrower than the arm's.
 
     Raises:
         ServoCalibrationError: an actuator the arm does not have, or narrowed limits for
@@ -543,9 +545,12 @@ def servo_overrides(arm: ArmDescription, fits: Sequence[ActuatorFit]) -> list[st
             for k, v in present.items()
             if k not in CALIBRATED_FIELDS and v is not None
         )
+        # the pulse range is the config's, not measured: a file never widens it (one
+        # written before the config narrowed it would send the pulses it keeps away from)
+        min_us, max_us = max(s.min_us, present["min_us"]), min(s.max_us, present["max_us"])
         value = (
             f"{{channel: {s.channel}, zero_us: {s.zero_us:.4f}, direction: {s.direction}, "
-            f"us_per_unit: {s.us_per_unit:.6f}, min_us: {s.min_us}, max_us: {s.max_us}"
+            f"us_per_unit: {s.us_per_unit:.6f}, min_us: {min_us}, max_us: {max_us}"
             f"{drives}{play}{kept}}}"
         )
         out.append(f"{paths[fit.name]}={value}")
@@ -607,7 +612,10 @@ def apply_servo_calibration(
                 f"{source}: {fit.name}'s servo was calibrated turning {was.text()}, the "
                 f"config's turns {now.text()}: recalibrate, or fix its drives"
             )
-    return config_from_dict(config.model_dump(mode="json"), source=source, overrides=overrides)
+    try:
+        return config_from_dict(config.model_dump(mode="json"), source=source, overrides=overrides)
+    except ConfigError as exc:  # named by the calibration, not "--set" (its overrides are ours)
+        raise ConfigError(source, exc.problems) from None
 
 
 def apply_servo_calibration_file(config: Config, path: str | Path) -> Config:
