@@ -5,9 +5,11 @@ r"""The twin's servo step responses, as a table and a plot (docs/twin.md).
 
 (``python tools/servo_steps.py`` from the checkout.) Each response starts from a fresh
 twin at home (``configs/sim_mujoco.yaml`` unless ``--config``): one joint is commanded
-``--degrees`` away (10° and 60° by default: inside and at its speed limit) by one move
-of the real bus, and the physics runs on with that command; its measured angle is
-sampled every 4 ms for 0.6 s (simulated). ``--csv`` writes
+``--degrees`` away (10° and 60° by default: inside and at its speed limit; up from home,
+or down where its limit is nearer; a step that fits neither way is refused before any
+measurement, naming the largest that does) by one move of the real bus, and the
+physics runs on with that command; its measured angle is sampled every 4 ms for 0.6 s
+(simulated). ``--csv`` writes
 ``joint,step_deg,t_s,angle_deg`` rows; ``--before`` draws another run's CSV (an earlier
 model's, written by this command run against it) dashed under this model's, which is
 how the plot in docs/twin.md compares the servo model before and after a change. An
@@ -33,6 +35,8 @@ from mearm.cli import (
 from mearm.config import Config
 from mearm.errors import MearmError
 from mearm.fileio import write_atomic
+from mearm.hardware import ArmCommand, ServoMap
+from mearm.kinematics.errors import JointLimitError
 
 #: Sampling interval and length of each response (simulated) [s].
 SAMPLE_S, LENGTH_S = 0.004, 0.6
@@ -40,22 +44,64 @@ DEFAULT_CONFIG = Path("sim_mujoco")  # the shipped config, by name
 Rows = list[tuple[str, float, float, float]]
 
 
+def step_command(config: Config, joint: str, step: float) -> ArmCommand | None:
+    """Home with ``joint`` moved ``step`` up, else down; ``None`` if neither is allowed.
+
+    Allowed: inside the joint's limits and every servo's pulse range (the MeArm v1's
+    elbow servo turns shoulder + elbow), as the bus checks before it sends.
+    """
+    smap = ServoMap.from_arm(config.arm)
+    tool = {a.name: a.home for a in config.arm.tool.actuators}
+    home = config.arm.home()
+    for way in (1, -1):
+        command = ArmCommand({**home, joint: home[joint] + way * step}, tool)
+        try:
+            smap.check(command)
+        except JointLimitError:  # a pulse range's refusal is one too
+            continue
+        return command
+    return None
+
+
+def check_steps(config: Config, steps_deg: Sequence[float]) -> None:
+    """Refuse, before any measurement, a step some joint cannot take either way from home.
+
+    Raises:
+        MearmError: naming ``--degrees``, the joint and the largest step it takes.
+    """
+    for joint in config.arm.actuated_joints():
+        for step in steps_deg:
+            if step_command(config, joint.name, step) is not None:
+                continue
+            low, high = 0.0, step  # the largest allowed step (the allowed: an interval)
+            for _ in range(40):
+                mid = (low + high) / 2
+                low, high = (mid, high) if step_command(config, joint.name, mid) else (low, mid)
+            room = math.floor(low * 10) / 10
+            raise MearmError(
+                f"--degrees {step:g}: {joint.name} cannot step {step:g} {joint.unit} either "
+                f"way from its home ({config.arm.home()[joint.name]:g}) inside its limits and "
+                f"its servo's pulse range; at most {room:g} here"
+            )
+
+
 def responses(config: Config, steps_deg: list[float]) -> Rows:
-    """Each actuated joint's response to each step: (joint, step, t, angle) rows."""
-    from mearm.hardware.bus import ArmCommand
+    """Each actuated joint's response to each step: (joint, step, t, angle) rows.
+
+    Each step goes up from home where the joint's limits allow it, else down
+    (:func:`step_command`; :func:`check_steps` refuses one that fits neither way).
+    """
     from mearm.sim.twin.twin_bus import TwinArm
 
     rows: Rows = []
-    tool = {a.name: a.home for a in config.arm.tool.actuators}
     for joint in config.arm.actuated_joints():
         for step in steps_deg:
             arm = TwinArm(config)
             arm.connect()
-            joints = config.arm.home()
-            high = joint.limits.max if joint.limits else float("inf")
-            joints[joint.name] += step if joints[joint.name] + step <= high else -step
+            command = step_command(config, joint.name, step)
+            assert command is not None  # check_steps refused it
             start, t0 = arm.actual_joints[joint.name], arm.time_s
-            arm.move(ArmCommand(joints, tool, gripper_closed=False))
+            arm.move(command)
             while arm.time_s - t0 < LENGTH_S:
                 moved = arm.actual_joints[joint.name] - start
                 rows.append((joint.name, step, arm.time_s - t0, moved))
@@ -128,7 +174,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Measure the responses; write the CSV and the plot asked for."""
     parser = ArgumentParser(description=__doc__.splitlines()[0])
     add_config_argument(parser, default=str(DEFAULT_CONFIG))
-    parser.add_argument("--degrees", type=plain_float, nargs="+", default=[10.0, 60.0])
+    parser.add_argument(
+        "--degrees",
+        type=plain_float,
+        nargs="+",
+        default=[10.0, 60.0],
+        help="the steps, each up from home or, past a limit, down (default: 10 60)",
+    )
     parser.add_argument("--csv", type=Path, help="write the responses here (CSV)")
     parser.add_argument("--before", type=Path, help="an earlier run's CSV, drawn dashed (--out)")
     parser.add_argument("--out", type=Path, help="write the plot here (PNG)")
@@ -153,7 +205,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     refuse_to_replace(args.csv, "--csv", args.force)
     refuse_to_replace(args.out, "--out", args.force)
     before = read_rows(args.before) if args.before else []
-    rows = responses(config_from_args(args), args.degrees)
+    config = config_from_args(args)
+    check_steps(config, args.degrees)
+    rows = responses(config, args.degrees)
     try:
         if args.csv:
             write_atomic(args.csv, csv_text(rows))
