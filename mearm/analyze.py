@@ -275,13 +275,16 @@ def main(argv: Sequence[str] | None = None) -> int:
             contents, step=args.step, first_attempt=args.first_attempt, attempts=args.attempts
         )
         result["analysis"] = to_json(analysis)
+        rig = _rig(contents)
+        result["analysis"]["produced_by"] = rig
+        text += [f"{args.log}: {rig}"] if rig else []
         text += [render_text(t) for t in analysis_tables(analysis)]
     path_routes: list[Any] = []
     if contents is not None and args.out is not None:
         images.update(_log_plots(contents, analysis, args))
         path_routes = _path_routes(contents)
         if path_routes:
-            images.update(_path_plots(path_routes, args.out))
+            images.update(_path_plots(path_routes, args.out, _rig(contents)))
     gains_kp: list[Any] = []
     gains_kd: list[Any] = []
     if args.gains:
@@ -319,15 +322,20 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 
 def _rig(contents: RunLogContents) -> str | None:
+    """What produced the log (simulated, synthetic, hardware): said beside every figure."""
     if not contents.trials:
         return None
     if (contents.trials[0].header.model_extra or {}).get("synthetic"):
         return "synthetic data from mearm.analysis.synthetic: neither a simulation nor hardware"
-    servo = contents.trials[0].header.config.get("servo", {})
+    config = contents.trials[0].header.config
+    servo = config.get("servo", {})
     backend = servo.get("backend")
     if backend == "sim":
         quant = servo.get("error_model", {}).get("quantization")
         return f"the simulated arm (servo backend 'sim', quantization '{quant}'): not hardware"
+    camera = config.get("camera", {}).get("kind")
+    if backend == "virtual_uno" or camera == "sim":  # the firmware in simavr, a drawn table
+        return f"simulated (servo backend {backend!r}, camera {camera!r}): not hardware"
     return f"servo backend {backend!r}" if backend else None
 
 
@@ -340,13 +348,16 @@ def _log_plots(
 
     chosen = select_routes(contents.routes, step=args.step, first_attempt=args.first_attempt)
     norms = np.linalg.norm(route_errors_cm(chosen), axis=1)
+    source = _rig(contents)
     images = {
-        "histogram": plots.error_histogram(norms, analysis.weibull, args.out / "histogram.png")
+        "histogram": plots.error_histogram(
+            norms, analysis.weibull, args.out / "histogram.png", source=source
+        )
     }
     if analysis.success is not None:
         errors, success = pick_outcomes(contents.routes, attempts=args.attempts)
         images["success"] = plots.success_against_error(
-            errors, success, analysis.success, args.out / "success_vs_error.png"
+            errors, success, analysis.success, args.out / "success_vs_error.png", source=source
         )
     return images
 
@@ -393,13 +404,13 @@ def _path_routes(contents: RunLogContents) -> list[Any]:
         return []
 
 
-def _path_plots(routes: list[Any], out: Path) -> dict[str, Path]:
+def _path_plots(routes: list[Any], out: Path, source: str | None) -> dict[str, Path]:
     from mearm.analysis import plots
 
     title = "EE path of a pick and the place after it"
     return {
-        "path3d": plots.ee_paths_3d(routes, out / "ee_path_3d.png", title=title),
-        "joints": plots.joint_angles(routes, out / "joint_angles.png"),
+        "path3d": plots.ee_paths_3d(routes, out / "ee_path_3d.png", title=title, source=source),
+        "joints": plots.joint_angles(routes, out / "joint_angles.png", source=source),
     }
 
 

@@ -37,15 +37,24 @@ def _figure(width_in: float, height_in: float) -> Figure:
     return fig
 
 
-def _save(fig: Figure, path: str | Path) -> Path:
+def _save(fig: Figure, path: str | Path, source: str | None = None) -> Path:
     """Write the figure as a PNG in one step (:func:`mearm.fileio.write_atomic`).
+
+    Args:
+        fig: The figure.
+        path: PNG file to write.
+        source: Where the figure's data came from (e.g. ``the simulated arm (…): not
+            hardware``). Drawn above the figure and kept in the PNG's ``Source`` text
+            field, so a simulated figure says so wherever the file goes.
 
     Raises:
         MearmError: The folder cannot be made or the file written.
     """
     p = Path(path)
     png = io.BytesIO()
-    fig.savefig(png, format="png")
+    if source is not None:
+        fig.suptitle(source, fontsize="small")
+    fig.savefig(png, format="png", metadata={"Source": source} if source else None)
     try:
         p.parent.mkdir(parents=True, exist_ok=True)
         write_atomic(p, png.getvalue())
@@ -55,7 +64,12 @@ def _save(fig: Figure, path: str | Path) -> Path:
 
 
 def error_histogram(
-    errors_cm: npt.ArrayLike, fit: WeibullFit | None, path: str | Path, *, bins: int = 40
+    errors_cm: npt.ArrayLike,
+    fit: WeibullFit | None,
+    path: str | Path,
+    *,
+    bins: int = 40,
+    source: str | None = None,
 ) -> Path:
     """Histogram of the Euclidean errors with the fitted Weibull density (and the paper's).
 
@@ -64,6 +78,7 @@ def error_histogram(
         fit: The Weibull fit of those errors, or ``None`` to draw the histogram alone.
         path: PNG file to write.
         bins: Histogram bins.
+        source: Where the errors came from (simulated, hardware…), shown on the figure.
     """
     from scipy import stats
 
@@ -98,11 +113,16 @@ def error_histogram(
         title += f" (KS D = {fit.ks_statistic:.3f}, Q-Q R² = {fit.qq_r2:.4f})"
     ax.set_title(title)
     ax.legend(fontsize="small")
-    return _save(fig, path)
+    return _save(fig, path, source)
 
 
 def success_against_error(
-    errors_cm: npt.ArrayLike, success: npt.ArrayLike, sve: SuccessVsError, path: str | Path
+    errors_cm: npt.ArrayLike,
+    success: npt.ArrayLike,
+    sve: SuccessVsError,
+    path: str | Path,
+    *,
+    source: str | None = None,
 ) -> Path:
     """Pick success rate per error bin, each pick as a dot, and the bound below which all succeeded.
 
@@ -111,6 +131,7 @@ def success_against_error(
         success: Whether each pick gripped its object, (N,).
         sve: The analysis of the same picks.
         path: PNG file to write.
+        source: Where the picks came from (simulated, hardware…), shown on the figure.
     """
     e = np.asarray(errors_cm, dtype=float)
     ok = np.asarray(success, dtype=bool)
@@ -149,7 +170,7 @@ def success_against_error(
     ax.set_ylim(-8, 108)
     ax.set_title(f"Pick success against error ({sve.picks.n} picks, {sve.picks.failures} failed)")
     fig.legend(fontsize="small", loc="outside lower center", ncols=3)
-    return _save(fig, path)
+    return _save(fig, path, source)
 
 
 _PALETTE = ("#3182bd", "#e6550d", "#31a354", "#756bb1", "#636363", "#d6616b")
@@ -187,26 +208,32 @@ def _path_axes(ax: Any, routes: Sequence[SolvedRoute]) -> None:
     ax.set_aspect("equal")  # centimetres are centimetres on every axis
 
 
-def ee_paths_3d(routes: Sequence[SolvedRoute], path: str | Path, *, title: str) -> Path:
+def ee_paths_3d(
+    routes: Sequence[SolvedRoute], path: str | Path, *, title: str, source: str | None = None
+) -> Path:
     """The EE path of each route in 3-D: start ●, target ×, logged real end ▲.
 
     Args:
         routes: Solved routes, e.g. a pick and the place after it.
         path: PNG file to write.
         title: Figure title.
+        source: Where the logged ends came from (simulated, hardware…), shown on the figure.
     """
     fig = _figure(6.4, 5.2)
     ax = fig.add_subplot(projection="3d")
     _path_axes(ax, routes)
     ax.set_title(f"{title}\n● start   × target   ▲ where the arm really ended (log)")
     ax.legend(fontsize="small")
-    return _save(fig, path)
+    return _save(fig, path, source)
 
 
-def joint_angles(routes: Sequence[SolvedRoute], path: str | Path) -> Path:
+def joint_angles(
+    routes: Sequence[SolvedRoute], path: str | Path, *, source: str | None = None
+) -> Path:
     """Every joint [deg, or cm for a prismatic one] against iteration, one panel per route.
 
-    Each joint is labelled by its name; the arm may have any number of joints.
+    Each joint is labelled by its name; the arm may have any number of joints. ``source``:
+    the run the routes were logged by (simulated, hardware…), shown on the figure.
     """
     fig = _figure(6.4, 2.6 * len(routes) + 0.4)
     axes = fig.subplots(len(routes), 1, squeeze=False)[:, 0]
@@ -220,7 +247,7 @@ def joint_angles(routes: Sequence[SolvedRoute], path: str | Path) -> Path:
         ax.set_ylabel("joint [" + " / ".join(dict.fromkeys(units)) + "]")
         ax.legend(fontsize="small", ncols=min(4, len(route.joint_names)))
     axes[-1].set_xlabel("iteration")
-    return _save(fig, path)
+    return _save(fig, path, source)
 
 
 def gain_sweep(routes: Sequence[SolvedRoute], path: str | Path, *, title: str) -> Path:

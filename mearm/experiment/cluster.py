@@ -75,7 +75,8 @@ def dask_cluster(
                 key=f"mearm-trial-{k}-{token}", pure=False, priority=-k,
             )  # fmt: skip
 
-        yield Workers(submit, (KilledWorker,), threads, f"Dask workers at {address}")
+        noun = "Dask worker" if threads == 1 else "Dask workers"
+        yield Workers(submit, (KilledWorker,), threads, f"{noun} at {address}")
 
 
 def _probe_scheduler(address: str, scheduler: str) -> None:

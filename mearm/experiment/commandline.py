@@ -80,6 +80,7 @@ from mearm.experiment.resume import Resume, ready_to_append, resume_point
 from mearm.experiment.trials import Recording, check_rig_opens, run_trials
 from mearm.hardware.errors import ServoError
 from mearm.runlog import LogLock, RunLog, read_runlog
+from mearm.runlog.errors import RunLogError
 from mearm.task import SortAborted, check_scene, load_scene
 from mearm.task.check import check_consistency
 from mearm.task.report import Outcome
@@ -270,7 +271,9 @@ def _resume(
             if parallel
             else nullcontext()
         ) as workers:
-            stopped, failed = _run(args, config, scene, resume, wait, workers, recorder, held)
+            stopped, failed = _run(
+                args, config, scene, resume, wait, workers, written, recorder, held
+            )
     finally:
         try:
             close_recorder(recorder, args.record)
@@ -292,6 +295,27 @@ class _Written:
     def __init__(self, log: Path, recorder: DatasetRecorder | None, record: Path | None):
         self.log, self.recorder, self.record = log, recorder, record
         self._size = _size(log)
+
+    def opened(self, held: LogLock | None) -> None:
+        """Note the log's size once this run holds its lock (the run appends from here).
+
+        ``held`` is ``None`` when the log did not exist as the run started: read as empty,
+        it was locked only now, when this run opened it. Another run that wrote it in the
+        meantime (a ``--scheduler local`` takes seconds to start) has ended, so the lock
+        did not stop it; appending now would run its trials a second time into one file.
+
+        Raises:
+            RunLogError: Another run wrote the log after this one read it as empty; it is
+                left as that run left it (the same command resumes it).
+        """
+        self._size = _size(self.log)
+        if held is None and self._size:
+            raise RunLogError(
+                self.log,
+                "was written by another run while this one started (there was no log when "
+                "this run read it): nothing appended; run the same command again to resume "
+                "it, or give this run another --log",
+            )
 
     def say(self) -> None:
         """Print a ``wrote`` line for the log and the dataset, each if it was written."""
@@ -344,6 +368,7 @@ def _run(
     resume: Resume,
     wait: Callable[[int], None] | None,
     workers: Workers | None,
+    written: _Written,
     recorder: DatasetRecorder | None = None,
     held: LogLock | None = None,
 ) -> tuple[int | None, bool]:
@@ -372,6 +397,7 @@ def _run(
             total=args.trials, initial=resume.done, unit="trial", file=sys.stderr, disable=None
         ) as bar,
     ):
+        written.opened(held)
         try:
             if workers is None:
                 outcomes = run_trials(

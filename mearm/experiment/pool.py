@@ -31,7 +31,7 @@ class Workers:
         submit: Starts trial k; returns a future (``result()``, ``done()``, ``cancel()``).
         lost: The exceptions a future raises when the worker running it died.
         count: How many trials run at once.
-        where: Says where they run, for the line after the run.
+        where: Says where they run, after ``count`` in the line after the run (``2 workers``).
     """
 
     submit: Callable[[int], Any]
@@ -119,7 +119,10 @@ def process_pool(
     )
     try:
         yield Workers(
-            lambda k: pool.submit(_trial_in_worker, k), (BrokenProcessPool,), jobs, "workers"
+            lambda k: pool.submit(_trial_in_worker, k),
+            (BrokenProcessPool,),
+            jobs,
+            "worker" if jobs == 1 else "workers",
         )
     finally:
         pool.shutdown(wait=True, cancel_futures=True)
