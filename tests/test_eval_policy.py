@@ -133,7 +133,8 @@ def test_a_run_where_some_episodes_ran_is_scored(tmp_path, policies, capsys):
 
 def test_videos_of_the_first_episodes_are_written(tmp_path):
     """--videos 1 writes the first episode as an H.264 MP4 beside the JSON, every frame
-    (lerobot-eval's encoding; SVT-AV1 at its defaults deadlocked under load)."""
+    (lerobot-eval's encoding; SVT-AV1 at its defaults deadlocked under load): the reset's
+    and each step's, as lerobot-eval renders them."""
     import av
 
     out = tmp_path / "v.json"
@@ -145,7 +146,7 @@ def test_videos_of_the_first_episodes_are_written(tmp_path):
     with av.open(str(video)) as container:
         stream = container.streams.video[0]
         assert stream.codec_context.name == "h264"
-        assert sum(1 for _ in container.decode(stream)) == episode["steps"]
+        assert sum(1 for _ in container.decode(stream)) == episode["steps"] + 1
 
 
 def test_a_video_on_a_full_disk_raises_its_error_and_leaves_no_part(tmp_path):

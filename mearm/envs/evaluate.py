@@ -5,8 +5,9 @@ until it succeeds, fails or reaches ``max_episode_steps``. ``jobs`` workers each
 environment and the policy once and take seeds; the records come back in seed order,
 whatever the number of workers. A policy that raises, or gives an action that is not
 finite (NaN after 50 good steps), ends its episode as a failure that names the error, and
-the next episode runs; an action that is not numbers or of the wrong shape stops the
-whole run (:class:`~mearm.envs.errors.PolicyError`: the policy is wired wrong).
+the next episode runs (as does one whose ``reset()`` raises); an action that is not
+numbers or of the wrong shape stops the whole run
+(:class:`~mearm.envs.errors.PolicyError`: the policy is wired wrong).
 
 Stopping: when the pool is shut down before its work is done (Ctrl-C, SIGTERM or SIGHUP
 in the parent, which takes them as Ctrl-C; an error), the workers end the episodes they
@@ -32,7 +33,9 @@ import numpy as np
 
 from mearm import interrupts
 from mearm.cli import ordered_results
+from mearm.config.base import MAX_SEED
 from mearm.envs.policies import Policy, checked_action, load_policy, not_finite
+from mearm.errors import MearmError
 
 #: The encoding of ``--videos`` (a key of :data:`mearm.dataset.lerobot_format.VIDEO_CODECS`):
 #: H.264, as ``lerobot-eval`` writes its videos.
@@ -83,6 +86,24 @@ def video_name(index: int, seed: int) -> str:
     return f"episode_{index:03d}_seed_{seed}.mp4"
 
 
+def check_seed_range(first_seed: int, episodes: int) -> None:
+    """Refuse seeds ``first_seed`` … + ``episodes`` − 1 that run past the last seed.
+
+    Checked before any episode runs: the first episode out of range stopped the run
+    after the others had run (exit 2, and eval-policy wrote no ``--out``, bc no
+    ``--demos``).
+
+    Raises:
+        MearmError: the last seed is beyond :data:`~mearm.config.base.MAX_SEED`.
+    """
+    last = first_seed + episodes - 1
+    if last > MAX_SEED:
+        raise MearmError(
+            f"--first-seed {first_seed} and --episodes {episodes} run to seed {last}, past "
+            f"the last seed, {MAX_SEED}: give a --first-seed of at most {MAX_SEED - episodes + 1}"
+        )
+
+
 def summary(results: Sequence[EpisodeResult]) -> dict[str, Any]:
     """lerobot-eval's aggregates: ``pc_success`` [%], ``avg_sum_reward``, ``avg_max_reward``."""
     n = len(results)
@@ -125,10 +146,13 @@ class Runner:
         """
         env, policy = self.env, self.policy
         obs, info = env.reset(seed=seed)
-        policy.reset(seed)
         frames: list[np.ndarray] | None = [] if index < self.job.videos else None
         total, best, steps, error = 0.0, -np.inf, 0, ""
-        done = False
+        try:  # a user's reset() (one that wants a seed, or raises) fails as its act() does
+            policy.reset(seed)
+        except Exception as exc:
+            error = f"the policy's reset() raised {type(exc).__name__}: {exc}"
+        done = bool(error)
         while not done:
             if self.should_stop():
                 raise KeyboardInterrupt("stopped")
@@ -150,6 +174,8 @@ class Runner:
             done = terminated or truncated
             if info.get("fault"):
                 error = f"fault: {info['fault']}"
+        if frames and done:  # the end it reached, as lerobot-eval renders after each step
+            frames.append(env.render())  # type: ignore[arg-type]
         video = ""
         if frames and self.job.video_dir is not None:
             video = str(Path(self.job.video_dir) / video_name(index, seed))

@@ -96,6 +96,11 @@ def _config(config: str | Path | Config, overrides: Sequence[str]) -> Config:
     return load_config(config, tuple(overrides))
 
 
+def default_fps(config: Config) -> int:
+    """The steps per second of an environment not given ``fps``: the servo stream's rate."""
+    return int(round(float(config.servo.rate_hz)))
+
+
 def _whole(name: str, value: object) -> int:
     """``value`` as an int: a whole number, not a bool nor a float (2.5 was truncated to 2).
 
@@ -295,9 +300,11 @@ class TwinEnv(gym.Env[dict[str, Any], np.ndarray]):
     ):
         base = _config(config, overrides)
         if base.simulator != "mujoco":
+            # a loaded Config by what it is, not its repr (thousands of characters)
+            named = f"config {config}" if isinstance(config, str | Path) else "the Config given"
             raise EnvOptionError(
-                f"config {config}: simulator is {base.simulator!r}; the environments run "
-                "on the physical twin (simulator: mujoco, e.g. config='sim_mujoco')"
+                f"{named}: simulator is {base.simulator!r}; the environments run on the "
+                "physical twin (simulator: mujoco, e.g. config='sim_mujoco')"
             )
         if task not in ("pick_place", "sort"):
             raise EnvOptionError(f"task must be 'pick_place' or 'sort', got {task!r}")
@@ -312,7 +319,7 @@ class TwinEnv(gym.Env[dict[str, Any], np.ndarray]):
         if not isinstance(reseed, bool | np.bool_):
             raise EnvOptionError(f"reseed must be True or False, got {reseed!r}")
         rate = float(base.servo.rate_hz)
-        fps = int(round(rate)) if fps is None else _whole("fps", fps)
+        fps = default_fps(base) if fps is None else _whole("fps", fps)
         if fps < 1 or abs(rate / fps - round(rate / fps)) > 1e-9:
             raise EnvOptionError(f"fps must divide servo.rate_hz = {rate:g} Hz, got {fps}")
         table = _table(base, task, scene, objects)

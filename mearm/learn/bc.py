@@ -36,6 +36,8 @@ from mearm.cli import (
 from mearm.config import load_config
 from mearm.envs import MAX_EPISODE_STEPS
 from mearm.envs.actions import ActionSpec
+from mearm.envs.evaluate import check_seed_range
+from mearm.envs.twin_env import default_fps
 from mearm.errors import MearmError
 from mearm.learn.baseline import HIDDEN, build_mlp, features, save_baseline
 from mearm.learn.collect import Demos, collect, read_demos
@@ -191,6 +193,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         )
     if args.env not in MAX_EPISODE_STEPS:
         raise MearmError(f"--env must be one of {', '.join(MAX_EPISODE_STEPS)}, got {args.env!r}")
+    check_seed_range(args.first_seed, args.episodes)
     check_output_file(args.out, "--out")
     refuse_to_replace(args.out, "--out", args.force)  # a baseline trained for minutes
     if args.demos is not None:
@@ -201,7 +204,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         if not args.demos.exists():
             check_output_file(args.demos, "--demos")
     import_torch()  # the missing extra is said before any work
-    joints = ActionSpec.of(load_config(args.config)).joints  # a bad config, before any work
+    config = load_config(args.config)  # a bad config, before any work
+    joints = ActionSpec.of(config).joints
     options = {"config": args.config}
     wanted = demos_meta(args)
     demos: Demos | None = None
@@ -225,7 +229,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     t1 = time.perf_counter()
     fit = train(demos, joints, steps=args.steps, batch=args.batch)
     meta = {"env_id": args.env, "env_options": options, "episodes": kept,
-            "seeds": [int(demos.episode.min()), int(demos.episode.max())]}  # fmt: skip
+            "seeds": [int(demos.episode.min()), int(demos.episode.max())],
+            "fps": default_fps(config)}  # fmt: skip
     try:
         save_baseline(args.out, fit.net, fit.mean, fit.std, fit.scaling, fit.joints, meta)
     except OSError as exc:

@@ -13,15 +13,16 @@ steps); ``--videos K`` writes the first K episodes as MP4s into ``videos/`` besi
 videos/episode_….mp4`` after its episode's line, ``wrote OUT`` before the totals, which
 stay last. An ``--out`` or a video that exists is refused before any episode runs, unless
 ``--force``.
-``--env-option key=value`` passes an option to the environment (``objects``, ``fps``,
-``obs_type``, ``image_size``, ``max_episode_steps``; values in YAML). Exit 0; 1 if the
+``--env-option key=value`` passes an option to the environment (``objects``, ``scene``,
+``reseed``, ``fps``, ``obs_type``, ``image_size``, ``overrides``, ``max_episode_steps``;
+values in YAML; the config is ``--config``'s). Exit 0; 1 if the
 success rate is below ``--require`` or an episode ended on an error (the policy raised,
 gave an action that is not finite, or a fault: the episode's ``error`` says which, the
 others are scored and ``--out`` is written); 2 on bad input (one line): a policy that
-does not load, a baseline trained for another environment or of other input or output
-sizes, an action of the wrong shape, an unknown option, ``--episodes`` below 1, an
-``--out`` that is the policy's file or the config, an ``--out`` or video that exists
-(without ``--force``), a ``videos`` that is not a folder.
+does not load, a baseline trained for another environment or ``fps`` or of other input
+or output sizes, an action of the wrong shape, an unknown option, ``--episodes`` below 1,
+seeds past 2³²−1, an ``--out`` that is the policy's file or the config, an ``--out`` or
+video that exists (without ``--force``), a ``videos`` that is not a folder.
 SIGTERM and SIGHUP stop it as Ctrl-C does (exit 143, 129; Ctrl-C 130), workers and all.
 """
 
@@ -37,7 +38,7 @@ import sys
 import time
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import yaml
 
@@ -57,8 +58,15 @@ from mearm.cli import (
 )
 from mearm.errors import MearmError
 
+if TYPE_CHECKING:  # Gymnasium is imported once the command has checked it is installed
+    from mearm.envs.evaluate import EpisodeResult, Job
+
 #: Options the evaluation sets itself.
 OWN_OPTIONS = ("expert", "render_mode", "task")
+#: Options of the environments that a flag of the command gives: ``--env-option`` refuses
+#: them, naming the flag (``config=`` replaced ``--config`` silently, and the totals line
+#: and the check of ``--out`` against the config went on naming ``--config``'s).
+FLAG_OPTIONS = {"config": "--config"}
 
 
 def env_options(pairs: Sequence[str]) -> dict[str, Any]:
@@ -71,12 +79,14 @@ def env_options(pairs: Sequence[str]) -> dict[str, Any]:
     from mearm.envs.twin_env import TwinEnv  # noqa: PLC0415
 
     known = [p for p in inspect.signature(TwinEnv.__init__).parameters if p != "self"]
-    known = [k for k in known if k not in OWN_OPTIONS] + ["max_episode_steps"]
+    known = [k for k in known if k not in (*OWN_OPTIONS, *FLAG_OPTIONS)] + ["max_episode_steps"]
     out: dict[str, Any] = {}
     for pair in pairs:
         key, sep, text = pair.partition("=")
         if not sep or not key:
             raise EnvOptionError(f"--env-option {pair!r}: give key=value")
+        if key in FLAG_OPTIONS:
+            raise EnvOptionError(f"--env-option {key}: give {FLAG_OPTIONS[key]} instead")
         if key not in known:
             raise EnvOptionError(
                 f"--env-option {key}: not an option of the environments; they take "
@@ -144,12 +154,15 @@ def _refuse_an_input_as_out(out: Path, policy: str, config: str) -> None:
 def _check_baseline_fits(path: Path, env_id: str, options: dict[str, Any]) -> None:
     """Refuse a baseline trained for another environment, before any episode runs.
 
-    By the environment it names, then by the sizes of its input and output against this
-    environment's observation and action (another arm, another number of objects): each
-    episode would otherwise end on a shape error and the run report 0 %.
+    By the environment it names, by the steps per second it was trained at (its clock
+    input counts steps, and each action is held one step: at another ``fps`` it ran,
+    and failed, on a clock that meant another time), then by the sizes of its input and
+    output against this environment's observation and action (another arm, another
+    number of objects): each episode would otherwise end on a shape error and the run
+    report 0 %.
 
     Raises:
-        PolicyError: another environment, or sizes that do not match.
+        PolicyError: another environment or ``fps``, or sizes that do not match.
         EnvOptionError: an option of the wrong type for the environment.
     """
     import gymnasium as gym  # noqa: PLC0415
@@ -176,8 +189,16 @@ def _check_baseline_fits(path: Path, env_id: str, options: dict[str, Any]) -> No
         for key in ("agent_pos", "environment_state"):
             n_in += math.prod(observed[key].shape or ())
         n_out = math.prod(probe.action_space.shape or ())
+        fps = int(probe.metadata["render_fps"])
     finally:
         probe.close()
+    trained_fps = policy.meta.get("fps")  # None: a baseline saved before it was kept
+    if trained_fps is not None and trained_fps != fps:
+        raise PolicyError(
+            f"policy {path} was trained at {trained_fps} steps per second and {env_id} here "
+            f"steps at {fps}: its clock and each action's hold would be another time "
+            f"(give --env-option fps={trained_fps}, or the servo.rate_hz it was trained at)"
+        )
     takes, gives = int(policy.mean.shape[0]), int(policy.scaling.shape[1])
     if (takes, gives) != (n_in, n_out):
         options_then = policy.meta.get("env_options", {})
@@ -230,6 +251,86 @@ def _check_outputs(args: argparse.Namespace) -> str | None:
     return str(folder)
 
 
+class _VideosWritten:
+    """The videos a run may write, to name those a stop kept it from naming.
+
+    A worker writes its episode's video before the parent reports the episode, in seed
+    order: an episode that ended, and wrote its video, while an earlier one still ran was
+    never reported when Ctrl-C or SIGTERM stopped the run, and its video stayed unnamed.
+    A file is known as written by this run from its identity before the run (none, or
+    another file: ``--force`` replaced it).
+    """
+
+    def __init__(self, folder: str | None, seeds: Sequence[int]):
+        from mearm.envs.evaluate import video_name  # noqa: PLC0415
+
+        self.paths = (
+            [str(Path(folder) / video_name(i, seed)) for i, seed in enumerate(seeds)]
+            if folder is not None
+            else []
+        )
+        self.before = {path: self._identity(path) for path in self.paths}
+        #: The videos named on stdout so far.
+        self.named: set[str] = set()
+
+    @staticmethod
+    def _identity(path: str) -> tuple[int, int, int] | None:
+        try:
+            st = os.stat(path)
+        except OSError:
+            return None
+        return st.st_dev, st.st_ino, st.st_mtime_ns
+
+    def unnamed(self) -> list[str]:
+        """The videos this run wrote and did not name, in seed order."""
+        return [
+            path
+            for path in self.paths
+            if path not in self.named
+            and (now := self._identity(path)) is not None
+            and now != self.before[path]
+        ]
+
+
+def _run_and_print(args: argparse.Namespace, job: Job, seeds: Sequence[int]) -> list[EpisodeResult]:
+    """Run the episodes, printing a line per episode (and its video) as it ends.
+
+    Stopped (Ctrl-C, SIGTERM, SIGHUP), it names the videos its workers wrote that no line
+    named yet (:class:`_VideosWritten`) before the stop goes on.
+
+    Raises:
+        EnvOptionError: an option of the wrong type for the environment.
+    """
+    from mearm.envs.errors import EnvOptionError  # noqa: PLC0415
+    from mearm.envs.evaluate import run_episodes  # noqa: PLC0415
+
+    results = []
+    videos = _VideosWritten(job.video_dir, seeds[: args.videos])
+    try:
+        episodes = contextlib.closing(run_episodes(job, seeds, args.jobs))
+        with episodes as each:  # left early (a signal while printing): the pool stops too
+            for k, result in enumerate(each, 1):
+                results.append(result)
+                outcome = "success" if result.success else "failure"
+                why = f"; {result.error}" if result.error else ""
+                print(
+                    f"episode {k:3d}/{args.episodes} seed {result.seed}: {outcome}, "
+                    f"{result.in_bins}/{result.objects} in their bins, return "
+                    f"{result.sum_reward:g}, {result.steps} steps{why}",
+                    flush=True,
+                )
+                if result.video:  # written by the time its episode is reported
+                    print(f"wrote {result.video}", flush=True)
+                    videos.named.add(result.video)
+    except TypeError as exc:  # an option of the wrong type for the environment
+        raise EnvOptionError(f"--env-option: {exc}") from None
+    except KeyboardInterrupt:  # the pool is shut down: every video its workers wrote is there
+        for path in videos.unnamed():
+            print(f"wrote {path}", flush=True)
+        raise
+    return results
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the episodes; print and write the scores; 1 below ``--require`` or on an error.
 
@@ -270,11 +371,11 @@ def _eval_policy(argv: Sequence[str] | None) -> int:
     args = parser.parse_args(argv)
     _require_gymnasium()
     from mearm.envs import MAX_EPISODE_STEPS  # noqa: PLC0415
-    from mearm.envs.errors import EnvOptionError  # noqa: PLC0415
-    from mearm.envs.evaluate import Job, run_episodes, summary  # noqa: PLC0415
+    from mearm.envs.evaluate import Job, check_seed_range, summary  # noqa: PLC0415
 
     if args.episodes < 1:
         raise MearmError(f"--episodes must be at least 1, got {args.episodes}")
+    check_seed_range(args.first_seed, args.episodes)  # before any episode runs
     if not 0 <= args.videos <= args.episodes:
         raise MearmError(f"--videos must be in [0, --episodes], got {args.videos}")
     if not 0 <= args.require <= 1:
@@ -288,24 +389,7 @@ def _eval_policy(argv: Sequence[str] | None) -> int:
     job = Job(args.env, options, args.policy, video_dir, args.videos)
     seeds = range(args.first_seed, args.first_seed + args.episodes)
     t0 = time.perf_counter()
-    results = []
-    try:
-        episodes = contextlib.closing(run_episodes(job, seeds, args.jobs))
-        with episodes as each:  # left early (a signal while printing): the pool stops too
-            for k, result in enumerate(each, 1):
-                results.append(result)
-                outcome = "success" if result.success else "failure"
-                why = f"; {result.error}" if result.error else ""
-                print(
-                    f"episode {k:3d}/{args.episodes} seed {result.seed}: {outcome}, "
-                    f"{result.in_bins}/{result.objects} in their bins, return "
-                    f"{result.sum_reward:g}, {result.steps} steps{why}",
-                    flush=True,
-                )
-                if result.video:  # written by the time its episode is reported
-                    print(f"wrote {result.video}", flush=True)
-    except TypeError as exc:  # an option of the wrong type for the environment
-        raise EnvOptionError(f"--env-option: {exc}") from None
+    results = _run_and_print(args, job, seeds)
     scores = summary(results)
     wall = time.perf_counter() - t0
     failed = [r for r in results if r.error]
