@@ -424,6 +424,8 @@ class PickAndPlace(TableTracking):
         release = self.bus.last_release if isinstance(self.bus, ReportsRelease) else None
         place.success = release is None or release.bin == obj.class_name
         obj.sorted = place.success
+        if place.success:
+            obj.places += 1
         if release is None and place.plan is not None:  # unconfirmed: it may have slipped
             obj.carried_cm = np.vstack([[obj.x_cm, obj.y_cm], place.plan.ee_path_cm[:, :2]])
         for o in self._objects:  # the table changed: a blocked pick may be clear now

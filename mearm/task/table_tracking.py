@@ -77,6 +77,9 @@ class TrackedObject:
     #: simulator has confirmed the release (the twin, a real rig): an object of its class
     #: seen new near that path is it, dropped on the way (:meth:`TableTracking._dropped`).
     carried_cm: np.ndarray | None = None
+    #: How many times it was placed in its bin: more than once when an object seen later
+    #: near its way there was taken for it, dropped on the way (:meth:`TableTracking._dropped`).
+    places: int = 0
 
 
 Seen = list[tuple[Detection, np.ndarray]]

@@ -90,6 +90,7 @@ def _check_scene(config: Config) -> None:
         placed.append((oid, xy, r))
     if config.belt is not None:
         _check_belt(config)
+    table = TableContents.of(task, config.belt)
     for c in task.classes:
         wall = _wall_height_m(config, c.name)
         release = (c.bin_cm[2] - config.arm.tool.tcp_above_grip_cm - c.grip_z_cm) * M_PER_CM
@@ -97,8 +98,28 @@ def _check_scene(config: Config) -> None:
             raise ModelError(
                 f"class {c.name}: an object released at bin_cm z = {c.bin_cm[2]:g} cm has its "
                 f"bottom {release * 100:.3g} cm above the table, below the bin's "
-                f"{wall * 100:.3g} cm walls; raise bin_cm z (task.classes)"
+                f"{wall * 100:.3g} cm walls ({_held(table, c.name, config)}); raise bin_cm z "
+                "(task.classes), or give the class fewer objects"
             )
+
+
+def _held(table: TableContents, name: str, config: Config) -> str:
+    """What a class's bin walls are built to hold, and where the count comes from.
+
+    The walls grow with the objects they hold stacked: a belt's seed that draws many of
+    one class raises them over a release height that does for the others (20 objects,
+    belt seed 997012: 12 greens), and the line says so, not only "raise bin_cm z".
+    """
+    n = table.objects(name)
+    held = f"tall enough for its {n} object{'s' if n != 1 else ''} stacked"
+    brought = table.belt.get(name, 0)
+    if config.belt is None or not brought:
+        return held
+    a = config.belt.arrivals
+    return (
+        f"{held}: the belt brings {brought} of its {a.count}, as belt.arrivals.seed "
+        f"{a.seed} draws their classes"
+    )
 
 
 def _check_belt(config: Config) -> None:

@@ -1,0 +1,38 @@
+"""A belt seed that brings many of one class: the twin's bin walls say why they are tall.
+
+The twin builds each bin's walls to hold its class's objects stacked. The reference twin
+belt (``configs/sim_conveyor.yaml``, 20 objects) with ``belt.arrivals.seed=997012`` brings
+12 greens: the green bin's walls are 13 cm, over the 12.2 cm its objects are released at,
+and the sort is refused (exit 2). The line said only "raise bin_cm z", for a config whose
+bins serve every other seed: it now names how many the walls hold and that the seed drew
+them (4.5 % of seeds 997000-997199 draw 12 or more of one class).
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@pytest.mark.heavy
+def test_bin_walls_too_tall_for_a_belt_seed_name_the_count_and_the_seed() -> None:
+    done = subprocess.run(
+        [sys.executable, "-m", "mearm", "sort", "--config", "configs/sim_conveyor.yaml",
+         "--set", "belt.arrivals.seed=997012", "--quiet"],
+        capture_output=True, text=True, timeout=300, check=False, cwd=ROOT,
+        env={**os.environ, "MUJOCO_GL": "egl"},
+    )  # fmt: skip
+    assert done.returncode == 2, done.stderr
+    lines = done.stderr.strip().splitlines()
+    assert len(lines) == 1, done.stderr
+    assert "class green:" in lines[0]
+    assert "below the bin's 13 cm walls" in lines[0]
+    assert "its 12 objects stacked" in lines[0]
+    assert "the belt brings 12 of its 20, as belt.arrivals.seed 997012" in lines[0]
+    assert "Traceback" not in done.stderr
