@@ -168,7 +168,15 @@ class EpisodeWriter:
         self._file.close()  # what is still buffered: its write error is raised here
 
     def discard(self) -> None:
-        """Stop and remove the file."""
+        """Stop and remove the file.
+
+        The encoder is sent its end of stream first, its last packets dropped: SVT-AV1
+        freed without it says ``Svt[error]: deinit called without sending EOS!`` on
+        stderr, above an interrupted sort's own line.
+        """
+        with contextlib.suppress(Exception):
+            for _ in self._stream.encode():
+                pass
         with contextlib.suppress(Exception):
             self._out.close()
         with contextlib.suppress(OSError):
@@ -306,6 +314,13 @@ class _Drawing:
             self._drawer = None
 
 
+#: What a terminal (Ctrl-C, a closed window) or a supervisor (its stop) sends a process
+#: group; the encoder ignores them (:func:`serve`).
+STOP_SIGNALS: tuple[signal.Signals, ...] = tuple(
+    getattr(signal, name) for name in ("SIGINT", "SIGTERM", "SIGHUP") if hasattr(signal, name)
+)
+
+
 def serve(
     conn: Connection,
     shm_name: str,
@@ -317,8 +332,14 @@ def serve(
     """The encoder process: draw and encode the frames it is sent until told to stop.
 
     It exits at once when done (:func:`os._exit`), or with the error that stopped it.
+    It ignores the stop signals a terminal or a supervisor sends the whole process group
+    (Ctrl-C, SIGTERM, SIGHUP): the recording process takes them, waits for the episodes
+    it finished to be encoded and written, and then stops this one (killed by a SIGTERM
+    to the group, it lost them: the sort then ended as interrupted, naming nothing).
+    Its pipe's end tells it when that process is gone, however it ended.
     """
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    for stop in STOP_SIGNALS:
+        signal.signal(stop, signal.SIG_IGN)
     shm = SharedMemory(shm_name)
     # Mapped here and in the recording process: its name can go, and with it the memory
     # once both processes end, killed or not (a kill of the process group takes the

@@ -15,10 +15,11 @@ ring bounds how far the encoder may fall behind (:data:`SLOTS` frames, and
 recording that draws faster than it encodes waits for a slot, and an interrupted run
 waits for at most those frames of its finished episodes to be encoded.
 
-The encoder ignores Ctrl-C (the terminal sends it to both processes; the recording
-process decides what is kept) and ends when the recording process goes away, killed or
-not. The ring's segment leaves ``/dev/shm`` as soon as the encoder process has it
-mapped (:func:`~mearm.dataset.encoder_server.serve` unlinks its name): the kernel frees
+The encoder ignores Ctrl-C, SIGTERM and SIGHUP (a terminal or a supervisor sends them to
+the whole process group; the recording process decides what is kept) and ends when the
+recording process goes away, killed or not. The ring's segment leaves ``/dev/shm`` as
+soon as the encoder process has it mapped
+(:func:`~mearm.dataset.encoder_server.serve` unlinks its name): the kernel frees
 its memory when the last of the two processes lets go, however they end. A kill of both
 before that (within a second of the start, say ``kill -9`` of the process group, which
 takes :mod:`multiprocessing`'s resource tracker too) leaves the segment named, by its
