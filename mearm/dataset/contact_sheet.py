@@ -20,6 +20,7 @@ from mearm.dataset.reading import (
     read_episodes,
     read_info,
     read_json,
+    read_starts,
     read_table,
     read_tags,
     read_tasks,
@@ -35,13 +36,22 @@ def describe(root: Path) -> list[str]:
     """The lines ``show`` prints: totals, episodes, tasks, statistics of the state.
 
     Raises:
-        DatasetError: not a dataset (:func:`check_dataset`'s first checks), or a file of
-            it is damaged (:mod:`mearm.dataset.reading`), its episodes' data and video
-            files included (missing, cut short).
+        DatasetError: not a dataset (:func:`check_dataset`'s first checks), an episode
+            half written (its journal there: the files disagree until a recorder
+            finishes it), or a file of it is damaged (:mod:`mearm.dataset.reading`), its
+            episodes' data and video files and ``meta/mearm_starts.json`` included
+            (missing, cut short), as ``--resume`` refuses them.
     """
+    if (root / L.JOURNAL_PATH).exists():
+        raise DatasetError(
+            root / L.JOURNAL_PATH,
+            "an episode was being written when the recorder stopped: record into "
+            f"{root} with --resume to finish writing it, then show it",
+        )
     info, episodes, tasks = _read(root)
     _check_files(root, info, episodes)
     tags, scenes = read_tags(root, len(episodes))
+    read_starts(root, len(episodes))  # not shown; a replay and --resume read it
     lines = [
         f"{root}: LeRobot {info['codebase_version']}, robot {info.get('robot_type')}, "
         f"{info['fps']} fps, {info['total_episodes']} episodes, {info['total_frames']} frames, "
@@ -56,10 +66,12 @@ def describe(root: Path) -> list[str]:
         line = f"{k:7d}  {row['length']:6d}  {seconds:7.1f}  {tasks_text}"
         trial, pick = tags[k] if 0 <= k < len(tags) else (None, None)
         scene = scenes[k] if 0 <= k < len(scenes) else None
-        if scene is not None:
-            line += f" (--random {scene.objects} --seed {scene.seed})"
-        elif trial is not None:
+        if trial is not None:  # an experiment's trial: its table is laid, not drawn
             line += f" (trial seed {trial}, pick {pick})"
+        elif scene is not None and scene.table is not None:  # --scene, or the config's
+            line += f" (a table of {scene.objects} objects, as laid)"
+        elif scene is not None:
+            line += f" (--random {scene.objects} --seed {scene.seed})"
         lines.append(line)
     lines += ["", "task_index  task"]
     lines += [f"{k:10d}  {t}" for k, t in enumerate(tasks)]

@@ -18,6 +18,7 @@ import numpy as np
 
 from mearm.dataset import lerobot_format as L
 from mearm.dataset.errors import DatasetError
+from mearm.dataset.fragments import tear
 from mearm.dataset.reading import EpisodeStart, RecordedScene, Tag, read_starts, read_tags
 from mearm.dataset.recorder import import_extra
 
@@ -42,8 +43,8 @@ RULES: dict[str, str] = {
     "tasks": f"{L.TASKS_PATH} has task_index 0..total_tasks-1 and distinct tasks",
     "episodes": "meta/episodes/chunk-*/file-*.parquet has episode_index 0..total_episodes-1 "
     "in order, each with a length ≥ 1, frame ranges that follow each other from 0, tasks "
-    "that tasks.parquet holds, and its data and video files; the lengths add up to "
-    "total_frames",
+    "that tasks.parquet holds, and its data and video files (a video file's boxes fill "
+    "it: not cut short); the lengths add up to total_frames",
     "data": "each data file has a column per non-video feature of its dtype and shape, "
     "and exactly the rows of its episodes, in order: episode_index, frame_index "
     "0..length-1, index from dataset_from_index, timestamp = frame_index / fps, a "
@@ -88,7 +89,7 @@ class _Checker:
         self.root = root
         self.videos = videos
         self.problems: list[str] = []
-        self.missing: set[str] = set()  # files the episodes name that are not there
+        self.seen: set[str] = set()  # files the episodes name, looked at (each said once)
         self.pa, self.pq, self.av = import_extra()
 
     def fail(self, rule: str, message: str) -> None:
@@ -238,7 +239,12 @@ class _Checker:
         return rows
 
     def _files_present(self, k: int, row: dict[str, Any], video_keys: list[str]) -> None:
-        """Episode ``k``'s data and video files are there (with or without --no-videos)."""
+        """Episode ``k``'s data and video files are there (with or without --no-videos).
+
+        Each video file's boxes are walked to its end too (no frame decoded): with
+        --no-videos a file cut short (a kill mid-append) passed, which ``--resume`` and
+        ``show`` refuse as damaged.
+        """
         files = [L.chunk_file(L.DATA_PATH, row["data/chunk_index"], row["data/file_index"])]
         files += [
             L.chunk_file(
@@ -250,9 +256,13 @@ class _Checker:
             for key in video_keys
         ]
         for rel in files:
-            if rel not in self.missing and not (self.root / rel).is_file():
-                self.missing.add(rel)
+            if rel in self.seen:
+                continue
+            self.seen.add(rel)
+            if not (self.root / rel).is_file():
                 self.fail("episodes", f"episode {k}: its file {rel} is missing")
+            elif rel.endswith(".mp4") and (problem := tear(self.root / rel)) is not None:
+                self.fail("episodes", f"episode {k}: its file {rel} is {problem}")
 
     # ----------------------------------------------------------------- frames
 
