@@ -348,7 +348,7 @@ def _say_resuming(log: Path, resume: Resume, trials: int) -> None:
     why = " and ".join(
         w
         for w, n in (
-            ("interrupted (Ctrl-C)", resume.interrupted),
+            ("interrupted", resume.interrupted),  # (the log says by what)
             ("stopped by its recording (a file not written)", resume.recording_stopped),
             ("cut off", resume.cut_off),
         )

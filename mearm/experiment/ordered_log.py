@@ -187,7 +187,8 @@ def _append_in_order(
             if not result.ran:
                 # a worker that saw Ctrl-C itself runs no more trials: stopped, even when
                 # this process had not polled its own Ctrl-C yet (the trial was done first)
-                stop = stop or SortAborted("interrupted (Ctrl-C)", interrupted=True)
+                why = f"interrupted ({interrupts.stopped_by()})"
+                stop = stop or SortAborted(why, interrupted=True)
                 break
             _append(out, result, recorder)
             outcomes[k] = result.reason

@@ -17,6 +17,7 @@ import numpy as np
 
 from mearm.config import Config, SceneObject
 from mearm.hardware.errors import ServoError
+from mearm.interrupts import named
 from mearm.runlog import RunLog
 from mearm.task import SortAborted, random_scene, run_sort
 from mearm.task.rig import open_rig
@@ -263,8 +264,8 @@ def run_trial(
             result = TrialResult(number)
         except SortAborted as exc:
             result = TrialResult(number, reason=exc.reason, interrupted=exc.interrupted)
-        except KeyboardInterrupt:  # before the sort started; run_sort logged it if it had
-            result = TrialResult(number, reason="interrupted (Ctrl-C)", interrupted=True)
+        except KeyboardInterrupt as exc:  # before the sort started; run_sort logged it if so
+            result = TrialResult(number, reason=f"interrupted ({named(exc)})", interrupted=True)
         except (CameraError, ServoError) as exc:
             result = TrialResult(number, reason=str(exc), error=str(exc))
         finally:
