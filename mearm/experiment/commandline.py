@@ -1,6 +1,7 @@
 """Run repeated sorting trials into one run log, as in the paper's experiments.
 
-Each trial sorts a new layout of 4 objects of each class at least 1 cm apart
+Each trial sorts a new layout of as many objects of each class as the config's own table
+holds (the paper's 4 of each on ``sim.yaml``; 4 of each when it holds none) at least 1 cm apart
 (or the same ``--scene`` every time) and appends its records, under one header per trial,
 to the run log; ``python -m mearm.analyze`` reads it back::
 

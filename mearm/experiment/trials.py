@@ -27,8 +27,24 @@ from mearm.vision.errors import CameraError
 if TYPE_CHECKING:
     from mearm.dataset.recorder import DatasetRecorder
 
-#: Objects per class in a random trial layout (the paper: 12 objects, 4 of each colour).
+#: Objects per class in a random trial layout (the paper: 12 objects, 4 of each colour),
+#: for a config whose own table is empty (a belt's, a real rig's).
 PER_CLASS = 4
+
+
+def trial_counts(config: Config) -> dict[str, int]:
+    """How many objects of each class a random trial lays.
+
+    As many as the config's own table holds (``task.scene``: the paper's 4 of each on
+    ``sim.yaml``, 2 of each on the MeArm v1's smaller table, which 12 objects do not
+    fit), or :data:`PER_CLASS` of each when the config lays none.
+    """
+    counts = dict.fromkeys(config.task.class_names, 0)
+    for obj in config.task.scene:
+        counts[obj.color] += 1
+    if not any(counts.values()):
+        return dict.fromkeys(config.task.class_names, PER_CLASS)
+    return {name: n for name, n in counts.items() if n}
 
 
 def trial_seed(seed: int, trial: int) -> int:
@@ -70,7 +86,7 @@ def plan_trial(
     cfg = trial_config(config, s)
     layout = scene
     if layout is None and cfg.camera.kind == "sim":
-        layout = random_scene(cfg, dict.fromkeys(cfg.task.class_names, PER_CLASS), s)
+        layout = random_scene(cfg, trial_counts(cfg), s)
     return TrialPlan(number, s, cfg, layout)
 
 
