@@ -368,3 +368,22 @@ def test_preview_collision_draws_the_model_at_the_joints(monkeypatch, tmp_path, 
     )
     assert "gripper_jaw_left_pad" in seen["arm"]  # type: ignore[operator]
     assert seen["world"] == bin_names()
+
+
+def test_the_kinematic_sorts_view_draws_the_jaws_as_commanded(monkeypatch, tmp_path):
+    """On the kinematic rig the view drew the jaws open all the way, the object carried
+    included: the executor gave it the joints, never the opening. Now each pose it shows
+    comes with the opening sent with it: closed while carrying, open otherwise."""
+    openings: list[float] = []
+    show_joints = ArmView.show_joints
+
+    def recording(self: ArmView, q, opening_cm=None) -> None:
+        show_joints(self, q, opening_cm)
+        openings.append(self.opening_cm)
+
+    monkeypatch.setattr(ArmView, "show_joints", recording)
+    scene_file = tmp_path / "one.yaml"
+    scene_file.write_text("- {color: red, x: -0.40, y: 42.01}\n")
+    assert sort_main(["--scene", str(scene_file), "--view", "--quiet"]) == 0
+    gripper = Config().arm.tool.gripper
+    assert set(openings) == {gripper.open_cm, gripper.closed_cm}, sorted(set(openings))

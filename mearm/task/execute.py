@@ -70,7 +70,7 @@ def carry_limits(limits: SpeedLimits, config: Config, chain: Chain) -> SpeedLimi
 class View(Protocol):
     """What the executor and the loop call on the meshcat view (:class:`mearm.view.ArmView`)."""
 
-    def show_joints(self, q: npt.ArrayLike) -> None: ...  # noqa: D102
+    def show_joints(self, q: npt.ArrayLike, opening_cm: float | None = None) -> None: ...  # noqa: D102
     def show_bodies(  # noqa: D102
         self,
         q: npt.ArrayLike,
@@ -138,6 +138,7 @@ class Executor:
         self._classes = {c.name for c in config.task.classes}
         self._unshown = 0  # moves sent since the view was last shown the world
         self._unshown_q: np.ndarray | None = None  # the last joints sent, not yet shown
+        self._unshown_opening_cm: float | None = None  # and the jaws' opening sent with them
         self.limits = SpeedLimits.of_arm(config.arm, self.chain)
         self.carry_limits = carry_limits(self.limits, config, self.chain)
         self.motion = MotionTime(stream_hz=1.0 / bus.period_s)
@@ -193,7 +194,9 @@ class Executor:
         if self.twin_ids is not None:
             self.view.show_bodies(*self.world_now())
         elif self._unshown_q is not None:
-            self.view.show_joints(self._unshown_q)
+            # the jaws as commanded (the kinematic rig measures no opening): closed on what
+            # they carry, not drawn open all the way
+            self.view.show_joints(self._unshown_q, self._unshown_opening_cm)
             self._unshown_q = None
 
     def _flush_view(self) -> None:
@@ -215,6 +218,7 @@ class Executor:
             return
         if self.twin_ids is None:
             self._unshown_q = self.chain.full(self.chain.actuated_of(np.asarray(q)))
+            self._unshown_opening_cm = self._tool.gripper.opening_cm(closed=closed)
         self._unshown += 1
         if self._unshown >= self.view_every:
             self.show_world()
