@@ -75,3 +75,19 @@ def exchange_lines(port: str, lines: list[bytes]) -> list[bytes]:
             link.write(line + b"\n")
             replies.append(link.readline().rstrip(b"\n"))
     return replies
+
+
+def firmware_answers(tmp_path_factory: Any, lines: list[bytes]) -> list[bytes]:
+    """The real firmware's replies to ``lines`` in simavr, once checked that it made no
+    pulse of them and that the fake board answers them byte for byte the same."""
+    from conftest import firmware_build, simulator_build  # noqa: PLC0415
+    from fakeboard import FakeMearmBoard, MearmFaults, SimavrBoard  # noqa: PLC0415
+
+    firmware_build(tmp_path_factory)
+    folder = simulator_build(tmp_path_factory)
+    with SimavrBoard(str(folder / "mearm_sim"), str(folder / "mearm_servo.elf")) as chip:
+        firmware = exchange_lines(chip.port, lines)
+        assert chip.pulses == []  # none of them was made
+    with FakeMearmBoard(MearmFaults(boot_noise=b"")) as fake:
+        assert exchange_lines(fake.port, lines) == firmware
+    return firmware

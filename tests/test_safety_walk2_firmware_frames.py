@@ -8,9 +8,7 @@ alike, byte for byte. The real firmware runs in simavr.
 from __future__ import annotations
 
 import pytest
-from conftest import firmware_build, simulator_build
-from fakeboard import FakeMearmBoard, MearmFaults, SimavrBoard
-from hardware_helpers import exchange_lines
+from hardware_helpers import firmware_answers
 
 from mearm.hardware.mearm_protocol import decode_line, encode_command, encode_line
 
@@ -25,13 +23,7 @@ SPACING = [
 
 @pytest.mark.heavy
 def test_extra_spaces_are_refused_as_the_fake_board_refuses_them(tmp_path_factory):
-    firmware_build(tmp_path_factory)
-    folder = simulator_build(tmp_path_factory)
-    with SimavrBoard(str(folder / "mearm_sim"), str(folder / "mearm_servo.elf")) as chip:
-        firmware = exchange_lines(chip.port, SPACING)
-        assert chip.pulses == []  # the badly spaced M was not made
-    with FakeMearmBoard(MearmFaults(boot_noise=b"")) as fake:
-        assert exchange_lines(fake.port, SPACING) == firmware
+    firmware = firmware_answers(tmp_path_factory, SPACING)  # the badly spaced M not made
     codes = [decode_line(r) for r in firmware]
     assert [(c.kind, c.seq, c.code) for c in codes[:4]] == [
         ("ERR", 1, 2), ("ERR", 2, 2), ("ERR", None, 2), ("ERR", 4, 2)

@@ -27,6 +27,17 @@ CONFIG = load_config(MEARM)
 TABLE = collision_model(CONFIG, ArmModel(CONFIG.arm), clearance_cm=CONFIG.task.clearance_cm)
 
 
+def _stepping_5_cm(bus, along_z: int) -> tuple[Jogger, io.StringIO]:  # noqa: ANN001
+    """A jogger from home in 5 cm tool steps, two of them taken along ``along_z`` z."""
+    out = io.StringIO()
+    jogger = Jogger(CONFIG, bus, out)
+    jogger.executor.home_pose()
+    jogger.step_index = CARTESIAN_STEPS_CM.index(5.0)
+    for _ in range(2):
+        jogger.move_tcp(2, along_z)
+    return jogger, out
+
+
 def test_a_shoulder_step_into_the_table_is_refused_and_nothing_sent():
     """The shoulder down by 10° from home: at 20° the gripper's servo is 0.001 cm above the
     table, and the step to 10° would put it 0.16 cm into it (at 19.3°). It is refused,
@@ -53,12 +64,7 @@ def test_tcp_steps_toward_a_bin_stop_short_of_its_wall():
     sent keeps the clearance from its wall; the step that would reach it stops short and
     says it was the bin."""
     with open_arm_bus(CONFIG) as bus:
-        out = io.StringIO()
-        jogger = Jogger(CONFIG, bus, out)
-        jogger.executor.home_pose()
-        jogger.step_index = CARTESIAN_STEPS_CM.index(5.0)
-        for _ in range(2):
-            jogger.move_tcp(2, -1)
+        jogger, out = _stepping_5_cm(bus, along_z=-1)
         for _ in range(4):
             try:
                 jogger.move_tcp(0, -1)
@@ -75,12 +81,7 @@ def test_the_pages_tool_step_example_is_what_the_jog_says():
     jog prints that line, word for word."""
     page = " ".join((ROOT / "docs" / "maker-path.md").read_text(encoding="utf-8").split())
     with open_arm_bus(CONFIG) as bus:
-        out = io.StringIO()
-        jogger = Jogger(CONFIG, bus, out)
-        jogger.executor.home_pose()
-        jogger.step_index = CARTESIAN_STEPS_CM.index(5.0)
-        for _ in range(2):
-            jogger.move_tcp(2, +1)
+        _, out = _stepping_5_cm(bus, along_z=+1)
     said = out.getvalue().strip().splitlines()[-1]
     assert said.startswith("stopped after 0.57 of the 5 cm step along +z: "), said
     assert f"`{said}`" in page

@@ -13,9 +13,8 @@ from __future__ import annotations
 import itertools
 
 import pytest
-from conftest import firmware_build, simulator_build
-from fakeboard import FakeMearmBoard, MearmFaults, SimavrBoard
-from hardware_helpers import command, exchange_lines, fast_config
+from fakeboard import FakeMearmBoard, MearmFaults
+from hardware_helpers import command, fast_config, firmware_answers
 
 from mearm.backends import open_bus
 from mearm.hardware.errors import FirmwareVersionError
@@ -154,13 +153,7 @@ FRAMES = [
 
 @pytest.mark.heavy
 def test_the_firmware_refuses_the_two_byte_flip_as_the_fake_board_does(tmp_path_factory):
-    firmware_build(tmp_path_factory)
-    folder = simulator_build(tmp_path_factory)
-    with SimavrBoard(str(folder / "mearm_sim"), str(folder / "mearm_servo.elf")) as chip:
-        firmware = exchange_lines(chip.port, FRAMES)
-        assert chip.pulses == []  # the garbled move was not made
-    with FakeMearmBoard(MearmFaults(boot_noise=b"")) as fake:
-        assert exchange_lines(fake.port, FRAMES) == firmware
+    firmware = firmware_answers(tmp_path_factory, FRAMES)  # the garbled move not made
     codes = [decode_line(r) for r in firmware]
     assert [(c.kind, c.seq, c.code) for c in codes] == [  # type: ignore[union-attr]
         ("ERR", None, ERR_CHECKSUM), ("ERR", None, 2), ("OK", 3, 0)
