@@ -132,17 +132,33 @@ def hand_over(bus: ServoBus, model: ArmModel, config: Config) -> None:
     """The bus sends ``config``'s calibration from now on; the arm holds the same pulses.
 
     What the arm is at is then read in the new calibration's joints (the sort's next move,
-    home, starts there). Where those lie outside the joints' limits, the bus is left to
-    send home as it is (the sort's first command).
+    home, starts there).
+
+    Raises:
+        StartCalibrationFailed: that pose lies outside the joints' limits as calibrated
+            (narrowed where the fit reaches less): no path from it could be planned
+            inside them, and the sort's path home would start from the old calibration's
+            joints, where the arm is not. Nothing is sent; the arm holds its pulses.
     """
     chain = model.chain  # config's arm: its limits, narrowed where the fit reaches less
     smap, state = ServoMap.from_arm(config.arm), bus.state
     assert state is not None  # the arm was parked
     held = {j.name: j.command_us(j.servo_value(state.joints)) for j in bus.servo_map.joints}
     q = chain.from_named(smap.joints_of({j.name: j.value_of(held[j.name]) for j in smap.joints}))
+    if not chain.within_limits(np.asarray(q), tol=1e-6):
+        named, lower, upper = chain.named(q), chain.named(chain.lower), chain.named(chain.upper)
+        outside = ", ".join(
+            f"{n} = {v:.2f} (limits [{lower[n]:g}, {upper[n]:g}])"
+            for n, v in named.items()
+            if not lower[n] - 1e-6 <= v <= upper[n] + 1e-6
+        )
+        raise StartCalibrationFailed(
+            f"after the servos' calibration by the camera the arm stands outside its joints' "
+            f"limits as calibrated: {outside}; nothing sent, the arm holds its pulses: jog it "
+            "inside the limits (mearm jog) and start again"
+        )
     bus.servo_map = smap
-    if chain.within_limits(np.asarray(q), tol=1e-6):
-        bus.move(ArmCommand(chain.named_actuated(q), dict(state.tool), state.gripper_closed))
+    bus.move(ArmCommand(chain.named_actuated(q), dict(state.tool), state.gripper_closed))
 
 
 def calibrator(save: Path | None = None) -> CalibrateFirst:
