@@ -19,24 +19,34 @@ from mearm.cli import EXIT_OUTPUT_CLOSED
 from mearm.runlog import read_runlog
 
 
-def _popen(args: list[str], cwd: Path) -> subprocess.Popen[bytes]:
+def _popen(args: list[str], cwd: Path, *, reader_gone: bool = False) -> subprocess.Popen[bytes]:
+    """``mearm ARGS`` with its output in pipes; ``reader_gone``: its stdout's reader has
+    left before it starts (closing the pipe after the start raced the command: on a
+    loaded machine a quick one wrote its whole output into the pipe first, exit 0)."""
     env = {**os.environ, "PYTHONUNBUFFERED": "1"}  # each line written as it is printed
-    return subprocess.Popen(
-        [sys.executable, "-m", "mearm", *args],
-        cwd=cwd,
-        env=env,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-    )
+    stdout: int = subprocess.PIPE
+    if reader_gone:
+        read_end, stdout = os.pipe()
+        os.close(read_end)
+    try:
+        return subprocess.Popen(
+            [sys.executable, "-m", "mearm", *args],
+            cwd=cwd,
+            env=env,
+            stdout=stdout,
+            stderr=subprocess.PIPE,
+        )
+    finally:
+        if reader_gone:
+            os.close(stdout)  # the child holds its own copy
 
 
 def test_a_short_command_whose_reader_left_exits_141_quietly(tmp_path: Path) -> None:
     """No "unexpected error" line and no crash log: the reader's leaving is no fault."""
     state = Path(os.environ["MEARM_STATE_DIR"])
     before = (state / "crash.log").read_bytes() if (state / "crash.log").exists() else b""
-    proc = _popen(["detect", "--config", "sim", "--camera"], tmp_path)
-    assert proc.stdout is not None and proc.stderr is not None
-    proc.stdout.close()  # gone before the first line (the command takes a second to start)
+    proc = _popen(["detect", "--config", "sim", "--camera"], tmp_path, reader_gone=True)
+    assert proc.stderr is not None
     err = proc.stderr.read().decode()
     assert proc.wait(timeout=120) == EXIT_OUTPUT_CLOSED, err
     assert err == ""
@@ -46,9 +56,8 @@ def test_a_short_command_whose_reader_left_exits_141_quietly(tmp_path: Path) -> 
 
 def test_the_dispatchers_own_help_whose_reader_left_exits_141_quietly(tmp_path: Path) -> None:
     """``mearm --help | true``: the list of subcommands, not a traceback, meets the pipe."""
-    proc = _popen(["--help"], tmp_path)
-    assert proc.stdout is not None and proc.stderr is not None
-    proc.stdout.close()  # gone before the help is written (the interpreter takes longer)
+    proc = _popen(["--help"], tmp_path, reader_gone=True)
+    assert proc.stderr is not None
     err = proc.stderr.read().decode()
     assert proc.wait(timeout=120) == EXIT_OUTPUT_CLOSED, err
     assert err == ""
