@@ -424,14 +424,33 @@ def twin_extends(of: Path, out: Path) -> str:
     return os.path.relpath(of.absolute(), out.absolute().parent)
 
 
-def render_twin(of: Path, out: Path, arm: ArmChoice, rig: RigChoice) -> str:
-    """A config that extends the maker's own ``of`` and simulates it on ``rig``.
+def _servo_limits_on(joints: dict[str, Any], mine: Config) -> dict[str, Any]:
+    """The twin reference's ``arm.joints`` servo settings, on the maker's actuated joints.
+
+    The reference names its own joints (``base``, ``shoulder`` …). A maker's joints may be
+    named otherwise (then the twin did not load: "no item named 'base'"), or be more (a
+    wrist servo, a rail, which then ran with no acceleration limit, the limit that keeps a
+    held object in the claw). A servo setting is its shaft's, whatever the joint, so each
+    of the maker's actuated joints gets the strictest the reference gives any of its own.
+    """
+    settings: dict[str, float] = {}
+    for entry in joints.values():
+        for key, value in (entry.get("servo") or {}).items():
+            settings[key] = min(value, settings.get(key, value))
+    if not settings:
+        return {}
+    return {j.name: {"servo": dict(settings)} for j in mine.arm.joints if j.actuated}
+
+
+def render_twin(of: Path, out: Path, arm: ArmChoice, rig: RigChoice, mine: Config) -> str:
+    """A config that extends the maker's own ``of`` (loaded: ``mine``), on ``rig``.
 
     The arm, the classes and the bins stay the maker's (``extends``); the servo link and
     the camera become the simulated ones, and the table the simulated camera sees (its
     calibration and its objects) is the reference's simulated config's. On the twin rig
     the twin reference's own settings (``simulator``, ``twin``, the approach height …)
-    are added as that file writes them.
+    are added as that file writes them, its joints' servo limits on the maker's joints
+    (:func:`_servo_limits_on`).
     """
     folder = reference_config_dir()
     sim = load_config(folder / arm.sim)
@@ -440,6 +459,12 @@ def render_twin(of: Path, out: Path, arm: ArmChoice, rig: RigChoice) -> str:
     if rig.name == "sim_mujoco":
         twin = load_yaml_text((folder / arm.twin).read_text(encoding="utf-8"), source=arm.twin)
         own = {k: v for k, v in twin.items() if k != EXTENDS_KEY}
+        if "joints" in own.get("arm", {}):
+            rest = {k: v for k, v in own["arm"].items() if k != "joints"}
+            joints = _servo_limits_on(own["arm"]["joints"], mine)
+            own["arm"] = {**rest, **({"joints": joints} if joints else {})}
+            if not own["arm"]:
+                del own["arm"]
     task = {"scene": [s.model_dump(mode="json", exclude_defaults=True) for s in sim.task.scene]}
     sections: dict[str, Any] = {
         EXTENDS_KEY: extends,
@@ -606,7 +631,7 @@ def _write_twin(of: Path, out: Path, arm_name: str | None, rig: RigChoice) -> in
         raise MearmError(f"{out}: write the twin beside {of}, not over it")
     mine = load_config(of)
     arm = ARMS[arm_name] if arm_name else arm_of(mine)
-    text = render_twin(of, out, arm, rig)
+    text = render_twin(of, out, arm, rig, mine)
     name = str(out)
     twin = load_yaml_text(text, source=name)
     if not out.parent.exists():  # made on writing: "new/../my_arm.yaml" cannot be read yet
