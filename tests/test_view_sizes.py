@@ -119,7 +119,7 @@ def test_a_browser_that_never_draws_is_a_named_error_at_the_timeout(browser_tmp,
     page = tmp_path / "never_draws.html"
     page.write_text(NEVER_DRAWS)
     out = tmp_path / "view.png"
-    proc = _run(["-c", SHOOT, page.as_uri(), str(out), "15"], browser_tmp)  # the page alone
+    proc = _run(["-c", SHOOT, page.as_uri(), str(out), "8"], browser_tmp)  # the page alone
     assert proc.returncode == 1, proc.stderr
     err = proc.stderr.strip()
     assert len(err.splitlines()) == 1, err
