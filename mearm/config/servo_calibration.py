@@ -35,6 +35,8 @@ MAX_COUPLING = 100.0
 US_PER_SERVO_DEG = 10.0
 #: The pulse at which a hobby servo is centred [µs]: its scale error pivots here.
 NEUTRAL_US = 1500.0
+#: The fields of a servo's line from value to pulse (each has a default, a guess).
+CALIBRATION_FIELDS = ("zero_us", "direction", "us_per_unit")
 #: Speeds a servo may be given [s/60°]: the fastest hobby servos turn at about 0.04 s/60°,
 #: sail-winch servos at about 1 s/60°.
 SECONDS_PER_60DEG_RANGE = (0.01, 2.0)
@@ -133,9 +135,17 @@ class ServoCalibration(Strict):
         if self.min_us - 1e-6 <= p <= self.max_us + 1e-6:
             return None
         lo, hi = self.value_range()
+        # a calibration field left out takes a default no servo was measured to have: say
+        # so, or a forgotten zero_us reads as a wrong limit
+        defaulted = [
+            f"{k} {getattr(self, k):g}"
+            for k in CALIBRATION_FIELDS
+            if k not in self.model_fields_set
+        ]
+        given = f" ({', '.join(defaulted)}: not given, the defaults)" if defaulted else ""
         return (
             f"needs a {p:.0f} µs pulse, outside the servo's [{self.min_us}, {self.max_us}] "
-            f"µs, which allows [{lo:.4g}, {hi:.4g}]"
+            f"µs, which allows [{lo:.4g}, {hi:.4g}]{given}"
         )
 
     def check_value(self, value: float, what: str) -> None:
