@@ -153,7 +153,7 @@ class ArduinoBus(SerialServoBus):
                 raise BannerTimeoutError(self.port, timeout, bytes(seen) + self._drain())
             decoded = decode_line(line)
             if isinstance(decoded, Reply) and decoded.kind == "READY":
-                log.info("%s: banner %r", self.port, line)
+                log.info("%s: banner %r", self.port, decoded.raw)
                 # another firmware's banner is left to the V reply's check
                 name, version = (*decoded.fields, "", "")[:2]
                 major = version_major(version)
@@ -161,7 +161,7 @@ class ArduinoBus(SerialServoBus):
                     raise FirmwareVersionError(
                         self.port, f"{name} {version}", major, PROTOCOL_MAJOR
                     )
-                return line
+                return decoded.raw  # without noise before it on its line
             old = decode_protocol1_banner(line)
             if old is not None:  # its V reply could not even be read: refused by its line
                 firmware = " ".join(old.fields[:2]) or "a firmware of protocol 1"
@@ -260,12 +260,17 @@ class ArduinoBus(SerialServoBus):
         pose is unknown, so nothing more may reach it, above all not the next move, which
         the freshly booted firmware would make at once.
 
+        The board sends whole lines only, so a line begun and not ended is on its way (a
+        banner's 29 bytes take 2.5 ms at 115200 baud, and may come in two USB packets):
+        it is waited for, up to ``servo.ack_timeout_s``, before anything is written.
+
         Raises:
             BoardResetError: the board printed its banner since the last reply.
             LinkDroppedError: the port failed.
         """
         self._take_waiting()
-        while (line := self._read_line(deadline=0.0)) is not None:
+        in_flight = time.monotonic() + self.link.ack_timeout_s
+        while (line := self._read_line(in_flight if self._rx else 0.0)) is not None:
             decoded = decode_line(line)
             if isinstance(decoded, Reply) and decoded.kind == "READY":
                 raise self._board_reset(line)

@@ -180,9 +180,36 @@ def split_frame(line: bytes) -> tuple[bytes, bool] | None:
     return body, checksum(body) == sent
 
 
+#: What a banner starts with; also found after noise on its line (:func:`decode_line`).
+BANNER_HEAD = b"READY "
+
+
+def _after_noise(raw: bytes) -> bytes | None:
+    """The part of ``raw`` from its last :data:`BANNER_HEAD` on, if noise comes before it."""
+    start = raw.rfind(BANNER_HEAD)
+    return raw[start:] if start > 0 else None
+
+
 def decode_line(line: bytes) -> Decoded:
-    """Parse one board line (without or with its newline)."""
+    """Parse one board line (without or with its newline).
+
+    A banner is found after noise on its line too: a restarting chip can put a byte or
+    two on the wire before its banner (its TX pin floats while it resets), with no
+    newline between, and a banner missed is a reset missed (the next move sent to a
+    freshly booted board, which makes it at once).
+    """
     raw = line.rstrip(b"\r\n")
+    decoded = _decode(raw)
+    tail = _after_noise(raw) if not isinstance(decoded, Reply) else None
+    if tail is not None:
+        banner = _decode(tail)
+        if isinstance(banner, Reply) and banner.kind == "READY":
+            return banner
+    return decoded
+
+
+def _decode(raw: bytes) -> Decoded:
+    """:func:`decode_line` of a line without its newline, taken whole."""
     split = split_frame(raw)
     if split is None:
         return Unparseable(raw)
@@ -207,13 +234,15 @@ def decode_protocol1_banner(line: bytes) -> Reply | None:
     """The banner of a board still running protocol 1 (``READY mearm_servo 1.0 5*25``).
 
     Its lines end in the XOR of their bytes (``*HH``), which :func:`decode_line` takes
-    for noise. Recognised by its intact XOR, so that such a board is refused by name
+    for noise. Recognised by its intact XOR (after noise on its line too, as
+    :func:`decode_line` finds a banner), so that such a board is refused by name
     (reflash it) rather than waited on until no banner seems to have come.
 
     Returns:
         The banner as a ``READY`` :class:`Reply`, or ``None`` if ``line`` is not one.
     """
     raw = line.rstrip(b"\r\n")
+    raw = _after_noise(raw) or raw
     split = _split(raw, 2)
     if split is None or _xor(split[0]) != split[1]:
         return None
