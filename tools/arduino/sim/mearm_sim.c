@@ -120,16 +120,40 @@ static double wall_s(void) {
   return ts.tv_sec + ts.tv_nsec * 1e-9;
 }
 
-static int usage(const char *prog) {
-  fprintf(stderr, "usage: %s [-x SPEED] [-t] FIRMWARE.elf\n", prog);
-  return 2;
+static int usage(FILE *to, const char *prog) {
+  fprintf(to, "usage: %s [-x SPEED] [-t] FIRMWARE.elf\n", prog);
+  return to == stdout ? 0 : 2;
+}
+
+/* One line and exit 2 for a file that is not an ELF (the .hex beside it, a folder, a
+ * missing file): simavr would print lines of its own, or load the bytes and run garbage. */
+static int check_elf(const char *prog, const char *path) {
+  FILE *f = fopen(path, "rb");
+  unsigned char magic[4] = {0};
+  size_t n = f ? fread(magic, 1, sizeof(magic), f) : 0;
+  int err = f ? (ferror(f) ? errno : 0) : errno;
+  if (f) fclose(f);
+  if (err) {
+    fprintf(stderr, "%s: cannot read %s: %s\n", prog, path, strerror(err));
+    return 2;
+  }
+  if (n < sizeof(magic) || memcmp(magic, "\x7f" "ELF", 4) != 0) {
+    fprintf(stderr, "%s: cannot read %s: not an ELF file (give the firmware's .elf, "
+            "build/mearm_servo.elf, not its .hex)\n", prog, path);
+    return 2;
+  }
+  return 0;
 }
 
 int main(int argc, char **argv) {
   double speed = 1.0;
   int opt;
-  while ((opt = getopt(argc, argv, "x:t")) != -1) {
-    if (opt == 't') {
+  if (argc == 2 && strcmp(argv[1], "--help") == 0) return usage(stdout, argv[0]);
+  opterr = 0;
+  while ((opt = getopt(argc, argv, "hx:t")) != -1) {
+    if (opt == 'h') {
+      return usage(stdout, argv[0]);
+    } else if (opt == 't') {
       timing = 1;
     } else if (opt == 'x') {
       char *end;
@@ -138,13 +162,16 @@ int main(int argc, char **argv) {
         fprintf(stderr, "%s: -x takes a speed from 0 to 1000, got %s\n", argv[0], optarg);
         return 2;
       }
-    } else {
-      return usage(argv[0]);
+    } else {  /* one line, not getopt's own and the usage after it */
+      fprintf(stderr, "%s: unknown option or missing value: -%c; usage: %s [-x SPEED] [-t] "
+              "FIRMWARE.elf\n", argv[0], optopt, argv[0]);
+      return 2;
     }
   }
-  if (optind != argc - 1) return usage(argv[0]);
+  if (optind != argc - 1) return usage(stderr, argv[0]);
   avr_global_logger_set(log_to_stderr);
   const char *elf = argv[optind];
+  if (check_elf(argv[0], elf) != 0) return 2;
   elf_firmware_t fw;
   memset(&fw, 0, sizeof(fw));
   if (elf_read_firmware(elf, &fw) != 0) {
