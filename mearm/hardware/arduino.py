@@ -29,6 +29,7 @@ from mearm.hardware.errors import (
     NoAckError,
 )
 from mearm.hardware.mearm_protocol import (
+    BANNER_HEAD,
     ERR_CHECKSUM,
     ERROR_CODES,
     FIRMWARE_NAME,
@@ -36,6 +37,7 @@ from mearm.hardware.mearm_protocol import (
     PROTOCOL_MAJOR,
     SEQ_MODULO,
     BadChecksum,
+    Decoded,
     FirmwareInfo,
     Reply,
     Unparseable,
@@ -272,7 +274,7 @@ class ArduinoBus(SerialServoBus):
         in_flight = time.monotonic() + self.link.ack_timeout_s
         while (line := self._read_line(in_flight if self._rx else 0.0)) is not None:
             decoded = decode_line(line)
-            if isinstance(decoded, Reply) and decoded.kind == "READY":
+            if _is_banner(decoded):
                 raise self._board_reset(line)
             if isinstance(decoded, Reply) and decoded.kind == "NOTE":
                 log.info("%s: board notice %r", self.port, line)
@@ -300,6 +302,8 @@ class ArduinoBus(SerialServoBus):
                     last_state=self.state,
                 )  # fmt: skip
             decoded = decode_line(line)
+            if _is_banner(decoded):
+                raise self._board_reset(line)
             if isinstance(decoded, Unparseable):
                 if decoded.raw:
                     if len(garbage) < _GARBAGE_KEPT:
@@ -308,8 +312,6 @@ class ArduinoBus(SerialServoBus):
                 continue
             if isinstance(decoded, BadChecksum):
                 return decoded
-            if decoded.kind == "READY":
-                raise self._board_reset(line)
             if decoded.kind == "NOTE":
                 log.info("%s: board notice %r", self.port, line)
                 continue
@@ -319,3 +321,16 @@ class ArduinoBus(SerialServoBus):
                 log.warning("%s: ignored a stale reply %r (waiting for %d)", self.port, line, seq)
                 continue
             return decoded
+
+
+def _is_banner(decoded: Decoded) -> bool:
+    """Whether a line read after the handshake is a banner: a reset.
+
+    Its checksum intact or not: no other line the board sends holds ``READY ``, and a
+    banner damaged on the wire (a chip restarting puts noise on it) is still a board
+    that restarted. Taken for a bad reply, it had the command sent again, to the freshly
+    booted board, which made that move at once from a pose nobody knows.
+    """
+    if isinstance(decoded, Reply):
+        return decoded.kind == "READY"
+    return BANNER_HEAD in decoded.raw
