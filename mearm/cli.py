@@ -280,6 +280,24 @@ def backup_written(path: Path) -> str:
     return f"wrote {backup_path(path)} (the old {path})"
 
 
+def backup_existing(path: Path, new_text: str | None = None) -> None:
+    """Keep an existing regular file's contents as ``<path>.bak`` before it is replaced.
+
+    With ``new_text``, only when that changes the file: rewriting the same bytes loses
+    nothing, and a backup of them would replace an older ``.bak`` that still differs.
+    The backup is named on stdout once written (:func:`backup_written`), as every file a
+    command writes is.
+
+    Raises:
+        OSError: the backup could not be written (the file is as it was).
+    """
+    from mearm.fileio import backup_path, write_atomic
+
+    if path.is_file() and (new_text is None or path.read_bytes() != new_text.encode("utf-8")):
+        write_atomic(backup_path(path), path.read_bytes())
+        print(backup_written(path), flush=True)
+
+
 def write_text_atomic(path: Path, text: str) -> None:
     """Write ``text`` to ``path`` in one step (:func:`mearm.fileio.write_atomic`).
 

@@ -54,10 +54,13 @@ writes it. A fit that does not converge stops the sort before its first pick (ex
 
 Each file the sort writes is named on stdout as it lands, also with ``--quiet``:
 ``wrote PATH`` for ``--save-mjcf PATH`` (before the run) and ``--save-calibration FILE``
-(after the calibration's line; an existing FILE kept first, ``wrote FILE.bak (the old
-FILE)``), and ``wrote DIR/ (N episodes, F frames)`` for ``--record DIR`` (once the
-run is over and the dataset written, before the summary). The outcome stays the last
-line.
+(after the calibration's line), each after ``wrote PATH.bak (the old PATH)`` where it
+replaces a file (kept first; not an MJCF that already holds the same scene), and ``wrote
+DIR/ (N episodes, F frames)`` for ``--record DIR`` (once the run is over and the dataset
+written, before the summary). The outcome stays the last line. An output that is the
+``--scene`` or ``--config`` file, or the file of another output or of ``--log`` (by any
+name), is refused before any work (exit 2): it would replace what the run reads or the
+log it is writing.
 """
 
 from __future__ import annotations
@@ -84,11 +87,13 @@ try:
         EXIT_OK,
         ArgumentParser,
         add_config_argument,
+        backup_existing,
         check_output_file,
         config_from_args,
         echo_line,
         invoked_as,
         plain_int,
+        refuse_own_inputs,
         run,
         seed_value,
         write_text_atomic,
@@ -246,6 +251,37 @@ def _check_arguments(parser: ArgumentParser, args: argparse.Namespace) -> None:
         check_output_file(args.save_mjcf, "--save-mjcf")
     if args.save_calibration is not None:
         check_output_file(args.save_calibration, "--save-calibration")
+    _refuse_shared_files(args)
+
+
+def _refuse_shared_files(args: argparse.Namespace) -> None:
+    """Refuse, before any work, an output that is an input or another output (by any name).
+
+    ``--save-mjcf`` over the ``--scene`` or ``--config`` file would replace what the run
+    reads; over the ``--log`` file (or ``--save-calibration`` over it) it would replace
+    the log the run is writing, whose records would then go to a file no longer there.
+
+    Raises:
+        MearmError: two of the run's files are one.
+    """
+    outputs = [("--save-mjcf", args.save_mjcf), ("--save-calibration", args.save_calibration)]
+    if all(path is None for _, path in outputs):
+        return  # the log alone: RunLog refuses a file that is not a run log
+    from mearm.config.files import resolve_config_path  # noqa: PLC0415  (an output given)
+    from mearm.fileio import file_identity  # noqa: PLC0415
+
+    config_file = resolve_config_path(args.config) if args.config is not None else None
+    refuse_own_inputs(outputs, [("--scene", args.scene), ("--config", config_file)])
+    named = [(flag, path) for flag, path in [*outputs, ("--log", args.log)] if path is not None]
+    for i, (flag, path) in enumerate(named):
+        for other_flag, other in named[i + 1 :]:
+            ids = file_identity(path), file_identity(other)
+            # files not made yet are one where their paths resolve to one
+            same = ids[0] == ids[1] if None not in ids else path.resolve() == other.resolve()
+            if same:
+                raise MearmError(
+                    f"{flag} {path}: is also the {other_flag} file {other}: give each its own file"
+                )
 
 
 def _check_work_area(config: Config) -> None:
@@ -365,8 +401,7 @@ def _sort(argv: Sequence[str] | None) -> int:
 
     try:
         if mjcf is not None:  # the last of the inputs accepted (the log's lock included)
-            write_text_atomic(args.save_mjcf, mjcf)
-            print(f"wrote {args.save_mjcf}", flush=True)
+            _save_mjcf(args.save_mjcf, mjcf)
         report = run_sort(
             config,
             scene=scene,
@@ -531,6 +566,25 @@ def _scene_mjcf(config: Config, scene: list[SceneObject] | None) -> str:
             update={"task": config.task.model_copy(update={"scene": list(scene)})}
         )
     return generate_mjcf(config)
+
+
+def _save_mjcf(path: Path, mjcf: str) -> None:
+    """Write ``--save-mjcf PATH``, an existing file kept as ``PATH.bak`` first.
+
+    A second run, or a name shared with the user's own model, must not lose what was
+    there. Each file is named on stdout as it lands, the backup first; a file that already
+    holds these bytes gets no backup (it loses nothing, and an older ``.bak`` that still
+    differs is kept).
+
+    Raises:
+        MearmError: the backup or the file cannot be written (the old file stays as it was).
+    """
+    try:
+        backup_existing(path, mjcf)
+    except OSError as exc:
+        raise MearmError(f"cannot keep {path} as {path}.bak: {exc.strerror or exc}") from None
+    write_text_atomic(path, mjcf)
+    print(f"wrote {path}", flush=True)
 
 
 def _print_summary(lines: list[str], config: Config) -> None:

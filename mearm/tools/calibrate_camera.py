@@ -66,6 +66,7 @@ from ruamel.yaml.comments import CommentedMap, CommentedSeq
 from mearm.cli import (
     PLAIN_DECIMAL,
     ArgumentParser,
+    backup_existing,
     backup_written,
     check_output_file,
     check_plain_number,
@@ -77,7 +78,7 @@ from mearm.config import config_from_dict
 from mearm.config.base import MAX_LENGTH_CM, short_repr
 from mearm.config.errors import CalibrationError
 from mearm.errors import ConfigError, InputFileError, MearmError
-from mearm.fileio import backup_path, file_identity, write_atomic
+from mearm.fileio import file_identity, write_atomic
 from mearm.vision.aruco import (
     DEFAULT_DICTIONARY,
     calibration_from_markers,
@@ -418,18 +419,6 @@ def write_atomically(path: Path, text: str) -> None:
         if not stat.S_ISREG(info.st_mode):
             raise MearmError(f"{path}: not a regular file; write the calibration to a file")
     write_atomic(path, text)
-
-
-def backup_existing(path: Path, new_text: str | None = None) -> None:
-    """Keep an existing regular file's contents as ``<path>.bak`` before it is replaced.
-
-    With ``new_text``, only when that changes the file: rewriting the same bytes loses
-    nothing, and a backup of them would replace an older ``.bak`` that still differs.
-    The backup is named on stdout once written, as every file a command writes is.
-    """
-    if path.is_file() and (new_text is None or path.read_bytes() != new_text.encode("utf-8")):
-        write_atomic(backup_path(path), path.read_bytes())
-        print(backup_written(path))
 
 
 def _parser() -> ArgumentParser:
