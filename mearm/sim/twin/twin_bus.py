@@ -45,7 +45,8 @@ it, and the twin keeps the arm awake while its setpoints move (a nil applied for
 where they are, and must not sleep meanwhile). While everything sleeps, a hold only
 advances the time (:meth:`TwinArm._hold_steps`).
 
-The sim does not wait for the wall clock unless ``servo.sim_realtime`` is set.
+The sim does not wait for the wall clock unless ``servo.sim_realtime`` is set; then its
+moves, holds and waits for arrival each take their time on it.
 """
 
 from __future__ import annotations
@@ -53,6 +54,7 @@ from __future__ import annotations
 import copy
 import logging
 import math
+import time
 from dataclasses import dataclass
 
 import mujoco
@@ -323,8 +325,16 @@ class TwinArm(ServoBus):
     # ----------------------------------------------------------------- physics
 
     def _hold(self, seconds: float) -> None:
-        """The bus's ``hold``: the physics runs on with the last command (a gripper closing)."""
+        """The bus's ``hold``: the physics runs on with the last command (a gripper closing).
+
+        A paced bus (``servo.sim_realtime``) then waits out the rest of the hold on the
+        wall clock, as the kinematic sim and a real link do: the gripper's settings are
+        most of a sort's motion, and a paced twin ran them at the physics' speed.
+        """
+        start = time.monotonic()
         self._run(seconds)
+        if self.paced:
+            time.sleep(max(0.0, seconds - (time.monotonic() - start)))
 
     def settle(self, seconds: float) -> None:
         """Run the physics for ``seconds`` with no new command (the servos keep driving)."""
@@ -500,6 +510,8 @@ class TwinArm(ServoBus):
                 k = int(np.argmax(error))
                 raise self._stall(k, "timeout", f"did not arrive within {timeout_s:.2f} s")
             before = pot
+            if self.paced:  # each period of the wait on the wall clock too, as a move's
+                self._rate.wait(self.period_s)
             self._run(self.period_s)
             waited += self.period_s
 
