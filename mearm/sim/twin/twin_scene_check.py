@@ -92,6 +92,13 @@ def _check_scene(config: Config) -> None:
         _check_belt(config)
     table = TableContents.of(task, config.belt)
     for c in task.classes:
+        if c.bin_inner_width_cm < c.diameter_cm:  # the twin's walls would hold none of them
+            raise ModelError(
+                f"class {c.name}: its bin is {c.bin_inner_width_cm:g} cm wide inside "
+                f"(bin_width_cm), narrower than its objects ({c.diameter_cm:g} cm across): "
+                f"none could land in it; make it at least {c.diameter_cm:g} cm "
+                "(task.classes)"
+            )
         wall = _wall_height_m(config, c.name)
         release = (c.bin_cm[2] - config.arm.tool.tcp_above_grip_cm - c.grip_z_cm) * M_PER_CM
         if release < wall:
