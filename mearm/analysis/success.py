@@ -79,7 +79,7 @@ def success_table(routes: Iterable[RouteRecord], class_names: Sequence[str] = ()
             a row even with no route. Classes that occur in the routes but not here are
             added after them, in order of appearance.
     """
-    first = [r for r in routes if r.attempt == 1]
+    first = [r for r in routes if r.attempt == 1 and r.confirmed]
     order = list(dict.fromkeys([*class_names, *(r.color for r in first)]))
 
     def per_class(step: str) -> tuple[dict[str, Rate], Rate]:
@@ -133,7 +133,11 @@ def pick_outcomes(
     """
     if attempts not in ("first", "all"):
         raise AnalysisError(f"attempts must be 'first' or 'all', got {attempts!r}")
-    picks = select_routes(routes, step="pick", first_attempt=attempts == "first")
+    picks = [
+        r
+        for r in select_routes(routes, step="pick", first_attempt=attempts == "first")
+        if r.confirmed  # a fault before the check: neither a success nor a failure
+    ]
     errors = np.array([r.error_norm_cm for r in picks], dtype=float)
     success = np.array([r.success for r in picks], dtype=bool)
     return errors, success

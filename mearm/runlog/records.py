@@ -157,6 +157,10 @@ class RouteRecord(_Record):
     arrival); ``None`` on a place, where not measured, or in logs written before it."""
     success: bool
     """Pick: the object was gripped. Place: it landed in its bin."""
+    confirmed: bool = True
+    """Whether ``success`` was found out: a fault (a link lost, Ctrl-C) before the check
+    leaves the route unconfirmed, ``success`` false but no failure, and the analysis
+    counts it in no success rate (``true`` in logs written before it)."""
     elapsed_s: _Seconds
     motion_s: _Seconds
 

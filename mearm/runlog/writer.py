@@ -254,8 +254,8 @@ class RunLog:
         """Close the trial with its summary.
 
         Fields not given are computed from the records written since the header:
-        ``sorted`` (successful places per colour), ``failures`` (routes whose
-        ``success`` is false), ``skipped``, ``routes``, ``mean_iterations``,
+        ``sorted`` (successful places per colour), ``failures`` (confirmed routes
+        whose ``success`` is false), ``skipped``, ``routes``, ``mean_iterations``,
         ``mean_final_error_cm`` (the solver's), ``motion_s`` (sum over routes; a sort
         gives its whole run's, the figure it prints) and ``ok`` (no fault was written).
         """
@@ -266,7 +266,7 @@ class RunLog:
                 c: sum(1 for r in routes if r.step == "place" and r.success and r.color == c)
                 for c in dict.fromkeys(r.color for r in routes)
             },
-            "failures": sum(1 for r in routes if not r.success),
+            "failures": sum(1 for r in routes if r.confirmed and not r.success),
             "skipped": len(trial.skips),
             "routes": len(routes),
             "mean_iterations": float(np.mean([r.iterations for r in routes])) if routes else None,

@@ -226,6 +226,7 @@ class Reporter:
                 error_cm=route.error_cm.tolist(),
                 grip_ee_cm=_finite(route.grip_ee_cm),
                 success=bool(route.success),
+                confirmed=bool(route.confirmed),
                 elapsed_s=route.elapsed_s,
                 motion_s=route.motion_s,
             )
