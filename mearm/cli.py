@@ -58,6 +58,16 @@ class ArgumentParser(argparse.ArgumentParser):
     def error(self, message: str) -> NoReturn:  # noqa: D102
         self.exit(EXIT_BAD_INPUT, f"{self.prog}: error: {one_line(message)}\n")
 
+    def add_argument(self, *args: Any, **kwargs: Any) -> argparse.Action:
+        """As argparse's, but a path (``type=Path``) may not be empty.
+
+        ``Path("")`` is ``.``: ``--log=`` or ``--scene ""`` was refused as the folder
+        ``.`` (or read as the current folder), naming a path nobody typed.
+        """
+        if kwargs.get("type") is Path:
+            kwargs["type"] = non_empty_path
+        return super().add_argument(*args, **kwargs)
+
     def parse_known_args(  # type: ignore[override]  # noqa: D102
         self, args: Sequence[str] | None = None, namespace: argparse.Namespace | None = None
     ) -> tuple[argparse.Namespace, list[str]]:
@@ -78,6 +88,13 @@ class ArgumentParser(argparse.ArgumentParser):
                 out.append(argv[i])
                 i += 1
         return out
+
+
+def non_empty_path(text: str) -> Path:
+    """An argument's path; the empty text is refused (``Path("")`` would be ``.``)."""
+    if not text:
+        raise argparse.ArgumentTypeError("the value is empty: give a path")
+    return Path(text)
 
 
 #: What a number typed on the command line may be made of, for the errors that refuse one.
