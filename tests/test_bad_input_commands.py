@@ -63,7 +63,7 @@ CASES: list[tuple[list[str], str]] = [
     # servo-steps
     (["servo-steps", "--degrees", "nan", "--csv", "s.csv"], "--degrees must be in (0, 90]"),
     (["servo-steps", "--degrees", "0", "--csv", "s.csv"], "--degrees must be in (0, 90]"),
-    (["servo-steps", "--csv", "{folder}"], "not a file in an existing folder"),
+    (["servo-steps", "--csv", "{folder}"], "exists and is not a regular file (a folder)"),
     # camera-accuracy
     (["camera-accuracy", "--heights", "x"], "--heights wants numbers like 1,2.5"),
     (["camera-accuracy", "--config", TWIN, "--views", "0"],

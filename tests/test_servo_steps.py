@@ -54,7 +54,7 @@ def test_each_joint_reaches_its_step_and_the_plot_is_drawn(tmp_path):
             ("--before", "inf.csv", "--out", "p.png"),
             "--before inf.csv: line 3: step_deg, t_s and angle_deg must",
         ),
-        (("--csv", "empty.csv/steps.csv"), "--csv empty.csv/steps.csv: not a file in an"),
+        (("--csv", "empty.csv/steps.csv"), "--csv empty.csv/steps.csv: cannot write:"),
         ((), "nothing to write: give --csv FILE, --out FILE.png, or both"),  # it ran, silent
         (("--before", "inf.csv", "--csv", "s.csv"), "--before is drawn in the plot"),
         (("--out", "plot.txt"), "the plot is a PNG, so its name ends in .png"),

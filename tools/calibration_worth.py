@@ -16,11 +16,14 @@ calibration and with the file, and ``mearm analyze --json`` on each log. The nom
 ``servo.calibrate_at_start=never``: a config that calibrates the servos by the camera at
 the start of each sort (``sim_mujoco_kits.yaml`` does) would otherwise not sort on the
 nominal calibration (a run with the file never does). ``--sensitivity`` adds one run per
-joint servo calibrated alone (the file with only that actuator). Prints a Markdown table
-of the mean final end-effector error and the first-attempt picks (simulated). Every file
-goes into ``--out``; a run already logged there is not repeated (the experiment resumes
-its log), nor a calibration file already there (whatever reading seed wrote it: use a
-fresh ``--out`` for other reading seeds).
+joint servo calibrated alone (the file with only that actuator). Prints a ``wrote PATH``
+line per file written, then a Markdown table of the mean final end-effector error and the
+first-attempt picks (simulated). Bad input (an option, the config, ``--out``) is refused
+with one line and exit 2 before anything is made; a ``mearm`` step that fails ends the
+run with exit 1 and its last line. Every file goes into ``--out`` (made if missing); a
+run already logged there is not repeated (the experiment resumes its log), nor a
+calibration file already there (whatever reading seed wrote it: use a fresh ``--out``
+for other reading seeds).
 """
 
 from __future__ import annotations
@@ -29,25 +32,55 @@ import argparse
 import json
 import subprocess
 import sys
+from collections.abc import Sequence
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
 import yaml
 
-from mearm.cli import plain_int
+from mearm.cli import (
+    ArgumentParser,
+    check_output_folder,
+    config_path_value,
+    plain_int,
+    run,
+    seed_value,
+    worker_count,
+    write_text_atomic,
+)
+from mearm.errors import MearmError
 
 ROOT = Path(__file__).resolve().parent.parent
+#: What every kit's runs set: the kit's seed (here 1, for the check of the config) and
+#: one arm per kit.
+KIT_SETS = ("twin.kit.seed=1", "twin.kit.per_trial=false")
+
+
+class StepFailed(MearmError):
+    """One of the ``mearm`` commands the tool runs failed: the run's failure, exit 1."""
+
+    exit_status = 1
 
 
 def mearm(*args: str, ok: tuple[int, ...] = (0,)) -> subprocess.CompletedProcess[str]:
-    """Run ``python -m mearm ...``; exit on another status with its stderr's last line."""
+    """Run ``python -m mearm ...``; on another status, fail with its stderr's last line.
+
+    The ``wrote PATH`` lines it printed are printed here too: every file the tool has
+    written for it is named on standard output.
+
+    Raises:
+        StepFailed: the command exited with a status not in ``ok``.
+    """
     done = subprocess.run(
         [sys.executable, "-m", "mearm", *args], capture_output=True, text=True, check=False
     )
+    for line in done.stdout.splitlines():
+        if line.startswith("wrote "):
+            print(line, flush=True)
     if done.returncode not in ok:
         last = (done.stderr.strip().splitlines() or ["(no output)"])[-1]
-        raise SystemExit(f"calibration_worth: mearm {args[0]} failed: {last}")
+        raise StepFailed(f"mearm {args[0]} failed (exit {done.returncode}): {last}")
     return done
 
 
@@ -65,7 +98,8 @@ def only(path: Path, name: str, out: Path) -> Path:
     """A copy of a calibration file with only the actuator ``name``."""
     data = yaml.safe_load(path.read_text())
     data["actuators"] = {name: data["actuators"][name]}
-    out.write_text(yaml.safe_dump(data, sort_keys=False))
+    write_text_atomic(out, yaml.safe_dump(data, sort_keys=False))
+    print(f"wrote {out}", flush=True)
     return out
 
 
@@ -96,19 +130,57 @@ def run_arm(config: str, kit: int, calib: Path | None, log: Path, args: argparse
     return json.loads(mearm("analyze", str(log), "--json").stdout)
 
 
-def main() -> int:
-    """Run the kits; print the table."""
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--config", default=str(ROOT / "configs" / "sim_mujoco_kits.yaml"))
-    p.add_argument("--kits", type=plain_int, default=20)
-    p.add_argument("--trials", type=plain_int, default=1)
-    p.add_argument("--seed", type=plain_int, default=0)
-    p.add_argument("--jobs", type=plain_int, default=2)
-    p.add_argument("--out", type=Path, default=Path("calib_worth"))
-    p.add_argument("--sensitivity", action="store_true")
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the kits; print the table.
+
+    Every input is checked before anything is made: the options, the ``--out`` folder
+    (made only then) and the config (read with the kits' settings, simulated by the twin).
+    """
+    p = ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument(
+        "--config",
+        type=config_path_value,
+        default=ROOT / "configs" / "sim_mujoco_kits.yaml",
+        help="the twin's config with a kit spread (twin.kit), a file or a shipped config's "
+        "name (default: configs/sim_mujoco_kits.yaml)",
+    )
+    p.add_argument(
+        "--kits",
+        type=plain_int,
+        default=20,
+        metavar="N",
+        help="N kits, twin.kit.seed 1..N (default 20)",
+    )
+    p.add_argument(
+        "--trials", type=plain_int, default=1, help="trials per kit and calibration (default 1)"
+    )
+    p.add_argument(
+        "--seed",
+        type=seed_value,
+        default=0,
+        help="the experiments' seed, the same scenes for every run (default 0)",
+    )
+    p.add_argument(
+        "--jobs",
+        type=worker_count,
+        default=2,
+        help="experiments run at once, one process each (default 2)",
+    )
+    p.add_argument(
+        "--out",
+        type=Path,
+        default=Path("calib_worth"),
+        help="folder of every file written, made if missing; what is already there is "
+        "reused, not redone (default: calib_worth)",
+    )
+    p.add_argument(
+        "--sensitivity",
+        action="store_true",
+        help="also one run per joint servo calibrated alone",
+    )
     p.add_argument(
         "--reading-seed",
-        type=plain_int,
+        type=seed_value,
         default=0,
         metavar="BASE",
         help="base of the kits' reading seeds (kit k's: reading_seed(BASE, k); default 0)",
@@ -118,11 +190,20 @@ def main() -> int:
         action="store_true",
         help="every kit's reading seed is BASE itself: the same misreadings on every arm",
     )
-    args = p.parse_args()
-    if args.kits < 1 or args.trials < 1 or args.jobs < 1:
-        p.error("--kits, --trials and --jobs are integers ≥ 1")
-    if not 0 <= args.reading_seed < 2**32:
-        p.error("--reading-seed is an integer in [0, 2³²−1]")
+    args = p.parse_args(argv)
+    if args.kits < 1 or args.trials < 1:
+        raise MearmError(f"--kits and --trials must be ≥ 1, got {args.kits} and {args.trials}")
+    check_output_folder(args.out, "--out")
+    from mearm.config import load_config  # noqa: PLC0415  (not for --help)
+
+    config = load_config(args.config, KIT_SETS)
+    if config.simulator != "mujoco":
+        raise MearmError(
+            f"--config {args.config}: simulator is {config.simulator!r}; the kits are "
+            "calibrated and sorted in the twin: give a config with simulator: mujoco "
+            "(sim_mujoco_kits, ...)"
+        )
+    args.config = str(args.config)
     args.out.mkdir(parents=True, exist_ok=True)
     joints = ("base", "shoulder", "elbow", "gripper")
     jobs = []
@@ -158,7 +239,8 @@ def main() -> int:
 
     with ThreadPoolExecutor(args.jobs) as pool:
         results = list(pool.map(one, jobs))
-    (args.out / "results.json").write_text(json.dumps(results, indent=1))
+    write_text_atomic(args.out / "results.json", json.dumps(results, indent=1))
+    print(f"wrote {args.out / 'results.json'}", flush=True)
     labels = list(dict.fromkeys(label for _, label, _ in results))
     readings = (
         f"reading seed {args.reading_seed} for every kit"
@@ -202,4 +284,4 @@ def _picks(summary: dict) -> tuple[int, int]:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    run(main)

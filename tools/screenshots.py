@@ -17,6 +17,11 @@ Each group writes PNGs under ``docs/images/`` (``--out`` elsewhere):
   first, middle and last frames as ``mearm dataset show`` draws them
   (``dataset_sheet.png``; simulated, seed 0; needs the ``record`` extra).
 
+A file of the same name in the output folder is replaced without asking (no ``--force``,
+unlike the ``mearm`` commands): this is a developer tool whose job is to redraw the
+pictures committed under ``docs/images/`` (CONTRIBUTING.md: never by hand), and git keeps
+the ones it replaces. Give ``--out`` another folder to keep a folder's PNGs as they are.
+
 Examples::
 
     python tools/screenshots.py                       # every group
@@ -348,7 +353,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument(
         "--only", action="append", choices=GROUPS, help="render only this group (repeatable)"
     )
-    parser.add_argument("--out", type=Path, default=OUT_DIR, help="folder for the PNGs")
+    parser.add_argument(
+        "--out",
+        type=Path,
+        default=OUT_DIR,
+        help="folder for the PNGs (default: docs/images); PNGs of the same names there are "
+        "replaced, without a --force: the tool redraws the committed pictures, and git keeps "
+        "the old ones",
+    )
     args = parser.parse_args(argv)
     groups = args.only or list(GROUPS)
     args.out.mkdir(parents=True, exist_ok=True)

@@ -14,7 +14,8 @@ physics runs on with that command; its measured angle is sampled every 4 ms for 
 model's, written by this command run against it) dashed under this model's, which is
 how the plot in docs/twin.md compares the servo model before and after a change. An
 existing ``--csv`` or ``--out`` is refused before the measurement unless ``--force``
-(the plot in docs/images is redrawn with it).
+(the plot in docs/images is redrawn with it); a folder on their path that does not exist
+yet is made, as ``mkdir -p`` would.
 """
 
 from __future__ import annotations
@@ -28,6 +29,7 @@ from pathlib import Path
 from mearm.cli import (
     ArgumentParser,
     add_config_argument,
+    check_output_file,
     config_from_args,
     plain_float,
     refuse_to_replace,
@@ -181,9 +183,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         default=[10.0, 60.0],
         help="the steps, each up from home or, past a limit, down (default: 10 60)",
     )
-    parser.add_argument("--csv", type=Path, help="write the responses here (CSV)")
+    parser.add_argument(
+        "--csv", type=Path, help="write the responses here (CSV; missing folders are made)"
+    )
     parser.add_argument("--before", type=Path, help="an earlier run's CSV, drawn dashed (--out)")
-    parser.add_argument("--out", type=Path, help="write the plot here (PNG)")
+    parser.add_argument(
+        "--out", type=Path, help="write the plot here (PNG; missing folders are made)"
+    )
     parser.add_argument("--force", action="store_true", help="replace an existing --csv or --out")
     args = parser.parse_args(argv)
     if args.csv is None and args.out is None:
@@ -195,8 +201,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     if any(not 0 < d <= 90 for d in args.degrees):
         raise MearmError("--degrees must be in (0, 90]")
     for flag, path in (("--csv", args.csv), ("--out", args.out)):
-        if path is not None and (path.is_dir() or not path.resolve().parent.is_dir()):
-            raise MearmError(f"{flag} {path}: not a file in an existing folder")
+        if path is not None:  # a missing folder is made when the file is written
+            check_output_file(path, flag)
     outputs = [p.resolve() for p in (args.csv, args.out) if p is not None]
     if len(set(outputs)) < len(outputs) or (
         args.before is not None and args.before.resolve() in outputs

@@ -167,11 +167,23 @@ def main(argv: Sequence[str] | None = None) -> int:
 def _twin_scenes(argv: Sequence[str] | None) -> int:
     parser = ArgumentParser(description=__doc__.splitlines()[0])
     add_config_argument(parser, default="sim_mujoco")
-    parser.add_argument("--scenes", type=plain_int, default=50, help="scenes, seeds S … S+N−1")
     parser.add_argument(
-        "--first-seed", type=plain_int, default=0, help="S, the first scene's seed (default 0)"
+        "--scenes",
+        type=plain_int,
+        default=50,
+        metavar="N",
+        help="N scenes, seeds S … S+N−1 (default 50)",
     )
-    parser.add_argument("--objects", type=plain_int, default=12, help="objects per scene")
+    parser.add_argument(
+        "--first-seed",
+        type=plain_int,
+        default=0,
+        metavar="S",
+        help="S, the first scene's seed (default 0)",
+    )
+    parser.add_argument(
+        "--objects", type=plain_int, default=12, help="objects per scene (default 12)"
+    )
     parser.add_argument(
         "--jobs",
         type=worker_count,
@@ -180,7 +192,10 @@ def _twin_scenes(argv: Sequence[str] | None) -> int:
         f"{os.cpu_count()} CPUs); 1 sorts in this process",
     )
     parser.add_argument(
-        "--require", type=plain_float, default=0.0, help="exit 1 below this share sorted (0…1)"
+        "--require",
+        type=plain_float,
+        default=0.0,
+        help="exit 1 below this share sorted (0…1; default 0: report only)",
     )
     args = parser.parse_args(argv)
     if args.scenes < 1 or args.objects < 1 or not 0 <= args.require <= 1:

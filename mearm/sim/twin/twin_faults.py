@@ -118,6 +118,32 @@ class FaultSchedule:
                 shift += np.array(f.shift_cm) * M_PER_CM
         return CameraFaults(black, frozen, shift)
 
+    def never_struck(self, end_s: float) -> list[str]:
+        """Say, as a warning each, the faults that never struck in a run that ended at ``end_s``.
+
+        A fault timed after the run's end (or a camera fault with no frame read after its
+        time) changed nothing: a user testing the sort's fault handling must not take it
+        for exercised. Called once the run is over (the twin's bus closing); the warnings
+        go where the struck faults' go (this module's logger).
+
+        Returns:
+            One line per fault never struck, in the order of ``twin.faults``' times.
+        """
+        left = [*self._arm, *(f for f in self._camera if not any(f is s for s in self.struck))]
+        lines = [
+            f"twin: fault {_describe(f)} at_s = {f.at_s:g} s never struck: the run ended at "
+            f"t = {end_s:.3f} s"
+            + (
+                "; no frame was read after it"
+                if f.at_s <= end_s and not isinstance(f, LimpServo | KnockObject)
+                else ""
+            )
+            for f in sorted(left, key=lambda f: f.at_s)
+        ]
+        for line in lines:
+            log.warning("%s", line)
+        return lines
+
 
 def _describe(fault: TwinFault) -> str:
     fields = fault.model_dump(exclude={"kind", "at_s"})
