@@ -2,8 +2,9 @@
 
 On the real rig (``configs/lab.yaml``) the camera and the Arduino do the work; on the
 simulated rig (``configs/sim.yaml``, the default) both are simulated and the table holds
-the paper's 12-object layout unless ``--scene`` or ``--random N`` (1 to 500 objects) says
-otherwise::
+the paper's 12-object layout unless ``--scene`` or ``--random N`` says otherwise (1 to 500
+objects, as many as fit where the camera sees and the arm reaches: about 50 on the paper's
+table; more is refused, saying how many fit)::
 
     python -m mearm.sort --config configs/sim.yaml --log run.jsonl [--view [--collision]]
 
@@ -42,6 +43,11 @@ A ``vision.work_area_px`` polygon is checked against the camera's frames
 it: one that keeps no pixel of them is refused (exit 2); one that keeps under half of
 them while lying mostly outside them (taught on a photo of another size) is named in one
 line on stderr (``mearm sort: warning: …``, also with ``--quiet``), and the sort goes on.
+
+Where part of the camera's view of the table is out of the arm's reach at a pick height,
+one line on stderr says how much before the arm moves (``mearm sort: note: 3% of the
+camera's view of the table … is out of the arm's reach …``; not with ``--quiet``): objects
+there are reported and left.
 
 On servos that were never calibrated — a real board (``servo.backend`` ``serial`` or
 ``ssc32``) or the twin with a kit of servos (``twin.kit``), without a
@@ -137,7 +143,10 @@ def add_scene_arguments(parser: ArgumentParser) -> None:
         "--random",
         type=plain_int,
         metavar="N",
-        help=f"simulated table: N random objects (1 to {MAX_SCENE_OBJECTS})",
+        help=(
+            f"simulated table: N random objects (1 to {MAX_SCENE_OBJECTS}, as many as fit "
+            "where the camera sees and the arm reaches: more is refused, saying how many fit)"
+        ),
     )
     parser.add_argument("--seed", type=seed_value, help="seed for --random (default 0)")
 
@@ -363,7 +372,7 @@ def _sort(argv: Sequence[str] | None) -> int:
     args = parser.parse_args(argv)
     _check_arguments(parser, args)
     config = config_from_args(args)
-    check_consistency(config)  # before the scene, the log or any output: the config first
+    consistency = check_consistency(config)  # before the scene, the log or any output
     _check_work_area(config)
     calibrate_first = _calibrate_first(config, args.save_calibration)
     scene = scene_from_args(args, config)
@@ -386,10 +395,13 @@ def _sort(argv: Sequence[str] | None) -> int:
         log = None
     if log is not None:
         print(f"run log: {args.log}", flush=True)
-    note = None if args.quiet else calibration_note(config, _config_args(args))
-    # said once the rig is open, before the arm moves: a camera that is not there ends the
-    # sort before it starts (logged, exit 2) with one line on stderr, not the note too;
-    # and a real camera is opened once (some webcams are slow to, or fail to, reopen)
+    calibration = None if args.quiet else calibration_note(config, _config_args(args))
+    # the config's notes (servos never calibrated, with the command that calibrates them;
+    # a camera's view partly out of the arm's reach) said once the rig is open, before the
+    # arm moves: a camera that is not there ends the sort before it starts (logged, exit 2)
+    # with one line on stderr, not the notes too; and a real camera is opened once (some
+    # webcams are slow to, or fail to, reopen)
+    notes = [] if args.quiet else [*filter(None, [calibration]), *consistency.notes]
     report: SortReport | None = None
     aborted: SortAborted | None = None  # why the sort stopped, said on stderr
     outcome = _Outcome(recorder, args, held, lines, config)
@@ -413,7 +425,7 @@ def _sort(argv: Sequence[str] | None) -> int:
             on_view=hold if args.hold else None,
             recorder=recorder,
             calibrate_first=calibrate_first,
-            on_open=_said_on_open(note),
+            on_open=_said_on_open(notes),
         )
     except SortAborted as exc:
         aborted = exc
@@ -540,12 +552,16 @@ def _quiet_echo(lines: list[str]) -> Callable[[str], None]:
     return echo
 
 
-def _said_on_open(note: str | None) -> Callable[[Rig], None] | None:
-    """What prints ``note`` as one line on stderr once the rig is open (``None``: no note)."""
-    if note is None:
+def _said_on_open(notes: Sequence[str]) -> Callable[[Rig], None] | None:
+    """What prints each of ``notes`` as one line on stderr once the rig is open.
+
+    Notes are stderr's, as warnings and errors are (docs/getting-started.md: stdout holds
+    the results): ``mearm sort: note: …``. ``None`` when there is nothing to say.
+    """
+    if not notes:
         return None
-    line = f"mearm sort: {note}"
-    return lambda rig: print(line, file=sys.stderr, flush=True)
+    text = "".join(f"mearm sort: {note}\n" for note in notes)
+    return lambda rig: print(text, end="", file=sys.stderr, flush=True)
 
 
 def _config_args(args: object) -> list[str]:

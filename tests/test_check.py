@@ -47,8 +47,8 @@ def test_the_unreachable_share_of_the_view_is_said_once(capsys):
     from mearm.sort import main
 
     code = main(["--random", "2", "--seed", "1"])
-    lines = capsys.readouterr().out.splitlines()
-    notes = [ln for ln in lines if ln.startswith("note:")]
+    lines = capsys.readouterr().err.splitlines()
+    notes = [ln for ln in lines if ln.startswith("mearm sort: note:")]
     assert code == 0 and len(notes) == 1
     assert "of the camera's view of the table" in notes[0] and "12.76 cm" in notes[0]
 

@@ -122,9 +122,10 @@ def run_sort(
     """Write the trial's header, open the rig, sort, close everything.
 
     The config's consistency is checked first (:func:`~mearm.task.check.check_consistency`),
-    before any device opens. A failure before the sort starts (an inconsistent config, a
-    camera or servo that never opens, a recording whose encoder cannot start) still leaves
-    a fault and a summary in the log after the header.
+    before any device opens; its notes are the caller's to say (``mearm sort`` says them
+    on stderr, apart from the sort's lines). A failure before the sort starts (an
+    inconsistent config, a camera or servo that never opens, a recording whose encoder
+    cannot start) still leaves a fault and a summary in the log after the header.
 
     Args:
         config: The whole configuration.
@@ -154,10 +155,7 @@ def run_sort(
     try:
         if log is not None:
             log.header(config, trial=trial, seed=seed, argv=argv, scene=scene_layout(config, scene))
-        consistency = check_consistency(config)
-        if echo is not None:
-            for note in consistency.notes:
-                echo(note)
+        check_consistency(config)
         with open_rig(config, scene) as rig:
             if on_open is not None:
                 on_open(rig)

@@ -411,7 +411,8 @@ def random_scene(
 
     Raises:
         SceneError: a count below 0, more than :data:`~mearm.config.sections.MAX_SCENE_OBJECTS`
-            objects, a seed outside [0, 2³² − 1], or the objects do not fit.
+            objects, a seed outside [0, 2³² − 1], or the objects do not fit (it says how
+            many one layout held: with the same seed, that many or fewer are placed).
     """
     order = _class_order(config, counts, seed)
     rng = np.random.default_rng(seed)
@@ -423,6 +424,7 @@ def random_scene(
     angles = np.linspace(0.0, 2 * np.pi, 8, endpoint=False)
     margins = FOOTPRINT_MARGIN_CM * np.column_stack([np.cos(angles), np.sin(angles)])
     tries = 0
+    most = 0  # the most objects one layout held: as many as the same seed is sure to place
     while True:  # a layout whose first objects leave no room for the next starts again
         placed: list[SceneObject] = []
         poses: list[np.ndarray] = []
@@ -430,10 +432,11 @@ def random_scene(
             for _ in range(PER_OBJECT_DRAWS):
                 tries += 1
                 if tries > max_tries:
+                    fit = f"at most {most} fit" if most else "none fit"
                     raise SceneError(
                         f"could not place {len(order)} objects {min_dist - diameter:.3g} cm "
-                        f"apart in the reachable camera field after {max_tries} draws; ask "
-                        "for fewer"
+                        f"apart in the reachable camera field: {fit} in {max_tries} draws "
+                        f"with seed {seed}" + (f"; ask for {most} or fewer" if most else "")
                     )
                 x, y = round(rng.uniform(x0, x1), 2), round(rng.uniform(y0, y1), 2)
                 found = _candidate(
@@ -446,6 +449,7 @@ def random_scene(
                 new, q = found
                 placed.append(new)
                 poses.append(q)
+                most = max(most, len(placed))
                 break
             else:
                 break  # no room for this one: start the layout again
