@@ -6,8 +6,9 @@ JSON the files written are keys inside it. calibrate-camera, aruco-sheet, charuc
 and urdf said theirs on stderr; detect
 --annotate, bench --out, eval-policy --out/--videos, camera-accuracy --json/--work and
 virtual-uno-pulses --json named nothing. Each command runs here in this process, in a
-folder of its own, on the real files. A recording (``--record``) is the one file named on
-stderr: it is closed after the sort's outcome, which stays stdout's last line.
+folder of its own, on the real files. A recording (``--record``) is named on stdout too,
+once it is closed after the run, before the sort's summary: the outcome stays stdout's
+last line.
 """
 
 from __future__ import annotations

@@ -110,7 +110,8 @@ class FirmwareVersionError(HandshakeError):
     Found from its banner, before anything is sent (``sent``: from its ``V`` reply, when
     the banner named the right version): a board of another protocol would read this
     host's lines as garbled at best. Version 1 (lines checked by an XOR) is the
-    firmware flashed before the CRC-16; ``mearm flash`` puts this checkout's on the board.
+    firmware flashed before the CRC-16; ``mearm flash`` puts the one this mearm ships on the
+    board, from :data:`mearm.data.FIRMWARE_DIR` (a wheel has no checkout, but has that).
 
     Attributes:
         port: The serial port or URL.
@@ -129,8 +130,9 @@ class FirmwareVersionError(HandshakeError):
         check = " (lines checked by an XOR, not a CRC-16)" if board_major == 1 else ""
         super().__init__(
             f"{port}: the board runs {firmware}, which speaks protocol {board_major}{check}; "
-            f"this host speaks protocol {host_major}: reflash the board with this checkout's "
-            f"firmware (mearm flash --port {port}, docs/maker-path.md)"
+            f"this host speaks protocol {host_major}: reflash the board with the firmware "
+            f"this mearm ships (mearm flash --port {port} builds it from its "
+            f"mearm/data/firmware; docs/maker-path.md)"
             + ("" if sent else "; nothing was sent to it")
         )
 

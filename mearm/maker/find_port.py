@@ -253,7 +253,8 @@ def _listen(ser: serial.SerialBase, port: SerialPort, timeout_s: float) -> PortR
 def _outdated(port: SerialPort, firmware: str, major: int) -> PortReport:
     """A board running the mearm firmware of another protocol: reflash it.
 
-    No command of this host's would be read; ``mearm flash`` puts this checkout's on it.
+    No command of this host's would be read; ``mearm flash`` puts the one this mearm ships
+    on it.
     """
     return PortReport(
         port,
@@ -512,6 +513,15 @@ def main(argv: Sequence[str] | None = None) -> int:
     for report in reports:
         print(format_report(report, width))
     boards = [r.port.device for r in reports if r.status == "mearm"]
+    outdated = [r.port.device for r in reports if r.status == "outdated"]
+    if not boards and outdated:
+        # a board is there, with the mearm firmware of another protocol: the remedy is to
+        # reflash it, as its line above says, not to flash some other board
+        where = outdated[0] if len(outdated) == 1 else "PORT"
+        raise NoBoardFound(
+            f"no mearm board found that speaks protocol {PROTOCOL_MAJOR}: reflash the one "
+            f"of another protocol on {', '.join(outdated)} (mearm flash --port {where})"
+        )
     if not boards:
         raise NoBoardFound(
             "no mearm board found: flash one (mearm flash --port PORT), or find an unknown "
