@@ -19,7 +19,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, NoReturn, Protocol, TextIO, TypeVar, cast
 
 from mearm import interrupts
-from mearm.errors import MearmError
+from mearm.errors import ConfigError, MearmError
 
 if TYPE_CHECKING:  # only the pools' callers import concurrent.futures (7 ms)
     from concurrent.futures import Executor, Future
@@ -284,6 +284,33 @@ def config_from_args(args: argparse.Namespace) -> Config:
     from mearm.config import load_config  # noqa: PLC0415  (not for --help or --version)
 
     return load_config(args.config, getattr(args, "set", None) or ())
+
+
+def check_closed_form(config: Config) -> None:
+    """Refuse, naming the config as its other errors do, an ``arm.closed_form`` it cannot use.
+
+    The name is valid data, so the config loads (:mod:`mearm.config` cannot build the
+    closed form: :mod:`mearm.kinematics` imports it); every solver of the arm builds it
+    (:func:`~mearm.kinematics.closed_form_for`) and stops on an unknown name or an arm
+    without the structure the formula needs. Called first by what solves or describes a
+    config (``mearm ik``, ``mearm urdf``, a sort's config check), so the line says where
+    the arm came from.
+
+    Raises:
+        ConfigError: the closed form's problem, with the config's source, led by the
+            arm's unit hints (:func:`~mearm.config.loader.unit_hints`: an alpha in
+            radians is the likely cause of a structure the formula does not know).
+    """
+    from mearm.config.files import config_source  # noqa: PLC0415  (not for --help)
+    from mearm.config.loader import unit_hints  # noqa: PLC0415
+    from mearm.kinematics import closed_form_for  # noqa: PLC0415
+    from mearm.kinematics.errors import ModelError  # noqa: PLC0415
+
+    try:
+        closed_form_for(config.arm)
+    except ModelError as exc:
+        hints = unit_hints(config.model_dump(mode="json"))
+        raise ConfigError(config_source(config), [*hints, str(exc)]) from None
 
 
 def backup_written(path: Path) -> str:

@@ -14,6 +14,7 @@ elbow) cannot be sent to within its pulse range, are refused (exit 2). The JSON'
 from __future__ import annotations
 
 import json
+import sys
 from collections.abc import Sequence
 
 from mearm.cli import (
@@ -24,6 +25,7 @@ from mearm.cli import (
     invoked_as,
     run,
 )
+from mearm.config.files import unit_warning
 from mearm.hardware.mapping import ServoMap
 from mearm.ik.result import joint_units
 from mearm.kinematics import ArmModel
@@ -64,6 +66,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     found = ServoMap.from_arm(config.arm).outside_pulse_range(args.joints)
     if found is not None:
         raise found.error()  # a pose the servos cannot be sent to, as the planner refuses it
+    # an arm in mm or radians: valid, but not the one built; said once the input is taken
+    # (bad input is one line)
+    warning = unit_warning(config)
+    if warning is not None:
+        print(f"{parser.prog}: warning: {warning}", file=sys.stderr, flush=True)
     ee_cm = model.fk_cm(q)
     approach = model.approach(q)
     named = chain.named(q)

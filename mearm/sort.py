@@ -401,7 +401,10 @@ def _sort(argv: Sequence[str] | None) -> int:
     # arm moves: a camera that is not there ends the sort before it starts (logged, exit 2)
     # with one line on stderr, not the notes too; and a real camera is opened once (some
     # webcams are slow to, or fail to, reopen)
-    notes = [] if args.quiet else [*filter(None, [calibration]), *consistency.notes]
+    # an arm whose lengths look like mm or angles like radians is valid but not the arm
+    # that was built: said also with --quiet, as the work area's warning is
+    warnings = [f"warning: {w}" for w in consistency.warnings]
+    notes = [*warnings, *([] if args.quiet else [*filter(None, [calibration]), *consistency.notes])]
     report: SortReport | None = None
     aborted: SortAborted | None = None  # why the sort stopped, said on stderr
     outcome = _Outcome(recorder, args, held, lines, config)

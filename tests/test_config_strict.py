@@ -36,10 +36,10 @@ def _error(path: str | Path | None, overrides: list[str]) -> str:
     ("override", "said"),
     [
         ("controller.kp=true", "controller.kp: expected a number, got true"),
-        ("controller.kp=yes", "controller.kp: expected a number, got true"),
+        ("controller.kp=yes", "controller.kp: expected a number, got 'yes'"),
         ("arm.joints.shoulder.home=true", "arm.joints.shoulder.home: expected a number, got true"),
         ("task.pick_retries=false", "task.pick_retries: expected a number, got false"),
-        ("task.approach_height_cm=on", "task.approach_height_cm: expected a number, got true"),
+        ("task.approach_height_cm=on", "task.approach_height_cm: expected a number, got 'on'"),
         ("task.classes.red.bin_cm=[1, true, 3]", "task.classes.red.bin_cm.1: expected a number"),
         (
             "arm.joints.base.servo.direction=true",

@@ -18,7 +18,7 @@ from pathlib import Path
 from typing import Any
 
 from mearm.config.base import short_repr
-from mearm.config.loader import config_from_dict, file_keys_set
+from mearm.config.loader import config_from_dict, file_keys_set, unit_hints
 from mearm.config.root import Config
 from mearm.data import config_names, packaged_config
 from mearm.errors import ConfigError
@@ -127,6 +127,21 @@ def config_source(config: Config) -> str | None:
     :func:`load_config` returned; ``None`` for one built in code or a changed copy.
     """
     return _SOURCES.get(id(config))
+
+
+def unit_warning(config: Config) -> str | None:
+    """The arm's unit hints as one line naming the config, else ``None``.
+
+    Lengths that look like mm or angles that look like radians
+    (:func:`~mearm.config.loader.unit_hints`) make a valid arm, one of the wrong size or
+    shape: ``mearm fk``, ``mearm ik`` and a sort's config check
+    (:mod:`mearm.task.check`) say it as a warning (``PROG: warning: LINE``) and go on.
+    """
+    hints = unit_hints(config.model_dump(mode="json"))
+    if not hints:
+        return None
+    where = config_source(config)
+    return f"{where + ': ' if where else ''}{'; '.join(hints)}"
 
 
 def _remember_source(config: Config, source: str) -> Config:

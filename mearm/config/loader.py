@@ -17,16 +17,18 @@ from __future__ import annotations
 
 import copy
 import functools
+import math
 import re
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeGuard
 
 from pydantic import ValidationError
 from pydantic_core import ErrorDetails
 
 from mearm.config.base import (
     MAX_LENGTH_CM,
+    NOT_A_NUMBER,
     describe_error,
     example_file,
     loc_text,
@@ -198,11 +200,11 @@ def config_from_dict(
     try:
         return Config.model_validate(data)
     except ValidationError as exc:
-        problems = [_in_user_words(e, data) for e in exc.errors()]
-        hint = millimetre_hint(data)
+        typed = _typed_values(overrides)
+        problems = [_in_user_words(e, data, typed) for e in exc.errors()]
         if overrides and _valid(own):  # the file is good: a --set value is what is wrong
             source = "--set"
-        raise ConfigError(source, [hint, *problems] if hint else problems) from None
+        raise ConfigError(source, [*unit_hints(data), *problems]) from None
 
 
 def _valid(data: Any) -> bool:
@@ -261,13 +263,35 @@ def _arm_file(data: Any) -> str:
     return example_file("mearm_paper")
 
 
-def _in_user_words(err: ErrorDetails, data: Any) -> str:
-    """One line for one pydantic error, in the words of the user's file.
+def _typed_values(overrides: Sequence[str]) -> dict[tuple[str, ...], str]:
+    """Each key ``overrides`` set, as its parts, to the value as typed (the last one's).
+
+    A key set again, or inside a section set after it, shows what was typed last.
+    """
+    typed: dict[tuple[str, ...], str] = {}
+    for text in overrides:
+        key, _, raw = text.partition("=")
+        path = tuple(part.strip() for part in key.strip().split("."))
+        typed = {k: v for k, v in typed.items() if k[: len(path)] != path}
+        typed[path] = raw.strip()
+    return typed
+
+
+def _in_user_words(
+    err: ErrorDetails, data: Any, typed: dict[tuple[str, ...], str] | None = None
+) -> str:
+    """One line for one pydantic error, in the words of the user's file or ``--set``.
 
     Joints, classes and tool actuators by name, not index; an unknown key with the key
-    it most likely meant and the file that shows every key of its section.
+    it most likely meant and the file that shows every key of its section; a boolean
+    given for a number as ``--set`` typed it (``'yes'``: YAML 1.1 reads it as true).
     """
     loc = _named_loc(err["loc"], data)
+    if err["type"] == NOT_A_NUMBER and typed:
+        for path in (loc, err["loc"]):
+            raw = typed.get(tuple(str(part) for part in path))
+            if raw is not None and raw not in ("true", "false"):  # those read as typed
+                return f"{loc_text(loc)}: expected a number, got {short_repr(raw)}"
     if err["type"] != "extra_forbidden":
         return describe_error({**err, "loc": loc})
     *section, key = loc
@@ -309,6 +333,75 @@ def millimetre_hint(data: Any) -> str | None:
         f"arm.joints: {', '.join(long)}: lengths are in cm; these look like mm "
         f"(8 cm is 8.0, not 80)"
     )
+
+
+#: How near a multiple of π/2 a DH angle [rad] must be to read as one (1.57 and 1.5708 do).
+RADIAN_TOLERANCE = 0.002
+#: A full turn [rad], the largest angle a radian DH angle or limit is read as.
+_TURN = 2 * math.pi
+
+
+def radian_hint(data: Any) -> str | None:
+    """A hint when the arm's angles look like radians, else ``None``.
+
+    Said only where no arm in degrees writes the value, so a hint is never a false alarm
+    (every reference arm and shipped config gives none, ``tests/test_r5_t2_units.py``):
+
+    - a DH ``alpha_deg`` or ``theta_deg`` within :data:`RADIAN_TOLERANCE` of ±π/2, ±π,
+      ±3π/2 or ±2π (``1.5708``, ``3.1416``): the right angles a DH row is made of,
+      written in radians; 1.57° or 3.14° is no angle an arm's frames are built at.
+    - an actuated revolute joint whose limits both lie within ±2π (``{min: -2.6, max:
+      -0.17}``): a whole range of travel under 13° about the zero is no servo joint's,
+      while every range in radians is within a turn.
+    """
+    arm = data.get("arm") if isinstance(data, dict) else None
+    joints = arm.get("joints") if isinstance(arm, dict) else None
+    if not isinstance(joints, list):
+        return None
+    found = []
+    for k, joint in enumerate(joints):
+        if not isinstance(joint, dict):
+            continue
+        name = joint.get("name", k)
+        dh = joint.get("dh")
+        for key in ("alpha_deg", "theta_deg"):
+            value = dh.get(key) if isinstance(dh, dict) else None
+            if _number(value) and _right_angle_in_radians(value):
+                found.append(f"{name}.dh.{key} = {value:g}")
+        limits = joint.get("limits")
+        low = limits.get("min") if isinstance(limits, dict) else None
+        high = limits.get("max") if isinstance(limits, dict) else None
+        if (
+            joint.get("type", "revolute") == "revolute"
+            and joint.get("coupling") is None  # a passive joint's limits are derived
+            and _number(low)
+            and _number(high)
+            and low < high
+            and max(abs(low), abs(high)) <= _TURN + RADIAN_TOLERANCE
+        ):
+            found.append(f"{name}.limits = [{low:g}, {high:g}]")
+    if not found:
+        return None
+    return (
+        f"arm.joints: {', '.join(found)}: angles are in degrees; these look like radians "
+        "(90° is 90.0, not 1.5708)"
+    )
+
+
+def _number(value: Any) -> TypeGuard[float]:
+    """Whether ``value`` is a finite number (not a boolean: YAML's ``yes`` is refused)."""
+    return isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
+
+
+def _right_angle_in_radians(value: float) -> bool:
+    """Whether ``value`` is ±π/2, ±π, ±3π/2 or ±2π, to :data:`RADIAN_TOLERANCE`."""
+    quarters = round(abs(value) / (math.pi / 2))
+    return 1 <= quarters <= 4 and abs(abs(value) - quarters * math.pi / 2) <= RADIAN_TOLERANCE
+
+
+def unit_hints(data: Any) -> list[str]:
+    """The arm's unit hints: lengths that look like mm, angles that look like radians."""
+    return [h for h in (millimetre_hint(data), radian_hint(data)) if h is not None]
 
 
 @functools.cache

@@ -65,6 +65,7 @@ from mearm.cli import (
     worker_count,
 )
 from mearm.config import Config, SceneObject
+from mearm.config.files import unit_warning
 from mearm.dataset.arguments import (
     add_record_arguments,
     check_record_arguments,
@@ -381,6 +382,9 @@ def _run(
         trial of this run stopped early.
     """
     _say_resuming(args.log, resume, args.trials)  # every input accepted
+    warning = unit_warning(config)  # lengths like mm, angles like radians: not the arm built
+    if warning is not None:
+        print(f"{_prog()}: warning: {warning}", file=sys.stderr, flush=True)
     set_aside = ready_to_append(args.log, resume)
     if set_aside is not None:
         print(

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 from collections.abc import Sequence
 
 import numpy as np
@@ -31,6 +32,7 @@ from mearm.cli import (
     EXIT_OK,
     ArgumentParser,
     add_config_argument,
+    check_closed_form,
     config_from_args,
     float_list,
     invoked_as,
@@ -38,6 +40,7 @@ from mearm.cli import (
     run,
 )
 from mearm.config import ArmDescription
+from mearm.config.files import unit_warning
 from mearm.config.sections import TOLERANCE_CM2_RANGE
 from mearm.hardware.mapping import ServoMap
 from mearm.ik.factory import solve_ik
@@ -82,6 +85,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--json", action="store_true", help="print JSON")
     args = parser.parse_args(argv)
     config = config_from_args(args)
+    check_closed_form(config)
+    if args.solver == "analytic" and config.arm.closed_form is None:
+        parser.error(
+            f"--solver analytic: arm {config.arm.name!r} has no closed form "
+            "(arm.closed_form is null); choose --solver pdpij or --solver mink"
+        )
     changes = {
         key: value
         for key, value in (
@@ -98,6 +107,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     q_start = _start_pose(args.start, model, servos)
     target = _target(args.target, args.approach, config.arm, chain)
     result = solve_ik(model, controller, target, q_start)
+    # an arm in mm or radians: valid, but not the one built; said once the input is taken
+    # (bad input is one line: the closed form's error above leads with the same words)
+    warning = unit_warning(config)
+    if warning is not None:
+        print(f"{parser.prog}: warning: {warning}", file=sys.stderr, flush=True)
     failure = result.failure
     unsendable = False
     if result.converged:

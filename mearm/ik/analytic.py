@@ -31,7 +31,9 @@ class AnalyticSolver(IKSolver):
     within the tolerance, else ``stalled``.
 
     Raises:
-        ModelError: the arm has no closed form.
+        ModelError: the arm has no closed form (:func:`~mearm.ik.fastest_solver` picks
+            :class:`~mearm.ik.NewtonIK` for such an arm; the message names the config's
+            choices only, as a sort or ``mearm ik`` shows it).
     """
 
     name = "analytic"
@@ -41,8 +43,7 @@ class AnalyticSolver(IKSolver):
         if self._solve_closed_form is None:
             raise ModelError(
                 f"arm {model.arm.name!r} has no closed form (arm.closed_form is null), so "
-                "the analytic solver cannot run: choose controller.solver 'pdpij' or 'mink' "
-                "(or NewtonIK, which fastest_solver() picks for such an arm)"
+                "the analytic solver cannot run: choose controller.solver 'pdpij' or 'mink'"
             )
         self._solve_closed_form_checked = self._solve_closed_form
 

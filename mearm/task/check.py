@@ -29,9 +29,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from mearm.cli import check_closed_form
 from mearm.config import ColorClass, Config
-from mearm.config.files import config_source
-from mearm.config.loader import millimetre_hint
+from mearm.config.files import config_source, unit_warning
+from mearm.config.loader import unit_hints
 from mearm.errors import ConfigError, MearmError
 from mearm.ik import APPROACH_TOLERANCE_DEG
 from mearm.ik.batch import solve_batch
@@ -60,11 +61,15 @@ class Consistency:
         unreachable_share: Per pick height [cm], the share of the camera's view of the
             table the arm cannot pick from (0–1).
         notes: Lines to show once before the run.
+        warnings: Lines for standard error before the run, each after ``PROG: warning:``
+            (:func:`~mearm.config.files.unit_warning`: an arm whose lengths look like mm
+            or angles like radians is valid, but not the arm that was built).
     """
 
     pick_z_cm: dict[str, float] = field(default_factory=dict)
     unreachable_share: dict[float, float] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)
 
 
 _CACHE: dict[str, Consistency] = {}
@@ -76,16 +81,21 @@ def check_consistency(config: Config, model: ArmModel | None = None) -> Consiste
     Results are cached per config (a run of many trials checks once).
 
     Raises:
-        ConfigError: a bin that cannot be reached from home, or a class whose picks are
-            outside the target box or reached nowhere in it; one line per
-            problem, each naming the field and its value.
+        ConfigError: an ``arm.closed_form`` the arm cannot use, a bin that cannot be
+            reached from home, or a class whose picks are outside the target box or
+            reached nowhere in it; one line per problem, each naming the field and its
+            value (led by the arm's unit hints, :func:`~mearm.config.loader.unit_hints`).
     """
     key = hashlib.sha256(config.model_dump_json().encode()).hexdigest()
     if key in _CACHE:
         return _CACHE[key]
+    check_closed_form(config)  # named with the config's source, before a solver stops on it
     model = model if model is not None else ArmModel(config.arm)
     planner = Planner(config, model)
     found = Consistency()
+    warning = unit_warning(config)
+    if warning is not None:
+        found.warnings.append(warning)
     problems = _check_bins(planner, model, config.task.classes)
     table = collision_model(config, model, clearance_cm=0.0)  # bins and table, for both checks
     problems += _check_bodies(config, model, table)
@@ -143,9 +153,10 @@ def check_consistency(config: Config, model: ArmModel | None = None) -> Consiste
             "camera (and its calibration) at the arm's reach"
         )
     if problems:
-        hint = millimetre_hint(config.model_dump(mode="json"))
-        problems = [hint, *problems] if hint else problems
-        raise ConfigError(config_source(config), _blame_calibration_file(config, problems))
+        problems = _blame_calibration_file(config, problems)
+        # an arm in mm or radians fails here first: the hint names what the problems show
+        hints = unit_hints(config.model_dump(mode="json"))
+        raise ConfigError(config_source(config), [*hints, *problems])
     _CACHE[key] = found
     return found
 

@@ -22,6 +22,7 @@ from pathlib import Path
 from mearm.cli import (
     ArgumentParser,
     add_config_argument,
+    check_closed_form,
     check_output_file,
     config_from_args,
     refuse_own_inputs,
@@ -41,10 +42,9 @@ from mearm.data import (
     shown_path,
     source_checkout,
 )
-from mearm.errors import ConfigError, MearmError
+from mearm.errors import MearmError
 from mearm.fileio import file_identity
-from mearm.kinematics import ArmModel, closed_form_for, generate_urdf
-from mearm.kinematics.errors import ModelError
+from mearm.kinematics import ArmModel, generate_urdf
 
 #: What a URDF file's name ends with (``--output`` must).
 URDF_SUFFIX = ".urdf"
@@ -149,21 +149,6 @@ def _check_output(output: Path, name: str, urdf: str, *, given: bool, force: boo
     refuse_to_replace(output, "--output" if given else "the default output", force)
 
 
-def _check_closed_form(config: Config) -> None:
-    """Refuse (exit 2, naming the config) an ``arm.closed_form`` the arm cannot use.
-
-    The URDF does not use the closed form, but every command that plans builds it
-    (:func:`~mearm.kinematics.closed_form_for`) and stops there: an unknown name, or an
-    arm without the structure the formula needs (a maker's new arm started from the
-    MeArm's block, ``planar_wrist`` kept). Said when its URDF is made, not at its first
-    sort.
-    """
-    try:
-        closed_form_for(config.arm)
-    except ModelError as exc:
-        raise ConfigError(config_source(config), [str(exc)]) from None
-
-
 def _warn_millimetres(prog: str, config: Config) -> None:
     """Say on stderr, in the words of a sort's config check, when lengths look like mm.
 
@@ -223,7 +208,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         arms = [ArmDescription.model_validate(reference_arm(name)) for name in arm_names()]
     else:
         config = config_from_args(args)
-        _check_closed_form(config)
+        check_closed_form(config)  # every command that plans would stop on it
         arms = [config.arm]
         inputs = _config_inputs(args.config, config)
         if args.output is not None:
