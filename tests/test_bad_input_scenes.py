@@ -43,6 +43,8 @@ BAD_SCENES: dict[str, tuple[str | bytes, str]] = {
     "x_huge": ("- {color: red, x: 1e308, y: 40}\n", "[0.x]"),
     "x_past_range": ("- {color: red, x: 1000.5, y: 40}\n", "[0.x]"),
     "y_text": ("- {color: red, x: 0, y: forty}\n", "[0.y]"),
+    # the value said once: it was "expected a number, got true (got True)"
+    "x_bool": ("- {color: red, x: true, y: 40}\n", "[0.x]: expected a number, got true\n"),
     "y_list": ("- {color: red, x: 0, y: [40]}\n", "[0.y]"),
     "x_long_int": ("- {color: red, x: " + "9" * 5000 + ", y: 40}\n", "a number too long"),
     "second_entry_bad": (f"- {OBJ}\n- {{color: red, x: 0}}\n", "[1.y]"),
@@ -111,7 +113,7 @@ def test_sort_refuses_a_bad_scene(name: str, scenes: dict[str, Path], tmp_path: 
         within_s=2,
         keep=[scenes["empty"].parent],
     )
-    assert ALL_SCENES[name] in out.line
+    assert ALL_SCENES[name] in out.stderr  # a "\n" in the words: they end the line
     assert not log.exists()
 
 

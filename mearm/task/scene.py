@@ -66,8 +66,11 @@ def load_scene(path: str | Path, class_names: Sequence[str] | None = None) -> li
     except ValidationError as exc:
         problems = []
         for e in exc.errors()[:10]:
-            loc = loc_text(e["loc"])
-            problems.append(f"[{loc}]: {e['msg']} (got {short_repr(e.get('input'), 60)})")
+            loc, msg = loc_text(e["loc"]), e["msg"]
+            # an error that names the value already (``expected a number, got true``) is
+            # not given it twice
+            got = "" if ", got " in msg else f" (got {short_repr(e.get('input'), 60)})"
+            problems.append(f"[{loc}]: {msg}{got}")
         raise ConfigError(str(p), problems) from None
     if class_names is not None:
         bad = [
