@@ -24,10 +24,6 @@ RST = re.compile(r"``|:(?:class|func|meth|mod|data|attr|obj|ref|math):`")
 #: References a user cannot follow: the project's internal spec, numbered sections.
 UNFOLLOWABLE = re.compile(r"\bSPEC\b|§")
 
-#: Subcommands whose help may not be fixed here (the module belongs to another
-#: engineer): name → reason. Each is an expected failure, strict.
-HELP_OWNED_ELSEWHERE: dict[str, str] = {}
-
 
 def _anchors(markdown: str) -> set[str]:
     """GitHub's anchors of every heading in a Markdown file, and explicit ``id=``s."""
@@ -154,18 +150,7 @@ def help_texts(tmp_path_factory: pytest.TempPathFactory) -> dict[str, str]:
     return computed_once(tmp_path_factory, "help-texts", _help_of_every_subcommand)
 
 
-@pytest.mark.parametrize(
-    "name",
-    [
-        pytest.param(
-            name,
-            marks=pytest.mark.xfail(strict=True, reason=HELP_OWNED_ELSEWHERE[name])
-            if name in HELP_OWNED_ELSEWHERE
-            else (),
-        )
-        for name in ["mearm", *SUBCOMMANDS]
-    ],
-)
+@pytest.mark.parametrize("name", ["mearm", *SUBCOMMANDS])
 @pytest.mark.heavy
 def test_help_is_plain_words(help_texts: dict[str, str], name: str) -> None:
     """--help shows no raw reStructuredText and no SPEC or § references."""

@@ -18,7 +18,8 @@ frame, a warning line says how much of it it covers. ::
 
 ``--sample CLASS=U,V`` (repeatable; ``CLASS=U,V@I`` for the I-th image, from 0) names a
 pixel of an object of the class; ``--pick`` shows the first frame and asks for a click
-on each class in turn (needs a display). A class not sampled keeps its hue bands.
+on each class in turn (needs a display; Esc skips a class, and with every class skipped
+nothing is taught: refused). A class not sampled keeps its hue bands.
 ``--camera`` reads the frame ``mearm detect --camera`` reads (the twin's render under
 ``simulator: mujoco``). ``--set KEY=VALUE`` changes the config before teaching, and the
 new config carries each value set. ``--work-area`` points may lie past the frame (from
@@ -73,7 +74,14 @@ from mearm.vision.detector import ColorDetector
 from mearm.vision.errors import SampleError
 from mearm.vision.image import read_image
 from mearm.vision.learned import lab_of
-from mearm.vision.teaching import TABLE_DELTA_E, TABLE_MIN_SHARE, Sample, Taught, teach
+from mearm.vision.teaching import (
+    TABLE_DELTA_E,
+    TABLE_MIN_SHARE,
+    Sample,
+    Taught,
+    click_lab,
+    teach,
+)
 from mearm.vision.work_area import check_work_area, flat_work_area, pixels_inside
 from mearm.yamlio import load_yaml_text
 
@@ -460,11 +468,9 @@ def _check_reference_is_not_an_object(
         SampleError: the reference colour is within that ΔE of a click's colour.
     """
     reference = lab_of(np.clip(np.round(taught.reference_bgr), 0, 255))
+    table_lab = np.array(taught.table_lab)
     for s in samples:
-        frame = frames[s.image]
-        u, v, k = int(s.u_px), int(s.v_px), max(1, round(radius_px))
-        near = frame[max(v - k, 0) : v + k + 1, max(u - k, 0) : u + k + 1].reshape(-1, 3)
-        off = float(np.linalg.norm(lab_of(np.median(near, axis=0)) - reference))
+        off = float(np.linalg.norm(click_lab(frames[s.image], s, radius_px, table_lab) - reference))
         if off <= TABLE_DELTA_E:
             raise SampleError(
                 str(s),
@@ -602,6 +608,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         _check_area_on_frames(area, frames, sources)
     if args.pick:
         samples += pick_samples(frames[0], [n for n in names if n not in {s.name for s in samples}])
+        if not samples:  # each class skipped: a config taught nothing is not written
+            raise MearmError(
+                "--pick: no class was clicked (Esc skipped each), so nothing was taught"
+            )
     taught = teach(
         frames,
         samples,

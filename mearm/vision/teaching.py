@@ -46,6 +46,9 @@ TABLE_MIN_SHARE = 0.05
 TABLE_MARGIN = 1.0
 #: The narrowest a learned colour's ellipse is made to keep the table out [-].
 MIN_DISTANCE = 1.5
+#: A colourless click this light [L*] is on white: a highlight, or a cube's top blown out
+#: by the camera (a yellow one's, on the real photos), whose colour shows at its sides.
+WHITE_LIGHTNESS = 90.0
 
 
 @dataclass(frozen=True)
@@ -139,6 +142,15 @@ def _like_click(
     near = np.hypot(lab[:, 1] - clicked[1], lab[:, 2] - clicked[2]) <= CLICK_DELTA
     near &= np.abs(lab[:, 0] - clicked[0]) <= CLICK_LIGHTNESS
     return lab[near] if near.any() else clicked[None, :]
+
+
+def click_lab(frame: np.ndarray, s: Sample, radius_px: float, table_lab: np.ndarray) -> np.ndarray:
+    """The colour a click teaches (CIELAB, (3,)): the median of its samples' pixels.
+
+    Those of :func:`_like_click`, so a ``--radius`` wider than the object (up to 50 px)
+    does not take the table around it for the object's colour.
+    """
+    return np.median(_like_click(frame, s, radius_px, table_lab), axis=0)
 
 
 #: The pixels under the pointer: within this of the click [px] (3 × 3).
@@ -305,10 +317,15 @@ def teach(
         lab = _like_click(balanced[s.image], s, radius_px, table_lab)
         c, lightness = float(np.median(chroma(lab))), float(np.median(lab[:, 0]))
         if c < CHROMA_MIN or lightness < LIGHTNESS_MIN:
+            advice = (
+                "it is white, a highlight or a blown-out top: click on the object's coloured side"
+                if lightness >= WHITE_LIGHTNESS
+                else "click on the object's colour"
+            )
             raise SampleError(
                 str(s),
                 f"is on a grey or black pixel (chroma {c:.0f}, lightness {lightness:.0f}; "
-                f"a colour needs chroma >= {CHROMA_MIN:g}): click on the object's colour",
+                f"a colour needs chroma >= {CHROMA_MIN:g}): {advice}",
             )
         off_table = float(np.linalg.norm(np.median(lab, axis=0) - table_lab))
         if off_table <= TABLE_DELTA_E:
