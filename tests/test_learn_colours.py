@@ -92,7 +92,7 @@ def test_unsampled_classes_keep_their_bands(
             "classes 'red' and 'green' were sampled on the same colour",
         ),
         (["red=5,5"], "grey or black pixel"),
-        (["red=12"], "expected CLASS=U,V"),
+        (["red=12"], "expected CLASS=U,V, or CLASS=U,V@I for the I-th image from 0"),
         (["red=1,2@3"], "no image 3"),
     ],
 )

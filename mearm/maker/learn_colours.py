@@ -97,7 +97,10 @@ def parse_sample(text: str) -> Sample:
     """``CLASS=U,V`` or ``CLASS=U,V@I`` as a :class:`Sample` (ValueError if malformed)."""
     m = _SAMPLE.match(text.strip())
     if m is None:
-        raise ValueError(f"--sample {text!r}: expected CLASS=U,V (e.g. red=212,340)")
+        raise ValueError(
+            f"--sample {text!r}: expected CLASS=U,V, or CLASS=U,V@I for the I-th image from 0 "
+            "(e.g. red=212,340 or red=212,340@1)"
+        )
     u, v = float(m.group(2)), float(m.group(3))
     if not (math.isfinite(u) and math.isfinite(v)):
         raise ValueError(f"--sample {text!r}: U and V must be finite pixels")
