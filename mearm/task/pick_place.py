@@ -40,6 +40,13 @@ from mearm.task.table_tracking import TableTracking, TrackedObject
 #: The turns of the jaws' opening line tried over a round object whose way down is
 #: refused [deg]: a pad beside a wall or a neighbour swings off it (90°: along it).
 ROUND_TURNS_DEG = (30.0, -30.0, 60.0, -60.0, 90.0)
+#: A pick that a bin's wall refuses is tried again moved off the wall by this share of the
+#: open jaws' room beside the object (``open_cm`` / 2 less the object's footprint radius):
+#: the rest is left for the camera's and the arm's errors, so the jaws still come down
+#: around it, and closing bring it to their middle (:meth:`PickAndPlace._off_the_wall`) ...
+WALL_SHIFT_SHARE = 0.5
+#: ... or, where that does not plan, by as much less in steps of this [cm].
+WALL_STEP_CM = 0.1
 
 
 class EpisodeRecorder(Protocol):
@@ -232,7 +239,13 @@ class PickAndPlace(TableTracking):
         self._world(table_below_cm=below)
         above, pick = self._pick_routes(obj, goal, aim, below)
         aim[2] = float(pick.target.position_cm[2] - goal.position_cm[2])
-        if not self._plan_pick(obj, above, pick, aim):
+        failed = self._plan_way_down(obj, above, pick, aim)
+        if not failed.planned:
+            moved = self._off_the_wall(obj, cls, failed, aim, below)
+            if moved is not None:
+                above, pick = moved
+                failed = pick
+        if not self._planned_or_set_aside(obj, failed):
             return
         low = None  # beside a bin's wall, where the way down stops to look again
         if above is not None:
@@ -274,16 +287,15 @@ class PickAndPlace(TableTracking):
         if planned is not None:
             self._place(obj, cls, above, pick, *planned)
 
-    def _plan_pick(
+    def _plan_way_down(
         self, obj: TrackedObject, above: Route | None, pick: Route, aim: np.ndarray
-    ) -> bool:
+    ) -> Route:
         """Plan the pick down from ``above`` (or from where the arm is), the jaws turned.
 
         A pick aimed off the object by ``aim`` [cm], (3,) (the error the picks nearby
         saw: the looks then correct the claw onto the object) is checked where the claw
-        will go, too (:meth:`_claw_way_down`). Returns whether both are planned. Otherwise
-        ``obj`` waits, blocked, when a collision refused it (another object may clear its
-        way), or is skipped.
+        will go, too (:meth:`_claw_way_down`). Returns the route that decides: planned
+        when both are, else the one refused (nothing else is changed).
         """
         if above is not None and obj.yaw_deg is not None:  # jaws across a cube's faces
             # (the yaw is a square outline's, whatever shape the class names)
@@ -299,6 +311,14 @@ class PickAndPlace(TableTracking):
                 pick.failure, pick.failure_kind = blocked, "collision"
         if failed is pick and pick.failure_kind == "collision" and above is not None:
             self._turn_round_grip(obj, above, pick, aim)
+        return failed
+
+    def _planned_or_set_aside(self, obj: TrackedObject, failed: Route) -> bool:
+        """Whether the pick's routes are planned (``failed``: the one that decides).
+
+        Otherwise ``obj`` waits, blocked, when a collision refused it (another object may
+        clear its way), or is skipped.
+        """
         if failed.planned:
             return True
         if failed.failure_kind == "collision" and obj.blocked is None:
@@ -306,6 +326,49 @@ class PickAndPlace(TableTracking):
             return False
         self._skip(obj, failed.failure or "no plan", failed, kind=failure_kind(failed))
         return False
+
+    def _off_the_wall(
+        self, obj: TrackedObject, cls: ColorClass, failed: Route, aim: np.ndarray, below: float
+    ) -> tuple[Route | None, Route] | None:
+        """The pick's routes moved off the bin's wall that refused them, planned; or ``None``.
+
+        The camera locates an object off where it stands: the twin's overhead camera,
+        calibrated on the table, sees a 1 cm object's top face up to 0.35 cm outwards
+        beside the bins (parallax), and a pick planned where it is seen may pass a bin's
+        wall within the clearance though the object stands clear of it. Open jaws wider
+        than the object grip it off their middle too (closing, they bring it there), so
+        the pick is tried again moved off the wall by :data:`WALL_SHIFT_SHARE` of the open
+        jaws' room beside the object (the rest is left for the camera's and the arm's
+        errors), then by :data:`WALL_STEP_CM` less at a time: the farthest first, as the
+        twin's arm strays up to 0.44 cm from a pick's pose and a pad planned at the
+        clearance came within 0.12 cm of the wall. Each try is planned in full with
+        every collision check, so the jaws keep the clearance from the wall wherever
+        they go. ``None`` when no bin's wall came within the clearance of the refused
+        route's path, or no try plans.
+        """
+        if failed.failure_kind != "collision" or failed.plan is None:
+            return None
+        near = [(d, c) for q in failed.plan.q_path for c, _, d in self.collision.bins_at(q)]
+        gap_cm, color = min(near, default=(np.inf, ""))
+        if gap_cm >= self.config.task.clearance_cm:
+            return None
+        bin_cls = self.config.task.class_named(color)
+        half = bin_cls.bin_inner_width_cm / 2
+        centre = np.asarray(bin_cls.bin_cm[:2], dtype=float)
+        xy = np.array([obj.x_cm, obj.y_cm])
+        away = xy - np.clip(xy, centre - half, centre + half)  # from the bin's nearest point
+        if not np.any(away):  # (over the bin: no way off its walls)
+            return None
+        away /= np.linalg.norm(away)
+        room_cm = self.config.arm.tool.gripper.open_cm / 2 - cls.footprint_radius_cm
+        steps = int(WALL_SHIFT_SHARE * room_cm / WALL_STEP_CM + 1e-9)
+        for k in range(steps, 0, -1):  # farthest first: the arm's own error eats the gap
+            x, y = xy + k * WALL_STEP_CM * away
+            goal = self.planner.pick_target(cls, float(x), float(y))
+            above, pick = self._pick_routes(obj, goal, aim, below)
+            if self._plan_way_down(obj, above, pick, aim).planned:
+                return above, pick
+        return None
 
     def _turn_round_grip(
         self, obj: TrackedObject, above: Route, pick: Route, aim: np.ndarray
