@@ -194,3 +194,20 @@ def test_screenshots_help_says_it_replaces_its_pictures(capsys):
         _tool("screenshots").main(["--help"])
     text = " ".join(capsys.readouterr().out.split())
     assert "replaced, without a --force" in text
+
+
+def test_the_twin_says_on_closing_the_faults_that_never_struck(caplog):
+    """Wired: the twin's bus, closed after a run shorter than a fault's time, logs it."""
+    from mearm.sim.twin.mjcf import twin_model  # noqa: PLC0415
+    from mearm.sim.twin.twin_bus import TwinArm  # noqa: PLC0415
+
+    config = load_config(
+        "sim_mujoco", ["twin.faults=[{kind: limp_servo, at_s: 3000, joint: base}]"]
+    )
+    arm = TwinArm(config, twin_model(config))
+    arm.connect()
+    arm.hold(0.1)
+    with caplog.at_level(logging.WARNING, logger="mearm.sim.twin.twin_faults"):
+        arm.close()
+    warned = [r.getMessage() for r in caplog.records if r.levelno == logging.WARNING]
+    assert any("limp_servo joint=base at_s = 3000 s never struck" in w for w in warned), warned

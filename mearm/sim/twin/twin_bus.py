@@ -549,4 +549,5 @@ class TwinArm(ServoBus):
         self._target = self._motor.copy()
 
     def _close(self) -> None:
-        """Nothing to release."""
+        """The run is over: say the ``twin.faults`` that never struck (nothing to release)."""
+        self.faults.never_struck(self.time_s)
