@@ -201,8 +201,12 @@ def _check_something_to_sort(config: Config, source: str) -> None:
 
 
 #: What a random scene's picks keep from bins and neighbours beyond the clearance [cm]:
-#: the twin's camera locates a 1 cm tall object up to about 0.25 cm off (its top face seen
-#: in perspective), and the pick is planned where it is seen.
+#: the twin's camera locates a 1 cm tall object off where it stands (its top face seen in
+#: perspective from a calibration on the table: 0.31-0.39 cm beside the bins, up to about
+#: 0.49 cm at the field's corners), and the pick is planned where it is seen. Where that
+#: eats this margin beside a bin's wall, the pick moves off the wall within the jaws' room
+#: (:meth:`mearm.task.pick_place.PickAndPlace._off_the_wall`); the margin stays, as every
+#: random scene is drawn with it.
 FOOTPRINT_MARGIN_CM = 0.3
 #: Draws for one object before a layout that leaves it no room starts again.
 PER_OBJECT_DRAWS = 1000
