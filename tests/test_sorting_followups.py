@@ -74,6 +74,13 @@ def test_a_sweep_stopped_by_a_fault_is_a_failed_run_not_bad_input():
     assert line.startswith("mearm conveyor-sweep: stopped at 1 cm/s: joint shoulder stalled")
 
 
+def test_a_speed_given_twice_is_refused_before_any_sort():
+    """``--speeds 1,2,1`` sorted at 1 cm/s twice and counted its objects twice in the total."""
+    r = run_in_process(["conveyor-sweep", "--speeds", "1,2,1"], within_s=30)
+    assert r.code == 2 and r.stdout == "", r.stdout
+    assert r.line == "mearm conveyor-sweep: error: --speeds: 1 cm/s given twice; give each once"
+
+
 # ----------------------------------------------------------------- belt over the base
 
 

@@ -141,6 +141,11 @@ def main(argv: Sequence[str] | None = None) -> int:
             f"config's camera is '{config.camera.kind}', not 'sim'"
         )
     check_scene(config, config.task.scene)  # a belt that brings nothing, as mearm sort
+    twice = sorted({v for v in args.speeds if args.speeds.count(v) > 1})
+    if twice:  # the same sort again: a row that adds nothing, and a total that counts it twice
+        raise MearmError(
+            f"--speeds: {', '.join(f'{v:g}' for v in twice)} cm/s given twice; give each once"
+        )
     for v in args.speeds:
         at_speed(config, v)  # a speed the arm cannot follow stops here, before any run
     rows: list[SpeedRow] = []
