@@ -12,6 +12,7 @@ from mearm.config import load_config
 from mearm.dataset.recorder import state_names
 from mearm.envs import EnvOptionError, TwinEnv
 from mearm.envs.actions import ActionSpec
+from mearm.errors import ConfigError
 
 pytestmark = pytest.mark.heavy
 
@@ -199,3 +200,17 @@ def test_bad_options_are_refused_by_name(options, words):
     """Each bad option raises EnvOptionError naming it."""
     with pytest.raises(EnvOptionError, match=words):
         TwinEnv(**options)
+
+
+@pytest.mark.parametrize(
+    ("overrides", "words"),
+    [
+        (["task.nope=3"], "overrides: task.nope: unknown key"),
+        (["task.nope"], "overrides: 'task.nope': expected dotted.key=value"),
+    ],
+)
+def test_a_bad_override_is_named_as_the_environments_overrides(overrides, words):
+    """An override given as ``overrides=`` is named so, not as the command line's --set."""
+    with pytest.raises(ConfigError, match=words) as caught:
+        TwinEnv(config="sim_mujoco", overrides=overrides)
+    assert "--set" not in str(caught.value)

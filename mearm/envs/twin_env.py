@@ -46,7 +46,7 @@ from mearm.config.sections import MAX_SCENE_OBJECTS
 from mearm.dataset.recorder import CAMERA_NAME, SCENE_TASK, task_sentence
 from mearm.envs.actions import ActionSpec
 from mearm.envs.errors import EnvOptionError
-from mearm.errors import MearmError
+from mearm.errors import ConfigError, MearmError
 from mearm.experiment import trial_config
 from mearm.hardware.command import ArmCommand
 from mearm.hardware.errors import JointLimitError, PulseRangeError, ServoError
@@ -80,6 +80,7 @@ def _config(config: str | Path | Config, overrides: Sequence[str]) -> Config:
     Raises:
         EnvOptionError: ``overrides`` is not a list of strings (one string was split into
             its characters), or is given with a loaded ``Config``.
+        ConfigError: the config, or an override (named ``overrides``, not ``--set``).
     """
     if not isinstance(overrides, list | tuple) or not all(isinstance(o, str) for o in overrides):
         one = f" (one override: overrides=[{overrides!r}])" if isinstance(overrides, str) else ""
@@ -93,7 +94,13 @@ def _config(config: str | Path | Config, overrides: Sequence[str]) -> Config:
                 "apply them yourself (load_config(name, overrides))"
             )
         return config
-    return load_config(config, tuple(overrides))
+    try:
+        return load_config(config, tuple(overrides))
+    except ConfigError as exc:
+        if exc.path != "--set":
+            raise
+        # the loader names the command line's flag; here the values came as overrides=
+        raise ConfigError("overrides", exc.problems) from None
 
 
 def default_fps(config: Config) -> int:
