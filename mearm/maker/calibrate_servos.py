@@ -58,8 +58,8 @@ back inside; the status line says ``(past the limits: base)`` meanwhile.
 
 On a simulated arm the status line also shows the arm's reading of the actuator
 (``simulated arm: 4.00 cm``; on the virtual Uno every actuator's measured pulse under the
-present calibration), or says there is none (the kinematic simulator's gripper is only
-open or closed).
+present calibration, but a joint past its limits reads its stop), or says there is none
+(the kinematic simulator's gripper is only open or closed).
 
 The calibration file is written at the end, atomically, only if at least one actuator
 was calibrated and every fit passes its checks again, all together (else exit 1,

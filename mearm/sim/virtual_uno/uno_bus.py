@@ -5,7 +5,9 @@ is measured, each pulse mapped back through the actuator's calibration,
 
 .. math:: v = (p_\text{measured} - p_0) / (s\,k),
 
-the simulated arm moved there, and the move faulted when a pulse is off the one sent.
+the simulated arm moved there, no joint past its stops (the arm description's limits:
+:mod:`mearm.sim.virtual_uno.joint_stops`), and the move faulted when a pulse is off the one
+sent.
 """
 
 from __future__ import annotations
@@ -25,6 +27,7 @@ from mearm.sim.kinematic.world import World
 from mearm.sim.virtual_uno.board import Frame, VirtualUno
 from mearm.sim.virtual_uno.build import build_virtual_uno
 from mearm.sim.virtual_uno.errors import VirtualUnoError
+from mearm.sim.virtual_uno.joint_stops import joints_at_stops
 
 
 class VirtualUnoBus(ArduinoBus):
@@ -33,7 +36,8 @@ class VirtualUnoBus(ArduinoBus):
     The board is a :class:`VirtualUno`. Every move is sent as to a real board (``M``,
     acknowledged by ``OK``); then the first servo frame that started after the ``OK`` left
     the board's UART is measured, the simulated arm over the world is put where those
-    pulses put its servos, and the move is refused
+    pulses put its servos (a joint sent past its limits stops at them, as the twin's
+    does: :func:`~mearm.sim.virtual_uno.joint_stops.joints_at_stops`), and the move is refused
     (:class:`~mearm.hardware.errors.MoveNotConfirmedError`, which stops the bus with the last
     confirmed pose) when any pulse is missing or farther than
     ``servo.virtual_uno.pulse_tolerance_us`` from the one sent. The reason names the
@@ -66,6 +70,9 @@ class VirtualUnoBus(ArduinoBus):
         self.arm = SimArm(config, world if world is not None else World.from_config(config), model)
         self.board: VirtualUno | None = None
         self.last_frame: Frame | None = None
+        #: The simulated arm's joints stop at the limits it was built with, whatever map
+        #: the host drives it by later (``calibrate-servos`` widens them to the pulses').
+        self._stops = config.arm.joint_limits()
 
     # ----------------------------------------------------------------- the arm
 
@@ -155,7 +162,7 @@ class VirtualUnoBus(ArduinoBus):
     # ----------------------------------------------------------------- measured pose
 
     def _follow(self, widths_us: Mapping[int, float]) -> None:
-        """Put the simulated arm where the measured pulses put its servos.
+        """Put the simulated arm where the measured pulses put its servos, within its stops.
 
         Raises:
             SimCollisionError: the arm ran into something; it stays, and the fault
@@ -163,14 +170,16 @@ class VirtualUnoBus(ArduinoBus):
         """
         smap = self.servo_map
         joints: dict[str, float] = {}
+        stops = self._stops
         if all(j.channel in widths_us for j in smap.joints):
             # the joints together: a servo may turn a combination of them
-            joints = smap.joints_from_pulses(widths_us)
+            servo = {j.name: j.value_of(widths_us[j.channel]) for j in smap.joints}
+            joints = joints_at_stops(smap, servo, stops)
         else:  # some channel silent: those servos stay; the others turn their own joint
             joints = {
-                j.name: j.value_of(widths_us[j.channel])
+                j.name: min(stops[j.name].max, max(stops[j.name].min, j.value_of(w)))
                 for j in smap.joints
-                if j.channel in widths_us and not j.combined
+                if (w := widths_us.get(j.channel)) is not None and not j.combined
             }
         tool = {
             a.name: a.value_of(widths_us[a.channel]) for a in smap.tool if a.channel in widths_us
