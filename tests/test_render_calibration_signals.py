@@ -42,6 +42,8 @@ USERS = {"notes.txt": b"mine\n"}
 HANG_S = 300.0
 #: How often the folder is looked at [s].
 POLL_S = 0.002
+#: Runs the first-change case makes at most to land its signal before the run ends.
+MOMENT_0_TRIES = 5
 
 
 def _start(out: Path, *args: str) -> subprocess.Popen[bytes]:
@@ -136,37 +138,58 @@ def test_a_signal_leaves_the_earlier_run_or_the_new_one(
     runs: tuple[Path, dict[str, bytes]], tmp_path: Path, moment: int, sig: signal.Signals
 ) -> None:
     earlier_folder, new_run = runs
-    folder = tmp_path / "calib"
-    shutil.copytree(earlier_folder, folder)
-    earlier, new = _files(folder), {**new_run, **USERS}
-    proc = _start(folder, *NEW, "--force")
-    try:
-        reached = _wait_for(moment, folder, proc)
-        if reached:  # not reaped yet (poll said it ran): the pid is still this process's
-            os.kill(proc.pid, signal.SIGSTOP)
-            _wait_stopped(proc.pid)
-        signalled = reached and _files(folder) != new
+    new = {**new_run, **USERS}
+    # The folder's first change is a few milliseconds before the files are written: a
+    # loaded machine may run the whole write before the watcher looks twice. That run is
+    # checked as a finished one, and the case tries again (at most MOMENT_0_TRIES runs).
+    for attempt in range(MOMENT_0_TRIES if moment == 0 else 1):
+        folder = tmp_path / f"calib{attempt}"
+        shutil.copytree(earlier_folder, folder)
+        earlier = _files(folder)
+        proc = _start(folder, *NEW, "--force")
+        try:
+            reached = _wait_for(moment, folder, proc)
+            if reached:  # not reaped yet (poll said it ran): the pid is still this process's
+                os.kill(proc.pid, signal.SIGSTOP)
+                _wait_stopped(proc.pid)
+            signalled = reached and _files(folder) != new
+            if signalled:
+                os.kill(proc.pid, sig)
+            if reached:
+                os.kill(proc.pid, signal.SIGCONT)
+            out, err = proc.communicate(timeout=HANG_S)
+        finally:
+            if proc.poll() is None:
+                proc.kill()
+                proc.communicate()
+        _check_run(folder, earlier, new, signalled, proc.returncode, out, err, sig)
         if signalled:
-            os.kill(proc.pid, sig)
-        if reached:
-            os.kill(proc.pid, signal.SIGCONT)
-        out, err = proc.communicate(timeout=HANG_S)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.communicate()
+            break
+    if moment == 0:
+        assert signalled, f"every one of {MOMENT_0_TRIES} runs finished before the signal"
+
+
+def _check_run(
+    folder: Path,
+    earlier: dict[str, bytes],
+    new: dict[str, bytes],
+    signalled: bool,
+    code: int | None,
+    out: bytes,
+    err: bytes,
+    sig: signal.Signals,
+) -> None:
+    """The folder holds one run whole, and the command said what became of it."""
     after = _files(folder)
     assert sorted(p.name for p in folder.iterdir()) == sorted(after), "a folder was left"
     whole = after in (earlier, new)
     assert whole, f"neither run whole: {sorted(after)}"
-    if moment == 0:
-        assert signalled, "the run had finished when the folder first changed"
     if signalled:
-        assert proc.returncode == 128 + sig, err.decode()
+        assert code == 128 + sig, err.decode()
         assert err.decode().strip() == "mearm render-calibration: interrupted"
         assert out == b""
     else:
-        assert proc.returncode == 0, err.decode()
+        assert code == 0, err.decode()
         assert after == new
 
 
