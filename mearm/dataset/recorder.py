@@ -47,7 +47,7 @@ import os
 import shutil
 import tempfile
 from collections import deque
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -436,6 +436,32 @@ class DatasetRecorder(EpisodeSampler):
 
     def _held_tags(self) -> list[Tag]:
         return self._tags
+
+    def check_trials_per(self, trials: Mapping[int, int]) -> None:
+        """Refuse to record an experiment's trials otherwise than the dataset holds them.
+
+        A trial run again records only the picks the dataset lacks, each known by its
+        trial's seed and its number; per scene, the trial's one episode is tagged pick 0
+        and holds every pick. A trial cut per pick by one run and per scene by the next
+        would be recorded twice, or lost in part (a worker's scene dropped as held).
+
+        Args:
+            trials: The experiment's trial numbers, by their seeds.
+
+        Raises:
+            DatasetError: An episode of one of them was recorded per the other.
+        """
+        for index, ((seed, _), row) in enumerate(zip(self._tags, self._episodes, strict=True)):
+            if seed is None or seed not in trials:
+                continue
+            held = "scene" if row["tasks"] == [SCENE_TASK] else "pick"
+            if held != self.per:
+                raise DatasetError(
+                    self.root,
+                    f"holds trial {trials[seed]} of this experiment recorded --record-per "
+                    f"{held} (episode {index}), not --record-per {self.per}: resume with "
+                    f"--record-per {held}, or record into a new directory",
+                )
 
     def write_episodes(self, episodes: list[_Episode]) -> None:
         """Write episodes recorded elsewhere (:class:`EpisodeCapture`, a worker's trial).

@@ -418,6 +418,8 @@ class EpisodeSampler:
         Per scene, the first call opens the scene's episode and later ones do nothing.
         A pick of a trial run again that the dataset holds already is not recorded, but
         timed (per pick, :class:`Rerun`): the episode of the pick after it carries that.
+        Per scene, a trial the dataset holds an episode of is held whole: that episode
+        is the whole trial's.
         """
         if self._episode is not None:
             if self.per == "scene":
@@ -427,7 +429,7 @@ class EpisodeSampler:
             raise RuntimeError("attach() the recorder to a rig before an episode")
         pick, self._picks = self._picks, self._picks + 1
         reran, self._rerun, self._reran = self._reran, None, None
-        if pick in self._held:
+        if pick in self._held or (self.per == "scene" and self._held):
             self.episodes_skipped += 1
             if self.per == "pick":
                 self._rerun = Rerun((self._trial, pick), self._bus.clock_s)

@@ -32,7 +32,10 @@ its partial records stay in the log, and ``mearm analyze`` leaves them out becau
 same trial comes back finished later (:meth:`~mearm.runlog.RunLogContents.latest`). A
 torn last line (killed mid-write) is moved into a side file ``<log>.torn-<offset>``
 first (:mod:`mearm.runlog.repair`). A log damaged anywhere else is not resumed. When the
-log already holds the trials asked for, the run says so and prints their totals.
+log already holds the trials asked for, the run says so and prints their totals. A
+dataset (``--record --resume``) that holds this experiment's trials recorded per pick
+or per scene is recorded into the same way: another ``--record-per`` is refused, exit 2
+(:meth:`~mearm.dataset.recorder.DatasetRecorder.check_trials_per`).
 
 **Exit status.** 0 when every object of every trial in the log was sorted and no trial
 stopped early; 1 when objects were left or a trial stopped on a fault (the totals line
@@ -79,7 +82,7 @@ from mearm.experiment.errors import TrialFailed
 from mearm.experiment.ordered_log import _append_in_order, open_workers
 from mearm.experiment.pool import Workers
 from mearm.experiment.resume import Resume, ready_to_append, resume_point
-from mearm.experiment.trials import Recording, check_rig_opens, run_trials
+from mearm.experiment.trials import Recording, check_rig_opens, run_trials, trial_seed
 from mearm.hardware.errors import ServoError
 from mearm.runlog import LogLock, RunLog, read_runlog
 from mearm.runlog.errors import RunLogError
@@ -265,6 +268,8 @@ def _resume(
     recorder = recorder_from_args(args, config)  # its directory checked before any trial
     written = _Written(args.log, recorder, args.record)
     try:
+        if recorder is not None:  # its trials as the dataset holds them: per pick or scene
+            recorder.check_trials_per({trial_seed(args.seed, k): k for k in range(args.trials)})
         # Workers first: a scheduler that cannot be used leaves the log as it was.
         parallel = args.jobs > 1 or args.scheduler is not None
         jobs = min(args.jobs, args.trials - resume.done)
