@@ -102,7 +102,10 @@ def check_scene(config: Config, scene: Sequence[SceneObject], source: str = "tas
     other object (centres at least the sum of their radii apart) and stand outside every
     bin (its disc clear of the bin's square, walls included). An object that broke one of
     these would be left unseen, or seen as part of another, and the sort would report a
-    table of fewer objects than it was given.
+    table of fewer objects than it was given. A cube's or a prism's disc is the circle
+    around its footprint (:attr:`~mearm.config.classes.ColorClass.footprint_radius_cm`),
+    whatever its yaw, as the twin builds it and the planner sees it: its corners reach
+    beyond half its side.
 
     A table with nothing to sort is refused too: no objects, and no belt bringing any
     (``belt.arrivals.count`` 0). The sort would end ``sorted 0 of 0 objects`` with exit 0,
@@ -127,7 +130,7 @@ def check_scene(config: Config, scene: Sequence[SceneObject], source: str = "tas
     w, h = config.camera.width_px, config.camera.height_px
     angles = np.linspace(0.0, 2 * np.pi, RIM_POINTS, endpoint=False)
     rim = np.column_stack([np.cos(angles), np.sin(angles)])
-    radius = {c.name: c.diameter_cm / 2 for c in config.task.classes}
+    radius = {c.name: c.footprint_radius_cm for c in config.task.classes}
     problems: list[str] = []
     for i, obj in enumerate(scene):
         r = radius[obj.color]
