@@ -460,3 +460,64 @@ def test_a_pick_with_no_way_out_is_left_naming_what_it_ended_beside() -> None:
     (skip,) = report.skipped
     assert skip.reason.startswith("the pick ended beside bin_green_"), skip.reason
     assert "within task.clearance_cm" in skip.reason and "bin unreachable" not in skip.reason
+
+
+# --------------------------------------------------------------------------- a start in contact
+
+
+def _held_into_a_cylinder() -> tuple[Config, ArmModel, Planner, np.ndarray, np.ndarray]:
+    """The shapes twin's arm holding a red cube 0.22 cm into a red cylinder, as the
+    planner sees them (each the circle around its footprint): the cube of seed 992004,
+    which slipped from the jaws and fell beside the cylinder. Also the way from the
+    cylinder to the cube in the table plane, (2,)."""
+    config = _config("sim_shapes_mujoco", "task.scene=[]")
+    model = ArmModel(config.arm)
+    collision = collision_model(config, model, clearance_cm=config.task.clearance_cm)
+    planner = Planner(config, model, collision)
+    cube, cylinder = config.task.class_named("red_cube"), config.task.class_named("red_cylinder")
+    x, y = 6.9, 50.1
+    collision.set_world([("red_cube1", "red_cube", x, y)])
+    pick = planner.plan(Route("red_cube1", "red_cube", "pick", 1, planner.pick_target(cube, x, y)),
+                        model.home, target="red_cube1")  # fmt: skip
+    assert pick.planned and pick.plan is not None
+    out = np.array([0.8, -0.6])
+    apart = cube.footprint_radius_cm + cylinder.footprint_radius_cm - 0.22
+    cx, cy = np.array([x, y]) - apart * out
+    collision.set_world([("red_cylinder2", "red_cylinder", cx, cy)], opening_cm=cube.diameter_cm,
+                        held=("red_cube1", "red_cube"))  # fmt: skip
+    return config, model, planner, pick.plan.q, out
+
+
+def test_a_start_in_contact_may_be_left_but_never_pressed_further_in() -> None:
+    """Held 0.22 cm into a cylinder, the cube may be lifted straight up and moved away
+    from it: that pair may only come apart. Pushed further in it is refused, naming the
+    pair and the distance it started at, and the table keeps its check."""
+    config, model, planner, q0, out = _held_into_a_cylinder()
+    c = planner.collision
+    assert c is not None
+    g, part, obstacle = c.gap(q0)
+    start_cm = g / M_PER_CM + config.task.clearance_cm
+    assert part == "held red_cube1" and obstacle == "obj_red_cylinder2"
+    assert -0.25 < start_cm < -0.19
+    assert c.first_contact(np.array([q0])) is None  # standing still is not coming closer
+    way = c.away_from(q0)
+    assert way is not None and float(way @ out) > 0.9  # (the lift's target moves that way)
+    x, y, z = model.fk_cm(q0)
+    approach = planner.pick_target(config.task.class_named("red_cube"), x, y).approach
+    up = planner.up_from(q0, z + 6.0, approach)
+    lift = planner.plan(Route("red_cube1", "red_cube", "lift", 1, up), q0)
+    assert lift.planned and lift.plan is not None, lift.failure
+    assert lift.plan.ee_path_cm[-1][2] > z + 5.9
+
+    def path_to(dx: float, dy: float, dz: float) -> np.ndarray:
+        moved = planner.solver.solve(IKTarget((x + dx, y + dy, z + dz), approach), q0)
+        assert moved.converged
+        return moved.q_path
+
+    assert c.first_contact(path_to(*(0.5 * out), 0.5)) is None  # away, and up
+    further = c.first_contact(path_to(*(-0.1 * out), 0.0))
+    assert further is not None and further.obstacle == "obj_red_cylinder2"
+    assert further.start_cm is not None and further.distance_cm < further.start_cm < 0.0
+    assert "closer than the" in further.describe(model.chain.names, model.chain.scale)
+    down = c.first_contact(path_to(*(0.5 * out), -0.5))  # away from the cylinder, into the table
+    assert down is not None and down.obstacle == "table" and down.start_cm is None

@@ -29,9 +29,12 @@ to a wall the checks come as close together as the gap requires.
 collision, for the clearance): a measured pose can end nearer a wall or an object than
 the clearance the plan kept (the jaws close on an object beside a bin's wall, and it is
 held 0.1 cm from it). From there no path would pass the check, and nothing could move.
-So each pair within the clearance at a path's first pose (not touching: the table never)
-is held to where it started instead: the path may not bring it more than
-:data:`TOUCH_CM` closer than that, only farther. Every other pair keeps the clearance.
+So each pair within the clearance at a path's first pose (the table never) is held to
+where it started instead: the path may not bring it more than :data:`TOUCH_CM` closer
+than that, only farther, and one that starts clear may not touch. A pair that starts
+touching (an object fallen beside another: the circles around their footprints
+overlap) may likewise only come apart, its distance (< 0: how far in) no more than
+:data:`TOUCH_CM` below where it started. Every other pair keeps the clearance.
 """
 
 from __future__ import annotations
@@ -97,8 +100,9 @@ class Contact:
         distance_cm: Their distance there [cm] (≤ 0: they touch).
         q: The pose, model units, (n,).
         pose_index: The path's segment it lies on (from pose k to k + 1).
-        start_cm: For a pair within the clearance at the path's start, their distance
-            there [cm] (the path came closer than that); ``None`` for any other pair.
+        start_cm: For a pair within the clearance at the path's start (touching, too),
+            their distance there [cm] (the path came closer than that); ``None`` for any
+            other pair.
     """
 
     arm_part: str
@@ -647,10 +651,10 @@ class CollisionModel:
     def _start_distances(self, q: npt.ArrayLike, target: str | None) -> dict[int, float]:
         """The pairs within the clearance at a path's first pose, and their distance there [m].
 
-        Pairs closer than the clearance but not touching (the table never: the jaws come
-        down to it, and it keeps no clearance). Empty when the pose keeps the clearance, or
-        when it touches something (the check then refuses the path at its start, as any
-        touch).
+        Pairs closer than the clearance, touching ones too (their distance < 0: how far
+        one is in the other), but the table never: the jaws come down to it, and it keeps
+        no clearance (a pose below it is refused at the path's start, as any touch).
+        Empty when the pose keeps the clearance.
         """
         g, _, _ = self.gap(q, target=target)
         if g >= TOUCH_M:
@@ -670,8 +674,6 @@ class CollisionModel:
             d = float(results[k].min_distance)
             if k in jaws or self._pair_cols[k] == 0 or d >= self.clearance_m + TOUCH_M:
                 continue
-            if d < TOUCH_M:
-                return {}
             near[k] = d
         return near
 
@@ -680,13 +682,18 @@ class CollisionModel:
 
         The mean of the directions from each such pair's nearest point on the obstacle to
         the one on the arm (:meth:`_start_distances`), as a unit vector (2,); ``None`` when
-        ``q`` keeps the clearance (or touches something), or the pairs pull opposite ways.
+        ``q`` keeps the clearance, or the pairs pull opposite ways. For a pair touching,
+        against coal's normal (from the arm's shape to the obstacle): its points are then
+        each one's deepest in the other, and point the other way.
         """
         near = self._start_distances(q, target)  # (it leaves the placements at q)
         way = np.zeros(2)
-        for k in near:
+        for k, start in near.items():
             r = pin.computeDistance(self.geometry, self.gdata, k)
-            d = (np.asarray(r.getNearestPoint1()) - np.asarray(r.getNearestPoint2()))[:2]
+            if start < TOUCH_M:
+                d = -np.asarray(r.normal)[:2]
+            else:
+                d = (np.asarray(r.getNearestPoint1()) - np.asarray(r.getNearestPoint2()))[:2]
             n = float(np.linalg.norm(d))
             if n > 0:
                 way += d / n
@@ -800,9 +807,9 @@ class CollisionModel:
         r"""The first pose along ``q_path`` that comes too close to something, or ``None``.
 
         Between rows the joints move on a straight line; ``None``: the whole path is clear.
-        A pair within the clearance at the first row may not come closer than it starts
-        there (:meth:`_start_distances`, the module docstring); every other pair keeps the
-        clearance.
+        A pair within the clearance at the first row, or touching there, may not come
+        closer than it starts there (:meth:`_start_distances`, the module docstring);
+        every other pair keeps the clearance.
 
         Conservative advancement (the module docstring): at a pose with gap ``g`` to
         spare, the next check comes where some point of the arm could first have moved
@@ -817,8 +824,12 @@ class CollisionModel:
         last = len(path) - 1
         seg = np.abs(np.diff(path, axis=0))  # each segment's joint travel, (last, n)
         start = self._start_distances(path[0], target)
-        # such a pair may come no more than TOUCH_CM closer than it starts, nor touch
-        floors = {k: max(d - TOUCH_M, TOUCH_M) - TOUCH_M for k, d in start.items()}
+        # such a pair may come no more than TOUCH_CM closer than it starts, nor touch if
+        # it starts clear (the check refuses a distance under its floor + TOUCH_M)
+        floors = {
+            k: (d - TOUCH_M if d < TOUCH_M else max(d - TOUCH_M, TOUCH_M)) - TOUCH_M
+            for k, d in start.items()
+        }
         names = {self._pair_names(k): d / M_PER_CM for k, d in start.items()}
         k, t = 0, 0.0
         while True:
