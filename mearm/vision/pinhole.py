@@ -510,7 +510,10 @@ class PerspectiveCamera:
         """The table position (x, y) [cm] of an upright cylinder from its image region.
 
         Fits a circle to the far side of the region's outline cast onto the plane of the
-        object's top (module docstring).
+        object's top (module docstring). A centre farther from the region's centroid (cast
+        onto that plane) than the object could stand, ``3 r + 2 h``, is not believed: the
+        outline's own pixels are fitted instead of its colour edges, and failing that the
+        centroid is the answer.
 
         Args:
             mask: The region, a 0/1 (or 0/255) uint8 image of its bounding box.
@@ -520,8 +523,23 @@ class PerspectiveCamera:
             frame: The whole image the region was found in; if given, the outline is
                 moved onto its colour edge to a fraction of a pixel (:func:`subpixel_edges`).
         """
-        pts = self._outline_on_plane(mask, origin_px, height_cm, frame)
-        c = self._centroid_on_plane(mask, origin_px, height_cm)
+        centroid = self._centroid_on_plane(mask, origin_px, height_cm)
+        # the region's image, cast onto the top's plane, lies within the top's rim and its
+        # walls' cast (under the height); a region of two touching objects adds one more
+        # object across: a centre farther from its centroid is not this region's
+        within_cm = 3 * radius_cm + 2 * height_cm
+        outlines = [frame, None] if frame is not None else [None]
+        for image in outlines:
+            pts = self._outline_on_plane(mask, origin_px, height_cm, image)
+            c = self._rim_fit(pts, centroid, radius_cm)
+            if np.linalg.norm(c - centroid) <= within_cm:
+                return c
+            # the outline moved onto colour edges that are not the rim (a region cut by
+            # the arm's dark link: 23 cm off, simulated), or the arc fits no circle near
+        return np.asarray(centroid, dtype=float)
+
+    def _rim_fit(self, pts: np.ndarray, c: np.ndarray, radius_cm: float) -> np.ndarray:
+        """The centre of the circle fitted to the outline's far side from ``c``, refined."""
         for _ in range(4):
             chosen = self._far_side(pts, c, radius_cm)
             if len(chosen) < 6:
