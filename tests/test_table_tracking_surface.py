@@ -76,3 +76,30 @@ def test_seed_6503_of_the_kit_twin_prints_no_place_off_the_table():
     assert fault is None
     assert notes == []
     assert (objects, seen, sorted_, in_bins) == (12, 12, 12, 12)
+
+
+def test_a_place_within_a_bins_walls_is_in_the_bin_not_on_the_table():
+    """The bin's outer square, walls included: no object on the table stands there."""
+    from mearm.task.table_tracking import IN_BIN_BEYOND_CM
+
+    blue = load_config("sim_mujoco_perspective").task.class_named("blue")
+    x, y = blue.bin_cm[:2]
+    half_inner = blue.bin_inner_width_cm / 2
+    # seed 998048's place, below
+    assert blue.in_bin(x - half_inner - 0.1, y + 1.9, IN_BIN_BEYOND_CM)
+    assert blue.in_bin(x + half_inner + 0.29, y, IN_BIN_BEYOND_CM)
+    assert not blue.in_bin(x - half_inner - 0.31, y, IN_BIN_BEYOND_CM)
+    assert not blue.in_bin(x - half_inner - 0.1, y)  # the inner square alone
+
+
+@pytest.mark.heavy
+def test_an_object_placed_just_past_its_bins_inner_square_stays_sorted():
+    """The perspective twin, seed 998048: blue4, released into its bin, was placed at
+    (−23.1, 56.9) cm, 0.1 cm past the bin's inner square, taken for a dropped object and
+    then lost (sorted 11 of 12, all 12 in their bins)."""
+    from mearm.tools.twin_scenes import _one
+
+    twin = load_config(ROOT / "configs" / "sim_mujoco_perspective.yaml")
+    objects, seen, sorted_, in_bins, left, fault, notes = _one(twin, 12, 998048)
+    assert fault is None and notes == []
+    assert (objects, seen, sorted_, in_bins) == (12, 12, 12, 12), left

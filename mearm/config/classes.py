@@ -166,9 +166,13 @@ class ColorClass(Strict):
         """Inner width of the bin [cm]: ``bin_width_cm``, else :data:`BIN_DIAMETERS` diameters."""
         return BIN_DIAMETERS * self.diameter_cm if self.bin_width_cm is None else self.bin_width_cm
 
-    def in_bin(self, x_cm: float, y_cm: float) -> bool:
-        """Whether a table point lies inside the bin's inner square (plane)."""
-        half = self.bin_inner_width_cm / 2
+    def in_bin(self, x_cm: float, y_cm: float, beyond_cm: float = 0.0) -> bool:
+        """Whether a table point lies inside the bin's inner square (plane).
+
+        ``beyond_cm``: the square grown by this much on each side (its walls' thickness:
+        within the walls).
+        """
+        half = self.bin_inner_width_cm / 2 + beyond_cm
         return abs(x_cm - self.bin_cm[0]) <= half and abs(y_cm - self.bin_cm[1]) <= half
 
     @property
