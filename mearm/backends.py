@@ -274,10 +274,7 @@ def _mujoco(config: Config, scene: list[SceneObject] | None) -> Iterator[RigPart
 
         def in_bins() -> dict[str, int]:
             twin.settle_objects()  # a dropped object rests before it is counted
-            counts = {c: 0 for c in config.task.class_names}
-            for name in twin.objects_in_bin().values():
-                counts[name] = counts.get(name, 0) + 1
-            return counts
+            return twin.in_bin_counts()
 
         placed = _on_table(config, [(o.color, o.x, o.y) for o in config.task.scene])
         yield RigParts(None, camera, twin, in_bins, placed)

@@ -179,10 +179,7 @@ class SorterExpert:
 
     def _in_bins(self) -> Mapping[str, int]:
         """How many objects of each class lie in its bin now (no physics is run here)."""
-        counts = dict.fromkeys(self.config.task.class_names, 0)
-        for name in self.twin.objects_in_bin().values():
-            counts[name] += 1
-        return counts
+        return self.twin.in_bin_counts()
 
     def _run(self) -> None:
         from mearm.sim.twin.twin_camera import TwinCamera  # noqa: PLC0415  (GL: this thread's)

@@ -213,6 +213,14 @@ class TwinArm(ServoBus):
         }
         self._arrivals = belt_arrivals(config)
         self._object_ids = object_ids(config) + [a.id for a in self._arrivals]
+        #: Each object's class, by its id.
+        self._object_classes = dict(
+            zip(
+                self._object_ids,
+                [o.color for o in config.task.scene] + [a.color for a in self._arrivals],
+                strict=True,
+            )
+        )
         table = TableContents.of(config.task, config.belt)
         #: Each bin's walls' top above the table [m], as the scene builds them.
         self._bin_tops_m = {c.name: wall_height_m(c, table.objects(c.name)) for c in table.classes}
@@ -321,6 +329,17 @@ class TwinArm(ServoBus):
                 if cls.in_bin(x_cm, y_cm) and z < top and v * v < 2.0 * g * (top - z):
                     out[oid] = cls.name
         return out
+
+    def in_bin_counts(self) -> dict[str, int]:
+        """How many objects of each class a bin of their own class holds (:meth:`objects_in_bin`).
+
+        An object in another class's bin is in none of the counts: it was sorted wrong.
+        """
+        counts = dict.fromkeys(self.config.task.class_names, 0)
+        for oid, name in self.objects_in_bin().items():
+            if self._object_classes[oid] == name:
+                counts[name] += 1
+        return counts
 
     # ----------------------------------------------------------------- physics
 
