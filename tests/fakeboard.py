@@ -386,6 +386,7 @@ class SSC32Faults:
         silent: Answer nothing at all.
         version: What ``VER`` answers (and the restart banner).
         ver_reply: Raw bytes sent instead of the answer to ``VER``.
+        ver_delay_s: The first ``VER`` is answered this late [s] (a board slow to start).
         garbage_q: The next n ``Q`` get a junk byte instead of ``.``/``+``.
         drop_at_move: Pull the cable when this group move arrives.
         fault_at_move: The group move after which the answer faults start.
@@ -416,6 +417,7 @@ class SSC32Faults:
     silent: bool = False
     version: bytes = b"SSC32-V2.50USB"
     ver_reply: bytes | None = None
+    ver_delay_s: float = 0.0
     garbage_q: int = 0
     drop_at_move: int | None = None
     fault_at_move: int | None = None
@@ -554,6 +556,9 @@ class FakeSSC32Board(FakeBoard):
         if f.silent or not text:
             return
         if text == b"VER":
+            if f.ver_delay_s > 0:
+                time.sleep(f.ver_delay_s)
+                f.ver_delay_s = 0.0
             self.emit(f.version + b"\r" if f.ver_reply is None else f.ver_reply)
         elif text == b"Q":
             if f.garbage_q > 0:

@@ -39,6 +39,9 @@ STATUS = [b"Q", b"QP0", b"QP1", b"QP2", b"QP3", b"QP4"]
 
 
 def connected(board: FakeSSC32Board, **servo) -> SSC32Bus:
+    """A bus connected to ``board``; its first answer may take 2 s (a loaded CI worker once
+    starved the fake board's thread past 0.5 s there, before the fault under test)."""
+    servo = {"banner_timeout_s": 2.0, **servo}
     bus = open_bus(fast_config("ssc32", board.port, **servo))
     assert isinstance(bus, SSC32Bus)
     bus.connect()
@@ -151,6 +154,18 @@ def test_misnamed_command_refused_before_sending():
         with pytest.raises(InvalidCommandError, match="names unknown wrist_roll"):
             bus.move(ArmCommand({**HOME.joints, "wrist_roll": 0.0}, HOME.tool))
         assert board.received == before == [b"VER"] and bus.state is None
+
+
+def test_the_first_answer_may_take_the_banner_timeout_not_the_ack_timeout():
+    """A board slow to answer its first VER (0.8 s; the ack timeout 0.5 s) is connected:
+    at connect it has the time the config gives a board to say what it is, as the Uno's
+    banner. A loaded CI worker once starved the fake board past the 0.5 s."""
+    with FakeSSC32Board(SSC32Faults(ver_delay_s=0.8)) as board:
+        bus = open_bus(fast_config("ssc32", board.port, banner_timeout_s=3.0))
+        assert isinstance(bus, SSC32Bus) and bus.link.ack_timeout_s == 0.5
+        with bus:
+            bus.connect()
+            assert bus.version == "SSC32-V2.50USB"
 
 
 def test_silent_board():

@@ -424,6 +424,8 @@ class ServoConfig(Strict):
     """Commands per second at most (the servo frame rate); lower if the baud rate demands."""
     ack_timeout_s: Seconds = 0.5
     banner_timeout_s: Seconds = 3.0
+    """How long a board has to say what it is once the port opens: the Uno's banner (it
+    restarts as the port opens), the SSC-32's answer to the first ``VER`` [s]."""
     retries: int = Field(default=3, ge=0, le=MAX_RETRIES)
     """Tries after the first of one exchange with the board: a command that failed its
     checksum (Uno), a lost, late or garbled answer to a query (SSC-32)."""

@@ -218,7 +218,9 @@ class SSC32Bus(SerialServoBus):
 
     def _handshake(self) -> str:
         self._write(QUERY_VERSION)
-        timeout = self.link.ack_timeout_s
+        # the first answer since the port opened: the time a board has to say what it is
+        # (as the Uno's banner), however short the ack timeout of the route's queries
+        timeout = max(self.link.ack_timeout_s, self.link.banner_timeout_s)
         deadline = time.monotonic() + timeout
         seen = bytearray()
         while True:
