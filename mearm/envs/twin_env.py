@@ -519,9 +519,7 @@ class TwinEnv(gym.Env[dict[str, Any], np.ndarray]):
     def _count(self) -> int:
         """Objects at rest in their own class's bin."""
         assert self.twin is not None
-        where = self.twin.objects_in_bin()
-        ids = self.twin.object_ids
-        return sum(1 for oid, cls in zip(ids, self._classes, strict=True) if where.get(oid) == cls)
+        return sum(self.twin.in_bin_counts().values())
 
     def _info(self) -> dict[str, Any]:
         assert self.twin is not None
