@@ -59,7 +59,7 @@ def test_ctrl_c_while_a_subcommand_starts_is_one_line_and_130(
     says when the guard's module is in; its lines are left out of what is checked."""
     state = tmp_path / "state"
     env = {**os.environ, "MEARM_STATE_DIR": str(state)}
-    proc = started_past_the_guard(["mearm", *argv], tmp_path, env)
+    proc, said = started_past_the_guard(["mearm", *argv], tmp_path, env)
     try:
         proc.wait(timeout=after_s)
     except subprocess.TimeoutExpired:
@@ -67,7 +67,7 @@ def test_ctrl_c_while_a_subcommand_starts_is_one_line_and_130(
     else:
         pytest.fail(f"mearm {argv[0]} ended within {after_s} s, before the Ctrl-C")
     _, err_bytes = interrupted(proc)  # a hang (the Ctrl-C lost) is the failure
-    err = err_bytes.decode(errors="replace")
+    err = (said + err_bytes).decode(errors="replace")
     # a note the command said before the Ctrl-C (the sort's reach note, on a slow start)
     # is what it did, not a second line of the interruption
     note = f"mearm {argv[0]}: note: "
@@ -121,18 +121,27 @@ def test_a_ctrl_c_before_the_dispatcher_runs_its_subcommand_names_it(
 
 def started_past_the_guard(
     module_argv: list[str], cwd: Path, env: dict[str, str] | None = None
-) -> subprocess.Popen[bytes]:
+) -> tuple[subprocess.Popen[bytes], bytes]:
     """``python -X importtime -m MODULE ARGS`` (``module_argv``), once it has imported
-    ``mearm.cli`` (its guard): the interpreter's import trace, on stderr, says when."""
+    ``mearm.cli`` (its guard): the interpreter's import trace, on stderr, says when. With
+    what it has said so far past that line (for the caller to check with the rest).
+
+    The trace is read in whole chunks as they come: read a byte at a time (a line reader
+    on an unbuffered pipe), a loaded machine let the reader fall so far behind that the
+    command had all but finished when its guard's line was read, and it ended, exit 0,
+    before the Ctrl-C that was meant for its start."""
     proc = subprocess.Popen(
         [sys.executable, "-X", "importtime", "-m", *module_argv],
         cwd=cwd, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
-        bufsize=0, start_new_session=True,  # unbuffered: no line read ahead and then lost
+        bufsize=0, start_new_session=True,  # unbuffered: nothing read ahead out of reach
     )  # fmt: skip
     assert proc.stderr is not None
-    for raw in proc.stderr:
-        if raw.decode(errors="replace").rstrip().endswith(GUARD_LOADED):
-            return proc
+    marker = f"{GUARD_LOADED}\n".encode()
+    seen = b""
+    while chunk := os.read(proc.stderr.fileno(), 1 << 16):
+        seen += chunk
+        if (at := seen.find(marker)) >= 0:
+            return proc, seen[at + len(marker) :]
     pytest.fail(f"{' '.join(module_argv)} ended before importing mearm.cli: exit {proc.wait()}")
 
 
