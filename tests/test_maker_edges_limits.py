@@ -3,12 +3,12 @@
 
 ``calibrate-servos`` lets the keys range over the whole pulse range (the fit needs it),
 so under the present calibration a joint can be jogged past its limits — the MeArm v1's
-base reads 180.9° at 544 µs against its [45, 135]° — and the screen must say so, once
-each time it crosses. ``jog`` refuses a step past a limit; a step that would cross it
-must stop on it, or the limit is out of reach whenever the step does not divide the room
-to it. Driven through a pseudo-terminal as ``test_maker_calibrate`` and
-``test_maker_jog`` do, on the ``sim`` backend (no board); the passive joint's case
-in-process.
+base reads 180.9° at 544 µs against its [45, 135]° (the simulated arm stops at 135°, as
+the twin's does) — and the screen must say so, once each time it crosses. ``jog``
+refuses a step past a limit; a step that would cross it must stop on it, or the limit is
+out of reach whenever the step does not divide the room to it. Driven through a
+pseudo-terminal as ``test_maker_calibrate`` and ``test_maker_jog`` do, on the ``sim``
+backend (no board); the passive joint's case in-process.
 """
 
 from __future__ import annotations
@@ -33,9 +33,10 @@ WARNING = re.compile(r"warning: base is at ([\d.]+) deg, past its limits \[45, 1
 @pytest.mark.heavy
 def test_calibrate_servos_warns_once_per_crossing_of_a_joints_limits(tmp_path):
     """The MeArm v1's base jogged in 20 µs steps from home (90°) up past 135°, on to the
-    pulse range's end (180.9°), back inside and out again: one warning naming the joint,
-    its angle and its limits at each crossing out, one line back inside, none in between;
-    the keys still reach the end of the pulse range."""
+    pulse range's end (180.9° by the calibration), back inside and out again: one warning
+    naming the joint, its angle and its limits at each crossing out, one line back inside,
+    none in between; the keys still reach the end of the pulse range, where the simulated
+    arm stands at its stop (135°), and the screen says the pulse is past the limits."""
     base = ServoMap.from_arm(load_config(MEARM).arm)["base"]  # 2534 µs - 11 µs/deg
     cmd = PtyCommand("calibrate-servos", "--config", str(MEARM), "--actuators", "base",
                      "--output", str(tmp_path / "servos.yaml"))  # fmt: skip
@@ -50,7 +51,7 @@ def test_calibrate_servos_warns_once_per_crossing_of_a_joints_limits(tmp_path):
         angle = float(cmd.expect(WARNING.pattern).group(1))
         assert angle == pytest.approx(base.value_of(1044), abs=0.05)  # 135.45°, shown 135.5
         cmd.send("-" * 30)  # on past the limit to the pulse range's end, and pressed on
-        cmd.expect(r"base: pulse 544 µs .*simulated arm: 180\.91 deg  \(end of the pulse range\)"
+        cmd.expect(r"base: pulse 544 µs .*simulated arm: 135\.00 deg  \(end of the pulse range\)"
                    r"  \(past the limits: base\)")  # fmt: skip
         cmd.send("+" * 26)  # back to 1064 µs
         cmd.expect(r"base is back inside its limits \[45, 135\] deg")

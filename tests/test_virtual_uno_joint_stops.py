@@ -20,9 +20,9 @@ from mearm.config import Config, config_from_dict, load_config
 from mearm.hardware import ServoMap
 from mearm.maker.keyboard_calibration.pulse_session import PulseSession
 from mearm.sim import World
+from mearm.sim.kinematic.joint_stops import joints_at_stops
 from mearm.sim.kinematic.servo_bus import ee_from_joints_cm
 from mearm.sim.virtual_uno import VirtualUnoBus
-from mearm.sim.virtual_uno.joint_stops import joints_at_stops
 
 ROOT = Path(__file__).resolve().parent.parent
 

@@ -352,7 +352,8 @@ class SimErrorModel(Strict):
     ``degree`` — a whole degree of the servo's 0–180° scale, as ``Servo.write`` does (one
     step is (max_us − min_us)/180 µs, 1 DH degree with the default mapping); ``none``.
     The realised angle is the quantised one plus ``offset_deg`` (static, per joint) plus
-    Gaussian noise of ``noise_std_deg`` drawn per move and joint.
+    Gaussian noise of ``noise_std_deg`` drawn per move and joint; a joint they send past its
+    limits stops at them, as the twin's joints and the virtual Uno's arm do.
     """
 
     quantization: Literal["none", "degree", "microsecond"] = "microsecond"

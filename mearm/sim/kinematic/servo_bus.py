@@ -8,7 +8,9 @@ Each move realises the command per actuated joint the way a real servo would mis
    channel's [min_us, max_us]; Arduino's integer ``map()`` gives the pulse); ``none``;
 2. the pulse is mapped back to the joint's value through its calibration;
 3. a static offset per joint (``offset_deg``, by name) and per-move Gaussian noise are
-   added.
+   added;
+4. a joint sent past its limits stops at them, as the twin's joints do
+   (:func:`~mearm.sim.kinematic.joint_stops.joints_at_stops`).
 
 The TCP is the forward kinematics of the realised joints (passive joints from their
 couplings). Closing the gripper grips the table object nearest the TCP if it lies within
@@ -39,6 +41,7 @@ from mearm.kinematics import ArmModel, check_target, closed_form_for
 from mearm.kinematics.collision import CollisionModel
 from mearm.kinematics.errors import TargetError
 from mearm.sim.errors import WorldError
+from mearm.sim.kinematic.joint_stops import joints_at_stops
 from mearm.sim.kinematic.world import World
 from mearm.sim.table_collision import collision_model
 
@@ -129,6 +132,9 @@ class SimArm(ServoBus):
         self.error_model = config.servo.error_model
         self._rng = np.random.default_rng(self.error_model.seed)
         self.actual_joints: dict[str, float] = config.arm.home()
+        #: The joints stop at the limits the arm was built with, whatever map a caller
+        #: drives it by later (``calibrate-servos`` widens them to the pulses').
+        self._stops = config.arm.joint_limits()
         self.actual_tool: dict[str, float] = {a.name: a.home for a in config.arm.tool.actuators}
         self.gripper_closed = False
         self.last_grip: GripResult | None = None
@@ -151,8 +157,9 @@ class SimArm(ServoBus):
     def realise(self, command: ArmCommand) -> dict[str, float]:
         """Realised actuated joints for a command: quantised, offset, noisy [deg or cm].
 
-        Draws the noise (one value per actuated joint, in chain order), so each call is
-        one move's worth of it.
+        Where the servos send the joints, which may be past their limits: :meth:`actuate`
+        stops them there. Draws the noise (one value per actuated joint, in chain order),
+        so each call is one move's worth of it.
         """
         em = self.error_model
         out = {
@@ -184,13 +191,16 @@ class SimArm(ServoBus):
     ) -> None:
         """Put the arm where its servos are: realised values, not commands.
 
-        Closing the gripper grips (or misses) the nearest object, opening it releases
-        the held one, as a move does. The virtual Uno
-        (:class:`~mearm.sim.virtual_uno.VirtualUnoBus`) drives the arm this way with the
-        values its measured pulses stand for.
+        A joint sent past its limits stops at them
+        (:func:`~mearm.sim.kinematic.joint_stops.joints_at_stops`), whoever drives the
+        arm; joints within their limits are taken as they are. Closing the gripper grips
+        (or misses) the nearest object, opening it releases the held one, as a move does.
+        The virtual Uno (:class:`~mearm.sim.virtual_uno.VirtualUnoBus`) drives the arm
+        this way with the values its measured pulses stand for.
 
         Args:
-            joints: Realised actuated joints, name → deg or cm; joints not named stay.
+            joints: Realised actuated joints, name → deg or cm, within the limits or
+                not; joints not named stay.
             tool: Realised tool actuators, name → deg; actuators not named stay.
             gripper_closed: Whether the gripper is closed.
             last_state: The last pose the bus driving the arm confirmed: a collision's
@@ -203,7 +213,7 @@ class SimArm(ServoBus):
                 was.
         """
         before = self.actual_joints
-        self.actual_joints = {**self.actual_joints, **joints}
+        self.actual_joints = self._at_stops({**self.actual_joints, **joints})
         self.actual_tool = {**self.actual_tool, **tool}
         if self.actual_joints != before:
             self._check_move(before, self.actual_joints, last_state)
@@ -213,6 +223,20 @@ class SimArm(ServoBus):
         elif not gripper_closed and self.gripper_closed:
             self.gripper_closed = False
             self._open_gripper()
+
+    def _at_stops(self, joints: dict[str, float]) -> dict[str, float]:
+        """Every actuated joint where its servo leaves it, none past its limits [deg or cm].
+
+        Values within the limits are kept bit for bit (solving a servo map that turns
+        combinations back and forth would not).
+        """
+        stops = self._stops
+        if all(stops[n].contains(v) for n, v in joints.items() if n in stops):
+            return joints
+        if not all(n in stops and math.isfinite(v) for n, v in joints.items()):
+            return joints  # the move's check refuses the name or the value
+        smap = self.servo_map
+        return joints_at_stops(smap, smap.servo_values(joints), stops)
 
     def _check_move(
         self,

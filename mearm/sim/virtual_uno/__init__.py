@@ -19,7 +19,7 @@ Three parts:
   solves the actuated joints from the joint servos' values (a servo may turn a
   combination of joints: :meth:`~mearm.hardware.ServoMap.joints_from_pulses`), none past
   its limits, where it stops as the twin's joints do
-  (:func:`~mearm.sim.virtual_uno.joint_stops.joints_at_stops`), moves the simulated arm
+  (:func:`~mearm.sim.kinematic.joint_stops.joints_at_stops`), moves the simulated arm
   (:class:`~mearm.sim.kinematic.servo_bus.SimArm`) there, and faults the
   move (:class:`~mearm.hardware.errors.MoveNotConfirmedError`) when a pulse is farther than
   ``servo.virtual_uno.pulse_tolerance_us`` from the one sent: a firmware with two

@@ -6,7 +6,7 @@ is measured, each pulse mapped back through the actuator's calibration,
 .. math:: v = (p_\text{measured} - p_0) / (s\,k),
 
 the simulated arm moved there, no joint past its stops (the arm description's limits:
-:mod:`mearm.sim.virtual_uno.joint_stops`), and the move faulted when a pulse is off the one
+:mod:`mearm.sim.kinematic.joint_stops`), and the move faulted when a pulse is off the one
 sent.
 """
 
@@ -22,12 +22,12 @@ from mearm.hardware.bus import ArmCommand, RateLimiter
 from mearm.hardware.errors import MoveNotConfirmedError, ServoError
 from mearm.hardware.mapping import ActuatorMap
 from mearm.kinematics import ArmModel
+from mearm.sim.kinematic.joint_stops import joints_at_stops
 from mearm.sim.kinematic.servo_bus import GripResult, ReleaseResult, SimArm
 from mearm.sim.kinematic.world import World
 from mearm.sim.virtual_uno.board import Frame, VirtualUno
 from mearm.sim.virtual_uno.build import build_virtual_uno
 from mearm.sim.virtual_uno.errors import VirtualUnoError
-from mearm.sim.virtual_uno.joint_stops import joints_at_stops
 
 
 class VirtualUnoBus(ArduinoBus):
@@ -37,7 +37,7 @@ class VirtualUnoBus(ArduinoBus):
     acknowledged by ``OK``); then the first servo frame that started after the ``OK`` left
     the board's UART is measured, the simulated arm over the world is put where those
     pulses put its servos (a joint sent past its limits stops at them, as the twin's
-    does: :func:`~mearm.sim.virtual_uno.joint_stops.joints_at_stops`), and the move is refused
+    does: :func:`~mearm.sim.kinematic.joint_stops.joints_at_stops`), and the move is refused
     (:class:`~mearm.hardware.errors.MoveNotConfirmedError`, which stops the bus with the last
     confirmed pose) when any pulse is missing or farther than
     ``servo.virtual_uno.pulse_tolerance_us`` from the one sent. The reason names the

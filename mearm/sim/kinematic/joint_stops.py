@@ -1,9 +1,11 @@
-r"""Where the joint servos leave the virtual Uno's arm when a joint meets its stop.
+r"""Where the joint servos leave the kinematic arm when a joint meets its stop.
 
 A joint stops at its limits (the arm description's, where the MuJoCo twin's joints stop
-too) however far its servo's pulse sends it. A hobby servo drives in proportion to its
-error in pulse (its amplifier compares the pulse with its potentiometer's), so the servos
-come to rest where their errors in µs are least with every joint within its stops:
+too) however far its servo sends it: by the error model's offset and noise
+(:class:`~mearm.sim.kinematic.servo_bus.SimArm`) or by a pulse the virtual Uno measured.
+A hobby servo drives in proportion to its error in pulse (its amplifier compares the
+pulse with its potentiometer's), so the servos come to rest where their errors in µs are
+least with every joint within its stops:
 
 .. math:: q = \arg\min_{l \le q \le u} \lVert K (A q + a - v) \rVert^2,
     \qquad K = \mathrm{diag}(k)
