@@ -414,8 +414,12 @@ class ServoMap:
         Each joint servo's value is quantised on its pulse grid (:meth:`ActuatorMap.realised`)
         and the joints are solved back from those values: exact for servos that turn a
         combination (the MeArm's elbow joint carries its own servo's step and the
-        shoulder's), and the same as each joint's own realisation otherwise.
+        shoulder's), and the same as each joint's own realisation otherwise. With ``none``
+        the joints are realised as commanded, bit for bit (solving a combination back
+        would leave them a rounding off).
         """
+        if mode == "none":
+            return {n: float(joints[n]) for n in self.joint_names}
         servo = self.servo_values(joints)
         return self.joints_of({j.name: j.realised(servo[j.name], mode) for j in self.joints})
 

@@ -3,10 +3,13 @@
 Each move realises the command per actuated joint the way a real servo would miss it
 (paper §5, ``servo.error_model``):
 
-1. quantisation — ``microsecond``: the integer-µs pulse the serial backends send;
-   ``degree``: the whole servo degree of ``Servo.write`` (its 0–180° scale spans the
-   channel's [min_us, max_us]; Arduino's integer ``map()`` gives the pulse); ``none``;
-2. the pulse is mapped back to the joint's value through its calibration;
+1. quantisation of each joint servo's value (the joint's, or the combination it turns:
+   the MeArm's elbow servo turns shoulder + elbow) — ``microsecond``: the integer-µs
+   pulse the serial backends send; ``degree``: the whole servo degree of ``Servo.write``
+   (its 0–180° scale spans the channel's [min_us, max_us]; Arduino's integer ``map()``
+   gives the pulse); ``none``;
+2. the pulses are mapped back to the joints through the servos' calibrations
+   (:meth:`~mearm.hardware.ServoMap.realised`);
 3. a static offset per joint (``offset_deg``, by name) and per-move Gaussian noise are
    added;
 4. a joint sent past its limits stops at them, as the twin's joints do
@@ -157,16 +160,16 @@ class SimArm(ServoBus):
     def realise(self, command: ArmCommand) -> dict[str, float]:
         """Realised actuated joints for a command: quantised, offset, noisy [deg or cm].
 
-        Where the servos send the joints, which may be past their limits: :meth:`actuate`
-        stops them there. Draws the noise (one value per actuated joint, in chain order),
-        so each call is one move's worth of it.
+        Each servo's value is quantised and the joints solved back from those values
+        (:meth:`~mearm.hardware.ServoMap.realised`): where the pulses the serial backends
+        send put them, the MeArm's elbow joint included, whose servo turns shoulder +
+        elbow. Where the servos send the joints, which may be past their limits:
+        :meth:`actuate` stops them there. Draws the noise (one value per actuated joint,
+        in chain order), so each call is one move's worth of it.
         """
         em = self.error_model
-        out = {
-            j.name: j.realised(command.joints[j.name], em.quantization)
-            + em.offset_deg.get(j.name, 0.0)
-            for j in self.servo_map.joints
-        }
+        quantised = self.servo_map.realised(command.joints, em.quantization)
+        out = {n: v + em.offset_deg.get(n, 0.0) for n, v in quantised.items()}
         if em.noise_std_deg > 0:
             noise = self._rng.normal(0.0, em.noise_std_deg, size=len(out))
             out = {n: v + float(e) for (n, v), e in zip(out.items(), noise, strict=True)}
@@ -195,8 +198,10 @@ class SimArm(ServoBus):
         (:func:`~mearm.sim.kinematic.joint_stops.joints_at_stops`), whoever drives the
         arm; joints within their limits are taken as they are. Closing the gripper grips
         (or misses) the nearest object, opening it releases the held one, as a move does.
-        The virtual Uno (:class:`~mearm.sim.virtual_uno.VirtualUnoBus`) drives the arm
-        this way with the values its measured pulses stand for.
+        A refused move leaves the arm where it was, its joints, its tool and its gripper:
+        a fault keeps the last confirmed pose. The virtual Uno
+        (:class:`~mearm.sim.virtual_uno.VirtualUnoBus`) drives the arm this way with the
+        values its measured pulses stand for.
 
         Args:
             joints: Realised actuated joints, name → deg or cm, within the limits or
@@ -209,14 +214,16 @@ class SimArm(ServoBus):
                 :meth:`move`, so the arm's own :attr:`state` stays ``None`` there.
 
         Raises:
-            SimCollisionError: the move runs the arm into something; it stays where it
-                was.
+            SimCollisionError: the move runs the arm into something.
+            InvalidJointsError: ``joints`` names a joint the arm does not have, or a passive
+                one off its coupling, or holds a value that is not a finite number.
         """
         before = self.actual_joints
-        self.actual_joints = self._at_stops({**self.actual_joints, **joints})
+        after = self._at_stops({**before, **joints})
+        if after != before:
+            self._check_move(before, after, last_state)
+        self.actual_joints = after
         self.actual_tool = {**self.actual_tool, **tool}
-        if self.actual_joints != before:
-            self._check_move(before, self.actual_joints, last_state)
         if gripper_closed and not self.gripper_closed:
             self.gripper_closed = True
             self.last_grip = self._close_gripper()
@@ -251,8 +258,10 @@ class SimArm(ServoBus):
         jaws. The jaws' pads may touch an object standing between them.
 
         Raises:
-            SimCollisionError: they touch; the arm stays where it was, and the fault
-                carries ``last_state``, the last pose the driving bus confirmed.
+            SimCollisionError: they touch; the fault carries ``last_state``, the last pose
+                the driving bus confirmed.
+            InvalidJointsError: ``after`` names a joint the arm does not have, or a passive
+                one off its coupling, or holds a value that is not a finite number.
         """
         if self._collision is None:
             self._collision = collision_model(
@@ -263,7 +272,6 @@ class SimArm(ServoBus):
         last = self._last_after
         start = last[1] if last is not None and last[0] == before else chain.from_named(before)
         end = chain.from_named(after)
-        self._last_after = (dict(after), end)
         path = np.array([start, end])
         held = self.world.held_object()
         g = self.config.arm.tool.gripper
@@ -283,11 +291,11 @@ class SimArm(ServoBus):
         )
         contact = self._collision.first_contact(path)
         if contact is not None:
-            self.actual_joints = dict(before)
             raise SimCollisionError(
                 "sim: the arm ran into something: " + contact.describe(chain.names, chain.scale),
                 last_state=last_state,
             )
+        self._last_after = (dict(after), end)
 
     def _send_move(self, command: ArmCommand, pulses_us: dict[int, int]) -> None:
         # A servo told to hold its value stays where it is: only a new joint command
@@ -422,8 +430,9 @@ def quantization_ee_error_cm(
 ) -> np.ndarray:
     """TCP error caused by command quantisation alone over random reachable poses [cm], (n,).
 
-    Each pose's actuated joints are quantised as :func:`quantize_deg` does; the error is
-    the distance between the FK of the quantised and of the exact joints.
+    Each pose's joint servos are quantised as the simulated arm's are
+    (:meth:`~mearm.hardware.ServoMap.realised`); the error is the distance between the FK
+    of the quantised and of the exact joints.
     """
     smap = ServoMap.from_arm(config.arm)
     model = ArmModel(config.arm)
@@ -431,7 +440,7 @@ def quantization_ee_error_cm(
     errors = np.empty(n)
     for i, values in enumerate(random_reachable_joints(config, n, seed, model)):
         exact = dict(zip(names, values.tolist(), strict=True))
-        quantised = {j.name: j.realised(exact[j.name], mode) for j in smap.joints}
+        quantised = smap.realised(exact, mode)
         errors[i] = np.linalg.norm(
             ee_from_joints_cm(model, quantised) - ee_from_joints_cm(model, exact)
         )
