@@ -89,15 +89,17 @@ def test_an_object_by_a_wall_where_the_claw_goes_is_left_not_the_scene_stopped(m
     """Kit 21, seed 2710: red1, dropped 1.9 cm from the red bin's wall, was picked aimed
     0.63 cm off it and an open jaw landed on the wall's top, the shoulder stalled and the
     scene stopped (8 objects left). Checked where the claw goes, it is left with a reason
-    that names the wall, and the rest are sorted."""
-    # the scene as traced, before picks went lower by their own looks (red1 then sorts)
+    that names the wall, and the rest are sorted. Since the table has rolling friction
+    (2026-12-01) that drop lands elsewhere; seed 2733 (kit 21, seeds 2700-2759 searched)
+    leaves red2 by the red bin's wall, the claw 0.58 cm off its aim."""
+    # the scene as traced, before picks went lower by their own looks (red2 then sorts)
     monkeypatch.setattr(looking_picks, "HIGH_LOOKS_CM", math.inf)
-    report = _sort(21, 2710)
+    report = _sort(21, 2733)
     skips = {s.object_id: s for s in report.skipped}
-    assert "red1" in skips, [s.reason for s in report.skipped]
-    assert skips["red1"].kind == "collision"
-    assert "where the claw goes" in skips["red1"].reason
-    assert "red bin's wall" in skips["red1"].reason
+    assert "red2" in skips, [s.reason for s in report.skipped]
+    assert skips["red2"].kind == "collision"
+    assert "where the claw goes" in skips["red2"].reason
+    assert "red bin's wall" in skips["red2"].reason
     assert report.outcome.n_objects <= 12
     assert report.outcome.n_sorted >= 10
 

@@ -554,13 +554,68 @@ def test_an_object_in_another_class_bin_is_not_counted_as_in_its_own(paper):
     assert arm.in_bin_counts() == {"red": 1, "green": 0, "blue": 0}
 
 
+class _IntoTheWrongBin:
+    """Every 20 ms of the twin's time: the first object of class ``fell`` to lie in its own
+    bin is moved into class ``into``'s bin, 2 cm over the highest object there, at rest."""
+
+    def __init__(self, bus: TwinArm, fell: str, into: str):
+        colors = [o.color for o in bus.config.task.scene]  # its objects first, then the belt's
+        self.classes = dict(zip(bus.object_ids[: len(colors)], colors, strict=True))
+        self.fell, self.into = fell, into
+        self.moved: str | None = None
+        self._due = 0.0
+
+    @property
+    def due_s(self) -> float:
+        return self._due
+
+    def sample(self, bus: TwinArm) -> None:
+        from mearm.kinematics.bodies import object_name
+
+        self._due = bus.time_s + 0.02
+        if self.moved is not None:
+            return
+        in_bins = bus.objects_in_bin()
+        mine = [o for o, c in in_bins.items() if c == self.fell == self.classes[o]]
+        if not mine:
+            return
+        there = [bus.object_pose(o).position_cm[2] for o, c in in_bins.items() if c == self.into]
+        cls = bus.config.task.class_named(self.into)
+        top_cm = max(there, default=0.0) + cls.height_cm
+        m, d = bus.model, bus.data
+        joint = m.body(object_name(mine[0])).jntadr[0]
+        adr, dof = m.jnt_qposadr[joint], m.jnt_dofadr[joint]
+        d.qpos[adr : adr + 3] = [*(np.array(cls.bin_cm[:2]) * M_PER_CM), (top_cm + 2) * M_PER_CM]
+        d.qvel[dof : dof + 6] = 0.0
+        mujoco.mj_forward(m, d)
+        self.moved = mine[0]
+
+
 @pytest.mark.heavy
 def test_a_green_dropped_into_the_blue_bin_is_left_not_counted_in_its_bin():
     """The 5-DOF perspective twin, seed 998026: green2 ended in the blue bin. The sort
-    left it, not confirmed in its bin; the twin's count said all 12 lay in their bins."""
-    from mearm.tools.twin_scenes import _one
+    left it, not confirmed in its bin; the twin's count said all 12 lay in their bins.
+    Since the table has rolling friction (2026-12-01) no green falls there (seeds
+    998000-998199 searched): the first green released into its bin is moved into the
+    blue bin as that one fell, and the sort and the twin's count both leave it."""
+    from mearm.maker.camera_calibration.at_start import for_config
+    from mearm.task.rig import run_sort
+    from mearm.task.scene import random_scene
 
     twin = load_config(ROOT / "configs" / "sim_5dof_mujoco_perspective.yaml")
-    objects, seen, sorted_, in_bins, left, fault, notes = _one(twin, 12, 998026)
-    assert fault is None
-    assert (objects, seen, sorted_, in_bins) == (12, 12, 11, 11), left
+    moves: list[_IntoTheWrongBin] = []
+
+    def move_a_green(rig) -> None:
+        assert isinstance(rig.bus, TwinArm)
+        rig.bus.sampler = _IntoTheWrongBin(rig.bus, "green", "blue")
+        moves.append(rig.bus.sampler)
+
+    scene = random_scene(twin, 12, seed=998026)
+    report = run_sort(
+        twin, scene=scene, echo=None, calibrate_first=for_config(twin), on_open=move_a_green
+    )
+    out = report.outcome
+    assert moves[0].moved is not None
+    assert (out.n_objects, sum(out.seen.values()), out.n_sorted) == (12, 12, 11), out.left
+    assert dict(out.left) == {"not_confirmed": 1}
+    assert sum(out.in_bins.values()) == 11

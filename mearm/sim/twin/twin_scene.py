@@ -63,10 +63,12 @@ def _object_geom(
     mass = PLA_DENSITY * c.object_shape.area_cm2(c.diameter_cm) * M_PER_CM**2 * h
     attrs: dict[str, object] = {
         "mass": mass,
-        "friction": [OBJECT_FRICTION, OBJECT_SPIN_FRICTION, OBJECT_ROLL_FRICTION],
-        # sliding friction only against the table and bins (torsional friction there
-        # kept one object rocking on the table plane); against the pads the pads'
-        # condim 4 holds, so a held object does not spin
+        # against the table (condim 6, :func:`_table`) sliding and rolling friction, no
+        # torsional (it kept one object rocking on the table plane): a contact takes the
+        # larger of its two geoms' condim and of each friction; against the bins and other
+        # objects sliding friction only; against the pads the pads' (priority) condim 4
+        # holds, so a held object does not spin
+        "friction": [OBJECT_FRICTION, 0.0, OBJECT_ROLL_FRICTION],
         "condim": 3,
         "rgba": _rgba(c.draw_rgb),
     }
@@ -165,7 +167,13 @@ def _table(world: mujoco.MjsBody, config: Config) -> None:
     # a plane: drawn over everything on the table and a margin, it collides everywhere
     # (an object pushed past the drawn edge slides on out of view instead of falling);
     # cylinder-plane contacts are analytic, and cost a third less per step than
-    # cylinder-box ones
+    # cylinder-box ones. Rolling friction (condim 6): without it a cylinder a jaw knocked
+    # onto its side rolled on at 5 cm/s for 2.5 m (5-DOF perspective twin, seed 998044).
+    # OBJECT_ROLL_FRICTION, 0.1 mm, is the rolling resistance's lever arm: handbooks give
+    # 0.5 mm for steel on steel and 1-2 mm for wood or plastic on steel, for loaded
+    # wheels; a print of a few grams dents a table far less, so the low end. A 1 cm-radius
+    # cylinder rolling at 5 cm/s stops within 2 cm (at 20 cm/s, 30 cm). Torsional friction
+    # stays off (0 here and on the objects).
     _scene_geom(
         world,
         "table",
@@ -173,7 +181,8 @@ def _table(world: mujoco.MjsBody, config: Config) -> None:
         (half[0], half[1], TABLE_GRID_M),
         pos=[centre[0], centre[1], 0.0],
         material="table",
-        friction=[TABLE_FRICTION, OBJECT_SPIN_FRICTION, OBJECT_ROLL_FRICTION],
+        friction=[TABLE_FRICTION, 0.0, OBJECT_ROLL_FRICTION],
+        condim=6,
     )
 
 
