@@ -9,6 +9,7 @@ bin; whether the place counts, from the bus's report of the release.
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from collections.abc import Sequence
 from typing import Protocol
@@ -135,9 +136,10 @@ class PickAndPlace(TableTracking):
         A pick lowered by a miss (``aim``'s z < 0, :class:`~mearm.task.claw_loop.GripDrops`)
         goes no lower than the collision check lets the jaws come to the table at the
         planned pose, the table checked ``below_cm`` lower where a miss measured the claw
-        that much higher than commanded (:attr:`GripDrops.below_cm`): where the drop is
-        more, the pick rises to that bound; where the pick lowered even that far cannot
-        be planned, it goes at the planned height.
+        that much higher than commanded (:attr:`GripDrops.below_cm`), nor below the arm's
+        target box (``arm.target_box.z_cm.min``, where the solver refuses a target): where
+        the drop is more, the pick rises to the higher bound; where the pick lowered even
+        that far cannot be planned, it goes at the planned height.
         """
         pick = Route(obj.id, obj.class_name, "pick", obj.failed_picks + 1, shifted(goal, aim))
         above = self._approach(obj, pick)  # planned in full with the pick, before either
@@ -146,14 +148,27 @@ class PickAndPlace(TableTracking):
         # the tool hangs the same below the TCP over the object as at the pick (the
         # way down is straight): the room under its lowest point at the planned pick
         tcp_z = float(self.model.fk_cm(above.plan.q)[2])
-        over_cm = tcp_z - float(goal.position_cm[2])
-        lowest = self.collision.tool_lowest_cm(above.plan.q)[0] - over_cm
-        bound = -max(0.0, lowest + below_cm - TABLE_ROOM_CM)
-        if aim[2] >= bound and self.planner.plan(pick, above.plan.q, target=obj.id).planned:
+        goal_z = float(goal.position_cm[2])
+        lowest = self.collision.tool_lowest_cm(above.plan.q)[0] - (tcp_z - goal_z)
+        floor_z = max(
+            goal_z - max(0.0, lowest + below_cm - TABLE_ROOM_CM),
+            min(self.config.arm.target_box.z_cm.min, goal_z),
+        )
+        if goal_z + aim[2] < floor_z:  # lower than the bounds allow: at the higher one
+            x, y, _ = (float(v) for v in pick.target.position_cm)
+            risen = dataclasses.replace(goal, position_cm=(x, y, floor_z))
+            pick = Route(obj.id, obj.class_name, "pick", obj.failed_picks + 1, risen)
+            above = self._approach(obj, pick)
+        if (
+            above is not None
+            and above.planned
+            and above.plan is not None
+            and self.planner.plan(pick, above.plan.q, target=obj.id).planned
+        ):
             return above, pick
-        # lower than the check allows: at its bound; the lowered pick not planned: as planned
-        risen = np.array([aim[0], aim[1], bound if aim[2] < bound else 0.0])
-        pick = Route(obj.id, obj.class_name, "pick", obj.failed_picks + 1, shifted(goal, risen))
+        # the lowered pick not planned: as planned
+        level = shifted(goal, np.array([aim[0], aim[1], 0.0]))
+        pick = Route(obj.id, obj.class_name, "pick", obj.failed_picks + 1, level)
         return self._approach(obj, pick), pick
 
     def _world(
