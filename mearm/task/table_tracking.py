@@ -48,6 +48,16 @@ SAME_SHIFT_CM = 0.3
 #: An object whose region grew or shrank by more than this fraction since the last look
 #: is partly hidden (by the arm) in one of them: its centroid moved for that [-].
 SAME_AREA_RATIO = 0.15
+#: How far past a bin's inner square the camera's place for an object still puts it in the
+#: bin [cm]: the walls' thickness. No object on the table stands within a bin's walls (a
+#: scene keeps each a radius outside, and the walls keep out one pushed against them),
+#: while the camera may place one in the bin a little beyond the inner square (seen on the
+#: others or by a wall; 0.1 cm outside, a sorted object was taken for a dropped one, then
+#: lost: simulated).
+IN_BIN_BEYOND_CM = BIN_WALL_M / M_PER_CM
+#: How far round a region's box the arm's body counts as bordering it [px] (the ring the
+#: detector's own test of a region the arm hides in part looks in, ``may_hold_two``).
+BORDER_PX = 2
 
 
 @dataclass
@@ -135,7 +145,7 @@ class TableTracking:
             detections = self.detector.detect(frame)
         else:
             detections = self.detector.detect(frame, exclude=hidden)
-        found = self._believed([(d, table_cm(d)) for d in detections])
+        found = self._believed([(d, table_cm(d)) for d in detections], hidden)
         seen = [(d, p) for d, p in found if not self._in_a_bin(p)]
         if track_new:
             self._confirm_in_bins(found)
@@ -157,7 +167,7 @@ class TableTracking:
         """:func:`work_surface_cm` of the run's config, once (the calibration is fixed)."""
         return work_surface_cm(self.config)
 
-    def _believed(self, found: Seen) -> Seen:
+    def _believed(self, found: Seen, hidden: np.ndarray | None = None) -> Seen:
         """The detections placed on the work surface; the others judged by their centre's ray.
 
         A place off the calibrated field and its bins (:func:`work_surface_cm`, grown by an
@@ -165,26 +175,39 @@ class TableTracking:
         stack in a bin cut by the arm's body was placed 700 cm away, simulated). Such a
         detection whose centre's ray meets the table in a bin is in that bin, placed there;
         any other is not believed and left out, so no position off the table is kept.
+
+        A detection the arm's body borders (``hidden``: seen in part, :func:`borders_hidden`)
+        whose centre's ray meets the table within a bin's inner square is in that bin too,
+        wherever its outline's fit placed it: that fit is of the part the arm leaves, and
+        the arm over a bin leaves the side of a stack there, its top hidden. The fit placed
+        the top of a stack of four 4.1 cm out from its bin's centre, beyond the walls
+        (3.3 cm), the centre's ray 0.3 cm from it: the sort took it for the object it had
+        just placed, dropped, and went for it by the wall (docs/twin.md, simulated).
         """
         surface = self._work_surface_cm
         out: Seen = []
         for d, p in found:
             r = self.config.task.class_named(d.color).diameter_cm
-            if on_surface(surface, p, r):
+            placed = on_surface(surface, p, r)
+            in_part = hidden is not None and borders_hidden(d, hidden)
+            if placed and not in_part:
                 out.append((d, p))
                 continue
             ray = np.asarray(self.calibration.pixel_to_table(d.centroid_px), dtype=float)
-            if self._in_a_bin(ray.reshape(2)):
-                out.append((d, ray.reshape(2)))
+            ray = ray.reshape(2)
+            if self._in_a_bin(ray, beyond_cm=0.0 if placed else IN_BIN_BEYOND_CM):
+                out.append((d, ray))
+            elif placed:
+                out.append((d, p))
         return out
 
-    def _in_a_bin(self, xy_cm: np.ndarray) -> bool:
+    def _in_a_bin(self, xy_cm: np.ndarray, beyond_cm: float = IN_BIN_BEYOND_CM) -> bool:
         """Whether a table point lies within a class's bin, walls included.
 
-        :data:`IN_BIN_BEYOND_CM` past its inner square.
+        ``beyond_cm`` past its inner square (default :data:`IN_BIN_BEYOND_CM`: its walls).
         """
         x, y = float(xy_cm[0]), float(xy_cm[1])
-        return any(c.in_bin(x, y, IN_BIN_BEYOND_CM) for c in self.config.task.classes)
+        return any(c.in_bin(x, y, beyond_cm) for c in self.config.task.classes)
 
     def _confirm_in_bins(self, found: Seen) -> None:
         """Count a carried object in its bin where the camera sees its class there.
@@ -427,19 +450,23 @@ def on_surface(surface_cm: np.ndarray, xy_cm: npt.ArrayLike, margin_cm: float) -
     return cv2.pointPolygonTest(surface_cm, (x, y), measureDist=True) >= -margin_cm
 
 
-#: How far past a bin's inner square the camera's place for an object still puts it in the
-#: bin [cm]: the walls' thickness. No object on the table stands within a bin's walls (a
-#: scene keeps each a radius outside, and the walls keep out one pushed against them),
-#: while the camera may place one in the bin a little beyond the inner square (seen on the
-#: others or by a wall; 0.1 cm outside, a sorted object was taken for a dropped one, then
-#: lost: simulated).
-IN_BIN_BEYOND_CM = BIN_WALL_M / M_PER_CM
-
-
 def table_cm(d: Detection) -> np.ndarray:
     """Where the detector located a detection on the table [cm] (it has the calibration)."""
     assert d.table_cm is not None
     return d.table_cm
+
+
+def borders_hidden(det: Detection, hidden: np.ndarray) -> bool:
+    """Whether the arm's body (``hidden``, 0/255, (H, W)) borders a detection's region.
+
+    A pixel of it within :data:`BORDER_PX` of the region's box: part of the object may be
+    hidden there, and its outline's fit is of the part seen.
+    """
+    h, w = hidden.shape[:2]
+    x, y, bw, bh = det.bbox_px
+    x0, y0 = max(x - BORDER_PX, 0), max(y - BORDER_PX, 0)
+    x1, y1 = min(x + bw + BORDER_PX, w), min(y + bh + BORDER_PX, h)
+    return bool(hidden[y0:y1, x0:x1].any())
 
 
 def is_cut(det: Detection, width_px: int, height_px: int) -> bool:
