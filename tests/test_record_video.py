@@ -8,6 +8,8 @@ codec. A file written whole (not fragmented) is not appended to.
 
 from __future__ import annotations
 
+import os
+import threading
 from pathlib import Path
 
 import av
@@ -60,6 +62,25 @@ def test_a_fragment_appended_decodes_after_the_first_episode(codec: str, tmp_pat
     assert [t for t, _ in decoded] == pytest.approx([k / FPS for k in range(9)], abs=1e-9)
     for (_, got), want in zip(decoded, first + second, strict=True):
         assert np.abs(got.astype(int) - want).max() <= 6  # lossy, but this frame's colour
+
+
+@pytest.mark.parametrize("codec", list(VIDEO_CODECS))
+def test_an_episode_leaves_its_thread_s_scheduling_as_it_was(codec: str, tmp_path: Path) -> None:
+    """SVT-AV1, opened as root, put the thread at SCHED_FIFO 99 and left it there: a pytest
+    worker after this file's AV1 test started every child realtime (a speed-0 virtual Uno
+    held a core). Encoded in a thread of its own, so that a failure leaves the worker as
+    it was."""
+    policies = []
+
+    def encode() -> None:
+        policies.append((os.sched_getscheduler(0), os.sched_getparam(0).sched_priority))
+        _episode(tmp_path / "a.mp4", _frames(2, 1), codec)
+        policies.append((os.sched_getscheduler(0), os.sched_getparam(0).sched_priority))
+
+    thread = threading.Thread(target=encode)
+    thread.start()
+    thread.join()
+    assert len(policies) == 2 and policies[1] == policies[0]
 
 
 def test_a_file_written_whole_is_not_appended_to(tmp_path: Path) -> None:

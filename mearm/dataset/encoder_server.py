@@ -25,6 +25,7 @@ import queue
 import signal
 import sys
 import threading
+from collections.abc import Iterator
 from multiprocessing.connection import Connection
 from multiprocessing.shared_memory import SharedMemory
 from pathlib import Path
@@ -112,7 +113,30 @@ def open_episode_video(
     stream.height, stream.width = size_hw
     stream.pix_fmt = L.VIDEO_PIX_FMT
     stream.gop_size = L.VIDEO_GOP
+    with scheduling_kept():
+        stream.codec_context.open()
     return out, stream
+
+
+@contextlib.contextmanager
+def scheduling_kept() -> Iterator[None]:
+    """The calling thread's scheduling policy and priority as they were before the block.
+
+    SVT-AV1, opened as root, puts the thread that opens it at ``SCHED_FIFO`` 99 and leaves
+    it there: every process that thread starts afterwards inherits it (a pytest worker
+    after an AV1 episode started the virtual Uno's busy simulator realtime, and it held a
+    core). Its own encoding threads are its own business and end with the encoder.
+    """
+    if not hasattr(os, "sched_getscheduler"):  # pragma: no cover - not Linux
+        yield
+        return
+    policy, param = os.sched_getscheduler(0), os.sched_getparam(0)
+    try:
+        yield
+    finally:
+        if (os.sched_getscheduler(0), os.sched_getparam(0)) != (policy, param):
+            with contextlib.suppress(OSError):
+                os.sched_setscheduler(0, policy, param)
 
 
 class EpisodeWriter:
