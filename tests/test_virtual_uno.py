@@ -14,6 +14,7 @@ import re
 import subprocess
 import sys
 import time
+from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
@@ -231,6 +232,36 @@ def test_opening_the_port_resets_the_board(cache_home, monkeypatch):
                 assert link.readline() == b"READY mearm_servo 2.0 5*8003\n"
             assert board.opens == opens
         assert board.pulses == []
+
+
+@pytest.fixture
+def realtime_thread() -> Iterator[None]:
+    """This thread at a realtime policy (``SCHED_FIFO``, priority 1) for the test, as
+    SVT-AV1 leaves a thread that opened an encoder as root; put back afterwards."""
+    policy, param = os.sched_getscheduler(0), os.sched_getparam(0)
+    try:
+        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(1))
+    except PermissionError:
+        pytest.skip("a realtime policy needs root or an RLIMIT_RTPRIO")
+    try:
+        yield
+    finally:
+        os.sched_setscheduler(0, policy, param)
+
+
+def test_the_simulator_runs_at_the_normal_policy_under_a_realtime_host(
+    cache_home, monkeypatch, realtime_thread
+):
+    """A host thread at a realtime policy: the simulator it starts runs at the normal one.
+    At speed 0 it never sleeps; at SCHED_FIFO 99 (a pytest worker after an AV1 test) it
+    held a core nothing beside it could have, and the full suite's virtual-Uno sort
+    crawled past its 300 s."""
+    monkeypatch.setenv("XDG_CACHE_HOME", str(cache_home))
+    with VirtualUno.start(speed=0) as board:
+        with serial.Serial(board.port, 115200, timeout=30.0) as link:
+            assert link.readline().startswith(b"READY")  # the simulator runs
+            (pid,) = _simulators_of(cache_home)
+            assert os.sched_getscheduler(pid) == os.SCHED_OTHER
 
 
 def test_bad_define_or_speed_is_refused_by_the_library(tmp_path):

@@ -49,6 +49,24 @@ _TIOCPKT = getattr(termios, "TIOCPKT", 0x5420)
 _TIOCPKT_FLUSHREAD = 0x01
 
 
+def _at_normal_priority(pid: int) -> None:
+    """Run the simulator ``pid`` at the normal scheduling policy, whatever the host's is.
+
+    A child takes its policy from the thread that started it, and a host thread may run at
+    a realtime one it never asked for (SVT-AV1 leaves the thread that opened an encoder as
+    root at ``SCHED_FIFO`` 99). The simulator at speed 0 never sleeps: at ``SCHED_FIFO``
+    99 a process sharing its core had 5 % of it (50 % beside it at the normal policy),
+    and the full suite's virtual-Uno sort, starved beside such boards, ran past its 300 s.
+    Where the system has no such policies, or refuses the change, the simulator runs as
+    it was started.
+    """
+    if not hasattr(os, "sched_setscheduler"):  # pragma: no cover - not Linux
+        return
+    with contextlib.suppress(OSError):
+        if os.sched_getscheduler(pid) in (os.SCHED_FIFO, os.SCHED_RR):
+            os.sched_setscheduler(pid, os.SCHED_OTHER, os.sched_param(0))
+
+
 class Pulse(NamedTuple):
     """One servo pulse an emulated pin produced.
 
@@ -287,6 +305,7 @@ class VirtualUno:
                 self.stderr.append(f"cannot run {argv[0]}: {exc}")
                 log.error("virtual Uno: cannot run %s: %s", argv[0], exc)
                 return
+            _at_normal_priority(proc.pid)
             self._proc = proc
             self._running = True
         threading.Thread(target=self._pump_out, args=(proc,), daemon=True).start()
