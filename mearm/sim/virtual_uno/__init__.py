@@ -12,7 +12,9 @@ Three parts:
 - :class:`VirtualUnoBus` (``servo.backend: virtual_uno``) is the serial backend
   (:class:`~mearm.hardware.arduino.ArduinoBus`) driving that board. After each
   acknowledged move it takes the first servo frame the board generated after its
-  ``OK``, maps each measured pulse back through the actuator's calibration,
+  ``OK``, maps each measured pulse back through the calibration of the rig's own servo
+  (the config's before its servo calibration file, whatever map the host sends by:
+  :mod:`mearm.sim.virtual_uno.own_servos`),
 
   .. math:: v = (p_\text{measured} - p_0) / (s\,k),
 

@@ -1,7 +1,9 @@
 r"""``servo.backend: virtual_uno``: the serial backend driving the virtual Uno.
 
 After each acknowledged move the first servo frame the board generated after its ``OK``
-is measured, each pulse mapped back through the actuator's calibration,
+is measured, each pulse mapped back through the calibration of the rig's own servo (the
+config's before its servo calibration file: :mod:`mearm.sim.virtual_uno.own_servos`, not
+the map the host sends by),
 
 .. math:: v = (p_\text{measured} - p_0) / (s\,k),
 
@@ -28,6 +30,7 @@ from mearm.sim.kinematic.world import World
 from mearm.sim.virtual_uno.board import Frame, VirtualUno
 from mearm.sim.virtual_uno.build import build_virtual_uno
 from mearm.sim.virtual_uno.errors import VirtualUnoError
+from mearm.sim.virtual_uno.own_servos import own_servo_map
 
 
 class VirtualUnoBus(ArduinoBus):
@@ -36,12 +39,14 @@ class VirtualUnoBus(ArduinoBus):
     The board is a :class:`VirtualUno`. Every move is sent as to a real board (``M``,
     acknowledged by ``OK``); then the first servo frame that started after the ``OK`` left
     the board's UART is measured, the simulated arm over the world is put where those
-    pulses put its servos (a joint sent past its limits stops at them, as the twin's
+    pulses put its servos — its own, built once from the config before its servo
+    calibration file (:func:`~mearm.sim.virtual_uno.own_servos.own_servo_map`), whatever
+    map the host later sends by (a joint sent past its limits stops at them, as the twin's
     does: :func:`~mearm.sim.kinematic.joint_stops.joints_at_stops`), and the move is refused
     (:class:`~mearm.hardware.errors.MoveNotConfirmedError`, which stops the bus with the last
     confirmed pose) when any pulse is missing or farther than
     ``servo.virtual_uno.pulse_tolerance_us`` from the one sent. The reason names the
-    actuator, the value its pulse stands for and the commanded one.
+    actuator, the value its pulse stands for to the host and the commanded one.
 
     Args:
         config: The whole configuration.
@@ -51,11 +56,14 @@ class VirtualUnoBus(ArduinoBus):
 
     Attributes:
         arm: The simulated arm its pins drive.
+        own_servos: How the simulated arm's servos turn a pulse into a value.
         board: The running virtual Uno, while connected.
         last_frame: The frame that confirmed (or refused) the last move.
 
     Raises:
         VirtualUnoError: the firmware or the harness cannot be built (missing tools).
+        ServoCalibrationError, ConfigError: as
+            :func:`~mearm.sim.virtual_uno.own_servos.own_servo_map`.
     """
 
     #: What the board is, for what records it (a servo calibration's ``board_id``): not a
@@ -70,6 +78,10 @@ class VirtualUnoBus(ArduinoBus):
         self.arm = SimArm(config, world if world is not None else World.from_config(config), model)
         self.board: VirtualUno | None = None
         self.last_frame: Frame | None = None
+        #: The rig's servos turn by their own build, not by the host's map, which a servo
+        #: calibration replaces (read back through it, the pulses would always put the
+        #: servos where the calibration believes them).
+        self.own_servos = own_servo_map(config)
         #: The simulated arm's joints stop at the limits it was built with, whatever map
         #: the host drives it by later (``calibrate-servos`` widens them to the pulses').
         self._stops = config.arm.joint_limits()
@@ -164,11 +176,13 @@ class VirtualUnoBus(ArduinoBus):
     def _follow(self, widths_us: Mapping[int, float]) -> None:
         """Put the simulated arm where the measured pulses put its servos, within its stops.
 
+        The rig's own servos (:attr:`own_servos`), not the host's map.
+
         Raises:
             SimCollisionError: the arm ran into something; it stays, and the fault
                 carries this bus's last confirmed pose.
         """
-        smap = self.servo_map
+        smap = self.own_servos
         joints: dict[str, float] = {}
         stops = self._stops
         if all(j.channel in widths_us for j in smap.joints):
