@@ -31,8 +31,9 @@ and ``residual_us`` the largest distance of a point from it.
          replaces: {zero_us: 600.0, direction: 1, us_per_unit: 10.0},
          points: [{value: 51.0, pulse_us: 1080}, {value: 114.0, pulse_us: 1710}]}
 
-``replaces`` is the calibration the actuator had when it was measured (optional: files
-written before it was recorded lack it).
+``replaces`` is the arm's own calibration of the actuator, the one before any servo
+calibration file: a fit made over an earlier file records what that file replaced, not
+the earlier fit (optional: files written before it was recorded lack it).
 
 A servo that turns a combination records it (``drives: {terms: {shoulder: 1.0, elbow:
 1.0}, offset: 0.0}`` in its entry): its points are values of that combination, and a
@@ -119,10 +120,11 @@ class ActuatorFit:
         servo: The fitted calibration (channel and pulse range as configured).
         points: The references it was fitted to.
         residual_us: The largest distance of a point from the fitted line [µs].
-        replaces: The calibration the actuator had when it was measured (its zero,
-            direction and µs per unit; written as ``replaces``), or ``None`` (unknown: a
-            file written before it was recorded). The twin with a kit of servos takes it
-            as the arm's nominal servo, the one its units deviate from (docs/twin.md).
+        replaces: The arm's own calibration of the actuator, before any servo
+            calibration file (its zero, direction and µs per unit; written as
+            ``replaces``), or ``None`` (unknown: a file written before it was
+            recorded). The twin with a kit of servos takes it as the arm's nominal servo,
+            the one its units deviate from (docs/twin.md).
         limits: The joint's limits narrowed to what the servo reaches inside its pulse
             range (min, max) [deg or cm], or ``None``: the arm's
             (:func:`~mearm.config.servo_reach.narrowed`).

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import sys
 from collections.abc import Sequence
 from pathlib import Path
@@ -135,6 +136,9 @@ class Calibrator:
                 arm = self.config.arm
                 _, lo, hi = fit_span(arm, act.name)
                 fit = fit_actuator(act.name, unit, servo_of(arm, act.name), points, (lo, hi))
+                # it replaces the arm's own calibration, not a file's fit: what a config
+                # without the file has, what a simulated rig's servos are
+                fit = dataclasses.replace(fit, replaces=servo_of(self.nominal_arm, act.name))
                 fit = narrowed(arm, fit)
                 check_fit(arm, fit, servo_of(self.nominal_arm, act.name))
                 apply_servo_calibration(self.config, [fit], source=f"the fit of {act.name}")

@@ -4,11 +4,25 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from typing import Protocol, runtime_checkable
 
 from mearm.backends import open_bus
 from mearm.config import Config
 from mearm.hardware import ActuatorMap, ArmCommand, ServoBus, ServoMap
 from mearm.hardware.bus import MeasuresJoints, MeasuresPulses, MeasuresTool
+
+
+@runtime_checkable
+class HasOwnServos(Protocol):
+    """A simulated board whose servos turn its pulses by their own calibration.
+
+    ``own_servos``: the rig's servos, whatever map the host sends by (the virtual Uno's,
+    :attr:`~mearm.sim.virtual_uno.VirtualUnoBus.own_servos`: the arm's calibration before
+    the config's servo calibration file).
+    """
+
+    @property
+    def own_servos(self) -> ServoMap: ...  # noqa: D102
 
 
 class PulseSession:
@@ -119,8 +133,9 @@ class PulseSession:
         A joint servo's value: the joint's, or the combination it turns
         (:class:`~mearm.hardware.bus.MeasuresJoints`). A bus that measures its board's
         pins (:class:`~mearm.hardware.bus.MeasuresPulses`: the virtual Uno) gives a tool
-        actuator's or the gripper's value as its measured pulse under the present
-        calibration, as its joints' are; one that reports its tool actuators
+        actuator's or the gripper's value as its measured pulse turned by the rig's own
+        servo (:class:`HasOwnServos`; a board that has none of its own, by the present
+        calibration), as its joints are turned; one that reports its tool actuators
         (:class:`~mearm.hardware.bus.MeasuresTool`: the kinematic simulator) gives
         theirs. The kinematic simulator's gripper is only open or closed: no value
         (:attr:`simulated` tells it from a real board's).
@@ -135,7 +150,10 @@ class PulseSession:
             measured = self.bus.measured_pulses_us()
             if actuator.channel not in measured:  # a silent pin: nothing to read
                 return None
-            return actuator.value_of(measured[actuator.channel])
+            # the rig's servo turns the pulse, not the host's map (a fitted file's): the
+            # screen reads where the arm is, as its joints are read
+            servo = self.bus.own_servos[name] if isinstance(self.bus, HasOwnServos) else actuator
+            return servo.value_of(measured[actuator.channel])
         if isinstance(self.bus, MeasuresTool):
             value = self.bus.actual_tool.get(name)
             return None if value is None else float(value)

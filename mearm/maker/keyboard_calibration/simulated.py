@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import math
 import sys
 from collections.abc import Sequence
@@ -14,7 +13,7 @@ import numpy as np
 
 from mearm.cli import EXIT_FAILURE
 from mearm.config import Config
-from mearm.config.servo_file import ActuatorFit, replaced_calibration, servo_of
+from mearm.config.servo_file import ActuatorFit
 from mearm.errors import MearmError
 from mearm.hardware.bus import MeasuresTcp
 from mearm.hardware.errors import ServoError
@@ -289,8 +288,6 @@ def simulate(
     except FitRefused as exc:  # no one to redo it: a partial file would look complete
         print(f"mearm calibrate-servos: {exc}; nothing written", file=sys.stderr)
         return EXIT_FAILURE
-    nominal = replaced_calibration(config)
-    if nominal is not None:  # recalibrating over a file: the twin's units stay relative
-        # to what that file replaced, so the new file records the same
-        fits = [dataclasses.replace(f, replaces=servo_of(nominal.arm, f.name)) for f in fits]
+    # over a file, each fit records what that file replaced (Calibrator.calibrate): the
+    # twin's units stay relative to the arm's own calibration
     return write_calibration(config, fits, board, "", output, force=bool(args.force))
