@@ -33,7 +33,10 @@ and ``residual_us`` the largest distance of a point from it.
 
 ``replaces`` is the arm's own calibration of the actuator, the one before any servo
 calibration file: a fit made over an earlier file records what that file replaced, not
-the earlier fit (optional: files written before it was recorded lack it).
+the earlier fit (optional: files written before it was recorded lack it). An entry that
+narrows its joint's limits (``limits``, below) records the arm's own limits there too
+(``replaces: {…, limits: {min: 20.0, max: 160.0}}``), which :func:`replaced_calibration`
+puts back: a config that uses the file holds only the narrowed ones.
 
 A servo that turns a combination records it (``drives: {terms: {shoulder: 1.0, elbow:
 1.0}, offset: 0.0}`` in its entry): its points are values of that combination, and a
@@ -50,7 +53,12 @@ uncertainty (:data:`FIT_SLACK`) takes the nearest line that does not
 reaches less than a joint's limits by more than that narrows them to what it reaches
 (:func:`~mearm.config.servo_reach.narrowed`; ``limits: {min, max}`` in its entry, which
 a config that uses the file takes), unless it leaves more than
-:data:`~mearm.config.servo_reach.MAX_NARROWING` of them: then it is refused.
+:data:`~mearm.config.servo_reach.MAX_NARROWING` of them: then it is refused. A fit is
+narrowed against the arm's own limits (:func:`recorded_fit`), not those an earlier file
+narrowed: a file is applied to the arm's own calibration, so a fit that reached the
+earlier file's limits but not the arm's would make a file no config can load. A joint an
+older file narrowed without recording the arm's own limits stays at least that narrow
+(the arm's own are not known then).
 
 :func:`save_servo_calibration` replaces a file only with ``force`` (the command asks
 first) and only if it is a servo calibration, and keeps the old one as ``<name>.bak``.
@@ -128,6 +136,9 @@ class ActuatorFit:
         limits: The joint's limits narrowed to what the servo reaches inside its pulse
             range (min, max) [deg or cm], or ``None``: the arm's
             (:func:`~mearm.config.servo_reach.narrowed`).
+        own_limits: The joint's limits in the arm's own calibration (min, max), recorded
+            where ``limits`` narrows them (written in ``replaces``), or ``None``: not
+            narrowed, or unknown (a file written before they were recorded).
     """
 
     name: str
@@ -137,6 +148,7 @@ class ActuatorFit:
     residual_us: float
     replaces: ServoCalibration | None = None
     limits: tuple[float, float] | None = None
+    own_limits: tuple[float, float] | None = None
 
     def with_limits(self, limits: tuple[float, float] | None) -> ActuatorFit:
         """The same fit with these narrowed limits (``None``: the arm's)."""
@@ -173,6 +185,9 @@ class ActuatorFit:
                 "direction": r.direction,
                 "us_per_unit": round(r.us_per_unit, 6),
             }
+            if self.limits is not None and self.own_limits is not None:
+                lo, hi = self.own_limits
+                out["replaces"]["limits"] = {"min": lo, "max": hi}
         out["points"] = [{"value": p.value, "pulse_us": p.pulse_us} for p in self.points]
         return out
 
@@ -395,11 +410,13 @@ def load_servo_calibration(path: str | Path) -> ServoCalibrationFile:
             limits = _limits(str(name), fields.pop("limits", None))
             kind = JointServo if "drives" in fields else ServoCalibration
             servo = kind.model_validate(fields)
-            replaces = None
+            replaces, own = None, None
             if replaced is not None:
-                replaces = kind.model_validate({**fields, **dict(replaced)})
+                replaced = dict(replaced)
+                own = _limits(f"{name}.replaces", replaced.pop("limits", None))
+                replaces = kind.model_validate({**fields, **replaced})
             actuators.append(
-                ActuatorFit(str(name), unit, servo, points, residual, replaces, limits)
+                ActuatorFit(str(name), unit, servo, points, residual, replaces, limits, own)
             )
         return ServoCalibrationFile(
             arm=str(data["arm"]),
@@ -589,9 +606,16 @@ def servo_of(arm: ArmDescription, name: str) -> ServoCalibration:
 
 
 def apply_servo_calibration(
-    config: Config, fits: Sequence[ActuatorFit], source: str = "servo calibration"
+    config: Config,
+    fits: Sequence[ActuatorFit],
+    source: str = "servo calibration",
+    *,
+    limits: Mapping[str, tuple[float, float]] | None = None,
 ) -> Config:
     """``config`` with these actuators' calibrations, validated by the config's checks.
+
+    ``limits`` sets joints' limits as given, wider than the config's too (the arm's own,
+    put back by :func:`replaced_calibration`).
 
     Raises:
         ServoCalibrationError: an actuator the arm does not have, on another channel, or
@@ -600,6 +624,11 @@ def apply_servo_calibration(
             pulse leaves the servo's range); the message names the field.
     """
     overrides = servo_overrides(config.arm, fits)
+    paths = actuator_paths(config.arm)
+    overrides += [
+        f"{paths[n].removesuffix('.servo')}.limits={{min: {lo!r}, max: {hi!r}}}"
+        for n, (lo, hi) in (limits or {}).items()
+    ]
     for fit in fits:
         present = servo_of(config.arm, fit.name)
         channel = present.channel
@@ -644,8 +673,12 @@ def replaced_calibration(config: Config) -> Config | None:
     """``config`` with the calibrations its servo calibration file replaced put back.
 
     What the arm had before ``servo.calibration_file``: each actuator's ``replaces``
-    (:class:`ActuatorFit`). ``None`` when the config names no file, or the file records
-    no ``replaces`` for any actuator.
+    (:class:`ActuatorFit`), with the joint's own limits where the file narrowed them and
+    recorded them. An end the config holds narrower than the file's is the config's own
+    (it was narrowed after the file was written); a joint whose own limits the file does
+    not record (one written before they were) keeps the narrowed ones
+    (:func:`unrecorded_limits`). ``None`` when the config names no file, or the file
+    records no ``replaces`` for any actuator.
 
     Raises:
         ServoCalibrationError, ConfigError: as :func:`apply_servo_calibration_file`.
@@ -661,7 +694,72 @@ def replaced_calibration(config: Config) -> Config | None:
     ]
     if not back:
         return None
-    return apply_servo_calibration(config, back, source=f"{path} (the calibration it replaced)")
+    present = config.arm.joint_limits()
+    limits = {}
+    for a in cal.actuators:
+        if a.limits is None or a.own_limits is None or a.name not in present:
+            continue
+        now = present[a.name]
+        lo = min(a.own_limits[0], now.min) if now.min <= a.limits[0] else now.min
+        hi = max(a.own_limits[1], now.max) if now.max >= a.limits[1] else now.max
+        limits[a.name] = (lo, hi)
+    return apply_servo_calibration(
+        config, back, source=f"{path} (the calibration it replaced)", limits=limits
+    )
+
+
+def unrecorded_limits(config: Config) -> frozenset[str]:
+    """The joints the config's servo calibration file narrowed without their own limits.
+
+    A file written before an entry recorded the arm's own limits (``replaces: {limits}``)
+    says only the narrowed ones: the arm's are not known.
+
+    Raises:
+        ServoCalibrationError: as :func:`load_servo_calibration`.
+    """
+    path = config.servo.calibration_file
+    if path is None:
+        return frozenset()
+    return frozenset(
+        a.name
+        for a in load_servo_calibration(path).actuators
+        if a.limits is not None and (a.replaces is None or a.own_limits is None)
+    )
+
+
+def recorded_fit(
+    config: Config, fit: ActuatorFit, own: ArmDescription | None = None
+) -> ActuatorFit:
+    """A fit made under ``config`` as a servo calibration file records it.
+
+    A file is applied to the arm's own calibration, the one before any file
+    (:func:`replaced_calibration`), not to the one the fit was made over: the fit records
+    that calibration as ``replaces``, and its joint's limits narrowed against the arm's
+    own (:func:`narrowed`), with those (``own_limits``) where it narrows them. Narrowed
+    against an earlier file's limits instead, a fit that reaches those but not the arm's
+    would record none, and no config could load the file. A joint whose own limits the
+    config's file does not record (:func:`unrecorded_limits`) stays at least as narrow as
+    the config has it.
+
+    Args:
+        config: The config the fit was made under (with its servo calibration file).
+        fit: The fit.
+        own: The arm's own description (``replaced_calibration(config) or config``), if
+            at hand.
+
+    Raises:
+        ServoCalibrationError: as :func:`narrowed` (it reaches too little), or the
+            config's file cannot be read.
+    """
+    arm = own if own is not None else (replaced_calibration(config) or config).arm
+    fit = narrowed(arm, dataclasses.replace(fit, replaces=servo_of(arm, fit.name)))
+    joint = next((j for j in arm.actuated_joints() if j.name == fit.name), None)
+    if joint is None or joint.limits is None:
+        return fit
+    own_limits = (joint.limits.min, joint.limits.max)
+    if fit.name not in unrecorded_limits(config):
+        return dataclasses.replace(fit, own_limits=own_limits if fit.limits else None)
+    return fit.with_limits(fit.limits or own_limits)
 
 
 def narrowed_limits_note(config: Config) -> str | None:

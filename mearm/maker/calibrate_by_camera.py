@@ -329,7 +329,7 @@ def calibrate_by_camera(config: Config, output: Path, args: argparse.Namespace) 
             # doubt's margin round every object seen, no point passed the checks otherwise
             floor = 0.0 if args.simulate else floor_cm(config)
             session = CameraSession(config, rig, camera, out, floor_cm=floor)
-            fits = measure(session, simulate=args.simulate)
+            fits = measure(session)
     except (ServoError, CameraError) as exc:
         if not opened:
             # a port that cannot be opened, a board that does not answer its handshake or
@@ -347,7 +347,7 @@ def calibrate_by_camera(config: Config, output: Path, args: argparse.Namespace) 
     return write_calibration(config, fits, board, port, output, force=bool(args.force))
 
 
-def measure(session: CameraSession, *, simulate: bool) -> list[ActuatorFit]:
+def measure(session: CameraSession) -> list[ActuatorFit]:
     """Run the session and park: the file's entries.
 
     A fault holds the arm where it is; Ctrl-C and a run that fails park it first (a way
@@ -378,9 +378,9 @@ def measure(session: CameraSession, *, simulate: bool) -> list[ActuatorFit]:
     _park(session)
     session.say(f"arm motion {session.motion_s():.1f} s (moves, waits for arrival, holds)")
     config = session.present
-    nominal = replaced_calibration(config)
-    # the twin's units stay relative to what a file replaced (as calibrate-servos --simulate)
-    replaces = nominal.arm if simulate and nominal is not None else config.arm
+    # every fit replaces the arm's own calibration, on a real board too (as the keyboard's
+    # do): not a file's fit it is made over, which a config using the new file never has
+    replaces = (replaced_calibration(config) or config).arm
     sightings = [s for _, s in session.above + session.below]
     points = seen_points(session.claw, sightings, fit.servos)
     try:

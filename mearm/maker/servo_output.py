@@ -93,11 +93,12 @@ def write_calibration(
     if not fits:
         print("no actuator calibrated: nothing written", file=sys.stderr)
         return EXIT_FAILURE
-    nominal_arm = (replaced_calibration(config) or config).arm
+    # a config that uses the file applies it to the arm's own calibration, limits too
+    own = replaced_calibration(config) or config
     try:
         for fit in fits:
-            check_fit(config.arm, fit, servo_of(nominal_arm, fit.name))
-        apply_servo_calibration(config, fits, source="the calibration")
+            check_fit(own.arm, fit, servo_of(own.arm, fit.name))
+        apply_servo_calibration(own, fits, source="the calibration")
     except (ServoCalibrationError, ConfigError) as exc:
         print(f"mearm calibrate-servos: refused: {exc}; nothing written", file=sys.stderr)
         return EXIT_FAILURE

@@ -24,7 +24,7 @@ from mearm.config import Config
 from mearm.config.servo_file import (
     ActuatorFit,
     fitted_servo,
-    narrowed,
+    recorded_fit,
     replaced_calibration,
     servo_of,
 )
@@ -82,8 +82,7 @@ def true_fit(config: Config, servo: ServoModel) -> ActuatorFit:
     template = servo_of(config.arm, servo.name)
     fitted = fitted_servo(template, servo.name, zero, direction * k, play_us=play_us)
     nominal = (replaced_calibration(config) or config).arm
-    fit = ActuatorFit(servo.name, a.unit, fitted, (), 0.0, servo_of(nominal, servo.name))
-    return narrowed(config.arm, fit)
+    return recorded_fit(config, ActuatorFit(servo.name, a.unit, fitted, (), 0.0), nominal)
 
 
 def truth_fits(config: Config) -> list[ActuatorFit]:

@@ -115,7 +115,7 @@ def calibrate(config: Config, rig: Rig, *, simulated: bool) -> Calibrated:
     camera = camera_geometry(config.calibration, config.camera)
     assert isinstance(camera, PerspectiveCamera)  # the sort checked its needs
     session = CameraSession(config, rig, camera, io.StringIO(), floor_cm=floor_cm(config))
-    fits = measure(session, simulate=simulated)
+    fits = measure(session)
     result = session.result
     assert result is not None  # measure returned: the run gave one
     try:

@@ -13,7 +13,7 @@ from mearm.config.servo_file import (
     ActuatorFit,
     CalibrationPoint,
     fitted_servo,
-    narrowed,
+    recorded_fit,
     servo_of,
 )
 from mearm.hardware import ActuatorMap
@@ -61,14 +61,16 @@ def actuator_fits(
 ) -> list[ActuatorFit]:
     """Joint servo maps as the servo file's entries, their limits narrowed where needed.
 
-    Each joint's limits are narrowed to what its servo reaches
-    (:func:`~mearm.config.servo_reach.narrowed`).
+    Each joint's limits are narrowed to what its servo reaches of the arm's own
+    (:func:`~mearm.config.servo_file.recorded_fit`).
 
     Args:
         config: The whole config (each servo's present calibration: its channel, pulse
             range, speed and combination are kept).
         servos: The fitted maps.
-        replaces_arm: The arm whose calibration each entry records it replaces.
+        replaces_arm: The arm's own description, before any servo calibration file:
+            each entry records its calibration as replaced and is narrowed against its
+            limits.
         points: Each servo's points (the value the camera saw it at, its pulse).
         play_us: Each servo's measured play, the pulse rising less falling [µs]
             (:meth:`CameraSession.rising_play_us`); none where not given.
@@ -85,9 +87,8 @@ def actuator_fits(
         servo = fitted_servo(template, amap.name, amap.zero_us, slope, play_us=play)
         seen = (points or {}).get(amap.name, ())
         residual = max((abs(servo.pulse_us(p.value) - p.pulse_us) for p in seen), default=0.0)
-        replaces = servo_of(replaces_arm, amap.name)
-        fit = ActuatorFit(amap.name, amap.unit, servo, tuple(seen), residual, replaces)
-        out.append(narrowed(config.arm, fit))
+        fit = ActuatorFit(amap.name, amap.unit, servo, tuple(seen), residual)
+        out.append(recorded_fit(config, fit, replaces_arm))
     return out
 
 

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import sys
 from collections.abc import Sequence
 from pathlib import Path
@@ -20,8 +19,8 @@ from mearm.config.servo_file import (
     check_replace,
     fit_actuator,
     fit_span,
-    narrowed,
     narrowing_text,
+    recorded_fit,
     replaced_calibration,
     servo_of,
 )
@@ -58,8 +57,10 @@ class Calibrator:
         self.step_index = 1
         # a live status line is for a terminal; a file or pipe gets the lines alone
         self.live = bool(getattr(out, "isatty", lambda: False)())
-        # the arm's own calibration, before any file: what a fit's slope is compared with
-        self.nominal_arm = (replaced_calibration(config) or config).arm
+        # the arm's own calibration, before any file: what a fit's slope is compared with,
+        # the limits it is narrowed against and the config a file of it is applied to
+        self.own = replaced_calibration(config) or config
+        self.nominal_arm = self.own.arm
         # the actuators past their limits, each warned about once when it crossed
         self.past_limits: set[str] = set()
 
@@ -133,26 +134,27 @@ class Calibrator:
                 points.append(CalibrationPoint(ref, pulse))
                 self.say(f"recorded {act.name} at {ref:g} {unit}: {pulse} µs")
             try:
-                arm = self.config.arm
+                # it replaces the arm's own calibration, not a file's fit (what a config
+                # without the file has, what a simulated rig's servos are), and a config
+                # using it has the arm's own limits: it is fitted and narrowed to those
+                arm = self.nominal_arm
                 _, lo, hi = fit_span(arm, act.name)
-                fit = fit_actuator(act.name, unit, servo_of(arm, act.name), points, (lo, hi))
-                # it replaces the arm's own calibration, not a file's fit: what a config
-                # without the file has, what a simulated rig's servos are
-                fit = dataclasses.replace(fit, replaces=servo_of(self.nominal_arm, act.name))
-                fit = narrowed(arm, fit)
-                check_fit(arm, fit, servo_of(self.nominal_arm, act.name))
-                apply_servo_calibration(self.config, [fit], source=f"the fit of {act.name}")
+                template = servo_of(self.config.arm, act.name)
+                fit = fit_actuator(act.name, unit, template, points, (lo, hi))
+                fit = recorded_fit(self.config, fit, arm)
+                check_fit(arm, fit, servo_of(arm, act.name))
+                apply_servo_calibration(self.own, [fit], source=f"the fit of {act.name}")
             except (ServoCalibrationError, ConfigError) as exc:
                 self.refuse(act, exc)
                 continue
             s = fit.servo
-            what, lo, hi = fit_span(self.config.arm, act.name, fit.limits)
+            what, lo, hi = fit_span(self.nominal_arm, act.name, fit.limits)
             self.say(
                 f"{act.name}: zero {s.zero_us:.1f} µs, {s.us_per_unit:.3f} µs/{unit}, "
                 f"direction {s.direction:+d}; {what} [{lo:.4g}, {hi:.4g}] {unit} → "
                 f"[{s.pulse_us(lo):.0f}, {s.pulse_us(hi):.0f}] µs"
             )
-            narrowing = narrowing_text(self.config.arm, fit)
+            narrowing = narrowing_text(self.nominal_arm, fit)
             if narrowing is not None:
                 self.say(narrowing)
             return fit

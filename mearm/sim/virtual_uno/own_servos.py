@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import logging
 
-from mearm.config import Config
+from mearm.config import ArmDescription, Config
 from mearm.hardware import ServoMap
 
 log = logging.getLogger(__name__)
@@ -26,6 +26,15 @@ log = logging.getLogger(__name__)
 
 def own_servo_map(config: Config) -> ServoMap:
     """The virtual Uno's servos: the config's calibration before its servo calibration file.
+
+    Raises:
+        ServoCalibrationError, ConfigError: as :func:`own_arm`.
+    """
+    return ServoMap.from_arm(own_arm(config))
+
+
+def own_arm(config: Config) -> ArmDescription:
+    """The rig's arm: the config's before its servo calibration file, limits too.
 
     A file that records no replaced calibration (one written before ``replaces`` was) is
     taken as the rig's own, with a warning: nothing says what it replaced.
@@ -36,7 +45,7 @@ def own_servo_map(config: Config) -> ServoMap:
             (:func:`~mearm.config.servo_file.replaced_calibration`).
     """
     if config.servo.calibration_file is None:
-        return ServoMap.from_arm(config.arm)
+        return config.arm
     # imported only for a config that names such a file, as the config's loader does
     from mearm.config.servo_file import replaced_calibration  # noqa: PLC0415
 
@@ -47,4 +56,4 @@ def own_servo_map(config: Config) -> ServoMap:
             "calibration it gives",
             config.servo.calibration_file,
         )
-    return ServoMap.from_arm((nominal or config).arm)
+    return (nominal or config).arm

@@ -30,7 +30,7 @@ from mearm.sim.kinematic.world import World
 from mearm.sim.virtual_uno.board import Frame, VirtualUno
 from mearm.sim.virtual_uno.build import build_virtual_uno
 from mearm.sim.virtual_uno.errors import VirtualUnoError
-from mearm.sim.virtual_uno.own_servos import own_servo_map
+from mearm.sim.virtual_uno.own_servos import own_arm, own_servo_map
 
 
 class VirtualUnoBus(ArduinoBus):
@@ -82,9 +82,10 @@ class VirtualUnoBus(ArduinoBus):
         #: calibration replaces (read back through it, the pulses would always put the
         #: servos where the calibration believes them).
         self.own_servos = own_servo_map(config)
-        #: The simulated arm's joints stop at the limits it was built with, whatever map
+        #: The simulated arm's joints stop at the arm's own limits, before the servo
+        #: calibration file (which may narrow them to what its fits reach), whatever map
         #: the host drives it by later (``calibrate-servos`` widens them to the pulses').
-        self._stops = config.arm.joint_limits()
+        self._stops = own_arm(config).joint_limits()
 
     # ----------------------------------------------------------------- the arm
 
