@@ -18,9 +18,10 @@ import logging
 from pathlib import Path
 
 import pytest
+from test_maker_own_servos import _config as rig_config
 from test_virtual_uno import cache_home  # noqa: F401  (a fixture)
 
-from mearm.config import Config, load_config
+from mearm.config import Config
 from mearm.hardware import ArmCommand, ServoMap
 from mearm.sim import World
 from mearm.sim.kinematic.joint_stops import joints_at_stops
@@ -55,16 +56,7 @@ OWN_SHOULDER_DEG = (450.0 + 11.0 * 100.0 - 600.0) / 10.0
 
 def _config(calibration: Path | None = None) -> Config:
     """The paper rig on the virtual Uno, with the servo calibration file if given."""
-    sets = [
-        "servo.backend=virtual_uno",
-        "servo.virtual_uno.speed=0",
-        # generous: simavr beside other work on a loaded machine answers late
-        "servo.ack_timeout_s=10",
-        "task.scene=[]",
-    ]
-    if calibration is not None:
-        sets.append(f"servo.calibration_file={calibration}")
-    return load_config(None, overrides=sets)
+    return rig_config("virtual_uno", calibration)
 
 
 def _fitted(tmp_path: Path, *, replaces: bool = True) -> Path:
