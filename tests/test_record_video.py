@@ -83,6 +83,34 @@ def test_an_episode_leaves_its_thread_s_scheduling_as_it_was(codec: str, tmp_pat
     assert len(policies) == 2 and policies[1] == policies[0]
 
 
+def _realtime_threads() -> list[tuple[int, int]]:
+    """This process's threads at a realtime policy: (thread id, policy)."""
+    out = []
+    for tid in map(int, os.listdir("/proc/self/task")):
+        try:
+            policy = os.sched_getscheduler(tid)
+        except OSError:  # ended meanwhile
+            continue
+        if policy in (os.SCHED_FIFO, os.SCHED_RR):
+            out.append((tid, policy))
+    return out
+
+
+@pytest.mark.skipif(os.geteuid() != 0, reason="SVT-AV1 makes its threads realtime as root")
+def test_no_thread_of_an_episode_being_encoded_runs_realtime(tmp_path: Path) -> None:
+    """SVT-AV1, opened as root, started its 38 encoding threads at SCHED_FIFO 99: on two
+    cores they took the CPU before anything else (the sort's own process too) while an
+    episode was encoded. Mid-episode, no thread of the process is realtime."""
+    assert _realtime_threads() == []
+    writer = EpisodeWriter(av, tmp_path / "a.mp4", FPS, SIZE_HW, "av1")
+    try:
+        for frame in _frames(3, 3):
+            writer.add(av.VideoFrame.from_ndarray(frame, format="rgb24"))
+        assert _realtime_threads() == []
+    finally:
+        writer.close()
+
+
 def test_a_file_written_whole_is_not_appended_to(tmp_path: Path) -> None:
     """FFmpeg's default MP4 (samples listed in its moov) has no header to append to."""
     path = tmp_path / "whole.mp4"

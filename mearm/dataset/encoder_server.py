@@ -118,25 +118,47 @@ def open_episode_video(
     return out, stream
 
 
+#: The realtime scheduling policies (Linux); none where ``os`` has no scheduler calls.
+_REALTIME = {getattr(os, name) for name in ("SCHED_FIFO", "SCHED_RR") if hasattr(os, name)}
+
+
+def _threads_policies() -> dict[int, int]:
+    """Each thread of this process (its id) and its scheduling policy."""
+    out: dict[int, int] = {}
+    with contextlib.suppress(OSError):
+        for tid in os.listdir("/proc/self/task"):
+            with contextlib.suppress(OSError):  # a thread that ended meanwhile
+                out[int(tid)] = os.sched_getscheduler(int(tid))
+    return out
+
+
 @contextlib.contextmanager
 def scheduling_kept() -> Iterator[None]:
-    """The calling thread's scheduling policy and priority as they were before the block.
+    """Every thread of this process at the scheduling it had before the block.
 
-    SVT-AV1, opened as root, puts the thread that opens it at ``SCHED_FIFO`` 99 and leaves
-    it there: every process that thread starts afterwards inherits it (a pytest worker
-    after an AV1 episode started the virtual Uno's busy simulator realtime, and it held a
-    core). Its own encoding threads are its own business and end with the encoder.
+    A thread the block started at a realtime policy runs at the calling thread's.
+    SVT-AV1, opened as root, puts the thread that opens it and its own 38 encoding threads
+    at ``SCHED_FIFO`` 99, and leaves the first there: every process that thread started
+    afterwards inherited it (a pytest worker after an AV1 episode started the virtual Uno's
+    busy simulator realtime, and it held a core), and on two cores the encoding threads
+    took the CPU before anything else, the sort's own process included. A program run
+    realtime on purpose (``chrt``) keeps it: only what the block changed is undone.
     """
     if not hasattr(os, "sched_getscheduler"):  # pragma: no cover - not Linux
         yield
         return
     policy, param = os.sched_getscheduler(0), os.sched_getparam(0)
+    before = _threads_policies()
     try:
         yield
     finally:
-        if (os.sched_getscheduler(0), os.sched_getparam(0)) != (policy, param):
-            with contextlib.suppress(OSError):
+        with contextlib.suppress(OSError):
+            if (os.sched_getscheduler(0), os.sched_getparam(0)) != (policy, param):
                 os.sched_setscheduler(0, policy, param)
+        for tid, now in _threads_policies().items():
+            if now in _REALTIME and before.get(tid, policy) not in _REALTIME:
+                with contextlib.suppress(OSError):  # ended meanwhile, or not ours to change
+                    os.sched_setscheduler(tid, policy, param)
 
 
 class EpisodeWriter:
