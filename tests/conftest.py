@@ -46,6 +46,20 @@ def _program_name_kept() -> Any:
     sys.argv = saved
 
 
+@pytest.fixture(autouse=True)
+def _scheduling_kept() -> Any:
+    """Each test leaves the worker's scheduling as it found it. SVT-AV1, opened as root,
+    left a worker at ``SCHED_FIFO`` 99, and every process the worker started afterwards
+    ran realtime: a busy virtual Uno held a core, and the full suite's virtual-Uno sort
+    ran past its 300 s timeout, far from the test that changed it."""
+    before = (os.sched_getscheduler(0), os.sched_getparam(0))
+    yield
+    after = (os.sched_getscheduler(0), os.sched_getparam(0))
+    if after != before:
+        os.sched_setscheduler(0, *before)
+        pytest.fail(f"the test left this process at scheduling policy {after[0]}, not {before[0]}")
+
+
 @pytest.fixture(scope="session")
 def config() -> Config:
     return Config()
