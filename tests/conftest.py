@@ -52,6 +52,9 @@ def _scheduling_kept() -> Any:
     left a worker at ``SCHED_FIFO`` 99, and every process the worker started afterwards
     ran realtime: a busy virtual Uno held a core, and the full suite's virtual-Uno sort
     ran past its 300 s timeout, far from the test that changed it."""
+    if not hasattr(os, "sched_getscheduler"):  # not Linux: no such policies to leave
+        yield
+        return
     before = (os.sched_getscheduler(0), os.sched_getparam(0))
     yield
     after = (os.sched_getscheduler(0), os.sched_getparam(0))

@@ -64,6 +64,7 @@ def test_a_fragment_appended_decodes_after_the_first_episode(codec: str, tmp_pat
         assert np.abs(got.astype(int) - want).max() <= 6  # lossy, but this frame's colour
 
 
+@pytest.mark.skipif(not hasattr(os, "sched_getscheduler"), reason="Linux's scheduling")
 @pytest.mark.parametrize("codec", list(VIDEO_CODECS))
 def test_an_episode_leaves_its_thread_s_scheduling_as_it_was(codec: str, tmp_path: Path) -> None:
     """SVT-AV1, opened as root, put the thread at SCHED_FIFO 99 and left it there: a pytest
@@ -96,7 +97,10 @@ def _realtime_threads() -> list[tuple[int, int]]:
     return out
 
 
-@pytest.mark.skipif(os.geteuid() != 0, reason="SVT-AV1 makes its threads realtime as root")
+@pytest.mark.skipif(
+    not hasattr(os, "sched_getscheduler") or os.geteuid() != 0,
+    reason="SVT-AV1 makes its threads realtime as root, on Linux",
+)
 def test_no_thread_of_an_episode_being_encoded_runs_realtime(tmp_path: Path) -> None:
     """SVT-AV1, opened as root, started its 38 encoding threads at SCHED_FIFO 99: on two
     cores they took the CPU before anything else (the sort's own process too) while an

@@ -238,6 +238,8 @@ def test_opening_the_port_resets_the_board(cache_home, monkeypatch):
 def realtime_thread() -> Iterator[None]:
     """This thread at a realtime policy (``SCHED_FIFO``, priority 1) for the test, as
     SVT-AV1 leaves a thread that opened an encoder as root; put back afterwards."""
+    if not hasattr(os, "sched_setscheduler"):
+        pytest.skip("scheduling policies are Linux's")
     policy, param = os.sched_getscheduler(0), os.sched_getparam(0)
     try:
         os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(1))
