@@ -1,11 +1,12 @@
 """Recording sorts as LeRobotDataset v3.0 (``--record``) and ``mearm dataset check/show``.
 
-One twin sort of three objects is recorded once per module (a real ``mearm sort``
-process) and read back with pyarrow and PyAV only, independently of the checker.
+One twin sort of three objects is recorded once per test run (``mearm sort``, in the
+test's process) and read back with pyarrow and PyAV only, independently of the checker.
 """
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import shutil
@@ -20,6 +21,7 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
+from badinput import Outcome, run_in_process
 from built_once import built_once
 from conftest import ROOT, interrupted
 
@@ -34,12 +36,11 @@ KEY = "observation.images.table"
 pytestmark = pytest.mark.heavy
 
 
-def _mearm(*args: object, timeout: float = 300) -> subprocess.CompletedProcess[str]:
-    env = {**os.environ, "PYTHONPATH": str(ROOT), "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl")}
-    return subprocess.run(
-        [sys.executable, "-m", "mearm", *map(str, args)],
-        capture_output=True, text=True, timeout=timeout, cwd=ROOT, env=env,
-    )  # fmt: skip
+def _mearm(*args: object) -> Outcome:
+    """``mearm ARGS`` in this process, in the checkout (the tests of the command's own
+    process are the Ctrl-C one here and that of what it imports)."""
+    with contextlib.chdir(ROOT):
+        return run_in_process(args, within_s=30)
 
 
 @pytest.fixture(scope="module")
@@ -49,9 +50,9 @@ def recorded(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
 
     def sort(d: Path) -> None:
         rec = _mearm("sort", *SORT, "--log", d / "rec.jsonl", "--record", d / "ds")
-        assert rec.returncode == 0, rec.stderr
+        assert rec.code == 0, rec.stderr
         plain = _mearm("sort", *SORT, "--log", d / "plain.jsonl")
-        assert plain.returncode == 0, plain.stderr
+        assert plain.code == 0, plain.stderr
 
     d = built_once(tmp_path_factory, "recorded-twin-sort", sort)
     return {"root": d / "ds", "log": d / "rec.jsonl", "plain": d / "plain.jsonl"}
@@ -158,7 +159,7 @@ def test_resume_appends_a_scene_as_one_episode(recorded: dict[str, Path], tmp_pa
     shutil.copytree(recorded["root"], root)
     out = _mearm("sort", "--config", TWIN, "--random", "2", "--seed", "2", "--quiet",
                  "--record", root, "--resume", "--record-per", "scene")  # fmt: skip
-    assert out.returncode == 0, out.stderr
+    assert out.code == 0, out.stderr
     info = json.loads((root / "meta/info.json").read_text())
     assert info["total_episodes"] == 4
     episodes = _episodes(root)

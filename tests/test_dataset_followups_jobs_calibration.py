@@ -11,6 +11,7 @@ worker's trial keeps what the same trial run in the command's own process keeps.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import subprocess
@@ -18,6 +19,7 @@ import sys
 from pathlib import Path
 
 import pytest
+from badinput import run_in_process
 from conftest import ROOT
 
 pytest.importorskip("pyarrow")
@@ -39,25 +41,32 @@ SERVOS = "meta/mearm_servos/episode-000000.servos.yaml"
 @pytest.fixture(scope="module")
 def recorded(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     """The same one-trial experiment on ``sim_mujoco_kits`` recorded twice, at once: in
-    the command's own process (``--jobs 1``) and by a worker process (``--jobs 2``)."""
+    the command's own process (``--jobs 1``, run in this one) and by a worker process
+    (``--jobs 2``, a command of its own)."""
     here = tmp_path_factory.mktemp("jobs_calibration")
     scene = here / "scene.yaml"
     scene.write_text(SCENE)
+
+    def argv(jobs: str) -> list[str]:
+        return [
+            "experiment", "--config", "sim_mujoco_kits", "--scene", str(scene), "--trials", "1",
+            "--seed", "3", "--jobs", jobs, "--log", str(here / f"jobs{jobs}.jsonl"),
+            "--record", str(here / f"jobs{jobs}"), "--record-codec", "h264", "--record-fps", "5",
+        ]  # fmt: skip
+
     env = {**os.environ, "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl")}
-    runs = {}
-    for jobs in ("1", "2"):
-        runs[jobs] = subprocess.Popen(
-            [sys.executable, "-m", "mearm", "experiment", "--config", "sim_mujoco_kits",
-             "--scene", str(scene), "--trials", "1", "--seed", "3", "--jobs", jobs,
-             "--log", str(here / f"jobs{jobs}.jsonl"), "--record", str(here / f"jobs{jobs}"),
-             "--record-codec", "h264", "--record-fps", "5"],
-            cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-        )  # fmt: skip
-    for jobs, proc in runs.items():
-        out, err = proc.communicate(timeout=600)
-        assert proc.returncode == 0, f"--jobs {jobs}: {out}{err}"
-        assert "sorted 2 of 2 objects" in out, out
-    return {jobs: here / f"jobs{jobs}" for jobs in runs}
+    workers = subprocess.Popen(
+        [sys.executable, "-m", "mearm", *argv("2")],
+        cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    )  # fmt: skip
+    with contextlib.chdir(ROOT):
+        serial = run_in_process(argv("1"), within_s=60)
+    out, err = workers.communicate(timeout=600)
+    ran = {"1": (serial.code, serial.stdout, serial.stderr), "2": (workers.returncode, out, err)}
+    for jobs, (code, said, errors) in ran.items():
+        assert code == 0, f"--jobs {jobs}: {said}{errors}"
+        assert "sorted 2 of 2 objects" in said, said
+    return {jobs: here / f"jobs{jobs}" for jobs in ("1", "2")}
 
 
 def _starts(root: Path) -> list[dict[str, object]]:

@@ -2,8 +2,13 @@
 
 from __future__ import annotations
 
+import contextlib
+from pathlib import Path
+
 import pytest
 import yaml
+from badinput import run_in_process
+from conftest import ROOT, run_main
 
 pytest.importorskip("pyarrow")
 pytest.importorskip("av")
@@ -11,6 +16,7 @@ pytest.importorskip("av")
 from mearm.config import load_config  # noqa: E402
 from mearm.dataset.errors import DatasetError  # noqa: E402
 from mearm.dataset.recorder import DatasetRecorder  # noqa: E402
+from mearm.envs.replay import main as replay_main  # noqa: E402
 from mearm.envs.replay import plan_replay, replay  # noqa: E402
 from mearm.task.rig import run_sort  # noqa: E402
 from mearm.task.scene import random_scene  # noqa: E402
@@ -18,17 +24,27 @@ from mearm.task.scene import random_scene  # noqa: E402
 pytestmark = pytest.mark.heavy
 
 
-def test_a_recorded_scene_replays_to_the_same_objects_in_the_same_bins(tmp_path):
-    """Seed 7, two objects, recorded per scene at the servo rate: the replay sorts both."""
+@pytest.fixture(scope="module")
+def sorted_here(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict[str, int]]:
+    """Seed 7, two objects, recorded per scene at the servo rate by the library (no
+    scene kept: the recorder is given none; H.264, quicker to encode than AV1, and the
+    replay reads the actions only): the dataset, and how many of each class the sort put
+    in its bin."""
     config = load_config("sim_mujoco")
-    scene = random_scene(config, 2, seed=7)
-    recorder = DatasetRecorder(tmp_path / "ds", config, fps=50, per="scene")
+    ds = tmp_path_factory.mktemp("sorted_here") / "ds"
+    recorder = DatasetRecorder(ds, config, fps=50, per="scene", codec="h264")
     try:
-        report = run_sort(config, scene=scene, echo=None, recorder=recorder)
+        report = run_sort(config, scene=random_scene(config, 2, seed=7), echo=None,
+                          recorder=recorder)  # fmt: skip
     finally:
         recorder.close()
-    recorded = {c: n for c, n in report.outcome.sorted.items() if n}
-    out = replay(tmp_path / "ds", 0, seed=7, config="sim_mujoco", objects=2)
+    return ds, {c: n for c, n in report.outcome.sorted.items() if n}
+
+
+def test_a_recorded_scene_replays_to_the_same_objects_in_the_same_bins(sorted_here):
+    """Seed 7, two objects, recorded per scene at the servo rate: the replay sorts both."""
+    ds, recorded = sorted_here
+    out = replay(ds, 0, seed=7, config="sim_mujoco", objects=2)
     replayed: dict[str, int] = {}
     for cls in out.bins.values():
         replayed[cls] = replayed.get(cls, 0) + 1
@@ -83,41 +99,35 @@ def recorded(tmp_path_factory: pytest.TempPathFactory):
     its --config a path relative to the checkout and a servo calibration file by --set,
     relative to the checkout too (the replays run elsewhere)."""
     import os
-    import subprocess
-    import sys
-    from pathlib import Path
 
-    root = Path(__file__).resolve().parent.parent
     here = tmp_path_factory.mktemp("replay")
     ds = here / "rec"
-    servo_file = os.path.relpath(_servo_file(here / "sort"), root)
-    subprocess.run(
-        [sys.executable, "-m", "mearm", "sort", "--config", "configs/sim_mujoco.yaml",
-         "--set", f"servo.calibration_file={servo_file}",
-         "--random", "2", "--seed", "7", "--record", str(ds), "--record-per", "scene",
-         "--record-fps", "50", "--record-codec", "h264", "--quiet"],
-        check=True, capture_output=True, cwd=root, timeout=300,
-    )  # fmt: skip
+    servo_file = os.path.relpath(_servo_file(here / "sort"), ROOT)
+    with contextlib.chdir(ROOT):
+        out = run_in_process(
+            ["sort", "--config", "configs/sim_mujoco.yaml",
+             "--set", f"servo.calibration_file={servo_file}",
+             "--random", "2", "--seed", "7", "--record", ds, "--record-per", "scene",
+             "--record-fps", "50", "--record-codec", "h264", "--quiet"],
+            within_s=30,
+        )  # fmt: skip
+    assert out.code == 0, out.stderr
     return ds
 
 
-def _replay_cli(ds, *args: str):
-    import subprocess
-    import sys
-
-    return subprocess.run(
-        [sys.executable, "-m", "mearm.envs.replay", str(ds), *args],
-        capture_output=True, text=True, cwd=ds.parent, timeout=300,
-    )  # fmt: skip
+def _replay_cli(ds, capsys, monkeypatch, *args: str) -> tuple[int, str, str]:
+    """The replay command in this process, in the dataset's folder (not the sort's)."""
+    monkeypatch.chdir(ds.parent)
+    return run_main(capsys, replay_main, ds, *args)
 
 
-def test_the_replay_takes_the_recorded_scene(recorded):
+def test_the_replay_takes_the_recorded_scene(recorded, capsys, monkeypatch):
     """No --seed or --objects: the dataset's own (it kept --random 2 --seed 7), and its
     config and --set servo calibration file from another folder than the sort's (kept by
     their absolute paths: the replay said the file "is not a file")."""
-    proc = _replay_cli(recorded)
-    assert proc.returncode == 0, proc.stderr
-    assert "2 of 2 objects in their bins" in proc.stdout
+    code, out, err = _replay_cli(recorded, capsys, monkeypatch)
+    assert code == 0, err
+    assert "2 of 2 objects in their bins" in out
 
 
 @pytest.mark.parametrize(
@@ -132,24 +142,21 @@ def test_the_replay_takes_the_recorded_scene(recorded):
         (["--episode", "1"], "has no episode 1 (it holds episodes 0..0)"),
     ],
 )
-def test_the_replay_refuses_inputs_the_recording_disagrees_with(recorded, args, says):
+def test_the_replay_refuses_inputs_the_recording_disagrees_with(
+    recorded, capsys, monkeypatch, args, says
+):
     """Exit 2, one line: not "0 of 2 in their bins" (exit 1) or a ValueError from a step."""
-    proc = _replay_cli(recorded, *args)
-    assert proc.returncode == 2, proc.stdout + proc.stderr
-    lines = proc.stderr.strip().splitlines()
+    code, out, err = _replay_cli(recorded, capsys, monkeypatch, *args)
+    assert code == 2, out + err
+    lines = err.strip().splitlines()
     assert len(lines) == 1 and says in lines[0], lines
 
 
-def test_an_episode_without_a_scene_needs_seed_and_objects(tmp_path):
+def test_an_episode_without_a_scene_needs_seed_and_objects(sorted_here):
     """Recorded without --random N --seed S: the replay asks for them, by name."""
-    config = load_config("sim_mujoco")
-    recorder = DatasetRecorder(tmp_path / "ds", config, fps=50, per="scene")
-    try:
-        run_sort(config, scene=random_scene(config, 1, seed=3), echo=None, recorder=recorder)
-    finally:
-        recorder.close()
+    ds, _ = sorted_here
     with pytest.raises(DatasetError, match="episode 0 keeps no scene .*: give --seed"):
-        replay(tmp_path / "ds", 0, objects=1)
+        replay(ds, 0, objects=2)
 
 
 def _kept_scene(ds):

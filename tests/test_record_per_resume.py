@@ -13,6 +13,7 @@ tests/test_record_resume.py.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import signal
@@ -21,7 +22,8 @@ import sys
 from pathlib import Path
 
 import pytest
-from conftest import ROOT, mearm_cli, one_stderr_line
+from badinput import Outcome, run_in_process
+from conftest import ROOT
 
 from mearm.dataset.format_check import check_dataset
 from mearm.dataset.lerobot_format import SCRATCH_DIR
@@ -76,6 +78,13 @@ def _killed(args: list[str], after: int) -> None:
     assert [(t.number, t.complete) for t in read_runlog(log).trials] == [(0, True), (1, False)]
 
 
+def _mearm(*args: object) -> Outcome:
+    """``mearm ARGS`` in this process, in the checkout: a resumed run needs no process of
+    its own (the kill does: :func:`_killed`)."""
+    with contextlib.chdir(ROOT):
+        return run_in_process(args, within_s=30)
+
+
 def _tags(root: Path) -> list[list[int]]:
     """Each episode's ``[trial seed, pick]``."""
     return [e[:2] for e in json.loads((root / "meta/mearm_episodes.json").read_text())["episodes"]]
@@ -100,14 +109,16 @@ def test_a_resume_with_the_other_record_per_is_refused(
     root, log = tmp_path / "ds", Path(args[args.index("--log") + 1])
     dataset, logged = _files(root), log.read_bytes()
 
-    other = [*args[:-1], now, "--resume"]
-    line = one_stderr_line(mearm_cli(*other, cwd=ROOT), 2)
+    other = _mearm(*args[:-1], now, "--resume")
+    assert other.code == 2 and len(other.stderr.strip().splitlines()) == 1, other.stderr
+    assert "Traceback" not in other.stderr + other.stdout
+    line = other.line
     assert f"--record-per {was}" in line and f"--record-per {now}" in line, line
     assert f"resume with --record-per {was}" in line, line
     assert _files(root) == dataset and log.read_bytes() == logged
 
-    same = mearm_cli(*args, "--resume", cwd=ROOT)
-    assert same.returncode == 0, same.stderr
+    same = _mearm(*args, "--resume")
+    assert same.code == 0, same.stderr
     seeds = [trial_seed(3, k) for k in range(2)]
     picks = range(3) if was == "pick" else range(1)
     assert _tags(root) == [[s, p] for s in seeds for p in picks]
@@ -121,8 +132,8 @@ def test_a_trial_whose_scene_is_held_is_not_recorded_again(tmp_path: Path) -> No
     args = _args(tmp_path, "scene")
     _killed(args, 2)
     root = tmp_path / "ds"
-    run = mearm_cli(*args, "--resume", cwd=ROOT)
-    assert run.returncode == 0, run.stderr
+    run = _mearm(*args, "--resume")
+    assert run.code == 0, run.stderr
     assert "3 picks of the trial run again were in" in run.stderr
     assert _tags(root) == [[trial_seed(3, k), 0] for k in range(2)]
     assert [t.number for t in read_runlog(args[args.index("--log") + 1]).latest().trials] == [0, 1]
@@ -133,11 +144,11 @@ def test_a_new_experiment_may_append_per_the_other(tmp_path: Path) -> None:
     dataset recorded per pick: none of its trials is there to be cut otherwise."""
     first = _args(tmp_path, "pick")
     first[first.index("--trials") + 1] = "1"
-    assert mearm_cli(*first, cwd=ROOT).returncode == 0
+    assert _mearm(*first).code == 0
     second = _args(tmp_path, "scene", seed=4)
     second[second.index("--trials") + 1] = "1"
-    run = mearm_cli(*second, "--resume", cwd=ROOT)
-    assert run.returncode == 0, run.stderr
+    run = _mearm(*second, "--resume")
+    assert run.code == 0, run.stderr
     assert _tags(tmp_path / "ds") == [[trial_seed(3, 0), p] for p in range(3)] + [
         [trial_seed(4, 0), 0]
     ]

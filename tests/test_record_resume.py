@@ -9,6 +9,7 @@ dataset is then the one the same experiment records uninterrupted (in worker pro
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import signal
@@ -19,6 +20,7 @@ from pathlib import Path
 
 import pyarrow.parquet as pq
 import pytest
+from badinput import run_in_process
 from conftest import ROOT
 
 from mearm.dataset.format_check import check_dataset
@@ -87,10 +89,10 @@ def test_sigkill_mid_trial_then_resume_records_each_pick_once(tmp_path: Path) ->
     assert check_dataset(root) == []
     assert json.loads((root / "meta/info.json").read_text())["total_episodes"] == KILL_AFTER
 
-    resumed = _experiment(None, [*args, "--resume"])
-    out, err = resumed.communicate(timeout=240)
-    assert resumed.returncode == 0, err.decode()
-    assert f"wrote {root}/ (1 episode, " in out.decode()
+    with contextlib.chdir(ROOT):  # the resumed run needs no process of its own
+        resumed = run_in_process(["experiment", *args, "--resume"], within_s=24)
+    assert resumed.code == 0, resumed.stderr
+    assert f"wrote {root}/ (1 episode, " in resumed.stdout
 
     seeds = [trial_seed(3, k) for k in range(2)]
     tags = json.loads((root / "meta/mearm_episodes.json").read_text())["episodes"]

@@ -14,6 +14,7 @@ earlier run, part of the new one, or nothing.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import shutil
 import signal
@@ -112,12 +113,13 @@ def _wait_stopped(pid: int) -> None:
 
 @pytest.fixture(scope="module")
 def runs(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict[str, bytes]]:
-    """(A folder holding the earlier run and the user's file, the new run's files)."""
+    """(A folder holding the earlier run and the user's file, the new run's files): both
+    run in this process (the signals go to the tests' own runs, each a process)."""
     base = tmp_path_factory.mktemp("runs")
-    procs = [_start(base / "earlier", *EARLIER), _start(base / "new", *NEW)]
-    for proc in procs:
-        _, err = proc.communicate(timeout=HANG_S)
-        assert proc.returncode == 0, err.decode()
+    for out, args in ((base / "earlier", EARLIER), (base / "new", NEW)):
+        with contextlib.chdir(base):
+            res = run_in_process([*COMMAND, "--out", out, *args], within_s=30)
+        assert res.code == 0, res.stderr
     for name, data in USERS.items():
         (base / "earlier" / name).write_bytes(data)
     return base / "earlier", _files(base / "new")

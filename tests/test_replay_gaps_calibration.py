@@ -3,21 +3,21 @@
 ``servo.calibrate_at_start: when_uncalibrated`` (``sim_mujoco_kits``): the sort measured
 its kit's servos by the camera and sorted with that fit, which the dataset did not keep;
 the replay ran the nominal calibration, and a ``--random 3 --seed 7`` sort (servo and
-camera seeds 7) sorted 3 of 3 but replayed 1 of 3 (docs/learning.md told the user to
-save the calibration with ``--save-calibration`` and give it back by ``--set``). The
-dataset now keeps it as a servo calibration file (``meta/mearm_servos/``) and the replay
-applies it.
+camera seeds 7) sorted 3 of 3 but replayed 1 of 3 (the ``--random 2`` sort here: 2 of 2,
+replayed 1 of 2; docs/learning.md told the user to save the calibration with
+``--save-calibration`` and give it back by ``--set``). The dataset now keeps it as a
+servo calibration file (``meta/mearm_servos/``) and the replay applies it.
 """
 
 from __future__ import annotations
 
+import contextlib
 import json
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
-from conftest import ROOT
+from badinput import run_in_process
+from conftest import ROOT, run_main
 
 pytest.importorskip("pyarrow")
 pytest.importorskip("av")
@@ -31,6 +31,7 @@ from mearm.config.servo_file import (  # noqa: E402
     save_servo_calibration,
     servo_of,
 )
+from mearm.envs.replay import main as replay_main  # noqa: E402
 from mearm.envs.replay import plan_replay  # noqa: E402
 
 pytestmark = [pytest.mark.heavy, pytest.mark.slow]
@@ -41,20 +42,20 @@ SETS = ("servo.error_model.seed=7", "camera.seed=7")
 
 @pytest.fixture(scope="module")
 def calibrated(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
-    """``mearm sort --config sim_mujoco_kits --random 3 --seed 7 --record`` per scene at
-    the servo rate, its calibration also saved by --save-calibration: the dataset and
-    that file."""
+    """``mearm sort --config sim_mujoco_kits --random 2 --seed 7 --record`` per scene at
+    the servo rate (in this process), its calibration also saved by --save-calibration:
+    the dataset and that file."""
     here = tmp_path_factory.mktemp("calibrated")
     ds, saved = here / "ds", here / "saved.servos.yaml"
     sets = [arg for s in SETS for arg in ("--set", s)]
-    proc = subprocess.run(
-        [sys.executable, "-m", "mearm", "sort", "--config", "sim_mujoco_kits", *sets,
-         "--random", "3", "--seed", "7", "--record", str(ds), "--record-per", "scene",
-         "--record-fps", "50", "--record-codec", "h264", "--save-calibration", str(saved),
-         "--quiet"],
-        capture_output=True, text=True, cwd=ROOT, timeout=600,
-    )  # fmt: skip
-    assert proc.returncode == 0 and "sorted 3 of 3 objects" in proc.stdout, proc.stderr
+    with contextlib.chdir(ROOT):
+        out = run_in_process(
+            ["sort", "--config", "sim_mujoco_kits", *sets, "--random", "2", "--seed", "7",
+             "--record", ds, "--record-per", "scene", "--record-fps", "50",
+             "--record-codec", "h264", "--save-calibration", saved, "--quiet"],
+            within_s=60,
+        )  # fmt: skip
+    assert out.code == 0 and "sorted 2 of 2 objects" in out.stdout, out.stderr
     return ds, saved
 
 
@@ -75,16 +76,14 @@ def test_the_dataset_keeps_the_calibration_the_sort_made(calibrated):
     assert Path(str(plan.config.servo.calibration_file)) == (ds / start["servos"]).resolve()
 
 
-def test_the_replay_ends_as_the_sort_did(calibrated):
-    """The replay command from another folder, nothing given: 3 of 3 in their bins, exit
-    0. Before (the nominal calibration): 1 of 3, exit 1."""
+def test_the_replay_ends_as_the_sort_did(calibrated, capsys, monkeypatch):
+    """The replay command from another folder, nothing given: 2 of 2 in their bins, exit
+    0. Before (the nominal calibration): 1 of 2, exit 1."""
     ds, _ = calibrated
-    proc = subprocess.run(
-        [sys.executable, "-m", "mearm.envs.replay", str(ds)],
-        capture_output=True, text=True, cwd=ds, timeout=300,
-    )  # fmt: skip
-    assert proc.returncode == 0, proc.stdout + proc.stderr
-    assert "3 of 3 objects in their bins" in proc.stdout
+    monkeypatch.chdir(ds)
+    code, out, err = run_main(capsys, replay_main, ds)
+    assert code == 0, out + err
+    assert "2 of 2 objects in their bins" in out
 
 
 def test_a_calibration_file_the_replay_is_given_is_the_one_it_runs(calibrated, tmp_path):

@@ -13,12 +13,11 @@ from __future__ import annotations
 
 import json
 import shutil
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import run_main
 
 pytest.importorskip("pyarrow")
 pytest.importorskip("av")
@@ -29,6 +28,7 @@ from mearm.config import load_config  # noqa: E402
 from mearm.dataset.errors import DatasetError  # noqa: E402
 from mearm.dataset.recorder import DatasetRecorder  # noqa: E402
 from mearm.envs.replay import episode_actions, plan_replay, replay  # noqa: E402
+from mearm.envs.replay import main as replay_main  # noqa: E402
 from mearm.task.rig import run_sort  # noqa: E402
 from mearm.task.scene import random_scene  # noqa: E402
 
@@ -111,27 +111,25 @@ def test_the_time_between_picks_holds_the_next_ones_first_action(picks, tmp_path
     np.testing.assert_array_equal(lead, np.concatenate([first[1:], held, second[1:]]))
 
 
-def _replay_cli(ds: Path, *args: str) -> subprocess.CompletedProcess[str]:
-    return subprocess.run(
-        [sys.executable, "-m", "mearm.envs.replay", str(ds), *args],
-        capture_output=True, text=True, cwd=ds.parent, timeout=300,
-    )  # fmt: skip
+def _replay_cli(
+    ds: Path, capsys: pytest.CaptureFixture[str], *args: object
+) -> tuple[int, str, str]:
+    """The replay command in this process: exit status, stdout, stderr."""
+    return run_main(capsys, replay_main, ds, *args)
 
 
-def test_the_replay_command_says_a_middle_pick_did_its_job(picks):
+def test_the_replay_command_says_a_middle_pick_did_its_job(picks, capsys):
     """Exit 0 for the middle pick, its object the one more in its bin; before, exit 1
     ("2 of 3 objects", or 1 of 3 from home)."""
     ds, classes = picks
-    proc = _replay_cli(ds, "--episode", "1", "--seed", str(SEED), "--objects", str(OBJECTS))
-    assert proc.returncode == 0, proc.stdout + proc.stderr
+    code, out, err = _replay_cli(ds, capsys, "--episode", 1, "--seed", SEED, "--objects", OBJECTS)
+    assert code == 0, out + err
     lead = episode_actions(ds, 0)[0].shape[0] - 1
-    assert f"after {lead} of its sort's before it (0 refused)" in proc.stdout
-    assert f"2 of 3 objects in their bins, 1 before this pick of a {classes[1]} object" in (
-        proc.stdout
-    )
+    assert f"after {lead} of its sort's before it (0 refused)" in out
+    assert f"2 of 3 objects in their bins, 1 before this pick of a {classes[1]} object" in out
 
 
-def test_an_older_dataset_replays_a_pick_from_the_reset_and_says_so(picks, tmp_path):
+def test_an_older_dataset_replays_a_pick_from_the_reset_and_says_so(picks, tmp_path, capsys):
     """No ``meta/mearm_starts.json`` (an older mearm's): the start is not known, the pick
     is replayed from the reset as before, and a note on stderr says so."""
     ds, _ = picks
@@ -140,9 +138,9 @@ def test_an_older_dataset_replays_a_pick_from_the_reset_and_says_so(picks, tmp_p
     (old / "meta" / "mearm_starts.json").unlink()
     plan = plan_replay(old, 1, seed=SEED, objects=OBJECTS)
     assert not plan.start_known and plan.lead.shape[0] == 0
-    proc = _replay_cli(old, "--episode", "1", "--seed", str(SEED), "--objects", str(OBJECTS))
-    assert "start the dataset does not keep" in proc.stderr
-    assert "0 before this pick" in proc.stdout
+    _, out, err = _replay_cli(old, capsys, "--episode", 1, "--seed", SEED, "--objects", OBJECTS)
+    assert "start the dataset does not keep" in err
+    assert "0 before this pick" in out
 
 
 @pytest.mark.parametrize(

@@ -8,18 +8,20 @@ keeps the table as it was laid, as a ``--scene`` sort's.
 
 from __future__ import annotations
 
+import contextlib
 import json
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
+from badinput import Outcome, run_in_process
+from conftest import run_main
 
 pytest.importorskip("pyarrow")
 pytest.importorskip("av")
 
 from mearm.config import SceneObject  # noqa: E402
 from mearm.dataset.reading import read_tags  # noqa: E402
+from mearm.envs.replay import main as replay_main  # noqa: E402
 from mearm.envs.replay import replay  # noqa: E402
 
 pytestmark = pytest.mark.heavy
@@ -40,10 +42,10 @@ LAID = (
 )
 
 
-def _python(*args: str, cwd: Path) -> subprocess.CompletedProcess[str]:
-    return subprocess.run(
-        [sys.executable, "-m", *args], capture_output=True, text=True, cwd=cwd, timeout=300
-    )
+def _mearm(*args: object, cwd: Path) -> Outcome:
+    """``mearm ARGS`` in this process, in ``cwd``."""
+    with contextlib.chdir(cwd):
+        return run_in_process(args, within_s=30)
 
 
 @pytest.fixture(scope="module")
@@ -53,11 +55,11 @@ def own_table(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
     here = tmp_path_factory.mktemp("own")
     config, ds = here / "two.yaml", here / "ds"
     config.write_text(CONFIG)
-    proc = _python(
-        "mearm", "sort", "--config", str(config), "--record", str(ds), "--record-per", "scene",
+    out = _mearm(
+        "sort", "--config", config, "--record", ds, "--record-per", "scene",
         "--record-fps", "50", "--record-codec", "h264", "--quiet", cwd=here,
     )  # fmt: skip
-    assert proc.returncode == 0 and "sorted 2 of 2 objects" in proc.stdout, proc.stderr
+    assert out.code == 0 and "sorted 2 of 2 objects" in out.stdout, out.stderr
     config.write_text(CHANGED)
     return ds, config
 
@@ -70,13 +72,16 @@ def test_the_episode_keeps_the_table_it_sorted(own_table):
     assert kept.config == str(config) and kept.overrides == () and kept.seed is None
 
 
-def test_the_replay_lays_the_recorded_table_not_the_config_changed_since(own_table):
+def test_the_replay_lays_the_recorded_table_not_the_config_changed_since(
+    own_table, capsys, monkeypatch
+):
     """The replay command from another folder, no --seed or --objects: exit 0, both
     objects in their bins, on the recorded table. Before: exit 2, "keeps no scene"."""
     ds, _ = own_table
-    proc = _python("mearm.envs.replay", str(ds), cwd=ds)
-    assert proc.returncode == 0, proc.stdout + proc.stderr
-    assert "2 of 2 objects in their bins" in proc.stdout
+    monkeypatch.chdir(ds)
+    code, out, err = run_main(capsys, replay_main, ds)
+    assert code == 0, out + err
+    assert "2 of 2 objects in their bins" in out
     out = replay(ds, 0)
     assert out.table == LAID and out.success
 
@@ -87,11 +92,11 @@ def test_a_trial_or_a_random_sort_keeps_its_own_scene(tmp_path):
     config = tmp_path / "two.yaml"
     config.write_text(CONFIG)
     ds = tmp_path / "ds"
-    proc = _python(
-        "mearm", "sort", "--config", str(config), "--random", "1", "--seed", "3",
-        "--record", str(ds), "--record-per", "scene", "--record-fps", "10",
-        "--record-codec", "h264", "--quiet", cwd=tmp_path,
+    out = _mearm(
+        "sort", "--config", config, "--random", "1", "--seed", "3", "--record", ds,
+        "--record-per", "scene", "--record-fps", "10", "--record-codec", "h264", "--quiet",
+        cwd=tmp_path,
     )  # fmt: skip
-    assert proc.returncode == 0, proc.stderr
+    assert out.code == 0, out.stderr
     (entry,) = json.loads((ds / "meta" / "mearm_episodes.json").read_text())["episodes"]
     assert entry[2]["seed"] == 3 and entry[2]["objects"] == 1 and "table" not in entry[2]

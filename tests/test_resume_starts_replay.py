@@ -11,6 +11,7 @@ episode, and its replay's measured start is its recorded frame 0.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import signal
@@ -21,6 +22,7 @@ from pathlib import Path
 import numpy as np
 import pyarrow.parquet as pq
 import pytest
+from badinput import run_in_process
 from conftest import ROOT
 from test_record_resume import KILLED, SCENE  # the experiment killed after episode 3
 
@@ -65,8 +67,9 @@ def test_a_resumed_pick_replays_from_where_it_was_recorded(tmp_path: Path) -> No
     ]  # fmt: skip
     killed = _experiment(["-c", KILLED], args)
     assert killed.returncode == -signal.SIGKILL, killed.stderr
-    resumed = _experiment(["-m", "mearm.experiment"], [*args, "--resume"])
-    assert resumed.returncode == 0, resumed.stderr
+    with contextlib.chdir(ROOT):  # the resumed run needs no process of its own
+        resumed = run_in_process(["experiment", *args, "--resume"], within_s=24)
+    assert resumed.code == 0, resumed.stderr
     assert "1 pick of the trial run again was in" in resumed.stderr
     assert check_dataset(root) == []
 

@@ -273,11 +273,8 @@ def test_preview_refuses_before_serving(tmp_path: Path, argv: list[str], said: s
 def test_preview_force_replaces_the_screenshot(tmp_path: Path) -> None:
     browser_or_skip()
     png = _precious(tmp_path / "p.png")
-    r = subprocess.run(
-        [sys.executable, "-m", "mearm", "preview", "--screenshot", png, "--force", "--port", "0"],
-        capture_output=True, text=True, env=ENV, timeout=120,
-    )  # fmt: skip
-    assert r.returncode == 0, r.stderr
+    r = run_in_process(["preview", "--screenshot", png, "--force", "--port", "0"], within_s=12)
+    assert r.code == 0, r.stderr
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
@@ -285,12 +282,7 @@ def test_preview_force_replaces_the_screenshot(tmp_path: Path) -> None:
 def test_a_write_error_names_the_target_not_its_temporary_file() -> None:
     """/proc takes no new file: the reason is said for the path given, not '.x.png.*.tmp'."""
     browser_or_skip()
-    r = subprocess.run(
-        [sys.executable, "-m", "mearm", "preview", "--screenshot", "/proc/x.png", "--port", "0"],
-        capture_output=True, text=True, env=ENV, timeout=120,
-    )  # fmt: skip
-    assert r.returncode == 2
-    line = _one_line(r.stderr)
+    line = check_bad_input(["preview", "--screenshot", "/proc/x.png", "--port", "0"]).line
     assert "cannot write /proc/x.png: " in line and ".tmp" not in line
     out = check_bad_input(["urdf", "--config", "sim", "--output", "/proc/x.urdf"])
     assert "/proc/x.urdf" in out.line and ".tmp" not in out.line
