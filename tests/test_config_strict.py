@@ -4,12 +4,15 @@ odd ``--config`` and ``extends`` values."""
 
 from __future__ import annotations
 
+import contextlib
 import copy
+import functools
 import os
 from pathlib import Path
 from typing import Any
 
 import pytest
+from badinput import Outcome, run_in_process
 from conftest import ROOT, run_cli
 from pydantic import ValidationError
 from test_wheel import Installed, _run
@@ -19,6 +22,13 @@ from mearm.config import Config, load_config
 from mearm.config.base import describe_error
 from mearm.config.schema_doc import render
 from mearm.exceptions import ConfigError
+
+
+def _mearm(*args: str, cwd: Path = ROOT) -> Outcome:
+    """``mearm ARGS`` in this process, from ``cwd`` (the checks are of what it says and
+    writes, not of a process's start)."""
+    with contextlib.chdir(cwd):
+        return run_in_process(args, within_s=10)
 
 
 def _error(path: str | Path | None, overrides: list[str]) -> str:
@@ -97,10 +107,9 @@ def test_numbers_stay_as_lax_as_before() -> None:
     assert load_config(None, ["task.pick_retries=3.0"]).task.pick_retries == 3
 
 
-@pytest.mark.heavy
 def test_the_sort_refuses_a_boolean_kp() -> None:
-    r = run_cli("-m", "mearm", "sort", "--quiet", "--set", "controller.kp=true")
-    assert r.returncode == 2, r.stdout
+    r = _mearm("sort", "--quiet", "--set", "controller.kp=true")
+    assert r.code == 2, r.stdout
     assert (
         r.stderr.strip() == "mearm sort: error: --set: controller.kp: expected a number, got true"
     )
@@ -124,10 +133,9 @@ def test_only_the_classes_picked_highest_are_named() -> None:
     assert "the picks of blue (at z = 15.76 cm)" in text and "red" not in text
 
 
-@pytest.mark.heavy
 def test_the_sort_refuses_an_approach_above_the_box_before_it_moves() -> None:
-    r = run_cli("-m", "mearm", "sort", "--quiet", "--set", "task.approach_height_cm=50")
-    assert r.returncode == 2 and r.stdout == ""
+    r = _mearm("sort", "--quiet", "--set", "task.approach_height_cm=50")
+    assert r.code == 2 and r.stdout == ""
     line = r.stderr.strip()
     assert "\n" not in line and "task.approach_height_cm: 50 cm above the picks" in line
 
@@ -141,14 +149,13 @@ def _named_file(line: str) -> str:
     return before.rsplit("(", 1)[1].rsplit("; ", 1)[-1]
 
 
-@pytest.mark.heavy
 @pytest.mark.parametrize(
     ("key", "shown"), [("controller.kpp=1", "sim.yaml"), ("arm.fooo=1", "mearm_paper.yaml")]
 )
 def test_an_unknown_key_names_a_file_there_is(tmp_path: Path, key: str, shown: str) -> None:
     """Run outside the checkout, the file named is where the package has it."""
-    r = run_cli("-m", "mearm", "fk", "--joints", "90,90,-90", "--set", key, cwd=tmp_path)
-    assert r.returncode == 2
+    r = _mearm("fk", "--joints", "90,90,-90", "--set", key, cwd=tmp_path)
+    assert r.code == 2
     named = _named_file(r.stderr)
     assert named.endswith(shown) and (tmp_path / named).is_file(), named
 
@@ -182,26 +189,34 @@ def test_shown_path_is_relative_only_under_the_current_folder(
 NOTES = "MY OWN NOTES\n"
 
 
+@functools.cache
+def _page() -> str:
+    """The configuration page config-docs writes, rendered once (0.25 s a render)."""
+    return render()
+
+
 @pytest.mark.heavy
 def test_config_docs_writes_the_checkouts_page_not_the_current_folders(tmp_path: Path) -> None:
     """From any folder the default is the checkout's page; ./docs is never touched."""
     page = ROOT / "docs" / "configuration.md"
-    if page.read_text(encoding="utf-8") != render():
+    if page.read_text(encoding="utf-8") != _page():
         pytest.skip("docs/configuration.md is stale (test_docs fails): not rewritten here")
     (tmp_path / "docs").mkdir()
     mine = tmp_path / "docs" / "configuration.md"
     mine.write_text(NOTES)
-    r = run_cli("-m", "mearm", "config-docs", cwd=tmp_path)
-    assert r.returncode == 0, r.stderr
+    r = _mearm("config-docs", cwd=tmp_path)
+    assert r.code == 0, r.stderr
     assert r.stdout.strip() == f"wrote {page}"
     assert mine.read_text() == NOTES
-    assert page.read_text(encoding="utf-8") == render()
-    r = run_cli("-m", "mearm", "config-docs", "--help", cwd=tmp_path)
+    assert page.read_text(encoding="utf-8") == _page()
+    r = _mearm("config-docs", "--help", cwd=tmp_path)
     assert str(page) in " ".join(r.stdout.split())
 
 
 @pytest.mark.heavy
 def test_config_docs_replaces_only_a_page_it_wrote(tmp_path: Path) -> None:
+    """The refusal as a shell sees it (a process of its own: exit 2, one line); the runs
+    after it in this process."""
     mine = tmp_path / "notes.md"
     mine.write_text(NOTES)
     r = run_cli("-m", "mearm", "config-docs", "--output", str(mine), cwd=tmp_path)
@@ -209,12 +224,12 @@ def test_config_docs_replaces_only_a_page_it_wrote(tmp_path: Path) -> None:
     line = r.stderr.strip()
     assert "\n" not in line and f"--output {mine}: exists and is not a configuration" in line
     assert "--force" in line and mine.read_text() == NOTES
-    r = run_cli("-m", "mearm", "config-docs", "--output", str(mine), "--force", cwd=tmp_path)
-    assert r.returncode == 0 and mine.read_text(encoding="utf-8") == render()
-    old = render().replace("Every key a config", "Some keys a config")  # an older page
+    done = _mearm("config-docs", "--output", str(mine), "--force", cwd=tmp_path)
+    assert done.code == 0 and mine.read_text(encoding="utf-8") == _page()
+    old = _page().replace("Every key a config", "Some keys a config")  # an older page
     mine.write_text(old, encoding="utf-8")
-    r = run_cli("-m", "mearm", "config-docs", "--output", str(mine), cwd=tmp_path)
-    assert r.returncode == 0 and mine.read_text(encoding="utf-8") == render()
+    done = _mearm("config-docs", "--output", str(mine), cwd=tmp_path)
+    assert done.code == 0 and mine.read_text(encoding="utf-8") == _page()
 
 
 # ------------------------------------------------------------------ odd --config and extends

@@ -1,7 +1,9 @@
 """The conveyor sort tells the truth: what it records, what it counts, what it refuses.
 
-Each case runs ``mearm sort`` as a user would (a child process) on a belt config, with a
-few arrivals close together so that a run takes a second or two.
+Each case runs ``mearm sort`` in this process (the checks are of its outputs and exit
+status, not of a process's start) on a belt config, with a few arrivals close together
+so that a run takes a second or two; one recording is checked by ``mearm dataset check``
+run as a user runs it, a process of its own.
 """
 
 from __future__ import annotations
@@ -13,6 +15,7 @@ import sys
 from pathlib import Path
 
 import pytest
+from badinput import Outcome, run_in_process
 from conftest import ROOT
 
 from mearm.config import load_config
@@ -34,7 +37,13 @@ FEW = [
 pytestmark = pytest.mark.heavy
 
 
-def _mearm(*args: object, timeout: float = 120) -> subprocess.CompletedProcess[str]:
+def _mearm(*args: object) -> Outcome:
+    """``mearm ARGS`` in this process."""
+    return run_in_process([str(a) for a in args], within_s=30)
+
+
+def _process(*args: object, timeout: float = 120) -> subprocess.CompletedProcess[str]:
+    """``python -m mearm ARGS`` in a process of its own, as a user runs it."""
     env = {**os.environ, "PYTHONPATH": str(ROOT), "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl")}
     return subprocess.run(
         [sys.executable, "-m", "mearm", *map(str, args)],
@@ -62,12 +71,12 @@ def test_a_belt_sort_records_one_episode_per_catch(tmp_path, config):
     dataset passes ``mearm dataset check``, and the command says what it recorded."""
     root = tmp_path / "ds"
     sort = _mearm("sort", "--config", config, *_sets(*FEW), "--quiet", "--record", root,
-                  "--record-codec", "h264")  # fmt: skip
-    assert sort.returncode == 0, sort.stdout + sort.stderr
+                  "--record-codec", "h264", "--record-fps", 5)  # fmt: skip
+    assert sort.code == 0, sort.stdout + sort.stderr
     assert sort.stdout.splitlines()[-1] == "sorted 2 of 2 objects (simulated)"
     assert f"wrote {root}/ (2 episodes, " in sort.stdout, sort.stdout
     check = _mearm("dataset", "check", root)
-    assert check.returncode == 0, check.stdout + check.stderr
+    assert check.code == 0, check.stdout + check.stderr
     info = json.loads((root / "meta" / "info.json").read_text())
     assert info["total_episodes"] == 2
     brought = [a.color for a in belt_arrivals(load_config(config, FEW))]
@@ -78,10 +87,10 @@ def test_a_belt_sort_records_one_episode_per_scene(tmp_path):
     """``--record-per scene`` on a belt: one episode, the whole run's, that passes the check."""
     root = tmp_path / "ds"
     sort = _mearm("sort", "--config", KINEMATIC, *_sets(*FEW), "--quiet", "--record", root,
-                  "--record-per", "scene", "--record-codec", "h264")  # fmt: skip
-    assert sort.returncode == 0, sort.stdout + sort.stderr
+                  "--record-per", "scene", "--record-codec", "h264", "--record-fps", 5)  # fmt: skip
+    assert sort.code == 0, sort.stdout + sort.stderr
     assert f"wrote {root}/ (1 episode, " in sort.stdout, sort.stdout
-    check = _mearm("dataset", "check", root)
+    check = _process("dataset", "check", root)
     assert check.returncode == 0, check.stdout + check.stderr
     assert json.loads((root / "meta" / "info.json").read_text())["total_episodes"] == 1
     assert _tasks(root) == [SCENE_TASK]
@@ -95,7 +104,7 @@ def test_a_belt_out_of_the_cameras_view_counts_what_it_brought():
     and exit 0, but both counted, left never seen, exit 1."""
     sort = _mearm("sort", "--config", KINEMATIC, *_sets(*FEW, "belt.start_cm=[500,500]"),
                   "--quiet")  # fmt: skip
-    assert sort.returncode == 1, sort.stdout + sort.stderr
+    assert sort.code == 1, sort.stdout + sort.stderr
     line = "sorted 0 of 2 objects (simulated; 2 never seen by the camera)"
     assert sort.stdout.splitlines()[-1] == line
     assert sort.stderr.splitlines()[-1] == f"mearm sort: {line}"
@@ -109,7 +118,7 @@ def test_objects_landing_off_the_belt_are_refused_at_load():
         load_config(KINEMATIC, ["belt.arrivals.lateral_cm=3.5"])
     assert load_config(KINEMATIC, ["belt.arrivals.lateral_cm=2"]).belt.arrivals.lateral_cm == 2
     sort = _mearm("sort", "--config", KINEMATIC, *_sets("belt.arrivals.lateral_cm=100"))
-    assert sort.returncode == 2 and sort.stdout == ""
+    assert sort.code == 2 and sort.stdout == ""
     (line,) = sort.stderr.splitlines()
     assert "belt.arrivals.lateral_cm: 100 cm would land objects off the belt" in line
     assert "beyond half the belt's width (width_cm 6 cm), 3 cm: at most 2 cm" in line
@@ -119,7 +128,7 @@ def test_the_twin_at_100_cm_s_counts_each_arrival_once():
     """At 100 cm/s an object lands at rest and takes two frames to reach the belt's
     speed: it is one track, one object, not two (the run said "0 of 4" for 2)."""
     sort = _mearm("sort", "--config", TWIN, *_sets(*FEW, "belt.speed_cm_s=100"))
-    assert sort.returncode == 1, sort.stdout + sort.stderr
+    assert sort.code == 1, sort.stdout + sort.stderr
     lines = sort.stdout.splitlines()
     assert " of 2 objects" in lines[-1], sort.stdout
     table = lines.index("") + 2  # the per-class table, after its heading (not in --quiet)
@@ -149,7 +158,7 @@ def test_a_lost_track_is_said_where_its_object_was_last_seen():
     sets = _sets("belt.arrivals.count=1", "belt.arrivals.first_s=0.5", "belt.speed_cm_s=100",
                  "belt.length_cm=15")  # fmt: skip
     sort = _mearm("sort", "--config", KINEMATIC, *sets, "--quiet")
-    assert sort.returncode == 1, sort.stdout + sort.stderr
+    assert sort.code == 1, sort.stdout + sort.stderr
     (skip,) = [s for s in sort.stdout.splitlines() if s.startswith("not sorted:")]
     assert "its track was lost (last seen at (" in skip
     x = float(skip.split("last seen at (")[1].split(",")[0])
@@ -168,7 +177,7 @@ def test_table_objects_with_a_belt_are_refused_up_front(tmp_path, scene):
     scene = [str(path) if a == "SCENE" else a for a in scene]
     root = tmp_path / "ds"
     sort = _mearm("sort", "--config", KINEMATIC, *scene, "--record", root)
-    assert sort.returncode == 2 and sort.stdout == ""
+    assert sort.code == 2 and sort.stdout == ""
     (line,) = sort.stderr.splitlines()
     assert line.startswith("mearm sort: error: --scene and --random lay out objects on the table")
     assert "a config with a belt sorts only what the belt brings" in line

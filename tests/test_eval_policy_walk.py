@@ -46,6 +46,10 @@ class NanInFirstEpisode:
 
 #: eval-policy's quickest run: no pixels, a few steps.
 QUICK = ["--env-option", "obs_type=state", "--env-option", "max_episode_steps=5"]
+#: The signal tests' episodes: 30 steps (a quarter of a second with a video, where the
+#: default's 500 took three), a run of 200 of them far from done when the signal comes.
+SHORT = ["--env-option", "obs_type=state", "--env-option", "image_size=[24, 32]",
+         "--env-option", "max_episode_steps=30"]  # fmt: skip
 
 
 def _eval_policy(*argv: object, cwd: Path, timeout: float = 300) -> subprocess.CompletedProcess:
@@ -170,7 +174,7 @@ def test_a_stop_signal_to_eval_policy_ends_its_workers_too(tmp_path, sig, code, 
     out, errors = tmp_path / "progress.txt", tmp_path / "stderr.txt"
     cmd = [sys.executable, "-m", "mearm", "eval-policy", "--policy", "random",
            "--episodes", "200", "--jobs", "2", "--videos", "200", "--out", tmp_path / "t.json",
-           "--env-option", "obs_type=state", "--env-option", "image_size=[24, 32]"]  # fmt: skip
+           *SHORT]  # fmt: skip
     # faulthandler: on a hang, SIGABRT has each process print where its threads are
     env = {**os.environ, "MUJOCO_GL": "egl", "PYTHONFAULTHANDLER": "1"}
     with out.open("w") as progress, errors.open("w") as stderr:  # files: orphans hold pipes
@@ -239,8 +243,7 @@ def test_a_worker_sees_its_parent_killed_while_its_sibling_is_stuck(tmp_path):
     driver, say): the older one still ends. With ``fork`` the younger holds the parent's
     end of the older's sentinel pipe, so the older waited for its sibling to end first."""
     cmd = [sys.executable, "-m", "mearm", "eval-policy", "--policy", "random",
-           "--episodes", "200", "--jobs", "2", "--out", tmp_path / "t.json",
-           "--env-option", "obs_type=state", "--env-option", "image_size=[24, 32]"]  # fmt: skip
+           "--episodes", "200", "--jobs", "2", "--out", tmp_path / "t.json", *SHORT]  # fmt: skip
     out, errors = tmp_path / "progress.txt", tmp_path / "stderr.txt"
     env = {**os.environ, "MUJOCO_GL": "egl"}
     with out.open("w") as progress, errors.open("w") as stderr:  # files: orphans hold pipes

@@ -15,42 +15,60 @@ import numpy as np
 import pytest
 from badinput import Outcome, run_in_process
 from built_once import built_once
-from conftest import ROOT, run_cli
+from conftest import ROOT
+from test_sweeps import ONE_PER_CLASS
 
-from mearm.experiment import trial_config, trial_seed
+from mearm.config import load_config
+from mearm.experiment import plan_trial, trial_config, trial_seed
 from mearm.runlog import read_runlog
 
 
 @pytest.fixture(scope="module")
 def three_trials(tmp_path_factory):
-    """Three trials' log (run once per test run; read only)."""
+    """Three trials' log, one object of each class a trial (run once per test run, in this
+    process; read only)."""
 
     def run(d):
-        r = run_cli(
-            "-m", "mearm.experiment", "--config", "configs/sim.yaml",
-            "--trials", "3", "--seed", "0", "--log", str(d / "trials.jsonl"),
+        r = run_in_process(
+            ["experiment", "--config", ROOT / "configs" / "sim.yaml", *ONE_PER_CLASS,
+             "--trials", "3", "--seed", "0", "--log", d / "trials.jsonl"],
+            within_s=30,
         )  # fmt: skip
-        assert r.returncode == 0, r.stderr
+        assert r.code == 0, r.stderr
         assert "3 trials written" in r.stdout
 
-    return built_once(tmp_path_factory, "three-trials", run) / "trials.jsonl"
+    return built_once(tmp_path_factory, "three-trials-one-per-class", run) / "trials.jsonl"
 
 
 @pytest.mark.heavy
-def test_three_trials_each_sort_a_new_4_4_4_layout(three_trials):
-    """Each trial: its own header and seed, 12 objects (4 per colour), 24 routes, all sorted."""
+def test_three_trials_each_sort_a_new_layout_of_the_configs_counts(three_trials):
+    """Each trial: its own header and seed, a new layout of the config's table's counts (one
+    of each colour), two routes an object, all sorted."""
     contents = read_runlog(three_trials)
     assert contents.problem is None and len(contents.trials) == 3
     layouts = []
     for k, trial in enumerate(contents.trials):
         assert trial.header.trial == k and trial.summary.ok
         scene = trial.header.model_extra["scene"]
-        assert sorted(o["color"] for o in scene) == ["blue"] * 4 + ["green"] * 4 + ["red"] * 4
+        assert sorted(o["color"] for o in scene) == ["blue", "green", "red"]
         layouts.append(tuple((o["x"], o["y"]) for o in scene))
-        assert len(trial.routes) == 24
-        assert trial.summary.sorted == {"red": 4, "green": 4, "blue": 4}
+        assert len(trial.routes) == 6
+        assert trial.summary.sorted == {"red": 1, "green": 1, "blue": 1}
     assert len(set(layouts)) == 3
     assert len({t.header.seed for t in contents.trials}) == 3
+
+
+def test_the_papers_trials_each_lay_a_new_4_4_4_layout():
+    """sim.yaml's own table (the paper's): each trial lays 12 objects, 4 per colour, a new
+    layout each (what the trials above sort, with the paper's counts)."""
+    config = load_config(ROOT / "configs" / "sim.yaml")
+    layouts = []
+    for k in range(3):
+        layout = plan_trial(config, 0, k).layout
+        assert layout is not None
+        assert sorted(o.color for o in layout) == ["blue"] * 4 + ["green"] * 4 + ["red"] * 4
+        layouts.append(tuple((o.x, o.y) for o in layout))
+    assert len(set(layouts)) == 3
 
 
 @pytest.mark.heavy
@@ -207,8 +225,11 @@ def test_a_whole_last_record_missing_its_newline_is_kept(tmp_path, scene):
 def test_a_killed_experiment_resumes_and_loses_nothing(tmp_path):
     """SIGKILL in the middle of a run, then the same command: every trial once, complete,
     and every byte written before the kill still there."""
-    log = tmp_path / "trials.jsonl"
-    cmd = [sys.executable, "-m", "mearm", "experiment", "--trials", "5", "--log", str(log)]
+    log, trials = tmp_path / "trials.jsonl", 10
+    # trials of one object of each class (a third of the time of the paper's 12): 10 leave
+    # the kill below the room (about 1 s of trials after the third's start) that 5 did
+    args = ["--trials", str(trials), *ONE_PER_CLASS, "--log", str(log)]
+    cmd = [sys.executable, "-m", "mearm", "experiment", *args]
     proc = subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     deadline = time.monotonic() + 60
     while time.monotonic() < deadline and proc.poll() is None:
@@ -218,13 +239,13 @@ def test_a_killed_experiment_resumes_and_loses_nothing(tmp_path):
     proc.send_signal(signal.SIGKILL)
     proc.wait(timeout=30)
     written = log.read_bytes()
-    assert 0 < written.count(b'"type":"summary"') < 5, "the run was not killed mid-way"
-    out = experiment("--trials", 5, "--log", log)
+    assert 0 < written.count(b'"type":"summary"') < trials, "the run was not killed mid-way"
+    out = experiment(*args)
     assert out.code == 0, out.stderr
     whole_lines = written[: written.rindex(b"\n") + 1]
     assert log.read_bytes().startswith(whole_lines)
     assert [(t.number, t.complete) for t in read_runlog(log).latest().trials] == [
-        (k, True) for k in range(5)
+        (k, True) for k in range(trials)
     ]
 
 

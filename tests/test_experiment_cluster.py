@@ -14,7 +14,16 @@ import pytest
 from badinput import run_in_process
 from built_once import computed_once
 from conftest import interrupted_experiment
-from test_sweeps import SERIAL_TRIALS, SWEEP, experiment, records, serial_prefix, serial_records
+from test_sweeps import (
+    OBJECTS,
+    SERIAL_TRIALS,
+    SWEEP,
+    experiment,
+    here,
+    records,
+    serial_prefix,
+    serial_records,
+)
 
 from mearm.runlog import read_runlog
 
@@ -41,7 +50,7 @@ def test_a_sweep_on_a_local_dask_cluster_writes_the_serial_log(tmp_path, tmp_pat
     assert r.returncode == 0, r.stderr
     where = r"2 Dask workers at tcp://127\.0\.0\.1:\d+"
     assert re.search(rf"5 trials written to .* \([\d.]+ trials/min, {where}\)", r.stdout)
-    assert "sorted 60 of 60 objects over 5 trials" in r.stdout
+    assert f"sorted {5 * OBJECTS} of {5 * OBJECTS} objects over 5 trials" in r.stdout
     assert records(log) == serial_records(tmp_path_factory, 5)
     assert [t.number for t in read_runlog(log).trials] == [0, 1, 2, 3, 4]
     serial = computed_once(
@@ -59,19 +68,20 @@ def test_ctrl_c_on_a_local_dask_cluster_keeps_the_trials_in_order_and_the_log_re
     """Ctrl-C to the whole process group (the cluster's workers too, as a terminal sends
     it): exit 130, the log holds complete trials in order, and the command resumes it (two
     trials more) with the serial run's records."""
-    log = tmp_path / "trials.jsonl"
-    # signalled once 2 trials are in the log (room for the workers to run ahead of the writer)
-    args = [*SWEEP, "--trials", 12, "--log", log, "--scheduler", "local"]
+    log, trials = tmp_path / "trials.jsonl", 40
+    # signalled once 2 trials are in the log (room for the workers to run ahead of the
+    # writer: 12 trials of 12 objects; a trial of SWEEP's 3 objects takes a third as long)
+    args = [*SWEEP, "--trials", trials, "--log", log, "--scheduler", "local"]
     code, err = interrupted_experiment(args, log)
     assert code == 130, err
     assert "Traceback" not in err, err
     contents = read_runlog(log)
     assert contents.problem is None
     got = [(t.number, t.complete) for t in contents.trials]
-    assert 2 <= len(got) < 12, "the run was not stopped mid-way"
+    assert 2 <= len(got) < trials, "the run was not stopped mid-way"
     assert got == [(k, True) for k in range(len(got))]
     written = log.read_bytes()
-    # resumed to two trials past the stop (all 12 would prove no more, at twice the cost)
+    # resumed to two trials past the stop (all of them would prove no more, at more cost)
     more = len(got) + 2
     r = experiment(*SWEEP, "--trials", more, "--log", log, "--scheduler", "local")
     assert r.returncode == 0 and f"running trials {len(got)}..{more - 1}" in r.stdout, r.stderr
@@ -79,8 +89,8 @@ def test_ctrl_c_on_a_local_dask_cluster_keeps_the_trials_in_order_and_the_log_re
     if more <= SERIAL_TRIALS:
         serial = serial_records(tmp_path_factory, more)
     else:  # the workers ran far ahead of the writer: a serial run of as many trials
-        r = experiment(*SWEEP, "--trials", more, "--log", tmp_path / "serial.jsonl")
-        assert r.returncode == 0, r.stderr
+        r = here("experiment", *SWEEP, "--trials", more, "--log", tmp_path / "serial.jsonl")
+        assert r.code == 0, r.stderr
         serial = records(tmp_path / "serial.jsonl")
     assert records(log) == serial
 

@@ -3,12 +3,11 @@
 
 from __future__ import annotations
 
+import contextlib
 import importlib.util
-import os
 import resource
 import signal
-import subprocess
-import sys
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -23,7 +22,6 @@ from mearm.learn.bc import main as bc_main  # noqa: E402
 
 pytestmark = pytest.mark.heavy
 
-ROOT = Path(__file__).resolve().parent.parent
 
 #: The run that collected the module's demos file (one PickPlace episode, seed 0).
 RUN = ["--episodes", "1", "--first-seed", "0", "--jobs", "1", "--steps", "2", "--batch", "8"]
@@ -140,29 +138,34 @@ def test_a_baseline_that_exists_is_kept_without_force(demos, tmp_path, capsys):
     assert out.read_bytes() == b"the earlier baseline"
 
 
-def _file_size_limit(limit: int):
-    def apply() -> None:  # in the child: writes past `limit` bytes fail (EFBIG), as on a full disk
-        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
-        resource.setrlimit(resource.RLIMIT_FSIZE, (limit, limit))
+@contextlib.contextmanager
+def _file_size_limit(limit: int) -> Iterator[None]:
+    """Writes past ``limit`` bytes of a file fail (EFBIG), as on a full disk, in this process
+    while the block runs: the soft limit only, put back after (the hard one stays)."""
+    soft, hard = resource.getrlimit(resource.RLIMIT_FSIZE)
+    handler = signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+    resource.setrlimit(resource.RLIMIT_FSIZE, (limit, hard))
+    try:
+        yield
+    finally:
+        resource.setrlimit(resource.RLIMIT_FSIZE, (soft, hard))
+        signal.signal(signal.SIGXFSZ, handler)
 
-    return apply
 
-
-def test_an_out_that_cannot_be_written_keeps_the_old_file_and_leaves_no_part(demos, tmp_path):
+def test_an_out_that_cannot_be_written_keeps_the_old_file_and_leaves_no_part(
+    demos, tmp_path, capsys, monkeypatch
+):
     """The baseline's write fails (a file-size limit, as a full disk does): one line, exit 2,
     the earlier baseline intact and no temporary or empty .pt left (it was torch.save to
-    the path itself: "unexpected error: RuntimeError" and a half file)."""
+    the path itself: "unexpected error: RuntimeError" and a half file). Run in this
+    process, from ``tmp_path``: nothing else may be left there either."""
     out = tmp_path / "bc.pt"
     out.write_bytes(b"the earlier baseline")
-    env = {**os.environ, "PYTHONPATH": str(ROOT), "PYTHONDONTWRITEBYTECODE": "1"}
-    proc = subprocess.run(
-        [sys.executable, "-m", "mearm.learn.bc", *RUN, "--demos", str(demos), "--out", str(out),
-         "--force"],
-        capture_output=True, text=True, env=env, cwd=tmp_path, timeout=300,
-        preexec_fn=_file_size_limit(20_000),
-    )  # fmt: skip
-    assert proc.returncode == 2, proc.stderr
-    lines = proc.stderr.strip().splitlines()
-    assert len(lines) == 1 and f"cannot write --out {out}: " in lines[0], proc.stderr
+    monkeypatch.chdir(tmp_path)
+    with _file_size_limit(20_000):
+        code, err = _bc(capsys, *RUN, "--demos", demos, "--out", out, "--force")
+    assert code == 2, err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and f"cannot write --out {out}: " in lines[0], err
     assert out.read_bytes() == b"the earlier baseline"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["bc.pt"]

@@ -2,40 +2,31 @@
 measured when the end fails: calibrate-servos' ``--output`` and ``--actuators``,
 find-port's ``--port`` and ``--wait``, find-camera's ``--camera``, flash's ``--port``.
 
-Each command runs as a user runs it (a subprocess; calibrate-servos' keyboard session on
-a pty, :class:`test_maker_calibrate.PtyCommand`, against the sim backend).
+calibrate-servos' keyboard session runs as a user runs it (a process on a pty,
+:class:`test_maker_calibrate.PtyCommand`, against the sim backend); the refusals run in
+this process, through the bad-input check (exit 2, one line, no traceback, files kept).
 """
 
 from __future__ import annotations
 
-import subprocess
-import sys
 from pathlib import Path
 
 import cv2
 import numpy as np
 import pytest
+from badinput import Outcome, check_bad_input, run_in_process
 from conftest import CORE_H, require_file, require_tool
 from test_maker_calibrate import PtyCommand, _args, operate, sim_args, sim_truth
 from test_maker_tools import _fake_avrdude
 
-ROOT = Path(__file__).resolve().parent.parent
 
-
-def _mearm(*args: str, cwd: Path = ROOT) -> subprocess.CompletedProcess:
-    return subprocess.run(
-        [sys.executable, "-m", "mearm", *args],
-        stdin=subprocess.DEVNULL, capture_output=True, text=True, timeout=120, cwd=cwd,
-    )  # fmt: skip
-
-
-def _one_line(r: subprocess.CompletedProcess, *words: str) -> None:
-    """Exit 2, one line on stderr holding ``words``, no traceback."""
-    assert r.returncode == 2, r.stdout + r.stderr
-    lines = r.stderr.strip().splitlines()
-    assert len(lines) == 1, r.stderr
+def _refused(*args: object, words: tuple[str, ...], keep: tuple[Path, ...] = ()) -> Outcome:
+    """``mearm ARGS`` in this process: exit 2, one line on stderr holding ``words``, no
+    traceback, ``keep`` as it was (:func:`badinput.check_bad_input`)."""
+    out = check_bad_input(args, keep=keep)
     for word in words:
-        assert word in lines[0], r.stderr
+        assert word in out.line, out.stderr
+    return out
 
 
 # --------------------------------------------------------------------- calibrate-servos
@@ -83,23 +74,20 @@ def test_a_failed_write_prints_the_fits_first(tmp_path):
     assert "Traceback" not in text
 
 
-@pytest.mark.heavy
 @pytest.mark.parametrize("names", ["base,base", "base, shoulder,base"])
 def test_an_actuator_named_twice_is_refused(tmp_path, names):
     """It would be fitted twice and one fit written: exit 2, one line, nothing written."""
     out = tmp_path / "ct.yaml"
-    r = _mearm(
+    _refused(
         "calibrate-servos", "--config", "sim_mujoco", "--simulate", "--actuators", names,
-        "--output", str(out),
+        "--output", out, words=("'base' is named twice",),
     )  # fmt: skip
-    _one_line(r, "'base' is named twice")
     assert not out.exists()
 
 
 # --------------------------------------------------------------------- find-port
 
 
-@pytest.mark.heavy
 @pytest.mark.parametrize("port", ["missing", "folder"])
 def test_find_port_refuses_a_port_that_is_missing_or_a_folder(tmp_path, port):
     """Without --replug a --port that is not there is a typo, not "no board found": exit 2
@@ -108,26 +96,22 @@ def test_find_port_refuses_a_port_that_is_missing_or_a_folder(tmp_path, port):
     path = tmp_path / "ttyNOPE"
     if port == "folder":
         path.mkdir()
-    r = _mearm("find-port", "--only", "--port", str(path))
-    _one_line(r, f"--port {path}", "does not exist" if port == "missing" else "is a folder")
+    says = "does not exist" if port == "missing" else "is a folder"
+    r = _refused("find-port", "--only", "--port", path, words=(f"--port {path}", says))
     assert "serial port" not in r.stdout  # nothing listened to
-    if port == "folder":
-        r = _mearm("find-port", "--replug", "--only", "--port", str(path))
-        _one_line(r, "is a folder")  # before it asks for a terminal
+    if port == "folder":  # before it asks for a terminal
+        _refused("find-port", "--replug", "--only", "--port", path, words=("is a folder",))
 
 
-@pytest.mark.heavy
 def test_find_port_refuses_wait_without_replug():
     """--wait only means something to --replug: exit 2, one line, nothing scanned."""
-    r = _mearm("find-port", "--wait", "5", "--only")
-    _one_line(r, "--wait", "--replug")
+    r = _refused("find-port", "--wait", "5", "--only", words=("--wait", "--replug"))
     assert r.stdout == ""
 
 
 # --------------------------------------------------------------------- find-camera
 
 
-@pytest.mark.heavy
 @pytest.mark.parametrize(
     ("source", "words"),
     [
@@ -145,21 +129,20 @@ def test_find_camera_refuses_a_source_that_cannot_be_a_camera(tmp_path, source, 
         (tmp_path / "a.yaml").write_text("camera: {kind: device}\n")
         given["text"] = str(tmp_path / "a.yaml")
     out = tmp_path / "snaps"
-    r = _mearm("find-camera", "--out", str(out), "--camera", given[source])
-    _one_line(r, words)
+    r = _refused("find-camera", "--out", out, "--camera", given[source], words=(words,),
+                 keep=(tmp_path,))  # fmt: skip
     assert "trying" not in r.stdout and not out.exists()
 
 
-@pytest.mark.heavy
 def test_find_camera_tries_a_source_given_twice_once(tmp_path):
     """--camera X --camera X: X is tried (and listed) once."""
     video = tmp_path / "v.avi"
     writer = cv2.VideoWriter(str(video), cv2.VideoWriter_fourcc(*"MJPG"), 10, (64, 48))
     writer.write(np.zeros((48, 64, 3), np.uint8))
     writer.release()
-    r = _mearm("find-camera", "--out", str(tmp_path / "s"), "--camera", str(video),
-               "--camera", str(video))  # fmt: skip
-    assert r.returncode == 0, r.stderr
+    r = run_in_process(["find-camera", "--out", tmp_path / "s", "--camera", video,
+                        "--camera", video])  # fmt: skip
+    assert r.code == 0, r.stderr
     assert "trying 1 camera source:" in r.stdout
     assert r.stdout.count("camera: 64x48 px") == 1
 
@@ -167,9 +150,10 @@ def test_find_camera_tries_a_source_given_twice_once(tmp_path):
 # --------------------------------------------------------------------- flash
 
 
-@pytest.mark.heavy
 @pytest.mark.parametrize("port", ["missing", "folder"])
-def test_flash_refuses_a_port_that_is_missing_or_a_folder_before_the_build(tmp_path, port):
+def test_flash_refuses_a_port_that_is_missing_or_a_folder_before_the_build(
+    tmp_path, monkeypatch, port
+):
     """avrdude could only fail on it, after a build: exit 2 with one line, nothing built,
     avrdude never run."""
     for tool in ("make", "avr-gcc", "avr-objcopy"):
@@ -177,14 +161,11 @@ def test_flash_refuses_a_port_that_is_missing_or_a_folder_before_the_build(tmp_p
     require_file(CORE_H, "arduino-core-avr")
     require_file(Path("/usr/lib/avr/include/avr/io.h"), "avr-libc")
     env, log = _fake_avrdude(tmp_path / "bin", 0)
+    monkeypatch.setenv("PATH", env["PATH"])
     path = tmp_path / "ttyACM9"
     if port == "folder":
         path.mkdir()
     build = tmp_path / "build"
-    r = subprocess.run(
-        [sys.executable, "-m", "mearm", "flash", "--port", str(path), "--build-dir", str(build)],
-        stdin=subprocess.DEVNULL, capture_output=True, text=True, timeout=120, cwd=ROOT,
-        env=env,
-    )  # fmt: skip
-    _one_line(r, f"--port {path}", "does not exist" if port == "missing" else "is a folder")
+    says = "does not exist" if port == "missing" else "is a folder"
+    _refused("flash", "--port", path, "--build-dir", build, words=(f"--port {path}", says))
     assert not build.exists() and not log.exists()

@@ -6,7 +6,8 @@ JSON the files written are keys inside it. calibrate-camera, aruco-sheet, charuc
 and urdf said theirs on stderr; detect
 --annotate, bench --out, eval-policy --out/--videos, camera-accuracy --json/--work and
 virtual-uno-pulses --json named nothing. Each command runs here in this process, in a
-folder of its own, on the real files. A recording (``--record``) is named on stdout too,
+folder of its own, on the real files (camera-accuracy's in the folder of the run the tests
+of its --json and --work share). A recording (``--record``) is named on stdout too,
 once it is closed after the run, before the sort's summary: the outcome stays stdout's
 last line.
 """
@@ -23,6 +24,7 @@ import cv2
 import pytest
 from badinput import ROOT, run_in_process
 from conftest import missing_tool
+from test_tool_outputs import camera_accuracy_once
 
 from mearm.config import Config, load_config
 from mearm.sim import TableRenderer, class_discs
@@ -144,14 +146,6 @@ CASES: dict[str, tuple[Callable[[], list[str]], Needs | None, list[str]]] = {
             re.escape("wrote scores/pp.json"),
         ],
     ),
-    "camera-accuracy": (
-        lambda: (
-            "camera-accuracy --config sim_mujoco_perspective --heights 1 --scenes 1 "
-            "--objects 3 --views 6 --json ca.json --work work"
-        ).split(),
-        None,
-        [re.escape("wrote ca.json"), re.escape("wrote the pictures and calibrations into work/")],
-    ),
     "virtual-uno-pulses": (
         lambda: ["virtual-uno-pulses", "--commands", "3", "--json", "pulses.json"],
         _virtual_uno,
@@ -163,7 +157,6 @@ HEAVY = {
     "calibrate-camera-pose",
     "bench",
     "eval-policy",
-    "camera-accuracy",
     "virtual-uno-pulses",
 }
 
@@ -189,6 +182,21 @@ def test_a_command_names_what_it_wrote_on_stdout(
         assert any(re.fullmatch(pattern, line) for line in lines), (pattern, out.stdout)
     if case == "bench":  # the run still ends with its targets' line (docs/benchmarks.md)
         assert lines[-1].startswith("targets: "), out.stdout
+
+
+@pytest.mark.heavy
+def test_camera_accuracy_names_what_it_wrote_on_stdout(
+    tmp_path_factory: pytest.TempPathFactory,
+) -> None:
+    """As each case above, on the run of camera-accuracy at its quickest that the tests of
+    its --json and --work read too (``--json ca.json --work work``, run in this process)."""
+    out = camera_accuracy_once(tmp_path_factory)
+    assert out.code == 0, out.stdout + out.stderr
+    assert out.stderr == "", out.stderr
+    lines = out.stdout.splitlines()
+    for said in ("wrote ca.json", "wrote the pictures and calibrations into work/"):
+        assert said in lines, (said, out.stdout)
+    assert (out.folder / "ca.json").is_file() and (out.folder / "work").is_dir()
 
 
 @pytest.mark.heavy

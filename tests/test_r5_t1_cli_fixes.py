@@ -96,10 +96,16 @@ def test_calibration_worth_explains_every_option(monkeypatch):
 @pytest.mark.slow
 def test_calibration_worth_names_every_file_it_writes(tmp_path, capsys, monkeypatch):
     """One kit, for real: a ``wrote PATH`` line for each file in ``--out`` (the
-    calibration file and both logs the ``mearm`` commands wrote, the results)."""
+    calibration file and both logs the ``mearm`` commands wrote, the results). The kits'
+    config with one object on its table: each trial sorts one, not 12 (the files are the
+    point, not the figures)."""
     monkeypatch.chdir(tmp_path)
+    Path("one.yaml").write_text(
+        "extends: sim_mujoco_kits\ntask:\n  scene: [{color: red, x: -4, y: 45}]\n"
+    )
     code = _exit_of(
-        _tool("calibration_worth").main, ["--kits", "1", "--trials", "1", "--out", "cw"]
+        _tool("calibration_worth").main,
+        ["--config", "one.yaml", "--kits", "1", "--trials", "1", "--out", "cw"],
     )
     out = capsys.readouterr().out
     assert code == 0, out

@@ -23,9 +23,11 @@ def twin_scenes(*args: str) -> tuple[int, list[str], str]:
 
 @pytest.mark.heavy
 def test_twin_scenes_in_two_workers_print_what_one_process_prints():
-    """Three seeded scenes of three objects: every outcome line identical, in seed order."""
+    """Three seeded scenes of three objects: every outcome line identical, in seed order.
+    The serial run is this process's (the workers' run is a real command's)."""
     sweep = ("--scenes", "3", "--objects", "3", "--first-seed", "4")
-    code1, serial, err1 = twin_scenes(*sweep, "--jobs", "1")
+    one = here("twin-scenes", "--config", "configs/sim_mujoco.yaml", *sweep, "--jobs", "1")
+    code1, serial, err1 = one.code, one.stdout.splitlines(), one.stderr
     code2, parallel, err2 = twin_scenes(*sweep, "--jobs", "2")
     assert code1 == code2 == 0, err1 + err2
     total = re.compile(
@@ -82,8 +84,9 @@ def test_sigterm_stops_twin_scenes_and_its_workers(tmp_path):
 
 
 def here(*args: object) -> Outcome:
-    """``mearm ARGS`` in this process, from the checkout: for refusals before any work (the
-    runs above and below start real processes, whose exit codes they check)."""
+    """``mearm ARGS`` in this process, from the checkout: for refusals before any work and
+    for the serial runs the workers' runs are compared with (the runs of workers start
+    real processes, whose exit codes they check)."""
     with contextlib.chdir(ROOT):
         return run_in_process([str(a) for a in args], within_s=10)
 
@@ -114,23 +117,34 @@ def experiment(*args: object, timeout: float = 300) -> subprocess.CompletedProce
     return run_cli("-m", "mearm", "experiment", *map(str, args), timeout=timeout)
 
 
+#: One object of each class on sim.yaml's table: an experiment's random trials lay as
+#: many of each class as the config's table holds (mearm/experiment/trials.py,
+#: ``trial_counts``), so each trial sorts 3 objects, not the paper's 12. The sweeps
+#: below are about which records the workers write, not how many.
+ONE_PER_CLASS = (
+    "--set",
+    "task.scene=[{color: red, x: -4, y: 45}, {color: green, x: 4, y: 45}, "
+    "{color: blue, x: 0, y: 40}]",
+)
+#: Objects a trial of :data:`ONE_PER_CLASS` sorts.
+OBJECTS = 3
 #: The seeded sweep that runs in workers and on Dask (tests/test_experiment_cluster.py).
-SWEEP = ("--config", "configs/sim.yaml", "--seed", 5)
+SWEEP = ("--config", "configs/sim.yaml", *ONE_PER_CLASS, "--seed", 5)
 #: The trials of its serial log (five are compared with, six cover most Ctrl-C resumes).
 SERIAL_TRIALS = 6
 
 
 def serial_log(factory: pytest.TempPathFactory) -> Path:
-    """:data:`SWEEP`'s trials run in one process (``--jobs 1``): the log every other way of
-    running them must write. Run once per test run and shared by the workers."""
+    """:data:`SWEEP`'s trials run in one process (``--jobs 1``, this test's): the log every
+    other way of running them must write. Run once per test run and shared by the workers."""
 
     def run(folder: Path) -> None:
         log = folder / "serial.jsonl"
-        r = experiment(*SWEEP, "--trials", SERIAL_TRIALS, "--log", log, "--jobs", 1)
-        assert r.returncode == 0, r.stderr
-        n = SERIAL_TRIALS
+        r = here("experiment", *SWEEP, "--trials", SERIAL_TRIALS, "--log", log, "--jobs", 1)
+        assert r.code == 0, r.stderr
+        n, objects = SERIAL_TRIALS, OBJECTS * SERIAL_TRIALS
         assert re.search(rf"{n} trials written to .* \([\d.]+ trials/min, 1 process\)", r.stdout)
-        assert f"sorted {12 * n} of {12 * n} objects over {n} trials" in r.stdout
+        assert f"sorted {objects} of {objects} objects over {n} trials" in r.stdout
 
     return built_once(factory, "serial-sweep", run) / "serial.jsonl"
 
@@ -147,7 +161,7 @@ def serial_prefix(factory: pytest.TempPathFactory, trials: int, folder: Path) ->
 def serial_records(factory: pytest.TempPathFactory, trials: int) -> list[dict]:
     """The serial log's records of the first ``trials`` trials (see :func:`records`)."""
     out = [r for r in records(serial_log(factory)) if r["trial"] < trials]
-    assert len(out) > trials * 24  # a header, routes and a summary per trial
+    assert len(out) > trials * 2 * OBJECTS  # a header, two routes an object and a summary
     return out
 
 
@@ -159,7 +173,7 @@ def test_experiment_in_two_workers_writes_the_serial_log(tmp_path, tmp_path_fact
     r = experiment(*SWEEP, "--trials", 3, "--log", log, "--jobs", 2)
     assert r.returncode == 0, r.stderr
     assert re.search(r"3 trials written to .* \([\d.]+ trials/min, 2 workers\)", r.stdout)
-    assert "sorted 36 of 36 objects over 3 trials" in r.stdout
+    assert f"sorted {3 * OBJECTS} of {3 * OBJECTS} objects over 3 trials" in r.stdout
     assert records(log) == serial_records(tmp_path_factory, 3)
     r = here("analyze", log, "--json")
     assert r.code == 0 and json.loads(r.stdout), r.stderr
@@ -175,11 +189,13 @@ def test_experiment_in_two_workers_writes_the_serial_log(tmp_path, tmp_path_fact
 def test_ctrl_c_keeps_every_finished_trial_in_order_and_the_log_resumes(tmp_path):
     """Ctrl-C (to the whole process group, as a terminal sends it) in a run of two workers:
     exit 130, every trial in the log complete and in order, and the same command resumes it."""
-    log, trials = tmp_path / "trials.jsonl", 30
+    log, trials = tmp_path / "trials.jsonl", 100
     # signalled once 2 trials are in the log; on a loaded machine the workers run ahead of
     # the writing process (a slow first trial holds the others back, then all are written
-    # at once), so leave them room: 8 and 16 trials were each once all done first
-    args = ["--config", "configs/sim.yaml", "--trials", trials, "--log", log, "--jobs", 2]
+    # at once), so leave them room: 8 and 16 trials of 12 objects were each once all done
+    # first. A trial of 3 objects takes a third of one of 12: 100 leave the room 30 did.
+    args = ["--trials", trials, "--log", log, "--jobs", 2, "--config", "configs/sim.yaml",
+            *ONE_PER_CLASS]  # fmt: skip
     code, _ = interrupted_experiment(args, log)
     assert code == 130
     contents = read_runlog(log)
@@ -191,9 +207,9 @@ def test_ctrl_c_keeps_every_finished_trial_in_order_and_the_log_resumes(tmp_path
     assert all(t.finished for t in contents.trials[:-1])
     done = sum(t.finished for t in contents.trials)
     written = log.read_bytes()
-    # resumed to two trials past the stop (running all 30 would prove no more)
+    # resumed to two trials past the stop (running all 100 would prove no more)
     more = len(got) + 2
-    r = experiment(*args[:3], more, *args[4:])
+    r = experiment("--trials", more, *args[2:])
     assert r.returncode == 0 and f"running trials {done}..{more - 1}" in r.stdout, r.stderr
     assert log.read_bytes().startswith(written)
     assert [t.number for t in read_runlog(log).latest().trials] == list(range(more))

@@ -3,15 +3,19 @@ and bench's figures honest (a section once, targets met or not, no negative cost
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import os
+import shutil
 import subprocess
 import sys
+from dataclasses import dataclass
 from pathlib import Path
 
 import pytest
 from badinput import check_bad_input, run_in_process
+from built_once import built_once
 
 from mearm.tools.bench import summary, table
 from mearm.tools.benchmarks.bench_base import Row, against, difference_row
@@ -22,6 +26,35 @@ ENV = {**os.environ, "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl")}
 #: camera-accuracy at its quickest (a few seconds): one height, one scene, 3 objects.
 QUICK = ["--config", "sim_mujoco_perspective", "--heights", "1", "--scenes", "1",
          "--objects", "3", "--views", "6"]  # fmt: skip
+
+
+@dataclass(frozen=True)
+class QuickRun:
+    """One camera-accuracy run at :data:`QUICK` (``--json ca.json --work work``)."""
+
+    folder: Path
+    """Where it ran: ``ca.json`` and ``work/`` are in it (shared: read it, copy to change)."""
+    code: int
+    stdout: str
+    stderr: str
+
+
+def camera_accuracy_once(factory: pytest.TempPathFactory) -> QuickRun:
+    """:class:`QuickRun`, run once per test run in this process and shared by the workers
+    (each run is three ``mearm`` processes and a render: 3 s of CPU); the tests of its
+    ``--json``, its ``--work`` and its stdout read it (tests/test_output_streams_wrote.py,
+    tests/test_walk3_q1_camera_accuracy.py)."""
+
+    def build(folder: Path) -> None:
+        with contextlib.chdir(folder):
+            done = run_in_process(
+                ["camera-accuracy", *QUICK, "--json", "ca.json", "--work", "work"], within_s=30
+            )
+        outcome = {"code": done.code, "stdout": done.stdout, "stderr": done.stderr}
+        (folder / "outcome.json").write_text(json.dumps(outcome))
+
+    folder = built_once(factory, "camera-accuracy-quick", build)
+    return QuickRun(folder, **json.loads((folder / "outcome.json").read_text()))
 
 
 def _precious(path: Path) -> Path:
@@ -142,14 +175,17 @@ def test_camera_accuracy_refuses_a_work_folder_of_the_users(tmp_path: Path) -> N
 
 @pytest.mark.heavy
 def test_camera_accuracy_reruns_into_its_own_work_folder_and_no_other_file(
-    tmp_path: Path,
+    tmp_path: Path, tmp_path_factory: pytest.TempPathFactory
 ) -> None:
-    """Two runs into one folder; then a file of the user's there, or one changed, is
-    refused before any work; after a run cut short its own names are accepted."""
+    """Two runs into one folder (the first the shared run's, copied); then a file of the
+    user's there, or one changed, is refused before any work; after a run cut short its
+    own names are accepted."""
+    first = camera_accuracy_once(tmp_path_factory)
+    assert first.code == 0, first.stdout + first.stderr
     work = tmp_path / "cal"
-    for _ in range(2):
-        proc = run_in_process(["camera-accuracy", *QUICK, "--work", work], within_s=30)
-        assert proc.code == 0, proc.stdout + proc.stderr
+    shutil.copytree(first.folder / "work", work)
+    proc = run_in_process(["camera-accuracy", *QUICK, "--work", work], within_s=30)
+    assert proc.code == 0, proc.stdout + proc.stderr
     assert (work / "intrinsics.yaml.bak").is_file() and (work / WORK_MARKER).is_file()
     mark = json.loads((work / WORK_MARKER).read_text())
     assert mark["finished"] is True and "boards/board_00.png" in mark["files"]

@@ -9,13 +9,10 @@ figures with nothing saying they were simulated (the printed table says so).
 from __future__ import annotations
 
 import json
-from pathlib import Path
 
+import pytest
 from badinput import run_in_process
-
-#: camera-accuracy at its quickest (a few seconds): one height, one scene, 3 objects.
-QUICK = ["--config", "sim_mujoco_perspective", "--heights", "1", "--scenes", "1",
-         "--objects", "3", "--views", "6"]  # fmt: skip
+from test_tool_outputs import camera_accuracy_once
 
 
 def test_help_names_the_bounds_and_their_defaults() -> None:
@@ -26,9 +23,10 @@ def test_help_names_the_bounds_and_their_defaults() -> None:
     assert "MAX_ERROR_CM exit 1 when any object's error is above this [cm] (0.10)" in text
 
 
-def test_the_json_figures_are_labelled_simulated(tmp_path: Path) -> None:
-    out = tmp_path / "accuracy.json"
-    done = run_in_process(["camera-accuracy", *QUICK, "--json", out], within_s=60)
+def test_the_json_figures_are_labelled_simulated(tmp_path_factory: pytest.TempPathFactory) -> None:
+    """The --json of camera-accuracy at its quickest (one height, one scene, 3 objects),
+    run once for the tests that read it."""
+    done = camera_accuracy_once(tmp_path_factory)
     assert done.code == 0, done.stdout + done.stderr
-    record = json.loads(out.read_text())
+    record = json.loads((done.folder / "ca.json").read_text())
     assert record["simulated"] is True and record["rows"][0]["height_cm"] == 1.0
