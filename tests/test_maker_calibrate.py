@@ -30,6 +30,7 @@ from pathlib import Path
 
 import pytest
 import yaml
+from badinput import run_in_process
 from conftest import simulator_build
 from fakeboard import FakeMearmBoard, SimavrBoard
 
@@ -467,14 +468,24 @@ def test_ctrl_c_writes_nothing_and_leaves_the_arm(board, tmp_path, stop, status)
 
 @pytest.mark.slow
 def test_an_existing_calibration_is_replaced_only_after_yes(tmp_path):
-    """N keeps the file (exit 1, nothing moved); y replaces it and keeps the old as .bak."""
+    """N keeps the file (exit 1, nothing moved); y replaces it and keeps the old as .bak.
+
+    The old file is written by the library (a session making it showed nothing more)."""
+    from mearm.config.servo_file import CalibrationPoint as P
+    from mearm.config.servo_file import (
+        ServoCalibrationFile,
+        fit_actuator,
+        save_servo_calibration,
+        servo_of,
+    )
+
     out = tmp_path / "servos.yaml"
-    cmd = PtyCommand(*_args(out, *sim_args()))
-    try:
-        operate(cmd, sim_truth(), 3)
-        assert cmd.wait() == 0
-    finally:
-        cmd.close()
+    arm = load_config(ROOT / "configs" / "sim.yaml").arm
+    fits = tuple(
+        fit_actuator(name, "deg", servo_of(arm, name), [P(50.0, 1100), P(115.0, 1750)])
+        for name in ("shoulder", "elbow")
+    )
+    save_servo_calibration(out, ServoCalibrationFile(arm.name, "b", "", "d", fits))
     first = out.read_text()
     cmd = PtyCommand(*_args(out, *sim_args()))
     try:
@@ -539,12 +550,10 @@ def test_q_writes_nothing(tmp_path):
 @pytest.mark.heavy
 def test_unknown_actuator_is_bad_input(tmp_path):
     """--actuators with a name the arm lacks: exit 2 naming the arm's actuators."""
-    cmd = PtyCommand(*_args(tmp_path / "s.yaml", "--actuators", "knee"))
-    try:
-        assert cmd.wait() == 2
-    finally:
-        cmd.close()
-    assert "no actuator 'knee'" in cmd.text and "shoulder" in cmd.text
+    r = run_in_process(_args(tmp_path / "s.yaml", "--actuators", "knee"))
+    assert r.code == 2 and len(r.stderr.strip().splitlines()) == 1, r.stderr
+    assert "no actuator 'knee'" in r.stderr and "shoulder" in r.stderr
+    assert not (tmp_path / "s.yaml").exists()
 
 
 def test_reference_values_lie_inside_the_limits():

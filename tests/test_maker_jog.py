@@ -15,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from badinput import run_in_process
 from test_maker_calibrate import (  # noqa: F401  (virtual_uno_build: a fixture)
     BOARD_TRUTH,
     BOARDS,
@@ -293,12 +294,9 @@ def test_jog_with_a_bad_calibration_file_is_exit_2(tmp_path: Path):
     """--servo-calibration naming something else: exit 2 naming the file."""
     bad = tmp_path / "x.yaml"
     bad.write_text("a: 1\n")
-    cmd = PtyCommand("jog", "--config", str(SIM), "--servo-calibration", str(bad))
-    try:
-        assert cmd.wait() == 2
-    finally:
-        cmd.close()
-    assert "not a mearm servo calibration" in cmd.text
+    r = run_in_process(["jog", "--config", str(SIM), "--servo-calibration", str(bad)])
+    assert r.code == 2 and len(r.stderr.strip().splitlines()) == 1, r.stderr
+    assert "not a mearm servo calibration" in r.stderr and str(bad) in r.stderr
 
 
 # --------------------------------------------------------------------------- a servo over joints
