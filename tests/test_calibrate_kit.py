@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mearm.config import load_config
+from mearm.config import SceneObject, load_config
 from mearm.config.servo_file import load_servo_calibration
 from mearm.hardware import ArmCommand
 from mearm.maker import calibrate_servos
@@ -299,7 +299,8 @@ REFERENCE_TWINS = ["sim_mujoco.yaml", "sim_mearm_v1_mujoco.yaml", "sim_5dof_mujo
 @pytest.mark.parametrize("name", REFERENCE_TWINS)
 def test_each_reference_arms_simulated_calibration_sorts(tmp_path: Path, name: str, capsys) -> None:
     """The keyboard procedure on each reference arm's twin writes a file with which the
-    sort sorts every object; the file changes the pulses, never the servos' speeds."""
+    sort sorts every object of the arm's own table, its first of each class (one pick and
+    place per bin); the file changes the pulses, never the servos' speeds."""
     from mearm import sort
 
     config = str(ROOT / "configs" / name)
@@ -309,8 +310,13 @@ def test_each_reference_arms_simulated_calibration_sorts(tmp_path: Path, name: s
     for a, b in zip(calibrated.arm.joints, plain.arm.joints, strict=True):
         if a.servo is not None:
             assert a.servo.seconds_per_60deg == b.servo.seconds_per_60deg, a.name
+    firsts: dict[str, SceneObject] = {}
+    for o in plain.task.scene:
+        firsts.setdefault(o.color, o)
+    scene = ", ".join(f"{{color: {o.color}, x: {o.x}, y: {o.y}}}" for o in firsts.values())
     capsys.readouterr()
-    assert sort.main(["--config", config, "--set", sets[0], "--quiet"]) == 0
+    argv = ["--config", config, "--set", sets[0], "--set", f"task.scene=[{scene}]", "--quiet"]
+    assert sort.main(argv) == 0
     last = capsys.readouterr().out.strip().splitlines()[-1]
-    seen = len(plain.task.scene)
+    seen = len(firsts)
     assert last == f"sorted {seen} of {seen} objects (simulated)"

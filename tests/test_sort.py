@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 import yaml
 from badinput import Outcome, run_in_process
-from conftest import ROOT, planar_yaw_arm_data, run_cli
+from conftest import ROOT, planar_yaw_arm_data
 from fakeboard import FakeMearmBoard, MearmFaults
 
 from mearm.backends import open_bus
@@ -31,10 +31,10 @@ def _sort(config, scene, log=None):
 
 @pytest.mark.heavy
 def test_cli_sorts_the_paper_layout(tmp_path):
-    """python -m mearm.sort on the sim rig: 12 objects in their bins, 24 routes logged."""
+    """mearm sort on the sim rig: 12 objects in their bins, 24 routes logged."""
     log = tmp_path / "run.jsonl"
-    r = run_cli("-m", "mearm.sort", "--config", "configs/sim.yaml", "--log", str(log))
-    assert r.returncode == 0, r.stderr
+    r = _sort_cli("--config", "configs/sim.yaml", "--log", log)
+    assert r.code == 0, r.stderr
     assert r.stdout.splitlines()[-1] == "sorted 12 of 12 objects (simulated)"
     assert "red          4       4     0" in r.stdout and "blue         4       4     0" in r.stdout
     contents = read_runlog(log)
@@ -309,8 +309,7 @@ def test_ctrl_c_parks_and_keeps_the_log(tmp_path, sig, status, named):
 
 def _sort_cli(*args: object) -> Outcome:
     """``mearm sort ARGS`` in this process, from the repository's folder (as the paths in
-    the arguments are): ``test_cli_sorts_the_paper_layout`` and the Ctrl-C test run the
-    command as its own process."""
+    the arguments are): the Ctrl-C test runs the command as its own process."""
     with contextlib.chdir(ROOT):
         return run_in_process(["sort", *map(str, args)], within_s=60)
 
