@@ -152,14 +152,18 @@ def test_the_correction_map_starts_a_pick_from_its_neighbours():
 
 
 def _pick_errors_cm(look: bool) -> tuple[np.ndarray, int]:
-    """Table-plane errors of the TCP at each grip against the object, and objects sorted."""
+    """Table-plane errors of the TCP at each grip against the object, and objects sorted.
+
+    One object per class: blind, the kit's claw misses each by about a centimetre already
+    (with 5 objects the means were 1.10 cm blind, 0.16 cm looking; with 3, 1.02 and 0.11).
+    """
     from mearm.task.scene import random_scene
     from mearm.task.sorter import Sorter
 
     config = load_config(
         KITS, ["twin.kit.spread=0.3", "twin.kit.per_trial=false", f"task.look_at_claw={look}"]
     )
-    scene = random_scene(config, 5, seed=4)
+    scene = random_scene(config, 3, seed=4)
     with open_rig(config, scene) as rig:
         sorter = Sorter(config, rig.camera, rig.bus, model=rig.model, echo=None,
                         in_bins=rig.in_bins)  # fmt: skip

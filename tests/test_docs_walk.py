@@ -8,6 +8,7 @@ for sort, and a sort on uncalibrated servos says nothing else when it cannot sta
 
 from __future__ import annotations
 
+import contextlib
 import os
 import re
 import shutil
@@ -16,6 +17,7 @@ import sys
 from pathlib import Path
 
 import pytest
+from badinput import run_in_process
 
 from mearm.config import load_config
 from mearm.errors import ConfigError
@@ -29,10 +31,20 @@ NO_CAMERA = ["--set", "camera.device_index=99", "--set", "camera.open_timeout_s=
 
 
 def mearm(*args: object, cwd: Path = ROOT) -> subprocess.CompletedProcess[str]:
+    """``python -m mearm ARGS`` in a process of its own, run in ``cwd``."""
     return subprocess.run(
         [sys.executable, "-m", "mearm", *map(str, args)],
         cwd=cwd, env=ENV, capture_output=True, text=True, timeout=300, check=False,
     )  # fmt: skip
+
+
+def mearm_here(*args: object, cwd: Path = ROOT) -> subprocess.CompletedProcess[str]:
+    """:func:`mearm` in this process (``main`` under the guard every command shares, in
+    ``cwd``): without an interpreter start, 0.5 s of CPU each. ``--set`` paths and the
+    messages are the command's own either way; check-camera's test runs it as a process."""
+    with contextlib.chdir(cwd):
+        out = run_in_process([str(a) for a in args], within_s=30)
+    return subprocess.CompletedProcess(["mearm", *args], out.code, out.stdout, out.stderr)
 
 
 def one_line(proc: subprocess.CompletedProcess[str], code: int = 2) -> str:
@@ -50,10 +62,10 @@ def test_a_file_written_here_is_named_by_set_from_here(tmp_path):
     """docs/servos.md: calibrate-servos --output F, then --set servo.calibration_file=F,
     the config in another folder: F is the file just written, not one beside the config."""
     config = CONFIGS / "sim_mujoco.yaml"
-    made = mearm("calibrate-servos", "--simulate", "--config", config,
+    made = mearm_here("calibrate-servos", "--simulate", "--config", config,
                  "--output", "cam.servos.yaml", cwd=tmp_path)  # fmt: skip
     assert made.returncode == 0 and (tmp_path / "cam.servos.yaml").is_file(), made.stderr
-    used = mearm("fk", "--config", config, "--set", "servo.calibration_file=cam.servos.yaml",
+    used = mearm_here("fk", "--config", config, "--set", "servo.calibration_file=cam.servos.yaml",
                  "--joints", "90,90,-90", cwd=tmp_path)  # fmt: skip
     assert used.returncode == 0, used.stderr
 
@@ -62,7 +74,7 @@ def test_camera_files_named_by_set_are_found_from_here(tmp_path):
     """The camera's calibration files given by --set: relative to the current folder."""
     for name in ("twin_intrinsics.yaml", "twin_pose.yaml"):
         shutil.copy(CONFIGS / "calibration" / name, tmp_path / name)
-    proc = mearm("fk", "--config", CONFIGS / "sim_mujoco_perspective.yaml",
+    proc = mearm_here("fk", "--config", CONFIGS / "sim_mujoco_perspective.yaml",
                  "--set", "calibration.intrinsics_file=twin_intrinsics.yaml",
                  "--set", "calibration.extrinsics_file=twin_pose.yaml",
                  "--joints", "90,90,-90", cwd=tmp_path)  # fmt: skip
@@ -70,7 +82,7 @@ def test_camera_files_named_by_set_are_found_from_here(tmp_path):
 
 
 def test_a_missing_set_file_names_where_it_looked_and_the_rule(tmp_path):
-    proc = mearm("fk", "--config", CONFIGS / "sim.yaml", "--joints", "90,90,-90",
+    proc = mearm_here("fk", "--config", CONFIGS / "sim.yaml", "--joints", "90,90,-90",
                  "--set", "servo.calibration_file=gone.yaml", cwd=tmp_path)  # fmt: skip
     line = one_line(proc)
     assert line.startswith(
@@ -158,7 +170,7 @@ def test_a_sort_on_uncalibrated_servos_without_its_camera_says_one_line(tmp_path
     """A real rig never calibrated: the note is for a sort that starts; without the camera
     only the error is said (exit 2), and the log still says why it never started."""
     log = tmp_path / "run.jsonl"
-    proc = mearm("sort", "--config", "lab", *NO_CAMERA, "--log", log)
+    proc = mearm_here("sort", "--config", "lab", *NO_CAMERA, "--log", log)
     line = one_line(proc)
     assert line.startswith("mearm sort: error: camera (device 99): cannot open"), line
     assert "before the sort started: camera (device 99)" in log.read_text(encoding="utf-8")

@@ -128,11 +128,11 @@ def test_reproduce_paper_needs_a_scene():
 
 @pytest.mark.heavy
 def test_bench_ik_section_runs():
-    """The benchmark's ik section runs whole, on 20 of its 500 peer targets, and reports
+    """The benchmark's ik section runs whole, on 5 of its 500 peer targets, and reports
     figures (never asserted on): its peers, the demo routes and their ratios."""
     from mearm.tools.bench import BenchOptions, bench_ik
 
-    rows = bench_ik(BenchOptions(repeat=1, ik_targets=20))
+    rows = bench_ik(BenchOptions(repeat=1, ik_targets=5))
     names = {row.name for row in rows}
     assert "PD-PIJ paper: per iteration" in names
     assert "numpy port / PD-PIJ paper, per iteration" in names

@@ -319,11 +319,12 @@ def built_firmware(tmp_path_factory) -> Path:
 
 @pytest.mark.heavy
 def test_find_port_names_the_real_firmware_in_simavr(tmp_path_factory):
-    """The real firmware (simavr behind a pty): named by its banner and its V reply."""
+    """The real firmware (simavr behind a pty): named by its banner and its V reply. (In
+    this process: the replug tests run find-port as a process on a terminal.)"""
     build = simulator_build(tmp_path_factory)
     sim, elf = build / "mearm_sim", build / "mearm_servo.elf"
     with SimavrBoard(str(sim), str(elf)) as chip:
-        found = run_tool("find_port", "--only", "--timeout", "5", "--port", chip.port)
+        found = run_here("find_port", "--only", "--timeout", "5", "--port", chip.port)
     assert found.returncode == 0, found.stdout + found.stderr
     assert line_of(found.stdout, chip.port).endswith(
         "mearm board: mearm_servo 2.0, 5 servos, pulses 500..2500 µs"
@@ -451,16 +452,17 @@ def test_flash_builds_uploads_and_checks_the_banner(built_firmware, tmp_path):
 
 @pytest.mark.heavy
 def test_flash_fails_when_the_upload_fails_or_no_banner_follows(built_firmware, tmp_path):
-    """avrdude failing → exit 1 with what to check; an upload without a banner → exit 1."""
+    """avrdude failing → exit 1 with what to check; an upload without a banner → exit 1.
+    In this process; ``test_flash_builds_uploads_and_checks_the_banner`` runs flash as one."""
     env, _ = _fake_avrdude(tmp_path / "bin_fail", 1)
     with FakeMearmBoard() as board:  # a port that exists (a missing one is bad input)
-        failed = run_tool("flash", "--port", board.port, "--build-dir", str(built_firmware),
-                          env=env)  # fmt: skip
+        failed = run_here("flash", "--port", board.port, "--build-dir", str(built_firmware),
+                          path=env["PATH"])  # fmt: skip
     assert failed.returncode == 1 and "the upload failed (exit 1" in failed.stderr
     env, _ = _fake_avrdude(tmp_path / "bin_ok", 0)
     with FakeMearmBoard(MearmFaults(banner=False)) as board:
-        silent = run_tool("flash", "--port", board.port, "--build-dir", str(built_firmware),
-                          "--set", "servo.banner_timeout_s=0.5", env=env)  # fmt: skip
+        silent = run_here("flash", "--port", board.port, "--build-dir", str(built_firmware),
+                          "--set", "servo.banner_timeout_s=0.5", path=env["PATH"])  # fmt: skip
     assert silent.returncode == 1
     assert "does not print the mearm banner" in silent.stderr
 
@@ -489,9 +491,10 @@ def test_missing_data_is_one_line_saying_where(tmp_path, monkeypatch):
 @pytest.mark.heavy
 def test_find_camera_without_a_camera_exits_1(tmp_path):
     """Sources that are no camera (a device that is not one, an index with nothing on
-    it): each says why, exit 1, no snapshot folder made."""
+    it): each says why, exit 1, no snapshot folder made. (In this process: the
+    newcomer walks run find-camera as a process.)"""
     out = tmp_path / "snaps"
-    result = run_tool("find_camera", "--out", str(out), "--camera", "/dev/null", "--camera", "15")
+    result = run_here("find_camera", "--out", str(out), "--camera", "/dev/null", "--camera", "15")
     assert "no camera: cannot open it" in result.stdout
     assert "no cameras found (tried /dev/null, 15)" in one_error_line(result, code=1)
     assert not out.exists()
@@ -504,7 +507,7 @@ def test_find_camera_without_a_camera_exits_1(tmp_path):
 @pytest.mark.heavy
 def test_find_camera_scan_on_a_machine_without_cameras_exits_1(tmp_path):
     """The default scan (indices 0, 1 and /dev/video*) finds nothing here: exit 1."""
-    result = run_tool("find_camera", "--out", str(tmp_path / "s"))
+    result = run_here("find_camera", "--out", str(tmp_path / "s"))
     assert "trying 2 camera sources" in result.stdout
     assert "no cameras found" in one_error_line(result, code=1)
 

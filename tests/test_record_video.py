@@ -291,10 +291,10 @@ def _record_twin(root: Path, overrides: list[str]) -> np.ndarray:
         return np.stack([f.to_ndarray(format="rgb24") for f in container.decode(video=0)])
 
 
-@pytest.mark.heavy
-def test_a_twin_recording_draws_no_frame_in_the_sorts_process(monkeypatch, tmp_path: Path) -> None:
-    """While the encoder keeps up, the twin's frames are drawn by the encoder's process: the
-    sort's renderer never runs for them, and the episodes are written, moving pictures."""
+@pytest.fixture(scope="module")
+def drawn_there(tmp_path_factory: pytest.TempPathFactory) -> np.ndarray:
+    """The frames of :func:`_record_twin` with an encoder that keeps up, the sort's
+    renderer refusing to draw one (the two tests below read them; neither writes)."""
     from mearm.dataset import video_encoder
     from mearm.dataset.encoder_server import SLOTS
     from mearm.sim.twin.twin_camera import TwinCamera
@@ -302,23 +302,32 @@ def test_a_twin_recording_draws_no_frame_in_the_sorts_process(monkeypatch, tmp_p
     def refuse(self, out):
         raise AssertionError("a recorded frame was drawn in the sort's process")
 
-    monkeypatch.setattr(video_encoder, "DRAW_HERE_BEHIND", SLOTS, raising=False)  # never behind
-    monkeypatch.setattr(TwinCamera, "peek_rgb", refuse)
-    frames = _record_twin(tmp_path / "ds", [])
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(video_encoder, "DRAW_HERE_BEHIND", SLOTS, raising=False)  # never behind
+        patch.setattr(TwinCamera, "peek_rgb", refuse)
+        return _record_twin(tmp_path_factory.mktemp("there") / "ds", [])
+
+
+@pytest.mark.heavy
+def test_a_twin_recording_draws_no_frame_in_the_sorts_process(drawn_there: np.ndarray) -> None:
+    """While the encoder keeps up, the twin's frames are drawn by the encoder's process: the
+    sort's renderer never runs for them (it refuses, in :func:`drawn_there`), and the
+    episodes are written, moving pictures."""
+    frames = drawn_there
     assert len(frames) >= 4 and frames.mean() > 40
     assert np.abs(np.diff(frames.astype(np.int16), axis=0)).max() > 50  # the arm moved
 
 
 @pytest.mark.heavy
-def test_an_encoder_behind_has_the_frames_drawn_here_the_same(monkeypatch, tmp_path: Path) -> None:
+def test_an_encoder_behind_has_the_frames_drawn_here_the_same(
+    monkeypatch, tmp_path: Path, drawn_there: np.ndarray
+) -> None:
     """An encoder whose process falls behind has the sort's process draw the next frames
     (its renderer, peek_rgb): the video decodes to the very frames drawn over there."""
     from mearm.dataset import video_encoder
-    from mearm.dataset.encoder_server import SLOTS
     from mearm.sim.twin.twin_camera import TwinCamera
 
-    monkeypatch.setattr(video_encoder, "DRAW_HERE_BEHIND", SLOTS, raising=False)
-    there = _record_twin(tmp_path / "there", [])
+    there = drawn_there
     drawn_here = []
     peek_rgb = TwinCamera.peek_rgb
 

@@ -597,7 +597,8 @@ def test_a_green_dropped_into_the_blue_bin_is_left_not_counted_in_its_bin():
     left it, not confirmed in its bin; the twin's count said all 12 lay in their bins.
     Since the table has rolling friction (2026-12-01) no green falls there (seeds
     998000-998199 searched): the first green released into its bin is moved into the
-    blue bin as that one fell, and the sort and the twin's count both leave it."""
+    blue bin as that one fell, and the sort and the twin's count both leave it. One
+    object per class: the move, not the seed's table, is the scenario now."""
     from mearm.maker.camera_calibration.at_start import for_config
     from mearm.task.rig import run_sort
     from mearm.task.scene import random_scene
@@ -610,12 +611,12 @@ def test_a_green_dropped_into_the_blue_bin_is_left_not_counted_in_its_bin():
         rig.bus.sampler = _IntoTheWrongBin(rig.bus, "green", "blue")
         moves.append(rig.bus.sampler)
 
-    scene = random_scene(twin, 12, seed=998026)
+    scene = random_scene(twin, 3, seed=998026)
     report = run_sort(
         twin, scene=scene, echo=None, calibrate_first=for_config(twin), on_open=move_a_green
     )
     out = report.outcome
     assert moves[0].moved is not None
-    assert (out.n_objects, sum(out.seen.values()), out.n_sorted) == (12, 12, 11), out.left
+    assert (out.n_objects, sum(out.seen.values()), out.n_sorted) == (3, 3, 2), out.left
     assert dict(out.left) == {"not_confirmed": 1}
-    assert sum(out.in_bins.values()) == 11
+    assert sum(out.in_bins.values()) == 2

@@ -28,7 +28,7 @@ import meshcat
 import numpy as np
 import pinocchio as pin
 import pytest
-from conftest import REFERENCE_CONFIGS, ROOT, browser_or_skip, run_cli
+from conftest import REFERENCE_CONFIGS, ROOT, browser_or_skip
 from viewscene import scene
 
 from mearm.cli import run
@@ -862,21 +862,17 @@ def test_preview_serves_until_ctrl_c():
 
 
 @pytest.mark.heavy
-def test_preview_screenshot_renders_the_arm(tmp_path):
-    """--screenshot writes a PNG showing the arm (orange) at the named joints and exits 0."""
+def test_preview_screenshot_renders_the_arm(tmp_path, capsys):
+    """--screenshot writes a PNG showing the arm (orange) at the named joints and exits 0.
+    In this process (its own Chromium, as the user's command starts one);
+    ``test_preview_serves_until_ctrl_c`` runs the tool as a process."""
     browser_or_skip()
     out = tmp_path / "arm.png"
-    proc = run_cli(
-        "tools/preview.py",
-        "--joints",
-        "base=90,shoulder=60,elbow=-100",
-        "--screenshot",
-        str(out),
-        "--size",
-        f"{W}x{H}",
-    )
-    assert proc.returncode == 0, proc.stderr
-    assert f"wrote {out}" in proc.stdout
+    args = ["--joints", "base=90,shoulder=60,elbow=-100", "--screenshot", str(out)]
+    with pytest.raises(SystemExit) as exit_:
+        run(PREVIEW.main, [*args, "--size", f"{W}x{H}"])
+    assert exit_.value.code == 0
+    assert f"wrote {out}" in capsys.readouterr().out
     img = cv2.imread(str(out))
     assert img.shape == (H, W, 3)
     model = ArmModel(CONFIG.arm)
