@@ -20,6 +20,8 @@ import numpy as np
 import pytest
 from conftest import ROOT
 
+from mearm.config import load_config
+from mearm.kinematics import ArmModel
 from mearm.task.armcheck import SET_DOWN_SLIP_CM
 
 NUMBER = r"[-+]?\d+\.\d+"
@@ -72,3 +74,29 @@ def test_an_object_left_out_of_reach_stops_the_check(capsys: pytest.CaptureFixtu
         err,
     ), err
     assert re.findall(r"^point (\d+):", out, re.M) == ["1", "2", "3"], out
+
+
+@pytest.mark.heavy
+def test_a_point_the_batch_solve_does_not_reach_is_one_the_plan_refuses() -> None:
+    """The layout plans a lattice point only where one batch solve reaches its pick and the
+    point above it (``may_take_up_at``): on the 5-DOF arm each point it skips cost the
+    solver's whole recovery before (37 ms), and each would have been refused, so the
+    points chosen are the same (`mearm check-camera` printed the same, 2026-12-01)."""
+    from mearm.sim.table_collision import collision_model
+    from mearm.task.armcheck import _Arm
+    from mearm.task.plan import Planner
+
+    config = load_config("sim_5dof")
+    model = ArmModel(config.arm)
+    planner = Planner(config, model, collision_model(config, model, clearance_cm=0.0))
+    arm = _Arm(config, planner, None, config.task.classes[0], [])  # type: ignore[arg-type]
+    xy = np.array([(x, y) for x in range(-36, 37, 6) for y in range(4, 61, 6)], dtype=float)
+    worth = arm.may_take_up_at(xy)
+    assert 10 <= worth.sum() <= len(xy) - 10, worth.sum()  # a test of both answers
+    # where a skipped point could be wrong: next to one the batch reaches (the reach's edge)
+    skipped, reached = xy[~worth], xy[worth]
+    gap = np.linalg.norm(skipped[:, None, :] - reached[None, :, :], axis=2).min(axis=1)
+    edge = skipped[gap <= 6.0]
+    assert len(edge) >= 10, len(edge)
+    assert not [tuple(at) for at in edge if arm.takes_up_at(at)]
+    assert any(arm.takes_up_at(at) for at in reached)

@@ -11,7 +11,7 @@ from mearm.config import Config, load_config
 from mearm.config.root import TwinConfig
 from mearm.config.sections import SimErrorModel, VirtualUnoConfig
 from mearm.kinematics import ArmModel
-from mearm.task import check
+from mearm.task import check, plan
 from mearm.task.plan import Planner
 
 
@@ -48,13 +48,13 @@ def test_box_reach_solves_only_the_middle_when_it_is_reached(monkeypatch):
     """The 5-DOF arm's batch solve runs on one point, not the whole box (most of it far)."""
     config, model, planner = _planner("sim_5dof")
     sizes = []
-    solve = check.solve_batch
+    solve = plan.solve_batch
 
     def counted(model, positions, *args, **kwargs):
         sizes.append(len(positions))
         return solve(model, positions, *args, **kwargs)
 
-    monkeypatch.setattr(check, "solve_batch", counted)
+    monkeypatch.setattr(plan, "solve_batch", counted)
     points = check._box_points_cm(config)
     assert check._reached_somewhere(planner, model, config.task.classes[0].name, points)
     assert sizes == [1]

@@ -399,6 +399,19 @@ class _Arm:
         """Whether the object lying at ``at_cm`` can be taken up from home."""
         return self.plan_take_up(at_cm, self.planner.model.home)[1] is None
 
+    def may_take_up_at(self, at_cm: np.ndarray) -> np.ndarray:
+        """Whether taking up the object is worth planning at each of ``at_cm``, (k,) bool.
+
+        ``False`` where no joints reach its pick or the point above it (one batch solve,
+        :meth:`Planner.reaches <mearm.task.plan.Planner.reaches>`): there
+        :meth:`takes_up_at` would be ``False`` too, after every start of the solver's
+        recovery.
+        """
+        picks = [self.planner.pick_target(self.cls, float(x), float(y)) for x, y in at_cm]
+        above = [self._above(pick) for pick in picks]
+        ok = self.planner.reaches([*picks, *above])
+        return ok[: len(picks)] & ok[len(picks) :]
+
     def transfer(self, from_cm: npt.ArrayLike, to_cm: npt.ArrayLike) -> Refusal | None:
         """Take the object at ``from_cm`` to ``to_cm`` and go home; what refused it, or ``None``.
 
@@ -567,7 +580,8 @@ def check_points(config: Config, geometry: CameraGeometry, arm: _Arm, n: int) ->
 
     def takes_up(cell: tuple[int, int]) -> bool:
         if cell not in takes:
-            takes[cell] = arm.takes_up_at(np.array(cell, dtype=float) * LATTICE_CM)
+            at = np.array(cell, dtype=float) * LATTICE_CM
+            takes[cell] = bool(arm.may_take_up_at(at[None])[0]) and arm.takes_up_at(at)
         return takes[cell]
 
     def has_room(k: int) -> bool:

@@ -34,8 +34,6 @@ from mearm.config import ColorClass, Config
 from mearm.config.files import config_source, unit_warning
 from mearm.config.loader import unit_hints
 from mearm.errors import ConfigError, MearmError
-from mearm.ik import APPROACH_TOLERANCE_DEG
-from mearm.ik.batch import solve_batch
 from mearm.kinematics import ArmModel
 from mearm.kinematics.bodies import M_PER_CM, base_radius_m, bin_half_outer_m
 from mearm.kinematics.collision import TOUCH_CM, CollisionModel
@@ -46,10 +44,6 @@ from mearm.vision.calibration import camera_geometry
 
 #: The camera's view is sampled on a grid of this many points across × down.
 VIEW_GRID = (7, 5)
-#: A view point is left unplanned when the batch solve misses it by this many times the
-#: solver's tolerances: unreachable points miss by centimetres, while at the edge of reach
-#: the batch's least squares may stop just outside what PD-PIJ accepts.
-REACH_MARGIN = 10.0
 
 
 @dataclass
@@ -390,22 +384,12 @@ def _reached(
     """Whether a pick at each point is planned from home, one point at a time.
 
     ``any`` of it stops at the first point reached. A point no joints reach, with a
-    margin (the arm's closed form, else a batch of Gauss–Newton solves,
-    :func:`~mearm.ik.batch.solve_batch`), is not planned: its multi-start recovery
-    would only fail, slowly.
+    margin (:meth:`Planner.reaches <mearm.task.plan.Planner.reaches>`), is not planned:
+    its multi-start recovery would only fail, slowly.
     """
     cls = planner.config.task.class_named(class_name)
     targets = [planner.pick_target(cls, float(x), float(y)) for x, y in points_cm]
-    positions = [t.position_cm for t in targets]
-    approach = planner.pick_target(cls, 0.0, 0.0).approach  # the same for every pick
-    solvable = solve_batch(
-        model,
-        positions,
-        approach,
-        tolerance_cm=REACH_MARGIN * math.sqrt(planner.config.controller.tolerance_cm2),
-        tolerance_deg=REACH_MARGIN * APPROACH_TOLERANCE_DEG,
-    ).reached
-    for target, ok in zip(targets, solvable.tolist(), strict=True):
+    for target, ok in zip(targets, planner.reaches(targets).tolist(), strict=True):
         if not ok:
             yield False
             continue

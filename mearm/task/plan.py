@@ -36,13 +36,22 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Sequence
 
 import numpy as np
 import numpy.typing as npt
 
 from mearm.config import ColorClass, Config
 from mearm.hardware.mapping import ServoMap
-from mearm.ik import IKFailure, IKResult, IKTarget, failure_of_error, make_solver
+from mearm.ik import (
+    APPROACH_TOLERANCE_DEG,
+    IKFailure,
+    IKResult,
+    IKTarget,
+    failure_of_error,
+    make_solver,
+)
+from mearm.ik.batch import solve_batch
 from mearm.kinematics import ArmModel
 from mearm.kinematics.collision import CollisionModel, Contact
 from mearm.kinematics.errors import JointLimitError, TargetError
@@ -67,6 +76,13 @@ AWAY_TOLERANCES = 2.0
 #: Failures of a direct solve that a detour is tried for: a solve that stopped short
 #: against the limits or stalled from this start may converge from over the target.
 REROUTED = ("limit", "stalled")
+
+
+#: A target is left unplanned when the batch solve misses it by this many times the
+#: solver's tolerances (:meth:`Planner.reaches`): unreachable targets miss by centimetres,
+#: while at the edge of reach the batch's least squares may stop just outside what PD-PIJ
+#: accepts.
+REACH_MARGIN = 10.0
 
 
 class Planner:
@@ -138,6 +154,28 @@ class Planner:
             return IKTarget((x, y, z))
         ax, ay, az = (float(v) for v in self.model.approach(home))
         return IKTarget((x, y, z), (ax, ay, az))
+
+    def reaches(self, targets: Sequence[IKTarget]) -> np.ndarray:
+        """Which of ``targets`` some joints reach, with a margin, (N,) bool: one batch solve.
+
+        ``False``: no joints put the TCP within :data:`REACH_MARGIN` times the solver's
+        tolerances of the target (the arm's closed form, else a batch of Gauss–Newton
+        solves, :func:`~mearm.ik.batch.solve_batch`), so a plan of it would only fail,
+        slowly: its solve runs the multi-start recovery to the end. ``True`` says only
+        that a plan is worth trying. Targets with an approach are solved with it, unless
+        one of them has none (then by position alone, which refuses fewer).
+        """
+        if not targets:
+            return np.zeros(0, dtype=bool)
+        approaches = [t.approach for t in targets]
+        approach = None if any(a is None for a in approaches) else np.array(approaches)
+        return solve_batch(
+            self.model,
+            [t.position_cm for t in targets],
+            approach,
+            tolerance_cm=REACH_MARGIN * math.sqrt(self.config.controller.tolerance_cm2),
+            tolerance_deg=REACH_MARGIN * APPROACH_TOLERANCE_DEG,
+        ).reached
 
     # ----------------------------------------------------------------- plans
 
