@@ -9,6 +9,7 @@ no episode.
 from __future__ import annotations
 
 import json
+import shutil
 from pathlib import Path
 
 import numpy as np
@@ -48,6 +49,21 @@ def _record(root: Path, config: Config, plan: list[str], *, resume: bool = False
         rec.close()
 
 
+@pytest.fixture(scope="module")
+def one_episode(sim: Config, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A dataset of one whole episode, recorded once for the tests that copy it (read only:
+    a test records into its copy, never into this)."""
+    root = tmp_path_factory.mktemp("one_episode") / "ds"
+    _record(root, sim, ["end"])
+    return root
+
+
+def _copy_of(dataset: Path, tmp_path: Path) -> Path:
+    root = tmp_path / "ds"
+    shutil.copytree(dataset, root)
+    return root
+
+
 def _total(root: Path) -> int:
     return json.loads((root / "meta/info.json").read_text())["total_episodes"]
 
@@ -62,12 +78,11 @@ def test_abandoned_and_still_attempts_are_not_written(sim: Config, tmp_path: Pat
 
 @pytest.mark.heavy
 def test_a_kill_after_the_journal_is_finished_on_resume(
-    sim: Config, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+    sim: Config, one_episode: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     """Killed between the journal and its renames: check names it; the next recorder
     finishes it, and the episode is there, whole."""
-    root = tmp_path / "ds"
-    _record(root, sim, ["end"])
+    root = _copy_of(one_episode, tmp_path)
     real = recorder_module.finish_journal
 
     def killed(path: Path) -> bool:
@@ -88,11 +103,10 @@ def test_a_kill_after_the_journal_is_finished_on_resume(
 
 @pytest.mark.heavy
 def test_a_kill_before_the_journal_leaves_the_dataset_as_it_was(
-    sim: Config, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+    sim: Config, one_episode: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     """Killed while writing an episode's files: they are removed on the next open."""
-    root = tmp_path / "ds"
-    _record(root, sim, ["end"])
+    root = _copy_of(one_episode, tmp_path)
 
     def killed(path: Path, data: bytes) -> None:
         raise KeyboardInterrupt

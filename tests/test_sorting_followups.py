@@ -38,8 +38,8 @@ def _sets(*items: str) -> list[str]:
 
 
 def test_a_sweep_labels_its_figures_simulated_and_ends_on_its_count():
-    r = run_cli("-m", "mearm", "conveyor-sweep", "--speeds", "1,2", *_sets(*FEW))
-    assert r.returncode == 0, r.stderr
+    r = run_in_process(["conveyor-sweep", "--speeds", "1,2", *_sets(*FEW)], within_s=30)
+    assert r.code == 0, r.stderr
     lines = r.stdout.splitlines()
     assert lines[0].startswith("| belt speed [cm/s] (simulated) |")
     assert lines[-1] == "sorted 4 of 4 objects at 2 speeds (simulated)"
@@ -47,7 +47,11 @@ def test_a_sweep_labels_its_figures_simulated_and_ends_on_its_count():
 
 
 def test_a_sweep_that_left_objects_says_so_on_stderr():
-    """A belt 5 m away, out of the camera's view: nothing sorted, exit 1, one line why."""
+    """A belt 5 m away, out of the camera's view: nothing sorted, exit 1, one line why.
+
+    In a real process, as a shell sees it: the suite's one ``python -m mearm
+    conveyor-sweep`` (the others run it in this process).
+    """
     r = run_cli(
         "-m", "mearm", "conveyor-sweep", "--speeds", "1", *_sets(*FEW, "belt.start_cm=[500,500]")
     )
@@ -64,11 +68,11 @@ def test_a_sweep_that_left_objects_says_so_on_stderr():
 def test_a_sweep_stopped_by_a_fault_is_a_failed_run_not_bad_input():
     """The twin's shoulder servo goes limp: the first speed's sort stops (exit 1, not 2)."""
     limp = "twin.faults=[{kind: limp_servo, at_s: 1.0, joint: shoulder}]"
-    r = run_cli(
-        "-m", "mearm", "conveyor-sweep", "--config", "sim_conveyor", "--speeds", "1,2",
-        *_sets(*FEW, limp), timeout=300,
-    )  # fmt: skip
-    assert r.returncode == 1, r.stderr
+    r = run_in_process(
+        ["conveyor-sweep", "--config", "sim_conveyor", "--speeds", "1,2", *_sets(*FEW, limp)],
+        within_s=30,
+    )
+    assert r.code == 1, r.stderr
     assert r.stdout.splitlines()[-1] == "stopped at 1 cm/s after 0 of 2 speeds"
     (line,) = r.stderr.splitlines()
     assert line.startswith("mearm conveyor-sweep: stopped at 1 cm/s: joint shoulder stalled")
@@ -161,8 +165,8 @@ def test_a_table_with_nothing_to_sort_is_bad_input(tmp_path, argv, line):
 
 
 def test_a_sweep_of_a_belt_that_brings_nothing_is_bad_input():
-    r = run_cli("-m", "mearm", "conveyor-sweep", "--speeds", "1", "--set", "belt.arrivals.count=0")
-    assert r.returncode == 2 and r.stdout == ""
+    r = run_in_process(["conveyor-sweep", "--speeds", "1", "--set", "belt.arrivals.count=0"])
+    assert r.code == 2 and r.stdout == ""
     assert r.stderr.splitlines() == [
         "mearm conveyor-sweep: error: belt.arrivals.count: 0: the belt brings nothing to sort "
         "(it must bring 1 to 500 objects)"
