@@ -93,8 +93,11 @@ def _assert_promises(
     KEPT["promises"] += 5  # exit code, one line, no traceback, time bound, files intact
 
 
-def run_in_process(argv: Sequence[str], *, within_s: float = 5.0) -> Outcome:
-    """Run ``mearm ARGV`` in this process; a run past the hang bound (+1 s) is cut off."""
+def run_in_process(
+    argv: Sequence[object], *, within_s: float = 5.0, cwd: Path | None = None
+) -> Outcome:
+    """Run ``mearm ARGV`` in this process (in folder ``cwd``, then back; ``None``: where it
+    is); a run past the hang bound (+1 s) is cut off."""
     from mearm.__main__ import main
 
     saved_argv = sys.argv[:]
@@ -108,7 +111,11 @@ def run_in_process(argv: Sequence[str], *, within_s: float = 5.0) -> Outcome:
     t0 = time.perf_counter()
     code: int | str | None = 0
     try:
-        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        with (
+            contextlib.chdir(cwd or os.getcwd()),
+            contextlib.redirect_stdout(out),
+            contextlib.redirect_stderr(err),
+        ):
             try:
                 main([str(a) for a in argv])
             except SystemExit as exc:

@@ -209,6 +209,15 @@ def mearm_cli(*args: object, cwd: Path, timeout: float = 300) -> subprocess.Comp
     )  # fmt: skip
 
 
+def mearm_here(*args: object, cwd: Path) -> subprocess.CompletedProcess[str]:
+    """:func:`mearm_cli` in this process, in ``cwd`` (``main`` under the guard every command
+    shares, without an interpreter's start): for a test not about the process itself."""
+    from badinput import run_in_process  # noqa: PLC0415
+
+    out = run_in_process(args, within_s=30, cwd=cwd)
+    return subprocess.CompletedProcess(["mearm", *map(str, args)], out.code, out.stdout, out.stderr)
+
+
 def run_main(
     capsys: pytest.CaptureFixture[str], main: Callable[..., int], *args: object
 ) -> tuple[int, str, str]:

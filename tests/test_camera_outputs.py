@@ -7,15 +7,13 @@ sees it.
 
 from __future__ import annotations
 
-import contextlib
 import shutil
 import subprocess
 from pathlib import Path
 
 import numpy as np
 import pytest
-from badinput import run_in_process
-from conftest import mearm_cli
+from conftest import mearm_cli, mearm_here
 
 from mearm.vision.pinhole import load_calibration
 
@@ -23,14 +21,6 @@ from mearm.vision.pinhole import load_calibration
 pytestmark = pytest.mark.heavy
 
 ROOT = Path(__file__).resolve().parents[1]
-
-
-def mearm_here(*args: object, cwd: Path) -> subprocess.CompletedProcess[str]:
-    """``mearm ARGS`` run in this process in ``cwd``, as :func:`mearm_cli` runs it in a
-    process of its own."""
-    with contextlib.chdir(cwd):
-        out = run_in_process(args, within_s=30)
-    return subprocess.CompletedProcess(["mearm", *map(str, args)], out.code, out.stdout, out.stderr)
 
 
 def refused(proc: subprocess.CompletedProcess[str], text: str) -> None:

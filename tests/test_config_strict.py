@@ -4,7 +4,6 @@ odd ``--config`` and ``extends`` values."""
 
 from __future__ import annotations
 
-import contextlib
 import copy
 import functools
 import os
@@ -27,8 +26,7 @@ from mearm.exceptions import ConfigError
 def _mearm(*args: str, cwd: Path = ROOT) -> Outcome:
     """``mearm ARGS`` in this process, from ``cwd`` (the checks are of what it says and
     writes, not of a process's start)."""
-    with contextlib.chdir(cwd):
-        return run_in_process(args, within_s=10)
+    return run_in_process(args, within_s=10, cwd=cwd)
 
 
 def _error(path: str | Path | None, overrides: list[str]) -> str:

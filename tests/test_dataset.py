@@ -6,7 +6,6 @@ test's process) and read back with pyarrow and PyAV only, independently of the c
 
 from __future__ import annotations
 
-import contextlib
 import json
 import os
 import shutil
@@ -39,8 +38,7 @@ pytestmark = pytest.mark.heavy
 def _mearm(*args: object) -> Outcome:
     """``mearm ARGS`` in this process, in the checkout (the tests of the command's own
     process are the Ctrl-C one here and that of what it imports)."""
-    with contextlib.chdir(ROOT):
-        return run_in_process(args, within_s=30)
+    return run_in_process(args, within_s=30, cwd=ROOT)
 
 
 @pytest.fixture(scope="module")

@@ -11,7 +11,6 @@ worker's trial keeps what the same trial run in the command's own process keeps.
 
 from __future__ import annotations
 
-import contextlib
 import json
 import os
 import subprocess
@@ -59,8 +58,7 @@ def recorded(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
         [sys.executable, "-m", "mearm", *argv("2")],
         cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
     )  # fmt: skip
-    with contextlib.chdir(ROOT):
-        serial = run_in_process(argv("1"), within_s=60)
+    serial = run_in_process(argv("1"), within_s=60, cwd=ROOT)
     out, err = workers.communicate(timeout=600)
     ran = {"1": (serial.code, serial.stdout, serial.stderr), "2": (workers.returncode, out, err)}
     for jobs, (code, said, errors) in ran.items():

@@ -8,7 +8,6 @@ for sort, and a sort on uncalibrated servos says nothing else when it cannot sta
 
 from __future__ import annotations
 
-import contextlib
 import os
 import re
 import shutil
@@ -17,7 +16,7 @@ import sys
 from pathlib import Path
 
 import pytest
-from badinput import run_in_process
+from conftest import mearm_here
 
 from mearm.config import load_config
 from mearm.errors import ConfigError
@@ -36,15 +35,6 @@ def mearm(*args: object, cwd: Path = ROOT) -> subprocess.CompletedProcess[str]:
         [sys.executable, "-m", "mearm", *map(str, args)],
         cwd=cwd, env=ENV, capture_output=True, text=True, timeout=300, check=False,
     )  # fmt: skip
-
-
-def mearm_here(*args: object, cwd: Path = ROOT) -> subprocess.CompletedProcess[str]:
-    """:func:`mearm` in this process (``main`` under the guard every command shares, in
-    ``cwd``): without an interpreter start, 0.5 s of CPU each. ``--set`` paths and the
-    messages are the command's own either way; check-camera's test runs it as a process."""
-    with contextlib.chdir(cwd):
-        out = run_in_process([str(a) for a in args], within_s=30)
-    return subprocess.CompletedProcess(["mearm", *args], out.code, out.stdout, out.stderr)
 
 
 def one_line(proc: subprocess.CompletedProcess[str], code: int = 2) -> str:
@@ -170,7 +160,7 @@ def test_a_sort_on_uncalibrated_servos_without_its_camera_says_one_line(tmp_path
     """A real rig never calibrated: the note is for a sort that starts; without the camera
     only the error is said (exit 2), and the log still says why it never started."""
     log = tmp_path / "run.jsonl"
-    proc = mearm_here("sort", "--config", "lab", *NO_CAMERA, "--log", log)
+    proc = mearm_here("sort", "--config", "lab", *NO_CAMERA, "--log", log, cwd=ROOT)
     line = one_line(proc)
     assert line.startswith("mearm sort: error: camera (device 99): cannot open"), line
     assert "before the sort started: camera (device 99)" in log.read_text(encoding="utf-8")

@@ -13,7 +13,6 @@ tests/test_record_resume.py.
 
 from __future__ import annotations
 
-import contextlib
 import json
 import os
 import signal
@@ -81,8 +80,7 @@ def _killed(args: list[str], after: int) -> None:
 def _mearm(*args: object) -> Outcome:
     """``mearm ARGS`` in this process, in the checkout: a resumed run needs no process of
     its own (the kill does: :func:`_killed`)."""
-    with contextlib.chdir(ROOT):
-        return run_in_process(args, within_s=30)
+    return run_in_process(args, within_s=30, cwd=ROOT)
 
 
 def _tags(root: Path) -> list[list[int]]:

@@ -9,7 +9,6 @@ dataset is then the one the same experiment records uninterrupted (in worker pro
 
 from __future__ import annotations
 
-import contextlib
 import json
 import os
 import signal
@@ -89,8 +88,8 @@ def test_sigkill_mid_trial_then_resume_records_each_pick_once(tmp_path: Path) ->
     assert check_dataset(root) == []
     assert json.loads((root / "meta/info.json").read_text())["total_episodes"] == KILL_AFTER
 
-    with contextlib.chdir(ROOT):  # the resumed run needs no process of its own
-        resumed = run_in_process(["experiment", *args, "--resume"], within_s=24)
+    # the resumed run needs no process of its own
+    resumed = run_in_process(["experiment", *args, "--resume"], within_s=24, cwd=ROOT)
     assert resumed.code == 0, resumed.stderr
     assert f"wrote {root}/ (1 episode, " in resumed.stdout
 

@@ -14,7 +14,6 @@ earlier run, part of the new one, or nothing.
 
 from __future__ import annotations
 
-import contextlib
 import os
 import shutil
 import signal
@@ -117,8 +116,7 @@ def runs(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict[str, byte
     run in this process (the signals go to the tests' own runs, each a process)."""
     base = tmp_path_factory.mktemp("runs")
     for out, args in ((base / "earlier", EARLIER), (base / "new", NEW)):
-        with contextlib.chdir(base):
-            res = run_in_process([*COMMAND, "--out", out, *args], within_s=30)
+        res = run_in_process([*COMMAND, "--out", out, *args], within_s=30, cwd=base)
         assert res.code == 0, res.stderr
     for name, data in USERS.items():
         (base / "earlier" / name).write_bytes(data)

@@ -8,7 +8,6 @@ keeps the table as it was laid, as a ``--scene`` sort's.
 
 from __future__ import annotations
 
-import contextlib
 import json
 from pathlib import Path
 
@@ -44,8 +43,7 @@ LAID = (
 
 def _mearm(*args: object, cwd: Path) -> Outcome:
     """``mearm ARGS`` in this process, in ``cwd``."""
-    with contextlib.chdir(cwd):
-        return run_in_process(args, within_s=30)
+    return run_in_process(args, within_s=30, cwd=cwd)
 
 
 @pytest.fixture(scope="module")

@@ -12,7 +12,6 @@ kit it draws), where the replay reseeded it with the scene's seed.
 
 from __future__ import annotations
 
-import contextlib
 import json
 from pathlib import Path
 
@@ -52,8 +51,7 @@ RECORD = ["--record-per", "scene", "--record-fps", "50", "--record-codec", "h264
 
 def _mearm(*args: object) -> Outcome:
     """``mearm ARGS`` in this process, in the checkout (a command's start is no point here)."""
-    with contextlib.chdir(ROOT):
-        return run_in_process(args, within_s=30)
+    return run_in_process(args, within_s=30, cwd=ROOT)
 
 
 def _placed(objects) -> list[tuple[str, float, float]]:

@@ -11,7 +11,6 @@ episode, and its replay's measured start is its recorded frame 0.
 
 from __future__ import annotations
 
-import contextlib
 import json
 import os
 import signal
@@ -67,8 +66,8 @@ def test_a_resumed_pick_replays_from_where_it_was_recorded(tmp_path: Path) -> No
     ]  # fmt: skip
     killed = _experiment(["-c", KILLED], args)
     assert killed.returncode == -signal.SIGKILL, killed.stderr
-    with contextlib.chdir(ROOT):  # the resumed run needs no process of its own
-        resumed = run_in_process(["experiment", *args, "--resume"], within_s=24)
+    # the resumed run needs no process of its own
+    resumed = run_in_process(["experiment", *args, "--resume"], within_s=24, cwd=ROOT)
     assert resumed.code == 0, resumed.stderr
     assert "1 pick of the trial run again was in" in resumed.stderr
     assert check_dataset(root) == []

@@ -1,6 +1,5 @@
 """The sorting task end to end on the simulated rig, for every reference arm, and its faults."""
 
-import contextlib
 import json
 import signal
 import subprocess
@@ -310,8 +309,7 @@ def test_ctrl_c_parks_and_keeps_the_log(tmp_path, sig, status, named):
 def _sort_cli(*args: object) -> Outcome:
     """``mearm sort ARGS`` in this process, from the repository's folder (as the paths in
     the arguments are): the Ctrl-C test runs the command as its own process."""
-    with contextlib.chdir(ROOT):
-        return run_in_process(["sort", *map(str, args)], within_s=60)
+    return run_in_process(["sort", *args], within_s=60, cwd=ROOT)
 
 
 @pytest.mark.heavy

@@ -87,8 +87,7 @@ def here(*args: object) -> Outcome:
     """``mearm ARGS`` in this process, from the checkout: for refusals before any work and
     for the serial runs the workers' runs are compared with (the runs of workers start
     real processes, whose exit codes they check)."""
-    with contextlib.chdir(ROOT):
-        return run_in_process([str(a) for a in args], within_s=10)
+    return run_in_process(args, within_s=10, cwd=ROOT)
 
 
 @pytest.mark.parametrize("jobs", ["0", "-1", "two"])
