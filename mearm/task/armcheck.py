@@ -586,7 +586,10 @@ def check_points(config: Config, geometry: CameraGeometry, arm: _Arm, n: int) ->
 
     def has_room(k: int) -> bool:
         i, j = (int(v) for v in cells[k])
-        return all(takes_up((i + di, j + dj)) for di, dj in around)
+        room = [(i + di, j + dj) for di, dj in around]
+        if any(takes.get(c) is False for c in room):  # a refusal known: nothing to plan
+            return False
+        return all(takes_up(c) for c in room)
 
     near = _near_reach(cells, takes_up)
     cells, cand = cells[near], cand[near]
