@@ -1,5 +1,6 @@
 """A sort by hue bands, without a claw camera, leaves the table-colour and marker code unloaded."""
 
+import json
 import os
 import subprocess
 import sys
@@ -40,3 +41,35 @@ def test_the_reference_sort_imports_no_table_colour_or_marker_code():
     )
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip().splitlines()[-1] == "[]", out.stdout[-2000:]
+
+
+def test_detecting_in_a_picture_imports_no_arm_model():
+    """``mearm detect IMAGE`` finds objects without the arm's Pinocchio model: the work
+    area needs only a bin's size from the kinematics, and ``mearm.kinematics`` imports its
+    model (Pinocchio and coal) on first use. It did at start-up, a third of the command's
+    CPU. The lazy name still gives the model."""
+    picture = ROOT / "docs" / "images" / "detect_sim_4colours.png"
+    code = (
+        "import json, runpy, sys\n"
+        f"sys.argv = ['mearm.detect', '--config', 'sim_4colours', {str(picture)!r}, '--json']\n"
+        "try:\n"
+        "    runpy.run_module('mearm.detect', run_name='__main__', alter_sys=True)\n"
+        "except SystemExit as exc:\n"
+        "    assert exc.code in (0, None), exc.code\n"
+        "print(sorted(m for m in ('pinocchio', 'coal', 'mearm.kinematics.model') "
+        "if m in sys.modules))\n"
+        "from mearm.kinematics import ArmModel\n"
+        "print(ArmModel.__module__)"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+        env={**os.environ, "PYTHONPATH": str(ROOT)},
+        timeout=120,
+    )
+    assert out.returncode == 0, out.stderr
+    *printed, loaded, model = out.stdout.strip().splitlines()
+    assert json.loads(printed[-1]), printed  # the picture's objects, found
+    assert (loaded, model) == ("[]", "mearm.kinematics.model")

@@ -1,8 +1,15 @@
 """Kinematics of any arm described as data.
 
 The chain, the DH reference, the URDF, the Pinocchio model, and closed forms as plug-ins.
+
+The model (:class:`ArmModel`) imports Pinocchio and coal (about 0.13 s of CPU) and is loaded on
+first use: what needs only the chain, the URDF or a body's size (the work area of
+``mearm detect``, the config's checks) does not pay for them.
 """
 
+from typing import TYPE_CHECKING
+
+from mearm._lazy import lazy_exports
 from mearm.kinematics.chain import Chain
 from mearm.kinematics.closed_form import (
     CLOSED_FORMS,
@@ -15,8 +22,12 @@ from mearm.kinematics.closed_form import (
     register_closed_form,
 )
 from mearm.kinematics.dh import dh_fk, dh_frames, dh_jacobian, dh_tcp_frame
-from mearm.kinematics.model import CM_PER_M, ArmModel
 from mearm.kinematics.urdf import TCP_FRAME, generate_urdf, jaw_joint_names
+
+if TYPE_CHECKING:  # typed for the checker, imported on first use (_LAZY)
+    from mearm.kinematics.model import CM_PER_M, ArmModel
+
+_LAZY = {"ArmModel": "mearm.kinematics.model", "CM_PER_M": "mearm.kinematics.model"}
 
 __all__ = [
     "CLOSED_FORMS",
@@ -38,3 +49,5 @@ __all__ = [
     "jaw_joint_names",
     "register_closed_form",
 ]
+
+__getattr__, __dir__ = lazy_exports(__name__, _LAZY, globals(), __all__)
