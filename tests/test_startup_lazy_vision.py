@@ -18,18 +18,17 @@ ONLY_FOR_OTHER_RUNS = (
 )
 
 
-@pytest.mark.heavy
-def test_the_reference_sort_imports_no_table_colour_or_marker_code():
-    """``mearm sort --config sim``, run whole, imports none of :data:`ONLY_FOR_OTHER_RUNS`."""
+def _run_whole(module: str, argv: list[str], then: str) -> list[str]:
+    """Run ``python -m module argv`` whole in a fresh interpreter, then the code ``then``
+    in it: the lines it printed, the command's first (it must exit 0)."""
     code = (
         "import runpy, sys\n"
-        "sys.argv = ['mearm.sort', '--config', 'sim', '--quiet']\n"
+        f"sys.argv = {[module, *argv]!r}\n"
         "try:\n"
-        "    runpy.run_module('mearm.sort', run_name='__main__', alter_sys=True)\n"
+        f"    runpy.run_module({module!r}, run_name='__main__', alter_sys=True)\n"
         "except SystemExit as exc:\n"
         "    assert exc.code in (0, None), exc.code\n"
-        f"names = {ONLY_FOR_OTHER_RUNS!r}\n"
-        "print(sorted(n for n in names if n in sys.modules))"
+        f"{then}\n"
     )
     out = subprocess.run(
         [sys.executable, "-c", code],
@@ -40,7 +39,18 @@ def test_the_reference_sort_imports_no_table_colour_or_marker_code():
         timeout=300,
     )
     assert out.returncode == 0, out.stderr
-    assert out.stdout.strip().splitlines()[-1] == "[]", out.stdout[-2000:]
+    return out.stdout.strip().splitlines()
+
+
+@pytest.mark.heavy
+def test_the_reference_sort_imports_no_table_colour_or_marker_code():
+    """``mearm sort --config sim``, run whole, imports none of :data:`ONLY_FOR_OTHER_RUNS`."""
+    printed = _run_whole(
+        "mearm.sort",
+        ["--config", "sim", "--quiet"],
+        f"print(sorted(n for n in {ONLY_FOR_OTHER_RUNS!r} if n in sys.modules))",
+    )
+    assert printed[-1] == "[]", printed[-20:]
 
 
 def test_detecting_in_a_picture_imports_no_arm_model():
@@ -49,27 +59,13 @@ def test_detecting_in_a_picture_imports_no_arm_model():
     model (Pinocchio and coal) on first use. It did at start-up, a third of the command's
     CPU. The lazy name still gives the model."""
     picture = ROOT / "docs" / "images" / "detect_sim_4colours.png"
-    code = (
-        "import json, runpy, sys\n"
-        f"sys.argv = ['mearm.detect', '--config', 'sim_4colours', {str(picture)!r}, '--json']\n"
-        "try:\n"
-        "    runpy.run_module('mearm.detect', run_name='__main__', alter_sys=True)\n"
-        "except SystemExit as exc:\n"
-        "    assert exc.code in (0, None), exc.code\n"
+    *printed, loaded, model = _run_whole(
+        "mearm.detect",
+        ["--config", "sim_4colours", str(picture), "--json"],
         "print(sorted(m for m in ('pinocchio', 'coal', 'mearm.kinematics.model') "
         "if m in sys.modules))\n"
         "from mearm.kinematics import ArmModel\n"
-        "print(ArmModel.__module__)"
+        "print(ArmModel.__module__)",
     )
-    out = subprocess.run(
-        [sys.executable, "-c", code],
-        capture_output=True,
-        text=True,
-        cwd=ROOT,
-        env={**os.environ, "PYTHONPATH": str(ROOT)},
-        timeout=120,
-    )
-    assert out.returncode == 0, out.stderr
-    *printed, loaded, model = out.stdout.strip().splitlines()
     assert json.loads(printed[-1]), printed  # the picture's objects, found
     assert (loaded, model) == ("[]", "mearm.kinematics.model")
