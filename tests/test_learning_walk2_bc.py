@@ -18,7 +18,7 @@ def test_each_file_written_is_named_on_a_wrote_line(tmp_path, capsys):
     """The demonstrations and the baseline: neither had a ``wrote`` line (the baseline's
     name ended the "trained" line; the demonstrations were not named)."""
     pytest.importorskip("torch")  # here, not at the module's top: collecting it in every
-    # worker imported PyTorch three times (about 1.4 s of CPU each)
+    # worker imported PyTorch three times (about 1.9 s of CPU each, docs/development.md)
     demos, out = tmp_path / "d.npz", tmp_path / "bc.pt"
     assert bc_main([*RUN, "--demos", str(demos), "--out", str(out)]) == 0
     assert _wrote(capsys.readouterr().out) == [str(demos), str(out)]

@@ -19,8 +19,8 @@ ONLY_FOR_OTHER_RUNS = (
 
 
 def _run_whole(module: str, argv: list[str], then: str) -> list[str]:
-    """Run ``python -m module argv`` whole in a fresh interpreter, then the code ``then``
-    in it: the lines it printed, the command's first (it must exit 0)."""
+    """The lines printed by ``python -m module argv`` run whole in a fresh interpreter
+    (it must exit 0), then by the code ``then`` run after it in the same interpreter."""
     code = (
         "import runpy, sys\n"
         f"sys.argv = {[module, *argv]!r}\n"

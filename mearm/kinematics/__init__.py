@@ -2,9 +2,10 @@
 
 The chain, the DH reference, the URDF, the Pinocchio model, and closed forms as plug-ins.
 
-The model (:class:`ArmModel`) imports Pinocchio and coal (about 0.13 s of CPU) and is loaded on
-first use: what needs only the chain, the URDF or a body's size (the work area of
-``mearm detect``, the config's checks) does not pay for them.
+The model (:class:`ArmModel`) imports Pinocchio and coal (about 0.13 s of CPU) and is
+loaded on first use: what needs only the chain, the URDF, a body's size or an error of
+:mod:`mearm.kinematics.errors` (the work area of ``mearm detect``, the hardware's joint
+limits) does not pay for them.
 """
 
 from typing import TYPE_CHECKING
