@@ -204,6 +204,46 @@ def test_lookup_table_agrees_with_the_model() -> None:
     ).all()
 
 
+def test_overlapping_colours_get_the_nearest_in_every_cell_and_share_one_table() -> None:
+    """Six wide colours that overlap (two without a lightness of their own): every one of
+    the table's 2^18 cells, classified as a pixel at its centre, gets the code of the
+    nearest colour that accepts it. Classifiers of the same colours share one table,
+    which cannot be written."""
+    rng = np.random.default_rng(20261201)
+    models = {}
+    for code in range(1, 7):
+        c, h = rng.uniform(15, 70), rng.uniform(-np.pi, np.pi)
+        saa, sbb = rng.uniform(40, 300, 2)
+        lo = rng.uniform(6, 40)
+        models[code] = LearnedColour(
+            ab_mean=(c * np.cos(h), c * np.sin(h)),
+            ab_cov=(saa, 0.5 * np.sqrt(saa * sbb) * rng.uniform(-1, 1), sbb),
+            lightness=(lo, min(100.0, lo + rng.uniform(30, 60))),
+            chroma_min=rng.uniform(12, 40),
+            chroma_lightness=None if code % 3 == 0 else rng.uniform(30, 70),
+        )
+    levels = np.arange(64) * 4 + 1.5
+    centre = np.stack(np.meshgrid(levels, levels, levels, indexing="ij"), -1).reshape(-1, 3)
+    px = np.floor(centre).astype(np.uint8).reshape(1, -1, 3)  # each in its own cell
+    flat = (centre / 255.0).astype(np.float32).reshape(1, -1, 3)
+    lab = cv2.cvtColor(flat, cv2.COLOR_BGR2Lab).reshape(-1, 3).astype(float)
+    clipped = clipped_bgr(centre)
+    d = np.stack(
+        [
+            np.where(accepts(m, lab, clipped), distance(m, lab, clipped), np.inf)
+            for m in models.values()
+        ]
+    )
+    want = np.where(np.isfinite(d.min(axis=0)), d.argmin(axis=0) + 1, 0)
+    classifier = LearnedClassifier(models)
+    assert (classifier.classify(px)[0] == want).all()
+    assert len(np.unique(want)) == 7  # every colour wins somewhere, and none
+    again = LearnedClassifier({k: m.model_copy() for k, m in models.items()})
+    assert again._table is classifier._table
+    with pytest.raises(ValueError, match="read-only"):
+        again._table[0, 0] = 1
+
+
 def test_chroma_floor_is_at_equal_lightness() -> None:
     """The chroma floor scales with L* + 16: a pastel of the hue (lighter, less coloured)
     is out, a darker shade of it in; without ``chroma_lightness`` the floor is flat."""

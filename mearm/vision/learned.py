@@ -37,11 +37,13 @@ distances are roughly equal perceived differences:
 - *The work area.* Nothing outside ``vision.work_area_px`` is classified.
 
 Classification is one table look-up per pixel: the frame's colour, with the gains
-applied and 6 bits a channel, indexes a table of class codes built once per detector.
+applied and 6 bits a channel, indexes a table of class codes built once per set of
+colours (detectors of the same colours in one process share it).
 """
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Mapping, Sequence
 
 import cv2
@@ -320,12 +322,73 @@ def balance_by(frame_bgr: np.ndarray, gain: npt.ArrayLike) -> np.ndarray:
     return cv2.LUT(frame_bgr, _channel_lut(np.asarray(gain, dtype=float)))
 
 
+@functools.lru_cache(maxsize=1)
+def _cells() -> tuple[np.ndarray, np.ndarray, np.ndarray, tuple[np.ndarray, np.ndarray]]:
+    """The table's cells, worked out once a process.
+
+    Their centres' CIELAB colours (2^18, 3) and chroma (2^18,), whether a channel is
+    clipped there (2^18,), and their places in the table (rows, columns). Colour
+    (b, g, r) lies at row r, column b + 256·g: where a pixel's bytes b, g, r, 0, read as
+    two 16-bit integers, point (x, y), as OpenCV's remap reads them.
+    """
+    step = 1 << (8 - COLOUR_BITS)
+    levels = np.arange(1 << COLOUR_BITS)
+    b, g, r = np.meshgrid(levels, levels, levels, indexing="ij")
+    centre = (np.stack([b, g, r], axis=-1) * step + (step - 1) / 2.0).reshape(-1, 3)
+    flat = (centre / 255.0).astype(np.float32).reshape(1, -1, 3)
+    lab = cv2.cvtColor(flat, cv2.COLOR_BGR2Lab).reshape(-1, 3).astype(float)
+    places = (r.reshape(-1), (b | (g << 8)).reshape(-1))
+    arrays = (lab, chroma(lab), clipped_bgr(centre), *places)
+    for a in arrays:
+        a.flags.writeable = False
+    return lab, arrays[1], arrays[2], places
+
+
+@functools.lru_cache(maxsize=8)
+def _table_of(models: tuple[tuple[int, LearnedColour], ...]) -> np.ndarray:
+    """:class:`LearnedClassifier`'s table of ``models`` ((code, colour), ...), read-only.
+
+    Each of the 2^18 cells' centres is classified as :func:`accepts` and :func:`distance`
+    would, but the distance is worked out only for the cells that pass the cheap tests
+    first (the lightness range and the chroma floor), and once a colour, not twice. A
+    process that makes detectors of the same colours again (an experiment's trials, a
+    bench's repeats) shares the table: it is never written.
+    """
+    lab, c, clipped, places = _cells()
+    lightness = lab[:, 0]
+    best = np.full(len(lab), np.inf)
+    codes = np.zeros(len(lab), np.uint8)
+    for code, model in models:
+        lo, hi = model.lightness
+        cheap = (c >= chroma_floor(model, lightness)) & (lightness >= lo) & (lightness <= hi)
+        at = np.flatnonzero(cheap)
+        d = distance(model, lab[at], clipped[at])
+        inside = d <= model.max_distance
+        at, d = at[inside], d[inside]
+        nearer = d < best[at]
+        codes[at[nearer]], best[at[nearer]] = code, d[nearer]
+    # blown-out pixels: a channel clipped, the hue of a colour, a little chroma
+    highlight = np.zeros(len(lab), np.uint8)
+    at = np.flatnonzero(clipped & (c >= HIGHLIGHT_CHROMA) & (codes == 0))
+    hue = np.arctan2(lab[at, 2], lab[at, 1])
+    for code, model in models:
+        h0 = np.arctan2(model.ab_mean[1], model.ab_mean[0])
+        near = np.abs(np.angle(np.exp(1j * (hue - h0)))) <= np.radians(HIGHLIGHT_HUE_DEG)
+        highlight[at[near]] = code
+    # one byte a colour: its code, or HIGHLIGHT | the code of the colour it may join
+    table = np.zeros((1 << COLOUR_BITS, 1 << (8 + COLOUR_BITS)), np.uint8)
+    table[places] = np.where(codes > 0, codes, np.where(highlight > 0, HIGHLIGHT | highlight, 0))
+    table.flags.writeable = False
+    return table
+
+
 class LearnedClassifier:
     """Class codes of the learned colours, one table look-up per pixel.
 
     The table is indexed by the pixel's colour with :data:`COLOUR_BITS` bits a channel
     (after the frame's gains): each of its 2^18 colours is classified once, at the
-    centre of its cell, when the classifier is made; a frame is then one colour
+    centre of its cell, when the first classifier of these colours is made (later ones
+    share its table, :func:`_table_of`); a frame is then one colour
     transform (gains and quantisation of the three channels at once), and a look-up of
     each pixel's cells, read as a place in the table, by ``remap``.
 
@@ -335,34 +398,7 @@ class LearnedClassifier:
 
     def __init__(self, models: Mapping[int, LearnedColour]):
         self.models = dict(models)
-        step = 1 << (8 - COLOUR_BITS)
-        levels = np.arange(1 << COLOUR_BITS)
-        b, g, r = np.meshgrid(levels, levels, levels, indexing="ij")
-        centre = (np.stack([b, g, r], axis=-1) * step + (step - 1) / 2.0).reshape(-1, 3)
-        flat = (centre / 255.0).astype(np.float32).reshape(1, -1, 3)
-        lab = cv2.cvtColor(flat, cv2.COLOR_BGR2Lab).reshape(-1, 3).astype(float)
-        best = np.full(len(lab), np.inf)
-        codes = np.zeros(len(lab), np.uint8)
-        clipped = clipped_bgr(centre)
-        for code, model in self.models.items():
-            d = np.where(accepts(model, lab, clipped), distance(model, lab, clipped), np.inf)
-            nearer = d < best
-            codes[nearer], best[nearer] = code, d[nearer]
-        # blown-out pixels: a channel clipped, the hue of a colour, a little chroma
-        hue = np.arctan2(lab[:, 2], lab[:, 1])
-        c = chroma(lab)
-        highlight = np.zeros(len(lab), np.uint8)
-        for code, model in self.models.items():
-            h0 = np.arctan2(model.ab_mean[1], model.ab_mean[0])
-            near = np.abs(np.angle(np.exp(1j * (hue - h0)))) <= np.radians(HIGHLIGHT_HUE_DEG)
-            highlight[clipped & near & (c >= HIGHLIGHT_CHROMA) & (codes == 0)] = code
-        # one byte a colour: its code, or HIGHLIGHT | the code of the colour it may join;
-        # colour (b, g, r) at row r, column b + 256·g: where a pixel's bytes b, g, r, 0,
-        # read as two 16-bit integers, point (x, y), as OpenCV's remap reads them
-        self._table = np.zeros((1 << COLOUR_BITS, 1 << (8 + COLOUR_BITS)), np.uint8)
-        self._table[r.reshape(-1), (b | (g << 8)).reshape(-1)] = np.where(
-            codes > 0, codes, np.where(highlight > 0, HIGHLIGHT | highlight, 0)
-        )
+        self._table = _table_of(tuple(self.models.items()))
 
     def classify(self, frame_bgr: np.ndarray, gain: npt.ArrayLike | None = None) -> np.ndarray:
         """Class codes (0: none) of an 8-bit BGR frame, uint8 (H, W).
