@@ -388,9 +388,9 @@ class LearnedClassifier:
     The table is indexed by the pixel's colour with :data:`COLOUR_BITS` bits a channel
     (after the frame's gains): each of its 2^18 colours is classified once, at the
     centre of its cell, when the first classifier of these colours is made (later ones
-    share its table, :func:`_table_of`); a frame is then one colour
-    transform (gains and quantisation of the three channels at once), and a look-up of
-    each pixel's cells, read as a place in the table, by ``remap``.
+    share its table, :func:`_table_of`); a frame is then one colour transform (gains and
+    quantisation of the three channels at once), and a look-up of each pixel's cells,
+    read as a place in the table, by ``remap``.
 
     Args:
         models: Per colour's code (1…), its learned colour.
