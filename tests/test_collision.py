@@ -117,6 +117,42 @@ def test_the_gap_is_the_nearest_of_every_pair_measured(name: str) -> None:
             assert (part, obstacle) == collision._pair_names(k)
 
 
+@pytest.mark.parametrize("name", ["sim", "sim_5dof", "sim_mearm_v1", "sim_shapes"])
+def test_each_bins_nearest_part_is_the_one_measuring_every_pair_finds(name: str) -> None:
+    """``bins_at`` measures a bin's pairs in the order of their bounds, not each one: every
+    bin's nearest part and distance, and the bins' order, are what measuring every pair
+    finds, at random poses, tables, openings and held objects, on every reference arm.
+    (coal starts each distance from the pair's last answer and stops at its tolerance, a
+    micrometre, so a pair measured again may differ by about that: distances to 10 µm,
+    the part unless two are that near.)"""
+    config = _config(name)
+    model = ArmModel(config.arm)
+    collision = collision_model(config, model)
+    chain, rng = model.chain, np.random.default_rng(20261201)
+    names = config.task.class_names
+    lo, hi = chain.actuated_lower, chain.actuated_upper
+    for trial in range(80):
+        objects = [
+            (f"obj{k}", names[k % 3], *rng.uniform((-20.0, 25.0), (20.0, 60.0)))
+            for k in range(int(rng.integers(0, 8)))
+        ]
+        held = ("held1", names[trial % 3]) if trial % 4 == 0 else None
+        collision.set_world(objects, opening_cm=rng.uniform(2.0, 6.0), held=held)
+        q = chain.full(rng.uniform(lo, hi))
+        got = collision.bins_at(q)
+        every: dict[str, list[tuple[float, str]]] = {}
+        for k, color, a in collision._bin_pairs:
+            if collision._active[k]:
+                d = pin.computeDistance(collision.geometry, collision.gdata, k).min_distance
+                every.setdefault(color, []).append((d / M_PER_CM, collision._arm_names[a]))
+        assert [c for c, _, _ in got] == list(every) and len(got) == len(config.task.classes)
+        for (color, part, d), measured in zip(got, every.values(), strict=True):
+            (nearest, its_part), *rest = sorted(measured)
+            assert d == pytest.approx(nearest, abs=1e-3), color
+            if not rest or rest[0][0] - nearest > 1e-3:
+                assert part == its_part, color
+
+
 def test_the_next_check_is_found_as_numpy_finds_it() -> None:
     """Where a path's sweeps first add up past the gap: the segment and the sum before it
     that NumPy's cumulative sum and search give, bit for bit (the walk stops there)."""
