@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+
 import mujoco
 import numpy as np
 import pinocchio as pin
@@ -82,24 +84,32 @@ def test_the_bins_are_the_twins_bins() -> None:
             assert np.allclose(m.geom(shape.name).size, shape.size)
 
 
+def _random_worlds(
+    collision: CollisionModel, config: Config, *, seed: int, worlds: int, most_objects: int
+) -> Iterator[np.ndarray]:
+    """``worlds`` random worlds set in ``collision`` one after the other, and a random pose
+    in each: up to ``most_objects`` objects on the table, an opening of 2-6 cm, an object
+    held in every fourth."""
+    chain, rng = collision.model.chain, np.random.default_rng(seed)
+    names = config.task.class_names
+    for trial in range(worlds):
+        objects = [
+            (f"obj{k}", names[k % 3], *rng.uniform((-20.0, 25.0), (20.0, 60.0)))
+            for k in range(int(rng.integers(0, most_objects + 1)))
+        ]
+        held = ("held1", names[trial % 3]) if trial % 4 == 0 else None
+        collision.set_world(objects, opening_cm=rng.uniform(2.0, 6.0), held=held)
+        yield chain.full(rng.uniform(chain.actuated_lower, chain.actuated_upper))
+
+
 @pytest.mark.parametrize("name", ["sim", "sim_5dof", "sim_mearm_v1", "sim_shapes"])
 def test_the_gap_is_the_nearest_of_every_pair_measured(name: str) -> None:
     """The check measures only the pairs that could be nearest (a pair is no nearer than
     its bound); its gap is the one measuring every pair finds, at random poses, tables and
     openings, with an object held or none, on every reference arm."""
     config = _config(name)
-    model = ArmModel(config.arm)
-    collision = collision_model(config, model)
-    chain, rng = model.chain, np.random.default_rng(4102)
-    names = config.task.class_names
-    for trial in range(60):
-        objects = [
-            (f"obj{k}", names[k % 3], *rng.uniform((-20.0, 25.0), (20.0, 60.0)))
-            for k in range(int(rng.integers(0, 12)))
-        ]
-        held = ("held1", names[trial % 3]) if trial % 4 == 0 else None
-        collision.set_world(objects, opening_cm=rng.uniform(2.0, 6.0), held=held)
-        q = chain.full(rng.uniform(chain.actuated_lower, chain.actuated_upper))
+    collision = collision_model(config, ArmModel(config.arm))
+    for q in _random_worlds(collision, config, seed=4102, worlds=60, most_objects=11):
         gap, part, obstacle = collision.gap(q)
         jaws = [k for col in collision._between_jaws(None) for k in collision._jaw_pairs[col]]
         active = np.flatnonzero(collision._active)
@@ -126,19 +136,8 @@ def test_each_bins_nearest_part_is_the_one_measuring_every_pair_finds(name: str)
     micrometre, so a pair measured again may differ by about that: distances to 10 µm,
     the part unless two are that near.)"""
     config = _config(name)
-    model = ArmModel(config.arm)
-    collision = collision_model(config, model)
-    chain, rng = model.chain, np.random.default_rng(20261201)
-    names = config.task.class_names
-    lo, hi = chain.actuated_lower, chain.actuated_upper
-    for trial in range(80):
-        objects = [
-            (f"obj{k}", names[k % 3], *rng.uniform((-20.0, 25.0), (20.0, 60.0)))
-            for k in range(int(rng.integers(0, 8)))
-        ]
-        held = ("held1", names[trial % 3]) if trial % 4 == 0 else None
-        collision.set_world(objects, opening_cm=rng.uniform(2.0, 6.0), held=held)
-        q = chain.full(rng.uniform(lo, hi))
+    collision = collision_model(config, ArmModel(config.arm))
+    for q in _random_worlds(collision, config, seed=20261201, worlds=80, most_objects=7):
         got = collision.bins_at(q)
         every: dict[str, list[tuple[float, str]]] = {}
         for k, color, a in collision._bin_pairs:
