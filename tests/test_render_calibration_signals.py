@@ -239,6 +239,27 @@ def test_a_rename_that_fails_puts_the_earlier_run_back(tmp_path: Path) -> None:
     assert (out / "sheet.png").is_dir()
 
 
+def test_a_ctrl_c_between_the_writing_and_the_swap_removes_the_hidden_folder(
+    tmp_path: Path, runs: tuple[Path, dict[str, bytes]], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A Ctrl-C once every new file is written, before the renames take signals in hand:
+    the earlier run is kept whole, and the hidden folder holding the new one goes. (CI's
+    signal case once stopped the command there: the folder was left.)"""
+    import mearm.tools.render_calibration as tool
+
+    def ctrl_c(*_args: object) -> None:
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(tool, "_replace_earlier_run", ctrl_c)
+    folder = tmp_path / "calib"
+    shutil.copytree(runs[0], folder)
+    earlier = _files(folder)
+    res = run_in_process([*COMMAND, "--out", folder, *NEW, "--force"], within_s=60)
+    assert res.code == 130, res.stderr
+    assert sorted(p.name for p in folder.iterdir()) == sorted(earlier), "a folder was left"
+    assert _files(folder) == earlier
+
+
 @pytest.mark.heavy
 def test_a_killed_runs_hidden_folder_is_removed(tmp_path: Path) -> None:
     """A run killed outright (SIGKILL) leaves its hidden folder: the next run removes it,

@@ -250,11 +250,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         staging = args.out / f"{_STAGING_PREFIX}{os.getpid()}{_STAGING_SUFFIX}"
         try:
             names = _write_run(staging, config, args, layout, raised)
+            # (inside the try: a Ctrl-C between the writing and the renames, which take
+            # signals only after their last, removes the folder too)
+            _replace_earlier_run(staging, args.out, names)
         except BaseException:
             with signals_deferred():  # a second Ctrl-C does not leave the folder behind
                 shutil.rmtree(staging, ignore_errors=True)
             raise
-        _replace_earlier_run(staging, args.out, names)
     print(
         f"wrote {args.views} board views ({args.out / 'board_00.png'} …), "
         f"{args.out / 'sheet.png'} ({len(layout)} markers of {SHEET_SIDE_CM:g} cm) "
