@@ -396,10 +396,13 @@ def test_learned_colour_validation() -> None:
     assert VisionConfig().reference_bgr is None
 
 
-def test_a_blown_out_top_is_found_whole() -> None:
+@pytest.mark.parametrize("brighter", [1.0, 1.2])
+def test_a_blown_out_top_is_found_whole(brighter: float) -> None:
     """An object whose middle is blown out to a tinted white is one region of its full
-    area, centred; the same white alone on the table is no object."""
-    frame = render().copy()
+    area, centred; the same white alone on the table is no object. Also in a frame
+    brighter than the taught one: there the gains are below 1 and took the clipped red
+    under the clip, and the top read as grey (0.6 of the area, before)."""
+    frame = np.clip(np.round(render() * brighter), 0, 255).astype(np.uint8)
     _, x, y = LAYOUT[0]  # a red object
     (u, v), = CAL.table_to_pixel(np.array([[x, y]]))  # fmt: skip
     yy, xx = np.mgrid[0:480, 0:640]

@@ -422,11 +422,50 @@ class LearnedClassifier:
         highlight alone never becomes an object).
         """
         looked_up = self._looked_up(frame_bgr, gain)
+        g = None if gain is None else np.asarray(gain, dtype=float)
+        if g is not None and (g < 1.0).any():
+            self._clipped_as_seen(frame_bgr, g, looked_up)
         if cv2.minMaxLoc(looked_up)[1] < HIGHLIGHT:  # no blown-out pixel
             return looked_up
         strong = cv2.threshold(looked_up, HIGHLIGHT - 1, 0, cv2.THRESH_TOZERO_INV)[1]
         weak = and_scalar(looked_up, HIGHLIGHT - 1)
         return grow_into_shadows(strong, weak, max(self.models, default=0))
+
+    def _clipped_as_seen(
+        self, frame_bgr: np.ndarray, gain: np.ndarray, looked_up: np.ndarray
+    ) -> None:
+        """Blown-out pixels that a gain below 1 took under the clip, as highlights (in place).
+
+        A channel the camera clipped holds its level or more. A gain below 1 (a frame
+        brighter than the one the colours were taught on) takes that channel under the
+        clip, though its light was never measured, and the pixel reads greyer than it is:
+        a red top blown out to (238, 242, 255) in a frame 20 % brighter read as grey, and
+        the red kept only 0.6 of its area. A pixel of no class that reads grey after the
+        gains (chroma under :data:`CHROMA_MIN`) is looked up again as the camera gave it,
+        as in a frame the gains leave alone (the same pixel there is read so); what that
+        finds may only join a region of its colour as a highlight
+        (:meth:`classify_with_highlights`), never make one. A pixel still coloured after
+        the gains keeps its reading: a wood table's clipped red is the table, and an
+        over-exposed object whose gained level its class accepts keeps the class.
+        """
+        dimmed = gain < 1.0
+        clipped = np.zeros(looked_up.shape, dtype=bool)
+        for c in np.flatnonzero(dimmed).tolist():
+            clipped |= frame_bgr[..., c] >= CLIPPED
+        clipped &= looked_up == 0
+        ys, xs = np.nonzero(clipped)
+        if not len(ys):
+            return
+        top = (1 << COLOUR_BITS) - 1
+        px = frame_bgr[ys, xs].astype(float)
+        # each channel's cell after the gains, as :meth:`_looked_up` finds it
+        cells = np.clip(np.floor((px * gain + 0.5) / (1 << (8 - COLOUR_BITS))), 0, top)
+        b, g, r = cells.astype(np.int64).T
+        grey = _cells()[1][(b << (2 * COLOUR_BITS)) | (g << COLOUR_BITS) | r] < CHROMA_MIN
+        # as the camera gave it: the table's cell of each level (the gains' rounding at 1)
+        seen = frame_bgr[ys[grey], xs[grey]].astype(np.int64) >> (8 - COLOUR_BITS)
+        entry = self._table[seen[:, 2], seen[:, 0] | (seen[:, 1] << 8)]
+        looked_up[ys[grey], xs[grey]] = np.where(entry > 0, entry | HIGHLIGHT, 0)
 
     def _looked_up(self, frame_bgr: np.ndarray, gain: npt.ArrayLike | None) -> np.ndarray:
         """Each pixel's entry in the table, uint8 (H, W).
