@@ -172,7 +172,9 @@ class ColorDetector:
         codes = self.thresholds.codes
         #: The learned colours' classifier (:mod:`mearm.vision.learned`), if any.
         self.learned = (
-            LearnedClassifier({codes[n]: m for n, m in learned.items()}) if learned else None
+            LearnedClassifier({codes[n]: m for n, m in learned.items()}, vision.reference_bgr)
+            if learned
+            else None
         )
         self._banded = any(n not in learned for n in self.thresholds.class_names)
         self._areas: dict[tuple[int, int], np.ndarray] = {}

@@ -87,8 +87,15 @@ COLOUR_BITS = 6
 #: A channel at this level or above is clipped [8-bit]: the top cell of the classifier's
 #: table (:data:`COLOUR_BITS`).
 CLIPPED = 256 - (1 << (8 - COLOUR_BITS))
+#: A colour this near the table's in a* and b* is the table's [-] (``teaching.TABLE_DELTA_E``).
+TABLE_AB_DELTA = 14.0
 #: OpenCV's remap takes images under this many pixels a side (SHRT_MAX).
 REMAP_MAX_PX = 32767
+
+
+def _ab_of(bgr: Sequence[float]) -> np.ndarray:
+    """The a*, b* of one 8-bit BGR colour, (2,)."""
+    return lab_of(np.clip(np.round(np.asarray(bgr, dtype=float)), 0, 255))[1:]
 
 
 def lab_of(pixels_bgr: npt.ArrayLike) -> np.ndarray:
@@ -394,11 +401,17 @@ class LearnedClassifier:
 
     Args:
         models: Per colour's code (1…), its learned colour.
+        table_bgr: The table's colour the gains take the frame to
+            (``vision.reference_bgr``), for the blown-out pixels of a brighter frame
+            (:meth:`_clipped_as_seen`); ``None``: those are read as gained.
     """
 
-    def __init__(self, models: Mapping[int, LearnedColour]):
+    def __init__(
+        self, models: Mapping[int, LearnedColour], table_bgr: Sequence[float] | None = None
+    ):
         self.models = dict(models)
         self._table = _table_of(tuple(self.models.items()))
+        self._table_ab = None if table_bgr is None else _ab_of(table_bgr)
 
     def classify(self, frame_bgr: np.ndarray, gain: npt.ArrayLike | None = None) -> np.ndarray:
         """Class codes (0: none) of an 8-bit BGR frame, uint8 (H, W).
@@ -423,7 +436,7 @@ class LearnedClassifier:
         """
         looked_up = self._looked_up(frame_bgr, gain)
         g = None if gain is None else np.asarray(gain, dtype=float)
-        if g is not None and (g < 1.0).any():
+        if g is not None and (g < 1.0).any() and self._table_ab is not None:
             self._clipped_as_seen(frame_bgr, g, looked_up)
         if cv2.minMaxLoc(looked_up)[1] < HIGHLIGHT:  # no blown-out pixel
             return looked_up
@@ -440,13 +453,14 @@ class LearnedClassifier:
         brighter than the one the colours were taught on) takes that channel under the
         clip, though its light was never measured, and the pixel reads greyer than it is:
         a red top blown out to (238, 242, 255) in a frame 20 % brighter read as grey, and
-        the red kept only 0.6 of its area. A pixel of no class that reads grey after the
-        gains (chroma under :data:`CHROMA_MIN`) is looked up again as the camera gave it,
-        as in a frame the gains leave alone (the same pixel there is read so); what that
-        finds may only join a region of its colour as a highlight
-        (:meth:`classify_with_highlights`), never make one. A pixel still coloured after
-        the gains keeps its reading: a wood table's clipped red is the table, and an
-        over-exposed object whose gained level its class accepts keeps the class.
+        the red kept only 0.6 of its area. A pixel of no class that the gains do not take
+        to the table's colour (a* and b* farther than :data:`TABLE_AB_DELTA` from it) is
+        looked up again as the camera gave it, as in a frame the gains leave alone (the
+        same pixel there is read so); what that finds may only join a region of its colour
+        as a highlight (:meth:`classify_with_highlights`), never make one. A pixel the
+        gains take to the table's colour is the table (a wood table's clipped red), and
+        one of a class keeps it (an over-exposed object whose gained level its class
+        accepts). Only with the table's colour (``table_bgr``): the gains need it anyway.
         """
         dimmed = gain < 1.0
         clipped = np.zeros(looked_up.shape, dtype=bool)
@@ -461,11 +475,12 @@ class LearnedClassifier:
         # each channel's cell after the gains, as :meth:`_looked_up` finds it
         cells = np.clip(np.floor((px * gain + 0.5) / (1 << (8 - COLOUR_BITS))), 0, top)
         b, g, r = cells.astype(np.int64).T
-        grey = _cells()[1][(b << (2 * COLOUR_BITS)) | (g << COLOUR_BITS) | r] < CHROMA_MIN
+        at = (b << (2 * COLOUR_BITS)) | (g << COLOUR_BITS) | r
+        not_table = np.hypot(*(_cells()[0][at, 1:] - self._table_ab).T) > TABLE_AB_DELTA
         # as the camera gave it: the table's cell of each level (the gains' rounding at 1)
-        seen = frame_bgr[ys[grey], xs[grey]].astype(np.int64) >> (8 - COLOUR_BITS)
+        seen = frame_bgr[ys[not_table], xs[not_table]].astype(np.int64) >> (8 - COLOUR_BITS)
         entry = self._table[seen[:, 2], seen[:, 0] | (seen[:, 1] << 8)]
-        looked_up[ys[grey], xs[grey]] = np.where(entry > 0, entry | HIGHLIGHT, 0)
+        looked_up[ys[not_table], xs[not_table]] = np.where(entry > 0, entry | HIGHLIGHT, 0)
 
     def _looked_up(self, frame_bgr: np.ndarray, gain: npt.ArrayLike | None) -> np.ndarray:
         """Each pixel's entry in the table, uint8 (H, W).
