@@ -329,7 +329,9 @@ def test_a_worker_that_starts_after_its_parent_was_killed_still_ends(tmp_path):
     workers: list[int] = []
     try:
         deadline = time.monotonic() + 120
-        while time.monotonic() < deadline and not out.read_text().strip():
+        # the whole line: print writes "older", " ", "younger" and "\n" one by one (strace),
+        # and a read between them saw one pid of the two (CI, 2026-12-02)
+        while time.monotonic() < deadline and not out.read_text().endswith("\n"):
             assert proc.poll() is None, errors.read_text()
             time.sleep(0.05)
         older, younger = workers = [int(pid) for pid in out.read_text().split()]
