@@ -87,15 +87,15 @@ COLOUR_BITS = 6
 #: A channel at this level or above is clipped [8-bit]: the top cell of the classifier's
 #: table (:data:`COLOUR_BITS`).
 CLIPPED = 256 - (1 << (8 - COLOUR_BITS))
-#: A colour this near the table's in a* and b* is the table's [-] (``teaching.TABLE_DELTA_E``).
-TABLE_AB_DELTA = 14.0
+#: The table's colour: pixels within this CIELAB distance of the colour around the samples.
+TABLE_DELTA_E = 14.0
 #: OpenCV's remap takes images under this many pixels a side (SHRT_MAX).
 REMAP_MAX_PX = 32767
 
 
-def _ab_of(bgr: Sequence[float]) -> np.ndarray:
-    """The a*, b* of one 8-bit BGR colour, (2,)."""
-    return lab_of(np.clip(np.round(np.asarray(bgr, dtype=float)), 0, 255))[1:]
+def reference_lab(reference_bgr: Sequence[float]) -> np.ndarray:
+    """CIELAB of the table's colour (``vision.reference_bgr``, float B, G, R), (3,)."""
+    return lab_of(np.clip(np.round(np.asarray(reference_bgr, dtype=float)), 0, 255))
 
 
 def lab_of(pixels_bgr: npt.ArrayLike) -> np.ndarray:
@@ -411,7 +411,7 @@ class LearnedClassifier:
     ):
         self.models = dict(models)
         self._table = _table_of(tuple(self.models.items()))
-        self._table_ab = None if table_bgr is None else _ab_of(table_bgr)
+        self._table_ab = None if table_bgr is None else reference_lab(table_bgr)[1:]
 
     def classify(self, frame_bgr: np.ndarray, gain: npt.ArrayLike | None = None) -> np.ndarray:
         """Class codes (0: none) of an 8-bit BGR frame, uint8 (H, W).
@@ -454,7 +454,7 @@ class LearnedClassifier:
         clip, though its light was never measured, and the pixel reads greyer than it is:
         a red top blown out to (238, 242, 255) in a frame 20 % brighter read as grey, and
         the red kept only 0.6 of its area. A pixel of no class that the gains do not take
-        to the table's colour (a* and b* farther than :data:`TABLE_AB_DELTA` from it) is
+        to the table's colour (a* and b* farther than :data:`TABLE_DELTA_E` from it) is
         looked up again as the camera gave it, as in a frame the gains leave alone (the
         same pixel there is read so); what that finds may only join a region of its colour
         as a highlight (:meth:`classify_with_highlights`), never make one. A pixel the
@@ -470,13 +470,11 @@ class LearnedClassifier:
         ys, xs = np.nonzero(clipped)
         if not len(ys):
             return
-        top = (1 << COLOUR_BITS) - 1
-        px = frame_bgr[ys, xs].astype(float)
         # each channel's cell after the gains, as :meth:`_looked_up` finds it
-        cells = np.clip(np.floor((px * gain + 0.5) / (1 << (8 - COLOUR_BITS))), 0, top)
+        cells = _channel_lut(gain, 8 - COLOUR_BITS)[frame_bgr[ys, xs], 0, [0, 1, 2]]
         b, g, r = cells.astype(np.int64).T
         at = (b << (2 * COLOUR_BITS)) | (g << COLOUR_BITS) | r
-        not_table = np.hypot(*(_cells()[0][at, 1:] - self._table_ab).T) > TABLE_AB_DELTA
+        not_table = np.hypot(*(_cells()[0][at, 1:] - self._table_ab).T) > TABLE_DELTA_E
         # as the camera gave it: the table's cell of each level (the gains' rounding at 1)
         seen = frame_bgr[ys[not_table], xs[not_table]].astype(np.int64) >> (8 - COLOUR_BITS)
         entry = self._table[seen[:, 2], seen[:, 0] | (seen[:, 1] << 8)]

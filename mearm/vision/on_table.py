@@ -50,7 +50,7 @@ import numpy as np
 from mearm.config import ColorClass, VisionConfig
 from mearm.vision.calibration import CameraGeometry
 from mearm.vision.detection import Detection
-from mearm.vision.learned import lab_of
+from mearm.vision.learned import lab_of, reference_lab
 from mearm.vision.object_parts import ObjectBounds, colours_of, narrowest_px
 from mearm.vision.teaching import TABLE_DELTA_E
 
@@ -102,7 +102,7 @@ def surface_table(detector: SurfaceDetector) -> np.ndarray:
         return known
     ref = detector.vision.reference_bgr
     assert ref is not None
-    table_lab = lab_of(np.array(ref, dtype=float).round().clip(0, 255))
+    table_lab = reference_lab(ref)
     n = 1 << SURFACE_BITS
     step = 1 << (8 - SURFACE_BITS)
     b, g, r = np.meshgrid(np.arange(n), np.arange(n), np.arange(n), indexing="ij")

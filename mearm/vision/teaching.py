@@ -26,6 +26,7 @@ from mearm.vision.errors import SampleError
 from mearm.vision.learned import (
     CHROMA_MIN,
     LIGHTNESS_MIN,
+    TABLE_DELTA_E,
     area_mask,
     balance,
     chroma,
@@ -38,8 +39,6 @@ from mearm.vision.learned import (
     median_bgr,
 )
 
-#: The table's colour: pixels within this CIELAB distance of the colour around the samples.
-TABLE_DELTA_E = 14.0
 #: The table's region must cover at least this share of the frame to be the work area.
 TABLE_MIN_SHARE = 0.05
 #: A learned colour's ellipse keeps the table's colour at least this far out [-].
