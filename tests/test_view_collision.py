@@ -9,6 +9,10 @@ sort's and the preview's ``--collision``.
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
+
 import cv2
 import numpy as np
 import pinocchio as pin
@@ -387,3 +391,33 @@ def test_the_kinematic_sorts_view_draws_the_jaws_as_commanded(monkeypatch, tmp_p
     assert sort_main(["--scene", str(scene_file), "--view", "--quiet"]) == 0
     gripper = Config().arm.tool.gripper
     assert set(openings) == {gripper.open_cm, gripper.closed_cm}, sorted(set(openings))
+
+
+@pytest.mark.heavy
+def test_a_view_of_the_collision_shapes_imports_no_trimesh_and_leaves_it_importable():
+    """``pinocchio.visualize`` imports all its visualisers; its viser one imported trimesh
+    (SciPy, networkx: 0.8–1.0 s of CPU) at every view's start, then found viser missing.
+    A view of the arm and its collision shapes now leaves those three unimported, draws
+    the shapes, and ``import trimesh`` still works afterwards (yourdfpy needs it)."""
+    code = (
+        "import sys\n"
+        "from viewscene import scene\n"
+        "from mearm.config import Config\n"
+        "from mearm.kinematics import ArmModel\n"
+        "from mearm.sim.table_collision import collision_model\n"
+        "from mearm.view import ArmView\n"
+        "config = Config()\n"
+        "model = ArmModel(config.arm)\n"
+        "with ArmView(model, config, port=0) as v:\n"
+        "    v.show_collision(collision_model(config, model, clearance_cm=0.5))\n"
+        "    print(sum(p.startswith('/meshcat/collision/arm/') for p in scene(v)) > 0)\n"
+        "print(sorted(m for m in ('trimesh', 'scipy', 'networkx') if m in sys.modules))\n"
+        "import trimesh\n"
+        "print(trimesh.__name__)\n"
+    )
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT / "tests"), str(ROOT)])}
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, env=env, timeout=300
+    )
+    assert out.returncode == 0, out.stderr[-2000:]
+    assert out.stdout.splitlines() == ["True", "[]", "trimesh"], out.stdout

@@ -47,6 +47,7 @@ from mearm.view.collision_drawing import CollisionDrawing
 from mearm.view.errors import ViewError, ViewInputError
 from mearm.view.frame_plane import FramePlane, PixelToTable, frame_plane
 from mearm.view.layout import SceneLayout
+from mearm.view.pinocchio_meshcat import meshcat_visualizer
 from mearm.view.scene_meshes import (
     TABLE_RGB,
     TABLE_THICKNESS_CM,
@@ -157,11 +158,10 @@ class ArmView:
             self.frame_plane: FramePlane | None = None
             self._setup_scene()
             self._urdf = UrdfArm(model)
-            # Pinocchio's visualisers import trimesh, networkx and shapely: 1.2 s that
-            # only a view pays, not every importer of this module.
-            from pinocchio.visualize import MeshcatVisualizer
-
-            self._viz = MeshcatVisualizer(self._urdf.full, None, self._urdf.visual)
+            # imported here, and without what Pinocchio's other visualisers import
+            # (pinocchio_meshcat): only a view pays for it, not every importer of this module
+            visualizer = meshcat_visualizer().MeshcatVisualizer
+            self._viz = visualizer(self._urdf.full, None, self._urdf.visual)
             self._viz.initViewer(viewer=self.viewer)
             self._viz.loadViewerModel(rootNodeName="arm")
             self.joints = model.home

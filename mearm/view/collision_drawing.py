@@ -32,6 +32,7 @@ import numpy as np
 import pinocchio as pin
 
 from mearm.kinematics.collision import CollisionModel
+from mearm.view.pinocchio_meshcat import meshcat_visualizer
 
 #: The arm's shapes (and a held object): translucent magenta.
 COLLISION_ARM_RGB = 0xE0108C
@@ -104,12 +105,11 @@ def meshcat_geometry(obj: pin.GeometryObject) -> mg.Geometry | None:
 
     Boxes, spheres, cylinders, cones and capsules are drawn; other shapes are not.
     """
-    # imported here: Pinocchio's visualisers cost 1.2 s to import (trimesh, networkx)
-    from pinocchio.visualize.meshcat_visualizer import loadPrimitive
-
+    # imported here, and without what Pinocchio's other visualisers import
+    load_primitive = meshcat_visualizer().loadPrimitive
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", UserWarning)  # "unsupported geometry type"
-        return loadPrimitive(obj)
+        return load_primitive(obj)
 
 
 def _material(rgb: int) -> mg.MeshLambertMaterial:
