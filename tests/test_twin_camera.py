@@ -376,3 +376,33 @@ def test_the_detector_finds_the_same_objects_in_the_sorters_frame(name):
         assert np.abs(a.centroid_px - b.centroid_px).max() <= 1.0
         assert a.table_cm is not None and b.table_cm is not None
         assert np.hypot(*(a.table_cm - b.table_cm)) <= 0.1
+
+
+def test_a_render_holds_every_geom_of_a_crowded_twin():
+    """The renderer's scene is sized to the model (``scene_geoms``), not MuJoCo's default
+    10,000 (20–35 ms of CPU to make): a twin with 15 objects still draws every geom that a
+    scene of 10,000 does, with room to spare (a full scene drops geoms from the picture,
+    and MuJoCo says nothing)."""
+    from mearm.sim.twin.frame_drawer import close_renderer, offscreen_renderer
+    from mearm.sim.twin.mjcf import twin_model
+    from mearm.task.scene import random_scene
+
+    config = load_config(ROOT / "configs" / "sim_mujoco.yaml")
+    scene = random_scene(config, 15, seed=5)
+    crowded = config.model_copy(update={"task": config.task.model_copy(update={"scene": scene})})
+    model = twin_model(crowded)
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    full = mujoco.MjvScene(model, maxgeom=10_000)
+    mujoco.mjv_updateScene(
+        model, data, mujoco.MjvOption(), None, mujoco.MjvCamera(), mujoco.mjtCatBit.mjCAT_ALL, full
+    )
+    renderer = offscreen_renderer(model, (64, 48), msaa_samples=0, shadows=False)
+    try:
+        renderer.update_scene(data)
+        drawn, room = renderer.scene.ngeom, renderer.scene.maxgeom
+    finally:
+        close_renderer(renderer)
+    assert full.ngeom >= model.ngeom - 1  # every object, the arm, the bins: all drawn
+    assert drawn == full.ngeom
+    assert room >= 2 * drawn
