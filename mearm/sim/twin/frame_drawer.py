@@ -96,11 +96,11 @@ def offscreen_renderer(
 
 
 def scene_geoms(model: mujoco.MjModel) -> int:
-    """Room for geoms in a render's scene: :data:`SCENE_GEOMS_PER_GEOM` per model geom.
+    """Room for geoms in a render's scene: :data:`SCENE_GEOMS_PER_GEOM` per geom and tendon.
 
     At least :data:`SCENE_GEOMS_MIN`. A scene that runs out of room drops geoms from the
-    picture without an error (MuJoCo only counts a warning), so the room is generous:
-    each model geom draws one, and the twin's tendon and decorations a few more.
+    picture with neither an error nor a warning (MuJoCo 4), so the room is generous: each
+    model geom draws one, and the twin's tendon and decorations a few more.
     """
     return max(SCENE_GEOMS_MIN, SCENE_GEOMS_PER_GEOM * (model.ngeom + model.ntendon))
 
