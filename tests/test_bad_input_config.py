@@ -23,7 +23,7 @@ from typing import Any
 import annotated_types as at
 import pytest
 from badinput import ROOT, check_bad_input, check_bad_input_subprocess, run_in_process
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 from pydantic import BaseModel
 
@@ -682,6 +682,7 @@ _v1_keys = st.sampled_from(["robot", "vision", "servo", "task", "camera", "calib
 @bad_input
 @settings(max_examples=200, deadline=None)
 @given(st.dictionaries(_v1_keys, _json, min_size=1, max_size=4), st.booleans())
+@example({"vision": {"preset": []}}, True)  # once a TypeError: a list is unhashable
 @pytest.mark.heavy
 def test_any_format1_mapping_migrates_or_is_refused(data: dict, robot: bool) -> None:
     """migrate_v1_config + validation on arbitrary data: a Config or a ConfigError."""

@@ -339,7 +339,7 @@ class _Migration:
     ) -> tuple[dict[str, Any], list[dict[str, Any]]]:
         preset = vision.pop("preset", None)
         preset = "default" if preset is None else preset
-        if preset not in _V1_PRESET_FLOORS:
+        if not isinstance(preset, str) or preset not in _V1_PRESET_FLOORS:
             raise self.fail(
                 "vision.preset", f"{short_repr(preset)} is not a format-1 preset (default, paper)"
             )
