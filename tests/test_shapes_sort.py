@@ -125,11 +125,21 @@ def test_the_wrist_roll_turns_the_jaws_to_a_cubes_faces() -> None:
         planner.turn_jaws(route, 0.0, 0.0)
 
 
+def _twin_sort(config, scene):
+    """Sort ``scene`` in the twin of ``config``: the report, and the objects in a bin."""
+    from mearm.sim.twin import twin_bus
+
+    with open_rig(config, scene) as rig:
+        report = Sorter(config, rig.camera, rig.bus, model=rig.model, echo=None,
+                        in_bins=rig.in_bins).run()  # fmt: skip
+        twins = [v for v in vars(rig.bus).values() if isinstance(v, twin_bus.TwinArm)]
+        return report, (twins[0] if twins else rig.bus).objects_in_bin()
+
+
 @pytest.mark.slow
 def test_cubes_at_random_yaws_are_sorted_by_the_5dof_twin() -> None:
     """The 5-DOF twin with its red class made cubes, a random scene (seed 0) that failed
     before the jaws turned to the faces: every object rests in its class's bin."""
-    from mearm.sim.twin import twin_bus
     from mearm.task.scene import random_scene
 
     config = load_config(ROOT / "configs" / "sim_5dof_mujoco.yaml")
@@ -138,11 +148,7 @@ def test_cubes_at_random_yaws_are_sorted_by_the_5dof_twin() -> None:
     config = config.model_copy(update={"task": task})
     scene = random_scene(config, 9, 0)
     assert any(o.yaw_deg for o in scene)
-    with open_rig(config, scene) as rig:
-        report = Sorter(config, rig.camera, rig.bus, model=rig.model, echo=None,
-                        in_bins=rig.in_bins).run()  # fmt: skip
-        twins = [v for v in vars(rig.bus).values() if isinstance(v, twin_bus.TwinArm)]
-        in_bins = (twins[0] if twins else rig.bus).objects_in_bin()
+    report, in_bins = _twin_sort(config, scene)
     assert report.complete and len(in_bins) == 9
     assert all(oid.rstrip("0123456789") == cls for oid, cls in in_bins.items())
 
@@ -153,16 +159,11 @@ def test_a_cube_held_by_its_corners_stays_in_the_jaws_to_its_bin() -> None:
     its corners, the base's full jolt over the bin (4000 °/s²) threw out of the jaws and
     18 cm past the bin's wall (8 of 9 in their bins): carried at the config's
     ``task.carry_accel_deg_s2`` (1000 °/s²) every object rests in its bin."""
-    from mearm.sim.twin import twin_bus
     from mearm.task.scene import random_scene
 
     config = load_config(TWIN)
     assert config.task.carry_accel_deg_s2 == 1000.0
     scene = random_scene(config, 9, 812006)
-    with open_rig(config, scene) as rig:
-        report = Sorter(config, rig.camera, rig.bus, model=rig.model, echo=None,
-                        in_bins=rig.in_bins).run()  # fmt: skip
-        twins = [v for v in vars(rig.bus).values() if isinstance(v, twin_bus.TwinArm)]
-        in_bins = (twins[0] if twins else rig.bus).objects_in_bin()
+    report, in_bins = _twin_sort(config, scene)
     assert report.complete and len(in_bins) == 9
     assert all(oid.rstrip("0123456789") == cls for oid, cls in in_bins.items())
