@@ -121,16 +121,22 @@ def test_a_ctrl_c_before_the_dispatcher_runs_its_subcommand_names_it(
 def started_past_the_guard(
     module_argv: list[str], cwd: Path, env: dict[str, str] | None = None
 ) -> tuple[subprocess.Popen[bytes], bytes]:
-    """``python -X importtime -m MODULE ARGS`` (``module_argv``), once it has imported
+    """``python -u -X importtime -m MODULE ARGS`` (``module_argv``), once it has imported
     ``mearm.cli`` (its guard): the interpreter's import trace, on stderr, says when. With
     what it has said so far past that line (for the caller to check with the rest).
+
+    Unbuffered (``-u``): what the command prints reaches the pipe as it prints it, so
+    :func:`ctrl_c_before_its_first_output` sees that it has. Buffered (a pipe's default),
+    ``mearm detect`` held its whole answer until the interpreter's exit: a Ctrl-C that a
+    loaded machine sent after the command had done its job, while it shut down, found
+    nothing on standard output, and the command rightly kept its exit 0 (a suite run).
 
     The trace is read in whole chunks as they come: read a byte at a time (a line reader
     on an unbuffered pipe), a loaded machine let the reader fall so far behind that the
     command had all but finished when its guard's line was read, and it ended, exit 0,
     before the Ctrl-C that was meant for its start."""
     proc = subprocess.Popen(
-        [sys.executable, "-X", "importtime", "-m", *module_argv],
+        [sys.executable, "-u", "-X", "importtime", "-m", *module_argv],
         cwd=cwd, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
         bufsize=0, start_new_session=True,  # unbuffered: nothing read ahead out of reach
     )  # fmt: skip
