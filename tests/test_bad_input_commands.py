@@ -60,6 +60,8 @@ CASES: list[tuple[list[str], str]] = [
     (["twin-scenes", "--jobs", "0"], "a number of workers must be ≥ 1"),
     (["twin-scenes", "--config", "sim"],
      "--config sim: simulator is 'kinematic'; twin-scenes sorts in the twin"),
+    (["twin-scenes", "--config", "sim_conveyor"],
+     "--config sim_conveyor: it has a belt, whose sort takes only what the belt brings"),
     # servo-steps
     (["servo-steps", "--degrees", "nan", "--csv", "s.csv"], "--degrees must be in (0, 90]"),
     (["servo-steps", "--degrees", "0", "--csv", "s.csv"], "--degrees must be in (0, 90]"),

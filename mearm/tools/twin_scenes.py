@@ -211,6 +211,12 @@ def _twin_scenes(argv: Sequence[str] | None) -> int:
             f"--config {args.config}: simulator is {config.simulator!r}; twin-scenes sorts "
             "in the twin: give a config with simulator: mujoco (sim_mujoco, ...)"
         )
+    if config.belt is not None:
+        raise MearmError(
+            f"--config {args.config}: it has a belt, whose sort takes only what the belt "
+            "brings, and twin-scenes sorts random tables: sweep a belt with mearm "
+            f"conveyor-sweep --config {args.config}"
+        )
     t0 = time.perf_counter()
     seen = done = binned = 0
     left: Counter[str] = Counter()
