@@ -539,7 +539,7 @@ class PerspectiveCamera:
         for image in outlines:
             pts = self._outline_on_plane(mask, origin_px, height_cm, image)
             c, r = self._rim_fit(pts, centroid, radius_cm)
-            if np.linalg.norm(c - centroid) <= within_cm and r <= RIM_WIDEST * radius_cm:
+            if np.linalg.norm(c - centroid) <= within_cm and abs(r) <= RIM_WIDEST * radius_cm:
                 return c
             # the outline moved onto colour edges that are not the rim (a region cut by
             # the arm's dark link: 23 cm off, simulated), or the arc fits no circle near,
