@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import cv2
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -10,7 +11,7 @@ from hypothesis import strategies as st
 from mearm.config import ColorClass, HueBand, VisionConfig, default_classes, paper_classes
 from mearm.config.defaults import PAPER_HUE_BANDS_DEG
 from mearm.exceptions import ConfigError
-from mearm.vision.classify import PixelClassifier, classify_exact, hsv_exact
+from mearm.vision.classify import PixelClassifier, classify_exact, hsv_exact, median_codes
 from mearm.vision.thresholds import MAX_CLASSES, Thresholds
 
 #: The paper's printed bands with its floors, S, V ≥ 0.1 (paper §4).
@@ -236,3 +237,79 @@ def test_bad_class_lists_are_named_errors() -> None:
     # classes of one colour share its code: as many classes as codes, one colour
     same = [red.model_copy(update={"name": f"s{i}"}) for i in range(MAX_CLASSES + 1)]
     assert len(Thresholds.from_config(same, VisionConfig()).codes) == 1
+
+
+def per_class_medians(codes: np.ndarray, kernel: int, count: int) -> np.ndarray:
+    """Each class's mask median-filtered on its own, written back as its code."""
+    out = np.zeros_like(codes)
+    for code in range(1, count + 1):
+        mask = np.where(codes == code, 255, 0).astype(np.uint8)
+        out[cv2.medianBlur(mask, kernel) > 0] = code
+    return out
+
+
+def two_classes_touch(codes: np.ndarray) -> bool:
+    """Whether two 8-neighbouring pixels hold two different classes (0 is none)."""
+    padded = np.pad(codes.astype(int), 1)
+    height, width = codes.shape
+    for dy, dx in ((0, 1), (1, -1), (1, 0), (1, 1)):
+        other = padded[1 + dy : 1 + dy + height, 1 + dx : 1 + dx + width]
+        if np.any((codes > 0) & (other > 0) & (codes != other)):
+            return True
+    return False
+
+
+@settings(max_examples=80, deadline=None)
+@given(
+    seed=st.integers(0, 2**32 - 1),
+    kernel=st.sampled_from([1, 3, 5, 7]),
+    count=st.integers(1, 6),
+    fill=st.floats(0.05, 0.9),
+    height=st.integers(1, 40),
+    width=st.integers(1, 40),
+)
+def test_median_codes_is_each_class_filtered_on_its_own(seed, kernel, count, fill, height, width):
+    # blobs of several classes touching, noise, and the image's borders: every case where
+    # one median of the codes could differ from the classes' own medians
+    rng = np.random.default_rng(seed)
+    coarse = rng.integers(1, count + 1, size=(height // 4 + 1, width // 4 + 1), dtype=np.uint8)
+    codes = np.kron(coarse, np.ones((4, 4), np.uint8))[:height, :width]
+    codes[rng.random((height, width)) > fill] = 0
+    flips = rng.random((height, width)) < 0.1
+    codes[flips] = rng.integers(0, count + 1, size=int(flips.sum()), dtype=np.uint8)
+    got, apart = median_codes(codes, kernel, count)
+    expected = codes if kernel == 1 else per_class_medians(codes, kernel, count)
+    np.testing.assert_array_equal(got, expected)
+    if apart:  # the promise the labelling relies on: each region is of one class
+        assert not two_classes_touch(got)
+
+
+@pytest.mark.parametrize("kernel", [3, 5])
+def test_median_codes_of_classes_apart_says_so(kernel):
+    # two blobs of two classes with a gap of a window between them: one median, apart;
+    # the same blobs a pixel apart: some window holds both, so not known to be apart
+    codes = np.zeros((20, 30), np.uint8)
+    codes[5:15, 3:10] = 1
+    codes[5:15, 10 + kernel : 20] = 2
+    got, apart = median_codes(codes, kernel, 2)
+    assert apart and not two_classes_touch(got)
+    np.testing.assert_array_equal(got, per_class_medians(codes, kernel, 2))
+    codes[5:15, 10 : 10 + kernel] = 0
+    codes[5:15, 11:20] = 2
+    got, apart = median_codes(codes, kernel, 2)
+    assert not apart
+    np.testing.assert_array_equal(got, per_class_medians(codes, kernel, 2))
+
+
+def test_median_codes_of_a_window_of_two_classes_without_a_majority():
+    # a 3x3 window 0 0 0 / 1 2 2 / 2 3 3: the codes' median is 2, held by three pixels of
+    # nine; no class holds five, so each class's own median leaves the centre empty
+    codes = np.zeros((9, 9), np.uint8)
+    codes[3:6, 3:6] = [[0, 0, 0], [1, 2, 2], [2, 3, 3]]
+    assert cv2.medianBlur(codes, 3)[4, 4] == 2
+    got, apart = median_codes(codes, 3, 3)
+    assert got[4, 4] == 0 and not apart
+    np.testing.assert_array_equal(got, per_class_medians(codes, 3, 3))
+    unfiltered, apart = median_codes(codes, 1, 3)
+    np.testing.assert_array_equal(unfiltered, codes)
+    assert not apart  # two classes touch there, unfiltered

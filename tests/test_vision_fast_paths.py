@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 
 from mearm.config import Config
-from mearm.vision.classify import _UNSURE, PixelClassifier, _at_least, _nonzero
+from mearm.vision.classify import _UNSURE, PixelClassifier, _at_least, _nonzero, median_codes
 from mearm.vision.learned import median_bgr
-from mearm.vision.regions import _label, class_pieces, label_rows
+from mearm.vision.regions import _label, _measure_regions, class_pieces, label_rows
 from mearm.vision.shapes import shape_of_outline, shapes_of_outlines
 from mearm.vision.thresholds import Thresholds
 
@@ -123,3 +123,28 @@ def test_shapes_taken_together_are_each_outlines() -> None:
     assert shapes_of_outlines(outlines) == [shape_of_outline(c) for c in outlines]
     assert {s.shape for s in shapes_of_outlines(outlines)} >= {"cylinder", "cube"}
     assert shapes_of_outlines([]) == []
+
+
+@pytest.mark.parametrize("seed", range(40))
+def test_regions_of_classes_apart_are_measured_as_when_their_purity_is_checked(seed: int) -> None:
+    """When no two classes touch, each region's code read at one pixel is the one the
+    purity check finds, and every region is pure; elongations and outlines the same."""
+    rng = np.random.default_rng(seed)
+    index = np.zeros((120, 160), np.uint8)
+    for cy in range(12, 120, 24):  # blobs of any class, one per cell, a few pixels apart
+        for cx in range(12, 160, 24):
+            if rng.random() < 0.8:
+                axes = (int(rng.integers(1, 10)), int(rng.integers(1, 10)))
+                angle = float(rng.uniform(0, 180))
+                cv2.ellipse(index, (cx, cy), axes, angle, 0, 360, int(rng.integers(1, 4)), -1)
+    filtered, apart = median_codes(index, 3, 3)
+    assert apart
+    got = label_rows(filtered)
+    big = np.flatnonzero(got.stats[1 : got.n_labels, cv2.CC_STAT_AREA] >= 1) + 1
+    checked = _measure_regions(got.codes, got.labels, got.stats, big)
+    read = _measure_regions(got.codes, got.labels, got.stats, big, apart=True)
+    assert len(set(checked.code.tolist())) > 1  # regions of several classes
+    assert checked.pure.all() and read.pure.all()
+    assert np.array_equal(checked.code, read.code)
+    assert np.array_equal(checked.elongation, read.elongation)
+    assert checked.outlines.keys() == read.outlines.keys()

@@ -236,3 +236,46 @@ class PixelClassifier:
             us, vs = us + x, vs + y
             codes[vs, us] = classify_exact(frame_bgr[vs, us], self.thresholds)
         return codes, (x, y, w, h_)
+
+
+def median_codes(codes: np.ndarray, kernel: int, count: int) -> tuple[np.ndarray, bool]:
+    """Each class's ``kernel``×``kernel`` median filter of a code image, as one code image.
+
+    The same image as filtering each class's 0/255 mask (``codes == k``) with
+    ``cv2.medianBlur`` and writing ``k`` where it is set (the filtered masks are
+    disjoint: a class holds a majority of the window or not), for one median of the
+    codes in the common case. A class holding a majority of a window's pixels fills a
+    run of its sorted values that covers the middle one, so the codes' median is that
+    class; where a window holds one class and no class, that median is the class exactly
+    when it holds a majority. Only a window holding two classes can have a median of a
+    class without one; where any does, each class is filtered on its own.
+
+    Args:
+        codes: Class codes 1..``count`` (0: none), uint8 (H, W).
+        kernel: The median's window side, odd [px].
+        count: The number of classes.
+
+    Returns:
+        The filtered codes (uint8 (H, W), its own memory), and whether no two classes'
+        pixels touch (8-connected) in it: ``True`` when no window held two classes (two
+        touching pixels of classes a and b would need a majority of a and one of b in
+        overlapping windows, and some window then holds both) or there is one class;
+        ``False`` when that is not known.
+    """
+    if kernel <= 1:
+        return codes.copy(), count <= 1
+    median = cv2.medianBlur(codes, kernel)
+    if count <= 1:
+        return median, True
+    window = np.ones((kernel, kernel), np.uint8)
+    # the borders are neutral: each takes the window's pixels in the image only
+    most = cv2.dilate(codes, window)  # the highest code
+    # codes − 1 wraps "no class" round to 255: the lowest class code − 1, 255 for none
+    least = cv2.erode(codes - np.uint8(1), window)
+    if not cv2.countNonZero(cv2.compare(most - np.uint8(1), least, cv2.CMP_GT)):
+        return median, True
+    out = np.zeros_like(codes)
+    for code in range(1, count + 1):
+        np.bitwise_or(out, and_scalar(cv2.medianBlur(equal_mask(codes, code), kernel), code),
+                      out=out)  # fmt: skip
+    return out, False

@@ -66,7 +66,7 @@ import numpy as np
 from mearm.config import CalibrationConfig, CameraConfig, ColorClass, VisionConfig
 from mearm.errors import ConfigError
 from mearm.vision.calibration import Calibration, CameraGeometry, camera_geometry
-from mearm.vision.classify import PixelClassifier, and_scalar, equal_mask
+from mearm.vision.classify import PixelClassifier, equal_mask, median_codes
 from mearm.vision.detection import Detection, _point, _with_table_yaw, check_frame
 from mearm.vision.errors import ImageError
 from mearm.vision.flat_detection import Regions, find_regions, seen_from_above
@@ -313,10 +313,13 @@ class ColorDetector:
         frame_bgr: np.ndarray,
         exclude: np.ndarray | None = None,
         prepared: Prepared | None = None,
-    ) -> tuple[dict[str, np.ndarray], int, int]:
-        """Filtered masks of the box around every classified pixel, and the box origin.
+    ) -> tuple[np.ndarray, int, int, bool]:
+        """The median-filtered class codes of the box around every classified pixel, its origin.
 
-        Outside that box (grown by the median's reach) every mask is 0, so working
+        Codes 1..N (0: none), uint8: each class's mask median-filtered
+        (``vision.median_kernel``), the masks disjoint, and whether no two classes'
+        pixels touch in it (:func:`median_codes`). Outside
+        that box (grown by the median's reach) every code is 0, so working
         inside it gives the full frame's result exactly, for less work. With
         ``vision.shadow_value_min`` the regions are grown into their shadows inside the
         area looked in only, as the strong pixels are classified there: a shadow is not
@@ -337,12 +340,8 @@ class ColorDetector:
         reach = k // 2
         x0, y0 = max(x - reach, 0), max(y - reach, 0)
         x1, y1 = min(x + w + reach, codes.shape[1]), min(y + h + reach, codes.shape[0])
-        box = codes[y0:y1, x0:x1]
-        out: dict[str, np.ndarray] = {}
-        for code, name in enumerate(self.class_names, start=1):
-            mask = equal_mask(box, code)
-            out[name] = cv2.medianBlur(mask, k) if k > 1 else mask
-        return out, x0, y0
+        index, apart = median_codes(codes[y0:y1, x0:x1], k, len(self.class_names))
+        return index, x0, y0, apart
 
     def masks(self, frame_bgr: np.ndarray) -> dict[str, np.ndarray]:
         """Per class name, its median-filtered mask over the whole frame (uint8 0/255, (H, W)).
@@ -351,11 +350,11 @@ class ColorDetector:
             ImageError: the frame is not an 8-bit 3-channel image.
         """
         frame = check_frame(frame_bgr)
-        boxed, x0, y0 = self._filtered(frame)
+        index, x0, y0, _ = self._filtered(frame)
         out: dict[str, np.ndarray] = {}
-        for name, m in boxed.items():
+        for code, name in enumerate(self.class_names, start=1):
             full = np.zeros(frame.shape[:2], np.uint8)
-            full[y0 : y0 + m.shape[0], x0 : x0 + m.shape[1]] = m
+            full[y0 : y0 + index.shape[0], x0 : x0 + index.shape[1]] = equal_mask(index, code)
             out[name] = full
         return out
 
@@ -403,12 +402,8 @@ class ColorDetector:
             ImageError: the frame is not an 8-bit 3-channel image, or ``exclude`` is not
                 of its size.
         """
-        masks, ox, oy = self._filtered(frame_bgr, exclude, prepared)
-        # One image of class codes 1..N (0 = none); the filtered masks are disjoint.
-        index = and_scalar(masks[self.class_names[0]], 1)
-        for code, name in enumerate(self.class_names[1:], start=2):
-            np.bitwise_or(index, and_scalar(masks[name], code), out=index)
-        found = find_regions(index, (ox, oy), self.vision.min_area_px)
+        index, ox, oy, apart = self._filtered(frame_bgr, exclude, prepared)
+        found = find_regions(index, (ox, oy), self.vision.min_area_px, apart=apart)
         codes, areas, boxes, elongations = found.codes, found.areas, found.boxes, found.elongations
         sources, centroid, labels = found.sources, found.centroid, found.labels
         if not codes:

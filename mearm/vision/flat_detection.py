@@ -65,19 +65,23 @@ class Found(NamedTuple):
     labels: np.ndarray  # the label image (:func:`~mearm.vision.regions.label_rows`)
 
 
-def find_regions(index: np.ndarray, origin: tuple[int, int], min_area: int) -> Found:
+def find_regions(
+    index: np.ndarray, origin: tuple[int, int], min_area: int, *, apart: bool = False
+) -> Found:
     """The regions of a code image (the working box at ``origin`` (x, y) [px]), measured.
 
     In label order: each union region of one class (class code, area, boxes, centroid,
     elongation, its label); the pieces of regions where classes touch follow, each with
     its own mask (:func:`~mearm.vision.regions.class_pieces`). Regions under
     ``min_area`` [px] are dropped (smaller union regions hold smaller class regions).
+    ``apart``: no two classes' pixels touch in ``index`` (every region is of one class).
     """
     ox, oy = origin
     lab = label_rows(index)
     stats, shift = lab.stats, lab.row_shift
     big = np.flatnonzero(stats[1 : lab.n_labels, cv2.CC_STAT_AREA] >= min_area) + 1
-    pure, region_code, elong, outlines = _measure_regions(lab.codes, lab.labels, stats, big)
+    measured = _measure_regions(lab.codes, lab.labels, stats, big, apart=apart)
+    pure, region_code, elong, outlines = measured
     keep = big[pure]
     label_boxes = [(x, y, w, h) for x, y, w, h in stats[keep, :4].tolist()]
     moved = shift[keep].tolist()

@@ -7,6 +7,7 @@ split at its cores (:func:`split_region`, the detector module's docstring says w
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import NamedTuple
@@ -92,11 +93,18 @@ class Measured(NamedTuple):
 
 
 def _measure_regions(
-    index: np.ndarray, labels: np.ndarray, stats: np.ndarray, big: np.ndarray
+    index: np.ndarray,
+    labels: np.ndarray,
+    stats: np.ndarray,
+    big: np.ndarray,
+    *,
+    apart: bool = False,
 ) -> Measured:
     """Each region's purity, class code, elongation, and the small ones' outlines.
 
-    Pure: every pixel of the region has one class code (then ``code`` is it). The small
+    Pure: every pixel of the region has one class code (then ``code`` is it); every
+    region is when ``apart`` (no two classes' pixels touch in ``index``), and its code
+    is then read at one of its pixels. The small
     regions (boxes up to :data:`STACKED_BOX_PX`) are read as one stack of equal windows
     over the label image, each at its region's box (moved inwards at the image's edge),
     so their moments are a few array operations per frame, not a call per region; the
@@ -121,17 +129,18 @@ def _measure_regions(
         traced = _trace_stack(canvas, x[small] - x0, y[small] - y0)
         if traced is not None:
             outlines = dict(zip(big[small].tolist(), traced, strict=True))
-        codes = sliding_window_view(index, (hh, ww))[y0, x0] * mask
-        top = codes.max(axis=(1, 2))
-        pure[small] = np.count_nonzero(codes == top[:, None, None], axis=(1, 2)) == area[small]
-        code[small] = top
-        # float32 sums are exact: each is an integer below 2**24 (96**2 pixels × 96**2)
-        m = mask.astype(np.float32)
-        cols, rows = m.sum(axis=1), m.sum(axis=2)
-        gx, gy = np.arange(ww, dtype=np.float32), np.arange(hh, dtype=np.float32)
-        sx, sxx = (cols @ gx).astype(float), (cols @ (gx * gx)).astype(float)
-        sy, syy = (rows @ gy).astype(float), (rows @ (gy * gy)).astype(float)
-        sxy = ((m @ gx) @ gy).astype(float)
+        if apart:  # the first pixel of its top row
+            ys = y[small]
+            first = mask[np.arange(len(small)), ys - y0].argmax(axis=1)
+            pure[small], code[small] = True, index[ys, x0 + first]
+        else:
+            codes = sliding_window_view(index, (hh, ww))[y0, x0] * mask
+            top = codes.max(axis=(1, 2))
+            pure[small] = np.count_nonzero(codes == top[:, None, None], axis=(1, 2)) == area[small]
+            code[small] = top
+        # one product gives every window's sums of x, y, x², xy and y²; in float64 each
+        # is exact (an integer far below 2**53: at most 96**2 pixels × 95**2)
+        sx, sy, sxx, sxy, syy = (mask.reshape(len(small), -1).astype(float) @ _powers(hh, ww)).T
         n = area[small].astype(float)
         elong[small] = _axis_ratios(sxx - sx * sx / n, sxy - sx * sy / n, syy - sy * sy / n)
     for k in np.flatnonzero((w > STACKED_BOX_PX) | (h > STACKED_BOX_PX)).tolist():
@@ -140,6 +149,15 @@ def _measure_regions(
         lo, hi, _, _ = cv2.minMaxLoc(index[roi], mask=region)
         pure[k], code[k], elong[k] = lo == hi, int(lo), _elongation(region)
     return Measured(pure, code, elong, outlines)
+
+
+@functools.lru_cache(maxsize=32)  # a frame's windows are of one size; a few frames' kept
+def _powers(rows: int, cols: int) -> np.ndarray:
+    """Per pixel of a ``rows``×``cols`` window (row-major), its x, y, x², xy and y², (P, 5)."""
+    y, x = np.mgrid[0:rows, 0:cols].reshape(2, -1).astype(float)
+    out = np.stack([x, y, x * x, x * y, y * y], axis=1)
+    out.setflags(write=False)
+    return out
 
 
 def _axis_ratios(mu20: np.ndarray, mu11: np.ndarray, mu02: np.ndarray) -> np.ndarray:
