@@ -9,7 +9,7 @@ import pytest
 from mearm.config import Config
 from mearm.vision.classify import _UNSURE, PixelClassifier, _at_least, _nonzero, median_codes
 from mearm.vision.learned import median_bgr
-from mearm.vision.regions import _label, _measure_regions, class_pieces, label_rows
+from mearm.vision.regions import _label, _measure_regions, _windows, class_pieces, label_rows
 from mearm.vision.shapes import shape_of_outline, shapes_of_outlines
 from mearm.vision.thresholds import Thresholds
 
@@ -148,3 +148,18 @@ def test_regions_of_classes_apart_are_measured_as_when_their_purity_is_checked(s
     assert np.array_equal(checked.code, read.code)
     assert np.array_equal(checked.elongation, read.elongation)
     assert checked.outlines.keys() == read.outlines.keys()
+
+
+@pytest.mark.parametrize("seed", range(10))
+def test_windows_are_numpys_sliding_windows(seed: int) -> None:
+    """The windows read through the strided view are ``sliding_window_view``'s, for a
+    C-contiguous image and for a view that is not."""
+    rng = np.random.default_rng(seed)
+    image = rng.integers(0, 2**16, (int(rng.integers(5, 60)), int(rng.integers(5, 60))))
+    image = image.astype(np.uint16)
+    for source in (image, image[:, ::2], image.T):
+        rows, cols = (int(rng.integers(1, n + 1)) for n in source.shape)
+        y0 = rng.integers(0, source.shape[0] - rows + 1, 7)
+        x0 = rng.integers(0, source.shape[1] - cols + 1, 7)
+        expected = np.lib.stride_tricks.sliding_window_view(source, (rows, cols))[y0, x0]
+        assert np.array_equal(_windows(source, rows, cols, y0, x0), expected)

@@ -125,7 +125,7 @@ def _measure_regions(
         own = big[small].astype(labels.dtype)[:, None, None]
         canvas = np.zeros((len(small), hh + 1, ww + 1), np.uint8)
         mask = canvas[:, :hh, :ww].view(bool)  # (n, hh, ww), in the traced canvas
-        np.equal(sliding_window_view(labels, (hh, ww))[y0, x0], own, out=mask)
+        np.equal(_windows(labels, hh, ww, y0, x0), own, out=mask)
         traced = _trace_stack(canvas, x[small] - x0, y[small] - y0)
         if traced is not None:
             outlines = dict(zip(big[small].tolist(), traced, strict=True))
@@ -134,7 +134,7 @@ def _measure_regions(
             first = mask[np.arange(len(small)), ys - y0].argmax(axis=1)
             pure[small], code[small] = True, index[ys, x0 + first]
         else:
-            codes = sliding_window_view(index, (hh, ww))[y0, x0] * mask
+            codes = _windows(index, hh, ww, y0, x0) * mask
             top = codes.max(axis=(1, 2))
             pure[small] = np.count_nonzero(codes == top[:, None, None], axis=(1, 2)) == area[small]
             code[small] = top
@@ -149,6 +149,22 @@ def _measure_regions(
         lo, hi, _, _ = cv2.minMaxLoc(index[roi], mask=region)
         pure[k], code[k], elong[k] = lo == hi, int(lo), _elongation(region)
     return Measured(pure, code, elong, outlines)
+
+
+def _windows(image: np.ndarray, rows: int, cols: int, y0: np.ndarray, x0: np.ndarray) -> np.ndarray:
+    """The ``rows``×``cols`` windows of a 2-D image at (``y0``, ``x0``), (N, rows, cols).
+
+    A copy, read through a strided view of every window of a C-contiguous image (made
+    directly: ``sliding_window_view`` checks its arguments at several times the cost).
+    """
+    if not image.flags.c_contiguous:
+        return sliding_window_view(image, (rows, cols))[y0, x0]
+    height, width = image.shape
+    step = image.strides
+    every = np.ndarray(
+        (height - rows + 1, width - cols + 1, rows, cols), image.dtype, image, 0, step + step
+    )
+    return every[y0, x0]
 
 
 @functools.lru_cache(maxsize=32)  # a frame's windows are of one size; a few frames' kept
@@ -204,7 +220,7 @@ def region_outlines(
     x0 = np.minimum(x, labels.shape[1] - ww)
     canvas = np.zeros((count, hh + 1, ww + 1), np.uint8)
     own_ = np.asarray(own).astype(labels.dtype)[:, None, None]
-    canvas[:, :hh, :ww] = sliding_window_view(labels, (hh, ww))[y0, x0] == own_
+    canvas[:, :hh, :ww] = _windows(labels, hh, ww, y0, x0) == own_
     return _trace_stack(canvas, x - x0, y - y0)
 
 
