@@ -267,12 +267,13 @@ def median_codes(codes: np.ndarray, kernel: int, count: int) -> tuple[np.ndarray
     median = cv2.medianBlur(codes, kernel)
     if count <= 1:
         return median, True
-    window = np.ones((kernel, kernel), np.uint8)
-    # the borders are neutral: each takes the window's pixels in the image only
-    most = cv2.dilate(codes, window)  # the highest code
-    # codes − 1 wraps "no class" round to 255: the lowest class code − 1, 255 for none
-    least = cv2.erode(codes - np.uint8(1), window)
-    if not cv2.countNonZero(cv2.compare(most - np.uint8(1), least, cv2.CMP_GT)):
+    # A window holds two classes exactly when a pixel of one has a higher class within
+    # kernel − 1 pixels (both then fit in one window): the highest code that near,
+    # a dilation (its border neutral), above the pixel's own. Less one each, wrapping
+    # round, the background (0) becomes 255, above which nothing is.
+    reach = np.ones((2 * kernel - 1, 2 * kernel - 1), np.uint8)
+    one = np.uint8(1)
+    if not cv2.countNonZero(cv2.compare(cv2.dilate(codes, reach) - one, codes - one, cv2.CMP_GT)):
         return median, True
     out = np.zeros_like(codes)
     for code in range(1, count + 1):
