@@ -6,14 +6,16 @@ paper), 8-connected regions, regions under ``min_area_px`` dropped; each remaini
 is one :class:`Detection` with its pixel area, bounding box and sub-pixel centroid (the
 mean of its pixel centres, i.e. the image moments m10/m00, m01/m00).
 
-Two shortcuts make this fast without changing the result. Work is confined to the box
+Three shortcuts make this fast without changing the result. Work is confined to the box
 around every classified pixel (grown by the median's reach), outside which every mask
-is 0. Regions are labelled once on the union of the filtered masks (after the median
-the masks are disjoint: a pixel needs 5 of its 9 neighbours in a mask to stay in it): a
-union region holding one class *is* that class's region, and the rare union region
-holding several (objects of different classes touching) is split by labelling each
-class inside its box. A test checks the result against a plain per-class NumPy/SciPy
-implementation (:mod:`mearm.vision.paper_recipe`).
+is 0. The classes' filtered masks are one median of the image of class codes where no
+window holds two classes (:func:`~mearm.vision.classify.median_codes`). Regions are
+labelled once on the union of the filtered masks (after the median the masks are
+disjoint: a pixel needs 5 of its 9 neighbours in a mask to stay in it): a union region
+holding one class *is* that class's region, and the rare union region holding several
+(objects of different classes touching) is split by labelling each class inside its box.
+A test checks the result against a plain per-class NumPy/SciPy implementation
+(:mod:`mearm.vision.paper_recipe`).
 
 Touching objects of one class form one region. With a calibration the detector knows
 the largest image area one object of the class can have at each place, ``A1`` (below);
