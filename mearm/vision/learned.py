@@ -499,8 +499,9 @@ class LearnedClassifier:
         top = (1 << COLOUR_BITS) - 1
         quads = cv2.cvtColor(cv2.transform(frame_bgr, scale), cv2.COLOR_BGR2BGRA)
         if quads.size > 4:
-            # OpenCV takes a tuple as a Scalar; its stubs list only array overloads.
-            cv2.min(quads, (top, top, top, 0), dst=quads)  # type: ignore[call-overload]
+            # OpenCV takes a tuple as a Scalar; its stubs before 5.1 list only array
+            # overloads (5.1's take it: the ignore is unused there)
+            cv2.min(quads, (top, top, top, 0), dst=quads)  # type: ignore[call-overload, unused-ignore]
         else:  # one pixel's four bytes, which OpenCV would take for a Scalar
             np.minimum(quads, np.array([top, top, top, 0], np.uint8), out=quads)
         places = quads.view(np.int16).reshape(*quads.shape[:2], 2)  # (x, y) a pixel
@@ -516,5 +517,6 @@ class LearnedClassifier:
 
     def _remap(self, places: np.ndarray) -> np.ndarray:
         """The table's entries at ``places`` ((h, w, 2) int16 (x, y)), uint8 (h, w)."""
-        # no second map: the (x, y) pairs are whole in the first (its stubs ask for one)
-        return cv2.remap(self._table, places, None, cv2.INTER_NEAREST)  # type: ignore[call-overload]
+        # no second map: the (x, y) pairs are whole in the first (the stubs before OpenCV
+        # 5.1 ask for one; 5.1's do not: the ignore is unused there)
+        return cv2.remap(self._table, places, None, cv2.INTER_NEAREST)  # type: ignore[call-overload, unused-ignore]
