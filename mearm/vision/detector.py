@@ -320,9 +320,9 @@ class ColorDetector:
 
         Codes 1..N (0: none), uint8: each class's mask median-filtered
         (``vision.median_kernel``), the masks disjoint, and whether no two classes'
-        pixels touch in it (:func:`median_codes`). Outside
-        that box (grown by the median's reach) every code is 0, so working
-        inside it gives the full frame's result exactly, for less work. With
+        pixels touch in it (:func:`median_codes`). Outside that box (grown by the
+        median's reach) every code is 0, so working inside it gives the full frame's
+        result exactly, for less work. With
         ``vision.shadow_value_min`` the regions are grown into their shadows inside the
         area looked in only, as the strong pixels are classified there: a shadow is not
         followed out of the work area or into the arm's mask.

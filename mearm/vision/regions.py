@@ -104,11 +104,11 @@ def _measure_regions(
 
     Pure: every pixel of the region has one class code (then ``code`` is it); every
     region is when ``apart`` (no two classes' pixels touch in ``index``), and its code
-    is then read at one of its pixels. The small
-    regions (boxes up to :data:`STACKED_BOX_PX`) are read as one stack of equal windows
-    over the label image, each at its region's box (moved inwards at the image's edge),
-    so their moments are a few array operations per frame, not a call per region; the
-    second moments are exact (integer sums). The same stack gives their outlines, as
+    is then read at one of its pixels. The small regions (boxes up to
+    :data:`STACKED_BOX_PX`) are read as one stack of equal windows over the label
+    image, each at its region's box (moved inwards at the image's edge), so their
+    moments are a few array operations per frame, not a call per region; the second
+    moments are exact (integer sums). The same stack gives their outlines, as
     :func:`region_outlines` does (none if it cannot).
     """
     count = len(big)
