@@ -201,9 +201,12 @@ def write_video(path: Path, frames: Sequence[np.ndarray], fps: int) -> None:
 
     H.264 as ``lerobot-eval`` writes its videos (libx264, yuv420p), at the settings of
     ``--record-codec h264`` (:data:`~mearm.dataset.lerobot_format.VIDEO_CODECS`: one
-    thread, a worker's core each). Not SVT-AV1 at its defaults, as before: under load its
-    threads deadlocked now and then, the encode blocked in ``svt_av1_enc_get_packet``
-    for good, and with it the worker and a parent stopping its pool. Written beside
+    thread, a worker's core each). Not SVT-AV1 at its defaults, as before: run as root
+    under load, the encode now and then blocked in ``svt_av1_enc_get_packet`` for good,
+    and with it the worker and a parent stopping its pool. The likely cause, found later,
+    is the realtime policy SVT-AV1 gives its threads as root, which the recorder now
+    undoes (:func:`~mearm.dataset.encoder_server.scheduling_kept`); the evaluation's
+    videos stay H.264, the format ``lerobot-eval`` writes. Written beside
     ``path`` and renamed onto it once whole: a signal or a full disk leaves the file that
     was there (``--force``) and no half video.
     """
