@@ -104,8 +104,10 @@ def test_a_risen_pick_that_cannot_be_planned_goes_at_the_planned_height(picker, 
 @pytest.mark.slow
 def test_the_seed_whose_retry_left_the_box_picks_it_again_inside_it():
     """Seed 998021: blue2, missed with the claw seen 1.05 cm high, was left "outside the
-    target box" (its retry at z = -0.05 cm); it is picked again at the box's floor and
-    carried to its bin, and every pick the sort planned stays in the box."""
+    target box" (its retry at z = -0.05 cm); it is picked again at the box's floor, and
+    every pick the sort planned stays in the box. That pick lands a jaw on the disc, which
+    rolls out of view: gone from its spot, the pick counts, but the jaws hold nothing
+    over the bin, so the place fails (the twin's jaws, docs/twin.md)."""
     from mearm.maker.camera_calibration.at_start import for_config
     from mearm.task.rig import run_sort
     from mearm.task.scene import random_scene
@@ -134,5 +136,5 @@ def test_the_seed_whose_retry_left_the_box_picks_it_again_inside_it():
     assert [(r.step, r.success) for r in tries] == [
         ("pick", False),
         ("pick", True),
-        ("place", True),
+        ("place", False),
     ]

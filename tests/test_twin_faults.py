@@ -83,6 +83,29 @@ def test_an_object_knocked_off_the_table_is_left_with_its_reason(tmp_path, capsy
     assert not contents.faults
 
 
+def test_a_place_with_empty_jaws_fails_and_the_object_is_left_with_its_reason(tmp_path, capsys):
+    """The red object leaves the jaws on the way to its bin: the camera over the bin sees
+    it gone from its spot (the pick counts), but the twin's jaws hold nothing there, so
+    the place is FAILED, not ``ok``, and the red one is left as no longer on the table."""
+    log = tmp_path / "run.jsonl"
+    code = sort_main(
+        ["--config", str(CONFIG), "--set", SCENE, "--set",
+         "twin.faults=[{kind: knock_object, at_s: 1.0, object: red1}]", "--log", str(log)]
+    )  # fmt: skip
+    out = capsys.readouterr().out
+    assert code == 1
+    (trial,) = read_runlog(log, strict=True).trials
+    red = [(r.step, r.success, r.confirmed) for r in trial.routes if r.object_id == "red1"]
+    assert red == [("pick", True, True), ("place", False, True)]
+    (place,) = (line for line in out.splitlines() if line.startswith("place red1"))
+    assert "FAILED" in place and " ok " not in place
+    (skip,) = trial.skips
+    assert skip.object_id == "red1" and "no longer on the table" in skip.reason
+    assert trial.summary is not None
+    assert trial.summary.sorted == {"red": 0, "green": 1, "blue": 0}
+    assert trial.summary.left == {"off_table": 1}
+
+
 @pytest.mark.parametrize(
     ("fault", "reason"),
     [

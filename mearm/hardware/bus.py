@@ -99,6 +99,18 @@ class ReportsRelease(Protocol):
 
 
 @runtime_checkable
+class ReportsHold(Protocol):
+    """A bus that knows what its jaws hold (the physical twin's): ``held_classes()``.
+
+    The classes of the objects the jaws touch, empty when they hold nothing: the place
+    reads it over the bin before the jaws open, and a place with nothing of its class
+    held fails (a real rig's camera sees only that the object left its spot).
+    """
+
+    def held_classes(self) -> frozenset[str]: ...  # noqa: D102
+
+
+@runtime_checkable
 class Sampler(Protocol):
     """Samples a run at a fixed rate (a dataset recorder, :mod:`mearm.dataset`).
 

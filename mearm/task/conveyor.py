@@ -46,6 +46,7 @@ from mearm.errors import MearmError
 from mearm.hardware.bus import ReportsRelease, ServoBus
 from mearm.ik import IKTarget
 from mearm.sim.belt import Belt, belt_arrivals
+from mearm.task.pick_place import holds_its_class
 from mearm.task.report import Outcome, SortReport
 from mearm.task.route import Route
 from mearm.task.sorter import Sorter, TrackedObject, _hex
@@ -357,9 +358,10 @@ class ConveyorSorter(Sorter):
             ex.set_tool("travel", closed=False)
             self._skip(obj, "pick failed on the belt", pick, kind="pick_failed")
             return
+        held = holds_its_class(self.bus, obj.class_name)
         ex.set_tool("travel", closed=False)
         release = self.bus.last_release if isinstance(self.bus, ReportsRelease) else None
-        place.success = release is None or release.bin == obj.class_name
+        place.success = held and (release is None or release.bin == obj.class_name)
         obj.sorted = place.success
         self.reporter.route(ex.finish(place, t1))
 

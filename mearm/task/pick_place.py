@@ -18,7 +18,7 @@ import numpy as np
 
 from mearm.config.classes import ColorClass
 from mearm.config.shape_catalogue import SHAPES
-from mearm.hardware.bus import ReportsRelease, ServoBus
+from mearm.hardware.bus import ReportsHold, ReportsRelease, ServoBus
 from mearm.ik import IKTarget
 from mearm.kinematics import ArmModel
 from mearm.kinematics.bodies import M_PER_CM, object_of
@@ -498,9 +498,10 @@ class PickAndPlace(TableTracking):
             if obj.failed_picks > self.config.task.pick_retries:
                 self._skip(obj, f"pick failed {obj.failed_picks} times", pick, kind="pick_failed")
             return
+        held = holds_its_class(self.bus, obj.class_name)
         ex.set_tool("travel", closed=False)
         release = self.bus.last_release if isinstance(self.bus, ReportsRelease) else None
-        place.success = release is None or release.bin == obj.class_name
+        place.success = held and (release is None or release.bin == obj.class_name)
         obj.sorted = place.success
         if place.success:
             obj.places += 1
@@ -509,6 +510,17 @@ class PickAndPlace(TableTracking):
         for o in self._objects:  # the table changed: a blocked pick may be clear now
             o.blocked = None
         self.reporter.route(ex.finish(place, t1))
+
+
+def holds_its_class(bus: ServoBus, class_name: str) -> bool:
+    """Whether the jaws hold an object of ``class_name`` over its bin, where the bus knows.
+
+    The twin knows what its jaws touch (:class:`ReportsHold`): an object a pick knocked
+    away, or one that slipped out on the way, leaves them empty, and the place fails
+    rather than print ``ok``. A bus that does not know (a real rig) says ``True``: the
+    camera saw the object leave its spot, and the place counts.
+    """
+    return not isinstance(bus, ReportsHold) or class_name in bus.held_classes()
 
 
 def blind_reason(wall: str) -> str:

@@ -67,7 +67,7 @@ from mearm.hardware.errors import ServoError, ServoStallError
 from mearm.kinematics.bodies import TableContents, object_name, wall_height_m
 from mearm.kinematics.chain import Chain
 from mearm.kinematics.mjspec import yaw_quat
-from mearm.kinematics.urdf import TCP_FRAME
+from mearm.kinematics.urdf import TCP_FRAME, jaw_joint_names
 from mearm.sim.belt import Arrival, belt_arrivals
 from mearm.sim.errors import WorldError
 from mearm.sim.twin.mjcf import M_PER_CM, ServoSpec, arrival_centre_m, object_ids, twin_model
@@ -99,6 +99,9 @@ ARRIVED_SHAFT_DEG = 1.0
 AT_REST_SHAFT_DEG = 0.02
 #: How far short of the command a joint servo at rest has stalled [deg of shaft].
 STALLED_SHAFT_DEG = 5.0
+#: An object touches a jaw when one of its geoms is within this of one of the jaw's
+#: [m] (a gripped object's pads sink into it: their distance is below zero).
+JAW_TOUCH_M = 5e-4
 #: Steps between checks whether every body sleeps while the setpoints hold (then the
 #: rest of the hold is only time passing; :meth:`TwinArm._hold_steps`).
 SLEEP_CHECK_STEPS = 10
@@ -111,6 +114,12 @@ _DIVERGED = (
     mujoco.mjtWarning.mjWARN_BADQVEL,
     mujoco.mjtWarning.mjWARN_BADQACC,
 )
+
+
+def _body_geoms(model: mujoco.MjModel, body: int) -> list[int]:
+    """The ids of a body's geoms."""
+    first = int(model.body_geomadr[body])
+    return list(range(first, first + int(model.body_geomnum[body])))
 
 
 def _mujoco_warning(text: str) -> None:
@@ -225,6 +234,13 @@ class TwinArm(ServoBus):
         #: Each bin's walls' top above the table [m], as the scene builds them.
         self._bin_tops_m = {c.name: wall_height_m(c, table.objects(c.name)) for c in table.classes}
         self.faults = FaultSchedule(config.twin.faults, self._object_ids)
+        self._jaw_geoms = [
+            _body_geoms(model, model.jnt_bodyid[model.joint(j).id])
+            for j in jaw_joint_names(config.arm)
+        ]
+        self._object_geoms = {
+            oid: _body_geoms(model, model.body(object_name(oid)).id) for oid in self._object_ids
+        }
         self._arm_body = model.body(f"link_{config.arm.joints[0].name}").id
         self._arm_dof = int(model.body_dofadr[self._arm_body])
         self.reset()
@@ -329,6 +345,39 @@ class TwinArm(ServoBus):
                 if cls.in_bin(x_cm, y_cm) and z < top and v * v < 2.0 * g * (top - z):
                     out[oid] = cls.name
         return out
+
+    def held_classes(self) -> frozenset[str]:
+        """The classes of what the jaws bring to a bin now (empty: nothing).
+
+        What they hold: the objects touching either jaw, one of its geoms within
+        :data:`JAW_TOUCH_M` of one of the jaw's (:func:`mujoco.mj_geomDistance`; two objects
+        gripped side by side each touch one jaw). And what they just let fall into a bin:
+        an object still moving (faster than :data:`REST_SPEED_M_S`) whose centre lies in
+        its own class's bin in the plane, one that slipped out as the arm stopped over
+        it. The place reads it over the bin before the jaws open
+        (:class:`~mearm.hardware.bus.ReportsHold`).
+        """
+        m, d = self.model, self.data
+        fromto = np.zeros(6)
+        classes = {c.name: c for c in self.config.task.classes}
+        held = set()
+        for oid, geoms in self._object_geoms.items():
+            name = self._object_classes[oid]
+            if name in held:
+                continue
+            if any(
+                mujoco.mj_geomDistance(m, d, g, j, 2 * JAW_TOUCH_M, fromto) <= JAW_TOUCH_M
+                for jaw in self._jaw_geoms
+                for j in jaw
+                for g in geoms
+            ):
+                held.add(name)
+                continue
+            pose = self.object_pose(oid)
+            x_cm, y_cm = (float(c) for c in pose.position_cm[:2])
+            if pose.speed_cm_s * M_PER_CM > REST_SPEED_M_S and classes[name].in_bin(x_cm, y_cm):
+                held.add(name)
+        return frozenset(held)
 
     def in_bin_counts(self) -> dict[str, int]:
         """How many objects of each class a bin of their own class holds (:meth:`objects_in_bin`).
