@@ -209,6 +209,23 @@ def test_place_in_bin_and_on_table():
     assert (h2.x_cm, h2.y_cm) == pytest.approx((10.0, 30.0), abs=0.05)
 
 
+def test_the_sim_says_what_its_gripper_holds():
+    """Nothing before a grip, the class of what it closed on while carried, nothing after
+    the release; an open with nothing held keeps the last release, which the place must
+    not read alone (it reads the hold first)."""
+    bus = sim()
+    m3 = obj(bus, "red3")
+    assert bus.held_classes() == frozenset()
+    pick_at(bus, m3.x_cm, m3.y_cm)
+    assert bus.held_classes() == frozenset({m3.color})
+    carry_to(bus, -20.0, 45.0, 20.0)
+    assert bus.held_classes() == frozenset()
+    pick_at(bus, 10.0, 30.0)  # nothing there: the jaws close on air
+    assert not bus.last_grip.success and bus.held_classes() == frozenset()
+    carry_to(bus, -20.0, 45.0, 20.0)
+    assert bus.last_release.object_id == "red3"  # stale: why the hold is read first
+
+
 def test_offset_and_noise():
     """A static offset by joint name shifts that realised joint; noise differs per new
     pose, seeded; holding the joints draws no new error."""

@@ -339,6 +339,16 @@ class SimArm(ServoBus):
             ) from None
         return cls.grip_z_cm + self.config.arm.tool.tcp_above_grip_cm
 
+    def held_classes(self) -> frozenset[str]:
+        """The class of the object the gripper holds, or nothing.
+
+        Read by the place before the jaws open (:class:`~mearm.hardware.bus.ReportsHold`):
+        ``last_release`` is the last object let go, and an open with nothing held leaves it
+        as it was.
+        """
+        obj = self.world.held_object()
+        return frozenset() if obj is None else frozenset({obj.color})
+
     def _close_gripper(self) -> GripResult:
         x, y, z = (float(v) for v in self.ee_cm)
         obj, dist = self.world.nearest_on_table(x, y)

@@ -125,6 +125,10 @@ class VirtualUnoBus(ArduinoBus):
         """What the last release of an object did."""
         return self.arm.last_release
 
+    def held_classes(self) -> frozenset[str]:
+        """The class of the object the simulated gripper holds, or nothing."""
+        return self.arm.held_classes()
+
     # ----------------------------------------------------------------- backend hooks
 
     def _connect(self) -> None:
