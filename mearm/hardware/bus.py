@@ -100,11 +100,12 @@ class ReportsRelease(Protocol):
 
 @runtime_checkable
 class ReportsHold(Protocol):
-    """A bus that knows what its jaws hold (the physical twin's): ``held_classes()``.
+    """A bus that knows what its jaws hold (a simulator's: the twin, the kinematic sim).
 
-    The classes of the objects the jaws touch, empty when they hold nothing: the place
-    reads it over the bin before the jaws open, and a place with nothing of its class
-    held fails (a real rig's camera sees only that the object left its spot).
+    ``held_classes()``: the classes of the objects the jaws hold, empty when they hold
+    nothing. The place reads it over the bin before the jaws open, and a place with
+    nothing of its class held fails (a real rig's camera sees only that the object left
+    its spot).
     """
 
     def held_classes(self) -> frozenset[str]: ...  # noqa: D102

@@ -515,7 +515,7 @@ class PickAndPlace(TableTracking):
 def holds_its_class(bus: ServoBus, class_name: str) -> bool:
     """Whether the jaws hold an object of ``class_name`` over its bin, where the bus knows.
 
-    The twin knows what its jaws touch (:class:`ReportsHold`): an object a pick knocked
+    A simulator knows what its jaws hold (:class:`ReportsHold`): an object a pick knocked
     away, or one that slipped out on the way, leaves them empty, and the place fails
     rather than print ``ok``. A bus that does not know (a real rig) says ``True``: the
     camera saw the object leave its spot, and the place counts.
