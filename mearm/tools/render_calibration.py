@@ -230,8 +230,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         raise MearmError(f"cannot make --out {args.out}: {exc.strerror or exc}") from None
     probe = args.out / ".render_calibration_probe"
     try:
-        probe.write_bytes(b"")
-        probe.unlink()
+        with signals_deferred():  # a Ctrl-C between the two does not leave the probe there
+            probe.write_bytes(b"")
+            probe.unlink()
     except OSError as exc:
         raise MearmError(f"cannot write into --out {args.out}: {exc.strerror or exc}") from None
 
