@@ -411,7 +411,7 @@ def test_an_object_knocked_off_the_table_is_reported_as_such(config):
     assert report.sorted_per_class() == {"red": 1}
     (skip,) = report.skipped
     assert (skip.object_id, skip.kind) == ("blue1", "off_table")
-    assert skip.reason.startswith("no longer on the table: last seen at (8.0, 40.0) cm")
+    assert skip.reason.startswith("no longer in the work area: last seen at (8.0, 40.0) cm")
     assert report.outcome.left == {"off_table": 1}
 
 

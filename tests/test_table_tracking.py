@@ -77,7 +77,7 @@ def test_an_object_the_arm_pushes_is_the_same_object_wherever_it_ends(config, sh
 def test_an_object_pushed_to_the_image_border_is_counted_once(config):
     """Pushed half out of the picture (x = 19.5 cm, the right edge): the region cut by the
     border is that object, seen in part; it is left as cut, once, and nothing is left as
-    no longer on the table."""
+    no longer in the work area."""
 
     def push(world: World, gripped: str) -> None:
         other = _other(world, gripped)
@@ -91,7 +91,7 @@ def test_an_object_pushed_to_the_image_border_is_counted_once(config):
 
 def test_an_object_of_another_class_does_not_explain_one_that_appeared(config):
     """A red pushed away while a blue is knocked off the table: the red is the red it was,
-    the blue is left as no longer on the table, and the count is the scene's."""
+    the blue is left as no longer in the work area, and the count is the scene's."""
     scene = [*TWO_REDS, SceneObject(color="blue", x=0.0, y=52.0)]
 
     def push(world: World, gripped: str) -> None:

@@ -70,23 +70,23 @@ def test_a_servo_that_goes_limp_mid_route_stops_the_sort(tmp_path, capsys):
 
 def test_an_object_knocked_off_the_table_is_left_with_its_reason(tmp_path, capsys):
     """The green object leaves the table while the red one is carried: the red one is
-    sorted, the green one left as no longer on the table, the arm goes home, exit 1."""
+    sorted, the green one left as no longer in the work area, the arm goes home, exit 1."""
     code, err, contents = _sort_with("{kind: knock_object, at_s: 1.0, object: green1}",
                                      tmp_path, capsys)  # fmt: skip
     assert code == 1
     (skip,) = contents.skips
-    assert skip.object_id == "green1" and "no longer on the table" in skip.reason
+    assert skip.object_id == "green1" and "no longer in the work area" in skip.reason
     summary = contents.summary
     assert summary is not None
     assert summary.sorted["red"] == 1 and summary.left == {"off_table": 1}
-    assert "(simulated; 1 no longer on the table)" in err
+    assert "(simulated; 1 no longer in the work area)" in err
     assert not contents.faults
 
 
 def test_a_place_with_empty_jaws_fails_and_the_object_is_left_with_its_reason(tmp_path, capsys):
     """The red object leaves the jaws on the way to its bin: the camera over the bin sees
     it gone from its spot (the pick counts), but the twin's jaws hold nothing there, so
-    the place is FAILED, not ``ok``, and the red one is left as no longer on the table."""
+    the place is FAILED, not ``ok``, and the red one is left as no longer in the work area."""
     log = tmp_path / "run.jsonl"
     code = sort_main(
         ["--config", str(CONFIG), "--set", SCENE, "--set",
@@ -100,7 +100,7 @@ def test_a_place_with_empty_jaws_fails_and_the_object_is_left_with_its_reason(tm
     (place,) = (line for line in out.splitlines() if line.startswith("place red1"))
     assert "FAILED" in place and " ok " not in place
     (skip,) = trial.skips
-    assert skip.object_id == "red1" and "no longer on the table" in skip.reason
+    assert skip.object_id == "red1" and "no longer in the work area" in skip.reason
     assert trial.summary is not None
     assert trial.summary.sorted == {"red": 0, "green": 1, "blue": 0}
     assert trial.summary.left == {"off_table": 1}

@@ -29,7 +29,7 @@ LEFT_REASONS: dict[str, str] = {
     "pick_failed": "pick failed",
     "bin_unreachable": "bin out of reach",
     "never_cleared": "table never cleared",
-    "off_table": "no longer on the table",
+    "off_table": "no longer in the work area",
     "missed_belt": "missed on the belt",
     "not_confirmed": "not confirmed in its bin",
     "fault": "stopped by a fault",

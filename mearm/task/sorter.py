@@ -542,16 +542,19 @@ class Sorter(PickAndPlace):
                 out.sorted[name] += extra
 
     def _gone(self) -> None:
-        """Leave each object seen before but not on the table from home, and say so.
+        """Leave each object seen before but not in the work area from home, and say so.
 
-        Knocked off the table, or out of the camera's view: the camera cannot tell which.
+        Knocked off the table, or onto the table beyond the work area (the twin's table
+        reaches past it, as a real one may), or out of the camera's view: the camera
+        cannot tell which, so the reason names all three.
         """
         for o in self._objects:
             if not o.sorted and o.skipped is None:
                 self._skip(
                     o,
-                    f"no longer on the table: last seen at ({o.x_cm:.1f}, {o.y_cm:.1f}) cm, "
-                    "not seen from home (knocked off the table, or out of the camera's view)",
+                    f"no longer in the work area: last seen at ({o.x_cm:.1f}, {o.y_cm:.1f}) "
+                    "cm, not seen from home (knocked off the table, or out of the work area "
+                    "or the camera's view)",
                     kind="off_table",
                 )
 
