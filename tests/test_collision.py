@@ -348,6 +348,42 @@ def test_the_sort_sends_nothing_of_a_refused_pick(monkeypatch: pytest.MonkeyPatc
     assert all("red" in s.reason or "gripper" in s.reason for s in report.skipped)
 
 
+#: The MeArm v1 twin's table where blue1's pick is blocked by blue2 while the arm, over
+#: the green bin, hides blue2 from the camera (seed 871011's objects, fewer of them).
+HIDDEN_BLOCKER = [
+    SceneObject(color="blue", x=10.36, y=13.39),
+    SceneObject(color="red", x=-7.63, y=18.0),
+    SceneObject(color="blue", x=7.75, y=15.32),
+    SceneObject(color="green", x=2.27, y=18.04),
+]
+
+
+@pytest.mark.heavy
+def test_a_pick_blocked_by_an_object_the_arm_hides_waits_for_it() -> None:
+    """Looked at from over the green bin, blue1's pick is blocked by blue2, which the arm
+    hides there: blue1 waits (it was left as ``collision``, as if nothing could clear its
+    way), home sees blue2, and once blue2 is sorted blue1's pick is clear."""
+    from mearm.task.pick_place import PickAndPlace
+    from mearm.task.rig import run_sort
+
+    config = _config("sim_mearm_v1_mujoco_perspective")
+    refused: list[str] = []
+    set_aside = PickAndPlace._planned_or_set_aside
+
+    def spy(self: PickAndPlace, obj, failed):
+        if failed.failure_kind == "collision":
+            refused.append(obj.id)
+        return set_aside(self, obj, failed)
+
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(PickAndPlace, "_planned_or_set_aside", spy)
+        report = run_sort(config, scene=HIDDEN_BLOCKER, echo=None)
+    assert refused == ["blue1"]  # the case under test arose
+    assert report.outcome.line() == "sorted 4 of 4 objects"
+    picks = [r.object_id for r in report.routes if r.step == "pick" and r.success]
+    assert picks.index("blue2") < picks.index("blue1")
+
+
 # --------------------------------------------------------------------------- the check
 
 
