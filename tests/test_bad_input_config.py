@@ -558,11 +558,16 @@ def test_a_bad_belt_is_refused(sets: list[str], words: str, tmp_path: Path) -> N
          "belt.speed_cm_s: 30 cm/s is faster than the arm can follow: at most 24.6 cm/s"),
         (["--speeds", "fast"], "--speeds: speeds must be comma-separated numbers"),
         (["--config", "sim", "--speeds", "1"], "sim: the config has no belt"),
+        # the twin's bins too low for the 12 greens this seed's belt brings: the table's
+        # header was printed before the twin refused them
+        (["--config", "sim_conveyor", "--set", "belt.arrivals.seed=874001", "--speeds", "1"],
+         "class green: an object released at bin_cm z = 24 cm has its bottom"),
     ],
 )  # fmt: skip
 def test_conveyor_sweep_refuses_a_belt_it_cannot_run(argv, words, tmp_path: Path) -> None:
-    """``mearm conveyor-sweep``: every speed is checked before the first run; a speed the
-    arm cannot follow is exit 2, one line, nothing printed of the table."""
+    """``mearm conveyor-sweep``: every speed is checked before the first run, and the
+    twin's scene before the table's header; a speed the arm cannot follow, or a scene the
+    twin cannot build, is exit 2, one line, nothing printed of the table."""
     out = check_bad_input(["conveyor-sweep", *argv], within_s=2, keep=[CONFIGS])
     assert words in out.line and out.stdout == ""
 

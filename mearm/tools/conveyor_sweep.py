@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import math
 import sys
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -74,8 +74,14 @@ def _true_positions(rig: object) -> list[np.ndarray]:
     return [bus.object_pose(i).position_cm[:2] for i in bus.object_ids if i not in in_bin]
 
 
-def run_speed(config: Config, speed_cm_s: float) -> SpeedRow:
-    """Sort the belt's objects at one speed; the row of the table."""
+def run_speed(
+    config: Config, speed_cm_s: float, on_open: Callable[[], None] | None = None
+) -> SpeedRow:
+    """Sort the belt's objects at one speed; the row of the table.
+
+    ``on_open`` is called once the rig is open (the twin built: a scene it refuses, such
+    as bins too low for what the belt brings, is refused before).
+    """
     from mearm.sim.belt import belt_arrivals
     from mearm.task.conveyor import ConveyorSorter, GripAim
     from mearm.task.rig import open_rig
@@ -83,6 +89,8 @@ def run_speed(config: Config, speed_cm_s: float) -> SpeedRow:
     cfg = at_speed(config, speed_cm_s)
     row = SpeedRow(speed_cm_s, brought=len(belt_arrivals(cfg)))
     with open_rig(cfg) as rig:
+        if on_open is not None:
+            on_open()
 
         def measure(aim: GripAim) -> None:
             truths = _true_positions(rig)
@@ -149,12 +157,19 @@ def main(argv: Sequence[str] | None = None) -> int:
     for v in args.speeds:
         at_speed(config, v)  # a speed the arm cannot follow stops here, before any run
     rows: list[SpeedRow] = []
-    print("| belt speed [cm/s] (simulated) | brought | sorted | missed on the belt | "
-          "tracking error at the grip, mean / max [cm] |")  # fmt: skip
-    print("|---|---|---|---|---|")
+    header = [
+        "| belt speed [cm/s] (simulated) | brought | sorted | missed on the belt | "
+        "tracking error at the grip, mean / max [cm] |",
+        "|---|---|---|---|---|",
+    ]
+
+    def print_header() -> None:  # once the first rig opened: a refused scene prints none
+        while header:
+            print(header.pop(0), flush=True)
+
     for v in args.speeds:
         try:
-            row = run_speed(config, v)
+            row = run_speed(config, v, on_open=print_header)
         except SortAborted as exc:  # a fault or Ctrl-C: the arm parked where it could be
             print(f"stopped at {v:g} cm/s after {len(rows)} of {len(args.speeds)} speeds")
             print(f"{parser.prog}: stopped at {v:g} cm/s: {exc.reason}", file=sys.stderr)
