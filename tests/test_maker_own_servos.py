@@ -186,14 +186,21 @@ def test_recalibrating_on_the_virtual_uno_keeps_its_servos(
 ) -> None:
     """Calibrated twice over a fitted file, the virtual Uno's base is found at the arm's
     own 600 µs both times, each file recording that it replaces 600 µs: its servos do not
-    drift with the calibrations (the second run found 649 µs)."""
+    drift with the calibrations (the second run found 649 µs).
+
+    Found within the board's pulse tolerance (10 µs): the fit reads the pulses the
+    firmware's pins measure, and an interrupt at a pulse's end (millis, the UART)
+    stretches the odd one by up to ~6 µs (``configs/virtual_uno.yaml``). ±2 µs failed
+    once in CI (597.4 µs and 10.0125 µs/° on the second run); the drift was 49 µs."""
     monkeypatch.setenv("XDG_CACHE_HOME", str(cache_home))
     calibration = _fitted(tmp_path)
     for run in (1, 2):
         output = tmp_path / f"run{run}.yaml"
-        _calibrate_base(_config("virtual_uno", calibration), output)
+        config = _config("virtual_uno", calibration)
+        _calibrate_base(config, output)
         (base,) = load_servo_calibration(output).actuators
-        assert base.servo.zero_us == pytest.approx(600.0, abs=2.0), run
+        tolerance_us = config.servo.virtual_uno.pulse_tolerance_us
+        assert base.servo.zero_us == pytest.approx(600.0, abs=tolerance_us), run
         assert base.replaces is not None
         assert base.replaces.zero_us == 600.0, run
         calibration = output
