@@ -100,3 +100,40 @@ def test_a_point_the_batch_solve_does_not_reach_is_one_the_plan_refuses() -> Non
     assert len(edge) >= 10, len(edge)
     assert not [tuple(at) for at in edge if arm.takes_up_at(at)]
     assert any(arm.takes_up_at(at) for at in reached)
+
+
+@pytest.mark.heavy
+def test_a_table_without_room_for_the_points_says_what_makes_room(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    """The MeArm v1's perspective twin with its six objects has room for no point: the
+    check does not move, and says to leave only the object it takes, in a ``--set`` that
+    runs as printed once X and Y are filled in. With that one object, 12 points do not fit
+    either: it names how many do, and that many are each measured."""
+    from mearm.tools.check_camera import main
+
+    v1 = str(ROOT / "configs" / "sim_mearm_v1_mujoco_perspective.yaml")
+    assert main(["--config", v1]) == 1
+    out, err = capsys.readouterr()
+    assert out == ""
+    hint = re.fullmatch(
+        r"mearm check-camera: check not run: found room for 0 of 4 check points .*: "
+        r"leave only the object taken on the simulated table: --set '(task\.scene=.*)'\n",
+        err,
+    )
+    assert hint is not None, err
+    assert "--points" not in err  # fewer than the least allowed fit: no use asking for fewer
+    one = ["--set", hint[1].replace("X", "8.7").replace("Y", "15.07")]  # a red of the scene
+
+    assert main(["--config", v1, *one, "--points", "12"]) == 1
+    out, err = capsys.readouterr()
+    room = re.fullmatch(
+        r"mearm check-camera: check not run: found room for (\d+) of 12 check points .*: "
+        r"ask for --points (\d+)\n",
+        err,
+    )
+    assert room is not None and room[1] == room[2], err
+    assert main(["--config", v1, *one, "--points", room[1]]) == 0
+    out, err = capsys.readouterr()
+    assert err == ""
+    assert len(POINT.findall(out)) == int(room[1]), out

@@ -612,10 +612,28 @@ def check_points(config: Config, geometry: CameraGeometry, arm: _Arm, n: int) ->
         raise NothingToCheck(
             f"found room for {len(chosen)} of {n} check points in the camera's view that the "
             f"arm reaches, with {SET_DOWN_SLIP_CM:g} cm around each for a set-down's slip, "
-            "clear of the bins, the other objects and the arm at home: ask for fewer points "
-            "or clear the table"
+            "clear of the bins, the other objects and the arm at home: "
+            + _making_room(config, len(chosen), cls.name, len(arm.others))
         )
     return cand[chosen]
+
+
+def _making_room(config: Config, found: int, class_name: str, others: int) -> str:
+    """What makes room for the check's points, where ``found`` fit (fewer than asked).
+
+    Fewer points, where at least :data:`MIN_POINTS` fit; fewer objects, where ``others``
+    lie on the table besides the one of ``class_name`` the check takes (a simulated
+    table's are its config's, ``task.scene``).
+    """
+    ways = [f"ask for --points {found}"] if found >= MIN_POINTS else []
+    if others and config.simulated_table:
+        ways.append(
+            "leave only the object taken on the simulated table: "
+            f"--set 'task.scene=[{{color: {class_name}, x: X, y: Y}}]'"
+        )
+    elif others:
+        ways.append("take the other objects off the table")
+    return " or ".join(ways) or "the camera's view and the arm's reach hold no more"
 
 
 # --------------------------------------------------------------------- the check
