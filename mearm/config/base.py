@@ -116,19 +116,15 @@ class Strict(BaseModel):
     number is a mistake (``kp: yes``), refused with the field's name. The check is built
     into the validator once per class (:func:`_numbers_refuse_bool`), not run per field
     in Python.
-
-    Validators are built on first use (``defer_build``), not as each class is defined: a
-    sort validates one :class:`~mearm.config.root.Config`, whose validator holds every
-    section's, so importing the config no longer compiles forty validators it never calls.
     """
 
-    model_config = ConfigDict(extra="forbid", frozen=True, defer_build=True)
+    model_config = ConfigDict(extra="forbid", frozen=True)
 
     @classmethod
     def __get_pydantic_core_schema__(
         cls, source: type[BaseModel], handler: GetCoreSchemaHandler, /
     ) -> core_schema.CoreSchema:
-        # called once, when the class's schema is first needed; handler(source) builds it
+        # called once as the class is built; handler(source) is how pydantic asks it be done
         return _numbers_refuse_bool(handler(source), cls)
 
 
