@@ -18,6 +18,7 @@ import sys
 import textwrap
 from collections.abc import Callable, Sequence
 
+from mearm import interrupts
 from mearm.cli import EXIT_BAD_INPUT, one_line, run
 from mearm.data import config_names, doc_page
 
@@ -176,6 +177,7 @@ def _load(target: str) -> Callable[[Sequence[str] | None], int]:
         if paused:
             gc.freeze()
             gc.enable()
+    interrupts.raise_swallowed_ctrl_c()  # C code's initialisation may swallow a Ctrl-C
     return main
 
 

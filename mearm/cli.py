@@ -699,6 +699,7 @@ def run(main: Callable[[Sequence[str] | None], int], argv: Sequence[str] | None 
     args = list(sys.argv[1:] if argv is None else argv)
     debug = "--debug" in args or os.environ.get("MEARM_DEBUG", "") not in ("", "0")
     interrupts.install()  # a Ctrl-C inside a finalizer is not lost
+    uncount = interrupts.count_ctrl_c()  # and one a library swallows is raised again
     signals_before = interrupts.stop_signals_noted()
     stdout = sys.stdout  # None: started with standard output closed (>&-)
     if stdout is not None:
@@ -707,11 +708,13 @@ def run(main: Callable[[Sequence[str] | None], int], argv: Sequence[str] | None 
     try:
         try:
             with interrupts.stop_signals_as_ctrl_c():  # SIGTERM, SIGHUP: in every command
+                interrupts.raise_swallowed_ctrl_c()  # one C code swallowed in an import
                 code = main(argv)
         except SystemExit as stop:  # argparse's --help: what it printed must arrive too
             code = stop.code  # the same exit, once standard output is flushed
         except Exception as exc:
             stopped = interrupts.stop_signals_noted() > signals_before  # one came meanwhile
+            stopped = stopped or interrupts.ctrl_c_unanswered()  # C code swallowed one
             if not (stopped or interrupts.hidden_in(exc)):
                 raise
             raise KeyboardInterrupt from exc  # a Ctrl-C a library turned into an error
@@ -744,6 +747,8 @@ def run(main: Callable[[Sequence[str] | None], int], argv: Sequence[str] | None 
             )
     finally:
         sys.stdout = stdout
+        interrupts.answered()  # this run's Ctrl-Cs are done with, whatever became of them
+        uncount()
     _flush_or_drop_output()
     interrupts.clear_python_exit_by_signal()  # this status, also after a Ctrl-C in an import
     sys.exit(code)

@@ -25,6 +25,13 @@ chose its exit status does not change that status (:func:`clear_python_exit_by_s
 A block that must not be cut in two (renames that swap one set of files for another,
 freeing a GL context) takes Ctrl-C and the stop signals after it
 (:func:`signals_deferred`).
+
+C code can swallow a Ctrl-C outright: NumPy's random generators, Cython modules that
+``import numpy.random`` loads on first use, clear the KeyboardInterrupt raised while they
+initialise, and the sort ran all twelve picks and exited 0 after a Ctrl-C at its start
+(one run in 25 on a loaded machine). So every command counts its Ctrl-Cs
+(:func:`count_ctrl_c`), and where a command is about to start work or motion it raises a
+Ctrl-C that was counted but never reached mearm's code (:func:`raise_swallowed_ctrl_c`).
 """
 
 from __future__ import annotations
@@ -57,6 +64,8 @@ DEFERRED_SIGNALS: tuple[signal.Signals, ...] = (signal.SIGINT, *STOP_SIGNALS)
 _received: list[int] = []
 #: The stop signals taken as Ctrl-C now (inside :func:`stop_signals_as_ctrl_c`).
 _taken: set[int] = set()
+#: Ctrl-Cs counted (:func:`count_ctrl_c`), and how many of them mearm's code has seen.
+_ctrl_cs = {"counted": 0, "answered": 0}
 
 
 class Terminated(KeyboardInterrupt):
@@ -69,6 +78,69 @@ class Terminated(KeyboardInterrupt):
     def __init__(self, signum: int):
         super().__init__(signal.Signals(signum).name)
         self.signum = signum
+
+
+def count_ctrl_c() -> Callable[[], None]:
+    """Count every Ctrl-C from now; what puts Python's own handler back.
+
+    The count is kept by a handler that does what Python's own does (raise
+    KeyboardInterrupt) and counts first, so a Ctrl-C a library swallows is still known
+    (:func:`raise_swallowed_ctrl_c`). Only in the main thread (only it may set handlers)
+    and only where Python's own handler is in place: a program's own handler, or an
+    ignored Ctrl-C, stays as it is (then nothing is counted, and nothing restored).
+    """
+    if (
+        threading.current_thread() is not threading.main_thread()
+        or signal.getsignal(signal.SIGINT) is not signal.default_int_handler
+    ):
+        return lambda: None
+    signal.signal(signal.SIGINT, _counted_ctrl_c)
+
+    def restore() -> None:
+        if signal.getsignal(signal.SIGINT) is _counted_ctrl_c:
+            signal.signal(signal.SIGINT, signal.default_int_handler)
+
+    return restore
+
+
+def _counted_ctrl_c(signum: int, frame: FrameType | None) -> None:
+    _ctrl_cs["counted"] += 1
+    raise KeyboardInterrupt
+
+
+def answered() -> None:
+    """Every Ctrl-C counted so far has reached mearm's code as a KeyboardInterrupt.
+
+    Called where one is caught and acted on (the sorter's stop, the guard's exit), so
+    that :func:`raise_swallowed_ctrl_c` does not raise it a second time.
+    """
+    _ctrl_cs["answered"] = _ctrl_cs["counted"]
+
+
+def ctrl_c_unanswered() -> bool:
+    """Whether a Ctrl-C was counted that mearm's code has not seen (C code swallowed it).
+
+    An error that ends a command after such a Ctrl-C is taken for it, as one after a
+    stop signal is (:func:`stop_signals_noted`): C code that swallows a Ctrl-C may fail
+    for it too (a Cython module: "Failed to import 'zlib.decompress' - cannot initialise
+    module strings").
+    """
+    return _ctrl_cs["counted"] > _ctrl_cs["answered"]
+
+
+def raise_swallowed_ctrl_c() -> None:
+    """Raise KeyboardInterrupt for a Ctrl-C that was counted and never reached mearm's code.
+
+    Called where a command is about to start its work or move the arm: a Ctrl-C that
+    C code swallowed on the way (:mod:`mearm.interrupts`) stops the command there, as it would
+    have where it came.
+
+    Raises:
+        KeyboardInterrupt: a Ctrl-C came since the last one mearm's code saw.
+    """
+    if ctrl_c_unanswered():
+        answered()
+        raise KeyboardInterrupt
 
 
 def named(exc: KeyboardInterrupt) -> str:
@@ -191,6 +263,7 @@ def guard_program_start() -> None:
     else:
         prog = f"python -m {name}"
     sys.excepthook = _interrupted_hook(prog, sys.excepthook)
+    count_ctrl_c()  # from the program's first import: its guard raises one swallowed there
 
 
 def _prog_now(prog: str) -> str:

@@ -17,7 +17,7 @@ import numpy as np
 
 from mearm.config import Config, SceneObject
 from mearm.hardware.errors import ServoError
-from mearm.interrupts import named
+from mearm.interrupts import answered, named
 from mearm.runlog import RunLog
 from mearm.task import SortAborted, random_scene, run_sort
 from mearm.task.rig import open_rig
@@ -281,6 +281,7 @@ def run_trial(
         except SortAborted as exc:
             result = TrialResult(number, reason=exc.reason, interrupted=exc.interrupted)
         except KeyboardInterrupt as exc:  # before the sort started; run_sort logged it if so
+            answered()
             result = TrialResult(number, reason=f"interrupted ({named(exc)})", interrupted=True)
         except (CameraError, ServoError) as exc:
             result = TrialResult(number, reason=str(exc), error=str(exc))

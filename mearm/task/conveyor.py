@@ -382,6 +382,8 @@ class ConveyorSorter(Sorter):
             SortAborted: camera or servo failure, or Ctrl-C; the reason is logged first.
         """
         try:
+            # before each motion the loop starts: a Ctrl-C C code swallowed stops it too
+            interrupts.raise_swallowed_ctrl_c()
             if not self.bus.is_connected:
                 self.bus.connect()
             self.executor.home_pose()
@@ -390,6 +392,7 @@ class ConveyorSorter(Sorter):
                 states = self._observe()
                 chosen = self._choose_track(states)
                 if chosen is not None:
+                    interrupts.raise_swallowed_ctrl_c()
                     self._recorded_catch(*chosen)
                     self._observe()
                     self._home()
@@ -409,6 +412,7 @@ class ConveyorSorter(Sorter):
         except MearmError as exc:
             self._stop_on_fault(exc)
         except KeyboardInterrupt as exc:  # Ctrl-C, or SIGTERM/SIGHUP taken as one
+            interrupts.answered()
             self._abort(f"interrupted ({interrupts.named(exc)})", park=True, interrupted=True)
         self.reporter.summary(ok=True, outcome=self.outcome(), motion=self.executor.motion)
         return self.report

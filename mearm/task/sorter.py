@@ -437,6 +437,8 @@ class Sorter(PickAndPlace):
             SortAborted: camera or servo failure, or Ctrl-C; the reason is logged first.
         """
         try:
+            # before each motion the loop starts: a Ctrl-C C code swallowed stops it too
+            interrupts.raise_swallowed_ctrl_c()
             if not self.bus.is_connected:
                 self.bus.connect()
             self.executor.home_pose()
@@ -462,6 +464,7 @@ class Sorter(PickAndPlace):
                 if obj is None:
                     break
                 looked_aside = self.arm_view is None
+                interrupts.raise_swallowed_ctrl_c()
                 self._recorded_pick(obj)
             else:  # a table that never clears (flickering detections?): stop, say so
                 for obj in self._objects:
@@ -478,6 +481,7 @@ class Sorter(PickAndPlace):
         except MearmError as exc:
             self._stop_on_fault(exc)
         except KeyboardInterrupt as exc:
+            interrupts.answered()
             self._abort(f"interrupted ({interrupts.named(exc)})", park=True, interrupted=True)
         self.reporter.summary(ok=True, outcome=self.outcome(), motion=self.executor.motion)
         return self.report
@@ -636,6 +640,7 @@ class Sorter(PickAndPlace):
                 self._home(keep_grip=True)
                 parked = "; arm parked at home"
             except (MearmError, KeyboardInterrupt) as exc:
+                interrupts.answered()  # a second Ctrl-C: parking stops here
                 why = str(exc) if isinstance(exc, MearmError) else f"{interrupts.named(exc)} again"
                 parked = f"; parking failed ({why})"
                 bus.stop()

@@ -1,0 +1,113 @@
+"""A Ctrl-C that C code swallows still stops the command: counted, and raised before motion.
+
+NumPy's random generators are Cython modules that ``import numpy.random`` initialises on
+first use, in the middle of a sort's start; a Ctrl-C that lands there can be cleared by
+their initialisation, and the sort ran its twelve picks and exited 0 (one run in 25 on
+a loaded machine, ``tests/test_ctrl_c_at_start.py``). Here a library that swallows the
+Ctrl-C stands at a module the sort imports while it runs (an audit hook on its import:
+the same place, every time): the interpreter, the signal and the sort are real.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import pytest
+
+from mearm import interrupts
+
+#: A module the kinematic sort imports while it runs, after its guard is in place.
+IMPORTED_IN_THE_RUN = "mearm.sim.kinematic.table_camera"
+
+#: ``mearm sort --config sim`` (the console script's way: the dispatcher in this
+#: process) with a library that swallows a real Ctrl-C as that module is imported, then
+#: either goes on (``swallow``) or fails for it, as a Cython module's initialisation can
+#: ("Failed to import 'zlib.decompress' - cannot initialise module strings").
+PROGRAM = textwrap.dedent(
+    """
+    import os, signal, sys, time
+
+    HOW, MODULE = sys.argv[1], sys.argv[2]
+    done = []
+
+    def library(event, args):
+        if event != "import" or args[0] != MODULE or done:
+            return
+        done.append(MODULE)
+        try:
+            os.kill(os.getpid(), signal.SIGINT)
+            time.sleep(5)  # the handler's KeyboardInterrupt ends the wait at once
+        except KeyboardInterrupt:
+            if HOW == "fail":
+                raise ImportError("Failed to import 'zlib.decompress'") from None
+        print("the library swallowed a Ctrl-C", file=sys.stderr, flush=True)
+
+    sys.addaudithook(library)
+    sys.argv = ["mearm", "sort", "--config", "sim"]
+    from mearm.__main__ import main
+    main()
+    """
+)
+
+
+def _run(how: str, tmp_path: Path) -> subprocess.CompletedProcess[str]:
+    env = {**os.environ, "MEARM_STATE_DIR": str(tmp_path / "state")}
+    return subprocess.run(
+        [sys.executable, "-c", PROGRAM, how, IMPORTED_IN_THE_RUN],
+        cwd=tmp_path, env=env, capture_output=True, text=True, timeout=300,
+    )  # fmt: skip
+
+
+def test_a_ctrl_c_a_library_swallows_at_the_start_stops_the_sort_before_any_pick(tmp_path):
+    """Counted when it came, raised where the sorter starts: exit 130, no pick made."""
+    proc = _run("swallow", tmp_path)
+    assert "the library swallowed a Ctrl-C" in proc.stderr, proc.stderr
+    assert proc.returncode == 130, (proc.returncode, proc.stdout[-2000:], proc.stderr[-2000:])
+    assert "interrupted (Ctrl-C)" in proc.stderr, proc.stderr
+    assert "Traceback" not in proc.stderr
+    picks = [line for line in proc.stdout.splitlines() if line.startswith(("pick", "place"))]
+    assert picks == [], picks
+    assert not (tmp_path / "state" / "crash.log").exists()
+
+
+def test_an_error_c_code_makes_of_a_swallowed_ctrl_c_is_that_ctrl_c(tmp_path):
+    """The library fails for the Ctrl-C it swallowed: interrupted, 130, no crash record."""
+    proc = _run("fail", tmp_path)
+    assert proc.returncode == 130, (proc.returncode, proc.stderr[-2000:])
+    assert proc.stderr.strip().splitlines()[-1] == "mearm sort: interrupted", proc.stderr
+    assert "unexpected error" not in proc.stderr
+    assert not (tmp_path / "state" / "crash.log").exists()
+
+
+def test_a_counted_ctrl_c_is_raised_once_where_it_was_swallowed():
+    """In this process: a real SIGINT eaten by a library is raised by the check, once;
+    one that reached mearm's code (answered) is not raised again; the handler goes back."""
+    before = signal.getsignal(signal.SIGINT)  # a test runner's worker may ignore Ctrl-C
+    signal.signal(signal.SIGINT, signal.default_int_handler)
+    restore = interrupts.count_ctrl_c()
+    try:
+        interrupts.raise_swallowed_ctrl_c()  # nothing counted yet: nothing raised
+        try:
+            os.kill(os.getpid(), signal.SIGINT)
+            signal.sigtimedwait  # noqa: B018 - an instruction for the handler to run at
+            pytest.fail("the Ctrl-C did not raise KeyboardInterrupt")
+        except KeyboardInterrupt:
+            pass  # swallowed, as a library would
+        with pytest.raises(KeyboardInterrupt):
+            interrupts.raise_swallowed_ctrl_c()
+        interrupts.raise_swallowed_ctrl_c()  # raised once: not again
+        with pytest.raises(KeyboardInterrupt):
+            os.kill(os.getpid(), signal.SIGINT)
+            signal.sigtimedwait  # noqa: B018
+        interrupts.answered()  # this one reached its catcher
+        interrupts.raise_swallowed_ctrl_c()
+        restore()
+        assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    finally:
+        restore()
+        signal.signal(signal.SIGINT, before)
