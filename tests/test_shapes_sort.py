@@ -158,11 +158,11 @@ def test_a_cube_held_by_its_corners_stays_in_the_jaws_to_its_bin() -> None:
     """The shapes twin, a random scene (seed 812006) whose third red cube, gripped across
     its corners, the base's full jolt over the bin (4000 °/s²) threw out of the jaws and
     18 cm past the bin's wall (8 of 9 in their bins): carried at the config's
-    ``task.carry_accel_deg_s2`` (1000 °/s²) every object rests in its bin."""
+    ``task.carry_accel_deg_s2`` (500 °/s²; 1000 °/s² kept it too) every object rests in its bin."""
     from mearm.task.scene import random_scene
 
     config = load_config(TWIN)
-    assert config.task.carry_accel_deg_s2 == 1000.0
+    assert config.task.carry_accel_deg_s2 == 500.0
     scene = random_scene(config, 9, 812006)
     report, in_bins = _twin_sort(config, scene)
     assert report.complete and len(in_bins) == 9
