@@ -5,6 +5,7 @@ from __future__ import annotations
 import contextlib
 import io
 import os
+import resource
 import shutil
 import signal
 import subprocess
@@ -525,8 +526,8 @@ def costliest_modules_first(items: list[pytest.Item]) -> None:
 
 
 def pytest_terminal_summary(terminalreporter: pytest.TerminalReporter) -> None:
-    """What a full run needs that this machine lacks, and how many bad-input promises the
-    run checked and kept (tests/badinput.py)."""
+    """What a full run needs that this machine lacks, how many bad-input promises the run
+    checked and kept (tests/badinput.py), and with ``--cpu-top N`` where its CPU went."""
     needs: dict[str, int] = {}
     for report in terminalreporter.stats.get("skipped", []):
         reason = str(report.longrepr[2]) if isinstance(report.longrepr, tuple) else ""
@@ -547,6 +548,7 @@ def pytest_terminal_summary(terminalreporter: pytest.TerminalReporter) -> None:
             f"bad-input corpus: {kept['promises']} promises kept in {kept['checks']} checks "
             "(exit code, one stderr line, no traceback, time bound, files intact)"
         )
+    _write_cpu_top(terminalreporter)
 
 
 #: The bad-input counts the xdist workers reported, on the controller's config.
@@ -563,20 +565,94 @@ def _bad_input_kept(config: pytest.Config) -> dict[str, int]:
 
 
 def pytest_sessionfinish(session: pytest.Session) -> None:
-    """An xdist worker hands its bad-input counts to the controller (its workeroutput)."""
+    """An xdist worker hands its bad-input counts and its CPU by test file to the controller
+    (its workeroutput)."""
     workeroutput = getattr(session.config, "workeroutput", None)
     badinput = sys.modules.get("badinput")
     if workeroutput is not None and badinput is not None:
         workeroutput["bad_input_kept"] = dict(badinput.KEPT)
+    if workeroutput is not None:
+        workeroutput["cpu_by_file"] = session.config.stash.get(_CPU_BY_FILE, {})
 
 
 @pytest.hookimpl(optionalhook=True)
 def pytest_testnodedown(node: Any, error: object) -> None:
-    """The xdist controller adds up the counts each worker reported as it finished."""
+    """The xdist controller adds up the counts and the CPU each worker reported as it
+    finished."""
     kept = getattr(node, "workeroutput", {}).get("bad_input_kept", {})
     total = node.config.stash.setdefault(_WORKERS_KEPT, {"checks": 0, "promises": 0})
     for k in total:
         total[k] += kept.get(k, 0)
+    cpu = node.config.stash.setdefault(_CPU_BY_FILE, {})
+    for path, row in getattr(node, "workeroutput", {}).get("cpu_by_file", {}).items():
+        cpu[path] = [a + b for a, b in zip(cpu.get(path, [0.0, 0.0, 0]), row, strict=True)]
+
+
+# ------------------------------------------------------------------- where the CPU goes
+
+#: Per test file: CPU seconds in the test's process, CPU seconds of the child processes it
+#: waited for, and the tests run (``--cpu-top``).
+_CPU_BY_FILE = pytest.StashKey[dict[str, list[float]]]()
+
+
+def pytest_addoption(parser: pytest.Parser) -> None:
+    """``--cpu-top N``: where the suite's CPU went, by test file (``make test``: 15)."""
+    parser.addoption(
+        "--cpu-top",
+        type=int,
+        default=0,
+        metavar="N",
+        help="after the run, the N test files that used the most CPU: in the test's own "
+        "process and in the child processes it waited for (0: none)",
+    )
+
+
+def _cpu_now() -> tuple[float, float]:
+    """This process's CPU time and that of the child processes it waited for [s]."""
+    kids = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return time.process_time(), kids.ru_utime + kids.ru_stime
+
+
+@pytest.hookimpl(hookwrapper=True)
+def pytest_runtest_protocol(item: pytest.Item, nextitem: pytest.Item | None) -> Iterator[None]:
+    """With ``--cpu-top``: add the test's CPU (setup, call and teardown) to its file's.
+
+    On 2 cores the suite's wall time follows its CPU, not each test's wall time (a test
+    that waits for a board or a signal leaves the cores to the other workers), so this is
+    the measure to cut by (the ``make test`` line of issue 41: at most 4 minutes).
+    """
+    if not item.config.getoption("cpu_top"):
+        yield
+        return
+    before = _cpu_now()
+    yield
+    after = _cpu_now()
+    row = item.config.stash.setdefault(_CPU_BY_FILE, {}).setdefault(item.location[0], [0.0, 0.0, 0])
+    row[0] += after[0] - before[0]
+    row[1] += after[1] - before[1]
+    row[2] += 1
+
+
+def _write_cpu_top(terminalreporter: pytest.TerminalReporter) -> None:
+    """The ``--cpu-top`` table: the files that used the most CPU, and the run's total."""
+    top = terminalreporter.config.getoption("cpu_top")
+    cpu = terminalreporter.config.stash.get(_CPU_BY_FILE, {})
+    if not top or not cpu:
+        return
+    own = sum(row[0] for row in cpu.values())
+    kids = sum(row[1] for row in cpu.values())
+    terminalreporter.write_sep("=", f"CPU by test file, the {min(top, len(cpu))} that used most")
+    terminalreporter.write_line(
+        f"{own + kids:.1f} s of CPU in {sum(int(row[2]) for row in cpu.values())} tests: "
+        f"{own:.1f} s in the tests' processes, {kids:.1f} s in the child processes they "
+        "waited for (collection and xdist's own work not counted)"
+    )
+    ranked = sorted(cpu.items(), key=lambda kv: -(kv[1][0] + kv[1][1]))[:top]
+    for path, (mine, theirs, count) in ranked:
+        terminalreporter.write_line(
+            f"{mine + theirs:7.1f} s  ({mine:6.1f} + {theirs:5.1f} in children)  "
+            f"{int(count):4d} tests  {path}"
+        )
 
 
 # --------------------------------------------------------------------------- the firmware
