@@ -372,7 +372,8 @@ def _sort(argv: Sequence[str] | None) -> int:
     args = parser.parse_args(argv)
     _check_arguments(parser, args)
     config = config_from_args(args)
-    consistency = check_consistency(config)  # before the scene, the log or any output
+    # before the scene, the log or any output (the view's reach surveyed for its note)
+    consistency = check_consistency(config, notes=not args.quiet)
     _check_work_area(config)
     calibrate_first = _calibrate_first(config, args.save_calibration)
     scene = scene_from_args(args, config)

@@ -15,12 +15,28 @@ from mearm.task.check import check_consistency
 @pytest.mark.parametrize("name", REFERENCE_CONFIGS)
 @pytest.mark.heavy
 def test_reference_configs_are_consistent(name):
-    found = check_consistency(load_config(ROOT / "configs" / name))
+    found = check_consistency(load_config(ROOT / "configs" / name), notes=True)
     # the MeArm v1's elbow servo turns the forearm only within ±75° of level (its pulse
     # range, on shoulder + elbow): at the pick height it reaches a band 16–20 cm out,
     # a fifth of its camera's 24 × 18 cm view, and says so in a note
     most = 0.85 if name.startswith("sim_mearm_v1") else 0.6
-    assert found.pick_z_cm and all(0 <= s < most for s in found.unreachable_share.values())
+    shares = found.unreachable_share
+    assert found.pick_z_cm and set(shares) == {round(z, 6) for z in found.pick_z_cm.values()}
+    assert all(0 <= s < most for s in shares.values())
+
+
+def test_the_survey_of_the_view_is_made_for_the_notes_only(monkeypatch):
+    """Without ``notes`` the check stops at the first point of the view reached (its
+    failure needs no more); the survey is made when the notes are asked for, also after."""
+    from mearm.task import check
+
+    monkeypatch.setattr(check, "_CACHE", {})  # (another test may have surveyed it)
+    config = load_config(ROOT / "configs" / "sim_mearm_v1.yaml")
+    quiet = check_consistency(config)
+    assert quiet.pick_z_cm and not quiet.unreachable_share and not quiet.notes
+    said = check_consistency(config, notes=True)
+    assert said.unreachable_share and len(said.notes) == 1  # a fifth of its view reached
+    assert check_consistency(config) is said  # the survey serves the quiet ones too
 
 
 def test_a_bin_out_of_reach_is_named_with_its_value():

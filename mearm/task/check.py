@@ -6,8 +6,9 @@ solving it: every class's bin is reached from home within the limits; the jaws c
 the object (the grip height within the object's height plus the jaws' length); every
 class's pick height (derived from the object's height, the grip height and the tool's geometry) lies
 in the target box and is reached somewhere in it; and how much of the camera's
-view of the table the arm cannot reach, said once (none of it reached is a failure: the
-sort would find nothing to do); at home, no part of the tool below the table. Home itself
+view of the table the arm cannot reach, said once (surveyed only for a sort that prints
+its notes; none of it reached is a failure: the sort would find nothing to do); at home,
+no part of the tool below the table. Home itself
 needs no solve: the arm
 goes home along a straight line in joint space, inside the limits by construction.
 
@@ -53,8 +54,9 @@ class Consistency:
     Attributes:
         pick_z_cm: Per class, the TCP height of its picks [cm].
         unreachable_share: Per pick height [cm], the share of the camera's view of the
-            table the arm cannot pick from (0–1).
-        notes: Lines to show once before the run.
+            table the arm cannot pick from (0–1); surveyed only for the notes
+            (:func:`check_consistency`'s ``notes``), else empty.
+        notes: Lines to show once before the run (with ``notes``).
         warnings: Lines for standard error before the run, each after ``PROG: warning:``
             (:func:`~mearm.config.files.unit_warning`: an arm whose lengths look like mm
             or angles like radians is valid, but not the arm that was built).
@@ -66,13 +68,21 @@ class Consistency:
     warnings: list[str] = field(default_factory=list)
 
 
-_CACHE: dict[str, Consistency] = {}
+#: Per config: what the check found, and whether it surveyed the view (``notes``).
+_CACHE: dict[str, tuple[Consistency, bool]] = {}
 
 
-def check_consistency(config: Config, model: ArmModel | None = None) -> Consistency:
+def check_consistency(
+    config: Config, model: ArmModel | None = None, *, notes: bool = False
+) -> Consistency:
     """Solve what the config promises; raise on what cannot hold.
 
-    Results are cached per config (a run of many trials checks once).
+    ``notes``: also survey how much of the camera's view is out of reach at each pick
+    height (:attr:`Consistency.unreachable_share` and its note), planning a pick from home
+    at each of its points; without, the survey stops at the first point reached, which is
+    all the failures need (a view holding none), and the share and the note stay unsaid.
+    Only a sort that prints its notes asks for them. Results are cached per config (a run
+    of many trials checks once); one without the survey is made again when asked for it.
 
     Raises:
         ConfigError: an ``arm.closed_form`` the arm cannot use, a bin that cannot be
@@ -81,8 +91,8 @@ def check_consistency(config: Config, model: ArmModel | None = None) -> Consiste
             value (led by the arm's unit hints, :func:`~mearm.config.loader.unit_hints`).
     """
     key = hashlib.sha256(config.model_dump_json().encode()).hexdigest()
-    if key in _CACHE:
-        return _CACHE[key]
+    if key in _CACHE and (_CACHE[key][1] or not notes):
+        return _CACHE[key][0]
     check_closed_form(config)  # named with the config's source, before a solver stops on it
     model = model if model is not None else ArmModel(config.arm)
     planner = Planner(config, model)
@@ -126,6 +136,9 @@ def check_consistency(config: Config, model: ArmModel | None = None) -> Consiste
                 "the box and the pick height (grip height + arm.tool.tcp_above_grip_cm)"
             )
             continue
+        if not notes:  # the failure needs one point reached, at any height
+            reached_anywhere = reached_anywhere or any(_reached(planner, model, names[0], view_cm))
+            continue
         reached = np.fromiter(_reached(planner, model, names[0], view_cm), bool, len(view_cm))
         reached_anywhere |= bool(reached.any())
         share = 1.0 - float(np.mean(reached))
@@ -151,7 +164,7 @@ def check_consistency(config: Config, model: ArmModel | None = None) -> Consiste
         # an arm in mm or radians fails here first: the hint names what the problems show
         hints = unit_hints(config.model_dump(mode="json"))
         raise ConfigError(config_source(config), [*hints, *problems])
-    _CACHE[key] = found
+    _CACHE[key] = (found, notes)
     return found
 
 
