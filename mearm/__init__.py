@@ -28,6 +28,9 @@ if sys.platform.startswith("linux") and not os.environ.get("DISPLAY"):
 # An arm's matrices are 3×3 to 6×n: OpenBLAS's thread pool only spins on them (measured:
 # 0.2 s of CPU in a 0.9 s simulated sort, 0.07 s of it starting the pool at NumPy's
 # import). One thread, unless the user chose; no effect if NumPy was imported first.
+#: Whether the one thread is mearm's choice (the variable was unset): the programs this
+#: process starts inherit it, which ``mearm bench`` undoes to time a peer as a shell runs it.
+_OPENBLAS_THREAD_SET_HERE = "OPENBLAS_NUM_THREADS" not in os.environ
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 from mearm._lazy import lazy_exports  # noqa: E402

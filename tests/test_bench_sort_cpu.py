@@ -1,5 +1,6 @@
 """The bench's sort-cpu section: each line beside its peer, the ratio beside its target."""
 
+import mearm
 from mearm.tools import bench
 from mearm.tools.bench import BenchOptions
 from mearm.tools.benchmarks import sort_cpu
@@ -29,6 +30,30 @@ def test_sort_cpu_rows_put_the_sort_beside_its_dependencies(monkeypatch):
     assert rows["import mearm.config beyond its dependencies: CPU"].value == 0.5 - 0.4
     assert any("sim_5dof" in c for c in calls)
     assert not any("EXIT STATUS" in r.note for r in rows.values())
+    assert rows[sort_cpu.PEER_KEY].value == 0.4
+    assert "no target" in rows["sim sort CPU / the peer as a shell runs it"].note
+
+
+def test_the_shell_peer_runs_without_the_thread_mearm_chose(monkeypatch):
+    """The peer's child inherits the one OpenBLAS thread importing mearm set; the shell
+    peer's does not, unless the user had set it before (then it is theirs, and kept)."""
+    envs: dict[str, list[dict[str, str]]] = {}
+
+    def fake_child(argv, env):
+        envs.setdefault(" ".join(argv), []).append(dict(env))
+        return 0.5, 1.0, 0
+
+    monkeypatch.setattr(sort_cpu, "child_seconds", fake_child)
+    monkeypatch.setenv("OPENBLAS_NUM_THREADS", "1")
+    for set_here, shell_threads in ((True, None), (False, "1")):
+        envs.clear()
+        monkeypatch.setattr(mearm, "_OPENBLAS_THREAD_SET_HERE", set_here)
+        bench.bench_sort_cpu(BenchOptions(repeat=1))
+        peer = envs[" ".join(bench.DEPS_ARGV)]
+        assert len(peer) == 2 * sort_cpu.SORT_CPU_RUNS  # the peer and the shell peer
+        threads = [env.get("OPENBLAS_NUM_THREADS") for env in peer]
+        assert threads.count("1") == sort_cpu.SORT_CPU_RUNS * (1 if set_here else 2)
+        assert shell_threads in threads
 
 
 def test_sort_cpu_says_when_a_run_failed(monkeypatch):

@@ -35,7 +35,9 @@ Sections:
     sort-cpu: CPU time (user + sys, median of 3) of the 12-object simulated sort as a
         child process, interpreter start included, with and without the bytecode cache,
         beside its peer, importing its dependencies (numpy, cv2, pinocchio, yaml,
-        pydantic), and the ratio with its target (≤ 2×), the sort's own target (≤ 1 s);
+        pydantic) with the one OpenBLAS thread importing mearm sets, and the ratio with its
+        target (≤ 2×), the sort's own target (≤ 1 s); the same import as a shell runs it
+        (OpenBLAS's own threads, which mearm does not start) and the ratio to it, no target;
         the sort's imports, a bare interpreter and the 5-DOF arm's sort (its start-up
         check solves in a batch); the shares beyond the imports (none made of a failed run).
     motion: the predicted motion time of the paper's 12-object scene (servo speed limits,
