@@ -41,6 +41,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from mearm import interrupts
 from mearm.backends import grab_frame
 from mearm.cli import (
     ArgumentParser,
@@ -320,6 +321,11 @@ def main(argv: Sequence[str] | None = None) -> int:  # noqa: PLR0912 (one branch
         frame = kept if kept is not None else read_image(Path(name))
         _warn_if_odd(name, frame, expected, area_notes[i])
         detections = detector.detect(frame)
+        # about to print this image's answer: a Ctrl-C that C code swallowed meanwhile
+        # (``import numpy.random``, loaded as the simulated camera first draws its noise)
+        # stops here, as it would have where it came; a command with no sorter has no
+        # other point between its work and its output
+        interrupts.raise_swallowed_ctrl_c()
         records = to_records(detections, frame.shape)
         if args.json:
             print(json.dumps(records))
