@@ -31,7 +31,9 @@ C code can swallow a Ctrl-C outright: NumPy's random generators, Cython modules 
 initialise, and the sort ran all twelve picks and exited 0 after a Ctrl-C at its start
 (one run in 25 on a loaded machine). So every command counts its Ctrl-Cs
 (:func:`count_ctrl_c`), and where a command is about to start work or motion it raises a
-Ctrl-C that was counted but never reached mearm's code (:func:`raise_swallowed_ctrl_c`).
+Ctrl-C that was counted but never reached mearm's code (:func:`raise_swallowed_ctrl_c`),
+which loads ``numpy.random`` first, so that a command that would load it in its work
+(``mearm fk``, ``ik``, ``detect``) has it loaded where a Ctrl-C it swallows is raised.
 """
 
 from __future__ import annotations
@@ -39,6 +41,7 @@ from __future__ import annotations
 import _thread
 import atexit
 import contextlib
+import importlib
 import os
 import signal
 import sys
@@ -128,16 +131,27 @@ def ctrl_c_unanswered() -> bool:
     return _ctrl_cs["counted"] > _ctrl_cs["answered"]
 
 
+#: Modules known to swallow a Ctrl-C as they initialise, each loaded on first use once its
+#: package is in (:func:`raise_swallowed_ctrl_c` loads them first).
+SWALLOWING_MODULES = ("numpy.random",)
+
+
 def raise_swallowed_ctrl_c() -> None:
     """Raise KeyboardInterrupt for a Ctrl-C that was counted and never reached mearm's code.
 
     Called where a command is about to start its work or move the arm: a Ctrl-C that
     C code swallowed on the way (:mod:`mearm.interrupts`) stops the command there, as it would
-    have where it came.
+    have where it came. The modules known to swallow one (:data:`SWALLOWING_MODULES`)
+    are imported first, if their package is: one they swallow then is raised here, not
+    lost in the command's work, where ``mearm fk``, ``ik`` and ``detect`` first load
+    ``numpy.random`` and had no later point to raise it before they printed their answer.
 
     Raises:
         KeyboardInterrupt: a Ctrl-C came since the last one mearm's code saw.
     """
+    for name in SWALLOWING_MODULES:
+        if name not in sys.modules and name.partition(".")[0] in sys.modules:
+            importlib.import_module(name)
     if ctrl_c_unanswered():
         answered()
         raise KeyboardInterrupt

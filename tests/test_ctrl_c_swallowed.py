@@ -57,11 +57,14 @@ PROGRAM = textwrap.dedent(
 
 
 def _run(
-    how: str, tmp_path: Path, command: tuple[str, ...] = ("sort", "--config", "sim")
+    how: str,
+    tmp_path: Path,
+    command: tuple[str, ...] = ("sort", "--config", "sim"),
+    module: str = IMPORTED_IN_THE_RUN,
 ) -> subprocess.CompletedProcess[str]:
     env = {**os.environ, "MEARM_STATE_DIR": str(tmp_path / "state")}
     return subprocess.run(
-        [sys.executable, "-c", PROGRAM, how, IMPORTED_IN_THE_RUN, *command],
+        [sys.executable, "-c", PROGRAM, how, module, *command],
         cwd=tmp_path, env=env, capture_output=True, text=True, timeout=300,
     )  # fmt: skip
 
@@ -87,6 +90,23 @@ def test_a_ctrl_c_swallowed_before_a_command_prints_its_answer_stops_it(tmp_path
     assert "the library swallowed a Ctrl-C" in proc.stderr, proc.stderr
     assert (proc.returncode, proc.stdout) == (130, ""), (proc.returncode, proc.stdout[-2000:])
     assert proc.stderr.strip().splitlines()[-1] == "mearm detect: interrupted", proc.stderr
+    assert not (tmp_path / "state" / "crash.log").exists()
+
+
+@pytest.mark.parametrize(
+    "command",
+    [("fk", "--config", "sim", "--joints", "120,93,-132"),
+     ("ik", "--config", "sim", "--target", "-10.99,49.70,12.76")],
+    ids=["fk", "ik"],
+)  # fmt: skip
+def test_a_ctrl_c_numpy_random_swallows_as_it_loads_stops_the_command(tmp_path, command):
+    """``numpy.random`` is loaded where a swallowed Ctrl-C is looked for, before the
+    command's work: one it swallows as it initialises stops ``mearm fk`` and ``ik``, which
+    loaded it in their work and then printed their answer and exited 0."""
+    proc = _run("swallow", tmp_path, command, module="numpy.random._generator")
+    assert "the library swallowed a Ctrl-C" in proc.stderr, proc.stderr
+    assert (proc.returncode, proc.stdout) == (130, ""), (proc.returncode, proc.stdout[-2000:])
+    assert proc.stderr.strip().splitlines()[-1] == f"mearm {command[0]}: interrupted"
     assert not (tmp_path / "state" / "crash.log").exists()
 
 
