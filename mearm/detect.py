@@ -321,10 +321,10 @@ def main(argv: Sequence[str] | None = None) -> int:  # noqa: PLR0912 (one branch
         frame = kept if kept is not None else read_image(Path(name))
         _warn_if_odd(name, frame, expected, area_notes[i])
         detections = detector.detect(frame)
-        # about to print this image's answer: a Ctrl-C that C code swallowed meanwhile
-        # (``import numpy.random``, loaded as the simulated camera first draws its noise)
-        # stops here, as it would have where it came; a command with no sorter has no
-        # other point between its work and its output
+        # about to print this image's answer: a Ctrl-C that C code swallowed meanwhile (a
+        # module initialised on first use, as ``numpy.random`` was by the simulated camera
+        # before the start's checkpoint loaded it) stops here, as it would have where it
+        # came; a command with no sorter has no other point between its work and its output
         interrupts.raise_swallowed_ctrl_c()
         records = to_records(detections, frame.shape)
         if args.json:
