@@ -65,3 +65,5 @@ def test_sort_cpu_says_when_a_run_failed(monkeypatch):
         for r in rows
         if r.name.endswith(": CPU") and "beyond" not in r.name
     )
+    shell = next(r for r in rows if r.name == "sim sort CPU / the peer as a shell runs it")
+    assert shell.value != shell.value and "a run failed" in shell.note  # NaN, and why
