@@ -47,6 +47,7 @@ from mearm.cli import (
 )
 from mearm.config import Config
 from mearm.config.base import MAX_SEED
+from mearm.config.sections import MAX_SCENE_OBJECTS
 from mearm.errors import MearmError
 from mearm.task.report import LEFT_REASONS
 from mearm.task.sorter import SortAborted
@@ -198,8 +199,12 @@ def _twin_scenes(argv: Sequence[str] | None) -> int:
         help="exit 1 below this share sorted (0…1; default 0: report only)",
     )
     args = parser.parse_args(argv)
-    if args.scenes < 1 or args.objects < 1 or not 0 <= args.require <= 1:
-        raise MearmError("--scenes and --objects must be ≥ 1 and --require in [0, 1]")
+    if args.scenes < 1:
+        raise MearmError(f"--scenes must be ≥ 1, got {args.scenes}")
+    if not 1 <= args.objects <= MAX_SCENE_OBJECTS:
+        raise MearmError(f"--objects must be 1 to {MAX_SCENE_OBJECTS} a scene, got {args.objects}")
+    if not 0 <= args.require <= 1:
+        raise MearmError(f"--require is a share sorted, 0 to 1, got {args.require}")
     if not 0 <= args.first_seed <= MAX_SEED - args.scenes + 1:
         raise MearmError(
             f"--first-seed must be in [0, {MAX_SEED - args.scenes + 1}] for {args.scenes} "
