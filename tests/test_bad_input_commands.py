@@ -65,8 +65,8 @@ CASES: list[tuple[list[str], str]] = [
     (["twin-scenes", "--config", "sim_conveyor"],
      "--config sim_conveyor: it has a belt, whose sort takes only what the belt brings"),
     # servo-steps
-    (["servo-steps", "--degrees", "nan", "--csv", "s.csv"], "--degrees must be in (0, 90]"),
-    (["servo-steps", "--degrees", "0", "--csv", "s.csv"], "--degrees must be in (0, 90]"),
+    (["servo-steps", "--degrees", "nan", "--csv", "s.csv"], "must be in (0, 90], got nan"),
+    (["servo-steps", "--degrees", "10", "0", "--csv", "s.csv"], "(0, 90], got 0"),
     (["servo-steps", "--csv", "{folder}"], "exists and is not a regular file (a folder)"),
     # camera-accuracy
     (["camera-accuracy", "--heights", "x"], "--heights wants numbers like 1,2.5"),

@@ -169,3 +169,16 @@ def test_an_out_that_cannot_be_written_keeps_the_old_file_and_leaves_no_part(
     assert len(lines) == 1 and f"cannot write --out {out}: " in lines[0], err
     assert out.read_bytes() == b"the earlier baseline"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["bc.pt"]
+
+
+@pytest.mark.parametrize("flag", ["--episodes", "--steps", "--batch"])
+@pytest.mark.parametrize("value", ["0", "-3"])
+def test_a_count_under_one_is_named_with_what_it_got(tmp_path, capsys, flag, value):
+    """It said "--episodes, --steps and --batch must be at least 1", not which one."""
+    argv = list(RUN)
+    argv[argv.index(flag) + 1] = value
+    code, err = _bc(capsys, *argv, "--out", tmp_path / "b.pt")
+    lines = err.strip().splitlines()
+    assert code == 2 and len(lines) == 1, err
+    assert lines[0].endswith(f": error: {flag} must be at least 1, got {value}"), err
+    assert not list(tmp_path.iterdir())

@@ -185,8 +185,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         "--force", action="store_true", help="replace an existing --out (a baseline trained before)"
     )
     args = parser.parse_args(argv)
-    if args.episodes < 1 or args.steps < 1 or args.batch < 1:
-        raise MearmError("--episodes, --steps and --batch must be at least 1")
+    for flag, value in (("--episodes", args.episodes), ("--steps", args.steps),
+                        ("--batch", args.batch)):  # fmt: skip
+        if value < 1:
+            raise MearmError(f"{flag} must be at least 1, got {value}")
     if args.out.suffix != ".pt":
         raise MearmError(
             f"--out must end in .pt (eval-policy knows a baseline by it), got {args.out}"

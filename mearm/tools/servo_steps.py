@@ -198,8 +198,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.error("--before is drawn in the plot: use it with --out FILE.png")
     if args.out is not None and args.out.suffix.lower() != ".png":
         parser.error(f"--out {args.out}: the plot is a PNG, so its name ends in .png")
-    if any(not 0 < d <= 90 for d in args.degrees):
-        raise MearmError("--degrees must be in (0, 90]")
+    if bad := [d for d in args.degrees if not 0 < d <= 90]:
+        raise MearmError(f"--degrees must be in (0, 90], got {bad[0]:g}")
     for flag, path in (("--csv", args.csv), ("--out", args.out)):
         if path is not None:  # a missing folder is made when the file is written
             check_output_file(path, flag)
