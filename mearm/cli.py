@@ -710,6 +710,8 @@ def run(main: Callable[[Sequence[str] | None], int], argv: Sequence[str] | None 
             with interrupts.stop_signals_as_ctrl_c():  # SIGTERM, SIGHUP: in every command
                 interrupts.raise_swallowed_ctrl_c()  # one C code swallowed in an import
                 code = main(argv)
+                if code in (0, None):  # and one swallowed after the command's last check:
+                    interrupts.raise_swallowed_ctrl_c()  # its job done, the exit says it came
         except SystemExit as stop:  # argparse's --help: what it printed must arrive too
             code = stop.code  # the same exit, once standard output is flushed
         except Exception as exc:

@@ -193,7 +193,7 @@ def _hold(url: str) -> None:
         while True:
             time.sleep(1.0)
     except KeyboardInterrupt:
-        pass
+        interrupts.answered()  # the Ctrl-C it waits for: the sort's outcome is the exit
 
 
 def _parser() -> ArgumentParser:

@@ -16,11 +16,13 @@ import subprocess
 import sys
 import textwrap
 import time
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 import pytest
 
 from mearm import interrupts
+from mearm.cli import run
 
 #: A module the kinematic sort imports while it runs, after its guard is in place.
 IMPORTED_IN_THE_RUN = "mearm.sim.kinematic.table_camera"
@@ -146,3 +148,49 @@ def test_a_counted_ctrl_c_is_raised_once_where_it_was_swallowed():
     finally:
         restore()
         signal.signal(signal.SIGINT, before)
+
+
+def _swallowing_command(answer: bool) -> Callable[[Sequence[str] | None], int]:
+    """A command whose work ends with C code swallowing a real Ctrl-C, after its checks.
+
+    ``answer``: mearm's own code caught it and acted on it (``interrupts.answered``), as
+    ``mearm sort --hold`` does with the Ctrl-C that closes its view.
+    """
+
+    def main(argv: Sequence[str] | None = None) -> int:
+        try:
+            os.kill(os.getpid(), signal.SIGINT)
+            time.sleep(5)  # the handler's KeyboardInterrupt ends the wait at once
+            pytest.fail("the Ctrl-C did not raise KeyboardInterrupt")
+        except KeyboardInterrupt:
+            if answer:
+                interrupts.answered()
+        print("the answer")
+        return 0
+
+    return main
+
+
+@pytest.mark.parametrize(("answered", "status"), [(False, 130), (True, 0)])
+def test_a_ctrl_c_swallowed_after_the_commands_last_check_is_its_exit(capsys, answered, status):
+    """Swallowed after the last place a command looks for one (its work done, its
+    answer printed), the Ctrl-C still makes the exit: 130 and "interrupted", not 0 as
+    if none had come; one mearm's code answered leaves the command's own exit."""
+    before = signal.getsignal(signal.SIGINT)  # a test runner's worker may ignore Ctrl-C
+    signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        with pytest.raises(SystemExit) as stop:
+            run(_swallowing_command(answered), [])
+    finally:
+        signal.signal(signal.SIGINT, before)
+    out, err = capsys.readouterr()
+    assert (stop.value.code, out) == (status, "the answer\n"), (stop.value.code, out, err)
+    assert err.strip().splitlines() == ([] if answered else [f"{_prog()}: interrupted"]), err
+    assert not interrupts.ctrl_c_unanswered()
+
+
+def _prog() -> str:
+    """The program name the command-line guard prints (this test runner's)."""
+    from mearm.cli import _program_name  # noqa: PLC0415
+
+    return _program_name()
