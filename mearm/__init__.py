@@ -8,18 +8,20 @@ imported on its own.
 
 from __future__ import annotations
 
-import logging
 import os
 import sys
 
-# Run as a program (python -m mearm.sort), a module imports what it needs before its main
-# runs under the guard every command shares (mearm.cli.run): a Ctrl-C there is one line
-# and exit 130 too, not Python's traceback. Only then: a program that imports mearm keeps
-# Python's own handling (mearm.interrupts.guard_program_start).
-if sys.argv[:1] == ["-m"]:  # Python's mark while it imports the packages of a -m module
-    from mearm.interrupts import guard_program_start
+# Run as a program (python -m mearm.sort, or the installed mearm script), a module imports
+# what it needs before its main runs under the guard every command shares (mearm.cli.run):
+# a Ctrl-C there is one line and exit 130 too, not Python's traceback. Only then: a
+# program that imports mearm keeps Python's own handling
+# (mearm.interrupts.guard_program_start). First, so that it holds from mearm's first line.
+if sys.argv[:1] == ["-m"] or os.path.basename(sys.argv[0] if sys.argv else "") == "mearm":
+    from mearm.interrupts import guard_program_start  # ("-m": Python's mark while it
 
-    guard_program_start()
+    guard_program_start()  # imports the packages of a -m module)
+
+import logging  # noqa: E402
 
 # MuJoCo picks its OpenGL backend when it is first imported: without a display, render
 # offscreen with Mesa's EGL (the physical twin's camera) unless the user chose one.

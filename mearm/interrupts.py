@@ -49,10 +49,9 @@ import threading
 import time
 from collections.abc import Callable, Iterator
 from types import FrameType, TracebackType
-from typing import Any
 
 #: What :data:`sys.excepthook` is called with: the type, the exception, its traceback.
-ExceptHook = Callable[[type[BaseException], BaseException, TracebackType | None], Any]
+ExceptHook = Callable[[type[BaseException], BaseException, TracebackType | None], object]
 
 #: How long after a lost Ctrl-C it is sent again [s].
 RESEND_AFTER_S = 0.02
@@ -246,6 +245,21 @@ def module_run_as_program() -> str | None:
     return given.partition("m")[2] if given.startswith("-") else given
 
 
+def script_run_as_program() -> str | None:
+    """``"mearm"`` while the installed ``mearm`` command (pip's script) imports mearm.
+
+    The script is the ``__main__`` module (a file, not a ``python -m`` module, so no
+    ``__spec__``) named ``mearm`` on the command line; ``None`` in any other process.
+    """
+    main = sys.modules.get("__main__")
+    path = getattr(main, "__file__", None)
+    if main is None or getattr(main, "__spec__", None) is not None or not sys.argv:
+        return None
+    if path is None or path != sys.argv[0] or os.path.basename(path) != "mearm":
+        return None
+    return "mearm"
+
+
 def guard_program_start() -> None:
     """Make a Ctrl-C before ``python -m mearm.X``'s main runs one line and exit 130.
 
@@ -266,8 +280,10 @@ def guard_program_start() -> None:
     on a loaded machine, where a process can wait a tenth of a second between two
     lines). Its first argument is taken as the subcommand as typed (``mearm help``
     for ``mearm help detect``) until the dispatcher names it itself (:func:`_prog_now`).
+    The installed ``mearm`` script (:func:`script_run_as_program`) imports the dispatcher
+    before its guard as well: a Ctrl-C in its first 20-30 ms printed Python's traceback.
     """
-    name = module_run_as_program()
+    name = module_run_as_program() or script_run_as_program()
     if name is None or name.partition(".")[0] != "mearm":
         return
     name = name.removesuffix(".__main__")
@@ -476,7 +492,7 @@ def install() -> None:
         return
     previous = sys.unraisablehook
 
-    def hook(unraisable: Any) -> None:
+    def hook(unraisable: sys.UnraisableHookArgs) -> None:
         if unraisable.exc_type is not None and issubclass(unraisable.exc_type, KeyboardInterrupt):
             resend_ctrl_c()
             return

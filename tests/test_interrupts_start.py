@@ -12,6 +12,8 @@ Two holes were left after the guard of ``mearm SUBCOMMAND`` (``tests/test_ctrl_c
 
 from __future__ import annotations
 
+import signal
+import subprocess
 import sys
 from collections.abc import Sequence
 from importlib.machinery import ModuleSpec
@@ -120,3 +122,68 @@ def test_analyze_takes_a_ctrl_c_in_import_scipy_for_the_interrupt(
     err = capsys.readouterr().err.splitlines()
     assert (stop.value.code, len(err)) == (130, 1), err
     assert err[0].endswith(": interrupted"), err
+
+
+#: The installed ``mearm`` script as pip writes it, with a real Ctrl-C sent to itself as
+#: the dispatcher imports ``mearm.cli`` (an audit hook: the same place every time), after
+#: ``import mearm`` and before the guard of :func:`mearm.cli.run` is in place.
+INSTALLED_SCRIPT = """\
+import os, signal, sys, time
+
+signal.signal(signal.SIGINT, signal.default_int_handler)  # as a shell starts it
+
+def ctrl_c_while_the_dispatcher_imports(event, args):
+    if event == "import" and args[0] == "mearm.cli":
+        os.kill(os.getpid(), signal.SIGINT)
+        time.sleep(5)  # the handler's KeyboardInterrupt ends the wait at once
+
+sys.addaudithook(ctrl_c_while_the_dispatcher_imports)
+from mearm.__main__ import main
+if __name__ == '__main__':
+    sys.argv[0] = sys.argv[0].removesuffix('.exe')
+    sys.exit(main())
+"""
+
+
+@pytest.mark.parametrize("name", ["mearm", "not-mearm"])
+def test_ctrl_c_while_the_installed_script_starts_is_one_line_and_130(
+    tmp_path: Path, name: str
+) -> None:
+    """The installed ``mearm`` imports the dispatcher before any guard: a Ctrl-C there (its
+    first 20-30 ms) printed Python's traceback and ended the process by SIGINT (-2). Now
+    ``import mearm`` puts the hook in place for it, as for ``python -m``: ``mearm sort:
+    interrupted``, 130. A script of another name that imports mearm keeps Python's own
+    handling."""
+    script = tmp_path / name
+    script.write_text(INSTALLED_SCRIPT)
+    proc = subprocess.run(
+        [sys.executable, str(script), "sort", "--config", "sim"],
+        cwd=tmp_path, capture_output=True, text=True, timeout=120,
+    )  # fmt: skip
+    if name == "mearm":
+        assert (proc.returncode, proc.stderr) == (130, "mearm sort: interrupted\n"), proc.stderr
+    else:
+        assert proc.returncode == -signal.SIGINT and "KeyboardInterrupt" in proc.stderr
+    assert proc.stdout == ""
+
+
+def test_only_the_script_named_mearm_is_the_program(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The ``__main__`` module a file named ``mearm`` on the command line; not a ``-m``
+    module, not another script, not an interactive session."""
+    script = type(sys)("__main__")
+    script.__file__, script.__spec__ = "/venv/bin/mearm", None
+    monkeypatch.setitem(sys.modules, "__main__", script)
+    monkeypatch.setattr(sys, "argv", ["/venv/bin/mearm", "sort"])
+    assert interrupts.script_run_as_program() == "mearm"
+    monkeypatch.setattr(sys, "argv", ["/venv/bin/other", "sort"])
+    assert interrupts.script_run_as_program() is None
+    monkeypatch.setattr(script, "__file__", "/venv/bin/mearm-tool")
+    monkeypatch.setattr(sys, "argv", ["/venv/bin/mearm-tool"])
+    assert interrupts.script_run_as_program() is None
+    monkeypatch.setattr(script, "__file__", "/x/mearm")
+    monkeypatch.setattr(script, "__spec__", ModuleSpec("mearm", None))
+    monkeypatch.setattr(sys, "argv", ["/x/mearm"])
+    assert interrupts.script_run_as_program() is None
+    monkeypatch.delattr(script, "__file__")
+    monkeypatch.setattr(script, "__spec__", None)
+    assert interrupts.script_run_as_program() is None
