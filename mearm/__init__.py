@@ -15,11 +15,12 @@ import sys
 # what it needs before its main runs under the guard every command shares (mearm.cli.run):
 # a Ctrl-C there is one line and exit 130 too, not Python's traceback. Only then: a
 # program that imports mearm keeps Python's own handling
-# (mearm.interrupts.guard_program_start). First, so that it holds from mearm's first line.
+# (mearm.interrupts.guard_program_start). First, so that it holds from mearm's first
+# line. ("-m" is Python's mark while it imports the packages of a -m module.)
 if sys.argv[:1] == ["-m"] or os.path.basename(sys.argv[0] if sys.argv else "") == "mearm":
-    from mearm.interrupts import guard_program_start  # ("-m": Python's mark while it
+    from mearm.interrupts import guard_program_start
 
-    guard_program_start()  # imports the packages of a -m module)
+    guard_program_start()
 
 import logging  # noqa: E402
 
