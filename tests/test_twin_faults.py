@@ -99,6 +99,10 @@ def test_a_place_with_empty_jaws_fails_and_the_object_is_left_with_its_reason(tm
     assert red == [("pick", True, True), ("place", False, True)]
     (place,) = (line for line in out.splitlines() if line.startswith("place red1"))
     assert "FAILED" in place and " ok " not in place
+    # the line and the log say why: the twin's jaws held nothing of its class over the bin
+    why = "over the bin the jaws held nothing of its class: it was lost on the way"
+    assert place.endswith(f" ms: {why}")
+    assert [r.why_failed for r in trial.routes if r.object_id == "red1"] == [None, why]
     (skip,) = trial.skips
     assert skip.object_id == "red1" and "no longer in the work area" in skip.reason
     assert trial.summary is not None

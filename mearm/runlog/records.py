@@ -161,6 +161,11 @@ class RouteRecord(_Record):
     """Whether ``success`` was found out: a fault (a link lost, Ctrl-C) before the check
     leaves the route unconfirmed, ``success`` false but no failure, and the analysis
     counts it in no success rate (``true`` in logs written before it)."""
+    why_failed: str | None = None
+    """Why a route that ran and was checked did not do its job, one line (a pick: the
+    object still where the jaws closed; a place: nothing of its class brought to the bin,
+    or where a simulator saw it land); ``None`` when it did, was not checked, or in logs
+    written before it."""
     elapsed_s: _Seconds
     motion_s: _Seconds
 

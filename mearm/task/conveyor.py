@@ -43,10 +43,10 @@ import numpy as np
 from mearm import interrupts
 from mearm.config import ColorClass, Config
 from mearm.errors import MearmError
-from mearm.hardware.bus import ReportsRelease, ServoBus
+from mearm.hardware.bus import ServoBus
 from mearm.ik import IKTarget
 from mearm.sim.belt import Belt, belt_arrivals
-from mearm.task.pick_place import holds_its_class
+from mearm.task.pick_place import holds_its_class, place_failure
 from mearm.task.report import Outcome, SortReport
 from mearm.task.route import Route
 from mearm.task.sorter import Sorter, TrackedObject, _hex
@@ -54,6 +54,8 @@ from mearm.task.timing import tool_move_s
 from mearm.vision import Camera
 from mearm.vision.tracking import Track, Tracker, TrackState, whole_sightings
 
+#: Why a pick on the belt failed: over the bin, the camera still tracks the object on.
+BELT_PICK_MISSED = "the camera still sees it on the belt, where it rode on from the grip"
 #: How often the camera is read while the arm waits for an object [s].
 LOOK_PERIOD_S = 0.1
 #: Sightings before a track's velocity is trusted for an intercept.
@@ -351,6 +353,7 @@ class ConveyorSorter(Sorter):
                 for s in (t.state() for t in self.tracker.tracks.values())
                 if s.seen
             )
+            pick.why_failed = None if pick.success else BELT_PICK_MISSED
             pick.confirmed = True
         finally:
             self.reporter.route(pick)
@@ -360,8 +363,8 @@ class ConveyorSorter(Sorter):
             return
         held = holds_its_class(self.bus, obj.class_name)
         ex.set_tool("travel", closed=False)
-        release = self.bus.last_release if isinstance(self.bus, ReportsRelease) else None
-        place.success = held and (release is None or release.bin == obj.class_name)
+        place.why_failed = place_failure(self.bus, obj.class_name, held=held)
+        place.success = place.why_failed is None
         obj.sorted = place.success
         self.reporter.route(ex.finish(place, t1))
 

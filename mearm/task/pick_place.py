@@ -38,6 +38,8 @@ from mearm.task.plan import Planner
 from mearm.task.route import Route
 from mearm.task.table_tracking import TableTracking, TrackedObject
 
+#: Why a pick failed: the camera, looking from over the bin, still sees the object.
+PICK_MISSED = "the camera still sees it where the jaws closed: they did not take it"
 #: The turns of the jaws' opening line tried over a round object whose way down is
 #: refused [deg]: a pad beside a wall or a neighbour swings off it (90°: along it).
 ROUND_TURNS_DEG = (30.0, -30.0, 60.0, -60.0, 90.0)
@@ -475,6 +477,7 @@ class PickAndPlace(TableTracking):
         try:
             ex.stream(place, "travel", closed=True, color=hex_rgb(cls.draw_rgb))
             pick.success = not self._on_table(obj, self._look(track_new=False))
+            pick.why_failed = None if pick.success else PICK_MISSED
             pick.confirmed = True
         finally:
             self.reporter.route(pick)
@@ -500,16 +503,34 @@ class PickAndPlace(TableTracking):
             return
         held = holds_its_class(self.bus, obj.class_name)
         ex.set_tool("travel", closed=False)
-        release = self.bus.last_release if isinstance(self.bus, ReportsRelease) else None
-        place.success = held and (release is None or release.bin == obj.class_name)
+        place.why_failed = place_failure(self.bus, obj.class_name, held=held)
+        place.success = place.why_failed is None
         obj.sorted = place.success
         if place.success:
             obj.places += 1
+        release = self.bus.last_release if isinstance(self.bus, ReportsRelease) else None
         if release is None and place.plan is not None:  # unconfirmed: it may have slipped
             obj.carried_cm = np.vstack([[obj.x_cm, obj.y_cm], place.plan.ee_path_cm[:, :2]])
         for o in self._objects:  # the table changed: a blocked pick may be clear now
             o.blocked = None
         self.reporter.route(ex.finish(place, t1))
+
+
+def place_failure(bus: ServoBus, class_name: str, *, held: bool) -> str | None:
+    """Why a place did not put its object in its class's bin, once the jaws opened.
+
+    ``None``: it did, as far as the bus knows (a real rig's always). ``held``:
+    :func:`holds_its_class`, read over the bin before the jaws opened. A simulator that
+    reports where a released object went (:class:`ReportsRelease`) says where it landed.
+    """
+    if not held:
+        return "over the bin the jaws held nothing of its class: it was lost on the way"
+    release = bus.last_release if isinstance(bus, ReportsRelease) else None
+    if release is None or release.bin == class_name:
+        return None
+    if release.bin is None:
+        return f"released, it landed on the table at ({release.x_cm:.1f}, {release.y_cm:.1f}) cm"
+    return f"released, it fell into the {release.bin} bin"
 
 
 def holds_its_class(bus: ServoBus, class_name: str) -> bool:

@@ -227,16 +227,18 @@ class Reporter:
                 grip_ee_cm=_finite(route.grip_ee_cm),
                 success=bool(route.success),
                 confirmed=bool(route.confirmed),
+                why_failed=route.why_failed,
                 elapsed_s=route.elapsed_s,
                 motion_s=route.motion_s,
             )
         x, y, z = target
         mark = "ok" if route.success else "FAILED" if route.confirmed else "unconfirmed"
+        why = f": {route.why_failed}" if route.why_failed else ""
         self.echo(
             f"{route.step:<5} {route.object_id:<9} target ({x:6.2f}, {y:6.2f}, {z:6.2f}) cm  "
             f"{plan.iterations:4d} it  solver {plan.final_error_cm:.4f} cm  "
             f"arm {float(np.linalg.norm(route.error_cm)):.3f} cm  {mark:<6} "
-            f"{route.elapsed_s * 1e3:7.1f} ms"
+            f"{route.elapsed_s * 1e3:7.1f} ms{why}"
         )
 
     def skip(self, skip: Skip) -> None:

@@ -33,6 +33,10 @@ class Route:
         success: Pick: gripped; place: in its bin; lift/home: reached.
         confirmed: Whether :attr:`success` was found out: a fault before the check (a pick
             is checked once the arm is over the bin) leaves it unconfirmed, not failed.
+        why_failed: Why a route that ran and was checked did not do its job, one line for
+            people (a pick: the object still where the grip was; a place: what the jaws
+            brought to the bin, or where the object landed); ``None`` when it did, or was
+            not checked.
         ee_cm: Where the TCP really ended [cm], (3,) (the simulated arm knows; a real
             arm reports its commands).
         grip_ee_cm: A pick's TCP when the jaws start to close, after the tool's settling
@@ -56,6 +60,7 @@ class Route:
     executed: bool = False
     success: bool = False
     confirmed: bool = True
+    why_failed: str | None = None
     ee_cm: np.ndarray = field(default_factory=lambda: np.full(3, np.nan))
     grip_ee_cm: np.ndarray | None = None
     elapsed_s: float = 0.0

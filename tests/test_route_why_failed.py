@@ -1,0 +1,86 @@
+"""A route that ran and failed says why, on its line and in the run log (``why_failed``).
+
+The kinematic rig, made to fail as a real one does: jaws that must land within 0.01 cm
+of the object miss it; a base 4° off its command with bins that take only what is
+released within 1 cm of their centre drops each object beside its bin. The twin's
+empty jaws over the bin: ``tests/test_twin_faults.py``.
+"""
+
+from __future__ import annotations
+
+import pytest
+
+from mearm.runlog import read_runlog
+from mearm.sim.kinematic.servo_bus import ReleaseResult
+from mearm.sort import main as sort_main
+from mearm.task.pick_place import PICK_MISSED, place_failure
+
+ONE = "task.scene=[{color: red, x: -5, y: 45}]"
+LANDED = "released, it landed on the table at"
+LOST = "over the bin the jaws held nothing of its class: it was lost on the way"
+
+
+def _sort(tmp_path, capsys, *sets: str):
+    """Sort the one red object; (exit code, its route lines, its route records)."""
+    log = tmp_path / "run.jsonl"
+    argv = ["--config", "sim", "--set", ONE, "--log", str(log)]
+    for s in sets:
+        argv += ["--set", s]
+    code = sort_main(argv)
+    out = capsys.readouterr().out
+    lines = [line for line in out.splitlines() if line[:5] in ("pick ", "place")]
+    (trial,) = read_runlog(log, strict=True).trials
+    return code, lines, trial.routes
+
+
+def test_a_missed_pick_says_the_camera_still_sees_the_object(tmp_path, capsys):
+    code, lines, routes = _sort(tmp_path, capsys, "servo.grip_tolerance_cm=0.01")
+    assert code == 1
+    assert len(lines) == len(routes) == 3  # three tries, each missed
+    assert all(line.endswith(f" ms: {PICK_MISSED}") for line in lines), lines
+    assert [(r.step, r.success, r.why_failed) for r in routes] == [("pick", False, PICK_MISSED)] * 3
+
+
+def test_a_place_beside_its_bin_says_where_the_object_landed(tmp_path, capsys):
+    code, lines, routes = _sort(
+        tmp_path, capsys, "servo.grip_tolerance_cm=5", "servo.bin_radius_cm=1",
+        "servo.error_model.offset_deg={base: 4}",
+    )  # fmt: skip
+    assert code == 1
+    place = [r for r in routes if r.step == "place"]
+    assert place and not any(r.success for r in place)
+    for r, line in zip(place, [line for line in lines if line.startswith("place")], strict=True):
+        assert r.why_failed is not None
+        assert r.why_failed.startswith(f"{LANDED} (")
+        assert line.endswith(f" ms: {r.why_failed}")
+    # the picks that held say nothing more than ok
+    assert all(r.why_failed is None for r in routes if r.step == "pick" and r.success)
+
+
+def test_a_sort_that_succeeds_says_no_why(tmp_path, capsys):
+    code, lines, routes = _sort(tmp_path, capsys)
+    assert code == 0
+    assert [r.why_failed for r in routes] == [None, None]
+    assert all(line.endswith(" ms") for line in lines), lines
+
+
+class _Released:
+    """What a simulator's bus reports after its jaws opened (``ReportsRelease``)."""
+
+    def __init__(self, release: ReleaseResult | None):
+        self.last_release = release
+
+
+@pytest.mark.parametrize(
+    ("held", "release", "why"),
+    [
+        (True, ReleaseResult("red1", "red", -20.0, 45.0), None),
+        (True, None, None),  # a bus that cannot say where it went: the hold decides
+        (True, ReleaseResult("red1", "green", -20.0, 35.0), "released, it fell into the green bin"),
+        (True, ReleaseResult("red1", None, -18.04, 44.96), f"{LANDED} (-18.0, 45.0) cm"),
+        (False, ReleaseResult("red1", "red", -20.0, 45.0), LOST),
+    ],
+    ids=["in its bin", "unknown", "another bin", "on the table", "not held"],
+)  # fmt: skip
+def test_the_place_failure_reads_the_hold_then_the_release(held, release, why):
+    assert place_failure(_Released(release), "red", held=held) == why  # type: ignore[arg-type]
