@@ -210,6 +210,9 @@ class _Spy:
     def add_path(self, ee_path_cm, color) -> object:  # noqa: ANN001
         return None
 
+    def hold(self, held) -> None:  # noqa: ANN001
+        pass
+
 
 @pytest.mark.parametrize(("rate_hz", "every"), [(50.0, 1), (60.0, 1), (200.0, 4), (1000.0, 17)])
 def test_the_view_is_shown_at_most_sixty_times_a_second_and_every_routes_end(rate_hz, every):

@@ -170,6 +170,14 @@ def plate_mass_kg(length_m: float, width_m: float, density: float) -> float:
     return density * length_m * width_m * LINK_THICKNESS_M
 
 
+def frame_about(a: np.ndarray) -> np.ndarray:
+    """A rotation whose z axis is the unit vector ``a``: columns (x, y, a), right-handed."""
+    helper = np.array([1.0, 0.0, 0.0]) if abs(a[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    x = np.cross(helper, a)
+    x /= np.linalg.norm(x)
+    return np.column_stack([x, np.cross(a, x), a])
+
+
 def _rz(t: float) -> np.ndarray:
     c, s = math.cos(t), math.sin(t)
     return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
@@ -479,6 +487,7 @@ __all__ = [
     "bin_shapes",
     "class_of",
     "fixed_part",
+    "frame_about",
     "link_width_m",
     "object_centre_m",
     "object_name",

@@ -58,6 +58,7 @@ from mearm.kinematics.bodies import (
     bin_origin_m,
     bin_shapes,
     class_of,
+    frame_about,
     object_centre_m,
     object_name,
     object_of,
@@ -303,7 +304,7 @@ class CollisionModel:
         shape = object_shape(self.table.class_named(color), "held")
         a = self.bodies.approach
         T = np.eye(4)
-        T[:3, :3] = np.column_stack([*_across_pair(a), a])
+        T[:3, :3] = frame_about(a)
         T[:3, 3] = a * self.bodies.grip_m
         return Shape(f"held {color}", "tcp", "cylinder", shape.size, T[:3, 3], T[:3, :3],
                      part="object"), self.bodies.tcp_in_last @ T  # fmt: skip
@@ -920,14 +921,6 @@ def _lowest(R: np.ndarray, half: np.ndarray, is_cyl: np.ndarray) -> np.ndarray:
     axial = np.abs(rz[:, 2]) * half[:, 2]
     rim = half[:, 0] * np.sqrt(np.clip(1.0 - rz[:, 2] ** 2, 0.0, 1.0))
     return np.where(is_cyl, axial + rim, box)
-
-
-def _across_pair(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Two unit axes completing ``a`` to a right-handed frame (x, y, a)."""
-    helper = np.array([1.0, 0.0, 0.0]) if abs(a[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
-    x = np.cross(helper, a)
-    x /= np.linalg.norm(x)
-    return x, np.cross(a, x)
 
 
 __all__ = ["DEFAULT_CLEARANCE_CM", "TOUCH_CM", "CollisionModel", "Contact", "joint_servo"]

@@ -332,6 +332,7 @@ class ConveyorSorter(Sorter):
         if self.on_grip is not None:
             self.on_grip(GripAim(obj.id, self.now_s(), np.array(aim, dtype=float)))
         ex.set_tool("grip", closed=True)
+        ex.show_held((obj.id, obj.class_name))
         ex.set_tool("travel", closed=True)
         self.tracker.drop(tid)
         obj.x_cm, obj.y_cm = float(aim[0]), float(aim[1])

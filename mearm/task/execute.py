@@ -27,7 +27,7 @@ import numpy as np
 import numpy.typing as npt
 
 from mearm.config import Config
-from mearm.hardware.bus import MeasuresTcp, MeasuresWorld, ServoBus
+from mearm.hardware.bus import MeasuresTcp, MeasuresWorld, ReportsHold, ServoBus
 from mearm.hardware.command import ArmCommand
 from mearm.kinematics import ArmModel, Chain
 from mearm.task.route import Route
@@ -82,6 +82,7 @@ class View(Protocol):
         self, frame_bgr: npt.ArrayLike, pixel_to_table: Callable[[np.ndarray], npt.ArrayLike]
     ) -> None: ...
     def set_target(self, target_cm: npt.ArrayLike | None) -> None: ...  # noqa: D102
+    def hold(self, held: tuple[str, str] | None) -> None: ...  # noqa: D102
     def add_path(self, ee_path_cm: npt.ArrayLike, color: str) -> object: ...  # noqa: D102
 
 
@@ -199,6 +200,20 @@ class Executor:
             self.view.show_joints(self._unshown_q, self._unshown_opening_cm)
             self._unshown_q = None
 
+    def show_held(self, held: tuple[str, str] | None) -> None:
+        """Have the view draw ``held``, ``(id, class)``, in the jaws (``None``: nothing).
+
+        Only where the view draws the joints as commanded (the twin's view draws what it
+        measures), and only while the bus does not say the jaws hold nothing of that class
+        (a simulator knows: a missed grip is not drawn carried; a real rig does not).
+        """
+        if self.view is None or self.twin_ids is not None:
+            return
+        bus = self.bus
+        if held is not None and isinstance(bus, ReportsHold) and held[1] not in bus.held_classes():
+            held = None
+        self.view.hold(held)
+
     def _flush_view(self) -> None:
         """Show the world if a move was sent since it was last shown."""
         if self._unshown:
@@ -243,6 +258,8 @@ class Executor:
         self.bus.hold(seconds)
         self._count_tool(seconds)
         self.show_world()  # the jaws closed or opened, and what they hold
+        if not closed:  # opened: they let go of what the view drew in them
+            self.show_held(None)
 
     def _count_tool(self, seconds: float) -> None:
         if seconds > 0:

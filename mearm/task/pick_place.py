@@ -298,6 +298,7 @@ class PickAndPlace(TableTracking):
         ex.set_tool("grip", closed=False)
         pick.grip_ee_cm = ex.ee_now_cm()  # settled: where the jaws close
         ex.set_tool("grip", closed=True)
+        ex.show_held((obj.id, obj.class_name))
         ex.set_tool("travel", closed=True)
         self._world(held=obj, opening_cm=cls.diameter_cm, table_below_cm=below)
         planned = self._lift_and_plan_place(obj, cls, above, pick)

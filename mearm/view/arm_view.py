@@ -40,7 +40,7 @@ import numpy.typing as npt
 
 from mearm.config import ColorClass, Config
 from mearm.kinematics import ArmModel
-from mearm.kinematics.bodies import TableContents
+from mearm.kinematics.bodies import TableContents, frame_about
 from mearm.kinematics.collision import CollisionModel
 from mearm.view.browser import screenshot
 from mearm.view.collision_drawing import CollisionDrawing
@@ -60,6 +60,7 @@ from mearm.view.server import MeshcatServer
 from mearm.view.urdf_arm import UrdfArm
 from mearm.view.view_items import (
     PATH_RGB,
+    HeldObject,
     TwinBody,
     ViewObject,
     color_value,
@@ -149,6 +150,8 @@ class ArmView:
             self.url: str = self._server.web_url
             self._objects: dict[str, ViewObject] = {}
             self._bodies: dict[str, TwinBody] = {}
+            self._held: tuple[str, str] | None = None  # (id, class) in the jaws (:meth:`hold`)
+            self._held_drawn: dict[str, HeldObject] = {}
             self._twin_shown = False
             self._paths: list[str] = []
             self._paths_shown = True
@@ -277,6 +280,8 @@ class ArmView:
             self.opening_cm = float(opening)
         self._viz.display(self._urdf.q(full, self.opening_cm))
         self.joints = full.copy()
+        if self._held is not None:
+            self._draw_held()
         if self._collision is not None:
             self._draw_collision()
 
@@ -441,6 +446,49 @@ class ArmView:
             self._draw_collision()
 
     @property
+    def held(self) -> tuple[str, str] | None:
+        """The object drawn in the jaws, ``(id, class)`` (:meth:`hold`), or ``None``."""
+        return self._held
+
+    def hold(self, held: tuple[str, str] | None) -> None:
+        """Draw an object in the jaws, ``(id, class)``, moving with them; ``None``: none.
+
+        For the rigs whose joints are drawn as commanded (the twin's bodies are drawn as
+        measured, :meth:`show_bodies`, and this only records it): the object leaves the
+        table's drawing and stands at the grip point, its axis along the tool's approach
+        (where the collision model holds it), until the jaws let it go; the next
+        :meth:`set_objects` draws it on the table again if the camera sees it there.
+
+        Raises:
+            ViewInputError: An unknown class; nothing is changed then.
+        """
+        self._check_open()
+        if held is not None and held[1] not in self._classes:
+            raise ViewInputError("held", held, f"a class of {sorted(self._classes)}")
+        self._held = None if held is None else (str(held[0]), str(held[1]))
+        if self._twin_shown:
+            return
+        if self._held is not None and self._held[0] in self._objects:
+            self.viewer[f"objects/{self._held[0]}"].delete()  # off the table: in the jaws
+            del self._objects[self._held[0]]
+        self._draw_held()
+
+    def _draw_held(self) -> None:
+        """Draw the held object (:meth:`hold`) at the grip point of the joints drawn now."""
+        wanted: dict[str, HeldObject] = {}
+        if self._held is not None and not self._twin_shown:
+            tcp_cm, R = self.model.tcp_pose(self.joints)
+            approach = R @ self.model.approach_axis
+            T = np.eye(4)
+            T[:3, :3] = frame_about(approach)
+            T[:3, 3] = (tcp_cm + approach * self.config.arm.tool.tcp_above_grip_cm) * M_PER_CM
+            oid, class_name = self._held
+            wanted[oid] = HeldObject(class_name, tuple(T.ravel().tolist()))
+        self._sync_cylinders(
+            self._held_drawn, wanted, "held", lambda h, _cls: np.reshape(h.pose, (4, 4))
+        )
+
+    @property
     def twin_shown(self) -> bool:
         """Whether the twin's bodies are drawn (:meth:`show_bodies` was called)."""
         return self._twin_shown
@@ -478,6 +526,7 @@ class ArmView:
         self.show_joints(q, opening_cm)  # validates q and the opening before any change
         if not self._twin_shown:
             self.viewer["objects"].delete()  # the detections: the twin's bodies replace them
+            self._sync_cylinders(self._held_drawn, {}, "held", lambda h, _cls: np.eye(4))
             self._twin_shown = True
         self._sync_cylinders(
             self._bodies,

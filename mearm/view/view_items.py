@@ -34,6 +34,14 @@ class ViewObject:
 
 
 @dataclass(frozen=True)
+class HeldObject:
+    """An object drawn in the jaws: its colour class and pose, a 4 × 4 [m] flattened."""
+
+    class_name: str
+    pose: tuple[float, ...]
+
+
+@dataclass(frozen=True)
 class TwinBody:
     """An object of the physical twin as drawn: its id, colour class and pose.
 
