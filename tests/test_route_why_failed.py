@@ -8,8 +8,12 @@ empty jaws over the bin: ``tests/test_twin_faults.py``.
 
 from __future__ import annotations
 
+import json
+
 import pytest
 
+from mearm.analysis.run_analysis import UNRECORDED, FailureCount, analyze
+from mearm.analyze import main as analyze_main
 from mearm.runlog import read_runlog
 from mearm.sim.kinematic.servo_bus import ReleaseResult
 from mearm.sort import main as sort_main
@@ -20,9 +24,9 @@ LANDED = "released, it landed on the table at"
 LOST = "over the bin the jaws held nothing of its class: it was lost on the way"
 
 
-def _sort(tmp_path, capsys, *sets: str):
+def _sort(tmp_path, capsys, *sets: str, log_name: str = "run.jsonl"):
     """Sort the one red object; (exit code, its route lines, its route records)."""
-    log = tmp_path / "run.jsonl"
+    log = tmp_path / log_name
     argv = ["--config", "sim", "--set", ONE, "--log", str(log)]
     for s in sets:
         argv += ["--set", s]
@@ -55,6 +59,34 @@ def test_a_place_beside_its_bin_says_where_the_object_landed(tmp_path, capsys):
         assert line.endswith(f" ms: {r.why_failed}")
     # the picks that held say nothing more than ok
     assert all(r.why_failed is None for r in routes if r.step == "pick" and r.success)
+
+
+def test_analyze_counts_the_failed_routes_by_why(tmp_path, capsys):
+    """Two sorts in one log: one whose objects land beside their bins, one whose grips
+    miss. ``mearm analyze`` counts them by reason, the landings as one whatever the spot;
+    the same log without the reasons (as written before them) counts them unrecorded."""
+    _sort(tmp_path, capsys, "servo.grip_tolerance_cm=5", "servo.bin_radius_cm=1",
+          "servo.error_model.offset_deg={base: 4}", log_name="landed.jsonl")  # fmt: skip
+    _sort(tmp_path, capsys, "servo.grip_tolerance_cm=0.01", log_name="missed.jsonl")
+    log = tmp_path / "both.jsonl"
+    log.write_text("".join((tmp_path / f"{n}.jsonl").read_text() for n in ("landed", "missed")))
+    got = analyze(read_runlog(log)).failures
+    assert got[0] == FailureCount("pick", PICK_MISSED, 3)
+    (landed,) = (f for f in got if f.step == "place")
+    assert landed.why == LANDED.removesuffix(" at") and landed.routes >= 1
+    assert analyze_main([str(log)]) == 0
+    text = capsys.readouterr().out
+    assert "Why routes failed (every attempt)" in text and PICK_MISSED in text
+    # the log as written before routes said why
+    old = tmp_path / "old.jsonl"
+    records = [json.loads(line) for line in log.read_text().splitlines()]
+    old.write_text("".join(json.dumps({k: v for k, v in r.items() if k != "why_failed"}) + "\n"
+                           for r in records))  # fmt: skip
+    unrecorded = {
+        FailureCount("pick", UNRECORDED, 3),
+        FailureCount("place", UNRECORDED, landed.routes),
+    }
+    assert set(analyze(read_runlog(old)).failures) == unrecorded
 
 
 def test_a_sort_that_succeeds_says_no_why(tmp_path, capsys):

@@ -8,6 +8,7 @@ from pathlib import Path
 from mearm.analysis.paths import SolvedRoute
 from mearm.analysis.run_analysis import Analysis
 from mearm.analysis.tables import (
+    failure_table,
     gain_table,
     render_markdown,
     success_table,
@@ -66,6 +67,9 @@ def report_markdown(
         out += ["", render_markdown(weibull_table(a))]
         out += _image(images, "histogram", "final-error histogram with the Weibull fit", out_dir)
         out += ["", "## Success", "", render_markdown(table9(a))]
+        failures = failure_table(a)
+        if failures is not None:
+            out += ["", render_markdown(failures)]
         out += ["", render_markdown(success_table(a))]
         out += _image(images, "success", "pick success against error", out_dir)
         out += ["", "## Iterations", "", render_markdown(table6(a))]

@@ -10,6 +10,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+import re
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any, Literal
@@ -66,6 +67,8 @@ class Analysis:
         table6: Iteration and solver-error statistics for all routes, picks and places.
         grip: Error statistics of the picks' TCP when the jaws close, the arm settled
             (``grip_ee_cm``), or ``None`` when the log has none.
+        failures: The routes that ran, were checked and failed, every attempt, counted
+            by step and why (:func:`failure_counts`), most first.
     """
 
     source: str
@@ -85,6 +88,42 @@ class Analysis:
     around_bound: RoutesAroundBound | None
     table6: dict[str, IterationStats]
     grip: ErrorTable | None = None
+    failures: tuple[FailureCount, ...] = ()
+
+
+@dataclass(frozen=True)
+class FailureCount:
+    """How many routes of a step failed for one reason.
+
+    ``why`` is :data:`UNRECORDED` for a log older than the reasons.
+    """
+
+    step: str
+    why: str
+    routes: int
+
+
+#: The reason counted for a failed route of a log written before routes said why.
+UNRECORDED = "not recorded (a log older than the reasons)"
+#: Where a released object landed: a place and its coordinates, left out of the count.
+_AT_CM = re.compile(r" at \([^)]*\) cm")
+
+
+def failure_counts(routes: Sequence[RouteRecord]) -> tuple[FailureCount, ...]:
+    """The routes that ran, were checked and failed, counted by step and reason.
+
+    A reason's coordinates (where a released object landed) are left out, so the
+    objects that landed on the table count as one reason. Most first, then by step and
+    reason. An unconfirmed route (a fault before its check) is no failure.
+    """
+    counts: dict[tuple[str, str], int] = {}
+    for r in routes:
+        if r.success or not r.confirmed:
+            continue
+        why = UNRECORDED if r.why_failed is None else _AT_CM.sub("", r.why_failed)
+        counts[r.step, why] = counts.get((r.step, why), 0) + 1
+    ranked = sorted(counts.items(), key=lambda kv: (-kv[1], kv[0]))
+    return tuple(FailureCount(step, why, n) for (step, why), n in ranked)
 
 
 def class_names(contents: RunLogContents) -> list[str]:
@@ -166,6 +205,7 @@ def analyze(
         around_bound=routes_around_bound(norms, success) if success else None,
         table6=table6,
         grip=_grip_errors(routes, first_attempt=first_attempt),
+        failures=failure_counts(routes),
     )
 
 

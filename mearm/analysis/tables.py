@@ -272,14 +272,29 @@ def table6(a: Analysis) -> Table:
     )
 
 
+def failure_table(a: Analysis) -> Table | None:
+    """Why routes failed, every attempt, by step; ``None`` when none failed."""
+    if not a.failures:
+        return None
+    n = sum(f.routes for f in a.failures)
+    return Table(
+        title="Why routes failed (every attempt)",
+        header=("why", "step", "routes"),
+        rows=tuple((f.why, f.step, str(f.routes)) for f in a.failures),
+        notes=(f"{n} of {a.routes} routes; where an object landed is left out of its reason",),
+    )
+
+
 def analysis_tables(a: Analysis) -> list[Table]:
     """All tables of an analysis, in the order of the report."""
     grip = grip_table(a)
+    failures = failure_table(a)
     return [
         table8(a),
         *([] if grip is None else [grip]),
         weibull_table(a),
         table9(a),
+        *([] if failures is None else [failures]),
         success_table(a),
         table6(a),
     ]
