@@ -11,6 +11,7 @@ from __future__ import annotations
 import json
 
 import pytest
+from badinput import run_in_process
 
 from mearm.analysis.run_analysis import UNRECORDED, FailureCount, analyze
 from mearm.analyze import main as analyze_main
@@ -116,3 +117,23 @@ class _Released:
 )  # fmt: skip
 def test_the_place_failure_reads_the_hold_then_the_release(held, release, why):
     assert place_failure(_Released(release), "red", held=held) == why  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize(
+    ("why", "allowed"),
+    [("x" * 1001, "at most 1000 characters"), ("a\nb", "should match pattern")],
+    ids=["long", "two lines"],
+)
+def test_a_log_whose_reason_is_not_one_short_line_is_refused(tmp_path, capsys, why, allowed):
+    """A hand-edited log: one line (no traceback), exit 2, naming the line and the field."""
+    _sort(tmp_path, capsys, "servo.grip_tolerance_cm=0.01")
+    log = tmp_path / "run.jsonl"
+    records = [json.loads(line) for line in log.read_text().splitlines()]
+    for r in records:
+        if r["type"] == "route":
+            r["why_failed"] = why
+    log.write_text("".join(json.dumps(r) + "\n" for r in records))
+    out = run_in_process(["analyze", str(log)])
+    assert out.code == 2
+    assert len(out.stderr.strip().splitlines()) == 1
+    assert "line 2: route record: field 'why_failed'" in out.stderr and allowed in out.stderr

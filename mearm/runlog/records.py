@@ -50,6 +50,8 @@ MAX_RECORD_JOINT = max(MAX_ANGLE_DEG, MAX_LENGTH_CM)
 MAX_RECORD_S = 1e6
 #: Largest count in a record (iterations, attempts, objects, routes).
 MAX_RECORD_COUNT = 10**9
+#: Longest reason a route gives for its failure, one line [characters] (mearm's are < 100).
+MAX_WHY_CHARS = 1000
 
 _Cm = Annotated[float, Field(ge=-MAX_RECORD_CM, le=MAX_RECORD_CM, allow_inf_nan=False)]
 _NonNegativeCm = Annotated[float, Field(ge=0, le=MAX_RECORD_CM, allow_inf_nan=False)]
@@ -161,7 +163,7 @@ class RouteRecord(_Record):
     """Whether ``success`` was found out: a fault (a link lost, Ctrl-C) before the check
     leaves the route unconfirmed, ``success`` false but no failure, and the analysis
     counts it in no success rate (``true`` in logs written before it)."""
-    why_failed: str | None = None
+    why_failed: str | None = Field(default=None, max_length=MAX_WHY_CHARS, pattern=r"^[^\r\n]*$")
     """Why a route that ran and was checked did not do its job, one line (a pick: the
     object still where the jaws closed; a place: nothing of its class brought to the bin,
     or where a simulator saw it land); ``None`` when it did, was not checked, or in logs
