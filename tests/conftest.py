@@ -191,6 +191,15 @@ QUICK_SERVOS = [
 ] + ["--set", "arm.tool.settle_s=0.01"]
 
 
+def rays_at_each_looks_height(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Picks that look meet each look's ray at the height that look saw, as they did when
+    a traced scene was recorded (they now meet it at the height the looks nearby saw:
+    ``ClawEye.look``), so that the scene goes as it was traced."""
+    from mearm.task.claw_loop import ClawEye
+
+    monkeypatch.setattr(ClawEye, "_height_error_cm", lambda self, planned_cm, seen_cm: seen_cm)
+
+
 def run_cli(*args: str, timeout: float = 60, cwd: Path = ROOT) -> subprocess.CompletedProcess:
     """Run ``python <args>`` as a user would, capturing text output."""
     return subprocess.run(

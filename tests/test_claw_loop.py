@@ -10,9 +10,10 @@ from conftest import ROOT
 from mearm.config import load_config
 from mearm.config.errors import CalibrationError
 from mearm.ik import IKTarget
+from mearm.kinematics import ArmModel
 from mearm.kinematics.bodies import MARKER_PLATE_M
 from mearm.task.claw_fit import ClawCamera, Sighting
-from mearm.task.claw_loop import CorrectionMap, claw_eye
+from mearm.task.claw_loop import ClawEye, CorrectionMap, claw_eye
 from mearm.task.execute import Executor
 from mearm.task.plan import Planner
 from mearm.task.rig import open_rig
@@ -70,6 +71,22 @@ def test_the_claw_marker_is_seen_where_the_twin_has_it():
     # the calibrated camera (0.03 cm on the table) sees the marker 20-30 cm above it to
     # about a millimetre (0.04-0.15 cm measured)
     assert max(errors) < 0.25, errors
+    assert len(eye.heights.places_cm) == 4  # each look's height kept for the next ones
+
+
+def test_a_looks_ray_is_met_at_the_height_the_looks_nearby_saw():
+    """One look's height (the marker's apparent size) is off by up to 1.6 cm, the claw's
+    own by a few millimetres that vary smoothly over the table: the ray is met at the
+    mean of the heights the looks within 12 cm saw, the kinematics weighing as one."""
+    config = load_config(PERSPECTIVE)
+    camera = camera_geometry(config.calibration, config.camera)
+    eye = ClawEye(config, ArmModel(config.arm), camera, read=lambda: None, hold=lambda s: None)
+    here = np.array([0.0, 40.0, 20.0])
+    assert eye._height_error_cm(here, 1.2) == pytest.approx(0.6)  # alone: half of it
+    eye.heights.add(here + [5.0, 0.0, 0.0], [0.3])
+    eye.heights.add(here + [0.0, -11.0, 0.0], [-0.3])
+    eye.heights.add(here + [12.5, 0.0, 0.0], [9.0])  # too far to weigh in
+    assert eye._height_error_cm(here, 1.2) == pytest.approx((1.2 + 0.3 - 0.3) / 4)
 
 
 def test_no_eye_without_a_marker_a_perspective_camera_or_the_wish():

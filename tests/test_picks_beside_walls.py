@@ -12,7 +12,7 @@ import math
 
 import numpy as np
 import pytest
-from conftest import ROOT
+from conftest import ROOT, rays_at_each_looks_height
 
 from mearm.config import load_config
 from mearm.kinematics import ArmModel
@@ -94,6 +94,7 @@ def test_an_object_by_a_wall_where_the_claw_goes_is_left_not_the_scene_stopped(m
     leaves red2 by the red bin's wall, the claw 0.58 cm off its aim."""
     # the scene as traced, before picks went lower by their own looks (red2 then sorts)
     monkeypatch.setattr(looking_picks, "HIGH_LOOKS_CM", math.inf)
+    rays_at_each_looks_height(monkeypatch)  # (and before the looks pooled their heights)
     report = _sort(21, 2733)
     skips = {s.object_id: s for s in report.skipped}
     assert "red2" in skips, [s.reason for s in report.skipped]

@@ -13,7 +13,7 @@ from types import SimpleNamespace
 
 import numpy as np
 import pytest
-from conftest import ROOT
+from conftest import ROOT, rays_at_each_looks_height
 
 from mearm.config import load_config
 from mearm.kinematics import ArmModel
@@ -124,6 +124,7 @@ def test_the_seed_whose_retry_left_the_box_picks_it_again_inside_it():
 
     with pytest.MonkeyPatch.context() as mp:
         mp.setattr(PickAndPlace, "_pick_routes", kept)
+        rays_at_each_looks_height(mp)  # the scene as traced
         report = run_sort(
             config,
             scene=random_scene(config, 12, seed=998021),

@@ -90,6 +90,9 @@ MISS_HIGH_CM = 0.3
 #: How much the claw's height at one place varies between attempts [cm]: kit 21's far
 #: out 0.88-1.16 cm high over three (simulated, seed 901).
 CLAW_REPEAT_CM = 0.3
+#: How many looks the forward kinematics' height weighs as, beside the heights the looks
+#: nearby saw, in the height a look's ray is met at (:meth:`ClawEye.look`).
+KINEMATIC_LOOKS = 1.0
 
 
 @dataclass
@@ -322,6 +325,8 @@ class ClawEye:
         self._centre_in_tcp_cm = face[:3, 3] * 100.0
         self.corrections = CorrectionMap()
         self.drops = GripDrops()
+        #: The height errors the looks saw (seen less planned), by the claw's place.
+        self.heights = CorrectionMap(dims=1)
 
     def planned_cm(self, q: np.ndarray) -> np.ndarray:
         """Where the marker's centre is at joints ``q`` by the forward kinematics [cm], (3,)."""
@@ -333,9 +338,17 @@ class ClawEye:
 
         The arm is held still for :data:`SETTLE_S` first. The marker's centre is where
         the ray through its image's centre (the diagonals' intersection, exact under
-        perspective) meets the level plane at the height its pose gives (the servos'
-        errors move the claw up and down by a centimetre, which would shift a ray's
-        point on a plane at the planned height sideways).
+        perspective) meets the level plane at the claw's height: the planned height plus
+        the height error the looks within :data:`NEIGHBOURHOOD_CM` saw, this one included,
+        on average, the forward kinematics weighing as :data:`KINEMATIC_LOOKS` look with
+        none. A servo kit's errors move the claw up and down by up to a centimetre, and
+        a ray met at the planned height is then off sideways; but one look's height,
+        from the marker's apparent size, is off by 0.28 cm on average and by up to 4.7 cm
+        (658 looks, simulated kits), and a ray met there is off sideways too: three looks
+        0.4-1.5 cm low moved a claw 0.5 cm along the jaws' pads, and the object slipped
+        out on the way. The servos' errors vary smoothly over the
+        table, the marker's size error from look to look: the heights of several looks
+        nearby average it out (docs/twin.md, "Picks that look").
 
         Returns:
             The look, or ``None`` when the marker is not in view or is seen implausibly
@@ -350,11 +363,26 @@ class ClawEye:
             return None
         planned = self.planned_cm(q_commanded)
         z = float(sighting.centre_cm[2])
-        xy = self.camera.pixel_to_plane(diagonal_center(sighting.corners_px), z)
+        height = planned[2] + self._height_error_cm(planned, z - planned[2])
+        xy = self.camera.pixel_to_plane(diagonal_center(sighting.corners_px), height)
         error = np.array([xy[0], xy[1], z]) - planned
         if np.linalg.norm(error[:2]) > MAX_CORRECTION_CM:
             return None
+        self.heights.add(planned, [z - planned[2]])
         return Look(error, sighting)
+
+    def _height_error_cm(self, planned_cm: np.ndarray, seen_cm: float) -> float:
+        """The claw's height error at ``planned_cm`` [cm]: this look's and those nearby's.
+
+        Their mean, with the forward kinematics (no error) counted as
+        :data:`KINEMATIC_LOOKS` looks.
+        """
+        seen = [seen_cm]
+        if self.heights.places_cm:
+            d = np.linalg.norm(np.array(self.heights.places_cm) - planned_cm[:2], axis=1)
+            errors = np.array(self.heights.corrections_cm)[:, 0]
+            seen += errors[d < NEIGHBOURHOOD_CM].tolist()
+        return float(np.sum(seen) / (len(seen) + KINEMATIC_LOOKS))
 
 
 def shifted(target: IKTarget, shift_xy_cm: np.ndarray) -> IKTarget:
