@@ -110,6 +110,24 @@ def test_a_place_with_empty_jaws_fails_and_the_object_is_left_with_its_reason(tm
     assert trial.summary.left == {"off_table": 1}
 
 
+def test_an_object_lost_after_the_grip_is_said_where_it_went(tmp_path, capsys):
+    """Knocked out of the closed jaws on the way (1.4 s: after the grip; at 1.0 s the jaws
+    close on nothing), the place says where the twin has the object it gripped."""
+    log = tmp_path / "run.jsonl"
+    code = sort_main(
+        ["--config", str(CONFIG), "--set", SCENE, "--set",
+         "twin.faults=[{kind: knock_object, at_s: 1.4, object: red1}]", "--log", str(log)]
+    )  # fmt: skip
+    out = capsys.readouterr().out
+    assert code == 1
+    (place,) = (line for line in out.splitlines() if line.startswith("place red1"))
+    lost = "over the bin the jaws held nothing of its class: it was lost on the way and is on "
+    assert f" ms: {lost}the table at (" in place, place
+    (trial,) = read_runlog(log, strict=True).trials
+    (why,) = [r.why_failed for r in trial.routes if r.object_id == "red1" and r.step == "place"]
+    assert why is not None and why.startswith(lost) and why.endswith(") cm")
+
+
 @pytest.mark.parametrize(
     ("fault", "reason"),
     [

@@ -112,6 +112,19 @@ class ReportsHold(Protocol):
 
 
 @runtime_checkable
+class ReportsWhere(Protocol):
+    """A simulator that knows its objects: which the jaws hold, and where one is now.
+
+    ``held_ids()``: the objects the jaws hold (read after a grip). ``where(object_id)``:
+    where that object is now, as the end of a sentence (``fell into the green bin``), for
+    a place that found the jaws empty over its bin.
+    """
+
+    def held_ids(self) -> frozenset[str]: ...  # noqa: D102
+    def where(self, object_id: str) -> str: ...  # noqa: D102
+
+
+@runtime_checkable
 class Sampler(Protocol):
     """Samples a run at a fixed rate (a dataset recorder, :mod:`mearm.dataset`).
 

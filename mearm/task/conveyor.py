@@ -46,7 +46,7 @@ from mearm.errors import MearmError
 from mearm.hardware.bus import ServoBus
 from mearm.ik import IKTarget
 from mearm.sim.belt import Belt, belt_arrivals
-from mearm.task.pick_place import holds_its_class, place_failure
+from mearm.task.pick_place import holds_its_class, objects_gripped, place_failure
 from mearm.task.report import Outcome, SortReport
 from mearm.task.route import Route
 from mearm.task.sorter import Sorter, TrackedObject, _hex
@@ -332,6 +332,7 @@ class ConveyorSorter(Sorter):
         if self.on_grip is not None:
             self.on_grip(GripAim(obj.id, self.now_s(), np.array(aim, dtype=float)))
         ex.set_tool("grip", closed=True)
+        closed_on = objects_gripped(self.bus)
         ex.show_held((obj.id, obj.class_name))
         ex.set_tool("travel", closed=True)
         self.tracker.drop(tid)
@@ -364,7 +365,7 @@ class ConveyorSorter(Sorter):
             return
         held = holds_its_class(self.bus, obj.class_name)
         ex.set_tool("travel", closed=False)
-        place.why_failed = place_failure(self.bus, obj.class_name, held=held)
+        place.why_failed = place_failure(self.bus, obj.class_name, held=held, gripped=closed_on)
         place.success = place.why_failed is None
         obj.sorted = place.success
         self.reporter.route(ex.finish(place, t1))

@@ -18,7 +18,7 @@ import numpy as np
 
 from mearm.config.classes import ColorClass
 from mearm.config.shape_catalogue import SHAPES
-from mearm.hardware.bus import ReportsHold, ReportsRelease, ServoBus
+from mearm.hardware.bus import ReportsHold, ReportsRelease, ReportsWhere, ServoBus
 from mearm.ik import IKTarget
 from mearm.kinematics import ArmModel
 from mearm.kinematics.bodies import M_PER_CM, object_of
@@ -92,6 +92,8 @@ class PickAndPlace(TableTracking):
     _drop_cm: float = 0.0
     _seen_z_cm: Sequence[float] = ()
     _overlap_cm: float = 0.0
+    #: The objects the jaws closed on at the last grip, where the bus knows (the twin's ids).
+    _gripped: frozenset[str] = frozenset()
 
     def _recorded_pick(self, obj: TrackedObject) -> None:
         """:meth:`_pick_and_place` as an episode of the recording, if there is one."""
@@ -298,6 +300,7 @@ class PickAndPlace(TableTracking):
         ex.set_tool("grip", closed=False)
         pick.grip_ee_cm = ex.ee_now_cm()  # settled: where the jaws close
         ex.set_tool("grip", closed=True)
+        self._gripped = objects_gripped(self.bus)
         ex.show_held((obj.id, obj.class_name))
         ex.set_tool("travel", closed=True)
         self._world(held=obj, opening_cm=cls.diameter_cm, table_below_cm=below)
@@ -504,7 +507,7 @@ class PickAndPlace(TableTracking):
             return
         held = holds_its_class(self.bus, obj.class_name)
         ex.set_tool("travel", closed=False)
-        place.why_failed = place_failure(self.bus, obj.class_name, held=held)
+        place.why_failed = place_failure(self.bus, obj.class_name, held=held, gripped=self._gripped)
         place.success = place.why_failed is None
         obj.sorted = place.success
         if place.success:
@@ -517,21 +520,33 @@ class PickAndPlace(TableTracking):
         self.reporter.route(ex.finish(place, t1))
 
 
-def place_failure(bus: ServoBus, class_name: str, *, held: bool) -> str | None:
+def place_failure(
+    bus: ServoBus, class_name: str, *, held: bool, gripped: frozenset[str] = frozenset()
+) -> str | None:
     """Why a place did not put its object in its class's bin, once the jaws opened.
 
     ``None``: it did, as far as the bus knows (a real rig's always). ``held``:
     :func:`holds_its_class`, read over the bin before the jaws opened. A simulator that
-    reports where a released object went (:class:`ReportsRelease`) says where it landed.
+    reports where a released object went (:class:`ReportsRelease`) says where it landed;
+    one that knows its objects (:class:`ReportsWhere`) says where the objects the jaws
+    closed on (``gripped``, :func:`objects_gripped`) went when they were lost on the way.
     """
     if not held:
-        return "over the bin the jaws held nothing of its class: it was lost on the way"
+        why = "over the bin the jaws held nothing of its class: it was lost on the way"
+        if isinstance(bus, ReportsWhere) and gripped:
+            why += " and " + " and ".join(bus.where(oid) for oid in sorted(gripped))
+        return why
     release = bus.last_release if isinstance(bus, ReportsRelease) else None
     if release is None or release.bin == class_name:
         return None
     if release.bin is None:
         return f"released, it landed on the table at ({release.x_cm:.1f}, {release.y_cm:.1f}) cm"
     return f"released, it fell into the {release.bin} bin"
+
+
+def objects_gripped(bus: ServoBus) -> frozenset[str]:
+    """The objects the jaws hold now, where the bus knows (:class:`ReportsWhere`); else none."""
+    return bus.held_ids() if isinstance(bus, ReportsWhere) else frozenset()
 
 
 def holds_its_class(bus: ServoBus, class_name: str) -> bool:

@@ -357,20 +357,13 @@ class TwinArm(ServoBus):
         it. The place reads it over the bin before the jaws open
         (:class:`~mearm.hardware.bus.ReportsHold`).
         """
-        m, d = self.model, self.data
-        fromto = np.zeros(6)
         classes = {c.name: c for c in self.config.task.classes}
         held = set()
-        for oid, geoms in self._object_geoms.items():
+        for oid in self._object_geoms:
             name = self._object_classes[oid]
             if name in held:
                 continue
-            if any(
-                mujoco.mj_geomDistance(m, d, g, j, 2 * JAW_TOUCH_M, fromto) <= JAW_TOUCH_M
-                for jaw in self._jaw_geoms
-                for j in jaw
-                for g in geoms
-            ):
+            if self._touches_a_jaw(oid):
                 held.add(name)
                 continue
             pose = self.object_pose(oid)
@@ -378,6 +371,37 @@ class TwinArm(ServoBus):
             if pose.speed_cm_s * M_PER_CM > REST_SPEED_M_S and classes[name].in_bin(x_cm, y_cm):
                 held.add(name)
         return frozenset(held)
+
+    def held_ids(self) -> frozenset[str]:
+        """The objects touching either jaw now (:meth:`held_classes`' first rule)."""
+        return frozenset(oid for oid in self._object_geoms if self._touches_a_jaw(oid))
+
+    def _touches_a_jaw(self, object_id: str) -> bool:
+        """Whether one of the object's geoms is within :data:`JAW_TOUCH_M` of a jaw's."""
+        m, d = self.model, self.data
+        fromto = np.zeros(6)
+        return any(
+            mujoco.mj_geomDistance(m, d, g, j, 2 * JAW_TOUCH_M, fromto) <= JAW_TOUCH_M
+            for jaw in self._jaw_geoms
+            for j in jaw
+            for g in self._object_geoms[object_id]
+        )
+
+    def where(self, object_id: str) -> str:
+        """Where an object is now, as the end of a sentence: in which bin, or on the table.
+
+        On the table its place is given, ``still moving`` when it has not come to rest.
+
+        Raises:
+            WorldError: no object has that id.
+        """
+        pose = self.object_pose(object_id)
+        bin_name = self.objects_in_bin().get(object_id)
+        if bin_name is not None:
+            return f"fell into the {bin_name} bin"
+        x, y = (float(c) for c in pose.position_cm[:2])
+        moving = pose.speed_cm_s * M_PER_CM > REST_SPEED_M_S
+        return f"is on the table at ({x:.1f}, {y:.1f}) cm" + (", still moving" if moving else "")
 
     def in_bin_counts(self) -> dict[str, int]:
         """How many objects of each class a bin of their own class holds (:meth:`objects_in_bin`).
