@@ -83,17 +83,23 @@ def test_an_object_knocked_off_the_table_is_left_with_its_reason(tmp_path, capsy
     assert not contents.faults
 
 
+def _knocked_at(at_s: float, tmp_path, capsys):
+    """Sort the two objects with red1 knocked off the table at ``at_s``: it exits 1.
+    Returns what it printed and its run log."""
+    log = tmp_path / "run.jsonl"
+    code = sort_main(
+        ["--config", str(CONFIG), "--set", SCENE, "--set",
+         f"twin.faults=[{{kind: knock_object, at_s: {at_s}, object: red1}}]", "--log", str(log)]
+    )  # fmt: skip
+    assert code == 1
+    return capsys.readouterr().out, log
+
+
 def test_a_place_with_empty_jaws_fails_and_the_object_is_left_with_its_reason(tmp_path, capsys):
     """The red object leaves the jaws on the way to its bin: the camera over the bin sees
     it gone from its spot (the pick counts), but the twin's jaws hold nothing there, so
     the place is FAILED, not ``ok``, and the red one is left as no longer in the work area."""
-    log = tmp_path / "run.jsonl"
-    code = sort_main(
-        ["--config", str(CONFIG), "--set", SCENE, "--set",
-         "twin.faults=[{kind: knock_object, at_s: 1.0, object: red1}]", "--log", str(log)]
-    )  # fmt: skip
-    out = capsys.readouterr().out
-    assert code == 1
+    out, log = _knocked_at(1.0, tmp_path, capsys)
     (trial,) = read_runlog(log, strict=True).trials
     red = [(r.step, r.success, r.confirmed) for r in trial.routes if r.object_id == "red1"]
     assert red == [("pick", True, True), ("place", False, True)]
@@ -113,13 +119,7 @@ def test_a_place_with_empty_jaws_fails_and_the_object_is_left_with_its_reason(tm
 def test_an_object_lost_after_the_grip_is_said_where_it_went(tmp_path, capsys):
     """Knocked out of the closed jaws on the way (1.4 s: after the grip; at 1.0 s the jaws
     close on nothing), the place says where the twin has the object it gripped."""
-    log = tmp_path / "run.jsonl"
-    code = sort_main(
-        ["--config", str(CONFIG), "--set", SCENE, "--set",
-         "twin.faults=[{kind: knock_object, at_s: 1.4, object: red1}]", "--log", str(log)]
-    )  # fmt: skip
-    out = capsys.readouterr().out
-    assert code == 1
+    out, log = _knocked_at(1.4, tmp_path, capsys)
     (place,) = (line for line in out.splitlines() if line.startswith("place red1"))
     lost = "over the bin the jaws held nothing of its class: it was lost on the way and is on "
     assert f" ms: {lost}the table at (" in place, place
