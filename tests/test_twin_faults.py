@@ -126,6 +126,12 @@ def test_an_object_lost_after_the_grip_is_said_where_it_went(tmp_path, capsys):
     (trial,) = read_runlog(log, strict=True).trials
     (why,) = [r.why_failed for r in trial.routes if r.object_id == "red1" and r.step == "place"]
     assert why is not None and why.startswith(lost) and why.endswith(") cm")
+    # not seen from home, it is left, and the twin says where it went, not the camera's guesses
+    (skip,) = trial.skips
+    assert skip.object_id == "red1" and trial.summary is not None
+    assert trial.summary.left == {"off_table": 1}
+    gone = "not seen from home; lost from the jaws on the way to its bin, it is on the table at ("
+    assert gone in skip.reason and "knocked off the table" not in skip.reason, skip.reason
 
 
 @pytest.mark.parametrize(

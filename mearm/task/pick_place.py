@@ -508,6 +508,8 @@ class PickAndPlace(TableTracking):
         held = holds_its_class(self.bus, obj.class_name)
         ex.set_tool("travel", closed=False)
         place.why_failed = place_failure(self.bus, obj.class_name, held=held, gripped=self._gripped)
+        if not held:
+            obj.lost_ids = self._gripped
         place.success = place.why_failed is None
         obj.sorted = place.success
         if place.success:

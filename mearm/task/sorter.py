@@ -44,7 +44,7 @@ from mearm.config import Config
 from mearm.config.files import config_source
 from mearm.data import doc_page
 from mearm.errors import ConfigError, MearmError
-from mearm.hardware.bus import ServoBus
+from mearm.hardware.bus import ReportsWhere, ServoBus
 from mearm.hardware.errors import ServoError
 from mearm.ik import IKTarget
 from mearm.kinematics import ArmModel
@@ -556,17 +556,22 @@ class Sorter(PickAndPlace):
 
         Knocked off the table, or onto the table beyond the work area (the twin's table
         reaches past it, as a real one may), or out of the camera's view: the camera
-        cannot tell which, so the reason names all three.
+        cannot tell which, so the reason names all three. A simulator that knows its
+        objects (:class:`ReportsWhere`) says instead where one lost from the jaws on the
+        way to its bin went (:attr:`TrackedObject.lost_ids`).
         """
         for o in self._objects:
             if not o.sorted and o.skipped is None:
-                self._skip(
-                    o,
+                why = (
                     f"no longer in the work area: last seen at ({o.x_cm:.1f}, {o.y_cm:.1f}) "
-                    "cm, not seen from home (knocked off the table, or out of the work area "
-                    "or the camera's view)",
-                    kind="off_table",
+                    "cm, not seen from home"
                 )
+                if isinstance(self.bus, ReportsWhere) and o.lost_ids:
+                    where = " and ".join(self.bus.where(oid) for oid in sorted(o.lost_ids))
+                    why += f"; lost from the jaws on the way to its bin, it {where}"
+                else:
+                    why += " (knocked off the table, or out of the work area or the camera's view)"
+                self._skip(o, why, kind="off_table")
 
     def _arm_now(self, frame_shape: tuple[int, ...]) -> np.ndarray:
         """The arm's body in a frame of that shape at the last confirmed joints (0/255)."""

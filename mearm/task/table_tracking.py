@@ -91,6 +91,10 @@ class TrackedObject:
     #: How many times it was placed in its bin: more than once when an object seen later
     #: near its way there was taken for it, dropped on the way (:meth:`TableTracking._dropped`).
     places: int = 0
+    #: The simulator's objects its jaws held when its last place lost them on the way,
+    #: where the bus knows them (:class:`~mearm.hardware.bus.ReportsWhere`, the twin's
+    #: ids): the twin can say where it went when the camera no longer sees it.
+    lost_ids: frozenset[str] = frozenset()
 
 
 Seen = list[tuple[Detection, np.ndarray]]
