@@ -508,7 +508,7 @@ class PickAndPlace(TableTracking):
         held = holds_its_class(self.bus, obj.class_name)
         ex.set_tool("travel", closed=False)
         place.why_failed = place_failure(self.bus, obj.class_name, held=held, gripped=self._gripped)
-        if not held:
+        if not held and self._gripped:  # a grip of nothing keeps the ids an earlier one lost
             obj.lost_ids = self._gripped
         place.success = place.why_failed is None
         obj.sorted = place.success
