@@ -96,17 +96,18 @@ def _knocked_at(at_s: float, tmp_path, capsys):
 
 
 def test_a_place_with_empty_jaws_fails_and_the_object_is_left_with_its_reason(tmp_path, capsys):
-    """The red object leaves the jaws on the way to its bin: the camera over the bin sees
-    it gone from its spot (the pick counts), but the twin's jaws hold nothing there, so
-    the place is FAILED, not ``ok``, and the red one is left as no longer in the work area."""
+    """The red object leaves the table as the jaws come down on it (1.0 s): the camera over
+    the bin sees it gone from its spot (the pick counts), but the twin's jaws closed on
+    nothing and hold nothing there, so the place is FAILED, not ``ok``, says so, and the
+    red one is left as no longer in the work area."""
     out, log = _knocked_at(1.0, tmp_path, capsys)
     (trial,) = read_runlog(log, strict=True).trials
     red = [(r.step, r.success, r.confirmed) for r in trial.routes if r.object_id == "red1"]
     assert red == [("pick", True, True), ("place", False, True)]
     (place,) = (line for line in out.splitlines() if line.startswith("place red1"))
     assert "FAILED" in place and " ok " not in place
-    # the line and the log say why: the twin's jaws held nothing of its class over the bin
-    why = "over the bin the jaws held nothing of its class: it was lost on the way"
+    # the line and the log say why: the twin's jaws closed on nothing
+    why = "over the bin the jaws held nothing of its class: they had closed on nothing at the pick"
     assert place.endswith(f" ms: {why}")
     assert [r.why_failed for r in trial.routes if r.object_id == "red1"] == [None, why]
     (skip,) = trial.skips

@@ -531,13 +531,17 @@ def place_failure(
     :func:`holds_its_class`, read over the bin before the jaws opened. A simulator that
     reports where a released object went (:class:`ReportsRelease`) says where it landed;
     one that knows its objects (:class:`ReportsWhere`) says where the objects the jaws
-    closed on (``gripped``, :func:`objects_gripped`) went when they were lost on the way.
+    closed on (``gripped``, :func:`objects_gripped`) went when they were lost on the way,
+    or that the jaws closed on nothing (the object moved off before they closed: a disc
+    still rolling where the camera saw it, a neighbour's nudge).
     """
     if not held:
-        why = "over the bin the jaws held nothing of its class: it was lost on the way"
-        if isinstance(bus, ReportsWhere) and gripped:
-            why += " and " + " and ".join(bus.where(oid) for oid in sorted(gripped))
-        return why
+        why = "over the bin the jaws held nothing of its class: "
+        if not isinstance(bus, ReportsWhere):
+            return why + "it was lost on the way"
+        if not gripped:
+            return why + "they had closed on nothing at the pick"
+        return why + "it was lost on the way and " + " and ".join(map(bus.where, sorted(gripped)))
     release = bus.last_release if isinstance(bus, ReportsRelease) else None
     if release is None or release.bin == class_name:
         return None
