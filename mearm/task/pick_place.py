@@ -532,8 +532,8 @@ def place_failure(
     reports where a released object went (:class:`ReportsRelease`) says where it landed;
     one that knows its objects (:class:`ReportsWhere`) says where the objects the jaws
     closed on (``gripped``, :func:`objects_gripped`) went when they were lost on the way,
-    or that the jaws closed on nothing (the object moved off before they closed: a disc
-    still rolling where the camera saw it, a neighbour's nudge).
+    or that the jaws closed on nothing (the object was not between them: a disc still
+    rolling where the camera had seen it, a prism the closing jaws pushed aside).
     """
     if not held:
         why = "over the bin the jaws held nothing of its class: "
