@@ -541,13 +541,18 @@ def place_failure(
             return why + "it was lost on the way"
         if not gripped:
             return why + "they had closed on nothing at the pick"
-        return why + "it was lost on the way and " + " and ".join(map(bus.where, sorted(gripped)))
+        return why + "it was lost on the way and " + where_they_are(bus, gripped)
     release = bus.last_release if isinstance(bus, ReportsRelease) else None
     if release is None or release.bin == class_name:
         return None
     if release.bin is None:
         return f"released, it landed on the table at ({release.x_cm:.1f}, {release.y_cm:.1f}) cm"
     return f"released, it fell into the {release.bin} bin"
+
+
+def where_they_are(bus: ReportsWhere, object_ids: frozenset[str]) -> str:
+    """Where the bus has each of ``object_ids`` now, in id order, joined by "and"."""
+    return " and ".join(map(bus.where, sorted(object_ids)))
 
 
 def objects_gripped(bus: ServoBus) -> frozenset[str]:

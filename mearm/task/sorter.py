@@ -57,6 +57,7 @@ from mearm.task.pick_place import (  # noqa: F401  (re-exported)
     failure_kind,
     hex_rgb,
     stuck_reason,
+    where_they_are,
 )
 from mearm.task.pick_place import failure_kind as _failure_kind  # noqa: F401
 from mearm.task.pick_place import hex_rgb as _hex  # noqa: F401
@@ -567,7 +568,7 @@ class Sorter(PickAndPlace):
                     "cm, not seen from home"
                 )
                 if isinstance(self.bus, ReportsWhere) and o.lost_ids:
-                    where = " and ".join(self.bus.where(oid) for oid in sorted(o.lost_ids))
+                    where = where_they_are(self.bus, o.lost_ids)
                     why += f"; lost from the jaws on the way to its bin, it {where}"
                 else:
                     why += " (knocked off the table, or out of the work area or the camera's view)"
