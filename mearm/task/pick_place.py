@@ -40,6 +40,10 @@ from mearm.task.table_tracking import TableTracking, TrackedObject
 
 #: Why a pick failed: the camera, looking from over the bin, still sees the object.
 PICK_MISSED = "the camera still sees it where the jaws closed: they did not take it"
+#: Why a pick failed: the camera sees it on the table near where it lay (``_pushed_to``).
+PICK_PUSHED = (
+    "the camera sees it {moved_cm:.1f} cm from where it lay: the closing jaws pushed it aside"
+)
 #: The turns of the jaws' opening line tried over a round object whose way down is
 #: refused [deg]: a pad beside a wall or a neighbour swings off it (90°: along it).
 ROUND_TURNS_DEG = (30.0, -30.0, 60.0, -60.0, 90.0)
@@ -480,8 +484,16 @@ class PickAndPlace(TableTracking):
         pick.confirmed = False
         try:
             ex.stream(place, "travel", closed=True, color=hex_rgb(cls.draw_rgb))
-            pick.success = not self._on_table(obj, self._look(track_new=False))
+            seen = self._look(track_new=False)
+            left = self._on_table(obj, seen)
+            pushed = None if left else self._pushed_to(obj, seen)
+            pick.success = not left and pushed is None
             pick.why_failed = None if pick.success else PICK_MISSED
+            if pushed is not None:  # followed there: the next attempt goes for it there
+                x0, y0 = self._active_from_cm
+                moved_cm = float(np.hypot(pushed[0] - x0, pushed[1] - y0))
+                pick.why_failed = PICK_PUSHED.format(moved_cm=moved_cm)
+                obj.x_cm, obj.y_cm = pushed
             pick.confirmed = True
         finally:
             self.reporter.route(pick)

@@ -398,6 +398,51 @@ class TableTracking:
                     distance[i, k] = float(np.hypot(x - o.x_cm, y - o.y_cm))
         return {k: known[i] for i, k in nearest_pairs(distance, SAME_OBJECT_CM)}
 
+    def _pushed_to(self, obj: TrackedObject, seen: Seen) -> tuple[float, float] | None:
+        """Where the jaws pushed ``obj`` when a look no longer sees it where it lay, or ``None``.
+
+        The object the arm went for is not where it lay, while a detection of its class
+        is nearby that is none of the objects known on the table: the one detection
+        whole (not cut, not of touching objects) within the open jaws' reach of where
+        it lay (:func:`come_apart`'s), in the table an earlier look saw (not one the arm
+        hid before, which may be an object not seen yet), while every other object of
+        its class on the table is seen where it lay (a neighbour the jaws pushed would
+        be missing too, and which is which unknown: then ``None``, and a later look
+        follows the moved objects, :meth:`_dropped`). Closing jaws tipped a prism
+        aside 3.9 cm, and the place counted it (simulated, docs/troubleshooting.md).
+        """
+        taken = self._match(seen)
+        present = {o.id for o in taken.values()}
+        if any(
+            o.class_name == obj.class_name and o.id not in present
+            for o in self._objects
+            if not o.sorted and o is not obj
+        ):
+            return None
+        g, camera = self.config.arm.tool.gripper, self.config.camera
+        r = self.config.task.class_named(obj.class_name).footprint_radius_cm
+        reach = g.open_cm / 2 + g.jaw_thickness_cm + 2 * r
+        x0, y0 = self._active_from_cm
+        near = [
+            (float(x), float(y))
+            for k, (d, (x, y)) in enumerate(seen)
+            if k not in taken
+            and d.color == obj.class_name
+            and not d.merged
+            and not is_cut(d, camera.width_px, camera.height_px)
+            and self._seen_before(d)
+            and np.hypot(x - x0, y - y0) <= reach
+        ]
+        return near[0] if len(near) == 1 else None
+
+    def _seen_before(self, det: Detection) -> bool:
+        """Whether an earlier look saw the table at a detection's centre (or none is known)."""
+        if self._seen_px is None:
+            return True
+        h, w = self._seen_px.shape
+        u, v = (int(round(float(c))) for c in det.centroid_px)
+        return 0 <= u < w and 0 <= v < h and bool(self._seen_px[v, u])
+
     @staticmethod
     def _on_table(obj: TrackedObject, seen: Seen) -> bool:
         return any(
