@@ -22,6 +22,7 @@ from mearm.exceptions import (
 from mearm.hardware.bus import ArmCommand
 from mearm.ik import IKTarget
 from mearm.kinematics import ArmModel
+from mearm.kinematics.bodies import object_name
 from mearm.sim.kinematic.servo_bus import SimArm
 from mearm.sim.kinematic.world import World
 from mearm.sim.twin.mjcf import (
@@ -337,6 +338,25 @@ def test_objects_start_on_the_table(paper):
     obj = config.task.scene[0]
     np.testing.assert_allclose(pose.position_cm[:2], (obj.x, obj.y), atol=1e-3)
     assert pose.speed_cm_s < 0.01
+
+
+def test_where_says_on_the_table_or_past_its_edge(paper):
+    """An object where the scene put it is on the table; moved past the table's drawn edge
+    (the plane goes on there, as no real table does) it is said to be past the edge."""
+    config, _ = paper
+    arm = _twin(paper)
+    arm.settle(0.2)
+    obj = config.task.scene[0]
+    assert arm.where("red1") == f"is on the table at ({obj.x:.1f}, {obj.y:.1f}) cm"
+    m, d = arm.model, arm.data
+    table = m.geom("table")
+    edge_x_cm = (m.geom_pos[table.id][0] + table.size[0]) / M_PER_CM
+    qpos = m.jnt_qposadr[m.body(object_name("red1")).jntadr[0]]
+    d.qpos[qpos] = (edge_x_cm + 10.0) * M_PER_CM
+    mujoco.mj_forward(m, d)
+    assert arm.where("red1") == (
+        f"is past the table's edge, at ({edge_x_cm + 10.0:.1f}, {obj.y:.1f}) cm"
+    )
 
 
 def test_unknown_object_is_refused(paper):

@@ -391,6 +391,9 @@ class TwinArm(ServoBus):
         """Where an object is now, as the end of a sentence: in which bin, or on the table.
 
         On the table its place is given, ``still moving`` when it has not come to rest.
+        Past the table's drawn edge it is said to be there: the twin's table is a plane
+        that goes on (``_table`` in :mod:`~mearm.sim.twin.twin_scene`), where a real table
+        would have let it fall (a disc flung out of the jaws rolled 80 cm, simulated).
 
         Raises:
             WorldError: no object has that id.
@@ -400,8 +403,21 @@ class TwinArm(ServoBus):
         if bin_name is not None:
             return f"fell into the {bin_name} bin"
         x, y = (float(c) for c in pose.position_cm[:2])
-        moving = pose.speed_cm_s * M_PER_CM > REST_SPEED_M_S
-        return f"is on the table at ({x:.1f}, {y:.1f}) cm" + (", still moving" if moving else "")
+        moving = ", still moving" if pose.speed_cm_s * M_PER_CM > REST_SPEED_M_S else ""
+        lo, hi = self._table_cm
+        if lo[0] <= x <= hi[0] and lo[1] <= y <= hi[1]:
+            return f"is on the table at ({x:.1f}, {y:.1f}) cm{moving}"
+        return f"is past the table's edge, at ({x:.1f}, {y:.1f}) cm{moving}"
+
+    @property
+    def _table_cm(self) -> tuple[np.ndarray, np.ndarray]:
+        """The table's drawn corners (x, y) [cm], least and greatest; unbounded without one."""
+        try:
+            g = self.model.geom("table")
+        except KeyError:
+            return np.full(2, -np.inf), np.full(2, np.inf)
+        centre, half = self.model.geom_pos[g.id][:2], g.size[:2]
+        return (centre - half) / M_PER_CM, (centre + half) / M_PER_CM
 
     def in_bin_counts(self) -> dict[str, int]:
         """How many objects of each class a bin of their own class holds (:meth:`objects_in_bin`).
