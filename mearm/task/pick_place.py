@@ -482,11 +482,14 @@ class PickAndPlace(TableTracking):
         # above it) is not taken for one left there. (The paper re-reads the table after
         # each object.) A fault on the way leaves the pick in the log, unconfirmed.
         pick.confirmed = False
+        held: bool | None = None  # what the jaws held over the bin, once they opened there
         try:
             ex.stream(place, "travel", closed=True, color=hex_rgb(cls.draw_rgb))
             seen = self._look(track_new=False)
             left = self._on_table(obj, seen)
             pushed = None if left else self._pushed_to(obj, seen)
+            if pushed is not None:
+                held, pushed = self._let_go_and_look(obj, pushed)
             pick.success = not left and pushed is None
             pick.why_failed = None if pick.success else PICK_MISSED
             if pushed is not None:  # followed there: the next attempt goes for it there
@@ -507,18 +510,20 @@ class PickAndPlace(TableTracking):
                 drops.missed(obj.id, self._drop_cm, moved, self._seen_z_cm, self._overlap_cm)
         if not pick.success:
             # the jaws hold nothing, or a neighbour: take it back over the spot (not into
-            # this bin) and let it go there
-            back = above.target if above is not None else self.planner.lift_target(pick.target)
-            back_route = Route(obj.id, obj.class_name, "lift", 1, back)
-            if self.planner.plan(back_route, ex.q_now()).planned:
-                ex.stream(back_route, "travel", closed=True)
-            ex.set_tool("travel", closed=False)
+            # this bin) and let it go there (unless they opened over the bin to look again)
+            if held is None:
+                back = above.target if above is not None else self.planner.lift_target(pick.target)
+                back_route = Route(obj.id, obj.class_name, "lift", 1, back)
+                if self.planner.plan(back_route, ex.q_now()).planned:
+                    ex.stream(back_route, "travel", closed=True)
+                ex.set_tool("travel", closed=False)
             obj.failed_picks += 1
             if obj.failed_picks > self.config.task.pick_retries:
                 self._skip(obj, f"pick failed {obj.failed_picks} times", pick, kind="pick_failed")
             return
-        held = holds_its_class(self.bus, obj.class_name)
-        ex.set_tool("travel", closed=False)
+        if held is None:
+            held = holds_its_class(self.bus, obj.class_name)
+            ex.set_tool("travel", closed=False)
         place.why_failed = place_failure(self.bus, obj.class_name, held=held, gripped=self._gripped)
         if not held and self._gripped:  # a grip of nothing keeps the ids an earlier one lost
             obj.lost_ids = self._gripped
@@ -532,6 +537,29 @@ class PickAndPlace(TableTracking):
         for o in self._objects:  # the table changed: a blocked pick may be clear now
             o.blocked = None
         self.reporter.route(ex.finish(place, t1))
+
+    def _let_go_and_look(
+        self, obj: TrackedObject, pushed: tuple[float, float]
+    ) -> tuple[bool, tuple[float, float] | None]:
+        """Open the jaws over the bin and look again where ``obj`` was seen pushed.
+
+        The detection taken for it pushed (:meth:`_pushed_to`) may be the held object
+        itself: a camera places an object in the air where its ray meets the table, past
+        the bin's walls when the camera is low or to one side. Let go over the bin, a held
+        object falls in and its image goes; one pushed aside is still on the table.
+        Returns whether the jaws held an object of its class before they opened
+        (:func:`holds_its_class`) and where it lies pushed (``None``: it was held).
+        Opening here is no worse than the place it replaces: the jaws open over the bin
+        whatever they hold.
+        """
+        held = holds_its_class(self.bus, obj.class_name)
+        self.executor.set_tool("travel", closed=False)
+        kept = obj.x_cm, obj.y_cm
+        obj.x_cm, obj.y_cm = pushed
+        if self._on_table(obj, self._look(track_new=False)):
+            return held, (obj.x_cm, obj.y_cm)
+        obj.x_cm, obj.y_cm = kept
+        return held, None
 
 
 def place_failure(
