@@ -58,6 +58,18 @@ def _other(world: World, gripped: str) -> WorldObject:
     return next(o for o in world.table_objects() if o.id != gripped)
 
 
+def _unconfirmed(rig: Rig) -> None:
+    """Make ``rig`` confirm no release, as a real rig: a place cannot tell it held nothing."""
+    bus = rig.bus
+    release = bus._open_gripper
+
+    def unconfirmed() -> None:
+        release()
+        bus.last_release = None
+
+    bus._open_gripper = unconfirmed
+
+
 @pytest.mark.parametrize("shift_cm", [(4.0, 3.0), (9.0, 0.0), (-22.0, 12.0)])
 def test_an_object_the_arm_pushes_is_the_same_object_wherever_it_ends(config, shift_cm):
     """The neighbour moved 5, 9 or 25 cm while the other red is picked (farther than any
@@ -137,28 +149,9 @@ def test_touching_objects_pushed_apart_are_two_objects(config):
         other.x_cm = 3.5
 
     with open_rig(config, scene) as rig:
-        bus = rig.bus
-        release = bus._open_gripper
-
-        def unconfirmed() -> None:
-            release()
-            bus.last_release = None
-
-        bus._open_gripper = unconfirmed
+        _unconfirmed(rig)
         world, report = _sort_pushing(config, scene, part, rig=rig)
     assert report.outcome.line() == "sorted 3 of 3 objects"
-
-
-def _unconfirmed(rig: Rig) -> None:
-    """Make ``rig`` confirm no release, as a real rig: a place cannot tell it held nothing."""
-    bus = rig.bus
-    release = bus._open_gripper
-
-    def unconfirmed() -> None:
-        release()
-        bus.last_release = None
-
-    bus._open_gripper = unconfirmed
 
 
 def test_a_pick_that_pushes_its_object_aside_fails_and_goes_for_it_there(config):
