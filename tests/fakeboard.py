@@ -72,6 +72,8 @@ class FakeBoard:
         self.opens = 0
         self.dropped = False
         self._buf = bytearray()
+        #: Passes of the serving loop that found nothing to read (:meth:`drained`).
+        self._idle_passes = 0
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._serve, name="fakeboard", daemon=True)
         self._thread.start()
@@ -101,6 +103,18 @@ class FakeBoard:
             self.dropped = True
             os.close(self._master)
 
+    def drained(self, timeout_s: float = 30.0) -> None:
+        """Wait until every byte the host wrote before this call is read and its lines handled.
+
+        Two passes of the serving loop that find nothing to read, both begun after this
+        call: a loaded machine may starve the thread, and a line still in the pty is not in
+        :attr:`received` yet. A hang is the failure: ``timeout_s`` is generous.
+        """
+        start, deadline = self._idle_passes, time.monotonic() + timeout_s
+        while self._idle_passes < start + 2 and not self.dropped and self._thread.is_alive():
+            assert time.monotonic() < deadline, f"the fake board read on for {timeout_s} s"
+            time.sleep(self.tick_s)
+
     # ----------------------------------------------------------------- plumbing
 
     def _serve(self) -> None:
@@ -109,6 +123,7 @@ class FakeBoard:
             try:
                 ready, _, _ = select.select([self._master], [], [], self.tick_s)
                 if not ready:
+                    self._idle_passes += 1
                     self.on_idle()
                     continue
                 packet = os.read(self._master, 4096)

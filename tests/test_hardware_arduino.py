@@ -260,11 +260,13 @@ def assert_stopped(bus: ArduinoBus, board: FakeMearmBoard, fault: Exception, ack
     assert fault.last_state == ArmState.from_command(last)
     assert bus.state == ArmState.from_command(last)
     assert f"last acknowledged pose: {last}" in str(fault)
+    board.drained()  # (what the host wrote before the fault may still be in the pty)
     sent = list(board.received)
     with pytest.raises(ServoFaultedError) as again:
         bus.move(HOME)
     assert again.value.fault is fault and again.value.last_state == fault.last_state
     bus.stop()
+    board.drained()
     assert board.received == sent
     bus.close()
 
