@@ -474,7 +474,9 @@ class PickAndPlace(TableTracking):
         """Carry the held object along the planned ``place`` route, check the grip, release.
 
         ``t1``: when the place's planning began (``time.perf_counter``). A grip that did
-        not hold takes whatever the jaws hold back over the spot and lets it go there.
+        not hold takes whatever the jaws hold back over the spot and lets it go there;
+        one whose object a second look, the jaws opened over the bin, still sees pushed
+        aside has let go there already (:meth:`_let_go_and_look`).
         """
         ex = self.executor
         # Whether the grip held is read once the arm is over the bin: there the camera sees
