@@ -498,7 +498,6 @@ class PickAndPlace(TableTracking):
                 x0, y0 = self._active_from_cm
                 moved_cm = float(np.hypot(pushed[0] - x0, pushed[1] - y0))
                 pick.why_failed = PICK_PUSHED.format(moved_cm=moved_cm)
-                obj.x_cm, obj.y_cm = pushed
             pick.confirmed = True
         finally:
             self.reporter.route(pick)
@@ -550,7 +549,8 @@ class PickAndPlace(TableTracking):
         the bin's walls when the camera is low or to one side. Let go over the bin, a held
         object falls in and its image goes; one pushed aside is still on the table.
         Returns whether the jaws held an object of its class before they opened
-        (:func:`holds_its_class`) and where it lies pushed (``None``: it was held).
+        (:func:`holds_its_class`) and where it lies pushed, where ``obj`` is now followed
+        (``None``: it was held, and ``obj`` is left where it was).
         Opening here is no worse than the place it replaces: the jaws open over the bin
         whatever they hold.
         """

@@ -244,13 +244,7 @@ class TableTracking:
         if previous is None:
             return set()
         self._seen_px |= previous
-        h, w = previous.shape
-        out = set()
-        for k, (det, _) in enumerate(seen):
-            u, v = (int(round(float(c))) for c in det.centroid_px)
-            if 0 <= u < w and 0 <= v < h and not previous[v, u]:
-                out.add(k)
-        return out
+        return {k for k, (det, _) in enumerate(seen) if centre_seen(previous, det) is False}
 
     def _track(
         self, seen: Seen, *, track_new: bool = True, revealed: AbstractSet[int] = frozenset()
@@ -437,11 +431,7 @@ class TableTracking:
 
     def _seen_before(self, det: Detection) -> bool:
         """Whether an earlier look saw the table at a detection's centre (or none is known)."""
-        if self._seen_px is None:
-            return True
-        h, w = self._seen_px.shape
-        u, v = (int(round(float(c))) for c in det.centroid_px)
-        return 0 <= u < w and 0 <= v < h and bool(self._seen_px[v, u])
+        return self._seen_px is None or bool(centre_seen(self._seen_px, det))
 
     @staticmethod
     def _on_table(obj: TrackedObject, seen: Seen) -> bool:
@@ -497,6 +487,13 @@ def on_surface(surface_cm: np.ndarray, xy_cm: npt.ArrayLike, margin_cm: float) -
     if not (math.isfinite(x) and math.isfinite(y)):
         return False
     return cv2.pointPolygonTest(surface_cm, (x, y), measureDist=True) >= -margin_cm
+
+
+def centre_seen(seen_px: np.ndarray, det: Detection) -> bool | None:
+    """Whether ``seen_px`` (bool, (H, W)) is set at a detection's centre; ``None``: outside it."""
+    h, w = seen_px.shape
+    u, v = (int(round(float(c))) for c in det.centroid_px)
+    return bool(seen_px[v, u]) if 0 <= u < w and 0 <= v < h else None
 
 
 def table_cm(d: Detection) -> np.ndarray:
