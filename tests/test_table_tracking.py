@@ -19,6 +19,7 @@ from mearm.sim.kinematic.world import World, WorldObject
 from mearm.task import Sorter, open_rig
 from mearm.task.report import SortReport
 from mearm.task.rig import Rig
+from mearm.task.table_tracking import REST_LOOK_S, REST_LOOKS
 
 pytestmark = pytest.mark.heavy
 
@@ -235,3 +236,71 @@ def test_the_held_object_seen_past_its_bin_is_not_taken_for_one_pushed(config):
     assert report.outcome.line() == "sorted 2 of 2 objects"
     assert report.failed_picks == 0
     assert [(r.step, r.success) for r in report.routes[:2]] == [("pick", True), ("place", True)]
+
+
+def _rolling(rig: Rig, speed_cm_s: float, for_s: float) -> list[float]:
+    """From the first grip on, the other red rolls along x, towards the middle, at
+    ``speed_cm_s`` while the rig's time passes in holds, for ``for_s`` of them (a disc
+    dropped on its side rolls on after it lands). Returns the holds' lengths from the
+    first grip on [s]."""
+    bus, world = rig.bus, rig.world
+    assert world is not None
+    hold, grip = bus._hold, bus._close_gripper
+    holds: list[float] = []
+    rolling: list[WorldObject] = []
+    way: list[float] = []
+
+    def grip_and_start() -> object:
+        result = grip()
+        if not rolling:
+            rolling.append(_other(world, result.object_id))
+            way.append(-1.0 if rolling[0].x_cm > 0 else 1.0)  # (it stays in view)
+        return result
+
+    def hold_and_roll(seconds: float) -> None:
+        hold(seconds)
+        if rolling:
+            left = for_s - sum(holds)
+            holds.append(seconds)
+            if not rolling[0].held and left > 0:
+                rolling[0].x_cm += way[0] * speed_cm_s * min(seconds, left)
+
+    bus._close_gripper = grip_and_start
+    bus._hold = hold_and_roll
+    return holds
+
+
+def test_an_object_found_moved_is_picked_once_it_has_stopped(config):
+    """The other red rolls 7.2 cm over 1.8 s of the rig's time from the first grip on.
+    The look from over the bin finds it moved: it is looked at again, half a second of
+    table time later each, until it stays put; then picked where it stopped, once. Before,
+    the pick went where the first look saw it, mid-roll, and missed."""
+    with open_rig(config, TWO_REDS) as rig:
+        holds = _rolling(rig, speed_cm_s=4.0, for_s=1.8)
+        world = rig.world
+        assert world is not None
+        start = {o.id: o.x_cm for o in world.table_objects()}
+        report = Sorter(config, rig.camera, rig.bus, model=rig.model, echo=None).run()
+    assert report.outcome.line() == "sorted 2 of 2 objects"
+    assert report.failed_picks == 0
+    picks = [r for r in report.routes if r.step == "pick"]
+    rolled = next(o for o in start if o != picks[0].object_id)
+    way = -1.0 if start[rolled] > 0 else 1.0
+    assert picks[1].target.position_cm[0] == pytest.approx(start[rolled] + way * 7.2, abs=0.3)
+    rests = sum(1 for s in holds if s == REST_LOOK_S)
+    assert 2 <= rests <= REST_LOOKS
+
+
+def test_an_object_still_rolling_after_the_last_look_again_is_picked_where_seen(config):
+    """A red that rolls on for 3.5 s of table time at 3.2 cm/s (1.6 cm a half second: each
+    look finds it moved) is looked at again at most ``REST_LOOKS`` times in a row; then the
+    sort goes on, and sorts both."""
+    with open_rig(config, TWO_REDS) as rig:
+        holds = _rolling(rig, speed_cm_s=3.2, for_s=3.5)
+        report = Sorter(config, rig.camera, rig.bus, model=rig.model, echo=None).run()
+    runs, run = [], 0
+    for s in holds:
+        run = run + 1 if s == REST_LOOK_S else 0
+        runs.append(run)
+    assert max(runs) == REST_LOOKS, holds
+    assert report.outcome.line() == "sorted 2 of 2 objects"

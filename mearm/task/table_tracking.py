@@ -45,6 +45,15 @@ VIEW_SHIFT_CM = 0.5
 #: How closely their shifts must agree to be one move of the view [cm] (one object moved
 #: alone may be the arm's doing: a jaw that caught it).
 SAME_SHIFT_CM = 0.3
+#: An object a look found away from where it was (dropped, pushed, rolled) is looked at
+#: again this much later, until it stays put: a cylinder dropped on its side rolls on, and
+#: a pick where it was seen closes on nothing [s] ...
+REST_LOOK_S = 0.5
+#: ... at most this many times (then it is picked where it was last seen) ...
+REST_LOOKS = 6
+#: ... and it is at rest when it moved less than this between two looks [cm]: more than
+#: a detection's jitter (:data:`VIEW_SHIFT_CM`), less than :data:`SAME_OBJECT_CM`.
+REST_CM = 0.3
 #: An object whose region grew or shrank by more than this fraction since the last look
 #: is partly hidden (by the arm) in one of them: its centroid moved for that [-].
 SAME_AREA_RATIO = 0.15
@@ -129,6 +138,8 @@ class TableTracking:
     _active_from_cm: tuple[float, float]
     #: The pixels some look saw the table in, not hidden by the arm; ``None``: no look yet.
     _seen_px: np.ndarray | None
+    #: The objects the last look found away from where they were (:meth:`_dropped`).
+    _moved: frozenset[str] = frozenset()
 
     def _look(self, *, track_new: bool = True) -> Seen:
         """Read a frame: what lies on the table, outside the bins.
@@ -164,6 +175,32 @@ class TableTracking:
                     if self._on_table(o, seen)
                 ]
             )
+        return seen
+
+    def _look_at_rest(self, hold: Callable[[float], object]) -> Seen:
+        """:meth:`_look`, and again while an object it found moved is still moving.
+
+        An object found away from where it was (dropped on the way, pushed, tipped) may
+        still be rolling: a cylinder dropped on its side rolled on, the pick went where
+        the look had seen it and closed on nothing, and the object rolled off the table
+        (simulated, docs/troubleshooting.md). Such an object is looked at again
+        :data:`REST_LOOK_S` later (``hold``: the bus's, the time passing on the table),
+        until it moved less than :data:`REST_CM` between two looks, or left the view, at
+        most :data:`REST_LOOKS` times. A look that found nothing moved is the only one.
+        """
+        seen = self._look()
+        watch = set(self._moved)
+        for _ in range(REST_LOOKS):
+            if not watch:
+                break
+            before = {o.id: (o, o.x_cm, o.y_cm) for o in self._objects if o.id in watch}
+            hold(REST_LOOK_S)
+            seen = self._look()
+            watch = set(self._moved) | {
+                oid
+                for oid, (o, x, y) in before.items()
+                if np.hypot(o.x_cm - x, o.y_cm - y) > REST_CM
+            }
         return seen
 
     @cached_property
@@ -271,7 +308,9 @@ class TableTracking:
             if self._untouched(known, det):
                 shifts.append((known, np.array([x - known.x_cm, y - known.y_cm])))
         if track_new:
-            taken.update(self._dropped(seen, taken, revealed))
+            dropped = self._dropped(seen, taken, revealed)
+            self._moved = frozenset(o.id for o in dropped.values())
+            taken.update(dropped)
             for k, (det, _) in enumerate(seen):
                 if k not in taken:
                     n = sum(1 for o in self._objects if o.class_name == det.color) + 1
