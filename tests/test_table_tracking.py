@@ -289,6 +289,11 @@ def test_an_object_found_moved_is_picked_once_it_has_stopped(config):
     assert picks[1].target.position_cm[0] == pytest.approx(start[rolled] + way * 7.2, abs=0.3)
     rests = sum(1 for s in holds if s == REST_LOOK_S)
     assert 2 <= rests <= REST_LOOKS
+    assert report.motion is not None  # the waits are the run's time too
+    assert report.motion.rest_s == pytest.approx(rests * REST_LOOK_S)
+    assert f"; {rests * REST_LOOK_S:.1f} s waiting for a moved object to lie still)" in (
+        report.motion.line()
+    )
 
 
 def test_an_object_still_rolling_after_the_last_look_again_is_picked_where_seen(config):

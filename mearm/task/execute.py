@@ -261,6 +261,11 @@ class Executor:
         if not closed:  # opened: they let go of what the view drew in them
             self.show_held(None)
 
+    def rest(self, seconds: float) -> None:
+        """Hold the arm still for ``seconds`` while something on the table comes to rest."""
+        self.bus.hold(seconds)
+        self.motion.rest_s += seconds
+
     def _count_tool(self, seconds: float) -> None:
         if seconds > 0:
             self.motion.tool_s += seconds

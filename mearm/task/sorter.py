@@ -448,11 +448,11 @@ class Sorter(PickAndPlace):
             # since the last pick, from beside home (_look_aside: a camera that sees the arm)
             looked_aside = self.arm_view is None
             for _ in range(self.max_rounds):
-                obj = self._choose(self._look_at_rest(self.bus.hold))
+                obj = self._choose(self._look_at_rest(self.executor.rest))
                 if obj is None and (self._unaccounted() or not looked_aside):
                     # the arm over a bin may hide an object seen before: look from home
                     self._home()
-                    seen = self._look_at_rest(self.bus.hold)
+                    seen = self._look_at_rest(self.executor.rest)
                     # the arm at home may hide part of an object (seen as a half disc,
                     # flagged merged): nothing is left so before the look aside
                     obj = self._choose(seen, final=looked_aside)

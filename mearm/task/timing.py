@@ -250,6 +250,8 @@ class MotionTime:
             to arrive (on a bus that measures them: the twin) [s].
         stream_hz: Commands per second the bus streams at: ``servo.rate_hz``, or fewer
             where the link needs longer for one [Hz].
+        rest_s: Time the arm held still while the camera looked again at an object
+            found moved, until it lay still (``TableTracking._look_at_rest``) [s].
     """
 
     stream_hz: float
@@ -257,11 +259,12 @@ class MotionTime:
     tool_s: float = 0.0
     tool_moves: int = 0
     wait_s: float = 0.0
+    rest_s: float = 0.0
 
     @property
     def total_s(self) -> float:
         """Arm, tool and waits together (none overlaps: the arm holds while the tool moves) [s]."""
-        return self.arm_s + self.tool_s + self.wait_s
+        return self.arm_s + self.tool_s + self.wait_s + self.rest_s
 
     def line(self) -> str:
         """``motion 20.1 s (arm … at the servos' speed limits, …; tool … )``."""
@@ -270,6 +273,8 @@ class MotionTime:
             if self.wait_s > 0
             else ""
         )
+        if self.rest_s > 0:
+            waits += f"; {self.rest_s:.1f} s waiting for a moved object to lie still"
         return (
             f"motion {self.total_s:.1f} s (arm {self.arm_s:.1f} s at the servos' speed limits, "
             f"streamed at {self.stream_hz:.3g} Hz; gripper and tool {self.tool_s:.1f} s for "
