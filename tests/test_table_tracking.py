@@ -191,6 +191,30 @@ def test_a_pick_that_pushes_its_object_aside_fails_and_goes_for_it_there(config)
     assert report.failed_picks == 1
 
 
+def test_a_pick_that_pushes_its_object_half_out_of_the_picture_fails(config):
+    """The closing jaws push their red 3 cm, to the image border's right edge (x = 19.7
+    cm): seen in part, it is still no longer in the jaws. On a rig that confirms no
+    release the pick fails, and the red is left as cut by the image border, never placed.
+    Before, the pick counted, and so would a real rig's place."""
+
+    def push(world: World, gripped: str) -> None:
+        obj = world.held_object()
+        assert obj is not None and obj.id == gripped
+        obj.held = False
+        obj.x_cm += 3.0
+
+    scene = [SceneObject(color="red", x=16.7, y=40.0), SceneObject(color="blue", x=-6.0, y=45.0)]
+    with open_rig(config, scene) as rig:
+        _unconfirmed(rig)
+        _, report = _sort_pushing(config, scene, push, rig=rig)
+    assert report.outcome.line() == "sorted 1 of 2 objects (1 cut by the image border)"
+    reds = [(r.step, r.success) for r in report.routes if r.object_id == "red1"]
+    assert reds == [("pick", False)]
+    assert "the closing jaws pushed it aside" in (report.routes[0].why_failed or "")
+    (skip,) = report.skipped
+    assert (skip.object_id, skip.kind) == ("red1", "cut")
+
+
 def test_a_neighbour_the_jaws_push_is_not_taken_for_the_object_they_hold(config):
     """Two reds 3.4 cm apart; the jaws take one and push the other 2 cm. The look from over
     the bin sees a red near where the picked one lay, but the neighbour is missing from its

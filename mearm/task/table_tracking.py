@@ -436,13 +436,16 @@ class TableTracking:
 
         The object the arm went for is not where it lay, while a detection of its class
         is nearby that is none of the objects known on the table: the one detection
-        whole (not cut, not of touching objects) within the open jaws' reach of where
-        it lay (:func:`come_apart`'s), in the table an earlier look saw (not one the arm
-        hid before, which may be an object not seen yet), while every other object of
-        its class on the table is seen where it lay (a neighbour the jaws pushed would
-        be missing too, and which is which unknown: then ``None``, and a later look
-        follows the moved objects, :meth:`_dropped`). Closing jaws tipped a prism
-        aside 3.9 cm, and the place counted it (simulated, docs/troubleshooting.md).
+        not of touching objects within the open jaws' reach of where it lay
+        (:func:`come_apart`'s), in the table an earlier look saw (not one the arm hid
+        before, which may be an object not seen yet), while every other object of its
+        class on the table is seen where it lay (a neighbour the jaws pushed would be
+        missing too, and which is which unknown: then ``None``, and a later look follows
+        the moved objects, :meth:`_dropped`). Closing jaws tipped a prism aside 3.9 cm,
+        and the place counted it (simulated, docs/troubleshooting.md). One pushed half
+        out of the picture counts too, where its visible part is seen: it is not in the
+        jaws all the same (a prism pushed to the image border by the closing jaws was
+        counted picked, and on a real rig placed).
         """
         taken = self._match(seen)
         present = {o.id for o in taken.values()}
@@ -452,7 +455,7 @@ class TableTracking:
             if not o.sorted and o is not obj
         ):
             return None
-        g, camera = self.config.arm.tool.gripper, self.config.camera
+        g = self.config.arm.tool.gripper
         r = self.config.task.class_named(obj.class_name).footprint_radius_cm
         reach = g.open_cm / 2 + g.jaw_thickness_cm + 2 * r
         x0, y0 = self._active_from_cm
@@ -462,7 +465,6 @@ class TableTracking:
             if k not in taken
             and d.color == obj.class_name
             and not d.merged
-            and not is_cut(d, camera.width_px, camera.height_px)
             and self._seen_before(d)
             and np.hypot(x - x0, y - y0) <= reach
         ]
