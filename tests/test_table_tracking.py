@@ -59,6 +59,19 @@ def _other(world: World, gripped: str) -> WorldObject:
     return next(o for o in world.table_objects() if o.id != gripped)
 
 
+def _slips_aside(dx_cm: float, dy_cm: float) -> Callable[[World, str], None]:
+    """A push for :func:`_sort_pushing`: the gripped object leaves the jaws, moved by (dx, dy)."""
+
+    def push(world: World, gripped: str) -> None:
+        obj = world.held_object()
+        assert obj is not None and obj.id == gripped
+        obj.held = False
+        obj.x_cm += dx_cm
+        obj.y_cm += dy_cm
+
+    return push
+
+
 def _unconfirmed(rig: Rig) -> None:
     """Make ``rig`` confirm no release, as a real rig: a place cannot tell it held nothing."""
     bus = rig.bus
@@ -160,19 +173,9 @@ def test_a_pick_that_pushes_its_object_aside_fails_and_goes_for_it_there(config)
     twin's closing jaws tip a prism). On a rig that confirms no release, the look from over
     the bin sees it there, near where it lay, while the other red is where it was: the pick
     failed, and is tried again where it lies. Before, it counted, and so did the place."""
-    moved: list[str] = []
-
-    def push(world: World, gripped: str) -> None:
-        obj = world.held_object()
-        assert obj is not None and obj.id == gripped
-        obj.held = False
-        obj.x_cm += 3.0
-        obj.y_cm += 1.5
-        moved.append(gripped)
-
     with open_rig(config, TWO_REDS) as rig:
         _unconfirmed(rig)
-        world, report = _sort_pushing(config, TWO_REDS, push, rig=rig)
+        world, report = _sort_pushing(config, TWO_REDS, _slips_aside(3.0, 1.5), rig=rig)
     assert report.outcome.line() == "sorted 2 of 2 objects"
     assert len(world.in_bin("red")) == 2
     first = [r for r in report.routes if r.step in ("pick", "place")][:3]
@@ -196,17 +199,10 @@ def test_a_pick_that_pushes_its_object_half_out_of_the_picture_fails(config):
     cm): seen in part, it is still no longer in the jaws. On a rig that confirms no
     release the pick fails, and the red is left as cut by the image border, never placed.
     Before, the pick counted, and so would a real rig's place."""
-
-    def push(world: World, gripped: str) -> None:
-        obj = world.held_object()
-        assert obj is not None and obj.id == gripped
-        obj.held = False
-        obj.x_cm += 3.0
-
     scene = [SceneObject(color="red", x=16.7, y=40.0), SceneObject(color="blue", x=-6.0, y=45.0)]
     with open_rig(config, scene) as rig:
         _unconfirmed(rig)
-        _, report = _sort_pushing(config, scene, push, rig=rig)
+        _, report = _sort_pushing(config, scene, _slips_aside(3.0, 0.0), rig=rig)
     assert report.outcome.line() == "sorted 1 of 2 objects (1 cut by the image border)"
     reds = [(r.step, r.success) for r in report.routes if r.object_id == "red1"]
     assert reds == [("pick", False)]

@@ -444,8 +444,8 @@ class TableTracking:
         the moved objects, :meth:`_dropped`). Closing jaws tipped a prism aside 3.9 cm,
         and the place counted it (simulated, docs/troubleshooting.md). One pushed half
         out of the picture counts too, where its visible part is seen: it is not in the
-        jaws all the same (a prism pushed to the image border by the closing jaws was
-        counted picked, and on a real rig placed).
+        jaws all the same. (A prism the twin's jaws flung 13 cm to the border, beyond
+        this reach, still counts as picked: seed 4600026 of ``sim_shapes_mujoco``.)
         """
         taken = self._match(seen)
         present = {o.id for o in taken.values()}
