@@ -167,3 +167,36 @@ def test_a_cube_held_by_its_corners_stays_in_the_jaws_to_its_bin() -> None:
     report, in_bins = _twin_sort(config, scene)
     assert report.complete and len(in_bins) == 9
     assert all(oid.rstrip("0123456789") == cls for oid, cls in in_bins.items())
+
+
+#: A prism where the paper's arm opens its jaws along the radius, at (-5.55, 41.07) cm: at
+#: a yaw of 97.7° a corner's direction is 30° off the opening, and the pads' ends press on
+#: the two faces that meet at the corner square to it (a 60° wedge); at 67.7° a corner
+#: points along the opening, one pad on it and the other flat on the face across.
+PRISM_AT = {"x": -5.55, "y": 41.07}
+
+
+@pytest.mark.parametrize(
+    ("yaw_deg", "cone", "held"),
+    [(97.7, "elliptic", True), (97.7, "pyramidal", False), (67.7, "pyramidal", True)],
+    ids=["wedge-elliptic", "wedge-pyramidal", "face-and-corner-pyramidal"],
+)
+def test_a_prism_held_by_two_slanted_faces_stays_in_the_jaws_under_the_coulomb_cone(
+    yaw_deg: float, cone: str, held: bool
+) -> None:
+    """The shapes twin's elliptic friction cone (``twin.friction_cone``) keeps a prism the
+    jaws hold by two slanted faces in them to its bin; under MuJoCo's pyramidal cone the
+    same grip creeps out on the way ("lost on the way"), while a prism held by a corner
+    and the face across stays in."""
+    from mearm.config.sections import SceneObject
+    from mearm.task.rig import run_sort
+
+    config = load_config(TWIN, [f"twin.friction_cone={cone}"])
+    assert load_config(TWIN).twin.friction_cone == "elliptic"
+    report = run_sort(config, scene=[SceneObject(color="green_prism", yaw_deg=yaw_deg, **PRISM_AT)])
+    places = [r for r in report.routes if r.step == "place"]
+    if held:  # one pick, one place, in its bin
+        assert [r.step for r in report.routes if r.step in ("pick", "place")] == ["pick", "place"]
+        assert places[0].success and report.outcome.in_bins["green_prism"] == 1
+    else:
+        assert "it was lost on the way" in str(places[0].why_failed), places[0].why_failed

@@ -78,6 +78,12 @@ class TwinConfig(Strict):
     kit: ServoKitConfig | None = None
     """Draw each servo from a kit of real units (:class:`ServoKitConfig`, e.g.
     ``{seed: 7, per_trial: true}``); ``null``: every servo is the datasheet's nominal one."""
+    friction_cone: Literal["pyramidal", "elliptic"] = "pyramidal"
+    """MuJoCo's friction cone for every contact. ``pyramidal``: its faster approximation,
+    under which an object the jaws hold by slanted faces (a triangular prism, a cube across
+    its corners) creeps out of them on the way to its bin; ``elliptic``: the Coulomb cone
+    itself, which holds such grips, at some 15–40 % more CPU a twin sort (docs/twin.md,
+    "Friction cones")."""
     # copied for each model (why a default: SimErrorModel.offset_deg)
     faults: list[TwinFault] = Field(default=[], max_length=16)
     """Faults injected into the run, each at a simulated time

@@ -383,8 +383,13 @@ def _options(model: mujoco.MjSpec, config: Config) -> None:
     """The simulation's options (step, integrator, friction cones, sleep) and frame size."""
     model.option.timestep = TIMESTEP_S
     model.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
-    # elliptic cones left light objects rocking (~0.08°, 1e-2 rad/s)
-    model.option.cone = mujoco.mjtCone.mjCONE_PYRAMIDAL
+    # pyramidal by default: faster, and elliptic cones left light objects rocking (~0.08°,
+    # 1e-2 rad/s); elliptic where grips by slanted faces must hold (TwinConfig.friction_cone)
+    model.option.cone = (
+        mujoco.mjtCone.mjCONE_ELLIPTIC
+        if config.twin.friction_cone == "elliptic"
+        else mujoco.mjtCone.mjCONE_PYRAMIDAL
+    )
     model.option.impratio = 10.0
     model.option.gravity = [0.0, 0.0, -G]
     # Objects at rest sleep until something touches them (MuJoCo's islands). The arm
