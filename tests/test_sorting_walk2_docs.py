@@ -1,8 +1,8 @@
 """docs/sorting.md's shapes picture names only what the twin's shapes table holds.
 
 Found walking the page: its caption said "red cubes, red cylinders and green prisms on
-the twin's table", but ``configs/sim_shapes_mujoco.yaml`` leaves the prisms out (they slip
-out of the twin's jaws) and the rendered picture shows none.
+the twin's table", but ``configs/sim_shapes_mujoco.yaml`` left the prisms out then (they
+slipped out of the twin's jaws) and the rendered picture showed none.
 """
 
 from __future__ import annotations
