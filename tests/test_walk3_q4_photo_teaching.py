@@ -41,8 +41,11 @@ def _labels(keep: tuple[str, ...]) -> dict:
     return out
 
 
-def _folder(root: Path, entries: list[tuple[str, str, tuple[str, ...]]]) -> Path:
-    """Photos (file, source, classes labelled) of the paper's layout at 2x, and a manifest."""
+def _folder(
+    root: Path, entries: list[tuple[str, str, tuple[str, ...]]], cameras: dict | None = None
+) -> Path:
+    """Photos (file, source, classes labelled) of the paper's layout at 2x, and a manifest;
+    ``cameras``: per file, its entry's ``camera``."""
     root.mkdir()
     frame = TableRenderer(CAL, 640, 480, table="grey").render(
         class_discs(CONFIG.task.classes, LAYOUT)
@@ -57,6 +60,7 @@ def _folder(root: Path, entries: list[tuple[str, str, tuple[str, ...]]]) -> Path
                 "source_repo": source,
                 "shapes": "cylinder (~64 px)",
                 "objects": _labels(keep),
+                **({"camera": cameras[file]} if file in (cameras or {}) else {}),
             }
         )
     (root / "manifest.yaml").write_text(yaml.safe_dump({"images": images}))
@@ -106,3 +110,41 @@ def test_every_click_does_not_leave_such_a_source_out(tmp_path: Path) -> None:
     )
     with pytest.raises(InputFileError, match="source bad/one: no photo shows every class"):
         photo_bench.run_click_study(folder, CONFIG)
+
+
+def test_each_camera_of_a_source_is_taught_from_its_own_photo(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """One repository, two cameras (``camera:``): taught twice, each from its own camera's
+    first photo, and scored as two sources; a photo naming no camera stays the repo's."""
+    folder = _folder(
+        tmp_path / "p",
+        [("a.png", "x/y", ALL), ("b.png", "x/y", ALL), ("c.png", "x/y", ALL)],
+        cameras={"a.png": "phone", "b.png": "webcam"},
+    )
+    taught_from: list[tuple[str, str]] = []
+    real = photo_bench.learned_config
+
+    def spy(config, photo, clicks=None):
+        taught_from.append((photo.name, photo.source))
+        return real(config, photo, clicks)
+
+    monkeypatch.setattr(photo_bench, "learned_config", spy)
+    rows = photo_bench.run_photo_bench(folder, CONFIG, learn=True)
+    assert taught_from == [("a.png", "x/y (phone)"), ("b.png", "x/y (webcam)"), ("c.png", "x/y")]
+    scopes = {r["scope"] for r in rows if r["scope"].startswith("source ")}
+    assert scopes == {"source x/y (phone)", "source x/y (webcam)", "source x/y"}
+
+
+@pytest.mark.parametrize("camera", [3, "", "  ", ["phone"]])
+def test_a_camera_that_is_not_a_name_is_refused(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], camera: object
+) -> None:
+    """``camera:`` of a number, a list or blank text: exit 2, one line naming the entry."""
+    folder = _folder(tmp_path / "p", [("a.png", "x/y", ALL)], cameras={"a.png": camera})
+    with pytest.raises(SystemExit) as info:
+        run(main, ["--photos", str(folder), "--learn"])
+    out, err = capsys.readouterr()
+    assert info.value.code == 2 and out == ""
+    assert len(err.strip().splitlines()) == 1
+    assert "images[0] (a.png): its 'camera' is" in err and "give the camera's name" in err

@@ -3,8 +3,9 @@
 A folder of photos with a ``manifest.yaml`` (per image: ``file``, ``source_repo``,
 ``shapes`` with the objects' size as ``~N px``, ``objects`` per class with their
 ``centres`` [px], optional ``partial`` regions ``x A-B, y C-D`` whose detections are not
-counted) is scored as a user's camera would see it: each photo scaled so its objects are
-as wide as the config's calibration sees one at its camera's centre
+counted, an optional ``camera`` naming the camera that took it) is scored as a user's
+camera would see it: each photo scaled so its objects are as wide as the config's
+calibration sees one at its camera's centre
 (:func:`object_px_of`: 32 px, 2 cm, under the paper's calibration; another calibration
 scores the photos as a nearer or farther camera sees them), the detector of a config and
 the 8-bit ``inRange`` recipe run on it, and each detection matched to the nearest
@@ -29,6 +30,10 @@ one photo and one click per class — from each photo that shows all the source'
 once per combination of clicked objects (the first :data:`CLICKS_PER_CLASS` of each
 class) — scores the source's photos each time, and gives the spread: how much the
 figures owe to the click.
+
+A source is a ``source_repo`` and, where its photos name one, a ``camera`` (rows read
+``source owner/repo (camera)``): colours are taught on the camera that sorts, and one
+camera's taught colours do not carry to another camera's photos (docs/vision.md).
 """
 
 from __future__ import annotations
@@ -115,6 +120,18 @@ def _size_px(entry: dict, where: str, manifest: Path) -> float:
             str(manifest), f"{where}: its 'shapes' gives objects {size:g} px wide (~N px, N >= 1)"
         )
     return size
+
+
+def _source(entry: dict, where: str, manifest: Path) -> str:
+    """An entry's source: its ``source_repo``, with its ``camera`` when it names one."""
+    repo, camera = str(entry.get("source_repo", "")), entry.get("camera")
+    if camera is None:
+        return repo
+    if not isinstance(camera, str) or not camera.strip():
+        raise InputFileError(
+            str(manifest), f"{where}: its 'camera' is {camera!r}: give the camera's name (text)"
+        )
+    return f"{repo} ({camera.strip()})"
 
 
 def _centres(
@@ -210,6 +227,7 @@ def load_photos(
             raise InputFileError(str(path), f"images[{i}]: expected a mapping with 'file'")
         where = f"images[{i}] ({entry['file']})"
         size = _size_px(entry, where, path)
+        source = _source(entry, where, path)
         frame = read_image(folder / str(entry["file"]))
         labels = _centres(entry, where, path, frame.shape, classes)
         scale = object_px / size
@@ -217,7 +235,7 @@ def load_photos(
         photos.append(
             Photo(
                 str(entry["file"]),
-                str(entry.get("source_repo", "")),
+                source,
                 frame,
                 {name: c * scale for name, c in labels.items()},
                 _boxes(entry, scale),
