@@ -162,6 +162,9 @@ def test_a_table_with_nothing_to_sort_is_bad_input(tmp_path, argv, line):
     (got,) = r.stderr.splitlines()
     assert got.startswith(line.format(scene=scene)), got
     assert r.stdout == "" and not log.exists()
+    # the config's own table empty (a real rig's config on the simulated camera): the
+    # sort's ways to lay one out are named; a scene file the user gave is theirs to fill
+    assert ("--random N or --scene FILE" in got) == ("task.scene" in argv[-1]), got
 
 
 def test_a_sweep_of_a_belt_that_brings_nothing_is_bad_input():

@@ -123,6 +123,7 @@ def check_scene(config: Config, scene: Sequence[SceneObject], source: str = "tas
     """
     if not scene:
         _check_something_to_sort(config, source)
+        _check_walls(config, scene, source)  # a belt's objects stack in the bins too
         return
     base_cm = base_radius_m(config.arm) / M_PER_CM
     bins = [(c, bin_half_outer_m(c) / M_PER_CM) for c in config.task.classes]
@@ -186,15 +187,49 @@ def check_scene(config: Config, scene: Sequence[SceneObject], source: str = "tas
     if problems:
         more = f" (+{len(problems) - 1} more)" if len(problems) > 1 else ""
         raise SceneError(problems[0] + more)
+    _check_walls(config, scene, source)
+
+
+def _check_walls(config: Config, scene: Sequence[SceneObject], source: str) -> None:
+    """Refuse a twin's table whose objects, the belt's too, outgrow a bin's walls."""
+    problem = _release_below_walls(config, [o.color for o in scene])
+    if problem is not None:
+        what = f"{source}: " if scene else ""
+        raise SceneError(
+            f"{what}{problem}; raise bin_cm z (task.classes), or give the class fewer objects"
+        )
+
+
+def _release_below_walls(config: Config, colors: Sequence[str]) -> str | None:
+    """The twin's refusal of a table whose objects outgrow a bin's walls, or ``None``.
+
+    The twin (``simulator: mujoco``) builds each bin's walls to hold its class's objects
+    stacked; a class with many objects gets walls above its release height, and the twin
+    would refuse the table as it builds it, after the run log was opened
+    (:func:`~mearm.sim.twin.twin_scene_check.release_below_walls`). The kinematic
+    simulator has no such walls.
+    """
+    if config.simulator != "mujoco":
+        return None
+    from mearm.kinematics.bodies import TableContents  # noqa: PLC0415
+    from mearm.sim.twin.twin_scene_check import release_below_walls  # noqa: PLC0415  (MuJoCo)
+
+    names = config.task.class_names
+    belt = TableContents.of(config.task.model_copy(update={"scene": []}), config.belt).belt
+    counts = {n: sum(1 for c in colors if c == n) for n in names}
+    return release_below_walls(config, TableContents(tuple(config.task.classes), counts, belt))
 
 
 def _check_something_to_sort(config: Config, source: str) -> None:
     """Refuse an empty table that no belt brings objects to (:func:`check_scene`)."""
     belt = config.belt
     if belt is None:
+        # the config's own table empty (a real rig's config run on the simulated camera):
+        # the sort's own ways to lay one out
+        lay = "; or lay one out with --random N or --scene FILE" if source == "task.scene" else ""
         raise SceneError(
             f"{source}: no objects: nothing to sort (a scene holds 1 to {MAX_SCENE_OBJECTS} "
-            "objects {color, x, y})"
+            f"objects {{color, x, y}}{lay})"
         )
     if belt.arrivals.count == 0:
         raise SceneError(
@@ -425,6 +460,18 @@ def random_scene(
             many one layout held: with the same seed, that many or fewer are placed).
     """
     order = _class_order(config, counts, seed)
+    problem = _release_below_walls(config, order)
+    if problem is not None:
+        if isinstance(counts, int):
+            most = next(
+                n
+                for n in range(len(order), -1, -1)
+                if n == 0 or _release_below_walls(config, _class_order(config, n, seed)) is None
+            )
+            fewer = f"ask for {most} or fewer" if most else "no number of objects fits"
+        else:
+            fewer = "give the class fewer objects"
+        raise SceneError(f"{problem}: {fewer}, or raise bin_cm z (task.classes)")
     rng = np.random.default_rng(seed)
     diameter, (x0, x1, y0, y1) = _scene_field(config, any_objects=bool(order))
     reach = _reach_check(config)

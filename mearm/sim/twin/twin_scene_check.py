@@ -90,7 +90,6 @@ def _check_scene(config: Config) -> None:
         placed.append((oid, xy, r))
     if config.belt is not None:
         _check_belt(config)
-    table = TableContents.of(task, config.belt)
     for c in task.classes:
         if c.bin_inner_width_cm < c.diameter_cm:  # the twin's walls would hold none of them
             raise ModelError(
@@ -99,15 +98,32 @@ def _check_scene(config: Config) -> None:
                 f"none could land in it; make it at least {c.diameter_cm:g} cm "
                 "(task.classes)"
             )
-        wall = _wall_height_m(config, c.name)
+    problem = release_below_walls(config, TableContents.of(task, config.belt))
+    if problem is not None:
+        raise ModelError(
+            f"{problem}; raise bin_cm z (task.classes), or give the class fewer objects"
+        )
+
+
+def release_below_walls(config: Config, table: TableContents) -> str | None:
+    """Why an object of the first class that fails would land against its bin's walls, or ``None``.
+
+    The twin builds each bin's walls to hold the table's objects of its class stacked
+    (:func:`~mearm.kinematics.bodies.wall_height_m`), so more objects of a class raise its
+    walls, and the release height (``bin_cm`` z less the tool's drop to the grip) that
+    does for a few may leave a held object's bottom below them. Checked before anything
+    is built or opened (:func:`~mearm.task.scene.check_scene`) as well as here.
+    """
+    for c in config.task.classes:
+        wall = wall_height_m(table.class_named(c.name), table.objects(c.name))
         release = (c.bin_cm[2] - config.arm.tool.tcp_above_grip_cm - c.grip_z_cm) * M_PER_CM
         if release < wall:
-            raise ModelError(
+            return (
                 f"class {c.name}: an object released at bin_cm z = {c.bin_cm[2]:g} cm has its "
                 f"bottom {release * 100:.3g} cm above the table, below the bin's "
-                f"{wall * 100:.3g} cm walls ({_held(table, c.name, config)}); raise bin_cm z "
-                "(task.classes), or give the class fewer objects"
+                f"{wall * 100:.3g} cm walls ({_held(table, c.name, config)})"
             )
+    return None
 
 
 def _held(table: TableContents, name: str, config: Config) -> str:
