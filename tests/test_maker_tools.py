@@ -652,6 +652,10 @@ def test_init_config_refuses_to_overwrite_without_force(tmp_path):
     assert load_config(out).servo.backend == "ssc32"
     assert f"mearm calibrate-servos --config {out}" in forced.stdout
     assert (tmp_path / "mine.yaml.bak").read_text() == "# my edits\n"
+    again = run_here(*args, "--force")  # the file already holds what it writes
+    assert again.returncode == 0, again.stderr
+    assert ".bak" not in again.stdout
+    assert (tmp_path / "mine.yaml.bak").read_text() == "# my edits\n"  # not lost
 
 
 @pytest.mark.heavy

@@ -16,7 +16,8 @@ rigs (``uno``, ``ssc32``) replace its servo link and camera with a real board an
 camera; the pixel-to-table calibration is then the reference's and must be redone for
 your camera. The file is checked to load before it is written; an existing file is only
 replaced with ``--force``, and kept as ``FILE.bak`` (named on stdout first: ``wrote
-FILE.bak (the old FILE)``). FILE is checked as every command's output is
+FILE.bak (the old FILE)``; not when it already holds what is written, which would replace
+the ``.bak`` with a copy). FILE is checked as every command's output is
 (:func:`mearm.cli.check_output_file`): a folder on its path that does not exist yet is
 made, as by the project's other commands, and the ``wrote`` line names it (``wrote
 confgis/my_arm.yaml (made the folder confgis): …``), so a mistyped folder shows at once.
@@ -584,7 +585,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     text = render_config(arm, rig, shlex.quote(str(out)))
     check_folder(text, out)
     check_rendered(text, out)
-    _keep_old(out)
+    _keep_old(out, text)
     made = _made_folder(out)
     write_text_atomic(out, text)
     print(f"wrote {out}{made}: the {arm.name} arm on the {rig.name} rig. Next:")
@@ -608,12 +609,14 @@ def _made_folder(out: Path) -> str:
     return "" if out.parent.exists() else f" (made the folder {out.parent})"
 
 
-def _keep_old(out: Path) -> None:
+def _keep_old(out: Path, text: str) -> None:
     """A config replaced with --force (a maker may have edited it) is kept as ``.bak``.
 
-    The backup is named on stdout once written, as every file a command writes is.
+    Not when it already holds ``text``: a second ``--force`` would replace the ``.bak``,
+    the maker's edits, with a copy of the file it writes again. The backup is named on
+    stdout once written, as every file a command writes is.
     """
-    if out.is_file():
+    if out.is_file() and out.read_bytes() != text.encode("utf-8"):
         bak = backup_path(out)
         try:
             write_atomic(bak, out.read_bytes())
@@ -640,7 +643,7 @@ def _write_twin(of: Path, out: Path, arm_name: str | None, rig: RigChoice) -> in
         config_from_dict(twin, source=name, path=out)
     except ConfigError as exc:
         raise MearmError(f"the twin of {of} does not load: {exc}") from None
-    _keep_old(out)
+    _keep_old(out, text)
     made = _made_folder(out)
     write_text_atomic(out, text)
     extends = twin_extends(of, out)
