@@ -148,7 +148,8 @@ def _ids(text: str) -> list[int]:
     items = [v.strip() for v in text.split(",")]
     if not all(v.isascii() and v.isdigit() and len(v) <= 6 for v in items) or len(items) > MAX_IDS:
         raise argparse.ArgumentTypeError(
-            f"--ids must be up to {MAX_IDS} comma-separated integers 0 … 999999, got {text[:40]!r}"
+            f"--ids must be up to {MAX_IDS} comma-separated integers, each a marker id of "
+            f"--dictionary (0 … 49 in the default {DEFAULT_DICTIONARY}), got {text[:40]!r}"
         )
     return [int(v) for v in items]
 

@@ -77,6 +77,7 @@ from mearm.cli import (
 from mearm.config import config_from_dict
 from mearm.config.base import MAX_LENGTH_CM, short_repr
 from mearm.config.errors import CalibrationError
+from mearm.data import packaged_config
 from mearm.errors import ConfigError, InputFileError, MearmError
 from mearm.fileio import file_identity, write_atomic
 from mearm.vision.aruco import (
@@ -431,7 +432,8 @@ def _parser() -> ArgumentParser:
     parser.add_argument("--image", type=Path, help="image showing the ArUco markers")
     parser.add_argument(
         "--marker", type=parse_marker, action="append", default=[], metavar="ID:X,Y",
-        help="a marker's id and its centre's table position [cm] (4 or more)",
+        help="a marker's id and its centre's table position [cm] (4 or more; with "
+        "--marker-side-cm each marker's corners count too)",
     )  # fmt: skip
     parser.add_argument(
         "--marker-side-cm", type=plain_float, help="printed marker side [cm]: use the corners too"
@@ -471,7 +473,10 @@ def _check_arguments(parser: ArgumentParser, args: argparse.Namespace) -> None:
     if bool(args.point) == bool(args.image or args.marker):
         parser.error("give either --image with --marker, or --point (not both, not neither)")
     if args.image and not args.marker:
-        parser.error("--image needs --marker ID:X,Y for each marker (4 or more)")
+        parser.error(
+            "--image needs --marker ID:X,Y for each marker (4 or more; with --marker-side-cm "
+            "each marker's corners count too)"
+        )
     if args.marker and not args.image:
         parser.error("--marker needs --image")
     if not args.dry_run:  # every file this run would write, before the fit
@@ -698,7 +703,16 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         text = read_text_file(args.config, what="config file")
     except InputFileError as exc:
-        raise ConfigError(exc.path, [exc.reason]) from None
+        reason = exc.reason
+        if not args.config.exists() and packaged_config(str(args.config)) is not None:
+            # every other command reads a shipped config by its name; this one writes
+            # its fit into the file, and a shipped config is not the user's to edit
+            reason = (
+                f"{reason} here; {args.config} names a config mearm ships, which "
+                "calibrate-camera does not edit (it writes the fit into --config): write "
+                "your own first (mearm init-config) and give its path"
+            )
+        raise ConfigError(exc.path, [reason]) from None
     data = load_yaml_text(text, source=str(args.config))  # refused before any fitting
     if not isinstance(data, dict):
         raise ConfigError(str(args.config), ["top level must be a mapping"])

@@ -1,0 +1,36 @@
+"""What a newcomer's walk through the docs tripped on (2026-12-05), each a clear line now."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from conftest import mearm_here, one_stderr_line
+
+POINTS = ["--point", "10,10:-10,30", "--point", "600,10:10,30", "--point", "600,400:10,55"]
+POINTS += ["--point", "10,400:-10,55"]
+
+
+def test_calibrate_camera_on_a_shipped_config_name_says_to_write_ones_own(tmp_path: Path) -> None:
+    """Every other command reads a shipped config by its name; calibrate-camera writes its
+    fit into --config, so it needs the user's own file, and says so (not only "not found")."""
+    done = mearm_here("calibrate-camera", "--config", "sim_mearm_v1", *POINTS, cwd=tmp_path)
+    line = one_stderr_line(done, 2)
+    assert "config file not found here" in line and "mearm init-config" in line, line
+    assert list(tmp_path.iterdir()) == []
+    other = mearm_here("calibrate-camera", "--config", "mine.yaml", *POINTS, cwd=tmp_path)
+    assert one_stderr_line(other, 2).endswith("mine.yaml: config file not found")
+
+
+def test_markers_without_positions_say_the_corners_count_with_their_side(tmp_path: Path) -> None:
+    png = tmp_path / "frame.png"
+    png.write_bytes(b"")  # refused on the arguments, before the image is read
+    done = mearm_here("calibrate-camera", "--config", "lab.yaml", "--image", png, cwd=tmp_path)
+    line = one_stderr_line(done, 2)
+    assert "(4 or more; with --marker-side-cm each marker's corners count too)" in line, line
+
+
+def test_aruco_sheet_ids_name_the_dictionarys_range(tmp_path: Path) -> None:
+    done = mearm_here("aruco-sheet", "--output", tmp_path / "s.png", "--ids", "0,x", cwd=tmp_path)
+    line = one_stderr_line(done, 2)
+    assert "0 … 49 in the default DICT_4X4_50" in line, line
+    assert not (tmp_path / "s.png").exists()
