@@ -529,13 +529,19 @@ def _say_dataset_written(recorder: DatasetRecorder | None, where: Path) -> None:
     """``wrote DIR/ (N episodes, F frames)`` once the recorder is closed, if it wrote any.
 
     As ``mearm experiment`` names its dataset; with ``--resume``, the episodes this run
-    added. A recording that wrote no episode leaves no folder it made (nothing to name).
+    added, then what the dataset holds in all (``; it holds M episodes, G frames``). A
+    recording that wrote no episode leaves no folder it made (nothing to name).
     """
     if recorder is None or not recorder.episodes_written:
         return
     n = recorder.episodes_written
+    episodes, frames = recorder.held
+    now = (
+        f"; it holds {episodes} episodes, {frames} frames" if episodes > n else ""
+    )  # a --resume's: the dataset's whole count beside what this run added
     echo_line(
-        f"wrote {where}/ ({n} episode{'' if n == 1 else 's'}, {recorder.frames_written} frames)"
+        f"wrote {where}/ ({n} episode{'' if n == 1 else 's'}, {recorder.frames_written} frames"
+        f"{now})"
     )
 
 

@@ -164,6 +164,9 @@ def test_resume_appends_a_scene_as_one_episode(recorded: dict[str, Path], tmp_pa
     assert [e["episode_index"] for e in episodes] == list(range(4))
     assert episodes[-1]["tasks"] == [SCENE_TASK]
     assert episodes[-1]["length"] > max(e["length"] for e in episodes[:3])
+    frames = sum(e["length"] for e in episodes)
+    said = f"wrote {root}/ (1 episode, {episodes[-1]['length']} frames; it holds 4 episodes, "
+    assert f"{said}{frames} frames)" in out.stdout, out.stdout
     assert check_dataset(root) == []
 
 

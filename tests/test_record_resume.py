@@ -92,6 +92,7 @@ def test_sigkill_mid_trial_then_resume_records_each_pick_once(tmp_path: Path) ->
     resumed = run_in_process(["experiment", *args, "--resume"], within_s=24, cwd=ROOT)
     assert resumed.code == 0, resumed.stderr
     assert f"wrote {root}/ (1 episode, " in resumed.stdout
+    assert "; it holds 4 episodes, " in resumed.stdout  # not only what the resume added
 
     seeds = [trial_seed(3, k) for k in range(2)]
     tags = json.loads((root / "meta/mearm_episodes.json").read_text())["episodes"]

@@ -493,6 +493,11 @@ class DatasetRecorder(EpisodeSampler):
         with contextlib.suppress(DatasetWriteError):
             super().abandon()
 
+    @property
+    def held(self) -> tuple[int, int]:
+        """Episodes and frames the dataset holds, those it held before a ``--resume`` too."""
+        return len(self._episodes), sum(int(ep["length"]) for ep in self._episodes)
+
     def close(self) -> None:
         """Write the finished episodes, drop an unfinished one, stop the encoder.
 

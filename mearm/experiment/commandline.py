@@ -332,7 +332,13 @@ class _Written:
         if recorder is not None and recorder.episodes_written:
             episodes = _trials(recorder.episodes_written, "episode")
             frames = _trials(recorder.frames_written, "frame")
-            print(f"wrote {self.record}/ ({episodes}, {frames})", flush=True)
+            held, held_frames = recorder.held
+            now = (  # a --resume's: the dataset's whole count beside what this run added
+                f"; it holds {held} episodes, {held_frames} frames"
+                if held > recorder.episodes_written
+                else ""
+            )
+            print(f"wrote {self.record}/ ({episodes}, {frames}{now})", flush=True)
 
 
 def _size(path: Path) -> int | None:
