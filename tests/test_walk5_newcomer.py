@@ -34,3 +34,18 @@ def test_aruco_sheet_ids_name_the_dictionarys_range(tmp_path: Path) -> None:
     line = one_stderr_line(done, 2)
     assert "0 … 49 in the default DICT_4X4_50" in line, line
     assert not (tmp_path / "s.png").exists()
+
+
+def test_a_checkouts_config_path_from_another_folder_names_the_shipped_config(
+    tmp_path: Path,
+) -> None:
+    """The docs write ``--config configs/sim_shapes_mujoco.yaml``, a path in the checkout;
+    run from another folder it is not there, and the line names the shipped config."""
+    done = mearm_here("sort", "--config", "configs/sim_shapes_mujoco.yaml", cwd=tmp_path)
+    line = one_stderr_line(done, 2)
+    assert line.endswith(
+        f"configs/sim_shapes_mujoco.yaml: config file not found from {tmp_path}; the config "
+        "of that name that mearm ships is --config sim_shapes_mujoco"
+    ), line
+    unknown = mearm_here("sort", "--config", "configs/nosuch.yaml", cwd=tmp_path)
+    assert one_stderr_line(unknown, 2).endswith("configs/nosuch.yaml: config file not found")

@@ -59,6 +59,7 @@ def resolve_config_path(path: str | Path) -> Path:
             ],
         )
     if "/" in text or "\\" in text:
+        _refuse_a_shipped_path_elsewhere(given, text)
         return given
     try:
         here = given.exists() or given.is_symlink()
@@ -81,6 +82,28 @@ def resolve_config_path(path: str | Path) -> Path:
             f"{', '.join(known) or 'none'}"
         ],
     )
+
+
+def _refuse_a_shipped_path_elsewhere(given: Path, text: str) -> None:
+    """Refuse ``configs/NAME.yaml`` given outside a checkout, naming the shipped ``NAME``.
+
+    The docs write configs as the checkout's paths (``--config configs/sim.yaml``), which
+    do not exist from another folder; the same config is shipped under its name.
+    """
+    try:
+        if given.exists() or given.is_symlink() or given.parent.name != "configs":
+            return
+    except OSError:  # a name no file can have (too long): the reader says why
+        return
+    name = given.name.removesuffix(".yaml")
+    if packaged_config(given.name) is not None:
+        raise ConfigError(
+            text,  # a shipped config's name under configs/: nothing to quote
+            [
+                f"config file not found from {Path.cwd()}; the config of that name that "
+                f"mearm ships is --config {name}"
+            ],
+        )
 
 
 #: Most files of the current folder looked at for a "did you mean" (a huge folder is cut).
