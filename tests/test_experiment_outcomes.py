@@ -117,6 +117,7 @@ def test_a_trial_stopped_by_ctrl_c_is_run_again_and_analysed_once(tmp_path):
     code, err = interrupted_in_trial_0(log, args)
     assert code == 130, err
     assert "mearm experiment: stopped: interrupted (Ctrl-C)" in err
+    assert f"; 0 of 2 trials complete in {log}: the same command runs the rest" in err
     assert "mearm.experiment" not in err
     assert attempts(log) == [(0, "interrupted")]
     stopped = log.read_bytes()

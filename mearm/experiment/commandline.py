@@ -435,7 +435,7 @@ def _run(
         except SortAborted as exc:
             if not exc.interrupted and recorder is not None and recorder.failure is not None:
                 raise recorder.failure from None  # one line, exit 1 (the log has the trial)
-            print(f"{_prog()}: stopped: {exc.reason}", file=sys.stderr)
+            print(f"{_prog()}: stopped: {exc.reason}{_left(args, config, scene)}", file=sys.stderr)
             return interrupts.exit_status(), False
         except (CameraError, ServoError, TrialFailed) as exc:
             print(f"{_prog()}: {exc}", file=sys.stderr)
@@ -452,6 +452,19 @@ def _run(
     analyze = invoked_as("python -m mearm.analyze", "analyze")
     print(f"analyse: {analyze} {args.log} --out report/")
     return None, bool(failed)
+
+
+def _left(args: Any, config: Config, scene: list[SceneObject] | None) -> str:
+    """``; N of M trials complete in LOG: …`` for a run stopped before its last trial."""
+    try:
+        done = resume_point(args.log, config, args.seed, scene).done
+    except (MearmError, OSError):  # the log unreadable now: the stop's reason says enough
+        return ""
+    again = " with --resume" if args.record is not None else ""
+    return (
+        f"; {done} of {_trials(args.trials, 'trial')} complete in {args.log}: the same "
+        f"command{again} runs the rest"
+    )
 
 
 def _prog() -> str:
