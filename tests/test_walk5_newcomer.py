@@ -49,3 +49,15 @@ def test_a_checkouts_config_path_from_another_folder_names_the_shipped_config(
     ), line
     unknown = mearm_here("sort", "--config", "configs/nosuch.yaml", cwd=tmp_path)
     assert one_stderr_line(unknown, 2).endswith("configs/nosuch.yaml: config file not found")
+
+
+def test_init_config_takes_the_paper_arm_by_its_file_name_too(tmp_path: Path) -> None:
+    """The README and ``arm: {use: …}`` call it ``mearm_paper``; ``--arm`` said ``paper``."""
+    texts = []
+    for k, arm in enumerate(("paper", "mearm_paper")):
+        here = tmp_path / str(k)
+        here.mkdir()
+        done = mearm_here("init-config", "--arm", arm, "--rig", "sim", "my.yaml", cwd=here)
+        assert done.returncode == 0, done.stderr
+        texts.append((here / "my.yaml").read_text())
+    assert texts[0] == texts[1]

@@ -529,6 +529,15 @@ def list_choices() -> str:
     return f"arms (--arm):\n{arms}rigs (--rig):\n{rigs}"
 
 
+#: ``--arm`` also takes an arm by its file's name in ``configs/arms/`` (``arm: {use: …}``).
+ARM_FILE_NAMES = {"mearm_paper": "paper"}
+
+
+def _arm_choice(text: str) -> str:
+    """``--arm``'s value, an arm file's name (``mearm_paper``) read as its choice."""
+    return ARM_FILE_NAMES.get(text, text)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Write a starter config; see the module docstring."""
     parser = ArgumentParser(
@@ -543,6 +552,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
     parser.add_argument(
         "--arm",
+        type=_arm_choice,
         choices=list(ARMS),
         help="the reference arm closest to yours (with --of: the one whose simulated table, "
         "camera and objects the twin uses; default there: the arm your config names)",
