@@ -61,3 +61,50 @@ def test_init_config_takes_the_paper_arm_by_its_file_name_too(tmp_path: Path) ->
         assert done.returncode == 0, done.stderr
         texts.append((here / "my.yaml").read_text())
     assert texts[0] == texts[1]
+
+
+#: Five --point pairs a homography fits within the 0.5 cm rms the command allows.
+POINTS5 = [
+    f"--point={uv}:{xy}"
+    for uv, xy in [("100,100", "-10,50"), ("540,100", "10,50"), ("540,380", "10,30")]
+    + [("100,380", "-10,30"), ("320,240", "0,40")]
+]
+
+
+def test_calibrate_camera_output_in_another_folder_keeps_the_configs_paths(
+    tmp_path: Path,
+) -> None:
+    """``extends: base/b.yaml`` copied as it was into ``--output out/cfg.yaml`` named
+    out/base/b.yaml, and the config written (exit 0) did not load."""
+    (tmp_path / "base").mkdir()
+    (tmp_path / "base/b.yaml").write_text("extends: sim\n")
+    (tmp_path / "rel.yaml").write_text("extends: base/b.yaml\n")
+    (tmp_path / "made").mkdir()
+    for out, extends in [
+        ("made/cfg.yaml", "../base/b.yaml"),  # a folder that is there: relative to it
+        ("new/cfg.yaml", str((tmp_path / "base/b.yaml").resolve())),  # made on writing
+        ("cfg.yaml", "base/b.yaml"),  # beside it: as it was
+    ]:
+        done = mearm_here(
+            "calibrate-camera", "--config", "rel.yaml", *POINTS5, "--output", out, cwd=tmp_path
+        )
+        assert done.returncode == 0, done.stderr
+        assert (tmp_path / out).read_text().startswith(f"extends: {extends}\n")
+        fk = mearm_here("fk", "--config", out, "--joints", "90,90,-90", cwd=tmp_path)
+        assert fk.returncode == 0, fk.stderr
+
+
+def test_a_servo_file_named_beside_the_config_follows_it(tmp_path: Path) -> None:
+    from ruamel.yaml import YAML
+
+    from mearm.tools.calibrate_camera import _moved
+
+    (tmp_path / "kb.servos.yaml").write_text("")
+    data = YAML().load("extends: sim\nservo:\n  calibration_file: kb.servos.yaml\n")
+    _moved(data, tmp_path / "rel.yaml", tmp_path / "sub" / "cfg.yaml")
+    assert data["extends"] == "sim"  # a shipped config's name: no file beside it
+    assert data["servo"]["calibration_file"] == str((tmp_path / "kb.servos.yaml").resolve())
+    (tmp_path / "sub").mkdir()
+    data = YAML().load("servo:\n  calibration_file: kb.servos.yaml\n")
+    _moved(data, tmp_path / "rel.yaml", tmp_path / "sub" / "cfg.yaml")
+    assert data["servo"]["calibration_file"] == "../kb.servos.yaml"

@@ -53,6 +53,7 @@ from __future__ import annotations
 import argparse
 import io
 import math
+import os
 import stat
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
@@ -76,6 +77,7 @@ from mearm.cli import (
 )
 from mearm.config import config_from_dict
 from mearm.config.base import MAX_LENGTH_CM, short_repr
+from mearm.config.compose import EXTENDS_KEY, FILE_KEYS
 from mearm.config.errors import CalibrationError
 from mearm.data import packaged_config
 from mearm.errors import ConfigError, InputFileError, MearmError
@@ -191,17 +193,57 @@ def _calibration_section(text: str, source: str) -> tuple[YAML, CommentedMap, Co
     return y, data, section
 
 
-def _dumped(y: YAML, data: CommentedMap, source: str) -> str:
-    """The config's new text, which must still load as a config (else ConfigError)."""
+def _dumped(y: YAML, data: CommentedMap, source: str, target: Path | None = None) -> str:
+    """The config's new text, which must load where it is written (else ConfigError).
+
+    ``target``: where that is, if not over ``source``.
+    """
     out = io.StringIO()
     y.dump(data, out)
     result = out.getvalue()
-    config_from_dict(load_yaml_text(result, source=source), source=source, path=Path(source))
+    where = Path(source) if target is None else target
+    config_from_dict(load_yaml_text(result, source=str(where)), source=str(where), path=where)
     return result
 
 
-def update_config_text(text: str, calibration: Calibration, note: str, source: str) -> str:
+def _moved(data: CommentedMap, source: Path, target: Path) -> None:
+    """Rewrite the relative paths ``data`` names for the config written to ``target``.
+
+    ``extends:`` and the file keys (:data:`~mearm.config.compose.FILE_KEYS`) are relative
+    to the folder of the config that names them. Copied as they are into a config written
+    in another folder (``--output sub/cfg.yaml``), they named files that are not there,
+    and the written config did not load. Each that names a file beside ``source`` now
+    names it from ``target``'s folder (by its absolute path while that folder is still
+    to be made); an absolute path, or a name that is no file there (a config mearm ships,
+    by its name), stays as it was.
+    """
+    here, there = source.absolute().parent, target.absolute().parent
+    if here.resolve() == there.resolve():
+        return
+
+    def moved(text: str) -> str:
+        full = here / text
+        if Path(text).is_absolute() or not (full.exists() or full.is_symlink()):
+            return text
+        if not there.is_dir():  # made on writing: "new/../base.yaml" cannot be read yet
+            return str(full.resolve())
+        return os.path.relpath(full, there)
+
+    if isinstance(data.get(EXTENDS_KEY), str):
+        data[EXTENDS_KEY] = moved(data[EXTENDS_KEY])
+    for section, key in FILE_KEYS:
+        part = data.get(section)
+        if isinstance(part, CommentedMap) and isinstance(part.get(key), str):
+            part[key] = moved(part[key])
+
+
+def update_config_text(
+    text: str, calibration: Calibration, note: str, source: str, target: Path | None = None
+) -> str:
     """``text`` (a YAML config) with its calibration block replaced; comments kept.
+
+    ``target``: where it is written, if not over ``source`` (its relative paths follow,
+    :func:`_moved`).
 
     Raises:
         ConfigError: the text is not YAML, or YAML that every config read refuses
@@ -228,7 +270,9 @@ def update_config_text(text: str, calibration: Calibration, note: str, source: s
     err = calibration.reprojection_error_cm
     section["reprojection_error_cm"] = None if err is None else float(err)
     section.yaml_add_eol_comment(note, "homography")
-    return _dumped(y, data, source)
+    if target is not None:
+        _moved(data, Path(source), target)
+    return _dumped(y, data, source, target)
 
 
 def point_config_at_files(
@@ -251,10 +295,11 @@ def point_config_at_files(
         except ValueError:
             return str(full)
 
+    _moved(data, Path(source), config)
     section["model"] = "perspective"
     section["intrinsics_file"] = rel(intrinsics)
     section["extrinsics_file"] = rel(extrinsics)
-    return _dumped(y, data, source)
+    return _dumped(y, data, source, config)
 
 
 @dataclass(frozen=True)
@@ -723,7 +768,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         calibration = replace(calibration, reprojection_error_cm=None)
 
     note = f"fitted {date.today().isoformat()} by mearm calibrate-camera from {how}"
-    new_text = update_config_text(text, calibration, note, str(args.config))  # or exit 2
+    new_text = update_config_text(
+        text, calibration, note, str(args.config), args.output
+    )  # or exit 2
     print(f"fitted from {how}")
     print(f"reprojection error: rms {rms:.4f} cm, max {worst:.4f} cm")
     if n_pairs == 4:
