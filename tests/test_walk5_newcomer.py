@@ -108,3 +108,25 @@ def test_a_servo_file_named_beside_the_config_follows_it(tmp_path: Path) -> None
     data = YAML().load("servo:\n  calibration_file: kb.servos.yaml\n")
     _moved(data, tmp_path / "rel.yaml", tmp_path / "sub" / "cfg.yaml")
     assert data["servo"]["calibration_file"] == "../kb.servos.yaml"
+
+
+def test_a_twin_of_an_arm_the_sort_would_refuse_says_why_before_next(tmp_path: Path) -> None:
+    """``arm: {use: mearm_v1}`` alone keeps the built-in table, the paper arm's bins, out
+    of the kit's reach: the twin is written, and the warning says why the sort would
+    refuse it, where the next step once said only ``mearm sort``."""
+    (tmp_path / "mine.yaml").write_text("arm:\n  use: mearm_v1\n")
+    done = mearm_here(
+        "init-config", "--of", "mine.yaml", "--rig", "sim_mujoco", "twin.yaml", cwd=tmp_path
+    )
+    assert done.returncode == 0 and (tmp_path / "twin.yaml").is_file(), done.stderr
+    (warning,) = done.stderr.splitlines()
+    assert warning.startswith("mearm init-config: warning: mearm sort would refuse it as it is:")
+    assert "task.classes.red.bin_cm: [-20, 35, 20] cannot be reached" in warning
+    assert "  1. change what the warning names, in mine.yaml or twin.yaml" in done.stdout
+    fine = tmp_path / "kit.yaml"
+    fine.write_text("extends: sim_mearm_v1\narm:\n  use: mearm_v1\n")
+    ok = mearm_here(
+        "init-config", "--of", "kit.yaml", "--rig", "sim", "kit_twin.yaml", cwd=tmp_path
+    )
+    assert ok.returncode == 0 and ok.stderr == "", ok.stderr
+    assert "  1. mearm sort --config kit_twin.yaml" in ok.stdout

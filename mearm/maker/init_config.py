@@ -40,6 +40,7 @@ from __future__ import annotations
 import os
 import re
 import shlex
+import sys
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -53,6 +54,7 @@ from mearm.cli import (
     ArgumentParser,
     backup_written,
     check_output_file,
+    invoked_as,
     run,
     write_text_atomic,
 )
@@ -650,7 +652,7 @@ def _write_twin(of: Path, out: Path, arm_name: str | None, rig: RigChoice) -> in
     if not out.parent.exists():  # made on writing: "new/../my_arm.yaml" cannot be read yet
         twin[EXTENDS_KEY] = str(of.absolute())
     try:
-        config_from_dict(twin, source=name, path=out)
+        config = config_from_dict(twin, source=name, path=out)
     except ConfigError as exc:
         raise MearmError(f"the twin of {of} does not load: {exc}") from None
     _keep_old(out, text)
@@ -658,8 +660,30 @@ def _write_twin(of: Path, out: Path, arm_name: str | None, rig: RigChoice) -> in
     write_text_atomic(out, text)
     extends = twin_extends(of, out)
     print(f"wrote {out}{made}: your {of.name} on the {rig.name} rig (it extends {extends}). Next:")
+    refused = _sort_refuses(config)
+    if refused is not None:  # a twin to look at and fix, but "Next: mearm sort" would fail
+        prog = invoked_as("python -m mearm.maker.init_config")
+        print(f"{prog}: warning: {refused}", file=sys.stderr)
+        print(f"  1. change what the warning names, in {of.name} or {shlex.quote(name)}")
+        print(f"  2. mearm sort --config {shlex.quote(name)}")
+        return EXIT_OK
     print(f"  1. mearm sort --config {shlex.quote(name)}")
     return EXIT_OK
+
+
+def _sort_refuses(config: Config) -> str | None:
+    """Why ``mearm sort`` would refuse ``config`` before it starts, or ``None``.
+
+    The arm given by ``arm: {use: …}`` with the table of another config (the built-in
+    paper arm's bins for a MeArm v1) loads, and its sort is refused: a bin out of reach.
+    """
+    from mearm.task.check import check_consistency  # noqa: PLC0415  (the kinematics)
+
+    try:
+        check_consistency(config)
+    except ConfigError as exc:
+        return f"mearm sort would refuse it as it is: {'; '.join(exc.problems)}"
+    return None
 
 
 if __name__ == "__main__":
