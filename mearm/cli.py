@@ -391,6 +391,33 @@ def check_output_file(path: Path, flag: str) -> None:
     _check_writable_folder(path, flag)
 
 
+#: Suffixes of pictures the commands read (frames, boards, marker sheets): a YAML file
+#: written under one is taken for a picture by the next command that reads a folder.
+IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".webp", ".gif")
+
+
+def check_yaml_output(path: Path, flag: str) -> None:
+    """:func:`check_output_file` for a YAML output, then :func:`refuse_picture_name`."""
+    check_output_file(path, flag)
+    refuse_picture_name(path, flag)
+
+
+def refuse_picture_name(path: Path, flag: str) -> None:
+    """Refuse a YAML output named as a picture (after a command's more specific checks).
+
+    ``calibrate-intrinsics --images boards --out boards/intrinsics.png`` wrote YAML there,
+    exit 0, and the next run over that folder stopped on it ("not an image").
+
+    Raises:
+        MearmError: ``path`` ends in a picture's suffix (:data:`IMAGE_SUFFIXES`).
+    """
+    if path.suffix.lower() in IMAGE_SUFFIXES:
+        raise MearmError(
+            f"{flag} {path}: names a picture ({path.suffix}); this is a YAML file: give a "
+            "name ending .yaml"
+        )
+
+
 def refuse_to_replace(path: Path | None, flag: str, force: bool) -> None:  # noqa: FBT001
     """Refuse, before any work, an output that exists unless ``--force`` was given.
 

@@ -4,7 +4,10 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from conftest import mearm_here, one_stderr_line
+import cv2
+import numpy as np
+import pytest
+from conftest import mearm_here, one_stderr_line, record_by_hand
 
 POINTS = ["--point", "10,10:-10,30", "--point", "600,10:10,30", "--point", "600,400:10,55"]
 POINTS += ["--point", "10,400:-10,55"]
@@ -130,3 +133,38 @@ def test_a_twin_of_an_arm_the_sort_would_refuse_says_why_before_next(tmp_path: P
     )
     assert ok.returncode == 0 and ok.stderr == "", ok.stderr
     assert "  1. mearm sort --config kit_twin.yaml" in ok.stdout
+
+
+@pytest.mark.parametrize(
+    ("argv", "flag"),
+    [
+        (["calibrate-intrinsics", "--images", "boards", "--out", "boards/intrinsics.png"], "--out"),
+        (
+            ["calibrate-servos", "--simulate", "--config", "sim_mujoco_kits", "--output", "kb.png"],
+            "--output",
+        ),
+        (
+            ["check-camera", "--config", "sim_mujoco_perspective", "--refine", "pose.jpg"],
+            "--refine",
+        ),
+    ],
+    ids=["intrinsics", "servos", "refine"],
+)
+def test_a_yaml_output_named_as_a_picture_is_refused(
+    tmp_path: Path, argv: list[str], flag: str
+) -> None:
+    """calibrate-intrinsics wrote its YAML as boards/intrinsics.png, exit 0, and the next
+    run over that folder stopped on it as "not an image"."""
+    (tmp_path / "boards").mkdir()
+    view = tmp_path / "boards" / "view1.png"  # a folder of views, as the docs make one
+    cv2.imwrite(str(view), np.full((48, 64, 3), 200, np.uint8))
+    line = one_stderr_line(mearm_here(*argv, cwd=tmp_path), 2)
+    assert f"{flag} " in line and "names a picture" in line and "ending .yaml" in line, line
+    assert sorted(p.name for p in tmp_path.rglob("*")) == ["boards", "view1.png"]
+
+
+def test_a_contact_sheet_named_other_than_png_is_refused(tmp_path: Path) -> None:
+    root = record_by_hand(tmp_path / "ds", episodes=1, frames=20)
+    line = one_stderr_line(mearm_here("dataset", "show", root, "--sheet", "s.jpg", cwd=tmp_path), 2)
+    assert line.endswith("--sheet s.jpg: the contact sheet is a PNG: give a name ending .png")
+    assert not (tmp_path / "s.jpg").exists()

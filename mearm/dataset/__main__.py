@@ -68,6 +68,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     # before the report, not after it
     check_output_file(sheet, "--sheet")
     refuse_inside(sheet, args.dir)
+    if sheet.suffix.lower() != ".png":  # PNG bytes under .jpg: a viewer's guess, not a JPEG
+        raise MearmError(f"--sheet {sheet}: the contact sheet is a PNG: give a name ending .png")
     refuse_to_replace(sheet, "--sheet", args.force)
     for line in describe(args.dir):
         print(line)

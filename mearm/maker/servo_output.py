@@ -11,7 +11,7 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
-from mearm.cli import EXIT_FAILURE, EXIT_OK, backup_written, check_output_file
+from mearm.cli import EXIT_FAILURE, EXIT_OK, backup_written, check_yaml_output
 from mearm.config import Config
 from mearm.config.servo_file import (
     ActuatorFit,
@@ -57,10 +57,10 @@ def check_output(output: Path, *, force: bool) -> None:
 
     Raises:
         MearmError: ``output`` is a folder or a device, or cannot be written
-            (:func:`~mearm.cli.check_output_file`); it exists and ``force`` is not given;
+            (:func:`~mearm.cli.check_yaml_output`); it exists and ``force`` is not given;
             or it is a file that is not a servo calibration.
     """
-    check_output_file(output, "--output")
+    check_yaml_output(output, "--output")
     if output.exists():
         if not force:
             raise MearmError(

@@ -73,6 +73,7 @@ from mearm.cli import (
     check_plain_number,
     plain_float,
     refuse_own_inputs,
+    refuse_picture_name,
     run,
 )
 from mearm.config import config_from_dict
@@ -529,6 +530,9 @@ def _check_arguments(parser: ArgumentParser, args: argparse.Namespace) -> None:
             if path is not None:
                 check_output_file(path, flag)
         _check_own_inputs(args)
+        for flag, path in (("--output", args.output), ("--out", args.out)):
+            if path is not None:
+                refuse_picture_name(path, flag)
     _check_raised(parser, args)
     if args.marker_side_cm is not None and not 0 < args.marker_side_cm <= MAX_MARKER_SIDE_CM:
         parser.error(

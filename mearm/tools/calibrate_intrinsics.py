@@ -39,6 +39,7 @@ from mearm.cli import (
     check_plain_number,
     positive_number,
     refuse_own_inputs,
+    refuse_picture_name,
     run,
 )
 from mearm.config import CameraConfig
@@ -206,6 +207,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                 [("--out", args.out)],
                 [("--images", path) for path, _ in image_files(args.images)],
             )
+        refuse_picture_name(args.out, "--out")
     if args.camera_id is not None and not (0 < len(args.camera_id) <= 200):
         parser.error("--camera-id must be 1 … 200 characters")
 

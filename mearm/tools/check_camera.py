@@ -50,8 +50,8 @@ from mearm.cli import (
     ArgumentParser,
     add_config_argument,
     backup_written,
-    check_output_file,
     check_plain_number,
+    check_yaml_output,
     config_from_args,
     refuse_own_inputs,
     run,
@@ -267,7 +267,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--force", action="store_true", help="with --refine: replace any file")
     args = parser.parse_args(argv)
     if args.refine is not None:
-        check_output_file(args.refine, "--refine")
+        check_yaml_output(args.refine, "--refine")
     config = config_from_args(args)
     if args.refine is not None:
         # the pose file it refines may be replaced (kept as .bak); the config and the
