@@ -168,3 +168,27 @@ def test_a_contact_sheet_named_other_than_png_is_refused(tmp_path: Path) -> None
     line = one_stderr_line(mearm_here("dataset", "show", root, "--sheet", "s.jpg", cwd=tmp_path), 2)
     assert line.endswith("--sheet s.jpg: the contact sheet is a PNG: give a name ending .png")
     assert not (tmp_path / "s.jpg").exists()
+
+
+def test_a_policy_module_beside_the_user_says_how_it_imports(tmp_path: Path) -> None:
+    (tmp_path / "pol_here.py").write_text("def act(obs):\n    return None\n")
+    done = mearm_here(
+        "eval-policy", "--env", "mearm/PickPlace-v0", "--policy", "pol_here:act",
+        "--episodes", "1", "--out", "e.json", cwd=tmp_path,
+    )  # fmt: skip
+    line = one_stderr_line(done, 2)
+    assert "module pol_here does not import" in line and "PYTHONPATH=." in line, line
+
+
+def test_a_file_that_is_no_baseline_says_why_in_whole_words(tmp_path: Path) -> None:
+    pytest.importorskip("torch")
+    fake = tmp_path / "fake.pt"
+    fake.write_bytes(b"\x89PNG\r\n\x1a\n" + bytes(200))
+    done = mearm_here(
+        "eval-policy", "--env", "mearm/PickPlace-v0", "--policy", "fake.pt",
+        "--episodes", "1", "--out", "e.json", cwd=tmp_path,
+    )  # fmt: skip
+    line = one_stderr_line(done, 2)
+    assert "not a baseline saved by mearm.learn" in line, line
+    reason = line.rsplit("(", 1)[1]
+    assert reason.endswith(")") and (len(reason) < 120 or reason.endswith(" …)")), line

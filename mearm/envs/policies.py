@@ -107,8 +107,17 @@ def load_policy(spec: str, action_space: spaces.Box) -> Policy:
     try:
         module = importlib.import_module(module_name)
     except Exception as exc:  # an import runs the module's code: any error is the user's
+        here = (  # python does not look in the current folder for an installed command
+            f"; a module in this folder imports with PYTHONPATH=. (e.g. PYTHONPATH=. mearm "
+            f"eval-policy … --policy {spec})"
+            if isinstance(exc, ModuleNotFoundError)
+            and exc.name == module_name.split(".")[0]
+            and Path(f"{module_name.split('.')[0]}.py").is_file()
+            else ""
+        )
         raise PolicyError(
-            f"policy {spec!r}: module {module_name} does not import ({type(exc).__name__}: {exc})"
+            f"policy {spec!r}: module {module_name} does not import ({type(exc).__name__}: "
+            f"{exc}){here}"
         ) from None
     obj: Any = module
     for part in name.split("."):

@@ -130,6 +130,14 @@ def save_baseline(
     write_atomic(path, buffer.getvalue())
 
 
+def _clipped(text: str, limit: int = 80) -> str:
+    """``text`` on one line, cut at a word before ``limit`` characters (``…`` said)."""
+    line = " ".join(text.split())
+    if len(line) <= limit:
+        return line
+    return line[:limit].rsplit(" ", 1)[0] + " …"
+
+
 def load_baseline(path: Path) -> BaselinePolicy:
     """The policy saved in ``path``.
 
@@ -151,7 +159,7 @@ def load_baseline(path: Path) -> BaselinePolicy:
     except Exception as exc:
         raise PolicyError(
             f"policy {path}: not a baseline saved by mearm.learn ({type(exc).__name__}: "
-            f"{str(exc)[:80]})"
+            f"{_clipped(str(exc))})"
         ) from None
     return BaselinePolicy(
         net,

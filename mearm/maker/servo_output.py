@@ -117,7 +117,8 @@ def write_calibration(
     print(f"wrote {written} ({len(fits)} actuator{'s' if len(fits) != 1 else ''})")
     print(
         f"to use it, add to the config's servo section:  calibration_file: {written}\n"
-        "(relative to the config's folder), or add these overrides to a command:"
+        "(this path, or one relative to the config's folder), or add these overrides to a "
+        "command:"
     )
     _print_overrides(config, fits)
     return EXIT_OK

@@ -784,7 +784,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     for row in calibration.H:
         print("  [" + ", ".join(f"{v: .9g}" for v in row) + "]")
     if args.dry_run:
-        print(f"--dry-run: nothing written ({args.output or args.config} is as it was)")
+        target = args.output or args.config
+        kept = "is as it was" if target.exists() else "was not made"
+        print(f"--dry-run: nothing written ({target} {kept})")
         return 0
     target = args.output or args.config
     elsewhere = args.output is not None and file_identity(args.output) != file_identity(args.config)
@@ -832,7 +834,8 @@ def _pose(parser: ArgumentParser, args: argparse.Namespace) -> int:
         f"camera at ({c[0]:.2f}, {c[1]:.2f}, {c[2]:.2f}) cm, its axis {tilt:.2f} deg from vertical"
     )
     if args.dry_run:
-        print(f"--dry-run: nothing written ({args.out} is as it was)")
+        kept = "is as it was" if args.out.exists() else "was not made"
+        print(f"--dry-run: nothing written ({args.out} {kept})")
         return 0
     new_config = None
     if args.config is not None and config_text is not None:

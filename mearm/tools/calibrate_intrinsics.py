@@ -112,7 +112,7 @@ def image_files(paths: Sequence[Path]) -> list[tuple[Path, bool]]:
                 q for q in p.iterdir() if q.suffix.lower() in FOLDER_SUFFIXES and q.is_file()
             )
             if not found:
-                raise MearmError(f"--images {p}: the folder holds no *.png or *.jpg images")
+                raise MearmError(f"--images {p}: the folder holds no *.png, *.jpg or *.jpeg images")
             out += [(q, False) for q in found]
         elif p.exists():
             out.append((p, True))
