@@ -391,6 +391,11 @@ def check_output_file(path: Path, flag: str) -> None:
     _check_writable_folder(path, flag)
 
 
+def counted(n: int, what: str) -> str:
+    """``1 trial``, ``2 trials``: ``n`` and ``what``, plural unless ``n`` is 1."""
+    return f"{n} {what}{'' if n == 1 else 's'}"
+
+
 #: Suffixes of pictures the commands read (frames, boards, marker sheets): a YAML file
 #: written under one is taken for a picture by the next command that reads a folder.
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".webp", ".gif")

@@ -96,6 +96,7 @@ try:
         backup_existing,
         check_output_file,
         config_from_args,
+        counted,
         echo_line,
         invoked_as,
         plain_int,
@@ -535,13 +536,9 @@ def _say_dataset_written(recorder: DatasetRecorder | None, where: Path) -> None:
     if recorder is None or not recorder.episodes_written:
         return
     n = recorder.episodes_written
-    episodes, frames = recorder.held
-    now = (
-        f"; it holds {episodes} episodes, {frames} frames" if episodes > n else ""
-    )  # a --resume's: the dataset's whole count beside what this run added
     echo_line(
-        f"wrote {where}/ ({n} episode{'' if n == 1 else 's'}, {recorder.frames_written} frames"
-        f"{now})"
+        f"wrote {where}/ ({counted(n, 'episode')}, {recorder.frames_written} frames"
+        f"{recorder.held_note()})"
     )
 
 

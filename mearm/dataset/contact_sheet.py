@@ -12,6 +12,7 @@ from typing import Any
 import cv2
 import numpy as np
 
+from mearm.cli import counted
 from mearm.dataset import lerobot_format as L
 from mearm.dataset.errors import DatasetError
 from mearm.dataset.fragments import tear
@@ -54,8 +55,8 @@ def describe(root: Path) -> list[str]:
     read_starts(root, len(episodes))  # not shown; a replay and --resume read it
     lines = [
         f"{root}: LeRobot {info['codebase_version']}, robot {info.get('robot_type')}, "
-        f"{info['fps']} fps, {_n(info['total_episodes'], 'episode')}, "
-        f"{_n(info['total_frames'], 'frame')}, {_n(info['total_tasks'], 'task')}",
+        f"{info['fps']} fps, {counted(info['total_episodes'], 'episode')}, "
+        f"{counted(info['total_frames'], 'frame')}, {counted(info['total_tasks'], 'task')}",
         "",
         "episode  frames  seconds  task",
     ]
@@ -208,8 +209,3 @@ def _captioned(frame: np.ndarray, lines: list[str]) -> np.ndarray:
     for i, text in enumerate(lines):
         cv2.putText(band, text, (4, 16 * (i + 1)), cv2.FONT_HERSHEY_PLAIN, 0.8, (0, 0, 0), 1)
     return np.vstack([thumb, band])
-
-
-def _n(count: int, what: str) -> str:
-    """``1 task``, ``3 tasks``."""
-    return f"{count} {what}{'' if count == 1 else 's'}"

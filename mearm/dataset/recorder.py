@@ -493,10 +493,17 @@ class DatasetRecorder(EpisodeSampler):
         with contextlib.suppress(DatasetWriteError):
             super().abandon()
 
-    @property
-    def held(self) -> tuple[int, int]:
-        """Episodes and frames the dataset holds, those it held before a ``--resume`` too."""
-        return len(self._episodes), sum(int(ep["length"]) for ep in self._episodes)
+    def held_note(self) -> str:
+        """``; it holds M episodes, G frames`` after a ``--resume`` appended, else nothing.
+
+        A ``wrote DIR/ (N episodes, F frames)`` line names what this run added; after a
+        resume it read as the dataset's size, while the dataset held more.
+        """
+        episodes = len(self._episodes)
+        if episodes <= self.episodes_written:
+            return ""
+        frames = sum(int(ep["length"]) for ep in self._episodes)
+        return f"; it holds {episodes} episodes, {frames} frames"
 
     def close(self) -> None:
         """Write the finished episodes, drop an unfinished one, stop the encoder.

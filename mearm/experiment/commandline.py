@@ -62,6 +62,7 @@ from mearm.cli import (
     ArgumentParser,
     add_config_argument,
     config_from_args,
+    counted,
     invoked_as,
     plain_int,
     seed_value,
@@ -258,7 +259,7 @@ def _resume(
     resume = resume_point(args.log, config, args.seed, scene)
     if resume.done >= args.trials:
         print(
-            f"{args.log} already holds {_trials(resume.done, 'complete trial')} "
+            f"{args.log} already holds {counted(resume.done, 'complete trial')} "
             f"(--trials {args.trials}): nothing to run"
         )
         return _verdict(args.log, args.trials)
@@ -330,15 +331,9 @@ class _Written:
             print(f"wrote {self.log}", flush=True)
         recorder = self.recorder
         if recorder is not None and recorder.episodes_written:
-            episodes = _trials(recorder.episodes_written, "episode")
-            frames = _trials(recorder.frames_written, "frame")
-            held, held_frames = recorder.held
-            now = (  # a --resume's: the dataset's whole count beside what this run added
-                f"; it holds {held} episodes, {held_frames} frames"
-                if held > recorder.episodes_written
-                else ""
-            )
-            print(f"wrote {self.record}/ ({episodes}, {frames}{now})", flush=True)
+            episodes = counted(recorder.episodes_written, "episode")
+            frames = counted(recorder.frames_written, "frame")
+            print(f"wrote {self.record}/ ({episodes}, {frames}{recorder.held_note()})", flush=True)
 
 
 def _size(path: Path) -> int | None:
@@ -347,11 +342,6 @@ def _size(path: Path) -> int | None:
         return path.stat().st_size
     except OSError:
         return None
-
-
-def _trials(n: int, what: str) -> str:
-    """``1 trial``, ``2 trials``: ``n`` and ``what``, plural unless ``n`` is 1."""
-    return f"{n} {what}{'' if n == 1 else 's'}"
 
 
 def _say_resuming(log: Path, resume: Resume, trials: int) -> None:
@@ -369,7 +359,7 @@ def _say_resuming(log: Path, resume: Resume, trials: int) -> None:
     )
     again = f"; trial {resume.done} again, it was {why}" if why else ""
     print(
-        f"resuming {log}: {_trials(resume.done, 'complete trial')} there, running trials "
+        f"resuming {log}: {counted(resume.done, 'complete trial')} there, running trials "
         f"{resume.done}..{trials - 1}{again}"
     )
 
@@ -444,7 +434,7 @@ def _run(
     failed = [(k, r) for k, r in outcomes.items() if r is not None]
     where = "1 process" if workers is None else f"{workers.count} {workers.where}"
     print(
-        f"{_trials(len(outcomes), 'trial')} written to {args.log} in {wall:.0f} s "
+        f"{counted(len(outcomes), 'trial')} written to {args.log} in {wall:.0f} s "
         f"({60 * len(outcomes) / wall:.1f} trials/min, {where}); {len(failed)} stopped early"
     )
     for k, reason in failed:
@@ -462,7 +452,7 @@ def _left(args: Any, config: Config, scene: list[SceneObject] | None) -> str:
         return ""
     again = " with --resume" if args.record is not None else ""
     return (
-        f"; {done} of {_trials(args.trials, 'trial')} complete in {args.log}: the same "
+        f"; {done} of {counted(args.trials, 'trial')} complete in {args.log}: the same "
         f"command{again} runs the rest"
     )
 
@@ -529,7 +519,7 @@ def _totals(path: Path, trials: int) -> tuple[str, bool]:
             total.left[kind] = total.left.get(kind, 0) + n
     line = total.line()
     head, _, rest = line.partition(" objects")
-    line = f"{head} objects over {_trials(len(done), 'trial')}{rest}"
+    line = f"{head} objects over {counted(len(done), 'trial')}{rest}"
     left = total.n_sorted != sum(total.seen.values()) or any(total.left.values())
     if stopped:
         line += f"; {stopped} stopped early"

@@ -52,7 +52,7 @@ from mearm import __version__, data
 from mearm.cli import (
     EXIT_OK,
     ArgumentParser,
-    backup_written,
+    backup_existing,
     check_output_file,
     invoked_as,
     run,
@@ -61,7 +61,7 @@ from mearm.cli import (
 from mearm.config import Config, config_from_dict, load_config
 from mearm.config.compose import EXTENDS_KEY
 from mearm.errors import ConfigError, MearmError
-from mearm.fileio import backup_path, write_atomic
+from mearm.fileio import backup_path
 from mearm.maker.wiring import Board, wiring_text
 from mearm.yamlio import load_yaml_text
 
@@ -625,16 +625,15 @@ def _keep_old(out: Path, text: str) -> None:
     """A config replaced with --force (a maker may have edited it) is kept as ``.bak``.
 
     Not when it already holds ``text``: a second ``--force`` would replace the ``.bak``,
-    the maker's edits, with a copy of the file it writes again. The backup is named on
-    stdout once written, as every file a command writes is.
+    the maker's edits, with a copy of the file it writes again
+    (:func:`~mearm.cli.backup_existing`, which names the backup on stdout).
     """
-    if out.is_file() and out.read_bytes() != text.encode("utf-8"):
-        bak = backup_path(out)
-        try:
-            write_atomic(bak, out.read_bytes())
-        except OSError as exc:
-            raise MearmError(f"cannot keep {out} as {bak}: {exc.strerror or exc}") from None
-        print(backup_written(out))
+    try:
+        backup_existing(out, text)
+    except OSError as exc:
+        raise MearmError(
+            f"cannot keep {out} as {backup_path(out)}: {exc.strerror or exc}"
+        ) from None
 
 
 def _write_twin(of: Path, out: Path, arm_name: str | None, rig: RigChoice) -> int:
