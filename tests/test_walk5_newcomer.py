@@ -52,6 +52,10 @@ def test_a_checkouts_config_path_from_another_folder_names_the_shipped_config(
     ), line
     unknown = mearm_here("sort", "--config", "configs/nosuch.yaml", cwd=tmp_path)
     assert one_stderr_line(unknown, 2).endswith("configs/nosuch.yaml: config file not found")
+    long = f"configs/{'x' * 300}.yaml"  # no file can have the name: bad input, not a crash
+    assert one_stderr_line(mearm_here("sort", "--config", long, cwd=tmp_path), 2).endswith(
+        f"{long}: config file not found"
+    )
 
 
 def test_init_config_takes_the_paper_arm_by_its_file_name_too(tmp_path: Path) -> None:

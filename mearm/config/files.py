@@ -93,10 +93,11 @@ def _refuse_a_shipped_path_elsewhere(given: Path, text: str) -> None:
     try:
         if given.exists() or given.is_symlink() or given.parent.name != "configs":
             return
+        shipped = packaged_config(given.name)
     except OSError:  # a name no file can have (too long): the reader says why
         return
     name = given.name.removesuffix(".yaml")
-    if packaged_config(given.name) is not None:
+    if shipped is not None:
         raise ConfigError(
             text,  # a shipped config's name under configs/: nothing to quote
             [
