@@ -264,9 +264,7 @@ def _mujoco(config: Config, scene: list[SceneObject] | None) -> Iterator[RigPart
     from mearm.sim.twin.twin_camera import TwinCamera  # noqa: PLC0415
 
     if scene is not None:
-        config = config.model_copy(
-            update={"task": config.task.model_copy(update={"scene": list(scene)})}
-        )
+        config = config.with_scene(scene)
     twin = TwinArm(config)
     with contextlib.ExitStack() as stack:
         camera = stack.enter_context(TwinCamera(config, twin))

@@ -387,7 +387,10 @@ def _sort(argv: Sequence[str] | None) -> int:
     held = _SummaryHeld()
     echo = _quiet_echo(lines) if args.quiet else held if recorder is not None else echo_line
 
-    make_view = _view_factory(config, collision=args.collision)
+    # the view draws the table laid out, its bins' walls as the twin and the planner have them
+    make_view = _view_factory(
+        config if scene is None else config.with_scene(scene), collision=args.collision
+    )
 
     if args.log:
         from mearm.runlog import RunLog  # noqa: PLC0415  (only a run that keeps a log)
@@ -584,11 +587,7 @@ def _scene_mjcf(config: Config, scene: list[SceneObject] | None) -> str:
     """The MJCF of the scene the sort will see (written once every input is accepted)."""
     from mearm.sim.twin.mjcf import generate_mjcf
 
-    if scene is not None:
-        config = config.model_copy(
-            update={"task": config.task.model_copy(update={"scene": list(scene)})}
-        )
-    return generate_mjcf(config)
+    return generate_mjcf(config if scene is None else config.with_scene(scene))
 
 
 def _save_mjcf(path: Path, mjcf: str) -> None:

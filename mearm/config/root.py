@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import Literal
 
 from pydantic import Field, field_validator, model_validator
@@ -15,6 +16,7 @@ from mearm.config.sections import (
     CalibrationConfig,
     CameraConfig,
     ControllerConfig,
+    SceneObject,
     ServoConfig,
     TaskConfig,
     VisionConfig,
@@ -124,6 +126,14 @@ class Config(Strict):
     def simulated_table(self) -> bool:
         """Whether the camera or the servos are simulated, so a table of objects is laid out."""
         return self.camera.kind == "sim" or self.servo.backend == "sim"
+
+    def with_scene(self, scene: Sequence[SceneObject]) -> Config:
+        """This config with ``task.scene`` replaced: the table a sort lays out instead.
+
+        Everything built from the config then sees that table: the twin's bin walls, grown
+        to hold its objects stacked, and the planner's model of them alike.
+        """
+        return self.model_copy(update={"task": self.task.model_copy(update={"scene": list(scene)})})
 
     @model_validator(mode="after")
     def _twin_simulates_both(self) -> Config:

@@ -187,7 +187,7 @@ def max_objects(config: Config) -> int:
 
 def _brought(config: Config) -> dict[str, int]:
     """The objects of each class the belt brings besides the table's."""
-    return dict(TableContents.of(config.task.model_copy(update={"scene": []}), config.belt).belt)
+    return dict(TableContents.of(config.with_scene([]).task, config.belt).belt)
 
 
 def _overfull(config: Config, counts: Mapping[str, int], brought: Mapping[str, int]) -> str | None:
@@ -393,8 +393,7 @@ class TwinEnv(gym.Env[dict[str, Any], np.ndarray]):
             scene = random_scene(config, {cls: 1}, seed)
         else:
             scene = random_scene(config, self.objects, seed)
-        task = config.task.model_copy(update={"scene": list(scene)})
-        return config.model_copy(update={"task": task}), scene
+        return config.with_scene(scene), scene
 
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None

@@ -316,7 +316,7 @@ def calibrate_by_camera(config: Config, output: Path, args: argparse.Namespace) 
     """
     camera = check_inputs(config, args, output)
     if args.simulate:  # the twin on an empty table
-        config = config.model_copy(update={"task": config.task.model_copy(update={"scene": []})})
+        config = config.with_scene([])
     out = sys.stdout
     opened = False
     try:

@@ -156,6 +156,10 @@ def run_sort(
         if log is not None:
             log.header(config, trial=trial, seed=seed, argv=argv, scene=scene_layout(config, scene))
         check_consistency(config)
+        if scene is not None:
+            # the sorter plans against the table laid out, not the config's own: the
+            # twin's bin walls grow with the objects they hold, and so must its model's
+            config = config.with_scene(scene)
         with open_rig(config, scene) as rig:
             if on_open is not None:
                 on_open(rig)

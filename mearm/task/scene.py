@@ -215,7 +215,7 @@ def _release_below_walls(config: Config, colors: Sequence[str]) -> str | None:
     from mearm.sim.twin.twin_scene_check import release_below_walls  # noqa: PLC0415  (MuJoCo)
 
     names = config.task.class_names
-    belt = TableContents.of(config.task.model_copy(update={"scene": []}), config.belt).belt
+    belt = TableContents.of(config.with_scene([]).task, config.belt).belt
     counts = {n: sum(1 for c in colors if c == n) for n in names}
     return release_below_walls(config, TableContents(tuple(config.task.classes), counts, belt))
 

@@ -312,7 +312,7 @@ def score(
                 outline = camera.silhouette_px((o.x, o.y), c.diameter_cm / 2, height)
                 if np.all((outline >= EDGE_PX) & (outline <= (w - 1 - EDGE_PX, h - 1 - EDGE_PX))):
                     scene.append(o)
-            cfg_s = cfg.model_copy(update={"task": cfg.task.model_copy(update={"scene": scene})})
+            cfg_s = cfg.with_scene(scene)
             frame, truth = render_objects(cfg_s, noise_std=noise, seed=seed)
             true = [(o.color, truth[i]) for o, i in zip(scene, object_ids(cfg_s), strict=True)]
             n += len(true)

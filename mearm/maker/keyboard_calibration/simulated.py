@@ -256,7 +256,7 @@ def simulate(
     check_output(output, force=bool(args.force))
     from mearm.sim.twin.twin_bus import TwinArm  # noqa: PLC0415
 
-    cleared = config.model_copy(update={"task": config.task.model_copy(update={"scene": []})})
+    cleared = config.with_scene([])
     twin = TwinArm(cleared)
     kit = config.twin.kit
     board = "simulated: the MuJoCo twin" + (

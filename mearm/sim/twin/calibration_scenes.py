@@ -101,7 +101,7 @@ def _png(image: np.ndarray) -> bytes:
 
 def _scene_config(config: Config) -> Config:
     """``config`` without scene objects (the pictures are taken of an empty table)."""
-    return config.model_copy(update={"task": config.task.model_copy(update={"scene": []})})
+    return config.with_scene([])
 
 
 def _compile(model: mujoco.MjSpec, assets: dict[str, bytes]) -> mujoco.MjModel:
