@@ -62,3 +62,24 @@ def test_a_21_object_table_on_the_paper_arms_twin_is_sorted_whole() -> None:
     report = run_sort(config, scene=random_scene(config, 21, seed=54000953), echo=None)
     assert report.outcome.n_sorted == 21, report.outcome.left
     assert report.complete
+
+
+@pytest.mark.parametrize(("task", "objects"), [("pick_place", None), ("sort", 21)])
+def test_an_environments_refusals_see_the_walls_its_episode_built(
+    task: str, objects: int | None
+) -> None:
+    """The Gymnasium twin refuses a command whose way meets a bin or the table: checked
+    against the walls each episode's twin built (one object: lower than the config's own
+    scene's; 21: higher), not those of the config's own scene."""
+    from mearm.envs import TwinEnv
+
+    options = {} if objects is None else {"objects": objects}
+    env = TwinEnv(config="sim_mujoco", task=task, obs_type="state", **options)
+    try:
+        env.reset(seed=5500002)
+        assert env.twin is not None
+        table = env.collision.table
+        planner = {c.name: wall_height_m(c, table.objects(c.name)) for c in table.classes}
+        assert planner == env.twin._bin_tops_m
+    finally:
+        env.close()

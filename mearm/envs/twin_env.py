@@ -52,6 +52,7 @@ from mearm.hardware.command import ArmCommand
 from mearm.hardware.errors import JointLimitError, PulseRangeError, ServoError
 from mearm.kinematics import ArmModel
 from mearm.kinematics.bodies import TableContents, wall_height_m
+from mearm.kinematics.collision import CollisionModel
 from mearm.sim.table_collision import collision_model
 from mearm.sim.twin.frame_drawer import close_renderer, offscreen_renderer
 from mearm.sim.twin.twin_bus import TwinArm
@@ -367,9 +368,8 @@ class TwinEnv(gym.Env[dict[str, Any], np.ndarray]):
         self.observation_space = spaces.Dict(obs)
         self.model = ArmModel(base.arm)
         self.chain = self.model.chain
-        # bins and the table only, at touch: the jaws may meet the objects they grasp
-        self.collision = collision_model(base, self.model, clearance_cm=0.0)
-        self.collision.set_world([])
+        self._collisions: dict[tuple[int, ...], CollisionModel] = {}
+        self.collision = self._collision_of(base)
         self.twin: TwinArm | None = None
         self.config: Config | None = None
         self.scene: list[SceneObject] = []
@@ -426,6 +426,7 @@ class TwinEnv(gym.Env[dict[str, Any], np.ndarray]):
         twin = TwinArm(config)
         twin.connect()
         self.twin = twin
+        self.collision = self._collision_of(config)
         home = self.chain.named_actuated(self.model.home)
         tool = {t.name: t.setting("home") for t in config.arm.tool.actuators}
         self._send(ArmCommand(home, tool, gripper_closed=False))
@@ -495,6 +496,22 @@ class TwinEnv(gym.Env[dict[str, Any], np.ndarray]):
         assert self.twin is not None
         for _ in range(self.periods):
             self.twin.move(command)
+
+    def _collision_of(self, config: Config) -> CollisionModel:
+        """What a command's way is checked against: the bins and the table, at touch.
+
+        Not the objects: the jaws may meet the ones they grasp. The bins' walls are the
+        ones the twin builds for ``config``'s table, which grow with its objects of each
+        class (:func:`~mearm.kinematics.bodies.wall_height_m`); one model is kept for each
+        count of them.
+        """
+        table = TableContents.of(config.task, config.belt)
+        key = tuple(table.objects(name) for name in table.class_names)
+        model = self._collisions.get(key)
+        if model is None:
+            model = self._collisions[key] = collision_model(config, self.model, clearance_cm=0.0)
+            model.set_world([])
+        return model
 
     def _refusal(self, command: ArmCommand) -> str | None:
         """Why the way from the last command to ``command`` is refused, or ``None``."""
