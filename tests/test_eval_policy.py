@@ -216,6 +216,30 @@ def _baseline(path: Path, n_in: int, n_out: int, env_id: str) -> Path:
     return path
 
 
+class _Opens:
+    """Pickled as a call that makes a file: what a ``.pt`` from someone else could hold."""
+
+    def __init__(self, path: Path):
+        self.path = path
+
+    def __reduce__(self):
+        return (open, (str(self.path), "w"))
+
+
+def test_a_pt_file_whose_pickle_would_run_code_is_refused_without_running_it(tmp_path):
+    """A ``--policy FILE.pt`` is read by torch's weights-only unpickler: tensors, plain
+    values and arrays. Read with ``weights_only=False`` this file made ``ran`` first."""
+    torch = pytest.importorskip("torch")
+    from mearm.envs.errors import PolicyError
+    from mearm.learn.baseline import load_baseline
+
+    ran, evil = tmp_path / "ran", tmp_path / "evil.pt"
+    torch.save({"format": "mearm-bc-3", "meta": _Opens(ran)}, evil)
+    with pytest.raises(PolicyError, match="not a baseline saved by mearm.learn"):
+        load_baseline(evil)
+    assert not ran.exists()
+
+
 def test_a_baseline_of_other_sizes_is_refused_before_any_episode(tmp_path):
     """Trained on PickPlace's 10 inputs but labelled Sort-v0: each episode raised a shape
     error and the run exited 0 with "success 0.0 %"; now exit 2 naming both sizes."""

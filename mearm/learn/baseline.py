@@ -138,6 +138,17 @@ def _clipped(text: str, limit: int = 80) -> str:
     return line[:limit].rsplit(" ", 1)[0] + " …"
 
 
+#: What a numpy array in a baseline file needs to load under ``weights_only``: its
+#: reconstructor, the array and dtype classes (the input scaling is saved as arrays).
+_ARRAY_GLOBALS: list[Any] = [
+    np.zeros(0).__reduce__()[0],
+    np.ndarray,
+    np.dtype,
+    type(np.dtype(np.float32)),
+    type(np.dtype(np.float64)),
+]
+
+
 def load_baseline(path: Path) -> BaselinePolicy:
     """The policy saved in ``path``.
 
@@ -151,7 +162,10 @@ def load_baseline(path: Path) -> BaselinePolicy:
     if not path.is_file():
         raise PolicyError(f"policy {path}: no such file")
     try:
-        saved = torch.load(path, map_location="cpu", weights_only=False)
+        # tensors, plain values and numpy arrays only: a file from anywhere is read without
+        # running what its pickle asks for (torch's weights_only unpickler)
+        with torch.serialization.safe_globals(_ARRAY_GLOBALS):
+            saved = torch.load(path, map_location="cpu", weights_only=True)
         if saved.get("format") != "mearm-bc-3":
             raise ValueError("not a mearm-bc-3 file")
         net = build_mlp(int(saved["n_in"]), int(saved["n_out"]), int(saved["hidden"]))
