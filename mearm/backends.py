@@ -136,7 +136,9 @@ def open_parts(
 
     Args:
         config: The whole configuration.
-        scene: Objects for the simulated table (default: ``config.task.scene``).
+        scene: Objects for the simulated table (default: ``config.task.scene``); every
+            part is opened with it as ``task.scene``, so the bins' walls each part builds
+            or checks against are those of this table.
 
     Raises:
         ConfigError: a simulator no kind registered.
@@ -145,7 +147,7 @@ def open_parts(
     if opener is None:
         kinds = ", ".join(_SIMULATORS)
         raise ConfigError(None, [f"simulator: {config.simulator!r} is not one of {kinds}"])
-    return opener(config, scene)
+    return opener(config if scene is None else config.with_scene(scene), scene)
 
 
 def uses_world(config: Config) -> bool:
@@ -263,9 +265,7 @@ def _mujoco(config: Config, scene: list[SceneObject] | None) -> Iterator[RigPart
     from mearm.sim.twin.twin_bus import TwinArm  # noqa: PLC0415
     from mearm.sim.twin.twin_camera import TwinCamera  # noqa: PLC0415
 
-    if scene is not None:
-        config = config.with_scene(scene)
-    twin = TwinArm(config)
+    twin = TwinArm(config)  # (its walls those of ``scene``: :func:`open_parts`)
     with contextlib.ExitStack() as stack:
         camera = stack.enter_context(TwinCamera(config, twin))
         stack.callback(twin.close)

@@ -16,7 +16,7 @@ import pytest
 from conftest import ROOT
 
 from mearm.config import load_config
-from mearm.kinematics.bodies import wall_height_m
+from mearm.kinematics.bodies import TableContents, wall_height_m
 from mearm.task.rig import run_sort
 from mearm.task.scene import random_scene
 from mearm.task.sorter import Sorter
@@ -83,3 +83,16 @@ def test_an_environments_refusals_see_the_walls_its_episode_built(
         assert planner == env.twin._bin_tops_m
     finally:
         env.close()
+
+
+def test_the_kinematic_rigs_collision_faults_see_the_walls_of_the_table_laid_out() -> None:
+    """The kinematic rig faults a move that touches a bin (``SimCollisionError``), checked
+    against the walls of the table laid out: 6 objects (2 a class) stand 3 cm walls where
+    the config's own 12 stand 5 cm, and the planner plans over the 3 cm ones."""
+    from mearm.task.rig import open_rig
+
+    config = load_config(ROOT / "configs" / "sim.yaml")
+    scene = random_scene(config, 6, seed=5500003)
+    with open_rig(config, scene) as rig:
+        table = TableContents.of(rig.bus.config.task)  # what its collision model is built of
+    assert [table.objects(c) for c in table.class_names] == [2, 2, 2]
