@@ -96,3 +96,28 @@ def test_the_kinematic_rigs_collision_faults_see_the_walls_of_the_table_laid_out
     with open_rig(config, scene) as rig:
         table = TableContents.of(rig.bus.config.task)  # what its collision model is built of
     assert [table.objects(c) for c in table.class_names] == [2, 2, 2]
+
+
+def test_a_random_table_keeps_its_picks_clear_of_the_walls_it_will_have(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """``random_scene`` keeps each pick's tool clear of the bins: of the walls the table
+    being drawn will stand (18 objects on the 5-DOF twin, 6 a class: 7 cm), not of the
+    config's own scene's (3 a class: 4 cm). Seed 54200009 placed an object whose pick
+    came within the clearance of the taller walls."""
+    from mearm.task import scene as scenes
+
+    config = load_config(ROOT / "configs" / "sim_5dof_mujoco.yaml")
+    seen: list[list[int]] = []
+    build = scenes.collision_model
+
+    def recorded(*args, **kwargs):
+        model = build(*args, **kwargs)
+        seen.append([model.table.objects(c) for c in model.table.class_names])
+        return model
+
+    monkeypatch.setattr(scenes, "collision_model", recorded)
+    drawn = random_scene(config, 18, seed=54200009)
+    assert seen == [[6, 6, 6]]
+    monkeypatch.setattr(scenes, "_table_of", lambda config, colors: TableContents.of(config.task))
+    assert random_scene(config, 18, seed=54200009) != drawn  # the walls made the difference

@@ -23,6 +23,7 @@ def collision_model(
     clearance_cm: float | None = None,
     servo: ServoSpec | None = None,
     bins: Iterable[str] | None = None,
+    table: TableContents | None = None,
 ) -> CollisionModel:
     """The planner's collision model of a config's table, its twin's servos and ``model``.
 
@@ -34,9 +35,11 @@ def collision_model(
             :data:`~mearm.kinematics.collision.DEFAULT_CLEARANCE_CM`).
         servo: The joints' servo (default: ``twin.joint_servo``'s).
         bins: The classes whose bins stand on the table (default: every class's).
+        table: How many objects of each class the table holds, which the bins' walls are
+            built for (default: the config's scene and belt).
     """
     return CollisionModel(
-        TableContents.of(config.task, config.belt),
+        TableContents.of(config.task, config.belt) if table is None else table,
         model,
         gripper_servo=servo_named(config.twin.gripper_servo),
         clearance_cm=DEFAULT_CLEARANCE_CM if clearance_cm is None else clearance_cm,

@@ -21,7 +21,7 @@ from mearm.config.belt_config import MAX_ARRIVALS
 from mearm.config.sections import MAX_SCENE_OBJECTS
 from mearm.errors import ConfigError, MearmError
 from mearm.kinematics import ArmModel, check_in_box, closed_form_for
-from mearm.kinematics.bodies import M_PER_CM, base_radius_m, bin_half_outer_m
+from mearm.kinematics.bodies import M_PER_CM, TableContents, base_radius_m, bin_half_outer_m
 from mearm.kinematics.collision import TOUCH_M
 from mearm.sim.table_collision import collision_model
 from mearm.task.plan import Planner
@@ -211,13 +211,17 @@ def _release_below_walls(config: Config, colors: Sequence[str]) -> str | None:
     """
     if config.simulator != "mujoco":
         return None
-    from mearm.kinematics.bodies import TableContents  # noqa: PLC0415
     from mearm.sim.twin.twin_scene_check import release_below_walls  # noqa: PLC0415  (MuJoCo)
 
+    return release_below_walls(config, _table_of(config, colors))
+
+
+def _table_of(config: Config, colors: Sequence[str]) -> TableContents:
+    """The table a scene of objects of ``colors`` lays out, with what the belt brings."""
     names = config.task.class_names
     belt = TableContents.of(config.with_scene([]).task, config.belt).belt
     counts = {n: sum(1 for c in colors if c == n) for n in names}
-    return release_below_walls(config, TableContents(tuple(config.task.classes), counts, belt))
+    return TableContents(tuple(config.task.classes), counts, belt)
 
 
 def _check_something_to_sort(config: Config, source: str) -> None:
@@ -310,7 +314,7 @@ def _reach_check(config: Config) -> Callable[[ColorClass, float, float], np.ndar
 
 
 def _footprint_check(
-    config: Config,
+    config: Config, table: TableContents
 ) -> Callable[[list[SceneObject], list[np.ndarray], SceneObject, np.ndarray], bool]:
     """A test whether a new object keeps every pick clear of the arm's body.
 
@@ -318,11 +322,12 @@ def _footprint_check(
     ``task.clearance_cm`` and :data:`FOOTPRINT_MARGIN_CM` (the camera's error in locating
     an object, a route's way down) from every bin and every other object: both the new
     object's pick among those placed, and each placed object's pick with the new one
-    beside it (:class:`~mearm.kinematics.collision.CollisionModel`).
+    beside it (:class:`~mearm.kinematics.collision.CollisionModel`). The bins' walls are
+    those of ``table``, the one being laid out (they grow with its objects of each class).
     """
     model = ArmModel(config.arm)
     margin = config.task.clearance_cm + FOOTPRINT_MARGIN_CM
-    collision = collision_model(config, model, clearance_cm=margin)
+    collision = collision_model(config, model, clearance_cm=margin, table=table)
 
     def clear(
         placed: list[SceneObject], poses: list[np.ndarray], new: SceneObject, q: np.ndarray
@@ -476,7 +481,7 @@ def random_scene(
     diameter, (x0, x1, y0, y1) = _scene_field(config, any_objects=bool(order))
     reach = _reach_check(config)
     min_dist = _min_centre_distance_cm(config, diameter)
-    footprint = _footprint_check(config)
+    footprint = _footprint_check(config, _table_of(config, order))
     # where the camera may see it: the pick must be reachable there too
     angles = np.linspace(0.0, 2 * np.pi, 8, endpoint=False)
     margins = FOOTPRINT_MARGIN_CM * np.column_stack([np.cos(angles), np.sin(angles)])
