@@ -242,8 +242,8 @@ def test_the_kinematic_simulator_faults_on_the_wall_and_takes_the_detour() -> No
 
 @pytest.mark.slow
 def test_the_twin_stalls_on_the_wall_and_takes_the_detour() -> None:
-    """In physics the straight way catches the jaws on the wall (a stall fault); the
-    planned detour arrives."""
+    """In physics the straight way catches the jaws on the wall (a stall fault, naming the
+    wall); the planned detour arrives."""
     config, model, planner, q0, target = _across_the_red_bin()
     twin = twin_model(config)
     direct = planner.solver.solve(target, q0)
@@ -262,7 +262,8 @@ def test_the_twin_stalls_on_the_wall_and_takes_the_detour() -> None:
         return arm
 
     arm = fresh()
-    with pytest.raises(ServoStallError):
+    # the stall says what the arm pressed on, as only a simulator can
+    with pytest.raises(ServoStallError, match=r"in the twin its \w+ presses on bin_red_wall_"):
         _stream_timed(arm, model, direct.q_path, config)
         arm.await_arrival(3.0)
     arm = fresh()

@@ -64,7 +64,7 @@ from mearm.config import Config
 from mearm.config.servo_file import replaced_calibration
 from mearm.hardware.bus import ArmCommand, ServoBus
 from mearm.hardware.errors import ServoError, ServoStallError
-from mearm.kinematics.bodies import TableContents, object_name, wall_height_m
+from mearm.kinematics.bodies import TableContents, object_name, object_of, wall_height_m
 from mearm.kinematics.chain import Chain
 from mearm.kinematics.mjspec import yaw_quat
 from mearm.kinematics.urdf import TCP_FRAME, jaw_joint_names
@@ -627,6 +627,9 @@ class TwinArm(ServoBus):
         servo = self.servos[k]
         if servo.amap.combined:  # the values are its servo's: say what that turns
             detail += f" ({servo.amap.servo_text})"
+        pressed = self._pressed_on()
+        if pressed is not None:  # what a real rig cannot say, and the twin can
+            detail += f", {pressed}"
         return ServoStallError(
             servo.name,
             servo.value_of(float(self._target[k])),
@@ -635,6 +638,37 @@ class TwinArm(ServoBus):
             detail,
             last_state=self.state,
         )
+
+    def _pressed_on(self) -> str | None:
+        """What the arm presses on hardest now, or ``None``.
+
+        ``"in the twin its gripper_jaw_left_pad presses on bin_blue_wall_px"``: geoms as the
+        MJCF names them, an object by its id. The jaws on the objects they hold do not count.
+        """
+        m, d = self.model, self.data
+        tree = m.body_treeid[self._arm_body]
+        held = {object_name(oid) for oid in self.held_ids()}
+        force = np.zeros(6)
+        hardest: tuple[float, int, int] | None = None
+        for i in range(d.ncon):
+            contact = d.contact[i]
+            g1, g2 = int(contact.geom1), int(contact.geom2)
+            on1, on2 = (m.body_treeid[m.geom_bodyid[g]] == tree for g in (g1, g2))
+            if on1 == on2:
+                continue
+            arm, other = (g1, g2) if on1 else (g2, g1)
+            body = m.body(int(m.geom_bodyid[other])).name
+            if body in held:
+                continue
+            mujoco.mj_contactForce(m, d, i, force)
+            if hardest is None or force[0] > hardest[0]:
+                hardest = (float(force[0]), arm, other)
+        if hardest is None:
+            return None
+        _, arm, other = hardest
+        body = m.body(int(m.geom_bodyid[other])).name
+        what = object_of(body) or m.geom(other).name or body
+        return f"in the twin its {m.geom(arm).name} presses on {what}"
 
     # ----------------------------------------------------------------- backend hooks
 
