@@ -121,3 +121,33 @@ def test_a_random_table_keeps_its_picks_clear_of_the_walls_it_will_have(
     assert seen == [[6, 6, 6]]
     monkeypatch.setattr(scenes, "_table_of", lambda config, colors: TableContents.of(config.task))
     assert random_scene(config, 18, seed=54200009) != drawn  # the walls made the difference
+
+
+def test_a_bin_given_its_height_stands_that_tall_for_the_planner_and_the_twin() -> None:
+    """``bin_height_cm`` (a real rig's bins as measured): the planner's walls and the
+    twin's are that tall, whatever the table holds; the other classes' still grow."""
+    from mearm.kinematics import ArmModel
+    from mearm.sim.table_collision import collision_model
+    from mearm.sim.twin.twin_bus import TwinArm
+
+    config = load_config(
+        ROOT / "configs" / "sim_mujoco.yaml", ["task.classes.blue.bin_height_cm=6.5"]
+    )
+    for objects in (3, 21):
+        laid = config.with_scene(random_scene(config, objects, seed=5500004))
+        table = collision_model(laid, ArmModel(laid.arm)).table
+        planner = {c.name: wall_height_m(c, table.objects(c.name)) for c in table.classes}
+        twin = TwinArm(laid)
+        assert planner == twin._bin_tops_m
+        assert planner["blue"] == pytest.approx(0.065)
+    assert planner["red"] == pytest.approx(0.08)  # 7 reds stacked, and one more
+
+
+def test_a_bin_taller_than_where_its_objects_are_released_is_refused_at_load() -> None:
+    """Walls above an object's bottom as the jaws let it go would meet it on the way in."""
+    from mearm.errors import ConfigError
+
+    with pytest.raises(ConfigError, match=r"task\.classes\.2\.bin_height_cm: 9 cm walls reach "
+                       r"above the bottom of an object released at bin_cm z = 20 cm \(8\.24 cm "
+                       r"above the table\): at most 8\.24 cm, or raise bin_cm z"):  # fmt: skip
+        load_config(ROOT / "configs" / "sim_mujoco.yaml", ["task.classes.blue.bin_height_cm=9"])

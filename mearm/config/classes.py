@@ -118,6 +118,10 @@ class ColorClass(Strict):
         bin_width_cm: Inner width of the class's square bin, centred under ``bin_cm``
             [cm] (default: three diameters). A camera that sees the bins counts what lies
             inside one as sorted, not as on the table.
+        bin_height_cm: Height of the bin's walls [cm] (default: tall enough to hold the
+            table's objects of the class stacked, and one more, at least 2 cm: the
+            simulators build them so). The planner keeps the arm clear of walls this tall:
+            give a real rig's bins their measured height.
         learned_colour: Its colour as taught from camera frames (``mearm learn-colours``);
             when set it stands for ``hue_bands_deg``.
     """
@@ -133,6 +137,7 @@ class ColorClass(Strict):
     height_cm: ObjectSize = 1.0
     grip_height_cm: NonNegativeLength | None = None
     bin_width_cm: ObjectSize | None = None
+    bin_height_cm: ObjectSize | None = None
     learned_colour: LearnedColour | None = None
 
     @field_validator("shape")

@@ -209,6 +209,30 @@ class Config(Strict):
         )
 
     @model_validator(mode="after")
+    def _bins_below_release(self) -> Config:
+        """A bin given its height must stand below where the arm releases its objects.
+
+        Released at ``bin_cm`` z, an object's bottom is ``bin_cm`` z less
+        ``arm.tool.tcp_above_grip_cm`` and its grip height above the table; walls above
+        that would meet it on the way in, on a real rig as in the twin. (Walls grown for
+        the objects they hold are checked with the table: :func:`mearm.task.check_scene`.)
+        """
+        tcp_cm = self.arm.tool.tcp_above_grip_cm
+        for i, c in enumerate(self.task.classes):
+            if c.bin_height_cm is None:
+                continue
+            bottom = c.bin_cm[2] - tcp_cm - c.grip_z_cm
+            if bottom < c.bin_height_cm:
+                most = math.floor(bottom * 100) / 100  # shown to 0.01 cm, never too high
+                fix = f"at most {most:g} cm, or raise bin_cm z" if most > 0 else "raise bin_cm z"
+                raise ValueError(
+                    f"@task.classes.{i}.bin_height_cm: {c.bin_height_cm:g} cm walls reach above "
+                    f"the bottom of an object released at bin_cm z = {c.bin_cm[2]:g} cm "
+                    f"({bottom:.3g} cm above the table): {fix}"
+                )
+        return self
+
+    @model_validator(mode="after")
     def _belt_clear_of_base(self) -> Config:
         """The belt must pass beside the arm's base plate, not over it.
 

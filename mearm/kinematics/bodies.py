@@ -408,11 +408,13 @@ class TableContents:
 
 
 def wall_height_m(cls: ColorClass, objects: int) -> float:
-    """Walls that hold ``objects`` of the class, stacked, and one more.
+    """The class's ``bin_height_cm``, else walls that hold ``objects`` of it stacked, and one more.
 
     ``objects``: the scene's and the belt's (:meth:`TableContents.objects`). The twin
     releases each over the bin's middle, so they stack.
     """
+    if cls.bin_height_cm is not None:
+        return cls.bin_height_cm * M_PER_CM
     per = max(BIN_WALL_HEIGHT_PER_HEIGHT, max(1, objects) + 1.0)
     return max(BIN_MIN_WALL_HEIGHT_M, per * cls.height_cm * M_PER_CM)
 
