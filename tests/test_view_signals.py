@@ -35,20 +35,23 @@ def test_a_signal_mid_screenshot_ends_the_browser_and_removes_its_profile(tmp_pa
     # the browser's sockets in its profile need a short path (at most 107 bytes)
     tmp = Path(tempfile.mkdtemp(prefix="mearm-signal-"))
     env = {**os.environ, "TMPDIR": str(tmp), "PYTHONPATH": str(ROOT)}
-    child = subprocess.Popen(
-        [sys.executable, "-c", SHOOT, str(tmp_path / "view.png"), browser],
-        env=env,
-        start_new_session=True,
-    )
+    said = tmp_path / "stderr.txt"  # what the child said, for a failure to show
+    with said.open("w") as stderr:
+        child = subprocess.Popen(
+            [sys.executable, "-c", SHOOT, str(tmp_path / "view.png"), browser],
+            env=env,
+            stderr=stderr,
+            start_new_session=True,
+        )
     try:
         deadline = time.monotonic() + 60
         while not list(tmp.glob("mearm-chromium-*/DevToolsActivePort")):
-            assert child.poll() is None, "the screenshot ended before the browser was up"
+            assert child.poll() is None, f"ended before the browser was up: {said.read_text()}"
             assert time.monotonic() < deadline, "the browser did not start"
             time.sleep(0.05)
         assert processes_under(tmp)  # the browser runs, with its profile in there
         child.send_signal(sig)
-        assert child.wait(timeout=60) == -sig
+        assert child.wait(timeout=60) == -sig, said.read_text()
         assert list(tmp.iterdir()) == [], "the profile folder is left"
         assert processes_under(tmp) == [], "browser processes are left"
         assert not (tmp_path / "view.png").exists()
