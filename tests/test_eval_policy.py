@@ -235,8 +235,9 @@ def test_a_pt_file_whose_pickle_would_run_code_is_refused_without_running_it(tmp
 
     ran, evil = tmp_path / "ran", tmp_path / "evil.pt"
     torch.save({"format": "mearm-bc-3", "meta": _Opens(ran)}, evil)
-    with pytest.raises(PolicyError, match="not a baseline saved by mearm.learn"):
+    with pytest.raises(PolicyError, match="not a baseline saved by mearm.learn") as caught:
         load_baseline(evil)
+    assert "was not run" in str(caught.value) and "weights_only" not in str(caught.value)
     assert not ran.exists()
 
 

@@ -12,6 +12,7 @@ action less ``agent_pos``), each tool actuator's setting (a few discrete values)
 from __future__ import annotations
 
 import io
+import pickle
 from pathlib import Path
 from typing import Any
 
@@ -170,10 +171,17 @@ def load_baseline(path: Path) -> BaselinePolicy:
             raise ValueError("not a mearm-bc-3 file")
         net = build_mlp(int(saved["n_in"]), int(saved["n_out"]), int(saved["hidden"]))
         net.load_state_dict(saved["state_dict"])
-    except Exception as exc:
+    except pickle.UnpicklingError:
+        # torch's own text advises loading it unsafely: a stranger's file is not run
         raise PolicyError(
-            f"policy {path}: not a baseline saved by mearm.learn ({type(exc).__name__}: "
-            f"{_clipped(str(exc))})"
+            f"policy {path}: not a baseline saved by mearm.learn (it holds more than "
+            "tensors, plain values and arrays, and was not run)"
+        ) from None
+    except Exception as exc:
+        why = _clipped(str(exc))
+        raise PolicyError(
+            f"policy {path}: not a baseline saved by mearm.learn ({type(exc).__name__}"
+            f"{': ' + why if why else ''})"
         ) from None
     return BaselinePolicy(
         net,
