@@ -590,6 +590,24 @@ def test_init_config_writes_a_config_that_loads_with_the_reference_arm(tmp_path,
         assert "mearm flash" in text
 
 
+@pytest.mark.parametrize(("arm", "rig"), [(a, r) for a, r in VALID if RIGS[r].real])
+def test_init_config_says_how_tall_a_real_rigs_bins_may_be(tmp_path, arm, rig):
+    """A real rig's bins are the maker's: the note's example loads, and each class's
+    highest height loads where 0.1 cm more is refused."""
+    out = tmp_path / "mine.yaml"
+    assert init_config.main(["--arm", arm, "--rig", rig, str(out)]) == 0
+    text = out.read_text()
+    example = re.search(r"--set\s+(?:#\s*)?(task\.classes\.\w+\.bin_height_cm=\S+)\)", text)
+    most = re.search(r"^  # At most, in cm \(.*\): (.*)\.$", text, re.M)
+    assert example is not None and most is not None, text
+    assert load_config(out, [example.group(1)]).task.classes[0].bin_height_cm is not None
+    for item in most.group(1).split(", "):
+        name, cm = item.split()
+        assert load_config(out, [f"task.classes.{name}.bin_height_cm={cm}"])
+        with pytest.raises(MearmError, match=f"bin_height_cm: {float(cm) + 0.1:g} cm walls"):
+            load_config(out, [f"task.classes.{name}.bin_height_cm={float(cm) + 0.1:g}"])
+
+
 def test_init_config_sim_is_the_reference_file_with_a_header(tmp_path):
     """On the simulated rig the reference config is copied whole, comments included."""
     out = tmp_path / "paper.yaml"

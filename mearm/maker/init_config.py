@@ -37,6 +37,7 @@ without a ``name`` of its own).
 
 from __future__ import annotations
 
+import math
 import os
 import re
 import shlex
@@ -338,6 +339,8 @@ def render_config(arm: ArmChoice, rig: RigChoice, config_name: str) -> str:
             body.append("\n")
         elif rig.real and block.key in ("simulator", "twin"):
             continue
+        elif rig.real and block.key == "task" and "bin_height_cm" not in block.text:
+            body.append(_with_bins_note(block.text, load_config(folder / source)))
         elif rig.real and block.key == "calibration" and arm.real != "lab.yaml":
             body.append(
                 f"# REDO THIS for your camera (mearm calibrate-camera --config {config_name}):\n"
@@ -348,6 +351,29 @@ def render_config(arm: ArmChoice, rig: RigChoice, config_name: str) -> str:
     for section in replaced.values():  # sections the reference leaves at their defaults
         body.append("\n" + (section or ""))
     return header + "".join(body).rstrip("\n") + "\n"
+
+
+def _with_bins_note(task_block: str, reference: Config) -> str:
+    """The task block with a note on bin heights after its key (a real rig's bins are the maker's).
+
+    The note names each class's highest allowed ``bin_height_cm`` (below the bottom of an
+    object released over its bin: :meth:`Config._bins_below_release`).
+    """
+    tcp_cm = reference.arm.tool.tcp_above_grip_cm
+    most = ", ".join(
+        f"{c.name} {math.floor((c.bin_cm[2] - tcp_cm - c.grip_z_cm) * 10) / 10:g}"
+        for c in reference.task.classes
+    )
+    first = reference.task.classes[0].name
+    note = (
+        "  # Your bins' walls: the planner keeps the arm clear of walls tall enough to hold the\n"
+        "  # scene's objects of a class stacked, unless the class says how tall its bin is\n"
+        f"  # (task.classes.NAME.bin_height_cm, measured; e.g. --set task.classes.{first}."
+        "bin_height_cm=2).\n"
+        f"  # At most, in cm (below the objects released over it): {most}.\n"
+    )
+    head, key, rest = task_block.partition("task:\n")
+    return head + key + note + rest
 
 
 def _header(arm: ArmChoice, rig: RigChoice, source: str, config_name: str, arm_name: str) -> str:
