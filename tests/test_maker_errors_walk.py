@@ -3,8 +3,9 @@
 The walk found: a whole-config check's line did not name the config file (a bad key's
 did); ``--config Sim`` or ``--config my_arm`` (with ``my_arm.yaml`` here) had no "did you
 mean"; ``mearm urdf`` wrote an arm in mm without the hint a sort gives; ``mearm preview
---screenshot`` in a missing folder named an internal parameter; a DH row with a flipped
-sign was refused as ~900 characters of unreachable bins pointing nowhere near the DH rows.
+--screenshot`` in a missing folder named an internal parameter (such a folder is now made;
+one under a file is refused); a DH row with a flipped sign was refused as ~900
+characters of unreachable bins pointing nowhere near the DH rows.
 """
 
 from __future__ import annotations
@@ -103,12 +104,15 @@ def test_urdf_of_an_arm_in_cm_says_nothing(tmp_path, capsys):
 
 
 @pytest.mark.bad_input
-def test_preview_names_screenshot_for_a_missing_folder(tmp_path):
+def test_preview_names_screenshot_for_a_path_under_a_file(tmp_path):
+    """A missing folder is made (tests/test_view_sizes.py); one that is a file is refused,
+    named as the flag, not as the view's parameter."""
+    (tmp_path / "no").write_text("a file")
     shot = tmp_path / "no" / "such" / "r.png"
     out = check_bad_input(["preview", "--screenshot", shot])
     assert out.line == (
-        f"mearm preview: error: --screenshot {shot}: no folder {shot.parent}: give a path "
-        "in an existing folder"
+        f"mearm preview: error: --screenshot {shot}: cannot write: {tmp_path / 'no'} is a "
+        "file, not a folder"
     )
     assert "out_png" not in out.line
 

@@ -593,8 +593,9 @@ def test_no_browser_is_a_named_error(monkeypatch, tmp_path):
 
 
 def test_screenshot_checks_its_arguments(tmp_path):
-    with pytest.raises(ViewInputError, match="existing folder"):
-        screenshot("http://127.0.0.1:1/", tmp_path / "no" / "x.png", browser="unused")
+    (tmp_path / "no").write_text("a file")
+    with pytest.raises(ViewInputError, match="not under a file"):
+        screenshot("http://127.0.0.1:1/", tmp_path / "no" / "x" / "y.png", browser="unused")
     with pytest.raises(ViewInputError, match="width_px"):
         screenshot("http://127.0.0.1:1/", tmp_path / "x.png", width_px=4, browser="unused")
 

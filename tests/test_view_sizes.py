@@ -95,9 +95,10 @@ def _run(args: list[str], tmp: Path) -> subprocess.CompletedProcess:
     ids=["64x64", "1600x1000"],
 )
 def test_preview_screenshot_of_any_allowed_size_is_written(size, arm_seen, browser_tmp, tmp_path):
-    """`mearm preview --screenshot --size WxH` writes a W×H PNG and exits 0."""
+    """`mearm preview --screenshot --size WxH` writes a W×H PNG and exits 0, making its
+    folder where it is missing, as every command that writes does."""
     w, h = size
-    out = tmp_path / "arm.png"
+    out = tmp_path / "shots" / f"{w}x{h}" / "arm.png"
     args = ["-m", "mearm", "preview", "--screenshot", str(out), "--size", f"{w}x{h}"]
     proc = _run(args, browser_tmp)
     assert proc.returncode == 0, proc.stderr
@@ -115,10 +116,10 @@ def test_preview_screenshot_of_any_allowed_size_is_written(size, arm_seen, brows
 def test_a_browser_that_never_draws_is_a_named_error_at_the_timeout(browser_tmp, tmp_path):
     """A page that never draws a frame ends the screenshot at its timeout_s with exit 1 (a
     failure of the run, not bad input) and one line naming the step the browser did not
-    finish; no PNG, no browser left."""
+    finish; no PNG, no browser left, and not the PNG's missing folder either."""
     page = tmp_path / "never_draws.html"
     page.write_text(NEVER_DRAWS)
-    out = tmp_path / "view.png"
+    out = tmp_path / "shots" / "view.png"
     proc = _run(["-c", SHOOT, page.as_uri(), str(out), "8"], browser_tmp)  # the page alone
     assert proc.returncode == 1, proc.stderr
     err = proc.stderr.strip()
@@ -126,6 +127,6 @@ def test_a_browser_that_never_draws_is_a_named_error_at_the_timeout(browser_tmp,
     assert "Traceback" not in err
     assert "the browser did not draw two frames of the view at file://" in err
     assert "Runtime.evaluate got no answer" in err
-    assert not out.exists()
+    assert not out.parent.exists()
     assert processes_under(browser_tmp) == [], "browser processes are left"
     assert list(browser_tmp.iterdir()) == [], "the profile folder is left"

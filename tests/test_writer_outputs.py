@@ -283,6 +283,6 @@ def test_a_write_error_names_the_target_not_its_temporary_file() -> None:
     """/proc takes no new file: the reason is said for the path given, not '.x.png.*.tmp'."""
     browser_or_skip()
     line = check_bad_input(["preview", "--screenshot", "/proc/x.png", "--port", "0"]).line
-    assert "cannot write /proc/x.png: " in line and ".tmp" not in line
+    assert "/proc/x.png: cannot write: " in line and ".tmp" not in line
     out = check_bad_input(["urdf", "--config", "sim", "--output", "/proc/x.urdf"])
     assert "/proc/x.urdf" in out.line and ".tmp" not in out.line

@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import argparse
 import sys
-import tempfile
 import time
 from collections.abc import Iterator, Sequence
 from pathlib import Path
@@ -32,6 +31,7 @@ from mearm.cli import (
     PLAIN_INTEGER,
     ArgumentParser,
     add_config_argument,
+    check_output_file,
     check_plain_number,
     config_from_args,
     plain_int,
@@ -237,16 +237,9 @@ def _check_screenshot(parser: argparse.ArgumentParser, args: argparse.Namespace)
     shot = args.screenshot
     if shot.suffix.lower() != ".png" or shot.exists() and not shot.is_file():
         parser.error(f"--screenshot {shot}: must be a .png file (not a folder or a device)")
-    if not shot.absolute().parent.is_dir():
-        parser.error(
-            f"--screenshot {shot}: no folder {shot.absolute().parent}: give a path in an "
-            "existing folder"
-        )
-    try:  # root passes every permission; /proc or a read-only mount refuse only a write
-        with tempfile.TemporaryFile(dir=shot.absolute().parent, prefix=".mearm-probe-"):
-            pass
-    except OSError as exc:
-        parser.error(f"--screenshot: cannot write {shot}: {exc.strerror or exc}")
+    # missing folders are made as the PNG is written, as by every command that writes;
+    # a path under a file, or a folder that takes no file (/proc, read-only), is refused
+    check_output_file(shot, "--screenshot")
     config_file = resolve_config_path(args.config) if args.config is not None else None
     refuse_own_inputs([("--screenshot", shot)], [("--config", config_file)])
     refuse_to_replace(shot, "--screenshot", args.force)

@@ -205,7 +205,7 @@ class ArmView:
 
         Raises:
             BrowserNotFoundError: No Chromium-family browser.
-            ViewInputError: A size out of range, or no folder for ``out_png``.
+            ViewInputError: A size out of range, or ``out_png`` under a file.
             ViewError: The view is closed; ``out_png`` cannot take a file.
             ViewRunError: The browser failed or did not draw the scene in time; the
                 storage failed writing the PNG.

@@ -455,7 +455,8 @@ def screenshot(
 
     Args:
         url: The viewer page, e.g. ``ArmView.url``.
-        out_png: Where to write the PNG, in an existing folder.
+        out_png: Where to write the PNG; missing folders are made as it is written
+            (after the render: a failed one makes none).
         width_px: View width [px].
         height_px: View height [px].
         expect: Wait until the page has this much of the scene (see
@@ -472,7 +473,7 @@ def screenshot(
 
     Raises:
         BrowserNotFoundError: No browser, or ``$MEARM_CHROMIUM`` names none (exit 2).
-        ViewInputError: A size out of range, or no folder for ``out_png`` (exit 2).
+        ViewInputError: A size out of range, or ``out_png`` under a file (exit 2).
         ViewError: The browser cannot be run, ``session`` was closed, ``url`` is not an
             address the browser can load, or ``out_png``'s folder takes no new file (not
             writable, /proc): exit 2.
@@ -482,8 +483,11 @@ def screenshot(
             written in one step: an old file stays whole until the new one replaces it.
     """
     out = Path(out_png).resolve()
-    if not out.parent.is_dir():
-        raise ViewInputError("out_png", str(out_png), "a path in an existing folder")
+    folder = out.parent
+    while not folder.exists() and folder != folder.parent:
+        folder = folder.parent
+    if not folder.is_dir():
+        raise ViewInputError("out_png", str(out_png), f"a path not under a file ({folder})")
     for name, value in (("width_px", width_px), ("height_px", height_px)):
         if not 16 <= value <= 8192:
             raise ViewInputError(name, value, "a size in [16, 8192] px")
