@@ -47,7 +47,7 @@ import os
 import shutil
 import tempfile
 from collections import deque
-from collections.abc import Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -56,6 +56,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from mearm.config import Config, SceneObject
+from mearm.config.files import resolve_config_path
 from mearm.dataset import lerobot_format as L
 from mearm.dataset.errors import (
     DatasetError,
@@ -92,6 +93,7 @@ from mearm.dataset.sampler import (  # noqa: F401  (re-exported: what an episode
     state_names,
     task_sentence,
 )
+from mearm.errors import MearmError
 
 if TYPE_CHECKING:
     from mearm.hardware.bus import ServoBus
@@ -461,6 +463,40 @@ class DatasetRecorder(EpisodeSampler):
                     f"holds trial {trials[seed]} of this experiment recorded --record-per "
                     f"{held} (episode {index}), not --record-per {self.per}: resume with "
                     f"--record-per {held}, or record into a new directory",
+                )
+
+    def check_trials_scenes(
+        self, trials: Mapping[int, int], scene_of: Callable[[int], RecordedScene | None]
+    ) -> None:
+        """Refuse a dataset whose episodes of these trials' seeds sorted other trials.
+
+        A trial run again records only the picks the dataset lacks, known by the trial's
+        seed and the pick's number; another experiment's trials of the same seeds (the
+        default ``--seed`` 0, another ``--scene``, ``--set`` or config) would be taken for
+        them and dropped, the run exiting 0 with none of its episodes recorded.
+
+        Args:
+            trials: The experiment's trial numbers, by their seeds.
+            scene_of: The scene a trial of that seed records (``None``: not known, a real
+                rig's); asked only for the seeds the dataset holds.
+
+        Raises:
+            DatasetError: An episode of one of those seeds records another scene.
+        """
+        mine: dict[int, RecordedScene | None] = {}
+        for index, ((seed, _), held) in enumerate(zip(self._tags, self._scenes, strict=True)):
+            if seed is None or seed not in trials or held is None:
+                continue
+            if seed not in mine:
+                mine[seed] = scene_of(seed)
+            ours = mine[seed]
+            differs = None if ours is None else _how_trials_differ(held, ours)
+            if differs is not None:
+                raise DatasetError(
+                    self.root,
+                    f"holds episode {index} of another experiment's trial of seed {seed} "
+                    f"(trial {trials[seed]} here): {differs}; record into a new directory, "
+                    "or give this experiment another --seed",
                 )
 
     def write_episodes(self, episodes: list[_Episode]) -> None:
@@ -1022,3 +1058,36 @@ def _first_difference(there: Any, here: Any, path: str) -> tuple[str, Any, Any]:
 def _short(value: Any) -> str:
     text = json.dumps(value)
     return text if len(text) <= 60 else text[:57] + "..."
+
+
+def _how_trials_differ(held: RecordedScene, ours: RecordedScene) -> str | None:
+    """How a held episode's trial differs from this run's of the same seed; ``None``: it is it.
+
+    The config as given may be named otherwise (``sim``, ``configs/sim.yaml``): it
+    differs only where both name files that can be read and they differ.
+    """
+    if held.table != ours.table or held.seed != ours.seed or held.objects != ours.objects:
+        return "its table differs"
+    if held.overrides != ours.overrides:
+        return f"it was sorted with --set {list(held.overrides)}, this one {list(ours.overrides)}"
+    if held.noise_seed != ours.noise_seed:
+        return "its noise seed differs"
+    if held.config != ours.config:
+        texts = _config_text(held.config), _config_text(ours.config)
+        if _UNREAD not in texts and texts[0] != texts[1]:
+            return f"it sorted --config {held.config}, this one {ours.config}"
+    return None
+
+
+#: A config file that cannot be read now (moved, another folder): not known to differ.
+_UNREAD = b"\0unread"
+
+
+def _config_text(config: str | None) -> bytes | None:
+    """The bytes of the config file named so (``None``: the built-in rig), or :data:`_UNREAD`."""
+    if config is None:
+        return None
+    try:
+        return resolve_config_path(config).read_bytes()
+    except (OSError, MearmError):
+        return _UNREAD

@@ -83,7 +83,13 @@ from mearm.experiment.errors import TrialFailed
 from mearm.experiment.ordered_log import _append_in_order, open_workers
 from mearm.experiment.pool import Workers
 from mearm.experiment.resume import Resume, ready_to_append, resume_point
-from mearm.experiment.trials import Recording, check_rig_opens, run_trials, trial_seed
+from mearm.experiment.trials import (
+    Recording,
+    check_rig_opens,
+    plan_trial,
+    run_trials,
+    trial_seed,
+)
 from mearm.hardware.errors import ServoError
 from mearm.runlog import LogLock, RunLog, read_runlog
 from mearm.runlog.errors import RunLogError
@@ -93,6 +99,7 @@ from mearm.task.report import Outcome
 from mearm.vision.errors import CameraError
 
 if TYPE_CHECKING:
+    from mearm.dataset.reading import RecordedScene
     from mearm.dataset.recorder import DatasetRecorder
 
 #: Why a real rig's run cannot start without a terminal (and how to run it anyway).
@@ -270,7 +277,11 @@ def _resume(
     written = _Written(args.log, recorder, args.record)
     try:
         if recorder is not None:  # its trials as the dataset holds them: per pick or scene
-            recorder.check_trials_per({trial_seed(args.seed, k): k for k in range(args.trials)})
+            trials = {trial_seed(args.seed, k): k for k in range(args.trials)}
+            recorder.check_trials_per(trials)
+            recorder.check_trials_scenes(
+                trials, _scene_of(recorder, config, args.seed, scene, trials)
+            )
         # Workers first: a scheduler that cannot be used leaves the log as it was.
         parallel = args.jobs > 1 or args.scheduler is not None
         jobs = min(args.jobs, args.trials - resume.done)
@@ -290,6 +301,25 @@ def _resume(
     if stopped is not None:
         return stopped
     return _verdict(args.log, args.trials, failed=failed)
+
+
+def _scene_of(
+    recorder: DatasetRecorder,
+    config: Config,
+    seed: int,
+    scene: list[SceneObject] | None,
+    trials: dict[int, int],
+) -> Callable[[int], RecordedScene | None]:
+    """The scene the trial of a seed records (as :meth:`EpisodeSampler.start_trial` keeps it)."""
+    from mearm.dataset.reading import RecordedScene  # noqa: PLC0415  (a recorded run's)
+
+    def scene_of(trial: int) -> RecordedScene | None:
+        layout = plan_trial(config, seed, trials[trial], scene).layout
+        if recorder.kept_config is None or layout is None:
+            return None
+        return RecordedScene.laid(layout, *recorder.kept_config, noise_seed=trial)
+
+    return scene_of
 
 
 class _Written:
