@@ -8,11 +8,13 @@ check). Each case: its exit code, one line on stderr, no traceback, the files in
 
 from __future__ import annotations
 
+import io
 import os
 import shutil
 import sys
 from pathlib import Path
 
+import numpy as np
 import pyarrow.parquet as pq
 import pytest
 from badinput import ROOT, check_bad_input
@@ -92,6 +94,45 @@ def test_record_fps_out_of_range(command: str, fps: str, tmp_path: Path) -> None
     out = check_bad_input(argv)
     assert "--record-fps" in out.line and "frames per second" in out.line
     assert not (tmp_path / "ds").exists()
+
+
+@bad_input
+@pytest.mark.parametrize("command", ["sort", "experiment"])
+def test_record_fps_above_what_av1_opens_at(command: str, tmp_path: Path) -> None:
+    """SVT-AV1 opens at 240 fps at most: 241 failed after the arm had moved (exit 1, two
+    lines); now refused first, naming the codec that records faster."""
+    argv = [command, "--config", SIM, "--record", tmp_path / "ds", "--record-fps", "241"]
+    if command == "experiment":
+        argv += ["--log", tmp_path / "x.jsonl"]
+    out = check_bad_input(argv)
+    assert out.line.endswith(
+        "--record-fps 241: --record-codec av1 records at most 240 frames per second: give "
+        "240 or fewer, or --record-codec h264"
+    )
+    assert not (tmp_path / "ds").exists()
+
+
+@pytest.mark.parametrize(("fps", "opens"), [(240, True), (241, False)])
+def test_av1s_highest_frame_rate_is_the_encoders(fps: int, opens: bool) -> None:
+    """The bound the refusal says is the encoder's own (PyAV's SVT-AV1, as recorded)."""
+    av = pytest.importorskip("av")
+    from mearm.dataset.encoder_server import scheduling_kept
+    from mearm.dataset.lerobot_format import VIDEO_CODECS
+
+    codec = VIDEO_CODECS["av1"]
+    assert codec.max_fps == 240
+    # (SVT-AV1 opened as root leaves its thread realtime: kept as it was, as the encoder does)
+    with scheduling_kept(), av.open(io.BytesIO(), "w", format="mp4") as out:
+        stream = out.add_stream(codec.encoder, rate=fps, options=codec.options())
+        stream.width, stream.height, stream.pix_fmt = 64, 64, "yuv420p"
+        frame = av.VideoFrame.from_ndarray(np.zeros((64, 64, 3), np.uint8), format="rgb24")
+        try:
+            out.mux(stream.encode(frame))
+            out.mux(stream.encode(None))
+        except av.error.FFmpegError:
+            assert not opens
+        else:
+            assert opens
 
 
 @bad_input

@@ -80,7 +80,19 @@ def add_record_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def check_record_arguments(parser: argparse.ArgumentParser, args: argparse.Namespace) -> None:
-    """Refuse the recording options without ``--record`` (exit 2, one line)."""
+    """Refuse the recording options without ``--record``, and too high a frame rate.
+
+    A frame rate the codec's encoder does not open at was found after the arm moved.
+    Each is exit 2, one line.
+    """
+    most = VIDEO_CODECS[args.record_codec].max_fps
+    if args.record is not None and most is not None and args.record_fps > most:
+        others = [c for c, v in VIDEO_CODECS.items() if v.max_fps is None]
+        parser.error(
+            f"--record-fps {args.record_fps}: --record-codec {args.record_codec} records at "
+            f"most {most} frames per second: give {most} or fewer, or --record-codec "
+            f"{' or '.join(others)}"
+        )
     if args.record is None:
         given = [
             flag

@@ -62,12 +62,15 @@ class VideoCodec:
             PyAV reports it when decoding.
         preset: The encoder's speed preset (``video.preset``).
         decoders: The names PyAV may give the stream's decoder.
+        max_fps: The most frames per second the encoder opens at (``None``: no limit
+            below the recording's own).
     """
 
     encoder: str
     codec: str
     preset: int | str
     decoders: tuple[str, ...]
+    max_fps: int | None = None
 
     def options(self) -> dict[str, str]:
         """The encoder's options, as LeRobot's ``get_codec_options`` gives them."""
@@ -88,7 +91,8 @@ class VideoCodec:
 #: H.264 (LeRobot's ``vcodec="h264"``; libx264's fastest preset, about a fifth of
 #: SVT-AV1's CPU a frame, files about a fifth larger).
 VIDEO_CODECS: dict[str, VideoCodec] = {
-    "av1": VideoCodec(VIDEO_CODEC, "av1", VIDEO_PRESET, ("av1", "libdav1d", "libaom-av1")),
+    # SVT-AV1 refuses a frame rate above 240 ("The maximum allowed frame rate is 240 fps")
+    "av1": VideoCodec(VIDEO_CODEC, "av1", VIDEO_PRESET, ("av1", "libdav1d", "libaom-av1"), 240),
     "h264": VideoCodec("libx264", "h264", "ultrafast", ("h264",)),
 }
 DEFAULT_CODEC = "av1"
