@@ -55,6 +55,7 @@ import io
 import math
 import os
 import stat
+import sys
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from datetime import date
@@ -777,22 +778,36 @@ def main(argv: Sequence[str] | None = None) -> int:
     )  # or exit 2
     print(f"fitted from {how}")
     print(f"reprojection error: rms {rms:.4f} cm, max {worst:.4f} cm")
-    if n_pairs == 4:
-        print("note: 4 pairs fit exactly, so the error is 0 by construction and measures")
-        print("      nothing (written as reprojection_error_cm: null); add points (or")
-        print("      --marker-side-cm) for an error that measures something")
     for row in calibration.H:
         print("  [" + ", ".join(f"{v: .9g}" for v in row) + "]")
     if args.dry_run:
         target = args.output or args.config
         kept = "is as it was" if target.exists() else "was not made"
         print(f"--dry-run: nothing written ({target} {kept})")
+        _exact_fit_note(parser, n_pairs)
         return 0
     target = args.output or args.config
     elsewhere = args.output is not None and file_identity(args.output) != file_identity(args.config)
     _write_config(target, new_text, calibration, force=args.force, keep=elsewhere)
     print(f"wrote the calibration into {target}")
+    _exact_fit_note(parser, n_pairs)
     return 0
+
+
+def _exact_fit_note(parser: ArgumentParser, n_pairs: int) -> None:
+    """Say that an exact fit's error measures nothing, once the fit is written.
+
+    One line on stderr, as notes are (stdout holds the results); a refusal before it is
+    then stderr's only line.
+    """
+    if n_pairs == 4:
+        print(
+            f"{parser.prog}: note: 4 pairs fit exactly, so the error is 0 by construction and "
+            "measures nothing (written as reprojection_error_cm: null); add points (or "
+            "--marker-side-cm) for an error that measures something",
+            file=sys.stderr,
+            flush=True,
+        )
 
 
 def _pose(parser: ArgumentParser, args: argparse.Namespace) -> int:
