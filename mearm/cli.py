@@ -497,8 +497,8 @@ def _check_writable_folder(path: Path, flag: str) -> None:
             pass
     except OSError as exc:
         raise MearmError(
-            f"{flag} {path}: cannot write: the folder {folder} is not writable "
-            f"({exc.strerror or exc})"
+            f"{flag} {path}: cannot write: the folder {folder} is not writable: a new file "
+            f"there failed ({exc.strerror or exc})"
         ) from None
 
 

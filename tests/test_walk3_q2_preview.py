@@ -46,8 +46,8 @@ def test_a_screenshot_folder_that_takes_no_file_is_refused_before_the_render() -
     the server started and the browser rendered, and without naming the flag)."""
     out = check_bad_input(["preview", "--screenshot", "/proc/x.png", "--port", "0"], within_s=1)
     assert out.line.endswith(
-        "error: --screenshot /proc/x.png: cannot write: the folder /proc is not writable "
-        "(No such file or directory)"
+        "error: --screenshot /proc/x.png: cannot write: the folder /proc is not writable: a "
+        "new file there failed (No such file or directory)"
     )
 
 
