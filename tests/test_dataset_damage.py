@@ -101,6 +101,17 @@ def test_check_fails_a_tags_file_of_another_shape(
     assert says in problems[0], problems[0]
 
 
+@pytest.mark.parametrize("fps", [-10, 0, 10.0, True, "10"])
+def test_check_says_the_least_fps_there_is(dataset: Path, tmp_path: Path, fps: object) -> None:
+    """fps ≥ 1 (as the docs say), whatever was wrong: -10 read "a whole number ≥ 0"."""
+    copy = tmp_path / "dsx"
+    shutil.copytree(dataset, copy)
+    info = json.loads((copy / "meta/info.json").read_text())
+    (copy / "meta/info.json").write_text(json.dumps({**info, "fps": fps}))
+    problems = check_dataset(copy, videos=False)
+    assert problems == [f"info: fps is {fps!r}: a whole number ≥ 1 is needed"], problems
+
+
 def test_a_dataset_without_tags_or_scenes_stays_readable(dataset: Path, tmp_path: Path) -> None:
     """No tags file (another tool's), or entries of two (mearm before scenes): it passes,
     and a resume keeps the old entries and adds its episodes' scenes."""
