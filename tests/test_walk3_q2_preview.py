@@ -41,6 +41,18 @@ def test_a_flag_without_the_one_it_works_with_is_refused(argv: list[str], said: 
 
 
 @bad_input
+def test_a_pose_its_servo_cannot_take_is_refused_as_fk_refuses_it() -> None:
+    """The MeArm v1's elbow servo turns shoulder + elbow: each within its limits, the sum
+    past the servo's pulse range was drawn as a pose (exit 0) where ``mearm fk`` refused it."""
+    joints = ["--joints", "shoulder=30,elbow=-150"]
+    out = check_bad_input(["preview", "--config", "sim_mearm_v1", "--port", "0", *joints])
+    said = "elbow's servo (shoulder + elbow) = -120 deg needs a"
+    assert said in out.line and "allows elbow's servo (shoulder + elbow) in [-75, 75]" in out.line
+    fk = check_bad_input(["fk", "--config", "sim_mearm_v1", "--joints", "90,30,-150"])
+    assert said in fk.line
+
+
+@bad_input
 def test_a_screenshot_folder_that_takes_no_file_is_refused_before_the_render() -> None:
     """/proc refuses a new file to root too: said for --screenshot at once (before, after
     the server started and the browser rendered, and without naming the flag)."""

@@ -40,7 +40,9 @@ from mearm.cli import (
     refuse_to_replace,
     run,
 )
+from mearm.config import Config
 from mearm.config.files import resolve_config_path
+from mearm.hardware.mapping import ServoMap
 from mearm.kinematics import ArmModel
 from mearm.sim.table_collision import collision_model
 from mearm.view import ArmView, find_browser
@@ -245,6 +247,22 @@ def _check_screenshot(parser: argparse.ArgumentParser, args: argparse.Namespace)
     refuse_to_replace(shot, "--screenshot", args.force)
 
 
+def _start_pose(config: Config, model: ArmModel, q: np.ndarray) -> list[float]:
+    """The actuated joints of pose ``q`` in config units, once the arm can take it.
+
+    Refused as ``mearm fk`` and the planner refuse it: joints out of their limits, or a
+    servo over several joints (the MeArm v1's elbow servo: shoulder + elbow) that cannot
+    be sent there, which was drawn as if the arm could take it.
+    """
+    model.check_limits(q)
+    chain = model.chain
+    start = chain.actuated_of(q) / chain.scale[chain.actuated_index]
+    found = ServoMap.from_arm(config.arm).outside_pulse_range(start)
+    if found is not None:
+        raise found.error()
+    return [float(v) for v in start]
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Serve (or render) the bare arm; see the module docstring."""
     parser = _parser()
@@ -261,9 +279,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     _check_joint_names(parser, args, actuated)
     start_named = config.arm.home() | (args.joints or {})
     q_start = chain.from_named(start_named)  # unknown names: exit 2 before serving
-    model.check_limits(q_start)  # joints out of their limits: exit 2 before serving
+    start = _start_pose(config, model, q_start)  # refused: exit 2 before serving
     scale = chain.scale[chain.actuated_index]
-    start = chain.actuated_of(q_start) / scale
     lower, upper = chain.actuated_lower / scale, chain.actuated_upper / scale
     everything = args.sweep == SWEEP_ALL
     joints = range(chain.m) if everything else [actuated.index(args.sweep)] if args.sweep else []
