@@ -213,9 +213,12 @@ class PickAndPlace(TableTracking):
         began (``time.perf_counter``), or ``None`` when no place can be planned: nothing
         unplanned is sent, so the object is put back where it was and skipped, for the
         bin when the bin is out of reach, for the pick when no route leaves where it ended
-        without coming closer to what it ended beside.
+        without coming closer to what it ended beside. The place is planned from where
+        the lift will end before the lift, so such an object is let go where the jaws
+        closed; the pick is then logged unconfirmed (its grip never checked), not failed.
         """
         ex = self.executor
+        up = None
         if above is not None:
             # straight up from where the jaws closed, to the height it came down from (the
             # point above the target is off the pose by as much as the solver left: that
@@ -223,12 +226,21 @@ class PickAndPlace(TableTracking):
             z = float(above.target.position_cm[2])
             straight_up = self.planner.up_from(ex.q_now(), z, above.target.approach)
             up = Route(obj.id, obj.class_name, "lift", 1, straight_up)
-            if self.planner.plan(up, ex.q_now()).planned:
-                ex.stream(up, "travel", closed=True)
+            self.planner.plan(up, ex.q_now())
         t1 = time.perf_counter()
         place = Route(obj.id, obj.class_name, "place", 1, self.planner.place_target(cls))
-        self.planner.plan(place, ex.q_now())
+        # planned from where the lift ends before the lift: an object whose place cannot
+        # be planned is let go where the jaws closed, not dropped from the lift's height
+        lifted = up.plan.q if up is not None and up.planned and up.plan is not None else None
+        self.planner.plan(place, ex.q_now() if lifted is None else lifted)
+        if place.planned and up is not None and lifted is not None:
+            ex.stream(up, "travel", closed=True)
+            if not np.array_equal(ex.q_now(), lifted):  # (the bus rounds: plan from there)
+                t1 = time.perf_counter()
+                place = Route(obj.id, obj.class_name, "place", 1, place.target)
+                self.planner.plan(place, ex.q_now())
         if not place.planned:
+            pick.confirmed = False  # its grip is not checked: the object is let go
             self.reporter.route(pick)
             beside = self.collision.gap(ex.q_now())
             if place.failure_kind == "collision" and beside[0] < TOUCH_M:
