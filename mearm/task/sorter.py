@@ -509,6 +509,8 @@ class Sorter(PickAndPlace):
         out.in_bins = dict(in_bin or {})
         self.executor.show_world()  # the twin's objects, settled, in the view
 
+        short: set[str] = set()  # classes with an object not confirmed in its bin
+
         def leave(kind: str) -> None:
             out.left[kind] = out.left.get(kind, 0) + 1
 
@@ -524,8 +526,12 @@ class Sorter(PickAndPlace):
                 leave(stopped)
             else:
                 leave("not_confirmed")
+                short.add(o.class_name)
         if in_bin is not None:
             self._count_placed_again(out, in_bin)
+        astray = getattr(self.bus, "astray", None)  # the twin says where they are
+        if callable(astray) and out.left.get("not_confirmed"):
+            out.astray = {name: astray(name) for name in sorted(short)}
         for name, n in self.placed.items():  # in simulation: never seen, still there
             missing = n - out.seen.get(name, 0)
             if missing > 0:

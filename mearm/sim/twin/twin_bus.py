@@ -402,8 +402,15 @@ class TwinArm(ServoBus):
         bin_name = self.objects_in_bin().get(object_id)
         if bin_name is not None:
             return f"fell into the {bin_name} bin"
-        x, y = (float(c) for c in pose.position_cm[:2])
+        x, y, z = (float(c) for c in pose.position_cm)
         moving = ", still moving" if pose.speed_cm_s * M_PER_CM > REST_SPEED_M_S else ""
+        over = next((c.name for c in self.config.task.classes if c.in_bin(x, y)), None)
+        if over is not None:  # not held: above the walls' top (a stack taller than they)
+            top_cm = self._bin_tops_m[over] / M_PER_CM
+            return (
+                f"is over the {over} bin, above its {top_cm:.1f} cm walls, at ({x:.1f}, "
+                f"{y:.1f}, {z:.1f}) cm{moving}"
+            )
         lo, hi = self._table_cm
         if lo[0] <= x <= hi[0] and lo[1] <= y <= hi[1]:
             return f"is on the table at ({x:.1f}, {y:.1f}) cm{moving}"
@@ -418,6 +425,19 @@ class TwinArm(ServoBus):
             return np.full(2, -np.inf), np.full(2, np.inf)
         centre, half = self.model.geom_pos[g.id][:2], g.size[:2]
         return (centre - half) / M_PER_CM, (centre + half) / M_PER_CM
+
+    def astray(self, class_name: str) -> list[str]:
+        """Where each object of the class is that no bin of its class holds (:meth:`where`).
+
+        ``red3 is on the table at (8.1, 15.2) cm``: said of a place the sort took as
+        done whose object the bin does not hold (not confirmed in its bin).
+        """
+        held = self.objects_in_bin()
+        return [
+            f"{oid} {self.where(oid)}"
+            for oid in self._object_ids
+            if self._object_classes[oid] == class_name and held.get(oid) != class_name
+        ]
 
     def in_bin_counts(self) -> dict[str, int]:
         """How many objects of each class a bin of their own class holds (:meth:`objects_in_bin`).
