@@ -351,6 +351,18 @@ def test_huge_header_ends_fast_in_a_real_process(name: str, images: dict[str, Pa
 
 
 @bad_input
+@pytest.mark.parametrize("name", ["png_cut_in_idat", "png_idat_garbage", "jpeg_cut_after_header"])
+@pytest.mark.heavy
+def test_a_damaged_image_is_one_line_in_a_real_process(name: str, images: dict[str, Path]) -> None:
+    """libpng writes its own error to the process's stderr (``libpng error: …``): it was a
+    second line beside mearm's, seen only by a real process's stderr."""
+    out = check_bad_input_subprocess(
+        ["detect", images[name]], within_s=2, keep=[images["good"].parent]
+    )
+    assert ALL_IMAGES[name] in out.line and "libpng" not in out.stderr
+
+
+@bad_input
 @pytest.mark.heavy
 def test_huge_header_for_calibration_ends_fast_in_a_real_process(
     images: dict[str, Path], tmp_path: Path

@@ -226,14 +226,64 @@ def read_image(path: str | Path) -> np.ndarray:
     except InputFileError as exc:
         raise ImageError(exc.path, exc.reason) from None
     check_image_bytes(data, str(p))
-    try:
-        with quiet_opencv():
-            frame = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_COLOR)
-    except cv2.error:
-        frame = None
-    if frame is None or frame.ndim != 3 or frame.shape[2] != 3:
+    with _codec_lines_kept() as said:
+        try:
+            with quiet_opencv():
+                frame = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_COLOR)
+        except cv2.error:
+            frame = None
+        failed = frame is None or frame.ndim != 3 or frame.shape[2] != 3
+        said.keep = not failed  # a failure is said once, below, not in libpng's words too
+    if failed or frame is None:
         raise ImageError(str(p), "cannot read it as an image (unsupported format or damaged)")
     return frame
+
+
+class _Said:
+    """Whether the codecs' own lines are passed on (:func:`_codec_lines_kept`)."""
+
+    keep = True
+
+
+@contextmanager
+def _codec_lines_kept() -> Iterator[_Said]:
+    """What the image codecs print on stderr in the block; their own errors only if ``keep``.
+
+    libpng writes its own error to the process's stderr (``libpng error: PNG input
+    buffer is incomplete``) past OpenCV's log level: a damaged image then said two
+    lines, where bad input says one. The block's stderr goes to a temporary file, passed
+    on after it: whole after a decode that worked (a codec's warning is kept), without
+    the codecs' lines after one that failed.
+    """
+    import os  # noqa: PLC0415
+    import sys  # noqa: PLC0415
+    import tempfile  # noqa: PLC0415
+
+    said = _Said()
+    try:
+        sys.stderr.flush()
+        saved = os.dup(2)
+    except (OSError, ValueError):  # no stderr to take (closed, or not a file)
+        yield said
+        return
+    with tempfile.TemporaryFile() as caught:
+        os.dup2(caught.fileno(), 2)
+        try:
+            yield said
+        finally:
+            os.dup2(saved, 2)
+            os.close(saved)
+            caught.seek(0)
+            text = caught.read()
+            if not said.keep:  # (another thread's lines meanwhile are kept)
+                lines = text.splitlines(keepends=True)
+                text = b"".join(ln for ln in lines if not ln.startswith(_CODEC_ERRORS))
+            if text:
+                os.write(2, text)
+
+
+#: How libpng and libjpeg begin the lines they write to stderr themselves.
+_CODEC_ERRORS = (b"libpng ", b"Corrupt JPEG", b"Premature end of JPEG", b"Invalid SOS")
 
 
 __all__ = [
