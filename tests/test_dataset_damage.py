@@ -101,6 +101,25 @@ def test_check_fails_a_tags_file_of_another_shape(
     assert says in problems[0], problems[0]
 
 
+@pytest.mark.bad_input
+def test_show_refuses_a_video_damaged_inside_before_its_report(
+    dataset: Path, tmp_path: Path
+) -> None:
+    """Bytes flipped inside the video, its boxes whole: the report was printed, then exit 2
+    (the docs: refused before it prints anything)."""
+    copy = tmp_path / "dsx"
+    shutil.copytree(dataset, copy)
+    video = copy / "videos/observation.images.table/chunk-000/file-000.mp4"
+    data = bytearray(video.read_bytes())
+    for i in range(2000, len(data) - 100, 997):
+        data[i] ^= 0xFF
+    video.write_bytes(bytes(data))
+    sheet = tmp_path / "s.png"
+    out = check_bad_input(["dataset", "show", copy, "--sheet", sheet], keep=[copy])
+    assert f"{video}: cannot be decoded" in out.line and "the dataset is damaged" in out.line
+    assert out.stdout == "" and not sheet.exists()
+
+
 @pytest.mark.parametrize("fps", [-10, 0, 10.0, True, "10"])
 def test_check_says_the_least_fps_there_is(dataset: Path, tmp_path: Path, fps: object) -> None:
     """fps ≥ 1 (as the docs say), whatever was wrong: -10 read "a whole number ≥ 0"."""

@@ -71,9 +71,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     if sheet.suffix.lower() != ".png":  # PNG bytes under .jpg: a viewer's guess, not a JPEG
         raise MearmError(f"--sheet {sheet}: the contact sheet is a PNG: give a name ending .png")
     refuse_to_replace(sheet, "--sheet", args.force)
-    for line in describe(args.dir):
-        print(line)
+    report = list(describe(args.dir))
+    # the sheet decodes frames: a video damaged inside (its boxes whole) is refused there,
+    # before the report is printed, not after it
     n = contact_sheet(args.dir, sheet)
+    for line in report:
+        print(line)
     print(f"wrote {sheet} (the contact sheet, {n} frames)")
     return EXIT_OK
 
