@@ -286,6 +286,33 @@ def test_a_work_area_point_out_of_range_names_the_option(
     assert not out.exists()
 
 
+@pytest.mark.parametrize(
+    ("point", "said"),
+    [("640,nan", "U and V must be finite"), ("100,x", "expected U,V pixels"),
+     ("inf,3", "U and V must be finite")],
+)  # fmt: skip
+@pytest.mark.parametrize("first_arg", [False, True])
+def test_a_work_area_point_typed_wrong_is_named_not_taken_for_an_image(
+    point: str, said: str, first_arg: bool, frame_png: Path, tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+) -> None:  # fmt: skip
+    """``640,nan`` after ``--work-area`` was left as a positional: "unrecognized arguments"
+    at the end, or taken for the IMAGE before it; a picture's name with a comma stays one."""
+    out = tmp_path / "x.yaml"
+    area = ["--work-area", "0,0", "600,0", point]
+    rest = ["--sample", first("red"), "--config", "sim", "--out", str(out)]
+    argv = [*area, str(frame_png), *rest] if first_arg else [str(frame_png), *rest, *area]
+    code, _, err = call(main, argv, capsys)
+    assert code == 2 and len(err.strip().splitlines()) == 1, err
+    assert f"error: --work-area {point!r}: {said}" in err, err
+    assert not out.exists()
+    comma = tmp_path / "shot,1.png"
+    comma.write_bytes(frame_png.read_bytes())
+    argv = ["--work-area", "0,0", "640,0", "640,480", "0,480", str(comma), *rest]
+    code, _, err = call(main, argv, capsys)
+    assert code == 0, err
+
+
 @pytest.mark.heavy
 def test_a_frame_four_times_the_calibrations_finds_its_table(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]

@@ -54,6 +54,7 @@ import cv2
 import numpy as np
 
 from mearm.cli import (
+    IMAGE_SUFFIXES,
     ArgumentParser,
     check_output_file,
     config_from_args,
@@ -127,6 +128,21 @@ def parse_point(text: str) -> tuple[float, float]:
     return u, v
 
 
+#: What a work-area point typed wrong looks like (``640,nan``, ``100,x``): a pair.
+_PAIR = re.compile(r"^[-+\w.]+,[-+\w.]+$")
+
+
+def _looks_like_point(arg: str) -> bool:
+    """A point, or a pair typed as one that ``--work-area`` refuses in its own words.
+
+    ``640,nan`` was left for an IMAGE and refused as "unrecognized arguments"; a picture's
+    name with a comma (``shot,1.png``) stays an IMAGE.
+    """
+    if _POINT.match(arg):
+        return True
+    return bool(_PAIR.match(arg)) and Path(arg).suffix.lower() not in IMAGE_SUFFIXES
+
+
 def attach_work_area_points(argv: Sequence[str]) -> list[str]:
     """``--work-area -5,3 700,-50 ...`` as ``--work-area=-5,3 --work-area=700,-50 ...``.
 
@@ -137,7 +153,7 @@ def attach_work_area_points(argv: Sequence[str]) -> list[str]:
     out: list[str] = []
     taking = False
     for arg in argv:
-        if taking and _POINT.match(arg):
+        if taking and _looks_like_point(arg):
             if out[-1] == "--work-area":
                 out.pop()
             out.append(f"--work-area={arg}")
