@@ -152,9 +152,12 @@ def _usage() -> str:
         f"{doc_page('maker-path.md')}.\n\n"
         f"{groups}\n\n"
         + textwrap.fill(
-            "Every subcommand that reads a config takes --config FILE and --set KEY=VALUE; "
-            f"FILE may also name a config shipped with mearm: {', '.join(config_names())}.",
+            "Every subcommand that reads a config takes --config FILE and --set KEY=VALUE "
+            "(but calibrate-camera, which writes its FILE, and eval-policy, whose "
+            "environment takes --env-option); FILE may also name a config shipped with "
+            f"mearm: {', '.join(config_names())}.",
             width=88,
+            break_on_hyphens=False,
         )
         + "\nmearm SUBCOMMAND --help shows its arguments."
     )

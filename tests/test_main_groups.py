@@ -51,6 +51,24 @@ def test_every_subcommand_names_a_main(name: str) -> None:
     assert text and len(text) <= 72, text
 
 
+def test_the_help_says_which_subcommands_with_a_config_take_no_set(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    """``mearm --help`` says every subcommand that reads a config takes --set: it named
+    none of those that do not (calibrate-camera had no --set, and said so only by an
+    "unrecognized arguments")."""
+    without = []
+    for name in SUBCOMMANDS:
+        with pytest.raises(SystemExit):
+            main([name, "--help"])
+        text = capsys.readouterr().out
+        if "--config" in text and "--set" not in text:
+            without.append(name)
+    assert without == ["calibrate-camera", "eval-policy"]
+    said = " ".join(_usage().split())
+    assert "(but calibrate-camera, which writes its FILE, and eval-policy," in said
+
+
 def test_help_shows_each_group_and_each_subcommand_once(capsys: pytest.CaptureFixture[str]) -> None:
     """``mearm --help``: a heading per group, one line per subcommand, exit 0."""
     with pytest.raises(SystemExit) as exc:
