@@ -122,6 +122,21 @@ def test_set_reaches_a_named_arm():
 # ------------------------------------------------------------------ the merge rule
 
 
+@pytest.mark.parametrize(
+    ("key", "said"),
+    [("arm.use=desk_5dof", "arm.use: the reference arm a config builds on is named in its file"),
+     ("extends=sim", "extends: the config a file builds on is named in the file, not by --set")],
+)  # fmt: skip
+def test_set_refuses_the_keys_read_as_the_file_is_composed(key: str, said: str) -> None:
+    """``--set arm.use=…`` was "unknown key (… shows every key)", though the docs list
+    ``arm.use`` and say any key can be set: it is read before --set applies."""
+    with pytest.raises(ConfigError) as err:
+        load_config("sim", [key])
+    assert said in str(err.value)
+    out = run_in_process(["fk", "--config", "sim", "--joints", "120,93,-132", "--set", key])
+    assert out.code == 2 and out.line.startswith(f"mearm fk: error: --set: {said}")
+
+
 def test_mappings_merge_key_by_key():
     base = {"a": {"b": 1, "c": {"d": 2, "e": 3}}, "f": 4}
     assert merge(base, {"a": {"c": {"d": 20}}, "g": 5}) == {

@@ -34,7 +34,7 @@ from mearm.config.base import (
     loc_text,
     short_repr,
 )
-from mearm.config.compose import FILE_KEYS, expand_config
+from mearm.config.compose import EXTENDS_KEY, FILE_KEYS, USE_KEY, expand_config
 from mearm.config.root import Config
 from mearm.data import packaged_arm
 from mearm.errors import ConfigError
@@ -123,6 +123,9 @@ def apply_overrides(
     out = copy.deepcopy(data)
     for text in overrides:
         path, value = parse_override(text)
+        composed = _COMPOSED.get(tuple(path))
+        if composed is not None:  # read as the file is composed, before --set applies
+            raise ConfigError("--set", [f"{'.'.join(path)}: {composed}"])
         node: Any = out
         default: Any = defaults
         for depth, part in enumerate(path[:-1]):
@@ -136,6 +139,15 @@ def apply_overrides(
             raise ConfigError("--set", [f"{where}: is a value, not a section"])
         _paths_from_here(out, path)
     return out
+
+
+#: Keys read as a config file is composed, before ``--set`` applies: what --set says of them.
+_COMPOSED: dict[tuple[str, ...], str] = {
+    (EXTENDS_KEY,): "the config a file builds on is named in the file, not by --set: "
+    "give that config as --config, or write extends: in your file",
+    ("arm", USE_KEY): "the reference arm a config builds on is named in its file "
+    "(arm: {use: NAME}), not by --set; --set changes the keys of the arm it names",
+}
 
 
 def file_keys_set(overrides: Sequence[str]) -> set[str]:

@@ -54,7 +54,9 @@ default shown. Unknown keys are refused, and so is any value outside the allowed
 the error names the dotted path, the value and what is allowed (see
 [Troubleshooting](troubleshooting.md)). `configs/sim.yaml` writes every default out;
 [Your own arm](your-arm.md) explains the arm description with examples. Any key can also
-be set on the command line with `--set dotted.key=value` (list items by name or index).
+be set on the command line with `--set dotted.key=value` (list items by name or index),
+but `extends` and `arm.use`, which name the files a config builds on: those are read as
+the file is composed, before `--set` applies, and are written in the file.
 
 Units are in the key's name or in brackets: cm, deg, µs, s, Hz, px; `[-]` is a pure
 number. "paper §n" refers to the sections of [the paper, restated](paper.md).
