@@ -167,6 +167,35 @@ def test_an_exact_fit_records_no_error(capsys, config: Path, image: Path) -> Non
     assert isinstance(_error_cm(config), float)
 
 
+def test_a_calibration_the_sort_would_refuse_is_written_with_a_warning(
+    capsys, config: Path
+) -> None:
+    """Points typed in mm where cm are asked (every one ten times out): the fit was
+    written, exit 0, and the next sort refused it; now a warning says so as it is written.
+    A calibration the sort takes warns of nothing."""
+    typed = [
+        ("0,0", "-20.5,59"),
+        ("640,0", "19.5,59"),
+        ("0,480", "-20.5,29"),
+        ("640,480", "19.5,29"),
+    ]
+    for scale, warned in ((10, True), (1, False)):
+        points = []
+        for px, cm in typed:
+            x, y = (float(v) * scale for v in cm.split(","))
+            points += ["--point", f"{px}:{x:g},{y:g}"]
+        code, out, err = run_tool(capsys, calibrate_camera, "--config", str(config), *points)
+        assert code == 0, err
+        assert f"wrote the calibration into {config}" in out
+        said = [ln for ln in err.splitlines() if ": warning: " in ln]
+        if warned:
+            (line,) = said
+            assert f"warning: mearm sort --config {config} will refuse this calibration: " in line
+            assert "holds no point the arm can pick from" in line
+        else:
+            assert said == [], err
+
+
 def test_an_exact_fit_does_not_replace_a_measured_one(capsys, config: Path, image: Path) -> None:
     """Over a measured error, an exact fit is refused (exit 2, one line, nothing written);
     with --force it replaces it, the old config kept as .bak."""

@@ -77,7 +77,7 @@ from mearm.cli import (
     refuse_picture_name,
     run,
 )
-from mearm.config import config_from_dict
+from mearm.config import config_from_dict, load_config
 from mearm.config.base import MAX_LENGTH_CM, short_repr
 from mearm.config.compose import EXTENDS_KEY, FILE_KEYS
 from mearm.config.errors import CalibrationError
@@ -791,7 +791,32 @@ def main(argv: Sequence[str] | None = None) -> int:
     _write_config(target, new_text, calibration, force=args.force, keep=elsewhere)
     print(f"wrote the calibration into {target}")
     _exact_fit_note(parser, n_pairs)
+    _sort_would_refuse(parser, target)
     return 0
+
+
+def _sort_would_refuse(parser: ArgumentParser, written: Path) -> None:
+    """Warn, once the calibration is written, if ``mearm sort`` would refuse it.
+
+    Points typed in the wrong unit (mm for cm) fit a homography of a view the arm
+    reaches nowhere: written with exit 0, and refused only by the next sort. The
+    calibration is the maker's measurement, so it is kept; the warning says what the sort
+    will say. Other problems of the config are the sort's to say.
+    """
+    from mearm.task.check import check_consistency  # noqa: PLC0415  (the kinematics)
+
+    try:
+        check_consistency(load_config(written))
+    except MearmError as exc:
+        said = [ln for ln in str(exc).splitlines() if "calibration.homography:" in ln]
+        if said:
+            why = said[0].split("calibration.homography:", 1)[1].strip()
+            print(
+                f"{parser.prog}: warning: mearm sort --config {written} will refuse this "
+                f"calibration: {why}",
+                file=sys.stderr,
+                flush=True,
+            )
 
 
 def _exact_fit_note(parser: ArgumentParser, n_pairs: int) -> None:
