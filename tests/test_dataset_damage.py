@@ -120,6 +120,27 @@ def test_show_refuses_a_video_damaged_inside_before_its_report(
     assert out.stdout == "" and not sheet.exists()
 
 
+@pytest.mark.parametrize(
+    ("journal", "finishable"), [("{}", False), ("not json", False), ('{"replace": {}}', True)]
+)
+def test_a_journal_resume_cannot_finish_is_not_sent_to_resume(
+    dataset: Path, tmp_path: Path, journal: str, finishable: bool
+) -> None:
+    """A damaged journal read 'record with --resume to finish writing it', and --resume
+    then refused it as damaged: check and show now say --resume cannot finish it."""
+    copy = tmp_path / "dsx"
+    shutil.copytree(dataset, copy)
+    (copy / "meta/.commit.json").write_text(journal)
+    (problem,) = [p for p in check_dataset(copy, videos=False) if p.startswith("journal: ")]
+    out = check_bad_input(["dataset", "show", copy, "--sheet", tmp_path / "s.png"], keep=[copy])
+    if finishable:
+        assert "(record with --resume to finish writing it)" in problem
+        assert "with --resume to finish writing it, then show it" in out.line
+    else:
+        assert "is there and damaged (" in problem and "--resume cannot finish it" in problem
+        assert "--resume cannot finish it: the dataset is damaged" in out.line, out.line
+
+
 @pytest.mark.parametrize("fps", [-10, 0, 10.0, True, "10"])
 def test_check_says_the_least_fps_there_is(dataset: Path, tmp_path: Path, fps: object) -> None:
     """fps ≥ 1 (as the docs say), whatever was wrong: -10 read "a whole number ≥ 0"."""

@@ -18,6 +18,7 @@ from mearm.dataset.errors import DatasetError
 from mearm.dataset.fragments import tear
 from mearm.dataset.reading import (
     damaged,
+    journal_damage,
     read_episodes,
     read_info,
     read_json,
@@ -44,10 +45,15 @@ def describe(root: Path) -> list[str]:
             (missing, cut short), as ``--resume`` refuses them.
     """
     if (root / L.JOURNAL_PATH).exists():
+        wrong = journal_damage(root)
         raise DatasetError(
             root / L.JOURNAL_PATH,
             "an episode was being written when the recorder stopped: record into "
-            f"{root} with --resume to finish writing it, then show it",
+            f"{root} with --resume to finish writing it, then show it"
+            if wrong is None
+            else f"{wrong}: an episode was being written when the recorder stopped, and "
+            f"--resume cannot finish it: the dataset is damaged; `mearm dataset check "
+            f"{root}` lists what is wrong",
         )
     info, episodes, tasks = _read(root)
     _check_files(root, info, episodes)

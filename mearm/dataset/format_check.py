@@ -19,7 +19,14 @@ import numpy as np
 from mearm.dataset import lerobot_format as L
 from mearm.dataset.errors import DatasetError
 from mearm.dataset.fragments import tear
-from mearm.dataset.reading import EpisodeStart, RecordedScene, Tag, read_starts, read_tags
+from mearm.dataset.reading import (
+    EpisodeStart,
+    RecordedScene,
+    Tag,
+    journal_damage,
+    read_starts,
+    read_tags,
+)
 from mearm.dataset.recorder import import_extra
 
 #: What a reader of mearm's own files returns.
@@ -97,10 +104,15 @@ class _Checker:
 
     def run(self) -> list[str]:
         if (self.root / L.JOURNAL_PATH).exists():
+            wrong = journal_damage(self.root)
             self.fail(
                 "journal",
                 f"{L.JOURNAL_PATH} is there: an episode was being written when the "
-                "recorder stopped (record with --resume to finish writing it)",
+                "recorder stopped (record with --resume to finish writing it)"
+                if wrong is None
+                else f"{L.JOURNAL_PATH} is there and damaged ({wrong}): an episode was being "
+                "written when the recorder stopped, and --resume cannot finish it; the "
+                "dataset's files may disagree",
             )
         info = self._info()
         if info is None:

@@ -42,6 +42,31 @@ def damaged(root: Path, rel: str, what: str) -> DatasetError:
     )
 
 
+#: What an episode's journal (``meta/.commit.json``) is, said of one that is not.
+JOURNAL_SHAPE = 'not an object {"replace": {...}, "append": {...}}'
+
+
+def journal_damage(root: Path) -> str | None:
+    """What is wrong with the journal of an episode being written, if anything.
+
+    ``None``: none there, or one a recorder can finish (``--resume``).
+    """
+    journal = root / L.JOURNAL_PATH
+    if not journal.exists():
+        return None
+    try:
+        entries = json.loads(journal.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        return f"cannot be read as JSON ({type(exc).__name__})"
+    if not (
+        isinstance(entries, dict)
+        and isinstance(entries.get("replace"), dict)
+        and isinstance(entries.get("append", {}), dict)
+    ):
+        return JOURNAL_SHAPE
+    return None
+
+
 def read_json(root: Path, rel: str) -> Any:
     """A JSON file of the dataset.
 

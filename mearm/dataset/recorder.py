@@ -67,6 +67,7 @@ from mearm.dataset.errors import (
 from mearm.dataset.feature_stats import Stats, aggregate, image_stats, to_json, vector_stats
 from mearm.dataset.fragments import EpisodeVideo, file_header, tear
 from mearm.dataset.reading import (  # noqa: F401  (EpisodeStart, read_starts re-exported)
+    JOURNAL_SHAPE,
     EpisodeStart,
     RecordedScene,
     Tag,
@@ -167,7 +168,7 @@ def finish_journal(root: Path) -> bool:
         and isinstance(entries.get("replace"), dict)
         and isinstance(entries.get("append", {}), dict)
     ):
-        raise damaged(root, L.JOURNAL_PATH, 'not an object {"replace": {...}, "append": {...}}')
+        raise damaged(root, L.JOURNAL_PATH, JOURNAL_SHAPE)
     for rel, append in entries.get("append", {}).items():
         fragment = root / append["from"]
         if fragment.exists():
