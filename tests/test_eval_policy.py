@@ -238,7 +238,23 @@ def test_a_pt_file_whose_pickle_would_run_code_is_refused_without_running_it(tmp
     with pytest.raises(PolicyError, match="not a baseline saved by mearm.learn") as caught:
         load_baseline(evil)
     assert "was not run" in str(caught.value) and "weights_only" not in str(caught.value)
+    assert "(it holds more than tensors, plain values and arrays," in str(caught.value)
     assert not ran.exists()
+
+
+def test_a_pt_file_that_is_no_pytorch_file_says_so(tmp_path):
+    """Text named .pt was said to hold "more than tensors"; it holds no pickle at all."""
+    pytest.importorskip("torch")
+    from mearm.envs.errors import PolicyError
+    from mearm.learn.baseline import load_baseline
+
+    text = tmp_path / "bad.pt"
+    text.write_text("garbage\n")
+    with pytest.raises(PolicyError) as caught:
+        load_baseline(text)
+    assert str(caught.value).endswith(
+        "not a baseline saved by mearm.learn (it is not a PyTorch file, and was not run)"
+    )
 
 
 def test_a_baseline_of_other_sizes_is_refused_before_any_episode(tmp_path):

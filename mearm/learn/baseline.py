@@ -171,11 +171,15 @@ def load_baseline(path: Path) -> BaselinePolicy:
             raise ValueError("not a mearm-bc-3 file")
         net = build_mlp(int(saved["n_in"]), int(saved["n_out"]), int(saved["hidden"]))
         net.load_state_dict(saved["state_dict"])
-    except pickle.UnpicklingError:
+    except pickle.UnpicklingError as exc:
         # torch's own text advises loading it unsafely: a stranger's file is not run
+        what = (
+            "it holds more than tensors, plain values and arrays"
+            if "GLOBAL" in str(exc)  # a class or function its pickle asks for
+            else "it is not a PyTorch file"  # bytes no pickle reads (text, another format)
+        )
         raise PolicyError(
-            f"policy {path}: not a baseline saved by mearm.learn (it holds more than "
-            "tensors, plain values and arrays, and was not run)"
+            f"policy {path}: not a baseline saved by mearm.learn ({what}, and was not run)"
         ) from None
     except Exception as exc:
         why = _clipped(str(exc))
