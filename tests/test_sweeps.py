@@ -83,6 +83,31 @@ def test_sigterm_stops_twin_scenes_and_its_workers(tmp_path):
     assert not [w for w in workers if Path(f"/proc/{w}").exists()], "workers left behind"
 
 
+@pytest.mark.heavy
+@pytest.mark.parametrize("sig", ["SIGINT", "SIGTERM"])
+def test_a_signal_stops_twin_scenes_in_one_process(sig: str) -> None:
+    """With --jobs 1 the sort took the signal as an interrupted sort and the sweep went on
+    to the next scene: all 40 sorted, exit 0. It now stops after that scene's line, exit
+    130 or 143 as the signal says."""
+    import signal
+    import sys
+    import time
+
+    cmd = [sys.executable, "-u", "-m", "mearm", "twin-scenes", "--config", "sim_mujoco",
+           "--scenes", "40", "--objects", "3", "--jobs", "1"]  # fmt: skip
+    proc = subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    assert proc.stdout is not None
+    first = proc.stdout.readline()  # a scene sorted: the next one is under way
+    assert first.startswith(b"seed   0: sorted"), first
+    time.sleep(0.3)
+    proc.send_signal(getattr(signal, sig))
+    out, err = proc.communicate(timeout=120)
+    assert proc.returncode == 128 + getattr(signal, sig), err
+    assert err.decode().strip().endswith("mearm twin-scenes: interrupted")
+    lines = [first, *out.splitlines()]
+    assert len(lines) < 40 and b"twin, 40 scenes" not in out, out
+
+
 def here(*args: object) -> Outcome:
     """``mearm ARGS`` in this process, from the checkout: for refusals before any work and
     for the serial runs the workers' runs are compared with (the runs of workers start

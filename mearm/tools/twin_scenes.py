@@ -61,8 +61,21 @@ Result = tuple[int, int, int, int, dict[str, int], str | None, list[str]]
 _WORK: tuple[Config, int] | None = None
 
 
-def _one(config: Config, objects: int, seed: int) -> Result:
-    """Sort one scene: its :data:`Result`."""
+class _Stopped(Exception):
+    """Ctrl-C (or SIGTERM, SIGHUP) stopped a scene sorted in this process: its result."""
+
+    def __init__(self, result: Result):
+        super().__init__("interrupted")
+        self.result = result
+
+
+def _one(config: Config, objects: int, seed: int, *, stop: bool = False) -> Result:
+    """Sort one scene: its :data:`Result`.
+
+    ``stop``: a sort Ctrl-C stopped raises :class:`_Stopped` with its result (in this
+    process the sort takes the Ctrl-C as an interrupted sort; a worker's parent stops
+    the sweep itself).
+    """
     from mearm.maker.camera_calibration.at_start import for_config
     from mearm.task.rig import run_sort
     from mearm.task.scene import random_scene
@@ -72,9 +85,11 @@ def _one(config: Config, objects: int, seed: int) -> Result:
         report = run_sort(config, scene=scene, echo=None, calibrate_first=for_config(config))
     except SortAborted as exc:
         if exc.outcome is None:
+            if stop and exc.interrupted:
+                raise _Stopped((len(scene), 0, 0, 0, {}, exc.reason, [])) from None
             return len(scene), 0, 0, 0, {"fault": len(scene)}, exc.reason, []
         out = exc.outcome  # what it sorted before the fault, and what the fault left
-        return (
+        result: Result = (
             out.n_objects,
             sum(out.seen.values()),
             out.n_sorted,
@@ -83,6 +98,9 @@ def _one(config: Config, objects: int, seed: int) -> Result:
             exc.reason,
             [],
         )
+        if stop and exc.interrupted:
+            raise _Stopped(result) from None
+        return result
     out = report.outcome
     notes = [f"{s.object_id}: {s.reason}" for s in report.skipped]
     seen = sum(out.seen.values())
@@ -144,7 +162,11 @@ def sweep(config: Config, objects: int, seeds: Sequence[int], jobs: int) -> Iter
     """
     if jobs == 1:
         for seed in seeds:
-            yield _one(config, objects, seed)
+            try:
+                yield _one(config, objects, seed, stop=True)
+            except _Stopped as stopped:  # this scene's line, then no more scenes (exit 130)
+                yield stopped.result
+                raise KeyboardInterrupt from None
         return
     pool = ProcessPoolExecutor(
         max_workers=min(jobs, len(seeds)),
