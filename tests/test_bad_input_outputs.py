@@ -60,6 +60,10 @@ CASES: list[tuple[list[str], str]] = [
      "--build-dir {file}: exists and is not a folder"),
     (["config-docs", "--output", "{under}"],
      "--output {under}: cannot write: {file} is a file, not a folder"),
+    # (the run log said "exists (exclusive=True refuses to append)" of a file not there)
+    (["sort", "--quiet", "--log", "{under}"], "{under}: cannot write: {file} is a file, not a"),
+    (["experiment", "--trials", "1", "--log", "{under}"],
+     "{under}: cannot write: {file} is a file, not a folder"),
 ]  # fmt: skip
 
 

@@ -119,6 +119,11 @@ class RunLog:
                     self.path, "is not a regular file (a folder, device or pipe); give a file path"
                 )
             self._refuse_torn_file()
+        folder = self.path.absolute().parent
+        while not folder.exists() and folder != folder.parent:
+            folder = folder.parent
+        if not folder.is_dir():  # (mkdir would say the file 'exists', as if it were the log)
+            raise RunLogError(self.path, f"cannot write: {folder} is a file, not a folder")
         try:
             self.path.parent.mkdir(parents=True, exist_ok=True)
             # "a" never truncates: what is there stays; "x" refuses a file made meanwhile.
