@@ -6,8 +6,10 @@ r"""The twin's servo step responses, as a table and a plot (docs/twin.md).
 (``python tools/servo_steps.py`` from the checkout.) Each response starts from a fresh
 twin at home (``configs/sim_mujoco.yaml`` unless ``--config``): one joint is commanded
 ``--degrees`` away (10° and 60° by default: inside and at its speed limit; up from home,
-or down where its limit is nearer; a step that fits neither way is refused before any
-measurement, naming the largest that does) by one move of the real bus, and the
+or down where its limit is nearer, or, where neither keeps the tool above the table, from
+a start that far from one of its limits to it, reached and held first; a step that fits
+no way is refused before any measurement, naming the largest that does) by one move of
+the real bus, and the
 physics runs on with that command; its measured angle is sampled every 4 ms for 0.6 s
 (simulated). ``--csv`` writes
 ``joint,step_deg,t_s,angle_deg`` rows; ``--before`` draws another run's CSV (an earlier
@@ -42,26 +44,63 @@ from mearm.kinematics.errors import JointLimitError
 
 #: Sampling interval and length of each response (simulated) [s].
 SAMPLE_S, LENGTH_S = 0.004, 0.6
+#: Time a start away from home is held before the step (simulated) [s].
+START_SETTLE_S = 1.0
 DEFAULT_CONFIG = Path("sim_mujoco")  # the shipped config, by name
 Rows = list[tuple[str, float, float, float]]
 
 
-def step_command(config: Config, joint: str, step: float) -> ArmCommand | None:
-    """Home with ``joint`` moved ``step`` up, else down; ``None`` if neither is allowed.
+#: Poses checked along a step for the tool's clearance of the table, ends included.
+STEP_SAMPLES = 9
 
-    Allowed: inside the joint's limits and every servo's pulse range (the MeArm v1's
-    elbow servo turns shoulder + elbow), as the bus checks before it sends.
+
+class _Clearance:
+    """Whether the tool (jaws, their servo, the hand) stays above the table in a pose."""
+
+    def __init__(self, config: Config):
+        from mearm.kinematics import ArmModel  # noqa: PLC0415  (Pinocchio: the check only)
+        from mearm.sim.table_collision import collision_model  # noqa: PLC0415
+
+        self.model = ArmModel(config.arm)
+        self.collision = collision_model(config, self.model, clearance_cm=0.0)
+
+    def above(self, joints: dict[str, float]) -> bool:
+        q = self.model.chain.from_named(joints)
+        return self.collision.tool_lowest_cm(q)[0] >= 0.0
+
+
+def step_command(
+    config: Config, joint: str, step: float, clear: _Clearance | None = None
+) -> tuple[ArmCommand, ArmCommand] | None:
+    """The step's start and end: ``joint`` moved ``step``, the rest at home; or ``None``.
+
+    Tried in turn: up from home, down from home, then up to the joint's upper limit and
+    down to its lower one from a start that far away. Allowed: inside the joint's limits
+    and every servo's pulse range (the MeArm v1's elbow servo turns shoulder + elbow), as
+    the bus checks before it sends, and the tool above the table all the way: the paper
+    arm's shoulder stepped 60° down from home drove its jaws into the table and stopped
+    40° short, drawn as if it were the servo's response.
     """
     smap = ServoMap.from_arm(config.arm)
+    clear = clear or _Clearance(config)
     tool = {a.name: a.home for a in config.arm.tool.actuators}
     home = config.arm.home()
-    for way in (1, -1):
-        command = ArmCommand({**home, joint: home[joint] + way * step}, tool)
+    spec = next(j for j in config.arm.actuated_joints() if j.name == joint)
+    starts = [(home[joint], 1), (home[joint], -1)]
+    if spec.limits is not None:
+        starts += [(spec.limits.max - step, 1), (spec.limits.min + step, -1)]
+    for start, way in starts:
+        poses = [
+            {**home, joint: start + way * step * k / (STEP_SAMPLES - 1)}
+            for k in range(STEP_SAMPLES)
+        ]
         try:
-            smap.check(command)
+            for pose in (poses[0], poses[-1]):
+                smap.check(ArmCommand(pose, tool))
         except JointLimitError:  # a pulse range's refusal is one too
             continue
-        return command
+        if all(clear.above(p) for p in poses):
+            return ArmCommand(poses[0], tool), ArmCommand(poses[-1], tool)
     return None
 
 
@@ -71,19 +110,21 @@ def check_steps(config: Config, steps_deg: Sequence[float]) -> None:
     Raises:
         MearmError: naming ``--degrees``, the joint and the largest step it takes.
     """
+    clear = _Clearance(config)
     for joint in config.arm.actuated_joints():
         for step in steps_deg:
-            if step_command(config, joint.name, step) is not None:
+            if step_command(config, joint.name, step, clear) is not None:
                 continue
-            low, high = 0.0, step  # the largest allowed step (the allowed: an interval)
+            low, high = 0.0, step  # the largest allowed step
             for _ in range(40):
                 mid = (low + high) / 2
-                low, high = (mid, high) if step_command(config, joint.name, mid) else (low, mid)
+                fits = step_command(config, joint.name, mid, clear) is not None
+                low, high = (mid, high) if fits else (low, mid)
             room = math.floor(low * 10) / 10
             raise MearmError(
-                f"--degrees {step:g}: {joint.name} cannot step {step:g} {joint.unit} either "
-                f"way from its home ({config.arm.home()[joint.name]:g}) inside its limits and "
-                f"its servo's pulse range; at most {room:g} here"
+                f"--degrees {step:g}: {joint.name} cannot step {step:g} {joint.unit} inside "
+                "its limits and its servo's pulse range with the tool above the table, the "
+                f"other joints at home; at most {room:g} here"
             )
 
 
@@ -96,12 +137,17 @@ def responses(config: Config, steps_deg: list[float]) -> Rows:
     from mearm.sim.twin.twin_bus import TwinArm
 
     rows: Rows = []
+    clear = _Clearance(config)
     for joint in config.arm.actuated_joints():
         for step in steps_deg:
             arm = TwinArm(config)
             arm.connect()
-            command = step_command(config, joint.name, step)
-            assert command is not None  # check_steps refused it
+            steps = step_command(config, joint.name, step, clear)
+            assert steps is not None  # check_steps refused it
+            first, command = steps
+            if first.joints[joint.name] != config.arm.home()[joint.name]:
+                arm.move(first)  # a start away from home: there first, at rest
+                arm.settle(START_SETTLE_S)
             start, t0 = arm.actual_joints[joint.name], arm.time_s
             arm.move(command)
             while arm.time_s - t0 < LENGTH_S:
