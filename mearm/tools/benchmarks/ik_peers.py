@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import sys
 import time
 from collections.abc import Callable
@@ -119,7 +120,15 @@ def ik_peer_rows(config: Config, options: BenchOptions, n_targets: int = PEER_TA
     timed = _Timed(best, per_solve, _successes(peers, out), out)
     rows = _solver_rows(peers, timed, options.repeat, rtb_note)
     solved_all = timed.success["fastest"] == n  # a target is met by solves that succeed
-    return rows + _ratio_rows(per_solve, fastest_solved_all=solved_all)
+    rows += _ratio_rows(per_solve, fastest_solved_all=solved_all)
+    if rtb_run is None:  # the target is not dropped: it was not measured, so not met
+        bound = FASTEST_OVER_RTB_TARGET
+        unmeasured = Row(
+            "ik", "mearm fastest / RTB ik_LM, per solve", math.nan, "×",
+            f"target ≤ {bound:g}×; not measured: {rtb_note}",
+        )  # fmt: skip
+        rows.append(against(unmeasured, f"≤ {bound:g}×", at_most=bound))
+    return rows
 
 
 @dataclass(frozen=True)
