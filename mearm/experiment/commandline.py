@@ -460,6 +460,10 @@ def _run(
         except (CameraError, ServoError, TrialFailed) as exc:
             print(f"{_prog()}: {exc}", file=sys.stderr)
             return EXIT_FAILURE, False
+        except KeyboardInterrupt as exc:  # between two trials' sorts (none was moving)
+            why = f"interrupted ({interrupts.named(exc)}) between trials"
+            print(f"{_prog()}: stopped: {why}{_left(args, config, scene)}", file=sys.stderr)
+            return interrupts.exit_status(), False
     wall = time.perf_counter() - t0
     failed = [(k, r) for k, r in outcomes.items() if r is not None]
     where = "1 process" if workers is None else f"{workers.count} {workers.where}"
