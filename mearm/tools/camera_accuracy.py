@@ -465,7 +465,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"wrote the pictures and calibrations into {args.work}/")
     if not ok:
         print(
-            f"camera accuracy: NOT within mean {args.max_mean_cm:g} cm, max "
+            f"{parser.prog}: camera accuracy NOT within mean {args.max_mean_cm:g} cm, max "
             f"{args.max_error_cm:g} cm, nothing missed or extra",
             file=sys.stderr,
         )
