@@ -20,6 +20,7 @@ from typing import TYPE_CHECKING, Any, NoReturn, Protocol, TextIO, TypeVar, cast
 
 from mearm import interrupts
 from mearm.errors import ConfigError, MearmError
+from mearm.fileio import existing_ancestor  # noqa: F401  (re-exported: the commands import it here)
 
 if TYPE_CHECKING:  # only the pools' callers import concurrent.futures (7 ms)
     from concurrent.futures import Executor, Future
@@ -358,17 +359,6 @@ def write_text_atomic(path: Path, text: str) -> None:
     except OSError as exc:
         # strerror: the reason, not the temporary file's name the error carries
         raise MearmError(f"cannot write {path}: {exc.strerror or exc}") from None
-
-
-def existing_ancestor(path: Path) -> Path:
-    """The nearest of ``path``'s folders that exists (``path`` itself excluded).
-
-    Where a file written to ``path`` lands once the missing folders are made.
-    """
-    parent = path.absolute().parent
-    while not parent.exists() and parent != parent.parent:
-        parent = parent.parent
-    return parent
 
 
 def check_output_file(path: Path, flag: str) -> None:

@@ -321,3 +321,14 @@ def _passes_on(signum: int) -> Any:
 
 # read by mearm.interrupts.signal_ends_process: the handler behind this module's clean-up
 _on_signal.passes_on = _passes_on  # type: ignore[attr-defined]
+
+
+def existing_ancestor(path: Path) -> Path:
+    """The nearest of ``path``'s folders that exists (``path`` itself excluded).
+
+    Where a file written to ``path`` lands once the missing folders are made.
+    """
+    parent = path.absolute().parent
+    while not parent.exists() and parent != parent.parent:
+        parent = parent.parent
+    return parent

@@ -19,6 +19,7 @@ import numpy as np
 from pydantic import ValidationError
 
 from mearm.config import Config
+from mearm.fileio import existing_ancestor
 from mearm.runlog.errors import RunLogError
 from mearm.runlog.lock import LogLock, lock_file
 from mearm.runlog.reader import _TrialBuilder
@@ -119,9 +120,7 @@ class RunLog:
                     self.path, "is not a regular file (a folder, device or pipe); give a file path"
                 )
             self._refuse_torn_file()
-        folder = self.path.absolute().parent
-        while not folder.exists() and folder != folder.parent:
-            folder = folder.parent
+        folder = existing_ancestor(self.path)
         if not folder.is_dir():  # (mkdir would say the file 'exists', as if it were the log)
             raise RunLogError(self.path, f"cannot write: {folder} is a file, not a folder")
         try:

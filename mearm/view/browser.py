@@ -42,7 +42,7 @@ from typing import Any, TypeVar
 
 import tornado.websocket
 
-from mearm.fileio import signal_ends_process, write_atomic
+from mearm.fileio import existing_ancestor, signal_ends_process, write_atomic
 from mearm.view.errors import BrowserNotFoundError, ViewError, ViewInputError, ViewRunError
 
 #: Executable names tried in order; ``$MEARM_CHROMIUM`` (a path or name) comes first.
@@ -483,9 +483,7 @@ def screenshot(
             written in one step: an old file stays whole until the new one replaces it.
     """
     out = Path(out_png).resolve()
-    folder = out.parent
-    while not folder.exists() and folder != folder.parent:
-        folder = folder.parent
+    folder = existing_ancestor(out)
     if not folder.is_dir():
         raise ViewInputError("out_png", str(out_png), f"a path not under a file ({folder})")
     for name, value in (("width_px", width_px), ("height_px", height_px)):
