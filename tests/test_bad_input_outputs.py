@@ -64,6 +64,9 @@ CASES: list[tuple[list[str], str]] = [
     (["sort", "--quiet", "--log", "{under}"], "{under}: cannot write: {file} is a file, not a"),
     (["experiment", "--trials", "1", "--log", "{under}"],
      "{under}: cannot write: {file} is a file, not a folder"),
+    # (it said "[Errno 2] No such file or directory: '/proc/x'")
+    (["experiment", "--trials", "1", "--log", "/proc/x/y.jsonl"],
+     "/proc/x/y.jsonl: cannot open for writing (No such file or directory)"),
 ]  # fmt: skip
 
 

@@ -130,7 +130,10 @@ class RunLog:
         except FileExistsError:
             raise RunLogError(self.path, "exists (exclusive=True refuses to append)") from None
         except OSError as exc:
-            raise RunLogError(self.path, f"cannot open for writing: {exc}") from None
+            # strerror: the reason, not the folder mkdir stopped at with its errno
+            raise RunLogError(
+                self.path, f"cannot open for writing ({exc.strerror or exc})"
+            ) from None
         if lock is None:
             try:
                 lock_file(self._file, self.path)  # held until the file is closed
