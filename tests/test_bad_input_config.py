@@ -407,6 +407,9 @@ SET_CASES = {
     "unicode_digit_index": ("arm.joints.²=1", "no item named"),
     "huge_index": ("arm.joints.99999999999999999999.home=1", "no item named"),
     "unknown_joint": ("arm.joints.knee.home=1", "no item named 'knee'"),
+    # named by the name typed, not the list index pydantic sees
+    "joint_to_null": ("arm.joints.shoulder=null", "arm.joints.shoulder: is a whole item"),
+    "class_to_scalar": ("task.classes.red=7", "task.classes.red: is a whole item"),
     "value_into_scalar": ("camera.seed.x=1", "is a value, not a section"),
     "section_to_scalar": ("camera=3", "camera"),
     "list_to_mapping": ("arm.joints={a: 1}", "arm.joints"),

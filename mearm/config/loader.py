@@ -134,7 +134,16 @@ def apply_overrides(
         if isinstance(node, dict):
             node[last] = value
         elif isinstance(node, list):
-            node[_index(node, last, where)] = value
+            i = _index(node, last, where)
+            if isinstance(node[i], dict) and not isinstance(value, dict):
+                raise ConfigError(
+                    "--set",
+                    [
+                        f"{where}.{last}: is a whole item, not a value: set one of its keys "
+                        f"({where}.{last}.KEY=VALUE), or give it as a mapping {{...}}"
+                    ],
+                )
+            node[i] = value
         else:
             raise ConfigError("--set", [f"{where}: is a value, not a section"])
         _paths_from_here(out, path)
