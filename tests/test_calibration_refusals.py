@@ -164,6 +164,19 @@ def test_a_start_up_failure_the_calibration_file_causes_names_it(tmp_path):
     check_consistency(load_config(V1))  # the arm's own calibration: no problem
 
 
+def test_a_file_naming_an_actuator_the_arm_lacks_is_named(tmp_path):
+    """A calibration of another arm's servo: the error says which file, and which
+    actuators this arm has."""
+    arm, fit = _fit(V1, "elbow", [CalibrationPoint(-45, 915), CalibrationPoint(45, 2029)])
+    knee = type(fit)("knee", fit.unit, fit.servo, fit.points, fit.residual_us, None)
+    cal = ServoCalibrationFile(arm.name, "test", "", "2026-01-01T00:00:00+00:00", (knee,))
+    path = save_servo_calibration(tmp_path / "knee.servos.yaml", cal)
+    with pytest.raises(ServoCalibrationError) as caught:
+        load_config(V1, [f"servo.calibration_file={path}"])
+    assert str(caught.value).startswith(f"{path}: the calibration names 'knee'")
+    assert "its actuators: base, shoulder, elbow" in str(caught.value)
+
+
 def test_a_file_that_does_not_record_what_it_replaced_is_named_as_a_maybe(tmp_path):
     path = _bad_elbow_file(tmp_path, replaces=False)
     config = load_config(V1, [f"servo.calibration_file={path}"])

@@ -623,7 +623,10 @@ def apply_servo_calibration(
         ConfigError: the calibrated config is invalid (a limit, home or tool setting whose
             pulse leaves the servo's range); the message names the field.
     """
-    overrides = servo_overrides(config.arm, fits)
+    try:
+        overrides = servo_overrides(config.arm, fits)
+    except ServoCalibrationError as exc:  # named by the file the maker can open
+        raise ServoCalibrationError(f"{source}: {exc}") from None
     paths = actuator_paths(config.arm)
     overrides += [
         f"{paths[n].removesuffix('.servo')}.limits={{min: {lo!r}, max: {hi!r}}}"
