@@ -221,7 +221,7 @@ CASES: list[tuple[list[str], str]] = [
     (["analyze", "--gains", "--kd", "x"], "must be comma-separated numbers"),
     (["analyze", "--gains", "--kp", "-1"], "greater than 0"),
     (["analyze", "--gains", "--kp", "1e308"], "must be below 2"),
-    (["analyze", "--gains", "--kd", "0.999"], "must be below 2"),
+    (["analyze", "--gains", "--kd", "0.999"], "kd = 0.999: kp + 2·kd = 2.098 must be below 2"),
     (["analyze", "--gains", "--start", "1,2"], "--start needs 3 numbers"),
     (["analyze", "--gains", "--target", "1000,1000,1000"], "outside the target box"),
     (["analyze", "--gains", "--mode", "fast"], "invalid choice: 'fast'"),

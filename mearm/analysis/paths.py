@@ -99,8 +99,10 @@ def _controller(config: Config, kp: float | None, kd: float | None) -> Controlle
     except ValidationError as exc:
         err = exc.errors()[0]
         name = ".".join(str(p) for p in err["loc"])
-        where = f"{name} = {err.get('input')!r}: " if name else ""
-        raise AnalysisError(f"{where}{err['msg']}") from None
+        gains = f"kp = {update.get('kp', config.controller.kp):g}, kd = "
+        gains += f"{update.get('kd', config.controller.kd):g}"
+        where = f"{name} = {err.get('input')!r}: " if name else f"{gains}: "
+        raise AnalysisError(f"{where}{err['msg'].removeprefix('Value error, ')}") from None
 
 
 def solve_route(
