@@ -85,6 +85,13 @@ def test_a_speed_given_twice_is_refused_before_any_sort():
     assert r.line == "mearm conveyor-sweep: error: --speeds: 1 cm/s given twice; give each once"
 
 
+def test_a_speed_out_of_range_is_named_as_typed():
+    """The refusal names --speeds and the value, then the config key it sets."""
+    r = run_in_process(["conveyor-sweep", "--speeds", "1,-1"], within_s=30)
+    assert r.code == 2 and r.stdout == "", r.stdout
+    assert r.line.startswith("mearm conveyor-sweep: error: --speeds -1: belt.speed_cm_s: ")
+
+
 # ----------------------------------------------------------------- belt over the base
 
 

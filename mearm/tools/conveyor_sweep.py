@@ -34,7 +34,7 @@ from mearm.cli import (
     float_list,
 )
 from mearm.config import Config, config_from_dict
-from mearm.errors import MearmError
+from mearm.errors import ConfigError, MearmError
 
 #: The config the sweep runs unless ``--config`` names another.
 DEFAULT_CONFIG = "sim_conveyor_kinematic"
@@ -154,8 +154,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         raise MearmError(
             f"--speeds: {', '.join(f'{v:g}' for v in twice)} cm/s given twice; give each once"
         )
-    for v in args.speeds:
-        at_speed(config, v)  # a speed the arm cannot follow stops here, before any run
+    for v in args.speeds:  # a speed the arm cannot follow stops here, before any run
+        try:
+            at_speed(config, v)
+        except ConfigError as exc:  # named as typed: --speeds, not the config key it sets
+            raise MearmError(f"--speeds {v:g}: {'; '.join(exc.problems)}") from None
     rows: list[SpeedRow] = []
     header = [
         "| belt speed [cm/s] (simulated) | brought | sorted | missed on the belt | "
