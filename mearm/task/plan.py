@@ -200,7 +200,7 @@ class Planner:
             if self.collision is not None and failure.kind in REROUTED:
                 # the solver stopped short from here; from over the target it may not
                 detour = self._detour(route.target, q_start, target)
-                if detour is not None:
+                if not isinstance(detour, str):
                     route.plan, route.detour_cm = detour
                     return route
             return _fail(route, failure)
@@ -211,10 +211,14 @@ class Planner:
         if contact is None:
             return route
         detour = self._detour(route.target, q_start, target)
-        if detour is not None:
+        if not isinstance(detour, str):
             route.plan, route.detour_cm = detour
             return route
-        return _fail(route, IKFailure("collision", f"collision: {self._describe(contact)}"))
+        # both named: the straight way's contact, and what stops the way over the top (the
+        # bins' walls raise it: a wall the claw cannot clear, a height out of reach)
+        chain = self.model.chain
+        why = f"collision: {contact.describe(chain.names, chain.scale)}; {detour}"
+        return _fail(route, IKFailure("collision", why))
 
     def _solve(
         self, target: IKTarget, q_start: npt.ArrayLike
@@ -364,13 +368,18 @@ class Planner:
 
     def _detour(
         self, target: IKTarget, q_start: npt.ArrayLike, obj: str | None
-    ) -> tuple[IKResult, float] | None:
-        """Up, over at a safe height and down to ``target``, checked whole; or ``None``."""
+    ) -> tuple[IKResult, float] | str:
+        """Up, over at a safe height and down to ``target``, checked whole.
+
+        The plan and the height it travels at; or, where no height works, what stopped
+        the lowest one.
+        """
         assert self.collision is not None
         q0 = np.asarray(q_start, dtype=float)
         z0 = float(self.model.fk_cm(q0)[2])
         x1, y1, z1 = (float(v) for v in target.position_cm)
         base = self.safe_height_cm(q0)
+        lowest = ""
         for extra in DETOUR_EXTRA_CM:
             z = base + extra
             legs = [
@@ -383,14 +392,19 @@ class Planner:
             for leg in legs:
                 result, failure = self._solve(leg, q)
                 if result is None or failure is not None:
+                    assert failure is not None
+                    stop = failure.message
                     break
                 results.append(result)
                 q = result.q
             else:
                 joined = _join(results, np.asarray(target.position_cm, dtype=float))
-                if self.collision.first_contact(joined.q_path, target=obj) is None:
+                contact = self.collision.first_contact(joined.q_path, target=obj)
+                if contact is None:
                     return joined, z
-        return None
+                stop = self._describe(contact)
+            lowest = lowest or f"over the top at {z:.1f} cm: {stop}"
+        return lowest
 
     def _outside_limits(self, q: np.ndarray) -> IKFailure | None:
         """The first pose of ``plan`` outside the joint limits or the pulse ranges, if any.
