@@ -189,6 +189,26 @@ def test_a_resumed_run_counts_one_complete_trial_as_one(
     )
 
 
+def test_the_analyse_hint_names_a_folder_analyze_writes_without_force(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The hint named ``report/`` though it held another run's report, which ``mearm
+    analyze --out report/`` then refused; an empty ``report/`` is still named."""
+    monkeypatch.chdir(tmp_path)
+
+    def hint(log: str) -> str:
+        out = _experiment("--trials", 1, "--log", log)
+        assert out.code == 0, out.stderr
+        return next(ln for ln in out.stdout.splitlines() if ln.startswith("analyse: "))
+
+    Path("report").mkdir()
+    assert hint("a.jsonl") == "analyse: mearm analyze a.jsonl --out report/"
+    assert run_in_process(["analyze", "a.jsonl", "--out", "report/"], within_s=60).code == 0
+    assert hint("b.jsonl") == "analyse: mearm analyze b.jsonl --out report-2/"
+    assert run_in_process(["analyze", "b.jsonl", "--out", "report-2/"], within_s=60).code == 0
+    assert Path("report/report.md").read_text() != Path("report-2/report.md").read_text()
+
+
 def test_a_dataset_not_empty_is_refused_before_anything_on_stdout(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:

@@ -474,8 +474,23 @@ def _run(
     for k, reason in failed:
         print(f"  trial {k}: {reason}")
     analyze = invoked_as("python -m mearm.analyze", "analyze")
-    print(f"analyse: {analyze} {args.log} --out report/")
+    print(f"analyse: {analyze} {args.log} --out {_free_report_folder()}/")
     return None, bool(failed)
+
+
+def _free_report_folder() -> str:
+    """``report``, or ``report-2``, ``report-3`` … : the first ``mearm analyze --out``
+    can write into without ``--force`` (it refuses to replace a report already there)."""
+    from mearm.analyze import OUTPUT_NAMES  # noqa: PLC0415  (the hint only)
+
+    for n in range(1, 1000):
+        name = "report" if n == 1 else f"report-{n}"
+        folder = Path(name)
+        if not folder.exists() or (
+            folder.is_dir() and not any((folder / out).exists() for out in OUTPUT_NAMES)
+        ):
+            return name
+    return "NEW_FOLDER"
 
 
 def _left(args: Any, config: Config, scene: list[SceneObject] | None) -> str:
