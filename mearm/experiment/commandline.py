@@ -479,8 +479,10 @@ def _run(
 
 
 def _free_report_folder() -> str:
-    """``report``, or ``report-2``, ``report-3`` … : the first ``mearm analyze --out``
-    can write into without ``--force`` (it refuses to replace a report already there)."""
+    """The first of ``report``, ``report-2``, ``report-3`` … that analyze writes into.
+
+    ``mearm analyze --out`` refuses to replace a report already there without ``--force``.
+    """
     from mearm.analyze import OUTPUT_NAMES  # noqa: PLC0415  (the hint only)
 
     for n in range(1, 1000):
