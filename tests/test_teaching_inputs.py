@@ -152,6 +152,11 @@ def _red(centres: object) -> dict:
         (_red([[99999, -5]]), None, "images[0] (s.png): objects.red centre [99999, -5] is outside"),
         (_red("abc"), None, "images[0] (s.png): objects.red must be {centres: [[u, v], ...]}"),
         (_red([["a", 5]]), None, "objects.red must be {centres"),
+        (
+            {"shapes": "cube (~32 px)", "objects": {"red": {"count": 2, "centres": [[316, 85]]}}},
+            None,
+            "images[0] (s.png): objects.red has count 2 but 1 centre: ",
+        ),
         ({**_red([[316, 85]]), "shapes": "cube (~0 px)"}, None, "objects 0 px wide"),
         (None, None, "'images' is empty"),
         (None, b"images:\n- file: s.png\n  shapes: '\xff'\n", "save the manifest file as UTF-8"),

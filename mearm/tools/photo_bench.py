@@ -169,6 +169,14 @@ def _centres(
                 f"{where}: objects.{name} must be {{centres: [[u, v], ...]}} in pixels, "
                 f"got {obj!r:.60}",
             )
+        count = obj.get("count") if isinstance(obj, dict) else None
+        if count is not None and count != len(pts):  # a centre left out scores no miss
+            raise InputFileError(
+                str(manifest),
+                f"{where}: objects.{name} has count {count!r} but {len(pts)} centre"
+                f"{'' if len(pts) == 1 else 's'}: "
+                "give every object's centre (count may be left out)",
+            )
         arr = np.asarray(pts, dtype=float).reshape(-1, 2)
         if not np.isfinite(arr).all():
             raise InputFileError(
