@@ -435,6 +435,22 @@ def operate_from_here(cmd: PtyCommand, name: str, truth: dict[str, TrueServo]) -
 # --------------------------------------------------------------------------- refusals
 
 
+#: A calibration of the paper arm's base, as a file written before the session.
+OLD_CALIBRATION = """\
+format: mearm-servo-calibration
+version: 1
+kind: servos
+arm: mearm_paper
+board_id: a real board
+port: ''
+date: '2026-12-01T00:00:00+00:00'
+actuators:
+  base:
+    {channel: 0, unit: deg, zero_us: 600.0, direction: 1, us_per_unit: 10.0, min_us: 600,
+     max_us: 2400, residual_us: 0.0}
+"""
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize(("stop", "status"), [("ctrl-c", 130), ("sigterm", 143)])
 def test_ctrl_c_writes_nothing_and_leaves_the_arm(board, tmp_path, stop, status):
@@ -442,7 +458,7 @@ def test_ctrl_c_writes_nothing_and_leaves_the_arm(board, tmp_path, stop, status)
 
     SIGTERM the same, exit 143 (it ended the process at once, the bus left as it was)."""
     out = tmp_path / "servos.yaml"
-    out.write_text("old\n")
+    out.write_text(OLD_CALIBRATION)  # (--force replaces only a calibration)
     cmd = PtyCommand(*_args(out, *serial_args(board.port), "--force"))
     try:
         cmd.expect(r"base: pulse (\d+) µs")
@@ -458,7 +474,7 @@ def test_ctrl_c_writes_nothing_and_leaves_the_arm(board, tmp_path, stop, status)
         assert cmd.wait() == status, cmd.text[-2000:]
     finally:
         cmd.close()
-    assert out.read_text() == "old\n" and not (tmp_path / "servos.yaml.bak").exists()
+    assert out.read_text() == OLD_CALIBRATION and not (tmp_path / "servos.yaml.bak").exists()
     time.sleep(0.2)
     now = [board.pulse_us(ch) for ch in channels]
     assert now == pytest.approx(held, abs=board.accuracy_us)
@@ -508,16 +524,19 @@ def test_an_existing_calibration_is_replaced_only_after_yes(tmp_path):
 
 
 @pytest.mark.heavy
-def test_a_file_that_is_not_a_servo_calibration_is_not_replaced(tmp_path):
-    """Pointing --output at a config is refused before anything opens (exit 2)."""
+@pytest.mark.parametrize("force", [[], ["--force"]], ids=["asked", "force"])
+def test_a_file_that_is_not_a_servo_calibration_is_not_replaced(tmp_path, force):
+    """Pointing --output at a config is refused before anything opens (exit 2), with
+    --force too (it ran the session and replaced the config, and a second run its .bak)."""
     out = tmp_path / "my.yaml"
     out.write_text("arm: {}\n")
-    cmd = PtyCommand(*_args(out, *sim_args()))
+    cmd = PtyCommand(*_args(out, *sim_args(), *force))
     try:
         assert cmd.wait() == 2
     finally:
         cmd.close()
     assert "not a mearm servo calibration" in cmd.text and out.read_text() == "arm: {}\n"
+    assert not (tmp_path / "my.yaml.bak").exists()
 
 
 @pytest.mark.heavy

@@ -277,13 +277,13 @@ def calibrate_by_keyboard(
             the write failed at the end (the fits printed first, as ``--set`` lines).
     """
     check_output_file(output, "--output")  # before the session: its work is not lost
+    check_replace(output)  # a file that is not a calibration (a config): never, --force too
     require_terminal("calibrate-servos")
     out = sys.stdout
     with KeyReader() as keys:
         force = bool(args.force)
         if output.exists():
             if not force:
-                check_replace(output)
                 if not keys.confirm(f"{output} exists: replace it (the old one → .bak)?"):
                     print(f"kept {output}; nothing calibrated", file=sys.stderr)
                     return EXIT_FAILURE
