@@ -278,7 +278,21 @@ def _mujoco(config: Config, scene: list[SceneObject] | None) -> Iterator[RigPart
         yield RigParts(None, camera, twin, in_bins, placed)
 
 
+def _no_port(config: Config, port: str | None) -> None:
+    """Refuse a port given to a simulated bus: a maker who typed one meant a board."""
+    if port is not None:
+        raise ConfigError(
+            "--port",
+            [
+                f"{port}: servo.backend is {config.servo.backend!r}, which opens no serial "
+                "port (the arm is simulated): drop --port, or give a config whose "
+                "servo.backend is serial or ssc32 (e.g. --config lab)"
+            ],
+        )
+
+
 def _sim_bus(config: Config, world: World | None, port: str | None) -> ServoBus:
+    _no_port(config, port)
     if world is None:
         raise ConfigError(
             None, ["servo.backend: 'sim' needs the simulated world: open_bus(config, world=...)"]
@@ -289,6 +303,7 @@ def _sim_bus(config: Config, world: World | None, port: str | None) -> ServoBus:
 
 
 def _virtual_uno_bus(config: Config, world: World | None, port: str | None) -> ServoBus:
+    _no_port(config, port)
     from mearm.sim.virtual_uno import VirtualUnoBus  # noqa: PLC0415
 
     return VirtualUnoBus(config, world)

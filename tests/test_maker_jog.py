@@ -125,6 +125,22 @@ def test_jog_on_the_sim_reaches_the_poses_keyed(tmp_path):
     assert "done" in cmd.text
 
 
+@pytest.mark.heavy
+@pytest.mark.parametrize("command", ["jog", "calibrate-servos"])
+def test_a_port_given_to_a_simulated_arm_is_refused(command, tmp_path):
+    """``--port`` with ``servo.backend: sim`` drove the simulated arm and exited 0, the
+    maker believing a board was moved (or calibrated)."""
+    out = ["--output", str(tmp_path / "s.yaml")] if command == "calibrate-servos" else []
+    cmd = PtyCommand(command, "--config", str(SIM), "--port", "/dev/ttyACM0", *out)
+    try:
+        assert cmd.wait() == 2, cmd.text[-2000:]
+    finally:
+        cmd.close()
+    said = "--port: /dev/ttyACM0: servo.backend is 'sim', which opens no serial port"
+    assert said in cmd.text
+    assert not (tmp_path / "s.yaml").exists()
+
+
 def board_pose(board) -> tuple[dict[str, float], np.ndarray]:
     """The joints the board's pulses give through the config's calibration, and their FK."""
     joints = {a.name: a.value_of(board.pulse_us(a.channel)) for a in SMAP.joints}
