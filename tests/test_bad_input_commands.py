@@ -91,8 +91,10 @@ CASES: list[tuple[list[str], str]] = [
     (["find-port", "--timeout", "nan"], "must be a positive number s"),
     (["find-port", "--wait", "-1"], "must be a positive number s"),
     (["find-port", "--port", "spy://x"], "the URL scheme 'spy' is not allowed"),
+    (["find-port", "--only"], "--only tries only the ports given with --port"),
     (["flash", "--upload-baud", "9600"], "invalid choice: 9600"),
     (["flash", "--port", "spy://x", "--dry-run"], "--port must be the board's device path"),
+    (["flash", "--set", "servo.backend=ssc32", "--dry-run"], "an SSC-32 (servo.backend: ssc32)"),
     (["find-camera", "--out", "{file}"], "exists and is not a folder"),
     (["init-config", "--arm", "nope"], "invalid choice: 'nope'"),
     (["init-config", "--rig", "nope"], "invalid choice: 'nope'"),
@@ -105,7 +107,8 @@ CASES: list[tuple[list[str], str]] = [
     (["jog", "--servo-calibration", "{dir}/nosuch.yaml"], "servo calibration file not found"),
     (["jog"], "interactive and needs a terminal"),
     # the virtual Uno
-    (["virtual-uno-pulses", "--commands", "0"], "must be a positive number"),
+    (["virtual-uno-pulses", "--commands", "0"], "--commands must be from 1 to 100000, got 0"),
+    (["virtual-uno-pulses", "--commands", "2.5"], "--commands: must be a plain integer"),
 ]  # fmt: skip
 
 

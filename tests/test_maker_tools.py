@@ -300,7 +300,7 @@ def test_replug_on_a_terminal_with_nothing_replugged_exits_1_and_ctrl_c_exits_13
 def test_replug_without_a_terminal_is_refused():
     """Standard input not a terminal: exit 2 before any prompt, one line saying why."""
     result = subprocess.run(
-        [sys.executable, "-m", "mearm.maker.find_port", "--replug", "--only"],
+        [sys.executable, "-m", "mearm.maker.find_port", "--replug"],
         stdin=subprocess.DEVNULL, capture_output=True, text=True, timeout=60, cwd=ROOT,
     )  # fmt: skip
     assert "needs a terminal" in one_error_line(result)

@@ -480,6 +480,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.wait is not None and not args.replug:
         raise MearmError("--wait is how long --replug waits for the replugged board: give "
                          "--replug too, or leave --wait out")  # fmt: skip
+    if args.only and not args.port:  # no port left to try: not "no board found"
+        raise MearmError("--only tries only the ports given with --port: give --port PORT "
+                         "too, or leave --only out")  # fmt: skip
     for port in args.port:
         check_given_port(port, replug=args.replug)
     config = config_from_args(args)

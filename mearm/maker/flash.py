@@ -199,6 +199,12 @@ def main(argv: Sequence[str] | None = None) -> int:
             "starts it; --port flashes a real board"
         )
         return EXIT_OK
+    if config.servo.backend == "ssc32":  # its port and baud are the SSC-32's, not an Uno's
+        raise MearmError(
+            "the config's board is an SSC-32 (servo.backend: ssc32), which runs its own "
+            "firmware: flash uploads mearm's to an Uno; give a config whose servo.backend "
+            "is serial (e.g. --config lab)"
+        )
     port = _check_port(args.port if args.port is not None else config.servo.port)
     build_dir = args.build_dir if args.build_dir is not None else default_build_dir()
     check_output_folder(build_dir, "--build-dir")  # a file there: said before anything runs

@@ -28,7 +28,7 @@ from mearm.cli import (
     EXIT_OK,
     ArgumentParser,
     check_output_file,
-    positive_number,
+    plain_int,
     refuse_to_replace,
     run,
     seed_value,
@@ -94,17 +94,19 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Entry point: exit 0 when every pulse is within the virtual Uno's tolerance."""
     parser = ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument(
-        "--commands", type=positive_number(1, 100_000), default=500,
+        "--commands", type=plain_int, default=500,
         help="random commands to send (default 500; 5 pulses each)",
     )  # fmt: skip
     parser.add_argument("--seed", type=seed_value, default=0, help="random seed (default 0)")
     parser.add_argument("--json", type=Path, help="write the figures here")
     parser.add_argument("--force", action="store_true", help="replace an existing --json")
     args = parser.parse_args(argv)
+    if not 1 <= args.commands <= 100_000:
+        parser.error(f"--commands must be from 1 to 100000, got {args.commands}")
     if args.json is not None:  # before the measurement, not after it
         check_output_file(args.json, "--json")
         refuse_to_replace(args.json, "--json", args.force)
-    errors = pulse_errors(int(args.commands), args.seed)
+    errors = pulse_errors(args.commands, args.seed)
     s = summary(errors)
     tolerance = VirtualUnoConfig().pulse_tolerance_us
     print(
