@@ -10,6 +10,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import datetime
+import logging
 import os
 import re
 import sys
@@ -53,7 +54,8 @@ class ArgumentParser(argparse.ArgumentParser):
         self.add_argument(
             "--debug",
             action="store_true",
-            help="on an unexpected error, print the traceback (default: one line)",
+            help="print the library's log (retried frames, warnings) as it comes, and "
+            "on an unexpected error the traceback (default: one line)",
         )
 
     def error(self, message: str) -> NoReturn:  # noqa: D102
@@ -702,6 +704,33 @@ def _flush_or_drop_output() -> None:
             _silence_output()
 
 
+def _debug_mode(args: Sequence[str], prog: str) -> bool:
+    """Whether ``--debug`` (or ``MEARM_DEBUG=1``) is on; if so, the log is shown."""
+    debug = "--debug" in args or os.environ.get("MEARM_DEBUG", "") not in ("", "0")
+    if debug:  # the library's log (a retried frame, a dropped line, a twin's fault)
+        _show_log(prog)
+    return debug
+
+
+def _show_log(prog: str) -> None:
+    """Print the package's log records, warnings and up, on stderr as they come.
+
+    Without ``--debug`` a command prints its own lines only: a retry that succeeded is no
+    error, and a bad input stays one line.
+    """
+    logger = logging.getLogger("mearm")
+    if any(isinstance(h, _DebugLog) for h in logger.handlers):  # once a process
+        return
+    handler = _DebugLog(sys.stderr)
+    handler.setFormatter(logging.Formatter(f"{prog}: log: %(levelname)s %(name)s: %(message)s"))
+    logger.addHandler(handler)
+    logger.setLevel(min(logger.getEffectiveLevel(), logging.WARNING))
+
+
+class _DebugLog(logging.StreamHandler):
+    """The handler ``--debug`` adds (:func:`_show_log`)."""
+
+
 def run(main: Callable[[Sequence[str] | None], int], argv: Sequence[str] | None = None) -> NoReturn:
     """Run a CLI ``main`` under the one guard every command shares.
 
@@ -719,7 +748,7 @@ def run(main: Callable[[Sequence[str] | None], int], argv: Sequence[str] | None 
     """
     prog = _program_name()
     args = list(sys.argv[1:] if argv is None else argv)
-    debug = "--debug" in args or os.environ.get("MEARM_DEBUG", "") not in ("", "0")
+    debug = _debug_mode(args, prog)
     interrupts.install()  # a Ctrl-C inside a finalizer is not lost
     uncount = interrupts.count_ctrl_c()  # and one a library swallows is raised again
     signals_before = interrupts.stop_signals_noted()
