@@ -30,12 +30,12 @@ MAX_EPISODE_STEPS = {"mearm/PickPlace-v0": 500, "mearm/Sort-v0": 4000}
 
 
 def _register() -> None:
-    for env_id, task in (("mearm/PickPlace-v0", "pick_place"), ("mearm/Sort-v0", "sort")):
+    # one class per id, which sets its task: a task= given to the other's id is refused
+    for env_id, name in (("mearm/PickPlace-v0", "PickPlaceEnv"), ("mearm/Sort-v0", "SortEnv")):
         if env_id not in gym.registry:
             gym.register(
                 id=env_id,
-                entry_point="mearm.envs.twin_env:TwinEnv",
-                kwargs={"task": task},
+                entry_point=f"mearm.envs.twin_env:{name}",
                 max_episode_steps=MAX_EPISODE_STEPS[env_id],
             )
 

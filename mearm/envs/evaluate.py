@@ -188,7 +188,7 @@ class Runner:
             steps,
             int(info["in_bins"]),
             int(info["objects"]),
-            error,
+            " ".join(error.split()),  # one line, whatever the policy's message held
             video,
         )
 

@@ -104,6 +104,12 @@ def load_policy(spec: str, action_space: spaces.Box) -> Policy:
         raise PolicyError(
             f"policy {spec!r}: give expert, random, module:callable or a baseline FILE.pt"
         )
+    if module_name.endswith(".py"):  # a file's name: it would import as module "py" of it
+        named = module_name.removesuffix(".py").replace("/", ".")
+        raise PolicyError(
+            f"policy {spec!r}: name the module, not its file: --policy {named}:{name} "
+            f"(a module in this folder imports with PYTHONPATH=.)"
+        )
     try:
         module = importlib.import_module(module_name)
     except Exception as exc:  # an import runs the module's code: any error is the user's

@@ -30,6 +30,7 @@ lays one fixed table every episode instead (a recorded sort's, :mod:`mearm.envs.
 
 from __future__ import annotations
 
+import inspect
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal
@@ -135,6 +136,34 @@ def _image_size(value: object) -> tuple[int, int]:
     return _whole("image_size's height", value[0]), _whole("image_size's width", value[1])
 
 
+def _twin_config(config: str | Path | Config, overrides: Sequence[str]) -> Config:
+    """The config, loaded: the twin's, with a still table.
+
+    Raises:
+        EnvOptionError: not the twin's (``simulator: mujoco``), or a belt's.
+    """
+    base = _config(config, overrides)
+    # a loaded Config by what it is, not its repr (thousands of characters)
+    named = f"config {config}" if isinstance(config, str | Path) else "the Config given"
+    if base.simulator != "mujoco":
+        raise EnvOptionError(
+            f"{named}: simulator is {base.simulator!r}; the environments run on the "
+            "physical twin (simulator: mujoco, e.g. config='sim_mujoco')"
+        )
+    if base.belt is not None:  # its objects arrive as the episode runs: not a scene
+        raise EnvOptionError(
+            f"{named} has a belt (belt: ...): the environments sort a still table; "
+            "give a config without one (e.g. config='sim_mujoco')"
+        )
+    return base
+
+
+def options_taken() -> list[str]:
+    """The keyword options :class:`TwinEnv` takes (``gym.make``'s, besides its own)."""
+    params = inspect.signature(TwinEnv.__init__).parameters.values()
+    return [p.name for p in params if p.name != "self" and p.kind is not p.VAR_KEYWORD]
+
+
 def _objects(config: Config, task: str, objects: object) -> int:
     """The objects of an episode's scene: ``objects`` checked against the task and the bins.
 
@@ -143,7 +172,9 @@ def _objects(config: Config, task: str, objects: object) -> int:
             bins hold (refused here, not at ``reset()`` by the scene or the twin's model).
     """
     if task == "pick_place":
-        if objects is not None and (isinstance(objects, bool) or objects != 1):
+        if objects is not None and (
+            isinstance(objects, bool) or objects != 1 or not isinstance(objects, int | np.integer)
+        ):
             raise EnvOptionError(f"pick_place moves one object; objects must be 1, got {objects!r}")
         return 1
     n = SORT_OBJECTS if objects is None else _whole("objects", objects)
@@ -305,15 +336,14 @@ class TwinEnv(gym.Env[dict[str, Any], np.ndarray]):
         render_mode: str | None = None,
         expert: bool = False,
         overrides: Sequence[str] = (),
+        **unknown: object,
     ):
-        base = _config(config, overrides)
-        if base.simulator != "mujoco":
-            # a loaded Config by what it is, not its repr (thousands of characters)
-            named = f"config {config}" if isinstance(config, str | Path) else "the Config given"
+        if unknown:  # named with what is allowed (Python's TypeError named neither)
             raise EnvOptionError(
-                f"{named}: simulator is {base.simulator!r}; the environments run on the "
-                "physical twin (simulator: mujoco, e.g. config='sim_mujoco')"
+                f"{sorted(unknown)[0]!r} is not an option of the environments; they take "
+                + ", ".join(options_taken())
             )
+        base = _twin_config(config, overrides)
         if task not in ("pick_place", "sort"):
             raise EnvOptionError(f"task must be 'pick_place' or 'sort', got {task!r}")
         if obs_type not in ("pixels_agent_pos", "state"):
@@ -616,3 +646,29 @@ class TwinEnv(gym.Env[dict[str, Any], np.ndarray]):
         """End the episode's expert and free the renderers."""
         self._close_episode()
         super().close()
+
+
+def _own_task(env_id: str, task: Task, options: dict[str, Any]) -> None:
+    """Refuse a ``task`` that is not the one the environment's id names."""
+    given = options.pop("task", task)
+    if given != task:
+        other = "mearm/Sort-v0" if task == "pick_place" else "mearm/PickPlace-v0"
+        raise EnvOptionError(
+            f"{env_id} is the {task} task, got task={given!r}: for the other, make {other}"
+        )
+
+
+class PickPlaceEnv(TwinEnv):
+    """``mearm/PickPlace-v0``: :class:`TwinEnv` with ``task="pick_place"``, set by the id."""
+
+    def __init__(self, config: str | Path | Config = "sim_mujoco", **options: Any):
+        _own_task("mearm/PickPlace-v0", "pick_place", options)
+        super().__init__(config, task="pick_place", **options)
+
+
+class SortEnv(TwinEnv):
+    """``mearm/Sort-v0``: :class:`TwinEnv` with ``task="sort"``, set by the id."""
+
+    def __init__(self, config: str | Path | Config = "sim_mujoco", **options: Any):
+        _own_task("mearm/Sort-v0", "sort", options)
+        super().__init__(config, task="sort", **options)

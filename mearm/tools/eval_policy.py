@@ -30,7 +30,6 @@ from __future__ import annotations
 
 import argparse
 import contextlib
-import inspect
 import json
 import math
 import os
@@ -76,10 +75,10 @@ def env_options(pairs: Sequence[str]) -> dict[str, Any]:
         EnvOptionError: not ``key=value``, or a key the environments do not take.
     """
     from mearm.envs.errors import EnvOptionError  # noqa: PLC0415
-    from mearm.envs.twin_env import TwinEnv  # noqa: PLC0415
+    from mearm.envs.twin_env import options_taken  # noqa: PLC0415
 
-    known = [p for p in inspect.signature(TwinEnv.__init__).parameters if p != "self"]
-    known = [k for k in known if k not in (*OWN_OPTIONS, *FLAG_OPTIONS)] + ["max_episode_steps"]
+    known = [k for k in options_taken() if k not in (*OWN_OPTIONS, *FLAG_OPTIONS)]
+    known += ["max_episode_steps"]
     out: dict[str, Any] = {}
     for pair in pairs:
         key, sep, text = pair.partition("=")
@@ -132,6 +131,19 @@ def _require_gymnasium() -> None:
         ) from None
 
 
+def module_file(name: str) -> Path | None:
+    """The file the module called ``name`` would be imported from, or ``None``."""
+    import importlib.util  # noqa: PLC0415
+
+    try:
+        spec = importlib.util.find_spec(name)
+    except (ImportError, ValueError):  # not importable: said when the policy loads
+        return None
+    if spec is None or spec.origin is None or not Path(spec.origin).is_file():
+        return None
+    return Path(spec.origin).resolve()
+
+
 def _refuse_an_input_as_out(out: Path, policy: str, config: str) -> None:
     """Refuse an ``--out`` that is the policy's file or the config: the scores would replace it.
 
@@ -143,6 +155,11 @@ def _refuse_an_input_as_out(out: Path, policy: str, config: str) -> None:
     target = out.resolve()
     if Path(policy).resolve() == target:
         raise MearmError(f"--out {out} is the --policy file: write the scores elsewhere")
+    module_name, sep, _ = policy.partition(":")
+    if sep and module_name and module_file(module_name) == target:
+        raise MearmError(
+            f"--out {out} is the source of --policy {policy}: write the scores elsewhere"
+        )
     try:
         config_file = resolve_config_path(config).resolve()
     except MearmError:  # an unknown name: said when the environment loads it
@@ -190,14 +207,21 @@ def _check_baseline_fits(path: Path, env_id: str, options: dict[str, Any]) -> No
             n_in += math.prod(observed[key].shape or ())
         n_out = math.prod(probe.action_space.shape or ())
         fps = int(probe.metadata["render_fps"])
+        rate = float(probe.unwrapped.base_config.servo.rate_hz)  # type: ignore[attr-defined]
     finally:
         probe.close()
     trained_fps = policy.meta.get("fps")  # None: a baseline saved before it was kept
     if trained_fps is not None and trained_fps != fps:
+        divides = trained_fps > 0 and abs(rate / trained_fps - round(rate / trained_fps)) < 1e-9
+        fix = (  # fps must divide the servos' rate: only then is the option a way out
+            f"give --env-option fps={trained_fps}, or the servo.rate_hz it was trained at"
+            if divides
+            else f"it must divide servo.rate_hz = {rate:g} Hz: give the servo.rate_hz it "
+            f"was trained at (--set servo.rate_hz=...)"
+        )
         raise PolicyError(
             f"policy {path} was trained at {trained_fps} steps per second and {env_id} here "
-            f"steps at {fps}: its clock and each action's hold would be another time "
-            f"(give --env-option fps={trained_fps}, or the servo.rate_hz it was trained at)"
+            f"steps at {fps}: its clock and each action's hold would be another time ({fix})"
         )
     takes, gives = int(policy.mean.shape[0]), int(policy.scaling.shape[1])
     if (takes, gives) != (n_in, n_out):
@@ -425,7 +449,14 @@ def _eval_policy(argv: Sequence[str] | None) -> int:
             file=sys.stderr,
         )
         return 1
-    return 0 if scores["pc_success"] >= 100 * args.require else 1
+    if scores["pc_success"] < 100 * args.require:  # the run's job: the share it was asked for
+        print(
+            f"{prog}: success {scores['pc_success']:.1f} % is below --require "
+            f"{args.require:g} ({100 * args.require:g} %)",
+            file=sys.stderr,
+        )
+        return 1
+    return 0
 
 
 if __name__ == "__main__":
