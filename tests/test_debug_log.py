@@ -36,9 +36,9 @@ def _run(*args: str) -> subprocess.CompletedProcess[str]:
 def test_debug_prints_the_log_as_it_comes():
     out = _run("--debug")
     assert out.returncode == 0 and out.stdout == "done\n"
-    assert out.stderr.splitlines() == [
-        "-c: log: WARNING mearm.hardware.arduino: try 1/4 of 'V'"
-    ], out.stderr
+    assert out.stderr.splitlines() == ["-c: log: WARNING mearm.hardware.arduino: try 1/4 of 'V'"], (
+        out.stderr
+    )
 
 
 def test_without_debug_only_the_commands_own_lines():
