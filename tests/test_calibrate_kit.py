@@ -246,7 +246,7 @@ def test_the_elbows_references_are_taken_off_its_stop() -> None:
             .strip()
             .endswith(
                 "moved shoulder to 90 deg: at elbow's references every joint then stays inside "
-                "its limits"
+                "its limits, the tool off the table"
             )
         )
         for ref in elbow.references:

@@ -108,7 +108,7 @@ def test_a_clearance_the_arm_breaks_at_home_stops_before_motion():
 
 #: The built-in calibration with the field moved 100 cm farther out: no pick reaches it.
 FAR_FIELD = "calibration.homography=[[0.0625, 0, -20.5], [0, -0.0625, 159.0], [0, 0, 1]]"
-#: Shoulder 10°, elbow −120°: the hand points down through the table.
+#: Shoulder 10°, elbow −120°: the jaws, hanging below the hand, go through the table.
 HOME_UNDER_TABLE = ("arm.joints.shoulder.limits.min=0", "arm.joints.shoulder.home=10",
                     "arm.joints.elbow.home=-120")  # fmt: skip
 
@@ -120,7 +120,7 @@ HOME_UNDER_TABLE = ("arm.joints.shoulder.limits.min=0", "arm.joints.shoulder.hom
         ((FAR_FIELD,), "calibration.homography: the camera's view of the table (x -20…19 cm, "
                        "y 129…159 cm) holds no point the arm can pick from"),
         (HOME_UNDER_TABLE, "arm.joints[].home: at home (base 120, shoulder 10, elbow -120) the "
-                           "tool's gripper_mount is 8.96 cm below the table"),
+                           "tool's gripper_jaw_left_pad is 19.89 cm below the table"),
     ],
 )  # fmt: skip
 @pytest.mark.parametrize("command", [("sort",), ("sort", "--quiet"), ("experiment",)])

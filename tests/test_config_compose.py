@@ -60,7 +60,7 @@ TWIN = {"simulator", "twin.joint_servo", "task.approach_height_cm"}
         (
             "sim_mujoco.yaml",
             "sim.yaml",
-            TWIN | JOINT_ACCEL | GRIP_HEIGHTS | {"arm.tool.approach_axis"},
+            TWIN | JOINT_ACCEL | GRIP_HEIGHTS,
         ),
         (
             "sim_mujoco_perspective.yaml",

@@ -402,7 +402,15 @@ def test_calibrate_on_a_board_fits_its_servos_and_sends_only_allowed_pulses(boar
         assert cmd.wait() == 0, cmd.text[-2000:]
     finally:
         cmd.close()
+    # (a joint a later actuator's pose moved, to keep the jaws off the table, holds that)
+    moved = {
+        a.name
+        for a in smap.joints
+        if re.search(rf"(moved |, ){re.escape(a.combination_text)} to ", cmd.text)
+    }
     for name, pulses in rest.items():
+        if name in moved:
+            continue
         got = board.wait_pulse(smap[name].channel, pulses[-1])
         assert got == pytest.approx(pulses[-1], abs=board.accuracy_us)
     for a in smap.actuators:

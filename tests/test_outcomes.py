@@ -79,14 +79,17 @@ def test_an_arm_that_cannot_reach_the_objects_exits_1(tmp_path, capsys):
 
 @pytest.mark.heavy
 def test_a_base_servo_8_degrees_off_exits_1(tmp_path, capsys):
+    """8° off, the jaws hanging below the TCP come down on the green bin's wall on the way
+    to the first pick: the sort stops on the fault, the last confirmed pose kept."""
     log = tmp_path / "run.jsonl"
     code, lines, err = _sort(
         capsys, "--quiet", "--log", log, "--set", "servo.error_model.offset_deg.base=8"
     )
     assert code == 1, err
-    assert lines[-1] == "sorted 0 of 12 objects (simulated; 12 pick failed)"
+    assert lines[-1] == "sorted 0 of 12 objects (simulated; 12 stopped by a fault)"
+    assert "touches bin_green_wall" in err and "last acknowledged pose: base=" in err
     s = _summary(log)
-    assert s.left == {"pick_failed": 12} and sum(s.sorted.values()) == 0
+    assert s.left == {"fault": 12} and sum(s.sorted.values()) == 0
 
 
 @pytest.mark.heavy
@@ -258,12 +261,17 @@ def test_an_object_on_the_edge_of_the_stated_view_is_seen_whole(tmp_path, capsys
     x0, x1, y0, y1 = camera_field_cm(config, margin_cm=r, border_px=BORDER_PX)
     inward = 0.005  # within the field as printed (one decimal) and rounded
     x, y = {
-        "x0": (x0 + inward, y0 + 0.3),  # below the bins, which stand along this edge
+        "x0": (x0 + inward, y0 + 0.3),
         "x1": (x1 - inward, 45.0),
         "y0": (0.0, y0 + inward),
         "y1": (0.0, y1 - inward),
     }[edge]
     scene = tmp_path / "scene.yaml"
     scene.write_text(f"- {{color: red, x: {x}, y: {y}}}\n")
-    code, lines, err = _sort(capsys, "--scene", scene, "--quiet")
+    # the bins stand along the x0 edge, where the jaws hanging below the TCP cannot come
+    # down beside their walls: moved 10 cm out, the object there is picked
+    bins = [f"task.classes.{c}.bin_cm=[-30, {y_bin}, 20]"
+            for c, y_bin in (("red", 35), ("green", 45), ("blue", 55))]  # fmt: skip
+    sets = [a for s in bins for a in ("--set", s)] if edge == "x0" else []
+    code, lines, err = _sort(capsys, "--scene", scene, "--quiet", *sets)
     assert (code, lines[-1]) == (0, "sorted 1 of 1 objects (simulated)"), err

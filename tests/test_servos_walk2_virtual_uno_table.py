@@ -16,6 +16,11 @@ from test_virtual_uno import cache_home  # noqa: F401  (a fixture)
 
 from mearm.config import load_config
 from mearm.maker.keyboard_calibration.pulse_session import PulseSession, open_arm_bus
+from mearm.maker.keyboard_calibration.references import (
+    actuators_of,
+    reference_pose,
+    table_lowest,
+)
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -25,8 +30,10 @@ def test_the_shoulder_at_its_reference_with_the_base_at_its_own_touches_no_bin(
     cache_home: Path,  # noqa: F811  (the fixture imported above)
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
-    """Base at 130° (1900 µs), then the shoulder down to its reference, 50° (1100 µs), as the
-    keys take it: no fault, and the board's simulated arm has no bin or object to touch."""
+    """Base at 130° (1900 µs), the elbow where the calibration puts it for the shoulder's
+    references (its jaws, hanging 11 cm below the TCP, kept off the table), then the
+    shoulder down to its reference, 50° (1100 µs), as the keys take it: no fault, and the
+    board's simulated arm has no bin or object to touch."""
     monkeypatch.setenv("XDG_CACHE_HOME", str(cache_home))
     config = load_config(ROOT / "configs" / "virtual_uno.yaml", ["servo.ack_timeout_s=10"])
     bus = open_arm_bus(config)
@@ -34,6 +41,14 @@ def test_the_shoulder_at_its_reference_with_the_base_at_its_own_touches_no_bin(
         session = PulseSession(config, bus)
         session.send()
         session.set_pulse("base", 1900)
+        smap = session.servo_map
+        (shoulder,) = [a for a in actuators_of(config) if a.name == "shoulder"]
+        present = {n: v for n, v in session.joint_values().items() if n != "shoulder"}
+        pose = reference_pose(
+            smap, shoulder, present, session.home_values, table_lowest(config, smap)
+        )
+        for name, value in pose.items():
+            session.set_pulse(name, smap[name].command_us(value))
         for pulse in [*range(session.pulses_us["shoulder"], 1100, -20), 1100]:
             session.set_pulse("shoulder", pulse)
         assert (session.pulses_us["base"], session.pulses_us["shoulder"]) == (1900, 1100)

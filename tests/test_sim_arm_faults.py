@@ -50,8 +50,8 @@ _REFUSED: list[tuple[dict[str, float], type[MearmError], str]] = [
     ({"shoulder": -math.inf}, InvalidJointsError, "finite"),
     ({"nope": 1.0}, InvalidJointsError, "unknown joint"),
     ({"wrist": 10.0}, InvalidJointsError, "breaks its coupling"),
-    # the gripper's mount into the table
-    ({"shoulder": 30.0, "elbow": -145.0}, SimCollisionError, "touches table"),
+    # the jaws, hanging below the TCP, into the red bin's wall on the way down
+    ({"shoulder": 30.0, "elbow": -145.0}, SimCollisionError, "jaw_right_pad touches bin_red_wall"),
 ]
 
 

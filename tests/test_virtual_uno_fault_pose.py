@@ -4,8 +4,8 @@ The safety rule: a fault stops motion and keeps the last confirmed pose, and the
 message names it. The virtual Uno (the real firmware in simavr) moves its simulated arm by
 the measured pulses, so the arm that runs into a bin's wall is not the bus that confirmed
 the moves; the kinematic simulator is both. On each, two moves are acknowledged and the
-third runs the gripper into the red bin's wall (the paper arm's gripper, from above the
-bin down to shoulder 40°).
+third runs the gripper into the red bin (the paper arm's jaws, hanging below the TCP,
+from above the bin down to shoulder 40°).
 """
 
 from __future__ import annotations
@@ -41,7 +41,7 @@ def _config(backend: str) -> Config:
 
 
 def _into_the_red_bin(bus: ServoBus, config: Config) -> None:
-    """Home, then over the red bin (both acknowledged), then down into its wall: the
+    """Home, then over the red bin (both acknowledged), then down into it: the
     fault carries the second pose, the one confirmed last, and so does every refusal
     after it."""
     home = ArmCommand.home(config.arm)
@@ -51,10 +51,10 @@ def _into_the_red_bin(bus: ServoBus, config: Config) -> None:
         return ArmCommand(joints=joints, tool=home.tool, gripper_closed=False)
 
     bus.move(home)
-    bus.move(to(60.0))
-    confirmed = ArmState.from_command(to(60.0))
+    bus.move(to(80.0))  # (at 60° the jaws, hanging 11 cm below the TCP, are in the bin)
+    confirmed = ArmState.from_command(to(80.0))
     assert bus.state == confirmed
-    with pytest.raises(SimCollisionError, match="touches bin_red_wall") as info:
+    with pytest.raises(SimCollisionError, match="touches bin_red_") as info:
         bus.move(to(40.0))
     assert info.value.last_state == confirmed
     assert str(info.value).endswith(f"; last acknowledged pose: {confirmed}")
@@ -70,7 +70,7 @@ def test_a_collision_on_the_virtual_uno_names_the_last_confirmed_pose(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
     """The firmware acknowledged two moves; the third's pulses put the gripper in the bin's
-    wall: the fault names the second pose, and the simulated arm stays there."""
+    bin: the fault names the second pose, and the simulated arm stays there."""
     monkeypatch.setenv("XDG_CACHE_HOME", str(cache_home))
     config = _config("virtual_uno")
     bus = open_bus(config, World.from_config(config))

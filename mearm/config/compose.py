@@ -8,7 +8,7 @@ another config and give only what differs from it::
     extends: sim.yaml             # relative to this file; else a packaged config's name
     simulator: mujoco
     arm:
-      tool: {approach_axis: [0.0, -1.0, 0.0]}
+      tool: {settle_s: 0.2}
       joints:
         shoulder: {servo: {max_accel_deg_s2: 4000}}   # the joint named shoulder
 

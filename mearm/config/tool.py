@@ -139,7 +139,9 @@ class Tool(Strict):
     tcp_cm: Vector3 = (0.0, 0.0, 0.0)
     """The tool centre point in the last DH frame [cm]: what IK targets move."""
     approach_axis: Vector3 = (0.0, 0.0, 1.0)
-    """The tool's approach axis in the last DH frame (normalised when used)."""
+    """The tool's approach axis in the last DH frame (normalised when used): the way the
+    jaws point from the TCP. The collision checks hang the jaws along it, so it must be
+    the way they really point (down, on an arm whose wrist keeps the jaws hanging)."""
     pick_approach: Vector3 | None = None
     """Direction (base frame) the approach axis must point in when picking and placing,
     e.g. ``[0, 0, -1]`` for a wrist that picks from above; ``null``: position only."""

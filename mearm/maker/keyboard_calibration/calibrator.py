@@ -27,7 +27,14 @@ from mearm.config.servo_file import (
 from mearm.errors import ConfigError, MearmError
 from mearm.hardware.errors import ServoError
 from mearm.maker.keyboard_calibration.pulse_session import PulseSession, open_arm_bus
-from mearm.maker.keyboard_calibration.references import Actuator, reference_pose
+from mearm.maker.keyboard_calibration.references import (
+    TABLE_ROOM_CM,
+    Actuator,
+    Lowest,
+    reference_pose,
+    sweep_lowest,
+    table_lowest,
+)
 from mearm.maker.keys import KeyReader, require_terminal
 from mearm.maker.servo_output import board_identity, hold_arm, write_calibration
 
@@ -63,6 +70,8 @@ class Calibrator:
         self.nominal_arm = self.own.arm
         # the actuators past their limits, each warned about once when it crossed
         self.past_limits: set[str] = set()
+        # the tool's height over the table at joint servo values (built at the first joint)
+        self._lowest: Lowest | None = None
 
     def say(self, text: str = "") -> None:
         """Print a line (ending any live status line)."""
@@ -211,7 +220,10 @@ class Calibrator:
         session = self.session
         smap = session.servo_map
         present = {n: v for n, v in session.joint_values().items() if n != act.name}
-        pose = reference_pose(smap, act, present, session.home_values)
+        if self._lowest is None:
+            self._lowest = table_lowest(self.config, smap)
+        pose = reference_pose(smap, act, present, session.home_values, self._lowest)
+        clear = sweep_lowest(act, pose, self._lowest) >= TABLE_ROOM_CM
         moved = {n: v for n, v in pose.items() if smap[n].command_us(v) != session.pulses_us[n]}
         if not moved:
             return
@@ -224,6 +236,7 @@ class Calibrator:
         )
         self.say(
             f"moved {where}: at {act.name}'s references every joint then stays inside its limits"
+            + (", the tool off the table" if clear else ", the tool as high as it goes")
         )
 
     def _jog_until_recorded(self, act: Actuator, ref: float) -> str:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import dataclasses
 import itertools
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 
 import numpy as np
 
@@ -23,6 +23,15 @@ POSE_INSET = 0.05
 #: Values tried across each other joint servo's span for a pose that keeps the joints
 #: inside their limits, when where it is, its home and its references do not.
 POSE_GRID = 9
+#: Between a joint's references the tool keeps this far above the table [cm]: the
+#: paper arm's jaws hang 11 cm below its TCP, and its shoulder at 50° with the elbow at
+#: home put them into the table.
+TABLE_ROOM_CM = 1.0
+#: Values of the joint's own servo checked between (and at) its references.
+SWEEP_POINTS = 7
+
+#: The tool's lowest point above the table [cm] with the joint servos at these values.
+Lowest = Callable[[Mapping[str, float]], float]
 
 
 def reference_values(lower: float, upper: float, unit: str) -> tuple[float, float]:
@@ -163,27 +172,49 @@ def poses_inside(
     return [s for s in pose_settings(choices, fixed) if pose_overrun(smap, act, s) <= 0]
 
 
+def sweep_lowest(act: Actuator, others: Mapping[str, float], lowest: Lowest) -> float:
+    """The tool's lowest height [cm] as ``act`` goes between its references.
+
+    The other joint servos at ``others``; :data:`SWEEP_POINTS` values, the references
+    included.
+    """
+    a, b = act.references
+    return min(lowest({**others, act.name: v}) for v in np.linspace(a, b, SWEEP_POINTS))
+
+
 def reference_pose(
-    smap: ServoMap, act: Actuator, present: Mapping[str, float], home: Mapping[str, float]
+    smap: ServoMap,
+    act: Actuator,
+    present: Mapping[str, float],
+    home: Mapping[str, float],
+    lowest: Lowest | None = None,
 ) -> dict[str, float]:
     """Where the other joint servos go before a joint's references are taken.
 
     Where they are, if that keeps every joint inside its limits at both references
-    (:func:`pose_overrun`); else the first setting that does, trying for each servo
-    that shares a joint with this one its present value, its home, its references and
-    :data:`POSE_GRID` values across its span (the rest stay); else the setting of those
-    that overruns least.
+    (:func:`pose_overrun`) and, with ``lowest``, the tool :data:`TABLE_ROOM_CM` above the
+    table between them (:func:`sweep_lowest`); else the first setting that does, trying
+    for each servo that shares a joint with this one (with ``lowest``: every other joint
+    servo) its present value, its home, its references and :data:`POSE_GRID` values
+    across its span (the rest stay); else, of the settings inside the limits, the one
+    that keeps the tool highest; else the setting that overruns least.
 
     Args:
         smap: The arm's servos (the present calibration).
         act: The joint actuator to be calibrated.
         present: Every other joint servo's present value.
         home: Every joint servo's value at home.
+        lowest: The tool's lowest point above the table for joint servo values [cm];
+            ``None``: the table is not checked.
     """
     now = dict(present)
-    if pose_overrun(smap, act, now) <= 0:
+
+    def clear(setting: Mapping[str, float]) -> bool:
+        return lowest is None or sweep_lowest(act, setting, lowest) >= TABLE_ROOM_CM
+
+    if pose_overrun(smap, act, now) <= 0 and clear(now):
         return now
-    shared = _moved_with(smap, act.name)
+    movable = set(_moved_with(smap, act.name)) if lowest is None else set(now)
     choices = {
         o.name: list(
             dict.fromkeys(
@@ -192,9 +223,34 @@ def reference_pose(
             )
         )
         for o in actuators_of_map(smap)
-        if o.name in shared
+        if o.name in movable and o.name != act.name and o.kind == "joint"
     }
     inside = poses_inside(smap, act, choices, now)
+    for setting in inside:
+        if clear(setting):
+            return setting
     if inside:
-        return inside[0]
+        assert lowest is not None  # (without it every setting inside is clear)
+        return max(inside, key=lambda s: sweep_lowest(act, s, lowest))
     return min(pose_settings(choices, now), key=lambda s: pose_overrun(smap, act, s))
+
+
+def table_lowest(config: Config, smap: ServoMap) -> Lowest:
+    """:data:`Lowest` for ``config``'s arm over a cleared table (calibration clears it).
+
+    The tool's shapes as the planner's collision checks hold them (the jaws open, hanging
+    along the tool's approach axis), at the joints the servo values give under ``smap``.
+    """
+    from mearm.kinematics import ArmModel  # noqa: PLC0415  (Pinocchio: a session's start)
+    from mearm.kinematics.bodies import TableContents  # noqa: PLC0415
+    from mearm.sim.table_collision import collision_model  # noqa: PLC0415
+
+    model = ArmModel(config.arm)
+    table = TableContents.of(config.with_scene([]).task)
+    collision = collision_model(config, model, bins=(), table=table)
+    chain = model.chain
+
+    def lowest(values: Mapping[str, float]) -> float:
+        return collision.tool_lowest_cm(chain.from_named(smap.joints_of(values)))[0]
+
+    return lowest
