@@ -181,3 +181,26 @@ def test_a_sweep_of_a_belt_that_brings_nothing_is_bad_input():
         "mearm conveyor-sweep: error: belt.arrivals.count: 0: the belt brings nothing to sort "
         "(it must bring 1 to 500 objects)"
     ]
+
+
+# ------------------------------------------------------------------- the belt's surface
+
+
+@pytest.mark.parametrize("surface_cm", ["3", "10"])
+def test_the_kinematic_simulator_grips_an_object_on_a_raised_belt(surface_cm):
+    """Its grip compared the jaws' height with the table's objects', not the belt's: over a
+    belt 1.5 cm or more high every pick failed (the planner aimed right)."""
+    argv = ["sort", "--config", "sim_conveyor_kinematic", "--quiet"]
+    r = run_in_process([*argv, *_sets(*FEW, f"belt.surface_cm={surface_cm}")], within_s=60)
+    assert (r.code, r.stdout.splitlines()[-1]) == (0, "sorted 2 of 2 objects (simulated)")
+
+
+def test_an_object_whose_pick_failed_on_the_belt_is_counted_once():
+    """A failed pick's object rides on and is seen again: that sighting began a new track
+    and a new object (``sorted 0 of 4`` for 3 arrivals, an object the belt never brought);
+    it is the same object, left as its pick failed."""
+    argv = ["sort", "--config", "sim_conveyor_kinematic", "--quiet"]
+    sets = _sets("belt.arrivals.count=3", "servo.error_model.offset_deg.base=6")
+    r = run_in_process([*argv, *sets], within_s=120)
+    assert r.code == 1
+    assert r.stdout.splitlines()[-1] == "sorted 0 of 3 objects (simulated; 3 pick failed)"

@@ -122,6 +122,9 @@ class ConveyorSorter(Sorter):
         self._sightings: dict[int, int] = {}
         #: Where each track's object was last seen (x, y) [cm]: a lost track's is said.
         self._seen_cm: dict[int, tuple[float, float]] = {}
+        #: Objects whose pick failed, riding on: (the object, where the jaws closed [cm],
+        #: when [s]); the track seen there again is the same object, not a new one.
+        self._riding_on: list[tuple[TrackedObject, np.ndarray, float]] = []
         self._t0 = time.monotonic()
         self._last_frame_s = -np.inf
         self._last_seen_s = 0.0
@@ -168,6 +171,10 @@ class ConveyorSorter(Sorter):
                 self._seen_cm[s.id] = (float(s.position_cm[0]), float(s.position_cm[1]))
             obj = self._by_track.get(s.id)
             if obj is None:
+                obj = self._ridden_on(s, taken)
+                if obj is not None:
+                    self._by_track[s.id] = obj
+            if obj is None:
                 n = sum(1 for o in self._objects if o.class_name == s.color) + 1
                 x, y = (float(v) for v in s.position_cm)
                 obj = TrackedObject(f"{s.color}{n}", s.color, x, y)
@@ -186,6 +193,21 @@ class ConveyorSorter(Sorter):
                     kind="missed_belt",
                 )
         return states
+
+    def _ridden_on(self, s: TrackState, taken_s: float) -> TrackedObject | None:
+        """The object a failed pick left on the belt that a new track ``s`` is, if any.
+
+        Of its class, within the tracking gate of where the belt has carried it since the
+        jaws closed: counted once, and left as its pick failed (its track was dropped at
+        the grip, so the camera's next sighting of it began a new one, a new object).
+        """
+        gate = self.tracker.tracking.gate_cm
+        for k, (obj, aim, t_grip) in enumerate(self._riding_on):
+            where = aim + self.belt.velocity_cm_s * (taken_s - t_grip)
+            if obj.class_name == s.color and float(np.hypot(*(s.position_cm - where))) <= gate:
+                del self._riding_on[k]
+                return obj
+        return None
 
     def _wait(self) -> None:
         """Let one look period pass with the arm still (the belt runs on)."""
@@ -346,7 +368,9 @@ class ConveyorSorter(Sorter):
         try:
             ex.stream(place, "travel", closed=True, color=_hex(cls.draw_rgb))
             # over the bin the camera sees the belt whole: a grip that held left nothing
-            # of the class where the object would be now
+            # of the class where the object would be now (and what it sees there is this
+            # object riding on, not a new one)
+            self._riding_on.append((obj, np.array(aim, dtype=float), t_grip))
             self._observe()
             where = np.array(aim) + self.belt.velocity_cm_s * (self.now_s() - t_grip)
             pick.success = not any(
@@ -357,6 +381,8 @@ class ConveyorSorter(Sorter):
             )
             pick.why_failed = None if pick.success else BELT_PICK_MISSED
             pick.confirmed = True
+            if pick.success:  # (not seen riding on: no later track is it)
+                self._riding_on = [r for r in self._riding_on if r[0] is not obj]
         finally:
             self.reporter.route(pick)
         if not pick.success:

@@ -355,7 +355,11 @@ class SimArm(ServoBus):
         if obj is None:
             log.info("sim grip: nothing on the table")
             return GripResult(success=False, object_id=None, distance_cm=math.inf, dz_cm=math.nan)
-        dz = z - self.grip_height_cm(obj.color)
+        belt = self.world.belt  # an object on the belt stands on its surface, not the table
+        raised = (
+            belt.config.surface_cm if belt is not None and belt.carries(obj.x_cm, obj.y_cm) else 0
+        )
+        dz = z - self.grip_height_cm(obj.color) - raised
         tol = self.config.servo.grip_tolerance_cm
         ok = dist <= tol and abs(dz) <= tol
         if ok:
