@@ -407,6 +407,10 @@ SET_CASES = {
     "unicode_digit_index": ("arm.joints.²=1", "no item named"),
     "huge_index": ("arm.joints.99999999999999999999.home=1", "no item named"),
     "unknown_joint": ("arm.joints.knee.home=1", "no item named 'knee'"),
+    "bracket_index": (
+        "task.classes[0].bin_cm=[1, 2, 3]",
+        "dotted part, by its index or its name: task.classes.0.bin_cm",
+    ),  # fmt: skip
     # named by the name typed, not the list index pydantic sees
     "joint_to_null": ("arm.joints.shoulder=null", "arm.joints.shoulder: is a whole item"),
     "class_to_scalar": ("task.classes.red=7", "task.classes.red: is a whole item"),

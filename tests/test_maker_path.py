@@ -149,6 +149,27 @@ def test_a_makers_typo_reads_in_their_words(
     assert "configs/arms/mearm_v1.yaml shows every key" in line
 
 
+@pytest.mark.parametrize(
+    ("text", "words"),
+    [
+        ("extend: sim\n", "extend: unknown key; did you mean extends?"),
+        ("arm:\n  uses: mearm_v1\n", "arm.uses: unknown key; did you mean use?"),
+    ],
+)
+def test_a_typo_of_the_keys_that_compose_a_config_is_told_the_key(
+    text: str, words: str, tmp_path: Path
+) -> None:
+    """``extends`` and ``arm.use`` are read away before the keys are checked: a typo of
+    either got no suggestion (the file the message names does not show them)."""
+    from mearm.config import load_config
+    from mearm.errors import ConfigError
+
+    path = tmp_path / "mine.yaml"
+    path.write_text(text)
+    with pytest.raises(ConfigError, match=words):
+        load_config(path)
+
+
 def test_a_bad_value_names_the_joint_not_its_index() -> None:
     """Errors inside a list of named items say the item's name."""
     from mearm.errors import ConfigError

@@ -58,6 +58,16 @@ def parse_override(text: str) -> tuple[list[str], Any]:
             "--set",
             [f"{short_repr(text)}: expected dotted.key=value, e.g. arm.joints.base.home=90"],
         )
+    bracket = re.search(r"\[([^\]]*)\]", key)
+    if bracket is not None:  # a list item as Python or jq writes it
+        dotted = (key[: bracket.start()] + "." + bracket.group(1) + key[bracket.end() :]).strip(".")
+        raise ConfigError(
+            "--set",
+            [
+                f"{short_repr(key)}: a list item is a dotted part, by its index or its "
+                f"name: {dotted}"
+            ],
+        )
     parts = key.split(".")
     if len(key) > MAX_KEY_CHARS or len(parts) > MAX_YAML_DEPTH:
         raise ConfigError(
@@ -318,7 +328,10 @@ def _in_user_words(
     *section, key = loc
     import difflib  # noqa: PLC0415  (an unknown key only)
 
-    close = difflib.get_close_matches(str(key), _allowed_keys(err["loc"][:-1]), n=1, cutoff=0.6)
+    allowed = _allowed_keys(err["loc"][:-1])
+    composed: dict[tuple[int | str, ...], list[str]] = {(): [EXTENDS_KEY], ("arm",): [USE_KEY]}
+    allowed += composed.get(tuple(section), [])  # the keys read away as the file is composed
+    close = difflib.get_close_matches(str(key), allowed, n=1, cutoff=0.6)
     meant = f"; did you mean {close[0]}?" if close else ""
     where = _arm_file(data) if loc and loc[0] == "arm" else example_file()
     return f"{loc_text(loc)}: unknown key{meant} ({where} shows every key)"
