@@ -251,6 +251,20 @@ def test_a_calibration_file_silences_the_note(tmp_path):
     assert calibration_note(config, ["--config", str(lab)]) is None
 
 
+def test_a_file_calibrated_on_a_simulated_board_is_named_on_a_real_one(tmp_path):
+    """A file ``calibrate-servos --config virtual_uno`` wrote names its board as simulated;
+    on the real board it was taken without a word (the board was never read back)."""
+    lab = ROOT / "configs" / "lab.yaml"
+    arm, fit = _fit(lab, "base", [CalibrationPoint(60, 1200), CalibrationPoint(120, 1800)])
+    board = "simulated: the virtual Uno, the firmware in simavr (mearm_servo 2.0 5)"
+    cal = ServoCalibrationFile(arm.name, board, "", "2026-01-01T00:00:00+00:00", (fit,))
+    path = save_servo_calibration(tmp_path / "vu.servos.yaml", cal)
+    config = load_config(lab, [f"servo.calibration_file={path}"])
+    note = calibration_note(config, ["--config", str(lab)])
+    assert note is not None
+    assert note.startswith(f"note: {path} was calibrated on a simulated board ({board})")
+
+
 @pytest.mark.heavy
 def test_a_sort_on_an_uncalibrated_kit_says_so_first_and_runs(capsys):
     """The note is the first line on stderr, the sort runs to its summary; --quiet drops it."""

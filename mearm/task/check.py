@@ -217,8 +217,19 @@ def calibration_note(config: Config, config_args: Sequence[str]) -> str | None:
             the command the line names.
     """
     if config.servo.calibration_file is not None:
-        from mearm.config.servo_file import narrowed_limits_note  # noqa: PLC0415  (a file's only)
+        from mearm.config.servo_file import (  # noqa: PLC0415  (a file's only)
+            load_servo_calibration,
+            narrowed_limits_note,
+        )
 
+        path = config.servo.calibration_file
+        board = load_servo_calibration(path).board_id
+        if config.servo.backend in ("serial", "ssc32") and board.startswith("simulated"):
+            return (
+                f"note: {path} was calibrated on a simulated board ({board}), not on these "
+                "servos: its fits are the simulation's; run mearm calibrate-servos on this "
+                "board to measure them"
+            )
         return narrowed_limits_note(config)
     if config.servo.backend in ("serial", "ssc32"):
         what, extra = f"the servos on the {config.servo.backend} board", []
