@@ -54,3 +54,16 @@ def test_a_belt_narrower_than_its_objects_allows_no_offset():
     """A 1.5 cm belt cannot carry 2 cm cylinders, not even along its middle line."""
     with pytest.raises(ConfigError, match=r"none: its red objects \(2 cm across\) are wider than"):
         load_config(KINEMATIC, ["belt.width_cm=1.5", "belt.arrivals.lateral_cm=0"])
+
+
+def test_a_belt_shorter_than_an_object_is_refused():
+    """``belt.length_cm`` 0.5 landed every 2 cm object past the end, on the table, and the
+    sort said "never seen by the camera"; 2 cm holds one."""
+    with pytest.raises(ConfigError) as caught:
+        load_config(KINEMATIC, ["belt.length_cm=0.5"])
+    (problem,) = caught.value.problems
+    assert problem == (
+        "belt.length_cm: 0.5 cm is shorter than the largest object of task.classes (red, "
+        "2 cm across), which would land past the belt's end: at least 2 cm"
+    )
+    assert load_config(KINEMATIC, ["belt.length_cm=2"]).belt is not None

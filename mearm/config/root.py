@@ -303,6 +303,27 @@ class Config(Strict):
         )
 
     @model_validator(mode="after")
+    def _belt_holds_an_object(self) -> Config:
+        """The belt is at least as long as its largest object is across.
+
+        An object lands its footprint's radius down from the belt's upstream end: on a
+        belt shorter than it, past the end, on the table (``belt.length_cm`` 0.5 put
+        every object there, reported "never seen").
+        """
+        belt = self.belt
+        if belt is None or not self.task.classes:
+            return self
+        largest = max(self.task.classes, key=lambda c: c.footprint_radius_cm)
+        across = 2 * largest.footprint_radius_cm
+        if belt.length_cm < across:
+            raise ValueError(
+                f"@belt.length_cm: {belt.length_cm:g} cm is shorter than the largest object "
+                f"of task.classes ({largest.name}, {across:.4g} cm across), which would land "
+                f"past the belt's end: at least {math.ceil(across * 100) / 100:g} cm"
+            )
+        return self
+
+    @model_validator(mode="after")
     def _belt_or_table(self) -> Config:
         """A belt's sort picks only what the belt brings: objects on the table stay there."""
         if self.belt is not None and self.task.scene:
