@@ -85,6 +85,8 @@ CASES: list[tuple[list[str], str]] = [
       "object: purple9}]"], "no object 'purple9' in the twin"),
     # reproduce-paper, ik-stalls
     (["reproduce-paper", "--mode", "fast"], "invalid choice: 'fast'"),
+    (["reproduce-paper", "--set", "controller.mode=coupled"], "--set changes neither"),
+    (["reproduce-paper", "--config", "sim_5dof"], "this config's arm is desk_5dof"),
     (["ik-stalls", "--targets", "0"], "--targets must be in [1, 1000000]"),
     (["ik-stalls", "{dir}/nosuch.yaml"], "config file not found"),
     # the maker's commands

@@ -23,9 +23,12 @@ from collections.abc import Sequence
 import numpy as np
 
 from mearm.cli import ArgumentParser, add_config_argument, config_from_args, run
-from mearm.errors import ConfigError
+from mearm.errors import ConfigError, MearmError
 from mearm.ik import PdPij, demo_routes, run_routes
 from mearm.kinematics import ArmModel
+
+#: The arm the paper's demo and figures are of.
+PAPER_ARM = "mearm_paper"
 
 #: The paper's figures for its 24 routes (paper §3).
 PAPER = {
@@ -156,7 +159,20 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
     parser.add_argument("--json", action="store_true", help="print JSON")
     args = parser.parse_args(argv)
-    report = reproduce(config_from_args(args), args.mode)
+    for text in args.set or ():  # the demo's solver is the paper's: the flags say how
+        key = text.partition("=")[0].strip()
+        if key in ("controller.mode", "controller.solver"):
+            raise MearmError(
+                f"--set {key}: the demo runs the paper's PD-PIJ, in the mode --mode names "
+                "(paper or coupled); --set changes neither"
+            )
+    config = config_from_args(args)
+    if config.arm.name != PAPER_ARM:
+        raise MearmError(
+            f"the demo and its figures are the paper's arm's ({PAPER_ARM}); this config's "
+            f"arm is {config.arm.name}: give a config of the paper's arm (e.g. --config sim)"
+        )
+    report = reproduce(config, args.mode)
     if args.json:
         json.dump(report, sys.stdout, indent=1)
         print()
