@@ -136,6 +136,26 @@ def test_find_port_without_a_mearm_board_exits_1():
 
 
 @pytest.mark.heavy
+@pytest.mark.parametrize(
+    ("count", "config", "words"),
+    [
+        (15, [], "the board reports 15 servo channels; a move to that many does not fit"),
+        (3, ["--config", "lab"], "the config uses servo channel 4, the board drives channels 0..2"),
+    ],
+)
+def test_find_port_does_not_name_a_board_the_commands_refuse(count, config, words):
+    """find-port said "set servo.port" (exit 0) for a board every other command then
+    refused at its handshake: too many channels for a move's line, or too few for the
+    config's servos."""
+    with FakeMearmBoard(servo_count=count) as board:
+        args = ["--only", "--timeout", "1", "--port", board.port, *config]
+        result = run_here("find_port", *args)
+    line = one_error_line(result, code=1)
+    assert f"can use: {board.port}: {words}" in line, line
+    assert "set servo.port" not in result.stdout
+
+
+@pytest.mark.heavy
 def test_find_port_reports_missing_and_refused_ports():
     """A port that does not exist, or a refused URL scheme, is bad input (exit 2)."""
     missing = one_error_line(run_here("find_port", "--only", "--port", "/dev/ttyNOPE9"))

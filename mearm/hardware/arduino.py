@@ -28,6 +28,7 @@ from mearm.hardware.errors import (
     HandshakeError,
     NoAckError,
 )
+from mearm.hardware.mapping import ServoMap
 from mearm.hardware.mearm_protocol import (
     BANNER_HEAD,
     ERR_CHECKSUM,
@@ -68,6 +69,39 @@ class BoardStatus:
 
     mode: str
     pulses_us: tuple[int, ...]
+
+
+def misfit(info: FirmwareInfo, servo_map: ServoMap) -> str | None:
+    """Why a board that reports ``info`` cannot drive the servos of ``servo_map``, or ``None``.
+
+    A channel past the board's, a pulse range wider than the board's, or more channels
+    than a move's line can name. The handshake refuses such a board; ``find-port`` says so.
+    """
+    highest = max(servo_map.channels)
+    if highest >= info.servo_count:
+        return (
+            f"the config uses servo channel {highest}, the board drives channels "
+            f"0..{info.servo_count - 1}; fix the servo channels in arm (joints' and tool "
+            "actuators' servo.channel)"
+        )
+    for j in servo_map.actuators:
+        if j.min_us < info.min_us or j.max_us > info.max_us:
+            return (
+                f"{j.name}'s pulse range [{j.min_us}, {j.max_us}] µs is wider than the "
+                f"board's [{info.min_us}, {info.max_us}] µs"
+            )
+    # a move names every channel the board drives: it must fit one line, or every move
+    # would fail to encode (a ValueError, not a fault) after a handshake passed
+    longest = max(j.max_us for j in servo_map.actuators)
+    try:
+        encode_command(SEQ_MODULO - 1, "M", [longest] * info.servo_count)
+    except ValueError:
+        return (
+            f"the board reports {info.servo_count} servo channels; a move to that many does "
+            f"not fit the protocol's {MAX_LINE}-character line (the firmware drives 5): "
+            "flash tools/arduino/mearm_servo"
+        )
+    return None
 
 
 class ArduinoBus(SerialServoBus):
@@ -184,30 +218,9 @@ class ArduinoBus(SerialServoBus):
             raise FirmwareVersionError(
                 self.port, f"{info.name} {info.version}", info.major, PROTOCOL_MAJOR, sent=True
             )
-        highest = max(self.servo_map.channels)
-        if highest >= info.servo_count:
-            raise HandshakeError(
-                f"{self.port}: the config uses servo channel {highest}, the board drives "
-                f"channels 0..{info.servo_count - 1}; fix the servo channels in arm "
-                "(joints' and tool actuators' servo.channel)"
-            )
-        for j in self.servo_map.actuators:
-            if j.min_us < info.min_us or j.max_us > info.max_us:
-                raise HandshakeError(
-                    f"{self.port}: {j.name}'s pulse range [{j.min_us}, {j.max_us}] µs is "
-                    f"wider than the board's [{info.min_us}, {info.max_us}] µs"
-                )
-        # a move names every channel the board drives: it must fit one line, or every
-        # move would fail to encode (a ValueError, not a fault) after a handshake passed
-        longest = max(j.max_us for j in self.servo_map.actuators)
-        try:
-            encode_command(SEQ_MODULO - 1, "M", [longest] * info.servo_count)
-        except ValueError:
-            raise HandshakeError(
-                f"{self.port}: the board reports {info.servo_count} servo channels; a move "
-                f"to that many does not fit the protocol's {MAX_LINE}-character line (the "
-                "firmware drives 5): flash tools/arduino/mearm_servo"
-            ) from None
+        problem = misfit(info, self.servo_map)
+        if problem is not None:
+            raise HandshakeError(f"{self.port}: {problem}")
         return info
 
     def _next_seq(self) -> int:

@@ -54,6 +54,7 @@ from mearm.cli import (
     positive_number,
     run,
 )
+from mearm.config import Config
 from mearm.config.errors import SerialPortError
 from mearm.config.port import check_port
 from mearm.errors import MearmError
@@ -151,6 +152,35 @@ class PortReport:
     status: Literal["mearm", "outdated", "unknown", "error"]
     detail: str
     firmware: FirmwareInfo | None = None
+
+
+def _usable_boards(
+    reports: Sequence[PortReport], config: Config | None
+) -> tuple[list[str], list[str]]:
+    """The ports of the mearm boards the commands can drive, and why each other one not.
+
+    A board that printed its banner but did not answer ``V`` fails every command's
+    handshake; so does one whose channels or pulse range do not fit the config's servos
+    (:func:`~mearm.hardware.arduino.misfit`).
+    """
+    from mearm.hardware.arduino import misfit  # noqa: PLC0415
+    from mearm.hardware.mapping import ServoMap  # noqa: PLC0415
+
+    smap = None if config is None else ServoMap.from_arm(config.arm)
+    usable, unusable = [], []
+    for r in reports:
+        if r.status != "mearm":
+            continue
+        device = r.port.device
+        if r.firmware is None:
+            unusable.append(f"{device} printed the banner but did not answer V")
+            continue
+        problem = None if smap is None else misfit(r.firmware, smap)
+        if problem is not None:
+            unusable.append(f"{device}: {problem}")
+        else:
+            usable.append(device)
+    return usable, unusable
 
 
 def list_serial_ports(extra: Iterable[str] = (), *, system: bool = True) -> list[SerialPort]:
@@ -515,7 +545,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     width = max(len(r.port.device) for r in reports)
     for report in reports:
         print(format_report(report, width))
-    boards = [r.port.device for r in reports if r.status == "mearm"]
+    boards, unusable = _usable_boards(reports, config)
     outdated = [r.port.device for r in reports if r.status == "outdated"]
     if not boards and outdated:
         # a board is there, with the mearm firmware of another protocol: the remedy is to
@@ -525,6 +555,9 @@ def main(argv: Sequence[str] | None = None) -> int:
             f"no mearm board found that speaks protocol {PROTOCOL_MAJOR}: reflash the one "
             f"of another protocol on {', '.join(outdated)} (mearm flash --port {where})"
         )
+    if not boards and unusable:  # a board the other commands would refuse at the handshake
+        named = args.config if args.config is not None else "sim, the default"
+        raise NoBoardFound(f"no mearm board the config ({named}) can use: {unusable[0]}")
     if not boards:
         raise NoBoardFound(
             "no mearm board found: flash one (mearm flash --port PORT), or find an unknown "
