@@ -407,6 +407,11 @@ SET_CASES = {
     "unicode_digit_index": ("arm.joints.²=1", "no item named"),
     "huge_index": ("arm.joints.99999999999999999999.home=1", "no item named"),
     "unknown_joint": ("arm.joints.knee.home=1", "no item named 'knee'"),
+    # a red green (the detector gave such pixels to red, and the sort miscounted)
+    "classes_same_to_camera": (
+        "task.classes.green.hue_bands_deg=[{lo_deg: 340, hi_deg: 10}]",
+        "'red' and 'green' are the same to the camera: both hold hues 340..360 deg",
+    ),
     "bracket_index": (
         "task.classes[0].bin_cm=[1, 2, 3]",
         "dotted part, by its index or its name: task.classes.0.bin_cm",

@@ -10,7 +10,7 @@ whose colour and shape it has.
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from typing import Annotated
 
 from pydantic import Field, field_validator, model_validator
@@ -41,6 +41,23 @@ class HueBand(Strict):
 
     lo_deg: Annotated[float, Field(ge=0, le=360, allow_inf_nan=False)]
     hi_deg: Annotated[float, Field(ge=0, le=360, allow_inf_nan=False)]
+
+
+def _arcs(band: HueBand) -> list[tuple[float, float]]:
+    """The band as arcs of [0, 360] that do not wrap."""
+    lo, hi = band.lo_deg, band.hi_deg
+    return [(lo, hi)] if lo <= hi else [(lo, 360.0), (0.0, hi)]
+
+
+def hues_shared(a: Sequence[HueBand], b: Sequence[HueBand]) -> tuple[float, float] | None:
+    """An arc of hue [deg] both band lists hold (more than a point), or ``None``."""
+    for x in a:
+        for y in b:
+            for x0, x1 in _arcs(x):
+                for y0, y1 in _arcs(y):
+                    if max(x0, y0) < min(x1, y1):
+                        return max(x0, y0), min(x1, y1)
+    return None
 
 
 Lightness = Annotated[float, Field(ge=0, le=100, allow_inf_nan=False)]

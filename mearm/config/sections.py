@@ -26,7 +26,7 @@ from mearm.config.base import (
     Strict,
     describe_error,
 )
-from mearm.config.classes import ColorClass, class_named
+from mearm.config.classes import ColorClass, class_named, hues_shared
 from mearm.config.defaults import PAPER_LAYOUT, default_classes
 from mearm.config.errors import SerialPortError
 from mearm.config.polygon import why_flat
@@ -520,6 +520,7 @@ class TaskConfig(Strict):
                     f"{list(c.bin_cm)} cm; each class needs its own bin"
                 )
             bins[c.bin_cm] = c.name
+        self._told_apart()
         for i, obj in enumerate(self.scene):
             if obj.color not in names:
                 raise ValueError(
@@ -527,6 +528,29 @@ class TaskConfig(Strict):
                     f"(classes: {', '.join(c.name for c in self.classes)})"
                 )
         return self
+
+    def _told_apart(self) -> None:
+        """Refuse two classes the camera cannot tell apart.
+
+        A hue both hold, and no shape that differs (either may be any shape, or both are
+        the same one). The detector gave such pixels to the first class, and the sort then
+        counted objects it never had, with reasons that were not what happened. A class
+        taught its colour (``learned_colour``) is compared by nothing here: its model
+        stands for its bands.
+        """
+        banded = [c for c in self.classes if c.hue_bands_deg and c.learned_colour is None]
+        for i, a in enumerate(banded):
+            for b in banded[i + 1 :]:
+                assert a.hue_bands_deg is not None and b.hue_bands_deg is not None
+                shared = hues_shared(a.hue_bands_deg, b.hue_bands_deg)
+                if shared is None or (a.shape and b.shape and a.shape != b.shape):
+                    continue
+                shapes = " ".join(f"{c.name}'s shape is {c.shape or 'any (null)'};" for c in (a, b))
+                raise ValueError(
+                    f"@classes: '{a.name}' and '{b.name}' are the same to the camera: both "
+                    f"hold hues {shared[0]:g}..{shared[1]:g} deg and {shapes} give them "
+                    "different shapes, or hue_bands_deg that do not overlap"
+                )
 
     def class_named(self, name: str) -> ColorClass:
         """The class called ``name`` (:func:`~mearm.config.classes.class_named`)."""
