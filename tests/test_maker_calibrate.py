@@ -33,6 +33,7 @@ import yaml
 from badinput import run_in_process
 from conftest import simulator_build
 from fakeboard import FakeMearmBoard, SimavrBoard
+from test_servo_file_own_limits import HEADER
 
 from mearm.config import load_config
 from mearm.config.servo_file import (
@@ -444,19 +445,14 @@ def operate_from_here(cmd: PtyCommand, name: str, truth: dict[str, TrueServo]) -
 
 
 #: A calibration of the paper arm's base, as a file written before the session.
-OLD_CALIBRATION = """\
-format: mearm-servo-calibration
-version: 1
-kind: servos
-arm: mearm_paper
-board_id: a real board
-port: ''
-date: '2026-12-01T00:00:00+00:00'
-actuators:
+OLD_CALIBRATION = (
+    HEADER
+    + """\
   base:
     {channel: 0, unit: deg, zero_us: 600.0, direction: 1, us_per_unit: 10.0, min_us: 600,
      max_us: 2400, residual_us: 0.0}
 """
+)
 
 
 @pytest.mark.slow
