@@ -12,6 +12,7 @@ import pytest
 from mearm.analysis import Rate, fit_weibull, pick_outcomes, success_table, success_vs_error
 from mearm.analysis.run_analysis import analyze, to_json
 from mearm.config import Config, TaskConfig, default_classes
+from mearm.config.classes import HueBand
 from mearm.exceptions import AnalysisError
 from mearm.runlog import RunLog, read_runlog
 
@@ -79,8 +80,9 @@ def test_table9_counts_first_attempts_per_colour(hand_log: Path) -> None:
 
 def test_table9_rows_follow_the_configs_classes(tmp_path: Path) -> None:
     """Table 9 lists the header config's classes in their order, a class without routes too."""
+    yellow = HueBand(lo_deg=45.0, hi_deg=70.0)  # (red's own hues: the same to the camera)
     classes = [*reversed(default_classes()), default_classes()[0].model_copy(
-        update={"name": "yellow", "bin_cm": (-20.0, 65.0, 20.0)}
+        update={"name": "yellow", "bin_cm": (-20.0, 65.0, 20.0), "hue_bands_deg": [yellow]}
     )]  # fmt: skip
     config = Config(task=TaskConfig(classes=classes))
     log = write_hand_log(tmp_path / "classes.jsonl", config=config)
