@@ -30,10 +30,9 @@ from mearm.maker.keyboard_calibration.pulse_session import PulseSession, open_ar
 from mearm.maker.keyboard_calibration.references import (
     TABLE_ROOM_CM,
     Actuator,
-    Lowest,
+    TableHeight,
     reference_pose,
     sweep_lowest,
-    table_lowest,
 )
 from mearm.maker.keys import KeyReader, require_terminal
 from mearm.maker.servo_output import board_identity, hold_arm, write_calibration
@@ -71,7 +70,7 @@ class Calibrator:
         # the actuators past their limits, each warned about once when it crossed
         self.past_limits: set[str] = set()
         # the tool's height over the table at joint servo values (built at the first joint)
-        self._lowest: Lowest | None = None
+        self._table: TableHeight | None = None
 
     def say(self, text: str = "") -> None:
         """Print a line (ending any live status line)."""
@@ -220,10 +219,11 @@ class Calibrator:
         session = self.session
         smap = session.servo_map
         present = {n: v for n, v in session.joint_values().items() if n != act.name}
-        if self._lowest is None:
-            self._lowest = table_lowest(self.config, smap)
-        pose = reference_pose(smap, act, present, session.home_values, self._lowest)
-        clear = sweep_lowest(act, pose, self._lowest) >= TABLE_ROOM_CM
+        if self._table is None:
+            self._table = TableHeight(self.config)
+        lowest = self._table.lowest(smap)  # under the map as it is now, fits made included
+        pose = reference_pose(smap, act, present, session.home_values, lowest)
+        clear = sweep_lowest(act, pose, lowest) >= TABLE_ROOM_CM
         moved = {n: v for n, v in pose.items() if smap[n].command_us(v) != session.pulses_us[n]}
         if not moved:
             return

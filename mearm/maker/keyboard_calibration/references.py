@@ -235,22 +235,37 @@ def reference_pose(
     return min(pose_settings(choices, now), key=lambda s: pose_overrun(smap, act, s))
 
 
-def table_lowest(config: Config, smap: ServoMap) -> Lowest:
-    """:data:`Lowest` for ``config``'s arm over a cleared table (calibration clears it).
+class TableHeight:
+    """The tool's height over a cleared table (calibration clears it) for ``config``'s arm.
 
     The tool's shapes as the planner's collision checks hold them (the jaws open, hanging
-    along the tool's approach axis), at the joints the servo values give under ``smap``.
+    along the tool's approach axis). Built once a session: its model is Pinocchio's.
     """
-    from mearm.kinematics import ArmModel  # noqa: PLC0415  (Pinocchio: a session's start)
-    from mearm.kinematics.bodies import TableContents  # noqa: PLC0415
-    from mearm.sim.table_collision import collision_model  # noqa: PLC0415
 
-    model = ArmModel(config.arm)
-    table = TableContents.of(config.with_scene([]).task)
-    collision = collision_model(config, model, bins=(), table=table)
-    chain = model.chain
+    def __init__(self, config: Config):
+        from mearm.kinematics import ArmModel  # noqa: PLC0415  (Pinocchio: a session's start)
+        from mearm.kinematics.bodies import TableContents  # noqa: PLC0415
+        from mearm.sim.table_collision import collision_model  # noqa: PLC0415
 
-    def lowest(values: Mapping[str, float]) -> float:
-        return collision.tool_lowest_cm(chain.from_named(smap.joints_of(values)))[0]
+        model = ArmModel(config.arm)
+        table = TableContents.of(config.with_scene([]).task)
+        self._collision = collision_model(config, model, bins=(), table=table)
+        self._chain = model.chain
 
-    return lowest
+    def lowest(self, smap: ServoMap) -> Lowest:
+        """:data:`Lowest` at the joints the servo values give under ``smap``.
+
+        The session's map as it is now: a fit just made moves where a servo value puts its
+        joint.
+        """
+        collision, chain = self._collision, self._chain
+
+        def at(values: Mapping[str, float]) -> float:
+            return collision.tool_lowest_cm(chain.from_named(smap.joints_of(values)))[0]
+
+        return at
+
+
+def table_lowest(config: Config, smap: ServoMap) -> Lowest:
+    """:meth:`TableHeight.lowest` of a table built for this call."""
+    return TableHeight(config).lowest(smap)
