@@ -338,7 +338,7 @@ def test_a_planned_pick_puts_the_grip_point_at_the_grip_height(twin):
     """Where the planner sends the TCP to pick, the twin's grip point is at the class's
     grip height over the object (an arm whose jaws point down when it picks: along
     pick_approach, or held down by the arm's structure, as the paper arm's levelled wrist
-    holds sim_mujoco.yaml's)."""
+    holds its jaws, on sim.yaml as on sim_mujoco.yaml since its arm file says so)."""
     config, _, m = twin
     model = ArmModel(config.arm)
     planner = Planner(config, model)
@@ -347,7 +347,7 @@ def test_a_planned_pick_puts_the_grip_point_at_the_grip_height(twin):
     result = planner.solver.solve(planner.pick_target(cls, obj.x, obj.y), model.home)
     assert result.converged
     if model.approach(result.q) @ np.array([0.0, 0.0, -1.0]) < np.cos(np.radians(1)):
-        pytest.skip("the jaws do not point down at the pick (the paper's sideways tool axis)")
+        pytest.skip("the jaws do not point down at the pick (the MeArm v1's claw points ahead)")
     d = mujoco.MjData(m)
     _set_arm(m, d, config, result.q)
     grip = d.site("grip").xpos / M_PER_CM
