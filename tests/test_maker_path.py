@@ -170,6 +170,25 @@ def test_a_typo_of_the_keys_that_compose_a_config_is_told_the_key(
         load_config(path)
 
 
+def test_a_config_that_drops_a_class_is_told_to_give_its_scene(tmp_path: Path) -> None:
+    """A file extending sim with two of its three classes took sim's scene, blues and all:
+    the error named task.scene.8, a scene the file never wrote, and no way out."""
+    from mearm.config import load_config
+    from mearm.errors import ConfigError
+
+    path = tmp_path / "two.yaml"
+    path.write_text(
+        "extends: sim\ntask:\n  classes:\n"
+        "    - {name: red, hue_bands_deg: [{lo_deg: 330, hi_deg: 15}], draw_rgb: [200, 30, 35],"
+        " bin_cm: [-20, 35, 20]}\n"
+        "    - {name: green, hue_bands_deg: [{lo_deg: 75, hi_deg: 165}], draw_rgb: [30, 160, 60],"
+        " bin_cm: [-20, 45, 20]}\n"
+    )
+    with pytest.raises(ConfigError, match=r"gives its own task\.scene, or task\.scene: \[\]"):
+        load_config(path)
+    assert load_config(path, ["task.scene=[]"]).task.scene == []
+
+
 def test_a_bad_value_names_the_joint_not_its_index() -> None:
     """Errors inside a list of named items say the item's name."""
     from mearm.errors import ConfigError

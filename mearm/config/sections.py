@@ -523,9 +523,10 @@ class TaskConfig(Strict):
         self._told_apart()
         for i, obj in enumerate(self.scene):
             if obj.color not in names:
-                raise ValueError(
+                raise ValueError(  # a scene a config that changed the classes took unchanged
                     f"@scene.{i}.color: '{obj.color}' is not a class "
-                    f"(classes: {', '.join(c.name for c in self.classes)})"
+                    f"(classes: {', '.join(c.name for c in self.classes)}); a config that "
+                    "changes the classes gives its own task.scene, or task.scene: []"
                 )
         return self
 
