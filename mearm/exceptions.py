@@ -78,7 +78,8 @@ FAMILIES: dict[str, tuple[str, ...]] = {
     "mearm.sim.virtual_uno.errors": ("VirtualUnoError",),
     "mearm.task.scene": ("SceneError",),
     "mearm.task.armcheck": ("ArmCheckError", "NothingToCheck", "RigNotOpened"),
-    "mearm.task.sorter": ("CollisionError", "SortAborted", "StartCalibrationFailed"),
+    "mearm.task.execute": ("CollisionError",),
+    "mearm.task.sorter": ("SortAborted", "StartCalibrationFailed"),
     "mearm.experiment.errors": ("TrialFailed",),
     # the environments' and the baseline's (their packages import Gymnasium: mearm[gym])
     "mearm.envs.errors": ("EnvOptionError", "PolicyError"),

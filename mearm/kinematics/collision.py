@@ -35,12 +35,17 @@ than that, only farther, and one that starts clear may not touch. A pair that st
 touching (an object fallen beside another: the circles around their footprints
 overlap) may likewise only come apart, its distance (< 0: how far in) no more than
 :data:`TOUCH_CM` below where it started. Every other pair keeps the clearance.
+
+**The jaws opening** (:meth:`opening_contact`) move nothing but the jaws' pads, across:
+a release's opening is checked at openings close enough that no pad can step over a wall
+between two of them (each pad moves at most a wall's thickness and twice the clearance).
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Iterable, Iterator, Mapping, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import NamedTuple
 
@@ -51,6 +56,7 @@ import pinocchio as pin
 
 from mearm.config.servo_models import SERVO_CATALOGUE, ServoSpec, servo_named
 from mearm.kinematics.bodies import (
+    BIN_WALL_M,
     M_PER_CM,
     Shape,
     TableContents,
@@ -830,6 +836,52 @@ class CollisionModel:
         sep = _lengths(origins[None, :, :] - origins[:, None, :])  # (i, j)
         far = np.max(sep + self._reach_local[1 : n + 1], axis=1, where=self._upper, initial=0.0)
         return np.where(self._prismatic, 1.0, far) if self._any_prismatic else far
+
+    def opening_contact(self, q: npt.ArrayLike, open_cm: float) -> Contact | None:
+        """The first opening where the jaws, opening at pose ``q``, come too close to something.
+
+        From the world's opening to ``open_cm``, what they held let go (a release: it
+        falls); ``None``: they open clear. Checked at openings close enough that no pad
+        steps over anything between two (the module docstring); the world is as it was
+        afterwards. The contact's ``pose_index`` is the opening's step.
+        """
+        opening = self._opening_cm
+        # each pad moves half the opening's step: no more than a wall and two clearances
+        step_cm = 2.0 * (BIN_WALL_M + 2.0 * self.clearance_m) / M_PER_CM
+        n = max(1, math.ceil((open_cm - opening) / step_cm))
+        with self._let_go():
+            for k in range(1, n + 1):
+                self._open_to(opening + (open_cm - opening) * k / n)
+                g, a, b, d = self._gap(q, None, {})
+                self.checks += 1
+                if g < TOUCH_M:
+                    return Contact(a, b, d / M_PER_CM, np.asarray(q, float), k)
+        return None
+
+    def open_clear_height_cm(self, q: npt.ArrayLike, open_cm: float) -> float:
+        """:meth:`clear_height_cm` with the jaws opened to ``open_cm`` and what they held let go.
+
+        Where a release at pose ``q`` may be raised to, for the jaws to open clear of
+        every bin wall and object top; the world is as it was afterwards.
+        """
+        with self._let_go():
+            self._open_to(open_cm)
+            return self.clear_height_cm(q)
+
+    @contextmanager
+    def _let_go(self) -> Iterator[None]:
+        """The world without the held object for a while (:meth:`_open_to` opens the jaws)."""
+        objects, opening, held, below = (
+            self._objects, self._opening_cm, self._held, self._table_below_cm
+        )  # fmt: skip
+        try:
+            yield
+        finally:
+            self.set_world(objects, opening_cm=opening, held=held, table_below_cm=below)
+
+    def _open_to(self, opening_cm: float) -> None:
+        """The jaws at ``opening_cm``, nothing held, the rest of the world kept."""
+        self.set_world(opening_cm=opening_cm, table_below_cm=self._table_below_cm)
 
     def first_contact(self, q_path: npt.ArrayLike, *, target: str | None = None) -> Contact | None:
         r"""The first pose along ``q_path`` that comes too close to something, or ``None``.

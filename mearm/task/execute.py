@@ -27,9 +27,11 @@ import numpy as np
 import numpy.typing as npt
 
 from mearm.config import Config
+from mearm.errors import MearmError
 from mearm.hardware.bus import MeasuresTcp, MeasuresWorld, ReportsHold, ServoBus
 from mearm.hardware.command import ArmCommand
 from mearm.kinematics import ArmModel, Chain
+from mearm.kinematics.collision import CollisionModel
 from mearm.task.route import Route
 from mearm.task.timing import MotionTime, SpeedLimits, TimedPath, time_path, tool_move_s
 
@@ -43,6 +45,11 @@ ARRIVAL_TIMEOUT_S = 2.0
 #: The largest step between two planned poses of a joint-space move: [rad] for a revolute joint
 #: (2°), [m] for a prismatic one (0.5 cm).
 JOINT_STEP = {False: np.deg2rad(2.0), True: 0.005}
+
+#: A route whose commands' chords come too close to something is timed again at these
+#: fractions of the servos' speeds, in turn (:meth:`Executor.stream`): each chord is that
+#: much shorter, and nearer the plan's polyline.
+SLOWER = (0.5, 0.25, 0.125, 0.0625)
 
 #: The view is shown the arm at most this often in the stream's own time [Hz]: a faster
 #: stream (``servo.rate_hz``) shows every k-th move and each route's last. A frame costs
@@ -65,6 +72,14 @@ def carry_limits(limits: SpeedLimits, config: Config, chain: Chain) -> SpeedLimi
     scale = chain.scale[chain.actuated_index]
     cap = np.array([servos[n].value_accel(cap_deg_s2) for n in chain.actuated]) * scale
     return dataclasses.replace(limits, acceleration=np.minimum(limits.acceleration, cap))
+
+
+class CollisionError(MearmError):
+    """A motion would bring the arm's body too close to something; nothing of it was sent.
+
+    Too close: within ``task.clearance_cm`` of a bin or an object, or touching the table
+    (:mod:`mearm.kinematics.collision`).
+    """
 
 
 class View(Protocol):
@@ -106,6 +121,9 @@ class Executor:
             world, else the commanded joints); always at the end of a route or a joint
             path, at home, and after a tool setting. ``None``: as often as
             :data:`VIEW_HZ` allows at ``servo.rate_hz`` (every move at 60 Hz or less).
+        collision: The model the routes were planned against (its world as the planner
+            left it): a route's commands are checked against it as the servos follow
+            them, chord by chord (:meth:`stream`); ``None``: not checked.
 
     Attributes:
         twin_ids: The objects the bus measures (:func:`twin_object_ids`), or ``None``:
@@ -123,6 +141,7 @@ class Executor:
         view: View | None = None,
         *,
         view_every: int | None = None,
+        collision: CollisionModel | None = None,
     ):
         if view_every is None:
             view_every = max(1, math.ceil(config.servo.rate_hz / VIEW_HZ))
@@ -143,6 +162,7 @@ class Executor:
         self.limits = SpeedLimits.of_arm(config.arm, self.chain)
         self.carry_limits = carry_limits(self.limits, config, self.chain)
         self.motion = MotionTime(stream_hz=1.0 / bus.period_s)
+        self.collision = collision
 
     # ----------------------------------------------------------------- state
 
@@ -313,7 +333,7 @@ class Executor:
             raise ValueError(f"route {route.step} {route.object_id} is not planned: not sent")
         assert route.plan is not None
         # in full, checked, before anything is sent
-        timed = self.timed(route.plan.q_path, carrying=closed)
+        timed = self._followed(route, carrying=closed)
         if self.view is not None:
             self.view.set_target(route.target.position_cm)
         for q in timed.q[1:]:
@@ -326,6 +346,50 @@ class Executor:
         if self.view is not None:
             self.view.add_path(route.plan.ee_path_cm, color)
         return route
+
+    def _followed(self, route: Route, *, carrying: bool) -> TimedPath:
+        """``route``'s plan timed, with its commands' chords as clear as the plan.
+
+        Between two commands the servos move on the chord between them
+        (:mod:`mearm.task.timing`), which cuts across a corner of the plan's polyline: a
+        route that rises out of a bin and then turns (the jaws open between its walls)
+        swings the jaws into a wall a command early. With a collision model the chords
+        are checked as the plan was; where they come too close to something, the route
+        is timed again at each of :data:`SLOWER` of the servos' speeds in turn, its
+        chords shorter and nearer the plan.
+
+        Raises:
+            CollisionError: even the slowest timing's chords come too close; nothing of
+                the route was sent.
+        """
+        assert route.plan is not None
+        q_path = route.plan.q_path
+        timed = self.timed(q_path, carrying=carrying)
+        if self.collision is None:
+            return timed
+        target = route.object_id if route.step == "pick" and route.object_id else None
+        contact = self.collision.first_contact(timed.q, target=target)
+        limits = self.carry_limits if carrying else self.limits
+        slowest = 1.0
+        for fraction in SLOWER:
+            if contact is None:
+                return timed
+            slowest = fraction
+            slower = SpeedLimits(
+                limits.velocity * fraction, limits.acceleration * fraction**2, limits.drive
+            )
+            timed = dataclasses.replace(
+                time_path(q_path, self.chain, slower, 1.0 / self.bus.step_s),
+                period_s=self.bus.period_s,
+            )
+            contact = self.collision.first_contact(timed.q, target=target)
+        if contact is None:
+            return timed
+        chain = self.chain
+        raise CollisionError(
+            f"{route.step} {route.object_id}: not sent: followed command by command, even "
+            f"at {slowest:g} of the servos' speeds, " + contact.describe(chain.names, chain.scale)
+        )
 
     def joint_path(self, q_to: npt.ArrayLike) -> np.ndarray:
         """A straight line in joint space from the last confirmed pose to ``q_to``, (k, n).

@@ -232,13 +232,13 @@ class PickAndPlace(TableTracking):
         # planned from where the lift ends before the lift: an object whose place cannot
         # be planned is let go where the jaws closed, not dropped from the lift's height
         lifted = up.plan.q if up is not None and up.planned and up.plan is not None else None
-        self.planner.plan(place, ex.q_now() if lifted is None else lifted)
+        self.planner.plan_place(place, ex.q_now() if lifted is None else lifted)
         if place.planned and up is not None and lifted is not None:
             ex.stream(up, "travel", closed=True)
             if not np.array_equal(ex.q_now(), lifted):  # (the bus rounds: plan from there)
                 t1 = time.perf_counter()
                 place = Route(obj.id, obj.class_name, "place", 1, place.target)
-                self.planner.plan(place, ex.q_now())
+                self.planner.plan_place(place, ex.q_now())
         if not place.planned:
             pick.confirmed = False  # its grip is not checked: the object is let go
             self.reporter.route(pick)

@@ -220,6 +220,43 @@ class Planner:
         why = f"collision: {contact.describe(chain.names, chain.scale)}; {detour}"
         return _fail(route, IKFailure("collision", why))
 
+    def plan_place(self, route: Route, q_start: npt.ArrayLike) -> Route:
+        """:meth:`plan` a place, and its release: the jaws open clear where it ends.
+
+        Where they would open within the clearance of something (a bin whose walls grew
+        above the release height with its objects, the jaws opening between them), the
+        release is raised to where they open clear of every wall and object top, and the
+        object drops the rest; where that is not planned either, the route is refused
+        with ``collision``, naming what the jaws open into. Without a collision model, as
+        :meth:`plan`.
+        """
+        self.plan(route, q_start)
+        if self.collision is None or not route.planned:
+            return route
+        assert route.plan is not None
+        open_cm = self.config.arm.tool.gripper.open_cm
+        contact = self.collision.opening_contact(route.plan.q, open_cm)
+        if contact is None:
+            return route
+        x, y, z = (float(v) for v in route.target.position_cm)
+        high_z = self.collision.open_clear_height_cm(route.plan.q, open_cm) + DETOUR_MARGIN_CM
+        why = f"collision: the jaws open into it at the release: {self._describe(contact)}"
+        if high_z > z:
+            own = route.target
+            route.target, route.plan, route.detour_cm = (
+                IKTarget((x, y, high_z), own.approach), None, None
+            )  # fmt: skip
+            self.plan(route, q_start)
+            if route.planned and route.plan is not None:
+                raised = self.collision.opening_contact(route.plan.q, open_cm)
+                if raised is None:
+                    return route
+                why += f"; raised to {high_z:.1f} cm: {self._describe(raised)}"
+            else:
+                why += f"; raised to {high_z:.1f} cm: {route.failure}"
+            route.target, route.failure, route.failure_kind = own, None, None
+        return _fail(route, IKFailure("collision", why))
+
     def _solve(
         self, target: IKTarget, q_start: npt.ArrayLike
     ) -> tuple[IKResult | None, IKFailure | None]:

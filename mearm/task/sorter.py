@@ -50,7 +50,7 @@ from mearm.ik import IKTarget
 from mearm.kinematics import ArmModel
 from mearm.sim.table_collision import collision_model
 from mearm.task.claw_loop import claw_eye
-from mearm.task.execute import Executor, View
+from mearm.task.execute import CollisionError, Executor, View
 from mearm.task.pick_place import (  # noqa: F401  (re-exported)
     EpisodeRecorder,
     PickAndPlace,
@@ -91,14 +91,6 @@ from mearm.vision.frame_check import FrameCheck
 
 if TYPE_CHECKING:
     from mearm.runlog.writer import RunLog  # a log is written only when asked for
-
-
-class CollisionError(MearmError):
-    """A motion would bring the arm's body too close to something; nothing of it was sent.
-
-    Too close: within ``task.clearance_cm`` of a bin or an object, or touching the table
-    (:mod:`mearm.kinematics.collision`).
-    """
 
 
 class SortAborted(MearmError):
@@ -259,7 +251,7 @@ class Sorter(PickAndPlace):
         self.config = config
         self.collision = collision_model(config, self.model, clearance_cm=config.task.clearance_cm)
         self.planner = Planner(config, self.model, self.collision)
-        self.executor = Executor(config, self.bus, self.model, view)
+        self.executor = Executor(config, self.bus, self.model, view, collision=self.collision)
         self.calibration = camera_geometry(config.calibration, config.camera)
         self.detector = ColorDetector.from_config(
             config.vision, config.calibration, config.camera, config.task.classes,

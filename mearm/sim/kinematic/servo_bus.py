@@ -252,7 +252,8 @@ class SimArm(ServoBus):
                 :meth:`move`, so the arm's own :attr:`state` stays ``None`` there.
 
         Raises:
-            SimCollisionError: the move runs the arm into something.
+            SimCollisionError: the move runs the arm into something, or the jaws open
+                into something.
             InvalidJointsError: ``joints`` names a joint the arm does not have, or a passive
                 one off its coupling, or holds a value that is not a finite number.
         """
@@ -260,6 +261,8 @@ class SimArm(ServoBus):
         after = self._at_stops({**before, **joints})
         if after != before:
             self._check_move(before, after, last_state)
+        if self.gripper_closed and not gripper_closed:
+            self._check_opening(after, last_state)
         self.actual_joints = after
         self.actual_tool = {**self.actual_tool, **tool}
         if gripper_closed and not self.gripper_closed:
@@ -301,16 +304,47 @@ class SimArm(ServoBus):
             InvalidJointsError: ``after`` names a joint the arm does not have, or a passive
                 one off its coupling, or holds a value that is not a finite number.
         """
-        if self._collision is None:
-            self._collision = collision_model(
-                self.config, self.model, clearance_cm=0.0, bins=self.world.bins_cm
-            )
+        collision = self._world_now()
         chain = self.model.chain
         # a move starts where the last one ended: its joints as worked out then
         last = self._last_after
         start = last[1] if last is not None and last[0] == before else chain.from_named(before)
         end = chain.from_named(after)
-        path = np.array([start, end])
+        contact = collision.first_contact(np.array([start, end]))
+        if contact is not None:
+            raise SimCollisionError(
+                "sim: the arm ran into something: " + contact.describe(chain.names, chain.scale),
+                last_state=last_state,
+            )
+        self._last_after = (dict(after), end)
+
+    def _check_opening(self, joints: Mapping[str, float], last_state: ArmState | None) -> None:
+        """Fault if the jaws, opening at ``joints``, touch anything (what they held falls).
+
+        Raises:
+            SimCollisionError: they touch; the fault carries ``last_state``.
+        """
+        collision = self._world_now()
+        chain = self.model.chain
+        q = chain.from_named(joints)
+        contact = collision.opening_contact(q, self.config.arm.tool.gripper.open_cm)
+        if contact is not None:
+            raise SimCollisionError(
+                "sim: the jaws opened into something: "
+                + contact.describe(chain.names, chain.scale),
+                last_state=last_state,
+            )
+
+    def _world_now(self) -> CollisionModel:
+        """The collision model with the world as it is now.
+
+        The table's objects, the bins, the held object in the jaws at its diameter (else
+        the jaws as the gripper has them).
+        """
+        if self._collision is None:
+            self._collision = collision_model(
+                self.config, self.model, clearance_cm=0.0, bins=self.world.bins_cm
+            )
         held = self.world.held_object()
         g = self.config.arm.tool.gripper
         if held is not None:
@@ -327,13 +361,7 @@ class SimArm(ServoBus):
             opening_cm=opening,
             held=None if held is None else (held.id, held.color),
         )
-        contact = self._collision.first_contact(path)
-        if contact is not None:
-            raise SimCollisionError(
-                "sim: the arm ran into something: " + contact.describe(chain.names, chain.scale),
-                last_state=last_state,
-            )
-        self._last_after = (dict(after), end)
+        return self._collision
 
     def _send_move(self, command: ArmCommand, pulses_us: dict[int, int]) -> None:
         # A servo told to hold its value stays where it is: only a new joint command
