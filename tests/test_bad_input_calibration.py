@@ -98,6 +98,25 @@ def test_a_config_that_is_not_a_file_is_refused(target: str, words: str, tmp_pat
 
 
 @bad_input
+@pytest.mark.parametrize("output", [False, True])
+def test_a_config_whose_extends_names_no_file_is_named_itself(output: bool, tmp_path: Path) -> None:
+    """``extends:`` naming no file: the config itself is named, and the path it was looked
+    for from its own folder, with or without --output elsewhere (which was named until
+    2026-12-06, with its own folder's path, after the fit)."""
+    path = tmp_path / "rig.yaml"
+    path.write_text("extends: ../nowhere/base.yaml\n")
+    more = ["--output", tmp_path / "sub" / "out.yaml"] if output else []
+    out = check_bad_input(
+        ["calibrate-camera", "--config", path, *more, *points(*CORNERS)],
+        within_s=3, keep=[tmp_path],
+    )  # fmt: skip
+    assert out.line.startswith(f"mearm calibrate-camera: error: {path}: extends: ")
+    assert f"looked for {tmp_path / '../nowhere/base.yaml'}" in out.line
+    assert out.stdout == ""  # refused before any fitting
+    assert not (tmp_path / "sub").exists()
+
+
+@bad_input
 @pytest.mark.parametrize(
     ("output", "words"),
     [("{dir}/folder", "not a regular file"), ("{dir}/fifo", "not a regular file"),

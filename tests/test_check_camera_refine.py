@@ -168,3 +168,26 @@ def test_another_refined_pose_is_weighed_by_its_rms(tmp_path: Path) -> None:
     assert _pose(out).rms_px == 2.6
     assert (tmp_path / "refined.yaml.bak").read_bytes() == before
     assert pose.read_bytes() == (CALIB / "twin_pose.yaml").read_bytes()
+
+
+@pytest.mark.bad_input
+@pytest.mark.parametrize("held", ["notes", "intrinsics"])
+def test_an_out_no_refined_pose_may_replace_is_refused_before_the_arm_moves(
+    tmp_path: Path, held: str
+) -> None:
+    """OUT holds a user's notes, or the camera's intrinsics: writing the refined pose would
+    be refused, so the check is, before any point (until 2026-12-06 the arm ran the whole
+    check first, then the write was refused)."""
+    argv, _ = _rig(tmp_path)
+    out_file = tmp_path / "out.yaml"
+    if held == "notes":
+        out_file.write_text("my notes\n")
+    else:
+        shutil.copy(tmp_path / "twin_intrinsics.yaml", out_file)
+    before = out_file.read_bytes()
+    out = check_bad_input(["check-camera", *argv, "--points", "2", "--refine", out_file],
+                          keep=[tmp_path])  # fmt: skip
+    what = "is not a readable camera calibration" if held == "notes" else "holds the intrinsics"
+    assert what in out.line and "write elsewhere" in out.line
+    assert out.stdout == ""  # nothing checked: the arm did not move
+    assert out_file.read_bytes() == before

@@ -130,6 +130,9 @@ def test_a_better_calibration_is_never_replaced_by_a_worse_one(tmp_path) -> None
     assert (tmp_path / "cam.yaml.bak").read_bytes() == good
     save_calibration(path, _intrinsics(0.9), force=True)
     assert load_calibration(path).rms_px == 0.9
+    kept = (tmp_path / "cam.yaml.bak").read_bytes()
+    save_calibration(path, _intrinsics(0.9))  # the same again: the older .bak stays
+    assert (tmp_path / "cam.yaml.bak").read_bytes() == kept
     junk = tmp_path / "notes.yaml"
     junk.write_text("my notes\n")
     with pytest.raises(CalibrationError, match="not a readable camera calibration"):

@@ -79,7 +79,7 @@ from mearm.cli import (
 )
 from mearm.config import config_from_dict, load_config
 from mearm.config.base import MAX_LENGTH_CM, short_repr
-from mearm.config.compose import EXTENDS_KEY, FILE_KEYS
+from mearm.config.compose import EXTENDS_KEY, FILE_KEYS, expand_config
 from mearm.config.errors import CalibrationError
 from mearm.data import packaged_config
 from mearm.errors import ConfigError, InputFileError, MearmError
@@ -92,6 +92,7 @@ from mearm.vision.aruco import (
     table_corners_cm,
 )
 from mearm.vision.calibration import Calibration
+from mearm.vision.calibration_file import backs_up
 from mearm.vision.image import read_image
 from mearm.vision.pinhole import (
     Extrinsics,
@@ -766,6 +767,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     data = load_yaml_text(text, source=str(args.config))  # refused before any fitting
     if not isinstance(data, dict):
         raise ConfigError(str(args.config), ["top level must be a mapping"])
+    expand_config(data, source=str(args.config), path=args.config)  # its extends, arm.use
 
     calibration, n_pairs, how = _fit_homography(parser, args)
     rms, worst = calibration.reprojection_error_cm, calibration.max_error_cm
@@ -848,7 +850,8 @@ def _pose(parser: ArgumentParser, args: argparse.Namespace) -> int:
             config_text = read_text_file(args.config, what="config file")
         except InputFileError as exc:
             raise ConfigError(exc.path, [exc.reason]) from None
-        load_yaml_text(config_text, source=str(args.config))  # refused before any fitting
+        data = load_yaml_text(config_text, source=str(args.config))  # refused before any fitting
+        expand_config(data, source=str(args.config), path=args.config)  # its extends, arm.use
     frame = read_image(args.image)
     raised = None
     if args.raised_image is not None:
@@ -882,7 +885,7 @@ def _pose(parser: ArgumentParser, args: argparse.Namespace) -> int:
         new_config = point_config_at_files(
             config_text, args.intrinsics, args.out, args.output or args.config, str(args.config)
         )
-    replaces = args.out.is_file()  # save_calibration keeps a file it replaces as .bak
+    replaces = backs_up(args.out, pose)  # kept as .bak by save_calibration
     save_calibration(args.out, pose, force=args.force)
     if replaces:
         print(backup_written(args.out))

@@ -46,6 +46,7 @@ from mearm.config import CameraConfig
 from mearm.config.errors import CalibrationError
 from mearm.config.sections import MAX_DEVICE_INDEX
 from mearm.errors import MearmError
+from mearm.vision.calibration_file import backs_up
 from mearm.vision.camera import DeviceCamera
 from mearm.vision.charuco import (
     DEFAULT_BOARD,
@@ -222,7 +223,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.dry_run:
         print(f"dry run: {args.out} not written")
         return 0
-    replaces = args.out.is_file()  # save_calibration keeps a file it replaces as .bak
+    replaces = backs_up(args.out, report.intrinsics)  # kept as .bak by save_calibration
     try:
         save_calibration(args.out, report.intrinsics, force=args.force)
     except OSError as exc:

@@ -73,6 +73,7 @@ from mearm.task.armcheck import (
 )
 from mearm.task.sorter import StartCalibrationFailed
 from mearm.vision.calibration import camera_geometry
+from mearm.vision.calibration_file import backs_up
 from mearm.vision.errors import CameraError
 from mearm.vision.pinhole import Extrinsics, PerspectiveCamera, load_calibration, save_calibration
 
@@ -168,6 +169,34 @@ def _marker_fit(pose: Extrinsics | None) -> bool:
     return pose is not None and not pose.refined_by_arm
 
 
+def _refinable(out: Path, checked: Extrinsics) -> None:
+    """Refuse an existing OUT that no refined pose of ``checked``'s camera may replace.
+
+    Not a readable calibration (a config, notes), or another camera's, kind or frame
+    size: refused before the arm moves, as writing it would be (not after the check).
+
+    Raises:
+        CalibrationError: which, and what to do.
+    """
+    try:
+        held = load_calibration(out)
+    except CalibrationError as exc:
+        raise CalibrationError(
+            f"--refine {out}: exists and is not a readable camera calibration "
+            f"({exc.reason}): write elsewhere, or pass --force to replace it"
+        ) from None
+    if (held.kind, held.camera_id, held.size_px) != (
+        checked.kind, checked.camera_id, checked.size_px
+    ):  # fmt: skip
+        w, h = held.size_px
+        raise CalibrationError(
+            f"--refine {out}: holds the {held.kind} of camera {held.camera_id!r} at {w}x{h} "
+            f"px, not a pose of {checked.camera_id!r} at "
+            f"{checked.size_px[0]}x{checked.size_px[1]} px: write elsewhere, or pass --force "
+            "to replace it"
+        )
+
+
 def check_refine_output(out: Path, checked: Extrinsics, *, force: bool) -> Path | None:
     """Refuse an OUT whose pose a refine cannot weigh, or whose write would lose a marker fit.
 
@@ -181,6 +210,8 @@ def check_refine_output(out: Path, checked: Extrinsics, *, force: bool) -> Path 
     Raises:
         CalibrationError: either, and what to do.
     """
+    if not force and out.exists():
+        _refinable(out, checked)
     old = _pose_in(out)
     if not force and old is not None and not old.refined_by_arm and not _same_pose(old, checked):
         raise CalibrationError(
@@ -239,7 +270,7 @@ def write_refined(out: Path, check: ArmCheck, checked: Extrinsics, *, force: boo
         except OSError as exc:
             raise MearmError(f"cannot write {keep_as}: {exc.strerror or exc}") from None
         print(f"wrote {keep_as} (the marker-fitted pose {backup} held)")
-    replaces = out.is_file()  # save_calibration keeps a file it replaces as out.bak
+    replaces = backs_up(out, refined)  # kept as out.bak by save_calibration
     try:
         # the pose checked is weighed above; any other by the file's own rule
         save_calibration(out, refined, force=force or holds_checked)

@@ -330,7 +330,9 @@ def save_calibration(path: str | Path, cal: CalibrationFile, *, force: bool = Fa
 
     Without ``force`` an existing file is replaced only when it holds a calibration of
     the same kind, camera and frame size whose ``rms_px`` is no lower than the new
-    one's. A replaced file is kept as ``<path>.bak``. The write is atomic.
+    one's. A replaced file is kept as ``<path>.bak`` (:func:`backs_up`): not one that
+    already holds these bytes, whose backup would only replace an older ``.bak`` that
+    still differs. The write is atomic.
 
     Returns:
         The path written.
@@ -340,13 +342,22 @@ def save_calibration(path: str | Path, cal: CalibrationFile, *, force: bool = Fa
             resolution, or not a calibration file, and ``force`` is not set.
     """
     target = Path(path)
+    text = calibration_text(cal)
     if target.exists():
-        old_text = target.read_bytes() if target.is_file() else None
         if not force:
             _check_replace(target, cal)
-        if old_text is not None:
-            write_atomic(backup_path(target), old_text)
-    return write_atomic(target, calibration_text(cal))
+        if backs_up(target, cal):
+            write_atomic(backup_path(target), target.read_bytes())
+    return write_atomic(target, text)
+
+
+def backs_up(path: str | Path, cal: CalibrationFile) -> bool:
+    """Whether :func:`save_calibration` of ``cal`` keeps ``path`` as ``<path>.bak`` first.
+
+    A regular file there that writing ``cal`` changes; the same bytes again lose nothing.
+    """
+    target = Path(path)
+    return target.is_file() and target.read_bytes() != calibration_text(cal).encode("utf-8")
 
 
 def _raised(cal: CalibrationFile) -> bool:
