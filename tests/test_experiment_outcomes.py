@@ -67,6 +67,21 @@ def test_objects_left_exit_1_and_the_totals_say_why(tmp_path):
     assert log.read_bytes() == before
 
 
+def test_a_log_that_holds_more_trials_says_so(tmp_path):
+    """--trials 1 over a log of 2: the totals are the first's, and the line says the log
+    holds more (its docs said every trial in the log was totalled)."""
+    log = tmp_path / "trials.jsonl"
+    one = scene(tmp_path, ONE)
+    assert experiment("--trials", 2, "--scene", one, "--log", log).code == 0
+    r = experiment("--trials", 1, "--scene", one, "--log", log)
+    assert r.code == 0, r.stderr
+    assert r.stdout.splitlines() == [
+        f"{log} already holds 2 complete trials (--trials 1): nothing to run; the totals "
+        "are of the first 1 (mearm analyze reads them all)",
+        "sorted 1 of 1 objects over 1 trial",
+    ]
+
+
 def test_a_clean_experiment_exits_0(tmp_path):
     r = experiment("--trials", 1, "--scene", scene(tmp_path, ONE), "--log", tmp_path / "t.jsonl")
     assert r.code == 0 and not r.stderr.strip(), r.stderr

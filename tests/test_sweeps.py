@@ -304,3 +304,23 @@ def test_ctrl_c_stops_a_run_whose_trials_are_all_done_when_reached(tmp_path):
     assert stopped.value.interrupted
     written = log.read_bytes().splitlines()
     assert 2 <= len(written) < 30 and written[0] == b'{"trial":0}'
+
+
+def test_twin_scenes_below_require_says_why_last(monkeypatch, capsys) -> None:
+    """Under ``--require`` the exit is 1 and the last line says so (until 2026-12-06 the
+    command ended on its counts alone, as when it met the share); at or above it, 0."""
+    from mearm.tools import twin_scenes as ts
+
+    def swept(config, objects, seeds, jobs):  # 12 seen, 11 sorted and in their bins
+        return [(12, 12, 11, 11, {"pick_failed": 1}, None, []) for _ in seeds]
+
+    monkeypatch.setattr(ts, "sweep", swept)
+    argv = ["--config", "sim_mujoco", "--scenes", "1", "--objects", "12", "--jobs", "1"]
+    assert ts.main([*argv, "--require", "0.99"]) == 1
+    out, err = capsys.readouterr()
+    assert "sorted 11 of 12 objects (91.6 %)" in out
+    assert err.splitlines()[-1] == (
+        "mearm twin-scenes: sorted 91.6 % is below --require 0.99 (99.0 %)"
+    )
+    assert ts.main([*argv, "--require", "0.9"]) == 0
+    assert capsys.readouterr().err == ""

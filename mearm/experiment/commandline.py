@@ -265,9 +265,14 @@ def _resume(
     """Where the log leaves off, the workers, then the run (:func:`main`'s second half)."""
     resume = resume_point(args.log, config, args.seed, scene)
     if resume.done >= args.trials:
+        more = (
+            f"; the totals are of the first {args.trials} (mearm analyze reads them all)"
+            if resume.done > args.trials
+            else ""
+        )
         print(
             f"{args.log} already holds {counted(resume.done, 'complete trial')} "
-            f"(--trials {args.trials}): nothing to run"
+            f"(--trials {args.trials}): nothing to run{more}"
         )
         return _verdict(args.log, args.trials)
     # before any trial is written: a rig that does not open raises RigNotOpened, bad input

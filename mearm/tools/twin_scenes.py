@@ -30,6 +30,7 @@ from __future__ import annotations
 import math
 import os
 import signal
+import sys
 import time
 from collections import Counter
 from collections.abc import Iterator, Sequence
@@ -284,7 +285,14 @@ def _twin_scenes(argv: Sequence[str] | None) -> int:
     )
     for reason, n in left.most_common():
         print(f"  left: {n} {LEFT_REASONS.get(reason, reason)}")
-    return 0 if share >= args.require else 1
+    if share >= args.require:
+        return 0
+    print(  # the run's job was the share asked for: said last, as eval-policy says it
+        f"mearm twin-scenes: sorted {_percent(share)} % is below --require "
+        f"{args.require:g} ({_percent(args.require)} %)",
+        file=sys.stderr,
+    )
+    return 1
 
 
 if __name__ == "__main__":
