@@ -152,12 +152,29 @@ def test_check_says_the_least_fps_there_is(dataset: Path, tmp_path: Path, fps: o
     assert problems == [f"info: fps is {fps!r}: a whole number ≥ 1 is needed"], problems
 
 
-def test_a_dataset_without_tags_or_scenes_stays_readable(dataset: Path, tmp_path: Path) -> None:
-    """No tags file (another tool's), or entries of two (mearm before scenes): it passes,
-    and a resume keeps the old entries and adds its episodes' scenes."""
+@pytest.mark.bad_input
+def test_a_mearm_dataset_that_lost_its_tags_file_is_damaged(dataset: Path, tmp_path: Path) -> None:
+    """``mearm_episodes.json`` deleted, ``mearm_starts.json`` there (mearm keeps both): the
+    check fails it and a resume refuses it. Until 2026-12-06 it read as another tool's
+    dataset, untagged, and an experiment's --resume recorded the picks it held again."""
     copy = tmp_path / "dsx"
     shutil.copytree(dataset, copy)
     (copy / "meta/mearm_episodes.json").unlink()
+    problems = check_dataset(copy, videos=False)
+    assert len(problems) == 1, problems
+    assert problems[0].startswith("mearm: meta/mearm_episodes.json: missing, though ")
+    argv = ["sort", "--config", SIM, "--random", "1", "--record", copy, "--resume"]
+    out = check_bad_input(argv, keep=[copy], within_s=10.0)
+    assert f"{copy / 'meta/mearm_episodes.json'}: missing" in out.line, out.line
+
+
+def test_a_dataset_without_tags_or_scenes_stays_readable(dataset: Path, tmp_path: Path) -> None:
+    """No tags file nor starts (another tool's), or entries of two (mearm before scenes):
+    it passes, and a resume keeps the old entries and adds its episodes' scenes."""
+    copy = tmp_path / "dsx"
+    shutil.copytree(dataset, copy)
+    (copy / "meta/mearm_episodes.json").unlink()
+    (copy / "meta/mearm_starts.json").unlink()
     assert check_dataset(copy, videos=False) == []
     assert read_tags(copy, 2) == ([(None, None)] * 2, [None] * 2)
     scene = RecordedScene(seed=7, objects=2, config="sim_mujoco", overrides=("a.b=1",))

@@ -61,7 +61,8 @@ RULES: dict[str, str] = {
     "span [from_timestamp, to_timestamp) holds exactly its frames, at its timestamps",
     "stats": f"{L.STATS_PATH} has min, max, mean, std, count and the quantiles for every "
     "feature, shaped as the feature ((3, 1, 1) for a camera), count = total_frames",
-    "mearm": f'{L.TAGS_PATH} (mearm\'s own), if there, is JSON {{"episodes": [...]}} '
+    "mearm": f"{L.TAGS_PATH} (mearm's own), if there (and it must be, beside "
+    f'{L.STARTS_PATH}: mearm keeps both), is JSON {{"episodes": [...]}} '
     "with one entry per episode: [trial seed, pick], each null or a whole number, and "
     f"optionally the scene a replay rebuilds; {L.STARTS_PATH}, if there, too: each "
     "episode's start (not known, optionally with why in a sentence, the reset's, or after "

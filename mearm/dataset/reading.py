@@ -265,14 +265,25 @@ def _table(value: Any) -> list[SceneObject] | None:
 def read_tags(root: Path, episodes: int) -> tuple[list[Tag], list[RecordedScene | None]]:
     """``meta/mearm_episodes.json``: each episode's tag and recorded scene, in order.
 
-    Without the file every episode is untagged, with no scene.
+    Without the file every episode is untagged, with no scene: a dataset other tools
+    recorded. One mearm recorded keeps it beside ``meta/mearm_starts.json`` (which a
+    mearm before 2026-11-30 did not keep): with that there and episodes, it is damaged
+    without it (an experiment's ``--resume`` would record its picks again).
 
     Raises:
-        DatasetError: it is not JSON, not ``{"episodes": [...]}`` of entries
-            ``[seed, pick]`` or ``[seed, pick, scene]``, or not one entry per episode.
+        DatasetError: it is missing where mearm keeps it; it is not JSON, not
+            ``{"episodes": [...]}`` of entries ``[seed, pick]`` or
+            ``[seed, pick, scene]``, or not one entry per episode.
     """
     rel = L.TAGS_PATH
     if not (root / rel).exists():
+        if episodes and (root / L.STARTS_PATH).exists():
+            raise damaged(
+                root,
+                rel,
+                f"missing, though {L.STARTS_PATH} is there: mearm keeps both, and without "
+                "it which picks the episodes hold is lost",
+            )
         return [(None, None)] * episodes, [None] * episodes
     data = read_json(root, rel)
     entries = data.get("episodes") if isinstance(data, dict) else None
