@@ -104,9 +104,10 @@ def test_sort_keeps_an_old_mjcf_when_it_refuses_the_run(
 
 @bad_input
 def test_check_camera_says_why_it_did_not_run_on_stderr(tmp_path: Path) -> None:
-    """No object to check with: exit 1, the reason as one line on stderr; --refine's file kept."""
+    """No object to check with: exit 1, the reason as one line on stderr; --refine's file
+    not written. (One that is there and no pose is refused first, exit 2: before the arm
+    moves, ``tests/test_check_camera_refine.py``.)"""
     pose = tmp_path / "pose.yaml"
-    pose.write_text("keep me\n")
     argv = ["check-camera", "--config", "sim_mujoco_perspective", "--set", "task.scene=[]",
             "--refine", pose]  # fmt: skip
     out = check_bad_input(argv, code=1, within_s=10, keep=[tmp_path])
@@ -114,6 +115,7 @@ def test_check_camera_says_why_it_did_not_run_on_stderr(tmp_path: Path) -> None:
         "mearm check-camera: check not run: no object seen on the table: put one in the "
         "camera's view"
     )
+    assert not pose.exists()
 
 
 def test_sort_writes_the_mjcf_of_an_accepted_run(tmp_path: Path) -> None:
