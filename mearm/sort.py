@@ -400,7 +400,9 @@ def _sort(argv: Sequence[str] | None) -> int:
         log = None
     if log is not None:
         print(f"run log: {args.log}", flush=True)
-    calibration = None if args.quiet else calibration_note(config, _config_args(args))
+    calibration = calibration_note(config, _config_args(args))
+    if args.quiet and calibration is not None and not calibration.startswith("warning:"):
+        calibration = None  # a note; a warning is said also with --quiet
     # the config's notes (servos never calibrated, with the command that calibrates them;
     # a camera's view partly out of the arm's reach) said once the rig is open, before the
     # arm moves: a camera that is not there ends the sort before it starts (logged, exit 2)
@@ -409,7 +411,7 @@ def _sort(argv: Sequence[str] | None) -> int:
     # an arm whose lengths look like mm or angles like radians is valid but not the arm
     # that was built: said also with --quiet, as the work area's warning is
     warnings = [f"warning: {w}" for w in consistency.warnings]
-    notes = [*warnings, *([] if args.quiet else [*filter(None, [calibration]), *consistency.notes])]
+    notes = [*warnings, *filter(None, [calibration]), *([] if args.quiet else consistency.notes)]
     report: SortReport | None = None
     aborted: SortAborted | None = None  # why the sort stopped, said on stderr
     outcome = _Outcome(recorder, args, held, lines, config)

@@ -97,6 +97,19 @@ def test_a_file_that_records_nothing_replaced_is_taken_as_the_rig_s_with_a_warni
     assert f"{path} records no replaced calibration" in caplog.text
 
 
+def test_the_sort_says_so_without_debug(tmp_path: Path) -> None:
+    """The warning is a log record, seen with --debug only; the sort's start-up line
+    says it too (until 2026-12-06 the docs' "with a warning" showed nowhere else)."""
+    from mearm.task.check import calibration_note
+
+    path = _fitted(tmp_path, replaces=False)
+    note = calibration_note(_config(path), ["--config", "rig.yaml"])
+    assert note is not None
+    assert note.startswith(f"warning: {path} records no calibration it replaced")
+    assert "mearm calibrate-servos again" in note
+    assert calibration_note(_config(_fitted(tmp_path)), []) is None  # with replaces
+
+
 @pytest.mark.heavy
 def test_a_fitted_file_moves_the_arm_by_the_rig_s_servos(
     tmp_path: Path,

@@ -223,7 +223,15 @@ def calibration_note(config: Config, config_args: Sequence[str]) -> str | None:
         )
 
         path = config.servo.calibration_file
-        board = load_servo_calibration(path).board_id
+        cal = load_servo_calibration(path)
+        board = cal.board_id
+        if config.servo.backend == "virtual_uno" and all(a.replaces is None for a in cal.actuators):
+            return (  # (own_servos.own_arm's choice, said where a user reads it)
+                f"warning: {path} records no calibration it replaced (it was written before "
+                "`replaces` was): the virtual Uno's servos turn by the calibration it gives, "
+                "so a run can find no error in it; run mearm calibrate-servos again to write "
+                "one that records it"
+            )
         if config.servo.backend in ("serial", "ssc32") and board.startswith("simulated"):
             return (
                 f"note: {path} was calibrated on a simulated board ({board}), not on these "
