@@ -59,3 +59,19 @@ def test_a_build_that_lost_a_file_is_built_again(tmp_path: Path):
     assert again == built
     assert again.simulator.read_text() == "sim\n"
     assert [p.name for p in cache.iterdir()] == [built.firmware.parent.name]  # no leftovers
+
+
+def test_a_build_cut_short_is_built_again(tmp_path: Path):
+    """The ELF cut short (a full disk, a hand): the AVR stopped before its banner, which
+    read as a real board's fault with a real board's advice, until 2026-12-06. The build
+    records its files' digests; one that differs is built again and replaced."""
+    source = stand_in_source(tmp_path / "src")
+    cache = tmp_path / "cache"
+    built = build_virtual_uno(cache_dir=cache, source=source)
+    assert built.whole and built.digests.is_file()
+    built.firmware.write_text("el")
+    assert not built.whole
+    again = build_virtual_uno(cache_dir=cache, source=source)
+    assert again == built and again.whole
+    assert again.firmware.read_text() == "elf\n"
+    assert [p.name for p in cache.iterdir()] == [built.firmware.parent.name]  # no leftovers

@@ -49,6 +49,10 @@ def cache_root() -> Path:
     return cache_dir("virtual_uno")
 
 
+#: The file a build folder records its firmware's and harness's digests in.
+DIGESTS = "SHA256SUMS"
+
+
 @dataclass(frozen=True)
 class VirtualUnoBuild:
     """A built virtual Uno.
@@ -67,9 +71,36 @@ class VirtualUnoBuild:
         return cls(folder / f"{SKETCH}.elf", folder / "mearm_sim")
 
     @property
+    def digests(self) -> Path:
+        """Where the build records its two files' digests (:meth:`record`)."""
+        return self.firmware.parent / DIGESTS
+
+    @property
     def whole(self) -> bool:
-        """Both files are there."""
-        return self.firmware.is_file() and self.simulator.is_file()
+        """Both files are there, as the build left them (their digests are the recorded).
+
+        A file cut short or changed since (a full disk, a hand) is not: the AVR would
+        stop before its banner, which reads as a real board's fault.
+        """
+        try:
+            return self.digests.read_text(encoding="utf-8") == self._digest_text()
+        except (OSError, UnicodeDecodeError):
+            return False
+
+    def record(self) -> None:
+        """Record the two files' digests (once they are built).
+
+        Raises:
+            OSError: the record cannot be written.
+        """
+        self.digests.write_text(self._digest_text(), encoding="utf-8")
+
+    def _digest_text(self) -> str:
+        lines = [
+            f"{hashlib.sha256(path.read_bytes()).hexdigest()}  {path.name}\n"
+            for path in (self.firmware, self.simulator)
+        ]
+        return "".join(lines)
 
 
 def build_virtual_uno(
@@ -80,7 +111,8 @@ def build_virtual_uno(
     Each combination of sources and ``defines`` is built once, into its own folder named
     by their hash under ``cache_dir``; a build goes to a temporary folder first and is
     renamed into place, so an interrupted or concurrent build leaves no half of one. A
-    folder that lost a file since (a cache cleaner, a hand) is built again and replaced.
+    folder that lost a file since, or holds one changed or cut short (a cache cleaner, a
+    full disk, a hand: their digests are recorded), is built again and replaced.
 
     Args:
         defines: Compile-time options of a firmware variant, ``NAME`` or ``NAME=VALUE``
@@ -151,6 +183,14 @@ def _make_into(source: Path, defines: Sequence[str], folder: Path) -> None:
                 f"building the firmware and its simulator failed ({' '.join(command)}, exit "
                 f"{result.returncode}): {lines[-1]}"
             )
+        fresh = VirtualUnoBuild.in_folder(work)
+        try:
+            fresh.record()
+        except OSError as exc:
+            raise VirtualUnoError(
+                f"cannot build into {folder.parent}: {exc.strerror or exc}; set XDG_CACHE_HOME "
+                "to a folder you can write"
+            ) from None
         try:
             os.replace(work, folder)
         except OSError:  # the folder is there: another process's build (keep it), or a damaged one
