@@ -374,6 +374,23 @@ def test_objects_up_to_what_the_bins_hold_reset_and_one_more_is_refused_at_make(
             gym.make("mearm/Sort-v0", config="sim_mujoco", objects=n, obs_type="state")
 
 
+@pytest.mark.parametrize("name", ["sim_mearm_v1_mujoco", "sim_mearm_v1_mujoco_kits"])
+def test_the_default_objects_are_what_smaller_bins_hold(name: str) -> None:
+    """The MeArm v1's bins hold 6: Sort-v0 with no `objects` makes 6 (it refused its own
+    default of 12 on these configs until 2026-12-06); 12 asked for is still refused."""
+    from mearm.envs import TwinEnv
+
+    most = max_objects(load_config(name))
+    assert most < 12
+    env = TwinEnv(config=name, task="sort", obs_type="state")
+    try:
+        assert env.objects == most
+    finally:
+        env.close()
+    with pytest.raises(EnvOptionError, match=rf"objects must be at least 1 and at most {most}"):
+        gym.make("mearm/Sort-v0", config=name, objects=12, obs_type="state")
+
+
 @pytest.mark.parametrize(
     ("options", "words"),
     [

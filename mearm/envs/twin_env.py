@@ -70,7 +70,7 @@ ObsType = Literal["pixels_agent_pos", "state"]
 IMAGE_SIZE = (96, 128)
 #: The size of :meth:`TwinEnv.render`'s frames (videos), (H, W) [px].
 RENDER_SIZE = (240, 320)
-#: Objects of a sort's scene unless ``objects`` says otherwise.
+#: Objects of a sort's scene unless ``objects`` says otherwise (fewer where the bins hold fewer).
 SORT_OBJECTS = 12
 
 _TABLE = TypeAdapter(list[SceneObject])
@@ -184,8 +184,10 @@ def _objects(config: Config, task: str, objects: object) -> int:
             "the bins of this config hold no object: their walls reach where the arm "
             "releases one (raise bin_cm z, task.classes)"
         )
+    if objects is None:  # the default: as many as its bins hold, up to SORT_OBJECTS
+        return min(n, most)
     if not 1 <= n <= most:
-        given = "objects" if objects is not None else f"objects (default {n})"
+        given = "objects"
         raise EnvOptionError(
             f"{given} must be at least 1 and at most {most}, got {n}: {most} is what the "
             f"bins of this config hold, the objects dealt to its {len(config.task.classes)} "
@@ -295,8 +297,9 @@ class TwinEnv(gym.Env[dict[str, Any], np.ndarray]):
             ``mujoco``.
         task: ``pick_place`` (one object of a class the seed draws, to its bin) or
             ``sort`` (``objects`` objects, each to its class's bin).
-        objects: Objects of a sort's scene (default :data:`SORT_OBJECTS`): a whole number
-            from 1 to what the config's bins hold (:func:`max_objects`).
+        objects: Objects of a sort's scene (default :data:`SORT_OBJECTS`, or what the
+            config's bins hold where that is fewer): a whole number from 1 to what they
+            hold (:func:`max_objects`).
         scene: A sort's fixed table, laid every episode instead of one drawn from the
             seed: a list of :class:`~mearm.config.SceneObject` or ``{color, x, y}``
             dicts [cm] (``yaw_deg`` optional), as a ``--scene`` file holds them; its
