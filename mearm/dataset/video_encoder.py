@@ -37,6 +37,7 @@ import multiprocessing
 import os
 import secrets
 import signal
+import sys
 import threading
 from multiprocessing.shared_memory import SharedMemory
 from pathlib import Path
@@ -204,6 +205,7 @@ class EncoderProcess:
             made.pop_all()
         self._free = list(range(SLOTS))
         self._done: dict[int, tuple[str | None, np.ndarray | None]] = {}
+        self._heard = False  # a message came from the encoder (it started)
 
     def scene(self, source: Any) -> bool:
         """Draw the frames sent with :meth:`draw` from ``source`` from now on; whether it can.
@@ -313,6 +315,7 @@ class EncoderProcess:
             ready = self._conn.poll(timeout)
             while ready:
                 msg = self._conn.recv()
+                self._heard = True
                 if msg[0] == "free":
                     self._free.append(msg[1])
                 else:
@@ -324,7 +327,27 @@ class EncoderProcess:
             self._died()
 
     def _died(self) -> None:
-        raise EncoderError(f"the video encoder process stopped (exit code {self._proc.exitcode})")
+        why = f"the video encoder process stopped (exit code {self._proc.exitcode})"
+        raise EncoderError(why + _script_hint(heard=self._heard))
+
+
+def _script_hint(*, heard: bool) -> str:
+    """Why a spawned encoder that never answered may have died: a script without a guard.
+
+    A spawned process imports the ``__main__`` script first; one that records at its top
+    level, not under ``if __name__ == "__main__":``, stops the child with Python's
+    "bootstrapping phase" error. Said only for a script outside mearm (its commands are
+    guarded) and an encoder that never answered.
+    """
+    main = sys.modules.get("__main__")
+    path = getattr(main, "__file__", None)
+    if heard or path is None or Path(path).resolve().is_relative_to(Path(__file__).parents[1]):
+        return ""
+    return (
+        f"; if {Path(path).name} is your own script, put what it runs under "
+        '`if __name__ == "__main__":` (the encoder is a process of its own, which imports '
+        "the script first)"
+    )
 
 
 @contextlib.contextmanager
