@@ -48,7 +48,8 @@ def test_a_checkouts_config_path_from_another_folder_names_the_shipped_config(
     line = one_stderr_line(done, 2)
     assert line.endswith(
         f"configs/sim_shapes_mujoco.yaml: config file not found from {tmp_path}; the config "
-        "of that name that mearm ships is --config sim_shapes_mujoco"
+        "of that name that mearm ships is --config sim_shapes_mujoco (in Python, "
+        "load_config('sim_shapes_mujoco'))"
     ), line
     unknown = mearm_here("sort", "--config", "configs/nosuch.yaml", cwd=tmp_path)
     assert one_stderr_line(unknown, 2).endswith("configs/nosuch.yaml: config file not found")

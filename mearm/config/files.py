@@ -102,7 +102,7 @@ def _refuse_a_shipped_path_elsewhere(given: Path, text: str) -> None:
             text,  # a shipped config's name under configs/: nothing to quote
             [
                 f"config file not found from {Path.cwd()}; the config of that name that "
-                f"mearm ships is --config {name}"
+                f"mearm ships is --config {name} (in Python, load_config({name!r}))"
             ],
         )
 
