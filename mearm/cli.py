@@ -494,6 +494,28 @@ def _check_writable_folder(path: Path, flag: str) -> None:
         ) from None
 
 
+def extra_missing(module: str, extra: str) -> ModuleNotFoundError:
+    """``module`` (an extra's) is not installed: the error to raise, or exit 2 for a command.
+
+    Called where a package would import ``module`` at its top: before :func:`run` can say
+    so, the import's traceback was all a ``python -m mearm.…`` user saw. When the program
+    running is one of mearm's modules (``python -m mearm.envs.replay``: ``sys.argv[0]`` is
+    ``-m`` while it is located; ``python -m mearm.learn.bc``: its ``__main__``), one line on
+    stderr and exit 2; in a script of one's own, the returned error names the extra.
+
+    Raises:
+        SystemExit: 2, once ``COMMAND: error: … pip install 'mearm[EXTRA]'`` is on stderr.
+    """
+    why = f"needs {module}, which is not installed: pip install 'mearm[{extra}]'"
+    main = getattr(sys.modules.get("__main__"), "__spec__", None)
+    argv = getattr(sys, "orig_argv", [])
+    if sys.argv[:1] == ["-m"] or (main is not None and main.name.startswith("mearm.")):
+        named = argv[argv.index("-m") + 1] if "-m" in argv[:-1] else "mearm"
+        print(f"python -m {named}: error: {named} {why}", file=sys.stderr)
+        raise SystemExit(EXIT_BAD_INPUT)
+    return ModuleNotFoundError(f"mearm {why}", name=module.lower())
+
+
 def invoked_as(module_command: str, subcommand: str | None = None) -> str:
     """A command's name as the user typed it, for its usage and error lines.
 

@@ -15,7 +15,14 @@ docs/learning.md the whole workflow.
 
 from __future__ import annotations
 
-import gymnasium as gym
+try:
+    import gymnasium as gym
+except ModuleNotFoundError as exc:  # the gym extra: a command's one line, else named
+    if exc.name != "gymnasium":
+        raise
+    from mearm.cli import extra_missing
+
+    raise extra_missing("Gymnasium", "gym") from None
 
 from mearm.envs.actions import ActionSpec
 from mearm.envs.errors import EnvOptionError, PolicyError
