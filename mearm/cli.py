@@ -15,6 +15,7 @@ import os
 import re
 import sys
 import traceback
+import warnings
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, NoReturn, Protocol, TextIO, TypeVar, cast
@@ -731,6 +732,8 @@ def _debug_mode(args: Sequence[str], prog: str) -> bool:
     debug = "--debug" in args or os.environ.get("MEARM_DEBUG", "") not in ("", "0")
     if debug:  # the library's log (a retried frame, a dropped line, a twin's fault)
         _show_log(prog)
+    else:  # GLFW's complaints without a display: the twin's camera says what to set
+        warnings.filterwarnings("ignore", module=r"glfw(\.|$)")
     return debug
 
 
@@ -751,6 +754,45 @@ def _show_log(prog: str) -> None:
 
 class _DebugLog(logging.StreamHandler):
     """The handler ``--debug`` adds (:func:`_show_log`)."""
+
+
+def _unexpected(exc: Exception, prog: str, args: Sequence[str], *, debug: bool) -> int:
+    """Say an exception no command caught, and the exit status (:func:`run`)."""
+    if isinstance(exc, BrokenPipeError) and output_closed():
+        _silence_output()
+        return EXIT_OUTPUT_CLOSED
+    bad = _bad_environment(exc)
+    if bad is not None:
+        print(f"{prog}: error: {bad}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    if debug:
+        traceback.print_exc()
+        print(f"{prog}: unexpected error: {type(exc).__name__}", file=sys.stderr)
+    else:
+        where = _record_crash(prog, args)
+        print(
+            f"{prog}: unexpected error: {type(exc).__name__}: {_one_line(exc)} ({where})",
+            file=sys.stderr,
+        )
+    return EXIT_FAILURE
+
+
+def _bad_environment(exc: BaseException) -> str | None:
+    """The line for an error a library raises on a bad environment variable, or ``None``.
+
+    MuJoCo refuses an unknown ``MUJOCO_GL`` as it is first imported, with a plain
+    ``RuntimeError`` that names the value but not what it takes: bad input, not a crash.
+    """
+    text = str(exc)
+    if isinstance(exc, RuntimeError) and text.startswith(
+        "invalid value for environment variable MUJOCO_GL"
+    ):
+        value = os.environ.get("MUJOCO_GL", "")
+        return (
+            f"MUJOCO_GL={value!r} is not a value MuJoCo takes: egl or osmesa render without "
+            "a display, glfw (or glx) with one; unset it, or set MUJOCO_GL=egl"
+        )
+    return None
 
 
 def run(main: Callable[[Sequence[str] | None], int], argv: Sequence[str] | None = None) -> NoReturn:
@@ -807,19 +849,7 @@ def run(main: Callable[[Sequence[str] | None], int], argv: Sequence[str] | None 
         print(f"{prog}: error: cannot write standard output: {exc}", file=sys.stderr)
         code = EXIT_FAILURE
     except Exception as exc:
-        code = EXIT_FAILURE
-        if isinstance(exc, BrokenPipeError) and output_closed():
-            _silence_output()
-            code = EXIT_OUTPUT_CLOSED
-        elif debug:
-            traceback.print_exc()
-            print(f"{prog}: unexpected error: {type(exc).__name__}", file=sys.stderr)
-        else:
-            where = _record_crash(prog, args)
-            print(
-                f"{prog}: unexpected error: {type(exc).__name__}: {_one_line(exc)} ({where})",
-                file=sys.stderr,
-            )
+        code = _unexpected(exc, prog, args, debug=debug)
     finally:
         sys.stdout = stdout
         interrupts.answered()  # this run's Ctrl-Cs are done with, whatever became of them
