@@ -80,12 +80,12 @@ class DatasetWriteError(DatasetError):
 
 
 class ExtraMissingError(MearmError):
-    """pyarrow or PyAV, which recording needs, is not installed."""
+    """pyarrow or PyAV, which recording or reading a dataset needs, is not installed."""
 
     def __init__(self, module: str):
         self.module = module
         super().__init__(
-            f"recording a dataset needs {module}, which is not installed: "
+            f"recording or reading a dataset needs {module}, which is not installed: "
             "pip install 'mearm[record]'"
         )
 
