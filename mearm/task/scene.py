@@ -134,8 +134,13 @@ def check_scene(config: Config, scene: Sequence[SceneObject], source: str = "tas
     radius = {c.name: c.footprint_radius_cm for c in config.task.classes}
     problems: list[str] = []
     for i, obj in enumerate(scene):
-        r = radius[obj.color]
         what = f"{source}[{i}] ({obj.color} at x {obj.x:g}, y {obj.y:g} cm)"
+        if obj.color not in radius:
+            problems.append(
+                f"{what}: no class {obj.color!r}; classes: {', '.join(config.task.class_names)}"
+            )
+            continue
+        r = radius[obj.color]
         if math.hypot(obj.x, obj.y) < base_cm + r:
             problems.append(
                 f"{what}: not on the table: it stands on the arm's base plate "
@@ -347,8 +352,25 @@ def _near_bin(cls: ColorClass, x: float, y: float, clearance_cm: float) -> bool:
     return abs(x - cls.bin_cm[0]) <= half and abs(y - cls.bin_cm[1]) <= half
 
 
+def _whole(n: object) -> bool:
+    """Whether ``n`` is a whole number (an int or a NumPy integer, not a bool)."""
+    return isinstance(n, int | np.integer) and not isinstance(n, bool)
+
+
 def _class_order(config: Config, counts: dict[str, int] | int, seed: int) -> list[str]:
     """The class of each object to draw, in drawing order; SceneError on a bad count or seed."""
+    whole = _whole(counts)
+    if not (whole or (isinstance(counts, dict) and all(_whole(n) for n in counts.values()))):
+        raise SceneError(
+            "the number of objects must be a whole number, or one per class name "
+            f"({{'red': 2, …}}), got {short_repr(counts)}"
+        )
+    if not _whole(seed):
+        raise SceneError(
+            f"the seed must be a whole number in [0, {MAX_SEED}], got {short_repr(seed)}"
+        )
+    if whole:
+        counts = int(counts)  # type: ignore[arg-type]  # (a NumPy integer too)
     wanted = [counts] if isinstance(counts, int) else list(counts.values())
     if any(n < 0 for n in wanted) or sum(wanted) > MAX_SCENE_OBJECTS:
         raise SceneError(

@@ -1,0 +1,51 @@
+"""``random_scene`` and ``check_scene`` called from Python: bad input is a ``SceneError``.
+
+From a library walk (2026-12-06): ``random_scene(config, 2.5, 1)`` raised AttributeError,
+a seed of ``None`` or ``1.5`` a TypeError from the comparison or from NumPy, and
+``check_scene`` a bare ``KeyError: 'purple'`` for an object of no class, where each
+docstring promises a SceneError naming the rule.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from mearm import load_config, random_scene
+from mearm.config import SceneObject
+from mearm.task import check_scene
+from mearm.task.scene import SceneError
+
+
+@pytest.fixture(scope="module")
+def config():
+    return load_config("sim")
+
+
+@pytest.mark.parametrize(
+    ("counts", "seed", "words"),
+    [
+        (2.5, 1, "the number of objects must be a whole number, or one per class name"),
+        ("3", 1, "got '3'"),
+        (True, 1, "got True"),
+        ({"red": 2.0}, 1, "got {'red': 2.0}"),
+        (3, None, "the seed must be a whole number in [0, 4294967295], got None"),
+        (3, 1.5, "got 1.5"),
+    ],
+)
+def test_a_count_or_seed_that_is_no_whole_number_is_named(config, counts, seed, words) -> None:
+    with pytest.raises(SceneError) as info:
+        random_scene(config, counts, seed)
+    assert words in str(info.value)
+
+
+def test_numpy_integers_are_whole_numbers(config) -> None:
+    assert random_scene(config, np.int64(3), np.int64(1)) == random_scene(config, 3, 1)
+
+
+def test_an_object_of_no_class_is_named_with_the_classes(config) -> None:
+    with pytest.raises(SceneError) as info:
+        check_scene(config, [SceneObject(color="purple", x=-4.0, y=45.0)])
+    assert str(info.value).endswith(
+        "task.scene[0] (purple at x -4, y 45 cm): no class 'purple'; classes: red, green, blue"
+    )
