@@ -12,6 +12,7 @@ whole config (:mod:`mearm.task.check`) names the file as a bad field's error doe
 
 from __future__ import annotations
 
+import os
 import weakref
 from collections.abc import Sequence
 from pathlib import Path
@@ -186,8 +187,22 @@ def load_config(path: str | Path | None = None, overrides: Sequence[str] = ()) -
 
     Raises:
         ConfigError: the file is missing (a bare name: nor packaged), unreadable, not
-            YAML, or has bad fields.
+            YAML, or has bad fields; ``path`` or ``overrides`` is of another type (one
+            override is a list of one string).
     """
+    if path is not None and not isinstance(path, str | os.PathLike):
+        raise ConfigError(
+            None,
+            [f"a config is a file's path or a shipped config's name, got {short_repr(path)}"],
+        )
+    if isinstance(overrides, str | bytes) or not all(isinstance(o, str) for o in overrides):
+        raise ConfigError(
+            "--set",
+            [
+                "overrides must be a list of 'dotted.key=value' strings (one: "
+                f"overrides=['controller.kp=0.2']), got {short_repr(overrides)}"
+            ],
+        )
     if path is None:
         if not overrides:
             return Config()

@@ -80,8 +80,9 @@ def _config(config: str | Path | Config, overrides: Sequence[str]) -> Config:
     """The config, loaded with ``overrides`` (refused on a loaded one: it is not reloaded).
 
     Raises:
-        EnvOptionError: ``overrides`` is not a list of strings (one string was split into
-            its characters), or is given with a loaded ``Config``.
+        EnvOptionError: ``config`` is none of a name, a file and a loaded ``Config``;
+            ``overrides`` is not a list of strings (one string was split into its
+            characters), or is given with a loaded ``Config``.
         ConfigError: the config, or an override (named ``overrides``, not ``--set``).
     """
     if not isinstance(overrides, list | tuple) or not all(isinstance(o, str) for o in overrides):
@@ -96,6 +97,10 @@ def _config(config: str | Path | Config, overrides: Sequence[str]) -> Config:
                 "apply them yourself (load_config(name, overrides))"
             )
         return config
+    if not isinstance(config, str | Path):
+        raise EnvOptionError(
+            f"config must be a config's name, its file or a loaded Config, got {short_repr(config)}"
+        )
     try:
         return load_config(config, tuple(overrides))
     except ConfigError as exc:

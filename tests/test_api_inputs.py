@@ -1,9 +1,10 @@
-"""``random_scene`` and ``check_scene`` called from Python: bad input is a ``SceneError``.
+"""The scene, config and environment functions called from Python: bad input is named.
 
 From a library walk (2026-12-06): ``random_scene(config, 2.5, 1)`` raised AttributeError,
 a seed of ``None`` or ``1.5`` a TypeError from the comparison or from NumPy, and
 ``check_scene`` a bare ``KeyError: 'purple'`` for an object of no class, where each
-docstring promises a SceneError naming the rule.
+docstring promises a SceneError naming the rule; ``load_config(3)`` and
+``gym.make(..., config=3)`` a TypeError.
 """
 
 from __future__ import annotations
@@ -49,3 +50,29 @@ def test_an_object_of_no_class_is_named_with_the_classes(config) -> None:
     assert str(info.value).endswith(
         "task.scene[0] (purple at x -4, y 45 cm): no class 'purple'; classes: red, green, blue"
     )
+
+
+@pytest.mark.parametrize(
+    ("path", "overrides", "words"),
+    [
+        (3, (), "a config is a file's path or a shipped config's name, got 3"),
+        ("sim", "controller.kp=0.2", "overrides must be a list of 'dotted.key=value' strings"),
+        ("sim", [3], "got [3]"),
+    ],
+)
+def test_load_config_names_an_argument_of_another_type(path, overrides, words) -> None:
+    """``load_config(3)`` was a bare TypeError; a string of overrides blamed its first
+    character (``--set: 'c': expected dotted.key=value``)."""
+    from mearm.errors import ConfigError
+
+    with pytest.raises(ConfigError) as info:
+        load_config(path, overrides)
+    assert words in str(info.value)
+
+
+def test_an_environments_config_of_another_type_is_an_option_error() -> None:
+    pytest.importorskip("gymnasium")
+    from mearm.envs import EnvOptionError, TwinEnv
+
+    with pytest.raises(EnvOptionError, match="config must be a config's name, its file or a"):
+        TwinEnv(config=3)
