@@ -76,3 +76,34 @@ def test_an_environments_config_of_another_type_is_an_option_error() -> None:
 
     with pytest.raises(EnvOptionError, match="config must be a config's name, its file or a"):
         TwinEnv(config=3)
+
+
+def test_the_models_kinematics_name_a_joint_vector_of_another_length() -> None:
+    """``fk_cm`` of three joints reached Pinocchio ("wrong argument size: expected 4, got
+    3", from a C++ file); ``check_limits`` raised IndexError. InvalidJointsError now, naming
+    the joints and, for the actuated ones alone, how to make them whole."""
+    from mearm.kinematics import ArmModel
+    from mearm.kinematics.errors import InvalidJointsError
+
+    model = ArmModel(load_config("sim").arm)
+    short = model.home[:3]
+    for call in (model.fk_cm, model.jacobian, model.check_limits, model.approach_jacobian):
+        with pytest.raises(InvalidJointsError, match=r"expected 4 values, one per joint \(base"):
+            call(short)
+    with pytest.raises(InvalidJointsError, match=r"chain\.full\(q\)"):
+        model.fk_cm(short)
+    with pytest.raises(InvalidJointsError, match="got shape \\(5,\\)"):
+        model.fk_cm([0.0] * 5)
+    assert np.allclose(model.fk_cm(list(model.home)), model.fk_cm(model.home))
+
+
+def test_a_target_of_none_is_named_as_given() -> None:
+    """``solve(None)`` said "got nan" (None as a float); it says None."""
+    from mearm.exceptions import InvalidTargetError
+    from mearm.ik import make_solver
+    from mearm.kinematics import ArmModel
+
+    config = load_config("sim")
+    model = ArmModel(config.arm)
+    with pytest.raises(InvalidTargetError, match=r"in cm, got None$"):
+        make_solver(model, config.controller).solve(None, model.home)  # type: ignore[arg-type]

@@ -52,9 +52,8 @@ def as_target_cm(target_cm: npt.ArrayLike) -> np.ndarray:
             f"a target is three finite numbers (x, y, z) in cm, got {target_cm!r}"
         ) from None
     if t.shape != (3,) or not np.all(np.isfinite(t)):
-        raise InvalidTargetError(
-            f"a target is three finite numbers (x, y, z) in cm, got {t.tolist()!r}"
-        )
+        given = target_cm if t.dtype == object or t.ndim == 0 else t.tolist()
+        raise InvalidTargetError(f"a target is three finite numbers (x, y, z) in cm, got {given!r}")
     return t
 
 

@@ -15,8 +15,9 @@ import numpy.typing as npt
 import pinocchio as pin
 
 from mearm.config import ArmDescription
+from mearm.config.base import short_repr
 from mearm.kinematics.chain import Chain
-from mearm.kinematics.errors import JointLimitError, ModelError
+from mearm.kinematics.errors import InvalidJointsError, JointLimitError, ModelError
 from mearm.kinematics.per_arm import PerArm
 from mearm.kinematics.urdf import TCP_FRAME, generate_urdf, jaw_joint_names
 
@@ -104,9 +105,37 @@ class ArmModel:
 
     # ----------------------------------------------------------------- kinematics
 
+    def joints(self, q: npt.ArrayLike) -> np.ndarray:
+        """``q`` as the model's joint vector, (n,) float, model units.
+
+        Raises:
+            InvalidJointsError: not one value per joint of the chain (an actuated-only
+                vector is made whole by ``chain.full``), or not numbers.
+        """
+        try:
+            values = np.asarray(q, dtype=float)
+        except (TypeError, ValueError):
+            raise InvalidJointsError(
+                [], f"joint values must be numbers, got {short_repr(q)}"
+            ) from None
+        if values.shape != (self.chain.n,):
+            names = ", ".join(self.chain.names)
+            raise InvalidJointsError(
+                values.ravel().tolist(),
+                f"expected {self.chain.n} values, one per joint ({names}) in model units "
+                f"(rad, m), got shape {values.shape}"
+                + (" (the actuated joints alone: chain.full(q))"
+                   if values.shape == (self.chain.m,) else ""),
+            )  # fmt: skip
+        return values
+
     def tcp_pose(self, q: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray]:
-        """TCP position [cm], (3,), and rotation, (3, 3), in the base frame."""
-        pin.framesForwardKinematics(self.model, self.data, np.asarray(q, dtype=float))
+        """TCP position [cm], (3,), and rotation, (3, 3), in the base frame.
+
+        Raises:
+            InvalidJointsError: ``q`` is not one value per joint (:meth:`joints`).
+        """
+        pin.framesForwardKinematics(self.model, self.data, self.joints(q))
         M = self.data.oMf[self.tcp_frame_id]
         return M.translation * CM_PER_M, M.rotation.copy()
 
@@ -125,11 +154,7 @@ class ArmModel:
         \dot q` [cm per rad, or cm per m for a prismatic joint]: the paper's eq. 9.
         """
         J = pin.computeFrameJacobian(
-            self.model,
-            self.data,
-            np.asarray(q, dtype=float),
-            self.tcp_frame_id,
-            pin.LOCAL_WORLD_ALIGNED,
+            self.model, self.data, self.joints(q), self.tcp_frame_id, pin.LOCAL_WORLD_ALIGNED
         )
         return self.data.oMf[self.tcp_frame_id].translation * CM_PER_M, J[:3] * CM_PER_M
 
@@ -150,11 +175,7 @@ class ArmModel:
         .. math:: J_a = -[a]_\times J_\omega
         """
         J6 = pin.computeFrameJacobian(
-            self.model,
-            self.data,
-            np.asarray(q, dtype=float),
-            self.tcp_frame_id,
-            pin.LOCAL_WORLD_ALIGNED,
+            self.model, self.data, self.joints(q), self.tcp_frame_id, pin.LOCAL_WORLD_ALIGNED
         )
         a = self.data.oMf[self.tcp_frame_id].rotation @ self.approach_axis
         return a, -pin.skew(a) @ J6[3:]
@@ -166,8 +187,13 @@ class ArmModel:
         return self.chain.within_limits(q, tol)
 
     def check_limits(self, q: npt.ArrayLike, tol: float = 1e-9) -> None:
-        """Raise :class:`JointLimitError` for the first joint outside its limits."""
-        values = np.asarray(q, dtype=float)
+        """Raise :class:`JointLimitError` for the first joint outside its limits.
+
+        Raises:
+            JointLimitError: that joint, its value and its limits.
+            InvalidJointsError: ``q`` is not one value per joint (:meth:`joints`).
+        """
+        values = self.joints(q)
         ch = self.chain
         for i, name in enumerate(ch.names):
             if not (ch.lower[i] - tol <= values[i] <= ch.upper[i] + tol):
