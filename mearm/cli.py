@@ -317,33 +317,32 @@ def check_closed_form(config: Config) -> None:
         raise ConfigError(config_source(config), [*hints, str(exc)]) from None
 
 
-def backup_written(path: Path) -> str:
-    """The line naming the backup of ``path`` once kept: ``wrote PATH.bak (the old PATH)``.
+def backup_written(path: Path, backup: Path) -> str:
+    """The line naming the backup of ``path`` once kept: ``wrote BACKUP (the old PATH)``.
 
     Every file a command writes is named on stdout, a backup of the file it replaces
-    (:func:`mearm.fileio.backup_path`) before the file that replaced it.
+    (:func:`mearm.fileio.keep_backup`: ``PATH.bak``, or ``PATH.bak.N`` beside an earlier
+    one) before the file that replaced it.
     """
-    from mearm.fileio import backup_path
-
-    return f"wrote {backup_path(path)} (the old {path})"
+    return f"wrote {backup} (the old {path})"
 
 
 def backup_existing(path: Path, new_text: str | None = None) -> None:
-    """Keep an existing regular file's contents as ``<path>.bak`` before it is replaced.
+    """Keep an existing regular file's contents as a backup before it is replaced.
 
     With ``new_text``, only when that changes the file: rewriting the same bytes loses
-    nothing, and a backup of them would replace an older ``.bak`` that still differs.
-    The backup is named on stdout once written (:func:`backup_written`), as every file a
-    command writes is.
+    nothing. The backup never replaces an earlier one (:func:`mearm.fileio.keep_backup`)
+    and is named on stdout once written (:func:`backup_written`), as every file a command
+    writes is.
 
     Raises:
         OSError: the backup could not be written (the file is as it was).
     """
-    from mearm.fileio import backup_path, write_atomic
+    from mearm.fileio import keep_backup
 
-    if path.is_file() and (new_text is None or path.read_bytes() != new_text.encode("utf-8")):
-        write_atomic(backup_path(path), path.read_bytes())
-        print(backup_written(path), flush=True)
+    backup = keep_backup(path, new_text)
+    if backup is not None:
+        print(backup_written(path, backup), flush=True)
 
 
 def write_text_atomic(path: Path, text: str) -> None:
@@ -648,7 +647,7 @@ def _silence_output() -> None:
     os.close(devnull)
 
 
-def echo_line(line: str) -> None:
+def echo_line(line: str, *, flush: bool = False) -> None:
     """Print one line of a long run's report (a sort's); the run outlives its reader.
 
     When standard output's reader goes (``mearm sort | head -3``), the rest of the lines go
@@ -659,7 +658,7 @@ def echo_line(line: str) -> None:
     """
     global _OUTPUT_LOST
     try:
-        print(line)
+        print(line, flush=flush)  # flush: a line said before the run (its reader may be gone)
     except BrokenPipeError:
         if not output_closed():
             raise
@@ -807,8 +806,9 @@ def run(main: Callable[[Sequence[str] | None], int], argv: Sequence[str] | None 
     with one line naming the error and where its traceback was written (``--debug`` or
     ``MEARM_DEBUG=1``: the traceback itself). Standard output's reader gone (a closed
     pipe) → exit 141, quietly, as a shell's tools do. Standard output that cannot be
-    written (a full disk, ``> /dev/full``) → exit 1 with one line saying so, whether the
-    write fails in the command, at its end (what was buffered) or after ``--help``.
+    written (a full disk, ``> /dev/full``, closed: ``>&-``) → exit 1 with one line saying
+    so, whether the write fails in the command, at its end (what was buffered) or after
+    ``--help``.
     """
     prog = _program_name()
     args = list(sys.argv[1:] if argv is None else argv)
@@ -819,6 +819,9 @@ def run(main: Callable[[Sequence[str] | None], int], argv: Sequence[str] | None 
     stdout = sys.stdout  # None: started with standard output closed (>&-)
     if stdout is not None:
         sys.stdout = cast("TextIO", _CheckedOutput(stdout))
+    else:  # what it prints goes nowhere; the job is done (a sort's), then exit 1 says so
+        global _OUTPUT_LOST
+        _OUTPUT_LOST = "it is closed"
     code: int | str | None
     try:
         try:

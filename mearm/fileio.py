@@ -57,8 +57,40 @@ _install_lock = threading.Lock()
 
 
 def backup_path(path: Path) -> Path:
-    """Where a file a command replaces is kept: ``<path>.bak`` beside it."""
+    """Where a file a command replaces is first kept: ``<path>.bak`` beside it.
+
+    Later backups of the same file go beside it, never over it (:func:`keep_backup`).
+    """
     return path.with_name(path.name + ".bak")
+
+
+def keep_backup(path: Path, new: bytes | str | None = None) -> Path | None:
+    """Keep the regular file at ``path`` before it is replaced; where it went, or ``None``.
+
+    Its bytes go to ``<path>.bak``; where that holds an earlier backup of other bytes, to
+    the first of ``<path>.bak.1``, ``<path>.bak.2``, … that is free. A backup never
+    replaces another: a second run (and a third) loses nothing, not the user's own file
+    a first run kept. ``None``: nothing to keep: no regular file there, ``new`` (the bytes
+    about to replace it) is what it holds already, or a backup holds its bytes already.
+
+    Raises:
+        OSError: the file cannot be read or the backup written (the file is as it was).
+    """
+    if not path.is_file():
+        return None
+    data = path.read_bytes()
+    if new is not None and data == (new.encode("utf-8") if isinstance(new, str) else new):
+        return None
+    k = 0
+    while True:
+        backup = backup_path(path) if k == 0 else path.with_name(f"{path.name}.bak.{k}")
+        if not (backup.exists() or backup.is_symlink()):
+            write_atomic(backup, data)
+            return backup
+        with contextlib.suppress(OSError):  # (a folder or a device there: the next name)
+            if backup.is_file() and backup.read_bytes() == data:
+                return None  # kept already
+        k += 1
 
 
 def write_atomic(path: str | os.PathLike[str], data: bytes | str) -> Path:

@@ -93,7 +93,7 @@ try:
         EXIT_OK,
         ArgumentParser,
         add_config_argument,
-        backup_existing,
+        backup_written,
         check_output_file,
         config_from_args,
         counted,
@@ -334,7 +334,7 @@ def _calibrate_first(config: Config, save: Path | None) -> CalibrateFirst | None
     from mearm.maker.camera_calibration.at_start import calibrator  # noqa: PLC0415
 
     if save is not None:
-        check_replace(save)
+        check_replace(save, force="", elsewhere="another --save-calibration")
     return calibrator(save)
 
 
@@ -356,7 +356,7 @@ def _view_factory(config: Config, *, collision: bool) -> Callable[[Rig], object]
         except BaseException:
             view.close()
             raise
-        print(f"meshcat view: {view.url}", flush=True)
+        echo_line(f"meshcat view: {view.url}", flush=True)
         return view
 
     return make_view
@@ -399,7 +399,7 @@ def _sort(argv: Sequence[str] | None) -> int:
     else:
         log = None
     if log is not None:
-        print(f"run log: {args.log}", flush=True)
+        echo_line(f"run log: {args.log}", flush=True)
     calibration = calibration_note(config, _config_args(args))
     if args.quiet and calibration is not None and not calibration.startswith("warning:"):
         calibration = None  # a note; a warning is said also with --quiet
@@ -603,12 +603,16 @@ def _save_mjcf(path: Path, mjcf: str) -> None:
     Raises:
         MearmError: the backup or the file cannot be written (the old file stays as it was).
     """
+    from mearm.fileio import keep_backup  # noqa: PLC0415  (--save-mjcf only)
+
     try:
-        backup_existing(path, mjcf)
+        backup = keep_backup(path, mjcf)
     except OSError as exc:
         raise MearmError(f"cannot keep {path} as {path}.bak: {exc.strerror or exc}") from None
+    if backup is not None:  # (said as the sort's lines are: a reader gone stops nothing)
+        echo_line(backup_written(path, backup), flush=True)
     write_text_atomic(path, mjcf)
-    print(f"wrote {path}", flush=True)
+    echo_line(f"wrote {path}", flush=True)
 
 
 def _print_summary(lines: list[str], config: Config) -> None:

@@ -198,7 +198,8 @@ def test_a_calibration_the_sort_would_refuse_is_written_with_a_warning(
 
 def test_an_exact_fit_does_not_replace_a_measured_one(capsys, config: Path, image: Path) -> None:
     """Over a measured error, an exact fit is refused (exit 2, one line, nothing written);
-    with --force it replaces it, the old config kept as .bak."""
+    with --force it replaces it, the old config kept as .bak.1 beside the first .bak (the
+    config as it was before any fit), which it does not replace."""
     assert _fit(capsys, config, image, *CORNERS)[0] == 0
     measured = config.read_bytes()
     backup = config.with_name("lab.yaml.bak")
@@ -209,7 +210,8 @@ def test_an_exact_fit_does_not_replace_a_measured_one(capsys, config: Path, imag
     assert config.read_bytes() == measured and backup.read_bytes() == first_backup
     code, _, err = _fit(capsys, config, image, "--force")
     assert code == 0, err
-    assert _error_cm(config) is None and backup.read_bytes() == measured
+    assert _error_cm(config) is None and backup.read_bytes() == first_backup
+    assert config.with_name("lab.yaml.bak.1").read_bytes() == measured
 
 
 def test_the_pose_mode_keeps_the_config_it_points(tmp_path: Path) -> None:

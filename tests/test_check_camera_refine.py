@@ -61,13 +61,13 @@ def _moved(pose: Extrinsics, dx_cm: float, *, rms_px: float, by_arm: bool) -> Ex
 def test_two_refines_in_place_keep_the_marker_fit(tmp_path: Path, capsys) -> None:
     """Refining the config's own pose file twice, 2 points each: after one, the file holds
     the refined pose (its rms_px its own residual over the points, as printed) and .bak
-    the marker fit; after two, the second refined pose, .bak the first, and .markers.bak
-    the marker fit."""
+    the marker fit; after two, the second refined pose, .bak still the marker fit (no
+    backup replaces another) and .bak.1 the first."""
     from mearm.tools.check_camera import main
 
     argv, pose = _rig(tmp_path)
     marker_fit = pose.read_bytes()
-    bak, markers = tmp_path / "pose.yaml.bak", tmp_path / "pose.yaml.markers.bak"
+    bak, second = tmp_path / "pose.yaml.bak", tmp_path / "pose.yaml.bak.1"
     refine = [*argv, "--points", "2", "--refine", str(pose)]
     outs, files = [], []
     for _ in range(2):
@@ -78,9 +78,9 @@ def test_two_refines_in_place_keep_the_marker_fit(tmp_path: Path, capsys) -> Non
         files.append(pose.read_bytes())
         if len(files) == 1:  # after one refine
             assert bak.read_bytes() == marker_fit
-            assert not markers.exists()
-    assert markers.read_bytes() == marker_fit  # after two: the marker fit kept
-    assert bak.read_bytes() == files[0]  # and the first refined pose
+            assert not second.exists()
+    assert bak.read_bytes() == marker_fit  # after two: the marker fit kept
+    assert second.read_bytes() == files[0]  # and the first refined pose beside it
     for out, text in zip(outs, files, strict=True):
         path = tmp_path / "read.yaml"
         path.write_bytes(text)
@@ -105,24 +105,6 @@ def test_a_marker_fit_the_check_does_not_measure_is_not_replaced(tmp_path: Path)
     assert "marker-fitted pose this check does not measure" in out.line
     assert "--force" in out.line
     assert out.stdout == ""  # nothing checked: the arm did not move
-
-
-@pytest.mark.bad_input
-def test_a_refine_that_would_lose_a_second_marker_fit_is_refused(tmp_path: Path) -> None:
-    """pose.yaml refined, its .bak a marker fit, and .markers.bak another marker fit:
-    writing would replace .bak, and its marker fit has nowhere to go; refused before the
-    arm moves, every file as it was."""
-    argv, pose = _rig(tmp_path)
-    marker_fit = _pose(pose)
-    save_calibration(
-        tmp_path / "pose.yaml.markers.bak", _moved(marker_fit, 0.2, rms_px=0.4, by_arm=False)
-    )
-    # the first refine, as it went: the refined pose in pose.yaml, the marker fit in .bak
-    save_calibration(pose, _moved(marker_fit, 0.1, rms_px=2.0, by_arm=True), force=True)
-    assert not _pose(tmp_path / "pose.yaml.bak").refined_by_arm
-    out = check_bad_input(["check-camera", *argv, "--points", "2", "--refine", pose],
-                          keep=[tmp_path])  # fmt: skip
-    assert "pose.yaml.markers.bak, where a refine keeps it, another" in out.line
 
 
 def _check(refined_px: float, checked_px: float, checked: Extrinsics) -> ArmCheck:

@@ -78,3 +78,28 @@ def test_a_sort_whose_reader_left_finishes_and_logs_every_route(tmp_path: Path) 
     assert contents.complete and len(contents.routes) == 24 and not contents.faults
     summary = contents.trials[-1].summary
     assert summary is not None and summary.sorted == {"red": 4, "green": 4, "blue": 4}
+
+
+def test_a_sort_whose_reader_left_before_it_began_finishes_too(tmp_path: Path) -> None:
+    """``mearm sort --log L | true``: the reader gone before the first line ("run log: L",
+    flushed before the run) ended the sort there, nothing sorted, the log empty, 141."""
+    log = tmp_path / "run.jsonl"
+    proc = _popen(["sort", "--config", "sim", "--log", str(log)], ROOT, reader_gone=True)
+    assert proc.stderr is not None
+    err = proc.stderr.read().decode()
+    assert proc.wait(timeout=120) == 0, err
+    contents = read_runlog(log)
+    assert contents.complete and len(contents.routes) == 24 and not contents.faults
+
+
+def test_a_closed_standard_output_is_exit_1_with_one_line() -> None:
+    """``mearm fk … >&-``: the answer, fk's whole job, went nowhere, and it exited 0."""
+    done = subprocess.run(
+        f"{sys.executable} -m mearm fk --config sim --joints 90,90,-90 >&-",
+        shell=True, cwd=ROOT, capture_output=False, stderr=subprocess.PIPE, text=True,
+        timeout=120,
+    )  # fmt: skip
+    assert done.returncode == 1
+    assert done.stderr.splitlines() == [
+        "mearm fk: error: cannot write standard output: it is closed"
+    ]

@@ -58,6 +58,8 @@ def test_calibrate_servos_names_the_calibration_it_kept(tmp_path: Path) -> None:
             "--output", out]  # fmt: skip
     first = run_in_process(argv, within_s=30)
     assert first.code == 0 and ".bak" not in first.stdout, first.stdout + first.stderr
+    with out.open("a") as f:  # (the same second's fit is the same bytes, which need no backup)
+        f.write("# fitted on another day\n")
     old = out.read_bytes()
     done = run_in_process([*argv, "--force"], within_s=30)
     assert done.code == 0, done.stderr
@@ -152,9 +154,9 @@ def _refined(checked: Extrinsics, refined_px: float, checked_px: float) -> ArmCh
 def test_a_refine_names_each_backup_it_writes(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    """Refining a marker fit in place twice: the first keeps it as .bak, the second moves
-    it to .markers.bak and keeps the first refined pose as .bak; each named, in the order
-    written (the command names OUT after them)."""
+    """Refining a marker fit in place twice: the first keeps it as .bak, the second keeps
+    the first refined pose beside it as .bak.1 (no backup replaces another); each named
+    (the command names OUT after them)."""
     from mearm.tools.check_camera import write_refined  # noqa: PLC0415
 
     pose = tmp_path / "pose.yaml"
@@ -162,13 +164,12 @@ def test_a_refine_names_each_backup_it_writes(
     checked = _pose(pose)
     write_refined(pose, _refined(checked, 2.6, 2.8), checked, force=False)
     assert capsys.readouterr().out.splitlines() == [_kept(pose)]
+    first = pose.read_bytes()
     checked = _pose(pose)  # the config now reads the refined pose
     write_refined(pose, _refined(checked, 2.5, 2.6), checked, force=False)
-    assert capsys.readouterr().out.splitlines() == [
-        f"wrote {pose}.markers.bak (the marker-fitted pose {pose}.bak held)",
-        _kept(pose),
-    ]
-    assert Path(f"{pose}.markers.bak").read_bytes() == (CALIB / "twin_pose.yaml").read_bytes()
+    assert capsys.readouterr().out.splitlines() == [f"wrote {pose}.bak.1 (the old {pose})"]
+    assert Path(f"{pose}.bak").read_bytes() == (CALIB / "twin_pose.yaml").read_bytes()
+    assert Path(f"{pose}.bak.1").read_bytes() == first
 
 
 @pytest.mark.heavy

@@ -73,7 +73,7 @@ from __future__ import annotations
 
 import dataclasses
 import datetime
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -97,7 +97,7 @@ from mearm.config.servo_reach import (  # noqa: F401  (the checks on a fit, used
     turns,
 )
 from mearm.errors import ConfigError
-from mearm.fileio import backup_path, write_atomic
+from mearm.fileio import keep_backup, write_atomic
 from mearm.yamlio import load_yaml_file
 
 FORMAT = "mearm-servo-calibration"
@@ -463,8 +463,11 @@ def _limits(name: str, value: Any) -> tuple[float, float] | None:
     return (lo, hi)
 
 
-def check_replace(path: Path) -> None:
+def check_replace(path: Path, *, force: str = "--force", elsewhere: str = "--output") -> None:
     """Refuse to replace ``path`` if it exists and is not a servo calibration.
+
+    ``force`` and ``elsewhere``: the command's own flags, for its line (``mearm sort``
+    writes with ``--save-calibration`` and has no ``--force``: ``""``).
 
     Raises:
         ServoCalibrationError: it is a folder, or a file that is not a servo calibration.
@@ -476,17 +479,25 @@ def check_replace(path: Path) -> None:
     try:
         load_servo_calibration(path)
     except ServoCalibrationError as exc:
+        even = f", even with {force}" if force else ""
         raise ServoCalibrationError(
-            f"{path} is not replaced, even with --force: "
-            f"{exc.reason.removeprefix(f'{path}: ')}; write elsewhere with --output, or "
-            "remove it"
+            f"{path} is not replaced{even}: {exc.reason.removeprefix(f'{path}: ')}; write "
+            f"elsewhere with {elsewhere}, or remove it"
         ) from None
 
 
 def save_servo_calibration(
-    path: str | Path, cal: ServoCalibrationFile, *, force: bool = False
+    path: str | Path,
+    cal: ServoCalibrationFile,
+    *,
+    force: bool = False,
+    on_backup: Callable[[Path], None] | None = None,
 ) -> Path:
-    """Write ``cal`` to ``path``; an existing file only with ``force``, kept as ``.bak``.
+    """Write ``cal`` to ``path``; an existing file only with ``force``, kept first.
+
+    The replaced file is kept as ``<path>.bak``, or ``<path>.bak.N`` beside an earlier
+    backup, which it never replaces (:func:`~mearm.fileio.keep_backup`); ``on_backup`` is
+    told where.
 
     Returns:
         The file written.
@@ -503,8 +514,9 @@ def save_servo_calibration(
                     f"{target} exists: pass --force to replace it (the old one is kept as "
                     f"{target.name}.bak)"
                 )
-            if target.is_file():
-                write_atomic(backup_path(target), target.read_bytes())
+            backup = keep_backup(target, cal.text())
+            if backup is not None and on_backup is not None:
+                on_backup(backup)
         target.parent.mkdir(parents=True, exist_ok=True)
         return write_atomic(target, cal.text())
     except OSError as exc:

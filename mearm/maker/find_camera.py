@@ -86,8 +86,8 @@ class CameraReport:
         detail: ``W x H px`` and the snapshot's path, or why no frame came.
         size_px: (width, height) of the frame [px], when one came.
         snapshot: Where the frame was saved, when it was.
-        kept_old: Whether a snapshot already there was kept as ``snapshot``'s ``.bak``
-            before it was replaced.
+        kept_old: Where a snapshot already there was kept before it was replaced
+            (``snapshot``'s ``.bak``, or ``.bak.N`` beside an earlier one), or ``None``.
     """
 
     source: int | str
@@ -95,7 +95,7 @@ class CameraReport:
     detail: str
     size_px: tuple[int, int] | None = None
     snapshot: Path | None = None
-    kept_old: bool = False
+    kept_old: Path | None = None
 
 
 def video_devices() -> list[str]:
@@ -171,7 +171,7 @@ def probe_camera(source: int | str, timeout_s: float, out_dir: Path) -> CameraRe
     """
     import cv2
 
-    from mearm.fileio import backup_path, write_atomic
+    from mearm.fileio import keep_backup, write_atomic
 
     frame, why = grab_frame(source, timeout_s)
     if frame is None:
@@ -181,10 +181,8 @@ def probe_camera(source: int | str, timeout_s: float, out_dir: Path) -> CameraRe
     if not ok:
         return CameraReport(source, ok=False, detail=f"{w}x{h} px, but the frame cannot be encoded")
     path = out_dir / snapshot_name(source)
-    kept_old = path.is_file()
     try:
-        if kept_old:
-            write_atomic(backup_path(path), path.read_bytes())
+        kept_old = keep_backup(path, png.tobytes())
         out_dir.mkdir(parents=True, exist_ok=True)
         write_atomic(path, png.tobytes())  # whole or not at all: no temporary file is left
     except OSError as exc:
@@ -355,8 +353,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         reports.append(report)
         print(f"  {source!s:<14}  {'camera' if report.ok else 'no camera'}: {report.detail}")
         if report.snapshot is not None:
-            if report.kept_old:
-                print(backup_written(report.snapshot))
+            if report.kept_old is not None:
+                print(backup_written(report.snapshot, report.kept_old))
             print(f"wrote {report.snapshot}")
     found = [r for r in reports if r.ok]
     if not found:

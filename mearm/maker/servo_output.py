@@ -103,17 +103,16 @@ def write_calibration(
         print(f"mearm calibrate-servos: refused: {exc}; nothing written", file=sys.stderr)
         return EXIT_FAILURE
     cal = ServoCalibrationFile(config.arm.name, board, port, now_iso(), tuple(fits))
-    replaces = output.is_file()  # save_servo_calibration keeps a file it replaces as .bak
     try:
-        written = save_servo_calibration(output, cal, force=force)
+        written = save_servo_calibration(
+            output, cal, force=force, on_backup=lambda kept: print(backup_written(output, kept))
+        )
     except ServoCalibrationError as exc:
         # the session's measurements (a real arm's can be 20 minutes of jogging) are not
         # lost with the file: the fits go to stdout as overrides, then the error (exit 2)
         print("not written; the fits, as overrides for a command or the config's servos:")
         _print_overrides(config, fits)
         raise MearmError(f"{exc}; the fits are printed above as --set overrides") from None
-    if replaces:
-        print(backup_written(output))
     print(f"wrote {written} ({len(fits)} actuator{'s' if len(fits) != 1 else ''})")
     print(
         f"to use it, add to the config's servo section:  calibration_file: {written}\n"

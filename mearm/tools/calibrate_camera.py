@@ -92,7 +92,6 @@ from mearm.vision.aruco import (
     table_corners_cm,
 )
 from mearm.vision.calibration import Calibration
-from mearm.vision.calibration_file import backs_up
 from mearm.vision.image import read_image
 from mearm.vision.pinhole import (
     Extrinsics,
@@ -885,10 +884,10 @@ def _pose(parser: ArgumentParser, args: argparse.Namespace) -> int:
         new_config = point_config_at_files(
             config_text, args.intrinsics, args.out, args.output or args.config, str(args.config)
         )
-    replaces = backs_up(args.out, pose)  # kept as .bak by save_calibration
-    save_calibration(args.out, pose, force=args.force)
-    if replaces:
-        print(backup_written(args.out))
+    save_calibration(
+        args.out, pose, force=args.force,
+        on_backup=lambda backup: print(backup_written(args.out, backup)),
+    )  # fmt: skip
     print(f"wrote the camera pose to {args.out}")
     if new_config is not None:
         target = args.output or args.config

@@ -46,7 +46,6 @@ from mearm.config import CameraConfig
 from mearm.config.errors import CalibrationError
 from mearm.config.sections import MAX_DEVICE_INDEX
 from mearm.errors import MearmError
-from mearm.vision.calibration_file import backs_up
 from mearm.vision.camera import DeviceCamera
 from mearm.vision.charuco import (
     DEFAULT_BOARD,
@@ -223,13 +222,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.dry_run:
         print(f"dry run: {args.out} not written")
         return 0
-    replaces = backs_up(args.out, report.intrinsics)  # kept as .bak by save_calibration
     try:
-        save_calibration(args.out, report.intrinsics, force=args.force)
+        save_calibration(
+            args.out, report.intrinsics, force=args.force,
+            on_backup=lambda backup: print(backup_written(args.out, backup)),
+        )  # fmt: skip
     except OSError as exc:
         raise MearmError(f"cannot write {args.out}: {exc.strerror or exc}") from None
-    if replaces:
-        print(backup_written(args.out))
     print(f"wrote {args.out}")
     return 0
 

@@ -106,8 +106,9 @@ def _tool(*argv: str) -> str:
     return proc.stdout
 
 
-#: The calibrations --work holds beside render-calibration's pictures (and their .bak).
-_WORK_FILES = frozenset({"intrinsics.yaml", "pose.yaml", "intrinsics.yaml.bak", "pose.yaml.bak"})
+#: The calibrations --work holds beside render-calibration's pictures (and their backups,
+#: ``.bak`` and ``.bak.N``).
+_WORK_FILES = re.compile(r"(intrinsics|pose)\.yaml(\.bak(\.\d+)?)?")
 #: The file that marks a --work folder as this command's, listing what it wrote there.
 WORK_MARKER = ".mearm-camera-accuracy.json"
 _COMMAND = "mearm camera-accuracy"
@@ -122,7 +123,9 @@ def _own_name(rel: str) -> bool:
     name = temp.group(1) if temp else name
     if folder == "boards":
         return re.fullmatch(r"board_\d+\.png", name) is not None
-    return folder == "" and (_OWN_NAMES.fullmatch(name) is not None or name in _WORK_FILES)
+    return folder == "" and (
+        _OWN_NAMES.fullmatch(name) is not None or _WORK_FILES.fullmatch(name) is not None
+    )
 
 
 def _work_files(work: Path) -> dict[str, str]:
@@ -209,7 +212,11 @@ def _check_json_not_an_input(args: argparse.Namespace) -> None:
     refuse_own_inputs([("--json", args.json)], [("--config", config)])
     if args.work is not None and args.json.resolve().parent == args.work.resolve():
         name = args.json.name
-        if _OWN_NAMES.fullmatch(name) or name in _WORK_FILES or name in ("boards", WORK_MARKER):
+        if (
+            _OWN_NAMES.fullmatch(name)
+            or _WORK_FILES.fullmatch(name)
+            or name in ("boards", WORK_MARKER)
+        ):
             raise MearmError(
                 f"--json {args.json}: is {name} of --work {args.work}, which this run writes "
                 "and reads: write elsewhere"

@@ -19,12 +19,11 @@ With ``--refine OUT`` (a perspective calibration only) it fits the rotation abou
 vertical and the shift on the table that best map the seen points onto the commanded
 ones, moves the camera's pose by them and writes it to OUT (marked ``refined_by_arm``,
 its ``rms_px`` its own reprojection error over the check points), and prints the
-residuals the refined pose gives on the same frames. An existing OUT is replaced (and
-kept as ``OUT.bak``) only by a pose no worse, compared like with like
-(:func:`write_refined`); a marker-fitted pose a refine displaces is kept as
-``OUT.markers.bak``, which no refine replaces. Each file written is named on stdout, the
-backups first (``wrote OUT.markers.bak (the marker-fitted pose OUT.bak held)``,
-``wrote OUT.bak (the old OUT)``), then ``wrote OUT``.
+residuals the refined pose gives on the same frames. An existing OUT is replaced only by
+a pose no worse, compared like with like (:func:`write_refined`), and kept first as
+``OUT.bak`` (beside an earlier backup, ``OUT.bak.1``, …: no backup replaces another, so
+the marker-fitted pose a first refine displaced outlives a second). Each file written is
+named on stdout, the backup first (``wrote OUT.bak (the old OUT)``), then ``wrote OUT``.
 
 Exit 0: the check ran and printed its figures; 1: it could not complete (no object seen,
 no room for as many points as asked, a point that failed, a camera or servo fault during
@@ -60,7 +59,6 @@ from mearm.config import Config
 from mearm.config.errors import CalibrationError
 from mearm.config.files import resolve_config_path
 from mearm.errors import MearmError
-from mearm.fileio import backup_path, write_atomic
 from mearm.hardware.errors import ServoError
 from mearm.task.armcheck import (
     MAX_POINTS,
@@ -73,7 +71,6 @@ from mearm.task.armcheck import (
 )
 from mearm.task.sorter import StartCalibrationFailed
 from mearm.vision.calibration import camera_geometry
-from mearm.vision.calibration_file import backs_up
 from mearm.vision.errors import CameraError
 from mearm.vision.pinhole import Extrinsics, PerspectiveCamera, load_calibration, save_calibration
 
@@ -139,10 +136,6 @@ def _intrinsics_file(config: Config) -> Path | None:
     return Path(name) if name else None
 
 
-#: A refine keeps the marker-fitted pose it displaces as ``OUT`` + this (never replaced).
-MARKER_FIT_SUFFIX = ".markers.bak"
-
-
 def _pose_in(path: Path) -> Extrinsics | None:
     """The camera pose a regular file holds, or ``None`` (none there, or not a pose)."""
     if not path.is_file():
@@ -162,11 +155,6 @@ def _same_pose(a: Extrinsics, b: Extrinsics) -> bool:
         and np.array_equal(a.rotation, b.rotation)
         and np.array_equal(a.position_cm, b.position_cm)
     )
-
-
-def _marker_fit(pose: Extrinsics | None) -> bool:
-    """Whether ``pose`` is a pose fitted to markers (not refined by the arm)."""
-    return pose is not None and not pose.refined_by_arm
 
 
 def _refinable(out: Path, checked: Extrinsics) -> None:
@@ -197,15 +185,14 @@ def _refinable(out: Path, checked: Extrinsics) -> None:
         )
 
 
-def check_refine_output(out: Path, checked: Extrinsics, *, force: bool) -> Path | None:
-    """Refuse an OUT whose pose a refine cannot weigh, or whose write would lose a marker fit.
+def check_refine_output(out: Path, checked: Extrinsics, *, force: bool) -> None:
+    """Refuse an OUT whose pose a refine cannot weigh.
 
-    Called before the arm moves, and again just before the write. A marker-fitted pose
-    in OUT other than the one checked is not replaced without ``force``: its ``rms_px``
-    is over its markers, a refined pose's over the arm's points, and this check did not
-    measure it. Writing OUT replaces ``OUT.bak``: where that holds a marker-fitted pose,
-    it is kept as ``OUT.markers.bak`` first (the path returned; ``None``: nothing to
-    keep), which no refine replaces when it holds another.
+    Called before the arm moves, and again just before the write. An OUT that is no pose
+    of the camera checked is refused (:func:`_refinable`); a marker-fitted pose in OUT
+    other than the one checked is not replaced without ``force``: its ``rms_px`` is over
+    its markers, a refined pose's over the arm's points, and this check did not measure
+    it.
 
     Raises:
         CalibrationError: either, and what to do.
@@ -219,19 +206,6 @@ def check_refine_output(out: Path, checked: Extrinsics, *, force: bool) -> Path 
             "rms_px is over markers, a refined one's over the arm's points): write "
             "elsewhere, check that pose, or pass --force"
         )
-    backup = backup_path(out)
-    if not (out.is_file() and _marker_fit(_pose_in(backup))):
-        return None
-    keep_as = out.with_name(out.name + MARKER_FIT_SUFFIX)
-    if not keep_as.exists():
-        return keep_as
-    if not keep_as.is_file() or keep_as.read_bytes() != backup.read_bytes():
-        raise CalibrationError(
-            f"--refine {out}: {backup.name} holds a marker-fitted pose, which writing OUT "
-            f"replaces, and {keep_as.name}, where a refine keeps it, another: move one away, "
-            "or write elsewhere"
-        )
-    return None  # kept there already
 
 
 def write_refined(out: Path, check: ArmCheck, checked: Extrinsics, *, force: bool) -> None:
@@ -243,10 +217,10 @@ def write_refined(out: Path, check: ArmCheck, checked: Extrinsics, *, force: boo
     markers); where it holds another pose refined by the arm, the two ``rms_px`` (each
     over its own check's points) are compared by
     :func:`~mearm.vision.pinhole.save_calibration`'s rule. The worse is not written
-    without ``force``. The pose ``out`` held is kept as ``out.bak``, and a marker-fitted
-    one that ``out.bak`` held as ``out.markers.bak`` (:func:`check_refine_output`); each
-    backup is named on stdout once written (``wrote PATH (…)``), so a user sees every file
-    the refine changed. The caller names ``out``.
+    without ``force``. The pose ``out`` held is kept first (``out.bak``, or ``out.bak.N``
+    beside an earlier backup: none is replaced) and named on stdout once written
+    (``wrote PATH (the old OUT)``), so a user sees every file the refine changed. The
+    caller names ``out``.
 
     Raises:
         CalibrationError: the pose in ``out`` is better, or not to be weighed.
@@ -254,7 +228,7 @@ def write_refined(out: Path, check: ArmCheck, checked: Extrinsics, *, force: boo
     """
     refined = check.refined
     assert refined is not None and check.checked_rms_px is not None
-    keep_as = check_refine_output(out, checked, force=force)
+    check_refine_output(out, checked, force=force)
     old = _pose_in(out)
     holds_checked = old is not None and _same_pose(old, checked)
     if holds_checked and not force and refined.rms_px > check.checked_rms_px:
@@ -263,21 +237,14 @@ def write_refined(out: Path, check: ArmCheck, checked: Extrinsics, *, force: boo
             f"{check.checked_rms_px:.3f} px) than the refined one (rms {refined.rms_px:.3f} "
             "px): kept; pass --force to replace it"
         )
-    backup = backup_path(out)
-    if keep_as is not None:
-        try:
-            write_atomic(keep_as, backup.read_bytes())
-        except OSError as exc:
-            raise MearmError(f"cannot write {keep_as}: {exc.strerror or exc}") from None
-        print(f"wrote {keep_as} (the marker-fitted pose {backup} held)")
-    replaces = backs_up(out, refined)  # kept as out.bak by save_calibration
     try:
         # the pose checked is weighed above; any other by the file's own rule
-        save_calibration(out, refined, force=force or holds_checked)
+        save_calibration(
+            out, refined, force=force or holds_checked,
+            on_backup=lambda backup: print(backup_written(out, backup)),
+        )  # fmt: skip
     except OSError as exc:
         raise MearmError(f"cannot write {out}: {exc.strerror or exc}") from None
-    if replaces:
-        print(backup_written(out))
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -109,7 +109,7 @@ def _write_png(path: Path, image: np.ndarray) -> None:
 #: so no view, truth file or raised view of another camera stays beside the new ones.
 _OWN_NAMES = re.compile(
     r"board_\d+\.png|sheet\.png|sheet_markers\.txt|raised\.png|raised_markers\.txt"
-    r"|truth_(intrinsics|pose)\.yaml(\.bak)?"
+    r"|truth_(intrinsics|pose)\.yaml(\.bak(\.\d+)?)?"
 )
 #: The hidden folder inside --out that a run writes its files into before they replace the
 #: earlier run's (:func:`_replace_earlier_run`); one a SIGKILL or a power cut left behind is

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import datetime
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
@@ -26,7 +26,7 @@ import yaml
 from mearm.config.base import short_repr
 from mearm.config.errors import CalibrationError
 from mearm.errors import ConfigError
-from mearm.fileio import backup_path, write_atomic
+from mearm.fileio import keep_backup, write_atomic
 from mearm.yamlio import load_yaml_file
 
 FORMAT = "mearm-camera-calibration"
@@ -325,14 +325,21 @@ def load_calibration(path: str | Path, kind: Kind | None = None) -> CalibrationF
         raise CalibrationError(f"{where}: {exc.reason}") from None
 
 
-def save_calibration(path: str | Path, cal: CalibrationFile, *, force: bool = False) -> Path:
+def save_calibration(
+    path: str | Path,
+    cal: CalibrationFile,
+    *,
+    force: bool = False,
+    on_backup: Callable[[Path], None] | None = None,
+) -> Path:
     """Write ``cal`` to ``path`` unless that would lose a better calibration.
 
     Without ``force`` an existing file is replaced only when it holds a calibration of
     the same kind, camera and frame size whose ``rms_px`` is no lower than the new
-    one's. A replaced file is kept as ``<path>.bak`` (:func:`backs_up`): not one that
-    already holds these bytes, whose backup would only replace an older ``.bak`` that
-    still differs. The write is atomic.
+    one's. A replaced file is kept first (:func:`~mearm.fileio.keep_backup`: as
+    ``<path>.bak``, or ``<path>.bak.N`` beside an earlier backup, which it never
+    replaces; not one that holds these bytes already), and ``on_backup`` is told where.
+    The write is atomic.
 
     Returns:
         The path written.
@@ -340,24 +347,17 @@ def save_calibration(path: str | Path, cal: CalibrationFile, *, force: bool = Fa
     Raises:
         CalibrationError: the existing file is better, of another camera, kind or
             resolution, or not a calibration file, and ``force`` is not set.
+        OSError: the backup or the file cannot be written.
     """
     target = Path(path)
     text = calibration_text(cal)
     if target.exists():
         if not force:
             _check_replace(target, cal)
-        if backs_up(target, cal):
-            write_atomic(backup_path(target), target.read_bytes())
+        backup = keep_backup(target, text)
+        if backup is not None and on_backup is not None:
+            on_backup(backup)
     return write_atomic(target, text)
-
-
-def backs_up(path: str | Path, cal: CalibrationFile) -> bool:
-    """Whether :func:`save_calibration` of ``cal`` keeps ``path`` as ``<path>.bak`` first.
-
-    A regular file there that writing ``cal`` changes; the same bytes again lose nothing.
-    """
-    target = Path(path)
-    return target.is_file() and target.read_bytes() != calibration_text(cal).encode("utf-8")
 
 
 def _raised(cal: CalibrationFile) -> bool:

@@ -91,16 +91,21 @@ class Calibrated:
     def save(self, output: Path) -> list[str]:
         """Write the fit as ``mearm calibrate-servos`` does: the lines that name what it wrote.
 
-        An existing file is kept as ``<output>.bak``, named first (``wrote <output>.bak (the
-        old <output>)``), then ``wrote <output>``: the sort names every file it writes.
+        An existing file is kept as ``<output>.bak`` (or ``.bak.N`` beside an earlier
+        backup), named first (``wrote <output>.bak (the old <output>)``), then ``wrote
+        <output>``: the sort names every file it writes.
         """
         cal = ServoCalibrationFile(
             self.config.arm.name, self.board, self.port, now_iso(), tuple(self.fits)
         )
-        replaces = output.is_file()  # save_servo_calibration keeps it as .bak
-        written = save_servo_calibration(output, cal, force=True)
-        kept = [backup_written(output)]
-        return [*(kept if replaces else []), f"wrote {written}"]
+        kept: list[str] = []
+        written = save_servo_calibration(
+            output,
+            cal,
+            force=True,
+            on_backup=lambda backup: kept.append(backup_written(output, backup)),
+        )
+        return [*kept, f"wrote {written}"]
 
 
 def calibrate(config: Config, rig: Rig, *, simulated: bool) -> Calibrated:
