@@ -51,3 +51,24 @@ def test_fk_json_prints_no_negative_zero(capsys):
     out = capsys.readouterr().out
     assert "-0.0," not in out and "-0.0]" not in out, out
     assert json.loads(out)["approach"] == [0.0, 1.0, 0.0]
+
+
+@pytest.mark.parametrize(
+    ("argv", "why"),
+    [
+        (["--config", "sim_mearm_v1", "--target", "0,13,3"],
+         "failure (limit): the solution cannot be sent: "),
+        (["--config", "sim", "--target", "10,40,20", "--set", "controller.max_iterations=3"],
+         "failure (stalled): the solver reached its iteration cap (3) "),
+    ],
+)  # fmt: skip
+def test_ik_that_did_not_do_its_job_says_why_last(argv, why, capsys) -> None:
+    """Exit 1: its last line (stderr) says why; it ended on the TCP's coordinates, the
+    reason three lines up (a safety walk, 2026-12-06)."""
+    from mearm.ik.__main__ import main  # noqa: PLC0415
+
+    assert main(argv) == 1
+    out, err = capsys.readouterr()
+    assert out.splitlines()[-1].startswith("ee = (")
+    [line] = err.splitlines()
+    assert line.split(": ", 1)[1].startswith(why), line

@@ -126,7 +126,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(json.dumps(summary))
     else:
         _print_text(result, failure, chain, unsendable=unsendable)
-    return EXIT_OK if result.converged and not unsendable else EXIT_FAILURE
+    if result.converged and not unsendable:
+        return EXIT_OK
+    # as every command that did not do its job: the last line says why (stderr)
+    why = f"failure ({failure.kind}): {failure.message}" if failure else str(result.status)
+    print(f"{parser.prog}: {why}", file=sys.stderr)
+    return EXIT_FAILURE
 
 
 def _start_pose(start: list[float] | None, model: ArmModel, servos: ServoMap) -> np.ndarray:
