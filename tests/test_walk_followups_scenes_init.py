@@ -159,3 +159,38 @@ def test_every_init_config_on_the_makers_page_runs_as_written(tmp_path, monkeypa
         written = load_config(folder / words[-1])
         if "--of" in words and own_name:
             assert written.arm.name == "my_arm"
+
+
+@pytest.mark.parametrize("rig", ["sim", "sim_mujoco"])
+def test_a_twin_of_a_belt_config_keeps_the_belt_and_no_table(tmp_path, monkeypatch, capsys, rig):
+    """A config with a belt (its ``task.scene: []``): the twin wrote the reference table's 12
+    objects, which a belt config refuses (exit 2 asking for ``task.scene: []``, the user's
+    own setting); its header names the --arm it was written with (2026-12-06)."""
+    monkeypatch.chdir(tmp_path)
+    Path("conv.yaml").write_text(
+        "extends: sim_conveyor\nbelt: {arrivals: {count: 2}}\ntask: {scene: []}\n"
+    )
+    assert init_config.main(["--of", "conv.yaml", "--arm", "paper", "--rig", rig, "t.yaml"]) == 0
+    twin = load_config("t.yaml")
+    assert twin.belt is not None and twin.belt.arrivals.count == 2 and twin.task.scene == []
+    header = Path("t.yaml").read_text().splitlines()[1]
+    assert header.startswith(
+        f"# Written by mearm init-config --of conv.yaml --arm paper --rig {rig} "
+    )
+
+
+def test_a_twin_of_a_twin_config_with_its_own_camera_takes_the_reference_camera(
+    tmp_path, monkeypatch, capsys
+):
+    """``extends: sim_mujoco_lamp`` (a tilted lens, its perspective calibration): the twin
+    kept that camera under the reference's homography, and sorted 0 of 12; the twin's
+    camera is now the reference twin's, as its calibration is."""
+    monkeypatch.chdir(tmp_path)
+    Path("lamp.yaml").write_text("extends: sim_mujoco_lamp\n")
+    assert load_config("lamp.yaml").twin.camera is not None
+    argv = ["--of", "lamp.yaml", "--arm", "paper", "--rig", "sim_mujoco", "t.yaml"]
+    assert init_config.main(argv) == 0
+    twin = load_config("t.yaml")
+    assert twin.twin.camera == load_config("sim_mujoco").twin.camera  # (straight down)
+    table = load_config("sim").calibration  # the reference table's
+    assert (twin.calibration.model, twin.calibration.homography) == ("homography", table.homography)

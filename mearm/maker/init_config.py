@@ -494,7 +494,18 @@ def render_twin(of: Path, out: Path, arm: ArmChoice, rig: RigChoice, mine: Confi
             own["arm"] = {**rest, **({"joints": joints} if joints else {})}
             if not own["arm"]:
                 del own["arm"]
-    task = {"scene": [s.model_dump(mode="json", exclude_defaults=True) for s in sim.task.scene]}
+    if rig.name == "sim_mujoco" and mine.twin.camera is not None:
+        # the maker's config set the twin's camera (a twin config of its own): the twin's
+        # camera is the reference twin's, as its calibration is (not a tilted lens the
+        # homography below knows nothing of)
+        ref = load_config(folder / arm.twin).twin.camera
+        own["twin"] = {
+            **own.get("twin", {}),
+            "camera": None if ref is None else ref.model_dump(mode="json", exclude_none=True),
+        }
+    # a belt brings the objects (the maker's belt, in what it extends): no table of them
+    scene = [] if mine.belt is not None else sim.task.scene
+    task = {"scene": [s.model_dump(mode="json", exclude_defaults=True) for s in scene]}
     sections: dict[str, Any] = {
         EXTENDS_KEY: extends,
         "simulator": "mujoco" if rig.name == "sim_mujoco" else "kinematic",
@@ -507,8 +518,8 @@ def render_twin(of: Path, out: Path, arm: ArmChoice, rig: RigChoice, mine: Confi
     name = shlex.quote(str(out))
     header = (
         f"# mearm config: your {of.name} simulated, on the {rig.name} rig.\n"
-        f"# Written by mearm init-config --of {shlex.quote(str(of))} --rig {rig.name} (mearm "
-        f"{__version__}).\n"
+        f"# Written by mearm init-config --of {shlex.quote(str(of))} --arm {arm.name} --rig "
+        f"{rig.name} (mearm {__version__}).\n"
         f"# It extends {extends}: the arm, the classes and the bins are yours, so what you\n"
         f"# measure into that file is what is simulated here. Only the rig differs: the servos\n"
         "# and the camera are simulated, and the table that camera sees (its calibration, the\n"
