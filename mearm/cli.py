@@ -733,7 +733,28 @@ def _debug_mode(args: Sequence[str], prog: str) -> bool:
         _show_log(prog)
     else:  # GLFW's complaints without a display: the twin's camera says what to set
         warnings.filterwarnings("ignore", module=r"glfw(\.|$)")
+        _say_injected_faults(prog)
     return debug
+
+
+def _say_injected_faults(prog: str) -> None:
+    """Say the twin's injected faults (``twin.faults``) on stderr, struck or never struck.
+
+    A fault injected to test the sort's handling that never struck (timed after the run's
+    end) tested nothing; its warning was a log record only ``--debug`` showed.
+    """
+    logger = logging.getLogger("mearm.sim.twin.twin_faults")
+    if any(isinstance(h, _FaultLog) for h in logger.handlers):  # once a process
+        return
+    handler = _FaultLog(sys.stderr)
+    handler.setLevel(logging.WARNING)
+    handler.setFormatter(logging.Formatter(f"{prog}: warning: %(message)s"))
+    logger.addHandler(handler)
+    logger.setLevel(min(logger.getEffectiveLevel(), logging.WARNING))
+
+
+class _FaultLog(logging.StreamHandler):
+    """The handler that says the twin's injected faults (:func:`_say_injected_faults`)."""
 
 
 def _show_log(prog: str) -> None:

@@ -97,9 +97,9 @@ def check_consistency(
     model = model if model is not None else ArmModel(config.arm)
     planner = Planner(config, model)
     found = Consistency()
-    warning = unit_warning(config)
-    if warning is not None:
-        found.warnings.append(warning)
+    for warning in (unit_warning(config), twin_only_warning(config)):
+        if warning is not None:
+            found.warnings.append(warning)
     problems = _check_bins(planner, model, config.task.classes)
     table = collision_model(config, model, clearance_cm=0.0)  # bins and table, for both checks
     problems += _check_bodies(config, model, table)
@@ -200,6 +200,33 @@ def _blame_calibration_file(config: Config, problems: list[str]) -> list[str]:
         also = set(exc.problems)
     blame = f"with the servo calibration from {path} (without it this holds: {fix})"
     return [p if p in also else f"{blame}: {p}" for p in problems]
+
+
+def twin_only_warning(config: Config) -> str | None:
+    """The line for the physical twin's settings on a config the twin does not run, or None.
+
+    ``twin.faults``, ``twin.kit``, ``twin.lamp`` and ``twin.camera`` act only where
+    ``simulator`` is ``mujoco``; elsewhere they do nothing, and a fault meant to test the
+    sort's handling of one would pass untested.
+    """
+    if config.simulator == "mujoco":
+        return None
+    twin = config.twin
+    given = [
+        name
+        for name, value in (
+            ("twin.faults", twin.faults), ("twin.kit", twin.kit),
+            ("twin.lamp", twin.lamp), ("twin.camera", twin.camera),
+        )
+        if value
+    ]  # fmt: skip
+    if not given:
+        return None
+    what = "it does" if len(given) == 1 else "they do"
+    return (
+        f"{', '.join(given)}: the physical twin's (simulator: mujoco); this config's "
+        f"simulator is {config.simulator}: {what} nothing here"
+    )
 
 
 def calibration_note(config: Config, config_args: Sequence[str]) -> str | None:
