@@ -733,11 +733,11 @@ def _debug_mode(args: Sequence[str], prog: str) -> bool:
         _show_log(prog)
     else:  # GLFW's complaints without a display: the twin's camera says what to set
         warnings.filterwarnings("ignore", module=r"glfw(\.|$)")
-        _say_injected_faults(prog)
+        _say_injected_faults()
     return debug
 
 
-def _say_injected_faults(prog: str) -> None:
+def _say_injected_faults() -> None:
     """Say the twin's injected faults (``twin.faults``) on stderr, struck or never struck.
 
     A fault injected to test the sort's handling that never struck (timed after the run's
@@ -746,15 +746,24 @@ def _say_injected_faults(prog: str) -> None:
     logger = logging.getLogger("mearm.sim.twin.twin_faults")
     if any(isinstance(h, _FaultLog) for h in logger.handlers):  # once a process
         return
-    handler = _FaultLog(sys.stderr)
+    handler = _FaultLog()
     handler.setLevel(logging.WARNING)
-    handler.setFormatter(logging.Formatter(f"{prog}: warning: %(message)s"))
     logger.addHandler(handler)
     logger.setLevel(min(logger.getEffectiveLevel(), logging.WARNING))
 
 
-class _FaultLog(logging.StreamHandler):
-    """The handler that says the twin's injected faults (:func:`_say_injected_faults`)."""
+class _FaultLog(logging.Handler):
+    """The handler that says the twin's injected faults (:func:`_say_injected_faults`).
+
+    On standard error as it is when a record comes (a command run in-process, as the
+    tests run them, has its own), not as it was when the handler was added.
+    """
+
+    def emit(self, record: logging.LogRecord) -> None:  # noqa: D102
+        try:  # (named as the command running now is: in-process runs share the handler)
+            print(f"{_program_name()}: warning: {self.format(record)}", file=sys.stderr, flush=True)
+        except Exception:  # noqa: BLE001  (logging's own rule: a handler never raises)
+            self.handleError(record)
 
 
 def _show_log(prog: str) -> None:
