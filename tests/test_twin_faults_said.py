@@ -46,3 +46,15 @@ def test_twin_settings_on_the_kinematic_rig_are_said_to_do_nothing(overrides, na
     )
     assert twin_only_warning(load_config("sim_mujoco", overrides)) is None
     assert twin_only_warning(load_config("sim")) is None
+
+
+def test_a_step_of_camera_accuracy_that_fails_is_the_runs_failure() -> None:
+    """Under an unlit lamp calibrate-intrinsics found no board on the renders (its exit 2)
+    and camera-accuracy exited 2 after the work, as if its input were bad: exit 1 now,
+    naming the renders."""
+    from mearm.tools.camera_accuracy import StepFailed, _tool
+
+    with pytest.raises(StepFailed) as info:
+        _tool("fk", "--config", "sim", "--joints", "1,2")
+    assert info.value.exit_status == 1
+    assert str(info.value).startswith("mearm fk failed (2) on the twin's renders")

@@ -96,13 +96,26 @@ def _numbers(text: str) -> list[float]:
     return values
 
 
+class StepFailed(MearmError):
+    """A tool this measurement runs on the twin's renders failed: the run's failure (exit 1).
+
+    Its inputs are the renders this run made from accepted options; a tool that refuses
+    them (no board found under an unlit lamp) says the measurement could not be made.
+    """
+
+    exit_status = 1
+
+
 def _tool(*argv: str) -> str:
-    """Run ``mearm ARGV…`` as a user would; its stdout, or MearmError with its stderr."""
+    """Run ``mearm ARGV…`` as a user would; its stdout, or StepFailed with its stderr."""
     proc = subprocess.run(
         [sys.executable, "-m", "mearm", *argv], capture_output=True, text=True, check=False
     )
     if proc.returncode != 0:
-        raise MearmError(f"mearm {argv[0]} failed ({proc.returncode}): {proc.stderr.strip()}")
+        raise StepFailed(
+            f"mearm {argv[0]} failed ({proc.returncode}) on the twin's renders (its camera "
+            f"and lamp as configured): {proc.stderr.strip()}"
+        )
     return proc.stdout
 
 
