@@ -297,4 +297,9 @@ def test_huge_approach_is_normalised_without_a_warning_in_a_real_process() -> No
          "--approach", "1e308,1e308,1e308"],  # an arm that can orient its approach
         capture_output=True, text=True, timeout=60,
     )  # fmt: skip
-    assert r.returncode in (0, 1) and r.stderr == "" and "Traceback" not in r.stdout
+    said = r.stderr.splitlines()
+    assert r.returncode in (0, 1) and "Traceback" not in r.stdout
+    # no stray line: none at all, or (exit 1) the one that says why the solve failed
+    assert said == [] or (
+        r.returncode == 1 and len(said) == 1 and said[0].startswith("mearm ik: failure (")
+    ), r.stderr

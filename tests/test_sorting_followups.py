@@ -74,7 +74,10 @@ def test_a_sweep_stopped_by_a_fault_is_a_failed_run_not_bad_input():
     )
     assert r.code == 1, r.stderr
     assert r.stdout.splitlines()[-1] == "stopped at 1 cm/s after 0 of 2 speeds"
-    (line,) = r.stderr.splitlines()
+    *said, line = r.stderr.splitlines()  # the injected fault said as it struck, then why
+    assert said == [
+        "mearm conveyor-sweep: warning: twin: fault limp_servo joint=shoulder at t = 1.000 s"
+    ]
     assert line.startswith("mearm conveyor-sweep: stopped at 1 cm/s: joint shoulder stalled")
 
 
