@@ -688,6 +688,19 @@ class CollisionModel:
             near[k] = d
         return near
 
+    def touching(self, q: npt.ArrayLike) -> list[tuple[str, str, float]]:
+        """The arm's shapes in touch with a bin or an object at pose ``q``, the table never.
+
+        ``(arm part, obstacle, distance [cm])`` per pair closer than the clearance (touching
+        ones too, their distance < 0: how far one is in the other), nearest first; the
+        jaws' pads against an object standing between them are not counted (they hold
+        it). Empty when ``q`` keeps the clearance.
+        """
+        near = self._start_distances(q, None)
+        return sorted(
+            ((*self._pair_names(k), d / M_PER_CM) for k, d in near.items()), key=lambda t: t[2]
+        )
+
     def away_from(self, q: npt.ArrayLike, *, target: str | None = None) -> np.ndarray | None:
         """The way out, in the table plane, from what pose ``q`` is within the clearance of.
 

@@ -22,9 +22,12 @@ The TCP is the forward kinematics of the realised joints (passive joints from th
 couplings). Closing the gripper grips the table object nearest the TCP if it lies within
 ``servo.grip_tolerance_cm`` in the plane and the TCP's height is within that tolerance of
 the object class's grip height plus ``tool.tcp_above_grip_cm``; otherwise the pick fails
-and the object stays. Opening it drops the held object into the nearest bin within
-``servo.bin_radius_cm`` (in the plane), or, with no bin that close, onto the table under
-the TCP. Tool actuators are quantised but do not move the TCP.
+and the object stays, pushed aside where the closing jaws would end inside it (and on,
+where the closed jaws move into it before they open again): jaws do not pass through
+an object, and an object they never closed on is still a collision. Opening it drops
+the held object into the nearest bin within ``servo.bin_radius_cm`` (in the plane), or,
+with no bin that close, onto the table under the TCP. Tool actuators are quantised but
+do not move the TCP.
 
 The sim does not sleep unless ``servo.sim_realtime`` is set.
 """
@@ -44,6 +47,7 @@ from mearm.hardware.bus import ArmCommand, ArmState, ServoBus
 from mearm.hardware.errors import ServoError
 from mearm.hardware.mapping import ActuatorMap, Quantization, ServoMap
 from mearm.kinematics import ArmModel, check_target, closed_form_for
+from mearm.kinematics.bodies import object_of
 from mearm.kinematics.collision import CollisionModel
 from mearm.kinematics.errors import TargetError
 from mearm.sim.errors import WorldError
@@ -60,6 +64,10 @@ _DRAWS_PER_POSE = 10_000
 #: A tool the table holds up rests this far above it [cm]: touching, as the move's check
 #: counts contact, would be a fault.
 RESTING_CM = 0.01
+#: Jaws that close beside an object, or on its edge, push it out of their way this far at
+#: a time [cm], and no farther in all than :data:`PUSH_MOST_CM`.
+PUSH_STEP_CM = 0.05
+PUSH_MOST_CM = 5.0
 
 
 class SimCollisionError(ServoError):
@@ -155,6 +163,10 @@ class SimArm(ServoBus):
         self._collision: CollisionModel | None = None
         #: The joints the last checked move ended at, named and in model units.
         self._last_after: tuple[dict[str, float], np.ndarray] | None = None
+        self._pushed_cm: dict[str, float] = {}  # how far the arm pushed each object aside
+        #: The objects closed jaws that missed pushed aside: the arm is against them until
+        #: the jaws open, and pushes them on as it moves.
+        self._against: set[str] = set()
 
     @property
     def ee_cm(self) -> np.ndarray:
@@ -268,8 +280,11 @@ class SimArm(ServoBus):
         if gripper_closed and not self.gripper_closed:
             self.gripper_closed = True
             self.last_grip = self._close_gripper()
+            if not self.last_grip.success:
+                self._push_aside(self.model.chain.from_named(after))
         elif not gripper_closed and self.gripper_closed:
             self.gripper_closed = False
+            self._against.clear()
             self._open_gripper()
 
     def _at_stops(self, joints: dict[str, float]) -> dict[str, float]:
@@ -296,11 +311,12 @@ class SimArm(ServoBus):
 
         The same check as the planner's (:meth:`CollisionModel.first_contact`), against
         the world as it is: the objects on the table, the bins, the held object in the
-        jaws. The jaws' pads may touch an object standing between them.
+        jaws. The jaws' pads may touch an object standing between them, and closed jaws
+        push an object they missed on (:meth:`_push_aside`).
 
         Raises:
-            SimCollisionError: they touch; the fault carries ``last_state``, the last pose
-                the driving bus confirmed.
+            SimCollisionError: they touch (the table's objects as they were); the fault
+                carries ``last_state``, the last pose the driving bus confirmed.
             InvalidJointsError: ``after`` names a joint the arm does not have, or a passive
                 one off its coupling, or holds a value that is not a finite number.
         """
@@ -311,7 +327,22 @@ class SimArm(ServoBus):
         start = last[1] if last is not None and last[0] == before else chain.from_named(before)
         end = chain.from_named(after)
         contact = collision.first_contact(np.array([start, end]))
-        if contact is not None:
+        if contact is None:
+            self._last_after = (dict(after), end)
+            return
+        # closed jaws against an object they missed (they pushed it aside) push it on
+        # where they move into it: they do not pass through it
+        kept = [(o, o.x_cm, o.y_cm) for o in self.world.table_objects()], dict(self._pushed_cm)
+        while (
+            contact is not None
+            and object_of(contact.obstacle) in self._against
+            and self._shove(str(object_of(contact.obstacle)), contact.q)
+        ):
+            contact = self._world_now().first_contact(np.array([start, end]))
+        if contact is not None:  # refused: the table as it was
+            for obj, x, y in kept[0]:
+                obj.x_cm, obj.y_cm = x, y
+            self._pushed_cm = kept[1]
             raise SimCollisionError(
                 "sim: the arm ran into something: " + contact.describe(chain.names, chain.scale),
                 last_state=last_state,
@@ -439,6 +470,41 @@ class SimArm(ServoBus):
             tol,
         )
         return GripResult(ok, obj.id, float(dist), dz)
+
+    def _push_aside(self, q: np.ndarray) -> None:
+        """Push the table objects the closed jaws are in at pose ``q`` out of their way.
+
+        Jaws do not pass through an object: closing off its middle by more than the
+        grip's tolerance, on its edge or beside it, they shove it. Each object the arm
+        touches is pushed (:meth:`_shove`) until it no longer does; the arm is then
+        against it (:attr:`_against`) until the jaws open, and shoves it on where it moves
+        into it (:meth:`_check_move`: the lift after the miss, its servos' noise moving a
+        pad sideways). Bins and the table are not moved.
+        """
+        while True:
+            ids = dict.fromkeys(object_of(b) for _, b, _ in self._world_now().touching(q))
+            if not any([self._shove(i, q) for i in ids if i is not None]):
+                return
+
+    def _shove(self, object_id: str, q: np.ndarray) -> bool:
+        """Move a table object :data:`PUSH_STEP_CM` in the plane away from the TCP at ``q``.
+
+        Returns whether it moved: not when it is not on the table, or the arm has pushed
+        it :data:`PUSH_MOST_CM` already.
+        """
+        obj = next((o for o in self.world.table_objects() if o.id == object_id), None)
+        if obj is None or self._pushed_cm.get(obj.id, 0.0) >= PUSH_MOST_CM:
+            return False
+        x, y, _ = (float(v) for v in self.model.fk_cm(q))
+        dx, dy = obj.x_cm - x, obj.y_cm - y
+        norm = math.hypot(dx, dy) or 1.0
+        obj.x_cm += PUSH_STEP_CM * dx / norm
+        obj.y_cm += PUSH_STEP_CM * dy / norm
+        if obj.id not in self._pushed_cm:
+            log.info("sim: the jaws push %s aside", obj.id)
+        self._pushed_cm[obj.id] = self._pushed_cm.get(obj.id, 0.0) + PUSH_STEP_CM
+        self._against.add(obj.id)
+        return True
 
     def _open_gripper(self) -> None:
         if self.world.held_object() is None:
