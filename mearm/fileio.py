@@ -24,6 +24,12 @@ process) is taken again. Ctrl-C already unwinds through the ``except`` clause, w
 removes the file; a SIGKILL or a power cut can still leave a ``.tmp`` file behind, never
 a damaged target.
 
+A command that writes several files into a folder (plots and their report, rendered
+views) writes them into a hidden staging folder there first, and puts them in place
+of the earlier run's only when all are written (:func:`replace_earlier_run`): a
+failure, a signal or a refused option leaves the earlier run's files whole, never a
+mixture of two runs.
+
 Append-only files (the run log) are not written this way: they are only ever appended
 to, one ``fsync``-ed line at a time (:class:`mearm.runlog.RunLog`).
 """
@@ -33,11 +39,12 @@ from __future__ import annotations
 import contextlib
 import errno
 import os
+import shutil
 import signal
 import stat
 import tempfile
 import threading
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from types import FrameType
 from typing import Any, BinaryIO
@@ -364,3 +371,71 @@ def existing_ancestor(path: Path) -> Path:
     while not parent.exists() and parent != parent.parent:
         parent = parent.parent
     return parent
+
+
+# ------------------------------------------------------------- a run's files, whole
+
+
+def staging_folder(out: Path, command: str) -> Path:
+    """The hidden folder in ``out`` that this process's run of ``command`` writes into first."""
+    return out / f".{command}.{os.getpid()}.tmp"
+
+
+def is_staging(path: Path, command: str) -> bool:
+    """Whether ``path`` is a hidden folder a run of ``command`` writes into first."""
+    name, prefix = path.name, f".{command}."
+    number = name[len(prefix) : -len(".tmp")]
+    return (
+        name.startswith(prefix)
+        and name.endswith(".tmp")
+        and number.isdigit()
+        and path.is_dir()
+        and not path.is_symlink()
+    )
+
+
+def remove_staging_leftovers(out: Path, command: str) -> None:
+    """Remove the hidden folders of runs of ``command`` that were killed (SIGKILL, a power cut)."""
+    for path in sorted(out.iterdir()):
+        if is_staging(path, command):
+            shutil.rmtree(path, ignore_errors=True)
+
+
+def replace_earlier_run(
+    staging: Path, out: Path, names: list[str], is_own: Callable[[Path], bool]
+) -> None:
+    """Put the new run's files (``names`` in ``staging``) in ``out`` in place of an earlier run's.
+
+    Only renames, with Ctrl-C, SIGTERM and SIGHUP taken after the last of them
+    (:func:`~mearm.interrupts.signals_deferred`), so a signal leaves the earlier run or the
+    new one, whole. The earlier run's files (``is_own``) are moved aside into ``staging``
+    first, the stale ones (a file the new run does not write) with them; if a rename
+    fails, what was moved is moved back, and the earlier run stays as it was. ``staging``
+    is removed.
+
+    Raises:
+        OSError: a rename failed (the earlier run's files are as they were); its
+            ``filename`` names the file.
+    """
+    aside = staging / "earlier"
+    moved_aside: list[str] = []
+    moved_in: list[str] = []
+    with interrupts.signals_deferred():
+        try:
+            aside.mkdir()
+            for path in sorted(out.iterdir()):
+                if is_own(path):
+                    os.rename(path, aside / path.name)
+                    moved_aside.append(path.name)
+            for name in names:
+                os.rename(staging / name, out / name)
+                moved_in.append(name)
+        except OSError:
+            for name in reversed(moved_in):
+                os.rename(out / name, staging / name)
+            for name in reversed(moved_aside):
+                os.rename(aside / name, out / name)
+            shutil.rmtree(staging, ignore_errors=True)
+            raise
+        shutil.rmtree(staging, ignore_errors=True)  # the earlier run's files, now replaced
+    _fsync_folder(out)

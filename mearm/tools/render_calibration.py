@@ -35,7 +35,6 @@ whole (a SIGKILL can leave the hidden folder behind: the next run removes it).
 from __future__ import annotations
 
 import argparse
-import os
 import re
 import shutil
 from collections.abc import Sequence
@@ -57,7 +56,13 @@ from mearm.cli import (
 )
 from mearm.config import Config
 from mearm.errors import MearmError
-from mearm.fileio import write_atomic
+from mearm.fileio import (
+    is_staging,
+    remove_staging_leftovers,
+    replace_earlier_run,
+    staging_folder,
+    write_atomic,
+)
 from mearm.interrupts import signals_deferred, stop_signals_as_ctrl_c
 
 if TYPE_CHECKING:
@@ -112,10 +117,9 @@ _OWN_NAMES = re.compile(
     r"|truth_(intrinsics|pose)\.yaml(\.bak(\.\d+)?)?"
 )
 #: The hidden folder inside --out that a run writes its files into before they replace the
-#: earlier run's (:func:`_replace_earlier_run`); one a SIGKILL or a power cut left behind is
-#: removed by the next run.
-_STAGING_PREFIX, _STAGING_SUFFIX = ".render_calibration.", ".tmp"
-_STAGING = re.compile(re.escape(_STAGING_PREFIX) + r"\d+" + re.escape(_STAGING_SUFFIX))
+#: earlier run's (:func:`~mearm.fileio.replace_earlier_run`); one a SIGKILL or a power cut
+#: left behind is removed by the next run.
+_COMMAND = "render_calibration"
 
 
 def _is_own(path: Path) -> bool:
@@ -124,66 +128,19 @@ def _is_own(path: Path) -> bool:
 
 
 def _is_staging(path: Path) -> bool:
-    """Whether ``path`` is a hidden folder a run of this command writes into first."""
-    return bool(_STAGING.fullmatch(path.name)) and path.is_dir() and not path.is_symlink()
-
-
-def _remove_leftovers(out: Path) -> None:
-    """Remove the hidden folders of runs that were killed (SIGKILL, a power cut) in ``out``."""
-    for path in sorted(out.iterdir()):
-        if _is_staging(path):
-            shutil.rmtree(path, ignore_errors=True)
+    return is_staging(path, _COMMAND)
 
 
 def _replace_earlier_run(staging: Path, out: Path, names: list[str]) -> None:
-    """Put the new run's files (``names`` in ``staging``) in ``out`` in place of an earlier run's.
-
-    Only renames, with Ctrl-C, SIGTERM and SIGHUP taken after the last of them
-    (:func:`~mearm.interrupts.signals_deferred`), so a signal leaves the earlier run or the
-    new one, whole. The earlier run's files are moved aside into ``staging`` first, the
-    stale names (a view or a truth file the new run does not write) with them; if a
-    rename fails, what was moved is moved back, and the earlier run stays as it was.
-    """
-    aside = staging / "earlier"
-    moved_aside: list[str] = []
-    moved_in: list[str] = []
-    with signals_deferred():
-        try:
-            aside.mkdir()
-            for path in sorted(out.iterdir()):
-                if _is_own(path):
-                    os.rename(path, aside / path.name)
-                    moved_aside.append(path.name)
-            for name in names:
-                os.rename(staging / name, out / name)
-                moved_in.append(name)
-        except OSError as exc:
-            for name in reversed(moved_in):
-                os.rename(out / name, staging / name)
-            for name in reversed(moved_aside):
-                os.rename(aside / name, out / name)
-            shutil.rmtree(staging, ignore_errors=True)
-            name = Path(exc.filename2 or exc.filename or "?").name  # the same in out and aside
-            raise MearmError(
-                f"cannot replace {name} in --out {out}: {exc.strerror or exc}; the earlier "
-                "run's files are kept as they were"
-            ) from None
-        shutil.rmtree(staging, ignore_errors=True)  # the earlier run's files, now replaced
-    _sync_folder(out)
-
-
-def _sync_folder(folder: Path) -> None:
-    """Make the renames durable, as :func:`~mearm.fileio.write_atomic` makes its own."""
+    """:func:`~mearm.fileio.replace_earlier_run`, a failure said as the command's error."""
     try:
-        fd = os.open(folder, os.O_RDONLY | getattr(os, "O_DIRECTORY", 0))
-    except OSError:
-        return  # some systems cannot open a folder
-    try:
-        os.fsync(fd)
-    except OSError:
-        pass  # nor sync one
-    finally:
-        os.close(fd)
+        replace_earlier_run(staging, out, names, _is_own)
+    except OSError as exc:
+        name = Path(exc.filename2 or exc.filename or "?").name  # the same in out and aside
+        raise MearmError(
+            f"cannot replace {name} in --out {out}: {exc.strerror or exc}; the earlier "
+            "run's files are kept as they were"
+        ) from None
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -247,8 +204,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.raised_height_cm is not None:  # refused (exit 2) before anything is rendered
         raised = raised_sheet_layout(config, args.raised_height_cm)
     with stop_signals_as_ctrl_c():  # a SIGTERM or SIGHUP, too, removes the hidden folder
-        _remove_leftovers(args.out)
-        staging = args.out / f"{_STAGING_PREFIX}{os.getpid()}{_STAGING_SUFFIX}"
+        remove_staging_leftovers(args.out, _COMMAND)
+        staging = staging_folder(args.out, _COMMAND)
         try:
             names = _write_run(staging, config, args, layout, raised)
             # (inside the try: a Ctrl-C between the writing and the renames, which take
