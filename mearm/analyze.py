@@ -18,14 +18,21 @@ two runs written to one log — is refused (exit 2, naming the numbers): pooling
 count every such trial twice (:meth:`mearm.runlog.RunLogContents.latest`).
 
 ``--out`` refuses, before any work, to replace a file it would write there (``report.md``,
-a plot) unless ``--force`` is given; each is written in a single step
-(:func:`mearm.fileio.write_atomic`).
+a plot) unless ``--force`` is given. Every option is checked, and the gain sweeps run,
+before anything is written; the files are written into a hidden folder in ``--out``
+and put in place of an earlier run's together at the end
+(:func:`mearm.fileio.replace_earlier_run`): a failure or Ctrl-C leaves the earlier
+report and its plots as they were, never half of each run (a file linked into ``--out``
+from elsewhere is written through its link, after the others). The gain options
+(``--config``, ``--set``, ``--kp``, ``--kd``, ``--mode``, ``--start``, ``--target``) are
+read only with ``--gains``, and refused (exit 2) without it.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import shutil
 import sys
 from collections.abc import Sequence
 from pathlib import Path
@@ -46,10 +53,22 @@ from mearm.cli import (
 )
 from mearm.config import Config
 from mearm.errors import MearmError
+from mearm.fileio import (
+    existing_ancestor,
+    remove_staging_leftovers,
+    replace_earlier_run,
+    staging_folder,
+    write_atomic,
+)
+from mearm.interrupts import signals_deferred, stop_signals_as_ctrl_c
 from mearm.runlog import HeaderRecord, RouteRecord, RunLogContents, read_runlog
 
 DEFAULT_KP = "0.01,0.1,0.5"
 DEFAULT_KD = "0,0.01,0.1,0.5"
+#: The options only the gain sweeps read (``--gains``), by their attribute names.
+GAIN_OPTIONS = ("config", "set", "kp", "kd", "mode", "start", "target")
+#: The hidden folder in --out a run writes into first (:func:`mearm.fileio.staging_folder`).
+_COMMAND = "analyze"
 #: The gain sweeps' default route: home to the paper's first object, M1 (paper §4).
 DEFAULT_TARGET_XY_CM = (-10.99, 49.70)
 
@@ -86,13 +105,11 @@ def _parser() -> ArgumentParser:
     gains.add_argument(
         "--kp",
         type=float_list(None, "--kp"),
-        default=DEFAULT_KP,
         help=f"kp values, kd from the config (default {DEFAULT_KP})",
     )
     gains.add_argument(
         "--kd",
         type=float_list(None, "--kd"),
-        default=DEFAULT_KD,
         help=f"kd values, kp from the config (default {DEFAULT_KD})",
     )
     gains.add_argument(
@@ -252,11 +269,23 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.error("give a run log to analyse, --gains, or both")
     if args.out is not None and args.out.exists() and not args.out.is_dir():
         parser.error(f"--out {args.out} is not a folder")
+    if args.out is not None and not args.out.exists():
+        above = existing_ancestor(args.out)
+        if not above.is_dir():
+            parser.error(f"--out {args.out}: {above} is a file, not a folder")
     if args.out is not None and args.log is not None and _is_output(args.log, args.out):
         parser.error(
             f"{args.log} is the run log to analyse, and --out {args.out} would write "
             f"{args.log.name} over it: give another --out folder"
         )
+    unread = [f"--{name}" for name in GAIN_OPTIONS if getattr(args, name) not in (None, [])]
+    if unread and not args.gains:
+        parser.error(
+            f"{', '.join(unread)}: read only with --gains (the gain sweeps); add --gains, or "
+            f"leave {'it' if len(unread) == 1 else 'them'} out"
+        )
+    args.kp = args.kp if args.kp is not None else float_list(None, "--kp")(DEFAULT_KP)
+    args.kd = args.kd if args.kd is not None else float_list(None, "--kd")(DEFAULT_KD)
     if args.out is not None:
         _check_out_files(args)
     _require_extras(plots=args.out is not None)
@@ -265,7 +294,6 @@ def main(argv: Sequence[str] | None = None) -> int:
     from mearm.analysis.tables import analysis_tables, gain_table, render_text
 
     result: dict[str, Any] = {}
-    images: dict[str, Path] = {}
     text: list[str] = []
     analysis = None
     contents: RunLogContents | None = None
@@ -279,15 +307,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         result["analysis"]["produced_by"] = rig
         text += [f"{args.log}: {rig}"] if rig else []
         text += [render_text(t) for t in analysis_tables(analysis)]
-    path_routes: list[Any] = []
-    if contents is not None and args.out is not None:
-        images.update(_log_plots(contents, analysis, args))
-        path_routes = _path_routes(contents)
-        if path_routes:
-            images.update(_path_plots(path_routes, args.out, _rig(contents)))
     gains_kp: list[Any] = []
     gains_kd: list[Any] = []
-    if args.gains:
+    if args.gains:  # (before anything is written: a refused option writes nothing)
         config = config_from_args(args)
         _check_start(parser, config, args.start)
         gains_kp, gains_kd = _gain_sweeps(config, args)
@@ -299,18 +321,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             render_text(gain_table(gains_kp, "Proportional gain kp")),
             render_text(gain_table(gains_kd, "Derivative gain kd")),
         ]
-        if args.out is not None:
-            images.update(_gain_plots(gains_kp, gains_kd, args.out))
     if args.out is not None:
-        report = _write_report(
-            args.out,
-            images,
-            analysis=analysis,
-            contents=contents,
-            path_routes=path_routes,
-            gains_kp=gains_kp,
-            gains_kd=gains_kd,
-        )
+        report, images = _write_out(args, contents, analysis, gains_kp, gains_kd)
         result["report"] = str(report)
         result["plots"] = {k: str(v) for k, v in images.items()}
         text.append(f"wrote {report} and {len(images)} plots into {args.out}/")
@@ -319,6 +331,72 @@ def main(argv: Sequence[str] | None = None) -> int:
     else:
         print("\n\n".join(text))
     return 0
+
+
+def _write_out(
+    args: argparse.Namespace,
+    contents: RunLogContents | None,
+    analysis: Any,
+    gains_kp: list[Any],
+    gains_kd: list[Any],
+) -> tuple[Path, dict[str, Path]]:
+    """Write the plots and ``report.md`` into ``--out``, in place of an earlier run's, whole.
+
+    Written into a hidden folder there first, then renamed into place together
+    (:func:`~mearm.fileio.replace_earlier_run`; a Ctrl-C, SIGTERM or SIGHUP, or a failure,
+    removes the folder and leaves the earlier run's files as they were). Returns the
+    report's path and the plots' paths in ``--out``.
+    """
+    out: Path = args.out
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise MearmError(f"cannot make --out {out}: {exc.strerror or exc}") from None
+    with stop_signals_as_ctrl_c():  # a SIGTERM or SIGHUP, too, removes the hidden folder
+        remove_staging_leftovers(out, _COMMAND)
+        staging = staging_folder(out, _COMMAND)
+        try:
+            try:
+                staging.mkdir()
+            except OSError as exc:
+                raise MearmError(f"cannot write into --out {out}: {exc.strerror or exc}") from None
+            images: dict[str, Path] = {}
+            path_routes: list[Any] = []
+            if contents is not None:
+                images.update(_log_plots(contents, analysis, args, staging))
+                path_routes = _path_routes(contents)
+                if path_routes:
+                    images.update(_path_plots(path_routes, staging, _rig(contents)))
+            if gains_kp:
+                images.update(_gain_plots(gains_kp, gains_kd, staging))
+            report = _write_report(
+                staging,
+                images,
+                analysis=analysis,
+                contents=contents,
+                path_routes=path_routes,
+                gains_kp=gains_kp,
+                gains_kd=gains_kd,
+            )
+            names = [report.name, *(p.name for p in images.values())]
+            # a file kept elsewhere and linked into --out is written through its link
+            linked = {n: (staging / n).read_bytes() for n in names if (out / n).is_symlink()}
+            renamed = [n for n in names if n not in linked]
+            try:  # (only the files this run writes: --force replaces those, no others)
+                replace_earlier_run(staging, out, renamed, lambda p: p.name in renamed)
+                for name, data in linked.items():
+                    write_atomic(out / name, data)
+            except OSError as exc:
+                name = Path(exc.filename2 or exc.filename or "?").name
+                raise MearmError(
+                    f"cannot replace {name} in --out {out}: {exc.strerror or exc}; the "
+                    "earlier run's report and plots are kept as they were"
+                ) from None
+        except BaseException:
+            with signals_deferred():  # a second Ctrl-C does not leave the folder behind
+                shutil.rmtree(staging, ignore_errors=True)
+            raise
+    return out / report.name, {k: out / p.name for k, p in images.items()}
 
 
 def _rig(contents: RunLogContents) -> str | None:
@@ -340,7 +418,7 @@ def _rig(contents: RunLogContents) -> str | None:
 
 
 def _log_plots(
-    contents: RunLogContents, analysis: Any, args: argparse.Namespace
+    contents: RunLogContents, analysis: Any, args: argparse.Namespace, out: Path
 ) -> dict[str, Path]:
     from mearm.analysis import plots
     from mearm.analysis.stats import route_errors_cm, select_routes
@@ -351,13 +429,13 @@ def _log_plots(
     source = _rig(contents)
     images = {
         "histogram": plots.error_histogram(
-            norms, analysis.weibull, args.out / "histogram.png", source=source
+            norms, analysis.weibull, out / "histogram.png", source=source
         )
     }
     if analysis.success is not None:
         errors, success = pick_outcomes(contents.routes, attempts=args.attempts)
         images["success"] = plots.success_against_error(
-            errors, success, analysis.success, args.out / "success_vs_error.png", source=source
+            errors, success, analysis.success, out / "success_vs_error.png", source=source
         )
     return images
 

@@ -376,3 +376,66 @@ def test_picks_when_the_jaws_close_have_their_own_table(log: Path, tmp_path: Pat
     norms = np.linalg.norm(offsets, axis=1)
     assert grip["xyz"]["mean"] == pytest.approx(norms.mean())
     assert grip["z"]["mean"] == pytest.approx(0.03)
+
+
+# ----------------------------------------------- refused before writing; written whole
+
+
+def _files(folder: Path) -> dict[str, bytes]:
+    return {p.name: p.read_bytes() for p in sorted(folder.iterdir())}
+
+
+@pytest.mark.parametrize(
+    ("extra", "message"),
+    [
+        (["--gains", "--start", "1,2"], "--start needs 3 numbers"),
+        (["--gains", "--kp", "-1"], "greater than 0"),
+    ],
+)
+def test_a_refused_gain_option_leaves_the_earlier_report_whole(
+    log: Path, tmp_path: Path, capsys, extra: list[str], message: str
+) -> None:
+    """The plots of the log were written before the gains were checked: half a new run."""
+    out = tmp_path / "report"
+    assert main([str(log), "--out", str(out)]) == 0
+    before = _files(out)
+    result = run_in_process(
+        ["analyze", str(log), "--step", "pick", *extra, "--out", str(out), "--force"]
+    )
+    assert result.code == 2 and message in result.stderr
+    assert _files(out) == before
+    fresh = tmp_path / "fresh"
+    assert run_in_process(["analyze", str(log), *extra, "--out", str(fresh)]).code == 2
+    assert not fresh.exists()
+
+
+def test_an_interrupted_report_leaves_the_earlier_one_whole(
+    log: Path, tmp_path: Path, capsys, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import mearm.analyze as analyze
+
+    out = tmp_path / "report"
+    assert main([str(log), "--out", str(out)]) == 0
+    before = _files(out)
+
+    def interrupted(*args: object, **kwargs: object) -> None:
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(analyze, "_path_plots", interrupted)  # the histogram is written
+    with pytest.raises(KeyboardInterrupt):
+        main([str(log), "--step", "pick", "--out", str(out), "--force"])
+    assert _files(out) == before  # (no hidden folder left either)
+
+
+@pytest.mark.parametrize("option", [["--kp", "0.1"], ["--config", "sim"], ["--mode", "paper"]])
+def test_gain_options_without_gains_are_refused(log: Path, option: list[str]) -> None:
+    """They were read by nothing: the run looked as if it had obeyed them."""
+    out = run_in_process(["analyze", str(log), *option])
+    assert out.code == 2 and len(out.stderr.strip().splitlines()) == 1
+    assert f"{option[0]}: read only with --gains" in out.stderr
+
+
+def test_out_below_a_file_is_refused_before_the_analysis(log: Path, tmp_path: Path) -> None:
+    (tmp_path / "file").write_text("keep")
+    out = run_in_process(["analyze", str(log), "--out", str(tmp_path / "file" / "sub")])
+    assert out.code == 2 and "--out" in out.stderr and "is a file, not a folder" in out.stderr
