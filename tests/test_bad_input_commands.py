@@ -72,7 +72,8 @@ CASES: list[tuple[list[str], str]] = [
     (["camera-accuracy", "--heights", "x"], "--heights wants numbers like 1,2.5"),
     (["camera-accuracy", "--config", TWIN, "--views", "0"],
      "--views must be a whole number in 6 … 60, got 0"),
-    (["camera-accuracy"], "the built-in config: simulator is 'kinematic'; this needs the twin"),
+    (["camera-accuracy", "--config", "sim"], "sim: simulator is 'kinematic'; this needs the twin"),
+    (["camera-accuracy", "--heights", "1,1"], "--heights names a height twice"),
     # the twin's injected faults
     (["sort", "--config", TWIN, "--set", "twin.faults=[{kind: melt, at_s: 1}]"], "twin.faults"),
     (["sort", "--config", TWIN, "--set", "twin.faults=[{kind: limp_servo, at_s: 1, "

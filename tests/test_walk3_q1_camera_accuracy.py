@@ -30,3 +30,25 @@ def test_the_json_figures_are_labelled_simulated(tmp_path_factory: pytest.TempPa
     assert done.code == 0, done.stdout + done.stderr
     record = json.loads((done.folder / "ca.json").read_text())
     assert record["simulated"] is True and record["rows"][0]["height_cm"] == 1.0
+
+
+@pytest.mark.slow
+def test_without_a_config_it_measures_the_twin_and_names_its_backups(tmp_path) -> None:
+    """Without --config it refused every run ("simulator is 'kinematic'"), though its help
+    named a default; a rerun into --work kept the old calibrations as .bak unnamed."""
+    argv = ["camera-accuracy", "--heights", "1", "--scenes", "1", "--objects", "1"]
+    work = tmp_path / "work"
+    first = run_in_process([*argv, "--work", str(work)], within_s=60)
+    assert first.code == 0, first.stderr
+    assert "s; simulated: the twin's rendered camera)" in first.stdout
+    again = run_in_process([*argv, "--work", str(work)], within_s=60)
+    assert again.code == 0, again.stderr
+    for name in ("intrinsics.yaml", "pose.yaml"):
+        assert f"wrote {work / name}.bak (the old {work / name})" in again.stdout
+        assert (work / f"{name}.bak").is_file()
+
+
+def test_a_height_given_twice_is_refused() -> None:
+    done = run_in_process(["camera-accuracy", "--heights", "1,2.5,1"])
+    assert done.code == 2 and len(done.stderr.strip().splitlines()) == 1
+    assert "--heights names a height twice" in done.stderr

@@ -93,6 +93,8 @@ def _numbers(text: str) -> list[float]:
         raise MearmError(f"--heights wants numbers like 1,2.5, got {text!r}") from None
     if not values or not all(0.2 <= v <= 10 for v in values):
         raise MearmError(f"--heights must be in 0.2 … 10 cm, got {text!r}")
+    if len(set(values)) < len(values):
+        raise MearmError(f"--heights names a height twice, got {text!r}: each once")
     return values
 
 
@@ -274,6 +276,25 @@ def calibrate(config_path: str, overrides: list[str], work: Path, views: int, no
     return {"intrinsics_output": out.strip(), "pose_output": pose.strip(), "markers": marker_args}
 
 
+def _say_calibrated(cal: dict) -> None:
+    """Print the calibrations' lines that matter here, each backup a tool kept named first."""
+    intrinsics, pose = cal["intrinsics_output"], cal["pose_output"]
+    for line in _backups_named(intrinsics):
+        print(line)
+    print(intrinsics.splitlines()[0] if intrinsics else "")
+    for line in [*_backups_named(pose), *pose.splitlines()[1:4]]:
+        print(line)
+
+
+def _backups_named(output: str) -> list[str]:
+    """The lines a calibration tool named a backup it kept with (``wrote X.bak (the old X)``)."""
+    return [line for line in output.splitlines() if _BACKUP_LINE.match(line)]
+
+
+#: A tool's line naming a backup (:func:`mearm.cli.backup_written`).
+_BACKUP_LINE = re.compile(r"wrote .+\.bak(\.\d+)? \(the old .+\)")
+
+
 def _paper_homography(work: Path, marker_args: list[str]):  # noqa: ANN202
     from mearm.vision.aruco import calibration_from_markers
     from mearm.vision.image import read_image
@@ -380,7 +401,7 @@ def score(
 def main(argv: Sequence[str] | None = None) -> int:
     """Calibrate in the twin and score the detections; 1 if not within the bounds."""
     parser = ArgumentParser(description=__doc__.splitlines()[0] if __doc__ else None)
-    add_config_argument(parser)
+    add_config_argument(parser, default="sim_mujoco")  # (it measures the twin's camera)
     parser.add_argument("--heights", type=str, default="1,2.5", help="object heights [cm]")
     parser.add_argument("--scenes", type=plain_int, default=5, help="scenes per height (1 … 100)")
     parser.add_argument("--first-seed", type=plain_int, default=0, help="seed of the first scene")
@@ -434,7 +455,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     config = config_from_args(args)
     if config.simulator != "mujoco":
         raise MearmError(
-            f"{args.config or 'the built-in config'}: simulator is {config.simulator!r}; "
+            f"{args.config}: simulator is {config.simulator!r}; "
             "this needs the twin (simulator: mujoco, e.g. --config sim_mujoco)"
         )
     t0 = time.perf_counter()
@@ -444,9 +465,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         if args.work is not None:  # claimed before anything is written into it
             _mark_work(work, recorded, finished=False)
         cal = calibrate(str(args.config), list(args.set or []), work, args.views, args.noise_std)
-        print(cal["intrinsics_output"].splitlines()[0] if cal["intrinsics_output"] else "")
-        for line in cal["pose_output"].splitlines()[1:4]:
-            print(line)
+        _say_calibrated(cal)
         rows = score(
             config, work, heights, args.scenes, args.objects, args.noise_std, cal["markers"],
             args.first_seed,
