@@ -16,8 +16,9 @@ physics runs on with that command; its measured angle is sampled every 4 ms for 
 model's, written by this command run against it) dashed under this model's, which is
 how the plot in docs/twin.md compares the servo model before and after a change. An
 existing ``--csv`` or ``--out`` is refused before the measurement unless ``--force``
-(the plot in docs/images is redrawn with it); a folder on their path that does not exist
-yet is made, as ``mkdir -p`` would.
+(the plot in docs/images is redrawn with it), and one that is the ``--config`` or
+``--before`` file even with it; a folder on their path that does not exist yet is made,
+as ``mkdir -p`` would.
 """
 
 from __future__ import annotations
@@ -34,6 +35,7 @@ from mearm.cli import (
     check_output_file,
     config_from_args,
     plain_float,
+    refuse_own_inputs,
     refuse_to_replace,
 )
 from mearm.config import Config
@@ -236,7 +238,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument(
         "--out", type=Path, help="write the plot here (PNG; missing folders are made)"
     )
-    parser.add_argument("--force", action="store_true", help="replace an existing --csv or --out")
+    parser.add_argument(
+        "--force",
+        action="store_true",
+        help="replace an existing --csv or --out (never the --config or --before file)",
+    )
     args = parser.parse_args(argv)
     if args.csv is None and args.out is None:
         parser.error("nothing to write: give --csv FILE, --out FILE.png, or both")
@@ -254,6 +260,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         args.before is not None and args.before.resolve() in outputs
     ):
         raise MearmError("--csv, --out and --before must be three different files")
+    from mearm.config.files import resolve_config_path  # noqa: PLC0415  (an output given)
+
+    refuse_own_inputs(
+        [("--csv", args.csv), ("--out", args.out)],
+        [("--config", resolve_config_path(args.config)), ("--before", args.before)],
+    )
     refuse_to_replace(args.csv, "--csv", args.force)
     refuse_to_replace(args.out, "--out", args.force)
     before = read_rows(args.before) if args.before else []
