@@ -38,8 +38,8 @@ def test_each_joint_reaches_its_step_and_the_plot_is_drawn(tmp_path):
         angles = [abs(float(r["angle_deg"])) for r in rows if r["joint"] == joint]
         times = [float(r["t_s"]) for r in rows if r["joint"] == joint]
         assert angles[-1] == pytest.approx(10.0, abs=1.0)
-        assert times[0] > 0 and times[-1] >= 0.59
-        assert angles[0] < 5.0  # one command period after the command, not there yet
+        assert times[0] == 0 and times[-1] >= 0.59
+        assert angles[0] == 0.0 and angles[5] < 5.0  # at the command; a period on, not there
     plot = ["servo-steps", "--config", config, "--degrees", "5", "--before", table]
     drawn = run_in_process([*plot, "--out", picture], within_s=60)
     assert drawn.code == 0, drawn.stderr

@@ -28,6 +28,7 @@ import io
 import math
 from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from mearm.cli import (
     ArgumentParser,
@@ -43,6 +44,9 @@ from mearm.errors import MearmError
 from mearm.fileio import write_atomic
 from mearm.hardware import ArmCommand, ServoMap
 from mearm.kinematics.errors import JointLimitError
+
+if TYPE_CHECKING:
+    from mearm.sim.twin.twin_bus import TwinArm
 
 #: Sampling interval and length of each response (simulated) [s].
 SAMPLE_S, LENGTH_S = 0.004, 0.6
@@ -130,11 +134,44 @@ def check_steps(config: Config, steps_deg: Sequence[float]) -> None:
             )
 
 
+class _Response:
+    """The bus's sampler during one step: the joint's angle every :data:`SAMPLE_S` from t = 0.
+
+    The twin samples within its physics (:class:`~mearm.hardware.bus.Sampler`), so the
+    command period the step's move runs is sampled too: recorded only after the move, a
+    response began at 20 ms, already 1.7° into a 10° step. A sample the bus takes late
+    (the twin skips the time of a scene at rest) stands for every one due by then, as
+    nothing moved meanwhile.
+    """
+
+    def __init__(self, arm: TwinArm, joint: str, step: float, rows: Rows):
+        self.arm, self.joint, self.step, self.rows = arm, joint, step, rows
+        self.t0_s, self.start = arm.time_s, arm.actual_joints[joint]
+        self.taken = 0
+        self.sample(arm)  # t = 0: the angle before the command
+
+    @property
+    def due_s(self) -> float:
+        """When the next sample is due on the bus's clock [s]; infinite after the last."""
+        if self.taken >= round(LENGTH_S / SAMPLE_S):
+            return math.inf
+        return self.t0_s + self.taken * SAMPLE_S
+
+    def sample(self, bus: object) -> None:
+        """Take every sample due by now (``bus`` is the twin this response samples)."""
+        moved = self.arm.actual_joints[self.joint] - self.start
+        while self.arm.time_s >= self.due_s - 1e-9:
+            self.rows.append((self.joint, self.step, self.taken * SAMPLE_S, moved))
+            self.taken += 1
+
+
 def responses(config: Config, steps_deg: list[float]) -> Rows:
     """Each actuated joint's response to each step: (joint, step, t, angle) rows.
 
     Each step goes up from home where the joint's limits allow it, else down
-    (:func:`step_command`; :func:`check_steps` refuses one that fits neither way).
+    (:func:`step_command`; :func:`check_steps` refuses one that fits neither way). A
+    response starts at t = 0 with the angle before the command (0) and is sampled every
+    :data:`SAMPLE_S` while t < :data:`LENGTH_S`, the command's own period included.
     """
     from mearm.sim.twin.twin_bus import TwinArm
 
@@ -150,12 +187,11 @@ def responses(config: Config, steps_deg: list[float]) -> Rows:
             if first.joints[joint.name] != config.arm.home()[joint.name]:
                 arm.move(first)  # a start away from home: there first, at rest
                 arm.settle(START_SETTLE_S)
-            start, t0 = arm.actual_joints[joint.name], arm.time_s
+            response = _Response(arm, joint.name, step, rows)
+            arm.sampler = response
             arm.move(command)
-            while arm.time_s - t0 < LENGTH_S:
-                moved = arm.actual_joints[joint.name] - start
-                rows.append((joint.name, step, arm.time_s - t0, moved))
-                arm.settle(SAMPLE_S)
+            arm.settle(response.t0_s + LENGTH_S - arm.time_s)
+            arm.sampler = None
     return rows
 
 
