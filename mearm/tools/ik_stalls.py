@@ -11,7 +11,9 @@ checked against the limits, and every solution against the servos' pulse ranges.
     mearm ik-stalls [--targets 2000] [--seed 0] [--no-recover] [CONFIG ...]
 
 ``--no-recover`` runs PD-PIJ without the stall recovery (as before it existed), to set
-beside the default. Exit 1 if any solve left the limits.
+beside the default. Every config is loaded, and its solver built, before any is
+measured: a bad one is refused (exit 2) before the first table. Exit 1 if any solve left
+the limits.
 """
 
 from __future__ import annotations
@@ -27,7 +29,7 @@ import numpy as np
 from mearm.cli import ArgumentParser, plain_int, run, seed_value
 from mearm.config import Config, load_config
 from mearm.hardware.mapping import ServoMap
-from mearm.ik import IKResult, IKTarget, PdPij, make_solver
+from mearm.ik import IKResult, IKSolver, IKTarget, PdPij, make_solver
 from mearm.kinematics import ArmModel, Chain
 
 CONFIGS = ("sim", "sim_mearm_v1", "sim_5dof")
@@ -104,15 +106,33 @@ def violates(result: IKResult, chain: Chain, servos: ServoMap) -> bool:
     )
 
 
-def measure(config: Config, n: int, seed: int, *, recover: bool | None) -> list[dict[str, object]]:
-    """One row per kind of start: stops, their kinds, how solves got there, violations."""
+def make_stalls_solver(config: Config, *, recover: bool | None) -> IKSolver:
+    """The solver measured: the config's when ``recover`` is None, else PD-PIJ's.
+
+    PD-PIJ with ``recover`` false runs without the stall recovery, whatever the config's
+    ``controller.solver``.
+
+    Raises:
+        MearmError: the config's solver cannot be built here (``analytic`` for an arm
+            without a closed form, ``mink`` without its QP backend).
+    """
     model = ArmModel(config.arm)
+    if recover is None:
+        return make_solver(model, config.controller)
+    return PdPij(model, config.controller, recover=recover)
+
+
+def measure(
+    config: Config, n: int, seed: int, *, recover: bool | None, solver: IKSolver | None = None
+) -> list[dict[str, object]]:
+    """One row per kind of start: stops, their kinds, how solves got there, violations.
+
+    ``solver``: the one :func:`make_stalls_solver` builds for ``config`` and ``recover``,
+    when it was built already.
+    """
+    solver = solver or make_stalls_solver(config, recover=recover)
+    model = solver.model
     chain = model.chain
-    solver = (
-        make_solver(model, config.controller)
-        if recover is None
-        else PdPij(model, config.controller, recover=recover)
-    )
     servos = ServoMap.from_arm(config.arm)
     rows = []
     for start in STARTS:
@@ -159,15 +179,19 @@ def main(argv: Sequence[str] | None = None) -> int:
     if not 1 <= args.targets <= 1_000_000:
         parser.error(f"--targets must be in [1, 1000000], got {args.targets}")
     paths = args.configs or [Path(name) for name in CONFIGS]
-    any_violation = False
+    recover = False if args.no_recover else None
+    # every config loaded and its solver built before any is measured: a bad one named
+    # last is refused at once, not after the tables of those before it
+    runs = []
     for path in paths:
         config = load_config(path)
-        solver = config.controller.solver
-        label = f"{path.name} ({solver}{', no recovery' if args.no_recover else ''})"
+        runs.append((path, config, make_stalls_solver(config, recover=recover)))
+    any_violation = False
+    for path, config, solver in runs:
+        name = config.controller.solver
+        label = f"{path.name} ({name}{', no recovery' if args.no_recover else ''})"
         print(label)
-        for row in measure(
-            config, args.targets, args.seed, recover=False if args.no_recover else None
-        ):
+        for row in measure(config, args.targets, args.seed, recover=recover, solver=solver):
             share = 100.0 * int(row["stopped"]) / int(row["targets"])  # type: ignore[call-overload]
             print(
                 f"  start {row['start']:<13} {row['targets']} targets: stopped {row['stopped']} "
