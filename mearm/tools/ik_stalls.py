@@ -11,9 +11,10 @@ checked against the limits, and every solution against the servos' pulse ranges.
     mearm ik-stalls [--targets 2000] [--seed 0] [--no-recover] [CONFIG ...]
 
 ``--no-recover`` runs PD-PIJ without the stall recovery (as before it existed), to set
-beside the default. Every config is loaded, and its solver built, before any is
-measured: a bad one is refused (exit 2) before the first table. Exit 1 if any solve left
-the limits.
+beside the default, whatever solver the config names: its table says so (``mink.yaml
+(pdpij, no recovery, in place of the config's mink)``). Every config is loaded, and its
+solver built, before any is measured: a bad one is refused (exit 2) before the first
+table. Exit 1 if any solve left the limits.
 """
 
 from __future__ import annotations
@@ -161,6 +162,19 @@ def measure(
     return rows
 
 
+def run_label(config_solver: str, *, no_recover: bool) -> str:
+    """What ran, for a config's table: its solver, or PD-PIJ without the recovery.
+
+    ``--no-recover`` runs PD-PIJ whatever the config names; a mink config's table read
+    ``(mink, no recovery)``, a solver that was not run and has no recovery to go without.
+    """
+    if not no_recover:
+        return config_solver
+    if config_solver == "pdpij":
+        return "pdpij, no recovery"
+    return f"pdpij, no recovery, in place of the config's {config_solver}"
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Measure and print one table per config."""
     parser = ArgumentParser(description=__doc__.splitlines()[0])
@@ -174,7 +188,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument(
         "--seed", type=seed_value, default=0, help="seed of the targets (default 0)"
     )
-    parser.add_argument("--no-recover", action="store_true", help="PD-PIJ without the recovery")
+    parser.add_argument(
+        "--no-recover",
+        action="store_true",
+        help="run PD-PIJ without the stall recovery, whatever solver a config names (its "
+        "table says so)",
+    )
     args = parser.parse_args(argv)
     if not 1 <= args.targets <= 1_000_000:
         parser.error(f"--targets must be in [1, 1000000], got {args.targets}")
@@ -188,9 +207,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         runs.append((path, config, make_stalls_solver(config, recover=recover)))
     any_violation = False
     for path, config, solver in runs:
-        name = config.controller.solver
-        label = f"{path.name} ({name}{', no recovery' if args.no_recover else ''})"
-        print(label)
+        print(f"{path.name} ({run_label(config.controller.solver, no_recover=args.no_recover)})")
         for row in measure(config, args.targets, args.seed, recover=recover, solver=solver):
             share = 100.0 * int(row["stopped"]) / int(row["targets"])  # type: ignore[call-overload]
             print(
