@@ -8,8 +8,9 @@ avr-libc, arduino-core-avr, gcc, libsimavr-dev, libelf-dev).
 
     mearm virtual-uno-pulses --commands 2000 [--json FILE [--force]]
 
-An existing ``--json`` is refused before the measurement unless ``--force``; once
-written, ``wrote FILE`` follows the figures (also when a pulse is beyond the tolerance).
+``--json`` writes the figures marked ``"simulated": true``. An existing ``--json`` is
+refused before the measurement unless ``--force``; once written, ``wrote FILE`` follows
+the figures (also when a pulse is beyond the tolerance).
 """
 
 from __future__ import annotations
@@ -98,7 +99,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         help="random commands to send (default 500; 5 pulses each)",
     )  # fmt: skip
     parser.add_argument("--seed", type=seed_value, default=0, help="random seed (default 0)")
-    parser.add_argument("--json", type=Path, help="write the figures here")
+    parser.add_argument(
+        "--json", type=Path, help='write the figures here (marked "simulated": true)'
+    )
     parser.add_argument("--force", action="store_true", help="replace an existing --json")
     args = parser.parse_args(argv)
     if not 1 <= args.commands <= 100_000:
@@ -115,7 +118,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         f"within 1 µs (simulated: the firmware in simavr)"
     )
     if args.json:
-        write_text_atomic(args.json, json.dumps(s, indent=2) + "\n")
+        record = {"simulated": True, **s}  # the firmware in simavr, not a board
+        write_text_atomic(args.json, json.dumps(record, indent=2) + "\n")
         print(f"wrote {args.json}")
     if s["max_us"] > tolerance:
         print(
