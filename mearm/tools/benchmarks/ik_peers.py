@@ -310,7 +310,8 @@ def _solver_rows(p: _Peers, timed: _Timed, repeat: int, rtb_note: str) -> list[R
     if "RTB ik_LM" in timed.per_solve:
         solve_row("RTB ik_LM", "RTB ik_LM (C++)", rtb_note)
     else:
-        rows.append(Row("ik", "RTB ik_LM (C++)", 0.0, "", f"skipped: {rtb_note}"))
+        # not measured: no figure (``—``, null in the JSON), never a time of 0
+        rows.append(Row("ik", "RTB ik_LM (C++)", math.nan, "", f"skipped: {rtb_note}"))
     closed = p.fast.closed_form is not None
     kind = "closed form" if closed else p.fast.name
     solve_row("fastest", f"mearm fastest ({kind})", "fastest_solver(model).solve(target, home)")
