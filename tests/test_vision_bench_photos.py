@@ -177,3 +177,44 @@ def test_every_click_command(
         _, err = capsys.readouterr()
         assert info.value.code == 2 and len(err.strip().splitlines()) == 1
         assert "--every-click" in err
+
+
+def _edited(folder: Path, name: str, edit) -> Path:  # noqa: ANN001
+    """A copy of the folder's manifest, its photos by absolute path, with ``edit`` applied."""
+    copy = folder.parent / name
+    copy.mkdir(exist_ok=True)
+    manifest = yaml.safe_load((folder / "manifest.yaml").read_text())
+    for entry in manifest["images"]:
+        entry["file"] = str(folder / entry["file"])
+    edit(manifest["images"])
+    (copy / "manifest.yaml").write_text(yaml.safe_dump(manifest))
+    return copy
+
+
+def test_a_missing_photo_is_named_with_its_entry(folder: Path) -> None:
+    """The error named the photo's path, not which of the manifest's entries lists it."""
+
+    def lose(images: list[dict]) -> None:
+        images[1]["file"] = str(folder / "missing.png")
+
+    with pytest.raises(photo_bench.InputFileError) as info:
+        load_photos(_edited(folder, "lost", lose), 32.0)
+    assert "manifest.yaml" in info.value.path
+    assert info.value.reason.startswith("images[1] (") and "missing.png" in info.value.reason
+
+
+def test_an_entry_without_a_source_is_a_named_source(folder: Path) -> None:
+    """Scored under a blank source (a row reading ``source `` and nothing more)."""
+
+    def unsourced(images: list[dict]) -> None:
+        for entry in images:
+            del entry["source_repo"]
+
+    photos = load_photos(_edited(folder, "unsourced", unsourced), 32.0)
+    assert {p.source for p in photos} == {photo_bench.NO_SOURCE}
+
+    def blank(images: list[dict]) -> None:
+        images[0]["source_repo"] = " "
+
+    with pytest.raises(photo_bench.InputFileError, match=r"images\[0\].*'source_repo'"):
+        load_photos(_edited(folder, "blank", blank), 32.0)

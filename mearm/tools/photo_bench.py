@@ -52,7 +52,7 @@ from mearm.config import Config
 from mearm.errors import InputFileError
 from mearm.vision.calibration import Calibration, camera_geometry, object_width_px
 from mearm.vision.detector import ColorDetector, Detection
-from mearm.vision.errors import SampleError
+from mearm.vision.errors import ImageError, SampleError
 from mearm.vision.image import read_image
 from mearm.vision.inrange import detect_inrange
 from mearm.vision.learned import CHROMA_MIN, chroma, lab_of
@@ -122,9 +122,26 @@ def _size_px(entry: dict, where: str, manifest: Path) -> float:
     return size
 
 
+#: The source of a manifest entry that names none (``source_repo``): a user's own photos.
+NO_SOURCE = "(no source_repo)"
+
+
 def _source(entry: dict, where: str, manifest: Path) -> str:
-    """An entry's source: its ``source_repo``, with its ``camera`` when it names one."""
-    repo, camera = str(entry.get("source_repo", "")), entry.get("camera")
+    """An entry's source: its ``source_repo``, with its ``camera`` when it names one.
+
+    An entry without ``source_repo`` (a user's own photos) is of the source named
+    ``NO_SOURCE``, not of a blank one.
+    """
+    repo, camera = entry.get("source_repo"), entry.get("camera")
+    if repo is None:
+        repo = NO_SOURCE
+    elif not isinstance(repo, str) or not repo.strip():
+        raise InputFileError(
+            str(manifest),
+            f"{where}: its 'source_repo' is {repo!r}: give where the photo came from (text), "
+            "or leave it out",
+        )
+    repo = repo.strip()
     if camera is None:
         return repo
     if not isinstance(camera, str) or not camera.strip():
@@ -236,7 +253,10 @@ def load_photos(
         where = f"images[{i}] ({entry['file']})"
         size = _size_px(entry, where, path)
         source = _source(entry, where, path)
-        frame = read_image(folder / str(entry["file"]))
+        try:
+            frame = read_image(folder / str(entry["file"]))
+        except ImageError as exc:  # (which entry: the manifest's line, not only the photo)
+            raise InputFileError(str(path), f"{where}: {exc.source}: {exc.reason}") from None
         labels = _centres(entry, where, path, frame.shape, classes)
         scale = object_px / size
         frame = cv2.resize(frame, None, fx=scale, fy=scale, interpolation=cv2.INTER_AREA)
