@@ -487,6 +487,30 @@ def test_flash_fails_when_the_upload_fails_or_no_banner_follows(built_firmware, 
     assert "does not print the mearm banner" in silent.stderr
 
 
+@pytest.mark.heavy
+@pytest.mark.parametrize(
+    ("faults", "count", "words"),
+    [
+        (MearmFaults(v_reply=b""), 6, "printed the banner but did not answer V"),
+        (MearmFaults(), 3, "the config uses servo channel 4, the board drives channels 0..2"),
+    ],
+)
+def test_flash_does_not_name_a_board_the_config_cannot_use(
+    built_firmware, tmp_path, faults, count, words
+):
+    """flash said "set servo.port: PORT in your config" (exit 0) for a board that printed
+    the banner but did not answer V, or whose channels the config's servos do not fit:
+    every command after it then refused that board at its handshake (find-port says so)."""
+    env, _ = _fake_avrdude(tmp_path / "bin", 0)
+    with FakeMearmBoard(faults, servo_count=count) as board:
+        result = run_here("flash", "--port", board.port, "--build-dir", str(built_firmware),
+                          "--config", "lab", "--set", f"servo.port={board.port}",
+                          "--set", "servo.banner_timeout_s=1", path=env["PATH"])  # fmt: skip
+    line = one_error_line(result, code=1)
+    assert f"cannot use it: {board.port}" in line and words in line, line
+    assert "set servo.port" not in result.stdout
+
+
 def test_firmware_source_dir_is_the_checkouts():
     """From the checkout, the firmware is tools/arduino (Makefile and sketch)."""
     assert flash.firmware_source_dir() == ROOT / "tools" / "arduino"

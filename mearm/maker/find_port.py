@@ -154,7 +154,7 @@ class PortReport:
     firmware: FirmwareInfo | None = None
 
 
-def _usable_boards(
+def usable_boards(
     reports: Sequence[PortReport], config: Config | None
 ) -> tuple[list[str], list[str]]:
     """The ports of the mearm boards the commands can drive, and why each other one not.
@@ -545,7 +545,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     width = max(len(r.port.device) for r in reports)
     for report in reports:
         print(format_report(report, width))
-    boards, unusable = _usable_boards(reports, config)
+    boards, unusable = usable_boards(reports, config)
     outdated = [r.port.device for r in reports if r.status == "outdated"]
     if not boards and outdated:
         # a board is there, with the mearm firmware of another protocol: the remedy is to

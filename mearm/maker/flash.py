@@ -244,7 +244,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.no_check:
         print(f"uploaded {plan.hex_file} to {port}")
         return EXIT_OK
-    from mearm.maker.find_port import SerialPort, format_report, probe_port
+    from mearm.maker.find_port import SerialPort, format_report, probe_port, usable_boards
 
     report = probe_port(SerialPort(port), config.servo.baud, config.servo.banner_timeout_s)
     print(format_report(report, len(port)))
@@ -252,6 +252,15 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(
             f"flash: avrdude reported success but the board on {port} does not print the "
             "mearm banner",
+            file=sys.stderr,
+        )
+        return EXIT_FAILURE
+    _, unusable = usable_boards([report], config)
+    if unusable:  # (as find-port: every command's handshake would refuse it)
+        named = args.config if args.config is not None else "sim, the default"
+        print(
+            f"flash: the board runs the mearm firmware, but the config ({named}) cannot use "
+            f"it: {unusable[0]}",
             file=sys.stderr,
         )
         return EXIT_FAILURE
