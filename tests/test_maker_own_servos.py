@@ -204,3 +204,27 @@ def test_recalibrating_on_the_virtual_uno_keeps_its_servos(
         assert base.replaces is not None
         assert base.replaces.zero_us == 600.0, run
         calibration = output
+
+
+def test_a_partial_recalibration_keeps_the_other_actuators_fits(tmp_path: Path, capsys) -> None:
+    """Recalibrating the base alone over a file of three fits wrote a file of the base
+    alone: the config using it ran the gripper and the tool on their nominal calibration,
+    and only the .bak held their fits."""
+    output = _fitted(tmp_path)
+    _calibrate_base(_config("sim", output), output)
+    out = capsys.readouterr().out
+    written = {f.name: f for f in load_servo_calibration(output).actuators}
+    assert sorted(written) == ["base", "gripper", "gripper_arm"]
+    assert written["gripper"].servo.zero_us == 2260.0
+    assert written["gripper_arm"].servo.us_per_unit == 9.5
+    assert written["base"].points and not written["gripper"].points  # this session: points
+    assert "(1 actuator; gripper_arm, gripper kept from the file it replaced)" in out
+    assert (tmp_path / "servos.yaml.bak").read_text() == FITTED
+
+
+def test_a_recalibration_keeps_nothing_of_another_arms_file(tmp_path: Path, capsys) -> None:
+    output = tmp_path / "servos.yaml"
+    output.write_text(FITTED.replace("arm: mearm_paper", "arm: someone_elses"))
+    _calibrate_base(_config("sim"), output)
+    assert [f.name for f in load_servo_calibration(output).actuators] == ["base"]
+    assert "(1 actuator)" in capsys.readouterr().out

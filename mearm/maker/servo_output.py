@@ -17,9 +17,11 @@ from mearm.config.servo_file import (
     ActuatorFit,
     ServoCalibrationError,
     ServoCalibrationFile,
+    actuator_paths,
     apply_servo_calibration,
     check_fit,
     check_replace,
+    load_servo_calibration,
     now_iso,
     replaced_calibration,
     save_servo_calibration,
@@ -84,7 +86,11 @@ def write_calibration(
     Each fit is checked again (:func:`~mearm.config.servo_file.check_fit`) and all of
     them together with the config's checks: one refused, nothing is written (exit 1). A
     file replaced (``force``) is kept as ``<output>.bak``, named on stdout before the file
-    itself, as every file a command writes is.
+    itself, as every file a command writes is. The replaced file's fits of the arm's
+    other actuators, those not calibrated in this session (skipped, or left out of
+    ``--actuators``), are kept in the new file and named (:func:`kept_fits`): a session
+    that recalibrates the base alone no longer leaves the config's file with the base
+    alone, the others silently back on their nominal calibration.
 
     Raises:
         MearmError: the file could not be written (a full disk…); the fits are printed
@@ -95,6 +101,9 @@ def write_calibration(
         return EXIT_FAILURE
     # a config that uses the file applies it to the arm's own calibration, limits too
     own = replaced_calibration(config) or config
+    kept, dropped = kept_fits(own, fits, output)
+    now = len(fits)
+    fits = [*fits, *kept]
     try:
         for fit in fits:
             check_fit(own.arm, fit, servo_of(own.arm, fit.name))
@@ -113,7 +122,12 @@ def write_calibration(
         print("not written; the fits, as overrides for a command or the config's servos:")
         _print_overrides(config, fits)
         raise MearmError(f"{exc}; the fits are printed above as --set overrides") from None
-    print(f"wrote {written} ({len(fits)} actuator{'s' if len(fits) != 1 else ''})")
+    what = f"{now} actuator{'s' if now != 1 else ''}"
+    if kept:
+        what += f"; {', '.join(f.name for f in kept)} kept from the file it replaced"
+    if dropped:
+        what += f"; {', '.join(dropped)} not kept (its fit no longer fits the arm)"
+    print(f"wrote {written} ({what})")
     print(
         f"to use it, add to the config's servo section:  calibration_file: {written}\n"
         "(this path, or one relative to the config's folder), or add these overrides to a "
@@ -121,6 +135,38 @@ def write_calibration(
     )
     _print_overrides(config, fits)
     return EXIT_OK
+
+
+def kept_fits(
+    own: Config, fits: Sequence[ActuatorFit], output: Path
+) -> tuple[list[ActuatorFit], list[str]]:
+    """The fits ``output`` holds of the arm's actuators not in ``fits``, and those dropped.
+
+    Only from a calibration file of the same arm; each kept fit passes its checks
+    against the arm's own calibration (:func:`~mearm.config.servo_file.check_fit`), and
+    one that no longer does is named among the dropped.
+    """
+    if not output.is_file():
+        return [], []
+    try:
+        old = load_servo_calibration(output)
+    except MearmError:  # (check_replace let only a calibration file this far)
+        return [], []
+    if old.arm != own.arm.name:
+        return [], []
+    now = {f.name for f in fits}
+    known = set(actuator_paths(own.arm))
+    kept, dropped = [], []
+    for fit in old.actuators:
+        if fit.name in now or fit.name not in known:
+            continue
+        try:
+            check_fit(own.arm, fit, servo_of(own.arm, fit.name))
+        except (ServoCalibrationError, ConfigError):
+            dropped.append(fit.name)
+        else:
+            kept.append(fit)
+    return kept, dropped
 
 
 def _print_overrides(config: Config, fits: Sequence[ActuatorFit]) -> None:
