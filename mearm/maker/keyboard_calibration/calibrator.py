@@ -77,6 +77,12 @@ class Calibrator:
         self.out.write(("\r\x1b[K" if self.live else "") + text + "\n")
         self.out.flush()
 
+    def end_status(self) -> None:
+        """End the live status line, kept as it was (a terminal only)."""
+        if self.live:
+            self.out.write("\n")
+            self.out.flush()
+
     def status(self, act: Actuator, ref: float) -> None:
         """Rewrite the live status line (a terminal only)."""
         if not self.live:
@@ -306,6 +312,7 @@ def calibrate_by_keyboard(
         # not answer) is bad input, said in one line (exit 2) as jog and --camera say it,
         # not a servo fault of a session that never started
         bus.connect()
+        calibrator = None
         try:
             with bus:
                 board, port = board_identity(bus)
@@ -336,6 +343,8 @@ def calibrate_by_keyboard(
                     return EXIT_FAILURE
                 hold_arm(bus)
         except ServoError as exc:
+            if calibrator is not None:
+                calibrator.end_status()  # (the fault's line on its own, not after the status)
             print(f"mearm calibrate-servos: servo fault: {exc}; nothing written", file=sys.stderr)
             return EXIT_FAILURE
     return write_calibration(config, fits, board, port, output, force=force)
