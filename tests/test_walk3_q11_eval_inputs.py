@@ -166,3 +166,21 @@ def test_a_video_ends_on_the_state_the_episode_reached(tmp_path, capsys):
     assert "20 steps" in capsys.readouterr().out
     with av.open(str(tmp_path / "videos" / "episode_000_seed_0.mp4")) as video:
         assert sum(1 for _ in video.decode(video=0)) == 21
+
+
+def test_a_baseline_trained_at_an_fps_the_rate_cannot_divide_names_the_option_that_fixes_it(
+    tmp_path, capsys
+):
+    """The line said ``--set servo.rate_hz=...``, which eval-policy does not take (exit 2,
+    unrecognized arguments): its config overrides go in ``--env-option overrides=[...]``."""
+    pytest.importorskip("torch")
+    policy = tmp_path / "bc.pt"
+    assert bc_main(["--episodes", "1", "--jobs", "1", "--steps", "1", "--out", str(policy)]) == 0
+    capsys.readouterr()
+    with pytest.raises(MearmError) as err:
+        eval_main([
+            "--policy", str(policy), "--episodes", "1", "--jobs", "1",
+            "--env-option", "obs_type=state", "--env-option", "overrides=[servo.rate_hz=25]",
+        ])  # fmt: skip
+    assert "--env-option 'overrides=[servo.rate_hz=...]'" in str(err.value)
+    assert "--set" not in str(err.value)

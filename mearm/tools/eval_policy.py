@@ -217,7 +217,7 @@ def _check_baseline_fits(path: Path, env_id: str, options: dict[str, Any]) -> No
             f"give --env-option fps={trained_fps}, or the servo.rate_hz it was trained at"
             if divides
             else f"it must divide servo.rate_hz = {rate:g} Hz: give the servo.rate_hz it "
-            f"was trained at (--set servo.rate_hz=...)"
+            f"was trained at (--env-option 'overrides=[servo.rate_hz=...]')"
         )
         raise PolicyError(
             f"policy {path} was trained at {trained_fps} steps per second and {env_id} here "
