@@ -184,3 +184,40 @@ def test_a_dataset_without_tags_or_scenes_stays_readable(dataset: Path, tmp_path
     want = {"seed": 7, "objects": 2, "config": "sim_mujoco", "set": ["a.b=1"]}
     assert tags == [[None, None], [None, None], [None, None, want]]
     assert read_tags(copy, 3)[1] == [None, None, scene]
+
+
+def _rows_cut(dataset: Path, tmp_path: Path, keep: int) -> Path:
+    """A copy whose data file keeps its first ``keep`` rows (negative: all but so many),
+    or (``keep`` past its end) its last row twice: a Parquet file still whole."""
+    import pyarrow as pa  # noqa: PLC0415
+    import pyarrow.parquet as pq  # noqa: PLC0415
+
+    copy = tmp_path / "dsx"
+    shutil.copytree(dataset, copy)
+    path = copy / "data/chunk-000/file-000.parquet"
+    table = pq.read_table(path)
+    if keep > table.num_rows:
+        table = pa.concat_tables([table, table.slice(table.num_rows - 1)])
+    else:
+        table = table.slice(0, keep % table.num_rows)
+    pq.write_table(table, path)
+    return copy
+
+
+@pytest.mark.bad_input
+@pytest.mark.parametrize(
+    ("keep", "says"),
+    [(-3, "episode 1 is torn: the file holds "), (10**6, "holds 1 rows after its last episode")],
+)
+def test_resume_refuses_a_data_file_whose_rows_are_not_its_episodes(
+    dataset: Path, tmp_path: Path, keep: int, says: str
+) -> None:
+    """Rows cut off the last episode (or one added), the Parquet file whole: the check
+    failed it, but --resume appended after them, exit 0, and the indices of every
+    episode from the torn one on were wrong. Now refused, exit 2, nothing written."""
+    copy = _rows_cut(dataset, tmp_path, keep)
+    assert [p.split(":")[0] for p in check_dataset(copy, videos=False)] == ["data"]
+    argv = ["sort", "--config", SIM, "--random", "1", "--record", copy, "--resume"]
+    out = check_bad_input(argv, keep=[copy], within_s=10.0)
+    rel = "data/chunk-000/file-000.parquet"
+    assert f"{copy / rel}: {says}" in out.line and "the dataset is damaged" in out.line, out.line

@@ -367,7 +367,9 @@ class DatasetRecorder(EpisodeSampler):
         """Read the dataset to append to; refuse one recorded differently or damaged.
 
         Every file the next episode reads or joins is read here, before any motion: the
-        last data file is kept for it, the last video file's boxes walked to its end.
+        last data file is kept for it, its rows checked against its episodes' (a torn
+        episode is refused: the next one appended after it would carry the damage on),
+        the last video file's boxes walked to its end.
         """
         info = read_info(self.root)
         mine = {"fps": self.fps, "robot_type": self.robot_type, "features": self.features()}
@@ -404,7 +406,15 @@ class DatasetRecorder(EpisodeSampler):
             raise damaged(
                 root, L.chunk_file(L.EPISODES_PATH, 0, 0), f"an episode's row lacks {exc}"
             ) from None
-        self._data_table = (data_rel, read_table(pq, root, data_rel))
+        table = read_table(pq, root, data_rel, ["episode_index", "index"])
+        joined = (last["data/chunk_index"], last["data/file_index"])
+        rows = [
+            ep for ep in self._episodes if (ep["data/chunk_index"], ep["data/file_index"]) == joined
+        ]
+        problem = _rows_damage(table, rows)
+        if problem is not None:
+            raise damaged(root, data_rel, problem)
+        self._data_table = (data_rel, table)
         problem = tear(root / video_rel)
         if problem is not None:
             raise damaged(root, video_rel, problem)
@@ -1031,6 +1041,37 @@ def _stats_of_row(row: dict[str, Any]) -> dict[str, Stats]:
             feature, name = column[len("stats/") :].rsplit("/", 1)
             out.setdefault(feature, {})[name] = np.asarray(value)
     return out
+
+
+def _rows_damage(table: Any, episodes: list[dict[str, Any]]) -> str | None:
+    """What is wrong with a data file's rows, which are exactly its ``episodes``', in order.
+
+    ``None``: nothing. A file whose last episode is torn (rows cut off, the Parquet file
+    still whole), or that holds rows no episode claims, is one ``--resume`` must not
+    append to: the next episode's rows would follow the wrong ones, and its indices and
+    every later episode's with them would be wrong (``mearm dataset check``'s rule
+    ``data``, which fails it too).
+    """
+    held = np.asarray(table["episode_index"].to_numpy())
+    index = np.asarray(table["index"].to_numpy())
+    at, k = 0, None
+    for ep in episodes:
+        k, n, first = int(ep["episode_index"]), int(ep["length"]), int(ep["dataset_from_index"])
+        got = len(held[at : at + n])
+        if got < n:
+            return f"episode {k} is torn: the file holds {got} of its {n} frames"
+        if not (
+            np.all(held[at : at + n] == k)
+            and np.array_equal(index[at : at + n], np.arange(first, first + n))
+        ):
+            return f"the rows of episode {k} are not its frames (episode_index or index differ)"
+        at += n
+    if at != len(held):
+        return (
+            f"holds {len(held) - at} rows after its last episode ({k}): an episode torn off "
+            "while written"
+        )
+    return None
 
 
 def _mb(path: Path) -> float:
