@@ -221,3 +221,33 @@ def test_resume_refuses_a_data_file_whose_rows_are_not_its_episodes(
     out = check_bad_input(argv, keep=[copy], within_s=10.0)
     rel = "data/chunk-000/file-000.parquet"
     assert f"{copy / rel}: {says}" in out.line and "the dataset is damaged" in out.line, out.line
+
+
+@pytest.mark.bad_input
+def test_show_refuses_a_torn_episode_before_its_report(dataset: Path, tmp_path: Path) -> None:
+    """Rows cut off the last episode, every file readable: the check failed it, and show
+    drew the report, then crashed in the sheet ("unexpected error: IndexError", exit 1)."""
+    copy = _rows_cut(dataset, tmp_path, -3)
+    sheet = tmp_path / "s.png"
+    out = check_bad_input(["dataset", "show", copy, "--sheet", sheet], keep=[copy])
+    assert out.line.startswith(f"mearm dataset: error: {copy}: data: episode 1 is torn: "), out.line
+    assert "the dataset is damaged" in out.line and f"mearm dataset check {copy}" in out.line
+    assert out.stdout == "" and not sheet.exists()
+
+
+@pytest.mark.bad_input
+def test_show_refuses_totals_the_episodes_disagree_with(dataset: Path, tmp_path: Path) -> None:
+    """``total_frames`` 5 more than the episodes hold: show printed it as the dataset's
+    size, exit 0; the check's stats rule said ``not [total_frames]``, not the number."""
+    copy = tmp_path / "dsx"
+    shutil.copytree(dataset, copy)
+    info = json.loads((copy / "meta/info.json").read_text())
+    frames, info["total_frames"] = info["total_frames"], info["total_frames"] + 5
+    (copy / "meta/info.json").write_text(json.dumps(info))
+    problems = check_dataset(copy, videos=False)
+    assert f"stats: action count is [{frames}], not [{frames + 5}] (total_frames)" in problems
+    sheet = tmp_path / "s.png"
+    out = check_bad_input(["dataset", "show", copy, "--sheet", sheet], keep=[copy])
+    says = f"{copy}: episodes: the episodes hold {frames} frames, info.json says {frames + 5} ("
+    assert says in out.line and "the dataset is damaged" in out.line, out.line
+    assert out.stdout == "" and not sheet.exists()

@@ -7,7 +7,9 @@
 "show" prints the episodes, tasks and statistics of the state and the action, and saves
 a contact sheet of frames with their states (default DIR-sheet.png beside DIR; a sheet
 that exists is replaced only with --force, and never one inside DIR).
-Exit 2 on bad input: DIR missing, a file, or holding no dataset; a sheet refused.
+Exit 2 on bad input: DIR missing, a file, or holding no dataset; for "show", a dataset
+"check" fails (its videos not decoded: a torn episode, totals that disagree); a sheet
+refused.
 """
 
 from __future__ import annotations
@@ -61,9 +63,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         return EXIT_OK
 
     from mearm.dataset.contact_sheet import contact_sheet, describe
-    from mearm.dataset.format_check import check_dataset
+    from mearm.dataset.format_check import check_dataset, refuse_damaged
 
-    check_dataset(args.dir, videos=False)  # bad input (not a dataset) is exit 2 here
+    problems = check_dataset(args.dir, videos=False)  # bad input (not a dataset) is exit 2 here
     sheet = args.sheet or default_sheet(args.dir)
     # before the report, not after it
     check_output_file(sheet, "--sheet")
@@ -71,7 +73,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     if sheet.suffix.lower() != ".png":  # PNG bytes under .jpg: a viewer's guess, not a JPEG
         raise MearmError(f"--sheet {sheet}: the contact sheet is a PNG: give a name ending .png")
     refuse_to_replace(sheet, "--sheet", args.force)
-    report = list(describe(args.dir))
+    report = list(describe(args.dir))  # a damaged file is named here, with what is wrong
+    # a rule broken with every file readable (a torn episode, totals that disagree) is
+    # refused too: the report would count it wrong, the sheet draw it wrong or crash
+    refuse_damaged(args.dir, problems)
     # the sheet decodes frames: a video damaged inside (its boxes whole) is refused there,
     # before the report is printed, not after it
     n = contact_sheet(args.dir, sheet)

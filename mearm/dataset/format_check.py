@@ -92,6 +92,33 @@ def check_dataset(root: Path, *, videos: bool = True) -> list[str]:
     return _Checker(root, videos=videos).run()
 
 
+def refuse_damaged(root: Path, problems: list[str] | None = None) -> None:
+    """Refuse a dataset that breaks a rule of the format (its videos not decoded).
+
+    ``mearm dataset show`` and the replay read a dataset as the recorder wrote it: a torn
+    episode, an action that is not finite or totals that disagree would be drawn,
+    replayed or counted wrong, or crash them halfway.
+
+    Args:
+        root: The dataset's directory.
+        problems: :func:`check_dataset`'s broken rules, if found already.
+
+    Raises:
+        DatasetError: a rule is broken (the first named, and how many more), or ``root``
+            is not a dataset.
+    """
+    if problems is None:
+        problems = check_dataset(root, videos=False)
+    if problems:
+        first = " ".join(problems[0].split())  # one line, whatever a library's words were
+        more = f" (and {len(problems) - 1} more)" if len(problems) > 1 else ""
+        raise DatasetError(
+            root,
+            f"{first}{more}: the dataset is damaged; `mearm dataset check {root}` lists "
+            "what is wrong",
+        )
+
+
 class _Checker:
     def __init__(self, root: Path, *, videos: bool):
         self.root = root
@@ -430,7 +457,10 @@ class _Checker:
                 shape = np.shape(s[name])
                 if name == "count":
                     if shape != (1,) or s[name][0] != info["total_frames"]:
-                        self.fail("stats", f"{key} count is {s[name]}, not [total_frames]")
+                        total = info["total_frames"]
+                        self.fail(
+                            "stats", f"{key} count is {s[name]}, not [{total}] (total_frames)"
+                        )
                 elif shape != want:
                     self.fail("stats", f"{key} {name} is shaped {shape}, not {want}")
 
