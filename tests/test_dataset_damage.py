@@ -251,3 +251,45 @@ def test_show_refuses_totals_the_episodes_disagree_with(dataset: Path, tmp_path:
     says = f"{copy}: episodes: the episodes hold {frames} frames, info.json says {frames + 5} ("
     assert says in out.line and "the dataset is damaged" in out.line, out.line
     assert out.stdout == "" and not sheet.exists()
+
+
+def _one_value(dataset: Path, tmp_path: Path, column: str, row: int, value: float) -> Path:
+    """A copy whose data file has ``value`` as the first number of ``column`` in ``row``."""
+    import pyarrow as pa  # noqa: PLC0415
+    import pyarrow.parquet as pq  # noqa: PLC0415
+
+    copy = tmp_path / "dsx"
+    shutil.copytree(dataset, copy)
+    path = copy / "data/chunk-000/file-000.parquet"
+    table = pq.read_table(path)
+    values = table[column].to_pylist()
+    values[row][0] = value
+    at = table.schema.get_field_index(column)
+    table = table.set_column(at, column, pa.array(values, table.schema.field(column).type))
+    pq.write_table(table, path)
+    return copy
+
+
+@pytest.mark.parametrize(
+    ("column", "value", "frame"),
+    [
+        ("action", float("nan"), 2),
+        ("observation.state", float("-inf"), 2),
+        ("action", float("nan"), 0),  # its other numbers known: not a frame before any command
+    ],
+)
+def test_check_names_a_value_that_is_not_finite(
+    dataset: Path, tmp_path: Path, column: str, value: float, frame: int
+) -> None:
+    """A NaN action passed the check (exit 0), and the replay then crashed on it ("unexpected
+    error: ValueError ... an action must be finite"). NaN in a frame 0 whose action is
+    all NaN (the recorder's, before the bus's first command: episode 0's here) passes."""
+    import pyarrow.parquet as pq  # noqa: PLC0415
+
+    first = pq.read_table(dataset / "meta/episodes/chunk-000/file-000.parquet")
+    row = int(first["dataset_from_index"][1].as_py()) + frame  # episode 1's
+    copy = _one_value(dataset, tmp_path, column, row, value)
+    assert check_dataset(copy, videos=False) == [
+        f"data: episode 1 in data/chunk-000/file-000.parquet: {column} is not finite (NaN or "
+        f"inf) at frame {frame}"
+    ]

@@ -55,7 +55,9 @@ RULES: dict[str, str] = {
     "data": "each data file has a column per non-video feature of its dtype and shape, "
     "and exactly the rows of its episodes, in order: episode_index, frame_index "
     "0..length-1, index from dataset_from_index, timestamp = frame_index / fps, a "
-    "task_index of the episode's tasks (a torn last episode breaks this)",
+    "task_index of the episode's tasks, each float feature (the state, the action) finite: "
+    "no NaN nor inf but NaN in a frame 0 whose action is all NaN (taken before the bus's "
+    "first command) (a torn last episode breaks this)",
     "videos": "each video file is of the feature's codec (AV1 or H.264), yuv420p, of its "
     "size, and each episode's "
     "span [from_timestamp, to_timestamp) holds exactly its frames, at its timestamps",
@@ -325,6 +327,7 @@ class _Checker:
             if not self._columns(rel, table, features):
                 continue
             cols = {c: np.asarray(table[c].to_numpy()) for c in L.DEFAULT_FEATURES}
+            vectors = self._float_vectors(rel, table, features)
             at = 0
             for row in rows:
                 k, n = row["episode_index"], row["length"]
@@ -349,6 +352,21 @@ class _Checker:
                 bad = [c for c, ok in checks.items() if not ok]
                 if bad:
                     self.fail("data", f"episode {k} in {rel}: wrong {', '.join(bad)}")
+                # frame 0 taken before the bus's first command: its action is all NaN
+                action = vectors.get("action")
+                unsent = n > 0 and action is not None and bool(np.isnan(action[at]).all())
+                for key, values in vectors.items():
+                    finite = np.isfinite(values[at : at + n]).all(axis=1)
+                    if unsent:  # what the command sets is not known yet (NaN), none is inf
+                        finite[0] = not np.isinf(values[at]).any()
+                    frames = np.flatnonzero(~finite)
+                    if len(frames):
+                        more = f" (and {len(frames) - 1} more)" if len(frames) > 1 else ""
+                        self.fail(
+                            "data",
+                            f"episode {k} in {rel}: {key} is not finite (NaN or inf) at frame "
+                            f"{frames[0]}{more}",
+                        )
                 at += n
             else:
                 if at != table.num_rows:
@@ -359,6 +377,32 @@ class _Checker:
                     )
         for path in sorted(on_disk):
             self.fail("data", f"{path.relative_to(self.root)} belongs to no episode")
+
+    def _float_vectors(
+        self, rel: str, table: Any, features: dict[str, dict[str, Any]]
+    ) -> dict[str, np.ndarray]:
+        """Each float feature's column but LeRobot's own (the state, the action), (rows, n).
+
+        A value that is not finite is no state nor action: a replay cannot step it, and
+        training on it spoils a policy (each is checked per episode). The recorder writes
+        NaN in one frame only: an episode's frame 0 taken as it opened before the bus's
+        first command, its action all NaN and the state's values a command sets too
+        (no replay steps a frame 0). A column with a null row is said here, and not
+        checked further.
+        """
+        out = {}
+        for key, ft in features.items():
+            if key in L.DEFAULT_FEATURES or not str(ft["dtype"]).startswith("float"):
+                continue
+            column = table[key]
+            if column.null_count:
+                self.fail("data", f"{rel}: column {key} has {column.null_count} null rows")
+                continue
+            if ft["shape"] != [1]:
+                column = column.combine_chunks().flatten()
+            values = np.asarray(column.to_numpy(zero_copy_only=False), np.float64)
+            out[key] = values.reshape(table.num_rows, -1)
+        return out
 
     def _columns(self, rel: str, table: Any, features: dict[str, dict[str, Any]]) -> bool:
         pa = self.pa
