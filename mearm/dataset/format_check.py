@@ -127,7 +127,7 @@ class _Checker:
         self.videos = videos
         self.problems: list[str] = []
         self.seen: set[str] = set()  # files the episodes name, looked at (each said once)
-        self.pa, self.pq, self.av = import_extra()
+        self.pa, self.pq, self.av = import_extra(av_here=videos)  # (a replay decodes none)
 
     def fail(self, rule: str, message: str) -> None:
         self.problems.append(f"{rule}: {message}")

@@ -33,7 +33,9 @@ as a servo calibration file, unless the config names one of its own. It refuses 
 recorded without a scene by an older mearm needs both given (its table drawn by
 ``random_scene(config, N, seed)``; a ``--scene`` sort's or a trial's cannot be). The
 config's arm must be the recording's (``robot_type`` and the action's names in
-``info.json``), else exit 2 naming both.
+``info.json``), else exit 2 naming both. A dataset ``mearm dataset check`` fails (its
+videos not decoded: a torn episode, an action that is not finite) is refused, exit 2,
+before any step.
 """
 
 from __future__ import annotations
@@ -50,6 +52,7 @@ import numpy as np
 from mearm.cli import ArgumentParser, config_path_value, plain_int, run, seed_value
 from mearm.config import Config, SceneObject, load_config
 from mearm.dataset.errors import DatasetError
+from mearm.dataset.format_check import refuse_damaged
 from mearm.dataset.reading import damaged, read_info, read_table, read_tags, read_tasks
 from mearm.dataset.recorder import EpisodeStart, import_extra, read_starts
 from mearm.dataset.sampler import state_names, task_sentence
@@ -160,10 +163,11 @@ def plan_replay(
     unless the config names a ``servo.calibration_file`` of its own.
 
     Raises:
-        DatasetError: no dataset there, no such episode, a file of it damaged, a
-            ``seed`` or ``objects`` the recorded scene disagrees with (any, with a
-            recorded table), none to default to, or a config whose arm is not the
-            recording's.
+        DatasetError: no dataset there, no such episode, a file of it damaged or a rule
+            of ``mearm dataset check`` broken (its videos not decoded: a torn episode,
+            an action that is not finite), a ``seed`` or ``objects`` the recorded scene
+            disagrees with (any, with a recorded table), none to default to, or a config
+            whose arm is not the recording's.
         ConfigError: the config cannot be loaded.
         ServoCalibrationError: the recorded servo calibration is not one of this arm's.
     """
@@ -227,6 +231,9 @@ def plan_replay(
     actions, task = columns[episode]
     lead = _lead(chain, starts, columns) if isinstance(chain, list) else actions[:0]
     pick = next((c for c in cfg.task.class_names if task_sentence(c) == task), None)
+    # the files read whole, a rule broken still (a torn episode, an action that is not
+    # finite) would be replayed wrong, or crash the replay halfway
+    refuse_damaged(root)
     return ReplayPlan(actions, fps, seed, objects, cfg, table, lead, pick, not why, why)
 
 
