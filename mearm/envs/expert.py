@@ -9,6 +9,15 @@ servos to arrive becomes one proposed action; between two, the sorter looks (its
 ``mearm sort``. The two threads take strict turns (:class:`Handoff`), so an expert
 episode is as deterministic as the physics.
 
+**Ending it anywhere.** The environment's side of a turn (a ``put``) runs with Ctrl-C
+deferred (:func:`mearm.interrupts.signals_deferred`): a ``KeyboardInterrupt`` raised
+between a queue's item and its wake-up call left the expert asleep beside its turn, and
+the environment's close waited for it for good (``eval-policy --jobs 1``, 3 of 70
+Ctrl-Cs). :meth:`SorterExpert.close` ends the thread wherever it waits (a stop for its
+next turn, the proposal it holds taken, each queue's sleeper woken) and gives up after
+:data:`CLOSE_TIMEOUT_S` on a thread that will not end (a daemon thread: the process
+still exits); the environment's wait for a proposal ends if the thread has died.
+
 The expert proposes; the environment's ``step`` executes whatever action it is given.
 The sorter believes its own commands were executed: a policy that sends other actions
 gets labels for where the expert thinks the arm is (it measures the joints and the
@@ -17,13 +26,16 @@ objects, but not its own command history).
 
 from __future__ import annotations
 
+import logging
 import queue
 import threading
+import time
 from collections.abc import Mapping
 from typing import Literal
 
 import numpy as np
 
+from mearm import interrupts
 from mearm.config import Config
 from mearm.hardware.bus import ServoBus
 from mearm.hardware.command import ArmCommand
@@ -39,6 +51,13 @@ class ExpertStopped(BaseException):
 
 
 Message = tuple[Literal["action"], ArmCommand] | tuple[Literal["done"], str]
+
+log = logging.getLogger(__name__)
+
+#: How long :meth:`SorterExpert.close` waits for the expert's thread to end [s].
+CLOSE_TIMEOUT_S = 10.0
+#: How often the environment, waiting for a proposal, looks whether the thread died [s].
+POLL_S = 0.5
 
 
 class Handoff:
@@ -62,13 +81,45 @@ class Handoff:
         """(Expert) The sort ended: say how."""
         self._to_env.put(("done", outcome))
 
-    def next(self) -> Message:
-        """(Environment) The expert's next command, or how its sort ended."""
-        return self._to_env.get()
+    def next(self, expert: threading.Thread) -> Message:
+        """(Environment) The expert's next command, or how its sort ended.
+
+        ``expert``: its thread; one that ended without saying how (it died) ends the
+        wait, as a sort that ended so.
+        """
+        while True:
+            try:
+                return self._to_env.get(timeout=POLL_S)
+            except queue.Empty:
+                if not expert.is_alive():
+                    return ("done", "the expert's thread ended without a word")
 
     def resume(self, *, stop: bool = False) -> None:
         """(Environment) Let the expert go on after a step (or end it, ``stop``)."""
-        self._to_expert.put(not stop)
+        with interrupts.signals_deferred():  # (its put and its wake-up call, together)
+            self._to_expert.put(not stop)
+
+    def stop_waiting(self) -> None:
+        """(Environment) End the expert wherever it waits: its proposal taken, a stop given.
+
+        Its proposal (or how it ended) is taken off the queue, so that a put it waits in
+        returns; a stop is queued for its next turn, unless a turn it has not taken yet
+        is there (it takes that, proposes, and the next call's stop ends it); and each
+        queue's sleepers are woken, should one have slept through its item.
+        """
+        with interrupts.signals_deferred():
+            try:
+                self._to_env.get_nowait()
+            except queue.Empty:
+                pass
+            try:
+                self._to_expert.put_nowait(False)  # noqa: FBT003  (the queue's item: stop)
+            except queue.Full:
+                pass
+            for q in (self._to_env, self._to_expert):
+                with q.mutex:
+                    q.not_empty.notify_all()
+                    q.not_full.notify_all()
 
 
 class StepBus(ServoBus):
@@ -175,7 +226,7 @@ class SorterExpert:
         self._thread = threading.Thread(target=self._run, name="mearm-expert", daemon=True)
         self._thread.start()
         self.proposal: ArmCommand | None = None
-        self._take(self.handoff.next())
+        self._take(self.handoff.next(self._thread))
 
     def _in_bins(self) -> Mapping[str, int]:
         """How many objects of each class lie in its bin now (no physics is run here)."""
@@ -196,6 +247,8 @@ class SorterExpert:
                 outcome = "left " + ", ".join(f"{n} {why}" for why, n in left.items())
         except ExpertStopped:
             return
+        except KeyboardInterrupt:  # (a Ctrl-C the sorter raised here: the environment's)
+            outcome = "aborted: interrupted (Ctrl-C)"
         except SortAborted as exc:
             outcome = f"aborted: {exc.reason}"
         except Exception as exc:  # the expert failed: the episode goes on without it
@@ -217,10 +270,17 @@ class SorterExpert:
         if self.outcome is not None:
             return
         self.handoff.resume()
-        self._take(self.handoff.next())
+        self._take(self.handoff.next(self._thread))
 
     def close(self) -> None:
-        """End the sorter's thread (wherever it is) and wait for it."""
-        if self.outcome is None and self._thread.is_alive():
-            self.handoff.resume(stop=True)
-        self._thread.join()
+        """End the sorter's thread (wherever it is) and wait for it.
+
+        At most :data:`CLOSE_TIMEOUT_S` (the module docstring).
+        """
+        deadline = time.monotonic() + CLOSE_TIMEOUT_S
+        while self._thread.is_alive():
+            if time.monotonic() > deadline:
+                log.warning("the expert's thread did not end in %g s: left", CLOSE_TIMEOUT_S)
+                return
+            self.handoff.stop_waiting()
+            self._thread.join(0.05)
