@@ -93,7 +93,7 @@ def test_urdf_of_an_arm_in_mm_warns_as_the_sort_does_and_writes(tmp_path, monkey
     assert err[0].endswith(
         "warning: mm.yaml: arm.joints: shoulder.dh.a_cm = 80, elbow.dh.a_cm = 80: lengths "
         "are in cm; these look like mm (8 cm is 8.0, not 80); the URDF is written with the "
-        "lengths as given"
+        "arm as given"
     ), err
 
 

@@ -171,3 +171,33 @@ def test_set_a_boolean_by_index_shows_what_was_typed():
     with pytest.raises(ConfigError) as exc:
         load_config("sim", ["arm.joints.1.dh.a_cm=no"])
     assert exc.value.problems == ["arm.joints.shoulder.dh.a_cm: expected a number, got 'no'"]
+
+
+def _radian_arm_file(tmp_path):  # noqa: ANN001, ANN202
+    import yaml  # noqa: PLC0415
+
+    arm = load_config("sim").arm.model_dump(mode="json")
+    arm["joints"][0]["dh"]["alpha_deg"] = 1.5708
+    arm["closed_form"] = None  # (the paper arm's formula needs its right angle)
+    path = tmp_path / "rad.yaml"
+    path.write_text(yaml.safe_dump({"arm": arm}))
+    return path
+
+
+def test_urdf_of_an_arm_in_radians_warns_as_fk_does(tmp_path):
+    """``mearm urdf`` said only ``wrote rad.urdf``: the URDF of a chain folded the wrong
+    way, in silence, where ``mearm fk`` of the same config warns."""
+    config = _radian_arm_file(tmp_path)
+    out = run_in_process(["urdf", "--config", str(config), "--output", str(tmp_path / "r.urdf")])
+    assert out.code == 0 and (tmp_path / "r.urdf").is_file()
+    [line] = out.stderr.strip().splitlines()
+    assert "warning:" in line and "base.dh.alpha_deg = 1.5708" in line and RADIANS in line
+    assert line.endswith("the URDF is written with the arm as given")
+
+
+def test_preview_of_an_arm_in_radians_warns_as_fk_does(tmp_path):
+    config = _radian_arm_file(tmp_path)
+    shot = tmp_path / "shot.png"
+    out = run_in_process(["preview", "--config", str(config), "--screenshot", str(shot)])
+    warned = [ln for ln in out.stderr.splitlines() if "warning:" in ln]
+    assert len(warned) == 1 and RADIANS in warned[0], out.stderr

@@ -32,8 +32,7 @@ from mearm.cli import (
 )
 from mearm.config import ArmDescription, Config
 from mearm.config.compose import EXTENDS_KEY, MAX_EXTENDS, USE_KEY, reference_arm
-from mearm.config.files import config_source, read_yaml, resolve_config_path
-from mearm.config.loader import millimetre_hint
+from mearm.config.files import read_yaml, resolve_config_path, unit_warning
 from mearm.data import (
     URDF_DIR,
     arm_names,
@@ -149,19 +148,19 @@ def _check_output(output: Path, name: str, urdf: str, *, given: bool, force: boo
     refuse_to_replace(output, "--output" if given else "the default output", force)
 
 
-def _warn_millimetres(prog: str, config: Config) -> None:
-    """Say on stderr, in the words of a sort's config check, when lengths look like mm.
+def _warn_units(prog: str, config: Config) -> None:
+    """Say on stderr, in the words of a sort's config check, when the arm's units look wrong.
 
-    An 80 cm link is a valid arm (so the URDF is written, exit 0), but most likely a
-    hobby arm's 8 cm written in mm (:func:`~mearm.config.loader.millimetre_hint`); a URDF
-    ten times too large is not found by looking at it.
+    An 80 cm link or an alpha of 1.5708° is a valid arm (so the URDF is written, exit 0),
+    but most likely a hobby arm's 8 cm written in mm, or 90° written in radians
+    (:func:`~mearm.config.files.unit_warning`, as ``mearm fk`` and ``mearm ik`` say it);
+    a URDF ten times too large, or of a chain that folds the wrong way, is not found by
+    looking at it.
     """
-    hint = millimetre_hint(config.model_dump(mode="json"))
-    if hint is not None:
-        where = config_source(config)
+    warning = unit_warning(config)
+    if warning is not None:
         print(
-            f"{prog}: warning: {where + ': ' if where else ''}{hint}; the URDF is written "
-            "with the lengths as given",
+            f"{prog}: warning: {warning}; the URDF is written with the arm as given",
             file=sys.stderr,
             flush=True,
         )
@@ -228,7 +227,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         _check_output(output, arm.name, urdf, given=given, force=args.force)
         jobs.append((output, urdf))
     if not every:  # every check passed: the warning is the only line on stderr
-        _warn_millimetres(parser.prog, config)
+        _warn_units(parser.prog, config)
     for output, urdf in jobs:  # every check passed: nothing is half done
         write_text_atomic(output, urdf)
         print(f"wrote {output}")

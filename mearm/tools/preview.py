@@ -41,7 +41,7 @@ from mearm.cli import (
     run,
 )
 from mearm.config import Config
-from mearm.config.files import resolve_config_path
+from mearm.config.files import resolve_config_path, unit_warning
 from mearm.hardware.mapping import ServoMap
 from mearm.kinematics import ArmModel
 from mearm.sim.table_collision import collision_model
@@ -273,6 +273,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         _check_screenshot(parser, args)
         browser = find_browser()  # none installed: exit 2 before anything is served
     config = config_from_args(args)
+    warning = unit_warning(config)  # (as fk, ik and urdf say it: an arm drawn as given)
+    if warning is not None:
+        print(f"{parser.prog}: warning: {warning}", file=sys.stderr, flush=True)
     model = ArmModel(config.arm)
     chain = model.chain
     actuated = list(chain.actuated)
