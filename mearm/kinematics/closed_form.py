@@ -13,10 +13,14 @@ The TCP then sits at
     z = d_1 + a_2\sin\theta_2 + a_3\sin(\theta_2+\theta_3) + t_y
 
 along the horizontal direction θ1 (``t`` the TCP offset in the last frame). With θ3 < 0
-(the elbow-up branch) the solution is unique. A link length a2 or a3 may be negative (the
-link points the other way from its joint's zero): the wrist point then lies within
-[||a2| − |a3||, |a2| + |a3|] of the shoulder, the formula holds with the signs, and each
-angle, known up to a turn, is taken within its limits.
+(the elbow-up branch) each base angle gives one solution, and two base angles put the TCP
+over the target: θ1 = atan2(y, x) with ρ = √(x² + y²), the base facing the target, and
+θ1 ± 180° with ρ = −√(x² + y²), the arm reaching back over the top. The first is taken
+whenever it is within the limits; the second only where the first is out of reach or
+outside them (a target behind the base, which a wide target box may hold). A link length
+a2 or a3 may be negative (the link points the other way from its joint's zero): the wrist
+point then lies within [||a2| − |a3||, |a2| + |a3|] of the shoulder, the formula holds
+with the signs, and each angle, known up to a turn, is taken within its limits.
 """
 
 from __future__ import annotations
@@ -215,7 +219,13 @@ class PlanarWrist(ClosedForm):
         )
 
     def solve_checked(self, target_cm: tuple[float, float, float]) -> list[float]:
-        """Joints (model units, 4 floats) putting the TCP at ``target_cm``; see the module."""
+        """Joints (model units, 4 floats) putting the TCP at ``target_cm``; see the module.
+
+        The base facing the target first; where that branch is out of reach or needs a
+        joint outside its limits, the base turned half a turn, the arm reaching back over
+        the top (:meth:`_solve_branch`). A target neither reaches is refused with the
+        first branch's error.
+        """
         x, y, z = target_cm
         radial, height, far, near, a2a2_a3a3, inv_2a2a3, a2, a3, l0, l1, l2, l3, h0, h1, h2, h3 = (
             self._constants
@@ -223,6 +233,41 @@ class PlanarWrist(ClosedForm):
         rho = hypot(x, y)
         if rho < _EPS:
             raise SingularTargetError((x, y, z), "on the base axis, where the base is undefined")
+        r = rho - radial
+        h = z - height
+        dist = hypot(r, h)
+        if near <= dist <= far:
+            cos3 = (dist * dist - a2a2_a3a3) * inv_2a2a3
+            theta3 = -acos(1.0 if cos3 > 1.0 else -1.0 if cos3 < -1.0 else cos3)
+            theta2 = atan2(h, r) - atan2(a3 * sin(theta3), a2 + a3 * cos(theta3))
+            base, wrist = atan2(y, x), -(theta2 + theta3)
+            if l0 <= base <= h0 and l1 <= theta2 <= h1 and l2 <= theta3 <= h2 and l3 <= wrist <= h3:
+                return [base, theta2, theta3, wrist]  # the usual case, checked in one expression
+        base = atan2(y, x)
+        try:
+            return self._solve_branch((x, y, z), rho, base)
+        except UnreachableTargetError as first:
+            # over the top: the base half a turn round, the radial distance negated
+            flipped = base - pi if base > 0.0 else base + pi
+            try:
+                return self._solve_branch((x, y, z), -rho, flipped)
+            except UnreachableTargetError:
+                raise first from None
+
+    def _solve_branch(
+        self, target: tuple[float, float, float], rho: float, base: float
+    ) -> list[float]:
+        """The joints with the base at ``base`` and the TCP ``rho`` along it [cm], or raise.
+
+        ``rho`` is negative for the branch over the top. Each angle, known up to a turn,
+        is taken within its limits; one within 1e-9 of a limit is put on it.
+
+        Raises:
+            UnreachableTargetError: the wrist point is out of the links' reach;
+                :class:`JointLimitTargetError`: a joint outside its limits.
+        """
+        radial, height, far, near, a2a2_a3a3, inv_2a2a3, a2, a3 = self._constants[:8]
+        x, y, z = target
         r = rho - radial
         h = z - height
         dist = hypot(r, h)
@@ -235,9 +280,6 @@ class PlanarWrist(ClosedForm):
         cos3 = (dist * dist - a2a2_a3a3) * inv_2a2a3
         theta3 = -acos(1.0 if cos3 > 1.0 else -1.0 if cos3 < -1.0 else cos3)
         theta2 = atan2(h, r) - atan2(a3 * sin(theta3), a2 + a3 * cos(theta3))
-        base, wrist = atan2(y, x), -(theta2 + theta3)
-        if l0 <= base <= h0 and l1 <= theta2 <= h1 and l2 <= theta3 <= h2 and l3 <= wrist <= h3:
-            return [base, theta2, theta3, wrist]  # the usual case, checked in one expression
         lo, hi = self._lower, self._upper
         q = [base, theta2, theta3]
         for i in range(3):  # each angle is known up to a turn: the one within its limits
