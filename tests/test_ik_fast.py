@@ -85,27 +85,42 @@ def test_newton_respects_limits_from_any_seed(targets):
 
 
 def test_unreachable_is_reported():
-    """The closed form raises with the reason; Gauss–Newton returns a stop, not a solution.
+    """The closed form raises with the reason, and so does Gauss–Newton on its arm; on an
+    arm without one, Gauss–Newton returns a stop, not a solution.
 
     On the paper arm with a target box wide enough to hold such targets.
     """
-    wide = config_from_dict(
-        {},
-        overrides=[
-            f"arm.target_box.{axis}={{min: -300, max: 300}}" for axis in ("x_cm", "y_cm", "z_cm")
-        ],
-    )
-    model = ArmModel(wide.arm)
+    wide_box = [
+        f"arm.target_box.{axis}={{min: -300, max: 300}}" for axis in ("x_cm", "y_cm", "z_cm")
+    ]
+    model = ArmModel(config_from_dict({}, overrides=wide_box).arm)
     closed, newton = AnalyticSolver(model), NewtonIK(model)
     with pytest.raises(UnreachableTargetError, match="out of reach"):
         closed.solve((0.0, 200.0, 10.0))
+    with pytest.raises(UnreachableTargetError, match="out of reach"):
+        newton.solve((0.0, 200.0, 10.0))
     with pytest.raises(SingularTargetError):
         closed.solve((0.0, 0.0, 30.0))
     with pytest.raises(JointLimitTargetError):
         closed.solve((0.0, -30.0, 20.0))  # behind the base: the base limits forbid it
-    s = newton.solve((0.0, 200.0, 10.0))
+    generic = ArmModel(config_from_dict({}, overrides=[*wide_box, "arm.closed_form=null"]).arm)
+    s = NewtonIK(generic).solve((0.0, 200.0, 10.0))
     assert not s.converged and s.final_error_cm > 1.0 and MODEL.within_limits(s.q)
     assert s.failure is not None
+
+
+@pytest.mark.parametrize("config", ["sim", "sim_mearm_v1"])
+def test_newton_refuses_what_every_solver_refuses(config):
+    """On an arm with a closed form, Gauss–Newton raises as the other solvers do
+    (IKSolver.solve's contract), with the closed form's reason, before any search."""
+    model = ArmModel(load_config(config).arm)
+    box = model.arm.target_box
+    target = (0.0, box.y_cm.max, box.z_cm.max)  # the box's far top edge: out of reach
+    with pytest.raises(UnreachableTargetError, match="the arm reaches") as expected:
+        AnalyticSolver(model).solve(target)
+    with pytest.raises(UnreachableTargetError) as caught:
+        NewtonIK(model).solve(target)
+    assert str(caught.value) == str(expected.value)
 
 
 def test_every_fast_solve_checks_the_box():

@@ -1,7 +1,8 @@
 r"""Gauss–Newton IK for any arm: joints for a TCP target, fast; no path.
 
 :class:`NewtonIK` is the generic solve :func:`~mearm.ik.fastest_solver` picks for an arm
-that registers no closed form (for one that does, :class:`~mearm.ik.AnalyticSolver`).
+that registers no closed form (for one that does, :class:`~mearm.ik.AnalyticSolver`). On
+an arm with one it checks each target against it first, as every solver does.
 Its record is one update from the start to the solution (:meth:`IKResult.jump`): the
 path a servo follows comes from :class:`~mearm.ik.PdPij` (the paper's route generator);
 this solves a target once, for a planner, a reachability check or a seed. It places the
@@ -178,8 +179,14 @@ class NewtonIK(IKSolver):
         in turn; the first that converges is returned, else the closest stop.
         ``search_iterations`` counts every start's updates.
 
+        On an arm with a closed form the target is first checked against it, as by every
+        solver: one out of reach within the limits raises, where on an arm without one the
+        result says how the search stopped short.
+
         Raises:
             InvalidTargetError: also for a target with an approach direction.
+            UnreachableTargetError: out of reach within the limits (an arm with a closed
+                form; see :meth:`IKSolver.solve`).
         """
         if isinstance(target, IKTarget) and target.approach is not None:
             raise InvalidTargetError(
@@ -187,6 +194,10 @@ class NewtonIK(IKSolver):
                 "use PdPij or MinkSolver for an approach direction"
             )
         x, y, z = self.position_cm(target)
+        if self._solve_closed_form is not None:
+            # the arm's closed form answers reach as every solver's checks do (prepare):
+            # an unreachable target raises here, not after every restart has stopped short
+            self._solve_closed_form((x, y, z))
         start = self._jump_start(q_start)
         t = (x / CM_PER_M, y / CM_PER_M, z / CM_PER_M)
         if q_start is None:
