@@ -12,6 +12,8 @@ import numpy as np
 import numpy.typing as npt
 
 from mearm.config import ArmDescription
+from mearm.config.base import short_repr
+from mearm.kinematics.errors import InvalidJointsError
 
 
 def dh_frames(arm: ArmDescription, q: npt.ArrayLike) -> list[np.ndarray]:
@@ -20,10 +22,23 @@ def dh_frames(arm: ArmDescription, q: npt.ArrayLike) -> list[np.ndarray]:
     Args:
         arm: The description.
         q: Every joint in model units (rad, or m for a prismatic joint), (n,).
+
+    Raises:
+        InvalidJointsError: ``q`` is not one finite number per joint.
     """
-    values = np.asarray(q, dtype=float)
+    try:
+        values = np.asarray(q, dtype=float)
+    except (TypeError, ValueError):
+        raise InvalidJointsError([], f"joint values must be numbers, got {short_repr(q)}") from None
     if values.shape != (len(arm.joints),):
-        raise ValueError(f"expected {len(arm.joints)} joint values, got shape {values.shape}")
+        names = ", ".join(j.name for j in arm.joints)
+        raise InvalidJointsError(
+            values.ravel().tolist(),
+            f"expected {len(arm.joints)} values, one per joint ({names}) in model units "
+            f"(rad, m), got shape {values.shape}",
+        )
+    if not np.isfinite(values).all():
+        raise InvalidJointsError(values.tolist(), "joint values must be finite")
     frames = [np.eye(4)]
     for v, joint in zip(values.tolist(), arm.joints, strict=True):
         value = v * 100.0 if joint.type == "prismatic" else v

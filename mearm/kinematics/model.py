@@ -8,6 +8,7 @@ joint; see :class:`~mearm.kinematics.chain.Chain`). Positions are in centimetres
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
@@ -110,7 +111,7 @@ class ArmModel:
 
         Raises:
             InvalidJointsError: not one value per joint of the chain (an actuated-only
-                vector is made whole by ``chain.full``), or not numbers.
+                vector is made whole by ``chain.full``), not numbers, or not finite.
         """
         try:
             values = np.asarray(q, dtype=float)
@@ -127,13 +128,16 @@ class ArmModel:
                 + (" (the actuated joints alone: chain.full(q))"
                    if values.shape == (self.chain.m,) else ""),
             )  # fmt: skip
+        # the sum of the list: one test, cheaper than np.isfinite; its overflow is checked
+        if not math.isfinite(sum(values.tolist())) and not np.isfinite(values).all():
+            raise InvalidJointsError(values.tolist(), "joint values must be finite")
         return values
 
     def tcp_pose(self, q: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray]:
         """TCP position [cm], (3,), and rotation, (3, 3), in the base frame.
 
         Raises:
-            InvalidJointsError: ``q`` is not one value per joint (:meth:`joints`).
+            InvalidJointsError: ``q`` is not one finite value per joint (:meth:`joints`).
         """
         pin.framesForwardKinematics(self.model, self.data, self.joints(q))
         M = self.data.oMf[self.tcp_frame_id]
@@ -191,7 +195,7 @@ class ArmModel:
 
         Raises:
             JointLimitError: that joint, its value and its limits.
-            InvalidJointsError: ``q`` is not one value per joint (:meth:`joints`).
+            InvalidJointsError: ``q`` is not one finite value per joint (:meth:`joints`).
         """
         values = self.joints(q)
         ch = self.chain
