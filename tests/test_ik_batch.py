@@ -9,7 +9,7 @@ from mearm.exceptions import JointLimitError
 from mearm.ik import NewtonIK, fastest_solver
 from mearm.ik.batch import _DHBatch, solve_batch
 from mearm.kinematics import ArmModel, closed_form_for
-from mearm.kinematics.errors import UnreachableTargetError
+from mearm.kinematics.errors import InvalidTargetError, UnreachableTargetError
 
 PAPER = ArmModel(Config().arm)
 DESK = ArmModel(load_config("sim_5dof").arm)
@@ -105,13 +105,20 @@ def test_newton_batch_meets_an_approach():
 
 
 def test_batch_refuses_bad_input():
-    """Targets that are not (N, 3) finite numbers, or a zero approach, are named."""
-    with pytest.raises(ValueError, match=r"\(N, 3\) finite numbers"):
-        solve_batch(DESK, [1.0, 2.0, 3.0])
-    with pytest.raises(ValueError, match=r"\(N, 3\) finite numbers"):
+    """Targets that are not (N, 3) finite numbers, or a zero approach, are named, with the
+    error every solver gives a bad target (a bare ValueError before)."""
+    with pytest.raises(InvalidTargetError, match=r"\(N, 3\) finite numbers.*\[\[x, y, z\]\]"):
+        solve_batch(DESK, [1.0, 2.0, 3.0])  # one target, not a list of one
+    with pytest.raises(InvalidTargetError, match=r"\(N, 3\) finite numbers"):
+        solve_batch(PAPER, [0.0, 40.0, 20.0])  # the closed form's arm too
+    with pytest.raises(InvalidTargetError, match="a value that is not finite"):
         solve_batch(DESK, [[1.0, np.nan, 3.0]])
-    with pytest.raises(ValueError, match="non-zero 3-vectors"):
+    with pytest.raises(InvalidTargetError, match="got 'abc'"):
+        solve_batch(DESK, "abc")
+    with pytest.raises(InvalidTargetError, match="non-zero 3-vectors"):
         solve_batch(DESK, [[10.0, 10.0, 5.0]], (0.0, 0.0, 0.0))
+    with pytest.raises(InvalidTargetError, match=r"\(3,\) or one per target \(1, 3\)"):
+        solve_batch(DESK, [[10.0, 10.0, 5.0]], (0.0, 1.0))
 
 
 def test_jump_start_tcp_is_computed_when_read():

@@ -23,9 +23,10 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
+from mearm.config.base import short_repr
 from mearm.ik.solver import APPROACH_TOLERANCE_DEG, APPROACH_WEIGHT_CM
 from mearm.kinematics import ArmModel, closed_form_for
-from mearm.kinematics.errors import UnreachableTargetError
+from mearm.kinematics.errors import InvalidTargetError, UnreachableTargetError
 
 #: Default tolerance: a target is reached when |e| is below this [cm].
 TOLERANCE_CM = 0.01
@@ -84,23 +85,36 @@ def solve_batch(
         max_iterations: Updates per start (Gauss–Newton) [-].
 
     Raises:
-        ValueError: targets that are not (N, 3) finite numbers, or an approach that is
-            not a finite non-zero (3,) or (N, 3).
+        InvalidTargetError: targets that are not (N, 3) finite numbers (one target too
+            is a list of one), or an approach that is not a finite non-zero (3,) or (N, 3).
     """
-    targets = np.asarray(targets_cm, dtype=float)
+    try:
+        targets = np.asarray(targets_cm, dtype=float)
+    except (TypeError, ValueError):
+        raise InvalidTargetError(
+            f"targets_cm must be (N, 3) finite numbers [cm], got {short_repr(targets_cm)}"
+        ) from None
     if targets.ndim != 2 or targets.shape[1] != 3 or not np.isfinite(targets).all():
-        raise ValueError(
-            f"targets_cm must be (N, 3) finite numbers [cm], got shape {targets.shape}"
+        what = (
+            f"shape {targets.shape}" if np.isfinite(targets).all() else "a value that is not finite"
         )
+        one = " (one target: [[x, y, z]])" if targets.shape == (3,) else ""
+        raise InvalidTargetError(f"targets_cm must be (N, 3) finite numbers [cm], got {what}{one}")
     closed_form = closed_form_for(model.arm)
     if closed_form is not None:
         return _closed_form_batch(model, closed_form.solve_list, targets)
     directions = None
     if approach is not None:
-        a = np.broadcast_to(np.asarray(approach, dtype=float), targets.shape)
+        try:
+            a = np.broadcast_to(np.asarray(approach, dtype=float), targets.shape)
+        except (TypeError, ValueError):
+            a = np.full(targets.shape, np.nan)  # not numbers, or neither (3,) nor (N, 3)
         norm = np.linalg.norm(a, axis=1, keepdims=True)
         if not (np.isfinite(a).all() and (norm > 1e-9).all()):
-            raise ValueError(f"approach must be finite non-zero 3-vectors, got {approach!r}")
+            raise InvalidTargetError(
+                "approach must be finite non-zero 3-vectors, (3,) or one per target "
+                f"({len(targets)}, 3), got {short_repr(approach)}"
+            )
         directions = a / norm
     return _newton_batch(
         model, targets, directions, tolerance_cm, tolerance_deg, seeds, max_iterations
