@@ -46,3 +46,18 @@ def test_dh_names_the_count_and_a_non_number() -> None:
     with pytest.raises(InvalidJointsError, match="joint values must be numbers, got 'abc'"):
         dh_fk(CONFIG.arm, "abc")
     np.testing.assert_allclose(dh_fk(CONFIG.arm, MODEL.home), MODEL.fk_cm(MODEL.home), atol=1e-9)
+
+
+@pytest.mark.parametrize("arm", [None, CONFIG, {"joints": []}], ids=["none", "config", "dict"])
+def test_a_model_of_no_description_is_named(arm) -> None:
+    """``ArmModel(None)`` stopped on an AttributeError; a ModelError says what it needs."""
+    from mearm.kinematics import Chain, closed_form_for
+    from mearm.kinematics.errors import ModelError
+
+    for build in (ArmModel, Chain.from_description, closed_form_for):
+        with pytest.raises(ModelError, match="needs an ArmDescription") as caught:
+            build(arm)
+        if arm is CONFIG:
+            assert "a Config: pass its .arm" in str(caught.value)
+    with pytest.raises(ModelError, match="the DH product needs an ArmDescription"):
+        dh_fk(arm, MODEL.home)

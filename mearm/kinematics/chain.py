@@ -22,11 +22,25 @@ import numpy as np
 import numpy.typing as npt
 
 from mearm.config import ArmDescription
-from mearm.kinematics.errors import InvalidJointsError
+from mearm.config.base import short_repr
+from mearm.kinematics.errors import InvalidJointsError, ModelError
 
 #: Model units per config unit: degrees → radians, centimetres → metres.
 RAD_PER_DEG = math.pi / 180.0
 M_PER_CM = 0.01
+
+
+def require_description(arm: object, user: str) -> None:
+    """Raise :class:`ModelError` unless ``arm`` is an :class:`ArmDescription`.
+
+    The kinematics read the description's fields at once: anything else (``None``, a
+    whole config, a dict) stopped there on an AttributeError that named neither.
+    """
+    if not isinstance(arm, ArmDescription):
+        given = f"a {type(arm).__name__}: pass its .arm" if hasattr(arm, "arm") else short_repr(arm)
+        raise ModelError(
+            f"{user} needs an ArmDescription (a config's arm: load_config(...).arm), got {given}"
+        )
 
 
 @dataclass(frozen=True, eq=False)
@@ -61,7 +75,12 @@ class Chain:
 
     @classmethod
     def from_description(cls, arm: ArmDescription) -> Chain:
-        """Build the arrays of ``arm``."""
+        """Build the arrays of ``arm``.
+
+        Raises:
+            ModelError: ``arm`` is not an :class:`ArmDescription`.
+        """
+        require_description(arm, "Chain.from_description")
         names = tuple(j.name for j in arm.joints)
         actuated = tuple(j.name for j in arm.joints if j.actuated)
         col = {name: k for k, name in enumerate(actuated)}

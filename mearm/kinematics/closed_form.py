@@ -33,7 +33,7 @@ import numpy as np
 import numpy.typing as npt
 
 from mearm.config import ArmDescription
-from mearm.kinematics.chain import Chain
+from mearm.kinematics.chain import Chain, require_description
 from mearm.kinematics.errors import (
     InvalidTargetError,
     JointLimitTargetError,
@@ -148,8 +148,10 @@ def closed_form_for(arm: ArmDescription) -> ClosedForm | None:
     """The closed form ``arm.closed_form`` names, built for ``arm``; ``None`` if none.
 
     Raises:
-        ModelError: an unknown name, or an arm without the structure it needs.
+        ModelError: an unknown name, an arm without the structure it needs, or ``arm``
+            not an :class:`ArmDescription`.
     """
+    require_description(arm, "closed_form_for")
     if arm.closed_form is None:
         return None
     cls = CLOSED_FORMS.get(arm.closed_form)

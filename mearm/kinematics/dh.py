@@ -13,6 +13,7 @@ import numpy.typing as npt
 
 from mearm.config import ArmDescription
 from mearm.config.base import short_repr
+from mearm.kinematics.chain import require_description
 from mearm.kinematics.errors import InvalidJointsError
 
 
@@ -25,7 +26,9 @@ def dh_frames(arm: ArmDescription, q: npt.ArrayLike) -> list[np.ndarray]:
 
     Raises:
         InvalidJointsError: ``q`` is not one finite number per joint.
+        ModelError: ``arm`` is not an :class:`ArmDescription`.
     """
+    require_description(arm, "the DH product")
     try:
         values = np.asarray(q, dtype=float)
     except (TypeError, ValueError):

@@ -17,7 +17,7 @@ import pinocchio as pin
 
 from mearm.config import ArmDescription
 from mearm.config.base import short_repr
-from mearm.kinematics.chain import Chain
+from mearm.kinematics.chain import Chain, require_description
 from mearm.kinematics.errors import InvalidJointsError, JointLimitError, ModelError
 from mearm.kinematics.per_arm import PerArm
 from mearm.kinematics.urdf import TCP_FRAME, generate_urdf, jaw_joint_names
@@ -62,9 +62,14 @@ class ArmModel:
         data: Its data (for this object's own calls).
         tcp_frame_id: The ``tcp`` frame's id.
         approach_axis: The tool's approach axis in the tcp frame, unit, (3,).
+
+    Raises:
+        ModelError: ``arm`` is not an :class:`ArmDescription`, or the URDF cannot be
+            read or does not match it.
     """
 
     def __init__(self, arm: ArmDescription, urdf_path: str | Path | None = None):
+        require_description(arm, "ArmModel")
         self.arm = arm
         self.chain = Chain.from_description(arm)
         if urdf_path is None:
