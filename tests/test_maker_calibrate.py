@@ -524,7 +524,11 @@ def test_an_existing_calibration_is_replaced_only_after_yes(tmp_path):
     finally:
         cmd.close()
     assert (tmp_path / "servos.yaml.bak").read_text() == first
-    assert [a.name for a in load_servo_calibration(out).actuators] == ["base"]
+    # the file's fits of the actuators this session left alone are kept where they still
+    # fit the arm (the elbow's made-up one does not), each named (1ba24ad)
+    assert [a.name for a in load_servo_calibration(out).actuators] == ["base", "shoulder"]
+    text = " ".join(cmd.text.split())
+    assert "(1 actuator; shoulder kept from the file it replaced; elbow not kept" in text
 
 
 @pytest.mark.heavy
