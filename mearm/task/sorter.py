@@ -413,6 +413,14 @@ class Sorter(PickAndPlace):
                 if self.planner.plan(over, ex.q_now()).planned:
                     ex.stream(over, "travel", closed=closed)
                     contact = self.collision.first_contact(ex.joint_path(self.model.home))
+                if contact is not None and over.planned:
+                    # walls grown tall for many objects (15 reds: 16 cm) rise beside the
+                    # jaws hung at home: the straight line in joint space down from over
+                    # home swings them into the wall; the TCP comes straight down instead
+                    down = Route("", "", "home", 1, home)
+                    if self.planner.plan(down, ex.q_now()).planned:
+                        ex.stream(down, "travel", closed=closed)
+                        contact = self.collision.first_contact(ex.joint_path(self.model.home))
             if contact is not None:
                 chain = self.model.chain
                 raise CollisionError(
