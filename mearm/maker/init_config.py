@@ -32,7 +32,10 @@ it (so the arm measured into it is the arm simulated) and replaces only the rig 
 simulated servos and camera, and the reference's simulated table
 (:func:`render_twin`). ``--arm`` names the reference arm whose table that is; it may be
 left out only when MY_CONFIG's arm is a reference arm by name (``arm: {use: mearm_v1}``
-without a ``name`` of its own).
+without a ``name`` of its own). The twin is not written where a config of MY_CONFIG's
+chain looks for the file it extends (``sim.yaml`` beside a ``my_arm.yaml`` that extends the
+packaged ``sim.yaml``): read instead, it would extend MY_CONFIG, and neither would load
+(:func:`check_not_shadowing`).
 """
 
 from __future__ import annotations
@@ -61,10 +64,11 @@ from mearm.cli import (
 )
 from mearm.config import Config, config_from_dict, load_config
 from mearm.config.compose import EXTENDS_KEY
+from mearm.config.files import resolve_config_path
 from mearm.errors import ConfigError, MearmError
 from mearm.fileio import backup_path
 from mearm.maker.wiring import Board, wiring_text
-from mearm.yamlio import load_yaml_text
+from mearm.yamlio import load_yaml_file, load_yaml_text
 
 #: Servo channels the Uno firmware drives (``SERVO_COUNT`` in
 #: tools/arduino/mearm_servo/mearm_servo.ino; its ``V`` reply says so too).
@@ -547,6 +551,44 @@ def check_folder(text: str, out: Path) -> None:
         )
 
 
+def check_not_shadowing(of: Path, out: Path) -> None:
+    """Refuse to write the twin under a name that ``of``'s chain reads as a file.
+
+    ``extends`` names a file beside the config that holds it, else a packaged config
+    (:func:`mearm.config.compose.expand_config`): a twin written where a config of the
+    chain looks for the file it extends (``my_arm.yaml`` extends the packaged
+    ``sim.yaml``; the twin is ``sim.yaml`` beside it) is read instead of it, and the two
+    then extend each other: neither loads. The chain is read as it will be once the
+    twin is there, so nothing is written that breaks the maker's own config.
+
+    Raises:
+        MearmError: a config of the chain would read ``out``.
+    """
+    target = out.resolve()
+    path = resolve_config_path(of)
+    seen: set[Path] = set()
+    while path.resolve() not in seen:
+        seen.add(path.resolve())
+        try:
+            read = load_yaml_file(path, what="config")
+            name = read.get(EXTENDS_KEY) if isinstance(read, dict) else None
+            if not isinstance(name, str) or not name.strip():
+                return
+            given = path.parent / name
+            if given.resolve() == target:
+                raise MearmError(
+                    f"{out}: {path} extends {name}, which names this file once it is written: "
+                    "the two would extend each other and neither would load; write the twin "
+                    "under another name or in another folder"
+                )
+            found = given if given.is_file() else data.packaged_config(name)
+        except (OSError, ConfigError):  # the loader says what is wrong with the chain
+            return
+        if found is None:
+            return
+        path = found
+
+
 def check_rendered(text: str, out: Path) -> Config:
     """Validate the starter config's text as the loader will read it from ``out``.
 
@@ -681,6 +723,7 @@ def _write_twin(of: Path, out: Path, arm_name: str | None, rig: RigChoice) -> in
     if of.resolve() == out.resolve():
         raise MearmError(f"{out}: write the twin beside {of}, not over it")
     mine = load_config(of)
+    check_not_shadowing(of, out)
     arm = ARMS[arm_name] if arm_name else arm_of(mine)
     text = render_twin(of, out, arm, rig, mine)
     name = str(out)
