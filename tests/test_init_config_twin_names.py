@@ -47,3 +47,21 @@ def test_a_twin_of_that_name_elsewhere_is_written(tmp_path, monkeypatch, capsys)
         assert load_config(out).arm.name == load_config("my_arm.yaml").arm.name
     capsys.readouterr()
     assert Path("my_arm.yaml").is_file()
+
+
+def test_a_twin_of_a_packaged_config_by_name_extends_it_by_name(tmp_path, monkeypatch, capsys):
+    """``--of sim`` (no such file here) names the packaged config: the twin in another
+    folder extends ``sim``, not ``../sim``, which named no file ("no packaged config has
+    that name (packaged: lab, sim, …)")."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "sub2").mkdir()
+    for of, out in (("sim", "sub2/x.yaml"), ("sim.yaml", "new/y.yaml")):
+        assert init_config.main(["--of", of, "--rig", "sim", out]) == 0, capsys.readouterr()
+        assert f"(it extends {of})" in capsys.readouterr().out
+        assert f"\nextends: {of}\n" in Path(out).read_text(encoding="utf-8")
+        assert load_config(out).arm.name == load_config("sim").arm.name
+    # a file of the packaged config's name beside the twin would be read instead
+    (tmp_path / "sub2" / "sim.yaml").write_text("extends: sim_4colours\n", encoding="utf-8")
+    r = run_in_process(["init-config", "--of", "sim.yaml", "--rig", "sim", "sub2/z.yaml"])
+    assert r.code == 2 and "the twin extends the packaged sim.yaml" in r.stderr, r
+    assert not (tmp_path / "sub2" / "z.yaml").exists()

@@ -35,7 +35,8 @@ left out only when MY_CONFIG's arm is a reference arm by name (``arm: {use: mear
 without a ``name`` of its own). The twin is not written where a config of MY_CONFIG's
 chain looks for the file it extends (``sim.yaml`` beside a ``my_arm.yaml`` that extends the
 packaged ``sim.yaml``): read instead, it would extend MY_CONFIG, and neither would load
-(:func:`check_not_shadowing`).
+(:func:`check_not_shadowing`). MY_CONFIG may be a packaged config's name (``--of sim``):
+the twin then extends it by that name, from any folder (:func:`twin_extends`).
 """
 
 from __future__ import annotations
@@ -453,8 +454,17 @@ def twin_extends(of: Path, out: Path) -> str:
 
     The loader reads ``extends`` relative to the file that holds it; the line that says
     what was written names it the same way, so ``--of ../my_arm.yaml`` reads as it is.
+    A packaged config's name (``--of sim``, no such file here) stays that name, which the
+    loader reads as the packaged config from any folder.
     """
+    if _packaged(of):
+        return str(of)
     return os.path.relpath(of.absolute(), out.absolute().parent)
+
+
+def _packaged(of: Path) -> bool:
+    """Whether ``--of`` names a packaged config by its name (no file of that name here)."""
+    return resolve_config_path(of) != of
 
 
 def _servo_limits_on(joints: dict[str, Any], mine: Config) -> dict[str, Any]:
@@ -535,8 +545,8 @@ def render_twin(of: Path, out: Path, arm: ArmChoice, rig: RigChoice, mine: Confi
     return header + _yaml(sections)
 
 
-def check_folder(text: str, out: Path) -> None:
-    """Refuse to write the starter config where its ``extends`` would name another file.
+def check_folder(text: str, out: Path, what: str = "the starter config") -> None:
+    """Refuse to write the starter config (``what``) where its ``extends`` would name another file.
 
     Raises:
         MearmError: ``out``'s folder holds a file of the name it extends (or ``out`` is
@@ -546,7 +556,7 @@ def check_folder(text: str, out: Path) -> None:
     name = data.get(EXTENDS_KEY) if isinstance(data, dict) else None
     if isinstance(name, str) and (out.name == name or (out.parent / name).exists()):
         raise MearmError(
-            f"{out}: the starter config extends the packaged {name}, but a file of that name "
+            f"{out}: {what} extends the packaged {name}, but a file of that name "
             f"in {out.parent} would be read instead: write it in another folder or name"
         )
 
@@ -720,16 +730,18 @@ def _write_twin(of: Path, out: Path, arm_name: str | None, rig: RigChoice) -> in
         raise MearmError(
             f"--of simulates your config: give --rig sim or sim_mujoco, not {rig.name}"
         )
-    if of.resolve() == out.resolve():
+    if not _packaged(of) and of.resolve() == out.resolve():
         raise MearmError(f"{out}: write the twin beside {of}, not over it")
     mine = load_config(of)
     check_not_shadowing(of, out)
     arm = ARMS[arm_name] if arm_name else arm_of(mine)
     text = render_twin(of, out, arm, rig, mine)
     name = str(out)
+    if _packaged(of):  # its extends names the packaged config: no file of that name there
+        check_folder(text, out, "the twin")
     twin = load_yaml_text(text, source=name)
-    if not out.parent.exists():  # made on writing: "new/../my_arm.yaml" cannot be read yet
-        twin[EXTENDS_KEY] = str(of.absolute())
+    if not out.parent.exists() and not _packaged(of):  # made on writing: "new/../my_arm.yaml"
+        twin[EXTENDS_KEY] = str(of.absolute())  # cannot be read yet
     try:
         config = config_from_dict(twin, source=name, path=out)
     except ConfigError as exc:
