@@ -224,10 +224,43 @@ def test_config_docs_replaces_only_a_page_it_wrote(tmp_path: Path) -> None:
     assert "--force" in line and mine.read_text() == NOTES
     done = _mearm("config-docs", "--output", str(mine), "--force", cwd=tmp_path)
     assert done.code == 0 and mine.read_text(encoding="utf-8") == _page()
-    old = _page().replace("Every key a config", "Some keys a config")  # an older page
-    mine.write_text(old, encoding="utf-8")
-    done = _mearm("config-docs", "--output", str(mine), cwd=tmp_path)
+    bak = tmp_path / "notes.md.bak"  # the user's file, kept and named first
+    assert done.stdout.splitlines() == [f"wrote {bak} (the old {mine})", f"wrote {mine}"]
+    assert bak.read_text() == NOTES
+    done = _mearm("config-docs", "--output", str(mine), cwd=tmp_path)  # the same page
+    assert done.code == 0 and done.stdout.splitlines() == [f"wrote {mine}"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["notes.md", "notes.md.bak"]
+
+
+@pytest.mark.heavy
+@pytest.mark.parametrize(
+    "edit",
+    [
+        pytest.param(lambda page: page + "MY OWN NOTE\n", id="a line appended"),
+        pytest.param(
+            lambda page: page.replace("Every key a config", "Some keys a config"),
+            id="an older page",
+        ),
+    ],
+)
+def test_config_docs_replaces_a_reference_that_differs_only_with_force(
+    tmp_path: Path, edit: Any
+) -> None:
+    """A page config-docs wrote, then edited (or written from other models): its header
+    is the generated one, but what differs may be the user's, so it is kept as the rest."""
+    mine = tmp_path / "configuration.md"
+    edited = edit(_page())
+    mine.write_text(edited, encoding="utf-8")
+    r = _mearm("config-docs", "--output", str(mine), cwd=tmp_path)
+    assert r.code == 2 and r.stdout == "", r
+    line = r.stderr.strip()
+    assert "\n" not in line and "differs from the one written now" in line, line
+    assert f"--force replaces it, keeping it as {mine}.bak" in line
+    assert mine.read_text(encoding="utf-8") == edited
+    done = _mearm("config-docs", "--output", str(mine), "--force", cwd=tmp_path)
     assert done.code == 0 and mine.read_text(encoding="utf-8") == _page()
+    assert done.stdout.splitlines()[0] == f"wrote {mine}.bak (the old {mine})"
+    assert (tmp_path / "configuration.md.bak").read_text(encoding="utf-8") == edited
 
 
 # ------------------------------------------------------------------ odd --config and extends

@@ -49,6 +49,7 @@ def test_configuration_reference_is_current() -> None:
     written = (ROOT / "docs" / "configuration.md").read_text(encoding="utf-8")
     assert written == render(), (
         "docs/configuration.md is stale: run mearm config-docs --output docs/configuration.md"
+        " --force"
     )
 
 

@@ -4,8 +4,11 @@ mearm config-docs                                  # the source checkout's docs/
 mearm config-docs --output FILE                    # anywhere (an installed wheel: required)
 mearm config-docs --check docs/configuration.md    # exit 1 if it is stale
 
-A file that is there is replaced only if it is a reference written before (it starts
-with the generated header) or with --force: nothing else of the user's is overwritten.
+A file that is there is replaced only when it already holds the page written now (nothing
+changes), or with --force: a file of the user's, an edited reference and one written from
+other models alike. What --force replaces is kept first as FILE.bak (``FILE.bak.1`` beside
+an earlier one: :func:`mearm.cli.backup_existing`), named on stdout (``wrote FILE.bak (the
+old FILE)``).
 """
 
 from __future__ import annotations
@@ -14,10 +17,17 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
-from mearm.cli import ArgumentParser, check_output_file, run, write_text_atomic
+from mearm.cli import (
+    ArgumentParser,
+    backup_existing,
+    check_output_file,
+    run,
+    write_text_atomic,
+)
 from mearm.config.schema_doc import DEFAULT_OUTPUT, GENERATED_START, render
 from mearm.data import source_checkout
 from mearm.errors import MearmError
+from mearm.fileio import backup_path
 
 
 def default_output() -> Path | None:
@@ -54,7 +64,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument(
         "--force",
         action="store_true",
-        help="replace the output file even if it is not a reference written before",
+        help="replace the output file even if it differs from the page written now (it is "
+        "kept as FILE.bak)",
     )
     args = parser.parse_args(argv)
     if args.check is not None and not args.check.is_file():
@@ -64,7 +75,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 0
     if args.check is not None:
         if args.check.read_text(encoding="utf-8") != render():
-            print(f"{args.check} is stale: run mearm config-docs --output {args.check}",
+            print(f"{args.check} is stale: run mearm config-docs --output {args.check} --force",
                   file=sys.stderr)  # fmt: skip
             return 1
         return 0
@@ -75,14 +86,35 @@ def main(argv: Sequence[str] | None = None) -> int:
             "from a wheel): give --output FILE, or --stdout"
         )
     check_output_file(output, "--output")
-    if output.exists() and not args.force and not is_generated(output):
+    page = render()
+    if output.exists() and not args.force and not _holds(output, page):
+        kept = f"--force replaces it, keeping it as {backup_path(output)}"
+        if is_generated(output):
+            raise MearmError(
+                f"--output {output}: a configuration reference that differs from the one "
+                f"written now (edited, or from other models): not replaced; {kept}"
+            )
         raise MearmError(
             f"--output {output}: exists and is not a configuration reference written before "
-            "(it lacks the generated header): not replaced; give another file, or --force"
+            f"(it lacks the generated header): not replaced; give another file, or {kept}"
         )
-    write_text_atomic(output, render())
+    try:
+        backup_existing(output, page)  # not when it holds the page already
+    except OSError as exc:
+        raise MearmError(
+            f"cannot keep {output} as {backup_path(output)}: {exc.strerror or exc}"
+        ) from None
+    write_text_atomic(output, page)
     print(f"wrote {output}")
     return 0
+
+
+def _holds(path: Path, page: str) -> bool:
+    """Whether the file at ``path`` holds ``page`` exactly (replacing it loses nothing)."""
+    try:
+        return path.read_bytes() == page.encode("utf-8")
+    except OSError:
+        return False
 
 
 if __name__ == "__main__":
