@@ -162,6 +162,37 @@ def test_a_key_set_in_a_null_section_makes_the_section():
     assert c.twin.lamp is not None and c.twin.lamp.kind == "spot"
 
 
+_ONE_CUBE_CLASS = """\
+extends: sim
+task:
+  classes:
+    - {name: cubes, shape: cube, draw_rgb: [200, 30, 35], bin_cm: [-20, 35, 20]}
+  scene: []
+"""
+
+
+def test_set_in_a_new_item_borrows_nothing_from_the_builtin_item_at_its_index(tmp_path):
+    """``--set task.classes.cubes.hue_bands_deg.0.lo_deg=50`` on a file whose one class
+    has no bands was accepted with hi_deg 15, the built-in red's (the class at index 0):
+    items pair with the built-in ones by name, and a new item borrows nothing."""
+    path = tmp_path / "shp.yaml"
+    path.write_text(_ONE_CUBE_CLASS)
+    with pytest.raises(ConfigError) as exc:
+        load_config(path, ["task.classes.cubes.hue_bands_deg.0.lo_deg=50"])
+    assert "task.classes.cubes.hue_bands_deg.0.hi_deg: required but missing" in str(exc.value)
+    assert len(str(exc.value).splitlines()) == 1
+    both = [
+        "task.classes.cubes.hue_bands_deg.0.lo_deg=50",
+        "task.classes.0.hue_bands_deg.0.hi_deg=70",
+    ]
+    band = load_config(path, both).task.classes[0].hue_bands_deg[0]
+    assert (band.lo_deg, band.hi_deg) == (50, 70)
+    red = "    - {name: red, draw_rgb: [200, 30, 35], bin_cm: [-20, 45, 20]}\n"
+    path.write_text(_ONE_CUBE_CLASS.replace("  scene:", red + "  scene:"))
+    band = load_config(path, ["task.classes.red.hue_bands_deg.0.lo_deg=340"]).task.classes[1]
+    assert (band.hue_bands_deg[0].lo_deg, band.hue_bands_deg[0].hi_deg) == (340, 15)  # red's
+
+
 def test_missing_file(tmp_path):
     with pytest.raises(ConfigError, match="nope.yaml: config file not found"):
         load_config(tmp_path / "nope.yaml")

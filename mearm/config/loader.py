@@ -89,18 +89,37 @@ def parse_override(text: str) -> tuple[list[str], Any]:
     return parts, value
 
 
-def _child(node: Any, default: Any, part: str, where: str) -> tuple[Any, Any]:
-    """The child ``part`` of ``node`` and of its default (created from it when missing)."""
+def _child(node: Any, default: Any, part: str, where: str, then: str) -> tuple[Any, Any]:
+    """The child ``part`` of ``node`` and of its default (created from it when missing).
+
+    ``then`` is the part that follows: a missing section with no default that is followed
+    by index ``0`` is made a list of one new item (``hue_bands_deg.0.lo_deg=50`` on a
+    class that has no bands), which borrows no values from anywhere.
+    """
     if isinstance(node, dict):
         sub_default = default.get(part) if isinstance(default, dict) else None
         if node.get(part) is None:  # missing, or null ("twin.lamp: null"): made, as asked
-            node[part] = copy.deepcopy(sub_default) if sub_default is not None else {}
+            if sub_default is not None:
+                node[part] = copy.deepcopy(sub_default)
+            else:
+                node[part] = [{}] if then == "0" else {}
         return node[part], sub_default
     if isinstance(node, list):
         i = _index(node, part, where)
-        same = isinstance(default, list) and i < len(default)
-        return node[i], default[i] if same else None
+        return node[i], _same_item(node[i], default)
     raise ConfigError("--set", [f"{where}: is a value, not a section (cannot set {part!r})"])
+
+
+def _same_item(item: Any, default: Any) -> Any:
+    """The built-in item ``item`` stands for: the one of its name, else ``None``.
+
+    Never the item at the same index: the user's first class is not the built-in red, and
+    a class or band the built-in config does not have borrows no values.
+    """
+    name = item.get("name") if isinstance(item, dict) else None
+    if name is None or not isinstance(default, list):
+        return None
+    return next((d for d in default if isinstance(d, dict) and d.get("name") == name), None)
 
 
 def _index(items: list[Any], part: str, where: str) -> int:
@@ -124,8 +143,10 @@ def apply_overrides(
 
     A section the data leaves out is taken from ``defaults`` (the built-in config) before
     the override changes it, so ``--set arm.joints.base.home=90`` works on a file that
-    does not spell out the arm. A relative file path it sets (``servo.calibration_file``,
-    the camera's calibration files) is made absolute from the current folder.
+    does not spell out the arm; inside a list item, from the built-in item of its name
+    (none for an item the built-in config does not name). A relative file path it sets
+    (``servo.calibration_file``, the camera's calibration files) is made absolute from the
+    current folder.
 
     Raises:
         ConfigError: a malformed override, a list index or name that does not exist.
@@ -139,7 +160,8 @@ def apply_overrides(
         node: Any = out
         default: Any = defaults
         for depth, part in enumerate(path[:-1]):
-            node, default = _child(node, default, part, ".".join(path[:depth]) or "(top level)")
+            where = ".".join(path[:depth]) or "(top level)"
+            node, default = _child(node, default, part, where, path[depth + 1])
         last, where = path[-1], ".".join(path[:-1]) or "(top level)"
         if isinstance(node, dict):
             node[last] = value
