@@ -8,6 +8,8 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
+import cv2
+import numpy as np
 import pytest
 import yaml
 from badinput import run_in_process
@@ -233,6 +235,26 @@ def test_an_extended_configs_files_stay_relative_to_its_folder(tmp_path):
     assert Path(calibration.intrinsics_file).resolve() == (
         CONFIGS / "calibration" / "twin_intrinsics.yaml"
     )
+
+
+def test_a_replayed_camera_path_is_relative_to_the_config_not_the_current_folder(tmp_path):
+    """``camera: {kind: folder, path: frames}`` was read from the current folder: from
+    anywhere but the config's own, ``mearm detect --camera`` said "no such folder". It is
+    relative to the file that wrote it, as the calibration files are; through extends
+    too; one given by --set to the current folder; a device's path stays as given."""
+    cam = tmp_path / "comp" / "cam"
+    (cam / "frames").mkdir(parents=True)
+    cv2.imwrite(str(cam / "frames" / "f0.png"), np.full((480, 640, 3), 90, np.uint8))
+    _write(cam, "cam.yaml", "extends: sim\ncamera: {kind: folder, path: frames}\n")
+    child = _write(tmp_path, "child.yaml", "extends: comp/cam/cam.yaml\n")
+    for path in (cam / "cam.yaml", child):
+        assert Path(load_config(path).camera.path).resolve() == cam / "frames"
+    r = run_in_process(["detect", "--config", cam / "cam.yaml", "--camera"], cwd=ROOT)
+    assert r.code == 0 and "no such folder" not in r.stderr, r.stderr
+    given = load_config(cam / "cam.yaml", ["camera.path=comp/cam/frames"]).camera.path
+    assert given == str(Path("comp/cam/frames").absolute())
+    device = load_config(cam / "cam.yaml", ["camera.kind=device", "camera.path=video0"])
+    assert device.camera.path == "video0"
 
 
 def test_a_missing_extends_names_the_file_and_the_packaged_configs(tmp_path):

@@ -27,8 +27,9 @@ What a config gives merges over what it builds on, by one rule:
 
 ``arm.use`` starts the arm afresh: a config that names an arm takes that arm with its own
 changes only, whatever the config it extends said about its arm. Relative file paths in
-a config (``servo.calibration_file``, the camera's calibration files) stay relative to
-the folder of the file that wrote them.
+a config (``servo.calibration_file``, the camera's calibration files, the frames a
+``file`` or ``folder`` camera replays) stay relative to the folder of the file that
+wrote them.
 """
 
 from __future__ import annotations
@@ -50,12 +51,31 @@ EXTENDS_KEY = "extends"
 USE_KEY = "use"
 #: Most configs in one chain of ``extends`` (the shipped ones use two).
 MAX_EXTENDS = 8
-#: The keys that hold file paths, relative to the folder of the config that names them.
+#: The keys that hold file paths, relative to the folder of the config that names them
+#: (``camera.path`` unless the camera is a ``device``: :func:`names_a_file`).
 FILE_KEYS: tuple[tuple[str, str], ...] = (
     ("servo", "calibration_file"),
     ("calibration", "intrinsics_file"),
     ("calibration", "extrinsics_file"),
+    ("camera", "path"),
 )
+#: Camera kinds whose ``path`` is what ``cv2.VideoCapture`` opens as given (a device, a
+#: URL), not a file or folder beside the config.
+_DEVICE_KINDS = ("device",)
+
+
+def names_a_file(section: str, key: str, part: Mapping[str, Any]) -> bool:
+    """Whether ``part`` (the mapping of ``section``) holds a relative file path at ``key``.
+
+    One of :data:`FILE_KEYS`, a relative path, and for ``camera.path`` a camera that
+    replays a file or folder (a device's path, or a URL, is opened as given).
+    """
+    text = part.get(key)
+    if (section, key) not in FILE_KEYS or not isinstance(text, str) or not text.strip():
+        return False
+    if section == "camera" and (part.get("kind") in _DEVICE_KINDS or "://" in text):
+        return False
+    return not Path(text).is_absolute()
 
 
 def merge(base: Any, over: Any, where: str = "", *, source: str | None = None) -> Any:
@@ -234,10 +254,8 @@ def _paths_from(data: dict[str, Any], folder: Path) -> dict[str, Any]:
     out = dict(data)
     for section, key in FILE_KEYS:
         part = out.get(section)
-        if isinstance(part, Mapping) and isinstance(part.get(key), str):
-            text = part[key]
-            if not Path(text).is_absolute():
-                out[section] = {**part, key: str(folder.absolute() / text)}
+        if isinstance(part, Mapping) and names_a_file(section, key, part):
+            out[section] = {**part, key: str(folder.absolute() / part[key])}
     return out
 
 
@@ -249,5 +267,6 @@ __all__ = [
     "expand_arm",
     "expand_config",
     "merge",
+    "names_a_file",
     "reference_arm",
 ]

@@ -2,9 +2,10 @@
 
 The mapping is validated by :func:`mearm.config.loader.config_from_dict` (with what it
 builds on, ``extends`` and ``arm.use``, merged in: :mod:`mearm.config.compose`); the files a
-config names (the servo calibration, the camera's calibration) are found relative to its
-folder (one a ``--set`` gives: to the current folder), and the servo calibration file's
-fits replace the calibrations of the actuators it names (:mod:`mearm.config.servo_file`).
+config names (the servo calibration, the camera's calibration, the frames a ``file`` or
+``folder`` camera replays) are found relative to its folder (one a ``--set`` gives: to
+the current folder), and the servo calibration file's fits replace the calibrations of
+the actuators it names (:mod:`mearm.config.servo_file`).
 
 A loaded config remembers where it came from (:func:`config_source`), so a check of the
 whole config (:mod:`mearm.task.check`) names the file as a bad field's error does.
@@ -19,6 +20,7 @@ from pathlib import Path
 from typing import Any
 
 from mearm.config.base import short_repr
+from mearm.config.compose import names_a_file
 from mearm.config.loader import config_from_dict, file_keys_set, unit_hints
 from mearm.config.root import Config
 from mearm.data import config_names, packaged_config
@@ -216,7 +218,7 @@ def load_config(path: str | Path | None = None, overrides: Sequence[str] = ()) -
 
 
 def _resolve_files(config: Config, folder: Path, source: str, from_set: set[str]) -> Config:
-    """``config`` with its calibration files found and its servo calibration applied.
+    """``config`` with its files found and its servo calibration applied.
 
     Relative paths are relative to ``folder`` (those of the keys in ``from_set``, given by
     ``--set``, are absolute already); the servo calibration file
@@ -226,6 +228,10 @@ def _resolve_files(config: Config, folder: Path, source: str, from_set: set[str]
         ConfigError: a calibration file the config names does not exist.
         ServoCalibrationError: the servo calibration file is not one, or not this arm's.
     """
+    camera = config.camera
+    if names_a_file("camera", "path", camera.model_dump()):  # frames replayed from here
+        path = str(folder / str(camera.path))
+        config = config.model_copy(update={"camera": camera.model_copy(update={"path": path})})
     servo_file = config.servo.calibration_file
     if servo_file is not None:
         # imported only for a config that names such a file (every other load skips it)

@@ -34,7 +34,7 @@ from mearm.config.base import (
     loc_text,
     short_repr,
 )
-from mearm.config.compose import EXTENDS_KEY, FILE_KEYS, USE_KEY, expand_config
+from mearm.config.compose import EXTENDS_KEY, FILE_KEYS, USE_KEY, expand_config, names_a_file
 from mearm.config.root import Config
 from mearm.data import packaged_arm
 from mearm.errors import ConfigError
@@ -145,8 +145,8 @@ def apply_overrides(
     the override changes it, so ``--set arm.joints.base.home=90`` works on a file that
     does not spell out the arm; inside a list item, from the built-in item of its name
     (none for an item the built-in config does not name). A relative file path it sets
-    (``servo.calibration_file``, the camera's calibration files) is made absolute from the
-    current folder.
+    (``servo.calibration_file``, the camera's calibration files, a replayed ``camera.path``)
+    is made absolute from the current folder.
 
     Raises:
         ConfigError: a malformed override, a list index or name that does not exist.
@@ -213,11 +213,9 @@ def _paths_from_here(data: dict[str, Any], path: list[str]) -> None:
     """
     for section, key in FILE_KEYS:
         part = data.get(section)
-        if path not in ([section, key], [section]) or not isinstance(part, dict):
-            continue
-        text = part.get(key)
-        if isinstance(text, str) and text.strip() and not Path(text).is_absolute():
-            part[key] = str(Path(text).absolute())
+        if path in ([section, key], [section]) and isinstance(part, dict):
+            if names_a_file(section, key, part):
+                part[key] = str(Path(part[key]).absolute())
 
 
 def config_from_dict(

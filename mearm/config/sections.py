@@ -80,6 +80,9 @@ class CameraConfig(Strict):
     kind: Literal["device", "file", "folder", "sim"] = "sim"
     device_index: int = Field(default=0, ge=0, le=MAX_DEVICE_INDEX)
     path: PathText | None = None
+    """``file``/``folder``: the video or image, or the folder of images, replayed (a
+    relative path: to the config file's folder; given by ``--set``, to the current
+    folder); ``device``: a device path opened instead of ``device_index``, as given."""
     width_px: int = Field(default=640, ge=MIN_FRAME_SIDE_PX, le=MAX_FRAME_SIDE_PX)
     height_px: int = Field(default=480, ge=MIN_FRAME_SIDE_PX, le=MAX_FRAME_SIDE_PX)
     open_timeout_s: Seconds = 5.0
