@@ -170,6 +170,33 @@ def test_an_unknown_key_names_the_checkout_file_as_typed_there(
     assert Path(named).is_absolute() and Path(named).is_file()
 
 
+@pytest.mark.parametrize(
+    ("key", "meant", "section", "anchor"),
+    [
+        ("twin.lamp.shadow=false", "shadows", "twin.lamp", "twinlamp"),
+        ("twin.camera.tilt=3", "tilt_deg", "twin.camera", "twincamera"),
+        ("twin.kit.sed=1", "seed", "twin.kit", "twinkit"),
+        (
+            "task.classes.red.learned_colour.max_distanse=3",
+            "max_distance",
+            "task.classes[].learned_colour",
+            "taskclasseslearned_colour",
+        ),
+    ],
+)
+def test_an_unknown_key_in_a_section_the_shipped_file_leaves_null_is_helped(
+    monkeypatch: pytest.MonkeyPatch, key: str, meant: str, section: str, anchor: str
+) -> None:
+    """``twin.lamp`` is null in configs/sim.yaml: an unknown key in it got no "did you
+    mean" (the keys were read from the built-in config) and was pointed at sim.yaml, which
+    does not list them. The keys come from the models; the docs' section shows them."""
+    monkeypatch.chdir(ROOT)
+    text = _error(None, [key])
+    shown = f"(docs/configuration.md#{anchor} shows every key)"
+    assert f"unknown key; did you mean {meant}? {shown}" in text, text
+    assert f"- [{section}](#{anchor})" in (ROOT / "docs" / "configuration.md").read_text()
+
+
 def test_shown_path_is_relative_only_under_the_current_folder(
     monkeypatch: pytest.MonkeyPatch, tmp_path: Path
 ) -> None:

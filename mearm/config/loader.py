@@ -36,7 +36,7 @@ from mearm.config.base import (
 )
 from mearm.config.compose import EXTENDS_KEY, FILE_KEYS, USE_KEY, expand_config, names_a_file
 from mearm.config.root import Config
-from mearm.data import packaged_arm
+from mearm.data import doc_page, packaged_arm
 from mearm.errors import ConfigError
 from mearm.yamlio import MAX_YAML_DEPTH, load_yaml_text
 
@@ -290,8 +290,8 @@ def _named_loc(loc: Sequence[int | str], data: Any) -> tuple[int | str, ...]:
     return tuple(out)
 
 
-def _allowed_keys(loc: Sequence[int | str]) -> list[str]:
-    """The keys the section at ``loc`` takes, read from the built-in config's shape."""
+def _shown(loc: Sequence[int | str]) -> bool:
+    """Whether the shipped file writes out the section at ``loc`` (not null, not empty)."""
     node: Any = _default_data()
     for part in loc:
         if isinstance(node, list):
@@ -299,10 +299,10 @@ def _allowed_keys(loc: Sequence[int | str]) -> list[str]:
         elif isinstance(node, dict) and part in node:
             node = node[part]
         else:
-            return []
+            return False
     if isinstance(node, list):
         node = node[0] if node else None
-    return list(node) if isinstance(node, dict) else []
+    return isinstance(node, dict)
 
 
 def _arm_file(data: Any) -> str:
@@ -348,12 +348,21 @@ def _in_user_words(
     *section, key = loc
     import difflib  # noqa: PLC0415  (an unknown key only)
 
-    allowed = _allowed_keys(err["loc"][:-1])
+    from mearm.config.schema_doc import section_keys  # noqa: PLC0415  (an unknown key only)
+
+    anchor, allowed = section_keys(err["loc"][:-1]) or ("", [])
     composed: dict[tuple[int | str, ...], list[str]] = {(): [EXTENDS_KEY], ("arm",): [USE_KEY]}
     allowed += composed.get(tuple(section), [])  # the keys read away as the file is composed
     close = difflib.get_close_matches(str(key), allowed, n=1, cutoff=0.6)
     meant = f"; did you mean {close[0]}?" if close else ""
-    where = _arm_file(data) if loc and loc[0] == "arm" else example_file()
+    if not _shown(err["loc"][:-1]):  # null or empty in the shipped file: the docs show it
+        where = (
+            f"{doc_page('configuration.md')}#{anchor}" if anchor else doc_page("configuration.md")
+        )
+    elif loc and loc[0] == "arm":
+        where = _arm_file(data)
+    else:
+        where = example_file()
     return f"{loc_text(loc)}: unknown key{meant} ({where} shows every key)"
 
 

@@ -15,6 +15,7 @@ when ``docs/configuration.md`` differs.
 from __future__ import annotations
 
 import ast
+import functools
 import inspect
 import re
 import sys
@@ -466,6 +467,44 @@ def walk(
                     yield from visit(sub, (f"{path}.{name}" if path else name) + suffix)
 
     yield from visit(model, prefix)
+
+
+def section_keys(loc: Sequence[int | str]) -> tuple[str, list[str]] | None:
+    """The keys the section at ``loc`` takes, with that section's anchor on this page.
+
+    ``loc`` is a validation error's location (``("twin", "lamp")``, ``("twin", "faults",
+    0, "camera_black")``: a list index, a tagged union's tag). Read from the models, so a
+    section the built-in config leaves null (``twin.lamp``) has its keys too; the anchor
+    is its heading's (``twinlamp``). ``None``: ``loc`` is no section of the models.
+    """
+    models: list[type[BaseModel]] = [Config]
+    for part in loc:
+        if isinstance(part, int):
+            continue  # an item of a list: its models were found with the list
+        owners = [m.model_fields[part] for m in models if part in m.model_fields]
+        if owners:
+            models = [m for info in owners for _, m in _nested_models(info.annotation)]
+        else:  # a tagged union's tag: the model whose literal field is it
+            models = [m for m in models if any(_is_tag(i, part) for i in m.model_fields.values())]
+        if not models:
+            return None
+    keys = list(dict.fromkeys(name for m in models for name in m.model_fields))
+    heading = _headings().get(models[0], "top level")
+    return _anchor(heading), keys
+
+
+def _is_tag(info: FieldInfo, value: str) -> bool:
+    annotation, _ = _strip(info.annotation)
+    return typing.get_origin(annotation) is Literal and typing.get_args(annotation) == (value,)
+
+
+@functools.cache
+def _headings() -> dict[type[BaseModel], str]:
+    """Each model's heading on the page: the path where it is first documented."""
+    out: dict[type[BaseModel], str] = {}
+    for path, m, _ in walk():
+        out.setdefault(m, path or "top level")
+    return out
 
 
 def _anchor(heading: str) -> str:
