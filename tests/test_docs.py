@@ -13,6 +13,7 @@ from built_once import computed_once
 
 from mearm.__main__ import SUBCOMMANDS
 from mearm.config.schema_doc import render
+from mearm.exceptions import ConfigError
 
 ROOT = Path(__file__).resolve().parent.parent
 DOCS = sorted([ROOT / "README.md", *(ROOT / "docs").glob("*.md")])
@@ -73,6 +74,37 @@ def test_the_type_column_names_the_words_a_key_takes() -> None:
     key = "- **`vision.work_area_px`** — "
     line = next(x for x in render().splitlines() if x.startswith(key))
     assert line.startswith(key + "list of 2 × number, `whole_frame` or null;")
+
+
+def _reference_line(key: str) -> str:
+    start = f"- **`{key}`** — "
+    return next(x for x in render().splitlines() if x.startswith(start))
+
+
+def test_the_reference_says_what_the_validators_enforce() -> None:
+    """The reference contradicted the validators: vision.median_kernel said only
+    "≥ 1; ≤ 31" (an even one is refused), learned_colour.ab_cov said "each > 0 …; each ≥
+    -10000 …" (its middle item may be negative), and a fault's kind had a default though
+    every fault must name it."""
+    from mearm.config import load_config
+
+    assert "; ≥ 1; ≤ 31; odd." in _reference_line("vision.median_kernel")
+    with pytest.raises(ConfigError, match="vision.median_kernel: must be odd"):
+        load_config(None, ["vision.median_kernel=4"])
+    cov = _reference_line("task.classes[].learned_colour.ab_cov")
+    assert "items 1 and 3 > 0, ≤ 10000, finite; item 2 ≥ -10000, ≤ 10000, finite." in cov
+    colour = "{ab_mean: [0, 0], ab_cov: [4, -1, 4], lightness: [10, 90]}"
+    assert load_config(None, [f"task.classes.red.learned_colour={colour}"])
+    kinds = [x for x in render().splitlines() if x.startswith("- **`twin.faults[].kind`**")]
+    assert len(kinds) == 5 and all("; default *required*." in x for x in kinds)
+    allowed = "one of: limp_servo, knock_object, camera_black, camera_frozen, camera_bump"
+    for fault, said in [
+        ("{at_s: 1}", f"twin.faults.0.kind: required but missing ({allowed})"),
+        ("{kind: zap, at_s: 1}", f"twin.faults.0.kind: expected {allowed} (got 'zap')"),
+    ]:
+        with pytest.raises(ConfigError) as info:
+            load_config(None, [f"twin.faults=[{fault}]"])
+        assert str(info.value) == f"--set: {said}"
 
 
 @pytest.mark.parametrize("doc", DOCS, ids=lambda p: str(p.relative_to(ROOT)))

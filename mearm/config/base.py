@@ -50,6 +50,9 @@ Vector3 = tuple[Length, Length, Length]
 #: A field's ``json_schema_extra`` key listing the words it takes besides its type's
 #: values (its validator turns them into one), for the reference's type column.
 SPELLINGS = "mearm_spellings"
+#: A field's ``json_schema_extra`` key listing what its validator enforces beyond the
+#: bounds its type carries (``odd``), for the reference's allowed values.
+RULES = "mearm_rules"
 #: The error type of a boolean given for a number (:func:`_refuse_bool`).
 NOT_A_NUMBER = "number_not_bool"
 

@@ -343,6 +343,8 @@ def _in_user_words(
             raw = typed.get(tuple(str(part) for part in path))
             if raw is not None and raw not in ("true", "false"):  # those read as typed
                 return f"{loc_text(loc)}: expected a number, got {short_repr(raw)}"
+    if err["type"] in ("union_tag_not_found", "union_tag_invalid"):
+        return _tag_error(err, loc)
     if err["type"] != "extra_forbidden":
         return describe_error({**err, "loc": loc})
     *section, key = loc
@@ -364,6 +366,21 @@ def _in_user_words(
     else:
         where = example_file()
     return f"{loc_text(loc)}: unknown key{meant} ({where} shows every key)"
+
+
+def _tag_error(err: ErrorDetails, loc: Sequence[int | str]) -> str:
+    """A list item whose ``kind`` (its union's tag) is missing or none of the kinds.
+
+    ``twin.faults.0.kind: required but missing (one of: limp_servo, …)``.
+    """
+    from mearm.config.schema_doc import union_tags  # noqa: PLC0415  (a bad kind only)
+
+    key = str((err.get("ctx") or {}).get("discriminator", "kind")).strip("'\"")
+    kinds = ", ".join(union_tags(err["loc"], key))
+    item = err.get("input")
+    if err["type"] == "union_tag_not_found" or not isinstance(item, dict) or key not in item:
+        return f"{loc_text((*loc, key))}: required but missing (one of: {kinds})"
+    return f"{loc_text((*loc, key))}: expected one of: {kinds} (got {short_repr(item[key])})"
 
 
 #: A link longer than this is no hobby arm's [cm]: written in mm, an 8 cm link reads 80.

@@ -33,7 +33,7 @@ from pydantic.fields import FieldInfo
 from pydantic_core import PydanticUndefined
 
 from mearm.config.arm import ArmDescription
-from mearm.config.base import SPELLINGS
+from mearm.config.base import RULES, SPELLINGS
 from mearm.config.defaults import DEFAULT_ARM
 from mearm.config.root import Config
 from mearm.data import arm_names
@@ -330,6 +330,8 @@ def _inner_bounds(annotation: Any) -> list[str]:
         for arg in args:
             inner, constraints = _strip(arg)
             found += [b for b in _bound(constraints) + _inner_bounds(inner) if b not in found]
+    elif origin is tuple and len({tuple(_item_bounds(a)) for a in args if a is not ...}) > 1:
+        found += _positional_bounds(args)
     elif origin in (list, tuple, dict):
         for i, arg in enumerate(args):
             inner, constraints = _strip(arg)
@@ -343,9 +345,39 @@ def _inner_bounds(annotation: Any) -> list[str]:
     return found
 
 
+def _item_bounds(arg: Any) -> list[str]:
+    """The bounds of one item of a container: its own, then those inside its type."""
+    inner, constraints = _strip(arg)
+    return _bound(constraints) + _inner_bounds(inner)
+
+
+def _positional_bounds(args: Sequence[Any]) -> list[str]:
+    """A tuple's bounds by position, where they differ: ``items 1 and 3 > 0; item 2 …``."""
+    groups: dict[tuple[str, ...], list[int]] = {}
+    for i, arg in enumerate(args, start=1):
+        groups.setdefault(tuple(_item_bounds(arg)), []).append(i)
+    out = []
+    for bounds, places in groups.items():
+        if bounds:
+            which = " and ".join(map(str, places)).replace(" and ", ", ", len(places) - 2)
+            out.append(f"item{'s' if len(places) > 1 else ''} {which} {', '.join(bounds)}")
+    return out
+
+
+def _rules(info: FieldInfo) -> list[str]:
+    extra = info.json_schema_extra
+    words = extra.get(RULES) if isinstance(extra, dict) else None
+    return [str(w) for w in words] if isinstance(words, list) else []
+
+
 def allowed_text(info: FieldInfo) -> str:
-    """What the validator enforces on a field beyond its type."""
-    return "; ".join(_bound(info.metadata) + _inner_bounds(info.annotation))
+    """What the validator enforces on a field beyond its type.
+
+    Its bounds, the bounds inside its type (each item's, or a tuple's by position where
+    they differ), and the rules its validators add (under :data:`~mearm.config.base.RULES`
+    in its ``json_schema_extra``: ``odd``).
+    """
+    return "; ".join(_bound(info.metadata) + _inner_bounds(info.annotation) + _rules(info))
 
 
 # --------------------------------------------------------------------- defaults
@@ -477,6 +509,30 @@ def section_keys(loc: Sequence[int | str]) -> tuple[str, list[str]] | None:
     section the built-in config leaves null (``twin.lamp``) has its keys too; the anchor
     is its heading's (``twinlamp``). ``None``: ``loc`` is no section of the models.
     """
+    models = _models_at(loc)
+    if not models:
+        return None
+    keys = list(dict.fromkeys(name for m in models for name in m.model_fields))
+    heading = _headings().get(models[0], "top level")
+    return _anchor(heading), keys
+
+
+def union_tags(loc: Sequence[int | str], key: str) -> list[str]:
+    """The values ``key`` tells the models at ``loc`` apart by, in the union's order.
+
+    ``twin.faults`` items' ``kind``: ``limp_servo``, ``knock_object``, …
+    """
+    tags: list[str] = []
+    for m in _models_at(loc):
+        info = m.model_fields.get(key)
+        annotation = _strip(info.annotation)[0] if info is not None else None
+        if typing.get_origin(annotation) is Literal:
+            tags += [str(a) for a in typing.get_args(annotation) if str(a) not in tags]
+    return tags
+
+
+def _models_at(loc: Sequence[int | str]) -> list[type[BaseModel]]:
+    """The models the value at ``loc`` may be (several: a union's); none: no section."""
     models: list[type[BaseModel]] = [Config]
     for part in loc:
         if isinstance(part, int):
@@ -486,11 +542,7 @@ def section_keys(loc: Sequence[int | str]) -> tuple[str, list[str]] | None:
             models = [m for info in owners for _, m in _nested_models(info.annotation)]
         else:  # a tagged union's tag: the model whose literal field is it
             models = [m for m in models if any(_is_tag(i, part) for i in m.model_fields.values())]
-        if not models:
-            return None
-    keys = list(dict.fromkeys(name for m in models for name in m.model_fields))
-    heading = _headings().get(models[0], "top level")
-    return _anchor(heading), keys
+    return models
 
 
 def _is_tag(info: FieldInfo, value: str) -> bool:

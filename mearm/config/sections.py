@@ -16,6 +16,7 @@ from pydantic import (
 from mearm.config.base import (
     MAX_ANGLE_DEG,
     MAX_LENGTH_CM,
+    RULES,
     SPELLINGS,
     Angle,
     Length,
@@ -202,7 +203,9 @@ class VisionConfig(Strict):
 
     saturation_min: Annotated[float, Field(ge=0, le=1, allow_inf_nan=False)] = 0.4
     value_min: Annotated[float, Field(ge=0, le=1, allow_inf_nan=False)] = 0.25
-    median_kernel: int = Field(default=3, ge=1, le=MAX_MEDIAN_KERNEL)
+    median_kernel: int = Field(
+        default=3, ge=1, le=MAX_MEDIAN_KERNEL, json_schema_extra={RULES: ["odd"]}
+    )
     min_area_px: int = Field(default=100, ge=1, le=MAX_FRAME_PIXELS)
     merged_area_ratio: Annotated[float, Field(gt=1, le=100, allow_inf_nan=False)] = 1.6
     """A region larger than this times one object's expected area is flagged merged."""

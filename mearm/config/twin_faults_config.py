@@ -42,7 +42,7 @@ class _Fault(Strict):
 class LimpServo(_Fault):
     """A joint's servo goes limp (its power or signal lost): it gives no torque any more."""
 
-    kind: Literal["limp_servo"] = "limp_servo"
+    kind: Literal["limp_servo"]
     joint: Name
     """The actuated joint whose servo fails."""
 
@@ -50,7 +50,7 @@ class LimpServo(_Fault):
 class KnockObject(_Fault):
     """An object is knocked off the table: it ends up at rest beyond the camera's view."""
 
-    kind: Literal["knock_object"] = "knock_object"
+    kind: Literal["knock_object"]
     object: Name
     """The object's id in the twin: its class and its number in the scene's order within
     that class (``red1``, ``green2``, …)."""
@@ -59,7 +59,7 @@ class KnockObject(_Fault):
 class CameraBlack(_Fault):
     """The camera delivers black frames (a covered lens, a dead sensor or lamp)."""
 
-    kind: Literal["camera_black"] = "camera_black"
+    kind: Literal["camera_black"]
 
 
 class CameraFrozen(_Fault):
@@ -68,7 +68,7 @@ class CameraFrozen(_Fault):
     Every read returns the last frame taken before ``at_s``, with that frame's time.
     """
 
-    kind: Literal["camera_frozen"] = "camera_frozen"
+    kind: Literal["camera_frozen"]
 
 
 class CameraBump(_Fault):
@@ -77,7 +77,7 @@ class CameraBump(_Fault):
     It moves by ``shift_cm`` and stays there: the calibration no longer holds.
     """
 
-    kind: Literal["camera_bump"] = "camera_bump"
+    kind: Literal["camera_bump"]
     shift_cm: tuple[BumpCm, BumpCm, BumpCm]
     """How far it moves in the robot's base frame (x, y, z) [cm]."""
 
