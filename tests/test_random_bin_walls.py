@@ -41,7 +41,7 @@ def test_the_number_a_refusal_suggests_is_one_the_walls_take(name: str) -> None:
         random_scene(config, most + 1, seed=7)
 
 
-def test_the_kinematic_simulator_has_no_walls_to_outgrow() -> None:
+def test_thirty_objects_grow_no_wall_the_kinematic_arm_cannot_keep_clear_of() -> None:
     assert len(random_scene(load_config("sim"), 30, seed=7)) == 30
 
 

@@ -366,19 +366,33 @@ def _check_bodies(config: Config, model: ArmModel, collision: CollisionModel) ->
             )
     if problems:
         return problems
-    for name, part, distance in collision.bins_at(model.home):
+    for name, part, distance in bins_near_home(config, model, collision):
         if distance <= TOUCH_CM:
             problems.append(
                 f"task.classes.{name}.bin_cm: the arm at home ({part}) touches its bin: "
                 "move the bin or arm.joints[].home"
             )
-        elif distance < config.task.clearance_cm:
+        else:
             problems.append(
                 f"task.clearance_cm: {config.task.clearance_cm:g} cm is more than the arm "
                 f"keeps from {name}'s bin at home ({part}, {distance:.2f} cm): at most "
                 f"{distance:.2f} cm, or move the bin"
             )
     return problems
+
+
+def bins_near_home(
+    config: Config, model: ArmModel, collision: CollisionModel
+) -> Iterator[tuple[str, str, float]]:
+    """The bins the arm at home keeps less than ``task.clearance_cm`` from, or touches.
+
+    ``(class, arm part, distance [cm])`` per such bin, as ``collision`` builds the bins
+    (their walls as tall as the table it was built for makes them:
+    :func:`~mearm.kinematics.bodies.wall_height_m`). Every run starts and ends at home.
+    """
+    for name, part, distance in collision.bins_at(model.home):
+        if distance < config.task.clearance_cm or distance <= TOUCH_CM:
+            yield name, part, distance
 
 
 def _check_home_above_table(

@@ -21,9 +21,16 @@ from mearm.config.belt_config import MAX_ARRIVALS
 from mearm.config.sections import MAX_SCENE_OBJECTS
 from mearm.errors import ConfigError, MearmError
 from mearm.kinematics import ArmModel, check_in_box, closed_form_for
-from mearm.kinematics.bodies import M_PER_CM, TableContents, base_radius_m, bin_half_outer_m
+from mearm.kinematics.bodies import (
+    M_PER_CM,
+    TableContents,
+    base_radius_m,
+    bin_half_outer_m,
+    wall_height_m,
+)
 from mearm.kinematics.collision import TOUCH_M
 from mearm.sim.table_collision import collision_model
+from mearm.task.check import bins_near_home
 from mearm.task.plan import Planner
 from mearm.task.route import Route
 from mearm.vision.calibration import camera_geometry
@@ -196,13 +203,58 @@ def check_scene(config: Config, scene: Sequence[SceneObject], source: str = "tas
 
 
 def _check_walls(config: Config, scene: Sequence[SceneObject], source: str) -> None:
-    """Refuse a twin's table whose objects, the belt's too, outgrow a bin's walls."""
-    problem = _release_below_walls(config, [o.color for o in scene])
+    """Refuse a table whose objects, the belt's too, grow a bin's walls past what the arm allows."""
+    colors = [o.color for o in scene]
+    what = f"{source}: " if scene else ""
+    problem = _release_below_walls(config, colors)
     if problem is not None:
-        what = f"{source}: " if scene else ""
         raise SceneError(
             f"{what}{problem}; raise bin_cm z (task.classes), or give the class fewer objects"
         )
+    problem = _walls_by_home(config, colors)
+    if problem is not None:
+        raise SceneError(f"{what}{problem}: give the class fewer objects")
+
+
+def _walls_problem(config: Config, colors: Sequence[str]) -> str | None:
+    """Why a table of objects of ``colors`` grows a bin's walls past what the arm allows."""
+    problem = _release_below_walls(config, colors)
+    return problem if problem is not None else _walls_by_home(config, colors)
+
+
+def _walls_by_home(config: Config, colors: Sequence[str]) -> str | None:
+    """Walls grown for a table of objects of ``colors`` that the arm at home comes too near.
+
+    Both simulators build each bin's walls to hold the table's objects of its class
+    stacked (:func:`~mearm.kinematics.bodies.wall_height_m`); a table with more of a
+    class than the config's own raises them, and beside a bin close to home (the paper
+    arm's jaws hang beside the red bin there) they may come within ``task.clearance_cm``
+    of the arm at home, where every run starts and ends: the arm could not go home, and
+    no route would leave it. The config's own table passed the same check when it
+    loaded (:func:`~mearm.task.check.check_consistency`); ``None``: no wall grew, or the
+    arm keeps its clearance.
+    """
+    table, own = _table_of(config, colors), TableContents.of(config.task, config.belt)
+    grown = [
+        c.name
+        for c in config.task.classes
+        if wall_height_m(c, table.objects(c.name)) > wall_height_m(c, own.objects(c.name))
+    ]
+    if not grown:
+        return None
+    model = ArmModel(config.arm)
+    bins = collision_model(config, model, clearance_cm=0.0, table=table)
+    for name, part, distance in bins_near_home(config, model, bins):
+        if name not in grown:
+            continue
+        n = table.objects(name)
+        wall_cm = wall_height_m(config.task.class_named(name), n) / M_PER_CM
+        return (
+            f"class {name}: its bin's walls, built {wall_cm:.3g} cm tall to hold its {n} "
+            f"objects stacked, come within {distance:.2f} cm of the arm at home ({part}), "
+            f"less than task.clearance_cm ({config.task.clearance_cm:g} cm)"
+        )
+    return None
 
 
 def _release_below_walls(config: Config, colors: Sequence[str]) -> str | None:
@@ -487,18 +539,20 @@ def random_scene(
             many one layout held: with the same seed, that many or fewer are placed).
     """
     order = _class_order(config, counts, seed)
-    problem = _release_below_walls(config, order)
+    problem, remedy = _release_below_walls(config, order), ", or raise bin_cm z (task.classes)"
+    if problem is None:
+        problem, remedy = _walls_by_home(config, order), ""
     if problem is not None:
         if isinstance(counts, int):
             most = next(
                 n
                 for n in range(len(order), -1, -1)
-                if n == 0 or _release_below_walls(config, _class_order(config, n, seed)) is None
+                if n == 0 or _walls_problem(config, _class_order(config, n, seed)) is None
             )
             fewer = f"ask for {most} or fewer" if most else "no number of objects fits"
         else:
             fewer = "give the class fewer objects"
-        raise SceneError(f"{problem}: {fewer}, or raise bin_cm z (task.classes)")
+        raise SceneError(f"{problem}: {fewer}{remedy}")
     rng = np.random.default_rng(seed)
     diameter, (x0, x1, y0, y1) = _scene_field(config, any_objects=bool(order))
     reach = _reach_check(config)
