@@ -125,3 +125,22 @@ def test_bad_urdf_is_a_model_error(config, tmp_path):
         ArmModel(config.arm, urdf_path=bad)
     with pytest.raises(ModelError, match="cannot read URDF"):
         ArmModel(config.arm, urdf_path=tmp_path / "missing.urdf")
+
+
+def test_a_urdf_of_another_arm_or_a_stale_one_is_a_model_error(config, tmp_path):
+    """Joint names alone let another arm's URDF (or one written before the description
+    changed) through: limits from the description, FK from the file, 30 cm apart."""
+    from conftest import ROOT
+
+    other = ROOT / "robot_description" / "mearm_v1.urdf"
+    with pytest.raises(ModelError, match=r"is not the arm 'mearm_paper' described: .* cm apart"):
+        ArmModel(config.arm, urdf_path=other)
+    stale = tmp_path / "stale.urdf"
+    stale.write_text(generate_urdf(config.arm))
+    data = config.arm.model_dump()
+    data["joints"][1]["dh"]["a_cm"] += 0.5
+    longer = ArmDescription.model_validate(data)
+    with pytest.raises(ModelError, match=r"write it again from the description"):
+        ArmModel(longer, urdf_path=stale)
+    assert np.allclose(ArmModel(config.arm, urdf_path=stale).fk_cm(ArmModel(config.arm).home),
+                       ArmModel(config.arm).fk_cm(ArmModel(config.arm).home))  # fmt: skip

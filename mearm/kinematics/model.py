@@ -40,6 +40,10 @@ def _generate(arm: ArmDescription) -> tuple[str, pin.Model]:
     return urdf, _pinocchio_model(arm, urdf)
 
 
+#: How far a loaded URDF's TCP may be from the description's at the same pose [cm]
+#: (:meth:`ArmModel._check_geometry`): 10 µm, far below what a hobby arm repeats.
+URDF_MATCH_CM = 1e-3
+
 #: The generated URDF and its model, once per description: a run builds its arm model
 #: three times (the start-up check, the rig, the simulated servos); each takes its own
 #: data, and nothing changes a model once built.
@@ -52,7 +56,9 @@ class ArmModel:
     Args:
         arm: The arm description (``config.arm``).
         urdf_path: Load this URDF instead of generating one. Its chain joints must carry
-            the description's names, in order, and it must have a ``tcp`` frame.
+            the description's names, in order, it must have a ``tcp`` frame, and put it
+            where the description does (home, each joint at its limits: within
+            :data:`URDF_MATCH_CM`).
 
     Attributes:
         arm: The description.
@@ -91,6 +97,41 @@ class ArmModel:
         self.tcp_frame_id = self.model.getFrameId(TCP_FRAME)
         axis = np.asarray(arm.tool.approach_axis, dtype=float)
         self.approach_axis = axis / np.linalg.norm(axis)
+        if urdf_path is not None:
+            self._check_geometry(urdf_path)
+
+    def _check_geometry(self, urdf_path: str | Path) -> None:
+        """A loaded URDF's TCP where the description's own URDF puts it, at a few poses.
+
+        Joint names alone let a stale file through (an arm's lengths changed in its
+        description, the URDF not written again): the limits and the servos would be the
+        description's, the kinematics the file's. Home, each joint's limits in turn and
+        their middle are compared: the same to :data:`URDF_MATCH_CM` in position and
+        1e-6 in rotation.
+        """
+        own = ArmModel(self.arm)
+        poses = [self.home, (self.lower + self.upper) / 2]
+        for j in range(self.chain.n):
+            for end in (self.lower, self.upper):
+                q = self.home
+                q[j] = end[j]
+                poses.append(q)
+        for q in poses:
+            (p, R), (p0, R0) = self.tcp_pose(q), own.tcp_pose(q)
+            apart = float(np.linalg.norm(p - p0))
+            if apart > URDF_MATCH_CM or not np.allclose(R, R0, atol=1e-6):
+                at = ", ".join(
+                    f"{n} {v:g}"
+                    for n, v in zip(self.chain.names, self.chain.to_config_units(q), strict=True)
+                )
+                where = lambda v: ", ".join(f"{x:.2f}" for x in v)  # noqa: E731
+                raise ModelError(
+                    f"URDF {urdf_path} is not the arm {self.arm.name!r} described: at ({at}) "
+                    f"its TCP is at ({where(p)}) cm, the description's at ({where(p0)}) cm "
+                    f"({apart:.3g} cm apart{'' if apart > URDF_MATCH_CM else ', turned'}); "
+                    "write it again from the description (mearm urdf --config ... --output "
+                    "FILE), or load the description's own (no urdf_path)"
+                )
 
     # ----------------------------------------------------------------- shortcuts
 
