@@ -59,6 +59,12 @@ FILE_KEYS: tuple[tuple[str, str], ...] = (
     ("calibration", "extrinsics_file"),
     ("camera", "path"),
 )
+#: A key's place in a config: its keys from the top, a list of named items' item by name.
+KeyPath = tuple[Any, ...]
+#: Where each key of a composed config was written (:func:`expand_config_traced`): its
+#: path → the file (the ``source`` it was read as), for every key or whole value a file
+#: set; what lies beneath a path recorded is that file's too.
+Origins = dict[KeyPath, str | None]
 #: Camera kinds whose ``path`` is what ``cv2.VideoCapture`` opens as given (a device, a
 #: URL), not a file or folder beside the config.
 _DEVICE_KINDS = ("device",)
@@ -185,12 +191,27 @@ def expand_config(data: Any, *, source: str | None = None, path: Path | None = N
             or is longer than :data:`MAX_EXTENDS`, a file it names does not load, or
             ``arm.use`` names no reference arm; the message says which.
     """
+    return expand_config_traced(data, source=source, path=path)[0]
+
+
+def expand_config_traced(
+    data: Any, *, source: str | None = None, path: Path | None = None
+) -> tuple[Any, Origins]:
+    """:func:`expand_config`, and which file wrote each key of the result (:data:`Origins`).
+
+    A key of the file itself is ``source``'s; a key a config it extends wrote (and the
+    file did not change) is that config's file, so an error in it can name the file the
+    user must edit. The arm a file names (``arm.use``) is that file's, as it chose it.
+    """
     chain = (path.resolve(),) if path is not None else ()
     folder = path.parent if path is not None else Path()
-    return _expand(data, source, folder, chain)
+    origins: Origins = {}
+    return _expand(data, source, folder, chain, origins), origins
 
 
-def _expand(data: Any, source: str | None, folder: Path, chain: tuple[Path, ...]) -> Any:
+def _expand(
+    data: Any, source: str | None, folder: Path, chain: tuple[Path, ...], origins: Origins
+) -> Any:
     if not isinstance(data, Mapping):
         return data
     own = dict(data)
@@ -200,14 +221,62 @@ def _expand(data: Any, source: str | None, folder: Path, chain: tuple[Path, ...]
         parent_data = load_yaml_file(parent, what="config")
         if not isinstance(parent_data, Mapping):
             raise ConfigError(str(parent), ["top level must be a mapping"])
-        base = _expand(parent_data, str(parent), parent.parent, (*chain, parent.resolve()))
+        chained = (*chain, parent.resolve())
+        base = _expand(parent_data, str(parent), parent.parent, chained, origins)
         if parent.parent.resolve() != folder.resolve():
             base = _paths_from(base, parent.parent)
     if "arm" in own:
         own["arm"] = expand_arm(own["arm"], source)
         if isinstance(own["arm"], Mapping) and USE_KEY in data["arm"]:
             base.pop("arm", None)  # a named arm starts afresh
-    return merge(base, own, source=source)
+    merged = merge(base, own, source=source)
+    _trace(base, own, (), source, origins)
+    return merged
+
+
+def _trace(base: Any, over: Any, path: KeyPath, source: str | None, origins: Origins) -> None:
+    """Record in ``origins`` what ``over`` (from ``source``) sets as it merges over ``base``.
+
+    Walks as :func:`merge` does: a key merged into is walked on; a key ``over`` adds, or
+    a value or list it replaces, is ``source``'s with all beneath it.
+    """
+    if isinstance(over, Mapping) and isinstance(base, Mapping):
+        for key, value in over.items():
+            if key in base:
+                _trace(base[key], value, (*path, key), source, origins)
+            else:
+                claim(origins, (*path, key), source)
+    elif isinstance(over, Mapping) and _named_items(base):
+        for item in base:
+            if item["name"] in over:
+                _trace(item, over[item["name"]], (*path, item["name"]), source, origins)
+    else:
+        claim(origins, path, source)
+
+
+def claim(origins: Origins, path: KeyPath, source: str | None) -> None:
+    """Record ``path`` and all beneath it as written by ``source`` (what was there is gone)."""
+    n = len(path)
+    for gone in [p for p in origins if p[:n] == path]:
+        del origins[gone]
+    origins[path] = source
+
+
+def origin(origins: Origins, path: KeyPath) -> str | None:
+    """The one file that wrote ``path`` and what is beneath it, else ``None``.
+
+    A key is the file's that wrote it, or wrote it whole further up (a list, a section
+    the config it extends did not have); a section several files wrote into is no one
+    file's (``None``).
+    """
+    n = len(path)
+    beneath = {source for p, source in origins.items() if p[:n] == path}
+    if beneath:
+        return beneath.pop() if len(beneath) == 1 else None
+    for depth in range(n - 1, 0, -1):
+        if path[:depth] in origins:
+            return origins[path[:depth]]
+    return None
 
 
 def _extended(name: Any, folder: Path, source: str | None, chain: tuple[Path, ...]) -> Path:
@@ -264,9 +333,14 @@ __all__ = [
     "FILE_KEYS",
     "MAX_EXTENDS",
     "USE_KEY",
+    "KeyPath",
+    "Origins",
+    "claim",
     "expand_arm",
     "expand_config",
+    "expand_config_traced",
     "merge",
     "names_a_file",
+    "origin",
     "reference_arm",
 ]

@@ -34,7 +34,17 @@ from mearm.config.base import (
     loc_text,
     short_repr,
 )
-from mearm.config.compose import EXTENDS_KEY, FILE_KEYS, USE_KEY, expand_config, names_a_file
+from mearm.config.compose import (
+    EXTENDS_KEY,
+    FILE_KEYS,
+    USE_KEY,
+    KeyPath,
+    Origins,
+    claim,
+    expand_config_traced,
+    names_a_file,
+    origin,
+)
 from mearm.config.root import Config
 from mearm.data import doc_page, packaged_arm
 from mearm.errors import ConfigError
@@ -244,7 +254,7 @@ def config_from_dict(
         data = {}
     if not isinstance(data, dict):
         raise ConfigError(source, [f"top level must be a mapping, got {type(data).__name__}"])
-    data = expand_config(data, source=source, path=path)
+    data, origins = expand_config_traced(data, source=source, path=path)
     own = data
     if overrides:
         data = apply_overrides(data, overrides, _default_data())
@@ -252,10 +262,76 @@ def config_from_dict(
         return Config.model_validate(data)
     except ValidationError as exc:
         typed = _typed_values(overrides)
-        problems = [_in_user_words(e, data, typed) for e in exc.errors()]
+        errors = exc.errors()
+        problems = [_in_user_words(e, data, typed) for e in errors]
         if overrides and _valid(own):  # the file is good: a --set value is what is wrong
-            source = "--set"
-        raise ConfigError(source, [*unit_hints(data), *problems]) from None
+            raise ConfigError("--set", [*unit_hints(data), *problems]) from None
+        for text in overrides:  # a key --set gave is said of the file, as the file is bad
+            claim(origins, _key_path(parse_override(text)[0], data), source)
+        written = [_written_in(e, data, origins) or source for e in errors]
+        raise _named_error(source, unit_hints(data), problems, written) from None
+
+
+def _written_in(err: ErrorDetails, data: Any, origins: Origins) -> str | None:
+    """The file that wrote the key of ``err`` (a config the file extends), else ``None``.
+
+    A model's check that names a key inside it (``@task.classes: …``) is that key's.
+    """
+    loc: list[Any] = list(err["loc"])
+    msg = err["msg"].removeprefix("Value error, ")
+    if msg.startswith("@"):
+        loc += msg[1:].partition(": ")[0].split(".")
+    return origin(origins, _key_path(loc, data))
+
+
+def _key_path(loc: Sequence[Any], data: Any) -> KeyPath:
+    """``loc`` (pydantic's, or a ``--set`` key's parts) as :data:`Origins` hold it.
+
+    An item of a list of named items is its name; any other item its index.
+    """
+    out: list[Any] = []
+    node = data
+    for part in loc:
+        if isinstance(node, list):
+            item: Any = None
+            if isinstance(part, str) and _INDEX.match(part):
+                part = int(part)
+            if isinstance(part, int) and -len(node) <= part < len(node):
+                part %= len(node)
+                item = node[part]
+            else:
+                item = next((it for it in node if _name_of(it) == part), None)
+            name = _name_of(item)
+            out.append(name if name is not None else part)
+            node = item
+        elif isinstance(node, dict) and part in node:
+            out.append(part)
+            node = node[part]
+        else:
+            out.append(part)
+            node = None
+    return tuple(out)
+
+
+def _name_of(item: Any) -> str | None:
+    """The name of a list item of a list of named items, else ``None``."""
+    name = item.get("name") if isinstance(item, dict) else None
+    return name if isinstance(name, str) else None
+
+
+def _named_error(
+    source: str | None, hints: list[str], problems: list[str], written: list[str | None]
+) -> ConfigError:
+    """The error of ``problems``, each said of the file its key was written in.
+
+    ``written[i]`` is the file of ``problems[i]``. Problems all of one file name that
+    file; problems of several files name ``source`` (the file given), and each of another
+    file is led by that file's name.
+    """
+    if len(set(written)) == 1:
+        return ConfigError(written[0], [*hints, *problems])
+    led = [p if f == source else f"{f}: {p}" for p, f in zip(problems, written, strict=True)]
+    return ConfigError(source, [*hints, *led])
 
 
 def _valid(data: Any) -> bool:
