@@ -381,13 +381,67 @@ def _shown(loc: Sequence[int | str]) -> bool:
     return isinstance(node, dict)
 
 
-def _arm_file(data: Any) -> str:
-    """The reference arm file the config's arm is, as the user can open it."""
+def _arm_file(data: Any, section: Sequence[int | str]) -> str:
+    """The reference arm file the config's arm was made from, as the user can open it.
+
+    The arm of a reference arm's name, else the reference arm it matches best (a copy of
+    ``mearm_v1.yaml`` under another name, or ``use: mearm_v1`` with a name of its own, is
+    mostly that arm's values), else the built-in arm's. A file that does not write out
+    ``section`` (pydantic's path to the unknown key's mapping) shows the built-in arm's.
+    """
+    from mearm.config.compose import reference_arm  # noqa: PLC0415  (an unknown key only)
+    from mearm.config.defaults import DEFAULT_ARM  # noqa: PLC0415
+    from mearm.data import arm_names  # noqa: PLC0415
+
     arm = data.get("arm") if isinstance(data, dict) else None
     name = arm.get("name") if isinstance(arm, dict) else None
-    if isinstance(name, str) and packaged_arm(name) is not None:
-        return example_file(name)
-    return example_file("mearm_paper")
+    if not (isinstance(name, str) and packaged_arm(name) is not None):
+        name = _closest_arm(arm, {n: reference_arm(n) for n in arm_names()})
+    if name is None or not _writes_out(reference_arm(name), section[1:]):
+        name = DEFAULT_ARM
+    return example_file(name)
+
+
+def _leaves(node: Any, path: tuple[Any, ...] = ()) -> dict[tuple[Any, ...], Any]:
+    """Every value of ``node`` by its path, a named list item by its name."""
+    if isinstance(node, dict):
+        items = list(node.items())
+    elif isinstance(node, list):
+        items = [(_name_of(value) or i, value) for i, value in enumerate(node)]
+    else:
+        return {path: node}
+    out: dict[tuple[Any, ...], Any] = {}
+    for key, value in items:
+        out.update(_leaves(value, (*path, key)))
+    return out
+
+
+def _closest_arm(arm: Any, references: dict[str, Any]) -> str | None:
+    """The reference arm that shares the most of ``arm``'s values, if one does.
+
+    One arm, with at least half of ``arm``'s values; ``None`` for a tie or an arm that is
+    mostly its own (then no reference arm is more its pattern than another).
+    """
+    mine = _leaves(arm)
+    shared = {
+        name: sum(1 for path, value in _leaves(ref).items() if mine.get(path, ...) == value)
+        for name, ref in references.items()
+    }
+    best = max(shared.values(), default=0)
+    names = [name for name, count in shared.items() if count == best]
+    return names[0] if len(names) == 1 and 2 * best >= len(mine) > 0 else None
+
+
+def _writes_out(node: Any, section: Sequence[int | str]) -> bool:
+    """Whether ``node`` (a reference arm's file) writes the mapping at ``section``.
+
+    Across a list, any item that writes it will do.
+    """
+    if isinstance(node, list):
+        return any(_writes_out(item, section[1:]) for item in node)
+    if not section:
+        return isinstance(node, dict)
+    return isinstance(node, dict) and _writes_out(node.get(section[0]), section[1:])
 
 
 def _typed_values(overrides: Sequence[str]) -> dict[tuple[str, ...], str]:
@@ -438,7 +492,7 @@ def _in_user_words(
             f"{doc_page('configuration.md')}#{anchor}" if anchor else doc_page("configuration.md")
         )
     elif loc and loc[0] == "arm":
-        where = _arm_file(data)
+        where = _arm_file(data, err["loc"][:-1])
     else:
         where = example_file()
     return f"{loc_text(loc)}: unknown key{meant} ({where} shows every key)"
