@@ -304,6 +304,8 @@ def _key_path(loc: Sequence[Any], data: Any) -> KeyPath:
             name = _name_of(item)
             out.append(name if name is not None else part)
             node = item
+        elif _is_tag(node, part):
+            continue
         elif isinstance(node, dict) and part in node:
             out.append(part)
             node = node[part]
@@ -347,7 +349,9 @@ def _named_loc(loc: Sequence[int | str], data: Any) -> tuple[int | str, ...]:
     """``loc`` with each index into a list of named items replaced by the item's name.
 
     ``("arm", "joints", 1, "dh")`` → ``("arm", "joints", "shoulder", "dh")``: the path a
-    user writes (and ``--set`` takes).
+    user writes (and ``--set`` takes). The tag pydantic puts after an item of several
+    kinds is left out: ``("twin", "faults", 0, "limp_servo", "foo")`` →
+    ``("twin", "faults", 0, "foo")``.
     """
     out: list[int | str] = []
     node = data
@@ -357,6 +361,8 @@ def _named_loc(loc: Sequence[int | str], data: Any) -> tuple[int | str, ...]:
             name = item.get("name") if isinstance(item, dict) else None
             out.append(name if isinstance(name, str) and name.isidentifier() else part)
             node = item
+        elif _is_tag(node, part):
+            continue
         elif isinstance(node, dict) and part in node:
             out.append(part)
             node = node[part]
@@ -364,6 +370,16 @@ def _named_loc(loc: Sequence[int | str], data: Any) -> tuple[int | str, ...]:
             out.append(part)
             node = None
     return tuple(out)
+
+
+#: The key that tells the kinds of a list's items apart (``twin.faults``' ``kind``), whose
+#: value pydantic writes into an error's path after the item.
+TAG_KEY = "kind"
+
+
+def _is_tag(node: Any, part: int | str) -> bool:
+    """Whether ``part`` of an error's path is the tag of the item ``node``, not its key."""
+    return isinstance(node, dict) and part not in node and node.get(TAG_KEY) == part
 
 
 def _shown(loc: Sequence[int | str]) -> bool:
@@ -505,7 +521,7 @@ def _tag_error(err: ErrorDetails, loc: Sequence[int | str]) -> str:
     """
     from mearm.config.schema_doc import union_tags  # noqa: PLC0415  (a bad kind only)
 
-    key = str((err.get("ctx") or {}).get("discriminator", "kind")).strip("'\"")
+    key = str((err.get("ctx") or {}).get("discriminator", TAG_KEY)).strip("'\"")
     kinds = ", ".join(union_tags(err["loc"], key))
     item = err.get("input")
     if err["type"] == "union_tag_not_found" or not isinstance(item, dict) or key not in item:
