@@ -19,6 +19,7 @@ import copy
 import functools
 import math
 import re
+import shlex
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, TypeGuard
@@ -99,7 +100,7 @@ def parse_override(text: str) -> tuple[list[str], Any]:
     return parts, value
 
 
-def _child(node: Any, default: Any, part: str, where: str, then: str) -> tuple[Any, Any]:
+def _child(node: Any, default: Any, part: str, where: str, then: str, text: str) -> tuple[Any, Any]:
     """The child ``part`` of ``node`` and of its default (created from it when missing).
 
     ``then`` is the part that follows: a missing section with no default that is followed
@@ -115,7 +116,7 @@ def _child(node: Any, default: Any, part: str, where: str, then: str) -> tuple[A
                 node[part] = [{}] if then == "0" else {}
         return node[part], sub_default
     if isinstance(node, list):
-        i = _index(node, part, where)
+        i = _index(node, part, where, text)
         return node[i], _same_item(node[i], default)
     raise ConfigError("--set", [f"{where}: is a value, not a section (cannot set {part!r})"])
 
@@ -132,7 +133,15 @@ def _same_item(item: Any, default: Any) -> Any:
     return next((d for d in default if isinstance(d, dict) and d.get("name") == name), None)
 
 
-def _index(items: list[Any], part: str, where: str) -> int:
+def _index(items: list[Any], part: str, where: str, text: str) -> int:
+    """The index of the item ``part`` (an index or a name) of the list at ``where``.
+
+    Raises:
+        ConfigError: no such item; for an empty list, how to give the list whole
+            (``text``, the override, shows what it sets).
+    """
+    if not items:
+        raise _empty_list(part, where, text)
     if _INDEX.match(part):
         i = int(part)
         if not 0 <= i < len(items):
@@ -144,6 +153,30 @@ def _index(items: list[Any], part: str, where: str) -> int:
     names = [str(it.get("name")) for it in items if isinstance(it, dict) and "name" in it]
     allowed = ", ".join(names) if names else f"an index 0…{len(items) - 1}"
     raise ConfigError("--set", [f"{where}.{part}: no item named {part!r} (choices: {allowed})"])
+
+
+def _empty_list(part: str, where: str, text: str) -> ConfigError:
+    """The error of ``--set TEXT`` that names item ``part`` of the empty list at ``where``.
+
+    An empty list has no item to change: the list is set whole, with the item ``text``
+    sets as its one item (``twin.faults.0.at_s=1``: ``twin.faults=[{at_s: 1}]``).
+    """
+    key, _, raw = text.partition("=")
+    rest = key.strip().split(".")[len(where.split(".")) + 1 :]
+    item = raw.strip() or '""'
+    if any(_INDEX.match(name) for name in rest):  # a list inside the item: not spelt out
+        item = "{...}"
+    else:
+        for name in reversed(rest):
+            item = f"{{{name}: {item}}}"
+    what = f"no item {part}" if _INDEX.match(part) else f"no item named {part!r}"
+    return ConfigError(
+        "--set",
+        [
+            f"{where}.{part}: {what}: {where} is an empty list; set the whole list "
+            f"instead, e.g. --set {shlex.quote(f'{where}=[{item}]')}"
+        ],
+    )
 
 
 def apply_overrides(
@@ -171,12 +204,12 @@ def apply_overrides(
         default: Any = defaults
         for depth, part in enumerate(path[:-1]):
             where = ".".join(path[:depth]) or "(top level)"
-            node, default = _child(node, default, part, where, path[depth + 1])
+            node, default = _child(node, default, part, where, path[depth + 1], text)
         last, where = path[-1], ".".join(path[:-1]) or "(top level)"
         if isinstance(node, dict):
             node[last] = value
         elif isinstance(node, list):
-            i = _index(node, last, where)
+            i = _index(node, last, where, text)
             if isinstance(node[i], dict) and not isinstance(value, dict):
                 raise ConfigError(
                     "--set",
