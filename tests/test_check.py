@@ -102,8 +102,24 @@ def test_a_clearance_the_arm_breaks_at_home_stops_before_motion():
     out = check_bad_input(["sort", "--config", "sim_mujoco", "--set", "task.clearance_cm=5"])
     assert out.line.endswith(
         "task.clearance_cm: 5 cm is more than the arm keeps from red's bin at home "
-        "(gripper_jaw_right_pad, 3.31 cm): at most 3.31 cm, or move the bin"
+        "(gripper_jaw_right_pad, 3.31 cm): at most 3.31 cm, or move the bin, or lower its "
+        "walls: 5 cm, built to hold its 4 objects (1 cm high) stacked (fewer or lower "
+        "objects, or task.classes.red.bin_height_cm)"
     )
+
+
+@pytest.mark.bad_input
+def test_objects_made_taller_name_the_walls_they_raise_into_the_arm():
+    """8 cm reds raise their bin's walls to 40 cm, into the arm at home: the line said only
+    that the clearance (unchanged) was too much."""
+    out = check_bad_input(
+        ["sort", "--config", "sim_mujoco", "--set", "task.classes.red.height_cm=8"]
+    )
+    assert "from red's bin at home" in out.line
+    assert out.line.endswith(
+        "or lower its walls: 40 cm, built to hold its 4 objects (8 cm high) stacked (fewer "
+        "or lower objects, or task.classes.red.bin_height_cm)"
+    ), out.line
 
 
 #: The built-in calibration with the field moved 100 cm farther out: no pick reaches it.

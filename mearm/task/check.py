@@ -36,7 +36,7 @@ from mearm.config.files import config_source, unit_warning
 from mearm.config.loader import unit_hints
 from mearm.errors import ConfigError, MearmError
 from mearm.kinematics import ArmModel
-from mearm.kinematics.bodies import M_PER_CM, base_radius_m, bin_half_outer_m
+from mearm.kinematics.bodies import M_PER_CM, base_radius_m, bin_half_outer_m, wall_height_m
 from mearm.kinematics.collision import TOUCH_CM, CollisionModel
 from mearm.sim.table_collision import collision_model
 from mearm.task.plan import Planner
@@ -376,9 +376,28 @@ def _check_bodies(config: Config, model: ArmModel, collision: CollisionModel) ->
             problems.append(
                 f"task.clearance_cm: {config.task.clearance_cm:g} cm is more than the arm "
                 f"keeps from {name}'s bin at home ({part}, {distance:.2f} cm): at most "
-                f"{distance:.2f} cm, or move the bin"
+                f"{distance:.2f} cm, or move the bin{_walls_built(config, collision, name)}"
             )
     return problems
+
+
+def _walls_built(config: Config, collision: CollisionModel, name: str) -> str:
+    """How tall a bin's walls are built, where the objects of its class decide it.
+
+    A class's objects' height or number raises its bin's walls (built to hold them
+    stacked: :func:`~mearm.kinematics.bodies.wall_height_m`), and a user who changed
+    ``height_cm`` read only that the clearance was too much.
+    """
+    cls = config.task.class_named(name)
+    if cls.bin_height_cm is not None:
+        return ""
+    n = collision.table.objects(name)
+    wall_cm = wall_height_m(cls, n) / M_PER_CM
+    return (
+        f", or lower its walls: {wall_cm:.3g} cm, built to hold its {n} objects "
+        f"({cls.height_cm:g} cm high) stacked (fewer or lower objects, or "
+        f"task.classes.{name}.bin_height_cm)"
+    )
 
 
 def bins_near_home(
