@@ -390,7 +390,7 @@ class SafeMoves:
             if isinstance(visit, str):
                 return visit
             final = joint_line(self.chain, visit.path()[-1], q_end)
-            why = self.line_refusal(final, clearance)
+            why = self.final_refusal(final, clearance)
             if why is not None:
                 return "the final move: " + why
             visit = dataclasses.replace(visit, lines=(*visit.lines, final))
@@ -403,6 +403,29 @@ class SafeMoves:
                 return visit
             need = reach
         return f"the doubt's reach grew to {need:.1f} cm with each plan"
+
+    def final_refusal(self, final: np.ndarray, clearance_cm: float) -> str | None:
+        """Why the final move may not be sent, kept clear by the doubt's reach along it.
+
+        ``clearance_cm`` is the whole visit's, the doubt's reach where it is largest on
+        the way (at home, folded low: some 16 cm on the kit twin). The final move keeps
+        ``task.clearance_cm`` plus the doubt's reach along the move itself, which is what
+        the tool there may stray by; where the visit's clearance refuses it, that one
+        decides. A bin wall within the visit's clearance where the move starts may
+        come no closer than it starts, so a point above a table whose walls stand within
+        it (two objects on the kit twin: every point) was refused for coming 0.01 cm
+        nearer a wall 16 cm away.
+        """
+        why = self.line_refusal(final, clearance_cm)
+        if why is None:
+            return None
+        other, reach = self.path_refusal(final)
+        if other is not None:
+            return why
+        own = self.clearance_cm(reach)
+        if own < clearance_cm and self.line_refusal(final, own) is None:
+            return None
+        return why
 
     def way_to(self, q0: np.ndarray, start: np.ndarray, clearance_cm: float) -> Visit | str:
         """The way from ``q0`` to ``start``, or why there is none.
