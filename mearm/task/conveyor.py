@@ -471,12 +471,39 @@ class ConveyorSorter(Sorter):
         out.unseen = {}
         out.left.pop("unseen", None)
         for name, n in expected.items():
+            surplus = out.seen.get(name, 0) - n
+            if surplus > 0:
+                self._count_once(out, name, surplus)
             missing = n - out.seen.get(name, 0)
             if missing > 0:
                 out.unseen[name] = missing
                 why = stopped or "unseen"
                 out.left[why] = out.left.get(why, 0) + missing
         return out
+
+    def _count_once(self, out: Outcome, name: str, surplus: int) -> None:
+        """Count once the objects of class ``name`` the camera took for ``surplus`` more.
+
+        In simulation the world knows how many the belt and the table held; more tracks
+        of a class than that are objects seen again after their track was lost (a belt
+        faster than the arm follows: at 15 cm/s, "sorted 1 of 23" of 20 brought). The
+        surplus comes off the class's objects left as lost on the belt first (a lost
+        track is one the object outlived), then off its others left, in the order seen.
+        """
+        out.seen[name] -= surplus
+        left = [o.skip_kind for o in self._objects
+                if o.class_name == name and not o.sorted and o.skip_kind is not None]  # fmt: skip
+        left.sort(key=lambda kind: kind != "missed_belt")  # (stable)
+        # one entry per object left: the class's (lost first), then any others (a stop's)
+        units = left + [k for k, n in out.left.items() for _ in range(n)]
+        for kind in units:
+            if not surplus:
+                break
+            if out.left.get(kind, 0) > 0:
+                out.left[kind] -= 1
+                surplus -= 1
+        for kind in [k for k, n in out.left.items() if n <= 0]:
+            del out.left[kind]
 
 
 __all__ = ["ConveyorSorter", "GripAim", "KeepsTime"]
