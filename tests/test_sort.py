@@ -361,7 +361,10 @@ def test_random_scene_properties(config):
     xy = np.array([[o.x, o.y] for o in a])
     d = np.linalg.norm(xy[:, None] - xy[None], axis=-1) + np.eye(len(a)) * 99
     assert d.min() >= 3.0 - 1e-9
-    with pytest.raises(MearmError, match="could not place 400 objects"):
+    with pytest.raises(MearmError, match="could not place 45 objects"):
+        random_scene(config, 45, seed=0, max_tries=50)
+    # 134 reds would raise their bin's walls into the arm at home: refused before a draw
+    with pytest.raises(MearmError, match=r"class red: its bin's walls, .* ask for \d+ or fewer"):
         random_scene(config, 400, seed=0, max_tries=2000)
 
 

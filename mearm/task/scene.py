@@ -216,6 +216,22 @@ def _check_walls(config: Config, scene: Sequence[SceneObject], source: str) -> N
         raise SceneError(f"{what}{problem}: give the class fewer objects")
 
 
+def _most_the_walls_take(config: Config, n: int, seed: int) -> int:
+    """The most objects, below ``n`` (which they refuse), whose walls the checks pass.
+
+    More objects never lower a wall (the classes are drawn in turn), so the answer is
+    bisected: a few tables built, not one per number below ``n``.
+    """
+    good, bad = 0, n
+    while bad - good > 1:
+        mid = (good + bad) // 2
+        if _walls_problem(config, _class_order(config, mid, seed)) is None:
+            good = mid
+        else:
+            bad = mid
+    return good
+
+
 def _walls_problem(config: Config, colors: Sequence[str]) -> str | None:
     """Why a table of objects of ``colors`` grows a bin's walls past what the arm allows."""
     problem = _release_below_walls(config, colors)
@@ -546,11 +562,7 @@ def random_scene(
         problem, remedy = _walls_by_home(config, order), ""
     if problem is not None:
         if isinstance(counts, int):
-            most = next(
-                n
-                for n in range(len(order), -1, -1)
-                if n == 0 or _walls_problem(config, _class_order(config, n, seed)) is None
-            )
+            most = _most_the_walls_take(config, len(order), seed)
             fewer = f"ask for {most} or fewer" if most else "no number of objects fits"
         else:
             fewer = "give the class fewer objects"
