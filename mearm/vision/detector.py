@@ -129,8 +129,40 @@ __all__ = [
     "_top_face",
     "_with_table_yaw",
     "check_frame",
+    "exclude_mask",
     "split_region",
 ]
+
+
+def exclude_mask(exclude: object, frame_shape: Sequence[int]) -> np.ndarray:
+    """An excluded-pixels mask as 0/255 uint8 (H, W): nonzero means excluded.
+
+    ``exclude`` may be of bool dtype or any integer dtype (``True``/1/255 alike).
+
+    Raises:
+        ImageError: ``exclude`` is not a NumPy array, not 2-D of the frame's height and
+            width, or not of a bool or integer dtype.
+    """
+    h, w = int(frame_shape[0]), int(frame_shape[1])
+    if not isinstance(exclude, np.ndarray):
+        raise ImageError(
+            "exclude",
+            f"expected a numpy array (H, W) of bool or integers, got {type(exclude).__name__}",
+        )
+    if exclude.ndim != 2 or exclude.shape != (h, w):
+        raise ImageError(
+            "exclude",
+            f"mask of shape {exclude.shape}: must be 2-D (H, W) of the frame's size, "
+            f"({h}, {w}) for this {w}x{h} px frame",
+        )
+    kind = exclude.dtype.kind
+    if kind not in "biu":
+        raise ImageError(
+            "exclude",
+            f"mask of dtype {exclude.dtype}: must be bool or integer (nonzero is excluded)",
+        )
+    excluded = exclude if kind == "b" else exclude != 0
+    return excluded.view(np.uint8) * np.uint8(255)
 
 
 class ColorDetector:
@@ -275,21 +307,18 @@ class ColorDetector:
     def area_and_gain(self, frame: np.ndarray, exclude: np.ndarray | None = None) -> Prepared:
         """Where objects are looked for, whether that is the whole frame, and the gains.
 
-        The area is the work area's 0/255 mask less ``exclude`` (``None``: everywhere);
-        the gains (B, G, R) take the frame's median there to ``vision.reference_bgr``
-        (``None`` without a reference colour).
+        The area is the work area's 0/255 mask less ``exclude`` (:func:`exclude_mask`:
+        nonzero is excluded; ``None``: everywhere); the gains (B, G, R) take the frame's
+        median there to ``vision.reference_bgr`` (``None`` without a reference colour).
+
+        Raises:
+            ImageError: ``exclude`` is not a bool or integer (H, W) mask of the frame's size.
         """
         area = self.work_area(frame.shape)
         # a work area of the whole frame (a taught one, often) keeps every pixel
         whole = exclude is None and self._whole.get(frame.shape[:2], False)
         if exclude is not None:
-            if exclude.shape != frame.shape[:2]:
-                raise ImageError(
-                    "exclude",
-                    f"mask is {exclude.shape[1]}x{exclude.shape[0]} px but the frame is "
-                    f"{frame.shape[1]}x{frame.shape[0]} px",
-                )
-            keep = cv2.bitwise_not(exclude.astype(np.uint8, copy=False))
+            keep = cv2.bitwise_not(exclude_mask(exclude, frame.shape))
             area = keep if area is None else cv2.bitwise_and(area, keep)
         ref = self.vision.reference_bgr
         gain = None if ref is None else gains(frame, ref, None if whole else area)
@@ -363,13 +392,27 @@ class ColorDetector:
     def detect(
         self, frame_bgr: np.ndarray, *, exclude: np.ndarray | None = None
     ) -> list[Detection]:
-        """:meth:`_detect`'s detections, parts of objects judged (:mod:`.object_parts`).
+        """The objects in a BGR frame, in the documented order (see the module docstring).
 
+        :meth:`_detect`'s detections, parts of objects judged (:mod:`.object_parts`).
         With a reference colour (the table's, taught), only detections standing on the
         work surface are kept (:mod:`.on_table`).
+
+        Args:
+            frame_bgr: The frame, (H, W, 3) uint8 BGR.
+            exclude: Pixels where no object is looked for, e.g. the arm's body
+                (:class:`~mearm.vision.arm_mask.ArmInView`): an (H, W) mask of the frame's
+                size, of bool or integer dtype, where nonzero means excluded (``True``,
+                1 and 255 alike); ``None``: nothing is excluded.
+
+        Raises:
+            ImageError: the frame is not an 8-bit 3-channel image, or ``exclude`` is not a
+                bool or integer (H, W) mask of the frame's size.
         """
         from mearm.vision.object_parts import whole_objects_and_widths
 
+        if exclude is not None:  # as 0/255, as the plausibility rules and _detect read it
+            exclude = exclude_mask(exclude, check_frame(frame_bgr).shape)
         prepared = None
         if self.vision.reference_bgr is not None and self.calibration is not None:
             prepared = self.area_and_gain(check_frame(frame_bgr), exclude)
@@ -392,8 +435,9 @@ class ColorDetector:
     ) -> list[Detection]:
         """Detections in ``frame_bgr`` ((H, W, 3) uint8 BGR), in the documented order.
 
-        ``exclude``: pixels where no object is looked for (0/255 uint8, (H, W)), e.g. the
-        arm's body (:class:`~mearm.vision.arm_mask.ArmInView`).
+        ``exclude``: pixels where no object is looked for (:func:`exclude_mask`: an (H, W)
+        bool or integer mask, nonzero excluded), e.g. the arm's body
+        (:class:`~mearm.vision.arm_mask.ArmInView`).
 
         The regions are measured one by one (class, area, box, elongation), the rest per
         image (merged test, table positions, order); each detection is made once, at
@@ -404,6 +448,8 @@ class ColorDetector:
             ImageError: the frame is not an 8-bit 3-channel image, or ``exclude`` is not
                 of its size.
         """
+        if exclude is not None:
+            exclude = exclude_mask(exclude, check_frame(frame_bgr).shape)
         index, ox, oy, apart = self._filtered(frame_bgr, exclude, prepared)
         found = find_regions(index, (ox, oy), self.vision.min_area_px, apart=apart)
         codes, areas, boxes, elongations = found.codes, found.areas, found.boxes, found.elongations
