@@ -46,13 +46,13 @@ shows a small one).
 from __future__ import annotations
 
 import contextlib
-from collections.abc import Callable, Iterable, Iterator, Mapping
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from contextlib import AbstractContextManager
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from mearm.config import Config, SceneObject
-from mearm.errors import ConfigError
+from mearm.errors import ConfigError, wrong_argument
 
 if TYPE_CHECKING:
     import numpy as np
@@ -129,6 +129,30 @@ def camera_kinds() -> tuple[str, ...]:
     return tuple(_CAMERAS)
 
 
+def require_table(config: object, scene: object, user: str) -> None:
+    """Raise :class:`ConfigError` unless ``config`` is a whole config and ``scene`` a table.
+
+    ``scene``: ``None`` or a list (a sequence) of :class:`SceneObject`. Anything else (a
+    config's section, a scene file's name, a list of dicts) stopped deep inside, where
+    the world reads an object's colour, on an AttributeError that named neither.
+    """
+    if not isinstance(config, Config):
+        needs = "the whole config, a Config (load_config(...))"
+        raise ConfigError(None, [wrong_argument(user, needs, config)])
+    if scene is None:
+        return
+    if (
+        isinstance(scene, (str, bytes))
+        or not isinstance(scene, Sequence)
+        or not all(isinstance(o, SceneObject) for o in scene)
+    ):
+        needs = (
+            "a scene: a list of SceneObject (config.task.scene, or load_scene(path) for a "
+            "scene file) or None"
+        )
+        raise ConfigError(None, [wrong_argument(user, needs, scene)])
+
+
 def open_parts(
     config: Config, scene: list[SceneObject] | None = None
 ) -> AbstractContextManager[RigParts]:
@@ -141,8 +165,10 @@ def open_parts(
             or checks against are those of this table.
 
     Raises:
-        ConfigError: a simulator no kind registered.
+        ConfigError: a simulator no kind registered; ``config`` not a whole config or
+            ``scene`` not a list of :class:`SceneObject` (:func:`require_table`).
     """
+    require_table(config, scene, "open_parts")
     opener = _SIMULATORS.get(config.simulator)
     if opener is None:
         kinds = ", ".join(_SIMULATORS)
@@ -156,7 +182,13 @@ def uses_world(config: Config) -> bool:
 
 
 def table_world(config: Config, scene: list[SceneObject] | None = None) -> World:
-    """The simulated table: ``scene`` (default ``task.scene``), the bins and the belt."""
+    """The simulated table: ``scene`` (default ``task.scene``), the bins and the belt.
+
+    Raises:
+        ConfigError: ``config`` is not a whole config or ``scene`` not a list of
+            :class:`SceneObject` (:func:`require_table`).
+    """
+    require_table(config, scene, "table_world")
     from mearm.sim.kinematic.world import World  # noqa: PLC0415
 
     return World.from_config(config, scene)
@@ -371,6 +403,7 @@ __all__ = [
     "register_bus",
     "register_camera",
     "register_simulator",
+    "require_table",
     "simulator_kinds",
     "table_world",
     "uses_world",

@@ -12,6 +12,7 @@ a bad configuration value.
 
 from __future__ import annotations
 
+import reprlib
 from collections.abc import Sequence
 
 
@@ -57,3 +58,27 @@ class InputFileError(MearmError):
         self.path = str(path)
         self.reason = reason
         super().__init__(f"{self.path}: {reason}")
+
+
+_REPR = reprlib.Repr()
+_REPR.maxstring = _REPR.maxother = 40
+
+
+def wrong_argument(user: str, needs: str, value: object, fix: str | None = None) -> str:
+    """The message for a wrong object given to a public entry point.
+
+    What ``user`` (the entry point) ``needs`` and what it got instead: an object of one of
+    the package's (or a library's) classes by its type's name, a plain value (``None``, a
+    string, a number, a list) by a short repr; then, when known, what to pass instead
+    (``fix``: e.g. ``config.controller`` for a whole config given where its section is
+    wanted). A check by ``isinstance`` at construction turns the ``AttributeError`` a
+    wrong object gave deep inside (which named neither the argument nor the remedy)
+    into one named error, raised by the caller with this message.
+    """
+    kind = type(value)
+    if value is None or kind.__module__ == "builtins":
+        got = _REPR.repr(value)
+    else:
+        name = kind.__name__
+        got = f"{'an' if name[:1].lower() in 'aeiou' else 'a'} {name}"
+    return f"{user} needs {needs}, got {got}" + (f": pass {fix}" if fix else "")

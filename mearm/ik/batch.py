@@ -24,7 +24,7 @@ import numpy as np
 import numpy.typing as npt
 
 from mearm.config.base import short_repr
-from mearm.ik.solver import APPROACH_TOLERANCE_DEG, APPROACH_WEIGHT_CM
+from mearm.ik.solver import APPROACH_TOLERANCE_DEG, APPROACH_WEIGHT_CM, require_model
 from mearm.kinematics import ArmModel, closed_form_for
 from mearm.kinematics.errors import InvalidTargetError, UnreachableTargetError
 
@@ -87,7 +87,9 @@ def solve_batch(
     Raises:
         InvalidTargetError: targets that are not (N, 3) finite numbers (one target too
             is a list of one), or an approach that is not a finite non-zero (3,) or (N, 3).
+        ModelError: ``model`` is not an :class:`ArmModel` (pass ``ArmModel(config.arm)``).
     """
+    require_model(model, "solve_batch")
     try:
         targets = np.asarray(targets_cm, dtype=float)
     except (TypeError, ValueError):

@@ -11,7 +11,7 @@ import numpy.typing as npt
 from mearm.config import ControllerConfig
 from mearm.ik.pdpij import PdPij
 from mearm.ik.result import IKResult
-from mearm.ik.solver import IKSolver
+from mearm.ik.solver import IKSolver, require_controller, require_model
 from mearm.ik.target import IKTarget
 from mearm.kinematics import ArmModel
 
@@ -22,9 +22,13 @@ def make_solver(model: ArmModel, config: ControllerConfig) -> IKSolver:
     The mink solver imports MuJoCo, so it is only loaded when asked for.
 
     Raises:
-        ModelError: ``analytic`` for an arm without a closed form.
+        ModelError: ``analytic`` for an arm without a closed form; ``model`` is not an
+            :class:`ArmModel` (pass ``ArmModel(config.arm)``).
+        ConfigError: ``config`` is not the controller section (pass ``config.controller``).
         QPSolverError: ``mink`` with a QP backend that is not installed.
     """
+    require_model(model, "make_solver")
+    require_controller(config, "make_solver")
     if config.solver == "pdpij":
         return PdPij(model, config)
     if config.solver == "mink":
@@ -56,9 +60,13 @@ def solve_ik(
     Raises:
         TargetOutsideBoxError, UnreachableTargetError: the target, before anything moves.
         JointLimitError, InvalidJointsError: the start.
+        ModelError, ConfigError: ``model`` or ``config`` is not what it should be
+            (:func:`make_solver`).
 
     To solve many targets, build the solver once with :func:`make_solver` instead.
     """
+    require_model(model, "solve_ik")
+    require_controller(config, "solve_ik")
     return make_solver(model, config).solve(target, q_start)
 
 
@@ -67,7 +75,11 @@ def fastest_solver(model: ArmModel) -> IKSolver:
 
     Its registered closed form (:class:`AnalyticSolver`) where the arm names one, else
     :class:`NewtonIK`.
+
+    Raises:
+        ModelError: ``model`` is not an :class:`ArmModel` (pass ``ArmModel(config.arm)``).
     """
+    require_model(model, "fastest_solver")
     from mearm.ik.analytic import AnalyticSolver  # noqa: PLC0415 (a sort needs PD-PIJ only)
     from mearm.ik.newton import NewtonIK  # noqa: PLC0415
 

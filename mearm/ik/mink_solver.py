@@ -146,6 +146,7 @@ class MinkSolver(IKSolver):
 
     def __init__(self, model: ArmModel, config: ControllerConfig):
         super().__init__(model, config)
+        config = self.config  # checked by IKSolver; None: the defaults
         if config.qp_solver not in qpsolvers.available_solvers:
             raise QPSolverError(config.qp_solver, qpsolvers.available_solvers)
         self.mj_model = mujoco_model(model)

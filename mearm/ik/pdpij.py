@@ -90,6 +90,8 @@ from mearm.ik.solver import (
     APPROACH_WEIGHT_CM,
     IKSolver,
     coupling_terms,
+    require_controller,
+    require_model,
 )
 from mearm.ik.target import IKTarget
 from mearm.kinematics import ArmModel
@@ -133,6 +135,10 @@ class PdPij(IKSolver):
     Attributes:
         recover: Whether stops are recovered.
 
+    Raises:
+        ModelError: ``model`` is not an :class:`ArmModel` (pass ``ArmModel(config.arm)``).
+        ConfigError: ``config`` is not the controller section (pass ``config.controller``).
+
     Example::
 
         model = ArmModel(config.arm)
@@ -141,6 +147,8 @@ class PdPij(IKSolver):
     """
 
     def __init__(self, model: ArmModel, config: ControllerConfig, *, recover: bool | None = None):
+        require_model(model, "PdPij")
+        require_controller(config, "PdPij")
         self.name = f"pdpij-{config.mode}"
         super().__init__(model, config)
         self.recover = config.safeguard if recover is None else recover

@@ -28,13 +28,14 @@ import weakref
 import numpy as np
 import numpy.typing as npt
 
-from mearm.config import ControllerConfig
+from mearm.config import ArmDescription, Config, ControllerConfig
+from mearm.errors import ConfigError, wrong_argument
 from mearm.ik.failure import IKFailure, blocking_joints
 from mearm.ik.result import IKResult, JumpStart, Method, Status
 from mearm.ik.target import IKTarget, approach_error_deg
 from mearm.kinematics import ArmModel, Chain, check_in_box, closed_form_for
 from mearm.kinematics.closed_form import scalar_target_cm
-from mearm.kinematics.errors import InvalidJointsError
+from mearm.kinematics.errors import InvalidJointsError, ModelError
 
 #: A start's passive joints may differ from their coupling by this much [model units]
 #: (1e-6 rad moves the TCP by under 1e-4 cm).
@@ -47,6 +48,30 @@ APPROACH_WEIGHT_CM = 10.0
 #: An approach target is met when the approach axis is within this angle [deg].
 #: Belongs in ``controller``.
 APPROACH_TOLERANCE_DEG = 0.5
+
+
+def require_model(model: object, user: str) -> None:
+    """Raise :class:`ModelError` unless ``model`` is an :class:`ArmModel`.
+
+    The solvers read the model's chain and Pinocchio model at once: an arm's description
+    or a whole config stopped there on an AttributeError that named neither.
+    """
+    if not isinstance(model, ArmModel):
+        fix = "ArmModel(config.arm)" if isinstance(model, (ArmDescription, Config)) else None
+        raise ModelError(wrong_argument(user, "an ArmModel (ArmModel(config.arm))", model, fix))
+
+
+def require_controller(config: object, user: str, *, optional: bool = False) -> None:
+    """Raise :class:`ConfigError` unless ``config`` is the controller section.
+
+    ``optional``: ``None`` (the section's defaults) is allowed too. Checked where a solver
+    is built, once: never in a solve.
+    """
+    if isinstance(config, ControllerConfig) or (optional and config is None):
+        return
+    needs = "a ControllerConfig (the config's controller section)"
+    fix = "config.controller" if isinstance(config, Config) else None
+    raise ConfigError(None, [wrong_argument(user, needs, config, fix)])
 
 
 def start_joints(q_start: npt.ArrayLike, model: ArmModel) -> np.ndarray:
@@ -160,12 +185,20 @@ class IKSolver(abc.ABC):
     Attributes:
         closed_form: The arm's closed form (built once), or ``None`` for an arm without.
         max_iterations: The solver's iteration cap, which a failure message names [-].
+
+    Raises:
+        ModelError: ``model`` is not an :class:`ArmModel` (e.g. ``config.arm``: pass
+            ``ArmModel(config.arm)``).
+        ConfigError: ``config`` is not the controller section (e.g. a whole config: pass
+            ``config.controller``).
     """
 
     #: Short name recorded in :attr:`IKResult.solver`.
     name: str = "ik"
 
     def __init__(self, model: ArmModel, config: ControllerConfig | None = None):
+        require_model(model, type(self).__name__)
+        require_controller(config, type(self).__name__, optional=True)
         self.model = model
         self.chain = model.chain
         self.config = config if config is not None else ControllerConfig()

@@ -145,8 +145,31 @@ class Chain:
     # ----------------------------------------------------------------- conversions
 
     def full(self, q_actuated: npt.ArrayLike) -> np.ndarray:
-        """Every joint from the actuated ones, model units: ``C q_a + c``, (n,)."""
-        return self.C @ np.asarray(q_actuated, dtype=float) + self.c
+        """Every joint from the actuated ones, model units: ``C q_a + c``, (n,).
+
+        Raises:
+            InvalidJointsError: ``q_actuated`` is not one finite number per actuated
+                joint, (m,).
+        """
+        try:
+            q = np.asarray(q_actuated, dtype=float)
+        except (TypeError, ValueError):
+            raise InvalidJointsError(
+                [], f"joint values must be numbers, got {short_repr(q_actuated)}"
+            ) from None
+        if q.shape != (len(self.actuated),):
+            m = len(self.actuated)
+            raise InvalidJointsError(
+                q.ravel().tolist(),
+                f"expected {m} values, one per actuated joint ({', '.join(self.actuated)}) "
+                f"in model units (rad, m), got shape {q.shape}"
+                + (" (every joint already: chain.actuated_of(q) gives the actuated ones)"
+                   if q.shape == (len(self.names),) else ""),
+            )  # fmt: skip
+        # the sum of the list: one test, cheaper than np.isfinite; its overflow is checked
+        if not math.isfinite(sum(q.tolist())) and not np.isfinite(q).all():
+            raise InvalidJointsError(q.tolist(), "joint values must be finite")
+        return self.C @ q + self.c
 
     def actuated_of(self, q: npt.ArrayLike) -> np.ndarray:
         """The actuated part of a full joint vector, (m,) (or (N, m) for (N, n))."""

@@ -11,7 +11,7 @@ from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Protocol
 
-from mearm.backends import open_parts, table_world, uses_world
+from mearm.backends import open_parts, require_table, table_world, uses_world
 from mearm.config import Config, SceneObject
 from mearm.errors import MearmError
 from mearm.hardware.bus import ServoBus
@@ -97,7 +97,10 @@ def open_rig(config: Config, scene: list[SceneObject] | None = None) -> Iterator
     Raises:
         CameraError: the camera cannot be opened.
         ServoError: the servo bus cannot be connected (e.g. a ``LinkError``).
+        ConfigError: ``config`` is not a whole config, or ``scene`` not a list of
+            :class:`SceneObject` (:func:`~mearm.backends.require_table`).
     """
+    require_table(config, scene, "open_rig")
     model = ArmModel(config.arm)
     with open_parts(config, scene) as parts:
         parts.bus.connect()
@@ -149,7 +152,10 @@ def run_sort(
     Raises:
         SortAborted: the sort stopped early (the log says why).
         MearmError, KeyboardInterrupt: before the sort started (logged as a fault).
+        ConfigError: ``config`` is not a whole config, or ``scene`` not a list of
+            :class:`SceneObject`: before anything, the log untouched.
     """
+    require_table(config, scene, "run_sort")
     view = None
     started = False
     try:

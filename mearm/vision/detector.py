@@ -60,13 +60,21 @@ image row then column of the centroid.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 
 import cv2
 import numpy as np
 
-from mearm.config import CalibrationConfig, CameraConfig, ColorClass, VisionConfig
-from mearm.errors import ConfigError
+from mearm.config import (
+    CalibrationConfig,
+    CameraConfig,
+    ColorClass,
+    Config,
+    TaskConfig,
+    VisionConfig,
+)
+from mearm.config.errors import CalibrationError
+from mearm.errors import ConfigError, wrong_argument
 from mearm.vision.calibration import Calibration, CameraGeometry, camera_geometry
 from mearm.vision.classify import PixelClassifier, equal_mask, median_codes
 from mearm.vision.detection import Detection, _point, _with_table_yaw, check_frame
@@ -165,6 +173,29 @@ def exclude_mask(exclude: object, frame_shape: Sequence[int]) -> np.ndarray:
     return excluded.view(np.uint8) * np.uint8(255)
 
 
+def _require_section(value: object, kind: type, section: str, user: str) -> None:
+    """Raise :class:`ConfigError` unless ``value`` is the config's section ``section``."""
+    if not isinstance(value, kind):
+        fix = f"config.{section}" if isinstance(value, Config) else None
+        needs = f"a {kind.__name__} (the config's {section} section)"
+        raise ConfigError(None, [wrong_argument(user, needs, value, fix)])
+
+
+def _require_classes(classes: object, user: str) -> tuple[ColorClass, ...]:
+    """``classes`` as a tuple of :class:`ColorClass`, or :class:`ConfigError`.
+
+    A config or its task section (iterable, as every pydantic model is, over its fields)
+    is named, with the classes to pass instead.
+    """
+    named = isinstance(classes, (Config, TaskConfig, str, bytes))
+    found = tuple(classes) if isinstance(classes, Iterable) and not named else None
+    if found is None or not all(isinstance(c, ColorClass) for c in found):
+        fix = "config.task.classes" if isinstance(classes, (Config, TaskConfig)) else None
+        needs = "the colour classes, a sequence of ColorClass (config.task.classes)"
+        raise ConfigError(None, [wrong_argument(user, needs, classes, fix)])
+    return found
+
+
 class ColorDetector:
     """Find the objects of each colour class in BGR frames.
 
@@ -185,7 +216,13 @@ class ColorDetector:
 
     Raises:
         ConfigError: no classes, too many, or a name listed twice; a camera height
-            not above every class's objects.
+            not above every class's objects; ``vision`` not the vision section or
+            ``classes`` not a sequence of :class:`ColorClass` (e.g. a whole config: the
+            message names the section to pass).
+        CalibrationError: ``calibration`` is neither ``None`` nor a camera geometry (a
+            :class:`Calibration` or a :class:`PerspectiveCamera`, as
+            :func:`camera_geometry` makes from the config's sections; or build the
+            detector with :meth:`from_config`).
     """
 
     def __init__(
@@ -197,7 +234,19 @@ class ColorDetector:
         *,
         table_area_px: Sequence[tuple[float, float]] | None = None,
     ):
-        self.classes = tuple(classes)
+        _require_section(vision, VisionConfig, "vision", "ColorDetector")
+        self.classes = _require_classes(classes, "ColorDetector")
+        if calibration is not None and not isinstance(
+            calibration, (Calibration, PerspectiveCamera)
+        ):
+            fix = (
+                "camera_geometry(config.calibration, config.camera), or build the detector "
+                "with ColorDetector.from_config"
+                if isinstance(calibration, (CalibrationConfig, Config))
+                else None
+            )
+            needs = "a camera geometry or None (camera_geometry(config.calibration, config.camera))"
+            raise CalibrationError(wrong_argument("ColorDetector", needs, calibration, fix))
         self.vision = vision
         self.calibration = calibration
         self.thresholds = Thresholds.from_config(self.classes, vision)
@@ -266,9 +315,19 @@ class ColorDetector:
         ``geometry``, already made from it); with a perspective calibration and no
         ``vision.work_area_px`` the work area is the calibrated table's outline
         (:func:`~mearm.vision.work_area.default_work_area`).
+
+        Raises:
+            ConfigError: a section is not the one named (e.g. a whole config: the message
+                names the section to pass), or :class:`ColorDetector`'s.
+            CalibrationError: the calibration cannot be used (:func:`camera_geometry`).
         """
         from mearm.vision.work_area import default_work_area
 
+        user = "ColorDetector.from_config"
+        _require_section(vision, VisionConfig, "vision", user)
+        _require_section(calibration, CalibrationConfig, "calibration", user)
+        _require_section(camera, CameraConfig, "camera", user)
+        classes = _require_classes(classes, user)
         if geometry is None:
             geometry = camera_geometry(calibration, camera)
         table = default_work_area(vision, geometry, calibration, camera, classes)
