@@ -5,7 +5,8 @@ Every error the package raises on purpose derives from :class:`MearmError`, so a
 values as attributes; their messages say what was wrong and what is allowed.
 
 Each family lives next to the code that raises it (``mearm/<package>/errors.py``, or
-beside the one module that raises it); :mod:`mearm.exceptions` names them all. Here are
+beside the one module that raises it); :mod:`mearm.exceptions` names the library's (the
+commands' own errors, ``mearm.maker`` and ``mearm.tools``, stay with them). Here are
 the ones every layer raises, from the YAML reader (:mod:`mearm.yamlio`) up: a bad file,
 a bad configuration value.
 """

@@ -1,4 +1,9 @@
-"""Every error mearm raises on purpose, by name, for code that uses mearm.
+"""Every error the mearm library raises on purpose, by name, for code that uses mearm.
+
+The commands' own errors (``mearm.maker``'s, ``mearm.tools``': a refused key, an abandoned
+calibration, no board found) are not named here: they say why a command stopped and stay
+with it, and where a command's work runs inside the library (the servos' calibration at a
+sort's start) its error becomes the library's (``StartCalibrationFailed``).
 
 All derive from :class:`~mearm.errors.MearmError`, so one ``except`` catches them all;
 subclasses name the cause and keep the offending values as attributes. Each family lives

@@ -113,3 +113,47 @@ def test_an_unknown_name_is_an_attribute_error():
     """A name the façade does not have is refused as any module refuses it."""
     with pytest.raises(AttributeError, match="has no attribute 'NoSuchError'"):
         exceptions.NoSuchError  # noqa: B018
+
+
+def _in_commands(name: str) -> bool:
+    return name.rpartition(".")[2] == "__main__" or name.startswith(COMMANDS)
+
+
+def test_the_commands_errors_stay_with_the_commands():
+    """docs/development.md: the commands' own errors (not in the façade) stay with them.
+
+    Each ``MearmError`` subclass a command module defines is named by no module of the
+    library (a command's work handed to the library turns its error into the library's,
+    as the servos' calibration at a sort's start does): so no library call raises one
+    and the façade, which names the library's, names every error code using mearm meets.
+    """
+    known = {"MearmError", *exceptions.__all__}
+    commands = [m for m in package_modules() if _in_commands(_module_name(m.path))]
+    found: set[str] = set()
+    for _ in range(3):  # subclasses of subclasses
+        for module in commands:
+            for node in ast.walk(module.tree):
+                if isinstance(node, ast.ClassDef) and any(
+                    (b.id if isinstance(b, ast.Name) else getattr(b, "attr", "")) in known | found
+                    for b in node.bases
+                ):
+                    found.add(node.name)
+    found -= known
+    assert {"NoBoardFound", "Refused", "CameraCalibrationFailed", "StepFailed"} <= found
+    offenders = []
+    for module in package_modules():
+        name = _module_name(module.path)
+        if _in_commands(name) or name in ("mearm", "mearm.exceptions"):
+            continue
+        for node in ast.walk(module.tree):
+            used = (
+                node.id
+                if isinstance(node, ast.Name)
+                else node.attr
+                if isinstance(node, ast.Attribute)
+                else None
+            )
+            aliases = [a.name for a in node.names] if isinstance(node, ast.ImportFrom) else []
+            if used in found or found.intersection(aliases):
+                offenders.append(f"{module.where}:{node.lineno}")
+    assert offenders == []
