@@ -29,14 +29,16 @@ header and output carry the arm's wiring (:mod:`mearm.maker.wiring`).
 
 ``--of MY_CONFIG`` writes a twin of the maker's own config instead: a file that extends
 it (so the arm measured into it is the arm simulated) and replaces only the rig — the
-simulated servos and camera, and the reference's simulated table
-(:func:`render_twin`). ``--arm`` names the reference arm whose table that is; it may be
-left out only when MY_CONFIG's arm is a reference arm by name (``arm: {use: mearm_v1}``
-without a ``name`` of its own). The twin is not written where a config of MY_CONFIG's
-chain looks for the file it extends (``sim.yaml`` beside a ``my_arm.yaml`` that extends the
-packaged ``sim.yaml``): read instead, it would extend MY_CONFIG, and neither would load
-(:func:`check_not_shadowing`). MY_CONFIG may be a packaged config's name (``--of sim``):
-the twin then extends it by that name, from any folder (:func:`twin_extends`).
+simulated servos, and the simulated camera with the calibration of the reference's
+simulated table, whose objects stand in only for a table MY_CONFIG leaves empty
+(:func:`render_twin`, :func:`twin_table`). ``--arm`` names the reference arm whose table
+that is; it may be left out only when MY_CONFIG's arm is a reference arm by name (``arm:
+{use: mearm_v1}`` without a ``name`` of its own). The twin is not written where a config
+of MY_CONFIG's chain looks for the file it extends (``sim.yaml`` beside a
+``my_arm.yaml`` that extends the packaged ``sim.yaml``): read instead, it would extend
+MY_CONFIG, and neither would load (:func:`check_not_shadowing`). MY_CONFIG may be a
+packaged config's name (``--of sim``): the twin then extends it by that name, from any
+folder (:func:`twin_extends`).
 """
 
 from __future__ import annotations
@@ -46,7 +48,7 @@ import os
 import re
 import shlex
 import sys
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -63,8 +65,8 @@ from mearm.cli import (
     run,
     write_text_atomic,
 )
-from mearm.config import Config, config_from_dict, load_config
-from mearm.config.compose import EXTENDS_KEY
+from mearm.config import Config, SceneObject, config_from_dict, load_config
+from mearm.config.compose import EXTENDS_KEY, expand_config
 from mearm.config.files import resolve_config_path
 from mearm.errors import ConfigError, MearmError
 from mearm.fileio import backup_path
@@ -485,12 +487,73 @@ def _servo_limits_on(joints: dict[str, Any], mine: Config) -> dict[str, Any]:
     return {j.name: {"servo": dict(settings)} for j in mine.arm.joints if j.actuated}
 
 
+@dataclass(frozen=True)
+class TwinTable:
+    """The objects on the twin's table (:func:`twin_table`).
+
+    Attributes:
+        scene: The twin's ``task.scene``; ``None``: it writes none, and the maker's own
+            (in the config it extends) stands.
+        own: Whether the objects are the maker's own.
+        problem: Why the sort would find none of the maker's classes on it, naming the
+            maker's file and key, or ``None``.
+    """
+
+    scene: list[SceneObject] | None
+    own: bool
+    problem: str | None = None
+
+
+def given_config(of: Path) -> dict[str, Any]:
+    """What the maker's config ``of`` and the configs it extends write, merged.
+
+    Not what they leave to the defaults; not validated (``of`` has loaded).
+    """
+    path = resolve_config_path(of)
+    data = expand_config(load_yaml_file(path, what="config"), source=str(of), path=path)
+    return dict(data) if isinstance(data, Mapping) else {}
+
+
+def twin_table(of: Path, arm: ArmChoice, mine: Config) -> TwinTable:
+    """The objects on the twin's table: the maker's own, else the reference's simulated ones.
+
+    A maker's config that gives a table of its own (a ``task.scene`` with objects, in it
+    or in what it extends) keeps it: its objects are of the maker's classes, where the
+    maker's arm reaches. One that gives none (a real rig's ``task.scene: []``, or no
+    ``task.scene`` at all) borrows the table of ``arm``'s simulated reference config,
+    when that table's objects are all of the maker's classes. When they are not (classes
+    of the maker's own, ``ruby`` and ``lime``), the twin would not load with them
+    (``'red' is not a class``): its table is empty, and ``problem`` says which key of the
+    maker's file to give. A belt brings the objects (the maker's belt, in what it
+    extends): no table of them.
+    """
+    if mine.belt is not None:
+        return TwinTable([], own=False)
+    task = given_config(of).get("task")
+    given = isinstance(task, Mapping) and "scene" in task
+    if given and isinstance(task, Mapping) and task["scene"]:
+        return TwinTable(None, own=True)
+    reference = load_config(reference_config_dir() / arm.sim).task.scene
+    colors = list(dict.fromkeys(obj.color for obj in reference))
+    if all(color in mine.task.class_names for color in colors):
+        return TwinTable(list(reference), own=False)
+    problem = (
+        f"{of}: task.scene: {'[]' if given else 'none given'}, and the simulated table of "
+        f"configs/{arm.sim} holds {', '.join(colors)} objects, not your classes "
+        f"({', '.join(mine.task.class_names)}): give task.scene objects of your classes "
+        "({color, x, y} in cm) where the arm reaches and the camera sees, or sort with "
+        "--random N"
+    )
+    return TwinTable([], own=False, problem=problem)
+
+
 def render_twin(of: Path, out: Path, arm: ArmChoice, rig: RigChoice, mine: Config) -> str:
     """A config that extends the maker's own ``of`` (loaded: ``mine``), on ``rig``.
 
-    The arm, the classes and the bins stay the maker's (``extends``); the servo link and
-    the camera become the simulated ones, and the table the simulated camera sees (its
-    calibration and its objects) is the reference's simulated config's. On the twin rig
+    The arm, the classes, the bins and the table stay the maker's (``extends``); the
+    servo link and the camera become the simulated ones, the camera's calibration the
+    reference's simulated config's, and so its objects where the maker's config gives
+    none (:func:`twin_table`). On the twin rig
     the twin reference's own settings (``simulator``, ``twin``, the approach height …)
     are added as that file writes them, its joints' servo limits on the maker's joints
     (:func:`_servo_limits_on`).
@@ -517,9 +580,10 @@ def render_twin(of: Path, out: Path, arm: ArmChoice, rig: RigChoice, mine: Confi
             **own.get("twin", {}),
             "camera": None if ref is None else ref.model_dump(mode="json", exclude_none=True),
         }
-    # a belt brings the objects (the maker's belt, in what it extends): no table of them
-    scene = [] if mine.belt is not None else sim.task.scene
-    task = {"scene": [s.model_dump(mode="json", exclude_defaults=True) for s in scene]}
+    table = twin_table(of, arm, mine)
+    task: dict[str, Any] = {}
+    if table.scene is not None:
+        task["scene"] = [s.model_dump(mode="json", exclude_defaults=True) for s in table.scene]
     sections: dict[str, Any] = {
         EXTENDS_KEY: extends,
         "simulator": "mujoco" if rig.name == "sim_mujoco" else "kinematic",
@@ -527,8 +591,10 @@ def render_twin(of: Path, out: Path, arm: ArmChoice, rig: RigChoice, mine: Confi
         "camera": sim.camera.model_dump(mode="json", exclude_none=True),
         "calibration": sim.calibration.model_dump(mode="json", exclude_none=True),
         **{k: v for k, v in own.items() if k not in ("simulator", "task")},
-        "task": {**task, **own.get("task", {})},
     }
+    task.update(own.get("task", {}))
+    if task:
+        sections["task"] = task
     name = shlex.quote(str(out))
     header = (
         f"# mearm config: your {of.name} simulated, on the {rig.name} rig.\n"
@@ -536,11 +602,17 @@ def render_twin(of: Path, out: Path, arm: ArmChoice, rig: RigChoice, mine: Confi
         f"{rig.name} (mearm {__version__}).\n"
         f"# It extends {extends}: the arm, the classes and the bins are yours, so what you\n"
         f"# measure into that file is what is simulated here. Only the rig differs: the servos\n"
-        "# and the camera are simulated, and the table that camera sees (its calibration, the\n"
-        f"# objects on it) is the one of configs/{arm.sim}"
+        "# and the camera are simulated, and the camera's view of the table (its calibration"
+        + (", the objects on it" if table.scene is not None and not table.own else "")
+        + f")\n# is the one of configs/{arm.sim}"
         + (f", in the physical twin of configs/{arm.twin}" if rig.name == "sim_mujoco" else "")
         + ".\n"
-        f"# Next steps:\n#   1. mearm sort --config {name}\n#   2. mearm jog --config {name}\n\n"
+        + (
+            f"# The objects on the table are yours: the task.scene of {of.name}.\n"
+            if table.own
+            else ""
+        )
+        + f"# Next steps:\n#   1. mearm sort --config {name}\n#   2. mearm jog --config {name}\n\n"
     )
     return header + _yaml(sections)
 
@@ -751,7 +823,7 @@ def _write_twin(of: Path, out: Path, arm_name: str | None, rig: RigChoice) -> in
     write_text_atomic(out, text)
     extends = twin_extends(of, out)
     print(f"wrote {out}{made}: your {of.name} on the {rig.name} rig (it extends {extends}). Next:")
-    refused = _sort_refuses(config)
+    refused = _sort_refuses(config, twin_table(of, arm, mine), of, out)
     if refused is not None:  # a twin to look at and fix, but "Next: mearm sort" would fail
         prog = invoked_as("python -m mearm.maker.init_config")
         print(f"{prog}: warning: {refused}", file=sys.stderr)
@@ -762,18 +834,32 @@ def _write_twin(of: Path, out: Path, arm_name: str | None, rig: RigChoice) -> in
     return EXIT_OK
 
 
-def _sort_refuses(config: Config) -> str | None:
-    """Why ``mearm sort`` would refuse ``config`` before it starts, or ``None``.
+def _sort_refuses(config: Config, table: TwinTable, of: Path, out: Path) -> str | None:
+    """Why ``mearm sort`` would refuse the twin ``config`` before it starts, or ``None``.
 
     The arm given by ``arm: {use: …}`` with the table of another config (the built-in
     paper arm's bins for a MeArm v1) loads, and its sort is refused: a bin out of reach.
+    So is a table with nothing of the maker's classes on it (``table``), or one the
+    twin's camera, the reference's, does not see whole (the maker's own objects, laid out
+    for another camera): named by the file that holds it, the maker's ``of`` or ``out``.
     """
     from mearm.task.check import check_consistency  # noqa: PLC0415  (the kinematics)
+    from mearm.task.scene import SceneError, check_scene  # noqa: PLC0415
 
+    problems: list[str] = []
     try:
         check_consistency(config)
     except ConfigError as exc:
-        return f"mearm sort would refuse it as it is: {'; '.join(exc.problems)}"
+        problems += exc.problems
+    if table.problem is not None:
+        problems.append(table.problem)
+    elif config.task.scene:
+        try:
+            check_scene(config, config.task.scene, f"{of if table.own else out}: task.scene")
+        except SceneError as exc:
+            problems.append(str(exc))
+    if problems:
+        return f"mearm sort would refuse it as it is: {'; '.join(problems)}"
     return None
 
 
