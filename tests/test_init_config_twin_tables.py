@@ -122,3 +122,19 @@ def test_a_twin_of_a_table_its_camera_does_not_see_says_so(tmp_path):
     assert done.returncode == 0, done.stderr
     (warning,) = done.stderr.splitlines()
     assert "sim_shapes: task.scene[0] (red_cube at x -10.99, y 49.7 cm): outside the " in warning
+
+
+def test_a_physical_twin_of_other_classes_grips_each_as_the_reference_twin_does(tmp_path):
+    """The paper arm's twin reference sets its classes by name (``red: {grip_height_cm:
+    null}``: grip at half the object's height); over sim_shapes' cubes, cylinders and
+    prisms that named no class ("task.classes.red: no item named 'red'", exit 2). Each of
+    the maker's classes takes what the reference gives all of its own alike."""
+    argv = ["--of", "sim_shapes", "--rig", "sim_mujoco", "t.yaml"]
+    done = mearm_here("init-config", *argv, cwd=tmp_path)
+    assert done.returncode == 0 and done.stderr == "", done.stderr
+    twin = load_config(tmp_path / "t.yaml")
+    assert twin.simulator == "mujoco"
+    assert twin.task.class_names == ["red_cube", "red_cylinder", "green_prism"]
+    assert [c.grip_height_cm for c in twin.task.classes] == [None, None, None]
+    assert twin.task.scene == load_config("sim_shapes").task.scene
+    _sorts(tmp_path, "t.yaml", 12)

@@ -487,6 +487,30 @@ def _servo_limits_on(joints: dict[str, Any], mine: Config) -> dict[str, Any]:
     return {j.name: {"servo": dict(settings)} for j in mine.arm.joints if j.actuated}
 
 
+def _class_settings_on(classes: dict[str, Any], mine: Config) -> dict[str, Any]:
+    """The twin reference's ``task.classes`` settings, on the maker's classes.
+
+    The reference sets them by its own classes' names (``red``, ``green``, ``blue``). A
+    maker's classes may be named otherwise (``red_cube`` …: then the twin did not load,
+    "task.classes.red: no item named 'red'"). A class of a name the reference sets keeps
+    the reference's settings; each other class takes those the reference gives all of its
+    own alike (the paper arm's twin grips every class at half the object's height,
+    ``grip_height_cm: null``, as configs/sim_shapes_mujoco.yaml does its shapes).
+    """
+    entries = [dict(entry or {}) for entry in classes.values()]
+    common = {
+        key: value
+        for key, value in (entries[0] if entries else {}).items()
+        if all(key in entry and entry[key] == value for entry in entries)
+    }
+    out: dict[str, Any] = {}
+    for name in mine.task.class_names:
+        settings = dict(classes[name] or {}) if name in classes else dict(common)
+        if settings:
+            out[name] = settings
+    return out
+
+
 @dataclass(frozen=True)
 class TwinTable:
     """The objects on the twin's table (:func:`twin_table`).
@@ -571,6 +595,10 @@ def render_twin(of: Path, out: Path, arm: ArmChoice, rig: RigChoice, mine: Confi
             own["arm"] = {**rest, **({"joints": joints} if joints else {})}
             if not own["arm"]:
                 del own["arm"]
+        if "classes" in own.get("task", {}):
+            classes = _class_settings_on(own["task"]["classes"], mine)
+            rest = {k: v for k, v in own["task"].items() if k != "classes"}
+            own["task"] = {**rest, **({"classes": classes} if classes else {})}
     if rig.name == "sim_mujoco" and mine.twin.camera is not None:
         # the maker's config set the twin's camera (a twin config of its own): the twin's
         # camera is the reference twin's, as its calibration is (not a tilted lens the
