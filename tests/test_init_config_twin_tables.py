@@ -138,3 +138,38 @@ def test_a_physical_twin_of_other_classes_grips_each_as_the_reference_twin_does(
     assert [c.grip_height_cm for c in twin.task.classes] == [None, None, None]
     assert twin.task.scene == load_config("sim_shapes").task.scene
     _sorts(tmp_path, "t.yaml", 12)
+
+
+def test_a_physical_twin_of_a_config_that_writes_no_arm_keeps_the_built_in_arm(tmp_path):
+    """sim_4colours writes no ``arm:``: its arm is the built-in one (the paper's). The
+    twin's ``arm: {joints: …}`` (the reference twin's servo limits) was all the arm there
+    was, and the twin did not load ("arm.name: required but missing; …"), its errors
+    about the file written, not the maker's, though sim_4colours itself sorts."""
+    argv = ["--of", "sim_4colours", "--rig", "sim_mujoco", "t.yaml"]
+    done = mearm_here("init-config", *argv, cwd=tmp_path)
+    assert done.returncode == 0 and done.stderr == "", done.stderr
+    twin, mine = load_config(tmp_path / "t.yaml"), load_config("sim_4colours")
+    assert twin.simulator == "mujoco" and twin.arm.name == mine.arm.name == "mearm_paper"
+    assert [j.dh for j in twin.arm.joints] == [j.dh for j in mine.arm.joints]
+    reference = load_config("sim_mujoco").arm.joints
+    assert [j.servo for j in twin.arm.joints] == [j.servo for j in reference]
+    assert twin.task.class_names == ["red", "green", "blue", "yellow"]
+    assert twin.task.scene == mine.task.scene
+    _sorts(tmp_path, "t.yaml", 16)
+
+
+def test_a_physical_twin_of_a_config_that_writes_no_classes_keeps_the_built_in_ones(tmp_path):
+    """sim_paper_arm writes neither ``arm:`` nor ``task.classes``: the reference twin's
+    class settings by name (``red: {grip_height_cm: null}`` …) were then all the classes
+    there were ("task.classes: Input should be a valid list"). The twin writes the
+    built-in classes out, with those settings."""
+    argv = ["--of", "sim_paper_arm", "--rig", "sim_mujoco", "t.yaml"]
+    done = mearm_here("init-config", *argv, cwd=tmp_path)
+    assert done.returncode == 0 and done.stderr == "", done.stderr
+    twin, mine = load_config(tmp_path / "t.yaml"), load_config("sim_paper_arm")
+    assert twin.task.classes == load_config("sim_mujoco").task.classes
+    assert [c.model_copy(update={"grip_height_cm": None}) for c in mine.task.classes] == list(
+        twin.task.classes
+    )
+    assert twin.arm.name == mine.arm.name and twin.task.clearance_cm == mine.task.clearance_cm
+    _sorts(tmp_path, "t.yaml", 12)

@@ -66,7 +66,8 @@ from mearm.cli import (
     write_text_atomic,
 )
 from mearm.config import Config, SceneObject, config_from_dict, load_config
-from mearm.config.compose import EXTENDS_KEY, expand_config
+from mearm.config.compose import EXTENDS_KEY, USE_KEY, expand_config
+from mearm.config.defaults import DEFAULT_ARM
 from mearm.config.files import resolve_config_path
 from mearm.errors import ConfigError, MearmError
 from mearm.fileio import backup_path
@@ -580,7 +581,9 @@ def render_twin(of: Path, out: Path, arm: ArmChoice, rig: RigChoice, mine: Confi
     none (:func:`twin_table`). On the twin rig
     the twin reference's own settings (``simulator``, ``twin``, the approach height …)
     are added as that file writes them, its joints' servo limits on the maker's joints
-    (:func:`_servo_limits_on`).
+    (:func:`_servo_limits_on`; the built-in arm's, named, when the maker's config writes
+    no ``arm``), its class settings on the maker's classes (:func:`_class_settings_on`;
+    the built-in classes, written out, when it writes no ``task.classes``).
     """
     folder = reference_config_dir()
     sim = load_config(folder / arm.sim)
@@ -595,8 +598,19 @@ def render_twin(of: Path, out: Path, arm: ArmChoice, rig: RigChoice, mine: Confi
             own["arm"] = {**rest, **({"joints": joints} if joints else {})}
             if not own["arm"]:
                 del own["arm"]
+        # changes by name merge over what the maker's chain writes; over what it leaves
+        # to the defaults, a mapping of changes alone would be all there is
+        given = given_config(of)
+        if "arm" in own and "arm" not in given:  # the built-in arm, by name
+            own["arm"] = {USE_KEY: DEFAULT_ARM, **own["arm"]}
         if "classes" in own.get("task", {}):
-            classes = _class_settings_on(own["task"]["classes"], mine)
+            classes: Any = _class_settings_on(own["task"]["classes"], mine)
+            given_task = given.get("task")
+            if classes and not (isinstance(given_task, Mapping) and "classes" in given_task):
+                classes = [  # the built-in classes, written out with the changes
+                    {**c.model_dump(mode="json", exclude_defaults=True), **classes.get(c.name, {})}
+                    for c in mine.task.classes
+                ]
             rest = {k: v for k, v in own["task"].items() if k != "classes"}
             own["task"] = {**rest, **({"classes": classes} if classes else {})}
     if rig.name == "sim_mujoco" and mine.twin.camera is not None:
