@@ -896,7 +896,9 @@ class CollisionModel:
         """The jaws at ``opening_cm``, nothing held, the rest of the world kept."""
         self.set_world(opening_cm=opening_cm, table_below_cm=self._table_below_cm)
 
-    def first_contact(self, q_path: npt.ArrayLike, *, target: str | None = None) -> Contact | None:
+    def first_contact(
+        self, q_path: npt.ArrayLike, *, target: str | None = None, allowance_m: float = 0.0
+    ) -> Contact | None:
         r"""The first pose along ``q_path`` that comes too close to something, or ``None``.
 
         Between rows the joints move on a straight line; ``None``: the whole path is clear.
@@ -912,6 +914,12 @@ class CollisionModel:
         Args:
             q_path: The poses, model units, (k, n).
             target: The object the jaws close on at the path's end (they may touch it).
+            allowance_m: How much nearer than the clearance (and each pair's floor) the
+                path may come [m]. A path this check passed keeps the clearance between
+                the poses it checked but :data:`TOUCH_M` more at them, so the same path
+                sampled elsewhere (the commands' chords: :meth:`Executor._followed
+                <mearm.task.execute.Executor._followed>`) may come within that band of
+                it and be refused; with ``TOUCH_M`` it is held to the clearance itself.
         """
         path = np.atleast_2d(np.asarray(q_path, dtype=float))
         last = len(path) - 1
@@ -928,6 +936,7 @@ class CollisionModel:
         while True:
             q = path[k] + t * (path[k + 1] - path[k]) if k < last else path[last]
             g, a, b, d = self._gap(q, target, floors)
+            g += allowance_m
             self.checks += 1
             if g < TOUCH_M:
                 return Contact(a, b, d / M_PER_CM, q, k, names.get((a, b)))

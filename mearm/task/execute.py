@@ -31,7 +31,7 @@ from mearm.errors import MearmError
 from mearm.hardware.bus import MeasuresTcp, MeasuresWorld, ReportsHold, ServoBus
 from mearm.hardware.command import ArmCommand
 from mearm.kinematics import ArmModel, Chain
-from mearm.kinematics.collision import CollisionModel
+from mearm.kinematics.collision import TOUCH_M, CollisionModel
 from mearm.task.route import Route
 from mearm.task.timing import MotionTime, SpeedLimits, TimedPath, time_path, tool_move_s
 
@@ -356,7 +356,10 @@ class Executor:
         swings the jaws into a wall a command early. With a collision model the chords
         are checked as the plan was; where they come too close to something, the route
         is timed again at each of :data:`SLOWER` of the servos' speeds in turn, its
-        chords shorter and nearer the plan.
+        chords shorter and nearer the plan. The chords are held to the clearance the
+        plan keeps between the poses its check looked at, not to the hair more it keeps
+        at them (``allowance_m``): a pick whose plan passed within that hair of its
+        object, every timing's chords did too, and the route was a fault.
 
         Raises:
             CollisionError: even the slowest timing's chords come too close; nothing of
@@ -368,7 +371,7 @@ class Executor:
         if self.collision is None:
             return timed
         target = route.object_id if route.step == "pick" and route.object_id else None
-        contact = self.collision.first_contact(timed.q, target=target)
+        contact = self.collision.first_contact(timed.q, target=target, allowance_m=TOUCH_M)
         limits = self.carry_limits if carrying else self.limits
         slowest = 1.0
         for fraction in SLOWER:
@@ -382,7 +385,7 @@ class Executor:
                 time_path(q_path, self.chain, slower, 1.0 / self.bus.step_s),
                 period_s=self.bus.period_s,
             )
-            contact = self.collision.first_contact(timed.q, target=target)
+            contact = self.collision.first_contact(timed.q, target=target, allowance_m=TOUCH_M)
         if contact is None:
             return timed
         chain = self.chain
