@@ -28,6 +28,9 @@ it too) or with no pixel in a frame stops the run the same way (nothing could be
 there), and
 one that leaves out most of a frame while lying mostly outside it (drawn on frames of
 another size: a config taught on a photo, used on the camera) is named in a warning.
+``--camera`` on the MuJoCo twin warns, in one line on stderr, of the camera settings its
+render does not use (``camera.brightness``, ``noise_std``, ``gradient``, ``table``,
+``seed``: the kinematic renderer's; :func:`mearm.task.check.kinematic_camera_warning`).
 """
 
 from __future__ import annotations
@@ -308,6 +311,11 @@ def main(argv: Sequence[str] | None = None) -> int:  # noqa: PLR0912 (one branch
 
     frames: list[tuple[str, np.ndarray | None, tuple[int, int]]]
     if args.camera:
+        from mearm.task.check import kinematic_camera_warning  # noqa: PLC0415  (--camera's)
+
+        unused = kinematic_camera_warning(config)  # the twin's render: said before its frame
+        if unused is not None:
+            print(f"warning: {unused}", file=sys.stderr)
         grabbed = grab_frame(config)
         frames = [("camera", grabbed, (grabbed.shape[1], grabbed.shape[0]))]
     else:

@@ -382,7 +382,11 @@ def _frames(args: argparse.Namespace, config: Config) -> tuple[list[np.ndarray],
     """
     if args.camera:
         from mearm.backends import grab_frame
+        from mearm.task.check import kinematic_camera_warning
 
+        unused = kinematic_camera_warning(config)  # the twin's render: said before its frame
+        if unused is not None:
+            print(f"warning: {unused}", file=sys.stderr)
         frames = [grab_frame(config)]
         sources = ["camera"]
     else:

@@ -207,10 +207,12 @@ def twin_only_warning(config: Config) -> str | None:
 
     ``twin.faults``, ``twin.kit``, ``twin.lamp`` and ``twin.camera`` act only where
     ``simulator`` is ``mujoco``; elsewhere they do nothing, and a fault meant to test the
-    sort's handling of one would pass untested.
+    sort's handling of one would pass untested. On the twin, the other way round: the
+    kinematic renderer's ``camera`` settings, which it does not use
+    (:func:`kinematic_camera_warning`).
     """
     if config.simulator == "mujoco":
-        return None
+        return kinematic_camera_warning(config)
     twin = config.twin
     given = [
         name
@@ -226,6 +228,41 @@ def twin_only_warning(config: Config) -> str | None:
     return (
         f"{', '.join(given)}: the physical twin's (simulator: mujoco); this config's "
         f"simulator is {config.simulator}: {what} nothing here"
+    )
+
+
+#: The ``camera`` keys only the kinematic renderer reads
+#: (:meth:`mearm.sim.kinematic.renderer.TableRenderer.from_config`): the twin's camera
+#: (:class:`~mearm.sim.twin.twin_camera.TwinCamera`) renders its MuJoCo scene at
+#: ``width_px × height_px`` and reads none of them.
+KINEMATIC_CAMERA_KEYS = ("noise_std", "brightness", "gradient", "table", "seed")
+
+
+def kinematic_camera_warning(config: Config) -> str | None:
+    """The line for the kinematic renderer's camera settings on the twin, or ``None``.
+
+    ``camera.noise_std``, ``brightness``, ``gradient``, ``table`` and ``seed``
+    (:data:`KINEMATIC_CAMERA_KEYS`) draw the kinematic rig's frames; the twin
+    (``simulator: mujoco``) renders its own scene, lit by its light (``twin.lamp``) and
+    seen from its camera (``twin.camera``), with no sensor noise. Said for each one a
+    config sets to other than its default: a sort meant to test dim or noisy frames would
+    otherwise pass on the twin's clean ones.
+    """
+    if config.simulator != "mujoco":
+        return None
+    defaults = type(config.camera)()
+    given = [
+        f"camera.{key}"
+        for key in KINEMATIC_CAMERA_KEYS
+        if getattr(config.camera, key) != getattr(defaults, key)
+    ]
+    if not given:
+        return None
+    what = "it does" if len(given) == 1 else "they do"
+    return (
+        f"{', '.join(given)}: the kinematic renderer's (simulator: kinematic); this config's "
+        "simulator is mujoco, whose camera renders the twin's scene under its own light "
+        f"(twin.lamp) from twin.camera, with no sensor noise: {what} nothing here"
     )
 
 
