@@ -20,6 +20,15 @@ the object's true position in the physics. Objects the camera does not see whole
 by the frame) are left out of the scenes. The paper's model — the blob's centroid
 through a homography fitted to the same markers — is scored on the same frames.
 
+Each height must be one whose objects the arm could pick, as a scene is drawn of
+pickable objects (:func:`~mearm.task.scene.random_scene`): the pick lies in
+``arm.target_box``, and at it the open jaws, to close at the class's grip height (half the
+object's height unless ``grip_height_cm`` says), keep their pads above the table (a low
+object) and the hand ``task.clearance_cm`` + 0.3 cm clear of the object's top (a tall
+one). A height that cannot
+is refused before any work (exit 2), the line naming the range of heights the config
+allows, worked out from it (``sim_mujoco``: 0.81 … 5.98 cm).
+
 Prints one line per height: objects, mean and largest error [cm], objects missed and
 detections extra, and the paper model's figures; where the classes are cubes, a line of
 their yaws' errors (modulo 90°) under both models. Exits 1 if the mean or the largest
@@ -46,6 +55,7 @@ from __future__ import annotations
 import argparse
 import hashlib
 import json
+import math
 import re
 import subprocess
 import sys
@@ -84,6 +94,10 @@ OBJECTS = (1, 40)
 VIEWS = (6, 60)
 
 
+#: What ``--heights`` may hold at most, before the config's own range (least, most) [cm].
+HEIGHTS_CM = (0.2, 10.0)
+
+
 def _numbers(text: str) -> list[float]:
     if not text.isascii() or "_" in text:  # float() reads 1_0 and other scripts' digits
         raise MearmError(f"--heights wants plain decimal numbers like 1,2.5, got {text!r}")
@@ -91,8 +105,9 @@ def _numbers(text: str) -> list[float]:
         values = [float(v) for v in text.split(",")]
     except ValueError:
         raise MearmError(f"--heights wants numbers like 1,2.5, got {text!r}") from None
-    if not values or not all(0.2 <= v <= 10 for v in values):
-        raise MearmError(f"--heights must be in 0.2 … 10 cm, got {text!r}")
+    lo, hi = HEIGHTS_CM
+    if not values or not all(lo <= v <= hi for v in values):
+        raise MearmError(f"--heights must be in {lo:g} … {hi:g} cm, got {text!r}")
     if len(set(values)) < len(values):
         raise MearmError(f"--heights names a height twice, got {text!r}: each once")
     return values
@@ -311,6 +326,158 @@ def _paper_homography(work: Path, marker_args: list[str]):  # noqa: ANN202
     return calibration_from_markers(read_image(work / "sheet.png"), centers, side_cm=side)
 
 
+def _scene_config(config: Config, height: float, objects: int) -> Config:
+    """The config whose scenes of ``objects`` objects ``height`` cm tall are scored.
+
+    The bins are raised with the objects' height: the twin's bins have walls that hold
+    every object, and an object must be released above them; nothing is sorted.
+    """
+    raise_cm = (objects + 1) * height
+    classes = [
+        c.model_copy(
+            update={"height_cm": height, "bin_cm": (*c.bin_cm[:2], c.bin_cm[2] + raise_cm)}
+        )
+        for c in config.task.classes
+    ]
+    return config.model_copy(update={"task": config.task.model_copy(update={"classes": classes})})
+
+
+#: Points of the camera's field (a grid, a side) where ``--heights`` are tried; of those the
+#: arm reaches, the first :data:`PICKS_TRIED` (the tool's room at a pick barely changes
+#: across the field).
+FIELD_GRID = 9
+PICKS_TRIED = 4
+
+
+def _unpickable(config: Config, height: float, objects: int) -> str | None:
+    """Why no object ``height`` cm tall can stand in a scene, or ``None`` if one can.
+
+    A scene's objects are drawn where the arm could pick them
+    (:func:`~mearm.task.scene.random_scene`): the pick (the TCP at the class's grip height
+    plus ``arm.tool.tcp_above_grip_cm``, and the approach above it) in ``arm.target_box``
+    and reached, and the tool at the pick, jaws open, keeping ``task.clearance_cm`` and
+    the scene's margin (:data:`~mearm.task.scene.FOOTPRINT_MARGIN_CM`) from the table and
+    from the object's top. Tried for each class, alone, at points of the camera's field
+    the arm reaches: the draw's own checks, made once instead of in 20000 draws that
+    cannot succeed.
+    """
+    from mearm.kinematics import ArmModel  # noqa: PLC0415  (a few imports: not for --help)
+    from mearm.kinematics.collision import TOUCH_M  # noqa: PLC0415
+    from mearm.sim.table_collision import collision_model  # noqa: PLC0415
+    from mearm.task import scene as layout  # noqa: PLC0415
+    from mearm.task.plan import Planner  # noqa: PLC0415
+
+    cfg = _scene_config(config, height, objects)
+    diameter = max(2 * c.footprint_radius_cm for c in cfg.task.classes)
+    x0, x1, y0, y1 = layout.camera_field_cm(cfg, margin_cm=diameter)
+    if not (x0 < x1 and y0 < y1):
+        return None  # the draw says what is wrong (no table area for such objects)
+    xs, ys = np.meshgrid(np.linspace(x0, x1, FIELD_GRID), np.linspace(y0, y1, FIELD_GRID))
+    grid = np.column_stack([xs.ravel(), ys.ravel()])
+    model = ArmModel(cfg.arm)
+    planner = Planner(cfg, model)
+    reach = layout._reach_check(cfg)  # noqa: SLF001  (the draw's test of a pick)
+    margin_cm = cfg.task.clearance_cm + layout.FOOTPRINT_MARGIN_CM
+    box = cfg.arm.target_box.z_cm
+    for cls in cfg.task.classes:
+        z = cls.grip_z_cm + cfg.arm.tool.tcp_above_grip_cm
+        above = z + (cfg.task.approach_height_cm or 0.0)
+        if not (box.contains(z) and box.contains(above)):
+            return (
+                f"its pick puts the TCP at z = {z:.2f} cm (the grip {cls.grip_z_cm:g} cm up "
+                f"plus arm.tool.tcp_above_grip_cm {cfg.arm.tool.tcp_above_grip_cm:g}"
+                + (f", and {above:.2f} cm above it" if above != z else "")
+                + f"), outside arm.target_box.z_cm [{box.min:g}, {box.max:g}]"
+            )
+        targets = [planner.pick_target(cls, float(x), float(y)) for x, y in grid]
+        points = grid[planner.reaches(targets)]
+        table = layout._table_of(cfg, [cls.name])  # noqa: SLF001
+        collision = collision_model(cfg, model, clearance_cm=margin_cm, table=table)
+        nearest: tuple[float, str, str] | None = None  # the best pick's gap, tool, obstacle
+        tried, fits = 0, False
+        for x, y in points:
+            q = reach(cls, float(x), float(y))
+            if q is None:
+                continue
+            collision.set_world([("o0", cls.name, float(x), float(y))])
+            gap, a, b = collision.gap(q, target="o0")
+            if gap >= TOUCH_M:
+                fits = True
+                break
+            if nearest is None or gap > nearest[0]:
+                nearest = (gap, a, b) if a.startswith("gripper") else (gap, b, a)
+            tried += 1
+            if tried >= PICKS_TRIED:
+                break
+        if fits:
+            continue
+        if nearest is None:
+            return f"its pick, the TCP at z = {z:.2f} cm, is reached nowhere in the camera's field"
+        gap_cm, part, obstacle = nearest[0] * 100, nearest[1], nearest[2]
+        closes = f"at its pick the open jaws close {cls.grip_z_cm:g} cm above the table"
+        if obstacle == "table":  # (the table keeps no clearance: the height above it)
+            return (
+                f"{closes}, but their {part} reaches {cls.grip_z_cm - gap_cm:.2f} cm below "
+                "that: onto the table"
+            )
+        what = "the object's top" if obstacle == "obj_o0" else obstacle
+        return (
+            f"{closes}, and the {part} comes within {margin_cm:g} cm of {what} "
+            f"(task.clearance_cm {cfg.task.clearance_cm:g} + the scene's margin "
+            f"{layout.FOOTPRINT_MARGIN_CM:g})"
+        )
+    return None
+
+
+def _allowed_heights(config: Config, objects: int) -> tuple[float, float] | None:
+    """The least and most object heights [cm] a scene holds, to 0.01 cm; ``None``: none.
+
+    Between 0.2 and 10 cm; the heights that fit are one range (the jaws come nearer the
+    table as the object, and its grip, is lower, the hand nearer its top as it is taller).
+    """
+
+    def fits(h: float) -> bool:
+        return _unpickable(config, h, objects) is None
+
+    inside = next((h for h in (1.0, 2.5, *np.arange(0.5, 10.01, 0.5)) if fits(h)), None)
+    if inside is None:
+        return None
+    edges = []
+    for out in (HEIGHTS_CM[0], HEIGHTS_CM[1]):
+        if fits(out):
+            edges.append(out)
+            continue
+        good, bad = inside, out
+        while abs(good - bad) > 1e-3:
+            mid = (good + bad) / 2
+            good, bad = (mid, bad) if fits(mid) else (good, mid)
+        # the first whole hundredth past the edge that fits (the next one, inward, does)
+        step = 0.01 if out < inside else -0.01
+        edge = (math.ceil if out < inside else math.floor)(round(bad * 100, 6)) / 100
+        if edge == bad or not fits(edge):
+            edge = round(edge + step, 2)
+        edges.append(edge)
+    return edges[0], edges[1]
+
+
+def _check_heights(config: Config, config_name: str, heights: list[float], objects: int) -> None:
+    """Refuse, before any work, a height of which no scene can be drawn (exit 2)."""
+    for height in heights:
+        why = _unpickable(config, height, objects)
+        if why is None:
+            continue
+        allowed = _allowed_heights(config, objects)
+        fit = (
+            f"heights {allowed[0]:g} … {allowed[1]:g} cm fit"
+            if allowed is not None
+            else "no height in 0.2 … 10 cm fits"
+        )
+        raise MearmError(
+            f"--heights {height:g}: no object {height:g} cm tall can stand in the scenes "
+            f"(drawn pickable): {why}; with {config_name} {fit}"
+        )
+
+
 def score(
     config: Config, work: Path, heights: list[float], scenes: int, objects: int, noise: float,
     marker_args: list[str], first_seed: int = 0,
@@ -329,17 +496,8 @@ def score(
     w, h = camera.size_px
     rows = []
     for height in heights:
-        # (the bins are raised with the objects' height: the twin's bins have walls that
-        # hold every object, and an object must be released above them; nothing is sorted)
-        raise_cm = (objects + 1) * height
-        classes = [
-            c.model_copy(
-                update={"height_cm": height, "bin_cm": (*c.bin_cm[:2], c.bin_cm[2] + raise_cm)}
-            )
-            for c in config.task.classes
-        ]
-        task = config.task.model_copy(update={"classes": classes})
-        cfg = config.model_copy(update={"task": task})
+        cfg = _scene_config(config, height, objects)
+        classes = list(cfg.task.classes)
         detector = ColorDetector(cfg.vision, camera, classes)
         paper_detector = ColorDetector(cfg.vision, paper, classes)
         errors: list[float] = []
@@ -402,7 +560,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Calibrate in the twin and score the detections; 1 if not within the bounds."""
     parser = ArgumentParser(description=__doc__.splitlines()[0] if __doc__ else None)
     add_config_argument(parser, default="sim_mujoco")  # (it measures the twin's camera)
-    parser.add_argument("--heights", type=str, default="1,2.5", help="object heights [cm]")
+    parser.add_argument(
+        "--heights", type=str, default="1,2.5",
+        help="object heights [cm], each in 0.2 … 10 and one the config's arm could pick (the "
+        "scenes are drawn pickable): the pick in arm.target_box, the open jaws' pads, "
+        "closing at the grip height, above the table, and the hand task.clearance_cm + "
+        "0.3 cm clear of the object's top. One that is not is refused before any work, "
+        "with the range the config allows (sim_mujoco: 0.81 … 5.98)",
+    )  # fmt: skip
     parser.add_argument("--scenes", type=plain_int, default=5, help="scenes per height (1 … 100)")
     parser.add_argument("--first-seed", type=plain_int, default=0, help="seed of the first scene")
     parser.add_argument("--objects", type=plain_int, default=12, help="objects per scene (1 … 40)")
@@ -458,6 +623,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             f"{args.config}: simulator is {config.simulator!r}; "
             "this needs the twin (simulator: mujoco, e.g. --config sim_mujoco)"
         )
+    _check_heights(config, str(args.config), heights, args.objects)  # before minutes of work
     t0 = time.perf_counter()
     with tempfile.TemporaryDirectory(prefix="mearm-accuracy-") as tmp:
         work = args.work or Path(tmp)
