@@ -587,10 +587,25 @@ def _warn_if_another_size(
     print(
         f"warning: vision.work_area_px is in the pixels of {source} ({size_px[0]}x{size_px[1]} "
         f"px), but the config's camera gives {camera[0]}x{camera[1]} px frames "
-        f"(camera.width_px, camera.height_px), of which it covers {share:.0%}: to detect on "
+        f"(camera.width_px, camera.height_px), of which it covers {_percent(share)}: to "
+        "detect on "
         "the camera, teach on its frames (--camera) or give --whole-frame",
         file=sys.stderr,
     )
+
+
+def _percent(share: float) -> str:
+    """``share`` (0 … 1) as a percentage that reads 100 % or 0 % only when it is.
+
+    Whole percents, or as many decimals as keep a share short of all (or above none)
+    from reading as all (or none): 0.9964 is ``99.6%``, not ``100%``.
+    """
+    for decimals in range(6):
+        text = f"{share:.{decimals}%}"
+        number = float(text[:-1])
+        if (number < 100 or share >= 1) and (number > 0 or share <= 0):
+            return text
+    return text
 
 
 def _print_taught(taught: Taught, *, whole_frame: bool) -> None:

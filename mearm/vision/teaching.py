@@ -264,7 +264,20 @@ def find_table(
     pts = cv2.findNonZero((labels == big).astype(np.uint8))
     hull = cv2.convexHull(pts)
     poly = cv2.approxPolyDP(hull, 2.0, closed=True).reshape(-1, 2)
-    return table, [(float((u + 0.5) / sx - 0.5), float((v + 0.5) / sy - 0.5)) for u, v in poly[:64]]
+    # a pixel on the shrunk frame's edge stands for the frame's edge, not the centre of the
+    # block it was shrunk from (1.1 px in from it on a 4000x3000 photo): a table found
+    # over the whole frame covers the whole frame
+    last_u, last_v = frame.shape[1] - 1, frame.shape[0] - 1
+    return table, [(_full_px(u, sx, last_u, w), _full_px(v, sy, last_v, h)) for u, v in poly[:64]]
+
+
+def _full_px(p: int, scale: float, last: int, side: int) -> float:
+    """A shrunk frame's pixel ``p`` (its last ``last``) in the frame's own pixels [px]."""
+    if p <= 0:
+        return 0.0
+    if p >= last:
+        return float(side - 1)
+    return float((p + 0.5) / scale - 0.5)
 
 
 def teach(
