@@ -284,10 +284,14 @@ def add_config_argument(parser: ArgumentContainer, default: str | None = None) -
 
 
 def config_from_args(args: argparse.Namespace) -> Config:
-    """Load the config named by ``--config`` with every ``--set`` applied."""
+    """Load the config named by ``--config`` with every ``--set`` applied.
+
+    Its errors name the flags (``--set: KEY: …``), not the Python call's arguments.
+    """
     from mearm.config import load_config  # noqa: PLC0415  (not for --help or --version)
 
-    return load_config(args.config, getattr(args, "set", None) or ())
+    overrides = getattr(args, "set", None) or ()
+    return load_config(args.config, overrides, path_as="--config", overrides_as="--set")
 
 
 def check_closed_form(config: Config) -> None:

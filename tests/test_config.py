@@ -265,11 +265,12 @@ def test_a_serial_port_outside_the_allow_list_is_refused_at_load(tmp_path, port)
 
 
 def test_a_bad_set_value_on_a_good_file_is_blamed_on_the_set(tmp_path: Path) -> None:
-    """``--config sim --set servo.rate_hz=-1``: the line starts ``--set:``, not the shipped
-    file's path (which the user never wrote); a bad file is still named as the file."""
+    """``load_config("sim", ["servo.rate_hz=-1"])``: the line starts ``overrides:`` (the
+    command's ``--set:``), not the shipped file's path (which the user never wrote); a bad
+    file is still named as the file."""
     with pytest.raises(ConfigError) as exc:
         load_config("sim", ["servo.rate_hz=-1"])
-    assert str(exc.value).startswith("--set: servo.rate_hz: "), str(exc.value)
+    assert str(exc.value).startswith("overrides: servo.rate_hz: "), str(exc.value)
     bad = tmp_path / "bad.yaml"
     bad.write_text("servo: {rate_hz: -2}\n")
     with pytest.raises(ConfigError) as exc:

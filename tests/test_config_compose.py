@@ -125,16 +125,20 @@ def test_set_reaches_a_named_arm():
 
 
 @pytest.mark.parametrize(
-    ("key", "said"),
-    [("arm.use=desk_5dof", "arm.use: the reference arm a config builds on is named in its file"),
-     ("extends=sim", "extends: the config a file builds on is named in the file, not by --set")],
+    ("key", "said", "in_python"),
+    [("arm.use=desk_5dof", "arm.use: the reference arm a config builds on is named in its file",
+      "arm.use: the reference arm a config builds on is named in its file"),
+     ("extends=sim", "extends: the config a file builds on is named in the file, not by --set",
+      "extends: the config a file builds on is named in the file, not by overrides")],
 )  # fmt: skip
-def test_set_refuses_the_keys_read_as_the_file_is_composed(key: str, said: str) -> None:
+def test_set_refuses_the_keys_read_as_the_file_is_composed(
+    key: str, said: str, in_python: str
+) -> None:
     """``--set arm.use=…`` was "unknown key (… shows every key)", though the docs list
     ``arm.use`` and say any key can be set: it is read before --set applies."""
     with pytest.raises(ConfigError) as err:
         load_config("sim", [key])
-    assert said in str(err.value)
+    assert str(err.value).startswith(f"overrides: {in_python}")
     out = run_in_process(["fk", "--config", "sim", "--joints", "120,93,-132", "--set", key])
     assert out.code == 2 and out.line.startswith(f"mearm fk: error: --set: {said}")
 

@@ -119,7 +119,7 @@ def test_the_sort_refuses_a_boolean_kp() -> None:
 def test_an_approach_above_the_box_is_refused_at_load() -> None:
     """The sim's picks are at z = 12.76 cm and its box ends at 60 cm: at most 47.24 cm."""
     text = _error(None, ["task.approach_height_cm=50"])
-    assert text.startswith("--set: task.approach_height_cm: 50 cm above the picks of red, ")
+    assert text.startswith("overrides: task.approach_height_cm: 50 cm above the picks of red, ")
     assert "puts the TCP at z = 62.76 cm, above arm.target_box.z_cm [10, 60]" in text
     assert "at most 47.24 cm" in text
     assert load_config(None, ["task.approach_height_cm=47.24"]).task.approach_height_cm == 47.24
@@ -294,7 +294,7 @@ def test_config_docs_replaces_a_reference_that_differs_only_with_force(
 
 
 def test_an_empty_config_name_says_so() -> None:
-    assert _error("", []).startswith("--config: the value is empty: give a config file's path")
+    assert _error("", []).startswith("path: the value is empty: give a config file's path")
 
 
 def test_a_config_name_is_shown_quoted(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:

@@ -42,11 +42,11 @@ def test_a_whole_config_checks_line_names_the_file(tmp_path):
     path = _write(tmp_path, "far.yaml", "extends: sim\n")
     with pytest.raises(ConfigError) as caught:
         check_consistency(load_config(path, [FAR_BIN]))
-    assert caught.value.path == f"{path} with --set"
-    assert str(caught.value).startswith(f"{path} with --set: task.classes.red.bin_cm: [-80")
+    assert caught.value.path == f"{path} with overrides"  # a command's: "with --set"
+    assert str(caught.value).startswith(f"{path} with overrides: task.classes.red.bin_cm: [-80")
     with pytest.raises(ConfigError) as caught:
         check_consistency(load_config(None, [FAR_BIN]))
-    assert caught.value.path == "--set"
+    assert caught.value.path == "overrides"
 
 
 @pytest.mark.bad_input

@@ -131,7 +131,7 @@ def test_the_config_check_gives_the_warning_of_an_arm_that_passes_it():
     found = check_consistency(config)
     assert found.warnings == [unit_warning(config)]
     assert found.warnings[0].endswith(
-        f"sim_5dof.yaml with --set: arm.joints: wrist_roll.dh.theta_deg = 3.1416: {RADIANS}"
+        f"sim_5dof.yaml with overrides: arm.joints: wrist_roll.dh.theta_deg = 3.1416: {RADIANS}"
     )
     assert check_consistency(load_config("sim_5dof")).warnings == []
 

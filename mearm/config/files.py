@@ -21,7 +21,7 @@ from typing import Any
 
 from mearm.config.base import short_repr
 from mearm.config.compose import names_a_file
-from mearm.config.loader import config_from_dict, file_keys_set, unit_hints
+from mearm.config.loader import OVERRIDES, config_from_dict, file_keys_set, unit_hints
 from mearm.config.root import Config
 from mearm.data import config_names, packaged_config
 from mearm.errors import ConfigError
@@ -38,13 +38,15 @@ def read_yaml(path: str | Path) -> Any:
     return load_yaml_file(path, what="config")
 
 
-def resolve_config_path(path: str | Path) -> Path:
+def resolve_config_path(path: str | Path, path_as: str = "--config") -> Path:
     """The file a ``--config`` value names: a path, else the name of a packaged config.
 
     An existing path wins; a bare name (no folder: ``sim`` or ``sim.yaml``) that is no
     file here names one of the configs the package ships (:mod:`mearm.data`), as does a
     shipped config's name that is a folder here (a folder is never a config). Any other
-    missing path is returned as it is, for the reader's "config file not found".
+    missing path is returned as it is, for the reader's "config file not found". An empty
+    one is said of ``path_as``: where it was given (a command's ``--config``, the Python
+    call's ``path``).
 
     Raises:
         ConfigError: an empty name (``Path`` would read it as the current folder), or a
@@ -55,7 +57,7 @@ def resolve_config_path(path: str | Path) -> Path:
     text = str(path)
     if not text:
         raise ConfigError(
-            "--config",
+            path_as,
             [
                 "the value is empty: give a config file's path or the name of a packaged "
                 f"config (mearm --help lists them): {', '.join(config_names()) or 'none'}"
@@ -151,7 +153,8 @@ def config_source(config: Config) -> str | None:
     """The file ``config`` was read from, as its field errors name it, else ``None``.
 
     ``FILE``, ``FILE with --set``, or ``--set`` (no file) for a config that
-    :func:`load_config` returned; ``None`` for one built in code or a changed copy.
+    :func:`load_config` returned (``overrides`` for ``--set``, unless it was given
+    ``overrides_as="--set"``); ``None`` for one built in code or a changed copy.
     """
     return _SOURCES.get(id(config))
 
@@ -178,7 +181,13 @@ def _remember_source(config: Config, source: str) -> Config:
     return config
 
 
-def load_config(path: str | Path | None = None, overrides: Sequence[str] = ()) -> Config:
+def load_config(
+    path: str | Path | None = None,
+    overrides: Sequence[str] = (),
+    *,
+    path_as: str = "path",
+    overrides_as: str = OVERRIDES,
+) -> Config:
     """Read a YAML config file; ``None`` gives the built-in default (the simulated rig).
 
     Args:
@@ -186,6 +195,11 @@ def load_config(path: str | Path | None = None, overrides: Sequence[str] = ()) -
             ``configs/sim.yaml``: :func:`resolve_config_path`), or ``None``.
         overrides: ``dotted.key=value`` strings applied before validation (a relative
             file path among them is relative to the current folder).
+        path_as: What an error of ``path`` itself (an empty one) is said of: where the
+            caller took it from. The argument's name; a command passes its flag,
+            ``--config``.
+        overrides_as: What an error of an override is said of (``overrides: KEY: …``);
+            a command passes its flag, ``--set`` (``--set: KEY: …``).
 
     Raises:
         ConfigError: the file is missing (a bare name: nor packaged), unreadable, not
@@ -199,7 +213,7 @@ def load_config(path: str | Path | None = None, overrides: Sequence[str] = ()) -
         )
     if isinstance(overrides, str | bytes) or not all(isinstance(o, str) for o in overrides):
         raise ConfigError(
-            "--set",
+            overrides_as,
             [
                 "overrides must be a list of 'dotted.key=value' strings (one: "
                 f"overrides=['controller.kp=0.2']), got {short_repr(overrides)}"
@@ -208,21 +222,30 @@ def load_config(path: str | Path | None = None, overrides: Sequence[str] = ()) -
     if path is None:
         if not overrides:
             return Config()
-        config = config_from_dict({}, source="--set", overrides=overrides)
-        config = _resolve_files(config, Path(), "--set", file_keys_set(overrides))
-        return _remember_source(config, "--set")
-    path = resolve_config_path(path)
-    config = config_from_dict(read_yaml(path), source=str(path), overrides=overrides, path=path)
-    config = _resolve_files(config, path.parent, str(path), file_keys_set(overrides))
-    return _remember_source(config, f"{path} with --set" if overrides else str(path))
+        config = config_from_dict(
+            {}, source=overrides_as, overrides=overrides, overrides_as=overrides_as
+        )
+        set_keys = file_keys_set(overrides, overrides_as)
+        config = _resolve_files(config, Path(), overrides_as, set_keys, overrides_as)
+        return _remember_source(config, overrides_as)
+    path = resolve_config_path(path, path_as)
+    config = config_from_dict(
+        read_yaml(path), source=str(path), overrides=overrides, path=path, overrides_as=overrides_as
+    )
+    set_keys = file_keys_set(overrides, overrides_as)
+    config = _resolve_files(config, path.parent, str(path), set_keys, overrides_as)
+    return _remember_source(config, f"{path} with {overrides_as}" if overrides else str(path))
 
 
-def _resolve_files(config: Config, folder: Path, source: str, from_set: set[str]) -> Config:
+def _resolve_files(
+    config: Config, folder: Path, source: str, from_set: set[str], overrides_as: str
+) -> Config:
     """``config`` with its files found and its servo calibration applied.
 
     Relative paths are relative to ``folder`` (those of the keys in ``from_set``, given by
-    ``--set``, are absolute already); the servo calibration file
-    (``servo.calibration_file``) replaces the calibrations of the actuators it names.
+    ``--set``, are absolute already: a missing file of theirs is said of ``overrides_as``);
+    the servo calibration file (``servo.calibration_file``) replaces the calibrations of the
+    actuators it names.
 
     Raises:
         ConfigError: a calibration file the config names does not exist.
@@ -238,7 +261,8 @@ def _resolve_files(config: Config, folder: Path, source: str, from_set: set[str]
         from mearm.config.servo_file import apply_servo_calibration_file  # noqa: PLC0415
 
         key = "servo.calibration_file"
-        resolved = _existing(folder, servo_file, key, "--set" if key in from_set else source)
+        where = overrides_as if key in from_set else source
+        resolved = _existing(folder, servo_file, key, where, overrides_as)
         servo = config.servo.model_copy(update={"calibration_file": str(resolved)})
         config = apply_servo_calibration_file(config.model_copy(update={"servo": servo}), resolved)
     cal = config.calibration
@@ -247,12 +271,12 @@ def _resolve_files(config: Config, folder: Path, source: str, from_set: set[str]
     changes: dict[str, str] = {}
     for name in ("intrinsics_file", "extrinsics_file"):
         key = f"calibration.{name}"
-        where = "--set" if key in from_set else source
-        changes[name] = str(_existing(folder, getattr(cal, name), key, where))
+        where = overrides_as if key in from_set else source
+        changes[name] = str(_existing(folder, getattr(cal, name), key, where, overrides_as))
     return config.model_copy(update={"calibration": cal.model_copy(update=changes)})
 
 
-def _existing(folder: Path, text: str, key: str, source: str) -> Path:
+def _existing(folder: Path, text: str, key: str, source: str, overrides_as: str) -> Path:
     """The file ``text`` names, relative to ``folder`` unless absolute.
 
     Raises:
@@ -265,7 +289,8 @@ def _existing(folder: Path, text: str, key: str, source: str) -> Path:
             source,
             [
                 f"{key}: {text!r} is not a file{looked}; a relative path in a config file is "
-                "relative to that file's folder, one given by --set to the current folder"
+                f"relative to that file's folder, one given by {overrides_as} to the current "
+                "folder"
             ],
         )
     return resolved

@@ -54,10 +54,28 @@ from mearm.yamlio import MAX_YAML_DEPTH, load_yaml_text
 #: Longest ``--set`` key [characters]; the longest real one has ~40.
 MAX_KEY_CHARS = 200
 _INDEX = re.compile(r"^-?[0-9]{1,9}$")
+#: What errors of overrides are said of, by default: the argument of the Python call
+#: (:func:`~mearm.config.files.load_config`'s ``overrides``); a command passes its flag,
+#: ``--set``.
+OVERRIDES = "overrides"
 
 
-def parse_override(text: str) -> tuple[list[str], Any]:
+def override_example(text: str, overrides_as: str) -> str:
+    """The override ``text`` as it is given where ``overrides_as`` names.
+
+    ``--set 'twin.faults=[{at_s: 1}]'`` for a flag (a word that starts with ``-``),
+    ``overrides=['twin.faults=[{at_s: 1}]']`` for an argument.
+    """
+    if overrides_as.startswith("-"):
+        return f"{overrides_as} {shlex.quote(text)}"
+    return f"{overrides_as}=[{text!r}]"
+
+
+def parse_override(text: str, overrides_as: str = OVERRIDES) -> tuple[list[str], Any]:
     """Split ``dotted.key=value`` into the path and the YAML-parsed value.
+
+    ``overrides_as`` is what the override's error is said of: where it was given
+    (:data:`OVERRIDES`, a command's ``--set``).
 
     Raises:
         ConfigError: no ``=``, an empty key, or a value that is not YAML.
@@ -66,14 +84,14 @@ def parse_override(text: str) -> tuple[list[str], Any]:
     key = key.strip()
     if not sep or not key or any(not part for part in key.split(".")):
         raise ConfigError(
-            "--set",
+            overrides_as,
             [f"{short_repr(text)}: expected dotted.key=value, e.g. arm.joints.base.home=90"],
         )
     bracket = re.search(r"\[([^\]]*)\]", key)
     if bracket is not None:  # a list item as Python or jq writes it
         dotted = (key[: bracket.start()] + "." + bracket.group(1) + key[bracket.end() :]).strip(".")
         raise ConfigError(
-            "--set",
+            overrides_as,
             [
                 f"{short_repr(key)}: a list item is a dotted part, by its index or its "
                 f"name: {dotted}"
@@ -82,7 +100,7 @@ def parse_override(text: str) -> tuple[list[str], Any]:
     parts = key.split(".")
     if len(key) > MAX_KEY_CHARS or len(parts) > MAX_YAML_DEPTH:
         raise ConfigError(
-            "--set",
+            overrides_as,
             [
                 f"{short_repr(key)}: key too long (at most {MAX_KEY_CHARS} characters and "
                 f"{MAX_YAML_DEPTH} parts)"
@@ -91,16 +109,20 @@ def parse_override(text: str) -> tuple[list[str], Any]:
     if not raw.strip():
         return parts, ""
     try:
-        value = load_yaml_text(raw, source="--set", what="--set value", allow_empty=True)
+        value = load_yaml_text(
+            raw, source=overrides_as, what=f"{overrides_as} value", allow_empty=True
+        )
     except ConfigError as exc:
         problem = exc.problems[0] if exc.problems else "?"
         raise ConfigError(
-            "--set", [f"{key}: value {short_repr(raw, 40)} is not valid YAML ({problem})"]
+            overrides_as, [f"{key}: value {short_repr(raw, 40)} is not valid YAML ({problem})"]
         ) from None
     return parts, value
 
 
-def _child(node: Any, default: Any, part: str, where: str, then: str, text: str) -> tuple[Any, Any]:
+def _child(
+    node: Any, default: Any, part: str, where: str, then: str, text: str, overrides_as: str
+) -> tuple[Any, Any]:
     """The child ``part`` of ``node`` and of its default (created from it when missing).
 
     ``then`` is the part that follows: a missing section with no default that is followed
@@ -116,9 +138,9 @@ def _child(node: Any, default: Any, part: str, where: str, then: str, text: str)
                 node[part] = [{}] if then == "0" else {}
         return node[part], sub_default
     if isinstance(node, list):
-        i = _index(node, part, where, text)
+        i = _index(node, part, where, text, overrides_as)
         return node[i], _same_item(node[i], default)
-    raise ConfigError("--set", [f"{where}: is a value, not a section (cannot set {part!r})"])
+    raise ConfigError(overrides_as, [f"{where}: is a value, not a section (cannot set {part!r})"])
 
 
 def _same_item(item: Any, default: Any) -> Any:
@@ -133,7 +155,7 @@ def _same_item(item: Any, default: Any) -> Any:
     return next((d for d in default if isinstance(d, dict) and d.get("name") == name), None)
 
 
-def _index(items: list[Any], part: str, where: str, text: str) -> int:
+def _index(items: list[Any], part: str, where: str, text: str, overrides_as: str) -> int:
     """The index of the item ``part`` (an index or a name) of the list at ``where``.
 
     Raises:
@@ -141,21 +163,23 @@ def _index(items: list[Any], part: str, where: str, text: str) -> int:
             (``text``, the override, shows what it sets).
     """
     if not items:
-        raise _empty_list(part, where, text)
+        raise _empty_list(part, where, text, overrides_as)
     if _INDEX.match(part):
         i = int(part)
         if not 0 <= i < len(items):
-            raise ConfigError("--set", [f"{where}.{part}: no such item (0…{len(items) - 1})"])
+            raise ConfigError(overrides_as, [f"{where}.{part}: no such item (0…{len(items) - 1})"])
         return i
     for i, item in enumerate(items):
         if isinstance(item, dict) and item.get("name") == part:
             return i
     names = [str(it.get("name")) for it in items if isinstance(it, dict) and "name" in it]
     allowed = ", ".join(names) if names else f"an index 0…{len(items) - 1}"
-    raise ConfigError("--set", [f"{where}.{part}: no item named {part!r} (choices: {allowed})"])
+    raise ConfigError(
+        overrides_as, [f"{where}.{part}: no item named {part!r} (choices: {allowed})"]
+    )
 
 
-def _empty_list(part: str, where: str, text: str) -> ConfigError:
+def _empty_list(part: str, where: str, text: str, overrides_as: str) -> ConfigError:
     """The error of ``--set TEXT`` that names item ``part`` of the empty list at ``where``.
 
     An empty list has no item to change: the list is set whole, with the item ``text``
@@ -171,16 +195,20 @@ def _empty_list(part: str, where: str, text: str) -> ConfigError:
             item = f"{{{name}: {item}}}"
     what = f"no item {part}" if _INDEX.match(part) else f"no item named {part!r}"
     return ConfigError(
-        "--set",
+        overrides_as,
         [
             f"{where}.{part}: {what}: {where} is an empty list; set the whole list "
-            f"instead, e.g. --set {shlex.quote(f'{where}=[{item}]')}"
+            f"instead, e.g. {override_example(f'{where}=[{item}]', overrides_as)}"
         ],
     )
 
 
 def apply_overrides(
-    data: dict[str, Any], overrides: Sequence[str], defaults: dict[str, Any] | None = None
+    data: dict[str, Any],
+    overrides: Sequence[str],
+    defaults: dict[str, Any] | None = None,
+    *,
+    overrides_as: str = OVERRIDES,
 ) -> dict[str, Any]:
     """A copy of ``data`` with every ``dotted.key=value`` of ``overrides`` set.
 
@@ -189,30 +217,31 @@ def apply_overrides(
     does not spell out the arm; inside a list item, from the built-in item of its name
     (none for an item the built-in config does not name). A relative file path it sets
     (``servo.calibration_file``, the camera's calibration files, a replayed ``camera.path``)
-    is made absolute from the current folder.
+    is made absolute from the current folder. Its errors are said of ``overrides_as``
+    (:func:`parse_override`).
 
     Raises:
         ConfigError: a malformed override, a list index or name that does not exist.
     """
     out = copy.deepcopy(data)
     for text in overrides:
-        path, value = parse_override(text)
-        composed = _COMPOSED.get(tuple(path))
+        path, value = parse_override(text, overrides_as)
+        composed = _composed(tuple(path), overrides_as)
         if composed is not None:  # read as the file is composed, before --set applies
-            raise ConfigError("--set", [f"{'.'.join(path)}: {composed}"])
+            raise ConfigError(overrides_as, [f"{'.'.join(path)}: {composed}"])
         node: Any = out
         default: Any = defaults
         for depth, part in enumerate(path[:-1]):
             where = ".".join(path[:depth]) or "(top level)"
-            node, default = _child(node, default, part, where, path[depth + 1], text)
+            node, default = _child(node, default, part, where, path[depth + 1], text, overrides_as)
         last, where = path[-1], ".".join(path[:-1]) or "(top level)"
         if isinstance(node, dict):
             node[last] = value
         elif isinstance(node, list):
-            i = _index(node, last, where, text)
+            i = _index(node, last, where, text, overrides_as)
             if isinstance(node[i], dict) and not isinstance(value, dict):
                 raise ConfigError(
-                    "--set",
+                    overrides_as,
                     [
                         f"{where}.{last}: is a whole item, not a value: set one of its keys "
                         f"({where}.{last}.KEY=VALUE), or give it as a mapping {{...}}"
@@ -220,27 +249,41 @@ def apply_overrides(
                 )
             node[i] = value
         else:
-            raise ConfigError("--set", [f"{where}: is a value, not a section"])
+            raise ConfigError(overrides_as, [f"{where}: is a value, not a section"])
         _paths_from_here(out, path)
     return out
 
 
-#: Keys read as a config file is composed, before ``--set`` applies: what --set says of them.
-_COMPOSED: dict[tuple[str, ...], str] = {
-    (EXTENDS_KEY,): "the config a file builds on is named in the file, not by --set: "
-    "give that config as --config, or write extends: in your file",
-    ("arm", USE_KEY): "the reference arm a config builds on is named in its file "
-    "(arm: {use: NAME}), not by --set; --set changes the keys of the arm it names",
-}
+def _composed(path: tuple[str, ...], overrides_as: str) -> str | None:
+    """What an override of ``path`` is told, if it is a key read as a file is composed.
+
+    Such a key (``extends``, ``arm.use``) is read before overrides apply; ``None`` for any
+    other. In the words of ``overrides_as``: a command's flag (``--set``, then its config
+    is ``--config``) or the Python call's argument.
+    """
+    flag = overrides_as.startswith("-")
+    if path == (EXTENDS_KEY,):
+        instead = "give that config as --config" if flag else "load that config instead"
+        return (
+            f"the config a file builds on is named in the file, not by {overrides_as}: "
+            f"{instead}, or write extends: in your file"
+        )
+    if path == ("arm", USE_KEY):
+        changes = f"{overrides_as} changes" if flag else "an override changes"
+        return (
+            "the reference arm a config builds on is named in its file (arm: {use: NAME}), "
+            f"not by {overrides_as}; {changes} the keys of the arm it names"
+        )
+    return None
 
 
-def file_keys_set(overrides: Sequence[str]) -> set[str]:
+def file_keys_set(overrides: Sequence[str], overrides_as: str = OVERRIDES) -> set[str]:
     """The file-path keys (:data:`~mearm.config.compose.FILE_KEYS`) ``overrides`` set.
 
     Raises:
-        ConfigError: a malformed override.
+        ConfigError: a malformed override (said of ``overrides_as``).
     """
-    paths = [parse_override(text)[0] for text in overrides]
+    paths = [parse_override(text, overrides_as)[0] for text in overrides]
     return {
         f"{section}.{key}"
         for section, key in FILE_KEYS
@@ -267,6 +310,7 @@ def config_from_dict(
     source: str | None = None,
     overrides: Sequence[str] = (),
     path: Path | None = None,
+    overrides_as: str = OVERRIDES,
 ) -> Config:
     """Validate a mapping into a :class:`Config`.
 
@@ -279,6 +323,8 @@ def config_from_dict(
         overrides: ``dotted.key=value`` strings.
         path: The file it was read from: its ``extends`` are relative to its folder
             (``None``: to the current folder).
+        overrides_as: What a bad override is said of: where ``overrides`` were given
+            (the Python call's ``overrides``; a command's ``--set``).
 
     Raises:
         ConfigError: one line per bad field.
@@ -290,7 +336,7 @@ def config_from_dict(
     data, origins = expand_config_traced(data, source=source, path=path)
     own = data
     if overrides:
-        data = apply_overrides(data, overrides, _default_data())
+        data = apply_overrides(data, overrides, _default_data(), overrides_as=overrides_as)
     try:
         return Config.model_validate(data)
     except ValidationError as exc:
@@ -298,9 +344,9 @@ def config_from_dict(
         errors = exc.errors()
         problems = [_in_user_words(e, data, typed) for e in errors]
         if overrides and _valid(own):  # the file is good: a --set value is what is wrong
-            raise ConfigError("--set", [*unit_hints(data), *problems]) from None
+            raise ConfigError(overrides_as, [*unit_hints(data), *problems]) from None
         for text in overrides:  # a key --set gave is said of the file, as the file is bad
-            claim(origins, _key_path(parse_override(text)[0], data), source)
+            claim(origins, _key_path(parse_override(text, overrides_as)[0], data), source)
         written = [_written_in(e, data, origins) or source for e in errors]
         raise _named_error(source, unit_hints(data), problems, written) from None
 

@@ -153,6 +153,7 @@ def plan_replay(
     objects: int | None = None,
     config: str | Path | Config | None = None,
     overrides: Sequence[str] = (),
+    overrides_as: str = "overrides",
 ) -> ReplayPlan:
     """Check a replay's inputs against the recording, before any step.
 
@@ -160,7 +161,8 @@ def plan_replay(
     (``meta/mearm_episodes.json``); without one, ``seed`` and ``objects`` must be given
     and ``config`` is ``sim_mujoco``. A recorded table is laid as it is: no ``seed`` nor
     ``objects`` draws it. The servo calibration the sort made at its start is applied
-    unless the config names a ``servo.calibration_file`` of its own.
+    unless the config names a ``servo.calibration_file`` of its own. A bad override is
+    said of ``overrides_as`` (the command passes its flag, ``--set``).
 
     Raises:
         DatasetError: no dataset there, no such episode, a file of it damaged or a rule
@@ -215,7 +217,11 @@ def plan_replay(
         config, overrides = recorded.config, recorded.overrides
     elif config is None:
         config = "sim_mujoco"
-    cfg = config if isinstance(config, Config) else load_config(config, tuple(overrides))
+    cfg = (
+        config
+        if isinstance(config, Config)
+        else load_config(config, tuple(overrides), path_as="config", overrides_as=overrides_as)
+    )
     _check_arm(root, info, cfg, config)
     if recorded is not None and recorded.noise_seed is not None:
         from mearm.experiment.trials import trial_config  # noqa: PLC0415
@@ -372,6 +378,7 @@ def replay(
     objects: int | None = None,
     config: str | Path | Config | None = None,
     overrides: Sequence[str] = (),
+    overrides_as: str = "overrides",
     env_id: str = "mearm/Sort-v0",
     **options: Any,
 ) -> Replayed:
@@ -391,6 +398,7 @@ def replay(
             recorded table.
         config: The sort's config; default: the recorded one (else ``sim_mujoco``).
         overrides: ``--set`` values for a ``config`` given by name or file.
+        overrides_as: What a bad override is said of (``--set`` for the command's).
         env_id: The environment (``mearm/Sort-v0`` for a scene of ``objects``).
         options: The environment's other options.
 
@@ -403,7 +411,13 @@ def replay(
     from mearm.envs.twin_env import TwinEnv  # noqa: PLC0415
 
     plan = plan_replay(
-        root, episode, seed=seed, objects=objects, config=config, overrides=overrides
+        root,
+        episode,
+        seed=seed,
+        objects=objects,
+        config=config,
+        overrides=overrides,
+        overrides_as=overrides_as,
     )
     actions = plan.actions
     lead = plan.lead if plan.lead is not None else actions[:0]
@@ -495,6 +509,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         objects=args.objects,
         config=args.config,
         overrides=args.set,
+        overrides_as="--set",
     )
     if out.pick is not None and not out.start_known:
         print(

@@ -47,7 +47,7 @@ from mearm.config.sections import MAX_SCENE_OBJECTS
 from mearm.dataset.recorder import CAMERA_NAME, SCENE_TASK, task_sentence
 from mearm.envs.actions import ActionSpec
 from mearm.envs.errors import EnvOptionError
-from mearm.errors import ConfigError, MearmError
+from mearm.errors import MearmError
 from mearm.experiment import trial_config
 from mearm.hardware.command import ArmCommand
 from mearm.hardware.errors import JointLimitError, PulseRangeError, ServoError
@@ -83,7 +83,8 @@ def _config(config: str | Path | Config, overrides: Sequence[str]) -> Config:
         EnvOptionError: ``config`` is none of a name, a file and a loaded ``Config``;
             ``overrides`` is not a list of strings (one string was split into its
             characters), or is given with a loaded ``Config``.
-        ConfigError: the config, or an override (named ``overrides``, not ``--set``).
+        ConfigError: the config (an empty name said of ``config``), or an override
+            (said of ``overrides``, not ``--set``).
     """
     if not isinstance(overrides, list | tuple) or not all(isinstance(o, str) for o in overrides):
         one = f" (one override: overrides=[{overrides!r}])" if isinstance(overrides, str) else ""
@@ -101,13 +102,7 @@ def _config(config: str | Path | Config, overrides: Sequence[str]) -> Config:
         raise EnvOptionError(
             f"config must be a config's name, its file or a loaded Config, got {short_repr(config)}"
         )
-    try:
-        return load_config(config, tuple(overrides))
-    except ConfigError as exc:
-        if exc.path != "--set":
-            raise
-        # the loader names the command line's flag; here the values came as overrides=
-        raise ConfigError("overrides", exc.problems) from None
+    return load_config(config, tuple(overrides), path_as="config")
 
 
 def default_fps(config: Config) -> int:

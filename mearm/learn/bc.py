@@ -206,7 +206,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         if not args.demos.exists():
             check_output_file(args.demos, "--demos")
     import_torch()  # the missing extra is said before any work
-    config = load_config(args.config)  # a bad config, before any work
+    config = load_config(args.config, path_as="--config")  # a bad config, before any work
     joints = ActionSpec.of(config).joints
     options = {"config": args.config}
     wanted = demos_meta(args)
