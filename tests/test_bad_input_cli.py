@@ -206,7 +206,7 @@ CASES: list[tuple[list[str], str]] = [
             "--set",
             "task.classes.red.diameter_cm=100",
         ],
-        "task.classes.0.diameter_cm",  # wider than the open jaws: refused at load
+        "task.classes.red.diameter_cm",  # wider than the open jaws: refused at load
     ),
     # analyze (bad arguments only: the run logs themselves are another corpus)
     (["analyze"], "give a run log to analyse, --gains, or both"),

@@ -519,7 +519,7 @@ def test_a_cube_the_open_jaws_cannot_pass_is_refused(tmp_path: Path) -> None:
     sets = ["--set", "task.classes.red.shape=cube", "--set", "task.classes.red.diameter_cm=3"]
     out = check_bad_input(command("sort", tmp_path, *sets), within_s=2, keep=[CONFIGS])
     assert (
-        "task.classes.0.diameter_cm: a 3 cm cube is 4.24 cm across its diagonal, not less "
+        "task.classes.red.diameter_cm: a 3 cm cube is 4.24 cm across its diagonal, not less "
         "than the open jaws' 4 cm (arm.tool.gripper.open_cm)"
     ) in out.line
 
@@ -530,7 +530,7 @@ def test_a_cylinder_as_wide_as_the_open_jaws_is_refused(tmp_path: Path) -> None:
     sets = ["--set", "task.classes.red.diameter_cm=4"]
     out = check_bad_input(command("sort", tmp_path, *sets), within_s=2, keep=[CONFIGS])
     assert (
-        "task.classes.0.diameter_cm: a 4 cm cylinder is 4 cm across, not less than the open "
+        "task.classes.red.diameter_cm: a 4 cm cylinder is 4 cm across, not less than the open "
         "jaws' 4 cm (arm.tool.gripper.open_cm)"
     ) in out.line
 

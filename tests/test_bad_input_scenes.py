@@ -152,7 +152,7 @@ def test_experiment_refuses_a_bad_scene(name: str, scenes: dict[str, Path], tmp_
         (["--random", "5", "--set", "camera.width_px=16", "--set", "camera.height_px=16"],
          "the camera sees no table area"),
         (["--random", "5", "--set", "task.classes.red.diameter_cm=100"],
-         "task.classes.0.diameter_cm"),  # wider than the open jaws: refused at load
+         "task.classes.red.diameter_cm"),  # wider than the open jaws: refused at load
         (["--random", str(MAX_SCENE_OBJECTS), "--set", "task.classes.red.diameter_cm=3"],
          "could not place"),
     ],

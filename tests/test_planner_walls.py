@@ -147,7 +147,7 @@ def test_a_bin_taller_than_where_its_objects_are_released_is_refused_at_load() -
     """Walls above an object's bottom as the jaws let it go would meet it on the way in."""
     from mearm.errors import ConfigError
 
-    with pytest.raises(ConfigError, match=r"task\.classes\.2\.bin_height_cm: 9 cm walls reach "
+    with pytest.raises(ConfigError, match=r"task\.classes\.blue\.bin_height_cm: 9 cm walls reach "
                        r"above the bottom of an object released at bin_cm z = 20 cm \(8\.24 cm "
                        r"above the table\): at most 8\.24 cm, or raise bin_cm z"):  # fmt: skip
         load_config(ROOT / "configs" / "sim_mujoco.yaml", ["task.classes.blue.bin_height_cm=9"])

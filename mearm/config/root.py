@@ -159,7 +159,7 @@ class Config(Strict):
         twin shows it).
         """
         g = self.arm.tool.gripper
-        for i, c in enumerate(self.task.classes):
+        for c in self.task.classes:
             shape = c.object_shape
             widest = shape.widest_cm(c.diameter_cm)
             if widest < g.open_cm:
@@ -170,7 +170,7 @@ class Config(Strict):
             )
             yaw = "" if disc else " at any yaw (they turn to its faces only where a wrist roll can)"
             raise ValueError(
-                f"@task.classes.{i}.diameter_cm: a {c.diameter_cm:g} cm {shape.name} is "
+                f"@task.classes.{c.name}.diameter_cm: a {c.diameter_cm:g} cm {shape.name} is "
                 f"{widest:.3g} cm {across}, not less than the open jaws' {g.open_cm:g} cm "
                 f"(arm.tool.gripper.open_cm): the open jaws must pass it{yaw}; use smaller "
                 "objects or a wider-opening gripper"
@@ -218,7 +218,7 @@ class Config(Strict):
         the objects they hold are checked with the table: :func:`mearm.task.check_scene`.)
         """
         tcp_cm = self.arm.tool.tcp_above_grip_cm
-        for i, c in enumerate(self.task.classes):
+        for c in self.task.classes:
             if c.bin_height_cm is None:
                 continue
             bottom = c.bin_cm[2] - tcp_cm - c.grip_z_cm
@@ -226,8 +226,8 @@ class Config(Strict):
                 most = math.floor(bottom * 100) / 100  # shown to 0.01 cm, never too high
                 fix = f"at most {most:g} cm, or raise bin_cm z" if most > 0 else "raise bin_cm z"
                 raise ValueError(
-                    f"@task.classes.{i}.bin_height_cm: {c.bin_height_cm:g} cm walls reach above "
-                    f"the bottom of an object released at bin_cm z = {c.bin_cm[2]:g} cm "
+                    f"@task.classes.{c.name}.bin_height_cm: {c.bin_height_cm:g} cm walls reach "
+                    f"above the bottom of an object released at bin_cm z = {c.bin_cm[2]:g} cm "
                     f"({bottom:.3g} cm above the table): {fix}"
                 )
         return self
