@@ -104,7 +104,7 @@ def test_the_reference_says_what_the_validators_enforce() -> None:
     ]:
         with pytest.raises(ConfigError) as info:
             load_config(None, [f"twin.faults=[{fault}]"])
-        assert str(info.value) == f"--set: {said}"
+        assert str(info.value) == f"overrides: {said}"
 
 
 @pytest.mark.parametrize("doc", DOCS, ids=lambda p: str(p.relative_to(ROOT)))
