@@ -83,3 +83,13 @@ def wrong_argument(user: str, needs: str, value: object, fix: str | None = None)
         name = kind.__name__
         got = f"{'an' if name[:1].lower() in 'aeiou' else 'a'} {name}"
     return f"{user} needs {needs}, got {got}" + (f": pass {fix}" if fix else "")
+
+
+def whole_config(value: object) -> bool:
+    """Whether ``value`` is the whole configuration (``mearm.config.Config``), by its parts.
+
+    The layers below the simulators never import ``Config`` (they are passed its
+    sections); a wrong argument's message still says "pass config.controller" when the
+    whole config was given.
+    """
+    return all(hasattr(value, part) for part in ("arm", "task", "controller", "vision"))

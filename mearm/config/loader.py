@@ -19,7 +19,6 @@ import copy
 import functools
 import math
 import re
-import shlex
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, TypeGuard
@@ -67,6 +66,8 @@ def override_example(text: str, overrides_as: str) -> str:
     ``overrides=['twin.faults=[{at_s: 1}]']`` for an argument.
     """
     if overrides_as.startswith("-"):
+        import shlex  # noqa: PLC0415  (an empty list's error only: the sort leaves it out)
+
         return f"{overrides_as} {shlex.quote(text)}"
     return f"{overrides_as}=[{text!r}]"
 

@@ -28,8 +28,8 @@ import weakref
 import numpy as np
 import numpy.typing as npt
 
-from mearm.config import ArmDescription, Config, ControllerConfig
-from mearm.errors import ConfigError, wrong_argument
+from mearm.config import ArmDescription, ControllerConfig
+from mearm.errors import ConfigError, whole_config, wrong_argument
 from mearm.ik.failure import IKFailure, blocking_joints
 from mearm.ik.result import IKResult, JumpStart, Method, Status
 from mearm.ik.target import IKTarget, approach_error_deg
@@ -57,7 +57,11 @@ def require_model(model: object, user: str) -> None:
     or a whole config stopped there on an AttributeError that named neither.
     """
     if not isinstance(model, ArmModel):
-        fix = "ArmModel(config.arm)" if isinstance(model, (ArmDescription, Config)) else None
+        fix = (
+            "ArmModel(config.arm)"
+            if isinstance(model, ArmDescription) or whole_config(model)
+            else None
+        )
         raise ModelError(wrong_argument(user, "an ArmModel (ArmModel(config.arm))", model, fix))
 
 
@@ -70,7 +74,7 @@ def require_controller(config: object, user: str, *, optional: bool = False) -> 
     if isinstance(config, ControllerConfig) or (optional and config is None):
         return
     needs = "a ControllerConfig (the config's controller section)"
-    fix = "config.controller" if isinstance(config, Config) else None
+    fix = "config.controller" if whole_config(config) else None
     raise ConfigError(None, [wrong_argument(user, needs, config, fix)])
 
 

@@ -69,12 +69,11 @@ from mearm.config import (
     CalibrationConfig,
     CameraConfig,
     ColorClass,
-    Config,
     TaskConfig,
     VisionConfig,
 )
 from mearm.config.errors import CalibrationError
-from mearm.errors import ConfigError, wrong_argument
+from mearm.errors import ConfigError, whole_config, wrong_argument
 from mearm.vision.calibration import Calibration, CameraGeometry, camera_geometry
 from mearm.vision.classify import PixelClassifier, equal_mask, median_codes
 from mearm.vision.detection import Detection, _point, _with_table_yaw, check_frame
@@ -176,7 +175,7 @@ def exclude_mask(exclude: object, frame_shape: Sequence[int]) -> np.ndarray:
 def _require_section(value: object, kind: type, section: str, user: str) -> None:
     """Raise :class:`ConfigError` unless ``value`` is the config's section ``section``."""
     if not isinstance(value, kind):
-        fix = f"config.{section}" if isinstance(value, Config) else None
+        fix = f"config.{section}" if whole_config(value) else None
         needs = f"a {kind.__name__} (the config's {section} section)"
         raise ConfigError(None, [wrong_argument(user, needs, value, fix)])
 
@@ -187,10 +186,14 @@ def _require_classes(classes: object, user: str) -> tuple[ColorClass, ...]:
     A config or its task section (iterable, as every pydantic model is, over its fields)
     is named, with the classes to pass instead.
     """
-    named = isinstance(classes, (Config, TaskConfig, str, bytes))
+    named = whole_config(classes) or isinstance(classes, (TaskConfig, str, bytes))
     found = tuple(classes) if isinstance(classes, Iterable) and not named else None
     if found is None or not all(isinstance(c, ColorClass) for c in found):
-        fix = "config.task.classes" if isinstance(classes, (Config, TaskConfig)) else None
+        fix = (
+            "config.task.classes"
+            if whole_config(classes) or isinstance(classes, TaskConfig)
+            else None
+        )
         needs = "the colour classes, a sequence of ColorClass (config.task.classes)"
         raise ConfigError(None, [wrong_argument(user, needs, classes, fix)])
     return found
@@ -242,7 +245,7 @@ class ColorDetector:
             fix = (
                 "camera_geometry(config.calibration, config.camera), or build the detector "
                 "with ColorDetector.from_config"
-                if isinstance(calibration, (CalibrationConfig, Config))
+                if isinstance(calibration, CalibrationConfig) or whole_config(calibration)
                 else None
             )
             needs = "a camera geometry or None (camera_geometry(config.calibration, config.camera))"
