@@ -126,7 +126,9 @@ class RunLog:
         try:
             self.path.parent.mkdir(parents=True, exist_ok=True)
             # "a" never truncates: what is there stays; "x" refuses a file made meanwhile.
-            self._file = self.path.open("xb" if exclusive else "ab")
+            # unbuffered: a record is written whole or cut back (:meth:`_append`), and
+            # closing has nothing left to write (a full disk failed a close with it)
+            self._file = self.path.open("xb" if exclusive else "ab", buffering=0)
         except FileExistsError:
             raise RunLogError(self.path, "exists (exclusive=True refuses to append)") from None
         except OSError as exc:
@@ -337,14 +339,27 @@ class RunLog:
             raise RunLogError(self.path, _validation_reason(kind, exc)) from None
 
     def _append(self, record: Record) -> None:
-        line = record.model_dump_json().encode("utf-8") + b"\n"
+        """Write one record's line whole, or none of it.
+
+        A write the disk refuses part way (full) is cut back to the last whole record,
+        so the file stays a run log that can be read and appended to, and is said as a
+        :class:`RunLogError` (the sort stops on it as on a fault).
+        """
+        line = memoryview(record.model_dump_json().encode("utf-8") + b"\n")
+        fd = self._file.fileno()
         try:
-            self._file.write(line)
-            self._file.flush()
-            if self._fsync:
-                os.fsync(self._file.fileno())
+            end = os.fstat(fd).st_size
         except OSError as exc:
             raise RunLogError(self.path, f"cannot write: {exc}") from None
+        try:
+            while line:
+                line = line[self._file.write(line) or 0 :]
+            if self._fsync:
+                os.fsync(fd)
+        except OSError as exc:
+            with contextlib.suppress(OSError):  # (cutting back takes no space)
+                os.ftruncate(fd, end)
+            raise RunLogError(self.path, f"cannot write: {exc.strerror or exc}") from None
         self.records_written += 1
 
 

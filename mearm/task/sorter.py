@@ -631,14 +631,24 @@ class Sorter(PickAndPlace):
     def _stop_on_fault(self, exc: MearmError) -> None:
         """Stop the sort on a fault, parked where the servos can still be trusted; else re-raise.
 
-        A camera's fault or a recording that failed (a full disk) parks the arm; a servo's
-        fault or a collision sends nothing more. Any other error is not a fault of the
-        run and goes on up unchanged.
+        A camera's fault, or a recording or run log that failed (a full disk), parks the
+        arm; a servo's fault or a collision sends nothing more. Any other error is not a
+        fault of the run and goes on up unchanged. A run log that cannot be written is
+        written no more (its last whole record stays the file's end): the sort stops,
+        says why and parks, where it ended in a traceback with the arm left holding an
+        object at its pick.
         """
+        from mearm.runlog.errors import RunLogError  # noqa: PLC0415  (a fault's path only)
+
         recording = self.recorder is not None and exc is getattr(self.recorder, "failure", None)
-        if not (recording or isinstance(exc, (CameraError, ServoError, CollisionError))):
+        logging = isinstance(exc, RunLogError) and self.reporter.log is not None
+        if logging:
+            self.reporter.log = None
+        stops = (CameraError, ServoError, CollisionError)
+        if not (recording or logging or isinstance(exc, stops)):
             raise exc
-        self._abort(str(exc), park=recording or isinstance(exc, CameraError))
+        reason = f"run log {exc}" if logging else str(exc)
+        self._abort(reason, park=recording or logging or isinstance(exc, CameraError))
 
     def _abort(self, reason: str, *, park: bool, interrupted: bool = False) -> None:
         bus = self.bus
