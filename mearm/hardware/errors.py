@@ -8,6 +8,8 @@ rest of the code cannot tell a simulated bus from a serial one.
 
 from __future__ import annotations
 
+import os
+
 from mearm.errors import MearmError
 from mearm.kinematics.errors import JointLimitError
 
@@ -147,6 +149,40 @@ class LinkError(ServoError):
     def __init__(self, port: str, message: str, *, last_state: object | None = None):
         self.port = port
         super().__init__(f"{port}: {message}", last_state=last_state)
+
+
+class PortInUseError(LinkError):
+    """Another process holds the serial port: this one sends nothing and does not reset it.
+
+    The serial backends hold an exclusive ``flock`` on their port while it is open
+    (:mod:`mearm.hardware.serial_bus`). A second mearm process on the same port would
+    reset an Uno (DTR), send its home as one jump and stream its moves interleaved with
+    the first's; it is refused instead, before a byte is sent.
+
+    Attributes:
+        port: The serial port.
+        pid: The holder's process id, or ``None`` when it cannot be found.
+        command: The holder's command line, or ``""``.
+    """
+
+    def __init__(self, port: str, pid: int | None, command: str = ""):
+        self.port = port
+        self.pid = pid
+        self.command = command
+        self.last_state = None
+        if pid is None:
+            who, stop = "another process", "stop it or wait for it to end"
+        elif pid == os.getpid():
+            who, stop = "this process (a bus on it is open already)", "close that bus first"
+        else:
+            who = f"process {pid}" + (f" ({command})" if command else "")
+            stop = f"stop it (Ctrl-C in its terminal, or kill {pid}) or wait for it to end"
+        MearmError.__init__(
+            self,
+            f"{port}: the serial port is in use by {who}: one program drives a board at a "
+            f"time; nothing was sent to it. {stop[0].upper()}{stop[1:]}, then run this "
+            "again (or give this command another board's port)",
+        )
 
 
 class LinkDroppedError(LinkError):

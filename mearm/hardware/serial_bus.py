@@ -10,10 +10,20 @@ speak their protocol on top of it.
 
 Pacing: commands go at most ``servo.rate_hz`` per second, and never faster than the baud
 rate carries one command and its reply (8N1: 10 bits a byte).
+
+One process a port: a device path is opened with an exclusive, non-blocking ``flock``
+(pyserial's ``exclusive=True``), held while it is open. A port another process holds is
+refused with a :class:`~mearm.hardware.errors.PortInUseError` naming it, before a byte is
+sent: where ``/proc/locks`` names the holder (Linux) the port is not even opened; else
+pyserial opens it and takes the lock before it sets the line, DTR and RTS or flushes
+anything, and closes it again. The lock is advisory: it keeps a second mearm process off
+the port, not a program that does not take it (a serial monitor, avrdude);
+``docs/safety.md``.
 """
 
 from __future__ import annotations
 
+import errno
 import logging
 import time
 from abc import abstractmethod
@@ -23,7 +33,7 @@ import serial
 from mearm.config import ArmDescription, ServoConfig
 from mearm.config.port import check_port
 from mearm.hardware.bus import ServoBus
-from mearm.hardware.errors import LinkDroppedError, LinkError
+from mearm.hardware.errors import LinkDroppedError, LinkError, PortInUseError
 
 log = logging.getLogger(__name__)
 
@@ -50,6 +60,74 @@ MAX_LINE_BYTES = 256
 #: timeout" after a complete write when the process was descheduled that long, and a
 #: loaded machine takes a short acknowledgement timeout for a lost cable.
 WRITE_TIMEOUT_S = 2.0
+
+
+def port_holder(port: str) -> tuple[int | None, str] | None:
+    """The process holding the exclusive lock on ``port``, read without opening it.
+
+    Returns ``(pid, command line)`` from ``/proc/locks`` (Linux) when a process holds a
+    ``flock`` on the device, else ``None``: the port is free, or it is a URL (no lock),
+    or the system does not say (no ``/proc/locks``, another pid namespace). Only the
+    lock itself (:func:`open_exclusive`) is sure.
+    """
+    if "://" in port:
+        return None
+    try:
+        from mearm.runlog.lock import lock_holder  # noqa: PLC0415  (fcntl: POSIX only)
+    except ImportError:  # pragma: no cover - Windows, where ports are exclusive anyway
+        return None
+    pid, command = lock_holder(port)
+    return None if pid is None else (pid, command)
+
+
+def check_port_free(port: str) -> None:
+    """Refuse ``port`` if ``/proc/locks`` says another process holds it (nothing opened).
+
+    Raises:
+        PortInUseError: a process holds the port's lock.
+    """
+    held = port_holder(port)
+    if held is not None:
+        raise PortInUseError(port, *held)
+
+
+def _lock_refused(exc: BaseException) -> bool:
+    """Whether pyserial's ``open()`` failed on the exclusive lock (another holder)."""
+    return (
+        isinstance(exc, serial.SerialException)
+        and getattr(exc, "errno", None) in (errno.EAGAIN, errno.EWOULDBLOCK)
+        and "lock" in str(exc)
+    )
+
+
+def open_exclusive(
+    port: str, baud: int, *, timeout: float, write_timeout: float
+) -> serial.SerialBase:
+    """Open ``port`` for this process alone: an exclusive ``flock`` held while it is open.
+
+    A port another process holds is refused before anything is sent: without opening it
+    where ``/proc/locks`` names the holder; else pyserial's ``open()`` takes the lock right
+    after the ``open(2)`` call, before it sets the line, DTR or RTS or flushes, and closes
+    it on failure. The lock is advisory (``flock``): a program that does not take it is
+    not kept off. URLs take no lock.
+
+    Raises:
+        PortInUseError: another process holds the port.
+        serial.SerialException, OSError, ValueError: it cannot be opened.
+    """
+    check_port_free(port)
+    ser = serial.serial_for_url(port, do_not_open=True)
+    ser.baudrate = baud
+    ser.timeout = timeout
+    ser.write_timeout = write_timeout
+    ser.exclusive = True
+    try:
+        ser.open()
+    except serial.SerialException as exc:
+        if not _lock_refused(exc):
+            raise
+        raise PortInUseError(port, *(port_holder(port) or (None, ""))) from None
+    return ser
 
 
 class SerialServoBus(ServoBus):
@@ -91,19 +169,23 @@ class SerialServoBus(ServoBus):
     # ----------------------------------------------------------------- port
 
     def _open_port(self) -> None:
-        """Open the port (asserting DTR, which resets an Uno) and empty the buffers.
+        """Open the port for this process alone, asserting DTR (an Uno resets); empty buffers.
+
+        The port is locked while it is open (:func:`open_exclusive`).
 
         Raises:
             SerialPortError: the port is neither a device path nor an allowed URL.
+            PortInUseError: another process holds it (nothing sent, nothing reset).
             LinkError: it cannot be opened.
         """
         check_port(self.port)  # again: the attribute may have been changed since
         try:
-            ser = serial.serial_for_url(self.port, do_not_open=True)
-            ser.baudrate = self.baud
-            ser.timeout = POLL_S
-            ser.write_timeout = max(WRITE_TIMEOUT_S, self.link.ack_timeout_s)
-            ser.open()
+            ser = open_exclusive(
+                self.port,
+                self.baud,
+                timeout=POLL_S,
+                write_timeout=max(WRITE_TIMEOUT_S, self.link.ack_timeout_s),
+            )
         except (serial.SerialException, OSError, ValueError) as exc:
             raise LinkError(
                 self.port,

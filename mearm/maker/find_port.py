@@ -5,7 +5,9 @@ and listens for the banner the mearm firmware prints when it starts
 (``READY mearm_servo 2.0 5``; ``tools/arduino/PROTOCOL.md``). Opening a port resets an
 Arduino Uno, so a board running the firmware always prints it. A board that prints it is
 asked for its version (``V``) and named; a port that cannot be opened is reported with
-the reason. ::
+the reason. A port another process holds (a mearm command driving its arm: the serial
+backends lock their port) is reported in use, with the process, and left alone: the
+board it drives is not reset. ::
 
     mearm find-port                          # every port the system lists
     mearm find-port --port /dev/ttyUSB3      # add a port the list misses (a pty, a link)
@@ -58,6 +60,7 @@ from mearm.config import Config
 from mearm.config.errors import SerialPortError
 from mearm.config.port import check_port
 from mearm.errors import MearmError
+from mearm.hardware.errors import PortInUseError
 from mearm.hardware.mearm_protocol import (
     FIRMWARE_NAME,
     PROTOCOL_MAJOR,
@@ -69,6 +72,7 @@ from mearm.hardware.mearm_protocol import (
     parse_firmware_info,
     version_major,
 )
+from mearm.hardware.serial_bus import open_exclusive
 
 #: USB ids of the boards that run the firmware (the Uno's ``upload_port`` ids in the
 #: Arduino core's boards.txt, and the CH340 of most Uno clones) → what to call them.
@@ -142,14 +146,15 @@ class PortReport:
     Attributes:
         port: The port.
         status: ``mearm`` (the firmware's banner), ``outdated`` (the firmware's banner,
-            of another protocol version: reflash it), ``unknown`` (opened, no banner) or
-            ``error`` (could not be opened).
+            of another protocol version: reflash it), ``unknown`` (opened, no banner),
+            ``error`` (could not be opened) or ``busy`` (another process holds it: left
+            alone).
         detail: The firmware, what was heard instead of a banner, or why it did not open.
         firmware: The firmware's answer to ``V`` (``mearm`` only, when it answered).
     """
 
     port: SerialPort
-    status: Literal["mearm", "outdated", "unknown", "error"]
+    status: Literal["mearm", "outdated", "unknown", "error", "busy"]
     detail: str
     firmware: FirmwareInfo | None = None
 
@@ -211,19 +216,31 @@ def _open_error(port: str, exc: BaseException) -> str:
     return text
 
 
+def _in_use(exc: PortInUseError) -> str:
+    """A busy port's report: who holds it, and that it was left alone."""
+    if exc.pid is None:
+        who = "another process"
+    else:
+        who = f"process {exc.pid}" + (f" ({exc.command})" if exc.command else "")
+    return f"held by {who}: left alone, not reset (stop that program to probe it)"
+
+
 def probe_port(port: SerialPort, baud: int, timeout_s: float) -> PortReport:
     """Open ``port`` at ``baud``, wait up to ``timeout_s`` for the mearm banner, close it.
 
     Opening resets an Uno (DTR); its bootloader runs for about 1.5 s before the firmware
-    prints the banner. A board that prints it is asked ``V`` for its firmware.
+    prints the banner. A board that prints it is asked ``V`` for its firmware. A port
+    another process holds (a running ``mearm sort`` or ``jog``: the serial backends'
+    exclusive lock, :func:`~mearm.hardware.serial_bus.open_exclusive`) is reported
+    ``busy`` and left alone: not opened where ``/proc/locks`` names its holder, else
+    closed again before pyserial sets the line or DTR, so the board it drives is not
+    reset.
     """
     try:
         check_port(port.device)
-        ser = serial.serial_for_url(port.device, do_not_open=True)
-        ser.baudrate = baud
-        ser.timeout = 0.05
-        ser.write_timeout = VERSION_TIMEOUT_S
-        ser.open()
+        ser = open_exclusive(port.device, baud, timeout=0.05, write_timeout=VERSION_TIMEOUT_S)
+    except PortInUseError as exc:
+        return PortReport(port, "busy", _in_use(exc))
     except (serial.SerialException, OSError, ValueError, SerialPortError) as exc:
         return PortReport(port, "error", _open_error(port.device, exc))
     try:
@@ -326,6 +343,7 @@ def format_report(report: PortReport, width: int) -> str:
         "outdated": "mearm board of another protocol:",
         "unknown": "not a mearm board:",
         "error": "cannot open:",
+        "busy": "in use:",
     }[report.status]
     label = f"  [{report.port.label}]" if report.port.label else ""
     return f"  {report.port.device:<{width}}  {what} {report.detail}{label}"
@@ -429,6 +447,8 @@ def _run_replug(
     print(format_report(report, len(device)))
     if report.status == "mearm":
         print(f"set servo.port: {device} in your config (or --set servo.port={device})")
+    elif report.status == "busy":
+        print("stop the program that holds it, then run find-port again to probe it")
     else:
         print(f"to put the mearm firmware on it: mearm flash --port {device}")
     return EXIT_OK
@@ -558,6 +578,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     if not boards and unusable:  # a board the other commands would refuse at the handshake
         named = args.config if args.config is not None else "sim, the default"
         raise NoBoardFound(f"no mearm board the config ({named}) can use: {unusable[0]}")
+    busy = [r.port.device for r in reports if r.status == "busy"]
+    if not boards and busy:  # likely the board, driven by a mearm command running now
+        raise NoBoardFound(
+            f"no free mearm board found: {', '.join(busy)} "
+            f"{'is' if len(busy) == 1 else 'are'} in use by another process (a mearm "
+            "command running now?), left alone: stop it, then run find-port again"
+        )
     if not boards:
         raise NoBoardFound(
             "no mearm board found: flash one (mearm flash --port PORT), or find an unknown "

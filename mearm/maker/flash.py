@@ -125,6 +125,20 @@ def _check_port_is_there(port: str) -> None:
     if not Path(port).exists():
         raise MearmError(f"--port {port} does not exist: is the board plugged in? (mearm "
                          "find-port lists the ports)")  # fmt: skip
+    _check_port_is_free(port)
+
+
+def _check_port_is_free(port: str) -> None:
+    """Refuse a port a running mearm command holds (exit 2, one line).
+
+    :class:`~mearm.hardware.errors.PortInUseError` names it. avrdude would reset the
+    board it drives mid-move and overwrite its firmware. Read from ``/proc/locks`` (the
+    serial backends' lock); avrdude itself takes no lock, and a program that takes none
+    is not seen.
+    """
+    from mearm.hardware.serial_bus import check_port_free  # noqa: PLC0415  (pyserial)
+
+    check_port_free(port)
 
 
 def _run_step(what: str, command: Sequence[str], timeout_s: float) -> bool:
@@ -234,6 +248,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         return EXIT_FAILURE
     print(f"wrote {plan.hex_file.parent}/ (the firmware's build: {plan.hex_file.name} and "
           "its objects)", flush=True)  # fmt: skip
+    _check_port_is_free(port)  # again: a sort may have started during the build
     if not _run_step("upload", plan.upload, UPLOAD_TIMEOUT_S):
         print(
             "flash: check the port (mearm find-port), that no other program holds it, and "
