@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from badinput import run_in_process
+from fakeboard import FakeMearmBoard
 from test_maker_calibrate import (  # noqa: F401  (virtual_uno_build: a fixture)
     BOARD_TRUTH,
     BOARDS,
@@ -260,6 +261,67 @@ def test_ctrl_c_stops_where_the_arm_is(board):
         base.pulse_us(CONFIG.arm.home()["base"] + 2 * JOINT_STEP), abs=0.5 + board.accuracy_us
     )
     assert "interrupted" in cmd.text
+
+
+#: Each command's pulse is whole µs, off the exact one by up to 0.5 µs (the 0.5 µs these
+#: tests allow a pulse against the readout): a step between two commands by up to 1 µs.
+PULSE_ROUNDING_US = 1.0
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    "sets",
+    [
+        # the paper arm's servos turn 400°/s (0.15 s/60°): at 250 Hz 1.6° a command, not
+        # the 2° of a joint path's step (500°/s)
+        ["servo.rate_hz=250"],
+        # a slow base: 60°/s, at the paper's 50 Hz 1.2° a command (a 2° step was 100°/s)
+        ["arm.joints.base.servo.seconds_per_60deg=1.0"],
+    ],
+    ids=["250Hz", "slow_base"],
+)
+def test_every_jog_move_keeps_the_servos_speed_limits(sets: list[str]):
+    """Joint steps, TCP steps, ``h`` and ``q`` (home) are streamed as the sort streams
+    its moves, timed within every servo's speed limit: on the fake Uno no two commands
+    in a row turn a joint servo further than its ``seconds_per_60deg`` allows in a bus
+    period (whole-µs pulses aside), and the moves land where the readout says."""
+    config = load_config(SIM, overrides=["servo.backend=serial", *sets])
+    smap = ServoMap.from_arm(config.arm)
+    seconds = {j.name: j.servo.seconds_per_60deg for j in config.arm.actuated_joints()}
+    period_s = 1.0 / config.servo.rate_hz
+    with FakeMearmBoard() as fake:
+        args = ["--config", str(SIM), "--set", "servo.backend=serial", "--port", fake.port,
+                "--set", "servo.banner_timeout_s=5", "--set", "servo.ack_timeout_s=2"]  # fmt: skip
+        for kv in sets:
+            args += ["--set", kv]
+        cmd = PtyCommand("jog", *args)
+        try:
+            readout(cmd)
+            # base +2° twice, shoulder +2° three times, elbow -2° twice, the TCP +x, +x,
+            # +z 1 cm, then 10° steps: base -10°, home, base +10°, and q: home, quit
+            for keys, readouts in (("1++", 3), ("2+++", 4), ("3--", 3), ("XXZ", 3),
+                                   ("]]", 2), ("1-", 2), ("h", 1), ("+", 1)):  # fmt: skip
+                cmd.send(keys)
+                for _ in range(readouts):
+                    joints, _ = readout(cmd)
+            assert joints["base"] == pytest.approx(CONFIG.arm.home()["base"] + 10.0, abs=1e-3)
+            cmd.send("q")
+            assert cmd.wait() == 0, cmd.text[-2000:]
+        finally:
+            cmd.close()
+        assert "refused" not in cmd.text, cmd.text[-2000:]
+        moves = list(fake.moves)
+    home = CONFIG.arm.home()
+    for a in smap.joints:
+        values = np.array([a.value_of(m[a.channel]) for m in moves])
+        steps = np.abs(np.diff(values))
+        allowed = 60.0 / seconds[a.name] * period_s + PULSE_ROUNDING_US / a.us_per_unit
+        assert steps.max() <= allowed + 1e-9, (a.name, steps.max(), allowed)
+        assert values[-1] == pytest.approx(home[a.name], abs=0.5 / a.us_per_unit)
+    base = smap["base"]
+    base_steps = np.abs(np.diff([base.value_of(m[base.channel]) for m in moves]))
+    # not crawling: the base's 10° steps ran at its limit
+    assert base_steps.max() >= 0.9 * 60.0 / seconds["base"] * period_s
 
 
 @pytest.mark.slow

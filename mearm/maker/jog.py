@@ -37,7 +37,13 @@ the sort's :class:`~mearm.task.Planner` (target box, reach, convergence, every p
 the limits) and sent only if it is :attr:`~mearm.task.Route.planned`; every pose's pulses
 are checked against the servos' ranges, and the whole path against the table and the
 bins with the sort's collision model (:mod:`mearm.kinematics.collision`: no arm shape
-below the table, ``task.clearance_cm`` from every bin), before the first is sent. The
+below the table, ``task.clearance_cm`` from every bin), before the first is sent. Every
+move (a joint step, a TCP step, going home) is streamed as the sort's are: timed in full
+first (:meth:`~mearm.task.Executor.timed`), one command a bus period and no servo turning
+faster than its ``seconds_per_60deg`` allows, and a route's commands checked again
+against the collision model as the servos follow them, chord by chord
+(:meth:`~mearm.task.Executor.stream`: timed slower where a chord comes too close, and
+refused, nothing sent, if even the slowest does). The
 jog has no camera: objects on the table are not known, and not avoided. A Cartesian step
 cut short (a collision included) sends the route of the length found, which passed all
 of them; a joint step into a collision is refused whole (a smaller step goes nearer). A
@@ -74,7 +80,7 @@ from mearm.maker.keys import KeyReader, require_terminal
 from mearm.maker.servo_output import hold_arm
 from mearm.sim.table_collision import collision_model
 from mearm.task import Executor, Planner, Route
-from mearm.task.execute import Phase
+from mearm.task.execute import CollisionError, Phase
 
 #: Joint steps [deg, or cm for a prismatic joint] and TCP steps [cm] the keys choose from.
 JOINT_STEPS = (0.5, 1.0, 2.0, 5.0, 10.0)
@@ -121,7 +127,10 @@ class Jogger:
         #: camera); checked along every path before it is sent (:meth:`_contact_problem`).
         #: Not the planner's: a step into a bin is cut short, not detoured over it.
         self.collision = collision_model(config, self.model, clearance_cm=config.task.clearance_cm)
-        self.executor = Executor(config, bus, self.model)
+        #: Streams every move as the sort's does: timed within the servos' speed limits
+        #: (:meth:`~mearm.task.Executor.timed`), a route's chords between its commands
+        #: checked against the same collision model (:meth:`~mearm.task.Executor.stream`).
+        self.executor = Executor(config, bus, self.model, collision=self.collision)
         self.selected = 0
         self.step_index = 2
         self.closed = False
@@ -283,12 +292,17 @@ class Jogger:
         if problem is not None:
             raise Refused(problem)
         path = self.executor.joint_path(q_to)
+        # the commands as the servos can follow them (as the sort's): points of the line,
+        # one per bus period, no servo faster than its seconds_per_60deg
+        commands = self.executor.timed(path, carrying=self.closed).q
         self._check_pulses(path, closed=self.closed)
-        problem = self._contact_problem(path)
+        self._check_pulses(commands, closed=self.closed)
+        # the line, and the chords between the commands (on it: checked all the same)
+        problem = self._contact_problem(path) or self._contact_problem(commands)
         if problem is not None:
             raise Refused(problem)
-        for q in path[1:]:
-            self.executor.send(q, PHASE, closed=self.closed)
+        # the same line, timed the same way: what was checked is what is sent
+        self.executor.move_joints(q_to, PHASE, closed=self.closed)
 
     def move_tcp(self, axis: int, sign: int) -> None:
         """Move the TCP one step along a base axis: a route planned in full, then sent.
@@ -312,7 +326,10 @@ class Jogger:
             length, route, beyond = self._last_passed(q0, start, way, step, problem)
             if route is None:
                 raise Refused(problem)
-        self.executor.stream(route, PHASE, closed=self.closed)
+        try:  # timed as the sort's routes, its chords checked; a refusal sends nothing
+            self.executor.stream(route, PHASE, closed=self.closed)
+        except CollisionError as exc:
+            raise Refused(str(exc)) from None
         self.target_cm = start + length * way
         if beyond is not None:
             along = f"{'+' if sign > 0 else '-'}{'xyz'[axis]}"
