@@ -51,6 +51,7 @@ FAMILIES: dict[str, tuple[str, ...]] = {
         "HandshakeError",
         "FirmwareVersionError",
         "LinkError",
+        "PortInUseError",
         "LinkDroppedError",
         "BannerTimeoutError",
         "NoAckError",
