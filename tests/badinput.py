@@ -129,6 +129,16 @@ def run_in_process(
                    err.getvalue(), elapsed)  # fmt: skip
 
 
+def refused_line(argv: Sequence[object], *, cwd: Path | None = None) -> str:
+    """The one line ``mearm ARGV`` says on stderr as it refuses its input (exit 2, nothing
+    on stdout, no traceback), run in this process in ``cwd``."""
+    r = run_in_process(argv, cwd=cwd)
+    lines = r.stderr.strip().splitlines()
+    assert r.code == 2 and r.stdout == "" and len(lines) == 1, r
+    assert "Traceback" not in r.stderr
+    return lines[0]
+
+
 def run_guarded(
     fn: Callable[..., int | None], argv: Sequence[str], capsys: pytest.CaptureFixture[str]
 ) -> tuple[int, str, str]:

@@ -11,7 +11,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-from badinput import run_in_process
+from badinput import refused_line
 
 from mearm.config import load_config
 from mearm.config.files import config_source
@@ -26,11 +26,7 @@ def _said(path: str | Path | None, overrides: list[str]) -> str:
 
 def _fk(*args: str, cwd: Path) -> str:
     """``mearm fk ARGS`` run in ``cwd``: its one line of stderr (it must fail, exit 2)."""
-    r = run_in_process(["fk", *args, "--joints", "120,93,-132"], cwd=cwd)
-    lines = r.stderr.strip().splitlines()
-    assert r.code == 2 and r.stdout == "" and len(lines) == 1, r
-    assert "Traceback" not in r.stderr
-    return lines[0]
+    return refused_line(["fk", *args, "--joints", "120,93,-132"], cwd=cwd)
 
 
 def test_an_empty_path_is_said_of_path() -> None:
