@@ -439,3 +439,21 @@ def test_out_below_a_file_is_refused_before_the_analysis(log: Path, tmp_path: Pa
     (tmp_path / "file").write_text("keep")
     out = run_in_process(["analyze", str(log), "--out", str(tmp_path / "file" / "sub")])
     assert out.code == 2 and "--out" in out.stderr and "is a file, not a folder" in out.stderr
+
+
+def test_the_text_says_the_faults_that_stopped_trials(tmp_path: Path, capsys) -> None:
+    """A log whose trial a fault stopped said only "skipped objects: 0"; the fault count
+    was in --json and the report alone."""
+    from mearm.config import load_config
+    from mearm.runlog import RunLog
+
+    path = tmp_path / "faulted.jsonl"
+    write_synthetic_log(path, n_routes=48, seed=2)
+    with RunLog(path, fsync=False) as log:
+        log.header(load_config("sim"), trial=99, seed=0)
+        log.fault("camera (sim): the frame is black; arm parked at home", None, trial=99)
+        log.summary(trial=99, ok=False, objects={"red": 4}, left={"fault": 4})
+    assert main([str(path)]) == 0
+    out = capsys.readouterr().out
+    assert "faults: 1 (each stopped its run or trial: the objects it left were not " \
+        "attempted, and no table here counts them)" in " ".join(out.split())  # fmt: skip

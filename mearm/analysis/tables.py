@@ -166,7 +166,17 @@ def table9(a: Analysis) -> Table:
         title="Table 9: first-attempt success per class",
         header=("", "pick", "paper pick", "place", "paper place"),
         rows=tuple(rows),
-        notes=(f"skipped objects: {a.skips} (never attempted or retries exhausted)",),
+        notes=(
+            f"skipped objects: {a.skips} (never attempted or retries exhausted)",
+            *(
+                [
+                    f"faults: {a.faults} (each stopped its run or trial: the objects it left "
+                    "were not attempted, and no table here counts them)"
+                ]
+                if a.faults
+                else []
+            ),
+        ),
     )
 
 
