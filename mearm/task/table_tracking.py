@@ -299,9 +299,11 @@ class TableTracking:
         Raises:
             CameraError: two or more such objects, seen whole in both looks, all moved
                 more than :data:`VIEW_SHIFT_CM` since the last look, by the same shift
-                (within :data:`SAME_SHIFT_CM`): the camera was knocked.
+                (within :data:`SAME_SHIFT_CM`): the camera was knocked. Or a move of the
+                view too far for them to be matched (:meth:`_moved_far`).
         """
         taken = self._match(seen)
+        check_view(self._moved_far(seen, taken, revealed), self.camera.source)
         shifts: list[tuple[TrackedObject, np.ndarray]] = []
         for k, known in taken.items():
             det, (x, y) = seen[k]
@@ -399,6 +401,98 @@ class TableTracking:
             for o in missing
             if o.class_name == det.color
         )
+
+    def _moved_far(
+        self,
+        seen: Seen,
+        taken: Mapping[int, TrackedObject],
+        revealed: AbstractSet[int] = frozenset(),
+    ) -> list[tuple[TrackedObject, np.ndarray]]:
+        """The objects the arm left alone that one move of the view took out of matching.
+
+        A view moved farther than :data:`SAME_OBJECT_CM` leaves no object the arm did not
+        go near within that of where it lay: :meth:`_match` pairs none of them, so
+        :func:`check_view` has no shift to see, and :meth:`_dropped` takes their detections
+        for them pushed (a camera moved 2 cm, and the sort went on picking where it saw
+        them: 27 picks failed, simulated). So, once the matching lost one of them, each
+        lost one's offset to each detection of its class is tried as the view's shift
+        (refined to the mean of the shifts it explains). An object the arm left alone
+        (:meth:`_untouched`'s, by where it lay) is explained by a shift when it is not
+        seen where it lay (no detection of its class within :data:`VIEW_SHIFT_CM`) and a
+        detection of its class, of its area (within :data:`SAME_AREA_RATIO`), lies within
+        :data:`SAME_SHIFT_CM` of where the shift puts it, not where a known object lay nor
+        where no earlier look saw the table (``revealed``: an object the arm hid): the
+        shift says why the object is gone as well as where it went. (On a grid of one
+        class a shift by the pitch maps objects onto their neighbours, but those lie where
+        they lay.) A shift that explains two or more of them, more than half of the
+        objects the arm left alone, one lost by the matching among them, is the view's.
+
+        Args:
+            seen: This look's detections and where they lie [cm].
+            taken: :meth:`_match`'s pairs: detection index → object.
+            revealed: The detections whose centre no earlier look saw (:meth:`_revealed`).
+
+        Returns:
+            Those objects and their shifts [cm] (for :func:`check_view`), or none.
+        """
+        alone = [
+            o
+            for o in self._objects
+            if not o.sorted and not o.merged and o is not self._active and not self._near_active(o)
+        ]
+        lost = {id(o) for o in alone} - {id(o) for o in taken.values()}
+        if len(alone) < 2 or not lost or not seen:
+            return []  # (all matched: check_view sees their shifts)
+        colors = np.array([d.color for d, _ in seen])
+        xy = np.array([np.asarray(p, dtype=float).reshape(2) for _, p in seen])  # (m, 2)
+        area = np.array([d.area_px for d, _ in seen], dtype=float)
+
+        def at(o: TrackedObject) -> np.ndarray:
+            """Each detection's distance from where ``o`` lay, inf if not of its class [cm]."""
+            cm = np.hypot(xy[:, 0] - o.x_cm, xy[:, 1] - o.y_cm)
+            return np.where(colors == o.class_name, cm, np.inf)
+
+        # the detections no known object lies at: where a moved one may be seen
+        free = np.array([not d.merged and k not in revealed for k, (d, _) in enumerate(seen)])
+        for o in self._objects:
+            if not o.sorted:
+                free &= at(o) > VIEW_SHIFT_CM
+        gone = [o for o in alone if not np.any(at(o) <= VIEW_SHIFT_CM)]
+        if len(gone) < 2 or 2 * len(gone) <= len(alone):
+            return []
+        lay = np.array([[o.x_cm, o.y_cm] for o in gone])  # (n, 2)
+        was = np.array([float(o.area_px) for o in gone])[:, None]
+        # (n, m): detection j may be object i moved
+        fits = (
+            free[None, :]
+            & (colors[None, :] == np.array([o.class_name for o in gone])[:, None])
+            & (np.abs(area[None, :] - was) <= SAME_AREA_RATIO * was)
+        )
+
+        def explained(shift: np.ndarray) -> list[tuple[TrackedObject, np.ndarray]]:
+            off = np.linalg.norm(xy[None, :, :] - (lay + shift)[:, None, :], axis=2)
+            off = np.where(fits, off, np.inf)
+            j = np.argmin(off, axis=1)
+            return [
+                (o, xy[j[i]] - lay[i]) for i, o in enumerate(gone) if off[i, j[i]] <= SAME_SHIFT_CM
+            ]
+
+        for i, o in enumerate(gone):
+            if id(o) not in lost:
+                continue
+            for j in np.flatnonzero(fits[i]):
+                moves = explained(xy[j] - lay[i])
+                for _ in range(2):  # the shift their mean says, not one pair's
+                    if len(moves) < 2:
+                        break
+                    moves = explained(np.mean([m for _, m in moves], axis=0))
+                if (
+                    len(moves) >= 2
+                    and 2 * len(moves) > len(alone)
+                    and any(id(m) in lost for m, _ in moves)
+                ):
+                    return moves
+        return []
 
     def _untouched(self, obj: TrackedObject, det: Detection) -> bool:
         """Whether the arm left ``obj`` alone since the last look and both saw it whole."""
