@@ -301,7 +301,11 @@ class ClawEye:
         config: The whole config (its tool's marker; a perspective calibration).
         model: The arm's kinematic model.
         camera: The calibrated camera.
-        read: Reads a frame (BGR) of the camera, with the arm where it is now.
+        read: Reads a frame (BGR) of the camera, with the arm where it is now, checked as
+            the table's looks' frames are, by the same check (the sort's:
+            :meth:`~mearm.vision.frame_check.FrameCheck.read`): a black frame shows no
+            marker, and a frozen stream's shows the claw where it was; either raises
+            :class:`~mearm.vision.errors.CameraError`, which stops the sort.
         hold: Holds the arm still for a time [s] (:meth:`~mearm.hardware.bus.ServoBus.hold`).
     """
 
@@ -353,6 +357,9 @@ class ClawEye:
         Returns:
             The look, or ``None`` when the marker is not in view or is seen implausibly
             far (:data:`MAX_CORRECTION_CM`) from where it should be.
+
+        Raises:
+            CameraError: the frame is black or the stream froze (``read``'s check).
         """
         from mearm.vision.aruco import diagonal_center  # noqa: PLC0415  (a claw camera's only)
         from mearm.vision.claw_marker import find_claw_marker  # noqa: PLC0415

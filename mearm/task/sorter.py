@@ -35,6 +35,7 @@ The loop is here; its parts each have a module: following the objects from look 
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
+from functools import partial
 from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
@@ -227,11 +228,12 @@ class Sorter(PickAndPlace):
         #: asks for it (``servo.calibrate_at_start``); ``None``: this command cannot.
         self.calibrate_first = calibrate_first
         self.model = model if model is not None else ArmModel(config.arm)
+        #: Every frame the sort acts on, the claw's looks' too, passes this one check.
+        self.frame_check = FrameCheck(camera.source)
         self._calibrated_parts(config, view)
         self.reporter = Reporter(
             config, self.model.chain, log, echo, trial, simulated=in_bins is not None
         )
-        self.frame_check = FrameCheck(camera.source)
         #: The object the arm last went for (the only one it may have moved since).
         self._active: TrackedObject | None = None
         self._active_from_cm = (0.0, 0.0)
@@ -257,9 +259,11 @@ class Sorter(PickAndPlace):
             config.vision, config.calibration, config.camera, config.task.classes,
             geometry=self.calibration,
         )  # fmt: skip
+        read = partial(self.frame_check.read, self.camera)
         #: The camera watching the claw's marker (picks that look), where the tool carries
         #: one, the camera is calibrated as a perspective one and the config asks for it.
-        self.eye = claw_eye(config, self.model, self.calibration, self.camera.read, self.bus.hold)
+        #: Its frames pass the table's looks' check (black, frozen: :attr:`frame_check`).
+        self.eye = claw_eye(config, self.model, self.calibration, read, self.bus.hold)
         #: The arm's body where the calibrated camera sees it (a perspective camera only:
         #: a homography knows only the table's plane); no object is looked for there.
         self.arm_view = arm_view(

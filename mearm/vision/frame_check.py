@@ -11,14 +11,25 @@ table is clear; the object just picked is still there) and move on it, so each i
   (:attr:`~mearm.vision.camera.Camera.frame_time_s`) gives a frame no newer than the one
   before it, though its clock has moved on since (two reads at one instant of a
   simulated clock are the same frame, not a frozen stream).
+
+Every frame the sort acts on goes through the one check of its camera: the table's looks
+and the looks at the claw alike (:meth:`FrameCheck.read`). A frozen stream gives again the
+last frame read, whoever read it: a look at the table after the claw's last look checked
+against the table's look before would take the claw's frame (the object still on the
+table, the jaws about to close) for a new one.
 """
 
 from __future__ import annotations
+
+from typing import TYPE_CHECKING
 
 import cv2
 import numpy as np
 
 from mearm.vision.errors import CameraError
+
+if TYPE_CHECKING:
+    from mearm.vision.camera import Camera
 
 #: Grey level a lit pixel reaches [0–255]: a table under room light is far brighter; a
 #: covered lens or a dark room reads a few levels of sensor noise.
@@ -38,6 +49,31 @@ class FrameCheck:
     def __init__(self, source: str):
         self.source = source
         self._last_time_s: float | None = None
+
+    def read(self, camera: Camera) -> np.ndarray:
+        """Read a frame of ``camera`` and :meth:`check` it: the frame, fit to act on.
+
+        A frame ``camera`` gave past this check before (its
+        :attr:`~mearm.vision.camera.Camera.frame_time_s` as the read begins: another
+        part's read) counts as the one before (:meth:`after`).
+
+        Raises:
+            CameraError: the read failed, the frame is black, or the stream froze.
+        """
+        self.after(camera.frame_time_s)
+        frame = camera.read()
+        self.check(frame, camera.frame_time_s, camera.clock_s)
+        return frame
+
+    def after(self, time_s: float | None) -> None:
+        """The frames checked from now on follow one taken at ``time_s`` [s], read elsewhere.
+
+        A frame read past this check (the servos' calibration at the start of a sort, with
+        a check of its own) is what a stream that froze since gives again: the next
+        frame checked must be newer, as after one checked here. ``None``: none known.
+        """
+        if time_s is not None and (self._last_time_s is None or time_s > self._last_time_s):
+            self._last_time_s = time_s
 
     def check(
         self, frame: np.ndarray, time_s: float | None = None, now_s: float | None = None
