@@ -292,6 +292,7 @@ class Sorter(PickAndPlace):
         config, lines = self.calibrate_first(
             self.config, self.camera, self.bus, self.model, simulated=simulated
         )
+        self.frame_check.after(self.camera.frame_time_s)  # its last frame: the next is newer
         # a recording keeps the calibration: its replay runs the servos as this sort does
         keep = getattr(self.recorder, "servos_calibrated", None)
         if keep is not None:

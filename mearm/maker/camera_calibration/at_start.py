@@ -20,7 +20,11 @@ the config's consistency checks fail) stops the sort before its first pick
 (:class:`~mearm.task.sorter.StartCalibrationFailed`, exit 1) rather than sorting on the
 nominal calibration: the sort was asked to run on measured servos, and a fit that fails
 means the marker is not where the arm puts it (a loose horn, a camera moved since its
-calibration), which the nominal calibration would not survive either.
+calibration), which the nominal calibration would not survive either. **A camera that
+fails** (a black frame, a frozen stream: the procedure's looks pass a
+:class:`~mearm.vision.frame_check.FrameCheck`, as the sort's do) stops it the same way,
+the camera named (``… by the camera: camera: camera (twin): the stream froze: …``): its
+frames show the marker nowhere, or where the arm was, and the fit would be blamed.
 """
 
 from __future__ import annotations
@@ -112,8 +116,9 @@ def calibrate(config: Config, rig: Rig, *, simulated: bool) -> Calibrated:
     """Run the procedure on the open rig, the arm at home: the fit (:func:`hand_over` it).
 
     Raises:
-        CameraCalibrationFailed: the fit did not converge or was refused (the arm
-            parked where it could be).
+        CameraCalibrationFailed: the fit did not converge or was refused, or the camera
+            failed (a black frame, a frozen stream: ``camera: …``); the arm parked where
+            it could be.
         ServoError: a fault while moving (the arm held where it is).
         KeyboardInterrupt: Ctrl-C, the arm parked.
     """

@@ -49,6 +49,7 @@ from mearm.maker.camera_calibration.settings import (
 from mearm.task.claw_fit import ClawCamera, ServoFit, Sighting
 from mearm.task.rig import Rig
 from mearm.vision.claw_marker import find_claw_marker
+from mearm.vision.frame_check import FrameCheck
 from mearm.vision.pinhole import PerspectiveCamera
 
 
@@ -85,6 +86,9 @@ class CameraSession(SafeMoves):
         fits: How many fits the bus has sent so far.
         held_s: The time the arm was held still for the looks [s].
         result: The calibration :meth:`run` returned (``None``: not yet, or none).
+        frame_check: Refuses a black frame and a frozen stream
+            (:class:`~mearm.vision.frame_check.FrameCheck`): a camera fault, not a marker
+            out of view nor a fit that does not converge.
     """
 
     def __init__(
@@ -115,6 +119,7 @@ class CameraSession(SafeMoves):
         self.visited: list[np.ndarray] = []
         self.out = out
         self.result: CameraFit | None = None
+        self.frame_check = FrameCheck(rig.camera.source)
 
     def say(self, text: str) -> None:
         """Print a line of progress."""
@@ -199,11 +204,17 @@ class CameraSession(SafeMoves):
         A marker whose corners are not a square's image (:data:`MAX_SQUARE_RMS_PX`: cut by
         something in front of it) counts as not seen. The pulses are the ones the bus
         holds, to the µs.
+
+        Raises:
+            CameraError: the frame is black, or the stream froze (:attr:`frame_check`): a
+                black frame shows no marker, a frozen one the marker where the arm was,
+                which no fit matches.
         """
         self.bus.hold(SETTLE_S)
         self.held_s += SETTLE_S
         self.looks += 1
-        seen = find_claw_marker(self.rig.camera.read(), self.marker, self.claw.camera)
+        frame = self.frame_check.read(self.rig.camera)
+        seen = find_claw_marker(frame, self.marker, self.claw.camera)
         if seen is None or seen.rms_px > MAX_SQUARE_RMS_PX:
             return None
         state = self.bus.state
@@ -321,6 +332,7 @@ class CameraSession(SafeMoves):
         Raises:
             CameraCalibrationFailed: the marker not seen in the first :data:`FIRST_FEW`
                 looks, or :meth:`final_fit` refuses.
+            CameraError: a frame is black, or the stream froze (:attr:`frame_check`).
             ServoError: a fault while moving (the caller holds the arm).
         """
         ex = self.executor
@@ -366,9 +378,11 @@ class CameraSession(SafeMoves):
 
         Raises:
             CameraCalibrationFailed: no point over the view would show the marker.
+            CameraError: a frame is black, or the stream froze (:attr:`frame_check`).
         """
         self.executor.home_pose()
-        self.objects = objects_seen(self.present, self.claw.camera, self.rig.camera.read())
+        frame = self.frame_check.read(self.rig.camera)
+        self.objects = objects_seen(self.present, self.claw.camera, frame)
         self._collision, self._planner = {}, {}  # with the objects seen
         self.tops_cm = tops_cm(self.present, self.objects)
         if self.objects:
