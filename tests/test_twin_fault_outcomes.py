@@ -1,0 +1,51 @@
+"""What a sort and a sweep say when the twin's injected faults strike (simulated).
+
+The scene is the two objects of ``tests/test_twin_faults.py``: the red one is picked from
+0.02 s to about 1.4 s of simulated time and brought over the red bin, whose place is
+confirmed at about 1.6 s. The outcome must be the twin's: an object it has in its bin is
+sorted whatever stopped the sort.
+"""
+
+from __future__ import annotations
+
+import pytest
+from conftest import ROOT
+
+from mearm.runlog import read_runlog
+from mearm.sort import main as sort_main
+
+pytestmark = pytest.mark.heavy
+
+TWO = "task.scene=[{color: red, x: -5, y: 45}, {color: green, x: 6, y: 50}]"
+CONFIG = ROOT / "configs" / "sim_mujoco.yaml"
+
+
+def _sort_with(fault: str, tmp_path, capsys):
+    """Sort the two objects with one fault: (exit code, stdout, stderr, the log's trial)."""
+    log = tmp_path / "run.jsonl"
+    code = sort_main(
+        ["--config", str(CONFIG), "--set", TWO, "--set", f"twin.faults=[{fault}]",
+         "--log", str(log)]
+    )  # fmt: skip
+    out, err = capsys.readouterr()
+    (trial,) = read_runlog(log, strict=True).trials
+    assert trial.summary is not None, "the log ends with its summary"
+    return code, out, err, trial
+
+
+def test_an_object_the_twin_has_in_its_bin_is_sorted_though_a_fault_stopped_the_place(
+    tmp_path, capsys
+):
+    """The shoulder goes limp at 1.5 s, the red object in the jaws over its bin: the jaws
+    sink into the bin and the joint stalls before the place is confirmed. The twin has
+    the red object in its bin: the sort counts it sorted (it said 0 of 2, 2 stopped by a
+    fault), as ``mearm twin-scenes`` counts it."""
+    code, out, _err, trial = _sort_with(
+        "{kind: limp_servo, joint: shoulder, at_s: 1.5}", tmp_path, capsys
+    )
+    assert code == 1  # the sort stopped on the fault
+    assert "sorted 1 of 2 objects (simulated; 1 stopped by a fault)" in out.splitlines()
+    summary = trial.summary
+    assert summary is not None and not summary.ok
+    assert summary.sorted == {"red": 1, "green": 0, "blue": 0}
+    assert summary.left == {"fault": 1}
