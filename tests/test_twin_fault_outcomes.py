@@ -49,3 +49,18 @@ def test_an_object_the_twin_has_in_its_bin_is_sorted_though_a_fault_stopped_the_
     assert summary is not None and not summary.ok
     assert summary.sorted == {"red": 1, "green": 0, "blue": 0}
     assert summary.left == {"fault": 1}
+
+
+def test_a_stall_after_a_limp_servo_names_the_servo_not_what_the_arm_sank_onto(tmp_path, capsys):
+    """The elbow goes limp at 1.5 s: the arm sags, its jaws come down on the table and the
+    shoulder, held back, stalls. The stop names the limp elbow (it said the jaw "presses
+    on table", a contact, as if the arm had pressed on something of its own motion)."""
+    code, _out, err, trial = _sort_with(
+        "{kind: limp_servo, joint: elbow, at_s: 1.5}", tmp_path, capsys
+    )
+    assert code == 1
+    (fault,) = trial.faults
+    assert "stalled: at rest short of its command" in fault.reason
+    assert "in the twin the elbow servo went limp at t = 1.500 s (twin.faults)" in fault.reason
+    assert "presses on" not in fault.reason
+    assert "mearm sort: stopped: joint" in err and "presses on" not in err

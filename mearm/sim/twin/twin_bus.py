@@ -62,6 +62,7 @@ import numpy as np
 
 from mearm.config import Config
 from mearm.config.servo_file import replaced_calibration
+from mearm.config.twin_faults_config import LimpServo
 from mearm.hardware.bus import ArmCommand, ServoBus
 from mearm.hardware.errors import ServoError, ServoStallError
 from mearm.kinematics.bodies import TableContents, object_name, object_of, wall_height_m
@@ -647,8 +648,12 @@ class TwinArm(ServoBus):
         servo = self.servos[k]
         if servo.amap.combined:  # the values are its servo's: say what that turns
             detail += f" ({servo.amap.servo_text})"
-        pressed = self._pressed_on()
-        if pressed is not None:  # what a real rig cannot say, and the twin can
+        limp = [f for f in self.faults.struck if isinstance(f, LimpServo)]
+        if limp:  # the cause, not what the limp arm sank onto (the table, a bin's wall)
+            detail += ", in the twin " + ", ".join(
+                f"the {f.joint} servo went limp at t = {f.at_s:.3f} s (twin.faults)" for f in limp
+            )
+        elif (pressed := self._pressed_on()) is not None:  # what only a simulator can say
             detail += f", {pressed}"
         return ServoStallError(
             servo.name,
