@@ -64,3 +64,26 @@ def test_a_stall_after_a_limp_servo_names_the_servo_not_what_the_arm_sank_onto(t
     assert "in the twin the elbow servo went limp at t = 1.500 s (twin.faults)" in fault.reason
     assert "presses on" not in fault.reason
     assert "mearm sort: stopped: joint" in err and "presses on" not in err
+
+
+def test_a_fault_that_struck_unnoticed_is_kept_in_the_run_log(tmp_path, capsys):
+    """The elbow goes limp at 4.0 s, on the way home after the last place, where it holds
+    up little: the sort never notices and sorts both. The run ran its course (exit 0,
+    ``ok``), and its log keeps the fault (it was only a warning on stderr); a fault that
+    stopped the run is kept too."""
+    code, out, _err, trial = _sort_with(
+        "{kind: limp_servo, joint: elbow, at_s: 4.0}", tmp_path, capsys
+    )
+    assert code == 0
+    assert out.splitlines()[-1] == "sorted 2 of 2 objects (simulated)"
+    assert trial.summary is not None and trial.summary.ok and not trial.faults
+    struck = {"kind": "limp_servo", "at_s": 4.0, "joint": "elbow"}
+    assert trial.summary.twin_faults == [struck]
+    assert trial.twin_faults == (struck,) and trial.finished
+
+    code, *_, trial = _sort_with(
+        "{kind: limp_servo, joint: shoulder, at_s: 1.5}, {kind: camera_black, at_s: 99}",
+        tmp_path / "stopped", capsys,
+    )  # fmt: skip
+    assert code == 1 and trial.faults
+    assert trial.twin_faults == ({"kind": "limp_servo", "at_s": 1.5, "joint": "shoulder"},)

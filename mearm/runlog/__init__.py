@@ -16,7 +16,9 @@ Layout (format 2). Every line is an object with a ``"type"``:
 - ``skip`` an object that was not sorted, and why.
 - ``fault`` a camera / servo failure or Ctrl-C, with the last joint values by name
   (``last_joints``, or null).
-- ``summary`` closes the trial; ``sorted`` counts placed objects per class name.
+- ``summary`` closes the trial; ``sorted`` counts placed objects per class name; in the
+  physical twin, ``twin_faults`` lists the injected faults (``twin.faults``) that struck,
+  including one the sort never noticed (its ``ok`` is then true: the run ran its course).
 
 **Formats.** A header's ``format`` is the format of its trial's lines. This mearm
 writes format 2 and reads formats 1 and 2: a format-1 trial (joint values as lists

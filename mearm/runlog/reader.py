@@ -97,6 +97,17 @@ class Trial:
         return self.complete and not self.interrupted and not self.recording_stopped
 
     @property
+    def twin_faults(self) -> tuple[dict[str, Any], ...]:
+        """The twin's injected faults that struck in the trial: its summary's ``twin_faults``.
+
+        Those that stopped it and those the sort never noticed (the trial is then
+        finished, its summary ``ok``).
+        """
+        if self.summary is None:
+            return ()
+        return tuple(self.summary.twin_faults or ())
+
+    @property
     def records(self) -> tuple[Record, ...]:
         """The header and every record under it (grouped by type, not in file order)."""
         summary = () if self.summary is None else (self.summary,)

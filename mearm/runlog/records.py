@@ -229,6 +229,12 @@ class SummaryRecord(_Record):
     mean_final_error_cm: _NonNegativeCm | None
     motion_s: _Seconds
     ok: bool
+    twin_faults: list[dict[_Name, Any]] | None = None
+    """The physical twin's injected faults that struck during the trial (simulated), each
+    as ``twin.faults`` gives it (``{"kind": "limp_servo", "at_s": 4.0, "joint": "elbow"}``),
+    whether the sort stopped on it or never noticed it (``ok`` then stays true: the run
+    ran its course); ``None`` when none struck, on a real rig and in logs written before
+    it existed."""
 
 
 Record = HeaderRecord | RouteRecord | SkipRecord | FaultRecord | SummaryRecord

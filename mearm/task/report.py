@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -186,6 +186,9 @@ class Reporter:
         echo: Called with each line (``None``: silent).
         trial: Trial number for the log.
         simulated: The objects are simulated: the last line says so.
+        twin_faults: In the physical twin, the injected faults that have struck so far,
+            each as ``twin.faults`` gives it; the summary record keeps them (``None``: no
+            twin).
     """
 
     def __init__(
@@ -197,8 +200,10 @@ class Reporter:
         trial: int | None,
         *,
         simulated: bool = False,
+        twin_faults: Callable[[], list[dict[str, Any]]] | None = None,
     ):
         self.config = config
+        self.twin_faults = twin_faults
         self.chain = chain
         self.log = log
         self.echo = echo or (lambda _line: None)
@@ -271,7 +276,8 @@ class Reporter:
         log's ``motion_s`` are the same figure.
 
         Args:
-            ok: Whether the run ended without a fault.
+            ok: Whether the run ran its course: no fault stopped it (one of the twin's
+                injected faults may have struck unnoticed: the log's ``twin_faults``).
             outcome: The objects seen, sorted and left.
             motion: The whole run's commanded motion (every route, home moves and tool
                 settings: :class:`~mearm.task.timing.MotionTime`); ``None``: the logged
@@ -286,6 +292,9 @@ class Reporter:
         # own sum leaves them out)
         motion_s = sum(r.motion_s for r in routes) if motion is None else motion.total_s
         if self.log is not None:
+            # a twin's fault that struck is kept even where the sort never noticed it
+            # (ok then: the run ran its course); the stderr warning alone left no trace
+            struck = [] if self.twin_faults is None else self.twin_faults()
             self.log.summary(
                 trial=self.trial,
                 ok=ok,
@@ -293,6 +302,7 @@ class Reporter:
                 objects=outcome.objects(),
                 left=dict(outcome.left),
                 motion_s=float(motion_s),
+                **({"twin_faults": struck} if struck else {}),
             )
         width = max(7, *(len(c.name) + 1 for c in self.config.task.classes))
         self.echo("")

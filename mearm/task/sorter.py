@@ -36,7 +36,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from functools import partial
-from typing import TYPE_CHECKING, Protocol
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 
@@ -232,8 +232,9 @@ class Sorter(PickAndPlace):
         self.frame_check = FrameCheck(camera.source)
         self._calibrated_parts(config, view)
         self.reporter = Reporter(
-            config, self.model.chain, log, echo, trial, simulated=in_bins is not None
-        )
+            config, self.model.chain, log, echo, trial, simulated=in_bins is not None,
+            twin_faults=_twin_faults(bus),
+        )  # fmt: skip
         #: The object the arm last went for (the only one it may have moved since).
         self._active: TrackedObject | None = None
         self._active_from_cm = (0.0, 0.0)
@@ -709,3 +710,17 @@ def _count_stopped_yet_binned(
         out.left[stopped] -= extra
         if not out.left[stopped]:
             del out.left[stopped]
+
+
+def _twin_faults(bus: ServoBus) -> Callable[[], list[dict[str, Any]]] | None:
+    """The physical twin's injected faults struck so far, as ``twin.faults`` gives them.
+
+    ``None`` for any other bus (no faults are injected there).
+    """
+
+    def struck() -> list[Any] | None:  # the twin's FaultSchedule keeps them
+        return getattr(getattr(bus, "faults", None), "struck", None)
+
+    if not isinstance(struck(), list):
+        return None
+    return lambda: [{"kind": f.kind, **f.model_dump(mode="json")} for f in struck() or ()]
