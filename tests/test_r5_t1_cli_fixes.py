@@ -124,7 +124,7 @@ def test_twin_scenes_help_gives_the_defaults(capsys):
     text = " ".join(capsys.readouterr().out.split())
     assert "seeds S … S+N−1 (default 50)" in text
     assert "objects per scene (default 12)" in text
-    assert "(0…1; default 0: report only)" in text
+    assert "(0…1; default 0: no share asked for; a scene stopped on a fault exits 1" in text
 
 
 # ------------------------------------------------------------------------- servo-steps

@@ -13,8 +13,7 @@ from conftest import ROOT
 
 from mearm.runlog import read_runlog
 from mearm.sort import main as sort_main
-
-pytestmark = pytest.mark.heavy
+from mearm.tools import twin_scenes
 
 TWO = "task.scene=[{color: red, x: -5, y: 45}, {color: green, x: 6, y: 50}]"
 CONFIG = ROOT / "configs" / "sim_mujoco.yaml"
@@ -33,6 +32,7 @@ def _sort_with(fault: str, tmp_path, capsys):
     return code, out, err, trial
 
 
+@pytest.mark.heavy
 def test_an_object_the_twin_has_in_its_bin_is_sorted_though_a_fault_stopped_the_place(
     tmp_path, capsys
 ):
@@ -51,6 +51,7 @@ def test_an_object_the_twin_has_in_its_bin_is_sorted_though_a_fault_stopped_the_
     assert summary.left == {"fault": 1}
 
 
+@pytest.mark.heavy
 def test_a_stall_after_a_limp_servo_names_the_servo_not_what_the_arm_sank_onto(tmp_path, capsys):
     """The elbow goes limp at 1.5 s: the arm sags, its jaws come down on the table and the
     shoulder, held back, stalls. The stop names the limp elbow (it said the jaw "presses
@@ -66,6 +67,7 @@ def test_a_stall_after_a_limp_servo_names_the_servo_not_what_the_arm_sank_onto(t
     assert "mearm sort: stopped: joint" in err and "presses on" not in err
 
 
+@pytest.mark.heavy
 def test_a_fault_that_struck_unnoticed_is_kept_in_the_run_log(tmp_path, capsys):
     """The elbow goes limp at 4.0 s, on the way home after the last place, where it holds
     up little: the sort never notices and sorts both. The run ran its course (exit 0,
@@ -87,3 +89,55 @@ def test_a_fault_that_struck_unnoticed_is_kept_in_the_run_log(tmp_path, capsys):
     )  # fmt: skip
     assert code == 1 and trial.faults
     assert trial.twin_faults == ({"kind": "limp_servo", "at_s": 1.5, "joint": "shoulder"},)
+
+
+def test_twin_scenes_exits_1_when_a_scene_stopped_on_a_fault(monkeypatch, capsys):
+    """A sweep whose scene a fault stopped did not do its job: exit 1 and a last line on
+    stderr naming the seeds, whatever ``--require`` (until 2026-12-06 it exited 0 with
+    every scene stopped, ``--require`` defaulting to 0, "report only")."""
+    stall = "joint shoulder stalled: at rest short of its command; nothing more sent"
+
+    def swept(config, objects, seeds, jobs):  # seed 1 stopped after 1 of 2
+        for seed in seeds:
+            if seed == 1:
+                yield 2, 2, 1, 1, {"fault": 1}, stall, []
+            else:
+                yield 2, 2, 2, 2, {}, None, []
+
+    monkeypatch.setattr(twin_scenes, "sweep", swept)
+    argv = ["--config", "sim_mujoco", "--scenes", "2", "--objects", "2", "--jobs", "1"]
+    assert twin_scenes.main(argv) == 1
+    out, err = capsys.readouterr()
+    assert f"seed   1: sorted  1 of  2 (1 stopped by a fault); {stall}" in out.splitlines()
+    assert err.splitlines() == ["mearm twin-scenes: 1 of 2 scenes stopped on a fault (seed 1)"]
+    # a share asked for and not met is said too, last
+    assert twin_scenes.main([*argv, "--require", "0.9"]) == 1
+    assert capsys.readouterr().err.splitlines() == [
+        "mearm twin-scenes: 1 of 2 scenes stopped on a fault (seed 1)",
+        "mearm twin-scenes: sorted 75.0 % is below --require 0.9 (90.0 %)",
+    ]
+    # no fault: 0 (report only, --require 0)
+    assert twin_scenes.main([*argv, "--first-seed", "2"]) == 0
+    assert capsys.readouterr().err == ""
+
+
+def test_twin_scenes_names_the_first_ten_seeds_a_fault_stopped():
+    """Many stopped scenes: the first ten seeds named, the rest counted."""
+    line = twin_scenes._stopped_line(list(range(100, 112)), 50)
+    assert line == (
+        "12 of 50 scenes stopped on a fault (seeds 100, 101, 102, 103, 104, 105, 106, 107, "
+        "108, 109 and 2 more)"
+    )
+
+
+@pytest.mark.heavy
+def test_twin_scenes_in_the_twin_exits_1_on_a_limp_servo(capsys):
+    """The real sweep, one scene of 2 in this process, its shoulder limp at 0.5 s."""
+    code = twin_scenes.main(
+        ["--config", str(CONFIG), "--scenes", "1", "--objects", "2", "--jobs", "1",
+         "--set", "twin.faults=[{kind: limp_servo, joint: shoulder, at_s: 0.5}]"]
+    )  # fmt: skip
+    out, err = capsys.readouterr()
+    assert code == 1, out
+    assert "stopped by a fault" in out.splitlines()[0]
+    assert err.splitlines()[-1] == "mearm twin-scenes: 1 of 1 scene stopped on a fault (seed 0)"
