@@ -13,6 +13,7 @@ import pytest
 from conftest import ROOT
 
 from mearm.config import load_config
+from mearm.kinematics.model import ArmModel
 from mearm.runlog import read_runlog
 from mearm.sort import main as sort_main
 from mearm.task.rig import open_rig
@@ -53,6 +54,12 @@ def test_a_camera_fault_in_the_calibration_at_the_start_names_the_camera(
     assert stop.reason.startswith("the servos' calibration by the camera: "), stop.reason
     assert reason in stop.reason, stop.reason
     assert before not in stop.reason and "not where the arm puts it" not in stop.reason
+    assert stop.reason.startswith(f"the servos' calibration by the camera: {reason}")
+    # the calibration parked the arm before it gave up: the line says so, not that the
+    # servos were left where they were
+    assert stop.reason.endswith("; arm parked at home"), stop.reason
+    home = ArmModel(load_config(KITS).arm)
+    assert stop.last_joints == pytest.approx(home.chain.named(home.home), abs=0.01)
     assert reason in err
     assert trial.routes == ()
 

@@ -371,7 +371,9 @@ def measure(session: CameraSession) -> list[ActuatorFit]:
             _park(session)
         except CameraCalibrationFailed as why:  # the first reason stands
             session.say(str(why))
-        if isinstance(exc, CameraError | CalibrationError):  # a frame lost, two markers
+        if isinstance(exc, CameraError):  # a frame lost: its message names the camera
+            raise CameraCalibrationFailed(str(exc)) from None
+        if isinstance(exc, CalibrationError):  # two markers in view
             raise CameraCalibrationFailed(f"camera: {exc}") from None
         raise
     report(session, fit, session.out)

@@ -484,7 +484,7 @@ class Sorter(PickAndPlace):
             if self.recorder is not None:
                 self.recorder.end_run()
         except StartCalibrationFailed as exc:  # the arm parked where it could be
-            self._abort(f"{exc}; nothing sorted", park=False)
+            self._abort(f"{exc}; nothing sorted", park=False, parked_already=self._at_home())
         except MearmError as exc:
             self._stop_on_fault(exc)
         except KeyboardInterrupt as exc:
@@ -663,7 +663,20 @@ class Sorter(PickAndPlace):
         reason = f"run log {exc}" if logging else str(exc)
         self._abort(reason, park=recording or logging or isinstance(exc, CameraError))
 
-    def _abort(self, reason: str, *, park: bool, interrupted: bool = False) -> None:
+    def _at_home(self) -> bool:
+        """Whether the arm's last confirmed pose is home (within a hundredth of a degree)."""
+        if not self.bus.is_connected or self.bus.fault is not None or self.bus.state is None:
+            return False
+        return bool(np.allclose(self.executor.q_now(), self.model.home, atol=np.radians(0.01)))
+
+    def _abort(
+        self, reason: str, *, park: bool, interrupted: bool = False, parked_already: bool = False
+    ) -> None:
+        """Stop the sort: park (``park``) or send nothing more, log the fault, raise.
+
+        ``parked_already``: the arm is at home, parked by what failed (the calibration by
+        the camera at the start), and the last line says so.
+        """
         bus = self.bus
         # The view is for the eye; safety comes first: an interrupt may have cut a request
         # to the view's server in half, so parking goes on without it.
@@ -679,6 +692,8 @@ class Sorter(PickAndPlace):
                 why = str(exc) if isinstance(exc, MearmError) else f"{interrupts.named(exc)} again"
                 parked = f"; parking failed ({why})"
                 bus.stop()
+        elif parked_already:
+            parked = "; arm parked at home"
         else:
             parked = "; nothing more sent to the servos"
         full = reason + parked
