@@ -141,3 +141,20 @@ def test_twin_scenes_in_the_twin_exits_1_on_a_limp_servo(capsys):
     assert code == 1, out
     assert "stopped by a fault" in out.splitlines()[0]
     assert err.splitlines()[-1] == "mearm twin-scenes: 1 of 1 scene stopped on a fault (seed 0)"
+
+
+@pytest.mark.heavy
+def test_analyze_says_which_twin_faults_struck(tmp_path, capsys):
+    """A fault that struck and never mattered is in ``mearm analyze``'s text too, not only
+    in the log: the user reading the tables learns the run had one injected."""
+    from mearm.analyze import main as analyze_main
+
+    log = tmp_path / "run.jsonl"
+    assert sort_main(
+        ["--config", str(CONFIG), "--set", TWO, "--log", str(log), "--quiet",
+         "--set", "twin.faults=[{kind: limp_servo, joint: elbow, at_s: 4.0}]"]
+    ) == 0  # fmt: skip
+    capsys.readouterr()
+    assert analyze_main([str(log), "--out", str(tmp_path / "analysis")]) == 0
+    out = capsys.readouterr().out
+    assert "twin faults that struck: 1 in 1 trial (twin.faults, injected; simulated)" in out

@@ -69,6 +69,10 @@ class Analysis:
             (``grip_ee_cm``), or ``None`` when the log has none.
         failures: The routes that ran, were checked and failed, every attempt, counted
             by step and why (:func:`failure_counts`), most first.
+        twin_faults: The twin's injected faults (``twin.faults``) that struck, over the
+            trials (their summaries' ``twin_faults``): those that stopped a trial, and
+            those that struck and never mattered.
+        twin_fault_trials: The trials in which one struck.
     """
 
     source: str
@@ -89,6 +93,8 @@ class Analysis:
     table6: dict[str, IterationStats]
     grip: ErrorTable | None = None
     failures: tuple[FailureCount, ...] = ()
+    twin_faults: int = 0
+    twin_fault_trials: int = 0
 
 
 @dataclass(frozen=True)
@@ -206,6 +212,8 @@ def analyze(
         table6=table6,
         grip=_grip_errors(routes, first_attempt=first_attempt),
         failures=failure_counts(routes),
+        twin_faults=sum(len(t.twin_faults) for t in contents.trials),
+        twin_fault_trials=sum(1 for t in contents.trials if t.twin_faults),
     )
 
 

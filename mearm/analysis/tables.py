@@ -176,6 +176,15 @@ def table9(a: Analysis) -> Table:
                 if a.faults
                 else []
             ),
+            *(
+                [
+                    f"twin faults that struck: {a.twin_faults} in {a.twin_fault_trials} "
+                    f"trial{'' if a.twin_fault_trials == 1 else 's'} (twin.faults, injected; "
+                    "simulated)"
+                ]
+                if a.twin_faults
+                else []
+            ),
         ),
     )
 
