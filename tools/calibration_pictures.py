@@ -32,7 +32,7 @@ import cv2  # noqa: E402
 import numpy as np  # noqa: E402
 from PIL import Image  # noqa: E402
 
-from mearm.cli import ArgumentParser, run  # noqa: E402
+from mearm.cli import ArgumentParser, check_output_folder, run  # noqa: E402
 from mearm.config import Config, load_config  # noqa: E402
 from mearm.errors import MearmError  # noqa: E402
 from mearm.fileio import write_atomic  # noqa: E402
@@ -306,6 +306,7 @@ def main(argv: list[str] | None = None) -> int:
     )  # fmt: skip
     parser.add_argument("--out", type=Path, default=ROOT / "docs" / "images", help="folder")
     args = parser.parse_args(argv)
+    check_output_folder(args.out, "--out")  # a file there, or above it: exit 2, one line
     config = load_config(args.config)
     if config.simulator != "mujoco":
         raise MearmError(f"{args.config}: simulator is {config.simulator!r}; this needs the twin")

@@ -41,7 +41,7 @@ from typing import Any
 import cv2
 import numpy as np
 
-from mearm.cli import ArgumentParser, run
+from mearm.cli import ArgumentParser, check_output_folder, run
 from mearm.config import Config, load_config
 from mearm.kinematics import ArmModel
 
@@ -363,6 +363,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
     args = parser.parse_args(argv)
     groups = args.only or list(GROUPS)
+    check_output_folder(args.out, "--out")  # a file there, or above it: exit 2, one line
     args.out.mkdir(parents=True, exist_ok=True)
     configs = ROOT / "configs"
     if "twin" in groups:
