@@ -53,3 +53,34 @@ def test_an_out_that_is_not_a_folder_is_refused_in_one_line(
     assert "--out" in line and says in line, line
     assert "unexpected" not in line and "wrote" not in out
     assert (tmp_path / "afile").read_text() == "mine"
+
+
+def test_screenshots_says_a_picture_it_could_not_write(tmp_path, capsys):
+    """A folder where a picture goes: exit 2, one line naming it, no ``wrote`` line for it
+    (cv2.imwrite's False was ignored: exit 0 and ``wrote`` of a picture never written)."""
+    (tmp_path / "frames_mearm_v1.png").mkdir()
+    code = _exit_of(_tool("screenshots").main, ["--only", "frames", "--out", str(tmp_path)])
+    out, err = capsys.readouterr()
+    (line,) = err.strip().splitlines()
+    assert code == 2, line
+    assert f"cannot write {tmp_path / 'frames_mearm_v1.png'}: Is a directory" in line, line
+    assert "frames_mearm_v1.png" not in out
+    assert (tmp_path / "frames_mearm_v1.png").is_dir()
+
+
+def test_screenshots_replaces_a_picture_in_one_step(tmp_path, capsys):
+    """The new picture is renamed over the old one, not written into it: a second name
+    of the old file (a hard link) keeps the old bytes, and no temporary file is left."""
+    old = tmp_path / "frames_mearm_v1.png"
+    old.write_bytes(b"the old picture")
+    (tmp_path / "kept.png").hardlink_to(old)
+    code = _exit_of(_tool("screenshots").main, ["--only", "frames", "--out", str(tmp_path)])
+    assert code == 0, capsys.readouterr().err
+    assert (tmp_path / "kept.png").read_bytes() == b"the old picture"
+    assert old.read_bytes().startswith(b"\x89PNG")
+    assert sorted(p.name for p in tmp_path.iterdir()) == [
+        "frames_mearm_paper.png",
+        "frames_mearm_v1.png",
+        "kept.png",
+    ]
+    assert f"wrote {old}" in capsys.readouterr().out

@@ -21,6 +21,9 @@ A file of the same name in the output folder is replaced without asking (no ``--
 unlike the ``mearm`` commands): this is a developer tool whose job is to redraw the
 pictures committed under ``docs/images/`` (CONTRIBUTING.md: never by hand), and git keeps
 the ones it replaces. Give ``--out`` another folder to keep a folder's PNGs as they are.
+Each PNG is written to a temporary file beside it, then renamed over the old one: a failed
+write or a stop leaves the old picture whole, and a picture that could not be written
+(a folder of its name there, a full disk) stops the tool with one line, exit 2 or 1.
 
 Examples::
 
@@ -43,6 +46,8 @@ import numpy as np
 
 from mearm.cli import ArgumentParser, check_output_folder, run
 from mearm.config import Config, load_config
+from mearm.errors import MearmError
+from mearm.fileio import write_atomic
 from mearm.kinematics import ArmModel
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -60,6 +65,32 @@ TWIN_SHOTS: dict[str, tuple[str, float, float]] = {
 FRAME_SHOTS = {"frames_mearm_v1.png": "sim_mearm_v1.yaml", "frames_mearm_paper.png": "sim.yaml"}
 TWIN_SIZE_PX = (800, 560)
 PNG = [cv2.IMWRITE_PNG_COMPRESSION, 9]
+
+
+def write_png(out: Path, bgr: np.ndarray, params: Sequence[int] = PNG) -> Path:
+    """Encode ``bgr`` as a PNG and put it at ``out`` in one step; return ``out``.
+
+    Written to a temporary file in ``out``'s folder, then renamed over ``out``
+    (:func:`~mearm.fileio.write_atomic`): a failure or a stop leaves the earlier picture
+    whole.
+
+    Raises:
+        MearmError: the picture was not written: a folder at ``out`` (exit 2), or the
+            write failed (a full disk: exit 1).
+    """
+    ok, png = cv2.imencode(".png", bgr, list(params))
+    if not ok:
+        error = MearmError(f"cannot write {out}: OpenCV could not encode the picture as PNG")
+        error.exit_status = 1
+        raise error
+    try:
+        write_atomic(out, png.tobytes())
+    except OSError as exc:
+        error = MearmError(f"cannot write {out}: {exc.strerror or exc}")
+        if not isinstance(exc, IsADirectoryError):
+            error.exit_status = 1  # the run failed; not the user's input
+        raise error from None
+    return out
 
 
 # ----------------------------------------------------------------------------- twin
@@ -140,8 +171,7 @@ def _render(model: Any, data: Any, out: Path, azimuth_deg: float, elevation_deg:
     seen = np.argwhere(rgb.max(axis=2) > 12)  # the scene without the empty sky around it
     (top, left), (bottom, right) = seen.min(axis=0), seen.max(axis=0)
     rgb = rgb[max(0, top - 8) : bottom + 8, max(0, left - 8) : right + 8]
-    cv2.imwrite(str(out), cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR), PNG)
-    return out
+    return write_png(out, cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR))
 
 
 # ----------------------------------------------------------------------------- frames
@@ -203,8 +233,7 @@ def draw_frames(config_path: Path, out: Path) -> Path:
             )
     for k, text in enumerate(lines):
         cv2.putText(canvas, text, (12, size[1] + 26 + 22 * k), _FONT, 0.45, _INK, 1, cv2.LINE_AA)
-    cv2.imwrite(str(out), canvas, PNG)
-    return out
+    return write_png(out, canvas)
 
 
 _FONT = cv2.FONT_HERSHEY_SIMPLEX
@@ -315,7 +344,7 @@ def render_env(out: Path) -> Path:
         size = (round(small.shape[1] * scale), frame.shape[0])
         seen = cv2.resize(small, size, interpolation=cv2.INTER_NEAREST)
         both = np.hstack([frame, np.full((frame.shape[0], 8, 3), 255, np.uint8), seen])
-        cv2.imwrite(str(out), cv2.cvtColor(both, cv2.COLOR_RGB2BGR))
+        write_png(out, cv2.cvtColor(both, cv2.COLOR_RGB2BGR), [])
     finally:
         env.close()
     return out
@@ -336,7 +365,7 @@ def render_dataset(out: Path) -> Path:
              "--seed", "0", "--set", "camera.noise_std=0", "--record", str(root), "--quiet"],
             check=True,
         )  # fmt: skip
-        contact_sheet(root, out, per_episode=3, max_episodes=1)
+        contact_sheet(root, out, per_episode=3, max_episodes=1)  # in one step, or an error
     return out
 
 
