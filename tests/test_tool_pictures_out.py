@@ -1,13 +1,19 @@
 """tools/calibration_pictures.py and tools/screenshots.py: where their pictures go.
 
 An ``--out`` that is not a folder is refused in one line (exit 2), as the mearm commands
-refuse it; a picture that cannot be written is said (not ``wrote``).
+refuse it; a picture that cannot be written is said (not ``wrote``); calibration_pictures
+replaces an earlier run's five pictures together, or leaves them as they were.
 """
 
 from __future__ import annotations
 
 import importlib.util
+import os
+import signal
+import subprocess
 import sys
+import time
+from pathlib import Path
 from types import ModuleType
 
 import pytest
@@ -84,3 +90,58 @@ def test_screenshots_replaces_a_picture_in_one_step(tmp_path, capsys):
         "kept.png",
     ]
     assert f"wrote {old}" in capsys.readouterr().out
+
+
+CALIBRATION_PICTURES = (
+    "calibration_board.png",
+    "calibration_board_views.png",
+    "calibration_sheet.png",
+    "calibration_objects.png",
+    "calibration_parallax.png",
+)
+
+
+def _earlier_run(out: Path) -> dict[str, bytes]:
+    """An earlier run's five pictures (stand-ins) in ``out``, and a file of the user's."""
+    out.mkdir()
+    old = {name: f"earlier {name}".encode() for name in CALIBRATION_PICTURES}
+    old["notes.txt"] = b"mine"
+    for name, data in old.items():
+        (out / name).write_bytes(data)
+    return old
+
+
+def test_calibration_pictures_sigterm_leaves_the_earlier_run_whole(tmp_path):
+    """SIGTERM once the run has written its second picture: the earlier run's five stay, as
+    they were, and no hidden folder (they were replaced one by one, a mix of two runs)."""
+    out = tmp_path / "out"
+    old = _earlier_run(out)
+    env = {**os.environ, "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl")}
+    proc = subprocess.Popen(
+        [sys.executable, str(ROOT / "tools" / "calibration_pictures.py"), "--out", str(out)],
+        cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+    )  # fmt: skip
+    deadline = time.monotonic() + 120  # a hang only
+    while proc.poll() is None and time.monotonic() < deadline:
+        views = list(out.rglob("calibration_board_views.png"))
+        if any(p.read_bytes().startswith(b"\x89PNG") for p in views if p.is_file()):
+            break
+        time.sleep(0.005)
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 143, err
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == old
+
+
+def test_calibration_pictures_replaces_the_earlier_run(tmp_path, capsys):
+    """Without --force (as tools/screenshots.py), all five at once; the user's file stays."""
+    out = tmp_path / "out"
+    old = _earlier_run(out)
+    code = _exit_of(_tool("calibration_pictures").main, ["--out", str(out)])
+    text, err = capsys.readouterr()
+    assert code == 0, err
+    assert sorted(p.name for p in out.iterdir()) == sorted(old)
+    for name in CALIBRATION_PICTURES:
+        assert (out / name).read_bytes().startswith(b"\x89PNG")
+        assert f"wrote {out / name} (" in text
+    assert (out / "notes.txt").read_bytes() == b"mine"

@@ -17,11 +17,21 @@ with the twin's sensor noise of 2 levels:
 The calibrations these pictures use are fitted here the way the tools fit them (same
 board views and marker sheet as ``mearm render-calibration --noise-std 2``). Each PNG is
 downscaled or palette-quantised to stay under 150 KB. Prints each file and its size.
+
+The five PNGs in the output folder are replaced without asking (no ``--force``, as
+``tools/screenshots.py``): this developer tool redraws the pictures committed under
+``docs/images/`` (CONTRIBUTING.md: never by hand), and git keeps the ones it replaces;
+give ``--out`` another folder to keep a folder's PNGs as they are. The run writes all five
+into a hidden folder in ``--out`` first (``.calibration_pictures.<pid>.tmp``), then renames
+them over the earlier run's (:func:`mearm.fileio.replace_earlier_run`): a failure, Ctrl-C
+or SIGTERM leaves the earlier run's pictures, all five as they were, never a mix of two
+runs. A hidden folder a SIGKILL left behind is removed by the next run.
 """
 
 from __future__ import annotations
 
 import io
+import shutil
 import sys
 from pathlib import Path
 
@@ -35,7 +45,13 @@ from PIL import Image  # noqa: E402
 from mearm.cli import ArgumentParser, check_output_folder, run  # noqa: E402
 from mearm.config import Config, load_config  # noqa: E402
 from mearm.errors import MearmError  # noqa: E402
-from mearm.fileio import write_atomic  # noqa: E402
+from mearm.fileio import (  # noqa: E402
+    remove_staging_leftovers,
+    replace_earlier_run,
+    staging_folder,
+    write_atomic,
+)
+from mearm.interrupts import signals_deferred, stop_signals_as_ctrl_c  # noqa: E402
 
 #: Noise of the rendered frames [8-bit levels] (as ``render-calibration --noise-std 2``).
 NOISE = 2.0
@@ -45,6 +61,16 @@ VIEWS, SHOWN = 15, (0, 4, 6, 9, 13, 11)
 OBJECT_HEIGHT_CM = 2.5
 #: Largest PNG written [bytes].
 MAX_BYTES = 150_000
+#: The pictures a run writes, all or none (an earlier run's are replaced as a whole).
+NAMES = (
+    "calibration_board.png",
+    "calibration_board_views.png",
+    "calibration_sheet.png",
+    "calibration_objects.png",
+    "calibration_parallax.png",
+)
+#: Names the hidden folder in --out a run writes into first (:func:`mearm.fileio.staging_folder`).
+_COMMAND = "calibration_pictures"
 
 
 def _save(path: Path, bgr: np.ndarray, colors: int = 0) -> None:
@@ -61,7 +87,6 @@ def _save(path: Path, bgr: np.ndarray, colors: int = 0) -> None:
     if len(data) > MAX_BYTES:
         raise MearmError(f"{path.name}: {len(data)} bytes, more than {MAX_BYTES}")
     write_atomic(path, data)
-    print(f"wrote {path} ({len(data) // 1024} KB)")
 
 
 def _text(img: np.ndarray, text: str, org: tuple[int, int], scale: float = 0.5) -> None:
@@ -304,18 +329,60 @@ def main(argv: list[str] | None = None) -> int:
         "--config", type=Path, default=ROOT / "configs" / "sim_mujoco_perspective.yaml",
         help="the twin's config (configs/sim_mujoco_perspective.yaml)",
     )  # fmt: skip
-    parser.add_argument("--out", type=Path, default=ROOT / "docs" / "images", help="folder")
+    parser.add_argument(
+        "--out",
+        type=Path,
+        default=ROOT / "docs" / "images",
+        help="folder for the PNGs (default: docs/images); the five PNGs of an earlier run "
+        "there are replaced, together, without a --force: the tool redraws the committed "
+        "pictures, and git keeps the old ones",
+    )
     args = parser.parse_args(argv)
     check_output_folder(args.out, "--out")  # a file there, or above it: exit 2, one line
     config = load_config(args.config)
     if config.simulator != "mujoco":
         raise MearmError(f"{args.config}: simulator is {config.simulator!r}; this needs the twin")
-    args.out.mkdir(parents=True, exist_ok=True)
-    board_page_picture(args.out)
-    intrinsics = board_views(config, args.out)
-    camera, layout = sheet_picture(config, intrinsics, args.out)
-    objects_pictures(config, camera, layout, args.out)
+    try:
+        args.out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise MearmError(f"cannot make --out {args.out}: {exc.strerror or exc}") from None
+    with stop_signals_as_ctrl_c():  # a SIGTERM or SIGHUP, too, removes the hidden folder
+        remove_staging_leftovers(args.out, _COMMAND)
+        staging = staging_folder(args.out, _COMMAND)
+        try:
+            staging.mkdir()
+            board_page_picture(staging)
+            intrinsics = board_views(config, staging)
+            camera, layout = sheet_picture(config, intrinsics, staging)
+            objects_pictures(config, camera, layout, staging)
+            sizes = {name: (staging / name).stat().st_size for name in NAMES}
+            _replace_earlier_run(staging, args.out)
+        except BaseException:
+            with signals_deferred():  # a second Ctrl-C does not leave the folder behind
+                shutil.rmtree(staging, ignore_errors=True)
+            raise
+    for name in NAMES:
+        print(f"wrote {args.out / name} ({sizes[name] // 1024} KB)")
     return 0
+
+
+def _is_own(path: Path) -> bool:
+    """Whether ``path`` is one of the pictures this tool writes (an earlier run's)."""
+    return path.name in NAMES and (path.is_file() or path.is_symlink())
+
+
+def _replace_earlier_run(staging: Path, out: Path) -> None:
+    """:func:`~mearm.fileio.replace_earlier_run`, a failure said in one line (exit 1)."""
+    try:
+        replace_earlier_run(staging, out, list(NAMES), _is_own)
+    except OSError as exc:
+        name = Path(exc.filename2 or exc.filename or "?").name
+        error = MearmError(
+            f"cannot replace {name} in --out {out}: {exc.strerror or exc}; the earlier "
+            "run's pictures are kept as they were"
+        )
+        error.exit_status = 1
+        raise error from None
 
 
 if __name__ == "__main__":
