@@ -69,7 +69,7 @@ from mearm.config.files import load_config, resolve_config_path
 from mearm.config.loader import config_from_dict, parse_override
 from mearm.config.sections import MAX_FRAME_SIDE_PX, WHOLE_FRAME
 from mearm.errors import MearmError
-from mearm.fileio import file_identity
+from mearm.fileio import file_identity, write_atomic
 from mearm.vision.calibration import camera_geometry, object_width_px
 from mearm.vision.detector import ColorDetector
 from mearm.vision.errors import SampleError
@@ -429,6 +429,34 @@ def _check_not_replacing(
         raise MearmError(f"--out {out} exists: pass --force to replace it")
 
 
+def _check_extends_found(out: Path, config_name: Path) -> None:
+    """Refuse, before any work, an ``--out`` whose ``extends`` would name another file.
+
+    A packaged ``--config`` (a name, not a file) is written as ``extends: NAME``, which
+    the loader reads as the file ``NAME`` beside ``out`` if there is one
+    (:func:`mearm.config.compose.expand_config`): ``--out rig/sim`` would then extend
+    itself, and a file ``rig/sim`` beside ``--out`` would be extended instead of the
+    packaged config. Either config would not be what was asked, so nothing is written.
+
+    Raises:
+        MearmError: ``out`` is named ``NAME``, or its folder holds a file of that name.
+    """
+    if config_name.exists():  # a file: written as a path relative to out's folder
+        return
+    name = str(config_name)
+    if out.name == name:
+        raise MearmError(
+            f"--out {out}: the taught config extends the packaged {name}, but a file "
+            f"named {name} extends itself and would not load: give --out another name "
+            f"(e.g. {name}_learned.yaml)"
+        )
+    if (out.parent / name).is_file():
+        raise MearmError(
+            f"--out {out}: the taught config extends the packaged {name}, but the file "
+            f"{out.parent / name} would be read instead: write it in another folder"
+        )
+
+
 def _check_area_on_frames(
     area: Sequence[tuple[float, float]], frames: Sequence[np.ndarray], sources: Sequence[str]
 ) -> None:
@@ -638,6 +666,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     samples, area = _checked_arguments(parser, args)
     check_output_file(args.out, "--out")
     _check_not_replacing(args.out, args.config, force=args.force, images=args.images)
+    _check_extends_found(args.out, args.config)
     config = config_from_args(args)
     names = config.task.class_names
     _check_samples(samples, names, str(args.config), len(args.images))
@@ -685,8 +714,16 @@ def main(argv: Sequence[str] | None = None) -> int:
         data["extends"] = str(resolve_config_path(args.config).resolve())
     learned = config_from_dict(data, source=str(args.out), path=args.out)
     _check_taught_finds(config, learned, frames, sources, samples, args.radius)
+    before = args.out.read_bytes() if args.out.is_file() else None
     write_text_atomic(args.out, text)
-    load_config(args.out)  # and its calibration files are found from there
+    try:
+        load_config(args.out)  # and its calibration files are found from there
+    except MearmError:  # a config that does not load is not left behind (nor an old one lost)
+        if before is None:
+            args.out.unlink(missing_ok=True)
+        else:
+            write_atomic(args.out, before)
+        raise
     first = (frames[0].shape[1], frames[0].shape[0])
     _warn_if_another_size(taught, config, first, sources[0])
     _print_taught(taught, whole_frame=args.whole_frame)
