@@ -2,18 +2,19 @@
 
 A folder of photos with a ``manifest.yaml`` (per image: ``file``, ``source_repo``,
 ``shapes`` with the objects' size as ``~N px``, ``objects`` per class with their
-``centres`` [px], optional ``partial`` regions ``x A-B, y C-D`` whose detections are not
-counted, an optional ``camera`` naming the camera that took it) is scored as a user's
-camera would see it: each photo scaled so its objects are as wide as the config's
-calibration sees one at its camera's centre
+``centres`` [px], optional ``partial`` regions, a list of ``{region: 'x A-B, y C-D'}``
+[px] whose detections are not counted, an optional ``camera`` naming the camera that
+took it) is scored as a user's camera would see it: each photo scaled so its objects
+are as wide as the config's calibration sees one at its camera's centre
 (:func:`object_px_of`: 32 px, 2 cm, under the paper's calibration; another calibration
 scores the photos as a nearer or farther camera sees them), the detector of a config and
 the 8-bit ``inRange`` recipe run on it, and each detection matched to the nearest
 unmatched labelled object of its class within half an object. A detection that matches
 none (another colour's object, a distractor, a wrong class) is a false positive; a
 labelled object no detection matches is missed. A manifest with no photo, or an entry
-without a size of at least 1 px, with a class the config lacks or a centre that is not a
-pixel of its photo, is refused (:class:`~mearm.errors.InputFileError` naming the entry).
+without a size of at least 1 px (and at most its photo's shorter side), with a class the
+config lacks, a centre that is not a pixel of its photo or a ``partial`` that is not a
+list of regions, is refused (:class:`~mearm.errors.InputFileError` naming the entry).
 
 With ``learn``, each source's colours are taught from its first photo that shows every
 class the source labels (a source with none is refused), as a user teaches them: one
@@ -211,13 +212,40 @@ def _centres(
     return out
 
 
-def _boxes(entry: dict, scale: float) -> list[tuple[float, float, float, float]]:
+#: A ``partial`` region as the manifest gives it, in the photo's own pixels.
+REGION = re.compile(r"\s*x\s*(\d+)\s*-\s*(\d+)\s*,\s*y\s*(\d+)\s*-\s*(\d+)\s*")
+#: How a manifest entry gives its ``partial`` regions, for the messages.
+PARTIAL_FORM = "a list of {region: 'x A-B, y C-D'} (pixels of the photo, A <= B, C <= D)"
+
+
+def _boxes(
+    entry: dict, where: str, manifest: Path, scale: float
+) -> list[tuple[float, float, float, float]]:
+    """An entry's ``partial`` regions (detections there are not counted), scaled [px].
+
+    Raises:
+        InputFileError: ``partial`` is not a list of mappings with a ``region`` text.
+    """
+    given = entry.get("partial")
+    if given is None:
+        return []
+    if not isinstance(given, list):
+        raise InputFileError(
+            str(manifest), f"{where}: 'partial' is {given!r:.60}: expected {PARTIAL_FORM}"
+        )
     out = []
-    for p in entry.get("partial") or []:
-        m = re.search(r"x\s*(\d+)\s*-\s*(\d+),\s*y\s*(\d+)\s*-\s*(\d+)", str(p.get("region", "")))
-        if m:
-            x0, x1, y0, y1 = (float(g) * scale for g in m.groups())
-            out.append((x0, x1, y0, y1))
+    for i, p in enumerate(given):
+        region = p.get("region") if isinstance(p, dict) else None
+        if not isinstance(region, str):
+            got = f"region {region!r:.60}" if isinstance(p, dict) else f"{p!r:.60}"
+            raise InputFileError(
+                str(manifest), f"{where}: partial[{i}] is {got}: expected {PARTIAL_FORM}"
+            )
+        m = REGION.search(region)
+        if m is None:
+            continue
+        x0, x1, y0, y1 = (float(g) for g in m.groups())
+        out.append((x0 * scale, x1 * scale, y0 * scale, y1 * scale))
     return out
 
 
@@ -237,8 +265,9 @@ def load_photos(
 
     Raises:
         InputFileError: the manifest lists no photo, or an entry is malformed (no
-            ``file``, no object size, a class not in ``classes``, a centre that is not a
-            pixel of its photo); the message names the entry.
+            ``file``, no object size or one wider than the photo, a class not in
+            ``classes``, a centre that is not a pixel of its photo, a ``partial`` that is
+            not a list of regions); the message names the entry.
     """
     path = folder / "manifest.yaml"
     manifest = load_yaml_file(path, what="manifest")
@@ -258,7 +287,16 @@ def load_photos(
         except ImageError as exc:  # (which entry: the manifest's line, not only the photo)
             raise InputFileError(str(path), f"{where}: {exc.source}: {exc.reason}") from None
         labels = _centres(entry, where, path, frame.shape, classes)
+        h, w = frame.shape[:2]
+        if size > min(h, w):  # (scaled to nothing: no object that wide fits the photo)
+            raise InputFileError(
+                str(path),
+                f"{where}: its 'shapes' gives objects {size:g} px wide, wider than the photo "
+                f"({w}x{h} px): give the objects' width in the photo's pixels (~N px, "
+                f"1 <= N <= {min(h, w)})",
+            )
         scale = object_px / size
+        boxes = _boxes(entry, where, path, scale)
         frame = cv2.resize(frame, None, fx=scale, fy=scale, interpolation=cv2.INTER_AREA)
         photos.append(
             Photo(
@@ -266,7 +304,7 @@ def load_photos(
                 source,
                 frame,
                 {name: c * scale for name, c in labels.items()},
-                _boxes(entry, scale),
+                boxes,
                 object_px,
                 scale,
                 where,
