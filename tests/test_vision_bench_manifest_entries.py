@@ -53,3 +53,31 @@ def test_a_size_wider_than_the_photo_is_named(
     assert code == 2 and out == "" and len(lines) == 1, err
     assert "images[0] (a.png)" in err and "wider than the photo (640x480 px)" in err, err
     assert "1 <= N <= 480" in err, err
+
+
+@pytest.mark.parametrize(
+    "region", ["x 0-639; y 0-479", "x 0-639, y 0-479 and x 5-6, y 5-6", "y 0-479, x 0-639"]
+)
+def test_a_region_not_of_the_form_is_named_not_dropped(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], region: str
+) -> None:
+    """A region the pattern did not read was dropped: its detections all scored as false
+    positives (12 on the twin's frame), exit 0."""
+    code, out, err = bench(folder(tmp_path, partial=[{"region": region}]), capsys)
+    lines = err.strip().splitlines()
+    assert code == 2 and out == "" and len(lines) == 1, err
+    assert "images[0] (a.png): partial[0] is region" in err and region in err, err
+    assert "{region: 'x A-B, y C-D'}" in err, err
+
+
+def test_an_empty_region_is_named(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """``x 600-10`` keeps no pixel: the detections it was meant to leave out would count."""
+    code, _, err = bench(folder(tmp_path, partial=[{"region": "x 600-10, y 0-479"}]), capsys)
+    assert code == 2 and "partial[0] region 'x 600-10, y 0-479' is empty" in err, err
+
+
+def test_a_region_of_the_form_is_read(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """The form as the docs give it (spaces free) is read, and the run goes on."""
+    regions = [{"colour": "red", "region": "x 0-639, y 0-479"}, {"region": " x 1 - 5 ,y 2-3 "}]
+    code, _, err = bench(folder(tmp_path, partial=regions), capsys)
+    assert code == 0, err

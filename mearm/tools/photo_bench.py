@@ -224,7 +224,8 @@ def _boxes(
     """An entry's ``partial`` regions (detections there are not counted), scaled [px].
 
     Raises:
-        InputFileError: ``partial`` is not a list of mappings with a ``region`` text.
+        InputFileError: ``partial`` is not :data:`PARTIAL_FORM` (a region not read, or
+            read as another, would leave its detections counted: the scores wrong).
     """
     given = entry.get("partial")
     if given is None:
@@ -236,15 +237,18 @@ def _boxes(
     out = []
     for i, p in enumerate(given):
         region = p.get("region") if isinstance(p, dict) else None
-        if not isinstance(region, str):
+        m = REGION.fullmatch(region) if isinstance(region, str) else None
+        if m is None:  # (a region not read would count its detections as false positives)
             got = f"region {region!r:.60}" if isinstance(p, dict) else f"{p!r:.60}"
             raise InputFileError(
                 str(manifest), f"{where}: partial[{i}] is {got}: expected {PARTIAL_FORM}"
             )
-        m = REGION.search(region)
-        if m is None:
-            continue
         x0, x1, y0, y1 = (float(g) for g in m.groups())
+        if x0 > x1 or y0 > y1:
+            raise InputFileError(
+                str(manifest),
+                f"{where}: partial[{i}] region {region!r} is empty: expected {PARTIAL_FORM}",
+            )
         out.append((x0 * scale, x1 * scale, y0 * scale, y1 * scale))
     return out
 
