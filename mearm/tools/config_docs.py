@@ -46,6 +46,17 @@ def is_generated(path: Path) -> bool:
     return head.decode("utf-8", errors="replace") == GENERATED_START
 
 
+def _not_a_file(path: Path) -> str:
+    """Why ``path``, which is not a regular file, cannot be checked (for ``--check``)."""
+    if path.is_dir():
+        return "is a folder, not a file: give the page's file (e.g. docs/configuration.md)"
+    if path.exists():
+        return "is not a regular file (a device, pipe or socket): give the page's file"
+    if path.is_symlink():
+        return "is a link to no file"
+    return "no such file"
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Write the reference page, print it, or check that a written one is up to date."""
     default = default_output()
@@ -69,12 +80,18 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
     args = parser.parse_args(argv)
     if args.check is not None and not args.check.is_file():
-        parser.error(f"--check {args.check}: no such file")
+        parser.error(f"--check {args.check}: {_not_a_file(args.check)}")
     if args.stdout:
         sys.stdout.write(render())
         return 0
     if args.check is not None:
-        if args.check.read_text(encoding="utf-8") != render():
+        try:
+            text = args.check.read_text(encoding="utf-8")
+        except OSError as exc:
+            parser.error(f"--check {args.check}: cannot read it: {exc.strerror or exc}")
+        except UnicodeDecodeError:
+            parser.error(f"--check {args.check}: not a text file (UTF-8)")
+        if text != render():
             print(f"{args.check} is stale: run mearm config-docs --output {args.check} --force",
                   file=sys.stderr)  # fmt: skip
             return 1
