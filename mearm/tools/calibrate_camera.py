@@ -474,7 +474,10 @@ def _parser() -> ArgumentParser:
     parser = ArgumentParser(
         description="Fit pixel → table calibration into a config, or the camera's pose.",
     )
-    parser.add_argument("--config", type=Path, help="config file to update")
+    parser.add_argument(
+        "--config", type=Path,
+        help="config file to update (its path: a config mearm ships is not edited)",
+    )  # fmt: skip
     parser.add_argument("--output", type=Path, help="write the config here instead of --config")
     parser.add_argument("--image", type=Path, help="image showing the ArUco markers")
     parser.add_argument(
@@ -750,19 +753,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.out is not None:
         parser.error("--out is for the camera pose (with --intrinsics); the config is --output")
 
-    try:
-        text = read_text_file(args.config, what="config file")
-    except InputFileError as exc:
-        reason = exc.reason
-        if not args.config.exists() and packaged_config(str(args.config)) is not None:
-            # every other command reads a shipped config by its name; this one writes
-            # its fit into the file, and a shipped config is not the user's to edit
-            reason = (
-                f"{reason} here; {args.config} names a config mearm ships, which "
-                "calibrate-camera does not edit (it writes the fit into --config): write "
-                "your own first (mearm init-config) and give its path"
-            )
-        raise ConfigError(exc.path, [reason]) from None
+    text = _config_text(args.config)
     data = load_yaml_text(text, source=str(args.config))  # refused before any fitting
     if not isinstance(data, dict):
         raise ConfigError(str(args.config), ["top level must be a mapping"])
@@ -836,6 +827,27 @@ def _exact_fit_note(parser: ArgumentParser, n_pairs: int) -> None:
         )
 
 
+def _config_text(config: Path) -> str:
+    """The text of the ``--config`` file, which this command writes into.
+
+    Raises:
+        ConfigError: it cannot be read; a name of a config mearm ships (which every other
+            command reads by its name) is said to be one: a shipped config is not the
+            user's to edit, so this command takes a file's path.
+    """
+    try:
+        return read_text_file(config, what="config file")
+    except InputFileError as exc:
+        reason = exc.reason
+        if not config.exists() and packaged_config(str(config)) is not None:
+            reason = (
+                f"{reason} here; {config} names a config mearm ships, which "
+                "calibrate-camera does not edit (it writes the fit into --config): write "
+                "your own first (mearm init-config) and give its path"
+            )
+        raise ConfigError(exc.path, [reason]) from None
+
+
 def _pose(parser: ArgumentParser, args: argparse.Namespace) -> int:
     """The camera pose mode (``--intrinsics``)."""
     intrinsics = load_calibration(args.intrinsics, "intrinsics")
@@ -845,10 +857,7 @@ def _pose(parser: ArgumentParser, args: argparse.Namespace) -> int:
         parser.error("each --marker id may be given once")
     config_text = None
     if args.config is not None:
-        try:
-            config_text = read_text_file(args.config, what="config file")
-        except InputFileError as exc:
-            raise ConfigError(exc.path, [exc.reason]) from None
+        config_text = _config_text(args.config)
         data = load_yaml_text(config_text, source=str(args.config))  # refused before any fitting
         expand_config(data, source=str(args.config), path=args.config)  # its extends, arm.use
     frame = read_image(args.image)
