@@ -23,6 +23,7 @@ from __future__ import annotations
 import contextlib
 import functools
 import hashlib
+import importlib.util
 import io
 import os
 import signal
@@ -32,6 +33,7 @@ import time
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from types import ModuleType
 
 import pytest
 
@@ -224,3 +226,22 @@ def check_bad_input_subprocess(
     out = Outcome(proc.returncode, proc.stdout, proc.stderr, elapsed)
     _assert_promises(out, argv, code, within_s, before)
     return out
+
+
+def tool_module(name: str) -> ModuleType:
+    """A developer script of tools/ (not a package), imported from its file."""
+    spec = importlib.util.spec_from_file_location(name, ROOT / "tools" / f"{name}.py")
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module  # its dataclasses look their module up
+    spec.loader.exec_module(module)
+    return module
+
+
+def exit_of(main: Callable[..., int], argv: list[str]) -> int:
+    """Run ``main`` under :func:`mearm.cli.run`, as its script does: the exit status."""
+    from mearm.cli import run
+
+    with pytest.raises(SystemExit) as stop:
+        run(main, argv)
+    return int(stop.value.code or 0)

@@ -6,37 +6,15 @@ Each test failed on the code before its fix (found by a walk through docs/twin.m
 
 from __future__ import annotations
 
-import importlib.util
 import logging
-import sys
 from pathlib import Path
-from types import ModuleType
 
 import pytest
-from conftest import ROOT
+from badinput import exit_of, tool_module
 
-from mearm.cli import run
 from mearm.config import load_config
 from mearm.sim.twin.twin_faults import FaultSchedule
 from mearm.tools import servo_steps, twin_scenes
-
-
-def _tool(name: str) -> ModuleType:
-    """A developer script of tools/ (not a package), imported from its file."""
-    spec = importlib.util.spec_from_file_location(name, ROOT / "tools" / f"{name}.py")
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[name] = module  # its dataclasses look their module up
-    spec.loader.exec_module(module)
-    return module
-
-
-def _exit_of(main, argv: list[str]) -> int:
-    """Run ``main`` under :func:`mearm.cli.run`, as its script does: the exit status."""
-    with pytest.raises(SystemExit) as stop:
-        run(main, argv)
-    return int(stop.value.code or 0)
-
 
 # ------------------------------------------------------------ tools/calibration_worth.py
 
@@ -58,7 +36,7 @@ def test_calibration_worth_refuses_bad_input_in_one_line_before_making_out(
     """Exit 2, one line (not the usage text), and no ``--out`` folder made: it used to
     exit 1 on a bad config after making the folder, and print the usage on a bad value."""
     out = tmp_path / "out"
-    code = _exit_of(_tool("calibration_worth").main, [*args, "--out", str(out)])
+    code = exit_of(tool_module("calibration_worth").main, [*args, "--out", str(out)])
     err = capsys.readouterr().err.strip().splitlines()
     assert code == 2, err
     assert len(err) == 1 and says in err[0], err
@@ -68,7 +46,7 @@ def test_calibration_worth_refuses_bad_input_in_one_line_before_making_out(
 
 def test_calibration_worth_refuses_an_out_under_a_file(tmp_path, capsys):
     (tmp_path / "file").write_text("mine")
-    code = _exit_of(_tool("calibration_worth").main, ["--out", str(tmp_path / "file" / "o")])
+    code = exit_of(tool_module("calibration_worth").main, ["--out", str(tmp_path / "file" / "o")])
     (line,) = capsys.readouterr().err.strip().splitlines()
     assert code == 2
     assert "--out" in line and "is a file, not a folder" in line
@@ -77,7 +55,7 @@ def test_calibration_worth_refuses_an_out_under_a_file(tmp_path, capsys):
 
 def test_calibration_worth_explains_every_option(monkeypatch):
     """``--help`` says what each option is (it named most of them only)."""
-    tool = _tool("calibration_worth")
+    tool = tool_module("calibration_worth")
     parsers = []
 
     class Recorded(tool.ArgumentParser):
@@ -103,8 +81,8 @@ def test_calibration_worth_names_every_file_it_writes(tmp_path, capsys, monkeypa
     Path("one.yaml").write_text(
         "extends: sim_mujoco_kits\ntask:\n  scene: [{color: red, x: -4, y: 45}]\n"
     )
-    code = _exit_of(
-        _tool("calibration_worth").main,
+    code = exit_of(
+        tool_module("calibration_worth").main,
         ["--config", "one.yaml", "--kits", "1", "--trials", "1", "--out", "cw"],
     )
     out = capsys.readouterr().out
@@ -149,7 +127,7 @@ def test_servo_steps_makes_the_folders_it_writes_into(tmp_path, capsys):
 def test_servo_steps_still_refuses_what_cannot_be_a_file(tmp_path, capsys, where, says):
     (tmp_path / "folder").mkdir()
     (tmp_path / "file").write_text("mine")
-    code = _exit_of(servo_steps.main, ["--csv", str(tmp_path / where)])
+    code = exit_of(servo_steps.main, ["--csv", str(tmp_path / where)])
     (line,) = capsys.readouterr().err.strip().splitlines()
     assert code == 2
     assert f"--csv {tmp_path / where}: " in line and says in line
@@ -197,7 +175,7 @@ def test_screenshots_help_says_it_replaces_its_pictures(capsys):
     """A developer tool that redraws the committed pictures: it replaces them by design,
     and says so (the mearm commands refuse without --force)."""
     with pytest.raises(SystemExit):
-        _tool("screenshots").main(["--help"])
+        tool_module("screenshots").main(["--help"])
     text = " ".join(capsys.readouterr().out.split())
     assert "replaced, without a --force" in text
 

@@ -7,36 +7,16 @@ replaces an earlier run's five pictures together, or leaves them as they were.
 
 from __future__ import annotations
 
-import importlib.util
 import os
 import signal
 import subprocess
 import sys
 import time
 from pathlib import Path
-from types import ModuleType
 
 import pytest
+from badinput import exit_of, tool_module
 from conftest import ROOT
-
-from mearm.cli import run
-
-
-def _tool(name: str) -> ModuleType:
-    """A developer script of tools/ (not a package), imported from its file."""
-    spec = importlib.util.spec_from_file_location(name, ROOT / "tools" / f"{name}.py")
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[name] = module  # its dataclasses look their module up
-    spec.loader.exec_module(module)
-    return module
-
-
-def _exit_of(main, argv: list[str]) -> int:
-    """Run ``main`` under :func:`mearm.cli.run`, as its script does: the exit status."""
-    with pytest.raises(SystemExit) as stop:
-        run(main, argv)
-    return int(stop.value.code or 0)
 
 
 @pytest.mark.parametrize(
@@ -52,7 +32,7 @@ def test_an_out_that_is_not_a_folder_is_refused_in_one_line(
 ):
     """It used to exit 1 with ``unexpected error: FileExistsError`` (a crash log)."""
     (tmp_path / "afile").write_text("mine")
-    code = _exit_of(_tool(tool).main, [*args, "--out", str(tmp_path / where)])
+    code = exit_of(tool_module(tool).main, [*args, "--out", str(tmp_path / where)])
     out, err = capsys.readouterr()
     (line,) = err.strip().splitlines()
     assert code == 2, line
@@ -65,7 +45,7 @@ def test_screenshots_says_a_picture_it_could_not_write(tmp_path, capsys):
     """A folder where a picture goes: exit 2, one line naming it, no ``wrote`` line for it
     (cv2.imwrite's False was ignored: exit 0 and ``wrote`` of a picture never written)."""
     (tmp_path / "frames_mearm_v1.png").mkdir()
-    code = _exit_of(_tool("screenshots").main, ["--only", "frames", "--out", str(tmp_path)])
+    code = exit_of(tool_module("screenshots").main, ["--only", "frames", "--out", str(tmp_path)])
     out, err = capsys.readouterr()
     (line,) = err.strip().splitlines()
     assert code == 2, line
@@ -80,7 +60,7 @@ def test_screenshots_replaces_a_picture_in_one_step(tmp_path, capsys):
     old = tmp_path / "frames_mearm_v1.png"
     old.write_bytes(b"the old picture")
     (tmp_path / "kept.png").hardlink_to(old)
-    code = _exit_of(_tool("screenshots").main, ["--only", "frames", "--out", str(tmp_path)])
+    code = exit_of(tool_module("screenshots").main, ["--only", "frames", "--out", str(tmp_path)])
     assert code == 0, capsys.readouterr().err
     assert (tmp_path / "kept.png").read_bytes() == b"the old picture"
     assert old.read_bytes().startswith(b"\x89PNG")
@@ -137,7 +117,7 @@ def test_calibration_pictures_replaces_the_earlier_run(tmp_path, capsys):
     """Without --force (as tools/screenshots.py), all five at once; the user's file stays."""
     out = tmp_path / "out"
     old = _earlier_run(out)
-    code = _exit_of(_tool("calibration_pictures").main, ["--out", str(out)])
+    code = exit_of(tool_module("calibration_pictures").main, ["--out", str(out)])
     text, err = capsys.readouterr()
     assert code == 0, err
     assert sorted(p.name for p in out.iterdir()) == sorted(old)
