@@ -501,11 +501,21 @@ def _free_report_folder() -> str:
 
 
 def _left(args: Any, config: Config, scene: list[SceneObject] | None) -> str:
-    """``; N of M trials complete in LOG: …`` for a run stopped before its last trial."""
+    """``; N of M trials complete in LOG: …`` for a run stopped before its last trial.
+
+    A stop that lands after the last trial was logged (the workers' last one finished as
+    the Ctrl-C came) says every trial is complete and nothing is left to run: the command
+    run again would only refuse to add trials.
+    """
     try:
         done = resume_point(args.log, config, args.seed, scene).done
     except (MearmError, OSError):  # the log unreadable now: the stop's reason says enough
         return ""
+    if done >= args.trials:
+        return (
+            f"; {done} of {counted(args.trials, 'trial')} complete in {args.log}: the stop "
+            "came after the last, nothing is left to run"
+        )
     again = " with --resume" if args.record is not None else ""
     return (
         f"; {done} of {counted(args.trials, 'trial')} complete in {args.log}: the same "
