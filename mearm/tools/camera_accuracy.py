@@ -57,6 +57,7 @@ import hashlib
 import json
 import math
 import re
+import signal
 import subprocess
 import sys
 import tempfile
@@ -81,6 +82,7 @@ from mearm.cli import (
 )
 from mearm.config import Config
 from mearm.errors import MearmError
+from mearm.interrupts import Terminated
 
 #: A detection farther than this from every object of its class is extra, and the object
 #: missed [cm].
@@ -124,16 +126,47 @@ class StepFailed(MearmError):
 
 
 def _tool(*argv: str) -> str:
-    """Run ``mearm ARGV…`` as a user would; its stdout, or StepFailed with its stderr."""
-    proc = subprocess.run(
-        [sys.executable, "-m", "mearm", *argv], capture_output=True, text=True, check=False
+    """Run ``mearm ARGV…`` as a user would; its stdout, or StepFailed with its stderr.
+
+    A Ctrl-C, SIGTERM or SIGHUP that stops this command is passed on to the tool, and the
+    tool's end is waited for, so it removes what it was writing (render-calibration's
+    hidden staging folder) as it does when stopped by hand; killed outright (what
+    :func:`subprocess.run` does on an interrupt), it left that folder in --work.
+    """
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "mearm", *argv],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
     )
+    try:
+        out, err = proc.communicate()
+    except KeyboardInterrupt as exc:
+        _stop_tool(proc, exc)
+        raise
     if proc.returncode != 0:
         raise StepFailed(
             f"mearm {argv[0]} failed ({proc.returncode}) on the twin's renders (its camera "
-            f"and lamp as configured): {proc.stderr.strip()}"
+            f"and lamp as configured): {err.strip()}"
         )
-    return proc.stdout
+    return out
+
+
+def _stop_tool(proc: subprocess.Popen[str], exc: KeyboardInterrupt) -> None:
+    """Pass the stop ``exc`` (a Ctrl-C or a stop signal) on to the tool; wait for its end.
+
+    Another stop while it ends is passed on too; the wait goes on (the tool ends on it).
+    """
+    signum = exc.signum if isinstance(exc, Terminated) else signal.SIGINT
+    while True:
+        if proc.poll() is None:
+            proc.send_signal(signum)
+        try:
+            proc.communicate()  # its pipes read to the end: a full one would stall it
+        except KeyboardInterrupt as again:
+            signum = again.signum if isinstance(again, Terminated) else signal.SIGINT
+            continue
+        return
 
 
 #: The calibrations --work holds beside render-calibration's pictures (and their backups,
