@@ -22,13 +22,18 @@ first-attempt picks (simulated). Bad input (an option, the config, ``--out``) is
 with one line and exit 2 before anything is made; a ``mearm`` step that fails ends the
 run with exit 1 and its last line. Every file goes into ``--out`` (made if missing); a
 run already logged there is not repeated (the experiment resumes its log), nor a
-calibration file already there (whatever reading seed wrote it: use a fresh ``--out``
-for other reading seeds).
+calibration file already there: beside each, ``kit<k>.servos.made.json`` records what it
+was made with (the config, the kit, its reading seed), and a kit file made with other
+settings, or with none recorded, is refused (exit 2, before anything runs: its runs'
+logs there are that file's; use a fresh ``--out`` for other reading seeds or another
+config). A ``results.json`` already there is kept as ``results.json.bak`` (or ``.bak.N``)
+before it is replaced, and the ``wrote`` line says so.
 """
 
 from __future__ import annotations
 
 import argparse
+import hashlib
 import json
 import subprocess
 import sys
@@ -41,6 +46,7 @@ import yaml
 
 from mearm.cli import (
     ArgumentParser,
+    backup_existing,
     check_output_folder,
     config_path_value,
     plain_int,
@@ -92,6 +98,69 @@ def reading_seed(base: int, kit: int) -> int:
     the same misreadings on every run.
     """
     return int(np.random.SeedSequence([base, kit]).generate_state(1)[0])
+
+
+def made_record(calib: Path) -> Path:
+    """Where the settings that made the kit file ``calib`` are recorded, beside it."""
+    return calib.with_name(calib.name.removesuffix(".yaml") + ".made.json")
+
+
+def kit_settings(args: argparse.Namespace, digest: str, kit: int) -> dict:
+    """What kit ``kit``'s calibration file is made with: compared before it is reused."""
+    return {
+        "config": str(args.config),
+        "config_sha256": digest,
+        "kit": kit,
+        "reading_seed": args.reading_seed
+        if args.same_readings
+        else reading_seed(args.reading_seed, kit),
+        "reading_seed_base": args.reading_seed,
+        "same_readings": bool(args.same_readings),
+    }
+
+
+def _seeds(made: dict) -> str:
+    """``reading seed N (base B)`` or ``reading seed N (the same for every kit)``."""
+    how = (
+        "the same for every kit"
+        if made.get("same_readings")
+        else f"base {made.get('reading_seed_base')}"
+    )
+    return f"reading seed {made.get('reading_seed')} ({how})"
+
+
+def check_kit_file(calib: Path, want: dict) -> None:
+    """Refuse a kit file already in ``--out`` that was not made with ``want``.
+
+    Reused as it is, it would stand for this run's reading seeds (and config) in the
+    table, and the logs of its runs beside it are that file's.
+
+    Raises:
+        MearmError: the record is missing or unreadable, or differs from ``want``.
+    """
+    record = made_record(calib)
+    fresh = "use a fresh --out (its runs' logs there are that file's)"
+    try:
+        made = json.loads(record.read_text())
+    except FileNotFoundError:
+        raise MearmError(
+            f"--out {calib.parent}: {calib.name} is there with no record of what made it "
+            f"({record.name}): it may not be this run's {_seeds(want)}; {fresh}"
+        ) from None
+    except (OSError, ValueError) as exc:
+        raise MearmError(f"--out {calib.parent}: cannot read {record.name}: {exc}") from None
+    if not isinstance(made, dict):
+        raise MearmError(f"--out {calib.parent}: {record.name} is not a settings record")
+    if made.get("config_sha256") != want["config_sha256"] or made.get("kit") != want["kit"]:
+        raise MearmError(
+            f"--out {calib.parent}: {calib.name} was made with --config {made.get('config')} "
+            f"as it read then, not this run's --config {want['config']}; {fresh}"
+        )
+    if made.get("reading_seed") != want["reading_seed"]:
+        raise MearmError(
+            f"--out {calib.parent}: {calib.name} was made with {_seeds(made)}, not this "
+            f"run's {_seeds(want)}; {fresh}"
+        )
 
 
 def only(path: Path, name: str, out: Path) -> Path:
@@ -171,7 +240,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         type=Path,
         default=Path("calib_worth"),
         help="folder of every file written, made if missing; what is already there is "
-        "reused, not redone (default: calib_worth)",
+        "reused, not redone, but a kit file made with other settings is refused "
+        "(default: calib_worth)",
     )
     p.add_argument(
         "--sensitivity",
@@ -204,12 +274,20 @@ def main(argv: Sequence[str] | None = None) -> int:
             "(sim_mujoco_kits, ...)"
         )
     args.config = str(args.config)
+    digest = hashlib.sha256(
+        json.dumps(config.model_dump(mode="json"), sort_keys=True).encode()
+    ).hexdigest()
+    for k in range(1, args.kits + 1):  # before anything is made
+        calib = args.out / f"kit{k}.servos.yaml"
+        if calib.exists() or calib.is_symlink():
+            check_kit_file(calib, kit_settings(args, digest, k))
     args.out.mkdir(parents=True, exist_ok=True)
     joints = ("base", "shoulder", "elbow", "gripper")
     jobs = []
     for k in range(1, args.kits + 1):
         calib = args.out / f"kit{k}.servos.yaml"
         if not calib.exists():
+            settings = kit_settings(args, digest, k)
             mearm(
                 "calibrate-servos",
                 "--config",
@@ -222,10 +300,11 @@ def main(argv: Sequence[str] | None = None) -> int:
                 "--set",
                 "twin.kit.per_trial=false",
                 "--reading-seed",
-                str(
-                    args.reading_seed if args.same_readings else reading_seed(args.reading_seed, k)
-                ),
+                str(settings["reading_seed"]),
             )
+            record = made_record(calib)
+            write_text_atomic(record, json.dumps(settings, indent=1) + "\n")
+            print(f"wrote {record}", flush=True)
         jobs.append((k, "before", None))
         jobs.append((k, "after", calib))
         if args.sensitivity:
@@ -239,7 +318,9 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     with ThreadPoolExecutor(args.jobs) as pool:
         results = list(pool.map(one, jobs))
-    write_text_atomic(args.out / "results.json", json.dumps(results, indent=1))
+    text = json.dumps(results, indent=1)
+    backup_existing(args.out / "results.json", text)  # a .bak, named, unless the same
+    write_text_atomic(args.out / "results.json", text)
     print(f"wrote {args.out / 'results.json'}", flush=True)
     labels = list(dict.fromkeys(label for _, label, _ in results))
     readings = (
