@@ -9,15 +9,13 @@ backup are the tool's own; the steps are tested with their commands).
 
 from __future__ import annotations
 
-import importlib.util
 import json
 import subprocess
-import sys
 from pathlib import Path
 from types import ModuleType
 
 import pytest
-from conftest import ROOT
+from badinput import tool_module
 
 from mearm.cli import run
 
@@ -29,22 +27,10 @@ SUMMARY = {
 }
 
 
-def _tool() -> ModuleType:
-    """tools/calibration_worth.py (a script, not a package), imported from its file."""
-    spec = importlib.util.spec_from_file_location(
-        "calibration_worth", ROOT / "tools" / "calibration_worth.py"
-    )
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    sys.modules["calibration_worth"] = module
-    spec.loader.exec_module(module)
-    return module
-
-
 @pytest.fixture
 def tool(monkeypatch: pytest.MonkeyPatch) -> tuple[ModuleType, list[tuple[str, ...]]]:
     """The tool with its ``mearm`` steps stood in for; the steps it ran."""
-    module = _tool()
+    module = tool_module("calibration_worth")
     calls: list[tuple[str, ...]] = []
 
     def fake(*args: str, ok: tuple[int, ...] = (0,)) -> subprocess.CompletedProcess[str]:
