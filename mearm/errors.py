@@ -27,6 +27,23 @@ class MearmError(Exception):
 
     exit_status: int = 2
 
+    def __reduce__(self) -> tuple[object, ...]:
+        """Pickle as this error, message and attributes (a worker process's, sent back).
+
+        ``Exception`` pickles as its class called on its message, which re-runs a
+        subclass's ``__init__`` on it: the message said twice (an extra's missing module),
+        or no error at all where ``__init__`` takes other arguments (``ConfigError``).
+        """
+        return (_rebuilt, (type(self), self.args, self.__dict__))
+
+
+def _rebuilt(cls: type[MearmError], args: tuple[object, ...], state: dict) -> MearmError:
+    """A pickled :class:`MearmError` as it was raised (:meth:`MearmError.__reduce__`)."""
+    error = cls.__new__(cls)
+    error.args = args
+    error.__dict__.update(state)
+    return error
+
 
 class ConfigError(MearmError):
     """A configuration file is missing, malformed or has invalid values.

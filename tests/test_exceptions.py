@@ -157,3 +157,31 @@ def test_the_commands_errors_stay_with_the_commands():
             if used in found or found.intersection(aliases):
                 offenders.append(f"{module.where}:{node.lineno}")
     assert offenders == []
+
+
+def _raise_in_worker(error: MearmError) -> None:
+    raise error
+
+
+@pytest.mark.parametrize(
+    "error",
+    [
+        "mearm.dataset.errors:ExtraMissingError('PyAV (av)')",
+        "mearm.errors:ConfigError('a.yaml', ['arm.joints: an empty list; give one or more'])",
+    ],
+    ids=["extra-missing", "config"],
+)
+def test_an_error_raised_in_a_worker_process_reaches_the_parent_as_raised(error):
+    """A worker's error is pickled back to the parent (``eval-policy --jobs 2``): the same
+    class, message and attributes. Pickled as ``Exception`` does, the class called on its
+    message, the missing extra's sentence came back said twice, and a ``ConfigError``
+    did not come back at all (its ``__init__`` takes two arguments)."""
+    import concurrent.futures
+
+    module, _, call = error.partition(":")
+    raised = eval(call, vars(importlib.import_module(module)))  # noqa: S307 - the cases above
+    with concurrent.futures.ProcessPoolExecutor(1) as pool:
+        with pytest.raises(type(raised)) as got:
+            pool.submit(_raise_in_worker, raised).result(timeout=120)
+    assert str(got.value) == str(raised)
+    assert got.value.__dict__ == raised.__dict__
