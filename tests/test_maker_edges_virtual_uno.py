@@ -127,3 +127,16 @@ def test_find_port_with_the_virtual_uno_and_a_port_tries_that_port():
                               board.port, "--timeout", "5"], within_s=12)  # fmt: skip
     assert out.code == 0, out.stdout + out.stderr
     assert "mearm board: mearm_servo 2.0" in out.stdout
+
+
+def test_a_board_refused_at_the_handshake_is_not_said_to_have_stopped(cache_home):  # noqa: F811
+    """An arm on a channel the virtual Uno lacks: the firmware answered, the host turned
+    it down; the line says why, not that the simulator stopped (with simavr's load
+    message, ``Loaded 132 .data``, as its reason)."""
+    out = run_in_process(
+        ["sort", "--config", "virtual_uno", "--quiet",
+         "--set", "arm.tool.gripper.servo.channel=5"]
+    )  # fmt: skip
+    assert out.code == 2, out.stdout + out.stderr
+    assert "the config uses servo channel 5, the board drives channels 0..4" in out.line
+    assert "stopped" not in out.line and "Loaded" not in out.line, out.line

@@ -21,7 +21,7 @@ import numpy as np
 from mearm.config import Config
 from mearm.hardware.arduino import ArduinoBus
 from mearm.hardware.bus import ArmCommand, RateLimiter
-from mearm.hardware.errors import MoveNotConfirmedError, ServoError
+from mearm.hardware.errors import HandshakeError, MoveNotConfirmedError, ServoError
 from mearm.hardware.mapping import ActuatorMap
 from mearm.kinematics import ArmModel
 from mearm.sim.kinematic.joint_stops import joints_at_stops
@@ -138,6 +138,9 @@ class VirtualUnoBus(ArduinoBus):
         self._rate = RateLimiter(board.clock_s, board.sleep_s)  # simulated time
         try:
             super()._connect()
+        except HandshakeError as exc:  # the firmware answered: the simulator ran
+            self._close()
+            raise VirtualUnoError(str(exc)) from None
         except ServoError as exc:
             why = board.stopped_because
             self._close()
