@@ -344,6 +344,7 @@ class FakeMearmBoard(FakeBoard):
         if not (seq.isdigit() and len(seq) <= 3 and int(seq) <= 255):
             self._reply(f"ERR - {ERR_MALFORMED} syntax", remember=False)
             return
+        seq = str(int(seq))  # as the firmware prints the number it read: 007 answers 7
         if line == self._last_frame and self._last_reply is not None:
             self._transmit(self._last_reply)  # a resend: answer again, do not act twice
             return

@@ -227,6 +227,8 @@ CONFORMANCE = [
     encode_line("7 M 15x0 1 1 1 1").rstrip(),  # not a number
     b"8 M " + b"1" * 90,  # too long
     encode_line("300 V").rstrip(),  # seq out of range
+    encode_line("013 V").rstrip(),  # a number with leading zeros: answered as the number
+    encode_line("030 Q").rstrip(),
     encode_command(9, "M", [0, 2500, 500, 0, 1200]).rstrip(),
     encode_command(10, "S").rstrip(),
     encode_command(11, "Q").rstrip(),
@@ -245,6 +247,8 @@ def test_firmware_and_fake_board_answer_alike(chip):
     codes = [decode_line(r) for r in firmware_replies]
     assert [c.kind for c in codes[:4]] == ["OK"] * 4 and firmware_replies[1] == firmware_replies[2]
     assert [c.code for c in codes[4:12]] == [1, 2, 5, 4, 3, 2, 6, 2]
+    assert codes[12].kind == "OK" and firmware_replies[12].startswith(b"OK 13 mearm_servo ")
+    assert firmware_replies[13].startswith(b"OK 30 ")
     assert firmware_replies[-3].startswith(b"OK 11 HOLD 0 2500 500 0 1200*")
     assert (
         decode_line(firmware_replies[-2]).code == 1 and firmware_replies[-1] == firmware_replies[-3]
