@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
+import signal
+import sys
 from collections.abc import Iterator
+from functools import partial
 
 import mujoco
 import numpy as np
@@ -594,3 +597,67 @@ def test_a_start_in_contact_may_be_left_but_never_pressed_further_in() -> None:
     assert "closer than the" in further.describe(model.chain.names, model.chain.scale)
     down = c.first_contact(path_to(*(0.5 * out), -0.5))  # away from the cylinder, into the table
     assert down is not None and down.obstacle == "table" and down.start_cm is None
+
+
+def _ctrl_c_at(call, line: int) -> bool:
+    """``call()`` with Ctrl-C (a real SIGINT) sent before its ``line``-th line run in
+    mearm's code, as one lands between any two lines; whether it stopped ``call``."""
+    count = 0
+
+    def local(frame, event, arg):  # noqa: ANN001, ANN202
+        nonlocal count
+        if event == "line":
+            count += 1
+            if count == line:
+                signal.raise_signal(signal.SIGINT)
+        return local
+
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    sys.settrace(lambda frame, event, arg: local if "mearm" in frame.f_code.co_filename else None)
+    try:
+        call()
+    except KeyboardInterrupt:
+        return True
+    finally:
+        sys.settrace(None)
+        signal.signal(signal.SIGINT, previous)
+    return False
+
+
+@pytest.mark.parametrize("grows", [False, True], ids=["moved", "rebuilt"])
+def test_a_ctrl_c_never_leaves_the_model_between_two_worlds(grows: bool) -> None:
+    """A Ctrl-C between any two lines of putting a new world in the model (objects moved,
+    the jaws, the one held; or a model rebuilt for more objects than places) leaves the
+    checks seeing the world before or the new one whole. The parking after a Ctrl-C just
+    as the sort set the world of a lifted object checked its way home in half of it (the
+    object's place switched off, still checked: "gripper_jaw_left_pad comes within 0.11
+    cm of red_0"), and refused it (``make soak``)."""
+    config = _config("sim")
+    model = ArmModel(config.arm)
+    names = config.task.class_names
+    first = [("a", names[0], 0.0, 35.0), ("b", names[1], 8.0, 40.0)]
+    n = 12 if grows else 3
+    second = [(f"o{k}", names[0], -15.0 + 3.0 * k, 30.0 + 2.0 * k) for k in range(n)]
+    world = {"opening_cm": 3.0, "held": ("a", names[0]), "table_below_cm": 0.4}
+    rng = np.random.default_rng(4104)
+    chain = model.chain
+    poses = [chain.full(rng.uniform(chain.actuated_lower, chain.actuated_upper)) for _ in range(8)]
+
+    def seen(collision: CollisionModel) -> list[object]:
+        c = collision.first_contact([model.home, *poses])
+        return [collision.gap(q) for q in poses] + [c and (c.arm_part, c.obstacle, c.distance_cm)]
+
+    before = collision_model(config, model)
+    before.set_world(first, opening_cm=5.0)
+    after = collision_model(config, model)
+    after.set_world(second, **world)
+    worlds = [seen(before), seen(after)]
+    assert worlds[0] != worlds[1]
+    line, cut = 1, True
+    while cut:
+        collision = collision_model(config, model)
+        collision.set_world(first, opening_cm=5.0)
+        cut = _ctrl_c_at(partial(collision.set_world, second, **world), line)
+        assert seen(collision) in worlds, f"Ctrl-C before line {line}"
+        line += 37 if grows else 2  # (each line of a rebuild takes long to test)
+    assert line > 20  # (the world took that many lines to put in)

@@ -54,6 +54,7 @@ import numpy as np
 import numpy.typing as npt
 import pinocchio as pin
 
+from mearm import interrupts
 from mearm.config.servo_models import SERVO_CATALOGUE, ServoSpec, servo_named
 from mearm.kinematics.bodies import (
     BIN_WALL_M,
@@ -273,28 +274,34 @@ class CollisionModel:
                 the tool measured that much higher than its commanded pose (a pick lowered
                 by a miss, :class:`mearm.task.claw_loop.GripDrops`); 0: the real table.
         """
-        state = (self._objects, self._opening_cm, self._held, self._table_below_cm)
-        if objects is not None:
-            self._objects = list(objects)
-        if opening_cm is not None and float(opening_cm) != self._opening_cm:
-            self._opening_cm = float(opening_cm)
-            reach = self._reach_of_opening.get(self._opening_cm)
-            if reach is None:  # (a simulator switches between a few openings at every grip)
-                reach = self._reach_of_opening[self._opening_cm] = self._local_reach()
-            self._reach_local = reach
-        self._held = held
-        self._table_below_cm = max(0.0, float(table_below_cm))
-        if (self._objects, self._opening_cm, self._held, self._table_below_cm) == state:
+        world = (
+            self._objects if objects is None else list(objects),
+            self._opening_cm if opening_cm is None else float(opening_cm),
+            held,
+            max(0.0, float(table_below_cm)),
+        )
+        if world == (self._objects, self._opening_cm, self._held, self._table_below_cm):
             return  # the same world (a simulator asks before every move)
-        counts: dict[str, int] = {}
-        for _, color, _, _ in self._objects:
-            counts[color] = counts.get(color, 0) + 1
-        if any(n > self._capacity.get(c, 0) for c, n in counts.items()):
-            for c, n in counts.items():
-                self._capacity[c] = max(self._capacity.get(c, 0), 2 * n)
-            self._build()  # more objects of a class than places: a bigger model
-        else:
-            self._apply()
+        # a Ctrl-C in the middle would leave the model half in the new world, and the
+        # checks after it would go on seeing that (the parking after it refused its way
+        # home, blocked by the object it held: its place, switched off, still checked)
+        with interrupts.signals_deferred():
+            self._objects, opening, self._held, self._table_below_cm = world
+            if opening != self._opening_cm:
+                self._opening_cm = opening
+                reach = self._reach_of_opening.get(opening)
+                if reach is None:  # (a simulator switches between a few openings at every grip)
+                    reach = self._reach_of_opening[opening] = self._local_reach()
+                self._reach_local = reach
+            counts: dict[str, int] = {}
+            for _, color, _, _ in self._objects:
+                counts[color] = counts.get(color, 0) + 1
+            if any(n > self._capacity.get(c, 0) for c, n in counts.items()):
+                for c, n in counts.items():
+                    self._capacity[c] = max(self._capacity.get(c, 0), 2 * n)
+                self._build()  # more objects of a class than places: a bigger model
+            else:
+                self._apply()
 
     def _in_joint(self, shape: Shape) -> np.ndarray:
         T = shape.pose
