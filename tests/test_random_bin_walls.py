@@ -67,3 +67,18 @@ def test_a_scene_file_that_outgrows_a_bin_opens_no_log(tmp_path: Path) -> None:
     line = one_stderr_line(done, 2)
     assert "reds.yaml: class red:" in line and "give the class fewer objects" in line, line
     assert not log.exists()
+
+
+@pytest.mark.parametrize("seed", [3, 11])
+def test_the_number_the_walls_refusal_suggests_fits_on_the_table_too(seed: int) -> None:
+    """``--random 500`` on the kinematic arm was refused by the red bin's walls, "ask
+    for 72 or fewer", and 72 then by the table, "at most 47 fit": the first refusal
+    names the smaller, as many as both take."""
+    config = load_config("sim")
+    with pytest.raises(SceneError, match=r"its bin's walls") as info:
+        random_scene(config, 500, seed=seed)
+    asked = re.search(r"ask for (\d+) or fewer \(the walls take (\d+)", str(info.value))
+    assert asked is not None, str(info.value)
+    most, walls = int(asked.group(1)), int(asked.group(2))
+    assert most < walls
+    assert len(random_scene(config, most, seed=seed)) == most

@@ -46,6 +46,14 @@ class SceneError(MearmError):
     """A scene cannot be built (bad file, or no room for the objects asked for)."""
 
 
+class _TableFull(SceneError):
+    """No room on the table for the objects asked for; ``most`` one layout held."""
+
+    def __init__(self, message: str, most: int):
+        super().__init__(message)
+        self.most = most
+
+
 def load_scene(path: str | Path, class_names: Sequence[str] | None = None) -> list[SceneObject]:
     """Read a scene file: a YAML list of ``{color, x, y}`` [cm], ``color`` a class name.
 
@@ -564,6 +572,18 @@ def random_scene(
         if isinstance(counts, int):
             most = _most_the_walls_take(config, len(order), seed)
             fewer = f"ask for {most} or fewer" if most else "no number of objects fits"
+            try:  # as many as the walls take may not fit on the table: name the fewer
+                if most:
+                    random_scene(config, most, seed, max_tries=max_tries)
+            except _TableFull as full:
+                fit = f"at most {full.most} fit" if full.most else "none fit"
+                fewer = (
+                    f"ask for {full.most} or fewer (the walls take {most}, and of those {fit} "
+                    f"on the table with seed {seed})"
+                    if full.most
+                    else f"no number of objects fits (the walls take {most}, and {fit} on "
+                    f"the table with seed {seed})"
+                )
         else:
             fewer = "give the class fewer objects"
         raise SceneError(f"{problem}: {fewer}{remedy}")
@@ -585,10 +605,11 @@ def random_scene(
                 tries += 1
                 if tries > max_tries:
                     fit = f"at most {most} fit" if most else "none fit"
-                    raise SceneError(
+                    raise _TableFull(
                         f"could not place {len(order)} objects {min_dist - diameter:.3g} cm "
                         f"apart in the reachable camera field: {fit} in {max_tries} draws "
-                        f"with seed {seed}" + (f"; ask for {most} or fewer" if most else "")
+                        f"with seed {seed}" + (f"; ask for {most} or fewer" if most else ""),
+                        most,
                     )
                 x, y = round(rng.uniform(x0, x1), 2), round(rng.uniform(y0, y1), 2)
                 found = _candidate(
