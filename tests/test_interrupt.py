@@ -102,16 +102,7 @@ def _interrupt_runs(part, total, durations, tmp_path, monkeypatch, capsys) -> No
     again (:mod:`mearm.interrupts`); pytest's hook for unraisable exceptions, which this
     test's own replaces, would count it lost and the run as finished before the signal.
     """
-    monkeypatch.setattr(sys, "unraisablehook", sys.unraisablehook)  # put back after
-    interrupts.install()
-    arms: list[servo_bus.SimArm] = []
-    real_init = servo_bus.SimArm.__init__
-
-    def spying_init(self, *args, **kwargs):
-        real_init(self, *args, **kwargs)
-        arms.append(self)
-
-    monkeypatch.setattr(servo_bus.SimArm, "__init__", spying_init)
+    arms = _ctrl_c_ready(monkeypatch)
     home = Config().arm.home()
     rng = np.random.default_rng(12 + part)
     parked = 0
@@ -163,6 +154,22 @@ def _interrupt_runs(part, total, durations, tmp_path, monkeypatch, capsys) -> No
     # many signals land mid-run (how many depends on how busy the machine is: a quarter
     # at least, so that the test cannot pass without interrupting anything)
     assert parked >= len(runs) // 4
+
+
+def _ctrl_c_ready(monkeypatch: pytest.MonkeyPatch) -> list[servo_bus.SimArm]:
+    """Ctrl-C handled as the command does, and the list the sorts' simulated arms go in
+    as they are made (each run's last is its arm)."""
+    monkeypatch.setattr(sys, "unraisablehook", sys.unraisablehook)  # put back after
+    interrupts.install()
+    arms: list[servo_bus.SimArm] = []
+    real_init = servo_bus.SimArm.__init__
+
+    def spying_init(self, *args, **kwargs):
+        real_init(self, *args, **kwargs)
+        arms.append(self)
+
+    monkeypatch.setattr(servo_bus.SimArm, "__init__", spying_init)
+    return arms
 
 
 def _not_parked(code: object, log, arms: list[servo_bus.SimArm], home) -> str | None:  # noqa: ANN001
@@ -243,16 +250,7 @@ def test_ctrl_c_before_any_line_parks_the_arm(tmp_path, monkeypatch, capsys):
     seeds are drawn afresh each run of the soak (the draw printed when one fails). The
     half-updated collision world found 2026-12-06 sat in a few lines of one call of many:
     too narrow even for this (``tests/test_collision.py`` holds it line by line)."""
-    interrupts.install()
-    monkeypatch.setattr(sys, "unraisablehook", sys.unraisablehook)  # put back after
-    arms: list[servo_bus.SimArm] = []
-    real_init = servo_bus.SimArm.__init__
-
-    def spying_init(self, *args, **kwargs):
-        real_init(self, *args, **kwargs)
-        arms.append(self)
-
-    monkeypatch.setattr(servo_bus.SimArm, "__init__", spying_init)
+    arms = _ctrl_c_ready(monkeypatch)
     home = Config().arm.home()
     draw = int(np.random.SeedSequence().entropy % 2**32)
     rng = np.random.default_rng(draw)
