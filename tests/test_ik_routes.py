@@ -155,6 +155,12 @@ def test_bench_prints_json(capsys):
     assert main(["--only", "motion", "--repeat", "1", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert "load average" in out["machine"]
+    # the figures move with the libraries that make them: the line names their versions
+    import mujoco
+    import pinocchio
+
+    assert f"MuJoCo {mujoco.__version__}" in out["machine"]
+    assert f"Pinocchio {pinocchio.__version__}" in out["machine"]
     assert out["rows"] and all(row["section"] == "motion" for row in out["rows"])
 
 

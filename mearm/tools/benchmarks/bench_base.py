@@ -133,8 +133,38 @@ def best_seconds(
     return best
 
 
+#: The libraries the bench's figures move with, by distribution and as the line names them:
+#: a figure measured with one version of them may not hold with another (MuJoCo's physics
+#: and renderer, Pinocchio's and coal's kinematics and distances, OpenCV's detection,
+#: PyAV's encoders).
+FIGURE_LIBRARIES = (
+    ("mujoco", "MuJoCo"),
+    ("pin", "Pinocchio"),
+    ("coal", "coal"),
+    ("opencv-python-headless", "OpenCV"),
+    ("av", "PyAV"),
+)
+
+
+def library_versions() -> str:
+    """The versions of :data:`FIGURE_LIBRARIES` installed here; one not installed is left out."""
+    from importlib import metadata  # noqa: PLC0415
+
+    found = []
+    for dist, name in FIGURE_LIBRARIES:
+        try:
+            found.append(f"{name} {metadata.version(dist)}")
+        except metadata.PackageNotFoundError:
+            continue
+    return ", ".join(found)
+
+
 def machine() -> str:
-    """CPU model (as ``lscpu`` prints it), Python and NumPy versions, current load."""
+    """CPU model, Python and NumPy versions, the figures' libraries' versions, current load.
+
+    The CPU model as ``lscpu`` prints it; the libraries as :func:`library_versions` names
+    them.
+    """
     cpu = platform.processor() or platform.machine()
     try:
         with open("/proc/cpuinfo", encoding="utf-8") as f:
@@ -148,7 +178,9 @@ def machine() -> str:
         load = f"; load average {os.getloadavg()[0]:.2f} on {os.cpu_count()} CPUs"
     except OSError:
         load = ""
-    return f"{cpu}; Python {platform.python_version()}; NumPy {np.__version__}{load}"
+    libraries = library_versions()
+    libraries = f"; {libraries}" if libraries else ""
+    return f"{cpu}; Python {platform.python_version()}; NumPy {np.__version__}{libraries}{load}"
 
 
 def child_seconds(argv: Sequence[str], env: dict[str, str]) -> tuple[float, float, int]:
