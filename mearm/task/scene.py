@@ -335,6 +335,11 @@ def _check_something_to_sort(config: Config, source: str) -> None:
 FOOTPRINT_MARGIN_CM = 0.3
 #: Draws for one object before a layout that leaves it no room starts again.
 PER_OBJECT_DRAWS = 1000
+#: Draws of a class whose own pick puts the tool in the table, none of the class placed,
+#: after which the class is refused: its pick height puts the tool there wherever it
+#: stands (were it clear at some tenth of the field, this many draws would all miss it
+#: once in 10⁹ seeds).
+TABLE_ONLY_DRAWS = 200
 
 
 def camera_field_cm(
@@ -398,8 +403,13 @@ def _reach_check(config: Config) -> Callable[[ColorClass, float, float], np.ndar
 
 def _footprint_check(
     config: Config, table: TableContents
-) -> Callable[[list[SceneObject], list[np.ndarray], SceneObject, np.ndarray], bool]:
+) -> Callable[
+    [list[SceneObject], list[np.ndarray], SceneObject, np.ndarray], tuple[str, str] | None
+]:
     """A test whether a new object keeps every pick clear of the arm's body.
+
+    The test gives ``None`` where it does, else the arm's part and what it comes too close
+    to: the new object's own pick's first, then each placed object's.
 
     With the jaws open at each object's pick pose, the whole tool (jaws, hand, servo) keeps
     ``task.clearance_cm`` and :data:`FOOTPRINT_MARGIN_CM` (the camera's error in locating
@@ -414,12 +424,14 @@ def _footprint_check(
 
     def clear(
         placed: list[SceneObject], poses: list[np.ndarray], new: SceneObject, q: np.ndarray
-    ) -> bool:
+    ) -> tuple[str, str] | None:
         objects = [(f"o{i}", o.color, o.x, o.y) for i, o in enumerate([*placed, new])]
         collision.set_world(objects)
-        if collision.gap(q, target=f"o{len(placed)}")[0] < TOUCH_M:
-            return False
-        return all(collision.gap(qo, target=f"o{i}")[0] >= TOUCH_M for i, qo in enumerate(poses))
+        for i, pose in [(len(placed), q), *enumerate(poses)]:
+            gap, part, what = collision.gap(pose, target=f"o{i}")
+            if gap < TOUCH_M:
+                return part, what
+        return None
 
     return clear
 
@@ -508,12 +520,17 @@ def _candidate(
     diameter: float,
     reach: Callable[[ColorClass, float, float], np.ndarray | None],
     margins: np.ndarray,
-    footprint: Callable[[list[SceneObject], list[np.ndarray], SceneObject, np.ndarray], bool],
+    footprint: Callable[
+        [list[SceneObject], list[np.ndarray], SceneObject, np.ndarray], tuple[str, str] | None
+    ],
+    in_table: dict[str, str],
 ) -> tuple[SceneObject, np.ndarray] | None:
     """A ``color`` object at (x, y) and its pick pose, or ``None`` if it may not stand there.
 
     It keeps clear of the objects placed and the bins, and is reachable around (x, y); a
-    cube's or a prism's yaw is drawn from ``rng`` only once it is reachable.
+    cube's or a prism's yaw is drawn from ``rng`` only once it is reachable. A pick of
+    its own that puts the tool in the table notes the part that goes in, in ``in_table``
+    under the class.
     """
     if any(np.hypot(o.x - x, o.y - y) < min_dist for o in placed):
         return None
@@ -529,9 +546,24 @@ def _candidate(
     symmetry = cls.object_shape.symmetry_deg
     if symmetry:  # a cube or a prism lies at any yaw (a disc draws none)
         new = new.model_copy(update={"yaw_deg": round(rng.uniform(0, symmetry), 1)})
-    if not footprint(placed, poses, new, q):
+    hit = footprint(placed, poses, new, q)
+    if hit is not None:
+        if hit[1] == "table":  # (the placed objects' picks were clear of it already)
+            in_table[color] = hit[0]
         return None
     return new, q
+
+
+def _tool_in_table(config: Config, color: str, part: str, seed: int) -> str:
+    """The refusal of a class whose pick put the tool in the table, none of it placed."""
+    cls = config.task.class_named(color)
+    above = config.arm.tool.tcp_above_grip_cm
+    return (
+        f"task.classes.{color}: picked at grip_height_cm {cls.grip_height_cm:g} (the TCP "
+        f"{above:g} cm above it, arm.tool.tcp_above_grip_cm), the open jaws' {part} reaches "
+        f"the table at {TABLE_ONLY_DRAWS} places drawn with seed {seed}, and no {color} "
+        "object was placed: raise grip_height_cm"
+    )
 
 
 def random_scene(
@@ -562,7 +594,9 @@ def random_scene(
     Raises:
         SceneError: a count below 0, more than :data:`~mearm.config.sections.MAX_SCENE_OBJECTS`
             objects, a seed outside [0, 2³² − 1], or the objects do not fit (it says how
-            many one layout held: with the same seed, that many or fewer are placed).
+            many one layout held: with the same seed, that many or fewer are placed); a
+            class whose pick puts the tool in the table at :data:`TABLE_ONLY_DRAWS` places
+            drawn, none of it placed, is named.
     """
     order = _class_order(config, counts, seed)
     problem, remedy = _release_below_walls(config, order), ", or raise bin_cm z (task.classes)"
@@ -597,6 +631,8 @@ def random_scene(
     margins = FOOTPRINT_MARGIN_CM * np.column_stack([np.cos(angles), np.sin(angles)])
     tries = 0
     most = 0  # the most objects one layout held: as many as the same seed is sure to place
+    in_table: dict[str, str] = {}  # (:func:`_candidate`: the part the last draw put there)
+    table_only = dict.fromkeys(order, 0)  # per class never placed: its picks in the table
     while True:  # a layout whose first objects leave no room for the next starts again
         placed: list[SceneObject] = []
         poses: list[np.ndarray] = []
@@ -615,10 +651,16 @@ def random_scene(
                 found = _candidate(
                     config, color, x, y, rng, placed, poses,
                     min_dist=min_dist, diameter=diameter, reach=reach, margins=margins,
-                    footprint=footprint,
+                    footprint=footprint, in_table=in_table,
                 )  # fmt: skip
                 if found is None:
+                    part = in_table.pop(color, None)
+                    if part is not None and color in table_only:
+                        table_only[color] += 1
+                        if table_only[color] >= TABLE_ONLY_DRAWS:
+                            raise SceneError(_tool_in_table(config, color, part, seed))
                     continue
+                table_only.pop(color, None)  # one stood: the table is not in the way
                 new, q = found
                 placed.append(new)
                 poses.append(q)
