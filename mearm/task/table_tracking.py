@@ -3,7 +3,8 @@
 Each known object takes the detection of its class nearest where it was; a detection left
 over is a known object no longer where it was (pushed, dropped on the way to its bin) when
 one can be, else a new object. Objects the arm did not go near that all moved by the same
-shift mean the camera was knocked (:func:`check_view`).
+shift mean the camera was knocked (:func:`check_view`), and so do the bins' feet seen away
+from where the calibration puts them or an earlier look saw them (:func:`check_bins`).
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ from mearm.task.execute import View
 from mearm.task.report import Reporter, Skip
 from mearm.task.route import Route
 from mearm.vision import Camera, ColorDetector, Detection
+from mearm.vision.bin_edges import BinFeet, BinSide
 from mearm.vision.calibration import CameraGeometry
 from mearm.vision.errors import CameraError
 from mearm.vision.frame_check import FrameCheck
@@ -45,6 +47,14 @@ VIEW_SHIFT_CM = 0.5
 #: How closely their shifts must agree to be one move of the view [cm] (one object moved
 #: alone may be the arm's doing: a jaw that caught it).
 SAME_SHIFT_CM = 0.3
+#: Bins whose feet a look sees farther than this from where the calibration puts them
+#: mean the view moved [cm]: a bin stood by hand a little off its ``bin_cm`` (still under
+#: the drop) is not a knocked camera (:func:`check_bins`; unbumped, the twin's lay within
+#: 0.15 cm, simulated) ...
+BIN_PLACED_CM = 1.0
+#: ... and so do bins whose feet moved farther than this since an earlier look saw them
+#: [cm]: a camera moved 2 cm up or down moves them 0.45–0.55 cm (simulated).
+BIN_SHIFT_CM = 0.3
 #: An object a look found away from where it was (dropped, pushed, rolled) is looked at
 #: again this much later, until it stays put: a cylinder dropped on its side rolls on, and
 #: a pick where it was seen closes on nothing [s] ...
@@ -140,6 +150,8 @@ class TableTracking:
     _seen_px: np.ndarray | None
     #: The objects the last look found away from where they were (:meth:`_dropped`).
     _moved: frozenset[str] = frozenset()
+    #: Each bin side's foot as the first look that measured it saw it [cm] (:func:`check_bins`).
+    _bin_feet_cm: dict[tuple[str, tuple[float, float]], float] | None = None
 
     def _look(self, *, track_new: bool = True) -> Seen:
         """Read a frame: what lies on the table, outside the bins.
@@ -166,6 +178,10 @@ class TableTracking:
             self._confirm_in_bins(found)
         revealed = self._revealed(seen, hidden) if track_new else set()
         self._track(seen, track_new=track_new, revealed=revealed)
+        # the bins stand still: a view moved that the objects left alone cannot show
+        if self._bin_feet_cm is None:
+            self._bin_feet_cm = {}
+        check_bins(self._bin_feet.measure(frame, hidden), self._bin_feet_cm, self.camera.source)
         if self.view is not None:
             self.view.set_camera_frame(frame, self.calibration.pixel_to_table)
             self.view.set_objects(
@@ -202,6 +218,14 @@ class TableTracking:
                 if np.hypot(o.x_cm - x, o.y_cm - y) > REST_CM
             }
         return seen
+
+    @cached_property
+    def _bin_feet(self) -> BinFeet:
+        """The bins' feet in the camera's frames (:class:`BinFeet`), laid out once."""
+        camera = self.config.camera
+        return BinFeet(
+            self.calibration, list(self.config.task.classes), (camera.width_px, camera.height_px)
+        )
 
     @cached_property
     def _work_surface_cm(self) -> np.ndarray:
@@ -604,6 +628,59 @@ def check_view(shifts: list[tuple[TrackedObject, np.ndarray]], source: str) -> N
             f"{mean[1]:.2f}) cm); was the camera knocked? Fix its mount and recalibrate "
             "(tools/calibrate_camera.py)",
         )
+
+
+def check_bins(
+    sides: list[BinSide], first_seen: dict[tuple[str, tuple[float, float]], float], source: str
+) -> None:
+    """Refuse bins whose feet all appear moved alike: the view moved.
+
+    A bin moved when a side of it is seen farther than :data:`BIN_PLACED_CM` from where the
+    calibration puts its foot, or farther than :data:`BIN_SHIFT_CM` from where the first
+    look that measured it near its place saw it (``first_seen``, kept here: each side's
+    first offset within :data:`BIN_PLACED_CM`; farther, the arm's body, where a homography
+    cannot say it shows, may stand before it: the MeArm v1's at home, 3.1 cm, simulated).
+    Two or more bins moved, more than half of those measured, whose sides facing one way
+    all moved alike (within :data:`SAME_SHIFT_CM`), are a moved view: one bin alone may be
+    hidden in part by what the look cannot name (an object lying against its wall), and
+    the arm's body, where the camera's calibration cannot say where it shows (a
+    homography), moves the feet it crosses each by its own amount (its forearm over one
+    bin, 1.1 cm, while its jaws hung over another: ``sim_mujoco_kits_paper``, simulated).
+    Each look's bins are measured by :class:`~mearm.vision.bin_edges.BinFeet`.
+
+    Raises:
+        CameraError: the view moved; the bins and the farthest foot are named.
+    """
+    placed = [(s, s.offset_cm) for s in sides]
+    since = [
+        (s, s.offset_cm - first_seen[(s.class_name, s.normal)])
+        for s in sides
+        if (s.class_name, s.normal) in first_seen
+    ]
+    for moves, limit, where in (
+        (placed, BIN_PLACED_CM, "where the calibration puts them"),
+        (since, BIN_SHIFT_CM, "where an earlier look saw them"),
+    ):
+        measured = {s.class_name for s, _ in moves}
+        bins = list(dict.fromkeys(s.class_name for s, cm in moves if abs(cm) > limit))
+        if len(bins) < 2 or 2 * len(bins) <= len(measured):
+            continue
+        facing: dict[tuple[float, float], list[float]] = {}
+        for s, cm in moves:
+            if s.class_name in bins:
+                facing.setdefault(s.normal, []).append(cm)
+        if any(max(cms) - min(cms) > SAME_SHIFT_CM for cms in facing.values()):
+            continue
+        far = max(abs(cm) for s, cm in moves if s.class_name in bins)
+        raise CameraError(
+            source,
+            f"the view moved: the bins of {', '.join(bins)}, which stand still, appear "
+            f"up to {far:.2f} cm from {where}; was the camera knocked? Fix its mount and "
+            "recalibrate (tools/calibrate_camera.py)",
+        )
+    for side in sides:  # (a foot far off its place was not seen: something stood before it)
+        if abs(side.offset_cm) <= BIN_PLACED_CM:
+            first_seen.setdefault((side.class_name, side.normal), side.offset_cm)
 
 
 def work_surface_cm(config: Config) -> np.ndarray:
