@@ -658,9 +658,11 @@ def check_bins(
         if (s.class_name, s.normal) in first_seen
     ]
     for moves, limit, where in (
-        (placed, BIN_PLACED_CM, "where the calibration puts them"),
+        # (off their places from the first look: the bins themselves may stand off)
+        (placed, BIN_PLACED_CM, "where the calibration puts them (or do they stand off "
+         "their task.classes[].bin_cm?)"),
         (since, BIN_SHIFT_CM, "where an earlier look saw them"),
-    ):
+    ):  # fmt: skip
         measured = {s.class_name for s, _ in moves}
         bins = list(dict.fromkeys(s.class_name for s, cm in moves if abs(cm) > limit))
         if len(bins) < 2 or 2 * len(bins) <= len(measured):
