@@ -11,11 +11,13 @@ the first look, along a row of one class by its pitch, or up or down (docs/twin.
 A side is measured along :data:`PROFILES` short lines across it, on the table plane, from
 :data:`REACH_CM` outside to as far inside: walking in, past what is not table (a
 neighbouring bin), the foot is where at least :data:`TABLE_CM` of table ends (a pixel no
-longer table-like: saturated and lit, as the twin's wooden table is, shadowed or not; a
-bin's white walls and dark faces are neither) and the bin begins, for at least
-:data:`FOOT_CM`. A line the arm's body crosses, one whose foot is off the frame or on
-another bin and one without such a clean step (an object lying against the wall, a table
-the bins do not stand out from) say nothing; a side with fewer than :data:`MIN_PROFILES`
+longer table-like: saturated and lit, as the twin's wooden table is, in the light or a
+faint shadow; a bin's white walls and dark faces are neither) and the bin begins, for at least
+:data:`FOOT_CM`, unsaturated within :data:`SHADE_CM` of it (the table in a shadow is as
+saturated as the lit one, only darker). A line the arm's body crosses, one whose foot is
+off the frame or on another bin and one without such a clean step (an object lying
+against the wall, a table the bins do not stand out from, a bin's shadow cast across the
+line by a lamp low to one side) say nothing; a side with fewer than :data:`MIN_PROFILES`
 lines that do says nothing. On a table that is not saturated or with bins that are, no
 side is measured and nothing is checked. A view moved farther than :data:`REACH_CM`
 leaves the feet out of the lines: the objects show it
@@ -57,6 +59,12 @@ MIN_PROFILES = 3
 FOOT_CM = 0.25
 #: ... and at least this much table before it [cm] (a line may start in a neighbouring bin).
 TABLE_CM = 0.5
+#: Past the foot, the bin's wall (no saturated pixel, lit or not, for :data:`FOOT_CM`)
+#: begins within this [cm]: what lies between is the table in the bin's own shadow, too
+#: dark to be table-like, or a pixel blending the two. A wider shadow leaves the line
+#: saying nothing: a lamp low to one side casts each bin's shadow alike, and the feet were
+#: seen where the shadows ended (2.35 cm off, all three bins alike: a moved view, simulated).
+SHADE_CM = 0.2
 #: A line's samples on another bin, or this near one [cm], are not looked at: what lies in
 #: a neighbouring bin is not table, though its colours may be (a stack of red objects in
 #: a bin 0.4 cm away moved its neighbour's foot 2.7 cm: ``sim_5dof_mujoco_perspective``,
@@ -120,6 +128,7 @@ class BinFeet:
         t = np.arange(REACH_CM, -REACH_CM - STEP_CM / 2, -STEP_CM)  # outside → inside
         self._t = t
         self._foot = int(round(FOOT_CM / STEP_CM))
+        self._shade = int(round(SHADE_CM / STEP_CM))
         self._run = int(round(TABLE_CM / STEP_CM))
         sides: list[tuple[str, tuple[float, float]]] = []
         maps: list[np.ndarray] = []
@@ -176,7 +185,8 @@ class BinFeet:
             return []
         samples = cv2.remap(frame, self._map_x, self._map_y, cv2.INTER_LINEAR)
         hsv = cv2.cvtColor(samples, cv2.COLOR_BGR2HSV)
-        table = (hsv[..., 1] >= TABLE_SATURATION_MIN) & (hsv[..., 2] >= TABLE_VALUE_MIN)
+        saturated = hsv[..., 1] >= TABLE_SATURATION_MIN  # the table, lit or in a shadow
+        table = saturated & (hsv[..., 2] >= TABLE_VALUE_MIN)
         usable = np.ones(len(samples), dtype=bool)
         if hidden is not None:
             usable &= ~((hidden[self._rows, self._cols] != 0) & self._in_frame).any(axis=1)
@@ -187,12 +197,15 @@ class BinFeet:
         start = np.argmax(table, axis=1)
         first = np.argmin(table | (np.arange(n)[None, :] < start[:, None]), axis=1)
         wall = np.minimum(np.arange(self._foot)[None, :] + first[:, None], n - 1)
+        # ... and, past at most a narrow shadow, the bin's unsaturated wall
+        past = np.minimum(wall + self._shade, n - 1)
         clean = (
             usable
             & table[np.arange(lines), start]
             & (first - start >= self._run)
             & (first + self._foot <= n)
             & ~table[rows, wall].any(axis=1)
+            & ~saturated[rows, past].any(axis=1)  # not the table in a shadow
             & self._in_frame[rows, wall].all(axis=1)  # the foot seen, not the frame's edge
         )
         found: list[BinSide] = []
