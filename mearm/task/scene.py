@@ -38,6 +38,8 @@ from mearm.yamlio import load_yaml_file
 
 #: Edge-to-edge gap between objects in a random scene [cm] (paper §5).
 MIN_GAP_CM = 1.0
+#: The other way out of walls grown too tall for the arm (:func:`_walls_shut_bin`).
+_LOWER_WALLS = ", or set the class's bin_height_cm (task.classes)"
 
 _SCENE = TypeAdapter(list[SceneObject])
 
@@ -222,6 +224,9 @@ def _check_walls(config: Config, scene: Sequence[SceneObject], source: str) -> N
     problem = _walls_by_home(config, colors)
     if problem is not None:
         raise SceneError(f"{what}{problem}: give the class fewer objects")
+    problem = _walls_shut_bin(config, colors)
+    if problem is not None:
+        raise SceneError(f"{what}{problem}: give the class fewer objects{_LOWER_WALLS}")
 
 
 def _most_the_walls_take(config: Config, n: int, seed: int) -> int:
@@ -242,8 +247,21 @@ def _most_the_walls_take(config: Config, n: int, seed: int) -> int:
 
 def _walls_problem(config: Config, colors: Sequence[str]) -> str | None:
     """Why a table of objects of ``colors`` grows a bin's walls past what the arm allows."""
-    problem = _release_below_walls(config, colors)
-    return problem if problem is not None else _walls_by_home(config, colors)
+    for check in (_release_below_walls, _walls_by_home, _walls_shut_bin):
+        problem = check(config, colors)
+        if problem is not None:
+            return problem
+    return None
+
+
+def _grown(config: Config, table: TableContents) -> list[ColorClass]:
+    """The classes whose bins ``table`` builds taller walls for than the config's own table."""
+    own = TableContents.of(config.task, config.belt)
+    return [
+        c
+        for c in config.task.classes
+        if wall_height_m(c, table.objects(c.name)) > wall_height_m(c, own.objects(c.name))
+    ]
 
 
 def _walls_by_home(config: Config, colors: Sequence[str]) -> str | None:
@@ -258,12 +276,8 @@ def _walls_by_home(config: Config, colors: Sequence[str]) -> str | None:
     loaded (:func:`~mearm.task.check.check_consistency`); ``None``: no wall grew, or the
     arm keeps its clearance.
     """
-    table, own = _table_of(config, colors), TableContents.of(config.task, config.belt)
-    grown = [
-        c.name
-        for c in config.task.classes
-        if wall_height_m(c, table.objects(c.name)) > wall_height_m(c, own.objects(c.name))
-    ]
+    table = _table_of(config, colors)
+    grown = [c.name for c in _grown(config, table)]
     if not grown:
         return None
     model = ArmModel(config.arm)
@@ -277,6 +291,42 @@ def _walls_by_home(config: Config, colors: Sequence[str]) -> str | None:
             f"class {name}: its bin's walls, built {wall_cm:.3g} cm tall to hold its {n} "
             f"objects stacked, come within {distance:.2f} cm of the arm at home ({part}), "
             f"less than task.clearance_cm ({config.task.clearance_cm:g} cm)"
+        )
+    return None
+
+
+def _walls_shut_bin(config: Config, colors: Sequence[str]) -> str | None:
+    """Walls grown for a table of objects of ``colors`` that leave the arm no way into a bin.
+
+    A bin's walls grown for more objects of its class than the config's own table holds
+    (:func:`~mearm.kinematics.bodies.wall_height_m`) may stand too tall for the arm to
+    carry an object over them: the MeArm v1's red bin, 6 cm for three objects where the
+    release is 6 cm up, is then out of reach both straight and over the top, and a sort of
+    ``--random 7`` went on to leave 5 of its 7 objects, each after its pick. A place of
+    each such class is planned from home, one of its objects held, against the bins alone
+    (the objects on the table change as the sort goes; the bins do not), as the sorter
+    plans it; the twin refuses a release below the walls first
+    (:func:`_release_below_walls`). ``None``: no wall grew, or each grown bin is reached.
+    """
+    table = _table_of(config, colors)
+    grown = _grown(config, table)
+    if not grown:
+        return None
+    model = ArmModel(config.arm)
+    collision = collision_model(config, model, clearance_cm=config.task.clearance_cm, table=table)
+    planner = Planner(config, model, collision)
+    for cls in grown:
+        collision.set_world([], opening_cm=cls.diameter_cm, held=(cls.name, cls.name))
+        route = Route(cls.name, cls.name, "place", 1, planner.place_target(cls))
+        planner.plan(route, model.home)
+        if route.planned:
+            continue
+        n = table.objects(cls.name)
+        wall_cm = wall_height_m(cls, n) / M_PER_CM
+        return (
+            f"class {cls.name}: its bin's walls, built {wall_cm:.3g} cm tall to hold its {n} "
+            f"objects stacked, leave the arm no way in with one held, even from home "
+            f"({route.failure})"
         )
     return None
 
@@ -603,24 +653,7 @@ def random_scene(
     if problem is None:
         problem, remedy = _walls_by_home(config, order), ""
     if problem is not None:
-        if isinstance(counts, int):
-            most = _most_the_walls_take(config, len(order), seed)
-            fewer = f"ask for {most} or fewer" if most else "no number of objects fits"
-            try:  # as many as the walls take may not fit on the table: name the fewer
-                if most:
-                    random_scene(config, most, seed, max_tries=max_tries)
-            except _TableFull as full:
-                fit = f"at most {full.most} fit" if full.most else "none fit"
-                fewer = (
-                    f"ask for {full.most} or fewer (the walls take {most}, and of those {fit} "
-                    f"on the table with seed {seed})"
-                    if full.most
-                    else f"no number of objects fits (the walls take {most}, and {fit} on "
-                    f"the table with seed {seed})"
-                )
-        else:
-            fewer = "give the class fewer objects"
-        raise SceneError(f"{problem}: {fewer}{remedy}")
+        raise _walls_refusal(config, counts, seed, max_tries, problem, remedy)
     rng = np.random.default_rng(seed)
     diameter, (x0, x1, y0, y1) = _scene_field(config, any_objects=bool(order))
     reach = _reach_check(config)
@@ -644,7 +677,7 @@ def random_scene(
                     raise _TableFull(
                         f"could not place {len(order)} objects {min_dist - diameter:.3g} cm "
                         f"apart in the reachable camera field: {fit} in {max_tries} draws "
-                        f"with seed {seed}" + (f"; ask for {most} or fewer" if most else ""),
+                        f"with seed {seed}" + _fewer_than(config, counts, most, seed),
                         most,
                     )
                 x, y = round(rng.uniform(x0, x1), 2), round(rng.uniform(y0, y1), 2)
@@ -671,4 +704,61 @@ def random_scene(
         if len(placed) == len(order):
             break
     rng.shuffle(placed)
+    # planned, so checked once the table is known to hold the objects (a table too full
+    # for them says so first, at once)
+    problem = _walls_shut_bin(config, order)
+    if problem is not None:
+        raise _walls_refusal(config, counts, seed, max_tries, problem, _LOWER_WALLS)
     return placed
+
+
+def _fewer_than(config: Config, counts: dict[str, int] | int, most: int, seed: int) -> str:
+    """What a table that held at most ``most`` of the objects asks for: that many, or fewer.
+
+    Fewer where ``most`` objects (a total, drawn with ``seed``) would grow a bin's walls
+    past the arm (:func:`_walls_problem`): as many as the table holds would be refused
+    next, by the walls.
+    """
+    if not most:
+        return ""
+    if isinstance(counts, int) and _walls_problem(config, _class_order(config, most, seed)):
+        walls = _most_the_walls_take(config, most, seed)
+        return (
+            f", of which the bins' walls take {walls} (more grow a bin's walls past the "
+            f"arm); ask for {walls} or fewer"
+        )
+    return f"; ask for {most} or fewer"
+
+
+def _walls_refusal(
+    config: Config,
+    counts: dict[str, int] | int,
+    seed: int,
+    max_tries: int,
+    problem: str,
+    remedy: str,
+) -> SceneError:
+    """:func:`random_scene`'s refusal of walls grown past the arm: ``problem``, then fewer.
+
+    For a total, the most objects the walls take and the table holds with ``seed`` (as
+    many as the walls take may not fit); for counts per class, fewer of the class. Then
+    ``remedy``, the other way out.
+    """
+    if not isinstance(counts, int):
+        return SceneError(f"{problem}: give the class fewer objects{remedy}")
+    n = len(_class_order(config, counts, seed))
+    most = _most_the_walls_take(config, n, seed)
+    fewer = f"ask for {most} or fewer" if most else "no number of objects fits"
+    try:  # as many as the walls take may not fit on the table: name the fewer
+        if most:
+            random_scene(config, most, seed, max_tries=max_tries)
+    except _TableFull as full:
+        fit = f"at most {full.most} fit" if full.most else "none fit"
+        fewer = (
+            f"ask for {full.most} or fewer (the walls take {most}, and of those {fit} "
+            f"on the table with seed {seed})"
+            if full.most
+            else f"no number of objects fits (the walls take {most}, and {fit} on "
+            f"the table with seed {seed})"
+        )
+    return SceneError(f"{problem}: {fewer}{remedy}")
