@@ -590,30 +590,33 @@ class CollisionModel:
         about its arm shape is to a box about its obstacle (:meth:`_lower_bounds`, or
         ``low``, those bounds worked out already). Pairs are measured in the order of that
         bound until it passes the nearest distance measured: some 20 of 300 pairs in the
-        reference sort. ``None``: no pair is on.
+        reference sort. ``None``: no pair is on. The few pairs near enough are sorted in
+        Python (``sorted`` is stable: the order of ``np.argsort(kind="stable")``), and
+        the bounds read one by one (``item``), not through arrays of two or three.
         """
         low = self._lower_bounds(on) if low is None else low
         best, best_k = math.inf, -1
         if not len(low):
             return None
-        geometry, gdata = self.geometry, self.gdata
-        first = int(np.argmin(low))  # the least bound (the first of a tie): the order's first
-        if low[first] != low[first]:  # a NaN bound (argmin finds it first): every pair, in order
-            order = np.argsort(low, kind="stable")
+        geometry, gdata, pairs = self.geometry, self.gdata, on.pairs
+        first = int(low.argmin())  # the least bound (the first of a tie): the order's first
+        if math.isnan(low.item(first)):  # a NaN bound (argmin finds it first): every pair, in order
+            order = np.argsort(low, kind="stable").tolist()
         else:
-            k = int(on.pairs[first])
+            k = pairs.item(first)
             d = pin.computeDistance(geometry, gdata, k).min_distance
             if d < best:
                 best, best_k = d, k
             # the order goes on with the bounds up to the nearest distance so far (the
             # loop stops at the first beyond it): those few sorted, not every pair
-            near = np.flatnonzero(low <= best + BROAD_PHASE_SLACK_M)
-            order = near[np.argsort(low[near], kind="stable")]
-            if len(order) and order[0] == first:
-                order = order[1:]
-        for k, bound in zip(on.pairs[order].tolist(), low[order].tolist(), strict=True):
-            if bound > best + BROAD_PHASE_SLACK_M:
+            near = (low <= best + BROAD_PHASE_SLACK_M).nonzero()[0].tolist()
+            order = sorted(near, key=low.item)
+            if order and order[0] == first:
+                del order[0]
+        for i in order:
+            if low.item(i) > best + BROAD_PHASE_SLACK_M:
                 break
+            k = pairs.item(i)
             d = pin.computeDistance(geometry, gdata, k).min_distance
             if d < best or (d == best and k < best_k):
                 best, best_k = d, k
