@@ -217,9 +217,7 @@ class CollisionModel:
         ]
         T = self.bodies.tcp_in_last
         self._grip_in_last = T[:3, :3] @ (self.bodies.approach * self.bodies.grip_m) + T[:3, 3]
-        self._upper = np.triu(np.ones((self._last, self._last), dtype=bool))  # j ≥ i
-        self._prismatic = np.asarray(model.chain.prismatic, dtype=bool)
-        self._any_prismatic = bool(self._prismatic.any())
+        self._prismatic = [bool(p) for p in model.chain.prismatic]
         self.checks = 0
         self._world = 0  # counts the worlds put in the model (a gap is kept for its world)
         self._last_key: tuple[object, ...] | None = None
@@ -784,7 +782,7 @@ class CollisionModel:
         An object whose axis is within half the opening of the grip point, in the plane,
         is straddled or held by the jaws: their pads may touch it. ``target`` limits this
         to that object (``None``: any object). In Python numbers, a few objects at a time
-        (the bits of :func:`_lengths`: a sum of two squares, its square root).
+        (the bits of ``np.linalg.norm``: a sum of two squares, its square root).
         """
         if target is None:
             places = self._objects_at
@@ -856,12 +854,23 @@ class CollisionModel:
         The farthest any shape beyond joint i can be from the joint's origin: over the
         joints j ≥ i, :math:`|o_j - o_i|` plus how far joint j's shapes reach from
         :math:`o_j` (the tool's from the TCP, the last joint's origin plus the TCP's offset).
+        In Python numbers, the n (n + 1) / 2 separations of a few joints: the bits of
+        ``np.linalg.norm`` (its sum of the three squares goes in order) and of ``np.max``
+        (a NaN spreads), at a third of the cost of their arrays at each check.
         """
         n = self._last
-        origins = self._frames()[1 : n + 1, :3, 3]
-        sep = _lengths(origins[None, :, :] - origins[:, None, :])  # (i, j)
-        far = np.max(sep + self._reach_local[1 : n + 1], axis=1, where=self._upper, initial=0.0)
-        return np.where(self._prismatic, 1.0, far) if self._any_prismatic else far
+        origins = self._frames()[1 : n + 1, :3, 3].tolist()
+        local = self._reach_local[1 : n + 1].tolist()
+        far = []
+        for i, (xi, yi, zi) in enumerate(origins):
+            most = 0.0
+            for (xj, yj, zj), r in zip(origins[i:], local[i:], strict=True):
+                dx, dy, dz = xj - xi, yj - yi, zj - zi
+                v = math.sqrt(dx * dx + dy * dy + dz * dz) + r
+                if v > most or v != v:
+                    most = v
+            far.append(1.0 if self._prismatic[i] else most)
+        return np.array(far)
 
     def opening_contact(self, q: npt.ArrayLike, open_cm: float) -> Contact | None:
         """The first opening where the jaws, opening at pose ``q``, come too close to something.
@@ -983,16 +992,6 @@ def _first_beyond(sweep: list[float], done: float, g: float) -> tuple[int, float
             return j, before
         before = ahead
     return len(sweep), before
-
-
-def _lengths(v: np.ndarray) -> np.ndarray:
-    """The Euclidean length of each vector along ``v``'s last axis.
-
-    ``np.linalg.norm(v, axis=-1)``'s own sum, bit for bit, without its checks of the
-    arguments: the checks cost as much as the sum on the few vectors of a pose, and the
-    checks of a sort ask some 1,100 times.
-    """
-    return np.sqrt(np.add.reduce(v * v, axis=-1))
 
 
 def _half_extents(shape: Shape) -> np.ndarray:
