@@ -201,6 +201,9 @@ class CollisionModel:
         self.clearance_m = clearance_cm * M_PER_CM
         pm = model.model
         self.data = pm.createData()
+        # each joint's placement in ``self.data``: Pinocchio's references to them, which
+        # read what the kinematics last wrote (looked up once, not at every check)
+        self._placements = [self.data.oMi[j] for j in range(pm.njoints)]
         arm = model.arm
         joints = servo or joint_servo(None)
         self.bodies = arm_bodies(arm, joints, gripper_servo, acrylic_kg_m3=0)
@@ -628,8 +631,7 @@ class CollisionModel:
         Kept until the kinematics run again.
         """
         if self._frames_at is None:
-            oMi = self.data.oMi
-            self._frames_at = np.array([oMi[j].homogeneous for j in range(self._last + 1)])
+            self._frames_at = np.array([M.homogeneous for M in self._placements])
         return self._frames_at
 
     def _lower_bounds(self, on: _BroadPhase) -> np.ndarray:
@@ -643,7 +645,7 @@ class CollisionModel:
         the pairs by ``take`` of their flat places (a copy, as fancy indexing's, at a fifth
         of its cost on the 17 rows by some 240 pairs).
         """
-        F = self._frames()[self._row_joint]  # each arm shape's joint frame, (rows, 4, 4)
+        F = self._frames().take(self._row_joint, axis=0)  # each arm shape's joint frame
         centre = (F[:, :3, :3] @ self._row_local[:, :, None])[:, :, 0] + F[:, :3, 3]
         out = centre.take(on.centre_at)  # (pair, 3)
         out -= on.ob_centre
