@@ -385,6 +385,9 @@ class CollisionModel:
             if (bin_class := class_of(self._base_names[b])) is not None
         ]
         self._bins_for: _BroadPhase | None = None  # the world :meth:`_bins_on` was read in
+        self._on_but_for: _BroadPhase | None = None  # and :meth:`_on_but`, its pairs off
+        self._on_but_off: list[int] = []
+        self._on_but_now: _BroadPhase
         self._bins_on_now: tuple[_BroadPhase, dict[str, tuple[_BroadPhase, slice]]]
         self._ob_centre = np.array([T[:3, 3] for _, T in obstacles]).reshape(-1, 3)
         jaw_rows = [i for i, (s, _, _) in enumerate(arm) if s.jaw]
@@ -479,10 +482,10 @@ class CollisionModel:
             self._ob_names[col] = object_name(oid)
             cols.append(col)
         self._object_cols = np.array(cols, dtype=int)
-        self._col_of = {self._ob_names[c]: c for c in cols}
         self._objects_at = [
             (c, x, y) for c, (x, y) in zip(cols, self._ob_centre[cols, :2].tolist(), strict=True)
         ]
+        self._place_of = {self._ob_names[c]: (c, x, y) for c, x, y in self._objects_at}
         self._placed_objects = list(self._objects)
 
     def _broad_phase(self, pairs: np.ndarray) -> _BroadPhase:
@@ -568,9 +571,7 @@ class CollisionModel:
         pin.updateGeometryPlacements(pm, self.data, self.geometry, self.gdata)
         on = self._on
         if jaws or own:  # (the pairs with a floor of their own are measured one by one)
-            keep = self._active.copy()
-            keep[jaws + own] = False
-            on = self._broad_phase(np.flatnonzero(keep))
+            on = self._on_but(jaws + own)
         found = (math.inf, "", "", math.inf)
         nearest = self._nearest_pair(on)
         if nearest is not None:
@@ -580,6 +581,20 @@ class CollisionModel:
             found = min(found, self._gap_of(j, d, floors[j]))
         self._last_key, self._last_gap, self._last_frames = key, found, self._frames_at
         return found
+
+    def _on_but(self, off: list[int]) -> _BroadPhase:
+        """The broad phase of the pairs switched on but ``off`` (pair indices).
+
+        Kept for the next call with the same ``off`` in the same world (:meth:`_bins_on`'s
+        test): a path's checks with an object between the jaws, or with pairs held to a
+        floor of their own, leave out the same pairs one pose after another.
+        """
+        if self._on_but_for is not self._on or self._on_but_off != off:
+            keep = self._active.copy()
+            keep[off] = False
+            self._on_but_now = self._broad_phase(np.flatnonzero(keep))
+            self._on_but_for, self._on_but_off = self._on, off
+        return self._on_but_now
 
     def _nearest_pair(
         self, on: _BroadPhase, low: np.ndarray | None = None
@@ -789,8 +804,8 @@ class CollisionModel:
         if target is None:
             places = self._objects_at
         else:
-            col = self._col_of.get(object_name(target))
-            places = [] if col is None else [(col, *self._ob_centre[col, :2].tolist())]
+            place = self._place_of.get(object_name(target))
+            places = [] if place is None else [place]
         if not places:
             return []
         M = self.data.oMi[self._last]
@@ -947,7 +962,8 @@ class CollisionModel:
         """
         path = np.atleast_2d(np.asarray(q_path, dtype=float))
         last = len(path) - 1
-        seg = np.abs(np.diff(path, axis=0))  # each segment's joint travel, (last, n)
+        step = np.diff(path, axis=0)  # each segment's joint motion, (last, n)
+        seg = np.abs(step)  # and travel
         start = self._start_distances(path[0], target)
         # such a pair may come no more than TOUCH_CM closer than it starts, nor touch if
         # it starts clear (the check refuses a distance under its floor + TOUCH_M)
@@ -958,7 +974,7 @@ class CollisionModel:
         names = {self._pair_names(k): d / M_PER_CM for k, d in start.items()}
         k, t = 0, 0.0
         while True:
-            q = path[k] + t * (path[k + 1] - path[k]) if k < last else path[last]
+            q = path[k] + t * step[k] if k < last else path[last]
             g, a, b, d = self._gap(q, target, floors)
             g += allowance_m
             self.checks += 1
