@@ -808,7 +808,7 @@ class CollisionModel:
             places = [] if place is None else [place]
         if not places:
             return []
-        M = self.data.oMi[self._last]
+        M = self._placements[self._last]
         gx, gy, _ = (M.rotation @ self._grip_in_last + M.translation).tolist()
         reach = self._opening_cm * M_PER_CM / 2
         out = []
