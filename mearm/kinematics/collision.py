@@ -658,7 +658,9 @@ class CollisionModel:
         the pairs at once, each pair's own arithmetic (the bits of a table of every arm
         shape by every obstacle, picked per pair). The arm shapes' centres are spread to
         the pairs by ``take`` of their flat places (a copy, as fancy indexing's, at a fifth
-        of its cost on the 17 rows by some 240 pairs).
+        of its cost on the 17 rows by some 240 pairs). The product and the sum of squares
+        stay NumPy's (``@``, ``einsum``): they sum as OpenBLAS and NumPy's SIMD loops do,
+        which Python's arithmetic does not repeat bit for bit.
         """
         F = self._frames().take(self._row_joint, axis=0)  # each arm shape's joint frame
         centre = (F[:, :3, :3] @ self._row_local[:, :, None])[:, :, 0] + F[:, :3, 3]
