@@ -644,9 +644,12 @@ def random_scene(
     Raises:
         SceneError: a count below 0, more than :data:`~mearm.config.sections.MAX_SCENE_OBJECTS`
             objects, a seed outside [0, 2³² − 1], or the objects do not fit (it says how
-            many one layout held: with the same seed, that many or fewer are placed); a
-            class whose pick puts the tool in the table at :data:`TABLE_ONLY_DRAWS` places
-            drawn, none of it placed, is named.
+            many one layout held: with the same seed, that many or fewer are placed; fewer
+            where that many would grow a bin's walls past the arm); a class whose pick
+            puts the tool in the table at :data:`TABLE_ONLY_DRAWS` places drawn, none of
+            it placed, is named; walls grown to hold the objects stacked that the arm at
+            home comes too near, that stand over the twin's release, or that leave it no
+            way into a bin are named with how many objects they take.
     """
     order = _class_order(config, counts, seed)
     problem, remedy = _release_below_walls(config, order), ", or raise bin_cm z (task.classes)"
