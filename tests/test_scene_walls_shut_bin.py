@@ -6,7 +6,10 @@ object over them, straight or over the top, meets a wall. ``mearm sort --config
 sim_mearm_v1 --random 7`` laid the table out, picked each red and blue object and left it
 (``sorted 2 of 7 objects (simulated; 5 bin out of reach)``, exit 1) where the twin's config
 refused the same table at once (exit 2). Now the kinematic simulator refuses it too, with
-the class, its walls and how many objects the walls take.
+the class, its walls and how many objects the walls take. The same three reds given as the
+config's own table (``task.scene``) were sorted and left, each after its pick (``sorted 1
+of 7``, exit 1): the walls stand above the bottom of a red held at the release, and that
+table is refused at the start as well.
 """
 
 from __future__ import annotations
@@ -45,6 +48,29 @@ def test_a_scene_file_whose_walls_shut_a_bin_is_refused(tmp_path: Path) -> None:
     )
     with pytest.raises(SceneError, match=r"three_reds\.yaml: class red: its bin's walls"):
         check_scene(config, load_scene(path, config.task.class_names), str(path))
+
+
+#: The MeArm v1's six objects and a third red one between them, as the config's own table.
+OWN_SCENE = (
+    "task.scene=[{color: red, x: 8.7, y: 15.07}, {color: red, x: -5.75, y: 17.69}, "
+    "{color: red, x: 0.0, y: 18.6}, {color: green, x: 1.8, y: 17.11}, "
+    "{color: green, x: -8.7, y: 15.07}, {color: blue, x: 5.75, y: 17.69}, "
+    "{color: blue, x: -1.8, y: 17.11}]"
+)
+
+
+def test_the_configs_own_table_whose_walls_shut_a_bin_is_refused_before_the_sort(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    code, out, err = run_main(capsys, sort.main, "--config", "sim_mearm_v1", "--set", OWN_SCENE)
+    assert code == 2 and out == ""
+    (line,) = err.strip().splitlines()
+    assert ": error: task.scene: class red: its bin's walls, built 6 cm tall " in line
+    # both ways in named: straight, and over the top
+    assert "collision: held red comes within" in line and "; over the top at " in line
+    assert line.endswith(
+        "give the class fewer objects, or set the class's bin_height_cm (task.classes)"
+    )
 
 
 def test_walls_of_their_own_take_the_same_table() -> None:

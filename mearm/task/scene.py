@@ -296,26 +296,37 @@ def _walls_by_home(config: Config, colors: Sequence[str]) -> str | None:
 
 
 def _walls_shut_bin(config: Config, colors: Sequence[str]) -> str | None:
-    """Walls grown for a table of objects of ``colors`` that leave the arm no way into a bin.
+    """Walls of a table of objects of ``colors`` that leave the arm no way into a bin.
 
-    A bin's walls grown for more objects of its class than the config's own table holds
-    (:func:`~mearm.kinematics.bodies.wall_height_m`) may stand too tall for the arm to
-    carry an object over them: the MeArm v1's red bin, 6 cm for three objects where the
-    release is 6 cm up, is then out of reach both straight and over the top, and a sort of
-    ``--random 7`` went on to leave 5 of its 7 objects, each after its pick. A place of
-    each such class is planned from home, one of its objects held, against the bins alone
-    (the objects on the table change as the sort goes; the bins do not), as the sorter
-    plans it; the twin refuses a release below the walls first
-    (:func:`_release_below_walls`). ``None``: no wall grew, or each grown bin is reached.
+    A bin's walls may stand too tall for the arm to carry an object over them: walls grown
+    for more objects of its class than the config's own table holds
+    (:func:`~mearm.kinematics.bodies.wall_height_m`; the MeArm v1's red bin, 6 cm for three
+    objects where the release is 6 cm up, is then out of reach both straight and over the
+    top, and a sort of ``--random 7`` went on to leave 5 of its 7 objects, each after its
+    pick), or walls that stand above the bottom of an object held at the release (the
+    config's own table with three reds: a sort of it left each red after its pick; walls
+    given a ``bin_height_cm`` stand below it, or the config is refused at load). A place
+    of each such class is planned from home, one of its objects held, against the bins
+    alone (the objects on the table change as the sort goes; the bins do not), as the
+    sorter plans it; the twin refuses a release below the walls first
+    (:func:`_release_below_walls`). ``None``: no such walls, or each of their bins is
+    reached.
     """
     table = _table_of(config, colors)
-    grown = _grown(config, table)
-    if not grown:
+    grown = {c.name for c in _grown(config, table)}
+    above = config.arm.tool.tcp_above_grip_cm
+    tall = [
+        c
+        for c in config.task.classes
+        if c.name in grown
+        or wall_height_m(c, table.objects(c.name)) / M_PER_CM > c.bin_cm[2] - c.grip_z_cm - above
+    ]
+    if not tall:
         return None
     model = ArmModel(config.arm)
     collision = collision_model(config, model, clearance_cm=config.task.clearance_cm, table=table)
     planner = Planner(config, model, collision)
-    for cls in grown:
+    for cls in tall:
         collision.set_world([], opening_cm=cls.diameter_cm, held=(cls.name, cls.name))
         route = Route(cls.name, cls.name, "place", 1, planner.place_target(cls))
         planner.plan(route, model.home)
