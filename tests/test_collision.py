@@ -636,7 +636,7 @@ def test_a_ctrl_c_never_leaves_the_model_between_two_worlds(grows: bool) -> None
     model = ArmModel(config.arm)
     names = config.task.class_names
     first = [("a", names[0], 0.0, 35.0), ("b", names[1], 8.0, 40.0)]
-    n = 12 if grows else 3
+    n = 7 if grows else 3  # sim's table holds 4 reds: places for 6, and 7 rebuild it
     second = [(f"o{k}", names[0], -15.0 + 3.0 * k, 30.0 + 2.0 * k) for k in range(n)]
     world = {"opening_cm": 3.0, "held": ("a", names[0]), "table_below_cm": 0.4}
     rng = np.random.default_rng(4104)
