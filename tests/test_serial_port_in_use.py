@@ -19,7 +19,7 @@ from pathlib import Path
 
 import pytest
 import serial
-from conftest import mearm_cli, one_stderr_line
+from conftest import mearm_here, one_stderr_line
 from fakeboard import FakeMearmBoard
 from test_maker_calibrate import ROOT, PtyCommand, serial_args
 
@@ -133,7 +133,9 @@ def test_a_second_command_on_a_running_jogs_port_is_refused_and_sends_nothing(tm
             pid = jog.proc.pid
             opens, received = board.opens, len(board.received)
             on_board = ["--config", SIM, "--set", "servo.backend=serial"]
-            sort = mearm_cli(
+            # sort and find-port in this process (the refusal is the point, not a start);
+            # jog and calibrate-servos need a terminal, their own processes
+            sort = mearm_here(
                 "sort", *on_board, "--set", f"servo.port={board.port}",
                 "--log", tmp_path / "second.jsonl", cwd=tmp_path,
             )  # fmt: skip
@@ -152,7 +154,7 @@ def test_a_second_command_on_a_running_jogs_port_is_refused_and_sends_nothing(tm
                 assert f"mearm {command}: error: {board.port}: the serial port is in use by " \
                     f"process {pid}" in said[-1], second.text[-2000:]  # fmt: skip
                 assert "Traceback" not in second.text
-            find = mearm_cli("find-port", "--config", SIM, "--only", "--port", board.port,
+            find = mearm_here("find-port", "--config", SIM, "--only", "--port", board.port,
                              "--timeout", "1", cwd=tmp_path)  # fmt: skip
             assert find.returncode == 1, find.stderr
             assert re.search(rf"{re.escape(board.port)} +in use: held by process {pid} ",
