@@ -163,8 +163,6 @@ class ConveyorSorter(Sorter):
         ]
         before = set(self.tracker.lost)
         states = self.tracker.update(taken, seen)
-        if seen:
-            self._last_seen_s = taken
         for s in states:
             if s.seen:
                 self._sightings[s.id] = self._sightings.get(s.id, 0) + 1
@@ -181,6 +179,11 @@ class ConveyorSorter(Sorter):
                 self._objects.append(obj)
                 self._by_track[s.id] = obj
             obj.x_cm, obj.y_cm = (float(v) for v in s.position_cm)
+            if s.seen and not obj.sorted and obj.skipped is None:
+                # the belt still brings something to sort; an object left (a failed pick,
+                # out of reach) that stays in view, a still belt's, kept the run waiting
+                # for ever
+                self._last_seen_s = taken
         for tid in set(self.tracker.lost) - before:
             obj = self._by_track.get(tid)
             if obj is not None and not obj.sorted and obj.skipped is None:
