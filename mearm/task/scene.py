@@ -20,6 +20,8 @@ from mearm.config.base import MAX_SEED, loc_text, short_repr
 from mearm.config.belt_config import MAX_ARRIVALS
 from mearm.config.sections import MAX_SCENE_OBJECTS
 from mearm.errors import ConfigError, MearmError
+from mearm.ik import APPROACH_TOLERANCE_DEG
+from mearm.ik.reach import ReachBound
 from mearm.kinematics import ArmModel, check_in_box, closed_form_for
 from mearm.kinematics.bodies import (
     M_PER_CM,
@@ -29,6 +31,7 @@ from mearm.kinematics.bodies import (
     wall_height_m,
 )
 from mearm.kinematics.collision import TOUCH_M
+from mearm.kinematics.model import CM_PER_M
 from mearm.sim.table_collision import collision_model
 from mearm.task.check import bins_near_home
 from mearm.task.plan import Planner
@@ -426,13 +429,17 @@ def _reach_check(config: Config) -> Callable[[ColorClass, float, float], np.ndar
 
     Its pick point (and, with ``task.approach_height_cm``, the point above it) must lie in
     the box and be solved: by the closed form where the arm has one, else planned from
-    home by the default solver.
+    home by the default solver. A target the links' lengths put beyond every pose's
+    reach (:class:`~mearm.ik.reach.ReachBound`) is refused before it is planned: no
+    pose meets the solver's stopping rule, so the plan could only fail, slowly (its
+    direct solve to the cap, then the multi-start); the answer is the plan's.
     """
     closed_form = closed_form_for(config.arm)
     height = config.task.approach_height_cm
     model = ArmModel(config.arm)
     checks = Planner(config, model)  # a pose's limits and pulse ranges
     planner = None if closed_form is not None else checks
+    bound = ReachBound(model, config.controller.tolerance_cm2, APPROACH_TOLERANCE_DEG)
 
     def reach(cls: ColorClass, x: float, y: float) -> np.ndarray | None:
         z = cls.grip_z_cm + config.arm.tool.tcp_above_grip_cm
@@ -452,6 +459,10 @@ def _reach_check(config: Config) -> Callable[[ColorClass, float, float], np.ndar
                 target = planner.pick_target(cls, x, y)
                 if zz != z:
                     target = planner.above_target(target, zz - z)
+                # (in metres as the solver's own test has it: :meth:`PdPij._recover`)
+                metres = (np.asarray(target.position_cm, dtype=float) / CM_PER_M).tolist()
+                if bound.beyond(metres, target.approach):
+                    return None
                 route = Route("", cls.name, "pick", 1, target)
                 if not planner.plan(route, model.home).planned:
                     return None
