@@ -105,3 +105,39 @@ def test_answers_are_the_full_recoverys_and_the_bound_cuts_only_failures(name, s
             assert not beyond, p
         cut += beyond
     assert cut >= 4  # the bound answered for some: the test compares something
+
+
+@pytest.mark.parametrize(("name", "sets"), ARMS)
+def test_no_pose_within_the_limits_is_beyond_them_nor_a_target_within_the_tolerance(name, sets):
+    """As above with the anchor joint's limits: every pose within them (a third with that
+    joint at one of its limits, where the bound is tightest), moved by just under the
+    tolerances, is not beyond; and the limits refuse targets the lengths alone do not."""
+    config, model = _arm(name, sets)
+    bound = ReachBound(model, config.controller.tolerance_cm2, APPROACH_TOLERANCE_DEG)
+    rng = np.random.default_rng(43)
+    tol_cm = 0.999 * math.sqrt(config.controller.tolerance_cm2)
+    turn = math.radians(0.999 * APPROACH_TOLERANCE_DEG)
+    chain = model.chain
+    lo, hi = chain.actuated_lower, chain.actuated_upper
+    second = list(chain.actuated_index).index(1) if 1 in chain.actuated_index else None
+    for k in range(600):
+        a_q = rng.uniform(lo, hi)
+        if second is not None and k % 3:
+            a_q[second] = (lo if k % 3 == 1 else hi)[second]
+        q = chain.full(a_q)
+        if not chain.within_limits(q, 1e-12):  # (a passive joint past its own)
+            continue
+        p_cm, R = model.tcp_pose(q)
+        a = R @ model.approach_axis
+        way = rng.normal(size=3)
+        target_m = (p_cm + tol_cm * way / np.linalg.norm(way)) / 100.0
+        axis = np.cross(a, rng.normal(size=3))
+        axis /= np.linalg.norm(axis)
+        a_t = a * math.cos(turn) + np.cross(axis, a) * math.sin(turn)
+        assert not bound.beyond_limits(target_m.tolist(), tuple(a_t)), (q, target_m, a_t)
+        assert not bound.beyond_limits(target_m.tolist(), None), (q, target_m)
+    if name == "sim_5dof.yaml":  # its shoulder may not turn below 15°: far out, low down
+        down = config.arm.tool.pick_approach
+        far = [[0.0, y / 100.0, 0.005] for y in np.arange(28.2, 29.8, 0.1)]
+        assert not any(bound.beyond(t, down) for t in far)
+        assert all(bound.beyond_limits(t, down) for t in far)

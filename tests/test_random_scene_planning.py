@@ -1,8 +1,8 @@
 """The random layout on an arm without a closed form plans only what it has to.
 
 Each draw's reach is planned (the 5-DOF's PD-PIJ with its multi-start recovery, 8-20 ms
-of CPU a refused point), so a point the links' lengths put beyond reach is refused
-unplanned. The tests count what is planned.
+of CPU a refused point), so a point the links' lengths and the shoulder's limits put
+beyond reach is refused unplanned. The tests count what is planned.
 """
 
 from __future__ import annotations
@@ -24,7 +24,8 @@ DRAWS = 1500
 
 
 def test_points_beyond_reach_are_not_planned(monkeypatch):
-    """A full table on the 5-DOF: no target the links' lengths put out of reach is planned.
+    """A full table on the 5-DOF: no target out of reach by the links' lengths, or by
+    them and the shoulder's limits, is planned.
 
     Such a plan could only fail, at the cost of its whole solve and multi-start.
     """
@@ -44,6 +45,6 @@ def test_points_beyond_reach_are_not_planned(monkeypatch):
         random_scene(config, 60, 0, max_tries=DRAWS)
     for t in planned:
         metres = (np.asarray(t.position_cm, dtype=float) / CM_PER_M).tolist()
-        beyond += bound.beyond(metres, t.approach)
+        beyond += bound.beyond_limits(metres, t.approach)
     assert planned, "nothing was planned"
     assert beyond == 0, f"{beyond} of {len(planned)} plans were of targets beyond reach"

@@ -18,6 +18,21 @@ that exceeds the position tolerance, no pose meets the solver's stopping rule, s
 multi-start could only fail, every seed to its cap: :class:`ReachBound` says so at once.
 The bound ignores the limits (it never calls a target out of reach that the limits
 alone forbid) and gives no answer for an arm with a prismatic joint or a branching tree.
+
+**With the anchor joint's limits** (:meth:`ReachBound.beyond_limits`). Where the anchor
+is the second joint's origin, the third joint's origin :math:`o_{k+1}` turns about the
+anchor joint's axis through that joint's limits only, and about the first joint's axis
+(any turn: the first joint's limits are ignored). A pose within the limits puts
+:math:`o_p` within :math:`L' = L - |o_{k+1} - o_k|` of it, so the same bound holds with
+:math:`|w - o_k| - L` replaced by :math:`\min |w - o_{k+1}| - L'`. Turned about the first
+axis, :math:`o_{k+1}` is nearest :math:`w` at :math:`w`'s own azimuth: the distance is
+that of the points (distance from the axis, height along it) in a half-plane, taken at
+:data:`LIMIT_SAMPLES` angles through the limits; between two of them it is at most the
+radius of :math:`o_{k+1}`'s turn times half their spacing less, which is taken off. It
+refuses what the anchor joint's limits forbid (a 5-DOF's shoulder that may not turn
+below the horizontal, far out on the table) as well as what the lengths do; a plan it
+refuses can only fail, since a plan ends within the limits, at a pose that meets the
+stopping rule.
 """
 
 from __future__ import annotations
@@ -32,6 +47,12 @@ from mearm.kinematics import ArmModel
 #: Room left for rounding in the kinematics [m]: far below any tolerance, far above
 #: the error of a few products of metre-sized numbers.
 _SLACK_M = 1e-9
+#: Angles through the anchor joint's limits :meth:`ReachBound.beyond_limits` takes: the
+#: distance it takes off between two is the turn's radius times half their spacing
+#: (0.001 mm for a 15 cm upper arm through 150°).
+LIMIT_SAMPLES = 2049
+#: A pose within the limits is a plan's to this much [rad or m] (the planner's check).
+_LIMIT_TOL = 1e-9
 
 
 def _revolute_axis(joint: pin.JointModel) -> np.ndarray | None:
@@ -86,6 +107,39 @@ class ReachBound:
         anchor = pm.jointPlacements[1].act(offsets[1]) if first == 2 else offsets[0]
         self.anchor_m = np.asarray(anchor, dtype=float)
         self.reach_m = float(sum(np.linalg.norm(offsets[i]) for i in range(first, last)))
+        self._profile: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, float] | None = None
+        self._rest_m = math.inf  # L' (module docstring)
+        if first == 2 and last >= 3:
+            self._profile = self._limit_profile(model, axes, offsets)
+
+    def _limit_profile(
+        self, model: ArmModel, axes: list[np.ndarray | None], offsets: list[np.ndarray]
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, float]:
+        """Where the third joint's origin may be, turned through the second's limits.
+
+        Its (distance from the first joint's axis, height along it) at each of
+        :data:`LIMIT_SAMPLES` angles [m], the first axis (a point on it, its direction)
+        and what one spacing may hide [m] (module docstring).
+        """
+        pm, chain = model.model, model.chain
+        M1, M2 = pm.jointPlacements[1], pm.jointPlacements[2]
+        axis1, axis2 = axes[0], axes[1]
+        assert axis1 is not None and axis2 is not None  # (revolute: the caller's test)
+        i = chain.names.index(pm.names[2])
+        lo, hi = chain.lower[i] - _LIMIT_TOL, chain.upper[i] + _LIMIT_TOL
+        thetas = np.linspace(lo, hi, LIMIT_SAMPLES)
+        t = offsets[2]
+        points = np.array([M1.act(M2.act(pin.exp3(axis2 * th) @ t)) for th in thetas])
+        origin = np.asarray(M1.translation, dtype=float)
+        up = np.asarray(M1.rotation @ axis1, dtype=float)
+        rel = points - origin
+        height = rel @ up
+        out = np.linalg.norm(rel - np.outer(height, up), axis=1)
+        # the origin's speed about the second axis: its distance from that axis
+        radius = float(np.linalg.norm(t - (t @ axis2) * axis2))
+        hidden = radius * (hi - lo) / (LIMIT_SAMPLES - 1) / 2 + _SLACK_M
+        self._rest_m = self.reach_m - float(np.linalg.norm(t))
+        return out, height, origin, up, hidden
 
     def beyond(self, target_m: list[float], approach: tuple[float, ...] | None) -> bool:
         """Whether no pose meets the stopping rule for ``target_m`` (3 floats) [m].
@@ -100,6 +154,29 @@ class ReachBound:
             return float(np.linalg.norm(x - self.anchor_m)) - self.reach_m - self._tcp > self._tol_m
         w = x - self._along * np.asarray(approach, dtype=float)
         short = float(np.linalg.norm(w - self.anchor_m)) - self.reach_m
+        return short - self._across - abs(self._along) * self._turn > self._tol_m
+
+    def beyond_limits(self, target_m: list[float], approach: tuple[float, ...] | None) -> bool:
+        """:meth:`beyond`, or beyond every pose the anchor joint's limits allow (module).
+
+        Slower than :meth:`beyond` (some tens of microseconds): for a caller that would
+        otherwise plan the target, not for the solver's own test. ``False`` means only
+        that neither bound can tell.
+        """
+        if self.beyond(target_m, approach):
+            return True
+        if self._profile is None:
+            return False
+        out, height, origin, up, hidden = self._profile
+        x = np.asarray(target_m, dtype=float)
+        w = x if approach is None else x - self._along * np.asarray(approach, dtype=float)
+        rel = w - origin
+        h = float(rel @ up)
+        r = float(np.linalg.norm(rel - h * up))
+        near = float(np.min(np.hypot(out - r, height - h))) - hidden
+        if approach is None:
+            return near - self._rest_m - self._tcp > self._tol_m
+        short = near - self._rest_m
         return short - self._across - abs(self._along) * self._turn > self._tol_m
 
 

@@ -429,10 +429,11 @@ def _reach_check(config: Config) -> Callable[[ColorClass, float, float], np.ndar
 
     Its pick point (and, with ``task.approach_height_cm``, the point above it) must lie in
     the box and be solved: by the closed form where the arm has one, else planned from
-    home by the default solver. A target the links' lengths put beyond every pose's
-    reach (:class:`~mearm.ik.reach.ReachBound`) is refused before it is planned: no
-    pose meets the solver's stopping rule, so the plan could only fail, slowly (its
-    direct solve to the cap, then the multi-start); the answer is the plan's.
+    home by the default solver. A target the links' lengths, or they and the anchor
+    joint's limits, put beyond every pose's reach (:class:`~mearm.ik.reach.ReachBound`)
+    is refused before it is planned: no pose within the limits meets the solver's
+    stopping rule, so the plan could only fail, slowly (its direct solve to the cap, then
+    the multi-start); the answer is the plan's.
     """
     closed_form = closed_form_for(config.arm)
     height = config.task.approach_height_cm
@@ -461,7 +462,7 @@ def _reach_check(config: Config) -> Callable[[ColorClass, float, float], np.ndar
                     target = planner.above_target(target, zz - z)
                 # (in metres as the solver's own test has it: :meth:`PdPij._recover`)
                 metres = (np.asarray(target.position_cm, dtype=float) / CM_PER_M).tolist()
-                if bound.beyond(metres, target.approach):
+                if bound.beyond_limits(metres, target.approach):
                     return None
                 route = Route("", cls.name, "pick", 1, target)
                 if not planner.plan(route, model.home).planned:
