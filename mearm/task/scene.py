@@ -604,6 +604,12 @@ def _candidate(
     cube's or a prism's yaw is drawn from ``rng`` only once it is reachable. A pick of
     its own that puts the tool in the table notes the part that goes in, in ``in_table``
     under the class.
+
+    The cheap tests run first, the answer and ``rng``'s draws the same whatever their
+    order: the gaps, the pick's reach at (x, y) (its pose), then for a disc (no yaw
+    drawn) the footprint, whose refusal by a bin or an object needs no margin planned;
+    the margins last, farthest from the base first (beyond reach, the first to fail).
+    The footprint takes no yaw (:func:`_footprint_check`).
     """
     if any(np.hypot(o.x - x, o.y - y) < min_dist for o in placed):
         return None
@@ -611,15 +617,20 @@ def _candidate(
         return None
     cls = config.task.class_named(color)
     q = reach(cls, x, y)
-    if q is None or not all(
-        reach(cls, x + float(dx), y + float(dy)) is not None for dx, dy in margins
-    ):
+    if q is None:
         return None
     new = SceneObject(color=color, x=x, y=y)
     symmetry = cls.object_shape.symmetry_deg
+    hit = None if symmetry else footprint(placed, poses, new, q)
+    if hit is not None and hit[1] != "table":
+        return None  # (refused whether or not the margins are reached: no yaw drawn)
+    around = [(x + float(dx), y + float(dy)) for dx, dy in margins]
+    around.sort(key=lambda p: -math.hypot(*p))  # (a stable sort: ties keep their order)
+    if not all(reach(cls, mx, my) is not None for mx, my in around):
+        return None
     if symmetry:  # a cube or a prism lies at any yaw (a disc draws none)
         new = new.model_copy(update={"yaw_deg": round(rng.uniform(0, symmetry), 1)})
-    hit = footprint(placed, poses, new, q)
+        hit = footprint(placed, poses, new, q)
     if hit is not None:
         if hit[1] == "table":  # (the placed objects' picks were clear of it already)
             in_table[color] = hit[0]
