@@ -923,6 +923,19 @@ class CollisionModel:
             return self.clear_height_cm(q)
 
     @contextmanager
+    def released(self, open_cm: float) -> Iterator[None]:
+        """The world with the jaws opened to ``open_cm`` and what they held let go, for a while.
+
+        What a release leaves (:meth:`opening_contact` checks the opening itself): the way
+        out of a bin from a release is planned in it before the place is sent
+        (:meth:`Planner.plan_place <mearm.task.plan.Planner.plan_place>`); the world is as
+        it was afterwards.
+        """
+        with self._let_go():
+            self._open_to(open_cm)
+            yield
+
+    @contextmanager
     def _let_go(self) -> Iterator[None]:
         """The world without the held object for a while (:meth:`_open_to` opens the jaws)."""
         objects, opening, held, below = (

@@ -221,13 +221,16 @@ class Planner:
         return _fail(route, IKFailure("collision", why))
 
     def plan_place(self, route: Route, q_start: npt.ArrayLike) -> Route:
-        """:meth:`plan` a place, and its release: the jaws open clear where it ends.
+        """:meth:`plan` a place, and its release: the jaws open clear, and leave, where it ends.
 
         Where they would open within the clearance of something (a bin whose walls grew
-        above the release height with its objects, the jaws opening between them), the
-        release is raised to where they open clear of every wall and object top, and the
-        object drops the rest; where that is not planned either, the route is refused
-        with ``collision``, naming what the jaws open into. Without a collision model, as
+        above the release height with its objects, the jaws opening between them), or
+        where, opened, they have no way up out of the bin (:meth:`way_up`, the first leg
+        of every way on from a release: its walls grown tall for many objects, the open
+        jaws just clear of one at the release swing into it on the way up), the release
+        is raised to where they open clear of every wall and object top, and the object
+        drops the rest; where that is not planned either, the route is refused with
+        ``collision``, naming what stops the jaws. Without a collision model, as
         :meth:`plan`.
         """
         self.plan(route, q_start)
@@ -237,10 +240,14 @@ class Planner:
         open_cm = self.config.arm.tool.gripper.open_cm
         contact = self.collision.opening_contact(route.plan.q, open_cm)
         if contact is None:
-            return route
+            stuck = self._no_way_up(route.plan.q, open_cm)
+            if stuck is None:
+                return route
+            why = f"collision: the jaws opened at the release have no way up: {stuck}"
+        else:
+            why = f"collision: the jaws open into it at the release: {self._describe(contact)}"
         x, y, z = (float(v) for v in route.target.position_cm)
         high_z = self.collision.open_clear_height_cm(route.plan.q, open_cm) + DETOUR_MARGIN_CM
-        why = f"collision: the jaws open into it at the release: {self._describe(contact)}"
         if high_z > z:
             own = route.target
             route.target, route.plan, route.detour_cm = (
@@ -250,12 +257,39 @@ class Planner:
             if route.planned and route.plan is not None:
                 raised = self.collision.opening_contact(route.plan.q, open_cm)
                 if raised is None:
-                    return route
-                why += f"; raised to {high_z:.1f} cm: {self._describe(raised)}"
+                    stuck = self._no_way_up(route.plan.q, open_cm)
+                    if stuck is None:
+                        return route
+                    why += f"; raised to {high_z:.1f} cm, no way up: {stuck}"
+                else:
+                    why += f"; raised to {high_z:.1f} cm: {self._describe(raised)}"
             else:
                 why += f"; raised to {high_z:.1f} cm: {route.failure}"
             route.target, route.failure, route.failure_kind = own, None, None
         return _fail(route, IKFailure("collision", why))
+
+    def way_up(self, q: npt.ArrayLike, from_cm: npt.ArrayLike | None = None) -> Route:
+        """The TCP straight up from pose ``q`` to the safe height, planned and checked.
+
+        ``from_cm``: where the TCP is [cm] (the simulated arm's truth; default: the FK of
+        ``q``). The way home's first detour (:meth:`Sorter._home
+        <mearm.task.sorter.Sorter._home>`), and from a release, in the world the jaws
+        left there (:meth:`plan_place`). Not planned: its failure says why.
+        """
+        tcp = self.model.fk_cm(q) if from_cm is None else np.asarray(from_cm, dtype=float)
+        x, y, z = (float(v) for v in tcp)
+        safe = max(z, self.safe_height_cm(q))
+        return self.plan(Route("", "", "home", 1, IKTarget((x, y, safe))), q)
+
+    def _no_way_up(self, q: np.ndarray, open_cm: float) -> str | None:
+        """Why the jaws have no :meth:`way_up` from pose ``q``, opened there, or ``None``.
+
+        Opened to ``open_cm``, what they held let go (a release); ``None``: they have one.
+        """
+        assert self.collision is not None
+        with self.collision.released(open_cm):
+            up = self.way_up(q)
+        return None if up.planned else up.failure
 
     def _solve(
         self, target: IKTarget, q_start: npt.ArrayLike

@@ -47,7 +47,6 @@ from mearm.data import doc_page
 from mearm.errors import ConfigError, MearmError
 from mearm.hardware.bus import ReportsWhere, ServoBus
 from mearm.hardware.errors import ServoError
-from mearm.ik import IKTarget
 from mearm.kinematics import ArmModel
 from mearm.sim.table_collision import collision_model
 from mearm.task.claw_loop import claw_eye
@@ -402,10 +401,9 @@ class Sorter(PickAndPlace):
         contact = self.collision.first_contact(ex.joint_path(self.model.home))
         if contact is not None:
             # up to the safe height first, where the straight way home is clear
-            x, y, z = (float(v) for v in ex.ee_now_cm())
-            safe = max(z, self.planner.safe_height_cm(ex.q_now()))
-            up = Route("", "", "home", 1, IKTarget((x, y, safe)))
-            if self.planner.plan(up, ex.q_now()).planned:
+            up = self.planner.way_up(ex.q_now(), ex.ee_now_cm())
+            safe = float(up.target.position_cm[2])
+            if up.planned:
                 ex.stream(up, "travel", closed=closed)
             contact = self.collision.first_contact(ex.joint_path(self.model.home))
             if contact is not None:
