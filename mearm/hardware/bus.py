@@ -117,11 +117,15 @@ class ReportsWhere(Protocol):
 
     ``held_ids()``: the objects the jaws hold (read after a grip). ``where(object_id)``:
     where that object is now, as the end of a sentence (``fell into the green bin``), for
-    a place that found the jaws empty over its bin.
+    a place that found the jaws empty over its bin. ``in_own_bin(object_id)``: the
+    object's class when a bin of that class holds it (it is sorted, wherever it fell
+    from), else ``None``: a place whose object slipped out on the way into its own bin
+    did its job.
     """
 
     def held_ids(self) -> frozenset[str]: ...  # noqa: D102
     def where(self, object_id: str) -> str: ...  # noqa: D102
+    def in_own_bin(self, object_id: str) -> str | None: ...  # noqa: D102
 
 
 @runtime_checkable

@@ -168,6 +168,10 @@ class RouteRecord(_Record):
     object still where the jaws closed; a place: nothing of its class brought to the bin,
     or where a simulator saw it land); ``None`` when it did, was not checked, or in logs
     written before it."""
+    note: str | None = Field(default=None, max_length=MAX_WHY_CHARS, pattern=r"^[^\r\n]*$")
+    """What a route that did its job did out of the ordinary, one line (a place whose
+    object slipped out of the jaws on the way into its own bin, counted sorted); ``None``
+    otherwise and in logs written before it."""
     elapsed_s: _Seconds
     motion_s: _Seconds
 

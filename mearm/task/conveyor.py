@@ -46,7 +46,7 @@ from mearm.errors import MearmError
 from mearm.hardware.bus import ServoBus
 from mearm.ik import IKTarget
 from mearm.sim.belt import Belt, belt_arrivals
-from mearm.task.pick_place import holds_its_class, objects_gripped, place_failure
+from mearm.task.pick_place import holds_its_class, objects_gripped, place_failure, place_note
 from mearm.task.report import Outcome, SortReport
 from mearm.task.route import Route
 from mearm.task.sorter import Sorter, TrackedObject, _hex
@@ -396,6 +396,7 @@ class ConveyorSorter(Sorter):
         ex.set_tool("travel", closed=False)
         place.why_failed = place_failure(self.bus, obj.class_name, held=held, gripped=closed_on)
         place.success = place.why_failed is None
+        place.note = place_note(held=held, success=place.success)
         obj.sorted = place.success
         self.reporter.route(ex.finish(place, t1))
 

@@ -541,6 +541,7 @@ class PickAndPlace(TableTracking):
         if not held and self._gripped:  # a grip of nothing keeps the ids an earlier one lost
             obj.lost_ids = self._gripped
         place.success = place.why_failed is None
+        place.note = place_note(held=held, success=place.success)
         obj.sorted = place.success
         if place.success:
             obj.places += 1
@@ -587,7 +588,10 @@ def place_failure(
     one that knows its objects (:class:`ReportsWhere`) says where the objects the jaws
     closed on (``gripped``, :func:`objects_gripped`) went when they were lost on the way,
     or that the jaws closed on nothing (the object was not between them: a disc still
-    rolling where the camera had seen it, a prism the closing jaws pushed aside).
+    rolling where the camera had seen it, a prism the closing jaws pushed aside). One of
+    them of ``class_name`` that fell into its own bin on the way is sorted all the same
+    (``None``; the place says so, :data:`LOST_INTO_ITS_BIN`): the world has the object in
+    its class's bin. One that fell into another class's bin, or anywhere else, is not.
     """
     if not held:
         why = "over the bin the jaws held nothing of its class: "
@@ -595,6 +599,8 @@ def place_failure(
             return why + "it was lost on the way"
         if not gripped:
             return why + "they had closed on nothing at the pick"
+        if any(bus.in_own_bin(i) == class_name for i in gripped):
+            return None
         return why + "it was lost on the way and " + where_they_are(bus, gripped)
     release = bus.last_release if isinstance(bus, ReportsRelease) else None
     if release is None or release.bin == class_name:
@@ -602,6 +608,20 @@ def place_failure(
     if release.bin is None:
         return f"released, it landed on the table at ({release.x_cm:.1f}, {release.y_cm:.1f}) cm"
     return f"released, it fell into the {release.bin} bin"
+
+
+#: What a place whose object slipped out of the jaws on the way, into its own class's
+#: bin, says after ``ok`` (:func:`place_failure`: it is sorted; the jaws came empty).
+LOST_INTO_ITS_BIN = "lost on the way, it fell into its own bin: counted sorted"
+
+
+def place_note(*, held: bool, success: bool) -> str | None:
+    """What a place that did its job says after ``ok``, if anything.
+
+    :data:`LOST_INTO_ITS_BIN` when the jaws held nothing of its class over the bin
+    (:func:`place_failure` found the object in its bin all the same); else ``None``.
+    """
+    return LOST_INTO_ITS_BIN if success and not held else None
 
 
 def where_they_are(bus: ReportsWhere, object_ids: frozenset[str]) -> str:

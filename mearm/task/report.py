@@ -237,12 +237,13 @@ class Reporter:
                 success=bool(route.success),
                 confirmed=bool(route.confirmed),
                 why_failed=route.why_failed,
+                **({"note": route.note} if route.note else {}),  # (a log keeps no null)
                 elapsed_s=route.elapsed_s,
                 motion_s=route.motion_s,
             )
         x, y, z = target
         mark = "ok" if route.success else "FAILED" if route.confirmed else "unconfirmed"
-        why = f": {route.why_failed}" if route.why_failed else ""
+        why = f": {route.why_failed or route.note}" if route.why_failed or route.note else ""
         self.echo(
             f"{route.step:<5} {route.object_id:<9} target ({x:6.2f}, {y:6.2f}, {z:6.2f}) cm  "
             f"{plan.iterations:4d} it  solver {plan.final_error_cm:.4f} cm  "

@@ -37,6 +37,9 @@ class Route:
             people (a pick: the object still where the grip was; a place: what the jaws
             brought to the bin, or where the object landed); ``None`` when it did, or was
             not checked.
+        note: What a route that did its job did out of the ordinary, one line for people
+            after ``ok`` (a place whose object slipped out on the way into its own bin:
+            :data:`~mearm.task.pick_place.LOST_INTO_ITS_BIN`); ``None`` otherwise.
         ee_cm: Where the TCP really ended [cm], (3,) (the simulated arm knows; a real
             arm reports its commands).
         grip_ee_cm: A pick's TCP when the jaws start to close, after the tool's settling
@@ -61,6 +64,7 @@ class Route:
     success: bool = False
     confirmed: bool = True
     why_failed: str | None = None
+    note: str | None = None
     ee_cm: np.ndarray = field(default_factory=lambda: np.full(3, np.nan))
     grip_ee_cm: np.ndarray | None = None
     elapsed_s: float = 0.0

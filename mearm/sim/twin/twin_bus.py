@@ -440,6 +440,20 @@ class TwinArm(ServoBus):
             if self._object_classes[oid] == class_name and held.get(oid) != class_name
         ]
 
+    def in_own_bin(self, object_id: str) -> str | None:
+        """The object's class when a bin of its class holds it (:meth:`objects_in_bin`).
+
+        ``None``: no bin holds it, or another class's does. Read for a place whose jaws
+        came to the bin empty: an object that slipped out on the way into its own bin is
+        sorted, as :meth:`in_bin_counts` counts it.
+
+        Raises:
+            WorldError: no object has that id; the message lists them.
+        """
+        self.object_pose(object_id)  # (an unknown id is refused there)
+        name = self._object_classes[object_id]
+        return name if self.objects_in_bin().get(object_id) == name else None
+
     def in_bin_counts(self) -> dict[str, int]:
         """How many objects of each class a bin of their own class holds (:meth:`objects_in_bin`).
 
