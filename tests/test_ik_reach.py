@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from conftest import ROOT
 
-from mearm.config import load_config
+from mearm.config import Config, load_config
 from mearm.exceptions import MearmError
 from mearm.ik import IKTarget, PdPij
 from mearm.ik.reach import ReachBound
@@ -39,6 +39,22 @@ def _random_poses(model: ArmModel, rng: np.random.Generator, count: int, *, limi
     return [chain.full(rng.uniform(lo, hi)) for _ in range(count)]
 
 
+def _just_within(
+    config: Config, model: ArmModel, q: np.ndarray, rng: np.random.Generator
+) -> tuple[np.ndarray, np.ndarray]:
+    """Pose ``q``'s TCP moved by just under the solver's tolerance [m], and its approach
+    turned by just under the approach tolerance about an axis across it."""
+    tol_cm = 0.999 * math.sqrt(config.controller.tolerance_cm2)
+    turn = math.radians(0.999 * APPROACH_TOLERANCE_DEG)
+    p_cm, R = model.tcp_pose(q)
+    a = R @ model.approach_axis
+    way = rng.normal(size=3)
+    target_m = (p_cm + tol_cm * way / np.linalg.norm(way)) / 100.0
+    axis = np.cross(a, rng.normal(size=3))
+    axis /= np.linalg.norm(axis)
+    return target_m, a * math.cos(turn) + np.cross(axis, a) * math.sin(turn)
+
+
 @pytest.mark.parametrize(("name", "sets"), ARMS)
 def test_no_pose_is_beyond_reach_nor_a_target_within_the_tolerance_of_one(name, sets):
     """Every pose's TCP (limits ignored), moved by just under the tolerances, is not beyond."""
@@ -46,17 +62,8 @@ def test_no_pose_is_beyond_reach_nor_a_target_within_the_tolerance_of_one(name, 
     bound = ReachBound(model, config.controller.tolerance_cm2, APPROACH_TOLERANCE_DEG)
     assert bound.anchor_m is not None  # every arm here has a bound to test
     rng = np.random.default_rng(41)
-    tol_cm = 0.999 * math.sqrt(config.controller.tolerance_cm2)
-    turn = math.radians(0.999 * APPROACH_TOLERANCE_DEG)
     for q in _random_poses(model, rng, 400, limits=False):
-        p_cm, R = model.tcp_pose(q)
-        a = R @ model.approach_axis
-        way = rng.normal(size=3)
-        target_m = (p_cm + tol_cm * way / np.linalg.norm(way)) / 100.0
-        # the approach turned by just under the tolerance about an axis across it
-        axis = np.cross(a, rng.normal(size=3))
-        axis /= np.linalg.norm(axis)
-        a_t = a * math.cos(turn) + np.cross(axis, a) * math.sin(turn)
+        target_m, a_t = _just_within(config, model, q, rng)
         assert not bound.beyond(target_m.tolist(), tuple(a_t)), (q, target_m, a_t)
         assert not bound.beyond(target_m.tolist(), None), (q, target_m)
 
@@ -115,8 +122,6 @@ def test_no_pose_within_the_limits_is_beyond_them_nor_a_target_within_the_tolera
     config, model = _arm(name, sets)
     bound = ReachBound(model, config.controller.tolerance_cm2, APPROACH_TOLERANCE_DEG)
     rng = np.random.default_rng(43)
-    tol_cm = 0.999 * math.sqrt(config.controller.tolerance_cm2)
-    turn = math.radians(0.999 * APPROACH_TOLERANCE_DEG)
     chain = model.chain
     lo, hi = chain.actuated_lower, chain.actuated_upper
     second = list(chain.actuated_index).index(1) if 1 in chain.actuated_index else None
@@ -127,13 +132,7 @@ def test_no_pose_within_the_limits_is_beyond_them_nor_a_target_within_the_tolera
         q = chain.full(a_q)
         if not chain.within_limits(q, 1e-12):  # (a passive joint past its own)
             continue
-        p_cm, R = model.tcp_pose(q)
-        a = R @ model.approach_axis
-        way = rng.normal(size=3)
-        target_m = (p_cm + tol_cm * way / np.linalg.norm(way)) / 100.0
-        axis = np.cross(a, rng.normal(size=3))
-        axis /= np.linalg.norm(axis)
-        a_t = a * math.cos(turn) + np.cross(axis, a) * math.sin(turn)
+        target_m, a_t = _just_within(config, model, q, rng)
         assert not bound.beyond_limits(target_m.tolist(), tuple(a_t)), (q, target_m, a_t)
         assert not bound.beyond_limits(target_m.tolist(), None), (q, target_m)
     if name == "sim_5dof.yaml":  # its shoulder may not turn below 15°: far out, low down
