@@ -395,7 +395,7 @@ def _sort(argv: Sequence[str] | None) -> int:
     if args.log:
         from mearm.runlog import RunLog  # noqa: PLC0415  (only a run that keeps a log)
 
-        log = RunLog(args.log)
+        log = RunLog(args.log, sort_run=True)
     else:
         log = None
     if log is not None:

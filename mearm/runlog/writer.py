@@ -65,6 +65,15 @@ def _is_header(line: bytes) -> bool:
     return isinstance(record, dict) and record.get("type") == "header"
 
 
+def _trial_of(line: bytes) -> int | None:
+    """The trial number a header record ``line`` names: ``None`` for a sort run's (or no header)."""
+    try:
+        trial = json.loads(line).get("trial")
+    except (ValueError, AttributeError):
+        return None
+    return trial if isinstance(trial, int) and not isinstance(trial, bool) else None
+
+
 class RunLog:
     """Writes a run log, one durable line per record.
 
@@ -92,12 +101,15 @@ class RunLog:
         lock: The log's lock, already taken by the caller (:class:`~mearm.runlog.lock.
             LogLock`); ``None``: the log takes its own, held while it is open. Either way
             one process writes a log at a time.
+        sort_run: The run is one sort's (``mearm sort``, trial ``null``): refuse a file
+            that holds an experiment's trials, which ``mearm experiment`` could then no
+            longer resume.
 
     Raises:
         RunLogLockedError: another process is writing the log (it names the process).
         RunLogError: ``exclusive`` and the file exists; the file ends in a torn line
             (:func:`~mearm.runlog.set_aside_torn_end` repairs that); it is not a regular
-            file; it cannot be opened.
+            file; it cannot be opened; ``sort_run`` and it is an experiment's.
     """
 
     def __init__(
@@ -107,11 +119,13 @@ class RunLog:
         exclusive: bool = False,
         fsync: bool = True,
         lock: LogLock | None = None,
+        sort_run: bool = False,
     ):
         self.path = Path(path)
         self._fsync = fsync
         self._trial: _TrialBuilder | None = None
         self.records_written = 0
+        first = b""
         if self.path.exists():
             if exclusive:
                 raise RunLogError(self.path, "exists (exclusive=True refuses to append)")
@@ -119,7 +133,7 @@ class RunLog:
                 raise RunLogError(
                     self.path, "is not a regular file (a folder, device or pipe); give a file path"
                 )
-            self._refuse_torn_file()
+            first = self._refuse_torn_file()
         folder = existing_ancestor(self.path)
         if not folder.is_dir():  # (mkdir would say the file 'exists', as if it were the log)
             raise RunLogError(self.path, f"cannot write: {folder} is a file, not a folder")
@@ -142,14 +156,26 @@ class RunLog:
             except BaseException:
                 self._file.close()
                 raise
+        trial = _trial_of(first)
+        if sort_run and trial is not None:  # (after the lock: a running one is named first)
+            self._file.close()
+            raise RunLogError(
+                self.path,
+                f"is an experiment's log (its first record is trial {trial}'s header): a "
+                "sort's run appended to it would leave mearm experiment unable to resume "
+                "it; give the sort its own --log",
+            )
 
-    def _refuse_torn_file(self) -> None:
-        """Refuse a file to append to that ends mid-line, or that is no run log at all."""
+    def _refuse_torn_file(self) -> bytes:
+        """Refuse a file to append to that ends mid-line, or that is no run log at all.
+
+        Returns its first line (``b""``: an empty file).
+        """
         try:
             with self.path.open("rb") as f:
                 f.seek(0, os.SEEK_END)
                 if f.tell() == 0:
-                    return
+                    return b""
                 f.seek(-1, os.SEEK_END)
                 last = f.read(1)
                 f.seek(0)
@@ -169,6 +195,7 @@ class RunLog:
                 "appended to; read it with mearm.analyze and write the new run to another "
                 "file (mearm experiment sets the torn line aside when it resumes a log)",
             )
+        return first
 
     # -- context manager
 
