@@ -3,7 +3,8 @@
 The belt's run ends once nothing to sort has been seen for a while. It counted any
 sighting: on a still belt (``belt.speed_cm_s=0``) an object whose pick failed stays in
 view for ever, and the sort waited for ever, seeing it (a fresh-seed sweep killed it after
-300 s, ``sorted 1 of 6``). Only objects still to sort keep the run waiting now.
+300 s, ``sorted 1 of 6``; its arrivals, landing on one another, are now refused at load:
+tests/test_belt_arrivals_apart.py). Only objects still to sort keep the run waiting now.
 """
 
 from __future__ import annotations
@@ -15,14 +16,14 @@ from conftest import ROOT, mearm_cli
 
 pytestmark = pytest.mark.heavy
 
-#: Two arrivals 0.2 to 0.3 s apart on a belt that does not move: the first's pick fails
-#: (the second landed against it) and it stays where it lay.
+#: One object on a still belt by the blue bin: its pick is refused (the jaws come near the
+#: bin's wall) and it stays where it lay, in view.
 STILL = [
-    "belt.arrivals.count=2",
+    "belt.arrivals.count=1",
     "belt.speed_cm_s=0",
-    "belt.arrivals.min_gap_s=0.2",
-    "belt.arrivals.max_gap_s=0.3",
-    "belt.arrivals.seed=16213",
+    "belt.start_cm=[-19.0,57.0]",
+    "belt.heading_deg=0",
+    "belt.length_cm=3",
 ]
 
 
@@ -36,4 +37,4 @@ def test_an_object_left_on_a_still_belt_does_not_keep_the_sort_running() -> None
         pytest.fail("the sort of a still belt ran on past 120 s")
     assert out.returncode == 1, out.stderr[-2000:]
     line = out.stderr.strip().splitlines()[-1]
-    assert line.startswith("mearm sort: sorted 0 of 2 objects (simulated; 1 pick failed"), line
+    assert line == "mearm sort: sorted 0 of 1 objects (simulated; 1 missed on the belt)", line

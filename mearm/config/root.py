@@ -10,7 +10,13 @@ from pydantic import Field, field_validator, model_validator
 
 from mearm.config.arm import ArmDescription, base_radius_m
 from mearm.config.base import MAX_LENGTH_CM, Seed, Strict
-from mearm.config.belt_config import FOLLOW_SHARE, BeltConfig, follow_limit_cm_s, overhang_cm
+from mearm.config.belt_config import (
+    FOLLOW_SHARE,
+    BeltConfig,
+    arrival_draws,
+    follow_limit_cm_s,
+    overhang_cm,
+)
 from mearm.config.defaults import paper_arm
 from mearm.config.sections import (
     CalibrationConfig,
@@ -322,6 +328,63 @@ class Config(Strict):
                 f"past the belt's end: at least {math.ceil(across * 100) / 100:g} cm"
             )
         return self
+
+    @model_validator(mode="after")
+    def _arrivals_apart(self) -> Config:
+        """No object the belt brings lands on one it brought before (:func:`arrival_draws`).
+
+        Each lands its footprint's radius down from the upstream end, at its drawn offset
+        across; one brought earlier has ridden ``speed_cm_s`` times the gap on since, if
+        nothing picked it. Closer than their footprints' radii, the two would lie on one
+        another: on a still belt (``speed_cm_s`` 0) a second arrival landed on the first,
+        the camera saw one region, and a sort waited for ever on what it left.
+        """
+        belt = self.belt
+        if belt is None or belt.arrivals.count < 2 or not self.task.classes:
+            return self
+        radius = {c.name: c.footprint_radius_cm for c in self.task.classes}
+        reach = 4 * max(radius.values())  # past this, an earlier arrival is clear of it
+        v = belt.speed_cm_s
+        draws = arrival_draws(belt, self.task.classes)
+        for i, (name, t, across, _) in enumerate(draws):
+            for j in range(i - 1, -1, -1):
+                other, t_j, across_j, _ = draws[j]
+                ridden = v * (t - t_j)
+                if ridden > reach:
+                    break
+                along = radius[other] + ridden - radius[name]
+                need = radius[name] + radius[other]
+                if math.hypot(along, across - across_j) < need - 1e-9:
+                    gap = belt.arrivals.min_gap_s
+                    return self._landed_on(i, j, name, other, t, t_j, ridden, need, gap)
+        return self
+
+    def _landed_on(
+        self, i: int, j: int, name: str, other: str, t: float, t_j: float, ridden: float,
+        need: float, gap: float,
+    ) -> Config:  # fmt: skip
+        """The refusal of :meth:`_arrivals_apart`: arrival ``i`` lands on arrival ``j``."""
+        assert self.belt is not None
+        v = self.belt.speed_cm_s
+        if v > 0:
+            # an arrival lands its radius down the belt, one before it has ridden v * gap on
+            # from its own: clear of each other at any offset once v * gap is the widest across
+            widest = 2 * max(c.footprint_radius_cm for c in self.task.classes)
+            fix = (
+                f"belt.arrivals.min_gap_s at least {math.ceil(widest / v * 100) / 100:g} s, a "
+                "faster belt (belt.speed_cm_s), or another belt.arrivals.seed"
+            )
+        else:
+            fix = (
+                "a still belt lands them on one spot: run it (belt.speed_cm_s), or bring one "
+                "object (belt.arrivals.count 1)"
+            )
+        raise ValueError(
+            f"@belt.arrivals: arrival {i + 1} ({name}, at {t:.3g} s) lands on arrival {j + 1} "
+            f"({other}, at {t_j:.3g} s), which the belt at {v:g} cm/s has carried {ridden:.3g} "
+            f"cm on since: their footprints need {need:.3g} cm between centres (min_gap_s "
+            f"{gap:g} s): {fix}"
+        )
 
     @model_validator(mode="after")
     def _belt_or_table(self) -> Config:
