@@ -50,8 +50,10 @@ def test_the_table_counts_every_test_and_the_children_it_waited_for_across_worke
     assert float(counted[1]) == pytest.approx(sum(row[0] for row in rows.values()), abs=0.11)
     for total, own, kids, _ in rows.values():
         assert total == pytest.approx(own + kids, abs=0.11)
-    # each fk run is a Python process importing mearm: tenths of a second of CPU each
-    assert rows[WITH_CHILDREN][2] > 0.2, said
+    # each fk run is a Python process importing mearm: its CPU is counted (the table shows
+    # tenths of a second; four such runs, 0.2 s on a quick machine, showed 0.2 and a bound
+    # of "more than 0.2" failed there: the bound is that they are counted at all)
+    assert rows[WITH_CHILDREN][2] > 0.0, said
     assert rows[IN_PROCESS][2] == 0.0, said
 
 
