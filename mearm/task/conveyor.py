@@ -396,6 +396,7 @@ class ConveyorSorter(Sorter):
         ex.set_tool("travel", closed=False)
         place.why_failed = place_failure(self.bus, obj.class_name, held=held, gripped=closed_on)
         place.success = place.why_failed is None
+        obj.place_failed = place.why_failed
         place.note = place_note(held=held, success=place.success)
         obj.sorted = place.success
         self.reporter.route(ex.finish(place, t1))

@@ -541,6 +541,7 @@ class PickAndPlace(TableTracking):
         if not held and self._gripped:  # a grip of nothing keeps the ids an earlier one lost
             obj.lost_ids = self._gripped
         place.success = place.why_failed is None
+        obj.place_failed = place.why_failed
         place.note = place_note(held=held, success=place.success)
         obj.sorted = place.success
         if place.success:

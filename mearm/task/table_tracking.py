@@ -114,6 +114,10 @@ class TrackedObject:
     #: where the bus knows them (:class:`~mearm.hardware.bus.ReportsWhere`, the twin's
     #: ids): the twin can say where it went when the camera no longer sees it.
     lost_ids: frozenset[str] = frozenset()
+    #: Why its last place failed (lost on the way, released off its bin), while it lies
+    #: where that left it; ``None`` once a place put it in its bin, or none failed. A skip
+    #: of it says so: the cause of its lying there is that place, not what the skip found.
+    place_failed: str | None = None
 
 
 Seen = list[tuple[Detection, np.ndarray]]
@@ -602,6 +606,8 @@ class TableTracking:
     def _skip(
         self, obj: TrackedObject, reason: str, target: Route | None = None, *, kind: str
     ) -> None:
+        if obj.place_failed is not None:
+            reason = f"{reason} (after its place failed: {obj.place_failed})"
         obj.skipped = reason
         obj.skip_kind = kind
         where = None if target is None else tuple(float(v) for v in target.target.position_cm)
