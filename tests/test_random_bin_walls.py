@@ -81,4 +81,7 @@ def test_the_number_the_walls_refusal_suggests_fits_on_the_table_too(seed: int) 
     assert asked is not None, str(info.value)
     most, walls = int(asked.group(1)), int(asked.group(2))
     assert most < walls
+    # what a layout held, not what the table holds (80 with seed 18201 named 44, and
+    # 45 and 46 were laid out)
+    assert f"no layout of those drawn with seed {seed} held more than {most}" in str(info.value)
     assert len(random_scene(config, most, seed=seed)) == most
