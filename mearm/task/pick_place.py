@@ -593,6 +593,9 @@ def place_failure(
     them of ``class_name`` that fell into its own bin on the way is sorted all the same
     (``None``; the place says so, :data:`LOST_INTO_ITS_BIN`): the world has the object in
     its class's bin. One that fell into another class's bin, or anywhere else, is not.
+    Held over the bin, the objects the jaws closed on are looked for in the same way once
+    they opened: a held one may miss the bin (a 1 cm disc swinging in the jaws as the arm
+    stopped landed beside the blue bin, and the place had said ``ok``).
     """
     if not held:
         why = "over the bin the jaws held nothing of its class: "
@@ -603,6 +606,10 @@ def place_failure(
         if any(bus.in_own_bin(i) == class_name for i in gripped):
             return None
         return why + "it was lost on the way and " + where_they_are(bus, gripped)
+    if isinstance(bus, ReportsWhere) and gripped:
+        if any(bus.in_own_bin(i) == class_name for i in gripped):
+            return None
+        return "released, it " + where_they_are(bus, gripped)
     release = bus.last_release if isinstance(bus, ReportsRelease) else None
     if release is None or release.bin == class_name:
         return None
