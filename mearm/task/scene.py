@@ -28,9 +28,10 @@ from mearm.kinematics.bodies import (
     TableContents,
     base_radius_m,
     bin_half_outer_m,
+    object_name,
     wall_height_m,
 )
-from mearm.kinematics.collision import TOUCH_M
+from mearm.kinematics.collision import TOUCH_M, CollisionModel
 from mearm.kinematics.model import CM_PER_M
 from mearm.sim.table_collision import collision_model
 from mearm.task.check import bins_near_home
@@ -494,6 +495,39 @@ def _footprint_check(
     model = ArmModel(config.arm)
     margin = config.task.clearance_cm + FOOTPRINT_MARGIN_CM
     collision = collision_model(config, model, clearance_cm=margin, table=table)
+    plain: list[CollisionModel] = []  # the sort's clearance, made when first needed
+    # an object's pick from its own object: None (clear), or the part that comes too near
+    own_hit: dict[tuple[str, float, float], tuple[str, str] | None] = {}
+
+    def pick_clear(
+        objects: list[tuple[str, str, float, float]], i: int, q: np.ndarray
+    ) -> tuple[str, str] | None:
+        """Object ``i``'s pick at ``q``: its own object kept at the sort's clearance only.
+
+        The margin is for where the camera places an object, and the pick goes where the
+        camera places it: the tool stands where it stands to its own object whatever the
+        error (a 4.5 cm tall cylinder gripped 1.5 cm up, the hand above its top, was
+        refused at every place, ``at most 1 fit``, though the sort picks it). So where
+        the nearest at the margin is its own object, the others are checked at the
+        margin without it, and it at the sort's clearance (once an object).
+        """
+        oid = objects[i][0]
+        gap, part, what = collision.gap(q, target=oid)
+        if gap >= TOUCH_M or what != object_name(oid):
+            return None if gap >= TOUCH_M else (part, what)
+        collision.set_world(objects[:i] + objects[i + 1 :])
+        gap, part, what = collision.gap(q)
+        collision.set_world(objects)
+        if gap < TOUCH_M:
+            return part, what
+        key = objects[i][1:]
+        if key not in own_hit:
+            if not plain:
+                plain.append(collision_model(config, model, table=table))
+            plain[0].set_world([objects[i]])
+            own_gap, own_part, own_what = plain[0].gap(q, target=oid)
+            own_hit[key] = None if own_gap >= TOUCH_M else (own_part, own_what)
+        return own_hit[key]
 
     def clear(
         placed: list[SceneObject], poses: list[np.ndarray], new: SceneObject, q: np.ndarray
@@ -501,9 +535,9 @@ def _footprint_check(
         objects = [(f"o{i}", o.color, o.x, o.y) for i, o in enumerate([*placed, new])]
         collision.set_world(objects)
         for i, pose in [(len(placed), q), *enumerate(poses)]:
-            gap, part, what = collision.gap(pose, target=f"o{i}")
-            if gap < TOUCH_M:
-                return part, what
+            hit = pick_clear(objects, i, pose)
+            if hit is not None:
+                return hit
         return None
 
     return clear
@@ -596,7 +630,7 @@ def _candidate(
     footprint: Callable[
         [list[SceneObject], list[np.ndarray], SceneObject, np.ndarray], tuple[str, str] | None
     ],
-    in_table: dict[str, str],
+    in_table: dict[str, tuple[str, str]],
 ) -> tuple[SceneObject, np.ndarray] | None:
     """A ``color`` object at (x, y) and its pick pose, or ``None`` if it may not stand there.
 
@@ -621,8 +655,11 @@ def _candidate(
         return None
     new = SceneObject(color=color, x=x, y=y)
     symmetry = cls.object_shape.symmetry_deg
+    own = object_name(f"o{len(placed)}")  # the new object's name in the footprint's world
     hit = None if symmetry else footprint(placed, poses, new, q)
     if hit is not None and hit[1] != "table":
+        if hit[1] == own:  # its own pick meets it: so at every place (no margin needed)
+            in_table[color] = (hit[0], "object")
         return None  # (refused whether or not the margins are reached: no yaw drawn)
     around = [(x + float(dx), y + float(dy)) for dx, dy in margins]
     around.sort(key=lambda p: -math.hypot(*p))  # (a stable sort: ties keep their order)
@@ -632,16 +669,33 @@ def _candidate(
         new = new.model_copy(update={"yaw_deg": round(rng.uniform(0, symmetry), 1)})
         hit = footprint(placed, poses, new, q)
     if hit is not None:
-        if hit[1] == "table":  # (the placed objects' picks were clear of it already)
-            in_table[color] = hit[0]
+        # its own pick, wherever it stands (the placed objects' picks were clear of the
+        # table already, and each names its own object, not this one)
+        if hit[1] in ("table", own):
+            in_table[color] = (hit[0], "table" if hit[1] == "table" else "object")
         return None
     return new, q
 
 
-def _tool_in_table(config: Config, color: str, part: str, seed: int) -> str:
-    """The refusal of a class whose pick put the tool in the table, none of it placed."""
+def _tool_in_table(config: Config, color: str, hit: tuple[str, str], seed: int) -> str:
+    """The refusal of a class whose pick put the tool in the table, none of it placed.
+
+    Or in the object it picks (``hit``: the part, and ``"table"`` or ``"object"``): one
+    taller than the open jaws reach above its grip meets the hand at every place (a 5 cm
+    tall green gripped 1.5 cm up on the kinematic arm, refused as ``at most 1 fit``).
+    """
     cls = config.task.class_named(color)
     above = config.arm.tool.tcp_above_grip_cm
+    part, into = hit
+    if into == "object":
+        return (
+            f"task.classes.{color}: an object {cls.height_cm:g} cm tall picked at "
+            f"grip_height_cm {cls.grip_height_cm:g} comes within task.clearance_cm "
+            f"({config.task.clearance_cm:g} cm) of the tool's {part} at its own pick, "
+            f"at {TABLE_ONLY_DRAWS} places drawn with seed {seed}, and no {color} object "
+            "was placed: the hand stands above the jaws; lower height_cm or raise "
+            "grip_height_cm"
+        )
     return (
         f"task.classes.{color}: picked at grip_height_cm {cls.grip_height_cm:g} (the TCP "
         f"{above:g} cm above it, arm.tool.tcp_above_grip_cm), the open jaws' {part} reaches "
@@ -701,7 +755,8 @@ def random_scene(
     margins = FOOTPRINT_MARGIN_CM * np.column_stack([np.cos(angles), np.sin(angles)])
     tries = 0
     most = 0  # the most objects one layout held: as many as the same seed is sure to place
-    in_table: dict[str, str] = {}  # (:func:`_candidate`: the part the last draw put there)
+    in_table: dict[str, tuple[str, str]] = {}  # (:func:`_candidate`: the part the last draw
+    # put in the table or its own object, and which)
     table_only = dict.fromkeys(order, 0)  # per class never placed: its picks in the table
     while True:  # a layout whose first objects leave no room for the next starts again
         placed: list[SceneObject] = []
@@ -724,11 +779,11 @@ def random_scene(
                     footprint=footprint, in_table=in_table,
                 )  # fmt: skip
                 if found is None:
-                    part = in_table.pop(color, None)
-                    if part is not None and color in table_only:
+                    hit = in_table.pop(color, None)
+                    if hit is not None and color in table_only:
                         table_only[color] += 1
                         if table_only[color] >= TABLE_ONLY_DRAWS:
-                            raise SceneError(_tool_in_table(config, color, part, seed))
+                            raise SceneError(_tool_in_table(config, color, hit, seed))
                     continue
                 table_only.pop(color, None)  # one stood: the table is not in the way
                 new, q = found
