@@ -32,7 +32,7 @@ from mearm.kinematics.bodies import marker_in_tcp
 from mearm.kinematics.model import ArmModel
 from mearm.maker import calibrate_by_camera
 from mearm.maker.calibrate_by_camera import PLAY_US, ServoDoubt
-from mearm.maker.camera_calibration.points import free_joints, grid_points
+from mearm.maker.camera_calibration.points import free_joints, grid_points, joint_line
 from mearm.maker.camera_calibration.safe_moves import SafeMoves, limits_of
 from mearm.maker.servo_truth import truth_fits
 from mearm.sim.twin.twin_bus import TwinArm
@@ -436,6 +436,26 @@ def test_the_quick_check_of_a_point_agrees_with_the_full_one_and_kept_poses_stay
             assert np.array_equal(moves.kept_tool_points(q), moves.tool_points(q))
         moves.claw.side = 0.9  # a new side empties the store: its centre moves by rounding
         assert np.array_equal(moves.kept_tool_points(poses[0]), moves.tool_points(poses[0]))
+
+
+def test_a_checked_line_is_sent_though_the_executor_steps_it_once_fewer():
+    """The final move of a visit (seed 22201, 18 objects, on the kit twin): every joint
+    turns exactly two steps, but the pose the bus confirms differs from the one planned
+    in the last bit, so the checked line has three steps and the executor's two. Both are
+    the same line: it is sent, to its end (it was a crash, the rows compared one by one)."""
+    config = load_config(FIVE_KITS)
+    with open_rig(config) as rig:
+        moves = SafeMoves(config, rig, _claw(config))
+        ex = moves.executor
+        ex.home_pose()
+        q_end = np.array([0.7613670368925379, 1.269164386117455, -2.384865432477655,
+                          -0.4550891279740076, 0.0])  # fmt: skip
+        start = moves.turned(q_end, 1.0)
+        ex.move_joints(start, "travel", closed=False)
+        final = joint_line(moves.chain, start, q_end)
+        assert (len(final), len(ex.joint_path(q_end))) == (4, 3)  # the case itself
+        moves.line(final)
+        assert np.allclose(ex.q_now(), q_end, atol=1e-9)
 
 
 # ----------------------------------------------------------------- the marker's side
