@@ -710,6 +710,7 @@ def random_scene(
     seed: int,
     *,
     max_tries: int = 20000,
+    suggest: bool = True,
 ) -> list[SceneObject]:
     """Draw objects at least :data:`MIN_GAP_CM` apart in the reachable camera field.
 
@@ -728,6 +729,9 @@ def random_scene(
         counts: Objects per class, or a total split over the classes in turn.
         seed: Random seed; the same seed gives the same scene.
         max_tries: Give up after this many rejected draws.
+        suggest: A refusal for too many objects names a count that lays out with
+            ``seed`` (:func:`_fitting`: a few more layouts); ``False``: the most one
+            layout held, unchecked (the check's own layouts).
 
     Raises:
         SceneError: a count below 0, more than :data:`~mearm.config.sections.MAX_SCENE_OBJECTS`
@@ -744,7 +748,7 @@ def random_scene(
     if problem is None:
         problem, remedy = _walls_by_home(config, order), ""
     if problem is not None:
-        raise _walls_refusal(config, counts, seed, max_tries, problem, remedy)
+        raise _walls_refusal(config, counts, seed, max_tries, problem, remedy, suggest=suggest)
     rng = np.random.default_rng(seed)
     diameter, (x0, x1, y0, y1) = _scene_field(config, any_objects=bool(order))
     reach = _reach_check(config)
@@ -769,7 +773,8 @@ def random_scene(
                     raise _TableFull(
                         f"could not place {len(order)} objects {min_dist - diameter:.3g} cm "
                         f"apart in the reachable camera field: {fit} in {max_tries} draws "
-                        f"with seed {seed}" + _fewer_than(config, counts, most, seed),
+                        f"with seed {seed}"
+                        + _fewer_than(config, counts, most, seed, max_tries if suggest else 0),
                         most,
                     )
                 x, y = round(rng.uniform(x0, x1), 2), round(rng.uniform(y0, y1), 2)
@@ -800,16 +805,22 @@ def random_scene(
     # for them says so first, at once)
     problem = _walls_shut_bin(config, order)
     if problem is not None:
-        raise _walls_refusal(config, counts, seed, max_tries, problem, _LOWER_WALLS)
+        raise _walls_refusal(
+            config, counts, seed, max_tries, problem, _LOWER_WALLS, suggest=suggest
+        )
     return placed
 
 
-def _fewer_than(config: Config, counts: dict[str, int] | int, most: int, seed: int) -> str:
+def _fewer_than(
+    config: Config, counts: dict[str, int] | int, most: int, seed: int, max_tries: int
+) -> str:
     """What a table that held at most ``most`` of the objects asks for: that many, or fewer.
 
     Fewer where ``most`` objects (a total, drawn with ``seed``) would grow a bin's walls
     past the arm (:func:`_walls_problem`): as many as the table holds would be refused
-    next, by the walls.
+    next, by the walls. A total is laid out before it is asked for (``max_tries`` draws
+    each, :func:`_fitting`; 0: not): a count draws its own layout, and one that held 26
+    of 500 did not hold 26 asked for (``sim_5dof``, seed 22014).
     """
     if not most:
         return ""
@@ -817,9 +828,48 @@ def _fewer_than(config: Config, counts: dict[str, int] | int, most: int, seed: i
         walls = _most_the_walls_take(config, most, seed)
         return (
             f", of which the bins' walls take {walls} (more grow a bin's walls past the "
-            f"arm); ask for {walls} or fewer"
+            f"arm); ask for {_asked(config, walls, seed, max_tries)}"
         )
-    return f"; ask for {most} or fewer"
+    if not isinstance(counts, int):
+        return f"; ask for {most} or fewer"
+    return f"; ask for {_asked(config, most, seed, max_tries)}"
+
+
+#: How many counts a refusal lays out, from the one it would name down, to name one that
+#: lays out with the seed (each up to the refused layout's draws: kept few).
+SUGGEST_TRIES = 3
+
+
+def _fitting(config: Config, n: int, seed: int, max_tries: int) -> int | None:
+    """The most objects, ``n`` or fewer, that :data:`SUGGEST_TRIES` layouts find room for.
+
+    Each layout that fails says how many it held, and the next asks for no more.
+    ``None``: none of them was laid out.
+    """
+    for _ in range(SUGGEST_TRIES):
+        if n <= 0:
+            return None
+        try:
+            random_scene(config, n, seed, max_tries=max_tries, suggest=False)
+        except _TableFull as full:
+            n = min(n - 1, full.most)
+            continue
+        except SceneError:
+            return None
+        return n
+    return None
+
+
+def _asked(config: Config, n: int, seed: int, max_tries: int) -> str:
+    """``N or fewer``: ``n`` if it lays out with ``seed`` (:func:`_fitting`), else what does."""
+    if not max_tries:
+        return f"{n} or fewer"
+    fits = _fitting(config, n, seed, max_tries)
+    if fits == n:
+        return f"{n} or fewer"
+    if fits is None:
+        return f"fewer than {n} ({n} asked for does not lay out with seed {seed})"
+    return f"{fits} or fewer ({n} asked for does not lay out with seed {seed}, {fits} does)"
 
 
 def _walls_refusal(
@@ -829,13 +879,18 @@ def _walls_refusal(
     max_tries: int,
     problem: str,
     remedy: str,
+    *,
+    suggest: bool = True,
 ) -> SceneError:
     """:func:`random_scene`'s refusal of walls grown past the arm: ``problem``, then fewer.
 
     For a total, the most objects the walls take and the table holds with ``seed`` (as
     many as the walls take may not fit); for counts per class, fewer of the class. Then
-    ``remedy``, the other way out.
+    ``remedy``, the other way out. ``suggest=False``: ``problem`` only (a count laid out
+    to be named, :func:`_fitting`, is only found to fit or not).
     """
+    if not suggest:
+        return SceneError(problem)
     if not isinstance(counts, int):
         return SceneError(f"{problem}: give the class fewer objects{remedy}")
     n = len(_class_order(config, counts, seed))
@@ -843,16 +898,30 @@ def _walls_refusal(
     fewer = f"ask for {most} or fewer" if most else "no number of objects fits"
     try:  # as many as the walls take may not fit on the table: name the fewer
         if most:
-            random_scene(config, most, seed, max_tries=max_tries)
+            random_scene(config, most, seed, max_tries=max_tries, suggest=False)
     except _TableFull as full:
         # what one layout of that many held, not what the table holds: a count between
         # the two is drawn otherwise and may be laid out (80 with seed 18201 named 44;
-        # 45 and 46 were then laid out)
-        fewer = (
-            f"ask for {full.most} or fewer (the walls take {most}, and no layout of "
-            f"those drawn with seed {seed} held more than {full.most} on the table)"
-            if full.most
-            else f"no number of objects fits (the walls take {most}, and no layout of "
-            f"those drawn with seed {seed} held one on the table)"
+        # 45 and 46 were then laid out), or may not (48 of 500 with seed 22015: 45 is)
+        held = (
+            f"the walls take {most}, and no layout of those drawn with seed {seed} held "
+            f"more than {full.most} on the table"
         )
+        fits = _fitting(config, full.most, seed, max_tries) if full.most else None
+        if fits is not None and fits == full.most:
+            fewer = f"ask for {fits} or fewer ({held})"
+        elif fits is not None:
+            fewer = (
+                f"ask for {fits} or fewer ({held}; {full.most} asked for does not lay "
+                f"out, {fits} does)"
+            )
+        elif full.most:
+            fewer = (
+                f"ask for fewer than {full.most} ({held}; {full.most} asked for does not lay out)"
+            )
+        else:
+            fewer = (
+                f"no number of objects fits (the walls take {most}, and no layout of "
+                f"those drawn with seed {seed} held one on the table)"
+            )
     return SceneError(f"{problem}: {fewer}{remedy}")
