@@ -37,3 +37,11 @@ def test_a_low_camera_s_split_objects_do_not_inflate_the_count(
     assert rows == {"red": "3", "green": "3", "blue": "2"}, out
     seen = dict(re.findall(r"^(red|green|blue)\s+(\d+)\s+\d+\s+\d+$", out, re.M))
     assert int(seen["green"]) <= 3, out
+    # and it says so: what it followed that was no object, per class
+    said = re.findall(r"^not objects \((\w+)\): the camera followed (\d+) where the world laid "
+                      r"out (\d+); (\d+) of them, among the lines above, (?:was|were) no object",
+                      out, re.M)  # fmt: skip
+    assert said, out
+    for name, followed, laid, extra in said:
+        assert int(followed) - int(laid) == int(extra) > 0, said
+        assert int(laid) == {"red": 3, "green": 3, "blue": 2}[name], said

@@ -78,6 +78,9 @@ class Outcome:
         astray: In the physical twin, where the objects of a class left not confirmed in
             its bin are (``red3 is on the table at (8.1, 15.2) cm``), per class; empty
             elsewhere.
+        not_objects: In simulation, how many more of a class the camera followed than
+            the world laid out, per class (taken off ``seen`` and ``left``: a region split
+            in two, each half followed); empty elsewhere.
     """
 
     seen: dict[str, int] = field(default_factory=dict)
@@ -86,6 +89,7 @@ class Outcome:
     in_bins: dict[str, int] = field(default_factory=dict)
     unseen: dict[str, int] = field(default_factory=dict)
     astray: dict[str, list[str]] = field(default_factory=dict)
+    not_objects: dict[str, int] = field(default_factory=dict)
 
     @property
     def n_objects(self) -> int:
@@ -339,6 +343,14 @@ class Reporter:
             self.echo(f"motion {motion_s:.1f} s (these routes, streamed at {rate:g} Hz)")
         for s in rep.skipped:
             self.echo(f"not sorted: {s.object_id} ({s.class_name}): {s.reason}")
+        for name, n in outcome.not_objects.items():  # the lines above name them too
+            seen = outcome.seen.get(name, 0)
+            were = "was" if n == 1 else "were"
+            self.echo(
+                f"not objects ({name}): the camera followed {seen + n} where the world laid "
+                f"out {seen}; {n} of them, among the lines above, {were} no object (a "
+                "region split in two: is the camera where its calibration puts it?)"
+            )
         for name, where in outcome.astray.items():
             if where:  # (the twin's ids: the sort numbers its own as it sees them)
                 self.echo(f"not confirmed in its bin ({name}): in the twin {'; '.join(where)}")

@@ -740,6 +740,7 @@ def _count_no_more_than_placed(
         if excess <= 0:
             continue
         out.seen[name] = n
+        out.not_objects[name] = excess
         why = kinds.get(name, [])
         rank = {kind: r for r, kind in enumerate(_NOT_AN_OBJECT_FIRST)}
         order = sorted(reversed(range(len(why))), key=lambda i: rank.get(why[i], len(rank)))
