@@ -28,6 +28,7 @@ from mearm.kinematics.bodies import (
     TableContents,
     base_radius_m,
     bin_half_outer_m,
+    bin_name,
     object_name,
     wall_height_m,
 )
@@ -231,6 +232,11 @@ def _check_walls(config: Config, scene: Sequence[SceneObject], source: str) -> N
     problem = _walls_shut_bin(config, colors)
     if problem is not None:
         raise SceneError(f"{what}{problem}: give the class fewer objects{_LOWER_WALLS}")
+    problem = _walls_block_belt(config, colors)
+    if problem is not None:
+        raise SceneError(
+            f"{what}{problem}: bring fewer objects (belt.arrivals.count){_LOWER_WALLS}"
+        )
 
 
 def _most_the_walls_take(config: Config, n: int, seed: int) -> int:
@@ -344,6 +350,54 @@ def _walls_shut_bin(config: Config, colors: Sequence[str]) -> str | None:
             f"({route.failure})"
         )
     return None
+
+
+#: Points along a belt, its upstream end to its downstream one, that a pick from home is
+#: planned to by :func:`_walls_block_belt`.
+BELT_CHECK_POINTS = 5
+
+
+def _walls_block_belt(config: Config, colors: Sequence[str]) -> str | None:
+    """Walls grown for what a belt brings that leave the arm no way from home to the belt.
+
+    A pick from home is planned to :data:`BELT_CHECK_POINTS` points along the belt's
+    middle line, against the bins alone; where none is planned and a grown bin's wall
+    stops one, the run could pick nothing: ``--set belt.arrivals.count=45`` on the
+    kinematic belt (seed 22102: 13 cm walls for 12 reds beside home) planned and refused
+    every one of its 45 picks, ``sorted 0 of 45``, where 44 sort whole. ``None``: no belt,
+    a pick there is planned, or what stops them is no bin's wall. A belt's config holds its
+    count, so its walls are its own table's: the check runs at every belt's start (5
+    plans).
+    """
+    if config.belt is None:
+        return None
+    table = _table_of(config, colors)
+    from mearm.sim.belt import Belt  # noqa: PLC0415  (a belt's start only)
+
+    model = ArmModel(config.arm)
+    collision = collision_model(config, model, clearance_cm=config.task.clearance_cm, table=table)
+    planner = Planner(config, model, collision)
+    collision.set_world([])
+    belt = Belt(config.belt)
+    cls = config.task.classes[0]
+    failures = []
+    for along in np.linspace(0.0, config.belt.length_cm, BELT_CHECK_POINTS):
+        x, y = belt.point_cm(float(along), 0.0)
+        route = Route("", cls.name, "pick", 1, planner.pick_target(cls, x, y))
+        if planner.plan(route, model.home).planned:
+            return None
+        failures.append(route.failure or "")
+    walls = [c for c in config.task.classes if any(bin_name(c.name) in f for f in failures)]
+    if not walls:
+        return None
+    c = walls[0]
+    n = table.objects(c.name)
+    first = next(f for f in failures if bin_name(c.name) in f)
+    return (
+        f"class {c.name}: its bin's walls, built {wall_height_m(c, n) / M_PER_CM:.3g} cm tall "
+        f"to hold its {n} objects stacked, leave the arm no way from home to the belt "
+        f"(a pick planned to each of {BELT_CHECK_POINTS} points along it: {first})"
+    )
 
 
 def _release_below_walls(config: Config, colors: Sequence[str]) -> str | None:
