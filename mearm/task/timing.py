@@ -37,10 +37,17 @@ from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
-import ruckig  # type: ignore[import-not-found]  # a compiled module without stubs
 
+from mearm import interrupts
 from mearm.config import ArmDescription, Tool
 from mearm.kinematics import Chain
+
+# Ctrl-C after the import, not in it: pybind11 turns a KeyboardInterrupt raised while
+# Ruckig's module sets itself up into a C++ exception nothing catches, and the process
+# aborts ("terminate called ... what(): Traceback", seen once in the suite's Ctrl-C at a
+# sort's start on a loaded machine) where it should say "interrupted" and exit 130.
+with interrupts.signals_deferred():
+    import ruckig  # type: ignore[import-not-found]  # a compiled module without stubs
 
 #: Relative slack of the step check (Ruckig's floating-point time law) [-].
 STEP_RTOL = 1e-9
