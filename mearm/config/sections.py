@@ -359,7 +359,10 @@ class SimErrorModel(Strict):
     step is (max_us − min_us)/180 µs, 1 DH degree with the default mapping); ``none``.
     The realised angle is the quantised one plus ``offset_deg`` (static, per joint) plus
     Gaussian noise of ``noise_std_deg`` drawn per move and joint; a joint they send past its
-    limits stops at them, as the twin's joints and the virtual Uno's arm do.
+    limits stops at them, as the twin's joints and the virtual Uno's arm do. The kinematic
+    simulator's servos only: the twin's (``simulator: mujoco``) miss their commands by their
+    physics, and as real units do with ``twin.kit``; of these it reads ``seed`` alone, and
+    a sort says so of the others when they are set.
     """
 
     quantization: Literal["none", "degree", "microsecond"] = "microsecond"
