@@ -29,6 +29,7 @@ from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
+from pydantic import BaseModel
 
 from mearm.cli import check_closed_form
 from mearm.config import ColorClass, Config
@@ -251,20 +252,26 @@ def kinematic_camera_warning(config: Config) -> str | None:
     """
     if config.simulator != "mujoco":
         return None
-    defaults = type(config.camera)()
-    given = [
-        f"camera.{key}"
-        for key in KINEMATIC_CAMERA_KEYS
-        if getattr(config.camera, key) != getattr(defaults, key)
-    ]
+    return _nothing_here(
+        _changed(config.camera, "camera", KINEMATIC_CAMERA_KEYS),
+        "the kinematic renderer's (simulator: kinematic); this config's simulator is mujoco, "
+        "whose camera renders the twin's scene under its own light (twin.lamp) from "
+        "twin.camera, with no sensor noise",
+    )
+
+
+def _changed(section: BaseModel, name: str, keys: Sequence[str]) -> list[str]:
+    """The settings of ``keys`` a config's ``section`` (called ``name``) sets off their defaults."""
+    defaults = type(section)()
+    return [f"{name}.{k}" for k in keys if getattr(section, k) != getattr(defaults, k)]
+
+
+def _nothing_here(given: Sequence[str], whose: str) -> str | None:
+    """One line: the settings ``given``, whose they are, and that they do nothing here."""
     if not given:
         return None
     what = "it does" if len(given) == 1 else "they do"
-    return (
-        f"{', '.join(given)}: the kinematic renderer's (simulator: kinematic); this config's "
-        "simulator is mujoco, whose camera renders the twin's scene under its own light "
-        f"(twin.lamp) from twin.camera, with no sensor noise: {what} nothing here"
-    )
+    return f"{', '.join(given)}: {whose}: {what} nothing here"
 
 
 #: The ``servo.error_model`` keys only the kinematic simulator's servos read: the twin's
@@ -284,20 +291,11 @@ def kinematic_servo_warning(config: Config) -> str | None:
     """
     if config.simulator != "mujoco":
         return None
-    model = config.servo.error_model
-    defaults = type(model)()
-    given = [
-        f"servo.error_model.{key}"
-        for key in KINEMATIC_SERVO_KEYS
-        if getattr(model, key) != getattr(defaults, key)
-    ]
-    if not given:
-        return None
-    what = "it does" if len(given) == 1 else "they do"
-    return (
-        f"{', '.join(given)}: the kinematic simulator's servos' (simulator: kinematic); this "
-        "config's simulator is mujoco, whose servos miss their commands by their physics "
-        f"(and as real units do, twin.kit): {what} nothing here"
+    return _nothing_here(
+        _changed(config.servo.error_model, "servo.error_model", KINEMATIC_SERVO_KEYS),
+        "the kinematic simulator's servos' (simulator: kinematic); this config's simulator "
+        "is mujoco, whose servos miss their commands by their physics (and as real units "
+        "do, twin.kit)",
     )
 
 
