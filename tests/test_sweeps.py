@@ -220,13 +220,20 @@ def test_ctrl_c_keeps_every_finished_trial_in_order_and_the_log_resumes(tmp_path
     # first. A trial of 3 objects takes a third of one of 12: 100 leave the room 30 did.
     args = ["--trials", trials, "--log", log, "--jobs", 2, "--config", "configs/sim.yaml",
             *ONE_PER_CLASS]  # fmt: skip
-    code, _ = interrupted_experiment(args, log)
+    code, err = interrupted_experiment(args, log)
     assert code == 130
     contents = read_runlog(log)
     assert contents.problem is None
     got = [(t.number, t.complete) for t in contents.trials]
     assert 2 <= len(got) < trials, "the run was not stopped mid-way"
     assert got == [(k, True) for k in range(len(got))]
+    # the last line says how the trial Ctrl-C stopped ended, as its log does (it said only
+    # "interrupted (Ctrl-C)" where the log had "…; arm parked at home")
+    last = contents.trials[-1]
+    ended = last.faults[-1].reason.partition("; ")[2] if last.faults else ""
+    if last.interrupted and ended:  # (one stopped before its sort started moved nothing)
+        said = [ln for ln in err.splitlines() if ": stopped: " in ln]
+        assert said and f"; {ended}; " in said[-1], err
     # the last trial may be the one Ctrl-C stopped: written, and run again on resuming
     assert all(t.finished for t in contents.trials[:-1])
     done = sum(t.finished for t in contents.trials)

@@ -195,7 +195,7 @@ def _append_in_order(
             if progress is not None:
                 progress(len(outcomes))
             if result.interrupted:
-                stop = stop or SortAborted(result.reason or "interrupted", interrupted=True)
+                stop = _trials_own_stop(result, stop)
                 cancel()
                 break  # run again on resuming: a trial after it would leave a gap
             if result.error is not None:
@@ -206,6 +206,19 @@ def _append_in_order(
     if stop is not None:
         raise stop
     return outcomes
+
+
+def _trials_own_stop(result: TrialResult, stop: BaseException | None) -> BaseException:
+    """The stop of a run whose trial ``result`` was interrupted: the trial's own reason.
+
+    It says how the trial ended (``interrupted (Ctrl-C); arm parked at home``), where the
+    stop this process's Ctrl-C made (:func:`_wait`; the only interrupted stop there is
+    before a trial's is read) says only that it came: the command's last line said less
+    than the log. Any other stop (a failed trial, a lost worker) stays.
+    """
+    if stop is not None and not (isinstance(stop, SortAborted) and stop.interrupted):
+        return stop
+    return SortAborted(result.reason or "interrupted", interrupted=True)
 
 
 def _wait(
