@@ -102,7 +102,7 @@ def test_a_clearance_the_arm_breaks_at_home_stops_before_motion():
     out = check_bad_input(["sort", "--config", "sim_mujoco", "--set", "task.clearance_cm=5"])
     assert out.line.endswith(
         "task.clearance_cm: 5 cm is more than the arm keeps from red's bin at home "
-        "(gripper_jaw_right_pad, 3.31 cm): at most 3.31 cm, or move the bin, or lower its "
+        "(gripper_jaw_right_pad, 3.30 cm): at most 3.30 cm, or move the bin, or lower its "
         "walls: 5 cm, built to hold its 4 objects (1 cm high) stacked (fewer or lower "
         "objects, or task.classes.red.bin_height_cm)"
     )
