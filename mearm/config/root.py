@@ -63,6 +63,11 @@ class ServoKitConfig(Strict):
     are drawn from their ranges regardless)."""
 
 
+#: The physical twin's physics time step [s] (:mod:`mearm.sim.twin.mjcf`): each command
+#: runs the physics for its period in whole steps.
+TWIN_TIMESTEP_S = 0.002
+
+
 class TwinConfig(Strict):
     """The servo models the physical twin gives the arm (:mod:`mearm.config.servo_models`).
 
@@ -150,6 +155,23 @@ class Config(Strict):
                 "@simulator: 'mujoco' simulates the servos and the camera together: it needs "
                 f"servo.backend: sim and camera.kind: sim (got {self.servo.backend!r}, "
                 f"{self.camera.kind!r})"
+            )
+        return self
+
+    @model_validator(mode="after")
+    def _twin_steps_every_command(self) -> Config:
+        """The physical twin runs each command's period in whole physics steps: at least one.
+
+        A period under a step rounds to none at 1000 Hz (half a 2 ms step): the physics
+        never ran, the arm stayed at home, and the sort stopped at its first route on a
+        joint that "did not arrive within 2.00 s".
+        """
+        most_hz = 1.0 / TWIN_TIMESTEP_S
+        if self.simulator == "mujoco" and self.servo.rate_hz > most_hz:
+            raise ValueError(
+                f"@servo.rate_hz: {self.servo.rate_hz:g} Hz is more often than the physical "
+                f"twin (simulator: mujoco) steps its physics, every {TWIN_TIMESTEP_S * 1e3:g} "
+                f"ms: at most {most_hz:g} Hz"
             )
         return self
 

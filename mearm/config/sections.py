@@ -431,7 +431,8 @@ class ServoConfig(Strict):
     sort uses the arm's nominal calibration (no motion the user did not ask for)."""
     baud: int = Field(default=115200, ge=BAUD[0], le=BAUD[1])
     rate_hz: float = Field(default=50.0, ge=RATE_HZ[0], le=RATE_HZ[1], allow_inf_nan=False)
-    """Commands per second at most (the servo frame rate); lower if the baud rate demands."""
+    """Commands per second at most (the servo frame rate); lower if the baud rate demands.
+    The physical twin (``simulator: mujoco``) takes at most 500, one per physics step."""
     ack_timeout_s: Seconds = 0.5
     banner_timeout_s: Seconds = 3.0
     """How long a board has to say what it is once the port opens: the Uno's banner (it

@@ -139,6 +139,7 @@ import mujoco
 import numpy as np
 
 from mearm.config import Config
+from mearm.config.root import TWIN_TIMESTEP_S
 from mearm.config.servo_models import (  # noqa: F401  (the twin's servos, re-exported)
     FULL_TORQUE_ERROR_RAD,
     GRIPPER_SERVO,
@@ -236,7 +237,7 @@ from mearm.vision.claw_marker import check_marker
 #: Time step [s]: 2 ms, ten to a command period; the servos' step responses settle
 #: within 0.1° of a 1 ms model's (docs/twin.md). The coupling's constraint time constant
 #: and damping ratio follow.
-TIMESTEP_S = 0.002
+TIMESTEP_S = TWIN_TIMESTEP_S
 COUPLING_SOLREF = (2 * TIMESTEP_S, 1.0)  # two steps: the stiffest MuJoCo keeps
 COUPLING_SOLIMP = (0.99, 0.999, 0.001, 0.5, 2.0)
 #: The coupling's play: its tendon's limits are this far apart [rad or m].
