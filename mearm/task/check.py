@@ -15,7 +15,9 @@ goes home along a straight line in joint space, inside the limits by constructio
 A failure is a :class:`~mearm.errors.ConfigError` naming the field and its value, so
 the CLIs end with exit 2 before anything moves. A failure that the config's servo
 calibration file causes (``servo.calibration_file``: the same check passes with the
-calibration the file replaced) also names the file and what to do about it.
+calibration the file replaced) also names the file and what to do about it; failures
+the IK controller's settings cause (gone with its defaults) are said as one line naming
+the settings, not as the arm's.
 
 :func:`calibration_note` is the line a sort on servos that were never calibrated
 prints before it starts (real boards, or the twin with a kit of servos).
@@ -32,7 +34,7 @@ import numpy as np
 from pydantic import BaseModel
 
 from mearm.cli import check_closed_form
-from mearm.config import ColorClass, Config
+from mearm.config import ColorClass, Config, ControllerConfig
 from mearm.config.files import config_source, unit_warning
 from mearm.config.loader import unit_hints
 from mearm.errors import ConfigError, MearmError
@@ -161,12 +163,49 @@ def check_consistency(
             "camera (and its calibration) at the arm's reach"
         )
     if problems:
+        problems = _blame_controller(config, problems)
         problems = _blame_calibration_file(config, problems)
         # an arm in mm or radians fails here first: the hint names what the problems show
         hints = unit_hints(config.model_dump(mode="json"))
         raise ConfigError(config_source(config), [*hints, *problems])
     _CACHE[key] = (found, notes)
     return found
+
+
+def _blame_controller(config: Config, problems: list[str]) -> list[str]:
+    """The problems; those the IK controller's settings cause made one line naming them.
+
+    Caused by the settings: gone when the check runs again with the controller's defaults
+    (the arm unchanged). A solver stopped at ``controller.max_iterations=1`` missed every
+    bin, and the refusal named the arm's DH rows as the likely cause: the problems it
+    causes say what the arm does not, so they are left out, and the settings said first.
+    """
+    defaults = ControllerConfig()
+    changed = [
+        (name, value, getattr(defaults, name))
+        for name, value in config.controller
+        if value != getattr(defaults, name)
+    ]
+    if not changed:
+        return problems
+    plain = config.model_copy(update={"controller": defaults})
+    also: set[str] = set()  # the problems the config has with the default settings too
+    try:
+        check_consistency(plain)
+    except ConfigError as exc:
+        also = set(exc.problems)
+    caused = [p for p in problems if p not in also]
+    if not caused:
+        return problems
+    settings = ", ".join(f"controller.{n} = {v} (default {d})" for n, v, d in changed)
+    fields = ", ".join(p.split(": ", 1)[0] for p in caused)
+    them, default = ("it", "its default") if len(changed) == 1 else ("them", "their defaults")
+    line = (
+        f"{settings}: the IK solver fails with {them} where the default controller settings "
+        f"succeed ({fields}): the controller's settings are the cause, not the arm; set "
+        f"{them} back to {default}"
+    )
+    return [line, *(p for p in problems if p in also)]
 
 
 def _blame_calibration_file(config: Config, problems: list[str]) -> list[str]:
