@@ -43,6 +43,7 @@ import numpy as np
 from mearm.cli import (
     ArgumentParser,
     add_config_argument,
+    check_output_folder,
     config_from_args,
     float_list,
     invoked_as,
@@ -288,6 +289,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     args.kd = args.kd if args.kd is not None else float_list(None, "--kd")(DEFAULT_KD)
     if args.out is not None:
         _check_out_files(args)
+        # a folder no file can be made in is refused now, not after the analysis: its
+        # warnings (a torn last line) came first, and a gain sweep ran for nothing
+        check_output_folder(args.out, "--out")
     _require_extras(plots=args.out is not None)
 
     from mearm.analysis.run_analysis import analyze, jsonable, to_json
