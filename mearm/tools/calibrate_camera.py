@@ -783,8 +783,33 @@ def main(argv: Sequence[str] | None = None) -> int:
     _write_config(target, new_text, calibration, force=args.force, keep=elsewhere)
     print(f"wrote the calibration into {target}")
     _exact_fit_note(parser, n_pairs)
+    _perspective_note(parser, target)
     _sort_would_refuse(parser, target)
     return 0
+
+
+def _perspective_note(parser: ArgumentParser, written: Path) -> None:
+    """Say, once the homography is written, that a perspective config does not place by it.
+
+    A config with ``calibration.model: perspective`` places what the camera sees with its
+    intrinsics and pose files; the homography only outlines the camera's view of the table
+    (the random tables' field, the twin's camera where it is not given). A maker who fitted
+    a homography into such a config was told ``wrote the calibration`` and nothing else,
+    and the next sort placed objects as before.
+    """
+    try:
+        model = load_config(written).calibration.model
+    except MearmError:  # the sort's to say (:func:`_sort_would_refuse`)
+        return
+    if model == "perspective":
+        print(
+            f"{parser.prog}: note: {written} has calibration.model: perspective, so mearm "
+            "sort places objects with its intrinsics and pose files, not this homography; "
+            "set calibration.model: homography to place them by it, or fit the camera's "
+            "pose with --intrinsics",
+            file=sys.stderr,
+            flush=True,
+        )
 
 
 def _sort_would_refuse(parser: ArgumentParser, written: Path) -> None:
