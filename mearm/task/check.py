@@ -34,7 +34,7 @@ import numpy as np
 from pydantic import BaseModel
 
 from mearm.cli import check_closed_form
-from mearm.config import ColorClass, Config, ControllerConfig
+from mearm.config import ColorClass, Config, ControllerConfig, TaskConfig
 from mearm.config.files import config_source, unit_warning
 from mearm.config.loader import unit_hints
 from mearm.errors import ConfigError, MearmError
@@ -476,6 +476,8 @@ def _check_bodies(config: Config, model: ArmModel, collision: CollisionModel) ->
     if problems:
         return problems
     near = list(bins_near_home(config, model, collision))
+    if not near:
+        return _clearance_shuts_bin(config, model, collision)
     kept = [distance for _, _, distance in near if distance > TOUCH_CM]
     # the least figure is the one that holds at every bin; taken, the sort must start
     most_cm, shut = _clearance_into_bins(config, model, min(kept)) if kept else (None, None)
@@ -504,6 +506,122 @@ def _check_bodies(config: Config, model: ArmModel, collision: CollisionModel) ->
                 f"held: move the bin{walls}"
             )
     return problems
+
+
+def _clearance_shuts_bin(config: Config, model: ArmModel, collision: CollisionModel) -> list[str]:
+    """A ``task.clearance_cm`` the arm keeps at home but not on its way into a bin: its line.
+
+    The check at home passes a clearance the arm keeps there, yet no place into a bin may
+    keep it from the walls with an object held: the MeArm v1 keeps over 1 cm from its bins
+    at home, and ``mearm sort --config sim_mearm_v1_mujoco_perspective --set
+    task.clearance_cm=1`` picked each of its six objects and left it, ``sorted 0 of 6
+    objects (… 5 bin out of reach …)``. A place of each class is planned, as the sort plans
+    it, from home and from the pick of each object of the config's own table
+    (:func:`_place_shut_at`); where one is refused, the most clearance that lets every one
+    through is named, one with which each object of the config's own table is picked from
+    home too where a clearance of none lets them all be (:func:`_picks_shut_at`; the 5-DOF
+    arm's at 9 cm: 3.90 cm let a held object into every bin, and its own table sorted 0 of
+    9, each pick's jaws within it of a neighbour). Only a clearance above the default is
+    checked: the shipped configs' own sorts place every object at theirs, and the check
+    costs a plan per object (some 60–130 ms). A place refused at no clearance at all is out
+    of reach, not shut by the clearance: the sort's own lines say so (``bin out of reach``).
+    """
+    clearance_cm = config.task.clearance_cm
+    if clearance_cm <= TaskConfig.model_fields["clearance_cm"].default:
+        return []
+    starts = _place_starts(config, model)
+    shut = _place_shut_at(config, model, clearance_cm, starts)
+    if shut is None or _place_shut_at(config, model, 0.0, starts) is not None:
+        return []
+    # the clearance named lets the table's picks through too, where none does at 0: at
+    # the most a place allowed, 3.90 cm, the 5-DOF arm's own table (9 objects) sorted 0 of
+    # 9, each pick's jaws within it of a neighbour
+    picks = _picks_shut_at(config, model, 0.0) is None
+
+    def opens(cents: int) -> bool:
+        clearance = cents / 100
+        if _place_shut_at(config, model, clearance, starts) is not None:
+            return False
+        return not picks or _picks_shut_at(config, model, clearance) is None
+
+    good, bad = 0, math.ceil(clearance_cm * 100)
+    while bad - good > 1:
+        mid = (good + bad) // 2
+        if opens(mid):
+            good = mid
+        else:
+            bad = mid
+    return [
+        f"task.clearance_cm: {clearance_cm:g} cm leaves the arm no way into {shut}'s bin with "
+        f"one held: at most {good / 100:.2f} cm{' (its picks of task.scene too)' if picks else ''}"
+        ", or move the bin"
+        f"{_walls_built(config, collision, shut)}"
+    ]
+
+
+def _place_starts(config: Config, model: ArmModel) -> list[tuple[str | None, np.ndarray]]:
+    """Where the sort plans places from: home, and the pick of each object of the table.
+
+    ``(class, pose)`` each: a pick's place is planned into its own class's bin only, as the
+    sort plans it; home's (``None``) into every bin.
+    """
+    planner = Planner(config, model)
+    starts: list[tuple[str | None, np.ndarray]] = [(None, np.asarray(model.home, dtype=float))]
+    for obj in config.task.scene:
+        cls = config.task.class_named(obj.color)
+        pick = Route(cls.name, cls.name, "pick", 1, planner.pick_target(cls, obj.x, obj.y))
+        planner.plan(pick, model.home)
+        if pick.planned and pick.plan is not None:
+            starts.append((cls.name, np.asarray(pick.plan.q, dtype=float)))
+    return starts
+
+
+def _picks_shut_at(config: Config, model: ArmModel, clearance_cm: float) -> str | None:
+    """The first object of the config's own table whose pick from home is refused, or ``None``.
+
+    Each pick is planned at ``clearance_cm`` with every other object of the table on it, the
+    jaws open, as the sort's first look finds them.
+    """
+    task = config.task.model_copy(update={"clearance_cm": clearance_cm})
+    lowered = config.model_copy(update={"task": task})
+    collision = collision_model(lowered, model, clearance_cm=clearance_cm)
+    planner = Planner(lowered, model, collision)
+    objects = [(f"o{i}", o.color, o.x, o.y) for i, o in enumerate(config.task.scene)]
+    for i, obj in enumerate(config.task.scene):
+        cls = config.task.class_named(obj.color)
+        collision.set_world(
+            objects[:i] + objects[i + 1 :], opening_cm=config.arm.tool.gripper.open_cm, held=None
+        )
+        route = Route(f"o{i}", cls.name, "pick", 1, planner.pick_target(cls, obj.x, obj.y))
+        if not planner.plan(route, model.home).planned:
+            return f"o{i}"
+    return None
+
+
+def _place_shut_at(
+    config: Config,
+    model: ArmModel,
+    clearance_cm: float,
+    starts: Sequence[tuple[str | None, np.ndarray]],
+) -> str | None:
+    """The first class no place into whose bin is planned at ``clearance_cm``, or ``None``.
+
+    Each place is planned from each of ``starts`` (:func:`_place_starts`), one object of its
+    class held, against the bins alone, with its release
+    (:meth:`~mearm.task.plan.Planner.plan_place`: the jaws open clear of the walls and have
+    a way up).
+    """
+    task = config.task.model_copy(update={"clearance_cm": clearance_cm})
+    lowered = config.model_copy(update={"task": task})
+    collision = collision_model(lowered, model, clearance_cm=clearance_cm)
+    planner = Planner(lowered, model, collision)
+    for cls in config.task.classes:
+        for _, q in (start for start in starts if start[0] in (None, cls.name)):
+            collision.set_world([], opening_cm=cls.diameter_cm, held=(cls.name, cls.name))
+            route = Route(cls.name, cls.name, "place", 1, planner.place_target(cls))
+            if not planner.plan_place(route, q).planned:
+                return cls.name
+    return None
 
 
 def _clearance_into_bins(
