@@ -98,6 +98,10 @@ class ReachBound:
         self._along = float(t @ self._axis_in_last)
         self._across = float(np.linalg.norm(t - self._along * self._axis_in_last))
         self._tcp = float(np.linalg.norm(t))
+        # set before any return: an arm without a bound (a rail, a branch) has no
+        # profile either, and :meth:`beyond_limits` reads it
+        self._profile: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, float] | None = None
+        self._rest_m = math.inf  # L' (module docstring)
         if last < 1 or not serial or axes[0] is None or any(a is None for a in axes):
             return
         offsets = [np.asarray(pm.jointPlacements[i].translation, float) for i in range(1, last + 1)]
@@ -107,8 +111,6 @@ class ReachBound:
         anchor = pm.jointPlacements[1].act(offsets[1]) if first == 2 else offsets[0]
         self.anchor_m = np.asarray(anchor, dtype=float)
         self.reach_m = float(sum(np.linalg.norm(offsets[i]) for i in range(first, last)))
-        self._profile: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, float] | None = None
-        self._rest_m = math.inf  # L' (module docstring)
         if first == 2 and last >= 3:
             self._profile = self._limit_profile(model, axes, offsets)
 
