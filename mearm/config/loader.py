@@ -618,7 +618,9 @@ def millimetre_hint(data: Any) -> str | None:
 
     Hobby arms' links are a few to 30 cm; a DH ``a_cm`` or ``d_cm`` over
     :data:`MM_SUSPECT_CM` (and within the bound a length may have) is most likely a
-    length in mm.
+    length in mm. So is a prismatic joint's limit past it: the rail's variable is its
+    row's d, in cm, and a lift of 4…16 cm written ``{min: 40, max: 160}`` is the same
+    mistake.
     """
     arm = data.get("arm") if isinstance(data, dict) else None
     joints = arm.get("joints") if isinstance(arm, dict) else None
@@ -633,6 +635,17 @@ def millimetre_hint(data: Any) -> str | None:
             if isinstance(value, int | float) and MM_SUSPECT_CM < abs(value) <= MAX_LENGTH_CM:
                 name = joint.get("name", k)
                 long.append(f"{name}.dh.{key} = {value:g}")
+        limits = joint.get("limits") if isinstance(joint, dict) else None
+        low = limits.get("min") if isinstance(limits, dict) else None
+        high = limits.get("max") if isinstance(limits, dict) else None
+        if (
+            isinstance(joint, dict)
+            and joint.get("type") == "prismatic"
+            and _number(low)
+            and _number(high)
+            and MM_SUSPECT_CM < max(abs(low), abs(high)) <= MAX_LENGTH_CM
+        ):
+            long.append(f"{joint.get('name', k)}.limits = [{low:g}, {high:g}]")
     if not long:
         return None
     return (
