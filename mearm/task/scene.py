@@ -597,6 +597,35 @@ def _footprint_check(
     return clear
 
 
+def _way_in_check(
+    config: Config, table: TableContents
+) -> Callable[[ColorClass, float, float], bool] | None:
+    """A test whether the arm at home has a way to a pick at (x, y) past the bins' walls.
+
+    ``None`` where no bin's walls grow past the config's own table's (:func:`_grown`): the
+    way in is then the config's own sort's. Where they grow, a pick pose may keep the tool
+    clear of every wall while every way to it meets one: the paper arm's home hangs the
+    jaws over the red bin, and ``sim --random 44 --seed 22001`` laid out two greens by the
+    table's near edge that the sort left, from home and from over every bin, ``no route
+    clear of collisions``. The pick is planned from home as the sort plans it (straight,
+    else over the top), against the bins alone: the objects on the table change as the
+    sort goes, the bins do not. A plan a candidate: :func:`random_scene` asks it of a
+    whole layout's objects only, and of the draws that replace those it refuses.
+    """
+    if not _grown(config, table):
+        return None
+    model = ArmModel(config.arm)
+    collision = collision_model(config, model, clearance_cm=config.task.clearance_cm, table=table)
+    collision.set_world([])
+    planner = Planner(config, model, collision)
+
+    def way_in(cls: ColorClass, x: float, y: float) -> bool:
+        route = Route("", cls.name, "pick", 1, planner.pick_target(cls, x, y))
+        return planner.plan(route, model.home).planned
+
+    return way_in
+
+
 def _near_bin(cls: ColorClass, x: float, y: float, clearance_cm: float) -> bool:
     """Whether (x, y) lies within ``clearance_cm`` of the bin's square footprint."""
     half = cls.bin_inner_width_cm / 2 + clearance_cm
@@ -685,6 +714,7 @@ def _candidate(
         [list[SceneObject], list[np.ndarray], SceneObject, np.ndarray], tuple[str, str] | None
     ],
     in_table: dict[str, tuple[str, str]],
+    way_in: Callable[[ColorClass, float, float], bool] | None = None,
 ) -> tuple[SceneObject, np.ndarray] | None:
     """A ``color`` object at (x, y) and its pick pose, or ``None`` if it may not stand there.
 
@@ -727,6 +757,8 @@ def _candidate(
         # table already, and each names its own object, not this one)
         if hit[1] in ("table", own):
             in_table[color] = (hit[0], "table" if hit[1] == "table" else "object")
+        return None
+    if way_in is not None and not way_in(cls, x, y):  # (the last test: a plan)
         return None
     return new, q
 
@@ -776,7 +808,9 @@ def random_scene(
     and every pick keeps the whole tool clear of the bins and the other objects (the
     jaws open, the hand, the gripper's servo: :func:`_footprint_check`). Each object is
     reachable at eight points :data:`FOOTPRINT_MARGIN_CM` around where it stands, as the
-    camera may see it there.
+    camera may see it there. Where the table grows a bin's walls, each pick of a whole
+    layout is planned from home past them, and one that has no way in is drawn again
+    (:func:`_way_in_check`).
 
     Args:
         config: Supplies the camera field (calibration), the pick height and the arm.
@@ -816,43 +850,65 @@ def random_scene(
     in_table: dict[str, tuple[str, str]] = {}  # (:func:`_candidate`: the part the last draw
     # put in the table or its own object, and which)
     table_only = dict.fromkeys(order, 0)  # per class never placed: its picks in the table
+    way_in = _way_in_check(config, _table_of(config, order))
+    placed: list[SceneObject] = []
+    poses: list[np.ndarray] = []
+
+    def draw(color: str, checked: Callable[[ColorClass, float, float], bool] | None) -> bool:
+        """One ``color`` object placed among ``placed``; ``False``: no room for it."""
+        nonlocal tries, most
+        for _ in range(PER_OBJECT_DRAWS):
+            tries += 1
+            if tries > max_tries:
+                fit = f"at most {most} fit" if most else "none fit"
+                raise _TableFull(
+                    f"could not place {len(order)} objects {min_dist - diameter:.3g} cm "
+                    f"apart in the reachable camera field: {fit} in {max_tries} draws "
+                    f"with seed {seed}"
+                    + _fewer_than(config, counts, most, seed, max_tries if suggest else 0),
+                    most,
+                )
+            x, y = round(rng.uniform(x0, x1), 2), round(rng.uniform(y0, y1), 2)
+            found = _candidate(
+                config, color, x, y, rng, placed, poses,
+                min_dist=min_dist, diameter=diameter, reach=reach, margins=margins,
+                footprint=footprint, in_table=in_table, way_in=checked,
+            )  # fmt: skip
+            if found is None:
+                hit = in_table.pop(color, None)
+                if hit is not None and color in table_only:
+                    table_only[color] += 1
+                    if table_only[color] >= TABLE_ONLY_DRAWS:
+                        raise SceneError(_tool_in_table(config, color, hit, seed))
+                continue
+            table_only.pop(color, None)  # one stood: the table is not in the way
+            new, q = found
+            placed.append(new)
+            poses.append(q)
+            most = max(most, len(placed))
+            return True
+        return False
+
     while True:  # a layout whose first objects leave no room for the next starts again
-        placed: list[SceneObject] = []
-        poses: list[np.ndarray] = []
-        for color in order:
-            for _ in range(PER_OBJECT_DRAWS):
-                tries += 1
-                if tries > max_tries:
-                    fit = f"at most {most} fit" if most else "none fit"
-                    raise _TableFull(
-                        f"could not place {len(order)} objects {min_dist - diameter:.3g} cm "
-                        f"apart in the reachable camera field: {fit} in {max_tries} draws "
-                        f"with seed {seed}"
-                        + _fewer_than(config, counts, most, seed, max_tries if suggest else 0),
-                        most,
-                    )
-                x, y = round(rng.uniform(x0, x1), 2), round(rng.uniform(y0, y1), 2)
-                found = _candidate(
-                    config, color, x, y, rng, placed, poses,
-                    min_dist=min_dist, diameter=diameter, reach=reach, margins=margins,
-                    footprint=footprint, in_table=in_table,
-                )  # fmt: skip
-                if found is None:
-                    hit = in_table.pop(color, None)
-                    if hit is not None and color in table_only:
-                        table_only[color] += 1
-                        if table_only[color] >= TABLE_ONLY_DRAWS:
-                            raise SceneError(_tool_in_table(config, color, hit, seed))
-                    continue
-                table_only.pop(color, None)  # one stood: the table is not in the way
-                new, q = found
-                placed.append(new)
-                poses.append(q)
-                most = max(most, len(placed))
-                break
-            else:
-                break  # no room for this one: start the layout again
-        if len(placed) == len(order):
+        placed.clear()
+        poses.clear()
+        if not all(draw(color, None) for color in order):
+            continue
+        if way_in is None:
+            break
+        # the way in past grown walls, once the layout is whole (a table too full never
+        # plans one); an object with none is drawn again where it has one
+        shut = [
+            i
+            for i, o in enumerate(placed)
+            if not way_in(config.task.class_named(o.color), o.x, o.y)
+        ]
+        if not shut:
+            break
+        again = [placed[i].color for i in shut]
+        for i in reversed(shut):
+            del placed[i], poses[i]
+        if all(draw(color, way_in) for color in again):
             break
     rng.shuffle(placed)
     # planned, so checked once the table is known to hold the objects (a table too full
