@@ -46,7 +46,7 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import NamedTuple
 
 import coal
@@ -226,6 +226,7 @@ class CollisionModel:
         self._last_key: tuple[object, ...] | None = None
         self._last_gap: tuple[float, str, str, float] = (math.inf, "", "", math.inf)
         self._last_frames: np.ndarray | None = None  # (:meth:`_frames` at that pose)
+        self._walks: list[_Walk] = []  # (:meth:`first_contact`: the last few, newest last)
         self._frames_at: np.ndarray | None = None  # (:meth:`_frames`)
         self._objects: list[tuple[str, str, float, float]] = []
         self._opening_cm = arm.tool.gripper.open_cm
@@ -950,6 +951,25 @@ class CollisionModel:
         """The jaws at ``opening_cm``, nothing held, the rest of the world kept."""
         self.set_world(opening_cm=opening_cm, table_below_cm=self._table_below_cm)
 
+    def _walk_along(
+        self, path: np.ndarray, world: tuple[int, str | None, float]
+    ) -> tuple[_Walk | None, int]:
+        """The kept walk (:class:`_Walk`) that shares the most segments with ``path``, and how many.
+
+        ``(None, 0)`` where none starts at ``path``'s first pose in ``world``.
+        """
+        best: tuple[_Walk | None, int] = (None, 0)
+        for walk in self._walks:
+            if walk.world == world:
+                same = _shared_segments(walk.path, path)
+                if same >= 0 and (best[0] is None or same > best[1]):
+                    best = (walk, same)
+        return best
+
+    def forget_paths(self) -> None:
+        """Check the next path afresh, as if none had been checked (a bench's timing)."""
+        self._walks = []
+
     def first_contact(
         self, q_path: npt.ArrayLike, *, target: str | None = None, allowance_m: float = 0.0
     ) -> Contact | None:
@@ -964,6 +984,9 @@ class CollisionModel:
         spare, the next check comes where some point of the arm could first have moved
         ``g``, bounded by :math:`\sum_i (R_i + g) |\Delta q_i|` (:meth:`_reach`; while
         every point moves less than ``g``, none gets farther than that from an axis).
+        A path that starts as one of the last few checked in the same world is walked as
+        that one was over the segments the two share, its checks there taken, not made
+        again (:class:`_Walk`): the result is the one a fresh walk finds.
 
         Args:
             q_path: The poses, model units, (k, n).
@@ -979,27 +1002,47 @@ class CollisionModel:
         last = len(path) - 1
         step = np.diff(path, axis=0)  # each segment's joint motion, (last, n)
         seg = np.abs(step)  # and travel
-        start = self._start_distances(path[0], target)
-        # such a pair may come no more than TOUCH_CM closer than it starts, nor touch if
-        # it starts clear (the check refuses a distance under its floor + TOUCH_M)
-        floors = {
-            k: (d - TOUCH_M if d < TOUCH_M else max(d - TOUCH_M, TOUCH_M)) - TOUCH_M
-            for k, d in start.items()
-        }
-        names = {self._pair_names(k): d / M_PER_CM for k, d in start.items()}
+        world = (self._world, target, allowance_m)
+        walk, same = self._walk_along(path, world)
+        if walk is None:
+            start = self._start_distances(path[0], target)
+            # such a pair may come no more than TOUCH_CM closer than it starts, nor touch
+            # if it starts clear (the check refuses a distance under its floor + TOUCH_M)
+            floors = {
+                k: (d - TOUCH_M if d < TOUCH_M else max(d - TOUCH_M, TOUCH_M)) - TOUCH_M
+                for k, d in start.items()
+            }
+            names = {self._pair_names(k): d / M_PER_CM for k, d in start.items()}
+            walk = _Walk(world, path, floors, names)
+            replay: list[tuple[int, float, float, np.ndarray]] = []
+        else:  # its checks in the segments the two paths share, as that walk made them
+            replay = walk.checks[
+                : next((i for i, c in enumerate(walk.checks) if c[0] >= same), None)
+            ]
+            walk = _Walk(world, path, walk.floors, walk.start_cm)
+        self._walks = [w for w in self._walks if w.world == world][-_WALKS_KEPT + 1 :] + [walk]
+        floors, names = walk.floors, walk.start_cm
         k, t = 0, 0.0
+        walk.checks.extend(replay)
+        resume = bool(replay)  # (from the last check taken: the steps before it are known)
         while True:
-            q = path[k] + t * step[k] if k < last else path[last]
-            g, a, b, d = self._gap(q, target, floors)
-            g += allowance_m
-            self.checks += 1
-            if g < TOUCH_M:
-                return Contact(a, b, d / M_PER_CM, q, k, names.get((a, b)))
-            if k == last:
-                return None
+            if resume:
+                k, t, g, reach = replay[-1]
+                resume = False
+            else:
+                q = path[k] + t * step[k] if k < last else path[last]
+                g, a, b, d = self._gap(q, target, floors)
+                g += allowance_m
+                self.checks += 1
+                if g < TOUCH_M:
+                    return Contact(a, b, d / M_PER_CM, q, k, names.get((a, b)))
+                if k == last:
+                    return None
+                reach = self._reach()
+                walk.checks.append((k, t, g, reach))
             # how far a point may move before the next check is g [m]: walk the segments'
             # sweeps (per unit of each) until they add up to more
-            sweep = (seg[k:] @ (self._reach() + g)).tolist()
+            sweep = (seg[k:] @ (reach + g)).tolist()
             j, ahead = _first_beyond(sweep, sweep[0] * t, g)
             if j >= len(sweep):
                 k, t = last, 0.0
@@ -1007,6 +1050,37 @@ class CollisionModel:
                 t += g / sweep[0]
             else:
                 k, t = k + j, (g - ahead) / sweep[j]
+
+
+#: How many of its last paths' checks :meth:`CollisionModel.first_contact` keeps, to walk
+#: a new path's first segments as one of them did.
+_WALKS_KEPT = 4
+
+
+@dataclass
+class _Walk:
+    """One path's checks by :meth:`CollisionModel.first_contact`, for the paths after it.
+
+    A path that starts as one checked before in the same world (a detour's way up from
+    home, planned again for every pick a layout tries: :func:`mearm.task.scene.random_scene`)
+    is walked as that one was where the two are the same: each check there is at the same
+    pose, its gap and the step after it the same numbers, so it is taken, not computed.
+    The first check whose step leaves the shared segments is where the new walk goes on.
+    """
+
+    world: tuple[int, str | None, float]  # the world's count, the target, the allowance
+    path: np.ndarray  # the poses, (k, n)
+    floors: dict[int, float]  # the start's pairs within the clearance, held to these [m]
+    start_cm: dict[tuple[str, str], float]  # and their distance at the start, by name
+    # each clear check's segment, the fraction of it, its gap [m] and reach (:meth:`_reach`)
+    checks: list[tuple[int, float, float, np.ndarray]] = field(default_factory=list)
+
+
+def _shared_segments(a: np.ndarray, b: np.ndarray) -> int:
+    """How many segments two paths of poses share from their start (−1: not the first pose)."""
+    n = min(len(a), len(b))
+    differ = np.flatnonzero(np.any(a[:n] != b[:n], axis=1))  # (a NaN differs: walked afresh)
+    return (int(differ[0]) if len(differ) else n) - 1
 
 
 def _first_beyond(sweep: list[float], done: float, g: float) -> tuple[int, float]:
