@@ -582,10 +582,7 @@ def _picks_shut_at(config: Config, model: ArmModel, clearance_cm: float) -> str 
     Each pick is planned at ``clearance_cm`` with every other object of the table on it, the
     jaws open, as the sort's first look finds them.
     """
-    task = config.task.model_copy(update={"clearance_cm": clearance_cm})
-    lowered = config.model_copy(update={"task": task})
-    collision = collision_model(lowered, model, clearance_cm=clearance_cm)
-    planner = Planner(lowered, model, collision)
+    collision, planner = _planner_at(config, model, clearance_cm)
     objects = [(f"o{i}", o.color, o.x, o.y) for i, o in enumerate(config.task.scene)]
     for i, obj in enumerate(config.task.scene):
         cls = config.task.class_named(obj.color)
@@ -598,6 +595,20 @@ def _picks_shut_at(config: Config, model: ArmModel, clearance_cm: float) -> str 
     return None
 
 
+def _planner_at(
+    config: Config, model: ArmModel, clearance_cm: float
+) -> tuple[CollisionModel, Planner]:
+    """The collision model and planner a sort of ``config`` at ``clearance_cm`` plans with.
+
+    The config's bins and walls, its ``task.clearance_cm`` replaced: the checks that look
+    for the most clearance that works try each figure as the sort would plan at it.
+    """
+    task = config.task.model_copy(update={"clearance_cm": clearance_cm})
+    lowered = config.model_copy(update={"task": task})
+    collision = collision_model(lowered, model, clearance_cm=clearance_cm)
+    return collision, Planner(lowered, model, collision)
+
+
 def _place_shut_at(
     config: Config,
     model: ArmModel,
@@ -606,15 +617,31 @@ def _place_shut_at(
 ) -> str | None:
     """The first class no place into whose bin is planned at ``clearance_cm``, or ``None``.
 
-    Each place is planned from each of ``starts`` (:func:`_place_starts`), one object of its
-    class held, against the bins alone, with its release
-    (:meth:`~mearm.task.plan.Planner.plan_place`: the jaws open clear of the walls and have
-    a way up).
+    The one answer to "does a place into this bin, from there, plan at this clearance",
+    for a clearance too much at home (:func:`_clearance_into_bins`: from home alone) and
+    one the arm keeps there (:func:`_clearance_shuts_bin`: from home and the table's
+    picks). Each place is planned from each of ``starts`` whose class is ``None`` or its
+    own, one object of its class held, against the bins alone, with its release, as the
+    sort plans it (:meth:`~mearm.task.plan.Planner.plan_place`: the jaws open clear of the
+    walls and have a way up). A clearance is named only when this finds none: at 0.11 cm,
+    the most the arm kept at home from the walls a belt's 500 arrivals grew
+    (``belt.arrivals.count=500``: 170 cm for 169 reds, 179 cm for 178 greens), a refusal
+    had named it, and the sort then refused it, no way into the green bin; the red one
+    is shut there too, its place planned but the jaws opened in it with no way up past
+    its walls, as a place without its release did not tell.
+
+    Args:
+        config: The config; its ``task.clearance_cm`` is replaced by ``clearance_cm``.
+        model: Its arm.
+        clearance_cm: The clearance planned at [cm].
+        starts: ``(class, pose)`` each (:func:`_place_starts`): where places are planned
+            from, ``None`` for every class's.
+
+    Returns:
+        The name of the first class (in the config's order) one of whose places is
+        refused; ``None``: every one is planned.
     """
-    task = config.task.model_copy(update={"clearance_cm": clearance_cm})
-    lowered = config.model_copy(update={"task": task})
-    collision = collision_model(lowered, model, clearance_cm=clearance_cm)
-    planner = Planner(lowered, model, collision)
+    collision, planner = _planner_at(config, model, clearance_cm)
     for cls in config.task.classes:
         for _, q in (start for start in starts if start[0] in (None, cls.name)):
             collision.set_world([], opening_cm=cls.diameter_cm, held=(cls.name, cls.name))
@@ -631,46 +658,25 @@ def _clearance_into_bins(
 
     ``home_cm``: the least the arm keeps from a bin at home. ``(None, None)``: its figure
     (:func:`_cm_down`) lets the arm into every bin; ``(most, name)``: a lower one does,
-    ``most`` [cm] to two decimals (found by halving, each tried: :func:`_bin_shut_at`),
-    and ``name``'s bin is shut at the figure; ``(None, name)``: none does.
+    ``most`` [cm] to two decimals (found by halving, each tried: :func:`_place_shut_at`,
+    a place of each class from home), and ``name``'s bin is shut at the figure; ``(None,
+    name)``: none does.
     """
+    home = [(None, np.asarray(model.home, dtype=float))]
     cents = math.floor(home_cm * 100)
-    shut = _bin_shut_at(config, model, cents / 100)
+    shut = _place_shut_at(config, model, cents / 100, home)
     if shut is None:
         return None, None
-    if _bin_shut_at(config, model, 0.0) is not None:
+    if _place_shut_at(config, model, 0.0, home) is not None:
         return None, shut
     good, bad = 0, cents
     while bad - good > 1:
         mid = (good + bad) // 2
-        if _bin_shut_at(config, model, mid / 100) is None:
+        if _place_shut_at(config, model, mid / 100, home) is None:
             good = mid
         else:
             bad = mid
     return good / 100, shut
-
-
-def _bin_shut_at(config: Config, model: ArmModel, clearance_cm: float) -> str | None:
-    """The first class whose bin the arm at ``clearance_cm`` has no way into, or ``None``.
-
-    A place of each class is planned from home, one of its objects held, against the bins
-    alone, as the sort's own check of the bins' walls plans it
-    (:func:`~mearm.task.scene.check_scene`). A refusal at home named the most clearance
-    the arm keeps there, and the sort then refused that clearance: walls built 179 cm tall
-    for the 178 greens a belt brought (``belt.arrivals.count=500``) left no way into the
-    green bin at 0.11 cm. A clearance is named only when this finds none.
-    """
-    task = config.task.model_copy(update={"clearance_cm": clearance_cm})
-    lowered = config.model_copy(update={"task": task})
-    collision = collision_model(lowered, model, clearance_cm=clearance_cm)
-    planner = Planner(lowered, model, collision)
-    for cls in config.task.classes:
-        collision.set_world([], opening_cm=cls.diameter_cm, held=(cls.name, cls.name))
-        route = Route(cls.name, cls.name, "place", 1, planner.place_target(cls))
-        planner.plan(route, model.home)
-        if not route.planned:
-            return cls.name
-    return None
 
 
 def _cm_down(distance_cm: float) -> str:
