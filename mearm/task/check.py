@@ -623,8 +623,8 @@ def _place_shut_at(
     picks). Each place is planned from each of ``starts`` whose class is ``None`` or its
     own, one object of its class held, against the bins alone, with its release, as the
     sort plans it (:meth:`~mearm.task.plan.Planner.plan_place`: the jaws open clear of the
-    walls and have a way up). A clearance is named only when this finds none: at 0.11 cm,
-    the most the arm kept at home from the walls a belt's 500 arrivals grew
+    walls and have a way up). A clearance is named only where this finds no bin shut: at
+    0.11 cm, the most the arm kept at home from the walls a belt's 500 arrivals grew
     (``belt.arrivals.count=500``: 170 cm for 169 reds, 179 cm for 178 greens), a refusal
     had named it, and the sort then refused it, no way into the green bin; the red one
     is shut there too, its place planned but the jaws opened in it with no way up past
