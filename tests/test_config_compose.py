@@ -73,7 +73,8 @@ TWIN = {"simulator", "twin.joint_servo", "task.approach_height_cm"}
         (
             "sim_mujoco_lamp.yaml",
             "sim_mujoco_perspective.yaml",
-            {"twin.lamp", "vision.value_min", "vision.shadow_value_min"},
+            {"twin.lamp", "vision.value_min", "vision.shadow_value_min"}
+            | {"vision.highlight_saturation_min"},
         ),
         ("sim_mearm_v1_mujoco.yaml", "sim_mearm_v1.yaml", TWIN | JOINT_ACCEL),
         (

@@ -219,6 +219,14 @@ class VisionConfig(Strict):
     they come only: not used with learned colours or ``reference_bgr``. With a work area
     (``work_area_px``, ``whole_frame`` or the calibrated table's outline) a region grows up
     to its edge and no further, and never into the arm's mask."""
+    highlight_saturation_min: Annotated[float, Field(ge=0, le=1, allow_inf_nan=False)] | None = None
+    """Find blown-out tops: a pixel at or near the clip (V ≥ 0.95) whose hue lies in a
+    class's band counts for it when its saturation is under ``saturation_min`` but at least
+    this [-]. A glossy object's highlight adds the lamp's white to every channel, which
+    keeps its hue but lowers its saturation; a top blown out under a lamp overhead came out
+    at S ≈ 0.37–0.39 and was missed. White and grey highlights (paper, a grey table) stay
+    under it near S = 0. ``null``: never (the paper's recipe). Hue bands on frames as they
+    come only: not used with learned colours (their own highlight pass) or ``reference_bgr``."""
     reference_bgr: tuple[PixelLevel, PixelLevel, PixelLevel] | None = None
     """Colour constancy: the work area's median colour (B, G, R) in the frames the colours
     were learned from (``mearm learn-colours`` writes it); each frame's channels are scaled
@@ -272,6 +280,16 @@ class VisionConfig(Strict):
             raise ValueError(
                 f"@shadow_value_min: {self.shadow_value_min:g} must be below value_min "
                 f"({self.value_min:g}), or null"
+            )
+        return self
+
+    @model_validator(mode="after")
+    def _highlight_below_saturation(self) -> VisionConfig:
+        low = self.highlight_saturation_min
+        if low is not None and low >= self.saturation_min:
+            raise ValueError(
+                f"@highlight_saturation_min: {low:g} must be below saturation_min "
+                f"({self.saturation_min:g}), or null"
             )
         return self
 

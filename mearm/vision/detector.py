@@ -79,6 +79,7 @@ from mearm.vision.classify import PixelClassifier, equal_mask, median_codes
 from mearm.vision.detection import Detection, _point, _with_table_yaw, check_frame
 from mearm.vision.errors import ImageError
 from mearm.vision.flat_detection import Regions, find_regions, seen_from_above
+from mearm.vision.highlights import highlight_classifier, union_box, with_highlights
 from mearm.vision.learned import LearnedClassifier, area_mask, balance_by, gains
 from mearm.vision.perspective_detection import (
     MAX_SPLIT,
@@ -276,6 +277,11 @@ class ColorDetector:
         self._weak = (
             None if shadow is None or not plain else weak_classifier(self.thresholds, shadow)
         )
+        # blown-out tops (mearm.vision.highlights): hue bands on raw frames too
+        bright = vision.highlight_saturation_min
+        self._highlights = (
+            None if bright is None or not plain else highlight_classifier(self.thresholds, bright)
+        )
         #: The colours the pixels are classified into (one per class without shapes).
         self.class_names = self.thresholds.class_names
         self.matcher = ClassMatcher(self.classes)
@@ -416,16 +422,29 @@ class ColorDetector:
         result exactly, for less work. With
         ``vision.shadow_value_min`` the regions are grown into their shadows inside the
         area looked in only, as the strong pixels are classified there: a shadow is not
-        followed out of the work area or into the arm's mask.
+        followed out of the work area or into the arm's mask. With
+        ``vision.highlight_saturation_min`` a pixel at the clip of a class's hue counts
+        from that lower saturation floor (:mod:`mearm.vision.highlights`), inside the
+        same area.
         """
         frame = check_frame(frame_bgr)
         prepared = prepared or self.area_and_gain(frame, exclude)
         codes, (x, y, w, h) = self._classify(frame, prepared)
+        area, whole, _ = prepared
+        bright = None
+        if self._highlights is not None:  # blown-out tops (mearm.vision.highlights)
+            bright, box = self._highlights.classify_with_box(frame)
+            if area is not None and not whole:
+                bright = cv2.bitwise_and(bright, area)
+            codes = with_highlights(codes, bright)
+            x, y, w, h = union_box((x, y, w, h), box)
         if self._weak is not None:  # regions grown into their shadows (mearm.vision.shadows)
-            weak, (x, y, w, h) = self._weak.classify_with_box(frame)
-            area, whole, _ = prepared
+            weak, box = self._weak.classify_with_box(frame)
             if area is not None and not whole:  # no shadow grown past the work area
                 weak = cv2.bitwise_and(weak, area)
+            if bright is not None:  # every strong pixel a weak one of its class
+                weak = with_highlights(weak, bright)
+            x, y, w, h = union_box((x, y, w, h), box)
             codes = grow_into_shadows(codes, weak, len(self.class_names))
         k = self.vision.median_kernel
         if w == 0 or h == 0:
