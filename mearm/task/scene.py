@@ -9,6 +9,7 @@ objects at least 1 cm apart (edge to edge, so centres at least 3 cm apart for th
 from __future__ import annotations
 
 import math
+from collections import Counter
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
@@ -30,6 +31,7 @@ from mearm.kinematics.bodies import (
     bin_half_outer_m,
     bin_name,
     object_name,
+    object_of,
     wall_height_m,
 )
 from mearm.kinematics.collision import TOUCH_M, CollisionModel
@@ -715,6 +717,7 @@ def _candidate(
     ],
     in_table: dict[str, tuple[str, str]],
     way_in: Callable[[ColorClass, float, float], bool] | None = None,
+    failed: Counter[tuple[str, ...]] | None = None,
 ) -> tuple[SceneObject, np.ndarray] | None:
     """A ``color`` object at (x, y) and its pick pose, or ``None`` if it may not stand there.
 
@@ -728,14 +731,22 @@ def _candidate(
     drawn) the footprint, whose refusal by a bin or an object needs no margin planned;
     the margins last, farthest from the base first (beyond reach, the first to fail).
     The footprint takes no yaw (:func:`_footprint_check`).
+
+    ``failed``: counts the test a refused draw failed, by its key (``("apart",)``,
+    ``("bin",)``, ``("reach",)``, ``("footprint", part, what)``, ``("margins",)``,
+    ``("way in",)``), for a refusal to say why (:func:`_none_fit`).
     """
+    why = failed if failed is not None else Counter()
     if any(np.hypot(o.x - x, o.y - y) < min_dist for o in placed):
+        why["apart",] += 1
         return None
     if any(_near_bin(c, x, y, diameter / 2 + MIN_GAP_CM) for c in config.task.classes):
+        why["bin",] += 1
         return None
     cls = config.task.class_named(color)
     q = reach(cls, x, y)
     if q is None:
+        why["reach",] += 1
         return None
     new = SceneObject(color=color, x=x, y=y)
     symmetry = cls.object_shape.symmetry_deg
@@ -744,10 +755,12 @@ def _candidate(
     if hit is not None and hit[1] != "table":
         if hit[1] == own:  # its own pick meets it: so at every place (no margin needed)
             in_table[color] = (hit[0], "object")
+        why["footprint", *hit] += 1
         return None  # (refused whether or not the margins are reached: no yaw drawn)
     around = [(x + float(dx), y + float(dy)) for dx, dy in margins]
     around.sort(key=lambda p: -math.hypot(*p))  # (a stable sort: ties keep their order)
     if not all(reach(cls, mx, my) is not None for mx, my in around):
+        why["margins",] += 1
         return None
     if symmetry:  # a cube or a prism lies at any yaw (a disc draws none)
         new = new.model_copy(update={"yaw_deg": round(rng.uniform(0, symmetry), 1)})
@@ -757,10 +770,82 @@ def _candidate(
         # table already, and each names its own object, not this one)
         if hit[1] in ("table", own):
             in_table[color] = (hit[0], "table" if hit[1] == "table" else "object")
+        why["footprint", *hit] += 1
         return None
     if way_in is not None and not way_in(cls, x, y):  # (the last test: a plan)
+        why["way in",] += 1
         return None
     return new, q
+
+
+def _none_fit(
+    config: Config,
+    failed: Counter[tuple[str, ...]],
+    field: tuple[float, float, float, float],
+    diameter: float,
+    order: Sequence[str],
+) -> str:
+    """Why no draw of a table that held none stood: ``": …"``, after ``none fit …``.
+
+    :func:`_candidate`'s tests sieve the draws in turn: clear of the bins, the pick
+    reached, the tool's footprint clear, reached around (with none placed, no draw met
+    a neighbour or wanted a way in). The draws fall evenly over the camera's field, so
+    each test's share of them is its share of the field: each is named, in turn, with
+    the part of the tool and what it met most often at the footprint. Where the bins
+    took the most (their squares, or the tool at their walls), smaller bins are named
+    (the MeArm v1 scaled by half, its bins not: ``--random 12`` with seed 31001 placed
+    none, and with 2.25 cm bins, 3).
+    """
+    total = sum(failed.values())
+    if not total:
+        return ""
+
+    def share(n: int) -> str:
+        p = 100 * n / total
+        return f"{p:.0f} %" if p >= 1 or p == 0 else f"{p:.1g} %"
+
+    x0, x1, y0, y1 = field
+    near, unreached, around = failed["bin",], failed["reach",], failed["margins",]
+    hits = Counter({key[1:]: n for key, n in failed.items() if key[0] == "footprint"})
+    above = config.arm.tool.tcp_above_grip_cm
+    heights = sorted({config.task.class_named(c).grip_z_cm + above for c in order})
+    said = f": of the camera's table field (centres x {x0:.3g}…{x1:.3g}, y {y0:.3g}…{y1:.3g} cm), "
+    if near:
+        gap = diameter / 2 + MIN_GAP_CM
+        said += (
+            f"{share(near)} lies within {gap:.3g} cm of a bin's square, where no object "
+            "stands, and "
+        )
+    said += (
+        f"the arm reaches {share(total - near - unreached)}{' outside those' if near else ''} "
+        f"at the pick height{'s' if len(heights) > 1 else ''} "
+        f"{', '.join(f'{z:.3g}' for z in heights)} cm"
+    )
+    if hits:
+        (part, what), _ = hits.most_common(1)[0]
+        if object_of(what) is not None:  # (none placed: the object it picks)
+            what = "the object it picks"
+        where = f"at {share(hits.total())} of the field" if around else "at every pick there"
+        said += (
+            f"; {where} the tool comes within "
+            f"{config.task.clearance_cm + FOOTPRINT_MARGIN_CM:g} cm (task.clearance_cm and "
+            f"the camera's {FOOTPRINT_MARGIN_CM:g} cm) of a bin, the table or the object "
+            f"(most often: its {part}, at {what})"
+        )
+    if around:
+        where = f"at {share(around)} of the field" if hits else "every pick there is"
+        said += (
+            f"; {where} reached, but not {FOOTPRINT_MARGIN_CM:g} cm around, where the "
+            "camera may see it"
+        )
+    at_bins = sum(n for (_, what), n in hits.items() if what.startswith("bin_"))
+    if near + at_bins > max(unreached, hits.total() - at_bins, around):
+        widths = sorted({c.bin_inner_width_cm for c in config.task.classes})
+        said += (
+            ": smaller bins leave the arm room (task.classes' bin_width_cm, now "
+            f"{', '.join(f'{w:g}' for w in widths)} cm)"
+        )
+    return said
 
 
 def _tool_in_table(config: Config, color: str, hit: tuple[str, str], seed: int) -> str:
@@ -825,7 +910,8 @@ def random_scene(
         SceneError: a count below 0, more than :data:`~mearm.config.sections.MAX_SCENE_OBJECTS`
             objects, a seed outside [0, 2³² − 1], or the objects do not fit (it says how
             many one layout held: with the same seed, that many or fewer are placed; fewer
-            where that many would grow a bin's walls past the arm); a class whose pick
+            where that many would grow a bin's walls past the arm; none: why, each test's
+            share of the camera's field, :func:`_none_fit`); a class whose pick
             puts the tool in the table at :data:`TABLE_ONLY_DRAWS` places drawn, none of
             it placed, is named; walls grown to hold the objects stacked that the arm at
             home comes too near, that stand over the twin's release, or that leave it no
@@ -845,14 +931,15 @@ def random_scene(
     # where the camera may see it: the pick must be reachable there too
     angles = np.linspace(0.0, 2 * np.pi, 8, endpoint=False)
     margins = FOOTPRINT_MARGIN_CM * np.column_stack([np.cos(angles), np.sin(angles)])
-    tries = 0
-    most = 0  # the most objects one layout held: as many as the same seed is sure to place
+    # most: the most objects one layout held: as many as the same seed is sure to place
+    tries = most = 0
     in_table: dict[str, tuple[str, str]] = {}  # (:func:`_candidate`: the part the last draw
     # put in the table or its own object, and which)
     table_only = dict.fromkeys(order, 0)  # per class never placed: its picks in the table
     way_in = _way_in_check(config, _table_of(config, order))
     placed: list[SceneObject] = []
     poses: list[np.ndarray] = []
+    failed: Counter[tuple[str, ...]] = Counter()  # what each refused draw failed
 
     def draw(color: str, checked: Callable[[ColorClass, float, float], bool] | None) -> bool:
         """One ``color`` object placed among ``placed``; ``False``: no room for it."""
@@ -865,6 +952,7 @@ def random_scene(
                     f"could not place {len(order)} objects {min_dist - diameter:.3g} cm "
                     f"apart in the reachable camera field: {fit} in {max_tries} draws "
                     f"with seed {seed}"
+                    + ("" if most else _none_fit(config, failed, (x0, x1, y0, y1), diameter, order))
                     + _fewer_than(config, counts, most, seed, max_tries if suggest else 0),
                     most,
                 )
@@ -872,7 +960,7 @@ def random_scene(
             found = _candidate(
                 config, color, x, y, rng, placed, poses,
                 min_dist=min_dist, diameter=diameter, reach=reach, margins=margins,
-                footprint=footprint, in_table=in_table, way_in=checked,
+                footprint=footprint, in_table=in_table, way_in=checked, failed=failed,
             )  # fmt: skip
             if found is None:
                 hit = in_table.pop(color, None)
