@@ -1018,12 +1018,15 @@ def _fewer_than(
     past the arm (:func:`_walls_problem`): as many as the table holds would be refused
     next, by the walls. A total is laid out before it is asked for (``max_tries`` draws
     each, :func:`_fitting`; 0: not): a count draws its own layout, and one that held 26
-    of 500 did not hold 26 asked for (``sim_5dof``, seed 22014).
+    of 500 did not hold 26 asked for (``sim_5dof``, seed 22014). Where the walls of one
+    object stop it, no count is named: what stops it is (:func:`_walls_stop_all`).
     """
     if not most:
         return ""
     if isinstance(counts, int) and _walls_problem(config, _class_order(config, most, seed)):
         walls = _most_the_walls_take(config, most, seed)
+        if not walls:  # one object's walls stop it already: no count does
+            return f", but the bins' walls take none: {_walls_stop_all(config, seed)}"
         return (
             f", of which the bins' walls take {walls} (more grow a bin's walls past the "
             f"arm); ask for {_asked(config, walls, seed, max_tries)}"
@@ -1031,6 +1034,28 @@ def _fewer_than(
     if not isinstance(counts, int):
         return f"; ask for {most} or fewer"
     return f"; ask for {_asked(config, most, seed, max_tries)}"
+
+
+def _walls_stop_all(config: Config, seed: int) -> str:
+    """Why a table of one object (drawn with ``seed``) grows walls past the arm, and the way out.
+
+    No count helps: walls stand at least two objects tall (and 2 cm,
+    :func:`~mearm.kinematics.bodies.wall_height_m`) for one object as for none, and such
+    walls may stand over the bottom of an object held at the release (the MeArm v1 scaled
+    by half, its 1.5 cm objects not: 3 cm walls, a red held 1 cm up released 3 cm up,
+    said ``ask for fewer than 0``). The way out is the check's own: the release raised,
+    or the walls' height set (1.5 cm: 3 of those 12 laid out with seed 31001).
+    """
+    colors = _class_order(config, 1, seed)
+    for check, remedy in (
+        (_release_below_walls, "raise bin_cm z (task.classes)"),
+        (_walls_by_home, ""),
+        (_walls_shut_bin, "set the class's bin_height_cm (task.classes)"),
+    ):
+        problem = check(config, colors)
+        if problem is not None:
+            return f"{problem}: no number of objects fits" + (f"; {remedy}" if remedy else "")
+    raise AssertionError("the walls of one object stop nothing")  # (_most_the_walls_take)
 
 
 #: How many counts a refusal lays out, from the one it would name down, to name one that
@@ -1094,6 +1119,8 @@ def _walls_refusal(
     n = len(_class_order(config, counts, seed))
     most = _most_the_walls_take(config, n, seed)
     fewer = f"ask for {most} or fewer" if most else "no number of objects fits"
+    if not most and remedy.startswith(", or "):  # (no fewer to say "or" to)
+        remedy = "; " + remedy.removeprefix(", or ")
     try:  # as many as the walls take may not fit on the table: name the fewer
         if most:
             random_scene(config, most, seed, max_tries=max_tries, suggest=False)
