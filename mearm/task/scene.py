@@ -30,6 +30,7 @@ from mearm.kinematics.bodies import (
     base_radius_m,
     bin_half_outer_m,
     bin_name,
+    class_of,
     object_name,
     object_of,
     wall_height_m,
@@ -838,7 +839,7 @@ def _none_fit(
             f"; {where} reached, but not {FOOTPRINT_MARGIN_CM:g} cm around, where the "
             "camera may see it"
         )
-    at_bins = sum(n for (_, what), n in hits.items() if what.startswith("bin_"))
+    at_bins = sum(n for (_, what), n in hits.items() if class_of(what) is not None)
     if near + at_bins > max(unreached, hits.total() - at_bins, around):
         widths = sorted({c.bin_inner_width_cm for c in config.task.classes})
         said += (
