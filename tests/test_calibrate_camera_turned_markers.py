@@ -82,6 +82,9 @@ def test_a_right_layout_still_fits_whatever_the_camera_s_turn(
 
     The turn is the markers' on the table, through the fit, not in the picture."""
     config = lab_config(tmp_path)
+    if picture == "camera turned":  # its frames are the turned picture's, 480x640
+        config.write_text(config.read_text().replace("width_px: 640", "width_px: 480", 1))
+        config.write_text(config.read_text().replace("height_px: 480", "height_px: 640", 1))
     out = run_in_process(fit(config, pictures[picture], {i: i for i in MARKERS}, *side))
     assert out.code == 0, out.stderr
     written = Calibration(np.array(load_config(config).calibration.homography))

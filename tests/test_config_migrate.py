@@ -85,11 +85,15 @@ def test_migrated_sim_is_the_default_rig_with_format_1_names() -> None:
         exclude={"error_model"}
     )
     assert config.servo.error_model.offset_deg == {"joint1": 0.0, "joint2": 0.0, "joint3": 0.0}
-    assert (config.camera, config.calibration, config.controller) == (
+    # A homography the file gives without the frame size it was fitted at (format 1 had
+    # none) is of unknown size, where the built-in one is the paper's 640x480.
+    assert config.calibration.image_size_px is None
+    assert default.calibration.image_size_px == (640, 480)
+    assert (config.camera, config.calibration.model_dump(exclude={"image_size_px"})) == (
         default.camera,
-        default.calibration,
-        default.controller,
+        default.calibration.model_dump(exclude={"image_size_px"}),
     )
+    assert config.controller == default.controller
 
 
 def test_partial_file_takes_format_1_defaults() -> None:
@@ -104,6 +108,13 @@ def test_partial_file_takes_format_1_defaults() -> None:
     # The partial file's arm is today's default, with the paper's servo speeds.
     _without_speeds(partial_dump["arm"])
     _without_speeds(full_dump["arm"])
+    # The built-in homography is the paper's, for 640x480; the one the full file gives,
+    # without its frame size, is of unknown size.
+    sizes = (
+        partial_dump["calibration"].pop("image_size_px"),
+        full_dump["calibration"].pop("image_size_px"),
+    )
+    assert sizes == ((640, 480), None)
     assert partial_dump == full_dump
 
 

@@ -25,6 +25,9 @@ What a config gives merges over what it builds on, by one rule:
 - anything else replaces what it builds on: a list is replaced whole (to add, remove or
   reorder joints, write out the list), a value or ``null`` replaces the value.
 
+A config that gives ``calibration.homography`` without ``calibration.image_size_px`` has
+a homography of unknown frame size: the size of the one it replaces is not kept.
+
 ``arm.use`` starts the arm afresh: a config that names an arm takes that arm with its own
 changes only, whatever the config it extends said about its arm. Relative file paths in
 a config (``servo.calibration_file``, the camera's calibration files, the frames a
@@ -59,6 +62,8 @@ FILE_KEYS: tuple[tuple[str, str], ...] = (
     ("calibration", "extrinsics_file"),
     ("camera", "path"),
 )
+#: The section, its homography and the frame size that homography was fitted at.
+CALIBRATION, HOMOGRAPHY, IMAGE_SIZE = "calibration", "homography", "image_size_px"
 #: A key's place in a config: its keys from the top, a list of named items' item by name.
 KeyPath = tuple[Any, ...]
 #: Where each key of a composed config was written (:func:`expand_config_traced`): its
@@ -124,6 +129,23 @@ def merge(base: Any, over: Any, where: str = "", *, source: str | None = None) -
             for item in base
         ]
     return copy.deepcopy(over)
+
+
+def without_stale_size(base: Any, own: Any) -> Any:
+    """``base`` without its homography's frame size if ``own`` gives a homography without one.
+
+    ``calibration.image_size_px`` is the size the homography beside it was fitted at: a
+    config that replaces the homography and says nothing of its size has a homography of
+    unknown size, not one of the size of the homography it replaced.
+    """
+    if not (isinstance(base, Mapping) and isinstance(own, Mapping)):
+        return base
+    cal, over = base.get(CALIBRATION), own.get(CALIBRATION)
+    if not (isinstance(cal, Mapping) and isinstance(over, Mapping)):
+        return base
+    if HOMOGRAPHY not in over or IMAGE_SIZE in over or IMAGE_SIZE not in cal:
+        return base
+    return {**base, CALIBRATION: {k: v for k, v in cal.items() if k != IMAGE_SIZE}}
 
 
 def _named_items(value: Any) -> bool:
@@ -229,6 +251,7 @@ def _expand(
         own["arm"] = expand_arm(own["arm"], source)
         if isinstance(own["arm"], Mapping) and USE_KEY in data["arm"]:
             base.pop("arm", None)  # a named arm starts afresh
+    base = without_stale_size(base, own)
     merged = merge(base, own, source=source)
     _trace(base, own, (), source, origins)
     return merged

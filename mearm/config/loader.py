@@ -35,8 +35,11 @@ from mearm.config.base import (
     short_repr,
 )
 from mearm.config.compose import (
+    CALIBRATION,
     EXTENDS_KEY,
     FILE_KEYS,
+    HOMOGRAPHY,
+    IMAGE_SIZE,
     USE_KEY,
     KeyPath,
     Origins,
@@ -218,8 +221,10 @@ def apply_overrides(
     does not spell out the arm; inside a list item, from the built-in item of its name
     (none for an item the built-in config does not name). A relative file path it sets
     (``servo.calibration_file``, the camera's calibration files, a replayed ``camera.path``)
-    is made absolute from the current folder. Its errors are said of ``overrides_as``
-    (:func:`parse_override`).
+    is made absolute from the current folder. One that sets ``calibration.homography`` (or
+    an entry of it), with none that sets ``calibration.image_size_px``, leaves the
+    homography of unknown size (:func:`~mearm.config.compose.without_stale_size`). Its
+    errors are said of ``overrides_as`` (:func:`parse_override`).
 
     Raises:
         ConfigError: a malformed override, a list index or name that does not exist.
@@ -252,6 +257,13 @@ def apply_overrides(
         else:
             raise ConfigError(overrides_as, [f"{where}: is a value, not a section"])
         _paths_from_here(out, path)
+    paths = [parse_override(text, overrides_as)[0] for text in overrides]
+    if any(p[:2] == [CALIBRATION, HOMOGRAPHY] for p in paths) and not any(
+        p[:2] == [CALIBRATION, IMAGE_SIZE] for p in paths
+    ):  # a homography set by hand is of unknown size, as one a file gives without it
+        cal = out.get(CALIBRATION)
+        if isinstance(cal, dict):
+            cal.pop(IMAGE_SIZE, None)
     return out
 
 

@@ -436,6 +436,29 @@ class Config(Strict):
         return self
 
     @model_validator(mode="after")
+    def _calibration_fits_frame_size(self) -> Config:
+        """The camera's frames must be the size the homography was fitted at.
+
+        A homography maps pixels of one frame size: at another, every pixel lands on the
+        wrong table point (a camera switched from 640 × 480 to 1280 × 960 sees each object
+        twice as far out). Not checked when the size is unknown
+        (``calibration.image_size_px: null``).
+        """
+        fitted = self.calibration.image_size_px
+        frame = (self.camera.width_px, self.camera.height_px)
+        if fitted is None or tuple(fitted) == frame:
+            return self
+        key = "width_px" if fitted[0] != frame[0] else "height_px"
+        raise ValueError(
+            f"@camera.{key}: the camera gives {frame[0]}x{frame[1]} px frames "
+            f"(camera.width_px, camera.height_px) but calibration.homography was fitted to "
+            f"{fitted[0]}x{fitted[1]} px ones (calibration.image_size_px), and at another "
+            "size it maps every pixel to the wrong table point: recalibrate at this size "
+            "(mearm calibrate-camera --config FILE --image PICTURE --marker ID:X,Y ...), or "
+            f"set camera.width_px={fitted[0]} and camera.height_px={fitted[1]} back"
+        )
+
+    @model_validator(mode="after")
     def _calibration_covers_frame(self) -> Config:
         """Every pixel of the frame must map to a point on the table.
 

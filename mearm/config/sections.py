@@ -41,6 +41,9 @@ MAX_FRAME_SIDE_PX = 4096
 MAX_FRAME_PIXELS = 3840 * 2160
 #: Smallest camera frame side [px].
 MIN_FRAME_SIDE_PX = 16
+#: The paper's frame [width, height] px (a Logitech C310 at 640 × 480), which the built-in
+#: homography was fitted to.
+PAPER_FRAME_PX = (640, 480)
 #: OpenCV reads a device number from 100 up as a capture backend plus an index.
 MAX_DEVICE_INDEX = 99
 #: Largest wait for a device or a board [s].
@@ -147,6 +150,20 @@ class CalibrationConfig(Strict):
     the whole config loads: the frame's corners must land on the table (within ±1000 cm),
     on one side of the horizon (w of one sign)."""
     reprojection_error_cm: NonNegativeLength | None = None
+    image_size_px: (
+        tuple[
+            Annotated[int, Field(ge=MIN_FRAME_SIDE_PX, le=MAX_FRAME_SIDE_PX)],
+            Annotated[int, Field(ge=MIN_FRAME_SIDE_PX, le=MAX_FRAME_SIDE_PX)],
+        ]
+        | None
+    ) = None
+    """The frame size [width, height] px the homography was fitted at (``mearm
+    calibrate-camera`` writes it). A config whose ``camera.width_px`` × ``height_px``
+    differs is refused when it loads: the homography maps pixels of that size only.
+    ``null``: unknown (a calibration written before mearm recorded it), not checked.
+    Not given: with the built-in homography, the paper's 640 × 480; with a homography the
+    config gives, unknown (a config that gives a homography without its size does not
+    take the size of the config it extends, nor does a ``--set`` of it)."""
 
     @field_validator("homography")
     @classmethod
@@ -160,6 +177,14 @@ class CalibrationConfig(Strict):
         if abs(det) < 1e-12:
             raise ValueError("homography is singular (determinant 0): recalibrate")
         return h
+
+    @model_validator(mode="before")
+    @classmethod
+    def _paper_size(cls, data: Any) -> Any:
+        """The built-in homography is the paper's, fitted to its 640 × 480 frames."""
+        if isinstance(data, dict) and "homography" not in data and "image_size_px" not in data:
+            return {**data, "image_size_px": PAPER_FRAME_PX}
+        return data
 
     @model_validator(mode="after")
     def _files_for_perspective(self) -> CalibrationConfig:

@@ -81,6 +81,7 @@ from mearm.config import config_from_dict, load_config
 from mearm.config.base import MAX_LENGTH_CM, short_repr
 from mearm.config.compose import EXTENDS_KEY, FILE_KEYS, expand_config
 from mearm.config.errors import CalibrationError
+from mearm.config.sections import CameraConfig
 from mearm.data import packaged_config
 from mearm.errors import ConfigError, InputFileError, MearmError
 from mearm.fileio import file_identity, write_atomic
@@ -240,12 +241,19 @@ def _moved(data: CommentedMap, source: Path, target: Path) -> None:
 
 
 def update_config_text(
-    text: str, calibration: Calibration, note: str, source: str, target: Path | None = None
+    text: str,
+    calibration: Calibration,
+    note: str,
+    source: str,
+    target: Path | None = None,
+    size_px: tuple[int, int] | None = None,
 ) -> str:
     """``text`` (a YAML config) with its calibration block replaced; comments kept.
 
     ``target``: where it is written, if not over ``source`` (its relative paths follow,
-    :func:`_moved`).
+    :func:`_moved`). ``size_px``: the frame size (width, height) the pixels were measured
+    in, written as ``calibration.image_size_px``; ``None`` writes ``null`` (unknown), as a
+    size the homography it replaces was recorded with is not this one's.
 
     Raises:
         ConfigError: the text is not YAML, or YAML that every config read refuses
@@ -271,6 +279,11 @@ def update_config_text(
         section["homography"] = seq
     err = calibration.reprojection_error_cm
     section["reprojection_error_cm"] = None if err is None else float(err)
+    size = None
+    if size_px is not None:
+        size = CommentedSeq([int(size_px[0]), int(size_px[1])])
+        size.fa.set_flow_style()
+    section["image_size_px"] = size
     section.yaml_add_eol_comment(note, "homography")
     if target is not None:
         _moved(data, Path(source), target)
@@ -602,8 +615,12 @@ def _check_raised(parser: ArgumentParser, args: argparse.Namespace) -> None:
 
 def _fit_homography(
     parser: ArgumentParser, args: argparse.Namespace
-) -> tuple[Calibration, int, str]:
-    """The homography fitted to --point pairs or --image markers, its pair count, and how."""
+) -> tuple[Calibration, int, str, tuple[int, int] | None]:
+    """The homography fitted to --point pairs or --image markers, its pair count and how.
+
+    And the size (width, height) [px] of the --image (``None`` for --point pairs).
+    """
+    size: tuple[int, int] | None = None
     if args.point:
         pixels = [p for p, _ in args.point]
         table = [c for _, c in args.point]
@@ -615,6 +632,7 @@ def _fit_homography(
         if len(centers) != len(args.marker):
             parser.error("each --marker id may be given once")
         frame = read_image(args.image)
+        size = (int(frame.shape[1]), int(frame.shape[0]))
         calibration = calibration_from_markers(
             frame, centers, side_cm=args.marker_side_cm, dictionary=args.dictionary
         )
@@ -632,7 +650,7 @@ def _fit_homography(
             f"given points (the twin's camera fits to 0.05 cm; refused above "
             f"{MAX_HOMOGRAPHY_RMS_CM:g} cm): the {given} do not match the picture; nothing written"
         )
-    return calibration, n_pairs, how
+    return calibration, n_pairs, how, size
 
 
 def _refuse_mirrored(calibration: Calibration, centers: dict[int, tuple[float, float]]) -> None:
@@ -757,16 +775,28 @@ def main(argv: Sequence[str] | None = None) -> int:
     data = load_yaml_text(text, source=str(args.config))  # refused before any fitting
     if not isinstance(data, dict):
         raise ConfigError(str(args.config), ["top level must be a mapping"])
-    expand_config(data, source=str(args.config), path=args.config)  # its extends, arm.use
+    composed = expand_config(data, source=str(args.config), path=args.config)  # its extends
 
-    calibration, n_pairs, how = _fit_homography(parser, args)
+    frame_px = _camera_size(composed)
+    calibration, n_pairs, how, image_px = _fit_homography(parser, args)
+    if image_px is not None and image_px != frame_px:
+        raise ConfigError(
+            str(args.config),
+            [
+                f"{args.image} is {image_px[0]}x{image_px[1]} px but the camera gives "
+                f"{frame_px[0]}x{frame_px[1]} px frames (camera.width_px, camera.height_px): "
+                "a homography maps pixels of the size it was fitted at only; take the "
+                "picture at the camera's size, or set camera.width_px and height_px to the "
+                "picture's first; nothing written"
+            ],
+        )
     rms, worst = calibration.reprojection_error_cm, calibration.max_error_cm
     if n_pairs == 4:  # an exact fit: its 0 measures nothing, so none is recorded
         calibration = replace(calibration, reprojection_error_cm=None)
 
     note = f"fitted {date.today().isoformat()} by mearm calibrate-camera from {how}"
     new_text = update_config_text(
-        text, calibration, note, str(args.config), args.output
+        text, calibration, note, str(args.config), args.output, size_px=frame_px
     )  # or exit 2
     print(f"fitted from {how}")
     print(f"reprojection error: rms {rms:.4f} cm, max {worst:.4f} cm")
@@ -786,6 +816,24 @@ def main(argv: Sequence[str] | None = None) -> int:
     _perspective_note(parser, target)
     _sort_would_refuse(parser, target)
     return 0
+
+
+def _camera_size(data: dict[str, object]) -> tuple[int, int]:
+    """The frame size (width, height) [px] of the composed config ``data``'s camera.
+
+    The size the calibration's pixels are measured in: an --image's must match it, and
+    --point pixels are read off the camera's frames. A key the config leaves out is the
+    built-in camera's; a value that is no whole number is the loading config's to refuse
+    (the written config is validated), so the built-in one stands in for it here.
+    """
+    camera = data.get("camera")
+    given = camera if isinstance(camera, dict) else {}
+    size = []
+    for key in ("width_px", "height_px"):
+        value = given.get(key)
+        default = CameraConfig.model_fields[key].default
+        size.append(value if isinstance(value, int) and not isinstance(value, bool) else default)
+    return size[0], size[1]
 
 
 def _perspective_note(parser: ArgumentParser, written: Path) -> None:
