@@ -12,8 +12,10 @@ or from pixel ↔ table point pairs ``U,V:X,Y``::
     mearm calibrate-camera --config configs/lab.yaml \
         --point 0,0:-20.5,59 --point 640,0:19.5,59 --point 640,480:19.5,29 --point 0,480:-20.5,29
 
-It replaces ``calibration.homography`` and ``calibration.reprojection_error_cm`` in the
-file, keeping everything else and its comments, and prints the reprojection error. The
+It replaces ``calibration.homography``, ``calibration.reprojection_error_cm`` and
+``calibration.image_size_px`` (the frame size the homography maps: the --image's, which
+must be the config's camera's, or with --point the camera's) in the file, keeping
+everything else and its comments, and prints the reprojection error. The
 new file is validated before it replaces the old one (atomically; on any failure the
 old file is untouched). ``--output`` writes elsewhere, ``--dry-run`` writes nothing.
 Print markers with ``mearm aruco-sheet``.
