@@ -149,7 +149,8 @@ def test_experiment_refuses_a_bad_scene(name: str, scenes: dict[str, Path], tmp_
         (["--random", "1e3"], "--random: must be a plain integer"),
         (["--random", "3", "--scene", "x.yaml"], "not allowed with argument"),
         (["--random", "3", "--set", "camera.kind=device"], "not 'sim'"),
-        (["--random", "5", "--set", "camera.width_px=16", "--set", "camera.height_px=16"],
+        (["--random", "5", "--set", "camera.width_px=16", "--set", "camera.height_px=16",
+          "--set", "calibration.image_size_px=[16, 16]"],  # else refused for its size
          "the camera sees no table area"),
         (["--random", "5", "--set", "task.classes.red.diameter_cm=100"],
          "task.classes.red.diameter_cm"),  # wider than the open jaws: refused at load

@@ -56,7 +56,12 @@ def test_detect_on_the_twin_camera_says_it_once() -> None:
     "overrides",
     [
         # what the twin's camera does use, or a setting at its default
-        ["camera.width_px=320", "camera.height_px=240", "camera.latency_s=0.05"],
+        [
+            "camera.width_px=320",
+            "camera.height_px=240",
+            "calibration.image_size_px=[320, 240]",
+            "camera.latency_s=0.05",
+        ],
         ["camera.brightness=1.0", "camera.table=wood", "camera.seed=0"],
     ],
 )
