@@ -12,7 +12,8 @@ or past the table's edge. The count was right, the place was not, in two ways:
   it go onto the table beside the bin. The place read only that the jaws held it.
 
 Now both places are ``FAILED`` with where the disc is, and the sort leaves it as no
-longer in the work area.
+longer in the work area. The place reads it once it rests: the disc let go beside the
+bin rolls on past the table's edge.
 """
 
 from __future__ import annotations
@@ -86,7 +87,7 @@ def test_a_held_disc_let_go_beside_its_bin_is_not_placed(one_disc) -> None:
     ("x", "y", "why"),
     [
         (-5, 52, "over the bin the jaws held nothing of its class: it was lost on the way and "),
-        (-8, 54, "released, it is on the table at "),
+        (-8, 54, "released, it is past the table's edge, at "),
     ],
     ids=["flung out as the arm stopped", "let go beside the bin"],
 )

@@ -16,7 +16,7 @@ from __future__ import annotations
 import logging
 import time
 from abc import ABC, abstractmethod
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from types import TracebackType
 from typing import Any, Protocol, TypeVar, runtime_checkable
 
@@ -126,6 +126,20 @@ class ReportsWhere(Protocol):
     def held_ids(self) -> frozenset[str]: ...  # noqa: D102
     def where(self, object_id: str) -> str: ...  # noqa: D102
     def in_own_bin(self, object_id: str) -> str | None: ...  # noqa: D102
+
+
+@runtime_checkable
+class SettlesObjects(Protocol):
+    """A simulator that can run its physics until objects come to rest (the twin's).
+
+    ``settle_objects(object_ids=ids)``: until those objects rest, for at most a bounded
+    time; whether they did. A place reads where its released object went once it rests:
+    one read at its bounce on the bin's floor was still too fast to count as held.
+    """
+
+    def settle_objects(  # noqa: D102
+        self, max_s: float = ..., step_s: float = ..., object_ids: Iterable[str] | None = ...
+    ) -> bool: ...
 
 
 @runtime_checkable

@@ -55,6 +55,7 @@ import copy
 import logging
 import math
 import time
+from collections.abc import Iterable
 from dataclasses import dataclass
 
 import mujoco
@@ -486,18 +487,22 @@ class TwinArm(ServoBus):
         """Run the physics for ``seconds`` with no new command (the servos keep driving)."""
         self._run(seconds)
 
-    def settle_objects(self, max_s: float = 2.0, step_s: float = 0.05) -> bool:
+    def settle_objects(
+        self, max_s: float = 2.0, step_s: float = 0.05, object_ids: Iterable[str] | None = None
+    ) -> bool:
         """Run the physics until every object is at rest, for at most ``max_s`` seconds.
 
         A dropped object bounces and slides for a moment before it rests in its bin; a
-        count taken while it moves would miss it.
+        count taken while it moves would miss it. ``object_ids``: only those need come to
+        rest (a place's released object; others, a belt's, may move on); ``None``: all.
 
         Returns:
-            Whether every object came to rest in time.
+            Whether those objects came to rest in time.
         """
+        ids = self._object_ids if object_ids is None else tuple(object_ids)
         waited = 0.0
         while True:
-            speeds = [self.object_pose(oid).speed_cm_s * M_PER_CM for oid in self._object_ids]
+            speeds = [self.object_pose(oid).speed_cm_s * M_PER_CM for oid in ids]
             if all(v < REST_SPEED_M_S for v in speeds):
                 return True
             if waited >= max_s:
