@@ -5,37 +5,49 @@ placed before is still settling in the bin.
 --set twin.camera.height_cm=60`` (found by a fresh-seed sweep of the twin's variants: the
 camera 5 cm higher than its calibration): green1's jaws closed beside it and pushed it
 8 cm aside, out of the camera's reach, so the pick read ``ok``; over the green bin the
-twin counted the green placed just before, not yet at rest among the others, as just let
-fall there, and the place said ``ok`` too. Only the sort's end found green1 on the table
-("not confirmed in its bin"). The place now says the jaws had closed on nothing.
+twin counted the green placed just before, not yet at rest among the others, as one just
+let fall there, and the place said ``ok`` too. Only the sort's end found green1 on the
+table ("not confirmed in its bin"). The place now says the jaws had closed on nothing.
+(The sort itself is not the test: which object a push sends where changes with the
+physics engine's release.)
 """
 
 from __future__ import annotations
 
-import pytest
-from conftest import ROOT, run_main
+import mujoco
+import numpy as np
+from conftest import ROOT
 
-from mearm import sort
-from mearm.runlog import read_runlog
+from mearm.config import load_config
+from mearm.kinematics.bodies import object_name
+from mearm.sim.twin.mjcf import M_PER_CM
+from mearm.sim.twin.twin_bus import TwinArm
+from mearm.task.pick_place import holds_its_class, place_failure
 
-CONFIG = ROOT / "configs" / "sim_mujoco_lamp.yaml"
+CONFIG = ROOT / "configs" / "sim_mujoco.yaml"
 NOTHING = "over the bin the jaws held nothing of its class: they had closed on nothing at the pick"
 
 
-@pytest.mark.heavy
-def test_a_place_whose_jaws_closed_on_nothing_fails_over_a_settling_bin(tmp_path, capsys) -> None:
-    log = tmp_path / "run.jsonl"
-    code, out, err = run_main(
-        capsys, sort.main, "--config", CONFIG, "--random", 9, "--seed", 28050,
-        "--set", "twin.lamp.diffuse=0.4", "--set", "twin.camera.height_cm=60", "--log", log,
-    )  # fmt: skip
-    (place,) = (line for line in out.splitlines() if line.startswith("place green1"))
-    assert " FAILED " in place and place.endswith(f" ms: {NOTHING}"), place
-    assert "not confirmed in its bin" not in out, out
-    assert code == 1, err
-    (trial,) = read_runlog(log, strict=True).trials
-    assert trial.summary is not None
-    (route,) = (r for r in trial.routes if r.object_id == "green1" and r.step == "place")
-    assert (route.success, route.why_failed) == (False, NOTHING)
-    places = [r for r in trial.routes if r.step == "place" and r.success]
-    assert sum(trial.summary.sorted.values()) == len(places) == 7
+def test_empty_jaws_over_a_bin_whose_last_object_still_settles_hold_nothing() -> None:
+    """green2, placed before, still falls onto the green bin's floor (the twin counts it as
+    let fall there, :meth:`TwinArm.held_classes`); green1's jaws had closed on nothing
+    (``gripped`` empty): its place fails, saying so. Once green2 rests, the same."""
+    config = load_config(
+        CONFIG, ["task.scene=[{color: green, x: 0, y: 45}, {color: green, x: 8, y: 45}]"]
+    )
+    x, y, _ = config.task.class_named("green").bin_cm
+    arm = TwinArm(config)
+    m, d = arm.model, arm.data
+    joint = m.joint(object_name("green2"))
+    q, v = int(joint.qposadr[0]), int(joint.dofadr[0])
+    d.qpos[q : q + 3] = np.array([x, y, 1.5]) * M_PER_CM
+    d.qvel[v : v + 6] = [0.0, 0.0, -0.05, 0.0, 0.0, 0.0]
+    d.qfrc_applied[v] = 1e-300  # wakes its tree, as the twin's belt does
+    mujoco.mj_forward(m, d)
+    d.qfrc_applied[v] = 0.0
+    held = holds_its_class(arm, "green")
+    assert held and arm.held_ids() == frozenset()  # (what made the place read ok)
+    assert place_failure(arm, "green", held=held, gripped=frozenset()) == NOTHING
+    arm.settle(1.0)
+    assert arm.in_own_bin("green2") == "green"
+    assert place_failure(arm, "green", held=holds_its_class(arm, "green")) == NOTHING
