@@ -8,7 +8,7 @@ camera)"), and a belt config whose own ``task.scene`` held objects ran and left 
 from __future__ import annotations
 
 import pytest
-from conftest import run_cli
+from badinput import run_in_process
 
 from mearm.config import load_config
 from mearm.errors import ConfigError
@@ -23,11 +23,10 @@ def test_a_belt_config_with_objects_on_its_table_is_refused_at_load():
 @pytest.mark.heavy
 def test_experiment_refuses_a_belt_config_before_any_output(tmp_path):
     log = tmp_path / "run.jsonl"
-    r = run_cli(
-        "-m", "mearm", "experiment", "--config", "sim_conveyor_kinematic", "--trials", "1",
-        "--log", str(log),
-    )  # fmt: skip
-    assert r.returncode == 2, r.stderr
+    r = run_in_process(  # in this process: a refusal before any work, not the process's
+        ["experiment", "--config", "sim_conveyor_kinematic", "--trials", "1", "--log", log]
+    )
+    assert r.code == 2, r.stderr
     (line,) = r.stderr.strip().splitlines()
     assert line.startswith("mearm experiment: error: experiment lays random objects on the")
     assert "conveyor-sweep" in line
