@@ -8,11 +8,9 @@ for sort, and a sort on uncalibrated servos says nothing else when it cannot sta
 
 from __future__ import annotations
 
-import os
 import re
 import shutil
 import subprocess
-import sys
 from pathlib import Path
 
 import pytest
@@ -24,17 +22,15 @@ from mearm.errors import ConfigError
 ROOT = Path(__file__).resolve().parents[1]
 CONFIGS = ROOT / "configs"
 DOCS = ROOT / "docs"
-ENV = {**os.environ, "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl")}
 #: A camera index no machine here has, and a short wait for it.
 NO_CAMERA = ["--set", "camera.device_index=99", "--set", "camera.open_timeout_s=0.5"]
 
 
 def mearm(*args: object, cwd: Path = ROOT) -> subprocess.CompletedProcess[str]:
-    """``python -m mearm ARGS`` in a process of its own, run in ``cwd``."""
-    return subprocess.run(
-        [sys.executable, "-m", "mearm", *map(str, args)],
-        cwd=cwd, env=ENV, capture_output=True, text=True, timeout=300, check=False,
-    )  # fmt: skip
+    """``mearm ARGS`` in ``cwd``, in this process (:func:`conftest.mearm_here`): the runs
+    here are refusals before any work, whose exit status and line are the same there (an
+    interpreter each cost 0.25 s of CPU)."""
+    return mearm_here(*args, cwd=cwd)
 
 
 def one_line(proc: subprocess.CompletedProcess[str], code: int = 2) -> str:
