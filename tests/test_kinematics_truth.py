@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 import yaml
 from badinput import Outcome, run_in_process
-from conftest import ROOT, planar_yaw_arm_data, run_cli
+from conftest import ROOT, planar_yaw_arm_data
 
 from mearm.config import config_from_dict, load_config
 from mearm.hardware.mapping import ServoMap
@@ -219,9 +219,10 @@ def test_an_approach_the_arm_cannot_take_is_not_blamed_on_reach():
 
 
 def test_fk_json_gives_each_joints_unit(tmp_path):
-    r = run_cli("-m", "mearm.fk", "--joints", "120,93,-132", "--json")
+    # in this process, from the checkout (tests/test_fk_cli.py runs ``python -m mearm.fk``)
+    r = run_in_process(["fk", "--joints", "120,93,-132", "--json"], within_s=30, cwd=ROOT)
     out = json.loads(r.stdout)
-    assert r.returncode == 0 and out["joints"]["base"] == 120  # the old key unchanged
+    assert r.code == 0 and out["joints"]["base"] == 120  # the old key unchanged
     assert out["joint_units"] == dict.fromkeys(["base", "shoulder", "elbow", "wrist"], "deg")
     rail = tmp_path / "rail.yaml"
     rail.write_text(yaml.safe_dump({"arm": planar_yaw_arm_data(rail=True)}), encoding="utf-8")
