@@ -3,7 +3,8 @@
 The page said a config's problems came "one line per bad key" and quoted the millimetre
 hint without the count the line starts with; the program puts every problem on the one
 line, counted. The find-camera and find-port failures it now quotes are checked the same
-way.
+way, each run in this process (:func:`conftest.mearm_here`): the lines are the point, not
+the process.
 """
 
 from __future__ import annotations
@@ -13,7 +14,7 @@ import re
 from pathlib import Path
 
 import pytest
-from conftest import mearm_cli, one_stderr_line
+from conftest import mearm_here, one_stderr_line
 
 ROOT = Path(__file__).resolve().parents[1]
 PAGE = ROOT / "docs" / "troubleshooting.md"
@@ -30,7 +31,7 @@ def test_problems_share_one_line_as_the_page_says(tmp_path):
     (tmp_path / "bad.yaml").write_text(
         "extends: sim\ncontroller:\n  kp: -1\n  max_iterations: 0\n", encoding="utf-8"
     )
-    proc = mearm_cli("fk", "--config", "bad.yaml", "--joints", "90,90,-90", cwd=tmp_path)
+    proc = mearm_here("fk", "--config", "bad.yaml", "--joints", "90,90,-90", cwd=tmp_path)
     assert one_stderr_line(proc, code=2) == _quoted("mearm fk: error: bad.yaml: 2 problems:")
     assert "one line per bad key" not in PAGE.read_text(encoding="utf-8")
 
@@ -42,7 +43,7 @@ def test_the_millimetre_line_is_the_sorts(tmp_path):
         "    elbow: {dh: {a_cm: 80}}\n",
         encoding="utf-8",
     )
-    line = one_stderr_line(mearm_cli("sort", "--config", "mm.yaml", cwd=tmp_path), code=2)
+    line = one_stderr_line(mearm_here("sort", "--config", "mm.yaml", cwd=tmp_path), code=2)
     quoted = _quoted("mearm sort: error: mm.yaml: 3 problems: arm.joints:")
     assert quoted.endswith(" …") and line.startswith(quoted.removesuffix(" …")), (line, quoted)
 
@@ -52,15 +53,16 @@ def test_the_millimetre_line_is_the_sorts(tmp_path):
     reason="this machine has cameras",
 )
 def test_find_cameras_quoted_failure_is_its_own(tmp_path):
-    line = one_stderr_line(mearm_cli("find-camera", "--out", tmp_path / "s", cwd=tmp_path), code=1)
+    proc = mearm_here("find-camera", "--out", tmp_path / "s", cwd=tmp_path)
+    line = one_stderr_line(proc, code=1)
     assert line == _quoted("mearm find-camera: error:")
 
 
 def test_find_ports_quoted_failure_is_its_own(tmp_path):
     master, slave = os.openpty()  # a port that never prints the firmware's banner
     try:
-        proc = mearm_cli("find-port", "--only", "--port", os.ttyname(slave), "--timeout", "0.2",
-                      cwd=tmp_path)  # fmt: skip
+        proc = mearm_here("find-port", "--only", "--port", os.ttyname(slave), "--timeout", "0.2",
+                       cwd=tmp_path)  # fmt: skip
     finally:
         os.close(slave)
         os.close(master)
