@@ -14,7 +14,7 @@ import subprocess
 from pathlib import Path
 
 import pytest
-from conftest import mearm_here
+from conftest import mearm_cli, mearm_here
 
 from mearm.config import load_config
 from mearm.errors import ConfigError
@@ -24,13 +24,6 @@ CONFIGS = ROOT / "configs"
 DOCS = ROOT / "docs"
 #: A camera index no machine here has, and a short wait for it.
 NO_CAMERA = ["--set", "camera.device_index=99", "--set", "camera.open_timeout_s=0.5"]
-
-
-def mearm(*args: object, cwd: Path = ROOT) -> subprocess.CompletedProcess[str]:
-    """``mearm ARGS`` in ``cwd``, in this process (:func:`conftest.mearm_here`): the runs
-    here are refusals before any work, whose exit status and line are the same there (an
-    interpreter each cost 0.25 s of CPU)."""
-    return mearm_here(*args, cwd=cwd)
 
 
 def one_line(proc: subprocess.CompletedProcess[str], code: int = 2) -> str:
@@ -123,7 +116,7 @@ def test_your_arm_names_the_kinematics_api_that_exists():
 
 @pytest.mark.heavy
 def test_troubleshootings_approach_height_message_is_the_sorts():
-    proc = mearm("sort", "--set", "task.approach_height_cm=50")
+    proc = mearm_here("sort", "--set", "task.approach_height_cm=50", cwd=ROOT)  # refused at load
     line = one_line(proc)
     assert f"```\n{line}\n```" in (DOCS / "troubleshooting.md").read_text(encoding="utf-8")
 
@@ -147,7 +140,8 @@ def test_the_concept_table_names_files_from_the_right_root():
 @pytest.mark.heavy
 def test_check_camera_without_its_camera_is_bad_input():
     """As sort and detect: exit 2, one line naming the camera (was: exit 1, "check stopped")."""
-    line = one_line(mearm("check-camera", "--config", "lab", *NO_CAMERA))
+    # a process of its own: its stderr holds OpenCV's own lines too, were any said
+    line = one_line(mearm_cli("check-camera", "--config", "lab", *NO_CAMERA, cwd=ROOT))
     assert line.startswith("mearm check-camera: error: camera (device 99): cannot open")
 
 

@@ -3,8 +3,8 @@
 The page said a config's problems came "one line per bad key" and quoted the millimetre
 hint without the count the line starts with; the program puts every problem on the one
 line, counted. The find-camera and find-port failures it now quotes are checked the same
-way, each run in this process (:func:`conftest.mearm_here`): the lines are the point, not
-the process.
+way, in this process (:func:`conftest.mearm_here`: the lines are the point, not the
+process); find-camera's in a process of its own, whose stderr holds OpenCV's own too.
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ import re
 from pathlib import Path
 
 import pytest
-from conftest import mearm_here, one_stderr_line
+from conftest import mearm_cli, mearm_here, one_stderr_line
 
 ROOT = Path(__file__).resolve().parents[1]
 PAGE = ROOT / "docs" / "troubleshooting.md"
@@ -53,7 +53,7 @@ def test_the_millimetre_line_is_the_sorts(tmp_path):
     reason="this machine has cameras",
 )
 def test_find_cameras_quoted_failure_is_its_own(tmp_path):
-    proc = mearm_here("find-camera", "--out", tmp_path / "s", cwd=tmp_path)
+    proc = mearm_cli("find-camera", "--out", tmp_path / "s", cwd=tmp_path)
     line = one_stderr_line(proc, code=1)
     assert line == _quoted("mearm find-camera: error:")
 
