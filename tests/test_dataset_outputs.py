@@ -137,11 +137,17 @@ def test_record_into_the_empty_folders_a_failed_recording_left(tmp_path: Path) -
 
 
 def _record(
-    root: Path, *more: str, random: int = 2, shm: str | None = None
+    root: Path,
+    *more: str,
+    random: int = 2,
+    shm: str | None = None,
+    capfd: pytest.CaptureFixture[str] | None = None,
 ) -> subprocess.CompletedProcess[str]:
-    """``mearm sort --config sim --random N --record ROOT``: in this process (the full disk
-    is a tmpfs under ROOT, which this process sees as the command's would: an interpreter
-    each cost 0.4 s of CPU, 2 s over the runs), or with ``shm`` in a process of its own.
+    """``mearm sort --config sim --random N --record ROOT``: with ``capfd`` in this process
+    (the full disk is a tmpfs under ROOT, which this process sees as the command's would;
+    an interpreter each cost 0.4 s of CPU, 2 s over the runs), its stderr what the process
+    would have said there: what C code and the encoder's process wrote to the file
+    descriptor, then the command's lines; or with ``shm`` in a process of its own.
 
     ``shm``: the options of a tmpfs mounted on ``/dev/shm`` for that process only (a
     mount namespace of its own: the machine's stays as it is).
@@ -149,8 +155,13 @@ def _record(
     argv = ["sort", "--config", str(SIM), "--random", str(random), "--quiet",
             "--record", str(root), "--record-codec", "h264", *more]  # fmt: skip
     if shm is None:
+        assert capfd is not None, "in this process, stderr's file descriptor is read too"
+        capfd.readouterr()
         out = run_in_process(argv, within_s=30, cwd=ROOT)
-        return subprocess.CompletedProcess(["mearm", *argv], out.code, out.stdout, out.stderr)
+        said = capfd.readouterr()
+        return subprocess.CompletedProcess(
+            ["mearm", *argv], out.code, said.out + out.stdout, said.err + out.stderr
+        )
     mount = f'mount -t tmpfs -o {shm} tmpfs /dev/shm && exec "$@"'
     on_shm = ["unshare", "--mount", "--propagation", "private", "sh", "-c", mount, "sh"]
     return subprocess.run(
@@ -174,13 +185,15 @@ def _assert_disk_full(run: subprocess.CompletedProcess[str], root: Path) -> str:
 
 
 @pytest.mark.heavy
-def test_a_first_recording_on_a_full_disk_leaves_nothing_and_says_so(tmp_path: Path) -> None:
+def test_a_first_recording_on_a_full_disk_leaves_nothing_and_says_so(
+    tmp_path: Path, capfd: pytest.CaptureFixture[str]
+) -> None:
     """It said "unexpected error: OSError", exit 1, and left empty ``data/chunk-000``
     folders: the same command then refused DIR as not empty."""
     with tmpfs(tmp_path / "small", "64k") as small:
         root = small / "ds"
         for attempt in range(2):  # the retry fails the same way: nothing refuses it
-            line = _assert_disk_full(_record(root), root)
+            line = _assert_disk_full(_record(root, capfd=capfd), root)
             assert line.endswith("nothing was recorded"), (attempt, line)
             assert list(small.iterdir()) == [], attempt
 
@@ -228,7 +241,7 @@ def test_a_full_dev_shm_at_the_encoders_start_fails_as_a_full_disk(
 
 @pytest.mark.parametrize("room", ["32k", "160k", "320k"])
 def test_a_resumed_recording_on_a_full_disk_keeps_the_dataset(
-    recorded: Path, tmp_path: Path, room: str
+    recorded: Path, tmp_path: Path, room: str, capfd: pytest.CaptureFixture[str]
 ) -> None:
     """Appending on a disk with little room: the named error, and the dataset byte for
     byte as it was (no journal, no staged file, no fragment half appended)."""
@@ -238,7 +251,7 @@ def test_a_resumed_recording_on_a_full_disk_keeps_the_dataset(
         root = small / "ds"
         shutil.copytree(recorded, root)
         before = _digests(root)
-        line = _assert_disk_full(_record(root, "--resume", random=6), root)
+        line = _assert_disk_full(_record(root, "--resume", random=6, capfd=capfd), root)
         assert "the dataset keeps the 2 episodes written before" in line
         assert _digests(root) == before
         assert check_dataset(root) == []
