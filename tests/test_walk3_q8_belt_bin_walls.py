@@ -10,29 +10,32 @@ them (4.5 % of seeds 997000-997199 draw 12 or more of one class).
 
 from __future__ import annotations
 
-import os
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
+from badinput import run_in_process
 
 ROOT = Path(__file__).resolve().parents[1]
 
 
 @pytest.mark.heavy
-def test_bin_walls_too_tall_for_a_belt_seed_name_the_count_and_the_seed() -> None:
-    done = subprocess.run(
-        [sys.executable, "-m", "mearm", "sort", "--config", "configs/sim_conveyor.yaml",
-         "--set", "belt.arrivals.seed=997012", "--quiet"],
-        capture_output=True, text=True, timeout=300, check=False, cwd=ROOT,
-        env={**os.environ, "MUJOCO_GL": "egl"},
+def test_bin_walls_too_tall_for_a_belt_seed_name_the_count_and_the_seed(
+    capfd: pytest.CaptureFixture[str],
+) -> None:
+    """In this process (a refusal before the twin starts); its stderr the command's lines
+    and what was written to the file descriptor (C code's), as a process's would be."""
+    capfd.readouterr()
+    out = run_in_process(
+        ["sort", "--config", "configs/sim_conveyor.yaml", "--set", "belt.arrivals.seed=997012",
+         "--quiet"],
+        within_s=30, cwd=ROOT,
     )  # fmt: skip
-    assert done.returncode == 2, done.stderr
-    lines = done.stderr.strip().splitlines()
-    assert len(lines) == 1, done.stderr
+    stderr = capfd.readouterr().err + out.stderr
+    assert out.code == 2, stderr
+    lines = stderr.strip().splitlines()
+    assert len(lines) == 1, stderr
     assert "class green:" in lines[0]
     assert "below the bin's 13 cm walls" in lines[0]
     assert "its 12 objects stacked" in lines[0]
     assert "the belt brings 12 of its 20, as belt.arrivals.seed 997012" in lines[0]
-    assert "Traceback" not in done.stderr
+    assert "Traceback" not in stderr
