@@ -442,6 +442,10 @@ class Planner:
     ) -> tuple[IKResult, float] | str:
         """Up, over at a safe height and down to ``target``, checked whole.
 
+        A leg up or over that the tool cannot make pointing along the approach (far out,
+        a wrist at its limit) is solved for the TCP's position alone: the down leg turns
+        the tool to the approach.
+
         The plan and the height it travels at; or, where no height works, what stopped
         the lowest one.
         """
@@ -460,8 +464,15 @@ class Planner:
             ]
             results: list[IKResult] = []
             q = q0
-            for leg in legs:
+            for i, leg in enumerate(legs):
                 result, failure = self._solve(leg, q)
+                if failure is not None and i < len(legs) - 1 and leg.approach is not None:
+                    # far out, the tool may not point down that high (the 5-DOF arm's wrist
+                    # at its limit 27 cm out): it rises, or travels, tilted, and turns
+                    # down on the way to the target
+                    tilted, tilted_failure = self._solve(IKTarget(leg.position_cm), q)
+                    if tilted_failure is None:
+                        result, failure = tilted, None
                 if result is None or failure is not None:
                     assert failure is not None
                     stop = failure.message
