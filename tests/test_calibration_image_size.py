@@ -15,7 +15,13 @@ from pathlib import Path
 
 import cv2
 import pytest
-from badinput import ROOT, check_bad_input, check_bad_input_subprocess, run_in_process
+from badinput import (
+    ROOT,
+    check_bad_input,
+    check_bad_input_subprocess,
+    refused_line,
+    run_in_process,
+)
 
 from mearm.config import Config, load_config
 from mearm.sim import TableRenderer
@@ -142,3 +148,17 @@ def test_calibrate_camera_refuses_a_picture_of_another_size(tmp_path: Path, pict
     line = _said(check_bad_input(argv, keep=[config]).stderr)
     assert "is 640x480 px but the camera gives 1280x960 px frames" in line
     assert "nothing written" in line
+
+
+@pytest.mark.bad_input
+def test_the_refusal_names_the_config_to_recalibrate(tmp_path: Path) -> None:
+    """The recalibration it suggests names the config given, not a placeholder ``FILE``."""
+    config = tmp_path / "my arm.yaml"  # a name the shell must quote
+    config.write_text(f"extends: {SIM}\ncamera:\n  width_px: 1280\n  height_px: 960\n")
+    line = refused_line(["sort", "--config", "my arm.yaml"], cwd=tmp_path)
+    assert "mearm calibrate-camera --config 'my arm.yaml' --image PICTURE" in line
+    assert "FILE" not in line
+    line = refused_line(["sort", "--config", "sim_mujoco", "--set", "camera.width_px=4096"])
+    assert "as sim_mujoco is one mearm ships" in line
+    assert "mearm calibrate-camera --config MINE.yaml" in line
+    assert "FILE" not in line

@@ -228,9 +228,16 @@ def load_config(
         set_keys = file_keys_set(overrides, overrides_as)
         config = _resolve_files(config, Path(), overrides_as, set_keys, overrides_as)
         return _remember_source(config, overrides_as)
+    given = str(path)
     path = resolve_config_path(path, path_as)
+    shipped = path != Path(given)  # a bare name that is no file here: the shipped config
     config = config_from_dict(
-        read_yaml(path), source=str(path), overrides=overrides, path=path, overrides_as=overrides_as
+        read_yaml(path),
+        source=str(path),
+        overrides=overrides,
+        path=path,
+        overrides_as=overrides_as,
+        given=(given, shipped),
     )
     set_keys = file_keys_set(overrides, overrides_as)
     config = _resolve_files(config, path.parent, str(path), set_keys, overrides_as)

@@ -48,7 +48,7 @@ from mearm.config.compose import (
     names_a_file,
     origin,
 )
-from mearm.config.root import Config
+from mearm.config.root import CONFIG_GIVEN, Config
 from mearm.data import doc_page, packaged_arm
 from mearm.errors import ConfigError
 from mearm.yamlio import MAX_YAML_DEPTH, load_yaml_text
@@ -324,6 +324,7 @@ def config_from_dict(
     overrides: Sequence[str] = (),
     path: Path | None = None,
     overrides_as: str = OVERRIDES,
+    given: tuple[str, bool] | None = None,
 ) -> Config:
     """Validate a mapping into a :class:`Config`.
 
@@ -338,6 +339,8 @@ def config_from_dict(
             (``None``: to the current folder).
         overrides_as: What a bad override is said of: where ``overrides`` were given
             (the Python call's ``overrides``; a command's ``--set``).
+        given: The config as the user named it (``--config``'s value) and whether it is
+            one mearm ships, for the messages that say what to run on it.
 
     Raises:
         ConfigError: one line per bad field.
@@ -351,7 +354,7 @@ def config_from_dict(
     if overrides:
         data = apply_overrides(data, overrides, _default_data(), overrides_as=overrides_as)
     try:
-        return Config.model_validate(data)
+        return Config.model_validate(data, context={CONFIG_GIVEN: given})
     except ValidationError as exc:
         typed = _typed_values(overrides)
         errors = exc.errors()

@@ -3,10 +3,11 @@
 from __future__ import annotations
 
 import math
+import shlex
 from collections.abc import Sequence
 from typing import Literal
 
-from pydantic import Field, field_validator, model_validator
+from pydantic import Field, ValidationInfo, field_validator, model_validator
 
 from mearm.config.arm import ArmDescription, base_radius_m
 from mearm.config.base import MAX_LENGTH_CM, Seed, Strict
@@ -36,6 +37,29 @@ from mearm.config.twin_lamp_config import TwinLampConfig
 #: inverse depth) may be under this fraction of another's: 20:1 is a camera looking
 #: almost along the table.
 MIN_W_RATIO = 0.05
+
+
+#: The validation context key under which the loader gives the config the user named
+#: (``--config``'s value, as typed) and whether it is one mearm ships: ``(name, shipped)``.
+CONFIG_GIVEN = "config_given"
+
+
+def _recalibrate(info: ValidationInfo) -> str:
+    """What to run to recalibrate the config being validated, naming it when known.
+
+    A shipped config is not edited by ``calibrate-camera``: the user's own copy is.
+    """
+    given = (info.context or {}).get(CONFIG_GIVEN)
+    command = "mearm calibrate-camera --config {} --image PICTURE --marker ID:X,Y ..."
+    if given is None:
+        return f"recalibrate at this size ({command.format('FILE')})"
+    name, shipped = given
+    if shipped:
+        return (
+            f"recalibrate at this size in a config of your own, as {name} is one mearm "
+            f"ships (mearm init-config MINE.yaml, then {command.format('MINE.yaml')})"
+        )
+    return f"recalibrate at this size ({command.format(shlex.quote(name))})"
 
 
 #: Largest ``twin.kit.spread`` [-]: at 5 the slowest sourced unit's scale (8.1 µs/°, 1.9
@@ -436,13 +460,14 @@ class Config(Strict):
         return self
 
     @model_validator(mode="after")
-    def _calibration_fits_frame_size(self) -> Config:
+    def _calibration_fits_frame_size(self, info: ValidationInfo) -> Config:
         """The camera's frames must be the size the homography was fitted at.
 
         A homography maps pixels of one frame size: at another, every pixel lands on the
         wrong table point (a camera switched from 640 × 480 to 1280 × 960 sees each object
         twice as far out). Not checked when the size is unknown
-        (``calibration.image_size_px: null``).
+        (``calibration.image_size_px: null``). The refusal's recalibration names the
+        config the user gave, when the loader says it (:data:`CONFIG_GIVEN`).
         """
         fitted = self.calibration.image_size_px
         frame = (self.camera.width_px, self.camera.height_px)
@@ -453,8 +478,7 @@ class Config(Strict):
             f"@camera.{key}: the camera gives {frame[0]}x{frame[1]} px frames "
             f"(camera.width_px, camera.height_px) but calibration.homography was fitted to "
             f"{fitted[0]}x{fitted[1]} px ones (calibration.image_size_px), and at another "
-            "size it maps every pixel to the wrong table point: recalibrate at this size "
-            "(mearm calibrate-camera --config FILE --image PICTURE --marker ID:X,Y ...), or "
+            f"size it maps every pixel to the wrong table point: {_recalibrate(info)}, or "
             f"set camera.width_px={fitted[0]} and camera.height_px={fitted[1]} back"
         )
 
