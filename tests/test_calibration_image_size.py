@@ -115,6 +115,18 @@ def test_calibrate_camera_points_write_the_cameras_size_and_the_sort_loads(
     assert loaded.calibration.homography[0][0] == pytest.approx(0.03125)
 
 
+def test_calibrate_camera_dry_run_prints_the_size_it_would_record(tmp_path: Path) -> None:
+    """--dry-run shows every value it would write, the frame size among them."""
+    config = tmp_path / "mine.yaml"
+    config.write_text(f"extends: {SIM}\ncamera:\n  width_px: 1280\n  height_px: 960\n")
+    before = config.read_bytes()
+    points = [a for p in [*POINTS_1280, "640,480:-0.5,44"] for a in ("--point", p)]
+    out = run_in_process(["calibrate-camera", "--config", config, *points, "--dry-run"])
+    assert out.code == 0, out.stderr
+    assert "image size: 1280x960 px (calibration.image_size_px)" in out.stdout.splitlines()
+    assert config.read_bytes() == before
+
+
 @pytest.fixture(scope="module")
 def picture(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """The paper camera's 640x480 picture of four 4 cm markers."""

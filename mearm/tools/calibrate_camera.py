@@ -804,6 +804,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     print(f"reprojection error: rms {rms:.4f} cm, max {worst:.4f} cm")
     for row in calibration.H:
         print("  [" + ", ".join(f"{v: .9g}" for v in row) + "]")
+    print(f"image size: {frame_px[0]}x{frame_px[1]} px (calibration.image_size_px)")
     if args.dry_run:
         target = args.output or args.config
         kept = "is as it was" if target.exists() else "was not made"
