@@ -12,7 +12,7 @@ import os
 from pathlib import Path
 
 import pytest
-from badinput import ROOT, check_bad_input, run_in_process
+from badinput import ROOT, check_bad_input, check_bad_input_subprocess, run_in_process
 
 bad_input = pytest.mark.bad_input
 
@@ -303,3 +303,28 @@ def test_huge_approach_is_normalised_without_a_warning_in_a_real_process() -> No
     assert said == [] or (
         r.returncode == 1 and len(said) == 1 and said[0].startswith("mearm ik: failure (")
     ), r.stderr
+
+
+@bad_input
+@pytest.mark.parametrize(
+    ("argv", "words"),
+    [
+        (["find-camera", "--camera", "{video}", "--out", "{tmp}"], "OpenCV cannot read a frame"),
+        (
+            ["detect", "--camera", "--set", "camera.kind=file", "--set", "camera.path={video}"],
+            "neither an image nor a video",
+        ),
+    ],
+    ids=["find-camera", "detect"],
+)
+def test_a_damaged_video_says_one_line_in_a_real_process(
+    argv: list[str], words: str, tmp_path: Path
+) -> None:
+    """FFmpeg wrote its own error (``[mov,mp4,… @ 0x…] moov atom not found``) to the
+    process's stderr past OpenCV's log level: two lines more than the refusal. A process
+    of its own, as FFmpeg's level is set once per process."""
+    video = tmp_path / "clip.mp4"
+    video.write_bytes(b"\x00" * 4096)  # no moov atom: FFmpeg cannot open it
+    filled = [a.format(video=video, tmp=tmp_path / "snaps") for a in argv]
+    out = check_bad_input_subprocess(filled, within_s=5, keep=[tmp_path])
+    assert words in out.line

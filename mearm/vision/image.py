@@ -16,6 +16,7 @@ header.
 
 from __future__ import annotations
 
+import os
 import re
 import struct
 from collections.abc import Iterator
@@ -41,9 +42,22 @@ MAX_IMAGE_BYTES = 256 << 20
 FORMATS = ("PNG", "JPEG", "BMP", "TIFF", "WebP", "PNM")
 
 
+#: FFmpeg's log level for OpenCV's video backend: ``AV_LOG_QUIET``. FFmpeg writes its own
+#: errors (``[mov,mp4,m4a,3gp,3g2,mj2 @ 0x…] moov atom not found``) to the process's
+#: stderr, past OpenCV's log level: a damaged video then said three lines where bad input
+#: says one. OpenCV reads ``OPENCV_FFMPEG_LOGLEVEL`` once, as its FFmpeg backend first
+#: opens something; one set by the user is kept.
+FFMPEG_LOG_LEVEL = "-8"
+
+
 @contextmanager
 def quiet_opencv() -> Iterator[None]:
-    """Silence OpenCV's own log lines (e.g. V4L2 warnings) inside the block."""
+    """Silence OpenCV's own log lines (e.g. V4L2 warnings) inside the block.
+
+    FFmpeg's own lines too (:data:`FFMPEG_LOG_LEVEL`), for the rest of the process: every
+    ``cv2.VideoCapture`` is opened in such a block, so the first one sets it.
+    """
+    os.environ.setdefault("OPENCV_FFMPEG_LOGLEVEL", FFMPEG_LOG_LEVEL)
     level = cv2.utils.logging.getLogLevel()
     cv2.utils.logging.setLogLevel(cv2.utils.logging.LOG_LEVEL_SILENT)
     try:
@@ -255,7 +269,6 @@ def _codec_lines_kept() -> Iterator[_Said]:
     on after it: whole after a decode that worked (a codec's warning is kept), without
     the codecs' lines after one that failed.
     """
-    import os  # noqa: PLC0415
     import sys  # noqa: PLC0415
     import tempfile  # noqa: PLC0415
 
