@@ -59,7 +59,7 @@ from mearm.fileio import file_identity, write_atomic
 from mearm.vision.calibration import camera_geometry
 from mearm.vision.detector import ColorDetector, Detection
 from mearm.vision.errors import ImageError
-from mearm.vision.image import quiet_opencv, read_image
+from mearm.vision.image import opencv_takes_name, quiet_opencv, read_image
 from mearm.vision.shapes import touches_border
 from mearm.vision.work_area import check_work_area
 
@@ -268,7 +268,8 @@ def _check_annotate_outputs(parser: ArgumentParser, args: argparse.Namespace) ->
     a picture already there without ``--force`` (a second run must not replace it
     silently): each exit 2 with one line.
     """
-    if not cv2.haveImageWriter(str(args.annotate)):
+    suffix = Path(args.annotate).suffix  # OpenCV picks the writer by it alone
+    if not opencv_takes_name(suffix) or not cv2.haveImageWriter(f"annotated{suffix}"):
         parser.error(f"--annotate {args.annotate}: unknown image type (use .png or .jpg)")
     inputs = {file_identity(p) for p in args.images} - {None}
     for out in annotation_paths(args.annotate, max(1, len(args.images))):

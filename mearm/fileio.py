@@ -243,10 +243,11 @@ def _short(name: str) -> str:
     """``name`` cut so ``.<name>.<8 random>.tmp`` still fits :data:`NAME_MAX`.
 
     A target whose own name is legal (up to 255 bytes) must not fail for its temporary
-    file's longer one.
+    file's longer one, nor one whose name is not UTF-8 (its bytes are the file system's:
+    ``os.fsencode``; those not UTF-8 are left out of the temporary name).
     """
     room = NAME_MAX - len("..") - 8 - len(".tmp")
-    return name.encode("utf-8")[:room].decode("utf-8", errors="ignore")
+    return os.fsencode(name)[:room].decode("utf-8", errors="ignore")
 
 
 @contextlib.contextmanager

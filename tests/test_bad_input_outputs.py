@@ -8,10 +8,13 @@ file it was pointed at byte for byte as it was.
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
+import cv2
+import numpy as np
 import pytest
-from badinput import check_bad_input, run_in_process
+from badinput import check_bad_input, check_bad_input_subprocess, run_in_process
 
 bad_input = pytest.mark.bad_input
 
@@ -157,3 +160,45 @@ def test_a_folder_that_refuses_a_new_file_is_refused_before_the_work(argv: list[
     was lost to the failed write after it)."""
     out = check_bad_input(argv)
     assert "cannot write: the folder /proc is not writable" in out.line, out.line
+
+
+#: A file name whose bytes are not UTF-8 (Linux allows any): Python holds it as surrogates.
+NOT_UTF8 = "o\udcff"
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["urdf", "--config", "sim", "--output", "{dir}/" + NOT_UTF8 + ".urdf"],
+        ["aruco-sheet", "--output", "{dir}/" + NOT_UTF8 + ".png"],
+        ["config-docs", "--output", "{dir}/" + NOT_UTF8 + ".md"],
+    ],
+    ids=["urdf", "aruco-sheet", "config-docs"],
+)
+def test_an_output_whose_name_is_not_utf8_is_written(argv: list[str], tmp_path: Path) -> None:
+    """The atomic write's temporary name cut the target's name as UTF-8 text: a name of
+    other bytes was an unexpected error (a traceback, exit 1) instead of a file."""
+    out = run_in_process([a.format(dir=tmp_path) for a in argv])
+    assert out.code == 0, out.stderr
+    assert os.listdir(tmp_path) == [argv[-1].removeprefix("{dir}/")]
+
+
+@bad_input
+@pytest.mark.parametrize(
+    ("argv", "words"),
+    [
+        (["detect", "--annotate", "{dir}/o." + NOT_UTF8, "{image}"], "unknown image type"),
+        (["find-camera", "--camera", "{dir}/" + NOT_UTF8 + ".mp4", "--out", "{dir}/snaps"],
+         "the name is not UTF-8 text"),
+    ],
+    ids=["detect", "find-camera"],
+)  # fmt: skip
+def test_a_name_opencv_cannot_take_is_refused(argv: list[str], words: str, tmp_path: Path) -> None:
+    """OpenCV's path-taking calls crashed the process on such a name (SIGSEGV, exit 139):
+    a process of its own, so the old crash does not take the test runner with it."""
+    image = tmp_path / "table.png"
+    cv2.imwrite(str(image), np.zeros((48, 64, 3), np.uint8))
+    (tmp_path / (NOT_UTF8 + ".mp4")).write_bytes(b"\x00" * 64)
+    filled = [a.format(dir=tmp_path, image=image) for a in argv]
+    out = check_bad_input_subprocess(filled, keep=[tmp_path])
+    assert words in out.line

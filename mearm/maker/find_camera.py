@@ -248,8 +248,8 @@ def _source(text: str) -> int | str:
     """``--camera``: an index, or a path or URL as given.
 
     Checked before any camera is tried: a negative index, a folder, a path that does not
-    exist, or a file OpenCV cannot read as a video or an image is bad input, not "no
-    camera found".
+    exist, a name that is not UTF-8 (OpenCV crashes on it), or a file OpenCV cannot read
+    as a video or an image is bad input, not "no camera found".
 
     Raises:
         MearmError: the source cannot be a camera, and why.
@@ -257,6 +257,11 @@ def _source(text: str) -> int | str:
     text = text.strip()
     if not text:
         raise MearmError("--camera needs an index, a device path or a URL, got ''")
+    from mearm.vision.image import opencv_takes_name  # noqa: PLC0415  (OpenCV's import)
+
+    if not opencv_takes_name(text):  # OpenCV would crash on it (SIGSEGV)
+        raise MearmError(f"--camera {text}: the name is not UTF-8 text, which OpenCV cannot "
+                         "open; rename the file (or give the camera's index)")  # fmt: skip
     if text.isascii() and text.isdigit():  # not other scripts' digits (١ is not camera 1)
         return int(text)
     if re.fullmatch(r"-[0-9]+", text):

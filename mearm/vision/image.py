@@ -66,6 +66,21 @@ def quiet_opencv() -> Iterator[None]:
         cv2.utils.logging.setLogLevel(level)
 
 
+def opencv_takes_name(path: str | os.PathLike[str]) -> bool:
+    """Whether OpenCV can be given the file name ``path``: it is UTF-8 text.
+
+    A Linux file name is any bytes; one that is not UTF-8 (Python holds its bytes as
+    surrogates, such as U+DCFF) crashes the process in OpenCV's path-taking calls
+    (``cv2.VideoCapture``, ``cv2.haveImageWriter``: SIGSEGV) instead of raising. Such a
+    name must be refused, or kept from OpenCV, first.
+    """
+    try:
+        os.fspath(path).encode("utf-8")
+    except UnicodeEncodeError:
+        return False
+    return True
+
+
 class ImageSize(NamedTuple):
     """What an image file's header says."""
 
@@ -309,6 +324,7 @@ __all__ = [
     "check_image_bytes",
     "image_size",
     "probe_image",
+    "opencv_takes_name",
     "quiet_opencv",
     "read_image",
 ]
