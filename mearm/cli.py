@@ -568,7 +568,8 @@ def _record_crash(prog: str, argv: Sequence[str]) -> str:
     entry = f"--- {stamp} {prog} {' '.join(argv)}\n{traceback.format_exc()}\n"
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
-        with path.open("a", encoding="utf-8") as fh:
+        # an argument may be a file name that is not UTF-8 (its bytes as surrogates)
+        with path.open("a", encoding="utf-8", errors="backslashreplace") as fh:
             fh.write(entry)
     except OSError:
         return "traceback not saved: the crash log is not writable; --debug prints it"

@@ -59,6 +59,23 @@ def test_an_unexpected_error_is_the_line_the_page_shows(tmp_path, monkeypatch, c
     assert form in _page()
 
 
+def test_an_unexpected_error_with_a_name_that_is_not_utf8_is_one_line(
+    tmp_path, monkeypatch, capsys
+) -> None:
+    """An argument whose bytes are not UTF-8 (a Linux file name; surrogates to Python)
+    made the crash log's own write fail: a second traceback, not the one line."""
+    monkeypatch.setenv("MEARM_STATE_DIR", str(tmp_path))
+    monkeypatch.delenv("MEARM_DEBUG", raising=False)
+
+    def broken(_argv: object) -> int:
+        raise RuntimeError("boom")
+
+    code, out, err = run_guarded(broken, ["analyze", "run\udcff.jsonl"], capsys)
+    assert (code, out) == (1, "")
+    assert len(err.splitlines()) == 1 and "unexpected error: RuntimeError: boom" in err, err
+    assert "run\\udcff.jsonl" in (tmp_path / "crash.log").read_text(encoding="utf-8")
+
+
 @pytest.mark.parametrize(
     ("env", "named"),
     [
