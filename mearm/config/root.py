@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import math
-import shlex
 from collections.abc import Sequence
 from typing import Literal
 
@@ -49,6 +48,8 @@ def _recalibrate(info: ValidationInfo) -> str:
 
     A shipped config is not edited by ``calibrate-camera``: the user's own copy is.
     """
+    import shlex  # noqa: PLC0415  (only a refusal's message quotes the name)
+
     given = (info.context or {}).get(CONFIG_GIVEN)
     command = "mearm calibrate-camera --config {} --image PICTURE --marker ID:X,Y ..."
     if given is None:
