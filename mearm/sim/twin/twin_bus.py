@@ -690,11 +690,17 @@ class TwinArm(ServoBus):
         """What the arm presses on hardest now, or ``None``.
 
         ``"in the twin its gripper_jaw_left_pad presses on bin_blue_wall_px"``: geoms as the
-        MJCF names them, an object by its id. The jaws on the objects they hold do not count.
+        MJCF names them, an object by its id. The jaws on the objects they hold do not count:
+        closed, the objects they touch. Open jaws hold nothing: one they touch is pressed on
+        (a jaw come down on the rim of a disc too wide for the error the arm lands with:
+        ``sim_mearm_v1_mujoco --random 5 --seed 35028 --set
+        task.classes.blue.diameter_cm=2.44``, the stall had named nothing).
         """
         m, d = self.model, self.data
         tree = m.body_treeid[self._arm_body]
-        held = {object_name(oid) for oid in self.held_ids()}
+        state = self.state
+        closed = state is not None and state.gripper_closed
+        held = {object_name(oid) for oid in self.held_ids()} if closed else set()
         force = np.zeros(6)
         hardest: tuple[float, int, int] | None = None
         for i in range(d.ncon):
