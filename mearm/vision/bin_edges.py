@@ -104,12 +104,16 @@ class BinSide:
         offset_cm: How far outside its place the foot is seen [cm] (negative: inside):
             the median of its lines'.
         lines: How many lines found the foot.
+        from_eye_cm: How far its foot's middle lies from the point under the camera, along
+            ``normal`` [cm] (negative: the sides seen face the camera). A camera moved up
+            or down sees the table scaled about that point: each foot moves in proportion.
     """
 
     class_name: str
     normal: tuple[float, float]
     offset_cm: float
     lines: int
+    from_eye_cm: float = 0.0
 
 
 class BinFeet:
@@ -139,6 +143,7 @@ class BinFeet:
         self._shade = int(round(SHADE_CM / STEP_CM))
         self._run = int(round(TABLE_CM / STEP_CM))
         sides: list[tuple[str, tuple[float, float]]] = []
+        from_eye: list[float] = []
         maps: list[np.ndarray] = []
         footprints: list[tuple[np.ndarray, float]] = []
         for c in classes:
@@ -167,8 +172,10 @@ class BinFeet:
                 others = [b for b in footprints if b[0] is not centre_cm]
                 px[~inside | _on_a_bin(pts, others)] = -1.0
                 sides.append((c.name, n))
+                from_eye.append(float((mid - eye) @ normal))
                 maps.append(px)
         self.sides = sides
+        self._from_eye = from_eye
         if maps:
             px = np.concatenate(maps).astype(np.float32)  # (sides·P, T, 2)
         else:
@@ -229,5 +236,7 @@ class BinFeet:
             if np.count_nonzero(table[side, :foot] & seen) < TABLE_SHARE * np.count_nonzero(seen):
                 continue
             offsets = self._t[first[side][ok]]
-            found.append(BinSide(name, normal, float(np.median(offsets)), int(ok.sum())))
+            found.append(
+                BinSide(name, normal, float(np.median(offsets)), int(ok.sum()), self._from_eye[k])
+            )
         return found
