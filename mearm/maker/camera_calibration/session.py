@@ -48,6 +48,8 @@ from mearm.maker.camera_calibration.settings import (
 )
 from mearm.task.claw_fit import ClawCamera, ServoFit, Sighting
 from mearm.task.rig import Rig
+from mearm.task.table_tracking import check_bins
+from mearm.vision.bin_edges import BinFeet
 from mearm.vision.claw_marker import find_claw_marker
 from mearm.vision.frame_check import FrameCheck
 from mearm.vision.pinhole import PerspectiveCamera
@@ -373,15 +375,35 @@ class CameraSession(SafeMoves):
             )
         return self.final_fit()
 
+    def check_view(self, frame: np.ndarray) -> None:
+        """Refuse a view that moved since the camera's calibration, before the arm moves.
+
+        The bins stand still: their feet seen away from where the calibration puts them
+        (:func:`~mearm.task.table_tracking.check_bins`) mean the camera moved, and a fit
+        to it would be the servos' calibration to a wrong view: ``sim_mujoco_kits --random
+        7 --seed 35113 --set twin.camera.height_cm=49.3`` (the camera 5.7 cm lower than
+        calibrated; simulated) fitted the kit's servos to it, and the arm sent home by that
+        fit pressed its jaws on the red bin's wall and stalled.
+
+        Raises:
+            CameraError: the view moved; the bins and the farthest foot are named.
+        """
+        camera = self.present.camera
+        size = (camera.width_px, camera.height_px)
+        feet = BinFeet(self.claw.camera, list(self.present.task.classes), size)
+        check_bins(feet.measure(frame), {}, self.frame_check.source)
+
     def begin(self) -> list[Point]:
         """Home; what is on the table, the points over the view; the look at home.
 
         Raises:
             CameraCalibrationFailed: no point over the view would show the marker.
-            CameraError: a frame is black, or the stream froze (:attr:`frame_check`).
+            CameraError: a frame is black, the stream froze (:attr:`frame_check`), or the
+                view moved since the camera's calibration (:meth:`check_view`).
         """
         self.executor.home_pose()
         frame = self.frame_check.read(self.rig.camera)
+        self.check_view(frame)
         self.objects = objects_seen(self.present, self.claw.camera, frame)
         self._collision, self._planner = {}, {}  # with the objects seen
         self.tops_cm = tops_cm(self.present, self.objects)
