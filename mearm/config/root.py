@@ -63,6 +63,15 @@ def _recalibrate(info: ValidationInfo) -> str:
     return f"recalibrate at this size ({command.format(shlex.quote(name))})"
 
 
+#: The room the open jaws keep each side of an object's widest at least [cm]: the arm and
+#: the camera land them off by their errors. In the twin (simulated, 2026-12-07) the MeArm
+#: v1's jaw came down on the rim of discs that left 0.35 and 0.4 cm (2.3 cm at seed 35028,
+#: 2.2 cm at seed 38034, ``sim_mearm_v1_mujoco --random 5``), and with 0.5 cm (2.0 cm
+#: discs) seeds 38034 and 38036–38038 sorted whole, as the paper arm's twin did 3.0 cm
+#: reds at seeds 38041–38043 (``sim_mujoco --random 9``) (:meth:`Config._jaws_pass_every_yaw`).
+JAW_ROOM_CM = 0.5
+
+
 #: Largest ``twin.kit.spread`` [-]: at 5 the slowest sourced unit's scale (8.1 µs/°, 1.9
 #: below the nominal 10) is still positive.
 MAX_KIT_SPREAD = 5.0
@@ -204,7 +213,13 @@ class Config(Strict):
     def _jaws_pass_every_yaw(self) -> Config:
         """The open jaws must come down around every object, a cube or a prism at any yaw.
 
-        A cylinder's diameter must pass between them. Only an arm with a wrist roll turns
+        A cylinder's diameter must pass between them, with :data:`JAW_ROOM_CM` to spare
+        each side: the arm lands them off by its own error and the camera's, and in the
+        twin a jaw came down on the rim of objects that left less (a 3.96 cm disc in the
+        paper arm's 4 cm jaws was carried, jammed, to another class's bin with the place
+        said released, ``sim_mujoco_lamp --random 8 --seed 35082``; a 2.44 cm disc in the
+        MeArm v1's 3 cm stalled its shoulder, ``sim_mearm_v1_mujoco --random 5 --seed
+        35028``, as 2.3 and 2.2 cm ones did; simulated). Only an arm with a wrist roll turns
         its jaws to a cube's faces (:meth:`mearm.task.plan.Planner.turn_jaws`), and a turn
         past its limits or into something is refused; otherwise the jaws close along a
         direction fixed to the wrist and a cube may lie across them at 45°: its diagonal
@@ -212,21 +227,30 @@ class Config(Strict):
         twin shows it).
         """
         g = self.arm.tool.gripper
+        room = JAW_ROOM_CM
         for c in self.task.classes:
             shape = c.object_shape
             widest = shape.widest_cm(c.diameter_cm)
-            if widest < g.open_cm:
+            if widest + 2.0 * room <= g.open_cm:
                 continue
             disc = shape.footprint == "disc"
             across = {"disc": "across", "square": "across its diagonal"}.get(
                 shape.footprint, "across a side"
             )
             yaw = "" if disc else " at any yaw (they turn to its faces only where a wrist roll can)"
+            said = f"@task.classes.{c.name}.diameter_cm: a {c.diameter_cm:g} cm {shape.name} is "
+            if widest >= g.open_cm:
+                raise ValueError(
+                    f"{said}{widest:.3g} cm {across}, not less than the open jaws' "
+                    f"{g.open_cm:g} cm (arm.tool.gripper.open_cm): the open jaws must pass "
+                    f"it{yaw}; use smaller objects or a wider-opening gripper"
+                )
             raise ValueError(
-                f"@task.classes.{c.name}.diameter_cm: a {c.diameter_cm:g} cm {shape.name} is "
-                f"{widest:.3g} cm {across}, not less than the open jaws' {g.open_cm:g} cm "
-                f"(arm.tool.gripper.open_cm): the open jaws must pass it{yaw}; use smaller "
-                "objects or a wider-opening gripper"
+                f"{said}{widest:.3g} cm {across}, which leaves the open jaws' {g.open_cm:g} "
+                f"cm (arm.tool.gripper.open_cm) {(g.open_cm - widest) / 2:.2g} cm each side, "
+                f"less than {room:g} cm: the open jaws must pass it{yaw} with that to spare, "
+                "as the arm and the camera land them off by their errors; use objects at "
+                f"most {g.open_cm - 2.0 * room:.3g} cm {across} or a wider-opening gripper"
             )
         return self
 

@@ -122,8 +122,10 @@ simulators. A class without `hue_bands_deg` takes every pixel that passes the `v
 floors and no other class's band: a wooden table (hue ≈ 30°, S ≈ 0.5) passes the default
 floors, so use it on a grey or white table, or give the class its bands. An arm with a
 wrist roll turns its jaws to a cube's faces; elsewhere a cube may lie across the jaws,
-so a cube's diagonal (a prism's side, a cylinder's diameter) must be less than
-`arm.tool.gripper.open_cm` on every arm; a larger one is refused when the config loads.
+so a cube's diagonal (a prism's side, a cylinder's diameter) must leave the open jaws
+(`arm.tool.gripper.open_cm`) 0.5 cm each side on every arm, as the arm and the camera land
+them off by their errors (in the twin a jaw came down on the rim of objects that left
+0.4 cm); a larger one is refused when the config loads.
 How the detector tells the shapes apart: [Vision](vision.md#shapes).
 """
 )
