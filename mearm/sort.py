@@ -373,11 +373,19 @@ def _sort(argv: Sequence[str] | None) -> int:
     args = parser.parse_args(argv)
     _check_arguments(parser, args)
     config = config_from_args(args)
+    # a table laid out by --scene or --random replaces the config's own, whose bins'
+    # walls (built to hold its objects stacked) the sort never builds: the config is
+    # checked without it, and the table laid out against every bin's walls as it grows
+    # them (check_scene, random_scene). Checked with its own table, sim_paper_arm with
+    # task.classes.red.height_cm=2.18 refused --random 1 for the 10.9 cm walls of the
+    # four reds of a table it was not going to sort
+    laid_out = args.scene is not None or args.random is not None
+    checked = config.with_scene([]) if laid_out else config
     # before the scene, the log or any output (the view's reach surveyed for its note)
-    consistency = check_consistency(config, notes=not args.quiet)
+    consistency = check_consistency(checked, notes=not args.quiet)
     _check_work_area(config)
     calibrate_first = _calibrate_first(config, args.save_calibration)
-    scene = scene_from_args(args, config)
+    scene = scene_from_args(args, checked)
     mjcf = _scene_mjcf(config, scene) if args.save_mjcf is not None else None
     # its directory checked before any motion; a --scene table kept for a replay
     recorder = recorder_from_args(args, config, scene)

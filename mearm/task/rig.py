@@ -161,7 +161,9 @@ def run_sort(
     try:
         if log is not None:
             log.header(config, trial=trial, seed=seed, argv=argv, scene=scene_layout(config, scene))
-        check_consistency(config)
+        # a table laid out replaces the config's own, whose walls are never built: the
+        # config is checked without it (the table's own walls are check_scene's)
+        check_consistency(config if scene is None else config.with_scene([]))
         if scene is not None:
             # the sorter plans against the table laid out, not the config's own: the
             # twin's bin walls grow with the objects they hold, and so must its model's
