@@ -849,6 +849,20 @@ def _none_fit(
     return said
 
 
+def _grip_said(cls: ColorClass) -> str:
+    """Where a class's objects are gripped, as its refusals name it: ``grip_height_cm 1.5``.
+
+    A class without a ``grip_height_cm`` is gripped at half its height
+    (:attr:`~mearm.config.classes.ColorClass.grip_z_cm`): formatting the ``None`` stopped
+    ``mearm sort --config sim_5dof --random 9 --seed 34285 --set
+    task.classes.green.height_cm=0.66`` with an unexpected error (a TypeError) where it
+    meant to refuse the class (2026-12-07, simulated).
+    """
+    if cls.grip_height_cm is not None:
+        return f"grip_height_cm {cls.grip_height_cm:g}"
+    return f"grip_height_cm {cls.grip_z_cm:g} (unset: half its height_cm)"
+
+
 def _tool_in_table(config: Config, color: str, hit: tuple[str, str], seed: int) -> str:
     """The refusal of a class whose pick put the tool in the table, none of it placed.
 
@@ -862,14 +876,14 @@ def _tool_in_table(config: Config, color: str, hit: tuple[str, str], seed: int) 
     if into == "object":
         return (
             f"task.classes.{color}: an object {cls.height_cm:g} cm tall picked at "
-            f"grip_height_cm {cls.grip_height_cm:g} comes within task.clearance_cm "
+            f"{_grip_said(cls)} comes within task.clearance_cm "
             f"({config.task.clearance_cm:g} cm) of the tool's {part} at its own pick, "
             f"at {TABLE_ONLY_DRAWS} places drawn with seed {seed}, and no {color} object "
             "was placed: the hand stands above the jaws; lower height_cm or raise "
             "grip_height_cm"
         )
     return (
-        f"task.classes.{color}: picked at grip_height_cm {cls.grip_height_cm:g} (the TCP "
+        f"task.classes.{color}: picked at {_grip_said(cls)} (the TCP "
         f"{above:g} cm above it, arm.tool.tcp_above_grip_cm), the open jaws' {part} reaches "
         f"the table at {TABLE_ONLY_DRAWS} places drawn with seed {seed}, and no {color} "
         "object was placed: raise grip_height_cm"
