@@ -441,9 +441,15 @@ class Config(Strict):
             # an arrival lands its radius down the belt, one before it has ridden v * gap on
             # from its own: clear of each other at any offset once v * gap is the widest across
             widest = 2 * max(c.footprint_radius_cm for c in self.task.classes)
+            least = math.ceil(widest / v * 100) / 100
+            # the gaps are drawn in [min_gap_s, max_gap_s]: a min_gap_s past max_gap_s is
+            # refused in turn (a 0.5 cm/s belt with gaps of 3.33-3.54 s was told "at least
+            # 5.34 s", and then "max_gap_s: 3.54 s is below min_gap_s")
+            top = self.belt.arrivals.max_gap_s
+            both = f" (and max_gap_s, now {top:g} s, at least as much)" if least > top else ""
             fix = (
-                f"belt.arrivals.min_gap_s at least {math.ceil(widest / v * 100) / 100:g} s, a "
-                "faster belt (belt.speed_cm_s), or another belt.arrivals.seed"
+                f"belt.arrivals.min_gap_s at least {least:g} s{both}, a faster belt "
+                "(belt.speed_cm_s), or another belt.arrivals.seed"
             )
         else:
             fix = (

@@ -39,7 +39,13 @@ from mearm.config.files import config_source, unit_warning
 from mearm.config.loader import unit_hints
 from mearm.errors import ConfigError, MearmError
 from mearm.kinematics import ArmModel
-from mearm.kinematics.bodies import M_PER_CM, base_radius_m, bin_half_outer_m, wall_height_m
+from mearm.kinematics.bodies import (
+    BIN_MIN_WALL_HEIGHT_M,
+    M_PER_CM,
+    base_radius_m,
+    bin_half_outer_m,
+    wall_height_m,
+)
 from mearm.kinematics.collision import TOUCH_CM, CollisionModel
 from mearm.sim.table_collision import collision_model
 from mearm.task.plan import Planner
@@ -483,9 +489,12 @@ def _check_bodies(config: Config, model: ArmModel, collision: CollisionModel) ->
     most_cm, shut = _clearance_into_bins(config, model, min(kept)) if kept else (None, None)
     for name, part, distance in near:
         if distance <= TOUCH_CM:
+            # walls grown for the table's objects reach the arm as a bin moved does: a
+            # belt of 29 with red's diameter 1.59 cm (13.3 cm walls) said only "move the
+            # bin or arm.joints[].home", where 10 sort whole
             problems.append(
                 f"task.classes.{name}.bin_cm: the arm at home ({part}) touches its bin: "
-                "move the bin or arm.joints[].home"
+                f"move the bin or arm.joints[].home{_walls_grown(config, collision, name)}"
             )
             continue
         keeps = (
@@ -700,11 +709,30 @@ def _walls_built(config: Config, collision: CollisionModel, name: str) -> str:
         return ""
     n = collision.table.objects(name)
     wall_cm = wall_height_m(cls, n) / M_PER_CM
+    # a belt's objects are its arrivals: their count is what the user sets
+    fewer = (
+        "fewer objects (belt.arrivals.count) or lower ones"
+        if config.belt is not None
+        else "fewer or lower objects"
+    )
     return (
         f", or lower its walls: {wall_cm:.3g} cm, built to hold its {n} objects "
-        f"({cls.height_cm:g} cm high) stacked (fewer or lower objects, or "
+        f"({cls.height_cm:g} cm high) stacked ({fewer}, or "
         f"task.classes.{name}.bin_height_cm)"
     )
+
+
+def _walls_grown(config: Config, collision: CollisionModel, name: str) -> str:
+    """:func:`_walls_built`, where the objects grow the walls past the least they are built.
+
+    Walls at their least (:data:`~mearm.kinematics.bodies.BIN_MIN_WALL_HEIGHT_M`) stand so
+    whatever the table holds: neither fewer nor lower objects lower them, and nothing is
+    said of them.
+    """
+    cls = config.task.class_named(name)
+    if wall_height_m(cls, collision.table.objects(name)) <= BIN_MIN_WALL_HEIGHT_M:
+        return ""
+    return _walls_built(config, collision, name)
 
 
 def bins_near_home(
