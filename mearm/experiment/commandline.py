@@ -40,7 +40,9 @@ or per scene is recorded into the same way: another ``--record-per`` is refused,
 **Exit status.** 0 when every object of every trial in the log was sorted and no trial
 stopped early; 1 when objects were left or a trial stopped on a fault (the totals line
 ``sorted N of M objects over K trials (…reasons…)`` says why, and is repeated on
-stderr), whether in this run or in the trials it resumed; 130 on Ctrl-C; 2 on bad input,
+stderr), whether in this run or in the trials it resumed; 1 too, and no trial after it,
+when a trial on a servo board (``serial``, ``ssc32``) stopped on a fault of its servos, the
+line naming the fault (:func:`~mearm.experiment.trials.run_trials`); 130 on Ctrl-C; 2 on bad input,
 a rig that does not open included: a servo port that cannot be opened, a board that does
 not answer its handshake or a camera that cannot be opened is found before the first
 trial, with nothing written (:func:`~mearm.experiment.trials.check_rig_opens`).
@@ -462,7 +464,10 @@ def _run(
                 raise recorder.failure from None  # one line, exit 1 (the log has the trial)
             print(f"{_prog()}: stopped: {exc.reason}{_left(args, config, scene)}", file=sys.stderr)
             return interrupts.exit_status(), False
-        except (CameraError, ServoError, TrialFailed) as exc:
+        except TrialFailed as exc:  # the log holds the trial: the same command goes on
+            print(f"{_prog()}: stopped: {exc}{_left(args, config, scene)}", file=sys.stderr)
+            return EXIT_FAILURE, False
+        except (CameraError, ServoError) as exc:
             print(f"{_prog()}: {exc}", file=sys.stderr)
             return EXIT_FAILURE, False
         except KeyboardInterrupt as exc:  # between two trials' sorts (none was moving)

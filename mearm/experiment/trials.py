@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from mearm.config import Config, SceneObject
+from mearm.experiment.errors import TrialFailed
 from mearm.hardware.errors import ServoError
 from mearm.interrupts import answered, named
 from mearm.runlog import RunLog
@@ -90,13 +91,18 @@ def plan_trial(
     return TrialPlan(number, s, cfg, layout)
 
 
+def _drives_a_board(config: Config) -> bool:
+    """Whether the rig's servos are a real board on a port (not simulated, not simavr's)."""
+    return config.servo.backend in ("serial", "ssc32")
+
+
 def _opens_devices(config: Config) -> bool:
     """Whether the rig opens a device that may not be there.
 
     A servo board on a port, or a camera that is not simulated: a simulated part is
     always there.
     """
-    return config.servo.backend in ("serial", "ssc32") or config.camera.kind != "sim"
+    return _drives_a_board(config) or config.camera.kind != "sim"
 
 
 def check_rig_opens(
@@ -174,6 +180,11 @@ def run_trials(
     Raises:
         SortAborted: a trial was interrupted with Ctrl-C, or stopped by a recording that
             failed (a full disk); the log holds what was done.
+        TrialFailed: a trial on a servo board (``servo.backend`` ``serial`` or ``ssc32``)
+            stopped on a fault of its servos: the arm is where the fault left it, and the
+            next trial would open the port again (an Uno resets) and move it home in one
+            command from a pose nobody knows. The log holds the trial, finished: the same
+            command runs the rest once the rig is fixed.
     """
     outcomes: dict[int, str | None] = {}
     for k in range(start, trials):
@@ -192,6 +203,15 @@ def run_trials(
             if exc.interrupted or (recorder is not None and recorder.failure is not None):
                 raise  # Ctrl-C, or a recording that failed: no trial after it is recorded
             outcomes[k] = exc.reason
+            if exc.servo_fault and _drives_a_board(plan.config):
+                if progress is not None:
+                    progress(len(outcomes))
+                rest = (
+                    "; no trial after it started: a fault of the servo board stops the experiment"
+                    if k + 1 < trials
+                    else ""
+                )
+                raise TrialFailed(f"trial {k}: {exc.reason}{rest}") from None
         if progress is not None:
             progress(len(outcomes))
     return outcomes

@@ -101,6 +101,9 @@ class SortAborted(MearmError):
         interrupted: Whether it was Ctrl-C.
         last_joints: The last confirmed joints by name [deg or cm], or ``None``.
         outcome: What was sorted before it stopped (the summary's counts), or ``None``.
+        servo_fault: Whether a fault of the servos stopped it (the bus sends nothing
+            more, the arm where the fault left it: an experiment on a real board starts
+            no trial after it).
     """
 
     def __init__(
@@ -110,11 +113,13 @@ class SortAborted(MearmError):
         interrupted: bool = False,
         last_joints: dict[str, float] | None = None,
         outcome: Outcome | None = None,
+        servo_fault: bool = False,
     ):
         self.reason = reason
         self.interrupted = interrupted
         self.last_joints = last_joints
         self.outcome = outcome
+        self.servo_fault = servo_fault
         super().__init__(reason)
 
 
@@ -669,7 +674,11 @@ class Sorter(PickAndPlace):
         if not (recording or logging or isinstance(exc, stops)):
             raise exc
         reason = f"run log {exc}" if logging else str(exc)
-        self._abort(reason, park=recording or logging or isinstance(exc, CameraError))
+        self._abort(
+            reason,
+            park=recording or logging or isinstance(exc, CameraError),
+            servo_fault=isinstance(exc, ServoError) and not (recording or logging),
+        )
 
     def _at_home(self) -> bool:
         """Whether the arm's last confirmed pose is home (within a hundredth of a degree)."""
@@ -678,12 +687,20 @@ class Sorter(PickAndPlace):
         return bool(np.allclose(self.executor.q_now(), self.model.home, atol=np.radians(0.01)))
 
     def _abort(
-        self, reason: str, *, park: bool, interrupted: bool = False, parked_already: bool = False
+        self,
+        reason: str,
+        *,
+        park: bool,
+        interrupted: bool = False,
+        parked_already: bool = False,
+        servo_fault: bool = False,
     ) -> None:
         """Stop the sort: park (``park``) or send nothing more, log the fault, raise.
 
         ``parked_already``: the arm is at home, parked by what failed (the calibration by
-        the camera at the start), and the last line says so.
+        the camera at the start), and the last line says so. ``servo_fault``: a fault of
+        the servos stopped it (:attr:`SortAborted.servo_fault`), as does one that stopped
+        the bus while parking.
         """
         bus = self.bus
         # The view is for the eye; safety comes first: an interrupt may have cut a request
@@ -705,11 +722,16 @@ class Sorter(PickAndPlace):
         else:
             parked = "; nothing more sent to the servos"
         full = reason + parked
+        servo_fault = servo_fault or bus.fault is not None
         self.reporter.fault(full, self._last_joints())
         outcome = self.outcome("interrupted" if interrupted else "fault")
         self.reporter.summary(ok=False, outcome=outcome, motion=self.executor.motion)
         raise SortAborted(
-            full, interrupted=interrupted, last_joints=self._last_joints(), outcome=outcome
+            full,
+            interrupted=interrupted,
+            last_joints=self._last_joints(),
+            outcome=outcome,
+            servo_fault=servo_fault,
         )
 
 
