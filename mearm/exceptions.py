@@ -83,7 +83,12 @@ FAMILIES: dict[str, tuple[str, ...]] = {
     "mearm.sim.kinematic.servo_bus": ("SimCollisionError",),
     "mearm.sim.virtual_uno.errors": ("VirtualUnoError",),
     "mearm.task.scene": ("SceneError",),
-    "mearm.task.armcheck": ("ArmCheckError", "NothingToCheck", "RigNotOpened"),
+    "mearm.task.armcheck": (
+        "ArmCheckError",
+        "CheckInterrupted",
+        "NothingToCheck",
+        "RigNotOpened",
+    ),
     "mearm.task.execute": ("CollisionError",),
     "mearm.task.sorter": ("SortAborted", "StartCalibrationFailed"),
     "mearm.experiment.errors": ("TrialFailed",),

@@ -2,7 +2,7 @@
 
 Only ``sort``, ``experiment``, ``jog``, ``calibrate-servos`` and a few more took them; any
 other command died of the signal at once: no "interrupted" line, status -15, and none of
-what its Ctrl-C path does (an arm parked by ``check-camera``, a temporary file removed, a
+what its Ctrl-C path does (the arm held by ``check-camera``, a temporary file removed, a
 browser ended). ``mearm preview`` serves until stopped, so the signal reaches it waiting.
 """
 

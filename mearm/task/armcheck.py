@@ -64,6 +64,7 @@ from functools import partial
 import numpy as np
 import numpy.typing as npt
 
+from mearm import interrupts
 from mearm.config import ColorClass, Config
 from mearm.config.errors import CalibrationError
 from mearm.errors import MearmError
@@ -108,6 +109,15 @@ class ArmCheckError(MearmError):
 
 class NothingToCheck(ArmCheckError):
     """The table does not allow the check: no object to take, or no room for the points."""
+
+
+class CheckInterrupted(MearmError):
+    """Ctrl-C (or a stop signal taken as one) while the check moved the arm.
+
+    Nothing more is sent: the arm stays where it is, as ``mearm jog`` leaves it (the
+    check's way home is no planned, checked route from anywhere, and the object may be
+    in the jaws). The message names the last acknowledged pose.
+    """
 
 
 class RigNotOpened(MearmError):
@@ -705,6 +715,7 @@ def run_check(
         StartCalibrationFailed: the servos' calibration at the start gave none.
         CalibrationError: ``refine`` without a perspective calibration.
         RigNotOpened: the camera or the servo bus did not open (before anything moves).
+        CheckInterrupted: Ctrl-C once the rig is open (the arm stays where it is).
         ServoError, CameraError: a fault once the rig is open.
     """
     say = echo if echo is not None else (lambda _line: None)
@@ -715,10 +726,19 @@ def run_check(
     try:
         with open_rig(config) as rig:  # its camera open and its bus connected
             opened = True
-            check = _check(
-                config, rig, geometry, detector, points=points, class_name=class_name,
-                refine=refine, calibrate_first=calibrate_first, say=say,
-            )  # fmt: skip
+            try:
+                check = _check(
+                    config, rig, geometry, detector, points=points, class_name=class_name,
+                    refine=refine, calibrate_first=calibrate_first, say=say,
+                )  # fmt: skip
+            except KeyboardInterrupt as exc:
+                interrupts.answered()
+                state = rig.bus.state
+                pose = "none (no move acknowledged yet)" if state is None else str(state)
+                raise CheckInterrupted(
+                    f"interrupted ({interrupts.named(exc)}); the arm stays where it is, "
+                    f"nothing more sent to the servos (last acknowledged pose: {pose})"
+                ) from None
     except (CameraError, ServoError) as exc:
         if opened:
             raise

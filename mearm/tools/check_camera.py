@@ -32,7 +32,9 @@ says which, and OUT is not written); 2: bad input, one line on stderr (OUT is ch
 before the arm moves), a camera that cannot be opened, a servo port that cannot be opened
 and a board that does not answer its handshake included (found as the rig opens, before
 anything moves, as ``mearm sort`` says them), and an OUT kept after the check (a better
-pose in it).
+pose in it). 130 on Ctrl-C (143 on SIGTERM, 129 on SIGHUP): nothing more is sent, the arm
+stays where it is (as ``mearm jog`` leaves it), and the one line names its last
+acknowledged pose.
 """
 
 from __future__ import annotations
@@ -44,6 +46,7 @@ from pathlib import Path
 
 import numpy as np
 
+from mearm import interrupts
 from mearm.cli import (
     PLAIN_INTEGER,
     ArgumentParser,
@@ -64,6 +67,7 @@ from mearm.task.armcheck import (
     MAX_POINTS,
     MIN_POINTS,
     ArmCheck,
+    CheckInterrupted,
     NothingToCheck,
     max_cm,
     rms_cm,
@@ -303,6 +307,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     except NothingToCheck as exc:
         print(f"{PROG}: check not run: {exc}", file=sys.stderr)
         return 1
+    except CheckInterrupted as exc:
+        print(f"{PROG}: stopped: {exc}", file=sys.stderr)
+        return interrupts.exit_status()
     except (CameraError, ServoError, StartCalibrationFailed) as exc:
         print(f"{PROG}: check stopped: {exc}", file=sys.stderr)
         return 1
