@@ -40,8 +40,11 @@ Every route to and from the object is planned in full (:class:`~mearm.task.plan.
 before any of it is sent (:class:`~mearm.task.execute.Executor`), as in the sort, and
 checked against the bins, the table and the other objects (the sort's collision model,
 :func:`~mearm.sim.table_collision.collision_model`); a move whose plan fails is not made
-and its point carries the reason. From above the point the arm goes home along a
-straight line in joint space.
+and its point carries the reason. From above the point the arm goes home the sort's
+checked way (:func:`~mearm.task.homing.go_home`): along a straight line in joint space
+where it is clear, else up to the safe height first, or over to above home; where no
+way is clear, nothing more is sent and the check stops (``not parked: the way home
+…``).
 
 **Where the points lie.** A set-down leaves the object near, not at, its point: the arm
 stops a little short of its pose and the object sits a little off-centre in the jaws
@@ -73,6 +76,7 @@ from mearm.ik import IKTarget
 from mearm.kinematics import ArmModel
 from mearm.sim.table_collision import collision_model
 from mearm.task.execute import Executor
+from mearm.task.homing import go_home
 from mearm.task.plan import Planner
 from mearm.task.rig import Rig, open_rig
 from mearm.task.route import Route
@@ -455,13 +459,20 @@ class _Arm:
         ex.set_tool("grip", closed=True)  # the jaws come down around the spot, then open
         ex.set_tool("grip", closed=False)
         ex.stream(up, "grip", closed=False)  # straight up, the open jaws clear of the object
-        self.home()
+        self.home(to_cm)
         return None
 
-    def home(self) -> None:
-        """Home along a straight line in joint space, the gripper open."""
-        self.ex.move_joints(self.planner.model.home, "travel", closed=False)
-        self.ex.home_pose()
+    def home(self, left_at_cm: npt.ArrayLike) -> None:
+        """Home the sort's checked way (:func:`~mearm.task.homing.go_home`), the gripper open.
+
+        Checked in the world the set-down left: the object lying at ``left_at_cm``, the
+        jaws open. Where no way home is clear, nothing more is sent.
+
+        Raises:
+            CollisionError: no way home is clear; the arm stays where it is.
+        """
+        self._lying_at(left_at_cm)
+        go_home(self.ex, self.planner, closed=False)
 
 
 # --------------------------------------------------------------------- check points
@@ -716,6 +727,8 @@ def run_check(
         CalibrationError: ``refine`` without a perspective calibration.
         RigNotOpened: the camera or the servo bus did not open (before anything moves).
         CheckInterrupted: Ctrl-C once the rig is open (the arm stays where it is).
+        CollisionError: no way home from a set-down is clear (``not parked: the way
+            home …``): nothing more is sent, the arm stays above the object.
         ServoError, CameraError: a fault once the rig is open.
     """
     say = echo if echo is not None else (lambda _line: None)

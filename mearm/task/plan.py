@@ -272,8 +272,8 @@ class Planner:
         """The TCP straight up from pose ``q`` to the safe height, planned and checked.
 
         ``from_cm``: where the TCP is [cm] (the simulated arm's truth; default: the FK of
-        ``q``). The way home's first detour (:meth:`Sorter._home
-        <mearm.task.sorter.Sorter._home>`), and from a release, in the world the jaws
+        ``q``). The way home's first detour (:func:`~mearm.task.homing.go_home`), and
+        from a release, in the world the jaws
         left there (:meth:`plan_place`). Not planned: its failure says why.
         """
         tcp = self.model.fk_cm(q) if from_cm is None else np.asarray(from_cm, dtype=float)

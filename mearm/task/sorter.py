@@ -51,6 +51,7 @@ from mearm.kinematics import ArmModel
 from mearm.sim.table_collision import collision_model
 from mearm.task.claw_loop import claw_eye
 from mearm.task.execute import CollisionError, Executor, View
+from mearm.task.homing import go_home
 from mearm.task.pick_place import (  # noqa: F401  (re-exported)
     EpisodeRecorder,
     PickAndPlace,
@@ -64,7 +65,6 @@ from mearm.task.pick_place import hex_rgb as _hex  # noqa: F401
 from mearm.task.pick_place import stuck_reason as _stuck  # noqa: F401
 from mearm.task.plan import Planner
 from mearm.task.report import Outcome, Reporter, SortReport
-from mearm.task.route import Route
 from mearm.task.table_tracking import (  # noqa: F401  (re-exported)
     SAME_AREA_RATIO,
     SAME_OBJECT_CM,
@@ -388,57 +388,22 @@ class Sorter(PickAndPlace):
     # ----------------------------------------------------------------- run
 
     def _home(self, *, keep_grip: bool = False) -> None:
-        """Go home along a straight line in joint space (no solve, inside the limits).
+        """Go home the checked way (:func:`~mearm.task.homing.go_home`).
 
-        Where that line is not clear, the TCP rises to the safe height first, and where
-        the line from there is not clear either, goes over at that height to above home
-        (a planned, checked route) and comes down to it in joint space.
+        The way the camera's check goes home too: the straight line in joint space where
+        it is clear, else up to the safe height first, or over to above home; refused
+        (:class:`CollisionError`) where nothing is clear.
 
         Args:
             keep_grip: Keep the gripper as it is (parking while holding an object: it
-                is not dropped on the way); otherwise it opens at home.
+                is not dropped on the way, in the world as it is); otherwise the world is
+                the table seen and the gripper opens at home.
         """
-        ex = self.executor
         state = self.bus.state
         closed = bool(state is not None and state.gripper_closed)
         if not keep_grip:
             self._world()
-        contact = self.collision.first_contact(ex.joint_path(self.model.home))
-        if contact is not None:
-            # up to the safe height first, where the straight way home is clear
-            up = self.planner.way_up(ex.q_now(), ex.ee_now_cm())
-            safe = float(up.target.position_cm[2])
-            if up.planned:
-                ex.stream(up, "travel", closed=closed)
-            contact = self.collision.first_contact(ex.joint_path(self.model.home))
-            if contact is not None:
-                # a home that hangs the jaws low between a bin's walls (the paper arm's,
-                # over the red bin) is come down to from over it: the straight way there
-                # from over another bin sags onto the wall (the twin's belt, seed 997000)
-                home = self.planner.home_target()
-                over = Route("", "", "home", 1, self.planner.above_target(
-                    home, max(0.0, safe - float(home.position_cm[2]))
-                ))  # fmt: skip
-                if self.planner.plan(over, ex.q_now()).planned:
-                    ex.stream(over, "travel", closed=closed)
-                    contact = self.collision.first_contact(ex.joint_path(self.model.home))
-                if contact is not None and over.planned:
-                    # walls grown tall for many objects (15 reds: 16 cm) rise beside the
-                    # jaws hung at home: the straight line in joint space down from over
-                    # home swings them into the wall; the TCP comes straight down instead
-                    down = Route("", "", "home", 1, home)
-                    if self.planner.plan(down, ex.q_now()).planned:
-                        ex.stream(down, "travel", closed=closed)
-                        contact = self.collision.first_contact(ex.joint_path(self.model.home))
-            if contact is not None:
-                chain = self.model.chain
-                raise CollisionError(
-                    "not parked: the way home "
-                    + contact.describe(chain.names, chain.scale)
-                    + "; the arm stays where it is"
-                )
-        ex.move_joints(self.model.home, "travel", closed=closed)
-        ex.home_pose(closed=closed and keep_grip)
+        go_home(self.executor, self.planner, closed=closed, keep_grip=keep_grip)
 
     def run(self) -> SortReport:
         """Sort until the table is clear (or only skipped objects remain), then go home.

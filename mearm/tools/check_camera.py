@@ -73,6 +73,7 @@ from mearm.task.armcheck import (
     rms_cm,
     run_check,
 )
+from mearm.task.execute import CollisionError
 from mearm.task.sorter import StartCalibrationFailed
 from mearm.vision.calibration import camera_geometry
 from mearm.vision.errors import CameraError
@@ -310,7 +311,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     except CheckInterrupted as exc:
         print(f"{PROG}: stopped: {exc}", file=sys.stderr)
         return interrupts.exit_status()
-    except (CameraError, ServoError, StartCalibrationFailed) as exc:
+    except (CameraError, ServoError, CollisionError, StartCalibrationFailed) as exc:
         print(f"{PROG}: check stopped: {exc}", file=sys.stderr)
         return 1
     print("\n".join(report_lines(check)))
