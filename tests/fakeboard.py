@@ -652,3 +652,25 @@ class SimavrBoard(VirtualUno):
 
     def __init__(self, sim: str, elf: str):
         super().__init__(VirtualUnoBuild(firmware=Path(elf), simulator=Path(sim)), speed=1.0)
+
+
+def empty_table_rig(tmp_path: Path, servo: str = "") -> Path:
+    """A real rig's config, written to ``tmp_path/rig.yaml``: a folder camera of an empty
+    table (the arm goes home, each trial ends at once) and servos on a Uno at
+    ``tmp_path/tty``; ``servo``: more of the ``servo:`` section, each line indented."""
+    import cv2  # noqa: PLC0415  (the tests that make a rig)
+
+    from mearm.config import Config  # noqa: PLC0415
+    from mearm.sim import SimCamera, World  # noqa: PLC0415
+
+    config = Config()
+    frames = tmp_path / "frames"
+    frames.mkdir()
+    empty = SimCamera(config, World(bins={c.name: c for c in config.task.classes})).read()
+    cv2.imwrite(str(frames / "table.png"), empty)
+    path = tmp_path / "rig.yaml"
+    path.write_text(
+        f"camera:\n  kind: folder\n  path: {frames}\n  loop: true\ntask:\n  scene: []\n"
+        f"servo:\n  backend: serial\n  port: {tmp_path / 'tty'}\n{servo}"
+    )
+    return path

@@ -13,31 +13,19 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import cv2
 import pytest
 from badinput import run_in_process
-from fakeboard import FakeMearmBoard, MearmFaults
+from fakeboard import FakeMearmBoard, MearmFaults, empty_table_rig
 
-from mearm.config import Config
 from mearm.runlog import read_runlog
-from mearm.sim import SimCamera, World
 
 
 @pytest.fixture()
 def rig(tmp_path: Path) -> Path:
     """A real rig's config: a folder camera of an empty table, servos on ``tmp_path/tty``."""
-    config = Config()
-    frames = tmp_path / "frames"
-    frames.mkdir()
-    empty = SimCamera(config, World(bins={c.name: c for c in config.task.classes})).read()
-    cv2.imwrite(str(frames / "table.png"), empty)  # an empty table: the arm goes home
-    path = tmp_path / "rig.yaml"
-    path.write_text(
-        f"camera:\n  kind: folder\n  path: {frames}\n  loop: true\ntask:\n  scene: []\n"
-        f"servo:\n  backend: serial\n  port: {tmp_path / 'tty'}\n  banner_timeout_s: 1.0\n"
-        "  ack_timeout_s: 0.5\n  rate_hz: 1000\n"
+    return empty_table_rig(
+        tmp_path, "  banner_timeout_s: 1.0\n  ack_timeout_s: 0.5\n  rate_hz: 1000\n"
     )
-    return path
 
 
 @pytest.mark.parametrize(
