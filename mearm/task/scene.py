@@ -56,6 +56,10 @@ class SceneError(MearmError):
     """A scene cannot be built (bad file, or no room for the objects asked for)."""
 
 
+class _TableShut(SceneError):
+    """Walls that shut every way from home to the table, said without a count."""
+
+
 class _TableFull(SceneError):
     """No room on the table for the objects asked for; ``most`` one layout held."""
 
@@ -242,25 +246,31 @@ def _check_walls(config: Config, scene: Sequence[SceneObject], source: str) -> N
         )
 
 
-def _most_the_walls_take(config: Config, n: int, seed: int) -> int:
+def _most_the_walls_take(config: Config, n: int, seed: int, *, table_too: bool = False) -> int:
     """The most objects, below ``n`` (which they refuse), whose walls the checks pass.
 
     More objects never lower a wall (the classes are drawn in turn), so the answer is
-    bisected: a few tables built, not one per number below ``n``.
+    bisected: a few tables built, not one per number below ``n``. ``table_too``: walls
+    that shut the table are checked too (:func:`_walls_shut_table`).
     """
     good, bad = 0, n
     while bad - good > 1:
         mid = (good + bad) // 2
-        if _walls_problem(config, _class_order(config, mid, seed)) is None:
+        if _walls_problem(config, _class_order(config, mid, seed), table_too=table_too) is None:
             good = mid
         else:
             bad = mid
     return good
 
 
-def _walls_problem(config: Config, colors: Sequence[str]) -> str | None:
-    """Why a table of objects of ``colors`` grows a bin's walls past what the arm allows."""
-    for check in (_release_below_walls, _walls_by_home, _walls_shut_bin):
+def _walls_problem(config: Config, colors: Sequence[str], *, table_too: bool = False) -> str | None:
+    """Why a table of objects of ``colors`` grows a bin's walls past what the arm allows.
+
+    ``table_too``: or shuts every way from home to the table (:func:`_walls_shut_table`,
+    the last: a layout asks it only once it holds every object).
+    """
+    checks = [_release_below_walls, _walls_by_home, _walls_shut_bin]
+    for check in [*checks, _walls_shut_table] if table_too else checks:
         problem = check(config, colors)
         if problem is not None:
             return problem
@@ -352,6 +362,77 @@ def _walls_shut_bin(config: Config, colors: Sequence[str]) -> str | None:
             f"objects stacked, leave the arm no way in with one held, even from home "
             f"({route.failure})"
         )
+    return None
+
+
+#: Points across the camera's table field, per side, that a pick from home is planned to by
+#: :func:`_walls_shut_table`.
+TABLE_CHECK_POINTS = 7
+
+
+def _walls_shut_table(config: Config, colors: Sequence[str]) -> str | None:
+    """Walls grown for a table of objects of ``colors`` that shut every way from home to it.
+
+    A pick of each class on the table is planned from home, as :func:`_way_in_check`
+    plans it (against the bins alone), to a :data:`TABLE_CHECK_POINTS` square grid over
+    the camera's field, the points it reaches clear of the bins. Where none is planned and
+    a grown bin's wall stops one (its walls met as the arm leaves home), an object of the
+    class drawn anywhere is all but sure to have no way in, and a layout draws such
+    objects again until its draws run out: ``sim --random 34 --seed 34345``
+    (``green.diameter_cm=2.34``, ``blue.height_cm=2.20``: 13 cm walls for 12 reds beside
+    home) planned a pick for most draws of the four layouts of 20,000 its refusal drew,
+    each stopped by the red bin's walls (over 5 minutes, to say nothing of them); with 28
+    objects, 39 of the 42 points plan, and with 30, the count it now names, the sort is
+    whole. ``None``: no wall grew, a pick of each class is planned, or what stops them is
+    no grown bin's wall. The check draws nothing: a layout's ``rng`` is untouched.
+    """
+    table = _table_of(config, colors)
+    grown = {c.name for c in _grown(config, table)}
+    if not grown:
+        return None
+    diameter, (x0, x1, y0, y1) = _scene_field(config, any_objects=False)
+    if not (x0 < x1 and y0 < y1):
+        return None  # (no field: the layout says so)
+    reach = _reach_check(config)
+    model = ArmModel(config.arm)
+    collision = collision_model(config, model, clearance_cm=config.task.clearance_cm, table=table)
+    collision.set_world([])
+    planner = Planner(config, model, collision)
+    gap = diameter / 2 + MIN_GAP_CM
+    points = [
+        (float(x), float(y))
+        for x in np.linspace(x0, x1, TABLE_CHECK_POINTS)
+        for y in np.linspace(y0, y1, TABLE_CHECK_POINTS)
+        if not any(_near_bin(c, float(x), float(y), gap) for c in config.task.classes)
+    ]
+    for cls in config.task.classes:
+        if not table.objects(cls.name):
+            continue
+        failures = []
+        for x, y in points:
+            if reach(cls, x, y) is None:
+                continue
+            route = Route("", cls.name, "pick", 1, planner.pick_target(cls, x, y))
+            if planner.plan(route, model.home).planned:
+                break
+            failures.append(route.failure or "")
+        else:
+            walls = [
+                c
+                for c in config.task.classes
+                if c.name in grown and any(bin_name(c.name) in f for f in failures)
+            ]
+            if not walls:
+                continue
+            c = walls[0]
+            n = table.objects(c.name)
+            first = next(f for f in failures if bin_name(c.name) in f)
+            return (
+                f"class {c.name}: its bin's walls, built {wall_height_m(c, n) / M_PER_CM:.3g} "
+                f"cm tall to hold its {n} objects stacked, leave the arm no way from home to "
+                f"the table (a pick of a {cls.name} object planned to each of {len(failures)} "
+                f"points across the camera's field: {first})"
+            )
     return None
 
 
@@ -929,13 +1010,12 @@ def random_scene(
             share of the camera's field, :func:`_none_fit`); a class whose pick
             puts the tool in the table at :data:`TABLE_ONLY_DRAWS` places drawn, none of
             it placed, is named; walls grown to hold the objects stacked that the arm at
-            home comes too near, that stand over the twin's release, or that leave it no
-            way into a bin are named with how many objects they take.
+            home comes too near, that stand over the twin's release, that leave it no
+            way from home to the table (:func:`_walls_shut_table`) or no way into a bin
+            are named with how many objects they take.
     """
     order = _class_order(config, counts, seed)
-    problem, remedy = _release_below_walls(config, order), ", or raise bin_cm z (task.classes)"
-    if problem is None:
-        problem, remedy = _walls_by_home(config, order), ""
+    problem, remedy = _walls_before_layout(config, order)
     if problem is not None:
         raise _walls_refusal(config, counts, seed, max_tries, problem, remedy, suggest=suggest)
     rng = np.random.default_rng(seed)
@@ -955,6 +1035,7 @@ def random_scene(
     placed: list[SceneObject] = []
     poses: list[np.ndarray] = []
     failed: Counter[tuple[str, ...]] = Counter()  # what each refused draw failed
+    whole = False  # a layout held every object: the walls' way to the table checked
 
     def draw(color: str, checked: Callable[[ColorClass, float, float], bool] | None) -> bool:
         """One ``color`` object placed among ``placed``; ``False``: no room for it."""
@@ -999,6 +1080,8 @@ def random_scene(
             continue
         if way_in is None:
             break
+        # planned: once the table is known to hold the objects, as the bins below
+        whole = whole or _way_to_table(config, counts, seed, max_tries, order, suggest=suggest)
         # the way in past grown walls, once the layout is whole (a table too full never
         # plans one); an object with none is drawn again where it has one
         shut = [
@@ -1022,6 +1105,39 @@ def random_scene(
             config, counts, seed, max_tries, problem, _LOWER_WALLS, suggest=suggest
         )
     return placed
+
+
+def _way_to_table(
+    config: Config,
+    counts: dict[str, int] | int,
+    seed: int,
+    max_tries: int,
+    order: Sequence[str],
+    *,
+    suggest: bool,
+) -> bool:
+    """``True``, or :func:`random_scene`'s refusal of walls that shut the table (a plan).
+
+    Asked once a layout first held every object (:func:`_walls_shut_table`): a table
+    too full for them says so first, at once, as before the check.
+    """
+    problem = _walls_shut_table(config, order)
+    if problem is not None:
+        raise _walls_refusal(
+            config, counts, seed, max_tries, problem, _LOWER_WALLS, suggest=suggest, table_too=True
+        )
+    return True
+
+
+def _walls_before_layout(config: Config, order: Sequence[str]) -> tuple[str | None, str]:
+    """Walls the table of ``order`` grows that refuse it before a layout, and the remedy.
+
+    Over the twin's release, or by the arm at home: no plan, so before a layout.
+    """
+    problem = _release_below_walls(config, order)
+    if problem is not None:
+        return problem, ", or raise bin_cm z (task.classes)"
+    return _walls_by_home(config, order), ""
 
 
 def _fewer_than(
@@ -1066,6 +1182,7 @@ def _walls_stop_all(config: Config, seed: int) -> str:
         (_release_below_walls, "raise bin_cm z (task.classes)"),
         (_walls_by_home, ""),
         (_walls_shut_bin, "set the class's bin_height_cm (task.classes)"),
+        (_walls_shut_table, "set the class's bin_height_cm (task.classes)"),
     ):
         problem = check(config, colors)
         if problem is not None:
@@ -1110,6 +1227,28 @@ def _asked(config: Config, n: int, seed: int, max_tries: int) -> str:
     return f"{fits} or fewer ({n} asked for does not lay out with seed {seed}, {fits} does)"
 
 
+def _walls_take(
+    config: Config, n: int, seed: int, max_tries: int, *, table_too: bool
+) -> tuple[int, _TableFull | None]:
+    """The most objects below ``n`` the walls take, and a layout's refusal of that many.
+
+    ``None``: that many laid out (or none taken). Where their walls shut the table, which
+    a layout finds once it holds them all, fewer are taken (``table_too``).
+    """
+    most = _most_the_walls_take(config, n, seed, table_too=table_too)
+    if not most:
+        return 0, None
+    try:
+        random_scene(config, most, seed, max_tries=max_tries, suggest=False)
+    except _TableFull as full:
+        return most, full
+    except _TableShut:
+        if table_too:  # (the bisection asked the same check of the same table)
+            raise
+        return _walls_take(config, most, seed, max_tries, table_too=True)
+    return most, None
+
+
 def _walls_refusal(
     config: Config,
     counts: dict[str, int] | int,
@@ -1119,27 +1258,27 @@ def _walls_refusal(
     remedy: str,
     *,
     suggest: bool = True,
+    table_too: bool = False,
 ) -> SceneError:
     """:func:`random_scene`'s refusal of walls grown past the arm: ``problem``, then fewer.
 
     For a total, the most objects the walls take and the table holds with ``seed`` (as
     many as the walls take may not fit); for counts per class, fewer of the class. Then
     ``remedy``, the other way out. ``suggest=False``: ``problem`` only (a count laid out
-    to be named, :func:`_fitting`, is only found to fit or not).
+    to be named, :func:`_fitting`, is only found to fit or not). ``table_too``: ``problem``
+    is walls that shut the table (:func:`_walls_shut_table`), and the count named keeps
+    the way there; as many as the other checks take may shut it too, then fewer are named.
     """
     if not suggest:
-        return SceneError(problem)
+        return (_TableShut if table_too else SceneError)(problem)
     if not isinstance(counts, int):
         return SceneError(f"{problem}: give the class fewer objects{remedy}")
     n = len(_class_order(config, counts, seed))
-    most = _most_the_walls_take(config, n, seed)
+    most, full = _walls_take(config, n, seed, max_tries, table_too=table_too)
     fewer = f"ask for {most} or fewer" if most else "no number of objects fits"
     if not most and remedy.startswith(", or "):  # (no fewer to say "or" to)
         remedy = "; " + remedy.removeprefix(", or ")
-    try:  # as many as the walls take may not fit on the table: name the fewer
-        if most:
-            random_scene(config, most, seed, max_tries=max_tries, suggest=False)
-    except _TableFull as full:
+    if full is not None:  # as many as the walls take may not fit on the table: name the fewer
         # what one layout of that many held, not what the table holds: a count between
         # the two is drawn otherwise and may be laid out (80 with seed 18201 named 44;
         # 45 and 46 were then laid out), or may not (48 of 500 with seed 22015: 45 is)
