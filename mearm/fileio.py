@@ -63,6 +63,22 @@ _previous: dict[int, Any] = {}
 _install_lock = threading.Lock()
 
 
+def escaped(text: str) -> str:
+    r"""``text`` as UTF-8 can hold it: a file name's bytes that are not UTF-8 escaped.
+
+    Linux file names are bytes; Python holds those that are not UTF-8 as surrogates
+    (byte 0xff as U+DCFF), which UTF-8 cannot encode. Such a character is written as its
+    escape, ``\udcff``, as the error line on stderr and the crash log show it; every
+    other character is kept.
+    """
+    return text.encode("utf-8", errors="backslashreplace").decode("utf-8")
+
+
+def utf8(text: str) -> bytes:
+    """``text`` encoded as UTF-8, a file name that is not UTF-8 in it escaped (:func:`escaped`)."""
+    return text.encode("utf-8", errors="backslashreplace")
+
+
 def backup_path(path: Path) -> Path:
     """Where a file a command replaces is first kept: ``<path>.bak`` beside it.
 
@@ -86,7 +102,7 @@ def keep_backup(path: Path, new: bytes | str | None = None) -> Path | None:
     if not path.is_file():
         return None
     data = path.read_bytes()
-    if new is not None and data == (new.encode("utf-8") if isinstance(new, str) else new):
+    if new is not None and data == (utf8(new) if isinstance(new, str) else new):
         return None
     k = 0
     while True:
@@ -106,7 +122,8 @@ def write_atomic(path: str | os.PathLike[str], data: bytes | str) -> Path:
     Args:
         path: The file to write; its folder is made if missing. A symbolic link is
             followed to the file it names, which is the one replaced.
-        data: The new contents; text is written as UTF-8.
+        data: The new contents; text is written as UTF-8 (:func:`utf8`: the name of a
+            file that is not UTF-8, quoted in it, is written escaped).
 
     Returns:
         The file actually written (``path`` with its symbolic links resolved).
@@ -116,7 +133,7 @@ def write_atomic(path: str | os.PathLike[str], data: bytes | str) -> Path:
             ``path`` is a folder or a loop of links, ...; the old file is unchanged and no temporary
             file is left.
     """
-    payload = data.encode("utf-8") if isinstance(data, str) else bytes(data)
+    payload = utf8(data) if isinstance(data, str) else bytes(data)
     try:
         st: os.stat_result | None = os.stat(path)
     except FileNotFoundError:

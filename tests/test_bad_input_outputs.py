@@ -202,3 +202,15 @@ def test_a_name_opencv_cannot_take_is_refused(argv: list[str], words: str, tmp_p
     filled = [a.format(dir=tmp_path, image=image) for a in argv]
     out = check_bad_input_subprocess(filled, keep=[tmp_path])
     assert words in out.line
+
+
+def test_a_report_that_names_a_log_not_utf8_is_written(tmp_path: Path) -> None:
+    """The report quotes the log's name: its bytes that are not UTF-8 could not be
+    written (UnicodeEncodeError, exit 1, an empty --out left behind); they are escaped."""
+    log = tmp_path / (NOT_UTF8 + ".jsonl")
+    assert run_in_process(["sort", "--quiet", "--log", tmp_path / "run.jsonl"]).code == 0
+    (tmp_path / "run.jsonl").rename(log)
+    out = run_in_process(["analyze", log, "--out", tmp_path / ("an" + NOT_UTF8)], within_s=20)
+    assert out.code == 0, out.stderr
+    report = (tmp_path / ("an" + NOT_UTF8) / "report.md").read_text(encoding="utf-8")
+    assert "# Analysis of `o\\udcff.jsonl`" in report
