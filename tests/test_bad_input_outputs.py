@@ -8,6 +8,7 @@ file it was pointed at byte for byte as it was.
 
 from __future__ import annotations
 
+import json
 import os
 from pathlib import Path
 
@@ -214,3 +215,18 @@ def test_a_report_that_names_a_log_not_utf8_is_written(tmp_path: Path) -> None:
     assert out.code == 0, out.stderr
     report = (tmp_path / ("an" + NOT_UTF8) / "report.md").read_text(encoding="utf-8")
     assert "# Analysis of `o\\udcff.jsonl`" in report
+
+
+def test_a_run_log_whose_name_is_not_utf8_is_written_and_read(tmp_path: Path) -> None:
+    """The header records the command line, the log's name in it: its bytes that are not
+    UTF-8 made the line invalid JSON (exit 2, "lone leading surrogate", an empty log left
+    behind); the name is recorded escaped, and the log reads back."""
+    log = tmp_path / ("L" + NOT_UTF8) / "x.jsonl"
+    out = run_in_process(["sort", "--quiet", "--log", log])
+    assert out.code == 0, out.stderr
+    lines = log.read_text(encoding="utf-8").splitlines()
+    header = json.loads(lines[0])
+    assert header["argv"][-1] == str(tmp_path / "Lo\\udcff" / "x.jsonl")
+    assert all(json.loads(line) for line in lines)
+    read = run_in_process(["analyze", log, "--out", tmp_path / "an"], within_s=20)
+    assert read.code == 0, read.stderr

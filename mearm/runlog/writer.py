@@ -19,7 +19,7 @@ import numpy as np
 from pydantic import ValidationError
 
 from mearm.config import Config
-from mearm.fileio import existing_ancestor
+from mearm.fileio import escaped, existing_ancestor
 from mearm.runlog.errors import RunLogError
 from mearm.runlog.lock import LogLock, lock_file
 from mearm.runlog.reader import _TrialBuilder
@@ -39,13 +39,19 @@ from mearm.runlog.records import (
 
 
 def _plain(value: Any) -> Any:
-    """Numpy arrays and scalars, tuples and mappings → JSON-ready Python values."""
+    """Numpy arrays and scalars, tuples and mappings → JSON-ready Python values.
+
+    Text is what UTF-8 can hold (:func:`mearm.fileio.escaped`): a file name that is not
+    UTF-8 (``argv``'s ``--log``) is recorded with those bytes escaped, so the line is JSON.
+    """
+    if isinstance(value, str):
+        return escaped(value)
     if isinstance(value, np.ndarray):
         return value.tolist()
     if isinstance(value, np.generic):
         return value.item()
     if isinstance(value, Mapping):
-        return {str(k): _plain(v) for k, v in value.items()}
+        return {escaped(str(k)): _plain(v) for k, v in value.items()}
     if isinstance(value, list | tuple):
         return [_plain(v) for v in value]
     return value
