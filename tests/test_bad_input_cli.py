@@ -328,3 +328,16 @@ def test_a_damaged_video_says_one_line_in_a_real_process(
     filled = [a.format(video=video, tmp=tmp_path / "snaps") for a in argv]
     out = check_bad_input_subprocess(filled, within_s=5, keep=[tmp_path])
     assert words in out.line
+
+
+@bad_input
+def test_a_twin_of_a_config_whose_name_is_not_utf8_is_refused(tmp_path: Path) -> None:
+    """The twin's ``extends`` names the maker's config, which YAML (UTF-8 text) cannot
+    when the name is other bytes: it was blamed on the YAML ("malformed YAML … U+DCFF");
+    now the name is, and nothing is written."""
+    mine = tmp_path / "m\udcff.yaml"
+    mine.write_bytes((CONFIGS / "sim.yaml").read_bytes())
+    argv = ["init-config", tmp_path / "twin.yaml", "--of", mine, "--rig", "sim"]
+    out = check_bad_input(argv, keep=[tmp_path])
+    assert f"--of {mine}: the name is not UTF-8 text" in out.line
+    assert not (tmp_path / "twin.yaml").exists()

@@ -230,3 +230,19 @@ def test_a_run_log_whose_name_is_not_utf8_is_written_and_read(tmp_path: Path) ->
     assert all(json.loads(line) for line in lines)
     read = run_in_process(["analyze", log, "--out", tmp_path / "an"], within_s=20)
     assert read.code == 0, read.stderr
+
+
+@pytest.mark.parametrize("source", [["--arm", "paper"], ["--of", "sim"]], ids=["arm", "twin"])
+def test_a_config_whose_name_is_not_utf8_is_written(source: list[str], tmp_path: Path) -> None:
+    """The starter config's comments name it ("mearm sort --config NAME"): its bytes
+    that are not UTF-8 were refused as the YAML's ("malformed YAML … U+DCFF", exit 2);
+    they are written escaped, and the config loads."""
+    from mearm.config import load_config
+
+    path = tmp_path / (NOT_UTF8 + ".yaml")
+    out = run_in_process(["init-config", path, *source, "--rig", "sim"], within_s=10)
+    assert out.code == 0, out.stderr
+    assert "--config 'o\\udcff.yaml'" in path.read_text(encoding="utf-8").replace(
+        str(tmp_path) + "/", ""
+    )
+    load_config(path)

@@ -70,7 +70,7 @@ from mearm.config.compose import EXTENDS_KEY, USE_KEY, expand_config
 from mearm.config.defaults import DEFAULT_ARM
 from mearm.config.files import resolve_config_path
 from mearm.errors import ConfigError, MearmError
-from mearm.fileio import backup_path
+from mearm.fileio import backup_path, escaped
 from mearm.maker.wiring import Board, wiring_text
 from mearm.yamlio import load_yaml_file, load_yaml_text
 
@@ -329,6 +329,7 @@ def render_config(arm: ArmChoice, rig: RigChoice, config_name: str) -> str:
     Raises:
         MearmError: the arm cannot run on the rig (more servos than the board drives).
     """
+    config_name = escaped(config_name)  # a file name that is not UTF-8: YAML is UTF-8 text
     source = reference_file(arm, rig)
     folder = reference_config_dir()
     text = (folder / source).read_text(encoding="utf-8")
@@ -584,10 +585,18 @@ def render_twin(of: Path, out: Path, arm: ArmChoice, rig: RigChoice, mine: Confi
     (:func:`_servo_limits_on`; the built-in arm's, named, when the maker's config writes
     no ``arm``), its class settings on the maker's classes (:func:`_class_settings_on`;
     the built-in classes, written out, when it writes no ``task.classes``).
+
+    Raises:
+        MearmError: ``of``'s name is not UTF-8, which ``extends`` cannot name.
     """
     folder = reference_config_dir()
     sim = load_config(folder / arm.sim)
     extends = twin_extends(of, out)
+    if escaped(extends) != extends:  # (the name must be the file's own: no escape names it)
+        raise MearmError(
+            f"--of {of}: the name is not UTF-8 text, which the twin's extends (YAML, UTF-8) "
+            "cannot name: rename the file"
+        )
     own: dict[str, Any] = {}
     if rig.name == "sim_mujoco":
         twin = load_yaml_text((folder / arm.twin).read_text(encoding="utf-8"), source=arm.twin)
@@ -656,7 +665,7 @@ def render_twin(of: Path, out: Path, arm: ArmChoice, rig: RigChoice, mine: Confi
         )
         + f"# Next steps:\n#   1. mearm sort --config {name}\n#   2. mearm jog --config {name}\n\n"
     )
-    return header + _yaml(sections)
+    return escaped(header) + _yaml(sections)  # (a file name that is not UTF-8: escaped)
 
 
 def check_folder(text: str, out: Path, what: str = "the starter config") -> None:
