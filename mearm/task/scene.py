@@ -417,21 +417,36 @@ def _walls_shut_table(config: Config, colors: Sequence[str]) -> str | None:
                 break
             failures.append(route.failure or "")
         else:
-            walls = [
-                c
-                for c in config.task.classes
-                if c.name in grown and any(bin_name(c.name) in f for f in failures)
-            ]
-            if not walls:
+            stopped = _walls_that_stop(config, table, failures, grown)
+            if stopped is None:
                 continue
-            c = walls[0]
-            n = table.objects(c.name)
-            first = next(f for f in failures if bin_name(c.name) in f)
+            walls, first = stopped
             return (
-                f"class {c.name}: its bin's walls, built {wall_height_m(c, n) / M_PER_CM:.3g} "
-                f"cm tall to hold its {n} objects stacked, leave the arm no way from home to "
-                f"the table (a pick of a {cls.name} object planned to each of {len(failures)} "
-                f"points across the camera's field: {first})"
+                f"{walls} table (a pick of a {cls.name} object planned to each of "
+                f"{len(failures)} points across the camera's field: {first})"
+            )
+    return None
+
+
+def _walls_that_stop(
+    config: Config, table: TableContents, failures: Sequence[str], among: set[str] | None = None
+) -> tuple[str, str] | None:
+    """The first bin (of ``among``, default any) whose wall stopped one of ``failures``.
+
+    Its words, up to where the arm has no way from home to (``"class red: its bin's walls,
+    built 13 cm tall to hold its 12 objects stacked, leave the arm no way from home to the"``),
+    and the first failure it stopped; ``None`` where no bin's wall stopped one.
+    """
+    for c in config.task.classes:
+        if among is not None and c.name not in among:
+            continue
+        first = next((f for f in failures if bin_name(c.name) in f), None)
+        if first is not None:
+            n = table.objects(c.name)
+            return (
+                f"class {c.name}: its bin's walls, built {wall_height_m(c, n) / M_PER_CM:.3g} cm "
+                f"tall to hold its {n} objects stacked, leave the arm no way from home to the",
+                first,
             )
     return None
 
@@ -471,17 +486,11 @@ def _walls_block_belt(config: Config, colors: Sequence[str]) -> str | None:
         if planner.plan(route, model.home).planned:
             return None
         failures.append(route.failure or "")
-    walls = [c for c in config.task.classes if any(bin_name(c.name) in f for f in failures)]
-    if not walls:
+    stopped = _walls_that_stop(config, table, failures)
+    if stopped is None:
         return None
-    c = walls[0]
-    n = table.objects(c.name)
-    first = next(f for f in failures if bin_name(c.name) in f)
-    return (
-        f"class {c.name}: its bin's walls, built {wall_height_m(c, n) / M_PER_CM:.3g} cm tall "
-        f"to hold its {n} objects stacked, leave the arm no way from home to the belt "
-        f"(a pick planned to each of {BELT_CHECK_POINTS} points along it: {first})"
-    )
+    walls, first = stopped
+    return f"{walls} belt (a pick planned to each of {BELT_CHECK_POINTS} points along it: {first})"
 
 
 def _release_below_walls(config: Config, colors: Sequence[str]) -> str | None:
