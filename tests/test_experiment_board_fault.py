@@ -24,7 +24,7 @@ from mearm.runlog import read_runlog
 def rig(tmp_path: Path) -> Path:
     """A real rig's config: a folder camera of an empty table, servos on ``tmp_path/tty``."""
     return empty_table_rig(
-        tmp_path, "  banner_timeout_s: 1.0\n  ack_timeout_s: 0.5\n  rate_hz: 1000\n"
+        tmp_path, "  banner_timeout_s: 5.0\n  ack_timeout_s: 2.0\n  rate_hz: 1000\n"
     )
 
 
