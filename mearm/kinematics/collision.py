@@ -994,8 +994,8 @@ class CollisionModel:
             allowance_m: How much nearer than the clearance (and each pair's floor) the
                 path may come [m]. A path this check passed keeps the clearance between
                 the poses it checked but :data:`TOUCH_M` more at them, so the same path
-                sampled elsewhere (the commands' chords: :meth:`Executor._followed
-                <mearm.task.execute.Executor._followed>`) may come within that band of
+                sampled elsewhere (the commands' chords: :meth:`Executor.followed
+                <mearm.task.execute.Executor.followed>`) may come within that band of
                 it and be refused; with ``TOUCH_M`` it is held to the clearance itself.
         """
         path = np.atleast_2d(np.asarray(q_path, dtype=float))

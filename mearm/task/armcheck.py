@@ -39,12 +39,14 @@ like. The moved camera projects a point :math:`X` where the camera checked proje
 Every route to and from the object is planned in full (:class:`~mearm.task.plan.Planner`)
 before any of it is sent (:class:`~mearm.task.execute.Executor`), as in the sort, and
 checked against the bins, the table and the other objects (the sort's collision model,
-:func:`~mearm.sim.table_collision.collision_model`); a move whose plan fails is not made
-and its point carries the reason. From above the point the arm goes home the sort's
-checked way (:func:`~mearm.task.homing.go_home`): along a straight line in joint space
-where it is clear, else up to the safe height first, or over to above home; where no
-way is clear, nothing more is sent and the check stops (``not parked: the way home
-…``).
+:func:`~mearm.sim.table_collision.collision_model`), the commands the servos follow too,
+chord by chord (:meth:`~mearm.task.execute.Executor.followed`); a move whose plan or
+commands fail is not made and its point carries the reason. From above the point (and
+after the servos' calibration at the start, in the fitted calibration) the arm goes home
+the sort's checked way (:func:`~mearm.task.homing.go_home`): along a straight line in
+joint space where it is clear, else up to the safe height first, or over to above home;
+where no way is clear, nothing more is sent and the check stops (``not parked: the way
+home …``).
 
 **Where the points lie.** A set-down leaves the object near, not at, its point: the arm
 stops a little short of its pose and the object sits a little off-centre in the jaws
@@ -75,12 +77,13 @@ from mearm.hardware.errors import ServoError
 from mearm.ik import IKTarget
 from mearm.kinematics import ArmModel
 from mearm.sim.table_collision import collision_model
-from mearm.task.execute import Executor
+from mearm.task.execute import CollisionError, Executor
 from mearm.task.homing import go_home
 from mearm.task.plan import Planner
 from mearm.task.rig import Rig, open_rig
 from mearm.task.route import Route
 from mearm.task.sorter import CalibrateFirst, calibrates_at_start, check_calibrate_at_start
+from mearm.task.timing import TimedPath
 from mearm.vision import Camera, ColorDetector, Detection
 from mearm.vision.arm_mask import RIM_POINTS, arm_view
 from mearm.vision.calibration import CameraGeometry, camera_geometry
@@ -331,6 +334,10 @@ class Refusal:
     taking_up: bool
 
 
+#: A route planned, and the world it was planned in (sets the collision model's).
+_Planned = tuple[Route, Callable[[], None]]
+
+
 class _Arm:
     """Moves one object with the sort's planner, collision model and executor.
 
@@ -376,30 +383,32 @@ class _Arm:
 
     def _plan(
         self, steps: Sequence[tuple[str, IKTarget, Callable[[], None], str | None]], q: np.ndarray
-    ) -> tuple[list[Route], str | None]:
+    ) -> tuple[list[_Planned], str | None]:
         """Plan ``steps`` in turn, each from where the one before ends.
 
         Each step: its name, its target, the world it moves in (sets the collision model's)
-        and what its jaws close on (``None``: nothing). Returns the routes planned and the
-        first failure (``None``: every step planned).
+        and what its jaws close on (``None``: nothing). Returns the routes planned, each
+        with its world, and the first failure (``None``: every step planned).
         """
-        routes: list[Route] = []
+        planned: list[_Planned] = []
         for step, target, world, closes_on in steps:
             world()
             route = Route(MOVED_ID, self.cls.name, step, 1, target)  # type: ignore[arg-type]
             if not self.planner.plan(route, q, target=closes_on).planned:
                 where = ", ".join(f"{v:.2f}" for v in target.position_cm)
-                return routes, f"{step} to ({where}) cm cannot be planned: {route.failure}"
+                return planned, f"{step} to ({where}) cm cannot be planned: {route.failure}"
             assert route.plan is not None
             q = route.plan.q
-            routes.append(route)
-        return routes, None
+            planned.append((route, world))
+        return planned, None
 
-    def plan_take_up(self, at_cm: npt.ArrayLike, q: np.ndarray) -> tuple[list[Route], str | None]:
+    def plan_take_up(
+        self, at_cm: npt.ArrayLike, q: np.ndarray
+    ) -> tuple[list[_Planned], str | None]:
         """Plan taking the object up where it lies at ``at_cm``, from pose ``q``.
 
         Above it (with ``task.approach_height_cm``), down around it, and up with it: the
-        routes planned, and the first failure (``None``: all planned).
+        routes planned, each with its world, and the first failure (``None``: all planned).
         """
         pick = self.planner.pick_target(self.cls, *np.asarray(at_cm, dtype=float))
         lying = partial(self._lying_at, at_cm)
@@ -441,26 +450,53 @@ class _Arm:
             [("approach", self._above(place), self._holding, None),
              ("pick", place, self._holding, None),
              ("lift", self._above(place), lying, MOVED_ID)],  # the open jaws around it
-            taking[-1].plan.q,  # type: ignore[union-attr]
+            taking[-1][0].plan.q,  # type: ignore[union-attr]
         )  # fmt: skip
         if failure is not None:
             return Refusal(failure, taking_up=False)
+        # the jaws open on the way to the object and up from the spot, closed between
+        closed = [False] * (len(taking) - 1) + [True, True, True, False]
+        timed, failure = self._followed([*taking, *putting], closed)
+        if failure is not None:
+            return Refusal(failure, taking_up=len(timed) < len(taking))
         ex = self.ex
-        *to_pick, lift = taking
-        across, down, up = putting
-        for route in to_pick:
-            ex.stream(route, "travel", closed=False)
+        routes = [(route, t) for (route, _), t in zip([*taking, *putting], timed, strict=True)]
+        *to_pick, lift = routes[: len(taking)]
+        across, down, up = routes[len(taking) :]
+        for route, t in to_pick:
+            ex.stream(route, "travel", closed=False, timed=t)
         ex.set_tool("grip", closed=False)
         ex.set_tool("grip", closed=True)
         ex.set_tool("travel", closed=True)
-        ex.stream(lift, "travel", closed=True)
-        ex.stream(across, "travel", closed=True)
-        ex.stream(down, "travel", closed=True)
+        for route, t in (lift, across, down):
+            ex.stream(route, "travel", closed=True, timed=t)
         ex.set_tool("grip", closed=True)  # the jaws come down around the spot, then open
         ex.set_tool("grip", closed=False)
-        ex.stream(up, "grip", closed=False)  # straight up, the open jaws clear of the object
+        # straight up, the open jaws clear of the object
+        ex.stream(up[0], "grip", closed=False, timed=up[1])
         self.home(to_cm)
         return None
+
+    def _followed(
+        self, planned: Sequence[_Planned], closed: Sequence[bool]
+    ) -> tuple[list[TimedPath], str | None]:
+        """Each route's commands as the servos follow them, all checked before any is sent.
+
+        Between two commands the servos move on the chord between them, which cuts a
+        corner of the plan (:meth:`Executor.followed
+        <mearm.task.execute.Executor.followed>`): each route's chords are checked in the
+        world it was planned in, as the sort's are (``closed``: whether the jaws hold the
+        object along each, its speed limits then). The timed commands up to the first
+        route not followed clear, and why it is not (``None``: every one is).
+        """
+        timed: list[TimedPath] = []
+        for (route, world), holds in zip(planned, closed, strict=True):
+            world()
+            try:
+                timed.append(self.ex.followed(route, carrying=holds))
+            except CollisionError as exc:
+                return timed, str(exc)
+        return timed, None
 
     def home(self, left_at_cm: npt.ArrayLike) -> None:
         """Home the sort's checked way (:func:`~mearm.task.homing.go_home`), the gripper open.
@@ -772,13 +808,17 @@ def _check(
     say: Callable[[str], None],
 ) -> ArmCheck:
     """:func:`run_check`'s work on the open rig."""
-    ex = Executor(config, rig.bus, rig.model)
-    ex.home_pose()
-    config, ex, notes = _servos_calibrated(config, rig, ex, calibrate_first)
+    Executor(config, rig.bus, rig.model).home_pose()
+    config, model, notes = _servos_calibrated(config, rig, calibrate_first)
     for line in notes:
         say(line)
-    collision = collision_model(config, ex.model, clearance_cm=config.task.clearance_cm)
-    planner = Planner(config, ex.model, collision)
+    collision = collision_model(config, model, clearance_cm=config.task.clearance_cm)
+    planner = Planner(config, model, collision)
+    # each route's commands checked as the servos follow them, chord by chord, as the sort's
+    ex = Executor(config, rig.bus, model, collision=collision)
+    if model is not rig.model:  # home as the fit has it, the checked way (no object known yet)
+        collision.set_world([], opening_cm=config.arm.tool.gripper.open_cm)
+        go_home(ex, planner, closed=False)
     found = _table_detections(detector, config, rig.camera.read())
     obj = _chosen_object(found, class_name)
     cls = config.task.class_named(obj.color)
@@ -818,32 +858,28 @@ def _check(
 
 
 def _servos_calibrated(
-    config: Config, rig: Rig, ex: Executor, calibrate_first: CalibrateFirst | None
-) -> tuple[Config, Executor, list[str]]:
+    config: Config, rig: Rig, calibrate_first: CalibrateFirst | None
+) -> tuple[Config, ArmModel, list[str]]:
     """The sort's calibration at the start (``servo.calibrate_at_start``), the arm at home.
 
     Servos never calibrated are calibrated by the camera as the sort's are
-    (:meth:`mearm.task.sorter.Sorter.run`), and the arm goes home in the calibration
-    found: the config and the executor to check with, and the lines to print. Else
-    ``config`` and ``ex`` as they are.
+    (:meth:`mearm.task.sorter.Sorter.run`): the config and the arm model to check with
+    (its limits narrowed where the fit says so; the caller takes the arm home in it, the
+    checked way), and the lines to print. Else ``config``, ``rig.model`` and a note at most.
 
     Raises:
         StartCalibrationFailed: the fit did not converge or was refused.
         ServoError: a fault while moving.
     """
     if not calibrates_at_start(config):
-        return config, ex, []
+        return config, rig.model, []
     if calibrate_first is None:
-        return config, ex, [
+        return config, rig.model, [
             "note: servo.calibrate_at_start: this command does not calibrate the servos "
             "first; the check uses the arm's nominal calibration"
         ]  # fmt: skip
-    config, lines = calibrate_first(config, rig.camera, rig.bus, ex.model, simulated=rig.simulated)
-    model = ArmModel(config.arm)  # its limits, narrowed where the fit says so
-    ex = Executor(config, rig.bus, model)
-    ex.move_joints(model.home, "travel", closed=False)
-    ex.home_pose()
-    return config, ex, lines
+    config, lines = calibrate_first(config, rig.camera, rig.bus, rig.model, simulated=rig.simulated)
+    return config, ArmModel(config.arm), lines
 
 
 def _checked_geometry(

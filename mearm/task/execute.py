@@ -323,17 +323,37 @@ class Executor:
         timed = time_path(q_path, self.chain, limits, 1.0 / self.bus.step_s)
         return dataclasses.replace(timed, period_s=period)
 
-    def stream(self, route: Route, phase: Phase, *, closed: bool, color: str = "#202020") -> Route:
+    def stream(
+        self,
+        route: Route,
+        phase: Phase,
+        *,
+        closed: bool,
+        color: str = "#202020",
+        timed: TimedPath | None = None,
+    ) -> Route:
         """Send every pose of a planned route; refuse one that is not fully planned.
+
+        Args:
+            route: The route, planned.
+            phase: The tool's setting on the way.
+            closed: Whether the gripper is closed on the way.
+            color: The route's colour in the view.
+            timed: Its commands as :meth:`followed` gave them, checked in the world the
+                route was planned in (a caller that checks several routes before sending
+                the first); ``None``: timed and checked here, in the world as it is.
 
         Raises:
             ValueError: the route's plan is missing or failed (a bug: callers check).
+            CollisionError: its commands' chords come too close to something
+                (:meth:`followed`); nothing of the route was sent.
         """
         if not route.planned:
             raise ValueError(f"route {route.step} {route.object_id} is not planned: not sent")
         assert route.plan is not None
         # in full, checked, before anything is sent
-        timed = self._followed(route, carrying=closed)
+        if timed is None:
+            timed = self.followed(route, carrying=closed)
         if self.view is not None:
             self.view.set_target(route.target.position_cm)
         for q in timed.q[1:]:
@@ -347,7 +367,7 @@ class Executor:
             self.view.add_path(route.plan.ee_path_cm, color)
         return route
 
-    def _followed(self, route: Route, *, carrying: bool) -> TimedPath:
+    def followed(self, route: Route, *, carrying: bool) -> TimedPath:
         """``route``'s plan timed, with its commands' chords as clear as the plan.
 
         Between two commands the servos move on the chord between them

@@ -306,8 +306,9 @@ class Sorter(PickAndPlace):
         self._calibrated_parts(config, self.view)
         for line in lines:
             self.reporter.echo(line)
-        self.executor.move_joints(self.model.home, "travel", closed=False)
-        self.executor.home_pose()
+        # home as the fit has it (a degree or two from where the calibration parked): the
+        # checked way, against the bins and the table (no object is known yet)
+        self._home()
 
     @property
     def report(self) -> SortReport:
