@@ -500,10 +500,14 @@ def _check_bodies(config: Config, model: ArmModel, collision: CollisionModel) ->
         keeps = (
             f"task.clearance_cm: {config.task.clearance_cm:g} cm is more than the arm keeps "
             f"from {name}'s bin at home ({part}, {_cm_down(distance)} cm)"
+            if distance < config.task.clearance_cm
+            else f"task.clearance_cm: {config.task.clearance_cm:g} cm is too much for the "
+            f"arm at home beside {name}'s bin ({part}, {too_little_spare(distance, config)})"
         )
         walls = _walls_built(config, collision, name)
         if shut is None:
-            problems.append(f"{keeps}: at most {_cm_down(distance)} cm, or move the bin{walls}")
+            most = _cm_down(distance - TOUCH_CM)
+            problems.append(f"{keeps}: at most {most} cm, or move the bin{walls}")
         elif most_cm is not None:
             problems.append(
                 f"{keeps}: at most {most_cm:.2f} cm (at {_cm_down(min(kept))} cm the arm has "
@@ -672,7 +676,7 @@ def _clearance_into_bins(
     name)``: none does.
     """
     home = [(None, np.asarray(model.home, dtype=float))]
-    cents = math.floor(home_cm * 100)
+    cents = math.floor((home_cm - TOUCH_CM) * 100)  # (a check keeps TOUCH_CM more)
     shut = _place_shut_at(config, model, cents / 100, home)
     if shut is None:
         return None, None
@@ -686,6 +690,19 @@ def _clearance_into_bins(
         else:
             bad = mid
     return good / 100, shut
+
+
+def too_little_spare(distance_cm: float, config: Config) -> str:
+    """A distance the arm at home keeps from a bin, over ``task.clearance_cm`` by too little.
+
+    The clearance holds there, but not the :data:`TOUCH_CM` a check keeps beyond it
+    (:func:`bins_near_home`): the words a refusal says it with.
+    """
+    c = config.task.clearance_cm
+    return (
+        f"{distance_cm:.4f} cm, {distance_cm - c:.4f} cm over task.clearance_cm ({c:g} cm), "
+        f"less than the {TOUCH_CM:g} cm the checks keep beyond it"
+    )
 
 
 def _cm_down(distance_cm: float) -> str:
@@ -743,9 +760,13 @@ def bins_near_home(
     ``(class, arm part, distance [cm])`` per such bin, as ``collision`` builds the bins
     (their walls as tall as the table it was built for makes them:
     :func:`~mearm.kinematics.bodies.wall_height_m`). Every run starts and ends at home.
+    Less than the clearance as the way home counts it: with :data:`TOUCH_CM` to spare
+    (:meth:`~mearm.kinematics.collision.CollisionModel.first_contact`); a belt's walls
+    grown to 0.30094 cm from the paper arm's jaws at home passed a clearance of 0.3 cm
+    here, and the sort then stopped after its first object, not parked.
     """
     for name, part, distance in collision.bins_at(model.home):
-        if distance < config.task.clearance_cm or distance <= TOUCH_CM:
+        if distance < config.task.clearance_cm + TOUCH_CM or distance <= TOUCH_CM:
             yield name, part, distance
 
 

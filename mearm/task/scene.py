@@ -38,7 +38,7 @@ from mearm.kinematics.bodies import (
 from mearm.kinematics.collision import TOUCH_M, CollisionModel
 from mearm.kinematics.model import CM_PER_M
 from mearm.sim.table_collision import collision_model
-from mearm.task.check import bins_near_home
+from mearm.task.check import bins_near_home, too_little_spare
 from mearm.task.plan import Planner
 from mearm.task.route import Route
 from mearm.vision.calibration import camera_geometry
@@ -310,10 +310,15 @@ def _walls_by_home(config: Config, colors: Sequence[str]) -> str | None:
             continue
         n = table.objects(name)
         wall_cm = wall_height_m(config.task.class_named(name), n) / M_PER_CM
+        near = (
+            f"{distance:.2f} cm of the arm at home ({part}), less than task.clearance_cm "
+            f"({config.task.clearance_cm:g} cm)"
+            if distance < config.task.clearance_cm
+            else f"{too_little_spare(distance, config)}, of the arm at home ({part})"
+        )
         return (
             f"class {name}: its bin's walls, built {wall_cm:.3g} cm tall to hold its {n} "
-            f"objects stacked, come within {distance:.2f} cm of the arm at home ({part}), "
-            f"less than task.clearance_cm ({config.task.clearance_cm:g} cm)"
+            f"objects stacked, come within {near}"
         )
     return None
 
