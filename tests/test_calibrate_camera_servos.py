@@ -17,6 +17,7 @@ import mujoco
 import numpy as np
 import pytest
 from badinput import ROOT, check_bad_input, run_in_process
+from checked_commands import watch_streams
 
 from mearm.config import load_config
 from mearm.config.servo_file import (
@@ -275,11 +276,16 @@ def test_ctrl_c_parks_the_arm_and_writes_nothing(
 
 @pytest.mark.slow
 def test_the_camera_calibrates_a_kit_that_then_sorts_without_touching_anything(
-    tmp_path: Path, watched: list
+    tmp_path: Path, watched: list, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     out = tmp_path / "kit.servos.yaml"
+    streams = watch_streams(monkeypatch)
     result = run_in_process(_camera(out=out), within_s=120)
     assert result.code == 0, result.stdout[-3000:] + result.stderr
+    # every planned route it streamed was sent as commands checked chord by chord (until
+    # 2026-12-07 the calibration's executor had no collision model: they were not)
+    unchecked = streams.unchecked()
+    assert streams.streamed and not unchecked, f"{len(unchecked)} of {len(streams.streamed)}"
     bus, watch = watched[0]
     # never touched the table or a bin: no contact, and 1 cm from them at least throughout
     # (2.4-3.1 cm measured on seeds 1-6, nearest at home, over the red bin)

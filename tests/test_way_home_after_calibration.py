@@ -17,6 +17,7 @@ from typing import Any
 
 import numpy as np
 import pytest
+from checked_commands import watch_streams
 from conftest import ROOT
 
 from mearm.config import Config, SceneObject, load_config
@@ -126,38 +127,12 @@ def test_check_camera_checks_each_route_as_the_servos_follow_it(
     <mearm.task.execute.Executor.followed>`); until 2026-12-07 the check's executor had
     no collision model and sent them unchecked.
     """
-    from mearm.kinematics.collision import CollisionModel
     from mearm.tools.check_camera import main
 
-    checked: set[bytes] = set()  # each path checked, but its first pose (where it starts)
-    streamed: list[np.ndarray] = []
-    first_contact, send, stream = (
-        CollisionModel.first_contact, Executor.send, Executor.stream
-    )  # fmt: skip
-    sending: list[list[np.ndarray]] = []
-
-    def spied_contact(self, q_path, **kwargs):  # noqa: ANN001, ANN202
-        checked.add(np.atleast_2d(np.asarray(q_path, dtype=float))[1:].tobytes())
-        return first_contact(self, q_path, **kwargs)
-
-    def spied_send(self, q, *args, **kwargs):  # noqa: ANN001, ANN202
-        if sending:
-            sending[-1].append(np.asarray(q, dtype=float))
-        return send(self, q, *args, **kwargs)
-
-    def spied_stream(self, route, *args, **kwargs):  # noqa: ANN001, ANN202
-        sending.append([])
-        try:
-            return stream(self, route, *args, **kwargs)
-        finally:
-            streamed.append(np.array(sending.pop()))  # the commands after its first pose
-
-    monkeypatch.setattr(CollisionModel, "first_contact", spied_contact)
-    monkeypatch.setattr(Executor, "send", spied_send)
-    monkeypatch.setattr(Executor, "stream", spied_stream)
+    watch = watch_streams(monkeypatch)
     code = main(["--config", str(ROOT / "configs" / "sim.yaml"), "--points", "2"])
     out, err = capsys.readouterr()
     assert code == 0, err
-    assert len(streamed) >= 2 * 6, out  # each point: above, down, up, across, down, up
-    unchecked = [k for k, path in enumerate(streamed) if path.tobytes() not in checked]
-    assert not unchecked, f"routes {unchecked} of {len(streamed)} were sent unchecked"
+    assert len(watch.streamed) >= 2 * 6, out  # each point: above, down, up, across, down, up
+    unchecked = watch.unchecked()
+    assert not unchecked, f"routes {unchecked} of {len(watch.streamed)} were sent unchecked"

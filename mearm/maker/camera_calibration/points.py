@@ -26,6 +26,7 @@ from mearm.task.claw_fit import ClawCamera
 from mearm.task.execute import JOINT_STEP
 from mearm.task.plan import Planner
 from mearm.task.route import Route
+from mearm.task.timing import TimedPath
 from mearm.vision.detector import ColorDetector
 from mearm.vision.pinhole import PerspectiveCamera
 
@@ -64,10 +65,14 @@ class Visit:
         route: A planned route first, or ``None``.
         lines: Then straight lines in the joints, each from where the last ends, (k, n)
             model units each; the last one the final move to the point.
+        timed: The route's commands as the servos follow them, checked chord by chord
+            (:meth:`Executor.followed <mearm.task.execute.Executor.followed>`); ``None``
+            without a route. (A line's commands lie on the line: checked with it.)
     """
 
     route: Route | None
     lines: tuple[np.ndarray, ...]
+    timed: TimedPath | None = None
 
     def path(self) -> np.ndarray:
         """Every pose the visit passes, in order, (k, n) model units."""

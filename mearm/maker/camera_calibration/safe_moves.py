@@ -40,10 +40,11 @@ from mearm.maker.camera_calibration.settings import (
 )
 from mearm.sim.table_collision import collision_model
 from mearm.task.claw_fit import ClawCamera
-from mearm.task.execute import Executor
+from mearm.task.execute import CollisionError, Executor
 from mearm.task.plan import Planner
 from mearm.task.rig import Rig
 from mearm.task.route import Route
+from mearm.task.timing import TimedPath
 
 
 @dataclass(frozen=True)
@@ -395,8 +396,9 @@ class SafeMoves:
                 return "the final move: " + why
             visit = dataclasses.replace(visit, lines=(*visit.lines, final))
             why, reach = self.path_refusal(visit.path())
-            if why is None and visit.route is not None:  # the lines were checked whole
+            if why is None and visit.timed is not None:  # the lines were checked whole
                 why = self.objects_refusal(visit.route.plan.q_path)  # type: ignore[union-attr]
+                why = why or self.objects_refusal(visit.timed.q)  # and the route's commands
             if why is not None:
                 return why
             if self.clearance_cm(reach) <= clearance:
@@ -445,15 +447,35 @@ class SafeMoves:
         route = Route("", "", "approach", 1, IKTarget((x, y, z), approach))
         if not self.planner(clearance_cm).plan(route, q0).planned or route.plan is None:
             return route.failure or "no plan"
+        timed = self.followed(route, clearance_cm)
+        if isinstance(timed, str):
+            return timed
         turn = np.abs(self.chain.actuated_of(self.turned(start, -1.0) - start))
         off = np.abs(self.chain.actuated_of(route.plan.q - start))
         if np.all(off <= 0.1 * turn):  # there, to the solver's tolerance
-            return Visit(route, ())
+            return Visit(route, (), timed)
         line = joint_line(self.chain, route.plan.q, start)
         why = self.line_refusal(line, clearance_cm)
         if why is not None:
             return "the way to where its final move starts: " + why
-        return Visit(route, (line,))
+        return Visit(route, (line,), timed)
+
+    def followed(self, route: Route, clearance_cm: float) -> TimedPath | str:
+        """``route``'s commands as the servos follow them, checked at ``clearance_cm``; or why not.
+
+        Between two commands a servo moves on the chord between them, a little off the
+        planned polyline where it turns: the chords are checked as the plan was, and the
+        sort's (:meth:`Executor.followed <mearm.task.execute.Executor.followed>`: slower
+        where they come too close).
+        """
+        ex = self.executor
+        ex.collision = self.collision(clearance_cm)
+        try:
+            return ex.followed(route, carrying=False)
+        except CollisionError as exc:
+            return str(exc)
+        finally:
+            ex.collision = None
 
     def line_refusal(self, path: np.ndarray, clearance_cm: float) -> str | None:
         """Why a straight line in the joints may not be sent: the limits or a collision."""
@@ -478,7 +500,7 @@ class SafeMoves:
     def go(self, visit: Visit) -> None:
         """Stream a visit's route, if any, then its lines (as checked)."""
         if visit.route is not None:
-            self.executor.stream(visit.route, "travel", closed=False)
+            self.executor.stream(visit.route, "travel", closed=False, timed=visit.timed)
         for line in visit.lines:
             self.line(line)
 
@@ -538,8 +560,13 @@ class SafeMoves:
             approach = self.present.arm.tool.pick_approach
             up = Route("", "", "home", 1, IKTarget((x, y, max(z, safe)), approach))
             if planner.plan(up, ex.q_now()).planned and up.plan is not None:
-                if self.objects_refusal(up.plan.q_path) is None:
-                    ex.stream(up, "travel", closed=False)
+                timed = self.followed(up, clearance)  # its commands checked as its plan
+                if isinstance(timed, str):
+                    why = f"{why}, and the way up: {timed}"
+                elif self.objects_refusal(up.plan.q_path) is None and (
+                    self.objects_refusal(timed.q) is None
+                ):
+                    ex.stream(up, "travel", closed=False, timed=timed)
                     why = self.line_refusal(ex.joint_path(home), clearance)
         if why is not None:
             raise CameraCalibrationFailed(
