@@ -152,7 +152,10 @@ CASES: dict[str, Case] = {
     "ssc32-pulse-read-back-wrong": ssc(
         "move not confirmed: channel", 3, fault_at_move=3, wrong_qp_us=100
     ),
-    "ssc32-extra-byte-in-answer": ssc("move not confirmed", 2, fault_at_move=2, extra_answers=1),
+    # one such answer is asked again (tests/test_hardware_ssc32.py); every one ends it
+    "ssc32-extra-byte-in-answer": ssc(
+        "an answer longer than", 2, fault_at_move=2, extra_answers=10**6
+    ),
     "ssc32-never-done": ssc("still moving", 2, fault_at_move=2, moving_forever=True),
     # ---- the SSC-32: restarts and bytes nobody asked for
     "ssc32-reset-mid-move": ssc("the SSC-32 restarted", 3, reset_at_move=3),

@@ -405,12 +405,29 @@ def test_fault_a_byte_too_many_after_the_answer():
         assert_fault_end_state(bus, board, fault, confirmed=2 if fault.last_state == two else 1)
 
 
-def test_fault_a_byte_too_many_inside_the_answer():
-    """An extra byte inside an answer shifts the rest: the pulses read back do not match."""
-    with FakeSSC32Board(SSC32Faults(fault_at_move=2, extra_answers=1)) as board:
+def test_a_byte_too_many_inside_the_answer_is_asked_again(caplog):
+    """An extra byte inside an answer shifts the rest: the pulses read back say nothing,
+    and the answer runs a byte long. Until 2026-12-07 that stopped the bus with
+    ``channel 0 reads 460 µs, sent 1500 µs``, blaming the servo for the line's noise; the
+    query is now asked again after a resync, and the move confirmed."""
+    faults = SSC32Faults(fault_at_move=2, extra_answers=1)
+    with FakeSSC32Board(faults) as board, connected(board) as bus:
+        with caplog.at_level(logging.WARNING):
+            for cmd in route(4):
+                bus.move(cmd)
+        assert faults.extra_answers == 0  # the byte was sent
+        assert board.received.count(b"VER") == 2  # the handshake, and the resync
+        assert any("try 1/3" in r.message for r in caplog.records), caplog.text
+        assert bus.state == ArmState.from_command(route(4)[-1]) and bus.fault is None
+
+
+def test_fault_a_byte_too_many_inside_every_answer():
+    """Every try's answer a byte long: GarbledReplyError naming it, not a pulse."""
+    with FakeSSC32Board(SSC32Faults(fault_at_move=2, extra_answers=100)) as board:
         bus = connected(board)
         fault = drive_until_fault(bus)
-        assert isinstance(fault, MoveNotConfirmedError)
+        assert isinstance(fault, GarbledReplyError) and not isinstance(fault, MoveNotConfirmedError)
+        assert "an answer longer than the" in str(fault), fault
         assert_fault_end_state(bus, board, fault, confirmed=1)
 
 

@@ -32,7 +32,11 @@ confirms each move with the board's own queries and keeps count of every byte:
   :class:`~mearm.hardware.errors.MoveNotConfirmedError` at once, or
   :class:`~mearm.hardware.errors.BoardResetError` when every channel reads 0 (limp) or the
   restart banner is in the reply. A move still running ``servo.ack_timeout_s`` after its
-  ``T`` is :class:`~mearm.hardware.errors.MoveNotConfirmedError` too.
+  ``T`` is :class:`~mearm.hardware.errors.MoveNotConfirmedError` too. An answer whose
+  pulses do not match and that runs longer than asked (a byte inside it, noise on the
+  line, shifted the rest) says nothing of the pulses: it is a try that read junk, asked
+  again after a resynchronisation, and
+  :class:`~mearm.hardware.errors.GarbledReplyError` when every try does.
 
 After any fault the bus sends nothing more (:class:`~mearm.hardware.bus.ServoBus`), and
 :attr:`~ServoBus.state` stays the last confirmed pose. ``stop()`` sends nothing: every
@@ -84,6 +88,10 @@ QP_STEP_US = 10
 POLL_MOVING_S = 0.002
 #: How long to wait for the rest of a restart banner after its first bytes [s].
 BANNER_WAIT_S = 0.05
+#: How long, after an answer whose pulses do not match, a byte more is waited for (an
+#: answer longer than asked: a byte inside it, noise on the line): a USB adapter's
+#: latency timer holds the last bytes up to 16 ms [s].
+OVERRUN_WAIT_S = 0.02
 #: Text the restart banner (and the answer to ``VER``) starts with.
 BANNER_MARKS = (b"SSC32", b"SSC-32")
 #: Longest answer to ``VER`` taken for a version.
@@ -368,7 +376,8 @@ class SSC32Bus(SerialServoBus):
 
         Raises:
             NoAckError: no complete answer on every try.
-            GarbledReplyError: ``Q`` answered something else than ``.``/``+`` on every try.
+            GarbledReplyError: ``Q`` answered something else than ``.``/``+``, or an
+                answer longer than asked, on every try.
             MoveNotConfirmedError: a pulse read back is not the one sent, or the move
                 still runs ``servo.ack_timeout_s`` after ``due``.
             BoardResetError: the board restarted.
@@ -407,14 +416,39 @@ class SSC32Bus(SerialServoBus):
                 due = time.monotonic() + POLL_MOVING_S
                 continue
             reported = {ch: QP_STEP_US * b for ch, b in zip(channels, reply[1:], strict=True)}
+            if _wrong(pulses_us, reported) and self._overran():
+                # a byte more than asked: one inside the answer shifted the rest, which
+                # says nothing of the pulses; asked again, after a resync
+                self._reject(reply, move)
+                failures += 1
+                self._failed_try(failures, tries, query, reply)
+                if failures >= tries:
+                    raise GarbledReplyError(
+                        move + query, tries, reply,
+                        f"an answer longer than the {len(reply)} bytes asked (a byte inside "
+                        "it shifted the pulses read back)",
+                        last_state=self.state,
+                    )  # fmt: skip
+                continue
             self._verify(move, reply, pulses_us, reported)
             return
+
+    def _overran(self) -> bool:
+        """Whether a byte follows an answer of the length asked, within :data:`OVERRUN_WAIT_S`.
+
+        The byte is kept for the resynchronisation that discards it.
+        """
+        byte = self._read_byte(time.monotonic() + OVERRUN_WAIT_S)
+        if byte is None:
+            return False
+        self._rx[:0] = byte
+        return True
 
     def _verify(
         self, move: bytes, reply: bytes, pulses_us: dict[int, int], reported: dict[int, int]
     ) -> None:
         """Raise unless every channel reads back the pulse sent (within :data:`QP_STEP_US`)."""
-        wrong = {ch: us for ch, us in reported.items() if abs(us - pulses_us[ch]) > QP_STEP_US}
+        wrong = _wrong(pulses_us, reported)
         if not wrong:
             return
         self._reject(reply, move)
@@ -442,3 +476,8 @@ class SSC32Bus(SerialServoBus):
         raise GarbledReplyError(
             frame, tries, reply, "no '.'/'+' answer to Q", last_state=self.state
         )
+
+
+def _wrong(pulses_us: Mapping[int, int], reported: Mapping[int, int]) -> dict[int, int]:
+    """The channels whose pulse read back is not the one sent (within :data:`QP_STEP_US`)."""
+    return {ch: us for ch, us in reported.items() if abs(us - pulses_us[ch]) > QP_STEP_US}
