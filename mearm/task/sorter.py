@@ -19,12 +19,13 @@ other can go first. Objects whose pick cannot be planned (out of reach, outside 
 target box, no converged solve) are reported and skipped; a failed grip (the object is still on the
 table in the frame taken once the arm is over the bin, where it hides nothing) is
 retried ``task.pick_retries`` times, whatever the jaws hold being let go back over its
-spot. A camera or servo
-failure, or Ctrl-C, parks the arm where it is safe to (home, if the servo link still
-answers; otherwise nothing more is sent), writes the reason to the run log and raises
-:class:`SortAborted`. A black frame, a frozen stream (:mod:`mearm.vision.frame_check`)
-and objects that moved between two looks though the arm went near none of them (the
-camera was knocked: its calibration no longer holds) are camera failures.
+spot; a place whose jaws came to the bin without the object counts as such a try. A
+camera or servo failure, or Ctrl-C, parks the arm where it is safe to (home, if the
+servo link still answers; otherwise nothing more is sent), writes the reason to the run
+log and raises :class:`SortAborted`. A black frame, a frozen stream
+(:mod:`mearm.vision.frame_check`) and objects that moved between two looks though the
+arm went near none of them (the camera was knocked: its calibration no longer holds) are
+camera failures.
 
 The loop is here; its parts each have a module: following the objects from look to look
 (:mod:`mearm.task.table_tracking`), one object's pick-and-place
