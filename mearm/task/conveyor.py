@@ -5,7 +5,9 @@ r"""Sorting what a conveyor belt brings: track each object, pick it where it wil
 1. **Look** every :data:`LOOK_PERIOD_S` while the arm waits, and after every move: each
    frame is dated when it was taken (the bus's clock minus ``camera.latency_s``), its
    whole objects on the belt feed the tracker (:class:`~mearm.vision.tracking.Tracker`),
-   and a track the arm hides coasts on its prediction.
+   and a track the arm hides coasts on its prediction. Each frame is checked as the still
+   table's looks are: black, frozen, or the bins seen moved (the camera was knocked; the
+   belt's objects move, so only the bins, which stand still, can show it).
 2. **Choose** the object farthest down the belt whose track has a velocity (seen
    :data:`MIN_SIGHTINGS` times).
 3. **Intercept**: the pick is planned for where the object will be when the jaws close
@@ -58,6 +60,7 @@ from mearm.task.pick_place import (
 from mearm.task.report import Outcome, SortReport
 from mearm.task.route import Route
 from mearm.task.sorter import Sorter, TrackedObject, _hex
+from mearm.task.table_tracking import check_bins
 from mearm.task.timing import tool_move_s
 from mearm.vision import Camera
 from mearm.vision.tracking import Track, Tracker, TrackState, whole_sightings
@@ -152,10 +155,16 @@ class ConveyorSorter(Sorter):
         Raises:
             CameraError: the frame is black, or the stream froze (:class:`FrameCheck`, as
                 the still table's looks check): the sort stops on it and parks, where a
-                belt watched by a dead camera ran on, every later object "never seen".
+                belt watched by a dead camera ran on, every later object "never seen";
+                or the bins appear moved (:func:`check_bins`, as the still table's looks
+                check): the view moved.
         """
         frame = self.camera.read()
         self.frame_check.check(frame, self.camera.frame_time_s, self.camera.clock_s)
+        hidden = None if self.arm_in_view is None else self.arm_in_view(frame.shape)
+        if self._bin_feet_cm is None:
+            self._bin_feet_cm = {}
+        check_bins(self._bin_feet.measure(frame, hidden), self._bin_feet_cm, self.camera.source)
         taken = max(self.now_s() - self.config.camera.latency_s, self._last_frame_s)
         self._last_frame_s = taken
         tracking = self.tracker.tracking
