@@ -12,7 +12,8 @@ a cube, to close on two of its faces (:meth:`Planner.turn_jaws`); over a disc, w
 diameter grips it, where the way down passes a wall or a neighbour within the clearance
 (``mearm.task.pick_place``). The turn is checked with the rest of the route, and an arm
 without such a joint, or a turn past the joint's limits or into something, keeps the jaws
-as they are.
+as they are. Otherwise a route keeps the jaws as it starts them, whatever its solve
+(:meth:`Planner._jaws_kept`): the random layout checks each pick's jaws unturned.
 
 **Collisions.** With a :class:`~mearm.kinematics.collision.CollisionModel` (the sorter
 always gives one) the whole path is checked against the table, the bins and the objects
@@ -305,7 +306,7 @@ class Planner:
         values at the two ends.
         """
         try:
-            result = self.solver.solve(target, q_start)
+            result = self._jaws_kept(self.solver.solve(target, q_start))
         except (TargetError, JointLimitError) as exc:
             return None, failure_of_error(exc)
         if not result.converged:
@@ -317,6 +318,36 @@ class Planner:
                 moved = _joint_move(self.model, result, np.asarray(target.position_cm, float))
                 return moved, self._outside_limits(moved.q_path)
         return result, failure
+
+    def _jaws_kept(self, result: IKResult) -> IKResult:
+        """``result`` with the jaws' joint (:meth:`roll_joint`) held where it starts.
+
+        No target sets the line the jaws open along, and the solver's own updates leave
+        that joint where it is; a multi-start's seed, drawn over the whole joint box, did
+        not, and the turn stayed for every route after it. The 5-DOF arm's place of a
+        red picked 27 cm out, over the top with a multi-start, turned its jaws by 50.7°,
+        and two blues 3.55 cm apart, each clear of the other with the jaws as the random
+        layout checks them (as planned from home), were then left ``no route clear of
+        collisions``: each pick's way over the top came down with a pad within the
+        clearance of the other (``sim_5dof --random 26 --seed 42011``, 2026-12-07,
+        simulated). The joint moves neither the TCP nor the approach axis, so the path
+        keeps every TCP point, and its checks are made on it as it is now (a turn the
+        plan needs is :meth:`turn_jaws`', appended to it).
+        """
+        k = self._jaws_joint(result.q_path[0])
+        if k is None:
+            return result
+        chain = self.model.chain
+        actuated = chain.actuated_of(result.q_path)
+        if np.all(actuated[:, k] == actuated[0, k]):
+            return result
+        actuated[:, k] = actuated[0, k]
+        q_path = np.array([chain.full(a) for a in actuated])
+        (p1, R1), (p2, R2) = self.model.tcp_pose(result.q), self.model.tcp_pose(q_path[-1])
+        axis = self.model.approach_axis
+        if np.linalg.norm(p1 - p2) > 1e-9 or np.linalg.norm(R1 @ axis - R2 @ axis) > 1e-9:
+            return result  # (a joint that moves them elsewhere in its range: as solved)
+        return dataclasses.replace(result, q=q_path[-1], q_path=q_path)
 
     def turn_jaws(
         self, route: Route, yaw_deg: float, symmetry_deg: float, *, target: str | None = None
@@ -386,13 +417,30 @@ class Planner:
         vertical. Returns its index among the actuated joints and the turn of the opening
         line per unit of the joint [-] (±1), or ``None``.
         """
-        chain = self.model.chain
         q0 = np.asarray(q, dtype=float)
+        _, R0 = self.model.tcp_pose(q0)
+        if abs(float((R0 @ self.model.approach_axis)[2])) < math.cos(math.radians(8.0)):
+            return None
+        k = self._jaws_joint(q0)
+        if k is None:
+            return None
+        eps = 1e-4
+        a = self.model.chain.actuated_of(q0)
+        a[k] += eps
+        q1 = self.model.chain.full(a)
+        dphi = (self.opening_deg(q1) - self.opening_deg(q0) + 180.0) % 360.0 - 180.0
+        turn = dphi / np.rad2deg(eps)
+        return (k, float(np.sign(turn))) if abs(abs(turn) - 1.0) < 1e-3 else None
+
+    def _jaws_joint(self, q0: np.ndarray) -> int | None:
+        """The actuated joint that turns the jaws about the approach axis, at ``q0``.
+
+        Its index: one whose small turn moves neither the TCP nor the approach axis, but
+        the jaws (the wrist's roll), wherever the approach axis points; or ``None``.
+        """
+        chain = self.model.chain
         p0, R0 = self.model.tcp_pose(q0)
         a0 = R0 @ self.model.approach_axis
-        if abs(float(a0[2])) < math.cos(math.radians(8.0)):
-            return None
-        phi0 = self.opening_deg(q0)
         eps = 1e-4
         base = chain.actuated_of(q0)
         for k in range(chain.m):
@@ -400,15 +448,13 @@ class Planner:
                 continue
             a = base.copy()
             a[k] += eps
-            q1 = chain.full(a)
-            p1, R1 = self.model.tcp_pose(q1)
+            p1, R1 = self.model.tcp_pose(chain.full(a))
             moved = (
                 np.linalg.norm(p1 - p0) > 1e-6
                 or np.linalg.norm(R1 @ self.model.approach_axis - a0) > 1e-6
             )
-            turn = ((self.opening_deg(q1) - phi0 + 180.0) % 360.0 - 180.0) / np.rad2deg(eps)
-            if not moved and abs(abs(turn) - 1.0) < 1e-3:
-                return k, float(np.sign(turn))
+            if not moved and np.linalg.norm((R1 - R0) @ self._jaw_across) > 1e-6:
+                return k
         return None
 
     def opening_deg(self, q: npt.ArrayLike) -> float:
