@@ -17,7 +17,13 @@ import pytest
 from conftest import mearm_here, one_stderr_line
 
 from mearm.config import load_config
-from mearm.task.scene import SceneError, check_scene, random_scene
+from mearm.task.scene import (
+    SceneError,
+    _class_order,
+    _walls_by_home,
+    check_scene,
+    random_scene,
+)
 
 
 def test_a_random_table_whose_walls_reach_home_names_the_most_that_fit() -> None:
@@ -56,3 +62,19 @@ def test_a_scene_file_whose_walls_reach_home_is_refused_before_the_log(tmp_path:
     assert line.endswith("(1.5 cm): give the class fewer objects"), line
     assert not log.exists()
     assert not done.stdout
+
+
+def test_walls_that_reach_into_the_arm_at_home_say_so_not_a_negative_distance() -> None:
+    """``sim_shapes --random 29 --seed 43247`` with a 1.2 cm red cylinder: 10 of them grow
+    11 cm walls that overlap the jaws at home, which read "come within -0.65 cm of the arm
+    at home". Only the walls are built: nothing is laid out or planned."""
+    sets = ("task.classes.red_cylinder.diameter_cm=1.2",)
+    config = load_config("sim_shapes", sets).with_scene([])
+    problem = _walls_by_home(config, _class_order(config, 29, 43247))
+    assert problem is not None
+    assert re.fullmatch(
+        r"class red_cylinder: its bin's walls, built 11 cm tall to hold its 10 objects "
+        r"stacked, reach into the arm at home \(gripper_jaw_\w+\) by 0\.\d\d cm",
+        problem,
+    ), problem
+    assert "-" not in problem, problem

@@ -35,7 +35,7 @@ from mearm.kinematics.bodies import (
     object_of,
     wall_height_m,
 )
-from mearm.kinematics.collision import TOUCH_M, CollisionModel
+from mearm.kinematics.collision import TOUCH_CM, TOUCH_M, CollisionModel
 from mearm.kinematics.model import CM_PER_M
 from mearm.sim.table_collision import collision_model
 from mearm.task.check import bins_near_home, too_little_spare
@@ -310,15 +310,22 @@ def _walls_by_home(config: Config, colors: Sequence[str]) -> str | None:
             continue
         n = table.objects(name)
         wall_cm = wall_height_m(config.task.class_named(name), n) / M_PER_CM
+        # a distance below 0 is how far the walls reach into the arm (it read "come within
+        # -0.65 cm"); one within TOUCH_CM of 0, to two decimals, touches it
+        into = f"{-distance:.2f}"
         near = (
-            f"{distance:.2f} cm of the arm at home ({part}), less than task.clearance_cm "
-            f"({config.task.clearance_cm:g} cm)"
+            f"reach into the arm at home ({part}) by {into} cm"
+            if distance < 0 and into != "0.00"
+            else f"touch the arm at home ({part})"
+            if distance <= TOUCH_CM
+            else f"come within {distance:.2f} cm of the arm at home ({part}), less than "
+            f"task.clearance_cm ({config.task.clearance_cm:g} cm)"
             if distance < config.task.clearance_cm
-            else f"{too_little_spare(distance, config)}, of the arm at home ({part})"
+            else f"come within {too_little_spare(distance, config)}, of the arm at home ({part})"
         )
         return (
             f"class {name}: its bin's walls, built {wall_cm:.3g} cm tall to hold its {n} "
-            f"objects stacked, come within {near}"
+            f"objects stacked, {near}"
         )
     return None
 
