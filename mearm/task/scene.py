@@ -1216,31 +1216,73 @@ def _walls_stop_all(config: Config, seed: int) -> str:
 SUGGEST_TRIES = 3
 
 
-def _fitting(config: Config, n: int, seed: int, max_tries: int) -> int | None:
+def _fitting(
+    config: Config, n: int, seed: int, max_tries: int
+) -> tuple[int | None, tuple[int, int] | None]:
     """The most objects, ``n`` or fewer, that :data:`SUGGEST_TRIES` layouts find room for.
 
-    Each layout that fails says how many it held, and the next asks for no more.
-    ``None``: none of them was laid out.
+    Each layout that fails says how many it held, and the next asks for no more. A layout
+    that holds them all but whose walls shut every way from home to the table
+    (:func:`_walls_shut_table`, asked only of a whole layout) is followed by the most its
+    walls take with that way (:func:`_most_the_walls_take`), laid out in turn: once, and
+    not as a try. ``sim --random 500 --seed 43031`` (``green.height_cm=1.5``) held 48,
+    then laid out 47, whose 17 cm red walls shut the way; the refusal, taking that for no
+    layout, said ``ask for fewer than 48``, and 47 and 46 were refused in turn (36 sort
+    whole). ``None``: none of them was laid out. With it, ``(k, m)`` where ``k`` objects'
+    walls shut the table and ``m`` objects' keep a way to it, or ``None``.
     """
-    for _ in range(SUGGEST_TRIES):
+    shut: tuple[int, int] | None = None
+    tries = 0
+    while tries < SUGGEST_TRIES:
         if n <= 0:
-            return None
+            return None, shut
         try:
             random_scene(config, n, seed, max_tries=max_tries, suggest=False)
         except _TableFull as full:
             n = min(n - 1, full.most)
+            tries += 1
+            continue
+        except _TableShut:
+            if shut is not None:  # (fewer than the walls take shut it too: name no count)
+                return None, shut
+            most = _most_the_walls_take(config, n, seed, table_too=True)
+            shut, n = (n, most), most
             continue
         except SceneError:
-            return None
-        return n
-    return None
+            return None, shut
+        return n, shut
+    return None, shut
+
+
+def _shut_said(shut: tuple[int, int], fits: int | None) -> str:
+    """What :func:`_fitting`'s ``shut`` says: whose walls shut the table, whose do not.
+
+    Then, where ``fits`` is not the count whose walls keep the way, that that count does
+    not lay out (and what does).
+    """
+    k, m = shut
+    said = f"the walls of {k} leave the arm no way from home to the table"
+    if not m:
+        return said + ", as those of any number do"
+    said += f", those of {m} leave one"
+    if fits is None:
+        return said + f", and {m} asked for does not lay out"
+    if fits != m:
+        return said + f", and {m} asked for does not lay out, {fits} does"
+    return said
 
 
 def _asked(config: Config, n: int, seed: int, max_tries: int) -> str:
     """``N or fewer``: ``n`` if it lays out with ``seed`` (:func:`_fitting`), else what does."""
     if not max_tries:
         return f"{n} or fewer"
-    fits = _fitting(config, n, seed, max_tries)
+    fits, shut = _fitting(config, n, seed, max_tries)
+    if shut is not None:
+        first = "" if shut[0] == n else f"{n} asked for does not lay out with seed {seed}, and "
+        said = first + _shut_said(shut, fits)
+        if fits is not None:
+            return f"{fits} or fewer ({said})"
+        return f"fewer than {shut[1]} ({said})" if shut[1] else f"none ({said})"
     if fits == n:
         return f"{n} or fewer"
     if fits is None:
@@ -1307,8 +1349,18 @@ def _walls_refusal(
             f"the walls take {most}, and no layout of those drawn with seed {seed} held "
             f"more than {full.most} on the table"
         )
-        fits = _fitting(config, full.most, seed, max_tries) if full.most else None
-        if fits is not None and fits == full.most:
+        fits, shut = _fitting(config, full.most, seed, max_tries) if full.most else (None, None)
+        if shut is not None:  # that many laid out, or fewer, shut the way to the table
+            first = "" if shut[0] == full.most else f"{full.most} asked for does not lay out, and "
+            said = f"{held}; {first}{_shut_said(shut, fits)}"
+            fewer = (
+                f"ask for {fits} or fewer ({said})"
+                if fits is not None
+                else f"ask for fewer than {shut[1]} ({said})"
+                if shut[1]
+                else f"no number of objects fits ({said})"
+            )
+        elif fits is not None and fits == full.most:
             fewer = f"ask for {fits} or fewer ({held})"
         elif fits is not None:
             fewer = (
