@@ -209,3 +209,18 @@ def test_objects_off_the_table_and_touched_explain_first_then_the_nearest():
     assert explain([carried], [near_its_path]) == [(0, 0)]
     farther = Missing("red", path + (0.0, 5.0), touched=False, carried=True)
     assert explain([farther, carried], [near_its_path]) == [(1, 0)]
+
+
+def test_a_sighting_in_a_frame_dated_as_the_last_keeps_the_estimate():
+    """Two frames dated alike (the sorter dates a frame no earlier than the last one):
+    the second sighting corrects the estimate as it is. A track just started went to
+    (0, 0), at rest, and kept no uncertainty to find its object again."""
+    tracker = Tracker(TrackingConfig(), belt_cm_s=(-6.0, 0.0))
+    tracker.update(1.0, [Seen("red", 10.0, 46.0)])
+    (state,) = tracker.update(1.0, [Seen("red", 10.0, 46.0)])
+    assert state.id == 1 and state.seen
+    assert state.position_cm == pytest.approx([10.0, 46.0], abs=1e-6)
+    assert state.velocity_cm_s == pytest.approx([-6.0, 0.0], abs=1e-6)
+    for t_s in (1.5, 1.5):  # a track predicted before: corrected once, then again
+        (state,) = tracker.update(t_s, [Seen("red", 7.0, 46.0)])
+        assert state.id == 1 and state.position_cm == pytest.approx([7.0, 46.0], abs=0.01)
