@@ -224,3 +224,16 @@ def test_a_sighting_in_a_frame_dated_as_the_last_keeps_the_estimate():
     for t_s in (1.5, 1.5):  # a track predicted before: corrected once, then again
         (state,) = tracker.update(t_s, [Seen("red", 7.0, 46.0)])
         assert state.id == 1 and state.position_cm == pytest.approx([7.0, 46.0], abs=0.01)
+
+
+def test_an_object_up_the_belt_from_where_a_track_was_last_seen_is_another():
+    """A belt carries its objects down, never up: a red seen once, unseen 3.4 s since
+    (left on a 10 cm/s belt by a failed pick), has a gate of a metre; a red just landed
+    up the belt from where it was seen is a new object, not that one."""
+    tracker = Tracker(TrackingConfig(), belt_cm_s=(-10.0, 0.0))
+    tracker.update(0.0, [Seen("red", 5.0, 47.0)])
+    states = tracker.update(3.4, [Seen("red", 17.7, 47.0)])
+    assert sorted((s.id, s.seen) for s in states) == [(1, False), (2, True)]
+    # down the belt from it, as far as the belt's pull explains, it is still its object
+    states = tracker.update(3.5, [Seen("red", 16.7, 47.0), Seen("red", 4.0, 47.0)])
+    assert sorted((s.id, s.seen) for s in states) == [(1, True), (2, True)]

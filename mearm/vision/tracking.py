@@ -170,6 +170,8 @@ class Track:
         self._kf = kf
         self.t_s = t_s
         self.last_seen_s = t_s
+        #: Where it was last seen (x, y) [cm].
+        self.last_seen_cm = np.array([seen.x_cm, seen.y_cm], dtype=float)
         self.seen = True
 
     def _transition(self, dt: float) -> None:
@@ -212,6 +214,7 @@ class Track:
         kf.errorCovPre = kf.errorCovPost.copy()
         kf.correct(np.array([[seen.x_cm], [seen.y_cm]], dtype=float))
         self.last_seen_s = self.t_s
+        self.last_seen_cm = np.array([seen.x_cm, seen.y_cm], dtype=float)
         self.seen = True
 
     def gate_cm(self, gate_cm: float) -> float:
@@ -319,7 +322,7 @@ class Tracker:
         distance = np.full((len(ids), len(detections)), math.inf)
         for i, tid in enumerate(ids):
             for k, d in enumerate(detections):
-                if d.color == self.tracks[tid].color:
+                if d.color == self.tracks[tid].color and not self._upstream(tid, d):
                     distance[i, k] = distance_to_path(reach[i], (d.x_cm, d.y_cm))
         gates = [self.tracks[tid].gate_cm(self.tracking.gate_cm) for tid in ids]
         taken_detections: set[int] = set()
@@ -340,6 +343,26 @@ class Tracker:
                 )
                 self._next_id += 1
         return [track.state() for track in self.tracks.values()]
+
+    def _upstream(self, track_id: int, d: Seen) -> bool:
+        """Whether ``d`` lies up the belt from where the track's object was last seen.
+
+        More than ``gate_cm`` up: a belt carries its objects down, never up, so it is
+        another object. A track unseen for long is given a wide gate (its velocity
+        little known: its position's spread grows as the belt's speed times the time
+        unseen), and took an object of its class just landed 63 cm up the belt from its
+        prediction for the one it followed, left on the belt by a failed pick: the new
+        one was never sorted, and said "never seen by the camera" (``sim_conveyor`` at
+        10 cm/s, ``belt.arrivals.seed=46375``, simulated). Without a moving belt: never.
+        """
+        if self.belt_cm_s is None:
+            return False
+        belt = np.asarray(self.belt_cm_s, dtype=float)
+        speed = float(np.hypot(*belt))
+        if speed == 0.0:
+            return False
+        back = self.tracks[track_id].last_seen_cm - (d.x_cm, d.y_cm)
+        return float(back @ belt) / speed > self.tracking.gate_cm
 
     def drop(self, track_id: int) -> None:
         """Forget a track (its object was picked up)."""
