@@ -267,24 +267,31 @@ def test_a_plan_past_a_combined_servos_pulse_range_is_refused_and_not_sent(monke
 
 
 def test_a_solve_that_swings_a_combined_servo_past_its_range_becomes_a_joint_move():
-    """PD-PIJ reaches this MeArm target, but its updates swing the elbow servo (shoulder +
-    elbow) past its pulse range on the way: the plan is a straight joint-space move to the
-    same solution, every pose inside the range (the servo's value is linear in the
-    joints)."""
+    """PD-PIJ on the arm's own limits reaches this MeArm target, but its updates swing the
+    elbow servo (shoulder + elbow) past its pulse range on the way: the plan is a straight
+    joint-space move to the same solution, every pose inside the range (the servo's value
+    is linear in the joints). The planner's own solver, on the limits the servos reach
+    (``ArmDescription.within_servos``), keeps inside the range all the way."""
     from mearm.hardware.mapping import ServoMap
+    from mearm.ik import make_solver
 
     config = load_config(ROOT / "configs" / "sim_mearm_v1_mujoco.yaml")
     model = ArmModel(config.arm)
     planner = Planner(config, model)
     start = np.array([2.1013, 0.8934, -2.1775, 1.2841])
     target = IKTarget((5.2439, 18.1416, 3.2690))
-    direct = planner.solver.solve(target, start)
     smap = ServoMap.from_arm(config.arm)
     lo, hi = smap["elbow"].pulse_limits
 
     def elbow_servo(q_path: np.ndarray) -> np.ndarray:
         return np.array([smap.servo_values(model.chain.named_actuated(q))["elbow"] for q in q_path])
 
+    own = planner.solver.solve(target, start)
+    assert own.converged and np.all(
+        (elbow_servo(own.q_path) >= lo - 1e-9) & (elbow_servo(own.q_path) <= hi + 1e-9)
+    )
+    planner.solver = make_solver(model, config.controller)  # the arm's own limits
+    direct = planner.solver.solve(target, start)
     assert direct.converged and not np.all(
         (elbow_servo(direct.q_path) >= lo) & (elbow_servo(direct.q_path) <= hi)
     )

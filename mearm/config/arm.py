@@ -30,7 +30,8 @@ Everything is checked when the config loads: names unique, couplings and servo
 combinations naming actuated joints, the combinations independent, every limit and
 setting inside its servo's pulse range (for a servo over several joints: its value at
 home, since its pulse then depends on the pose), a chain that can move the TCP in three
-directions.
+directions. A passive joint that follows a servo over several joints is held to what that
+servo reaches in the arm plans are solved on (:meth:`ArmDescription.within_servos`).
 """
 
 from __future__ import annotations
@@ -101,6 +102,31 @@ def _interval(terms: dict[str, float], offset: float, limits: dict[str, Range]) 
     if not lo < hi:
         hi = lo + 1e-9
     return Range.model_construct(min=lo, max=hi)  # derived, may exceed a config's bounds
+
+
+def _servo_reach(
+    coupling: Coupling, combo: ServoDrives, servo: ServoCalibration
+) -> tuple[float, float] | None:
+    r"""The passive joint's values the servo's pulse range allows, or ``None``.
+
+    ``None`` unless the coupling :math:`q_p = \sum_j c_j q_j + c_p` is a multiple of the
+    servo's combination :math:`v = \sum_j a_j q_j + a_0`, :math:`c = k\,a`: then
+    :math:`q_p = k\,(v - a_0) + c_p`, and :math:`v` ranges over the servo's values at
+    ``min_us`` and ``max_us``.
+    """
+    names = set(combo.terms) | set(coupling.terms)
+    first = next(iter(combo.terms))
+    if combo.terms[first] == 0 or set(combo.terms) != set(coupling.terms):
+        return None
+    k = coupling.terms[first] / combo.terms[first]
+    if k == 0 or any(
+        not math.isclose(coupling.terms[n], k * combo.terms[n], rel_tol=1e-12, abs_tol=1e-12)
+        for n in names
+    ):
+        return None
+    v_lo, v_hi = servo.value_range()
+    a, b = (k * (v - combo.offset) + coupling.offset for v in (v_lo, v_hi))
+    return (min(a, b), max(a, b))
 
 
 #: Seeded poses tried by the chain's rank check.
@@ -239,6 +265,72 @@ class ArmDescription(Strict):
             else:
                 assert j.coupling is not None
                 out[j.name] = _interval(j.coupling.terms, j.coupling.offset, limits)
+        return out
+
+    def within_servos(self) -> ArmDescription:
+        """This arm with its limits narrowed to what its servos reach: what plans keep to.
+
+        A servo that turns its own joint alone holds the joint's limits in its pulse range
+        (the config is refused otherwise). One over a combination of joints need not: the
+        box of the MeArm's shoulder and elbow limits holds poses its elbow servo, turning
+        shoulder + elbow within ±75°, cannot take. A passive joint that follows such a
+        servo (its coupling a multiple of the servo's combination, plus an offset: the
+        levelled wrist is −(shoulder + elbow)) takes what the servo reaches as its own
+        limits (:func:`_servo_reach`), so a model of this arm — its chain, closed form and
+        every solver on it — keeps inside the pulse range, and a target only beyond it is
+        refused by the solve, naming the servo (:meth:`limits_reason`). Where nothing
+        narrows, ``self``. Not validated again: the passive value at home is inside the
+        servo's reach (the config checks the servo's value there), so the limits meet.
+        """
+        limits = self.joint_limits()
+        joints = []
+        for j in self.joints:
+            lo, hi = limits[j.name].min, limits[j.name].max
+            for _, reach in self._servo_bounds(j):
+                lo, hi = max(lo, reach[0]), min(hi, reach[1])
+            if (lo, hi) == (limits[j.name].min, limits[j.name].max):
+                joints.append(j)
+            else:
+                narrowed = Range.model_construct(min=lo, max=max(hi, lo + 1e-9))
+                joints.append(j.model_copy(update={"limits": narrowed}))
+        if joints == self.joints:
+            return self
+        return self.model_copy(update={"joints": joints})
+
+    def limits_reason(self, name: str) -> str | None:
+        """Why joint ``name``'s limits end where they do, when a servo sets an end, or ``None``.
+
+        A passive joint held to what a servo over a combination reaches
+        (:meth:`within_servos`): ``what elbow's servo (shoulder + elbow) reaches in its pulse
+        range, 544..2400 µs``.
+        """
+        joint = next((j for j in self.joints if j.name == name), None)
+        if joint is None:
+            return None
+        own = self.joint_limits()[name]
+        for servo_joint, reach in self._servo_bounds(joint):
+            ends = zip(reach, (own.min, own.max), strict=True)
+            if any(math.isclose(a, b, abs_tol=1e-9) for a, b in ends):
+                assert servo_joint.servo is not None  # _servo_bounds yields servos' joints
+                s = servo_joint.servo
+                return (
+                    f"what {servo_joint.name}'s servo "
+                    f"({s.combination(servo_joint.name).text()}) reaches in its pulse "
+                    f"range, {s.min_us}..{s.max_us} µs"
+                )
+        return None
+
+    def _servo_bounds(self, joint: Joint) -> list[tuple[Joint, tuple[float, float]]]:
+        """Each servo over a combination a passive joint follows, and what it allows it."""
+        if joint.coupling is None:
+            return []
+        out = []
+        for j in self.joints:
+            if j.servo is None or j.servo.drives_only(j.name):
+                continue
+            reach = _servo_reach(joint.coupling, j.servo.combination(j.name), j.servo)
+            if reach is not None:
+                out.append((j, reach))
         return out
 
     def full_values(self, actuated: dict[str, float]) -> dict[str, float]:

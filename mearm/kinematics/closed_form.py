@@ -131,7 +131,13 @@ class ClosedForm(abc.ABC):
             if not ch.lower[i] - 1e-9 <= q[i] <= ch.upper[i] + 1e-9:
                 limits = self.arm.joint_limits()[name]  # as the config writes them
                 raise JointLimitTargetError(
-                    target, name, q[i] / ch.scale[i], limits.min, limits.max, ch.unit(i)
+                    target,
+                    name,
+                    q[i] / ch.scale[i],
+                    limits.min,
+                    limits.max,
+                    ch.unit(i),
+                    self.arm.limits_reason(name),
                 )
 
 

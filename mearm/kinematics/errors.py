@@ -126,6 +126,10 @@ class JointLimitTargetError(UnreachableTargetError):
         lower: Its lower limit [same unit].
         upper: Its upper limit [same unit].
         unit: ``deg`` or ``cm``.
+
+    ``why``: where the limits come from, when not the joint's own (a passive joint held
+    to what a servo over a combination reaches, :meth:`ArmDescription.joint_limits
+    <mearm.config.arm.ArmDescription.joint_limits>`).
     """
 
     def __init__(
@@ -136,6 +140,7 @@ class JointLimitTargetError(UnreachableTargetError):
         lower: float,
         upper: float,
         unit: str = "deg",
+        why: str | None = None,
     ):
         self.joint = joint
         self.value = float(value)
@@ -146,6 +151,7 @@ class JointLimitTargetError(UnreachableTargetError):
             target_cm,
             f"needs {joint} = {self.value:.2f} {unit}, outside its limits "
             f"[{self.lower:g}, {self.upper:g}] {unit}"
+            + (f" ({why})" if why else "")
             + past_limit_text(self.value, self.lower, self.upper),
         )
 

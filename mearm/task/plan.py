@@ -101,7 +101,12 @@ class Planner:
     def __init__(self, config: Config, model: ArmModel, collision: CollisionModel | None = None):
         self.config = config
         self.model = model
-        self.solver = make_solver(model, config.controller)
+        # solved inside what the servos reach, so the check before sending never refuses
+        # a plan for a servo's pulse range (ArmDescription.within_servos); checked on the
+        # arm's own limits and the servos' ranges (_outside_limits)
+        bounded = model.arm.within_servos()
+        self._solve_model = model if bounded is model.arm else ArmModel(bounded)
+        self.solver = make_solver(self._solve_model, config.controller)
         tool = config.arm.tool
         self._approach = tool.pick_approach
         self.collision = collision
@@ -173,7 +178,7 @@ class Planner:
         approaches = [t.approach for t in targets]
         approach = None if any(a is None for a in approaches) else np.array(approaches)
         return solve_batch(
-            self.model,
+            self._solve_model,
             [t.position_cm for t in targets],
             approach,
             tolerance_cm=REACH_MARGIN * math.sqrt(self.config.controller.tolerance_cm2),
