@@ -543,6 +543,9 @@ class Sorter(PickAndPlace):
         twice. Where the world has more of the class in its bin than the sort counted,
         each such place was another object, seen and sorted: not one left "never seen"
         (the MeArm v1's twin, scene 979006: both reds in their bin, the sort said 5 of 6).
+        So is an object the jaws held and let go over its bin while a look took one the
+        arm had hidden for it pushed aside (:meth:`PickAndPlace._let_go_and_look
+        <mearm.task.pick_place.PickAndPlace._let_go_and_look>`).
         """
         for name in out.sorted:
             again = sum(o.places - 1 for o in self._objects if o.class_name == name and o.places)

@@ -108,7 +108,11 @@ class TrackedObject:
     #: seen new near that path is it, dropped on the way (:meth:`TableTracking._dropped`).
     carried_cm: np.ndarray | None = None
     #: How many times it was placed in its bin: more than once when an object seen later
-    #: near its way there was taken for it, dropped on the way (:meth:`TableTracking._dropped`).
+    #: near its way there was taken for it, dropped on the way
+    #: (:meth:`TableTracking._dropped`), or when jaws the bus knew held one of its class
+    #: let it go over its bin while a look took another, not seen before, for it pushed
+    #: aside (:meth:`PickAndPlace._let_go_and_look
+    #: <mearm.task.pick_place.PickAndPlace._let_go_and_look>`).
     places: int = 0
     #: The simulator's objects its jaws held when its last place lost them on the way,
     #: where the bus knows them (:class:`~mearm.hardware.bus.ReportsWhere`, the twin's
