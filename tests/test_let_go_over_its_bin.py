@@ -6,7 +6,8 @@ near the spot the taken one left, and takes it for that one pushed aside. The ja
 over the bin to look again (the held red falls in), the hidden red is still there, and the
 sort follows it as the one it went for, picks it and places it. The twin had every red in
 its bin, yet the sort said ``sorted 17 of 18 objects (simulated; 1 never seen by the
-camera)`` and exited 1. The two reds alone do the same.
+camera)`` and exited 1. The two reds alone do the same; with no retry the hidden red is
+left as the one whose pick failed, and the sort said ``sorted 0 of 2`` with one in its bin.
 """
 
 from __future__ import annotations
@@ -36,3 +37,14 @@ def test_a_red_let_go_over_its_bin_while_a_hidden_one_is_followed_counts_sorted(
     assert out.unseen == {}
     assert out.left == {}
     assert sort.complete
+
+
+@pytest.mark.heavy
+def test_the_held_red_counts_sorted_when_the_hidden_one_is_left_for_failed_picks() -> None:
+    config = load_config(CONFIG, overrides=["task.pick_retries=0"])
+    scene = [SceneObject(color="red", x=x, y=y) for x, y in REDS]
+    out = run_sort(config, scene=scene, echo=None).outcome
+    assert out.in_bins["red"] == 1  # the twin's own count: the held red in its bin
+    assert (out.seen["red"], out.sorted["red"]) == (2, 1)
+    assert out.left == {"pick_failed": 1}  # the hidden red, followed as the one pushed
+    assert out.unseen == {}
