@@ -2,8 +2,8 @@
 
 The MeArm v1's elbow servo turns shoulder + elbow (the forearm's angle to the table) and
 its 544..2400 µs hold that within ±75°, inside the box of the joints' own limits. The
-levelled wrist follows −(shoulder + elbow), so in the arm plans are solved on its limits
-are what the servo reaches (``ArmDescription.within_servos``): the chain, the closed form
+levelled wrist follows −(shoulder + elbow), so in the arm the plans are solved on, its
+limits are what the servo reaches (``ArmDescription.within_servos``): the chain, the closed form
 and every solver on it keep to them. A pick at (0, 16) cm needs the forearm at −76.3°: it
 was solved, then refused by the check before sending; now the solve refuses it, naming
 the servo.

@@ -30,8 +30,8 @@ Everything is checked when the config loads: names unique, couplings and servo
 combinations naming actuated joints, the combinations independent, every limit and
 setting inside its servo's pulse range (for a servo over several joints: its value at
 home, since its pulse then depends on the pose), a chain that can move the TCP in three
-directions. A passive joint that follows a servo over several joints is held to what that
-servo reaches in the arm plans are solved on (:meth:`ArmDescription.within_servos`).
+directions. For planning, a passive joint that follows a servo over several joints is held
+to what that servo reaches (:meth:`ArmDescription.within_servos`).
 """
 
 from __future__ import annotations
