@@ -63,7 +63,13 @@ from mearm.task.sorter import Sorter, TrackedObject, _hex
 from mearm.task.table_tracking import check_bins
 from mearm.task.timing import tool_move_s
 from mearm.vision import Camera
-from mearm.vision.tracking import Track, Tracker, TrackState, whole_sightings
+from mearm.vision.tracking import (
+    Track,
+    Tracker,
+    TrackState,
+    distance_to_path,
+    whole_sightings,
+)
 
 #: Why a pick on the belt failed: over the bin, the camera still tracks the object on.
 BELT_PICK_MISSED = "the camera still sees it on the belt, where it rode on from the grip"
@@ -217,17 +223,30 @@ class ConveyorSorter(Sorter):
     def _ridden_on(self, s: TrackState, taken_s: float) -> TrackedObject | None:
         """The object a failed pick left on the belt that a new track ``s`` is, if any.
 
-        Of its class, within the tracking gate of where the belt has carried it since the
-        jaws closed: counted once, and left as its pick failed (its track was dropped at
-        the grip, so the camera's next sighting of it began a new one, a new object).
+        Of its class, within the tracking gate of where it may be (:meth:`_rode_on`):
+        counted once, and left as its pick failed (its track was dropped at the grip, so
+        the camera's next sighting of it began a new one, a new object).
         """
         gate = self.tracker.tracking.gate_cm
         for k, (obj, aim, t_grip) in enumerate(self._riding_on):
-            where = aim + self.belt.velocity_cm_s * (taken_s - t_grip)
-            if obj.class_name == s.color and float(np.hypot(*(s.position_cm - where))) <= gate:
+            where = self._rode_on(aim, t_grip, taken_s)
+            if obj.class_name == s.color and distance_to_path(where, s.position_cm) <= gate:
                 del self._riding_on[k]
                 return obj
         return None
+
+    def _rode_on(self, aim_cm: np.ndarray, t_grip_s: float, t_s: float) -> np.ndarray:
+        """Where an object the jaws closed on at ``aim_cm`` may lie on the belt at ``t_s``.
+
+        The stretch's two ends, (2, 2) [cm]: from where the jaws closed to where riding
+        on since would have carried it. Left by jaws that never held it, it rode on all
+        the time; lifted and dropped back, it rode only from when it fell: in the twin
+        at 10 cm/s (``belt.arrivals.seed=48808``) the jaws lifted red8 at x = 8.4 cm and
+        lost it, and 1.5 s later it lay at x = -1.5 cm, not -6.2 cm; looked for at the far
+        end alone, it was taken for a new object, and the sort named it twice.
+        """
+        aim = np.asarray(aim_cm, dtype=float)
+        return np.array([aim, aim + self.belt.velocity_cm_s * (t_s - t_grip_s)])
 
     def _wait(self) -> None:
         """Let one look period pass with the arm still (the belt runs on)."""
@@ -395,13 +414,18 @@ class ConveyorSorter(Sorter):
             # of the class where the object would be now (and what it sees there is this
             # object riding on, not a new one)
             self._riding_on.append((obj, np.array(aim, dtype=float), t_grip))
-            self._observe()
+            states = self._observe()
             where = np.array(aim) + self.belt.velocity_cm_s * (self.now_s() - t_grip)
             pick.success = not any(
-                s.color == obj.class_name
-                and float(np.hypot(*(s.position_cm - where))) <= self.tracker.tracking.gate_cm
-                for s in (t.state() for t in self.tracker.tracks.values())
-                if s.seen
+                s.seen
+                and (
+                    # the sighting taken for it, dropped back short of where it would
+                    # have ridden to (:meth:`_rode_on`)
+                    self._by_track.get(s.id) is obj
+                    or s.color == obj.class_name
+                    and float(np.hypot(*(s.position_cm - where))) <= self.tracker.tracking.gate_cm
+                )
+                for s in states
             )
             pick.why_failed = None if pick.success else BELT_PICK_MISSED
             pick.confirmed = True
