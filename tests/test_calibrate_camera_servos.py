@@ -29,16 +29,20 @@ from mearm.config.servo_file import (
 )
 from mearm.config.servo_models import servo_named
 from mearm.hardware import ServoMap
+from mearm.ik.target import IKTarget
 from mearm.kinematics.bodies import marker_in_tcp
 from mearm.kinematics.model import ArmModel
 from mearm.maker import calibrate_by_camera
 from mearm.maker.calibrate_by_camera import PLAY_US, ServoDoubt
+from mearm.maker.camera_calibration.errors import CameraCalibrationFailed
 from mearm.maker.camera_calibration.points import free_joints, grid_points, joint_line
 from mearm.maker.camera_calibration.safe_moves import SafeMoves, limits_of
 from mearm.maker.servo_truth import truth_fits
 from mearm.sim.twin.twin_bus import TwinArm
 from mearm.task.claw_fit import ClawCamera, ServoFit, Sighting
+from mearm.task.execute import CollisionError, Executor
 from mearm.task.rig import open_rig
+from mearm.task.route import Route
 from mearm.vision.calibration import camera_geometry
 
 PERSPECTIVE = ROOT / "configs" / "sim_mujoco_perspective.yaml"
@@ -462,6 +466,67 @@ def test_a_checked_line_is_sent_though_the_executor_steps_it_once_fewer():
         assert (len(final), len(ex.joint_path(q_end))) == (4, 3)  # the case itself
         moves.line(final)
         assert np.allclose(ex.q_now(), q_end, atol=1e-9)
+
+
+# ----------------------------------------------------------------- parking
+
+#: Where the arm is left before it parks [cm]: low beyond the red and green bins' far
+#: walls (x -20 cm), the straight line home in the joints (home is above the red bin)
+#: within the doubt's clearance of their walls; straight up, it is clear.
+BEYOND_THE_BINS_CM = (-30.0, 40.0, 13.0)
+
+
+def _left_beyond_the_bins(rig, config):
+    """A session's moves with the arm at :data:`BEYOND_THE_BINS_CM` (a planned route there)."""
+    rig.bus.connect()
+    moves = SafeMoves(config, rig, _claw(config))
+    ex = moves.executor
+    ex.home_pose()
+    route = Route("", "", "home", 1, IKTarget(BEYOND_THE_BINS_CM, config.arm.tool.pick_approach))
+    assert moves.planner(config.task.clearance_cm).plan(route, ex.q_now()).planned, route.failure
+    ex.stream(route, "travel", closed=False)
+    return moves
+
+
+def test_the_arm_parks_straight_up_first_its_commands_checked(monkeypatch):
+    """Where the straight line home is not clear, ``park`` goes straight up first: the
+    route's commands, chord by chord, are checked as its plan was before they are
+    streamed (the servos move on the chords, a little off the plan), then home."""
+    config = load_config(PERSPECTIVE, ["simulator=kinematic"])  # its bus refuses a contact
+    with open_rig(config) as rig:
+        moves = _left_beyond_the_bins(rig, config)
+        ex = moves.executor
+        start_z = ex.ee_now_cm()[2]
+        watch = watch_streams(monkeypatch)
+        moves.park()
+        assert len(watch.streamed) == 1, "the way up was not taken: the line home was clear"
+        up = watch.streamed[0]
+        assert moves.model.fk_cm(up[-1])[2] > start_z + 5.0  # up, over the walls
+        assert watch.unchecked() == [], "the way up was streamed unchecked"
+        assert np.allclose(ex.q_now(), moves.model.home, atol=1e-9)
+
+
+def test_a_way_up_whose_commands_are_not_clear_is_not_taken(monkeypatch):
+    """The way up's plan is clear but its commands are not (the executor refuses them, as
+    it does a route whose chords cut into a wall at every speed): nothing is sent, and
+    the refusal names the way up."""
+    config = load_config(PERSPECTIVE, ["simulator=kinematic"])
+    refused = "home : not sent: followed command by command, a chord cuts a wall"
+
+    def not_clear(self, route, *, carrying):
+        followed(self, route, carrying=carrying)  # the real check runs
+        raise CollisionError(refused)
+
+    followed = Executor.followed
+    with open_rig(config) as rig:
+        moves = _left_beyond_the_bins(rig, config)
+        start = moves.executor.q_now().copy()
+        watch = watch_streams(monkeypatch)
+        monkeypatch.setattr(Executor, "followed", not_clear)
+        with pytest.raises(CameraCalibrationFailed, match=re.escape(f"and the way up: {refused}")):
+            moves.park()
+        assert watch.streamed == []
+        assert np.array_equal(moves.executor.q_now(), start)
 
 
 # ----------------------------------------------------------------- the marker's side
