@@ -476,13 +476,18 @@ def test_a_checked_line_is_sent_though_the_executor_steps_it_once_fewer():
 BEYOND_THE_BINS_CM = (-30.0, 40.0, 13.0)
 
 
-def _left_beyond_the_bins(rig, config):
-    """A session's moves with the arm at :data:`BEYOND_THE_BINS_CM` (a planned route there)."""
+#: Low beside the green bin [cm]: within the doubt's clearance of its walls, so that
+#: neither the line home nor the way up keeps it (each comes nearer than it starts).
+BESIDE_THE_GREEN_BIN_CM = (-14.6, 48.4, 12.7)
+
+
+def _left_at(rig, config, at_cm=BEYOND_THE_BINS_CM):
+    """A session's moves with the arm at ``at_cm`` (a planned route there)."""
     rig.bus.connect()
     moves = SafeMoves(config, rig, _claw(config))
     ex = moves.executor
     ex.home_pose()
-    route = Route("", "", "home", 1, IKTarget(BEYOND_THE_BINS_CM, config.arm.tool.pick_approach))
+    route = Route("", "", "home", 1, IKTarget(at_cm, config.arm.tool.pick_approach))
     assert moves.planner(config.task.clearance_cm).plan(route, ex.q_now()).planned, route.failure
     ex.stream(route, "travel", closed=False)
     return moves
@@ -494,7 +499,7 @@ def test_the_arm_parks_straight_up_first_its_commands_checked(monkeypatch):
     streamed (the servos move on the chords, a little off the plan), then home."""
     config = load_config(PERSPECTIVE, ["simulator=kinematic"])  # its bus refuses a contact
     with open_rig(config) as rig:
-        moves = _left_beyond_the_bins(rig, config)
+        moves = _left_at(rig, config)
         ex = moves.executor
         start_z = ex.ee_now_cm()[2]
         watch = watch_streams(monkeypatch)
@@ -519,12 +524,29 @@ def test_a_way_up_whose_commands_are_not_clear_is_not_taken(monkeypatch):
 
     followed = Executor.followed
     with open_rig(config) as rig:
-        moves = _left_beyond_the_bins(rig, config)
+        moves = _left_at(rig, config)
         start = moves.executor.q_now().copy()
         watch = watch_streams(monkeypatch)
         monkeypatch.setattr(Executor, "followed", not_clear)
         with pytest.raises(CameraCalibrationFailed, match=re.escape(f"and the way up: {refused}")):
             moves.park()
+        assert watch.streamed == []
+        assert np.array_equal(moves.executor.q_now(), start)
+
+
+def test_a_way_up_that_cannot_be_planned_is_said_and_nothing_moves(monkeypatch):
+    """Beside the green bin no way up keeps the doubt's clearance: the refusal says why
+    the way up was not taken (it said only the line home's, as if none was tried)."""
+    config = load_config(PERSPECTIVE, ["simulator=kinematic"])
+    with open_rig(config) as rig:
+        moves = _left_at(rig, config, BESIDE_THE_GREEN_BIN_CM)
+        start = moves.executor.q_now().copy()
+        watch = watch_streams(monkeypatch)
+        with pytest.raises(CameraCalibrationFailed) as failed:
+            moves.park()
+        assert re.search(r"and the way up: collision: .* bin_green_wall", str(failed.value)), (
+            failed.value
+        )
         assert watch.streamed == []
         assert np.array_equal(moves.executor.q_now(), start)
 

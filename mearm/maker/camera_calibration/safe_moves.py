@@ -559,18 +559,33 @@ class SafeMoves:
             safe = planner.safe_height_cm(ex.q_now())
             approach = self.present.arm.tool.pick_approach
             up = Route("", "", "home", 1, IKTarget((x, y, max(z, safe)), approach))
-            if planner.plan(up, ex.q_now()).planned and up.plan is not None:
-                timed = self.followed(up, clearance)  # its commands checked as its plan
-                if isinstance(timed, str):
-                    why = f"{why}, and the way up: {timed}"
-                elif self.objects_refusal(up.plan.q_path) is None and (
-                    self.objects_refusal(timed.q) is None
-                ):
-                    ex.stream(up, "travel", closed=False, timed=timed)
-                    why = self.line_refusal(ex.joint_path(home), clearance)
+            timed = self.way_up(up, clearance)
+            if isinstance(timed, str):
+                why = f"{why}, and the way up: {timed}"
+            else:
+                ex.stream(up, "travel", closed=False, timed=timed)
+                why = self.line_refusal(ex.joint_path(home), clearance)
         if why is not None:
             raise CameraCalibrationFailed(
                 f"not parked: the way home: {why}; the arm stays where it is"
             )
         ex.move_joints(home, "travel", closed=False)
         ex.home_pose()
+
+    def way_up(self, up: Route, clearance_cm: float) -> TimedPath | str:
+        """``up`` planned from where the arm is, its commands checked; or why not.
+
+        Its commands as the servos follow them (:meth:`followed`), and both its plan and
+        its commands against the objects seen. Why not is said with the line home's
+        refusal, whichever check it was: until 2026-12-07 only the commands' was, and a
+        way up that could not be planned or came near an object was refused in silence, as
+        if it had never been tried.
+        """
+        if not self.planner(clearance_cm).plan(up, self.executor.q_now()).planned:
+            return up.failure or "no plan"
+        assert up.plan is not None
+        timed = self.followed(up, clearance_cm)
+        if isinstance(timed, str):
+            return timed
+        why = self.objects_refusal(up.plan.q_path) or self.objects_refusal(timed.q)
+        return timed if why is None else why
