@@ -281,6 +281,23 @@ class Executor:
         if not closed:  # opened: they let go of what the view drew in them
             self.show_held(None)
 
+    def close_following(self, q_path: npt.ArrayLike, phase: Phase, seconds: float) -> None:
+        """Close the gripper for ``phase`` while the joints follow ``q_path``, one command a period.
+
+        A moving object's catch (:mod:`mearm.task.conveyor`): the jaws close as the arm keeps
+        them on the object, then the rest of the close's ``seconds`` is held. The path is
+        the caller's, planned and checked in full; its first pose is where the arm is.
+        """
+        q = np.asarray(q_path, dtype=float)
+        for pose in q[1:]:
+            self.send(pose, phase, closed=True)
+        followed_s = (len(q) - 1) * self.bus.period_s
+        if seconds > followed_s:
+            self.bus.hold(seconds - followed_s)
+        self._arrive()
+        self._count_tool(seconds)
+        self.show_world()
+
     def rest(self, seconds: float) -> None:
         """Hold the arm still for ``seconds`` while something on the table comes to rest."""
         self.bus.hold(seconds)
