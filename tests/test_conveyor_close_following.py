@@ -2,13 +2,16 @@
 
 from __future__ import annotations
 
+import numpy as np
 from conftest import ROOT
 
 from mearm.config import config_from_dict, load_config
+from mearm.hardware.command import ArmCommand
 from mearm.task.conveyor import ConveyorSorter
 from mearm.task.rig import open_rig
 
 TWIN = ROOT / "configs" / "sim_conveyor.yaml"
+KINEMATIC = ROOT / "configs" / "sim_conveyor_kinematic.yaml"
 
 
 def _twin_belt(speed_cm_s: float, count: int, seed: int):
@@ -34,3 +37,41 @@ def test_the_twin_catches_a_10_cm_s_belts_objects():
         )
         report = sorter.run()
     assert report.complete and report.outcome.n_sorted == 2, report.outcome.line()
+
+
+def test_the_jaws_close_as_the_arm_follows_the_belt():
+    """On the kinematic belt at 10 cm/s the commands that close the jaws carry the TCP
+    along the belt at its speed for the close's travel and settling (3.6 cm), and not
+    across it: one command at the pick's pose closed them where the object had been.
+    """
+    data = load_config(KINEMATIC).model_dump(mode="json")
+    data["belt"]["speed_cm_s"] = 10.0
+    data["belt"]["arrivals"]["count"] = 1
+    data["belt"]["arrivals"]["seed"] = 49305
+    config = config_from_dict(data)
+    tool = config.arm.tool
+    close_s = (tool.gripper.open_cm - tool.gripper.closed_cm) / tool.gripper.servo.max_speed()
+    close_s += tool.settle_s
+    grip = {a.name: a.grip for a in tool.actuators}
+    with open_rig(config) as rig:
+        sorter = ConveyorSorter(
+            config, rig.camera, rig.bus, model=rig.model, echo=None, in_bins=rig.in_bins
+        )
+        sent: list[tuple[bool, np.ndarray]] = []
+        move = rig.bus.move
+
+        def recorded(command: ArmCommand) -> None:
+            move(command)
+            if dict(command.tool) == grip:
+                sent.append((command.gripper_closed, sorter.executor.ee_now_cm()[:2]))
+
+        rig.bus.move = recorded  # type: ignore[method-assign]
+        report = sorter.run()
+    assert report.complete and report.outcome.n_sorted == 1, report.outcome.line()
+    first = next(k for k, (closed, _) in enumerate(sent) if closed)
+    closing = [xy for closed, xy in sent[first:] if closed]
+    moved = closing[-1] - sent[first - 1][1]  # from where the open jaws came down
+    # the belt runs towards -x: the object rides 10 cm/s x the close's time
+    assert moved[0] < -10.0 * close_s + 0.05, (moved, close_s)
+    assert moved[0] > -10.0 * (close_s + 0.02) - 0.05, (moved, close_s)
+    assert abs(moved[1]) < 0.05, moved
