@@ -6,6 +6,7 @@ import json
 import math
 
 import pytest
+from belt_sort import sort_measuring_grips
 from conftest import ROOT
 
 from mearm.config import config_from_dict, load_config
@@ -27,37 +28,12 @@ def _config(path, **belt):
     return config_from_dict(data)
 
 
-def _sort(config):
-    """Run the conveyor sort; the report and, per grip, the aim's distance to the object."""
-    errors = []
-    with open_rig(config) as rig:
-
-        def measure(aim: GripAim) -> None:
-            if rig.world is not None:
-                truths = [(o.x_cm, o.y_cm) for o in rig.world.table_objects()]
-            else:
-                bus = rig.bus
-                held = bus.objects_in_bin()
-                truths = [
-                    tuple(bus.object_pose(i).position_cm[:2])
-                    for i in bus.object_ids
-                    if i not in held
-                ]
-            errors.append(min(math.dist(aim.aim_cm, t) for t in truths))
-
-        sorter = ConveyorSorter(
-            config, rig.camera, rig.bus, model=rig.model, echo=None, in_bins=rig.in_bins,
-            on_grip=measure,
-        )  # fmt: skip
-        return sorter.run(), errors
-
-
 def test_the_kinematic_conveyor_sorts_every_object_it_brings():
     """Three objects at 3 cm/s, 3 to 4 s apart: each tracked, intercepted and sorted; the
     jaws close within 0.05 cm of where the object is."""
     arrivals = {"count": 3, "first_s": 0.5, "min_gap_s": 3.0, "max_gap_s": 4.0}
     config = _config(KINEMATIC, speed_cm_s=3.0, arrivals=arrivals)
-    report, errors = _sort(config)
+    report, errors = sort_measuring_grips(config)
     assert report.complete and report.outcome.n_sorted == 3, report.outcome.line()
     assert len(errors) == 3 and max(errors) < 0.05, errors
 
@@ -67,7 +43,7 @@ def test_an_object_that_leaves_the_belt_first_is_missed():
     reported missed on the belt and the run is not complete (exit 1)."""
     arrivals = {"count": 1, "first_s": 0.5, "max_gap_s": 1.0, "min_gap_s": 1.0}
     config = _config(KINEMATIC, length_cm=6.0, speed_cm_s=20.0, arrivals=arrivals)
-    report, errors = _sort(config)
+    report, errors = sort_measuring_grips(config)
     assert not report.complete and errors == []
     assert report.outcome.left == {"missed_belt": 1}
     assert "1 missed on the belt" in report.outcome.line()
@@ -81,7 +57,7 @@ def test_the_twin_conveyor_sorts_what_it_brings():
     belt by the contacts and counted in their bins by the physics (within 0.5 cm: the
     camera's parallax on their tops)."""
     arrivals = {"count": 3, "first_s": 0.5, "min_gap_s": 4.0, "max_gap_s": 5.0}
-    report, errors = _sort(_config(TWIN, arrivals=arrivals))
+    report, errors = sort_measuring_grips(_config(TWIN, arrivals=arrivals))
     assert report.outcome.n_sorted == 3, report.outcome.line()
     assert len(errors) == 3 and max(errors) < 0.5, errors
 

@@ -2,13 +2,10 @@
 
 from __future__ import annotations
 
-import math
-
+from belt_sort import sort_measuring_grips
 from conftest import ROOT
 
 from mearm.config import config_from_dict, load_config
-from mearm.task.conveyor import ConveyorSorter, GripAim
-from mearm.task.rig import open_rig
 
 KINEMATIC = ROOT / "configs" / "sim_conveyor_kinematic.yaml"
 
@@ -34,24 +31,6 @@ def _beside_tall_red_walls(seed: int = 0):
     return config_from_dict(data)
 
 
-def _sort(config):
-    """Run the sort; its report and, per grip, the aim's distance to the nearest object."""
-    errors: list[float] = []
-    with open_rig(config) as rig:
-        world = rig.world
-        assert world is not None
-
-        def measure(aim: GripAim) -> None:
-            truths = [(o.x_cm, o.y_cm) for o in world.table_objects()]
-            errors.append(min(math.dist(aim.aim_cm, t) for t in truths))
-
-        sorter = ConveyorSorter(
-            config, rig.camera, rig.bus, model=rig.model, echo=None, in_bins=rig.in_bins,
-            on_grip=measure,
-        )  # fmt: skip
-        return sorter.run(), errors
-
-
 def test_a_fast_belt_is_caught_where_a_slowed_route_brings_the_jaws():
     """Each grip closes on its object, within 0.05 cm of where the aim put it.
 
@@ -59,7 +38,7 @@ def test_a_fast_belt_is_caught_where_a_slowed_route_brings_the_jaws():
     first at half of it: the jaws came 0.18 s late, 1.6 cm behind the object, and every
     catch failed ("sorted 0 of 2 objects (simulated; 2 pick failed)").
     """
-    report, errors = _sort(_beside_tall_red_walls())
+    report, errors = sort_measuring_grips(_beside_tall_red_walls())
     assert len(errors) == 2 and max(errors) < 0.05, errors
     assert report.complete and report.outcome.n_sorted == 2, report.outcome.line()
 
@@ -73,6 +52,6 @@ def test_an_intercept_that_does_not_converge_waits_for_its_object():
     jaws closed 0.2 cm behind it here, and 1.8 cm on the shipped belt of 20
     objects at 10 cm/s (its 4th catch, ``--set belt.arrivals.seed=49101``), a miss.
     """
-    report, errors = _sort(_beside_tall_red_walls(seed=49118))
+    report, errors = sort_measuring_grips(_beside_tall_red_walls(seed=49118))
     assert len(errors) == 2 and max(errors) < 0.05, errors
     assert report.complete and report.outcome.n_sorted == 2, report.outcome.line()
