@@ -85,3 +85,5 @@ def test_out_of_the_servos_reach_is_refused_before_planning():
     route = planner.plan(Route("", "red", "pick", 1, targets[0]), model.home)
     assert route.failure_kind == "limit"
     assert "elbow's servo (shoulder + elbow)" in route.failure
+    # the servo's ends as a reader writes them (they are ±75.0002° at 544 and 2400 µs)
+    assert "outside its limits [-75, 75] deg" in route.failure

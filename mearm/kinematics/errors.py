@@ -150,7 +150,7 @@ class JointLimitTargetError(UnreachableTargetError):
         super().__init__(
             target_cm,
             f"needs {joint} = {self.value:.2f} {unit}, outside its limits "
-            f"[{self.lower:g}, {self.upper:g}] {unit}"
+            f"[{self.lower:.4g}, {self.upper:.4g}] {unit}"
             + (f" ({why})" if why else "")
             + past_limit_text(self.value, self.lower, self.upper),
         )
