@@ -122,6 +122,19 @@ def test_troubleshootings_approach_height_message_is_the_sorts():
 
 
 @pytest.mark.heavy
+def test_troubleshootings_skipped_object_is_the_sorts():
+    """The page's MeArm v1 object too close to the base: its skip line is the sort's own
+    (the quoted one had gone stale: the solve now refuses it on the levelled wrist)."""
+    text = (DOCS / "troubleshooting.md").read_text(encoding="utf-8")
+    scene = re.search(r'--set\s+"(task\.scene=\[\{color: red, x: 0, y: 13\}\])"', text)
+    assert scene is not None
+    proc = mearm_here("sort", "--config", "sim_mearm_v1", "--set", scene.group(1), cwd=ROOT)
+    assert proc.returncode == 1, proc.stderr
+    skip = next(line for line in proc.stdout.splitlines() if line.startswith("skip "))
+    assert f"```\n{skip}\n```" in text
+
+
+@pytest.mark.heavy
 def test_the_concept_table_names_files_from_the_right_root():
     """docs/development.md's table: paths from mearm/, or from the repo written in full
     (``tools/x.py`` alone would be the repo's own tools/, which has another set)."""
