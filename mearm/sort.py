@@ -3,7 +3,7 @@
 On the real rig (``configs/lab.yaml``) the camera and the Arduino do the work; on the
 simulated rig (``configs/sim.yaml``, the default) both are simulated and the table holds
 the paper's 12-object layout unless ``--scene`` or ``--random N`` says otherwise (1 to 500
-objects, as many as fit where the camera sees and the arm reaches: about 50 on the paper's
+objects, as many as fit where the camera sees and the arm reaches: about 45 on the paper's
 table; more is refused, saying how many fit)::
 
     python -m mearm.sort --config configs/sim.yaml --log run.jsonl [--view [--collision]]
