@@ -13,7 +13,8 @@ from mearm.cli import run
 from mearm.tools.calibrate_camera import main
 
 INTRINSICS = Path(__file__).resolve().parents[1] / "configs/calibration/twin_intrinsics.yaml"
-MARKERS = [a for i in range(4) for a in ("--marker", f"{i}:{i + 1},{i + 1}")]
+#: Four markers 7 cm apart (3 cm markers closer than their side would overlap: refused).
+MARKERS = [a for i in range(4) for a in ("--marker", f"{i}:{5 * i + 1},{5 * i + 1}")]
 
 
 def calibrate(argv: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, str]:

@@ -94,3 +94,31 @@ def test_a_right_layout_still_fits_whatever_the_camera_s_turn(
         u, v = cv2.imread(str(pictures["upright"])).shape[0] - 1 - v, u
     seen = written.pixel_to_table(np.column_stack([u, v]))
     assert np.abs(seen - centres).max() < 0.05
+
+
+@pytest.mark.bad_input
+@pytest.mark.parametrize(
+    ("place", "side", "said"),
+    [
+        ((16.0, 32.0), [], "--marker 2 and --marker 3 are both at (16, 32) cm"),
+        ((16.0, 32.0), ["--marker-side-cm", "4"], "--marker 2 and --marker 3 are both at"),
+        ((14.0, 32.0), ["--marker-side-cm", "4"], "are 2 cm apart, less than --marker-side-cm 4"),
+    ],
+    ids=["same-place", "same-place-corners", "overlapping"],
+)
+def test_a_mistyped_place_is_told_by_the_markers_ids(
+    tmp_path: Path,
+    pictures: dict[str, Path],
+    place: tuple[float, float],
+    side: list[str],
+    said: str,
+) -> None:
+    """Marker 3 typed at marker 2's place, or too near it for two printed markers: exit 2,
+    one line naming both ids. The fit's check named the points by its own numbering
+    instead ("table points 10 and 15 are the same point"), a marker's corners counted."""
+    config = lab_config(tmp_path)
+    argv = fit(config, pictures["upright"], {0: 0, 1: 1, 2: 2}, *side)
+    argv += ["--marker", f"3:{place[0]:g},{place[1]:g}"]
+    out = check_bad_input(argv, keep=[tmp_path])
+    assert said in out.line, out.line
+    assert "table points" not in out.line

@@ -54,6 +54,7 @@ from __future__ import annotations
 
 import argparse
 import io
+import itertools
 import math
 import os
 import stat
@@ -558,6 +559,35 @@ def _check_arguments(parser: ArgumentParser, args: argparse.Namespace) -> None:
             f"--marker-side-cm must be in (0, {MAX_MARKER_SIDE_CM:g}] cm, "
             f"got {args.marker_side_cm:g}"
         )
+    _check_marker_places(parser, args.marker, args.marker_side_cm)
+
+
+def _check_marker_places(
+    parser: ArgumentParser,
+    markers: Sequence[tuple[int, tuple[float, float]]],
+    side_cm: float | None,
+) -> None:
+    """Exit 2 on two --marker ids given one place, or places too close for the markers.
+
+    Two printed markers of side s cannot lie with their centres less than s apart (each
+    holds a disc of diameter s): one of the positions is mistyped. Said by the ids given,
+    not by the fit's point numbers (a marker's corners count as points too).
+    """
+    for (a, pa), (b, pb) in itertools.combinations(markers, 2):
+        if a == b:
+            continue  # the same id given twice: said as such where the markers are read
+        apart = math.dist(pa, pb)
+        if apart == 0:
+            parser.error(
+                f"--marker {a} and --marker {b} are both at ({pa[0]:g}, {pa[1]:g}) cm: "
+                "each marker lies at its own place on the table; check their positions"
+            )
+        if side_cm is not None and apart < side_cm:
+            parser.error(
+                f"--marker {a} at ({pa[0]:g}, {pa[1]:g}) and --marker {b} at ({pb[0]:g}, "
+                f"{pb[1]:g}) cm are {apart:.3g} cm apart, less than --marker-side-cm "
+                f"{side_cm:g}: markers that close would overlap; check their positions"
+            )
 
 
 def _check_own_inputs(args: argparse.Namespace) -> None:
