@@ -33,6 +33,13 @@ BAD_SCENES: dict[str, tuple[str | bytes, str]] = {
     "missing_color": ("- {x: 0, y: 40}\n", "[0.color]"),
     "missing_x": ("- {color: red, y: 40}\n", "[0.x]"),
     "extra_key": ("- {color: red, x: 0, y: 40, z: 3}\n", "[0.z]"),
+    # in a config's task.scene's words: it was "Extra inputs are not permitted" and
+    # "[0.color]: Field required (got {...})"
+    "colour_for_color": (
+        "- {colour: red, x: 0, y: 40}\n",
+        "[0.color]: required but missing; [0.colour]: unknown key; did you mean color?",
+    ),
+    "yaw_for_yaw_deg": ("- {color: red, x: 0, y: 40, yaw: 30}\n", "did you mean yaw_deg?"),
     "unknown_class": ("- {color: purple, x: 0, y: 40}\n", "'purple' is not a class"),
     "color_number": ("- {color: 7, x: 0, y: 40}\n", "[0.color]"),
     "color_bad_name": ("- {color: '../etc', x: 0, y: 40}\n", "[0.color]"),

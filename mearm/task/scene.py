@@ -8,10 +8,12 @@ objects at least 1 cm apart (edge to edge, so centres at least 3 cm apart for th
 
 from __future__ import annotations
 
+import difflib
 import math
 from collections import Counter
 from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 from pydantic import TypeAdapter, ValidationError
@@ -43,6 +45,9 @@ from mearm.task.plan import Planner
 from mearm.task.route import Route
 from mearm.vision.calibration import camera_geometry
 from mearm.yamlio import load_yaml_file
+
+if TYPE_CHECKING:
+    from pydantic_core import ErrorDetails
 
 #: Edge-to-edge gap between objects in a random scene [cm] (paper §5).
 MIN_GAP_CM = 1.0
@@ -98,14 +103,7 @@ def load_scene(path: str | Path, class_names: Sequence[str] | None = None) -> li
     try:
         scene = _SCENE.validate_python(data)
     except ValidationError as exc:
-        problems = []
-        for e in exc.errors()[:10]:
-            loc, msg = loc_text(e["loc"]), e["msg"]
-            # an error that names the value already (``expected a number, got true``) is
-            # not given it twice
-            got = "" if ", got " in msg else f" (got {short_repr(e.get('input'), 60)})"
-            problems.append(f"[{loc}]: {msg}{got}")
-        raise ConfigError(str(p), problems) from None
+        raise ConfigError(str(p), [_scene_problem(e) for e in exc.errors()[:10]]) from None
     if class_names is not None:
         bad = [
             f"[{i}.color]: {o.color!r} is not a class (classes: {', '.join(class_names)})"
@@ -115,6 +113,28 @@ def load_scene(path: str | Path, class_names: Sequence[str] | None = None) -> li
         if bad:
             raise ConfigError(str(p), bad)
     return scene
+
+
+def _scene_problem(err: ErrorDetails) -> str:
+    """One problem of a scene file's entry, in the words a config's ``task.scene`` gets.
+
+    An unknown key suggests the one it most likely meant (``colour``: ``color``), a
+    missing one is said missing, an entry that is no mapping says what an entry is.
+    """
+    loc, msg, kind = loc_text(err["loc"]), err["msg"], err["type"]
+    if kind == "extra_forbidden":
+        key = str(err["loc"][-1])
+        close = difflib.get_close_matches(key, list(SceneObject.model_fields), n=1, cutoff=0.6)
+        meant = f"; did you mean {close[0]}?" if close else ""
+        return f"[{loc}]: unknown key{meant} (an entry is {{color, x, y}}, optionally yaw_deg)"
+    if kind == "missing":
+        return f"[{loc}]: required but missing"
+    if kind in ("model_type", "model_attributes_type", "dict_type"):
+        return f"[{loc}]: an entry is {{color, x, y}} (got {short_repr(err.get('input'), 60)})"
+    # an error that names the value already (``expected a number, got true``) is not
+    # given it twice
+    got = "" if ", got " in msg else f" (got {short_repr(err.get('input'), 60)})"
+    return f"[{loc}]: {msg}{got}"
 
 
 #: Points on an object's rim checked to lie in the camera's frame.
