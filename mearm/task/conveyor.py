@@ -419,7 +419,9 @@ class ConveyorSorter(Sorter):
         the belt rides along with the jaws, so none comes closer than at the pick's end,
         which its plan checked; the bins and what lies on the table stand still) and
         timed by the servos' time law, which must keep up with them. The step that
-        fails is returned instead, unplanned, its failure saying why.
+        fails is returned instead, unplanned, its failure saying that it was following
+        the object while the jaws closed, then why (its plan's own reason, which alone
+        read as the pick's: ``needs base = 88.41 deg, outside its limits``).
         """
         ex, track = self.executor, self.tracker.tracks[tid]
         cls = self.config.task.class_named(obj.class_name)
@@ -436,6 +438,7 @@ class ConveyorSorter(Sorter):
                          self._on_belt(cls, p))  # fmt: skip
             self.planner.plan(step, poses[-1], target=obj.id)
             if not step.planned or step.plan is None:
+                step.failure = _while_closing(step)
                 return step
             poses.append(step.plan.q)
         q = np.array(poses)
@@ -698,6 +701,19 @@ class ConveyorSorter(Sorter):
                 surplus -= 1
         for kind in [k for k, n in out.left.items() if n <= 0]:
             del out.left[kind]
+
+
+def _while_closing(step: Route) -> str:
+    """A follow step's failure, said to be the follow's: ``kind: following it …, why``.
+
+    A reason that opens with its kind (``collision: …``) keeps it first, as the follow's
+    own collision refusal reads; any other is put after the follow.
+    """
+    why = step.failure or "no plan"
+    kind, sep, rest = why.partition(": ")
+    if sep and kind == step.failure_kind:
+        return f"{kind}: following it while the jaws close, {rest}"
+    return f"following it while the jaws close: {why}"
 
 
 __all__ = ["ConveyorSorter", "GripAim", "KeepsTime"]
