@@ -237,3 +237,21 @@ def test_an_object_up_the_belt_from_where_a_track_was_last_seen_is_another():
     # down the belt from it, as far as the belt's pull explains, it is still its object
     states = tracker.update(3.5, [Seen("red", 16.7, 47.0), Seen("red", 4.0, 47.0)])
     assert sorted((s.id, s.seen) for s in states) == [(1, True), (2, True)]
+
+
+def test_an_object_seen_as_it_landed_is_predicted_at_the_belts_speed():
+    """A 10 cm/s belt's object first seen as it landed, at rest; the belt brings it to its
+    speed in a few milliseconds, and it trails the line through its landing by 0.1 cm.
+
+    Fitted through all its sightings it rode at 9.7 cm/s, and the intercept 0.8 s on aimed
+    0.24 cm short: in the twin the jaws closed behind it and pushed it off their pads
+    (``sim_conveyor --set belt.speed_cm_s=10 --set belt.arrivals.seed=49303``: blue2,
+    first seen at rest at x = 18.00 cm, 9.69 cm/s, "pick failed"; every other object
+    10.2 cm/s). The velocity is learned from the second sighting on.
+    """
+    tracker = Tracker(TrackingConfig(), belt_cm_s=(-10.0, 0.0))
+    for t_s, x_cm in ((0.0, 18.0), (0.1, 17.1), (0.2, 16.1), (0.3, 15.1)):
+        (state,) = tracker.update(t_s, [Seen("blue", x_cm, 46.2)])
+    assert state.id == 1 and state.seen
+    assert state.velocity_cm_s == pytest.approx([-10.0, 0.0], abs=0.02)
+    assert tracker.tracks[1].position_at(1.1) == pytest.approx([7.1, 46.2], abs=0.02)

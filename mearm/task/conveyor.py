@@ -8,8 +8,9 @@ r"""Sorting what a conveyor belt brings: track each object, pick it where it wil
    and a track the arm hides coasts on its prediction. Each frame is checked as the still
    table's looks are: black, frozen, or the bins seen moved (the camera was knocked; the
    belt's objects move, so only the bins, which stand still, can show it).
-2. **Choose** the object farthest down the belt whose track has a velocity (seen
-   :data:`MIN_SIGHTINGS` times).
+2. **Choose** the object farthest down the belt whose track has a velocity (learned
+   from :data:`MIN_SIGHTINGS` sightings; on a moving belt not from the first, which may
+   show the object as it landed, at rest: :meth:`~mearm.vision.tracking.Track.correct`).
 3. **Intercept**: the pick is planned for where the object will be when the jaws close
    on it. With :math:`p(t)` the track's constant-velocity prediction, the grip time
    solves
@@ -84,7 +85,7 @@ from mearm.vision.tracking import (
 BELT_PICK_MISSED = "the camera still sees it on the belt, where it rode on from the grip"
 #: How often the camera is read while the arm waits for an object [s].
 LOOK_PERIOD_S = 0.1
-#: Sightings before a track's velocity is trusted for an intercept.
+#: Sightings a track's velocity is learned from before it is trusted for an intercept.
 MIN_SIGHTINGS = 3
 #: The intercept's rounds: each plans the routes to the last round's grip point.
 INTERCEPT_ROUNDS = 8
@@ -167,7 +168,6 @@ class ConveyorSorter(Sorter):
         self.tracker = Tracker(self.config.belt.tracking, (belt_cm_s[0], belt_cm_s[1]))
         self.on_grip = on_grip
         self._by_track: dict[int, TrackedObject] = {}
-        self._sightings: dict[int, int] = {}
         #: Where each track's object was last seen (x, y) [cm]: a lost track's is said.
         self._seen_cm: dict[int, tuple[float, float]] = {}
         #: Objects whose pick failed, riding on: (the object, where the jaws closed [cm],
@@ -219,7 +219,6 @@ class ConveyorSorter(Sorter):
         states = self.tracker.update(taken, seen)
         for s in states:
             if s.seen:
-                self._sightings[s.id] = self._sightings.get(s.id, 0) + 1
                 self._seen_cm[s.id] = (float(s.position_cm[0]), float(s.position_cm[1]))
             obj = self._by_track.get(s.id)
             if obj is None:
@@ -292,7 +291,7 @@ class ConveyorSorter(Sorter):
             obj = self._by_track[s.id]
             if obj.sorted or obj.skipped is not None:
                 continue
-            if self._sightings.get(s.id, 0) < MIN_SIGHTINGS:
+            if self.tracker.tracks[s.id].learned_from < MIN_SIGHTINGS:
                 continue
             along, _ = self.belt.along_across_cm(*s.position_cm)
             ready.append((along, s.id))

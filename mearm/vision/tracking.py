@@ -158,21 +158,30 @@ class Track:
         self.id = track_id
         self.color = seen.color
         self._accel_var = tracking.accel_std_cm_s2**2
+        self._measurement_var = tracking.measurement_std_cm**2
         self._belt = None if belt_cm_s is None else np.array(belt_cm_s, dtype=float)
         kf = cv2.KalmanFilter(4, 2, 0, cv2.CV_64F)
         kf.measurementMatrix = np.hstack([np.eye(2), np.zeros((2, 2))])
-        kf.measurementNoiseCov = np.eye(2) * tracking.measurement_std_cm**2
-        vx, vy = (0.0, 0.0) if belt_cm_s is None else belt_cm_s
-        speed = MAX_BELT_SPEED_CM_S if belt_cm_s is None else math.hypot(vx, vy)
-        kf.statePost = np.array([[seen.x_cm], [seen.y_cm], [vx], [vy]], dtype=float)
-        # the velocity is the belt's, give or take its speed, until the sightings say more
-        kf.errorCovPost = np.diag([tracking.measurement_std_cm**2] * 2 + [speed**2] * 2)
+        kf.measurementNoiseCov = np.eye(2) * self._measurement_var
         self._kf = kf
+        self._start(seen)
+        #: How many times its object was seen.
+        self.sightings = 1
+        #: The sightings its velocity is learned from (:meth:`correct`).
+        self.learned_from = 1
         self.t_s = t_s
         self.last_seen_s = t_s
         #: Where it was last seen (x, y) [cm].
         self.last_seen_cm = np.array([seen.x_cm, seen.y_cm], dtype=float)
         self.seen = True
+
+    def _start(self, seen: Seen) -> None:
+        """Put the filter at ``seen``, at the belt's velocity give or take its speed."""
+        vx, vy = (0.0, 0.0) if self._belt is None else self._belt
+        speed = MAX_BELT_SPEED_CM_S if self._belt is None else math.hypot(vx, vy)
+        self._kf.statePost = np.array([[seen.x_cm], [seen.y_cm], [vx], [vy]], dtype=float)
+        # the velocity is the belt's, give or take its speed, until the sightings say more
+        self._kf.errorCovPost = np.diag([self._measurement_var] * 2 + [speed**2] * 2)
 
     def _transition(self, dt: float) -> None:
         kf = self._kf
@@ -208,11 +217,21 @@ class Track:
         it, a phantom at the arm's base the belt's picks were then refused beside
         (``sim_conveyor --set belt.arrivals.seed=46313``, 6 cm/s, 1-2 s apart: 3 of 8
         sorted, simulated).
+
+        On a moving belt the velocity is learned from the second sighting on: the
+        first may show the object as it landed, at rest, before the belt brought it
+        to its speed, and the constant-velocity model took the start-up for a slower
+        object (the filter starts again there, :attr:`learned_from` counting from it).
         """
         kf = self._kf
+        self.sightings += 1
+        if self.sightings == 2 and self._belt is not None and np.any(self._belt):
+            self._start(seen)
+            self.learned_from = 0
         kf.statePre = kf.statePost.copy()
         kf.errorCovPre = kf.errorCovPost.copy()
         kf.correct(np.array([[seen.x_cm], [seen.y_cm]], dtype=float))
+        self.learned_from += 1
         self.last_seen_s = self.t_s
         self.last_seen_cm = np.array([seen.x_cm, seen.y_cm], dtype=float)
         self.seen = True
