@@ -108,14 +108,14 @@ def _sort_one(data: dict):  # type: ignore[no-untyped-def,type-arg]
 
 
 def test_a_follow_step_past_a_joint_limit_says_it_was_the_follow():
-    """The base's lower limit set to 88.5 deg: the pick ends at base 89.6 deg, and the follow,
-    riding 1.8 cm on with the object while the jaws close, needs 88.41 deg.
+    """The base's lower limit set to 88 deg: the pick ends at base 89.0 deg, and the follow,
+    riding 1.8 cm on with the object while the jaws close, would end at 86.9 deg.
 
-    The step's own reason ("needs base = 88.41 deg, outside its limits") read as if the
+    The step's own reason ("needs base = 87.93 deg, outside its limits") read as if the
     pick were out of reach; the skip says it was the follow, then the step's reason.
     """
     data = _reversed_belt(49811)
-    data["arm"]["joints"][0]["limits"]["min"] = 88.5
+    data["arm"]["joints"][0]["limits"]["min"] = 88.0
     report, catches = _sort_one(data)
     assert catches == [0], catches
     assert len(report.skipped) == 1, report.skipped
@@ -124,13 +124,14 @@ def test_a_follow_step_past_a_joint_limit_says_it_was_the_follow():
     assert skip.reason.startswith(
         "missed on the belt: following it while the jaws close: needs base = "
     ), skip.reason
-    assert "outside its limits [88.5, 160] deg" in skip.reason, skip.reason
+    assert "outside its limits [88, 160] deg" in skip.reason, skip.reason
     assert report.outcome.left == {"missed_belt": 1}, report.outcome.line()
 
 
 def test_a_follow_step_into_a_wall_says_it_was_the_follow():
-    """The red bin set on the belt 6.25 cm along: the pick at x = 0.3 cm is clear of its
-    walls, and the follow's steps, carried on towards +x, come within the clearance.
+    """The red bin set on the belt at x = 6.25 cm: the pick at x = 0.8 cm is clear of its
+    walls, and the follow's steps, carried on towards +x, come within the clearance (at
+    x = 5 cm the pick itself is refused, from 7.5 cm the follow is clear).
 
     The step's own reason named only the wall, as a pick's does; the skip says it was the
     follow, its kind first, as the follow's own collision refusal reads.
