@@ -837,6 +837,66 @@ class CollisionModel:
         ]
         return (max(tops) + self.clearance_m + hang) / M_PER_CM
 
+    def clear_height_between_cm(self, q: npt.ArrayLike, to_cm: npt.ArrayLike) -> float:
+        """:meth:`clear_height_cm` over what lies under the way from pose ``q`` to ``to_cm``.
+
+        The arm turns about its base on the way from the TCP at ``q`` to the point
+        ``to_cm`` [cm], and every link sweeps the sector between the two azimuths about the
+        base's axis, from the axis out (the shorter way round), not the TCP's line: the
+        bin walls and object tops that count are those whose footprint comes within the
+        clearance and the arm's half-width (its shapes' farthest reach sideways from the
+        vertical plane through the base's axis and the TCP, at ``q``) of that sector; one
+        the base's axis stands in counts too. A height to try: the path at it is still
+        checked whole (:meth:`first_contact`). Where the TCP at ``q`` or ``to_cm`` is on
+        the base's axis (no azimuth), as :meth:`clear_height_cm`.
+        """
+        low = self._lowest_points(q)  # (the kinematics at q, for the placements below)
+        tcp = self.model.fk_cm(q) * M_PER_CM
+        hang = max(0.0, float(tcp[2]) - float(np.min(low[self._tool & self._row_on])))
+        bx, by = (float(v) for v in self.data.oMi[1].translation[:2])  # the base's axis
+        ends = [(float(tcp[0]) - bx, float(tcp[1]) - by)]
+        to = np.asarray(to_cm, dtype=float) * M_PER_CM
+        ends.append((float(to[0]) - bx, float(to[1]) - by))
+        if min(math.hypot(x, y) for x, y in ends) < 1e-4:
+            return self.clear_height_cm(q)
+        a0 = math.atan2(ends[0][1], ends[0][0])
+        span = _wrapped(math.atan2(ends[1][1], ends[1][0]) - a0)
+        lo, hi = min(0.0, span), max(0.0, span)  # the sector, relative to a0 [rad]
+        # the arm's half-width: its shapes' farthest point sideways of its vertical plane
+        norm = math.hypot(*ends[0])
+        across = np.array([ends[0][1] / norm, -ends[0][0] / norm, 0.0])
+        rows = np.flatnonzero(self._row_on).tolist()
+        oMg = self.gdata.oMg
+        R = np.array([oMg[k].rotation for k in rows])
+        c = np.array([oMg[k].translation for k in rows]) - [bx, by, 0.0]
+        wide = np.abs(c @ across) + _extent(R, self._half[rows], self._is_cyl[rows], across)
+        pad = self.clearance_m + float(np.max(wide))
+        tops = [0.0]
+        for j in range(1, len(self._obstacles)):
+            if not self._col_on[j]:
+                continue
+            (cx, cy, cz), (hx, hy, hz) = self._ob_centre[j], self._ob_half[j]
+            # its footprint's nearest point to the base's axis, and the azimuths it spans
+            # (its corners' about its centre's: under a half turn, the axis outside it)
+            near = math.hypot(max(abs(cx - bx) - hx, 0.0), max(abs(cy - by) - hy, 0.0))
+            if near > pad:
+                mid = math.atan2(cy - by, cx - bx)
+                turns = [
+                    _wrapped(math.atan2(cy + sy * hy - by, cx + sx * hx - bx) - mid)
+                    for sx in (-1.0, 1.0)
+                    for sy in (-1.0, 1.0)
+                ]
+                grow = math.asin(pad / near)
+                at = _wrapped(mid - a0)
+                first, last = at + min(turns) - grow, at + max(turns) + grow
+                if not any(
+                    first + k * 2 * math.pi <= hi and last + k * 2 * math.pi >= lo
+                    for k in (-1, 0, 1)
+                ):
+                    continue
+            tops.append(float(cz + hz))
+        return (max(tops) + self.clearance_m + hang) / M_PER_CM
+
     def tool_lowest_cm(self, q: npt.ArrayLike) -> tuple[float, str]:
         """The tool's lowest point at pose ``q``: its height above the table [cm], its shape.
 
@@ -1099,6 +1159,23 @@ def _first_beyond(sweep: list[float], done: float, g: float) -> tuple[int, float
             return j, before
         before = ahead
     return len(sweep), before
+
+
+def _extent(R: np.ndarray, half: np.ndarray, is_cyl: np.ndarray, n: np.ndarray) -> np.ndarray:
+    """How far each shape reaches from its centre along the unit vector ``n`` [m], (k,).
+
+    :func:`_lowest` along any direction: a box's corner, a cylinder's rim.
+    """
+    rn = np.einsum("j,kji->ki", n, R)  # ``n``'s component of each of the shape's axes
+    box = np.sum(np.abs(rn) * half, axis=1)
+    axial = np.abs(rn[:, 2]) * half[:, 2]
+    rim = half[:, 0] * np.sqrt(np.clip(1.0 - rn[:, 2] ** 2, 0.0, 1.0))
+    return np.where(is_cyl, axial + rim, box)
+
+
+def _wrapped(angle: float) -> float:
+    """``angle`` [rad] in [-pi, pi)."""
+    return (angle + math.pi) % (2 * math.pi) - math.pi
 
 
 def _half_extents(shape: Shape) -> np.ndarray:

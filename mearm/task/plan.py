@@ -23,7 +23,10 @@ again as a detour: straight up from the start to the safe height (every bin wall
 object top, the clearance and the tool hanging below the TCP), over at that height to
 above the target, and down; each leg is solved and the whole is checked again. Where the
 arm cannot rise straight up that high (near its base, a joint at its limit), the way over
-leaves from the start, rising as it goes. A detour
+leaves from the start, rising as it goes. Where no such height works, the way over is
+tried once more at the height that clears only what lies under it (the sector the arm
+sweeps about its base between the start and the target:
+:meth:`~mearm.kinematics.collision.CollisionModel.clear_height_between_cm`). A detour
 that is not clear either refuses the route with ``collision``, naming the two bodies and
 the pose; nothing of it is sent. A direct solve that stopped short (``limit``,
 ``stalled``) is tried once more the same way, from over the target.
@@ -276,17 +279,24 @@ class Planner:
             route.target, route.failure, route.failure_kind = own, None, None
         return _fail(route, IKFailure("collision", why))
 
-    def way_up(self, q: npt.ArrayLike, from_cm: npt.ArrayLike | None = None) -> Route:
+    def way_up(
+        self,
+        q: npt.ArrayLike,
+        from_cm: npt.ArrayLike | None = None,
+        *,
+        safe_cm: float | None = None,
+    ) -> Route:
         """The TCP straight up from pose ``q`` to the safe height, planned and checked.
 
         ``from_cm``: where the TCP is [cm] (the simulated arm's truth; default: the FK of
-        ``q``). The way home's first detour (:func:`~mearm.task.homing.go_home`), and
+        ``q``); ``safe_cm``: the height to rise to [cm] (default: :meth:`safe_height_cm`).
+        The way home's first detour (:func:`~mearm.task.homing.go_home`), and
         from a release, in the world the jaws
         left there (:meth:`plan_place`). Not planned: its failure says why.
         """
         tcp = self.model.fk_cm(q) if from_cm is None else np.asarray(from_cm, dtype=float)
         x, y, z = (float(v) for v in tcp)
-        safe = max(z, self.safe_height_cm(q))
+        safe = max(z, self.safe_height_cm(q) if safe_cm is None else safe_cm)
         return self.plan(Route("", "", "home", 1, IKTarget((x, y, safe))), q)
 
     def _no_way_up(self, q: np.ndarray, open_cm: float) -> str | None:
@@ -297,7 +307,15 @@ class Planner:
         assert self.collision is not None
         with self.collision.released(open_cm):
             up = self.way_up(q)
-        return None if up.planned else up.failure
+            if up.planned:
+                return None
+            # up to where it clears what lies under it there, the least a detour on from
+            # here rises to (:meth:`_detour`, over what lies under its way)
+            low = self.collision.clear_height_between_cm(q, self.model.fk_cm(q))
+            if low + DETOUR_MARGIN_CM < float(up.target.position_cm[2]):
+                if self.way_up(q, safe_cm=low + DETOUR_MARGIN_CM).planned:
+                    return None
+        return up.failure
 
     def _solve(
         self, target: IKTarget, q_start: npt.ArrayLike
@@ -504,51 +522,73 @@ class Planner:
         unreachable`` (``sim --random 44 --seed 43011``, the count a refusal of 500
         named, 43 of 44), though that way to the bin is clear.
 
+        Where no height over every wall and object top works, the way over is tried once
+        more at the height over only what lies under it
+        (:meth:`~mearm.kinematics.collision.CollisionModel.clear_height_between_cm`): the
+        MeArm v1's blues were left ``bin unreachable`` with the red bin's walls raised to
+        5 cm, the height over them out of the claw's reach over the blue bin, the red bin
+        well off their way (``sim_mearm_v1 --set task.classes.0.bin_height_cm=5``,
+        4 of 6). Tried last, so that every way the heights over everything find is kept.
+
         The plan and the height it travels at; or, where no height works, what stopped
         the lowest one (where the way up was not solved, what stopped it).
         """
         assert self.collision is not None
         q0 = np.asarray(q_start, dtype=float)
-        z0 = float(self.model.fk_cm(q0)[2])
-        x1, y1, z1 = (float(v) for v in target.position_cm)
         base = self.safe_height_cm(q0)
         lowest = ""
         for extra in DETOUR_EXTRA_CM:
             z = base + extra
-            legs = [
-                self.up_from(q0, max(z0, z), target.approach),
-                IKTarget((x1, y1, max(z1, z)), target.approach),
-                target,
-            ]
-            results: list[IKResult] = []
-            q = q0
-            rise = ""  # why the way straight up was not solved, if it was not
-            for i, leg in enumerate(legs):
-                result, failure = self._solve(leg, q)
-                if failure is not None and i < len(legs) - 1 and leg.approach is not None:
-                    # far out, the tool may not point down that high (the 5-DOF arm's wrist
-                    # at its limit 27 cm out): it rises, or travels, tilted, and turns
-                    # down on the way to the target
-                    tilted, tilted_failure = self._solve(IKTarget(leg.position_cm), q)
-                    if tilted_failure is None:
-                        result, failure = tilted, None
-                if result is None or failure is not None:
-                    assert failure is not None
-                    if i == 0:  # no way straight up: over from here, rising as it goes
-                        rise = failure.message
-                        continue
-                    stop = rise or failure.message
-                    break
-                results.append(result)
-                q = result.q
-            else:
-                joined = _join(results, np.asarray(target.position_cm, dtype=float))
-                contact = self.collision.first_contact(joined.q_path, target=obj)
-                if contact is None:
-                    return joined, z
-                stop = rise or self._describe(contact)
-            lowest = lowest or f"over the top at {z:.1f} cm: {stop}"
+            way = self._over_at(z, target, q0, obj)
+            if not isinstance(way, str):
+                return way, z
+            lowest = lowest or f"over the top at {z:.1f} cm: {way}"
+        # lower still: over only what lies under the way there (the corridor's height);
+        # the path is checked whole as at every other height
+        z = self.collision.clear_height_between_cm(q0, target.position_cm) + DETOUR_MARGIN_CM
+        if z < base:
+            way = self._over_at(z, target, q0, obj)
+            if not isinstance(way, str):
+                return way, z
         return lowest
+
+    def _over_at(
+        self, z: float, target: IKTarget, q0: np.ndarray, obj: str | None
+    ) -> IKResult | str:
+        """:meth:`_detour`'s way over at TCP height ``z`` [cm], checked whole; or what stops it."""
+        assert self.collision is not None
+        z0 = float(self.model.fk_cm(q0)[2])
+        x1, y1, z1 = (float(v) for v in target.position_cm)
+        legs = [
+            self.up_from(q0, max(z0, z), target.approach),
+            IKTarget((x1, y1, max(z1, z)), target.approach),
+            target,
+        ]
+        results: list[IKResult] = []
+        q = q0
+        rise = ""  # why the way straight up was not solved, if it was not
+        for i, leg in enumerate(legs):
+            result, failure = self._solve(leg, q)
+            if failure is not None and i < len(legs) - 1 and leg.approach is not None:
+                # far out, the tool may not point down that high (the 5-DOF arm's wrist
+                # at its limit 27 cm out): it rises, or travels, tilted, and turns
+                # down on the way to the target
+                tilted, tilted_failure = self._solve(IKTarget(leg.position_cm), q)
+                if tilted_failure is None:
+                    result, failure = tilted, None
+            if result is None or failure is not None:
+                assert failure is not None
+                if i == 0:  # no way straight up: over from here, rising as it goes
+                    rise = failure.message
+                    continue
+                return rise or failure.message
+            results.append(result)
+            q = result.q
+        joined = _join(results, np.asarray(target.position_cm, dtype=float))
+        contact = self.collision.first_contact(joined.q_path, target=obj)
+        if contact is None:
+            return joined
+        return rise or self._describe(contact)
 
     def _outside_limits(self, q: np.ndarray) -> IKFailure | None:
         """The first pose of ``plan`` outside the joint limits or the pulse ranges, if any.
