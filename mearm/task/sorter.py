@@ -537,8 +537,10 @@ class Sorter(PickAndPlace):
         """In simulation, count the objects the camera took for one carried off before.
 
         An object first seen where the arm hid the table, near the way another of its
-        class was carried to its bin with no simulator confirming the release (the twin),
-        is taken for that one dropped on the way (:meth:`TableTracking._dropped`): the
+        class was carried to its bin with no simulator confirming the release (the twin
+        before it confirmed the places it counts,
+        :func:`~mearm.task.pick_place.place_confirmed`; a real rig), is taken for that
+        one dropped on the way (:meth:`TableTracking._dropped`): the
         camera cannot tell them apart. Picked and placed, it is the same object placed
         twice. Where the world has more of the class in its bin than the sort counted,
         each such place was another object, seen and sorted: not one left "never seen"

@@ -104,8 +104,9 @@ class TrackedObject:
     #: Its region's area at the last look [px].
     area_px: int = 0
     #: The path (x, y) [cm], (k, 2), its TCP carried it along to its bin, while no
-    #: simulator has confirmed the release (the twin, a real rig): an object of its class
-    #: seen new near that path is it, dropped on the way (:meth:`TableTracking._dropped`).
+    #: simulator has confirmed the release (a real rig; a place the twin did not count:
+    #: :func:`~mearm.task.pick_place.place_confirmed`): an object of its class seen new
+    #: near that path is it, dropped on the way (:meth:`TableTracking._dropped`).
     carried_cm: np.ndarray | None = None
     #: How many times it was placed in its bin: more than once when an object seen later
     #: near its way there was taken for it, dropped on the way
