@@ -28,32 +28,8 @@ def test_a_follow_the_servos_cannot_keep_up_with_leaves_the_object():
     for joint in data["arm"]["joints"]:
         if joint.get("servo") is not None:
             joint["servo"]["max_accel_deg_s2"] = 100.0
-    config = config_from_dict(data)
-    with open_rig(config) as rig:
-        sorter = ConveyorSorter(
-            config, rig.camera, rig.bus, model=rig.model, echo=None, in_bins=rig.in_bins
-        )
-        sent: list[ArmCommand] = []
-        move = rig.bus.move
-
-        def recorded(command: ArmCommand) -> None:
-            move(command)
-            sent.append(command)
-
-        rig.bus.move = recorded  # type: ignore[method-assign]
-        catches: list[tuple[int, int]] = []  # commands sent before and after each catch
-        catch = sorter._catch
-
-        def counted(obj, tid) -> None:  # type: ignore[no-untyped-def]
-            before = len(sent)
-            catch(obj, tid)
-            catches.append((before, len(sent)))
-
-        sorter._catch = counted  # type: ignore[method-assign]
-        report = sorter.run()
-    assert len(catches) == 1, catches
-    before, after = catches[0]
-    assert after == before, f"the refused catch sent {after - before} commands"
+    report, catches = _sort_one(data)
+    assert catches == [0], f"the refused catch sent {catches} commands"
     assert len(report.skipped) == 1, report.skipped
     skip = report.skipped[0]
     assert skip.kind == "missed_belt", skip
