@@ -83,6 +83,18 @@ def _sort_one(data: dict):  # type: ignore[no-untyped-def,type-arg]
         return sorter.run(), catches
 
 
+def _the_one_refusal(data: dict, kind: str) -> str:  # type: ignore[type-arg]
+    """Sort ``data``'s one object: its catch refused, nothing sent, it left for ``kind``;
+    the reason it was left."""
+    report, catches = _sort_one(data)
+    assert catches == [0], catches
+    assert len(report.skipped) == 1, report.skipped
+    skip = report.skipped[0]
+    assert skip.kind == kind, skip
+    assert report.outcome.left == {kind: 1}, report.outcome.line()
+    return str(skip.reason)
+
+
 def test_a_follow_step_past_a_joint_limit_says_it_was_the_follow():
     """The base's lower limit set to 88 deg: the pick ends at base 89.0 deg, and the follow,
     riding 1.8 cm on with the object while the jaws close, would end at 86.9 deg.
@@ -92,16 +104,11 @@ def test_a_follow_step_past_a_joint_limit_says_it_was_the_follow():
     """
     data = _reversed_belt(49811)
     data["arm"]["joints"][0]["limits"]["min"] = 88.0
-    report, catches = _sort_one(data)
-    assert catches == [0], catches
-    assert len(report.skipped) == 1, report.skipped
-    skip = report.skipped[0]
-    assert skip.kind == "missed_belt", skip
-    assert skip.reason.startswith(
+    reason = _the_one_refusal(data, "missed_belt")
+    assert reason.startswith(
         "missed on the belt: following it while the jaws close: needs base = "
-    ), skip.reason
-    assert "outside its limits [88, 160] deg" in skip.reason, skip.reason
-    assert report.outcome.left == {"missed_belt": 1}, report.outcome.line()
+    ), reason
+    assert "outside its limits [88, 160] deg" in reason, reason
 
 
 def test_a_follow_step_into_a_wall_says_it_was_the_follow():
@@ -115,13 +122,8 @@ def test_a_follow_step_into_a_wall_says_it_was_the_follow():
     data = _reversed_belt(49811)
     red = next(c for c in data["task"]["classes"] if c["name"] == "red")
     red["bin_cm"][:2] = [6.25, 47.0]
-    report, catches = _sort_one(data)
-    assert catches == [0], catches
-    assert len(report.skipped) == 1, report.skipped
-    skip = report.skipped[0]
-    assert skip.kind == "collision", skip
-    assert skip.reason.startswith(
+    reason = _the_one_refusal(data, "collision")
+    assert reason.startswith(
         "missed on the belt: collision: following it while the jaws close, gripper_"
-    ), skip.reason
-    assert "of bin_red_wall_nx at (base " in skip.reason, skip.reason
-    assert report.outcome.left == {"collision": 1}, report.outcome.line()
+    ), reason
+    assert "of bin_red_wall_nx at (base " in reason, reason
