@@ -8,7 +8,6 @@ objects at least 1 cm apart (edge to edge, so centres at least 3 cm apart for th
 
 from __future__ import annotations
 
-import difflib
 import math
 from collections import Counter
 from collections.abc import Callable, Sequence
@@ -123,6 +122,8 @@ def _scene_problem(err: ErrorDetails) -> str:
     """
     loc, msg, kind = loc_text(err["loc"]), err["msg"], err["type"]
     if kind == "extra_forbidden":
+        import difflib  # noqa: PLC0415  (a mistyped key's suggestion; a sort never needs it)
+
         key = str(err["loc"][-1])
         close = difflib.get_close_matches(key, list(SceneObject.model_fields), n=1, cutoff=0.6)
         meant = f"; did you mean {close[0]}?" if close else ""
