@@ -1,0 +1,43 @@
+"""A belt object whose intercept lies past the belt's end is left for that, not for a wall."""
+
+from __future__ import annotations
+
+import pytest
+from conftest import ROOT
+
+from mearm.config import config_from_dict, load_config
+from mearm.task.conveyor import ConveyorSorter
+from mearm.task.rig import open_rig
+
+TWIN = ROOT / "configs" / "sim_conveyor.yaml"
+
+
+@pytest.mark.heavy
+def test_an_intercept_past_the_belts_end_is_left_as_past_it():
+    """The twin at 8 cm/s, ``belt.arrivals.seed=49886``, arrivals 1.5-2.5 s apart: more
+    than the arm keeps up with, so some ride off the end before their turn.
+
+    blue3's intercept aimed at x = -16.05 cm, 4 cm past the belt's end (x = -12 cm),
+    beside the green bin, and its route there was refused for the bin's wall: it was left
+    "missed on the belt: collision: gripper_jaw_left_pad comes within 0.30 cm of
+    bin_green_wall_py" and counted "no route clear of collisions". It is now left as
+    7.0 cm past the belt's end when the jaws would have closed on it.
+    """
+    data = load_config(TWIN).model_dump(mode="json")
+    data["belt"]["speed_cm_s"] = 8.0
+    data["belt"]["arrivals"]["seed"] = 49886
+    data["belt"]["arrivals"]["min_gap_s"] = 1.5
+    data["belt"]["arrivals"]["max_gap_s"] = 2.5
+    config = config_from_dict(data)
+    with open_rig(config) as rig:
+        sorter = ConveyorSorter(
+            config, rig.camera, rig.bus, model=rig.model, echo=None, in_bins=rig.in_bins
+        )
+        report = sorter.run()
+    line = report.outcome.line()
+    assert "no route clear of collisions" not in line, line
+    left = {s.object_id: s for s in report.skipped}
+    assert "blue3" in left, left
+    assert all(
+        s.kind == "missed_belt" and "past the belt's end" in s.reason for s in left.values()
+    ), left
