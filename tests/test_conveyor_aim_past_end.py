@@ -3,11 +3,10 @@
 from __future__ import annotations
 
 import pytest
+from belt_sort import sort_measuring_grips
 from conftest import ROOT
 
 from mearm.config import config_from_dict, load_config
-from mearm.task.conveyor import ConveyorSorter
-from mearm.task.rig import open_rig
 
 TWIN = ROOT / "configs" / "sim_conveyor.yaml"
 
@@ -28,12 +27,7 @@ def test_an_intercept_past_the_belts_end_is_left_as_past_it():
     data["belt"]["arrivals"]["seed"] = 49886
     data["belt"]["arrivals"]["min_gap_s"] = 1.5
     data["belt"]["arrivals"]["max_gap_s"] = 2.5
-    config = config_from_dict(data)
-    with open_rig(config) as rig:
-        sorter = ConveyorSorter(
-            config, rig.camera, rig.bus, model=rig.model, echo=None, in_bins=rig.in_bins
-        )
-        report = sorter.run()
+    report, _ = sort_measuring_grips(config_from_dict(data))
     line = report.outcome.line()
     assert "no route clear of collisions" not in line, line
     left = {s.object_id: s for s in report.skipped}

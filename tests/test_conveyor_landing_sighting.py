@@ -3,11 +3,10 @@
 from __future__ import annotations
 
 import pytest
+from belt_sort import sort_measuring_grips
 from conftest import ROOT
 
 from mearm.config import config_from_dict, load_config
-from mearm.task.conveyor import ConveyorSorter
-from mearm.task.rig import open_rig
 
 TWIN = ROOT / "configs" / "sim_conveyor.yaml"
 
@@ -28,11 +27,6 @@ def test_the_twin_catches_objects_first_seen_as_they_landed():
     data["belt"]["speed_cm_s"] = 10.0
     data["belt"]["arrivals"]["count"] = 3
     data["belt"]["arrivals"]["seed"] = 49803
-    config = config_from_dict(data)
-    with open_rig(config) as rig:
-        sorter = ConveyorSorter(
-            config, rig.camera, rig.bus, model=rig.model, echo=None, in_bins=rig.in_bins
-        )
-        report = sorter.run()
+    report, _ = sort_measuring_grips(config_from_dict(data))
     assert report.complete and report.outcome.n_sorted == 3, report.outcome.line()
     assert not [r for r in report.routes if r.step == "pick" and not r.success], report.routes
