@@ -135,3 +135,22 @@ def test_aruco_sheet_names_how_many_markers_fit_at_the_least_side(tmp_path: Path
     again = check_bad_input(["aruco-sheet", "--output", out, "--ids", more, "--side-cm", "1",
                              "--force"], keep=[out])  # fmt: skip
     assert f"at most {most} fit" in again.line
+
+
+def test_aruco_sheet_says_how_many_ids_fit_in_its_help_and_refusals(tmp_path: Path) -> None:
+    """The page holds 10 markers (2 columns of 5 at the least side): the help says so, and
+    65 ids are refused in the words 30 are, not as "up to 64" that never fitted."""
+    shown = run_in_process(["aruco-sheet", "--help"])
+    assert shown.code == 0
+    assert "at most 10 fit one A4 page" in " ".join(shown.stdout.split())
+    out = tmp_path / "sheet.png"
+    many = ",".join(str(i % 50) for i in range(65))
+    refused = check_bad_input(["aruco-sheet", "--output", out, "--ids", many])
+    assert refused.line.endswith(
+        "65 markers do not fit on one A4 page at any --side-cm (the least is 1 cm); at most "
+        "10 fit: split them over sheets"
+    ), refused.line
+    assert "64" not in refused.line
+    from mearm.tools.aruco_sheet import most_that_fit  # noqa: PLC0415
+
+    assert {most_that_fit(dpi) for dpi in (72, 150, 300, 600, 1200, 2400)} == {10}  # as said

@@ -34,7 +34,7 @@ MIN_SIDE_CM = 1.0
 #: down (its label), and the page's margins above and below the grid (the scale bar).
 CELL_EXTRA_CM = (3.0, 3.5)
 PAGE_MARGIN_CM = 3.0
-#: Most markers on one sheet (``--ids``).
+#: Most ids ``--ids`` reads; how many fit the page is :func:`most_that_fit` (fewer).
 MAX_IDS = 64
 
 
@@ -60,6 +60,13 @@ def largest_side_cm(count: int, dpi: int) -> float:
     return side_px / px_per_cm
 
 
+def most_that_fit(dpi: int) -> int:
+    """The most markers one page holds at ``dpi`` (at :data:`MIN_SIDE_CM`): 10 on A4."""
+    return max(
+        (n for n in range(1, MAX_IDS + 1) if largest_side_cm(n, dpi) >= MIN_SIDE_CM), default=0
+    )
+
+
 def check_side(count: int, side_cm: float, dpi: int) -> None:
     """Refuse a marker side that is not printable or whose ``count`` markers do not fit.
 
@@ -72,7 +79,7 @@ def check_side(count: int, side_cm: float, dpi: int) -> None:
     """
     largest = largest_side_cm(count, dpi)
     if largest < MIN_SIDE_CM:
-        most = max(n for n in range(1, MAX_IDS + 1) if largest_side_cm(n, dpi) >= MIN_SIDE_CM)
+        most = most_that_fit(dpi)
         raise MearmError(
             f"--ids: {count} markers do not fit on one A4 page at any --side-cm (the least "
             f"is {MIN_SIDE_CM:g} cm); at most {most} fit: split them over sheets"
@@ -145,13 +152,28 @@ def png_with_dpi(image: np.ndarray, dpi: int) -> bytes:
 
 
 def _ids(text: str) -> list[int]:
+    """The ids of ``--ids``; how many fit one page is :func:`check_side`'s to say.
+
+    More than :data:`MAX_IDS` never fit; they are refused in the page's words too.
+    """
     items = [v.strip() for v in text.split(",")]
-    if not all(v.isascii() and v.isdigit() and len(v) <= 6 for v in items) or len(items) > MAX_IDS:
+    if not all(v.isascii() and v.isdigit() and len(v) <= 6 for v in items):
         raise argparse.ArgumentTypeError(
-            f"--ids must be up to {MAX_IDS} comma-separated integers, each a marker id of "
-            f"--dictionary (0 … 49 in the default {DEFAULT_DICTIONARY}), got {text[:40]!r}"
+            f"--ids must be comma-separated integers (at most {_MOST} fit one A4 page), "
+            f"each a marker id of --dictionary (0 … 49 in the default {DEFAULT_DICTIONARY}), "
+            f"got {text[:40]!r}"
+        )
+    if len(items) > MAX_IDS:
+        raise argparse.ArgumentTypeError(
+            f"{len(items)} markers do not fit on one A4 page at any --side-cm (the least is "
+            f"{MIN_SIDE_CM:g} cm); at most {_MOST} fit: split them over sheets"
         )
     return [int(v) for v in items]
+
+
+#: How many markers fit one A4 page, said by ``--help`` and ``--ids``'s refusals: the
+#: same at every ``--dpi`` (a test checks it).
+_MOST = most_that_fit(300)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -159,7 +181,15 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = ArgumentParser(description="Printable ArUco marker sheet.")
     parser.add_argument("--output", type=Path, required=True, help="PNG file to write")
     parser.add_argument("--force", action="store_true", help="replace an existing --output")
-    parser.add_argument("--ids", type=_ids, default=[0, 1, 2, 3], help="marker ids (0,1,2,3)")
+    parser.add_argument(
+        "--ids",
+        type=_ids,
+        default=[0, 1, 2, 3],
+        help=(
+            f"marker ids (0,1,2,3): at most {_MOST} fit one A4 page (at --side-cm "
+            f"{MIN_SIDE_CM:g}; fewer at larger sides), more go on further sheets"
+        ),
+    )
     parser.add_argument(
         "--side-cm",
         type=plain_float,
