@@ -341,3 +341,25 @@ def test_a_twin_of_a_config_whose_name_is_not_utf8_is_refused(tmp_path: Path) ->
     out = check_bad_input(argv, keep=[tmp_path])
     assert f"--of {mine}: the name is not UTF-8 text" in out.line
     assert not (tmp_path / "twin.yaml").exists()
+
+
+@bad_input
+@pytest.mark.parametrize(
+    ("given", "at"),
+    [("task.name=\udce9", 11), ("task.n\udce9=1", 7), ("task.classes.0.name=r\udce9d", 22)],
+    ids=["value", "key", "a-real-key"],
+)
+def test_a_set_typed_in_bytes_that_are_not_utf8_names_the_byte(
+    tmp_path: Path, given: str, at: int
+) -> None:
+    """``--set $'task.name=\\xe9'`` from a Latin-1 terminal: the byte was called a control
+    character by YAML (a value) or "not a unicode string" by pydantic (a key). Now the
+    line names the byte and UTF-8, and no run log is begun (nothing to ``--resume``)."""
+    log = tmp_path / "run.jsonl"
+    argv = ["experiment", "--trials", "1", "--log", log, "--set", given]
+    out = check_bad_input_subprocess(argv, keep=[tmp_path], within_s=10)
+    assert f": not UTF-8 text (byte 0xE9 at character {at}): keys and values are UTF-8" in (
+        out.line
+    ), out.line
+    assert "\\udce9" not in out.line and "\\xe9" in out.line
+    assert not log.exists()

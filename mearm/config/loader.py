@@ -75,6 +75,31 @@ def override_example(text: str, overrides_as: str) -> str:
     return f"{overrides_as}=[{text!r}]"
 
 
+def _check_utf8(text: str, overrides_as: str) -> None:
+    r"""Refuse an override typed in bytes that are not UTF-8, naming the first of them.
+
+    Python holds such bytes of a command line as surrogates (0xE9 as U+DCE9), which no
+    config can hold: ``--set $'task.name=\xe9'`` from a Latin-1 terminal. YAML called
+    the byte a control character; pydantic, a key "not a unicode string".
+
+    Raises:
+        ConfigError: ``text`` holds a byte that is not UTF-8.
+    """
+    at = next((i for i, c in enumerate(text) if "\udc80" <= c <= "\udcff"), None)
+    if at is None:
+        return
+    shown = text.encode("utf-8", "surrogateescape")
+    raise ConfigError(
+        overrides_as,
+        [
+            f"{short_repr(shown)[1:]}: not UTF-8 text (byte 0x{ord(text[at]) - 0xDC00:02X} "
+            f"at character {at + 1}): keys and values are UTF-8; a terminal in another "
+            "encoding (Latin-1) sends other bytes: use a UTF-8 one, or set a value that is "
+            "ASCII"
+        ],
+    )
+
+
 def parse_override(text: str, overrides_as: str = OVERRIDES) -> tuple[list[str], Any]:
     """Split ``dotted.key=value`` into the path and the YAML-parsed value.
 
@@ -82,8 +107,10 @@ def parse_override(text: str, overrides_as: str = OVERRIDES) -> tuple[list[str],
     (:data:`OVERRIDES`, a command's ``--set``).
 
     Raises:
-        ConfigError: no ``=``, an empty key, or a value that is not YAML.
+        ConfigError: text that is not UTF-8, no ``=``, an empty key, or a value that is
+            not YAML.
     """
+    _check_utf8(text, overrides_as)
     key, sep, raw = text.partition("=")
     key = key.strip()
     if not sep or not key or any(not part for part in key.split(".")):
