@@ -33,7 +33,6 @@ from __future__ import annotations
 import argparse
 import json
 import shutil
-import sys
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -50,6 +49,7 @@ from mearm.cli import (
     refuse_own_inputs,
     refuse_to_replace,
     run,
+    say_on_stderr,
     write_text_atomic,
 )
 from mearm.config import Config
@@ -170,17 +170,17 @@ def _read_log(path: Path, *, strict: bool) -> RunLogContents:
     ):
         if attempts:
             numbers = sorted({t.number for t in attempts if t.number is not None})
-            print(
+            say_on_stderr(
                 f"note: left out {len(attempts)} {kind} attempt(s) of trial(s) "
                 f"{', '.join(map(str, numbers))} (header line(s) "
                 f"{', '.join(str(t.line) for t in attempts)}), which were run again",
-                file=sys.stderr,
+                "python -m mearm.analyze",
             )
     if contents.problem is not None:
         p = contents.problem
-        print(
+        say_on_stderr(
             f"warning: {p}; analysed the {len(contents.records)} records before it",
-            file=sys.stderr,
+            "python -m mearm.analyze",
         )
     return contents
 
@@ -482,7 +482,7 @@ def _path_routes(contents: RunLogContents) -> list[Any]:
         model = ArmModel(config.arm)
         return [resolve_logged_route(r, config, model=model) for r in routes]
     except MearmError as exc:  # the tables and the other plots are still worth having
-        print(f"warning: path plots skipped: {exc}", file=sys.stderr)
+        say_on_stderr(f"warning: path plots skipped: {exc}", "python -m mearm.analyze")
         return []
 
 

@@ -548,6 +548,18 @@ def _program_name() -> str:
     return invoked_as(Path(sys.argv[0]).name if sys.argv and sys.argv[0] else "mearm")
 
 
+def say_on_stderr(line: str, module_command: str | None = None) -> None:
+    """Print ``line`` (a warning, a note) on stderr, named as the running command's own.
+
+    ``mearm detect: warning: …``, as its errors are named (:func:`run`): a line a
+    command says beside its output, in a pipeline or a log, says which command said it.
+    ``module_command``: the command's name run as a module (:func:`invoked_as`); without
+    it, the running command's (:func:`_program_name`: for code more than one runs).
+    """
+    prog = _program_name() if module_command is None else invoked_as(module_command)
+    print(f"{prog}: {line}", file=sys.stderr, flush=True)
+
+
 def crash_log_path() -> Path:
     """Where unexpected errors' tracebacks are appended.
 

@@ -54,6 +54,7 @@ from mearm.cli import (
     invoked_as,
     refuse_to_replace,
     run,
+    say_on_stderr,
 )
 from mearm.fileio import file_identity, write_atomic
 from mearm.vision.calibration import camera_geometry
@@ -99,19 +100,19 @@ def _warn_if_odd(
     """
     h, w = frame.shape[:2]
     if (w, h) != expected:
-        print(
+        say_on_stderr(
             f"warning: {name} is {w}x{h} px; the calibration is for "
             f"{expected[0]}x{expected[1]}, so its cm are not to be trusted",
-            file=sys.stderr,
+            "python -m mearm.detect",
         )
     if not has_colour(frame):
-        print(
+        say_on_stderr(
             f"warning: {name} has no colour (every pixel grey: a grayscale image?), "
             "so no colour class can be found in it",
-            file=sys.stderr,
+            "python -m mearm.detect",
         )
     if area_note is not None:
-        print(f"warning: {area_note}", file=sys.stderr)
+        say_on_stderr(f"warning: {area_note}", "python -m mearm.detect")
 
 
 def _work_area_notes(
@@ -316,7 +317,7 @@ def main(argv: Sequence[str] | None = None) -> int:  # noqa: PLR0912 (one branch
 
         unused = kinematic_camera_warning(config)  # the twin's render: said before its frame
         if unused is not None:
-            print(f"warning: {unused}", file=sys.stderr)
+            say_on_stderr(f"warning: {unused}", "python -m mearm.detect")
         grabbed = grab_frame(config)
         frames = [("camera", grabbed, (grabbed.shape[1], grabbed.shape[0]))]
     else:

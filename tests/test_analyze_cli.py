@@ -109,7 +109,7 @@ def test_damaged_log_warning_on_stderr(log: Path, tmp_path: Path, capsys) -> Non
     damaged.write_text("\n".join([*lines[:5], json.dumps(obj), *lines[6:]]) + "\n")
     assert main([str(damaged)]) == 0
     captured = capsys.readouterr()
-    assert captured.err.startswith(f"warning: {damaged}: line 6: ")
+    assert captured.err.startswith(f"python -m mearm.analyze: warning: {damaged}: line 6: ")
     assert "field 'success' is missing" in captured.err
     assert "analysed the 5 records before it" in captured.err
     with pytest.raises(RunLogFormatError, match="line 6"):
@@ -303,7 +303,9 @@ def test_a_cut_off_attempt_that_was_run_again_is_left_out(log: Path, tmp_path: P
     assert main([str(rerun), "--json"]) == 0
     captured = capsys.readouterr()
     assert json.loads(captured.out)["analysis"]["routes"] == 240
-    assert captured.err.startswith("note: left out 1 cut-off attempt(s) of trial(s) 0")
+    assert captured.err.startswith(
+        "python -m mearm.analyze: note: left out 1 cut-off attempt(s) of trial(s) 0"
+    )
 
 
 def test_two_runs_in_one_log_are_refused(log: Path, tmp_path: Path) -> None:

@@ -177,7 +177,7 @@ def test_analyze_reads_a_damaged_log_up_to_the_bad_line(
     damaged = data[:-20] if where == "torn end" else b"".join([*lines[:3], b"}{\n", *lines[3:]])
     log.write_bytes(damaged)
     out = check_bad_input(["analyze", log], code=0, keep=[log], within_s=15)
-    assert out.line.startswith("warning:")
+    assert out.line.startswith("mearm analyze: warning:")
 
 
 def route_moved(m: dict[str, Path], n: int, x_cm: float) -> bytes:
@@ -212,7 +212,7 @@ def test_analyze_reads_up_to_an_absurd_route(made: dict[str, Path], tmp_path: Pa
     log = tmp_path / "absurd.jsonl"
     log.write_bytes(route_moved(made, 1, 1e308))
     out = check_bad_input(["analyze", log], code=0, keep=[log], within_s=15)
-    assert out.line.startswith("warning:") and "ee_cm.0" in out.line
+    assert out.line.startswith("mearm analyze: warning:") and "ee_cm.0" in out.line
 
 
 def test_analyze_refuses_out_that_is_a_file(made: dict[str, Path], tmp_path: Path) -> None:

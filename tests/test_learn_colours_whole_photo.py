@@ -56,7 +56,8 @@ def test_a_share_short_of_the_whole_frame_does_not_read_100(big_photo: Path, tmp
     done = run_in_process(argv, within_s=30)
     assert done.code == 0, done.stderr
     assert done.stderr.splitlines() == [
-        f"warning: vision.work_area_px is in the pixels of {big_photo} (4000x3000 px), but the "
+        "mearm learn-colours: warning: "
+        f"vision.work_area_px is in the pixels of {big_photo} (4000x3000 px), but the "
         "config's camera gives 640x480 px frames (camera.width_px, camera.height_px), of "
         "which it covers 99.6%: to detect on the camera, teach on its frames (--camera) or "
         "give --whole-frame"

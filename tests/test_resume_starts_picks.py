@@ -171,7 +171,8 @@ def test_a_held_pick_that_runs_otherwise_says_why(killed, tmp_path, capsys):
     replay.main(args)
     note = capsys.readouterr().err
     assert note == (
-        "note: episode 2 is a pick whose start the dataset does not keep: "
+        "python -m mearm.envs.replay: note: episode 2 is a pick whose start the dataset "
+        "does not keep: "
         f"{why}; replayed from where the environment's reset leaves the arm\n"
     )
 

@@ -47,7 +47,7 @@ def test_detect_on_the_twin_camera_says_it_once() -> None:
     done = run_in_process(argv, within_s=60)
     assert done.code == 0, done.stderr
     assert done.stderr.splitlines() == [
-        "warning: camera.gradient: " + SAID + "it does nothing here"
+        "mearm detect: warning: camera.gradient: " + SAID + "it does nothing here"
     ], done.stderr
     assert done.stdout.startswith("camera: 12 object(s)")
 
@@ -84,4 +84,6 @@ def test_learn_colours_on_the_twin_camera_says_it(tmp_path: Path) -> None:
             "--sample", "red=315,81", "--out", tmp_path / "taught.yaml"]  # fmt: skip
     done = run_in_process(argv, within_s=60)
     assert done.code == 0, done.stderr
-    assert done.stderr.splitlines() == ["warning: camera.seed: " + SAID + "it does nothing here"]
+    assert done.stderr.splitlines() == [
+        "mearm learn-colours: warning: camera.seed: " + SAID + "it does nothing here"
+    ]

@@ -40,7 +40,6 @@ before any step.
 
 from __future__ import annotations
 
-import sys
 import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -49,7 +48,14 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from mearm.cli import ArgumentParser, config_path_value, plain_int, run, seed_value
+from mearm.cli import (
+    ArgumentParser,
+    config_path_value,
+    plain_int,
+    run,
+    say_on_stderr,
+    seed_value,
+)
 from mearm.config import Config, SceneObject, load_config
 from mearm.dataset.errors import DatasetError
 from mearm.dataset.format_check import refuse_damaged
@@ -512,10 +518,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         overrides_as="--set",
     )
     if out.pick is not None and not out.start_known:
-        print(
+        say_on_stderr(
             f"note: episode {args.episode} is a pick whose start the dataset does not keep: "
             f"{out.why_not_known}; replayed from where the environment's reset leaves the arm",
-            file=sys.stderr,
+            "python -m mearm.envs.replay",
         )
     where = ", ".join(f"{o} in {b}" for o, b in sorted(out.bins.items())) or "none in a bin"
     lead = f" after {out.lead_steps} of its sort's before it" if out.lead_steps else ""

@@ -61,6 +61,7 @@ from mearm.cli import (
     config_path_value,
     plain_float,
     run,
+    say_on_stderr,
     write_text_atomic,
 )
 from mearm.config import Config
@@ -386,7 +387,7 @@ def _frames(args: argparse.Namespace, config: Config) -> tuple[list[np.ndarray],
 
         unused = kinematic_camera_warning(config)  # the twin's render: said before its frame
         if unused is not None:
-            print(f"warning: {unused}", file=sys.stderr)
+            say_on_stderr(f"warning: {unused}", "mearm learn-colours")
         frames = [grab_frame(config)]
         sources = ["camera"]
     else:
@@ -612,13 +613,13 @@ def _warn_if_another_size(
     share = pixels_inside(taught.work_area_px, camera) / (camera[0] * camera[1])
     if share == 1.0:
         return
-    print(
+    say_on_stderr(
         f"warning: vision.work_area_px is in the pixels of {source} ({size_px[0]}x{size_px[1]} "
         f"px), but the config's camera gives {camera[0]}x{camera[1]} px frames "
         f"(camera.width_px, camera.height_px), of which it covers {_percent(share)}: to "
         "detect on "
         "the camera, teach on its frames (--camera) or give --whole-frame",
-        file=sys.stderr,
+        "mearm learn-colours",
     )
 
 

@@ -11,7 +11,7 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
-from mearm.cli import EXIT_FAILURE, EXIT_OK, backup_written, check_yaml_output
+from mearm.cli import EXIT_FAILURE, EXIT_OK, backup_written, check_yaml_output, say_on_stderr
 from mearm.config import Config
 from mearm.config.servo_file import (
     ActuatorFit,
@@ -97,7 +97,7 @@ def write_calibration(
             first as ``--set`` overrides, so the session's measurements are kept.
     """
     if not fits:
-        print("no actuator calibrated: nothing written", file=sys.stderr)
+        say_on_stderr("no actuator calibrated: nothing written")
         return EXIT_FAILURE
     # a config that uses the file applies it to the arm's own calibration, limits too
     own = replaced_calibration(config) or config
@@ -180,4 +180,4 @@ def hold_arm(bus: ServoBus) -> None:
     try:
         bus.stop()
     except MearmError as exc:
-        print(f"note: could not send hold: {exc}", file=sys.stderr)
+        say_on_stderr(f"note: could not send hold: {exc}")

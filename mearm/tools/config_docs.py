@@ -92,8 +92,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         except UnicodeDecodeError:
             parser.error(f"--check {args.check}: not a text file (UTF-8)")
         if text != render():
-            print(f"{args.check} is stale: run mearm config-docs --output {args.check} --force",
-                  file=sys.stderr)  # fmt: skip
+            print(f"{parser.prog}: {args.check} is stale: run mearm config-docs --output "
+                  f"{args.check} --force", file=sys.stderr)  # fmt: skip
             return 1
         return 0
     output = args.output if args.output is not None else default
