@@ -180,7 +180,12 @@ def scene_from_args(args: object, config: Config) -> list[SceneObject] | None:
         scene = random_scene(config, n, seed=getattr(args, "seed", None) or 0)
     if config.camera.kind == "sim":
         source = str(scene_path) if scene_path is not None else "--random" if n else "task.scene"
-        check_scene(config, config.task.scene if scene is None else scene, source)
+        check_scene(
+            config,
+            config.task.scene if scene is None else scene,
+            source,
+            work_area=scene is not None,  # laid out for this run: where it is looked for
+        )
     return scene
 
 

@@ -242,8 +242,8 @@ def _scene(args: Any, config: Config) -> list[SceneObject] | None:
     scene = load_scene(args.scene, config.task.class_names) if args.scene else None
     if scene is not None and config.camera.kind != "sim":
         raise MearmError("--scene lays out the simulated table; this config's camera is not 'sim'")
-    if scene is not None:
-        check_scene(config, scene, str(args.scene))  # (without it, each trial draws its own)
+    if scene is not None:  # (without it, each trial draws its own, inside the work area too)
+        check_scene(config, scene, str(args.scene), work_area=True)
     if args.scheduler is not None and config.camera.kind != "sim":
         raise MearmError(
             "--scheduler runs simulated trials on a cluster; this config's camera is not "

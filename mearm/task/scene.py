@@ -14,13 +14,15 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+import cv2
 import numpy as np
 from pydantic import TypeAdapter, ValidationError
 
 from mearm.config import ColorClass, Config, SceneObject
 from mearm.config.base import MAX_SEED, loc_text, short_repr
 from mearm.config.belt_config import MAX_ARRIVALS
-from mearm.config.sections import MAX_SCENE_OBJECTS
+from mearm.config.polygon import extent
+from mearm.config.sections import MAX_SCENE_OBJECTS, WHOLE_FRAME_PX
 from mearm.errors import ConfigError, MearmError
 from mearm.ik import APPROACH_TOLERANCE_DEG
 from mearm.ik.reach import ReachBound
@@ -149,7 +151,48 @@ RIM_POINTS = 16
 BORDER_PX = 1.5
 
 
-def check_scene(config: Config, scene: Sequence[SceneObject], source: str = "task.scene") -> None:
+def _work_area_test(config: Config) -> Callable[[float, float, float], bool] | None:
+    """Whether an object of radius r at (x, y) [cm] lies whole inside ``vision.work_area_px``.
+
+    The detector looks nowhere else (:func:`~mearm.vision.learned.area_mask`): an object
+    outside it, or cut by its edge, is never seen or seen cut. Its rim maps into the
+    polygon :data:`BORDER_PX` inside, as into the frame. ``None``: no polygon given
+    (``null``, ``whole_frame``), so the frame is the bound.
+    """
+    polygon = config.vision.work_area_px
+    if polygon is None or polygon == WHOLE_FRAME_PX:
+        return None
+    contour = np.asarray(polygon, np.float32).reshape(-1, 1, 2)
+    geometry = camera_geometry(config.calibration, config.camera)
+    angles = np.linspace(0.0, 2 * np.pi, RIM_POINTS, endpoint=False)
+    rim = np.column_stack([np.cos(angles), np.sin(angles)])
+
+    def inside(r: float, x: float, y: float) -> bool:
+        px = geometry.table_to_pixel(np.array([x, y]) + r * rim)
+        return bool(np.all(np.isfinite(px))) and all(
+            cv2.pointPolygonTest(contour, (float(u), float(v)), measureDist=True) >= BORDER_PX
+            for u, v in px
+        )
+
+    return inside
+
+
+def _outside_work_area(config: Config) -> str:
+    """What a refusal says of an object outside ``vision.work_area_px``."""
+    polygon = config.vision.work_area_px or []
+    return (
+        f"outside the work area (vision.work_area_px: {extent(polygon)}), where nothing "
+        "is detected: the whole object must lie inside it"
+    )
+
+
+def check_scene(
+    config: Config,
+    scene: Sequence[SceneObject],
+    source: str = "task.scene",
+    *,
+    work_area: bool = False,
+) -> None:
     """Refuse a simulated table the sort could not see whole: name the object and the rule.
 
     Every object must stand on the table clear of the arm's base plate, lie whole inside
@@ -171,6 +214,11 @@ def check_scene(config: Config, scene: Sequence[SceneObject], source: str = "tas
             the belt.
         scene: The objects.
         source: How messages name the scene (a file's path, ``task.scene``).
+        work_area: A table laid out for this run (``--scene``, ``--random``): its objects
+            lie whole inside ``vision.work_area_px`` too, where one is given (nothing
+            outside it is detected), as :func:`random_scene` draws them. The config's own
+            table is not held to it: a polygon that keeps a corner of the frame is a
+            warning, and the sort goes on (:func:`mearm.sort._check_work_area`).
 
     Raises:
         SceneError: one line naming the first object that breaks a rule, the rule and what
@@ -187,6 +235,7 @@ def check_scene(config: Config, scene: Sequence[SceneObject], source: str = "tas
     angles = np.linspace(0.0, 2 * np.pi, RIM_POINTS, endpoint=False)
     rim = np.column_stack([np.cos(angles), np.sin(angles)])
     radius = {c.name: c.footprint_radius_cm for c in config.task.classes}
+    in_area = _work_area_test(config) if work_area else None
     problems: list[str] = []
     for i, obj in enumerate(scene):
         what = f"{source}[{i}] ({obj.color} at x {obj.x:g}, y {obj.y:g} cm)"
@@ -224,6 +273,9 @@ def check_scene(config: Config, scene: Sequence[SceneObject], source: str = "tas
                 f"{what}: outside the camera's view of the table ({w}x{h} px through "
                 f"calibration): the whole object must be seen{field}"
             )
+            continue
+        if in_area is not None and not in_area(r, obj.x, obj.y):
+            problems.append(f"{what}: {_outside_work_area(config)}")
             continue
         for j, other in enumerate(scene[:i]):
             apart = r + radius[other.color]
@@ -847,6 +899,7 @@ def _candidate(
     in_table: dict[str, tuple[str, str]],
     way_in: Callable[[ColorClass, float, float], bool] | None = None,
     failed: Counter[tuple[str, ...]] | None = None,
+    in_area: Callable[[float, float, float], bool] | None = None,
 ) -> tuple[SceneObject, np.ndarray] | None:
     """A ``color`` object at (x, y) and its pick pose, or ``None`` if it may not stand there.
 
@@ -861,11 +914,19 @@ def _candidate(
     the margins last, farthest from the base first (beyond reach, the first to fail).
     The footprint takes no yaw (:func:`_footprint_check`).
 
-    ``failed``: counts the test a refused draw failed, by its key (``("apart",)``,
-    ``("bin",)``, ``("reach",)``, ``("footprint", part, what)``, ``("margins",)``,
+    ``in_area``: whether it lies whole in ``vision.work_area_px`` (:func:`_work_area_test`;
+    ``None``: no polygon), tested first: one outside it is never seen.
+
+    ``failed``: counts the test a refused draw failed, by its key (``("work area",)``,
+    ``("apart",)``, ``("bin",)``, ``("reach",)``, ``("footprint", part, what)``, ``("margins",)``,
     ``("way in",)``), for a refusal to say why (:func:`_none_fit`).
     """
     why = failed if failed is not None else Counter()
+    if in_area is not None and not in_area(
+        config.task.class_named(color).footprint_radius_cm, x, y
+    ):
+        why["work area",] += 1
+        return None
     if any(np.hypot(o.x - x, o.y - y) < min_dist for o in placed):
         why["apart",] += 1
         return None
@@ -935,10 +996,16 @@ def _none_fit(
 
     x0, x1, y0, y1 = field
     near, unreached, around = failed["bin",], failed["reach",], failed["margins",]
+    outside = failed["work area",]
     hits = Counter({key[1:]: n for key, n in failed.items() if key[0] == "footprint"})
     above = config.arm.tool.tcp_above_grip_cm
     heights = sorted({config.task.class_named(c).grip_z_cm + above for c in order})
     said = f": of the camera's table field (centres x {x0:.3g}…{x1:.3g}, y {y0:.3g}…{y1:.3g} cm), "
+    if outside:
+        said += (
+            f"{share(outside)} lies outside the work area (vision.work_area_px: "
+            f"{extent(config.vision.work_area_px or [])}), where nothing is detected, and "
+        )
     if near:
         gap = diameter / 2 + MIN_GAP_CM
         said += (
@@ -946,7 +1013,8 @@ def _none_fit(
             "stands, and "
         )
     said += (
-        f"the arm reaches {share(total - near - unreached)}{' outside those' if near else ''} "
+        f"the arm reaches {share(total - outside - near - unreached)}"
+        f"{' outside those' if near or outside else ''} "
         f"at the pick height{'s' if len(heights) > 1 else ''} "
         f"{', '.join(f'{z:.3g}' for z in heights)} cm"
     )
@@ -1067,7 +1135,7 @@ def random_scene(
         raise _walls_refusal(config, counts, seed, max_tries, problem, remedy, suggest=suggest)
     rng = np.random.default_rng(seed)
     diameter, (x0, x1, y0, y1) = _scene_field(config, any_objects=bool(order))
-    reach = _reach_check(config)
+    reach, in_area = _reach_check(config), _work_area_test(config)  # (where a draw may stand)
     min_dist = _min_centre_distance_cm(config, diameter)
     footprint = _footprint_check(config, _table_of(config, order))
     # where the camera may see it: the pick must be reachable there too
@@ -1107,6 +1175,7 @@ def random_scene(
                 config, color, x, y, rng, placed, poses,
                 min_dist=min_dist, diameter=diameter, reach=reach, margins=margins,
                 footprint=footprint, in_table=in_table, way_in=checked, failed=failed,
+                in_area=in_area,
             )  # fmt: skip
             if found is None:
                 hit = in_table.pop(color, None)
