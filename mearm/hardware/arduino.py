@@ -5,7 +5,9 @@ Connecting opens the port, which resets an Uno (DTR), waits for its ``READY`` ba
 and pulse range and checks them against the config. A banner of another protocol version
 (above all protocol 1's, checked by an XOR: a board flashed before the CRC-16) is refused
 with :class:`~mearm.hardware.errors.FirmwareVersionError` before anything is sent. Each
-command then waits ``servo.ack_timeout_s`` for its ``OK``; a checksum failure in either
+command then waits ``servo.ack_timeout_s`` of wall time for its ``OK`` (the virtual
+Uno's bus counts its simulated clock as well: :meth:`SerialServoBus._deadline
+<mearm.hardware.serial_bus.SerialServoBus._deadline>`); a checksum failure in either
 direction is resent with the same sequence number up to ``servo.retries`` times, each
 failed try logged; no acknowledgement, a numbered board error, a lost link or a board
 reset stops the bus with a named error carrying the last acknowledged pose.
@@ -14,7 +16,6 @@ reset stops the bus with a named error carrying the last acknowledged pose.
 from __future__ import annotations
 
 import logging
-import time
 from dataclasses import dataclass
 
 from mearm.config import ArmDescription, ServoConfig
@@ -181,7 +182,7 @@ class ArduinoBus(SerialServoBus):
             FirmwareVersionError: the banner is of another protocol version.
         """
         timeout = self.link.banner_timeout_s
-        deadline = time.monotonic() + timeout
+        deadline = self._deadline(timeout)
         seen = bytearray()
         while True:
             line = self._read_line(deadline)
@@ -284,7 +285,7 @@ class ArduinoBus(SerialServoBus):
             LinkDroppedError: the port failed.
         """
         self._take_waiting()
-        in_flight = time.monotonic() + self.link.ack_timeout_s
+        in_flight = self._deadline(self.link.ack_timeout_s)
         while (line := self._read_line(in_flight if self._rx else 0.0)) is not None:
             decoded = decode_line(line)
             if _is_banner(decoded):
@@ -305,7 +306,7 @@ class ArduinoBus(SerialServoBus):
     def _await_reply(self, seq: int, frame: bytes) -> Reply | BadChecksum:
         """The reply to ``seq``: an OK or ERR for it, an ``ERR -``, or a corrupted line."""
         timeout = self.link.ack_timeout_s
-        deadline = time.monotonic() + timeout
+        deadline = self._deadline(timeout)
         garbage = bytearray()
         while True:
             line = self._read_line(deadline)

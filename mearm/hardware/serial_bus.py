@@ -27,6 +27,7 @@ import errno
 import logging
 import time
 from abc import abstractmethod
+from typing import Protocol
 
 import serial
 
@@ -60,6 +61,21 @@ MAX_LINE_BYTES = 256
 #: timeout" after a complete write when the process was descheduled that long, and a
 #: loaded machine takes a short acknowledgement timeout for a lost cable.
 WRITE_TIMEOUT_S = 2.0
+
+
+class Deadline(Protocol):
+    """The end of a wait for the board, by a clock other than the wall clock's."""
+
+    def passed(self) -> bool:
+        """Whether the wait is over."""
+        ...
+
+
+def _passed(deadline: float | Deadline) -> bool:
+    """Whether ``deadline`` (a monotonic time [s], or a :class:`Deadline`) has passed."""
+    if isinstance(deadline, (int, float)):
+        return time.monotonic() >= deadline
+    return deadline.passed()
 
 
 def port_holder(port: str) -> tuple[int | None, str] | None:
@@ -263,9 +279,18 @@ class SerialServoBus(ServoBus):
             self._rx += chunk
         return bytes(self._rx)
 
-    def _read_line(self, deadline: float, terminators: bytes = b"\n") -> bytes | None:
-        """The next line (terminator stripped), or ``None`` at the monotonic ``deadline``.
+    def _deadline(self, timeout_s: float) -> float | Deadline:
+        """When a wait of ``timeout_s`` for the board ends: that much wall time from now.
 
+        A real board's silence is measured by the wall clock; a simulated board's bus
+        may count its own clock (:class:`~mearm.sim.virtual_uno.VirtualUnoBus`).
+        """
+        return time.monotonic() + timeout_s
+
+    def _read_line(self, deadline: float | Deadline, terminators: bytes = b"\n") -> bytes | None:
+        """The next line (terminator stripped), or ``None`` at ``deadline``.
+
+        ``deadline``: a monotonic time [s], or a :class:`Deadline` (:meth:`_deadline`).
         A run of :data:`MAX_LINE_BYTES` without a terminator is returned as a line.
 
         Raises:
@@ -282,14 +307,14 @@ class SerialServoBus(ServoBus):
                 line = bytes(self._rx[:MAX_LINE_BYTES])
                 del self._rx[:MAX_LINE_BYTES]
                 return line
-            if time.monotonic() >= deadline:
+            if _passed(deadline):
                 return None
             self._fill()
 
-    def _read_byte(self, deadline: float) -> bytes | None:
-        """The next byte, or ``None`` at the monotonic ``deadline``."""
+    def _read_byte(self, deadline: float | Deadline) -> bytes | None:
+        """The next byte, or ``None`` at ``deadline`` (as :meth:`_read_line`'s)."""
         while not self._rx:
-            if time.monotonic() >= deadline:
+            if _passed(deadline):
                 return None
             self._fill()
         byte = bytes(self._rx[:1])

@@ -30,8 +30,11 @@ Three parts:
 Time: the harness keeps simulated time (``servo.virtual_uno.speed`` simulated seconds per
 wall-clock second, 0 = as fast as the computer runs it) and reports it; the bus paces
 its moves and holds in simulated time, so the firmware sees the same command stream at
-any speed. The simulator runs at the normal scheduling policy whatever the host's thread
-runs at: at speed 0 it never sleeps, and realtime it would hold a core.
+any speed, and gives the board's banner and replies their timeouts in simulated time and
+wall-clock time both (:class:`~mearm.sim.virtual_uno.board.SimDeadline`), so a machine too
+loaded to run the chip at speed does not take it for a silent one. The simulator runs
+at the normal scheduling policy whatever the host's thread runs at: at speed 0 it never
+sleeps, and realtime it would hold a core.
 """
 
 from mearm.sim.virtual_uno.board import (

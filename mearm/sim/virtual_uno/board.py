@@ -67,6 +67,45 @@ def _at_normal_priority(pid: int) -> None:
             os.sched_setscheduler(pid, os.SCHED_OTHER, os.sched_param(0))
 
 
+class SimDeadline:
+    """The end of a wait of ``seconds`` for a :class:`VirtualUno`: :meth:`VirtualUno.deadline`.
+
+    Over once the board has had ``seconds`` by its own simulated clock *and* the host has
+    waited as long by the wall clock. By the wall clock alone, a slow simulation passed
+    for a silent board: with three busy processes on 2 cores simavr ran at 0.2–0.45 of
+    real time (at speed 0 and 1 alike), and a sort stopped once on a reply 2 s late. By
+    the simulated clock alone, a reply on its way passed for a missing one: above real
+    time (speed 0 on an idle machine, or a high speed) the chip runs on while the host's
+    threads that carry its line wait for a core. A simulator that stopped (or could not
+    start) has no clock to wait for: the wall time alone. One whose clock stands still
+    (stuck, or paused by a signal) ends the wait after :data:`WALL_TIMEOUT_S` more of wall
+    time: a reply takes the chip some 10 ms, which only a simulation below 1/1000 of real
+    time would take that long to run. (A chip restarted during the wait begins its clock
+    again at 0: that wait ends by the wall bound. The virtual Uno's bus starts a fresh
+    board at each connect, its clock at 0 before and after the port's opening restarts it.)
+
+    Args:
+        board: The board waited for.
+        seconds: How long it has to answer [simulated and wall-clock s].
+    """
+
+    def __init__(self, board: VirtualUno, seconds: float):
+        now = time.monotonic()
+        self._board = board
+        self._wall_at = now + seconds
+        self._hung_at = self._wall_at + WALL_TIMEOUT_S
+        self._sim_at = board.clock_s() + seconds
+
+    def passed(self) -> bool:
+        """Whether the wait is over (see the class)."""
+        now = time.monotonic()
+        if now < self._wall_at:
+            return False
+        if now >= self._hung_at or self._board.stopped_because is not None:
+            return True
+        return self._board.clock_s() >= self._sim_at
+
+
 class Pulse(NamedTuple):
     """One servo pulse an emulated pin produced.
 
@@ -188,6 +227,14 @@ class VirtualUno:
         with self._cond:
             target = self._now_us + seconds * 1e6
             self._wait(lambda: self._now_us >= target, WALL_TIMEOUT_S + 100 * seconds)
+
+    def deadline(self, seconds: float) -> SimDeadline:
+        """The end of a wait of ``seconds`` for the board, by both clocks (:class:`SimDeadline`).
+
+        A :class:`~mearm.hardware.serial_bus.Deadline` for the serial backend's waits
+        (:class:`~mearm.sim.virtual_uno.VirtualUnoBus`).
+        """
+        return SimDeadline(self, seconds)
 
     def reply_time_us(self) -> int | None:
         """Simulated time the last line the host has received left the UART [µs].

@@ -23,6 +23,7 @@ from mearm.hardware.arduino import ArduinoBus
 from mearm.hardware.bus import ArmCommand, RateLimiter
 from mearm.hardware.errors import HandshakeError, MoveNotConfirmedError, ServoError
 from mearm.hardware.mapping import ActuatorMap
+from mearm.hardware.serial_bus import Deadline
 from mearm.kinematics import ArmModel
 from mearm.sim.kinematic.joint_stops import joints_at_stops
 from mearm.sim.kinematic.servo_bus import GripResult, ReleaseResult, SimArm
@@ -156,6 +157,17 @@ class VirtualUnoBus(ArduinoBus):
         if self.board is not None:
             self.board.close()
             self.board = None
+
+    def _deadline(self, timeout_s: float) -> float | Deadline:
+        """The end of a wait for the board, by its simulated clock and the wall clock both.
+
+        Its banner, acknowledgements and lines on their way
+        (:class:`~mearm.sim.virtual_uno.board.SimDeadline`): a machine too loaded to run
+        the chip at speed does not stop the run, a chip that does not answer still does.
+        """
+        if self.board is None:
+            return super()._deadline(timeout_s)
+        return self.board.deadline(timeout_s)
 
     def _hold(self, seconds: float) -> None:
         assert self.board is not None
