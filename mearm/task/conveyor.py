@@ -138,6 +138,26 @@ class Intercept:
     wait_s: float = 0.0
 
 
+@dataclass(frozen=True)
+class Riding:
+    """An object the jaws closed on and carried off: where it may have fallen back.
+
+    Attributes:
+        obj: The object.
+        aim_cm: Where the jaws closed on it (x, y) [cm], (2,).
+        t_s: When, on the bus's clock [s].
+        carried_cm: Where the jaws carried it on to its bin: the place's commands' TCP
+            (x, y) [cm], (k, 2).
+        carried_t_s: When each was sent [s], (k,).
+    """
+
+    obj: TrackedObject
+    aim_cm: np.ndarray
+    t_s: float
+    carried_cm: np.ndarray
+    carried_t_s: np.ndarray
+
+
 class ConveyorSorter(Sorter):
     """Sorts the objects a belt brings (the module docstring).
 
@@ -170,9 +190,9 @@ class ConveyorSorter(Sorter):
         self._by_track: dict[int, TrackedObject] = {}
         #: Where each track's object was last seen (x, y) [cm]: a lost track's is said.
         self._seen_cm: dict[int, tuple[float, float]] = {}
-        #: Objects whose pick failed, riding on: (the object, where the jaws closed [cm],
-        #: when [s]); the track seen there again is the same object, not a new one.
-        self._riding_on: list[tuple[TrackedObject, np.ndarray, float]] = []
+        #: Objects the jaws closed on and carried off, until the look over the bin said
+        #: whether they still lie on the belt: a new track where one may lie is it.
+        self._riding_on: list[Riding] = []
         self._t0 = time.monotonic()
         self._last_frame_s = -np.inf
         self._last_seen_s = 0.0
@@ -258,25 +278,43 @@ class ConveyorSorter(Sorter):
         the camera's next sighting of it began a new one, a new object).
         """
         gate = self.tracker.tracking.gate_cm
-        for k, (obj, aim, t_grip) in enumerate(self._riding_on):
-            where = self._rode_on(aim, t_grip, taken_s)
-            if obj.class_name == s.color and distance_to_path(where, s.position_cm) <= gate:
+        for k, riding in enumerate(self._riding_on):
+            if riding.obj.class_name != s.color:
+                continue
+            if (
+                min(distance_to_path(w, s.position_cm) for w in self._rode_on(riding, taken_s))
+                <= gate
+            ):
                 del self._riding_on[k]
-                return obj
+                return riding.obj
         return None
 
-    def _rode_on(self, aim_cm: np.ndarray, t_grip_s: float, t_s: float) -> np.ndarray:
-        """Where an object the jaws closed on at ``aim_cm`` may lie on the belt at ``t_s``.
+    def _rode_on(self, riding: Riding, t_s: float) -> list[np.ndarray]:
+        """Where an object the jaws closed on may lie on the belt at ``t_s``: polylines [cm].
 
-        The stretch's two ends, (2, 2) [cm]: from where the jaws closed to where riding
-        on since would have carried it. Left by jaws that never held it, it rode on all
-        the time; lifted and dropped back, it rode only from when it fell: in the twin
-        at 10 cm/s (``belt.arrivals.seed=48808``) the jaws lifted red8 at x = 8.4 cm and
-        lost it, and 1.5 s later it lay at x = -1.5 cm, not -6.2 cm; looked for at the far
-        end alone, it was taken for a new object, and the sort named it twice.
+        The stretch from where the jaws closed to where riding on since would have carried
+        it, (2, 2). Left by jaws that never held it, it rode on all the time; lifted and
+        dropped back, it rode only from when it fell: in the twin at 10 cm/s
+        (``belt.arrivals.seed=48808``) the jaws lifted red8 at x = 8.4 cm and lost it,
+        and 1.5 s later it lay at x = -1.5 cm, not -6.2 cm; looked for at the far end
+        alone, it was taken for a new object, and the sort named it twice.
+
+        And, where the jaws carried it on towards its bin (:attr:`Riding.carried_cm`),
+        each point they passed with the ride on from there, (k, 2): lost on the swing
+        over the belt, it lands downstream of anywhere riding would have taken it (the
+        kinematic belt at 10 cm/s, the jaws losing blue1 at their place's first command,
+        at (0.3, 49.3) cm: the look over the bin saw it 3.0 cm from the stretch, took it
+        for a new object, blue2, and called the pick good; the world counted it once, a
+        real rig would have counted two).
         """
-        aim = np.asarray(aim_cm, dtype=float)
-        return np.array([aim, aim + self.belt.velocity_cm_s * (t_s - t_grip_s)])
+        v = self.belt.velocity_cm_s
+        aim = np.asarray(riding.aim_cm, dtype=float)
+        where = [np.array([aim, aim + v * (t_s - riding.t_s)])]
+        passed = riding.carried_t_s <= t_s
+        if np.any(passed):
+            ridden = (t_s - riding.carried_t_s[passed])[:, None] * v
+            where.append(riding.carried_cm[passed] + ridden)
+        return where
 
     def _wait(self) -> None:
         """Let one look period pass with the arm still (the belt runs on)."""
@@ -574,11 +612,23 @@ class ConveyorSorter(Sorter):
         place, t1 = planned
         pick.confirmed = False
         try:
-            ex.stream(place, "travel", closed=True, color=_hex(cls.draw_rgb))
+            # the place's commands, and when each is sent: where the jaws carry it over the
+            # belt, it may fall from them (:meth:`_rode_on`)
+            timed = ex.followed(place, carrying=True)
+            t_place = self.now_s()
+            self._riding_on.append(
+                Riding(
+                    obj,
+                    np.array(aim, dtype=float),
+                    t_grip,
+                    np.array([self.model.fk_cm(q)[:2] for q in timed.q]),
+                    t_place + timed.period_s * np.arange(len(timed.q)),
+                )
+            )
+            ex.stream(place, "travel", closed=True, color=_hex(cls.draw_rgb), timed=timed)
             # over the bin the camera sees the belt whole: a grip that held left nothing
             # of the class where the object would be now (and what it sees there is this
             # object riding on, not a new one)
-            self._riding_on.append((obj, np.array(aim, dtype=float), t_grip))
             states = self._observe()
             where = np.array(aim) + self.belt.velocity_cm_s * (self.now_s() - t_grip)
             pick.success = not any(
@@ -595,7 +645,7 @@ class ConveyorSorter(Sorter):
             pick.why_failed = None if pick.success else BELT_PICK_MISSED
             pick.confirmed = True
             if pick.success:  # (not seen riding on: no later track is it)
-                self._riding_on = [r for r in self._riding_on if r[0] is not obj]
+                self._riding_on = [r for r in self._riding_on if r.obj is not obj]
         finally:
             self.reporter.route(pick)
         if not pick.success:
