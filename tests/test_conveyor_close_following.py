@@ -23,7 +23,8 @@ def _twin_belt(speed_cm_s: float, count: int, seed: int):
 
 
 def test_the_twin_catches_a_10_cm_s_belts_objects():
-    """The twin's jaws take 0.36 s to close, in which a 10 cm/s object rides 3.6 cm.
+    """The twin's jaws were taken to close in 0.36 s (an MG996R's), in which a 10 cm/s
+    object rides 3.6 cm.
 
     Closed where the object stood, they met it 1.2 cm downstream of their middle, off
     their 1.48 cm wide pads, knocked it aside and closed on nothing: "sorted 0 of 2
@@ -75,3 +76,38 @@ def test_the_jaws_close_as_the_arm_follows_the_belt():
     assert moved[0] < -10.0 * close_s + 0.05, (moved, close_s)
     assert moved[0] > -10.0 * (close_s + 0.02) - 0.05, (moved, close_s)
     assert abs(moved[1]) < 0.05, moved
+
+
+def test_the_close_the_catch_follows_is_the_twins_jaws():
+    """The catch follows its object for the close's time, the config's gripper servo's
+    travel and settling: the twin's jaws, an SG90 (``twin.gripper_servo``), close in it.
+
+    The belt config took the arm file's MG996R (0.17 s/60°): 0.255 s of travel the jaws
+    do in 0.15 s, settled at 0.18 s; the arm followed each gripped object 0.1 s more than
+    the close, and took one for past the belt's end 1.5 cm early at 15 cm/s.
+    """
+    data = load_config(TWIN).model_dump(mode="json")
+    data["belt"]["arrivals"] = {**data["belt"]["arrivals"], "count": 1, "first_s": 60.0}
+    config = config_from_dict(data)
+    tool = config.arm.tool
+    with open_rig(config) as rig:
+        sorter = ConveyorSorter(
+            config, rig.camera, rig.bus, model=rig.model, echo=None, in_bins=rig.in_bins
+        )
+        ex, bus = sorter.executor, rig.bus
+        bus.connect()
+        ex.home_pose()
+        ex.set_tool("grip", closed=False)
+        t0 = bus.time_s
+        ex.send(ex.q_now(), "grip", closed=True)
+        opening = [(bus.time_s - t0, bus.opening_cm)]
+        while opening[-1][0] < 1.0:
+            bus.hold(0.01)
+            opening.append((bus.time_s - t0, bus.opening_cm))
+    closed_cm = opening[-1][1]
+    assert abs(closed_cm - tool.gripper.closed_cm) < 0.05, opening
+    settled_s = next(t for t, o in opening if abs(o - closed_cm) < 0.02)
+    close_s = sorter._close_s()
+    # closed within the close, and its travel no slower than the twin's jaws
+    assert settled_s <= close_s, (settled_s, close_s)
+    assert close_s - tool.settle_s <= settled_s, (settled_s, close_s)
