@@ -353,11 +353,13 @@ def test_the_sort_sends_nothing_of_a_refused_pick(monkeypatch: pytest.MonkeyPatc
 
 
 #: The MeArm v1 twin's table where blue1's pick is blocked by blue2 while the arm, over
-#: the green bin, hides blue2 from the camera (seed 871011's objects, fewer of them).
+#: the green bin, hides blue2 from the camera (seed 871011's objects, fewer of them; the
+#: blues 1 cm nearer the green bin: the jaws rise straight up out of a bin after a place,
+#: and the arm risen over it hides blue2 there).
 HIDDEN_BLOCKER = [
-    SceneObject(color="blue", x=10.36, y=13.39),
+    SceneObject(color="blue", x=11.36, y=13.39),
     SceneObject(color="red", x=-7.63, y=18.0),
-    SceneObject(color="blue", x=7.75, y=15.32),
+    SceneObject(color="blue", x=8.75, y=15.32),
     SceneObject(color="green", x=2.27, y=18.04),
 ]
 

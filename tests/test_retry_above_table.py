@@ -103,11 +103,12 @@ def test_a_risen_pick_that_cannot_be_planned_goes_at_the_planned_height(picker, 
 
 @pytest.mark.slow
 def test_a_sort_with_a_retry_plans_every_pick_inside_the_box():
-    """Seed 998044: red3's first pick pushes it aside (seen 3.9 cm on) and it is picked
+    """Seed 998044: red3's first pick pushes it aside (seen 4 cm on) and it is picked
     again where it lies; every pick the sort planned stays in the box, and nothing is left
-    "outside the target box". That second pick sends the disc rolling out of view: gone
-    from its spot, the pick counts, but the jaws hold nothing over the bin, so the place
-    fails (the twin's jaws, docs/twin.md).
+    "outside the target box". (Until 2026-12-07 that second pick sent the disc rolling
+    out of view and read ``ok``, its jaws empty; the places now come down into the bins
+    straight, the arm moves otherwise, and such a pick would read ``FAILED``:
+    tests/test_twin_pick_pushed_out_of_view.py.)
 
     Seed 998021, whose blue2 was left "outside the target box" (its retry at z = -0.05 cm),
     was traced while the planner took the bins' walls for those of the config's own 9
@@ -139,8 +140,5 @@ def test_a_sort_with_a_retry_plans_every_pick_inside_the_box():
     assert min(asked) >= floor, asked
     assert "outside_box" not in report.outcome.left, report.outcome.left
     tries = [r for r in report.routes if r.object_id == "red3" and r.step in ("pick", "place")]
-    assert [(r.step, r.success) for r in tries] == [
-        ("pick", False),
-        ("pick", True),
-        ("place", False),
-    ]
+    assert [r.step for r in tries[:2]] == ["pick", "pick"]  # picked again where it lies
+    assert not tries[0].success and "pushed it aside" in (tries[0].why_failed or "")

@@ -143,12 +143,13 @@ class _TipWatch:
 
 @pytest.mark.heavy
 def test_a_cylinder_a_jaw_tipped_over_stops_where_it_fell(monkeypatch):
-    """The 5-DOF perspective twin, seed 998015: the sort tips blue1 onto its side. It comes
+    """The 5-DOF perspective twin, seed 49934: the sort tips red3 onto its side. It comes
     to rest within 5 cm of where it fell and stays within reach, at rest at the sort's end
     (a cylinder tipped so once rolled 1.2 m off across the table: seed 998005, traced while
     the planner took the bins' walls for those of the config's own 9 objects, not the 12
-    the twin built them for). At least 11 of the 12 are sorted. Blue1 tips so under MuJoCo
-    4.0.0 and 4.0.1 alike (seed 998001's green2 tipped under 4.0.1 only)."""
+    the twin built them for). At least 11 of the 12 are sorted. (Seed 998015's blue1, under
+    MuJoCo 4.0.0 and 4.0.1 alike, until 2026-12-07: since the places come down into the
+    bins, and leave them, straight, the sort no longer tips it.)"""
     from mearm.maker.camera_calibration.at_start import for_config
     from mearm.task.rig import run_sort
     from mearm.task.scene import random_scene
@@ -163,12 +164,12 @@ def test_a_cylinder_a_jaw_tipped_over_stops_where_it_fell(monkeypatch):
         watches.append((bus, bus.sampler))
 
     rays_at_each_looks_height(monkeypatch)  # the scene as traced
-    scene = random_scene(config, 12, seed=998015)
+    scene = random_scene(config, 12, seed=49934)
     report = run_sort(
         config, scene=scene, echo=None, calibrate_first=for_config(config), on_open=watch
     )
     bus, tips = watches[0]
-    assert "blue1" in tips.tipped, tips.tipped
+    assert "red3" in tips.tipped, tips.tipped
     for oid, fell_cm in tips.tipped.items():
         assert oid in tips.rested, oid
         assert np.linalg.norm(tips.rested[oid][:2] - fell_cm[:2]) < 5.0, (oid, fell_cm)

@@ -104,6 +104,9 @@ class PickAndPlace(TableTracking):
     _overlap_cm: float = 0.0
     #: The objects the jaws closed on at the last grip, where the bus knows (the twin's ids).
     _gripped: frozenset[str] = frozenset()
+    #: The TCP's way over the bin before the place, in the table plane [cm], (k, 2)
+    #: (:meth:`_plan_carry`; none where the place went directly).
+    _carried_over_cm: np.ndarray = np.zeros((0, 2))
 
     def _recorded_pick(self, obj: TrackedObject) -> None:
         """:meth:`_pick_and_place` as an episode of the recording, if there is one."""
@@ -234,15 +237,25 @@ class PickAndPlace(TableTracking):
             up = Route(obj.id, obj.class_name, "lift", 1, straight_up)
             self.planner.plan(up, ex.q_now())
         t1 = time.perf_counter()
-        place = Route(obj.id, obj.class_name, "place", 1, self.planner.place_target(cls))
         # planned from where the lift ends before the lift: an object whose place cannot
         # be planned is let go where the jaws closed, not dropped from the lift's height
         lifted = up.plan.q if up is not None and up.planned and up.plan is not None else None
-        self.planner.plan_place(place, ex.q_now() if lifted is None else lifted)
+        over, place = self._plan_carry(obj, cls, ex.q_now() if lifted is None else lifted)
         if place.planned and up is not None and lifted is not None:
             ex.stream(up, "travel", closed=True)
             if not np.array_equal(ex.q_now(), lifted):  # (the bus rounds: plan from there)
                 t1 = time.perf_counter()
+                over, place = self._plan_carry(obj, cls, ex.q_now())
+        self._carried_over_cm = np.zeros((0, 2))
+        if place.planned and over is not None and over.plan is not None:
+            try:
+                ex.stream(over, "travel", closed=True)
+            except BaseException:  # a fault on the way: the pick is logged unconfirmed
+                pick.confirmed = False
+                self.reporter.route(pick)
+                raise
+            self._carried_over_cm = over.plan.ee_path_cm[:, :2]
+            if not np.array_equal(ex.q_now(), over.plan.q):  # (the bus rounds)
                 place = Route(obj.id, obj.class_name, "place", 1, place.target)
                 self.planner.plan_place(place, ex.q_now())
         if not place.planned:
@@ -259,6 +272,42 @@ class PickAndPlace(TableTracking):
             ex.set_tool("grip", closed=False)
             return None
         return place, t1
+
+    def _plan_carry(
+        self, obj: TrackedObject, cls: ColorClass, q: np.ndarray
+    ) -> tuple[Route | None, Route]:
+        """The carry from pose ``q`` to ``cls``'s bin: over it, then the place; planned.
+
+        A place releases as low as the jaws clear the bin's walls by the clearance
+        (:meth:`Planner.plan_place`). Planned from where the lift ends as one transit, it
+        comes down into the bin as it swings over: streamed at the servos' speed limits a
+        transit strays from its planned path, by centimetres where the servos lag
+        (:data:`~mearm.task.plan.TRAVEL_MARGIN_CM`), and a pad came down on the blue
+        bin's wall and the elbow stalled (the paper's arm with a kit of servos,
+        ``sim_mujoco_kits_paper --random 21 --seed 48633``). Where picks go via a point
+        above (``task.approach_height_cm``), the carry goes as a pick comes: a transit
+        to over the bin at the travel height an approach keeps over every wall
+        (:meth:`Planner.travel_heights_cm`, else the safe height), then straight down to
+        the release. Returns the route over the bin (``None``: the place goes directly,
+        as where picks go directly, or where no way over the bin is planned with its
+        place) and the place route, planned or with its failure.
+        """
+        target = self.planner.place_target(cls)
+        if self.config.task.approach_height_cm is not None:
+            z = float(target.position_cm[2])
+            for height in self.planner.travel_heights_cm(q):
+                if height <= z:
+                    break
+                above = self.planner.above_target(target, height - z)
+                over = Route(obj.id, obj.class_name, "lift", 1, above)
+                if not self.planner.plan(over, q).planned or over.plan is None:
+                    continue
+                place = Route(obj.id, obj.class_name, "place", 1, target)
+                if self.planner.plan_place(place, over.plan.q).planned:
+                    return over, place
+        place = Route(obj.id, obj.class_name, "place", 1, target)
+        self.planner.plan_place(place, q)
+        return None, place
 
     def _pick_and_place(self, obj: TrackedObject) -> None:
         """Pick ``obj`` and place it in its bin: plan in full, go down, grip, carry, release."""
@@ -531,11 +580,14 @@ class PickAndPlace(TableTracking):
             # the jaws hold nothing, or a neighbour: take it back over the spot (not into
             # this bin) and let it go there (unless they opened over the bin to look again)
             if held is None:
+                self._out_of_the_bin(closed=True)
                 back = above.target if above is not None else self.planner.lift_target(pick.target)
                 back_route = Route(obj.id, obj.class_name, "lift", 1, back)
                 if self.planner.plan(back_route, ex.q_now()).planned:
                     ex.stream(back_route, "travel", closed=True)
                 ex.set_tool("travel", closed=False)
+            else:  # the jaws opened over the bin
+                self._out_of_the_bin(closed=False)
             self._failed_try(obj, pick, "pick failed {n} times")
             return
         if held is None:
@@ -553,16 +605,55 @@ class PickAndPlace(TableTracking):
         if not place_confirmed(self.bus, success=place.success) and place.plan is not None:
             # unconfirmed: it may have slipped on the way (an object of its class seen new
             # near the way is it, TableTracking._dropped)
-            obj.carried_cm = np.vstack([[obj.x_cm, obj.y_cm], place.plan.ee_path_cm[:, :2]])
+            obj.carried_cm = np.vstack(
+                [[obj.x_cm, obj.y_cm], self._carried_over_cm, place.plan.ee_path_cm[:, :2]]
+            )
         for o in self._objects:  # the table changed: a blocked pick may be clear now
             o.blocked = None
         self.reporter.route(ex.finish(place, t1))
+        self._out_of_the_bin(closed=False)
         if not place.success:
             # a grip that let go on the way failed as one that missed does, and counts with
             # them: the look over the bin may not see the spot it left (the MeArm v1's twin,
             # its blue bin 5 cm behind a 0.8 cm blue the jaws kept losing on the lift, took
             # the empty look for a pick and went for it again until max_rounds: 312 picks)
             self._failed_try(obj, pick, "{n} picks failed to bring it to its bin")
+
+    def _out_of_the_bin(self, *, closed: bool) -> None:
+        """Rise straight up from over the bin, before any route on from there.
+
+        A place comes down as low as the jaws, held closed or opened to let go, clear the
+        bin's walls by the clearance (:meth:`Planner.plan_place`, which checks this way up
+        exists); a route on from there planned as one transit (to the next pick, or back
+        over the spot of a pick that did not take its object) rises and turns away at
+        once. Streamed at the servos' speed limits, a transit strays from its planned
+        path (a lagging shoulder leaves the jaws low while the elbow swings them in:
+        :data:`~mearm.task.plan.TRAVEL_MARGIN_CM`), and a real servo's calibration error
+        leaves them nearer the wall than planned before it starts: the paper's arm with a
+        kit of servos pushed a pad onto the blue bin's wall, and the shoulder stalled
+        (``sim_mujoco_kits_paper --random 21 --seed 48633``: planned 0.53 cm from the
+        wall, measured 0.16 cm at the release). So the jaws rise straight up first (a
+        vertical move strays least) to the travel height an approach keeps over every
+        wall (:meth:`Planner.travel_heights_cm`), else to the safe height; where neither
+        is planned, the route on leaves from here. ``closed``: the jaws are closed (they
+        took nothing, and go back over its spot); otherwise they let go here. Only where
+        picks go via a point above (``task.approach_height_cm``): the paper's direct
+        routes are left as the paper has them.
+        """
+        if self.config.task.approach_height_cm is None:
+            return
+        if not closed:
+            self._world()  # the jaws open, what they held let go
+        ex = self.executor
+        q = ex.q_now()
+        z = float(self.model.fk_cm(q)[2])
+        for height in self.planner.travel_heights_cm(q):
+            if height <= z:
+                return  # (as high already)
+            up = self.planner.way_up(q, safe_cm=height)
+            if up.planned:
+                ex.stream(up, "travel", closed=closed)
+                return
 
     def _failed_try(self, obj: TrackedObject, pick: Route, why: str) -> None:
         """Count a failed try at ``obj``; past ``task.pick_retries`` retries, leave it.
