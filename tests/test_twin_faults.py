@@ -21,6 +21,7 @@ from mearm.sim.errors import WorldError
 from mearm.sim.twin.twin_bus import TwinArm
 from mearm.sim.twin.twin_camera import TwinCamera
 from mearm.sort import main as sort_main
+from mearm.task.pick_place import PICK_EMPTY
 from mearm.vision.errors import CameraError
 from mearm.vision.frame_check import FrameCheck
 
@@ -95,21 +96,22 @@ def _knocked_at(at_s: float, tmp_path, capsys):
     return capsys.readouterr().out, log
 
 
-def test_a_place_with_empty_jaws_fails_and_the_object_is_left_with_its_reason(tmp_path, capsys):
+def test_a_pick_whose_jaws_closed_on_nothing_fails_and_the_object_is_left_with_its_reason(
+    tmp_path, capsys
+):
     """The red object leaves the table as the jaws come down on it (1.0 s): the camera over
-    the bin sees it gone from its spot (the pick counts), but the twin's jaws closed on
-    nothing and hold nothing there, so the place is FAILED, not ``ok``, says so, and the
-    red one is left as no longer in the work area."""
+    the bin sees it gone from its spot, but the twin's jaws closed on nothing, so the pick
+    is FAILED, not ``ok`` (until 2026-12-07 it counted, and its place was FAILED), says
+    so, and the red one is left as no longer in the work area."""
     out, log = _knocked_at(1.0, tmp_path, capsys)
     (trial,) = read_runlog(log, strict=True).trials
     red = [(r.step, r.success, r.confirmed) for r in trial.routes if r.object_id == "red1"]
-    assert red == [("pick", True, True), ("place", False, True)]
-    (place,) = (line for line in out.splitlines() if line.startswith("place red1"))
-    assert "FAILED" in place and " ok " not in place
+    assert red == [("pick", False, True)]
+    (pick,) = (line for line in out.splitlines() if line.startswith("pick  red1"))
+    assert "FAILED" in pick and " ok " not in pick
     # the line and the log say why: the twin's jaws closed on nothing
-    why = "over the bin the jaws held nothing of its class: they had closed on nothing at the pick"
-    assert place.endswith(f" ms: {why}")
-    assert [r.why_failed for r in trial.routes if r.object_id == "red1"] == [None, why]
+    assert pick.endswith(f" ms: {PICK_EMPTY}")
+    assert [r.why_failed for r in trial.routes if r.object_id == "red1"] == [PICK_EMPTY]
     (skip,) = trial.skips
     assert skip.object_id == "red1" and "no longer in the work area" in skip.reason
     assert trial.summary is not None

@@ -50,6 +50,13 @@ PICK_MISSED = "the camera still sees it where the jaws closed: they did not take
 PICK_PUSHED = (
     "the camera sees it {moved_cm:.1f} cm from where it lay: the closing jaws pushed it aside"
 )
+#: Why a pick failed: the camera over the bin no longer sees it where it lay, but the
+#: simulator's jaws had closed on nothing (:func:`took_nothing`): they pushed it, or it
+#: lies where the camera does not see it.
+PICK_EMPTY = (
+    "the jaws closed on nothing: the camera no longer sees it where it lay, but they did not "
+    "take it"
+)
 #: The turns of the jaws' opening line tried over a round object whose way down is
 #: refused [deg]: a pad beside a wall or a neighbour swings off it (90°: along it).
 ROUND_TURNS_DEG = (30.0, -30.0, 60.0, -60.0, 90.0)
@@ -559,8 +566,9 @@ class PickAndPlace(TableTracking):
             pushed = None if left else self._pushed_to(obj, seen)
             if pushed is not None:
                 held, pushed = self._let_go_and_look(obj, pushed)
-            pick.success = not left and pushed is None
-            pick.why_failed = None if pick.success else PICK_MISSED
+            empty = not left and pushed is None and took_nothing(self.bus, self._gripped)
+            pick.success = not left and pushed is None and not empty
+            pick.why_failed = None if pick.success else PICK_EMPTY if empty else PICK_MISSED
             if pushed is not None:  # followed there: the next attempt goes for it there
                 x0, y0 = self._active_from_cm
                 moved_cm = float(np.hypot(pushed[0] - x0, pushed[1] - y0))
@@ -746,6 +754,19 @@ def place_failure(
     if release.bin is None:
         return f"released, it landed on the table at ({release.x_cm:.1f}, {release.y_cm:.1f}) cm"
     return f"released, it fell into the {release.bin} bin"
+
+
+def took_nothing(bus: ServoBus, gripped: frozenset[str]) -> bool:
+    """Whether the jaws closed on nothing at the pick, where the bus knows (else ``False``).
+
+    ``gripped``: :func:`objects_gripped` as the jaws closed. The camera over the bin sees
+    only that an object is gone from its spot; one the closing jaws pushed where it does
+    not see it is gone from it too, and the pick had said ``ok``, its place ``FAILED``
+    (they had closed on nothing: ``sim_mujoco_kits_paper --random 21 --seed 49921``,
+    blue5). A simulator that knows its objects (:class:`ReportsWhere`) says whether the
+    jaws took anything; a real rig's camera is all there is.
+    """
+    return isinstance(bus, ReportsWhere) and not gripped
 
 
 def place_confirmed(bus: ServoBus, *, success: bool) -> bool:
