@@ -13,6 +13,8 @@ under it: what the arm, turning about its base, sweeps between the two azimuths.
 
 from __future__ import annotations
 
+import re
+
 import pytest
 from conftest import ROOT
 
@@ -88,3 +90,32 @@ def test_what_the_arm_sweeps_about_its_base_is_under_the_way() -> None:
     near = collision.clear_height_between_cm(q, (8.7, 15.07, 1.0))
     assert near + DETOUR_MARGIN_CM < planner.safe_height_cm(q)
     assert near > 4.5  # the green bin's walls, with the tool hanging below the TCP
+
+
+def test_a_refusal_names_the_way_over_what_lies_under_it_too() -> None:
+    # the blue bin's own walls raised to 4.8 cm as well: over them alone is 6.9 cm, out
+    # of reach over the blue bin too; the refusal named only the height over the red
+    # bin's walls (7.1 cm), as though lowering those would let the blues in
+    planner = _planner(RED_WALLS, "task.classes.2.bin_height_cm=4.8")
+    collision, model = planner.collision, planner.model
+    assert collision is not None
+    blue = planner.config.task.class_named("blue")
+    collision.set_world([("blue2", "blue", -1.8, 17.11)])
+    pick = Route("blue1", "blue", "pick", 1, planner.pick_target(blue, 5.75, 17.69))
+    assert planner.plan(pick, model.home, target="blue1").planned, pick.failure
+    assert pick.plan is not None
+    collision.set_world(
+        [("blue2", "blue", -1.8, 17.11)], opening_cm=blue.diameter_cm, held=("blue1", "blue")
+    )
+    q = pick.plan.q
+    place = Route("blue1", "blue", "place", 1, planner.place_target(blue))
+    planner.plan_place(place, q)
+    assert not place.planned and place.failure_kind == "collision"
+    under = collision.clear_height_between_cm(q, place.target.position_cm) + DETOUR_MARGIN_CM
+    assert under < planner.safe_height_cm(q)
+    reach = r"needs elbow = [-\d.]+ deg, outside its limits \[-150, -20\] deg"
+    assert re.search(
+        rf"; over the top at {planner.safe_height_cm(q):.1f} cm: {reach}; "
+        rf"over what lies under the way at {under:.1f} cm: {reach}$",
+        place.failure or "",
+    ), place.failure

@@ -28,7 +28,8 @@ tried once more at the height that clears only what lies under it (the sector th
 sweeps about its base between the start and the target:
 :meth:`~mearm.kinematics.collision.CollisionModel.clear_height_between_cm`). A detour
 that is not clear either refuses the route with ``collision``, naming the two bodies and
-the pose; nothing of it is sent. A direct solve that stopped short (``limit``,
+the pose, what stopped the way over the top and, where it was tried, the way over what
+lies under it; nothing of it is sent. A direct solve that stopped short (``limit``,
 ``stalled``) is tried once more the same way, from over the target.
 
 **A start within the clearance** (a pose that ended off its plan, an object held beside
@@ -531,7 +532,13 @@ class Planner:
         4 of 6). Tried last, so that every way the heights over everything find is kept.
 
         The plan and the height it travels at; or, where no height works, what stopped
-        the lowest one (where the way up was not solved, what stopped it).
+        the lowest over every wall and object top (where the way up was not solved, what
+        stopped it), and where the way over only what lies under it was tried, what
+        stopped that too: with the MeArm v1's red bin's walls at 5 cm and the blue bin's
+        at 4.8 cm the blues' places named only the height over the red bin's walls, 7.1
+        cm, out of reach over the blue bin, though the blue bin's own walls alone ask for
+        6.9 cm, out of reach too (``--set task.classes.0.bin_height_cm=5 --set
+        task.classes.2.bin_height_cm=4.8``): lowering the red bin's walls would not help.
         """
         assert self.collision is not None
         q0 = np.asarray(q_start, dtype=float)
@@ -550,6 +557,9 @@ class Planner:
             way = self._over_at(z, target, q0, obj)
             if not isinstance(way, str):
                 return way, z
+            # the closest it came, named too: the height over everything alone would send
+            # a user to lower walls that do not lie under the way
+            return f"{lowest}; over what lies under the way at {z:.1f} cm: {way}"
         return lowest
 
     def _over_at(
