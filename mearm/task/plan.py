@@ -311,11 +311,17 @@ class Planner:
             if up.planned:
                 return None
             # up to where it clears what lies under it there, the least a detour on from
-            # here rises to (:meth:`_detour`, over what lies under its way)
-            low = self.collision.clear_height_between_cm(q, self.model.fk_cm(q))
-            if low + DETOUR_MARGIN_CM < float(up.target.position_cm[2]):
-                if self.way_up(q, safe_cm=low + DETOUR_MARGIN_CM).planned:
-                    return None
+            # here rises to (:meth:`_detour`, over what lies under its way); then over
+            # only what lies within the arm's reach there: a bin's walls farther out on
+            # the same azimuth do not stand under a way straight up
+            tried = float(up.target.position_cm[2])
+            tcp = self.model.fk_cm(q)
+            for near in (False, True):
+                low = self.collision.clear_height_between_cm(q, tcp, within_reach=near)
+                if low + DETOUR_MARGIN_CM < tried:
+                    if self.way_up(q, safe_cm=low + DETOUR_MARGIN_CM).planned:
+                        return None
+                    tried = low + DETOUR_MARGIN_CM
         return up.failure
 
     def _solve(
