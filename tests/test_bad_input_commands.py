@@ -42,7 +42,10 @@ def _imported() -> None:
 #: (argv, words the one line must hold). ``{dir}`` etc. are filled from ``spots``.
 CASES: list[tuple[list[str], str]] = [
     # aruco-sheet
-    (["aruco-sheet", "--output", "{dir}/s.png", "--ids", "abc"], "--ids must be up to 64"),
+    (
+        ["aruco-sheet", "--output", "{dir}/s.png", "--ids", "abc"],
+        "--ids must be comma-separated integers (at most 10 fit one A4 page)",
+    ),
     (["aruco-sheet", "--output", "{dir}/s.png", "--side-cm", "nan"], "--side-cm must be in"),
     (["aruco-sheet", "--output", "{dir}/s.png", "--dpi", "0"], "--dpi must be in [72, 2400]"),
     (["aruco-sheet", "--output", "{folder}"], "--output must be a .png file"),
