@@ -7,12 +7,18 @@ from a board that was only slow. Here the board is slowed on purpose and determi
 so its replies, some 4 to 10 simulated milliseconds after each command, take at least 3
 times the acknowledgement timeout of wall time, and must still pass; a board that answers
 nothing, its simulator frozen or dead, must still time out.
+
+A connect that times out says which: the simulator stopped on its own (and how), or the
+chip, running, did not answer within the timeout of its own clock, or its clock stood still.
 """
 
 from __future__ import annotations
 
 import os
 import signal
+import subprocess
+import threading
+import time
 from pathlib import Path
 
 import pytest
@@ -21,7 +27,7 @@ from test_virtual_uno import cache_home  # noqa: F401  (a fixture)
 from mearm.config import Config, config_from_dict
 from mearm.exceptions import NoAckError
 from mearm.hardware import ArmCommand, ArmState
-from mearm.sim.virtual_uno import VirtualUnoBus
+from mearm.sim.virtual_uno import VirtualUnoBuild, VirtualUnoBus, VirtualUnoError
 
 #: Simulated seconds per wall-clock second: the V reply (over 4 ms of the chip's time to
 #: take its 9 bytes and send its 40 at 115200 baud) takes 0.19 s of wall time at least
@@ -95,3 +101,76 @@ def test_a_slow_board_that_stops_answering_still_times_out(
                 os.kill(pid, signal.SIGCONT)
         assert info.value.last_state == confirmed
         assert bus.fault is info.value
+
+
+def _silent_firmware(folder: Path) -> Path:
+    """A firmware that runs and never prints a thing: no banner, ever."""
+    source = folder / "silent.c"
+    source.write_text("int main(void) { for (;;) { } }\n")
+    elf = folder / "silent.elf"
+    subprocess.run(["avr-gcc", "-mmcu=atmega328p", "-Os", "-o", str(elf), str(source)], check=True)
+    return elf
+
+
+@pytest.mark.heavy
+@pytest.mark.parametrize("how", ["running", "frozen", "dead"])
+def test_a_connect_that_times_out_says_whether_the_simulator_stopped(
+    cache_home: Path,  # noqa: F811  (the fixture imported above)
+    monkeypatch: pytest.MonkeyPatch,
+    tmp_path: Path,
+    how: str,
+) -> None:
+    """A board that never prints its banner, in real time (its clock never ahead of the
+    wall's): running, the chip did not answer within the banner timeout of its own clock;
+    paused (SIGSTOP) before that, its clock stood still (the wait ends at its wall bound);
+    killed (SIGKILL), the simulator stopped, and the signal says how. The simulator closed
+    by the failed connect is never said to have stopped with the close's own words
+    (simavr's ``Loaded 0 .data``)."""
+    monkeypatch.setenv("XDG_CACHE_HOME", str(cache_home))
+    config = config_from_dict(
+        {
+            "task": {"scene": []},
+            "servo": {
+                "backend": "virtual_uno",
+                "banner_timeout_s": 1.0,
+                "virtual_uno": {"speed": 1},
+            },
+        }
+    )
+    bus = VirtualUnoBus(config)
+    bus.built = VirtualUnoBuild(_silent_firmware(tmp_path), bus.built.simulator)
+    done = threading.Event()
+    hit: list[int] = []
+
+    def strike() -> None:  # as soon as the chip runs: well before 1 s of its clock
+        while not done.is_set():
+            board = bus.board
+            proc = None if board is None else board._proc
+            if proc is not None:
+                hit.append(proc.pid)
+                os.kill(proc.pid, signal.SIGSTOP if how == "frozen" else signal.SIGKILL)
+                return
+            time.sleep(0.001)
+
+    striker = threading.Thread(target=strike, daemon=True)
+    if how != "running":
+        striker.start()
+    try:
+        with pytest.raises(VirtualUnoError) as info:
+            bus.connect()
+    finally:
+        done.set()
+        if striker.is_alive():
+            striker.join()
+    message = str(info.value)
+    assert "no banner within 1 s" in message
+    assert "Loaded" not in message
+    if how == "running":
+        assert "the chip did not answer within 1 s of its own clock" in message
+        assert "stopped" not in message
+    elif how == "frozen":
+        assert hit and "its clock stood still" in message
+        assert "stopped" not in message
+    else:
+        assert hit and "the simulator stopped (killed by SIGKILL)" in message
+    assert not bus.is_connected

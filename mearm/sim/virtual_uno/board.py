@@ -13,6 +13,7 @@ import fcntl
 import logging
 import os
 import select
+import signal
 import struct
 import subprocess
 import termios
@@ -67,6 +68,14 @@ def _at_normal_priority(pid: int) -> None:
             os.sched_setscheduler(pid, os.SCHED_OTHER, os.sched_param(0))
 
 
+def _signal_name(number: int) -> str:
+    """``SIGKILL`` for 9, else ``signal 99``."""
+    try:
+        return signal.Signals(number).name
+    except ValueError:
+        return f"signal {number}"
+
+
 class SimDeadline:
     """The end of a wait of ``seconds`` for a :class:`VirtualUno`: :meth:`VirtualUno.deadline`.
 
@@ -91,19 +100,48 @@ class SimDeadline:
 
     def __init__(self, board: VirtualUno, seconds: float):
         now = time.monotonic()
+        self.seconds = float(seconds)
         self._board = board
+        self._wall_from = now
         self._wall_at = now + seconds
         self._hung_at = self._wall_at + WALL_TIMEOUT_S
-        self._sim_at = board.clock_s() + seconds
+        self._sim_from = board.clock_s()
+        self._sim_at = self._sim_from + seconds
+        #: How it ended, once :meth:`passed`: ``(simulated s, wall-clock s, the simulator
+        #: had stopped)`` waited.
+        self.waited: tuple[float, float, bool] | None = None
 
     def passed(self) -> bool:
         """Whether the wait is over (see the class)."""
         now = time.monotonic()
         if now < self._wall_at:
             return False
-        if now >= self._hung_at or self._board.stopped_because is not None:
+        stopped = self._board.stopped
+        clock = self._board.clock_s()
+        if now >= self._hung_at or stopped or clock >= self._sim_at:
+            self.waited = (clock - self._sim_from, now - self._wall_from, stopped)
             return True
-        return self._board.clock_s() >= self._sim_at
+        return False
+
+    def why_over(self) -> str | None:
+        """Why the board's answer did not come, once the wait is over, by both clocks.
+
+        ``None`` before, and when the simulator was not running at the end (it had
+        stopped: only its own words say why, :attr:`VirtualUno.stopped_because`).
+        """
+        if self.waited is None or self.waited[2]:
+            return None
+        sim_s, wall_s, _ = self.waited
+        if sim_s >= self.seconds:
+            return (
+                f"the chip did not answer within {self.seconds:g} s of its own clock "
+                f"({wall_s:.2f} s of wall time waited)"
+            )
+        return (
+            f"the chip did not answer, and its clock stood still: it ran {sim_s:.3f} s of the "
+            f"{self.seconds:g} s waited for in {wall_s:.1f} s of wall time (the simulator is "
+            "stalled or paused)"
+        )
 
 
 class Pulse(NamedTuple):
@@ -188,6 +226,7 @@ class VirtualUno:
         self.opens = 0
         self._cond = threading.Condition()
         self._proc: subprocess.Popen[bytes] | None = None
+        self._events: threading.Thread | None = None  # the running simulator's reports
         self._reset_state()
         self._closed = False
         self._thread = threading.Thread(target=self._serve, name="virtual-uno", daemon=True)
@@ -279,12 +318,21 @@ class VirtualUno:
         return found[0] if found else None
 
     @property
-    def stopped_because(self) -> str | None:
-        """Why the simulator is not running after an open (its last words), else ``None``."""
+    def stopped(self) -> bool:
+        """Whether the simulator is not running after an open (it stopped, or was closed)."""
         with self._cond:
-            if self._running or self.opens == 0:
-                return None
-            return self.stderr[-1] if self.stderr else "it exited without a word"
+            return self.opens > 0 and not self._running
+
+    @property
+    def stopped_because(self) -> str | None:
+        """Why the simulator stopped on its own since the last open, else ``None``.
+
+        How it exited and its last words (a signal's name alone). ``None`` while it runs,
+        before it started, and once :meth:`close` stopped it: what it printed last then,
+        simavr's ``Loaded 132 .data``, says nothing of why.
+        """
+        with self._cond:
+            return self._exit
 
     # ----------------------------------------------------------------- lifetime
 
@@ -317,6 +365,7 @@ class VirtualUno:
         self._lines_out = 0
         self._now_us = 0
         self._running = False
+        self._exit: str | None = None  # why the simulator stopped on its own
 
     def _wait(self, predicate: Callable[[], bool], wall_s: float) -> bool:
         """Wait (holding the condition) until ``predicate`` or the simulator stopped."""
@@ -350,15 +399,21 @@ class VirtualUno:
                 )
             except OSError as exc:  # the host sees no banner; the reason is kept here
                 self.stderr.append(f"cannot run {argv[0]}: {exc}")
+                self._exit = self.stderr[-1]
                 log.error("virtual Uno: cannot run %s: %s", argv[0], exc)
                 return
             _at_normal_priority(proc.pid)
             self._proc = proc
             self._running = True
+            self._events = threading.Thread(target=self._pump_events, args=(proc,), daemon=True)
         threading.Thread(target=self._pump_out, args=(proc,), daemon=True).start()
-        threading.Thread(target=self._pump_events, args=(proc,), daemon=True).start()
+        self._events.start()
 
     def _stop_sim(self) -> None:
+        proc = self._proc
+        if proc is not None and proc.poll() is not None and self._events is not None:
+            # It exited on its own: its last words are read (and why recorded) first.
+            self._events.join(timeout=2)
         with self._cond:
             proc, self._proc = self._proc, None
             self._running = False
@@ -436,13 +491,29 @@ class VirtualUno:
                     self._cond.notify_all()
         except (OSError, ValueError):  # the simulator was stopped
             pass
-        self._ended(proc)
+        self._ended(proc, last_words=True)
 
-    def _ended(self, proc: subprocess.Popen[bytes]) -> None:
+    def _ended(self, proc: subprocess.Popen[bytes], *, last_words: bool = False) -> None:
+        """One of the simulator's outputs closed: it exited (unless it was stopped).
+
+        With ``last_words`` (its reports' stream, which carries them, was read to its end)
+        how and with what words it exited is recorded (:attr:`stopped_because`).
+        """
+        status = None
+        if last_words:
+            with contextlib.suppress(subprocess.TimeoutExpired):
+                status = proc.wait(timeout=2)
         with self._cond:
-            if proc is self._proc:
-                self._running = False
-                self._cond.notify_all()
+            if proc is not self._proc:
+                return
+            self._running = False
+            if last_words:
+                if status is not None and status < 0:  # what it printed last is no reason
+                    self._exit = f"killed by {_signal_name(-status)}"
+                else:
+                    how = "it closed its output" if status is None else f"exit status {status}"
+                    self._exit = f"{how}: {self.stderr[-1]}" if self.stderr else how
+            self._cond.notify_all()
 
     def _event(self, words: list[str]) -> None:
         """Record one report (holding the condition)."""

@@ -21,14 +21,20 @@ import numpy as np
 from mearm.config import Config
 from mearm.hardware.arduino import ArduinoBus
 from mearm.hardware.bus import ArmCommand, RateLimiter
-from mearm.hardware.errors import HandshakeError, MoveNotConfirmedError, ServoError
+from mearm.hardware.errors import (
+    BannerTimeoutError,
+    HandshakeError,
+    MoveNotConfirmedError,
+    NoAckError,
+    ServoError,
+)
 from mearm.hardware.mapping import ActuatorMap
 from mearm.hardware.serial_bus import Deadline
 from mearm.kinematics import ArmModel
 from mearm.sim.kinematic.joint_stops import joints_at_stops
 from mearm.sim.kinematic.servo_bus import GripResult, ReleaseResult, SimArm
 from mearm.sim.kinematic.world import World
-from mearm.sim.virtual_uno.board import Frame, VirtualUno
+from mearm.sim.virtual_uno.board import Frame, SimDeadline, VirtualUno
 from mearm.sim.virtual_uno.build import build_virtual_uno
 from mearm.sim.virtual_uno.errors import VirtualUnoError
 from mearm.sim.virtual_uno.own_servos import own_arm, own_servo_map
@@ -79,6 +85,7 @@ class VirtualUnoBus(ArduinoBus):
         self.arm = SimArm(config, world if world is not None else World.from_config(config), model)
         self.board: VirtualUno | None = None
         self.last_frame: Frame | None = None
+        self._last_wait: SimDeadline | None = None  # the last wait for the board's answer
         #: The rig's servos turn by their own build, not by the host's map, which a servo
         #: calibration replaces (read back through it, the pulses would always put the
         #: servos where the calibration believes them).
@@ -137,17 +144,24 @@ class VirtualUnoBus(ArduinoBus):
         self.board = board
         self.port = board.port
         self._rate = RateLimiter(board.clock_s, board.sleep_s)  # simulated time
+        self._last_wait = None
         try:
             super()._connect()
         except HandshakeError as exc:  # the firmware answered: the simulator ran
             self._close()
             raise VirtualUnoError(str(exc)) from None
         except ServoError as exc:
+            self._close()  # (done already by the serial backend's connect: a no-op)
+            # Read once it is closed: the close's own output is no reason, only an exit of
+            # the simulator's own is (stopped_because); the last wait says what else did.
             why = board.stopped_because
-            self._close()
-            if why is None:
-                raise
-            raise VirtualUnoError(f"the simulator stopped ({why}): {exc}") from None
+            if why is not None:
+                raise VirtualUnoError(f"the simulator stopped ({why}): {exc}") from None
+            wait = self._last_wait
+            silence = wait.why_over() if wait is not None else None
+            if silence is not None and isinstance(exc, (BannerTimeoutError, NoAckError)):
+                raise VirtualUnoError(f"{silence}: {exc}") from None
+            raise
         except BaseException:
             self._close()
             raise
@@ -167,7 +181,8 @@ class VirtualUnoBus(ArduinoBus):
         """
         if self.board is None:
             return super()._deadline(timeout_s)
-        return self.board.deadline(timeout_s)
+        self._last_wait = self.board.deadline(timeout_s)
+        return self._last_wait
 
     def _hold(self, seconds: float) -> None:
         assert self.board is not None
