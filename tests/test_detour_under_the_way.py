@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import re
 
+import numpy as np
 import pytest
 from conftest import ROOT
 
@@ -36,6 +37,23 @@ def _planner(*sets: str) -> Planner:
     return Planner(config, model, collision)
 
 
+def _blue1s_place(planner: Planner) -> tuple[Route, np.ndarray]:
+    """blue1 picked beside blue2 (the MeArm v1's scene), and its place planned from there."""
+    collision, model = planner.collision, planner.model
+    assert collision is not None
+    blue = planner.config.task.class_named("blue")
+    collision.set_world([("blue2", "blue", -1.8, 17.11)])
+    pick = Route("blue1", "blue", "pick", 1, planner.pick_target(blue, 5.75, 17.69))
+    assert planner.plan(pick, model.home, target="blue1").planned, pick.failure
+    assert pick.plan is not None
+    collision.set_world(
+        [("blue2", "blue", -1.8, 17.11)], opening_cm=blue.diameter_cm, held=("blue1", "blue")
+    )
+    place = Route("blue1", "blue", "place", 1, planner.place_target(blue))
+    planner.plan_place(place, pick.plan.q)
+    return place, pick.plan.q
+
+
 @pytest.mark.heavy
 def test_the_red_bins_taller_walls_leave_the_blues_sorted(
     capsys: pytest.CaptureFixture[str],
@@ -50,19 +68,9 @@ def test_the_red_bins_taller_walls_leave_the_blues_sorted(
 
 def test_a_blues_place_goes_over_the_blue_bin_not_the_red_ones_walls() -> None:
     planner = _planner(RED_WALLS)
-    collision, model = planner.collision, planner.model
+    collision = planner.collision
     assert collision is not None
-    blue = planner.config.task.class_named("blue")
-    collision.set_world([("blue2", "blue", -1.8, 17.11)])
-    pick = Route("blue1", "blue", "pick", 1, planner.pick_target(blue, 5.75, 17.69))
-    assert planner.plan(pick, model.home, target="blue1").planned, pick.failure
-    assert pick.plan is not None
-    collision.set_world(
-        [("blue2", "blue", -1.8, 17.11)], opening_cm=blue.diameter_cm, held=("blue1", "blue")
-    )
-    q = pick.plan.q
-    place = Route("blue1", "blue", "place", 1, planner.place_target(blue))
-    planner.plan_place(place, q)
+    place, q = _blue1s_place(planner)
     assert place.planned, place.failure
     assert place.plan is not None and place.detour_cm is not None
     # lower than over the red bin's walls, which the arm cannot reach over the blue bin
@@ -97,19 +105,9 @@ def test_a_refusal_names_the_way_over_what_lies_under_it_too() -> None:
     # of reach over the blue bin too; the refusal named only the height over the red
     # bin's walls (7.1 cm), as though lowering those would let the blues in
     planner = _planner(RED_WALLS, "task.classes.2.bin_height_cm=4.8")
-    collision, model = planner.collision, planner.model
+    collision = planner.collision
     assert collision is not None
-    blue = planner.config.task.class_named("blue")
-    collision.set_world([("blue2", "blue", -1.8, 17.11)])
-    pick = Route("blue1", "blue", "pick", 1, planner.pick_target(blue, 5.75, 17.69))
-    assert planner.plan(pick, model.home, target="blue1").planned, pick.failure
-    assert pick.plan is not None
-    collision.set_world(
-        [("blue2", "blue", -1.8, 17.11)], opening_cm=blue.diameter_cm, held=("blue1", "blue")
-    )
-    q = pick.plan.q
-    place = Route("blue1", "blue", "place", 1, planner.place_target(blue))
-    planner.plan_place(place, q)
+    place, q = _blue1s_place(planner)
     assert not place.planned and place.failure_kind == "collision"
     under = collision.clear_height_between_cm(q, place.target.position_cm) + DETOUR_MARGIN_CM
     assert under < planner.safe_height_cm(q)
