@@ -19,11 +19,32 @@ from conftest import ROOT
 
 from mearm.config import config_from_dict, load_config
 from mearm.task.conveyor import ConveyorSorter, Riding
+from mearm.task.report import SortReport
 from mearm.task.rig import open_rig
 from mearm.task.table_tracking import TrackedObject
 from mearm.vision.tracking import TrackState
 
 KINEMATIC = ROOT / "configs" / "sim_conveyor_kinematic.yaml"
+
+
+def _sort_one(
+    sorter_class: type[ConveyorSorter], speed_cm_s: float
+) -> tuple[SortReport, ConveyorSorter, list[str]]:
+    """The kinematic belt at ``speed_cm_s`` bringing one object, sorted by ``sorter_class``.
+
+    The report, the sorter and the ids of the simulated world's objects at the end.
+    """
+    data = load_config(KINEMATIC).model_dump(mode="json")
+    data["belt"]["speed_cm_s"] = speed_cm_s
+    data["belt"]["arrivals"] = {**data["belt"]["arrivals"], "count": 1, "first_s": 0.5}
+    config = config_from_dict(data)
+    with open_rig(config) as rig:
+        assert rig.world is not None
+        sorter = sorter_class(
+            config, rig.camera, rig.bus, model=rig.model, echo=None, in_bins=rig.in_bins,
+            world=rig.world,
+        )  # fmt: skip
+        return sorter.run(), sorter, [o.id for o in rig.world.objects]
 
 
 class _DropsOnTheLift(ConveyorSorter):
@@ -48,18 +69,8 @@ def test_an_object_dropped_back_on_the_belt_is_reported_once():
     It is the object the jaws closed on: its pick failed, and it is named once. (Before,
     the pick was called good and each sighting after a drop began a new object: the one
     object was left as blue1 to blue6.)"""
-    data = load_config(KINEMATIC).model_dump(mode="json")
-    data["belt"]["speed_cm_s"] = 5.0
-    data["belt"]["arrivals"] = {**data["belt"]["arrivals"], "count": 1, "first_s": 0.5}
-    config = config_from_dict(data)
-    with open_rig(config) as rig:
-        assert rig.world is not None
-        sorter = _DropsOnTheLift(
-            config, rig.camera, rig.bus, model=rig.model, echo=None, in_bins=rig.in_bins,
-            world=rig.world,
-        )  # fmt: skip
-        report = sorter.run()
-        assert [o.id for o in rig.world.objects] == ["blue1"]  # (the world's own id)
+    report, sorter, world_ids = _sort_one(_DropsOnTheLift, 5.0)
+    assert world_ids == ["blue1"]  # (the world's own id)
     assert [(s.object_id, s.reason) for s in report.skipped] == [
         ("blue1", "pick failed on the belt")
     ]
@@ -98,17 +109,7 @@ def test_an_object_lost_on_the_swing_over_the_belt_is_reported_once():
     passed, ridden on since), its pick failed, and it is named once. (Before, the pick
     was called good, the place "lost on the way", and the sighting began a new object,
     blue2, left past the belt's end.)"""
-    data = load_config(KINEMATIC).model_dump(mode="json")
-    data["belt"]["speed_cm_s"] = 10.0
-    data["belt"]["arrivals"] = {**data["belt"]["arrivals"], "count": 1, "first_s": 0.5}
-    config = config_from_dict(data)
-    with open_rig(config) as rig:
-        assert rig.world is not None
-        sorter = _DropsOnTheSwing(
-            config, rig.camera, rig.bus, model=rig.model, echo=None, in_bins=rig.in_bins,
-            world=rig.world,
-        )  # fmt: skip
-        report = sorter.run()
+    report, sorter, _ = _sort_one(_DropsOnTheSwing, 10.0)
     [(x, y)] = sorter.dropped_cm
     assert sorter.belt.carries(x, y)  # (it fell on the belt)
     assert [(s.object_id, s.reason) for s in report.skipped] == [
