@@ -143,7 +143,8 @@ class _TipWatch:
 
 @pytest.mark.heavy
 def test_a_cylinder_a_jaw_tipped_over_stops_where_it_fell(monkeypatch):
-    """The 5-DOF perspective twin, seed 49934: the sort tips red3 onto its side. It comes
+    """The 5-DOF perspective twin, seed 50106: the sort tips red2 onto its side (under MuJoCo
+    4.0.0 and 4.0.1 alike; seed 49934's red3 tipped under 4.0.1 only). It comes
     to rest within 5 cm of where it fell and stays within reach, at rest at the sort's end
     (a cylinder tipped so once rolled 1.2 m off across the table: seed 998005, traced while
     the planner took the bins' walls for those of the config's own 9 objects, not the 12
@@ -164,12 +165,12 @@ def test_a_cylinder_a_jaw_tipped_over_stops_where_it_fell(monkeypatch):
         watches.append((bus, bus.sampler))
 
     rays_at_each_looks_height(monkeypatch)  # the scene as traced
-    scene = random_scene(config, 12, seed=49934)
+    scene = random_scene(config, 12, seed=50106)
     report = run_sort(
         config, scene=scene, echo=None, calibrate_first=for_config(config), on_open=watch
     )
     bus, tips = watches[0]
-    assert "red3" in tips.tipped, tips.tipped
+    assert "red2" in tips.tipped, tips.tipped
     for oid, fell_cm in tips.tipped.items():
         assert oid in tips.rested, oid
         assert np.linalg.norm(tips.rested[oid][:2] - fell_cm[:2]) < 5.0, (oid, fell_cm)
