@@ -548,6 +548,14 @@ class TaskConfig(Strict):
     along the whole path before anything moves (the table gets none: the jaws come down
     to it to close on an object). A route that would come closer goes up, over at a
     safe height and down instead; one that cannot is refused (``collision``)."""
+    position_error_cm: float = Field(default=0.0, ge=0, le=10, allow_inf_nan=False)
+    """How far the arm's tool may land from where a pick is planned [cm]: the servos'
+    zero and gain errors, their play. Where the jaws come down to a pick, they keep this
+    from every bin's wall on top of ``clearance_cm``, so an arm that lands this far off
+    does not press on the wall (a pick that would is moved off the wall, else refused,
+    ``collision``); nothing else changes (the picks' jaws and the other objects, home,
+    the places). Measured on the rig: the largest residual ``mearm check-camera`` prints,
+    or the largest distance from a pick's target to where the tool came down."""
     order: Literal["class", "nearest"] = "class"
     """Which object the arm takes next. ``class``: the classes in the order listed (the
     paper's: every red, then green, then blue), the nearest of a class first; ``nearest``:
