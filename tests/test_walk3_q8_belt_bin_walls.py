@@ -38,4 +38,8 @@ def test_bin_walls_too_tall_for_a_belt_seed_name_the_count_and_the_seed(
     assert "below the bin's 13 cm walls" in lines[0]
     assert "its 12 objects stacked" in lines[0]
     assert "the belt brings 12 of its 20, as belt.arrivals.seed 997012" in lines[0]
+    # the belt fills the table: its count and its seed are the levers, not the class's objects
+    assert lines[0].endswith(
+        "or bring fewer objects (belt.arrivals.count) or draw another belt.arrivals.seed"
+    ), lines[0]
     assert "Traceback" not in stderr

@@ -308,9 +308,10 @@ def _check_walls(config: Config, scene: Sequence[SceneObject], source: str) -> N
     what = f"{source}: " if scene else ""
     problem = _release_below_walls(config, colors)
     if problem is not None:
-        raise SceneError(
-            f"{what}{problem}; raise bin_cm z (task.classes), or give the class fewer objects"
-        )
+        from mearm.sim.twin.twin_scene_check import fewer_objects  # noqa: PLC0415  (MuJoCo)
+
+        fewer = fewer_objects(_table_of(config, colors))
+        raise SceneError(f"{what}{problem}; raise bin_cm z (task.classes), or {fewer}")
     problem = _walls_by_home(config, colors)
     if problem is not None:
         raise SceneError(f"{what}{problem}: give the class fewer objects")

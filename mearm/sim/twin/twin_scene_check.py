@@ -98,11 +98,10 @@ def _check_scene(config: Config) -> None:
                 f"none could land in it; make it at least {c.diameter_cm:g} cm "
                 "(task.classes)"
             )
-    problem = release_below_walls(config, TableContents.of(task, config.belt))
+    table = TableContents.of(task, config.belt)
+    problem = release_below_walls(config, table)
     if problem is not None:
-        raise ModelError(
-            f"{problem}; raise bin_cm z (task.classes), or give the class fewer objects"
-        )
+        raise ModelError(f"{problem}; raise bin_cm z (task.classes), or {fewer_objects(table)}")
 
 
 def release_below_walls(config: Config, table: TableContents) -> str | None:
@@ -124,6 +123,18 @@ def release_below_walls(config: Config, table: TableContents) -> str | None:
                 f"{wall * 100:.3g} cm walls ({_held(table, c.name, config)})"
             )
     return None
+
+
+def fewer_objects(table: TableContents) -> str:
+    """How to put fewer objects on a table whose walls grew too tall: the lever that sets them.
+
+    A table that only a belt fills has no objects of its own to take away: a belt seed
+    that drew 14 greens of 20 (``sim_conveyor``, ``belt.arrivals.seed=50300``) was told
+    "give the class fewer objects".
+    """
+    if any(table.belt.values()) and not any(table.scene.values()):
+        return "bring fewer objects (belt.arrivals.count) or draw another belt.arrivals.seed"
+    return "give the class fewer objects"
 
 
 def _held(table: TableContents, name: str, config: Config) -> str:
