@@ -481,8 +481,7 @@ class PickAndPlace(TableTracking):
         assert failed.plan is not None
         task = self.config.task
         if task.position_error_cm > 0:
-            end = [(d, c) for c, _, d in self.collision.bins_at(failed.plan.q)]
-            gap_cm, color = min(end, default=(np.inf, ""))
+            gap_cm, color, _ = self._nearest_wall(failed.plan.q)
             if gap_cm < task.clearance_cm + task.position_error_cm:
                 return color
         near = [(d, c) for q in failed.plan.q_path for c, _, d in self.collision.bins_at(q)]
@@ -560,6 +559,11 @@ class PickAndPlace(TableTracking):
             f"{how} the {color} bin's wall (task.clearance_cm)"
         )
 
+    def _nearest_wall(self, q: np.ndarray) -> tuple[float, str, str]:
+        """The gap to the nearest bin's wall at pose ``q`` [cm], its class and the arm's part."""
+        near = [(d, c, p) for c, p, d in self.collision.bins_at(q)]
+        return min(near, default=(np.inf, "", ""))
+
     def _lands_on_wall(self, pick: Route) -> str | None:
         """Why the jaws at ``pick``'s end come too near a wall for the arm's error, or ``None``.
 
@@ -574,8 +578,7 @@ class PickAndPlace(TableTracking):
         task = self.config.task
         if task.position_error_cm <= 0 or pick.plan is None:
             return None
-        near = [(d, c, p) for c, p, d in self.collision.bins_at(pick.plan.q)]
-        gap_cm, color, part = min(near, default=(np.inf, "", ""))
+        gap_cm, color, part = self._nearest_wall(pick.plan.q)
         need_cm = task.clearance_cm + task.position_error_cm
         if gap_cm >= need_cm:
             return None
